@@ -1,0 +1,31 @@
+#!/usr/bin/env bash
+# Build everything mjasc needs on a fresh machine, and nothing twice.
+#   - Debian's libosmesa6 (offscreen software OpenGL for the MP4 video), installed when missing
+#     and we are root; otherwise a clear message saying what to install.
+#   - A virtual environment in .venv with the pinned packages of requirements.lock and mjasc
+#     itself (editable, with the test extras). Rebuilt only when pyproject.toml or the lock changes.
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cd "$here"
+
+if ! ldconfig -p 2>/dev/null | grep -q 'libOSMesa\.so'; then
+  if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null; then
+    echo "[bootstrap] installing Debian package libosmesa6 (offscreen rendering)"
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libosmesa6 >/dev/null
+  else
+    echo "[bootstrap] libOSMesa is missing: install Debian's 'libosmesa6' (sudo apt-get install libosmesa6)." >&2
+    echo "[bootstrap] Continuing: everything but offscreen video works without it." >&2
+  fi
+fi
+
+py="${PYTHON:-python3}"
+stamp=".venv/.mjasc-installed"
+if [ ! -x .venv/bin/python ] || [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ] || [ requirements.lock -nt "$stamp" ]; then
+  echo "[bootstrap] building .venv (pinned by requirements.lock)"
+  rm -rf .venv
+  "$py" -m venv .venv
+  .venv/bin/python -m pip install -q --upgrade pip
+  .venv/bin/python -m pip install -q -c requirements.lock -e ".[dev]"
+  touch "$stamp"
+fi
