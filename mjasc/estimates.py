@@ -1,0 +1,55 @@
+"""Typed values that flow between a vessel's perception and its collision avoidance.
+
+A :class:`TrackEstimate` is what the tracker (``tracking``/``imm``) hands to collision
+prediction: everything a vessel believes about one object around it. World frame ENU, SI units.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class TrackEstimate:
+    """One tracked object as estimated by one vessel at time ``time_s``.
+
+    position_m: (2,) world-frame x, y of the object's centre [m].
+    heading_rad: course over ground, CCW from east [rad].
+    speed_m_s: speed over ground [m/s] (≥ 0).
+    turn_rate_rad_s: estimated turn rate ω̂ = Σ μ_j ω_j [rad/s], CCW positive.
+    radius_m: radius of the circle bounding the object [m] (estimated from sensor returns).
+    position_covariance: (2, 2) covariance of position_m [m²].
+    is_static: True for objects that do not move (docks, islands, moored buoys).
+    team_member: name of the team mate this track was matched to, or None.
+    outline_m: (k, 2) world-frame polygon of a static object's extent, or None.
+    """
+
+    track_id: int
+    time_s: float
+    position_m: np.ndarray
+    heading_rad: float
+    speed_m_s: float
+    turn_rate_rad_s: float
+    radius_m: float
+    position_covariance: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
+    is_static: bool = False
+    team_member: str | None = None
+    outline_m: np.ndarray | None = None
+
+    def predict_positions(self, times_s: np.ndarray) -> np.ndarray:
+        """Positions (n, 2) at absolute times ``times_s`` under constant speed and turn rate
+        (the constant-turn motion of thesis eq. 3.2 without noise; straight line when ω̂ ≈ 0)."""
+        tau = np.asarray(times_s, dtype=float) - self.time_s
+        x0, y0 = float(self.position_m[0]), float(self.position_m[1])
+        v, th, w = self.speed_m_s, self.heading_rad, self.turn_rate_rad_s
+        if self.is_static or v == 0.0:
+            return np.tile([x0, y0], (tau.size, 1))
+        if abs(w) < 1e-9:
+            return np.stack([x0 + v * tau * np.cos(th), y0 + v * tau * np.sin(th)], axis=-1)
+        th_t = th + w * tau
+        return np.stack(
+            [x0 + v / w * (np.sin(th_t) - np.sin(th)), y0 - v / w * (np.cos(th_t) - np.cos(th))],
+            axis=-1,
+        )
