@@ -363,13 +363,10 @@ class Path:
 
         With ``gamma_hint`` and ``search_window_m`` only [hint − window, hint + window] is searched,
         which keeps γ continuous for a follower on a path that crosses or nears itself. Ties go
-        to the smallest γ. Vectorized over segments: for each segment the closest point is the
-        clamped foot of the perpendicular (line) or the clamped polar angle (arc; both arc ends
-        are also tried, since angles wrap).
+        to the smallest γ.
         """
         p = _as_point(point, "point")
-        lo = np.zeros(len(self._segments))
-        hi = self._len.copy()
+        lo, hi = 0.0, self.length
         if gamma_hint is not None or search_window_m is not None:
             if gamma_hint is None or search_window_m is None:
                 raise ValueError("gamma_hint: give both gamma_hint and search_window_m, or neither")
@@ -377,32 +374,59 @@ class Path:
             if not np.isfinite(w) or w <= 0.0:
                 raise ValueError(f"search_window_m: must be finite and > 0, got {search_window_m}")
             h = float(np.clip(gamma_hint, 0.0, self.length))
-            lo = np.maximum(lo, h - w - self._cum[:-1])
-            hi = np.minimum(hi, h + w - self._cum[:-1])
+            lo, hi = max(0.0, h - w), min(self.length, h + w)
+        gam, _ = self._closest(p[None, :], lo, hi)
+        return float(gam[0])
+
+    def closest_points(self, points, gamma_min: float = 0.0, gamma_max: float | None = None):
+        """For each of ``points`` (n, 2): the γ of the closest point of the stretch
+        [gamma_min, gamma_max] of the path and the distance to it. Returns (gammas (n,), distances (n,))."""
+        pts = np.asarray(points, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 2:
+            raise ValueError(f"points: expected shape (n, 2), got {pts.shape}")
+        lo = float(np.clip(gamma_min, 0.0, self.length))
+        hi = self.length if gamma_max is None else float(np.clip(gamma_max, 0.0, self.length))
+        if hi < lo:
+            raise ValueError(f"gamma_max: must be ≥ gamma_min ({gamma_min}), got {gamma_max}")
+        return self._closest(pts, lo, hi)
+
+    def _closest(self, pts: np.ndarray, g_lo: float, g_hi: float, chunk: int = 200_000):
+        """Closest points on the stretch [g_lo, g_hi], vectorized over points × segments.
+
+        For each segment the candidate local arc lengths are the clamped foot of the perpendicular
+        (line) or the clamped polar angle about the centre (arc), plus both clamped ends (the
+        polar angle wraps, and an end is the answer whenever the foot lies outside)."""
+        lo = np.maximum(0.0, g_lo - self._cum[:-1])
+        hi = np.minimum(self._len, g_hi - self._cum[:-1])
         active = np.flatnonzero(lo <= hi)
         lo, hi = lo[active], hi[active]
         k = self._kappa[active]
         th0 = self._theta0[active]
         p0 = self._p0[active]
         straight = k == 0.0
-        # Line: foot of the perpendicular.
-        s_line = (p[0] - p0[:, 0]) * np.cos(th0) + (p[1] - p0[:, 1]) * np.sin(th0)
-        # Arc: polar angle of p about the centre, measured from the start along the sweep.
         k_safe = np.where(straight, 1.0, k)
         radius = 1.0 / np.abs(k_safe)
         centre = p0 + np.stack([-np.sin(th0), np.cos(th0)], axis=-1) / k_safe[:, None]
         a0 = np.arctan2(p0[:, 1] - centre[:, 1], p0[:, 0] - centre[:, 0])
-        phi = np.arctan2(p[1] - centre[:, 1], p[0] - centre[:, 0])
-        s_arc = radius * np.mod(np.sign(k_safe) * (phi - a0), 2.0 * np.pi)
-        s_star = np.clip(np.where(straight, s_line, s_arc), lo, hi)
-        cand_s = np.stack([s_star, lo, hi], axis=1)  # (m, 3)
-        cand_i = np.repeat(active[:, None], 3, axis=1)
-        pts = self._eval_local(cand_i, cand_s)
-        d2 = np.sum((pts - p) ** 2, axis=-1)
-        gam = self._cum[cand_i] + cand_s
-        d2f, gf = d2.ravel(), gam.ravel()
-        best = np.flatnonzero(d2f <= d2f.min() * (1.0 + 1e-12) + 1e-18)
-        return float(np.clip(gf[best].min(), 0.0, self.length))
+        out_g = np.empty(pts.shape[0])
+        out_d = np.empty(pts.shape[0])
+        step = max(1, chunk // max(1, active.size))
+        for c in range(0, pts.shape[0], step):
+            q = pts[c : c + step, None, :]  # (m, 1, 2)
+            s_line = (q[..., 0] - p0[:, 0]) * np.cos(th0) + (q[..., 1] - p0[:, 1]) * np.sin(th0)
+            phi = np.arctan2(q[..., 1] - centre[:, 1], q[..., 0] - centre[:, 0])
+            s_arc = radius * np.mod(np.sign(k_safe) * (phi - a0), 2.0 * np.pi)
+            s_star = np.clip(np.where(straight, s_line, s_arc), lo, hi)  # (m, n_a)
+            cand_s = np.stack([s_star, np.broadcast_to(lo, s_star.shape), np.broadcast_to(hi, s_star.shape)], axis=-1)
+            cand_i = np.broadcast_to(active[None, :, None], cand_s.shape)
+            d2 = np.sum((self._eval_local(cand_i, cand_s) - q[:, :, None, :]) ** 2, axis=-1)
+            d2 = d2.reshape(d2.shape[0], -1)
+            gam = (self._cum[cand_i] + cand_s).reshape(d2.shape[0], -1)
+            dmin = d2.min(axis=1, keepdims=True)
+            gam = np.where(d2 <= dmin * (1.0 + 1e-12) + 1e-18, gam, np.inf)
+            out_g[c : c + step] = np.clip(gam.min(axis=1), 0.0, self.length)
+            out_d[c : c + step] = np.sqrt(dmin[:, 0])
+        return out_g, out_d
 
     # ------------------------------------------------------------------ editing
     def sub_path(self, gamma_a: float, gamma_b: float) -> "Path":

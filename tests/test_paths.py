@@ -197,3 +197,15 @@ def test_validation_errors_name_the_field():
         Path.line([0, 0], [1, 0]).concatenate(Path.line([5, 0], [6, 0]))
     with pytest.raises(ValueError, match="spacing_m"):
         Path.line([0, 0], [1, 0]).sample(0.0)
+
+
+def test_closest_points_vectorized_matches_project_and_respects_stretch():
+    rng = np.random.default_rng(4)
+    p = _random_path(rng)
+    q = rng.uniform(-20, 150, size=(50, 2))
+    g, d = p.closest_points(q)
+    np.testing.assert_allclose(g, [p.project(x) for x in q], atol=1e-9)
+    np.testing.assert_allclose(d, np.hypot(*(p.point(g) - q).T), atol=1e-9)
+    g2, d2 = p.closest_points(q, gamma_min=30.0, gamma_max=60.0)
+    assert np.all((g2 >= 30.0 - 1e-9) & (g2 <= 60.0 + 1e-9))
+    assert np.all(d2 >= d - 1e-12)
