@@ -398,30 +398,36 @@ class Path:
         polar angle wraps, and an end is the answer whenever the foot lies outside)."""
         lo = np.maximum(0.0, g_lo - self._cum[:-1])
         hi = np.minimum(self._len, g_hi - self._cum[:-1])
-        active = np.flatnonzero(lo <= hi)
-        lo, hi = lo[active], hi[active]
-        k = self._kappa[active]
-        th0 = self._theta0[active]
-        p0 = self._p0[active]
-        straight = k == 0.0
-        k_safe = np.where(straight, 1.0, k)
-        radius = 1.0 / np.abs(k_safe)
-        centre = p0 + np.stack([-np.sin(th0), np.cos(th0)], axis=-1) / k_safe[:, None]
-        a0 = np.arctan2(p0[:, 1] - centre[:, 1], p0[:, 0] - centre[:, 0])
+        ok = lo <= hi
+        lines = np.flatnonzero(ok & (self._kappa == 0.0))
+        arcs = np.flatnonzero(ok & (self._kappa != 0.0))
+        # Lines: one candidate, the clamped foot of the perpendicular.
+        l_lo, l_hi, l_p0 = lo[lines], hi[lines], self._p0[lines]
+        l_c, l_s = np.cos(self._theta0[lines]), np.sin(self._theta0[lines])
+        # Arcs: clamped polar angle and both clamped ends.
+        a_lo, a_hi, a_k = lo[arcs], hi[arcs], self._kappa[arcs]
+        a_th0, a_p0 = self._theta0[arcs], self._p0[arcs]
+        centre = a_p0 + np.stack([-np.sin(a_th0), np.cos(a_th0)], axis=-1) / a_k[:, None]
+        a0 = np.arctan2(a_p0[:, 1] - centre[:, 1], a_p0[:, 0] - centre[:, 0])
         out_g = np.empty(pts.shape[0])
         out_d = np.empty(pts.shape[0])
-        step = max(1, chunk // max(1, active.size))
+        step = max(1, chunk // max(1, lines.size + 3 * arcs.size))
         for c in range(0, pts.shape[0], step):
             q = pts[c : c + step, None, :]  # (m, 1, 2)
-            s_line = (q[..., 0] - p0[:, 0]) * np.cos(th0) + (q[..., 1] - p0[:, 1]) * np.sin(th0)
-            phi = np.arctan2(q[..., 1] - centre[:, 1], q[..., 0] - centre[:, 0])
-            s_arc = radius * np.mod(np.sign(k_safe) * (phi - a0), 2.0 * np.pi)
-            s_star = np.clip(np.where(straight, s_line, s_arc), lo, hi)  # (m, n_a)
-            cand_s = np.stack([s_star, np.broadcast_to(lo, s_star.shape), np.broadcast_to(hi, s_star.shape)], axis=-1)
-            cand_i = np.broadcast_to(active[None, :, None], cand_s.shape)
-            d2 = np.sum((self._eval_local(cand_i, cand_s) - q[:, :, None, :]) ** 2, axis=-1)
-            d2 = d2.reshape(d2.shape[0], -1)
-            gam = (self._cum[cand_i] + cand_s).reshape(d2.shape[0], -1)
+            dx, dy = q[..., 0] - l_p0[:, 0], q[..., 1] - l_p0[:, 1]
+            s_l = np.clip(dx * l_c + dy * l_s, l_lo, l_hi)  # (m, n_lines)
+            d2_l = (dx - s_l * l_c) ** 2 + (dy - s_l * l_s) ** 2
+            g_l = self._cum[lines] + s_l
+            if arcs.size:
+                phi = np.arctan2(q[..., 1] - centre[:, 1], q[..., 0] - centre[:, 0])
+                s_star = np.clip(np.mod(np.sign(a_k) * (phi - a0), 2.0 * np.pi) / np.abs(a_k), a_lo, a_hi)
+                cand_s = np.stack([s_star, np.broadcast_to(a_lo, s_star.shape), np.broadcast_to(a_hi, s_star.shape)], axis=-1)
+                cand_i = np.broadcast_to(arcs[None, :, None], cand_s.shape)
+                d2_a = np.sum((self._eval_local(cand_i, cand_s) - q[:, :, None, :]) ** 2, axis=-1)
+                d2 = np.concatenate([d2_l, d2_a.reshape(d2_a.shape[0], -1)], axis=1)
+                gam = np.concatenate([g_l, (self._cum[cand_i] + cand_s).reshape(d2_a.shape[0], -1)], axis=1)
+            else:
+                d2, gam = d2_l, g_l
             dmin = d2.min(axis=1, keepdims=True)
             gam = np.where(d2 <= dmin * (1.0 + 1e-12) + 1e-18, gam, np.inf)
             out_g[c : c + step] = np.clip(gam.min(axis=1), 0.0, self.length)
