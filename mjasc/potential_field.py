@@ -56,6 +56,10 @@ TWO_PI = 2.0 * np.pi
 #: Default goal-sink strength λ_g [m²/s], the thesis's robust-field runs (§6.2, Table 6.2).
 DEFAULT_SINK_STRENGTH = 30.0
 
+#: Streamline arc-length step as a fraction of the distance to the nearest panel vertex (where the
+#: field bends sharply); steps turning by more than 30° are rejected and halved as well.
+VERTEX_STEP_FRACTION = 0.5
+
 #: Streamline termination reasons (``Streamline.reason``).
 REASONS = ("goal", "stagnation", "runaway", "max_length", "entered_obstacle", "nonfinite")
 
@@ -531,11 +535,11 @@ class PotentialField:
     # ---------------------------------------------------------------- linear system
     def _free_stream(self, points: np.ndarray) -> np.ndarray:
         """Uniform flow + goal sink (n, 2) at points (n, 2)."""
-        u = np.broadcast_to(self._u_inf, points.shape).copy()
-        if self.goal is not None:
-            d = points - self.goal
-            u -= self.sink_strength / TWO_PI * d / np.einsum("ij,ij->i", d, d)[:, None]
-        return u
+        if self.goal is None:
+            return np.tile(self._u_inf, (len(points), 1))
+        d = points - self.goal
+        r2 = d[:, 0] * d[:, 0] + d[:, 1] * d[:, 1]
+        return self._u_inf - (self.sink_strength / TWO_PI) * d / r2[:, None]
 
     def _solve(self, normal_velocity, safety_ratio) -> None:
         pan = self.panels
@@ -612,7 +616,8 @@ class PotentialField:
     # ---------------------------------------------------------------- evaluation
     def _evaluate(self, points: np.ndarray, want_geometry: bool = False):
         """Velocity (n, 2); with ``want_geometry`` also the winding number per obstacle (n, K)
-        and the distance to the nearest panel vertex (n,)."""
+        and the distance to the nearest panel vertex (n,). Callers silence numpy's divide/invalid
+        warnings (points on a vertex or at the goal give inf/nan)."""
         u = self._free_stream(points)
         if self._A is None:
             if want_geometry:
@@ -625,8 +630,7 @@ class PotentialField:
         r2 = dx * dx + dy * dy
         dxb, dyb = dx[:, nxt], dy[:, nxt]
         beta = np.arctan2(dy * dxb - dx * dyb, dx * dxb + dy * dyb)  # = atan2(η L, ·)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            u += np.log(r2) @ self._A + beta @ self._B
+        u += np.log(r2) @ self._A + beta @ self._B
         if not want_geometry:
             return u
         winding = np.add.reduceat(beta, self._obstacle_offsets, axis=1) / TWO_PI
@@ -642,8 +646,9 @@ class PotentialField:
         if p.shape[-1] != 2:
             raise ValueError(f"points must have shape (n, 2), got {np.shape(points)}")
         out = np.empty_like(p)
-        for s in range(0, len(p), chunk):
-            out[s : s + chunk] = self._evaluate(p[s : s + chunk])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for s in range(0, len(p), chunk):
+                out[s : s + chunk] = self._evaluate(p[s : s + chunk])
         return out[0] if single else out
 
     def control_point_velocity(self) -> np.ndarray:
@@ -710,73 +715,75 @@ class PotentialField:
 
         def direction(q):
             u = self._evaluate(q)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                return u / np.linalg.norm(u, axis=1)[:, None]
+            return u / np.hypot(u[:, 0], u[:, 1])[:, None]
 
-        active = np.arange(n)
-        while active.size:
-            q = p[active]
-            # Checks at the current points (each already on its path), in order of precedence.
-            u, winding, d_vertex = self._evaluate(q, want_geometry=True)
-            speed = np.linalg.norm(u, axis=1)
-            d_goal = np.linalg.norm(q - goal, axis=1) if goal is not None else np.full(len(q), np.inf)
-            inside = np.abs(winding) > 0.5
-            c = np.zeros(len(q), dtype=int)
-            checks = (
-                ("max_length", travelled[active] >= max_len[active]),
-                ("runaway", np.linalg.norm(q - ref, axis=1) > runaway[active]),
-                ("stagnation", speed < speed_floor),
-                ("nonfinite", ~np.isfinite(speed)),
-                ("goal", d_goal <= tol),
-                ("entered_obstacle", inside.any(axis=1)),
-            )
-            for name, hit in checks:  # later entries take precedence
-                c[hit] = reason_code[name]
-            for j in np.flatnonzero(c):
-                i = active[j]
-                code[i] = c[j]
-                if c[j] == reason_code["entered_obstacle"]:
-                    entered[i] = int(np.argmax(inside[j]))
-                elif c[j] == reason_code["goal"]:
-                    paths[i].append(goal.copy())
-            go = c == 0
-            active, q, speed, d_vertex, d_goal = active[go], q[go], speed[go], d_vertex[go], d_goal[go]
-            if not active.size:
-                break
-            k1 = u[go] / speed[:, None]
-            # Arc-length step: ≤ step, ≤ ¼ distance to the nearest panel vertex (where the field
-            # bends), ≤ ½ distance to the goal (no overshoot), ≤ the line's cap (halved after a
-            # rejected step), ≥ h_min.
-            h = np.clip(
-                np.minimum(np.minimum(0.25 * d_vertex, 0.5 * d_goal), h_cap[active]), h_min, step
-            )[:, None]
-            k2 = direction(q + 0.5 * h * k1)
-            k3 = direction(q + 0.5 * h * k2)
-            k4 = direction(q + h * k3)
-            dirn = (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
-            new = q + h * dirn
-            with np.errstate(invalid="ignore"):
-                # Reject a step over which the direction turns by more than max_turn (a corner
-                # or a stagnation point inside the step); retry with half the step.
+        def dist(q, point):
+            return np.hypot(q[:, 0] - point[0], q[:, 1] - point[1])
+
+        errors = np.errstate(divide="ignore", invalid="ignore")  # vertices, goal: inf/nan
+        with errors:
+            active = np.arange(n)
+            while active.size:
+                q = p[active]
+                # Checks at the current points (each already on its path), in order of precedence.
+                u, winding, d_vertex = self._evaluate(q, want_geometry=True)
+                speed = np.hypot(u[:, 0], u[:, 1])
+                d_goal = dist(q, goal) if goal is not None else np.full(len(q), np.inf)
+                inside = np.abs(winding) > 0.5
+                c = np.zeros(len(q), dtype=int)
+                checks = (
+                    ("max_length", travelled[active] >= max_len[active]),
+                    ("runaway", dist(q, ref) > runaway[active]),
+                    ("stagnation", speed < speed_floor),
+                    ("nonfinite", ~np.isfinite(speed)),
+                    ("goal", d_goal <= tol),
+                    ("entered_obstacle", inside.any(axis=1)),
+                )
+                for name, hit in checks:  # later entries take precedence
+                    c[hit] = reason_code[name]
+                for j in np.flatnonzero(c):
+                    i = active[j]
+                    code[i] = c[j]
+                    if c[j] == reason_code["entered_obstacle"]:
+                        entered[i] = int(np.argmax(inside[j]))
+                    elif c[j] == reason_code["goal"]:
+                        paths[i].append(goal.copy())
+                go = c == 0
+                active, q, speed, d_vertex, d_goal = active[go], q[go], speed[go], d_vertex[go], d_goal[go]
+                if not active.size:
+                    break
+                k1 = u[go] / speed[:, None]
+                # Arc-length step: ≤ step, ≤ VERTEX_STEP_FRACTION × distance to the nearest
+                # panel vertex (where the field bends), ≤ ½ distance to the goal (no overshoot),
+                # ≤ the line's cap (halved after a rejected step), ≥ h_min.
+                h_local = np.minimum(VERTEX_STEP_FRACTION * d_vertex, 0.5 * d_goal)
+                h = np.clip(np.minimum(h_local, h_cap[active]), h_min, step)[:, None]
+                k2 = direction(q + 0.5 * h * k1)
+                k3 = direction(q + 0.5 * h * k2)
+                k4 = direction(q + h * k3)
+                dirn = (k1 + 2.0 * k2 + 2.0 * k3 + k4) / 6.0
+                new = q + h * dirn
+                # Reject a step over which the direction turns by more than 30° (a corner or a
+                # stagnation point inside the step); retry with half the step.
                 turn_ok = np.einsum("ij,ij->i", k1, k4) >= cos_max_turn
                 # The direction reversing between steps: the path sits on a stagnation saddle.
                 cusp = np.einsum("ij,ij->i", prev_dir[active], dirn) < -0.5
-            bad = ~np.all(np.isfinite(new), axis=1)
-            at_floor = h[:, 0] <= h_min * (1.0 + 1e-9)
-            stalled = cusp | (~turn_ok & at_floor)
-            code[active[stalled & ~bad]] = reason_code["stagnation"]
-            code[active[bad]] = reason_code["nonfinite"]
-            retry = ~turn_ok & ~at_floor & ~bad
-            h_cap[active[retry]] = 0.5 * h[retry, 0]
-            move = turn_ok & ~stalled & ~bad
-            idx = active[move]
-            p[idx] = new[move]
-            prev_dir[idx] = dirn[move]
-            travelled[idx] += h[move, 0]
-            h_cap[idx] = np.minimum(2.0 * h_cap[idx], step)
-            for i in idx:
-                paths[i].append(p[i].copy())
-            active = active[code[active] == 0]
+                bad = ~np.all(np.isfinite(new), axis=1)
+                at_floor = h[:, 0] <= h_min * (1.0 + 1e-9)
+                stalled = cusp | (~turn_ok & at_floor)
+                code[active[stalled & ~bad]] = reason_code["stagnation"]
+                code[active[bad]] = reason_code["nonfinite"]
+                retry = ~turn_ok & ~at_floor & ~bad
+                h_cap[active[retry]] = 0.5 * h[retry, 0]
+                move = turn_ok & ~stalled & ~bad
+                idx = active[move]
+                p[idx] = new[move]
+                prev_dir[idx] = dirn[move]
+                travelled[idx] += h[move, 0]
+                h_cap[idx] = np.minimum(2.0 * h_cap[idx], step)
+                for i in idx:
+                    paths[i].append(p[i].copy())
+                active = active[code[active] == 0]
         reasons = [REASONS[k - 1] for k in code]
         return [
             Streamline(np.array(paths[i]), reasons[i] == "goal", reasons[i], entered[i])
@@ -793,9 +800,10 @@ class PotentialField:
         """Trace the path ṗ = u(p)/‖u(p)‖ (arc-length parametrization, digest §4) from
         ``start`` (default: the field's start) with RK4.
 
-        The arc-length step is at most ``step`` [m] and shrinks to a quarter of the distance to
-        the nearest panel vertex and to half the distance to the goal, so corners are resolved
-        and the goal is approached without overshoot. Stops with ``reason``:
+        The arc-length step is at most ``step`` [m] and shrinks to half the distance to the
+        nearest panel vertex and to half the distance to the goal (and is halved when it would
+        turn by more than 30°), so corners are resolved and the goal is approached without
+        overshoot. Stops with ``reason``:
         "goal" (within ``goal_tolerance``, default ``step``; the goal is appended as the last
         point), "stagnation" (speed ~ 0 or the direction reverses: a stagnation saddle),
         "runaway" (farther than 3× the scene size from the goal: the sink missed, e.g.

@@ -15,6 +15,12 @@ for the λ_g = 70 run (four obstacles of 8). The geometry below is invented to m
   inflated by half the beam + 0.5 m safety distance; the λ_g = 70 run adds a moored pontoon on
   vessel 2's route (4 edges × 2 panels → 32 panels).
 
+What to expect against thesis Table 6.2: with V_j = a·L_j and nearly equal panels, V_i ≈
+r·λ_g / (total panel outline) — the thesis's V_i = 1.2115 at r = 1 implies ≈ 24.8 m of outline;
+ours is 39.0 m (two inflated hulls), so V_i ≈ 0.72–0.74 at r = 1, 0.50–0.52 at 0.7, 0.22 at 0.3 and
+0.14–0.15 at 0.2. The thesis's own column is proportional to r except at r = 0.2, where its
+0.1211 is exactly a tenth of the r = 1 value (a typo or a run at r = 0.1).
+
 Entry point: ``make_figures(out_dir) -> list[Path]``. ``dock_scenario()`` returns the geometry as
 data (for a scenario file).
 """
