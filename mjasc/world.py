@@ -3,7 +3,7 @@
 Composition uses dm_control's MJCF object model (the same route the dm_control suite takes), so
 the simulator and the suite share one model builder. Every element is named: vessel elements are
 namespaced ``<vessel name>/<element>`` (``alpha/hull``, ``alpha/yaw``, ``alpha/port_propeller``),
-obstacles ``obstacle/<name>…``. Geom groups (assets/README.md): 0 obstacles, 1 water, 2 vessel
+obstacles ``obstacle_<name>…`` (dm_control reserves ``/`` for attached models). Geom groups (assets/README.md): 0 obstacles, 1 water, 2 vessel
 visuals, 3 vessel collision hulls. Range sensors see groups 0 and 3 only.
 
 Static polygons become walls along their edges (one box per edge): ray casts hit the true outline
@@ -54,6 +54,7 @@ class World:
     hull_body_id: np.ndarray
     mocap_id: np.ndarray
     propeller_lateral_m: np.ndarray
+    geom_owner: list  # per geom: the vessel or obstacle name it belongs to ("" for the scene)
 
     @property
     def model(self):
@@ -75,7 +76,7 @@ class World:
 
 
 def _add_polygon(root: mjcf.RootElement, obstacle: PolygonObstacle) -> None:
-    body = root.worldbody.add("body", name=f"obstacle/{obstacle.name}")
+    body = root.worldbody.add("body", name=f"obstacle_{obstacle.name}")
     v = obstacle.vertices
     h = obstacle.height_m
     for k in range(len(v)):
@@ -91,7 +92,7 @@ def _add_polygon(root: mjcf.RootElement, obstacle: PolygonObstacle) -> None:
         centre = mid + 0.5 * WALL_THICKNESS_M * n_out
         body.add(
             "geom",
-            name=f"obstacle/{obstacle.name}/wall_{k}",
+            name=f"obstacle_{obstacle.name}_wall{k}",
             type="box",
             size=[0.5 * length + 0.5 * WALL_THICKNESS_M, 0.5 * WALL_THICKNESS_M, 0.5 * h],
             pos=[centre[0], centre[1], 0.5 * h - 0.5],
@@ -112,8 +113,8 @@ def build_world(
     if len(set(names)) != len(names):
         raise ValueError(f"vessels: names must be unique, got {names}")
     for n in names:
-        if not n or "/" in n or n.startswith("obstacle"):
-            raise ValueError(f"vessels: invalid vessel name {n!r} (non-empty, no '/', not 'obstacle…')")
+        if not n or "/" in n or n.startswith("obstacle") or not n.replace("_", "").replace("-", "").isalnum():
+            raise ValueError(f"vessels: invalid vessel name {n!r} (letters, digits, '_' or '-'; not 'obstacle…')")
     root = mjcf.from_path(str(SCENE_XML))
     root.model = "mjasc_world"
     if timestep_s is not None:
@@ -130,7 +131,7 @@ def build_world(
         elif isinstance(obstacle, CircleObstacle):
             root.worldbody.add(
                 "geom",
-                name=f"obstacle/{obstacle.name}",
+                name=f"obstacle_{obstacle.name}",
                 type="cylinder",
                 size=[obstacle.radius_m, 0.5 * obstacle.height_m],
                 pos=[obstacle.centre[0], obstacle.centre[1], 0.5 * obstacle.height_m - 0.5],
@@ -141,18 +142,18 @@ def build_world(
             raise TypeError(f"static_obstacles: unsupported obstacle {obstacle!r}")
     for obstacle in moving_obstacles:
         body = root.worldbody.add(
-            "body", name=f"obstacle/{obstacle.name}", mocap="true", pos=[*obstacle.position_m, 0.0]
+            "body", name=f"obstacle_{obstacle.name}", mocap="true", pos=[*obstacle.position_m, 0.0]
         )
         body.add(
             "geom",
-            name=f"obstacle/{obstacle.name}/hull",
+            name=f"obstacle_{obstacle.name}_hull",
             type="cylinder",
             size=[obstacle.radius_m, 0.75],
             pos=[0, 0, 0.25],
             rgba=MOVING_RGBA,
             group=0,
         )
-        body.add("geom", name=f"obstacle/{obstacle.name}/bow", type="box", size=[0.3 * obstacle.radius_m, 0.1, 0.05],
+        body.add("geom", name=f"obstacle_{obstacle.name}_bow", type="box", size=[0.3 * obstacle.radius_m, 0.1, 0.05],
                  pos=[0.7 * obstacle.radius_m, 0, 1.05], rgba="1 1 1 1", group=0, contype=0, conaffinity=0)
 
     physics = mjcf.Physics.from_mjcf_model(root)
@@ -182,10 +183,21 @@ def build_world(
             lateral[i, k] = m.site_pos[sid][1]
     hull = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"{n}/hull") for n in names], dtype=int)
     mocap = np.array(
-        [m.body_mocapid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"obstacle/{o.name}")] for o in moving_obstacles],
+        [m.body_mocapid[mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, f"obstacle_{o.name}")] for o in moving_obstacles],
         dtype=int,
     )
+    owner = [""] * m.ngeom
+    body_owner = {int(b): n for b, n in zip(hull, names)}
+    for o in list(static_obstacles) + list(moving_obstacles):
+        for g in range(m.ngeom):
+            gname = mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_GEOM, g) or ""
+            if gname == f"obstacle_{o.name}" or gname.startswith(f"obstacle_{o.name}_"):
+                owner[g] = o.name
+    for g in range(m.ngeom):
+        if int(m.geom_bodyid[g]) in body_owner:
+            owner[g] = body_owner[int(m.geom_bodyid[g])]
     return World(
+        geom_owner=owner,
         mjcf_model=root,
         physics=physics,
         vessel_names=names,

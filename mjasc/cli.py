@@ -1,0 +1,124 @@
+"""The ``mjasc`` command line.
+
+    mjasc run tasks/X.toml [--out DIR] [--video] [--seed N] [--duration S] [--no-progress]
+    mjasc list
+    mjasc trial speed|turning-circle|zigzag|stopping --vessel NAME [--port F] [--starboard F] [--json]
+    mjasc figures [--out DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import mjasc  # noqa: F401  (chooses the OpenGL backend before mujoco is imported)
+
+TASKS_DIR = Path(__file__).resolve().parent.parent / "tasks"
+
+
+def _cmd_run(args) -> int:
+    from .runner import RunFailed, run_scenario
+    from .scenario import ScenarioError, load_scenario
+
+    try:
+        scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, video=True if args.video else None,
+                                                               duration_s=args.duration)
+    except ScenarioError as exc:
+        print(f"mjasc: invalid scenario: {exc}", file=sys.stderr)
+        return 2
+    out = Path(args.out) if args.out else Path("runs") / scenario.name
+    try:
+        result = run_scenario(scenario, out, progress=None if args.progress else False)
+    except RunFailed as exc:
+        print(f"mjasc: run failed: {exc}", file=sys.stderr)
+        return 1
+    s = result.summary
+    print(f"{scenario.name}: {s['status']} — {s['sim_time_s']} s simulated in {s['wall_time_s']} s "
+          f"({s['real_time_factor']}× real time), collisions: {len(s['collisions'])}")
+    for name, v in s["vessels"].items():
+        xte = "" if v["mean_cross_track_m"] is None else \
+            f", cross-track mean {v['mean_cross_track_m']} m / max {v['max_cross_track_m']} m"
+        print(f"  {name} ({v['type']}): {v['distance_m']} m sailed{xte}, "
+              f"closest approach {v['min_clearance_to_any_m']} m")
+    for kind, path in result.files.items():
+        print(f"  {kind}: {path}")
+    if "recording" in result.files:
+        print(f"  open the recording with: rerun {result.files['recording']}")
+    return 0
+
+
+def _cmd_list(args) -> int:
+    from .scenario import ScenarioError, load_scenario
+    from .vessels import available_vessels, load_vessel_type
+
+    print("vessels:")
+    for name in available_vessels():
+        v = load_vessel_type(name)
+        print(f"  {name:10s} {v.length_m:.2f} m × {v.beam_m:.2f} m, cruise {v.cruise_speed_m_s} m/s, "
+              f"top {v.top_speed_m_s} m/s — {v.description}")
+    print("scenarios:")
+    for path in sorted(TASKS_DIR.glob("*.toml")):
+        try:
+            sc = load_scenario(path)
+            print(f"  {str(path.relative_to(TASKS_DIR.parent)):36s} {sc.duration_s:7.0f} s, "
+                  f"{len(sc.vessels)} vessel(s) — {sc.description}")
+        except ScenarioError as exc:
+            print(f"  {path.name:36s} INVALID: {exc}")
+    return 0
+
+
+def _cmd_trial(args) -> int:
+    from . import trials
+
+    try:
+        result = trials.run_trial(args.kind, args.vessel, port=args.port, starboard=args.starboard)
+    except ValueError as exc:
+        print(f"mjasc: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(result, sort_keys=True))
+    else:
+        for k, v in result.items():
+            print(f"{k:24s} {v}")
+    return 0
+
+
+def _cmd_figures(args) -> int:
+    from .figures import make_all_figures
+
+    for path in make_all_figures(Path(args.out)):
+        print(path)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="mjasc", description=__doc__.split("\n\n")[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run a scenario file: recording, summary and (with --video) an MP4")
+    r.add_argument("scenario", help="path to a scenario TOML file (see tasks/README.md)")
+    r.add_argument("--out", help="output folder (default: runs/<scenario name>)")
+    r.add_argument("--video", action="store_true", help="render an MP4 offscreen (OSMesa)")
+    r.add_argument("--seed", type=int, help="override the scenario's seed")
+    r.add_argument("--duration", type=float, help="override the scenario's duration [s]")
+    r.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
+    r.set_defaults(func=_cmd_run)
+    ls = sub.add_parser("list", help="list vessels and scenarios")
+    ls.set_defaults(func=_cmd_list)
+    t = sub.add_parser("trial", help="standard manoeuvring trial of one hull")
+    t.add_argument("kind", choices=["speed", "turning-circle", "zigzag", "stopping"])
+    t.add_argument("--vessel", required=True)
+    t.add_argument("--port", type=float, default=None, help="constant port propeller command in [-1, 1]")
+    t.add_argument("--starboard", type=float, default=None, help="constant starboard propeller command in [-1, 1]")
+    t.add_argument("--json", action="store_true", help="print one JSON object")
+    t.set_defaults(func=_cmd_trial)
+    f = sub.add_parser("figures", help="make the thesis-style figures (PNG)")
+    f.add_argument("--out", default="runs/figures")
+    f.set_defaults(func=_cmd_figures)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return args.func(args)

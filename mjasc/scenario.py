@@ -1,0 +1,348 @@
+"""Scenario files (TOML): what a run contains, validated completely before anything runs.
+
+The format is documented with a complete example in ``tasks/README.md``. Every error names the
+field path and the reason (``vessels[1].controller.speed_m_s: must be > 0, got -1``), and
+:func:`load_scenario` raises before any model is built or any file is written.
+
+Angles in scenario files are in degrees (``heading_deg``, ``turn_rate_deg_s``) because people
+write them; everything inside mjasc is radians (docs/architecture.md).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path as FilePath
+from typing import Any
+
+import numpy as np
+
+from .currents import CurrentField, UniformCurrent, current_from_config
+from .obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
+from .paths import Path
+from .vessels import available_vessels, load_vessel_type
+
+__all__ = ["ScenarioError", "Scenario", "VesselConfig", "Rates", "Outputs", "load_scenario", "parse_scenario"]
+
+
+class ScenarioError(ValueError):
+    """A scenario file is invalid; the message names the field and the reason."""
+
+
+# ---------------------------------------------------------------------- typed scenario
+@dataclass(frozen=True)
+class Rates:
+    """Multi-rate schedule [Hz]. Control, sensing, tracking, comms and recording run every
+    ``round(physics_hz / rate)`` physics steps; prediction every ``prediction_period_s``."""
+
+    physics_hz: float = 50.0
+    control_hz: float = 10.0
+    sensing_hz: float = 5.0
+    tracking_hz: float = 5.0
+    comms_hz: float = 1.0
+    record_hz: float = 10.0
+    prediction_period_s: float = 5.0
+
+
+@dataclass(frozen=True)
+class Outputs:
+    recording: bool = True
+    video: bool = False
+    video_camera: str = "top_down"
+    video_fps: float = 20.0
+    video_width: int = 640
+    video_height: int = 480
+
+
+@dataclass(frozen=True)
+class VesselConfig:
+    """One vessel: its type, start pose, controller and mission path (world ENU, SI)."""
+
+    name: str
+    type: str
+    position_m: np.ndarray
+    heading_rad: float
+    speed_m_s: float
+    controller: str  # "path_following" | "none"
+    path: Path | None
+    cruise_speed_m_s: float
+    commands: tuple[float, float] = (0.0, 0.0)  # constant propeller commands for controller = "none"
+    options: dict = field(default_factory=dict)  # sub-tables later layers read (sensor, tracking, avoidance)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    description: str
+    duration_s: float
+    seed: int
+    rates: Rates
+    outputs: Outputs
+    current: CurrentField
+    current_config: dict
+    vessels: tuple[VesselConfig, ...]
+    static_obstacles: tuple
+    moving_obstacles: tuple[MovingObstacle, ...]
+    source: str = ""
+    raw: dict = field(default_factory=dict)
+
+    def with_overrides(self, seed: int | None = None, video: bool | None = None, duration_s: float | None = None) -> "Scenario":
+        from dataclasses import replace
+
+        s = self
+        if seed is not None:
+            s = replace(s, seed=_int(seed, "seed", minimum=0))
+        if video is not None:
+            s = replace(s, outputs=replace(s.outputs, video=bool(video)))
+        if duration_s is not None:
+            s = replace(s, duration_s=_num(duration_s, "duration_s", positive=True))
+        return s
+
+
+# ---------------------------------------------------------------------- field readers
+def _num(value: Any, where: str, positive: bool = False, nonneg: bool = False, minimum=None, maximum=None) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ScenarioError(f"{where}: must be a number, got {value!r}")
+    v = float(value)
+    if not math.isfinite(v):
+        raise ScenarioError(f"{where}: must be finite, got {value!r}")
+    if positive and not v > 0:
+        raise ScenarioError(f"{where}: must be > 0, got {value!r}")
+    if nonneg and v < 0:
+        raise ScenarioError(f"{where}: must be ≥ 0, got {value!r}")
+    if minimum is not None and v < minimum:
+        raise ScenarioError(f"{where}: must be ≥ {minimum}, got {value!r}")
+    if maximum is not None and v > maximum:
+        raise ScenarioError(f"{where}: must be ≤ {maximum}, got {value!r}")
+    return v
+
+
+def _int(value: Any, where: str, minimum: int | None = None) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ScenarioError(f"{where}: must be an integer, got {value!r}")
+    if minimum is not None and value < minimum:
+        raise ScenarioError(f"{where}: must be ≥ {minimum}, got {value!r}")
+    return int(value)
+
+
+def _str(value: Any, where: str, choices=None) -> str:
+    if not isinstance(value, str) or not value:
+        raise ScenarioError(f"{where}: must be a non-empty string, got {value!r}")
+    if choices is not None and value not in choices:
+        raise ScenarioError(f"{where}: must be one of {', '.join(sorted(choices))}, got {value!r}")
+    return value
+
+
+def _point(value: Any, where: str) -> np.ndarray:
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise ScenarioError(f"{where}: must be a point [x, y] in metres, got {value!r}")
+    return np.array([_num(value[0], f"{where}[0]"), _num(value[1], f"{where}[1]")])
+
+
+def _points(value: Any, where: str, minimum: int) -> np.ndarray:
+    if not isinstance(value, list) or len(value) < minimum:
+        raise ScenarioError(f"{where}: must be a list of at least {minimum} points [x, y], got {value!r}")
+    return np.array([_point(p, f"{where}[{i}]") for i, p in enumerate(value)])
+
+
+def _table(value: Any, where: str) -> dict:
+    if not isinstance(value, dict):
+        raise ScenarioError(f"{where}: must be a table, got {value!r}")
+    return value
+
+
+def _check_keys(table: dict, allowed: set[str], where: str) -> None:
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise ScenarioError(f"{where}.{unknown[0]}: unknown field (allowed: {', '.join(sorted(allowed))})")
+
+
+def _heading(table: dict, where: str) -> float:
+    return math.radians(_num(table.get("heading_deg", 0.0), f"{where}.heading_deg"))
+
+
+def _path(table: dict, where: str) -> Path:
+    wps = _points(table.get("waypoints"), f"{where}.waypoints", 2)
+    radius = _num(table.get("turn_radius_m", 0.0), f"{where}.turn_radius_m", nonneg=True)
+    try:
+        return Path.from_waypoints(wps, turn_radius_m=radius)
+    except ValueError as exc:
+        raise ScenarioError(f"{where}.waypoints: {exc}") from None
+
+
+# ---------------------------------------------------------------------- sections
+_TOP = {"name", "description", "duration_s", "seed", "rates", "outputs", "current", "vessels",
+        "static_obstacles", "moving_obstacles"}
+_VESSEL = {"name", "type", "position_m", "heading_deg", "speed_m_s", "controller", "sensor", "tracking",
+           "avoidance", "comms"}
+_CONTROLLER = {"type", "waypoints", "turn_radius_m", "speed_m_s", "commands", "lookahead_m"}
+
+
+def _rates(t: dict) -> Rates:
+    t = _table(t, "rates")
+    _check_keys(t, set(Rates.__dataclass_fields__), "rates")
+    kw = {k: _num(v, f"rates.{k}", positive=True) for k, v in t.items()}
+    rates = Rates(**kw)
+    for k in ("control_hz", "sensing_hz", "tracking_hz", "comms_hz", "record_hz"):
+        if getattr(rates, k) > rates.physics_hz:
+            raise ScenarioError(f"rates.{k}: must not exceed rates.physics_hz ({rates.physics_hz}), got {getattr(rates, k)}")
+    return rates
+
+
+def _outputs(t: dict) -> Outputs:
+    t = _table(t, "outputs")
+    _check_keys(t, set(Outputs.__dataclass_fields__), "outputs")
+    kw: dict[str, Any] = {}
+    for k in ("recording", "video"):
+        if k in t:
+            if not isinstance(t[k], bool):
+                raise ScenarioError(f"outputs.{k}: must be true or false, got {t[k]!r}")
+            kw[k] = t[k]
+    if "video_camera" in t:
+        kw["video_camera"] = _str(t["video_camera"], "outputs.video_camera")
+    if "video_fps" in t:
+        kw["video_fps"] = _num(t["video_fps"], "outputs.video_fps", positive=True, maximum=120)
+    for k in ("video_width", "video_height"):
+        if k in t:
+            kw[k] = _int(t[k], f"outputs.{k}", minimum=16)
+            if kw[k] > {"video_width": 1280, "video_height": 720}[k]:
+                raise ScenarioError(f"outputs.{k}: must be ≤ the scene's offscreen buffer (1280×720), got {kw[k]}")
+            if kw[k] % 2:
+                raise ScenarioError(f"outputs.{k}: must be even (H.264), got {kw[k]}")
+    return Outputs(**kw)
+
+
+def _vessel(t: Any, i: int) -> VesselConfig:
+    where = f"vessels[{i}]"
+    t = _table(t, where)
+    _check_keys(t, _VESSEL, where)
+    name = _str(t.get("name", f"v{i}"), f"{where}.name")
+    if "/" in name or name.startswith("obstacle"):
+        raise ScenarioError(f"{where}.name: must not contain '/' or start with 'obstacle', got {name!r}")
+    vtype = _str(t.get("type"), f"{where}.type", choices=set(available_vessels()))
+    pos = _point(t.get("position_m", [0.0, 0.0]), f"{where}.position_m")
+    heading = _heading(t, where)
+    vt = load_vessel_type(vtype)
+    speed = _num(t.get("speed_m_s", 0.0), f"{where}.speed_m_s", nonneg=True, maximum=vt.top_speed_m_s * 1.5)
+    ctrl = _table(t.get("controller", {"type": "none"}), f"{where}.controller")
+    _check_keys(ctrl, _CONTROLLER, f"{where}.controller")
+    ctype = _str(ctrl.get("type", "path_following"), f"{where}.controller.type", choices={"path_following", "none"})
+    path, commands = None, (0.0, 0.0)
+    cruise = vt.cruise_speed_m_s
+    options = {k: _table(t[k], f"{where}.{k}") for k in ("sensor", "tracking", "avoidance", "comms") if k in t}
+    if ctype == "path_following":
+        if "waypoints" not in ctrl:
+            raise ScenarioError(f"{where}.controller.waypoints: missing (path_following needs a path)")
+        path = _path(ctrl, f"{where}.controller")
+        cruise = _num(ctrl.get("speed_m_s", vt.cruise_speed_m_s), f"{where}.controller.speed_m_s", positive=True,
+                      maximum=vt.top_speed_m_s)
+        if "lookahead_m" in ctrl:
+            options["lookahead_m"] = _num(ctrl["lookahead_m"], f"{where}.controller.lookahead_m", positive=True)
+    else:
+        c = ctrl.get("commands", [0.0, 0.0])
+        if not isinstance(c, list) or len(c) != 2:
+            raise ScenarioError(f"{where}.controller.commands: must be [port, starboard] in [-1, 1], got {c!r}")
+        commands = tuple(_num(x, f"{where}.controller.commands[{k}]", minimum=-1, maximum=1) for k, x in enumerate(c))
+    return VesselConfig(name, vtype, pos, heading, speed, ctype, path, cruise, commands, options)
+
+
+def _static(t: Any, i: int):
+    where = f"static_obstacles[{i}]"
+    t = _table(t, where)
+    kind = _str(t.get("type"), f"{where}.type", choices={"polygon", "circle"})
+    name = _str(t.get("name", f"static{i}"), f"{where}.name")
+    height = _num(t.get("height_m", 2.0), f"{where}.height_m", positive=True)
+    if kind == "polygon":
+        _check_keys(t, {"type", "name", "vertices", "height_m"}, where)
+        v = _points(t.get("vertices"), f"{where}.vertices", 3)
+        try:
+            return PolygonObstacle(name, v, height)
+        except ValueError as exc:
+            raise ScenarioError(f"{where}.vertices: {exc}") from None
+    _check_keys(t, {"type", "name", "centre_m", "radius_m", "height_m"}, where)
+    return CircleObstacle(name, _point(t.get("centre_m"), f"{where}.centre_m"),
+                          _num(t.get("radius_m"), f"{where}.radius_m", positive=True), height)
+
+
+def _moving(t: Any, i: int) -> MovingObstacle:
+    where = f"moving_obstacles[{i}]"
+    t = _table(t, where)
+    _check_keys(t, {"name", "radius_m", "position_m", "heading_deg", "speed_m_s", "turn_rate_deg_s", "waypoints",
+                    "turn_radius_m", "start_gamma_m"}, where)
+    name = _str(t.get("name", f"traffic{i}"), f"{where}.name")
+    radius = _num(t.get("radius_m", 2.5), f"{where}.radius_m", positive=True)
+    speed = _num(t.get("speed_m_s", 0.0), f"{where}.speed_m_s", nonneg=True)
+    if "waypoints" in t:
+        path = _path(t, where)
+        g0 = _num(t.get("start_gamma_m", 0.0), f"{where}.start_gamma_m", nonneg=True, maximum=path.length)
+        return MovingObstacle(name, radius, path.point(g0), float(path.tangent_angle(g0)), speed, 0.0, path, g0)
+    pos = _point(t.get("position_m"), f"{where}.position_m")
+    turn = math.radians(_num(t.get("turn_rate_deg_s", 0.0), f"{where}.turn_rate_deg_s"))
+    return MovingObstacle(name, radius, pos, _heading(t, where), speed, turn)
+
+
+def parse_scenario(data: dict, source: str = "<dict>") -> Scenario:
+    """Validate a parsed TOML document into a :class:`Scenario` (raises :class:`ScenarioError`)."""
+    data = _table(data, "scenario")
+    _check_keys(data, _TOP, "scenario")
+    name = _str(data.get("name", FilePath(source).stem), "name")
+    duration = _num(data.get("duration_s"), "duration_s", positive=True) if "duration_s" in data else None
+    if duration is None:
+        raise ScenarioError("duration_s: missing (how long the run lasts, in seconds)")
+    seed = _int(data.get("seed", 0), "seed", minimum=0)
+    rates = _rates(data.get("rates", {}))
+    outputs = _outputs(data.get("outputs", {}))
+    cur_cfg = data.get("current")
+    if cur_cfg is None:
+        current, cur_cfg = UniformCurrent((0.0, 0.0)), {"type": "uniform", "velocity_m_s": [0.0, 0.0]}
+    else:
+        try:
+            current = current_from_config(_table(cur_cfg, "current"), seed=seed)
+        except TypeError:
+            current = current_from_config(_table(cur_cfg, "current"))
+        except ValueError as exc:
+            msg = str(exc)
+            raise ScenarioError(msg if msg.startswith("current") else f"current: {msg}") from None
+    vessels_raw = data.get("vessels")
+    if not isinstance(vessels_raw, list) or not vessels_raw:
+        raise ScenarioError("vessels: need at least one [[vessels]] table")
+    vessels = tuple(_vessel(v, i) for i, v in enumerate(vessels_raw))
+    names = [v.name for v in vessels]
+    for i, n in enumerate(names):
+        if names.index(n) != i:
+            raise ScenarioError(f"vessels[{i}].name: duplicate name {n!r}")
+    statics = tuple(_static(o, i) for i, o in enumerate(_list(data.get("static_obstacles", []), "static_obstacles")))
+    moving = tuple(_moving(o, i) for i, o in enumerate(_list(data.get("moving_obstacles", []), "moving_obstacles")))
+    obstacle_names = [o.name for o in statics] + [o.name for o in moving]
+    for i, n in enumerate(obstacle_names):
+        if obstacle_names.index(n) != i:
+            raise ScenarioError(f"obstacles: duplicate obstacle name {n!r}")
+    if outputs.video_camera not in ("top_down", "overview") and not outputs.video_camera.startswith("chase:"):
+        raise ScenarioError(f"outputs.video_camera: must be top_down, overview or chase:<vessel>, got {outputs.video_camera!r}")
+    if outputs.video_camera.startswith("chase:") and outputs.video_camera[6:] not in names:
+        raise ScenarioError(f"outputs.video_camera: no vessel named {outputs.video_camera[6:]!r}")
+    return Scenario(name, str(data.get("description", "")), duration, seed, rates, outputs, current, dict(cur_cfg),
+                    vessels, statics, moving, source, data)
+
+
+def _list(value: Any, where: str) -> list:
+    if not isinstance(value, list):
+        raise ScenarioError(f"{where}: must be an array of tables ([[{where}]]), got {value!r}")
+    return value
+
+
+def load_scenario(path: str | FilePath) -> Scenario:
+    """Read and validate a scenario file. Raises :class:`ScenarioError` naming the field."""
+    path = FilePath(path)
+    if not path.is_file():
+        raise ScenarioError(f"{path}: no such scenario file")
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    try:
+        return parse_scenario(data, str(path))
+    except ScenarioError as exc:
+        raise ScenarioError(f"{path}: {exc}") from None

@@ -1,0 +1,43 @@
+"""Multi-rate scheduling on the physics clock.
+
+Every slot (control, sensing, tracking, prediction, comms, recording, video) runs every
+``period_steps`` physics steps, with its period rounded to a whole number of steps (the realized
+rate is reported). Slots due at the same step run in the fixed order of :data:`SLOT_ORDER`, so
+data flows one way through a tick: sense → track → comms → predict → control → record → video.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = ["Schedule", "SLOT_ORDER"]
+
+SLOT_ORDER = ("sensing", "tracking", "comms", "prediction", "control", "record", "video")
+
+
+@dataclass(frozen=True)
+class Schedule:
+    physics_dt_s: float
+    period_steps: dict  # slot name -> steps between runs
+
+    @classmethod
+    def from_periods(cls, physics_dt_s: float, periods_s: dict[str, float]) -> "Schedule":
+        steps = {}
+        for name, period in periods_s.items():
+            if name not in SLOT_ORDER:
+                raise ValueError(f"schedule: unknown slot {name!r} (known: {', '.join(SLOT_ORDER)})")
+            if not period > 0:
+                raise ValueError(f"schedule.{name}: period must be > 0, got {period}")
+            steps[name] = max(1, int(round(period / physics_dt_s)))
+        return cls(physics_dt_s, steps)
+
+    def realized_rate_hz(self, slot: str) -> float:
+        return 1.0 / (self.period_steps[slot] * self.physics_dt_s)
+
+    def due(self, step: int) -> list[str]:
+        """Slots that run at physics step ``step`` (step 0 runs everything), in SLOT_ORDER."""
+        return [s for s in SLOT_ORDER if s in self.period_steps and step % self.period_steps[s] == 0]
+
+    def next_event(self, step: int) -> int:
+        """The first step after ``step`` at which any slot is due."""
+        return min((step // p + 1) * p for p in self.period_steps.values())
