@@ -64,6 +64,7 @@ class Runner:
                         float(self.world.propeller_lateral_m[i, 0]))
             for i, v in enumerate(sc.vessels)
         ]
+        self._attach_components()
         r = sc.rates
         periods = {"control": 1 / r.control_hz, "sensing": 1 / r.sensing_hz, "tracking": 1 / r.tracking_hz,
                    "comms": 1 / r.comms_hz, "prediction": r.prediction_period_s, "record": 1 / r.record_hz}
@@ -76,6 +77,33 @@ class Runner:
         self.metrics = None
         self._last_outputs = [None] * len(self.agents)
         self._trail: list[list[np.ndarray]] = [[] for _ in self.agents]
+
+    def _attach_components(self) -> None:
+        """Give each vessel the components its scenario table asks for. Every component gets its own
+        random stream, derived from the scenario seed, the vessel index and the component, so adding
+        a sensor to one vessel does not change another vessel's noise."""
+        sc = self.scenario
+        team = [v.name for v in sc.vessels]
+        network = None
+        if sc.comms is not None or any("comms" in v.options for v in sc.vessels):
+            from .comms import CommsNetwork
+
+            network = CommsNetwork(team, sc.comms, np.random.default_rng([sc.seed, 1_000_003]))
+        self.network = network
+        for i, (agent, v) in enumerate(zip(self.agents, sc.vessels)):
+            rng = lambda k: np.random.default_rng([sc.seed, i, k])  # noqa: E731
+            if "sensor" in v.options or "tracking" in v.options:
+                from .perception import Perception
+
+                agent.perception = Perception(self.world, i, v.options.get("sensor"), v.options.get("tracking"), rng(1))
+            if "comms" in v.options:
+                from .coordination import Coordination
+
+                agent.coordination = Coordination(agent, network, v.options["comms"], rng(2))
+            if "avoidance" in v.options:
+                from .avoidance import CollisionAvoidance
+
+                agent.avoidance = CollisionAvoidance(agent, v.options["avoidance"], team, rng(3))
 
     # ------------------------------------------------------------------ extent for views
     def extent(self) -> tuple[np.ndarray, np.ndarray]:
@@ -231,8 +259,21 @@ class Runner:
             while step <= total_steps:
                 due = self.schedule.due(step)
                 states = sim.states() if due else None
+                navs = [self._own_navigation(states, i) for i in range(len(self.agents))] if due else []
                 for slot in due:
-                    if slot == "control":
+                    if slot == "sensing":
+                        for agent, nav in zip(self.agents, navs):
+                            agent.on_sensing(nav)
+                    elif slot == "tracking":
+                        for agent, nav in zip(self.agents, navs):
+                            agent.on_tracking(nav)
+                    elif slot == "comms":
+                        for agent, nav in zip(self.agents, navs):
+                            agent.on_comms(nav)
+                    elif slot == "prediction":
+                        for agent, nav in zip(self.agents, navs):
+                            agent.on_prediction(nav)
+                    elif slot == "control":
                         self._control(states)
                     elif slot == "record":
                         self._record(states)
@@ -240,11 +281,16 @@ class Runner:
                         for pair in new:
                             if self.recorder:
                                 self.recorder.event(states.time_s, f"collision: {pair[0]} ↔ {pair[1]}", "WARN")
+                        for agent in self.agents:
+                            for t_ev, text in agent.drain_events():
+                                if self.recorder:
+                                    self.recorder.event(t_ev, f"{agent.name}: {text}")
+                            if self.recorder:
+                                agent.log(self.recorder, states.time_s)
                     elif slot == "video" and self.video is not None:
                         self.video.add_frame(sim.data, [
                             (states.position_m[i], states.heading_rad[i], (*np.array(vessel_colour(i)) / 255, 1.0))
                             for i in range(len(self.agents))])
-                    # sensing / tracking / comms / prediction slots: run by the agents' later layers
                 nxt = min(self.schedule.next_event(step), total_steps + 1)
                 if nxt > total_steps:
                     break

@@ -86,6 +86,7 @@ class Scenario:
     moving_obstacles: tuple[MovingObstacle, ...]
     source: str = ""
     raw: dict = field(default_factory=dict)
+    comms: Any = None  # network config (coordination.parse_network_options) or None
 
     def with_overrides(self, seed: int | None = None, video: bool | None = None, duration_s: float | None = None) -> "Scenario":
         from dataclasses import replace
@@ -173,7 +174,33 @@ def _path(table: dict, where: str) -> Path:
 
 # ---------------------------------------------------------------------- sections
 _TOP = {"name", "description", "duration_s", "seed", "rates", "outputs", "current", "vessels",
-        "static_obstacles", "moving_obstacles"}
+        "static_obstacles", "moving_obstacles", "comms"}
+
+#: Optional per-vessel components: scenario table → (module, parser). Each parser takes
+#: (table, where) and returns a typed config, raising ValueError that names ``where.<key>``.
+COMPONENT_PARSERS = {
+    "sensor": ("mjasc.range_sensor", "parse_sensor_options"),
+    "tracking": ("mjasc.tracking", "parse_tracking_options"),
+    "avoidance": ("mjasc.avoidance", "parse_avoidance_options"),
+    "comms": ("mjasc.coordination", "parse_coordination_options"),
+}
+
+
+def _parse_component(kind: str, table: Any, where: str):
+    import importlib
+
+    module_name, func = COMPONENT_PARSERS[kind]
+    try:
+        parser = getattr(importlib.import_module(module_name), func)
+    except (ImportError, AttributeError):
+        raise ScenarioError(f"{where}: component {kind!r} is not available in this version of mjasc") from None
+    try:
+        return parser(_table(table, where), where)
+    except ScenarioError:
+        raise
+    except ValueError as exc:
+        msg = str(exc)
+        raise ScenarioError(msg if msg.startswith(where) else f"{where}: {msg}") from None
 _VESSEL = {"name", "type", "position_m", "heading_deg", "speed_m_s", "controller", "sensor", "tracking",
            "avoidance", "comms"}
 _CONTROLLER = {"type", "waypoints", "turn_radius_m", "speed_m_s", "commands", "lookahead_m"}
@@ -230,7 +257,7 @@ def _vessel(t: Any, i: int) -> VesselConfig:
     ctype = _str(ctrl.get("type", "path_following"), f"{where}.controller.type", choices={"path_following", "none"})
     path, commands = None, (0.0, 0.0)
     cruise = vt.cruise_speed_m_s
-    options = {k: _table(t[k], f"{where}.{k}") for k in ("sensor", "tracking", "avoidance", "comms") if k in t}
+    options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}
     if ctype == "path_following":
         if "waypoints" not in ctrl:
             raise ScenarioError(f"{where}.controller.waypoints: missing (path_following needs a path)")
@@ -322,8 +349,21 @@ def parse_scenario(data: dict, source: str = "<dict>") -> Scenario:
         raise ScenarioError(f"outputs.video_camera: must be top_down, overview or chase:<vessel>, got {outputs.video_camera!r}")
     if outputs.video_camera.startswith("chase:") and outputs.video_camera[6:] not in names:
         raise ScenarioError(f"outputs.video_camera: no vessel named {outputs.video_camera[6:]!r}")
+    comms = None
+    if "comms" in data:
+        import importlib
+
+        try:
+            parse_network = importlib.import_module("mjasc.comms").parse_network_options
+        except (ImportError, AttributeError):
+            raise ScenarioError("comms: the comms link is not available in this version of mjasc") from None
+        try:
+            comms = parse_network(_table(data["comms"], "comms"), "comms")
+        except ValueError as exc:
+            msg = str(exc)
+            raise ScenarioError(msg if msg.startswith("comms") else f"comms: {msg}") from None
     return Scenario(name, str(data.get("description", "")), duration, seed, rates, outputs, current, dict(cur_cfg),
-                    vessels, statics, moving, source, data)
+                    vessels, statics, moving, source, data, comms)
 
 
 def _list(value: Any, where: str) -> list:
