@@ -313,6 +313,11 @@ class Runner:
         summary = {"scenario": sc.name, "seed": sc.seed, "status": status, "error": error,
                    "rates_hz": {s: round(self.schedule.realized_rate_hz(s), 4) for s in self.schedule.period_steps},
                    **self.metrics.summary(wall, sim.time_s)}
+        for agent in self.agents:  # components add their own per-vessel results
+            for kind, comp in (("perception", agent.perception), ("coordination", agent.coordination),
+                               ("avoidance", agent.avoidance)):
+                if comp is not None and hasattr(comp, "summary"):
+                    summary["vessels"][agent.name][kind] = comp.summary()
         if self.video is not None:
             summary["video_frames"] = self.video.frames
         if self.out_dir is not None:
