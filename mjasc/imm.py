@@ -287,17 +287,20 @@ def _mix(s, P, mu, markov):
     return s0, P0, cbar
 
 
-def _ekf_predict(s0, P0, omega, q_block, dt):
+def _ekf_predict(s0, P0, omega, q_block, dt, F=None):
     """Thesis eq. 3.3 and its Jacobian per model; modifies s0 in place, returns (sp, Pp).
 
     q_block: the (2, 2) (or (n, 1, 2, 2)) process covariance of (θ, V) for this Ts, diag(Q_θ, Q_V)·Ts.
+    F: optional work array shaped like P0 holding the identity outside F[..., :2, 2:] (reused
+    between cycles to save an allocation).
     """
     th = s0[..., 2]
     trig = np.cos(th[..., None] - _COS_SIN_SHIFT)  # [cos θ, sin θ]
     dtrig = dt[..., None] * trig if isinstance(dt, np.ndarray) else dt * trig  # Ts [cos θ, sin θ]
     vdtrig = s0[..., 3, None] * dtrig  # Ts V [cos θ, sin θ]
-    F = np.zeros(P0.shape)
-    F[..., _DIAG, _DIAG] = 1.0
+    if F is None:
+        F = np.zeros(P0.shape)
+        F[..., _DIAG, _DIAG] = 1.0
     F[..., :2, 3] = dtrig  # ∂(x, y)/∂V
     F[..., :2, 2] = vdtrig[..., ::-1] * _ROT90  # ∂(x, y)/∂θ = Ts V [−sin θ, cos θ]
     s0[..., :2] += vdtrig
@@ -319,11 +322,14 @@ def _position_update(x, P, z, meas_var):
     a, b, d = S[..., 0, 0], S[..., 0, 1], S[..., 1, 1]
     inv_det = 1.0 / (a * d - b * b)
     Sinv = S[..., ::-1, ::-1] * _ADJ_SIGN * inv_det[..., None, None]
-    siy = Sinv @ y[..., None]  # S⁻¹ r, (..., 2, 1)
-    maha = (y[..., None, :] @ siy)[..., 0, 0]
     PHt = P[..., :, :2]
-    xu = x + (PHt @ siy)[..., 0]
-    Pu = P - (PHt @ Sinv) @ np.swapaxes(PHt, -1, -2)
+    K = PHt @ Sinv
+    Ky = (K @ y[..., None])[..., 0]
+    xu = x + Ky
+    # rᵀS⁻¹r from K r: the rows of K on x, y are (S − R) S⁻¹ = I − R S⁻¹, so S⁻¹r = (r − (K r)_xy)/σ²
+    iy = y - Ky[..., :2]
+    maha = (y[..., 0] * iy[..., 0] + y[..., 1] * iy[..., 1]) * (1.0 / meas_var)
+    Pu = P - K @ np.swapaxes(PHt, -1, -2)
     Pu += np.swapaxes(Pu, -1, -2)  # re-symmetrize: without it rounding asymmetry grows and
     Pu *= 0.5  # P loses positive definiteness after ~10³ cycles
     return xu, Pu, maha, inv_det
@@ -454,6 +460,7 @@ class IMMBank:
         self._R = config.measurement_variance_m2
         self._q_unit = np.diag([config.heading_noise_rad2_s, config.speed_noise_m2_s3])
         self._Pc_stale = False  # combined covariances are computed when read
+        self._F = None  # Jacobian work array (n, r, 4, 4)
         self._floor = max(config.min_mode_probability, _TINY_PROB)
         self._gate = config.gate_threshold
         self._snr2 = config.init_speed_snr**2
@@ -601,9 +608,16 @@ class IMMBank:
             return t, dt, d, self._markov.scalar(d), self._q_unit * d
         return t, dt, dt[:, None], self._markov.per_track(dt), dt[:, None, None, None] * self._q_unit
 
+    def _jacobian_buffer(self):
+        F = self._F
+        if F is None or F.shape[0] != self._ids.size:
+            F = self._F = np.zeros((self._ids.size, self._r, 4, 4))
+            F[..., _DIAG, _DIAG] = 1.0
+        return F
+
     def _mix_predict(self, dtm, markov, q_block):
         s0, P0, cbar = _mix(self._s, self._P, self._mu, markov)
-        sp, Pp = _ekf_predict(s0, P0, self._omega, q_block, dtm)
+        sp, Pp = _ekf_predict(s0, P0, self._omega, q_block, dtm, self._jacobian_buffer())
         return sp, Pp, cbar
 
     def _covariances(self) -> np.ndarray:
@@ -745,7 +759,7 @@ class IMMBank:
             z = zs
 
         s0, P0, cbar = _mix(self._s, self._P, self._mu, markov)
-        sp, Pp = _ekf_predict(s0, P0, self._omega, q_block, dtm)
+        sp, Pp = _ekf_predict(s0, P0, self._omega, q_block, dtm, self._jacobian_buffer())
         th_pred = sp[..., 2]  # _position_update does not modify sp
         su, Pu, maha, inv_det = _position_update(sp, Pp, zs[:, None, :], self._R)
         if su[..., 3].min() < 0.0:
@@ -1035,7 +1049,7 @@ class IMMTracker:
     def heading(self) -> float:
         """Course over ground θ [rad], CCW from east, in (−π, π]."""
         self._row()
-        return float(_wrap(float(self._bank._x[0, 2])))
+        return math.pi - (math.pi - float(self._bank._x[0, 2])) % _TWO_PI  # wrap, as _wrap
 
     @property
     def turn_rate(self) -> float:
