@@ -89,6 +89,9 @@ class Simulation:
         self.data = world.data
         self.current = current if current is not None else UniformCurrent((0.0, 0.0))
         self.hydrodynamics_enabled = hydrodynamics
+        # Keep a diverged state as it is (MuJoCo would otherwise reset MjData on a bad acceleration,
+        # hiding when and where the run failed): check_divergence reports it instead.
+        self.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
         n = world.n_vessels
         self.n_vessels = n
         m_rb = np.stack([_rigid_body_mass(self.model, b) for b in world.hull_body_id]) if n else np.zeros((0, 3, 3))

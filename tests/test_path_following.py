@@ -1,0 +1,47 @@
+"""Path following: cross-track error converges, also in current (integral LOS)."""
+
+import numpy as np
+import pytest
+
+from mjasc.path_following import PathFollower, PathFollowingConfig
+from mjasc.paths import Path
+
+from .helpers import make_sim
+
+
+def follow(vessel, path, current, speed, duration_s, start=(0.0, 0.0, 0.0), start_speed=0.5):
+    sim = make_sim(vessel, current=current)
+    sim.reset([list(start)], [[start_speed, 0, 0]])
+    f = PathFollower(path, sim.world.vessel_types[0], sim.hydro.total_mass[0], sim.world.propeller_lateral_m[0, 0])
+    log = []
+    for _ in range(int(duration_s / 0.1)):
+        st = sim.states()
+        cmd, status = f.command(st.position_m[0], st.heading_rad[0], st.velocity_m_s[0], st.body_velocity[0], speed, 0.1)
+        sim.set_commands(cmd[None])
+        sim.step(5)
+        log.append((st.time_s, status.cross_track_m, st.body_velocity[0, 0], status.gamma_m))
+    return np.array(log)
+
+
+@pytest.mark.parametrize("vessel,speed", [("otter", 1.5), ("delfim", 1.0)])
+@pytest.mark.parametrize("current", [(0.0, 0.0), (0.0, 0.3), (-0.2, 0.25)])
+def test_cross_track_error_converges_on_a_straight_line(vessel, speed, current):
+    """From 10 m off the path, the error decays to centimetres, cross current included."""
+    log = follow(vessel, Path.line([0, 0], [2000, 0]), current, speed, 150, start=(0.0, 10.0, 0.0))
+    assert abs(log[0, 1]) == pytest.approx(10.0, abs=0.1)
+    late = log[log[:, 0] > 100]
+    assert np.max(np.abs(late[:, 1])) < 0.05
+    assert np.mean(late[:, 2]) == pytest.approx(speed, abs=0.05)  # surge speed over ground tracks the reference
+
+
+def test_l_shaped_path_in_current_stays_close():
+    path = Path.from_waypoints([[0, 0], [150, 0], [150, 150]], turn_radius_m=20.0)
+    log = follow("otter", path, (0.0, 0.3), 1.5, 230)
+    assert log[-1, 3] > path.length - 10  # reached the end
+    assert np.max(np.abs(log[log[:, 0] > 20, 1])) < 1.5
+    assert np.mean(np.abs(log[:, 1])) < 0.3
+
+
+def test_config_validation_names_the_field():
+    with pytest.raises(ValueError, match="heading_bandwidth_rad_s"):
+        PathFollowingConfig(heading_bandwidth_rad_s=0)

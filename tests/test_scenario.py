@@ -1,0 +1,94 @@
+"""Scenario files: every shipped scenario loads; bad files are rejected with the field and the
+reason, and nothing is run or written."""
+
+import subprocess
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjasc.scenario import ScenarioError, load_scenario, parse_scenario
+
+TASKS = Path(__file__).resolve().parent.parent / "tasks"
+ROOT = TASKS.parent
+
+
+def demo() -> dict:
+    with open(TASKS / "demo.toml", "rb") as f:
+        return tomllib.load(f)
+
+
+@pytest.mark.parametrize("path", sorted(TASKS.glob("*.toml")), ids=lambda p: p.name)
+def test_every_shipped_scenario_loads(path):
+    sc = load_scenario(path)
+    assert sc.duration_s > 0 and sc.vessels
+
+
+def test_demo_is_parsed_into_typed_values():
+    sc = parse_scenario(demo(), "demo.toml")
+    assert [v.name for v in sc.vessels] == ["alpha", "bravo", "charlie"]
+    assert sc.vessels[0].path.length == pytest.approx(150 + 150 - 2 * 15 + np.pi * 15 / 2, rel=1e-9)
+    np.testing.assert_allclose(sc.current.velocity(np.zeros((1, 2)), 0.0), [[0.0, 0.3]])
+    assert sc.rates.physics_hz == 50.0 and sc.static_obstacles[0].name == "pontoon"
+
+
+def _mutate(fn):
+    d = demo()
+    fn(d)
+    return d
+
+
+BAD = {
+    "duration_s: must be > 0": lambda d: d.update(duration_s=-5),
+    "duration_s: missing": lambda d: d.pop("duration_s"),
+    "seed: must be an integer": lambda d: d.update(seed=1.5),
+    "scenario.colour: unknown field": lambda d: d.update(colour="red"),
+    "vessels[1].type: must be one of": lambda d: d["vessels"][1].update(type="titanic"),
+    "vessels[0].controller.speed_m_s: must be > 0": lambda d: d["vessels"][0]["controller"].update(speed_m_s=-1.0),
+    "vessels[0].controller.speed_m_s: must be ≤": lambda d: d["vessels"][0]["controller"].update(speed_m_s=99.0),
+    "vessels[2].controller.waypoints[1]": lambda d: d["vessels"][2]["controller"].update(waypoints=[[0, 0], "x"]),
+    "vessels[1].name: duplicate": lambda d: d["vessels"][1].update(name="alpha"),
+    "vessels[0].position_m: must be a point": lambda d: d["vessels"][0].update(position_m=[1, 2, 3]),
+    "vessels: need at least one": lambda d: d.update(vessels=[]),
+    "static_obstacles[0].vertices": lambda d: d["static_obstacles"][0].update(vertices=[[0, 0], [1, 1]]),
+    "static_obstacles[1].radius_m: must be > 0": lambda d: d["static_obstacles"][1].update(radius_m=0),
+    "moving_obstacles[0].speed_m_s: must be ≥ 0": lambda d: d["moving_obstacles"][0].update(speed_m_s=-1),
+    "rates.control_hz: must not exceed": lambda d: d["rates"].update(control_hz=500.0),
+    "outputs.video_width: must be even": lambda d: d["outputs"].update(video_width=641),
+    "outputs.video_camera": lambda d: d["outputs"].update(video_camera="chase:nobody"),
+    "current.velocity_m_s": lambda d: d["current"].update(velocity_m_s=[0.1]),
+    "current.type": lambda d: d["current"].update(type="tsunami"),
+    "duration_s: must be finite": lambda d: d.update(duration_s=float("inf")),
+}
+
+
+@pytest.mark.parametrize("message", list(BAD), ids=list(BAD))
+def test_bad_scenarios_are_rejected_naming_the_field(message):
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(_mutate(BAD[message]), "bad.toml")
+    assert message.split(":")[0] in str(err.value)
+    if ":" in message:
+        assert message.split(":", 1)[1].strip() in str(err.value)
+
+
+def test_invalid_toml_and_missing_file(tmp_path):
+    bad = tmp_path / "broken.toml"
+    bad.write_text("duration_s = = 3\n")
+    with pytest.raises(ScenarioError, match="not valid TOML"):
+        load_scenario(bad)
+    with pytest.raises(ScenarioError, match="no such scenario file"):
+        load_scenario(tmp_path / "missing.toml")
+
+
+def test_cli_rejects_a_bad_file_and_writes_nothing(tmp_path):
+    text = (TASKS / "demo.toml").read_text().replace("duration_s = 240.0", "duration_s = -1.0")
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text)
+    out = tmp_path / "out"
+    proc = subprocess.run([sys.executable, "-m", "mjasc", "run", str(bad), "--out", str(out)], cwd=ROOT,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert "duration_s: must be > 0" in proc.stderr
+    assert not out.exists()
