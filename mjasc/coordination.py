@@ -1,0 +1,286 @@
+"""Coordination controller for cooperative path following: γ consensus over a lossy, delayed link.
+
+Each vessel i follows its own mission path of length L_i (digest §1, "cooperative path following":
+paths parameterized so that equal path parameters mean "in formation"); thesis §6.4 runs three
+ASCs in line formation on an L-shaped path exchanging path parameters over comms (digest §6).
+The coordination state is the *normalized* path parameter
+
+    ξ_i = (γ_i − o_i) / L_i          γ_i progress along the mission path [m], o_i formation offset [m]
+
+so that parallel paths of different lengths (e.g. L-paths whose rounded corners have different
+radii) coincide when the team is in formation: ξ_i = ξ_j for all i, j.
+
+Speed law (the classical cooperative path-following law of Ghabcheloo, Aguiar, Pascoal,
+Silvestre, Kaminer & Hespanha, "Coordinated path-following in the presence of communication
+losses and time delays", SIAM J. Control Optim. 48(1), 2009; and Ghabcheloo et al., "Nonlinear
+coordination control for a group of mobile robots with fixed path following", Int. J. Control
+79(12), 2006), written in metres of path::
+
+    e_i   = L̄ Σ_{j ∈ N_i(t)} (ξ_i − ξ̂_j(t))                 coordination error [m]
+    f_i   = (ω_d L_i / v_i) · (1 − k tanh(e_i / e_s))        factor on the mission speed v_i
+    v_cmd = f_i v_i,  capped at the vessel's top speed
+
+with N_i(t) the neighbours heard within ``neighbour_timeout_s``, ξ̂_j(t) = ξ_j(t_j) + ξ̇_j (t − t_j)
+the latest received value extrapolated with the neighbour's broadcast path rate (delay
+compensation; ``extrapolate = false`` uses the held value as in the paper), L̄ the mean path
+length and ω_d = v̄ / L̄ the formation's nominal rate [1/s] (v̄ the mean mission speed), both
+over the vessel and the neighbours it has heard. The feed-forward ω_d L_i / v_i makes every
+vessel progress at the same normalized rate when in formation; the saturated consensus term
+(k < 1 keeps the speed positive) closes the gaps. Linearized, with all-to-all links and equal
+speeds, the pairwise differences ξ_i − ξ_j decay as exp(−λ t) with
+
+    λ = n · k · v̄ / e_s       (n team members: the Laplacian of the complete graph has eigenvalue n)
+
+and with delays τ the loop stays stable while λ τ < π/2 (consensus with delayed relative
+information; the extrapolation above removes most of the delay).
+
+``role = "leader"``: the vessel keeps its feed-forward speed (no consensus term) and the others
+converge to it (leader–follower coordination).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from .comms import CommsNetwork
+
+__all__ = ["CoordinationConfig", "Coordination", "parse_coordination_options"]
+
+
+@dataclass(frozen=True)
+class CoordinationConfig:
+    """Gains and formation role of one vessel (``[vessels.comms]``). The broadcast period is the
+    runner's comms slot, ``rates.comms_hz``."""
+
+    max_speed_correction: float = 0.5  # k ∈ (0, 1): consensus term moves the speed in [(1−k), (1+k)]·nominal
+    error_scale_m: float = 10.0  # e_s [m]: tanh(e/e_s); linear gain k/e_s per metre of error
+    formation_offset_m: float = 0.0  # o_i [m]: desired lead along own path over the formation reference
+    role: str = "peer"  # "peer" (consensus) | "leader" (keeps its nominal speed)
+    neighbour_timeout_s: float = 5.0  # a neighbour whose latest message is older is dropped from N_i
+    extrapolate: bool = True  # ξ̂_j = ξ_j + ξ̇_j (t − t_j)
+    formation_tolerance_m: float = 1.0  # |e| below this counts as "in formation" (summary only)
+
+    def __post_init__(self):
+        _validate(self, "comms")
+
+
+_POSITIVE = ("error_scale_m", "neighbour_timeout_s", "formation_tolerance_m")
+
+
+def _validate(cfg: CoordinationConfig, where: str) -> None:
+    for f in fields(cfg):
+        v = getattr(cfg, f.name)
+        if f.name == "role":
+            if v not in ("peer", "leader"):
+                raise ValueError(f"{where}.role: must be one of leader, peer, got {v!r}")
+        elif f.name == "extrapolate":
+            if not isinstance(v, bool):
+                raise ValueError(f"{where}.extrapolate: must be true or false, got {v!r}")
+        else:
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+                raise ValueError(f"{where}.{f.name}: must be a finite number, got {v!r}")
+            if f.name in _POSITIVE and not v > 0:
+                raise ValueError(f"{where}.{f.name}: must be > 0, got {v!r}")
+    if not 0.0 < cfg.max_speed_correction < 1.0:
+        raise ValueError(f"{where}.max_speed_correction: must be in (0, 1) so that the speed stays positive, "
+                         f"got {cfg.max_speed_correction!r}")
+
+
+def parse_coordination_options(table: dict, where: str = "comms") -> CoordinationConfig:
+    """A ``[vessels.comms]`` table → :class:`CoordinationConfig` (ValueError names ``where.<key>``)."""
+    if not isinstance(table, dict):
+        raise ValueError(f"{where}: must be a table, got {table!r}")
+    allowed = {f.name for f in fields(CoordinationConfig)}
+    unknown = sorted(set(table) - allowed)
+    if unknown:
+        raise ValueError(f"{where}.{unknown[0]}: unknown field (allowed: {', '.join(sorted(allowed))})")
+    kw = {k: (float(v) if isinstance(v, int) and not isinstance(v, bool) and k not in ("role", "extrapolate") else v)
+          for k, v in table.items()}
+    try:
+        return CoordinationConfig(**kw)
+    except ValueError as exc:  # re-address "comms.<key>" to the caller's table
+        msg = str(exc)
+        raise ValueError(f"{where}{msg[len('comms'):]}" if msg.startswith("comms.") else msg) from None
+
+
+@dataclass
+class _Neighbour:
+    sent_time_s: float
+    received_time_s: float
+    payload: dict
+    active: bool = True
+
+
+class Coordination:
+    """One vessel's coordination controller (the ``coordination`` component of ``VesselAgent``).
+
+    Uses from the agent: ``name``, ``config.path`` or ``follower.path`` (the mission path, whose
+    length is L_i), ``mission_speed_m_s`` and ``vessel.top_speed_m_s`` (both optional).
+    """
+
+    def __init__(self, agent, network: CommsNetwork, config: CoordinationConfig | None = None,
+                 rng: np.random.Generator | None = None):
+        if network is None:
+            raise ValueError(f"{agent.name}.comms: coordination needs a comms network")
+        self.name = agent.name
+        self.agent = agent
+        self.network = network
+        self.config = config if config is not None else CoordinationConfig()
+        self.rng = rng  # unused: the law is deterministic; kept for the component interface
+        path = getattr(getattr(agent, "config", None), "path", None)
+        if path is None and getattr(agent, "follower", None) is not None:
+            path = agent.follower.path
+        self.path = path  # the mission path (a detour never changes L_i)
+        self.path_length_m = float(path.length) if path is not None else None
+        self.mission_speed_m_s = float(getattr(agent, "mission_speed_m_s", 1.0))
+        vessel = getattr(agent, "vessel", None)
+        self.top_speed_m_s = float(vessel.top_speed_m_s) if vessel is not None else np.inf
+        self.neighbours: dict[str, _Neighbour] = {}
+        self._events: list[tuple[float, str]] = []
+        self.received = 0
+        self.last_error_m = 0.0
+        self.last_factor = 1.0
+        self.last_xi = np.nan
+        self._history: list[tuple[float, float]] = []  # (t, e_i) at each exchange with ≥ 1 neighbour
+        self._logged_style = False
+
+    # ------------------------------------------------------------------ state
+    def xi(self, gamma_m: float) -> float:
+        """Own normalized coordination state ξ_i = (γ_i − o_i) / L_i."""
+        if self.path_length_m is None:
+            return np.nan
+        return (float(gamma_m) - self.config.formation_offset_m) / self.path_length_m
+
+    def _payload(self, t_s: float, nav, gamma_m: float) -> dict:
+        p = {"position_m": np.array(nav.position_m[:2], dtype=float), "heading_rad": float(nav.heading_rad),
+             "velocity_m_s": np.array(nav.velocity_m_s[:2], dtype=float),
+             "mission_speed_m_s": self.mission_speed_m_s}
+        if self.path_length_m is not None:
+            g = float(np.clip(gamma_m, 0.0, self.path_length_m))
+            chi = float(self.path.tangent_angle(g))
+            along = float(np.dot(nav.velocity_m_s[:2], (np.cos(chi), np.sin(chi))))
+            p.update(gamma_m=float(gamma_m), path_length_m=self.path_length_m, xi=self.xi(gamma_m),
+                     xi_rate_1_s=along / self.path_length_m, offset_m=self.config.formation_offset_m)
+        return p
+
+    def _poll(self, t_s: float, nav) -> None:
+        """Read arrived messages, keep each neighbour's newest, time out stale ones."""
+        for msg in self.network.receive(t_s, self.name, nav.position_m):
+            self.received += 1
+            old = self.neighbours.get(msg.sender)
+            if old is not None and msg.sent_time_s <= old.sent_time_s:
+                continue  # overtaken by a newer message (jitter)
+            if old is not None and not old.active:
+                self._events.append((t_s, f"comms: regained {msg.sender} after {msg.sent_time_s - old.sent_time_s:.1f} s"))
+            self.neighbours[msg.sender] = _Neighbour(msg.sent_time_s, msg.received_time_s, msg.payload, True)
+        for name, nb in self.neighbours.items():
+            if nb.active and t_s - nb.sent_time_s > self.config.neighbour_timeout_s:
+                nb.active = False
+                self._events.append((t_s, f"comms: lost {name} (last message {t_s - nb.sent_time_s:.1f} s old)"))
+
+    def active_neighbours(self) -> list[str]:
+        return [n for n, nb in self.neighbours.items() if nb.active]
+
+    def _estimates(self, t_s: float) -> tuple[np.ndarray, float, float]:
+        """(ξ̂_j of the active neighbours with a path, L̄, ω_d)."""
+        lengths = [self.path_length_m]
+        speeds = [self.mission_speed_m_s]
+        xis = []
+        for nb in self.neighbours.values():
+            p = nb.payload
+            if "xi" not in p:
+                continue
+            lengths.append(p["path_length_m"])
+            speeds.append(p["mission_speed_m_s"])
+            if not nb.active:
+                continue
+            x = p["xi"]
+            if self.config.extrapolate:
+                x_end = 1.0 - p["offset_m"] / p["path_length_m"]  # the neighbour stops at the end of its path
+                x = min(x + p["xi_rate_1_s"] * (t_s - nb.sent_time_s), max(x, x_end))
+            xis.append(x)
+        l_bar = float(np.mean(lengths))
+        return np.array(xis), l_bar, float(np.mean(speeds)) / l_bar
+
+    def coordination_error(self, t_s: float, gamma_m: float) -> tuple[float, float, int]:
+        """(e_i = L̄ Σ_j (ξ_i − ξ̂_j) [m], mean lead L̄·mean_j(ξ_i − ξ̂_j) [m], |N_i|)."""
+        if self.path_length_m is None:
+            return 0.0, 0.0, 0
+        xis, l_bar, _ = self._estimates(t_s)
+        if not len(xis):
+            return 0.0, 0.0, 0
+        d = l_bar * (self.xi(gamma_m) - xis)
+        return float(d.sum()), float(d.mean()), len(xis)
+
+    # ------------------------------------------------------------------ component interface
+    def exchange(self, t_s: float, nav, gamma_m: float) -> None:
+        """Comms slot: broadcast own ξ, path rate and pose; read what has arrived."""
+        self.network.send(t_s, self.name, self._payload(t_s, nav, gamma_m), nav.position_m)
+        self._poll(t_s, nav)
+        _, lead, n = self.coordination_error(t_s, gamma_m)
+        self.last_xi = self.xi(gamma_m)
+        if n:
+            self._history.append((float(t_s), lead))
+
+    def speed_correction(self, t_s: float, nav, gamma_m: float) -> float:
+        """Factor f_i on the mission speed (see the module docstring), from the newest data."""
+        self._poll(t_s, nav)
+        if self.path_length_m is None:
+            return 1.0
+        xis, l_bar, omega = self._estimates(t_s)
+        ff = omega * self.path_length_m / self.mission_speed_m_s
+        e = float(l_bar * np.sum(self.xi(gamma_m) - xis)) if len(xis) else 0.0
+        lead = e / len(xis) if len(xis) else 0.0
+        corr = 0.0 if self.config.role == "leader" else self.config.max_speed_correction * np.tanh(e / self.config.error_scale_m)
+        f = ff * (1.0 - corr)
+        f = float(min(f, self.top_speed_m_s / self.mission_speed_m_s))
+        self.last_error_m, self.last_factor, self.last_xi = lead, f, self.xi(gamma_m)
+        return f
+
+    def team_positions(self) -> dict:
+        """Latest received position of every team mate: name → (sent time [s], (2,) world [m])."""
+        return {n: (nb.sent_time_s, nb.payload["position_m"]) for n, nb in self.neighbours.items()}
+
+    def drain_events(self) -> list[tuple[float, str]]:
+        out, self._events = self._events, []
+        return out
+
+    def log(self, recorder, t_s: float, vessel_name: str) -> None:
+        base = f"plots/coordination/{vessel_name}"
+        if not self._logged_style:
+            from .recording import vessel_colour
+
+            col = vessel_colour(self.network.team.index(vessel_name)) if vessel_name in self.network.team else None
+            recorder.series_style(f"{base}/gamma_normalized", f"{vessel_name} γ/L", col)
+            recorder.series_style(f"{base}/error_m", f"{vessel_name} lead [m]", col)
+            recorder.series_style(f"{base}/speed_factor", f"{vessel_name} speed factor", col)
+            self._logged_style = True
+        if np.isfinite(self.last_xi):
+            recorder.scalar(f"{base}/gamma_normalized", t_s, self.last_xi)
+        recorder.scalar(f"{base}/error_m", t_s, self.last_error_m)
+        recorder.scalar(f"{base}/speed_factor", t_s, self.last_factor)
+
+    def summary(self) -> dict:
+        """Coordination error (mean lead over the neighbours [m], sampled at each exchange) and
+        this vessel's link statistics."""
+        link = self.network.stats(self.name)
+        out = {"role": self.config.role, "messages_sent": link["sent"], "messages_received": link["delivered"],
+               "messages_lost": link["lost"], "loss_rate": round(link["loss_rate"], 4),
+               "mean_delay_s": None if not link["delivered"] else round(float(link["mean_delay_s"]), 4),
+               "neighbours_active": sorted(self.active_neighbours()),
+               "neighbours_lost": sorted(n for n, nb in self.neighbours.items() if not nb.active)}
+        if self._history:
+            t, e = np.array(self._history).T
+            a = np.abs(e)
+            out.update(initial_error_m=round(float(e[0]), 3), final_error_m=round(float(e[-1]), 3),
+                       max_abs_error_m=round(float(a.max()), 3), mean_abs_error_m=round(float(a.mean()), 3))
+            outside = np.nonzero(a >= self.config.formation_tolerance_m)[0]
+            if not len(outside):
+                out["in_formation_from_s"] = round(float(t[0]), 3)
+            elif outside[-1] + 1 < len(t):
+                out["in_formation_from_s"] = round(float(t[outside[-1] + 1]), 3)
+            else:
+                out["in_formation_from_s"] = None
+        return out
