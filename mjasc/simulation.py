@@ -220,6 +220,17 @@ class Simulation:
         """Advance ``n_steps`` physics steps. Raises :class:`PhysicsDivergence` on a bad state."""
         m, d = self.model, self.data
         traffic = len(self.traffic) > 0
+        if self._bound and self.hydrodynamics_enabled and self._current_uniform_steady and not traffic:
+            # The common case, kept lean: a uniform steady current is the same at every vessel.
+            vc = self.current.velocity(self._qpos3[:, :2], 0.0)
+            compute, step1, step2 = self.hydro.compute_bound, mujoco.mj_step1, mujoco.mj_step2
+            for _ in range(n_steps):
+                step1(m, d)
+                compute(vc, None)
+                step2(m, d)
+            if self.divergence_checks:
+                self.check_divergence()
+            return
         for _ in range(n_steps):
             if traffic:
                 self._update_traffic()

@@ -156,9 +156,15 @@ def build_world(
         body.add("geom", name=f"obstacle_{obstacle.name}_bow", type="box", size=[0.3 * obstacle.radius_m, 0.1, 0.05],
                  pos=[0.7 * obstacle.radius_m, 0, 1.05], rgba="1 1 1 1", group=0, contype=0, conaffinity=0)
 
+    # Before reset() places them, every vessel sits at the origin: compile with contacts off so
+    # that construction does not report thousands of spurious overlaps, then switch them on.
+    root.option.flag.contact = "disable"
     physics = mjcf.Physics.from_mjcf_model(root)
-    m = physics.model.ptr
+    root.option.flag.contact = "enable"
     import mujoco
+
+    m = physics.model.ptr
+    m.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
 
     def jid(name):
         i = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_JOINT, name)
