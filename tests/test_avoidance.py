@@ -1,0 +1,243 @@
+"""Collision avoidance per vessel (mjasc.avoidance): mode machine, yield vs pass, right of way
+between team mates, detour splice and resumption, configuration. Synthetic tracks only (the
+system is tested through the runner in test_avoidance_scenarios.py)."""
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from mjasc.avoidance import AvoidanceConfig, CollisionAvoidance, merge_overlapping, parse_avoidance_options
+from mjasc.estimates import TrackEstimate
+from mjasc.geometry import distance_to_polygon, point_in_polygon
+from mjasc.paths import Path
+from mjasc.vessels import load_vessel_type
+
+DELFIM = load_vessel_type("delfim")
+
+
+class FakeFollower:
+    """The part of PathFollower the avoidance uses: path, γ, set_path."""
+
+    def __init__(self, path):
+        self.path, self.gamma_m = path, 0.0
+
+    def set_path(self, path, gamma0_m=0.0):
+        self.path, self.gamma_m = path, float(gamma0_m)
+
+
+def make(config=None, name="a", team=("a", "b"), path=None, perception=None):
+    path = path or Path.from_waypoints(np.array([[0.0, 0.0], [200.0, 0.0]]))
+    agent = SimpleNamespace(name=name, vessel=DELFIM, follower=FakeFollower(path), mission_speed_m_s=1.0,
+                            perception=perception)
+    return CollisionAvoidance(agent, config or AvoidanceConfig(), list(team)), agent
+
+
+def nav(x=0.0, y=0.0, heading=0.0):
+    return SimpleNamespace(position_m=np.array([x, y]), heading_rad=heading)
+
+
+def crossing(x_cross=30.0, t_cross=30.0, speed=1.0, radius=2.0, track_id=1, team_member=None, from_south=True):
+    """A track crossing the x axis at x_cross at t_cross, moving north (or south)."""
+    h = np.pi / 2 if from_south else -np.pi / 2
+    y0 = -speed * t_cross if from_south else speed * t_cross
+    return TrackEstimate(track_id, 0.0, np.array([x_cross, y0]), h, speed, 0.0, radius, team_member=team_member)
+
+
+# ------------------------------------------------------------------------------------ config
+def test_config_parsing_and_errors_name_the_field():
+    cfg = parse_avoidance_options({"gain_k": 2, "window_s": "dynamic", "enabled": False}, "vessels[0].avoidance")
+    assert cfg.gain_k == 2.0 and cfg.window_s is None and cfg.enabled is False
+    assert cfg.prediction_config().window_s is None
+    with pytest.raises(ValueError, match=r"^vessels\[0\]\.avoidance\.gain_k: must be"):
+        parse_avoidance_options({"gain_k": -1}, "vessels[0].avoidance")
+    with pytest.raises(ValueError, match=r"^vessels\[1\]\.avoidance\.wobble: unknown field"):
+        parse_avoidance_options({"wobble": 1}, "vessels[1].avoidance")
+    with pytest.raises(ValueError, match=r"avoidance\.safety_ratio: .*≤ 1"):
+        parse_avoidance_options({"safety_ratio": 1.5}, "avoidance")
+    with pytest.raises(ValueError, match=r"avoidance\.enabled: must be true or false"):
+        parse_avoidance_options({"enabled": 1}, "avoidance")
+    with pytest.raises(ValueError, match=r"avoidance\.speed_max_m_s: must exceed"):
+        parse_avoidance_options({"speed_min_m_s": 1.0, "speed_max_m_s": 0.5}, "avoidance")
+
+
+def test_scenario_loader_validates_the_avoidance_table():
+    from mjasc.scenario import ScenarioError, parse_scenario
+
+    doc = {"duration_s": 10.0, "vessels": [{"name": "a", "type": "delfim", "avoidance": {"gain_k": 0.0},
+                                            "controller": {"waypoints": [[0, 0], [10, 0]]}}]}
+    with pytest.raises(ScenarioError, match=r"vessels\[0\]\.avoidance\.gain_k"):
+        parse_scenario(doc)
+    doc["vessels"][0]["avoidance"] = {"gain_k": 1.0}
+    assert parse_scenario(doc).vessels[0].options["avoidance"].gain_k == 1.0
+
+
+# ------------------------------------------------------------------------------------ mode machine
+def test_crossing_obstacle_yield_then_resume_mission():
+    ca, agent = make()
+    conflicts = ca.predict(0.0, nav(), [crossing()], [])
+    assert len(conflicts) == 1 and conflicts[0].decision.value == "velocity_correction"
+    speed, mode = ca.control_refs(0.0, nav())
+    assert mode == "avoidance:yield"
+    law = ca.correction.law
+    # Goal (γ_A − margin, t_f): the vessel is held out of the obstructed stretch until t_f.
+    assert law.gamma_goal == pytest.approx(conflicts[0].gamma_a - ca.config.correction_margin_m)
+    assert law.t_goal == pytest.approx(conflicts[0].t_f)
+    assert 0.2 <= speed < agent.mission_speed_m_s
+    # Kinematic vessel following the command: out of [γ_A, γ_B] during [t_i, t_f].
+    t, g, dt = 0.0, 0.0, 0.1
+    while t < law.t_goal + 1.0:
+        speed, mode = ca.control_refs(t, nav(g))
+        v = agent.mission_speed_m_s if speed is None else speed
+        if conflicts[0].t_i <= t <= conflicts[0].t_f:
+            assert g < conflicts[0].gamma_a
+        g += v * dt
+        agent.follower.gamma_m = g
+        t += dt
+    assert mode == "mission" and speed is None
+    texts = [e[1] for e in ca.drain_events()]
+    assert any("mode mission → avoidance:yield" in s for s in texts)
+    assert any("complete: mission speed resumed" in s for s in texts)
+    assert any("mode avoidance:yield → mission" in s for s in texts)
+    s = ca.summary()
+    assert s["actions"]["yield"] == 1 and s["predicted_conflicts"] == 1
+    assert s["mode_time_s"]["avoidance:yield"] == pytest.approx(law.t_goal, abs=0.2)
+    assert s["min_predicted_distance_m"] < 1.0
+
+
+def test_repeated_prediction_of_the_same_conflict_keeps_the_slowed_plan():
+    """Once yielding, the planned (slowed) motion clears the obstacle: a new prediction finds no
+    collision and the correction continues unchanged (the thesis's 'until the manoeuvre is complete')."""
+    ca, agent = make()
+    tr = crossing()
+    ca.predict(0.0, nav(), [tr], [])
+    law = ca.correction.law
+    agent.follower.gamma_m = law.gamma_desired(5.0)
+    assert ca.predict(5.0, nav(agent.follower.gamma_m), [tr], []) == []
+    assert ca.correction.law is law
+
+
+def test_monitor_only_predicts_without_acting():
+    ca, _ = make(AvoidanceConfig(enabled=False))
+    assert len(ca.predict(0.0, nav(), [crossing()], [])) == 1
+    assert ca.control_refs(0.0, nav()) == (None, "mission")
+    assert ca.summary()["predicted_conflicts"] == 1 and ca.summary()["actions"]["yield"] == 0
+
+
+def test_clear_track_is_no_conflict():
+    ca, _ = make()
+    far = crossing(x_cross=150.0, t_cross=30.0)  # the vessel is at x = 30 then
+    assert ca.predict(0.0, nav(), [far], []) == []
+    assert ca.control_refs(0.0, nav()) == (None, "mission")
+    assert ca.summary()["min_predicted_distance_m"] > 50
+
+
+# ------------------------------------------------------------------------------------ yield vs pass
+def test_pass_first_when_yielding_needs_less_than_the_minimum_speed():
+    """A vessel that must keep 0.8 m/s of steerage way: yielding to an obstacle crossing at
+    t = 20 s would need V_d ≈ 0.5 m/s, so it speeds up and passes γ_B + margin before t_i."""
+    ca, agent = make(AvoidanceConfig(speed_min_m_s=0.8))
+    c = ca.predict(0.0, nav(), [crossing(x_cross=20.0, t_cross=20.0)], [])[0]
+    assert (c.gamma_a - 2.0) / c.t_f < 0.8
+    speed, mode = ca.control_refs(0.0, nav())
+    assert mode == "avoidance:pass"
+    law = ca.correction.law
+    assert law.gamma_goal == pytest.approx(c.gamma_b + 2.0) and law.t_goal == pytest.approx(c.t_i)
+    assert law.desired_speed > agent.mission_speed_m_s and law.feasible
+    assert ca.summary()["actions"]["pass"] == 1
+
+
+def test_neither_yield_nor_pass_falls_back_to_a_detour():
+    ca, _ = make(AvoidanceConfig(allow_pass_first=False, speed_min_m_s=0.8))
+    ca.predict(0.0, nav(), [crossing(x_cross=20.0, t_cross=20.0)], [])
+    assert ca.control_refs(0.0, nav())[1] == "avoidance:detour"
+    assert ca.summary()["actions"]["replan"] == 1
+
+
+# ------------------------------------------------------------------------------------ right of way
+def test_team_mates_split_by_the_starboard_rule():
+    """b crosses a's path from a's starboard side (south, heading north): a has b on its
+    starboard and gives way; b has a on its port side and stands on (keeps its speed)."""
+    ca_a, _ = make(name="a")
+    tr_b = crossing(team_member="b")
+    ca_a.predict(0.0, nav(), [tr_b], [])
+    assert ca_a.control_refs(0.0, nav())[1] == "avoidance:yield"
+    # b's view: own path north along x = 30, a approaching from the west (b's port side).
+    path_b = Path.from_waypoints(np.array([[30.0, -30.0], [30.0, 170.0]]))
+    ca_b, _ = make(name="b", path=path_b)
+    tr_a = TrackEstimate(7, 0.0, np.array([0.0, 0.0]), 0.0, 1.0, 0.0, 2.1, team_member="a")
+    assert len(ca_b.predict(0.0, nav(30.0, -30.0, np.pi / 2), [tr_a], [])) == 1
+    assert ca_b.control_refs(0.0, nav(30.0, -30.0, np.pi / 2)) == (None, "mission")
+    assert ca_b.summary()["actions"]["stand_on"] == 1
+
+
+def test_non_team_obstacle_on_port_is_still_yielded_to():
+    ca, _ = make()
+    ca.predict(0.0, nav(), [crossing(from_south=False)], [])  # from the north: on a's port side
+    assert ca.control_refs(0.0, nav())[1] == "avoidance:yield"
+
+
+# ------------------------------------------------------------------------------------ re-planning
+def test_static_obstacle_detour_splice_and_resumption():
+    ca, agent = make()
+    mission = agent.follower.path
+    poly = np.array([[20.0, -5.0], [30.0, -5.0], [30.0, 5.0], [20.0, 5.0]])
+    conflicts = ca.predict(0.0, nav(), [], [poly])
+    assert len(conflicts) == 1 and conflicts[0].decision.value == "replan"
+    d = ca.detour
+    assert d is not None and agent.follower.path is d.path
+    # The detour starts at the vessel, ends on the mission path beyond the obstacle, then the
+    # rest of the mission follows: same end point, lengths add up.
+    assert np.allclose(d.path.start_point, [0.0, 0.0])
+    assert np.allclose(d.path.point(d.detour_length_m), mission.point(d.mission_gamma_goal_m), atol=1e-6)
+    assert np.allclose(d.path.end_point, mission.end_point)
+    assert d.path.length == pytest.approx(d.detour_length_m + mission.length - d.mission_gamma_goal_m)
+    assert d.mission_gamma_goal_m > 30.0
+    # Clear of the obstacle by at least half the beam + safety distance.
+    pts = d.path.sample(0.2)
+    assert not point_in_polygon(pts, poly).any()
+    assert distance_to_polygon(pts, poly).min() >= 0.5 * DELFIM.beam_m + 1.0 - 0.05
+    # Mission γ during the detour: continuous and monotone from where the detour began.
+    gs = np.linspace(0.0, d.path.length, 400)
+    mg = np.array([d.mission_gamma(g) for g in gs])
+    assert mg[0] == pytest.approx(0.0) and np.all(np.diff(mg) > 0)
+    assert ca.mission_gamma_m(agent.follower) == pytest.approx(0.0)
+    assert ca.control_refs(0.0, nav())[1] == "avoidance:detour"
+    # End of the detour: the follower is switched back to the mission path at the matching γ.
+    agent.follower.gamma_m = d.detour_length_m
+    speed, mode = ca.control_refs(60.0, nav(*d.path.point(d.detour_length_m)))
+    assert mode == "mission" and speed is None
+    assert agent.follower.path is mission
+    assert agent.follower.gamma_m == pytest.approx(d.mission_gamma_goal_m, abs=0.6)
+    assert any("back on the mission path" in e[1] for e in ca.drain_events())
+
+
+def test_slow_head_on_obstacle_is_replanned_around_its_swept_area():
+    ca, agent = make()
+    tr = TrackEstimate(1, 0.0, np.array([50.0, 0.5]), np.pi, 0.5, 0.0, 2.0)
+    c = ca.predict(0.0, nav(), [tr], [])[0]
+    assert c.decision.value == "replan" and c.obstruction_s >= 15.0
+    d = ca.detour
+    assert d is not None
+    # The detour keeps out of the SVO (it already contains R_vh + safety).
+    assert not point_in_polygon(d.streamline, c.svo_polygon).any()
+    assert ca.summary()["actions"]["replan"] == 1
+
+
+def test_new_track_triggers_an_immediate_prediction():
+    tracks = []
+    perception = SimpleNamespace(tracks=lambda: list(tracks), static_polygons=lambda: [])
+    ca, _ = make(perception=perception)
+    assert ca.control_refs(0.0, nav()) == (None, "mission")
+    tracks.append(crossing())
+    assert ca.control_refs(0.1, nav())[1] == "avoidance:yield"
+    assert any("new track" in e[1] for e in ca.drain_events())
+
+
+def test_merge_overlapping_polygons():
+    a = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
+    b = a + [1.0, 1.0]
+    c = a + [10.0, 0.0]
+    merged = merge_overlapping([a, b, c])
+    assert len(merged) == 2
+    assert any(point_in_polygon(np.array([[2.9, 2.9], [0.1, 0.1]]), p).all() for p in merged)
