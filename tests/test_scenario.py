@@ -92,3 +92,12 @@ def test_cli_rejects_a_bad_file_and_writes_nothing(tmp_path):
     assert proc.returncode == 2
     assert "duration_s: must be > 0" in proc.stderr
     assert not out.exists()
+
+
+def test_the_documented_example_is_a_valid_scenario():
+    text = (TASKS / "README.md").read_text()
+    example = text.split("```toml", 1)[1].split("```", 1)[0]
+    sc = parse_scenario(tomllib.loads(example), "README example")
+    assert [v.name for v in sc.vessels] == ["alpha", "bravo"]
+    assert len(sc.static_obstacles) == 2 and len(sc.moving_obstacles) == 2
+    assert sc.moving_obstacles[1].path is not None
