@@ -257,7 +257,7 @@ def _speed(track: _Track, p: float, s: float) -> dict:
     steady = track.sail_until_steady()
     rows = track.array()
     speed = np.hypot(rows[:, 4], rows[:, 5])
-    u_inf, v_inf, r_inf = rows[-1, 4:7]
+    u_inf, r_inf = rows[-1, 4], rows[-1, 6]
     u_steady = float(speed[-1])
     t63 = _interpolate_crossing(rows[:, 0], speed, ONE_MINUS_INV_E * u_steady) if u_steady > 0 else None
     return {
