@@ -313,12 +313,13 @@ def _ekf_predict(s0, P0, omega, q_block, dt, F=None):
 def _position_update(x, P, z, meas_var):
     """Kalman update with z = [x, y] + v, v ~ N(0, σ² I₂) (H selects the first two states).
 
-    x (..., 4), P (..., 4, 4), z broadcastable to (..., 2). Explicit 2×2 inverse of
+    x (..., 4), P (..., 4, 4), z broadcastable to (..., 2); meas_var σ² a float or an array
+    broadcastable to x[..., 0] (one variance per row). Explicit 2×2 inverse of
     S = H P Hᵀ + R (adjugate / determinant). Returns x⁺, P⁺ = P − P Hᵀ S⁻¹ H P (symmetric to
     rounding, then symmetrized), the squared Mahalanobis distance rᵀS⁻¹r and 1/det S.
     """
     y = z - x[..., :2]
-    S = P[..., :2, :2] + meas_var * _EYE2
+    S = P[..., :2, :2] + (meas_var * _EYE2 if isinstance(meas_var, float) else meas_var[..., None, None] * _EYE2)
     a, b, d = S[..., 0, 0], S[..., 0, 1], S[..., 1, 1]
     inv_det = 1.0 / (a * d - b * b)
     Sinv = S[..., ::-1, ::-1] * _ADJ_SIGN * inv_det[..., None, None]
@@ -457,7 +458,7 @@ class IMMBank:
         mu0 = np.maximum(mu0, _TINY_PROB)
         self._mu0 = mu0 / mu0.sum()
         self._markov = _MarkovPower(config)
-        self._R = config.measurement_variance_m2
+        self._R = float(config.measurement_variance_m2)
         self._q_unit = np.diag([config.heading_noise_rad2_s, config.speed_noise_m2_s3])
         self._Pc_stale = False  # combined covariances are computed when read
         self._F = None  # Jacobian work array (n, r, 4, 4)
@@ -478,6 +479,7 @@ class IMMBank:
         self._n_meas = np.zeros(0, dtype=np.int64)
         self._n_gated = np.zeros(0, dtype=np.int64)
         self._reasons = np.zeros(0, dtype=np.int8)
+        self._mv = None  # per-row measurement variances of the current update (None: config's)
 
     _PER_TRACK = (
         "_ids", "_s", "_P", "_mu", "_t", "_x", "_Pc", "_warm", "_cv_x", "_cv_P", "_n_meas",
@@ -500,11 +502,12 @@ class IMMBank:
             raise ValueError(f"track_id: no track with id {track_id}")
         return int(rows[0])
 
-    def add_track(self, z, t_s: float, track_id: int | None = None) -> int:
+    def add_track(self, z, t_s: float, track_id: int | None = None, measurement_variance: float | None = None) -> int:
         """Start a track from its first position measurement z (2,) [m] at time t_s [s].
 
         Returns its id (``track_id`` if given, else the next free integer). ValueError if z or
-        t_s is not finite or the id is taken.
+        t_s is not finite or the id is taken. ``measurement_variance``: σ² of z [m²] (default
+        the config's ``measurement_variance_m2``).
         """
         z = np.asarray(z, dtype=float).reshape(-1)
         if z.shape != (2,) or not np.all(np.isfinite(z)):
@@ -536,16 +539,19 @@ class IMMBank:
         for name in self._PER_TRACK:
             setattr(self, name, np.concatenate([getattr(self, name), grow[name]]))
         row = np.array([self._ids.size - 1])
-        self._start(row, z[None, :])
+        self._start(row, z[None, :], None if measurement_variance is None else np.array([float(measurement_variance)]))
         return track_id
 
-    def _start(self, rows, z):
-        """(Re)start tracks ``rows`` from measurements z (k, 2): CV filter at z, v = 0 ± σ_v0."""
+    def _start(self, rows, z, meas_var=None):
+        """(Re)start tracks ``rows`` from measurements z (k, 2): CV filter at z, v = 0 ± σ_v0;
+        meas_var (k,) per-row σ² of z, or None for the config's."""
         self._warm[rows] = True
         self._cv_x[rows] = 0.0
         self._cv_x[rows, :2] = z
         sv2 = self.config.initial_speed_std_m_s**2
         self._cv_P[rows] = np.diag([self._R, self._R, sv2, sv2])
+        if meas_var is not None:
+            self._cv_P[rows, 0, 0] = self._cv_P[rows, 1, 1] = meas_var
         self._n_meas[rows] = 1
         self._n_gated[rows] = 0
         self._handover(rows)
@@ -721,7 +727,7 @@ class IMMBank:
         """(n_tracks, m) bool: the detection is inside the chi-square gate of the track."""
         return self.mahalanobis_squared(detections, t_s) <= self._gate
 
-    def update(self, z, t_s, mask=None) -> np.ndarray:
+    def update(self, z, t_s, mask=None, measurement_variance=None) -> np.ndarray:
         """One IMM cycle for every track at time t_s (scalar or (n,) [s]).
 
         z: (n, 2) measured positions [m], one row per track (row order of ``track_ids``).
@@ -729,6 +735,8 @@ class IMMBank:
         are unmeasured, not finite or outside the gate are not used: the track coasts to t_s.
         Returns (n,) bool, True where the row was used (updated, or restarted from it after
         ``restart_after_gated`` gated rows in a row); ``rejection_reasons`` says why not.
+        measurement_variance: optional (n,) σ² per row [m²] (R = σ² I₂ for that row's
+        measurement, e.g. from the detection that produced it); default the config's.
         """
         n = self._ids.size
         z = np.asarray(z, dtype=float)
@@ -736,6 +744,14 @@ class IMMBank:
             raise ValueError(f"z: need shape ({n}, 2) (one [x, y] per track), got {z.shape}")
         if n == 0:
             return np.zeros(0, dtype=bool)
+        if measurement_variance is not None:
+            mv = np.asarray(measurement_variance, dtype=float)
+            if mv.shape != (n,):
+                raise ValueError(f"measurement_variance: need shape ({n},), got {mv.shape}")
+            mv = np.where(np.isfinite(mv) & (mv > 0), mv, self._R)  # unusable rows: config's σ²
+            self._mv = mv
+        else:
+            self._mv = None
         finite = np.isfinite(z).all(axis=1)
         if mask is None:
             measured = np.ones(n, dtype=bool)
@@ -744,9 +760,12 @@ class IMMBank:
             if measured.shape != (n,):
                 raise ValueError(f"mask: need shape ({n},), got {measured.shape}")
         use = measured & finite
-        if use.all():
-            return self._cycle(z, t_s)
-        return self._cycle(np.where(use[:, None], z, 0.0), t_s, use, finite, measured, z)
+        try:
+            if use.all():
+                return self._cycle(z, t_s)
+            return self._cycle(np.where(use[:, None], z, 0.0), t_s, use, finite, measured, z)
+        finally:
+            self._mv = None
 
     def _cycle(self, zs, t_s, use=None, finite=None, measured=None, z=None):
         """The IMM cycle behind ``update``; ``use`` None means every row is a finite measurement."""
@@ -761,7 +780,8 @@ class IMMBank:
         s0, P0, cbar = _mix(self._s, self._P, self._mu, markov)
         sp, Pp = _ekf_predict(s0, P0, self._omega, q_block, dtm, self._jacobian_buffer())
         th_pred = sp[..., 2]  # _position_update does not modify sp
-        su, Pu, maha, inv_det = _position_update(sp, Pp, zs[:, None, :], self._R)
+        mv = self._mv
+        su, Pu, maha, inv_det = _position_update(sp, Pp, zs[:, None, :], self._R if mv is None else mv[:, None])
         if su[..., 3].min() < 0.0:
             _flip_negative_speeds(su, Pu, th_pred)
         maha_min = maha.min(axis=1)
@@ -786,7 +806,7 @@ class IMMBank:
             xc, Pcv = _cv_predict(
                 self._cv_x[rows], self._cv_P[rows], dt[rows], self.config.init_acceleration_noise_m2_s3
             )
-            xu, Pcu, d2, _ = _position_update(xc, Pcv, zs[rows], self._R)
+            xu, Pcu, d2, _ = _position_update(xc, Pcv, zs[rows], self._R if mv is None else mv[rows])
             ok_w = use[rows] & (d2 <= self._gate)
             ok[rows] = ok_w
             inside[rows] = ok_w | ~use[rows]
@@ -816,7 +836,7 @@ class IMMBank:
             self._handover(np.flatnonzero(self._warm))
         if restart.any():
             rows = np.flatnonzero(restart)
-            self._start(rows, zs[rows])
+            self._start(rows, zs[rows], None if mv is None else mv[rows])
             reasons[rows] = _RESTARTED
             for k in rows:
                 logger.info(
