@@ -1,0 +1,215 @@
+"""Tests for mjasc.coordination: the γ/L consensus speed law converges (exponentially, at the
+linearized rate n·k·v/e_s) with perfect comms, still converges with 30 % loss and 1 s delay,
+holds a formation on paths of different lengths, times out stale neighbours, and brings the
+thesis §6.4 formation scenario together through the real runner."""
+
+from pathlib import Path as FilePath
+from types import SimpleNamespace
+import tomllib
+
+import numpy as np
+import pytest
+
+from mjasc.agent import OwnNavigation
+from mjasc.comms import CommsNetwork, NetworkConfig
+from mjasc.coordination import Coordination, CoordinationConfig, parse_coordination_options
+from mjasc.paths import Path
+from mjasc.scenario import ScenarioError, parse_scenario
+
+SCENARIO = FilePath(__file__).resolve().parents[1] / "tasks" / "formation_l_path.toml"
+PERFECT = NetworkConfig(base_delay_s=0.0, jitter_s=0.0, loss_probability=0.0)
+
+
+def l_paths():
+    """Parallel L-paths 10 m apart with concentric rounded corners (lengths differ by ~20 m)."""
+    return [Path.from_waypoints(np.array([[0.0, 10.0 * (1 - k)], [300.0 + 10 * k, 10.0 * (1 - k)],
+                                          [300.0 + 10 * k, 300.0]]), turn_radius_m=15.0 + 10 * k)
+            for k in range(3)]
+
+
+def fake_agent(name, path, speed=1.0):
+    return SimpleNamespace(name=name, config=SimpleNamespace(path=path), follower=SimpleNamespace(path=path),
+                           mission_speed_m_s=speed, vessel=SimpleNamespace(top_speed_m_s=2.5))
+
+
+def nav(path, t, gamma, speed):
+    chi = float(path.tangent_angle(gamma))
+    v = speed * np.array([np.cos(chi), np.sin(chi)])
+    return OwnNavigation(t, path.point(gamma), chi, v, np.array([speed, 0.0, 0.0]))
+
+
+def simulate(gamma0, network_cfg, cfgs=None, duration_s=80.0, dt=0.1, comms_period_s=1.0, seed=0,
+             speeds=(1.0, 1.0, 1.0), silent=()):
+    """Pure kinematics γ̇_i = f_i v_i with the coordination in the loop: comms every
+    ``comms_period_s``, control every ``dt``. Returns times, ξ (n_t, 3), L̄ and the controllers."""
+    paths = l_paths()
+    names = ["a", "b", "c"]
+    net = CommsNetwork(names, network_cfg, np.random.default_rng(seed))
+    cfgs = cfgs or [CoordinationConfig()] * 3
+    coords = [Coordination(fake_agent(n, p, s), net, c) for n, p, s, c in zip(names, paths, speeds, cfgs)]
+    gam = np.array(gamma0, dtype=float)
+    vel = np.array(speeds, dtype=float)
+    every = int(round(comms_period_s / dt))
+    ts, xis = [], []
+    for k in range(int(round(duration_s / dt)) + 1):
+        t = k * dt
+        navs = [nav(p, t, g, v) for p, g, v in zip(paths, gam, vel)]
+        if k % every == 0:
+            for i, (c, n) in enumerate(zip(coords, navs)):
+                if names[i] not in silent or t < 10.0:
+                    c.exchange(t, n, gam[i])
+        vel = np.array([c.speed_correction(t, n, g) * s for c, n, g, s in zip(coords, navs, gam, speeds)])
+        ts.append(t)
+        xis.append(gam / [p.length for p in paths])
+        gam = gam + vel * dt
+    return np.array(ts), np.array(xis), float(np.mean([p.length for p in paths])), coords
+
+
+def spread_m(xis, l_bar):
+    return l_bar * (xis.max(axis=1) - xis.min(axis=1))
+
+
+def test_perfect_comms_converges_exponentially_at_the_linearized_rate():
+    cfg = CoordinationConfig(max_speed_correction=0.5, error_scale_m=10.0)
+    t, xis, l_bar, coords = simulate([10.0, 14.0, 7.0], PERFECT, [cfg] * 3, duration_s=80.0)
+    s = spread_m(xis, l_bar)
+    assert s[0] == pytest.approx(7.0, abs=0.5)
+    assert s[-1] < 1e-3 * s[0]
+    # log-linear decay between 2 m and 0.01 m: slope ≈ −λ, λ = n k v̄ / e_s = 3·0.5·1/10
+    lam = 3 * 0.5 * 1.0 / 10.0
+    sel = (s < 2.0) & (s > 0.01)
+    slope = np.polyfit(t[sel], np.log(s[sel]), 1)[0]
+    assert slope == pytest.approx(-lam, rel=0.15)
+    # the error is monotone (no overshoot) and every vessel reports it has converged
+    assert np.all(np.diff(s[t > 1.0]) <= 1e-9)
+    for c in coords:
+        summ = c.summary()
+        assert abs(summ["final_error_m"]) < 0.01
+        assert summ["in_formation_from_s"] is not None and summ["in_formation_from_s"] < 30.0
+        assert summ["messages_lost"] == 0
+
+
+def test_in_formation_the_feed_forward_keeps_paths_of_different_lengths_together():
+    paths = l_paths()
+    lengths = np.array([p.length for p in paths])
+    assert np.ptp(lengths) > 15.0
+    gamma0 = 0.05 * lengths  # all at ξ = 0.05: abreast
+    t, xis, l_bar, coords = simulate(gamma0, PERFECT, duration_s=60.0)
+    # (the first control tick, before any message has arrived, sails at the plain mission speed)
+    s = spread_m(xis, l_bar)
+    assert s[1] == pytest.approx(l_bar * 0.1 * (1 / lengths.min() - 1 / lengths.max()))
+    assert s[-1] < 1e-6
+    # speeds proportional to path length: f_i = L_i / L̄ with equal mission speeds
+    np.testing.assert_allclose([c.last_factor for c in coords], lengths / lengths.mean(), rtol=1e-6)
+
+
+def test_lossy_delayed_link_still_converges_but_slower():
+    cfg = CoordinationConfig(max_speed_correction=0.5, error_scale_m=10.0)
+    lossy = NetworkConfig(base_delay_s=1.0, jitter_s=0.0, loss_probability=0.3)
+    g0 = [10.0, 30.0, 0.0]
+    t, xp, l_bar, _ = simulate(g0, PERFECT, [cfg] * 3, duration_s=120.0)
+    _, xl, _, coords = simulate(g0, lossy, [cfg] * 3, duration_s=120.0, seed=1)
+    sp, sl = spread_m(xp, l_bar), spread_m(xl, l_bar)
+    assert sl[-1] < 0.01 * sl[0]  # converges
+    t_p = t[np.argmax(sp < 0.5)]
+    t_l = t[np.argmax(sl < 0.5)]
+    assert t_l > t_p  # ... slower
+    link = coords[0].summary()
+    assert link["loss_rate"] == pytest.approx(0.3, abs=0.1)
+    assert link["mean_delay_s"] == pytest.approx(1.0)
+    # without the extrapolation (the paper's held values) it converges too, with a 1 s delay
+    held = CoordinationConfig(max_speed_correction=0.5, error_scale_m=10.0, extrapolate=False)
+    _, xh, _, _ = simulate(g0, lossy, [held] * 3, duration_s=120.0, seed=1)
+    assert spread_m(xh, l_bar)[-1] < 0.01 * sl[0]
+
+
+def test_leader_keeps_its_speed_and_the_others_join_it():
+    cfgs = [CoordinationConfig(role="leader"), CoordinationConfig(), CoordinationConfig()]
+    t, xis, l_bar, coords = simulate([10.0, 20.0, 0.0], PERFECT, cfgs, duration_s=150.0)
+    paths = l_paths()
+    lengths = np.array([p.length for p in paths])
+    # the leader progresses at the nominal formation rate v̄/L̄ throughout
+    rate = np.diff(xis[1:, 0]) / np.diff(t[1:])  # from the first message on
+    np.testing.assert_allclose(rate, 1.0 / lengths.mean(), rtol=1e-9)
+    assert spread_m(xis, l_bar)[-1] < 0.01
+    assert xis[-1, 1] == pytest.approx(xis[-1, 0], abs=1e-4)
+
+
+def test_stale_neighbours_time_out_and_come_back():
+    paths = l_paths()
+    net = CommsNetwork(["a", "b"], PERFECT, np.random.default_rng(0))
+    a = Coordination(fake_agent("a", paths[0]), net, CoordinationConfig(neighbour_timeout_s=3.0))
+    b = Coordination(fake_agent("b", paths[1]), net, CoordinationConfig(neighbour_timeout_s=3.0))
+    ga, gb = 10.0, 30.0  # b is 20 m ahead
+    for t in range(0, 5):
+        b.exchange(float(t), nav(paths[1], t, gb, 1.0), gb)
+        a.exchange(float(t), nav(paths[0], t, ga, 1.0), ga)
+    assert a.active_neighbours() == ["b"]
+    assert a.speed_correction(4.5, nav(paths[0], 4.5, ga, 1.0), ga) > 1.2  # behind: speeds up
+    assert set(a.team_positions()) == {"b"}
+    assert a.team_positions()["b"][0] == 4.0
+    # b falls silent after t = 4: a drops it after 3 s and sails at the feed-forward speed
+    for t in range(5, 10):
+        a.exchange(float(t), nav(paths[0], t, ga, 1.0), ga)
+    assert a.active_neighbours() == []
+    ff = 0.5 * (paths[0].length + paths[1].length)
+    assert a.speed_correction(9.5, nav(paths[0], 9.5, ga, 1.0), ga) == pytest.approx(paths[0].length / ff)
+    events = a.drain_events()
+    assert len(events) == 1 and events[0][0] == 8.0 and "lost b" in events[0][1]
+    b.exchange(10.0, nav(paths[1], 10.0, gb, 1.0), gb)
+    a.exchange(11.0, nav(paths[0], 11.0, ga, 1.0), ga)
+    assert a.active_neighbours() == ["b"]
+    events = a.drain_events()
+    assert len(events) == 1 and "regained b" in events[0][1]
+    assert a.drain_events() == []
+    assert a.summary()["neighbours_active"] == ["b"]
+
+
+def test_parse_coordination_options():
+    cfg = parse_coordination_options({"error_scale_m": 5, "role": "leader", "extrapolate": False}, "vessels[2].comms")
+    assert cfg == CoordinationConfig(error_scale_m=5.0, role="leader", extrapolate=False)
+    for table, msg in [({"max_speed_correction": 1.0}, "max_speed_correction: must be in \\(0, 1\\)"),
+                       ({"error_scale_m": 0}, "error_scale_m: must be > 0"),
+                       ({"role": "boss"}, "role: must be one of leader, peer"),
+                       ({"extrapolate": "yes"}, "extrapolate: must be true or false"),
+                       ({"neighbour_timeout_s": -1}, "neighbour_timeout_s: must be > 0"),
+                       ({"gain": 1}, "gain: unknown field")]:
+        with pytest.raises(ValueError, match=r"^vessels\[2\]\.comms\." + msg):
+            parse_coordination_options(table, "vessels[2].comms")
+    data = tomllib.loads(SCENARIO.read_text())
+    data["vessels"][1]["comms"] = {"error_scale_m": -1.0}
+    with pytest.raises(ScenarioError, match=r"vessels\[1\]\.comms\.error_scale_m: must be > 0"):
+        parse_scenario(data)
+
+
+# ---------------------------------------------------------------------- through the runner
+def _formation_spread(data, duration_s):
+    from mjasc.runner import Runner
+
+    data = {**data, "duration_s": duration_s, "outputs": {"recording": False}}
+    runner = Runner(parse_scenario(data, str(SCENARIO)))
+    lengths = np.array([a.follower.path.length for a in runner.agents])
+
+    def spread():
+        xi = np.array([a.follower.gamma_m for a in runner.agents]) / lengths
+        return float(lengths.mean() * np.ptp(xi))
+
+    before = spread()
+    result = runner.run()
+    return before, spread(), result.summary
+
+
+def test_formation_scenario_through_the_runner():
+    data = tomllib.loads(SCENARIO.read_text())
+    data["comms"] = {"loss_probability": 0.0}  # perfect radio link
+    before, after, summary = _formation_spread(data, 60.0)
+    off = {**data, "vessels": [{k: v for k, v in vessel.items() if k != "comms"} for vessel in data["vessels"]]}
+    off.pop("comms")
+    before_off, after_off, summary_off = _formation_spread(off, 60.0)
+    assert before == pytest.approx(before_off) and before > 20.0
+    assert after < 0.1 * before  # the coordination closes the gaps …
+    assert after < 0.1 * after_off  # … which do not close by themselves
+    coord = summary["vessels"]["bravo"]["coordination"]
+    assert coord["messages_lost"] == 0 and coord["messages_received"] > 100
+    assert abs(coord["final_error_m"]) < 0.1 * coord["max_abs_error_m"]
+    assert "coordination" not in summary_off["vessels"]["bravo"]
