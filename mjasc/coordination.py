@@ -60,7 +60,7 @@ class CoordinationConfig:
     role: str = "peer"  # "peer" (consensus) | "leader" (keeps its nominal speed)
     neighbour_timeout_s: float = 5.0  # a neighbour whose latest message is older is dropped from N_i
     extrapolate: bool = True  # ξ̂_j = ξ_j + ξ̇_j (t − t_j)
-    formation_tolerance_m: float = 1.0  # |e| below this counts as "in formation" (summary only)
+    formation_tolerance_m: float = 1.0  # formation spread [m] below this counts as "in formation" (summary only)
 
     def __post_init__(self):
         _validate(self, "comms")
@@ -143,7 +143,8 @@ class Coordination:
         self.last_error_m = 0.0
         self.last_factor = 1.0
         self.last_xi = np.nan
-        self._history: list[tuple[float, float]] = []  # (t, e_i) at each exchange with ≥ 1 neighbour
+        self.last_spread_m = 0.0
+        self._history: list[tuple[float, float, float]] = []  # (t, lead, spread) at exchanges with ≥ 1 neighbour
         self._logged_style = False
 
     # ------------------------------------------------------------------ state
@@ -204,25 +205,29 @@ class Coordination:
         l_bar = float(np.mean(lengths))
         return np.array(xis), l_bar, float(np.mean(speeds)) / l_bar
 
-    def coordination_error(self, t_s: float, gamma_m: float) -> tuple[float, float, int]:
-        """(e_i = L̄ Σ_j (ξ_i − ξ̂_j) [m], mean lead L̄·mean_j(ξ_i − ξ̂_j) [m], |N_i|)."""
+    def coordination_error(self, t_s: float, gamma_m: float) -> tuple[float, float, float, int]:
+        """As this vessel sees the team (active neighbours' extrapolated ξ̂_j), in metres of path:
+        (e_i = L̄ Σ_j (ξ_i − ξ̂_j) the law's error, lead = L̄ mean_j (ξ_i − ξ̂_j) how far it is ahead of
+        its neighbours, spread = L̄ (max − min) of {ξ_i, ξ̂_j} the formation's extent, |N_i|)."""
         if self.path_length_m is None:
-            return 0.0, 0.0, 0
+            return 0.0, 0.0, 0.0, 0
         xis, l_bar, _ = self._estimates(t_s)
         if not len(xis):
-            return 0.0, 0.0, 0
-        d = l_bar * (self.xi(gamma_m) - xis)
-        return float(d.sum()), float(d.mean()), len(xis)
+            return 0.0, 0.0, 0.0, 0
+        own = self.xi(gamma_m)
+        d = l_bar * (own - xis)
+        spread = l_bar * (max(own, xis.max()) - min(own, xis.min()))
+        return float(d.sum()), float(d.mean()), float(spread), len(xis)
 
     # ------------------------------------------------------------------ component interface
     def exchange(self, t_s: float, nav, gamma_m: float) -> None:
         """Comms slot: broadcast own ξ, path rate and pose; read what has arrived."""
         self.network.send(t_s, self.name, self._payload(t_s, nav, gamma_m), nav.position_m)
         self._poll(t_s, nav)
-        _, lead, n = self.coordination_error(t_s, gamma_m)
-        self.last_xi = self.xi(gamma_m)
+        _, lead, spread, n = self.coordination_error(t_s, gamma_m)
+        self.last_xi, self.last_spread_m = self.xi(gamma_m), spread
         if n:
-            self._history.append((float(t_s), lead))
+            self._history.append((float(t_s), lead, spread))
 
     def speed_correction(self, t_s: float, nav, gamma_m: float) -> float:
         """Factor f_i on the mission speed (see the module docstring), from the newest data."""
@@ -255,16 +260,19 @@ class Coordination:
             col = vessel_colour(self.network.team.index(vessel_name)) if vessel_name in self.network.team else None
             recorder.series_style(f"{base}/gamma_normalized", f"{vessel_name} γ/L", col)
             recorder.series_style(f"{base}/error_m", f"{vessel_name} lead [m]", col)
+            recorder.series_style(f"{base}/spread_m", f"{vessel_name} formation spread [m]", col)
             recorder.series_style(f"{base}/speed_factor", f"{vessel_name} speed factor", col)
             self._logged_style = True
         if np.isfinite(self.last_xi):
             recorder.scalar(f"{base}/gamma_normalized", t_s, self.last_xi)
         recorder.scalar(f"{base}/error_m", t_s, self.last_error_m)
+        recorder.scalar(f"{base}/spread_m", t_s, self.last_spread_m)
         recorder.scalar(f"{base}/speed_factor", t_s, self.last_factor)
 
     def summary(self) -> dict:
-        """Coordination error (mean lead over the neighbours [m], sampled at each exchange) and
-        this vessel's link statistics."""
+        """This vessel's view of the formation, sampled at each exchange: its lead over the
+        neighbours and the formation spread (see :meth:`coordination_error`, metres of path), the
+        time from which the spread stays below ``formation_tolerance_m``; and its link statistics."""
         link = self.network.stats(self.name)
         out = {"role": self.config.role, "messages_sent": link["sent"], "messages_received": link["delivered"],
                "messages_lost": link["lost"], "loss_rate": round(link["loss_rate"], 4),
@@ -272,11 +280,13 @@ class Coordination:
                "neighbours_active": sorted(self.active_neighbours()),
                "neighbours_lost": sorted(n for n, nb in self.neighbours.items() if not nb.active)}
         if self._history:
-            t, e = np.array(self._history).T
-            a = np.abs(e)
-            out.update(initial_error_m=round(float(e[0]), 3), final_error_m=round(float(e[-1]), 3),
-                       max_abs_error_m=round(float(a.max()), 3), mean_abs_error_m=round(float(a.mean()), 3))
-            outside = np.nonzero(a >= self.config.formation_tolerance_m)[0]
+            t, lead, spread = np.array(self._history).T
+            a = np.abs(lead)
+            out.update(initial_error_m=round(float(lead[0]), 3), final_error_m=round(float(lead[-1]), 3),
+                       max_abs_error_m=round(float(a.max()), 3), mean_abs_error_m=round(float(a.mean()), 3),
+                       initial_spread_m=round(float(spread[0]), 3), final_spread_m=round(float(spread[-1]), 3),
+                       max_spread_m=round(float(spread.max()), 3), mean_spread_m=round(float(spread.mean()), 3))
+            outside = np.nonzero(spread >= self.config.formation_tolerance_m)[0]
             if not len(outside):
                 out["in_formation_from_s"] = round(float(t[0]), 3)
             elif outside[-1] + 1 < len(t):

@@ -84,7 +84,9 @@ def test_perfect_comms_converges_exponentially_at_the_linearized_rate():
     assert np.all(np.diff(s[t > 1.0]) <= 1e-9)
     for c in coords:
         summ = c.summary()
-        assert abs(summ["final_error_m"]) < 0.01
+        assert abs(summ["final_error_m"]) < 0.01 and summ["final_spread_m"] < 0.01
+        # first sample at t = 1 s, from the t = 0 messages extrapolated with the uncorrected speed
+        assert summ["initial_spread_m"] == pytest.approx(s[10], abs=1.0)
         assert summ["in_formation_from_s"] is not None and summ["in_formation_from_s"] < 30.0
         assert summ["messages_lost"] == 0
 
@@ -212,4 +214,9 @@ def test_formation_scenario_through_the_runner():
     coord = summary["vessels"]["bravo"]["coordination"]
     assert coord["messages_lost"] == 0 and coord["messages_received"] > 100
     assert abs(coord["final_error_m"]) < 0.1 * coord["max_abs_error_m"]
+    # each vessel's view of the formation spread agrees with the truth at the start and the end
+    for name in ("alpha", "bravo", "charlie"):
+        c = summary["vessels"][name]["coordination"]
+        assert c["initial_spread_m"] == pytest.approx(before, abs=2.0)
+        assert c["final_spread_m"] == pytest.approx(after, abs=0.2)
     assert "coordination" not in summary_off["vessels"]["bravo"]
