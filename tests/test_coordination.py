@@ -220,3 +220,17 @@ def test_formation_scenario_through_the_runner():
         assert c["initial_spread_m"] == pytest.approx(before, abs=2.0)
         assert c["final_spread_m"] == pytest.approx(after, abs=0.2)
     assert "coordination" not in summary_off["vessels"]["bravo"]
+
+
+def test_vessel_without_a_path_shares_its_position_only():
+    paths = l_paths()
+    net = CommsNetwork(["a", "buoy"], PERFECT, np.random.default_rng(0))
+    a = Coordination(fake_agent("a", paths[0]), net, CoordinationConfig())
+    buoy_agent = SimpleNamespace(name="buoy", config=SimpleNamespace(path=None), follower=None)
+    buoy = Coordination(buoy_agent, net, CoordinationConfig())
+    still = OwnNavigation(0.0, np.array([50.0, 50.0]), 0.0, np.zeros(2), np.zeros(3))
+    buoy.exchange(0.0, still, 0.0)
+    a.exchange(1.0, nav(paths[0], 1.0, 10.0, 1.0), 10.0)
+    assert buoy.speed_correction(1.0, still, 0.0) == 1.0
+    assert a.speed_correction(1.0, nav(paths[0], 1.0, 10.0, 1.0), 10.0) == 1.0  # nothing to coordinate with
+    np.testing.assert_allclose(a.team_positions()["buoy"][1], [50.0, 50.0])
