@@ -1,0 +1,299 @@
+"""One vessel's perception: its range sensor, detections, static map and multi-target IMM tracks.
+
+The component the runner attaches to a vessel with a ``[vessels.sensor]`` or ``[vessels.tracking]``
+table (interface in :class:`mjasc.agent.VesselAgent`)::
+
+    sense(t, nav)          scan (at the sensor's rate) → detections; extended ones → static map
+    update_tracks(t, nav)  the scan's target detections → MultiTargetTracker (one batched IMM bank)
+    tracks()               confirmed tracks as TrackEstimate (world ENU, SI)
+    static_polygons()      convex polygons of the mapped static structures
+    set_team_positions(d)  {name: (t, position)} from the comms link: marks team-mate tracks
+    drain_events()         [(t, text)]: tracks confirmed, lost, merged (births stay in the recording)
+    log(recorder, t, name) Rerun: returns, detections, tracks with 2-σ ellipses, velocity arrows,
+                           ω̂ and mode probabilities, track events
+    summary()              counts and timings for summary.json
+
+Which returns feed what: a cluster wider than a target (``detection.max_target_radius_m``) is a
+static structure and goes to the map; so does a small cluster lying on already mapped cells (a
+fragment of a wall seen at grazing incidence). Returns within a moving track's disc are kept out
+of the map (a boat passing along a quay). Everything else goes to the tracker. Nothing here reads
+another body's state from the simulator: only the scan (ranges along known beams) and the vessel's
+own pose.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from .detection import Detections, detect
+from .range_sensor import Scan, SensorConfig, sensor_for_vessel
+from .static_map import StaticMap
+from .tracking import MultiTargetTracker, TrackingConfig
+
+__all__ = ["Perception", "covariance_ellipse"]
+
+#: Returns are written to the recording at most this often (a 720-beam fan is heavy) [s].
+HITS_LOG_PERIOD_S = 0.5
+#: Track labels (ids) are written this often [s].
+LABEL_LOG_PERIOD_S = 1.0
+#: Velocity arrows show where a track will be this many seconds ahead.
+ARROW_HORIZON_S = 5.0
+
+
+def covariance_ellipse(centre, cov, n_sigma: float = 2.0, points: int = 33) -> np.ndarray:
+    """Closed contour (points, 2) of the n-σ ellipse of a 2×2 covariance, world frame: centre +
+    n·L·[cos t, sin t] with L the Cholesky-like factor V·√Λ (so it is rotated correctly)."""
+    lam, vec = np.linalg.eigh(np.asarray(cov, dtype=float))
+    lam = np.maximum(lam, 0.0)
+    t = np.linspace(0.0, 2.0 * np.pi, points)
+    circle = np.stack([np.cos(t), np.sin(t)], axis=0)
+    return np.asarray(centre) + (n_sigma * (vec * np.sqrt(lam)) @ circle).T
+
+
+class Perception:
+    def __init__(self, world, vessel_index: int, sensor_config: SensorConfig | None,
+                 tracking_config: TrackingConfig | None, rng: np.random.Generator):
+        self.sensor_config = SensorConfig() if sensor_config is None else sensor_config
+        self.config = TrackingConfig() if tracking_config is None else tracking_config
+        self.world = world
+        self.vessel_index = int(vessel_index)
+        self.name = world.vessel_names[vessel_index]
+        self.sensor = sensor_for_vessel(world, vessel_index, self.sensor_config)
+        self.rng = rng
+        self.tracker = MultiTargetTracker(self.config, self.sensor_config.max_range_m)
+        self.map = StaticMap(self.config.map_cell_m, self.config.map_min_hits)
+        self.scan: Scan | None = None
+        self.detections: Detections | None = None
+        self._target_mask = np.zeros(0, dtype=bool)
+        self._next_scan_t = -math.inf
+        self._pending = False  # a scan not yet given to the tracker
+        self._drain: list[tuple[float, str]] = []
+        self._log_events: list = []
+        self._last_hits_log = -math.inf
+        self._last_label_log = -math.inf
+        self._logged_scan_t = -math.inf
+        self._styled = False
+        self._series: set[str] = set()
+        self.keep_history = False
+        self.history: list[tuple] = []  # (t, id, x, y, θ, V, ω, team, static) of confirmed tracks
+        self._stats = {"scans": 0, "returns": 0, "detections": 0, "target_detections": 0,
+                       "sense_s": 0.0, "track_s": 0.0, "track_updates": 0, "max_tracks": 0}
+
+    # ---------------------------------------------------------------- slots
+    def sense(self, t_s: float, nav=None) -> None:
+        """Take a scan if one is due and turn it into detections."""
+        if t_s < self._next_scan_t - 1e-9:
+            return
+        w0 = time.perf_counter()
+        self._next_scan_t = t_s + 1.0 / self.sensor_config.rate_hz
+        scan = self.sensor.scan(self.world.data, self.rng)
+        det = detect(scan, self.config.detection, self.sensor_config.range_noise_std_m)
+        targets = det.targets.copy()
+        labels = det.labels
+        pts = scan.hit_points_world
+        if len(det):
+            on_map = np.zeros(len(det), dtype=bool)
+            if self.map.n_occupied and targets.any():
+                occ = self.map.occupied(pts)
+                good = labels >= 0
+                frac = np.bincount(labels[good], weights=occ[good], minlength=len(det)) / np.maximum(det.n_points, 1)
+                on_map = targets & (frac >= 0.5)
+                targets &= ~on_map
+            static = ~targets
+            good_static = (labels >= 0) & static[np.maximum(labels, 0)]
+            if good_static.any():
+                p = pts[good_static]
+                p = p[~self._inside_moving_tracks(p)]
+                self.map.add_scan(p)
+        self.scan, self.detections, self._target_mask = scan, det, targets
+        self._pending = True
+        st = self._stats
+        st["scans"] += 1
+        st["returns"] += int(scan.hit_beams.size)
+        st["detections"] += len(det)
+        st["target_detections"] += int(targets.sum())
+        st["sense_s"] += time.perf_counter() - w0
+
+    def _inside_moving_tracks(self, p: np.ndarray) -> np.ndarray:
+        tr = self.tracker
+        if len(tr) == 0 or p.shape[0] == 0:
+            return np.zeros(p.shape[0], dtype=bool)
+        moving = tr.confirmed & ~tr.static
+        if not moving.any():
+            return np.zeros(p.shape[0], dtype=bool)
+        c = tr.bank.positions[moving]
+        r = tr.radii_m[moving] + 1.0
+        d2 = ((p[:, None, :] - c[None, :, :]) ** 2).sum(-1)
+        return (d2 <= r[None, :] ** 2).any(axis=1)
+
+    def update_tracks(self, t_s: float, nav=None) -> None:
+        """Give the latest scan's target detections to the tracker (nothing new: nothing to do)."""
+        if not self._pending:
+            return
+        w0 = time.perf_counter()
+        self._pending = False
+        det = self.detections
+        self.tracker.step(det.time_s if det is not None else t_s, det, self.scan.origin_m, self._target_mask)
+        for ev in self.tracker.drain_events():
+            self._log_events.append(ev)
+            if ev.kind != "born":
+                self._drain.append((ev.time_s, ev.text))
+        st = self._stats
+        st["track_s"] += time.perf_counter() - w0
+        st["track_updates"] += 1
+        st["max_tracks"] = max(st["max_tracks"], len(self.tracker))
+        if self.keep_history:
+            self._append_history()
+
+    def _append_history(self) -> None:
+        tr = self.tracker
+        if len(tr) == 0:
+            return
+        bank = tr.bank
+        x, w, ids, t = bank.states, bank.turn_rates, bank.track_ids, bank.times_s
+        conf, team, static = tr.confirmed, tr.team_members, tr.static
+        for k in np.flatnonzero(conf):
+            self.history.append((float(t[k]), int(ids[k]), *map(float, x[k]), float(w[k]), team[k], bool(static[k])))
+
+    def tracks(self):
+        """Confirmed tracks (list of :class:`mjasc.estimates.TrackEstimate`)."""
+        return self.tracker.estimates()
+
+    def static_polygons(self) -> list[np.ndarray]:
+        """Convex polygons (k, 2) [m] of the static structures mapped so far."""
+        return self.map.polygons()
+
+    def set_team_positions(self, positions: dict) -> None:
+        self.tracker.set_team_positions(positions)
+
+    def drain_events(self) -> list[tuple[float, str]]:
+        ev, self._drain = self._drain, []
+        return ev
+
+    def history_arrays(self) -> dict:
+        """The kept history (``keep_history = True``) as arrays: t, id, x, y, heading, speed, omega."""
+        h = self.history
+        cols = ("t", "id", "x", "y", "heading", "speed", "omega")
+        if not h:
+            return {c: np.zeros(0) for c in cols}
+        a = np.array([row[:7] for row in h], dtype=float)
+        out = {c: a[:, i] for i, c in enumerate(cols)}
+        out["id"] = out["id"].astype(int)
+        return out
+
+    # ---------------------------------------------------------------- recording
+    def _style(self, rec, name: str) -> None:
+        import rerun as rr
+
+        from .recording import vessel_colour
+
+        col = vessel_colour(self.vessel_index)
+        base = f"world/vessels/{name}"
+        rec.static(f"{base}/sensor/hits", rr.Points3D.from_fields(colors=[(*col, 150)], radii=[0.12]))
+        rec.static(f"sensor/{name}/hits_body", rr.Points3D.from_fields(colors=[(*col, 150)], radii=[0.12]))
+        rec.static(f"{base}/sensor/detections", rr.Points3D.from_fields(colors=[(255, 220, 0)], radii=[0.35]))
+        rec.static(f"sensor/{name}/detections_body", rr.Points3D.from_fields(colors=[(255, 220, 0)], radii=[0.35]))
+        rec.static(f"{base}/sensor/detection_discs", rr.LineStrips3D.from_fields(colors=[(255, 220, 0, 160)],
+                                                                                 radii=[0.04]))
+        rec.static(f"{base}/tracks/ellipses", rr.LineStrips3D.from_fields(colors=[(*col, 255)], radii=[0.07]))
+        rec.static(f"{base}/tracks/discs", rr.LineStrips3D.from_fields(colors=[(*col, 110)], radii=[0.05]))
+        rec.static(f"{base}/tracks/positions", rr.Points3D.from_fields(colors=[(*col, 255)], radii=[0.25]))
+        rec.static(f"{base}/tracks/velocity", rr.Arrows3D.from_fields(colors=[(*col, 255)], radii=[0.08]))
+        rec.static(f"{base}/static_map", rr.LineStrips3D.from_fields(colors=[(160, 120, 60)], radii=[0.1]))
+        self._styled = True
+
+    def log(self, recorder, t_s: float, vessel_name: str) -> None:
+        import rerun as rr
+
+        rec = recorder
+        if not self._styled:
+            self._style(rec, vessel_name)
+        base = f"world/vessels/{vessel_name}"
+        scan, det = self.scan, self.detections
+        if scan is not None and scan.time_s != self._logged_scan_t:
+            self._logged_scan_t = scan.time_s
+            if t_s - self._last_hits_log >= HITS_LOG_PERIOD_S - 1e-9:
+                self._last_hits_log = t_s
+                rec.points(f"{base}/sensor/hits", t_s, scan.hit_points_world, z=0.1)
+                rec.points(f"sensor/{vessel_name}/hits_body", t_s, scan.hit_points_body, z=0.1)
+            rec.points(f"{base}/sensor/detections", t_s, det.centres_m, z=0.15)
+            rec.points(f"sensor/{vessel_name}/detections_body", t_s, det.centres_body, z=0.15)
+            rec.strips(f"{base}/sensor/detection_discs", t_s,
+                       [_circle(c, r, 16) for c, r in zip(det.centres_m, det.radii_m)], z=0.15)
+        tr = self.tracker
+        conf = np.flatnonzero(tr.confirmed)
+        bank = tr.bank
+        ids = bank.track_ids[conf]
+        x = bank.states[conf]
+        Pc = bank.position_covariances[conf]
+        rad = tr.radii_m[conf]
+        rec.points(f"{base}/tracks/positions", t_s, x[:, :2], z=0.3)
+        rec.strips(f"{base}/tracks/ellipses", t_s, [covariance_ellipse(x[k, :2], Pc[k]) for k in range(len(conf))],
+                   z=0.3)
+        rec.strips(f"{base}/tracks/discs", t_s, [_circle(x[k, :2], rad[k], 24) for k in range(len(conf))], z=0.3)
+        vel = ARROW_HORIZON_S * x[:, 3, None] * np.stack([np.cos(x[:, 2]), np.sin(x[:, 2])], axis=-1)
+        rec.arrows(f"{base}/tracks/velocity", t_s, x[:, :2], vel, z=0.3)
+        if t_s - self._last_label_log >= LABEL_LOG_PERIOD_S - 1e-9:
+            self._last_label_log = t_s
+            team = tr.team_members
+            labels = [f"{vessel_name}:T{i}" + (f" ({team[k]})" if team[k] else "") + (" static" if tr.static[k] else "")
+                      for i, k in zip(ids, conf)]
+            rec.log(f"{base}/tracks/labels", rr.Points3D(np.column_stack([x[:, :2], np.full(len(conf), 1.0)])
+                                                         if len(conf) else np.zeros((0, 3)),
+                                                         labels=labels, radii=0.01), t_s)
+        omega = bank.turn_rates[conf]
+        mu = bank.mode_probabilities[conf]
+        plot = f"plots/tracking/{vessel_name}"
+        for k, tid in enumerate(ids):
+            rec.scalar(f"{plot}/omega/T{tid}", t_s, omega[k])
+            rec.scalar(f"{plot}/speed/T{tid}", t_s, x[k, 3])
+            for j in range(mu.shape[1]):
+                rec.scalar(f"{plot}/modes/T{tid}/w{j}", t_s, mu[k, j])
+            if tid not in self._series:
+                self._series.add(tid)
+                rec.series_style(f"{plot}/omega/T{tid}", f"{vessel_name} T{tid} ω̂ [rad/s]")
+                rec.series_style(f"{plot}/speed/T{tid}", f"{vessel_name} T{tid} V̂ [m/s]")
+                for j, wj in enumerate(self.config.imm.turn_rates_rad_s):
+                    rec.series_style(f"{plot}/modes/T{tid}/w{j}", f"T{tid} μ(ω={wj:+.2f})")
+        for ev in self._log_events:
+            rec.log(f"tracking_events/{vessel_name}", rr.TextLog(ev.text, level="DEBUG" if ev.kind == "born" else "INFO"),
+                    ev.time_s)
+        self._log_events = []
+        if self.map.n_occupied and self.map.n_occupied != getattr(self, "_logged_map_n", -1):
+            self._logged_map_n = self.map.n_occupied
+            polys = self.map.polygons()
+            rec.strips(f"{base}/static_map", t_s, [np.vstack([p, p[:1]]) for p in polys], z=0.4)
+
+    # ---------------------------------------------------------------- results
+    def summary(self) -> dict:
+        st = self._stats
+        c = self.tracker.counts
+        scans = max(st["scans"], 1)
+        ups = max(st["track_updates"], 1)
+        ests = self.tracks()
+        return {
+            "scans": st["scans"],
+            "mean_returns_per_scan": round(st["returns"] / scans, 2),
+            "mean_detections_per_scan": round(st["detections"] / scans, 3),
+            "mean_target_detections_per_scan": round(st["target_detections"] / scans, 3),
+            "tracks_born": c["born"],
+            "tracks_confirmed": c["confirmed"],
+            "tracks_lost": c["lost"],
+            "tracks_merged": c["merged"],
+            "confirmed_tracks_now": len(ests),
+            "team_tracks_now": sum(e.team_member is not None for e in ests),
+            "static_tracks_now": sum(e.is_static for e in ests),
+            "max_tracks_in_bank": st["max_tracks"],
+            "static_polygons": len(self.static_polygons()),
+            "mapped_cells": self.map.n_occupied,
+            "mean_sense_us": round(1e6 * st["sense_s"] / scans, 1),
+            "mean_tracking_us": round(1e6 * st["track_s"] / ups, 1),
+        }
+
+
+def _circle(c, r: float, n: int) -> np.ndarray:
+    a = np.linspace(0.0, 2.0 * np.pi, n + 1)
+    return np.asarray(c) + float(r) * np.stack([np.cos(a), np.sin(a)], axis=-1)

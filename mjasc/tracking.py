@@ -1,0 +1,494 @@
+"""Multi-target tracking for one vessel: detections → IMM tracks (thesis §3.2.1, digest §2).
+
+Every track of a vessel lives in one batched :class:`mjasc.imm.IMMBank` (all tracks predicted and
+updated in one call). One :meth:`MultiTargetTracker.step` per scan:
+
+1. **Prediction and gating.** The bank's moment-matched predicted measurement ẑ_i with covariance
+   S_i (mixture of its models, prediction to the scan time, without changing the bank); with the
+   detection's own isotropic variance σ_j² in place of the config's R:
+   ``S_ij = S_i − R·I + σ_j²·I`` and ``d²_ij = (z_j − ẑ_i)ᵀ S_ij⁻¹ (z_j − ẑ_i)``. A pair is
+   admissible when ``d²_ij ≤ −2 ln(1 − gate_probability)`` (chi-square, 2 dof).
+2. **Global nearest neighbour** association: ``scipy.optimize.linear_sum_assignment`` on the cost
+   ``d²_ij + ln det S_ij`` (−2 log-likelihood up to a constant); inadmissible pairs cost a large
+   constant and are dropped from the solution. Each track takes at most one detection per scan
+   and vice versa.
+3. **Update** of every track at once: assigned tracks with their detection (and its σ²), the
+   others coast (``IMMBank.update(z, t, mask, measurement_variance)``).
+4. **Track management.** A track is born *tentative* from a detection that no track claimed and
+   that lies outside every track's gate and disc; it is *confirmed* once it was updated in
+   ``confirm_hits`` (M) of its last ``confirm_window`` (N) scans, and a tentative track that can no
+   longer reach M of N is dropped silently (clutter). A confirmed track is *lost* when it was not
+   updated for ``max_coast_s`` (occlusions shorter than that are coasted and recovered), when its
+   1-σ position uncertainty exceeds ``max_position_std_m``, or when its predicted position is out
+   of sensor range (beyond ``max_range_m + range_margin_m``). Two tracks closer than
+   ``merge_fraction`` × the larger radius describe one object: the one with fewer updates goes.
+5. **Radius** per track: the detections' radii, smoothed asymmetrically (quick to grow, slow to
+   shrink: an elongated hull looks narrow bow-on).
+6. **Static objects**: a confirmed track older than ``static_min_age_s`` whose speed estimate is
+   below ``static_speed_m_s`` is static (``TrackEstimate.is_static``, with a polygonal outline); it
+   becomes moving again above twice that speed.
+7. **Team mates** are tracked like anything else; :meth:`set_team_positions` receives the team's
+   broadcast positions ``{name: (t_b, position)}`` and each confirmed track is matched (GNN, gate
+   ``team_match_distance_m``) against them, comparing the broadcast with the track's position
+   extrapolated back to t_b; a match sets ``TrackEstimate.team_member``.
+
+Events (born, confirmed, lost, with the reason) are kept for the recording.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from .detection import DetectionConfig, Detections
+from .estimates import TrackEstimate
+from .imm import IMMBank, IMMConfig
+
+__all__ = ["TrackingConfig", "MultiTargetTracker", "TrackEvent", "parse_tracking_options"]
+
+_BIG = 1e9
+
+
+@dataclass(frozen=True)
+class TrackingConfig:
+    """Track management parameters (SI). Defaults in docs/perception.md.
+
+    imm: the IMM bank (thesis Table 6.1 defaults). With ``use_detection_variance`` (default) each
+        update uses the σ² of its detection, and ``imm.measurement_variance_m2`` only seeds
+        association before a first update.
+    detection: clustering and centre estimation (:class:`mjasc.detection.DetectionConfig`).
+    gate_probability: association gate (chi-square, 2 dof).
+    confirm_hits, confirm_window: M-of-N confirmation (updated in M of the last N scans).
+    max_coast_s: a confirmed track not updated for this long is lost [s].
+    max_position_std_m: a track whose 1-σ position uncertainty exceeds this is lost [m].
+    range_margin_m: a track predicted beyond the sensor's range + this margin is dropped [m].
+    merge_fraction: two tracks closer than this × the larger radius are merged.
+    static_speed_m_s, static_min_age_s: static-object test (speed below, age above).
+    radius_grow_gain, radius_shrink_gain: smoothing gains of a track's radius per scan.
+    team_match_distance_m: gate between a track and a team mate's broadcast position [m].
+    team_max_age_s: broadcasts older than this are not used [s].
+    map_cell_m, map_min_hits: static map cell size [m] and scans needed to occupy a cell
+        (:mod:`mjasc.static_map`).
+    """
+
+    imm: IMMConfig = field(default_factory=IMMConfig)
+    detection: DetectionConfig = field(default_factory=DetectionConfig)
+    use_detection_variance: bool = True
+    gate_probability: float = 0.9999
+    confirm_hits: int = 4
+    confirm_window: int = 6
+    max_coast_s: float = 10.0
+    max_position_std_m: float = 10.0
+    range_margin_m: float = 5.0
+    merge_fraction: float = 0.5
+    static_speed_m_s: float = 0.2
+    static_min_age_s: float = 10.0
+    radius_grow_gain: float = 0.3
+    radius_shrink_gain: float = 0.02
+    team_match_distance_m: float = 5.0
+    team_max_age_s: float = 5.0
+    map_cell_m: float = 1.0
+    map_min_hits: int = 3
+
+    def __post_init__(self):
+        _check_tracking(self, "tracking")
+
+    @property
+    def gate_threshold(self) -> float:
+        p = self.gate_probability
+        return math.inf if p >= 1.0 else -2.0 * math.log1p(-p)
+
+
+def _check_tracking(c: TrackingConfig, where: str) -> None:
+    def bad(key, reason, value):
+        raise ValueError(f"{where}.{key}: {reason}, got {value!r}")
+
+    if not isinstance(c.imm, IMMConfig):
+        bad("imm", "must be an IMMConfig", c.imm)
+    if not isinstance(c.detection, DetectionConfig):
+        bad("detection", "must be a DetectionConfig", c.detection)
+    if not isinstance(c.use_detection_variance, bool):
+        bad("use_detection_variance", "must be true or false", c.use_detection_variance)
+    if isinstance(c.map_min_hits, bool) or not isinstance(c.map_min_hits, int) or c.map_min_hits < 1:
+        bad("map_min_hits", "must be an integer ≥ 1", c.map_min_hits)
+    for key in ("confirm_hits", "confirm_window"):
+        v = getattr(c, key)
+        if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= 30:
+            bad(key, "must be an integer in [1, 30]", v)
+    if c.confirm_hits > c.confirm_window:
+        bad("confirm_hits", f"must be ≤ confirm_window ({c.confirm_window})", c.confirm_hits)
+    for key in ("gate_probability", "max_coast_s", "max_position_std_m", "range_margin_m", "merge_fraction",
+                "static_speed_m_s", "static_min_age_s", "radius_grow_gain", "radius_shrink_gain",
+                "team_match_distance_m", "team_max_age_s", "map_cell_m"):
+        v = getattr(c, key)
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
+            bad(key, "must be a finite number ≥ 0", v)
+    if not 0 < c.gate_probability <= 1:
+        bad("gate_probability", "must be in (0, 1]", c.gate_probability)
+    for key in ("max_coast_s", "max_position_std_m", "map_cell_m"):
+        if not getattr(c, key) > 0:
+            bad(key, "must be > 0", getattr(c, key))
+    for key in ("radius_grow_gain", "radius_shrink_gain"):
+        if not 0 < getattr(c, key) <= 1:
+            bad(key, "must be in (0, 1]", getattr(c, key))
+
+
+def _sub_config(cls, table, where: str, converters=None):
+    if not isinstance(table, dict):
+        raise ValueError(f"{where}: must be a table, got {table!r}")
+    known = {f.name: f for f in fields(cls)}
+    kw = {}
+    for key, v in table.items():
+        if key not in known:
+            raise ValueError(f"{where}.{key}: unknown key (known: {', '.join(sorted(known))})")
+        if converters and key in converters:
+            v = converters[key](v, f"{where}.{key}")
+        elif isinstance(known[key].default, bool):
+            if not isinstance(v, bool):
+                raise ValueError(f"{where}.{key}: must be true or false, got {v!r}")
+        elif isinstance(known[key].default, int) and not isinstance(known[key].default, bool):
+            if isinstance(v, bool) or not isinstance(v, int):
+                raise ValueError(f"{where}.{key}: must be an integer, got {v!r}")
+        elif isinstance(known[key].default, float):
+            if isinstance(v, bool) or not isinstance(v, (int, float)):
+                raise ValueError(f"{where}.{key}: must be a number, got {v!r}")
+            v = float(v)
+        kw[key] = v
+    try:
+        return cls(**kw)
+    except ValueError as exc:
+        msg = str(exc)
+        for prefix in ("tracking.", "detection."):
+            if msg.startswith(prefix):
+                msg = msg[len(prefix):]
+        key = msg.split(":", 1)[0]
+        raise ValueError(f"{where}.{msg}" if key in known else f"{where}: {msg}") from None
+
+
+def _floats(v, where):
+    if not isinstance(v, list) or not v or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in v):
+        raise ValueError(f"{where}: must be a non-empty list of numbers, got {v!r}")
+    return tuple(float(x) for x in v)
+
+
+def _matrix(v, where):
+    if not isinstance(v, list) or not v:
+        raise ValueError(f"{where}: must be a list of rows, got {v!r}")
+    return tuple(_floats(row, f"{where}[{i}]") for i, row in enumerate(v))
+
+
+def parse_tracking_options(table: dict, where: str = "tracking") -> TrackingConfig:
+    """Validate a scenario's ``[vessels.tracking]`` table (with optional ``imm`` and ``detection``
+    sub-tables) into a :class:`TrackingConfig`; errors name ``f"{where}.{key}"``."""
+    if table is None:
+        table = {}
+    if not isinstance(table, dict):
+        raise ValueError(f"{where}: must be a table, got {table!r}")
+    table = dict(table)
+    imm_t = table.pop("imm", {})
+    det_t = table.pop("detection", {})
+    imm = _sub_config(IMMConfig, imm_t, f"{where}.imm", {
+        "turn_rates_rad_s": _floats, "initial_mode_probabilities": _floats, "markov_matrix": _matrix})
+    det = _sub_config(DetectionConfig, det_t, f"{where}.detection")
+    cfg = _sub_config(TrackingConfig, table, where)
+    from dataclasses import replace
+
+    return replace(cfg, imm=imm, detection=det)
+
+
+@dataclass(frozen=True)
+class TrackEvent:
+    time_s: float
+    kind: str  # "born" | "confirmed" | "lost" | "merged"
+    track_id: int
+    text: str
+
+
+def _popcount_table(bits: int) -> np.ndarray:
+    return np.array([bin(i).count("1") for i in range(1 << bits)], dtype=np.int64)
+
+
+class MultiTargetTracker:
+    """The tracks of one vessel. ``step(t, detections, origin)`` once per scan; ``estimates()``."""
+
+    def __init__(self, config: TrackingConfig = TrackingConfig(), max_range_m: float = math.inf):
+        if not isinstance(config, TrackingConfig):
+            raise ValueError(f"config: expected a TrackingConfig, got {type(config).__name__}")
+        self.config = config
+        self.max_range_m = float(max_range_m)
+        self.bank = IMMBank(config.imm)
+        self._R = float(config.imm.measurement_variance_m2)
+        self._gate = config.gate_threshold
+        self._window_mask = (1 << config.confirm_window) - 1
+        self._popcount = _popcount_table(config.confirm_window)
+        self._team: dict[str, tuple[float, np.ndarray]] = {}
+        self.events: list[TrackEvent] = []
+        self.counts = {"born": 0, "confirmed": 0, "lost": 0, "merged": 0, "scans": 0, "detections": 0,
+                       "associated": 0}
+        # per-track metadata, rows aligned with bank.track_ids
+        self._hist = np.zeros(0, dtype=np.int64)  # update history bits, newest = bit 0
+        self._scans = np.zeros(0, dtype=np.int64)  # scans since birth (incl. the first)
+        self._n_upd = np.zeros(0, dtype=np.int64)
+        self._confirmed = np.zeros(0, dtype=bool)
+        self._static = np.zeros(0, dtype=bool)
+        self._born = np.zeros(0)
+        self._last = np.zeros(0)
+        self._radius = np.zeros(0)
+        self._team_of: list[str | None] = []
+        self.last_assignment: dict[int, int] = {}  # track id → detection index of the last step
+
+    _META = ("_hist", "_scans", "_n_upd", "_confirmed", "_static", "_born", "_last", "_radius")
+
+    def __len__(self) -> int:
+        return len(self.bank)
+
+    # ------------------------------------------------------------------ association
+    def association_costs(self, z: np.ndarray, var: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """(n_tracks, m) squared Mahalanobis distances d²_ij and GNN costs d² + ln det S_ij."""
+        zhat, S = self.bank.predicted_measurements(t_s)
+        S = S - self._R * np.eye(2)
+        a = S[:, 0, 0, None] + var[None, :]
+        b = S[:, 0, 1, None]
+        d = S[:, 1, 1, None] + var[None, :]
+        det = a * d - b * b
+        y = z[None, :, :] - zhat[:, None, :]
+        y0, y1 = y[..., 0], y[..., 1]
+        d2 = (d * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / det
+        return d2, d2 + np.log(det)
+
+    # ------------------------------------------------------------------ one scan
+    def step(self, t_s: float, detections: Detections | None, origin_m=None, use=None) -> None:
+        """Process one scan at t_s: associate, update every track, manage the track list.
+
+        ``detections`` None (no scan) only coasts. ``use`` (m,) bool selects the detections for
+        tracking (default: ``detections.targets``, the non-extended ones). ``origin_m`` is the
+        sensor position (for the out-of-range test).
+        """
+        cfg = self.config
+        self.counts["scans"] += 1
+        if detections is None:
+            z = np.zeros((0, 2))
+            var = rad = np.zeros(0)
+            idx = np.zeros(0, dtype=int)
+        else:
+            sel = detections.targets if use is None else np.asarray(use, dtype=bool)
+            idx = np.flatnonzero(sel)
+            z = detections.centres_m[idx]
+            var = detections.variances_m2[idx] if cfg.use_detection_variance else np.full(idx.size, self._R)
+            rad = detections.radii_m[idx]
+        m = z.shape[0]
+        self.counts["detections"] += m
+        n = len(self.bank)
+        assigned_det = np.full(n, -1)
+        claimed = np.zeros(m, dtype=bool)
+        if n and m:
+            d2, cost = self.association_costs(z, var, t_s)
+            inside = d2 <= self._gate
+            if inside.any():
+                rows, cols = linear_sum_assignment(np.where(inside, cost, _BIG))
+                ok = inside[rows, cols]
+                assigned_det[rows[ok]] = cols[ok]
+            # a detection inside some track's gate does not start a track (split returns, near clutter)
+            claimed = inside.any(axis=0)
+        if n:
+            meas = assigned_det >= 0
+            zr = np.full((n, 2), np.nan)
+            vr = np.full(n, self._R)
+            zr[meas] = z[assigned_det[meas]]
+            vr[meas] = var[assigned_det[meas]]
+            used = self.bank.update(zr, t_s, meas, vr if cfg.use_detection_variance else None)
+            self.counts["associated"] += int(used.sum())
+            self._after_update(t_s, used, assigned_det, rad)
+            ids = self.bank.track_ids
+            self.last_assignment = {int(ids[k]): int(idx[assigned_det[k]]) for k in np.flatnonzero(used)
+                                    if assigned_det[k] >= 0}
+        else:
+            self.last_assignment = {}
+        self._prune(t_s, origin_m)
+        # births
+        if m:
+            free = ~claimed
+            if len(self.bank) and free.any():
+                pos = self.bank.positions
+                dist = np.hypot(*(z[free][None, :, :] - pos[:, None, :]).transpose(2, 0, 1))
+                near = (dist <= self._radius[:, None] + rad[free][None, :]).any(axis=0)
+                free[np.flatnonzero(free)[near]] = False
+            for j in np.flatnonzero(free):
+                tid = self.bank.add_track(z[j], t_s, measurement_variance=var[j] if cfg.use_detection_variance else None)
+                self._append(t_s, rad[j])
+                self.counts["born"] += 1
+                self.events.append(TrackEvent(t_s, "born", tid, f"track {tid} born at {_fmt(z[j])}"))
+                self.last_assignment[tid] = int(idx[j])
+        self._match_team(t_s)
+
+    def _append(self, t_s: float, radius: float) -> None:
+        self._hist = np.append(self._hist, 1)
+        self._scans = np.append(self._scans, 1)
+        self._n_upd = np.append(self._n_upd, 1)
+        self._confirmed = np.append(self._confirmed, self.config.confirm_hits <= 1)
+        self._static = np.append(self._static, False)
+        self._born = np.append(self._born, t_s)
+        self._last = np.append(self._last, t_s)
+        self._radius = np.append(self._radius, radius)
+        self._team_of.append(None)
+
+    def _after_update(self, t_s, used, assigned_det, rad) -> None:
+        cfg = self.config
+        self._hist = ((self._hist << 1) | used) & self._window_mask
+        self._scans += 1
+        self._n_upd += used
+        self._last = np.where(used, t_s, self._last)
+        if used.any():
+            r_new = rad[assigned_det[used]]
+            r_old = self._radius[used]
+            gain = np.where(r_new > r_old, cfg.radius_grow_gain, cfg.radius_shrink_gain)
+            self._radius[used] = r_old + gain * (r_new - r_old)
+        new_conf = ~self._confirmed & (self._popcount[self._hist] >= cfg.confirm_hits)
+        ids = self.bank.track_ids
+        for k in np.flatnonzero(new_conf):
+            self.counts["confirmed"] += 1
+            self.events.append(TrackEvent(t_s, "confirmed", int(ids[k]), f"track {ids[k]} confirmed at "
+                                          f"{_fmt(self.bank.positions[k])} (born {t_s - self._born[k]:.1f} s ago)"))
+        self._confirmed |= new_conf
+        speed = self.bank.speeds
+        old = (t_s - self._born) >= cfg.static_min_age_s
+        self._static = self._confirmed & old & np.where(self._static, speed < 2 * cfg.static_speed_m_s,
+                                                         speed < cfg.static_speed_m_s)
+
+    def _prune(self, t_s: float, origin_m) -> None:
+        cfg = self.config
+        n = len(self.bank)
+        if n == 0:
+            return
+        ids = self.bank.track_ids
+        drop = np.zeros(n, dtype=bool)
+        reason = [""] * n
+        # tentative tracks that can no longer reach M of N
+        misses = np.minimum(self._scans, cfg.confirm_window) - self._popcount[self._hist]
+        hopeless = ~self._confirmed & (misses > cfg.confirm_window - cfg.confirm_hits)
+        drop |= hopeless
+        pos = self.bank.positions
+        Pc = self.bank.position_covariances
+        tr = 0.5 * (Pc[:, 0, 0] + Pc[:, 1, 1])
+        lam = tr + np.sqrt(np.maximum(tr**2 - (Pc[:, 0, 0] * Pc[:, 1, 1] - Pc[:, 0, 1] ** 2), 0.0))
+        conf = self._confirmed
+        for k in np.flatnonzero(conf & (t_s - self._last > cfg.max_coast_s)):
+            drop[k], reason[k] = True, f"not seen for {t_s - self._last[k]:.1f} s"
+        for k in np.flatnonzero(conf & ~drop & (lam > cfg.max_position_std_m**2)):
+            drop[k], reason[k] = True, f"position uncertainty {math.sqrt(lam[k]):.1f} m"
+        if origin_m is not None and math.isfinite(self.max_range_m):
+            rng = np.hypot(*(pos - np.asarray(origin_m)).T)
+            out = rng > self.max_range_m + cfg.range_margin_m
+            for k in np.flatnonzero(out & ~drop):
+                drop[k], reason[k] = True, f"out of range ({rng[k]:.0f} m)"
+        # duplicates: the track with fewer updates goes
+        live = np.flatnonzero(~drop)
+        if live.size > 1:
+            p = pos[live]
+            dd = np.hypot(*(p[:, None, :] - p[None, :, :]).transpose(2, 0, 1))
+            lim = cfg.merge_fraction * np.maximum(self._radius[live][:, None], self._radius[live][None, :])
+            ii, jj = np.nonzero(np.triu(dd < lim, 1))
+            for a, b in zip(live[ii], live[jj]):
+                if drop[a] or drop[b]:
+                    continue
+                keep, go = (a, b) if (conf[a], self._n_upd[a]) >= (conf[b], self._n_upd[b]) else (b, a)
+                drop[go] = True
+                reason[go] = f"merged into track {ids[keep]}"
+                if conf[go]:
+                    self.counts["merged"] += 1
+                    self.events.append(TrackEvent(t_s, "merged", int(ids[go]), f"track {ids[go]} merged into "
+                                                  f"track {ids[keep]}"))
+                    reason[go] = ""
+        for k in np.flatnonzero(drop):
+            if conf[k] and reason[k]:
+                self.counts["lost"] += 1
+                self.events.append(TrackEvent(t_s, "lost", int(ids[k]), f"track {ids[k]} lost: {reason[k]}"))
+            self.bank.remove_track(int(ids[k]))
+        if drop.any():
+            keep = ~drop
+            for name in self._META:
+                setattr(self, name, getattr(self, name)[keep])
+            self._team_of = [x for x, k in zip(self._team_of, keep) if k]
+
+    # ------------------------------------------------------------------ team mates
+    def set_team_positions(self, positions: dict) -> None:
+        """``{name: (t_b [s], position (2,) [m])}``: the team's latest broadcast positions."""
+        self._team = {str(k): (float(v[0]), np.asarray(v[1], dtype=float).reshape(2)) for k, v in positions.items()}
+
+    def _match_team(self, t_s: float) -> None:
+        n = len(self.bank)
+        self._team_of = [None] * n
+        if not self._team or n == 0:
+            return
+        cfg = self.config
+        names = [k for k, (tb, _) in self._team.items() if t_s - tb <= cfg.team_max_age_s]
+        rows = np.flatnonzero(self._confirmed)
+        if not names or rows.size == 0:
+            return
+        x = self.bank.states[rows]
+        vel = x[:, 3, None] * np.stack([np.cos(x[:, 2]), np.sin(x[:, 2])], axis=-1)
+        tb = np.array([self._team[k][0] for k in names])
+        pb = np.array([self._team[k][1] for k in names])
+        back = x[:, None, :2] - vel[:, None, :] * (t_s - tb)[None, :, None]
+        dist = np.hypot(*(back - pb[None, :, :]).transpose(2, 0, 1))
+        inside = dist <= cfg.team_match_distance_m
+        if not inside.any():
+            return
+        r, c = linear_sum_assignment(np.where(inside, dist, _BIG))
+        for a, b in zip(r, c):
+            if inside[a, b]:
+                self._team_of[rows[a]] = names[b]
+
+    # ------------------------------------------------------------------ outputs
+    @property
+    def track_ids(self) -> np.ndarray:
+        return self.bank.track_ids
+
+    @property
+    def confirmed(self) -> np.ndarray:
+        """(n,) bool per bank row."""
+        return self._confirmed.copy()
+
+    @property
+    def radii_m(self) -> np.ndarray:
+        return self._radius.copy()
+
+    @property
+    def static(self) -> np.ndarray:
+        return self._static.copy()
+
+    @property
+    def team_members(self) -> list:
+        return list(self._team_of)
+
+    def estimates(self, include_tentative: bool = False) -> list[TrackEstimate]:
+        """TrackEstimate of every confirmed track (and tentative ones if asked)."""
+        out = []
+        ids = self.bank.track_ids
+        for k in range(ids.size):
+            if not (self._confirmed[k] or include_tentative):
+                continue
+            outline = None
+            if self._static[k]:
+                outline = _disc_outline(self.bank.positions[k], self._radius[k])
+            out.append(self.bank.estimate(int(ids[k]), float(self._radius[k]), is_static=bool(self._static[k]),
+                                          team_member=self._team_of[k], outline_m=outline))
+        return out
+
+    def drain_events(self) -> list[TrackEvent]:
+        ev, self.events = self.events, []
+        return ev
+
+
+def _disc_outline(centre, radius: float, sides: int = 12) -> np.ndarray:
+    """A polygon (sides, 2) circumscribing the disc, counter-clockwise."""
+    a = np.linspace(0.0, 2.0 * np.pi, sides, endpoint=False)
+    r = radius / math.cos(math.pi / sides)
+    return np.asarray(centre) + r * np.stack([np.cos(a), np.sin(a)], axis=-1)
+
+
+def _fmt(p) -> str:
+    return f"({p[0]:.1f}, {p[1]:.1f}) m"
