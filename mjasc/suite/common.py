@@ -1,0 +1,309 @@
+"""What every mjasc suite domain shares: the Physics subclass, world composition, the ray fan.
+
+:class:`VesselPhysics` is a dm_control ``mjcf.Physics`` whose :meth:`~VesselPhysics.step` is
+mjasc's physics step, :meth:`mjasc.simulation.Simulation.step` (``mj_step1`` → current,
+propellers, hydrodynamics with exact added mass → ``mj_step2``), run on the Physics's own live
+``MjData``: the suite's physics is the simulator's, not a copy. After the step it brings the
+moving obstacles to the new time and runs ``mj_step1`` (dm_control's ``legacy_step`` contract:
+positions, contacts and sensors agree with ``qpos``/``qvel`` when the task reads them).
+
+Frames and units follow docs/architecture.md: world ENU, heading CCW from east, body FLU
+(u forward, v to port, r CCW), SI units.
+"""
+
+from __future__ import annotations
+
+import collections
+import dataclasses
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from dm_control import mjcf
+from dm_env import specs
+from dm_control.rl import control
+
+from ..currents import CurrentField, UniformCurrent
+from ..frames import wrap_angle
+from ..obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
+from ..simulation import Simulation
+from ..vessels import load_vessel_type
+from ..world import SENSOR_GEOM_GROUPS, World, build_world
+
+__all__ = ["Environment", "VesselPhysics", "compose_world", "RayFan", "basin_walls", "world_to_body", "CONTROL_TIMESTEP_S"]
+
+#: Agent decision period [s]: 5 physics steps of 0.02 s (10 Hz, a typical USV autopilot rate).
+CONTROL_TIMESTEP_S = 0.1
+#: Height of horizontal range rays [m]: inside the 0–0.15 m contact band every hull spans
+#: (assets/README.md), so every hull and obstacle is seen.
+RAY_HEIGHT_M = 0.1
+
+_COPIED_SECTIONS = ("asset", "worldbody")
+
+
+def world_to_body(vector_xy, heading_rad: float) -> np.ndarray:
+    """A world-frame vector (2,) or points (n, 2) expressed in the body frame of heading ψ."""
+    c, s = np.cos(heading_rad), np.sin(heading_rad)
+    v = np.asarray(vector_xy, dtype=float)
+    return np.stack([c * v[..., 0] + s * v[..., 1], -s * v[..., 0] + c * v[..., 1]], axis=-1)
+
+
+def basin_walls(half_size_m: float, name: str = "basin") -> PolygonObstacle:
+    """A square basin of side 2·half_size_m centred on the origin (walls along its edges)."""
+    h = float(half_size_m)
+    return PolygonObstacle(name, np.array([[-h, -h], [h, -h], [h, h], [-h, h]]), height_m=2.0)
+
+
+def _merge_domain_xml(root: mjcf.RootElement, xml_path: Path, vessel_names) -> None:
+    """Copy the domain MJCF's assets and world elements into ``root`` under their own names.
+
+    (``attach`` would namespace them; dm_control's reward colouring looks materials up by the
+    plain names ``self``/``effector``/``target``.) Also puts a ``reward_light`` site with material
+    ``self`` on top of every hull's mast, which ``visualize_reward`` colours.
+    """
+    extra = mjcf.from_path(str(xml_path))
+    for section in _COPIED_SECTIONS:
+        source, target = getattr(extra, section), getattr(root, section)
+        for child in source.all_children():
+            if child.tag == "body":
+                raise ValueError(f"{xml_path.name}: domain MJCF must not add bodies (index maps would shift)")
+            if child.tag == "geom":
+                raise ValueError(f"{xml_path.name}: domain MJCF must not add geoms (geom owners would shift)")
+            target.add(child.tag, **child.get_attributes())
+    light_material = root.asset.find("material", "self")
+    for name in vessel_names:
+        hull = root.find("body", f"{name}/hull")
+        mount = root.find("site", f"{name}/sensor_mount").pos
+        hull.add("site", name="reward_light", type="sphere", size=[0.12],
+                 pos=[mount[0], mount[1], mount[2] + 0.3], material=light_material, group=0)
+        # Top-down view that follows the hull without turning with it (trackcom keeps the
+        # orientation it has at qpos0, where the body frame is the world frame): 50 m across.
+        hull.add("camera", name="follow", mode="trackcom", pos=[0.0, 0.0, 60.0], xyaxes=[1, 0, 0, 0, 1, 0],
+                 fovy=45)
+
+
+def compose_world(vessels, static_obstacles=(), moving_obstacles=(), domain_xml: Path | None = None) -> World:
+    """:func:`mjasc.world.build_world` plus the domain's MJCF (cameras, markers, materials), compiled
+    once more into a :class:`VesselPhysics` sharing nothing with the first compile.
+
+    ``vessels`` is a list of (name, vessel type name). The domain MJCF may add assets, cameras,
+    sites and lights but no bodies or geoms, so every index map of the World stays valid (checked).
+    """
+    world = build_world([(n, load_vessel_type(t)) for n, t in vessels], list(static_obstacles), list(moving_obstacles))
+    if domain_xml is not None:
+        _merge_domain_xml(world.mjcf_model, Path(domain_xml), [n for n, _ in vessels])
+    old = world.model
+    physics = VesselPhysics.from_mjcf_model(world.mjcf_model)
+    new = physics.model.ptr
+    for size in ("nq", "nv", "nu", "na", "nbody", "ngeom", "nmocap"):
+        if getattr(old, size) != getattr(new, size):
+            raise RuntimeError(f"domain MJCF changed model size {size}: {getattr(old, size)} -> {getattr(new, size)}")
+    world = dataclasses.replace(world, physics=physics)
+    physics.attach_world(world)
+    return world
+
+
+class Environment(control.Environment):
+    """dm_control's ``control.Environment`` whose :meth:`close` frees the physics.
+
+    ``control.Environment.close`` does nothing, and dm_control then prints "cannot schedule new
+    futures after shutdown" at interpreter exit after any ``physics.render()``; freeing the
+    physics releases its GL context first. The environment must not be used after ``close()``.
+    """
+
+    def observation_spec(self):
+        """The task's declared spec (computing an observation would draw noise from the task's
+        RandomState and shift the episode), flattened like the observations when asked to."""
+        spec = self._task.observation_spec(self._physics)
+        if self._flat_observation:
+            size = sum(int(np.prod(s.shape)) for s in spec.values())
+            key = control.FLAT_OBSERVATION_KEY
+            return collections.OrderedDict([(key, specs.Array((size,), np.float64, name=key))])
+        return spec
+
+    def close(self):
+        """Release the physics's GL contexts and native data (idempotent)."""
+        physics = self._physics
+        if getattr(physics, "_data", None) is not None:
+            physics.free()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+class VesselPhysics(mjcf.Physics):
+    """dm_control Physics stepping mjasc's vessels: hydrodynamics, propellers, current, traffic."""
+
+    _world: World | None = None
+    _sim: Simulation | None = None
+
+    # ------------------------------------------------------------------ set-up
+    def attach_world(self, world: World, current: CurrentField | None = None) -> None:
+        """Bind the index maps of ``world`` (whose physics is this one) and build the step."""
+        self._world = dataclasses.replace(world, physics=self)
+        self._current = current if current is not None else UniformCurrent((0.0, 0.0))
+        self._build_simulation(self._world.moving_obstacles)
+        n = self._world.n_vessels
+        self._heading_buf = np.zeros(n)
+
+    def _build_simulation(self, moving_obstacles) -> None:
+        world = dataclasses.replace(self._world, moving_obstacles=list(moving_obstacles))
+        self._sim = Simulation(world, self._current)
+        self._sim.divergence_checks = False  # dm_control's check_invalid_state reports warnings
+
+    def configure_episode(self, current: CurrentField, moving_obstacles=None) -> None:
+        """Set this episode's current field and traffic motions (same names/radii as built)."""
+        if moving_obstacles is not None:
+            moving_obstacles = list(moving_obstacles)
+            built = self._world.moving_obstacles
+            if [o.name for o in moving_obstacles] != [o.name for o in built]:
+                raise ValueError("moving_obstacles: must keep the names and order of the built world")
+        self._current = current
+        self._build_simulation(self._sim.traffic.obstacles if moving_obstacles is None else moving_obstacles)
+        self._update_traffic()
+
+    def copy(self, share_model=False):
+        """A copy with its own MjData (and MjModel unless ``share_model``) and its own step."""
+        new = super().copy(share_model=share_model)
+        new._world = dataclasses.replace(self._world, physics=new)
+        new._current = self._current
+        new._build_simulation(self._sim.traffic.obstacles)
+        new._heading_buf = np.zeros(self._world.n_vessels)
+        return new
+
+    # ------------------------------------------------------------------ stepping
+    def step(self, nstep: int = 1) -> None:
+        """``nstep`` physics steps of :class:`mjasc.simulation.Simulation`, then sync kinematics."""
+        with self.check_invalid_state():
+            self._sim.step(nstep)
+            if self.legacy_step:
+                self._update_traffic()
+                mujoco.mj_step1(self.model.ptr, self.data.ptr)
+
+    def _update_traffic(self) -> None:
+        """Moving obstacles (mocap bodies) to their poses at the current time."""
+        if len(self._sim.traffic) == 0:
+            return
+        pos, head, _ = self._sim.traffic.state(float(self.data.time))
+        mid = self._world.mocap_id
+        d = self.data.ptr
+        d.mocap_pos[mid, :2] = pos
+        d.mocap_quat[mid] = np.stack([np.cos(0.5 * head), 0 * head, 0 * head, np.sin(0.5 * head)], axis=-1)
+
+    def after_reset(self):
+        """Traffic to the reset time, then dm_control's forward pass without actuation."""
+        if self._sim is not None:
+            self._update_traffic()
+        super().after_reset()
+
+    # ------------------------------------------------------------------ named getters
+    @property
+    def world(self) -> World:
+        """The World (names, vessel types, index maps) this physics steps."""
+        return self._world
+
+    @property
+    def simulation(self) -> Simulation:
+        """mjasc's physics step bound to this physics's MjData."""
+        return self._sim
+
+    @property
+    def current_field(self) -> CurrentField:
+        """This episode's water current field."""
+        return self._current
+
+    @property
+    def n_vessels(self) -> int:
+        """Number of vessels in the model."""
+        return self._world.n_vessels
+
+    def set_pose(self, i: int, x_m: float, y_m: float, heading_rad: float, surge_m_s: float = 0.0) -> None:
+        """Place vessel ``i`` at (x, y, ψ) moving forward at ``surge_m_s`` (for episode resets)."""
+        adr = self._world.qpos_adr[i]
+        self.data.qpos[adr] = [x_m, y_m, heading_rad]
+        dof = self._world.dof_adr[i]
+        self.data.qvel[dof] = [surge_m_s * np.cos(heading_rad), surge_m_s * np.sin(heading_rad), 0.0]
+
+    def position(self, i: int = 0) -> np.ndarray:
+        """World position (x, y) of vessel ``i``'s CO [m]."""
+        return self.data.qpos[self._world.qpos_adr[i, :2]].copy()
+
+    def heading(self, i: int = 0) -> float:
+        """Heading ψ of vessel ``i`` [rad], wrapped to (−π, π]."""
+        return float(wrap_angle(self.data.qpos[self._world.qpos_adr[i, 2]]))
+
+    def world_velocity(self, i: int = 0) -> np.ndarray:
+        """Velocity over ground (ẋ, ẏ) of vessel ``i`` [m/s], world frame."""
+        return self.data.qvel[self._world.dof_adr[i, :2]].copy()
+
+    def body_velocity(self, i: int = 0) -> np.ndarray:
+        """(u, v, r) of vessel ``i``: body-frame velocity over ground [m/s, m/s, rad/s]."""
+        qd = self.data.qvel[self._world.dof_adr[i]]
+        uv = world_to_body(qd[:2], float(self.data.qpos[self._world.qpos_adr[i, 2]]))
+        return np.array([uv[0], uv[1], qd[2]])
+
+    def shaft_speed(self, i: int = 0) -> np.ndarray:
+        """Normalized (port, starboard) propeller shaft speeds of vessel ``i`` in [−1, 1]."""
+        return self.data.act[self._world.act_adr[i]].copy()
+
+    def current_world(self, i: int = 0) -> np.ndarray:
+        """Water current over ground at vessel ``i`` [m/s], world frame."""
+        return self._current.velocity(self.position(i)[None, :], float(self.data.time))[0]
+
+    def current_body(self, i: int = 0) -> np.ndarray:
+        """Water current at vessel ``i`` in its body frame (u_c, v_c) [m/s]."""
+        return world_to_body(self.current_world(i), self.heading(i))
+
+    def traffic_positions(self) -> np.ndarray:
+        """(M, 2) world positions of the moving obstacles now [m]."""
+        return self._sim.traffic.state(float(self.data.time))[0]
+
+    def in_contact(self, i: int = 0) -> bool:
+        """True when any collision geom of vessel ``i`` touches anything (at the last kinematics)."""
+        hull = int(self._world.hull_body_id[i])
+        d, m = self.data.ptr, self.model.ptr
+        if d.ncon == 0:
+            return False
+        g1, g2 = d.contact.geom1[: d.ncon], d.contact.geom2[: d.ncon]
+        bodies = np.concatenate([m.geom_bodyid[g1], m.geom_bodyid[g2]])
+        return bool(np.any(bodies == hull))
+
+
+class RayFan:
+    """A horizontal 360° fan of range rays around one vessel, cast with ``mujoco.mj_multiRay``.
+
+    Rays start at the vessel's CO at height :data:`RAY_HEIGHT_M` (inside the contact band), bearings
+    ``2πk/n`` counter-clockwise from the bow, see geom groups 0 (obstacles) and 3 (hulls) and exclude
+    the own hull. :meth:`read` returns distances clipped to ``max_range_m`` (no hit → max range).
+    """
+
+    def __init__(self, physics: VesselPhysics, vessel: int, n_rays: int, max_range_m: float):
+        if n_rays < 1:
+            raise ValueError(f"n_rays: must be ≥ 1, got {n_rays}")
+        if not max_range_m > 0:
+            raise ValueError(f"max_range_m: must be > 0, got {max_range_m}")
+        self.vessel = int(vessel)
+        self.n_rays = int(n_rays)
+        self.max_range_m = float(max_range_m)
+        self.bearings_rad = 2 * np.pi * np.arange(self.n_rays) / self.n_rays
+        self._vec = np.zeros((self.n_rays, 3))
+        self._geomid = np.zeros(self.n_rays, dtype=np.int32)
+        self._dist = np.zeros(self.n_rays)
+        self._groups = SENSOR_GEOM_GROUPS.copy()
+
+    def read(self, physics: VesselPhysics) -> np.ndarray:
+        """Distances (n_rays,) [m] along the fan of vessel ``self.vessel``, ≤ max range."""
+        p = physics.position(self.vessel)
+        ang = physics.heading(self.vessel) + self.bearings_rad
+        self._vec[:, 0] = np.cos(ang)
+        self._vec[:, 1] = np.sin(ang)
+        pnt = np.array([p[0], p[1], RAY_HEIGHT_M])
+        mujoco.mj_multiRay(physics.model.ptr, physics.data.ptr, pnt, self._vec.reshape(-1), self._groups, 1,
+                           int(physics.world.hull_body_id[self.vessel]), self._geomid, self._dist, None,
+                           self.n_rays, self.max_range_m)
+        out = self._dist.copy()
+        out[(out < 0) | (out > self.max_range_m)] = self.max_range_m
+        return out
