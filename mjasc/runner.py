@@ -288,9 +288,12 @@ class Runner:
                             if self.recorder:
                                 agent.log(self.recorder, states.time_s)
                     elif slot == "video" and self.video is not None:
-                        self.video.add_frame(sim.data, [
-                            (states.position_m[i], states.heading_rad[i], (*np.array(vessel_colour(i)) / 255, 1.0))
-                            for i in range(len(self.agents))])
+                        colours = [(*np.array(vessel_colour(i)) / 255, 1.0) for i in range(len(self.agents))]
+                        self.video.add_frame(
+                            sim.data,
+                            [(states.position_m[i], states.heading_rad[i], colours[i]) for i in range(len(self.agents))],
+                            [(np.array([p for _, p in self._trail[i]][-240::4]), colours[i])
+                             for i in range(len(self.agents)) if len(self._trail[i]) > 1])
                 nxt = min(self.schedule.next_event(step), total_steps + 1)
                 if nxt > total_steps:
                     break

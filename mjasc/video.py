@@ -29,8 +29,8 @@ class VideoWriter:
         self.renderer = mujoco.Renderer(model, height=self.height, width=self.width)
         self._span = 0.0
         self.camera = self._camera(camera, extent_xy)
-        # Map-symbol size for markers in the top-down view: 2.5 % of the view span.
-        self.marker_m = 0.025 * self._span if isinstance(self.camera, mujoco.MjvCamera) else 0.0
+        # Map-symbol size for markers in the top-down view: 4 % of the view span.
+        self.marker_m = 0.04 * self._span if isinstance(self.camera, mujoco.MjvCamera) else 0.0
         self.overlays = [np.asarray(o, dtype=float) for o in overlays]
         self._writer = imageio_ffmpeg.write_frames(
             str(self.path), (self.width, self.height), fps=float(fps), codec="libx264", pix_fmt_out="yuv420p",
@@ -59,11 +59,25 @@ class VideoWriter:
             raise ValueError(f"outputs.video_camera: no camera {name!r} in the model")
         return cid
 
-    def add_frame(self, data, markers=()) -> np.ndarray:
+    def _line(self, scn, a, b, rgba, width=2.0) -> None:
+        if scn.ngeom >= scn.maxgeom:
+            return
+        g = scn.geoms[scn.ngeom]
+        mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3), np.zeros(9),
+                            np.asarray(rgba, dtype=np.float32))
+        mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_LINE, width, np.array([a[0], a[1], 0.05]),
+                             np.array([b[0], b[1], 0.05]))
+        scn.ngeom += 1
+
+    def add_frame(self, data, markers=(), trails=()) -> np.ndarray:
         """Render and encode one frame. ``markers``: (position (2,), heading, rgba) per vessel, drawn
-        as map-symbol arrows in the top-down view (a 2 m hull is a few pixels at 200 m)."""
+        as map-symbol arrows in the top-down view (a 2 m hull is a few pixels at 200 m);
+        ``trails``: (points (k, 2), rgba) polylines of where the vessels have been."""
         self.renderer.update_scene(data, camera=self.camera)
         scn = self.renderer.scene
+        for points, rgba in trails:
+            for a, b in zip(points[:-1], points[1:]):
+                self._line(scn, a, b, rgba, 3.0)
         if self.marker_m > 0:
             for pos, heading, rgba in markers:
                 if scn.ngeom >= scn.maxgeom:
@@ -78,14 +92,7 @@ class VideoWriter:
                 scn.ngeom += 1
         for line in self.overlays:
             for a, b in zip(line[:-1], line[1:]):
-                if scn.ngeom >= scn.maxgeom:
-                    break
-                g = scn.geoms[scn.ngeom]
-                mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3), np.zeros(9),
-                                    np.array([1.0, 1.0, 1.0, 0.8], dtype=np.float32))
-                mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_LINE, 2.0, np.array([a[0], a[1], 0.05]),
-                                     np.array([b[0], b[1], 0.05]))
-                scn.ngeom += 1
+                self._line(scn, a, b, (1.0, 1.0, 1.0, 0.5), 1.5)
         frame = self.renderer.render()
         self._writer.send(np.ascontiguousarray(frame))
         self.frames += 1
