@@ -292,7 +292,7 @@ class Runner:
                         self.video.add_frame(
                             sim.data,
                             [(states.position_m[i], states.heading_rad[i], colours[i]) for i in range(len(self.agents))],
-                            [(np.array([p for _, p in self._trail[i]][-240::4]), colours[i])
+                            [(np.array([p for _, p in self._trail[i]][::-4][:60]), colours[i])
                              for i in range(len(self.agents)) if len(self._trail[i]) > 1])
                 nxt = min(self.schedule.next_event(step), total_steps + 1)
                 if nxt > total_steps:
