@@ -1,0 +1,103 @@
+"""Detections (mjasc.detection): clustering of one scan, disc centre/radius and their noise,
+checked on MuJoCo scans of known geometry."""
+
+import math
+from dataclasses import replace
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjasc.detection import DetectionConfig, detect
+from mjasc.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
+from mjasc.range_sensor import SensorConfig, sensor_for_vessel
+from mjasc.vessels import load_vessel_type
+from mjasc.world import build_world
+
+QUIET = SensorConfig(range_noise_std_m=0.0, dropout_probability=0.0, clutter_per_scan=0.0)
+
+
+def make(statics=(), moving=(), config=QUIET, heading=0.0):
+    w = build_world([("a", load_vessel_type("otter"))], list(statics), list(moving))
+    w.data.qpos[w.qpos_adr[0]] = (0.0, 0.0, heading)
+    mujoco.mj_forward(w.model, w.data)
+    return w, sensor_for_vessel(w, 0, config)
+
+
+def test_centre_radius_and_variance_over_random_geometries():
+    """A 2.5 m disc at 30–140 m, random bearing, σ_ρ = 5 cm: the centre's bias is below 0.12 m
+    (measured −0.09 m radially at 30 m, where beam jitter of the chord's ends pulls the centre
+    nearer, and +0.11 m at 140 m; a centroid of the returns would be 2.5·π/4 ≈ 2 m off), its spread
+    within 1.5× the predicted σ_c² (isotropic, the radial bound) and its mean square within 2×;
+    the radius within 10 %."""
+    cfg = SensorConfig(range_noise_std_m=0.05, dropout_probability=0.0, clutter_per_scan=0.0)
+    w, s = make(moving=[MovingObstacle("t", 2.5, (50.0, 0.0))], config=cfg)
+    m, d = w.model, w.data
+    rng = np.random.default_rng(0)
+    for rho in (30.0, 60.0, 100.0, 140.0):
+        err, var, rad = [], [], []
+        for _ in range(120):
+            b = rng.uniform(-math.pi, math.pi)
+            u = np.array([math.cos(b), math.sin(b)])
+            centre = s.pose(d)[0] + rho * u
+            d.mocap_pos[w.mocap_id[0], :2] = centre
+            mujoco.mj_kinematics(m, d)
+            det = detect(s.scan(d, rng), range_noise_std_m=0.05)
+            assert len(det) == 1
+            e = det.centres_m[0] - centre
+            err.append([e @ u, e @ [-u[1], u[0]]])
+            var.append(det.variances_m2[0])
+            rad.append(det.radii_m[0])
+        err = np.array(err)
+        assert np.all(np.abs(err.mean(axis=0)) < 0.12), (rho, err.mean(axis=0))
+        ratio = err.var(axis=0) / np.mean(var)
+        assert np.all(ratio < 1.5), (rho, ratio)
+        mse_ratio = (err**2).mean(axis=0) / np.mean(var)
+        assert np.all(mse_ratio < 2.0), (rho, mse_ratio)
+        assert abs(np.mean(rad) - 2.5) < 0.25
+        assert not det.extended[0]
+        np.testing.assert_allclose(det.ranges_m[0], np.hypot(*(det.centres_m[0] - det.origin_m)))
+
+
+def test_separate_objects_walls_and_the_seam_of_the_fan():
+    dock = PolygonObstacle("dock", np.array([[30.0, -30.0], [34.0, -30.0], [34.0, 30.0], [30.0, 30.0]]))
+    w, s = make(statics=[dock, CircleObstacle("b1", (0.0, 20.0), 1.0), CircleObstacle("b2", (4.0, 20.0), 1.0),
+                         CircleObstacle("stern", (-25.0, 0.0), 2.0)])
+    scan = s.scan(w.data, None)
+    det = detect(scan)
+    assert len(det) == 4
+    order = np.argsort(det.centres_m[:, 0])
+    stern, b1, b2, wall = order
+    assert det.extended[wall] and det.radii_m[wall] > 20.0 and not det.extended[[stern, b1, b2]].any()
+    np.testing.assert_allclose(det.centres_m[b1], [0.0, 20.0], atol=0.1)
+    np.testing.assert_allclose(det.centres_m[b2], [4.0, 20.0], atol=0.1)
+    # the buoy astern straddles the seam at ±180°: one object, not two
+    np.testing.assert_allclose(det.centres_m[stern], [-25.0, 0.0], atol=0.1)
+    assert det.n_points[stern] > 5
+    # every return is labelled with its cluster; body and world centres agree
+    assert np.all(det.labels >= 0) and np.bincount(det.labels).tolist() == det.n_points.tolist()
+    np.testing.assert_allclose(det.centres_body, det.centres_m - det.origin_m, atol=1e-9)  # heading 0
+
+
+def test_missing_beams_are_bridged_up_to_max_gap():
+    w, s = make(statics=[CircleObstacle("b", (30.0, 0.0), 2.5)])
+    scan = s.scan(w.data, None)
+    k = scan.hit_beams.size
+    hit = scan.hit.copy()
+    hit[scan.hit_beams[k // 2]] = False
+    keep = np.arange(k) != k // 2
+    holed = replace(scan, hit=hit, hit_beams=scan.hit_beams[keep], hit_points_world=scan.hit_points_world[keep],
+                    hit_points_body=scan.hit_points_body[keep])
+    assert len(detect(holed)) == 1
+    assert len(detect(holed, DetectionConfig(max_gap_beams=0, cluster_distance_m=0.1, cluster_range_factor=1.0))) == 2
+
+
+def test_empty_scan_and_config_validation():
+    w, s = make()
+    det = detect(s.scan(w.data, None))
+    assert len(det) == 0 and det.centres_m.shape == (0, 2) and det.labels.shape == (0,)
+    for kw, key in [({"max_gap_beams": -1}, "max_gap_beams"), ({"min_points": 0}, "min_points"),
+                    ({"cluster_distance_m": float("nan")}, "cluster_distance_m"),
+                    ({"max_target_radius_m": 0.1}, "max_target_radius_m")]:
+        with pytest.raises(ValueError, match=rf"^detection\.{key}:"):
+            DetectionConfig(**kw)

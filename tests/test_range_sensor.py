@@ -1,0 +1,119 @@
+"""Range sensor (mjasc.range_sensor): geometry against closed form, own-hull exclusion, occlusion,
+other hulls seen at the ray height, noise / dropout / clutter statistics, option parsing."""
+
+import math
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjasc.obstacles import CircleObstacle, MovingObstacle
+from mjasc.range_sensor import CLUTTER_GEOM, SensorConfig, parse_sensor_options, sensor_for_vessel
+from mjasc.vessels import load_vessel_type
+from mjasc.world import build_world
+
+QUIET = SensorConfig(range_noise_std_m=0.0, dropout_probability=0.0, clutter_per_scan=0.0)
+
+
+def make(vessels=(("a", (0.0, 0.0, 0.0)),), statics=(), moving=(), config=QUIET):
+    vt = load_vessel_type("otter")
+    w = build_world([(n, vt) for n, _ in vessels], list(statics), list(moving))
+    d = w.data
+    for i, (_, pose) in enumerate(vessels):
+        d.qpos[w.qpos_adr[i]] = pose
+    mujoco.mj_forward(w.model, d)
+    return w, sensor_for_vessel(w, 0, config)
+
+
+def test_beam_geometry_and_range_to_a_disc_in_closed_form():
+    """A buoy of radius 2 m centred 40 m away at bearing 30° from the mount: the beam along the centre
+    line reads 40 − 2 m, every return lies on the disc's surface, and body ↔ world agree."""
+    yaw = 0.7
+    w, s = make(vessels=[("a", (5.0, -3.0, yaw))])
+    mount, head = s.pose(w.data)
+    assert head == pytest.approx(yaw)
+    bearing = math.radians(30.0)
+    centre = mount + 40.0 * np.array([math.cos(yaw + bearing), math.sin(yaw + bearing)])
+    w, s = make(vessels=[("a", (5.0, -3.0, yaw))], statics=[CircleObstacle("buoy", centre, 2.0)])
+    scan = s.scan(w.data, None)
+    k = np.argmin(np.abs(scan.angles_body - bearing))
+    assert scan.angles_body[k] == pytest.approx(bearing, abs=0.5 * scan.beam_spacing_rad + 1e-9)
+    off = 40.0 * math.sin(scan.angles_body[k] - bearing)
+    assert scan.ranges[k] == pytest.approx(40.0 * math.cos(scan.angles_body[k] - bearing) - math.sqrt(4 - off**2),
+                                           abs=1e-6)
+    np.testing.assert_allclose(np.hypot(*(scan.hit_points_world - centre).T), 2.0, atol=1e-6)
+    c, sn = math.cos(yaw), math.sin(yaw)
+    back = mount + scan.hit_points_body @ np.array([[c, sn], [-sn, c]])
+    np.testing.assert_allclose(back, scan.hit_points_world, atol=1e-9)
+    # a 2 m disc at 40 m subtends 2·asin(2/40) = 5.7°: 11 or 12 beams of 0.5°
+    assert 10 <= scan.hit_beams.size <= 12
+    assert scan.angles_body[0] == pytest.approx(-math.pi + 0.5 * scan.beam_spacing_rad)
+
+
+def test_own_hull_is_excluded_other_hulls_are_seen_at_the_ray_height():
+    """The own Otter (all geoms in one body) never returns; another Otter's low collision hull
+    (0.28 m high, the mounts are at 0.8 m) is seen from 20 m; the water never is."""
+    w, s = make(vessels=[("a", (0.0, 0.0, 0.0)), ("b", (20.0, 0.0, 1.0))])
+    scan = s.scan(w.data, None)
+    owners = {w.geom_owner[g] for g in scan.geom_ids[scan.hit]}
+    assert owners == {"b"}
+    assert scan.ranges[scan.hit].min() > 18.0
+
+
+def test_occlusion_near_object_hides_what_is_behind():
+    w, s = make(statics=[CircleObstacle("near", (20.0, 0.0), 1.0), CircleObstacle("far", (60.0, 0.0), 4.0)])
+    scan = s.scan(w.data, None)
+    ids = scan.geom_ids
+    names = np.array([w.geom_owner[g] if g >= 0 else "" for g in ids])
+    ahead = np.abs(scan.angles_body) < math.asin(1.0 / 20.0) * 0.9
+    assert np.all(names[ahead] == "near")
+    assert np.any(names == "far")  # the far disc's edges stick out
+    # mocap (moving) obstacles are seen too
+    w, s = make(moving=[MovingObstacle("boat", 2.5, (0.0, 30.0))])
+    assert {w.geom_owner[g] for g in s.scan(w.data, None).geom_ids if g >= 0} == {"boat"}
+
+
+def test_noise_dropout_and_clutter_statistics():
+    cfg = SensorConfig(range_noise_std_m=0.1, dropout_probability=0.2, clutter_per_scan=3.0)
+    w, s = make(statics=[CircleObstacle(f"b{k}", (40 * math.cos(a), 40 * math.sin(a)), 6.0)
+                         for k, a in enumerate(np.linspace(0, 2 * math.pi, 12, endpoint=False))], config=cfg)
+    truth, gid, _, _ = s.cast(w.data)
+    true_hit = gid >= 0
+    rng = np.random.default_rng(0)
+    kept, noise, clutter = [], [], []
+    for _ in range(200):
+        scan = s.scan(w.data, rng)
+        real = scan.geom_ids >= 0
+        kept.append(real[true_hit].mean())
+        noise.append(scan.ranges[real] - truth[real])
+        clutter.append(int((scan.geom_ids == CLUTTER_GEOM).sum()))
+    n_true = int(true_hit.sum())
+    assert np.mean(kept) == pytest.approx(0.8, abs=4 * math.sqrt(0.16 / (200 * n_true)) + 0.01)
+    assert np.std(np.concatenate(noise)) == pytest.approx(0.1, rel=0.05)
+    # a false return only shows where it is nearer than the true return
+    assert 1.0 < np.mean(clutter) < 3.0 + 4 * math.sqrt(3.0 / 200)
+
+
+def test_field_of_view_and_range_limit():
+    cfg = SensorConfig(beams=90, fov_deg=90.0, max_range_m=100.0, range_noise_std_m=0.0, dropout_probability=0.0,
+                       clutter_per_scan=0.0)
+    w, s = make(statics=[CircleObstacle("ahead", (50.0, 0.0), 2.0), CircleObstacle("behind", (-20.0, 0.0), 2.0),
+                         CircleObstacle("far", (0.0, 130.0), 5.0)], config=cfg)
+    scan = s.scan(w.data, None)
+    assert np.all(np.abs(scan.angles_body) < math.radians(45.0))
+    assert {w.geom_owner[g] for g in scan.geom_ids if g >= 0} == {"ahead"}
+    assert not scan.full_circle
+
+
+def test_parse_sensor_options():
+    cfg = parse_sensor_options({"beams": 360, "max_range_m": 120, "fov_deg": 180.0}, "vessels[0].sensor")
+    assert cfg.beams == 360 and cfg.max_range_m == 120.0 and cfg.fov_deg == 180.0
+    assert parse_sensor_options({}, "s") == SensorConfig()
+    w = "vessels[2].sensor"
+    for table, key in [({"beam": 3}, "beam"), ({"beams": 3.0}, "beams"), ({"beams": 0}, "beams"),
+                       ({"max_range_m": 50.0}, "max_range_m"), ({"fov_deg": 400}, "fov_deg"),
+                       ({"dropout_probability": 1.0}, "dropout_probability"), ({"rate_hz": "fast"}, "rate_hz"),
+                       ({"clutter_per_scan": -1}, "clutter_per_scan"), ({"min_range_m": 200.0}, "min_range_m"),
+                       ({"range_noise_std_m": True}, "range_noise_std_m")]:
+        with pytest.raises(ValueError, match=rf"^vessels\[2\]\.sensor\.{key}:"):
+            parse_sensor_options(table, w)
