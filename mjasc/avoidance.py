@@ -83,7 +83,9 @@ class AvoidanceConfig:
     scaled to the obstacles: max(30, 2 U (width + 10 m))), uniform_speed U, goal_margin_m (goal
     this far beyond the obstruction on the mission path), streamline_step_m, static_inflation_m
     (None = half beam + safety distance), static_range_m (static polygons this close to the
-    route enter the field), max_panel_length_m.
+    route enter the field), max_panel_length_m. track_deviation_m: predict again at once when a
+    track (e.g. a team mate that re-planned) is this far from where the last prediction put it, or
+    when the mission speed (with the coordination factor) changed by more than speed_change_m_s.
     """
 
     enabled: bool = True
@@ -107,6 +109,8 @@ class AvoidanceConfig:
     static_inflation_m: float | None = None
     static_range_m: float = 60.0
     max_panel_length_m: float = 3.0
+    track_deviation_m: float = 5.0
+    speed_change_m_s: float = 0.2
 
     def __post_init__(self):
         def check(name, lo=0.0, strict=True, none_ok=False, hi=None):
@@ -141,6 +145,8 @@ class AvoidanceConfig:
         check("static_inflation_m", strict=False, none_ok=True)
         check("static_range_m")
         check("max_panel_length_m")
+        check("track_deviation_m")
+        check("speed_change_m_s")
         if self.speed_max_m_s is not None and self.speed_max_m_s <= self.speed_min_m_s:
             raise ValueError(f"speed_max_m_s: must exceed speed_min_m_s ({self.speed_min_m_s}), got {self.speed_max_m_s}")
 
@@ -282,11 +288,15 @@ class CollisionAvoidance:
         self.correction: _Correction | None = None
         self.detour: Detour | None = None
         self._known_track_ids: set[int] = set()
+        self._predicted_tracks: dict[int, TrackEstimate] = {}
+        self._last_predict_t = -np.inf
+        self._predicted_speed = None
         self._events: list[tuple[float, str]] = []
         self._last_control_t: float | None = None
         self.mode_time_s = {m: 0.0 for m in MODES}
         self.stats = {"predictions": 0, "predicted_conflicts": 0, "static_conflicts": 0, "yield": 0, "pass": 0,
-                      "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0}
+                      "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
+                      "deviation_predictions": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
         self._conflict_keys: set = set()
@@ -308,10 +318,16 @@ class CollisionAvoidance:
             return self.detour.mission_gamma(follower.gamma_m)
         return float(follower.gamma_m)
 
+    def mission_speed_now(self) -> float:
+        """The speed the mission asks for now [m/s]: the mission speed times the coordination
+        controller's latest correction factor (when the vessel has one)."""
+        factor = getattr(getattr(self.agent, "coordination", None), "last_factor", 1.0)
+        return float(self.agent.mission_speed_m_s) * float(factor if np.isfinite(factor) else 1.0)
+
     def planned_gamma(self, t_now: float, gamma_now: float):
         """γ(t) [m] on the follower's current path for absolute times t ≥ t_now: the virtual
         target's speed V_d until its goal time while a correction runs, the mission speed after."""
-        v_m = float(self.agent.mission_speed_m_s)
+        v_m = self.mission_speed_now()
         c = self.correction
         if c is None:
             return float(v_m)
@@ -333,6 +349,9 @@ class CollisionAvoidance:
         t = float(t)
         tracks = [tr for tr in tracks if tr.team_member != self.name]
         self._known_track_ids |= {tr.track_id for tr in tracks}
+        self._predicted_tracks = {tr.track_id: tr for tr in tracks}
+        self._last_predict_t = t
+        self._predicted_speed = self.mission_speed_now()
         path = follower.path
         gamma = float(np.clip(follower.gamma_m, 0.0, path.length))
         profile = self.planned_gamma(t, gamma)
@@ -453,7 +472,7 @@ class CollisionAvoidance:
         for s in statics:
             svos.append((s.polygon, s))
         if svos and allow_replan:
-            if self._replan(t, nav, svos, static_polygons):
+            if self._replan(t, nav, svos, static_polygons, by_id):
                 # The path changed: predict again on the detour (velocity corrections only).
                 self.correction = None
                 tracks = list(by_id.values())
@@ -491,9 +510,27 @@ class CollisionAvoidance:
         return None
 
     # ------------------------------------------------------------------ re-planning
-    def _replan(self, t, nav, svos, static_polygons) -> bool:
+    def _svo_clear_of(self, start, track, c, t):
+        """The swept area cut short where the obstacle's disc would reach the vessel's present
+        position (a head-on obstacle sweeps over the vessel's own place; by then the vessel has
+        left it on the detour). None when the obstacle is already there."""
+        r_col = c.collision_distance_m
+        t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + self.config.obstruction_threshold_s
+        t_a = max(c.t_i, t)
+        ts = np.arange(t_a, t_f, 0.25)
+        if ts.size < 2:
+            return None
+        d = np.hypot(*(track.predict_positions(ts) - start).T)
+        near = np.flatnonzero(d <= r_col + 1.0)
+        t_cut = ts[near[0] - 1] if near.size else t_f
+        if near.size and near[0] < 2:
+            return None
+        return swept_disc_polygon(track, t_a, t_cut, r_col)
+
+    def _replan(self, t, nav, svos, static_polygons, by_id=None) -> bool:
         """Build the field, trace the streamline, splice the detour. True on success."""
         cfg, follower, mission = self.config, self.agent.follower, self.mission_path
+        by_id = by_id or {}
         start = np.asarray(nav.position_m, dtype=float)
         g_now_m = self.mission_gamma_m(follower)
         # End of the obstruction on the mission path.
@@ -505,7 +542,18 @@ class CollisionAvoidance:
                     g_end = max(g_end, float(g[0]))
             g_end = max(g_end, float(mission.project(c.point_b, gamma_hint=g_now_m,
                                                      search_window_m=max(mission.length, 1.0))))
-        obstacles = [np.asarray(p, dtype=float) for p, _ in svos if not isinstance(_, StaticConflict)]
+        obstacles = []
+        for poly, c in svos:
+            if isinstance(c, StaticConflict):
+                continue
+            poly = np.asarray(poly, dtype=float)
+            track = by_id.get(c.track_id)
+            if track is not None and not c.is_static and point_in_polygon(start[None], poly)[0]:
+                poly = self._svo_clear_of(start, track, c, t)
+                if poly is None:
+                    self._fail(t, f"track {c.track_id} is already at the vessel")
+                    return False
+            obstacles.append(poly)
         statics_near = self._statics_near(start, mission, g_now_m, g_end + cfg.goal_margin_m + 20.0, static_polygons)
         try:
             obstacles += [inflate_polygon(clean_polygon(p, "static obstacle"), self.static_inflation_m) for p in statics_near]
@@ -613,6 +661,23 @@ class CollisionAvoidance:
         if new:
             self._event(t, f"new track(s) {sorted(new)}: predicting now")
             self.predict(t, nav, tracks, perception.static_polygons())
+            return
+        if t - self._last_predict_t < 1.0:
+            return
+        if self.correction is None and self._predicted_speed is not None and \
+                abs(self.mission_speed_now() - self._predicted_speed) > self.config.speed_change_m_s:
+            self.stats["deviation_predictions"] += 1  # own plan changed (coordination): predict again
+            self.predict(t, nav, tracks, perception.static_polygons())
+            return
+        for tr in tracks:  # a track that left the motion the last prediction assumed
+            old = self._predicted_tracks.get(tr.track_id)
+            if old is None:
+                continue
+            dev = float(np.hypot(*(old.predict_positions(np.array([tr.time_s]))[0] - tr.position_m)))
+            if dev > self.config.track_deviation_m:
+                self.stats["deviation_predictions"] += 1
+                self.predict(t, nav, tracks, perception.static_polygons())
+                return
 
     def control_refs(self, t, nav) -> tuple[float | None, str]:
         """(speed override [m/s] or None, mode) for this control tick; switches the follower back
@@ -661,6 +726,7 @@ class CollisionAvoidance:
         return {
             "enabled": self.config.enabled,
             "predictions": self.stats["predictions"],
+            "predictions_on_track_deviation": self.stats["deviation_predictions"],
             "predicted_conflicts": self.stats["predicted_conflicts"],
             "static_conflicts": self.stats["static_conflicts"],
             "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "replan_failed")},
