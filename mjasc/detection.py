@@ -19,13 +19,17 @@ the line of sight u through the chord's midpoint, behind the visible surface: ea
 offset y_i from that line and depth d_i along it puts the centre at depth ``d_i + √(r_w² − y_i²)``
 (a disc's surface), and the centre depth D is their mean weighted by √(r_w² − y_i²) (∝ the
 cosine of the surface's slope: near the edges an error in r_w moves the estimate most); a single
-return gives D = ρ + r_w. Then
-``centre = origin + D·u`` and ``radius = max(r_w, max_i ‖p_i − centre‖, min_radius_m)``.
+return gives D = ρ + r_w. From ``origin + D·u``, two damped Gauss–Newton steps on
+``Σ_i (‖p_i − c‖ − r_w)²`` move the centre onto the disc through the returns (this removes most of
+the lateral error of the chord's jittery ends: 1-σ 0.03 m instead of 0.17 m at 100 m). Then
+``radius = max(r_w, max_i ‖p_i − centre‖, min_radius_m)``. What remains is radial: r_w is off by
+up to ±Δ/2 depending on where the beams fall on the disc, and the centre moves with it (a bias of
+−0.09 m at 30 m to +0.06 m at 140 m, measured over random geometries for a 2.5 m disc).
 
-**Measurement noise.** Each edge of the chord is uncertain by a uniform ±Δ/2, so the lateral
-midpoint and r_w have variance Δ²/24; the depth D carries the range noise σ_ρ²/n of n returns plus
-the radius error, amplified at the slanted edges (measured over random geometries: about twice
-Δ²/24 radially); ``centre_noise_floor_m`` covers the shape not being a disc. The detection's
+**Measurement noise.** Each edge of the chord is uncertain by a uniform ±Δ/2, so r_w has variance
+Δ²/24; the depth D carries the range noise σ_ρ²/n of n returns plus the radius error, amplified at
+the slanted edges (measured over random geometries: about twice Δ²/24 radially; laterally the fit
+is much better); ``centre_noise_floor_m`` covers the shape not being a disc. The detection's
 covariance is taken isotropic, with the larger (radial) variance::
 
     σ_c² = Δ²/12 + σ_ρ²/n + σ_floor²        (cov = σ_c² I₂)
@@ -50,6 +54,9 @@ import numpy as np
 from .range_sensor import Scan
 
 __all__ = ["DetectionConfig", "Detections", "detect"]
+
+_REFINE = 2  # Gauss–Newton iterations of the centre
+_DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at its first estimate)
 
 
 @dataclass(frozen=True)
@@ -181,6 +188,18 @@ def detect(scan: Scan, config: DetectionConfig = DetectionConfig(), range_noise_
     wgt = behind + 1e-3 * r_w[lab]  # ∝ cos of the surface angle (edges carry the radius error)
     D = np.add.reduceat(wgt * (d + behind), starts) / np.add.reduceat(wgt, starts)
     centres = o + D[:, None] * u
+    for _ in range(_REFINE):  # damped Gauss–Newton on Σ (‖p_i − c‖ − r_w)²
+        dv = centres[lab] - P
+        dist = np.hypot(*dv.T)
+        J = dv / np.maximum(dist, 1e-9)[:, None]
+        e = dist - r_w[lab]
+        a11 = np.add.reduceat(J[:, 0] ** 2, starts) + _DAMP * counts
+        a12 = np.add.reduceat(J[:, 0] * J[:, 1], starts)
+        a22 = np.add.reduceat(J[:, 1] ** 2, starts) + _DAMP * counts
+        g1 = np.add.reduceat(J[:, 0] * e, starts)
+        g2 = np.add.reduceat(J[:, 1] * e, starts)
+        det_ = a11 * a22 - a12 * a12
+        centres = centres - np.stack([(a22 * g1 - a12 * g2) / det_, (a11 * g2 - a12 * g1) / det_], axis=-1)
     far = np.maximum.reduceat(np.hypot(*(P - centres[lab]).T), starts)
     radii = np.maximum(r_w, far)
     var = spacing**2 / 12.0 + range_noise_std_m**2 / counts + config.centre_noise_floor_m**2

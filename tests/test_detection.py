@@ -26,10 +26,9 @@ def make(statics=(), moving=(), config=QUIET, heading=0.0):
 
 def test_centre_radius_and_variance_over_random_geometries():
     """A 2.5 m disc at 30–140 m, random bearing, σ_ρ = 5 cm: the centre's bias is below 0.12 m
-    (measured −0.09 m radially at 30 m, where beam jitter of the chord's ends pulls the centre
-    nearer, and +0.11 m at 140 m; a centroid of the returns would be 2.5·π/4 ≈ 2 m off), its spread
-    within 1.5× the predicted σ_c² (isotropic, the radial bound) and its mean square within 2×;
-    the radius within 10 %."""
+    (measured −0.09 m radially at 30 m to +0.06 m at 140 m; a centroid of the returns would be
+    2.5·π/4 ≈ 2 m off), its spread within 1.5× the predicted σ_c² (isotropic, the radial bound)
+    and its mean square within 2×; the lateral error is small (the disc fit); the radius within 6 %."""
     cfg = SensorConfig(range_noise_std_m=0.05, dropout_probability=0.0, clutter_per_scan=0.0)
     w, s = make(moving=[MovingObstacle("t", 2.5, (50.0, 0.0))], config=cfg)
     m, d = w.model, w.data
@@ -54,7 +53,8 @@ def test_centre_radius_and_variance_over_random_geometries():
         assert np.all(ratio < 1.5), (rho, ratio)
         mse_ratio = (err**2).mean(axis=0) / np.mean(var)
         assert np.all(mse_ratio < 2.0), (rho, mse_ratio)
-        assert abs(np.mean(rad) - 2.5) < 0.25
+        assert err[:, 1].std() < 0.3 * err[:, 0].std() + 0.02
+        assert abs(np.mean(rad) - 2.5) < 0.15
         assert not det.extended[0]
         np.testing.assert_allclose(det.ranges_m[0], np.hypot(*(det.centres_m[0] - det.origin_m)))
 
@@ -72,7 +72,7 @@ def test_separate_objects_walls_and_the_seam_of_the_fan():
     np.testing.assert_allclose(det.centres_m[b1], [0.0, 20.0], atol=0.1)
     np.testing.assert_allclose(det.centres_m[b2], [4.0, 20.0], atol=0.1)
     # the buoy astern straddles the seam at ±180°: one object, not two
-    np.testing.assert_allclose(det.centres_m[stern], [-25.0, 0.0], atol=0.1)
+    np.testing.assert_allclose(det.centres_m[stern], [-25.0, 0.0], atol=0.2)  # r_w 1.93: beams fall symmetrically
     assert det.n_points[stern] > 5
     # every return is labelled with its cluster; body and world centres agree
     assert np.all(det.labels >= 0) and np.bincount(det.labels).tolist() == det.n_points.tolist()
@@ -89,7 +89,7 @@ def test_missing_beams_are_bridged_up_to_max_gap():
     holed = replace(scan, hit=hit, hit_beams=scan.hit_beams[keep], hit_points_world=scan.hit_points_world[keep],
                     hit_points_body=scan.hit_points_body[keep])
     assert len(detect(holed)) == 1
-    assert len(detect(holed, DetectionConfig(max_gap_beams=0, cluster_distance_m=0.1, cluster_range_factor=1.0))) == 2
+    assert len(detect(holed, DetectionConfig(max_gap_beams=0))) == 2
 
 
 def test_empty_scan_and_config_validation():
