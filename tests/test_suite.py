@@ -306,3 +306,17 @@ def test_render_offscreen_and_quiet_exit():
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok"
     assert out.stderr.strip() == "", out.stderr
+
+
+def test_quiet_exit_without_close():
+    """A user who renders and never closes the environment gets a silent exit too (the physics
+    frees its GL context from an exit hook that runs before dm_control's render thread stops)."""
+    script = textwrap.dedent("""
+        import mjasc
+        from mjasc import suite
+        env = suite.load("otter", "station_keeping", task_kwargs={"random": 0})
+        env.reset()
+        assert env.physics.render(32, 32, camera_id="basin").shape == (32, 32, 3)
+    """)
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stderr.strip() == "", out.stderr

@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import threading
+import weakref
 from pathlib import Path
 
 import mujoco
@@ -109,6 +111,7 @@ class Environment(control.Environment):
     ``control.Environment.close`` does nothing, and dm_control then prints "cannot schedule new
     futures after shutdown" at interpreter exit after any ``physics.render()``; freeing the
     physics releases its GL context first. The environment must not be used after ``close()``.
+    (A physics that is never closed frees its contexts from an exit hook: also silent.)
     """
 
     def observation_spec(self):
@@ -134,11 +137,40 @@ class Environment(control.Environment):
         self.close()
 
 
+_RENDERING = weakref.WeakSet()  # physics instances that hold GL contexts
+_EXIT_HOOK_REGISTERED = False
+
+
+def _free_rendering_at_exit() -> None:
+    """Free the GL contexts of physics that were never closed, while dm_control's render thread
+    still runs (otherwise it prints "cannot schedule new futures after shutdown" at exit)."""
+    for physics in list(_RENDERING):
+        with physics._contexts_lock:
+            if physics._contexts:
+                physics._free_rendering_contexts()
+
+
+def _register_exit_hook() -> None:
+    # threading's exit hooks run in reverse order of registration, before ``atexit``; registered
+    # after dm_control's executor module is imported, this one runs before its thread pools stop.
+    global _EXIT_HOOK_REGISTERED
+    register = getattr(threading, "_register_atexit", None)
+    if not _EXIT_HOOK_REGISTERED and register is not None:
+        register(_free_rendering_at_exit)
+        _EXIT_HOOK_REGISTERED = True
+
+
 class VesselPhysics(mjcf.Physics):
     """dm_control Physics stepping mjasc's vessels: hydrodynamics, propellers, current, traffic."""
 
     _world: World | None = None
     _sim: Simulation | None = None
+
+    def _make_rendering_contexts(self):
+        """dm_control's contexts, freed at interpreter exit if the environment was never closed."""
+        super()._make_rendering_contexts()
+        _RENDERING.add(self)
+        _register_exit_hook()
 
     # ------------------------------------------------------------------ set-up
     def attach_world(self, world: World, current: CurrentField | None = None) -> None:
