@@ -37,6 +37,11 @@ covariance is taken isotropic, with the larger (radial) variance::
 (≈ (0.26 m)² at 100 m with 0.5° beams, (0.07 m)² at 20 m; tests/test_detection.py checks it
 against the spread of the centres over random geometries).
 
+**Partly hidden objects.** When a return nearer by more than 1 m lies within ``max_gap_beams + 1``
+beams beyond a cluster's edge (or the edge is the end of a partial fan), that edge is not the
+object's: the detection is flagged ``occluded`` and the tracker inflates its variance by the part of
+the track's radius that is not seen, ``(R_track − r̂)²``, and does not shrink the track's radius.
+
 **Extended objects.** A cluster wider than ``max_target_radius_m`` (a quay wall, an island's shore)
 is not a target: it is flagged ``extended`` and its returns go to the static map
 (:mod:`mjasc.static_map`), not to the tracker.
@@ -57,6 +62,7 @@ __all__ = ["DetectionConfig", "Detections", "detect"]
 
 _REFINE = 2  # Gauss–Newton iterations of the centre
 _DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at its first estimate)
+_OCCLUDER_MARGIN_M = 1.0  # a neighbouring return this much nearer hides the cluster's edge
 
 
 @dataclass(frozen=True)
@@ -102,7 +108,9 @@ class Detections:
     centres_m (m, 2) and centres_body (m, 2) [m]; radii_m (m,) [m]; variances_m2 (m,) isotropic
     centre variance σ_c² [m²] (covariances (m, 2, 2) = σ_c² I); n_points (m,); ranges_m (m,) from
     the sensor to the centre; extended (m,) bool (wider than ``max_target_radius_m``);
-    labels (k,) cluster index of each return of the scan, in ``scan.hit_beams`` order (−1: dropped).
+    labels (k,) cluster index of each return of the scan, in ``scan.hit_beams`` order (−1: dropped);
+    occluded (m,) bool: an edge of the object is hidden (by a nearer return beside it, or the end of
+    a partial fan), so its width, radius and centre are biased (the tracker inflates its variance).
     """
 
     time_s: float
@@ -116,6 +124,7 @@ class Detections:
     ranges_m: np.ndarray
     extended: np.ndarray
     labels: np.ndarray
+    occluded: np.ndarray | None = None
 
     def __len__(self) -> int:
         return self.centres_m.shape[0]
@@ -134,7 +143,8 @@ class Detections:
 def _empty(scan: Scan, k: int) -> Detections:
     z2, z1 = np.zeros((0, 2)), np.zeros(0)
     return Detections(scan.time_s, scan.origin_m, scan.heading_rad, z2, z2.copy(), z1, z1.copy(),
-                      np.zeros(0, dtype=int), z1.copy(), np.zeros(0, dtype=bool), np.full(k, -1))
+                      np.zeros(0, dtype=int), z1.copy(), np.zeros(0, dtype=bool), np.full(k, -1),
+                      np.zeros(0, dtype=bool))
 
 
 def detect(scan: Scan, config: DetectionConfig = DetectionConfig(), range_noise_std_m: float = 0.0) -> Detections:
@@ -204,13 +214,35 @@ def detect(scan: Scan, config: DetectionConfig = DetectionConfig(), range_noise_
     radii = np.maximum(r_w, far)
     var = spacing**2 / 12.0 + range_noise_std_m**2 / counts + config.centre_noise_floor_m**2
 
+    occluded = _occluded_edges(scan, beams[order], rho, starts, ends, gap_max)
+
     keep = counts >= config.min_points
     labels = np.full(k, -1)
     new_index = np.cumsum(keep) - 1
     labels[order] = np.where(keep[lab], new_index[lab], -1)
-    centres, radii, var, counts = centres[keep], radii[keep], var[keep], counts[keep]
+    centres, radii, var, counts, occluded = centres[keep], radii[keep], var[keep], counts[keep], occluded[keep]
     rel_c = centres - o
     c, s_ = math.cos(scan.heading_rad), math.sin(scan.heading_rad)
     body = np.stack([c * rel_c[:, 0] + s_ * rel_c[:, 1], -s_ * rel_c[:, 0] + c * rel_c[:, 1]], axis=-1)
     return Detections(scan.time_s, o, scan.heading_rad, centres, body, radii, var, counts,
-                      np.hypot(*rel_c.T), radii > config.max_target_radius_m, labels)
+                      np.hypot(*rel_c.T), radii > config.max_target_radius_m, labels, occluded)
+
+
+def _occluded_edges(scan: Scan, beams, rho, starts, ends, gap_max: int) -> np.ndarray:
+    """(m,) bool: a cluster's first or last return has, within ``gap_max`` beams beyond it, a return
+    nearer by more than ``_OCCLUDER_MARGIN_M`` (something in front hides part of the object), or its
+    edge is the edge of a partial fan."""
+    n = scan.angles_body.size
+    off = np.arange(1, gap_max + 1)
+    occ = np.zeros(starts.size, dtype=bool)
+    for edge, sign in ((starts, -1), (ends, 1)):
+        nb = beams[edge][:, None] + sign * off[None, :]
+        if scan.full_circle:
+            nb %= n
+        else:
+            outside = (nb < 0) | (nb >= n)
+            occ |= outside[:, 0]
+            nb = np.clip(nb, 0, n - 1)
+        nearer = scan.hit[nb] & (scan.ranges[nb] < rho[edge][:, None] - _OCCLUDER_MARGIN_M)
+        occ |= nearer.any(axis=1)
+    return occ

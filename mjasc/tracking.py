@@ -247,12 +247,14 @@ class MultiTargetTracker:
 
     # ------------------------------------------------------------------ association
     def association_costs(self, z: np.ndarray, var: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """(n_tracks, m) squared Mahalanobis distances d²_ij and GNN costs d² + ln det S_ij."""
+        """(n_tracks, m) squared Mahalanobis distances d²_ij and GNN costs d² + ln det S_ij for
+        detections z (m, 2) with isotropic variances var (m,) or (n_tracks, m)."""
         zhat, S = self.bank.predicted_measurements(t_s)
         S = S - self._R * np.eye(2)
-        a = S[:, 0, 0, None] + var[None, :]
+        var = np.broadcast_to(var, (S.shape[0], z.shape[0]))
+        a = S[:, 0, 0, None] + var
         b = S[:, 0, 1, None]
-        d = S[:, 1, 1, None] + var[None, :]
+        d = S[:, 1, 1, None] + var
         det = a * d - b * b
         y = z[None, :, :] - zhat[:, None, :]
         y0, y1 = y[..., 0], y[..., 1]
@@ -273,19 +275,25 @@ class MultiTargetTracker:
             z = np.zeros((0, 2))
             var = rad = np.zeros(0)
             idx = np.zeros(0, dtype=int)
+            occ = np.zeros(0, dtype=bool)
         else:
             sel = detections.targets if use is None else np.asarray(use, dtype=bool)
             idx = np.flatnonzero(sel)
             z = detections.centres_m[idx]
             var = detections.variances_m2[idx] if cfg.use_detection_variance else np.full(idx.size, self._R)
             rad = detections.radii_m[idx]
+            occ = detections.occluded[idx] if detections.occluded is not None else np.zeros(idx.size, bool)
         m = z.shape[0]
         self.counts["detections"] += m
         n = len(self.bank)
         assigned_det = np.full(n, -1)
         claimed = np.zeros(m, dtype=bool)
+        var_ij = np.zeros((n, m))
         if n and m:
-            d2, cost = self.association_costs(z, var, t_s)
+            # a partly hidden object shows less than its width: its centre is off by up to the
+            # unseen part of the track's radius
+            var_ij = var[None, :] + occ[None, :] * np.maximum(self._radius[:, None] - rad[None, :], 0.0) ** 2
+            d2, cost = self.association_costs(z, var_ij, t_s)
             inside = d2 <= self._gate
             if inside.any():
                 rows, cols = linear_sum_assignment(np.where(inside, cost, _BIG))
@@ -298,10 +306,10 @@ class MultiTargetTracker:
             zr = np.full((n, 2), np.nan)
             vr = np.full(n, self._R)
             zr[meas] = z[assigned_det[meas]]
-            vr[meas] = var[assigned_det[meas]]
+            vr[meas] = var_ij[meas, assigned_det[meas]]
             used = self.bank.update(zr, t_s, meas, vr if cfg.use_detection_variance else None)
             self.counts["associated"] += int(used.sum())
-            self._after_update(t_s, used, assigned_det, rad)
+            self._after_update(t_s, used, assigned_det, rad, occ)
             ids = self.bank.track_ids
             self.last_assignment = {int(ids[k]): int(idx[assigned_det[k]]) for k in np.flatnonzero(used)
                                     if assigned_det[k] >= 0}
@@ -335,17 +343,18 @@ class MultiTargetTracker:
         self._radius = np.append(self._radius, radius)
         self._team_of.append(None)
 
-    def _after_update(self, t_s, used, assigned_det, rad) -> None:
+    def _after_update(self, t_s, used, assigned_det, rad, occ) -> None:
         cfg = self.config
         self._hist = ((self._hist << 1) | used) & self._window_mask
         self._scans += 1
         self._n_upd += used
         self._last = np.where(used, t_s, self._last)
-        if used.any():
-            r_new = rad[assigned_det[used]]
-            r_old = self._radius[used]
+        grow = used & ~occ[np.maximum(assigned_det, 0)] if occ.size else used
+        if grow.any():
+            r_new = rad[assigned_det[grow]]
+            r_old = self._radius[grow]
             gain = np.where(r_new > r_old, cfg.radius_grow_gain, cfg.radius_shrink_gain)
-            self._radius[used] = r_old + gain * (r_new - r_old)
+            self._radius[grow] = r_old + gain * (r_new - r_old)
         new_conf = ~self._confirmed & (self._popcount[self._hist] >= cfg.confirm_hits)
         ids = self.bank.track_ids
         for k in np.flatnonzero(new_conf):
