@@ -27,7 +27,7 @@ from dm_control.rl import control
 
 from ..currents import CurrentField, UniformCurrent
 from ..frames import wrap_angle
-from ..obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
+from ..obstacles import PolygonObstacle
 from ..simulation import Simulation
 from ..vessels import load_vessel_type
 from ..world import SENSOR_GEOM_GROUPS, World, build_world

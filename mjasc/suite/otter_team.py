@@ -26,7 +26,6 @@ import numpy as np
 from dm_control.rl import control
 from dm_control.utils import containers, rewards
 
-from ..frames import wrap_angle
 from ..paths import Path
 from .common import CONTROL_TIMESTEP_S, Environment, VesselPhysics, compose_world, world_to_body
 from .otter import EASY, HARD, OWN_STATE_OBSERVATIONS, XML_PATH, Difficulty, _random_current, _vec, _VesselTask
