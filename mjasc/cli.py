@@ -4,6 +4,7 @@
     mjasc list
     mjasc trial speed|turning-circle|zigzag|stopping --vessel NAME [--port F] [--starboard F] [--json]
     mjasc figures [--out DIR]
+    mjasc render DOMAIN TASK [--policy random|baseline] [--seed N] [--out DIR]   (dm_control suite)
 """
 
 from __future__ import annotations
@@ -93,6 +94,40 @@ def _cmd_figures(args) -> int:
     return 0
 
 
+def _cmd_campaign(args) -> int:
+    from .campaign import format_aggregate, run_campaign
+    from .randomization import CampaignError, load_campaign
+
+    try:
+        campaign = load_campaign(args.campaign).with_overrides(runs=args.runs)
+    except CampaignError as exc:
+        print(f"mjasc: invalid campaign: {exc}", file=sys.stderr)
+        return 2
+    out = Path(args.out) if args.out else Path("runs") / "campaigns" / campaign.name
+    try:
+        result = run_campaign(campaign, out, scheduler=args.scheduler, workers=args.workers,
+                              progress=args.progress and sys.stderr.isatty())
+    except (ValueError, RuntimeError, OSError) as exc:
+        print(f"mjasc: campaign failed: {exc}", file=sys.stderr)
+        return 1
+    print(format_aggregate(result.aggregate, campaign.name))
+    for kind, path in result.files.items():
+        print(f"  {kind}: {path}")
+    return 0
+
+
+def _cmd_render(args) -> int:
+    from .suite_render import render_episode
+
+    try:
+        result = render_episode(args.domain, args.task, policy=args.policy, out_dir=args.out, seed=args.seed)
+    except ValueError as exc:
+        print(f"mjasc: {exc}", file=sys.stderr)
+        return 2
+    print(result)
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="mjasc", description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="command", required=True)
@@ -116,6 +151,21 @@ def build_parser() -> argparse.ArgumentParser:
     f = sub.add_parser("figures", help="make the thesis-style figures (PNG)")
     f.add_argument("--out", default="runs/figures")
     f.set_defaults(func=_cmd_figures)
+    c = sub.add_parser("campaign", help="Monte Carlo campaign: many randomized runs on Dask (docs/campaigns.md)")
+    c.add_argument("campaign", help="path to a campaign TOML file (see docs/campaigns.md)")
+    c.add_argument("--out", help="output folder (default: runs/campaigns/<campaign name>)")
+    c.add_argument("--workers", type=int, help="local worker processes (default: CPU count; 0: in this process)")
+    c.add_argument("--scheduler", help="address of an existing Dask scheduler (tcp://host:8786), or 'synchronous'")
+    c.add_argument("--runs", type=int, help="override the number of runs")
+    c.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
+    c.set_defaults(func=_cmd_campaign)
+    rd = sub.add_parser("render", help="render one episode of a dm_control suite task to MP4 + Rerun")
+    rd.add_argument("domain")
+    rd.add_argument("task")
+    rd.add_argument("--policy", default="random", choices=["random", "baseline"])
+    rd.add_argument("--seed", type=int, default=0)
+    rd.add_argument("--out", default="runs/render")
+    rd.set_defaults(func=_cmd_render)
     return p
 
 
