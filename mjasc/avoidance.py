@@ -41,7 +41,7 @@ World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import numpy as np
@@ -86,6 +86,13 @@ class AvoidanceConfig:
     route enter the field), max_panel_length_m. track_deviation_m: predict again at once when a
     track (e.g. a team mate that re-planned) is this far from where the last prediction put it, or
     when the mission speed (with the coordination factor) changed by more than speed_change_m_s.
+    static_speed_m_s: tracks estimated slower than this are taken as static (a moored boat's IMM
+    speed is noise around zero; predicting it forward would sweep it about). replan_margin_m: the
+    SVOs handed to the planner are grown by this much, so that the detour, followed with some
+    cross-track error, is not itself flagged by the next prediction (hysteresis against re-plan churn).
+    last_resort_s: a stand-on vessel acts too when the collision is this close in time (COLREG
+    rule 17: the give-way vessel's view of the conflict may differ, or it may be unable to act).
+    When no action is possible at all, the vessel slows to speed_min (an emergency yield).
     """
 
     enabled: bool = True
@@ -111,6 +118,9 @@ class AvoidanceConfig:
     max_panel_length_m: float = 3.0
     track_deviation_m: float = 5.0
     speed_change_m_s: float = 0.2
+    static_speed_m_s: float = 0.15
+    replan_margin_m: float = 1.0
+    last_resort_s: float = 10.0
 
     def __post_init__(self):
         def check(name, lo=0.0, strict=True, none_ok=False, hi=None):
@@ -147,6 +157,9 @@ class AvoidanceConfig:
         check("max_panel_length_m")
         check("track_deviation_m")
         check("speed_change_m_s")
+        check("static_speed_m_s", strict=False)
+        check("replan_margin_m", strict=False)
+        check("last_resort_s", strict=False)
         if self.speed_max_m_s is not None and self.speed_max_m_s <= self.speed_min_m_s:
             raise ValueError(f"speed_max_m_s: must exceed speed_min_m_s ({self.speed_min_m_s}), got {self.speed_max_m_s}")
 
@@ -296,7 +309,7 @@ class CollisionAvoidance:
         self.mode_time_s = {m: 0.0 for m in MODES}
         self.stats = {"predictions": 0, "predicted_conflicts": 0, "static_conflicts": 0, "yield": 0, "pass": 0,
                       "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
-                      "deviation_predictions": 0}
+                      "deviation_predictions": 0, "emergency": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
         self._conflict_keys: set = set()
@@ -348,6 +361,9 @@ class CollisionAvoidance:
             return []
         t = float(t)
         tracks = [tr for tr in tracks if tr.team_member != self.name]
+        v_static = self.config.static_speed_m_s
+        tracks = [replace(tr, is_static=True, speed_m_s=0.0, turn_rate_rad_s=0.0)
+                  if (not tr.is_static and tr.speed_m_s < v_static) else tr for tr in tracks]
         self._known_track_ids |= {tr.track_id for tr in tracks}
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
         self._last_predict_t = t
@@ -452,20 +468,24 @@ class CollisionAvoidance:
         cfg = self.config
         svos: list[tuple[np.ndarray, PredictedConflict | StaticConflict]] = []
         candidates: list[_Correction] = []
+        unresolved: list[PredictedConflict] = []
         for c in conflicts:
             track = by_id.get(c.track_id)
             is_team = track is not None and track.team_member in self.team and not c.is_static
             if c.decision == Decision.REPLAN and not is_team:
                 svos.append((c.svo_polygon, c))
                 continue
-            if is_team and not gives_way(nav.position_m, nav.heading_rad, track.position_m, track.heading_rad, True):
+            if is_team and c.t_closest_s - t > cfg.last_resort_s and \
+                    not gives_way(nav.position_m, nav.heading_rad, track.position_m, track.heading_rad, True):
                 self.stats["stand_on"] += 1
                 self._event(t, f"stand-on vessel towards team mate {track.team_member}: keeps its speed")
                 continue
             corr = self._velocity_correction(t, gamma, c)
             if corr is not None:
                 candidates.append(corr)
-            elif track is not None:  # neither slowing down nor speeding up works: go around
+            else:
+                unresolved.append(c)
+            if corr is None and track is not None:  # neither slowing down nor speeding up works: go around
                 r_col = c.collision_distance_m
                 t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
                 svos.append((swept_disc_polygon(track, max(c.t_i, t), max(t_f, t + 1.0), r_col), c))
@@ -478,6 +498,14 @@ class CollisionAvoidance:
                 tracks = list(by_id.values())
                 self.predict(t, nav, tracks, static_polygons, _after_replan=True)
                 return
+        if not candidates and unresolved and (self.correction is None or self.correction.kind != "yield"):
+            c = unresolved[0]
+            hold = float(np.clip((c.t_f if np.isfinite(c.t_f) else c.t_i) - t, 5.0, 30.0))
+            vmin = cfg.speed_min_m_s
+            law = VelocityCorrection(gamma, t, gamma + vmin * hold, t + hold, cfg.gain_k, vmin, self.speed_max_m_s)
+            candidates.append(_Correction(law, "yield", c.track_id))
+            self.stats["emergency"] += 1
+            self._event(t, f"no manoeuvre clears track {c.track_id}: emergency slow-down to {vmin:g} m/s")
         if candidates:
             yields = [c for c in candidates if c.kind == "yield"]
             chosen = min(yields, key=lambda c: c.law.desired_speed) if yields else \
@@ -510,6 +538,19 @@ class CollisionAvoidance:
         return None
 
     # ------------------------------------------------------------------ re-planning
+    @staticmethod
+    def _shrink_to_exclude(poly, point, margin_m: float = 0.5):
+        """``poly`` scaled about its vertex centroid so that ``point`` lies ``margin_m`` outside."""
+        poly = np.asarray(poly, dtype=float)
+        c = poly.mean(axis=0)
+        lo, hi = 0.0, 1.0
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            q = c + mid * (poly - c)
+            ok = not point_in_polygon(point[None], q)[0] and distance_to_polygon(point[None], q)[0] >= margin_m
+            lo, hi = (mid, hi) if ok else (lo, mid)
+        return c + max(lo, 0.05) * (poly - c)
+
     def _svo_clear_of(self, start, track, c, t):
         """The swept area cut short where the obstacle's disc would reach the vessel's present
         position (a head-on obstacle sweeps over the vessel's own place; by then the vessel has
@@ -553,6 +594,13 @@ class CollisionAvoidance:
                 if poly is None:
                     self._fail(t, f"track {c.track_id} is already at the vessel")
                     return False
+            if cfg.replan_margin_m > 0:
+                try:
+                    grown = inflate_polygon(clean_polygon(poly, "svo"), cfg.replan_margin_m)
+                    if not point_in_polygon(start[None], grown)[0]:
+                        poly = grown
+                except ValueError:
+                    pass
             obstacles.append(poly)
         statics_near = self._statics_near(start, mission, g_now_m, g_end + cfg.goal_margin_m + 20.0, static_polygons)
         try:
@@ -561,9 +609,14 @@ class CollisionAvoidance:
             self._fail(t, f"static polygon unusable: {exc}")
             return False
         obstacles = merge_overlapping(obstacles, clearance_m=0.5)
-        inside = [k for k, p in enumerate(obstacles) if point_in_polygon(start[None], p)[0]]
-        if inside:
-            self._fail(t, "the vessel is already inside an obstacle's safety region")
+        for k, p in enumerate(obstacles):  # inside a safety region: shrink it to just exclude the vessel
+            if point_in_polygon(start[None], p)[0]:
+                obstacles[k] = self._shrink_to_exclude(p, start)
+                self._event(t, "the vessel is inside an obstacle's safety region: that region is shrunk to "
+                               "leave it outside")
+        obstacles = merge_overlapping(obstacles, clearance_m=0.5)
+        if any(point_in_polygon(start[None], p)[0] for p in obstacles):
+            self._fail(t, "the vessel is inside an obstacle's safety region")
             return False
         # Goal: on the mission path beyond the obstruction, clear of every obstacle.
         g_goal = min(g_end + cfg.goal_margin_m, mission.length)
@@ -729,7 +782,8 @@ class CollisionAvoidance:
             "predictions_on_track_deviation": self.stats["deviation_predictions"],
             "predicted_conflicts": self.stats["predicted_conflicts"],
             "static_conflicts": self.stats["static_conflicts"],
-            "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "replan_failed")},
+            "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "replan_failed",
+                                                          "emergency")},
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
             "min_predicted_distance_m": round(self.min_predicted_distance_m, 3)
