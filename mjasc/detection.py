@@ -9,7 +9,11 @@ order; consecutive returns i, j (beams b_i < b_j) belong to the same object when
 
 (``cluster_distance_m`` = d₀, ``cluster_range_factor`` = λ; ρ range, Δθ beam spacing): the
 threshold grows with range like the spacing between beams. A 360° fan closes on itself (the last and
-first returns are neighbours). Empty beams allowed inside a cluster bridge dropouts.
+first returns are neighbours). Empty beams allowed inside a cluster bridge dropouts. Beams that
+graze a wall spread their returns along it far beyond that threshold: a step between neighbouring
+beams (≤ 50 m) that continues a straight line through the previous or next return (within 2° plus
+the range noise) does not break the cluster, so a wall seen at grazing incidence stays one
+(extended) object instead of single returns sliding along it like fast small targets.
 
 **Centre and radius** (each object is taken as a disc, as the thesis's collision prediction does).
 With the extreme returns p_f, p_l of a cluster (chord width w = ‖p_l − p_f‖), its mean range ρ̄ and
@@ -63,6 +67,8 @@ __all__ = ["DetectionConfig", "Detections", "detect"]
 _REFINE = 2  # Gauss–Newton iterations of the centre
 _DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at its first estimate)
 _OCCLUDER_MARGIN_M = 1.0  # a neighbouring return this much nearer hides the cluster's edge
+_WALL_SIN_TOL = 0.035  # 2°: three returns this straight on neighbouring beams are a wall
+_WALL_STEP_MAX_M = 50.0  # longest step along a grazed wall kept in one object
 
 
 @dataclass(frozen=True)
@@ -165,6 +171,8 @@ def detect(scan: Scan, config: DetectionConfig = DetectionConfig(), range_noise_
     step = np.hypot(*(P[nxt] - P).T)
     thr = config.cluster_distance_m + config.cluster_range_factor * np.minimum(rho, rho[nxt]) * gaps * dth
     brk = (gaps > gap_max) | (step > thr)
+    if k >= 3 and brk.any():
+        brk &= ~_wall_continues(P, gaps, step, nxt, range_noise_std_m)
     if not scan.full_circle or k == 1:
         brk[-1] = True
     if brk.any():
@@ -226,6 +234,21 @@ def detect(scan: Scan, config: DetectionConfig = DetectionConfig(), range_noise_
     body = np.stack([c * rel_c[:, 0] + s_ * rel_c[:, 1], -s_ * rel_c[:, 0] + c * rel_c[:, 1]], axis=-1)
     return Detections(scan.time_s, o, scan.heading_rad, centres, body, radii, var, counts,
                       np.hypot(*rel_c.T), radii > config.max_target_radius_m, labels, occluded)
+
+
+def _wall_continues(P, gaps, step, nxt, sigma) -> np.ndarray:
+    """(k,) bool: the step from return i to i + 1 (neighbouring beams, at most ``_WALL_STEP_MAX_M``)
+    continues the straight line through i − 1, i, or through i + 1, i + 2 (within the noise): the
+    beams graze a wall, whose returns spread out along it; they stay one object."""
+    prv = np.roll(nxt, 2)  # i − 1 (nxt is a cyclic shift by one)
+    seg = P[nxt] - P  # i → i + 1
+    length = np.maximum(step, 1e-9)
+    unit = seg / length[:, None]
+    tol = np.minimum(1.0, 3.0 * sigma * (1.0 / length + 1.0 / length[prv])) + _WALL_SIN_TOL
+    cross_back = np.abs(unit[prv, 0] * unit[:, 1] - unit[prv, 1] * unit[:, 0])
+    back = (gaps == 1) & (gaps[prv] == 1) & (np.einsum("ij,ij->i", unit[prv], unit) > 0) & (cross_back < tol)
+    fwd = np.roll(back, -1)  # the step i+1 → i+2 continues i → i+1
+    return (back | fwd) & (gaps == 1) & (step <= _WALL_STEP_MAX_M)
 
 
 def _occluded_edges(scan: Scan, beams, rho, starts, ends, gap_max: int) -> np.ndarray:

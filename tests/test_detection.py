@@ -101,3 +101,19 @@ def test_empty_scan_and_config_validation():
                     ({"max_target_radius_m": 0.1}, "max_target_radius_m")]:
         with pytest.raises(ValueError, match=rf"^detection\.{key}:"):
             DetectionConfig(**kw)
+
+
+def test_a_wall_seen_at_grazing_incidence_stays_one_extended_object():
+    """A 180 m quay wall 5 m to port runs ahead: far along it the beams graze (returns metres
+    apart, far beyond the breakpoint distance); they stay in the wall's extended cluster instead of
+    becoming single-return 'targets' that slide along the wall as the vessel moves."""
+    wall = PolygonObstacle("quay", np.array([[10.0, 5.0], [190.0, 5.0], [190.0, 8.0], [10.0, 8.0]]))
+    cfg = SensorConfig(range_noise_std_m=0.05, dropout_probability=0.0, clutter_per_scan=0.0)
+    w, s = make(statics=[wall], config=cfg)
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        scan = s.scan(w.data, rng)
+        det = detect(scan, range_noise_std_m=0.05)
+        far = scan.hit_points_world[:, 0] > 30.0
+        assert far.sum() > 5
+        assert np.all(det.extended[det.labels[far]]), det.radii_m
