@@ -107,8 +107,3 @@ class StaticMap:
         self._split(comp[left], depth + 1, out)
         self._split(comp[~left], depth + 1, out)
 
-
-def polygon_area(v: np.ndarray) -> float:
-    x, y = v[:, 0], v[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
-
