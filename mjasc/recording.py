@@ -34,9 +34,10 @@ def vessel_colour(i: int) -> tuple[int, int, int]:
     return PALETTE[i % len(PALETTE)]
 
 
-def default_blueprint(extent_m: float = 200.0, plots: tuple[str, ...] = ("speed", "thrust", "cross_track")) -> rrb.Blueprint:
-    """Top-down world view on the left; speed, thrust and cross-track time series and the event
-    log on the right."""
+def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), perception: bool = False,
+                      avoidance: bool = False, coordination: bool = False) -> rrb.Blueprint:
+    """Top-down world view on the left; on the right tabs of time series (speed, thrust,
+    cross-track, and the plots of whichever onboard components the run has) above the event log."""
     top = rrb.Spatial3DView(
         origin="world",
         name="Top-down (ENU, y north up)",
@@ -44,11 +45,24 @@ def default_blueprint(extent_m: float = 200.0, plots: tuple[str, ...] = ("speed"
                                         eye_up=(0.0, 1.0, 0.0)),
         line_grid=rrb.LineGrid3D(visible=True, spacing=10.0, plane=rr.components.Plane3D.XY),
     )
-    series = [rrb.TimeSeriesView(origin=f"plots/{p}", name=p.replace("_", " ")) for p in plots]
+    tabs = [rrb.TimeSeriesView(origin="plots/speed", name="speed [m/s]"),
+            rrb.TimeSeriesView(origin="plots/cross_track", name="cross-track [m]"),
+            rrb.TimeSeriesView(origin="plots/thrust", name="thrust [N]"),
+            rrb.TimeSeriesView(origin="plots/heading", name="heading [deg]")]
+    if avoidance:
+        tabs.append(rrb.TimeSeriesView(origin="plots/mode", name="avoidance mode"))
+        tabs.append(rrb.TimeSeriesView(origin="plots/gamma", name="virtual target γ [m]"))
+    if coordination:
+        for quantity, title in (("spread_m", "formation spread [m]"), ("speed_factor", "coordination speed factor"),
+                                ("gamma_normalized", "γ/L")):
+            tabs.append(rrb.TimeSeriesView(origin="plots/coordination", name=title,
+                                           contents=[f"plots/coordination/{v}/{quantity}" for v in vessels]))
+    if perception:
+        tabs.append(rrb.TimeSeriesView(origin="plots/tracking", name="tracks: ω̂, V̂, mode probabilities"))
     return rrb.Blueprint(
         rrb.Horizontal(
             top,
-            rrb.Vertical(*series, rrb.TextLogView(origin="events", name="events")),
+            rrb.Vertical(rrb.Tabs(*tabs), rrb.TextLogView(origin="events", name="events"), row_shares=[3, 2]),
             column_shares=[3, 2],
         ),
         rrb.TimePanel(state="collapsed"),

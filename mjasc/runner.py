@@ -234,8 +234,12 @@ class Runner:
         if self.out_dir is not None and sc.outputs.recording:
             lo, hi = self.extent()
             files["recording"] = self.out_dir / "recording.rrd"
-            self.recorder = Recorder(files["recording"], sc.name, sc.seed,
-                                     default_blueprint(extent_m=float(np.max(hi - lo))))
+            bp = default_blueprint(
+                extent_m=float(np.max(hi - lo)), vessels=tuple(a.name for a in self.agents),
+                perception=any(a.perception is not None for a in self.agents),
+                avoidance=any(a.avoidance is not None for a in self.agents),
+                coordination=any(a.coordination is not None for a in self.agents))
+            self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp)
             self._log_static_scene()
             self.recorder.event(0.0, f"scenario {sc.name!r} seed {sc.seed}: {len(sc.vessels)} vessel(s), "
                                      f"{len(sc.static_obstacles)} static and {len(sc.moving_obstacles)} moving obstacle(s)")

@@ -86,7 +86,7 @@ class Scenario:
     moving_obstacles: tuple[MovingObstacle, ...]
     source: str = ""
     raw: dict = field(default_factory=dict)
-    comms: Any = None  # network config (coordination.parse_network_options) or None
+    comms: Any = None  # network config (comms.parse_network_options) or None
 
     def with_overrides(self, seed: int | None = None, video: bool | None = None, duration_s: float | None = None) -> "Scenario":
         from dataclasses import replace
@@ -258,6 +258,9 @@ def _vessel(t: Any, i: int) -> VesselConfig:
     path, commands = None, (0.0, 0.0)
     cruise = vt.cruise_speed_m_s
     options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}
+    if "avoidance" in options and "sensor" not in options:
+        raise ScenarioError(f"{where}.avoidance: needs a [vessels.sensor] table — a vessel avoids only what its "
+                            "own sensor sees")
     if ctype == "path_following":
         if "waypoints" not in ctrl:
             raise ScenarioError(f"{where}.controller.waypoints: missing (path_following needs a path)")

@@ -1,0 +1,26 @@
+"""``mjasc figures``: every thesis-style figure the project makes, written as PNG files.
+
+* tracking (thesis Fig. 6.1–6.2): true vs estimated speed, turn rate and heading — tracking_figures
+* potential fields (Fig. 6.3–6.4): the dock safety-ratio sweep and the field's gradient — potential_field_figures
+* collision avoidance (§6.3–6.4): top-down runs with predicted conflicts and detours — avoidance_figures
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+__all__ = ["make_all_figures"]
+
+
+def make_all_figures(out_dir: str | Path) -> list[Path]:
+    from .avoidance_figures import make_avoidance_figures
+    from .potential_field_figures import make_figures as make_potential_field_figures
+    from .tracking_figures import make_tracking_figures
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths: list[Path] = []
+    paths += make_tracking_figures(out / "tracking")
+    paths += make_potential_field_figures(out / "potential_field")
+    paths += make_avoidance_figures(out / "avoidance")
+    return paths
