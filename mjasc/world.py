@@ -86,10 +86,11 @@ def _add_polygon(root: mjcf.RootElement, obstacle: PolygonObstacle) -> None:
         if length < 1e-9:
             raise ValueError(f"{obstacle.name}.vertices[{k}]: repeats the next vertex")
         mid = 0.5 * (a + b)
-        # Push the wall half its thickness outward so its outer face lies on the polygon edge
-        # (counter-clockwise polygon: outward normal is the edge direction turned clockwise).
+        # Pull the wall half its thickness inward so its outer face lies on the polygon edge: the
+        # obstacle is exactly the declared polygon (counter-clockwise polygon: the outward normal
+        # is the edge direction turned clockwise).
         n_out = np.array([d[1], -d[0]]) / length
-        centre = mid + 0.5 * WALL_THICKNESS_M * n_out
+        centre = mid - 0.5 * WALL_THICKNESS_M * n_out
         body.add(
             "geom",
             name=f"obstacle_{obstacle.name}_wall{k}",

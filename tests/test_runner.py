@@ -111,3 +111,19 @@ def test_collisions_are_detected(tmp_path):
     assert result.summary["any_collision"] is True
     assert result.summary["collisions"][0]["between"] == ["alpha", "bravo"]
     assert result.summary["vessels"]["alpha"]["min_clearance_m"]["bravo"] < 0.1
+
+
+def test_polygon_walls_lie_inside_the_declared_outline():
+    """A ray cast toward a polygon obstacle hits its declared edge, not 0.4 m before it."""
+    import mujoco
+
+    from mjasc.obstacles import PolygonObstacle
+    from mjasc.vessels import load_vessel_type
+    from mjasc.world import SENSOR_GEOM_GROUPS, build_world
+
+    world = build_world([("v", load_vessel_type("otter"))], [PolygonObstacle("box", [[20, -5], [30, -5], [30, 5], [20, 5]])])
+    mujoco.mj_forward(world.model, world.data)
+    geomid = np.zeros(1, dtype=np.int32)
+    dist = mujoco.mj_ray(world.model, world.data, np.array([0.0, 0.0, 0.1]), np.array([1.0, 0.0, 0.0]),
+                         SENSOR_GEOM_GROUPS, 1, int(world.hull_body_id[0]), geomid)
+    assert dist == pytest.approx(20.0, abs=1e-6)
