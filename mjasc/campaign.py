@@ -42,13 +42,14 @@ from .randomization import Campaign, Randomization, draw_perturbations, randomiz
 from .scenario import Scenario
 
 __all__ = ["CampaignResult", "run_campaign", "run_one", "wilson_interval", "aggregate_rows",
-           "format_aggregate", "TIMING_KEYS", "without_timing"]
+           "format_aggregate", "TIMING_KEYS", "is_timing_key", "without_timing"]
 
 #: z for a two-sided 95 % interval.
 Z95 = 1.959963984540054
-#: Fields of a row (and of its run summary) that depend on the machine, not on the run.
-TIMING_KEYS = frozenset({"wall_time_s", "real_time_factor", "worker", "run_wall_time_s",
-                         "throughput_runs_per_hour", "startup_s"})
+#: Fields of a row (and of its run summary) that depend on the machine, not on the run; besides
+#: these, every key ending in ``_us`` (components report their wall-clock cost in microseconds).
+TIMING_KEYS = frozenset({"wall_time_s", "cpu_time_s", "real_time_factor", "worker", "run_wall_time_s",
+                         "run_cpu_time_s", "throughput_runs_per_hour", "startup_s"})
 QUANTILES = (0.0, 0.05, 0.25, 0.5, 0.75, 0.95, 1.0)
 
 
@@ -58,6 +59,7 @@ class CampaignResult:
     rows: list[dict]  # one per run, sorted by k
     aggregate: dict
     files: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)  # scheduler, address, workers, startup_s
 
 
 # ---------------------------------------------------------------------- one run (a task)
@@ -84,7 +86,7 @@ def run_one(scenario: Scenario, randomize: Randomization, base_seed: int, k: int
     ``run_fn`` replaces :func:`mjasc.runner.run_scenario` (same signature) — a test hook."""
     if run_fn is None:
         from .runner import run_scenario as run_fn
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.thread_time()
     row: dict[str, Any] = {"k": int(k), "seed": base_seed + int(k), "status": "completed", "error": None}
     try:
         sc = randomized_scenario(scenario, randomize, k, base_seed=base_seed)
@@ -99,14 +101,21 @@ def run_one(scenario: Scenario, randomize: Randomization, base_seed: int, k: int
         row["error"] = f"{type(exc).__name__}: {exc}"
         row["summary"] = None
     row["wall_time_s"] = round(time.perf_counter() - t0, 3)
+    row["cpu_time_s"] = round(time.thread_time() - c0, 3)  # this thread's CPU time: wall minus waiting for a core
     row["worker"] = f"{os.uname().nodename}:{os.getpid()}"
     return row
 
 
+def is_timing_key(key: str) -> bool:
+    """True for a machine-dependent field: one of :data:`TIMING_KEYS` or a ``*_us`` wall-clock cost."""
+    return key in TIMING_KEYS or key.endswith("_us")
+
+
 def without_timing(obj: Any) -> Any:
-    """A row (or any nested dict) without the machine-dependent fields of :data:`TIMING_KEYS`."""
+    """A row (or any nested dict) without its machine-dependent fields (:func:`is_timing_key`):
+    what must be identical whatever the workers, their number and the completion order."""
     if isinstance(obj, dict):
-        return {k: without_timing(v) for k, v in obj.items() if k not in TIMING_KEYS}
+        return {k: without_timing(v) for k, v in obj.items() if not is_timing_key(k)}
     if isinstance(obj, list):
         return [without_timing(v) for v in obj]
     return obj
@@ -174,6 +183,7 @@ def aggregate_rows(rows: list[dict], wall_time_s: float | None = None) -> dict:
         pv["min_clearance_m"] = _quantiles(pv.pop("_clear"))
         pv["mean_cross_track_m"] = _quantiles(pv.pop("_xte"))
     run_walls = [r["wall_time_s"] for r in rows if r.get("wall_time_s") is not None]
+    run_cpus = [r["cpu_time_s"] for r in rows if r.get("cpu_time_s") is not None]
     sim_total = sum(m["sim_time_s"] or 0.0 for m in metrics)
     agg = {
         "runs": len(rows),
@@ -191,6 +201,8 @@ def aggregate_rows(rows: list[dict], wall_time_s: float | None = None) -> dict:
         "run_wall_time_s": {"sum": round(sum(run_walls), 3),
                             "mean": round(float(np.mean(run_walls)), 3) if run_walls else None,
                             "max": round(max(run_walls), 3) if run_walls else None},
+        "run_cpu_time_s": {"sum": round(sum(run_cpus), 3),
+                           "mean": round(float(np.mean(run_cpus)), 3) if run_cpus else None},
     }
     if wall_time_s is not None:
         agg["wall_time_s"] = round(wall_time_s, 3)
@@ -202,11 +214,12 @@ def aggregate_rows(rows: list[dict], wall_time_s: float | None = None) -> dict:
 # ---------------------------------------------------------------------- outputs
 def _csv_rows(rows: list[dict]) -> tuple[list[str], list[dict]]:
     header = ["k", "seed", "status", "any_collision", "collisions", "min_clearance_m", "mean_cross_track_m",
-              "max_cross_track_m", "sim_time_s", "wall_time_s"]
+              "max_cross_track_m", "sim_time_s", "wall_time_s", "cpu_time_s"]
     extra: list[str] = []
     lines = []
     for r in rows:
-        line = {"k": r["k"], "seed": r["seed"], "status": r["status"], "wall_time_s": r.get("wall_time_s")}
+        line = {"k": r["k"], "seed": r["seed"], "status": r["status"], "wall_time_s": r.get("wall_time_s"),
+                "cpu_time_s": r.get("cpu_time_s")}
         if r["status"] == "completed":
             line.update(_run_metrics(r))
             for name, v in r["summary"]["vessels"].items():
@@ -258,7 +271,8 @@ def format_aggregate(agg: dict, name: str = "") -> str:
     def q(d, unit):
         if not d:
             return "—"
-        return f"p5 {d['p5']:.2f} / median {d['p50']:.2f} / p95 {d['p95']:.2f} / min {d['p0']:.2f} / max {d['p100']:.2f} {unit}"
+        return (f"p5 {d['p5']:.2f} / median {d['p50']:.2f} / p95 {d['p95']:.2f} / "
+                f"min {d['p0']:.2f} / max {d['p100']:.2f} {unit}")
 
     c = agg["collision"]
     lines = [f"{name}: {agg['runs']} run(s), {agg['completed']} completed, {agg['failed']} failed"]
@@ -359,7 +373,8 @@ def run_campaign(campaign: Campaign, out_dir: str | Path, scheduler=None, worker
                 except Exception as exc:  # noqa: BLE001
                     raise RuntimeError(f"the Dask workers cannot import mjasc ({type(exc).__name__}: {exc}); "
                                        f"install mjasc on every worker") from None
-                kind = "local" if scheduler in (None, "local") else scheduler if isinstance(scheduler, str) else "client"
+                kind = "local" if scheduler in (None, "local") else \
+                    scheduler if isinstance(scheduler, str) else "client"
                 info.update(scheduler=kind, address=client.scheduler.address, workers=len(versions),
                             startup_s=round(time.perf_counter() - t_start, 3))
                 t0 = time.perf_counter()
@@ -389,4 +404,4 @@ def run_campaign(campaign: Campaign, out_dir: str | Path, scheduler=None, worker
     rows.sort(key=lambda r: r["k"])
     aggregate = aggregate_rows(rows, wall)
     files = write_outputs(campaign, rows, aggregate, out_dir, info)
-    return CampaignResult(out_dir, rows, aggregate, files)
+    return CampaignResult(out_dir, rows, aggregate, files, info)
