@@ -15,7 +15,10 @@ Prediction (``predict``, at the prediction rate and at once when a new track app
 current path (a detour while on one) at its speed profile (the virtual target while a velocity
 correction runs, the mission speed after it), against each of its own tracks (never the
 simulator's truth), plus the static polygons its perception reports (checked directly against
-the path ahead). Decision σ (thesis eq. 3.17) per conflict:
+the path ahead). Team mates' tracks are re-based on their own broadcast navigation (position,
+velocity, heading rate over the comms link) when it is fresh: the IMM's ω̂ of a vessel on a straight
+leg wanders enough to predict phantom collisions between parallel lanes. Decision σ (thesis eq.
+3.17) per conflict:
 
 - REPLAN (long obstruction, or a static obstacle): a :class:`~mjasc.potential_field.PotentialField`
   around the static virtual obstacles (SVO: each swept area, already grown by R_vh + safety) and
@@ -58,7 +61,7 @@ from .estimates import TrackEstimate
 from .geometry import distance_to_polygon, point_in_polygon
 from .paths import Path
 from .potential_field import PotentialField, clean_polygon, inflate_polygon
-from .right_of_way import gives_way
+from .right_of_way import gives_way, relative_bearing
 from .velocity_correction import VelocityCorrection
 
 __all__ = ["AvoidanceConfig", "CollisionAvoidance", "StaticConflict", "Detour", "parse_avoidance_options",
@@ -93,6 +96,11 @@ class AvoidanceConfig:
     last_resort_s: a stand-on vessel acts too when the collision is this close in time (COLREG
     rule 17: the give-way vessel's view of the conflict may differ, or it may be unable to act).
     When no action is possible at all, the vessel slows to speed_min (an emergency yield).
+    A stand-on vessel whose team mate is abaft its beam never slows down (that would let the
+    give-way vessel, coming from behind, run into it; COLREG rule 13): at the last resort it may
+    only speed up (pass first). team_broadcast_max_age_s: a team mate's track is predicted from its
+    own broadcast navigation (position, velocity, heading rate from successive headings) when
+    that broadcast is at most this old [s]; 0 → from the IMM track only.
     """
 
     enabled: bool = True
@@ -121,6 +129,7 @@ class AvoidanceConfig:
     static_speed_m_s: float = 0.15
     replan_margin_m: float = 1.0
     last_resort_s: float = 10.0
+    team_broadcast_max_age_s: float = 3.0
 
     def __post_init__(self):
         def check(name, lo=0.0, strict=True, none_ok=False, hi=None):
@@ -136,13 +145,7 @@ class AvoidanceConfig:
         for name in ("enabled", "allow_pass_first"):
             if not isinstance(getattr(self, name), bool):
                 raise ValueError(f"{name}: must be true or false, got {getattr(self, name)!r}")
-        check("window_s", none_ok=True)
-        check("brake_decel_m_s2")
-        check("margin_s", strict=False)
-        check("safety_distance_m", strict=False)
-        check("obstruction_threshold_s")
-        check("time_step_s")
-        check("max_range_m", none_ok=True)
+        self.prediction_config()  # the prediction fields, validated by collision_prediction itself
         check("gain_k")
         check("speed_min_m_s", strict=False)
         check("speed_max_m_s", none_ok=True)
@@ -160,6 +163,7 @@ class AvoidanceConfig:
         check("static_speed_m_s", strict=False)
         check("replan_margin_m", strict=False)
         check("last_resort_s", strict=False)
+        check("team_broadcast_max_age_s", strict=False)
         if self.speed_max_m_s is not None and self.speed_max_m_s <= self.speed_min_m_s:
             raise ValueError(f"speed_max_m_s: must exceed speed_min_m_s ({self.speed_min_m_s}), got {self.speed_max_m_s}")
 
@@ -316,6 +320,8 @@ class CollisionAvoidance:
         self._last: dict | None = None  # what the latest prediction saw, for the recording
         self._log_pending = False
         self._styled = False
+        self._team_nav: dict[str, tuple] = {}  # name → (sent t, position, heading, velocity, ω) from comms
+        self._repredict = False  # the planned motion changed (a correction ended): predict again
 
     # ------------------------------------------------------------------ interface
     def drain_events(self) -> list[tuple[float, str]]:
@@ -352,6 +358,59 @@ class CollisionAvoidance:
 
         return gamma_fn
 
+    # ------------------------------------------------------------------ team mates from comms
+    def _poll_team(self) -> None:
+        """Keep each team mate's newest broadcast navigation (``coordination.neighbours``: position,
+        heading and velocity from the team mate's own navigation, as sent over the comms link) and
+        its heading rate ω from two successive broadcasts [rad/s]."""
+        nbs = getattr(getattr(self.agent, "coordination", None), "neighbours", None)
+        if not nbs:
+            return
+        for name, nb in nbs.items():
+            p = getattr(nb, "payload", None) or {}
+            if name not in self.team or "velocity_m_s" not in p or "position_m" not in p:
+                continue
+            t_b = float(nb.sent_time_s)
+            old = self._team_nav.get(name)
+            if old is not None and t_b <= old[0]:
+                continue
+            h = float(p.get("heading_rad", np.arctan2(p["velocity_m_s"][1], p["velocity_m_s"][0])))
+            w = 0.0
+            if old is not None and 0.0 < t_b - old[0] <= 3.0:
+                w = float(np.angle(np.exp(1j * (h - old[2])))) / (t_b - old[0])
+            self._team_nav[name] = (t_b, np.asarray(p["position_m"], dtype=float)[:2].copy(), h,
+                                    np.asarray(p["velocity_m_s"], dtype=float)[:2].copy(), w)
+
+    def _broadcast_based(self, track, t: float) -> bool:
+        """The track is a team mate predicted from a fresh broadcast (its speed is measured, not
+        IMM noise: a slow team mate is not taken as static)."""
+        nav_b = self._team_nav.get(track.team_member) if track.team_member in self.team else None
+        return nav_b is not None and self.config.team_broadcast_max_age_s > 0.0 and \
+            t - nav_b[0] <= self.config.team_broadcast_max_age_s
+
+    def _team_tracks(self, tracks, t: float) -> list:
+        """Team-mate tracks re-based on the team mate's own broadcast navigation (digest §6: the
+        team exchanges its navigation data over comms): position at the broadcast time, course
+        and speed over ground from its velocity, turn rate from its heading rate. The IMM track's
+        ω̂ of a vessel on a straight leg wanders by ±0.01 rad/s, which over a 30 s window bends
+        the prediction by metres — enough to predict phantom collisions between vessels in
+        parallel lanes 10 m apart, or to miss a real one on a detour. Broadcasts older than
+        ``team_broadcast_max_age_s`` are not used (the IMM track is kept)."""
+        self._poll_team()
+        max_age = self.config.team_broadcast_max_age_s
+        out = []
+        for tr in tracks:
+            nav_b = self._team_nav.get(tr.team_member) if tr.team_member in self.team else None
+            if nav_b is None or max_age <= 0.0 or t - nav_b[0] > max_age:
+                out.append(tr)
+                continue
+            t_b, pos, h, vel, w = nav_b
+            speed = float(np.hypot(*vel))
+            course = float(np.arctan2(vel[1], vel[0])) if speed > 0.05 else h
+            out.append(replace(tr, time_s=t_b, position_m=pos.copy(), heading_rad=course, speed_m_s=speed,
+                               turn_rate_rad_s=w, is_static=False))
+        return out
+
     # ------------------------------------------------------------------ prediction
     def predict(self, t, nav, tracks, static_polygons=(), _after_replan: bool = False) -> list:
         """Predict conflicts with the vessel's tracks and static polygons and act on them.
@@ -360,10 +419,11 @@ class CollisionAvoidance:
         if follower is None:
             return []
         t = float(t)
-        tracks = [tr for tr in tracks if tr.team_member != self.name]
+        tracks = self._team_tracks([tr for tr in tracks if tr.team_member != self.name], t)
         v_static = self.config.static_speed_m_s
         tracks = [replace(tr, is_static=True, speed_m_s=0.0, turn_rate_rad_s=0.0)
-                  if (not tr.is_static and tr.speed_m_s < v_static) else tr for tr in tracks]
+                  if (not tr.is_static and tr.speed_m_s < v_static and not self._broadcast_based(tr, t)) else tr
+                  for tr in tracks]
         self._known_track_ids |= {tr.track_id for tr in tracks}
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
         self._last_predict_t = t
@@ -475,11 +535,22 @@ class CollisionAvoidance:
             if c.decision == Decision.REPLAN and not is_team:
                 svos.append((c.svo_polygon, c))
                 continue
-            if is_team and c.t_closest_s - t > cfg.last_resort_s and \
-                    not gives_way(nav.position_m, nav.heading_rad, track.position_m, track.heading_rad, True):
-                self.stats["stand_on"] += 1
-                self._event(t, f"stand-on vessel towards team mate {track.team_member}: keeps its speed")
-                continue
+            pass_only = False
+            if is_team and not gives_way(nav.position_m, nav.heading_rad, track.position_m, track.heading_rad, True):
+                astern = np.cos(relative_bearing(nav.position_m, nav.heading_rad, track.position_m)) < 0.0
+                if c.t_closest_s - t > cfg.last_resort_s:
+                    self.stats["stand_on"] += 1
+                    self._event(t, f"stand-on vessel towards team mate {track.team_member}: keeps its speed")
+                    continue
+                if astern:  # last resort with the give-way vessel abaft the beam: never slow down
+                    corr = self._velocity_correction(t, gamma, c, pass_only=True)
+                    if corr is not None:
+                        candidates.append(corr)
+                    else:
+                        self.stats["stand_on"] += 1
+                        self._event(t, f"stand-on vessel towards team mate {track.team_member} (abaft the beam): "
+                                       f"keeps its speed")
+                    continue
             corr = self._velocity_correction(t, gamma, c)
             if corr is not None:
                 candidates.append(corr)
@@ -517,11 +588,11 @@ class CollisionAvoidance:
                            f"γ {law.gamma0:.1f} → {law.gamma_goal:.1f} m by t = {law.t_goal:.1f} s, "
                            f"V_d = {law.desired_speed:.2f} m/s, k = {law.gain_k:g}")
 
-    def _velocity_correction(self, t, gamma, c: PredictedConflict) -> _Correction | None:
-        """Yield if possible, else pass first if allowed and feasible, else None."""
+    def _velocity_correction(self, t, gamma, c: PredictedConflict, pass_only: bool = False) -> _Correction | None:
+        """Yield if possible (not when ``pass_only``), else pass first if allowed and feasible, else None."""
         cfg = self.config
         vmin, vmax, k, m = cfg.speed_min_m_s, self.speed_max_m_s, cfg.gain_k, cfg.correction_margin_m
-        if np.isfinite(c.t_f):
+        if np.isfinite(c.t_f) and not pass_only:
             try:
                 law = VelocityCorrection.yield_to(c, gamma, t, k, vmin, vmax, margin_m=m)
                 if law.desired_speed >= vmin - 1e-9:
@@ -732,6 +803,12 @@ class CollisionAvoidance:
                 self.predict(t, nav, tracks, perception.static_polygons())
                 return
 
+    def _repredict_now(self, t, nav) -> None:
+        perception = getattr(self.agent, "perception", None)
+        if perception is not None:
+            self.stats["deviation_predictions"] += 1
+            self.predict(t, nav, perception.tracks(), perception.static_polygons())
+
     def control_refs(self, t, nav) -> tuple[float | None, str]:
         """(speed override [m/s] or None, mode) for this control tick; switches the follower back
         to the mission path when a detour is finished."""
@@ -739,6 +816,7 @@ class CollisionAvoidance:
         follower = self.agent.follower
         if follower is None:
             return None, "mission"
+        self._poll_team()
         self._check_new_tracks(t, nav)
         d = self.detour
         if d is not None and follower.path is d.path and follower.gamma_m >= d.detour_length_m - 0.5:
@@ -757,7 +835,9 @@ class CollisionAvoidance:
             if c.law.finished(t):
                 self._event(t, f"velocity correction ({c.kind}) complete: mission speed resumed")
                 self.correction = None
-            else:
+                self._repredict_now(t, nav)  # the planned motion changed: check it before it is sailed
+                c = self.correction
+            if c is not None and not c.law.finished(t):
                 override = c.law.command(follower.gamma_m + c.gamma_offset_m, t)
         if self.correction is not None:
             mode = f"avoidance:{self.correction.kind}"

@@ -27,6 +27,7 @@ thesis's rule.
 from __future__ import annotations
 
 import enum
+import numbers
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
@@ -101,7 +102,8 @@ class CollisionPredictionConfig:
             v = getattr(self, name)
             if v is None and allow_none:
                 return
-            ok = v is not None and np.isfinite(v) and (v >= 0.0 if allow_zero else v > 0.0)
+            ok = isinstance(v, numbers.Real) and not isinstance(v, bool) and np.isfinite(v) and (
+                v >= 0.0 if allow_zero else v > 0.0)
             if not ok:
                 raise ValueError(f"{name}: must be finite and {'≥' if allow_zero else '>'} 0, got {v}")
 

@@ -65,7 +65,7 @@ def test_scenario_loader_validates_the_avoidance_table():
     from mjasc.scenario import ScenarioError, parse_scenario
 
     doc = {"duration_s": 10.0, "vessels": [{"name": "a", "type": "delfim", "avoidance": {"gain_k": 0.0},
-                                            "controller": {"waypoints": [[0, 0], [10, 0]]}}]}
+                                            "sensor": {}, "controller": {"waypoints": [[0, 0], [10, 0]]}}]}
     with pytest.raises(ScenarioError, match=r"vessels\[0\]\.avoidance\.gain_k"):
         parse_scenario(doc)
     doc["vessels"][0]["avoidance"] = {"gain_k": 1.0}
@@ -243,3 +243,71 @@ def test_merge_overlapping_polygons():
     merged = merge_overlapping([a, b, c])
     assert len(merged) == 2
     assert any(point_in_polygon(np.array([[2.9, 2.9], [0.1, 0.1]]), p).all() for p in merged)
+
+
+# ------------------------------------------------------------------------------------ team mates via comms
+def test_prediction_fields_are_validated_by_collision_prediction():
+    with pytest.raises(ValueError, match=r"^avoidance\.window_s: must be finite and > 0"):
+        parse_avoidance_options({"window_s": -1}, "avoidance")
+    with pytest.raises(ValueError, match=r"^avoidance\.margin_s: must be finite"):
+        parse_avoidance_options({"margin_s": "x"}, "avoidance")
+
+
+def _with_broadcast(ca, name, t_b, pos, heading, vel):
+    nb = SimpleNamespace(sent_time_s=t_b, payload={"position_m": np.array(pos, float), "heading_rad": heading,
+                                                   "velocity_m_s": np.array(vel, float)}, active=True)
+    ca.agent.coordination = SimpleNamespace(neighbours={name: nb}, last_factor=1.0)
+    ca._poll_team()
+
+
+def test_team_mate_in_the_next_lane_is_predicted_from_its_broadcast_not_a_wandering_turn_rate():
+    """b sails parallel to a, 10 m to port. Its IMM track's ω̂ = −0.02 rad/s bends the 30 s
+    prediction 9 m across a's path (a phantom collision); b's own broadcast (heading steady over
+    two messages, velocity east) predicts it straight: no conflict."""
+    track = TrackEstimate(5, 10.0, np.array([10.0, 10.0]), 0.0, 1.0, -0.02, 2.2, team_member="b")
+    ca, agent = make()
+    agent.follower.gamma_m = 10.0
+    assert len(ca.predict(10.0, nav(10.0, 0.0), [track], [])) == 1  # IMM only: phantom conflict
+    ca, agent = make()
+    agent.follower.gamma_m = 10.0
+    _with_broadcast(ca, "b", 9.0, [9.0, 10.0], 0.0, [1.0, 0.0])
+    _with_broadcast(ca, "b", 10.0, [10.0, 10.0], 0.0, [1.0, 0.0])
+    assert ca._team_tracks([track], 10.0)[0].turn_rate_rad_s == 0.0
+    assert ca.predict(10.0, nav(10.0, 0.0), [track], []) == []
+    # A stale broadcast is not used.
+    assert ca._team_tracks([track], 20.0)[0] is track
+
+
+def test_team_mate_turn_rate_from_successive_broadcast_headings():
+    ca, _ = make()
+    _with_broadcast(ca, "b", 1.0, [0.0, 10.0], 0.10, [1.0, 0.1])
+    _with_broadcast(ca, "b", 2.0, [1.0, 10.1], 0.13, [1.0, 0.13])
+    tr = ca._team_tracks([TrackEstimate(5, 2.0, np.array([1.2, 10.0]), 0.0, 0.5, 0.0, 2.2, team_member="b")], 2.5)[0]
+    assert tr.turn_rate_rad_s == pytest.approx(0.03)
+    assert tr.speed_m_s == pytest.approx(np.hypot(1.0, 0.13)) and tr.time_s == 2.0
+    np.testing.assert_allclose(tr.position_m, [1.0, 10.1])
+
+
+def test_stand_on_vessel_never_slows_for_a_team_mate_abaft_its_beam():
+    """At the last resort (t_c − t < last_resort_s) a stand-on vessel acts, but with the give-way
+    team mate coming from behind its beam it must not slow down (the other would run into it):
+    it speeds up to pass first, or keeps its speed."""
+    ca, _ = make(name="a")
+    # b comes from a's port quarter, converging: a has b on its port side → a stands on.
+    tr_b = TrackEstimate(3, 0.0, np.array([-4.0, 4.0]), -0.5, 1.6, 0.0, 2.1, team_member="b")
+    out = ca.predict(0.0, nav(), [tr_b], [])
+    assert out and out[0].t_closest_s < ca.config.last_resort_s
+    speed, mode = ca.control_refs(0.0, nav())
+    assert mode in ("mission", "avoidance:pass")
+    assert ca.summary()["actions"]["yield"] == 0 and ca.summary()["actions"]["emergency"] == 0
+
+
+def test_prediction_again_when_a_velocity_correction_completes():
+    ca, agent = make(perception=SimpleNamespace(tracks=lambda: [crossing()], static_polygons=lambda: []))
+    ca.predict(0.0, nav(), [crossing()], [])
+    assert ca.correction is not None
+    n = ca.stats["predictions"]
+    t_goal = ca.correction.law.t_goal
+    agent.follower.gamma_m = 60.0  # past the crossing
+    ca.control_refs(t_goal + 0.1, nav(60.0, 0.0))
+    assert ca.stats["predictions"] == n + 1 and ca.mode == "mission"

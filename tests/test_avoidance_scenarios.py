@@ -6,75 +6,12 @@ same) the same scenario collides or violates the safety bound. That is what show
 from dataclasses import replace
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from mjasc.runner import Runner
 from mjasc.scenario import load_scenario
 
 TASKS = Path(__file__).resolve().parent.parent / "tasks"
-
-
-def _has_perception() -> bool:
-    try:
-        import mjasc.perception  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-class TruthPerception:
-    """Stand-in perception from the simulator's truth (moving obstacles and other vessels within
-    range, static polygons from the scenario). Only used when mjasc.perception is missing; every
-    scenario file carries [vessels.sensor]/[vessels.tracking], so normally the vessels avoid on
-    their own tracks. Kept for comparing own-track runs with exact-track runs."""
-
-    def __init__(self, runner, index, range_m=80.0):
-        self.runner, self.i, self.range_m = runner, index, range_m
-
-    def sense(self, t, nav):
-        pass
-
-    def update_tracks(self, t, nav):
-        pass
-
-    def set_team_positions(self, positions):
-        pass
-
-    def tracks(self):
-        from mjasc.estimates import TrackEstimate
-
-        sim, world = self.runner.sim, self.runner.world
-        st = sim.states()
-        own = st.position_m[self.i]
-        out = []
-        pos, head, vel = sim.traffic_state()
-        for k, o in enumerate(world.moving_obstacles):
-            if np.hypot(*(pos[k] - own)) <= self.range_m:
-                out.append(TrackEstimate(100 + k, st.time_s, pos[k].copy(), float(head[k]),
-                                         float(np.hypot(*vel[k])), float(getattr(o, "turn_rate_rad_s", 0.0)),
-                                         o.radius_m))
-        for j, agent in enumerate(self.runner.agents):
-            if j == self.i or np.hypot(*(st.position_m[j] - own)) > self.range_m:
-                continue
-            v = st.velocity_m_s[j]
-            speed = float(np.hypot(*v))
-            out.append(TrackEstimate(j, st.time_s, st.position_m[j].copy(),
-                                     float(np.arctan2(v[1], v[0])) if speed > 0.05 else float(st.heading_rad[j]),
-                                     speed if speed > 0.05 else 0.0, float(st.body_velocity[j, 2]),
-                                     self.runner.world.vessel_types[j].radius_m, team_member=agent.name,
-                                     is_static=speed <= 0.05))
-        return out
-
-    def static_polygons(self):
-        sc = self.runner.scenario
-        return [o.vertices if hasattr(o, "vertices") else o.polygon(16) for o in sc.static_obstacles]
-
-    def drain_events(self):
-        return []
-
-    def log(self, recorder, t, name):
-        pass
 
 
 def run(name: str, avoidance: bool = True, duration_s: float | None = None, out_dir=None):
@@ -86,9 +23,8 @@ def run(name: str, avoidance: bool = True, duration_s: float | None = None, out_
                         for v in sc.vessels)
         sc = replace(sc, vessels=vessels)
     runner = Runner(sc, out_dir, progress=False)
-    for i, (agent, v) in enumerate(zip(runner.agents, sc.vessels)):
-        if agent.perception is None and "avoidance" in v.options and not _has_perception():
-            agent.perception = TruthPerception(runner, i)
+    if avoidance:  # every avoiding vessel avoids on its own sensor's tracks, never the truth
+        assert all(a.perception is not None for a in runner.agents if a.avoidance is not None)
     return runner.run().summary
 
 
@@ -108,15 +44,15 @@ SCENARIOS = {
 }
 
 
-#: Known failures with the vessels' own tracks (see docs/avoidance.md, "Known limits").
-KNOWN_FAILURES = {
-    "thesis_6_4_head_on": "bravo's detour around the oncoming obstacle swings into charlie's lane; the "
-                          "planner does not yet add team mates' predicted tracks to the field",
-}
-
-
 #: Runs (on + off) longer than 20 s on this machine.
-SLOW = {"thesis_6_4_bottleneck"}
+SLOW = {"thesis_6_4_bottleneck", "thesis_6_4_head_on"}
+
+#: Known failures (docs/avoidance.md, "Known limits"). Not a fallback: the scenario runs and is
+#: reported as failing until it is fixed.
+KNOWN_FAILURES = {
+    "thesis_6_4_bottleneck": "alpha and bravo touch at t ≈ 97-100 s where the re-planned paths meet in the "
+                             "bottleneck (also with the avoidance before the team-broadcast change)",
+}
 
 
 def _param(n):
