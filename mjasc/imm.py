@@ -81,8 +81,7 @@ __all__ = ["IMMConfig", "IMMBank", "IMMTracker", "REJECTION_REASONS", "filterpy_
 _TWO_PI = 2.0 * math.pi
 _UNIFORM_ANGLE_VAR = math.pi**2 / 3.0  # variance of an angle uniform on (−π, π]
 _TINY_PROB = 1e-300  # floor when min_mode_probability = 0: keeps every μ_j, c̄_j > 0 (no 0/0)
-_COS_SIN_SHIFT = np.array([0.0, 0.5 * math.pi])  # cos(θ − [0, π/2]) = [cos θ, sin θ]
-_ROT90 = np.array([-1.0, 1.0])  # [sin, cos][::-1]·(−1, 1) = [−sin θ, cos θ]
+_G_PHASE = np.array([[-0.5 * math.pi, 0.0], [0.0, 0.5 * math.pi]])  # cos(θ − ·) = [[−sin, cos], [cos, sin]]
 _DIAG = np.arange(4)
 _EYE2 = np.eye(2)
 _ADJ_SIGN = np.array([[1.0, -1.0], [-1.0, 1.0]])  # adj([[a, b], [b, d]]) = [[d, −b], [−b, a]]
@@ -269,84 +268,178 @@ class _MarkovPower:
 
 
 # ---------------------------------------------------------------------------------------------
-# The IMM cycle on arrays: s (n, r, 4), P (n, r, 4, 4), mu (n, r). Pure functions, no loops.
-# dt is a Python float or an (n, 1) column; markov is (r, r) or (n, r, r).
+# The IMM cycle on stacked arrays: per-model states (..., r, 4), covariances (..., r, 4, 4) and
+# probabilities (..., r); the leading axes are a bank's tracks (n,). At 7 models the arithmetic
+# is nothing, the cost is numpy's per-call overhead: so every step writes into buffers allocated
+# once per bank size, through views made once, with as few calls as the algebra allows (~45 per
+# cycle; the block structure of F and H is used instead of full products where it saves calls).
 # ---------------------------------------------------------------------------------------------
 
 
-def _mix(s, P, mu, markov):
-    """Digest §2 steps 1–2: mixed initial conditions s0 (n, r, 4), P0 (n, r, 4, 4) and c̄ (n, r)."""
-    n, r = mu.shape
-    wij = markov * mu[:, :, None]  # p_ij μ_i, indexed (n, i, j)
-    cbar = wij.sum(axis=1)
-    w = np.swapaxes(wij, 1, 2) / cbar[:, :, None]  # μ_{i|j} indexed (n, j, i)
-    s0 = w @ s
-    dev = s[:, None, :, :] - s0[:, :, None, :]  # s_i − s0_j, (n, j, i, 4)
-    P0 = (w @ P.reshape(n, r, 16)).reshape(n, r, 4, 4)
-    P0 += np.swapaxes(dev, 2, 3) @ (w[..., None] * dev)
-    return s0, P0, cbar
+class _PositionUpdate:
+    """Kalman update with the position measurement z = H s + v, H = [I₂ 0], v ~ N(0, R), of the
+    prior states held in the array ``x`` (..., 4) given at construction and the prior covariances
+    written into ``self.P`` (..., 4, 4) (the start-up filter and the IMM's models share this code).
 
-
-def _ekf_predict(s0, P0, omega, q_block, dt, F=None):
-    """Thesis eq. 3.3 and its Jacobian per model; modifies s0 in place, returns (sp, Pp).
-
-    q_block: the (2, 2) (or (n, 1, 2, 2)) process covariance of (θ, V) for this Ts, diag(Q_θ, Q_V)·Ts.
-    F: optional work array shaped like P0 holding the identity outside F[..., :2, 2:] (reused
-    between cycles to save an allocation).
+    With Z = [H P | H x − z] (2×5 per prior), one product T = Zᵀ S⁻¹ Z, S = H P Hᵀ + R and
+    S⁻¹ = adj S / det S (explicit 2×2), holds the whole update: T[:4, :4] = P Hᵀ S⁻¹ H P (the
+    covariance reduction), −T[:4, 4] = K r (the state correction, r = z − H x) and
+    T[4, 4] = rᵀ S⁻¹ r (the squared Mahalanobis distance). P is the left 4×4 of a 4×5 buffer
+    ``P_aug`` whose top two rows are Z.
     """
-    th = s0[..., 2]
-    trig = np.cos(th[..., None] - _COS_SIN_SHIFT)  # [cos θ, sin θ]
-    dtrig = dt[..., None] * trig if isinstance(dt, np.ndarray) else dt * trig  # Ts [cos θ, sin θ]
-    vdtrig = s0[..., 3, None] * dtrig  # Ts V [cos θ, sin θ]
-    if F is None:
-        F = np.zeros(P0.shape)
-        F[..., _DIAG, _DIAG] = 1.0
-    F[..., :2, 3] = dtrig  # ∂(x, y)/∂V
-    F[..., :2, 2] = vdtrig[..., ::-1] * _ROT90  # ∂(x, y)/∂θ = Ts V [−sin θ, cos θ]
-    s0[..., :2] += vdtrig
-    s0[..., 2] += dt * omega
-    Pp = F @ P0 @ np.swapaxes(F, -1, -2)
-    Pp[..., 2:, 2:] += q_block
-    return s0, Pp
+
+    def __init__(self, x):
+        lead = x.shape[:-1]
+        self.x = x
+        self.P_aug = np.zeros(lead + (4, 5))
+        self.P = P = self.P_aug[..., :4]
+        self._x_xy, self._P_xy = x[..., :2], P[..., :2, :2]
+        self._Z = Z = self.P_aug[..., :2, :]
+        self._Z_r, self._Z_T = Z[..., 4], Z.mT
+        self._S = S = np.empty(lead + (2, 2))
+        self._S_flip, self._S_row0 = S[..., ::-1, ::-1], S[..., :1, :]
+        self._adj = np.empty(lead + (2, 2))
+        self._adj_col0 = self._adj[..., :, :1]
+        self._det = np.empty(lead + (1, 1))
+        self._SZ = np.empty(lead + (2, 5))
+        self._T = T = np.empty(lead + (5, 5))
+        self._T_x, self._T_P = T[..., :4, 4], T[..., :4, :4]
+        self._A = np.empty(lead + (4, 4))
+        self._A_T = self._A.mT
+        self.mahalanobis = T[..., 4, 4]  # rᵀ S⁻¹ r, shaped x[..., 0]
+        self.det = self._det[..., 0, 0]  # det S
+
+    def innovate(self, z, R):
+        """Fill T for measurement z (broadcastable to x[..., :2]) with covariance R ((2, 2), or
+        broadcastable to P[..., :2, :2]); returns the views (rᵀ S⁻¹ r, det S)."""
+        np.subtract(self._x_xy, z, out=self._Z_r)
+        np.add(self._P_xy, R, out=self._S)
+        adj = np.multiply(self._S_flip, _ADJ_SIGN, out=self._adj)  # [[d, −c], [−b, a]]
+        det = np.matmul(self._S_row0, self._adj_col0, out=self._det)  # a d − b c
+        T = np.matmul(self._Z_T, np.matmul(adj, self._Z, out=self._SZ), out=self._T)
+        np.divide(T, det, out=T)
+        return self.mahalanobis, self.det
+
+    def correct(self, x_out, P_out):
+        """Posterior of the last ``innovate`` into x_out, P_out: x⁺ = x + K r, P⁺ = P − P Hᵀ S⁻¹ H P
+        re-symmetrized (without it rounding asymmetry grows and P loses positive definiteness
+        after ~10³ cycles)."""
+        np.subtract(self.x, self._T_x, out=x_out)
+        np.subtract(self.P, self._T_P, out=self._A)
+        np.add(self._A, self._A_T, out=P_out)
+        np.multiply(P_out, 0.5, out=P_out)
 
 
-def _position_update(x, P, z, meas_var):
-    """Kalman update with z = [x, y] + v, v ~ N(0, σ² I₂) (H selects the first two states).
+class _IMMCycle:
+    """Buffers and steps of one IMM cycle of ``lead`` tracks × r models (digest §2 steps 1–5).
 
-    x (..., 4), P (..., 4, 4), z broadcastable to (..., 2); meas_var σ² a float or an array
-    broadcastable to x[..., 0] (one variance per row). Explicit 2×2 inverse of
-    S = H P Hᵀ + R (adjugate / determinant). Returns x⁺, P⁺ = P − P Hᵀ S⁻¹ H P (symmetric to
-    rounding, then symmetrized), the squared Mahalanobis distance rᵀS⁻¹r and 1/det S.
+    The posterior goes to one of two buffer sets ``sides[k] = (s, P, μ)``: a bank whose state is
+    one side is updated into the other, so the inputs of a cycle are never overwritten by it.
     """
-    y = z - x[..., :2]
-    S = P[..., :2, :2] + (meas_var * _EYE2 if isinstance(meas_var, float) else meas_var[..., None, None] * _EYE2)
-    a, b, d = S[..., 0, 0], S[..., 0, 1], S[..., 1, 1]
-    inv_det = 1.0 / (a * d - b * b)
-    Sinv = S[..., ::-1, ::-1] * _ADJ_SIGN * inv_det[..., None, None]
-    PHt = P[..., :, :2]
-    K = PHt @ Sinv
-    Ky = (K @ y[..., None])[..., 0]
-    xu = x + Ky
-    # rᵀS⁻¹r from K r: the rows of K on x, y are (S − R) S⁻¹ = I − R S⁻¹, so S⁻¹r = (r − (K r)_xy)/σ²
-    iy = y - Ky[..., :2]
-    maha = (y[..., 0] * iy[..., 0] + y[..., 1] * iy[..., 1]) * (1.0 / meas_var)
-    Pu = P - K @ np.swapaxes(PHt, -1, -2)
-    Pu += np.swapaxes(Pu, -1, -2)  # re-symmetrize: without it rounding asymmetry grows and
-    Pu *= 0.5  # P loses positive definiteness after ~10³ cycles
-    return xu, Pu, maha, inv_det
 
+    def __init__(self, lead: tuple, r: int):
+        def e(*shape):
+            return np.zeros(lead + shape)
 
-def _mode_probabilities(cbar, maha, inv_det, maha_min, floor):
-    """Digest §2 steps 4–5: μ_j ∝ c̄_j exp(−½ r_jᵀS_j⁻¹r_j)/√det S_j, floored, renormalized.
+        self.lead = lead
+        self._cbar = e(1, r)
+        self.cbar = self._cbar[..., 0, :]
+        self._cbar_col = self._cbar.mT
+        self._w = e(r, r)
+        self._w_i = self._w[..., None, :]
+        self._markov_t, self._markov_t_of = e(r, r), None  # p(Ts)ᵀ per track: same-shape products
+        self.s0 = e(r, 4)  # mixed, then (in place) predicted states
+        self._s0_j = self.s0[..., :, None, :]
+        self._th0, self._v0 = self.s0[..., 2, None, None], self.s0[..., 3, None]
+        self._dev = e(r, r, 4)
+        self._dev_T = self._dev.mT
+        self._wdev_T = e(r, 4, r)
+        self._spread = e(r, 4, 4)
+        self._P0 = e(r, 4, 4)
+        self._P0_flat = self._P0.reshape(lead + (r, 16))
+        self._F, self._F_T = e(r, 4, 4), e(r, 4, 4)
+        self._F[..., _DIAG, _DIAG] = 1.0
+        self._F_T[..., _DIAG, _DIAG] = 1.0
+        self._F_G, self._F_T_G = self._F[..., :2, 2:], self._F_T[..., 2:, :2]
+        self._G = e(r, 2, 2)
+        self._G_T = self._G.mT
+        self._G_th, self._G_v = self._G[..., :, 0], self._G[..., :, 1]
+        self._D = e(r, 4)  # state increment [Ts V cos θ, Ts V sin θ, Ts ω_j, 0]
+        self._D_xy, self._D_th = self._D[..., :2], self._D[..., 2]
+        self._D_th_of = None
+        self._FP = e(r, 4, 4)
+        self.update = _PositionUpdate(self.s0)
+        self.Pp, self._Pp_aug = self.update.P, self.update.P_aug  # predicted covariances
+        self._Q, self._Q_of = e(r, 4, 5), None  # Q at the shape of Pp_aug: a same-shape add
+        self.mahalanobis_min = e(1)
+        self._lik = e(r)
+        self.sides = tuple((e(r, 4), e(r, 4, 4), e(r)) for _ in range(2))
+        self._x = e(1, 4)
+        self.x = self._x[..., 0, :]
 
-    The factor exp(½ min_j r_jᵀS_j⁻¹r_j) common to all models is taken out (no underflow for
-    the best-fitting model), as is 1/(2π).
-    """
-    mu = cbar * np.sqrt(inv_det * np.exp(maha_min[:, None] - maha))
-    mu /= mu.sum(axis=1, keepdims=True)
-    np.maximum(mu, floor, out=mu)
-    mu /= mu.sum(axis=1, keepdims=True)
-    return mu
+    def mix_predict(self, s, P, mu, markov, markov_t, dt, dt_omega, q_block):
+        """Steps 1–2 (mixing) and the EKF prediction of step 3; returns views (s_pred, P_pred, c̄).
+
+        markov: p(Ts) (r, r) or (..., r, r), markov_t its transpose; dt: Ts, a float or an array
+        broadcastable to (..., r, 2, 2); dt_omega: Ts ω_j ((r,) or (..., r)); q_block: the (θ, V)
+        process covariance diag(Q_θ, Q_V)·Ts, (2, 2) or broadcastable to (..., r, 2, 2).
+        """
+        mrow = mu[..., None, :]
+        np.matmul(mrow, markov, out=self._cbar)  # c̄_j = Σ_i p_ij μ_i
+        w = np.divide(mrow, self._cbar_col, out=self._w)
+        if markov_t is not self._markov_t_of:  # the same array for the same Ts (cached per Ts)
+            np.copyto(self._markov_t, markov_t)
+            self._markov_t_of = markov_t
+        np.multiply(w, self._markov_t, out=w)  # μ_{i|j} = p_ij μ_i / c̄_j, indexed (j, i)
+        s0 = np.matmul(w, s, out=self.s0)  # s0_j = Σ_i μ_{i|j} s_i
+        dev = np.subtract(s[..., None, :, :], self._s0_j, out=self._dev)  # s_i − s0_j, (j, i, 4)
+        np.multiply(self._dev_T, self._w_i, out=self._wdev_T)
+        P0 = self._P0  # Σ_i μ_{i|j} [P_i + (s_i − s0_j)(s_i − s0_j)ᵀ]
+        np.matmul(w, P.reshape(P.shape[:-2] + (16,)), out=self._P0_flat)
+        np.add(P0, np.matmul(self._wdev_T, dev, out=self._spread), out=P0)
+        # thesis eq. 3.3: F = [[I, G], [0, I]], G = Ts [[−V sin θ, cos θ], [V cos θ, sin θ]]
+        G = np.subtract(self._th0, _G_PHASE, out=self._G)
+        np.cos(G, out=G)
+        np.multiply(self._G_th, self._v0, out=self._G_th)
+        if type(dt) is not float or dt != 1.0:
+            np.multiply(G, dt, out=G)
+        np.copyto(self._F_G, G)
+        np.copyto(self._F_T_G, self._G_T)
+        np.multiply(self._G_v, self._v0, out=self._D_xy)
+        if dt_omega is not self._D_th_of:  # the same array for the same Ts (cached per Ts)
+            self._D_th[...] = dt_omega
+            self._D_th_of = dt_omega
+        np.add(s0, self._D, out=s0)
+        np.matmul(np.matmul(self._F, P0, out=self._FP), self._F_T, out=self.Pp)
+        if q_block is not self._Q_of:
+            self._Q[..., 2:, 2:4] = q_block
+            self._Q_of = q_block
+        np.add(self._Pp_aug, self._Q, out=self._Pp_aug)
+        return s0, self.Pp, self.cbar
+
+    def mode_probabilities(self, maha, det, floor, out):
+        """Steps 4–5: μ_j ∝ c̄_j exp(−½ r_jᵀS_j⁻¹r_j)/√det S_j, floored, normalized, into ``out``.
+
+        The factor exp(½ min_j r_jᵀS_j⁻¹r_j) common to all models is taken out (no underflow
+        for the best-fitting model; the minimum is ``mahalanobis_min``, filled here), as is
+        1/(2π). Flooring the unnormalized μ̃ at floor·Σμ̃ then normalizing equals normalizing,
+        flooring at ``floor`` and renormalizing.
+        """
+        lik = np.subtract(
+            np.minimum.reduce(maha, axis=-1, keepdims=True, out=self.mahalanobis_min), maha, out=self._lik
+        )
+        np.exp(lik, out=lik)
+        np.divide(lik, det, out=lik)
+        np.sqrt(lik, out=lik)
+        mu = np.multiply(lik, self.cbar, out=out)
+        np.maximum(mu, floor * np.add.reduce(mu, axis=-1, keepdims=True), out=mu)
+        np.divide(mu, np.add.reduce(mu, axis=-1, keepdims=True), out=mu)
+        return mu
+
+    def combine_state(self, s, mu):
+        """Step 6, state: Σ_j μ_j s_j (..., 4) (a view of a buffer of this cycle)."""
+        np.matmul(mu[..., None, :], s, out=self._x)
+        return self.x
 
 
 def _flip_negative_speeds(su, Pu, th_before):
@@ -460,8 +553,13 @@ class IMMBank:
         self._markov = _MarkovPower(config)
         self._R = float(config.measurement_variance_m2)
         self._q_unit = np.diag([config.heading_noise_rad2_s, config.speed_noise_m2_s3])
+        self._R_cov = self._R * _EYE2
         self._Pc_stale = False  # combined covariances are computed when read
-        self._F = None  # Jacobian work array (n, r, 4, 4)
+        self._cyc = None  # _IMMCycle buffers for the current number of tracks
+        self._steps: dict[float, tuple] = {}  # per Ts: p(Ts), its transpose, Ts ω_j, Q block
+        self._t_common = None  # the time of every track's last cycle when they share it [s]
+        self._n_warm = 0  # number of tracks in the start-up filter
+        self._flagged = True  # _n_gated or _reasons may be non-zero
         self._floor = max(config.min_mode_probability, _TINY_PROB)
         self._gate = config.gate_threshold
         self._snr2 = config.init_speed_snr**2
@@ -536,8 +634,11 @@ class IMMBank:
             "_n_gated": np.zeros(1, dtype=np.int64),
             "_reasons": np.zeros(1, dtype=np.int8),
         }
+        n_before = self._ids.size
         for name in self._PER_TRACK:
             setattr(self, name, np.concatenate([getattr(self, name), grow[name]]))
+        tc = self._t_common
+        self._t_common = float(t_s) if n_before == 0 or tc == float(t_s) else None
         row = np.array([self._ids.size - 1])
         self._start(row, z[None, :], None if measurement_variance is None else np.array([float(measurement_variance)]))
         return track_id
@@ -555,6 +656,7 @@ class IMMBank:
         self._n_meas[rows] = 1
         self._n_gated[rows] = 0
         self._handover(rows)
+        self._n_warm = int(np.count_nonzero(self._warm))
 
     def _handover(self, rows):
         """Refresh the estimate of start-up tracks ``rows``; move those ready into the IMM."""
@@ -574,6 +676,7 @@ class IMMBank:
             self._P[done] = P[ready][:, None, :, :]
             self._mu[done] = self._mu0
             self._warm[done] = False
+            self._n_warm = int(np.count_nonzero(self._warm))
 
     def remove_track(self, track_id: int) -> None:
         """Drop a track (ValueError if unknown)."""
@@ -581,19 +684,34 @@ class IMMBank:
         keep[self.index_of(track_id)] = False
         for name in self._PER_TRACK:
             setattr(self, name, getattr(self, name)[keep])
+        self._n_warm = int(np.count_nonzero(self._warm))
+        if self._ids.size == 0:
+            self._t_common = None
 
     # ------------------------------------------------------------------ time handling
     def _times(self, t_s):
-        """Absolute times (n,), steps dt (n,), and dt as a float when all tracks share it (else
-        an (n, 1) column) plus the matching Markov matrix."""
+        """Time step of a cycle to t_s (scalar or (n,) absolute times [s]).
+
+        Returns (t0, t, dt, dtm, step): t0 the float time when it is one for all tracks (else
+        None); t (n,) and dt (n,) the new times and steps, or None when t0 is given and every
+        track's last cycle was at the same time (then dtm = that common step; the caller builds
+        the arrays only if it needs them); dtm the step as a float when all tracks share it, else
+        an (n, 1, 1, 1) array; step the matching (p(Ts), p(Ts)ᵀ, Ts ω_j, Q block).
+        """
         t_last = self._t
-        if np.ndim(t_s) == 0:
+        if type(t_s) is float or np.ndim(t_s) == 0:
             t0 = float(t_s)
             if not math.isfinite(t0):
                 raise ValueError(f"t_s: must be finite, got {t_s!r}")
-            dt = t0 - t_last
+            tc = self._t_common
+            if tc is not None:
+                d = t0 - tc
+                if d < 0.0:
+                    raise ValueError(f"t_s: earlier than the last cycle of track(s) {self._ids.tolist()}")
+                return t0, None, None, d, self._step(d)
             t = np.full(t_last.shape, t0)
         else:
+            t0 = None
             t = np.asarray(t_s, dtype=float)
             if t.shape != t_last.shape:
                 raise ValueError(
@@ -601,30 +719,42 @@ class IMMBank:
                 )
             if not np.all(np.isfinite(t)):
                 raise ValueError("t_s: times must be finite")
-            dt = t - t_last
-        if dt.size == 1:
-            lo = hi = dt[0]
-        else:
-            lo, hi = dt.min(), dt.max()
+        dt = t - t_last
+        lo, hi = dt.min(), dt.max()
         if lo < 0.0:
             bad = self._ids[dt < 0]
             raise ValueError(f"t_s: earlier than the last cycle of track(s) {bad.tolist()}")
         if lo == hi:
             d = float(lo)
-            return t, dt, d, self._markov.scalar(d), self._q_unit * d
-        return t, dt, dt[:, None], self._markov.per_track(dt), dt[:, None, None, None] * self._q_unit
+            return t0, t, dt, d, self._step(d)
+        markov = self._markov.per_track(dt)
+        col = dt[:, None, None, None]
+        return t0, t, dt, col, (markov, markov.mT, dt[:, None] * self._omega, col * self._q_unit)
 
-    def _jacobian_buffer(self):
-        F = self._F
-        if F is None or F.shape[0] != self._ids.size:
-            F = self._F = np.zeros((self._ids.size, self._r, 4, 4))
-            F[..., _DIAG, _DIAG] = 1.0
-        return F
+    def _step(self, dt: float) -> tuple:
+        """(p(Ts), p(Ts)ᵀ, Ts ω_j, diag(Q_θ, Q_V)·Ts) for one Ts, cached."""
+        step = self._steps.get(dt)
+        if step is None:
+            markov = self._markov.scalar(dt)
+            step = (markov, np.ascontiguousarray(markov.T), dt * self._omega, self._q_unit * dt)
+            if len(self._steps) > 256:
+                self._steps.clear()
+            self._steps[dt] = step
+        return step
 
-    def _mix_predict(self, dtm, markov, q_block):
-        s0, P0, cbar = _mix(self._s, self._P, self._mu, markov)
-        sp, Pp = _ekf_predict(s0, P0, self._omega, q_block, dtm, self._jacobian_buffer())
-        return sp, Pp, cbar
+    def _cycle_buffers(self) -> _IMMCycle:
+        cyc = self._cyc
+        if cyc is None or cyc.lead[0] != self._ids.size:
+            cyc = self._cyc = _IMMCycle((self._ids.size,), self._r)
+        return cyc
+
+    def _mix_predict(self, dtm, step):
+        """Mixed and predicted (s, P, c̄) of every track: views of work buffers, valid until the
+        next cycle (copy what is kept)."""
+        markov, markov_t, dt_omega, q_block = step
+        return self._cycle_buffers().mix_predict(
+            self._s, self._P, self._mu, markov, markov_t, dtm, dt_omega, q_block
+        )
 
     def _covariances(self) -> np.ndarray:
         """(n, 4, 4) combined covariances, computed on first read after a cycle."""
@@ -641,12 +771,14 @@ class IMMBank:
         without measurement (μ_j ← c̄_j); start-up tracks run their CV prediction."""
         if self._ids.size == 0:
             return
-        t, dt, dtm, markov, q_block = self._times(t_s)
+        t0, t, dt, dtm, step = self._times(t_s)
         warm = self._warm
-        sp, Pp, cbar = self._mix_predict(dtm, markov, q_block)
+        sp, Pp, cbar = self._mix_predict(dtm, step)
         x = _combine_state(sp, cbar)
         self._Pc_stale = True
-        if warm.any():
+        if self._n_warm:
+            if t is None:
+                dt = np.full(self._ids.size, dtm)
             keep = ~warm
             self._s[keep], self._P[keep], self._mu[keep] = sp[keep], Pp[keep], cbar[keep]
             self._x[keep] = x[keep]
@@ -657,24 +789,32 @@ class IMMBank:
             s, P = _cv_to_polar(self._cv_x[rows], self._cv_P[rows])
             self._x[rows], self._Pc[rows] = s, P
         else:
-            self._s, self._P, self._mu, self._x = sp, Pp, cbar, x
-        self._t = t
+            self._s, self._P, self._mu, self._x = sp.copy(), Pp.copy(), cbar.copy(), x
+        self._set_times(t0, t)
+
+    def _set_times(self, t0, t):
+        """Record the time of the cycle just run (see ``_times``)."""
+        if t is None:
+            self._t.fill(t0)
+        else:
+            self._t = t
+        self._t_common = t0
 
     def _predictive_models(self, t_s):
         """Per-track, per-model predicted measurement (n, k, 2), inverse det and S⁻¹ (n, k, 2, 2),
         and weights (n, k): the IMM's models with c̄_j, or the start-up filter (k = 1 padded)."""
-        t, dt, dtm, markov, q_block = self._times(self._t if t_s is None else t_s)
-        sp, Pp, cbar = self._mix_predict(dtm, markov, q_block)
+        _, _, dt, dtm, step = self._times(self._t if t_s is None else t_s)
+        sp, Pp, cbar = self._mix_predict(dtm, step)
         zj = sp[..., :2].copy()
-        S = Pp[..., :2, :2] + self._R * np.eye(2)
+        S = Pp[..., :2, :2] + self._R_cov
         w = cbar.copy()
-        if self._warm.any():
+        if self._n_warm:
             rows = np.flatnonzero(self._warm)
             xc, Pcv = _cv_predict(
                 self._cv_x[rows], self._cv_P[rows], dt[rows], self.config.init_acceleration_noise_m2_s3
             )
             zj[rows] = xc[:, None, :2]
-            S[rows] = Pcv[:, None, :2, :2] + self._R * np.eye(2)
+            S[rows] = Pcv[:, None, :2, :2] + self._R_cov
             w[rows] = 1.0 / self._r
         return zj, S, w
 
@@ -762,51 +902,71 @@ class IMMBank:
         use = measured & finite
         try:
             if use.all():
-                return self._cycle(z, t_s)
+                ok = self._cycle(z, t_s)
+                return np.ones(n, dtype=bool) if ok is None else ok
             return self._cycle(np.where(use[:, None], z, 0.0), t_s, use, finite, measured, z)
         finally:
             self._mv = None
 
     def _cycle(self, zs, t_s, use=None, finite=None, measured=None, z=None):
-        """The IMM cycle behind ``update``; ``use`` None means every row is a finite measurement."""
+        """The IMM cycle behind ``update``; ``use`` None means every row is a finite measurement.
+        Returns the (n,) bool array of used rows, or None when every row was used."""
         n = self._ids.size
-        t, dt, dtm, markov, q_block = self._times(t_s)
+        t0, t, dt, dtm, step = self._times(t_s)
+        cyc = self._cyc
+        if cyc is None or cyc.lead[0] != n:
+            cyc = self._cycle_buffers()
+        sp, Pp, cbar = cyc.mix_predict(self._s, self._P, self._mu, step[0], step[1], dtm, step[2], step[3])
+        mv = self._mv
+        maha, det = cyc.update.innovate(zs[:, None, :], self._R_cov if mv is None else mv[:, None, None, None] * _EYE2)
+        su, Pu, mu = cyc.sides[1] if self._s is cyc.sides[0][0] else cyc.sides[0]  # not the inputs
+        cyc.update.correct(su, Pu)
+        if np.minimum.reduce(su[..., 3], axis=None) < 0.0:
+            _flip_negative_speeds(su, Pu, sp[..., 2])
+        cyc.mode_probabilities(maha, det, self._floor, mu)
+        maha_min = cyc.mahalanobis_min[:, 0]
+
+        if (
+            use is None
+            and not self._n_warm
+            and (maha_min.item() if n == 1 else np.maximum.reduce(maha_min)) <= self._gate
+        ):  # the common case: every track measured and accepted
+            self._s, self._P, self._mu = su, Pu, mu
+            self._x = cyc.combine_state(su, mu)
+            self._Pc_stale = True
+            if self._flagged:  # some track has consecutive gated rows or a rejection reason
+                self._n_gated.fill(0)
+                self._reasons.fill(0)
+                self._flagged = False
+            if t is None:
+                self._t.fill(t0)
+            else:
+                self._t = t
+            self._t_common = t0
+            return None
+
+        # general case: mix of updated, coasting, start-up and restarted tracks
+        if t is None:
+            t, dt = np.full(n, t0), np.full(n, dtm)
         all_measured = use is None or bool(measured.all())
         if use is None:
             use = finite = measured = np.ones(n, dtype=bool)
         if z is None:
             z = zs
-
-        s0, P0, cbar = _mix(self._s, self._P, self._mu, markov)
-        sp, Pp = _ekf_predict(s0, P0, self._omega, q_block, dtm, self._jacobian_buffer())
-        th_pred = sp[..., 2]  # _position_update does not modify sp
-        mv = self._mv
-        su, Pu, maha, inv_det = _position_update(sp, Pp, zs[:, None, :], self._R if mv is None else mv[:, None])
-        if su[..., 3].min() < 0.0:
-            _flip_negative_speeds(su, Pu, th_pred)
-        maha_min = maha.min(axis=1)
-        mu = _mode_probabilities(cbar, maha, inv_det, maha_min, self._floor)
         inside = maha_min <= self._gate
         warm = self._warm
-        any_warm = warm.any()
+        any_warm = self._n_warm > 0
         ok = use & inside
-
-        if not any_warm and ok.all():  # the common case: every track measured and accepted
-            self._s, self._P, self._mu = su, Pu, mu
-            self._x = _combine_state(su, mu)
-            self._Pc_stale = True
-            self._n_gated.fill(0)
-            self._t = t
-            self._reasons.fill(0)
-            return ok
-
-        # general case: mix of updated, coasting, start-up and restarted tracks
         if any_warm:
             rows = np.flatnonzero(warm)
             xc, Pcv = _cv_predict(
                 self._cv_x[rows], self._cv_P[rows], dt[rows], self.config.init_acceleration_noise_m2_s3
             )
-            xu, Pcu, d2, _ = _position_update(xc, Pcv, zs[rows], self._R if mv is None else mv[rows])
+            cv_update = _PositionUpdate(xc)
+            np.copyto(cv_update.P, Pcv)
+            d2, _ = cv_update.innovate(zs[rows], self._R_cov if mv is None else mv[rows, None, None] * _EYE2)
+            xu, Pcu = np.empty_like(xc), np.empty_like(Pcv)
+            cv_update.correct(xu, Pcu)
             ok_w = use[rows] & (d2 <= self._gate)
             ok[rows] = ok_w
             inside[rows] = ok_w | ~use[rows]
@@ -831,7 +991,7 @@ class IMMBank:
         self._n_gated = np.where(gated, self._n_gated + 1, np.where(ok, 0, self._n_gated))
         limit = self.config.restart_after_gated
         restart = gated & (self._n_gated >= limit) if limit > 0 else np.zeros(n, dtype=bool)
-        self._t = t
+        self._set_times(t0, t)
         if any_warm:
             self._handover(np.flatnonzero(self._warm))
         if restart.any():
@@ -844,6 +1004,7 @@ class IMMBank:
                     self._ids[k], t[k], z[k], limit,
                 )
         self._reasons = reasons
+        self._flagged = True
         if logger.isEnabledFor(logging.DEBUG):
             for k in np.flatnonzero(measured & ~finite):
                 logger.debug(
@@ -1008,7 +1169,7 @@ class IMMTracker:
         (programming errors); a non-finite or implausible z is rejected, not raised.
         """
         zz = self._z
-        if np.shape(z) != (2,):
+        if (z.shape if type(z) is np.ndarray else np.shape(z)) != (2,):
             raise ValueError(f"z: need [x, y] in metres, got {z!r}")
         zz[0] = z
         bank = self._bank
@@ -1023,11 +1184,14 @@ class IMMTracker:
             self._reason = ""
             return True
         if math.isfinite(zz[0, 0]) and math.isfinite(zz[0, 1]):
-            used = bool(bank._cycle(zz, t)[0])
+            ok = bank._cycle(zz, t)
+            if ok is None:
+                self._reason = ""
+                return True
+            used = bool(ok[0])
         else:
             used = bool(bank.update(zz, t)[0])
-        code = bank._reasons[0]
-        self._reason = "" if used else REJECTION_REASONS[code]
+        self._reason = "" if used else REJECTION_REASONS[bank._reasons[0]]
         return used
 
     def predict(self, t: float) -> None:
