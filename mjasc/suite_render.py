@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 
-from .recording import Recorder, default_blueprint, vessel_colour
+from .recording import Recorder, vessel_colour
 from .suite import load
 from .suite.baselines import make_policy
 from .suite.otter import CollisionAvoidance, PathFollowing, StationKeeping
@@ -59,6 +59,23 @@ def _task_lines(task, duration_s: float) -> list[np.ndarray]:
         a = np.linspace(0, 2 * np.pi, 33)
         return [task.station_m + 1.0 * np.stack([np.cos(a), np.sin(a)], axis=-1)]
     return []
+
+
+def episode_blueprint(extent_m: float):
+    """Rerun layout of a suite episode: the top-down world view on the left; the reward and the
+    propeller commands over time and the event log on the right."""
+    import rerun.blueprint as rrb
+
+    top = rrb.Spatial3DView(
+        origin="world", name="Top-down (ENU, y north up)",
+        eye_controls=rrb.EyeControls3D(position=(0.0, -0.01 * extent_m, 1.6 * extent_m), look_target=(0.0, 0.0, 0.0),
+                                        eye_up=(0.0, 1.0, 0.0)),
+        line_grid=rrb.LineGrid3D(visible=True, spacing=10.0, plane=rr.components.Plane3D.XY))
+    series = [rrb.TimeSeriesView(origin="plots/reward", name="reward"),
+              rrb.TimeSeriesView(origin="plots/commands", name="propeller commands")]
+    return rrb.Blueprint(rrb.Horizontal(top, rrb.Vertical(*series, rrb.TextLogView(origin="events", name="events")),
+                                        column_shares=[3, 2]),
+                         rrb.TimePanel(state="collapsed"), collapse_panels=False)
 
 
 def _extent(lines, positions, margin_m: float = 10.0):
@@ -108,7 +125,7 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
         if rerun:
             extent = float(np.max(hi - lo))
             recorder = Recorder(out_dir / f"{stem}.rrd", stem, int(seed),
-                                blueprint=default_blueprint(extent_m=extent, plots=("reward", "commands")))
+                                blueprint=episode_blueprint(extent))
             for k, line in enumerate(lines):
                 recorder.static(f"world/task/line{k}", rr.LineStrips3D([np.column_stack([line, np.zeros(len(line))])],
                                                                        colors=[(255, 255, 255)]))

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -28,11 +30,28 @@ def rollout(env, seed, steps=15):
     return out
 
 
-@pytest.mark.filterwarnings("ignore:.*Box observation space (minimum|maximum) value is:UserWarning")
 @pytest.mark.parametrize("domain,task", [("otter", "collision_avoidance"), ("otter_team", "formation")])
 def test_gymnasium_env_checker_passes(domain, task):
+    """check_env passes; its only warnings are the infinite-bound ones, and exactly one per Box whose
+    spec is unbounded (noisy velocities, positions): BoundedArray specs become finite Boxes."""
     env = make_gym_env(domain, task, task_kwargs=SHORT)
-    check_env(env, skip_render_check=True)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        check_env(env, skip_render_check=True)
+    messages = [str(w.message) for w in caught]
+    spaces = env.observation_space.spaces
+    unbounded_low = sum(bool(np.any(np.isneginf(b.low))) for b in spaces.values())
+    unbounded_high = sum(bool(np.any(np.isposinf(b.high))) for b in spaces.values())
+    assert sum("minimum value is -infinity" in m for m in messages) == unbounded_low
+    assert sum("maximum value is infinity" in m for m in messages) == unbounded_high
+    assert all("infinity" in m for m in messages), messages
+    bounded = [k for k, b in spaces.items() if np.all(np.isfinite(b.low)) and np.all(np.isfinite(b.high))]
+    expected = {"otter": {"shaft_speed", "goal_direction", "ranges"},
+                "otter_team": {f"otter{i}_{k}" for i in range(3) for k in ("shaft_speed", "course_error")}}[domain]
+    assert set(bounded) == expected
+    if domain == "otter":
+        np.testing.assert_array_equal(spaces["ranges"].low, 0.0)
+        np.testing.assert_array_equal(spaces["ranges"].high, 1.0)
     env.close()
 
 

@@ -1,4 +1,4 @@
-"""What every mjasc suite domain shares: the Physics subclass, world composition, the ray fan.
+"""What every mjasc suite domain shares: the Physics subclass, world composition, range sensors.
 
 :class:`VesselPhysics` is a dm_control ``mjcf.Physics`` whose :meth:`~VesselPhysics.step` is
 mjasc's physics step, :meth:`mjasc.simulation.Simulation.step` (``mj_step1`` → current,
@@ -28,17 +28,16 @@ from dm_control.rl import control
 from ..currents import CurrentField, UniformCurrent
 from ..frames import wrap_angle
 from ..obstacles import PolygonObstacle
+from ..range_sensor import RangeSensor, SensorConfig, sensor_for_vessel
 from ..simulation import Simulation
 from ..vessels import load_vessel_type
-from ..world import SENSOR_GEOM_GROUPS, World, build_world
+from ..world import World, build_world
 
-__all__ = ["Environment", "VesselPhysics", "compose_world", "RayFan", "basin_walls", "world_to_body", "CONTROL_TIMESTEP_S"]
+__all__ = ["Environment", "VesselPhysics", "compose_world", "range_sensor", "basin_walls", "world_to_body",
+           "CONTROL_TIMESTEP_S"]
 
 #: Agent decision period [s]: 5 physics steps of 0.02 s (10 Hz, a typical USV autopilot rate).
 CONTROL_TIMESTEP_S = 0.1
-#: Height of horizontal range rays [m]: inside the 0–0.15 m contact band every hull spans
-#: (assets/README.md), so every hull and obstacle is seen.
-RAY_HEIGHT_M = 0.1
 
 _COPIED_SECTIONS = ("asset", "worldbody")
 
@@ -206,6 +205,28 @@ class VesselPhysics(mjcf.Physics):
         new._heading_buf = np.zeros(self._world.n_vessels)
         return new
 
+    # ------------------------------------------------------------------ pickling
+    def __getstate__(self):
+        """dm_control pickles a Physics as its MjData only; add what the step needs: the World's
+        names and index maps (without its MJCF object model, which dm_control cannot pickle),
+        this episode's current field and traffic motions."""
+        data = super().__getstate__()
+        if self._world is None:
+            return data
+        world = dataclasses.replace(self._world, physics=None, mjcf_model=None)
+        return {"data": data, "world": world, "current": self._current, "traffic": list(self._sim.traffic.obstacles)}
+
+    def __setstate__(self, state):
+        """Rebuild the physics from its MjData, then its simulator (bound to the new MjData)."""
+        if not isinstance(state, dict):
+            super().__setstate__(state)
+            return
+        super().__setstate__(state["data"])
+        self._world = dataclasses.replace(state["world"], physics=self)
+        self._current = state["current"]
+        self._build_simulation(state["traffic"])
+        self._heading_buf = np.zeros(self._world.n_vessels)
+
     # ------------------------------------------------------------------ stepping
     def step(self, nstep: int = 1) -> None:
         """``nstep`` physics steps of :class:`mjasc.simulation.Simulation`, then sync kinematics."""
@@ -304,38 +325,8 @@ class VesselPhysics(mjcf.Physics):
         return bool(np.any(bodies == hull))
 
 
-class RayFan:
-    """A horizontal 360° fan of range rays around one vessel, cast with ``mujoco.mj_multiRay``.
-
-    Rays start at the vessel's CO at height :data:`RAY_HEIGHT_M` (inside the contact band), bearings
-    ``2πk/n`` counter-clockwise from the bow, see geom groups 0 (obstacles) and 3 (hulls) and exclude
-    the own hull. :meth:`read` returns distances clipped to ``max_range_m`` (no hit → max range).
-    """
-
-    def __init__(self, physics: VesselPhysics, vessel: int, n_rays: int, max_range_m: float):
-        if n_rays < 1:
-            raise ValueError(f"n_rays: must be ≥ 1, got {n_rays}")
-        if not max_range_m > 0:
-            raise ValueError(f"max_range_m: must be > 0, got {max_range_m}")
-        self.vessel = int(vessel)
-        self.n_rays = int(n_rays)
-        self.max_range_m = float(max_range_m)
-        self.bearings_rad = 2 * np.pi * np.arange(self.n_rays) / self.n_rays
-        self._vec = np.zeros((self.n_rays, 3))
-        self._geomid = np.zeros(self.n_rays, dtype=np.int32)
-        self._dist = np.zeros(self.n_rays)
-        self._groups = SENSOR_GEOM_GROUPS.copy()
-
-    def read(self, physics: VesselPhysics) -> np.ndarray:
-        """Distances (n_rays,) [m] along the fan of vessel ``self.vessel``, ≤ max range."""
-        p = physics.position(self.vessel)
-        ang = physics.heading(self.vessel) + self.bearings_rad
-        self._vec[:, 0] = np.cos(ang)
-        self._vec[:, 1] = np.sin(ang)
-        pnt = np.array([p[0], p[1], RAY_HEIGHT_M])
-        mujoco.mj_multiRay(physics.model.ptr, physics.data.ptr, pnt, self._vec.reshape(-1), self._groups, 1,
-                           int(physics.world.hull_body_id[self.vessel]), self._geomid, self._dist, None,
-                           self.n_rays, self.max_range_m)
-        out = self._dist.copy()
-        out[(out < 0) | (out > self.max_range_m)] = self.max_range_m
-        return out
+def range_sensor(physics: VesselPhysics, vessel: int, config: SensorConfig) -> RangeSensor:
+    """Vessel ``vessel``'s :class:`mjasc.range_sensor.RangeSensor` on this physics: the project's one
+    ray-casting sensor (``mj_multiRay`` from the hull's ``sensor_mount`` at ``config.ray_height_m``,
+    geom groups 0 and 3, the own hull excluded; noise, dropout and clutter in ``scan``)."""
+    return sensor_for_vessel(physics.world, vessel, config)

@@ -8,7 +8,7 @@ time-varying current, more and faster traffic, more observation noise, larger in
 * ``station_keeping``: reach and hold a randomized position, bow into the current (twin fixed
   propellers cannot push sideways: the only pose held against a current faces it).
 * ``collision_avoidance``: cross an 80 m walled basin to a goal through moving traffic seen only
-  through a 360° range fan; the episode ends (discount 0) on any contact.
+  through a 360° range sensor (mjasc.range_sensor.RangeSensor); the episode ends (discount 0) on any contact.
 
 Actions: normalized (port, starboard) propeller commands in [−1, 1] (docs/architecture.md).
 Observations: body-frame quantities only (no absolute position), Gaussian noise from ``self.random``.
@@ -32,7 +32,8 @@ from ..frames import wrap_angle
 from ..obstacles import MovingObstacle
 from ..paths import Path
 from ..vessels import load_vessel_type
-from .common import CONTROL_TIMESTEP_S, Environment, RayFan, VesselPhysics, basin_walls, compose_world, world_to_body
+from ..range_sensor import RangeSensor, SensorConfig
+from .common import CONTROL_TIMESTEP_S, Environment, VesselPhysics, basin_walls, compose_world, range_sensor, world_to_body
 
 __all__ = ["SUITE", "Difficulty", "EASY", "HARD", "OWN_STATE_OBSERVATIONS", "PathFollowing", "StationKeeping",
            "CollisionAvoidance", "get_model_and_assets", "make_environment"]
@@ -45,6 +46,7 @@ TRAFFIC_RADIUS_M = 2.0
 RANGE_RAYS = 32
 RANGE_MAX_M = 120.0  # > the basin's diagonal (113 m): every ray always hits a wall or a hull
 GOAL_RADIUS_M = 3.0
+TRAFFIC_INSET_M = 4.0  # traffic lanes end this far inside the basin walls [m]
 
 SUITE = containers.TaggedTasks()
 #: Observations every task gives about the own vessel (name, shape), first in every dict.
@@ -62,16 +64,44 @@ class Difficulty:
     velocity_noise_m_s: float  # σ on body velocities and the current estimate
     position_noise_m: float  # σ on path / target / goal errors
     heading_noise_rad: float
-    range_noise_m: float
+    range_noise_m: float  # σ of a range return (mjasc.range_sensor's noise model)
     initial_offset_m: float  # largest initial distance from the path / station / slot
     initial_heading_error_rad: float
     path_turn_rad: float  # largest course change at a waypoint
     n_traffic: int
     traffic_speed_m_s: tuple[float, float]
+    range_dropout: float = 0.0  # probability that a true range return is lost
+    range_clutter_per_scan: float = 0.0  # Poisson mean of false returns per scan
+    leader_turns: int = 0  # course changes (≤ path_turn_rad each) of the formation leader's line
 
 
-EASY = Difficulty("easy", (0.05, 0.3), 0.0, 60.0, 0.01, 0.05, 0.01, 0.05, 3.0, 0.5, np.pi / 4, 3, (0.5, 1.2))
-HARD = Difficulty("hard", (0.3, 0.6), 0.08, 30.0, 0.05, 0.3, 0.03, 0.3, 8.0, 1.2, np.pi / 2, 6, (0.8, 2.0))
+EASY = Difficulty("easy", (0.05, 0.3), 0.0, 60.0, 0.01, 0.05, 0.01, 0.05, 3.0, 0.5, np.pi / 4, 3, (0.5, 1.2),
+                  range_dropout=0.01, range_clutter_per_scan=0.05)
+HARD = Difficulty("hard", (0.3, 0.6), 0.08, 30.0, 0.05, 0.3, 0.03, 0.3, 8.0, 1.2, np.pi / 2, 6, (0.8, 2.0),
+                  range_dropout=0.05, range_clutter_per_scan=0.3)
+
+#: Declared bounds (minimum, maximum) of observations the physics bounds, by name (a team task's
+#: ``<vessel>_<name>`` keys too); every other observation is an unbounded ``specs.Array``.
+#: shaft_speed: the shaft lag keeps the activation between the commands (in [−1, 1]); sin/cos
+#: pairs; unit vectors; normalized ranges (clipped to [0, 1]); distances ≥ 0.
+OBSERVATION_BOUNDS = {
+    "shaft_speed": (-1.0, 1.0),
+    "heading_error": (-1.0, 1.0),
+    "course_error": (-1.0, 1.0),
+    "goal_direction": (-1.0, 1.0),
+    "goal_distance": (0.0, np.inf),
+    "ranges": (0.0, 1.0),
+    "path_error": ([-np.inf, -1.0, -1.0], [np.inf, 1.0, 1.0]),
+}
+
+
+def observation_array_spec(name: str, shape) -> specs.Array:
+    """The float64 spec of observation ``name``: a ``BoundedArray`` when OBSERVATION_BOUNDS bounds it."""
+    for key, (lo, hi) in OBSERVATION_BOUNDS.items():
+        if name == key or name.endswith("_" + key):
+            return specs.BoundedArray(shape, np.float64, np.asarray(lo, dtype=float), np.asarray(hi, dtype=float),
+                                      name=name)
+    return specs.Array(shape, np.float64, name=name)
 
 
 def get_model_and_assets():
@@ -108,7 +138,7 @@ class _VesselTask(base.Task):
 
     def observation_spec(self, physics):
         """Observation arrays by name (float64), declared: building the spec draws no noise."""
-        return collections.OrderedDict((name, specs.Array(shape, np.float64, name=name))
+        return collections.OrderedDict((name, observation_array_spec(name, shape))
                                        for name, shape in self.observation_shapes())
 
     def observation_shapes(self):
@@ -262,8 +292,18 @@ def _traffic_names(n: int) -> list[str]:
     return [f"traffic{k}" for k in range(n)]
 
 
+def _distance_to_square_edge(point, direction, half_size_m: float) -> float:
+    """Distance [m] from ``point`` (inside the square |x|, |y| ≤ half_size_m) along the unit
+    ``direction`` to the square's edge."""
+    t = np.inf
+    for p, u in zip(point, direction):
+        if abs(u) > 1e-12:
+            t = min(t, ((half_size_m if u > 0 else -half_size_m) - p) / u)
+    return float(max(t, 0.0))
+
+
 class CollisionAvoidance(_VesselTask):
-    """Cross the basin to a goal through crossing traffic, seen only through the range fan."""
+    """Cross the basin to a goal through crossing traffic, seen only through the range sensor."""
 
     OBSERVATIONS = OWN_STATE_OBSERVATIONS + (("goal_direction", (2,)), ("goal_distance", (1,)),
                     ("ranges", (RANGE_RAYS,)))
@@ -278,7 +318,10 @@ class CollisionAvoidance(_VesselTask):
         length = float(np.linalg.norm(route))
         course = float(np.arctan2(route[1], route[0]))
         # Each boat crosses the route at a random point f·L, near when the own vessel at cruise
-        # speed would be there (± 6 s), from port or starboard at 90° ± 35°.
+        # speed would be there (± 6 s), from port or starboard at 90° ± 35°. It sails a straight
+        # line across the basin, from TRAFFIC_INSET_M inside one wall to as far inside the opposite
+        # one (where it stops): it never passes through a wall. A boat that would have to start
+        # beyond the wall to meet the vessel starts at the wall instead (and crosses earlier).
         traffic = []
         for k, name in enumerate(_traffic_names(d.n_traffic)):
             f = rnd.uniform(0.2, 0.8)
@@ -286,8 +329,13 @@ class CollisionAvoidance(_VesselTask):
             speed = rnd.uniform(*d.traffic_speed_m_s)
             heading = course + rnd.choice([-1.0, 1.0]) * (np.pi / 2 + rnd.uniform(-0.6, 0.6))
             cross = start + f * route
-            p0 = cross - speed * max(t_cross, 0.0) * _vec(np.cos(heading), np.sin(heading))
-            traffic.append(MovingObstacle(name, TRAFFIC_RADIUS_M, p0, float(heading), float(speed)))
+            u = _vec(np.cos(heading), np.sin(heading))
+            inner = BASIN_HALF_SIZE_M - TRAFFIC_INSET_M
+            back, ahead = _distance_to_square_edge(cross, -u, inner), _distance_to_square_edge(cross, u, inner)
+            lane = Path.line(cross - back * u, cross + ahead * u)
+            gamma0 = back - min(speed * max(t_cross, 0.0), back)
+            traffic.append(MovingObstacle(name, TRAFFIC_RADIUS_M, speed_m_s=float(speed), path=lane,
+                                          start_gamma_m=float(gamma0)))
         physics.configure_episode(_random_current(rnd, d), traffic)
         psi0 = course + rnd.uniform(-d.initial_heading_error_rad, d.initial_heading_error_rad)
         physics.set_pose(0, start[0], start[1], psi0, surge_m_s=rnd.uniform(0.0, self.speed_ref_m_s))
@@ -297,24 +345,51 @@ class CollisionAvoidance(_VesselTask):
         physics.after_reset()
         super().initialize_episode(physics)
 
+    def sensor_config(self) -> SensorConfig:
+        """The vessel's range sensor: RANGE_RAYS beams over 360° out to RANGE_MAX_M, no blind zone,
+        range noise / dropout / clutter of the difficulty (mjasc.range_sensor's model)."""
+        d = self.difficulty
+        return SensorConfig(beams=RANGE_RAYS, fov_deg=360.0, max_range_m=RANGE_MAX_M, min_range_m=0.0,
+                            rate_hz=1.0 / CONTROL_TIMESTEP_S, range_noise_std_m=d.range_noise_m,
+                            dropout_probability=d.range_dropout, clutter_per_scan=d.range_clutter_per_scan)
+
+    def range_sensor(self, physics: VesselPhysics) -> RangeSensor:
+        """The :class:`mjasc.range_sensor.RangeSensor` of the vessel (rebuilt when the difficulty or
+        the model changes)."""
+        key = (id(self.difficulty), id(physics.model.ptr))
+        if getattr(self, "_sensor_key", None) != key:
+            self._sensor = range_sensor(physics, 0, self.sensor_config())
+            self._sensor_key = key
+        return self._sensor
+
     def ranges(self, physics: VesselPhysics) -> np.ndarray:
-        """True distances (RANGE_RAYS,) [m] along the fan, bow first, counter-clockwise."""
-        if getattr(self, "_fan", None) is None:
-            self._fan = RayFan(physics, 0, RANGE_RAYS, RANGE_MAX_M)
-        return self._cached(physics, "ranges", lambda: self._fan.read(physics))
+        """True (noise-free) distances (RANGE_RAYS,) [m] along the beams, RANGE_MAX_M where a beam
+        has no return; beam k at body angle −π + (k + ½)·2π/RANGE_RAYS (counter-clockwise from
+        astern, so the bow lies between beams RANGE_RAYS/2 − 1 and RANGE_RAYS/2)."""
+        def compute():
+            dist = self.range_sensor(physics).cast(physics.data.ptr)[0]
+            return np.where(dist < 0, RANGE_MAX_M, dist)
+        return self._cached(physics, "ranges", compute)
+
+    def scan_ranges(self, physics: VesselPhysics) -> np.ndarray:
+        """One noisy scan's ranges (RANGE_RAYS,) [m] (max range: no return). The scan's noise,
+        dropout and clutter come from a Generator seeded from the task's RandomState."""
+        d = self.difficulty
+        noisy = d.range_noise_m > 0 or d.range_dropout > 0 or d.range_clutter_per_scan > 0
+        rng = np.random.default_rng(self.random.randint(2**31 - 1)) if noisy else None
+        return self.range_sensor(physics).scan(physics.data.ptr, rng).ranges
 
     def get_observation(self, physics: VesselPhysics) -> collections.OrderedDict:
-        """Body velocities, shaft speeds, current estimate, goal bearing/distance, range fan (0–1)."""
+        """Body velocities, shaft speeds, current estimate, goal bearing/distance, ranges (0–1)."""
         d = self.difficulty
         psi = self._noisy_heading(physics)
         obs = collections.OrderedDict()
         self._own_state_observations(physics, obs)
         goal = world_to_body(self.goal_m - physics.position(0), psi) + self._noise(d.position_noise_m, 2)
         dist = float(np.hypot(*goal))
-        obs["goal_direction"] = goal / max(dist, 1e-9)
+        obs["goal_direction"] = np.clip(goal / max(dist, 1e-9), -1.0, 1.0)
         obs["goal_distance"] = _vec(dist)
-        ranges = self.ranges(physics) + self._noise(d.range_noise_m, RANGE_RAYS)
-        obs["ranges"] = np.clip(ranges / RANGE_MAX_M, 0.0, 1.0)
+        obs["ranges"] = np.clip(self.scan_ranges(physics) / RANGE_MAX_M, 0.0, 1.0)
         return obs
 
     def get_reward(self, physics: VesselPhysics) -> float:
