@@ -7,6 +7,7 @@ Short episodes (task_kwargs time_limit) keep the sweep over every task cheap.
 from __future__ import annotations
 
 import dataclasses
+import pickle
 import subprocess
 import sys
 import textwrap
@@ -23,7 +24,9 @@ from mjasc import suite
 from mjasc.currents import UniformCurrent
 from mjasc.simulation import Simulation
 from mjasc.suite import otter, otter_team
+from mjasc.range_sensor import RangeSensor
 from mjasc.suite.common import VesselPhysics
+from mjasc.world import WALL_THICKNESS_M
 
 ALL = [pytest.param(d, t, id=f"{d}-{t}") for d, t in suite.ALL_TASKS]
 SHORT = {"time_limit": 3.0}
@@ -91,6 +94,7 @@ def test_components_named_cameras_and_spec(domain, task):
             arr = obs.pop(name)
             assert arr.shape == s.shape and arr.dtype == s.dtype, name
             assert np.all(np.isfinite(arr)), name
+            s.validate(arr)  # within the declared bounds of a BoundedArray
         assert not obs
         if time_step.first():
             assert time_step.reward is None and time_step.discount is None
@@ -128,7 +132,8 @@ def test_flat_observation_and_no_aliasing(domain, task):
 def _noise_free(env):
     d = env.task.difficulty
     env.task.difficulty = dataclasses.replace(d, velocity_noise_m_s=0.0, position_noise_m=0.0,
-                                              heading_noise_rad=0.0, range_noise_m=0.0)
+                                              heading_noise_rad=0.0, range_noise_m=0.0, range_dropout=0.0,
+                                              range_clutter_per_scan=0.0)
 
 
 @pytest.mark.parametrize("domain,task", ALL)
@@ -228,28 +233,139 @@ def test_collision_terminates_episode():
     assert physics.position(0)[0] < 40.0
 
 
-def test_range_fan_sees_the_walls_and_traffic():
+def test_range_sensor_sees_the_walls_and_traffic():
+    """The task's ranges come from mjasc.range_sensor.RangeSensor (beam k at −π + (k + ½)·2π/n from
+    the sensor mount, own hull excluded): against the basin walls in closed form, and a boat on a beam."""
     env = suite.load("otter", "collision_avoidance", task_kwargs={"random": 5})
     env.reset()
     physics, task = env.physics, env.task
-    physics.set_pose(0, 0.0, 0.0, 0.0)
+    physics.set_pose(0, 0.0, 0.0, 0.3)
     physics.after_reset()
     mocap = physics.world.mocap_id
     physics.data.mocap_pos[mocap, :2] = 1000.0  # all traffic far outside the basin
     mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
+    sensor = task.range_sensor(physics)
+    assert isinstance(sensor, RangeSensor) and sensor.body_id == physics.world.hull_body_id[0]
+    n = otter.RANGE_RAYS
+    np.testing.assert_allclose(sensor.angles_body, -np.pi + (np.arange(n) + 0.5) * 2 * np.pi / n)
+    origin, yaw = sensor.pose(physics.data.ptr)
+    assert yaw == pytest.approx(0.3)
+    np.testing.assert_allclose(origin, [-0.30 * np.cos(0.3), -0.30 * np.sin(0.3)], atol=1e-9)  # mount 0.3 m aft
+    # Inner faces of the walls: the basin outline (40 m) minus the wall thickness (walls lie inside it).
+    inner = otter.BASIN_HALF_SIZE_M - WALL_THICKNESS_M
+    a = yaw + sensor.angles_body
+    u = np.stack([np.cos(a), np.sin(a)], axis=-1)
+    with np.errstate(divide="ignore"):
+        expected = np.min(np.where(u != 0, (np.sign(u) * inner - origin) / u, np.inf), axis=1)
     ranges = task.ranges(physics)
-    # From the centre of the 80 m basin every ray hits a wall: 40 m ahead (the walls lie outside
-    # the basin polygon), 40·√2 m toward a corner (ray 4 of 32 is at 45°).
-    assert ranges.shape == (otter.RANGE_RAYS,)
-    assert ranges[0] == pytest.approx(40.0, abs=1e-6)
-    assert ranges[4] == pytest.approx(40.0 * np.sqrt(2), abs=0.6)
+    np.testing.assert_allclose(ranges, expected, atol=1e-6)
     assert np.all(ranges < otter.RANGE_MAX_M)
-    # A traffic boat 10 m dead ahead: the bow ray reads 10 m − its radius.
-    physics.data.mocap_pos[mocap[0], :2] = [10.0, 0.0]
+    # A traffic boat 10 m out along beam n/2 (just port of the bow): that beam reads 10 m − its radius.
+    k = n // 2
+    physics.data.mocap_pos[mocap[0], :2] = origin + 10.0 * u[k]
     mujoco.mj_kinematics(physics.model.ptr, physics.data.ptr)
     task._cache = {}
-    assert task.ranges(physics)[0] == pytest.approx(10.0 - otter.TRAFFIC_RADIUS_M, abs=1e-6)
+    assert task.ranges(physics)[k] == pytest.approx(10.0 - otter.TRAFFIC_RADIUS_M, abs=1e-6)
     assert physics.traffic_positions().shape == (len(physics.world.moving_obstacles), 2)
+
+
+def test_range_observation_noise_dropout_and_clutter():
+    """The observed ranges are one RangeSensor scan: noisy around the truth (σ of the difficulty),
+    some beams dropped (read 1.0, no return), normalized to [0, 1]; the same with the noise off."""
+    env = suite.load("otter", "collision_avoidance_hard", task_kwargs={"random": 2})
+    env.reset()
+    physics, task = env.physics, env.task
+    obs, truth = [], []
+    for _ in range(60):
+        time_step = env.step(np.zeros(2))
+        obs.append(time_step.observation["ranges"] * otter.RANGE_MAX_M)
+        truth.append(task.ranges(physics))
+    obs, truth = np.array(obs), np.array(truth)
+    dropped = obs == otter.RANGE_MAX_M
+    err = (obs - truth)[~dropped & (np.abs(obs - truth) < 5.0)]  # true returns (not clutter)
+    assert np.std(err) == pytest.approx(otter.HARD.range_noise_m, rel=0.15)
+    assert abs(np.mean(err)) < 0.05
+    assert 0.5 * otter.HARD.range_dropout < dropped.mean() < 2.0 * otter.HARD.range_dropout
+    _noise_free(env)
+    time_step = env.step(np.zeros(2))
+    np.testing.assert_allclose(time_step.observation["ranges"] * otter.RANGE_MAX_M, task.ranges(physics))
+
+
+def test_traffic_stays_inside_the_basin():
+    """Boats sail lanes that start and end inside the basin walls (never through a wall)."""
+    env = suite.load("otter", "collision_avoidance_hard", task_kwargs={"random": 0})
+    for _ in range(5):
+        env.reset()
+        physics = env.physics
+        limit = otter.BASIN_HALF_SIZE_M - otter.TRAFFIC_INSET_M + 1e-9
+        for o in physics.simulation.traffic.obstacles:
+            lane = o.path.sample(1.0)
+            assert np.all(np.abs(lane) <= limit)
+            assert 0.0 <= o.start_gamma_m <= o.path.length
+
+
+def test_physics_pickles_with_its_simulator():
+    """A pickled VesselPhysics comes back with its World index maps, current and traffic, and
+    steps on exactly as the original does."""
+    env = suite.load("otter", "collision_avoidance_hard", task_kwargs={"random": 4})
+    env.reset()
+    for _ in range(3):
+        env.step(np.array([0.5, 0.8]))
+    physics = env.physics
+    clone = pickle.loads(pickle.dumps(physics))
+    assert isinstance(clone, VesselPhysics) and clone.simulation.data is clone.data.ptr
+    assert clone.world.vessel_names == physics.world.vessel_names
+    for _ in range(10):
+        for p in (physics, clone):
+            p.set_control(np.array([0.2, -0.4]))
+            p.step(5)
+    np.testing.assert_array_equal(clone.data.qpos, physics.data.qpos)
+    np.testing.assert_array_equal(clone.data.mocap_pos, physics.data.mocap_pos)
+    np.testing.assert_array_equal(clone.current_body(0), physics.current_body(0))
+
+
+def test_formation_hard_leader_turns_and_lanes():
+    """formation_hard: the leader's path turns; each slot lies on its lane (the leader's path
+    offset by the slot's lateral offset) and is faster than the leader on the outside of a turn."""
+    env = suite.load("otter_team", "formation_hard", task_kwargs={"random": 3})
+    env.reset()
+    task = env.task
+    curvature = np.array([task.leader_path.curvature(g) for g in np.arange(30.0, 120.0, 1.0)])
+    assert np.count_nonzero(np.abs(np.diff(np.sign(np.round(curvature, 9)))) > 0) >= 2  # turns begin and end
+    times = np.linspace(0.0, 60.0, 61)
+    for i, (_, lateral) in enumerate(task.slots_m):
+        lane = task.lanes[i]
+        for t in times[::6]:
+            p = task.slot_position(i, t)
+            g = lane.project(p)
+            assert np.hypot(*(lane.point(g) - p)) < 1e-6
+        speeds = np.array([task.slot_speed(i, t) for t in times])
+        kappa = np.array([task.leader_path.curvature(task.leader_gamma(t) + task.slots_m[i, 0]) for t in times])
+        np.testing.assert_allclose(speeds, task.speed_ref_m_s * (1 - kappa * lateral))
+    easy = suite.load("otter_team", "formation", task_kwargs={"random": 3})
+    easy.reset()
+    assert len(easy.task.leader_path.segments) == 1  # easy: a straight line
+
+
+def test_cas_baseline_avoids_traffic_the_goal_line_hits():
+    """The CAS policy (the vessel's own perception → collision avoidance → path following) reaches
+    the goal without contact in an episode where the traffic-blind goal line collides. It never
+    reads the traffic's true state (the physics's getter is disabled here)."""
+    from mjasc.suite.baselines import CASPolicy, episode_return, goal_line_policy
+
+    env = suite.load("otter", "collision_avoidance", task_kwargs={"random": 1})
+    total, steps = episode_return(env, goal_line_policy(env))
+    assert steps < 800 and env.task.get_termination(env.physics) == 0.0
+    env = suite.load("otter", "collision_avoidance", task_kwargs={"random": 1})
+    policy = CASPolicy(env, seed=1)
+    with mock.patch.object(VesselPhysics, "traffic_positions", side_effect=AssertionError("reads the truth")):
+        cas_total, cas_steps = episode_return(env, policy)
+    assert cas_steps == 800 and env.task.get_termination(env.physics) is None
+    assert np.linalg.norm(env.physics.position(0) - env.task.goal_m) < otter.GOAL_RADIUS_M
+    assert cas_total > 5 * total
+    summary = policy.agent.avoidance.summary()
+    assert summary["predictions"] > 10 and summary["predicted_conflicts"] >= 1
+    assert len(policy.agent.perception.tracks()) >= 1
 
 
 def test_formation_layout_and_joint_policy():

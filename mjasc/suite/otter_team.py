@@ -21,12 +21,13 @@ policy of the flat environment. World ENU, body FLU, SI units.
 from __future__ import annotations
 
 import collections
+import dataclasses
 
 import numpy as np
 from dm_control.rl import control
 from dm_control.utils import containers, rewards
 
-from ..paths import Path
+from ..paths import ArcSegment, LineSegment, Path
 from .common import CONTROL_TIMESTEP_S, Environment, VesselPhysics, compose_world, world_to_body
 from .otter import EASY, HARD, OWN_STATE_OBSERVATIONS, XML_PATH, Difficulty, _random_current, _vec, _VesselTask
 
@@ -34,6 +35,8 @@ __all__ = ["SUITE", "Formation", "SLOTS_M", "agent_observation", "joint_policy",
 
 VESSEL_TYPE = "otter"
 TIME_LIMIT_S = 60.0
+LEAD_IN_M = 30.0  # the leader's path starts this far behind its position at t = 0 [m]
+LEADER_TURN_RADIUS_M = 20.0  # > every slot's lateral offset: the inner lane keeps a 12 m radius
 #: Slots (along, lateral) [m] in the leader's frame (x along the course, y to port), one per vessel.
 SLOTS_M = np.array([[0.0, 0.0], [-8.0, 8.0], [-8.0, -8.0]])
 
@@ -78,22 +81,44 @@ class Formation(_VesselTask):
         self.course_rad = rnd.uniform(-np.pi, np.pi)
         self.speed_ref_m_s = self.vessel.cruise_speed_m_s * rnd.uniform(0.7, 1.0)
         self.origin_m = rnd.uniform(-10.0, 10.0, 2)
-        t = _vec(np.cos(self.course_rad), np.sin(self.course_rad))
-        n = _vec(-t[1], t[0])
-        # Lane of vessel i: the line through its slot along the course, from 30 m behind the
-        # start to well beyond the reach of the episode (the baseline follows it).
-        self.lanes = []
-        for i, (along, lateral) in enumerate(self.slots_m):
-            base = self.origin_m + lateral * n
-            self.lanes.append(Path.line(base - 30.0 * t, base + 250.0 * t))
+        self.leader_path = self._leader_path(rnd, d)
+        # Lane of vessel i: the leader's path offset by the slot's lateral offset (the baseline
+        # follows it); the slot moves along it with the leader.
+        self.lanes = [offset_path(self.leader_path, lateral) for _, lateral in self.slots_m]
+        course0 = self.course_rad
+        for i in range(len(self.slots_m)):
             # At most 3 m off the slot per axis: slots are ≥ 11.3 m apart, so hulls never start touching.
             p0 = self.slot_position(i, 0.0) + rnd.uniform(-1.0, 1.0, 2) * min(d.initial_offset_m, 3.0)
-            psi0 = self.course_rad + rnd.uniform(-d.initial_heading_error_rad, d.initial_heading_error_rad)
+            psi0 = course0 + rnd.uniform(-d.initial_heading_error_rad, d.initial_heading_error_rad)
             physics.set_pose(i, p0[0], p0[1], psi0, surge_m_s=rnd.uniform(0.5, 1.0) * self.speed_ref_m_s)
-        self._place_target(physics, self.origin_m + 250.0 * t, self.course_rad)
+        end = self.leader_path.end_point
+        self._place_target(physics, end, float(self.leader_path.tangent_angle(self.leader_path.length)))
         self._cache = {}
         physics.after_reset()
         super().initialize_episode(physics)
+
+    def _leader_path(self, rnd, d: Difficulty) -> Path:
+        """The virtual leader's path: from LEAD_IN_M behind the origin along the initial course,
+        straight (``d.leader_turns`` = 0) or with that many course changes of 35–100 % of
+        ``d.path_turn_rad`` (random side) rounded with LEADER_TURN_RADIUS_M, 5–15 m of straight line
+        between the turns (and from the origin to the first). Long enough that the leader never reaches its end."""
+        t0 = _vec(np.cos(self.course_rad), np.sin(self.course_rad))
+        points = [self.origin_m - LEAD_IN_M * t0]
+        course = self.course_rad
+        if d.leader_turns > 0:
+            turns = [rnd.choice([-1.0, 1.0]) * rnd.uniform(0.35, 1.0) * d.path_turn_rad for _ in range(d.leader_turns)]
+            cuts = [LEADER_TURN_RADIUS_M * np.tan(abs(turn) / 2) for turn in turns] + [0.0]
+            points.append(self.origin_m + (cuts[0] + rnd.uniform(5.0, 15.0)) * t0)
+            for k, turn in enumerate(turns):
+                course += turn
+                leg = cuts[k] + cuts[k + 1] + rnd.uniform(5.0, 15.0)
+                points.append(points[-1] + leg * _vec(np.cos(course), np.sin(course)))
+        points.append(points[-1] + 250.0 * _vec(np.cos(course), np.sin(course)))
+        return Path.from_waypoints(np.array(points), turn_radius_m=LEADER_TURN_RADIUS_M)
+
+    def leader_gamma(self, time_s: float) -> float:
+        """Arc length of the virtual leader on its path at ``time_s`` [m] (at the origin at t = 0)."""
+        return LEAD_IN_M + self.speed_ref_m_s * float(time_s)
 
     def observation_shapes(self):
         """Per vessel, prefixed ``<vessel>_``: own state, slot error, leader velocity, course error, mates."""
@@ -103,11 +128,27 @@ class Formation(_VesselTask):
         return tuple((f"{name}_{key}", shape) for name in self.names for key, shape in own)
 
     def slot_position(self, i: int, time_s: float) -> np.ndarray:
-        """World position of vessel i's slot at ``time_s`` [m]."""
-        t = _vec(np.cos(self.course_rad), np.sin(self.course_rad))
-        n = _vec(-t[1], t[0])
+        """World position of vessel i's slot at ``time_s`` [m]: ``along`` behind/ahead of the leader
+        on its path, ``lateral`` to its port side there (the point at the same γ on lane i)."""
         along, lateral = self.slots_m[i]
-        return self.origin_m + (self.speed_ref_m_s * time_s + along) * t + lateral * n
+        gamma = self.leader_gamma(time_s) + along
+        chi = float(self.leader_path.tangent_angle(gamma))
+        return self.leader_path.point(gamma) + lateral * _vec(-np.sin(chi), np.cos(chi))
+
+    def slot_speed(self, i: int, time_s: float) -> float:
+        """Speed of vessel i's slot along its lane [m/s]: V·(1 − κ·lateral) (faster outside a turn)."""
+        along, lateral = self.slots_m[i]
+        kappa = float(self.leader_path.curvature(self.leader_gamma(time_s) + along))
+        return self.speed_ref_m_s * (1.0 - kappa * lateral)
+
+    def leader_velocity(self, time_s: float) -> np.ndarray:
+        """The virtual leader's velocity over ground (2,) [m/s], world frame."""
+        chi = float(self.leader_path.tangent_angle(self.leader_gamma(time_s)))
+        return self.speed_ref_m_s * _vec(np.cos(chi), np.sin(chi))
+
+    def slot_course(self, i: int, time_s: float) -> float:
+        """Course of vessel i's lane at its slot [rad] (the leader path's course at the slot's γ)."""
+        return float(self.leader_path.tangent_angle(self.leader_gamma(time_s) + self.slots_m[i, 0]))
 
     def slot_errors(self, physics: VesselPhysics) -> np.ndarray:
         """(N, 2) slot minus vessel position, world frame [m]."""
@@ -120,7 +161,8 @@ class Formation(_VesselTask):
         d = self.difficulty
         errors = self.slot_errors(physics)
         positions = np.array([physics.position(i) for i in range(len(self.names))])
-        leader_v = self.speed_ref_m_s * _vec(np.cos(self.course_rad), np.sin(self.course_rad))
+        time_s = float(physics.data.time)
+        leader_v = self.leader_velocity(time_s)
         obs = collections.OrderedDict()
         for i, name in enumerate(self.names):
             prefix = name + "_"
@@ -128,7 +170,7 @@ class Formation(_VesselTask):
             self._own_state_observations(physics, obs, i, prefix)
             obs[prefix + "slot_error"] = world_to_body(errors[i], psi) + self._noise(d.position_noise_m, 2)
             obs[prefix + "leader_velocity"] = world_to_body(leader_v, psi) + self._noise(d.velocity_noise_m_s, 2)
-            err = psi - self.course_rad
+            err = psi - self.slot_course(i, time_s)
             obs[prefix + "course_error"] = _vec(np.sin(err), np.cos(err))
             mates = np.delete(positions, i, axis=0) - positions[i]
             obs[prefix + "mates"] = (world_to_body(mates, psi)
@@ -151,6 +193,23 @@ class Formation(_VesselTask):
         return None
 
 
+def offset_path(path: Path, lateral_m: float) -> Path:
+    """The parallel curve of a path of lines and arcs, ``lateral_m`` to its left (port) side [m]:
+    lines shifted along their normal, arcs about the same centre with radius R − sign(sweep)·lateral."""
+    segments = []
+    for seg in path.segments:
+        if isinstance(seg, ArcSegment):
+            radius = seg.radius - np.sign(seg.sweep) * lateral_m
+            if radius <= 0:
+                raise ValueError(f"lateral_m: {lateral_m} m is beyond the centre of a {seg.radius} m turn")
+            segments.append(ArcSegment(seg.centre, radius, seg.start_angle, seg.sweep))
+        else:
+            t = (seg.end - seg.start) / seg.length
+            n = lateral_m * _vec(-t[1], t[0])
+            segments.append(LineSegment(seg.start + n, seg.end + n))
+    return Path.from_segments(segments)
+
+
 def make_environment(vessel_type: str, difficulty: Difficulty, time_limit=None, random=None,
                      environment_kwargs=None, slots_m=SLOTS_M) -> control.Environment:
     """The formation environment of a team of ``len(slots_m)`` vessels of ``vessel_type``."""
@@ -167,7 +226,12 @@ def formation(time_limit=None, random=None, environment_kwargs=None):
     return make_environment(VESSEL_TYPE, EASY, time_limit, random, environment_kwargs)
 
 
+#: formation_hard: the hard noise and initial errors, a stronger current (0.5–0.8 m/s, fluctuating)
+#: and three turns of up to 90° on the leader's path.
+FORMATION_HARD = dataclasses.replace(HARD, name="formation_hard", current_speed_m_s=(0.5, 0.8), leader_turns=3)
+
+
 @SUITE.add("benchmarking", "hard", "multi_agent")
 def formation_hard(time_limit=None, random=None, environment_kwargs=None):
-    """Three Otters hold a V formation around a virtual leader (hard)."""
-    return make_environment(VESSEL_TYPE, HARD, time_limit, random, environment_kwargs)
+    """Three Otters hold a V formation around a virtual leader turning three times, in a strong current (hard)."""
+    return make_environment(VESSEL_TYPE, FORMATION_HARD, time_limit, random, environment_kwargs)
