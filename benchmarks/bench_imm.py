@@ -10,7 +10,7 @@ the tracker alternating. Prints the tracker's speed-up over filterpy (the target
 markdown table with the largest absolute difference of the combined state [x, y, θ, V] from
 filterpy's.
 
-    .venv/bin/python benchmarks/bench_imm.py [--steps 300] [--repeats 3]
+    .venv/bin/python benchmarks/bench_imm.py [--steps 300] [--repeats 7]
 """
 
 from __future__ import annotations
@@ -99,7 +99,7 @@ def run_bank(zs, k0):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=300)
-    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--repeats", type=int, default=7)
     args = parser.parse_args()
     sizes = (1, 10, 50)
     zs = measurements(args.steps, max(sizes))

@@ -267,6 +267,11 @@ class _MarkovPower:
         return self._from_power(dt)
 
 
+# ufuncs called with a positional ``out`` (cheaper than the keyword, which counts at ~40 calls
+# per cycle on arrays of a few dozen numbers)
+_add, _sub, _mul, _div, _matmul = np.add, np.subtract, np.multiply, np.divide, np.matmul
+_cos, _exp, _sqrt, _maximum, _min_reduce = np.cos, np.exp, np.sqrt, np.maximum, np.minimum.reduce
+
 # ---------------------------------------------------------------------------------------------
 # The IMM cycle on stacked arrays: per-model states (..., r, 4), covariances (..., r, 4, 4) and
 # probabilities (..., r); the leading axes are a bank's tracks (n,). At 7 models the arithmetic
@@ -312,22 +317,22 @@ class _PositionUpdate:
     def innovate(self, z, R):
         """Fill T for measurement z (broadcastable to x[..., :2]) with covariance R ((2, 2), or
         broadcastable to P[..., :2, :2]); returns the views (rᵀ S⁻¹ r, det S)."""
-        np.subtract(self._x_xy, z, out=self._Z_r)
-        np.add(self._P_xy, R, out=self._S)
-        adj = np.multiply(self._S_flip, _ADJ_SIGN, out=self._adj)  # [[d, −c], [−b, a]]
-        det = np.matmul(self._S_row0, self._adj_col0, out=self._det)  # a d − b c
-        T = np.matmul(self._Z_T, np.matmul(adj, self._Z, out=self._SZ), out=self._T)
-        np.divide(T, det, out=T)
+        _sub(self._x_xy, z, self._Z_r)
+        _add(self._P_xy, R, self._S)
+        adj = _mul(self._S_flip, _ADJ_SIGN, self._adj)  # [[d, −c], [−b, a]]
+        det = _matmul(self._S_row0, self._adj_col0, self._det)  # a d − b c
+        T = _matmul(self._Z_T, _matmul(adj, self._Z, self._SZ), self._T)
+        _div(T, det, T)
         return self.mahalanobis, self.det
 
     def correct(self, x_out, P_out):
         """Posterior of the last ``innovate`` into x_out, P_out: x⁺ = x + K r, P⁺ = P − P Hᵀ S⁻¹ H P
         re-symmetrized (without it rounding asymmetry grows and P loses positive definiteness
         after ~10³ cycles)."""
-        np.subtract(self.x, self._T_x, out=x_out)
-        np.subtract(self.P, self._T_P, out=self._A)
-        np.add(self._A, self._A_T, out=P_out)
-        np.multiply(P_out, 0.5, out=P_out)
+        _sub(self.x, self._T_x, x_out)
+        _sub(self.P, self._T_P, self._A)
+        _add(self._A, self._A_T, P_out)
+        _mul(P_out, 0.5, P_out)
 
 
 class _IMMCycle:
@@ -372,7 +377,7 @@ class _IMMCycle:
         self.Pp, self._Pp_aug = self.update.P, self.update.P_aug  # predicted covariances
         self._Q, self._Q_of = e(r, 4, 5), None  # Q at the shape of Pp_aug: a same-shape add
         self.mahalanobis_min = e(1)
-        self._lik = e(r)
+        self._lik, self._total, self._ones = e(r), e(r), np.ones((r, r))
         self.sides = tuple((e(r, 4), e(r, 4, 4), e(r)) for _ in range(2))
         self._x = e(1, 4)
         self.x = self._x[..., 0, :]
@@ -385,36 +390,36 @@ class _IMMCycle:
         process covariance diag(Q_θ, Q_V)·Ts, (2, 2) or broadcastable to (..., r, 2, 2).
         """
         mrow = mu[..., None, :]
-        np.matmul(mrow, markov, out=self._cbar)  # c̄_j = Σ_i p_ij μ_i
-        w = np.divide(mrow, self._cbar_col, out=self._w)
+        _matmul(mrow, markov, self._cbar)  # c̄_j = Σ_i p_ij μ_i
+        w = _div(mrow, self._cbar_col, self._w)
         if markov_t is not self._markov_t_of:  # the same array for the same Ts (cached per Ts)
             np.copyto(self._markov_t, markov_t)
             self._markov_t_of = markov_t
-        np.multiply(w, self._markov_t, out=w)  # μ_{i|j} = p_ij μ_i / c̄_j, indexed (j, i)
-        s0 = np.matmul(w, s, out=self.s0)  # s0_j = Σ_i μ_{i|j} s_i
-        dev = np.subtract(s[..., None, :, :], self._s0_j, out=self._dev)  # s_i − s0_j, (j, i, 4)
-        np.multiply(self._dev_T, self._w_i, out=self._wdev_T)
+        _mul(w, self._markov_t, w)  # μ_{i|j} = p_ij μ_i / c̄_j, indexed (j, i)
+        s0 = _matmul(w, s, self.s0)  # s0_j = Σ_i μ_{i|j} s_i
+        dev = _sub(s[..., None, :, :], self._s0_j, self._dev)  # s_i − s0_j, (j, i, 4)
+        _mul(self._dev_T, self._w_i, self._wdev_T)
         P0 = self._P0  # Σ_i μ_{i|j} [P_i + (s_i − s0_j)(s_i − s0_j)ᵀ]
-        np.matmul(w, P.reshape(P.shape[:-2] + (16,)), out=self._P0_flat)
-        np.add(P0, np.matmul(self._wdev_T, dev, out=self._spread), out=P0)
+        _matmul(w, P.reshape(P.shape[:-2] + (16,)), self._P0_flat)
+        _add(P0, _matmul(self._wdev_T, dev, self._spread), P0)
         # thesis eq. 3.3: F = [[I, G], [0, I]], G = Ts [[−V sin θ, cos θ], [V cos θ, sin θ]]
-        G = np.subtract(self._th0, _G_PHASE, out=self._G)
-        np.cos(G, out=G)
-        np.multiply(self._G_th, self._v0, out=self._G_th)
+        G = _sub(self._th0, _G_PHASE, self._G)
+        _cos(G, G)
+        _mul(self._G_th, self._v0, self._G_th)
         if type(dt) is not float or dt != 1.0:
-            np.multiply(G, dt, out=G)
+            _mul(G, dt, G)
         np.copyto(self._F_G, G)
         np.copyto(self._F_T_G, self._G_T)
-        np.multiply(self._G_v, self._v0, out=self._D_xy)
+        _mul(self._G_v, self._v0, self._D_xy)
         if dt_omega is not self._D_th_of:  # the same array for the same Ts (cached per Ts)
             self._D_th[...] = dt_omega
             self._D_th_of = dt_omega
-        np.add(s0, self._D, out=s0)
-        np.matmul(np.matmul(self._F, P0, out=self._FP), self._F_T, out=self.Pp)
+        _add(s0, self._D, s0)
+        _matmul(_matmul(self._F, P0, self._FP), self._F_T, self.Pp)
         if q_block is not self._Q_of:
             self._Q[..., 2:, 2:4] = q_block
             self._Q_of = q_block
-        np.add(self._Pp_aug, self._Q, out=self._Pp_aug)
+        _add(self._Pp_aug, self._Q, self._Pp_aug)
         return s0, self.Pp, self.cbar
 
     def mode_probabilities(self, maha, det, floor, out):
@@ -425,20 +430,19 @@ class _IMMCycle:
         1/(2π). Flooring the unnormalized μ̃ at floor·Σμ̃ then normalizing equals normalizing,
         flooring at ``floor`` and renormalizing.
         """
-        lik = np.subtract(
-            np.minimum.reduce(maha, axis=-1, keepdims=True, out=self.mahalanobis_min), maha, out=self._lik
-        )
-        np.exp(lik, out=lik)
-        np.divide(lik, det, out=lik)
-        np.sqrt(lik, out=lik)
-        mu = np.multiply(lik, self.cbar, out=out)
-        np.maximum(mu, floor * np.add.reduce(mu, axis=-1, keepdims=True), out=mu)
-        np.divide(mu, np.add.reduce(mu, axis=-1, keepdims=True), out=mu)
+        lik = _sub(_min_reduce(maha, -1, None, self.mahalanobis_min, True), maha, self._lik)
+        _exp(lik, lik)
+        _div(lik, det, lik)
+        _sqrt(lik, lik)
+        mu = _mul(lik, self.cbar, out)
+        total = _matmul(mu, self._ones, self._total)  # Σ_j μ_j in every column (same-shape ops)
+        _maximum(mu, _mul(total, floor, total), out=mu)
+        _div(mu, _matmul(mu, self._ones, self._total), mu)
         return mu
 
     def combine_state(self, s, mu):
         """Step 6, state: Σ_j μ_j s_j (..., 4) (a view of a buffer of this cycle)."""
-        np.matmul(mu[..., None, :], s, out=self._x)
+        _matmul(mu[..., None, :], s, self._x)
         return self.x
 
 
