@@ -451,3 +451,37 @@ def test_predict_then_update_at_same_time_equals_update():
     np.testing.assert_allclose(t1.state, t2.state, atol=1e-12)
     np.testing.assert_allclose(t1.state_covariance, t2.state_covariance, atol=1e-12)
     np.testing.assert_allclose(t1.mode_probabilities, t2.mode_probabilities, atol=1e-12)
+
+
+def test_bank_resized_between_cycles_equals_separate_trackers():
+    """Tracks added and removed between cycles (the bank's work buffers are rebuilt for each new
+    size) and a predict between updates: every track still equals its own IMMTracker to rounding."""
+    steps = 60
+    truths = [truth_eq32(steps, 1.0, 1.0 + 0.3 * i, 0.02 * (i - 1), heading0=0.7 * i) for i in range(3)]
+    z = np.stack([measure(tr, 40 + i) for i, tr in enumerate(truths)])
+    bank = IMMBank()
+    trackers = {}
+    for k in range(steps):
+        t = float(k)
+        if k in (0, 15):  # start tracks 0, 1 at 0 s and track 2 at 15 s
+            for i in (0, 1) if k == 0 else (2,):
+                bank.add_track(z[i, k], t, track_id=i)
+                trackers[i] = IMMTracker()
+                trackers[i].update(z[i, k], t)
+            continue
+        if k == 40:
+            bank.remove_track(1)
+            del trackers[1]
+        if k == 30:
+            bank.predict(t - 0.5)
+            for trk in trackers.values():
+                trk.predict(t - 0.5)
+        order = bank.track_ids.tolist()
+        assert bank.update(z[order, k], t).all()
+        for i in order:
+            assert trackers[i].update(z[i, k], t)
+        np.testing.assert_allclose(bank.states, [trackers[i].state for i in order], atol=1e-10)
+        np.testing.assert_allclose(bank.mode_probabilities, [trackers[i].mode_probabilities for i in order], atol=1e-10)
+        np.testing.assert_allclose(
+            bank.state_covariances, [trackers[i].state_covariance for i in order], atol=1e-10
+        )
