@@ -69,6 +69,11 @@ _DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at i
 _OCCLUDER_MARGIN_M = 1.0  # a neighbouring return this much nearer hides the cluster's edge
 _WALL_SIN_TOL = 0.035  # 2°: three returns this straight on neighbouring beams are a wall
 _WALL_STEP_MAX_M = 50.0  # longest step along a grazed wall kept in one object
+#: Neighbouring beams hit a straight wall at spacings h·sin Δθ / (sin φ_k sin φ_k+1) (h the wall's
+#: distance, φ_k the beam's angle to the wall), so successive spacings differ by the factor
+#: sin φ_k / sin φ_k+2: at most 5 while φ ≥ Δθ/2. A long step after (or before) a short one is
+#: not the same wall: it is the jump from another object's edge onto a wall behind it.
+_WALL_STEP_RATIO = 5.0
 
 
 @dataclass(frozen=True)
@@ -238,15 +243,18 @@ def detect(scan: Scan, config: DetectionConfig = DetectionConfig(), range_noise_
 
 def _wall_continues(P, gaps, step, nxt, sigma) -> np.ndarray:
     """(k,) bool: the step from return i to i + 1 (neighbouring beams, at most ``_WALL_STEP_MAX_M``)
-    continues the straight line through i − 1, i, or through i + 1, i + 2 (within the noise): the
-    beams graze a wall, whose returns spread out along it; they stay one object."""
+    continues the straight line through i − 1, i, or through i + 1, i + 2 (within the noise), and the
+    two steps' lengths are alike (``_WALL_STEP_RATIO``): the beams graze a wall, whose returns spread
+    out along it; they stay one object. Without the length test a short step's direction (noise:
+    anything goes) let a boat's hull in front of a wall join the wall's cluster."""
     prv = np.roll(nxt, 2)  # i − 1 (nxt is a cyclic shift by one)
     seg = P[nxt] - P  # i → i + 1
     length = np.maximum(step, 1e-9)
     unit = seg / length[:, None]
     tol = np.minimum(1.0, 3.0 * sigma * (1.0 / length + 1.0 / length[prv])) + _WALL_SIN_TOL
     cross_back = np.abs(unit[prv, 0] * unit[:, 1] - unit[prv, 1] * unit[:, 0])
-    back = (gaps == 1) & (gaps[prv] == 1) & (np.einsum("ij,ij->i", unit[prv], unit) > 0) & (cross_back < tol)
+    similar = np.maximum(length, length[prv]) <= _WALL_STEP_RATIO * np.minimum(length, length[prv]) + 6.0 * sigma
+    back = (gaps == 1) & (gaps[prv] == 1) & (np.einsum("ij,ij->i", unit[prv], unit) > 0) & (cross_back < tol) & similar
     fwd = np.roll(back, -1)  # the step i+1 → i+2 continues i → i+1
     return (back | fwd) & (gaps == 1) & (step <= _WALL_STEP_MAX_M)
 

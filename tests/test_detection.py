@@ -117,3 +117,31 @@ def test_a_wall_seen_at_grazing_incidence_stays_one_extended_object():
         far = scan.hit_points_world[:, 0] > 30.0
         assert far.sum() > 5
         assert np.all(det.extended[det.labels[far]]), det.radii_m
+
+
+def test_a_boat_in_front_of_a_wall_is_not_merged_into_it():
+    """The §6.4.3 geometry: a 2.2 m boat 6–8 m away, just in front of an island whose shore runs
+    on behind it (the shore's line through the boat's side). The jump from the boat's last return
+    onto the shore follows a short step along the hull whose direction is noise; a wall's spacings
+    grow smoothly (factor ≤ 5 between neighbours), so that jump is not taken for a grazed wall and
+    the boat stays its own target (before: merged into the island's extended cluster, mapped as
+    land and its track lost)."""
+    island = PolygonObstacle("island", np.array([[11.0, -7.0], [7.0, -18.0], [13.0, -32.0], [29.0, -34.0],
+                                                 [36.0, -20.0], [33.0, -7.0]]))
+    cfg = SensorConfig(beams=360, range_noise_std_m=0.05, dropout_probability=0.0, clutter_per_scan=0.0)
+    w, s = make(statics=[island], moving=[MovingObstacle("boat", 2.2, (4.4, -5.6))], config=cfg)
+    m, d = w.model, w.data
+    rng = np.random.default_rng(3)
+    merged = 0
+    for x, y in [(4.4, -5.6), (4.2, -5.3), (3.6, -4.9), (5.0, -5.9), (4.0, -5.0)] * 4:
+        d.mocap_pos[w.mocap_id[0], :2] = (x, y)
+        mujoco.mj_kinematics(m, d)
+        scan = s.scan(d, rng)
+        det = detect(scan, range_noise_std_m=0.05)
+        on_boat = np.hypot(*(scan.hit_points_world - (x, y)).T) < 2.4
+        labels = set(det.labels[on_boat].tolist())
+        assert len(labels) == 1
+        lab = labels.pop()
+        merged += bool(det.extended[lab])
+        assert np.hypot(*(det.centres_m[lab] - (x, y))) < 0.6 or det.extended[lab]
+    assert merged == 0
