@@ -358,14 +358,14 @@ class _IMMCycle:
         self.cbar = self._cbar[..., 0, :]
         self._cbar_col = self._cbar.mT
         self._w = e(r, r)
-        self._w_i = self._w[..., None, :]
+        self._w_ji = self._w[..., None]
         self._markov_t, self._markov_t_of = e(r, r), None  # p(Ts)ᵀ per track: same-shape products
         self.s0 = e(r, 4)  # mixed, then (in place) predicted states
         self._s0_j = self.s0[..., :, None, :]
         self._th0, self._v0 = self.s0[..., 2, None, None], self.s0[..., 3, None]
         self._dev = e(r, r, 4)
         self._dev_T = self._dev.mT
-        self._wdev_T = e(r, 4, r)
+        self._wdev = e(r, r, 4)
         self._spread = e(r, 4, 4)
         self._P0 = e(r, 4, 4)
         self._P0_flat = self._P0.reshape(lead + (r, 16))
@@ -384,6 +384,7 @@ class _IMMCycle:
         self.Pp, self._Pp_aug = self.update.P, self.update.P_aug  # predicted covariances
         self._Q, self._Q_of = e(r, 4, 5), None  # Q at the shape of Pp_aug: a same-shape add
         self.mahalanobis_min = e(1)
+        self.mahalanobis_min_rows = self.mahalanobis_min[..., 0]
         self._lik, self._total, self._ones = e(r), e(r), np.ones((r, r))
         self.sides = tuple((e(r, 4), e(r, 4, 4), e(r)) for _ in range(2))
         self._views = {  # per side buffer: the views mix_predict and combine_state take of it
@@ -416,13 +417,13 @@ class _IMMCycle:
         if s_i is None:
             s_i = s[..., None, :, :]
         dev = _sub(s_i, self._s0_j, self._dev)  # s_i − s0_j, (j, i, 4)
-        _mul(self._dev_T, self._w_i, self._wdev_T)
+        _mul(dev, self._w_ji, self._wdev)
         P0 = self._P0  # Σ_i μ_{i|j} [P_i + (s_i − s0_j)(s_i − s0_j)ᵀ]
         P_flat = views.get(id(P))
         if P_flat is None:
             P_flat = P.reshape(P.shape[:-2] + (16,))
         _matmul(w, P_flat, self._P0_flat)
-        _add(P0, _matmul(self._wdev_T, dev, self._spread), P0)
+        _add(P0, _matmul(self._dev_T, self._wdev, self._spread), P0)
         # thesis eq. 3.3: F = [[I, G], [0, I]], G = Ts [[−V sin θ, cos θ], [V cos θ, sin θ]]
         G = _sub(self._th0, _G_PHASE, self._G)
         _cos(G, G)
@@ -950,7 +951,7 @@ class IMMBank:
         if np.minimum.reduce(su[..., 3], axis=None) < 0.0:
             _flip_negative_speeds(su, Pu, sp[..., 2])
         cyc.mode_probabilities(maha, det, self._floor, mu)
-        maha_min = cyc.mahalanobis_min[:, 0]
+        maha_min = cyc.mahalanobis_min_rows
 
         if (
             use is None
@@ -1194,10 +1195,15 @@ class IMMTracker:
         ValueError if t is not finite or earlier than the last cycle, or z is not two numbers
         (programming errors); a non-finite or implausible z is rejected, not raised.
         """
-        zz = self._z
-        if (z.shape if type(z) is np.ndarray else np.shape(z)) != (2,):
-            raise ValueError(f"z: need [x, y] in metres, got {z!r}")
-        zz[0] = z
+        if type(z) is np.ndarray and z.dtype == np.float64:
+            if z.shape != (2,):
+                raise ValueError(f"z: need [x, y] in metres, got {z!r}")
+            zz = z[None]  # a view: the bank only reads it
+        else:
+            if np.shape(z) != (2,):
+                raise ValueError(f"z: need [x, y] in metres, got {z!r}")
+            zz = self._z
+            zz[0] = z
         bank = self._bank
         if bank._ids.size == 0:
             if not math.isfinite(t):
