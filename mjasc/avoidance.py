@@ -54,6 +54,8 @@ from .collision_prediction import (
     CollisionPredictionConfig,
     Decision,
     PredictedConflict,
+    circle_polygon,
+    gamma_of_time,
     predict_conflicts,
     swept_disc_polygon,
 )
@@ -64,8 +66,11 @@ from .potential_field import PotentialField, clean_polygon, inflate_polygon
 from .right_of_way import gives_way, relative_bearing
 from .velocity_correction import VelocityCorrection
 
-__all__ = ["AvoidanceConfig", "CollisionAvoidance", "StaticConflict", "Detour", "parse_avoidance_options",
-           "MODES", "merge_overlapping"]
+__all__ = ["AvoidanceConfig", "CollisionAvoidance", "StaticConflict", "Detour", "PlannedTrack",
+           "parse_avoidance_options", "MODES", "merge_overlapping"]
+
+#: How far back [s] the team mates' broadcast positions are kept to recognise their stale tracks.
+TEAM_HISTORY_S = 20.0
 
 #: Mode strings and their codes in the ``plots/mode/<vessel>`` time series.
 MODES = {"mission": 0, "avoidance:yield": 1, "avoidance:pass": 2, "avoidance:detour": 3}
@@ -247,6 +252,32 @@ class _Correction:
     gamma_offset_m: float = 0.0  # γ in the law's frame = follower γ + offset
 
 
+@dataclass(frozen=True, eq=False)
+class PlannedTrack(TrackEstimate):
+    """A team mate predicted from its own broadcast plan (:class:`mjasc.coordination.TeamIntention`):
+    ``predict_positions`` follows the plan (its path, a detour included, at its planned speed)
+    instead of constant speed and turn rate. ``speed_m_s`` is the plan's largest speed (the
+    prediction samples the swept stretch with it), position/heading/time are the broadcast's."""
+
+    intention: Any = None
+
+    def predict_positions(self, times_s: np.ndarray) -> np.ndarray:
+        return self.intention.positions(times_s)
+
+
+def swept_area(track: TrackEstimate, t_a: float, t_b: float, radius_m: float) -> np.ndarray:
+    """Polygon (k, 2) containing the disc of ``radius_m`` swept along the track's prediction over
+    [t_a, t_b]: :func:`~mjasc.collision_prediction.swept_disc_polygon` for constant speed and turn
+    rate, the convex hull of discs every 0.5 s along a :class:`PlannedTrack`'s plan."""
+    if not isinstance(track, PlannedTrack):
+        return swept_disc_polygon(track, t_a, t_b, radius_m)
+    from scipy.spatial import ConvexHull
+
+    ts = np.linspace(t_a, t_b, max(2, int(np.ceil((t_b - t_a) / 0.5)) + 1))
+    pts = np.concatenate([circle_polygon(c, radius_m, 16) for c in track.predict_positions(ts)])
+    return pts[ConvexHull(pts).vertices]
+
+
 def merge_overlapping(polygons: list[np.ndarray], clearance_m: float = 0.0) -> list[np.ndarray]:
     """Replace polygons that overlap (or come closer than ``clearance_m``) by their convex hull,
     until none do. The potential field needs disjoint obstacles."""
@@ -320,7 +351,10 @@ class CollisionAvoidance:
         self._last: dict | None = None  # what the latest prediction saw, for the recording
         self._log_pending = False
         self._styled = False
-        self._team_nav: dict[str, tuple] = {}  # name → (sent t, position, heading, velocity, ω) from comms
+        self._team_nav: dict[str, tuple] = {}  # name → (sent t, heading, ω) from successive broadcasts
+        self._predicted_intentions: dict = {}  # name → TeamIntention the last prediction used
+        self._team_history: dict[str, list] = {}  # name → [(sent t, position, radius)] over TEAM_HISTORY_S
+        self._ghosts: set[int] = set()  # track ids found to be a team mate's stale copy (reported once)
         self._repredict = False  # the planned motion changed (a correction ended): predict again
 
     # ------------------------------------------------------------------ interface
@@ -358,58 +392,142 @@ class CollisionAvoidance:
 
         return gamma_fn
 
-    # ------------------------------------------------------------------ team mates from comms
-    def _poll_team(self) -> None:
-        """Keep each team mate's newest broadcast navigation (``coordination.neighbours``: position,
-        heading and velocity from the team mate's own navigation, as sent over the comms link) and
-        its heading rate ω from two successive broadcasts [rad/s]."""
-        nbs = getattr(getattr(self.agent, "coordination", None), "neighbours", None)
-        if not nbs:
+    # ------------------------------------------------------------------ own plan, team mates' plans
+    def planned_trajectory(self, t, nav, horizon_s: float, step_s: float):
+        """Where this vessel intends to be: (times (k,) absolute [s], points (k, 2) world [m]) every
+        ``step_s`` over ``horizon_s``, along the path it follows now (the detour while on one) at its
+        planned speed (:meth:`planned_gamma`: the virtual target while a velocity correction runs).
+        The first point is the vessel's position; its offset from the path fades out over 10 s
+        (the path follower's convergence). Broadcast to the team by the coordination layer."""
+        t = float(t)
+        times = t + np.arange(0.0, float(horizon_s) + 0.5 * float(step_s), float(step_s))
+        follower = self.agent.follower
+        if follower is None:
+            return times, np.tile(np.asarray(nav.position_m, dtype=float)[:2], (times.size, 1))
+        path = follower.path
+        g0 = float(np.clip(follower.gamma_m, 0.0, path.length))
+        g = np.clip(gamma_of_time(self.planned_gamma(t, g0), g0, t)(times), 0.0, path.length)
+        pts = np.asarray(path.point(g), dtype=float).reshape(-1, 2)
+        off = np.asarray(nav.position_m, dtype=float)[:2] - pts[0]
+        pts = pts + np.clip(1.0 - (times - t) / 10.0, 0.0, 1.0)[:, None] * off
+        return times, pts
+
+    def _intentions(self, t: float) -> dict:
+        """The team mates' fresh intentions (``Coordination.team_intentions``), at most
+        ``team_broadcast_max_age_s`` old; empty without coordination or when that age is 0."""
+        max_age = self.config.team_broadcast_max_age_s
+        coord = getattr(self.agent, "coordination", None)
+        if coord is None or max_age <= 0.0 or not hasattr(coord, "team_intentions"):
+            return {}
+        return {n: i for n, i in coord.team_intentions(t, max_age).items() if n in self.team}
+
+    def _poll_team(self, t: float | None = None) -> None:
+        """Heading rate ω of each team mate from two successive broadcasts [rad/s] (used when a
+        team mate sends no plan)."""
+        coord = getattr(self.agent, "coordination", None)
+        if coord is None or not hasattr(coord, "team_intentions"):
             return
-        for name, nb in nbs.items():
-            p = getattr(nb, "payload", None) or {}
-            if name not in self.team or "velocity_m_s" not in p or "position_m" not in p:
-                continue
-            t_b = float(nb.sent_time_s)
+        for name, it in coord.team_intentions().items():
             old = self._team_nav.get(name)
-            if old is not None and t_b <= old[0]:
+            if name not in self.team or (old is not None and it.sent_time_s <= old[0]):
                 continue
-            h = float(p.get("heading_rad", np.arctan2(p["velocity_m_s"][1], p["velocity_m_s"][0])))
+            hist = self._team_history.setdefault(name, [])
+            hist.append((it.sent_time_s, np.asarray(it.position_m, dtype=float).copy(),
+                         float(it.radius_m) if it.radius_m else self.radius_m))
+            while hist and hist[0][0] < it.sent_time_s - TEAM_HISTORY_S:
+                hist.pop(0)
             w = 0.0
-            if old is not None and 0.0 < t_b - old[0] <= 3.0:
-                w = float(np.angle(np.exp(1j * (h - old[2])))) / (t_b - old[0])
-            self._team_nav[name] = (t_b, np.asarray(p["position_m"], dtype=float)[:2].copy(), h,
-                                    np.asarray(p["velocity_m_s"], dtype=float)[:2].copy(), w)
+            if old is not None and 0.0 < it.sent_time_s - old[0] <= 3.0:
+                w = float(np.angle(np.exp(1j * (it.heading_rad - old[1])))) / (it.sent_time_s - old[0])
+            self._team_nav[name] = (it.sent_time_s, it.heading_rad, w)
+
+    def _from_intention(self, it, track: TrackEstimate | None, track_id: int) -> TrackEstimate:
+        """A track of team mate ``it.name`` from its own broadcast: along its plan when it sent one
+        (:class:`PlannedTrack`), else constant velocity and the heading rate of successive messages."""
+        vel = it.velocity_m_s
+        speed = float(np.hypot(*vel))
+        course = float(np.arctan2(vel[1], vel[0])) if speed > 0.05 else it.heading_rad
+        radius = float(track.radius_m) if track is not None else float(it.radius_m if it.radius_m else self.radius_m)
+        w = self._team_nav.get(it.name, (None, None, 0.0))[2]
+        base = dict(track_id=track_id, time_s=it.sent_time_s, position_m=np.asarray(it.position_m, dtype=float).copy(),
+                    heading_rad=course, radius_m=radius, is_static=False, team_member=it.name,
+                    position_covariance=np.zeros((2, 2)) if track is None else track.position_covariance)
+        if it.has_plan:
+            return PlannedTrack(speed_m_s=max(it.max_speed_m_s(), 1e-3), turn_rate_rad_s=w, intention=it, **base)
+        return TrackEstimate(speed_m_s=speed, turn_rate_rad_s=w, **base)
 
     def _broadcast_based(self, track, t: float) -> bool:
-        """The track is a team mate predicted from a fresh broadcast (its speed is measured, not
+        """The track is a team mate predicted from its fresh broadcast (its speed is measured, not
         IMM noise: a slow team mate is not taken as static)."""
-        nav_b = self._team_nav.get(track.team_member) if track.team_member in self.team else None
-        return nav_b is not None and self.config.team_broadcast_max_age_s > 0.0 and \
-            t - nav_b[0] <= self.config.team_broadcast_max_age_s
+        return track.team_member in self.team and track.team_member in self._intentions(t)
 
     def _team_tracks(self, tracks, t: float) -> list:
-        """Team-mate tracks re-based on the team mate's own broadcast navigation (digest §6: the
-        team exchanges its navigation data over comms): position at the broadcast time, course
-        and speed over ground from its velocity, turn rate from its heading rate. The IMM track's
-        ω̂ of a vessel on a straight leg wanders by ±0.01 rad/s, which over a 30 s window bends
-        the prediction by metres — enough to predict phantom collisions between vessels in
-        parallel lanes 10 m apart, or to miss a real one on a detour. Broadcasts older than
-        ``team_broadcast_max_age_s`` are not used (the IMM track is kept)."""
-        self._poll_team()
-        max_age = self.config.team_broadcast_max_age_s
-        out = []
+        """Team mates predicted from their own broadcasts (digest §6: the team exchanges its
+        navigation over comms). A track matched to a team mate with a fresh message (at most
+        ``team_broadcast_max_age_s`` old) is replaced by that team mate's intention: its plan —
+        the path it follows, a detour included, at its planned speed — or, without a plan, its
+        velocity and heading rate. A team mate with a fresh message but no track (not yet matched,
+        or lost by the tracker) is added from the message. Why: the IMM's ω̂ of a vessel on a
+        straight leg wanders by ±0.01 rad/s, which over a 30 s window bends the prediction by
+        metres (phantom collisions between parallel lanes 10 m apart), a team mate's re-planned
+        detour or speed correction shows in its track only after it has begun, and a team mate
+        that brakes hard can be lost by the tracker for seconds. Team mates without a fresh
+        message keep their IMM track."""
+        self._poll_team(t)
+        intents = self._intentions(t)
+        out, seen = [], set()
         for tr in tracks:
-            nav_b = self._team_nav.get(tr.team_member) if tr.team_member in self.team else None
-            if nav_b is None or max_age <= 0.0 or t - nav_b[0] > max_age:
-                out.append(tr)
+            it = intents.get(tr.team_member) if tr.team_member in self.team else None
+            if it is None or tr.team_member in seen:
+                if it is None:
+                    out.append(tr)
                 continue
-            t_b, pos, h, vel, w = nav_b
-            speed = float(np.hypot(*vel))
-            course = float(np.arctan2(vel[1], vel[0])) if speed > 0.05 else h
-            out.append(replace(tr, time_s=t_b, position_m=pos.copy(), heading_rad=course, speed_m_s=speed,
-                               turn_rate_rad_s=w, is_static=False))
-        return out
+            seen.add(tr.team_member)
+            out.append(self._from_intention(it, tr, tr.track_id))
+        order = sorted(self.team)
+        for name, it in intents.items():
+            if name not in seen:
+                out.append(self._from_intention(it, None, -1 - order.index(name)))
+        return [tr for tr in out if tr.team_member is not None or not self._is_team_ghost(tr, t)]
+
+    def _is_team_ghost(self, track, t: float) -> bool:
+        """An unmatched track that, followed back along its own motion, lay on a team mate's
+        broadcast position (closer than the larger of the two radii: the discs deeply overlap) at
+        one of that team mate's messages of the last ``TEAM_HISTORY_S`` is that team mate: a copy
+        the tracker kept coasting at the old velocity when the team mate braked, or a second
+        track of it. Anything else that close to a team mate would have been in collision with it."""
+        for name, hist in self._team_history.items():
+            if not hist or t - hist[-1][0] > TEAM_HISTORY_S:
+                continue
+            tb = np.array([h[0] for h in hist])
+            pb = np.array([h[1] for h in hist])
+            rb = np.array([h[2] for h in hist])
+            back = track.predict_positions(tb)
+            if np.any(np.hypot(*(back - pb).T) <= np.maximum(rb, track.radius_m)):
+                if track.track_id not in self._ghosts:
+                    self._ghosts.add(track.track_id)
+                    self._event(t, f"track {track.track_id} retraces team mate {name}'s broadcast positions: "
+                                   f"it is {name} (stale copy), ignored")
+                return True
+        return False
+
+    def _team_plans_changed(self, t: float) -> bool:
+        """A team mate's newest plan differs by more than ``track_deviation_m`` from the one the
+        last prediction used, within the prediction window (it re-planned or changed its speed)."""
+        intents = self._intentions(t)
+        horizon = self.config.window_s or 30.0
+        ts = t + np.linspace(0.0, horizon, 16)
+        for name, it in intents.items():
+            old = self._predicted_intentions.get(name)
+            if old is None:
+                if it.has_plan:
+                    return True
+                continue
+            if it.sent_time_s <= old.sent_time_s:
+                continue
+            if float(np.max(np.hypot(*(it.positions(ts) - old.positions(ts)).T))) > self.config.track_deviation_m:
+                return True
+        return False
 
     # ------------------------------------------------------------------ prediction
     def predict(self, t, nav, tracks, static_polygons=(), _after_replan: bool = False) -> list:
@@ -426,6 +544,7 @@ class CollisionAvoidance:
                   for tr in tracks]
         self._known_track_ids |= {tr.track_id for tr in tracks}
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
+        self._predicted_intentions = self._intentions(t)
         self._last_predict_t = t
         self._predicted_speed = self.mission_speed_now()
         path = follower.path
@@ -559,7 +678,7 @@ class CollisionAvoidance:
             if corr is None and track is not None:  # neither slowing down nor speeding up works: go around
                 r_col = c.collision_distance_m
                 t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
-                svos.append((swept_disc_polygon(track, max(c.t_i, t), max(t_f, t + 1.0), r_col), c))
+                svos.append((swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), r_col), c))
         for s in statics:
             svos.append((s.polygon, s))
         if svos and allow_replan:
@@ -637,7 +756,7 @@ class CollisionAvoidance:
         t_cut = ts[near[0] - 1] if near.size else t_f
         if near.size and near[0] < 2:
             return None
-        return swept_disc_polygon(track, t_a, t_cut, r_col)
+        return swept_area(track, t_a, t_cut, r_col)
 
     def _replan(self, t, nav, svos, static_polygons, by_id=None) -> bool:
         """Build the field, trace the streamline, splice the detour. True on success."""
@@ -793,10 +912,14 @@ class CollisionAvoidance:
             self.stats["deviation_predictions"] += 1  # own plan changed (coordination): predict again
             self.predict(t, nav, tracks, perception.static_polygons())
             return
+        if self._team_plans_changed(t):  # a team mate re-planned or changed its speed
+            self.stats["deviation_predictions"] += 1
+            self.predict(t, nav, tracks, perception.static_polygons())
+            return
         for tr in tracks:  # a track that left the motion the last prediction assumed
             old = self._predicted_tracks.get(tr.track_id)
-            if old is None:
-                continue
+            if old is None or old.team_member in self._predicted_intentions:
+                continue  # team mates on a fresh broadcast: their plans are checked above
             dev = float(np.hypot(*(old.predict_positions(np.array([tr.time_s]))[0] - tr.position_m)))
             if dev > self.config.track_deviation_m:
                 self.stats["deviation_predictions"] += 1

@@ -36,17 +36,24 @@ information; the extrapolation above removes most of the delay).
 
 ``role = "leader"``: the vessel keeps its feed-forward speed (no consensus term) and the others
 converge to it (leader–follower coordination).
+
+**Intentions.** Each message also carries the sender's plan: where it intends to be over the next
+``intent_horizon_s`` seconds, sampled every ``intent_step_s`` along the path it is *actually*
+following (a detour included) at its planned speed (a velocity correction included) — from its
+avoidance component's ``planned_trajectory`` when it has one, else from its path follower at the
+mission speed × the coordination factor — plus its radius. :meth:`Coordination.team_intentions`
+hands the newest one of each team mate to the avoidance layer as :class:`TeamIntention`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from .comms import CommsNetwork
 
-__all__ = ["CoordinationConfig", "Coordination", "parse_coordination_options"]
+__all__ = ["CoordinationConfig", "Coordination", "TeamIntention", "parse_coordination_options"]
 
 
 @dataclass(frozen=True)
@@ -61,12 +68,14 @@ class CoordinationConfig:
     neighbour_timeout_s: float = 5.0  # a neighbour whose latest message is older is dropped from N_i
     extrapolate: bool = True  # ξ̂_j = ξ_j + ξ̇_j (t − t_j)
     formation_tolerance_m: float = 1.0  # formation spread [m] below this counts as "in formation" (summary only)
+    intent_horizon_s: float = 60.0  # the broadcast plan covers this far ahead [s] (0: no plan, pose only)
+    intent_step_s: float = 1.0  # spacing of the plan's samples [s]
 
     def __post_init__(self):
         _validate(self, "comms")
 
 
-_POSITIVE = ("error_scale_m", "neighbour_timeout_s", "formation_tolerance_m")
+_POSITIVE = ("error_scale_m", "neighbour_timeout_s", "formation_tolerance_m", "intent_step_s")
 
 
 def _validate(cfg: CoordinationConfig, where: str) -> None:
@@ -83,6 +92,8 @@ def _validate(cfg: CoordinationConfig, where: str) -> None:
                 raise ValueError(f"{where}.{f.name}: must be a finite number, got {v!r}")
             if f.name in _POSITIVE and not v > 0:
                 raise ValueError(f"{where}.{f.name}: must be > 0, got {v!r}")
+    if cfg.intent_horizon_s < 0:
+        raise ValueError(f"{where}.intent_horizon_s: must be ≥ 0, got {cfg.intent_horizon_s!r}")
     if not 0.0 < cfg.max_speed_correction < 1.0:
         raise ValueError(f"{where}.max_speed_correction: must be in (0, 1) so that the speed stays positive, "
                          f"got {cfg.max_speed_correction!r}")
@@ -103,6 +114,53 @@ def parse_coordination_options(table: dict, where: str = "comms") -> Coordinatio
     except ValueError as exc:  # re-address "comms.<key>" to the caller's table
         msg = str(exc)
         raise ValueError(f"{where}{msg[len('comms'):]}" if msg.startswith("comms.") else msg) from None
+
+
+@dataclass(frozen=True, eq=False)
+class TeamIntention:
+    """A team mate's newest message about itself (world ENU, SI, absolute times).
+
+    name, sent_time_s: who and when. position_m (2,), heading_rad, velocity_m_s (2,): its own
+    navigation at ``sent_time_s``. radius_m: its bounding radius [m] (None if not sent).
+    plan_times_s (k,), plan_points_m (k, 2): where it intends to be (k = 0: no plan; then
+    :meth:`positions` extrapolates the velocity)."""
+
+    name: str
+    sent_time_s: float
+    position_m: np.ndarray
+    heading_rad: float
+    velocity_m_s: np.ndarray
+    radius_m: float | None = None
+    plan_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    plan_points_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+
+    @property
+    def has_plan(self) -> bool:
+        return self.plan_times_s.size >= 2
+
+    def positions(self, times_s) -> np.ndarray:
+        """Intended positions (n, 2) at absolute ``times_s``: the plan, linearly interpolated;
+        before its start along the broadcast velocity, after its end along its last segment."""
+        t = np.atleast_1d(np.asarray(times_s, dtype=float))
+        if not self.has_plan:
+            return self.position_m + (t - self.sent_time_s)[:, None] * self.velocity_m_s
+        ts, pts = self.plan_times_s, self.plan_points_m
+        out = np.stack([np.interp(t, ts, pts[:, 0]), np.interp(t, ts, pts[:, 1])], axis=-1)
+        lo, hi = t < ts[0], t > ts[-1]
+        if lo.any():
+            out[lo] = pts[0] + (t[lo] - ts[0])[:, None] * self.velocity_m_s
+        if hi.any():
+            v_end = (pts[-1] - pts[-2]) / max(ts[-1] - ts[-2], 1e-9)
+            out[hi] = pts[-1] + (t[hi] - ts[-1])[:, None] * v_end
+        return out
+
+    def max_speed_m_s(self) -> float:
+        """Largest speed along the plan (or the broadcast speed) [m/s]."""
+        v = float(np.hypot(*self.velocity_m_s))
+        if self.has_plan:
+            seg = np.hypot(*np.diff(self.plan_points_m, axis=0).T) / np.maximum(np.diff(self.plan_times_s), 1e-9)
+            v = max(v, float(seg.max()))
+        return v
 
 
 @dataclass
@@ -158,6 +216,12 @@ class Coordination:
         p = {"position_m": np.array(nav.position_m[:2], dtype=float), "heading_rad": float(nav.heading_rad),
              "velocity_m_s": np.array(nav.velocity_m_s[:2], dtype=float),
              "mission_speed_m_s": self.mission_speed_m_s}
+        vessel = getattr(self.agent, "vessel", None)
+        if vessel is not None and getattr(vessel, "radius_m", None) is not None:
+            p["radius_m"] = float(vessel.radius_m)
+        plan = self._plan(t_s, nav)
+        if plan is not None:
+            p["plan_t_s"], p["plan_xy_m"] = plan
         if self.path_length_m is not None:
             g = float(np.clip(gamma_m, 0.0, self.path_length_m))
             chi = float(self.path.tangent_angle(g))
@@ -165,6 +229,25 @@ class Coordination:
             p.update(gamma_m=float(gamma_m), path_length_m=self.path_length_m, xi=self.xi(gamma_m),
                      xi_rate_1_s=along / self.path_length_m, offset_m=self.config.formation_offset_m)
         return p
+
+    def _plan(self, t_s: float, nav):
+        """(times (k,), points (k, 2)) of where this vessel intends to be, or None: its avoidance's
+        ``planned_trajectory`` (the active path — a detour too — at the planned speed), else its
+        follower's path ahead at the mission speed × the latest coordination factor."""
+        h, dt = self.config.intent_horizon_s, self.config.intent_step_s
+        if h <= 0:
+            return None
+        fn = getattr(getattr(self.agent, "avoidance", None), "planned_trajectory", None)
+        if callable(fn):
+            return fn(t_s, nav, h, dt)
+        follower = getattr(self.agent, "follower", None)
+        path = getattr(follower, "path", None)
+        if path is None or not hasattr(path, "point") or not hasattr(follower, "gamma_m"):
+            return None
+        times = t_s + np.arange(0.0, h + 0.5 * dt, dt)
+        v = self.mission_speed_m_s * (self.last_factor if np.isfinite(self.last_factor) else 1.0)
+        g = np.clip(float(follower.gamma_m) + v * (times - t_s), 0.0, path.length)
+        return times, np.asarray(path.point(g), dtype=float).reshape(-1, 2)
 
     def _poll(self, t_s: float, nav) -> None:
         """Read arrived messages, keep each neighbour's newest, time out stale ones."""
@@ -243,6 +326,26 @@ class Coordination:
         f = float(min(f, self.top_speed_m_s / self.mission_speed_m_s))
         self.last_error_m, self.last_factor, self.last_xi = lead, f, self.xi(gamma_m)
         return f
+
+    def team_intentions(self, t_s: float | None = None, max_age_s: float | None = None) -> dict[str, TeamIntention]:
+        """Each team mate's newest message as a :class:`TeamIntention` (name → intention); with
+        ``t_s`` and ``max_age_s`` only those sent at most ``max_age_s`` before ``t_s``."""
+        out = {}
+        for n, nb in self.neighbours.items():
+            p = nb.payload
+            if "position_m" not in p:
+                continue
+            if max_age_s is not None and t_s is not None and t_s - nb.sent_time_s > max_age_s:
+                continue
+            vel = np.asarray(p.get("velocity_m_s", (0.0, 0.0)), dtype=float)[:2]
+            plan_t = np.asarray(p.get("plan_t_s", ()), dtype=float).reshape(-1)
+            plan_xy = np.asarray(p.get("plan_xy_m", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
+            if plan_t.size != plan_xy.shape[0]:
+                plan_t, plan_xy = np.zeros(0), np.zeros((0, 2))
+            out[n] = TeamIntention(n, float(nb.sent_time_s), np.asarray(p["position_m"], dtype=float)[:2],
+                                   float(p.get("heading_rad", np.arctan2(vel[1], vel[0]))), vel,
+                                   p.get("radius_m"), plan_t, plan_xy)
+        return out
 
     def team_positions(self) -> dict:
         """Latest received position of every team mate: name → (sent time [s], (2,) world [m])."""

@@ -7,7 +7,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from mjasc.avoidance import AvoidanceConfig, CollisionAvoidance, merge_overlapping, parse_avoidance_options
+from mjasc.avoidance import AvoidanceConfig, CollisionAvoidance, PlannedTrack, merge_overlapping, parse_avoidance_options
+from mjasc.coordination import TeamIntention
 from mjasc.estimates import TrackEstimate
 from mjasc.geometry import distance_to_polygon, point_in_polygon
 from mjasc.paths import Path
@@ -253,10 +254,23 @@ def test_prediction_fields_are_validated_by_collision_prediction():
         parse_avoidance_options({"margin_s": "x"}, "avoidance")
 
 
-def _with_broadcast(ca, name, t_b, pos, heading, vel):
-    nb = SimpleNamespace(sent_time_s=t_b, payload={"position_m": np.array(pos, float), "heading_rad": heading,
-                                                   "velocity_m_s": np.array(vel, float)}, active=True)
-    ca.agent.coordination = SimpleNamespace(neighbours={name: nb}, last_factor=1.0)
+class FakeCoordination:
+    """The avoidance's view of the coordination layer: ``team_intentions`` and ``last_factor``."""
+
+    def __init__(self):
+        self.intentions, self.last_factor = {}, 1.0
+
+    def team_intentions(self, t_s=None, max_age_s=None):
+        return {n: i for n, i in self.intentions.items()
+                if max_age_s is None or t_s is None or t_s - i.sent_time_s <= max_age_s}
+
+
+def _with_broadcast(ca, name, t_b, pos, heading, vel, plan=None):
+    coord = ca.agent.coordination if isinstance(getattr(ca.agent, "coordination", None), FakeCoordination) \
+        else FakeCoordination()
+    kw = {} if plan is None else {"plan_times_s": np.asarray(plan[0], float), "plan_points_m": np.asarray(plan[1], float)}
+    coord.intentions[name] = TeamIntention(name, t_b, np.array(pos, float), heading, np.array(vel, float), 2.2, **kw)
+    ca.agent.coordination = coord
     ca._poll_team()
 
 
@@ -311,3 +325,68 @@ def test_prediction_again_when_a_velocity_correction_completes():
     agent.follower.gamma_m = 60.0  # past the crossing
     ca.control_refs(t_goal + 0.1, nav(60.0, 0.0))
     assert ca.stats["predictions"] == n + 1 and ca.mode == "mission"
+
+
+def test_team_mate_detour_is_predicted_from_its_broadcast_plan():
+    """b sails 10 m to port, parallel, but has re-planned: its broadcast plan swings into a's lane
+    at x ≈ 30 m. Its velocity (east) alone predicts nothing; the plan predicts the conflict, and a
+    team mate that has sent a plan but has no track (yet) is predicted from the message alone."""
+    t_plan = np.arange(0.0, 61.0)
+    x = 10.0 + t_plan
+    y = np.clip(10.0 - 0.8 * np.maximum(x - 15.0, 0.0), 0.0, 10.0)  # down into a's lane by x = 27.5
+    track = TrackEstimate(5, 0.0, np.array([10.0, 10.0]), 0.0, 1.0, 0.0, 2.2, team_member="b")
+    ca, agent = make(name="b2", team=("b2", "b"))
+    agent.follower.gamma_m = 10.0
+    _with_broadcast(ca, "b", 0.0, [10.0, 10.0], 0.0, [1.0, 0.0])
+    assert ca.predict(0.0, nav(10.0, 0.0), [track], []) == []  # straight: clear
+    for tracks in ([track], []):
+        ca, agent = make(name="b2", team=("b2", "b"))
+        agent.follower.gamma_m = 10.0
+        _with_broadcast(ca, "b", 0.0, [10.0, 10.0], 0.0, [1.0, 0.0], plan=(t_plan, np.column_stack([x, y])))
+        team = ca._team_tracks(tracks, 0.0)
+        assert len(team) == 1 and isinstance(team[0], PlannedTrack) and team[0].team_member == "b"
+        out = ca.predict(0.0, nav(10.0, 0.0), tracks, [])
+        assert len(out) == 1 and out[0].min_distance_m < 1.0
+
+
+def test_a_changed_team_plan_triggers_a_prediction():
+    ca, agent = make(name="b2", team=("b2", "b"),
+                     perception=SimpleNamespace(tracks=lambda: [], static_polygons=lambda: []))
+    t_plan = np.arange(0.0, 61.0)
+    straight = np.column_stack([10.0 + t_plan, np.full(61, 10.0)])
+    _with_broadcast(ca, "b", 0.0, [10.0, 10.0], 0.0, [1.0, 0.0], plan=(t_plan, straight))
+    ca.predict(0.0, nav(), [], [])
+    n = ca.stats["predictions"]
+    _with_broadcast(ca, "b", 2.0, [12.0, 10.0], 0.0, [1.0, 0.0], plan=(t_plan + 2.0, straight + [2.0, 0.0]))
+    ca.control_refs(2.0, nav(2.0, 0.0))
+    assert ca.stats["predictions"] == n  # the same plan, sent again: nothing new
+    bent = straight.copy()
+    bent[10:, 1] = 3.0
+    _with_broadcast(ca, "b", 3.0, [13.0, 10.0], 0.0, [1.0, 0.0], plan=(t_plan + 3.0, bent))
+    ca.control_refs(3.0, nav(3.0, 0.0))
+    assert ca.stats["predictions"] == n + 1
+
+
+def test_a_stale_copy_of_a_team_mate_is_not_an_obstacle():
+    """b braked hard; the tracker lost it and kept coasting its old track east at 1 m/s (now 5 m
+    ahead of b, unmatched). Followed back, that track lay on b's broadcast positions: it is b, not
+    a stranger to yield to. A real crossing track is kept."""
+    ca, _ = make(name="a2", team=("a2", "b"))
+    for k in range(6):  # b at 1 m/s until t = 2, then stopped at x = 12
+        tb = float(k)
+        _with_broadcast(ca, "b", tb, [10.0 + min(tb, 2.0), 10.0], 0.0, [1.0 if tb < 2 else 0.0, 0.0])
+    ghost = TrackEstimate(7, 5.0, np.array([15.0, 10.0]), 0.0, 1.0, 0.0, 2.4)  # coasting since t = 2
+    other = crossing(x_cross=30.0, t_cross=30.0, track_id=9)
+    ids = [tr.track_id for tr in ca._team_tracks([ghost, other], 5.0)]
+    assert 7 not in ids and 9 in ids and -1 in ids  # b itself from its message (no matched track)
+
+
+def test_the_broadcast_plan_follows_the_slowed_virtual_target():
+    ca, agent = make(perception=SimpleNamespace(tracks=lambda: [crossing()], static_polygons=lambda: []))
+    ca.predict(0.0, nav(), [crossing()], [])
+    law = ca.correction.law
+    times, pts = ca.planned_trajectory(0.0, nav(), 60.0, 1.0)
+    assert times[0] == 0.0 and times.size == 61
+    k = int(np.floor(law.t_goal))
+    np.testing.assert_allclose(pts[k, 0], law.desired_speed * k, atol=1e-6)  # V_d until the goal time
+    np.testing.assert_allclose(pts[k + 10, 0] - pts[k, 0], 10.0 * ca.mission_speed_now(), atol=0.5)  # mission after

@@ -234,3 +234,64 @@ def test_vessel_without_a_path_shares_its_position_only():
     assert buoy.speed_correction(1.0, still, 0.0) == 1.0
     assert a.speed_correction(1.0, nav(paths[0], 1.0, 10.0, 1.0), 10.0) == 1.0  # nothing to coordinate with
     np.testing.assert_allclose(a.team_positions()["buoy"][1], [50.0, 50.0])
+
+
+# ------------------------------------------------------------------------------------ intentions
+def _following_agent(name, path, gamma, speed=1.0):
+    a = fake_agent(name, path, speed)
+    a.follower = SimpleNamespace(path=path, gamma_m=gamma)
+    a.vessel = SimpleNamespace(top_speed_m_s=2.5, radius_m=2.1)
+    return a
+
+
+def test_messages_carry_the_path_ahead_as_an_intention():
+    """Without an avoidance component the plan is the follower's path ahead at the mission speed:
+    b's intention 30 s later lies 30 m further along a's path (around the corner too)."""
+    paths = l_paths()
+    net = CommsNetwork(["a", "b"], PERFECT, np.random.default_rng(0))
+    a = Coordination(_following_agent("a", paths[0], 290.0), net, CoordinationConfig(intent_horizon_s=40.0))
+    b = Coordination(_following_agent("b", paths[1], 0.0), net, CoordinationConfig())
+    a.exchange(5.0, nav(paths[0], 5.0, 290.0, 1.0), 290.0)
+    b.exchange(5.1, nav(paths[1], 5.1, 0.0, 1.0), 0.0)
+    it = b.team_intentions()["a"]
+    assert it.has_plan and it.plan_times_s[0] == 5.0 and it.plan_times_s[-1] == pytest.approx(45.0)
+    assert it.radius_m == 2.1
+    np.testing.assert_allclose(it.positions([35.0])[0], paths[0].point(320.0), atol=1e-6)
+    np.testing.assert_allclose(it.positions([20.5])[0], paths[0].point(305.5), atol=0.05)  # interpolated
+    # After the plan's end: along its last segment (north, on the L's second leg).
+    np.testing.assert_allclose(it.positions([55.0])[0] - it.positions([45.0])[0], [0.0, 10.0], atol=0.05)
+    # Age filter.
+    assert b.team_intentions(10.0, max_age_s=3.0) == {}
+    assert set(b.team_intentions(7.0, max_age_s=3.0)) == {"a"}
+
+
+def test_the_avoidance_plan_is_what_is_broadcast():
+    """A vessel with an avoidance component broadcasts its ``planned_trajectory`` (its detour, its
+    slowed speed) instead of the mission path."""
+    paths = l_paths()
+    net = CommsNetwork(["a", "b"], PERFECT, np.random.default_rng(0))
+    agent = _following_agent("a", paths[0], 10.0)
+    detour = (5.0 + np.arange(3.0) * 10.0, np.array([[10.0, 10.0], [15.0, 20.0], [20.0, 30.0]]))
+    agent.avoidance = SimpleNamespace(planned_trajectory=lambda t, n, h, dt: detour)
+    a = Coordination(agent, net, CoordinationConfig())
+    b = Coordination(_following_agent("b", paths[1], 0.0), net, CoordinationConfig())
+    a.exchange(5.0, nav(paths[0], 5.0, 10.0, 1.0), 10.0)
+    b.exchange(5.1, nav(paths[1], 5.1, 0.0, 1.0), 0.0)
+    it = b.team_intentions()["a"]
+    np.testing.assert_allclose(it.positions([10.0, 20.0]), [[12.5, 15.0], [17.5, 25.0]])
+    # intent_horizon_s = 0: position and velocity only, extrapolated in a straight line.
+    net = CommsNetwork(["a", "b"], PERFECT, np.random.default_rng(0))
+    a = Coordination(agent, net, CoordinationConfig(intent_horizon_s=0.0))
+    b = Coordination(_following_agent("b", paths[1], 0.0), net, CoordinationConfig())
+    a.exchange(5.0, nav(paths[0], 5.0, 10.0, 1.0), 10.0)
+    b.exchange(5.1, nav(paths[1], 5.1, 0.0, 1.0), 0.0)
+    it = b.team_intentions()["a"]
+    assert not it.has_plan
+    np.testing.assert_allclose(it.positions([15.0])[0], paths[0].point(10.0) + [10.0, 0.0])
+
+
+def test_intent_options_are_validated():
+    with pytest.raises(ValueError, match=r"^vessels\[0\]\.comms\.intent_step_s: must be > 0"):
+        parse_coordination_options({"intent_step_s": 0}, "vessels[0].comms")
+    with pytest.raises(ValueError, match=r"^comms\.intent_horizon_s: must be ≥ 0"):
+        CoordinationConfig(intent_horizon_s=-1.0)
