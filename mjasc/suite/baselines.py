@@ -1,18 +1,19 @@
 """Reference policies for every suite task: uniform random, and mjasc's classical controllers.
 
 A policy here is a callable ``time_step → action`` for one environment. The classical baselines
-(:func:`baseline_policy`) are *privileged*: they read the true vessel state from ``env.physics``
-and the task's path / station / goal / slots from ``env.task``, not the noisy observations an
-agent gets; they show what a well-tuned conventional autopilot achieves, not an upper bound.
+(:func:`baseline_policy`) read the true own state from ``env.physics`` and the task's path /
+station / goal / slots from ``env.task``, not the noisy observations an agent gets; they show what
+a well-tuned conventional system achieves, not an upper bound. The collision-avoidance baseline
+(:class:`CASPolicy`) reads nothing about other bodies but its own sensor's scans.
 
 * path_following: :class:`mjasc.path_following.PathFollower` (integral LOS + heading and speed
   loops) on the task's path at the task's speed.
 * station_keeping: the same follower on a line through the station pointing into the current,
   with the speed reference proportional to the distance still to go plus the cross-track
   error (negative past the station: it backs down, bow into the current).
-* collision_avoidance: the follower on the straight line start → goal, slowing down at the goal.
-  **It does not avoid anything** (mjasc's collision avoidance is not yet usable as a policy):
-  it is the "ignore the traffic" reference.
+* collision_avoidance: :class:`CASPolicy`, the vessel's own pipeline (perception → collision
+  avoidance → path following toward the goal). :func:`goal_line_policy` (the follower on the line
+  start → goal, blind to the traffic) is the "no avoidance" reference.
 * formation: one follower per vessel on its lane (the leader's path offset to its slot), the
   speed reference the slot's speed along the lane corrected by the along-lane slot error (a
   simple virtual-target speed law).
