@@ -95,7 +95,16 @@ class MovingObstacle:
 
 
 class MovingObstacleSet:
-    """All moving obstacles of a run, evaluated together: ``state(t)`` → positions, headings, velocities."""
+    """All moving obstacles of a run, evaluated together: ``state(t)`` → positions, headings, velocities.
+
+    Constant-turn obstacles use the closed form of thesis eq. 3.2. Path-following obstacles are
+    sampled once along their paths every :data:`PATH_SAMPLE_M` metres (padded to one table for all
+    of them) and interpolated linearly: one vectorized gather per call instead of a Python loop per
+    obstacle at every physics step. The chord error on an arc of radius R is ds²/(8R) (< 1 mm for
+    R ≥ 8 m).
+    """
+
+    PATH_SAMPLE_M = 0.25
 
     def __init__(self, obstacles: list[MovingObstacle]):
         self.obstacles = list(obstacles)
@@ -103,11 +112,28 @@ class MovingObstacleSet:
         self.radii_m = np.array([o.radius_m for o in self.obstacles])
         ct = [o for o in self.obstacles if o.path is None]
         self._ct_idx = np.array([i for i, o in enumerate(self.obstacles) if o.path is None], dtype=int)
-        self._path_idx = [i for i, o in enumerate(self.obstacles) if o.path is not None]
         self._p0 = np.array([o.position_m for o in ct]).reshape(-1, 2)
         self._th0 = np.array([o.heading_rad for o in ct])
         self._v = np.array([o.speed_m_s for o in ct])
         self._w = np.array([o.turn_rate_rad_s for o in ct])
+        paths = [o for o in self.obstacles if o.path is not None]
+        self._path_idx = np.array([i for i, o in enumerate(self.obstacles) if o.path is not None], dtype=int)
+        if paths:
+            ds = self.PATH_SAMPLE_M
+            counts = [int(np.ceil(o.path.length / ds)) + 1 for o in paths]
+            k = max(counts)
+            self._samples = np.zeros((len(paths), k, 2))
+            self._sample_headings = np.zeros((len(paths), k))
+            self._sample_g = np.zeros((len(paths), k))
+            for j, o in enumerate(paths):
+                g = np.minimum(np.arange(k) * ds, o.path.length)  # padded rows repeat the end point
+                self._sample_g[j] = g
+                self._samples[j] = o.path.point(g)
+                self._sample_headings[j] = o.path.tangent_angle(g)
+            self._g0 = np.array([o.start_gamma_m for o in paths])
+            self._pv = np.array([o.speed_m_s for o in paths])
+            self._plen = np.array([o.path.length for o in paths])
+            self._rows = np.arange(len(paths))
 
     def __len__(self) -> int:
         return len(self.obstacles)
@@ -126,11 +152,18 @@ class MovingObstacleSet:
             pos[self._ct_idx] = self._p0 + np.stack([dx, dy], axis=-1)
             head[self._ct_idx] = th
             vel[self._ct_idx] = np.stack([v * np.cos(th), v * np.sin(th)], axis=-1)
-        for i in self._path_idx:
-            o = self.obstacles[i]
-            g = min(o.start_gamma_m + o.speed_m_s * t_s, o.path.length)
-            moving = g < o.path.length
-            pos[i] = o.path.point(g)
-            head[i] = o.path.tangent_angle(g)
-            vel[i] = (o.speed_m_s if moving else 0.0) * np.array([np.cos(head[i]), np.sin(head[i])])
+        if self._path_idx.size:
+            g = np.minimum(self._g0 + self._pv * t_s, self._plen)
+            x = g / self.PATH_SAMPLE_M
+            i0 = np.minimum(x.astype(int), self._samples.shape[1] - 2)
+            g_a = self._sample_g[self._rows, i0]
+            span = self._sample_g[self._rows, i0 + 1] - g_a  # < ds on the last stretch, 0 in the padding
+            f = (np.divide(g - g_a, span, out=np.zeros_like(g), where=span > 0))[:, None]
+            a = self._samples[self._rows, i0]
+            b = self._samples[self._rows, i0 + 1]
+            pos[self._path_idx] = a + f * (b - a)
+            h = self._sample_headings[self._rows, i0]
+            head[self._path_idx] = h
+            moving = np.where(g < self._plen, self._pv, 0.0)
+            vel[self._path_idx] = moving[:, None] * np.stack([np.cos(h), np.sin(h)], axis=-1)
         return pos, head, vel
