@@ -354,6 +354,7 @@ class CollisionAvoidance:
         self._team_nav: dict[str, tuple] = {}  # name → (sent t, heading, ω) from successive broadcasts
         self._predicted_intentions: dict = {}  # name → TeamIntention the last prediction used
         self._team_history: dict[str, list] = {}  # name → [(sent t, position, radius)] over TEAM_HISTORY_S
+        self._plan_checked: dict[str, float] = {}  # name → sent time of the last message compared
         self._ghosts: set[int] = set()  # track ids found to be a team mate's stale copy (reported once)
         self._repredict = False  # the planned motion changed (a correction ended): predict again
 
@@ -518,6 +519,9 @@ class CollisionAvoidance:
         horizon = self.config.window_s or 30.0
         ts = t + np.linspace(0.0, horizon, 16)
         for name, it in intents.items():
+            if self._plan_checked.get(name) == it.sent_time_s:
+                continue  # this message was compared already
+            self._plan_checked[name] = it.sent_time_s
             old = self._predicted_intentions.get(name)
             if old is None:
                 if it.has_plan:
@@ -625,8 +629,12 @@ class CollisionAvoidance:
         limit = self.radius_m + cfg.safety_distance_m
         gs = np.arange(gamma, path.length + 1e-9, 0.25)
         pts = path.point(gs)
+        n_ahead = int(np.searchsorted(gs, g_end, side="right"))
         out = []
         for poly in polygons:
+            near = pts[:n_ahead]  # the path beyond the window only matters for a stretch that starts in it
+            if not ((distance_to_polygon(near, poly) < limit) | point_in_polygon(near, poly)).any():
+                continue
             d = distance_to_polygon(pts, poly)
             blocked = (d < limit) | point_in_polygon(pts, poly)
             ahead = blocked & (gs <= g_end)

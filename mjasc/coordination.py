@@ -196,6 +196,7 @@ class Coordination:
         vessel = getattr(agent, "vessel", None)
         self.top_speed_m_s = float(vessel.top_speed_m_s) if vessel is not None else np.inf
         self.neighbours: dict[str, _Neighbour] = {}
+        self._intent_cache: dict[str, TeamIntention] = {}
         self._events: list[tuple[float, str]] = []
         self.received = 0
         self.last_error_m = 0.0
@@ -337,14 +338,18 @@ class Coordination:
                 continue
             if max_age_s is not None and t_s is not None and t_s - nb.sent_time_s > max_age_s:
                 continue
+            cached = self._intent_cache.get(n)
+            if cached is not None and cached.sent_time_s == nb.sent_time_s:
+                out[n] = cached
+                continue
             vel = np.asarray(p.get("velocity_m_s", (0.0, 0.0)), dtype=float)[:2]
             plan_t = np.asarray(p.get("plan_t_s", ()), dtype=float).reshape(-1)
             plan_xy = np.asarray(p.get("plan_xy_m", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
             if plan_t.size != plan_xy.shape[0]:
                 plan_t, plan_xy = np.zeros(0), np.zeros((0, 2))
-            out[n] = TeamIntention(n, float(nb.sent_time_s), np.asarray(p["position_m"], dtype=float)[:2],
-                                   float(p.get("heading_rad", np.arctan2(vel[1], vel[0]))), vel,
-                                   p.get("radius_m"), plan_t, plan_xy)
+            out[n] = self._intent_cache[n] = TeamIntention(
+                n, float(nb.sent_time_s), np.asarray(p["position_m"], dtype=float)[:2],
+                float(p.get("heading_rad", np.arctan2(vel[1], vel[0]))), vel, p.get("radius_m"), plan_t, plan_xy)
         return out
 
     def team_positions(self) -> dict:
