@@ -1,0 +1,240 @@
+"""Validated config tables: the one way mjasc turns a scenario's TOML tables into checked, typed values.
+
+Every reader takes the raw value and ``where``, the value's path in the scenario file
+(``vessels[1].sensor.beams``), and returns the checked value or raises :class:`ConfigError` (a
+ValueError) whose message names the path and the reason, then shows the value::
+
+    vessels[1].sensor.beams: must be an integer, got 3.5
+
+Readers (``where`` is always the second argument):
+
+* :func:`table` — a TOML table (a dict); :func:`check_keys` — no key outside ``allowed``;
+* :func:`number` — a finite real (bools are not numbers; ints become floats), with optional
+  bounds ``positive`` (> 0), ``nonneg`` (≥ 0), ``minimum`` (≥), ``maximum`` (≤);
+* :func:`integer` — an int (not a bool, not 3.0), optional ``minimum`` / ``maximum``;
+* :func:`boolean` — ``true`` / ``false`` only; :func:`string` — a non-empty string, optional ``choices``;
+* :func:`point` — ``[x, y]`` → (2,) float array [m]; :func:`points` — ``[[x, y], ...]`` → (n, 2);
+* :func:`dataclass_from_table` — a whole table → a frozen dataclass, each key read by the reader
+  of its field's type (float, int, bool, str, ``X | None``, ``tuple[X, ...]``) or a given converter,
+  unknown keys rejected, missing keys left at the dataclass's defaults.
+
+numpy scalars count as numbers and integers (arrays do not), so the same readers also check
+values a program passes to a config class directly (``__post_init__`` validators).
+
+:class:`ConfigError` is what the readers raise; :func:`errors_as` re-raises it as a caller's own
+ValueError subclass at a module boundary (``scenario.ScenarioError``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import types
+import typing
+from contextlib import contextmanager
+from typing import Any, Callable, Iterable, Iterator, Mapping
+
+import numpy as np
+
+__all__ = ["ConfigError", "show", "table", "check_keys", "number", "integer", "boolean", "string", "point",
+           "points", "dataclass_from_table", "errors_as"]
+
+Converter = Callable[[Any, str], Any]
+"""A reader of one value: ``converter(value, where) -> checked value`` (raises ConfigError)."""
+
+
+class ConfigError(ValueError):
+    """A config value is invalid; the message is ``"<where>: <reason>, got <value>"``."""
+
+
+def show(value: Any) -> str:
+    """A value as an error message shows it: numbers plainly (numpy scalars too), arrays by shape,
+    anything else by ``repr`` cut to 80 characters."""
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)):
+        return str(value)
+    if isinstance(value, np.ndarray):
+        return f"an array of shape {list(value.shape)}"
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+def _fail(where: str, reason: str, value: Any) -> typing.NoReturn:
+    raise ConfigError(f"{where}: {reason}, got {show(value)}")
+
+
+# ---------------------------------------------------------------------------------------------- tables
+def table(value: Any, where: str) -> dict:
+    """``value`` itself if it is a table (a mapping), else ConfigError ``"<where>: must be a table"``."""
+    if not isinstance(value, Mapping):
+        _fail(where, "must be a table", value)
+    return value
+
+
+def check_keys(tbl: Mapping, allowed: Iterable[str], where: str) -> None:
+    """Reject the first (alphabetically) key of ``tbl`` not in ``allowed``:
+    ``"<where>.<key>: unknown field (allowed: a, b, c)"``."""
+    allowed = set(allowed)
+    unknown = sorted(set(tbl) - allowed)
+    if unknown:
+        raise ConfigError(f"{where}.{unknown[0]}: unknown field (allowed: {', '.join(sorted(allowed))})")
+
+
+# ---------------------------------------------------------------------------------------------- scalars
+def _is_real(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+
+
+def number(value: Any, where: str, *, positive: bool = False, nonneg: bool = False,
+           minimum: float | None = None, maximum: float | None = None) -> float:
+    """A finite real number as a float. Bounds: ``positive`` → > 0, ``nonneg`` → ≥ 0,
+    ``minimum`` → ≥ minimum, ``maximum`` → ≤ maximum (checked in that order)."""
+    if not _is_real(value):
+        _fail(where, "must be a number", value)
+    v = float(value)
+    if not math.isfinite(v):
+        _fail(where, "must be finite", value)
+    if positive and not v > 0:
+        _fail(where, "must be > 0", value)
+    if nonneg and v < 0:
+        _fail(where, "must be ≥ 0", value)
+    if minimum is not None and v < minimum:
+        _fail(where, f"must be ≥ {minimum}", value)
+    if maximum is not None and v > maximum:
+        _fail(where, f"must be ≤ {maximum}", value)
+    return v
+
+
+def integer(value: Any, where: str, *, minimum: int | None = None, maximum: int | None = None) -> int:
+    """An integer (an int or numpy integer; not a bool, not a float such as 3.0) as an int."""
+    if not isinstance(value, (int, np.integer)) or isinstance(value, (bool, np.bool_)):
+        _fail(where, "must be an integer", value)
+    if minimum is not None and value < minimum:
+        _fail(where, f"must be ≥ {minimum}", value)
+    if maximum is not None and value > maximum:
+        _fail(where, f"must be ≤ {maximum}", value)
+    return int(value)
+
+
+def boolean(value: Any, where: str) -> bool:
+    """``true`` or ``false`` (a bool; 0 and 1 are not accepted)."""
+    if not isinstance(value, (bool, np.bool_)):
+        _fail(where, "must be true or false", value)
+    return bool(value)
+
+
+def string(value: Any, where: str, *, choices: Iterable[str] | None = None) -> str:
+    """A non-empty string; with ``choices``, one of them (``"must be one of a, b"``, sorted)."""
+    if not isinstance(value, str) or not value:
+        _fail(where, "must be a non-empty string", value)
+    if choices is not None:
+        choices = set(choices)
+        if value not in choices:
+            _fail(where, f"must be one of {', '.join(sorted(choices))}", value)
+    return value
+
+
+# ---------------------------------------------------------------------------------------------- geometry
+def point(value: Any, where: str) -> np.ndarray:
+    """A point ``[x, y]`` [m] → (2,) float array; each coordinate read by :func:`number`."""
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        _fail(where, "must be a point [x, y] in metres", value)
+    return np.array([number(value[0], f"{where}[0]"), number(value[1], f"{where}[1]")])
+
+
+def points(value: Any, where: str, minimum: int) -> np.ndarray:
+    """A list of at least ``minimum`` points ``[[x, y], ...]`` → (n, 2) float array; point k's
+    errors name ``where[k]``."""
+    if not isinstance(value, list) or len(value) < minimum:
+        _fail(where, f"must be a list of at least {minimum} points [x, y]", value)
+    return np.array([point(p, f"{where}[{i}]") for i, p in enumerate(value)]).reshape(-1, 2)
+
+
+# ---------------------------------------------------------------------------------------------- dataclasses
+def _sequence(element: Converter, length: int | None) -> Converter:
+    """Reader of a list → tuple, each element read by ``element`` (naming ``where[k]``)."""
+    def read(value: Any, where: str) -> tuple:
+        if not isinstance(value, (list, tuple)) or (length is not None and len(value) != length):
+            _fail(where, "must be a list" + (f" of {length} values" if length is not None else ""), value)
+        return tuple(element(v, f"{where}[{k}]") for k, v in enumerate(value))
+
+    return read
+
+
+_SCALAR_READERS: dict[Any, Converter] = {bool: boolean, int: integer, float: number, str: string}
+
+
+def _reader_for(tp: Any) -> Converter | None:
+    """The reader of a field type: float, int, bool, str, ``X | None`` (X's reader: a TOML value is
+    never None), ``tuple[X, ...]`` or ``tuple[X, Y]``; None when there is none."""
+    if tp in _SCALAR_READERS:
+        return _SCALAR_READERS[tp]
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        rest = [a for a in args if a is not type(None)]
+        return _reader_for(rest[0]) if len(rest) == 1 else None
+    if origin is tuple and args:
+        if len(args) == 2 and args[1] is Ellipsis:
+            element = _reader_for(args[0])
+            return _sequence(element, None) if element else None
+        readers = [_reader_for(a) for a in args]
+        if all(readers) and len(set(readers)) == 1:
+            return _sequence(readers[0], len(args))
+    return None
+
+
+def dataclass_from_table(cls: type, tbl: Any, where: str, converters: Mapping[str, Converter] | None = None, *,
+                         defaults: Any = None, check: Callable[[Any, str], None] | None = None):
+    """Build the dataclass ``cls`` from a scenario table.
+
+    tbl: the table; its keys must be ``cls``'s init fields (else ``"<where>.<key>: unknown field"``).
+    Each value is read by ``converters[key]`` if given (``converter(value, f"{where}.{key}")``),
+    else by the reader of the field's type (see the module docstring); a field of any other type
+    needs a converter (TypeError otherwise: a programming error, not a bad table).
+    Missing keys keep the dataclass's defaults, or ``defaults``'s values when an instance of ``cls``
+    is given (e.g. a preset); a missing key without a default → ``"<where>.<key>: missing"``.
+    check: the class's own validator ``check(config, where)`` (the one its ``__post_init__`` runs
+    with a fixed name): run first on the assembled values (an instance made without ``__init__``) so
+    that its errors name ``where``, not the class's default name. ``cls(**values)`` is then built as
+    usual (``__post_init__`` included).
+    """
+    tbl = table(tbl, where)
+    init_fields = [f for f in dataclasses.fields(cls) if f.init]
+    check_keys(tbl, (f.name for f in init_fields), where)
+    hints = typing.get_type_hints(cls)
+    converters = converters or {}
+    values: dict[str, Any] = {}
+    for f in init_fields:
+        key_where = f"{where}.{f.name}"
+        if f.name in tbl:
+            read = converters.get(f.name) or _reader_for(hints[f.name])
+            if read is None:
+                raise TypeError(f"{cls.__name__}.{f.name}: no reader for type {hints[f.name]!r}; "
+                                f"pass converters[{f.name!r}]")
+            values[f.name] = read(tbl[f.name], key_where)
+        elif defaults is not None:
+            values[f.name] = getattr(defaults, f.name)
+        elif f.default is not dataclasses.MISSING:
+            values[f.name] = f.default
+        elif f.default_factory is not dataclasses.MISSING:
+            values[f.name] = f.default_factory()
+        else:
+            raise ConfigError(f"{key_where}: missing")
+    if check is not None:
+        candidate = object.__new__(cls)
+        for name, value in values.items():
+            object.__setattr__(candidate, name, value)
+        check(candidate, where)
+    return cls(**values)
+
+
+# ---------------------------------------------------------------------------------------------- boundaries
+@contextmanager
+def errors_as(error: type[ValueError]) -> Iterator[None]:
+    """Inside the block, a :class:`ConfigError` that is not already an ``error`` is re-raised as
+    ``error(same message)`` (a module's own exception type at its public boundary)."""
+    try:
+        yield
+    except ConfigError as exc:
+        if isinstance(exc, error):
+            raise
+        raise error(str(exc)) from None
