@@ -12,12 +12,24 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path as FilePath
 from typing import Any
 
 import numpy as np
 
+from .config_tables import (
+    ConfigError,
+    check_keys,
+    dataclass_from_table,
+    errors_as,
+    integer,
+    number,
+    point,
+    points,
+    string,
+    table,
+)
 from .currents import CurrentField, UniformCurrent, current_from_config
 from .obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
 from .paths import Path
@@ -26,8 +38,11 @@ from .vessels import available_vessels, load_vessel_type
 __all__ = ["ScenarioError", "Scenario", "VesselConfig", "Rates", "Outputs", "load_scenario", "parse_scenario"]
 
 
-class ScenarioError(ValueError):
-    """A scenario file is invalid; the message names the field and the reason."""
+class ScenarioError(ConfigError):
+    """A scenario file is invalid; the message names the field and the reason (a ValueError).
+
+    The field readers are :mod:`mjasc.config_tables`'s; their :class:`ConfigError` leaves the
+    public functions here as a ScenarioError."""
 
 
 # ---------------------------------------------------------------------- typed scenario
@@ -92,80 +107,24 @@ class Scenario:
         from dataclasses import replace
 
         s = self
-        if seed is not None:
-            s = replace(s, seed=_int(seed, "seed", minimum=0))
-        if video is not None:
-            s = replace(s, outputs=replace(s.outputs, video=bool(video)))
-        if duration_s is not None:
-            s = replace(s, duration_s=_num(duration_s, "duration_s", positive=True))
+        with errors_as(ScenarioError):
+            if seed is not None:
+                s = replace(s, seed=integer(seed, "seed", minimum=0))
+            if video is not None:
+                s = replace(s, outputs=replace(s.outputs, video=bool(video)))
+            if duration_s is not None:
+                s = replace(s, duration_s=number(duration_s, "duration_s", positive=True))
         return s
 
 
-# ---------------------------------------------------------------------- field readers
-def _num(value: Any, where: str, positive: bool = False, nonneg: bool = False, minimum=None, maximum=None) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ScenarioError(f"{where}: must be a number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v):
-        raise ScenarioError(f"{where}: must be finite, got {value!r}")
-    if positive and not v > 0:
-        raise ScenarioError(f"{where}: must be > 0, got {value!r}")
-    if nonneg and v < 0:
-        raise ScenarioError(f"{where}: must be ≥ 0, got {value!r}")
-    if minimum is not None and v < minimum:
-        raise ScenarioError(f"{where}: must be ≥ {minimum}, got {value!r}")
-    if maximum is not None and v > maximum:
-        raise ScenarioError(f"{where}: must be ≤ {maximum}, got {value!r}")
-    return v
+# ---------------------------------------------------------------------- scenario-specific readers
+def _heading(t: dict, where: str) -> float:
+    return math.radians(number(t.get("heading_deg", 0.0), f"{where}.heading_deg"))
 
 
-def _int(value: Any, where: str, minimum: int | None = None) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise ScenarioError(f"{where}: must be an integer, got {value!r}")
-    if minimum is not None and value < minimum:
-        raise ScenarioError(f"{where}: must be ≥ {minimum}, got {value!r}")
-    return int(value)
-
-
-def _str(value: Any, where: str, choices=None) -> str:
-    if not isinstance(value, str) or not value:
-        raise ScenarioError(f"{where}: must be a non-empty string, got {value!r}")
-    if choices is not None and value not in choices:
-        raise ScenarioError(f"{where}: must be one of {', '.join(sorted(choices))}, got {value!r}")
-    return value
-
-
-def _point(value: Any, where: str) -> np.ndarray:
-    if not isinstance(value, (list, tuple)) or len(value) != 2:
-        raise ScenarioError(f"{where}: must be a point [x, y] in metres, got {value!r}")
-    return np.array([_num(value[0], f"{where}[0]"), _num(value[1], f"{where}[1]")])
-
-
-def _points(value: Any, where: str, minimum: int) -> np.ndarray:
-    if not isinstance(value, list) or len(value) < minimum:
-        raise ScenarioError(f"{where}: must be a list of at least {minimum} points [x, y], got {value!r}")
-    return np.array([_point(p, f"{where}[{i}]") for i, p in enumerate(value)])
-
-
-def _table(value: Any, where: str) -> dict:
-    if not isinstance(value, dict):
-        raise ScenarioError(f"{where}: must be a table, got {value!r}")
-    return value
-
-
-def _check_keys(table: dict, allowed: set[str], where: str) -> None:
-    unknown = sorted(set(table) - allowed)
-    if unknown:
-        raise ScenarioError(f"{where}.{unknown[0]}: unknown field (allowed: {', '.join(sorted(allowed))})")
-
-
-def _heading(table: dict, where: str) -> float:
-    return math.radians(_num(table.get("heading_deg", 0.0), f"{where}.heading_deg"))
-
-
-def _path(table: dict, where: str) -> Path:
-    wps = _points(table.get("waypoints"), f"{where}.waypoints", 2)
-    radius = _num(table.get("turn_radius_m", 0.0), f"{where}.turn_radius_m", nonneg=True)
+def _path(t: dict, where: str) -> Path:
+    wps = points(t.get("waypoints"), f"{where}.waypoints", 2)
+    radius = number(t.get("turn_radius_m", 0.0), f"{where}.turn_radius_m", nonneg=True)
     try:
         return Path.from_waypoints(wps, turn_radius_m=radius)
     except ValueError as exc:
@@ -186,7 +145,7 @@ COMPONENT_PARSERS = {
 }
 
 
-def _parse_component(kind: str, table: Any, where: str):
+def _parse_component(kind: str, value: Any, where: str):
     import importlib
 
     module_name, func = COMPONENT_PARSERS[kind]
@@ -195,7 +154,7 @@ def _parse_component(kind: str, table: Any, where: str):
     except (ImportError, AttributeError):
         raise ScenarioError(f"{where}: component {kind!r} is not available in this version of mjasc") from None
     try:
-        return parser(_table(table, where), where)
+        return parser(table(value, where), where)
     except ScenarioError:
         raise
     except ValueError as exc:
@@ -206,55 +165,52 @@ _VESSEL = {"name", "type", "position_m", "heading_deg", "speed_m_s", "controller
 _CONTROLLER = {"type", "waypoints", "turn_radius_m", "speed_m_s", "commands", "lookahead_m"}
 
 
+def _positive(value: Any, where: str) -> float:
+    return number(value, where, positive=True)
+
+
 def _rates(t: dict) -> Rates:
-    t = _table(t, "rates")
-    _check_keys(t, set(Rates.__dataclass_fields__), "rates")
-    kw = {k: _num(v, f"rates.{k}", positive=True) for k, v in t.items()}
-    rates = Rates(**kw)
+    rates = dataclass_from_table(Rates, t, "rates", {f.name: _positive for f in fields(Rates)})
     for k in ("control_hz", "sensing_hz", "tracking_hz", "comms_hz", "record_hz"):
         if getattr(rates, k) > rates.physics_hz:
             raise ScenarioError(f"rates.{k}: must not exceed rates.physics_hz ({rates.physics_hz}), got {getattr(rates, k)}")
     return rates
 
 
+def _frame_size(limit: int):
+    """Reader of a video frame dimension [px]: ≥ 16, within the offscreen buffer, even (H.264)."""
+    def read(value: Any, where: str) -> int:
+        n = integer(value, where, minimum=16)
+        if n > limit:
+            raise ScenarioError(f"{where}: must be ≤ the scene's offscreen buffer (1280×720), got {n}")
+        if n % 2:
+            raise ScenarioError(f"{where}: must be even (H.264), got {n}")
+        return n
+
+    return read
+
+
 def _outputs(t: dict) -> Outputs:
-    t = _table(t, "outputs")
-    _check_keys(t, set(Outputs.__dataclass_fields__), "outputs")
-    kw: dict[str, Any] = {}
-    for k in ("recording", "video"):
-        if k in t:
-            if not isinstance(t[k], bool):
-                raise ScenarioError(f"outputs.{k}: must be true or false, got {t[k]!r}")
-            kw[k] = t[k]
-    if "video_camera" in t:
-        kw["video_camera"] = _str(t["video_camera"], "outputs.video_camera")
-    if "video_fps" in t:
-        kw["video_fps"] = _num(t["video_fps"], "outputs.video_fps", positive=True, maximum=120)
-    for k in ("video_width", "video_height"):
-        if k in t:
-            kw[k] = _int(t[k], f"outputs.{k}", minimum=16)
-            if kw[k] > {"video_width": 1280, "video_height": 720}[k]:
-                raise ScenarioError(f"outputs.{k}: must be ≤ the scene's offscreen buffer (1280×720), got {kw[k]}")
-            if kw[k] % 2:
-                raise ScenarioError(f"outputs.{k}: must be even (H.264), got {kw[k]}")
-    return Outputs(**kw)
+    return dataclass_from_table(Outputs, t, "outputs", {
+        "video_fps": lambda v, where: number(v, where, positive=True, maximum=120),
+        "video_width": _frame_size(1280), "video_height": _frame_size(720)})
 
 
 def _vessel(t: Any, i: int) -> VesselConfig:
     where = f"vessels[{i}]"
-    t = _table(t, where)
-    _check_keys(t, _VESSEL, where)
-    name = _str(t.get("name", f"v{i}"), f"{where}.name")
+    t = table(t, where)
+    check_keys(t, _VESSEL, where)
+    name = string(t.get("name", f"v{i}"), f"{where}.name")
     if "/" in name or name.startswith("obstacle"):
         raise ScenarioError(f"{where}.name: must not contain '/' or start with 'obstacle', got {name!r}")
-    vtype = _str(t.get("type"), f"{where}.type", choices=set(available_vessels()))
-    pos = _point(t.get("position_m", [0.0, 0.0]), f"{where}.position_m")
+    vtype = string(t.get("type"), f"{where}.type", choices=set(available_vessels()))
+    pos = point(t.get("position_m", [0.0, 0.0]), f"{where}.position_m")
     heading = _heading(t, where)
     vt = load_vessel_type(vtype)
-    speed = _num(t.get("speed_m_s", 0.0), f"{where}.speed_m_s", nonneg=True, maximum=vt.top_speed_m_s * 1.5)
-    ctrl = _table(t.get("controller", {"type": "none"}), f"{where}.controller")
-    _check_keys(ctrl, _CONTROLLER, f"{where}.controller")
-    ctype = _str(ctrl.get("type", "path_following"), f"{where}.controller.type", choices={"path_following", "none"})
+    speed = number(t.get("speed_m_s", 0.0), f"{where}.speed_m_s", nonneg=True, maximum=vt.top_speed_m_s * 1.5)
+    ctrl = table(t.get("controller", {"type": "none"}), f"{where}.controller")
+    check_keys(ctrl, _CONTROLLER, f"{where}.controller")
+    ctype = string(ctrl.get("type", "path_following"), f"{where}.controller.type", choices={"path_following", "none"})
     path, commands = None, (0.0, 0.0)
     cruise = vt.cruise_speed_m_s
     options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}
@@ -265,62 +221,67 @@ def _vessel(t: Any, i: int) -> VesselConfig:
         if "waypoints" not in ctrl:
             raise ScenarioError(f"{where}.controller.waypoints: missing (path_following needs a path)")
         path = _path(ctrl, f"{where}.controller")
-        cruise = _num(ctrl.get("speed_m_s", vt.cruise_speed_m_s), f"{where}.controller.speed_m_s", positive=True,
-                      maximum=vt.top_speed_m_s)
+        cruise = number(ctrl.get("speed_m_s", vt.cruise_speed_m_s), f"{where}.controller.speed_m_s", positive=True,
+                        maximum=vt.top_speed_m_s)
         if "lookahead_m" in ctrl:
-            options["lookahead_m"] = _num(ctrl["lookahead_m"], f"{where}.controller.lookahead_m", positive=True)
+            options["lookahead_m"] = number(ctrl["lookahead_m"], f"{where}.controller.lookahead_m", positive=True)
     else:
         c = ctrl.get("commands", [0.0, 0.0])
         if not isinstance(c, list) or len(c) != 2:
             raise ScenarioError(f"{where}.controller.commands: must be [port, starboard] in [-1, 1], got {c!r}")
-        commands = tuple(_num(x, f"{where}.controller.commands[{k}]", minimum=-1, maximum=1) for k, x in enumerate(c))
+        commands = tuple(number(x, f"{where}.controller.commands[{k}]", minimum=-1, maximum=1) for k, x in enumerate(c))
     return VesselConfig(name, vtype, pos, heading, speed, ctype, path, cruise, commands, options)
 
 
 def _static(t: Any, i: int):
     where = f"static_obstacles[{i}]"
-    t = _table(t, where)
-    kind = _str(t.get("type"), f"{where}.type", choices={"polygon", "circle"})
-    name = _str(t.get("name", f"static{i}"), f"{where}.name")
-    height = _num(t.get("height_m", 2.0), f"{where}.height_m", positive=True)
+    t = table(t, where)
+    kind = string(t.get("type"), f"{where}.type", choices={"polygon", "circle"})
+    name = string(t.get("name", f"static{i}"), f"{where}.name")
+    height = number(t.get("height_m", 2.0), f"{where}.height_m", positive=True)
     if kind == "polygon":
-        _check_keys(t, {"type", "name", "vertices", "height_m"}, where)
-        v = _points(t.get("vertices"), f"{where}.vertices", 3)
+        check_keys(t, {"type", "name", "vertices", "height_m"}, where)
+        v = points(t.get("vertices"), f"{where}.vertices", 3)
         try:
             return PolygonObstacle(name, v, height)
         except ValueError as exc:
             raise ScenarioError(f"{where}.vertices: {exc}") from None
-    _check_keys(t, {"type", "name", "centre_m", "radius_m", "height_m"}, where)
-    return CircleObstacle(name, _point(t.get("centre_m"), f"{where}.centre_m"),
-                          _num(t.get("radius_m"), f"{where}.radius_m", positive=True), height)
+    check_keys(t, {"type", "name", "centre_m", "radius_m", "height_m"}, where)
+    return CircleObstacle(name, point(t.get("centre_m"), f"{where}.centre_m"),
+                          number(t.get("radius_m"), f"{where}.radius_m", positive=True), height)
 
 
 def _moving(t: Any, i: int) -> MovingObstacle:
     where = f"moving_obstacles[{i}]"
-    t = _table(t, where)
-    _check_keys(t, {"name", "radius_m", "position_m", "heading_deg", "speed_m_s", "turn_rate_deg_s", "waypoints",
-                    "turn_radius_m", "start_gamma_m"}, where)
-    name = _str(t.get("name", f"traffic{i}"), f"{where}.name")
-    radius = _num(t.get("radius_m", 2.5), f"{where}.radius_m", positive=True)
-    speed = _num(t.get("speed_m_s", 0.0), f"{where}.speed_m_s", nonneg=True)
+    t = table(t, where)
+    check_keys(t, {"name", "radius_m", "position_m", "heading_deg", "speed_m_s", "turn_rate_deg_s", "waypoints",
+                   "turn_radius_m", "start_gamma_m"}, where)
+    name = string(t.get("name", f"traffic{i}"), f"{where}.name")
+    radius = number(t.get("radius_m", 2.5), f"{where}.radius_m", positive=True)
+    speed = number(t.get("speed_m_s", 0.0), f"{where}.speed_m_s", nonneg=True)
     if "waypoints" in t:
         path = _path(t, where)
-        g0 = _num(t.get("start_gamma_m", 0.0), f"{where}.start_gamma_m", nonneg=True, maximum=path.length)
+        g0 = number(t.get("start_gamma_m", 0.0), f"{where}.start_gamma_m", nonneg=True, maximum=path.length)
         return MovingObstacle(name, radius, path.point(g0), float(path.tangent_angle(g0)), speed, 0.0, path, g0)
-    pos = _point(t.get("position_m"), f"{where}.position_m")
-    turn = math.radians(_num(t.get("turn_rate_deg_s", 0.0), f"{where}.turn_rate_deg_s"))
+    pos = point(t.get("position_m"), f"{where}.position_m")
+    turn = math.radians(number(t.get("turn_rate_deg_s", 0.0), f"{where}.turn_rate_deg_s"))
     return MovingObstacle(name, radius, pos, _heading(t, where), speed, turn)
 
 
 def parse_scenario(data: dict, source: str = "<dict>") -> Scenario:
     """Validate a parsed TOML document into a :class:`Scenario` (raises :class:`ScenarioError`)."""
-    data = _table(data, "scenario")
-    _check_keys(data, _TOP, "scenario")
-    name = _str(data.get("name", FilePath(source).stem), "name")
-    duration = _num(data.get("duration_s"), "duration_s", positive=True) if "duration_s" in data else None
+    with errors_as(ScenarioError):
+        return _parse_scenario(data, source)
+
+
+def _parse_scenario(data: dict, source: str) -> Scenario:
+    data = table(data, "scenario")
+    check_keys(data, _TOP, "scenario")
+    name = string(data.get("name", FilePath(source).stem), "name")
+    duration = number(data.get("duration_s"), "duration_s", positive=True) if "duration_s" in data else None
     if duration is None:
         raise ScenarioError("duration_s: missing (how long the run lasts, in seconds)")
-    seed = _int(data.get("seed", 0), "seed", minimum=0)
+    seed = integer(data.get("seed", 0), "seed", minimum=0)
     rates = _rates(data.get("rates", {}))
     outputs = _outputs(data.get("outputs", {}))
     cur_cfg = data.get("current")
@@ -328,9 +289,9 @@ def parse_scenario(data: dict, source: str = "<dict>") -> Scenario:
         current, cur_cfg = UniformCurrent((0.0, 0.0)), {"type": "uniform", "velocity_m_s": [0.0, 0.0]}
     else:
         try:
-            current = current_from_config(_table(cur_cfg, "current"), seed=seed)
+            current = current_from_config(table(cur_cfg, "current"), seed=seed)
         except TypeError:
-            current = current_from_config(_table(cur_cfg, "current"))
+            current = current_from_config(table(cur_cfg, "current"))
         except ValueError as exc:
             msg = str(exc)
             raise ScenarioError(msg if msg.startswith("current") else f"current: {msg}") from None
@@ -361,7 +322,7 @@ def parse_scenario(data: dict, source: str = "<dict>") -> Scenario:
         except (ImportError, AttributeError):
             raise ScenarioError("comms: the comms link is not available in this version of mjasc") from None
         try:
-            comms = parse_network(_table(data["comms"], "comms"), "comms")
+            comms = parse_network(table(data["comms"], "comms"), "comms")
         except ValueError as exc:
             msg = str(exc)
             raise ScenarioError(msg if msg.startswith("comms") else f"comms: {msg}") from None
