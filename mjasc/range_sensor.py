@@ -31,10 +31,12 @@ returns per scan.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+
+from .config_tables import ConfigError, dataclass_from_table, integer, number, show
 
 __all__ = ["SensorConfig", "Scan", "RangeSensor", "parse_sensor_options", "CLUTTER_GEOM"]
 
@@ -83,62 +85,35 @@ class SensorConfig:
 
 
 def _check_config(c: SensorConfig, where: str) -> None:
+    """Validate a :class:`SensorConfig` (ValueError naming ``f"{where}.{key}"``)."""
     def bad(key, reason, value):
-        raise ValueError(f"{where}.{key}: {reason}, got {value!r}")
+        raise ConfigError(f"{where}.{key}: {reason}, got {show(value)}")
 
-    if isinstance(c.beams, bool) or not isinstance(c.beams, (int, np.integer)) or c.beams < 1:
-        bad("beams", "must be an integer ≥ 1", c.beams)
-    for key in ("fov_deg", "max_range_m", "min_range_m", "rate_hz", "range_noise_std_m", "dropout_probability",
-                "clutter_per_scan", "ray_height_m"):
-        v = getattr(c, key)
-        if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) or not math.isfinite(v):
-            bad(key, "must be a finite number", v)
+    integer(c.beams, f"{where}.beams", minimum=1)
+    for key in ("fov_deg", "max_range_m", "min_range_m", "dropout_probability", "ray_height_m"):
+        number(getattr(c, key), f"{where}.{key}")
+    number(c.rate_hz, f"{where}.rate_hz", positive=True)
+    number(c.range_noise_std_m, f"{where}.range_noise_std_m", nonneg=True)
+    number(c.clutter_per_scan, f"{where}.clutter_per_scan", nonneg=True)
     if not 0.0 < c.fov_deg <= 360.0:
         bad("fov_deg", "must be in (0, 360]", c.fov_deg)
     if c.max_range_m < 100.0:
         bad("max_range_m", "must be ≥ 100 m (tracking starts at ~100 m, thesis §6.1)", c.max_range_m)
     if not 0.0 <= c.min_range_m < c.max_range_m:
         bad("min_range_m", "must be ≥ 0 and < max_range_m", c.min_range_m)
-    if not c.rate_hz > 0:
-        bad("rate_hz", "must be > 0", c.rate_hz)
-    if c.range_noise_std_m < 0:
-        bad("range_noise_std_m", "must be ≥ 0", c.range_noise_std_m)
     if not 0.0 <= c.dropout_probability < 1.0:
         bad("dropout_probability", "must be in [0, 1)", c.dropout_probability)
-    if c.clutter_per_scan < 0:
-        bad("clutter_per_scan", "must be ≥ 0", c.clutter_per_scan)
     if not -0.5 <= c.ray_height_m <= 2.0:
         bad("ray_height_m", "must be in [-0.5, 2] m (rays must cross the hulls' contact band)", c.ray_height_m)
 
 
 def parse_sensor_options(table: dict, where: str = "sensor") -> SensorConfig:
-    """Validate a scenario's ``[vessels.sensor]`` table into a :class:`SensorConfig`.
+    """Validate a scenario's ``[vessels.sensor]`` table (None: all defaults) into a :class:`SensorConfig`.
 
-    Unknown keys, wrong types and out-of-range values raise ValueError naming ``f"{where}.{key}"``.
+    Unknown keys, wrong types and out-of-range values raise ValueError naming ``f"{where}.{key}"``
+    (:func:`mjasc.config_tables.dataclass_from_table`).
     """
-    if table is None:
-        table = {}
-    if not isinstance(table, dict):
-        raise ValueError(f"{where}: must be a table, got {table!r}")
-    known = {f.name for f in fields(SensorConfig)}
-    for key in table:
-        if key not in known:
-            raise ValueError(f"{where}.{key}: unknown key (known: {', '.join(sorted(known))})")
-    kw = {}
-    for key, v in table.items():
-        if key == "beams":
-            if isinstance(v, bool) or not isinstance(v, int):
-                raise ValueError(f"{where}.beams: must be an integer, got {v!r}")
-        elif isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise ValueError(f"{where}.{key}: must be a number, got {v!r}")
-        else:
-            v = float(v)
-        kw[key] = v
-    cfg = SensorConfig.__new__(SensorConfig)
-    for f in fields(SensorConfig):
-        object.__setattr__(cfg, f.name, kw.get(f.name, f.default))
-    _check_config(cfg, where)
-    return cfg
+    return dataclass_from_table(SensorConfig, {} if table is None else table, where, check=_check_config)
 
 
 @dataclass(frozen=True)
