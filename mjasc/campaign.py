@@ -51,6 +51,8 @@ Z95 = 1.959963984540054
 TIMING_KEYS = frozenset({"wall_time_s", "cpu_time_s", "real_time_factor", "worker", "run_wall_time_s",
                          "run_cpu_time_s", "throughput_runs_per_hour", "startup_s"})
 QUANTILES = (0.0, 0.05, 0.25, 0.5, 0.75, 0.95, 1.0)
+#: How long a campaign waits for the first worker of a cluster [s].
+WORKER_WAIT_S = 120.0
 
 
 @dataclass
@@ -133,7 +135,9 @@ def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, floa
     denom = 1.0 + z * z / n
     centre = (p + z * z / (2 * n)) / denom
     half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
-    return max(0.0, centre - half), min(1.0, centre + half)
+    lo = 0.0 if successes == 0 else max(0.0, centre - half)  # exact 0 and 1 at the ends (no round-off)
+    hi = 1.0 if successes == n else min(1.0, centre + half)
+    return lo, hi
 
 
 def _quantiles(values) -> dict | None:
@@ -369,6 +373,11 @@ def run_campaign(campaign: Campaign, out_dir: str | Path, scheduler=None, worker
             client, closers = _open_client(scheduler, workers)
             try:
                 try:
+                    client.wait_for_workers(1, timeout=WORKER_WAIT_S)
+                except TimeoutError:
+                    raise RuntimeError(f"no Dask worker joined the scheduler at {client.scheduler.address} "
+                                       f"within {WORKER_WAIT_S:.0f} s") from None
+                try:
                     versions = client.run(_warm_up)
                 except Exception as exc:  # noqa: BLE001
                     raise RuntimeError(f"the Dask workers cannot import mjasc ({type(exc).__name__}: {exc}); "
@@ -395,8 +404,17 @@ def run_campaign(campaign: Campaign, out_dir: str | Path, scheduler=None, worker
                         bar.update(1)
                         bar.set_postfix(failed=sum(r["status"] != "completed" for r in rows))
             finally:
-                for c in closers:
-                    c.close()
+                import logging
+
+                nanny_log = logging.getLogger("distributed.nanny")
+                level = nanny_log.level
+                if closers and scheduler in (None, "local"):  # our own workers: no shutdown chatter
+                    nanny_log.setLevel(logging.ERROR)
+                try:
+                    for c in closers:
+                        c.close()
+                finally:
+                    nanny_log.setLevel(level)
         wall = time.perf_counter() - t0
     finally:
         if bar is not None:

@@ -116,6 +116,7 @@ def test_wilson_interval_solves_the_score_equation():
         lo2, hi2 = wilson_interval(n - c, n)
         assert (lo2, hi2) == pytest.approx((1 - hi, 1 - lo), abs=1e-12)
     assert wilson_interval(0, 20) == pytest.approx((0.0, 0.16113), abs=1e-5)  # the "rule of three" regime
+    assert wilson_interval(0, 400)[0] == 0.0 and wilson_interval(0, 400)[1] == pytest.approx(z * z / (400 + z * z))
     assert wilson_interval(0, 0) is None
     with pytest.raises(ValueError, match="successes"):
         wilson_interval(5, 4)
