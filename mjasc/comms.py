@@ -33,10 +33,12 @@ arrival (``received_time_s``), which is non-decreasing over successive calls of 
 from __future__ import annotations
 
 import heapq
-from dataclasses import dataclass, replace
-from typing import Any
+from dataclasses import dataclass, fields
 
 import numpy as np
+
+from .config_tables import check_keys, dataclass_from_table, number, string
+from .config_tables import table as as_table
 
 __all__ = ["NetworkConfig", "Message", "CommsNetwork", "parse_network_options", "PRESETS"]
 
@@ -67,25 +69,19 @@ class NetworkConfig:
         return self.base_delay_s + d / self.propagation_speed_m_s + 0.5 * self.jitter_s
 
 
-_LIMITS = {  # field -> (lower, lower inclusive, upper)
-    "range_m": (0.0, False, None),
-    "loss_probability": (0.0, True, 1.0),
-    "loss_exponent": (0.0, False, None),
-    "base_delay_s": (0.0, True, None),
-    "propagation_speed_m_s": (0.0, False, None),
-    "jitter_s": (0.0, True, None),
+_LIMITS = {  # field -> bounds of config_tables.number
+    "range_m": {"positive": True},
+    "loss_probability": {"nonneg": True, "maximum": 1.0},
+    "loss_exponent": {"positive": True},
+    "base_delay_s": {"nonneg": True},
+    "propagation_speed_m_s": {"positive": True},
+    "jitter_s": {"nonneg": True},
 }
 
 
 def _check(cfg: NetworkConfig, where: str) -> None:
-    for key, (lo, inclusive, hi) in _LIMITS.items():
-        v = getattr(cfg, key)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
-            raise ValueError(f"{where}.{key}: must be a finite number, got {v!r}")
-        if (v < lo) if inclusive else (v <= lo):
-            raise ValueError(f"{where}.{key}: must be {'≥' if inclusive else '>'} {lo}, got {v!r}")
-        if hi is not None and v > hi:
-            raise ValueError(f"{where}.{key}: must be ≤ {hi}, got {v!r}")
+    for key, bounds in _LIMITS.items():
+        number(getattr(cfg, key), f"{where}.{key}", **bounds)
 
 
 PRESETS = {
@@ -101,25 +97,12 @@ def parse_network_options(table: dict, where: str = "comms") -> NetworkConfig:
     Keys: ``preset`` (``radio`` | ``acoustic``, default ``radio``) and any field of
     :class:`NetworkConfig`. Raises ValueError naming ``f"{where}.{key}"`` and the reason.
     """
-    if not isinstance(table, dict):
-        raise ValueError(f"{where}: must be a table, got {table!r}")
-    allowed = {"preset", *NetworkConfig.__dataclass_fields__}
-    unknown = sorted(set(table) - allowed)
-    if unknown:
-        raise ValueError(f"{where}.{unknown[0]}: unknown field (allowed: {', '.join(sorted(allowed))})")
-    preset = table.get("preset", "radio")
-    if preset not in PRESETS:
-        raise ValueError(f"{where}.preset: must be one of {', '.join(sorted(PRESETS))}, got {preset!r}")
-    kw: dict[str, Any] = {}
-    for key, value in table.items():
-        if key == "preset":
-            continue
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ValueError(f"{where}.{key}: must be a number, got {value!r}")
-        kw[key] = float(value)
-    cfg = replace(PRESETS[preset], **kw) if kw else PRESETS[preset]
-    _check(cfg, where)
-    return cfg
+    check_keys(as_table(table, where), {"preset", *(f.name for f in fields(NetworkConfig))}, where)
+    preset = string(table.get("preset", "radio"), f"{where}.preset", choices=PRESETS)
+    overrides = {k: v for k, v in table.items() if k != "preset"}
+    if not overrides:
+        return PRESETS[preset]
+    return dataclass_from_table(NetworkConfig, overrides, where, defaults=PRESETS[preset], check=_check)
 
 
 @dataclass(frozen=True)
