@@ -52,6 +52,7 @@ from dataclasses import dataclass, field, fields
 import numpy as np
 
 from .comms import CommsNetwork
+from .config_tables import ConfigError, boolean, dataclass_from_table, number, show, string
 
 __all__ = ["CoordinationConfig", "Coordination", "TeamIntention", "parse_coordination_options"]
 
@@ -78,42 +79,25 @@ class CoordinationConfig:
 _POSITIVE = ("error_scale_m", "neighbour_timeout_s", "formation_tolerance_m", "intent_step_s")
 
 
+_ROLES = ("leader", "peer")
+
+
 def _validate(cfg: CoordinationConfig, where: str) -> None:
+    """Validate a :class:`CoordinationConfig` (ValueError naming ``f"{where}.{key}"``)."""
+    string(cfg.role, f"{where}.role", choices=_ROLES)
+    boolean(cfg.extrapolate, f"{where}.extrapolate")
     for f in fields(cfg):
-        v = getattr(cfg, f.name)
-        if f.name == "role":
-            if v not in ("peer", "leader"):
-                raise ValueError(f"{where}.role: must be one of leader, peer, got {v!r}")
-        elif f.name == "extrapolate":
-            if not isinstance(v, bool):
-                raise ValueError(f"{where}.extrapolate: must be true or false, got {v!r}")
-        else:
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
-                raise ValueError(f"{where}.{f.name}: must be a finite number, got {v!r}")
-            if f.name in _POSITIVE and not v > 0:
-                raise ValueError(f"{where}.{f.name}: must be > 0, got {v!r}")
-    if cfg.intent_horizon_s < 0:
-        raise ValueError(f"{where}.intent_horizon_s: must be ≥ 0, got {cfg.intent_horizon_s!r}")
+        if f.name not in ("role", "extrapolate"):
+            number(getattr(cfg, f.name), f"{where}.{f.name}", positive=f.name in _POSITIVE)
+    number(cfg.intent_horizon_s, f"{where}.intent_horizon_s", nonneg=True)
     if not 0.0 < cfg.max_speed_correction < 1.0:
-        raise ValueError(f"{where}.max_speed_correction: must be in (0, 1) so that the speed stays positive, "
-                         f"got {cfg.max_speed_correction!r}")
+        raise ConfigError(f"{where}.max_speed_correction: must be in (0, 1) so that the speed stays positive, "
+                          f"got {show(cfg.max_speed_correction)}")
 
 
 def parse_coordination_options(table: dict, where: str = "comms") -> CoordinationConfig:
     """A ``[vessels.comms]`` table → :class:`CoordinationConfig` (ValueError names ``where.<key>``)."""
-    if not isinstance(table, dict):
-        raise ValueError(f"{where}: must be a table, got {table!r}")
-    allowed = {f.name for f in fields(CoordinationConfig)}
-    unknown = sorted(set(table) - allowed)
-    if unknown:
-        raise ValueError(f"{where}.{unknown[0]}: unknown field (allowed: {', '.join(sorted(allowed))})")
-    kw = {k: (float(v) if isinstance(v, int) and not isinstance(v, bool) and k not in ("role", "extrapolate") else v)
-          for k, v in table.items()}
-    try:
-        return CoordinationConfig(**kw)
-    except ValueError as exc:  # re-address "comms.<key>" to the caller's table
-        msg = str(exc)
-        raise ValueError(f"{where}{msg[len('comms'):]}" if msg.startswith("comms.") else msg) from None
+    return dataclass_from_table(CoordinationConfig, table, where, check=_validate)
 
 
 @dataclass(frozen=True, eq=False)
