@@ -27,7 +27,6 @@ thesis's rule.
 from __future__ import annotations
 
 import enum
-import numbers
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
@@ -35,6 +34,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from scipy.spatial import ConvexHull
 
+from mjasc.config_tables import ConfigError, boolean, integer, number, show
 from mjasc.estimates import TrackEstimate
 from mjasc.paths import Path
 
@@ -98,24 +98,22 @@ class CollisionPredictionConfig:
     svo_vertices: int = 32
 
     def __post_init__(self):
-        def positive(name, allow_none=False, allow_zero=False):
-            v = getattr(self, name)
-            if v is None and allow_none:
-                return
-            ok = isinstance(v, numbers.Real) and not isinstance(v, bool) and np.isfinite(v) and (
-                v >= 0.0 if allow_zero else v > 0.0)
-            if not ok:
-                raise ValueError(f"{name}: must be finite and {'≥' if allow_zero else '>'} 0, got {v}")
+        for name, zero_ok in _SIGNED_FIELDS.items():
+            value = getattr(self, name)
+            if value is None and name in _OPTIONAL_FIELDS:
+                continue
+            try:
+                number(value, name, positive=not zero_ok, nonneg=zero_ok)
+            except ConfigError:  # one phrase for type, finiteness and sign (avoidance's messages carry it)
+                raise ConfigError(f"{name}: must be finite and {'≥' if zero_ok else '>'} 0, got {show(value)}") from None
+        boolean(self.stop_at_first_minimum, "stop_at_first_minimum")
+        integer(self.svo_vertices, "svo_vertices", minimum=8)
 
-        positive("window_s", allow_none=True)
-        positive("brake_decel_m_s2")
-        positive("margin_s", allow_zero=True)
-        positive("safety_distance_m", allow_zero=True)
-        positive("obstruction_threshold_s")
-        positive("time_step_s")
-        positive("max_range_m", allow_none=True)
-        if int(self.svo_vertices) < 8:
-            raise ValueError(f"svo_vertices: must be ≥ 8, got {self.svo_vertices}")
+
+#: CollisionPredictionConfig's numeric fields → True where 0 is allowed (else > 0 is required).
+_SIGNED_FIELDS = {"window_s": False, "brake_decel_m_s2": False, "margin_s": True, "safety_distance_m": True,
+                  "obstruction_threshold_s": False, "time_step_s": False, "max_range_m": False}
+_OPTIONAL_FIELDS = ("window_s", "max_range_m")  # None: dynamic window / no range limit
 
 
 @dataclass(frozen=True, eq=False)
