@@ -219,6 +219,7 @@ class StaticConflict:
     t_i: float
     min_distance_m: float
     decision: Decision = Decision.REPLAN
+    track_id: int | None = None  # the static track whose outline this is (None: a static-map polygon)
 
 
 @dataclass(frozen=True, eq=False)
@@ -302,6 +303,14 @@ def merge_overlapping(polygons: list[np.ndarray], clearance_m: float = 0.0) -> l
             if changed:
                 break
     return polys
+
+
+def _outline(track: TrackEstimate) -> np.ndarray | None:
+    """A static track's outline (k ≥ 3, 2) [m], or None when it is degenerate (then its disc is used)."""
+    p = np.asarray(track.outline_m, dtype=float).reshape(-1, 2)
+    if p.shape[0] < 3 or not np.all(np.isfinite(p)):
+        return None
+    return p
 
 
 # ------------------------------------------------------------------------------------------ system
@@ -548,6 +557,8 @@ class CollisionAvoidance:
                   for tr in tracks]
         self._known_track_ids |= {tr.track_id for tr in tracks}
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
+        outlined = {tr.track_id: _outline(tr) for tr in tracks if tr.is_static and tr.outline_m is not None}
+        outlined = {k: o for k, o in outlined.items() if o is not None}
         self._predicted_intentions = self._intentions(t)
         self._last_predict_t = t
         self._predicted_speed = self.mission_speed_now()
@@ -555,12 +566,15 @@ class CollisionAvoidance:
         gamma = float(np.clip(follower.gamma_m, 0.0, path.length))
         profile = self.planned_gamma(t, gamma)
         self.stats["predictions"] += 1
-        all_c = predict_conflicts(path, gamma, t, profile, self.radius_m, tracks, self.prediction_config,
-                                  include_clear=True) if tracks else []
+        discs = [tr for tr in tracks if tr.track_id not in outlined]
+        all_c = predict_conflicts(path, gamma, t, profile, self.radius_m, discs, self.prediction_config,
+                                  include_clear=True) if discs else []
         for c in all_c:
             self.min_predicted_distance_m = min(self.min_predicted_distance_m, c.min_distance_m)
         conflicts: list = [c for c in all_c if c.collision]
         statics = self._static_conflicts(t, path, gamma, profile, static_polygons)
+        for tid, poly in outlined.items():  # static tracks: their outline, checked like a mapped polygon
+            statics += [replace(c, track_id=tid) for c in self._static_conflicts(t, path, gamma, profile, [poly])]
         by_id = {tr.track_id: tr for tr in tracks}
         self._last = {"t": t, "path": path, "gamma": gamma, "all": all_c, "conflicts": conflicts,
                       "statics": statics, "tracks": by_id}
@@ -574,7 +588,8 @@ class CollisionAvoidance:
         if not self.config.enabled:
             self.stats["monitor_only"] += 1
             return conflicts + statics
-        self._decide(t, nav, conflicts, statics, by_id, static_polygons, allow_replan=not _after_replan)
+        self._decide(t, nav, conflicts, statics, by_id, static_polygons, allow_replan=not _after_replan,
+                     static_outlines=list(outlined.values()))
         return conflicts + statics
 
     def _record_conflict(self, t, c: PredictedConflict, track) -> None:
@@ -599,12 +614,14 @@ class CollisionAvoidance:
                                       "decision": c.decision.value})
 
     def _record_static(self, t, s: StaticConflict) -> None:
-        key = ("static", round(float(np.mean(s.polygon[:, 0]))), round(float(np.mean(s.polygon[:, 1]))))
+        key = ("static", round(float(np.mean(s.polygon[:, 0]))), round(float(np.mean(s.polygon[:, 1])))) \
+            if s.track_id is None else ("static track", s.track_id)
         if key not in self._conflict_keys:
             self._conflict_keys.add(key)
             self.stats["static_conflicts"] += 1
             self.stats["predicted_conflicts"] += 1
-            self._event(t, f"static obstacle obstructs the path on γ ∈ [{s.gamma_a:.1f}, {s.gamma_b:.1f}] m "
+            what = "static obstacle" if s.track_id is None else f"static track {s.track_id} (its outline)"
+            self._event(t, f"{what} obstructs the path on γ ∈ [{s.gamma_a:.1f}, {s.gamma_b:.1f}] m "
                            f"(reached at t ≈ {s.t_i:.1f} s) → replan")
             if len(self.conflict_log) < 50:
                 self.conflict_log.append({"time_s": round(t, 2), "static": True, "gamma_a": round(s.gamma_a, 2),
@@ -649,7 +666,8 @@ class CollisionAvoidance:
         return out
 
     # ------------------------------------------------------------------ decision σ
-    def _decide(self, t, nav, conflicts, statics, by_id, static_polygons, allow_replan=True) -> None:
+    def _decide(self, t, nav, conflicts, statics, by_id, static_polygons, allow_replan=True,
+                static_outlines=()) -> None:
         follower = self.agent.follower
         gamma = float(follower.gamma_m)
         cfg = self.config
@@ -690,7 +708,7 @@ class CollisionAvoidance:
         for s in statics:
             svos.append((s.polygon, s))
         if svos and allow_replan:
-            if self._replan(t, nav, svos, static_polygons, by_id):
+            if self._replan(t, nav, svos, static_polygons, by_id, static_outlines):
                 # The path changed: predict again on the detour (velocity corrections only).
                 self.correction = None
                 tracks = list(by_id.values())
@@ -766,8 +784,12 @@ class CollisionAvoidance:
             return None
         return swept_area(track, t_a, t_cut, r_col)
 
-    def _replan(self, t, nav, svos, static_polygons, by_id=None) -> bool:
-        """Build the field, trace the streamline, splice the detour. True on success."""
+    def _replan(self, t, nav, svos, static_polygons, by_id=None, static_outlines=()) -> bool:
+        """Build the field, trace the streamline, splice the detour. True on success.
+
+        Mapped static polygons are grown by ``static_inflation_m``; the outlines of static tracks
+        by R_vh + safety (the distance at which prediction flags them, exactly as a static disc's
+        SVO is R_vh + R_ob + safety) plus ``replan_margin_m`` (the hysteresis the SVOs get)."""
         cfg, follower, mission = self.config, self.agent.follower, self.mission_path
         by_id = by_id or {}
         start = np.asarray(nav.position_m, dtype=float)
@@ -806,6 +828,15 @@ class CollisionAvoidance:
         except ValueError as exc:
             self._fail(t, f"static polygon unusable: {exc}")
             return False
+        check = self.radius_m + cfg.safety_distance_m
+        for p in self._statics_near(start, mission, g_now_m, g_end + cfg.goal_margin_m + 20.0, static_outlines):
+            try:
+                p = clean_polygon(p, "static track outline")
+                grown = inflate_polygon(p, check + cfg.replan_margin_m)
+                obstacles.append(grown if not point_in_polygon(start[None], grown)[0] else inflate_polygon(p, check))
+            except ValueError as exc:
+                self._fail(t, f"static track outline unusable: {exc}")
+                return False
         obstacles = merge_overlapping(obstacles, clearance_m=0.5)
         for k, p in enumerate(obstacles):  # inside a safety region: shrink it to just exclude the vessel
             if point_in_polygon(start[None], p)[0]:

@@ -136,7 +136,8 @@ class Perception:
         w0 = time.perf_counter()
         self._pending = False
         det = self.detections
-        self.tracker.step(det.time_s if det is not None else t_s, det, self.scan.origin_m, self._target_mask)
+        self.tracker.step(det.time_s if det is not None else t_s, det, self.scan.origin_m, self._target_mask,
+                          points_m=self.scan.hit_points_world)
         for ev in self.tracker.drain_events():
             self._log_events.append(ev)
             if ev.kind != "born":

@@ -25,8 +25,17 @@ updated in one call). One :meth:`MultiTargetTracker.step` per scan:
 5. **Radius** per track: the detections' radii, smoothed asymmetrically (quick to grow, slow to
    shrink: an elongated hull looks narrow bow-on).
 6. **Static objects**: a confirmed track older than ``static_min_age_s`` whose speed estimate is
-   below ``static_speed_m_s`` is static (``TrackEstimate.is_static``, with a polygonal outline); it
-   becomes moving again above twice that speed.
+   below ``static_speed_m_s`` is static (``TrackEstimate.is_static``); it becomes moving again above
+   twice that speed. **Outline from the returns**: while a track is slower than
+   ``static_speed_m_s`` the world-frame returns of its detections (``step(..., points_m=...)``) are
+   accumulated as the convex hull of everything seen of it (returns farther than
+   ``1.5·R + 0.5 m`` from its centre — another object's, merged into one cluster — are left out);
+   the accumulation restarts when the track moves (faster than twice that speed, or its centre
+   more than ``outline_reset_m`` from where the accumulation started). The outline handed on
+   (``TrackEstimate.outline_m``, for every confirmed track slower than ``static_speed_m_s``) is that
+   hull united with its reflection through the track's centre (a hull is roughly point-symmetric
+   about midships; only the side facing the sensor is ever seen at once); without returns, the
+   12-gon circumscribing the track's disc.
 7. **Team mates** are tracked like anything else; :meth:`set_team_positions` receives the team's
    broadcast positions ``{name: (t_b, position)}`` and each confirmed track is matched (GNN, gate
    ``team_match_distance_m``) against them, comparing the broadcast with the track's position
@@ -72,6 +81,8 @@ class TrackingConfig:
     team_max_age_s: broadcasts older than this are not used [s].
     map_cell_m, map_min_hits: static map cell size [m] and scans needed to occupy a cell
         (:mod:`mjasc.static_map`).
+    outline_reset_m: a slow track's outline (the hull of its returns) restarts when its centre has
+        moved this far from where the accumulation started [m].
     """
 
     imm: IMMConfig = field(default_factory=IMMConfig)
@@ -92,6 +103,7 @@ class TrackingConfig:
     team_max_age_s: float = 5.0
     map_cell_m: float = 1.0
     map_min_hits: int = 3
+    outline_reset_m: float = 1.5
 
     def __post_init__(self):
         _check_tracking(self, "tracking")
@@ -122,13 +134,13 @@ def _check_tracking(c: TrackingConfig, where: str) -> None:
         bad("confirm_hits", f"must be ≤ confirm_window ({c.confirm_window})", c.confirm_hits)
     for key in ("gate_probability", "max_coast_s", "max_position_std_m", "range_margin_m", "merge_fraction",
                 "static_speed_m_s", "static_min_age_s", "radius_grow_gain", "radius_shrink_gain",
-                "team_match_distance_m", "team_max_age_s", "map_cell_m"):
+                "team_match_distance_m", "team_max_age_s", "map_cell_m", "outline_reset_m"):
         v = getattr(c, key)
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
             bad(key, "must be a finite number ≥ 0", v)
     if not 0 < c.gate_probability <= 1:
         bad("gate_probability", "must be in (0, 1]", c.gate_probability)
-    for key in ("max_coast_s", "max_position_std_m", "map_cell_m"):
+    for key in ("max_coast_s", "max_position_std_m", "map_cell_m", "outline_reset_m"):
         if not getattr(c, key) > 0:
             bad(key, "must be > 0", getattr(c, key))
     for key in ("radius_grow_gain", "radius_shrink_gain"):
@@ -238,6 +250,8 @@ class MultiTargetTracker:
         self._last = np.zeros(0)
         self._radius = np.zeros(0)
         self._team_of: list[str | None] = []
+        self._hull: list[np.ndarray | None] = []  # per track: hull vertices (k, 2) of its returns [m]
+        self._hull_anchor = np.zeros((0, 2))  # per track: its centre when the hull was started
         self.last_assignment: dict[int, int] = {}  # track id → detection index of the last step
 
     _META = ("_hist", "_scans", "_n_upd", "_confirmed", "_static", "_born", "_last", "_radius")
@@ -279,12 +293,13 @@ class MultiTargetTracker:
         return d2, d2 + np.log(det)
 
     # ------------------------------------------------------------------ one scan
-    def step(self, t_s: float, detections: Detections | None, origin_m=None, use=None) -> None:
+    def step(self, t_s: float, detections: Detections | None, origin_m=None, use=None, points_m=None) -> None:
         """Process one scan at t_s: associate, update every track, manage the track list.
 
         ``detections`` None (no scan) only coasts. ``use`` (m,) bool selects the detections for
         tracking (default: ``detections.targets``, the non-extended ones). ``origin_m`` is the
-        sensor position (for the out-of-range test).
+        sensor position (for the out-of-range test). ``points_m`` (k, 2): the scan's returns in
+        world coordinates, in the order of ``detections.labels`` (for the outlines of slow tracks).
         """
         cfg = self.config
         self.counts["scans"] += 1
@@ -327,6 +342,8 @@ class MultiTargetTracker:
             used = self.bank.update(zr, t_s, meas, vr if cfg.use_detection_variance else None)
             self.counts["associated"] += int(used.sum())
             self._after_update(t_s, used, assigned_det, rad, occ)
+            if points_m is not None and detections is not None:
+                self._grow_outlines(used, assigned_det, idx, detections.labels, points_m)
             ids = self.bank.track_ids
             self.last_assignment = {int(ids[k]): int(idx[assigned_det[k]]) for k in np.flatnonzero(used)
                                     if assigned_det[k] >= 0}
@@ -359,6 +376,8 @@ class MultiTargetTracker:
         self._last = np.append(self._last, t_s)
         self._radius = np.append(self._radius, radius)
         self._team_of.append(None)
+        self._hull.append(None)
+        self._hull_anchor = np.vstack([self._hull_anchor, self.bank.positions[-1:]])
 
     def _after_update(self, t_s, used, assigned_det, rad, occ) -> None:
         cfg = self.config
@@ -383,6 +402,32 @@ class MultiTargetTracker:
         old = (t_s - self._born) >= cfg.static_min_age_s
         self._static = self._confirmed & old & np.where(self._static, speed < 2 * cfg.static_speed_m_s,
                                                          speed < cfg.static_speed_m_s)
+
+    def _grow_outlines(self, used, assigned_det, idx, labels, points_m) -> None:
+        """Add the returns of each slow track's detection to the hull of its returns (see the
+        module docstring, item 6); restart it when the track moves."""
+        cfg = self.config
+        v = self.bank.speeds
+        pos = self.bank.positions
+        moved = np.hypot(*(pos - self._hull_anchor).T) > cfg.outline_reset_m
+        for k in np.flatnonzero((v > 2.0 * cfg.static_speed_m_s) | moved):
+            self._hull[k] = None
+            self._hull_anchor[k] = pos[k]
+        rows = np.flatnonzero(used & (assigned_det >= 0) & (v < cfg.static_speed_m_s))
+        if rows.size == 0:
+            return
+        labels = np.asarray(labels)
+        points_m = np.asarray(points_m, dtype=float).reshape(-1, 2)
+        for k in rows:
+            p = points_m[labels == idx[assigned_det[k]]]
+            p = p[np.hypot(*(p - pos[k]).T) <= 1.5 * self._radius[k] + 0.5]
+            if p.shape[0] == 0:
+                continue
+            if self._hull[k] is None:
+                self._hull_anchor[k] = pos[k]
+            else:
+                p = np.vstack([self._hull[k], p])
+            self._hull[k] = _hull_vertices(p)
 
     def _prune(self, t_s: float, origin_m) -> None:
         cfg = self.config
@@ -438,6 +483,8 @@ class MultiTargetTracker:
             for name in self._META:
                 setattr(self, name, getattr(self, name)[keep])
             self._team_of = [x for x, k in zip(self._team_of, keep) if k]
+            self._hull = [x for x, k in zip(self._hull, keep) if k]
+            self._hull_anchor = self._hull_anchor[keep]
 
     # ------------------------------------------------------------------ team mates
     def set_team_positions(self, positions: dict) -> None:
@@ -498,11 +545,20 @@ class MultiTargetTracker:
             if not (self._confirmed[k] or include_tentative):
                 continue
             outline = None
-            if self._static[k]:
-                outline = _disc_outline(self.bank.positions[k], self._radius[k])
+            if self._static[k] or self.bank.speeds[k] < self.config.static_speed_m_s:
+                outline = self.outline(k)
             out.append(self.bank.estimate(int(ids[k]), float(self._radius[k]), is_static=bool(self._static[k]),
                                           team_member=self._team_of[k], outline_m=outline))
         return out
+
+    def outline(self, row: int) -> np.ndarray:
+        """(k, 2) CCW outline [m] of the track in bank row ``row``: the hull of its returns united
+        with its reflection through the track's centre, or the 12-gon around its disc."""
+        c = self.bank.positions[row]
+        h = self._hull[row]
+        if h is None or h.shape[0] < 2:
+            return _disc_outline(c, self._radius[row])
+        return _hull_vertices(np.vstack([h, 2.0 * c - h]))
 
     def drain_events(self) -> list[TrackEvent]:
         ev, self.events = self.events, []
@@ -514,6 +570,26 @@ def _disc_outline(centre, radius: float, sides: int = 12) -> np.ndarray:
     a = np.linspace(0.0, 2.0 * np.pi, sides, endpoint=False)
     r = radius / math.cos(math.pi / sides)
     return np.asarray(centre) + r * np.stack([np.cos(a), np.sin(a)], axis=-1)
+
+
+def _hull_vertices(p: np.ndarray) -> np.ndarray:
+    """Convex hull vertices (k, 2) of points p, counter-clockwise (Andrew's monotone chain; a
+    degenerate set gives its extreme points)."""
+    p = np.unique(np.round(np.asarray(p, dtype=float), 6), axis=0)
+    if p.shape[0] <= 2:
+        return p
+
+    def half(q):
+        out: list = []
+        for pt in q:
+            while len(out) >= 2 and ((out[-1][0] - out[-2][0]) * (pt[1] - out[-2][1])
+                                     - (out[-1][1] - out[-2][1]) * (pt[0] - out[-2][0])) <= 0:
+                out.pop()
+            out.append(pt)
+        return out
+
+    lower, upper = half(p), half(p[::-1])
+    return np.array(lower[:-1] + upper[:-1])
 
 
 def _fmt(p) -> str:

@@ -52,11 +52,7 @@ SLOW = {"thesis_6_4_bottleneck", "thesis_6_4_head_on"}
 
 #: Known failures (docs/avoidance.md, "Known limits"). Not a fallback: the scenario runs and is
 #: reported as failing until it is fixed.
-KNOWN_FAILURES: dict[str, str] = {
-    "thesis_6_2_dock": "vessel2 touches moored vessel3 at t ≈ 10-12 s: it passed only while the detection merged "
-                       "vessel3 into a static-map polygon (fixed in b0f8703); as a tracked disc, re-planning in the "
-                       "tight dock churns",
-}
+KNOWN_FAILURES: dict[str, str] = {}
 
 
 def _param(n):

@@ -246,3 +246,56 @@ def test_parse_tracking_options():
         with pytest.raises(ValueError, match=rf"^{re.escape(w)}\.{re.escape(key)}"):
             parse_tracking_options(table, w)
 
+
+
+def _rectangle_returns(centre, half, sensor, rng, spacing=0.25, noise=0.03):
+    """Returns (k, 2) on the faces of an axis-aligned rectangle that face ``sensor``."""
+    cx, cy = centre
+    hx, hy = half
+    out = []
+    for axis, sign in ((0, -1), (0, 1), (1, -1), (1, 1)):
+        if (sensor[axis] - centre[axis]) * sign <= (half[axis]):
+            continue  # this face looks away from the sensor
+        if axis == 0:
+            s = np.arange(-hy, hy + 1e-9, spacing)
+            pts = np.column_stack([np.full(s.size, cx + sign * hx), cy + s])
+        else:
+            s = np.arange(-hx, hx + 1e-9, spacing)
+            pts = np.column_stack([cx + s, np.full(s.size, cy + sign * hy)])
+        out.append(pts)
+    p = np.vstack(out)
+    return p + noise * rng.standard_normal(p.shape)
+
+
+def test_slow_track_outline_is_the_hull_of_its_returns_and_its_reflection():
+    """A moored 3.5 m × 2 m hull seen only from the west and south (the sensor sweeps around it at
+    30 m): its outline covers all four corners (the unseen faces from the reflection through the
+    centre) and is much smaller than the disc's 12-gon; a return 6 m away that joined the cluster
+    (another object) is left out; a moving target has no outline."""
+    from mjasc.geometry import distance_to_polygon, point_in_polygon
+
+    rng = np.random.default_rng(3)
+    centre, half = np.array([50.0, 10.0]), np.array([1.75, 1.0])
+    tr = MultiTargetTracker(TrackingConfig())
+    for k in range(150):
+        t = k * DT
+        a = np.pi + 0.5 * np.pi * k / 149  # west → south
+        sensor = centre + 30.0 * np.array([np.cos(a), np.sin(a)])
+        pts = _rectangle_returns(centre, half, sensor, rng)
+        if k % 10 == 5:
+            pts = np.vstack([pts, centre + [6.0, 0.0]])  # another object's return merged into the cluster
+        z = (centre + 0.05 * rng.standard_normal(2))[None]
+        det = Detections(t, sensor, 0.0, z, z.copy(), np.array([2.1]), np.array([0.01]), np.array([len(pts)]),
+                         np.array([30.0]), np.zeros(1, bool), np.zeros(len(pts), int))
+        tr.step(t, det, sensor, points_m=pts)
+    (est,) = tr.estimates()
+    assert est.is_static
+    out = est.outline_m
+    corners = centre + half * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]])
+    inside = point_in_polygon(corners, out) | (distance_to_polygon(corners, out) < 0.2)
+    assert inside.all(), out
+    area = 0.5 * abs(np.dot(out[:, 0], np.roll(out[:, 1], -1)) - np.dot(out[:, 1], np.roll(out[:, 0], -1)))
+    assert 7.0 <= area < 10.0, area  # the hull is 7 m²; the disc's 12-gon ≈ 14.8 m²
+    assert np.max(np.hypot(*(out - centre).T)) < 2.6
+    X, log, tr = run("cv", n=3, duration=20.0)
+    assert all(e.outline_m is None for e in tr.estimates())
