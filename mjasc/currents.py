@@ -131,6 +131,8 @@ from typing import Any
 
 import numpy as np
 
+from .config_tables import number, show as _show, table as as_table
+
 __all__ = [
     "FD_STEP_S",
     "LAMB_OSEEN_PEAK_RATIO",
@@ -159,45 +161,23 @@ _GAUSS_MARKOV_STARTS = ("stationary", "mean")
 
 
 # ---------------------------------------------------------------------------------------------
-# validation helpers (``name`` is a parameter name or a config path)
-
-
-def _show(value: Any) -> str:
-    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
-        return str(value)
-    if isinstance(value, np.ndarray):
-        return f"an array of shape {list(value.shape)}"
-    text = repr(value)
-    return text if len(text) <= 80 else text[:77] + "..."
-
-
-def _is_number(value: Any) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
-        value, (bool, np.bool_)
-    )
+# validation helpers (``name`` is a parameter name or a config path); scalars and value display
+# come from config_tables; this module keeps its published ASCII ">=" phrasing.
 
 
 def _finite(value: Any, name: str) -> float:
-    if not _is_number(value):
-        raise ValueError(f"{name}: must be a number, got {_show(value)}")
-    number = float(value)
-    if not math.isfinite(number):
-        raise ValueError(f"{name}: must be finite, got {_show(value)}")
-    return number
+    return number(value, name)
 
 
 def _positive(value: Any, name: str) -> float:
-    number = _finite(value, name)
-    if number <= 0.0:
-        raise ValueError(f"{name}: must be > 0, got {_show(value)}")
-    return number
+    return number(value, name, positive=True)
 
 
 def _non_negative(value: Any, name: str) -> float:
-    number = _finite(value, name)
-    if number < 0.0:
+    v = number(value, name)
+    if v < 0.0:
         raise ValueError(f"{name}: must be >= 0, got {_show(value)}")
-    return number
+    return v
 
 
 def _has_bool(value: Any) -> bool:
@@ -993,8 +973,7 @@ def current_from_config(
     from (seed, its path) — reproducible, and distinct for each component; ``describe()`` shows
     it. Without ``seed``, such a table must give its own.
     Raises ValueError naming the offending field path and the reason; unknown keys are errors."""
-    if not isinstance(table, Mapping):
-        raise ValueError(f"{path}: must be a table, got {_show(table)}")
+    as_table(table, path)
     if "type" not in table:
         raise ValueError(f"{path}.type: missing (one of: {', '.join(_BUILDERS)})")
     kind = table["type"]
