@@ -8,6 +8,7 @@ ValueError) whose message names the path and the reason, then shows the value::
 
 Readers (``where`` is always the second argument):
 
+* :func:`load_toml` — a TOML file → its top-level table (a missing file or bad TOML names the file);
 * :func:`table` — a TOML table (a dict); :func:`check_keys` — no key outside ``allowed``;
 * :func:`number` — a finite real (bools are not numbers; ints become floats), with optional
   bounds ``positive`` (> 0), ``nonneg`` (≥ 0), ``minimum`` (≥), ``maximum`` (≤);
@@ -29,14 +30,16 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import tomllib
 import types
 import typing
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping
 
 import numpy as np
 
-__all__ = ["ConfigError", "show", "table", "check_keys", "number", "integer", "boolean", "string", "point",
+__all__ = ["ConfigError", "show", "load_toml", "table", "check_keys", "number", "integer", "boolean", "string", "point",
            "points", "dataclass_from_table", "errors_as"]
 
 Converter = Callable[[Any, str], Any]
@@ -63,6 +66,19 @@ def _fail(where: str, reason: str, value: Any) -> typing.NoReturn:
 
 
 # ---------------------------------------------------------------------------------------------- tables
+def load_toml(path: str | Path, error: type[ValueError] = ConfigError, what: str = "TOML") -> dict:
+    """Read the TOML file ``path`` into its top-level table. Raises ``error`` (a ValueError
+    subclass) ``"<path>: no such <what> file"`` or ``"<path>: not valid TOML: <reason>"``."""
+    path = Path(path)
+    if not path.is_file():
+        raise error(f"{path}: no such {what} file")
+    try:
+        with open(path, "rb") as f:
+            return tomllib.load(f)
+    except tomllib.TOMLDecodeError as exc:
+        raise error(f"{path}: not valid TOML: {exc}") from None
+
+
 def table(value: Any, where: str) -> dict:
     """``value`` itself if it is a table (a mapping), else ConfigError ``"<where>: must be a table"``."""
     if not isinstance(value, Mapping):

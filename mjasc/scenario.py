@@ -11,7 +11,6 @@ write them; everything inside mjasc is radians (docs/architecture.md).
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field, fields
 from pathlib import Path as FilePath
 from typing import Any
@@ -24,6 +23,7 @@ from .config_tables import (
     dataclass_from_table,
     errors_as,
     integer,
+    load_toml,
     number,
     point,
     points,
@@ -339,13 +339,7 @@ def _list(value: Any, where: str) -> list:
 def load_scenario(path: str | FilePath) -> Scenario:
     """Read and validate a scenario file. Raises :class:`ScenarioError` naming the field."""
     path = FilePath(path)
-    if not path.is_file():
-        raise ScenarioError(f"{path}: no such scenario file")
-    try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f)
-    except tomllib.TOMLDecodeError as exc:
-        raise ScenarioError(f"{path}: not valid TOML: {exc}") from None
+    data = load_toml(path, ScenarioError, "scenario")
     try:
         return parse_scenario(data, str(path))
     except ScenarioError as exc:

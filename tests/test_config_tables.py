@@ -13,6 +13,7 @@ from mjasc.config_tables import (
     dataclass_from_table,
     errors_as,
     integer,
+    load_toml,
     number,
     point,
     points,
@@ -188,3 +189,19 @@ def test_errors_as_converts_config_errors_only():
         with errors_as(MyError):
             raise ValueError("plain")
     assert type(err.value) is ValueError
+
+
+def test_load_toml_names_the_file(tmp_path):
+    good = tmp_path / "a.toml"
+    good.write_text('name = "x"\n[rates]\nphysics_hz = 50\n')
+    assert load_toml(good) == {"name": "x", "rates": {"physics_hz": 50}}
+
+    class MyError(ValueError):
+        pass
+
+    with pytest.raises(MyError, match=r"missing\.toml: no such scenario file$"):
+        load_toml(tmp_path / "missing.toml", MyError, "scenario")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("name = \n")
+    with pytest.raises(ConfigError, match=r"bad\.toml: not valid TOML: "):
+        load_toml(bad)
