@@ -109,7 +109,10 @@ class Scenario:
         s = self
         with errors_as(ScenarioError):
             if seed is not None:
-                s = replace(s, seed=integer(seed, "seed", minimum=0))
+                new_seed = integer(seed, "seed", minimum=0)
+                # A seeded current (Gauss–Markov without its own seed) draws from the scenario seed:
+                # rebuild it so that --seed changes the current too.
+                s = replace(s, seed=new_seed, current=current_from_config(dict(s.current_config), seed=new_seed))
             if video is not None:
                 s = replace(s, outputs=replace(s.outputs, video=bool(video)))
             if duration_s is not None:

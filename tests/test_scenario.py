@@ -103,3 +103,17 @@ def test_the_documented_example_is_a_valid_scenario():
     assert [v.name for v in sc.vessels] == ["alpha", "bravo"]
     assert len(sc.static_obstacles) == 2 and len(sc.moving_obstacles) == 2
     assert sc.moving_obstacles[1].path is not None
+
+
+def test_seed_override_reseeds_a_seeded_current():
+    d = demo()
+    d["current"] = {"type": "gauss_markov", "mean_velocity_m_s": [0.1, 0.0], "time_constant_s": 60.0,
+                    "sigma_m_s": 0.1}
+    sc = parse_scenario(d, "gm.toml")
+    p = np.zeros((1, 2))
+    same = sc.with_overrides(seed=sc.seed)
+    other = sc.with_overrides(seed=sc.seed + 1)
+    np.testing.assert_array_equal(same.current.velocity(p, 300.0), sc.current.velocity(p, 300.0))
+    assert not np.array_equal(other.current.velocity(p, 300.0), sc.current.velocity(p, 300.0))
+    assert other.current.velocity(p, 300.0).tolist() == parse_scenario({**d, "seed": sc.seed + 1}).current.velocity(
+        p, 300.0).tolist()
