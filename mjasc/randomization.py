@@ -42,12 +42,13 @@ Only :func:`dataclasses.replace` is used on the scenario's dataclasses (no edits
 from __future__ import annotations
 
 import math
-import tomllib
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
 
+from .config_tables import (boolean, check_keys, dataclass_from_table, errors_as, integer, load_toml, number, show,
+                            string, table)
 from .currents import SumCurrent, UniformCurrent, current_from_config
 from .frames import wrap_angle
 from .scenario import Scenario, ScenarioError, load_scenario
@@ -95,12 +96,14 @@ class Campaign:
     def with_overrides(self, runs: int | None = None, base_seed: int | None = None,
                        duration_s: float | None = None) -> "Campaign":
         c = self
-        if runs is not None:
-            c = replace(c, runs=_int(runs, "runs", minimum=1))
-        if base_seed is not None:
-            c = replace(c, base_seed=_int(base_seed, "base_seed", minimum=0))
-        if duration_s is not None:
-            c = replace(c, scenario=c.scenario.with_overrides(duration_s=_num(duration_s, "duration_s", positive=True)))
+        with errors_as(CampaignError):
+            if runs is not None:
+                c = replace(c, runs=integer(runs, "runs", minimum=1))
+            if base_seed is not None:
+                c = replace(c, base_seed=integer(base_seed, "base_seed", minimum=0))
+            if duration_s is not None:
+                c = replace(c, scenario=c.scenario.with_overrides(
+                    duration_s=number(duration_s, "duration_s", positive=True)))
         return c
 
     def seed(self, k: int) -> int:
@@ -132,39 +135,10 @@ class RunDraws:
         }
 
 
-# ---------------------------------------------------------------------- field readers
-def _num(value, where: str, positive: bool = False, nonneg: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise CampaignError(f"{where}: must be a number, got {value!r}")
-    v = float(value)
-    if not math.isfinite(v):
-        raise CampaignError(f"{where}: must be finite, got {value!r}")
-    if positive and not v > 0:
-        raise CampaignError(f"{where}: must be > 0, got {value!r}")
-    if nonneg and v < 0:
-        raise CampaignError(f"{where}: must be ≥ 0, got {value!r}")
-    return v
-
-
-def _int(value, where: str, minimum: int | None = None) -> int:
-    if isinstance(value, bool) or not isinstance(value, int):
-        raise CampaignError(f"{where}: must be an integer, got {value!r}")
-    if minimum is not None and value < minimum:
-        raise CampaignError(f"{where}: must be ≥ {minimum}, got {value!r}")
-    return int(value)
-
-
-def _table(value, where: str) -> dict:
-    if not isinstance(value, dict):
-        raise CampaignError(f"{where}: must be a table, got {value!r}")
-    return value
-
-
-def _check_keys(table: dict, allowed, where: str) -> None:
-    unknown = sorted(set(table) - set(allowed))
-    if unknown:
-        prefix = f"{where}." if where else ""
-        raise CampaignError(f"{prefix}{unknown[0]}: unknown field (allowed: {', '.join(sorted(allowed))})")
+# ---------------------------------------------------------------------- parsing
+def _sigma(value, where: str) -> float:
+    """A standard deviation: a finite number ≥ 0."""
+    return number(value, where, nonneg=True)
 
 
 _TOP = {"name", "description", "scenario", "runs", "base_seed", "duration_s", "randomize", "outputs"}
@@ -174,32 +148,28 @@ _OUTPUTS = {"recordings"}
 def parse_campaign(data: dict, source: str = "<dict>", base_dir: str | Path = ".") -> Campaign:
     """Validate a parsed campaign TOML document. ``scenario`` is resolved against ``base_dir`` (the
     campaign file's folder) and loaded and validated too. Raises :class:`CampaignError`."""
-    data = _table(data, "campaign")
-    _check_keys(data, _TOP, "")
-    name = data.get("name", Path(source).stem)
-    if not isinstance(name, str) or not name:
-        raise CampaignError(f"name: must be a non-empty string, got {name!r}")
-    description = data.get("description", "")
-    if not isinstance(description, str):
-        raise CampaignError(f"description: must be a string, got {description!r}")
-    if "runs" not in data:
-        raise CampaignError("runs: missing (how many runs the campaign makes)")
-    runs = _int(data["runs"], "runs", minimum=1)
-    base_seed = _int(data.get("base_seed", 0), "base_seed", minimum=0)
-    rnd_table = _table(data.get("randomize", {}), "randomize")
-    _check_keys(rnd_table, Randomization.__dataclass_fields__, "randomize")
-    randomize = Randomization(**{k: _num(v, f"randomize.{k}", nonneg=True) for k, v in rnd_table.items()})
-    out_table = _table(data.get("outputs", {}), "outputs")
-    _check_keys(out_table, _OUTPUTS, "outputs")
-    recordings = out_table.get("recordings", False)
-    if not isinstance(recordings, bool):
-        raise CampaignError(f"outputs.recordings: must be true or false, got {recordings!r}")
-    duration = _num(data["duration_s"], "duration_s", positive=True) if "duration_s" in data else None
-    if "scenario" not in data:
-        raise CampaignError("scenario: missing (path of the scenario file, relative to the campaign file)")
-    rel = data["scenario"]
-    if not isinstance(rel, str) or not rel:
-        raise CampaignError(f"scenario: must be a path string, got {rel!r}")
+    with errors_as(CampaignError):
+        data = table(data, "campaign")
+        check_keys(data, _TOP, "campaign")
+        name = string(data.get("name", Path(source).stem), "name")
+        description = data.get("description", "")
+        if not isinstance(description, str):
+            raise CampaignError(f"description: must be a string, got {show(description)}")
+        if "runs" not in data:
+            raise CampaignError("runs: missing (how many runs the campaign makes)")
+        runs = integer(data["runs"], "runs", minimum=1)
+        base_seed = integer(data.get("base_seed", 0), "base_seed", minimum=0)
+        randomize = dataclass_from_table(Randomization, data.get("randomize", {}), "randomize",
+                                         converters={f.name: _sigma for f in fields(Randomization)})
+        out_table = table(data.get("outputs", {}), "outputs")
+        check_keys(out_table, _OUTPUTS, "outputs")
+        recordings = boolean(out_table.get("recordings", False), "outputs.recordings")
+        duration = number(data["duration_s"], "duration_s", positive=True) if "duration_s" in data else None
+        if "scenario" not in data:
+            raise CampaignError("scenario: missing (path of the scenario file, relative to the campaign file)")
+        rel = data["scenario"]
+        if not isinstance(rel, str) or not rel:
+            raise CampaignError(f"scenario: must be a path string, got {show(rel)}")
     path = (Path(base_dir) / rel).resolve()
     try:
         scenario = load_scenario(path)
@@ -214,13 +184,7 @@ def load_campaign(path: str | Path) -> Campaign:
     """Read and validate a campaign file and its scenario; nothing runs on a bad file.
     Raises :class:`CampaignError` naming the file and the field."""
     path = Path(path)
-    if not path.is_file():
-        raise CampaignError(f"{path}: no such campaign file")
-    try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f)
-    except tomllib.TOMLDecodeError as exc:
-        raise CampaignError(f"{path}: not valid TOML: {exc}") from None
+    data = load_toml(path, CampaignError, "campaign")
     try:
         return parse_campaign(data, str(path), path.parent)
     except CampaignError as exc:

@@ -77,7 +77,7 @@ BAD = {
     "scenario: missing": lambda d: d.pop("scenario"),
     "scenario: must be a path string": lambda d: d.update(scenario=3),
     "scenario: ": lambda d: d.update(scenario="no_such_file.toml"),
-    "seeds: unknown field": lambda d: d.update(seeds=3),
+    "campaign.seeds: unknown field": lambda d: d.update(seeds=3),
     "randomize.vessel_position_sigma_m: must be ≥ 0": lambda d: d["randomize"].update(vessel_position_sigma_m=-1.0),
     "randomize.traffic_speed_sigma_m_s: must be a number": lambda d: d["randomize"].update(traffic_speed_sigma_m_s="x"),
     "randomize.current_velocity_sigma_m_s: must be finite":
