@@ -38,6 +38,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from .config_tables import integer
 from .randomization import Campaign, Randomization, draw_perturbations, randomized_scenario
 from .scenario import Scenario
 
@@ -341,8 +342,8 @@ def run_campaign(campaign: Campaign, out_dir: str | Path, scheduler=None, worker
     run_fn: replaces :func:`mjasc.runner.run_scenario` inside each task (a test hook; it must be
     picklable for a cluster).
     """
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int) or workers < 0):
-        raise ValueError(f"workers: must be an integer ≥ 0, got {workers!r}")
+    if workers is not None:
+        workers = integer(workers, "workers", minimum=0)
     out_dir = Path(out_dir).resolve()
     out_dir.mkdir(parents=True, exist_ok=True)
     sc, rnd, base = campaign.scenario, campaign.randomize, campaign.base_seed

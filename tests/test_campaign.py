@@ -236,8 +236,10 @@ def test_recordings_are_kept_per_run_when_asked(short_scenario, tmp_path):
 
 def test_bad_scheduler_arguments_name_the_field(short_scenario, tmp_path):
     c = short_campaign(short_scenario, runs=1)
-    with pytest.raises(ValueError, match="workers: must be an integer ≥ 0"):
+    with pytest.raises(ValueError, match="^workers: must be ≥ 0, got -1$"):
         run_campaign(c, tmp_path, workers=-1, progress=False)
+    with pytest.raises(ValueError, match="^workers: must be an integer, got 2.5$"):
+        run_campaign(c, tmp_path, workers=2.5, progress=False)
     with pytest.raises(ValueError, match="workers: only for a local cluster"):
         run_campaign(c, tmp_path, scheduler="tcp://127.0.0.1:1", workers=2, progress=False)
 
