@@ -8,10 +8,10 @@ number with its source) and a README. This module reads them into a typed :class
 from __future__ import annotations
 
 import functools
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
+from .config_tables import load_toml, number
 from .hydrodynamics import HydroCoefficients
 from .thrusters import PropellerCoefficients
 
@@ -53,10 +53,7 @@ def _get(table: dict, key: str, where: str, default=None):
         if default is not None:
             return default
         raise ValueError(f"{where}.{key}: missing")
-    value = table[key]
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise ValueError(f"{where}.{key}: must be a number, got {value!r}")
-    return float(value)
+    return number(table[key], f"{where}.{key}")
 
 
 @functools.lru_cache(maxsize=None)
@@ -66,8 +63,7 @@ def load_vessel_type(name: str) -> VesselType:
     if name not in available_vessels():
         raise ValueError(f"vessel type {name!r}: unknown; available: {', '.join(available_vessels()) or 'none'}")
     toml_path = folder / "hydrodynamics.toml"
-    with open(toml_path, "rb") as f:
-        t = tomllib.load(f)
+    t = load_toml(toml_path, ValueError, "hydrodynamics")
     where = str(toml_path.relative_to(ASSETS_DIR.parent))
     geo, am, dmp = t.get("geometry", {}), t.get("added_mass", {}), t.get("damping", {})
     cf, prop, lim = t.get("cross_flow", {}), t.get("propellers", {}), t.get("limits", {})
