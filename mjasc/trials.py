@@ -65,6 +65,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .config_tables import number
 from .simulation import Simulation
 from .vessels import load_vessel_type
 from .world import build_world
@@ -171,14 +172,8 @@ class _Track:
 
 # ---------------------------------------------------------------------- helpers
 def _validate_command(value, flag: str) -> float:
-    if isinstance(value, bool):
-        raise ValueError(f"{flag}: must be a number in [-1, 1], got {value!r}")
-    try:
-        c = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{flag}: must be a number in [-1, 1], got {value!r}") from None
-    if not math.isfinite(c):
-        raise ValueError(f"{flag}: must be finite, got {value!r}")
+    """A normalized propeller command: a finite number in [-1, 1]."""
+    c = number(value, flag)
     if not -1.0 <= c <= 1.0:
         raise ValueError(f"{flag}: must be in [-1, 1] (normalized shaft speed), got {c:g}")
     return c
