@@ -31,6 +31,7 @@ import numpy as np
 
 from ..agent import OwnNavigation, VesselAgent
 from ..avoidance import AvoidanceConfig
+from ..config_tables import number
 from ..path_following import PathFollower
 from ..paths import Path
 from ..scenario import VesselConfig
@@ -172,13 +173,12 @@ class CASPolicy:
                  prediction_period_s: float = PREDICTION_PERIOD_S, seed: int = 0):
         if not isinstance(env.task, CollisionAvoidance):
             raise ValueError(f"env: the CAS policy is for collision_avoidance tasks, not {type(env.task).__name__}")
-        if not prediction_period_s > 0:
-            raise ValueError(f"prediction_period_s: must be > 0, got {prediction_period_s}")
+        prediction_period_s = number(prediction_period_s, "prediction_period_s", positive=True)
         self.env = env
         self.sensor_config = sensor_config
         self.tracking_config = CAS_TRACKING if tracking_config is None else tracking_config
         self.avoidance_config = CAS_AVOIDANCE if avoidance_config is None else avoidance_config
-        self.prediction_period_s = float(prediction_period_s)
+        self.prediction_period_s = prediction_period_s
         self.seed = int(seed)
         self.agent: VesselAgent | None = None
         self.episodes = 0
