@@ -705,6 +705,33 @@ class IMMBank:
             self._warm[done] = False
             self._n_warm = int(np.count_nonzero(self._warm))
 
+    def add_process_noise(self, rows, heading_var_rad2=0.0, speed_var_m2_s2=0.0) -> None:
+        """Manoeuvre handling: add ``heading_var_rad2`` to P_θθ and ``speed_var_m2_s2`` to P_VV of
+        every model of the tracks in ``rows`` (bool (n,) or indices), as an extra process-noise
+        input ΔQ = diag(0, 0, Δθ², ΔV²) at this cycle (Bar-Shalom, Li & Kirubarajan 2001, §11.2:
+        adjustable-level process noise, switched on by a manoeuvre detector; see
+        :mod:`mjasc.tracking`). Scalars or one value per selected row. A track in the start-up
+        constant-velocity filter gets ``speed_var_m2_s2`` on both velocity components. Tracks not
+        selected, and the equations of the cycle, are unchanged."""
+        idx = np.arange(self._ids.size)[rows]
+        if idx.size == 0:
+            return
+        dth = np.broadcast_to(np.asarray(heading_var_rad2, dtype=float), idx.shape)
+        dv = np.broadcast_to(np.asarray(speed_var_m2_s2, dtype=float), idx.shape)
+        if not (np.all(np.isfinite(dth)) and np.all(dth >= 0) and np.all(np.isfinite(dv)) and np.all(dv >= 0)):
+            raise ValueError("add_process_noise: heading_var_rad2 and speed_var_m2_s2 must be finite and ≥ 0")
+        warm = self._warm[idx]
+        full = idx[~warm]
+        if full.size:
+            self._P[full, :, 2, 2] += dth[~warm, None]
+            self._P[full, :, 3, 3] += dv[~warm, None]
+            self._Pc_stale = True
+        w = idx[warm]
+        if w.size:
+            self._cv_P[w, 2, 2] += dv[warm]
+            self._cv_P[w, 3, 3] += dv[warm]
+            self._Pc[w] = _cv_to_polar(self._cv_x[w], self._cv_P[w])[1]
+
     def remove_track(self, track_id: int) -> None:
         """Drop a track (ValueError if unknown)."""
         keep = np.ones(self._ids.size, dtype=bool)

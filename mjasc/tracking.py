@@ -83,6 +83,12 @@ class TrackingConfig:
         (:mod:`mjasc.static_map`).
     outline_reset_m: a slow track's outline (the hull of its returns) restarts when its centre has
         moved this far from where the accumulation started [m].
+    manoeuvre_fading, manoeuvre_threshold: manoeuvre detector (item 3 of the module docstring):
+        fading factor α of the average of the normalized innovations squared, and the level of
+        that average (2 without a manoeuvre) above which the track is manoeuvring;
+        manoeuvre_end_threshold: the level below which the manoeuvre has ended (hysteresis).
+    manoeuvre_speed_noise_m2_s3, manoeuvre_heading_noise_rad2_s: process noise intensities added
+        to every model's Q_V, Q_θ while a track manoeuvres (0 and 0: detector off).
     """
 
     imm: IMMConfig = field(default_factory=IMMConfig)
@@ -104,6 +110,11 @@ class TrackingConfig:
     map_cell_m: float = 1.0
     map_min_hits: int = 3
     outline_reset_m: float = 1.5
+    manoeuvre_fading: float = 0.8
+    manoeuvre_threshold: float = 6.0
+    manoeuvre_end_threshold: float = 3.0
+    manoeuvre_speed_noise_m2_s3: float = 0.5
+    manoeuvre_heading_noise_rad2_s: float = 0.01
 
     def __post_init__(self):
         _check_tracking(self, "tracking")
@@ -134,7 +145,8 @@ def _check_tracking(c: TrackingConfig, where: str) -> None:
         bad("confirm_hits", f"must be ≤ confirm_window ({c.confirm_window})", c.confirm_hits)
     for key in ("gate_probability", "max_coast_s", "max_position_std_m", "range_margin_m", "merge_fraction",
                 "static_speed_m_s", "static_min_age_s", "radius_grow_gain", "radius_shrink_gain",
-                "team_match_distance_m", "team_max_age_s", "map_cell_m", "outline_reset_m"):
+                "team_match_distance_m", "team_max_age_s", "map_cell_m", "outline_reset_m",
+                "manoeuvre_threshold", "manoeuvre_end_threshold", "manoeuvre_speed_noise_m2_s3", "manoeuvre_heading_noise_rad2_s"):
         v = getattr(c, key)
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
             bad(key, "must be a finite number ≥ 0", v)
@@ -143,6 +155,11 @@ def _check_tracking(c: TrackingConfig, where: str) -> None:
     for key in ("max_coast_s", "max_position_std_m", "map_cell_m", "outline_reset_m"):
         if not getattr(c, key) > 0:
             bad(key, "must be > 0", getattr(c, key))
+    if c.manoeuvre_end_threshold > c.manoeuvre_threshold:
+        bad("manoeuvre_end_threshold", f"must be ≤ manoeuvre_threshold ({c.manoeuvre_threshold})",
+            c.manoeuvre_end_threshold)
+    if not 0 <= c.manoeuvre_fading < 1 or isinstance(c.manoeuvre_fading, bool):
+        bad("manoeuvre_fading", "must be in [0, 1)", c.manoeuvre_fading)
     for key in ("radius_grow_gain", "radius_shrink_gain"):
         if not 0 < getattr(c, key) <= 1:
             bad(key, "must be in (0, 1]", getattr(c, key))
@@ -250,11 +267,13 @@ class MultiTargetTracker:
         self._last = np.zeros(0)
         self._radius = np.zeros(0)
         self._team_of: list[str | None] = []
+        self._nis = np.zeros(0)  # faded average of the normalized innovation squared (2: no manoeuvre)
+        self._man = np.zeros(0, dtype=bool)  # manoeuvring (between the start and end thresholds)
         self._hull: list[np.ndarray | None] = []  # per track: hull vertices (k, 2) of its returns [m]
         self._hull_anchor = np.zeros((0, 2))  # per track: its centre when the hull was started
         self.last_assignment: dict[int, int] = {}  # track id → detection index of the last step
 
-    _META = ("_hist", "_scans", "_n_upd", "_confirmed", "_static", "_born", "_last", "_radius")
+    _META = ("_hist", "_scans", "_n_upd", "_confirmed", "_static", "_born", "_last", "_radius", "_nis", "_man")
 
     def __len__(self) -> int:
         return len(self.bank)
@@ -333,6 +352,8 @@ class MultiTargetTracker:
                 assigned_det[rows[ok]] = cols[ok]
             # a detection inside some track's gate does not start a track (split returns, near clutter)
             claimed = inside.any(axis=0)
+        if n and m:
+            self._detect_manoeuvres(t_s, assigned_det, d2)
         if n:
             meas = assigned_det >= 0
             zr = np.full((n, 2), np.nan)
@@ -366,6 +387,40 @@ class MultiTargetTracker:
                 self.last_assignment[tid] = int(idx[j])
         self._match_team(t_s)
 
+    def _detect_manoeuvres(self, t_s: float, assigned_det, d2) -> None:
+        """Manoeuvre detection and adjustable process noise (Bar-Shalom, Li & Kirubarajan 2001,
+        §11.2). The normalized innovation squared of each associated detection, ε = d²_ij (χ²₂,
+        mean 2, under the filter's own model), is averaged with fading factor α:
+        ε̄ ← α ε̄ + (1 − α) min(ε, gate). While ε̄ exceeds ``manoeuvre_threshold`` the track
+        manoeuvres beyond what the IMM's models explain (a speed change: every model has the same
+        tiny Q_V; a turn sharper than the fastest model), until it falls below
+        ``manoeuvre_end_threshold`` (hysteresis: the filter keeps following the change while the
+        average decays); each of its cycles then gets the extra process
+        noise diag(Q_θ,m, Q_V,m)·Ts (:meth:`mjasc.imm.IMMBank.add_process_noise`), so the speed
+        (course) estimate follows within a second instead of the track coasting on at its old
+        speed out of its own gate."""
+        cfg = self.config
+        if cfg.manoeuvre_speed_noise_m2_s3 == 0 and cfg.manoeuvre_heading_noise_rad2_s == 0:
+            return
+        rows = np.flatnonzero(assigned_det >= 0)
+        if rows.size == 0:
+            return
+        eps = np.minimum(d2[rows, assigned_det[rows]], self._gate)
+        a = cfg.manoeuvre_fading
+        self._nis[rows] = a * self._nis[rows] + (1.0 - a) * eps
+        nis = self._nis[rows]
+        self._man[rows] = np.where(self._man[rows], nis >= cfg.manoeuvre_end_threshold, nis > cfg.manoeuvre_threshold)
+        hot = rows[self._man[rows]]
+        if hot.size:
+            dt = np.maximum(t_s - self.bank.times_s[hot], 0.0)
+            self.bank.add_process_noise(hot, cfg.manoeuvre_heading_noise_rad2_s * dt,
+                                        cfg.manoeuvre_speed_noise_m2_s3 * dt)
+
+    @property
+    def manoeuvring(self) -> np.ndarray:
+        """(n,) bool per bank row: the track is manoeuvring (its process noise is raised)."""
+        return self._man.copy()
+
     def _append(self, t_s: float, radius: float) -> None:
         self._hist = np.append(self._hist, 1)
         self._scans = np.append(self._scans, 1)
@@ -375,6 +430,8 @@ class MultiTargetTracker:
         self._born = np.append(self._born, t_s)
         self._last = np.append(self._last, t_s)
         self._radius = np.append(self._radius, radius)
+        self._nis = np.append(self._nis, 2.0)
+        self._man = np.append(self._man, False)
         self._team_of.append(None)
         self._hull.append(None)
         self._hull_anchor = np.vstack([self._hull_anchor, self.bank.positions[-1:]])
