@@ -83,7 +83,7 @@ class TrackingConfig:
         (:mod:`mjasc.static_map`).
     outline_reset_m: a slow track's outline (the hull of its returns) restarts when its centre has
         moved this far from where the accumulation started [m].
-    manoeuvre_fading, manoeuvre_threshold: manoeuvre detector (item 3 of the module docstring):
+    manoeuvre_fading, manoeuvre_threshold: manoeuvre detector (MultiTargetTracker._detect_manoeuvres):
         fading factor α of the average of the normalized innovations squared, and the level of
         that average (2 without a manoeuvre) above which the track is manoeuvring;
         manoeuvre_end_threshold: the level below which the manoeuvre has ended (hysteresis).
