@@ -96,6 +96,7 @@ class _PoisonedCurrent(UniformCurrent):
         return v * np.nan if t > 3.0 else v
 
 
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")  # the NaN is the point
 def test_divergence_stops_with_a_clear_error_and_keeps_the_recording(tmp_path):
     sc = dataclasses.replace(short_demo(10.0), current=_PoisonedCurrent((0.0, 0.3)))
     with pytest.raises(RunFailed, match="non-finite"):
