@@ -79,11 +79,12 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from mjasc.config_tables import ConfigError, dataclass_from_table, integer, number, show
 from mjasc.estimates import TrackEstimate
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["IMMConfig", "IMMBank", "IMMTracker", "REJECTION_REASONS", "filterpy_imm"]
+__all__ = ["IMMConfig", "IMMBank", "IMMTracker", "REJECTION_REASONS", "filterpy_imm", "parse_imm_options"]
 
 _TWO_PI = 2.0 * math.pi
 _UNIFORM_ANGLE_VAR = math.pi**2 / 3.0  # variance of an angle uniform on (−π, π]
@@ -162,57 +163,7 @@ class IMMConfig:
     restart_after_gated: int = 5
 
     def __post_init__(self):
-        w = np.asarray(self.turn_rates_rad_s, dtype=float)
-        if w.ndim != 1 or w.size < 1 or not np.all(np.isfinite(w)):
-            raise ValueError("turn_rates_rad_s: need a non-empty sequence of finite turn rates")
-        r = w.size
-        if self.initial_mode_probabilities is not None:
-            mu = np.asarray(self.initial_mode_probabilities, dtype=float)
-            if mu.shape != (r,) or np.any(mu < 0) or not np.isclose(mu.sum(), 1.0):
-                raise ValueError(
-                    f"initial_mode_probabilities: need {r} non-negative values summing to 1"
-                )
-        if not 0.0 <= self.min_mode_probability < 1.0 / r:
-            raise ValueError(f"min_mode_probability: must be in [0, 1/r) = [0, {1.0 / r:.4g})")
-        for name in (
-            "measurement_variance_m2",
-            "markov_reference_dt_s",
-            "initial_speed_std_m_s",
-            "init_speed_snr",
-        ):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v > 0):
-                raise ValueError(f"{name}: must be finite and > 0, got {v!r}")
-        for name in ("heading_noise_rad2_s", "speed_noise_m2_s3", "init_acceleration_noise_m2_s3"):
-            v = getattr(self, name)
-            if not (np.isfinite(v) and v >= 0):
-                raise ValueError(f"{name}: must be finite and ≥ 0, got {v!r}")
-        if int(self.init_max_updates) != self.init_max_updates or self.init_max_updates < 1:
-            raise ValueError(f"init_max_updates: must be an integer ≥ 1, got {self.init_max_updates!r}")
-        if int(self.restart_after_gated) != self.restart_after_gated or self.restart_after_gated < 0:
-            raise ValueError(
-                f"restart_after_gated: must be an integer ≥ 0, got {self.restart_after_gated!r}"
-            )
-        if not 0.0 < self.gate_probability <= 1.0:
-            raise ValueError(f"gate_probability: must be in (0, 1], got {self.gate_probability!r}")
-        if self.markov_matrix is None:
-            if r > 1 and not 1.0 / r < self.markov_stay_probability <= 1.0:
-                raise ValueError(
-                    f"markov_stay_probability: must be in (1/r, 1] = ({1.0 / r:.4g}, 1] so that "
-                    "the matrix has positive eigenvalues"
-                )
-        else:
-            p = np.asarray(self.markov_matrix, dtype=float)
-            if p.shape != (r, r) or np.any(p < 0) or not np.allclose(p.sum(axis=1), 1.0):
-                raise ValueError(
-                    f"markov_matrix: need an {r}×{r} non-negative matrix whose rows sum to 1"
-                )
-            lam = np.linalg.eigvals(p)
-            if np.any(np.abs(lam.imag) > 1e-12) or np.any(lam.real <= 0):
-                raise ValueError(
-                    "markov_matrix: eigenvalues must be real and positive (fractional powers "
-                    "for a variable sample time need them)"
-                )
+        _check_imm(self, "imm")
 
     @property
     def n_models(self) -> int:
@@ -233,6 +184,66 @@ class IMMConfig:
             return np.ones((1, 1))
         off = (1.0 - self.markov_stay_probability) / (r - 1)
         return np.full((r, r), off) + np.eye(r) * (self.markov_stay_probability - off)
+
+
+_IMM_POSITIVE = ("measurement_variance_m2", "markov_reference_dt_s", "initial_speed_std_m_s", "init_speed_snr")
+_IMM_NONNEG = ("heading_noise_rad2_s", "speed_noise_m2_s3", "init_acceleration_noise_m2_s3")
+
+
+def _float_array(value) -> np.ndarray | None:
+    """``value`` as a float array, or None when it is not numeric (a string, a ragged list …)."""
+    if isinstance(value, (str, bytes)):
+        return None
+    try:
+        return np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        return None
+
+
+def _check_imm(c: IMMConfig, where: str) -> None:
+    """Validate an :class:`IMMConfig` (ConfigError, a ValueError, naming ``f"{where}.{key}"``)."""
+    def bad(key, reason, value):
+        raise ConfigError(f"{where}.{key}: {reason}, got {show(value)}")
+
+    w = _float_array(c.turn_rates_rad_s)
+    if w is None or w.ndim != 1 or w.size < 1 or not np.all(np.isfinite(w)):
+        bad("turn_rates_rad_s", "must be a non-empty list of finite turn rates [rad/s]", c.turn_rates_rad_s)
+    r = w.size
+    if c.initial_mode_probabilities is not None:
+        mu = _float_array(c.initial_mode_probabilities)
+        if mu is None or mu.shape != (r,) or not np.all(mu >= 0) or not np.isclose(mu.sum(), 1.0):
+            bad("initial_mode_probabilities", f"must be {r} non-negative values summing to 1",
+                c.initial_mode_probabilities)
+    number(c.min_mode_probability, f"{where}.min_mode_probability", nonneg=True)
+    if not c.min_mode_probability < 1.0 / r:
+        bad("min_mode_probability", f"must be < 1/r = {1.0 / r:.4g} (r = {r} models)", c.min_mode_probability)
+    for key in _IMM_POSITIVE:
+        number(getattr(c, key), f"{where}.{key}", positive=True)
+    for key in _IMM_NONNEG:
+        number(getattr(c, key), f"{where}.{key}", nonneg=True)
+    integer(c.init_max_updates, f"{where}.init_max_updates", minimum=1)
+    integer(c.restart_after_gated, f"{where}.restart_after_gated", minimum=0)
+    number(c.gate_probability, f"{where}.gate_probability", positive=True, maximum=1.0)
+    number(c.markov_stay_probability, f"{where}.markov_stay_probability")
+    if c.markov_matrix is None:
+        if r > 1 and not 1.0 / r < c.markov_stay_probability <= 1.0:
+            bad("markov_stay_probability", f"must be in (1/r, 1] = ({1.0 / r:.4g}, 1] so that the matrix has "
+                "positive eigenvalues", c.markov_stay_probability)
+    else:
+        p = _float_array(c.markov_matrix)
+        if p is None or p.shape != (r, r) or not np.all(p >= 0) or not np.allclose(p.sum(axis=1), 1.0):
+            bad("markov_matrix", f"must be an {r}×{r} non-negative matrix whose rows sum to 1", c.markov_matrix)
+        lam = np.linalg.eigvals(p)
+        if np.any(np.abs(lam.imag) > 1e-12) or np.any(lam.real <= 0):
+            bad("markov_matrix", "must have real, positive eigenvalues (fractional powers for a variable "
+                "sample time need them)", c.markov_matrix)
+
+
+def parse_imm_options(table: Mapping | None, where: str = "imm") -> IMMConfig:
+    """A scenario's ``imm`` table (None: all defaults) → :class:`IMMConfig`; unknown keys, wrong types
+    and out-of-range values raise ValueError naming ``f"{where}.{key}"``
+    (:func:`mjasc.config_tables.dataclass_from_table`)."""
+    return dataclass_from_table(IMMConfig, {} if table is None else table, where, check=_check_imm)
 
 
 class _MarkovPower:

@@ -54,7 +54,7 @@ from scipy.optimize import linear_sum_assignment
 
 from .detection import DetectionConfig, Detections
 from .estimates import TrackEstimate
-from .imm import IMMBank, IMMConfig
+from .imm import IMMBank, IMMConfig, parse_imm_options
 
 __all__ = ["TrackingConfig", "MultiTargetTracker", "TrackEvent", "parse_tracking_options"]
 
@@ -219,8 +219,7 @@ def parse_tracking_options(table: dict, where: str = "tracking") -> TrackingConf
     table = dict(table)
     imm_t = table.pop("imm", {})
     det_t = table.pop("detection", {})
-    imm = _sub_config(IMMConfig, imm_t, f"{where}.imm", {
-        "turn_rates_rad_s": _floats, "initial_mode_probabilities": _floats, "markov_matrix": _matrix})
+    imm = parse_imm_options(imm_t, f"{where}.imm")
     det = _sub_config(DetectionConfig, det_t, f"{where}.detection")
     cfg = _sub_config(TrackingConfig, table, where)
     from dataclasses import replace

@@ -11,7 +11,7 @@ import pytest
 from scipy.stats import chi2
 
 from mjasc.estimates import TrackEstimate
-from mjasc.imm import IMMBank, IMMConfig, IMMTracker, filterpy_imm
+from mjasc.imm import IMMBank, IMMConfig, IMMTracker, filterpy_imm, parse_imm_options
 
 SIGMA = math.sqrt(0.1)  # thesis §6.1: measurement variance 0.1 m² per axis
 SEEDS = range(5)
@@ -77,8 +77,29 @@ def test_bad_config_raises_naming_the_field(field, value):
     kwargs = {field: value}
     if field == "markov_matrix":
         kwargs["turn_rates_rad_s"] = (-0.1, 0.1)
-    with pytest.raises(ValueError, match=field):
+    with pytest.raises(ValueError, match=rf"^imm\.{field}: "):
         IMMConfig(**kwargs)
+
+
+def test_parse_imm_options_reads_a_table_and_names_the_key():
+    cfg = parse_imm_options({"turn_rates_rad_s": [-0.02, 0, 0.02], "markov_stay_probability": 0.95,
+                             "markov_matrix": [[0.9, 0.05, 0.05], [0.05, 0.9, 0.05], [0.05, 0.05, 0.9]],
+                             "init_max_updates": 3}, "t.imm")
+    assert cfg.turn_rates_rad_s == (-0.02, 0.0, 0.02) and cfg.markov_matrix[1] == (0.05, 0.9, 0.05)
+    assert cfg.init_max_updates == 3 and parse_imm_options(None) == IMMConfig()
+    for table, message in [
+        ({"nope": 1}, "t.imm.nope: unknown field (allowed: "),
+        ({"turn_rates_rad_s": "fast"}, "t.imm.turn_rates_rad_s: must be a list, got 'fast'"),
+        ({"turn_rates_rad_s": []}, "t.imm.turn_rates_rad_s: must be a non-empty list of finite turn rates"),
+        ({"min_mode_probability": 0.5}, "t.imm.min_mode_probability: must be < 1/r = 0.1429 (r = 7 models), got 0.5"),
+        ({"speed_noise_m2_s3": -1}, "t.imm.speed_noise_m2_s3: must be ≥ 0, got -1.0"),
+        ({"init_max_updates": 2.0}, "t.imm.init_max_updates: must be an integer, got 2.0"),
+        ({"gate_probability": 1.5}, "t.imm.gate_probability: must be ≤ 1.0, got 1.5"),
+        ({"markov_matrix": [[1, 0]]}, "t.imm.markov_matrix: must be an 7×7 non-negative matrix"),
+    ]:
+        with pytest.raises(ValueError) as err:
+            parse_imm_options(table, "t.imm")
+        assert str(err.value).startswith(message)
 
 
 def test_defaults_are_thesis_table_6_1():
