@@ -47,11 +47,12 @@ Events (born, confirmed, lost, with the reason) are kept for the recording.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from .config_tables import ConfigError, boolean, dataclass_from_table, integer, number, show
 from .detection import DetectionConfig, Detections
 from .estimates import TrackEstimate
 from .imm import IMMBank, IMMConfig, parse_imm_options
@@ -125,106 +126,61 @@ class TrackingConfig:
         return math.inf if p >= 1.0 else -2.0 * math.log1p(-p)
 
 
+#: TrackingConfig's numeric fields by their bounds (every float field is in exactly one group).
+_POSITIVE = ("max_coast_s", "max_position_std_m", "map_cell_m", "outline_reset_m")
+_NONNEG = ("range_margin_m", "merge_fraction", "static_speed_m_s", "static_min_age_s", "team_match_distance_m",
+           "team_max_age_s", "manoeuvre_threshold", "manoeuvre_end_threshold", "manoeuvre_speed_noise_m2_s3",
+           "manoeuvre_heading_noise_rad2_s")
+_UNIT_INTERVAL = ("gate_probability", "radius_grow_gain", "radius_shrink_gain")  # (0, 1]
+
+
 def _check_tracking(c: TrackingConfig, where: str) -> None:
+    """Validate a :class:`TrackingConfig` (ConfigError, a ValueError, naming ``f"{where}.{key}"``)."""
     def bad(key, reason, value):
-        raise ValueError(f"{where}.{key}: {reason}, got {value!r}")
+        raise ConfigError(f"{where}.{key}: {reason}, got {show(value)}")
 
     if not isinstance(c.imm, IMMConfig):
         bad("imm", "must be an IMMConfig", c.imm)
     if not isinstance(c.detection, DetectionConfig):
         bad("detection", "must be a DetectionConfig", c.detection)
-    if not isinstance(c.use_detection_variance, bool):
-        bad("use_detection_variance", "must be true or false", c.use_detection_variance)
-    if isinstance(c.map_min_hits, bool) or not isinstance(c.map_min_hits, int) or c.map_min_hits < 1:
-        bad("map_min_hits", "must be an integer ≥ 1", c.map_min_hits)
+    boolean(c.use_detection_variance, f"{where}.use_detection_variance")
+    integer(c.map_min_hits, f"{where}.map_min_hits", minimum=1)
     for key in ("confirm_hits", "confirm_window"):
-        v = getattr(c, key)
-        if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= 30:
-            bad(key, "must be an integer in [1, 30]", v)
+        integer(getattr(c, key), f"{where}.{key}", minimum=1, maximum=30)
     if c.confirm_hits > c.confirm_window:
         bad("confirm_hits", f"must be ≤ confirm_window ({c.confirm_window})", c.confirm_hits)
-    for key in ("gate_probability", "max_coast_s", "max_position_std_m", "range_margin_m", "merge_fraction",
-                "static_speed_m_s", "static_min_age_s", "radius_grow_gain", "radius_shrink_gain",
-                "team_match_distance_m", "team_max_age_s", "map_cell_m", "outline_reset_m",
-                "manoeuvre_threshold", "manoeuvre_end_threshold", "manoeuvre_speed_noise_m2_s3", "manoeuvre_heading_noise_rad2_s"):
-        v = getattr(c, key)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-            bad(key, "must be a finite number ≥ 0", v)
-    if not 0 < c.gate_probability <= 1:
-        bad("gate_probability", "must be in (0, 1]", c.gate_probability)
-    for key in ("max_coast_s", "max_position_std_m", "map_cell_m", "outline_reset_m"):
-        if not getattr(c, key) > 0:
-            bad(key, "must be > 0", getattr(c, key))
+    for key in _POSITIVE:
+        number(getattr(c, key), f"{where}.{key}", positive=True)
+    for key in _NONNEG:
+        number(getattr(c, key), f"{where}.{key}", nonneg=True)
+    for key in _UNIT_INTERVAL:
+        number(getattr(c, key), f"{where}.{key}", positive=True, maximum=1.0)
+    if not number(c.manoeuvre_fading, f"{where}.manoeuvre_fading", nonneg=True) < 1.0:
+        bad("manoeuvre_fading", "must be < 1", c.manoeuvre_fading)
     if c.manoeuvre_end_threshold > c.manoeuvre_threshold:
         bad("manoeuvre_end_threshold", f"must be ≤ manoeuvre_threshold ({c.manoeuvre_threshold})",
             c.manoeuvre_end_threshold)
-    if not 0 <= c.manoeuvre_fading < 1 or isinstance(c.manoeuvre_fading, bool):
-        bad("manoeuvre_fading", "must be in [0, 1)", c.manoeuvre_fading)
-    for key in ("radius_grow_gain", "radius_shrink_gain"):
-        if not 0 < getattr(c, key) <= 1:
-            bad(key, "must be in (0, 1]", getattr(c, key))
 
 
-def _sub_config(cls, table, where: str, converters=None):
-    if not isinstance(table, dict):
-        raise ValueError(f"{where}: must be a table, got {table!r}")
-    known = {f.name: f for f in fields(cls)}
-    kw = {}
-    for key, v in table.items():
-        if key not in known:
-            raise ValueError(f"{where}.{key}: unknown key (known: {', '.join(sorted(known))})")
-        if converters and key in converters:
-            v = converters[key](v, f"{where}.{key}")
-        elif isinstance(known[key].default, bool):
-            if not isinstance(v, bool):
-                raise ValueError(f"{where}.{key}: must be true or false, got {v!r}")
-        elif isinstance(known[key].default, int) and not isinstance(known[key].default, bool):
-            if isinstance(v, bool) or not isinstance(v, int):
-                raise ValueError(f"{where}.{key}: must be an integer, got {v!r}")
-        elif isinstance(known[key].default, float):
-            if isinstance(v, bool) or not isinstance(v, (int, float)):
-                raise ValueError(f"{where}.{key}: must be a number, got {v!r}")
-            v = float(v)
-        kw[key] = v
+def _check_detection(c: DetectionConfig, where: str) -> None:
+    """DetectionConfig's own checks (its ``__post_init__``, whose messages name the table
+    ``detection``), addressed to ``where``."""
     try:
-        return cls(**kw)
+        DetectionConfig.__post_init__(c)
     except ValueError as exc:
         msg = str(exc)
-        for prefix in ("tracking.", "detection."):
-            if msg.startswith(prefix):
-                msg = msg[len(prefix):]
-        key = msg.split(":", 1)[0]
-        raise ValueError(f"{where}.{msg}" if key in known else f"{where}: {msg}") from None
-
-
-def _floats(v, where):
-    if not isinstance(v, list) or not v or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in v):
-        raise ValueError(f"{where}: must be a non-empty list of numbers, got {v!r}")
-    return tuple(float(x) for x in v)
-
-
-def _matrix(v, where):
-    if not isinstance(v, list) or not v:
-        raise ValueError(f"{where}: must be a list of rows, got {v!r}")
-    return tuple(_floats(row, f"{where}[{i}]") for i, row in enumerate(v))
+        raise ConfigError(where + msg[len("detection"):] if msg.startswith("detection.") else f"{where}: {msg}") from None
 
 
 def parse_tracking_options(table: dict, where: str = "tracking") -> TrackingConfig:
-    """Validate a scenario's ``[vessels.tracking]`` table (with optional ``imm`` and ``detection``
-    sub-tables) into a :class:`TrackingConfig`; errors name ``f"{where}.{key}"``."""
-    if table is None:
-        table = {}
-    if not isinstance(table, dict):
-        raise ValueError(f"{where}: must be a table, got {table!r}")
-    table = dict(table)
-    imm_t = table.pop("imm", {})
-    det_t = table.pop("detection", {})
-    imm = parse_imm_options(imm_t, f"{where}.imm")
-    det = _sub_config(DetectionConfig, det_t, f"{where}.detection")
-    cfg = _sub_config(TrackingConfig, table, where)
-    from dataclasses import replace
-
-    return replace(cfg, imm=imm, detection=det)
+    """Validate a scenario's ``[vessels.tracking]`` table (None: all defaults; optional ``imm`` and
+    ``detection`` sub-tables) into a :class:`TrackingConfig`. Unknown keys, wrong types and
+    out-of-range values raise ValueError naming ``f"{where}.{key}"``
+    (:func:`mjasc.config_tables.dataclass_from_table`)."""
+    return dataclass_from_table(TrackingConfig, {} if table is None else table, where, {
+        "imm": parse_imm_options,
+        "detection": lambda t, w: dataclass_from_table(DetectionConfig, t, w, check=_check_detection),
+    }, check=_check_tracking)
 
 
 @dataclass(frozen=True)

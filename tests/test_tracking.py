@@ -245,6 +245,17 @@ def test_parse_tracking_options():
                        ({"imm": {"turn_rates_rad_s": "fast"}}, "imm.turn_rates_rad_s")]:
         with pytest.raises(ValueError, match=rf"^{re.escape(w)}\.{re.escape(key)}"):
             parse_tracking_options(table, w)
+    # the shared config_tables wording (mjasc.config_tables), also in the sub-tables
+    for table, message in [({"bogus": 1}, "bogus: unknown field (allowed: confirm_hits, "),
+                           ({"confirm_hits": 1.5}, "confirm_hits: must be an integer, got 1.5"),
+                           ({"max_coast_s": 0}, "max_coast_s: must be > 0, got 0.0"),
+                           ({"manoeuvre_fading": 1.0}, "manoeuvre_fading: must be < 1, got 1.0"),
+                           ({"detection": {"nope": 1}}, "detection.nope: unknown field (allowed: "),
+                           ({"detection": {"min_points": 1.5}}, "detection.min_points: must be an integer, got 1.5"),
+                           ({"imm": {"nope": 1}}, "imm.nope: unknown field (allowed: ")]:
+        with pytest.raises(ValueError) as err:
+            parse_tracking_options(table, w)
+        assert str(err.value).startswith(f"{w}.{message}")
 
 
 
