@@ -44,7 +44,7 @@ World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -59,6 +59,7 @@ from .collision_prediction import (
     predict_conflicts,
     swept_disc_polygon,
 )
+from .config_tables import ConfigError, boolean, dataclass_from_table, number, show
 from .estimates import TrackEstimate
 from .geometry import distance_to_polygon, point_in_polygon
 from .paths import Path
@@ -137,40 +138,7 @@ class AvoidanceConfig:
     team_broadcast_max_age_s: float = 3.0
 
     def __post_init__(self):
-        def check(name, lo=0.0, strict=True, none_ok=False, hi=None):
-            v = getattr(self, name)
-            if v is None and none_ok:
-                return
-            ok = isinstance(v, (int, float)) and not isinstance(v, bool) and np.isfinite(v) and (
-                v > lo if strict else v >= lo) and (hi is None or v <= hi)
-            if not ok:
-                rng = f"{'>' if strict else '≥'} {lo:g}" + (f" and ≤ {hi:g}" if hi is not None else "")
-                raise ValueError(f"{name}: must be a finite number {rng}, got {v!r}")
-
-        for name in ("enabled", "allow_pass_first"):
-            if not isinstance(getattr(self, name), bool):
-                raise ValueError(f"{name}: must be true or false, got {getattr(self, name)!r}")
-        self.prediction_config()  # the prediction fields, validated by collision_prediction itself
-        check("gain_k")
-        check("speed_min_m_s", strict=False)
-        check("speed_max_m_s", none_ok=True)
-        check("correction_margin_m", strict=False)
-        check("safety_ratio", strict=False, hi=1.0)
-        check("sink_strength", none_ok=True)
-        check("uniform_speed")
-        check("goal_margin_m", strict=False)
-        check("streamline_step_m")
-        check("static_inflation_m", strict=False, none_ok=True)
-        check("static_range_m")
-        check("max_panel_length_m")
-        check("track_deviation_m")
-        check("speed_change_m_s")
-        check("static_speed_m_s", strict=False)
-        check("replan_margin_m", strict=False)
-        check("last_resort_s", strict=False)
-        check("team_broadcast_max_age_s", strict=False)
-        if self.speed_max_m_s is not None and self.speed_max_m_s <= self.speed_min_m_s:
-            raise ValueError(f"speed_max_m_s: must exceed speed_min_m_s ({self.speed_min_m_s}), got {self.speed_max_m_s}")
+        _check_avoidance(self, "avoidance")
 
     def prediction_config(self) -> CollisionPredictionConfig:
         return CollisionPredictionConfig(
@@ -179,30 +147,50 @@ class AvoidanceConfig:
             time_step_s=self.time_step_s, max_range_m=self.max_range_m)
 
 
+#: AvoidanceConfig's own numeric fields by their bounds (the prediction fields are checked by
+#: CollisionPredictionConfig); None is allowed for those in _OPTIONAL.
+_POSITIVE = ("gain_k", "speed_max_m_s", "sink_strength", "uniform_speed", "streamline_step_m", "static_range_m",
+             "max_panel_length_m", "track_deviation_m", "speed_change_m_s")
+_NONNEG = ("speed_min_m_s", "correction_margin_m", "goal_margin_m", "static_inflation_m", "static_speed_m_s",
+           "replan_margin_m", "last_resort_s", "team_broadcast_max_age_s")
+_OPTIONAL = ("speed_max_m_s", "sink_strength", "static_inflation_m")
+
+
+def _check_avoidance(c: AvoidanceConfig, where: str) -> None:
+    """Validate an :class:`AvoidanceConfig` (ConfigError, a ValueError, naming ``f"{where}.{key}"``)."""
+    boolean(c.enabled, f"{where}.enabled")
+    boolean(c.allow_pass_first, f"{where}.allow_pass_first")
+    try:
+        c.prediction_config()  # the prediction fields, validated by collision_prediction itself
+    except ValueError as exc:
+        raise ConfigError(f"{where}.{exc}") from None
+    for key in _POSITIVE + _NONNEG:
+        value = getattr(c, key)
+        if not (value is None and key in _OPTIONAL):
+            number(value, f"{where}.{key}", positive=key in _POSITIVE, nonneg=key in _NONNEG)
+    number(c.safety_ratio, f"{where}.safety_ratio", nonneg=True, maximum=1.0)
+    if c.speed_max_m_s is not None and c.speed_max_m_s <= c.speed_min_m_s:
+        raise ConfigError(f"{where}.speed_max_m_s: must exceed speed_min_m_s ({c.speed_min_m_s}), "
+                          f"got {show(c.speed_max_m_s)}")
+
+
+def _window(value: Any, where: str) -> float | None:
+    """Reader of ``window_s``: ``"dynamic"`` → None (δ = v/a_brake + ζ), else a number [s] (its
+    sign is checked with the other prediction fields)."""
+    if isinstance(value, str):
+        if value != "dynamic":
+            raise ConfigError(f'{where}: must be a number [s] or "dynamic", got {show(value)}')
+        return None
+    return number(value, where)
+
+
 def parse_avoidance_options(table: dict, where: str = "avoidance") -> AvoidanceConfig:
     """Validate a ``[vessels.avoidance]`` table into an :class:`AvoidanceConfig`.
 
     ``window_s = "dynamic"`` selects the dynamic window δ = v/a_brake + ζ; every other field is a
-    number or a boolean as in :class:`AvoidanceConfig`. Errors name ``f"{where}.{key}"``."""
-    if not isinstance(table, dict):
-        raise ValueError(f"{where}: must be a table, got {table!r}")
-    known = {f.name for f in fields(AvoidanceConfig)}
-    kw: dict[str, Any] = {}
-    for key, value in table.items():
-        if key not in known:
-            raise ValueError(f"{where}.{key}: unknown field (allowed: {', '.join(sorted(known))})")
-        if key == "window_s" and value == "dynamic":
-            kw[key] = None
-            continue
-        if isinstance(value, int) and not isinstance(value, bool):
-            value = float(value)
-        kw[key] = value
-    try:
-        return AvoidanceConfig(**kw)
-    except ValueError as exc:
-        msg = str(exc)
-        key = msg.split(":", 1)[0]
-        raise ValueError(f"{where}.{msg}" if key in known else f"{where}: {msg}") from None
+    number or a boolean as in :class:`AvoidanceConfig`. Unknown keys, wrong types and out-of-range
+    values raise ValueError naming ``f"{where}.{key}"`` (:func:`mjasc.config_tables.dataclass_from_table`)."""
+    return dataclass_from_table(AvoidanceConfig, table, where, {"window_s": _window}, check=_check_avoidance)
 
 
 # ------------------------------------------------------------------------------------------ values

@@ -250,8 +250,12 @@ def test_merge_overlapping_polygons():
 def test_prediction_fields_are_validated_by_collision_prediction():
     with pytest.raises(ValueError, match=r"^avoidance\.window_s: must be finite and > 0"):
         parse_avoidance_options({"window_s": -1}, "avoidance")
-    with pytest.raises(ValueError, match=r"^avoidance\.margin_s: must be finite"):
+    with pytest.raises(ValueError, match=r"^avoidance\.margin_s: must be finite and ≥ 0, got -1\.0$"):
+        parse_avoidance_options({"margin_s": -1}, "avoidance")
+    with pytest.raises(ValueError, match=r"^avoidance\.margin_s: must be a number, got 'x'$"):  # type: config_tables
         parse_avoidance_options({"margin_s": "x"}, "avoidance")
+    with pytest.raises(ValueError, match=r'^avoidance\.window_s: must be a number \[s\] or "dynamic", got \'fast\'$'):
+        parse_avoidance_options({"window_s": "fast"}, "avoidance")
 
 
 class FakeCoordination:
