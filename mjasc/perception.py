@@ -14,9 +14,12 @@ table (interface in :class:`mjasc.agent.VesselAgent`)::
     summary()              counts and timings for summary.json
 
 Which returns feed what: a cluster wider than a target (``detection.max_target_radius_m``) is a
-static structure and goes to the map; so does a small cluster lying on already mapped cells (a
-fragment of a wall seen at grazing incidence). Returns within a moving track's disc are kept out
-of the map (a boat passing along a quay). Everything else goes to the tracker. Nothing here reads
+static structure and goes to the map; so does a small, flat cluster lying on already mapped cells
+(a fragment of a wall seen at grazing incidence). Returns within a tracked disc (a confirmed
+moving track, or one that moved and stopped, predicted to the scan time) are kept out of the map,
+and those of them that a wall's cluster swallowed are clustered again and given to the tracker (a
+boat passing along a quay keeps its track). Each scan also frees the map cells its rays pass
+through (:meth:`mjasc.static_map.StaticMap.carve`). Everything else goes to the tracker. Nothing here reads
 another body's state from the simulator: only the scan (ranges along known beams) and the vessel's
 own pose.
 """
@@ -25,6 +28,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -41,6 +45,15 @@ HITS_LOG_PERIOD_S = 0.5
 LABEL_LOG_PERIOD_S = 1.0
 #: Velocity arrows show where a track will be this many seconds ahead.
 ARROW_HORIZON_S = 5.0
+#: A tracked disc (returns kept out of the map) is the track's radius + this + 2σ of its position [m]
+_DISC_MARGIN_M = 1.0
+#: ... at most this beyond its radius (a long-coasting track must not blank a whole wall) [m].
+_DISC_MARGIN_MAX_M = 2.5
+#: A small cluster on mapped cells is a fragment of the mapped structure only if its returns lie
+#: within this (+ 2σ_ρ) RMS of a straight line (a 4 m hull seen over ≥ 60° of its side: ≥ 0.2 m) [m].
+_FLAT_M = 0.15
+#: A confirmed track that moved this far from where it was confirmed stays "moving" for the map [m].
+_MOVED_M = 3.0
 
 
 def covariance_ellipse(centre, cov, n_sigma: float = 2.0, points: int = 33) -> np.ndarray:
@@ -68,6 +81,8 @@ class Perception:
         self.scan: Scan | None = None
         self.detections: Detections | None = None
         self._target_mask = np.zeros(0, dtype=bool)
+        self._anchor: dict[int, np.ndarray] = {}  # confirmed track id → where it was first confirmed
+        self._moved: set[int] = set()  # ids of confirmed tracks that have moved _MOVED_M from there
         self._next_scan_t = -math.inf
         self._pending = False  # a scan not yet given to the tracker
         self._drain: list[tuple[float, str]] = []
@@ -91,23 +106,29 @@ class Perception:
         self._next_scan_t = t_s + 1.0 / self.sensor_config.rate_hz
         scan = self.sensor.scan(self.world.data, self.rng)
         det = detect(scan, self.config.detection, self.sensor_config.range_noise_std_m)
+        pts = scan.hit_points_world
+        discs = self._tracked_discs(scan.time_s)
+        if len(det) and det.extended.any() and discs[0].shape[0]:
+            det = self._split_tracked(scan, det, discs)
         targets = det.targets.copy()
         labels = det.labels
-        pts = scan.hit_points_world
         if len(det):
-            on_map = np.zeros(len(det), dtype=bool)
             if self.map.n_occupied and targets.any():
                 occ = self.map.occupied(pts)
                 good = labels >= 0
                 frac = np.bincount(labels[good], weights=occ[good], minlength=len(det)) / np.maximum(det.n_points, 1)
-                on_map = targets & (frac >= 0.5)
+                on_map = targets & (frac >= 0.5) & ~_inside(det.centres_m, *discs)
+                if on_map.any():  # a wall fragment is flat; a hull's returns curve round it
+                    on_map &= _thickness(pts, labels, len(det)) <= _FLAT_M + 2.0 * self.sensor_config.range_noise_std_m
                 targets &= ~on_map
             static = ~targets
             good_static = (labels >= 0) & static[np.maximum(labels, 0)]
             if good_static.any():
                 p = pts[good_static]
-                p = p[~self._inside_moving_tracks(p)]
-                self.map.add_scan(p)
+                self.map.add_scan(p[~_inside(p, *discs)])
+        if self.map.miss_weight > 0:
+            self.map.carve(scan.origin_m, scan.angles_body + scan.heading_rad, scan.ranges, scan.hit,
+                           scan.max_range_m, scan.full_circle, self.sensor_config.range_noise_std_m, pts)
         self.scan, self.detections, self._target_mask = scan, det, targets
         self._pending = True
         st = self._stats
@@ -117,17 +138,73 @@ class Perception:
         st["target_detections"] += int(targets.sum())
         st["sense_s"] += time.perf_counter() - w0
 
-    def _inside_moving_tracks(self, p: np.ndarray) -> np.ndarray:
+    def _tracked_discs(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """Centres (q, 2) and radii (q,) [m] of the confirmed tracks whose returns must never reach
+        the map, predicted to the scan time t_s: every moving track, and every static one that was
+        seen to move (a boat that stopped; ``_MOVED_M`` from where it was confirmed). The centre is
+        the combined estimate advanced along its arc (thesis eq. 3.3 with ω̂, one step of dt = t_s −
+        its last update: a coasting track is predicted, not left where it was last seen); the
+        radius is the track's radius + 1 m + 2σ of its position (at most ``_DISC_MARGIN_MAX_M``)."""
         tr = self.tracker
-        if len(tr) == 0 or p.shape[0] == 0:
-            return np.zeros(p.shape[0], dtype=bool)
-        moving = tr.confirmed & ~tr.static
-        if not moving.any():
-            return np.zeros(p.shape[0], dtype=bool)
-        c = tr.bank.positions[moving]
-        r = tr.radii_m[moving] + 1.0
-        d2 = ((p[:, None, :] - c[None, :, :]) ** 2).sum(-1)
-        return (d2 <= r[None, :] ** 2).any(axis=1)
+        if len(tr) == 0:
+            return np.zeros((0, 2)), np.zeros(0)
+        bank = tr.bank
+        ids = bank.track_ids
+        moved = np.fromiter((int(i) in self._moved for i in ids), dtype=bool, count=ids.size)
+        sel = tr.confirmed & (~tr.static | moved)
+        if not sel.any():
+            return np.zeros((0, 2)), np.zeros(0)
+        x = bank.states[sel]
+        dt = np.maximum(t_s - bank.times_s[sel], 0.0)
+        th = x[:, 2] + 0.5 * dt * bank.turn_rates[sel]
+        c = x[:, :2] + (dt * x[:, 3])[:, None] * np.stack([np.cos(th), np.sin(th)], axis=-1)
+        P = bank.position_covariances[sel]
+        tr_ = 0.5 * (P[:, 0, 0] + P[:, 1, 1])
+        lam = tr_ + np.sqrt(np.maximum(tr_**2 - (P[:, 0, 0] * P[:, 1, 1] - P[:, 0, 1] ** 2), 0.0))
+        r = tr.radii_m[sel] + np.minimum(_DISC_MARGIN_M + 2.0 * np.sqrt(lam), _DISC_MARGIN_MAX_M)
+        return c, r
+
+    def _split_tracked(self, scan: Scan, det: Detections, discs) -> Detections:
+        """The returns of extended clusters that lie in a tracked disc (``_tracked_discs``) taken out
+        of their cluster and clustered again on their own, as target detections: a boat close to a
+        wall (or to another boat) whose returns joined the wall's cluster keeps its track updated
+        instead of being written into the map as part of the wall."""
+        lab = det.labels
+        good = lab >= 0
+        take = good & det.extended[np.maximum(lab, 0)] & _inside(scan.hit_points_world, *discs)
+        if take.any() and self.map.n_occupied:  # the wall behind, where it is mapped, stays the wall's
+            take[take] = ~self.map.occupied(scan.hit_points_world[take])
+        if not take.any():
+            return det
+        mask = np.zeros_like(scan.hit)
+        beams = scan.hit_beams[take]
+        mask[beams] = True
+        sub = replace(scan, hit=mask, ranges=np.where(mask, scan.ranges, scan.max_range_m), hit_beams=beams,
+                      hit_points_body=scan.hit_points_body[take], hit_points_world=scan.hit_points_world[take])
+        extra = detect(sub, self.config.detection, self.sensor_config.range_noise_std_m)
+        if len(extra) == 0:
+            return det
+        # only what looks like a tracked object: a disc no larger than the track's, centred within
+        # its radius of the predicted centre (a piece of the wall beside it stays the wall's)
+        c, r = discs
+        d = np.hypot(*(extra.centres_m[:, None, :] - c[None, :, :]).transpose(2, 0, 1))
+        core = r - _DISC_MARGIN_M
+        fits = ((d <= core[None, :]) & (extra.radii_m[:, None] <= core[None, :] + 0.5)).any(axis=1) & ~extra.extended
+        if not fits.any():
+            return det
+        keep = np.flatnonzero(fits)
+        new = np.full(len(extra), -1)
+        new[keep] = np.arange(keep.size) + len(det)
+        sub_lab = np.where(extra.labels >= 0, new[np.maximum(extra.labels, 0)], -1)
+        labels = lab.copy()
+        labels[take] = np.where(sub_lab >= 0, sub_lab, lab[take])
+        extra = _subset(extra, keep)
+        cat = lambda a, b: np.concatenate([a, b])  # noqa: E731
+        occ = None if det.occluded is None else cat(det.occluded, extra.occluded)
+        return Detections(det.time_s, det.origin_m, det.heading_rad, cat(det.centres_m, extra.centres_m),
+                          cat(det.centres_body, extra.centres_body), cat(det.radii_m, extra.radii_m),
+                          cat(det.variances_m2, extra.variances_m2), cat(det.n_points, extra.n_points),
+                          cat(det.ranges_m, extra.ranges_m), cat(det.extended, extra.extended), labels, occ)
 
     def update_tracks(self, t_s: float, nav=None) -> None:
         """Give the latest scan's target detections to the tracker (nothing new: nothing to do)."""
@@ -138,6 +215,7 @@ class Perception:
         det = self.detections
         self.tracker.step(det.time_s if det is not None else t_s, det, self.scan.origin_m, self._target_mask,
                           points_m=self.scan.hit_points_world)
+        self._note_moved_tracks()
         for ev in self.tracker.drain_events():
             self._log_events.append(ev)
             if ev.kind != "born":
@@ -148,6 +226,24 @@ class Perception:
         st["max_tracks"] = max(st["max_tracks"], len(self.tracker))
         if self.keep_history:
             self._append_history()
+
+    def _note_moved_tracks(self) -> None:
+        """Remember the confirmed tracks that have moved ``_MOVED_M`` from where they were first
+        seen confirmed (their returns stay out of the map even after they stop)."""
+        tr = self.tracker
+        ids = tr.bank.track_ids
+        conf = tr.confirmed
+        pos = tr.bank.positions
+        live = set()
+        for k in np.flatnonzero(conf):
+            i = int(ids[k])
+            live.add(i)
+            a = self._anchor.setdefault(i, pos[k].copy())
+            if i not in self._moved and np.hypot(*(pos[k] - a)) >= _MOVED_M:
+                self._moved.add(i)
+        if len(self._anchor) > len(live):
+            self._anchor = {i: a for i, a in self._anchor.items() if i in live}
+            self._moved &= live
 
     def _append_history(self) -> None:
         tr = self.tracker
@@ -263,8 +359,8 @@ class Perception:
             rec.log(f"tracking_events/{vessel_name}", rr.TextLog(ev.text, level="DEBUG" if ev.kind == "born" else "INFO"),
                     ev.time_s)
         self._log_events = []
-        if self.map.n_occupied and self.map.n_occupied != getattr(self, "_logged_map_n", -1):
-            self._logged_map_n = self.map.n_occupied
+        if self.map.version != getattr(self, "_logged_map_version", 0):
+            self._logged_map_version = self.map.version
             polys = self.map.polygons()
             rec.strips(f"{base}/static_map", t_s, [np.vstack([p, p[:1]]) for p in polys], z=0.4)
 
@@ -293,6 +389,33 @@ class Perception:
             "mean_sense_us": round(1e6 * st["sense_s"] / scans, 1),
             "mean_tracking_us": round(1e6 * st["track_s"] / ups, 1),
         }
+
+
+def _subset(d: Detections, keep: np.ndarray) -> Detections:
+    """The detections ``keep`` of d (labels not remapped: the caller does)."""
+    return Detections(d.time_s, d.origin_m, d.heading_rad, d.centres_m[keep], d.centres_body[keep], d.radii_m[keep],
+                      d.variances_m2[keep], d.n_points[keep], d.ranges_m[keep], d.extended[keep], d.labels,
+                      None if d.occluded is None else d.occluded[keep])
+
+
+def _thickness(p: np.ndarray, labels: np.ndarray, m: int) -> np.ndarray:
+    """(m,) RMS distance [m] of each cluster's returns from their principal line (0 for 1–2 returns)."""
+    good = labels >= 0
+    lab, q = labels[good], p[good]
+    n = np.maximum(np.bincount(lab, minlength=m), 1)
+    mean = np.stack([np.bincount(lab, q[:, i], m) for i in (0, 1)], axis=-1) / n[:, None]
+    d = q - mean[lab]
+    sxx, syy, sxy = (np.bincount(lab, w, m) / n for w in (d[:, 0] ** 2, d[:, 1] ** 2, d[:, 0] * d[:, 1]))
+    tr = 0.5 * (sxx + syy)
+    return np.sqrt(np.maximum(tr - np.sqrt(np.maximum(tr**2 - (sxx * syy - sxy**2), 0.0)), 0.0))
+
+
+def _inside(p: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
+    """(k,) bool: point p (k, 2) lies in one of the discs (centres (q, 2), radii (q,))."""
+    if p.shape[0] == 0 or centres.shape[0] == 0:
+        return np.zeros(p.shape[0], dtype=bool)
+    d2 = ((p[:, None, :] - centres[None, :, :]) ** 2).sum(-1)
+    return (d2 <= radii[None, :] ** 2).any(axis=1)
 
 
 def _circle(c, r: float, n: int) -> np.ndarray:
