@@ -51,8 +51,8 @@ PREDICTION_PERIOD_S = 2.0
 #: yielding vessel reached the crossing just as the boat left it, and touched it on a late turn.
 CAS_AVOIDANCE = AvoidanceConfig(safety_distance_m=2.0, correction_margin_m=4.0)
 #: The CAS baseline's tracking settings: defaults, except that a map cell needs returns in 15 scans
-#: (3 s; default 3): a crossing boat whose returns joined a wall's or another boat's cluster for a
-#: few scans otherwise left static cells behind it (phantom obstacles, then a starved track).
+#: (3 s; default 3), a margin kept from before perception learnt to keep moving tracks' returns out
+#: of the map and to clear cells that later rays see through (the 20-seed table used it).
 CAS_TRACKING = TrackingConfig(map_min_hits=15)
 
 
