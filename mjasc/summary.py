@@ -8,8 +8,6 @@ zero). Per run: wall time, simulated time and real-time factor.
 
 from __future__ import annotations
 
-from collections import defaultdict
-
 import numpy as np
 
 from .geometry import distance_to_polygon, point_in_polygon
@@ -29,10 +27,14 @@ class RunMetrics:
         self._xte_sum = np.zeros(n)
         self._xte_max = np.zeros(n)
         self._xte_count = np.zeros(n, dtype=int)
-        self.min_clearance: list[dict[str, float]] = [defaultdict(lambda: float("inf")) for _ in range(n)]
+        self.static = list(world.static_obstacles)
+        # Minimum clearance per (vessel, object): columns are the static obstacles, the moving
+        # obstacles, then the vessels (the diagonal stays +inf: no clearance to oneself).
+        self._objects = [o.name for o in self.static] + [o.name for o in world.moving_obstacles] + self.names
+        self._traffic_radii = np.array([o.radius_m for o in world.moving_obstacles])
+        self._min_clear = np.full((n, len(self._objects)), np.inf)
         self.collisions: list[dict] = []
         self._in_contact: set[tuple[str, str]] = set()
-        self.static = list(world.static_obstacles)
         self._geom_owner = dict(enumerate(world.geom_owner))
 
     def update(self, states, cross_track_m: np.ndarray, traffic) -> None:
@@ -46,26 +48,22 @@ class RunMetrics:
         self._xte_sum += a
         self._xte_count += ok
         self._xte_max = np.maximum(self._xte_max, a)
-        for i in range(len(self.names)):
-            mc = self.min_clearance[i]
-            for o in self.static:
-                if isinstance(o, PolygonObstacle):
-                    d = distance_to_polygon(pos[i], o.vertices)[0]
-                    d = -d if point_in_polygon(pos[i], o.vertices)[0] else d
-                else:
-                    d = float(np.hypot(*(pos[i] - o.centre))) - o.radius_m
-                mc[o.name] = min(mc[o.name], d - self.radii[i])
-            tpos, _, _ = traffic
-            for k, name in enumerate(self.world_traffic_names()):
-                d = float(np.hypot(*(pos[i] - tpos[k]))) - self.radii[i] - self.world.moving_obstacles[k].radius_m
-                mc[name] = min(mc[name], d)
-            for j, other in enumerate(self.names):
-                if j != i:
-                    d = float(np.hypot(*(pos[i] - pos[j]))) - self.radii[i] - self.radii[j]
-                    mc[other] = min(mc[other], d)
-
-    def world_traffic_names(self) -> list[str]:
-        return [o.name for o in self.world.moving_obstacles]
+        columns = []
+        for o in self.static:
+            if isinstance(o, PolygonObstacle):
+                d = distance_to_polygon(pos, o.vertices)
+                d = np.where(point_in_polygon(pos, o.vertices), -d, d)
+            else:
+                d = np.hypot(*(pos - o.centre).T) - o.radius_m
+            columns.append(d - self.radii)
+        tpos = traffic[0]
+        if len(tpos):
+            columns.extend((np.linalg.norm(pos[:, None] - tpos[None], axis=-1)
+                            - self.radii[:, None] - self._traffic_radii[None]).T)
+        pair = np.linalg.norm(pos[:, None] - pos[None], axis=-1) - self.radii[:, None] - self.radii[None]
+        np.fill_diagonal(pair, np.inf)
+        clearance = np.column_stack(columns + [pair]) if columns else pair
+        np.minimum(self._min_clear, clearance, out=self._min_clear)
 
     def check_contacts(self, t_s: float) -> list[tuple[str, str]]:
         """New hull contacts since the last call (pairs of owner names); records them."""
@@ -85,7 +83,8 @@ class RunMetrics:
         vessels = {}
         for i, name in enumerate(self.names):
             count = max(int(self._xte_count[i]), 1)
-            clear = {k: round(v, 3) for k, v in sorted(self.min_clearance[i].items())}
+            clear = {k: round(float(self._min_clear[i, c]), 3) for c, k in sorted(enumerate(self._objects), key=lambda e: e[1])
+                     if k != name and np.isfinite(self._min_clear[i, c])}
             vessels[name] = {
                 "type": self.world.vessel_types[i].name,
                 "distance_m": round(float(self.distance[i]), 3),

@@ -46,7 +46,6 @@ class VideoWriter:
             cam.type = mujoco.mjtCamera.mjCAMERA_FREE
             cam.lookat[:] = [*(0.5 * (lo + hi)), 0.0]
             span = max(float(np.max(hi - lo)), 20.0) * 1.15
-            self._span = span
             fovy = np.deg2rad(m.vis.global_.fovy)
             cam.distance = 0.5 * span / np.tan(0.5 * fovy) * max(1.0, self.height / self.width)
             cam.elevation = -90.0
