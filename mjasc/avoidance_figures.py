@@ -159,13 +159,9 @@ def plot_trace(trace: RunTrace, title: str, path: Path, plt) -> Path:
 def make_avoidance_figures(out_dir, scenarios=None, duration_s: float | None = None) -> list[Path]:
     """Run each scenario (default: all of :data:`FIGURE_SCENARIOS`) and write
     ``avoidance_<name>.png`` to ``out_dir``. Returns the written paths."""
-    import matplotlib
+    from .figures import figure_backend
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    plt, out = figure_backend(out_dir)
     written = []
     for name in scenarios or FIGURE_SCENARIOS:
         trace = trace_run(name, duration_s)

@@ -9,7 +9,20 @@ from __future__ import annotations
 
 from pathlib import Path
 
-__all__ = ["make_all_figures"]
+__all__ = ["make_all_figures", "figure_backend"]
+
+
+def figure_backend(out_dir: str | Path):
+    """matplotlib's pyplot on the file-only Agg backend (no display needed) and the output folder,
+    created if needed: the common start of every figure maker."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    return plt, out
 
 
 def make_all_figures(out_dir: str | Path) -> list[Path]:

@@ -322,13 +322,9 @@ def _figure_gradient(out_dir: Path, plt) -> Path:
 
 def make_figures(out_dir) -> list[Path]:
     """Write the §6.2 figures as PNG into ``out_dir`` (created if needed); return their paths."""
-    import matplotlib
+    from .figures import figure_backend
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    plt, out = figure_backend(out_dir)
     dock_path, _ = _figure_dock(out, plt)
     return [dock_path, _figure_gradient(out, plt)]
 

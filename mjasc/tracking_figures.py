@@ -136,13 +136,9 @@ def _figure(run: TrackingRun, out: Path, title: str, plt) -> Path:
 
 def make_tracking_figures(out_dir) -> list[Path]:
     """Run both §6.1 scenarios (their own seeds) and write the two figures; returns their paths."""
-    import matplotlib
+    from .figures import figure_backend
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    plt, out_dir = figure_backend(out_dir)
     return [
         _figure(run_tracking_scenario(DYNAMIC), out_dir / "thesis_fig_6_1_tracking.png",
                 "IMM tracking of a 1.5 m/s, 0.03 rad/s target from the ASC's range sensor (after thesis Fig. 6.1;"
