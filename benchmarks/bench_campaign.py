@@ -29,8 +29,8 @@ def main() -> None:
     args = ap.parse_args()
 
     import mjasc  # noqa: F401
-    from mjasc.campaign import run_campaign, without_timing
-    from mjasc.randomization import load_campaign
+    from mjasc.campaigns.engine import run_campaign, without_timing
+    from mjasc.campaigns.perturbation import load_campaign
 
     campaign = load_campaign(ROOT / "tasks" / "campaigns" / "demo_monte_carlo.toml").with_overrides(
         runs=args.runs, duration_s=args.duration)

@@ -1,4 +1,4 @@
-"""Microseconds per IMM update: filterpy's IMMEstimator vs mjasc.imm.IMMTracker vs IMMBank.
+"""Microseconds per IMM update: filterpy's IMMEstimator vs mjasc.perception.imm.IMMTracker vs IMMBank.
 
 Same 7-model bank (thesis Table 6.1), same data (the thesis §6.1 target: 1.5 m/s turning at
 0.03 rad/s, Ts = 1 s, σ² = 0.1 m²), same run. The config has no probability floor and no gate
@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-from mjasc.imm import IMMBank, IMMConfig, IMMTracker, filterpy_imm
+from mjasc.perception.imm import IMMBank, IMMConfig, IMMTracker, filterpy_imm
 
 CONFIG = IMMConfig(min_mode_probability=0.0, gate_probability=1.0)
 _clock = time.process_time

@@ -18,14 +18,14 @@ import time
 import mujoco
 import numpy as np
 
-from mjasc.detection import detect
-from mjasc.imm import IMMBank
-from mjasc.obstacles import MovingObstacle
-from mjasc.perception import Perception
-from mjasc.range_sensor import SensorConfig
-from mjasc.tracking import TrackingConfig
-from mjasc.vessels import load_vessel_type
-from mjasc.world import build_world
+from mjasc.perception.detection import detect
+from mjasc.perception.imm import IMMBank
+from mjasc.physics.obstacles import MovingObstacle
+from mjasc.perception.pipeline import Perception
+from mjasc.perception.range_sensor import SensorConfig
+from mjasc.perception.tracking import TrackingConfig
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.physics.world import build_world
 
 DT = 0.2
 

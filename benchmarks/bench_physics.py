@@ -17,10 +17,10 @@ import mujoco
 import numpy as np
 
 import mjasc  # noqa: F401
-from mjasc.currents import UniformCurrent
-from mjasc.simulation import Simulation
-from mjasc.vessels import load_vessel_type
-from mjasc.world import build_world
+from mjasc.physics.currents import UniformCurrent
+from mjasc.physics.simulation import Simulation
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.physics.world import build_world
 
 
 def make(n: int) -> Simulation:

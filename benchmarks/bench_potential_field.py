@@ -1,4 +1,4 @@
-"""Benchmark the harmonic potential field (mjasc.potential_field): vectorized velocity
+"""Benchmark the harmonic potential field (mjasc.avoidance.potential_field): vectorized velocity
 evaluations per second, solve time and streamline time, for 24 and 32 panels (thesis Table 6.2).
 
 Run: .venv/bin/python benchmarks/bench_potential_field.py
@@ -12,8 +12,8 @@ import time
 
 import numpy as np
 
-from mjasc.potential_field import PotentialField
-from mjasc.potential_field_figures import dock_scenario
+from mjasc.avoidance.potential_field import PotentialField
+from mjasc.figures.potential_field import dock_scenario
 
 
 def best_time(fn, repeats=5, min_time=0.2):

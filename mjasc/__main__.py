@@ -1,3 +1,3 @@
-from .cli import main
+from mjasc.cli import main
 
 raise SystemExit(main())

@@ -16,12 +16,11 @@ from pathlib import Path
 
 import mjasc  # noqa: F401  (chooses the OpenGL backend before mujoco is imported)
 
-TASKS_DIR = Path(__file__).resolve().parent.parent / "tasks"
 
 
 def _cmd_run(args) -> int:
-    from .runner import RunFailed, run_scenario
-    from .scenario import ScenarioError, load_scenario
+    from mjasc.runs.runner import RunFailed, run_scenario
+    from mjasc.runs.scenario import ScenarioError, load_scenario
 
     try:
         scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, video=True if args.video else None,
@@ -51,8 +50,9 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_list(args) -> int:
-    from .scenario import ScenarioError, load_scenario
-    from .vessels import available_vessels, load_vessel_type
+    from mjasc.runs.scenario import ScenarioError, load_scenario
+    from mjasc.core.resources import bundled_campaigns, bundled_scenarios
+    from mjasc.physics.vessels import available_vessels, load_vessel_type
 
     print("vessels:")
     for name in available_vessels():
@@ -60,18 +60,20 @@ def _cmd_list(args) -> int:
         print(f"  {name:10s} {v.length_m:.2f} m × {v.beam_m:.2f} m, cruise {v.cruise_speed_m_s} m/s, "
               f"top {v.top_speed_m_s} m/s — {v.description}")
     print("scenarios:")
-    for path in sorted(TASKS_DIR.glob("*.toml")):
+    for name, path in bundled_scenarios().items():
         try:
             sc = load_scenario(path)
-            print(f"  {str(path.relative_to(TASKS_DIR.parent)):36s} {sc.duration_s:7.0f} s, "
-                  f"{len(sc.vessels)} vessel(s) — {sc.description}")
+            print(f"  {name:36s} {sc.duration_s:7.0f} s, {len(sc.vessels)} vessel(s) — {sc.description}")
         except ScenarioError as exc:
-            print(f"  {path.name:36s} INVALID: {exc}")
+            print(f"  {name:36s} INVALID: {exc}")
+    print("campaigns:")
+    for name in bundled_campaigns():
+        print(f"  {name}")
     return 0
 
 
 def _cmd_trial(args) -> int:
-    from . import trials
+    from mjasc.physics import trials
 
     try:
         result = trials.run_trial(args.kind, args.vessel, port=args.port, starboard=args.starboard)
@@ -87,7 +89,7 @@ def _cmd_trial(args) -> int:
 
 
 def _cmd_figures(args) -> int:
-    from .figures import make_all_figures
+    from mjasc.figures.thesis import make_all_figures
 
     for path in make_all_figures(Path(args.out)):
         print(path)
@@ -95,8 +97,8 @@ def _cmd_figures(args) -> int:
 
 
 def _cmd_campaign(args) -> int:
-    from .campaign import format_aggregate, run_campaign
-    from .randomization import CampaignError, load_campaign
+    from mjasc.campaigns.engine import format_aggregate, run_campaign
+    from mjasc.campaigns.perturbation import CampaignError, load_campaign
 
     try:
         campaign = load_campaign(args.campaign).with_overrides(runs=args.runs)
@@ -117,7 +119,7 @@ def _cmd_campaign(args) -> int:
 
 
 def _cmd_render(args) -> int:
-    from .suite_render import render_episode
+    from mjasc.suite.render import render_episode
 
     try:
         result = render_episode(args.domain, args.task, policy=args.policy, out_dir=args.out, seed=args.seed)

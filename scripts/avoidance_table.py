@@ -13,8 +13,8 @@ import dataclasses
 from pathlib import Path
 
 import mjasc  # noqa: F401
-from mjasc.runner import RunFailed, run_scenario
-from mjasc.scenario import load_scenario
+from mjasc.runs.runner import RunFailed, run_scenario
+from mjasc.runs.scenario import load_scenario
 
 TASKS = Path(__file__).resolve().parent.parent / "tasks"
 SCENARIOS = ["thesis_6_2_dock", "thesis_6_3_velocity_correction", "thesis_6_4_crossing", "thesis_6_4_head_on",

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.currents import UniformCurrent
-from mjasc.simulation import Simulation
-from mjasc.vessels import load_vessel_type
-from mjasc.world import build_world
+from mjasc.physics.currents import UniformCurrent
+from mjasc.physics.simulation import Simulation
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.physics.world import build_world
 
 
 def make_sim(vessel: str = "otter", n: int = 1, current=(0.0, 0.0), spacing_m: float = 20.0, **kw) -> Simulation:

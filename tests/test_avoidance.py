@@ -1,4 +1,4 @@
-"""Collision avoidance per vessel (mjasc.avoidance): mode machine, yield vs pass, right of way
+"""Collision avoidance per vessel (mjasc.avoidance.system): mode machine, yield vs pass, right of way
 between team mates, detour splice and resumption, configuration. Synthetic tracks only (the
 system is tested through the runner in test_avoidance_scenarios.py)."""
 
@@ -7,12 +7,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from mjasc.avoidance import AvoidanceConfig, CollisionAvoidance, PlannedTrack, merge_overlapping, parse_avoidance_options
-from mjasc.coordination import TeamIntention
-from mjasc.estimates import TrackEstimate
-from mjasc.geometry import distance_to_polygon, point_in_polygon
-from mjasc.paths import Path
-from mjasc.vessels import load_vessel_type
+from mjasc.avoidance.system import AvoidanceConfig, CollisionAvoidance, PlannedTrack, merge_overlapping, parse_avoidance_options
+from mjasc.cooperation.coordination import TeamIntention
+from mjasc.core.estimates import TrackEstimate
+from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+from mjasc.guidance.paths import Path
+from mjasc.physics.vessels import load_vessel_type
 
 DELFIM = load_vessel_type("delfim")
 
@@ -63,7 +63,7 @@ def test_config_parsing_and_errors_name_the_field():
 
 
 def test_scenario_loader_validates_the_avoidance_table():
-    from mjasc.scenario import ScenarioError, parse_scenario
+    from mjasc.runs.scenario import ScenarioError, parse_scenario
 
     doc = {"duration_s": 10.0, "vessels": [{"name": "a", "type": "delfim", "avoidance": {"gain_k": 0.0},
                                             "sensor": {}, "controller": {"waypoints": [[0, 0], [10, 0]]}}]}

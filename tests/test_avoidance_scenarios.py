@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from mjasc.runner import Runner
-from mjasc.scenario import load_scenario
+from mjasc.runs.runner import Runner
+from mjasc.runs.scenario import load_scenario
 
 TASKS = Path(__file__).resolve().parent.parent / "tasks"
 #: Vessel tables removed for the run without avoidance (perception only feeds avoidance; its

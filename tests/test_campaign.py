@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjasc.campaign import aggregate_rows, run_campaign, wilson_interval, without_timing
+from mjasc.campaigns.engine import aggregate_rows, run_campaign, wilson_interval, without_timing
 from mjasc.cli import main
-from mjasc.randomization import load_campaign, parse_campaign, randomized_scenario
-from mjasc.runner import RunFailed, run_scenario
-from mjasc.scenario import load_scenario
+from mjasc.campaigns.perturbation import load_campaign, parse_campaign, randomized_scenario
+from mjasc.runs.runner import RunFailed, run_scenario
+from mjasc.runs.scenario import load_scenario
 
 TASKS = Path(__file__).resolve().parent.parent / "tasks"
 SIGMAS = dict(vessel_position_sigma_m=2.0, vessel_heading_sigma_deg=5.0, current_velocity_sigma_m_s=0.05,

@@ -1,11 +1,11 @@
-"""Tests for mjasc.collision_prediction against closed forms and the thesis's §6.1 numbers."""
+"""Tests for mjasc.avoidance.prediction against closed forms and the thesis's §6.1 numbers."""
 
 import numpy as np
 import pytest
 from matplotlib.path import Path as MplPath
 from scipy.optimize import brentq
 
-from mjasc.collision_prediction import (
+from mjasc.avoidance.prediction import (
     CollisionPredictionConfig,
     Decision,
     gamma_of_time,
@@ -13,8 +13,8 @@ from mjasc.collision_prediction import (
     prediction_window,
     swept_disc_polygon,
 )
-from mjasc.estimates import TrackEstimate
-from mjasc.paths import Path
+from mjasc.core.estimates import TrackEstimate
+from mjasc.guidance.paths import Path
 
 
 def _track(tid, t, pos, heading, speed, turn=0.0, radius=2.5, **kw):

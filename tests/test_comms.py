@@ -1,11 +1,11 @@
-"""Tests for mjasc.comms: the broadcast link's loss and delay statistics against its stated model,
+"""Tests for mjasc.cooperation.comms: the broadcast link's loss and delay statistics against its stated model,
 arrival order, determinism per seed, the range cut-off and input validation."""
 
 import numpy as np
 import pytest
 
-from mjasc.comms import PRESETS, CommsNetwork, NetworkConfig, parse_network_options
-from mjasc.scenario import ScenarioError, parse_scenario
+from mjasc.cooperation.comms import PRESETS, CommsNetwork, NetworkConfig, parse_network_options
+from mjasc.runs.scenario import ScenarioError, parse_scenario
 
 
 def _pump(cfg, distances, n, seed=0, period_s=0.1):

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pytest
 
-from mjasc.config_tables import (
+from mjasc.core.config_tables import (
     ConfigError,
     boolean,
     check_keys,

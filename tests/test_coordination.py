@@ -1,4 +1,4 @@
-"""Tests for mjasc.coordination: the γ/L consensus speed law converges (exponentially, at the
+"""Tests for mjasc.cooperation.coordination: the γ/L consensus speed law converges (exponentially, at the
 linearized rate n·k·v/e_s) with perfect comms, still converges with 30 % loss and 1 s delay,
 holds a formation on paths of different lengths, times out stale neighbours, and brings the
 thesis §6.4 formation scenario together through the real runner."""
@@ -10,11 +10,11 @@ import tomllib
 import numpy as np
 import pytest
 
-from mjasc.agent import OwnNavigation
-from mjasc.comms import CommsNetwork, NetworkConfig
-from mjasc.coordination import Coordination, CoordinationConfig, parse_coordination_options
-from mjasc.paths import Path
-from mjasc.scenario import ScenarioError, parse_scenario
+from mjasc.runs.agent import OwnNavigation
+from mjasc.cooperation.comms import CommsNetwork, NetworkConfig
+from mjasc.cooperation.coordination import Coordination, CoordinationConfig, parse_coordination_options
+from mjasc.guidance.paths import Path
+from mjasc.runs.scenario import ScenarioError, parse_scenario
 
 SCENARIO = FilePath(__file__).resolve().parents[1] / "tasks" / "formation_l_path.toml"
 PERFECT = NetworkConfig(base_delay_s=0.0, jitter_s=0.0, loss_probability=0.0)
@@ -186,7 +186,7 @@ def test_parse_coordination_options():
 
 # ---------------------------------------------------------------------- through the runner
 def _formation_spread(data, duration_s):
-    from mjasc.runner import Runner
+    from mjasc.runs.runner import Runner
 
     data = {**data, "duration_s": duration_s, "outputs": {"recording": False}}
     runner = Runner(parse_scenario(data, str(SCENARIO)))

@@ -10,8 +10,8 @@ import tomllib
 import numpy as np
 import pytest
 
-from mjasc import currents
-from mjasc.currents import (
+from mjasc.physics import currents
+from mjasc.physics.currents import (
     LAMB_OSEEN_PEAK_RATIO,
     CurrentField,
     GaussMarkovCurrent,

@@ -1,4 +1,4 @@
-"""Detections (mjasc.detection): clustering of one scan, disc centre/radius and their noise,
+"""Detections (mjasc.perception.detection): clustering of one scan, disc centre/radius and their noise,
 checked on MuJoCo scans of known geometry."""
 
 import math
@@ -8,11 +8,11 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjasc.detection import DetectionConfig, detect
-from mjasc.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
-from mjasc.range_sensor import SensorConfig, sensor_for_vessel
-from mjasc.vessels import load_vessel_type
-from mjasc.world import build_world
+from mjasc.perception.detection import DetectionConfig, detect
+from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
+from mjasc.perception.range_sensor import SensorConfig, sensor_for_vessel
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.physics.world import build_world
 
 QUIET = SensorConfig(range_noise_std_m=0.0, dropout_probability=0.0, clutter_per_scan=0.0)
 

@@ -3,8 +3,8 @@ tested in test_potential_field.py)."""
 
 import imageio.v3 as iio
 
-from mjasc.avoidance_figures import make_avoidance_figures
-from mjasc.tracking_figures import make_tracking_figures
+from mjasc.figures.avoidance import make_avoidance_figures
+from mjasc.figures.tracking import make_tracking_figures
 
 
 def _check_pngs(paths):

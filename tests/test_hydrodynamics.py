@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from mjasc.currents import UniformCurrent
-from mjasc.hydrodynamics import HydroCoefficients, rigid_body_mass_matrix
-from mjasc.vessels import load_vessel_type
+from mjasc.physics.currents import UniformCurrent
+from mjasc.physics.hydrodynamics import HydroCoefficients, rigid_body_mass_matrix
+from mjasc.physics.vessels import load_vessel_type
 
-from .helpers import hold_shaft, make_sim
+from tests.helpers import hold_shaft, make_sim
 
 VESSELS = ["otter", "delfim"]
 

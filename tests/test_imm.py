@@ -1,4 +1,4 @@
-"""Tests of mjasc.imm against simulated truth (thesis eq. 3.2 / 3.3), chi-square statistics,
+"""Tests of mjasc.perception.imm against simulated truth (thesis eq. 3.2 / 3.3), chi-square statistics,
 the thesis's §6.1 numbers, and filterpy's IMMEstimator as a reference implementation."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from mjasc.estimates import TrackEstimate
-from mjasc.imm import IMMBank, IMMConfig, IMMTracker, filterpy_imm, parse_imm_options
+from mjasc.core.estimates import TrackEstimate
+from mjasc.perception.imm import IMMBank, IMMConfig, IMMTracker, filterpy_imm, parse_imm_options
 
 SIGMA = math.sqrt(0.1)  # thesis §6.1: measurement variance 0.1 m² per axis
 SEEDS = range(5)
@@ -273,7 +273,7 @@ def test_nan_and_outlier_are_rejected_and_logged(caplog):
     for k in range(40):
         assert trk.update(z[k], truth[k, 0])
     before = trk.state
-    with caplog.at_level(logging.DEBUG, logger="mjasc.imm"):
+    with caplog.at_level(logging.DEBUG, logger="mjasc.perception.imm"):
         assert not trk.update([np.nan, 1.0], 40.0)
         assert "not finite" in trk.last_rejection_reason
         assert not trk.update([1e6, -1e6], 41.0)
@@ -317,7 +317,7 @@ def test_track_restarts_after_consecutive_gated_measurements():
 
 def test_speed_never_negative_and_flip_keeps_velocity():
     """Negative speed after an update is re-parametrized (θ + π, −V): same velocity vector."""
-    from mjasc.imm import _flip_negative_speeds
+    from mjasc.perception.imm import _flip_negative_speeds
 
     su = np.array([[[1.0, 2.0, 0.4, -0.5], [0.0, 0.0, 1.0, 0.7]]])
     Pu = np.tile(np.eye(4) + 0.1, (1, 2, 1, 1))

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from mjasc.path_following import PathFollower, PathFollowingConfig
-from mjasc.paths import Path
+from mjasc.guidance.path_following import PathFollower, PathFollowingConfig
+from mjasc.guidance.paths import Path
 
-from .helpers import make_sim
+from tests.helpers import make_sim
 
 
 def follow(vessel, path, current, speed, duration_s, start=(0.0, 0.0, 0.0), start_speed=0.5):

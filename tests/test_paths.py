@@ -1,9 +1,9 @@
-"""Tests for mjasc.paths: lengths, continuity, curvature, projection, cross-track sign, editing."""
+"""Tests for mjasc.guidance.paths: lengths, continuity, curvature, projection, cross-track sign, editing."""
 
 import numpy as np
 import pytest
 
-from mjasc.paths import ArcSegment, LineSegment, Path
+from mjasc.guidance.paths import ArcSegment, LineSegment, Path
 
 
 def _random_path(rng):

@@ -1,4 +1,4 @@
-"""The full perception chain (mjasc.perception): MuJoCo range scans → detections → IMM tracks, with
+"""The full perception chain (mjasc.perception.pipeline): MuJoCo range scans → detections → IMM tracks, with
 the observing vessel held still and the targets (mocap bodies) moved along known trajectories, so
 that only perception runs (no physics stepping); and the thesis §6.1 scenario through the runner."""
 
@@ -8,13 +8,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjasc.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
-from mjasc.perception import Perception, covariance_ellipse
-from mjasc.range_sensor import SensorConfig
-from mjasc.recording import Recorder
-from mjasc.tracking import TrackingConfig
-from mjasc.vessels import load_vessel_type
-from mjasc.world import build_world
+from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
+from mjasc.perception.pipeline import Perception, covariance_ellipse
+from mjasc.perception.range_sensor import SensorConfig
+from mjasc.runs.recording import Recorder
+from mjasc.perception.tracking import TrackingConfig
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.physics.world import build_world
 from tests.test_tracking import truth
 
 DT = 0.2
@@ -175,7 +175,7 @@ def test_static_structures_become_convex_polygons_not_tracks():
         bench.step(k * DT, np.zeros((0, 2)))
     polys = bench.p.static_polygons()
     assert len(polys) >= 2
-    from mjasc.geometry import distance_to_polygon, point_in_polygon
+    from mjasc.core.geometry import distance_to_polygon, point_in_polygon
 
     for poly in polys:
         assert np.all(distance_to_polygon(poly, quay.vertices) < 2.0)
@@ -249,8 +249,8 @@ def test_thesis_6_1_scenario_converges():
     """tasks/thesis_6_1_tracking.toml through the runner (seed 1): the ASC's own sensor tracks the
     1.5 m/s, 0.03 rad/s target from ~107 m; at 110 s V̂ and ω̂ are within 0.05 m/s and 0.004 rad/s
     (thesis: 1.5723, 0.0312)."""
-    from mjasc.runner import Runner
-    from mjasc.scenario import load_scenario
+    from mjasc.runs.runner import Runner
+    from mjasc.runs.scenario import load_scenario
     from pathlib import Path
 
     sc = load_scenario(Path(__file__).parents[1] / "tasks" / "thesis_6_1_tracking.toml")
@@ -275,7 +275,7 @@ def test_boat_crossing_close_in_front_of_a_wall_leaves_no_phantom_and_keeps_its_
     (cells where it had been, a trail of phantom polygons) and its track starved and was lost.
     Now: after it has passed, no mapped polygon reaches into the water where it sailed, the wall is
     mapped, and once confirmed its track keeps one id while in view."""
-    from mjasc.geometry import point_in_polygon
+    from mjasc.core.geometry import point_in_polygon
 
     wall = PolygonObstacle("wall", np.array([[20.0, -80.0], [22.0, -80.0], [22.0, 80.0], [20.0, 80.0]]))
     n_steps = int(50 / DT) + 1

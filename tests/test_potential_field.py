@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from mjasc.potential_field import (
+from mjasc.avoidance.potential_field import (
     PotentialField,
     Streamline,
     clean_polygon,
@@ -199,7 +199,7 @@ def test_beyond_the_bound_the_goal_is_missed(r):
 
 
 def test_dock_scenario_sweep_like_thesis():
-    from mjasc.potential_field_figures import dock_scenario, safety_ratio_sweep
+    from mjasc.figures.potential_field import dock_scenario, safety_ratio_sweep
 
     sc = dock_scenario()
     runs = safety_ratio_sweep((0.2, 0.3, 0.7, 1.0), scenario=sc, step=1.0)
@@ -374,7 +374,7 @@ def test_panel_subdivision():
 
 
 def test_make_figures_writes_pngs(tmp_path):
-    from mjasc.potential_field_figures import dock_scenario, make_figures
+    from mjasc.figures.potential_field import dock_scenario, make_figures
 
     paths = make_figures(tmp_path)
     assert len(paths) == 2

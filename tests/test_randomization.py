@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjasc.currents import SumCurrent, UniformCurrent
-from mjasc.randomization import (CampaignError, Randomization, draw_perturbations, load_campaign, parse_campaign,
+from mjasc.physics.currents import SumCurrent, UniformCurrent
+from mjasc.campaigns.perturbation import (CampaignError, Randomization, draw_perturbations, load_campaign, parse_campaign,
                                  randomized_scenario)
-from mjasc.scenario import parse_scenario
+from mjasc.runs.scenario import parse_scenario
 
 TASKS = Path(__file__).resolve().parent.parent / "tasks"
 #: The base scenario of these tests (independent of the shipped files): three Otters, a ferry on

@@ -1,4 +1,4 @@
-"""Range sensor (mjasc.range_sensor): geometry against closed form, own-hull exclusion, occlusion,
+"""Range sensor (mjasc.perception.range_sensor): geometry against closed form, own-hull exclusion, occlusion,
 other hulls seen at the ray height, noise / dropout / clutter statistics, option parsing."""
 
 import math
@@ -7,10 +7,10 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjasc.obstacles import CircleObstacle, MovingObstacle
-from mjasc.range_sensor import CLUTTER_GEOM, SensorConfig, parse_sensor_options, sensor_for_vessel
-from mjasc.vessels import load_vessel_type
-from mjasc.world import build_world
+from mjasc.physics.obstacles import CircleObstacle, MovingObstacle
+from mjasc.perception.range_sensor import CLUTTER_GEOM, SensorConfig, parse_sensor_options, sensor_for_vessel
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.physics.world import build_world
 
 QUIET = SensorConfig(range_noise_std_m=0.0, dropout_probability=0.0, clutter_per_scan=0.0)
 

@@ -1,9 +1,9 @@
-"""Tests for mjasc.right_of_way: starboard rule, its edge cases, and that a pair always splits."""
+"""Tests for mjasc.avoidance.right_of_way: starboard rule, its edge cases, and that a pair always splits."""
 
 import numpy as np
 import pytest
 
-from mjasc.right_of_way import gives_way, relative_bearing
+from mjasc.avoidance.right_of_way import gives_way, relative_bearing
 
 
 def pair(a, b):

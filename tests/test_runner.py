@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from mjasc.currents import UniformCurrent
-from mjasc.runner import Runner, RunFailed, run_scenario
-from mjasc.scenario import load_scenario
+from mjasc.physics.currents import UniformCurrent
+from mjasc.runs.runner import Runner, RunFailed, run_scenario
+from mjasc.runs.scenario import load_scenario
 
 TASKS = Path(__file__).resolve().parent.parent / "tasks"
 
@@ -111,7 +111,7 @@ def test_collisions_are_detected(tmp_path):
     """Two vessels driven straight at each other collide, and the summary says so."""
     sc = short_demo(40.0)
     a, b = sc.vessels[0], sc.vessels[1]
-    from mjasc.paths import Path as P
+    from mjasc.guidance.paths import Path as P
 
     a = dataclasses.replace(a, position_m=np.array([0.0, 0.0]), heading_rad=0.0, path=P.line([0, 0], [100, 0]),
                             options={})
@@ -128,9 +128,9 @@ def test_polygon_walls_lie_inside_the_declared_outline():
     """A ray cast toward a polygon obstacle hits its declared edge, not 0.4 m before it."""
     import mujoco
 
-    from mjasc.obstacles import PolygonObstacle
-    from mjasc.vessels import load_vessel_type
-    from mjasc.world import SENSOR_GEOM_GROUPS, build_world
+    from mjasc.physics.obstacles import PolygonObstacle
+    from mjasc.physics.vessels import load_vessel_type
+    from mjasc.physics.world import SENSOR_GEOM_GROUPS, build_world
 
     world = build_world([("v", load_vessel_type("otter"))], [PolygonObstacle("box", [[20, -5], [30, -5], [30, 5], [20, 5]])])
     mujoco.mj_forward(world.model, world.data)

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjasc.scenario import ScenarioError, load_scenario, parse_scenario
+from mjasc.runs.scenario import ScenarioError, load_scenario, parse_scenario
 
 TASKS = Path(__file__).resolve().parent.parent / "tasks"
 ROOT = TASKS.parent

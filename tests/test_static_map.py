@@ -1,4 +1,4 @@
-"""mjasc.static_map.StaticMap: hits, free-space carving along rays (cells seen through are freed,
+"""mjasc.perception.static_map.StaticMap: hits, free-space carving along rays (cells seen through are freed,
 occluded and hit cells are not), polygons, argument checks. Synthetic scans: a sensor at the origin
 with 720 beams over 360°."""
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from mjasc.static_map import StaticMap
+from mjasc.perception.static_map import StaticMap
 
 N = 720
 ANGLES = -math.pi + (np.arange(N) + 0.5) * 2.0 * math.pi / N

@@ -21,12 +21,12 @@ from dm_control.rl import control
 from dm_env import test_utils
 
 from mjasc import suite
-from mjasc.currents import UniformCurrent
-from mjasc.simulation import Simulation
+from mjasc.physics.currents import UniformCurrent
+from mjasc.physics.simulation import Simulation
 from mjasc.suite import otter, otter_team
-from mjasc.range_sensor import RangeSensor
+from mjasc.perception.range_sensor import RangeSensor
 from mjasc.suite.common import VesselPhysics
-from mjasc.world import WALL_THICKNESS_M
+from mjasc.physics.world import WALL_THICKNESS_M
 
 ALL = [pytest.param(d, t, id=f"{d}-{t}") for d, t in suite.ALL_TASKS]
 SHORT = {"time_limit": 3.0}
@@ -234,7 +234,7 @@ def test_collision_terminates_episode():
 
 
 def test_range_sensor_sees_the_walls_and_traffic():
-    """The task's ranges come from mjasc.range_sensor.RangeSensor (beam k at −π + (k + ½)·2π/n from
+    """The task's ranges come from mjasc.perception.range_sensor.RangeSensor (beam k at −π + (k + ½)·2π/n from
     the sensor mount, own hull excluded): against the basin walls in closed form, and a boat on a beam."""
     env = suite.load("otter", "collision_avoidance", task_kwargs={"random": 5})
     env.reset()

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 import rerun as rr
 
-from mjasc.suite_render import render_episode
+from mjasc.suite.render import render_episode
 
 
 def test_callable_policy_renders_video_and_recording(tmp_path):

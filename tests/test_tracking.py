@@ -1,4 +1,4 @@
-"""Multi-target tracking (mjasc.tracking) on synthetic detections: many targets at once, each one an
+"""Multi-target tracking (mjasc.perception.tracking) on synthetic detections: many targets at once, each one an
 independent run (200 m apart, so one batched bank carries 20 seeds). The full chain with the range
 sensor is in test_perception.py."""
 
@@ -8,9 +8,9 @@ import re
 import numpy as np
 import pytest
 
-from mjasc.detection import Detections
-from mjasc.imm import IMMBank, IMMConfig
-from mjasc.tracking import MultiTargetTracker, TrackingConfig, parse_tracking_options
+from mjasc.perception.detection import Detections
+from mjasc.perception.imm import IMMBank, IMMConfig
+from mjasc.perception.tracking import MultiTargetTracker, TrackingConfig, parse_tracking_options
 
 DT = 0.2  # 5 Hz scans
 VAR = 0.1  # thesis §6.1: measurement variance 0.1 m²
@@ -245,7 +245,7 @@ def test_parse_tracking_options():
                        ({"imm": {"turn_rates_rad_s": "fast"}}, "imm.turn_rates_rad_s")]:
         with pytest.raises(ValueError, match=rf"^{re.escape(w)}\.{re.escape(key)}"):
             parse_tracking_options(table, w)
-    # the shared config_tables wording (mjasc.config_tables), also in the sub-tables
+    # the shared config_tables wording (mjasc.core.config_tables), also in the sub-tables
     for table, message in [({"bogus": 1}, "bogus: unknown field (allowed: confirm_hits, "),
                            ({"confirm_hits": 1.5}, "confirm_hits: must be an integer, got 1.5"),
                            ({"max_coast_s": 0}, "max_coast_s: must be > 0, got 0.0"),
@@ -283,7 +283,7 @@ def test_slow_track_outline_is_the_hull_of_its_returns_and_its_reflection():
     30 m): its outline covers all four corners (the unseen faces from the reflection through the
     centre) and is much smaller than the disc's 12-gon; a return 6 m away that joined the cluster
     (another object) is left out; a moving target has no outline."""
-    from mjasc.geometry import distance_to_polygon, point_in_polygon
+    from mjasc.core.geometry import distance_to_polygon, point_in_polygon
 
     rng = np.random.default_rng(3)
     centre, half = np.array([50.0, 10.0]), np.array([1.75, 1.0])

@@ -15,10 +15,10 @@ from pathlib import Path
 import pytest
 from scipy.optimize import brentq
 
-from mjasc.trials import DEFAULT_COMMANDS, TRIAL_KINDS, run_trial
-from mjasc.vessels import load_vessel_type
+from mjasc.physics.trials import DEFAULT_COMMANDS, TRIAL_KINDS, run_trial
+from mjasc.physics.vessels import load_vessel_type
 
-from .helpers import make_sim
+from tests.helpers import make_sim
 
 REPO = Path(__file__).resolve().parent.parent
 

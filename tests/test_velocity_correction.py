@@ -1,10 +1,10 @@
-"""Tests for mjasc.velocity_correction: the virtual-target law, its saturation, thesis §6.3."""
+"""Tests for mjasc.avoidance.velocity_correction: the virtual-target law, its saturation, thesis §6.3."""
 
 import numpy as np
 import pytest
 
-from mjasc.collision_prediction import Decision, PredictedConflict
-from mjasc.velocity_correction import VelocityCorrection, simulate_speed_tracking
+from mjasc.avoidance.prediction import Decision, PredictedConflict
+from mjasc.avoidance.velocity_correction import VelocityCorrection, simulate_speed_tracking
 
 # Thesis §6.3 (digest §5): the prediction module's output, Ts = 1 s, k = 2.
 GAMMA_A, GAMMA_B = 340.3, 389.0

@@ -17,7 +17,7 @@ route (shimmy) and the baseline returns.
 import collections
 import inspect
 
-from . import delfim, otter, otter_team
+from mjasc.suite import delfim, otter, otter_team
 
 __all__ = ["load", "build_environment", "ALL_TASKS", "BENCHMARKING", "EASY", "HARD", "EXTRA", "MULTI_AGENT",
            "TASKS_BY_DOMAIN", "NO_REWARD_VIZ", "REWARD_VIZ"]

@@ -6,7 +6,7 @@ station / goal / slots from ``env.task``, not the noisy observations an agent ge
 a well-tuned conventional system achieves, not an upper bound. The collision-avoidance baseline
 (:class:`CASPolicy`) reads nothing about other bodies but its own sensor's scans.
 
-* path_following: :class:`mjasc.path_following.PathFollower` (integral LOS + heading and speed
+* path_following: :class:`mjasc.guidance.path_following.PathFollower` (integral LOS + heading and speed
   loops) on the task's path at the task's speed.
 * station_keeping: the same follower on a line through the station pointing into the current,
   with the speed reference proportional to the distance still to go plus the cross-track
@@ -29,16 +29,16 @@ import time
 
 import numpy as np
 
-from ..agent import OwnNavigation, VesselAgent
-from ..avoidance import AvoidanceConfig
-from ..config_tables import number
-from ..path_following import PathFollower
-from ..paths import Path
-from ..scenario import VesselConfig
-from ..tracking import TrackingConfig
-from . import ALL_TASKS, BENCHMARKING, load
-from .otter import CollisionAvoidance, PathFollowing, StationKeeping
-from .otter_team import Formation
+from mjasc.runs.agent import OwnNavigation, VesselAgent
+from mjasc.avoidance.system import AvoidanceConfig
+from mjasc.core.config_tables import number
+from mjasc.guidance.path_following import PathFollower
+from mjasc.guidance.paths import Path
+from mjasc.runs.scenario import VesselConfig
+from mjasc.perception.tracking import TrackingConfig
+from mjasc.suite import ALL_TASKS, BENCHMARKING, load
+from mjasc.suite.otter import CollisionAvoidance, PathFollowing, StationKeeping
+from mjasc.suite.otter_team import Formation
 
 __all__ = ["random_policy", "baseline_policy", "goal_line_policy", "CASPolicy", "make_policy", "episode_return",
            "evaluate", "CAS_AVOIDANCE", "CAS_TRACKING"]
@@ -46,7 +46,7 @@ __all__ = ["random_policy", "baseline_policy", "goal_line_policy", "CASPolicy", 
 #: The CAS baseline's prediction period [s] (the runner's default is 5 s; the task's boats are
 #: timed to meet the vessel, and predicting every 2 s lifted the mean return by a third).
 PREDICTION_PERIOD_S = 2.0
-#: The CAS baseline's avoidance settings: mjasc.avoidance defaults, except a 2 m safety distance
+#: The CAS baseline's avoidance settings: mjasc.avoidance.system defaults, except a 2 m safety distance
 #: (default 1 m) and a 4 m margin of the virtual target's goal (default 2 m): with the defaults a
 #: yielding vessel reached the crossing just as the boat left it, and touched it on a late turn.
 CAS_AVOIDANCE = AvoidanceConfig(safety_distance_m=2.0, correction_margin_m=4.0)
@@ -153,10 +153,10 @@ class CASPolicy:
     """mjasc's collision avoidance system as a policy of a ``collision_avoidance`` task.
 
     Per episode it builds the vessel's own pipeline on the environment's physics, as
-    :meth:`mjasc.runner.Runner._attach_components` does for a scenario vessel: a
-    :class:`mjasc.agent.VesselAgent` whose mission is the straight line start → goal, with
-    :class:`mjasc.perception.Perception` (the vessel's range sensor at its ``sensor_mount`` →
-    detections → static map and IMM tracks) and :class:`mjasc.avoidance.CollisionAvoidance`
+    :meth:`mjasc.runs.runner.Runner._attach_components` does for a scenario vessel: a
+    :class:`mjasc.runs.agent.VesselAgent` whose mission is the straight line start → goal, with
+    :class:`mjasc.perception.pipeline.Perception` (the vessel's range sensor at its ``sensor_mount`` →
+    detections → static map and IMM tracks) and :class:`mjasc.avoidance.system.CollisionAvoidance`
     (conflict prediction on the tracks, velocity correction or potential-field re-planning). Each
     call is one control tick in the runner's slot order: sensing and tracking (at the sensor's
     rate), prediction (every ``prediction_period_s``, and at once on a new track), then control
@@ -165,7 +165,7 @@ class CASPolicy:
     What it reads: the vessel's own navigation state (position, heading, velocities) and its own
     sensor's scans (ray casts on the physics); the mission (start, goal). Never another body's
     state. Its sensor is ``sensor_config`` (default: the project's 720-beam scanner,
-    :class:`mjasc.range_sensor.SensorConfig`), not the 32 normalized ranges of the observation.
+    :class:`mjasc.perception.range_sensor.SensorConfig`), not the 32 normalized ranges of the observation.
     ``seed`` seeds the sensor's noise (the policy is otherwise deterministic).
     """
 
@@ -184,8 +184,8 @@ class CASPolicy:
         self.episodes = 0
 
     def _build(self) -> None:
-        from ..avoidance import CollisionAvoidance as CAS
-        from ..perception import Perception
+        from mjasc.avoidance.system import CollisionAvoidance as CAS
+        from mjasc.perception.pipeline import Perception
 
         env, task = self.env, self.env.task
         physics = env.physics

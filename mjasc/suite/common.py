@@ -1,7 +1,7 @@
 """What every mjasc suite domain shares: the Physics subclass, world composition, range sensors.
 
 :class:`VesselPhysics` is a dm_control ``mjcf.Physics`` whose :meth:`~VesselPhysics.step` is
-mjasc's physics step, :meth:`mjasc.simulation.Simulation.step` (``mj_step1`` → current,
+mjasc's physics step, :meth:`mjasc.physics.simulation.Simulation.step` (``mj_step1`` → current,
 propellers, hydrodynamics with exact added mass → ``mj_step2``), run on the Physics's own live
 ``MjData``: the suite's physics is the simulator's, not a copy. After the step it brings the
 moving obstacles to the new time and runs ``mj_step1`` (dm_control's ``legacy_step`` contract:
@@ -25,13 +25,13 @@ from dm_control import mjcf
 from dm_env import specs
 from dm_control.rl import control
 
-from ..currents import CurrentField, UniformCurrent
-from ..frames import wrap_angle
-from ..obstacles import PolygonObstacle
-from ..range_sensor import RangeSensor, SensorConfig, sensor_for_vessel
-from ..simulation import Simulation
-from ..vessels import load_vessel_type
-from ..world import World, build_world
+from mjasc.physics.currents import CurrentField, UniformCurrent
+from mjasc.core.frames import wrap_angle
+from mjasc.physics.obstacles import PolygonObstacle
+from mjasc.perception.range_sensor import RangeSensor, SensorConfig, sensor_for_vessel
+from mjasc.physics.simulation import Simulation
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.physics.world import World, build_world
 
 __all__ = ["Environment", "VesselPhysics", "compose_world", "range_sensor", "basin_walls", "world_to_body",
            "CONTROL_TIMESTEP_S"]
@@ -84,7 +84,7 @@ def _merge_domain_xml(root: mjcf.RootElement, xml_path: Path, vessel_names) -> N
 
 
 def compose_world(vessels, static_obstacles=(), moving_obstacles=(), domain_xml: Path | None = None) -> World:
-    """:func:`mjasc.world.build_world` plus the domain's MJCF (cameras, markers, materials), compiled
+    """:func:`mjasc.physics.world.build_world` plus the domain's MJCF (cameras, markers, materials), compiled
     once more into a :class:`VesselPhysics` sharing nothing with the first compile.
 
     ``vessels`` is a list of (name, vessel type name). The domain MJCF may add assets, cameras,
@@ -229,7 +229,7 @@ class VesselPhysics(mjcf.Physics):
 
     # ------------------------------------------------------------------ stepping
     def step(self, nstep: int = 1) -> None:
-        """``nstep`` physics steps of :class:`mjasc.simulation.Simulation`, then sync kinematics."""
+        """``nstep`` physics steps of :class:`mjasc.physics.simulation.Simulation`, then sync kinematics."""
         with self.check_invalid_state():
             self._sim.step(nstep)
             if self.legacy_step:
@@ -326,7 +326,7 @@ class VesselPhysics(mjcf.Physics):
 
 
 def range_sensor(physics: VesselPhysics, vessel: int, config: SensorConfig) -> RangeSensor:
-    """Vessel ``vessel``'s :class:`mjasc.range_sensor.RangeSensor` on this physics: the project's one
+    """Vessel ``vessel``'s :class:`mjasc.perception.range_sensor.RangeSensor` on this physics: the project's one
     ray-casting sensor (``mj_multiRay`` from the hull's ``sensor_mount`` at ``config.ray_height_m``,
     geom groups 0 and 3, the own hull excluded; noise, dropout and clutter in ``scan``)."""
     return sensor_for_vessel(physics.world, vessel, config)

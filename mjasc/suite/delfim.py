@@ -7,7 +7,7 @@ Otter tasks are the benchmark set, these are extras (``mjasc.suite.EXTRA``).
 
 from dm_control.utils import containers
 
-from . import otter
+from mjasc.suite import otter
 
 SUITE = containers.TaggedTasks()
 VESSEL_TYPE = "delfim"

@@ -16,7 +16,7 @@ for a flat vector); actions a ``Box(-1, 1)``; ``terminated`` is True when the ta
 
 from __future__ import annotations
 
-from . import ALL_TASKS, load
+from mjasc.suite import ALL_TASKS, load
 
 __all__ = ["make_gym_env", "register_gym_envs", "gym_id"]
 

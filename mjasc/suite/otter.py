@@ -8,7 +8,7 @@ time-varying current, more and faster traffic, more observation noise, larger in
 * ``station_keeping``: reach and hold a randomized position, bow into the current (twin fixed
   propellers cannot push sideways: the only pose held against a current faces it).
 * ``collision_avoidance``: cross an 80 m walled basin to a goal through moving traffic seen only
-  through a 360° range sensor (mjasc.range_sensor.RangeSensor); the episode ends (discount 0) on any contact.
+  through a 360° range sensor (mjasc.perception.range_sensor.RangeSensor); the episode ends (discount 0) on any contact.
 
 Actions: normalized (port, starboard) propeller commands in [−1, 1] (docs/architecture.md).
 Observations: body-frame quantities only (no absolute position), Gaussian noise from ``self.random``.
@@ -27,13 +27,13 @@ from dm_control.suite import base
 from dm_control.utils import containers, rewards
 from dm_env import specs
 
-from ..currents import GaussMarkovCurrent, UniformCurrent
-from ..frames import wrap_angle
-from ..obstacles import MovingObstacle
-from ..paths import Path
-from ..vessels import load_vessel_type
-from ..range_sensor import RangeSensor, SensorConfig
-from .common import CONTROL_TIMESTEP_S, Environment, VesselPhysics, basin_walls, compose_world, range_sensor, world_to_body
+from mjasc.physics.currents import GaussMarkovCurrent, UniformCurrent
+from mjasc.core.frames import wrap_angle
+from mjasc.physics.obstacles import MovingObstacle
+from mjasc.guidance.paths import Path
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.perception.range_sensor import RangeSensor, SensorConfig
+from mjasc.suite.common import CONTROL_TIMESTEP_S, Environment, VesselPhysics, basin_walls, compose_world, range_sensor, world_to_body
 
 __all__ = ["SUITE", "Difficulty", "EASY", "HARD", "OWN_STATE_OBSERVATIONS", "PathFollowing", "StationKeeping",
            "CollisionAvoidance", "get_model_and_assets", "make_environment"]
@@ -64,7 +64,7 @@ class Difficulty:
     velocity_noise_m_s: float  # σ on body velocities and the current estimate
     position_noise_m: float  # σ on path / target / goal errors
     heading_noise_rad: float
-    range_noise_m: float  # σ of a range return (mjasc.range_sensor's noise model)
+    range_noise_m: float  # σ of a range return (mjasc.perception.range_sensor's noise model)
     initial_offset_m: float  # largest initial distance from the path / station / slot
     initial_heading_error_rad: float
     path_turn_rad: float  # largest course change at a waypoint
@@ -347,14 +347,14 @@ class CollisionAvoidance(_VesselTask):
 
     def sensor_config(self) -> SensorConfig:
         """The vessel's range sensor: RANGE_RAYS beams over 360° out to RANGE_MAX_M, no blind zone,
-        range noise / dropout / clutter of the difficulty (mjasc.range_sensor's model)."""
+        range noise / dropout / clutter of the difficulty (mjasc.perception.range_sensor's model)."""
         d = self.difficulty
         return SensorConfig(beams=RANGE_RAYS, fov_deg=360.0, max_range_m=RANGE_MAX_M, min_range_m=0.0,
                             rate_hz=1.0 / CONTROL_TIMESTEP_S, range_noise_std_m=d.range_noise_m,
                             dropout_probability=d.range_dropout, clutter_per_scan=d.range_clutter_per_scan)
 
     def range_sensor(self, physics: VesselPhysics) -> RangeSensor:
-        """The :class:`mjasc.range_sensor.RangeSensor` of the vessel (rebuilt when the difficulty or
+        """The :class:`mjasc.perception.range_sensor.RangeSensor` of the vessel (rebuilt when the difficulty or
         the model changes)."""
         key = (id(self.difficulty), id(physics.model.ptr))
         if getattr(self, "_sensor_key", None) != key:

@@ -27,9 +27,9 @@ import numpy as np
 from dm_control.rl import control
 from dm_control.utils import containers, rewards
 
-from ..paths import ArcSegment, LineSegment, Path
-from .common import CONTROL_TIMESTEP_S, Environment, VesselPhysics, compose_world, world_to_body
-from .otter import EASY, HARD, OWN_STATE_OBSERVATIONS, XML_PATH, Difficulty, _random_current, _vec, _VesselTask
+from mjasc.guidance.paths import ArcSegment, LineSegment, Path
+from mjasc.suite.common import CONTROL_TIMESTEP_S, Environment, VesselPhysics, compose_world, world_to_body
+from mjasc.suite.otter import EASY, HARD, OWN_STATE_OBSERVATIONS, XML_PATH, Difficulty, _random_current, _vec, _VesselTask
 
 __all__ = ["SUITE", "Formation", "SLOTS_M", "agent_observation", "joint_policy", "make_environment"]
 

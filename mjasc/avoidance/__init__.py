@@ -1,0 +1,1 @@
+"""Collision avoidance: prediction, potential-field re-planning, velocity correction, right of way."""

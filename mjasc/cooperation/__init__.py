@@ -1,0 +1,1 @@
+"""Cooperation: the lossy, delayed comms link and cooperative path following."""

@@ -1,0 +1,254 @@
+"""The team's communication link: a broadcast medium with distance-dependent delay and loss.
+
+The thesis's environment block adds "distance-dependent transmission delays and losses" to the
+messages the agents exchange (digest §1); the coordination controller (``coordination.py``) sends
+its path parameter over this link. Every message a vessel sends is broadcast to every other team
+member; each (message, receiver) pair is decided independently:
+
+* **loss** — with d the sender–receiver distance [m], R = ``range_m``, p₀ = ``loss_probability``
+  and n = ``loss_exponent``::
+
+      p(d) = p₀ + (1 − p₀) (d / R)^n     for d < R,         p(d) = 1   for d ≥ R
+
+  (a floor p₀ near the sender, rising smoothly to certain loss at the range limit);
+* **delay** — ``base_delay_s`` (modem / MAC / processing latency) plus propagation plus jitter::
+
+      τ(d) = base_delay_s + d / propagation_speed_m_s + U(0, jitter_s)
+
+  so the mean delay is ``base_delay_s + d/c + jitter_s/2``.
+
+Presets: ``radio`` (default: a UHF/Wi-Fi class modem between surface craft — range 1000 m, 20 ms
+latency, speed of light, 10 ms jitter, no loss floor) and ``acoustic`` (an underwater acoustic
+modem — range 2000 m, 0.5 s latency, 1500 m/s, 0.2 s jitter, 5 % loss floor). Any field of the
+``[comms]`` table overrides the preset.
+
+When is a message decided? Lazily, at the receiver's first :meth:`CommsNetwork.receive` call at or
+after the send time: d is then the distance from the sender's position at sending to the
+receiver's position at that call (vessels move ~1 m per comms period; ranges are hundreds of
+metres). The random draws (two uniforms per pair, from the generator passed in) happen in the
+order of the calls, so a run is a pure function of its seed. Messages are returned in order of
+arrival (``received_time_s``), which is non-decreasing over successive calls of one receiver.
+"""
+
+from __future__ import annotations
+
+import heapq
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from mjasc.core.config_tables import check_keys, dataclass_from_table, number, string
+from mjasc.core.config_tables import table as as_table
+
+__all__ = ["NetworkConfig", "Message", "CommsNetwork", "parse_network_options", "PRESETS"]
+
+
+@dataclass(frozen=True)
+class NetworkConfig:
+    """Link model parameters (SI). Defaults: the ``radio`` preset."""
+
+    range_m: float = 1000.0
+    loss_probability: float = 0.0
+    loss_exponent: float = 4.0
+    base_delay_s: float = 0.02
+    propagation_speed_m_s: float = 3.0e8
+    jitter_s: float = 0.01
+
+    def __post_init__(self):
+        _check(self, "comms")
+
+    def loss_at(self, distance_m) -> np.ndarray:
+        """Loss probability p(d) for distances [m] (any shape)."""
+        d = np.asarray(distance_m, dtype=float)
+        p = self.loss_probability + (1.0 - self.loss_probability) * np.clip(d / self.range_m, 0.0, None) ** self.loss_exponent
+        return np.where(d >= self.range_m, 1.0, np.minimum(p, 1.0))
+
+    def mean_delay_at(self, distance_m) -> np.ndarray:
+        """Mean delay E[τ(d)] [s] for distances [m] (any shape)."""
+        d = np.asarray(distance_m, dtype=float)
+        return self.base_delay_s + d / self.propagation_speed_m_s + 0.5 * self.jitter_s
+
+
+_LIMITS = {  # field -> bounds of config_tables.number
+    "range_m": {"positive": True},
+    "loss_probability": {"nonneg": True, "maximum": 1.0},
+    "loss_exponent": {"positive": True},
+    "base_delay_s": {"nonneg": True},
+    "propagation_speed_m_s": {"positive": True},
+    "jitter_s": {"nonneg": True},
+}
+
+
+def _check(cfg: NetworkConfig, where: str) -> None:
+    for key, bounds in _LIMITS.items():
+        number(getattr(cfg, key), f"{where}.{key}", **bounds)
+
+
+PRESETS = {
+    "radio": NetworkConfig(),
+    "acoustic": NetworkConfig(range_m=2000.0, loss_probability=0.05, loss_exponent=2.0, base_delay_s=0.5,
+                              propagation_speed_m_s=1500.0, jitter_s=0.2),
+}
+
+
+def parse_network_options(table: dict, where: str = "comms") -> NetworkConfig:
+    """The scenario's top-level ``[comms]`` table → :class:`NetworkConfig`.
+
+    Keys: ``preset`` (``radio`` | ``acoustic``, default ``radio``) and any field of
+    :class:`NetworkConfig`. Raises ValueError naming ``f"{where}.{key}"`` and the reason.
+    """
+    check_keys(as_table(table, where), {"preset", *(f.name for f in fields(NetworkConfig))}, where)
+    preset = string(table.get("preset", "radio"), f"{where}.preset", choices=PRESETS)
+    overrides = {k: v for k, v in table.items() if k != "preset"}
+    if not overrides:
+        return PRESETS[preset]
+    return dataclass_from_table(NetworkConfig, overrides, where, defaults=PRESETS[preset], check=_check)
+
+
+@dataclass(frozen=True)
+class Message:
+    """One delivered message. ``payload`` is the receiver's own copy."""
+
+    sender: str
+    sent_time_s: float
+    received_time_s: float
+    payload: dict
+
+    @property
+    def delay_s(self) -> float:
+        return self.received_time_s - self.sent_time_s
+
+
+@dataclass
+class _Sent:
+    id: int
+    time_s: float
+    sender: str
+    payload: dict
+    position_m: np.ndarray
+
+
+@dataclass
+class _LinkStats:
+    offered: int = 0  # (message, receiver) pairs decided
+    delivered: int = 0
+    lost: int = 0
+    lost_out_of_range: int = 0
+    delay_sum_s: float = 0.0
+    delay_max_s: float = 0.0
+
+    def as_dict(self) -> dict:
+        return {"offered": self.offered, "delivered": self.delivered, "lost": self.lost,
+                "lost_out_of_range": self.lost_out_of_range,
+                "loss_rate": self.lost / self.offered if self.offered else 0.0,
+                "mean_delay_s": self.delay_sum_s / self.delivered if self.delivered else float("nan"),
+                "max_delay_s": self.delay_max_s}
+
+
+def _copy_payload(payload: dict) -> dict:
+    return {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in payload.items()}
+
+
+class CommsNetwork:
+    """Broadcast medium shared by a team. ``config`` None = the ``radio`` preset.
+
+    ``send(t, sender, payload, sender_position)`` broadcasts; ``receive(t, receiver,
+    receiver_position)`` returns the messages that have arrived for ``receiver`` by time ``t``
+    (and not returned before), in arrival order. Send times must be non-decreasing.
+    """
+
+    def __init__(self, team_names, config: NetworkConfig | None = None, rng: np.random.Generator | None = None):
+        self.team = list(team_names)
+        if not self.team or len(set(self.team)) != len(self.team):
+            raise ValueError(f"comms: team names must be non-empty and unique, got {self.team!r}")
+        self.config = config if config is not None else NetworkConfig()
+        if not isinstance(self.config, NetworkConfig):
+            raise ValueError(f"comms: config must be a NetworkConfig or None, got {type(self.config).__name__}")
+        self.rng = rng if rng is not None else np.random.default_rng(0)
+        self._log: list[_Sent] = []
+        self._base = 0  # id of self._log[0] (the log is pruned once every receiver has read past it)
+        self._cursor = {n: 0 for n in self.team}  # next message id each receiver has not decided yet
+        self._pending: dict[str, list] = {n: [] for n in self.team}  # heap of (arrival, id, Message)
+        self._last_send_s = -np.inf
+        self.sent = {n: 0 for n in self.team}
+        self.link = {n: _LinkStats() for n in self.team}  # per receiver
+
+    def _member(self, name: str, role: str) -> None:
+        if name not in self._cursor:
+            raise ValueError(f"comms.{role}: {name!r} is not a team member ({', '.join(self.team)})")
+
+    def send(self, t_s: float, sender: str, payload: dict, sender_position) -> int:
+        """Broadcast ``payload`` from ``sender`` at time ``t_s`` [s], position (2,) world [m]. Returns its id."""
+        self._member(sender, "sender")
+        if t_s < self._last_send_s:
+            raise ValueError(f"comms.send: time must not go backwards ({t_s} < {self._last_send_s})")
+        if not isinstance(payload, dict):
+            raise ValueError(f"comms.send: payload must be a dict, got {type(payload).__name__}")
+        self._last_send_s = float(t_s)
+        mid = self._base + len(self._log)
+        self._log.append(_Sent(mid, float(t_s), sender, _copy_payload(payload),
+                               np.array(sender_position, dtype=float).reshape(-1)[:2]))
+        self.sent[sender] += 1
+        return mid
+
+    def receive(self, t_s: float, receiver: str, receiver_position) -> list[Message]:
+        """Messages that reached ``receiver`` by ``t_s``, ordered by arrival time."""
+        self._member(receiver, "receiver")
+        cfg, rng, stats = self.config, self.rng, self.link[receiver]
+        pos = np.array(receiver_position, dtype=float).reshape(-1)[:2]
+        heap = self._pending[receiver]
+        k = self._cursor[receiver] - self._base
+        while k < len(self._log) and self._log[k].time_s <= t_s:
+            m = self._log[k]
+            k += 1
+            if m.sender == receiver:
+                continue
+            d = float(np.hypot(*(m.position_m - pos)))
+            u_loss, u_jitter = rng.random(2)
+            stats.offered += 1
+            if d >= cfg.range_m or u_loss < float(cfg.loss_at(d)):
+                stats.lost += 1
+                stats.lost_out_of_range += d >= cfg.range_m
+                continue
+            arrival = m.time_s + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u_jitter * cfg.jitter_s
+            heapq.heappush(heap, (arrival, m.id, Message(m.sender, m.time_s, arrival, _copy_payload(m.payload))))
+        self._cursor[receiver] = self._base + k
+        self._prune()
+        out = []
+        while heap and heap[0][0] <= t_s:
+            arrival, _, msg = heapq.heappop(heap)
+            stats.delivered += 1
+            stats.delay_sum_s += msg.delay_s
+            stats.delay_max_s = max(stats.delay_max_s, msg.delay_s)
+            out.append(msg)
+        return out
+
+    def _prune(self) -> None:
+        done = min(self._cursor.values()) - self._base
+        if done > 256:
+            del self._log[:done]
+            self._base += done
+
+    # ------------------------------------------------------------------ statistics
+    def stats(self, receiver: str | None = None) -> dict:
+        """Counts and delays, for one receiver or the whole team: ``sent`` (broadcasts),
+        ``offered`` (message–receiver pairs decided), ``delivered``, ``lost`` (of which
+        ``lost_out_of_range``), ``loss_rate``, ``mean_delay_s``, ``max_delay_s``, ``pending``."""
+        if receiver is not None:
+            self._member(receiver, "receiver")
+            out = self.link[receiver].as_dict()
+            out["sent"] = self.sent[receiver]
+            out["pending"] = len(self._pending[receiver])
+            return out
+        total = _LinkStats()
+        for s in self.link.values():
+            total.offered += s.offered
+            total.delivered += s.delivered
+            total.lost += s.lost
+            total.lost_out_of_range += s.lost_out_of_range
+            total.delay_sum_s += s.delay_sum_s
+            total.delay_max_s = max(total.delay_max_s, s.delay_max_s)
+        out = total.as_dict()
+        out["sent"] = sum(self.sent.values())
+        out["pending"] = sum(len(h) for h in self._pending.values())
+        return out

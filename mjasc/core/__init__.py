@@ -1,0 +1,1 @@
+"""Conventions and the typed values that cross stages: frames, geometry, config tables, estimates."""

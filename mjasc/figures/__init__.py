@@ -1,0 +1,1 @@
+"""Thesis-style figures made from the code."""

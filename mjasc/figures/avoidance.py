@@ -1,0 +1,170 @@
+"""Figures of the collision avoidance runs (thesis §6.2–6.4): top-down tracks with the mission
+paths, the obstacles' tracks, the predicted collision points, the static virtual obstacles and the
+re-planned paths, plus speed and mode against time.
+
+Each figure is made by running the scenario file in ``tasks/`` through the real runner (the
+vessels avoid with their own perception), recording what the avoidance components did on the way.
+
+Entry point: ``make_avoidance_figures(out_dir, scenarios=None, duration_s=None) -> list[Path]``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from mjasc.avoidance.system import MODES
+from mjasc.core.resources import tasks_dir
+from mjasc.runs.recording import vessel_colour
+from mjasc.runs.runner import Runner
+from mjasc.runs.scenario import load_scenario
+
+TASKS_DIR = tasks_dir()
+
+#: Scenario file stem → figure title.
+FIGURE_SCENARIOS = {
+    "thesis_6_2_dock": "§6.2 dock: potential-field path out of the dock",
+    "thesis_6_3_velocity_correction": "§6.3 velocity correction: slow down, let the obstacle pass",
+    "thesis_6_4_crossing": "§6.4.1 a large vessel crosses the formation",
+    "thesis_6_4_head_on": "§6.4.2 head-on obstacle: velocity correction, then SVO re-plan",
+    "thesis_6_4_bottleneck": "§6.4.3 bottleneck between two islands, starboard priority",
+}
+
+
+@dataclass
+class RunTrace:
+    """What one run did, sampled at the record rate (world ENU, SI)."""
+
+    scenario: object
+    times: list = field(default_factory=list)
+    positions: list = field(default_factory=list)  # (n_vessels, 2) per tick
+    speeds: list = field(default_factory=list)
+    references: list = field(default_factory=list)
+    modes: list = field(default_factory=list)  # per tick: list of mode codes
+    traffic: list = field(default_factory=list)  # (n_moving, 2) per tick
+    detours: dict = field(default_factory=dict)  # vessel → list of (t, streamline (k, 2), obstacles)
+    svos: dict = field(default_factory=dict)  # vessel → list of (t, polygon)
+    collision_points: dict = field(default_factory=dict)  # vessel → list of (t, point (2,), t_i, t_f)
+    summary: dict = field(default_factory=dict)
+
+
+class _TracingRunner(Runner):
+    def __init__(self, scenario, trace: RunTrace):
+        super().__init__(scenario, None, progress=False)
+        self.trace = trace
+        self._seen_detours = [None] * len(self.agents)
+        self._seen_predictions = [None] * len(self.agents)
+
+    def _record(self, states):
+        super()._record(states)
+        tr = self.trace
+        tr.times.append(states.time_s)
+        tr.positions.append(states.position_m.copy())
+        tr.speeds.append(states.speed_m_s.copy())
+        tr.references.append([o.speed_ref_m_s if o else 0.0 for o in self._last_outputs])
+        tr.modes.append([MODES.get(a.mode, 0) if a.avoidance is not None else 0 for a in self.agents])
+        if len(self.world.moving_obstacles):
+            tr.traffic.append(self.sim.traffic_state()[0].copy())
+        for i, agent in enumerate(self.agents):
+            av = agent.avoidance
+            if av is None:
+                continue
+            if av.detour is not None and av.detour is not self._seen_detours[i]:
+                self._seen_detours[i] = av.detour
+                tr.detours.setdefault(agent.name, []).append((states.time_s, av.detour.streamline,
+                                                              av.detour.obstacles))
+            last = av._last
+            if last is not None and last is not self._seen_predictions[i]:
+                self._seen_predictions[i] = last
+                for c in last["conflicts"]:
+                    k = int(np.argmin(np.abs(c.times - c.t_closest_s)))
+                    tr.collision_points.setdefault(agent.name, []).append(
+                        (last["t"], c.vessel_positions[k], c.t_i, c.t_f))
+                    if c.svo_polygon is not None:
+                        tr.svos.setdefault(agent.name, []).append((last["t"], c.svo_polygon))
+
+
+def trace_run(name: str, duration_s: float | None = None) -> RunTrace:
+    """Run ``tasks/<name>.toml`` and record what its avoidance did."""
+    sc = load_scenario(TASKS_DIR / f"{name}.toml")
+    if duration_s is not None:
+        sc = sc.with_overrides(duration_s=duration_s)
+    trace = RunTrace(sc)
+    runner = _TracingRunner(sc, trace)
+    trace.summary = runner.run().summary
+    return trace
+
+
+def _closed(p):
+    p = np.asarray(p)
+    return np.vstack([p, p[:1]])
+
+
+def plot_trace(trace: RunTrace, title: str, path: Path, plt) -> Path:
+    sc = trace.scenario
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(14, 6), gridspec_kw={"width_ratios": [3, 2]})
+    pos = np.array(trace.positions)
+    names = [v.name for v in sc.vessels]
+    for o in sc.static_obstacles:
+        poly = o.vertices if hasattr(o, "vertices") else o.polygon(32)
+        ax.fill(*_closed(poly).T, color=(0.6, 0.45, 0.3), alpha=0.6)
+    if trace.traffic:
+        tp = np.array(trace.traffic)
+        for k, o in enumerate(sc.moving_obstacles):
+            ax.plot(tp[:, k, 0], tp[:, k, 1], "--", color="tab:red", lw=1)
+            ax.add_patch(plt.Circle(tp[-1, k], o.radius_m, color="tab:red", alpha=0.3))
+    for i, v in enumerate(sc.vessels):
+        col = np.array(vessel_colour(i)) / 255
+        if v.path is not None:
+            ax.plot(*v.path.sample(1.0).T, ":", color=col, lw=1, label=f"{v.name} mission path")
+        ax.plot(pos[:, i, 0], pos[:, i, 1], color=col, lw=2, label=f"{v.name} track")
+        for t, sl, obstacles in trace.detours.get(v.name, []):
+            ax.plot(*sl.T, color=col, lw=1, alpha=0.8, dashes=(4, 2))
+            for p in obstacles:
+                ax.plot(*_closed(p).T, color="purple", lw=0.8, alpha=0.6)
+        for t, poly in trace.svos.get(v.name, []):
+            ax.fill(*_closed(poly).T, color="gold", alpha=0.25)
+        for t, p, t_i, t_f in trace.collision_points.get(v.name, []):
+            ax.plot(*p, "x", color="red", ms=8)
+            tf = "∞" if not np.isfinite(t_f) else f"{t_f:.0f}"
+            ax.annotate(f"{t:.0f}s: [{t_i:.0f}, {tf}]", p, fontsize=7, color="red")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x east [m]")
+    ax.set_ylabel("y north [m]")
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=7, loc="best")
+    t = np.array(trace.times)
+    sp, ref, modes = np.array(trace.speeds), np.array(trace.references), np.array(trace.modes)
+    for i, v in enumerate(sc.vessels):
+        if "avoidance" not in v.options:
+            continue
+        col = np.array(vessel_colour(i)) / 255
+        ax2.plot(t, sp[:, i], color=col, lw=1.5, label=f"{v.name} speed")
+        ax2.plot(t, ref[:, i], color=col, lw=0.8, ls="--", label=f"{v.name} commanded")
+        ax2.fill_between(t, 0, 0.1 * modes[:, i], color=col, alpha=0.3, step="post")
+    ax2.set_xlabel("time [s]")
+    ax2.set_ylabel("speed [m/s]  (bands: mode, 0.1 = yield … 0.3 = detour)")
+    s = trace.summary
+    clear = {n: s["vessels"][n]["min_clearance_to_any_m"] for n in names}
+    ax2.set_title(f"collision: {s['any_collision']}; min clearance [m]: " +
+                  ", ".join(f"{n} {c:.1f}" for n, c in clear.items() if c is not None), fontsize=8)
+    ax2.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
+def make_avoidance_figures(out_dir, scenarios=None, duration_s: float | None = None) -> list[Path]:
+    """Run each scenario (default: all of :data:`FIGURE_SCENARIOS`) and write
+    ``avoidance_<name>.png`` to ``out_dir``. Returns the written paths."""
+    from mjasc.figures.thesis import figure_backend
+
+    plt, out = figure_backend(out_dir)
+    written = []
+    for name in scenarios or FIGURE_SCENARIOS:
+        trace = trace_run(name, duration_s)
+        written.append(plot_trace(trace, FIGURE_SCENARIOS.get(name, name), out / f"avoidance_{name}.png", plt))
+    return written

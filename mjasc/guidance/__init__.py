@@ -1,0 +1,1 @@
+"""Guidance and control: arc-length paths and integral-LOS path following."""

@@ -1,0 +1,476 @@
+"""Arc-length parameterized planar paths: lines and circular arcs joined end to end.
+
+A :class:`Path` is the geometric object every vessel follows (digest §1: "each vessel follows its
+own path, parameterized so that equal path parameters mean in formation"). World frame ENU,
+metres; the path parameter γ is the arc length from the start of the path [m]; the tangent angle
+(course of the path) is CCW from east [rad], wrapped to (−π, π]; curvature is signed, CCW (left
+turn) positive [1/m].
+
+Every segment is a piece of constant curvature, so internally each one is stored as
+(start point p₀, start course θ₀, curvature κ, length L) and evaluated in one vectorized formula:
+
+    p(s) = p₀ + s (cos θ₀, sin θ₀)                                   κ = 0 (line)
+    p(s) = p₀ + (sin(θ₀ + κs) − sin θ₀, cos θ₀ − cos(θ₀ + κs)) / κ    κ ≠ 0 (arc)
+    θ(s) = θ₀ + κ s
+
+Paths are immutable; re-planning builds new ones with :meth:`Path.split`,
+:meth:`Path.sub_path` and :meth:`Path.concatenate` (splice a detour in).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjasc.core.frames import wrap_angle
+
+#: Two segment ends closer than this are the same point [m].
+CONTINUITY_TOLERANCE_M = 1e-6
+#: Consecutive points closer than this are treated as one point [m].
+_DUPLICATE_TOLERANCE_M = 1e-9
+
+
+def _as_point(value, name: str) -> np.ndarray:
+    p = np.asarray(value, dtype=float)
+    if p.shape != (2,):
+        raise ValueError(f"{name}: expected a point of shape (2,), got shape {p.shape}")
+    if not np.all(np.isfinite(p)):
+        raise ValueError(f"{name}: must be finite, got {p.tolist()}")
+    p = p.copy()
+    p.flags.writeable = False
+    return p
+
+
+@dataclass(frozen=True, eq=False)
+class LineSegment:
+    """Straight segment from ``start`` (2,) to ``end`` (2,) [m], world frame."""
+
+    start: np.ndarray
+    end: np.ndarray
+
+    def __post_init__(self):
+        object.__setattr__(self, "start", _as_point(self.start, "LineSegment.start"))
+        object.__setattr__(self, "end", _as_point(self.end, "LineSegment.end"))
+        if np.hypot(*(self.end - self.start)) <= _DUPLICATE_TOLERANCE_M:
+            raise ValueError("LineSegment.end: equals start (zero-length segment)")
+
+    @property
+    def length(self) -> float:
+        return float(np.hypot(*(self.end - self.start)))
+
+    @property
+    def start_course(self) -> float:
+        d = self.end - self.start
+        return float(np.arctan2(d[1], d[0]))
+
+    @property
+    def curvature(self) -> float:
+        return 0.0
+
+    @property
+    def end_point(self) -> np.ndarray:
+        return self.end
+
+    @property
+    def start_point(self) -> np.ndarray:
+        return self.start
+
+    def sub(self, s_a: float, s_b: float) -> "LineSegment":
+        """The piece between local arc lengths s_a < s_b."""
+        d = (self.end - self.start) / self.length
+        return LineSegment(self.start + s_a * d, self.start + s_b * d)
+
+
+@dataclass(frozen=True, eq=False)
+class ArcSegment:
+    """Circular arc: ``centre`` (2,) [m], ``radius`` [m] > 0, ``start_angle`` [rad] = direction of the
+    radius vector from the centre to the arc's start point (CCW from east), ``sweep`` [rad] signed,
+    CCW (left turn) > 0, 0 < |sweep| ≤ 2π. The path's course at the start is
+    ``start_angle + sign(sweep)·π/2``."""
+
+    centre: np.ndarray
+    radius: float
+    start_angle: float
+    sweep: float
+
+    def __post_init__(self):
+        object.__setattr__(self, "centre", _as_point(self.centre, "ArcSegment.centre"))
+        r, a, sw = float(self.radius), float(self.start_angle), float(self.sweep)
+        if not np.isfinite(r) or r <= 0.0:
+            raise ValueError(f"ArcSegment.radius: must be finite and > 0, got {self.radius}")
+        if not np.isfinite(a):
+            raise ValueError(f"ArcSegment.start_angle: must be finite, got {self.start_angle}")
+        if not np.isfinite(sw) or sw == 0.0 or abs(sw) > 2.0 * np.pi + 1e-12:
+            raise ValueError(f"ArcSegment.sweep: must be nonzero with |sweep| ≤ 2π, got {self.sweep}")
+        object.__setattr__(self, "radius", r)
+        object.__setattr__(self, "start_angle", a)
+        object.__setattr__(self, "sweep", sw)
+
+    @property
+    def length(self) -> float:
+        return self.radius * abs(self.sweep)
+
+    @property
+    def start_course(self) -> float:
+        return float(wrap_angle(self.start_angle + np.sign(self.sweep) * np.pi / 2.0))
+
+    @property
+    def curvature(self) -> float:
+        return float(np.sign(self.sweep) / self.radius)
+
+    def _at_angle(self, angle: float) -> np.ndarray:
+        return self.centre + self.radius * np.array([np.cos(angle), np.sin(angle)])
+
+    @property
+    def start_point(self) -> np.ndarray:
+        return self._at_angle(self.start_angle)
+
+    @property
+    def end_point(self) -> np.ndarray:
+        return self._at_angle(self.start_angle + self.sweep)
+
+    def sub(self, s_a: float, s_b: float) -> "ArcSegment":
+        """The piece between local arc lengths s_a < s_b."""
+        sgn = np.sign(self.sweep)
+        return ArcSegment(
+            self.centre,
+            self.radius,
+            self.start_angle + sgn * s_a / self.radius,
+            sgn * (s_b - s_a) / self.radius,
+        )
+
+
+Segment = LineSegment | ArcSegment
+
+
+class Path:
+    """An immutable planar path made of line and arc segments, parameterized by arc length γ [m].
+
+    Build with :meth:`from_waypoints`, :meth:`line`, :meth:`from_segments` or :meth:`from_points`.
+    All queries accept a scalar γ (return a scalar / (2,) array) or an array of γ (return (n,) /
+    (n, 2)); γ is clamped to [0, length].
+    """
+
+    __slots__ = ("_segments", "_cum", "_p0", "_theta0", "_kappa", "_len")
+
+    def __init__(self, segments):
+        segments = tuple(segments)
+        if len(segments) == 0:
+            raise ValueError("segments: a path needs at least one segment")
+        for i, seg in enumerate(segments):
+            if not isinstance(seg, (LineSegment, ArcSegment)):
+                raise ValueError(
+                    f"segments[{i}]: expected LineSegment or ArcSegment, got {type(seg).__name__}"
+                )
+        for i in range(1, len(segments)):
+            gap = float(np.hypot(*(segments[i].start_point - segments[i - 1].end_point)))
+            if gap > CONTINUITY_TOLERANCE_M:
+                raise ValueError(
+                    f"segments[{i}]: starts {gap:.6g} m away from the end of segments[{i - 1}] "
+                    "(a path must be continuous)"
+                )
+        lengths = np.array([s.length for s in segments])
+        self._segments = segments
+        self._len = lengths
+        self._cum = np.concatenate([[0.0], np.cumsum(lengths)])
+        self._p0 = np.array([s.start_point for s in segments])
+        self._theta0 = np.array([s.start_course for s in segments])
+        self._kappa = np.array([s.curvature for s in segments])
+        for a in (self._len, self._cum, self._p0, self._theta0, self._kappa):
+            a.flags.writeable = False
+
+    # ------------------------------------------------------------------ construction
+    @classmethod
+    def from_segments(cls, segments) -> "Path":
+        """A path from mixed :class:`LineSegment` / :class:`ArcSegment`; each must start where the
+        previous one ends (within 1e-6 m), else ValueError naming the segment index."""
+        return cls(segments)
+
+    @classmethod
+    def line(cls, start, end) -> "Path":
+        """A straight path from ``start`` to ``end`` [m]."""
+        start = _as_point(start, "start")
+        end = _as_point(end, "end")
+        if np.hypot(*(end - start)) <= _DUPLICATE_TOLERANCE_M:
+            raise ValueError("end: equals start (zero-length path)")
+        return cls([LineSegment(start, end)])
+
+    @classmethod
+    def from_waypoints(cls, waypoints, turn_radius_m: float = 0.0) -> "Path":
+        """Straight legs between ``waypoints`` (n ≥ 2, 2) [m], each interior corner rounded by a
+        circular arc of ``turn_radius_m`` tangent to both legs (0 = sharp corners).
+
+        A corner turning by Δ needs R·tan(|Δ|/2) of each adjacent leg; an L-shaped path with legs
+        a, b and a 90° corner has length a + b − 2R + πR/2.
+        """
+        w = np.asarray(waypoints, dtype=float)
+        if w.ndim != 2 or w.shape[1] != 2 or w.shape[0] < 2:
+            raise ValueError(f"waypoints: expected shape (n ≥ 2, 2), got {w.shape}")
+        for i in range(w.shape[0]):
+            if not np.all(np.isfinite(w[i])):
+                raise ValueError(f"waypoints[{i}]: must be finite, got {w[i].tolist()}")
+        r = float(turn_radius_m)
+        if not np.isfinite(r) or r < 0.0:
+            raise ValueError(f"turn_radius_m: must be finite and ≥ 0, got {turn_radius_m}")
+        legs = np.diff(w, axis=0)
+        leg_len = np.hypot(legs[:, 0], legs[:, 1])
+        for i in range(legs.shape[0]):
+            if leg_len[i] <= _DUPLICATE_TOLERANCE_M:
+                raise ValueError(f"waypoints[{i + 1}]: repeats the previous point")
+        courses = np.arctan2(legs[:, 1], legs[:, 0])
+        n_corners = w.shape[0] - 2
+        turns = np.array([wrap_angle(courses[i + 1] - courses[i]) for i in range(n_corners)])
+        if r == 0.0 or n_corners == 0:
+            return cls([LineSegment(w[i], w[i + 1]) for i in range(w.shape[0] - 1)])
+        cut = np.zeros(n_corners)  # tangent length R tan(|Δ|/2) taken off each adjacent leg
+        for i, turn in enumerate(turns):
+            if abs(turn) >= np.pi - 1e-9:
+                raise ValueError(
+                    f"waypoints[{i + 1}]: the path reverses (180° turn) here; cannot round the corner"
+                )
+            cut[i] = r * np.tan(abs(turn) / 2.0)
+        for j in range(legs.shape[0]):
+            need = (cut[j - 1] if j >= 1 else 0.0) + (cut[j] if j < n_corners else 0.0)
+            if need > leg_len[j] + CONTINUITY_TOLERANCE_M:
+                corner = j + 1 if j < n_corners and cut[j] > 0 else j
+                raise ValueError(
+                    f"turn_radius_m: {r:g} m is too large for the corner at waypoints[{corner}] "
+                    f"(the leg waypoints[{j}]→waypoints[{j + 1}] is {leg_len[j]:.6g} m long, "
+                    f"its corners need {need:.6g} m)"
+                )
+        segments: list[Segment] = []
+        cursor = w[0]
+        for i in range(n_corners):
+            corner = w[i + 1]
+            d_in = legs[i] / leg_len[i]
+            d_out = legs[i + 1] / leg_len[i + 1]
+            turn = turns[i]
+            if abs(turn) < 1e-12:  # collinear: no arc needed
+                continue
+            a = corner - cut[i] * d_in
+            b = corner + cut[i] * d_out
+            if np.hypot(*(a - cursor)) > _DUPLICATE_TOLERANCE_M:
+                segments.append(LineSegment(cursor, a))
+            left = np.array([-d_in[1], d_in[0]])
+            centre = a + np.sign(turn) * r * left
+            start_angle = float(np.arctan2(a[1] - centre[1], a[0] - centre[0]))
+            segments.append(ArcSegment(centre, r, start_angle, float(turn)))
+            cursor = b
+        if np.hypot(*(w[-1] - cursor)) > _DUPLICATE_TOLERANCE_M:
+            segments.append(LineSegment(cursor, w[-1]))
+        return cls(segments)
+
+    @classmethod
+    def from_points(cls, points) -> "Path":
+        """A polyline through dense ``points`` (n, 2) [m], e.g. a potential-field streamline.
+        Consecutive duplicates (closer than 1e-9 m, as at a stagnation point) are dropped; at least
+        two distinct points are required."""
+        p = np.asarray(points, dtype=float)
+        if p.ndim != 2 or p.shape[1] != 2 or p.shape[0] < 2:
+            raise ValueError(f"points: expected shape (n ≥ 2, 2), got {p.shape}")
+        bad = np.flatnonzero(~np.all(np.isfinite(p), axis=1))
+        if bad.size:
+            raise ValueError(f"points[{bad[0]}]: must be finite, got {p[bad[0]].tolist()}")
+        step = np.hypot(*np.diff(p, axis=0).T)
+        keep = np.concatenate([[True], step > _DUPLICATE_TOLERANCE_M])
+        p = p[keep]
+        if p.shape[0] < 2:
+            raise ValueError("points: need at least two distinct points")
+        return cls([LineSegment(p[i], p[i + 1]) for i in range(p.shape[0] - 1)])
+
+    # ------------------------------------------------------------------ properties
+    @property
+    def length(self) -> float:
+        """Total arc length [m]."""
+        return float(self._cum[-1])
+
+    @property
+    def segments(self) -> tuple:
+        return self._segments
+
+    @property
+    def segment_starts(self) -> np.ndarray:
+        """γ at the start of each segment, (n_segments,) [m]."""
+        return self._cum[:-1]
+
+    @property
+    def start_point(self) -> np.ndarray:
+        return self._segments[0].start_point
+
+    @property
+    def end_point(self) -> np.ndarray:
+        return self._segments[-1].end_point
+
+    def __repr__(self) -> str:
+        return f"Path(length={self.length:.3f} m, segments={len(self._segments)})"
+
+    # ------------------------------------------------------------------ evaluation
+    def _locate(self, gamma):
+        """Segment index and local arc length for γ (clamped); at a joint the later segment wins."""
+        g = np.clip(np.asarray(gamma, dtype=float), 0.0, self.length)
+        idx = np.searchsorted(self._cum, g, side="right") - 1
+        idx = np.clip(idx, 0, len(self._segments) - 1)
+        return g, idx, g - self._cum[idx]
+
+    def _eval_local(self, idx, s):
+        """Points (…, 2) at local arc length s on segments idx (arrays of equal shape)."""
+        th0 = self._theta0[idx]
+        k = self._kappa[idx]
+        p0 = self._p0[idx]
+        straight = k == 0.0
+        k_safe = np.where(straight, 1.0, k)
+        th = th0 + k * s
+        dx = np.where(straight, s * np.cos(th0), (np.sin(th) - np.sin(th0)) / k_safe)
+        dy = np.where(straight, s * np.sin(th0), (np.cos(th0) - np.cos(th)) / k_safe)
+        return p0 + np.stack([dx, dy], axis=-1)
+
+    def point(self, gamma) -> np.ndarray:
+        """Position at γ: (2,) for scalar γ, (n, 2) for an array [m]."""
+        _, idx, s = self._locate(gamma)
+        return self._eval_local(idx, s)
+
+    def tangent_angle(self, gamma):
+        """Course of the path at γ [rad], CCW from east, wrapped to (−π, π]."""
+        _, idx, s = self._locate(gamma)
+        return wrap_angle(self._theta0[idx] + self._kappa[idx] * s)
+
+    def curvature(self, gamma):
+        """Signed curvature at γ [1/m], CCW (left turn) positive; 0 on lines."""
+        _, idx, _ = self._locate(gamma)
+        k = self._kappa[idx]
+        return float(k) if np.ndim(k) == 0 else k.copy()
+
+    def sample(self, spacing_m: float) -> np.ndarray:
+        """Points (n, 2) every ``spacing_m`` metres along the path, both ends included."""
+        spacing_m = float(spacing_m)
+        if not np.isfinite(spacing_m) or spacing_m <= 0.0:
+            raise ValueError(f"spacing_m: must be finite and > 0, got {spacing_m}")
+        n = max(int(np.ceil(self.length / spacing_m)), 1) + 1
+        return self.point(np.linspace(0.0, self.length, n))
+
+    def cross_track_error(self, point, gamma: float) -> float:
+        """Signed distance of ``point`` from the path's tangent line at γ [m], positive when the
+        point is LEFT of the path (port side of a vessel sailing along it)."""
+        p = _as_point(point, "point")
+        q = self.point(float(gamma))
+        th = self.tangent_angle(float(gamma))
+        return float(-(p[0] - q[0]) * np.sin(th) + (p[1] - q[1]) * np.cos(th))
+
+    # ------------------------------------------------------------------ projection
+    def project(self, point, gamma_hint: float | None = None, search_window_m: float | None = None) -> float:
+        """γ of the point of the path closest to ``point`` [m].
+
+        With ``gamma_hint`` and ``search_window_m`` only [hint − window, hint + window] is searched,
+        which keeps γ continuous for a follower on a path that crosses or nears itself. Ties go
+        to the smallest γ.
+        """
+        p = _as_point(point, "point")
+        lo, hi = 0.0, self.length
+        if gamma_hint is not None or search_window_m is not None:
+            if gamma_hint is None or search_window_m is None:
+                raise ValueError("gamma_hint: give both gamma_hint and search_window_m, or neither")
+            w = float(search_window_m)
+            if not np.isfinite(w) or w <= 0.0:
+                raise ValueError(f"search_window_m: must be finite and > 0, got {search_window_m}")
+            h = float(np.clip(gamma_hint, 0.0, self.length))
+            lo, hi = max(0.0, h - w), min(self.length, h + w)
+        gam, _ = self._closest(p[None, :], lo, hi)
+        return float(gam[0])
+
+    def closest_points(self, points, gamma_min: float = 0.0, gamma_max: float | None = None):
+        """For each of ``points`` (n, 2): the γ of the closest point of the stretch
+        [gamma_min, gamma_max] of the path and the distance to it. Returns (gammas (n,), distances (n,))."""
+        pts = np.asarray(points, dtype=float)
+        if pts.ndim != 2 or pts.shape[1] != 2:
+            raise ValueError(f"points: expected shape (n, 2), got {pts.shape}")
+        lo = float(np.clip(gamma_min, 0.0, self.length))
+        hi = self.length if gamma_max is None else float(np.clip(gamma_max, 0.0, self.length))
+        if hi < lo:
+            raise ValueError(f"gamma_max: must be ≥ gamma_min ({gamma_min}), got {gamma_max}")
+        return self._closest(pts, lo, hi)
+
+    def _closest(self, pts: np.ndarray, g_lo: float, g_hi: float, chunk: int = 200_000):
+        """Closest points on the stretch [g_lo, g_hi], vectorized over points × segments.
+
+        For each segment the candidate local arc lengths are the clamped foot of the perpendicular
+        (line) or the clamped polar angle about the centre (arc), plus both clamped ends (the
+        polar angle wraps, and an end is the answer whenever the foot lies outside)."""
+        lo = np.maximum(0.0, g_lo - self._cum[:-1])
+        hi = np.minimum(self._len, g_hi - self._cum[:-1])
+        ok = lo <= hi
+        lines = np.flatnonzero(ok & (self._kappa == 0.0))
+        arcs = np.flatnonzero(ok & (self._kappa != 0.0))
+        # Lines: one candidate, the clamped foot of the perpendicular.
+        l_lo, l_hi, l_p0 = lo[lines], hi[lines], self._p0[lines]
+        l_c, l_s = np.cos(self._theta0[lines]), np.sin(self._theta0[lines])
+        # Arcs: clamped polar angle and both clamped ends.
+        a_lo, a_hi, a_k = lo[arcs], hi[arcs], self._kappa[arcs]
+        a_th0, a_p0 = self._theta0[arcs], self._p0[arcs]
+        centre = a_p0 + np.stack([-np.sin(a_th0), np.cos(a_th0)], axis=-1) / a_k[:, None]
+        a0 = np.arctan2(a_p0[:, 1] - centre[:, 1], a_p0[:, 0] - centre[:, 0])
+        out_g = np.empty(pts.shape[0])
+        out_d = np.empty(pts.shape[0])
+        step = max(1, chunk // max(1, lines.size + 3 * arcs.size))
+        for c in range(0, pts.shape[0], step):
+            q = pts[c : c + step, None, :]  # (m, 1, 2)
+            dx, dy = q[..., 0] - l_p0[:, 0], q[..., 1] - l_p0[:, 1]
+            s_l = np.clip(dx * l_c + dy * l_s, l_lo, l_hi)  # (m, n_lines)
+            d2_l = (dx - s_l * l_c) ** 2 + (dy - s_l * l_s) ** 2
+            g_l = self._cum[lines] + s_l
+            if arcs.size:
+                phi = np.arctan2(q[..., 1] - centre[:, 1], q[..., 0] - centre[:, 0])
+                s_star = np.clip(np.mod(np.sign(a_k) * (phi - a0), 2.0 * np.pi) / np.abs(a_k), a_lo, a_hi)
+                cand_s = np.stack([s_star, np.broadcast_to(a_lo, s_star.shape), np.broadcast_to(a_hi, s_star.shape)], axis=-1)
+                cand_i = np.broadcast_to(arcs[None, :, None], cand_s.shape)
+                d2_a = np.sum((self._eval_local(cand_i, cand_s) - q[:, :, None, :]) ** 2, axis=-1)
+                d2 = np.concatenate([d2_l, d2_a.reshape(d2_a.shape[0], -1)], axis=1)
+                gam = np.concatenate([g_l, (self._cum[cand_i] + cand_s).reshape(d2_a.shape[0], -1)], axis=1)
+            else:
+                d2, gam = d2_l, g_l
+            dmin = d2.min(axis=1, keepdims=True)
+            gam = np.where(d2 <= dmin * (1.0 + 1e-12) + 1e-18, gam, np.inf)
+            out_g[c : c + step] = np.clip(gam.min(axis=1), 0.0, self.length)
+            out_d[c : c + step] = np.sqrt(dmin[:, 0])
+        return out_g, out_d
+
+    # ------------------------------------------------------------------ editing
+    def sub_path(self, gamma_a: float, gamma_b: float) -> "Path":
+        """The piece of this path between γ_a < γ_b (both in [0, length]), as a new path whose γ
+        starts at 0."""
+        a, b = float(gamma_a), float(gamma_b)
+        if not (0.0 <= a <= self.length):
+            raise ValueError(f"gamma_a: must be in [0, {self.length:g}], got {gamma_a}")
+        if not (0.0 <= b <= self.length):
+            raise ValueError(f"gamma_b: must be in [0, {self.length:g}], got {gamma_b}")
+        if b - a <= _DUPLICATE_TOLERANCE_M:
+            raise ValueError(f"gamma_b: must exceed gamma_a ({gamma_a}), got {gamma_b}")
+        pieces = []
+        for i, seg in enumerate(self._segments):
+            s0, s1 = self._cum[i], self._cum[i + 1]
+            lo, hi = max(a, s0), min(b, s1)
+            if hi - lo <= _DUPLICATE_TOLERANCE_M:
+                continue
+            if lo == s0 and hi == s1:
+                pieces.append(seg)
+            else:
+                pieces.append(seg.sub(lo - s0, hi - s0))
+        return Path(pieces)
+
+    def split(self, gamma: float) -> tuple["Path", "Path"]:
+        """(before, after) at 0 < γ < length; ``before.concatenate(after)`` is this path again."""
+        g = float(gamma)
+        if not (_DUPLICATE_TOLERANCE_M < g < self.length - _DUPLICATE_TOLERANCE_M):
+            raise ValueError(f"gamma: must be strictly inside (0, {self.length:g}), got {gamma}")
+        return self.sub_path(0.0, g), self.sub_path(g, self.length)
+
+    def concatenate(self, other: "Path") -> "Path":
+        """This path followed by ``other``, which must start where this one ends."""
+        if not isinstance(other, Path):
+            raise ValueError(f"other: expected a Path, got {type(other).__name__}")
+        gap = float(np.hypot(*(other.start_point - self.end_point)))
+        if gap > CONTINUITY_TOLERANCE_M:
+            raise ValueError(
+                f"other: starts {gap:.6g} m away from the end of this path (paths must join)"
+            )
+        return Path(self._segments + other._segments)

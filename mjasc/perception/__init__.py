@@ -1,0 +1,1 @@
+"""Perception: range sensing, detection, static map, IMM tracking."""

@@ -1,0 +1,244 @@
+"""A 2-D ray-casting range sensor (a lidar/radar-like fan) on one vessel, using MuJoCo's ``mj_multiRay``.
+
+Geometry (world ENU, body FLU, docs/architecture.md): the fan is centred on the bow (body angle 0,
+positive to port) and spans ``fov_deg``; beam k points at body angle
+``a_k = −fov/2 + (k + ½)·fov/n`` (a 360° fan: ``a_k = −π + (k + ½)·2π/n``, no duplicated beam).
+Rays start at the x, y of the vessel's ``sensor_mount`` site and are cast **horizontally at the
+world height** ``ray_height_m`` (default 0.1 m): inside the contact band 0 ≤ z ≤ 0.15 m that every
+collision hull and obstacle spans (assets/README.md), not at the mast height, where rays would pass
+over low hulls. The vessel's own body is excluded (``bodyexclude``), only geom groups 0 (obstacles)
+and 3 (vessel collision hulls) are seen (``world.SENSOR_GEOM_GROUPS``), and each ray returns the
+first surface it meets: occlusion is MuJoCo's.
+
+Imperfections, per scan, all drawn from the caller's ``numpy.random.Generator``:
+
+* range noise: a true return at range ρ reads ``ρ + ε``, ``ε ~ N(0, range_noise_std_m²)``;
+* dropout: each true return is lost with probability ``dropout_probability``;
+* clutter: ``K ~ Poisson(clutter_per_scan)`` false returns on random beams at ranges uniform in
+  ``[min_range_m, max_range_m]``; a false return replaces its beam's reading only when it is nearer
+  than the true return (a single-return sensor reports the first echo).
+
+Returns nearer than ``min_range_m`` are discarded (the sensor's blind zone, e.g. spray on the hull).
+A scan reads the MuJoCo state as it is (the runner scans after a physics step: geometry is that of
+the last ``mj_step1``, at most one physics step old).
+
+Defaults (a small ASC's 2-D scanning radar/lidar, stated in docs/perception.md): 720 beams over 360°
+(0.5° spacing: 0.87 m between beams at 100 m, so a 5 m obstacle is hit by ~6 beams there), 150 m
+range (the thesis starts tracking at ~100 m), 5 Hz, 5 cm range noise, 2 % dropout, 0.5 clutter
+returns per scan.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from mjasc.core.config_tables import ConfigError, dataclass_from_table, integer, number, show
+
+__all__ = ["SensorConfig", "Scan", "RangeSensor", "parse_sensor_options", "CLUTTER_GEOM"]
+
+#: ``Scan.geom_ids`` value of a false (clutter) return; −1 means no return.
+CLUTTER_GEOM = -2
+_DEFAULT_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)  # = world.SENSOR_GEOM_GROUPS
+
+
+@dataclass(frozen=True)
+class SensorConfig:
+    """Range sensor parameters (SI units; angles in degrees because people write them).
+
+    beams: number of rays per scan (≥ 1).
+    fov_deg: field of view, centred on the bow (0 < fov ≤ 360).
+    max_range_m: returns beyond are not reported (≥ 100 m: the thesis starts tracking at ~100 m).
+    min_range_m: blind zone; nearer returns are discarded (≥ 0, < max_range_m).
+    rate_hz: scans per second (a scan is taken at a sensing slot once 1/rate_hz has passed).
+    range_noise_std_m: 1-σ range noise of a true return [m].
+    dropout_probability: probability that a true return is lost, per beam, in [0, 1).
+    clutter_per_scan: mean number of false returns per scan (Poisson), ≥ 0.
+    ray_height_m: world height z of the horizontal rays [m] (inside the 0–0.15 m contact band).
+    """
+
+    beams: int = 720
+    fov_deg: float = 360.0
+    max_range_m: float = 150.0
+    min_range_m: float = 1.0
+    rate_hz: float = 5.0
+    range_noise_std_m: float = 0.05
+    dropout_probability: float = 0.02
+    clutter_per_scan: float = 0.5
+    ray_height_m: float = 0.1
+
+    def __post_init__(self):
+        _check_config(self, "sensor")
+
+    @property
+    def beam_spacing_rad(self) -> float:
+        """Angle between neighbouring beams [rad]."""
+        return math.radians(self.fov_deg) / self.beams
+
+    @property
+    def full_circle(self) -> bool:
+        """True when the fan closes on itself (the first and last beams are neighbours)."""
+        return self.fov_deg >= 360.0 - 1e-9
+
+
+def _check_config(c: SensorConfig, where: str) -> None:
+    """Validate a :class:`SensorConfig` (ValueError naming ``f"{where}.{key}"``)."""
+    def bad(key, reason, value):
+        raise ConfigError(f"{where}.{key}: {reason}, got {show(value)}")
+
+    integer(c.beams, f"{where}.beams", minimum=1)
+    for key in ("fov_deg", "max_range_m", "min_range_m", "dropout_probability", "ray_height_m"):
+        number(getattr(c, key), f"{where}.{key}")
+    number(c.rate_hz, f"{where}.rate_hz", positive=True)
+    number(c.range_noise_std_m, f"{where}.range_noise_std_m", nonneg=True)
+    number(c.clutter_per_scan, f"{where}.clutter_per_scan", nonneg=True)
+    if not 0.0 < c.fov_deg <= 360.0:
+        bad("fov_deg", "must be in (0, 360]", c.fov_deg)
+    if c.max_range_m < 100.0:
+        bad("max_range_m", "must be ≥ 100 m (tracking starts at ~100 m, thesis §6.1)", c.max_range_m)
+    if not 0.0 <= c.min_range_m < c.max_range_m:
+        bad("min_range_m", "must be ≥ 0 and < max_range_m", c.min_range_m)
+    if not 0.0 <= c.dropout_probability < 1.0:
+        bad("dropout_probability", "must be in [0, 1)", c.dropout_probability)
+    if not -0.5 <= c.ray_height_m <= 2.0:
+        bad("ray_height_m", "must be in [-0.5, 2] m (rays must cross the hulls' contact band)", c.ray_height_m)
+
+
+def parse_sensor_options(table: dict, where: str = "sensor") -> SensorConfig:
+    """Validate a scenario's ``[vessels.sensor]`` table (None: all defaults) into a :class:`SensorConfig`.
+
+    Unknown keys, wrong types and out-of-range values raise ValueError naming ``f"{where}.{key}"``
+    (:func:`mjasc.core.config_tables.dataclass_from_table`).
+    """
+    return dataclass_from_table(SensorConfig, {} if table is None else table, where, check=_check_config)
+
+
+@dataclass(frozen=True)
+class Scan:
+    """One scan. Body-frame quantities are in the sensor's frame: origin at the mount's x, y,
+    x forward, y to port (the hull's FLU axes; the mount sits on the centre line).
+
+    time_s: MuJoCo time of the scan [s].
+    origin_m: (2,) world x, y of the sensor [m]; heading_rad: its yaw (the hull's heading) [rad].
+    angles_body: (n,) beam angles in the body frame [rad].
+    ranges: (n,) measured range [m]; ``max_range_m`` where there is no return (see ``hit``).
+    hit: (n,) bool, True where the beam has a return (true or clutter).
+    hit_beams: (k,) indices of the beams with a return, ascending.
+    hit_points_body: (k, 2) returns in the sensor frame [m]; hit_points_world: (k, 2) in the world.
+    geom_ids: (n,) geom hit (diagnostics, the simulator's truth: never use it downstream);
+        −1 no return, ``CLUTTER_GEOM`` for a false return.
+    """
+
+    time_s: float
+    origin_m: np.ndarray
+    heading_rad: float
+    angles_body: np.ndarray
+    ranges: np.ndarray
+    hit: np.ndarray
+    hit_beams: np.ndarray
+    hit_points_body: np.ndarray
+    hit_points_world: np.ndarray
+    geom_ids: np.ndarray
+    max_range_m: float
+    beam_spacing_rad: float
+    full_circle: bool
+
+
+class RangeSensor:
+    """Ray-casting range sensor attached to one body (usable on its own, e.g. for RL observations).
+
+    ``RangeSensor(model, config, body_id_to_exclude, mount_site_id)``; ``scan(data, rng)`` → :class:`Scan`.
+    ``rng`` None gives a noise-free, dropout-free, clutter-free scan (the geometry only).
+    """
+
+    def __init__(self, model, config: SensorConfig, body_id_to_exclude: int, mount_site_id: int,
+                 geomgroup: np.ndarray | None = None):
+        if not isinstance(config, SensorConfig):
+            raise ValueError(f"config: expected a SensorConfig, got {type(config).__name__}")
+        if not 0 <= int(mount_site_id) < model.nsite:
+            raise ValueError(f"mount_site_id: no site {mount_site_id} in the model ({model.nsite} sites)")
+        if not -1 <= int(body_id_to_exclude) < model.nbody:
+            raise ValueError(f"body_id_to_exclude: no body {body_id_to_exclude} in the model")
+        self.model = model
+        self.config = config
+        self.body_id = int(body_id_to_exclude)
+        self.site_id = int(mount_site_id)
+        self.geomgroup = _DEFAULT_GROUPS.copy() if geomgroup is None else np.asarray(geomgroup, dtype=np.uint8)
+        n = config.beams
+        fov = math.radians(config.fov_deg)
+        self.angles_body = -0.5 * fov + (np.arange(n) + 0.5) * fov / n
+        self._vec = np.zeros((n, 3))
+        self._geomid = np.zeros(n, dtype=np.int32)
+        self._dist = np.zeros(n)
+        self._pnt = np.zeros(3)
+
+    def pose(self, data) -> tuple[np.ndarray, float]:
+        """World x, y [m] and yaw [rad] of the sensor mount in ``data``."""
+        xm = data.site_xmat[self.site_id]
+        return data.site_xpos[self.site_id, :2].copy(), math.atan2(xm[3], xm[0])
+
+    def cast(self, data) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """The true (noise-free) first-hit distances (n,) (−1: nothing within range), geom ids (n,),
+        origin (2,) and yaw of one scan."""
+        c = self.config
+        origin, yaw = self.pose(data)
+        a = self.angles_body + yaw
+        self._vec[:, 0] = np.cos(a)
+        self._vec[:, 1] = np.sin(a)
+        self._pnt[:2] = origin
+        self._pnt[2] = c.ray_height_m
+        mujoco.mj_multiRay(self.model, data, self._pnt, self._vec.reshape(-1), self.geomgroup, 1, self.body_id,
+                           self._geomid, self._dist, None, c.beams, c.max_range_m)
+        dist = self._dist.copy()
+        gid = self._geomid.copy()
+        miss = (gid < 0) | (dist < 0) | (dist > c.max_range_m)
+        dist[miss] = -1.0
+        gid[miss] = -1
+        return dist, gid, origin, yaw
+
+    def scan(self, data, rng: np.random.Generator | None) -> Scan:
+        c = self.config
+        n = c.beams
+        dist, gid, origin, yaw = self.cast(data)
+        hit = gid >= 0
+        if rng is not None:
+            if c.range_noise_std_m > 0:
+                dist = np.where(hit, dist + c.range_noise_std_m * rng.standard_normal(n), dist)
+            if c.dropout_probability > 0:
+                hit &= rng.random(n) >= c.dropout_probability
+            if c.clutter_per_scan > 0:
+                k = int(rng.poisson(c.clutter_per_scan))
+                if k:
+                    beams = rng.integers(0, n, size=k)
+                    rho = rng.uniform(c.min_range_m, c.max_range_m, size=k)
+                    nearer = ~hit[beams] | (rho < dist[beams])
+                    beams, rho = beams[nearer], rho[nearer]
+                    dist[beams] = rho
+                    hit[beams] = True
+                    gid[beams] = CLUTTER_GEOM
+        hit &= (dist >= c.min_range_m) & (dist <= c.max_range_m)
+        gid = np.where(hit, gid, -1)
+        ranges = np.where(hit, dist, c.max_range_m)
+        beams = np.flatnonzero(hit)
+        a = self.angles_body[beams]
+        r = ranges[beams]
+        body = np.stack([r * np.cos(a), r * np.sin(a)], axis=-1)
+        cy, sy = math.cos(yaw), math.sin(yaw)
+        world = np.stack([origin[0] + cy * body[:, 0] - sy * body[:, 1],
+                          origin[1] + sy * body[:, 0] + cy * body[:, 1]], axis=-1)
+        return Scan(float(data.time), origin, float(yaw), self.angles_body, ranges, hit, beams, body, world, gid,
+                    c.max_range_m, c.beam_spacing_rad, c.full_circle)
+
+
+def sensor_for_vessel(world, vessel_index: int, config: SensorConfig) -> RangeSensor:
+    """The range sensor of vessel ``vessel_index`` of a :class:`mjasc.physics.world.World` (at its ``sensor_mount``)."""
+    name = world.vessel_names[vessel_index]
+    site = mujoco.mj_name2id(world.model, mujoco.mjtObj.mjOBJ_SITE, f"{name}/sensor_mount")
+    if site < 0:
+        raise ValueError(f"vessel MJCF: site {name}/sensor_mount missing (contract in assets/README.md)")
+    from mjasc.physics.world import SENSOR_GEOM_GROUPS
+
+    return RangeSensor(world.model, config, int(world.hull_body_id[vessel_index]), site, SENSOR_GEOM_GROUPS)

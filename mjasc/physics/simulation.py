@@ -1,0 +1,255 @@
+"""The physics step: MuJoCo rigid bodies + mjasc hydrodynamics, propellers, current and traffic.
+
+One physics step (``Simulation.step``)::
+
+    moving obstacles → mocap poses at t
+    mj_step1             positions, velocities, mass matrix (MuJoCo)
+    current V_c(p, t), V̇_c at every vessel            (currents)
+    propeller thrust from the shaft-lag activations    (thrusters)
+    hydrodynamic force with exact added mass           (hydrodynamics, eq. 3)
+    → qfrc_applied
+    mj_step2             acceleration, shaft lag, integration (MuJoCo)
+
+All vessels are handled together on (N, ·) arrays viewed straight into MjData: no per-vessel
+Python loop. Commands are set between steps with :meth:`Simulation.set_commands`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from mjasc.physics.currents import CurrentField, UniformCurrent
+from mjasc.physics.hydrodynamics import Hydrodynamics, rigid_body_mass_matrix
+from mjasc.physics.obstacles import MovingObstacleSet
+from mjasc.physics.thrusters import Thrusters
+from mjasc.physics.world import World
+
+__all__ = ["Simulation", "VesselStates", "PhysicsDivergence"]
+
+
+class PhysicsDivergence(RuntimeError):
+    """The physics produced a non-finite state or MuJoCo raised a warning; the message says which."""
+
+
+@dataclass(frozen=True)
+class VesselStates:
+    """True states of all vessels at ``time_s`` (world ENU / body FLU, SI). Arrays are copies.
+
+    position_m (N, 2); heading_rad (N,); velocity_m_s (N, 2) world-frame velocity of CO;
+    body_velocity (N, 3) = (u, v, r); current_m_s (N, 2) water velocity at each vessel (world);
+    shaft_speed (N, 2) normalized port/starboard shaft speeds; thrust_n (N, 2).
+    """
+
+    time_s: float
+    position_m: np.ndarray
+    heading_rad: np.ndarray
+    velocity_m_s: np.ndarray
+    body_velocity: np.ndarray
+    current_m_s: np.ndarray
+    shaft_speed: np.ndarray
+    thrust_n: np.ndarray
+
+    @property
+    def speed_m_s(self) -> np.ndarray:
+        """Speed over ground [m/s]."""
+        return np.hypot(self.velocity_m_s[:, 0], self.velocity_m_s[:, 1])
+
+    @property
+    def relative_body_velocity(self) -> np.ndarray:
+        """(u_r, v_r, r): body velocity relative to the water."""
+        c, s = np.cos(self.heading_rad), np.sin(self.heading_rad)
+        uc = c * self.current_m_s[:, 0] + s * self.current_m_s[:, 1]
+        vc = -s * self.current_m_s[:, 0] + c * self.current_m_s[:, 1]
+        out = self.body_velocity.copy()
+        out[:, 0] -= uc
+        out[:, 1] -= vc
+        return out
+
+
+def _rigid_body_mass(model, body_id: int) -> np.ndarray:
+    """M_RB about the body origin (CO) from the compiled model's mass, CoG and inertia."""
+    mass = model.body_mass[body_id]
+    ipos = model.body_ipos[body_id]
+    rot = np.zeros(9)
+    mujoco.mju_quat2Mat(rot, model.body_iquat[body_id])
+    rot = rot.reshape(3, 3)
+    inertia = rot @ np.diag(model.body_inertia[body_id]) @ rot.T
+    return rigid_body_mass_matrix(mass, ipos[:2], inertia[2, 2])
+
+
+class Simulation:
+    """Steps a :class:`World` under hydrodynamics and a current field."""
+
+    def __init__(self, world: World, current: CurrentField | None = None, hydrodynamics: bool = True):
+        self.world = world
+        self.model = world.model
+        self.data = world.data
+        self.current = current if current is not None else UniformCurrent((0.0, 0.0))
+        self.hydrodynamics_enabled = hydrodynamics
+        # Keep a diverged state as it is (MuJoCo would otherwise reset MjData on a bad acceleration,
+        # hiding when and where the run failed): check_divergence reports it instead.
+        self.model.opt.disableflags |= int(mujoco.mjtDisableBit.mjDSBL_AUTORESET)
+        n = world.n_vessels
+        self.n_vessels = n
+        m_rb = np.stack([_rigid_body_mass(self.model, b) for b in world.hull_body_id]) if n else np.zeros((0, 3, 3))
+        self.hydro = Hydrodynamics(m_rb, [t.hydro for t in world.vessel_types])
+        self.thrusters = Thrusters([t.propellers for t in world.vessel_types], world.propeller_lateral_m)
+        self.hydro.attach_propellers(self.thrusters.feature_weights())
+        self.hydro.allocate_buffers()
+        self.traffic = MovingObstacleSet(world.moving_obstacles)
+        d = self.data
+        # Views into MjData (no copies) when each vessel owns a contiguous block, else index arrays.
+        if world.contiguous_vessel_dofs():
+            self._qpos3 = d.qpos[: 3 * n].reshape(n, 3)
+            self._qvel3 = d.qvel[: 3 * n].reshape(n, 3)
+            self._qfrc3 = d.qfrc_applied[: 3 * n].reshape(n, 3)
+            self._views = True
+        else:
+            self._views = False
+        act = world.act_adr
+        self._act_view = (
+            d.act[: 2 * n].reshape(n, 2) if n and np.array_equal(act, np.arange(2 * n).reshape(n, 2)) else None
+        )
+        self._current_uniform_steady = self.current.is_uniform and self.current.is_steady
+        self._qfrc_buffer = np.zeros((n, 3))
+        self._bound = self._views and self._act_view is not None
+        if self._bound:
+            self.hydro.bind(self._qpos3, self._qvel3, self._act_view, self._qfrc3)
+        self._quat = np.zeros((len(self.traffic), 4))
+        self.divergence_checks = True
+
+    # ------------------------------------------------------------------ state access
+    @property
+    def time_s(self) -> float:
+        return float(self.data.time)
+
+    @property
+    def timestep_s(self) -> float:
+        return float(self.model.opt.timestep)
+
+    def _qpos(self) -> np.ndarray:
+        return self._qpos3 if self._views else self.data.qpos[self.world.qpos_adr]
+
+    def _qvel(self) -> np.ndarray:
+        return self._qvel3 if self._views else self.data.qvel[self.world.dof_adr]
+
+    def _act(self) -> np.ndarray:
+        return self._act_view if self._act_view is not None else self.data.act[self.world.act_adr]
+
+    def reset(self, poses=None, body_velocities=None, time_s: float = 0.0) -> None:
+        """Put vessels at ``poses`` (N, 3) = (x, y, ψ) with body velocities (N, 3) = (u, v, r)."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.data.time = time_s
+        n = self.n_vessels
+        if poses is not None:
+            poses = np.asarray(poses, dtype=float).reshape(n, 3)
+            self.data.qpos[self.world.qpos_adr] = poses
+        if body_velocities is not None:
+            nu = np.asarray(body_velocities, dtype=float).reshape(n, 3)
+            psi = self.data.qpos[self.world.qpos_adr][:, 2]
+            c, s = np.cos(psi), np.sin(psi)
+            qv = np.stack([c * nu[:, 0] - s * nu[:, 1], s * nu[:, 0] + c * nu[:, 1], nu[:, 2]], axis=-1)
+            self.data.qvel[self.world.dof_adr] = qv
+        self._update_traffic()
+        mujoco.mj_forward(self.model, self.data)
+
+    def set_commands(self, commands) -> None:
+        """Normalized propeller commands (N, 2) in [−1, 1], port then starboard (clipped)."""
+        c = np.asarray(commands, dtype=float).reshape(self.n_vessels, 2)
+        if not np.all(np.isfinite(c)):
+            raise ValueError(f"commands: must be finite, got {c.tolist()}")
+        self.data.ctrl[self.world.ctrl_adr] = np.clip(c, -1.0, 1.0)
+
+    def states(self) -> VesselStates:
+        q = np.array(self._qpos())
+        qd = np.array(self._qvel())
+        psi = q[:, 2]
+        c, s = np.cos(psi), np.sin(psi)
+        nu = np.stack([c * qd[:, 0] + s * qd[:, 1], -s * qd[:, 0] + c * qd[:, 1], qd[:, 2]], axis=-1)
+        act = np.array(self._act())
+        t = self.time_s
+        return VesselStates(
+            time_s=t,
+            position_m=q[:, :2].copy(),
+            heading_rad=np.mod(psi + np.pi, 2 * np.pi) - np.pi,
+            velocity_m_s=qd[:, :2].copy(),
+            body_velocity=nu,
+            current_m_s=self.current.velocity(q[:, :2], t) if self.n_vessels else np.zeros((0, 2)),
+            shaft_speed=act,
+            thrust_n=self.thrusters.thrust(act),
+        )
+
+    def traffic_state(self):
+        """(positions (M, 2), headings (M,), velocities (M, 2)) of the moving obstacles now."""
+        return self.traffic.state(self.time_s)
+
+    # ------------------------------------------------------------------ stepping
+    def _update_traffic(self) -> None:
+        if len(self.traffic) == 0:
+            return
+        pos, head, _ = self.traffic.state(float(self.data.time))
+        mid = self.world.mocap_id
+        self.data.mocap_pos[mid, :2] = pos
+        self._quat[:, 0] = np.cos(0.5 * head)
+        self._quat[:, 3] = np.sin(0.5 * head)
+        self.data.mocap_quat[mid] = self._quat
+
+    def _apply_forces(self) -> None:
+        q, qd = self._qpos(), self._qvel()
+        t = float(self.data.time)
+        pos = q[:, :2]
+        vc = self.current.velocity(pos, t)
+        rate = None if self._current_uniform_steady else self.current.acceleration(pos, qd[:, :2], t)
+        out = self._qfrc3 if self._views else self._qfrc_buffer
+        if self.hydrodynamics_enabled:
+            if self._bound:
+                self.hydro.compute_bound(vc, rate)
+            else:
+                self.hydro.generalized_forces(q, qd, vc, rate, self._act(), out)
+        else:  # propellers only (for comparisons): thrust along the hull, yaw moment
+            tau = self.thrusters.body_force(self.thrusters.thrust(np.asarray(self._act())))
+            c, s = np.cos(q[:, 2]), np.sin(q[:, 2])
+            out[:] = np.stack([c * tau[:, 0], s * tau[:, 0], tau[:, 2]], axis=-1)
+        if not self._views:
+            self.data.qfrc_applied[self.world.dof_adr] = out
+
+    def step(self, n_steps: int = 1) -> None:
+        """Advance ``n_steps`` physics steps. Raises :class:`PhysicsDivergence` on a bad state."""
+        m, d = self.model, self.data
+        traffic = len(self.traffic) > 0
+        if self._bound and self.hydrodynamics_enabled and self._current_uniform_steady and not traffic:
+            # The common case, kept lean: a uniform steady current is the same at every vessel.
+            vc = self.current.velocity(self._qpos3[:, :2], 0.0)
+            compute, step1, step2 = self.hydro.compute_bound, mujoco.mj_step1, mujoco.mj_step2
+            for _ in range(n_steps):
+                step1(m, d)
+                compute(vc, None)
+                step2(m, d)
+            if self.divergence_checks:
+                self.check_divergence()
+            return
+        for _ in range(n_steps):
+            if traffic:
+                self._update_traffic()
+            mujoco.mj_step1(m, d)
+            if self.n_vessels:
+                self._apply_forces()
+            mujoco.mj_step2(m, d)
+        if self.divergence_checks:
+            self.check_divergence()
+
+    def check_divergence(self) -> None:
+        """Raise :class:`PhysicsDivergence` if the state is not finite or MuJoCo warned."""
+        d = self.data
+        if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+            raise PhysicsDivergence(f"physics diverged at t = {d.time:.3f} s: non-finite vessel state")
+        counts = d.warning.number
+        if np.any(counts):
+            i = int(np.flatnonzero(counts)[0])
+            kind = mujoco.mjtWarning(i).name
+            raise PhysicsDivergence(
+                f"physics diverged at t = {d.time:.3f} s: MuJoCo warning {kind} (info {d.warning[i].lastinfo})"
+            )

@@ -1,0 +1,340 @@
+"""Run a scenario: build the world, step it on a multi-rate schedule, record, summarize.
+
+One run writes one folder::
+
+    <out>/recording.rrd    Rerun recording with its default blueprint
+    <out>/summary.json     per-vessel metrics, collisions, wall time, real-time factor
+    <out>/video.mp4        with video on: offscreen render (OSMesa)
+
+A run is a pure function of the scenario and its seed. If the physics diverges (non-finite state
+or a MuJoCo warning) the run stops with :class:`RunFailed`, after closing the recording (so what was
+recorded so far is readable) and writing a summary whose ``status`` says what happened.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import rerun as rr
+
+from mjasc.runs.agent import OwnNavigation, VesselAgent
+from mjasc.core.geometry import hull_outline
+from mjasc.runs.recording import Recorder, default_blueprint, vessel_colour
+from mjasc.runs.scenario import Scenario
+from mjasc.runs.schedule import Schedule
+from mjasc.physics.simulation import PhysicsDivergence, Simulation
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.physics.world import build_world
+
+__all__ = ["Runner", "RunFailed", "RunResult", "run_scenario"]
+
+
+class RunFailed(RuntimeError):
+    """A run stopped early; the message says why and where its partial outputs are."""
+
+
+@dataclass
+class RunResult:
+    out_dir: Path
+    summary: dict
+    files: dict = field(default_factory=dict)
+
+
+class Runner:
+    """Executes one :class:`Scenario`. Construct, then :meth:`run`."""
+
+    def __init__(self, scenario: Scenario, out_dir: str | Path | None = None, progress: bool | None = None):
+        self.scenario = sc = scenario
+        self.out_dir = Path(out_dir) if out_dir is not None else None
+        self.progress = sys.stderr.isatty() if progress is None else progress
+        vessels = [(v.name, load_vessel_type(v.type)) for v in sc.vessels]
+        self.world = build_world(vessels, sc.static_obstacles, sc.moving_obstacles, timestep_s=1.0 / sc.rates.physics_hz)
+        self.sim = Simulation(self.world, sc.current)
+        self.rng = np.random.default_rng(sc.seed)
+        poses = np.array([[*v.position_m, v.heading_rad] for v in sc.vessels])
+        vel = np.array([[v.speed_m_s, 0.0, 0.0] for v in sc.vessels])
+        self.sim.reset(poses, vel)
+        self.agents = [
+            VesselAgent(v, self.world.vessel_types[i], self.sim.hydro.total_mass[i],
+                        float(self.world.propeller_lateral_m[i, 0]))
+            for i, v in enumerate(sc.vessels)
+        ]
+        self._attach_components()
+        r = sc.rates
+        periods = {"control": 1 / r.control_hz, "sensing": 1 / r.sensing_hz, "tracking": 1 / r.tracking_hz,
+                   "comms": 1 / r.comms_hz, "prediction": r.prediction_period_s, "record": 1 / r.record_hz}
+        if sc.outputs.video:
+            periods["video"] = 1 / sc.outputs.video_fps
+        self.schedule = Schedule.from_periods(self.sim.timestep_s, periods)
+        self.control_dt_s = self.schedule.period_steps["control"] * self.sim.timestep_s
+        self.recorder: Recorder | None = None
+        self.video = None
+        self.metrics = None
+        self._last_outputs = [None] * len(self.agents)
+        self._trail: list[list[np.ndarray]] = [[] for _ in self.agents]
+
+    def _attach_components(self) -> None:
+        """Give each vessel the components its scenario table asks for. Every component gets its own
+        random stream, derived from the scenario seed, the vessel index and the component, so adding
+        a sensor to one vessel does not change another vessel's noise."""
+        sc = self.scenario
+        team = [v.name for v in sc.vessels]
+        network = None
+        if sc.comms is not None or any("comms" in v.options for v in sc.vessels):
+            from mjasc.cooperation.comms import CommsNetwork
+
+            network = CommsNetwork(team, sc.comms, np.random.default_rng([sc.seed, 1_000_003]))
+        self.network = network
+        for i, (agent, v) in enumerate(zip(self.agents, sc.vessels)):
+            rng = lambda k: np.random.default_rng([sc.seed, i, k])  # noqa: E731
+            if "sensor" in v.options or "tracking" in v.options:
+                from mjasc.perception.pipeline import Perception
+
+                agent.perception = Perception(self.world, i, v.options.get("sensor"), v.options.get("tracking"), rng(1))
+            if "comms" in v.options:
+                from mjasc.cooperation.coordination import Coordination
+
+                agent.coordination = Coordination(agent, network, v.options["comms"], rng(2))
+            if "avoidance" in v.options:
+                from mjasc.avoidance.system import CollisionAvoidance
+
+                agent.avoidance = CollisionAvoidance(agent, v.options["avoidance"], team, rng(3))
+
+    # ------------------------------------------------------------------ extent for views
+    def extent(self) -> tuple[np.ndarray, np.ndarray]:
+        pts = [v.position_m for v in self.scenario.vessels]
+        for v in self.scenario.vessels:
+            if v.path is not None:
+                pts.extend(v.path.sample(max(v.path.length / 50, 1.0)))
+        for o in self.scenario.static_obstacles:
+            pts.extend(getattr(o, "vertices", [getattr(o, "centre", np.zeros(2))]))
+        for o in self.scenario.moving_obstacles:
+            pts.append(o.position_m)
+        p = np.array(pts)
+        return p.min(axis=0) - 10.0, p.max(axis=0) + 10.0
+
+    # ------------------------------------------------------------------ slots
+    def _own_navigation(self, states, i: int) -> OwnNavigation:
+        return OwnNavigation(states.time_s, states.position_m[i], float(states.heading_rad[i]),
+                             states.velocity_m_s[i], states.body_velocity[i])
+
+    def _control(self, states) -> None:
+        cmds = np.zeros((len(self.agents), 2))
+        for i, agent in enumerate(self.agents):
+            out = agent.control(self._own_navigation(states, i), self.control_dt_s)
+            if out.mode != getattr(self._last_outputs[i], "mode", out.mode) and self.recorder:
+                self.recorder.event(states.time_s, f"{agent.name}: mode {self._last_outputs[i].mode} → {out.mode}")
+            cmds[i] = out.commands
+            self._last_outputs[i] = out
+        self.sim.set_commands(cmds)
+
+    def _record(self, states) -> None:
+        xte = np.array([o.status.cross_track_m if o and o.status else np.nan for o in self._last_outputs])
+        traffic = self.sim.traffic_state()
+        self.metrics.update(states, xte, traffic)
+        rec = self.recorder
+        if rec is None:
+            return
+        t = states.time_s
+        for i, agent in enumerate(self.agents):
+            name, vt = agent.name, agent.vessel
+            base = f"world/vessels/{name}"
+            rec.strips(f"{base}/hull", t, [hull_outline(vt.length_m, vt.beam_m, states.position_m[i],
+                                                        states.heading_rad[i])], z=0.2)
+            rec.points(f"{base}/position", t, states.position_m[i], z=0.2)
+            out = self._last_outputs[i]
+            rec.scalar(f"plots/speed/{name}/actual", t, states.speed_m_s[i])
+            rec.scalar(f"plots/speed/{name}/reference", t, out.speed_ref_m_s if out else 0.0)
+            rec.scalar(f"plots/thrust/{name}/port", t, states.thrust_n[i, 0])
+            rec.scalar(f"plots/thrust/{name}/starboard", t, states.thrust_n[i, 1])
+            rec.scalar(f"plots/commands/{name}/port", t, self.sim.data.ctrl[self.world.ctrl_adr[i, 0]])
+            rec.scalar(f"plots/commands/{name}/starboard", t, self.sim.data.ctrl[self.world.ctrl_adr[i, 1]])
+            rec.scalar(f"plots/heading/{name}", t, np.degrees(states.heading_rad[i]))
+            if np.isfinite(xte[i]):
+                rec.scalar(f"plots/cross_track/{name}", t, xte[i])
+            trail = self._trail[i]
+            if not trail or t - trail[-1][0] >= 1.0:
+                trail.append((t, states.position_m[i].copy()))
+                if len(trail) > 1:
+                    rec.strips(f"{base}/trail", t, [np.array([p for _, p in trail])], z=0.1)
+        for k, o in enumerate(self.world.moving_obstacles):
+            rec.points(f"world/obstacles/moving/{o.name}", t, traffic[0][k], z=0.3)
+        if not self.sim.current.is_steady and self._current_grid is not None and \
+                (not self._current_times or t - self._current_times[-1] >= 2.0):
+            self._current_times.append(t)
+            rec.arrows("world/current", t, self._current_grid, self._current_scale * self.sim.current.velocity(
+                self._current_grid, t))
+
+    def _log_static_scene(self) -> None:
+        rec, sc = self.recorder, self.scenario
+        lo, hi = self.extent()
+        rec.static("world/water", rr.Boxes3D(centers=[[*(0.5 * (lo + hi)), -0.05]],
+                                             half_sizes=[[*(0.5 * (hi - lo)), 0.01]], colors=[[40, 90, 150, 60]],
+                                             fill_mode="solid"))
+        for i, v in enumerate(sc.vessels):
+            col = vessel_colour(i)
+            base = f"world/vessels/{v.name}"
+            rec.static(f"{base}/hull", rr.LineStrips3D.from_fields(colors=[col], radii=[0.08]))
+            rec.static(f"{base}/position", rr.Points3D.from_fields(colors=[col], radii=[0.3], labels=[v.name],
+                                                                   show_labels=[True]))
+            rec.static(f"{base}/trail", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05]))
+            if v.path is not None:
+                rec.static(f"{base}/mission_path", rr.LineStrips3D([np.column_stack(
+                    [v.path.sample(0.5), np.zeros(len(v.path.sample(0.5)))])], colors=[(*col, 120)], radii=[0.06]))
+            rec.series_style(f"plots/speed/{v.name}/actual", f"{v.name} speed", col, 2.0)
+            rec.series_style(f"plots/speed/{v.name}/reference", f"{v.name} reference", (*col, 120), 1.0)
+            rec.series_style(f"plots/thrust/{v.name}/port", f"{v.name} port", col)
+            rec.series_style(f"plots/thrust/{v.name}/starboard", f"{v.name} starboard", (*col, 140))
+            rec.series_style(f"plots/cross_track/{v.name}", f"{v.name}", col)
+        for o in sc.static_obstacles:
+            poly = o.vertices if hasattr(o, "vertices") else o.polygon(32)
+            closed = np.vstack([poly, poly[:1]])
+            rec.static(f"world/obstacles/static/{o.name}", rr.LineStrips3D(
+                [np.column_stack([closed, np.full(len(closed), 0.5)])], colors=[(150, 110, 80)], radii=[0.15],
+                labels=[o.name]))
+        for o in sc.moving_obstacles:
+            rec.static(f"world/obstacles/moving/{o.name}", rr.Points3D.from_fields(
+                radii=[o.radius_m], colors=[(220, 60, 60, 160)], labels=[o.name], show_labels=[True]))
+            if o.path is not None:
+                rec.static(f"world/obstacles/moving/{o.name}_path", rr.LineStrips3D(
+                    [np.column_stack([o.path.sample(1.0), np.zeros(len(o.path.sample(1.0)))])],
+                    colors=[(220, 60, 60, 90)], radii=[0.05]))
+        # Current arrows on a grid over the scenario area (static when the field is steady).
+        gx = np.linspace(lo[0], hi[0], 9)
+        gy = np.linspace(lo[1], hi[1], 7)
+        grid = np.array([[x, y] for x in gx for y in gy])
+        self._current_grid = grid
+        self._current_scale = 0.08 * float(np.max(hi - lo))
+        self._current_times = []
+        vel = sc.current.velocity(grid, 0.0)
+        if sc.current.is_steady:
+            rec.static("world/current", rr.Arrows3D(origins=np.column_stack([grid, np.zeros(len(grid))]),
+                                                    vectors=np.column_stack([self._current_scale * vel,
+                                                                             np.zeros(len(grid))]),
+                                                    colors=[(120, 200, 255, 150)], radii=[0.12]))
+        else:
+            rec.static("world/current", rr.Arrows3D.from_fields(colors=[(120, 200, 255, 150)], radii=[0.12]))
+        rec.static("scenario", rr.TextDocument(json.dumps(sc.raw, indent=2, default=str), media_type="text/plain"))
+
+    # ------------------------------------------------------------------ main loop
+    def run(self) -> RunResult:
+        from mjasc.runs.metrics import RunMetrics
+
+        sc, sim = self.scenario, self.sim
+        files = {}
+        if self.out_dir is not None:
+            self.out_dir.mkdir(parents=True, exist_ok=True)
+        self.metrics = RunMetrics(self.world, sc)
+        self._current_grid = None
+        if self.out_dir is not None and sc.outputs.recording:
+            lo, hi = self.extent()
+            files["recording"] = self.out_dir / "recording.rrd"
+            bp = default_blueprint(
+                extent_m=float(np.max(hi - lo)), vessels=tuple(a.name for a in self.agents),
+                perception=any(a.perception is not None for a in self.agents),
+                avoidance=any(a.avoidance is not None for a in self.agents),
+                coordination=any(a.coordination is not None for a in self.agents))
+            self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp)
+            self._log_static_scene()
+            self.recorder.event(0.0, f"scenario {sc.name!r} seed {sc.seed}: {len(sc.vessels)} vessel(s), "
+                                     f"{len(sc.static_obstacles)} static and {len(sc.moving_obstacles)} moving obstacle(s)")
+        if self.out_dir is not None and sc.outputs.video:
+            from mjasc.runs.video import VideoWriter
+
+            files["video"] = self.out_dir / "video.mp4"
+            overlays = [v.path.sample(1.0) for v in sc.vessels if v.path is not None]
+            self.video = VideoWriter(files["video"], self.world.model, sc.outputs.video_width, sc.outputs.video_height,
+                                     sc.outputs.video_fps, sc.outputs.video_camera, self.extent(), overlays)
+        total_steps = int(round(sc.duration_s / sim.timestep_s))
+        status, error = "completed", None
+        wall0 = time.perf_counter()
+        bar = None
+        if self.progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=round(sc.duration_s), unit="sim s", desc=sc.name, leave=False)
+        step = 0
+        try:
+            while step <= total_steps:
+                due = self.schedule.due(step)
+                states = sim.states() if due else None
+                navs = [self._own_navigation(states, i) for i in range(len(self.agents))] if due else []
+                for slot in due:
+                    if slot == "sensing":
+                        for agent, nav in zip(self.agents, navs):
+                            agent.on_sensing(nav)
+                    elif slot == "tracking":
+                        for agent, nav in zip(self.agents, navs):
+                            agent.on_tracking(nav)
+                    elif slot == "comms":
+                        for agent, nav in zip(self.agents, navs):
+                            agent.on_comms(nav)
+                    elif slot == "prediction":
+                        for agent, nav in zip(self.agents, navs):
+                            agent.on_prediction(nav)
+                    elif slot == "control":
+                        self._control(states)
+                    elif slot == "record":
+                        self._record(states)
+                        new = self.metrics.check_contacts(states.time_s)
+                        for pair in new:
+                            if self.recorder:
+                                self.recorder.event(states.time_s, f"collision: {pair[0]} ↔ {pair[1]}", "WARN")
+                        for agent in self.agents:
+                            for t_ev, text in agent.drain_events():
+                                if self.recorder:
+                                    self.recorder.event(t_ev, f"{agent.name}: {text}")
+                            if self.recorder:
+                                agent.log(self.recorder, states.time_s)
+                    elif slot == "video" and self.video is not None:
+                        colours = [(*np.array(vessel_colour(i)) / 255, 1.0) for i in range(len(self.agents))]
+                        self.video.add_frame(
+                            sim.data,
+                            [(states.position_m[i], states.heading_rad[i], colours[i]) for i in range(len(self.agents))],
+                            [(np.array([p for _, p in self._trail[i]][::-4][:60]), colours[i])
+                             for i in range(len(self.agents)) if len(self._trail[i]) > 1])
+                nxt = min(self.schedule.next_event(step), total_steps + 1)
+                if nxt > total_steps:
+                    break
+                sim.step(nxt - step)
+                if bar is not None:
+                    bar.update(int(sim.time_s) - bar.n)
+                step = nxt
+        except PhysicsDivergence as exc:
+            status, error = "diverged", str(exc)
+            if self.recorder:
+                self.recorder.event(sim.time_s, str(exc), "ERROR")
+        finally:
+            if bar is not None:
+                bar.close()
+            if self.recorder is not None:
+                self.recorder.close()
+            if self.video is not None:
+                self.video.close()
+        wall = time.perf_counter() - wall0
+        summary = {"scenario": sc.name, "seed": sc.seed, "status": status, "error": error,
+                   "rates_hz": {s: round(self.schedule.realized_rate_hz(s), 4) for s in self.schedule.period_steps},
+                   **self.metrics.summary(wall, sim.time_s)}
+        for agent in self.agents:  # components add their own per-vessel results
+            for kind, comp in (("perception", agent.perception), ("coordination", agent.coordination),
+                               ("avoidance", agent.avoidance)):
+                if comp is not None and hasattr(comp, "summary"):
+                    summary["vessels"][agent.name][kind] = comp.summary()
+        if self.video is not None:
+            summary["video_frames"] = self.video.frames
+        if self.out_dir is not None:
+            files["summary"] = self.out_dir / "summary.json"
+            files["summary"].write_text(json.dumps(summary, indent=2))
+        result = RunResult(self.out_dir, summary, files)
+        if status != "completed":
+            raise RunFailed(f"{error}; partial outputs kept in {self.out_dir}")
+        return result
+
+
+def run_scenario(scenario: Scenario, out_dir=None, progress: bool | None = None) -> RunResult:
+    return Runner(scenario, out_dir, progress).run()

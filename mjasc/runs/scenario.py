@@ -1,0 +1,352 @@
+"""Scenario files (TOML): what a run contains, validated completely before anything runs.
+
+The format is documented with a complete example in ``tasks/README.md``. Every error names the
+field path and the reason (``vessels[1].controller.speed_m_s: must be > 0, got -1``), and
+:func:`load_scenario` raises before any model is built or any file is written.
+
+Angles in scenario files are in degrees (``heading_deg``, ``turn_rate_deg_s``) because people
+write them; everything inside mjasc is radians (docs/architecture.md).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+from pathlib import Path as FilePath
+from typing import Any
+
+import numpy as np
+
+from mjasc.core.resources import resolve_bundled
+from mjasc.core.config_tables import (
+    ConfigError,
+    check_keys,
+    dataclass_from_table,
+    errors_as,
+    integer,
+    load_toml,
+    number,
+    point,
+    points,
+    string,
+    table,
+)
+from mjasc.physics.currents import CurrentField, UniformCurrent, current_from_config
+from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
+from mjasc.guidance.paths import Path
+from mjasc.physics.vessels import available_vessels, load_vessel_type
+
+__all__ = ["ScenarioError", "Scenario", "VesselConfig", "Rates", "Outputs", "load_scenario", "parse_scenario"]
+
+
+class ScenarioError(ConfigError):
+    """A scenario file is invalid; the message names the field and the reason (a ValueError).
+
+    The field readers are :mod:`mjasc.core.config_tables`'s; their :class:`ConfigError` leaves the
+    public functions here as a ScenarioError."""
+
+
+# ---------------------------------------------------------------------- typed scenario
+@dataclass(frozen=True)
+class Rates:
+    """Multi-rate schedule [Hz]. Control, sensing, tracking, comms and recording run every
+    ``round(physics_hz / rate)`` physics steps; prediction every ``prediction_period_s``."""
+
+    physics_hz: float = 50.0
+    control_hz: float = 10.0
+    sensing_hz: float = 5.0
+    tracking_hz: float = 5.0
+    comms_hz: float = 1.0
+    record_hz: float = 10.0
+    prediction_period_s: float = 5.0
+
+
+@dataclass(frozen=True)
+class Outputs:
+    recording: bool = True
+    video: bool = False
+    video_camera: str = "top_down"
+    video_fps: float = 20.0
+    video_width: int = 640
+    video_height: int = 480
+
+
+@dataclass(frozen=True)
+class VesselConfig:
+    """One vessel: its type, start pose, controller and mission path (world ENU, SI)."""
+
+    name: str
+    type: str
+    position_m: np.ndarray
+    heading_rad: float
+    speed_m_s: float
+    controller: str  # "path_following" | "none"
+    path: Path | None
+    cruise_speed_m_s: float
+    commands: tuple[float, float] = (0.0, 0.0)  # constant propeller commands for controller = "none"
+    options: dict = field(default_factory=dict)  # sub-tables later layers read (sensor, tracking, avoidance)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    name: str
+    description: str
+    duration_s: float
+    seed: int
+    rates: Rates
+    outputs: Outputs
+    current: CurrentField
+    current_config: dict
+    vessels: tuple[VesselConfig, ...]
+    static_obstacles: tuple
+    moving_obstacles: tuple[MovingObstacle, ...]
+    source: str = ""
+    raw: dict = field(default_factory=dict)
+    comms: Any = None  # network config (comms.parse_network_options) or None
+
+    def with_overrides(self, seed: int | None = None, video: bool | None = None, duration_s: float | None = None) -> "Scenario":
+        from dataclasses import replace
+
+        s = self
+        with errors_as(ScenarioError):
+            if seed is not None:
+                new_seed = integer(seed, "seed", minimum=0)
+                # A seeded current (Gauss–Markov without its own seed) draws from the scenario seed:
+                # rebuild it so that --seed changes the current too.
+                s = replace(s, seed=new_seed, current=current_from_config(dict(s.current_config), seed=new_seed))
+            if video is not None:
+                s = replace(s, outputs=replace(s.outputs, video=bool(video)))
+            if duration_s is not None:
+                s = replace(s, duration_s=number(duration_s, "duration_s", positive=True))
+        return s
+
+
+# ---------------------------------------------------------------------- scenario-specific readers
+def _heading(t: dict, where: str) -> float:
+    return math.radians(number(t.get("heading_deg", 0.0), f"{where}.heading_deg"))
+
+
+def _path(t: dict, where: str) -> Path:
+    wps = points(t.get("waypoints"), f"{where}.waypoints", 2)
+    radius = number(t.get("turn_radius_m", 0.0), f"{where}.turn_radius_m", nonneg=True)
+    try:
+        return Path.from_waypoints(wps, turn_radius_m=radius)
+    except ValueError as exc:
+        raise ScenarioError(f"{where}.waypoints: {exc}") from None
+
+
+# ---------------------------------------------------------------------- sections
+_TOP = {"name", "description", "duration_s", "seed", "rates", "outputs", "current", "vessels",
+        "static_obstacles", "moving_obstacles", "comms"}
+
+#: Optional per-vessel components: scenario table → (module, parser). Each parser takes
+#: (table, where) and returns a typed config, raising ValueError that names ``where.<key>``.
+COMPONENT_PARSERS = {
+    "sensor": ("mjasc.perception.range_sensor", "parse_sensor_options"),
+    "tracking": ("mjasc.perception.tracking", "parse_tracking_options"),
+    "avoidance": ("mjasc.avoidance.system", "parse_avoidance_options"),
+    "comms": ("mjasc.cooperation.coordination", "parse_coordination_options"),
+}
+
+
+def _parse_component(kind: str, value: Any, where: str):
+    import importlib
+
+    module_name, func = COMPONENT_PARSERS[kind]
+    try:
+        parser = getattr(importlib.import_module(module_name), func)
+    except (ImportError, AttributeError):
+        raise ScenarioError(f"{where}: component {kind!r} is not available in this version of mjasc") from None
+    try:
+        return parser(table(value, where), where)
+    except ScenarioError:
+        raise
+    except ValueError as exc:
+        msg = str(exc)
+        raise ScenarioError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+_VESSEL = {"name", "type", "position_m", "heading_deg", "speed_m_s", "controller", "sensor", "tracking",
+           "avoidance", "comms"}
+_CONTROLLER = {"type", "waypoints", "turn_radius_m", "speed_m_s", "commands", "lookahead_m"}
+
+
+def _positive(value: Any, where: str) -> float:
+    return number(value, where, positive=True)
+
+
+def _rates(t: dict) -> Rates:
+    rates = dataclass_from_table(Rates, t, "rates", {f.name: _positive for f in fields(Rates)})
+    for k in ("control_hz", "sensing_hz", "tracking_hz", "comms_hz", "record_hz"):
+        if getattr(rates, k) > rates.physics_hz:
+            raise ScenarioError(f"rates.{k}: must not exceed rates.physics_hz ({rates.physics_hz}), got {getattr(rates, k)}")
+    return rates
+
+
+def _frame_size(limit: int):
+    """Reader of a video frame dimension [px]: ≥ 16, within the offscreen buffer, even (H.264)."""
+    def read(value: Any, where: str) -> int:
+        n = integer(value, where, minimum=16)
+        if n > limit:
+            raise ScenarioError(f"{where}: must be ≤ the scene's offscreen buffer (1280×720), got {n}")
+        if n % 2:
+            raise ScenarioError(f"{where}: must be even (H.264), got {n}")
+        return n
+
+    return read
+
+
+def _outputs(t: dict) -> Outputs:
+    return dataclass_from_table(Outputs, t, "outputs", {
+        "video_fps": lambda v, where: number(v, where, positive=True, maximum=120),
+        "video_width": _frame_size(1280), "video_height": _frame_size(720)})
+
+
+def _vessel(t: Any, i: int) -> VesselConfig:
+    where = f"vessels[{i}]"
+    t = table(t, where)
+    check_keys(t, _VESSEL, where)
+    name = string(t.get("name", f"v{i}"), f"{where}.name")
+    if "/" in name or name.startswith("obstacle"):
+        raise ScenarioError(f"{where}.name: must not contain '/' or start with 'obstacle', got {name!r}")
+    vtype = string(t.get("type"), f"{where}.type", choices=set(available_vessels()))
+    pos = point(t.get("position_m", [0.0, 0.0]), f"{where}.position_m")
+    heading = _heading(t, where)
+    vt = load_vessel_type(vtype)
+    speed = number(t.get("speed_m_s", 0.0), f"{where}.speed_m_s", nonneg=True, maximum=vt.top_speed_m_s * 1.5)
+    ctrl = table(t.get("controller", {"type": "none"}), f"{where}.controller")
+    check_keys(ctrl, _CONTROLLER, f"{where}.controller")
+    ctype = string(ctrl.get("type", "path_following"), f"{where}.controller.type", choices={"path_following", "none"})
+    path, commands = None, (0.0, 0.0)
+    cruise = vt.cruise_speed_m_s
+    options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}
+    if "avoidance" in options and "sensor" not in options:
+        raise ScenarioError(f"{where}.avoidance: needs a [vessels.sensor] table — a vessel avoids only what its "
+                            "own sensor sees")
+    if ctype == "path_following":
+        if "waypoints" not in ctrl:
+            raise ScenarioError(f"{where}.controller.waypoints: missing (path_following needs a path)")
+        path = _path(ctrl, f"{where}.controller")
+        cruise = number(ctrl.get("speed_m_s", vt.cruise_speed_m_s), f"{where}.controller.speed_m_s", positive=True,
+                        maximum=vt.top_speed_m_s)
+        if "lookahead_m" in ctrl:
+            options["lookahead_m"] = number(ctrl["lookahead_m"], f"{where}.controller.lookahead_m", positive=True)
+    else:
+        c = ctrl.get("commands", [0.0, 0.0])
+        if not isinstance(c, list) or len(c) != 2:
+            raise ScenarioError(f"{where}.controller.commands: must be [port, starboard] in [-1, 1], got {c!r}")
+        commands = tuple(number(x, f"{where}.controller.commands[{k}]", minimum=-1, maximum=1) for k, x in enumerate(c))
+    return VesselConfig(name, vtype, pos, heading, speed, ctype, path, cruise, commands, options)
+
+
+def _static(t: Any, i: int):
+    where = f"static_obstacles[{i}]"
+    t = table(t, where)
+    kind = string(t.get("type"), f"{where}.type", choices={"polygon", "circle"})
+    name = string(t.get("name", f"static{i}"), f"{where}.name")
+    height = number(t.get("height_m", 2.0), f"{where}.height_m", positive=True)
+    if kind == "polygon":
+        check_keys(t, {"type", "name", "vertices", "height_m"}, where)
+        v = points(t.get("vertices"), f"{where}.vertices", 3)
+        try:
+            return PolygonObstacle(name, v, height)
+        except ValueError as exc:
+            raise ScenarioError(f"{where}.vertices: {exc}") from None
+    check_keys(t, {"type", "name", "centre_m", "radius_m", "height_m"}, where)
+    return CircleObstacle(name, point(t.get("centre_m"), f"{where}.centre_m"),
+                          number(t.get("radius_m"), f"{where}.radius_m", positive=True), height)
+
+
+def _moving(t: Any, i: int) -> MovingObstacle:
+    where = f"moving_obstacles[{i}]"
+    t = table(t, where)
+    check_keys(t, {"name", "radius_m", "position_m", "heading_deg", "speed_m_s", "turn_rate_deg_s", "waypoints",
+                   "turn_radius_m", "start_gamma_m"}, where)
+    name = string(t.get("name", f"traffic{i}"), f"{where}.name")
+    radius = number(t.get("radius_m", 2.5), f"{where}.radius_m", positive=True)
+    speed = number(t.get("speed_m_s", 0.0), f"{where}.speed_m_s", nonneg=True)
+    if "waypoints" in t:
+        path = _path(t, where)
+        g0 = number(t.get("start_gamma_m", 0.0), f"{where}.start_gamma_m", nonneg=True, maximum=path.length)
+        return MovingObstacle(name, radius, path.point(g0), float(path.tangent_angle(g0)), speed, 0.0, path, g0)
+    pos = point(t.get("position_m"), f"{where}.position_m")
+    turn = math.radians(number(t.get("turn_rate_deg_s", 0.0), f"{where}.turn_rate_deg_s"))
+    return MovingObstacle(name, radius, pos, _heading(t, where), speed, turn)
+
+
+def parse_scenario(data: dict, source: str = "<dict>") -> Scenario:
+    """Validate a parsed TOML document into a :class:`Scenario` (raises :class:`ScenarioError`)."""
+    with errors_as(ScenarioError):
+        return _parse_scenario(data, source)
+
+
+def _parse_scenario(data: dict, source: str) -> Scenario:
+    data = table(data, "scenario")
+    check_keys(data, _TOP, "scenario")
+    name = string(data.get("name", FilePath(source).stem), "name")
+    duration = number(data.get("duration_s"), "duration_s", positive=True) if "duration_s" in data else None
+    if duration is None:
+        raise ScenarioError("duration_s: missing (how long the run lasts, in seconds)")
+    seed = integer(data.get("seed", 0), "seed", minimum=0)
+    rates = _rates(data.get("rates", {}))
+    outputs = _outputs(data.get("outputs", {}))
+    cur_cfg = data.get("current")
+    if cur_cfg is None:
+        current, cur_cfg = UniformCurrent((0.0, 0.0)), {"type": "uniform", "velocity_m_s": [0.0, 0.0]}
+    else:
+        try:
+            current = current_from_config(table(cur_cfg, "current"), seed=seed)
+        except TypeError:
+            current = current_from_config(table(cur_cfg, "current"))
+        except ValueError as exc:
+            msg = str(exc)
+            raise ScenarioError(msg if msg.startswith("current") else f"current: {msg}") from None
+    vessels_raw = data.get("vessels")
+    if not isinstance(vessels_raw, list) or not vessels_raw:
+        raise ScenarioError("vessels: need at least one [[vessels]] table")
+    vessels = tuple(_vessel(v, i) for i, v in enumerate(vessels_raw))
+    names = [v.name for v in vessels]
+    for i, n in enumerate(names):
+        if names.index(n) != i:
+            raise ScenarioError(f"vessels[{i}].name: duplicate name {n!r}")
+    statics = tuple(_static(o, i) for i, o in enumerate(_list(data.get("static_obstacles", []), "static_obstacles")))
+    moving = tuple(_moving(o, i) for i, o in enumerate(_list(data.get("moving_obstacles", []), "moving_obstacles")))
+    obstacle_names = [o.name for o in statics] + [o.name for o in moving]
+    for i, n in enumerate(obstacle_names):
+        if obstacle_names.index(n) != i:
+            raise ScenarioError(f"obstacles: duplicate obstacle name {n!r}")
+    if outputs.video_camera not in ("top_down", "overview") and not outputs.video_camera.startswith("chase:"):
+        raise ScenarioError(f"outputs.video_camera: must be top_down, overview or chase:<vessel>, got {outputs.video_camera!r}")
+    if outputs.video_camera.startswith("chase:") and outputs.video_camera[6:] not in names:
+        raise ScenarioError(f"outputs.video_camera: no vessel named {outputs.video_camera[6:]!r}")
+    comms = None
+    if "comms" in data:
+        import importlib
+
+        try:
+            parse_network = importlib.import_module("mjasc.cooperation.comms").parse_network_options
+        except (ImportError, AttributeError):
+            raise ScenarioError("comms: the comms link is not available in this version of mjasc") from None
+        try:
+            comms = parse_network(table(data["comms"], "comms"), "comms")
+        except ValueError as exc:
+            msg = str(exc)
+            raise ScenarioError(msg if msg.startswith("comms") else f"comms: {msg}") from None
+    return Scenario(name, str(data.get("description", "")), duration, seed, rates, outputs, current, dict(cur_cfg),
+                    vessels, statics, moving, source, data, comms)
+
+
+def _list(value: Any, where: str) -> list:
+    if not isinstance(value, list):
+        raise ScenarioError(f"{where}: must be an array of tables ([[{where}]]), got {value!r}")
+    return value
+
+
+def load_scenario(path: str | FilePath) -> Scenario:
+    """Read and validate a scenario file, given by its path (relative to the current folder) or by
+    the name of a bundled scenario (``"demo"``, ``"thesis_6_2_dock"``: ``mjasc list`` shows them).
+    Raises :class:`ScenarioError` naming the file and the field."""
+    path = resolve_bundled(path, "scenario")
+    data = load_toml(path, ScenarioError, "scenario")
+    try:
+        return parse_scenario(data, str(path))
+    except ScenarioError as exc:
+        raise ScenarioError(f"{path}: {exc}") from None
