@@ -205,3 +205,55 @@ def test_load_toml_names_the_file(tmp_path):
     bad.write_text("name = \n")
     with pytest.raises(ConfigError, match=r"bad\.toml: not valid TOML: "):
         load_toml(bad)
+
+
+# ------------------------------------------------------------------ parameters declared once
+from dataclasses import dataclass as _dc  # noqa: E402
+
+from mjasc.core.config_tables import check_params, describe_params, param  # noqa: E402
+
+
+@_dc(frozen=True)
+class _Inner:
+    window_s: float | None = param(30.0, positive=True, unit="s", doc="window", phrase="must be finite and > 0")
+    steps: int = param(8, minimum=8, doc="vertex count")
+
+    def __post_init__(self):
+        check_params(self, "inner")
+
+
+@_dc(frozen=True)
+class _Outer:
+    gain: float = param(0.3, positive=True, unit="1/s", doc="gain k")
+    ratio: float = param(0.5, nonneg=True, maximum=1.0, doc="safety ratio")
+    mode: str = param("fast", choices=("fast", "slow"), doc="mode")
+    inner: _Inner = param(default_factory=_Inner, flatten=True, doc="prediction")
+
+    def __post_init__(self):
+        check_params(self, "outer")
+
+
+def test_param_bounds_checked_on_construction_and_from_tables():
+    with pytest.raises(ConfigError, match=r"^outer\.gain: must be > 0, got -1$"):
+        _Outer(gain=-1)
+    with pytest.raises(ConfigError, match=r"^outer\.ratio: must be ≤ 1.0, got 2$"):
+        _Outer(ratio=2)
+    with pytest.raises(ConfigError, match=r"^v\[0\]\.av\.mode: must be one of fast, slow, got 'medium'$"):
+        dataclass_from_table(_Outer, {"mode": "medium"}, "v[0].av")
+    # a flattened nested config reads its fields from the parent table, errors name that table
+    with pytest.raises(ConfigError, match=r"^av\.window_s: must be finite and > 0, got 0.0$"):
+        dataclass_from_table(_Outer, {"window_s": 0}, "av")
+    with pytest.raises(ConfigError, match=r"^av\.steps: must be ≥ 8, got 3$"):
+        dataclass_from_table(_Outer, {"steps": 3}, "av")
+    with pytest.raises(ConfigError, match=r"^av\.nope: unknown field"):
+        dataclass_from_table(_Outer, {"nope": 3}, "av")
+    c = dataclass_from_table(_Outer, {"window_s": 12.0, "gain": 2}, "av")
+    assert c.inner.window_s == 12.0 and c.gain == 2.0 and c.inner.steps == 8
+    assert _Outer(inner=_Inner(window_s=None)).inner.window_s is None  # X | None accepts None
+
+
+def test_describe_params_lists_every_declared_parameter_once():
+    rows = {r["name"]: r for r in describe_params(_Outer)}
+    assert list(rows) == ["gain", "ratio", "mode", "window_s", "steps"]
+    assert rows["gain"]["unit"] == "1/s" and rows["gain"]["bounds"] == "> 0" and rows["gain"]["default"] == 0.3
+    assert rows["ratio"]["bounds"] == "≥ 0, ≤ 1.0"

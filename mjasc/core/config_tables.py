@@ -19,6 +19,22 @@ Readers (``where`` is always the second argument):
   of its field's type (float, int, bool, str, ``X | None``, ``tuple[X, ...]``) or a given converter,
   unknown keys rejected, missing keys left at the dataclass's defaults.
 
+**Parameters are declared once.** A config dataclass declares each field with :func:`param`: its
+default, its bounds (``positive``, ``nonneg``, ``minimum``, ``maximum``, ``choices``), its unit and
+its doc, in the field's metadata. From that one declaration :func:`check_params` validates an
+instance (the class's ``__post_init__`` calls it), :func:`dataclass_from_table` reads a TOML table
+(the same bounds, the error naming the table path) and :func:`describe_params` lists the
+parameters for the docs. A field whose type is itself a config dataclass nests it: its own table,
+or with ``flatten=True`` its fields read from the parent table (``[vessels.avoidance]`` holds the
+prediction fields too)::
+
+    @dataclass(frozen=True)
+    class Example:
+        gain: float = param(0.3, positive=True, unit="1/s", doc="virtual-target gain k")
+
+        def __post_init__(self):
+            check_params(self, "example")
+
 numpy scalars count as numbers and integers (arrays do not), so the same readers also check
 values a program passes to a config class directly (``__post_init__`` validators).
 
@@ -40,7 +56,7 @@ from typing import Any, Callable, Iterable, Iterator, Mapping
 import numpy as np
 
 __all__ = ["ConfigError", "show", "load_toml", "table", "check_keys", "number", "integer", "boolean", "string", "point",
-           "points", "dataclass_from_table", "errors_as"]
+           "points", "dataclass_from_table", "errors_as", "Param", "param", "check_params", "describe_params"]
 
 Converter = Callable[[Any, str], Any]
 """A reader of one value: ``converter(value, where) -> checked value`` (raises ConfigError)."""
@@ -166,6 +182,131 @@ def points(value: Any, where: str, minimum: int) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------------- dataclasses
+@dataclasses.dataclass(frozen=True)
+class Param:
+    """The declaration of one config parameter (stored in its dataclass field's metadata).
+
+    doc: what it is; unit: SI unit ("" for none); positive (> 0), nonneg (≥ 0), minimum (≥),
+    maximum (≤): bounds of a number (``X | None`` fields accept None as "not set"); choices: the
+    allowed strings; reader: a converter for the TOML value when the type's reader does not fit
+    (e.g. ``"dynamic"`` → None); flatten: a nested config dataclass read from the parent table;
+    phrase: the wording of a bound violation, when it must differ from the default
+    (``"must be finite and > 0"``).
+    """
+
+    doc: str
+    unit: str = ""
+    positive: bool = False
+    nonneg: bool = False
+    minimum: float | None = None
+    maximum: float | None = None
+    choices: tuple[str, ...] | None = None
+    reader: Converter | None = None
+    flatten: bool = False
+    phrase: str | None = None
+
+    def bounds_text(self) -> str:
+        """The bounds as the docs show them (``> 0``, ``≥ 0, ≤ 1``, ``one of a, b``)."""
+        parts = []
+        if self.positive:
+            parts.append("> 0")
+        if self.nonneg:
+            parts.append("≥ 0")
+        if self.minimum is not None:
+            parts.append(f"≥ {self.minimum}")
+        if self.maximum is not None:
+            parts.append(f"≤ {self.maximum}")
+        if self.choices:
+            parts.append("one of " + ", ".join(self.choices))
+        return ", ".join(parts)
+
+
+def param(default: Any = dataclasses.MISSING, *, doc: str, unit: str = "", positive: bool = False,
+          nonneg: bool = False, minimum: float | None = None, maximum: float | None = None,
+          choices: Iterable[str] | None = None, reader: Converter | None = None, flatten: bool = False,
+          phrase: str | None = None, default_factory: Any = dataclasses.MISSING) -> Any:
+    """A dataclass field declared with its :class:`Param` (bounds, unit, doc) in its metadata."""
+    meta = {"param": Param(doc, unit, positive, nonneg, minimum, maximum,
+                           tuple(sorted(choices)) if choices is not None else None, reader, flatten, phrase)}
+    if default_factory is not dataclasses.MISSING:
+        return dataclasses.field(default_factory=default_factory, metadata=meta)
+    return dataclasses.field(default=default, metadata=meta)
+
+
+def _param_of(f: dataclasses.Field) -> Param | None:
+    return f.metadata.get("param") if f.metadata else None
+
+
+def _check_value(value: Any, tp: Any, p: Param, where: str) -> Any:
+    """Check one value against its declared type and bounds; returns the value (converted)."""
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if origin in (typing.Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        rest = [a for a in args if a is not type(None)]
+        tp = rest[0] if len(rest) == 1 else tp
+    if dataclasses.is_dataclass(tp):
+        if not isinstance(value, tp):
+            _fail(where, f"must be a {tp.__name__}", value)
+        return value
+    try:
+        if tp is bool:
+            return boolean(value, where)
+        if tp is int:
+            v = integer(value, where, minimum=None if p.minimum is None else int(p.minimum),
+                        maximum=None if p.maximum is None else int(p.maximum))
+            if (p.positive and v <= 0) or (p.nonneg and v < 0):
+                _fail(where, f"must be {'> 0' if p.positive else '≥ 0'}", value)
+            return v
+        if tp is float:
+            return number(value, where, positive=p.positive, nonneg=p.nonneg, minimum=p.minimum, maximum=p.maximum)
+        if tp is str:
+            return string(value, where, choices=p.choices)
+    except ConfigError:
+        if p.phrase is None:
+            raise
+        raise ConfigError(f"{where}: {p.phrase}, got {show(value)}") from None
+    return value
+
+
+def check_params(obj: Any, where: str) -> None:
+    """Validate every :func:`param` field of the dataclass instance ``obj`` against its declared
+    type and bounds (ConfigError naming ``f"{where}.{field}"``); nested configs are checked by
+    their own ``__post_init__`` when built, and re-addressed here under ``where``."""
+    hints = typing.get_type_hints(type(obj))
+    for f in dataclasses.fields(obj):
+        p = _param_of(f)
+        if p is None:
+            continue
+        value = getattr(obj, f.name)
+        sub = f"{where}.{f.name}" if not p.flatten else where
+        if dataclasses.is_dataclass(value):
+            check_params(value, sub)
+        else:
+            _check_value(value, hints[f.name], p, f"{where}.{f.name}")
+
+
+def describe_params(cls: type, prefix: str = "") -> list[dict]:
+    """One row per declared parameter of ``cls`` (nested configs expanded):
+    ``{"name", "type", "default", "unit", "bounds", "doc"}``, for generated docs and ``--help``."""
+    rows = []
+    hints = typing.get_type_hints(cls)
+    for f in dataclasses.fields(cls):
+        p = _param_of(f)
+        if p is None:
+            continue
+        tp = hints[f.name]
+        name = f"{prefix}{f.name}"
+        if dataclasses.is_dataclass(tp):
+            rows += describe_params(tp, "" if p.flatten else f"{name}.")
+            continue
+        default = f.default if f.default is not dataclasses.MISSING else (
+            f.default_factory() if f.default_factory is not dataclasses.MISSING else None)
+        rows.append({"name": name, "type": getattr(tp, "__name__", str(tp).replace("typing.", "")),
+                     "default": default, "unit": p.unit, "bounds": p.bounds_text(), "doc": p.doc})
+    return rows
+
+
 def _sequence(element: Converter, length: int | None) -> Converter:
     """Reader of a list → tuple, each element read by ``element`` (naming ``where[k]``)."""
     def read(value: Any, where: str) -> tuple:
@@ -215,14 +356,30 @@ def dataclass_from_table(cls: type, tbl: Any, where: str, converters: Mapping[st
     """
     tbl = table(tbl, where)
     init_fields = [f for f in dataclasses.fields(cls) if f.init]
-    check_keys(tbl, (f.name for f in init_fields), where)
     hints = typing.get_type_hints(cls)
+    flat = {f.name: _flat_type(hints[f.name]) for f in init_fields
+            if (_param_of(f) is not None and _param_of(f).flatten)}
+    allowed = [f.name for f in init_fields if f.name not in flat]
+    for sub in flat.values():
+        allowed += [g.name for g in dataclasses.fields(sub) if g.init]
+    check_keys(tbl, allowed, where)
     converters = converters or {}
     values: dict[str, Any] = {}
     for f in init_fields:
         key_where = f"{where}.{f.name}"
+        p = _param_of(f)
+        if f.name in flat:
+            sub = flat[f.name]
+            own = {g.name for g in dataclasses.fields(sub) if g.init}
+            sub_defaults = getattr(defaults, f.name) if defaults is not None else None
+            values[f.name] = dataclass_from_table(sub, {k: v for k, v in tbl.items() if k in own}, where,
+                                                  converters, defaults=sub_defaults)
+            continue
         if f.name in tbl:
-            read = converters.get(f.name) or _reader_for(hints[f.name])
+            read = converters.get(f.name) or (p.reader if p is not None else None) or _reader_for(hints[f.name])
+            if read is None and dataclasses.is_dataclass(_flat_type(hints[f.name])):
+                sub = _flat_type(hints[f.name])
+                read = lambda v, w, sub=sub: dataclass_from_table(sub, v, w)  # noqa: E731
             if read is None:
                 raise TypeError(f"{cls.__name__}.{f.name}: no reader for type {hints[f.name]!r}; "
                                 f"pass converters[{f.name!r}]")
@@ -235,12 +392,22 @@ def dataclass_from_table(cls: type, tbl: Any, where: str, converters: Mapping[st
             values[f.name] = f.default_factory()
         else:
             raise ConfigError(f"{key_where}: missing")
+    candidate = object.__new__(cls)
+    for name, value in values.items():
+        object.__setattr__(candidate, name, value)
+    check_params(candidate, where)
     if check is not None:
-        candidate = object.__new__(cls)
-        for name, value in values.items():
-            object.__setattr__(candidate, name, value)
         check(candidate, where)
     return cls(**values)
+
+
+def _flat_type(tp: Any) -> Any:
+    """``X`` of ``X | None`` (else ``tp`` itself)."""
+    if typing.get_origin(tp) in (typing.Union, types.UnionType):
+        rest = [a for a in typing.get_args(tp) if a is not type(None)]
+        if len(rest) == 1:
+            return rest[0]
+    return tp
 
 
 # ---------------------------------------------------------------------------------------------- boundaries
