@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["distance_to_polygon", "point_in_polygon", "hull_outline"]
+__all__ = ["distance_to_polygon", "point_in_polygon", "hull_outline", "convex_hull"]
 
 
 def distance_to_polygon(points_xy: np.ndarray, vertices: np.ndarray) -> np.ndarray:
@@ -36,3 +36,21 @@ def hull_outline(length_m: float, beam_m: float, position_m, heading_rad: float)
     body = np.array([[-l, -b], [0.6 * l, -b], [l, 0.0], [0.6 * l, b], [-l, b], [-l, -b]])
     c, s = np.cos(heading_rad), np.sin(heading_rad)
     return body @ np.array([[c, s], [-s, c]]) + np.asarray(position_m, dtype=float)
+
+
+def convex_hull(points_xy: np.ndarray) -> np.ndarray:
+    """Vertices (k, 2) of the convex hull of points (n, 2), counter-clockwise, starting at the
+    lexicographically smallest point; collinear boundary points are dropped (scipy's Qhull).
+    Points are rounded to 1 µm and de-duplicated first; a degenerate set (≤ 2 distinct points, or all
+    on a line) gives its extreme points."""
+    from scipy.spatial import ConvexHull, QhullError
+
+    p = np.unique(np.round(np.asarray(points_xy, dtype=float).reshape(-1, 2), 6), axis=0)  # sorted by x, y
+    if p.shape[0] <= 2:
+        return p
+    try:
+        hull = p[ConvexHull(p).vertices]
+    except QhullError:  # all points on one line
+        return p[[0, -1]]
+    k = int(np.lexsort((hull[:, 1], hull[:, 0]))[0])
+    return np.roll(hull, -k, axis=0)
