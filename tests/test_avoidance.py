@@ -7,9 +7,13 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from mjasc.avoidance.system import AvoidanceConfig, CollisionAvoidance, PlannedTrack, merge_overlapping, parse_avoidance_options
-from mjasc.cooperation.coordination import TeamIntention
-from mjasc.core.estimates import TrackEstimate
+from mjasc.avoidance.config import AvoidanceConfig, parse_avoidance_options
+from mjasc.avoidance.replanning import merge_overlapping
+from mjasc.avoidance.system import CollisionAvoidance
+from mjasc.avoidance.team_mates import PlannedTrack
+from mjasc.cooperation.messages import TeamIntention, TeamPicture
+from mjasc.core.estimates import PerceptionReport, TrackEstimate
+from mjasc.guidance.state import GuidanceState
 from mjasc.core.geometry import distance_to_polygon, point_in_polygon
 from mjasc.guidance.paths import Path
 from mjasc.physics.vessels import load_vessel_type
@@ -27,11 +31,66 @@ class FakeFollower:
         self.path, self.gamma_m = path, float(gamma0_m)
 
 
+class Driven:
+    """The avoidance stage driven the way the vessel agent drives it: typed inputs each call (its
+    guidance state from the fake follower, a perception report, a team picture from the fake
+    coordination) and its requests applied to the fake follower. Other attributes are the
+    system's own (correction, detour, stats, summary(), ...)."""
+
+    def __init__(self, ca, agent):
+        self.ca, self.agent = ca, agent
+
+    def __getattr__(self, name):
+        return getattr(self.ca, name)
+
+    def mission_speed_now(self):
+        return self.agent.mission_speed_m_s * getattr(getattr(self.agent, "coordination", None), "last_factor", 1.0)
+
+    def _guidance(self, follower=None):
+        f = follower or self.agent.follower
+        return GuidanceState(f.path, f.gamma_m, self.mission_speed_now())
+
+    def _team(self, t):
+        coord = getattr(self.agent, "coordination", None)
+        return None if coord is None else TeamPicture(t, coord.team_intentions(), coord.last_factor)
+
+    def _report(self, t):
+        p = self.agent.perception
+        return None if p is None else PerceptionReport(t, tuple(p.tracks()), tuple(p.static_polygons()))
+
+    def _apply(self, req):
+        if req.path_switch is not None:
+            self.agent.follower.set_path(req.path_switch.path, req.path_switch.gamma_m)
+        return req
+
+    def predict(self, t, nav, tracks, static_polygons=()):
+        req = self.ca.predict(t, nav, self._guidance(), PerceptionReport(t, tuple(tracks), tuple(static_polygons)),
+                              self._team(t))
+        return list(self._apply(req).conflicts)
+
+    def control_refs(self, t, nav):
+        req = self._apply(self.ca.control(t, nav, self._guidance(), self._report(t), self._team(t)))
+        return req.speed_override_m_s, req.mode
+
+    def mission_gamma_m(self, follower):
+        return self.ca.mission_gamma_m(self._guidance(follower))
+
+    def planned_trajectory(self, t, nav, horizon_s, step_s):
+        return self.ca.planned_trajectory(t, nav, self._guidance(), horizon_s, step_s)
+
+    def _poll_team(self):
+        self.ca.team_mates.poll(self._team(None))
+
+    def _team_tracks(self, tracks, t):
+        return self.ca.team_mates.tracks(tracks, t, self._team(t), self.ca._event)
+
+
 def make(config=None, name="a", team=("a", "b"), path=None, perception=None):
     path = path or Path.from_waypoints(np.array([[0.0, 0.0], [200.0, 0.0]]))
     agent = SimpleNamespace(name=name, vessel=DELFIM, follower=FakeFollower(path), mission_speed_m_s=1.0,
                             perception=perception)
-    return CollisionAvoidance(agent, config or AvoidanceConfig(), list(team)), agent
+    ca = CollisionAvoidance(name, DELFIM, path, config or AvoidanceConfig(), list(team))
+    return Driven(ca, agent), agent
 
 
 def nav(x=0.0, y=0.0, heading=0.0):

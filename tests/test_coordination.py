@@ -10,9 +10,11 @@ import tomllib
 import numpy as np
 import pytest
 
-from mjasc.runs.agent import OwnNavigation
 from mjasc.cooperation.comms import CommsNetwork, NetworkConfig
-from mjasc.cooperation.coordination import Coordination, CoordinationConfig, parse_coordination_options
+from mjasc.cooperation.coordination import Coordination as _Coordination
+from mjasc.cooperation.coordination import CoordinationConfig, parse_coordination_options
+from mjasc.core.navigation import OwnNavigation
+from mjasc.guidance.state import GuidanceState
 from mjasc.guidance.paths import Path
 from mjasc.runs.scenario import ScenarioError, parse_scenario
 
@@ -25,6 +27,36 @@ def l_paths():
     return [Path.from_waypoints(np.array([[0.0, 10.0 * (1 - k)], [300.0 + 10 * k, 10.0 * (1 - k)],
                                           [300.0 + 10 * k, 300.0]]), turn_radius_m=15.0 + 10 * k)
             for k in range(3)]
+
+
+class Coordination:
+    """The coordination stage driven the way the vessel agent drives it, from a fake agent: its
+    mission path, speed, radius and top speed at construction; at each exchange its guidance state
+    (when its follower has a γ) and its avoidance's planned trajectory (when it has one). Other
+    attributes are the controller's own."""
+
+    def __init__(self, agent, network, config=None):
+        vessel = getattr(agent, "vessel", None)
+        path = getattr(getattr(agent, "config", None), "path", None)
+        self.agent = agent
+        self.c = _Coordination(agent.name, network, config, mission_path=path,
+                               mission_speed_m_s=getattr(agent, "mission_speed_m_s", 1.0),
+                               radius_m=getattr(vessel, "radius_m", None),
+                               top_speed_m_s=getattr(vessel, "top_speed_m_s", np.inf))
+
+    def __getattr__(self, name):
+        return getattr(self.c, name)
+
+    def exchange(self, t, nav, gamma_m):
+        f = getattr(self.agent, "follower", None)
+        guidance = None
+        if f is not None and hasattr(f, "gamma_m"):
+            guidance = GuidanceState(f.path, f.gamma_m, self.c.mission_speed_m_s * self.c.last_factor)
+        plan, req = None, self.c.plan_request()
+        avoidance = getattr(self.agent, "avoidance", None)
+        if req is not None and avoidance is not None:
+            plan = avoidance.planned_trajectory(t, nav, *req)
+        self.c.exchange(t, nav, gamma_m, guidance, plan)
 
 
 def fake_agent(name, path, speed=1.0):

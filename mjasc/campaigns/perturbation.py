@@ -48,7 +48,7 @@ from pathlib import Path
 import numpy as np
 
 from mjasc.core.resources import resolve_bundled
-from mjasc.core.config_tables import (boolean, check_keys, dataclass_from_table, errors_as, integer, load_toml, number, show,
+from mjasc.core.config_tables import (boolean, check_keys, check_params, dataclass_from_table, param, errors_as, integer, load_toml, number, show,
                             string, table)
 from mjasc.physics.currents import SumCurrent, UniformCurrent, current_from_config
 from mjasc.core.frames import wrap_angle
@@ -69,11 +69,18 @@ class CampaignError(ValueError):
 class Randomization:
     """Standard deviations of the per-run perturbations (0: that quantity is not perturbed)."""
 
-    vessel_position_sigma_m: float = 0.0
-    vessel_heading_sigma_deg: float = 0.0
-    current_velocity_sigma_m_s: float = 0.0
-    traffic_heading_sigma_deg: float = 0.0
-    traffic_speed_sigma_m_s: float = 0.0
+    vessel_position_sigma_m: float = param(0.0, nonneg=True, unit="m",
+                                           doc="per vessel: isotropic Gaussian on the start position")
+    vessel_heading_sigma_deg: float = param(0.0, nonneg=True, unit="deg", doc="per vessel: Gaussian on the start heading")
+    current_velocity_sigma_m_s: float = param(0.0, nonneg=True, unit="m/s",
+                                              doc="isotropic Gaussian added to the current's velocity")
+    traffic_heading_sigma_deg: float = param(0.0, nonneg=True, unit="deg",
+                                             doc="per moving obstacle on CV/CT motion: Gaussian on its heading")
+    traffic_speed_sigma_m_s: float = param(0.0, nonneg=True, unit="m/s",
+                                           doc="per moving obstacle: Gaussian on its speed (clipped at 0)")
+
+    def __post_init__(self):
+        check_params(self, "randomize")
 
     @property
     def is_zero(self) -> bool:
@@ -137,11 +144,6 @@ class RunDraws:
 
 
 # ---------------------------------------------------------------------- parsing
-def _sigma(value, where: str) -> float:
-    """A standard deviation: a finite number ≥ 0."""
-    return number(value, where, nonneg=True)
-
-
 _TOP = {"name", "description", "scenario", "runs", "base_seed", "duration_s", "randomize", "outputs"}
 _OUTPUTS = {"recordings"}
 
@@ -160,8 +162,7 @@ def parse_campaign(data: dict, source: str = "<dict>", base_dir: str | Path = ".
             raise CampaignError("runs: missing (how many runs the campaign makes)")
         runs = integer(data["runs"], "runs", minimum=1)
         base_seed = integer(data.get("base_seed", 0), "base_seed", minimum=0)
-        randomize = dataclass_from_table(Randomization, data.get("randomize", {}), "randomize",
-                                         converters={f.name: _sigma for f in fields(Randomization)})
+        randomize = dataclass_from_table(Randomization, data.get("randomize", {}), "randomize")
         out_table = table(data.get("outputs", {}), "outputs")
         check_keys(out_table, _OUTPUTS, "outputs")
         recordings = boolean(out_table.get("recordings", False), "outputs.recordings")

@@ -33,11 +33,11 @@ arrival (``received_time_s``), which is non-decreasing over successive calls of 
 from __future__ import annotations
 
 import heapq
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, is_dataclass
 
 import numpy as np
 
-from mjasc.core.config_tables import check_keys, dataclass_from_table, number, string
+from mjasc.core.config_tables import check_keys, check_params, dataclass_from_table, param, string
 from mjasc.core.config_tables import table as as_table
 
 __all__ = ["NetworkConfig", "Message", "CommsNetwork", "parse_network_options", "PRESETS"]
@@ -47,15 +47,15 @@ __all__ = ["NetworkConfig", "Message", "CommsNetwork", "parse_network_options", 
 class NetworkConfig:
     """Link model parameters (SI). Defaults: the ``radio`` preset."""
 
-    range_m: float = 1000.0
-    loss_probability: float = 0.0
-    loss_exponent: float = 4.0
-    base_delay_s: float = 0.02
-    propagation_speed_m_s: float = 3.0e8
-    jitter_s: float = 0.01
+    range_m: float = param(1000.0, positive=True, unit="m", doc="R: messages farther than this are always lost")
+    loss_probability: float = param(0.0, nonneg=True, maximum=1.0, doc="p₀: the loss probability near the sender")
+    loss_exponent: float = param(4.0, positive=True, doc="n: how fast the loss rises to 1 at the range R")
+    base_delay_s: float = param(0.02, nonneg=True, unit="s", doc="modem / MAC / processing latency")
+    propagation_speed_m_s: float = param(3.0e8, positive=True, unit="m/s", doc="c: the delay grows by d / c")
+    jitter_s: float = param(0.01, nonneg=True, unit="s", doc="a uniform extra delay in [0, jitter]")
 
     def __post_init__(self):
-        _check(self, "comms")
+        check_params(self, "comms")
 
     def loss_at(self, distance_m) -> np.ndarray:
         """Loss probability p(d) for distances [m] (any shape)."""
@@ -67,21 +67,6 @@ class NetworkConfig:
         """Mean delay E[τ(d)] [s] for distances [m] (any shape)."""
         d = np.asarray(distance_m, dtype=float)
         return self.base_delay_s + d / self.propagation_speed_m_s + 0.5 * self.jitter_s
-
-
-_LIMITS = {  # field -> bounds of config_tables.number
-    "range_m": {"positive": True},
-    "loss_probability": {"nonneg": True, "maximum": 1.0},
-    "loss_exponent": {"positive": True},
-    "base_delay_s": {"nonneg": True},
-    "propagation_speed_m_s": {"positive": True},
-    "jitter_s": {"nonneg": True},
-}
-
-
-def _check(cfg: NetworkConfig, where: str) -> None:
-    for key, bounds in _LIMITS.items():
-        number(getattr(cfg, key), f"{where}.{key}", **bounds)
 
 
 PRESETS = {
@@ -102,17 +87,18 @@ def parse_network_options(table: dict, where: str = "comms") -> NetworkConfig:
     overrides = {k: v for k, v in table.items() if k != "preset"}
     if not overrides:
         return PRESETS[preset]
-    return dataclass_from_table(NetworkConfig, overrides, where, defaults=PRESETS[preset], check=_check)
+    return dataclass_from_table(NetworkConfig, overrides, where, defaults=PRESETS[preset])
 
 
 @dataclass(frozen=True)
 class Message:
-    """One delivered message. ``payload`` is the receiver's own copy."""
+    """One delivered message. ``payload`` is the receiver's own copy of a dict payload, or the
+    sender's immutable typed message (:class:`~mjasc.cooperation.messages.TeamMessage`)."""
 
     sender: str
     sent_time_s: float
     received_time_s: float
-    payload: dict
+    payload: object
 
     @property
     def delay_s(self) -> float:
@@ -145,8 +131,12 @@ class _LinkStats:
                 "max_delay_s": self.delay_max_s}
 
 
-def _copy_payload(payload: dict) -> dict:
-    return {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in payload.items()}
+def _copy_payload(payload):
+    """A receiver's own copy of a dict payload (arrays copied); a typed message (a frozen
+    dataclass such as :class:`~mjasc.cooperation.messages.TeamMessage`) is shared: nobody mutates it."""
+    if isinstance(payload, dict):
+        return {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in payload.items()}
+    return payload
 
 
 class CommsNetwork:
@@ -182,8 +172,8 @@ class CommsNetwork:
         self._member(sender, "sender")
         if t_s < self._last_send_s:
             raise ValueError(f"comms.send: time must not go backwards ({t_s} < {self._last_send_s})")
-        if not isinstance(payload, dict):
-            raise ValueError(f"comms.send: payload must be a dict, got {type(payload).__name__}")
+        if not (isinstance(payload, dict) or (is_dataclass(payload) and payload.__dataclass_params__.frozen)):
+            raise ValueError(f"comms.send: payload must be a dict or a frozen dataclass, got {type(payload).__name__}")
         self._last_send_s = float(t_s)
         mid = self._base + len(self._log)
         self._log.append(_Sent(mid, float(t_s), sender, _copy_payload(payload),

@@ -40,19 +40,24 @@ converge to it (leader–follower coordination).
 **Intentions.** Each message also carries the sender's plan: where it intends to be over the next
 ``intent_horizon_s`` seconds, sampled every ``intent_step_s`` along the path it is *actually*
 following (a detour included) at its planned speed (a velocity correction included) — from its
-avoidance component's ``planned_trajectory`` when it has one, else from its path follower at the
-mission speed × the coordination factor — plus its radius. :meth:`Coordination.team_intentions`
-hands the newest one of each team mate to the avoidance layer as :class:`TeamIntention`.
+avoidance's ``planned_trajectory`` when the vessel has collision avoidance (the vessel hands it to
+:meth:`Coordination.exchange`), else along its guidance's current path at the mission speed × the
+coordination factor — plus its radius. Messages are typed
+(:class:`~mjasc.cooperation.messages.TeamMessage`); :meth:`Coordination.team_picture` hands the
+newest one of each team mate, as a :class:`~mjasc.cooperation.messages.TeamIntention`, to the rest
+of the vessel. The controller holds no reference to the vessel or its other components: what it
+needs of them (its own navigation, γ, the guidance state, the plan) is handed in each call.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass
 
 import numpy as np
 
 from mjasc.cooperation.comms import CommsNetwork
-from mjasc.core.config_tables import ConfigError, boolean, dataclass_from_table, number, show, string
+from mjasc.cooperation.messages import TeamIntention, TeamMessage, TeamPicture
+from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 
 __all__ = ["CoordinationConfig", "Coordination", "TeamIntention", "parse_coordination_options"]
 
@@ -62,34 +67,30 @@ class CoordinationConfig:
     """Gains and formation role of one vessel (``[vessels.comms]``). The broadcast period is the
     runner's comms slot, ``rates.comms_hz``."""
 
-    max_speed_correction: float = 0.5  # k ∈ (0, 1): consensus term moves the speed in [(1−k), (1+k)]·nominal
-    error_scale_m: float = 10.0  # e_s [m]: tanh(e/e_s); linear gain k/e_s per metre of error
-    formation_offset_m: float = 0.0  # o_i [m]: desired lead along own path over the formation reference
-    role: str = "peer"  # "peer" (consensus) | "leader" (keeps its nominal speed)
-    neighbour_timeout_s: float = 5.0  # a neighbour whose latest message is older is dropped from N_i
-    extrapolate: bool = True  # ξ̂_j = ξ_j + ξ̇_j (t − t_j)
-    formation_tolerance_m: float = 1.0  # formation spread [m] below this counts as "in formation" (summary only)
-    intent_horizon_s: float = 60.0  # the broadcast plan covers this far ahead [s] (0: no plan, pose only)
-    intent_step_s: float = 1.0  # spacing of the plan's samples [s]
+    max_speed_correction: float = param(0.5, doc="k ∈ (0, 1): the consensus term moves the speed within "
+                                                 "[(1 − k), (1 + k)] × nominal")
+    error_scale_m: float = param(10.0, positive=True, unit="m", doc="e_s: tanh(e / e_s); linear gain k / e_s per "
+                                                                   "metre of error")
+    formation_offset_m: float = param(0.0, unit="m", doc="o_i: desired lead along the own path over the formation "
+                                                         "reference")
+    role: str = param("peer", choices=("leader", "peer"), doc="peer (consensus) or leader (keeps its nominal speed)")
+    neighbour_timeout_s: float = param(5.0, positive=True, unit="s", doc="a neighbour whose latest message is older "
+                                                                         "is dropped from N_i")
+    extrapolate: bool = param(True, doc="extrapolate neighbours: ξ̂_j = ξ_j + ξ̇_j (t − t_j)")
+    formation_tolerance_m: float = param(1.0, positive=True, unit="m", doc="formation spread below this counts as "
+                                                                          "in formation (summary only)")
+    intent_horizon_s: float = param(60.0, nonneg=True, unit="s", doc="the broadcast plan covers this far ahead "
+                                                                     "(0: no plan, pose only)")
+    intent_step_s: float = param(1.0, positive=True, unit="s", doc="spacing of the plan's samples")
 
     def __post_init__(self):
+        check_params(self, "comms")
         _validate(self, "comms")
 
 
-_POSITIVE = ("error_scale_m", "neighbour_timeout_s", "formation_tolerance_m", "intent_step_s")
-
-
-_ROLES = ("leader", "peer")
-
-
 def _validate(cfg: CoordinationConfig, where: str) -> None:
-    """Validate a :class:`CoordinationConfig` (ValueError naming ``f"{where}.{key}"``)."""
-    string(cfg.role, f"{where}.role", choices=_ROLES)
-    boolean(cfg.extrapolate, f"{where}.extrapolate")
-    for f in fields(cfg):
-        if f.name not in ("role", "extrapolate"):
-            number(getattr(cfg, f.name), f"{where}.{f.name}", positive=f.name in _POSITIVE)
-    number(cfg.intent_horizon_s, f"{where}.intent_horizon_s", nonneg=True)
+    """Cross-field and open-interval checks of a :class:`CoordinationConfig` (the declared bounds
+    are checked by :func:`~mjasc.core.config_tables.check_params`)."""
     if not 0.0 < cfg.max_speed_correction < 1.0:
         raise ConfigError(f"{where}.max_speed_correction: must be in (0, 1) so that the speed stays positive, "
                           f"got {show(cfg.max_speed_correction)}")
@@ -100,85 +101,38 @@ def parse_coordination_options(table: dict, where: str = "comms") -> Coordinatio
     return dataclass_from_table(CoordinationConfig, table, where, check=_validate)
 
 
-@dataclass(frozen=True, eq=False)
-class TeamIntention:
-    """A team mate's newest message about itself (world ENU, SI, absolute times).
-
-    name, sent_time_s: who and when. position_m (2,), heading_rad, velocity_m_s (2,): its own
-    navigation at ``sent_time_s``. radius_m: its bounding radius [m] (None if not sent).
-    plan_times_s (k,), plan_points_m (k, 2): where it intends to be (k = 0: no plan; then
-    :meth:`positions` extrapolates the velocity)."""
-
-    name: str
-    sent_time_s: float
-    position_m: np.ndarray
-    heading_rad: float
-    velocity_m_s: np.ndarray
-    radius_m: float | None = None
-    plan_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    plan_points_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
-
-    @property
-    def has_plan(self) -> bool:
-        return self.plan_times_s.size >= 2
-
-    def positions(self, times_s) -> np.ndarray:
-        """Intended positions (n, 2) at absolute ``times_s``: the plan, linearly interpolated;
-        before its start along the broadcast velocity, after its end along its last segment."""
-        t = np.atleast_1d(np.asarray(times_s, dtype=float))
-        if not self.has_plan:
-            return self.position_m + (t - self.sent_time_s)[:, None] * self.velocity_m_s
-        ts, pts = self.plan_times_s, self.plan_points_m
-        out = np.stack([np.interp(t, ts, pts[:, 0]), np.interp(t, ts, pts[:, 1])], axis=-1)
-        lo, hi = t < ts[0], t > ts[-1]
-        if lo.any():
-            out[lo] = pts[0] + (t[lo] - ts[0])[:, None] * self.velocity_m_s
-        if hi.any():
-            v_end = (pts[-1] - pts[-2]) / max(ts[-1] - ts[-2], 1e-9)
-            out[hi] = pts[-1] + (t[hi] - ts[-1])[:, None] * v_end
-        return out
-
-    def max_speed_m_s(self) -> float:
-        """Largest speed along the plan (or the broadcast speed) [m/s]."""
-        v = float(np.hypot(*self.velocity_m_s))
-        if self.has_plan:
-            seg = np.hypot(*np.diff(self.plan_points_m, axis=0).T) / np.maximum(np.diff(self.plan_times_s), 1e-9)
-            v = max(v, float(seg.max()))
-        return v
-
-
 @dataclass
 class _Neighbour:
     sent_time_s: float
     received_time_s: float
-    payload: dict
+    message: TeamMessage
     active: bool = True
 
 
 class Coordination:
     """One vessel's coordination controller (the ``coordination`` component of ``VesselAgent``).
 
-    Uses from the agent: ``name``, ``config.path`` or ``follower.path`` (the mission path, whose
-    length is L_i), ``mission_speed_m_s`` and ``vessel.top_speed_m_s`` (both optional).
+    name: the vessel's name on the link; network: the team's link (the environment's broadcast
+    medium, shared by the team); mission_path: the vessel's mission path (its length is L_i; None
+    for a vessel without one: it broadcasts its pose only); mission_speed_m_s: its mission's
+    cruise speed v_i; radius_m: its bounding radius, broadcast to the team (None: not sent);
+    top_speed_m_s: the cap on the corrected speed.
     """
 
-    def __init__(self, agent, network: CommsNetwork, config: CoordinationConfig | None = None,
-                 rng: np.random.Generator | None = None):
+    def __init__(self, name: str, network: CommsNetwork, config: CoordinationConfig | None = None,
+                 rng: np.random.Generator | None = None, *, mission_path=None, mission_speed_m_s: float = 1.0,
+                 radius_m: float | None = None, top_speed_m_s: float = np.inf):
         if network is None:
-            raise ValueError(f"{agent.name}.comms: coordination needs a comms network")
-        self.name = agent.name
-        self.agent = agent
+            raise ValueError(f"{name}.comms: coordination needs a comms network")
+        self.name = name
         self.network = network
         self.config = config if config is not None else CoordinationConfig()
         self.rng = rng  # unused: the law is deterministic; kept for the component interface
-        path = getattr(getattr(agent, "config", None), "path", None)
-        if path is None and getattr(agent, "follower", None) is not None:
-            path = agent.follower.path
-        self.path = path  # the mission path (a detour never changes L_i)
-        self.path_length_m = float(path.length) if path is not None else None
-        self.mission_speed_m_s = float(getattr(agent, "mission_speed_m_s", 1.0))
-        vessel = getattr(agent, "vessel", None)
-        self.top_speed_m_s = float(vessel.top_speed_m_s) if vessel is not None else np.inf
+        self.path = mission_path  # the mission path (a detour never changes L_i)
+        self.path_length_m = float(mission_path.length) if mission_path is not None else None
+        self.mission_speed_m_s = float(mission_speed_m_s)
+        self.radius_m = None if radius_m is None else float(radius_m)
+        self.top_speed_m_s = float(top_speed_m_s)
         self.neighbours: dict[str, _Neighbour] = {}
         self._intent_cache: dict[str, TeamIntention] = {}
         self._events: list[tuple[float, str]] = []
@@ -197,41 +151,37 @@ class Coordination:
             return np.nan
         return (float(gamma_m) - self.config.formation_offset_m) / self.path_length_m
 
-    def _payload(self, t_s: float, nav, gamma_m: float) -> dict:
-        p = {"position_m": np.array(nav.position_m[:2], dtype=float), "heading_rad": float(nav.heading_rad),
-             "velocity_m_s": np.array(nav.velocity_m_s[:2], dtype=float),
-             "mission_speed_m_s": self.mission_speed_m_s}
-        vessel = getattr(self.agent, "vessel", None)
-        if vessel is not None and getattr(vessel, "radius_m", None) is not None:
-            p["radius_m"] = float(vessel.radius_m)
-        plan = self._plan(t_s, nav)
+    def plan_request(self) -> tuple[float, float] | None:
+        """(horizon [s], step [s]) of the plan this vessel broadcasts, or None (pose only)."""
+        h = self.config.intent_horizon_s
+        return (h, self.config.intent_step_s) if h > 0 else None
+
+    def _message(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None) -> TeamMessage:
+        kw = {}
+        plan = plan if plan is not None else self._own_plan(t_s, guidance)
         if plan is not None:
-            p["plan_t_s"], p["plan_xy_m"] = plan
+            kw["plan_times_s"], kw["plan_points_m"] = plan
         if self.path_length_m is not None:
             g = float(np.clip(gamma_m, 0.0, self.path_length_m))
             chi = float(self.path.tangent_angle(g))
             along = float(np.dot(nav.velocity_m_s[:2], (np.cos(chi), np.sin(chi))))
-            p.update(gamma_m=float(gamma_m), path_length_m=self.path_length_m, xi=self.xi(gamma_m),
-                     xi_rate_1_s=along / self.path_length_m, offset_m=self.config.formation_offset_m)
-        return p
+            kw.update(gamma_m=float(gamma_m), path_length_m=self.path_length_m, xi=self.xi(gamma_m),
+                      xi_rate_1_s=along / self.path_length_m, offset_m=self.config.formation_offset_m)
+        return TeamMessage(self.name, np.array(nav.position_m[:2], dtype=float), float(nav.heading_rad),
+                           np.array(nav.velocity_m_s[:2], dtype=float), self.mission_speed_m_s, self.radius_m, **kw)
 
-    def _plan(self, t_s: float, nav):
-        """(times (k,), points (k, 2)) of where this vessel intends to be, or None: its avoidance's
-        ``planned_trajectory`` (the active path — a detour too — at the planned speed), else its
-        follower's path ahead at the mission speed × the latest coordination factor."""
-        h, dt = self.config.intent_horizon_s, self.config.intent_step_s
-        if h <= 0:
+    def _own_plan(self, t_s: float, guidance):
+        """(times (k,), points (k, 2)) along the guidance's current path at the mission speed × the
+        latest coordination factor, or None (no plan asked for, or no guidance). Used when the
+        vessel has no collision avoidance to hand in its planned trajectory."""
+        req = self.plan_request()
+        if req is None or guidance is None:
             return None
-        fn = getattr(getattr(self.agent, "avoidance", None), "planned_trajectory", None)
-        if callable(fn):
-            return fn(t_s, nav, h, dt)
-        follower = getattr(self.agent, "follower", None)
-        path = getattr(follower, "path", None)
-        if path is None or not hasattr(path, "point") or not hasattr(follower, "gamma_m"):
-            return None
+        h, dt = req
+        path = guidance.path
         times = t_s + np.arange(0.0, h + 0.5 * dt, dt)
         v = self.mission_speed_m_s * (self.last_factor if np.isfinite(self.last_factor) else 1.0)
-        g = np.clip(float(follower.gamma_m) + v * (times - t_s), 0.0, path.length)
+        g = np.clip(float(guidance.gamma_m) + v * (times - t_s), 0.0, path.length)
         return times, np.asarray(path.point(g), dtype=float).reshape(-1, 2)
 
     def _poll(self, t_s: float, nav) -> None:
@@ -258,17 +208,17 @@ class Coordination:
         speeds = [self.mission_speed_m_s]
         xis = []
         for nb in self.neighbours.values():
-            p = nb.payload
-            if "xi" not in p:
+            p = nb.message
+            if not p.has_path:
                 continue
-            lengths.append(p["path_length_m"])
-            speeds.append(p["mission_speed_m_s"])
+            lengths.append(p.path_length_m)
+            speeds.append(p.mission_speed_m_s)
             if not nb.active:
                 continue
-            x = p["xi"]
+            x = p.xi
             if self.config.extrapolate:
-                x_end = 1.0 - p["offset_m"] / p["path_length_m"]  # the neighbour stops at the end of its path
-                x = min(x + p["xi_rate_1_s"] * (t_s - nb.sent_time_s), max(x, x_end))
+                x_end = 1.0 - p.offset_m / p.path_length_m  # the neighbour stops at the end of its path
+                x = min(x + p.xi_rate_1_s * (t_s - nb.sent_time_s), max(x, x_end))
             xis.append(x)
         l_bar = float(np.mean(lengths))
         return np.array(xis), l_bar, float(np.mean(speeds)) / l_bar
@@ -288,9 +238,14 @@ class Coordination:
         return float(d.sum()), float(d.mean()), float(spread), len(xis)
 
     # ------------------------------------------------------------------ component interface
-    def exchange(self, t_s: float, nav, gamma_m: float) -> None:
-        """Comms slot: broadcast own ξ, path rate and pose; read what has arrived."""
-        self.network.send(t_s, self.name, self._payload(t_s, nav, gamma_m), nav.position_m)
+    def exchange(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None) -> None:
+        """Comms slot: broadcast own ξ, path rate, pose and plan; read what has arrived.
+
+        nav: own :class:`~mjasc.core.navigation.OwnNavigation`; gamma_m: progress along the mission
+        path [m]; guidance: the :class:`~mjasc.guidance.state.GuidanceState` (for the plan when
+        ``plan`` is None); plan: (times (k,), points (k, 2)) the vessel's planned trajectory over
+        :meth:`plan_request` (from its collision avoidance), or None."""
+        self.network.send(t_s, self.name, self._message(t_s, nav, gamma_m, guidance, plan), nav.position_m)
         self._poll(t_s, nav)
         _, lead, spread, n = self.coordination_error(t_s, gamma_m)
         self.last_xi, self.last_spread_m = self.xi(gamma_m), spread
@@ -317,28 +272,23 @@ class Coordination:
         ``t_s`` and ``max_age_s`` only those sent at most ``max_age_s`` before ``t_s``."""
         out = {}
         for n, nb in self.neighbours.items():
-            p = nb.payload
-            if "position_m" not in p:
-                continue
             if max_age_s is not None and t_s is not None and t_s - nb.sent_time_s > max_age_s:
                 continue
             cached = self._intent_cache.get(n)
             if cached is not None and cached.sent_time_s == nb.sent_time_s:
                 out[n] = cached
                 continue
-            vel = np.asarray(p.get("velocity_m_s", (0.0, 0.0)), dtype=float)[:2]
-            plan_t = np.asarray(p.get("plan_t_s", ()), dtype=float).reshape(-1)
-            plan_xy = np.asarray(p.get("plan_xy_m", np.zeros((0, 2))), dtype=float).reshape(-1, 2)
-            if plan_t.size != plan_xy.shape[0]:
-                plan_t, plan_xy = np.zeros(0), np.zeros((0, 2))
-            out[n] = self._intent_cache[n] = TeamIntention(
-                n, float(nb.sent_time_s), np.asarray(p["position_m"], dtype=float)[:2],
-                float(p.get("heading_rad", np.arctan2(vel[1], vel[0]))), vel, p.get("radius_m"), plan_t, plan_xy)
+            out[n] = self._intent_cache[n] = TeamIntention.from_message(nb.message, nb.sent_time_s)
         return out
+
+    def team_picture(self, t_s: float) -> TeamPicture:
+        """What this vessel knows of its team now: every team mate's newest intention and the
+        latest factor on the mission speed."""
+        return TeamPicture(float(t_s), self.team_intentions(), self.last_factor)
 
     def team_positions(self) -> dict:
         """Latest received position of every team mate: name → (sent time [s], (2,) world [m])."""
-        return {n: (nb.sent_time_s, nb.payload["position_m"]) for n, nb in self.neighbours.items()}
+        return {n: (nb.sent_time_s, nb.message.position_m) for n, nb in self.neighbours.items()}
 
     def drain_events(self) -> list[tuple[float, str]]:
         out, self._events = self._events, []

@@ -53,3 +53,13 @@ class TrackEstimate:
             [x0 + v / w * (np.sin(th_t) - np.sin(th)), y0 - v / w * (np.cos(th_t) - np.cos(th))],
             axis=-1,
         )
+
+
+@dataclass(frozen=True)
+class PerceptionReport:
+    """What one vessel's perception hands onward at ``time_s`` [s]: its confirmed tracks and the
+    convex polygons (each (k, 2), world [m]) of the static structures it has mapped."""
+
+    time_s: float
+    tracks: tuple[TrackEstimate, ...] = ()
+    static_polygons: tuple[np.ndarray, ...] = ()

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mjasc.avoidance.system import MODES
+from mjasc.avoidance.request import MODES
 from mjasc.core.resources import tasks_dir
 from mjasc.runs.recording import vessel_colour
 from mjasc.runs.runner import Runner
@@ -50,24 +50,25 @@ class RunTrace:
     summary: dict = field(default_factory=dict)
 
 
-class _TracingRunner(Runner):
-    def __init__(self, scenario, trace: RunTrace):
-        super().__init__(scenario, None, progress=False)
-        self.trace = trace
-        self._seen_detours = [None] * len(self.agents)
-        self._seen_predictions = [None] * len(self.agents)
+class _Tracer:
+    """A runner observer of the record slot: what each vessel's avoidance did, sampled at the
+    record rate (reads the agents' and components' public state only)."""
 
-    def _record(self, states):
-        super()._record(states)
-        tr = self.trace
+    def __init__(self, trace: RunTrace, n_vessels: int):
+        self.trace = trace
+        self._seen_detours = [None] * n_vessels
+        self._seen_predictions = [None] * n_vessels
+
+    def __call__(self, event) -> None:
+        runner, states, tr = event.runner, event.states, self.trace
         tr.times.append(states.time_s)
         tr.positions.append(states.position_m.copy())
         tr.speeds.append(states.speed_m_s.copy())
-        tr.references.append([o.speed_ref_m_s if o else 0.0 for o in self._last_outputs])
-        tr.modes.append([MODES.get(a.mode, 0) if a.avoidance is not None else 0 for a in self.agents])
-        if len(self.world.moving_obstacles):
-            tr.traffic.append(self.sim.traffic_state()[0].copy())
-        for i, agent in enumerate(self.agents):
+        tr.references.append([o.speed_ref_m_s if o else 0.0 for o in runner.last_outputs])
+        tr.modes.append([MODES.get(a.mode, 0) if a.avoidance is not None else 0 for a in runner.agents])
+        if len(runner.world.moving_obstacles):
+            tr.traffic.append(runner.sim.traffic_state()[0].copy())
+        for i, agent in enumerate(runner.agents):
             av = agent.avoidance
             if av is None:
                 continue
@@ -75,15 +76,15 @@ class _TracingRunner(Runner):
                 self._seen_detours[i] = av.detour
                 tr.detours.setdefault(agent.name, []).append((states.time_s, av.detour.streamline,
                                                               av.detour.obstacles))
-            last = av._last
+            last = av.last_prediction
             if last is not None and last is not self._seen_predictions[i]:
                 self._seen_predictions[i] = last
-                for c in last["conflicts"]:
+                for c in last.conflicts:
                     k = int(np.argmin(np.abs(c.times - c.t_closest_s)))
                     tr.collision_points.setdefault(agent.name, []).append(
-                        (last["t"], c.vessel_positions[k], c.t_i, c.t_f))
+                        (last.time_s, c.vessel_positions[k], c.t_i, c.t_f))
                     if c.svo_polygon is not None:
-                        tr.svos.setdefault(agent.name, []).append((last["t"], c.svo_polygon))
+                        tr.svos.setdefault(agent.name, []).append((last.time_s, c.svo_polygon))
 
 
 def trace_run(name: str, duration_s: float | None = None) -> RunTrace:
@@ -92,7 +93,8 @@ def trace_run(name: str, duration_s: float | None = None) -> RunTrace:
     if duration_s is not None:
         sc = sc.with_overrides(duration_s=duration_s)
     trace = RunTrace(sc)
-    runner = _TracingRunner(sc, trace)
+    runner = Runner(sc, None, progress=False)
+    runner.observe("record", _Tracer(trace, len(runner.agents)))
     trace.summary = runner.run().summary
     return trace
 

@@ -56,13 +56,8 @@ def run_tracking_scenario(path: Path = DYNAMIC, seed: int | None = None) -> Trac
     perception = runner.agents[0].perception
     perception.keep_history = True
     own = []
-    orig_sense = perception.sense
-
-    def sense(t, nav):  # the ASC's own path for the figure
-        own.append(np.asarray(nav.position_m, dtype=float).copy())
-        orig_sense(t, nav)
-
-    perception.sense = sense
+    # the ASC's own path for the figure, where it was at each sensing slot
+    runner.observe("sensing", lambda event: own.append(np.asarray(event.navs[0].position_m, dtype=float).copy()))
     res = runner.run()
     h = perception.history_arrays()
     if sc.moving_obstacles:

@@ -1,18 +1,28 @@
 """One vessel's onboard pipeline, run by the runner at each slot of the schedule.
 
-Data flows one way through a tick (slot order in ``schedule.SLOT_ORDER``)::
+Data flows one way through a tick (slot order in :data:`~mjasc.runs.schedule.SLOT_ORDER`); each
+stage takes typed values and returns typed values, and the agent — the only object that holds
+the vessel's components — hands them on::
 
-    sensing    perception.sense(t, nav)                 range scan → detections
-    tracking   perception.update_tracks(t, nav)         detections → IMM tracks (TrackEstimate)
-    comms      coordination.exchange(t, nav, γ)         broadcast own γ/pose; receive team mates'
-    prediction avoidance.predict(t, nav, tracks, …)     tracks → conflicts → mode, detour, speed law
-    control    avoidance.speed_override / detour path,
-               coordination.speed_correction           → path following → propeller commands
+    sensing    perception.sense(t, nav)                      own range scan → detections
+    tracking   perception.update_tracks(t, nav)              detections → IMM tracks
+               → PerceptionReport (tracks, static polygons)
+    comms      avoidance.planned_trajectory(t, nav, guidance) → the plan to broadcast
+               coordination.exchange(t, nav, γ, guidance, plan) → TeamMessage out; TeamPicture in
+    prediction avoidance.predict(t, nav, guidance, report, team) → AvoidanceRequest
+    control    coordination.speed_correction(t, nav, γ)      → factor on the mission speed
+               avoidance.control(t, nav, guidance, report, team) → AvoidanceRequest
+               path_follower.command(..., speed)              → propeller commands
 
-A vessel knows its own state (its navigation system) and nothing else of the simulator's truth:
-other bodies reach it only through its sensor and its comms link. Components are optional: a
-vessel without a ``[vessels.sensor]`` table has no perception, and so on. Each component has the
-small interface below (duck-typed) and logs itself to the recording with ``log(recorder, t, name)``.
+``nav`` is the vessel's own :class:`~mjasc.core.navigation.OwnNavigation`; ``guidance`` its
+:class:`~mjasc.guidance.state.GuidanceState` (the path it follows now, γ on it, the mission speed
+with the coordination factor); an :class:`~mjasc.avoidance.request.AvoidanceRequest` (speed
+override, path switch) is applied by the agent to its path follower. A vessel knows its own state
+(its navigation system) and nothing else of the simulator's truth: other bodies reach it only
+through its sensor and its comms link. Components are optional: a vessel without a
+``[vessels.sensor]`` table has no perception, and so on; :func:`build_agent` attaches what the
+vessel's scenario table asks for. Each component logs itself with ``log(recorder, t, name)`` and
+reports events with ``drain_events()``.
 """
 
 from __future__ import annotations
@@ -21,27 +31,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mjasc.core.estimates import PerceptionReport
+from mjasc.core.navigation import OwnNavigation
 from mjasc.guidance.path_following import PathFollower, PathFollowingConfig, PathFollowingStatus
-from mjasc.runs.scenario import VesselConfig
+from mjasc.guidance.state import GuidanceState
 from mjasc.physics.vessels import VesselType
+from mjasc.runs.scenario import VesselConfig
 
-__all__ = ["OwnNavigation", "VesselAgent", "ControlOutput"]
-
-
-@dataclass(frozen=True)
-class OwnNavigation:
-    """The vessel's own navigation solution (world ENU / body FLU, SI)."""
-
-    time_s: float
-    position_m: np.ndarray
-    heading_rad: float
-    velocity_m_s: np.ndarray
-    body_velocity: np.ndarray
+__all__ = ["OwnNavigation", "VesselAgent", "ControlOutput", "build_agent"]
 
 
 @dataclass(frozen=True)
 class ControlOutput:
-    commands: np.ndarray  # (2,) normalized port, starboard
+    """What one control tick produced: commands (2,) normalized port, starboard shaft speeds in
+    [−1, 1]; the path follower's status (None in open loop); the speed reference [m/s]; the mode."""
+
+    commands: np.ndarray
     status: PathFollowingStatus | None
     speed_ref_m_s: float
     mode: str
@@ -50,19 +55,20 @@ class ControlOutput:
 class VesselAgent:
     """Mission control of one vessel with its optional perception, avoidance and coordination.
 
-    Component interfaces (each optional, set by the runner from the scenario):
+    Components (each optional; :func:`build_agent` sets them from the scenario):
 
     ``perception``: ``sense(t, nav)``, ``update_tracks(t, nav)``, ``tracks() -> list[TrackEstimate]``,
-    ``static_polygons() -> list[(k, 2) array]``, ``set_team_positions(dict[name, (t, position)])``,
-    ``drain_events() -> list[(t, text)]``, ``log(recorder, t, vessel_name)``.
+    ``static_polygons() -> list[(k, 2) array]``, ``set_team_positions(dict[name, (t, position)])``.
 
-    ``avoidance``: ``predict(t, nav, tracks, static_polygons)``, ``control_refs(t, nav) ->
-    (speed_override or None, mode str)`` (may switch ``agent.follower`` to a detour path and back),
-    ``drain_events()``, ``log(recorder, t, vessel_name)``.
+    ``avoidance``: ``predict(t, nav, guidance, report, team)`` and ``control(t, nav, guidance,
+    report, team)`` → :class:`~mjasc.avoidance.request.AvoidanceRequest`, ``mission_gamma_m(guidance)``,
+    ``planned_trajectory(t, nav, guidance, horizon_s, step_s)``.
 
-    ``coordination``: ``exchange(t, nav, gamma_m)``, ``speed_correction(t, nav, gamma_m) -> float``
-    (multiplies the mission speed), ``team_positions() -> dict``, ``drain_events()``,
-    ``log(recorder, t, vessel_name)``.
+    ``coordination``: ``plan_request()``, ``exchange(t, nav, γ, guidance, plan)``,
+    ``speed_correction(t, nav, γ) -> float`` (multiplies the mission speed), ``team_picture(t)``,
+    ``team_positions()``, ``last_factor``.
+
+    All three: ``drain_events()``, ``log(recorder, t, vessel_name)``, ``summary()``.
     """
 
     def __init__(self, config: VesselConfig, vessel: VesselType, total_mass: np.ndarray, lateral_offset_m: float):
@@ -75,49 +81,98 @@ class VesselAgent:
         self.perception = None
         self.avoidance = None
         self.coordination = None
+        self._report: PerceptionReport | None = None
         if config.controller == "path_following":
             cfg = PathFollowingConfig(lookahead_m=config.options.get("lookahead_m"))
             self.follower = PathFollower(config.path, vessel, total_mass, lateral_offset_m, cfg)
             self.follower.gamma_m = config.path.project(config.position_m)
 
-    # ---------------------------------------------------------------- slots
-    def on_sensing(self, nav: OwnNavigation) -> None:
-        if self.perception is not None:
-            self.perception.sense(nav.time_s, nav)
+    # ---------------------------------------------------------------- typed values handed to the stages
+    def speed_factor(self) -> float:
+        """The coordination law's latest factor on the mission speed (1 without coordination)."""
+        factor = self.coordination.last_factor if self.coordination is not None else 1.0
+        return float(factor if np.isfinite(factor) else 1.0)
 
-    def on_tracking(self, nav: OwnNavigation) -> None:
-        if self.perception is not None:
-            self.perception.update_tracks(nav.time_s, nav)
+    def guidance_state(self) -> GuidanceState | None:
+        """The path follower's path and γ now, and the mission speed × the coordination factor
+        (None without a path follower)."""
+        if self.follower is None:
+            return None
+        return GuidanceState(self.follower.path, self.follower.gamma_m,
+                             float(self.mission_speed_m_s) * self.speed_factor())
 
-    def on_comms(self, nav: OwnNavigation) -> None:
-        if self.coordination is not None:
-            self.coordination.exchange(nav.time_s, nav, self.mission_gamma_m())
-            if self.perception is not None:
-                self.perception.set_team_positions(self.coordination.team_positions())
+    def perception_report(self, t_s: float) -> PerceptionReport | None:
+        """What the perception reports now (None without perception); rebuilt only after a slot that
+        changed the perception's state (sensing, tracking, comms)."""
+        if self.perception is None:
+            return None
+        if self._report is None:
+            self._report = PerceptionReport(float(t_s), tuple(self.perception.tracks()),
+                                            tuple(self.perception.static_polygons()))
+        return self._report
 
-    def on_prediction(self, nav: OwnNavigation) -> None:
-        if self.avoidance is not None and self.perception is not None:
-            self.avoidance.predict(nav.time_s, nav, self.perception.tracks(), self.perception.static_polygons())
+    def team_picture(self, t_s: float):
+        """What the coordination layer knows of the team now (None without coordination)."""
+        return self.coordination.team_picture(t_s) if self.coordination is not None else None
 
     def mission_gamma_m(self) -> float:
         """Progress along the mission path [m] (the coordination variable γ)."""
         if self.follower is None:
             return 0.0
-        if self.avoidance is not None and hasattr(self.avoidance, "mission_gamma_m"):
-            return self.avoidance.mission_gamma_m(self.follower)
+        if self.avoidance is not None:
+            return self.avoidance.mission_gamma_m(self.guidance_state())
         return self.follower.gamma_m
+
+    def _apply(self, request) -> None:
+        """Apply an avoidance request's path switch to the path follower."""
+        sw = request.path_switch
+        if sw is not None:
+            self.follower.set_path(sw.path, sw.gamma_m)
+
+    # ---------------------------------------------------------------- slots
+    def on_sensing(self, nav: OwnNavigation) -> None:
+        if self.perception is not None:
+            self.perception.sense(nav.time_s, nav)
+            self._report = None
+
+    def on_tracking(self, nav: OwnNavigation) -> None:
+        if self.perception is not None:
+            self.perception.update_tracks(nav.time_s, nav)
+            self._report = None
+
+    def on_comms(self, nav: OwnNavigation) -> None:
+        c = self.coordination
+        if c is None:
+            return
+        guidance = self.guidance_state()
+        plan, req = None, c.plan_request()
+        if req is not None and self.avoidance is not None:
+            plan = self.avoidance.planned_trajectory(nav.time_s, nav, guidance, *req)
+        c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan)
+        if self.perception is not None:
+            self.perception.set_team_positions(c.team_positions())
+            self._report = None
+
+    def on_prediction(self, nav: OwnNavigation) -> None:
+        if self.avoidance is not None and self.perception is not None and self.follower is not None:
+            t = nav.time_s
+            self._apply(self.avoidance.predict(t, nav, self.guidance_state(), self.perception_report(t),
+                                               self.team_picture(t)))
 
     def control(self, nav: OwnNavigation, dt_s: float) -> ControlOutput:
         if self.follower is None:
             return ControlOutput(np.asarray(self.config.commands, dtype=float), None, 0.0, "open_loop")
+        t = nav.time_s
         speed = self.mission_speed_m_s
         mode = "mission"
         if self.coordination is not None:
-            speed *= self.coordination.speed_correction(nav.time_s, nav, self.mission_gamma_m())
+            speed *= self.coordination.speed_correction(t, nav, self.mission_gamma_m())
         if self.avoidance is not None:
-            override, mode = self.avoidance.control_refs(nav.time_s, nav)
-            if override is not None:
-                speed = override
+            req = self.avoidance.control(t, nav, self.guidance_state(), self.perception_report(t), self.team_picture(t))
+            self._apply(req)
+            mode = req.mode
+            if req.speed_override_m_s is not None:
+                speed = req.speed_override_m_s
         self.mode = mode
         cmd, status = self.follower.command(nav.position_m, nav.heading_rad, nav.velocity_m_s, nav.body_velocity,
                                             speed, dt_s)
@@ -135,4 +190,38 @@ class VesselAgent:
 
     def log(self, recorder, t_s: float) -> None:
         for c in self.components():
-            c.log(recorder, t_s, self.name)
+            if c is self.avoidance:
+                c.log(recorder, t_s, self.name, guidance=self.guidance_state())
+            else:
+                c.log(recorder, t_s, self.name)
+
+
+def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray, team_names, network,
+                seed_key) -> VesselAgent:
+    """The vessel agent of scenario vessel ``config`` (index ``index`` in ``world``) with the
+    components its tables ask for: perception (``sensor`` / ``tracking``), coordination (``comms``,
+    on ``network``, the team's link), collision avoidance (``avoidance``). Every component gets its
+    own random stream ``default_rng([*seed_key, k])`` (k = 1 perception, 2 coordination, 3
+    avoidance), so adding a sensor to one vessel does not change another vessel's noise; the runner
+    uses ``seed_key = [scenario seed, vessel index]``."""
+    vessel = world.vessel_types[index]
+    agent = VesselAgent(config, vessel, total_mass, float(world.propeller_lateral_m[index, 0]))
+    rng = lambda k: np.random.default_rng([*seed_key, k])  # noqa: E731
+    opts = config.options
+    mission_path = config.path if config.path is not None else (agent.follower.path if agent.follower else None)
+    if "sensor" in opts or "tracking" in opts:
+        from mjasc.perception.pipeline import Perception
+
+        agent.perception = Perception(world, index, opts.get("sensor"), opts.get("tracking"), rng(1))
+    if "comms" in opts:
+        from mjasc.cooperation.coordination import Coordination
+
+        agent.coordination = Coordination(config.name, network, opts["comms"], rng(2), mission_path=mission_path,
+                                          mission_speed_m_s=agent.mission_speed_m_s, radius_m=vessel.radius_m,
+                                          top_speed_m_s=vessel.top_speed_m_s)
+    if "avoidance" in opts:
+        from mjasc.avoidance.system import CollisionAvoidance
+
+        agent.avoidance = CollisionAvoidance(config.name, vessel, agent.follower.path if agent.follower else None,
+                                             opts["avoidance"], team_names, rng(3))
+    return agent

@@ -9,6 +9,11 @@ One run writes one folder::
 A run is a pure function of the scenario and its seed. If the physics diverges (non-finite state
 or a MuJoCo warning) the run stops with :class:`RunFailed`, after closing the recording (so what was
 recorded so far is readable) and writing a summary whose ``status`` says what happened.
+
+**Observers.** ``Runner.observe(slot, fn)`` calls ``fn(event)`` after every run of ``slot``
+(:data:`~mjasc.runs.schedule.SLOT_ORDER`) with a :class:`~mjasc.runs.tick.SlotEvent`: figures
+trace runs this way (what each vessel sensed, predicted and re-planned) without subclassing the
+runner or patching its components.
 """
 
 from __future__ import annotations
@@ -22,11 +27,13 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 
-from mjasc.runs.agent import OwnNavigation, VesselAgent
+from mjasc.core.navigation import FleetNavigation
+from mjasc.runs.agent import build_agent
 from mjasc.core.geometry import hull_outline
 from mjasc.runs.recording import Recorder, default_blueprint, vessel_colour
 from mjasc.runs.scenario import Scenario
-from mjasc.runs.schedule import Schedule
+from mjasc.runs.schedule import SLOT_ORDER, Schedule
+from mjasc.runs.tick import ONBOARD_SLOTS, SlotEvent, run_onboard_slot
 from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
@@ -59,12 +66,14 @@ class Runner:
         poses = np.array([[*v.position_m, v.heading_rad] for v in sc.vessels])
         vel = np.array([[v.speed_m_s, 0.0, 0.0] for v in sc.vessels])
         self.sim.reset(poses, vel)
-        self.agents = [
-            VesselAgent(v, self.world.vessel_types[i], self.sim.hydro.total_mass[i],
-                        float(self.world.propeller_lateral_m[i, 0]))
-            for i, v in enumerate(sc.vessels)
-        ]
-        self._attach_components()
+        team = [v.name for v in sc.vessels]
+        self.network = None
+        if sc.comms is not None or any("comms" in v.options for v in sc.vessels):
+            from mjasc.cooperation.comms import CommsNetwork
+
+            self.network = CommsNetwork(team, sc.comms, np.random.default_rng([sc.seed, 1_000_003]))
+        self.agents = [build_agent(v, i, self.world, self.sim.hydro.total_mass[i], team, self.network, [sc.seed, i])
+                       for i, v in enumerate(sc.vessels)]
         r = sc.rates
         periods = {"control": 1 / r.control_hz, "sensing": 1 / r.sensing_hz, "tracking": 1 / r.tracking_hz,
                    "comms": 1 / r.comms_hz, "prediction": r.prediction_period_s, "record": 1 / r.record_hz}
@@ -75,35 +84,15 @@ class Runner:
         self.recorder: Recorder | None = None
         self.video = None
         self.metrics = None
-        self._last_outputs = [None] * len(self.agents)
+        self.last_outputs = [None] * len(self.agents)
         self._trail: list[list[np.ndarray]] = [[] for _ in self.agents]
+        self._observers: dict[str, list] = {slot: [] for slot in SLOT_ORDER}
 
-    def _attach_components(self) -> None:
-        """Give each vessel the components its scenario table asks for. Every component gets its own
-        random stream, derived from the scenario seed, the vessel index and the component, so adding
-        a sensor to one vessel does not change another vessel's noise."""
-        sc = self.scenario
-        team = [v.name for v in sc.vessels]
-        network = None
-        if sc.comms is not None or any("comms" in v.options for v in sc.vessels):
-            from mjasc.cooperation.comms import CommsNetwork
-
-            network = CommsNetwork(team, sc.comms, np.random.default_rng([sc.seed, 1_000_003]))
-        self.network = network
-        for i, (agent, v) in enumerate(zip(self.agents, sc.vessels)):
-            rng = lambda k: np.random.default_rng([sc.seed, i, k])  # noqa: E731
-            if "sensor" in v.options or "tracking" in v.options:
-                from mjasc.perception.pipeline import Perception
-
-                agent.perception = Perception(self.world, i, v.options.get("sensor"), v.options.get("tracking"), rng(1))
-            if "comms" in v.options:
-                from mjasc.cooperation.coordination import Coordination
-
-                agent.coordination = Coordination(agent, network, v.options["comms"], rng(2))
-            if "avoidance" in v.options:
-                from mjasc.avoidance.system import CollisionAvoidance
-
-                agent.avoidance = CollisionAvoidance(agent, v.options["avoidance"], team, rng(3))
+    def observe(self, slot: str, fn) -> None:
+        """Call ``fn(event)`` (a :class:`~mjasc.runs.tick.SlotEvent`) after every run of ``slot``."""
+        if slot not in self._observers:
+            raise ValueError(f"slot: unknown slot {slot!r} (known: {', '.join(SLOT_ORDER)})")
+        self._observers[slot].append(fn)
 
     # ------------------------------------------------------------------ extent for views
     def extent(self) -> tuple[np.ndarray, np.ndarray]:
@@ -119,22 +108,19 @@ class Runner:
         return p.min(axis=0) - 10.0, p.max(axis=0) + 10.0
 
     # ------------------------------------------------------------------ slots
-    def _own_navigation(self, states, i: int) -> OwnNavigation:
-        return OwnNavigation(states.time_s, states.position_m[i], float(states.heading_rad[i]),
-                             states.velocity_m_s[i], states.body_velocity[i])
-
-    def _control(self, states) -> None:
+    def _control(self, time_s: float, navs) -> None:
+        outputs = run_onboard_slot("control", self.agents, navs, self.control_dt_s)
         cmds = np.zeros((len(self.agents), 2))
-        for i, agent in enumerate(self.agents):
-            out = agent.control(self._own_navigation(states, i), self.control_dt_s)
-            if out.mode != getattr(self._last_outputs[i], "mode", out.mode) and self.recorder:
-                self.recorder.event(states.time_s, f"{agent.name}: mode {self._last_outputs[i].mode} → {out.mode}")
+        for i, (agent, out) in enumerate(zip(self.agents, outputs)):
+            last = self.last_outputs[i]
+            if last is not None and out.mode != last.mode and self.recorder:
+                self.recorder.event(time_s, f"{agent.name}: mode {last.mode} → {out.mode}")
             cmds[i] = out.commands
-            self._last_outputs[i] = out
+            self.last_outputs[i] = out
         self.sim.set_commands(cmds)
 
     def _record(self, states) -> None:
-        xte = np.array([o.status.cross_track_m if o and o.status else np.nan for o in self._last_outputs])
+        xte = np.array([o.status.cross_track_m if o and o.status else np.nan for o in self.last_outputs])
         traffic = self.sim.traffic_state()
         self.metrics.update(states, xte, traffic)
         rec = self.recorder
@@ -147,7 +133,7 @@ class Runner:
             rec.strips(f"{base}/hull", t, [hull_outline(vt.length_m, vt.beam_m, states.position_m[i],
                                                         states.heading_rad[i])], z=0.2)
             rec.points(f"{base}/position", t, states.position_m[i], z=0.2)
-            out = self._last_outputs[i]
+            out = self.last_outputs[i]
             rec.scalar(f"plots/speed/{name}/actual", t, states.speed_m_s[i])
             rec.scalar(f"plots/speed/{name}/reference", t, out.speed_ref_m_s if out else 0.0)
             rec.scalar(f"plots/thrust/{name}/port", t, states.thrust_n[i, 0])
@@ -263,22 +249,15 @@ class Runner:
             while step <= total_steps:
                 due = self.schedule.due(step)
                 states = sim.states() if due else None
-                navs = [self._own_navigation(states, i) for i in range(len(self.agents))] if due else []
+                navs = []
+                if due:
+                    fleet = FleetNavigation.from_states(states)
+                    navs = [fleet.vessel(i) for i in range(len(self.agents))]
                 for slot in due:
-                    if slot == "sensing":
-                        for agent, nav in zip(self.agents, navs):
-                            agent.on_sensing(nav)
-                    elif slot == "tracking":
-                        for agent, nav in zip(self.agents, navs):
-                            agent.on_tracking(nav)
-                    elif slot == "comms":
-                        for agent, nav in zip(self.agents, navs):
-                            agent.on_comms(nav)
-                    elif slot == "prediction":
-                        for agent, nav in zip(self.agents, navs):
-                            agent.on_prediction(nav)
-                    elif slot == "control":
-                        self._control(states)
+                    if slot == "control":
+                        self._control(states.time_s, navs)
+                    elif slot in ONBOARD_SLOTS:
+                        run_onboard_slot(slot, self.agents, navs, self.control_dt_s)
                     elif slot == "record":
                         self._record(states)
                         new = self.metrics.check_contacts(states.time_s)
@@ -298,6 +277,10 @@ class Runner:
                             [(states.position_m[i], states.heading_rad[i], colours[i]) for i in range(len(self.agents))],
                             [(np.array([p for _, p in self._trail[i]][::-4][:60]), colours[i])
                              for i in range(len(self.agents)) if len(self._trail[i]) > 1])
+                    if self._observers[slot]:
+                        event = SlotEvent(slot, states.time_s, states, tuple(navs), self)
+                        for fn in self._observers[slot]:
+                            fn(event)
                 nxt = min(self.schedule.next_event(step), total_steps + 1)
                 if nxt > total_steps:
                     break

@@ -29,8 +29,12 @@ import time
 
 import numpy as np
 
-from mjasc.runs.agent import OwnNavigation, VesselAgent
-from mjasc.avoidance.system import AvoidanceConfig
+from mjasc.core.navigation import OwnNavigation
+from mjasc.runs.agent import VesselAgent, build_agent
+from mjasc.runs.schedule import Schedule
+from mjasc.runs.tick import run_onboard_slot
+from mjasc.avoidance.config import AvoidanceConfig
+from mjasc.avoidance.prediction import CollisionPredictionConfig
 from mjasc.core.config_tables import number
 from mjasc.guidance.path_following import PathFollower
 from mjasc.guidance.paths import Path
@@ -49,7 +53,7 @@ PREDICTION_PERIOD_S = 2.0
 #: The CAS baseline's avoidance settings: mjasc.avoidance.system defaults, except a 2 m safety distance
 #: (default 1 m) and a 4 m margin of the virtual target's goal (default 2 m): with the defaults a
 #: yielding vessel reached the crossing just as the boat left it, and touched it on a late turn.
-CAS_AVOIDANCE = AvoidanceConfig(safety_distance_m=2.0, correction_margin_m=4.0)
+CAS_AVOIDANCE = AvoidanceConfig(prediction=CollisionPredictionConfig(safety_distance_m=2.0), correction_margin_m=4.0)
 #: The CAS baseline's tracking settings: defaults, except that a map cell needs returns in 15 scans
 #: (3 s; default 3), a margin kept from before perception learnt to keep moving tracks' returns out
 #: of the map and to clear cells that later rays see through (the 20-seed table used it).
@@ -152,15 +156,17 @@ def goal_speed(distance_to_goal_m: float, cruise_speed_m_s: float) -> float:
 class CASPolicy:
     """mjasc's collision avoidance system as a policy of a ``collision_avoidance`` task.
 
-    Per episode it builds the vessel's own pipeline on the environment's physics, as
-    :meth:`mjasc.runs.runner.Runner._attach_components` does for a scenario vessel: a
-    :class:`mjasc.runs.agent.VesselAgent` whose mission is the straight line start → goal, with
-    :class:`mjasc.perception.pipeline.Perception` (the vessel's range sensor at its ``sensor_mount`` →
-    detections → static map and IMM tracks) and :class:`mjasc.avoidance.system.CollisionAvoidance`
-    (conflict prediction on the tracks, velocity correction or potential-field re-planning). Each
-    call is one control tick in the runner's slot order: sensing and tracking (at the sensor's
-    rate), prediction (every ``prediction_period_s``, and at once on a new track), then control
-    (path following at the mission speed, or the avoidance's override / detour).
+    Per episode it builds the vessel's own pipeline on the environment's physics with the runner's
+    own :func:`mjasc.runs.agent.build_agent`: a :class:`mjasc.runs.agent.VesselAgent` whose mission
+    is the straight line start → goal, with :class:`mjasc.perception.pipeline.Perception` (the
+    vessel's range sensor at its ``sensor_mount`` → detections → static map and IMM tracks) and
+    :class:`mjasc.avoidance.system.CollisionAvoidance` (conflict prediction on the tracks, velocity
+    correction or potential-field re-planning). Each call is one control tick, run slot by slot
+    with the runner's own :func:`mjasc.runs.tick.run_onboard_slot` on a
+    :class:`mjasc.runs.schedule.Schedule` of control ticks: sensing and tracking every tick (the
+    sensor keeps its own rate), prediction every ``prediction_period_s`` (and at once on a new
+    track), then control (path following at the mission speed — cruise, slowing down near the
+    goal — or the avoidance's override / detour).
 
     What it reads: the vessel's own navigation state (position, heading, velocities) and its own
     sensor's scans (ray casts on the physics); the mission (start, goal). Never another body's
@@ -182,11 +188,11 @@ class CASPolicy:
         self.seed = int(seed)
         self.agent: VesselAgent | None = None
         self.episodes = 0
+        dt = env.control_timestep()
+        self.schedule = Schedule.from_periods(dt, {"sensing": dt, "tracking": dt, "prediction": prediction_period_s,
+                                                   "control": dt})
 
     def _build(self) -> None:
-        from mjasc.avoidance.system import CollisionAvoidance as CAS
-        from mjasc.perception.pipeline import Perception
-
         env, task = self.env, self.env.task
         physics = env.physics
         world = physics.world
@@ -194,15 +200,13 @@ class CASPolicy:
         vessel = world.vessel_types[0]
         config = VesselConfig(name=name, type=vessel.name, position_m=physics.position(0),
                               heading_rad=physics.heading(0), speed_m_s=0.0, controller="path_following",
-                              path=Path.line(task.start_m, task.goal_m), cruise_speed_m_s=vessel.cruise_speed_m_s)
-        agent = VesselAgent(config, vessel, physics.simulation.hydro.total_mass[0],
-                            float(world.propeller_lateral_m[0, 0]))
-        rng = lambda k: np.random.default_rng([self.seed, self.episodes, 0, k])  # noqa: E731  (runner: [seed, i, k])
-        agent.perception = Perception(world, 0, self.sensor_config, self.tracking_config, rng(1))
-        agent.avoidance = CAS(agent, self.avoidance_config, [name], rng(3))
-        self.agent = agent
+                              path=Path.line(task.start_m, task.goal_m), cruise_speed_m_s=vessel.cruise_speed_m_s,
+                              options={"sensor": self.sensor_config, "tracking": self.tracking_config,
+                                       "avoidance": self.avoidance_config})
+        self.agent = build_agent(config, 0, world, physics.simulation.hydro.total_mass[0], [name], None,
+                                 [self.seed, self.episodes, 0])
         self.goal_m = np.asarray(task.goal_m, dtype=float)
-        self._next_prediction_s = 0.0
+        self._step = 0
         self.episodes += 1
 
     def navigation(self) -> OwnNavigation:
@@ -214,14 +218,15 @@ class CASPolicy:
         if time_step.first() or self.agent is None:
             self._build()
         agent, nav = self.agent, self.navigation()
-        agent.on_sensing(nav)
-        agent.on_tracking(nav)
-        if nav.time_s >= self._next_prediction_s - 1e-9:
-            agent.on_prediction(nav)
-            self._next_prediction_s = nav.time_s + self.prediction_period_s
-        to_go = float(np.linalg.norm(self.goal_m - nav.position_m))
-        agent.mission_speed_m_s = goal_speed(to_go, agent.vessel.cruise_speed_m_s)
-        out = agent.control(nav, self.env.control_timestep())
+        out = None
+        for slot in self.schedule.due(self._step):
+            if slot == "control":  # the mission: cruise toward the goal, slowing down at it
+                to_go = float(np.linalg.norm(self.goal_m - nav.position_m))
+                agent.mission_speed_m_s = goal_speed(to_go, agent.vessel.cruise_speed_m_s)
+            outputs = run_onboard_slot(slot, [agent], [nav], self.env.control_timestep())
+            if outputs is not None:
+                out = outputs[0]
+        self._step += 1
         return np.clip(out.commands, -1.0, 1.0)
 
 
@@ -280,7 +285,7 @@ def main(argv=None) -> None:
     for domain, task in tasks:
         t0 = time.perf_counter()
         env = load(domain, task)
-        steps = int(round(env._step_limit))
+        steps = int(round(env.step_limit))
         avoidance = isinstance(env.task, CollisionAvoidance)
         env.close()
         cells = []

@@ -113,6 +113,11 @@ class Environment(control.Environment):
     (A physics that is never closed frees its contexts from an exit hook: also silent.)
     """
 
+    @property
+    def step_limit(self) -> float:
+        """Control steps in one episode (the time limit / control timestep; inf without a limit)."""
+        return self._step_limit
+
     def observation_spec(self):
         """The task's declared spec (computing an observation would draw noise from the task's
         RandomState and shift the episode), flattened like the observations when asked to."""

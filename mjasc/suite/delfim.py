@@ -18,4 +18,4 @@ def get_model_and_assets():
     return otter.get_model_and_assets()
 
 
-otter._register(SUITE, VESSEL_TYPE, tags=())
+otter.register_tasks(SUITE, VESSEL_TYPE, tags=())

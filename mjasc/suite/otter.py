@@ -431,8 +431,9 @@ def make_environment(task: str, vessel_type: str, difficulty: Difficulty, time_l
                                **(environment_kwargs or {}))
 
 
-def _register(suite, vessel_type: str, tags=("benchmarking",)) -> None:
-    """Add every task in its easy and hard variant to ``suite`` for ``vessel_type``."""
+def register_tasks(suite, vessel_type: str, tags=("benchmarking",)) -> None:
+    """Add every task in its easy and hard variant to ``suite`` for ``vessel_type`` (the delfim
+    domain registers the same tasks for its hull)."""
     for task in _TASKS:
         for difficulty, name in ((EASY, task), (HARD, task + "_hard")):
             def factory(time_limit=None, random=None, environment_kwargs=None, _task=task, _d=difficulty):
@@ -442,4 +443,4 @@ def _register(suite, vessel_type: str, tags=("benchmarking",)) -> None:
             suite.add(*tags, difficulty.name)(factory)
 
 
-_register(SUITE, VESSEL_TYPE)
+register_tasks(SUITE, VESSEL_TYPE)

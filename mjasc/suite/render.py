@@ -114,7 +114,7 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
         time_step = env.reset()
         physics, task_obj = env.physics, env.task
         n = physics.n_vessels
-        duration = float(env._step_limit) * env.control_timestep()
+        duration = float(env.step_limit) * env.control_timestep()
         lines = _task_lines(task_obj, duration)
         positions = np.array([physics.position(i) for i in range(n)])
         lo, hi = _extent(lines, positions)

@@ -1,0 +1,117 @@
+"""Parameters of one vessel's collision avoidance: the ``[vessels.avoidance]`` table.
+
+Each parameter is declared once below (bounds, unit, doc); validation and the TOML reader derive
+from the declarations (:mod:`mjasc.core.config_tables`). The collision-prediction parameters
+(:class:`~mjasc.avoidance.prediction.CollisionPredictionConfig`: window, braking, margin, safety
+distance, obstruction threshold, time step, range) are nested as ``prediction`` and read from the
+same, flat table, so ``[vessels.avoidance] window_s = 40`` sets ``config.prediction.window_s``
+(``config.window_s`` reads it too).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+from mjasc.avoidance.prediction import CollisionPredictionConfig
+from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, number, param, show
+
+__all__ = ["AvoidanceConfig", "parse_avoidance_options"]
+
+_PREDICTION_FIELDS = frozenset(f.name for f in dataclasses.fields(CollisionPredictionConfig))
+
+
+@dataclass(frozen=True)
+class AvoidanceConfig:
+    """Parameters of one vessel's collision avoidance (digest §3–5; defaults: thesis §6.1 where it
+    gives a value). When no action is possible at all, the vessel slows to ``speed_min_m_s`` (an
+    emergency yield). A stand-on vessel whose team mate is abaft its beam never slows down (that
+    would let the give-way vessel, coming from behind, run into it; COLREG rule 13): at the last
+    resort it may only speed up (pass first)."""
+
+    enabled: bool = param(True, doc="false: predict and record conflicts but never act (monitor only)")
+    prediction: CollisionPredictionConfig = param(
+        default_factory=CollisionPredictionConfig, flatten=True,
+        doc="collision prediction (window_s, brake_decel_m_s2, margin_s, safety_distance_m, "
+            "obstruction_threshold_s, time_step_s, max_range_m, ...), read from the same table")
+    # velocity correction (digest §5)
+    gain_k: float = param(0.3, positive=True, unit="1/s", doc="virtual-target gain k of the speed law")
+    speed_min_m_s: float = param(0.2, nonneg=True, unit="m/s", doc="slowest commanded speed (steerage way)")
+    speed_max_m_s: float | None = param(None, positive=True, unit="m/s",
+                                        doc="fastest commanded speed; unset: the vessel's top speed")
+    correction_margin_m: float = param(2.0, nonneg=True, unit="m",
+                                       doc="the virtual target's goal is γ_A − margin (yield) or γ_B + margin (pass)")
+    allow_pass_first: bool = param(True, doc="speed up and pass first when yielding is impossible")
+    # re-planning (digest §4)
+    safety_ratio: float = param(0.5, nonneg=True, maximum=1.0, doc="r of the robust rule V_j = r·a_max·L_j")
+    sink_strength: float | None = param(None, positive=True, unit="m²/s",
+                                        doc="λ_g of the goal's sink; unset: max(30, 2 U (width + 10 m))")
+    uniform_speed: float = param(1.0, positive=True, unit="m/s", doc="U of the field's uniform flow")
+    goal_margin_m: float = param(10.0, nonneg=True, unit="m",
+                                 doc="the detour's goal lies this far beyond the obstruction on the mission path")
+    streamline_step_m: float = param(0.5, positive=True, unit="m", doc="step of the streamline tracer")
+    static_inflation_m: float | None = param(None, nonneg=True, unit="m",
+                                             doc="growth of mapped static polygons; unset: half beam + safety distance")
+    static_range_m: float = param(60.0, positive=True, unit="m",
+                                  doc="static polygons this close to the route enter the field")
+    max_panel_length_m: float = param(3.0, positive=True, unit="m", doc="longest panel of the panel method")
+    replan_margin_m: float = param(1.0, nonneg=True, unit="m",
+                                   doc="SVOs handed to the planner are grown by this much, so that the detour, "
+                                       "followed with some cross-track error, is not itself flagged by the next "
+                                       "prediction (hysteresis against re-plan churn)")
+    # when to predict again
+    track_deviation_m: float = param(5.0, positive=True, unit="m",
+                                     doc="predict again at once when a track (or a team mate's plan) is this far "
+                                         "from where the last prediction put it")
+    speed_change_m_s: float = param(0.2, positive=True, unit="m/s",
+                                    doc="... or when the mission speed (with the coordination factor) changed by this")
+    static_speed_m_s: float = param(0.15, nonneg=True, unit="m/s",
+                                    doc="tracks estimated slower than this are taken as static (a moored boat's IMM "
+                                        "speed is noise around zero)")
+    last_resort_s: float = param(10.0, nonneg=True, unit="s",
+                                 doc="a stand-on vessel acts too when the collision is this close in time "
+                                     "(COLREG rule 17)")
+    team_broadcast_max_age_s: float = param(3.0, nonneg=True, unit="s",
+                                            doc="a team mate is predicted from its own broadcast (position, "
+                                                "velocity, heading rate, plan) when that is at most this old; "
+                                                "0: from its IMM track only")
+
+    def __post_init__(self):
+        check_params(self, "avoidance")
+        _check_avoidance(self, "avoidance")
+
+    def __getattr__(self, name: str) -> Any:
+        """The prediction parameters read flat, as in the TOML table (``config.window_s``)."""
+        if name in _PREDICTION_FIELDS:
+            return getattr(self.prediction, name)
+        raise AttributeError(f"{type(self).__name__!s} has no attribute {name!r}")
+
+    def prediction_config(self) -> CollisionPredictionConfig:
+        return self.prediction
+
+
+def _check_avoidance(c: AvoidanceConfig, where: str) -> None:
+    """Cross-field checks of an :class:`AvoidanceConfig` (each field's own bounds are declared)."""
+    if c.speed_max_m_s is not None and c.speed_max_m_s <= c.speed_min_m_s:
+        raise ConfigError(f"{where}.speed_max_m_s: must exceed speed_min_m_s ({c.speed_min_m_s}), "
+                          f"got {show(c.speed_max_m_s)}")
+
+
+def _window(value: Any, where: str) -> float | None:
+    """Reader of ``window_s``: ``"dynamic"`` → None (δ = v/a_brake + ζ), else a number [s] (its
+    sign is checked with the other prediction fields)."""
+    if isinstance(value, str):
+        if value != "dynamic":
+            raise ConfigError(f'{where}: must be a number [s] or "dynamic", got {show(value)}')
+        return None
+    return number(value, where)
+
+
+def parse_avoidance_options(table: dict, where: str = "avoidance") -> AvoidanceConfig:
+    """Validate a ``[vessels.avoidance]`` table into an :class:`AvoidanceConfig`.
+
+    ``window_s = "dynamic"`` selects the dynamic window δ = v/a_brake + ζ; every other field is a
+    number or a boolean as declared. Unknown keys, wrong types and out-of-range values raise
+    ValueError naming ``f"{where}.{key}"`` (:func:`mjasc.core.config_tables.dataclass_from_table`)."""
+    return dataclass_from_table(AvoidanceConfig, table, where, {"window_s": _window}, check=_check_avoidance)

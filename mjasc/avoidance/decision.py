@@ -1,0 +1,64 @@
+"""The velocity-correction choice of the decision σ (digest §3, §5): yield, pass first, or neither.
+
+For a conflict σ calls a velocity correction for, the vessel yields when it can — the virtual
+target's goal (γ_A − margin, t_f) holds it out of the obstructed stretch until the obstacle has
+left it — and passes first otherwise — goal (γ_B + margin, t_i) — when that is allowed and
+feasible within the speed limits. When neither works the caller re-plans around the swept area
+(:mod:`mjasc.avoidance.replanning`). Right of way between team mates is
+:mod:`mjasc.avoidance.right_of_way`; the caller applies it before asking here.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjasc.avoidance.prediction import PredictedConflict
+from mjasc.avoidance.velocity_correction import VelocityCorrection
+
+__all__ = ["Correction", "velocity_correction_for", "emergency_yield"]
+
+
+@dataclass
+class Correction:
+    """A running velocity correction: its virtual-target ``law``, ``kind`` ("yield" | "pass"), the
+    track it is for, and the offset between the follower's γ and the law's γ frame (the follower's
+    path can change under a running correction: a detour ends)."""
+
+    law: VelocityCorrection
+    kind: str  # "yield" | "pass"
+    track_id: int
+    gamma_offset_m: float = 0.0  # γ in the law's frame = follower γ + offset
+
+
+def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, speed_max_m_s: float,
+                            pass_only: bool = False) -> Correction | None:
+    """Yield if possible (not when ``pass_only``), else pass first if allowed and feasible, else None.
+    ``cfg``: the :class:`~mjasc.avoidance.config.AvoidanceConfig` (speed_min_m_s, gain_k,
+    correction_margin_m, allow_pass_first)."""
+    vmin, vmax, k, m = cfg.speed_min_m_s, speed_max_m_s, cfg.gain_k, cfg.correction_margin_m
+    if np.isfinite(c.t_f) and not pass_only:
+        try:
+            law = VelocityCorrection.yield_to(c, gamma, t, k, vmin, vmax, margin_m=m)
+            if law.desired_speed >= vmin - 1e-9:
+                return Correction(law, "yield", c.track_id)
+        except ValueError:
+            pass
+    if cfg.allow_pass_first:
+        try:
+            law = VelocityCorrection.pass_first(c, gamma, t, k, vmin, vmax, margin_m=m)
+            if law.feasible:
+                return Correction(law, "pass", c.track_id)
+        except ValueError:
+            pass
+    return None
+
+
+def emergency_yield(t: float, gamma: float, c: PredictedConflict, cfg, speed_max_m_s: float) -> Correction:
+    """When no manoeuvre clears a conflict: slow to ``speed_min_m_s`` and hold it until the
+    obstruction ends (5–30 s)."""
+    hold = float(np.clip((c.t_f if np.isfinite(c.t_f) else c.t_i) - t, 5.0, 30.0))
+    vmin = cfg.speed_min_m_s
+    law = VelocityCorrection(gamma, t, gamma + vmin * hold, t + hold, cfg.gain_k, vmin, speed_max_m_s)
+    return Correction(law, "yield", c.track_id)

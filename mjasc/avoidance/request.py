@@ -1,0 +1,45 @@
+"""What collision avoidance hands back to the vessel each time it runs: a request, never an action.
+
+The avoidance stage does not hold the path follower; it returns an :class:`AvoidanceRequest` that
+the vessel's agent applies: a speed override for the path follower (a velocity correction's
+virtual-target law) and/or a :class:`PathSwitch` (onto a re-planned detour, or back onto the
+mission path at the matching γ). The request also carries the mode (for the recording and the
+summary) and the conflicts this call predicted.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mjasc.guidance.paths import Path
+
+__all__ = ["AvoidanceRequest", "PathSwitch", "MODES"]
+
+#: Mode strings and their codes in the ``plots/mode/<vessel>`` time series.
+MODES = {"mission": 0, "avoidance:yield": 1, "avoidance:pass": 2, "avoidance:detour": 3}
+
+
+@dataclass(frozen=True, eq=False)
+class PathSwitch:
+    """Follow ``path`` from γ = ``gamma_m`` [m] on (a detour spliced into the mission, or the
+    mission path again). ``reason``: "detour" or "mission"."""
+
+    path: Path
+    gamma_m: float
+    reason: str
+
+
+@dataclass(frozen=True, eq=False)
+class AvoidanceRequest:
+    """The avoidance stage's output for one call.
+
+    mode: one of :data:`MODES`; speed_override_m_s: the speed the path follower must track instead
+    of the mission speed [m/s] (None: the mission speed); path_switch: the path to follow from now
+    on (None: keep the current one); conflicts: the conflicts this call predicted with a collision
+    (:class:`~mjasc.avoidance.prediction.PredictedConflict` and
+    :class:`~mjasc.avoidance.static_conflicts.StaticConflict`; empty when it did not predict)."""
+
+    mode: str = "mission"
+    speed_override_m_s: float | None = None
+    path_switch: PathSwitch | None = None
+    conflicts: tuple = ()

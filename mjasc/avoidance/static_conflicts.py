@@ -1,0 +1,84 @@
+"""Static obstructions of the path ahead: mapped polygons and the outlines of static tracks.
+
+Static objects are not predicted in time: the stretch of the vessel's current path, within the
+distance it covers in the prediction window, that passes closer than R_vh + safety distance to a
+static polygon is an obstruction, and a static obstruction is always resolved by re-planning
+(digest §3–4: σ = REPLAN for anything that does not move). World frame ENU, SI units.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjasc.avoidance.prediction import Decision, gamma_of_time, prediction_window
+from mjasc.core.estimates import TrackEstimate
+from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+from mjasc.guidance.paths import Path
+
+__all__ = ["StaticConflict", "static_conflicts", "track_outline"]
+
+
+@dataclass(frozen=True, eq=False)
+class StaticConflict:
+    """A static polygon obstructing the path ahead: stretch [γ_A, γ_B] of the current path whose
+    points are closer than R_vh + safety to ``polygon`` (k, 2). Always → re-planning."""
+
+    gamma_a: float
+    gamma_b: float
+    point_a: np.ndarray
+    point_b: np.ndarray
+    polygon: np.ndarray
+    t_i: float
+    min_distance_m: float
+    decision: Decision = Decision.REPLAN
+    track_id: int | None = None  # the static track whose outline this is (None: a static-map polygon)
+
+
+def track_outline(track: TrackEstimate) -> np.ndarray | None:
+    """A static track's outline (k ≥ 3, 2) [m], or None when it is degenerate (then its disc is used)."""
+    p = np.asarray(track.outline_m, dtype=float).reshape(-1, 2)
+    if p.shape[0] < 3 or not np.all(np.isfinite(p)):
+        return None
+    return p
+
+
+def static_conflicts(t: float, path: Path, gamma: float, profile, polygons, radius_m: float,
+                     config) -> list[StaticConflict]:
+    """Stretches of ``path`` ahead of γ = ``gamma`` [m] (within the distance covered in the
+    prediction window under the speed ``profile``) closer than ``radius_m`` + safety distance to a
+    static polygon (each (k, 2)). ``config``: the
+    :class:`~mjasc.avoidance.prediction.CollisionPredictionConfig`."""
+    polygons = [np.asarray(p, dtype=float) for p in polygons or ()]
+    if not polygons:
+        return []
+    cfg = config
+    gfn = gamma_of_time(profile, gamma, t)
+    v_now = max(0.0, float(gfn(t + 1e-3) - gfn(t)) / 1e-3)
+    delta = prediction_window(max(v_now, 1e-3), cfg.brake_decel_m_s2, max(cfg.margin_s, 1.0), cfg.window_s)
+    reach = float(gfn(t + delta))
+    g_end = min(path.length, max(reach, gamma) + radius_m)
+    if g_end - gamma < 0.25:
+        return []
+    limit = radius_m + cfg.safety_distance_m
+    gs = np.arange(gamma, path.length + 1e-9, 0.25)
+    pts = path.point(gs)
+    n_ahead = int(np.searchsorted(gs, g_end, side="right"))
+    out = []
+    for poly in polygons:
+        near = pts[:n_ahead]  # the path beyond the window only matters for a stretch that starts in it
+        if not ((distance_to_polygon(near, poly) < limit) | point_in_polygon(near, poly)).any():
+            continue
+        d = distance_to_polygon(pts, poly)
+        blocked = (d < limit) | point_in_polygon(pts, poly)
+        ahead = blocked & (gs <= g_end)
+        if not ahead.any():
+            continue
+        a = int(np.argmax(ahead))
+        b = a
+        while b + 1 < gs.size and blocked[b + 1]:
+            b += 1
+        t_i = float(t + (gs[a] - gamma) / max(v_now, 1e-3))
+        out.append(StaticConflict(float(gs[a]), float(gs[b]), pts[a], pts[b], poly, t_i, float(d[a:b + 1].min())))
+    return out

@@ -1,0 +1,188 @@
+"""Team mates as collision avoidance sees them: predicted from their own broadcasts.
+
+The team exchanges its navigation and plans over the link (digest §6;
+:class:`~mjasc.cooperation.messages.TeamPicture`). A track matched to a team mate with a fresh
+message (at most ``team_broadcast_max_age_s`` old) is replaced by that team mate's intention: its
+plan — the path it follows, a detour included, at its planned speed (:class:`PlannedTrack`) — or,
+without a plan, its broadcast velocity and the heading rate of successive messages. A team mate
+with a fresh message but no track (not yet matched, or lost by the tracker) is added from the
+message. Why: the IMM's ω̂ of a vessel on a straight leg wanders by ±0.01 rad/s, which over a 30 s
+window bends the prediction by metres (phantom collisions between parallel lanes 10 m apart); a
+team mate's re-planned detour or speed correction shows in its track only after it has begun;
+and a team mate that brakes hard can be lost by the tracker for seconds. Team mates without a
+fresh message keep their IMM track.
+
+An unmatched track that, followed back along its own motion, lay on a team mate's broadcast
+position at one of its messages of the last :data:`TEAM_HISTORY_S` seconds is that team mate (a
+stale copy the tracker kept coasting): it is dropped (:meth:`TeamMates.is_ghost`).
+
+World frame ENU, SI units, absolute simulation times [s].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Callable
+
+import numpy as np
+
+from mjasc.core.estimates import TrackEstimate
+
+__all__ = ["TEAM_HISTORY_S", "PlannedTrack", "TeamMates"]
+
+#: How far back [s] the team mates' broadcast positions are kept to recognise their stale tracks.
+TEAM_HISTORY_S = 20.0
+
+
+@dataclass(frozen=True, eq=False)
+class PlannedTrack(TrackEstimate):
+    """A team mate predicted from its own broadcast plan (:class:`~mjasc.cooperation.messages.TeamIntention`):
+    ``predict_positions`` follows the plan (its path, a detour included, at its planned speed)
+    instead of constant speed and turn rate. ``speed_m_s`` is the plan's largest speed (the
+    prediction samples the swept stretch with it), position/heading/time are the broadcast's."""
+
+    intention: Any = None
+
+    def predict_positions(self, times_s: np.ndarray) -> np.ndarray:
+        return self.intention.positions(times_s)
+
+
+class TeamMates:
+    """What one vessel's avoidance remembers of its team mates' broadcasts.
+
+    name: the vessel's own name; team: the other team members' names; radius_m: the own radius
+    (the default radius of a team mate that sends none); max_age_s: ``team_broadcast_max_age_s``;
+    deviation_m: ``track_deviation_m`` (a changed plan); horizon_s: the window over which plans are
+    compared."""
+
+    def __init__(self, name: str, team: set[str], radius_m: float, max_age_s: float, deviation_m: float,
+                 horizon_s: float):
+        self.name, self.team, self.radius_m = name, set(team), float(radius_m)
+        self.max_age_s, self.deviation_m, self.horizon_s = float(max_age_s), float(deviation_m), float(horizon_s)
+        self._nav: dict[str, tuple] = {}  # name → (sent t, heading, ω) from successive broadcasts
+        self._predicted: dict = {}  # name → TeamIntention the last prediction used
+        self._history: dict[str, list] = {}  # name → [(sent t, position, radius)] over TEAM_HISTORY_S
+        self._plan_checked: dict[str, float] = {}  # name → sent time of the last message compared
+        self._ghosts: set[int] = set()  # track ids found to be a team mate's stale copy (reported once)
+
+    # ------------------------------------------------------------------ broadcasts
+    def fresh(self, picture, t: float) -> dict:
+        """The team mates' fresh intentions, at most ``max_age_s`` old; empty without a team
+        picture or when that age is 0."""
+        if picture is None or self.max_age_s <= 0.0:
+            return {}
+        return {n: i for n, i in picture.fresh(t, self.max_age_s).items() if n in self.team}
+
+    def poll(self, picture) -> None:
+        """Heading rate ω of each team mate from two successive broadcasts [rad/s] (used when a
+        team mate sends no plan), and the history of their positions."""
+        if picture is None:
+            return
+        for name, it in picture.intentions.items():
+            old = self._nav.get(name)
+            if name not in self.team or (old is not None and it.sent_time_s <= old[0]):
+                continue
+            hist = self._history.setdefault(name, [])
+            hist.append((it.sent_time_s, np.asarray(it.position_m, dtype=float).copy(),
+                         float(it.radius_m) if it.radius_m else self.radius_m))
+            while hist and hist[0][0] < it.sent_time_s - TEAM_HISTORY_S:
+                hist.pop(0)
+            w = 0.0
+            if old is not None and 0.0 < it.sent_time_s - old[0] <= 3.0:
+                w = float(np.angle(np.exp(1j * (it.heading_rad - old[1])))) / (it.sent_time_s - old[0])
+            self._nav[name] = (it.sent_time_s, it.heading_rad, w)
+
+    def heading_rate(self, name: str) -> float:
+        """ω of team mate ``name`` from its last two broadcasts [rad/s] (0 when unknown)."""
+        return self._nav.get(name, (None, None, 0.0))[2]
+
+    def broadcast_based(self, track, fresh: dict) -> bool:
+        """The track is a team mate predicted from its fresh broadcast (its speed is measured, not
+        IMM noise: a slow team mate is not taken as static)."""
+        return track.team_member in self.team and track.team_member in fresh
+
+    # ------------------------------------------------------------------ tracks
+    def _from_intention(self, it, track: TrackEstimate | None, track_id: int) -> TrackEstimate:
+        """A track of team mate ``it.name`` from its own broadcast: along its plan when it sent one
+        (:class:`PlannedTrack`), else constant velocity and the heading rate of successive messages."""
+        vel = it.velocity_m_s
+        speed = float(np.hypot(*vel))
+        course = float(np.arctan2(vel[1], vel[0])) if speed > 0.05 else it.heading_rad
+        radius = float(track.radius_m) if track is not None else float(it.radius_m if it.radius_m else self.radius_m)
+        w = self.heading_rate(it.name)
+        base = dict(track_id=track_id, time_s=it.sent_time_s, position_m=np.asarray(it.position_m, dtype=float).copy(),
+                    heading_rad=course, radius_m=radius, is_static=False, team_member=it.name,
+                    position_covariance=np.zeros((2, 2)) if track is None else track.position_covariance)
+        if it.has_plan:
+            return PlannedTrack(speed_m_s=max(it.max_speed_m_s(), 1e-3), turn_rate_rad_s=w, intention=it, **base)
+        return TrackEstimate(speed_m_s=speed, turn_rate_rad_s=w, **base)
+
+    def tracks(self, tracks, t: float, picture, emit: Callable[[float, str], None]) -> list:
+        """The tracks with team mates predicted from their fresh broadcasts (module docstring),
+        stale copies of team mates dropped."""
+        self.poll(picture)
+        intents = self.fresh(picture, t)
+        out, seen = [], set()
+        for tr in tracks:
+            it = intents.get(tr.team_member) if tr.team_member in self.team else None
+            if it is None or tr.team_member in seen:
+                if it is None:
+                    out.append(tr)
+                continue
+            seen.add(tr.team_member)
+            out.append(self._from_intention(it, tr, tr.track_id))
+        order = sorted(self.team)
+        for name, it in intents.items():
+            if name not in seen:
+                out.append(self._from_intention(it, None, -1 - order.index(name)))
+        return [tr for tr in out if tr.team_member is not None or not self.is_ghost(tr, t, emit)]
+
+    def is_ghost(self, track, t: float, emit: Callable[[float, str], None]) -> bool:
+        """An unmatched track that, followed back along its own motion, lay on a team mate's
+        broadcast position (closer than the larger of the two radii: the discs deeply overlap) at
+        one of that team mate's messages of the last ``TEAM_HISTORY_S`` is that team mate: a copy
+        the tracker kept coasting at the old velocity when the team mate braked, or a second
+        track of it. Anything else that close to a team mate would have been in collision with it."""
+        for name, hist in self._history.items():
+            if not hist or t - hist[-1][0] > TEAM_HISTORY_S:
+                continue
+            tb = np.array([h[0] for h in hist])
+            pb = np.array([h[1] for h in hist])
+            rb = np.array([h[2] for h in hist])
+            back = track.predict_positions(tb)
+            if np.any(np.hypot(*(back - pb).T) <= np.maximum(rb, track.radius_m)):
+                if track.track_id not in self._ghosts:
+                    self._ghosts.add(track.track_id)
+                    emit(t, f"track {track.track_id} retraces team mate {name}'s broadcast positions: "
+                            f"it is {name} (stale copy), ignored")
+                return True
+        return False
+
+    # ------------------------------------------------------------------ plans
+    def remember_prediction(self, fresh: dict) -> None:
+        """The intentions the prediction just made used (compared by :meth:`plans_changed`)."""
+        self._predicted = fresh
+
+    def predicted_names(self) -> set:
+        """Team mates the last prediction took from their fresh broadcasts."""
+        return set(self._predicted)
+
+    def plans_changed(self, t: float, picture) -> bool:
+        """A team mate's newest plan differs by more than ``deviation_m`` from the one the last
+        prediction used, within the prediction window (it re-planned or changed its speed)."""
+        intents = self.fresh(picture, t)
+        ts = t + np.linspace(0.0, self.horizon_s, 16)
+        for name, it in intents.items():
+            if self._plan_checked.get(name) == it.sent_time_s:
+                continue  # this message was compared already
+            self._plan_checked[name] = it.sent_time_s
+            old = self._predicted.get(name)
+            if old is None:
+                if it.has_plan:
+                    return True
+                continue
+            if it.sent_time_s <= old.sent_time_s:
+                continue
+            if float(np.max(np.hypot(*(it.positions(ts) - old.positions(ts)).T))) > self.deviation_m:
+                return True
+        return False

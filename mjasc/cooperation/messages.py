@@ -1,0 +1,131 @@
+"""The typed values of the team's link: what a vessel broadcasts, and what it knows of its team.
+
+* :class:`TeamMessage` — one broadcast: the sender's own navigation, its progress along its
+  mission path (the coordination state ξ = (γ − o)/L and its rate), its radius and its plan (where
+  it intends to be over the next seconds). Sent over :class:`~mjasc.cooperation.comms.CommsNetwork`.
+* :class:`TeamIntention` — a team mate's newest message as collision avoidance uses it
+  (:meth:`TeamIntention.positions` samples the plan).
+* :class:`TeamPicture` — what the coordination layer hands to the rest of the vessel each tick:
+  the newest intention of every team mate heard, and its factor on the mission speed.
+
+World frame ENU, SI units, absolute simulation times [s].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Mapping
+
+import numpy as np
+
+__all__ = ["TeamMessage", "TeamIntention", "TeamPicture"]
+
+
+@dataclass(frozen=True, eq=False)
+class TeamMessage:
+    """One broadcast of ``sender`` (its own values at the send time).
+
+    position_m (2,), heading_rad, velocity_m_s (2,): its navigation; mission_speed_m_s: its mission's
+    cruise speed; radius_m: its bounding radius [m] (None: not sent); plan_times_s (k,),
+    plan_points_m (k, 2): its plan (k = 0: none). Progress along its mission path (all None for a
+    vessel without one): gamma_m γ [m], path_length_m L [m], xi ξ = (γ − o)/L, xi_rate_1_s ξ̇ [1/s]
+    (its along-path speed / L), offset_m its formation offset o [m].
+    """
+
+    sender: str
+    position_m: np.ndarray
+    heading_rad: float
+    velocity_m_s: np.ndarray
+    mission_speed_m_s: float
+    radius_m: float | None = None
+    plan_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    plan_points_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    gamma_m: float | None = None
+    path_length_m: float | None = None
+    xi: float | None = None
+    xi_rate_1_s: float | None = None
+    offset_m: float | None = None
+
+    @property
+    def has_path(self) -> bool:
+        """The sender follows a mission path (its coordination state ξ is in the message)."""
+        return self.xi is not None
+
+
+@dataclass(frozen=True, eq=False)
+class TeamIntention:
+    """A team mate's newest message about itself (world ENU, SI, absolute times).
+
+    name, sent_time_s: who and when. position_m (2,), heading_rad, velocity_m_s (2,): its own
+    navigation at ``sent_time_s``. radius_m: its bounding radius [m] (None if not sent).
+    plan_times_s (k,), plan_points_m (k, 2): where it intends to be (k = 0: no plan; then
+    :meth:`positions` extrapolates the velocity)."""
+
+    name: str
+    sent_time_s: float
+    position_m: np.ndarray
+    heading_rad: float
+    velocity_m_s: np.ndarray
+    radius_m: float | None = None
+    plan_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    plan_points_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+
+    @classmethod
+    def from_message(cls, msg: TeamMessage, sent_time_s: float) -> "TeamIntention":
+        """The intention a received message states (a plan whose sample counts disagree is dropped)."""
+        vel = np.asarray(msg.velocity_m_s, dtype=float)[:2]
+        plan_t = np.asarray(msg.plan_times_s, dtype=float).reshape(-1)
+        plan_xy = np.asarray(msg.plan_points_m, dtype=float).reshape(-1, 2)
+        if plan_t.size != plan_xy.shape[0]:
+            plan_t, plan_xy = np.zeros(0), np.zeros((0, 2))
+        return cls(msg.sender, float(sent_time_s), np.asarray(msg.position_m, dtype=float)[:2], float(msg.heading_rad),
+                   vel, msg.radius_m, plan_t, plan_xy)
+
+    @property
+    def has_plan(self) -> bool:
+        return self.plan_times_s.size >= 2
+
+    def positions(self, times_s) -> np.ndarray:
+        """Intended positions (n, 2) at absolute ``times_s``: the plan, linearly interpolated;
+        before its start along the broadcast velocity, after its end along its last segment."""
+        t = np.atleast_1d(np.asarray(times_s, dtype=float))
+        if not self.has_plan:
+            return self.position_m + (t - self.sent_time_s)[:, None] * self.velocity_m_s
+        ts, pts = self.plan_times_s, self.plan_points_m
+        out = np.stack([np.interp(t, ts, pts[:, 0]), np.interp(t, ts, pts[:, 1])], axis=-1)
+        lo, hi = t < ts[0], t > ts[-1]
+        if lo.any():
+            out[lo] = pts[0] + (t[lo] - ts[0])[:, None] * self.velocity_m_s
+        if hi.any():
+            v_end = (pts[-1] - pts[-2]) / max(ts[-1] - ts[-2], 1e-9)
+            out[hi] = pts[-1] + (t[hi] - ts[-1])[:, None] * v_end
+        return out
+
+    def max_speed_m_s(self) -> float:
+        """Largest speed along the plan (or the broadcast speed) [m/s]."""
+        v = float(np.hypot(*self.velocity_m_s))
+        if self.has_plan:
+            seg = np.hypot(*np.diff(self.plan_points_m, axis=0).T) / np.maximum(np.diff(self.plan_times_s), 1e-9)
+            v = max(v, float(seg.max()))
+        return v
+
+
+@dataclass(frozen=True, eq=False)
+class TeamPicture:
+    """What a vessel knows of its team at ``time_s`` [s] from its link.
+
+    intentions: name → the newest :class:`TeamIntention` heard from each team mate (any age; users
+    filter by :meth:`fresh`); speed_factor: the coordination law's latest factor on the mission
+    speed (1 when there is nothing to coordinate with)."""
+
+    time_s: float
+    intentions: Mapping[str, TeamIntention] = field(default_factory=dict)
+    speed_factor: float = 1.0
+
+    def fresh(self, t_s: float, max_age_s: float) -> dict[str, TeamIntention]:
+        """The intentions sent at most ``max_age_s`` before ``t_s``."""
+        return {n: it for n, it in self.intentions.items() if not t_s - it.sent_time_s > max_age_s}
+
+    def positions(self) -> dict[str, tuple[float, np.ndarray]]:
+        """name → (sent time [s], position (2,) world [m]) of every team mate heard."""
+        return {n: (it.sent_time_s, it.position_m) for n, it in self.intentions.items()}

@@ -1,0 +1,55 @@
+"""One onboard slot for a whole fleet: the tick the runner and the suite's CAS baseline share.
+
+:func:`run_onboard_slot` runs one slot of :data:`ONBOARD_SLOTS` for every vessel agent, in vessel
+order (the order matters: the team's link draws its random numbers in the order of the calls).
+The runner calls it for each due slot of a physics step (:class:`~mjasc.runs.schedule.Schedule`),
+then records; :class:`mjasc.suite.baselines.CASPolicy` calls it inside a dm_control environment.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+from mjasc.core.navigation import OwnNavigation
+
+__all__ = ["ONBOARD_SLOTS", "run_onboard_slot", "SlotEvent"]
+
+#: The slots the vessels' own pipelines run (the runner adds "record" and "video").
+ONBOARD_SLOTS = ("sensing", "tracking", "comms", "prediction", "control")
+
+
+def run_onboard_slot(slot: str, agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: float):
+    """Run ``slot`` for each agent with its own navigation ``navs[i]``. Returns the agents'
+    :class:`~mjasc.runs.agent.ControlOutput` list for ``"control"``, else None."""
+    if slot == "sensing":
+        for agent, nav in zip(agents, navs):
+            agent.on_sensing(nav)
+    elif slot == "tracking":
+        for agent, nav in zip(agents, navs):
+            agent.on_tracking(nav)
+    elif slot == "comms":
+        for agent, nav in zip(agents, navs):
+            agent.on_comms(nav)
+    elif slot == "prediction":
+        for agent, nav in zip(agents, navs):
+            agent.on_prediction(nav)
+    elif slot == "control":
+        return [agent.control(nav, control_dt_s) for agent, nav in zip(agents, navs)]
+    else:
+        raise ValueError(f"slot: not an onboard slot: {slot!r} (known: {', '.join(ONBOARD_SLOTS)})")
+    return None
+
+
+@dataclass(frozen=True)
+class SlotEvent:
+    """What a runner observer receives after a slot ran: the slot, the time [s], the true vessel
+    states (:class:`~mjasc.physics.simulation.VesselStates`), the vessels' own navigation, and the
+    runner (read its public attributes: ``agents``, ``last_outputs``, ``sim``, ``world``,
+    ``scenario``; do not change them)."""
+
+    slot: str
+    time_s: float
+    states: Any
+    navs: tuple
+    runner: Any
