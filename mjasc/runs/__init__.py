@@ -1,0 +1,1 @@
+"""Runs: scenario files, the multi-rate schedule, the vessel agent, the runner and its outputs."""
