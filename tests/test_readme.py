@@ -4,6 +4,7 @@ Every ``python`` block compiles and runs in an empty temporary folder (the READM
 examples short: a 10 s scenario, a two-run campaign of 5 s runs, 10 s of bare physics). Every
 ``mjasc …`` line of a ``bash`` block parses with the real command line, and a scenario or campaign
 it names is a bundled name, not a path into the repository (which would work only from its root).
+No file of the repository names a machine path or links outside the repository.
 """
 
 from __future__ import annotations
@@ -54,3 +55,42 @@ def test_command_parses_and_names_bundled_files(command, tmp_path, monkeypatch):
         assert not (ROOT / ref).exists(), f"{command!r}: {ref} is a repository path; use its bundled name"
         if not ref.endswith(".toml"):  # a file name stands for the reader's own file
             assert resolve_bundled(ref, kind).is_file(), f"{command!r}: no bundled {kind} {ref!r}"
+
+
+# ------------------------------------------------------------------ nothing outside the repository
+def _text_files() -> list[Path]:
+    skip = {".git", ".venv", "runs", "build", "dist", "__pycache__", ".pytest_cache"}
+    suffixes = {".md", ".py", ".toml", ".xml", ".sh", ".txt", ".cfg", ".yml", ".yaml", ".lock", ""}
+    return [p for p in ROOT.rglob("*") if p.is_file() and p.suffix in suffixes
+            and not skip & set(p.relative_to(ROOT).parts) and not p.name.endswith(".egg-info")
+            and p != Path(__file__).resolve()]
+
+
+MACHINE_PATHS = re.compile(r"(?<![\w.])(/work/|/root/|/home/|\.\./shared/|shared/reference/)")
+
+
+def test_no_file_names_a_path_outside_the_repository():
+    hits = []
+    for p in _text_files():
+        try:
+            text = p.read_text()
+        except UnicodeDecodeError:
+            continue
+        for n, line in enumerate(text.splitlines(), 1):
+            if MACHINE_PATHS.search(line):
+                hits.append(f"{p.relative_to(ROOT)}:{n}: {line.strip()}")
+    assert hits == []
+
+
+def test_markdown_links_stay_inside_the_repository():
+    outside = []
+    for p in ROOT.rglob("*.md"):
+        if {".git", ".venv", "runs"} & set(p.relative_to(ROOT).parts):
+            continue
+        for target in re.findall(r"\]\(([^)\s]+)\)", p.read_text()):
+            if re.match(r"[a-z]+:", target) or target.startswith("#"):
+                continue  # a URL or an anchor
+            resolved = (p.parent / target.split("#", 1)[0]).resolve()
+            if not resolved.is_relative_to(ROOT):
+                outside.append(f"{p.relative_to(ROOT)}: {target}")
+    assert outside == []
