@@ -94,3 +94,11 @@ def test_markdown_links_stay_inside_the_repository():
             if not resolved.is_relative_to(ROOT):
                 outside.append(f"{p.relative_to(ROOT)}: {target}")
     assert outside == []
+
+
+def test_code_and_data_paths_named_in_the_readme_exist():
+    """Module, scenario and script paths in backticks (the ones a refactor moves) exist."""
+    named = set(re.findall(r"`((?:mjasc|tasks|assets|tests|benchmarks|scripts)/[^`\s]*)`", README))
+    assert any(n.startswith("mjasc/") for n in named)
+    missing = sorted(n for n in named if not any(ROOT.glob(n.rstrip("/"))))
+    assert missing == []
