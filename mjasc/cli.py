@@ -1,10 +1,16 @@
 """The ``mjasc`` command line.
 
-    mjasc run tasks/X.toml [--out DIR] [--video] [--seed N] [--duration S] [--no-progress]
+    mjasc run SCENARIO [--out DIR] [--video] [--seed N] [--duration S] [--no-progress]
     mjasc list
+    mjasc campaign CAMPAIGN [--out DIR] [--workers N] [--scheduler ADDR] [--runs N] [--no-progress]
     mjasc trial speed|turning-circle|zigzag|stopping --vessel NAME [--port F] [--starboard F] [--json]
     mjasc figures [--out DIR]
     mjasc render DOMAIN TASK [--policy random|baseline] [--seed N] [--out DIR]   (dm_control suite)
+
+SCENARIO and CAMPAIGN are a TOML file's path or the name of a bundled one (``mjasc run demo``,
+``mjasc campaign demo_monte_carlo``; ``mjasc list`` shows them), so every command works from any
+folder. Paths on the command line, and the default output folders (``runs/<scenario name>``,
+``runs/campaigns/<campaign name>``), are relative to the current folder.
 """
 
 from __future__ import annotations
@@ -16,6 +22,16 @@ from pathlib import Path
 
 import mjasc  # noqa: F401  (chooses the OpenGL backend before mujoco is imported)
 
+NAMED_HELP = "`mjasc list` shows the bundled names"
+
+
+def _not_found_hint(ref: str, kind: str) -> str:
+    """A hint when ``ref`` is neither a file here nor a bundled name, else ''."""
+    from mjasc.core.resources import resolve_bundled
+
+    if resolve_bundled(ref, kind) == Path(ref) and not Path(ref).exists():
+        return f" (neither a file relative to {Path.cwd()} nor a bundled {kind}: {NAMED_HELP})"
+    return ""
 
 
 def _cmd_run(args) -> int:
@@ -26,7 +42,7 @@ def _cmd_run(args) -> int:
         scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, video=True if args.video else None,
                                                                duration_s=args.duration)
     except ScenarioError as exc:
-        print(f"mjasc: invalid scenario: {exc}", file=sys.stderr)
+        print(f"mjasc: invalid scenario: {exc}{_not_found_hint(args.scenario, 'scenario')}", file=sys.stderr)
         return 2
     out = Path(args.out) if args.out else Path("runs") / scenario.name
     try:
@@ -50,8 +66,9 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_list(args) -> int:
-    from mjasc.runs.scenario import ScenarioError, load_scenario
+    from mjasc.campaigns.perturbation import CampaignError, load_campaign
     from mjasc.core.resources import bundled_campaigns, bundled_scenarios
+    from mjasc.runs.scenario import ScenarioError, load_scenario
     from mjasc.physics.vessels import available_vessels, load_vessel_type
 
     print("vessels:")
@@ -67,8 +84,13 @@ def _cmd_list(args) -> int:
         except ScenarioError as exc:
             print(f"  {name:36s} INVALID: {exc}")
     print("campaigns:")
-    for name in bundled_campaigns():
-        print(f"  {name}")
+    for name, path in bundled_campaigns().items():
+        short = name.removeprefix("campaigns/")  # what `mjasc campaign` takes
+        try:
+            c = load_campaign(path)
+            print(f"  {short:36s} {c.description}")
+        except CampaignError as exc:
+            print(f"  {short:36s} INVALID: {exc}")
     return 0
 
 
@@ -103,7 +125,7 @@ def _cmd_campaign(args) -> int:
     try:
         campaign = load_campaign(args.campaign).with_overrides(runs=args.runs)
     except CampaignError as exc:
-        print(f"mjasc: invalid campaign: {exc}", file=sys.stderr)
+        print(f"mjasc: invalid campaign: {exc}{_not_found_hint(args.campaign, 'campaign')}", file=sys.stderr)
         return 2
     out = Path(args.out) if args.out else Path("runs") / "campaigns" / campaign.name
     try:
@@ -131,17 +153,21 @@ def _cmd_render(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="mjasc", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="mjasc", description=__doc__.split("\n\n")[0].replace("``", ""),
+                                epilog=__doc__.split("\n\n")[2].replace("``", "'"),
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("run", help="run a scenario file: recording, summary and (with --video) an MP4")
-    r.add_argument("scenario", help="path to a scenario TOML file (see tasks/README.md)")
-    r.add_argument("--out", help="output folder (default: runs/<scenario name>)")
+    r = sub.add_parser("run", help="run a scenario (a file or a bundled name): recording, summary and "
+                                   "(with --video) an MP4")
+    r.add_argument("scenario", help="a scenario TOML file's path (relative to the current folder; format in "
+                                    f"tasks/README.md) or a bundled scenario's name such as 'demo' ({NAMED_HELP})")
+    r.add_argument("--out", help="output folder (default: runs/<scenario name> in the current folder)")
     r.add_argument("--video", action="store_true", help="render an MP4 offscreen (OSMesa)")
     r.add_argument("--seed", type=int, help="override the scenario's seed")
     r.add_argument("--duration", type=float, help="override the scenario's duration [s]")
     r.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     r.set_defaults(func=_cmd_run)
-    ls = sub.add_parser("list", help="list vessels and scenarios")
+    ls = sub.add_parser("list", help="list the vessels and the bundled scenarios and campaigns")
     ls.set_defaults(func=_cmd_list)
     t = sub.add_parser("trial", help="standard manoeuvring trial of one hull")
     t.add_argument("kind", choices=["speed", "turning-circle", "zigzag", "stopping"])
@@ -151,11 +177,14 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--json", action="store_true", help="print one JSON object")
     t.set_defaults(func=_cmd_trial)
     f = sub.add_parser("figures", help="make the thesis-style figures (PNG)")
-    f.add_argument("--out", default="runs/figures")
+    f.add_argument("--out", default="runs/figures",
+                   help="output folder (default: runs/figures in the current folder)")
     f.set_defaults(func=_cmd_figures)
     c = sub.add_parser("campaign", help="Monte Carlo campaign: many randomized runs on Dask (docs/campaigns.md)")
-    c.add_argument("campaign", help="path to a campaign TOML file (see docs/campaigns.md)")
-    c.add_argument("--out", help="output folder (default: runs/campaigns/<campaign name>)")
+    c.add_argument("campaign", help="a campaign TOML file's path (relative to the current folder; format in "
+                                    "docs/campaigns.md) or a bundled campaign's name such as 'demo_monte_carlo' "
+                                    f"({NAMED_HELP})")
+    c.add_argument("--out", help="output folder (default: runs/campaigns/<campaign name> in the current folder)")
     c.add_argument("--workers", type=int, help="local worker processes (default: CPU count; 0: in this process)")
     c.add_argument("--scheduler", help="address of an existing Dask scheduler (tcp://host:8786), or 'synchronous'")
     c.add_argument("--runs", type=int, help="override the number of runs")

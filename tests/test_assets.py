@@ -150,7 +150,7 @@ def test_propeller_sites_port_is_plus_y(name):
     assert np.allclose(port * [1, -1, 1], stbd), "mirror images"
     assert port[0] < 0 and port[2] < 0, "aft of CO, below the waterline"
     if name == "otter":
-        assert port[1] == pytest.approx(0.395)  # Fossen's lever arm (vessels.md)
+        assert port[1] == pytest.approx(0.395)  # Fossen's lever arm
 
 
 @pytest.mark.parametrize("name", VESSELS)
@@ -243,7 +243,7 @@ def test_toml_has_exactly_the_contract_keys(name):
 
 
 def test_otter_mass_matrix_matches_fossen():
-    """vessels.md: M = M_RB + M_A ≈ diag(85.5, 162.5, 42.65), sway–yaw coupling m·x_g = 12.25."""
+    """Fossen's model: M = M_RB + M_A ≈ diag(85.5, 162.5, 42.65), sway–yaw coupling m·x_g = 12.25."""
     model = vessel_model("otter")
     assert model.body("hull").mass[0] == pytest.approx(80.0)
     m_total = rigid_body_mass_matrix(model) + added_mass_matrix(vessel_toml("otter"))
@@ -278,7 +278,7 @@ def test_damping_time_constants(name):
 
 @pytest.mark.parametrize("name", VESSELS)
 def test_full_thrust_steady_speed_is_top_speed(name):
-    """Linear damping only: u = 2 k n_max² / |X_u| (vessels.md's hand check)."""
+    """Linear damping only: u = 2 k n_max² / |X_u| (the hand check in assets/vessels/otter/README.md)."""
     t = vessel_toml(name)
     p = t["propellers"]
     u = 2 * p["k_forward"] * p["n_max_rad_s"] ** 2 / -t["damping"]["X_u"]

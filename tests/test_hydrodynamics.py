@@ -213,7 +213,7 @@ def test_coefficient_validation_names_the_field():
 
 
 def test_rigid_body_mass_matrix_of_the_otter_matches_vessels_md():
-    """vessels.md: M = M_RB + M_A ≈ diag [85.5, 162.5, 42.65] with sway–yaw coupling 12.25."""
+    """Fossen's model: M = M_RB + M_A ≈ diag [85.5, 162.5, 42.65] with sway–yaw coupling 12.25."""
     sim = make_sim("otter")
     m = sim.hydro.total_mass[0]
     np.testing.assert_allclose(np.diag(m), [85.5, 162.5, 42.65], rtol=0.01)

@@ -70,7 +70,7 @@ def test_speed_trial_otter_t63_is_the_surge_time_constant_plus_the_shaft_lag():
     assert tau == pytest.approx(85.5 / 77.55, rel=1e-3)
     res = run_trial("speed", "otter")
     assert res["port"] == res["starboard"] == 1.0
-    assert res["steady_speed"] == pytest.approx(3.09, abs=0.01)  # vessels.md: top speed ≈ 3.1 m/s
+    assert res["steady_speed"] == pytest.approx(3.09, abs=0.01)  # Fossen: top speed ≈ 3.1 m/s
     assert tau < res["t63"] <= tau + 2 * 0.1
 
 
