@@ -54,16 +54,22 @@ from mjasc.avoidance.prediction import (
     CollisionPredictionConfig,
     Decision,
     PredictedConflict,
-    circle_polygon,
     gamma_of_time,
     predict_conflicts,
     swept_disc_polygon,
 )
 from mjasc.core.config_tables import ConfigError, boolean, dataclass_from_table, number, show
 from mjasc.core.estimates import TrackEstimate
-from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+from mjasc.core.geometry import (
+    clean_polygon,
+    convex_hull,
+    disc_hull,
+    distance_to_polygon,
+    inflate_polygon,
+    point_in_polygon,
+)
 from mjasc.guidance.paths import Path
-from mjasc.avoidance.potential_field import PotentialField, clean_polygon, inflate_polygon
+from mjasc.avoidance.potential_field import PotentialField
 from mjasc.avoidance.right_of_way import gives_way, relative_bearing
 from mjasc.avoidance.velocity_correction import VelocityCorrection
 
@@ -260,18 +266,13 @@ def swept_area(track: TrackEstimate, t_a: float, t_b: float, radius_m: float) ->
     rate, the convex hull of discs every 0.5 s along a :class:`PlannedTrack`'s plan."""
     if not isinstance(track, PlannedTrack):
         return swept_disc_polygon(track, t_a, t_b, radius_m)
-    from scipy.spatial import ConvexHull
-
     ts = np.linspace(t_a, t_b, max(2, int(np.ceil((t_b - t_a) / 0.5)) + 1))
-    pts = np.concatenate([circle_polygon(c, radius_m, 16) for c in track.predict_positions(ts)])
-    return pts[ConvexHull(pts).vertices]
+    return disc_hull(track.predict_positions(ts), radius_m, 16)
 
 
 def merge_overlapping(polygons: list[np.ndarray], clearance_m: float = 0.0) -> list[np.ndarray]:
     """Replace polygons that overlap (or come closer than ``clearance_m``) by their convex hull,
     until none do. The potential field needs disjoint obstacles."""
-    from scipy.spatial import ConvexHull
-
     polys = [np.asarray(p, dtype=float) for p in polygons]
     changed = True
     while changed and len(polys) > 1:
@@ -284,7 +285,7 @@ def merge_overlapping(polygons: list[np.ndarray], clearance_m: float = 0.0) -> l
                          or float(np.min(distance_to_polygon(b, a))) <= clearance_m)
                 if close:
                     pts = np.vstack([a, b])
-                    hull = pts[ConvexHull(pts).vertices]
+                    hull = convex_hull(pts, canonical=False)
                     polys = [p for k, p in enumerate(polys) if k not in (i, j)] + [hull]
                     changed = True
                     break
