@@ -14,6 +14,8 @@ from mjasc.avoidance.prediction import (
     swept_disc_polygon,
 )
 from mjasc.core.estimates import TrackEstimate
+from mjasc.core.geometry import circle_polygon
+from mjasc.core.geometry import polygon_signed_area as _signed_area
 from mjasc.guidance.paths import Path
 
 
@@ -21,19 +23,12 @@ def _track(tid, t, pos, heading, speed, turn=0.0, radius=2.5, **kw):
     return TrackEstimate(tid, t, np.asarray(pos, float), heading, speed, turn, radius, **kw)
 
 
-def _signed_area(poly):
-    x, y = poly[:, 0], poly[:, 1]
-    return 0.5 * np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)
-
-
 def _contains(poly, pts):
     return MplPath(np.vstack([poly, poly[:1]]), closed=True).contains_points(pts)
 
 
 def _disc_points(centres, radius, n=24):
-    ang = np.linspace(0, 2 * np.pi, n, endpoint=False)
-    ring = radius * np.stack([np.cos(ang), np.sin(ang)], axis=1)
-    return (np.asarray(centres)[:, None, :] + ring[None, :, :]).reshape(-1, 2)
+    return np.concatenate([circle_polygon(c, radius, n, circumscribed=False) for c in centres])
 
 
 # ----------------------------------------------------------------------------- window
@@ -286,3 +281,20 @@ def test_validation_errors_name_the_field():
         CollisionPredictionConfig(obstruction_threshold_s=0.0)
     with pytest.raises(ValueError, match="time_step_s"):
         CollisionPredictionConfig(time_step_s=-1.0)
+
+
+def test_config_parameters_declared_once_read_from_a_table_name_its_path():
+    from mjasc.core.config_tables import dataclass_from_table
+
+    with pytest.raises(ValueError, match=r"^vessels\[0\]\.avoidance\.window_s: must be finite and > 0, got 0\.0$"):
+        dataclass_from_table(CollisionPredictionConfig, {"window_s": 0}, "vessels[0].avoidance")
+    with pytest.raises(ValueError, match=r"^av\.margin_s: must be finite and ≥ 0, got -1\.0$"):
+        dataclass_from_table(CollisionPredictionConfig, {"margin_s": -1}, "av")
+    with pytest.raises(ValueError, match=r'^av\.window_s: must be a number \[s\] or "dynamic", got \'fast\'$'):
+        dataclass_from_table(CollisionPredictionConfig, {"window_s": "fast"}, "av")
+    assert dataclass_from_table(CollisionPredictionConfig, {"window_s": "dynamic"}, "av").window_s is None
+    # built in code, the config has no table: its errors name the field alone
+    with pytest.raises(ValueError, match=r"^margin_s: must be finite and ≥ 0, got -1$"):
+        CollisionPredictionConfig(margin_s=-1)
+    with pytest.raises(ValueError, match=r"^svo_vertices: must be ≥ 8, got 4$"):
+        CollisionPredictionConfig(svo_vertices=4)

@@ -8,15 +8,13 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from mjasc.avoidance.potential_field import (
-    PotentialField,
-    Streamline,
+from mjasc.avoidance.potential_field import PotentialField, Streamline, panel_influence
+from mjasc.core.geometry import (
     clean_polygon,
-    distance_to_polygon,
     inflate_polygon,
-    panel_influence,
-    points_in_polygon,
+    point_in_polygon,
     polygon_signed_area,
+    signed_distance_to_polygon,
 )
 
 
@@ -51,7 +49,7 @@ def test_panel_closed_form_matches_quadrature():
         # points at least 0.3 panel lengths away from the segment
         while True:
             p = rng.uniform(-8, 8, 2)
-            if distance_to_polygon(np.array([a, b, b + 1e-9]), p[None])[0] > 0.3 * np.linalg.norm(b - a):
+            if signed_distance_to_polygon(p[None], np.array([a, b, b + 1e-9]))[0] > 0.3 * np.linalg.norm(b - a):
                 break
         w = panel_influence(p[None], a[None], b[None])[0, 0]
         np.testing.assert_allclose(w, quadrature_influence(p, a, b), atol=1e-10)
@@ -209,7 +207,7 @@ def test_dock_scenario_sweep_like_thesis():
         assert run.path.reached_goal, (run.safety_ratio, run.path.reason)
         clear.append(run.field.distance_to_obstacles(run.path.points).min())
         # the quay (not paneled: upstream of the start) is never approached
-        assert distance_to_polygon(sc.quay, run.path.points).min() > sc.inflation_m
+        assert signed_distance_to_polygon(run.path.points, sc.quay).min() > sc.inflation_m
         assert run.field.net_obstacle_strength <= 30.0 + 1e-9
     assert min(clear) > 0 and clear[-1] > clear[0]
     # r = 1 leaves the bottleneck between vessels 1 and 3 alone: passes south of vessel 3
@@ -318,14 +316,14 @@ def test_inflation_offset():
     assert len(inf) > 3
     s = np.linspace(0, 1, 50)[:, None]
     edge_pts = np.concatenate([tri[i] + s * (tri[(i + 1) % 3] - tri[i]) for i in range(3)])
-    assert distance_to_polygon(inf, edge_pts).max() <= -d * (1 - 1e-9)
-    corner_depth = -distance_to_polygon(inf, tri)
+    assert signed_distance_to_polygon(edge_pts, inf).max() <= -d * (1 - 1e-9)
+    corner_depth = -signed_distance_to_polygon(tri, inf)
     assert corner_depth.max() < d * 1.0001  # bevel tangent to the clearance circle
     # concave L: miter at the reflex corner
     L = np.array([[0, 0], [4, 0], [4, 1], [1, 1], [1, 4], [0, 4]], float)
     infL = inflate_polygon(L, 0.25)
-    assert points_in_polygon(infL, np.array([[1.2, 1.2]]))[0]
-    assert not points_in_polygon(infL, np.array([[1.3, 1.3]]))[0]
+    assert point_in_polygon(np.array([[1.2, 1.2]]), infL)[0]
+    assert not point_in_polygon(np.array([[1.3, 1.3]]), infL)[0]
     # a notch narrower than twice the margin is swallowed → error
     U = np.array([[0, 0], [5, 0], [5, 5], [3, 5], [3, 1], [2, 1], [2, 5], [0, 5]], float)
     with pytest.raises(ValueError, match="inflation"):

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from mjasc.avoidance.prediction import CollisionPredictionConfig
-from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, number, param, show
+from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 
 __all__ = ["AvoidanceConfig", "parse_avoidance_options"]
 
@@ -98,20 +98,10 @@ def _check_avoidance(c: AvoidanceConfig, where: str) -> None:
                           f"got {show(c.speed_max_m_s)}")
 
 
-def _window(value: Any, where: str) -> float | None:
-    """Reader of ``window_s``: ``"dynamic"`` → None (δ = v/a_brake + ζ), else a number [s] (its
-    sign is checked with the other prediction fields)."""
-    if isinstance(value, str):
-        if value != "dynamic":
-            raise ConfigError(f'{where}: must be a number [s] or "dynamic", got {show(value)}')
-        return None
-    return number(value, where)
-
-
 def parse_avoidance_options(table: dict, where: str = "avoidance") -> AvoidanceConfig:
     """Validate a ``[vessels.avoidance]`` table into an :class:`AvoidanceConfig`.
 
     ``window_s = "dynamic"`` selects the dynamic window δ = v/a_brake + ζ; every other field is a
     number or a boolean as declared. Unknown keys, wrong types and out-of-range values raise
     ValueError naming ``f"{where}.{key}"`` (:func:`mjasc.core.config_tables.dataclass_from_table`)."""
-    return dataclass_from_table(AvoidanceConfig, table, where, {"window_s": _window}, check=_check_avoidance)
+    return dataclass_from_table(AvoidanceConfig, table, where, check=_check_avoidance)

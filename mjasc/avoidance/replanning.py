@@ -16,14 +16,14 @@ from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from scipy.spatial import ConvexHull
 
-from mjasc.avoidance.potential_field import PotentialField, clean_polygon, inflate_polygon
-from mjasc.avoidance.prediction import circle_polygon, swept_disc_polygon
+from mjasc.avoidance.potential_field import PotentialField
+from mjasc.avoidance.prediction import swept_disc_polygon
 from mjasc.avoidance.static_conflicts import StaticConflict
 from mjasc.avoidance.team_mates import PlannedTrack
 from mjasc.core.estimates import TrackEstimate
-from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+from mjasc.core.geometry import (clean_polygon, convex_hull, disc_hull, distance_to_polygon, inflate_polygon,
+                                 point_in_polygon)
 from mjasc.guidance.paths import Path
 
 __all__ = ["Detour", "swept_area", "merge_overlapping", "plan_detour"]
@@ -59,8 +59,7 @@ def swept_area(track: TrackEstimate, t_a: float, t_b: float, radius_m: float) ->
     if not isinstance(track, PlannedTrack):
         return swept_disc_polygon(track, t_a, t_b, radius_m)
     ts = np.linspace(t_a, t_b, max(2, int(np.ceil((t_b - t_a) / 0.5)) + 1))
-    pts = np.concatenate([circle_polygon(c, radius_m, 16) for c in track.predict_positions(ts)])
-    return pts[ConvexHull(pts).vertices]
+    return disc_hull(track.predict_positions(ts), radius_m, 16)
 
 
 def merge_overlapping(polygons: list[np.ndarray], clearance_m: float = 0.0) -> list[np.ndarray]:
@@ -78,7 +77,7 @@ def merge_overlapping(polygons: list[np.ndarray], clearance_m: float = 0.0) -> l
                          or float(np.min(distance_to_polygon(b, a))) <= clearance_m)
                 if close:
                     pts = np.vstack([a, b])
-                    hull = pts[ConvexHull(pts).vertices]
+                    hull = convex_hull(pts, canonical=False)
                     polys = [p for k, p in enumerate(polys) if k not in (i, j)] + [hull]
                     changed = True
                     break

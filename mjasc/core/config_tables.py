@@ -271,19 +271,21 @@ def _check_value(value: Any, tp: Any, p: Param, where: str) -> Any:
 
 def check_params(obj: Any, where: str) -> None:
     """Validate every :func:`param` field of the dataclass instance ``obj`` against its declared
-    type and bounds (ConfigError naming ``f"{where}.{field}"``); nested configs are checked by
-    their own ``__post_init__`` when built, and re-addressed here under ``where``."""
+    type and bounds (ConfigError naming ``f"{where}.{field}"``, or the field alone when ``where``
+    is ""); nested configs are checked by their own ``__post_init__`` when built, and re-addressed
+    here under ``where``."""
     hints = typing.get_type_hints(type(obj))
     for f in dataclasses.fields(obj):
         p = _param_of(f)
         if p is None:
             continue
         value = getattr(obj, f.name)
-        sub = f"{where}.{f.name}" if not p.flatten else where
+        name = f"{where}.{f.name}" if where else f.name
+        sub = name if not p.flatten else where
         if dataclasses.is_dataclass(value):
             check_params(value, sub)
         else:
-            _check_value(value, hints[f.name], p, f"{where}.{f.name}")
+            _check_value(value, hints[f.name], p, name)
 
 
 def describe_params(cls: type, prefix: str = "") -> list[dict]:

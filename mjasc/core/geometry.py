@@ -1,17 +1,40 @@
-"""Planar geometry shared by metrics, sensing and planning (world frame, metres)."""
+"""Planar geometry: the one place for polygons and circles in the plane (world frame ENU, metres).
+
+Every layer (metrics, sensing, tracking, prediction, planning, figures) takes its polygon and
+circle helpers from here. A polygon is a (k, 2) array of vertices, not repeated at the end
+(closed implicitly: the last vertex joins the first). Functions of points and a polygon take the
+points first: ``f(points_xy, polygon)``, with points (n, 2) (a single (2,) point is read as (1, 2))
+and a result per point (n,).
+
+* distances: :func:`distance_to_polygon` (to the boundary, unsigned), :func:`signed_distance_to_polygon`
+  (negative inside); containment: :func:`point_in_polygon` (even-odd rule);
+* orientation: :func:`polygon_signed_area` (the shoelace formula, > 0 counter-clockwise),
+  :func:`counter_clockwise`;
+* construction: :func:`circle_polygon` (an n-gon circumscribing a circle, or points on it),
+  :func:`convex_hull`, :func:`disc_hull` (the hull of discs), :func:`hull_outline` (a vessel's
+  outline for drawing);
+* clean-up: :func:`clean_polygon` (validated, counter-clockwise, no degenerate vertices),
+  :func:`inflate_polygon` (outward offset by a margin, containing the Minkowski sum with the disc),
+  :func:`segments_intersect`, :func:`self_intersections`.
+"""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["distance_to_polygon", "point_in_polygon", "hull_outline", "convex_hull"]
+__all__ = ["distance_to_polygon", "signed_distance_to_polygon", "point_in_polygon", "polygon_signed_area",
+           "counter_clockwise", "circle_polygon", "convex_hull", "disc_hull", "hull_outline", "clean_polygon",
+           "inflate_polygon", "segments_intersect", "self_intersections"]
 
 
-def distance_to_polygon(points_xy: np.ndarray, vertices: np.ndarray) -> np.ndarray:
-    """Distance [m] from each point (n, 2) to a closed polygon's boundary; 0 inside is NOT implied:
-    use :func:`point_in_polygon` to tell inside from outside. Vectorized over points × edges."""
+# ---------------------------------------------------------------------------------------------- distance
+def distance_to_polygon(points_xy: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Distance [m] (n,) from each point (n, 2) to a closed polygon's boundary; 0 inside is NOT implied:
+    use :func:`point_in_polygon` to tell inside from outside, or :func:`signed_distance_to_polygon`.
+    Vectorized over points × edges; the closest point a + t·(b − a) of each edge is formed first
+    (zero-length edges are measured to their vertex)."""
     p = np.asarray(points_xy, dtype=float).reshape(-1, 1, 2)
-    a = np.asarray(vertices, dtype=float)
+    a = np.asarray(polygon, dtype=float)
     b = np.roll(a, -1, axis=0)
     ab = b - a
     t = np.clip(np.einsum("nkj,kj->nk", p - a, ab) / np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-18), 0.0, 1.0)
@@ -19,15 +42,97 @@ def distance_to_polygon(points_xy: np.ndarray, vertices: np.ndarray) -> np.ndarr
     return np.min(np.linalg.norm(p - closest, axis=-1), axis=1)
 
 
-def point_in_polygon(points_xy: np.ndarray, vertices: np.ndarray) -> np.ndarray:
-    """Even-odd rule, vectorized: bool (n,) for points (n, 2) inside the polygon (k, 2)."""
+def signed_distance_to_polygon(points_xy: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Signed distance [m] (n,) from points (n, 2) to a closed polygon's boundary: negative inside
+    (:func:`point_in_polygon`), positive outside.
+
+    The same distance as :func:`distance_to_polygon`, written in the edge's own frame:
+    ‖(p − a) − t·(b − a)‖. The two forms round differently in the last bit; each caller keeps the
+    form it always used (the potential field this one, the run metrics the other), so that results
+    stay bit-identical.
+    """
+    p = np.atleast_2d(np.asarray(points_xy, dtype=float))
+    a = np.asarray(polygon, dtype=float)
+    e = np.roll(a, -1, axis=0) - a
+    d = p[:, None, :] - a[None, :, :]
+    s = np.clip(np.einsum("nkj,kj->nk", d, e) / np.maximum(np.einsum("kj,kj->k", e, e), 1e-18), 0.0, 1.0)
+    dist = np.linalg.norm(d - s[..., None] * e[None], axis=2).min(axis=1)
+    return np.where(point_in_polygon(p, a), -dist, dist)
+
+
+def point_in_polygon(points_xy: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Even-odd rule (crossing number), vectorized: bool (n,) for points (n, 2) strictly inside the
+    polygon (k, 2) (points on the boundary may fall either way)."""
     p = np.asarray(points_xy, dtype=float).reshape(-1, 1, 2)
-    a = np.asarray(vertices, dtype=float)
+    a = np.asarray(polygon, dtype=float)
     b = np.roll(a, -1, axis=0)
     crosses = (a[:, 1] > p[..., 1]) != (b[:, 1] > p[..., 1])
     with np.errstate(divide="ignore", invalid="ignore"):
         x_int = a[:, 0] + (p[..., 1] - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
     return np.count_nonzero(crosses & (p[..., 0] < x_int), axis=1) % 2 == 1
+
+
+# ---------------------------------------------------------------------------------------------- orientation
+def polygon_signed_area(polygon: np.ndarray) -> float:
+    """Signed area [m²] of a closed polygon (k, 2) (shoelace formula); positive when counter-clockwise."""
+    v = np.asarray(polygon, dtype=float)
+    x, y = v[:, 0], v[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def counter_clockwise(polygon: np.ndarray) -> np.ndarray:
+    """The polygon (k, 2) itself when its signed area is > 0, else its vertices reversed (a copy)."""
+    return polygon if polygon_signed_area(polygon) > 0 else polygon[::-1].copy()
+
+
+# ---------------------------------------------------------------------------------------------- construction
+def circle_polygon(centre, radius_m: float, n: int, *, circumscribed: bool = True, closed: bool = False) -> np.ndarray:
+    """Regular n-gon (n, 2) around the circle (centre (2,), radius_m), counter-clockwise from the
+    vertex at angle 0 (east).
+
+    circumscribed: True → vertices at radius_m / cos(π/n), so the polygon contains the whole disc
+        (for obstacles); False → vertices on the circle (inscribed; for drawing).
+    closed: True → n + 1 points, the last one repeating the first (at angle 2π), for drawing a
+        closed line strip.
+    """
+    if closed:
+        ang = np.linspace(0.0, 2.0 * np.pi, n + 1)
+    else:
+        ang = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+    r = radius_m / np.cos(np.pi / n) if circumscribed else float(radius_m)
+    return np.asarray(centre, dtype=float) + r * np.stack([np.cos(ang), np.sin(ang)], axis=-1)
+
+
+def convex_hull(points_xy: np.ndarray, *, canonical: bool = True) -> np.ndarray:
+    """Vertices (k, 2) of the convex hull of points (n, 2), counter-clockwise; collinear boundary
+    points are dropped (scipy's Qhull).
+
+    canonical: True → points rounded to 1 µm and de-duplicated first, the hull starts at the
+        lexicographically smallest point, and a degenerate set (≤ 2 distinct points, or all on a
+        line) gives its extreme points. False → Qhull's vertices of the points as given (exact
+        coordinates, Qhull's start vertex; a degenerate set raises scipy's QhullError).
+    """
+    from scipy.spatial import ConvexHull, QhullError
+
+    if not canonical:
+        pts = np.asarray(points_xy, dtype=float)
+        return pts[ConvexHull(pts).vertices]
+    p = np.unique(np.round(np.asarray(points_xy, dtype=float).reshape(-1, 2), 6), axis=0)  # sorted by x, y
+    if p.shape[0] <= 2:
+        return p
+    try:
+        hull = p[ConvexHull(p).vertices]
+    except QhullError:  # all points on one line
+        return p[[0, -1]]
+    k = int(np.lexsort((hull[:, 1], hull[:, 0]))[0])
+    return np.roll(hull, -k, axis=0)
+
+
+def disc_hull(centres_xy: np.ndarray, radius_m: float, sides: int = 16) -> np.ndarray:
+    """Convex polygon (k, 2), counter-clockwise, containing every disc of ``radius_m`` centred on
+    ``centres_xy`` (m, 2): the hull (``canonical=False``) of the circumscribed ``sides``-gons."""
+    pts = np.concatenate([circle_polygon(c, radius_m, sides) for c in centres_xy])
+    return convex_hull(pts, canonical=False)
 
 
 def hull_outline(length_m: float, beam_m: float, position_m, heading_rad: float) -> np.ndarray:
@@ -38,19 +143,151 @@ def hull_outline(length_m: float, beam_m: float, position_m, heading_rad: float)
     return body @ np.array([[c, s], [-s, c]]) + np.asarray(position_m, dtype=float)
 
 
-def convex_hull(points_xy: np.ndarray) -> np.ndarray:
-    """Vertices (k, 2) of the convex hull of points (n, 2), counter-clockwise, starting at the
-    lexicographically smallest point; collinear boundary points are dropped (scipy's Qhull).
-    Points are rounded to 1 µm and de-duplicated first; a degenerate set (≤ 2 distinct points, or all
-    on a line) gives its extreme points."""
-    from scipy.spatial import ConvexHull, QhullError
+# ---------------------------------------------------------------------------------------------- clean-up
+def segments_intersect(p1, p2, q1, q2, tol: float) -> np.ndarray:
+    """Vectorized closed-segment intersection test (touching counts, within ``tol`` [m]) of
+    segments p1–p2 and q1–q2, given as broadcastable arrays of endpoints (..., 2)."""
 
-    p = np.unique(np.round(np.asarray(points_xy, dtype=float).reshape(-1, 2), 6), axis=0)  # sorted by x, y
-    if p.shape[0] <= 2:
-        return p
+    def orient(a, b, c):
+        return (b[..., 0] - a[..., 0]) * (c[..., 1] - a[..., 1]) - (b[..., 1] - a[..., 1]) * (
+            c[..., 0] - a[..., 0]
+        )
+
+    def on_segment(a, b, c):  # c collinear with a-b: inside the bounding box?
+        return (
+            (np.minimum(a[..., 0], b[..., 0]) - tol <= c[..., 0])
+            & (c[..., 0] <= np.maximum(a[..., 0], b[..., 0]) + tol)
+            & (np.minimum(a[..., 1], b[..., 1]) - tol <= c[..., 1])
+            & (c[..., 1] <= np.maximum(a[..., 1], b[..., 1]) + tol)
+        )
+
+    d1, d2 = orient(q1, q2, p1), orient(q1, q2, p2)
+    d3, d4 = orient(p1, p2, q1), orient(p1, p2, q2)
+    tol2 = tol * tol
+    proper = (((d1 > tol2) & (d2 < -tol2)) | ((d1 < -tol2) & (d2 > tol2))) & (
+        ((d3 > tol2) & (d4 < -tol2)) | ((d3 < -tol2) & (d4 > tol2))
+    )
+    touch = (
+        ((np.abs(d1) <= tol2) & on_segment(q1, q2, p1))
+        | ((np.abs(d2) <= tol2) & on_segment(q1, q2, p2))
+        | ((np.abs(d3) <= tol2) & on_segment(p1, p2, q1))
+        | ((np.abs(d4) <= tol2) & on_segment(p1, p2, q2))
+    )
+    return proper | touch
+
+
+def self_intersections(polygon: np.ndarray, tol: float) -> list[tuple[int, int]]:
+    """Pairs (i, j), i < j, of non-adjacent edges of the closed polygon (edge i: vertex i → i+1)
+    that intersect or touch."""
+    v = polygon
+    k = len(v)
+    a, b = v, np.roll(v, -1, axis=0)
+    hit = segments_intersect(a[:, None], b[:, None], a[None, :], b[None, :], tol)
+    i, j = np.triu_indices(k, 1)
+    adjacent = (j == i + 1) | ((i == 0) & (j == k - 1))
+    sel = hit[i, j] & ~adjacent
+    return list(zip(i[sel].tolist(), j[sel].tolist()))
+
+
+def clean_polygon(polygon, name: str = "obstacle") -> np.ndarray:
+    """Validate one polygon and return it counter-clockwise, without degenerate vertices.
+
+    - repeated vertices / zero-length edges (including a closing vertex equal to the first one)
+      are dropped;
+    - collinear vertices (edge continues straight on) are merged;
+    - clockwise polygons are reversed (e.g. the potential field's panels are numbered
+      counter-clockwise);
+    - fewer than 3 distinct vertices, zero area, an edge folding back on itself, or
+      self-intersection raise ValueError naming ``name``.
+    """
+    v = np.asarray(polygon, dtype=float)
+    if v.ndim != 2 or v.shape[1] != 2:
+        raise ValueError(f"{name}: vertices must have shape (k, 2), got {v.shape}")
+    if not np.all(np.isfinite(v)):
+        raise ValueError(f"{name}: vertices must be finite")
+    scale = float(np.max(np.ptp(v, axis=0))) if len(v) else 0.0
+    tol = 1e-9 * max(scale, 1.0)
+    # Zero-length edges (cyclic), e.g. an explicitly closed ring [v0, ..., v0].
+    keep = np.linalg.norm(v - np.roll(v, 1, axis=0), axis=1) > tol
+    if not np.any(keep):
+        raise ValueError(f"{name}: needs at least 3 distinct vertices, got 1")
+    v = v[keep]
+    if len(v) < 3:
+        raise ValueError(f"{name}: needs at least 3 distinct vertices, got {len(v)}")
+    # Collinear vertices: merge when straight on, refuse when the boundary folds back.
+    changed = True
+    while changed and len(v) >= 3:
+        changed = False
+        e_in = v - np.roll(v, 1, axis=0)
+        e_out = np.roll(v, -1, axis=0) - v
+        cross = e_in[:, 0] * e_out[:, 1] - e_in[:, 1] * e_out[:, 0]
+        lens = np.linalg.norm(e_in, axis=1) * np.linalg.norm(e_out, axis=1)
+        flat = np.abs(cross) <= 1e-9 * lens
+        if np.any(flat):
+            i = int(np.argmax(flat))
+            if np.dot(e_in[i], e_out[i]) < 0:
+                raise ValueError(
+                    f"{name}: boundary folds back on itself at vertex {v[i].tolist()} "
+                    "(degenerate, self-overlapping polygon)"
+                )
+            v = np.delete(v, i, axis=0)
+            changed = True
+    if len(v) < 3:
+        raise ValueError(f"{name}: fewer than 3 non-collinear vertices (polygon has no area)")
+    crossings = self_intersections(v, tol)
+    if crossings:
+        i, j = crossings[0]
+        raise ValueError(
+            f"{name}: polygon is self-intersecting (edges {i} and {j} cross); "
+            "give a simple polygon"
+        )
+    area = polygon_signed_area(v)
+    if abs(area) <= 1e-12 * max(scale, 1.0) ** 2:
+        raise ValueError(f"{name}: polygon has zero area")
+    if area < 0:
+        v = v[::-1].copy()
+    return v
+
+
+def inflate_polygon(polygon: np.ndarray, margin: float, name: str = "obstacle") -> np.ndarray:
+    """Offset a clean counter-clockwise polygon outward by ``margin`` metres (≥ 0).
+
+    Miter offset at every vertex; at convex corners turning by more than 90° the miter is
+    replaced by a bevel tangent to the circle of radius ``margin`` around the vertex (two
+    vertices), so the result contains the Minkowski sum of the polygon and that disc.
+    Concave corners use the miter (the offset edges' intersection); a margin so large that it
+    swallows an edge next to a concave corner raises ValueError.
+    """
+    v = np.asarray(polygon, dtype=float)
+    if margin < 0 or not np.isfinite(margin):
+        raise ValueError(f"inflation must be a finite margin ≥ 0 m, got {margin}")
+    if margin == 0:
+        return v.copy()
+    edges = np.roll(v, -1, axis=0) - v  # edge i: v_i -> v_{i+1}
+    t = edges / np.linalg.norm(edges, axis=1, keepdims=True)
+    n = np.stack([t[:, 1], -t[:, 0]], axis=1)  # outward (right-hand) normal of a CCW polygon
+    out = []
+    for i in range(len(v)):
+        t1, n1 = t[i - 1], n[i - 1]  # incoming edge
+        t2, n2 = t[i], n[i]  # outgoing edge
+        turn = t1[0] * t2[1] - t1[1] * t2[0]
+        cos_phi = float(np.clip(n1 @ n2, -1.0, 1.0))
+        if turn > 0 and cos_phi < 0.0:  # convex, sharper than 90°: tangent bevel
+            s = margin * np.tan(np.arccos(cos_phi) / 4.0)
+            out.append(v[i] + margin * n1 + s * t1)
+            out.append(v[i] + margin * n2 - s * t2)
+        else:
+            out.append(v[i] + margin * (n1 + n2) / (1.0 + cos_phi))
+    w = np.array(out)
     try:
-        hull = p[ConvexHull(p).vertices]
-    except QhullError:  # all points on one line
-        return p[[0, -1]]
-    k = int(np.lexsort((hull[:, 1], hull[:, 0]))[0])
-    return np.roll(hull, -k, axis=0)
+        cleaned = clean_polygon(w, name=f"{name} inflated by {margin} m")
+    except ValueError as err:
+        raise ValueError(
+            f"{name}: inflation {margin} m is too large for its concave parts ({err})"
+        ) from None
+    # Every original vertex and edge midpoint must end up ≥ margin inside the offset boundary
+    # (fails when the margin swallows an edge next to a concave corner).
+    probe = np.concatenate([v, 0.5 * (v + np.roll(v, -1, axis=0))])
+    if np.any(signed_distance_to_polygon(probe, cleaned) > -margin * (1.0 - 1e-6)):
+        raise ValueError(f"{name}: inflation {margin} m is too large for its concave parts")
+    return cleaned

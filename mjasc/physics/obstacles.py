@@ -12,14 +12,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from mjasc.core.geometry import circle_polygon, polygon_signed_area
 from mjasc.guidance.paths import Path
 
 __all__ = ["PolygonObstacle", "CircleObstacle", "MovingObstacle", "MovingObstacleSet"]
-
-
-def _polygon_area(v: np.ndarray) -> float:
-    x, y = v[:, 0], v[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1)))
 
 
 @dataclass(frozen=True)
@@ -36,7 +32,7 @@ class PolygonObstacle:
             raise ValueError(f"{self.name}.vertices: need at least 3 [x, y] points, got shape {v.shape}")
         if not np.all(np.isfinite(v)):
             raise ValueError(f"{self.name}.vertices: must be finite")
-        area = _polygon_area(v)
+        area = polygon_signed_area(v)
         if abs(area) < 1e-9:
             raise ValueError(f"{self.name}.vertices: polygon has zero area")
         if area < 0:
@@ -64,9 +60,7 @@ class CircleObstacle:
 
     def polygon(self, sides: int = 16) -> np.ndarray:
         """A circumscribed polygon (sides, 2), counter-clockwise."""
-        a = np.linspace(0, 2 * np.pi, sides, endpoint=False)
-        r = self.radius_m / np.cos(np.pi / sides)
-        return self.centre + r * np.stack([np.cos(a), np.sin(a)], axis=-1)
+        return circle_polygon(self.centre, self.radius_m, sides)
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 
+from mjasc.core.geometry import circle_polygon
 from mjasc.runs.recording import Recorder, vessel_colour
 from mjasc.suite import load
 from mjasc.suite.baselines import make_policy
@@ -56,8 +57,7 @@ def _task_lines(task, duration_s: float) -> list[np.ndarray]:
     if isinstance(task, CollisionAvoidance):
         return [np.array([task.start_m, task.goal_m])]
     if isinstance(task, StationKeeping):
-        a = np.linspace(0, 2 * np.pi, 33)
-        return [task.station_m + 1.0 * np.stack([np.cos(a), np.sin(a)], axis=-1)]
+        return [circle_polygon(task.station_m, 1.0, 32, circumscribed=False, closed=True)]
     return []
 
 

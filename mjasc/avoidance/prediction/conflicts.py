@@ -1,27 +1,19 @@
-"""Collision prediction: temporal and spatial correlation of a vessel's plan with its tracks.
+"""Collision prediction proper: temporal and spatial correlation of a vessel's plan with its tracks,
+and the decision σ (digest §3, steps 2–4; thesis §3.2.2, eqs. 3.16–3.17). World frame ENU, SI
+units, absolute simulation times [s].
 
-Digest §3 (thesis §3.2.2). World frame ENU, SI units, absolute simulation times [s].
-
-1. **Time window** W = [t₀, t₀ + δ], δ = v₀/a_brake + ζ (or a fixed δ; the thesis used 30 s).
-2. **Temporal correlation.** P_v(t) = the vessel's path at γ(t) (its speed profile), P_o(t) = the
-   track's constant-speed, constant-turn prediction; d(t) = ‖P_v(t) − P_o(t)‖ on a time grid, its
-   local minima refined between grid points (bounded Brent). A collision is predicted at a
-   minimum t_c when d(t_c) ≤ R_vh + R_ob + safety (thesis eq. 3.16 plus the safety distance).
-3. **Spatial correlation** (only after a predicted collision). The obstruction interval
-   Δt_o = [t_i, t_f] ∋ t_c is the continuous span of time during which the obstacle's inflated
-   disc (radius R_ob + R_vh + safety) intersects the vessel's *path ahead* (γ ≥ γ_now), not the
-   vessel; [γ_A, γ_B] is the connected stretch of path covered by the union of those discs over
-   [t_i, t_f] that contains γ(t_c); P_A, P_B are its end points. A static obstacle obstructs for
-   ever: t_f = +inf.
-4. **Decision** σ(Δt_o) (thesis eq. 3.17): t_f − t_i ≥ Δt_threshold → REPLAN, with a static
-   virtual obstacle (SVO) = the swept area of the inflated disc over [t_i, t_f] as a CCW polygon;
-   otherwise VELOCITY_CORRECTION. Static obstacles always → REPLAN.
-
-Deviation from the thesis (switchable): the thesis takes t_c = the *first* local minimum of d(t)
-and stops if it is not a collision. A first near miss would then hide a collision later in the
-window (e.g. a path that turns back toward an obstacle). By default t_c is the first local minimum
-that *is* a collision (the first minimum if none is); ``stop_at_first_minimum=True`` gives the
-thesis's rule.
+- **Temporal correlation.** d(t) = ‖P_v(t) − P_o(t)‖ on the window's time grid (P_v from the
+  plan's γ(t), :mod:`mjasc.avoidance.prediction.timing`; P_o the track's constant-speed,
+  constant-turn prediction), its local minima refined between grid points (bounded Brent). A
+  collision is predicted at a minimum t_c when d(t_c) ≤ R_vh + R_ob + safety (eq. 3.16 plus the
+  safety distance). By default t_c is the first local minimum that *is* a collision;
+  ``stop_at_first_minimum`` gives the thesis's rule (the first minimum only).
+- **Spatial correlation** (only after a predicted collision). The obstruction interval
+  Δt_o = [t_i, t_f] ∋ t_c, during which the obstacle's inflated disc meets the vessel's path ahead
+  (bisection on the gap between disc and path); [γ_A, γ_B], the connected stretch of path covered
+  by the union of those discs that contains γ(t_c). A static obstacle obstructs for ever.
+- **Decision** σ(Δt_o) (eq. 3.17): t_f − t_i ≥ Δt_threshold (or a static obstacle) → REPLAN with
+  a static virtual obstacle (:mod:`mjasc.avoidance.prediction.svo`); otherwise VELOCITY_CORRECTION.
 """
 
 from __future__ import annotations
@@ -32,13 +24,14 @@ from typing import Callable, Sequence
 
 import numpy as np
 from scipy.optimize import minimize_scalar
-from scipy.spatial import ConvexHull
 
-from mjasc.core.config_tables import ConfigError, boolean, integer, number, show
+from mjasc.avoidance.prediction.config import CollisionPredictionConfig
+from mjasc.avoidance.prediction.svo import svo_polygon
+from mjasc.avoidance.prediction.timing import SpeedProfile, gamma_of_time, prediction_window, speed_now
 from mjasc.core.estimates import TrackEstimate
 from mjasc.guidance.paths import Path
 
-SpeedProfile = float | Callable[[np.ndarray], np.ndarray] | np.ndarray
+__all__ = ["Decision", "PredictedConflict", "predict_conflicts"]
 
 
 class Decision(enum.Enum):
@@ -47,73 +40,6 @@ class Decision(enum.Enum):
     NONE = "none"
     VELOCITY_CORRECTION = "velocity_correction"
     REPLAN = "replan"
-
-
-def prediction_window(
-    speed_m_s: float, brake_decel_m_s2: float, margin_s: float, fixed_s: float | None = None
-) -> float:
-    """Length δ [s] of the prediction window: ``fixed_s`` if given, else δ = v₀/a_brake + ζ
-    (time to stop at the current speed plus a margin; digest §3)."""
-    if fixed_s is not None:
-        fixed_s = float(fixed_s)
-        if not np.isfinite(fixed_s) or fixed_s <= 0.0:
-            raise ValueError(f"fixed_s: must be finite and > 0, got {fixed_s}")
-        return fixed_s
-    v, a, z = float(speed_m_s), float(brake_decel_m_s2), float(margin_s)
-    if not np.isfinite(v) or v < 0.0:
-        raise ValueError(f"speed_m_s: must be finite and ≥ 0, got {speed_m_s}")
-    if not np.isfinite(a) or a <= 0.0:
-        raise ValueError(f"brake_decel_m_s2: must be finite and > 0, got {brake_decel_m_s2}")
-    if not np.isfinite(z) or z < 0.0:
-        raise ValueError(f"margin_s: must be finite and ≥ 0, got {margin_s}")
-    delta = v / a + z
-    if delta <= 0.0:
-        raise ValueError("margin_s: must be > 0 when speed_m_s is 0 (the window would be empty)")
-    return delta
-
-
-@dataclass(frozen=True)
-class CollisionPredictionConfig:
-    """Parameters of collision prediction (defaults: thesis §6.1).
-
-    window_s: fixed prediction window δ [s]; None → dynamic δ = v₀/a_brake + ζ.
-    brake_decel_m_s2, margin_s: a_brake [m/s²] and ζ [s] of the dynamic window.
-    safety_distance_m: added to R_vh + R_ob [m] (thesis: 1 m).
-    obstruction_threshold_s: Δt_threshold [s] of σ (thesis: 15 s in §6.1, 35 s in §6.4).
-    time_step_s: grid step on the window [s].
-    max_range_m: tracks farther than this from the vessel now are not checked (thesis: 20 m);
-        None → no limit.
-    stop_at_first_minimum: True → the thesis's rule (only the first local minimum of d(t) counts).
-    svo_vertices: target vertex count of an SVO polygon (each edge becomes a planner panel).
-    """
-
-    window_s: float | None = 30.0
-    brake_decel_m_s2: float = 0.1
-    margin_s: float = 10.0
-    safety_distance_m: float = 1.0
-    obstruction_threshold_s: float = 15.0
-    time_step_s: float = 0.5
-    max_range_m: float | None = None
-    stop_at_first_minimum: bool = False
-    svo_vertices: int = 32
-
-    def __post_init__(self):
-        for name, zero_ok in _SIGNED_FIELDS.items():
-            value = getattr(self, name)
-            if value is None and name in _OPTIONAL_FIELDS:
-                continue
-            try:
-                number(value, name, positive=not zero_ok, nonneg=zero_ok)
-            except ConfigError:  # one phrase for type, finiteness and sign (avoidance's messages carry it)
-                raise ConfigError(f"{name}: must be finite and {'≥' if zero_ok else '>'} 0, got {show(value)}") from None
-        boolean(self.stop_at_first_minimum, "stop_at_first_minimum")
-        integer(self.svo_vertices, "svo_vertices", minimum=8)
-
-
-#: CollisionPredictionConfig's numeric fields → True where 0 is allowed (else > 0 is required).
-_SIGNED_FIELDS = {"window_s": False, "brake_decel_m_s2": False, "margin_s": True, "safety_distance_m": True,
-                  "obstruction_threshold_s": False, "time_step_s": False, "max_range_m": False}
-_OPTIONAL_FIELDS = ("window_s", "max_range_m")  # None: dynamic window / no range limit
 
 
 @dataclass(frozen=True, eq=False)
@@ -156,50 +82,7 @@ class PredictedConflict:
         return self.t_f - self.t_i
 
 
-# ---------------------------------------------------------------------------- the vessel's plan
-def gamma_of_time(speed_profile: SpeedProfile, gamma_now: float, t_now: float) -> Callable:
-    """γ(t) [m] at absolute times t ≥ t_now for a speed profile (not clamped to the path):
-
-    - a number: constant speed [m/s];
-    - a callable: taken to *be* γ(t) (absolute times in, absolute γ out);
-    - a (k, 2) array of (time_s, speed_m_s) knots: piecewise-linear speed, held constant outside
-      the knots, integrated exactly from (t_now, gamma_now).
-    """
-    if callable(speed_profile):
-        return lambda t: np.asarray(speed_profile(np.asarray(t, dtype=float)), dtype=float)
-    arr = np.asarray(speed_profile, dtype=float)
-    if arr.ndim == 0:
-        v = float(arr)
-        if not np.isfinite(v) or v < 0.0:
-            raise ValueError(f"speed_profile: constant speed must be finite and ≥ 0, got {v}")
-        return lambda t: gamma_now + v * (np.asarray(t, dtype=float) - t_now)
-    if arr.ndim != 2 or arr.shape[1] != 2 or arr.shape[0] < 1:
-        raise ValueError(f"speed_profile: expected a number, a callable or (k, 2) knots, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)) or np.any(arr[:, 1] < 0.0):
-        raise ValueError("speed_profile: knots must be finite with speeds ≥ 0")
-    if np.any(np.diff(arr[:, 0]) <= 0.0):
-        raise ValueError("speed_profile: knot times must be strictly increasing")
-    knot_t, knot_v = arr[:, 0], arr[:, 1]
-    bp = np.concatenate([[t_now], knot_t[knot_t > t_now]])
-    vb = np.interp(bp, knot_t, knot_v)
-    g_bp = gamma_now + np.concatenate([[0.0], np.cumsum(0.5 * (vb[1:] + vb[:-1]) * np.diff(bp))])
-    slope = np.concatenate([np.diff(vb) / np.diff(bp), [0.0]])
-
-    def f(t):
-        t = np.asarray(t, dtype=float)
-        j = np.clip(np.searchsorted(bp, t, side="right") - 1, 0, bp.size - 1)
-        tau = t - bp[j]
-        return g_bp[j] + vb[j] * tau + 0.5 * slope[j] * tau**2
-
-    return f
-
-
-def _speed_now(gamma_fn: Callable, t_now: float) -> float:
-    h = 1e-3
-    return max(0.0, float((gamma_fn(t_now + h) - gamma_fn(t_now)) / h))
-
-
-# ---------------------------------------------------------------------------- main entry
+# ---------------------------------------------------------------------------- temporal correlation
 def predict_conflicts(
     vessel_path: Path,
     gamma_now: float,
@@ -228,7 +111,7 @@ def predict_conflicts(
         raise ValueError(f"vessel_radius_m: must be finite and ≥ 0, got {vessel_radius_m}")
     gamma_fn = gamma_of_time(speed_profile, gamma_now, t_now)
     delta = prediction_window(
-        _speed_now(gamma_fn, t_now), config.brake_decel_m_s2, config.margin_s, config.window_s
+        speed_now(gamma_fn, t_now), config.brake_decel_m_s2, config.margin_s, config.window_s
     )
     n = max(2, int(np.ceil(delta / config.time_step_s - 1e-9)) + 1)
     times = np.linspace(t_now, t_now + delta, n)
@@ -323,7 +206,7 @@ def _predict_one(ctx: _Context, track: TrackEstimate, times, vessel_xy) -> Predi
     gamma_a, gamma_b = _obstructed_stretch(ctx, track, t_i, t_f, gamma_c, r_col, static)
     if static or t_f - t_i >= cfg.obstruction_threshold_s:
         decision = Decision.REPLAN
-        svo = _svo_polygon(track, t_i, t_f, r_col, ctx.r_vh + cfg.safety_distance_m, static, cfg.svo_vertices)
+        svo = svo_polygon(track, t_i, t_f, r_col, ctx.r_vh + cfg.safety_distance_m, static, cfg.svo_vertices)
     else:
         decision, svo = Decision.VELOCITY_CORRECTION, None
     return PredictedConflict(
@@ -439,70 +322,3 @@ def _obstructed_stretch(ctx: _Context, track, t_i, t_f, gamma_c, r_col, static):
     gamma_a = gs[a] if a == 0 else _bisect_time(f, gs[a], gs[a - 1], tol=1e-6)
     gamma_b = gs[b] if b == gs.size - 1 else _bisect_time(f, gs[b], gs[b + 1], tol=1e-6)
     return float(gamma_a), float(gamma_b)
-
-
-# ---------------------------------------------------------------------------- static virtual obstacle
-def _ccw(poly: np.ndarray) -> np.ndarray:
-    x, y = poly[:, 0], poly[:, 1]
-    area2 = np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)
-    return poly if area2 > 0 else poly[::-1].copy()
-
-
-def circle_polygon(centre, radius_m: float, n: int) -> np.ndarray:
-    """CCW n-gon circumscribing the circle (centre, radius_m): it contains the whole disc."""
-    ang = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
-    r = radius_m / np.cos(np.pi / n)
-    return np.asarray(centre, dtype=float) + r * np.stack([np.cos(ang), np.sin(ang)], axis=1)
-
-
-def swept_disc_polygon(track: TrackEstimate, t_a: float, t_b: float, radius_m: float, n_vertices: int = 32) -> np.ndarray:
-    """CCW polygon (k, 2) containing the area swept by a disc of ``radius_m`` centred on the track's
-    predicted position over [t_a, t_b]: the buffered trajectory (right offset, front cap, left
-    offset back, rear cap) when the trajectory turns by ≤ π with turning radius > the disc's,
-    else the convex hull of the discs."""
-    cap_k = 6  # arcs per semicircular cap
-    n_off = max(2, (n_vertices - 2 * (cap_k - 1)) // 2)
-    v, w = track.speed_m_s, track.turn_rate_rad_s
-    length = v * (t_b - t_a)
-    if length <= 1e-9:
-        return circle_polygon(track.predict_positions(np.array([t_a]))[0], radius_m, n_vertices)
-    turn = abs(w) * (t_b - t_a)
-    rho = v / abs(w) if abs(w) > 1e-12 else np.inf
-    ts = np.linspace(t_a, t_b, n_off)
-    c = track.predict_positions(ts)
-    if turn <= np.pi and rho > 1.5 * radius_m:
-        # Circumscribe: caps of cap_k arcs, plus the sagitta of the outer offset's chords.
-        r = radius_m / np.cos(np.pi / (2 * cap_k))
-        if np.isfinite(rho):
-            r += (rho + radius_m) * (1.0 - np.cos(0.5 * turn / (n_off - 1)))
-        th = track.heading_rad + w * (ts - track.time_s)
-        left = np.stack([-np.sin(th), np.cos(th)], axis=1)
-        right_side = c - r * left
-        left_side = c + r * left
-        ang_end = np.linspace(th[-1] - np.pi / 2, th[-1] + np.pi / 2, cap_k + 1)[1:-1]
-        ang_start = np.linspace(th[0] + np.pi / 2, th[0] + 3 * np.pi / 2, cap_k + 1)[1:-1]
-        cap_end = c[-1] + r * np.stack([np.cos(ang_end), np.sin(ang_end)], axis=1)
-        cap_start = c[0] + r * np.stack([np.cos(ang_start), np.sin(ang_start)], axis=1)
-        return _ccw(np.concatenate([right_side, cap_end, left_side[::-1], cap_start]))
-    # Convex hull of discs at 40 sampled centres, each grown by the sagitta of the trajectory
-    # between samples so that the discs in between are covered too.
-    n_s = 40
-    r = radius_m
-    if np.isfinite(rho):
-        r += rho * (1.0 - np.cos(0.5 * turn / (n_s - 1)))
-    centres = track.predict_positions(np.linspace(t_a, t_b, n_s))
-    pts = np.concatenate([circle_polygon(p, r, 16) for p in centres])
-    hull = ConvexHull(pts)
-    return _ccw(pts[hull.vertices])
-
-
-def _svo_polygon(track: TrackEstimate, t_i, t_f, r_col, inflate_m, static, n_vertices):
-    """The static virtual obstacle handed to the re-planner (digest §3)."""
-    if static:
-        if track.outline_m is not None:
-            outline = np.asarray(track.outline_m, dtype=float)
-            pts = np.concatenate([circle_polygon(p, inflate_m, 16) for p in outline]) if inflate_m > 0 else outline
-            hull = ConvexHull(pts)
-            return _ccw(pts[hull.vertices])
-        return circle_polygon(track.predict_positions(np.array([track.time_s]))[0], r_col, n_vertices)
-    return swept_disc_polygon(track, t_i, t_f, r_col, n_vertices)
