@@ -185,7 +185,7 @@ class IMMBank:
         every model of the tracks in ``rows`` (bool (n,) or indices), as an extra process-noise
         input ΔQ = diag(0, 0, Δθ², ΔV²) at this cycle (Bar-Shalom, Li & Kirubarajan 2001, §11.2:
         adjustable-level process noise, switched on by a manoeuvre detector; see
-        :mod:`mjasc.perception.tracking`). Scalars or one value per selected row. A track in the start-up
+        :mod:`mjasc.perception.tracking.manoeuvre`). Scalars or one value per selected row. A track in the start-up
         constant-velocity filter gets ``speed_var_m2_s2`` on both velocity components. Tracks not
         selected, and the equations of the cycle, are unchanged."""
         idx = np.arange(self._ids.size)[rows]
