@@ -21,7 +21,8 @@ import time
 
 import numpy as np
 
-from mjasc.perception.imm import IMMBank, IMMConfig, IMMTracker, filterpy_imm
+from mjasc.perception.imm import IMMBank, IMMConfig, IMMTracker
+from mjasc.perception.imm.filterpy_reference import filterpy_imm
 
 CONFIG = IMMConfig(min_mode_probability=0.0, gate_probability=1.0)
 _clock = time.process_time

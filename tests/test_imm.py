@@ -11,7 +11,9 @@ import pytest
 from scipy.stats import chi2
 
 from mjasc.core.estimates import TrackEstimate
-from mjasc.perception.imm import IMMBank, IMMConfig, IMMTracker, filterpy_imm, parse_imm_options
+from mjasc.perception.imm import IMMBank, IMMConfig, IMMTracker, parse_imm_options
+from mjasc.perception.imm.filterpy_reference import filterpy_imm
+from mjasc.perception.imm.markov import MarkovPower
 
 SIGMA = math.sqrt(0.1)  # thesis §6.1: measurement variance 0.1 m² per axis
 SEEDS = range(5)
@@ -116,8 +118,7 @@ def test_defaults_are_thesis_table_6_1():
 
 def test_markov_power_composes_over_variable_sample_times():
     """p(Ts) = p^(Ts/T_ref): p(0.4) p(0.6) = p(1) = the given matrix; p(0) = I."""
-    bank = IMMBank()
-    m = bank._markov
+    m = MarkovPower(IMMConfig())
     np.testing.assert_allclose(m.scalar(0.4) @ m.scalar(0.6), IMMConfig().markov_matrix_array(), atol=1e-12)
     np.testing.assert_allclose(m.scalar(0.0), np.eye(7))
     np.testing.assert_allclose(m.per_track(np.array([0.4, 1.0]))[1], m.scalar(1.0), atol=1e-12)
@@ -317,7 +318,7 @@ def test_track_restarts_after_consecutive_gated_measurements():
 
 def test_speed_never_negative_and_flip_keeps_velocity():
     """Negative speed after an update is re-parametrized (θ + π, −V): same velocity vector."""
-    from mjasc.perception.imm import _flip_negative_speeds
+    from mjasc.perception.imm.kernel import flip_negative_speeds as _flip_negative_speeds
 
     su = np.array([[[1.0, 2.0, 0.4, -0.5], [0.0, 0.0, 1.0, 0.7]]])
     Pu = np.tile(np.eye(4) + 0.1, (1, 2, 1, 1))
@@ -458,6 +459,43 @@ def test_bank_track_list_gating_and_estimates():
     assert bank.track_ids.tolist() == [b] and len(bank) == 1
     with pytest.raises(ValueError, match="track_id"):
         bank.remove_track(a)
+
+
+def test_association_helpers_at_a_common_time_with_a_start_up_track():
+    """Every track's last cycle at one time and one track still in its start-up filter: the helpers
+    at a scalar time predict that track with the common step (benchmarks/bench_perception.py called
+    predicted_measurements so and crashed: the common-time path builds no per-track steps)."""
+    bank = IMMBank()
+    bank.add_track([0.0, 0.0], 0.0)
+    assert not bank.velocity_initialized[0]
+    zhat, S = bank.predicted_measurements(0.2)
+    np.testing.assert_allclose(zhat, [[0.0, 0.0]])
+    assert np.all(np.linalg.eigvalsh(S) > 0.1)
+    assert bank.mahalanobis_squared([[0.1, 0.0]], 0.2).shape == (1, 1)
+    assert np.isfinite(bank.log_likelihoods([[0.1, 0.0]], 0.2)).all()
+    zj, Sj, w = bank.predictive_models(0.2)
+    assert zj.shape == (1, 7, 2) and Sj.shape == (1, 7, 2, 2) and np.allclose(w, 1 / 7)
+
+
+def test_filterpy_reference_tracker_matches_imm_tracker():
+    """The filterpy-built reference as a tracker (same start-up, then filterpy's IMMEstimator): the
+    same estimates as IMMTracker without floor and gate, through the same update/estimate calls."""
+    from mjasc.perception.imm.filterpy_reference import FilterpyIMMTracker
+
+    cfg = IMMConfig(min_mode_probability=0.0, gate_probability=1.0)
+    truth = truth_eq32(60, 1.0, 1.5, 0.03)
+    z = measure(truth, 7)
+    mine, ref = IMMTracker(cfg), FilterpyIMMTracker(cfg, dt_s=1.0)
+    for k in range(60):
+        assert mine.update(z[k], truth[k, 0]) and ref.update(z[k], truth[k, 0])
+    assert ref.velocity_initialized and ref.imm is not None
+    np.testing.assert_allclose(ref.state, mine.state, atol=1e-9)
+    np.testing.assert_allclose(ref.state_covariance, mine.state_covariance, atol=1e-9)
+    a, b = ref.estimate(3, 2.0), mine.estimate(3, 2.0)
+    assert a.track_id == b.track_id == 3 and a.time_s == b.time_s
+    assert abs(a.turn_rate_rad_s - b.turn_rate_rad_s) < 1e-9
+    with pytest.raises(ValueError, match="fixed sample time"):
+        ref.update(z[0], truth[-1, 0] + 0.5)
 
 
 def test_predict_then_update_at_same_time_equals_update():

@@ -56,13 +56,15 @@ Every step is vectorized over the clusters of a scan (``np.add.reduceat``); no P
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
+from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 from mjasc.perception.range_sensor import Scan
 
-__all__ = ["DetectionConfig", "Detections", "detect"]
+__all__ = ["DetectionConfig", "Detections", "detect", "parse_detection_options", "check_detection"]
 
 _REFINE = 2  # Gauss–Newton iterations of the centre
 _DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at its first estimate)
@@ -78,38 +80,40 @@ _WALL_STEP_RATIO = 5.0
 
 @dataclass(frozen=True)
 class DetectionConfig:
-    """Clustering and centre estimation parameters.
+    """Clustering and centre estimation parameters (each declared once with its bounds, unit and
+    doc; the one relation between fields is :func:`check_detection`)."""
 
-    cluster_distance_m: d₀, the fixed part of the breakpoint distance [m].
-    cluster_range_factor: λ, the range-proportional part (× beam spacing at that range).
-    max_gap_beams: empty beams tolerated inside one object (bridges dropouts).
-    min_points: clusters with fewer returns are dropped (1 keeps single returns; clutter is then
-        removed by the tracker's M-of-N confirmation instead).
-    min_radius_m: smallest radius reported [m].
-    max_target_radius_m: clusters with a larger radius are extended structures for the static map.
-    centre_noise_floor_m: σ_floor, the 1-σ centre error not explained by beams and noise [m].
-    """
-
-    cluster_distance_m: float = 1.0
-    cluster_range_factor: float = 3.0
-    max_gap_beams: int = 2
-    min_points: int = 1
-    min_radius_m: float = 0.3
-    max_target_radius_m: float = 8.0
-    centre_noise_floor_m: float = 0.05
+    cluster_distance_m: float = param(1.0, nonneg=True, unit="m", doc="d₀, the fixed part of the breakpoint distance")
+    cluster_range_factor: float = param(
+        3.0, nonneg=True,
+        doc="λ, the range-proportional part of the breakpoint distance (× beam spacing at that range)")
+    max_gap_beams: int = param(2, minimum=0, doc="empty beams tolerated inside one object (bridges dropouts)")
+    min_points: int = param(
+        1, minimum=1, doc="clusters with fewer returns are dropped (1 keeps single returns; clutter is then removed "
+                          "by the tracker's M-of-N confirmation instead)")
+    min_radius_m: float = param(0.3, nonneg=True, unit="m", doc="smallest radius reported")
+    max_target_radius_m: float = param(
+        8.0, nonneg=True, unit="m",
+        doc="clusters with a larger radius are extended structures for the static map; > min_radius_m")
+    centre_noise_floor_m: float = param(
+        0.05, nonneg=True, unit="m", doc="σ_floor, the 1-σ centre error not explained by beams and noise")
 
     def __post_init__(self):
-        for key in ("cluster_distance_m", "cluster_range_factor", "min_radius_m", "max_target_radius_m",
-                    "centre_noise_floor_m"):
-            v = getattr(self, key)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v < 0:
-                raise ValueError(f"detection.{key}: must be a finite number ≥ 0, got {v!r}")
-        for key in ("max_gap_beams", "min_points"):
-            v = getattr(self, key)
-            if isinstance(v, bool) or not isinstance(v, int) or v < (1 if key == "min_points" else 0):
-                raise ValueError(f"detection.{key}: must be an integer ≥ {1 if key == 'min_points' else 0}, got {v!r}")
-        if not self.max_target_radius_m > self.min_radius_m:
-            raise ValueError(f"detection.max_target_radius_m: must be > min_radius_m, got {self.max_target_radius_m!r}")
+        check_params(self, "detection")
+        check_detection(self, "detection")
+
+
+def check_detection(c: DetectionConfig, where: str) -> None:
+    """The relation between :class:`DetectionConfig`'s fields (ConfigError naming ``f"{where}.{key}"``)."""
+    if not c.max_target_radius_m > c.min_radius_m:
+        raise ConfigError(f"{where}.max_target_radius_m: must be > min_radius_m ({c.min_radius_m}), "
+                          f"got {show(c.max_target_radius_m)}")
+
+
+def parse_detection_options(table: Mapping | None, where: str = "detection") -> DetectionConfig:
+    """A scenario's ``detection`` table (None: all defaults) → :class:`DetectionConfig`; unknown keys,
+    wrong types and out-of-range values raise ValueError naming ``f"{where}.{key}"``."""
+    return dataclass_from_table(DetectionConfig, {} if table is None else table, where, check=check_detection)
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,8 @@ import numpy as np
 from mjasc.perception.detection import Detections, detect
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
-from mjasc.perception.tracking import MultiTargetTracker, TrackingConfig
+from mjasc.perception.tracking.config import TrackingConfig
+from mjasc.perception.tracking.tracker import MultiTargetTracker
 
 __all__ = ["Perception", "covariance_ellipse"]
 

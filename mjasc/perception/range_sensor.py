@@ -36,9 +36,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from mjasc.core.config_tables import ConfigError, dataclass_from_table, integer, number, show
+from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 
-__all__ = ["SensorConfig", "Scan", "RangeSensor", "parse_sensor_options", "CLUTTER_GEOM"]
+__all__ = ["SensorConfig", "Scan", "RangeSensor", "parse_sensor_options", "check_sensor", "CLUTTER_GEOM"]
 
 #: ``Scan.geom_ids`` value of a false (clutter) return; −1 means no return.
 CLUTTER_GEOM = -2
@@ -47,31 +47,32 @@ _DEFAULT_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)  # = world.SENSOR
 
 @dataclass(frozen=True)
 class SensorConfig:
-    """Range sensor parameters (SI units; angles in degrees because people write them).
+    """Range sensor parameters (SI units; angles in degrees because people write them), each
+    declared once with its bounds, unit and doc; the relation min_range_m < max_range_m and the
+    open bound of dropout_probability are :func:`check_sensor`."""
 
-    beams: number of rays per scan (≥ 1).
-    fov_deg: field of view, centred on the bow (0 < fov ≤ 360).
-    max_range_m: returns beyond are not reported (≥ 100 m: the thesis starts tracking at ~100 m).
-    min_range_m: blind zone; nearer returns are discarded (≥ 0, < max_range_m).
-    rate_hz: scans per second (a scan is taken at a sensing slot once 1/rate_hz has passed).
-    range_noise_std_m: 1-σ range noise of a true return [m].
-    dropout_probability: probability that a true return is lost, per beam, in [0, 1).
-    clutter_per_scan: mean number of false returns per scan (Poisson), ≥ 0.
-    ray_height_m: world height z of the horizontal rays [m] (inside the 0–0.15 m contact band).
-    """
-
-    beams: int = 720
-    fov_deg: float = 360.0
-    max_range_m: float = 150.0
-    min_range_m: float = 1.0
-    rate_hz: float = 5.0
-    range_noise_std_m: float = 0.05
-    dropout_probability: float = 0.02
-    clutter_per_scan: float = 0.5
-    ray_height_m: float = 0.1
+    beams: int = param(720, minimum=1, doc="number of rays per scan")
+    fov_deg: float = param(360.0, positive=True, maximum=360.0, unit="deg", phrase="must be in (0, 360]",
+                           doc="field of view, centred on the bow (0 < fov ≤ 360)")
+    max_range_m: float = param(
+        150.0, minimum=100.0, unit="m", phrase="must be ≥ 100 m (tracking starts at ~100 m, thesis §6.1)",
+        doc="returns beyond are not reported (≥ 100 m: the thesis starts tracking at ~100 m)")
+    min_range_m: float = param(1.0, nonneg=True, unit="m", phrase="must be ≥ 0 and < max_range_m",
+                               doc="blind zone; nearer returns are discarded (≥ 0, < max_range_m)")
+    rate_hz: float = param(5.0, positive=True, unit="Hz",
+                           doc="scans per second (a scan is taken at a sensing slot once 1/rate_hz has passed)")
+    range_noise_std_m: float = param(0.05, nonneg=True, unit="m", doc="1-σ range noise of a true return")
+    dropout_probability: float = param(0.02, nonneg=True, phrase="must be in [0, 1)",
+                                       doc="probability that a true return is lost, per beam, in [0, 1)")
+    clutter_per_scan: float = param(0.5, nonneg=True, doc="mean number of false returns per scan (Poisson)")
+    ray_height_m: float = param(
+        0.1, minimum=-0.5, maximum=2.0, unit="m",
+        phrase="must be in [-0.5, 2] m (rays must cross the hulls' contact band)",
+        doc="world height z of the horizontal rays (inside the 0–0.15 m contact band)")
 
     def __post_init__(self):
-        _check_config(self, "sensor")
+        check_params(self, "sensor")
+        check_sensor(self, "sensor")
 
     @property
     def beam_spacing_rad(self) -> float:
@@ -84,27 +85,16 @@ class SensorConfig:
         return self.fov_deg >= 360.0 - 1e-9
 
 
-def _check_config(c: SensorConfig, where: str) -> None:
-    """Validate a :class:`SensorConfig` (ValueError naming ``f"{where}.{key}"``)."""
+def check_sensor(c: SensorConfig, where: str) -> None:
+    """The checks of a :class:`SensorConfig` beyond its fields' declared bounds: min_range_m <
+    max_range_m, dropout_probability < 1 (ConfigError naming ``f"{where}.{key}"``)."""
     def bad(key, reason, value):
         raise ConfigError(f"{where}.{key}: {reason}, got {show(value)}")
 
-    integer(c.beams, f"{where}.beams", minimum=1)
-    for key in ("fov_deg", "max_range_m", "min_range_m", "dropout_probability", "ray_height_m"):
-        number(getattr(c, key), f"{where}.{key}")
-    number(c.rate_hz, f"{where}.rate_hz", positive=True)
-    number(c.range_noise_std_m, f"{where}.range_noise_std_m", nonneg=True)
-    number(c.clutter_per_scan, f"{where}.clutter_per_scan", nonneg=True)
-    if not 0.0 < c.fov_deg <= 360.0:
-        bad("fov_deg", "must be in (0, 360]", c.fov_deg)
-    if c.max_range_m < 100.0:
-        bad("max_range_m", "must be ≥ 100 m (tracking starts at ~100 m, thesis §6.1)", c.max_range_m)
-    if not 0.0 <= c.min_range_m < c.max_range_m:
+    if not c.min_range_m < c.max_range_m:
         bad("min_range_m", "must be ≥ 0 and < max_range_m", c.min_range_m)
-    if not 0.0 <= c.dropout_probability < 1.0:
+    if not c.dropout_probability < 1.0:
         bad("dropout_probability", "must be in [0, 1)", c.dropout_probability)
-    if not -0.5 <= c.ray_height_m <= 2.0:
-        bad("ray_height_m", "must be in [-0.5, 2] m (rays must cross the hulls' contact band)", c.ray_height_m)
 
 
 def parse_sensor_options(table: dict, where: str = "sensor") -> SensorConfig:
@@ -113,7 +103,7 @@ def parse_sensor_options(table: dict, where: str = "sensor") -> SensorConfig:
     Unknown keys, wrong types and out-of-range values raise ValueError naming ``f"{where}.{key}"``
     (:func:`mjasc.core.config_tables.dataclass_from_table`).
     """
-    return dataclass_from_table(SensorConfig, {} if table is None else table, where, check=_check_config)
+    return dataclass_from_table(SensorConfig, {} if table is None else table, where, check=check_sensor)
 
 
 @dataclass(frozen=True)

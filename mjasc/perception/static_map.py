@@ -28,42 +28,60 @@ is the convex hull of its cells' corners (counter-clockwise, conservative by up 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import ndimage
 from scipy.spatial import ConvexHull, QhullError
 
-__all__ = ["StaticMap"]
+from mjasc.core.config_tables import check_params, param
+
+__all__ = ["StaticMap", "StaticMapConfig"]
 
 _CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 #: A cell's half-extent as seen from the sensor, in cells (> the half-diagonal √2/2: conservative).
 _HALF_EXTENT_CELLS = 0.75
 
 
+@dataclass(frozen=True)
+class StaticMapConfig:
+    """Parameters of a :class:`StaticMap`, each declared once (bounds, unit, doc). A scenario sets
+    ``cell_m`` and ``min_hits`` through ``[vessels.tracking]`` (``map_cell_m``, ``map_min_hits``)."""
+
+    cell_m: float = param(1.0, positive=True, unit="m", doc="grid cell size")
+    min_hits: int = param(3, minimum=1, doc="score at which a cell is occupied (one false return never makes a wall)")
+    min_fill: float = param(
+        0.4, nonneg=True, maximum=1.0,
+        doc="a polygon's cells fill at least this fraction of its convex hull, else it is split")
+    max_depth: int = param(6, minimum=0, doc="depth limit of the recursive splitting of a component")
+    headroom: int = param(
+        5, minimum=0, doc="score cap above min_hits: an occupied cell is freed after at most "
+                          "(headroom + 1) / miss_weight scans seen through")
+    miss_weight: float = param(0.5, nonneg=True, maximum=1.0, phrase="must be in [0, 1] (0: never forget)",
+                               doc="score taken off a cell per scan that sees through it (0: never forget)")
+    carve_margin_m: float = param(
+        1.0, nonneg=True, unit="m",
+        doc="a cell is seen through when every beam across it reached this (+ 3σ_ρ) beyond its far side")
+
+    def __post_init__(self):
+        check_params(self, "static_map")
+
+
 class StaticMap:
     """World grid of static returns. ``add_scan(points)`` (hits), ``carve(...)`` (rays seen through),
     ``occupied(points)``, ``occupied_cells()``, ``polygons()``; ``version`` changes whenever the set of
-    occupied cells does."""
+    occupied cells does. The arguments are those of :class:`StaticMapConfig` (``config``)."""
 
     def __init__(self, cell_m: float = 1.0, min_hits: int = 3, min_fill: float = 0.4, max_depth: int = 6,
                  headroom: int = 5, miss_weight: float = 0.5, carve_margin_m: float = 1.0):
-        if not cell_m > 0:
-            raise ValueError(f"cell_m: must be > 0, got {cell_m!r}")
-        if int(min_hits) != min_hits or min_hits < 1:
-            raise ValueError(f"min_hits: must be an integer ≥ 1, got {min_hits!r}")
-        if int(headroom) != headroom or headroom < 0:
-            raise ValueError(f"headroom: must be an integer ≥ 0, got {headroom!r}")
-        if not 0 <= miss_weight <= 1:
-            raise ValueError(f"miss_weight: must be in [0, 1] (0: never forget), got {miss_weight!r}")
-        if not carve_margin_m >= 0:
-            raise ValueError(f"carve_margin_m: must be ≥ 0, got {carve_margin_m!r}")
-        self.cell_m = float(cell_m)
-        self.min_hits = int(min_hits)
-        self.min_fill = float(min_fill)
-        self.max_depth = int(max_depth)
-        self.cap = float(self.min_hits + int(headroom))
-        self.miss_weight = float(miss_weight)
-        self.carve_margin_m = float(carve_margin_m)
+        self.config = c = StaticMapConfig(cell_m, min_hits, min_fill, max_depth, headroom, miss_weight, carve_margin_m)
+        self.cell_m = float(c.cell_m)
+        self.min_hits = int(c.min_hits)
+        self.min_fill = float(c.min_fill)
+        self.max_depth = int(c.max_depth)
+        self.cap = float(self.min_hits + int(c.headroom))
+        self.miss_weight = float(c.miss_weight)
+        self.carve_margin_m = float(c.carve_margin_m)
         self._index: dict[tuple[int, int], int] = {}  # cell → row of _cells / _score
         self._cells = np.zeros((0, 2), dtype=np.int64)
         self._score = np.zeros(0)

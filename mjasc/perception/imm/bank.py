@@ -1,0 +1,582 @@
+"""IMMBank: the IMM trackers of many targets updated in one call (thesis §3.2.1, digest §2) — the
+track list, the time handling, coasting, gating, restarts and the start-up rows; the cycle's
+arithmetic is :mod:`mjasc.perception.imm.kernel`.
+
+Choices beyond the thesis that live here (parameters of :class:`IMMConfig`):
+
+* **Variable sample time.** Each track has its own last time; a cycle to t runs with Ts = t − that
+  time, and the Markov matrix with p(Ts) (:mod:`mjasc.perception.imm.markov`), so a cycle with
+  Ts = 0 mixes nothing (predict(t) then update(z, t) is one cycle). When every track's last cycle
+  was at the same time no per-track time arrays are built.
+* **Coasting.** A cycle without a measurement (missed, occluded, or rejected) is steps 1–2, the
+  prediction of step 3, and ``μ_j = c̄_j``.
+* **Negative speed.** After an update, a model whose V came out negative is re-parametrized
+  exactly, ``(θ, V) → (θ + π, −V)`` (the same velocity vector), with the V row and column of its
+  covariance negated (Jacobian ``diag(1, 1, 1, −1)``; P_VV unchanged). The combined V is a convex
+  combination of non-negative speeds, hence ≥ 0.
+* **Initialization.** A new track runs the start-up constant-velocity filter
+  (:mod:`mjasc.perception.imm.startup`) until it hands over to the IMM.
+* **Gating.** A measurement is rejected (the track coasts) if it is not finite, or if it lies
+  outside the chi-square (2 dof) gate ``−2 ln(1 − gate_probability)`` of *every* model's predicted
+  measurement (the union of the model gates holds at least ``gate_probability`` of the IMM's
+  predictive mixture). After ``restart_after_gated`` consecutive gated measurements the track is
+  restarted from the latest one (a lost track heals itself).
+
+Rejections are logged (debug: each rejected measurement; info: each restart) on the logger
+``mjasc.perception.imm``.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+
+import numpy as np
+
+from mjasc.core.estimates import TrackEstimate
+from mjasc.perception.imm.config import IMMConfig
+from mjasc.perception.imm.kernel import IMMCycle, combine_covariance, combine_state, flip_negative_speeds, wrap
+from mjasc.perception.imm.markov import CycleConstants, cycle_steps
+from mjasc.perception.imm.predictive import min_mahalanobis_squared, mixture_log_likelihoods, moment_matched
+from mjasc.perception.imm.startup import StartupFilters
+
+logger = logging.getLogger("mjasc.perception.imm")
+
+__all__ = ["IMMBank", "REJECTION_REASONS", "ACCEPTED", "NOT_MEASURED", "NON_FINITE", "GATED", "RESTARTED"]
+
+_TINY_PROB = 1e-300  # floor when min_mode_probability = 0: keeps every μ_j, c̄_j > 0 (no 0/0)
+_EYE2 = np.eye(2)
+
+#: Codes of :attr:`IMMBank.rejection_codes` (indices into ``REJECTION_REASONS``).
+ACCEPTED, NOT_MEASURED, NON_FINITE, GATED, RESTARTED = 0, 1, 2, 3, 4
+REJECTION_REASONS = (
+    "",
+    "no measurement for this track",
+    "measurement is not finite",
+    "measurement outside the chi-square gate of every model",
+    "track restarted from this measurement after consecutive gated measurements",
+)
+
+
+class IMMBank:
+    """Many IMM trackers updated in one call: arrays (n_tracks, r, 4) and (n_tracks, r, 4, 4).
+
+    Each track has an integer id (``track_ids``), its own last time, model states, covariances and
+    mode probabilities; all share one :class:`IMMConfig`. Rows of every per-track array follow
+    ``track_ids``. Typical use by a track manager::
+
+        bank.predict(t)                              # coast every track to t
+        d2 = bank.mahalanobis_squared(detections)    # (n_tracks, m), for data association
+        ok = bank.gate(detections)                   # d2 ≤ chi-square gate
+        ... assign detections → z (n_tracks, 2), mask (n_tracks,) ...
+        accepted = bank.update(z, t, mask)           # unmeasured / rejected tracks coast
+        tid = bank.add_track(z_new, t); bank.remove_track(tid)
+        estimates = bank.estimates(radius_m=...)     # list[TrackEstimate]
+
+    A new track starts in a constant-velocity start-up filter and joins the IMM once its speed is
+    determined (``velocity_initialized``); its estimate is meaningful from the first measurement.
+    """
+
+    def __init__(self, config: IMMConfig = IMMConfig()):
+        if not isinstance(config, IMMConfig):
+            raise ValueError(f"config: expected an IMMConfig, got {type(config).__name__}")
+        self.config = config
+        r = config.n_models
+        self._r = r
+        self._omega = np.asarray(config.turn_rates_rad_s, dtype=float)
+        mu0 = (
+            np.full(r, 1.0 / r)
+            if config.initial_mode_probabilities is None
+            else np.asarray(config.initial_mode_probabilities, dtype=float)
+        )
+        mu0 = np.maximum(mu0, _TINY_PROB)
+        self._mu0 = mu0 / mu0.sum()
+        self._consts = CycleConstants(config)  # per Ts: p(Ts), its transpose, Ts ω_j, Q block
+        self._R = float(config.measurement_variance_m2)
+        self._R_cov = self._R * _EYE2
+        self._Pc_stale = False  # combined covariances are computed when read
+        self._cyc = None  # IMMCycle buffers for the current number of tracks
+        self._t_common = None  # the time of every track's last cycle when they share it [s]
+        self._flagged = True  # _n_gated or _reasons may be non-zero
+        self._floor = max(config.min_mode_probability, _TINY_PROB)
+        self._gate = config.gate_threshold
+        self._next_id = 0
+        self._ids = np.zeros(0, dtype=np.int64)
+        self._s = np.zeros((0, r, 4))  # per-model states, θ unwrapped in a common chart per track
+        self._P = np.zeros((0, r, 4, 4))
+        self._mu = np.zeros((0, r))
+        self._t = np.zeros(0)
+        self._x = np.zeros((0, 4))  # combined estimate, kept current; θ unwrapped (wrap to read)
+        self._Pc = np.zeros((0, 4, 4))
+        self._startup = StartupFilters(config)  # the start-up CV filters, rows aligned with these
+        self._n_gated = np.zeros(0, dtype=np.int64)
+        self._reasons = np.zeros(0, dtype=np.int8)
+        self._mv = None  # per-row measurement variances of the current update (None: config's)
+
+    _PER_TRACK = ("_ids", "_s", "_P", "_mu", "_t", "_x", "_Pc", "_n_gated", "_reasons")
+
+    # ------------------------------------------------------------------ track list
+    def __len__(self) -> int:
+        return self._ids.size
+
+    @property
+    def track_ids(self) -> np.ndarray:
+        """(n,) integer ids, in the row order of every per-track array."""
+        return self._ids.copy()
+
+    def index_of(self, track_id: int) -> int:
+        """Row of ``track_id``; ValueError if unknown."""
+        rows = np.flatnonzero(self._ids == track_id)
+        if rows.size == 0:
+            raise ValueError(f"track_id: no track with id {track_id}")
+        return int(rows[0])
+
+    def add_track(self, z, t_s: float, track_id: int | None = None, measurement_variance: float | None = None) -> int:
+        """Start a track from its first position measurement z (2,) [m] at time t_s [s].
+
+        Returns its id (``track_id`` if given, else the next free integer). ValueError if z or
+        t_s is not finite or the id is taken. ``measurement_variance``: σ² of z [m²] (default
+        the config's ``measurement_variance_m2``).
+        """
+        z = np.asarray(z, dtype=float).reshape(-1)
+        if z.shape != (2,) or not np.all(np.isfinite(z)):
+            raise ValueError(f"z: need a finite [x, y] position in metres, got {z!r}")
+        if not np.isfinite(t_s):
+            raise ValueError(f"t_s: must be finite, got {t_s!r}")
+        if track_id is None:
+            track_id = self._next_id
+        elif np.any(self._ids == track_id):
+            raise ValueError(f"track_id: {track_id} is already in the bank")
+        track_id = int(track_id)
+        self._next_id = max(self._next_id, track_id + 1)
+        grow = {"_ids": np.array([track_id]), "_mu": self._mu0[None].copy(), "_t": np.array([float(t_s)])}
+        n_before = self._ids.size
+        for name in self._PER_TRACK:  # a zero row, but for these
+            a = getattr(self, name)
+            setattr(self, name, np.concatenate([a, grow.get(name, np.zeros((1,) + a.shape[1:], a.dtype))]))
+        self._startup.append()
+        tc = self._t_common
+        self._t_common = float(t_s) if n_before == 0 or tc == float(t_s) else None
+        row = np.array([self._ids.size - 1])
+        self._start(row, z[None, :], None if measurement_variance is None else np.array([float(measurement_variance)]))
+        return track_id
+
+    def _start(self, rows, z, meas_var=None):
+        """(Re)start tracks ``rows`` from measurements z (k, 2): CV filter at z, v = 0 ± σ_v0;
+        meas_var (k,) per-row σ² of z, or None for the config's."""
+        self._startup.start(rows, z, self._R, meas_var)
+        self._n_gated[rows] = 0
+        self._handover(rows)
+
+    def _handover(self, rows):
+        """Refresh the estimate of start-up tracks ``rows``; move those ready into the IMM."""
+        s, P = self._startup.polar(rows)
+        self._x[rows] = s
+        self._Pc[rows] = P
+        ready = self._startup.hand_over(rows, s)
+        if ready.any():
+            done = rows[ready]
+            self._s[done] = s[ready][:, None, :]
+            self._P[done] = P[ready][:, None, :, :]
+            self._mu[done] = self._mu0
+
+    def add_process_noise(self, rows, heading_var_rad2=0.0, speed_var_m2_s2=0.0) -> None:
+        """Manoeuvre handling: add ``heading_var_rad2`` to P_θθ and ``speed_var_m2_s2`` to P_VV of
+        every model of the tracks in ``rows`` (bool (n,) or indices), as an extra process-noise
+        input ΔQ = diag(0, 0, Δθ², ΔV²) at this cycle (Bar-Shalom, Li & Kirubarajan 2001, §11.2:
+        adjustable-level process noise, switched on by a manoeuvre detector; see
+        :mod:`mjasc.perception.tracking.manoeuvre`). Scalars or one value per selected row. A track in the start-up
+        constant-velocity filter gets ``speed_var_m2_s2`` on both velocity components. Tracks not
+        selected, and the equations of the cycle, are unchanged."""
+        idx = np.arange(self._ids.size)[rows]
+        if idx.size == 0:
+            return
+        dth = np.broadcast_to(np.asarray(heading_var_rad2, dtype=float), idx.shape)
+        dv = np.broadcast_to(np.asarray(speed_var_m2_s2, dtype=float), idx.shape)
+        if not (np.all(np.isfinite(dth)) and np.all(dth >= 0) and np.all(np.isfinite(dv)) and np.all(dv >= 0)):
+            raise ValueError("add_process_noise: heading_var_rad2 and speed_var_m2_s2 must be finite and ≥ 0")
+        warm = self._startup.active[idx]
+        full = idx[~warm]
+        if full.size:
+            self._P[full, :, 2, 2] += dth[~warm, None]
+            self._P[full, :, 3, 3] += dv[~warm, None]
+            self._Pc_stale = True
+        w = idx[warm]
+        if w.size:
+            self._startup.add_speed_variance(w, dv[warm])
+            self._Pc[w] = self._startup.polar(w)[1]
+
+    def remove_track(self, track_id: int) -> None:
+        """Drop a track (ValueError if unknown)."""
+        keep = np.ones(self._ids.size, dtype=bool)
+        keep[self.index_of(track_id)] = False
+        for name in self._PER_TRACK:
+            setattr(self, name, getattr(self, name)[keep])
+        self._startup.keep(keep)
+        if self._ids.size == 0:
+            self._t_common = None
+
+    # ------------------------------------------------------------------ time handling
+    def _times(self, t_s):
+        """Time step of a cycle to t_s: (t0, t, dt, dtm, step) (:func:`~mjasc.perception.imm.markov.cycle_steps`)."""
+        return cycle_steps(self._t, self._t_common, self._ids, t_s, self._consts)
+
+    def _cycle_buffers(self) -> IMMCycle:
+        cyc = self._cyc
+        if cyc is None or cyc.lead[0] != self._ids.size:
+            cyc = self._cyc = IMMCycle((self._ids.size,), self._r)
+        return cyc
+
+    def _mix_predict(self, dtm, step):
+        """Mixed and predicted (s, P, c̄) of every track: views of work buffers, valid until the
+        next cycle (copy what is kept)."""
+        markov, markov_t, dt_omega, q_block = step
+        return self._cycle_buffers().mix_predict(
+            self._s, self._P, self._mu, markov, markov_t, dtm, dt_omega, q_block
+        )
+
+    def _covariances(self) -> np.ndarray:
+        """(n, 4, 4) combined covariances, computed on first read after a cycle."""
+        if self._Pc_stale:
+            Pc = combine_covariance(self._s, self._P, self._mu)
+            full = ~self._startup.active
+            self._Pc[full] = Pc[full]
+            self._Pc_stale = False
+        return self._Pc
+
+    # ------------------------------------------------------------------ public cycle
+    def predict(self, t_s) -> None:
+        """Coast every track to time t_s (scalar or (n,) absolute times [s]): an IMM cycle
+        without measurement (μ_j ← c̄_j); start-up tracks run their CV prediction."""
+        if self._ids.size == 0:
+            return
+        t0, t, dt, dtm, step = self._times(t_s)
+        warm = self._startup.active
+        sp, Pp, cbar = self._mix_predict(dtm, step)
+        x = combine_state(sp, cbar)
+        self._Pc_stale = True
+        if self._startup.n_active:
+            if t is None:
+                dt = np.full(self._ids.size, dtm)
+            keep = ~warm
+            self._s[keep], self._P[keep], self._mu[keep] = sp[keep], Pp[keep], cbar[keep]
+            self._x[keep] = x[keep]
+            rows = np.flatnonzero(warm)
+            self._startup.predict(rows, dt[rows])
+            s, P = self._startup.polar(rows)
+            self._x[rows], self._Pc[rows] = s, P
+        else:
+            self._s, self._P, self._mu, self._x = sp.copy(), Pp.copy(), cbar.copy(), x
+        self._set_times(t0, t)
+
+    def _set_times(self, t0, t):
+        """Record the time of the cycle just run (see ``_times``)."""
+        if t is None:
+            self._t.fill(t0)
+        else:
+            self._t = t
+        self._t_common = t0
+
+    def predictive_models(self, t_s=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The predictive measurement density of every track at t_s (scalar or (n,) [s]; default:
+        each track's current time) as a mixture (:mod:`mjasc.perception.imm.predictive`), without
+        changing the bank: per-model predicted positions ẑ_j (n, r, 2) [m], their covariances
+        S_j = H P_j Hᵀ + R (n, r, 2, 2) [m²] and weights c̄_j (n, r); a track in the start-up
+        filter gives its one prediction in every column, with weight 1/r."""
+        _, t, dt, dtm, step = self._times(self._t if t_s is None else t_s)
+        sp, Pp, cbar = self._mix_predict(dtm, step)
+        zj = sp[..., :2].copy()
+        S = Pp[..., :2, :2] + self._R_cov
+        w = cbar.copy()
+        if self._startup.n_active:
+            if t is None:  # every track's last cycle at one time: one common step (see _times)
+                dt = np.full(self._ids.size, dtm)
+            rows = np.flatnonzero(self._startup.active)
+            xc, Pcv = self._startup.predicted(rows, dt[rows])
+            zj[rows] = xc[:, None, :2]
+            S[rows] = Pcv[:, None, :2, :2] + self._R_cov
+            w[rows] = 1.0 / self._r
+        return zj, S, w
+
+    def predicted_measurements(self, t_s=None) -> tuple[np.ndarray, np.ndarray]:
+        """Moment-matched predicted measurement ẑ (n, 2) [m] and its covariance S (n, 2, 2) [m²]
+        of every track at t_s (default: each track's current time), without changing the bank:
+        ``ẑ = Σ c̄_j ẑ_j``, ``S = Σ c̄_j [S_j + (ẑ_j − ẑ)(ẑ_j − ẑ)ᵀ]``."""
+        if self._ids.size == 0:
+            return np.zeros((0, 2)), np.zeros((0, 2, 2))
+        return moment_matched(*self.predictive_models(t_s))
+
+    def mahalanobis_squared(self, detections, t_s=None) -> np.ndarray:
+        """(n_tracks, m) squared Mahalanobis distance of detections (m, 2) [m] to each track at
+        t_s (default: current times): the smallest over the track's models of rᵀS_j⁻¹r — the
+        quantity ``update`` gates on. Non-finite detections give inf."""
+        zs = np.asarray(detections, dtype=float).reshape(-1, 2)
+        if self._ids.size == 0:
+            return np.zeros((0, zs.shape[0]))
+        zj, S, _ = self.predictive_models(t_s)
+        return min_mahalanobis_squared(zj, S, zs)
+
+    def log_likelihoods(self, detections, t_s=None) -> np.ndarray:
+        """(n_tracks, m) log of the IMM predictive density Σ_j c̄_j N(z; ẑ_j, S_j) of each
+        detection (m, 2) — an association score; −inf for non-finite detections."""
+        zs = np.asarray(detections, dtype=float).reshape(-1, 2)
+        if self._ids.size == 0:
+            return np.zeros((0, zs.shape[0]))
+        return mixture_log_likelihoods(*self.predictive_models(t_s), zs)
+
+    def gate(self, detections, t_s=None) -> np.ndarray:
+        """(n_tracks, m) bool: the detection is inside the chi-square gate of the track."""
+        return self.mahalanobis_squared(detections, t_s) <= self._gate
+
+    def update(self, z, t_s, mask=None, measurement_variance=None) -> np.ndarray:
+        """One IMM cycle for every track at time t_s (scalar or (n,) [s]).
+
+        z: (n, 2) measured positions [m], one row per track (row order of ``track_ids``).
+        mask: (n,) bool, True where the row carries a measurement (default: all rows). Rows that
+        are unmeasured, not finite or outside the gate are not used: the track coasts to t_s.
+        Returns (n,) bool, True where the row was used (updated, or restarted from it after
+        ``restart_after_gated`` gated rows in a row); ``rejection_reasons`` says why not.
+        measurement_variance: optional (n,) σ² per row [m²] (R = σ² I₂ for that row's
+        measurement, e.g. from the detection that produced it); default the config's.
+        """
+        n = self._ids.size
+        z = np.asarray(z, dtype=float)
+        if z.shape != (n, 2):
+            raise ValueError(f"z: need shape ({n}, 2) (one [x, y] per track), got {z.shape}")
+        if n == 0:
+            return np.zeros(0, dtype=bool)
+        if measurement_variance is not None:
+            mv = np.asarray(measurement_variance, dtype=float)
+            if mv.shape != (n,):
+                raise ValueError(f"measurement_variance: need shape ({n},), got {mv.shape}")
+            mv = np.where(np.isfinite(mv) & (mv > 0), mv, self._R)  # unusable rows: config's σ²
+            self._mv = mv
+        else:
+            self._mv = None
+        finite = np.isfinite(z).all(axis=1)
+        if mask is None:
+            measured = np.ones(n, dtype=bool)
+        else:
+            measured = np.asarray(mask, dtype=bool)
+            if measured.shape != (n,):
+                raise ValueError(f"mask: need shape ({n},), got {measured.shape}")
+        use = measured & finite
+        try:
+            if use.all():
+                ok = self._cycle(z, t_s)
+                return np.ones(n, dtype=bool) if ok is None else ok
+            return self._cycle(np.where(use[:, None], z, 0.0), t_s, use, finite, measured, z)
+        finally:
+            self._mv = None
+
+    def update_finite(self, z, t_s):
+        """:meth:`update`'s fast path, for a caller that has checked that every row of z (n, 2) [m]
+        is a finite measurement (no mask, the config's σ²): one IMM cycle at t_s (scalar or (n,)
+        [s]). Returns None when every row was used, else the (n,) bool of the used rows (the
+        others were gated, or restarted the track: ``rejection_reasons``)."""
+        return self._cycle(z, t_s)
+
+    def _cycle(self, zs, t_s, use=None, finite=None, measured=None, z=None):
+        """The IMM cycle behind ``update``; ``use`` None means every row is a finite measurement.
+        Returns the (n,) bool array of used rows, or None when every row was used."""
+        n = self._ids.size
+        t0, t, dt, dtm, step = self._times(t_s)
+        cyc = self._cyc
+        if cyc is None or cyc.lead[0] != n:
+            cyc = self._cycle_buffers()
+        sp, Pp, cbar = cyc.mix_predict(self._s, self._P, self._mu, step[0], step[1], dtm, step[2], step[3])
+        mv = self._mv
+        maha, det = cyc.update.innovate(zs[:, None, :], self._R_cov if mv is None else mv[:, None, None, None] * _EYE2)
+        su, Pu, mu = cyc.sides[1] if self._s is cyc.sides[0][0] else cyc.sides[0]  # not the inputs
+        cyc.update.correct(su, Pu)
+        if np.minimum.reduce(su[..., 3], axis=None) < 0.0:
+            flip_negative_speeds(su, Pu, sp[..., 2])
+        cyc.mode_probabilities(maha, det, self._floor, mu)
+        maha_min = cyc.mahalanobis_min_rows
+
+        if (
+            use is None
+            and not self._startup.n_active
+            and (maha_min.item() if n == 1 else np.maximum.reduce(maha_min)) <= self._gate
+        ):  # the common case: every track measured and accepted
+            self._s, self._P, self._mu = su, Pu, mu
+            self._x = cyc.combine_state(su, mu)
+            self._Pc_stale = True
+            if self._flagged:  # some track has consecutive gated rows or a rejection reason
+                self._n_gated.fill(0)
+                self._reasons.fill(0)
+                self._flagged = False
+            if t is None:
+                self._t.fill(t0)
+            else:
+                self._t = t
+            self._t_common = t0
+            return None
+
+        # general case: mix of updated, coasting, start-up and restarted tracks
+        if t is None:
+            t, dt = np.full(n, t0), np.full(n, dtm)
+        all_measured = use is None or bool(measured.all())
+        if use is None:
+            use = finite = measured = np.ones(n, dtype=bool)
+        if z is None:
+            z = zs
+        inside = maha_min <= self._gate
+        warm = self._startup.active
+        any_warm = self._startup.n_active > 0
+        ok = use & inside
+        if any_warm:
+            rows = np.flatnonzero(warm)
+            R = self._R_cov if mv is None else mv[rows, None, None] * _EYE2
+            ok_w = self._startup.update(rows, dt[rows], zs[rows], R, use[rows], self._gate)
+            ok[rows] = ok_w
+            inside[rows] = ok_w | ~use[rows]
+        full = ~warm
+        upd = ok & full
+        s_new = np.where(upd[:, None, None], su, sp)
+        P_new = np.where(upd[:, None, None, None], Pu, Pp)
+        mu_new = np.where(upd[:, None], mu, cbar)
+        self._s[full], self._P[full], self._mu[full] = s_new[full], P_new[full], mu_new[full]
+        self._x[full] = combine_state(s_new, mu_new)[full]
+        self._Pc_stale = True
+
+        reasons = np.zeros(n, dtype=np.int8)
+        reasons[~finite] = NON_FINITE
+        gated = use & ~inside
+        reasons[gated] = GATED
+        if not all_measured:
+            reasons[~measured] = NOT_MEASURED
+        self._n_gated = np.where(gated, self._n_gated + 1, np.where(ok, 0, self._n_gated))
+        limit = self.config.restart_after_gated
+        restart = gated & (self._n_gated >= limit) if limit > 0 else np.zeros(n, dtype=bool)
+        self._set_times(t0, t)
+        if any_warm:
+            self._handover(np.flatnonzero(self._startup.active))
+        if restart.any():
+            rows = np.flatnonzero(restart)
+            self._start(rows, zs[rows], None if mv is None else mv[rows])
+            reasons[rows] = RESTARTED
+            for k in rows:
+                logger.info(
+                    "IMM track %d restarted at t=%.3f s from z=%s after %d gated measurements",
+                    self._ids[k], t[k], z[k], limit,
+                )
+        self._reasons = reasons
+        self._flagged = True
+        if logger.isEnabledFor(logging.DEBUG):
+            for k in np.flatnonzero(measured & ~finite):
+                logger.debug(
+                    "IMM track %d at t=%.3f s: rejected z=%s (%s)",
+                    self._ids[k], t[k], z[k], REJECTION_REASONS[NON_FINITE],
+                )
+            for k in np.flatnonzero(gated & ~restart):
+                logger.debug(
+                    "IMM track %d at t=%.3f s: rejected z=%s (%s; min d²=%.4g > gate %.4g)",
+                    self._ids[k], t[k], z[k], REJECTION_REASONS[GATED], maha[k].min(), self._gate,
+                )
+        return ok | restart
+
+    # ------------------------------------------------------------------ read-only views
+    @property
+    def rejection_reasons(self) -> list[str]:
+        """Per track, why the last ``update`` did not use its row ('' if it did)."""
+        return [REJECTION_REASONS[c] for c in self._reasons]
+
+    @property
+    def rejection_codes(self) -> np.ndarray:
+        """(n,) int8 index into ``REJECTION_REASONS`` for the last ``update``."""
+        return self._reasons.copy()
+
+    @property
+    def consecutive_gated(self) -> np.ndarray:
+        """(n,) number of consecutive gated measurements per track (for track deletion)."""
+        return self._n_gated.copy()
+
+    @property
+    def times_s(self) -> np.ndarray:
+        """(n,) time of each track's last cycle [s]."""
+        return self._t.copy()
+
+    @property
+    def velocity_initialized(self) -> np.ndarray:
+        """(n,) bool: the track runs in the IMM (False while in the start-up CV filter)."""
+        return ~self._startup.active
+
+    @property
+    def states(self) -> np.ndarray:
+        """(n, 4) combined [x, y, θ, V] per track (θ in (−π, π])."""
+        x = self._x.copy()
+        x[:, 2] = wrap(x[:, 2])
+        return x
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(n, 2) combined position [m]."""
+        return self._x[:, :2].copy()
+
+    @property
+    def headings(self) -> np.ndarray:
+        """(n,) combined course θ [rad], in (−π, π]."""
+        return wrap(self._x[:, 2])
+
+    @property
+    def speeds(self) -> np.ndarray:
+        """(n,) combined speed V ≥ 0 [m/s]."""
+        return self._x[:, 3].copy()
+
+    @property
+    def turn_rates(self) -> np.ndarray:
+        """(n,) ω̂ = Σ_j μ_j ω_j [rad/s] (0 for start-up tracks)."""
+        return np.where(self._startup.active, 0.0, self._mu @ self._omega)
+
+    @property
+    def mode_probabilities(self) -> np.ndarray:
+        """(n, r) μ_j per track."""
+        return self._mu.copy()
+
+    @property
+    def state_covariances(self) -> np.ndarray:
+        """(n, 4, 4) combined covariance over x, y, θ, V."""
+        return self._covariances().copy()
+
+    @property
+    def position_covariances(self) -> np.ndarray:
+        """(n, 2, 2) combined covariance of the position [m²]."""
+        return self._covariances()[:, :2, :2].copy()
+
+    @property
+    def model_states(self) -> np.ndarray:
+        """(n, r, 4) per-model states, θ wrapped (diagnostics)."""
+        s = self._s.copy()
+        s[..., 2] = wrap(s[..., 2])
+        return s
+
+    @property
+    def model_covariances(self) -> np.ndarray:
+        """(n, r, 4, 4) per-model covariances (diagnostics)."""
+        return self._P.copy()
+
+    def estimate(self, track_id: int, radius_m: float = 0.0, **fields) -> TrackEstimate:
+        """The :class:`TrackEstimate` of one track; further fields (is_static, team_member,
+        outline_m) are passed through."""
+        k = self.index_of(track_id)
+        x = self._x[k]
+        return TrackEstimate(
+            track_id=int(track_id),
+            time_s=float(self._t[k]),
+            position_m=x[:2].copy(),
+            heading_rad=float(wrap(x[2])),
+            speed_m_s=float(x[3]),
+            turn_rate_rad_s=0.0 if self._startup.active[k] else float(self._mu[k] @ self._omega),
+            radius_m=float(radius_m),
+            position_covariance=self._covariances()[k, :2, :2].copy(),
+            **fields,
+        )
+
+    def estimates(self, radius_m: float | Mapping[int, float] = 0.0) -> list[TrackEstimate]:
+        """TrackEstimate of every track; radius_m a scalar or a {track_id: radius} mapping."""
+        out = []
+        for tid in self._ids.tolist():
+            rad = radius_m.get(tid, 0.0) if isinstance(radius_m, Mapping) else radius_m
+            out.append(self.estimate(tid, rad))
+        return out

@@ -1,0 +1,54 @@
+"""The IMM's predictive measurement density, for data association: per track a Gaussian mixture
+over its models, ``p(z) = Σ_j c̄_j N(z; ẑ_j, S_j)`` (c̄_j the predicted mode probabilities of
+digest §2 step 1, ẑ_j and S_j = H P_j Hᵀ + R the model's predicted position [m] and its
+covariance [m²], world ENU).
+
+The bank (:meth:`mjasc.perception.imm.bank.IMMBank.predictive_models`) gives ``zj`` (n, k, 2),
+``S`` (n, k, 2, 2) and ``w`` (n, k) for its n tracks (k = r models; a track still in its start-up
+filter is one component, repeated with weight 1/r); these functions reduce them to what a track
+manager asks: the moment-matched Gaussian, the squared Mahalanobis distance the bank gates on (the
+smallest over the models), and the mixture's log-density (an association score).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["moment_matched", "min_mahalanobis_squared", "mixture_log_likelihoods"]
+
+_TWO_PI = 2.0 * math.pi
+
+
+def moment_matched(zj, S, w) -> tuple[np.ndarray, np.ndarray]:
+    """ẑ = Σ_j w_j ẑ_j (n, 2) and S = Σ_j w_j [S_j + (ẑ_j − ẑ)(ẑ_j − ẑ)ᵀ] (n, 2, 2)."""
+    zhat = (w[:, None, :] @ zj)[:, 0, :]
+    d = zj - zhat[:, None, :]
+    Sm = np.einsum("nk,nkab->nab", w, S) + np.swapaxes(d, 1, 2) @ (w[..., None] * d)
+    return zhat, Sm
+
+
+def _mahalanobis_terms(zj, S, zs):
+    """rᵀ S_j⁻¹ r (n, k, m) of detections zs (m, 2) against every component, and det S_j (n, k, 1)."""
+    y = zs[None, None, :, :] - zj[:, :, None, :]  # (n, k, m, 2)
+    a, b, d = S[..., 0, 0, None], S[..., 0, 1, None], S[..., 1, 1, None]
+    det = a * d - b * b
+    y0, y1 = y[..., 0], y[..., 1]
+    return (d * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / det, det
+
+
+def min_mahalanobis_squared(zj, S, zs) -> np.ndarray:
+    """(n, m) min over the components of rᵀ S_j⁻¹ r for detections zs (m, 2); inf where not finite."""
+    d2 = _mahalanobis_terms(zj, S, zs)[0].min(axis=1)
+    return np.where(np.isfinite(d2), d2, np.inf)
+
+
+def mixture_log_likelihoods(zj, S, w, zs) -> np.ndarray:
+    """(n, m) log Σ_j w_j N(z; ẑ_j, S_j) for detections zs (m, 2); −inf where not finite."""
+    d2, det = _mahalanobis_terms(zj, S, zs)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        logp = np.log(w)[..., None] - 0.5 * (d2 + np.log(det)) - math.log(_TWO_PI)
+        top = logp.max(axis=1)
+        out = top + np.log(np.exp(logp - top[:, None, :]).sum(axis=1))
+    return np.where(np.isfinite(out), out, -np.inf)

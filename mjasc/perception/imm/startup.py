@@ -1,0 +1,175 @@
+"""The start-up filter of a new IMM track: a linear constant-velocity Kalman filter on
+[x, y, vx, vy] and its hand-over to the IMM's polar state [x, y, θ, V] (world ENU, SI).
+
+An EKF in (θ, V) started with a course that is unknown diverges easily (the linearization in θ is
+poor when σ_θ ~ 1 rad). So a new track first runs a linear constant-velocity Kalman filter on
+[x, y, vx, vy] (position from the first measurement, velocity 0 ± ``initial_speed_std_m_s`` per
+axis, white-acceleration noise ``init_acceleration_noise_m2_s3``), and hands over to the IMM —
+θ = atan2(v), V = |v| with the first-order covariance — as soon as the speed is well determined
+(|v̂| ≥ ``init_speed_snr``·σ_v, σ_v² the largest eigenvalue of the velocity covariance) or after
+``init_max_updates`` measurements (a static target: θ then has the variance of a uniform angle,
+π²/3, at most). With two measurements and a diffuse prior this is the classical two-point
+differencing. The filter's measurement update is the IMM's own
+(:class:`mjasc.perception.imm.kernel.PositionUpdate`). :class:`StartupFilters` holds the filters
+of a bank's tracks (:class:`mjasc.perception.imm.bank.IMMBank`), one row per bank row.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mjasc.perception.imm.config import IMMConfig
+from mjasc.perception.imm.kernel import PositionUpdate
+
+__all__ = ["StartupFilters", "cv_predict", "cv_to_polar", "ready_for_handover"]
+
+_UNIFORM_ANGLE_VAR = math.pi**2 / 3.0  # variance of an angle uniform on (−π, π]
+
+
+def cv_predict(xc, Pc, dt, q):
+    """Constant-velocity prediction with white acceleration of intensity q; dt (k,)."""
+    k = dt.shape[0]
+    F = np.broadcast_to(np.eye(4), (k, 4, 4)).copy()
+    F[:, 0, 2] = F[:, 1, 3] = dt
+    xp = (F @ xc[..., None])[..., 0]
+    Pp = F @ Pc @ np.swapaxes(F, 1, 2)
+    q3, q2, q1 = q * dt**3 / 3.0, q * dt**2 / 2.0, q * dt
+    Pp[:, 0, 0] += q3
+    Pp[:, 1, 1] += q3
+    Pp[:, 0, 2] += q2
+    Pp[:, 2, 0] += q2
+    Pp[:, 1, 3] += q2
+    Pp[:, 3, 1] += q2
+    Pp[:, 2, 2] += q1
+    Pp[:, 3, 3] += q1
+    return xp, Pp
+
+
+def cv_to_polar(xc, Pc):
+    """[x, y, vx, vy] (k, 4) and covariance → [x, y, θ, V] and its first-order covariance.
+
+    θ = atan2(vy, vx), V = |v|; Jacobian rows ∂θ/∂v = u⊥/V, ∂V/∂v = u (u = v/V, u⊥ = (−u_y, u_x)).
+    If σ_θ² exceeds π²/3 (the variance of a uniform angle), the θ row and column are scaled down
+    to it (a congruence: P stays positive semi-definite). At V = 0, u = (1, 0).
+    """
+    k = xc.shape[0]
+    vx, vy = xc[:, 2], xc[:, 3]
+    speed = np.hypot(vx, vy)
+    moving = speed > 0
+    safe = np.where(moving, speed, 1.0)
+    ux = np.where(moving, vx / safe, 1.0)
+    uy = np.where(moving, vy / safe, 0.0)
+    inv_v = np.where(moving, 1.0 / safe, 1e150)
+    J = np.zeros((k, 4, 4))
+    J[:, 0, 0] = J[:, 1, 1] = 1.0
+    J[:, 2, 2], J[:, 2, 3] = -uy * inv_v, ux * inv_v
+    J[:, 3, 2], J[:, 3, 3] = ux, uy
+    P = J @ Pc @ np.swapaxes(J, 1, 2)
+    scale = np.sqrt(np.minimum(1.0, _UNIFORM_ANGLE_VAR / P[:, 2, 2]))
+    P[:, 2, :] *= scale[:, None]
+    P[:, :, 2] *= scale[:, None]
+    s = np.stack([xc[:, 0], xc[:, 1], np.arctan2(vy, vx), speed], axis=-1)
+    return s, 0.5 * (P + np.swapaxes(P, 1, 2))
+
+
+
+def ready_for_handover(s, cv_P, n_meas, snr2: float, max_updates: int) -> np.ndarray:
+    """(k,) bool: start-up tracks ready for the IMM — speed determined, ``V² ≥ snr2·λ_max`` with
+    λ_max the largest eigenvalue of the velocity covariance (``snr2 = init_speed_snr²``), or
+    ``n_meas ≥ max_updates``. s (k, 4) the polar state (:func:`cv_to_polar`), cv_P (k, 4, 4)."""
+    v2 = s[:, 3] ** 2
+    Pv = cv_P[:, 2:, 2:]
+    half_tr = 0.5 * (Pv[:, 0, 0] + Pv[:, 1, 1])
+    lam_max = half_tr + np.sqrt(
+        (0.5 * (Pv[:, 0, 0] - Pv[:, 1, 1])) ** 2 + Pv[:, 0, 1] ** 2
+    )
+    return (v2 >= snr2 * lam_max) | (n_meas >= max_updates)
+
+
+class StartupFilters:
+    """The start-up filters of a bank's tracks, one row per bank row (the bank keeps the rows
+    aligned: :meth:`append`, :meth:`keep`). ``active`` (n,) bool: the row is in its start-up filter
+    (else in the IMM; its values here are stale); ``x`` (n, 4) [x, y, vx, vy] [m, m/s] and ``P``
+    (n, 4, 4) the filter's estimate; ``n_meas`` (n,) measurements taken; ``n_active`` the number of
+    active rows."""
+
+    def __init__(self, config: IMMConfig):
+        self.acceleration_noise = config.init_acceleration_noise_m2_s3
+        self.speed_var0 = config.initial_speed_std_m_s**2
+        self.snr2 = config.init_speed_snr**2
+        self.max_updates = config.init_max_updates
+        self.active = np.zeros(0, dtype=bool)
+        self.x = np.zeros((0, 4))
+        self.P = np.zeros((0, 4, 4))
+        self.n_meas = np.zeros(0, dtype=np.int64)
+        self.n_active = 0
+
+    def append(self) -> None:
+        """One more row (active; :meth:`start` fills it)."""
+        self.active = np.concatenate([self.active, np.ones(1, dtype=bool)])
+        self.x = np.concatenate([self.x, np.zeros((1, 4))])
+        self.P = np.concatenate([self.P, np.zeros((1, 4, 4))])
+        self.n_meas = np.concatenate([self.n_meas, np.zeros(1, dtype=np.int64)])
+
+    def keep(self, keep: np.ndarray) -> None:
+        """Keep the rows where ``keep`` (n,) is True."""
+        self.active, self.x, self.P, self.n_meas = self.active[keep], self.x[keep], self.P[keep], self.n_meas[keep]
+        self.n_active = int(np.count_nonzero(self.active))
+
+    def start(self, rows, z, measurement_variance: float, meas_var=None) -> None:
+        """(Re)start rows from measurements z (k, 2): position z, velocity 0 ± σ_v0 per axis;
+        the position variance is ``measurement_variance`` [m²], or meas_var (k,) per row."""
+        self.active[rows] = True
+        self.x[rows] = 0.0
+        self.x[rows, :2] = z
+        sv2 = self.speed_var0
+        R = measurement_variance
+        self.P[rows] = np.diag([R, R, sv2, sv2])
+        if meas_var is not None:
+            self.P[rows, 0, 0] = self.P[rows, 1, 1] = meas_var
+        self.n_meas[rows] = 1
+        self.n_active = int(np.count_nonzero(self.active))
+
+    def polar(self, rows) -> tuple[np.ndarray, np.ndarray]:
+        """[x, y, θ, V] (k, 4) and covariance (k, 4, 4) of rows (:func:`cv_to_polar`)."""
+        return cv_to_polar(self.x[rows], self.P[rows])
+
+    def hand_over(self, rows, s) -> np.ndarray:
+        """(k,) bool: rows ready for the IMM (:func:`ready_for_handover`, s their polar states),
+        made inactive."""
+        ready = ready_for_handover(s, self.P[rows], self.n_meas[rows], self.snr2, self.max_updates)
+        if ready.any():
+            self.active[rows[ready]] = False
+            self.n_active = int(np.count_nonzero(self.active))
+        return ready
+
+    def predicted(self, rows, dt) -> tuple[np.ndarray, np.ndarray]:
+        """Rows' estimate predicted by dt (k,) [s], without storing it."""
+        return cv_predict(self.x[rows], self.P[rows], dt, self.acceleration_noise)
+
+    def predict(self, rows, dt) -> None:
+        """Predict rows by dt (k,) [s] (coasting)."""
+        self.x[rows], self.P[rows] = self.predicted(rows, dt)
+
+    def update(self, rows, dt, z, R, use, gate: float) -> np.ndarray:
+        """Predict rows by dt (k,) [s], then update those where ``use`` (k,) with z (k, 2), of
+        covariance R ((2, 2) or (k, 2, 2)), if inside the chi-square gate; returns (k,) bool of the
+        rows updated (the others coast)."""
+        xc, Pcv = self.predicted(rows, dt)
+        cv_update = PositionUpdate(xc)
+        np.copyto(cv_update.P, Pcv)
+        d2, _ = cv_update.innovate(z, R)
+        xu, Pcu = np.empty_like(xc), np.empty_like(Pcv)
+        cv_update.correct(xu, Pcu)
+        ok = use & (d2 <= gate)
+        self.x[rows] = np.where(ok[:, None], xu, xc)
+        self.P[rows] = np.where(ok[:, None, None], Pcu, Pcv)
+        self.n_meas[rows] += ok
+        return ok
+
+    def add_speed_variance(self, rows, dv) -> None:
+        """Add dv [m²/s²] (k,) to both velocity variances of rows (manoeuvre process noise)."""
+        self.P[rows, 2, 2] += dv
+        self.P[rows, 3, 3] += dv

@@ -1,0 +1,68 @@
+"""Manoeuvre detection and adjustable process noise for a vessel's tracks (Bar-Shalom, Li &
+Kirubarajan 2001, §11.2; :mod:`mjasc.perception.tracking`).
+
+The normalized innovation squared of each associated detection, ε = d²_ij (χ²₂, mean 2, under the
+filter's own model; :func:`mjasc.perception.tracking.association.association_costs`), is averaged
+with fading factor α: ``ε̄ ← α ε̄ + (1 − α) min(ε, gate)``. While ε̄ exceeds
+``manoeuvre_threshold`` the track manoeuvres beyond what the IMM's models explain (a speed change:
+every model has the same tiny Q_V; a turn sharper than the fastest model), until it falls below
+``manoeuvre_end_threshold`` (hysteresis: the filter keeps following the change while the average
+decays); each of its cycles then gets the extra process noise diag(Q_θ,m, Q_V,m)·Ts
+(:meth:`mjasc.perception.imm.bank.IMMBank.add_process_noise`), so the speed (course) estimate
+follows within a second instead of the track coasting on at its old speed out of its own gate.
+With ``manoeuvre_speed_noise_m2_s3 = manoeuvre_heading_noise_rad2_s = 0`` the detector is off.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.perception.imm.bank import IMMBank
+from mjasc.perception.tracking.config import TrackingConfig
+
+__all__ = ["ManoeuvreDetector"]
+
+
+class ManoeuvreDetector:
+    """Per track (rows aligned with the bank's): the faded average ε̄ of the normalized innovation
+    squared (2: no manoeuvre) and whether the track manoeuvres."""
+
+    def __init__(self, config: TrackingConfig):
+        self.config = config
+        self._nis = np.zeros(0)  # faded average of the normalized innovation squared (2: no manoeuvre)
+        self._man = np.zeros(0, dtype=bool)  # manoeuvring (between the start and end thresholds)
+
+    def append(self) -> None:
+        """A new track: ε̄ = 2, not manoeuvring."""
+        self._nis = np.append(self._nis, 2.0)
+        self._man = np.append(self._man, False)
+
+    def keep(self, keep: np.ndarray) -> None:
+        """Keep the rows where ``keep`` (n,) is True."""
+        self._nis, self._man = self._nis[keep], self._man[keep]
+
+    @property
+    def manoeuvring(self) -> np.ndarray:
+        """(n,) bool: the track is manoeuvring (its process noise is raised)."""
+        return self._man.copy()
+
+    def detect(self, t_s: float, assigned_det, d2, gate: float, bank: IMMBank) -> None:
+        """Update ε̄ of the tracks with a detection (``assigned_det`` (n,) index, −1 none; ``d2``
+        (n, m) their squared Mahalanobis distances, each capped at ``gate``) and raise the process
+        noise of the manoeuvring ones in ``bank`` for the cycle to t_s [s]."""
+        cfg = self.config
+        if cfg.manoeuvre_speed_noise_m2_s3 == 0 and cfg.manoeuvre_heading_noise_rad2_s == 0:
+            return
+        rows = np.flatnonzero(assigned_det >= 0)
+        if rows.size == 0:
+            return
+        eps = np.minimum(d2[rows, assigned_det[rows]], gate)
+        a = cfg.manoeuvre_fading
+        self._nis[rows] = a * self._nis[rows] + (1.0 - a) * eps
+        nis = self._nis[rows]
+        self._man[rows] = np.where(self._man[rows], nis >= cfg.manoeuvre_end_threshold, nis > cfg.manoeuvre_threshold)
+        hot = rows[self._man[rows]]
+        if hot.size:
+            dt = np.maximum(t_s - bank.times_s[hot], 0.0)
+            bank.add_process_noise(hot, cfg.manoeuvre_heading_noise_rad2_s * dt,
+                                   cfg.manoeuvre_speed_noise_m2_s3 * dt)
