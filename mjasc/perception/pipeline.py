@@ -32,6 +32,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from mjasc.core.geometry import circle_polygon
 from mjasc.perception.detection import Detections, detect
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
@@ -320,7 +321,7 @@ class Perception:
             rec.points(f"{base}/sensor/detections", t_s, det.centres_m, z=0.15)
             rec.points(f"sensor/{vessel_name}/detections_body", t_s, det.centres_body, z=0.15)
             rec.strips(f"{base}/sensor/detection_discs", t_s,
-                       [_circle(c, r, 16) for c, r in zip(det.centres_m, det.radii_m)], z=0.15)
+                       [circle_polygon(c, r, 16, circumscribed=False, closed=True) for c, r in zip(det.centres_m, det.radii_m)], z=0.15)
         tr = self.tracker
         conf = np.flatnonzero(tr.confirmed)
         bank = tr.bank
@@ -331,7 +332,7 @@ class Perception:
         rec.points(f"{base}/tracks/positions", t_s, x[:, :2], z=0.3)
         rec.strips(f"{base}/tracks/ellipses", t_s, [covariance_ellipse(x[k, :2], Pc[k]) for k in range(len(conf))],
                    z=0.3)
-        rec.strips(f"{base}/tracks/discs", t_s, [_circle(x[k, :2], rad[k], 24) for k in range(len(conf))], z=0.3)
+        rec.strips(f"{base}/tracks/discs", t_s, [circle_polygon(x[k, :2], rad[k], 24, circumscribed=False, closed=True) for k in range(len(conf))], z=0.3)
         vel = ARROW_HORIZON_S * x[:, 3, None] * np.stack([np.cos(x[:, 2]), np.sin(x[:, 2])], axis=-1)
         rec.arrows(f"{base}/tracks/velocity", t_s, x[:, :2], vel, z=0.3)
         if t_s - self._last_label_log >= LABEL_LOG_PERIOD_S - 1e-9:
@@ -418,7 +419,3 @@ def _inside(p: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray
     d2 = ((p[:, None, :] - centres[None, :, :]) ** 2).sum(-1)
     return (d2 <= radii[None, :] ** 2).any(axis=1)
 
-
-def _circle(c, r: float, n: int) -> np.ndarray:
-    a = np.linspace(0.0, 2.0 * np.pi, n + 1)
-    return np.asarray(c) + float(r) * np.stack([np.cos(a), np.sin(a)], axis=-1)

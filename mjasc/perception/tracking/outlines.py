@@ -14,21 +14,13 @@ about midships; only the side facing the sensor is ever seen at once); without r
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
-from mjasc.core.geometry import convex_hull
+from mjasc.core.geometry import circle_polygon, convex_hull
 from mjasc.perception.tracking.config import TrackingConfig
 
-__all__ = ["TrackOutlines", "disc_outline"]
-
-
-def disc_outline(centre, radius: float, sides: int = 12) -> np.ndarray:
-    """A polygon (sides, 2) circumscribing the disc, counter-clockwise."""
-    a = np.linspace(0.0, 2.0 * np.pi, sides, endpoint=False)
-    r = radius / math.cos(math.pi / sides)
-    return np.asarray(centre) + r * np.stack([np.cos(a), np.sin(a)], axis=-1)
+__all__ = ["TrackOutlines"]
 
 
 class TrackOutlines:
@@ -86,5 +78,5 @@ class TrackOutlines:
         c = centre
         h = self._hull[row]
         if h is None or h.shape[0] < 2:
-            return disc_outline(c, radius)
+            return circle_polygon(c, radius, 12)  # the 12-gon circumscribing the disc
         return convex_hull(np.vstack([h, 2.0 * c - h]))
