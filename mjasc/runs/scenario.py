@@ -1,7 +1,7 @@
 """Scenario files (TOML): what a run contains, validated completely before anything runs.
 
 The format is documented with a complete example in ``tasks/README.md``. Every error names the
-field path and the reason (``vessels[1].controller.speed_m_s: must be > 0, got -1``), and
+field path and the reason (``vessels[1].controller.speed_m_s: must be > 0, got -1.0``), and
 :func:`load_scenario` raises before any model is built or any file is written.
 
 Angles in scenario files are in degrees (``heading_deg``, ``turn_rate_deg_s``) because people
@@ -234,7 +234,7 @@ def _vessel(t: Any, i: int) -> VesselConfig:
                    maximum=vt.top_speed_m_s * 1.5)
     ctrl = table(t.get("controller", {"type": "none"}), f"{where}.controller")
     check_keys(ctrl, _CONTROLLER, f"{where}.controller")
-    ctype = string(ctrl.get("type", "path_following"), f"{where}.controller.type", choices={"path_following", "none"})
+    ctype = read_field(VesselConfig, "controller", ctrl, f"{where}.controller", key="type", default="path_following")
     path, commands = None, (0.0, 0.0)
     cruise = vt.cruise_speed_m_s
     options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}

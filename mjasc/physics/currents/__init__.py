@@ -45,7 +45,7 @@ Each field declares its parameters once, with bounds, unit and doc, in a frozen 
 (``UniformConfig``, ``ShearConfig``, ``VortexConfig``, ``GridConfig``, ``TidalConfig``,
 ``GaussMarkovConfig``, ``SumConfig``) through :func:`mjasc.core.config_tables.param`: the
 constructors and :func:`current_from_config` both read their values through it, so a bad value
-is reported the same way (``Vortex.core_radius_m: must be > 0, got -2`` from Python,
+is reported the same way (``Vortex.core_radius_m: must be > 0, got -2.0`` from Python,
 ``current.core_radius_m: ...`` from a scenario). ``Field.from_config(config)`` builds a field
 from its read parameters.
 
@@ -53,7 +53,7 @@ TOML schema (``current_from_config``)
 -------------------------------------
 A scenario's ``[current]`` table; ``type`` selects the field. Numbers may be integers or floats
 and must be finite; unknown keys are rejected. Errors are ``ValueError`` (``ConfigError``) naming
-the field path, the reason and the value, e.g. ``current.components[1].core_radius_m: must be > 0, got -2``.
+the field path, the reason and the value, e.g. ``current.components[1].core_radius_m: must be > 0, got -2.0``.
 
 uniform — constant everywhere; give ``velocity_m_s`` *or* ``speed_m_s`` + ``direction_rad``::
 

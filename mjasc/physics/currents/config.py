@@ -8,7 +8,7 @@ components are nested field tables, read recursively under their own paths. The 
 example of every type is the docstring of :mod:`mjasc.physics.currents`.
 
 Errors are ValueErrors (:class:`~mjasc.core.config_tables.ConfigError`) naming the full field path,
-the reason and the value: ``current.components[1].core_radius_m: must be > 0, got -2``.
+the reason and the value: ``current.components[1].core_radius_m: must be > 0, got -2.0``.
 """
 
 from __future__ import annotations
