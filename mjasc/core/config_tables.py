@@ -408,13 +408,14 @@ def read_field(cls: type, name: str, tbl: Mapping, where: str, *, key: str | Non
                default: Any = dataclasses.MISSING) -> Any:
     """One key of the table ``tbl`` read as the field ``name`` of the config dataclass ``cls``
     declares it: by its reader (its param's own, else its type's) and against its declared bounds,
-    errors naming ``f"{where}.{key}"``. For tables whose keys are not one dataclass's fields one to
-    one (``moving_obstacles[i].radius_m`` → ``MovingObstacle.radius_m``; ``key`` when the key is
-    spelled differently). A missing key gives ``default`` (not read), else the field's default,
-    else ConfigError ``"<where>.<key>: missing"``."""
+    errors naming ``f"{where}.{key}"`` (``key`` alone when ``where`` is "", the top-level table).
+    For tables whose keys are not one dataclass's fields one to one (``moving_obstacles[i].radius_m``
+    → ``MovingObstacle.radius_m``; ``key`` when the key is spelled differently from the field).
+    A missing key gives ``default`` (not read), else the field's default, else ConfigError
+    ``"<where>.<key>: missing"``."""
     key = name if key is None else key
     f = next(g for g in dataclasses.fields(cls) if g.name == name)
-    key_where = f"{where}.{key}"
+    key_where = f"{where}.{key}" if where else key
     if key not in tbl:
         if default is not dataclasses.MISSING:
             return default

@@ -24,7 +24,6 @@ from mjasc.core.config_tables import (
     check_params,
     dataclass_from_table,
     errors_as,
-    integer,
     load_toml,
     number,
     param,
@@ -133,8 +132,8 @@ class VesselConfig:
 class Scenario:
     name: str
     description: str
-    duration_s: float
-    seed: int
+    duration_s: float = param(positive=True, unit="s", doc="how long the run lasts")
+    seed: int = param(nonneg=True, doc="the run's seed: sensor noise, packet loss, seeded currents")
     rates: Rates
     outputs: Outputs
     current: CurrentField
@@ -152,14 +151,14 @@ class Scenario:
         s = self
         with errors_as(ScenarioError):
             if seed is not None:
-                new_seed = integer(seed, "seed", minimum=0)
+                new_seed = read_field(Scenario, "seed", {"seed": seed}, "")
                 # A seeded current (Gauss–Markov without its own seed) draws from the scenario seed:
                 # rebuild it so that --seed changes the current too.
                 s = replace(s, seed=new_seed, current=current_from_config(dict(s.current_config), seed=new_seed))
             if video is not None:
                 s = replace(s, outputs=replace(s.outputs, video=bool(video)))
             if duration_s is not None:
-                s = replace(s, duration_s=number(duration_s, "duration_s", positive=True))
+                s = replace(s, duration_s=read_field(Scenario, "duration_s", {"duration_s": duration_s}, ""))
         return s
 
 
@@ -305,10 +304,10 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
     data = table(data, "scenario")
     check_keys(data, _TOP, "scenario")
     name = string(data.get("name", FilePath(source).stem), "name")
-    duration = number(data.get("duration_s"), "duration_s", positive=True) if "duration_s" in data else None
-    if duration is None:
+    if "duration_s" not in data:
         raise ScenarioError("duration_s: missing (how long the run lasts, in seconds)")
-    seed = integer(data.get("seed", 0), "seed", minimum=0)
+    duration = read_field(Scenario, "duration_s", data, "")
+    seed = read_field(Scenario, "seed", data, "", default=0)
     rates = _rates(data.get("rates", {}))
     outputs = _outputs(data.get("outputs", {}))
     cur_cfg = data.get("current")
