@@ -257,3 +257,17 @@ def test_describe_params_lists_every_declared_parameter_once():
     assert list(rows) == ["gain", "ratio", "mode", "window_s", "steps"]
     assert rows["gain"]["unit"] == "1/s" and rows["gain"]["bounds"] == "> 0" and rows["gain"]["default"] == 0.3
     assert rows["ratio"]["bounds"] == "≥ 0, ≤ 1.0"
+
+
+def test_read_field_reads_one_key_as_its_declared_field():
+    from mjasc.core.config_tables import read_field
+
+    assert read_field(_Outer, "gain", {"k_gain": 2}, "t", key="k_gain") == 2.0
+    assert read_field(_Outer, "gain", {}, "t") == 0.3  # the field's default
+    assert read_field(_Outer, "gain", {}, "t", default=9.0) == 9.0
+    with pytest.raises(ConfigError, match=r"^t\.k_gain: must be > 0, got -1.0$"):
+        read_field(_Outer, "gain", {"k_gain": -1}, "t", key="k_gain")
+    with pytest.raises(ConfigError, match=r"^t\.mode: must be a non-empty string, got 3$"):
+        read_field(_Outer, "mode", {"mode": 3}, "t")
+    with pytest.raises(ConfigError, match=r"^t\.window_s: must be finite and > 0, got 0.0$"):
+        read_field(_Inner, "window_s", {"window_s": 0}, "t")

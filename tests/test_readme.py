@@ -59,10 +59,12 @@ def test_command_parses_and_names_bundled_files(command, tmp_path, monkeypatch):
 
 # ------------------------------------------------------------------ nothing outside the repository
 def _text_files() -> list[Path]:
+    """The repository's own text files (build products such as ``*.egg-info/`` excluded)."""
     skip = {".git", ".venv", "runs", "build", "dist", "__pycache__", ".pytest_cache"}
     suffixes = {".md", ".py", ".toml", ".xml", ".sh", ".txt", ".cfg", ".yml", ".yaml", ".lock", ""}
     return [p for p in ROOT.rglob("*") if p.is_file() and p.suffix in suffixes
-            and not skip & set(p.relative_to(ROOT).parts) and not p.name.endswith(".egg-info")
+            and not skip & set(p.relative_to(ROOT).parts)
+            and not any(part.endswith(".egg-info") for part in p.relative_to(ROOT).parts)
             and p != Path(__file__).resolve()]
 
 

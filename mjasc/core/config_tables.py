@@ -17,7 +17,9 @@ Readers (``where`` is always the second argument):
 * :func:`point` — ``[x, y]`` → (2,) float array [m]; :func:`points` — ``[[x, y], ...]`` → (n, 2);
 * :func:`dataclass_from_table` — a whole table → a frozen dataclass, each key read by the reader
   of its field's type (float, int, bool, str, ``X | None``, ``tuple[X, ...]``) or a given converter,
-  unknown keys rejected, missing keys left at the dataclass's defaults.
+  unknown keys rejected, missing keys left at the dataclass's defaults;
+* :func:`read_field` — one key of a table read as one declared field of a dataclass (for tables
+  whose keys map onto several objects, or are spelled differently from the field).
 
 **Parameters are declared once.** A config dataclass declares each field with :func:`param`: its
 default, its bounds (``positive``, ``nonneg``, ``minimum``, ``maximum``, ``choices``), its unit and
@@ -56,7 +58,8 @@ from typing import Any, Callable, Iterable, Iterator, Mapping
 import numpy as np
 
 __all__ = ["ConfigError", "show", "load_toml", "table", "check_keys", "number", "integer", "boolean", "string", "point",
-           "points", "dataclass_from_table", "errors_as", "Param", "param", "check_params", "describe_params"]
+           "points", "dataclass_from_table", "read_field", "errors_as", "Param", "param", "check_params",
+           "describe_params"]
 
 Converter = Callable[[Any, str], Any]
 """A reader of one value: ``converter(value, where) -> checked value`` (raises ConfigError)."""
@@ -401,6 +404,32 @@ def dataclass_from_table(cls: type, tbl: Any, where: str, converters: Mapping[st
     if check is not None:
         check(candidate, where)
     return cls(**values)
+
+
+def read_field(cls: type, name: str, tbl: Mapping, where: str, *, key: str | None = None,
+               default: Any = dataclasses.MISSING) -> Any:
+    """One key of the table ``tbl`` read as the field ``name`` of the config dataclass ``cls``
+    declares it: by its reader (its param's own, else its type's) and against its declared bounds,
+    errors naming ``f"{where}.{key}"`` (``key`` alone when ``where`` is "", the top-level table).
+    For tables whose keys are not one dataclass's fields one to one (``moving_obstacles[i].radius_m``
+    → ``MovingObstacle.radius_m``; ``key`` when the key is spelled differently from the field).
+    A missing key gives ``default`` (not read), else the field's default, else ConfigError
+    ``"<where>.<key>: missing"``."""
+    key = name if key is None else key
+    f = next(g for g in dataclasses.fields(cls) if g.name == name)
+    key_where = f"{where}.{key}" if where else key
+    if key not in tbl:
+        if default is not dataclasses.MISSING:
+            return default
+        if f.default is not dataclasses.MISSING:
+            return f.default
+        if f.default_factory is not dataclasses.MISSING:
+            return f.default_factory()
+        raise ConfigError(f"{key_where}: missing")
+    p, tp = _param_of(f), typing.get_type_hints(cls)[name]
+    read = (p.reader if p is not None else None) or _reader_for(tp)
+    value = read(tbl[key], key_where) if read is not None else tbl[key]
+    return _check_value(value, tp, p, key_where) if p is not None else value
 
 
 def _flat_type(tp: Any) -> Any:

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mjasc.core.config_tables import check_params, param
 from mjasc.core.frames import wrap_angle
 from mjasc.guidance.paths import Path
 from mjasc.physics.vessels import VesselType
@@ -37,21 +38,23 @@ __all__ = ["PathFollowingConfig", "PathFollowingStatus", "PathFollower"]
 class PathFollowingConfig:
     """Gains and limits. None = derived from the vessel (lookahead 3 hull lengths, min 5 m)."""
 
-    lookahead_m: float | None = None
-    heading_bandwidth_rad_s: float = 1.5  # ≥ 1.2 needed: the Otter is directionally unstable above 1.2 m/s
-    heading_damping_ratio: float = 0.9
-    heading_integral_time_s: float = 20.0  # integral action against steady yaw moments (Munk, cross-flow)
-    speed_bandwidth_rad_s: float = 0.8
-    speed_integral_gain_ratio: float = 0.25  # K_i = ratio · K_p [1/s]
-    integral_los_gain: float = 0.5  # σ of integral LOS [-]
-    finish_tolerance_m: float = 0.5
+    lookahead_m: float | None = param(None, positive=True, unit="m",
+                                      doc="LOS lookahead Δ (none: 3 hull lengths, at least 5 m)")
+    heading_bandwidth_rad_s: float = param(1.5, positive=True, unit="rad/s",
+                                           doc="heading loop natural frequency ω_ψ (≥ 1.2 needed: the Otter "
+                                               "is directionally unstable above 1.2 m/s)")
+    heading_damping_ratio: float = param(0.9, positive=True, doc="heading loop damping ratio ζ")
+    heading_integral_time_s: float = param(20.0, positive=True, unit="s",
+                                           doc="heading integral time T_i: integral action against steady yaw "
+                                               "moments (Munk, cross-flow)")
+    speed_bandwidth_rad_s: float = param(0.8, positive=True, unit="rad/s", doc="speed loop bandwidth")
+    speed_integral_gain_ratio: float = param(0.25, nonneg=True, unit="1/s", doc="speed loop K_i = ratio · K_p")
+    integral_los_gain: float = param(0.5, positive=True, doc="σ of integral LOS")
+    finish_tolerance_m: float = param(0.5, nonneg=True, unit="m",
+                                      doc="the path is finished within this arc length of its end")
 
     def __post_init__(self):
-        for name in ("heading_bandwidth_rad_s", "heading_damping_ratio", "speed_bandwidth_rad_s", "integral_los_gain"):
-            if not getattr(self, name) > 0:
-                raise ValueError(f"path_following.{name}: must be > 0, got {getattr(self, name)}")
-        if self.lookahead_m is not None and not self.lookahead_m > 0:
-            raise ValueError(f"path_following.lookahead_m: must be > 0, got {self.lookahead_m}")
+        check_params(self, "path_following")
 
 
 @dataclass(frozen=True)

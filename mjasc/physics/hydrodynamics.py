@@ -49,12 +49,22 @@ Everything is computed for all N vessels at once on (N,) arrays: no Python loop 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass
 from typing import Sequence
 
 import numpy as np
 
+from mjasc.core.config_tables import ConfigError, check_params, param
+
 __all__ = ["HydroCoefficients", "rigid_body_mass_matrix", "Hydrodynamics"]
+
+
+_FOSSEN_SIGN = "must be finite and ≤ 0 (Fossen's sign: hydrodynamic derivatives are negative)"
+
+
+def _derivative(doc: str, unit: str, default: float = MISSING):
+    """A hydrodynamic derivative: ≤ 0 by Fossen's sign convention."""
+    return param(default, maximum=0.0, phrase=_FOSSEN_SIGN, unit=unit, doc=doc)
 
 
 @dataclass(frozen=True)
@@ -67,34 +77,32 @@ class HydroCoefficients:
     Cross-flow drag: drag_coefficient_2d, strips, water_density_kg_m3, length_m, draft_m.
     """
 
-    X_udot: float
-    Y_vdot: float
-    N_rdot: float
-    X_u: float
-    Y_v: float
-    N_r: float
-    Y_rdot: float = 0.0
-    N_vdot: float = 0.0
-    X_uu: float = 0.0
-    N_r_nonlinear_gain: float = 0.0
-    cross_flow: bool = False
-    drag_coefficient_2d: float = 0.0
-    strips: int = 20
-    water_density_kg_m3: float = 1025.0
-    length_m: float = 1.0
-    draft_m: float = 0.0
+    X_udot: float = _derivative("surge added mass derivative (−a11)", "kg")
+    Y_vdot: float = _derivative("sway added mass derivative (−a22)", "kg")
+    N_rdot: float = _derivative("yaw added mass derivative (−a33)", "kg·m²")
+    X_u: float = _derivative("linear surge damping", "N·s/m")
+    Y_v: float = _derivative("linear sway damping", "N·s/m")
+    N_r: float = _derivative("linear yaw damping", "N·m·s")
+    Y_rdot: float = param(0.0, unit="kg·m", doc="sway–yaw added mass coupling (−a23)")
+    N_vdot: float = param(0.0, unit="kg·m", doc="yaw–sway added mass coupling (−a32)")
+    X_uu: float = _derivative("quadratic surge damping", "N·s²/m²", 0.0)
+    N_r_nonlinear_gain: float = param(0.0, nonneg=True, unit="s/rad", doc="k_r of N = N_r (1 + k_r |r|) r")
+    cross_flow: bool = param(False, doc="strip-theory cross-flow drag on sway and yaw")
+    drag_coefficient_2d: float = param(0.0, doc="2-D cross-flow drag coefficient C_d (Hoerner)")
+    strips: int = param(20, doc="number of strips over the length")
+    water_density_kg_m3: float = param(1025.0, unit="kg/m³", doc="water density ρ")
+    length_m: float = param(1.0, unit="m", doc="hull length L of the strips")
+    draft_m: float = param(0.0, unit="m", doc="draft T of the strips")
 
     def __post_init__(self):
-        for name in ("X_udot", "Y_vdot", "N_rdot", "X_u", "Y_v", "N_r", "X_uu"):
-            value = getattr(self, name)
-            if not np.isfinite(value):
-                raise ValueError(f"{name}: must be finite, got {value}")
-            if value > 0:
-                raise ValueError(f"{name}: hydrodynamic derivative must be ≤ 0 (Fossen's sign), got {value}")
-        if self.N_r_nonlinear_gain < 0:
-            raise ValueError(f"N_r_nonlinear_gain: must be ≥ 0, got {self.N_r_nonlinear_gain}")
-        if self.cross_flow and (self.strips < 1 or self.length_m <= 0 or self.draft_m <= 0):
-            raise ValueError("cross_flow: needs strips ≥ 1, length_m > 0 and draft_m > 0")
+        check_params(self, "hydrodynamics")
+        self.check(self, "hydrodynamics")
+
+    @staticmethod
+    def check(config: "HydroCoefficients", where: str) -> None:
+        """Cross-flow drag needs strips over a hull of positive length and draft."""
+        if config.cross_flow and (config.strips < 1 or config.length_m <= 0 or config.draft_m <= 0):
+            raise ConfigError(f"{where}.cross_flow: needs strips ≥ 1, length_m > 0 and draft_m > 0")
 
     @property
     def added_mass(self) -> np.ndarray:

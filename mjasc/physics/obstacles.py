@@ -8,10 +8,11 @@ obstacles through their own range sensor. World frame ENU, SI units.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from mjasc.core.config_tables import check_params, param, point
 from mjasc.core.geometry import circle_polygon, polygon_signed_area
 from mjasc.guidance.paths import Path
 
@@ -22,11 +23,12 @@ __all__ = ["PolygonObstacle", "CircleObstacle", "MovingObstacle", "MovingObstacl
 class PolygonObstacle:
     """A static polygon (k, 2), stored counter-clockwise; height is only for drawing and sensing."""
 
-    name: str
-    vertices: np.ndarray
-    height_m: float = 2.0
+    name: str = param(doc="the obstacle's name (unique among a scenario's obstacles)")
+    vertices: np.ndarray = param(unit="m", doc="corners [[x, y], ...], at least 3, either winding (stored CCW)")
+    height_m: float = param(2.0, positive=True, unit="m", doc="height above the water, for drawing and sensing")
 
     def __post_init__(self):
+        check_params(self, self.name)
         v = np.asarray(self.vertices, dtype=float)
         if v.ndim != 2 or v.shape[1] != 2 or v.shape[0] < 3:
             raise ValueError(f"{self.name}.vertices: need at least 3 [x, y] points, got shape {v.shape}")
@@ -48,14 +50,13 @@ class PolygonObstacle:
 class CircleObstacle:
     """A static disc (buoy, pillar, small islet)."""
 
-    name: str
-    centre: np.ndarray
-    radius_m: float
-    height_m: float = 2.0
+    name: str = param(doc="the obstacle's name (unique among a scenario's obstacles)")
+    centre: np.ndarray = param(reader=point, unit="m", doc="centre [x, y]")
+    radius_m: float = param(positive=True, unit="m", doc="radius")
+    height_m: float = param(2.0, positive=True, unit="m", doc="height above the water, for drawing and sensing")
 
     def __post_init__(self):
-        if not self.radius_m > 0:
-            raise ValueError(f"{self.name}.radius_m: must be > 0, got {self.radius_m}")
+        check_params(self, self.name)
         object.__setattr__(self, "centre", np.asarray(self.centre, dtype=float).reshape(2))
 
     def polygon(self, sides: int = 16) -> np.ndarray:
@@ -71,20 +72,18 @@ class MovingObstacle:
     constant velocity), or ``path`` followed at ``speed_m_s`` from arc length ``start_gamma_m``.
     """
 
-    name: str
-    radius_m: float
-    position_m: np.ndarray = field(default_factory=lambda: np.zeros(2))
-    heading_rad: float = 0.0
-    speed_m_s: float = 0.0
-    turn_rate_rad_s: float = 0.0
-    path: Path | None = None
-    start_gamma_m: float = 0.0
+    name: str = param(doc="the obstacle's name (unique among a scenario's obstacles)")
+    radius_m: float = param(positive=True, unit="m", doc="radius of the circle bounding it")
+    position_m: np.ndarray = param(default_factory=lambda: np.zeros(2), reader=point, unit="m",
+                                   doc="position at t = 0 [x, y]")
+    heading_rad: float = param(0.0, unit="rad", doc="heading at t = 0, CCW from east")
+    speed_m_s: float = param(0.0, nonneg=True, unit="m/s", doc="speed over ground")
+    turn_rate_rad_s: float = param(0.0, unit="rad/s", doc="constant turn rate (0: constant velocity)")
+    path: Path | None = param(None, doc="a path followed at speed_m_s instead of the constant-turn motion")
+    start_gamma_m: float = param(0.0, nonneg=True, unit="m", doc="arc length along path at t = 0")
 
     def __post_init__(self):
-        if not self.radius_m > 0:
-            raise ValueError(f"{self.name}.radius_m: must be > 0, got {self.radius_m}")
-        if self.speed_m_s < 0:
-            raise ValueError(f"{self.name}.speed_m_s: must be ≥ 0, got {self.speed_m_s}")
+        check_params(self, self.name)
         object.__setattr__(self, "position_m", np.asarray(self.position_m, dtype=float).reshape(2))
 
 

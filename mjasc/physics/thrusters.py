@@ -19,32 +19,31 @@ from typing import Sequence
 
 import numpy as np
 
+from mjasc.core.config_tables import ConfigError, check_params, param, show
+
 __all__ = ["PropellerCoefficients", "Thrusters"]
 
 
 @dataclass(frozen=True)
 class PropellerCoefficients:
-    """Propeller model of one vessel (both propellers identical).
+    """Propeller model of one vessel (both propellers identical): the ``[propellers]`` table of a
+    vessel's ``hydrodynamics.toml``."""
 
-    k_forward, k_reverse: thrust coefficients [N/(rad/s)²]; n_max_rad_s > 0, n_min_rad_s < 0
-    shaft-speed limits; time_constant_s: first-order shaft lag T_n.
-    """
-
-    k_forward: float
-    k_reverse: float
-    n_max_rad_s: float
-    n_min_rad_s: float
-    time_constant_s: float
+    k_forward: float = param(positive=True, unit="N/(rad/s)²", doc="thrust coefficient k_f for n ≥ 0")
+    k_reverse: float = param(positive=True, unit="N/(rad/s)²", doc="thrust coefficient k_r for n < 0")
+    n_max_rad_s: float = param(positive=True, unit="rad/s", doc="largest forward shaft speed (command +1)")
+    n_min_rad_s: float = param(unit="rad/s", doc="largest reverse shaft speed (command −1), < 0")
+    time_constant_s: float = param(positive=True, unit="s", doc="first-order shaft lag T_n")
 
     def __post_init__(self):
-        if not (self.k_forward > 0 and self.k_reverse > 0):
-            raise ValueError(f"k_forward/k_reverse: must be > 0, got {self.k_forward}, {self.k_reverse}")
-        if not self.n_max_rad_s > 0:
-            raise ValueError(f"n_max_rad_s: must be > 0, got {self.n_max_rad_s}")
-        if not self.n_min_rad_s < 0:
-            raise ValueError(f"n_min_rad_s: must be < 0, got {self.n_min_rad_s}")
-        if not self.time_constant_s > 0:
-            raise ValueError(f"time_constant_s: must be > 0, got {self.time_constant_s}")
+        check_params(self, "propellers")
+        self.check(self, "propellers")
+
+    @staticmethod
+    def check(config: "PropellerCoefficients", where: str) -> None:
+        """The reverse shaft-speed limit is negative."""
+        if not config.n_min_rad_s < 0:
+            raise ConfigError(f"{where}.n_min_rad_s: must be < 0, got {show(config.n_min_rad_s)}")
 
     @property
     def max_thrust_n(self) -> float:

@@ -65,7 +65,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mjasc.core.config_tables import number
+from mjasc.core.config_tables import check_params, number, param
 from mjasc.physics.simulation import Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
@@ -96,12 +96,15 @@ ONE_MINUS_INV_E = 1.0 - math.exp(-1.0)
 class SteadyStateCriterion:
     """When a constant-command phase counts as steady (see the module docstring)."""
 
-    window_s: float = 3.0
-    sample_s: float = 0.25
-    velocity_tol_m_s: float = 1e-4
-    yaw_rate_tol_rad_s: float = 1e-4
-    min_time_s: float = 3.0
-    max_time_s: float = 600.0
+    window_s: float = param(3.0, positive=True, unit="s", doc="the spreads are taken over this last window")
+    sample_s: float = param(0.25, positive=True, unit="s", doc="sampling period of the check")
+    velocity_tol_m_s: float = param(1e-4, positive=True, unit="m/s", doc="largest spread of u and v")
+    yaw_rate_tol_rad_s: float = param(1e-4, positive=True, unit="rad/s", doc="largest spread of r")
+    min_time_s: float = param(3.0, nonneg=True, unit="s", doc="a phase lasts at least this long")
+    max_time_s: float = param(600.0, positive=True, unit="s", doc="a phase gives up after this long")
+
+    def __post_init__(self):
+        check_params(self, "steady_state")
 
 
 STEADY = SteadyStateCriterion()

@@ -11,7 +11,7 @@ import functools
 from dataclasses import dataclass
 from pathlib import Path
 
-from mjasc.core.config_tables import load_toml, number
+from mjasc.core.config_tables import dataclass_from_table, load_toml, number
 from mjasc.core.resources import assets_dir
 from mjasc.physics.hydrodynamics import HydroCoefficients
 from mjasc.physics.thrusters import PropellerCoefficients
@@ -88,13 +88,8 @@ def load_vessel_type(name: str) -> VesselType:
         length_m=length,
         draft_m=draft,
     )
-    propellers = PropellerCoefficients(
-        k_forward=_get(prop, "k_forward", f"{where}: propellers"),
-        k_reverse=_get(prop, "k_reverse", f"{where}: propellers"),
-        n_max_rad_s=_get(prop, "n_max_rad_s", f"{where}: propellers"),
-        n_min_rad_s=_get(prop, "n_min_rad_s", f"{where}: propellers"),
-        time_constant_s=_get(prop, "time_constant_s", f"{where}: propellers"),
-    )
+    propellers = dataclass_from_table(PropellerCoefficients, prop, f"{where}: propellers",
+                                      check=PropellerCoefficients.check)
     return VesselType(
         name=name,
         description=str(t.get("description", "")),

@@ -1,7 +1,7 @@
 """Scenario files (TOML): what a run contains, validated completely before anything runs.
 
 The format is documented with a complete example in ``tasks/README.md``. Every error names the
-field path and the reason (``vessels[1].controller.speed_m_s: must be > 0, got -1``), and
+field path and the reason (``vessels[1].controller.speed_m_s: must be > 0, got -1.0``), and
 :func:`load_scenario` raises before any model is built or any file is written.
 
 Angles in scenario files are in degrees (``heading_deg``, ``turn_rate_deg_s``) because people
@@ -21,18 +21,21 @@ from mjasc.core.resources import resolve_bundled
 from mjasc.core.config_tables import (
     ConfigError,
     check_keys,
+    check_params,
     dataclass_from_table,
     errors_as,
-    integer,
     load_toml,
     number,
+    param,
     point,
     points,
+    read_field,
     string,
     table,
 )
 from mjasc.physics.currents import CurrentField, UniformCurrent, current_from_config
 from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
+from mjasc.guidance.path_following import PathFollowingConfig
 from mjasc.guidance.paths import Path
 from mjasc.physics.vessels import available_vessels, load_vessel_type
 
@@ -49,50 +52,88 @@ class ScenarioError(ConfigError):
 # ---------------------------------------------------------------------- typed scenario
 @dataclass(frozen=True)
 class Rates:
-    """Multi-rate schedule [Hz]. Control, sensing, tracking, comms and recording run every
-    ``round(physics_hz / rate)`` physics steps; prediction every ``prediction_period_s``."""
+    """Multi-rate schedule (the ``[rates]`` table). Control, sensing, tracking, comms and recording
+    run every ``round(physics_hz / rate)`` physics steps; prediction every ``prediction_period_s``."""
 
-    physics_hz: float = 50.0
-    control_hz: float = 10.0
-    sensing_hz: float = 5.0
-    tracking_hz: float = 5.0
-    comms_hz: float = 1.0
-    record_hz: float = 10.0
-    prediction_period_s: float = 5.0
+    physics_hz: float = param(50.0, positive=True, unit="Hz", doc="physics steps per second (timestep 1/rate)")
+    control_hz: float = param(10.0, positive=True, unit="Hz", doc="guidance and control ticks per second")
+    sensing_hz: float = param(5.0, positive=True, unit="Hz", doc="range scans per second")
+    tracking_hz: float = param(5.0, positive=True, unit="Hz", doc="tracker updates per second")
+    comms_hz: float = param(1.0, positive=True, unit="Hz", doc="coordination messages per second")
+    record_hz: float = param(10.0, positive=True, unit="Hz", doc="recorded samples per second")
+    prediction_period_s: float = param(5.0, positive=True, unit="s", doc="period of the collision prediction")
+
+    def __post_init__(self):
+        check_params(self, "rates")
+        self.check(self, "rates")
+
+    @staticmethod
+    def check(rates: "Rates", where: str) -> None:
+        """No slot runs faster than the physics."""
+        for f in fields(rates):
+            if f.name.endswith("_hz") and getattr(rates, f.name) > rates.physics_hz:
+                raise ScenarioError(f"{where}.{f.name}: must not exceed {where}.physics_hz ({rates.physics_hz}), "
+                                    f"got {getattr(rates, f.name)}")
+
+
+_CAMERAS = ("top_down", "overview")
+"""The fixed cameras; ``chase:<vessel>`` follows a vessel."""
 
 
 @dataclass(frozen=True)
 class Outputs:
-    recording: bool = True
-    video: bool = False
-    video_camera: str = "top_down"
-    video_fps: float = 20.0
-    video_width: int = 640
-    video_height: int = 480
+    """What a run writes (the ``[outputs]`` table)."""
+
+    recording: bool = param(True, doc="write the Rerun recording")
+    video: bool = param(False, doc="write an MP4 video")
+    video_camera: str = param("top_down", doc="top_down, overview or chase:<vessel>")
+    video_fps: float = param(20.0, positive=True, maximum=120, unit="1/s", doc="video frames per second")
+    video_width: int = param(640, minimum=16, maximum=1280, unit="px",
+                             doc="frame width: within the scene's offscreen buffer (1280×720), even (H.264)")
+    video_height: int = param(480, minimum=16, maximum=720, unit="px",
+                              doc="frame height: within the scene's offscreen buffer (1280×720), even (H.264)")
+
+    def __post_init__(self):
+        check_params(self, "outputs")
+        self.check(self, "outputs")
+
+    @staticmethod
+    def check(outputs: "Outputs", where: str) -> None:
+        """Even frame sizes (H.264) and a camera mjasc has."""
+        for name in ("video_width", "video_height"):
+            if getattr(outputs, name) % 2:
+                raise ScenarioError(f"{where}.{name}: must be even (H.264), got {getattr(outputs, name)}")
+        camera = outputs.video_camera
+        if camera not in _CAMERAS and not camera.startswith("chase:"):
+            raise ScenarioError(f"{where}.video_camera: must be top_down, overview or chase:<vessel>, got {camera!r}")
 
 
 @dataclass(frozen=True)
 class VesselConfig:
     """One vessel: its type, start pose, controller and mission path (world ENU, SI)."""
 
-    name: str
-    type: str
-    position_m: np.ndarray
-    heading_rad: float
-    speed_m_s: float
-    controller: str  # "path_following" | "none"
-    path: Path | None
-    cruise_speed_m_s: float
-    commands: tuple[float, float] = (0.0, 0.0)  # constant propeller commands for controller = "none"
+    name: str = param(doc="the vessel's name: unique, no '/', not starting with 'obstacle'")
+    type: str = param(doc="vessel type: a folder of assets/vessels")
+    position_m: np.ndarray = param(reader=point, unit="m", doc="start position [x, y]")
+    heading_rad: float = param(unit="rad", doc="start heading, CCW from east (heading_deg in the file)")
+    speed_m_s: float = param(nonneg=True, unit="m/s", doc="start surge speed (≤ 1.5 × the type's top speed)")
+    controller: str = param(choices=("path_following", "none"), doc="path_following, or none (constant commands)")
+    path: Path | None = param(doc="the mission path (path_following)")
+    cruise_speed_m_s: float = param(positive=True, unit="m/s",
+                                    doc="path-following speed (≤ the type's top speed; speed_m_s in the file)")
+    commands: tuple[float, float] = param((0.0, 0.0), doc="constant propeller commands for controller = none")
     options: dict = field(default_factory=dict)  # sub-tables later layers read (sensor, tracking, avoidance)
+
+    def __post_init__(self):
+        check_params(self, self.name)
 
 
 @dataclass(frozen=True)
 class Scenario:
     name: str
     description: str
-    duration_s: float
-    seed: int
+    duration_s: float = param(positive=True, unit="s", doc="how long the run lasts")
+    seed: int = param(nonneg=True, doc="the run's seed: sensor noise, packet loss, seeded currents")
     rates: Rates
     outputs: Outputs
     current: CurrentField
@@ -110,14 +151,14 @@ class Scenario:
         s = self
         with errors_as(ScenarioError):
             if seed is not None:
-                new_seed = integer(seed, "seed", minimum=0)
+                new_seed = read_field(Scenario, "seed", {"seed": seed}, "")
                 # A seeded current (Gauss–Markov without its own seed) draws from the scenario seed:
                 # rebuild it so that --seed changes the current too.
                 s = replace(s, seed=new_seed, current=current_from_config(dict(s.current_config), seed=new_seed))
             if video is not None:
                 s = replace(s, outputs=replace(s.outputs, video=bool(video)))
             if duration_s is not None:
-                s = replace(s, duration_s=number(duration_s, "duration_s", positive=True))
+                s = replace(s, duration_s=read_field(Scenario, "duration_s", {"duration_s": duration_s}, ""))
         return s
 
 
@@ -169,35 +210,12 @@ _VESSEL = {"name", "type", "position_m", "heading_deg", "speed_m_s", "controller
 _CONTROLLER = {"type", "waypoints", "turn_radius_m", "speed_m_s", "commands", "lookahead_m"}
 
 
-def _positive(value: Any, where: str) -> float:
-    return number(value, where, positive=True)
-
-
 def _rates(t: dict) -> Rates:
-    rates = dataclass_from_table(Rates, t, "rates", {f.name: _positive for f in fields(Rates)})
-    for k in ("control_hz", "sensing_hz", "tracking_hz", "comms_hz", "record_hz"):
-        if getattr(rates, k) > rates.physics_hz:
-            raise ScenarioError(f"rates.{k}: must not exceed rates.physics_hz ({rates.physics_hz}), got {getattr(rates, k)}")
-    return rates
-
-
-def _frame_size(limit: int):
-    """Reader of a video frame dimension [px]: ≥ 16, within the offscreen buffer, even (H.264)."""
-    def read(value: Any, where: str) -> int:
-        n = integer(value, where, minimum=16)
-        if n > limit:
-            raise ScenarioError(f"{where}: must be ≤ the scene's offscreen buffer (1280×720), got {n}")
-        if n % 2:
-            raise ScenarioError(f"{where}: must be even (H.264), got {n}")
-        return n
-
-    return read
+    return dataclass_from_table(Rates, t, "rates", check=Rates.check)
 
 
 def _outputs(t: dict) -> Outputs:
-    return dataclass_from_table(Outputs, t, "outputs", {
-        "video_fps": lambda v, where: number(v, where, positive=True, maximum=120),
-        "video_width": _frame_size(1280), "video_height": _frame_size(720)})
+    return dataclass_from_table(Outputs, t, "outputs", check=Outputs.check)
 
 
 def _vessel(t: Any, i: int) -> VesselConfig:
@@ -208,13 +226,14 @@ def _vessel(t: Any, i: int) -> VesselConfig:
     if "/" in name or name.startswith("obstacle"):
         raise ScenarioError(f"{where}.name: must not contain '/' or start with 'obstacle', got {name!r}")
     vtype = string(t.get("type"), f"{where}.type", choices=set(available_vessels()))
-    pos = point(t.get("position_m", [0.0, 0.0]), f"{where}.position_m")
+    pos = read_field(VesselConfig, "position_m", t, where, default=np.zeros(2))
     heading = _heading(t, where)
     vt = load_vessel_type(vtype)
-    speed = number(t.get("speed_m_s", 0.0), f"{where}.speed_m_s", nonneg=True, maximum=vt.top_speed_m_s * 1.5)
+    speed = number(read_field(VesselConfig, "speed_m_s", t, where, default=0.0), f"{where}.speed_m_s",
+                   maximum=vt.top_speed_m_s * 1.5)
     ctrl = table(t.get("controller", {"type": "none"}), f"{where}.controller")
     check_keys(ctrl, _CONTROLLER, f"{where}.controller")
-    ctype = string(ctrl.get("type", "path_following"), f"{where}.controller.type", choices={"path_following", "none"})
+    ctype = read_field(VesselConfig, "controller", ctrl, f"{where}.controller", key="type", default="path_following")
     path, commands = None, (0.0, 0.0)
     cruise = vt.cruise_speed_m_s
     options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}
@@ -225,10 +244,11 @@ def _vessel(t: Any, i: int) -> VesselConfig:
         if "waypoints" not in ctrl:
             raise ScenarioError(f"{where}.controller.waypoints: missing (path_following needs a path)")
         path = _path(ctrl, f"{where}.controller")
-        cruise = number(ctrl.get("speed_m_s", vt.cruise_speed_m_s), f"{where}.controller.speed_m_s", positive=True,
+        cruise = number(read_field(VesselConfig, "cruise_speed_m_s", ctrl, f"{where}.controller", key="speed_m_s",
+                                   default=vt.cruise_speed_m_s), f"{where}.controller.speed_m_s",
                         maximum=vt.top_speed_m_s)
         if "lookahead_m" in ctrl:
-            options["lookahead_m"] = number(ctrl["lookahead_m"], f"{where}.controller.lookahead_m", positive=True)
+            options["lookahead_m"] = read_field(PathFollowingConfig, "lookahead_m", ctrl, f"{where}.controller")
     else:
         c = ctrl.get("commands", [0.0, 0.0])
         if not isinstance(c, list) or len(c) != 2:
@@ -242,17 +262,18 @@ def _static(t: Any, i: int):
     t = table(t, where)
     kind = string(t.get("type"), f"{where}.type", choices={"polygon", "circle"})
     name = string(t.get("name", f"static{i}"), f"{where}.name")
-    height = number(t.get("height_m", 2.0), f"{where}.height_m", positive=True)
     if kind == "polygon":
+        height = read_field(PolygonObstacle, "height_m", t, where)
         check_keys(t, {"type", "name", "vertices", "height_m"}, where)
         v = points(t.get("vertices"), f"{where}.vertices", 3)
         try:
             return PolygonObstacle(name, v, height)
         except ValueError as exc:
             raise ScenarioError(f"{where}.vertices: {exc}") from None
+    height = read_field(CircleObstacle, "height_m", t, where)
     check_keys(t, {"type", "name", "centre_m", "radius_m", "height_m"}, where)
-    return CircleObstacle(name, point(t.get("centre_m"), f"{where}.centre_m"),
-                          number(t.get("radius_m"), f"{where}.radius_m", positive=True), height)
+    return CircleObstacle(name, read_field(CircleObstacle, "centre", t, where, key="centre_m"),
+                          read_field(CircleObstacle, "radius_m", t, where), height)
 
 
 def _moving(t: Any, i: int) -> MovingObstacle:
@@ -261,11 +282,12 @@ def _moving(t: Any, i: int) -> MovingObstacle:
     check_keys(t, {"name", "radius_m", "position_m", "heading_deg", "speed_m_s", "turn_rate_deg_s", "waypoints",
                    "turn_radius_m", "start_gamma_m"}, where)
     name = string(t.get("name", f"traffic{i}"), f"{where}.name")
-    radius = number(t.get("radius_m", 2.5), f"{where}.radius_m", positive=True)
-    speed = number(t.get("speed_m_s", 0.0), f"{where}.speed_m_s", nonneg=True)
+    radius = read_field(MovingObstacle, "radius_m", t, where, default=2.5)
+    speed = read_field(MovingObstacle, "speed_m_s", t, where)
     if "waypoints" in t:
         path = _path(t, where)
-        g0 = number(t.get("start_gamma_m", 0.0), f"{where}.start_gamma_m", nonneg=True, maximum=path.length)
+        g0 = number(read_field(MovingObstacle, "start_gamma_m", t, where), f"{where}.start_gamma_m",
+                    maximum=path.length)
         return MovingObstacle(name, radius, path.point(g0), float(path.tangent_angle(g0)), speed, 0.0, path, g0)
     pos = point(t.get("position_m"), f"{where}.position_m")
     turn = math.radians(number(t.get("turn_rate_deg_s", 0.0), f"{where}.turn_rate_deg_s"))
@@ -282,10 +304,10 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
     data = table(data, "scenario")
     check_keys(data, _TOP, "scenario")
     name = string(data.get("name", FilePath(source).stem), "name")
-    duration = number(data.get("duration_s"), "duration_s", positive=True) if "duration_s" in data else None
-    if duration is None:
+    if "duration_s" not in data:
         raise ScenarioError("duration_s: missing (how long the run lasts, in seconds)")
-    seed = integer(data.get("seed", 0), "seed", minimum=0)
+    duration = read_field(Scenario, "duration_s", data, "")
+    seed = read_field(Scenario, "seed", data, "", default=0)
     rates = _rates(data.get("rates", {}))
     outputs = _outputs(data.get("outputs", {}))
     cur_cfg = data.get("current")
@@ -294,8 +316,6 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
     else:
         try:
             current = current_from_config(table(cur_cfg, "current"), seed=seed)
-        except TypeError:
-            current = current_from_config(table(cur_cfg, "current"))
         except ValueError as exc:
             msg = str(exc)
             raise ScenarioError(msg if msg.startswith("current") else f"current: {msg}") from None
@@ -313,8 +333,6 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
     for i, n in enumerate(obstacle_names):
         if obstacle_names.index(n) != i:
             raise ScenarioError(f"obstacles: duplicate obstacle name {n!r}")
-    if outputs.video_camera not in ("top_down", "overview") and not outputs.video_camera.startswith("chase:"):
-        raise ScenarioError(f"outputs.video_camera: must be top_down, overview or chase:<vessel>, got {outputs.video_camera!r}")
     if outputs.video_camera.startswith("chase:") and outputs.video_camera[6:] not in names:
         raise ScenarioError(f"outputs.video_camera: no vessel named {outputs.video_camera[6:]!r}")
     comms = None
