@@ -20,10 +20,10 @@ import numpy as np
 
 from mjasc.perception.detection import detect
 from mjasc.perception.imm import IMMBank
-from mjasc.physics.obstacles import MovingObstacle
 from mjasc.perception.pipeline import Perception
 from mjasc.perception.range_sensor import SensorConfig
 from mjasc.perception.tracking import TrackingConfig
+from mjasc.physics.obstacles import MovingObstacle
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 

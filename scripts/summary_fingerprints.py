@@ -39,8 +39,8 @@ def run_all(out: Path, seeds: list[int] | None, only: list[str] | None) -> None:
     load = getattr(mjasc, "load_scenario", None)
     run = getattr(mjasc, "run_scenario", None)
     if load is None:
+        from mjasc.runs.runner import run_scenario as run
         from mjasc.runs.scenario import load_scenario as load
-        from mjasc.runs.runner import RunFailed, run_scenario as run
     out.mkdir(parents=True, exist_ok=True)
     for name, path in _scenarios().items():
         if only and name not in only:

@@ -13,9 +13,9 @@ from mjasc.avoidance.system import CollisionAvoidance
 from mjasc.avoidance.team_mates import PlannedTrack
 from mjasc.cooperation.messages import TeamIntention, TeamPicture
 from mjasc.core.estimates import PerceptionReport, TrackEstimate
-from mjasc.guidance.state import GuidanceState
 from mjasc.core.geometry import distance_to_polygon, point_in_polygon
 from mjasc.guidance.paths import Path
+from mjasc.guidance.state import GuidanceState
 from mjasc.physics.vessels import load_vessel_type
 
 DELFIM = load_vessel_type("delfim")

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 from mjasc.campaigns.engine import aggregate_rows, run_campaign, wilson_interval, without_timing
-from mjasc.cli import main
 from mjasc.campaigns.perturbation import load_campaign, parse_campaign, randomized_scenario
+from mjasc.cli import main
 from mjasc.runs.runner import RunFailed, run_scenario
 from mjasc.runs.scenario import load_scenario
 

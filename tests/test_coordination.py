@@ -3,9 +3,9 @@ linearized rate n·k·v/e_s) with perfect comms, still converges with 30 % loss 
 holds a formation on paths of different lengths, times out stale neighbours, and brings the
 thesis §6.4 formation scenario together through the real runner."""
 
+import tomllib
 from pathlib import Path as FilePath
 from types import SimpleNamespace
-import tomllib
 
 import numpy as np
 import pytest
@@ -14,8 +14,8 @@ from mjasc.cooperation.comms import CommsNetwork, NetworkConfig
 from mjasc.cooperation.coordination import Coordination as _Coordination
 from mjasc.cooperation.coordination import CoordinationConfig, parse_coordination_options
 from mjasc.core.navigation import OwnNavigation
-from mjasc.guidance.state import GuidanceState
 from mjasc.guidance.paths import Path
+from mjasc.guidance.state import GuidanceState
 from mjasc.runs.scenario import ScenarioError, parse_scenario
 
 SCENARIO = FilePath(__file__).resolve().parents[1] / "tasks" / "formation_l_path.toml"

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from mjasc.perception.detection import DetectionConfig, detect
-from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
 from mjasc.perception.range_sensor import SensorConfig, sensor_for_vessel
+from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 

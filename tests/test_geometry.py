@@ -1,7 +1,6 @@
 """core.geometry against closed forms and a reference (Andrew's monotone chain, written out here)."""
 
 import numpy as np
-
 import pytest
 
 from mjasc.core.geometry import (

@@ -11,7 +11,6 @@ from scipy.linalg import expm
 from mjasc.physics.currents import UniformCurrent
 from mjasc.physics.hydrodynamics import HydroCoefficients, rigid_body_mass_matrix
 from mjasc.physics.vessels import load_vessel_type
-
 from tests.helpers import hold_shaft, make_sim
 
 VESSELS = ["otter", "delfim"]

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, MovingObstacleSet, PolygonObstacle
 from mjasc.guidance.paths import Path
+from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, MovingObstacleSet, PolygonObstacle
 
 
 def test_constant_turn_matches_integrating_thesis_eq_3_2():

@@ -5,7 +5,6 @@ import pytest
 
 from mjasc.guidance.path_following import PathFollower, PathFollowingConfig
 from mjasc.guidance.paths import Path
-
 from tests.helpers import make_sim
 
 

@@ -8,13 +8,13 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
 from mjasc.perception.pipeline import Perception, covariance_ellipse
 from mjasc.perception.range_sensor import SensorConfig
-from mjasc.runs.recording import Recorder
 from mjasc.perception.tracking import TrackingConfig
+from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
+from mjasc.runs.recording import Recorder
 from tests.test_tracking import truth
 
 DT = 0.2
@@ -249,9 +249,10 @@ def test_thesis_6_1_scenario_converges():
     """tasks/thesis_6_1_tracking.toml through the runner (seed 1): the ASC's own sensor tracks the
     1.5 m/s, 0.03 rad/s target from ~107 m; at 110 s V̂ and ω̂ are within 0.05 m/s and 0.004 rad/s
     (thesis: 1.5723, 0.0312)."""
+    from pathlib import Path
+
     from mjasc.runs.runner import Runner
     from mjasc.runs.scenario import load_scenario
-    from pathlib import Path
 
     sc = load_scenario(Path(__file__).parents[1] / "tasks" / "thesis_6_1_tracking.toml")
     runner = Runner(sc, None, progress=False)

@@ -1,4 +1,4 @@
-"""Harmonic potential field (thesis §4.1, App. A; digest §4): closed forms against quadrature,
+"""Harmonic potential field (thesis §4.1, App. A; docs/thesis.md §4): closed forms against quadrature,
 the classical source-panel limit against potential-flow theory, the robust bound against the
 thesis's claims, and degenerate input."""
 
@@ -75,7 +75,7 @@ def test_panel_normal_velocity_jumps_by_strength():
 
 
 def test_influence_matrix_is_digest_integral():
-    # P_ij = I_ij / 2π with I_ij = ∫_j ∂/∂n_i ln‖c_i − q‖ dl_q (digest §4); P_ii = 1/2
+    # P_ij = I_ij / 2π with I_ij = ∫_j ∂/∂n_i ln‖c_i − q‖ dl_q (docs/thesis.md §4); P_ii = 1/2
     f = PotentialField([square(0, 0, 1.0), regular_polygon(5, 1.0, (4.0, 1.0))], uniform_direction=0.3)
     pan = f.panels
     P = f.influence_matrix
@@ -170,7 +170,7 @@ def test_robust_rule_algebra():
     # λ_ob is affine in r: λ_ob(r) = r(λ_g − LᵀJb) + LᵀJb
     f0 = _square_field(0.0)
     assert f05.net_obstacle_strength == pytest.approx(0.5 * (f0.net_obstacle_strength + 30.0), rel=1e-10)
-    # a_max = (λ_g − LᵀJb)/(LᵀJL), J = P⁻¹ (digest §4)
+    # a_max = (λ_g − LᵀJb)/(LᵀJL), J = P⁻¹ (docs/thesis.md §4)
     J = np.linalg.inv(f1.influence_matrix)
     assert f1.alpha_max == pytest.approx((30.0 - L @ J @ f1.rhs_free_stream) / (L @ J @ L), rel=1e-10)
 

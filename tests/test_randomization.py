@@ -8,9 +8,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from mjasc.campaigns.perturbation import (
+    CampaignError,
+    Randomization,
+    draw_perturbations,
+    load_campaign,
+    parse_campaign,
+    randomized_scenario,
+)
 from mjasc.physics.currents import SumCurrent, UniformCurrent
-from mjasc.campaigns.perturbation import (CampaignError, Randomization, draw_perturbations, load_campaign, parse_campaign,
-                                 randomized_scenario)
 from mjasc.runs.scenario import parse_scenario
 
 TASKS = Path(__file__).resolve().parent.parent / "tasks"

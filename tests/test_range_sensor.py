@@ -7,8 +7,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjasc.physics.obstacles import CircleObstacle, MovingObstacle
 from mjasc.perception.range_sensor import CLUTTER_GEOM, SensorConfig, parse_sensor_options, sensor_for_vessel
+from mjasc.physics.obstacles import CircleObstacle, MovingObstacle
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 

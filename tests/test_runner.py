@@ -10,7 +10,7 @@ import pytest
 import rerun as rr
 
 from mjasc.physics.currents import UniformCurrent
-from mjasc.runs.runner import Runner, RunFailed, run_scenario
+from mjasc.runs.runner import RunFailed, Runner, run_scenario
 from mjasc.runs.scenario import load_scenario
 
 TASKS = Path(__file__).resolve().parent.parent / "tasks"

@@ -21,12 +21,12 @@ from dm_control.rl import control
 from dm_env import test_utils
 
 from mjasc import suite
+from mjasc.perception.range_sensor import RangeSensor
 from mjasc.physics.currents import UniformCurrent
 from mjasc.physics.simulation import Simulation
-from mjasc.suite import otter, otter_team
-from mjasc.perception.range_sensor import RangeSensor
-from mjasc.suite.common import VesselPhysics
 from mjasc.physics.world import WALL_THICKNESS_M
+from mjasc.suite import otter, otter_team
+from mjasc.suite.common import VesselPhysics
 
 ALL = [pytest.param(d, t, id=f"{d}-{t}") for d, t in suite.ALL_TASKS]
 SHORT = {"time_limit": 3.0}

@@ -17,7 +17,6 @@ from scipy.optimize import brentq
 
 from mjasc.physics.trials import DEFAULT_COMMANDS, TRIAL_KINDS, run_trial
 from mjasc.physics.vessels import load_vessel_type
-
 from tests.helpers import make_sim
 
 REPO = Path(__file__).resolve().parent.parent

@@ -6,7 +6,7 @@ import pytest
 from mjasc.avoidance.prediction import Decision, PredictedConflict
 from mjasc.avoidance.velocity_correction import VelocityCorrection, simulate_speed_tracking
 
-# Thesis §6.3 (digest §5): the prediction module's output, Ts = 1 s, k = 2.
+# Thesis §6.3 (docs/thesis.md §5): the prediction module's output, Ts = 1 s, k = 2.
 GAMMA_A, GAMMA_B = 340.3, 389.0
 T_I, T_F = 167.0, 198.0
 K = 2.0

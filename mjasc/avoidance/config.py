@@ -24,7 +24,7 @@ _PREDICTION_FIELDS = frozenset(f.name for f in dataclasses.fields(CollisionPredi
 
 @dataclass(frozen=True)
 class AvoidanceConfig:
-    """Parameters of one vessel's collision avoidance (digest §3–5; defaults: thesis §6.1 where it
+    """Parameters of one vessel's collision avoidance (docs/thesis.md §3–5; defaults: thesis §6.1 where it
     gives a value). When no action is possible at all, the vessel slows to ``speed_min_m_s`` (an
     emergency yield). A stand-on vessel whose team mate is abaft its beam never slows down (that
     would let the give-way vessel, coming from behind, run into it; COLREG rule 13): at the last
@@ -35,7 +35,7 @@ class AvoidanceConfig:
         default_factory=CollisionPredictionConfig, flatten=True,
         doc="collision prediction (window_s, brake_decel_m_s2, margin_s, safety_distance_m, "
             "obstruction_threshold_s, time_step_s, max_range_m, ...), read from the same table")
-    # velocity correction (digest §5)
+    # velocity correction (docs/thesis.md §5)
     gain_k: float = param(0.3, positive=True, unit="1/s", doc="virtual-target gain k of the speed law")
     speed_min_m_s: float = param(0.2, nonneg=True, unit="m/s", doc="slowest commanded speed (steerage way)")
     speed_max_m_s: float | None = param(None, positive=True, unit="m/s",
@@ -43,7 +43,7 @@ class AvoidanceConfig:
     correction_margin_m: float = param(2.0, nonneg=True, unit="m",
                                        doc="the virtual target's goal is γ_A − margin (yield) or γ_B + margin (pass)")
     allow_pass_first: bool = param(True, doc="speed up and pass first when yielding is impossible")
-    # re-planning (digest §4)
+    # re-planning (docs/thesis.md §4)
     safety_ratio: float = param(0.5, nonneg=True, maximum=1.0, doc="r of the robust rule V_j = r·a_max·L_j")
     sink_strength: float | None = param(None, positive=True, unit="m²/s",
                                         doc="λ_g of the goal's sink; unset: max(30, 2 U (width + 10 m))")

@@ -1,4 +1,4 @@
-"""The velocity-correction choice of the decision σ (digest §3, §5): yield, pass first, or neither.
+"""The velocity-correction choice of the decision σ (docs/thesis.md §3, §5): yield, pass first, or neither.
 
 For a conflict σ calls a velocity correction for, the vessel yields when it can — the virtual
 target's goal (γ_A − margin, t_f) holds it out of the obstructed stretch until the obstacle has

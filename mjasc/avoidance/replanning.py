@@ -1,4 +1,4 @@
-"""Re-planning (digest §4): a detour along a streamline of the harmonic potential field.
+"""Re-planning (docs/thesis.md §4): a detour along a streamline of the harmonic potential field.
 
 When a conflict calls for re-planning (σ = REPLAN: a long obstruction, a static obstacle, or a
 velocity correction that cannot clear a track), :func:`plan_detour` builds a
@@ -22,8 +22,14 @@ from mjasc.avoidance.prediction import swept_disc_polygon
 from mjasc.avoidance.static_conflicts import StaticConflict
 from mjasc.avoidance.team_mates import PlannedTrack
 from mjasc.core.estimates import TrackEstimate
-from mjasc.core.geometry import (clean_polygon, convex_hull, disc_hull, distance_to_polygon, inflate_polygon,
-                                 point_in_polygon)
+from mjasc.core.geometry import (
+    clean_polygon,
+    convex_hull,
+    disc_hull,
+    distance_to_polygon,
+    inflate_polygon,
+    point_in_polygon,
+)
 from mjasc.guidance.paths import Path
 
 __all__ = ["Detour", "swept_area", "merge_overlapping", "plan_detour"]

@@ -1,4 +1,4 @@
-"""Right of way: which vessel of a conflicting pair corrects its speed (digest §5, thesis §4.2).
+"""Right of way: which vessel of a conflicting pair corrects its speed (docs/thesis.md §5, thesis §4.2).
 
 A vessel always yields (slows down) to a dynamic obstacle that is not a team mate. Between team
 mates the rule is COLREG rule 15's: the vessel that has the other on its **starboard** side gives

@@ -3,7 +3,7 @@
 Static objects are not predicted in time: the stretch of the vessel's current path, within the
 distance it covers in the prediction window, that passes closer than R_vh + safety distance to a
 static polygon is an obstruction, and a static obstruction is always resolved by re-planning
-(digest §3–4: σ = REPLAN for anything that does not move). World frame ENU, SI units.
+(docs/thesis.md §3–4: σ = REPLAN for anything that does not move). World frame ENU, SI units.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """One vessel's collision avoidance system: prediction → decision → manoeuvre → mission again.
 
-Digest §1, §3–5 (thesis ch. 3–4). The vessel runs in one of two modes with a strict hierarchy:
+docs/thesis.md §1, §3–5 (thesis ch. 3–4). The vessel runs in one of two modes with a strict hierarchy:
 **mission** (path following at the mission speed, possibly corrected by coordination) and
 **collision avoidance**, which overrides the mission. Avoidance has three actions, shown in the
 mode string (:data:`~mjasc.avoidance.request.MODES`)::
@@ -31,7 +31,7 @@ fresh (:mod:`~mjasc.avoidance.team_mates`). Decision σ (thesis eq. 3.17) per co
 - REPLAN (long obstruction, or a static obstacle): a detour along a potential-field streamline
   (:mod:`~mjasc.avoidance.replanning`), spliced in front of the rest of the mission path; at its
   end the vessel is switched back to the mission path at the matching γ.
-- VELOCITY_CORRECTION: right of way (digest §5): always yield to a non-team obstacle; between
+- VELOCITY_CORRECTION: right of way (docs/thesis.md §5): always yield to a non-team obstacle; between
   team mates :func:`~mjasc.avoidance.right_of_way.gives_way` decides and the stand-on vessel keeps
   its speed. Yielding that is impossible becomes passing first when feasible
   (:mod:`~mjasc.avoidance.decision`), else a re-plan around the swept area.

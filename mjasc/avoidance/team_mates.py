@@ -1,6 +1,6 @@
 """Team mates as collision avoidance sees them: predicted from their own broadcasts.
 
-The team exchanges its navigation and plans over the link (digest §6;
+The team exchanges its navigation and plans over the link (docs/thesis.md §6;
 :class:`~mjasc.cooperation.messages.TeamPicture`). A track matched to a team mate with a fresh
 message (at most ``team_broadcast_max_age_s`` old) is replaced by that team mate's intention: its
 plan — the path it follows, a detour included, at its planned speed (:class:`PlannedTrack`) — or,

@@ -38,8 +38,8 @@ from typing import Any, Callable
 
 import numpy as np
 
-from mjasc.core.config_tables import integer
 from mjasc.campaigns.perturbation import Campaign, Randomization, draw_perturbations, randomized_scenario
+from mjasc.core.config_tables import integer
 from mjasc.runs.scenario import Scenario
 
 __all__ = ["CampaignResult", "run_campaign", "run_one", "wilson_interval", "aggregate_rows",

@@ -42,16 +42,28 @@ Only :func:`dataclasses.replace` is used on the scenario's dataclasses (no edits
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
-from mjasc.core.resources import resolve_bundled
-from mjasc.core.config_tables import (boolean, check_keys, check_params, dataclass_from_table, param, errors_as, integer, load_toml, number, show,
-                            string, table)
-from mjasc.physics.currents import SumCurrent, UniformCurrent, current_from_config
+from mjasc.core.config_tables import (
+    boolean,
+    check_keys,
+    check_params,
+    dataclass_from_table,
+    errors_as,
+    integer,
+    load_toml,
+    number,
+    param,
+    show,
+    string,
+    table,
+)
 from mjasc.core.frames import wrap_angle
+from mjasc.core.resources import resolve_bundled
+from mjasc.physics.currents import SumCurrent, UniformCurrent, current_from_config
 from mjasc.runs.scenario import Scenario, ScenarioError, load_scenario
 
 __all__ = ["CampaignError", "Randomization", "Campaign", "RunDraws", "load_campaign", "parse_campaign",

@@ -1,7 +1,7 @@
 """The team's communication link: a broadcast medium with distance-dependent delay and loss.
 
 The thesis's environment block adds "distance-dependent transmission delays and losses" to the
-messages the agents exchange (digest §1); the coordination controller (``coordination.py``) sends
+messages the agents exchange (docs/thesis.md §1); the coordination controller (``coordination.py``) sends
 its path parameter over this link. Every message a vessel sends is broadcast to every other team
 member; each (message, receiver) pair is decided independently:
 

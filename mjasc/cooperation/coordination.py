@@ -1,8 +1,8 @@
 """Coordination controller for cooperative path following: γ consensus over a lossy, delayed link.
 
-Each vessel i follows its own mission path of length L_i (digest §1, "cooperative path following":
+Each vessel i follows its own mission path of length L_i (docs/thesis.md §1, "cooperative path following":
 paths parameterized so that equal path parameters mean "in formation"); thesis §6.4 runs three
-ASCs in line formation on an L-shaped path exchanging path parameters over comms (digest §6).
+ASCs in line formation on an L-shaped path exchanging path parameters over comms (docs/thesis.md §6).
 The coordination state is the *normalized* path parameter
 
     ξ_i = (γ_i − o_i) / L_i          γ_i progress along the mission path [m], o_i formation offset [m]

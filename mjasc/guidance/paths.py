@@ -1,6 +1,6 @@
 """Arc-length parameterized planar paths: lines and circular arcs joined end to end.
 
-A :class:`Path` is the geometric object every vessel follows (digest §1: "each vessel follows its
+A :class:`Path` is the geometric object every vessel follows (docs/thesis.md §1: "each vessel follows its
 own path, parameterized so that equal path parameters mean in formation"). World frame ENU,
 metres; the path parameter γ is the arc length from the start of the path [m]; the tangent angle
 (course of the path) is CCW from east [rad], wrapped to (−π, π]; curvature is signed, CCW (left

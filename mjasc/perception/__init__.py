@@ -1,4 +1,4 @@
-"""Perception: one vessel's view of the world from its own range sensor (thesis §3.2.1, digest §2;
+"""Perception: one vessel's view of the world from its own range sensor (thesis §3.2.1, docs/thesis.md §2;
 docs/perception.md).
 
 * :mod:`~mjasc.perception.range_sensor` — MuJoCo ray-cast fan (``mj_multiRay``), noise, dropout,

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from mjasc.core.geometry import distance_to_polygon, point_in_polygon
-from mjasc.physics.obstacles import CircleObstacle, PolygonObstacle
+from mjasc.physics.obstacles import PolygonObstacle
 
 __all__ = ["RunMetrics"]
 

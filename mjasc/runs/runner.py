@@ -27,16 +27,16 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 
-from mjasc.core.navigation import FleetNavigation
-from mjasc.runs.agent import build_agent
 from mjasc.core.geometry import hull_outline
+from mjasc.core.navigation import FleetNavigation
+from mjasc.physics.simulation import PhysicsDivergence, Simulation
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.physics.world import build_world
+from mjasc.runs.agent import build_agent
 from mjasc.runs.recording import Recorder, default_blueprint, vessel_colour
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
 from mjasc.runs.tick import ONBOARD_SLOTS, SlotEvent, run_onboard_slot
-from mjasc.physics.simulation import PhysicsDivergence, Simulation
-from mjasc.physics.vessels import load_vessel_type
-from mjasc.physics.world import build_world
 
 __all__ = ["Runner", "RunFailed", "RunResult", "run_scenario"]
 

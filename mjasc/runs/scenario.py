@@ -17,7 +17,6 @@ from typing import Any
 
 import numpy as np
 
-from mjasc.core.resources import resolve_bundled
 from mjasc.core.config_tables import (
     ConfigError,
     check_keys,
@@ -33,10 +32,11 @@ from mjasc.core.config_tables import (
     string,
     table,
 )
-from mjasc.physics.currents import CurrentField, UniformCurrent, current_from_config
-from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
+from mjasc.core.resources import resolve_bundled
 from mjasc.guidance.path_following import PathFollowingConfig
 from mjasc.guidance.paths import Path
+from mjasc.physics.currents import CurrentField, UniformCurrent, current_from_config
+from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
 from mjasc.physics.vessels import available_vessels, load_vessel_type
 
 __all__ = ["ScenarioError", "Scenario", "VesselConfig", "Rates", "Outputs", "load_scenario", "parse_scenario"]

@@ -29,17 +29,17 @@ import time
 
 import numpy as np
 
-from mjasc.core.navigation import OwnNavigation
-from mjasc.runs.agent import VesselAgent, build_agent
-from mjasc.runs.schedule import Schedule
-from mjasc.runs.tick import run_onboard_slot
 from mjasc.avoidance.config import AvoidanceConfig
 from mjasc.avoidance.prediction import CollisionPredictionConfig
 from mjasc.core.config_tables import number
+from mjasc.core.navigation import OwnNavigation
 from mjasc.guidance.path_following import PathFollower
 from mjasc.guidance.paths import Path
-from mjasc.runs.scenario import VesselConfig
 from mjasc.perception.tracking import TrackingConfig
+from mjasc.runs.agent import VesselAgent, build_agent
+from mjasc.runs.scenario import VesselConfig
+from mjasc.runs.schedule import Schedule
+from mjasc.runs.tick import run_onboard_slot
 from mjasc.suite import ALL_TASKS, BENCHMARKING, load
 from mjasc.suite.otter import CollisionAvoidance, PathFollowing, StationKeeping
 from mjasc.suite.otter_team import Formation

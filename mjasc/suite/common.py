@@ -22,13 +22,13 @@ from pathlib import Path
 import mujoco
 import numpy as np
 from dm_control import mjcf
-from dm_env import specs
 from dm_control.rl import control
+from dm_env import specs
 
-from mjasc.physics.currents import CurrentField, UniformCurrent
 from mjasc.core.frames import wrap_angle
-from mjasc.physics.obstacles import PolygonObstacle
 from mjasc.perception.range_sensor import RangeSensor, SensorConfig, sensor_for_vessel
+from mjasc.physics.currents import CurrentField, UniformCurrent
+from mjasc.physics.obstacles import PolygonObstacle
 from mjasc.physics.simulation import Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import World, build_world

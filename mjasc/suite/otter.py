@@ -27,13 +27,21 @@ from dm_control.suite import base
 from dm_control.utils import containers, rewards
 from dm_env import specs
 
-from mjasc.physics.currents import GaussMarkovCurrent, UniformCurrent
 from mjasc.core.frames import wrap_angle
-from mjasc.physics.obstacles import MovingObstacle
 from mjasc.guidance.paths import Path
-from mjasc.physics.vessels import load_vessel_type
 from mjasc.perception.range_sensor import RangeSensor, SensorConfig
-from mjasc.suite.common import CONTROL_TIMESTEP_S, Environment, VesselPhysics, basin_walls, compose_world, range_sensor, world_to_body
+from mjasc.physics.currents import GaussMarkovCurrent, UniformCurrent
+from mjasc.physics.obstacles import MovingObstacle
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.suite.common import (
+    CONTROL_TIMESTEP_S,
+    Environment,
+    VesselPhysics,
+    basin_walls,
+    compose_world,
+    range_sensor,
+    world_to_body,
+)
 
 __all__ = ["SUITE", "Difficulty", "EASY", "HARD", "OWN_STATE_OBSERVATIONS", "PathFollowing", "StationKeeping",
            "CollisionAvoidance", "get_model_and_assets", "make_environment"]

@@ -29,7 +29,16 @@ from dm_control.utils import containers, rewards
 
 from mjasc.guidance.paths import ArcSegment, LineSegment, Path
 from mjasc.suite.common import CONTROL_TIMESTEP_S, Environment, VesselPhysics, compose_world, world_to_body
-from mjasc.suite.otter import EASY, HARD, OWN_STATE_OBSERVATIONS, XML_PATH, Difficulty, _random_current, _vec, _VesselTask
+from mjasc.suite.otter import (
+    EASY,
+    HARD,
+    OWN_STATE_OBSERVATIONS,
+    XML_PATH,
+    Difficulty,
+    _random_current,
+    _vec,
+    _VesselTask,
+)
 
 __all__ = ["SUITE", "Formation", "SLOTS_M", "agent_observation", "joint_policy", "make_environment"]
 

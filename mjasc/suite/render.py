@@ -26,11 +26,11 @@ import rerun as rr
 
 from mjasc.core.geometry import circle_polygon
 from mjasc.runs.recording import Recorder, vessel_colour
+from mjasc.runs.video import VideoWriter
 from mjasc.suite import load
 from mjasc.suite.baselines import make_policy
 from mjasc.suite.otter import CollisionAvoidance, PathFollowing, StationKeeping
 from mjasc.suite.otter_team import Formation
-from mjasc.runs.video import VideoWriter
 
 __all__ = ["EpisodeRender", "render_episode"]
 

@@ -1,5 +1,5 @@
 """Path re-planning on a harmonic potential field built with source panels (thesis §4.1, App. A;
-digest §4).
+docs/thesis.md §4).
 
 A vessel re-plans by following a streamline of a flow made of a uniform flow, a sink at its goal
 and source panels on the (inflated) obstacle polygons; the robust rule V_j = r·a_max·L_j keeps

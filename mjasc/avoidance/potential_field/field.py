@@ -1,23 +1,23 @@
 """The harmonic potential field of one vessel: uniform flow + goal sink + obstacle source panels
-(thesis §4.1, App. A; digest §4).
+(thesis §4.1, App. A; docs/thesis.md §4).
 
 The field is written as a flow velocity **u** (world frame ENU, m/s-like units; only its
 direction is used by the path) that the vessel follows along a streamline
 (:mod:`mjasc.avoidance.potential_field.streamlines`):
 
 - uniform flow of speed U in direction α: ``u = U (cos α, sin α)``; α points from the start to
-  the goal by default (digest §4; the thesis's eq. 4.23 prints the slope instead of the angle);
+  the goal by default (docs/thesis.md §4; the thesis's eq. 4.23 prints the slope instead of the angle);
 - goal sink of strength λ_g > 0 at g: ``u = −λ_g/(2π) · (p − g)/‖p − g‖²``;
 - straight source panels j (length L_j, uniform density λ_j per unit length):
   ``u = λ_j/(2π) ∫_j (p − q)/‖p − q‖² dl_q`` (closed form: :mod:`mjasc.avoidance.potential_field.panels`).
 
-Boundary condition (digest §4, thesis eqs. 4.10–4.19): the outward normal velocity at each
+Boundary condition (docs/thesis.md §4, thesis eqs. 4.10–4.19): the outward normal velocity at each
 control point c_i (panel centre) equals the chosen V_i ≥ 0:
 
     P λ = V + b,   P_ii = 1/2,   P_ij = I_ij/(2π) = n_i · ∫_j (c_i − q)/‖c_i − q‖² dl_q /(2π),
     b_i = −U n_i·(cos α, sin α) + λ_g/(2π) · n_i·(c_i − g)/‖c_i − g‖².
 
-Robust field (digest §4, thesis §4.1.4, eqs. 4.26–4.33): V_j = a·L_j gives a net obstacle strength
+Robust field (docs/thesis.md §4, thesis §4.1.4, eqs. 4.26–4.33): V_j = a·L_j gives a net obstacle strength
 λ_ob = Σ λ_i L_i = a·Lᵀ J L + Lᵀ J b (J = P⁻¹), which must stay below the sink λ_g, so
 a < a_max = (λ_g − Lᵀ J b)/(Lᵀ J L); the safety ratio r = a/a_max ∈ [0, 1] trades path length
 for clearance.
@@ -26,7 +26,7 @@ Polygons: obstacles are (k, 2) vertex arrays. They are cleaned (repeated vertice
 edges dropped, collinear vertices merged, clockwise input reversed to counter-clockwise — so
 panels are numbered counter-clockwise, unlike the thesis's clockwise numbering;
 :func:`mjasc.core.geometry.clean_polygon`), then inflated by ``inflation`` metres (half the beam
-plus the safety distance, digest §4 "structural local minima") with a miter offset, bevelled
+plus the safety distance, docs/thesis.md §4 "structural local minima") with a miter offset, bevelled
 tangentially to the clearance circle where a convex corner turns by more than 90° (so every point
 of the original polygon is at least ``inflation`` inside the inflated one;
 :func:`mjasc.core.geometry.inflate_polygon`). Each edge of the inflated polygon becomes
@@ -125,7 +125,7 @@ class PotentialField:
             raise ValueError(f"sink_strength must be finite and > 0, got {sink_strength}")
         self.inflation = float(inflation)
 
-        # Uniform-flow direction α (digest §4: an angle, not the thesis's slope).
+        # Uniform-flow direction α (docs/thesis.md §4: an angle, not the thesis's slope).
         if uniform_direction is None:
             if self.goal is None or self.start is None:
                 raise ValueError(
@@ -365,7 +365,7 @@ class PotentialField:
         max_length: float | None = None,
         goal_tolerance: float | None = None,
     ) -> Streamline:
-        """Trace the path ṗ = u(p)/‖u(p)‖ (arc-length parametrization, digest §4) from
+        """Trace the path ṗ = u(p)/‖u(p)‖ (arc-length parametrization, docs/thesis.md §4) from
         ``start`` (default: the field's start) with RK4.
 
         The arc-length step is at most ``step`` [m] and shrinks to half the distance to the

@@ -1,5 +1,5 @@
 """Source panels on polygon edges and the velocity they induce (thesis §4.1, eqs. 4.3–4.4, App. A;
-digest §4). World frame ENU, metres; velocities in m/s-like units (only their direction is used).
+docs/thesis.md §4). World frame ENU, metres; velocities in m/s-like units (only their direction is used).
 
 A straight source panel j (length L_j, uniform density λ_j per unit length) induces
 

@@ -1,6 +1,6 @@
-"""Streamlines of the harmonic potential field: the re-planned path (thesis §4.1; digest §4).
+"""Streamlines of the harmonic potential field: the re-planned path (thesis §4.1; docs/thesis.md §4).
 
-The path follows the flow direction, ṗ = u(p)/‖u(p)‖ (arc-length parametrization, digest §4),
+The path follows the flow direction, ṗ = u(p)/‖u(p)‖ (arc-length parametrization, docs/thesis.md §4),
 traced with RK4 from the start, many starts at once (vectorized over the starts). World frame ENU,
 metres.
 

@@ -1,4 +1,4 @@
-"""Parameters of collision prediction (digest §3; defaults thesis §6.1), each declared once.
+"""Parameters of collision prediction (docs/thesis.md §3; defaults thesis §6.1), each declared once.
 
 The fields are read from a vessel's ``[vessels.avoidance]`` table (the avoidance config nests this
 one, flattened). ``window_s = "dynamic"`` in a table selects the dynamic window δ = v₀/a_brake + ζ

@@ -1,5 +1,5 @@
 """Collision prediction proper: temporal and spatial correlation of a vessel's plan with its tracks,
-and the decision σ (digest §3, steps 2–4; thesis §3.2.2, eqs. 3.16–3.17). World frame ENU, SI
+and the decision σ (docs/thesis.md §3, steps 2–4; thesis §3.2.2, eqs. 3.16–3.17). World frame ENU, SI
 units, absolute simulation times [s].
 
 - **Temporal correlation.** d(t) = ‖P_v(t) − P_o(t)‖ on the window's time grid (P_v from the

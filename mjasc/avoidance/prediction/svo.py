@@ -1,5 +1,5 @@
 """Static virtual obstacles (SVO): the polygons collision prediction hands to the re-planner
-(digest §3, step 4; thesis §3.2.2, eq. 3.17). World frame ENU, metres, absolute times [s].
+(docs/thesis.md §3, step 4; thesis §3.2.2, eq. 3.17). World frame ENU, metres, absolute times [s].
 
 When σ(Δt_o) decides REPLAN, the obstruction becomes a static obstacle for the potential field:
 the area swept by the obstacle's inflated disc (radius R_ob + R_vh + safety) over the obstruction
@@ -59,7 +59,7 @@ def swept_disc_polygon(track: TrackEstimate, t_a: float, t_b: float, radius_m: f
 
 def svo_polygon(track: TrackEstimate, t_i: float, t_f: float, r_col: float, inflate_m: float, static: bool,
                 n_vertices: int) -> np.ndarray:
-    """The static virtual obstacle handed to the re-planner (digest §3), a CCW polygon (k, 2):
+    """The static virtual obstacle handed to the re-planner (docs/thesis.md §3), a CCW polygon (k, 2):
 
     - a static track with an outline: the hull of its outline grown by ``inflate_m`` [m]
       (R_vh + safety; the hull of 16-gons around the outline's vertices);

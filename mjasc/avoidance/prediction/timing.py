@@ -1,5 +1,5 @@
 """The time side of collision prediction: the window δ and the vessel's plan in time, γ(t)
-(digest §3, step 1 and the P_v(t) of step 2; thesis §3.2.2). Absolute simulation times [s], arc
+(docs/thesis.md §3, step 1 and the P_v(t) of step 2; thesis §3.2.2). Absolute simulation times [s], arc
 length γ [m] along the vessel's path.
 
 - **Time window** W = [t₀, t₀ + δ], δ = v₀/a_brake + ζ (time to stop at the current speed plus a
@@ -24,7 +24,7 @@ def prediction_window(
     speed_m_s: float, brake_decel_m_s2: float, margin_s: float, fixed_s: float | None = None
 ) -> float:
     """Length δ [s] of the prediction window: ``fixed_s`` if given, else δ = v₀/a_brake + ζ
-    (time to stop at the current speed plus a margin; digest §3)."""
+    (time to stop at the current speed plus a margin; docs/thesis.md §3)."""
     if fixed_s is not None:
         fixed_s = float(fixed_s)
         if not np.isfinite(fixed_s) or fixed_s <= 0.0:

@@ -1,10 +1,10 @@
-"""Interacting Multiple Model (IMM) tracking of obstacles (thesis §3.2.1, digest §2).
+"""Interacting Multiple Model (IMM) tracking of obstacles (thesis §3.2.1, docs/thesis.md §2).
 
 State of a tracked object ``s = [x, y, θ, V]``: world-frame ENU position [m], course over ground
 θ (CCW from east) [rad], speed over ground V ≥ 0 [m/s]. r constant-turn models (fixed turn rates
 ω_j, thesis eq. 3.3), each an EKF on the position measurement ``z = [x, y] + v``, ``R = σ²·I₂``,
-mixed by a Markov chain; the IMM cycle of digest §2 (steps 1–6), with the Gaussian likelihood in
-the measurement dimension 2 (thesis eq. 3.10 is wrong, see digest §2).
+mixed by a Markov chain; the IMM cycle of docs/thesis.md §2 (steps 1–6), with the Gaussian likelihood in
+the measurement dimension 2 (thesis eq. 3.10 is wrong, see docs/thesis.md §2).
 
 Choices beyond the thesis (all parameters of :class:`IMMConfig`): a variable sample time (the
 Markov matrix raised to Ts/T_ref), coasting, re-parametrized negative speeds, a start-up

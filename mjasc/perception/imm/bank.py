@@ -1,4 +1,4 @@
-"""IMMBank: the IMM trackers of many targets updated in one call (thesis §3.2.1, digest §2) — the
+"""IMMBank: the IMM trackers of many targets updated in one call (thesis §3.2.1, docs/thesis.md §2) — the
 track list, the time handling, coasting, gating, restarts and the start-up rows; the cycle's
 arithmetic is :mod:`mjasc.perception.imm.kernel`.
 

@@ -1,11 +1,11 @@
 """The IMM cycle on stacked numpy arrays: mixing, the per-model EKF of the constant-turn model,
-the mode probabilities and the combination (thesis §3.2.1, eq. 3.3; digest §2, steps 1–6).
+the mode probabilities and the combination (thesis §3.2.1, eq. 3.3; docs/thesis.md §2, steps 1–6).
 
 State of a tracked object ``s = [x, y, θ, V]``: world-frame ENU position [m], course over ground
 θ (CCW from east) [rad], speed over ground V ≥ 0 [m/s].
 
 Model j of r has a fixed turn rate ω_j; its discrete process with sample time Ts (here the time
-since the previous cycle, which may vary) is thesis eq. 3.3 / digest §2::
+since the previous cycle, which may vary) is thesis eq. 3.3 / docs/thesis.md §2::
 
     x⁺ = x + Ts·V·cos θ
     y⁺ = y + Ts·V·sin θ
@@ -16,13 +16,13 @@ Each model is an EKF with the transition Jacobian
 ``[[1,0,−Ts V sinθ, Ts cosθ],[0,1,Ts V cosθ, Ts sinθ],[0,0,1,0],[0,0,0,1]]`` evaluated at the mixed
 estimate, and the linear measurement ``z = [x, y] + v``, ``v ~ N(0, R)``, ``R = σ²·I₂``.
 
-One IMM cycle (Bar-Shalom, Li & Kirubarajan 2001; digest §2, steps 1–6):
+One IMM cycle (Bar-Shalom, Li & Kirubarajan 2001; docs/thesis.md §2, steps 1–6):
 
 1. ``c̄_j = Σ_i p_ij μ_i``, ``μ_{i|j} = p_ij μ_i / c̄_j``;
 2. ``s0_j = Σ_i μ_{i|j} s_i``, ``P0_j = Σ_i μ_{i|j} [P_i + (s_i − s0_j)(s_i − s0_j)ᵀ]``;
 3. per-model EKF predict and update from ``(s0_j, P0_j)``: innovation ``r_j``, covariance ``S_j``;
 4. ``L_j = exp(−½ r_jᵀ S_j⁻¹ r_j) / √det(2π S_j)`` — the Gaussian density with the measurement
-   dimension 2 (thesis eq. 3.10 is wrong, see digest §2); evaluated in the log domain (the common
+   dimension 2 (thesis eq. 3.10 is wrong, see docs/thesis.md §2); evaluated in the log domain (the common
    factor 1/(2π) cancels in step 5);
 5. ``μ_j ∝ L_j c̄_j``, then floored at the minimum probability and renormalized;
 6. ``s = Σ_j μ_j s_j``, ``P = Σ_j μ_j [P_j + (s_j − s)(s_j − s)ᵀ]`` and ``ω̂ = Σ_j μ_j ω_j``.
@@ -134,7 +134,7 @@ class PositionUpdate:
 
 
 class IMMCycle:
-    """Buffers and steps of one IMM cycle of ``lead`` tracks × r models (digest §2 steps 1–5).
+    """Buffers and steps of one IMM cycle of ``lead`` tracks × r models (docs/thesis.md §2 steps 1–5).
 
     The posterior goes to one of two buffer sets ``sides[k] = (s, P, μ)``: a bank whose state is
     one side is updated into the other, so the inputs of a cycle are never overwritten by it.
@@ -272,12 +272,12 @@ def flip_negative_speeds(su, Pu, th_before):
 
 
 def combine_state(s, mu):
-    """Digest §2 step 6, state: s = Σ_j μ_j s_j (n, 4), θ in the track's chart (wrap to read)."""
+    """docs/thesis.md §2 step 6, state: s = Σ_j μ_j s_j (n, 4), θ in the track's chart (wrap to read)."""
     return (mu[:, None, :] @ s)[:, 0, :]
 
 
 def combine_covariance(s, P, mu):
-    """Digest §2 step 6, covariance: P = Σ_j μ_j [P_j + (s_j − s)(s_j − s)ᵀ] (n, 4, 4)."""
+    """docs/thesis.md §2 step 6, covariance: P = Σ_j μ_j [P_j + (s_j − s)(s_j − s)ᵀ] (n, 4, 4)."""
     n, r = mu.shape
     mrow = mu[:, None, :]
     dev = s - mrow @ s  # θ deviations in the track's common chart

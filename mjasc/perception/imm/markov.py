@@ -1,5 +1,5 @@
 """Markov switching between the IMM's models over a variable sample time, and the other constants
-of one cycle of sample time Ts (digest §2, step 1; :mod:`mjasc.perception.imm`).
+of one cycle of sample time Ts (docs/thesis.md §2, step 1; :mod:`mjasc.perception.imm`).
 
 The Markov matrix ``p`` (:meth:`IMMConfig.markov_matrix_array`) is given per
 ``markov_reference_dt_s`` (T_ref, 1 s: the thesis's Ts); a cycle of Ts uses

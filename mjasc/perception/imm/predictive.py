@@ -1,6 +1,6 @@
 """The IMM's predictive measurement density, for data association: per track a Gaussian mixture
 over its models, ``p(z) = Σ_j c̄_j N(z; ẑ_j, S_j)`` (c̄_j the predicted mode probabilities of
-digest §2 step 1, ẑ_j and S_j = H P_j Hᵀ + R the model's predicted position [m] and its
+docs/thesis.md §2 step 1, ẑ_j and S_j = H P_j Hᵀ + R the model's predicted position [m] and its
 covariance [m²], world ENU).
 
 The bank (:meth:`mjasc.perception.imm.bank.IMMBank.predictive_models`) gives ``zj`` (n, k, 2),

@@ -1,4 +1,4 @@
-"""IMMTracker: the IMM tracker of one target behind a scalar API (thesis §3.2.1, digest §2) — a
+"""IMMTracker: the IMM tracker of one target behind a scalar API (thesis §3.2.1, docs/thesis.md §2) — a
 one-track :class:`mjasc.perception.imm.bank.IMMBank`, read only through the bank's public methods.
 
 For tests, benchmarks and single-target use; the multi-target tracker

@@ -1,4 +1,4 @@
-"""Multi-target tracking for one vessel: detections → IMM tracks (thesis §3.2.1, digest §2).
+"""Multi-target tracking for one vessel: detections → IMM tracks (thesis §3.2.1, docs/thesis.md §2).
 
 Every track of a vessel lives in one batched :class:`mjasc.perception.imm.IMMBank` (all tracks predicted
 and updated in one call). One :meth:`MultiTargetTracker.step` per scan:

@@ -14,7 +14,6 @@ about midships; only the side facing the sensor is ever seen at once); without r
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from mjasc.core.geometry import circle_polygon, convex_hull

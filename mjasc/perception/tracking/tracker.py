@@ -1,6 +1,6 @@
 """MultiTargetTracker: the tracks of one vessel, one :meth:`~MultiTargetTracker.step` per scan —
 association, the batched IMM update, track management, outlines and team mates (thesis §3.2.1,
-digest §2; :mod:`mjasc.perception.tracking` for the whole procedure).
+docs/thesis.md §2; :mod:`mjasc.perception.tracking` for the whole procedure).
 
 Every track of a vessel lives in one batched :class:`mjasc.perception.imm.IMMBank` (all tracks
 predicted and updated in one call). One step:

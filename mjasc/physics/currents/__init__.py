@@ -2,7 +2,7 @@
 
 The hydrodynamics evaluates the current at every vessel's position at every physics step and
 forms the relative velocity ``ν_r = ν − ν_c`` (docs/architecture.md; the thesis's environment
-"adds water current", digest §1). Every field maps world-frame points ``(n, 2)`` [m] (ENU: x east,
+"adds water current", docs/thesis.md §1). Every field maps world-frame points ``(n, 2)`` [m] (ENU: x east,
 y north) and a simulation time ``t_s`` [s] to world-frame current velocities ``(n, 2)`` [m/s], and
 gives the material derivative seen by a body moving over ground with velocity ``ṗ``::
 
