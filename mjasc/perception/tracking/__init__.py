@@ -3,15 +3,10 @@
 Every track of a vessel lives in one batched :class:`mjasc.perception.imm.IMMBank` (all tracks predicted
 and updated in one call). One :meth:`MultiTargetTracker.step` per scan:
 
-1. **Prediction and gating.** Each track's combined estimate predicted to the scan time (one EKF
-   step with ω̂), ẑ_i with covariance J P Jᵀ, plus the detection's own isotropic variance σ_j²:
-   ``S_ij = J_i P_i J_iᵀ + σ_j²·I`` and ``d²_ij = (z_j − ẑ_i)ᵀ S_ij⁻¹ (z_j − ẑ_i)``. A pair is
-   admissible when ``d²_ij ≤ −2 ln(1 − gate_probability)`` (chi-square, 2 dof). (The bank then
-   gates again on its own models when it updates.)
-2. **Global nearest neighbour** association: ``scipy.optimize.linear_sum_assignment`` on the cost
-   ``d²_ij + ln det S_ij`` (−2 log-likelihood up to a constant); inadmissible pairs cost a large
-   constant and are dropped from the solution. Each track takes at most one detection per scan
-   and vice versa.
+1. **Prediction and gating**, 2. **global nearest neighbour** association
+   (:mod:`~mjasc.perception.tracking.association`): each track's combined estimate predicted to
+   the scan time, chi-square gate on the innovation, ``linear_sum_assignment`` on −2 log-likelihood;
+   each track takes at most one detection per scan and vice versa.
 3. **Update** of every track at once: assigned tracks with their detection (and its σ²), the
    others coast (``IMMBank.update(z, t, mask, measurement_variance)``).
 4. **Track management.** A track is born *tentative* from a detection that no track claimed and
