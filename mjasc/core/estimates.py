@@ -6,7 +6,9 @@ prediction: everything a vessel believes about one object around it. World frame
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -58,8 +60,27 @@ class TrackEstimate:
 @dataclass(frozen=True)
 class PerceptionReport:
     """What one vessel's perception hands onward at ``time_s`` [s]: its confirmed tracks and the
-    convex polygons (each (k, 2), world [m]) of the static structures it has mapped."""
+    convex polygons (each (k, 2), world [m]) of the static structures it has mapped (a sequence;
+    the agent hands a :class:`Deferred` one, computed on first use: only a prediction needs them)."""
 
     time_s: float
     tracks: tuple[TrackEstimate, ...] = ()
-    static_polygons: tuple[np.ndarray, ...] = ()
+    static_polygons: Sequence[np.ndarray] = ()
+
+
+class Deferred(Sequence):
+    """A read-only sequence whose items are produced by ``make()`` on first use, then kept."""
+
+    def __init__(self, make: Callable[[], Sequence]):
+        self._make, self._items = make, None
+
+    def _get(self) -> tuple:
+        if self._items is None:
+            self._items, self._make = tuple(self._make()), None
+        return self._items
+
+    def __getitem__(self, k):
+        return self._get()[k]
+
+    def __len__(self) -> int:
+        return len(self._get())

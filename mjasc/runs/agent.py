@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mjasc.core.estimates import PerceptionReport
+from mjasc.core.estimates import Deferred, PerceptionReport
 from mjasc.core.navigation import OwnNavigation
 from mjasc.guidance.path_following import PathFollower, PathFollowingConfig, PathFollowingStatus
 from mjasc.guidance.state import GuidanceState
@@ -103,12 +103,13 @@ class VesselAgent:
 
     def perception_report(self, t_s: float) -> PerceptionReport | None:
         """What the perception reports now (None without perception); rebuilt only after a slot that
-        changed the perception's state (sensing, tracking, comms)."""
+        changed the perception's state (sensing, tracking, comms). The static polygons are computed
+        when a prediction first asks for them."""
         if self.perception is None:
             return None
         if self._report is None:
             self._report = PerceptionReport(float(t_s), tuple(self.perception.tracks()),
-                                            tuple(self.perception.static_polygons()))
+                                            Deferred(self.perception.static_polygons))
         return self._report
 
     def team_picture(self, t_s: float):
