@@ -1,0 +1,139 @@
+"""The evaluation of one run against the truth: every encounter of a vessel with non-team traffic
+(closest approach, near miss, COLREG role and compliance) and every vessel's tracking quality.
+
+:class:`RunEvaluator` is a runner observer of the record slot (``Runner.observe("record", ev)``):
+it samples the true states of the vessels and of the moving obstacles (traffic), and each vessel's
+confirmed tracks, at the record rate. :meth:`RunEvaluator.summary` then evaluates:
+
+* **encounters** — for each (vessel, traffic object) pair that comes within ``encounter_range_m``
+  while closing: the onset (first such time), the closest approach (CPA: the minimum centre distance
+  and its time; the separation = CPA distance − both radii, negative = overlap), whether it was a
+  near miss (separation below ``near_miss_m``), the own vessel's COLREG role at the onset
+  (:func:`mjasc.evaluation.colreg.classify`) and its compliance over [onset, CPA + ``after_cpa_s``]
+  (:func:`mjasc.evaluation.colreg.judge_compliance`);
+* **tracking** — per vessel with perception, GOSPA against the truth objects within its sensor
+  range (the other vessels and the traffic), identity switches, time to confirm
+  (:class:`mjasc.evaluation.tracking_metrics.TrackingScore`).
+
+World frame ENU, SI units.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjasc.core.config_tables import check_params, param
+from mjasc.evaluation.colreg import ColregConfig, classify, judge_compliance
+from mjasc.evaluation.tracking_metrics import TrackingScore
+
+__all__ = ["EvaluationConfig", "RunEvaluator"]
+
+
+@dataclass(frozen=True)
+class EvaluationConfig:
+    """How a run is judged (not seen by the vessels)."""
+
+    encounter_range_m: float = param(60.0, positive=True, unit="m",
+                                     doc="an encounter starts when the traffic comes this close while closing")
+    near_miss_m: float = param(1.0, nonneg=True, unit="m",
+                               doc="a closest approach with less separation (hull circles) is a near miss")
+    after_cpa_s: float = param(10.0, nonneg=True, unit="s", doc="compliance is judged until this long after CPA")
+    gospa_cutoff_m: float = param(10.0, positive=True, unit="m", doc="GOSPA's cut-off c")
+    gospa_order: float = param(2.0, minimum=1.0, doc="GOSPA's order p")
+    colreg: ColregConfig = param(default_factory=ColregConfig, doc="role and compliance thresholds")
+
+    def __post_init__(self):
+        check_params(self, "evaluation")
+
+
+def _course(velocity, heading) -> np.ndarray:
+    """Course over ground [rad] where the speed exceeds 0.1 m/s, else the heading."""
+    v = np.asarray(velocity, dtype=float)
+    speed = np.hypot(v[..., 0], v[..., 1])
+    return np.where(speed > 0.1, np.arctan2(v[..., 1], v[..., 0]), heading)
+
+
+class RunEvaluator:
+    """Runner observer (record slot) that evaluates a run (module docstring)."""
+
+    def __init__(self, runner, config: EvaluationConfig | None = None):
+        self.config = config if config is not None else EvaluationConfig()
+        world = runner.world
+        self.vessel_names = list(world.vessel_names)
+        self.vessel_radii = np.array([t.radius_m for t in world.vessel_types])
+        self.traffic_names = [o.name for o in world.moving_obstacles]
+        self.traffic_radii = np.array([o.radius_m for o in world.moving_obstacles])
+        self._t, self._p, self._h, self._v = [], [], [], []
+        self._tp, self._th, self._tv = [], [], []
+        self._scores: dict[int, TrackingScore] = {}
+        for i, agent in enumerate(runner.agents):
+            if agent.perception is not None:
+                rng = float(getattr(getattr(agent.perception, "sensor_config", None), "max_range_m", math.inf))
+                self._scores[i] = TrackingScore(self.config.gospa_cutoff_m, self.config.gospa_order, rng)
+
+    def __call__(self, event) -> None:
+        s, runner = event.states, event.runner
+        tp, th, tv = runner.sim.traffic_state()
+        self._t.append(s.time_s)
+        self._p.append(s.position_m.copy())
+        self._h.append(s.heading_rad.copy())
+        self._v.append(s.velocity_m_s.copy())
+        self._tp.append(np.array(tp, dtype=float).reshape(-1, 2))
+        self._th.append(np.array(th, dtype=float).reshape(-1))
+        self._tv.append(np.array(tv, dtype=float).reshape(-1, 2))
+        if not self._scores:
+            return
+        ids = self.vessel_names + self.traffic_names
+        xy = np.vstack([s.position_m, self._tp[-1]]) if len(self.traffic_names) else s.position_m
+        radii = np.concatenate([self.vessel_radii, self.traffic_radii])
+        for i, score in self._scores.items():
+            tracks = [tr for tr in runner.agents[i].perception.tracks() if not tr.is_static]
+            others = [k for k in range(len(ids)) if k != i]
+            score.add(s.time_s, s.position_m[i], [ids[k] for k in others], xy[others],
+                      [tr.track_id for tr in tracks],
+                      np.array([tr.position_m for tr in tracks]).reshape(-1, 2), radii[others])
+
+    # ------------------------------------------------------------------ evaluation
+    def encounters(self) -> list[dict]:
+        """One entry per (vessel, traffic object) encounter (module docstring)."""
+        if not self._t or not self.traffic_names:
+            return []
+        cfg = self.config
+        t = np.array(self._t)
+        p, h, v = np.array(self._p), np.array(self._h), np.array(self._v)
+        q, qh, w = np.array(self._tp), np.array(self._th), np.array(self._tv)
+        out = []
+        for i, name in enumerate(self.vessel_names):
+            for j, other in enumerate(self.traffic_names):
+                rel = q[:, j] - p[:, i]
+                rng = np.hypot(rel[:, 0], rel[:, 1])
+                closing = np.sum(rel * (w[:, j] - v[:, i]), axis=1) < 0.0
+                near = np.flatnonzero((rng <= cfg.encounter_range_m) & (closing | (rng <= cfg.encounter_range_m / 2)))
+                if near.size == 0:
+                    continue
+                k0 = int(near[0])
+                k_cpa = k0 + int(np.argmin(rng[k0:]))
+                sep = float(rng[k_cpa] - self.vessel_radii[i] - self.traffic_radii[j])
+                own_course = float(_course(v[k0, i], h[k0, i]))
+                tgt_course = float(_course(w[k0, j], qh[k0, j]))
+                role = classify(p[k0, i], own_course, float(np.hypot(*v[k0, i])), q[k0, j], tgt_course,
+                                float(np.hypot(*w[k0, j])), cfg.colreg)
+                k1 = int(np.searchsorted(t, t[k_cpa] + cfg.after_cpa_s, side="right"))
+                sl = slice(k0, max(k1, k_cpa + 1))
+                judged = judge_compliance(role, t[sl], p[sl, i], h[sl, i], v[sl, i], q[sl, j], w[sl, j], cfg.colreg)
+                out.append({"vessel": name, "other": other, "onset_s": round(float(t[k0]), 3),
+                            "onset_range_m": round(float(rng[k0]), 3), "cpa_time_s": round(float(t[k_cpa]), 3),
+                            "cpa_distance_m": round(float(rng[k_cpa]), 3), "separation_m": round(sep, 3),
+                            "near_miss": sep < cfg.near_miss_m, "collision": sep < 0.0, "role": role,
+                            "compliant": judged.compliant, "compliance_issues": list(judged.reasons),
+                            "acted": judged.acted,
+                            "action_range_m": None if judged.action_range_m is None else round(judged.action_range_m, 3)})
+        return out
+
+    def summary(self) -> dict:
+        """``{"encounters": [...], "tracking": {vessel: {...}}}``."""
+        return {"encounters": self.encounters(),
+                "tracking": {self.vessel_names[i]: s.summary() for i, s in self._scores.items()}}
