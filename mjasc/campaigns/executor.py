@@ -1,0 +1,185 @@
+"""Run campaign runs in a child process, so that a run that crashes its process (a segfault in a
+native library), hangs, or exceeds its time limit costs only itself.
+
+:class:`IsolatedExecutor` keeps one persistent child Python process (``python -m
+mjasc.campaigns.executor``) and hands it one run at a time over a pipe (one JSON line per request
+and per result): the interpreter, MuJoCo and mjasc load once per child, not once per run. When a
+run exceeds its time limit the child is killed (``timeout``); when the child dies (``crashed``, with
+its exit code or signal) the next run starts a new one. Plain ``subprocess`` is used rather than
+``multiprocessing``: Dask's worker processes are daemonic and may not start multiprocessing
+children.
+
+A request is ``{"index", "scenario_toml", "run_dir" (None: no files), "evaluate"}``; the result
+``{"status": completed | diverged | error | timeout | crashed, "error", "summary", "wall_time_s",
+"cpu_time_s", "worker"}``. :func:`execute_in_process` runs one request in the calling process (the
+child's own code path; also what ``workers = 0`` uses when isolation is off).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import select
+import subprocess
+import sys
+import time
+import traceback
+
+__all__ = ["IsolatedExecutor", "execute_in_process", "run_isolated"]
+
+
+def execute_in_process(request: dict) -> dict:
+    """Run one campaign run here: parse its scenario text, run it (recording into ``run_dir`` when
+    given), evaluate it against the truth; never raises for a failed run."""
+    import tomllib
+
+    from mjasc.runs.runner import RunFailed, Runner
+    from mjasc.runs.scenario import parse_scenario
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    out: dict = {"status": "completed", "error": None, "summary": None}
+    try:
+        from dataclasses import replace
+
+        sc = parse_scenario(tomllib.loads(request["scenario_toml"]), f"<run {request.get('index')}>")
+        run_dir = request.get("run_dir")
+        sc = replace(sc, outputs=replace(sc.outputs, recording=run_dir is not None, video=False))
+        runner = Runner(sc, run_dir, progress=False)
+        evaluator = None
+        if request.get("evaluate", True):
+            from mjasc.evaluation.run_evaluation import RunEvaluator
+
+            evaluator = RunEvaluator(runner)
+            runner.observe("record", evaluator)
+        try:
+            out["summary"] = runner.run().summary
+        except RunFailed as exc:
+            out["status"], out["error"] = "diverged", str(exc).split("; partial outputs")[0]
+            out["summary"] = getattr(runner, "last_summary", None)
+        if evaluator is not None and out["summary"] is not None:
+            out["summary"]["evaluation"] = evaluator.summary()
+    except Exception as exc:  # noqa: BLE001 — one failed run must not stop the campaign
+        tb = traceback.extract_tb(exc.__traceback__)
+        where = f" at {tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno}" if tb else ""
+        out["status"], out["error"] = "error", f"{type(exc).__name__}: {exc}{where}"
+    out["wall_time_s"] = round(time.perf_counter() - t0, 3)
+    out["cpu_time_s"] = round(time.process_time() - c0, 3)
+    out["worker"] = f"{os.uname().nodename}:{os.getpid()}"
+    return _plain(out)
+
+
+def _plain(obj):
+    """JSON-ready: numpy scalars → numbers, non-finite floats → None, tuples → lists."""
+    import math
+
+    import numpy as np
+
+    if isinstance(obj, dict):
+        return {str(k): _plain(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_plain(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _plain(obj.tolist())
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+class IsolatedExecutor:
+    """A persistent child process that runs one request at a time (module docstring)."""
+
+    def __init__(self, python: str | None = None):
+        self.python = python or sys.executable
+        self._proc: subprocess.Popen | None = None
+        self._buf = b""
+
+    def _start(self) -> None:
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)  # the same mjasc as the parent
+        self._proc = subprocess.Popen([self.python, "-m", "mjasc.campaigns.executor"], stdin=subprocess.PIPE,
+                                      stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, bufsize=0)
+        self._buf = b""
+
+    def _kill(self) -> None:
+        if self._proc is not None:
+            try:
+                self._proc.kill()
+                self._proc.wait(timeout=10)
+            except Exception:  # noqa: BLE001
+                pass
+        self._proc = None
+
+    def close(self) -> None:
+        if self._proc is not None and self._proc.poll() is None:
+            try:
+                self._proc.stdin.close()
+                self._proc.wait(timeout=5)
+            except Exception:  # noqa: BLE001
+                self._kill()
+        self._proc = None
+
+    def run(self, request: dict, time_limit_s: float | None = None) -> dict:
+        """The result of one request (module docstring); ``time_limit_s`` None: no limit."""
+        t0 = time.perf_counter()
+        if self._proc is None or self._proc.poll() is not None:
+            self._start()
+        proc = self._proc
+        try:
+            proc.stdin.write((json.dumps(request) + "\n").encode())
+        except (BrokenPipeError, OSError):
+            self._kill()
+            return self._failure("crashed", "the run's process could not be started", t0)
+        deadline = None if time_limit_s is None else time.monotonic() + float(time_limit_s)
+        fd = proc.stdout.fileno()
+        while b"\n" not in self._buf:
+            wait = None if deadline is None else max(0.0, deadline - time.monotonic())
+            ready, _, _ = select.select([fd], [], [], wait)
+            if not ready:
+                self._kill()
+                return self._failure("timeout", f"the run exceeded its time limit of {time_limit_s:g} s", t0)
+            chunk = os.read(fd, 1 << 20)
+            if not chunk:
+                code = proc.wait()
+                self._proc = None
+                what = f"signal {-code}" if code < 0 else f"exit code {code}"
+                return self._failure("crashed", f"the run's process died ({what})", t0)
+            self._buf += chunk
+        line, self._buf = self._buf.split(b"\n", 1)
+        return json.loads(line)
+
+    @staticmethod
+    def _failure(status: str, error: str, t0: float) -> dict:
+        return {"status": status, "error": error, "summary": None, "wall_time_s": round(time.perf_counter() - t0, 3),
+                "cpu_time_s": None, "worker": f"{os.uname().nodename}:{os.getpid()}"}
+
+
+_EXECUTOR: IsolatedExecutor | None = None
+
+
+def run_isolated(request: dict, time_limit_s: float | None = None) -> dict:
+    """Run ``request`` in this process's persistent child (created on first use): the Dask task."""
+    global _EXECUTOR
+    if _EXECUTOR is None:
+        _EXECUTOR = IsolatedExecutor()
+    return _EXECUTOR.run(request, time_limit_s)
+
+
+def _serve() -> None:
+    """The child's loop: one JSON request per line on stdin, one JSON result per line on the
+    original stdout (everything else the run prints goes to stderr)."""
+    out = os.fdopen(os.dup(1), "w", buffering=1)
+    os.dup2(2, 1)  # stray prints of libraries must not corrupt the result stream
+    sys.stdout = sys.stderr
+    import mjasc  # noqa: F401  (MUJOCO_GL before mujoco)
+
+    for line in sys.stdin:
+        if not line.strip():
+            continue
+        out.write(json.dumps(execute_in_process(json.loads(line))) + "\n")
+        out.flush()
+
+
+if __name__ == "__main__":
+    _serve()

@@ -1,0 +1,70 @@
+"""Isolated execution of campaign runs: results, a bad scenario, a time limit, a child that dies."""
+
+import os
+import signal
+import threading
+import time
+
+import pytest
+
+from mjasc.campaigns.executor import IsolatedExecutor, execute_in_process
+
+SCENARIO = """
+name = "tiny"
+duration_s = {duration}
+seed = 5
+[outputs]
+recording = false
+[[vessels]]
+name = "a"
+type = "otter"
+position_m = [0.0, 0.0]
+speed_m_s = 1.0
+controller = {{ type = "path_following", waypoints = [[0.0, 0.0], [400.0, 0.0]], speed_m_s = 1.5 }}
+"""
+
+
+def _req(duration=3.0, k=0):
+    return {"index": k, "scenario_toml": SCENARIO.format(duration=duration), "run_dir": None, "evaluate": True}
+
+
+def test_in_process_and_isolated_give_the_same_result():
+    a = execute_in_process(_req())
+    ex = IsolatedExecutor()
+    try:
+        b = ex.run(_req(), time_limit_s=120)
+        c = ex.run(_req(k=1), time_limit_s=120)  # the same child serves the next run
+    finally:
+        ex.close()
+    assert a["status"] == b["status"] == "completed"
+    for key in ("distance_m", "mean_cross_track_m"):
+        assert a["summary"]["vessels"]["a"][key] == b["summary"]["vessels"]["a"][key]
+    assert b["worker"] == c["worker"] and "evaluation" in b["summary"]
+
+
+def test_a_bad_scenario_is_an_error_row_not_an_exception():
+    out = execute_in_process({"index": 3, "scenario_toml": "duration_s = -1\n", "run_dir": None})
+    assert out["status"] == "error" and "duration_s" in out["error"]
+
+
+def test_a_run_over_its_time_limit_is_killed_and_the_next_run_works():
+    ex = IsolatedExecutor()
+    try:
+        slow = ex.run(_req(duration=3000.0), time_limit_s=4.0)
+        assert slow["status"] == "timeout" and "time limit" in slow["error"]
+        assert ex.run(_req(), time_limit_s=120)["status"] == "completed"
+    finally:
+        ex.close()
+
+
+def test_a_dying_child_costs_only_its_run():
+    ex = IsolatedExecutor()
+    try:
+        ex.run(_req(), time_limit_s=120)  # the child is up
+        pid = ex._proc.pid
+        threading.Timer(2.0, lambda: os.kill(pid, signal.SIGKILL)).start()
+        dead = ex.run(_req(duration=3000.0), time_limit_s=120)
+        assert dead["status"] == "crashed" and "signal 9" in dead["error"]
+        assert ex.run(_req(), time_limit_s=120)["status"] == "completed"
+    finally:
+        ex.close()
