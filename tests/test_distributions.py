@@ -72,7 +72,8 @@ def test_bad_laws_name_the_field(value, message):
 
 @pytest.mark.parametrize("given, message", [
     ({"speed_ratio": {"uniform": [0.5, 5.0]}}, r"parameters\.speed_ratio: must be ≤ 4\.0, got 5\.0"),
-    ({"speed_ratio": {"normal": [1.0, 0.2]}}, r"parameters\.speed_ratio: a normal law on a bounded parameter needs clip"),
+    ({"speed_ratio": {"normal": [1.0, 0.2]}},
+     r"parameters\.speed_ratio: a normal law on a bounded parameter needs clip"),
     ({"n": {"uniform": [1, 3]}}, r"parameters\.n: must be an integer, got 1\.0"),
     ({"n": {"grid": [1, 9]}}, r"parameters\.n: must be ≤ 5, got 9"),
     ({"role": {"choice": ["a", "c"]}}, r"parameters\.role: must be one of a, b, got 'c'"),

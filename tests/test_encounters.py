@@ -153,10 +153,12 @@ def test_draws_resample_to_the_role_and_an_impossible_family_fails_clearly():
     assert all(r.parameters["role"] == "head_on" for r in runs)
     assert all(abs(180.0 - r.parameters["relative_course_deg"]) <= 15.0 for r in runs)
     assert max(r.parameters["attempts"] for r in runs) > 1
-    bad = spec({"kind": "head_on", "parameters": {"relative_course_deg": 90.0}})
-    with pytest.raises(CampaignError, match=r"families\[0\] \(head_on\) run 0: no draw in 1000 attempts .*"
+    with pytest.raises(CampaignError, match=r"^families\[0\] \(head_on\) run 0: no draw in 1000 attempts .*"
                                             r"is crossing_stand_on, not head_on"):
-        bad.run(0)
+        spec({"kind": "head_on", "parameters": {"relative_course_deg": 90.0}})  # run 0 is generated on reading
+    with pytest.raises(CampaignError, match=r"^families\[0\] \(head_on\): its first run is not a valid scenario: "
+                                            r"vessels\[0\]\.speed_m_s: must be ≤"):
+        spec({"kind": "head_on", "parameters": {"own_speed_m_s": 9.0}})
 
 
 def test_targets_start_clear_of_the_own_vessels():
@@ -234,7 +236,8 @@ def test_own_overrides_and_rates_reach_the_scenario():
               "parameters": {"sensor_range_noise_m": 0.2, "sensor_dropout": 0.3}})
     sc = s.run(0).scenario()
     v = sc.vessels[0]
-    assert v.options["avoidance"].prediction.window_s == 25.0 and v.options["avoidance"].prediction.safety_distance_m == 1.5
+    prediction = v.options["avoidance"].prediction
+    assert prediction.window_s == 25.0 and prediction.safety_distance_m == 1.5  # merged into the defaults
     assert v.options["sensor"].beams == 720 and v.options["sensor"].range_noise_std_m == 0.2
     assert v.options["sensor"].dropout_probability == 0.3
     assert sc.rates.prediction_period_s == 2.0 and sc.duration_s == 12.0

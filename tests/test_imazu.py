@@ -55,7 +55,8 @@ def test_scaled_cpa_of_every_target_matches_the_scaled_table(case):
     own_v = np.array([0.0, OWN_SPEED_M_S])
     for o, (north, east, course, speed), (tcpa, dcpa) in zip(sc.moving_obstacles, targets, table):
         np.testing.assert_allclose(o.position_m, [lam * east, lam * north], atol=1e-3)  # NED → ENU
-        assert math.cos(o.heading_rad - math.radians(90.0 - course)) == pytest.approx(1.0, abs=1e-12)  # yaw = 90° − course
+        yaw = math.radians(90.0 - course)  # NED course → ENU yaw
+        assert math.cos(o.heading_rad - yaw) == pytest.approx(1.0, abs=1e-12)
         assert o.speed_m_s / OWN_SPEED_M_S == pytest.approx(speed / SHIP_SPEED_M_S)  # the speed ratio is kept
         v = o.speed_m_s * np.array([math.cos(o.heading_rad), math.sin(o.heading_rad)])
         t, d = cpa(o.position_m, v - own_v)
@@ -82,7 +83,8 @@ def test_the_imazu_campaign_covers_every_case_with_its_seeds():
         sc, ref = r.scenario(), load_scenario(TASKS / "imazu" / f"imazu_{r.parameters['case']:02d}.toml")
         assert sc.duration_s == ref.duration_s and sc.seed == r.seed
         for a, b in zip(sc.moving_obstacles, ref.moving_obstacles):
-            assert (tuple(a.position_m), a.heading_rad, a.speed_m_s) == (tuple(b.position_m), b.heading_rad, b.speed_m_s)
+            assert (tuple(a.position_m), a.heading_rad, a.speed_m_s) == \
+                (tuple(b.position_m), b.heading_rad, b.speed_m_s)
         assert sc.vessels[0].options["sensor"] == ref.vessels[0].options["sensor"]
 
 
@@ -91,6 +93,7 @@ def test_an_imazu_family_takes_current_and_sensor_laws():
         "case": {"grid": [3, 7]}, "current_m_s": 0.2, "current_direction_deg": 90.0, "sensor_dropout": 0.3}}]})
     assert s.runs_defined == 2
     sc = s.run(1).scenario()
-    np.testing.assert_allclose(sc.current.velocity(np.zeros((1, 2)), 0.0), [[0.2, 0.0]], atol=1e-9)  # to starboard: east
+    east = [[0.2, 0.0]]  # 90° clockwise from the own course (north): to starboard
+    np.testing.assert_allclose(sc.current.velocity(np.zeros((1, 2)), 0.0), east, atol=1e-9)
     assert sc.vessels[0].options["sensor"].dropout_probability == 0.3 and len(sc.moving_obstacles) == 2
     assert parse_campaign_spec({"families": [{"kind": "imazu"}]}).runs_defined == 22  # default: every case

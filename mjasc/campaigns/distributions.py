@@ -191,7 +191,8 @@ def parse_law(value: Any, where: str) -> Law:
     kinds = [k for k in ("uniform", "normal", "choice", "grid") if k in value]
     if len(kinds) != 1:
         raise ConfigError(f"{where}: a law is one of {{ uniform = [lo, hi] }}, {{ normal = [mean, sd] }} "
-                          f"(optional clip = [lo, hi]), {{ choice = [...] }}, {{ grid = [...] }}, got {show(dict(value))}")
+                          f"(optional clip = [lo, hi]), {{ choice = [...] }}, {{ grid = [...] }}, "
+                          f"got {show(dict(value))}")
     kind = kinds[0]
     allowed = {kind, "clip"} if kind == "normal" else {kind}
     extra = sorted(set(value) - allowed)

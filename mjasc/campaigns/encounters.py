@@ -190,10 +190,10 @@ def own_vessel_table(name: str, vessel_type: str, position_m, heading_deg: float
     sensor, tracker and avoidance, and ``overrides`` merged in (tables updated key by key)."""
     h = math.radians(heading_deg)
     end = [position_m[0] + length_m * math.cos(h), position_m[1] + length_m * math.sin(h)]
+    controller = {"type": "path_following", "waypoints": [_pt(position_m), _pt(end)], "speed_m_s": _r(speed_m_s)}
     t = {"name": name, "type": vessel_type, "position_m": _pt(position_m), "heading_deg": _r(heading_deg),
-         "speed_m_s": _r(speed_m_s), "controller": {"type": "path_following",
-                                                     "waypoints": [_pt(position_m), _pt(end)], "speed_m_s": _r(speed_m_s)},
-         "sensor": {**SENSOR, **sensor}, "tracking": {}, "avoidance": dict(AVOIDANCE)}
+         "speed_m_s": _r(speed_m_s), "controller": controller, "sensor": {**SENSOR, **sensor}, "tracking": {},
+         "avoidance": dict(AVOIDANCE)}
     for key, value in overrides.items():
         if key == "type":
             continue
@@ -406,7 +406,8 @@ def parse_family(t: dict, where: str, index: int, base_dir: str | Path, threshol
             head, dot, rest = key.partition(".")
             if multi and head[:1] == "t" and head[1:].isdigit():
                 value = given.pop(key)
-                per_target.setdefault(head, {}).update({rest: value} if dot else dict(table(value, f"{where}.parameters.{key}")))
+                entries = {rest: value} if dot else dict(table(value, f"{where}.parameters.{key}"))
+                per_target.setdefault(head, {}).update(entries)
         for key in per_target:
             if not 1 <= int(key[1:]) <= len(roles):
                 raise CampaignError(f"{where}.parameters.{key}: there are targets t1 … t{len(roles)}")

@@ -72,16 +72,23 @@ IMAZU_CASES: dict[int, tuple[str, list[tuple[float, float, float, float]], list[
     9: ("multi", [(7060, 7000, 270, 10), (810, 2950, 345, 10)], [(703, 42), (1161, 418)]),
     10: ("multi", [(7060, 7000, 270, 10), (710, -2750, 45, 10)], [(703, 42), (367, 396)]),
     11: ("multi", [(7060, -7000, 90, 10), (810, 2950, 345, 10)], [(703, 42), (1161, 418)]),
-    12: ("multi", [(2560, 5000, 320, 9), (710, -2750, 45, 10), (14120, 0, 180, 10)], [(855, 109), (367, 396), (706, 0)]),
-    13: ("multi", [(2560, -5500, 40, 10), (710, -2750, 45, 10), (14120, 0, 180, 10)], [(884, 525), (367, 396), (706, 0)]),
-    14: ("multi", [(2200, 5000, 320, 10), (500, 2700, 342, 10), (5700, 6400, 270, 10)], [(797, 357), (877, 71), (605, 495)]),
+    12: ("multi", [(2560, 5000, 320, 9), (710, -2750, 45, 10), (14120, 0, 180, 10)],
+         [(855, 109), (367, 396), (706, 0)]),
+    13: ("multi", [(2560, -5500, 40, 10), (710, -2750, 45, 10), (14120, 0, 180, 10)],
+         [(884, 525), (367, 396), (706, 0)]),
+    14: ("multi", [(2200, 5000, 320, 10), (500, 2700, 342, 10), (5700, 6400, 270, 10)],
+         [(797, 357), (877, 71), (605, 495)]),
     15: ("multi", [(2200, 5000, 320, 10), (1700, 0, 0, 5), (5700, 6400, 270, 10)], [(797, 357), (340, 0), (605, 495)]),
-    16: ("multi", [(7060, -7000, 90, 10), (710, -2750, 45, 10), (7060, 7000, 270, 10)], [(703, 42), (367, 396), (703, 42)]),
+    16: ("multi", [(7060, -7000, 90, 10), (710, -2750, 45, 10), (7060, 7000, 270, 10)],
+         [(703, 42), (367, 396), (703, 42)]),
     17: ("multi", [(2200, 5000, 320, 10), (1700, 0, 0, 5), (350, -2750, 45, 10)], [(797, 357), (340, 0), (349, 729)]),
-    18: ("multi", [(2200, 5000, 320, 10), (500, 2700, 342, 10), (10200, 4500, 225, 10)], [(797, 357), (877, 71), (603, 254)]),
-    19: ("multi", [(350, -2450, 45, 10), (500, 2700, 342, 10), (10200, 4500, 225, 10)], [(313, 614), (877, 71), (603, 254)]),
+    18: ("multi", [(2200, 5000, 320, 10), (500, 2700, 342, 10), (10200, 4500, 225, 10)],
+         [(797, 357), (877, 71), (603, 254)]),
+    19: ("multi", [(350, -2450, 45, 10), (500, 2700, 342, 10), (10200, 4500, 225, 10)],
+         [(313, 614), (877, 71), (603, 254)]),
     20: ("multi", [(500, 2700, 342, 10), (1700, 0, 0, 5), (5700, 6400, 270, 10)], [(877, 71), (340, 0), (605, 495)]),
-    21: ("multi", [(350, -2450, 45, 10), (500, 2700, 342, 10), (5700, 6400, 270, 10)], [(313, 614), (877, 71), (605, 495)]),
+    21: ("multi", [(350, -2450, 45, 10), (500, 2700, 342, 10), (5700, 6400, 270, 10)],
+         [(313, 614), (877, 71), (605, 495)]),
     22: ("multi", [(2200, 5000, 320, 10), (1700, 0, 0, 5), (5700, 6400, 270, 10)], [(797, 357), (340, 0), (605, 495)]),
 }
 """The published cases (colav-simulator encoding); the TCPA/DCPA columns are recomputed with
@@ -158,8 +165,9 @@ def imazu_header(case: int) -> str:
     for j, (t, (tc, dc)) in enumerate(zip(targets, table_cpa)):
         lines.append(f"  target_{j + 1}: ({t[0]:g}, {t[1]:g}, {t[2]:g}, {t[3]:g}) → {tc:g} / {dc:g}")
     lines += [f"Scaling: speeds × s = {sc.speed_scale:g} (own 1.5 m/s, every speed ratio kept), distances × λ = "
-              f"{sc.length_scale:.6f} (the farthest", f"target starts {START_RANGE_M:g} m away, inside the 120 m sensor "
-              f"range), times × τ = λ/s = {sc.time_scale:.6f}; courses kept.",
+              f"{sc.length_scale:.6f} (the farthest",
+              f"target starts {START_RANGE_M:g} m away, inside the 120 m sensor range), times × τ = λ/s = "
+              f"{sc.time_scale:.6f}; courses kept.",
               "NED → ENU: x = λ·ΔE, y = λ·ΔN, heading_deg = 90 − course. Scaled, undisturbed (nobody manoeuvres):"]
     for j in range(len(targets)):
         lines.append(f"  target_{j + 1}: TCPA {sc.tcpa_s[j]:.2f} s, DCPA {sc.dcpa_m[j]:.2f} m, "
@@ -198,9 +206,9 @@ class ImazuFamily:
         cond.update({n: v[n] for n in _SHARED})
         cond = Conditions(**cond)
         h = math.radians(90.0 - cond.current_direction_deg)
+        current = (round(cond.current_m_s * math.cos(h), 6) + 0.0, round(cond.current_m_s * math.sin(h), 6) + 0.0)
         doc = imazu_document(c, {"range_noise_std_m": cond.sensor_range_noise_m,
-                                 "dropout_probability": cond.sensor_dropout},
-                             (round(cond.current_m_s * math.cos(h), 6) + 0.0, round(cond.current_m_s * math.sin(h), 6) + 0.0))
+                                 "dropout_probability": cond.sensor_dropout}, current)
         sc = scale_case(c)
         params = {n: val for n, val in v.items() if val is not None}
         for j in range(len(sc.roles)):

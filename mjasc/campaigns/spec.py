@@ -64,6 +64,7 @@ from mjasc.core.config_tables import (
     table,
 )
 from mjasc.core.resources import resolve_bundled
+from mjasc.runs.scenario import ScenarioError
 
 __all__ = ["SPEC_FORMAT", "CampaignError", "RunSpec", "CampaignOutputs", "CampaignSpec", "parse_campaign_spec",
            "load_campaign_spec", "write_scenario"]
@@ -125,10 +126,7 @@ class CampaignSpec:
     def run(self, index: int) -> RunSpec:
         """Run ``index`` of the campaign (module docstring): the same RunSpec on every call."""
         fam, k = self._locate(int(index))
-        try:
-            params, doc, seed, header = fam.generate(k, self.base_seed, index)
-        except CampaignError as exc:
-            raise CampaignError(f"{self.source or self.name}: {exc}") from None
+        params, doc, seed, header = fam.generate(k, self.base_seed, index)  # CampaignError: no draw accepted
         doc = {"name": doc.get("name", f"{fam.name}_{index}"), **doc, "seed": int(seed)}
         shown = ", ".join(f"{k} = {_short(v)}" for k, v in params.items())
         text = scenario_toml(doc, header=(
@@ -206,8 +204,9 @@ def _canonical(obj: Any) -> str:
 
 def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path = ".") -> CampaignSpec:
     """Validate a parsed campaign file into a :class:`CampaignSpec` (scenario paths relative to
-    ``base_dir``, the file's folder). Every family is checked (and every law against its
-    parameter's declaration) before anything runs. Raises :class:`CampaignError`."""
+    ``base_dir``, the file's folder). Every family is checked (every law against its parameter's
+    declaration, and its first run parsed as a scenario) before anything runs. Raises
+    :class:`CampaignError`."""
     with errors_as(CampaignError):
         data = table(data, "campaign")
         legacy = "families" not in data
@@ -232,8 +231,16 @@ def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path
     for fam in families:
         refs.update(getattr(fam, "references", dict)())
     digest = hashlib.sha256(_canonical({"format": SPEC_FORMAT, "campaign": data, "files": refs}).encode()).hexdigest()
-    return CampaignSpec(name, description, base_seed, tuple(families), outputs, digest, source, dict(data),
+    spec = CampaignSpec(name, description, base_seed, tuple(families), outputs, digest, source, dict(data),
                         str(base_dir))
+    first = 0
+    for i, fam in enumerate(families):  # each family's first run must be a valid scenario (own overrides, rates)
+        try:
+            spec.run(first).scenario()
+        except ScenarioError as exc:
+            raise CampaignError(f"families[{i}] ({fam.name}): its first run is not a valid scenario: {exc}") from None
+        first += fam.runs
+    return spec
 
 
 def load_campaign_spec(path: str | Path) -> CampaignSpec:
