@@ -97,3 +97,5 @@ def test_an_imazu_family_takes_current_and_sensor_laws():
     np.testing.assert_allclose(sc.current.velocity(np.zeros((1, 2)), 0.0), east, atol=1e-9)
     assert sc.vessels[0].options["sensor"].dropout_probability == 0.3 and len(sc.moving_obstacles) == 2
     assert parse_campaign_spec({"families": [{"kind": "imazu"}]}).runs_defined == 22  # default: every case
+    short = parse_campaign_spec({"families": [{"kind": "imazu"}]}).with_overrides(duration_s=5.0, runs_per_point=2)
+    assert short.runs_defined == 44 and short.run(43).scenario().duration_s == 5.0

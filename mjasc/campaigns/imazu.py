@@ -48,7 +48,17 @@ from mjasc.campaigns.cpa import bearing_deg, cpa
 from mjasc.campaigns.distributions import Grid, ParameterSpace, family_rng
 from mjasc.campaigns.encounters import Conditions, own_vessel_table
 from mjasc.campaigns.perturbation import CampaignError
-from mjasc.core.config_tables import check_keys, check_params, errors_as, integer, param, read_field, string, table
+from mjasc.core.config_tables import (
+    check_keys,
+    check_params,
+    errors_as,
+    integer,
+    number,
+    param,
+    read_field,
+    string,
+    table,
+)
 
 __all__ = ["IMAZU_CASES", "SHIP_SPEED_M_S", "OWN_SPEED_M_S", "START_RANGE_M", "TARGET_RADIUS_M", "AFTER_CPA_S",
            "ImazuCase", "ScaledCase", "scale_case", "imazu_document", "imazu_header", "ImazuFamily", "parse_family"]
@@ -193,6 +203,7 @@ class ImazuFamily:
     name: str
     index: int
     space: ParameterSpace
+    duration_s: float | None = None   # default: the case's (its last TCPA + 30 s)
     kind = "imazu"
 
     @property
@@ -216,15 +227,19 @@ class ImazuFamily:
                            f"t{j + 1}.dcpa_m": float(sc.dcpa_m[j])})
         seed = cond.seed if cond.seed is not None else base_seed + index
         doc.pop("name")
+        if self.duration_s is not None:
+            doc["duration_s"] = self.duration_s
         return params, doc, int(seed), imazu_header(c)
 
 
 def parse_family(t: dict, where: str, index: int, base_dir: str | Path, thresholds=None) -> ImazuFamily:
-    """A ``[[families]]`` table of kind ``imazu`` (``name``, ``runs_per_point``, ``[parameters]``)."""
+    """A ``[[families]]`` table of kind ``imazu`` (``name``, ``runs_per_point``, ``duration_s``,
+    ``[parameters]``)."""
     with errors_as(CampaignError):
-        check_keys(t, {"name", "kind", "runs_per_point", "parameters"}, where)
+        check_keys(t, {"name", "kind", "runs_per_point", "duration_s", "parameters"}, where)
         name = string(t.get("name", "imazu"), f"{where}.name")
         runs = integer(t.get("runs_per_point", 1), f"{where}.runs_per_point", minimum=1)
+        duration = number(t["duration_s"], f"{where}.duration_s", positive=True) if "duration_s" in t else None
         given = dict(table(t.get("parameters", {}), f"{where}.parameters"))
         declared = {"case": 1, **{n: next(f.default for f in fields(Conditions) if f.name == n) for n in _SHARED}}
 
@@ -238,7 +253,7 @@ def parse_family(t: dict, where: str, index: int, base_dir: str | Path, threshol
         if "case" not in given:  # default: every case
             space = ParameterSpace(tuple((n, Grid(tuple(range(1, 23))) if n == "case" else law)
                                          for n, law in space.laws), runs)
-    return ImazuFamily(name, index, space)
+    return ImazuFamily(name, index, space, duration)
 
 
 # ---------------------------------------------------------------------- the shipped files
