@@ -66,7 +66,7 @@ def _cmd_run(args) -> int:
 
 
 def _cmd_list(args) -> int:
-    from mjasc.campaigns.perturbation import CampaignError, load_campaign
+    from mjasc.campaigns.spec import CampaignError, load_campaign_spec as load_campaign
     from mjasc.core.resources import bundled_campaigns, bundled_scenarios
     from mjasc.physics.vessels import available_vessels, load_vessel_type
     from mjasc.runs.scenario import ScenarioError, load_scenario

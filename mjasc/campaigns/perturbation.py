@@ -165,6 +165,9 @@ def parse_campaign(data: dict, source: str = "<dict>", base_dir: str | Path = ".
     campaign file's folder) and loaded and validated too. Raises :class:`CampaignError`."""
     with errors_as(CampaignError):
         data = table(data, "campaign")
+        if "families" in data:
+            raise CampaignError("families: a campaign of encounter families (or Imazu cases) is read by "
+                                "mjasc.campaigns.spec.load_campaign_spec; load_campaign reads one perturbed scenario")
         check_keys(data, _TOP, "campaign")
         name = string(data.get("name", Path(source).stem), "name")
         description = data.get("description", "")
@@ -275,3 +278,129 @@ def randomized_scenario(scenario: Scenario, config: Campaign | Randomization, k:
                     speed_m_s=float(o.speed_m_s + d.traffic_speed_offset_m_s[j]))
             for j, o in enumerate(sc.moving_obstacles)))
     return sc
+
+
+# ---------------------------------------------------------------------- as a campaign family (spec.py)
+def _exact_degrees(angle_rad: float) -> float:
+    """A heading in degrees that a scenario file turns back into exactly ``angle_rad``
+    (``math.radians`` of it): ``math.degrees`` is off by an ulp now and then, so the neighbours are
+    tried; the nearest value is returned when none is exact."""
+    d = math.degrees(angle_rad)
+    for _ in range(8):
+        r = math.radians(d)
+        if r == angle_rad:
+            return d
+        d = math.nextafter(d, math.inf if r < angle_rad else -math.inf)
+    return math.degrees(angle_rad)
+
+
+def perturbed_document(data: dict, scenario: Scenario, randomize: Randomization, base_seed: int, k: int) -> dict:
+    """The scenario *file* of run k: ``data`` (the base scenario's TOML document) with the seed
+    ``base_seed + k`` and the draws of :func:`draw_perturbations` written in, so that
+    ``parse_scenario(document)`` is :func:`randomized_scenario`'s scenario of run k (same numbers;
+    a seeded current keeps its derived seed written out when a perturbation wraps it in a sum)."""
+    doc = {key: value for key, value in data.items()}
+    seed = base_seed + int(k)
+    doc["seed"] = seed
+    if randomize.is_zero:
+        return doc
+    d = draw_perturbations(scenario, randomize, base_seed, k)
+    if randomize.vessel_position_sigma_m > 0 or randomize.vessel_heading_sigma_deg > 0:
+        vessels = []
+        for i, (table_i, v) in enumerate(zip(data["vessels"], scenario.vessels)):
+            heading = float(wrap_angle(v.heading_rad + math.radians(d.vessel_heading_offset_deg[i])))
+            vessels.append({**table_i, "position_m": [float(x) for x in v.position_m + d.vessel_offset_m[i]],
+                            "heading_deg": _exact_degrees(heading)})
+        doc["vessels"] = vessels
+    if randomize.current_velocity_sigma_m_s > 0:
+        current = _reseeded_current(scenario, seed)
+        if isinstance(current, UniformCurrent):
+            doc["current"] = {"type": "uniform",
+                              "velocity_m_s": [float(x) for x in current.velocity_m_s + d.current_offset_m_s]}
+        else:
+            doc["current"] = {"type": "sum", "components": [
+                current.describe(), {"type": "uniform", "velocity_m_s": [float(x) for x in d.current_offset_m_s]}]}
+    if randomize.traffic_heading_sigma_deg > 0 or randomize.traffic_speed_sigma_m_s > 0:
+        traffic = []
+        for j, (table_j, o) in enumerate(zip(data["moving_obstacles"], scenario.moving_obstacles)):
+            t = {**table_j, "speed_m_s": float(o.speed_m_s + d.traffic_speed_offset_m_s[j])}
+            if o.path is None:
+                t["heading_deg"] = _exact_degrees(
+                    float(wrap_angle(o.heading_rad + math.radians(d.traffic_heading_offset_deg[j]))))
+            traffic.append(t)
+        doc["moving_obstacles"] = traffic
+    return doc
+
+
+def _flat_draws(draws: dict) -> dict:
+    """RunDraws.as_dict flattened to ``name.key`` (``alpha.dx_m``, ``current.dvx_m_s``, ``ferry.dspeed_m_s``)."""
+    out = {f"current.{key}": v for key, v in draws["current"].items()}
+    for group in ("vessels", "traffic"):
+        for name, entries in draws[group].items():
+            out.update({f"{name}.{key}": v for key, v in entries.items()})
+    return out
+
+
+@dataclass(frozen=True)
+class PerturbationFamily:
+    """Today's campaign as one family kind: run ``index`` of the campaign is
+    :func:`randomized_scenario` of run ``index`` (seed ``base_seed + index``, draws from
+    ``default_rng([base_seed, index, 0xC0FFEE])``), written out as a scenario document."""
+
+    name: str
+    index: int
+    scenario_ref: str          # as the campaign file writes it (relative to the file)
+    data: dict = field(repr=False)          # the base scenario's TOML document (duration override applied)
+    scenario: Scenario = field(repr=False)  # its parsed form
+    randomize: Randomization = field(default_factory=Randomization)
+    runs_per_point: int = 1
+    kind = "perturbation"
+
+    @property
+    def runs(self) -> int:
+        return self.runs_per_point
+
+    def references(self) -> dict:
+        """Files the runs depend on (their content goes into the campaign's digest)."""
+        return {self.scenario_ref: self.data}
+
+    def generate(self, k: int, base_seed: int, index: int) -> tuple[dict, dict, int, str]:
+        """(parameters, scenario document, seed, header) of the campaign's run ``index`` (family run k)."""
+        doc = {"name": self.scenario.name, **perturbed_document(self.data, self.scenario, self.randomize, base_seed,
+                                                                  index)}
+        params = _flat_draws(draw_perturbations(self.scenario, self.randomize, base_seed, index).as_dict(self.scenario))
+        header = f"perturbation of {self.scenario_ref} ({self.scenario.name}), draws of run {index}"
+        return params, doc, base_seed + index, header
+
+
+_FAMILY = {"name", "kind", "scenario", "runs_per_point", "duration_s", "randomize"}
+
+
+def parse_perturbation_family(t: dict, where: str, index: int, base_dir: str | Path) -> PerturbationFamily:
+    """A ``[[families]]`` table of kind ``perturbation`` (``scenario``, ``runs_per_point``, optional
+    ``duration_s`` and ``[randomize]``) → its family. Raises CampaignError naming ``where.<key>``
+    (the key alone when ``where`` is "": a file in the first format)."""
+    def at(key: str) -> str:
+        return f"{where}.{key}" if where else key
+
+    with errors_as(CampaignError):
+        check_keys(t, _FAMILY, where or "campaign")
+        name = string(t.get("name", "perturbation"), at("name"))
+        runs = integer(t.get("runs_per_point", 1), at("runs_per_point"), minimum=1)
+        randomize = dataclass_from_table(Randomization, t.get("randomize", {}), at("randomize"))
+        duration = number(t["duration_s"], at("duration_s"), positive=True) if "duration_s" in t else None
+        rel = t.get("scenario")
+        if not isinstance(rel, str) or not rel:
+            raise CampaignError(f"{at('scenario')}: must be the path of a scenario file (relative to the campaign "
+                                f"file), got {show(rel)}")
+    path = (Path(base_dir) / rel).resolve()
+    try:
+        data = dict(load_toml(path, ScenarioError, "scenario"))
+        if duration is not None:
+            data["duration_s"] = duration
+        from mjasc.runs.scenario import parse_scenario
+
+        scenario = parse_scenario(data, str(path))
+    except ScenarioError as exc:
+        raise CampaignError(f"{at('scenario')}: {exc}") from None
+    return PerturbationFamily(name, index, rel, data, scenario, randomize, runs)

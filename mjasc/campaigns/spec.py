@@ -1,0 +1,254 @@
+"""A campaign file (TOML) → :class:`CampaignSpec`: its families and, deterministically, its runs.
+
+A campaign is a list of **families**; each family generates runs, and every run is a complete
+scenario (:class:`RunSpec`: its TOML text replays it with ``mjasc run``)::
+
+    name = "encounters"                   # default: the file name
+    description = "…"
+    base_seed = 0                         # default 0
+    [outputs]
+    recordings = false                    # keep each run's recording.rrd + summary.json
+    [colreg]                              # optional: the numeric reading of rules 13–14 (colreg.RoleThresholds)
+    head_on_bearing_deg = 15.0
+
+    [[families]]
+    kind = "head_on"                      # an encounter family (encounters.py), "imazu", or "perturbation"
+    name = "head_on"                      # default: the kind; unique in the file
+    runs_per_point = 50                   # runs per grid point (default 1)
+    [families.parameters]                 # laws (distributions.py); a parameter not given keeps its default
+    dcpa_m = { uniform = [-20.0, 20.0] }
+
+The family kinds and their parameters: :mod:`mjasc.campaigns.encounters` (head_on,
+crossing_give_way, crossing_stand_on, overtaking, overtaken, multi_target, team_vs_traffic,
+bottleneck), :mod:`mjasc.campaigns.imazu` (the 22 Imazu cases) and
+:mod:`mjasc.campaigns.perturbation` (an existing scenario perturbed). A file in the first
+campaign format (top-level ``scenario``, ``runs``, ``[randomize]``, ``duration_s``) is one family
+of kind ``perturbation`` named ``perturbation``; its runs are exactly the runs of before.
+
+**Run order.** Families in file order; run ``index`` (0-based over the campaign) is run
+``k = index − (runs of the families before)`` of its family. For encounter families run k lies at
+grid point ``k // runs_per_point`` and draws from ``default_rng([base_seed, family_index, k,
+0xC0FFEE])`` (:mod:`mjasc.campaigns.distributions`). The scenario seed of run ``index`` is
+``base_seed + index`` unless the family draws a ``seed`` parameter. A family that rejects a draw
+(wrong COLREG role, impossible geometry) draws again from the same generator, at most
+:data:`mjasc.campaigns.encounters.MAX_ATTEMPTS` times; a run for which no draw is accepted is a
+:class:`CampaignError` naming the family, the run and the last reason.
+
+**Digest.** ``sha256`` of the canonical JSON (sorted keys) of the file's parsed content, the
+content of every scenario file a family reads, and :data:`SPEC_FORMAT`: an edited file (or an edited
+referenced scenario) is a new campaign; comments and layout do not count.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterator
+
+from mjasc.campaigns.colreg import RoleThresholds
+from mjasc.campaigns.perturbation import CampaignError, parse_perturbation_family
+from mjasc.campaigns.scenario_text import load_run_scenario, scenario_toml, write_scenario
+from mjasc.core.config_tables import (
+    check_keys,
+    check_params,
+    dataclass_from_table,
+    errors_as,
+    integer,
+    load_toml,
+    number,
+    param,
+    show,
+    string,
+    table,
+)
+from mjasc.core.resources import resolve_bundled
+from mjasc.runs.scenario import ScenarioError
+
+__all__ = ["SPEC_FORMAT", "CampaignError", "RunSpec", "CampaignOutputs", "CampaignSpec", "parse_campaign_spec",
+           "load_campaign_spec", "write_scenario"]
+
+#: Version of the run generation: bump when the same campaign file would generate different runs.
+SPEC_FORMAT = 1
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    index: int            # run k of the campaign: 0-based, stable for a given campaign file
+    family: str           # the family's name in the campaign file
+    parameters: dict      # the drawn encounter parameters (name → float | str), for reports and maps
+    scenario_toml: str    # the complete scenario as TOML text: `mjasc run` on it replays the run exactly
+    seed: int             # the scenario's seed (also inside scenario_toml)
+
+    def scenario(self):
+        """The parsed :class:`~mjasc.runs.scenario.Scenario` (what the engine runs)."""
+        return load_run_scenario(self.scenario_toml, f"<run {self.index}>")
+
+
+@dataclass(frozen=True)
+class CampaignOutputs:
+    """What a campaign keeps besides its results (the ``[outputs]`` table)."""
+
+    recordings: bool = param(False, doc="keep each run's recording.rrd and summary.json in runs/<k>/")
+
+    def __post_init__(self):
+        check_params(self, "outputs")
+
+
+@dataclass(frozen=True)
+class CampaignSpec:
+    name: str
+    description: str
+    base_seed: int
+    families: tuple
+    outputs: CampaignOutputs
+    digest: str
+    source: str = ""
+    data: dict = field(default_factory=dict, repr=False)  # the file's parsed content
+    base_dir: str = "."
+
+    @property
+    def runs_defined(self) -> int:
+        """How many runs the campaign defines (the sum over its families)."""
+        return sum(f.runs for f in self.families)
+
+    def _locate(self, index: int):
+        if not 0 <= index < self.runs_defined:
+            raise IndexError(f"run {index}: the campaign defines {self.runs_defined} run(s)")
+        k = index
+        for fam in self.families:
+            if k < fam.runs:
+                return fam, k
+            k -= fam.runs
+        raise AssertionError("unreachable")
+
+    def run(self, index: int) -> RunSpec:
+        """Run ``index`` of the campaign (module docstring): the same RunSpec on every call."""
+        fam, k = self._locate(int(index))
+        params, doc, seed, header = fam.generate(k, self.base_seed, index)  # CampaignError: no draw accepted
+        doc = {"name": doc.get("name", f"{fam.name}_{index}"), **doc, "seed": int(seed)}
+        shown = ", ".join(f"{k} = {_short(v)}" for k, v in params.items())
+        text = scenario_toml(doc, header=(
+            f"Campaign {self.name} (digest {self.digest[:12]}), family {fam.name} ({fam.kind}), run {index} "
+            f"(run {k} of the family), seed {seed}.\n{header}\nParameters: {shown}\n"
+            f"Replay: mjasc run <this file>"))
+        return RunSpec(int(index), fam.name, params, text, int(seed))
+
+    def runs(self) -> Iterator[RunSpec]:
+        """Every run, in index order."""
+        for index in range(self.runs_defined):
+            yield self.run(index)
+
+    def with_overrides(self, base_seed: int | None = None, runs_per_point: int | None = None,
+                       duration_s: float | None = None) -> "CampaignSpec":
+        """The campaign with ``base_seed``, every family's ``runs_per_point`` or ``duration_s``
+        replaced (a new campaign: a new digest)."""
+        with errors_as(CampaignError):
+            data = {k: v for k, v in self.data.items()}
+            if base_seed is not None:
+                data["base_seed"] = integer(base_seed, "base_seed", minimum=0)
+            fams = [dict(f) for f in _family_tables(data)]
+            for f in fams:
+                if runs_per_point is not None:
+                    f["runs_per_point"] = integer(runs_per_point, "runs_per_point", minimum=1)
+                if duration_s is not None:
+                    f["duration_s"] = number(duration_s, "duration_s", positive=True)
+        data = {k: v for k, v in data.items() if k not in _LEGACY}
+        data["families"] = fams
+        return parse_campaign_spec(data, self.source, self.base_dir)
+
+
+def _short(v: Any) -> str:
+    return f"{v:.6g}" if isinstance(v, float) else str(v)
+
+
+# ---------------------------------------------------------------------- parsing
+_TOP = {"name", "description", "base_seed", "outputs", "colreg", "families"}
+_LEGACY = {"scenario", "runs", "duration_s", "randomize"}
+
+
+def _family_tables(data: dict) -> list[dict]:
+    """The ``[[families]]`` tables; a file in the first format is one perturbation family."""
+    if "families" in data:
+        fams = data["families"]
+        if not isinstance(fams, list) or not fams:
+            raise CampaignError(f"families: need at least one [[families]] table, got {show(fams)}")
+        return [table(f, f"families[{i}]") for i, f in enumerate(fams)]
+    if "scenario" not in data:
+        raise CampaignError("families: missing (a campaign is a list of [[families]] tables; or, in the first "
+                            "format, a scenario = path with runs and [randomize])")
+    if "runs" not in data:
+        raise CampaignError("runs: missing (how many runs the campaign makes)")
+    legacy = {"kind": "perturbation", "name": "perturbation", "scenario": data["scenario"],
+              "runs_per_point": integer(data["runs"], "runs", minimum=1)}
+    for key in ("duration_s", "randomize"):
+        if key in data:
+            legacy[key] = data[key]
+    return [legacy]
+
+
+def _family_parsers() -> dict:
+    from mjasc.campaigns import encounters, imazu
+
+    parsers = {"perturbation": lambda t, w, i, d, th: parse_perturbation_family(t, w, i, d)}
+    for kind in encounters.FAMILY_KINDS:
+        parsers[kind] = encounters.parse_family
+    parsers["imazu"] = imazu.parse_family
+    return parsers
+
+
+def _canonical(obj: Any) -> str:
+    return json.dumps(obj, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
+
+
+def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path = ".") -> CampaignSpec:
+    """Validate a parsed campaign file into a :class:`CampaignSpec` (scenario paths relative to
+    ``base_dir``, the file's folder). Every family is checked (every law against its parameter's
+    declaration, and its first run parsed as a scenario) before anything runs. Raises
+    :class:`CampaignError`."""
+    with errors_as(CampaignError):
+        data = table(data, "campaign")
+        legacy = "families" not in data
+        check_keys(data, (_TOP | _LEGACY) - {"families", "colreg"} if legacy else _TOP, "campaign")
+        name = string(data.get("name", Path(source).stem), "name")
+        description = data.get("description", "")
+        if not isinstance(description, str):
+            raise CampaignError(f"description: must be a string, got {show(description)}")
+        base_seed = integer(data.get("base_seed", 0), "base_seed", minimum=0)
+        outputs = dataclass_from_table(CampaignOutputs, data.get("outputs", {}), "outputs")
+        thresholds = dataclass_from_table(RoleThresholds, data.get("colreg", {}), "colreg")
+        parsers = _family_parsers()
+        families = []
+        for i, t in enumerate(_family_tables(data)):
+            where = f"families[{i}]" if not legacy else ""
+            kind = string(t.get("kind"), f"{where}.kind" if where else "kind", choices=parsers)
+            fam = parsers[kind](t, where, i, base_dir, thresholds)
+            if any(f.name == fam.name for f in families):
+                raise CampaignError(f"{where}.name: duplicate family name {fam.name!r}")
+            families.append(fam)
+    refs = {}
+    for fam in families:
+        refs.update(getattr(fam, "references", dict)())
+    digest = hashlib.sha256(_canonical({"format": SPEC_FORMAT, "campaign": data, "files": refs}).encode()).hexdigest()
+    spec = CampaignSpec(name, description, base_seed, tuple(families), outputs, digest, source, dict(data),
+                        str(base_dir))
+    first = 0
+    for i, fam in enumerate(families):  # each family's first run must be a valid scenario (own overrides, rates)
+        try:
+            spec.run(first).scenario()
+        except ScenarioError as exc:
+            raise CampaignError(f"families[{i}] ({fam.name}): its first run is not a valid scenario: {exc}") from None
+        first += fam.runs
+    return spec
+
+
+def load_campaign_spec(path: str | Path) -> CampaignSpec:
+    """Read and validate a campaign file (a path, or a bundled campaign's name such as
+    ``demo_monte_carlo`` or ``imazu``). Raises :class:`CampaignError` naming the file and the field."""
+    path = resolve_bundled(path, "campaign")
+    data = load_toml(path, CampaignError, "campaign")
+    try:
+        return parse_campaign_spec(data, str(path), path.parent)
+    except CampaignError as exc:
+        raise CampaignError(f"{path}: {exc}") from None
