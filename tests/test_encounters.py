@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mjasc.campaigns.colreg import classify, own_bearing_from_target_deg, wrap_deg
+from mjasc.evaluation.colreg import own_bearing_from_target_deg, role_from_geometry, wrap_deg
 from mjasc.campaigns.cpa import bearing_deg, course_for_bearing, cpa, place_target
 from mjasc.campaigns.encounters import FAMILY_KINDS, ROLE_DEFAULTS, START_MARGIN_M
 from mjasc.campaigns.perturbation import load_campaign, randomized_scenario
@@ -97,7 +97,7 @@ def test_undisturbed_motion_has_the_requested_cpa_bearing_and_role(every_kind):
             assert d == pytest.approx(p[pre + "dcpa_m"], abs=2e-3), r.index
             assert wrap_deg(b - p[pre + "relative_bearing_deg"]) == pytest.approx(0.0, abs=1e-3)
             assert wrap_deg(c - p[pre + "relative_course_deg"]) == pytest.approx(0.0, abs=1e-3)
-            assert classify(b, c) == p[pre + "role"]
+            assert role_from_geometry(b, c) == p[pre + "role"]
             assert p["attempts"] >= 1
         roles = [p[pre + "role"] for pre in targets_of(r, sc)]
         if r.family in ROLE_DEFAULTS:
@@ -126,7 +126,7 @@ def test_a_given_bearing_is_met_and_the_course_follows():
         assert [15.0, 45.0, 70.0][r.index // 3] == r.parameters["relative_bearing_deg"]
         assert (t, d) == pytest.approx((50.0, r.parameters["dcpa_m"]), abs=2e-3)
         assert c == pytest.approx(r.parameters["relative_course_deg"], abs=1e-4)
-        assert classify(b, c) == "crossing_give_way"
+        assert role_from_geometry(b, c) == "crossing_give_way"
 
 
 def test_course_for_bearing_solves_the_closed_form():
@@ -139,10 +139,10 @@ def test_course_for_bearing_solves_the_closed_form():
 
 
 def test_colreg_classification():
-    assert classify(0.0, 180.0) == "head_on" and classify(14.0, -170.0) == "head_on"
-    assert classify(20.0, 180.0) == "crossing_give_way" and classify(-30.0, 90.0) == "crossing_stand_on"
-    assert classify(0.0, 0.0) == "overtaking" and classify(180.0, 0.0) == "overtaken"
-    assert classify(130.0, -30.0) == "overtaken" and classify(100.0, -90.0) == "crossing_give_way"
+    assert role_from_geometry(0.0, 180.0) == "head_on" and role_from_geometry(14.0, -170.0) == "head_on"
+    assert role_from_geometry(20.0, 180.0) == "crossing_give_way" and role_from_geometry(-30.0, 90.0) == "crossing_stand_on"
+    assert role_from_geometry(0.0, 0.0) == "overtaking" and role_from_geometry(180.0, 0.0) == "overtaken"
+    assert role_from_geometry(130.0, -30.0) == "overtaken" and role_from_geometry(100.0, -90.0) == "crossing_give_way"
     assert own_bearing_from_target_deg(0.0, 0.0) == 180.0
 
 

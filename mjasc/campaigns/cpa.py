@@ -1,7 +1,7 @@
 """Closest point of approach of straight-line motion, and placing a target to meet a requested CPA.
 
 The own vessel moves at speed U along its heading; a target moves at speed r·U (r: the speed
-ratio) on a course c relative to the own course (clockwise, degrees: :mod:`mjasc.campaigns.colreg`).
+ratio) on a course c relative to the own course (clockwise, degrees: :mod:`mjasc.evaluation.colreg`).
 Everything is in the own vessel's body frame FLU at t = 0 (x forward, y to port, metres), where
 the target's heading is −c (counter-clockwise) and the relative velocity is
 
@@ -42,7 +42,7 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import brentq
 
-from mjasc.campaigns.colreg import wrap_deg
+from mjasc.evaluation.colreg import wrap_deg
 
 __all__ = ["cpa", "relative_velocity", "Placement", "place_target", "course_for_bearing", "bearing_deg"]
 

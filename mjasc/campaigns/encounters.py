@@ -2,7 +2,7 @@
 targets on straight lines).
 
 Kinds: ``head_on``, ``crossing_give_way``, ``crossing_stand_on``, ``overtaking``, ``overtaken``
-(one target with that COLREG role, :mod:`mjasc.campaigns.colreg`), ``multi_target`` (one target
+(one target with that COLREG role, :mod:`mjasc.evaluation.colreg`), ``multi_target`` (one target
 per entry of ``roles``), ``team_vs_traffic`` (a team in line abreast, with comms, against the
 targets of ``roles``), ``bottleneck`` (the own vessel passes a gap between two islands where the
 targets of ``roles`` meet it). A family table::
@@ -35,7 +35,7 @@ from the own course) the own speed loop holds the surge over ground, so the undi
 stays on the path at the mission speed up to the crab angle (a factor 1/cos(crab) < 1.01 for
 0.2 m/s across 1.5 m/s); the targets are not set by the current.
 
-**Roles and resampling.** Each target's role at t = 0 (:func:`mjasc.campaigns.colreg.classify`
+**Roles and resampling.** Each target's role at t = 0 (:func:`mjasc.evaluation.colreg.role_from_geometry`
 with the campaign's ``[colreg]`` thresholds) must be the family's; a target must also start
 :data:`START_MARGIN_M` clear of every own vessel, and in a bottleneck its track must clear the
 islands. A draw that fails is drawn again from the same generator (the laws are truncated to the
@@ -66,7 +66,7 @@ from typing import Any
 
 import numpy as np
 
-from mjasc.campaigns.colreg import ROLES, RoleThresholds, classify, wrap_deg
+from mjasc.evaluation.colreg import GEOMETRIC_ROLES, ColregConfig, role_from_geometry, wrap_deg
 from mjasc.campaigns.cpa import Placement, course_for_bearing, place_target
 from mjasc.campaigns.distributions import ParameterSpace, family_rng
 from mjasc.campaigns.perturbation import CampaignError
@@ -87,7 +87,7 @@ from mjasc.physics.vessels import available_vessels, load_vessel_type
 __all__ = ["FAMILY_KINDS", "ROLE_DEFAULTS", "MAX_ATTEMPTS", "START_MARGIN_M", "Conditions", "Team", "Bottleneck",
            "TargetParameters", "EncounterFamily", "parse_family", "own_vessel_table"]
 
-FAMILY_KINDS = (*ROLES, "multi_target", "team_vs_traffic", "bottleneck")
+FAMILY_KINDS = (*GEOMETRIC_ROLES, "multi_target", "team_vs_traffic", "bottleneck")
 MAX_ATTEMPTS = 1000
 START_MARGIN_M = 5.0
 """Hull-to-hull distance [m] every target must keep from every own vessel at t = 0."""
@@ -218,7 +218,7 @@ class EncounterFamily:
     roles: tuple[str, ...]
     space: ParameterSpace
     bearing_given: tuple[bool, ...]   # per target: the bearing is given (the course follows)
-    thresholds: RoleThresholds
+    thresholds: ColregConfig
     duration_s: float | None = None
     own: dict | None = None
     rates: dict | None = None
@@ -315,7 +315,7 @@ class EncounterFamily:
         th = self.thresholds
         if self.bearing_given[j]:
             p = course_for_bearing(speed, tp.relative_bearing_deg, tp.speed_ratio, tp.dcpa_m, tp.tcpa_s,
-                                   accept=lambda q: classify(q.bearing_deg, q.relative_course_deg, th) == role,
+                                   accept=lambda q: role_from_geometry(q.bearing_deg, q.relative_course_deg, th) == role,
                                    nominal_course_deg=ROLE_DEFAULTS[role]["relative_course_deg"])
             if p is None:
                 raise _Reject(f"target {j + 1}: no course gives bearing {tp.relative_bearing_deg:.2f}° as {role} "
@@ -324,7 +324,7 @@ class EncounterFamily:
         p = place_target(speed, tp.relative_course_deg, tp.speed_ratio, tp.dcpa_m, tp.tcpa_s)
         if p is None:
             raise _Reject(f"target {j + 1}: same course and speed as the own vessel: no encounter")
-        got = classify(p.bearing_deg, p.relative_course_deg, th)
+        got = role_from_geometry(p.bearing_deg, p.relative_course_deg, th)
         if got != role:
             raise _Reject(f"target {j + 1}: bearing {p.bearing_deg:.2f}°, relative course {p.relative_course_deg:.2f}° "
                           f"is {got}, not {role}")
@@ -367,7 +367,7 @@ def _checker(owners: dict[str, tuple[type, str]]):
     return check
 
 
-def parse_family(t: dict, where: str, index: int, base_dir: str | Path, thresholds: RoleThresholds) -> EncounterFamily:
+def parse_family(t: dict, where: str, index: int, base_dir: str | Path, thresholds: ColregConfig) -> EncounterFamily:
     """A ``[[families]]`` table of an encounter kind → :class:`EncounterFamily` (module docstring).
     Raises CampaignError naming the field."""
     with errors_as(CampaignError):
@@ -376,7 +376,7 @@ def parse_family(t: dict, where: str, index: int, base_dir: str | Path, threshol
         name = string(t.get("name", kind), f"{where}.name")
         runs = integer(t.get("runs_per_point", 1), f"{where}.runs_per_point", minimum=1)
         duration = number(t["duration_s"], f"{where}.duration_s", positive=True) if "duration_s" in t else None
-        if kind in ROLES:
+        if kind in GEOMETRIC_ROLES:
             if "roles" in t:
                 raise CampaignError(f"{where}.roles: only for multi_target, team_vs_traffic and bottleneck "
                                     f"(a {kind} family has one {kind} target)")
@@ -385,7 +385,7 @@ def parse_family(t: dict, where: str, index: int, base_dir: str | Path, threshol
             raw = t.get("roles", list(_DEFAULT_ROLES[kind]))
             if not isinstance(raw, list) or not 1 <= len(raw) <= 6:
                 raise CampaignError(f"{where}.roles: must be a list of 1 to 6 roles, got {raw!r}")
-            roles = tuple(string(r, f"{where}.roles[{i}]", choices=ROLES) for i, r in enumerate(raw))
+            roles = tuple(string(r, f"{where}.roles[{i}]", choices=GEOMETRIC_ROLES) for i, r in enumerate(raw))
         own = dict(table(t.get("own", {}), f"{where}.own"))
         check_keys(own, _OWN_KEYS, f"{where}.own")
         for key, value in own.items():

@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mjasc.campaigns.colreg import classify, wrap_deg
+from mjasc.evaluation.colreg import role_from_geometry, wrap_deg
 from mjasc.campaigns.cpa import bearing_deg, cpa
 from mjasc.campaigns.distributions import Grid, ParameterSpace, family_rng
 from mjasc.campaigns.encounters import Conditions, own_vessel_table
@@ -119,7 +119,7 @@ class ScaledCase:
     speeds_m_s: np.ndarray         # (n,)
     tcpa_s: np.ndarray             # (n,) of the scaled undisturbed motion
     dcpa_m: np.ndarray             # (n,)
-    roles: tuple[str, ...]         # the own vessel's COLREG role against each target (colreg.classify)
+    roles: tuple[str, ...]         # the own vessel's COLREG role against each target (evaluation.colreg.role_from_geometry)
     duration_s: float
 
 
@@ -143,7 +143,7 @@ def scale_case(case: int, own_speed_m_s: float = OWN_SPEED_M_S, start_range_m: f
         tc.append(t)
         dc.append(d)
         # Bow frame of a vessel heading north: forward = +y, port = −x.
-        roles.append(classify(float(bearing_deg(p[1], -p[0])), wrap_deg(c)))
+        roles.append(role_from_geometry(float(bearing_deg(p[1], -p[0])), wrap_deg(c)))
     return ScaledCase(case, kind, lam, s, lam / s, pos, yaw, speed, np.array(tc), np.array(dc), tuple(roles),
                       float(np.ceil(max(tc) + AFTER_CPA_S)))
 

@@ -8,7 +8,7 @@ scenario (:class:`RunSpec`: its TOML text replays it with ``mjasc run``)::
     base_seed = 0                         # default 0
     [outputs]
     recordings = false                    # keep each run's recording.rrd + summary.json
-    [colreg]                              # optional: the numeric reading of rules 13–14 (colreg.RoleThresholds)
+    [colreg]                              # optional: the numeric reading of rules 13–14 (mjasc.evaluation.colreg.ColregConfig)
     head_on_bearing_deg = 15.0
 
     [[families]]
@@ -47,7 +47,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterator
 
-from mjasc.campaigns.colreg import RoleThresholds
+from mjasc.evaluation.colreg import ColregConfig
 from mjasc.campaigns.perturbation import CampaignError, parse_perturbation_family
 from mjasc.campaigns.scenario_text import load_run_scenario, scenario_toml, write_scenario
 from mjasc.core.config_tables import (
@@ -217,7 +217,7 @@ def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path
             raise CampaignError(f"description: must be a string, got {show(description)}")
         base_seed = integer(data.get("base_seed", 0), "base_seed", minimum=0)
         outputs = dataclass_from_table(CampaignOutputs, data.get("outputs", {}), "outputs")
-        thresholds = dataclass_from_table(RoleThresholds, data.get("colreg", {}), "colreg")
+        thresholds = dataclass_from_table(ColregConfig, data.get("colreg", {}), "colreg")
         parsers = _family_parsers()
         families = []
         for i, t in enumerate(_family_tables(data)):

@@ -6,19 +6,24 @@ Geometry from the own vessel's point of view, world frame ENU, headings CCW from
 * relative bearing β of the target: the angle from the own bow to the line of sight, measured
   **clockwise** (as on a ship's compass), in [0°, 360°): β = wrap(ψ_own − atan2(Δy, Δx)) — a target
   dead ahead is 0°, on the starboard beam 90°, astern 180°, on the port beam 270°;
-* the target's bearing of the own vessel β_t, the same seen from the target.
+* the relative course c: the target's course minus the own course, clockwise, in (−180°, 180°]
+  (c = 180: reciprocal; c = −90: the target heads to the own port side, i.e. crosses from starboard);
+* the own vessel's bearing seen from the target, β_t = β + 180° − c (wrapped).
 
-Roles (own vessel's view), evaluated in this order:
+Roles (own vessel's view; :func:`role_from_geometry`, with β and β_t wrapped to (−180°, 180°]),
+checked in this order (rule 13 applies "whatever else applies"):
 
 1. **overtaking** (rule 13): the own vessel comes up from more than 22.5° abaft the target's beam,
-   β_t ∈ [112.5°, 247.5°], and is faster along the line of sight → the own vessel keeps out of the way;
-2. **overtaken**: the same with own and target swapped → the own vessel stands on;
-3. **head-on** (rule 14): the target within ±``head_on_bearing_deg`` of the bow and the courses
-   reciprocal within ±``head_on_course_deg`` → both give way, altering to starboard;
-4. **crossing** (rule 15): the target on the own starboard side, β ∈ (0°, 112.5°) → the own vessel
-   gives way (``crossing_give_way``); on the port side, β ∈ (247.5°, 360°) → it stands on
-   (``crossing_stand_on``);
-5. otherwise (the target abaft the beam but not overtaking, or no risk of collision) ``none``.
+   |β_t| ≥ ``abaft_beam_deg`` (112.5°) → the own vessel keeps out of the way;
+2. **overtaken**: the target comes up from abaft the own beam, |β| ≥ 112.5° → the own vessel stands on;
+3. **head-on** (rule 14): |β| ≤ ``head_on_bearing_deg`` and the courses reciprocal within
+   ``head_on_course_deg`` → both give way, altering to starboard;
+4. **crossing** (rule 15): the target on the own starboard side, 0 ≤ β < 112.5° → the own vessel
+   gives way (``crossing_give_way``); on the port side → it stands on (``crossing_stand_on``).
+
+A role holds where there is risk of collision: :func:`classify`, from positions and velocities,
+returns ``none`` when the range is opening. Campaign families check the role at t = 0 from the
+geometry alone.
 
 Compliance (rules 16–17) is judged from the own vessel's track over the encounter
 (:func:`judge_compliance`): a give-way vessel must act **early** (its first substantial change of
@@ -40,7 +45,8 @@ import numpy as np
 
 from mjasc.core.config_tables import check_params, param
 
-__all__ = ["ROLES", "ColregConfig", "relative_bearing_deg", "classify", "judge_compliance", "Compliance"]
+__all__ = ["ROLES", "GEOMETRIC_ROLES", "ColregConfig", "wrap_deg", "own_bearing_from_target_deg", "role_from_geometry",
+           "relative_bearing_deg", "classify", "judge_compliance", "Compliance"]
 
 #: Roles of the own vessel, and what each asks of it.
 ROLES = {
@@ -51,6 +57,8 @@ ROLES = {
     "overtaken": "stand on: keep course and speed until action is required",
     "none": "no rule applies (no risk of collision or abaft the beam)",
 }
+#: The roles of an encounter with risk of collision (what :func:`role_from_geometry` returns).
+GEOMETRIC_ROLES = ("head_on", "crossing_give_way", "crossing_stand_on", "overtaking", "overtaken")
 GIVE_WAY = frozenset({"head_on", "crossing_give_way", "overtaking"})
 STAND_ON = frozenset({"crossing_stand_on", "overtaken"})
 
@@ -59,10 +67,12 @@ STAND_ON = frozenset({"crossing_stand_on", "overtaken"})
 class ColregConfig:
     """Thresholds of the role classification and the compliance judgement."""
 
-    head_on_bearing_deg: float = param(10.0, positive=True, maximum=45.0, unit="deg",
-                                       doc="head-on: the target within ± this of the own bow")
+    abaft_beam_deg: float = param(112.5, minimum=90.0, maximum=180.0, unit="deg",
+                                  doc="rule 13: overtaking from more than 22.5° abaft the beam (|β| ≥ 112.5°)")
+    head_on_bearing_deg: float = param(15.0, positive=True, maximum=45.0, unit="deg",
+                                       doc="rule 14: the target within this angle of the own bow")
     head_on_course_deg: float = param(15.0, positive=True, maximum=45.0, unit="deg",
-                                      doc="head-on: courses reciprocal within ± this")
+                                      doc="rule 14: the courses within this angle of reciprocal")
     action_course_deg: float = param(10.0, positive=True, unit="deg",
                                      doc="a course change beyond this is a substantial action (rule 16: readily apparent)")
     action_speed_fraction: float = param(0.25, positive=True, maximum=1.0,
@@ -86,38 +96,44 @@ def relative_bearing_deg(own_position_m, own_heading_rad: float, target_position
     return math.degrees(own_heading_rad - los) % 360.0
 
 
-def _course_difference_deg(a_rad: float, b_rad: float) -> float:
-    """|a − b| wrapped to [0, 180] [deg]."""
-    return abs((math.degrees(a_rad - b_rad) + 180.0) % 360.0 - 180.0)
+def wrap_deg(angle_deg: float) -> float:
+    """An angle in degrees wrapped to (−180, 180]."""
+    a = (angle_deg + 180.0) % 360.0 - 180.0
+    return 180.0 if a == -180.0 else a + 0.0
+
+
+def own_bearing_from_target_deg(bearing_deg: float, relative_course_deg: float) -> float:
+    """β_t: the own vessel's relative bearing seen from the target (clockwise from the target's bow)."""
+    return wrap_deg(bearing_deg + 180.0 - relative_course_deg)
+
+
+def role_from_geometry(bearing_deg: float, relative_course_deg: float, config: ColregConfig = ColregConfig()) -> str:
+    """The own vessel's role (module docstring) for a target at relative bearing ``bearing_deg``
+    whose course differs from the own by ``relative_course_deg`` (both clockwise, degrees), assuming
+    risk of collision."""
+    b, c = wrap_deg(bearing_deg), wrap_deg(relative_course_deg)
+    if abs(own_bearing_from_target_deg(b, c)) >= config.abaft_beam_deg:
+        return "overtaking"
+    if abs(b) >= config.abaft_beam_deg:
+        return "overtaken"
+    if abs(b) <= config.head_on_bearing_deg and abs(180.0 - abs(c)) <= config.head_on_course_deg:
+        return "head_on"
+    return "crossing_give_way" if b >= 0.0 else "crossing_stand_on"
 
 
 def classify(own_position_m, own_course_rad: float, own_speed_m_s: float, target_position_m,
              target_course_rad: float, target_speed_m_s: float, config: ColregConfig = ColregConfig()) -> str:
     """The own vessel's role towards the target (one of :data:`ROLES`), from both positions (2,) [m],
-    courses over ground [rad, CCW from east] and speeds [m/s]."""
-    beta = relative_bearing_deg(own_position_m, own_course_rad, target_position_m)
-    beta_t = relative_bearing_deg(target_position_m, target_course_rad, own_position_m)
+    courses over ground [rad, CCW from east] and speeds [m/s]: ``none`` when the range is opening,
+    else :func:`role_from_geometry`."""
     los = np.asarray(target_position_m, dtype=float) - np.asarray(own_position_m, dtype=float)
-    r = float(np.hypot(*los))
-    u = los / r if r > 0 else np.zeros(2)
     v_own = own_speed_m_s * np.array([math.cos(own_course_rad), math.sin(own_course_rad)])
     v_tgt = target_speed_m_s * np.array([math.cos(target_course_rad), math.sin(target_course_rad)])
-    closing = float(np.dot(v_own - v_tgt, u))  # > 0: the range decreases
-    if 112.5 <= beta_t <= 247.5 and closing > 0.0 and own_speed_m_s > target_speed_m_s:
-        return "overtaking"
-    if 112.5 <= beta <= 247.5 and closing > 0.0 and target_speed_m_s > own_speed_m_s:
-        return "overtaken"
-    if closing <= 0.0:
+    if float(np.dot(v_tgt - v_own, los)) >= 0.0:  # the range is not decreasing: no risk of collision
         return "none"
-    near_bow = min(beta, 360.0 - beta) <= config.head_on_bearing_deg
-    reciprocal = _course_difference_deg(own_course_rad, target_course_rad) >= 180.0 - config.head_on_course_deg
-    if near_bow and reciprocal:
-        return "head_on"
-    if 0.0 < beta < 112.5:
-        return "crossing_give_way"
-    if 247.5 < beta < 360.0:
-        return "crossing_stand_on"
-    return "none"
+    beta = relative_bearing_deg(own_position_m, own_course_rad, target_position_m)
+    rel_course = -math.degrees(target_course_rad - own_course_rad)  # clockwise
+    return role_from_geometry(beta, rel_course, config)
 
 
 @dataclass(frozen=True)
