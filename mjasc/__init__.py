@@ -18,7 +18,8 @@ imports neither MuJoCo nor numpy)::
 * ``load_scenario(path_or_name)`` — :func:`mjasc.runs.scenario.load_scenario`: a scenario TOML file
   (relative to the current folder) or a bundled scenario's name (``mjasc list`` shows them).
 * ``run_scenario(scenario, out_dir, progress=None)`` — :func:`mjasc.runs.runner.run_scenario`.
-* ``load_campaign(path_or_name)`` — :func:`mjasc.campaigns.perturbation.load_campaign`.
+* ``load_campaign(path_or_name)`` — :func:`mjasc.campaigns.spec.load_campaign_spec` (a
+  :class:`~mjasc.campaigns.spec.CampaignSpec`: encounter families, Imazu cases, perturbations).
 * ``run_campaign(campaign, out_dir, scheduler=None, workers=None, …)`` —
   :func:`mjasc.campaigns.engine.run_campaign`.
 * ``bundled_scenarios()``, ``bundled_campaigns()`` — name → file of the shipped scenarios and
@@ -46,7 +47,7 @@ __version__ = "0.1.0"
 _LAZY = {
     "load_scenario": ("mjasc.runs.scenario", "load_scenario"),
     "run_scenario": ("mjasc.runs.runner", "run_scenario"),
-    "load_campaign": ("mjasc.campaigns.perturbation", "load_campaign"),
+    "load_campaign": ("mjasc.campaigns.spec", "load_campaign_spec"),
     "run_campaign": ("mjasc.campaigns.engine", "run_campaign"),
     "bundled_scenarios": ("mjasc.core.resources", "bundled_scenarios"),
     "bundled_campaigns": ("mjasc.core.resources", "bundled_campaigns"),

@@ -120,20 +120,24 @@ def _cmd_figures(args) -> int:
 
 def _cmd_campaign(args) -> int:
     from mjasc.campaigns.engine import format_aggregate, run_campaign
-    from mjasc.campaigns.perturbation import CampaignError, load_campaign
+    from mjasc.campaigns.spec import CampaignError, load_campaign_spec
 
     try:
-        campaign = load_campaign(args.campaign).with_overrides(runs=args.runs)
+        campaign = load_campaign_spec(args.campaign).with_overrides(runs=args.runs)
     except CampaignError as exc:
         print(f"mjasc: invalid campaign: {exc}{_not_found_hint(args.campaign, 'campaign')}", file=sys.stderr)
         return 2
     out = Path(args.out) if args.out else Path("runs") / "campaigns" / campaign.name
     try:
         result = run_campaign(campaign, out, scheduler=args.scheduler, workers=args.workers,
-                              progress=args.progress and sys.stderr.isatty())
+                              progress=args.progress and sys.stderr.isatty(), max_attempts=args.max_attempts,
+                              time_limit_s=args.time_limit)
     except (ValueError, RuntimeError, OSError) as exc:
         print(f"mjasc: campaign failed: {exc}", file=sys.stderr)
         return 1
+    info = result.info
+    print(f"{campaign.name}: {info['runs_to_do']} run(s) done now, {info['already_done']} already in the store "
+          f"({info['wall_time_s']} s)")
     print(format_aggregate(result.aggregate, campaign.name))
     for kind, path in result.files.items():
         print(f"  {kind}: {path}")
@@ -180,14 +184,18 @@ def build_parser() -> argparse.ArgumentParser:
     f.add_argument("--out", default="runs/figures",
                    help="output folder (default: runs/figures in the current folder)")
     f.set_defaults(func=_cmd_figures)
-    c = sub.add_parser("campaign", help="Monte Carlo campaign: many randomized runs on Dask (docs/campaigns.md)")
+    c = sub.add_parser("campaign", help="a campaign of encounter runs on Dask, resumable (docs/campaigns.md)")
     c.add_argument("campaign", help="a campaign TOML file's path (relative to the current folder; format in "
                                     "docs/campaigns.md) or a bundled campaign's name such as 'demo_monte_carlo' "
                                     f"({NAMED_HELP})")
     c.add_argument("--out", help="output folder (default: runs/campaigns/<campaign name> in the current folder)")
     c.add_argument("--workers", type=int, help="local worker processes (default: CPU count; 0: in this process)")
     c.add_argument("--scheduler", help="address of an existing Dask scheduler (tcp://host:8786), or 'synchronous'")
-    c.add_argument("--runs", type=int, help="override the number of runs")
+    c.add_argument("--runs", type=int, help="only the campaign's first N runs (the rest can follow later: "
+                                            "a rerun into the same folder computes only what is missing)")
+    c.add_argument("--max-attempts", type=int, default=2, help="tries per run for errors, timeouts and crashes "
+                                                               "(default: 2)")
+    c.add_argument("--time-limit", type=float, default=3600.0, help="per-run time limit [s] (default: 3600)")
     c.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     c.set_defaults(func=_cmd_campaign)
     rd = sub.add_parser("render", help="render one episode of a dm_control suite task to MP4 + Rerun")

@@ -1,26 +1,28 @@
-"""Monte Carlo campaigns on Dask: the same campaign gives the same per-run results in this process
-and on a LocalCluster of 2 worker processes (whatever the completion order); a failed or diverged
-run is a failed row, not a crashed campaign; the aggregate's Wilson interval and quantiles match
-their closed forms; outputs (campaign.json, runs.csv, per-run recordings) and the CLI."""
+"""Campaigns end to end: the same campaign gives the same stored results in this process and on a
+LocalCluster of 2 worker processes; results are stored as each run finishes, so a campaign cut short
+(or whose driver is SIGKILLed) resumes without losing, duplicating or recomputing a run; a worker
+killed mid-campaign costs nothing; a diverged run is a result, not a crash; every stored run replays
+exactly from its scenario text; the Wilson interval matches its closed form; exports and the CLI."""
 
-import csv
 import json
-import pickle
-from pathlib import Path
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+import tomllib
 
-import numpy as np
+import pyarrow.parquet as pq
 import pytest
 
-from mjasc.campaigns.engine import aggregate_rows, run_campaign, wilson_interval, without_timing
-from mjasc.campaigns.perturbation import load_campaign, parse_campaign, randomized_scenario
+from mjasc.campaigns.engine import run_campaign, without_timing
+from mjasc.campaigns.spec import load_campaign_spec
+from mjasc.campaigns.statistics import wilson_interval
+from mjasc.campaigns.store import CampaignStore
 from mjasc.cli import main
-from mjasc.runs.runner import RunFailed, run_scenario
-from mjasc.runs.scenario import load_scenario
-
-TASKS = Path(__file__).resolve().parent.parent / "tasks"
-SIGMAS = dict(vessel_position_sigma_m=2.0, vessel_heading_sigma_deg=5.0, current_velocity_sigma_m_s=0.05,
-              traffic_heading_sigma_deg=10.0, traffic_speed_sigma_m_s=0.1)
-
+from mjasc.runs.runner import run_scenario
+from mjasc.runs.scenario import parse_scenario
 
 #: An eddy of 10⁹ m/s beside the start: the hydrodynamic forces overflow within a few steps.
 WILD = """
@@ -37,9 +39,7 @@ speed_m_s = 1.0
 controller = { type = "path_following", waypoints = [[0.0, 0.0], [100.0, 0.0]] }
 """
 
-
-#: The test scenario (independent of the shipped files): two Otters in a cross current, one with a
-#: noisy range sensor and an IMM tracker (its own random streams), a ferry crossing ahead.
+#: Two Otters in a cross current, one with a noisy range sensor and an IMM tracker, a ferry crossing.
 SHORT = """
 name = "short"
 duration_s = 8.0
@@ -68,29 +68,38 @@ heading_deg = -90.0
 speed_m_s = 1.2
 """
 
+CAMPAIGN = """
+name = "short"
+base_seed = 5
+[outputs]
+recordings = {recordings}
+[[families]]
+kind = "perturbation"
+scenario = "short.toml"
+runs_per_point = {runs}
+duration_s = {duration}
+[families.randomize]
+vessel_position_sigma_m = 2.0
+vessel_heading_sigma_deg = 5.0
+traffic_speed_sigma_m_s = 0.1
+"""
 
-@pytest.fixture(scope="module")
-def short_scenario(tmp_path_factory):
-    path = tmp_path_factory.mktemp("scenario") / "short.toml"
-    path.write_text(SHORT)
+
+def write_campaign(folder, runs=4, duration=6.0, recordings=False, scenario=SHORT):
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "short.toml").write_text(scenario)
+    path = folder / "c.toml"
+    path.write_text(CAMPAIGN.format(runs=runs, duration=duration, recordings=str(recordings).lower()))
     return path
 
 
-def short_campaign(scenario_path, runs=4, duration_s=8.0, **kw):
-    d = {"name": "short", "scenario": str(scenario_path), "runs": runs, "base_seed": 5,
-         "duration_s": duration_s, "randomize": dict(SIGMAS)}
-    d.update(kw)
-    return parse_campaign(d)
-
-
-def statuses(result):
-    """Each row's status, with the error of any run that did not complete (for the assertion message)."""
-    return [r["status"] if r["status"] == "completed" else f"{r['status']}: {r['error']}" for r in result.rows]
+def results(result):
+    return {r.index: (r.status, without_timing(r.metrics)) for r in result.runs}
 
 
 @pytest.fixture(scope="module")
 def cluster():
-    """One LocalCluster of 2 single-threaded worker processes for the module (start-up ≈ 2-3 s)."""
+    """One LocalCluster of 2 single-threaded worker processes for the module."""
     from distributed import LocalCluster
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as c:
@@ -98,9 +107,10 @@ def cluster():
 
 
 @pytest.fixture(scope="module")
-def synchronous_result(tmp_path_factory, short_scenario):
-    return run_campaign(short_campaign(short_scenario), tmp_path_factory.mktemp("sync"), scheduler="synchronous",
-                        progress=False)
+def here(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("here")
+    spec = load_campaign_spec(write_campaign(folder))
+    return spec, run_campaign(spec, folder / "out", workers=0, progress=False)
 
 
 # ---------------------------------------------------------------------- statistics in closed form
@@ -109,158 +119,144 @@ def test_wilson_interval_solves_the_score_equation():
     z = 1.959963984540054
     for c, n in [(0, 20), (5, 20), (20, 20), (37, 1000), (1, 3)]:
         lo, hi = wilson_interval(c, n)
-        p_hat = c / n
+        ph = c / n
         for p in (lo, hi):
-            assert (p_hat - p) ** 2 == pytest.approx(z * z * p * (1 - p) / n, abs=1e-12)
-        assert lo <= p_hat <= hi
-        lo2, hi2 = wilson_interval(n - c, n)
-        assert (lo2, hi2) == pytest.approx((1 - hi, 1 - lo), abs=1e-12)
-    assert wilson_interval(0, 20) == pytest.approx((0.0, 0.16113), abs=1e-5)  # the "rule of three" regime
-    assert wilson_interval(0, 400)[0] == 0.0 and wilson_interval(0, 400)[1] == pytest.approx(z * z / (400 + z * z))
+            if 0.0 < p < 1.0:
+                assert (ph - p) ** 2 == pytest.approx(z * z * p * (1 - p) / n, rel=1e-9, abs=1e-15)
+        assert lo <= ph <= hi
     assert wilson_interval(0, 0) is None
-    with pytest.raises(ValueError, match="successes"):
-        wilson_interval(5, 4)
 
 
-def _row(k, clear, xte_mean, xte_max, collided, status="completed"):
-    if status != "completed":
-        return {"k": k, "seed": k, "status": status, "error": "boom", "summary": None, "wall_time_s": 1.0}
-    v = {"a": {"min_clearance_to_any_m": clear, "mean_cross_track_m": xte_mean, "max_cross_track_m": xte_max,
-               "collisions": [{"time_s": 1.0, "between": ["a", "x"]}] if collided else []}}
-    return {"k": k, "seed": k, "status": status, "error": None, "wall_time_s": 2.0,
-            "summary": {"vessels": v, "collisions": v["a"]["collisions"], "any_collision": collided,
-                        "sim_time_s": 10.0}}
+# ---------------------------------------------------------------------- engine
+def test_local_cluster_gives_the_in_process_results(here, cluster, tmp_path):
+    spec, sync = here
+    assert [r.status for r in sync.runs] == ["completed"] * 4
+    dist = run_campaign(spec, tmp_path, scheduler=cluster.scheduler_address, progress=False)
+    assert results(dist) == results(sync)
+    assert dist.info["scheduler"].startswith("tcp://") and dist.info["workers"] == 2
 
 
-def test_aggregate_counts_quantiles_and_throughput():
-    rows = [_row(k, float(k), 0.1 * k, 0.2 * k, k % 4 == 0) for k in range(20)] + [_row(20, 0, 0, 0, False, "diverged")]
-    agg = aggregate_rows(rows, wall_time_s=36.0)
-    assert (agg["runs"], agg["completed"], agg["failed"]) == (21, 20, 1)
-    assert agg["failed_runs"] == [{"k": 20, "status": "diverged", "error": "boom"}]
-    assert agg["collision"]["runs_with_collision"] == 5 and agg["collision"]["rate"] == 0.25
-    assert agg["collision"]["wilson95"] == pytest.approx(wilson_interval(5, 20), abs=1e-4)
-    clear = np.arange(20.0)
-    assert agg["min_clearance_m"]["p50"] == pytest.approx(np.median(clear))
-    assert agg["min_clearance_m"]["p5"] == pytest.approx(np.quantile(clear, 0.05))
-    assert agg["min_clearance_m"]["std"] == pytest.approx(np.std(clear, ddof=1), abs=1e-4)
-    assert agg["max_cross_track_m"]["p100"] == pytest.approx(3.8)
-    assert agg["throughput_runs_per_hour"] == pytest.approx(3600 * 21 / 36.0)
-    assert agg["real_time_factor"] == pytest.approx(200.0 / 36.0, abs=0.01)
-    assert agg["per_vessel"]["a"]["collisions"] == 5
+def test_every_stored_run_replays_exactly_from_its_scenario_text(here):
+    spec, sync = here
+    r = sync.runs[2]
+    replay = run_scenario(parse_scenario(tomllib.loads(r.scenario)), None, progress=False).summary
+    stored = dict(r.metrics)
+    stored.pop("evaluation")
+    assert without_timing(replay) == without_timing(stored)
+    assert r.scenario == spec.run(2).scenario_toml and r.seed == spec.run(2).seed
 
 
-# ---------------------------------------------------------------------- determinism across schedulers
-def test_local_cluster_of_two_workers_gives_the_synchronous_results(synchronous_result, short_scenario, tmp_path):
-    dist = run_campaign(short_campaign(short_scenario), tmp_path, workers=2, progress=False)
-    sync = synchronous_result
-    assert [r["k"] for r in dist.rows] == [0, 1, 2, 3]
-    assert statuses(dist) == statuses(sync) == ["completed"] * 4
-    assert without_timing(dist.rows) == without_timing(sync.rows)
-    assert len({r["worker"] for r in dist.rows}) <= 2
-    doc = json.loads((tmp_path / "campaign.json").read_text())
-    assert doc["campaign"]["workers"] == 2 and doc["campaign"]["scheduler"] == "local"
-    assert without_timing(doc["aggregate"]) == without_timing(sync.aggregate)
-
-
-def test_run_k_is_the_randomized_scenario_run_directly(synchronous_result, short_scenario):
-    c = short_campaign(short_scenario)
-    sc = randomized_scenario(c.scenario, c, 2)
-    from dataclasses import replace
-
-    direct = run_scenario(replace(sc, outputs=replace(sc.outputs, recording=False)), None, progress=False).summary
-    row = synchronous_result.rows[2]
-    assert row["seed"] == 7 == direct["seed"]
-    assert without_timing(row["summary"]) == without_timing(json.loads(json.dumps(direct)))
-    # Runs differ from each other (the perturbations act).
-    xte = [r["summary"]["vessels"]["alpha"]["mean_cross_track_m"] for r in synchronous_result.rows]
-    assert len(set(xte)) == 4
-    assert row["summary"]["vessels"]["alpha"]["perception"]  # the sensor and tracker ran
-
-
-def test_outputs_on_disk(synchronous_result):
-    out = synchronous_result.out_dir
+def test_outputs_on_disk(here):
+    spec, sync = here
+    out = sync.out_dir
     doc = json.loads((out / "campaign.json").read_text())
-    assert [r["k"] for r in doc["runs"]] == [0, 1, 2, 3] and doc["campaign"]["base_seed"] == 5
-    assert doc["campaign"]["randomize"] == SIGMAS and doc["aggregate"]["completed"] == 4
-    with open(out / "runs.csv") as f:
-        lines = list(csv.DictReader(f))
-    assert [int(r["k"]) for r in lines] == [0, 1, 2, 3] and [int(r["seed"]) for r in lines] == [5, 6, 7, 8]
-    r1 = synchronous_result.rows[1]
-    assert float(lines[1]["alpha.mean_cross_track_m"]) == r1["summary"]["vessels"]["alpha"]["mean_cross_track_m"]
-    assert float(lines[1]["draw.alpha.dx_m"]) == r1["draws"]["vessels"]["alpha"]["dx_m"]
-    assert float(lines[1]["draw.ferry.dspeed_m_s"]) == r1["draws"]["traffic"]["ferry"]["dspeed_m_s"]
-    assert not (out / "runs").exists()  # summaries only unless recordings are asked for
+    assert doc["aggregate"]["runs_defined"] == 4 and doc["aggregate"]["runs_recorded"] == 4
+    assert doc["campaign"]["digest"] == spec.digest
+    rows = pq.read_table(out / "runs.parquet").to_pylist()
+    assert [r["index"] for r in rows] == [0, 1, 2, 3] and "metric.any_collision" in rows[0]
+    assert (out / "runs.csv").read_text().count("\n") == 5
+    enc = sync.runs[0].metrics["evaluation"]["encounters"]
+    assert enc and enc[0]["other"] == "ferry"
 
 
-# ---------------------------------------------------------------------- failures
-def test_failed_runs_are_rows_and_the_others_go_on(cluster, short_scenario, tmp_path):
-    def flaky(scenario, out_dir, progress):  # defined here so Dask pickles it by value
-        if scenario.seed == 6:
-            raise RunFailed("physics diverged at t = 1.000 s: injected")
-        if scenario.seed == 7:
-            raise ValueError("injected bug")
-        return run_scenario(scenario, out_dir, progress)
-
-    c = short_campaign(short_scenario, duration_s=4.0)
-    dist = run_campaign(c, tmp_path / "dist", scheduler=cluster.scheduler_address, progress=False, run_fn=flaky)
-    sync = run_campaign(c, tmp_path / "sync", workers=0, progress=False, run_fn=flaky)
-    for res in (dist, sync):
-        assert [r["status"] for r in res.rows] == ["completed", "diverged", "failed", "completed"], statuses(res)
-        assert res.rows[1]["error"].startswith("RunFailed: physics diverged") and res.rows[1]["summary"] is None
-        assert res.rows[2]["error"] == "ValueError: injected bug"
-        assert res.aggregate["failed"] == 2 and res.aggregate["completed"] == 2
-        assert res.aggregate["min_clearance_m"]["n"] == 2
-    assert without_timing(dist.rows) == without_timing(sync.rows)
-    assert json.loads((tmp_path / "dist" / "campaign.json").read_text())["campaign"]["scheduler"].startswith("tcp://")
+def test_a_campaign_cut_short_resumes_without_recomputing(tmp_path):
+    spec = load_campaign_spec(write_campaign(tmp_path, duration=3.0))
+    first = run_campaign(spec.with_overrides(runs=2), tmp_path / "out", workers=0, progress=False)
+    assert first.info["runs_to_do"] == 2 and len(first.runs) == 2
+    before = {r.index: r.worker for r in first.runs}
+    full = run_campaign(spec, tmp_path / "out", workers=0, progress=False)
+    assert full.info["runs_to_do"] == 2 and full.info["already_done"] == 2
+    assert [r.index for r in full.runs] == [0, 1, 2, 3] and all(r.attempts == 1 for r in full.runs)
+    assert {k: w for k, w in ((r.index, r.worker) for r in full.runs) if k < 2} == before
+    again = run_campaign(spec, tmp_path / "out", workers=0, progress=False)
+    assert again.info["runs_to_do"] == 0 and results(again) == results(full)
 
 
-@pytest.mark.filterwarnings("ignore::RuntimeWarning")  # the overflow that makes it diverge
-def test_a_run_whose_physics_diverges_is_reported_as_diverged(tmp_path):
-    (tmp_path / "wild.toml").write_text(WILD)
-    (tmp_path / "c.toml").write_text('scenario = "wild.toml"\nruns = 2\n')
-    res = run_campaign(load_campaign(tmp_path / "c.toml"), tmp_path / "out", scheduler="synchronous", progress=False)
-    assert [r["status"] for r in res.rows] == ["diverged", "diverged"]
-    assert "physics diverged" in res.rows[0]["error"]
-    assert res.aggregate["collision"]["rate"] is None and res.aggregate["min_clearance_m"] is None
+@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+def test_a_diverging_run_is_a_result_and_the_campaign_goes_on(tmp_path):
+    spec = load_campaign_spec(write_campaign(tmp_path, runs=2, duration=3.0, scenario=WILD))
+    res = run_campaign(spec, tmp_path / "out", workers=0, progress=False)
+    assert [r.status for r in res.runs] == ["diverged", "diverged"]
+    assert "physics diverged" in res.runs[0].error and res.runs[0].attempts == 1  # not retried
+    assert res.aggregate["runs_failed"] == 2 and res.aggregate["collision"]["rate"] is None
 
 
-# ---------------------------------------------------------------------- recordings, arguments, CLI
-def test_recordings_are_kept_per_run_when_asked(short_scenario, tmp_path):
-    c = short_campaign(short_scenario, runs=2, duration_s=2.0, outputs={"recordings": True})
-    res = run_campaign(c, tmp_path, scheduler="synchronous", progress=False)
+def test_killing_a_worker_mid_campaign_loses_no_run(tmp_path):
+    from distributed import Client, LocalCluster
+
+    spec = load_campaign_spec(write_campaign(tmp_path, runs=6, duration=6.0))
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0") as cl, \
+            Client(cl) as client:
+        pids = list(client.run(os.getpid).values())
+
+        def kill_one():  # once the first result is in the store, kill a worker process
+            store = tmp_path / "out" / "campaign.sqlite"
+            t0 = time.time()
+            while time.time() - t0 < 120:
+                if store.exists():
+                    with CampaignStore(tmp_path / "out", spec.digest) as s:
+                        if s.runs():
+                            break
+                time.sleep(0.2)
+            os.kill(pids[0], signal.SIGKILL)
+
+        killer = threading.Thread(target=kill_one)
+        killer.start()
+        res = run_campaign(spec, tmp_path / "out", scheduler=client, progress=False)
+        killer.join()
+    assert [r.index for r in res.runs] == list(range(6))
+    assert all(r.status == "completed" for r in res.runs), [(r.status, r.error) for r in res.runs]
+
+
+def test_sigkill_of_the_driver_then_the_same_command_resumes(tmp_path):
+    path = write_campaign(tmp_path, runs=5, duration=3.0)
+    cmd = [sys.executable, "-m", "mjasc", "campaign", str(path), "--workers", "0", "--out", str(tmp_path / "out"),
+           "--no-progress"]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    spec = load_campaign_spec(path)
+    t0 = time.time()
+    n = 0
+    while time.time() - t0 < 180 and n < 2:
+        if (tmp_path / "out" / "campaign.sqlite").exists():
+            with CampaignStore(tmp_path / "out", spec.digest) as s:
+                n = len(s.runs())
+        time.sleep(0.2)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    with CampaignStore(tmp_path / "out", spec.digest) as s:
+        before = {r.index: r.worker for r in s.runs()}
+    assert 2 <= len(before) < 5
+    assert subprocess.run(cmd, env=env, capture_output=True).returncode == 0
+    with CampaignStore(tmp_path / "out", spec.digest) as s:
+        after = s.runs()
+    assert [r.index for r in after] == list(range(5)) and all(r.attempts == 1 for r in after)
+    assert {r.index: r.worker for r in after if r.index in before} == before  # not recomputed
+
+
+def test_recordings_are_kept_per_run_when_asked(tmp_path):
+    spec = load_campaign_spec(write_campaign(tmp_path, runs=2, duration=2.0, recordings=True))
+    res = run_campaign(spec, tmp_path / "out", workers=0, progress=False)
     for k in (0, 1):
-        assert (tmp_path / "runs" / str(k) / "recording.rrd").stat().st_size > 0
-        s = json.loads((tmp_path / "runs" / str(k) / "summary.json").read_text())
-        assert s["seed"] == 5 + k and without_timing(s) == without_timing(res.rows[k]["summary"])
+        assert (tmp_path / "out" / "runs" / str(k) / "recording.rrd").stat().st_size > 0
+        s = json.loads((tmp_path / "out" / "runs" / str(k) / "summary.json").read_text())
+        stored = dict(res.runs[k].metrics)
+        stored.pop("evaluation")
+        assert s["seed"] == 5 + k and without_timing(s) == without_timing(stored)
 
 
-def test_bad_scheduler_arguments_name_the_field(short_scenario, tmp_path):
-    c = short_campaign(short_scenario, runs=1)
+def test_bad_engine_arguments_name_the_field(here, tmp_path):
+    spec, _ = here
     with pytest.raises(ValueError, match="^workers: must be ≥ 0, got -1$"):
-        run_campaign(c, tmp_path, workers=-1, progress=False)
-    with pytest.raises(ValueError, match="^workers: must be an integer, got 2.5$"):
-        run_campaign(c, tmp_path, workers=2.5, progress=False)
-    with pytest.raises(ValueError, match="workers: only for a local cluster"):
-        run_campaign(c, tmp_path, scheduler="tcp://127.0.0.1:1", workers=2, progress=False)
+        run_campaign(spec, tmp_path, workers=-1, progress=False)
+    with pytest.raises(ValueError, match="^workers: only for a local cluster"):
+        run_campaign(spec, tmp_path, scheduler="tcp://127.0.0.1:1", workers=2, progress=False)
 
 
-@pytest.mark.parametrize("path", [TASKS / "demo.toml", *sorted(TASKS.glob("thesis_*.toml"))], ids=lambda p: p.name)
-def test_scenarios_pickle_for_the_workers(path):
-    sc = load_scenario(path)
-    back = pickle.loads(pickle.dumps(sc))
-    assert back.seed == sc.seed and [v.name for v in back.vessels] == [v.name for v in sc.vessels]
-    origin = np.zeros((1, 2))
-    np.testing.assert_array_equal(back.current.velocity(origin, 1.0), sc.current.velocity(origin, 1.0))
-
-
-def test_cli_campaign_prints_the_aggregate(short_scenario, tmp_path, capsys):
-    (tmp_path / "c.toml").write_text(f'scenario = "{short_scenario}"\nruns = 5\nduration_s = 2.0\n'
-                                     '[randomize]\nvessel_position_sigma_m = 1.0\n')
-    assert main(["campaign", str(tmp_path / "c.toml"), "--workers", "0", "--runs", "2", "--out",
-                 str(tmp_path / "out"), "--no-progress"]) == 0
+def test_cli_campaign_prints_the_aggregate(tmp_path, capsys):
+    path = write_campaign(tmp_path, runs=2, duration=2.0)
+    assert main(["campaign", str(path), "--workers", "0", "--out", str(tmp_path / "out"), "--no-progress"]) == 0
     out = capsys.readouterr().out
-    assert "c: 2 run(s), 2 completed, 0 failed" in out and "collision rate" in out and "min clearance" in out
-    assert len(json.loads((tmp_path / "out" / "campaign.json").read_text())["runs"]) == 2
-    (tmp_path / "bad.toml").write_text('scenario = "x.toml"\nruns = -1\n')
-    assert main(["campaign", str(tmp_path / "bad.toml")]) == 2
-    assert "runs: must be ≥ 1" in capsys.readouterr().err
+    assert "2 run(s) done now" in out and "collision" in out and "perturbation" in out
+    assert main(["campaign", str(path), "--workers", "0", "--out", str(tmp_path / "out"), "--no-progress"]) == 0
+    assert "0 run(s) done now, 2 already in the store" in capsys.readouterr().out

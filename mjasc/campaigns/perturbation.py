@@ -320,7 +320,7 @@ def perturbed_document(data: dict, scenario: Scenario, randomize: Randomization,
         else:
             doc["current"] = {"type": "sum", "components": [
                 current.describe(), {"type": "uniform", "velocity_m_s": [float(x) for x in d.current_offset_m_s]}]}
-    if randomize.traffic_heading_sigma_deg > 0 or randomize.traffic_speed_sigma_m_s > 0:
+    if (randomize.traffic_heading_sigma_deg > 0 or randomize.traffic_speed_sigma_m_s > 0) and scenario.moving_obstacles:
         traffic = []
         for j, (table_j, o) in enumerate(zip(data["moving_obstacles"], scenario.moving_obstacles)):
             t = {**table_j, "speed_m_s": float(o.speed_m_s + d.traffic_speed_offset_m_s[j])}

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterator
 
@@ -107,11 +107,13 @@ class CampaignSpec:
     source: str = ""
     data: dict = field(default_factory=dict, repr=False)  # the file's parsed content
     base_dir: str = "."
+    limit: int | None = None  # only the first `limit` runs (the same campaign: same digest, same runs)
 
     @property
     def runs_defined(self) -> int:
-        """How many runs the campaign defines (the sum over its families)."""
-        return sum(f.runs for f in self.families)
+        """How many runs the campaign defines (the sum over its families; at most ``limit``)."""
+        total = sum(f.runs for f in self.families)
+        return total if self.limit is None else min(total, self.limit)
 
     def _locate(self, index: int):
         if not 0 <= index < self.runs_defined:
@@ -141,9 +143,16 @@ class CampaignSpec:
             yield self.run(index)
 
     def with_overrides(self, base_seed: int | None = None, runs_per_point: int | None = None,
-                       duration_s: float | None = None) -> "CampaignSpec":
+                       duration_s: float | None = None, runs: int | None = None) -> "CampaignSpec":
         """The campaign with ``base_seed``, every family's ``runs_per_point`` or ``duration_s``
-        replaced (a new campaign: a new digest)."""
+        replaced (a new campaign: a new digest), or with only its first ``runs`` runs (the same
+        campaign cut short: its digest and its runs are unchanged, so a store keeps them)."""
+        if runs is not None:
+            with errors_as(CampaignError):
+                runs = integer(runs, "runs", minimum=1)
+            if base_seed is None and runs_per_point is None and duration_s is None:
+                return replace(self, limit=runs)
+            return replace(self.with_overrides(base_seed, runs_per_point, duration_s), limit=runs)
         with errors_as(CampaignError):
             data = {k: v for k, v in self.data.items()}
             if base_seed is not None:

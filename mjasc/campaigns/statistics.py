@@ -1,0 +1,148 @@
+"""Campaign statistics: outcome rates with Wilson score intervals, quantiles, per encounter family.
+
+Per run (from its summary, :func:`run_outcome`): collision (hull contact), near miss (an encounter's
+separation below the near-miss distance, and no collision), the minimum separation over the run
+(the smallest clearance between a vessel's bounding circle and anything), the mean and max
+cross-track error, the CAS actions by kind, the COLREG compliance of its encounters with traffic,
+and tracking quality (mean GOSPA, identity switches). Per family and overall
+(:func:`aggregate`): counts per status, collision and near-miss rates with Wilson 95 % intervals,
+separation quantiles, compliance rate, actions, tracking means, throughput.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import Counter, defaultdict
+
+import numpy as np
+
+__all__ = ["Z95", "wilson_interval", "quantiles", "run_outcome", "aggregate", "format_aggregate"]
+
+#: z for a two-sided 95 % interval.
+Z95 = 1.959963984540054
+QUANTILES = (0.0, 0.05, 0.25, 0.5, 0.75, 0.95, 1.0)
+
+
+def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, float] | None:
+    """Wilson score interval for a binomial proportion (Wilson 1927):
+    ``(p̂ + z²/2n ± z·√(p̂(1−p̂)/n + z²/4n²)) / (1 + z²/n)``; None for n = 0."""
+    if n <= 0:
+        return None
+    if not 0 <= successes <= n:
+        raise ValueError(f"successes: must be in [0, n={n}], got {successes}")
+    p = successes / n
+    denom = 1.0 + z * z / n
+    centre = (p + z * z / (2 * n)) / denom
+    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / denom
+    lo = 0.0 if successes == 0 else max(0.0, centre - half)  # exact 0 and 1 at the ends (no round-off)
+    hi = 1.0 if successes == n else min(1.0, centre + half)
+    return lo, hi
+
+
+def quantiles(values) -> dict | None:
+    """p0, p5, p25, p50, p75, p95, p100, mean, std, n of the non-None values (None when empty)."""
+    x = np.asarray([v for v in values if v is not None], dtype=float)
+    if x.size == 0:
+        return None
+    q = np.quantile(x, QUANTILES)
+    out = {f"p{round(100 * p)}": round(float(v), 4) for p, v in zip(QUANTILES, q)}
+    out.update(mean=round(float(x.mean()), 4), std=round(float(x.std(ddof=1)), 4) if x.size > 1 else 0.0, n=int(x.size))
+    return out
+
+
+def run_outcome(summary: dict | None, near_miss_m: float = 1.0) -> dict:
+    """Per-run scalars from a run's summary (None where the run has no value)."""
+    s = summary or {}
+    vessels = s.get("vessels", {})
+    clear = [v["min_clearance_to_any_m"] for v in vessels.values() if v.get("min_clearance_to_any_m") is not None]
+    means = [v["mean_cross_track_m"] for v in vessels.values() if v.get("mean_cross_track_m") is not None]
+    maxes = [v["max_cross_track_m"] for v in vessels.values() if v.get("max_cross_track_m") is not None]
+    actions: Counter = Counter()
+    for v in vessels.values():
+        actions.update((v.get("avoidance") or {}).get("actions", {}))
+    ev = s.get("evaluation") or {}
+    enc = ev.get("encounters", [])
+    tracking = list((ev.get("tracking") or {}).values())
+    min_sep = min(clear) if clear else None
+    collision = bool(s.get("any_collision"))
+    return {
+        "collision": collision,
+        "near_miss": (not collision) and min_sep is not None and min_sep < near_miss_m,
+        "min_separation_m": min_sep,
+        "mean_cross_track_m": round(float(np.mean(means)), 4) if means else None,
+        "max_cross_track_m": max(maxes) if maxes else None,
+        "actions": dict(actions),
+        "encounters": len(enc),
+        "encounters_compliant": sum(bool(e.get("compliant")) for e in enc),
+        "roles": dict(Counter(e.get("role") for e in enc)),
+        "gospa_mean_m": round(float(np.mean([t["gospa_mean_m"] for t in tracking])), 4) if tracking else None,
+        "id_switches": sum(t.get("id_switches", 0) for t in tracking) if tracking else None,
+        "sim_time_s": s.get("sim_time_s"),
+    }
+
+
+def _rate(k: int, n: int) -> dict:
+    w = wilson_interval(k, n)
+    return {"count": k, "n": n, "rate": round(k / n, 4) if n else None,
+            "wilson95": [round(w[0], 4), round(w[1], 4)] if w else None}
+
+
+def _group(runs, near_miss_m: float) -> dict:
+    """Statistics of a group of stored runs (see the module docstring)."""
+    statuses = Counter(r.status for r in runs)
+    done = [r for r in runs if r.status == "completed"]
+    outs = [run_outcome(r.metrics, near_miss_m) for r in done]
+    n = len(done)
+    actions: Counter = Counter()
+    roles: Counter = Counter()
+    for o in outs:
+        actions.update(o["actions"])
+        roles.update(o["roles"])
+    n_enc = sum(o["encounters"] for o in outs)
+    walls = [r.wall_time_s for r in runs if r.wall_time_s is not None]
+    return {
+        "runs": len(runs), "statuses": dict(statuses), "completed": n,
+        "collision": _rate(sum(o["collision"] for o in outs), n),
+        "near_miss": _rate(sum(o["near_miss"] for o in outs), n),
+        "min_separation_m": quantiles(o["min_separation_m"] for o in outs),
+        "mean_cross_track_m": quantiles(o["mean_cross_track_m"] for o in outs),
+        "colreg": {"encounters": n_enc, "roles": dict(roles),
+                   "compliant": _rate(sum(o["encounters_compliant"] for o in outs), n_enc)},
+        "actions": dict(actions),
+        "gospa_mean_m": quantiles(o["gospa_mean_m"] for o in outs),
+        "id_switches": sum(o["id_switches"] or 0 for o in outs),
+        "sim_time_s_total": round(sum(o["sim_time_s"] or 0.0 for o in outs), 3),
+        "run_wall_time_s": {"sum": round(sum(walls), 3), "mean": round(float(np.mean(walls)), 3) if walls else None},
+    }
+
+
+def aggregate(runs, runs_defined: int | None = None, near_miss_m: float = 1.0) -> dict:
+    """Overall and per-family statistics of stored runs (:class:`~mjasc.campaigns.store.StoredRun`)."""
+    by_family: dict[str, list] = defaultdict(list)
+    for r in runs:
+        by_family[r.family].append(r)
+    out = {"runs_defined": runs_defined, "runs_recorded": len(runs), **_group(runs, near_miss_m),
+           "families": {f: _group(rs, near_miss_m) for f, rs in sorted(by_family.items())}}
+    out["runs_failed"] = sum(n for s, n in out["statuses"].items() if s != "completed")
+    return out
+
+
+def format_aggregate(agg: dict, name: str = "") -> str:
+    """A short plain-text table (what ``mjasc campaign`` prints): per family and overall, runs,
+    collision and near-miss rates with Wilson 95 % intervals, median and minimum separation."""
+    def rate(d):
+        if d["rate"] is None:
+            return "—"
+        return f"{d['count']}/{d['n']} = {100 * d['rate']:.1f} % ({100 * d['wilson95'][0]:.1f}–{100 * d['wilson95'][1]:.1f} %)"
+
+    def sep(q):
+        return "—" if not q else f"min {q['p0']:.2f} m, median {q['p50']:.2f} m"
+
+    lines = [f"{name}: {agg['runs_recorded']} of {agg['runs_defined']} run(s) recorded, {agg['completed']} completed, "
+             f"{agg['runs_failed']} failed"]
+    rows = [("family", "runs", "collision (Wilson 95 %)", "near miss (Wilson 95 %)", "separation")]
+    for fam, g in list(agg["families"].items()) + [("all", agg)]:
+        rows.append((fam, str(g["completed"]), rate(g["collision"]), rate(g["near_miss"]), sep(g["min_separation_m"])))
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    lines += ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
+    return "\n".join(lines)
