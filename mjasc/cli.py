@@ -144,6 +144,23 @@ def _cmd_campaign(args) -> int:
     return 0
 
 
+def _cmd_report(args) -> int:
+    from mjasc.campaigns.report import format_report, report_data, write_report
+
+    try:
+        if args.json:
+            print(json.dumps(report_data(args.folder), default=str))
+            return 0
+        out = write_report(args.folder, args.out, formats=args.format)
+    except FileNotFoundError as exc:
+        print(f"mjasc: {exc}", file=sys.stderr)
+        return 2
+    print(format_report(out["data"]), end="")
+    for path in out["files"]:
+        print(f"  {path}")
+    return 0
+
+
 def _cmd_render(args) -> int:
     from mjasc.suite.render import render_episode
 
@@ -198,6 +215,15 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--time-limit", type=float, default=3600.0, help="per-run time limit [s] (default: 3600)")
     c.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     c.set_defaults(func=_cmd_campaign)
+    rp = sub.add_parser("report", help="a campaign's results: table, plots (PNG/SVG), or --json; works on a "
+                                       "campaign that is still running or was killed")
+    rp.add_argument("folder", help="the campaign's output folder (it holds campaign.sqlite)")
+    rp.add_argument("--json", action="store_true", help="print one JSON object (runs_defined, runs_recorded, "
+                                                         "runs_failed, outcomes, families) and write nothing")
+    rp.add_argument("--out", help="folder for report.md and the figures (default: FOLDER/report)")
+    rp.add_argument("--format", nargs="+", default=["png", "svg"], choices=["png", "svg", "pdf"],
+                    help="figure formats (default: png svg)")
+    rp.set_defaults(func=_cmd_report)
     rd = sub.add_parser("render", help="render one episode of a dm_control suite task to MP4 + Rerun")
     rd.add_argument("domain")
     rd.add_argument("task")

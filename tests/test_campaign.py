@@ -260,3 +260,18 @@ def test_cli_campaign_prints_the_aggregate(tmp_path, capsys):
     assert "2 run(s) done now" in out and "collision" in out and "perturbation" in out
     assert main(["campaign", str(path), "--workers", "0", "--out", str(tmp_path / "out"), "--no-progress"]) == 0
     assert "0 run(s) done now, 2 already in the store" in capsys.readouterr().out
+
+
+def test_report_on_a_campaign_and_as_json(here, tmp_path, capsys):
+    _, sync = here
+    out = tmp_path / "report"
+    assert main(["report", str(sync.out_dir), "--out", str(out), "--format", "png", "svg"]) == 0
+    text = capsys.readouterr().out
+    assert "| perturbation | 4 |" in text and "COLREG" in text
+    for stem in ("rates", "separation", "colreg", "tracking"):
+        assert (out / f"{stem}.png").stat().st_size > 0 and (out / f"{stem}.svg").stat().st_size > 0
+    assert main(["report", str(sync.out_dir), "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    assert data["runs_defined"] == 4 and data["runs_recorded"] == 4 and data["runs_failed"] == 0
+    assert data["outcomes"]["completed"] == 4 and "collision" in data["outcomes"]
+    assert main(["report", str(tmp_path / "nothing")]) == 2

@@ -36,8 +36,10 @@ __all__ = ["EvaluationConfig", "RunEvaluator"]
 class EvaluationConfig:
     """How a run is judged (not seen by the vessels)."""
 
-    encounter_range_m: float = param(60.0, positive=True, unit="m",
-                                     doc="an encounter starts when the traffic comes this close while closing")
+    encounter_range_m: float = param(130.0, positive=True, unit="m",
+                                     doc="an encounter starts when the traffic comes this close while closing; its "
+                                         "COLREG role is judged then — keep it beyond the sensors' range, before "
+                                         "the vessel can react")
     near_miss_m: float = param(1.0, nonneg=True, unit="m",
                                doc="a closest approach with less separation (hull circles) is a near miss")
     after_cpa_s: float = param(10.0, nonneg=True, unit="s", doc="compliance is judged until this long after CPA")

@@ -1,0 +1,197 @@
+"""``mjasc report DIR``: what a campaign found, from its store — a table, plots and a JSON object.
+
+Works on any campaign folder, finished, killed or still running (SQLite in WAL mode lets a reader
+in while the driver writes). :func:`report_data` computes everything from the stored runs
+(:mod:`mjasc.campaigns.statistics`); :func:`write_report` writes ``report.md`` and the figures
+(PNG and SVG by default) into ``DIR/report/``:
+
+* ``rates`` — collision and near-miss rates per encounter family with their Wilson 95 % intervals;
+* ``separation`` — the distribution of each run's minimum separation per family;
+* ``outcomes_<family>`` — an outcome map over the family's two most varied numeric encounter
+  parameters (e.g. relative bearing × DCPA), each run coloured by its minimum separation,
+  collisions marked;
+* ``colreg`` — the share of encounters where the own vessel acted as its COLREG role asks, per role;
+* ``tracking`` — mean GOSPA per run, per family.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from mjasc.campaigns.statistics import aggregate, run_outcome, wilson_interval
+from mjasc.campaigns.store import CampaignStore
+
+__all__ = ["report_data", "write_report", "format_report"]
+
+
+def report_data(folder: str | Path) -> dict:
+    """Everything the report shows, as one JSON-ready object: ``runs_defined``, ``runs_recorded``
+    (distinct runs with a result), ``runs_failed``, ``outcomes`` (counts per status and of
+    collisions and near misses), ``families`` and overall statistics, ``campaign`` (name, digest)."""
+    with CampaignStore.open_existing(folder) as store:
+        info = store.info()
+        runs = store.runs()
+    agg = aggregate(runs, info.get("runs_defined"))
+    outcomes = dict(agg["statuses"])
+    outcomes["collision"] = agg["collision"]["count"]
+    outcomes["near_miss"] = agg["near_miss"]["count"]
+    return {"campaign": {k: info.get(k) for k in ("name", "digest", "source")},
+            "runs_defined": agg["runs_defined"], "runs_recorded": agg["runs_recorded"],
+            "runs_failed": agg["runs_failed"], "outcomes": outcomes, **{k: v for k, v in agg.items() if k not in (
+                "runs_defined", "runs_recorded", "runs_failed")}}
+
+
+def _pct(r: dict) -> str:
+    if r["rate"] is None:
+        return "—"
+    lo, hi = r["wilson95"]
+    return f"{r['count']}/{r['n']} = {100 * r['rate']:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}]"
+
+
+def format_report(data: dict) -> str:
+    """The report's table as Markdown (also printed by ``mjasc report``)."""
+    c = data["campaign"]
+    lines = [f"# Campaign {c.get('name')} (digest {str(c.get('digest'))[:12]})", "",
+             f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
+             f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}).", "",
+             "| family | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] | min separation: min / median [m] "
+             "| COLREG compliant | actions |", "|---|---:|---|---|---|---|---|"]
+    for fam, g in list(data["families"].items()) + [("**all**", data)]:
+        q = g["min_separation_m"]
+        sep = "—" if not q else f"{q['p0']:.2f} / {q['p50']:.2f}"
+        acts = ", ".join(f"{k} {v}" for k, v in sorted(g["actions"].items()) if v) or "—"
+        lines.append(f"| {fam} | {g['completed']} | {_pct(g['collision'])} | {_pct(g['near_miss'])} | {sep} | "
+                     f"{_pct(g['colreg']['compliant'])} | {acts} |")
+    return "\n".join(lines) + "\n"
+
+
+# ---------------------------------------------------------------------- figures
+def _numeric_params(runs) -> list[str]:
+    """The family's numeric parameters, most varied first (by the number of distinct values)."""
+    values: dict[str, set] = defaultdict(set)
+    for r in runs:
+        for k, v in r.parameters.items():
+            if isinstance(v, (int, float)) and not isinstance(v, bool):
+                values[k].add(round(float(v), 9))
+    return [k for k, s in sorted(values.items(), key=lambda e: -len(e[1])) if len(s) > 1]
+
+
+def _save(fig, out: Path, stem: str, formats) -> list[Path]:
+    paths = []
+    for fmt in formats:
+        p = out / f"{stem}.{fmt}"
+        fig.savefig(p, dpi=120)
+        paths.append(p)
+    return paths
+
+
+def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=("png", "svg")) -> dict:
+    """Write ``report.md`` and the figures (module docstring); returns ``{"data", "files"}``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder = Path(folder)
+    out = Path(out_dir) if out_dir is not None else folder / "report"
+    out.mkdir(parents=True, exist_ok=True)
+    data = report_data(folder)
+    files: list[Path] = []
+    (out / "report.md").write_text(format_report(data))
+    files.append(out / "report.md")
+    with CampaignStore.open_existing(folder) as store:
+        runs = [r for r in store.runs() if r.status == "completed"]
+    fams = sorted({r.family for r in runs})
+    if not runs:
+        return {"data": data, "files": files}
+    # rates with Wilson intervals
+    fig, ax = plt.subplots(figsize=(max(5, 1.4 * len(fams) + 2), 4))
+    x = np.arange(len(fams))
+    for off, key, col in ((-0.18, "collision", "tab:red"), (0.18, "near_miss", "tab:orange")):
+        rates, lo, hi = [], [], []
+        for f in fams:
+            g = data["families"][f][key]
+            rates.append(100 * (g["rate"] or 0.0))
+            w = g["wilson95"] or [0, 0]
+            lo.append(100 * (g["rate"] or 0.0) - 100 * w[0])
+            hi.append(100 * w[1] - 100 * (g["rate"] or 0.0))
+        ax.bar(x + off, rates, width=0.36, color=col, label=key.replace("_", " "))
+        ax.errorbar(x + off, rates, yerr=[lo, hi], fmt="none", ecolor="black", capsize=3)
+    ax.set_xticks(x, fams, rotation=20, ha="right")
+    ax.set_ylabel("runs [%] (bars: Wilson 95 %)")
+    ax.set_title("Collision and near-miss rate per encounter family")
+    ax.legend()
+    fig.tight_layout()
+    files += _save(fig, out, "rates", formats)
+    plt.close(fig)
+    # separation distributions
+    fig, ax = plt.subplots(figsize=(max(5, 1.4 * len(fams) + 2), 4))
+    seps = [[run_outcome(r.metrics)["min_separation_m"] for r in runs if r.family == f] for f in fams]
+    ax.boxplot([[s for s in v if s is not None] or [np.nan] for v in seps], showfliers=True)
+    ax.set_xticks(np.arange(1, len(fams) + 1), fams, rotation=20, ha="right")
+    ax.axhline(0.0, color="tab:red", lw=1, ls="--")
+    ax.set_ylabel("minimum separation [m] (< 0: hull circles overlap)")
+    ax.set_title("Minimum separation per run")
+    fig.tight_layout()
+    files += _save(fig, out, "separation", formats)
+    plt.close(fig)
+    # outcome maps
+    for f in fams:
+        fr = [r for r in runs if r.family == f]
+        params = _numeric_params(fr)
+        if len(params) < 2:
+            continue
+        px, py = params[0], params[1]
+        xs = np.array([r.parameters[px] for r in fr], dtype=float)
+        ys = np.array([r.parameters[py] for r in fr], dtype=float)
+        sep = np.array([run_outcome(r.metrics)["min_separation_m"] or np.nan for r in fr], dtype=float)
+        coll = np.array([run_outcome(r.metrics)["collision"] for r in fr])
+        fig, ax = plt.subplots(figsize=(6, 4.5))
+        sc = ax.scatter(xs, ys, c=sep, cmap="viridis", s=30)
+        if coll.any():
+            ax.scatter(xs[coll], ys[coll], marker="x", color="tab:red", s=60, label="collision")
+            ax.legend()
+        fig.colorbar(sc, ax=ax, label="minimum separation [m]")
+        ax.set_xlabel(px)
+        ax.set_ylabel(py)
+        ax.set_title(f"{f}: outcome over {px} × {py}")
+        fig.tight_layout()
+        files += _save(fig, out, f"outcomes_{f}", formats)
+        plt.close(fig)
+    # COLREG compliance per role
+    per_role: dict[str, list[int]] = defaultdict(lambda: [0, 0])
+    for r in runs:
+        for e in (r.metrics or {}).get("evaluation", {}).get("encounters", []):
+            per_role[e["role"]][0] += bool(e["compliant"])
+            per_role[e["role"]][1] += 1
+    if per_role:
+        roles = sorted(per_role)
+        fig, ax = plt.subplots(figsize=(max(5, 1.3 * len(roles) + 2), 4))
+        rate = [100 * per_role[k][0] / per_role[k][1] for k in roles]
+        w = [wilson_interval(*per_role[k]) for k in roles]
+        ax.bar(np.arange(len(roles)), rate, color="tab:blue")
+        ax.errorbar(np.arange(len(roles)), rate, yerr=[[r - 100 * a for r, (a, b) in zip(rate, w)],
+                                                       [100 * b - r for r, (a, b) in zip(rate, w)]],
+                    fmt="none", ecolor="black", capsize=3)
+        ax.set_xticks(np.arange(len(roles)), [f"{k}\n(n = {per_role[k][1]})" for k in roles], fontsize=8)
+        ax.set_ylabel("compliant encounters [%]")
+        ax.set_ylim(0, 105)
+        ax.set_title("COLREG compliance per role of the own vessel")
+        fig.tight_layout()
+        files += _save(fig, out, "colreg", formats)
+        plt.close(fig)
+    # tracking
+    gospa = [[run_outcome(r.metrics)["gospa_mean_m"] for r in runs if r.family == f] for f in fams]
+    if any(v is not None for g in gospa for v in g):
+        fig, ax = plt.subplots(figsize=(max(5, 1.4 * len(fams) + 2), 4))
+        ax.boxplot([[v for v in g if v is not None] or [np.nan] for g in gospa])
+        ax.set_xticks(np.arange(1, len(fams) + 1), fams, rotation=20, ha="right")
+        ax.set_ylabel("mean GOSPA per run [m] (c = 10 m, p = 2)")
+        ax.set_title("Tracking accuracy against the truth")
+        fig.tight_layout()
+        files += _save(fig, out, "tracking", formats)
+        plt.close(fig)
+    return {"data": data, "files": files}
