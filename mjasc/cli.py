@@ -161,6 +161,33 @@ def _cmd_report(args) -> int:
     return 0
 
 
+def _cmd_search(args) -> int:
+    from mjasc.campaigns.search import SearchConfig, search_failures
+    from mjasc.campaigns.spec import CampaignError, load_campaign_spec
+    from mjasc.core.config_tables import ConfigError
+
+    try:
+        campaign = load_campaign_spec(args.campaign)
+        config = SearchConfig(method=args.method, budget=args.budget, batch=args.batch,
+                              failure_separation_m=args.failure_separation, seed=args.seed)
+    except (CampaignError, ConfigError) as exc:
+        print(f"mjasc: invalid search: {exc}", file=sys.stderr)
+        return 2
+    out = Path(args.out) if args.out else Path("runs") / "search" / f"{campaign.name}_{args.family}_{args.method}"
+    try:
+        res = search_failures(campaign, args.family, out, config, scheduler=args.scheduler, workers=args.workers,
+                              progress=sys.stderr.isatty())
+    except (ValueError, RuntimeError, OSError) as exc:
+        print(f"mjasc: search failed: {exc}", file=sys.stderr)
+        return 1
+    t = res.table()
+    print(f"{campaign.name} / {args.family} ({args.method}): {t['runs']} runs, {t['failures']} failure(s), "
+          f"minimum separation {t['min_separation_m']} m, median {t['median_separation_m']} m")
+    for path in res.failures:
+        print(f"  failure: {path}  (replay: mjasc run {path})")
+    return 0
+
+
 def _cmd_render(args) -> int:
     from mjasc.suite.render import render_episode
 
@@ -224,6 +251,20 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--format", nargs="+", default=["png", "svg"], choices=["png", "svg", "pdf"],
                     help="figure formats (default: png svg)")
     rp.set_defaults(func=_cmd_report)
+    se = sub.add_parser("search", help="search an encounter family for failures of the collision avoidance "
+                                       "(cross-entropy method, or uniform sampling as the baseline)")
+    se.add_argument("campaign", help=f"a campaign file's path or a bundled campaign's name ({NAMED_HELP})")
+    se.add_argument("family", help="the name of one of its encounter families")
+    se.add_argument("--method", default="cross_entropy", choices=["cross_entropy", "uniform"])
+    se.add_argument("--budget", type=int, default=48, help="runs in all (default: 48)")
+    se.add_argument("--batch", type=int, default=12, help="runs per iteration (default: 12)")
+    se.add_argument("--failure-separation", type=float, default=0.0,
+                    help="a run whose minimum separation [m] is below this is a failure (default: 0)")
+    se.add_argument("--seed", type=int, default=0)
+    se.add_argument("--workers", type=int, help="local worker processes (default: CPU count; 0: in this process)")
+    se.add_argument("--scheduler", help="address of an existing Dask scheduler")
+    se.add_argument("--out", help="output folder (default: runs/search/<campaign>_<family>_<method>)")
+    se.set_defaults(func=_cmd_search)
     rd = sub.add_parser("render", help="render one episode of a dm_control suite task to MP4 + Rerun")
     rd.add_argument("domain")
     rd.add_argument("task")

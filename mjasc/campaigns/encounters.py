@@ -247,6 +247,30 @@ class EncounterFamily:
         raise CampaignError(f"families[{self.index}] ({self.name}) run {k}: no draw in {MAX_ATTEMPTS} attempts "
                             f"gives the family's encounter; last: {last}")
 
+    def searchable(self) -> list[str]:
+        """The parameters a search may move: those drawn from a continuous law (not fixed, not a grid,
+        not a choice)."""
+        from mjasc.campaigns.distributions import Normal, Uniform
+
+        return [n for n, law in self.space.laws if isinstance(law, (Uniform, Normal))]
+
+    def from_unit(self, u: dict[str, float]) -> tuple[dict, dict, str]:
+        """(parameters, scenario document, header) for the searchable parameters at the quantiles
+        ``u`` ∈ [0, 1] of their laws (the others at their fixed values or grid point 0). Raises
+        ValueError when the point does not give the family's encounter (its role, its clearances)."""
+        values = {}
+        for name, law in self.space.laws:
+            if name in u:
+                values[name] = law.value(float(min(max(u[name], 0.0), 1.0)))
+            elif law.grid:
+                values[name] = law.values[0]
+            else:
+                values[name] = law.value(0.5)
+        try:
+            return self._build(values)
+        except _Reject as exc:
+            raise ValueError(str(exc)) from None
+
     # ------------------------------------------------------------------ one draw → one scenario
     def _build(self, v: dict) -> tuple[dict, dict, str]:
         cond = Conditions(**{n: v[n] for n in _names(Conditions)})

@@ -41,7 +41,7 @@ from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_inter
 from mjasc.campaigns.store import RETRY_STATUSES, CampaignStore
 from mjasc.core.config_tables import integer, number
 
-__all__ = ["CampaignResult", "run_campaign", "wilson_interval", "format_aggregate", "TIMING_KEYS", "is_timing_key",
+__all__ = ["CampaignResult", "run_campaign", "execute_runs", "wilson_interval", "format_aggregate", "TIMING_KEYS", "is_timing_key",
            "without_timing", "IN_PROCESS_MAX_RUNS"]
 
 #: Fields of a result that depend on the machine, not on the run; besides these, every key ending
@@ -84,11 +84,9 @@ def without_timing(obj: Any) -> Any:
 
 
 # ---------------------------------------------------------------------- one run
-def _request(campaign, k: int, out_dir: Path) -> tuple[Any, dict]:
-    run = campaign.run(k)
-    recordings = bool(getattr(getattr(campaign, "outputs", None), "recordings", False))
-    run_dir = str(out_dir / "runs" / str(k)) if recordings else None
-    return run, {"index": k, "scenario_toml": run.scenario_toml, "run_dir": run_dir, "evaluate": True}
+def _request(run, out_dir: Path, recordings: bool) -> dict:
+    run_dir = str(out_dir / "runs" / str(run.index)) if recordings else None
+    return {"index": run.index, "scenario_toml": run.scenario_toml, "run_dir": run_dir, "evaluate": True}
 
 
 def _task(request: dict, time_limit_s: float | None, isolate: bool) -> dict:
@@ -171,29 +169,12 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
                           runs_defined=campaign.runs_defined)
     try:
         done = store.done(max_attempts)
-        todo = [k for k in range(n_runs) if k not in done]
-        in_process = scheduler == "synchronous" or workers == 0 or (
-            workers is None and scheduler is None and len(todo) <= IN_PROCESS_MAX_RUNS)
-        info: dict[str, Any] = {"runs_to_do": len(todo), "already_done": n_runs - len(todo)}
-        bar = None
-        if progress and todo:
-            from tqdm import tqdm
-
-            bar = tqdm(total=len(todo), unit="run", desc=campaign.name, file=sys.stderr)
-        t0 = time.perf_counter()
-        try:
-            if not todo:
-                info.update(scheduler="none")
-            elif in_process:
-                info.update(scheduler="synchronous", workers=0, startup_s=0.0)
-                _run_here(campaign, todo, store, out_dir, max_attempts, time_limit_s, isolate, bar)
-            else:
-                _run_on_dask(campaign, todo, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate,
-                             bar, info)
-        finally:
-            if bar is not None:
-                bar.close()
-        info["wall_time_s"] = round(time.perf_counter() - t0, 3)
+        todo = [campaign.run(k) for k in range(n_runs) if k not in done]
+        recordings = bool(getattr(getattr(campaign, "outputs", None), "recordings", False))
+        info = execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
+                            max_attempts=max_attempts, time_limit_s=time_limit_s, isolate=isolate,
+                            recordings=recordings, label=campaign.name)
+        info["already_done"] = n_runs - len(todo)
         runs = store.runs()
         agg = aggregate(runs, campaign.runs_defined)
         if todo and info["wall_time_s"] > 0:
@@ -213,6 +194,37 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
         store.close()
 
 
+def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=None, workers: int | None = None,
+                 progress: bool = True, max_attempts: int = 2, time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
+                 isolate: bool = True, recordings: bool = False, label: str = "campaign") -> dict:
+    """Execute ``runs`` (:class:`~mjasc.campaigns.spec.RunSpec`) and write each result into ``store``
+    as it arrives (module docstring: where they run, retries). Returns how it ran: scheduler,
+    workers, start-up and wall time [s], runs_to_do."""
+    in_process = scheduler == "synchronous" or workers == 0 or (
+        workers is None and scheduler is None and len(runs) <= IN_PROCESS_MAX_RUNS)
+    info: dict[str, Any] = {"runs_to_do": len(runs)}
+    bar = None
+    if progress and runs:
+        from tqdm import tqdm
+
+        bar = tqdm(total=len(runs), unit="run", desc=label, file=sys.stderr)
+    t0 = time.perf_counter()
+    try:
+        if not runs:
+            info.update(scheduler="none")
+        elif in_process:
+            info.update(scheduler="synchronous", workers=0, startup_s=0.0)
+            _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, bar)
+        else:
+            _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
+                         bar, info)
+    finally:
+        if bar is not None:
+            bar.close()
+    info["wall_time_s"] = round(time.perf_counter() - t0, 3)
+    return info
+
+
 def _record(store: CampaignStore, run, result: dict) -> int:
     return store.record(run.index, family=run.family, parameters=run.parameters, seed=run.seed,
                         scenario=run.scenario_toml, status=result["status"], error=result.get("error"),
@@ -220,12 +232,11 @@ def _record(store: CampaignStore, run, result: dict) -> int:
                         worker=result.get("worker"))
 
 
-def _run_here(campaign, todo, store, out_dir, max_attempts, time_limit_s, isolate, bar) -> None:
+def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, bar) -> None:
     executor = IsolatedExecutor() if isolate else None
     try:
-        for k in todo:
-            run, request = _request(campaign, k, out_dir)
-            attempts = store.attempts().get(k, 0)
+        for run in runs:
+            request = _request(run, out_dir, recordings)
             while True:
                 result = executor.run(request, time_limit_s) if executor else execute_in_process(request)
                 attempts = _record(store, run, result)
@@ -238,7 +249,7 @@ def _run_here(campaign, todo, store, out_dir, max_attempts, time_limit_s, isolat
             executor.close()
 
 
-def _run_on_dask(campaign, todo, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, bar,
+def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings, bar,
                  info) -> None:
     from distributed import as_completed
 
@@ -259,18 +270,17 @@ def _run_on_dask(campaign, todo, store, out_dir, scheduler, workers, max_attempt
         info.update(scheduler="local" if local else scheduler if isinstance(scheduler, str) else "client",
                     address=client.scheduler.address, workers=len(versions),
                     startup_s=round(time.perf_counter() - t_start, 3))
-        tag = f"{campaign.digest[:10]}-{os.getpid()}-{time.time_ns()}"
+        tag = f"{store.digest[:10]}-{os.getpid()}-{time.time_ns()}"
         pending: dict = {}
         attempts = store.attempts()
 
-        def submit(k: int) -> None:
-            run, request = _request(campaign, k, out_dir)
-            fut = client.submit(_task, request, time_limit_s, isolate, pure=False,
-                                key=f"mjasc-run-{tag}-{k}-{attempts.get(k, 0)}")
+        def submit(run) -> None:
+            fut = client.submit(_task, _request(run, out_dir, recordings), time_limit_s, isolate, pure=False,
+                                key=f"mjasc-run-{tag}-{run.index}-{attempts.get(run.index, 0)}")
             pending[fut] = run
 
-        for k in todo:
-            submit(k)
+        for run in runs:
+            submit(run)
         queue = as_completed(list(pending))
         for fut in queue:
             run = pending.pop(fut)
@@ -282,7 +292,7 @@ def _run_on_dask(campaign, todo, store, out_dir, scheduler, workers, max_attempt
             fut.release()
             attempts[run.index] = _record(store, run, result)
             if result["status"] in RETRY_STATUSES and attempts[run.index] < max_attempts:
-                submit(run.index)
+                submit(run)
                 queue.add(next(f for f, r in pending.items() if r.index == run.index))
                 continue
             if bar is not None:
