@@ -87,7 +87,7 @@ def test_import_mjasc_is_cheap_and_the_top_level_api_resolves():
             "assert 'MUJOCO_GL' in __import__('os').environ\n"
             "from mjasc.runs.scenario import load_scenario\n"
             "from mjasc.runs.runner import run_scenario\n"
-            "from mjasc.campaigns.perturbation import load_campaign\n"
+            "from mjasc.campaigns.spec import load_campaign_spec as load_campaign\n"
             "from mjasc.campaigns.engine import run_campaign\n"
             "assert (mjasc.load_scenario, mjasc.run_scenario, mjasc.load_campaign, mjasc.run_campaign) == "
             "(load_scenario, run_scenario, load_campaign, run_campaign)\n"
