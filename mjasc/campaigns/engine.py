@@ -50,7 +50,7 @@ Z95 = 1.959963984540054
 #: Fields of a row (and of its run summary) that depend on the machine, not on the run; besides
 #: these, every key ending in ``_us`` (components report their wall-clock cost in microseconds).
 TIMING_KEYS = frozenset({"wall_time_s", "cpu_time_s", "real_time_factor", "worker", "run_wall_time_s",
-                         "run_cpu_time_s", "throughput_runs_per_hour", "startup_s"})
+                         "run_cpu_time_s", "throughput_runs_per_hour", "startup_s", "timing_s"})
 QUANTILES = (0.0, 0.05, 0.25, 0.5, 0.75, 0.95, 1.0)
 #: How long a campaign waits for the first worker of a cluster [s].
 WORKER_WAIT_S = 120.0
