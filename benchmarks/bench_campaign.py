@@ -8,6 +8,7 @@ shown apart. Speed-up is relative to one worker. The machine's core count bounds
 to be the same in every configuration.
 
     .venv/bin/python benchmarks/bench_campaign.py [--runs 16] [--duration 30] [--workers 1 2]
+    .venv/bin/python benchmarks/bench_campaign.py --quick   # 2 runs of 2 s, in-process and 1 worker, once
 """
 
 from __future__ import annotations
@@ -26,7 +27,10 @@ def main() -> None:
     ap.add_argument("--duration", type=float, default=30.0, help="simulated seconds per run")
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--repeat", type=int, default=2, help="interleaved repetitions; the best of each is shown")
+    ap.add_argument("--quick", action="store_true", help="2 runs of 2 s, in-process and 1 worker, once (a smoke test)")
     args = ap.parse_args()
+    if args.quick:
+        args.runs, args.duration, args.workers, args.repeat = 2, 2.0, [1], 1
 
     import mjasc  # noqa: F401
     from mjasc.campaigns.engine import run_campaign, without_timing

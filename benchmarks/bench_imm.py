@@ -11,6 +11,7 @@ markdown table with the largest absolute difference of the combined state [x, y,
 filterpy's.
 
     .venv/bin/python benchmarks/bench_imm.py [--steps 300] [--repeats 7]
+    .venv/bin/python benchmarks/bench_imm.py --quick   # 60 steps, once (a smoke test)
 """
 
 from __future__ import annotations
@@ -101,7 +102,10 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=300)
     parser.add_argument("--repeats", type=int, default=7)
+    parser.add_argument("--quick", action="store_true", help="60 steps, once (a smoke test)")
     args = parser.parse_args()
+    if args.quick:
+        args.steps, args.repeats = 60, 1
     sizes = (1, 10, 50)
     zs = measurements(args.steps, max(sizes))
     z0 = zs[0]

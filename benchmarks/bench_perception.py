@@ -7,6 +7,7 @@ tracking step, compares the batched bank (all tracks in one IMMBank, one ``step`
 Python loop over one-track trackers on the same detections (what a naive track manager would do).
 
     .venv/bin/python benchmarks/bench_perception.py [--steps 300] [--repeats 3] [--targets 10]
+    .venv/bin/python benchmarks/bench_perception.py --quick   # 40 scans, once (a smoke test)
 """
 
 from __future__ import annotations
@@ -87,7 +88,10 @@ def main():
     ap.add_argument("--steps", type=int, default=300)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--targets", type=int, default=10)
+    ap.add_argument("--quick", action="store_true", help="40 scans, once (a smoke test)")
     a = ap.parse_args()
+    if a.quick:
+        a.steps, a.repeats = 40, 1
     best = None
     for _ in range(a.repeats):  # same seed: the same work per step; keep each step's fastest
         times, info = run(a.targets, a.steps, per_track_loop=True)

@@ -3,6 +3,7 @@ Otters in a current, at the scene's default physics step, with mjasc's hydrodyna
 propellers (mj_step1 → forces → mj_step2) and with bare ``mj_step`` on the same model, in one run.
 
     .venv/bin/python benchmarks/bench_physics.py [--steps 4000] [--repeats 5]
+    .venv/bin/python benchmarks/bench_physics.py --quick   # 1 and 3 vessels, 200 steps, once
 
 Targets (issue 2): ≥ 1000× real time for 3 vessels with hydrodynamics and current; hydrodynamics
 costing ≤ 5× bare mj_step. Best of ``repeats`` interleaved runs (the machines are shared).
@@ -55,7 +56,10 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=4000)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--vessels", type=int, nargs="+", default=[1, 3, 10, 50])
+    ap.add_argument("--quick", action="store_true", help="1 and 3 vessels, 200 steps, once (a smoke test)")
     args = ap.parse_args()
+    if args.quick:
+        args.steps, args.repeats, args.vessels = 200, 1, [1, 3]
     rows = []
     for n in args.vessels:
         sim = make(n)

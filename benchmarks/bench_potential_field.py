@@ -1,13 +1,14 @@
 """Benchmark the harmonic potential field (mjasc.avoidance.potential_field): vectorized velocity
 evaluations per second, solve time and streamline time, for 24 and 32 panels (thesis Table 6.2).
 
-Run: .venv/bin/python benchmarks/bench_potential_field.py
+Run: .venv/bin/python benchmarks/bench_potential_field.py [--quick]   (quick: up to 10⁴ points, one short repeat)
 Prints a markdown table with the targets next to the measurements (best of a few repeats; the
 machine is shared and noisy).
 """
 
 from __future__ import annotations
 
+import argparse
 import time
 
 import numpy as np
@@ -16,8 +17,13 @@ from mjasc.avoidance.potential_field import PotentialField
 from mjasc.figures.potential_field import dock_scenario
 
 
+QUICK = False  # --quick: one short batch per measurement
+
+
 def best_time(fn, repeats=5, min_time=0.2):
     """Best wall time [s] of one call, over `repeats` batches of ≥ min_time each."""
+    if QUICK:
+        repeats, min_time = 1, 0.0
     fn()
     best = np.inf
     for _ in range(repeats):
@@ -41,6 +47,10 @@ def scenes():
 
 
 def main():
+    global QUICK
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="up to 10⁴ points, one short repeat (a smoke test)")
+    QUICK = ap.parse_args().quick
     rows = []
     all_scenes, sc = scenes()
     rng = np.random.default_rng(0)
@@ -50,7 +60,7 @@ def main():
             inflation=sc.inflation_m, panels_per_edge=2, **s["kwargs"])
         field = make()
         assert len(field.panels) == m
-        for n in (10**3, 10**4, 10**5, 10**6):
+        for n in (10**3, 10**4) if QUICK else (10**3, 10**4, 10**5, 10**6):
             pts = rng.uniform([-20, -30], [80, 30], (n, 2))
             t = best_time(lambda: field.velocity(pts), repeats=3 if n >= 10**5 else 5)
             target = "< 0.1 s per 10⁵ points (≥ 10⁶ points/s)"

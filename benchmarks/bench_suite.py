@@ -1,6 +1,7 @@
 """Environment steps per second of every mjasc suite task (random actions), one run, one process.
 
     .venv/bin/python benchmarks/bench_suite.py [--steps 2000] [--all]
+    .venv/bin/python benchmarks/bench_suite.py --quick   # the first task of each domain, 50 steps (a smoke test)
 
 Prints a markdown table: build time (compose + compile the model), reset time, and the rate of
 ``env.step`` (one control step = 5 physics steps of mjasc's hydrodynamics + observation + reward).
@@ -44,8 +45,11 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=2000)
     parser.add_argument("--all", action="store_true", help="include the extra (delfim) tasks")
+    parser.add_argument("--quick", action="store_true", help="the first task of each domain, 50 steps (a smoke test)")
     args = parser.parse_args()
     tasks = suite.ALL_TASKS if args.all else suite.BENCHMARKING
+    if args.quick:
+        args.steps, tasks = 50, [t for i, t in enumerate(tasks) if t[0] not in {d for d, _ in tasks[:i]}]
     print("| domain | task | vessels | obs size | build [ms] | reset [ms] | env steps/s | physics steps/s |")
     print("|---|---|---:|---:|---:|---:|---:|---:|")
     for domain, task in tasks:

@@ -15,7 +15,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-TIMING_KEYS = {"wall_time_s", "real_time_factor"}  # and every "*_us" (mean µs per call)
+TIMING_KEYS = {"wall_time_s", "real_time_factor", "timing_s"}  # and every "*_us" (mean µs per call)
 
 
 def _strip(obj):

@@ -27,7 +27,7 @@ def without_timing(value):
     """A summary without its wall-clock fields (wall time, real-time factor, µs per call)."""
     if isinstance(value, dict):
         return {k: without_timing(v) for k, v in value.items()
-                if not (k.startswith("wall") or k.startswith("real_time") or k.endswith("_us"))}
+                if not (k.startswith("wall") or k.startswith("real_time") or k.endswith("_us") or k == "timing_s")}
     return value
 
 
