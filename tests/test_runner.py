@@ -78,6 +78,29 @@ def test_same_seed_gives_identical_runs_and_content(tmp_path):
     assert entity_rows(ra.files["recording"]) == entity_rows(rb.files["recording"])
 
 
+def test_recording_detail_standard_is_small_full_adds_the_per_track_plots(tmp_path):
+    """The default (standard) recording holds what a review needs, each tracker's tracks as one
+    labelled point batch, and no per-track entities; full adds them; results are the same."""
+    std = run_scenario(short_demo(8.0), tmp_path / "std", progress=False)
+    full = run_scenario(short_demo(8.0, recording_detail="full"), tmp_path / "full", progress=False)
+    assert without_timing(std.summary) == without_timing(full.summary)
+    rows_std, rows_full = entity_rows(std.files["recording"]), entity_rows(full.files["recording"])
+    for origin in ("/world/vessels", "/plots/speed", "/plots/cross_track", "/plots/thrust", "/plots/heading",
+                   "/plots/mode", "/plots/coordination", "/events"):  # the default blueprint's views
+        assert any(e.startswith(origin) for e in rows_std), origin
+    assert not any(e.startswith(("/plots/tracking", "/sensor", "/tracking_events")) for e in rows_std)
+    for name in ("alpha", "bravo", "charlie"):
+        assert rows_std[f"/world/vessels/{name}/tracks/positions"] > 0
+        assert f"/world/vessels/{name}/tracks/ellipses" not in rows_std
+        assert any(e.startswith(f"/plots/tracking/{name}/omega/") for e in rows_full)
+        assert f"/world/vessels/{name}/tracks/ellipses" in rows_full
+    store = rr.chunk.RrdReader(str(std.files["recording"])).store()
+    labels = [c for c in store.stream() if c.entity_path == "/world/vessels/alpha/tracks/positions"
+              and any("labels" in n for n in c.to_record_batch().schema.names)]
+    assert labels  # the track ids ride on the positions
+    assert std.files["recording"].stat().st_size < 0.4 * full.files["recording"].stat().st_size
+
+
 def test_video_has_the_right_frames_and_they_change(tmp_path):
     sc = short_demo(5.0, video=True, video_width=320, video_height=240, video_fps=10.0)
     result = run_scenario(sc, tmp_path, progress=False)

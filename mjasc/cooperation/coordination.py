@@ -301,13 +301,15 @@ class Coordination:
 
             col = vessel_colour(self.network.team.index(vessel_name)) if vessel_name in self.network.team else None
             recorder.series_style(f"{base}/gamma_normalized", f"{vessel_name} γ/L", col)
-            recorder.series_style(f"{base}/error_m", f"{vessel_name} lead [m]", col)
+            if recorder.full:
+                recorder.series_style(f"{base}/error_m", f"{vessel_name} lead [m]", col)
             recorder.series_style(f"{base}/spread_m", f"{vessel_name} formation spread [m]", col)
             recorder.series_style(f"{base}/speed_factor", f"{vessel_name} speed factor", col)
             self._logged_style = True
         if np.isfinite(self.last_xi):
             recorder.scalar(f"{base}/gamma_normalized", t_s, self.last_xi)
-        recorder.scalar(f"{base}/error_m", t_s, self.last_error_m)
+        if recorder.full:  # the lead has no view in the default blueprint
+            recorder.scalar(f"{base}/error_m", t_s, self.last_error_m)
         recorder.scalar(f"{base}/spread_m", t_s, self.last_spread_m)
         recorder.scalar(f"{base}/speed_factor", t_s, self.last_factor)
 

@@ -9,8 +9,9 @@ table (interface in :class:`mjasc.runs.agent.VesselAgent`)::
     static_polygons()      convex polygons of the mapped static structures
     set_team_positions(d)  {name: (t, position)} from the comms link: marks team-mate tracks
     drain_events()         [(t, text)]: tracks confirmed, lost, merged (births stay in the recording)
-    log(recorder, t, name) Rerun: returns, detections, tracks with 2-σ ellipses, velocity arrows,
-                           ω̂ and mode probabilities, track events
+    log(recorder, t, name) Rerun (mjasc.perception.recording): tracks as labelled points, the map;
+                           with full detail returns, detections, 2-σ ellipses, velocity arrows,
+                           ω̂ and mode probabilities per track, track events
     summary()              counts and timings for summary.json
 
 Which returns feed what: a cluster wider than a target (``detection.max_target_radius_m``) is a
@@ -32,7 +33,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from mjasc.core.geometry import circle_polygon
 from mjasc.perception.detection import Detections, detect
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
@@ -41,12 +41,6 @@ from mjasc.perception.tracking.tracker import MultiTargetTracker
 
 __all__ = ["Perception", "covariance_ellipse"]
 
-#: Returns are written to the recording at most this often (a 720-beam fan is heavy) [s].
-HITS_LOG_PERIOD_S = 0.5
-#: Track labels (ids) are written this often [s].
-LABEL_LOG_PERIOD_S = 1.0
-#: Velocity arrows show where a track will be this many seconds ahead.
-ARROW_HORIZON_S = 5.0
 #: A tracked disc (returns kept out of the map) is the track's radius + this + 2σ of its position [m]
 _DISC_MARGIN_M = 1.0
 #: ... at most this beyond its radius (a long-coasting track must not blank a whole wall) [m].
@@ -89,11 +83,7 @@ class Perception:
         self._pending = False  # a scan not yet given to the tracker
         self._drain: list[tuple[float, str]] = []
         self._log_events: list = []
-        self._last_hits_log = -math.inf
-        self._last_label_log = -math.inf
-        self._logged_scan_t = -math.inf
-        self._styled = False
-        self._series: set[str] = set()
+        self._log = None  # PerceptionLog (mjasc.perception.recording), made at the first log()
         self.keep_history = False
         self.history: list[tuple] = []  # (t, id, x, y, θ, V, ω, team, static) of confirmed tracks
         self._stats = {"scans": 0, "returns": 0, "detections": 0, "target_detections": 0,
@@ -284,87 +274,13 @@ class Perception:
         return out
 
     # ---------------------------------------------------------------- recording
-    def _style(self, rec, name: str) -> None:
-        import rerun as rr
-
-        from mjasc.runs.recording import vessel_colour
-
-        col = vessel_colour(self.vessel_index)
-        base = f"world/vessels/{name}"
-        rec.static(f"{base}/sensor/hits", rr.Points3D.from_fields(colors=[(*col, 150)], radii=[0.12]))
-        rec.static(f"sensor/{name}/hits_body", rr.Points3D.from_fields(colors=[(*col, 150)], radii=[0.12]))
-        rec.static(f"{base}/sensor/detections", rr.Points3D.from_fields(colors=[(255, 220, 0)], radii=[0.35]))
-        rec.static(f"sensor/{name}/detections_body", rr.Points3D.from_fields(colors=[(255, 220, 0)], radii=[0.35]))
-        rec.static(f"{base}/sensor/detection_discs", rr.LineStrips3D.from_fields(colors=[(255, 220, 0, 160)],
-                                                                                 radii=[0.04]))
-        rec.static(f"{base}/tracks/ellipses", rr.LineStrips3D.from_fields(colors=[(*col, 255)], radii=[0.07]))
-        rec.static(f"{base}/tracks/discs", rr.LineStrips3D.from_fields(colors=[(*col, 110)], radii=[0.05]))
-        rec.static(f"{base}/tracks/positions", rr.Points3D.from_fields(colors=[(*col, 255)], radii=[0.25]))
-        rec.static(f"{base}/tracks/velocity", rr.Arrows3D.from_fields(colors=[(*col, 255)], radii=[0.08]))
-        rec.static(f"{base}/static_map", rr.LineStrips3D.from_fields(colors=[(160, 120, 60)], radii=[0.1]))
-        self._styled = True
-
     def log(self, recorder, t_s: float, vessel_name: str) -> None:
-        import rerun as rr
+        """Draw this vessel's perception in the recording (:mod:`mjasc.perception.recording`)."""
+        if self._log is None:
+            from mjasc.perception.recording import PerceptionLog
 
-        rec = recorder
-        if not self._styled:
-            self._style(rec, vessel_name)
-        base = f"world/vessels/{vessel_name}"
-        scan, det = self.scan, self.detections
-        if scan is not None and scan.time_s != self._logged_scan_t:
-            self._logged_scan_t = scan.time_s
-            if t_s - self._last_hits_log >= HITS_LOG_PERIOD_S - 1e-9:
-                self._last_hits_log = t_s
-                rec.points(f"{base}/sensor/hits", t_s, scan.hit_points_world, z=0.1)
-                rec.points(f"sensor/{vessel_name}/hits_body", t_s, scan.hit_points_body, z=0.1)
-            rec.points(f"{base}/sensor/detections", t_s, det.centres_m, z=0.15)
-            rec.points(f"sensor/{vessel_name}/detections_body", t_s, det.centres_body, z=0.15)
-            rec.strips(f"{base}/sensor/detection_discs", t_s,
-                       [circle_polygon(c, r, 16, circumscribed=False, closed=True) for c, r in zip(det.centres_m, det.radii_m)], z=0.15)
-        tr = self.tracker
-        conf = np.flatnonzero(tr.confirmed)
-        bank = tr.bank
-        ids = bank.track_ids[conf]
-        x = bank.states[conf]
-        Pc = bank.position_covariances[conf]
-        rad = tr.radii_m[conf]
-        rec.points(f"{base}/tracks/positions", t_s, x[:, :2], z=0.3)
-        rec.strips(f"{base}/tracks/ellipses", t_s, [covariance_ellipse(x[k, :2], Pc[k]) for k in range(len(conf))],
-                   z=0.3)
-        rec.strips(f"{base}/tracks/discs", t_s, [circle_polygon(x[k, :2], rad[k], 24, circumscribed=False, closed=True) for k in range(len(conf))], z=0.3)
-        vel = ARROW_HORIZON_S * x[:, 3, None] * np.stack([np.cos(x[:, 2]), np.sin(x[:, 2])], axis=-1)
-        rec.arrows(f"{base}/tracks/velocity", t_s, x[:, :2], vel, z=0.3)
-        if t_s - self._last_label_log >= LABEL_LOG_PERIOD_S - 1e-9:
-            self._last_label_log = t_s
-            team = tr.team_members
-            labels = [f"{vessel_name}:T{i}" + (f" ({team[k]})" if team[k] else "") + (" static" if tr.static[k] else "")
-                      for i, k in zip(ids, conf)]
-            rec.log(f"{base}/tracks/labels", rr.Points3D(np.column_stack([x[:, :2], np.full(len(conf), 1.0)])
-                                                         if len(conf) else np.zeros((0, 3)),
-                                                         labels=labels, radii=0.01), t_s)
-        omega = bank.turn_rates[conf]
-        mu = bank.mode_probabilities[conf]
-        plot = f"plots/tracking/{vessel_name}"
-        for k, tid in enumerate(ids):
-            rec.scalar(f"{plot}/omega/T{tid}", t_s, omega[k])
-            rec.scalar(f"{plot}/speed/T{tid}", t_s, x[k, 3])
-            for j in range(mu.shape[1]):
-                rec.scalar(f"{plot}/modes/T{tid}/w{j}", t_s, mu[k, j])
-            if tid not in self._series:
-                self._series.add(tid)
-                rec.series_style(f"{plot}/omega/T{tid}", f"{vessel_name} T{tid} ω̂ [rad/s]")
-                rec.series_style(f"{plot}/speed/T{tid}", f"{vessel_name} T{tid} V̂ [m/s]")
-                for j, wj in enumerate(self.config.imm.turn_rates_rad_s):
-                    rec.series_style(f"{plot}/modes/T{tid}/w{j}", f"T{tid} μ(ω={wj:+.2f})")
-        for ev in self._log_events:
-            rec.log(f"tracking_events/{vessel_name}", rr.TextLog(ev.text, level="DEBUG" if ev.kind == "born" else "INFO"),
-                    ev.time_s)
-        self._log_events = []
-        if self.map.version != getattr(self, "_logged_map_version", 0):
-            self._logged_map_version = self.map.version
-            polys = self.map.polygons()
-            rec.strips(f"{base}/static_map", t_s, [np.vstack([p, p[:1]]) for p in polys], z=0.4)
+            self._log = PerceptionLog()
+        self._log.log(recorder, t_s, self, vessel_name)
 
     # ---------------------------------------------------------------- results
     def summary(self) -> dict:

@@ -1,14 +1,25 @@
 """Rerun recordings: every run is a ``.rrd`` file with a default blueprint for timeline review.
 
 Entities live in a 3-D world (ENU, z up, everything on z ≈ 0) viewed from above, because Rerun's
-2-D views draw y downwards and the world frame here is y-north-up. Timelines: ``sim_time``
-(simulation seconds) and ``step`` (record tick). Wall-clock log time is disabled so that two runs
-with the same seed produce the same content (not the same bytes: compare content, never hashes).
+2-D views draw y downwards and the world frame here is y-north-up. Timeline: ``sim_time``
+(simulation seconds). Wall-clock log time is disabled so that two runs with the same seed produce
+the same content (not the same bytes: compare content, never hashes).
 
-High-rate data (poses, speeds, thrust, errors) is buffered and written column-wise with
-``send_columns`` when the recording is flushed (16× cheaper than one ``log`` per row); sporadic
-data (events, re-planned paths) is logged as it happens. :meth:`Recorder.close` always flushes,
-so a run that stops on an error keeps everything recorded until then.
+**Detail.** ``[outputs] recording_detail`` (:data:`DETAILS`) says what the run's components log:
+``standard`` (the default) is what a reviewer needs — hulls, trails, paths, speeds, thrust,
+heading, cross-track, each vessel's confirmed tracks as one labelled point batch, the avoidance
+mode, conflicts and detours, the formation plots, the event log — at about 0.1–0.5 MB per
+vessel-minute; ``full`` adds the sensor returns and detections, track ellipses, discs and velocity
+arrows, one time series per track (ω̂, V̂, mode probabilities), track births, every predicted
+track and the detour's flow field (several MB per vessel-minute, growing with the tracks each
+vessel holds). Components ask :attr:`Recorder.full`.
+
+**Buffered columns.** Nothing is written per row while the run goes: rows are buffered per entity
+(or per group of entities that share their times, :meth:`Recorder.fleet_scalars` and friends: one
+call per record tick for the whole fleet) and written column-wise with ``send_columns`` — one
+chunk per entity and flush — when :data:`FLUSH_ROWS` rows have piled up and at :meth:`close`. A
+``log`` per row costs ~0.5 ms in the Rerun SDK; a column costs that once. :meth:`Recorder.close`
+always flushes, so a run that stops on an error keeps everything recorded until then.
 """
 
 from __future__ import annotations
@@ -18,12 +29,18 @@ from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+import pyarrow as pa
 import rerun as rr
 import rerun.blueprint as rrb
+from rerun.encodings import Vec3DBatch
 
-__all__ = ["Recorder", "default_blueprint", "TIMELINE"]
+from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
+
+__all__ = ["Recorder", "default_blueprint", "TIMELINE", "DETAILS", "vessel_colour"]
 
 TIMELINE = "sim_time"
+#: Buffered rows (summed over entities; a fleet row of n vessels counts n) that trigger a flush.
+FLUSH_ROWS = 1_000_000
 
 #: Stable colours per vessel index (RGB).
 PALETTE = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (148, 103, 189), (140, 86, 75), (227, 119, 194),
@@ -35,9 +52,10 @@ def vessel_colour(i: int) -> tuple[int, int, int]:
 
 
 def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), perception: bool = False,
-                      avoidance: bool = False, coordination: bool = False) -> rrb.Blueprint:
+                      avoidance: bool = False, coordination: bool = False, detail: str = "full") -> rrb.Blueprint:
     """Top-down world view on the left; on the right tabs of time series (speed, thrust,
-    cross-track, and the plots of whichever onboard components the run has) above the event log."""
+    cross-track, and the plots of whichever onboard components the run has: the per-track plots
+    only with ``detail = "full"``) above the event log."""
     top = rrb.Spatial3DView(
         origin="world",
         name="Top-down (ENU, y north up)",
@@ -57,7 +75,7 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
                                 ("gamma_normalized", "γ/L")):
             tabs.append(rrb.TimeSeriesView(origin="plots/coordination", name=title,
                                            contents=[f"plots/coordination/{v}/{quantity}" for v in vessels]))
-    if perception:
+    if perception and detail == "full":
         tabs.append(rrb.TimeSeriesView(origin="plots/tracking", name="tracks: ω̂, V̂, mode probabilities"))
     return rrb.Blueprint(
         rrb.Horizontal(
@@ -71,9 +89,17 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
 
 
 class Recorder:
-    """Writes one ``.rrd`` file. Buffered rows are flushed by :meth:`flush` / :meth:`close`."""
+    """Writes one ``.rrd`` file. Buffered rows are written by :meth:`flush` / :meth:`close`.
 
-    def __init__(self, path: str | Path, recording_name: str, seed: int, blueprint: rrb.Blueprint | None = None):
+    ``detail`` is one of :data:`DETAILS`; a Recorder made directly (tests, figures) records
+    everything (``full``); the runner passes the scenario's ``[outputs] recording_detail``."""
+
+    def __init__(self, path: str | Path, recording_name: str, seed: int, blueprint: rrb.Blueprint | None = None,
+                 detail: str = "full"):
+        if detail not in DETAILS:
+            raise ValueError(f"detail: must be one of {', '.join(DETAILS)}, got {detail!r}")
+        self.detail = detail
+        self.full = detail == "full"
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
         rid = str(uuid.uuid5(uuid.NAMESPACE_URL, f"mjasc/{recording_name}/{seed}"))
@@ -82,9 +108,14 @@ class Recorder:
         self.rec.save(str(self.path), default_blueprint=blueprint or default_blueprint())
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._scalars: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))
-        self._points: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))
-        self._strips: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))
-        self._arrows: dict[str, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
+        self._texts: dict[str, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
+        self._points: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (entity, z)
+        self._strips: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (entity, z)
+        self._arrows: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))  # (entity, z)
+        self._labels: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # Points3D labels
+        self._colours: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # LineStrips3D colours
+        self._fleet: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (kind, entities, z)
+        self._pending = 0
         self._closed = False
 
     # ---------------------------------------------------------------- immediate logging
@@ -92,66 +123,128 @@ class Recorder:
         self.rec.log(entity, archetype, static=True)
 
     def log(self, entity: str, archetype, t_s: float) -> None:
+        """One row now (sporadic data only: each call costs ~0.5 ms)."""
         self.rec.set_time(TIMELINE, duration=float(t_s))
         self.rec.log(entity, archetype)
-
-    def event(self, t_s: float, text: str, level: str = "INFO") -> None:
-        """A line in the ``events`` text log (mode changes, detections, warnings)."""
-        self.log("events", rr.TextLog(text, level=level), t_s)
 
     def series_style(self, entity: str, name: str, colour=None, width: float = 1.5) -> None:
         self.static(entity, rr.SeriesLines(names=name, colors=colour if colour is not None else [200, 200, 200],
                                            widths=width))
 
-    # ---------------------------------------------------------------- buffered rows
+    # ---------------------------------------------------------------- buffered rows, one entity
+    def event(self, t_s: float, text: str, level: str = "INFO", entity: str = "events") -> None:
+        """A line in a text log (``events``: mode changes, detections, warnings)."""
+        times, texts, levels = self._texts[entity]
+        times.append(t_s)
+        texts.append(text)
+        levels.append(level)
+        self._count(1)
+
     def scalar(self, entity: str, t_s: float, value: float) -> None:
         times, values = self._scalars[entity]
         times.append(t_s)
         values.append(float(value))
+        self._count(1)
 
-    def points(self, entity: str, t_s: float, positions_xy: np.ndarray, z: float = 0.0) -> None:
-        times, rows = self._points[entity]
+    def points(self, entity: str, t_s: float, positions_xy: np.ndarray, z: float = 0.0, labels=None) -> None:
+        """A row of points (world xy [m] at height z); ``labels`` (one per point) in the same row.
+        Rows without labels keep the latest labels (Rerun's latest-at), so labels need only be
+        given when they change."""
+        times, rows = self._points[(entity, z)]
         times.append(t_s)
-        rows.append(_xyz(positions_xy, z))
+        rows.append(np.asarray(positions_xy, dtype=np.float64).reshape(-1, 2))
+        if labels is not None:
+            ltimes, lrows = self._labels[entity]
+            ltimes.append(t_s)
+            lrows.append(list(labels))
+        self._count(1)
 
-    def strips(self, entity: str, t_s: float, strips_xy: list[np.ndarray], z: float = 0.0) -> None:
-        times, rows = self._strips[entity]
+    def strips(self, entity: str, t_s: float, strips_xy: list[np.ndarray], z: float = 0.0, colours=None) -> None:
+        """A row of line strips (each (m, 2) world xy [m]) at height z; ``colours`` one RGB(A) per strip."""
+        times, rows = self._strips[(entity, z)]
         times.append(t_s)
-        rows.append([_xyz(s, z) for s in strips_xy])
+        rows.append([np.asarray(s, dtype=np.float64).reshape(-1, 2) for s in strips_xy])
+        if colours is not None:
+            ctimes, crows = self._colours[entity]
+            ctimes.append(t_s)
+            crows.append([_rgba(c) for c in colours])
+        self._count(1)
 
     def arrows(self, entity: str, t_s: float, origins_xy: np.ndarray, vectors_xy: np.ndarray, z: float = 0.0) -> None:
-        times, origins, vectors = self._arrows[entity]
+        times, origins, vectors = self._arrows[(entity, z)]
         times.append(t_s)
-        origins.append(_xyz(origins_xy, z))
-        vectors.append(_xyz(vectors_xy, 0.0))
+        origins.append(np.asarray(origins_xy, dtype=np.float64).reshape(-1, 2))
+        vectors.append(np.asarray(vectors_xy, dtype=np.float64).reshape(-1, 2))
+        self._count(1)
 
+    # ---------------------------------------------------------------- buffered rows, one per entity of a group
+    def fleet_scalars(self, entities: tuple[str, ...], t_s: float, values) -> None:
+        """One scalar for each entity (values (n,)); a non-finite value is left out of its series."""
+        self._fleet_row(("scalar", entities, 0.0), t_s, np.asarray(values, dtype=np.float64).reshape(len(entities)))
+
+    def fleet_points(self, entities: tuple[str, ...], t_s: float, positions_xy, z: float = 0.0) -> None:
+        """One point for each entity (positions (n, 2) world xy [m]) at height z."""
+        self._fleet_row(("points", entities, z), t_s, np.asarray(positions_xy, dtype=np.float64).reshape(-1, 2))
+
+    def fleet_strips(self, entities: tuple[str, ...], t_s: float, strips_xy, z: float = 0.0) -> None:
+        """One line strip for each entity (strips (n, m, 2) world xy [m]; m may change between rows) at height z."""
+        self._fleet_row(("strips", entities, z), t_s, np.asarray(strips_xy, dtype=np.float64))
+
+    def _fleet_row(self, key: tuple, t_s: float, row: np.ndarray) -> None:
+        times, rows = self._fleet[key]
+        times.append(t_s)
+        rows.append(row)
+        self._count(len(key[1]))
+
+    def _count(self, rows: int) -> None:
+        self._pending += rows
+        if self._pending >= FLUSH_ROWS:
+            self.flush()
+
+    # ---------------------------------------------------------------- writing
     def flush(self) -> None:
-        """Write every buffered row column-wise and empty the buffers."""
+        """Write every buffered row column-wise (one chunk per entity) and empty the buffers."""
+        send = self.rec.send_columns
         for entity, (times, values) in self._scalars.items():
-            if times:
-                self.rec.send_columns(entity, indexes=[rr.TimeColumn(TIMELINE, duration=times)],
-                                      columns=rr.Scalars.columns(scalars=values))
-        for entity, (times, rows) in self._points.items():
-            if times:
-                self.rec.send_columns(
-                    entity, indexes=[rr.TimeColumn(TIMELINE, duration=times)],
-                    columns=rr.Points3D.columns(positions=np.concatenate(rows)).partition([len(r) for r in rows]))
-        for entity, (times, rows) in self._strips.items():
-            if times:
-                flat = [s for row in rows for s in row]
-                self.rec.send_columns(
-                    entity, indexes=[rr.TimeColumn(TIMELINE, duration=times)],
-                    columns=rr.LineStrips3D.columns(strips=flat).partition([len(r) for r in rows]))
-        for entity, (times, origins, vectors) in self._arrows.items():
-            if times:
-                self.rec.send_columns(
-                    entity, indexes=[rr.TimeColumn(TIMELINE, duration=times)],
-                    columns=rr.Arrows3D.columns(origins=np.concatenate(origins), vectors=np.concatenate(vectors))
-                    .partition([len(o) for o in origins]))
-        self._scalars.clear()
-        self._points.clear()
-        self._strips.clear()
-        self._arrows.clear()
+            send(entity, indexes=[_time_column(times)], columns=rr.Scalars.columns(scalars=np.asarray(values)))
+        for entity, (times, texts, levels) in self._texts.items():
+            send(entity, indexes=[_time_column(times)], columns=rr.TextLog.columns(text=texts, level=levels))
+        for (entity, z), (times, rows) in self._points.items():
+            send(entity, indexes=[_time_column(times)],
+                 columns=rr.Points3D.columns(positions=_xyz(_cat(rows), z)).partition([len(r) for r in rows]))
+        for entity, (times, rows) in self._labels.items():
+            send(entity, indexes=[_time_column(times)],
+                 columns=rr.Points3D.columns(labels=[s for r in rows for s in r]).partition([len(r) for r in rows]))
+        for (entity, z), (times, rows) in self._strips.items():
+            flat = [s for row in rows for s in row]
+            send(entity, indexes=[_time_column(times)], columns=[_strip_column(flat, z, [len(r) for r in rows])])
+        for entity, (times, rows) in self._colours.items():
+            cols = np.array([c for r in rows for c in r], dtype=np.uint8).reshape(-1, 4)
+            send(entity, indexes=[_time_column(times)],
+                 columns=rr.LineStrips3D.columns(colors=cols).partition([len(r) for r in rows]))
+        for (entity, z), (times, origins, vectors) in self._arrows.items():
+            send(entity, indexes=[_time_column(times)],
+                 columns=rr.Arrows3D.columns(origins=_xyz(_cat(origins), z), vectors=_xyz(_cat(vectors), 0.0))
+                 .partition([len(o) for o in origins]))
+        for (kind, entities, z), (times, rows) in self._fleet.items():
+            t = np.asarray(times, dtype=np.float64)
+            if kind == "strips":  # the strips of a row have the same length; rows may differ
+                ones = np.ones(len(t), dtype=np.int32)
+                for j, entity in enumerate(entities):
+                    send(entity, indexes=[_time_column(t)], columns=[_strip_column([r[j] for r in rows], z, ones)])
+                continue
+            data = np.stack(rows, axis=1)  # (n, T, ...)
+            for entity, d in zip(entities, data):
+                if kind == "scalar":
+                    ok = np.isfinite(d)
+                    if ok.any():
+                        send(entity, indexes=[_time_column(t[ok])], columns=rr.Scalars.columns(scalars=d[ok]))
+                else:
+                    send(entity, indexes=[_time_column(t)], columns=rr.Points3D.columns(positions=_xyz(d, z)))
+        for buffer in (self._scalars, self._texts, self._points, self._labels, self._strips, self._colours,
+                       self._arrows, self._fleet):
+            buffer.clear()
+        self._pending = 0
 
     def close(self) -> None:
         """Flush and write the file footer (a reader needs it). Safe to call twice."""
@@ -169,6 +262,44 @@ class Recorder:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class _ArrowBatch:
+    """A ready arrow array as a component batch (for :class:`rerun.ComponentColumn`)."""
+
+    def __init__(self, array: pa.Array):
+        self._array = array
+
+    def as_arrow_array(self) -> pa.Array:
+        return self._array
+
+
+_STRIP_TYPE = rr.components.LineStrip3DBatch._ARROW_DATATYPE
+
+
+def _strip_column(strips: list[np.ndarray], z: float, per_row) -> rr.ComponentColumn:
+    """The ``LineStrips3D:strips`` column of rows holding ``per_row`` strips each (strips (m, 2)
+    world xy at height z), built as one arrow list array (no per-strip conversion)."""
+    lengths = np.fromiter((len(s) for s in strips), dtype=np.int32, count=len(strips))
+    offsets = np.concatenate([[0], np.cumsum(lengths, dtype=np.int32)]).astype(np.int32)
+    points = Vec3DBatch(_xyz(_cat(strips), z).astype(np.float32)).as_arrow_array()
+    array = pa.ListArray.from_arrays(pa.array(offsets, pa.int32()), points, type=_STRIP_TYPE)
+    return rr.ComponentColumn(rr.LineStrips3D.descriptor_strips(), _ArrowBatch(array), lengths=per_row)
+
+
+def _time_column(times) -> rr.TimeColumn:
+    """Simulation times [s] as a ``sim_time`` column (rounded to ns like ``set_time``)."""
+    ns = np.rint(np.asarray(times, dtype=np.float64) * 1e9).astype(np.int64)
+    return rr.TimeColumn(TIMELINE, duration=ns.astype("timedelta64[ns]"))
+
+
+def _cat(arrays: list[np.ndarray]) -> np.ndarray:
+    return np.concatenate(arrays) if arrays else np.zeros((0, 2))
+
+
+def _rgba(colour) -> tuple[int, int, int, int]:
+    c = tuple(int(v) for v in colour)
+    return c if len(c) == 4 else (*c, 255)
 
 
 def _xyz(points_xy, z: float) -> np.ndarray:

@@ -44,6 +44,13 @@ from mjasc.runs.tick import ONBOARD_SLOTS, SlotEvent, run_onboard_slot
 
 __all__ = ["Runner", "RunFailed", "RunResult", "run_scenario"]
 
+#: A trail point is kept (for the recording and the video) every this many seconds [s].
+TRAIL_PERIOD_S = 1.0
+#: The recording re-writes a vessel's whole trail this often; in between only the newest part [s].
+TRAIL_SEGMENT_S = 30.0
+#: Paths are drawn with points every 0.5 m (traffic 1 m), or this many points on a longer path.
+PATH_POINTS = 400
+
 
 class RunFailed(RuntimeError):
     """A run stopped early; the message says why and where its partial outputs are."""
@@ -89,7 +96,13 @@ class Runner:
         self.video = None
         self.metrics = None
         self.last_outputs = [None] * len(self.agents)
-        self._trail: list[list[np.ndarray]] = [[] for _ in self.agents]
+        self._trail: list[list[tuple[float, np.ndarray]]] = [[] for _ in self.agents]  # (t, xy) per vessel
+        self._trail_t: list[float] = []  # times of the trail points [s]
+        self._trail_xy: list[np.ndarray] = []  # the fleet's positions (n, 2) at those times [m]
+        self._trail_cut = 0  # index of the trail point where the recording's ``trail/recent`` starts
+        self._hull_body = np.array([hull_outline(a.vessel.length_m, a.vessel.beam_m, np.zeros(2), 0.0)
+                                    for a in self.agents])  # (n, 6, 2) body frame [m]
+        self._entities: dict[str, tuple[str, ...]] = {}
         self._observers: dict[str, list] = {slot: [] for slot in SLOT_ORDER}
         #: Wall seconds spent in each slot and in the physics during :meth:`run` (observers excluded).
         self.stage_seconds: dict[str, float] = {}
@@ -132,35 +145,62 @@ class Runner:
         rec = self.recorder
         if rec is None:
             return
-        t = states.time_s
-        for i, agent in enumerate(self.agents):
-            name, vt = agent.name, agent.vessel
-            base = f"world/vessels/{name}"
-            rec.strips(f"{base}/hull", t, [hull_outline(vt.length_m, vt.beam_m, states.position_m[i],
-                                                        states.heading_rad[i])], z=0.2)
-            rec.points(f"{base}/position", t, states.position_m[i], z=0.2)
-            out = self.last_outputs[i]
-            rec.scalar(f"plots/speed/{name}/actual", t, states.speed_m_s[i])
-            rec.scalar(f"plots/speed/{name}/reference", t, out.speed_ref_m_s if out else 0.0)
-            rec.scalar(f"plots/thrust/{name}/port", t, states.thrust_n[i, 0])
-            rec.scalar(f"plots/thrust/{name}/starboard", t, states.thrust_n[i, 1])
-            rec.scalar(f"plots/commands/{name}/port", t, self.sim.data.ctrl[self.world.ctrl_adr[i, 0]])
-            rec.scalar(f"plots/commands/{name}/starboard", t, self.sim.data.ctrl[self.world.ctrl_adr[i, 1]])
-            rec.scalar(f"plots/heading/{name}", t, np.degrees(states.heading_rad[i]))
-            if np.isfinite(xte[i]):
-                rec.scalar(f"plots/cross_track/{name}", t, xte[i])
-            trail = self._trail[i]
-            if not trail or t - trail[-1][0] >= 1.0:
-                trail.append((t, states.position_m[i].copy()))
-                if len(trail) > 1:
-                    rec.strips(f"{base}/trail", t, [np.array([p for _, p in trail])], z=0.1)
-        for k, o in enumerate(self.world.moving_obstacles):
-            rec.points(f"world/obstacles/moving/{o.name}", t, traffic[0][k], z=0.3)
+        t, e = states.time_s, self._entities
+        c, s = np.cos(states.heading_rad), np.sin(states.heading_rad)
+        hulls = np.einsum("nkj,nij->nki", self._hull_body, np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], 1))
+        rec.fleet_strips(e["hull"], t, hulls + states.position_m[:, None, :], z=0.2)
+        rec.fleet_points(e["position"], t, states.position_m, z=0.2)
+        rec.fleet_scalars(e["speed"], t, states.speed_m_s)
+        rec.fleet_scalars(e["speed_ref"], t, [o.speed_ref_m_s if o else 0.0 for o in self.last_outputs])
+        rec.fleet_scalars(e["thrust_port"], t, states.thrust_n[:, 0])
+        rec.fleet_scalars(e["thrust_starboard"], t, states.thrust_n[:, 1])
+        rec.fleet_scalars(e["heading"], t, np.degrees(states.heading_rad))
+        rec.fleet_scalars(e["cross_track"], t, xte)  # NaN (no path) is left out
+        if rec.full:
+            ctrl = self.sim.data.ctrl[self.world.ctrl_adr]
+            rec.fleet_scalars(e["command_port"], t, ctrl[:, 0])
+            rec.fleet_scalars(e["command_starboard"], t, ctrl[:, 1])
+        self._record_trails(t, states.position_m)
+        if e["moving"]:
+            rec.fleet_points(e["moving"], t, traffic[0], z=0.3)
         if not self.sim.current.is_steady and self._current_grid is not None and \
                 (not self._current_times or t - self._current_times[-1] >= 2.0):
             self._current_times.append(t)
             rec.arrows("world/current", t, self._current_grid, self._current_scale * self.sim.current.velocity(
                 self._current_grid, t))
+
+    def _record_trails(self, t: float, positions: np.ndarray) -> None:
+        """A trail point per vessel every ``TRAIL_PERIOD_S``. The recording holds each trail in two
+        strips so that its size grows linearly with the run: ``trail`` (everything up to the latest
+        ``TRAIL_SEGMENT_S`` boundary, re-written at each boundary) and ``trail/recent`` (from that
+        boundary to now, written with every new point)."""
+        times, xy = self._trail_t, self._trail_xy
+        if times and t - times[-1] < TRAIL_PERIOD_S:
+            return
+        times.append(t)
+        xy.append(positions.copy())
+        for trail, p in zip(self._trail, xy[-1]):
+            trail.append((t, p))
+        if len(times) < 2:
+            return
+        e = self._entities
+        if t - times[self._trail_cut] >= TRAIL_SEGMENT_S:
+            self.recorder.fleet_strips(e["trail"], t, np.stack(xy, axis=1), z=0.1)
+            self._trail_cut = len(times) - 1
+        self.recorder.fleet_strips(e["trail_recent"], t, np.stack(xy[self._trail_cut:], axis=1), z=0.1)
+
+    def _entity_names(self) -> dict[str, tuple[str, ...]]:
+        """The recording's per-vessel entities, one tuple (in vessel order) per kind."""
+        names = [a.name for a in self.agents]
+        kinds = {"hull": "world/vessels/{}/hull", "position": "world/vessels/{}/position",
+                 "trail": "world/vessels/{}/trail", "trail_recent": "world/vessels/{}/trail/recent",
+                 "speed": "plots/speed/{}/actual", "speed_ref": "plots/speed/{}/reference",
+                 "thrust_port": "plots/thrust/{}/port", "thrust_starboard": "plots/thrust/{}/starboard",
+                 "command_port": "plots/commands/{}/port", "command_starboard": "plots/commands/{}/starboard",
+                 "heading": "plots/heading/{}", "cross_track": "plots/cross_track/{}"}
+        out = {k: tuple(v.format(n) for n in names) for k, v in kinds.items()}
+        out["moving"] = tuple(f"world/obstacles/moving/{o.name}" for o in self.world.moving_obstacles)
+        return out
 
     def _log_static_scene(self) -> None:
         rec, sc = self.recorder, self.scenario
@@ -175,9 +215,11 @@ class Runner:
             rec.static(f"{base}/position", rr.Points3D.from_fields(colors=[col], radii=[0.3], labels=[v.name],
                                                                    show_labels=[True]))
             rec.static(f"{base}/trail", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05]))
+            rec.static(f"{base}/trail/recent", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05]))
             if v.path is not None:
-                rec.static(f"{base}/mission_path", rr.LineStrips3D([np.column_stack(
-                    [v.path.sample(0.5), np.zeros(len(v.path.sample(0.5)))])], colors=[(*col, 120)], radii=[0.06]))
+                xy = v.path.sample(max(0.5, v.path.length / PATH_POINTS))
+                rec.static(f"{base}/mission_path", rr.LineStrips3D([np.column_stack([xy, np.zeros(len(xy))])],
+                                                                   colors=[(*col, 120)], radii=[0.06]))
             rec.series_style(f"plots/speed/{v.name}/actual", f"{v.name} speed", col, 2.0)
             rec.series_style(f"plots/speed/{v.name}/reference", f"{v.name} reference", (*col, 120), 1.0)
             rec.series_style(f"plots/thrust/{v.name}/port", f"{v.name} port", col)
@@ -193,9 +235,9 @@ class Runner:
             rec.static(f"world/obstacles/moving/{o.name}", rr.Points3D.from_fields(
                 radii=[o.radius_m], colors=[(220, 60, 60, 160)], labels=[o.name], show_labels=[True]))
             if o.path is not None:
+                xy = o.path.sample(max(1.0, o.path.length / PATH_POINTS))
                 rec.static(f"world/obstacles/moving/{o.name}_path", rr.LineStrips3D(
-                    [np.column_stack([o.path.sample(1.0), np.zeros(len(o.path.sample(1.0)))])],
-                    colors=[(220, 60, 60, 90)], radii=[0.05]))
+                    [np.column_stack([xy, np.zeros(len(xy))])], colors=[(220, 60, 60, 90)], radii=[0.05]))
         # Current arrows on a grid over the scenario area (static when the field is steady).
         gx = np.linspace(lo[0], hi[0], 9)
         gy = np.linspace(lo[1], hi[1], 7)
@@ -230,8 +272,9 @@ class Runner:
                 extent_m=float(np.max(hi - lo)), vessels=tuple(a.name for a in self.agents),
                 perception=any(a.perception is not None for a in self.agents),
                 avoidance=any(a.avoidance is not None for a in self.agents),
-                coordination=any(a.coordination is not None for a in self.agents))
-            self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp)
+                coordination=any(a.coordination is not None for a in self.agents), detail=sc.outputs.recording_detail)
+            self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp, detail=sc.outputs.recording_detail)
+            self._entities = self._entity_names()
             self._log_static_scene()
             self.recorder.event(0.0, f"scenario {sc.name!r} seed {sc.seed}: {len(sc.vessels)} vessel(s), "
                                      f"{len(sc.static_obstacles)} static and {len(sc.moving_obstacles)} moving obstacle(s)")

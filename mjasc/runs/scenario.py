@@ -39,7 +39,8 @@ from mjasc.physics.currents import CurrentField, UniformCurrent, current_from_co
 from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
 from mjasc.physics.vessels import available_vessels, load_vessel_type
 
-__all__ = ["ScenarioError", "Scenario", "VesselConfig", "Rates", "Outputs", "load_scenario", "parse_scenario"]
+__all__ = ["ScenarioError", "Scenario", "VesselConfig", "Rates", "Outputs", "RECORDING_DETAILS", "load_scenario",
+           "parse_scenario"]
 
 
 class ScenarioError(ConfigError):
@@ -79,12 +80,19 @@ class Rates:
 _CAMERAS = ("top_down", "overview")
 """The fixed cameras; ``chase:<vessel>`` follows a vessel."""
 
+RECORDING_DETAILS = ("standard", "full")
+"""What the recording holds (``[outputs] recording_detail``; :mod:`mjasc.runs.recording`)."""
+
 
 @dataclass(frozen=True)
 class Outputs:
     """What a run writes (the ``[outputs]`` table)."""
 
     recording: bool = param(True, doc="write the Rerun recording")
+    recording_detail: str = param("standard", choices=RECORDING_DETAILS,
+                                  doc="standard: hulls, trails, paths, plots, tracks as labelled points, conflicts, "
+                                      "detours, events; full: also sensor returns, detections, track ellipses and "
+                                      "discs, one plot per track, every predicted track, the detour's flow field")
     video: bool = param(False, doc="write an MP4 video")
     video_camera: str = param("top_down", doc="top_down, overview or chase:<vessel>")
     video_fps: float = param(20.0, positive=True, maximum=120, unit="1/s", doc="video frames per second")

@@ -1,0 +1,178 @@
+"""How one vessel's perception draws itself in the Rerun recording (docs/perception.md, "Recording").
+
+Every entity is one batch per vessel (all its tracks, all its returns), never one entity per track,
+except the per-track time series of ``full`` detail. World frame ENU, metres, z only lifts layers
+apart in the top-down view.
+
+Standard detail (``[outputs] recording_detail = "standard"``, the default):
+
+    world/vessels/<v>/tracks/positions   confirmed tracks, written at each tracker update; labels
+                                         ``<v>:T<id>[ (<team mate>)][ static]`` in the same row
+                                         whenever they change (rows without labels keep the latest)
+    world/vessels/<v>/static_map         mapped polygons when the map changed, at most every
+                                         ``MAP_LOG_PERIOD_S``
+
+Full detail (``"full"``) writes the tracks at every record tick and adds: returns
+(``world/vessels/<v>/sensor/hits`` and ``sensor/<v>/hits_body``, every ``HITS_LOG_PERIOD_S``),
+detections and their discs (each new scan), the 2-σ position ellipses, the track discs and velocity
+arrows, ``tracks/labels`` (every ``LABEL_LOG_PERIOD_S``), the time series
+``plots/tracking/<v>/{omega,speed}/T<id>`` and ``.../modes/T<id>/w<j>``, the map at every change and
+the track events (births included) in ``tracking_events/<v>``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import rerun as rr
+
+__all__ = ["PerceptionLog", "HITS_LOG_PERIOD_S", "LABEL_LOG_PERIOD_S", "MAP_LOG_PERIOD_S", "ARROW_HORIZON_S"]
+
+#: Returns are written to the recording at most this often (a 720-beam fan is heavy) [s].
+HITS_LOG_PERIOD_S = 0.5
+#: Full detail: the separate track labels are written this often [s].
+LABEL_LOG_PERIOD_S = 1.0
+#: Standard detail: the mapped polygons are written at most this often [s] (building them costs ~10 ms
+#: when the avoidance has not already asked for them since the map last changed).
+MAP_LOG_PERIOD_S = 5.0
+#: Velocity arrows show where a track will be this many seconds ahead [s].
+ARROW_HORIZON_S = 5.0
+
+_CIRCLE_24 = np.linspace(0.0, 2.0 * np.pi, 25)
+_CIRCLE_16 = np.linspace(0.0, 2.0 * np.pi, 17)
+_ELLIPSE_33 = np.linspace(0.0, 2.0 * np.pi, 33)
+
+
+def _circles(centres: np.ndarray, radii: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """Closed inscribed polygons (k, m, 2) of discs (centres (k, 2), radii (k,)) with vertices at
+    ``angles`` (the same points as :func:`mjasc.core.geometry.circle_polygon`, closed, inscribed)."""
+    unit = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+    return centres[:, None, :] + radii[:, None, None] * unit[None]
+
+
+def _ellipses(centres: np.ndarray, covariances: np.ndarray, n_sigma: float = 2.0) -> np.ndarray:
+    """Closed n-σ contours (k, 33, 2) of 2×2 covariances (k, 2, 2) (the batch form of
+    :func:`mjasc.perception.pipeline.covariance_ellipse`: centre + n·V·√Λ·[cos t, sin t])."""
+    lam, vec = np.linalg.eigh(covariances)
+    scaled = vec * np.sqrt(np.maximum(lam, 0.0))[:, None, :]
+    circle = np.stack([np.cos(_ELLIPSE_33), np.sin(_ELLIPSE_33)], axis=0)
+    return centres[:, None, :] + n_sigma * np.einsum("kij,jm->kmi", scaled, circle)
+
+
+def _labels(vessel_name: str, ids, conf, team, static) -> list[str]:
+    """``<vessel>:T<id>[ (<team mate>)][ static]`` per confirmed track."""
+    return [f"{vessel_name}:T{i}" + (f" ({team[k]})" if team[k] else "") + (" static" if static[k] else "")
+            for i, k in zip(ids, conf)]
+
+
+class PerceptionLog:
+    """Logging state of one vessel's perception; :meth:`log` at every record tick."""
+
+    def __init__(self):
+        self._styled = False
+        self._last_hits_log = -math.inf
+        self._last_label_log = -math.inf
+        self._last_map_log = -math.inf
+        self._logged_scan_t = -math.inf
+        self._logged_update = -1
+        self._logged_map_version = 0
+        self._label_key: tuple | None = None  # what the latest logged labels say
+        self._series: set[int] = set()
+
+    def _style(self, rec, base: str, name: str, colour) -> None:
+        rec.static(f"{base}/tracks/positions", rr.Points3D.from_fields(colors=[(*colour, 255)], radii=[0.25]))
+        rec.static(f"{base}/static_map", rr.LineStrips3D.from_fields(colors=[(160, 120, 60)], radii=[0.1]))
+        if rec.full:
+            rec.static(f"{base}/sensor/hits", rr.Points3D.from_fields(colors=[(*colour, 150)], radii=[0.12]))
+            rec.static(f"sensor/{name}/hits_body", rr.Points3D.from_fields(colors=[(*colour, 150)], radii=[0.12]))
+            rec.static(f"{base}/sensor/detections", rr.Points3D.from_fields(colors=[(255, 220, 0)], radii=[0.35]))
+            rec.static(f"sensor/{name}/detections_body", rr.Points3D.from_fields(colors=[(255, 220, 0)], radii=[0.35]))
+            rec.static(f"{base}/sensor/detection_discs", rr.LineStrips3D.from_fields(colors=[(255, 220, 0, 160)],
+                                                                                     radii=[0.04]))
+            rec.static(f"{base}/tracks/ellipses", rr.LineStrips3D.from_fields(colors=[(*colour, 255)], radii=[0.07]))
+            rec.static(f"{base}/tracks/discs", rr.LineStrips3D.from_fields(colors=[(*colour, 110)], radii=[0.05]))
+            rec.static(f"{base}/tracks/velocity", rr.Arrows3D.from_fields(colors=[(*colour, 255)], radii=[0.08]))
+            rec.static(f"{base}/tracks/labels", rr.Points3D.from_fields(radii=[0.01]))
+        self._styled = True
+
+    def log(self, rec, t_s: float, perception, vessel_name: str) -> None:
+        """Log ``perception`` (a :class:`mjasc.perception.pipeline.Perception`) at time t_s."""
+        from mjasc.runs.recording import vessel_colour
+
+        p, full = perception, rec.full
+        base = f"world/vessels/{vessel_name}"
+        if not self._styled:
+            self._style(rec, base, vessel_name, vessel_colour(p.vessel_index))
+        if full:
+            self._log_scan(rec, t_s, p, base, vessel_name)
+        update = p._stats["track_updates"]
+        if full or update != self._logged_update:
+            self._logged_update = update
+            self._log_tracks(rec, t_s, p, base, vessel_name, full)
+        if full:
+            for ev in p._log_events:
+                rec.event(ev.time_s, ev.text, "DEBUG" if ev.kind == "born" else "INFO",
+                          entity=f"tracking_events/{vessel_name}")
+        p._log_events = []
+        version = p.map.version
+        if version != self._logged_map_version and (full or t_s - self._last_map_log >= MAP_LOG_PERIOD_S - 1e-9):
+            self._logged_map_version, self._last_map_log = version, t_s
+            rec.strips(f"{base}/static_map", t_s, [np.vstack([q, q[:1]]) for q in p.map.polygons()], z=0.4)
+
+    def _log_scan(self, rec, t_s, p, base, vessel_name) -> None:
+        scan, det = p.scan, p.detections
+        if scan is None or scan.time_s == self._logged_scan_t:
+            return
+        self._logged_scan_t = scan.time_s
+        if t_s - self._last_hits_log >= HITS_LOG_PERIOD_S - 1e-9:
+            self._last_hits_log = t_s
+            rec.points(f"{base}/sensor/hits", t_s, scan.hit_points_world, z=0.1)
+            rec.points(f"sensor/{vessel_name}/hits_body", t_s, scan.hit_points_body, z=0.1)
+        rec.points(f"{base}/sensor/detections", t_s, det.centres_m, z=0.15)
+        rec.points(f"sensor/{vessel_name}/detections_body", t_s, det.centres_body, z=0.15)
+        rec.strips(f"{base}/sensor/detection_discs", t_s, list(_circles(det.centres_m, det.radii_m, _CIRCLE_16)),
+                   z=0.15)
+
+    def _log_tracks(self, rec, t_s, p, base, vessel_name, full) -> None:
+        tr = p.tracker
+        conf = np.flatnonzero(tr.confirmed)
+        bank = tr.bank
+        ids = bank.track_ids[conf]
+        x = bank.states[conf]
+        team, static = tr.team_members, tr.static
+        if not full:  # labels only when they change (the strings are built only then)
+            key = (ids.tobytes(), static[conf].tobytes(), tuple(team[k] for k in conf))
+            labels = None
+            if key != self._label_key:
+                self._label_key = key
+                labels = _labels(vessel_name, ids, conf, team, static)
+            elif not len(conf):
+                return  # nothing tracked, nothing was
+            rec.points(f"{base}/tracks/positions", t_s, x[:, :2], z=0.3, labels=labels)
+            return
+        labels = None
+        if t_s - self._last_label_log >= LABEL_LOG_PERIOD_S - 1e-9:
+            labels = _labels(vessel_name, ids, conf, team, static)
+        rec.points(f"{base}/tracks/positions", t_s, x[:, :2], z=0.3)
+        rec.strips(f"{base}/tracks/ellipses", t_s, list(_ellipses(x[:, :2], bank.position_covariances[conf])), z=0.3)
+        rec.strips(f"{base}/tracks/discs", t_s, list(_circles(x[:, :2], tr.radii_m[conf], _CIRCLE_24)), z=0.3)
+        vel = ARROW_HORIZON_S * x[:, 3, None] * np.stack([np.cos(x[:, 2]), np.sin(x[:, 2])], axis=-1)
+        rec.arrows(f"{base}/tracks/velocity", t_s, x[:, :2], vel, z=0.3)
+        if labels is not None:
+            self._last_label_log = t_s
+            rec.points(f"{base}/tracks/labels", t_s, x[:, :2], z=1.0, labels=labels)
+        omega = bank.turn_rates[conf]
+        mu = bank.mode_probabilities[conf]
+        plot = f"plots/tracking/{vessel_name}"
+        for k, tid in enumerate(ids):
+            rec.scalar(f"{plot}/omega/T{tid}", t_s, omega[k])
+            rec.scalar(f"{plot}/speed/T{tid}", t_s, x[k, 3])
+            for j in range(mu.shape[1]):
+                rec.scalar(f"{plot}/modes/T{tid}/w{j}", t_s, mu[k, j])
+            if tid not in self._series:
+                self._series.add(tid)
+                rec.series_style(f"{plot}/omega/T{tid}", f"{vessel_name} T{tid} ω̂ [rad/s]")
+                rec.series_style(f"{plot}/speed/T{tid}", f"{vessel_name} T{tid} V̂ [m/s]")
+                for j, wj in enumerate(p.config.imm.turn_rates_rad_s):
+                    rec.series_style(f"{plot}/modes/T{tid}/w{j}", f"T{tid} μ(ω={wj:+.2f})")
