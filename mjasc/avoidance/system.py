@@ -53,7 +53,7 @@ import numpy as np
 
 from mjasc.avoidance.config import AvoidanceConfig, parse_avoidance_options
 from mjasc.avoidance.decision import Correction, emergency_yield, velocity_correction_for
-from mjasc.avoidance.prediction import Decision, PredictedConflict, gamma_of_time, predict_conflicts
+from mjasc.avoidance.prediction import Decision, PredictedConflict, TrackMotions, gamma_of_time, predict_conflicts
 from mjasc.avoidance.recording import AvoidanceLog
 from mjasc.avoidance.replanning import Detour, merge_overlapping, plan_detour, swept_area
 from mjasc.avoidance.request import MODES, AvoidanceRequest, PathSwitch
@@ -113,6 +113,11 @@ class CollisionAvoidance:
                                     config.track_deviation_m, config.window_s or 30.0)
         self._known_track_ids: set[int] = set()
         self._predicted_tracks: dict = {}
+        # The last prediction's tracks for the deviation check of the control tick: their stacked
+        # motion, track id → row, and whether the row is checked (not a team mate on a broadcast).
+        self._predicted_motion: TrackMotions | None = None
+        self._predicted_row: dict[int, int] = {}
+        self._checked_tracks = None  # the perceived tracks found on the last prediction's motion
         self._last_predict_t = -np.inf
         self._predicted_speed = None
         self._events: list[tuple[float, str]] = []
@@ -224,6 +229,7 @@ class CollisionAvoidance:
                   else tr for tr in tracks]
         self._known_track_ids |= {tr.track_id for tr in tracks}
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
+        self._predicted_motion, self._checked_tracks = None, None
         outlined = {tr.track_id: track_outline(tr) for tr in tracks if tr.is_static and tr.outline_m is not None}
         outlined = {k: o for k, o in outlined.items() if o is not None}
         self.team_mates.remember_prediction(fresh)
@@ -403,16 +409,31 @@ class CollisionAvoidance:
             self.stats["deviation_predictions"] += 1
             self._predict_on_perceived(t, nav)
             return
-        from_broadcast = self.team_mates.predicted_names()
-        for tr in tracks:  # a track that left the motion the last prediction assumed
-            old = self._predicted_tracks.get(tr.track_id)
-            if old is None or old.team_member in from_broadcast:
-                continue  # team mates on a fresh broadcast: their plans are checked above
-            dev = float(np.hypot(*(old.predict_positions(np.array([tr.time_s]))[0] - tr.position_m)))
-            if dev > self.config.track_deviation_m:
-                self.stats["deviation_predictions"] += 1
-                self._predict_on_perceived(t, nav)
-                return
+        if self._deviating(tracks):  # a track that left the motion the last prediction assumed
+            self.stats["deviation_predictions"] += 1
+            self._predict_on_perceived(t, nav)
+
+    def _deviating(self, tracks) -> bool:
+        """Some track is farther than ``track_deviation_m`` from where the last prediction put it
+        at the track's time (team mates on a fresh broadcast excepted: their plans are compared
+        instead). All tracks in one array operation on the last prediction's stacked motion; the
+        same tracks are not checked twice against the same prediction."""
+        if tracks is self._checked_tracks or not tracks:
+            return False
+        self._checked_tracks = tracks
+        if self._predicted_motion is None:
+            from_broadcast = self.team_mates.predicted_names()
+            checked = [tr for tr in self._predicted_tracks.values() if tr.team_member not in from_broadcast]
+            self._predicted_motion = TrackMotions(checked)
+            self._predicted_row = {tr.track_id: k for k, tr in enumerate(checked)}
+        row = self._predicted_row
+        sel = [(row[tr.track_id], tr.time_s, tr.position_m) for tr in tracks if tr.track_id in row]
+        if not sel:
+            return False
+        rows, times, pos = zip(*sel)
+        pred = self._predicted_motion.at(np.array(rows), np.array(times)[:, None])[:, 0]
+        pos = np.array(pos, dtype=float)
+        return bool(np.any(np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > self.config.track_deviation_m))
 
     def _control_refs(self, t, nav) -> tuple[float | None, str]:
         """(speed override [m/s] or None, mode) for this control tick; switches back to the mission
