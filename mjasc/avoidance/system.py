@@ -53,7 +53,8 @@ import numpy as np
 
 from mjasc.avoidance.config import AvoidanceConfig, parse_avoidance_options
 from mjasc.avoidance.decision import Correction, emergency_yield, velocity_correction_for
-from mjasc.avoidance.prediction import Decision, PredictedConflict, TrackMotions, gamma_of_time, predict_conflicts
+from mjasc.avoidance.prediction import (Decision, PredictedConflict, PredictionQuery, TrackMotions, gamma_of_time,
+                                        predict_fleet)
 from mjasc.avoidance.recording import AvoidanceLog
 from mjasc.avoidance.replanning import Detour, merge_overlapping, plan_detour, swept_area
 from mjasc.avoidance.request import MODES, AvoidanceRequest, PathSwitch
@@ -64,7 +65,7 @@ from mjasc.guidance.paths import Path
 from mjasc.guidance.state import GuidanceState
 
 __all__ = ["AvoidanceConfig", "CollisionAvoidance", "StaticConflict", "Detour", "PlannedTrack", "PredictionRecord",
-           "parse_avoidance_options", "MODES", "merge_overlapping", "swept_area"]
+           "parse_avoidance_options", "MODES", "merge_overlapping", "swept_area", "predict_slot"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,6 +81,39 @@ class PredictionRecord:
     conflicts: tuple
     statics: tuple
     tracks: dict
+
+
+@dataclass(frozen=True, eq=False)
+class _Pending:
+    """A prediction between its query and its result (:meth:`CollisionAvoidance._prediction_query`)."""
+
+    query: PredictionQuery | None
+    tracks: list
+    outlined: dict
+    path: Path
+    gamma: float
+    profile: object
+
+
+def predict_slot(calls) -> list[AvoidanceRequest]:
+    """The prediction slot of many vessels at once: ``calls`` is a sequence of (system, t, nav,
+    guidance, perceived, team), the arguments of :meth:`CollisionAvoidance.predict` per vessel.
+    Returns each vessel's request — the same as calling ``predict`` vessel by vessel (the systems
+    share no state) — with every vessel's (vessel, track) pairs predicted in one
+    :func:`~mjasc.avoidance.prediction.predict_fleet` call. Predictions a decision triggers
+    (after a re-plan) run per vessel."""
+    pending = []
+    for system, t, nav, guidance, perceived, team in calls:
+        system._begin(guidance, perceived, team)
+        pending.append(system._prediction_query(float(t), list(perceived.tracks)))
+    results = iter(predict_fleet([p.query for p in pending if p.query is not None]))
+    out = []
+    for (system, t, nav, guidance, perceived, team), p in zip(calls, pending):
+        system._begin(guidance, perceived, team)
+        all_c = next(results) if p.query is not None else []
+        conflicts = system._act_on_prediction(float(t), nav, p, all_c, list(perceived.static_polygons))
+        out.append(AvoidanceRequest(system.mode, None, system._switch, tuple(conflicts)))
+    return out
 
 
 class CollisionAvoidance:
@@ -219,6 +253,13 @@ class CollisionAvoidance:
     def _predict(self, t, nav, tracks, static_polygons, after_replan: bool = False) -> list:
         """Predict conflicts with the vessel's tracks and static polygons and act on them.
         Returns the conflicts with a predicted collision (PredictedConflict / StaticConflict)."""
+        pending = self._prediction_query(t, tracks)
+        all_c = predict_fleet([pending.query])[0] if pending.query is not None else []
+        return self._act_on_prediction(t, nav, pending, all_c, static_polygons, after_replan)
+
+    def _prediction_query(self, t, tracks) -> "_Pending":
+        """The first half of :meth:`_predict`: the tracks as predicted (team mates from their
+        broadcasts, slow tracks static) and the query of the disc tracks."""
         g_state = self._guidance
         tracks = self.team_mates.tracks([tr for tr in tracks if tr.team_member != self.name], t, self._team,
                                         self._event)
@@ -240,8 +281,15 @@ class CollisionAvoidance:
         profile = self.planned_gamma(t, gamma, g_state.mission_speed_m_s)
         self.stats["predictions"] += 1
         discs = [tr for tr in tracks if tr.track_id not in outlined]
-        all_c = predict_conflicts(path, gamma, t, profile, self.radius_m, discs, self.prediction_config,
-                                  include_clear=True) if discs else []
+        query = PredictionQuery(path, gamma, t, profile, self.radius_m, discs, self.prediction_config,
+                                include_clear=True) if discs else None
+        return _Pending(query, tracks, outlined, path, gamma, profile)
+
+    def _act_on_prediction(self, t, nav, pending: "_Pending", all_c, static_polygons, after_replan=False) -> list:
+        """The second half of :meth:`_predict`: record the predicted conflicts (``all_c``, one per
+        disc track), check the static ones and decide."""
+        tracks, outlined, path, gamma, profile = (pending.tracks, pending.outlined, pending.path, pending.gamma,
+                                                  pending.profile)
         for c in all_c:
             self.min_predicted_distance_m = min(self.min_predicted_distance_m, c.min_distance_m)
         conflicts: list = [c for c in all_c if c.collision]
