@@ -36,6 +36,14 @@ fresh (:mod:`~mjasc.avoidance.team_mates`). Decision σ (thesis eq. 3.17) per co
   its speed. Yielding that is impossible becomes passing first when feasible
   (:mod:`~mjasc.avoidance.decision`), else a re-plan around the swept area.
 
+**The fleet in one call.** :func:`predict_slot` runs the prediction slot of many vessels: each
+system prepares its query (its tracks as predicted, its planned motion), all (vessel, track) pairs
+are predicted in one :func:`~mjasc.avoidance.prediction.predict_fleet` call, then each system acts
+on its own result — the same requests as vessel by vessel. The control tick is cheap in the common
+case (no new track, no deviation): the deviation check runs on the last prediction's stacked track
+motions (:class:`~mjasc.avoidance.prediction.TrackMotions`) in one array operation, once per new
+perception report.
+
 A manoeuvre ends when it is complete (the correction's goal time is reached, the end of the
 detour is reached) and the latest prediction predicts no collision; then the mission resumes.
 Every transition is an event. While on a detour, :meth:`mission_gamma_m` maps progress along the
@@ -152,6 +160,7 @@ class CollisionAvoidance:
         self._predicted_motion: TrackMotions | None = None
         self._predicted_row: dict[int, int] = {}
         self._checked_tracks = None  # the perceived tracks found on the last prediction's motion
+        self._no_new_in = None  # perceived tracks found to hold no new track id
         self._last_predict_t = -np.inf
         self._predicted_speed = None
         self._events: list[tuple[float, str]] = []
@@ -441,8 +450,10 @@ class CollisionAvoidance:
         if perceived is None:
             return
         tracks = perceived.tracks
-        new = {tr.track_id for tr in tracks} - self._known_track_ids
-        if new:
+        new = () if tracks is self._no_new_in else {tr.track_id for tr in tracks} - self._known_track_ids
+        if not new:
+            self._no_new_in = tracks  # known ids only grow: these tracks stay known
+        else:
             self._event(t, f"new track(s) {sorted(new)}: predicting now")
             self._predict_on_perceived(t, nav)
             return

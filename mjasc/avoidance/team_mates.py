@@ -54,6 +54,10 @@ class TeamMates:
         self._ghosts: set[int] = set()  # track ids found to be a team mate's stale copy (reported once)
         self._stack = None  # the history stacked for the ghost check (rebuilt after a poll added to it)
         self._vmax: dict[str, tuple] = {}  # name → (intention, its plan's largest speed)
+        # What the team picture held (names and send times) at the last poll and at the last
+        # complete plan comparison: an unchanged picture has nothing new for either.
+        self._key_of: tuple = (None, None)  # (picture, its key)
+        self._polled_key = self._compared_key = None
 
     # ------------------------------------------------------------------ broadcasts
     def fresh(self, picture, t: float) -> dict:
@@ -63,11 +67,22 @@ class TeamMates:
             return {}
         return {n: i for n, i in picture.fresh(t, self.max_age_s).items() if n in self.team}
 
+    def _key(self, picture) -> tuple:
+        """The names and send times of a team picture's intentions (equal keys: nothing new)."""
+        if self._key_of[0] is not picture:
+            its = picture.intentions
+            self._key_of = (picture, (tuple(its), tuple([it.sent_time_s for it in its.values()])))
+        return self._key_of[1]
+
     def poll(self, picture) -> None:
         """Heading rate ω of each team mate from two successive broadcasts [rad/s] (used when a
         team mate sends no plan), and the history of their positions."""
         if picture is None:
             return
+        key = self._key(picture)
+        if key == self._polled_key:
+            return  # the same messages as at the last poll
+        self._polled_key = key
         for name, it in picture.intentions.items():
             old = self._nav.get(name)
             if name not in self.team or (old is not None and it.sent_time_s <= old[0]):
@@ -198,6 +213,11 @@ class TeamMates:
         """A team mate's newest plan differs by more than ``deviation_m`` from the one the last
         prediction used, within the prediction window (it re-planned or changed its speed). Each
         message is compared once; all new messages are compared in one array operation."""
+        if picture is None:
+            return False
+        key = self._key(picture)
+        if key == self._compared_key:
+            return False  # every message still fresh was compared at the last call
         intents = self.fresh(picture, t)
         pairs = []
         for name, it in intents.items():
@@ -212,6 +232,7 @@ class TeamMates:
             if it.sent_time_s <= old.sent_time_s:
                 continue
             pairs.append((it, old))
+        self._compared_key = key
         if not pairs:
             return False
         ts = t + np.linspace(0.0, self.horizon_s, 16)

@@ -193,8 +193,9 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
             times_q[k, :times.size], xy_q[k, :times.size] = times, xy
     times_p = times_q[vessel]
     obst = motions.at(rows, times_p)
-    r_col = np.array([ctxs[k].r_vh + r + ctxs[k].config.safety_distance_m for k, r in zip(vessel, r_ob)])
-    stop_first = np.array([ctxs[k].config.stop_at_first_minimum for k in vessel])
+    vessel_l, rows_l = vessel.tolist(), rows.tolist()
+    r_col = np.array([ctxs[k].r_vh + r + ctxs[k].config.safety_distance_m for k, r in zip(vessel_l, r_ob.tolist())])
+    stop_first = np.array([ctxs[k].config.stop_at_first_minimum for k in vessel_l])
 
     def rel_at(pairs, t):
         """Track minus vessel position (k, j, 2) of pairs (k,) at times t (k, j)."""
@@ -208,11 +209,9 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
         return r
 
     t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, rel_at, stop_first)
-    for p, r in enumerate(rows):
-        k = vessel[p]
+    for p, (r, k, tc, dc, rc) in enumerate(zip(rows_l, vessel_l, t_c.tolist(), d_c.tolist(), r_col.tolist())):
         times, xy = grids[k]
-        c = _conflict(ctxs[k], tracks[r], float(t_c[p]), float(d_c[p]), float(r_col[p]), times, xy,
-                      obst[p, :times.size])
+        c = _conflict(ctxs[k], tracks[r], tc, dc, rc, times, xy, obst[p, :times.size])
         if c.collision or queries[k].include_clear:
             out[k].append(c)
     for lst in out:
@@ -227,23 +226,21 @@ def _conflict(ctx: PlanContext, track: TrackEstimate, t_c: float, d_c: float, r_
     cfg = ctx.config
     static = bool(track.is_static) or track.speed_m_s == 0.0
     collision = d_c <= r_col
+    if not collision:  # the common case, built positionally
+        nan = float("nan")
+        return PredictedConflict(track.track_id, t_c, d_c, False, nan, nan, nan, nan, None, None, Decision.NONE,
+                                 None, vessel_xy, obst_xy, times, r_col, static)
     base = dict(
         track_id=track.track_id,
         t_closest_s=t_c,
         min_distance_m=d_c,
-        collision=collision,
+        collision=True,
         vessel_positions=vessel_xy,
         obstacle_positions=obst_xy,
         times=times,
         collision_distance_m=r_col,
         is_static=static,
     )
-    if not collision:
-        nan = float("nan")
-        return PredictedConflict(
-            t_i=nan, t_f=nan, gamma_a=nan, gamma_b=nan, point_a=None, point_b=None,
-            decision=Decision.NONE, svo_polygon=None, **base,
-        )
     t_i, t_f, truncated = obstruction_interval(ctx, track, t_c, r_col, static)
     gamma_c = float(np.clip(ctx.gamma_fn(np.array([t_c]))[0], 0.0, ctx.path.length))
     gamma_a, gamma_b = obstructed_stretch(ctx, track, t_i, t_f, gamma_c, r_col, static)

@@ -16,9 +16,9 @@ chosen local minimum (t_c, d(t_c)) of d — all pairs in a few array operations,
    of them is refined.
 3. **Sampled zoom** (:data:`ZOOM_LEVELS` levels of :data:`ZOOM_SAMPLES` samples). The bracket
    [t_{i−1}, t_{i+1}] (the interval the former bounded Brent search covered) is sampled at
-   K = 65 points on the *true* motion (``rel_at``, one vectorized evaluation for every
+   K = 17 points on the *true* motion (``rel_at``, one vectorized evaluation for every
    (pair, minimum)); the bracket shrinks to the two sample spacings around the sampled minimum
-   and is sampled again: spacings h/32, then h/1024.
+   and is sampled again: spacings h/8, h/64, h/512.
 4. **Closed form.** Between adjacent samples of spacing s the relative motion is taken linear,
    r(t_j + σ s) = r_j + σ (r_{j+1} − r_j), σ ∈ [0, 1], whose closest point to the vessel is
    σ* = clip(−r_j·Δ / ‖Δ‖², 0, 1), Δ = r_{j+1} − r_j; the minimum is the smaller CPA of the two
@@ -31,13 +31,14 @@ chosen local minimum (t_c, d(t_c)) of d — all pairs in a few array operations,
 constant speed; a straight or static track) r(t) is linear and the result is exact (to rounding).
 Otherwise, with d unimodal on [t_{i−1}, t_{i+1}] (as the Brent search assumed), every level's
 bracket contains the true minimizer, and if ‖r̈‖ ≤ A there the linear interpolant is within
-A s²/8 of r: the reported d(t_c) is within A s²/8 of the true local minimum, s = h/1024
-(h = 0.5 s: s ≈ 0.5 ms). For a track turning at ω with speed v (A = v ω; 1.5 m/s, 0.05 rad/s)
-that is 2e-9 m; for the vessel on an arc of radius ρ (A = v²/ρ; 2 m/s, 10 m) 1.2e-8 m. A kink in
+A s²/8 of r: the reported d(t_c) is within A s²/8 of the true local minimum, s = h/512
+(h = 0.5 s: s ≈ 1 ms). For a track turning at ω with speed v (A = v ω; 1.5 m/s, 0.05 rad/s)
+that is 9e-9 m; for the vessel on an arc of radius ρ (A = v²/ρ; 2 m/s, 10 m) 5e-8 m. A kink in
 the last bracket (a sharp path corner, a knot of a team mate's plan or of the speed profile)
-turning the relative velocity w by Δψ adds at most ½ ‖w‖ s sin(Δψ/2) (2 m/s, 90°: 3.5e-4 m). t_c
-lies in the last bracket: within 2 s ≈ 1 ms of the true minimizer (much closer for a deep
-minimum), exact for linear motion. (The former Brent search had xatol = 1e-7 s.)
+turning the relative velocity w by Δψ adds at most ½ ‖w‖ s sin(Δψ/2) (2 m/s, 90°: 7e-4 m). t_c
+lies in the last bracket: within 2 s ≈ 2 ms of the true minimizer (much closer for a deep
+minimum), exact for linear motion. (The former Brent search had xatol = 1e-7 s.) Cost: 51 true
+samples per refined minimum in 3 array operations (Brent: about 25 scalar evaluations).
 
 Inputs are arrays over pairs; pairs of different grid lengths are padded with NaN times at the end
 (their samples are ignored), so the vessels of a fleet, each with its own window, are predicted in
@@ -52,10 +53,10 @@ import numpy as np
 
 __all__ = ["ZOOM_LEVELS", "ZOOM_SAMPLES", "closest_approaches", "grid_minima", "segment_cpa"]
 
-#: Levels and samples per level of the sampled zoom (see the module docstring): spacings h/32,
-#: then h/1024 of the grid step h.
-ZOOM_LEVELS = 2
-ZOOM_SAMPLES = 65
+#: Levels and samples per level of the sampled zoom (see the module docstring): spacings h/8,
+#: h/64, h/512 of the grid step h.
+ZOOM_LEVELS = 3
+ZOOM_SAMPLES = 17
 
 
 def segment_cpa(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -68,14 +69,17 @@ def segment_cpa(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, np.hypot(a[..., 0] + s * dx, a[..., 1] + s * dy)
 
 
-def grid_minima(d: np.ndarray) -> np.ndarray:
+def grid_minima(d: np.ndarray, padded: bool = True) -> np.ndarray:
     """Mask (P, n) of the local minima of each row of d (P, n) (window ends included when d rises
-    from / falls to them; NaN samples, the padding of shorter grids, are never minima)."""
-    d = np.where(np.isnan(d), np.inf, d)
+    from / falls to them; NaN samples, the padding of shorter grids, are never minima; ``padded``
+    False: there are none)."""
+    if padded:
+        d = np.where(np.isnan(d), np.inf, d)
     mask = np.ones(d.shape, dtype=bool)
     mask[:, 1:] = d[:, 1:] <= d[:, :-1]  # not higher than the left neighbour
     mask[:, :-1] &= d[:, :-1] < d[:, 1:]  # strictly lower than the right neighbour
-    mask &= np.isfinite(d)
+    if padded:
+        mask &= np.isfinite(d)
     return mask
 
 
@@ -99,9 +103,12 @@ def closest_approaches(
     times = np.asarray(times, dtype=float)
     P = times.shape[0]
     d = np.hypot(rel[..., 0], rel[..., 1])
-    d[np.isnan(times)] = np.nan
-    pi, ii = np.nonzero(grid_minima(d))  # row-major: per pair in time order
-    last = np.sum(~np.isnan(times), axis=1) - 1  # last valid index per pair
+    pad = np.isnan(times)
+    padded = bool(pad.any())
+    if padded:
+        d[pad] = np.nan
+    pi, ii = np.nonzero(grid_minima(d, padded))  # row-major: per pair in time order
+    last = times.shape[1] - 1 - np.sum(pad, axis=1)  # last valid index per pair
     lo = np.maximum(ii - 1, 0)
     hi = np.minimum(ii + 1, last[pi])
     t_lo, t_mid, t_hi = times[pi, lo], times[pi, ii], times[pi, hi]
