@@ -18,7 +18,10 @@ chosen local minimum (t_c, d(t_c)) of d — all pairs in a few array operations,
    [t_{i−1}, t_{i+1}] (the interval the former bounded Brent search covered) is sampled at
    K = 17 points on the *true* motion (``rel_at``, one vectorized evaluation for every
    (pair, minimum)); the bracket shrinks to the two sample spacings around the sampled minimum
-   and is sampled again: spacings h/8, h/64, h/512.
+   and is sampled again: spacings h/8, h/64, h/512. A minimum whose last three samples still
+   bend — the middle one more than :data:`ZOOM_TOL_M` = 5e-8 m off the chord of the other two: a
+   kink (a path corner, a knot of a team mate's plan or of the speed profile) or a tight turn —
+   zooms on, 8× per level, up to :data:`ZOOM_MAX_LEVELS` = 9 levels (s = h/8⁹).
 4. **Closed form.** Between adjacent samples of spacing s the relative motion is taken linear,
    r(t_j + σ s) = r_j + σ (r_{j+1} − r_j), σ ∈ [0, 1], whose closest point to the vessel is
    σ* = clip(−r_j·Δ / ‖Δ‖², 0, 1), Δ = r_{j+1} − r_j; the minimum is the smaller CPA of the two
@@ -30,15 +33,17 @@ chosen local minimum (t_c, d(t_c)) of d — all pairs in a few array operations,
 **Error bound.** For straight motion at constant speed of both (a line of the vessel's path at a
 constant speed; a straight or static track) r(t) is linear and the result is exact (to rounding).
 Otherwise, with d unimodal on [t_{i−1}, t_{i+1}] (as the Brent search assumed), every level's
-bracket contains the true minimizer, and if ‖r̈‖ ≤ A there the linear interpolant is within
-A s²/8 of r: the reported d(t_c) is within A s²/8 of the true local minimum, s = h/512
-(h = 0.5 s: s ≈ 1 ms). For a track turning at ω with speed v (A = v ω; 1.5 m/s, 0.05 rad/s)
-that is 9e-9 m; for the vessel on an arc of radius ρ (A = v²/ρ; 2 m/s, 10 m) 5e-8 m. A kink in
-the last bracket (a sharp path corner, a knot of a team mate's plan or of the speed profile)
-turning the relative velocity w by Δψ adds at most ½ ‖w‖ s sin(Δψ/2) (2 m/s, 90°: 7e-4 m). t_c
-lies in the last bracket: within 2 s ≈ 2 ms of the true minimizer (much closer for a deep
-minimum), exact for linear motion. (The former Brent search had xatol = 1e-7 s.) Cost: 51 true
-samples per refined minimum in 3 array operations (Brent: about 25 scalar evaluations).
+bracket contains the true minimizer, and the reported d(t_c) is within the chord error of the
+last samples (spacing s) of the true local minimum: A s²/8 for ‖r̈‖ ≤ A — at s = h/512 (1 ms for
+h = 0.5 s) 9e-9 m for a track turning at 0.05 rad/s at 1.5 m/s (A = v ω), 5e-8 m for the vessel
+on an arc of 10 m at 2 m/s (A = v²/ρ) —, and for a kink turning the relative velocity w by Δψ
+between the samples at most ½ ‖w‖ s sin(Δψ/2). Both are bounded by twice the bend of the last
+samples, which the zoom brings under :data:`ZOOM_TOL_M`: |Δd| ≤ 1e-7 m unless the 9 levels end
+first (a kink at 2 m/s turning 90°: then ≤ 3e-9 m·(h/0.5 s)). t_c lies in the last bracket:
+within 2 s of the true minimizer (much closer for a deep minimum), exact for linear motion. (The
+former Brent search had xatol = 1e-7 s.) Cost: 51 true samples per refined minimum in 3 array
+operations, 17 more per extra level for the few that need it (Brent: about 25 scalar evaluations
+per minimum, each a Python call).
 
 Inputs are arrays over pairs; pairs of different grid lengths are padded with NaN times at the end
 (their samples are ignored), so the vessels of a fleet, each with its own window, are predicted in
@@ -51,12 +56,16 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["ZOOM_LEVELS", "ZOOM_SAMPLES", "closest_approaches", "grid_minima", "segment_cpa"]
+__all__ = ["ZOOM_LEVELS", "ZOOM_MAX_LEVELS", "ZOOM_SAMPLES", "ZOOM_TOL_M", "closest_approaches", "grid_minima",
+           "segment_cpa"]
 
 #: Levels and samples per level of the sampled zoom (see the module docstring): spacings h/8,
-#: h/64, h/512 of the grid step h.
+#: h/64, h/512 of the grid step h; more levels (up to ZOOM_MAX_LEVELS) while the last samples
+#: bend by more than ZOOM_TOL_M [m].
 ZOOM_LEVELS = 3
 ZOOM_SAMPLES = 17
+ZOOM_MAX_LEVELS = 9
+ZOOM_TOL_M = 5e-8
 
 
 def segment_cpa(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -121,17 +130,7 @@ def closest_approaches(
         first = np.ones(pi.size, dtype=bool)
         first[1:] = pi[1:] != pi[:-1]
         cand = np.flatnonzero(first | (dd <= r_col[pi] + 0.5 + chord))
-        K = ZOOM_SAMPLES
-        frac = np.linspace(0.0, 1.0, K)
-        idx = np.arange(cand.size)
-        a, b = t_lo[cand], t_hi[cand]
-        for _ in range(ZOOM_LEVELS):
-            ts = a[:, None] + (b - a)[:, None] * frac  # (k, K)
-            r = rel_at(pi[cand], ts)
-            j = np.argmin(np.hypot(r[..., 0], r[..., 1]), axis=1)
-            ja, jb = np.maximum(j - 1, 0), np.minimum(j + 1, K - 1)
-            a, b = ts[idx, ja], ts[idx, jb]
-        tt[cand], dd[cand] = _two_segments(a, ts[idx, j], b, r[idx, ja], r[idx, j], r[idx, jb])
+        tt[cand], dd[cand] = _zoom(rel_at, pi[cand], t_lo[cand], t_hi[cand])
         if cand.size < pi.size:  # the others are no collision: keep them out of the choice
             skip = np.ones(pi.size, dtype=bool)
             skip[cand] = False
@@ -155,6 +154,35 @@ def closest_approaches(
     if pi.size == 0:
         return np.full(P, np.nan), np.full(P, np.nan)
     return np.where(has, tt[pick], np.nan), np.where(has, dd[pick], np.nan)
+
+
+def _zoom(rel_at, pairs, a, b):
+    """The sampled zoom and closed form (module docstring, steps 3–4) of brackets [a, b] (k,) of
+    ``pairs`` (k,): (t*, d*) per bracket. Items whose last three samples still bend by more than
+    :data:`ZOOM_TOL_M` (a kink near the minimum) zoom on, up to :data:`ZOOM_MAX_LEVELS`."""
+    K = ZOOM_SAMPLES
+    frac = np.linspace(0.0, 1.0, K)
+    t_out, d_out = np.empty(a.size), np.empty(a.size)
+    act = np.arange(a.size)  # the items still zooming
+    a, b = a.copy(), b.copy()
+    for level in range(ZOOM_MAX_LEVELS):
+        ts = a[act, None] + (b[act] - a[act])[:, None] * frac  # (k, K)
+        r = rel_at(pairs[act], ts)
+        j = np.argmin(np.hypot(r[..., 0], r[..., 1]), axis=1)
+        idx = np.arange(act.size)
+        ja, jb = np.maximum(j - 1, 0), np.minimum(j + 1, K - 1)
+        a[act], b[act] = ts[idx, ja], ts[idx, jb]
+        if level + 1 < ZOOM_LEVELS:
+            continue
+        r_a, r_j, r_b = r[idx, ja], r[idx, j], r[idx, jb]
+        t_out[act], d_out[act] = _two_segments(a[act], ts[idx, j], b[act], r_a, r_j, r_b)
+        # How far the middle sample is off the chord of its neighbours (0 at a bracket end: the
+        # minimum is that sample itself): a kink there, or strong curvature, zooms on.
+        bend = np.hypot(*(r_j - 0.5 * (r_a + r_b)).T)
+        act = act[(bend > ZOOM_TOL_M) & (j > 0) & (j < K - 1)]
+        if act.size == 0:
+            break
+    return t_out, d_out
 
 
 def _two_segments(t_a, t_b, t_c, r_a, r_b, r_c):
