@@ -21,8 +21,7 @@ World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 
