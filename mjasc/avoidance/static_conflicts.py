@@ -65,10 +65,17 @@ def static_conflicts(t: float, path: Path, gamma: float, profile, polygons, radi
     gs = np.arange(gamma, path.length + 1e-9, 0.25)
     pts = path.point(gs)
     n_ahead = int(np.searchsorted(gs, g_end, side="right"))
+    near = pts[:n_ahead]  # the path beyond the window only matters for a stretch that starts in it
+    near_lo, near_hi = near.min(axis=0), near.max(axis=0)
     out = []
     for poly in polygons:
-        near = pts[:n_ahead]  # the path beyond the window only matters for a stretch that starts in it
-        if not ((distance_to_polygon(near, poly) < limit) | point_in_polygon(near, poly)).any():
+        # Only path samples within the polygon's bounding box grown by the limit can be closer
+        # than the limit or inside (the same answer as testing them all).
+        lo, hi = poly.min(axis=0) - limit, poly.max(axis=0) + limit
+        if (lo > near_hi).any() or (hi < near_lo).any():
+            continue
+        cand = near[((near >= lo) & (near <= hi)).all(axis=1)]
+        if not cand.size or not ((distance_to_polygon(cand, poly) < limit) | point_in_polygon(cand, poly)).any():
             continue
         d = distance_to_polygon(pts, poly)
         blocked = (d < limit) | point_in_polygon(pts, poly)

@@ -36,6 +36,14 @@ fresh (:mod:`~mjasc.avoidance.team_mates`). Decision σ (thesis eq. 3.17) per co
   its speed. Yielding that is impossible becomes passing first when feasible
   (:mod:`~mjasc.avoidance.decision`), else a re-plan around the swept area.
 
+**The fleet in one call.** :func:`predict_slot` runs the prediction slot of many vessels: each
+system prepares its query (its tracks as predicted, its planned motion), all (vessel, track) pairs
+are predicted in one :func:`~mjasc.avoidance.prediction.predict_fleet` call, then each system acts
+on its own result — the same requests as vessel by vessel. The control tick is cheap in the common
+case (no new track, no deviation): the deviation check runs on the last prediction's stacked track
+motions (:class:`~mjasc.avoidance.prediction.TrackMotions`) in one array operation, once per new
+perception report.
+
 A manoeuvre ends when it is complete (the correction's goal time is reached, the end of the
 detour is reached) and the latest prediction predicts no collision; then the mission resumes.
 Every transition is an event. While on a detour, :meth:`mission_gamma_m` maps progress along the
@@ -53,7 +61,8 @@ import numpy as np
 
 from mjasc.avoidance.config import AvoidanceConfig, parse_avoidance_options
 from mjasc.avoidance.decision import Correction, emergency_yield, velocity_correction_for
-from mjasc.avoidance.prediction import Decision, PredictedConflict, gamma_of_time, predict_conflicts
+from mjasc.avoidance.prediction import (Decision, PredictedConflict, PredictionQuery, TrackMotions, gamma_of_time,
+                                        predict_fleet)
 from mjasc.avoidance.recording import AvoidanceLog
 from mjasc.avoidance.replanning import Detour, merge_overlapping, plan_detour, swept_area
 from mjasc.avoidance.request import MODES, AvoidanceRequest, PathSwitch
@@ -64,7 +73,7 @@ from mjasc.guidance.paths import Path
 from mjasc.guidance.state import GuidanceState
 
 __all__ = ["AvoidanceConfig", "CollisionAvoidance", "StaticConflict", "Detour", "PlannedTrack", "PredictionRecord",
-           "parse_avoidance_options", "MODES", "merge_overlapping", "swept_area"]
+           "parse_avoidance_options", "MODES", "merge_overlapping", "swept_area", "predict_slot"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -80,6 +89,39 @@ class PredictionRecord:
     conflicts: tuple
     statics: tuple
     tracks: dict
+
+
+@dataclass(frozen=True, eq=False)
+class _Pending:
+    """A prediction between its query and its result (:meth:`CollisionAvoidance._prediction_query`)."""
+
+    query: PredictionQuery | None
+    tracks: list
+    outlined: dict
+    path: Path
+    gamma: float
+    profile: object
+
+
+def predict_slot(calls) -> list[AvoidanceRequest]:
+    """The prediction slot of many vessels at once: ``calls`` is a sequence of (system, t, nav,
+    guidance, perceived, team), the arguments of :meth:`CollisionAvoidance.predict` per vessel.
+    Returns each vessel's request — the same as calling ``predict`` vessel by vessel (the systems
+    share no state) — with every vessel's (vessel, track) pairs predicted in one
+    :func:`~mjasc.avoidance.prediction.predict_fleet` call. Predictions a decision triggers
+    (after a re-plan) run per vessel."""
+    pending = []
+    for system, t, nav, guidance, perceived, team in calls:
+        system._begin(guidance, perceived, team)
+        pending.append(system._prediction_query(float(t), list(perceived.tracks)))
+    results = iter(predict_fleet([p.query for p in pending if p.query is not None]))
+    out = []
+    for (system, t, nav, guidance, perceived, team), p in zip(calls, pending):
+        system._begin(guidance, perceived, team)
+        all_c = next(results) if p.query is not None else []
+        conflicts = system._act_on_prediction(float(t), nav, p, all_c, list(perceived.static_polygons))
+        out.append(AvoidanceRequest(system.mode, None, system._switch, tuple(conflicts)))
+    return out
 
 
 class CollisionAvoidance:
@@ -113,6 +155,12 @@ class CollisionAvoidance:
                                     config.track_deviation_m, config.window_s or 30.0)
         self._known_track_ids: set[int] = set()
         self._predicted_tracks: dict = {}
+        # The last prediction's tracks for the deviation check of the control tick: their stacked
+        # motion, track id → row, and whether the row is checked (not a team mate on a broadcast).
+        self._predicted_motion: TrackMotions | None = None
+        self._predicted_row: dict[int, int] = {}
+        self._checked_tracks = None  # the perceived tracks found on the last prediction's motion
+        self._no_new_in = None  # perceived tracks found to hold no new track id
         self._last_predict_t = -np.inf
         self._predicted_speed = None
         self._events: list[tuple[float, str]] = []
@@ -214,6 +262,13 @@ class CollisionAvoidance:
     def _predict(self, t, nav, tracks, static_polygons, after_replan: bool = False) -> list:
         """Predict conflicts with the vessel's tracks and static polygons and act on them.
         Returns the conflicts with a predicted collision (PredictedConflict / StaticConflict)."""
+        pending = self._prediction_query(t, tracks)
+        all_c = predict_fleet([pending.query])[0] if pending.query is not None else []
+        return self._act_on_prediction(t, nav, pending, all_c, static_polygons, after_replan)
+
+    def _prediction_query(self, t, tracks) -> "_Pending":
+        """The first half of :meth:`_predict`: the tracks as predicted (team mates from their
+        broadcasts, slow tracks static) and the query of the disc tracks."""
         g_state = self._guidance
         tracks = self.team_mates.tracks([tr for tr in tracks if tr.team_member != self.name], t, self._team,
                                         self._event)
@@ -224,6 +279,7 @@ class CollisionAvoidance:
                   else tr for tr in tracks]
         self._known_track_ids |= {tr.track_id for tr in tracks}
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
+        self._predicted_motion, self._checked_tracks = None, None
         outlined = {tr.track_id: track_outline(tr) for tr in tracks if tr.is_static and tr.outline_m is not None}
         outlined = {k: o for k, o in outlined.items() if o is not None}
         self.team_mates.remember_prediction(fresh)
@@ -234,8 +290,15 @@ class CollisionAvoidance:
         profile = self.planned_gamma(t, gamma, g_state.mission_speed_m_s)
         self.stats["predictions"] += 1
         discs = [tr for tr in tracks if tr.track_id not in outlined]
-        all_c = predict_conflicts(path, gamma, t, profile, self.radius_m, discs, self.prediction_config,
-                                  include_clear=True) if discs else []
+        query = PredictionQuery(path, gamma, t, profile, self.radius_m, discs, self.prediction_config,
+                                include_clear=True) if discs else None
+        return _Pending(query, tracks, outlined, path, gamma, profile)
+
+    def _act_on_prediction(self, t, nav, pending: "_Pending", all_c, static_polygons, after_replan=False) -> list:
+        """The second half of :meth:`_predict`: record the predicted conflicts (``all_c``, one per
+        disc track), check the static ones and decide."""
+        tracks, outlined, path, gamma, profile = (pending.tracks, pending.outlined, pending.path, pending.gamma,
+                                                  pending.profile)
         for c in all_c:
             self.min_predicted_distance_m = min(self.min_predicted_distance_m, c.min_distance_m)
         conflicts: list = [c for c in all_c if c.collision]
@@ -387,8 +450,10 @@ class CollisionAvoidance:
         if perceived is None:
             return
         tracks = perceived.tracks
-        new = {tr.track_id for tr in tracks} - self._known_track_ids
-        if new:
+        new = () if tracks is self._no_new_in else {tr.track_id for tr in tracks} - self._known_track_ids
+        if not new:
+            self._no_new_in = tracks  # known ids only grow: these tracks stay known
+        else:
             self._event(t, f"new track(s) {sorted(new)}: predicting now")
             self._predict_on_perceived(t, nav)
             return
@@ -403,16 +468,31 @@ class CollisionAvoidance:
             self.stats["deviation_predictions"] += 1
             self._predict_on_perceived(t, nav)
             return
-        from_broadcast = self.team_mates.predicted_names()
-        for tr in tracks:  # a track that left the motion the last prediction assumed
-            old = self._predicted_tracks.get(tr.track_id)
-            if old is None or old.team_member in from_broadcast:
-                continue  # team mates on a fresh broadcast: their plans are checked above
-            dev = float(np.hypot(*(old.predict_positions(np.array([tr.time_s]))[0] - tr.position_m)))
-            if dev > self.config.track_deviation_m:
-                self.stats["deviation_predictions"] += 1
-                self._predict_on_perceived(t, nav)
-                return
+        if self._deviating(tracks):  # a track that left the motion the last prediction assumed
+            self.stats["deviation_predictions"] += 1
+            self._predict_on_perceived(t, nav)
+
+    def _deviating(self, tracks) -> bool:
+        """Some track is farther than ``track_deviation_m`` from where the last prediction put it
+        at the track's time (team mates on a fresh broadcast excepted: their plans are compared
+        instead). All tracks in one array operation on the last prediction's stacked motion; the
+        same tracks are not checked twice against the same prediction."""
+        if tracks is self._checked_tracks or not tracks:
+            return False
+        self._checked_tracks = tracks
+        if self._predicted_motion is None:
+            from_broadcast = self.team_mates.predicted_names()
+            checked = [tr for tr in self._predicted_tracks.values() if tr.team_member not in from_broadcast]
+            self._predicted_motion = TrackMotions(checked)
+            self._predicted_row = {tr.track_id: k for k, tr in enumerate(checked)}
+        row = self._predicted_row
+        sel = [(row[tr.track_id], tr.time_s, tr.position_m) for tr in tracks if tr.track_id in row]
+        if not sel:
+            return False
+        rows, times, pos = zip(*sel)
+        pred = self._predicted_motion.at(np.array(rows), np.array(times)[:, None])[:, 0]
+        pos = np.array(pos, dtype=float)
+        return bool(np.any(np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > self.config.track_deviation_m))
 
     def _control_refs(self, t, nav) -> tuple[float | None, str]:
         """(speed override [m/s] or None, mode) for this control tick; switches back to the mission

@@ -21,30 +21,17 @@ World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Callable
 
 import numpy as np
 
-from mjasc.core.estimates import TrackEstimate
+from mjasc.avoidance.prediction.motion import TrackMotions, intention_positions
+from mjasc.core.estimates import PlannedTrack, TrackEstimate
 
 __all__ = ["TEAM_HISTORY_S", "PlannedTrack", "TeamMates"]
 
 #: How far back [s] the team mates' broadcast positions are kept to recognise their stale tracks.
 TEAM_HISTORY_S = 20.0
-
-
-@dataclass(frozen=True, eq=False)
-class PlannedTrack(TrackEstimate):
-    """A team mate predicted from its own broadcast plan (:class:`~mjasc.cooperation.messages.TeamIntention`):
-    ``predict_positions`` follows the plan (its path, a detour included, at its planned speed)
-    instead of constant speed and turn rate. ``speed_m_s`` is the plan's largest speed (the
-    prediction samples the swept stretch with it), position/heading/time are the broadcast's."""
-
-    intention: Any = None
-
-    def predict_positions(self, times_s: np.ndarray) -> np.ndarray:
-        return self.intention.positions(times_s)
 
 
 class TeamMates:
@@ -64,6 +51,12 @@ class TeamMates:
         self._history: dict[str, list] = {}  # name → [(sent t, position, radius)] over TEAM_HISTORY_S
         self._plan_checked: dict[str, float] = {}  # name → sent time of the last message compared
         self._ghosts: set[int] = set()  # track ids found to be a team mate's stale copy (reported once)
+        self._stack = None  # the history stacked for the ghost check (rebuilt after a poll added to it)
+        self._vmax: dict[str, tuple] = {}  # name → (intention, its plan's largest speed)
+        # What the team picture held (names and send times) at the last poll and at the last
+        # complete plan comparison: an unchanged picture has nothing new for either.
+        self._key_of: tuple = (None, None)  # (picture, its key)
+        self._polled_key = self._compared_key = None
 
     # ------------------------------------------------------------------ broadcasts
     def fresh(self, picture, t: float) -> dict:
@@ -73,11 +66,22 @@ class TeamMates:
             return {}
         return {n: i for n, i in picture.fresh(t, self.max_age_s).items() if n in self.team}
 
+    def _key(self, picture) -> tuple:
+        """The names and send times of a team picture's intentions (equal keys: nothing new)."""
+        if self._key_of[0] is not picture:
+            its = picture.intentions
+            self._key_of = (picture, (tuple(its), tuple([it.sent_time_s for it in its.values()])))
+        return self._key_of[1]
+
     def poll(self, picture) -> None:
         """Heading rate ω of each team mate from two successive broadcasts [rad/s] (used when a
         team mate sends no plan), and the history of their positions."""
         if picture is None:
             return
+        key = self._key(picture)
+        if key == self._polled_key:
+            return  # the same messages as at the last poll
+        self._polled_key = key
         for name, it in picture.intentions.items():
             old = self._nav.get(name)
             if name not in self.team or (old is not None and it.sent_time_s <= old[0]):
@@ -87,6 +91,7 @@ class TeamMates:
                          float(it.radius_m) if it.radius_m else self.radius_m))
             while hist and hist[0][0] < it.sent_time_s - TEAM_HISTORY_S:
                 hist.pop(0)
+            self._stack = None
             w = 0.0
             if old is not None and 0.0 < it.sent_time_s - old[0] <= 3.0:
                 w = float(np.angle(np.exp(1j * (it.heading_rad - old[1])))) / (it.sent_time_s - old[0])
@@ -114,7 +119,10 @@ class TeamMates:
                     heading_rad=course, radius_m=radius, is_static=False, team_member=it.name,
                     position_covariance=np.zeros((2, 2)) if track is None else track.position_covariance)
         if it.has_plan:
-            return PlannedTrack(speed_m_s=max(it.max_speed_m_s(), 1e-3), turn_rate_rad_s=w, intention=it, **base)
+            cached = self._vmax.get(it.name)
+            if cached is None or cached[0] is not it:
+                cached = self._vmax[it.name] = (it, max(it.max_speed_m_s(), 1e-3))
+            return PlannedTrack(speed_m_s=cached[1], turn_rate_rad_s=w, intention=it, **base)
         return TrackEstimate(speed_m_s=speed, turn_rate_rad_s=w, **base)
 
     def tracks(self, tracks, t: float, picture, emit: Callable[[float, str], None]) -> list:
@@ -135,7 +143,53 @@ class TeamMates:
         for name, it in intents.items():
             if name not in seen:
                 out.append(self._from_intention(it, None, -1 - order.index(name)))
-        return [tr for tr in out if tr.team_member is not None or not self.is_ghost(tr, t, emit)]
+        unmatched = [k for k, tr in enumerate(out) if tr.team_member is None]
+        if not unmatched:
+            return out
+        ghost = self.ghosts([out[k] for k in unmatched], t, emit)
+        if not ghost.any():
+            return out
+        drop = {unmatched[k] for k in np.flatnonzero(ghost)}
+        return [tr for k, tr in enumerate(out) if k not in drop]
+
+    def _stacked_history(self):
+        """The kept broadcasts of all team mates in one array: (sent t (H,), position (H, 2),
+        radius (H,), team mate index (H,), names, each name's newest sent time), names in the
+        order they were first heard."""
+        if self._stack is None:
+            names = [n for n, h in self._history.items() if h]
+            rows = [(h[0], h[1][0], h[1][1], h[2], i) for i, n in enumerate(names) for h in self._history[n]]
+            a = np.array(rows, dtype=float).reshape(-1, 5)
+            newest = np.array([self._history[n][-1][0] for n in names], dtype=float)
+            self._stack = (a[:, 0], a[:, 1:3], a[:, 3], a[:, 4].astype(np.intp), names, newest)
+        return self._stack
+
+    def ghosts(self, tracks, t: float, emit: Callable[[float, str], None]) -> np.ndarray:
+        """:meth:`is_ghost` for many unmatched tracks at once: a bool mask (k,). All tracks'
+        positions followed back to every kept broadcast time in one array operation
+        (:class:`~mjasc.avoidance.prediction.motion.TrackMotions`)."""
+        out = np.zeros(len(tracks), dtype=bool)
+        if not self._history or not tracks:
+            return out
+        tb, pb, rb, who, names, newest = self._stacked_history()
+        live = t - newest <= TEAM_HISTORY_S  # team mates heard within the kept history
+        if tb.size == 0 or not live.any():
+            return out
+        keep = live[who]
+        if not keep.all():
+            tb, pb, rb, who = tb[keep], pb[keep], rb[keep], who[keep]
+        back = TrackMotions(tracks).at(np.arange(len(tracks)), tb)  # (k, H, 2)
+        radius = np.array([tr.radius_m for tr in tracks], dtype=float)
+        hit = np.hypot(back[..., 0] - pb[:, 0], back[..., 1] - pb[:, 1]) <= np.maximum(rb, radius[:, None])
+        out = hit.any(axis=1)
+        for k in np.flatnonzero(out):
+            track = tracks[k]
+            if track.track_id not in self._ghosts:
+                self._ghosts.add(track.track_id)
+                name = names[int(np.min(who[hit[k]]))]  # the first team mate heard that it retraces
+                emit(t, f"track {track.track_id} retraces team mate {name}'s broadcast positions: "
+                        f"it is {name} (stale copy), ignored")
+        return out
 
     def is_ghost(self, track, t: float, emit: Callable[[float, str], None]) -> bool:
         """An unmatched track that, followed back along its own motion, lay on a team mate's
@@ -143,20 +197,7 @@ class TeamMates:
         one of that team mate's messages of the last ``TEAM_HISTORY_S`` is that team mate: a copy
         the tracker kept coasting at the old velocity when the team mate braked, or a second
         track of it. Anything else that close to a team mate would have been in collision with it."""
-        for name, hist in self._history.items():
-            if not hist or t - hist[-1][0] > TEAM_HISTORY_S:
-                continue
-            tb = np.array([h[0] for h in hist])
-            pb = np.array([h[1] for h in hist])
-            rb = np.array([h[2] for h in hist])
-            back = track.predict_positions(tb)
-            if np.any(np.hypot(*(back - pb).T) <= np.maximum(rb, track.radius_m)):
-                if track.track_id not in self._ghosts:
-                    self._ghosts.add(track.track_id)
-                    emit(t, f"track {track.track_id} retraces team mate {name}'s broadcast positions: "
-                            f"it is {name} (stale copy), ignored")
-                return True
-        return False
+        return bool(self.ghosts([track], t, emit)[0])
 
     # ------------------------------------------------------------------ plans
     def remember_prediction(self, fresh: dict) -> None:
@@ -169,9 +210,15 @@ class TeamMates:
 
     def plans_changed(self, t: float, picture) -> bool:
         """A team mate's newest plan differs by more than ``deviation_m`` from the one the last
-        prediction used, within the prediction window (it re-planned or changed its speed)."""
+        prediction used, within the prediction window (it re-planned or changed its speed). Each
+        message is compared once; all new messages are compared in one array operation."""
+        if picture is None:
+            return False
+        key = self._key(picture)
+        if key == self._compared_key:
+            return False  # every message still fresh was compared at the last call
         intents = self.fresh(picture, t)
-        ts = t + np.linspace(0.0, self.horizon_s, 16)
+        pairs = []
         for name, it in intents.items():
             if self._plan_checked.get(name) == it.sent_time_s:
                 continue  # this message was compared already
@@ -183,6 +230,10 @@ class TeamMates:
                 continue
             if it.sent_time_s <= old.sent_time_s:
                 continue
-            if float(np.max(np.hypot(*(it.positions(ts) - old.positions(ts)).T))) > self.deviation_m:
-                return True
-        return False
+            pairs.append((it, old))
+        self._compared_key = key
+        if not pairs:
+            return False
+        ts = t + np.linspace(0.0, self.horizon_s, 16)
+        new, old = intention_positions([p[0] for p in pairs], ts), intention_positions([p[1] for p in pairs], ts)
+        return bool(np.max(np.hypot(new[..., 0] - old[..., 0], new[..., 1] - old[..., 1])) > self.deviation_m)

@@ -1,14 +1,16 @@
 """Typed values that flow between a vessel's perception and its collision avoidance.
 
 A :class:`TrackEstimate` is what the tracker (``tracking``/``imm``) hands to collision
-prediction: everything a vessel believes about one object around it. World frame ENU, SI units.
+prediction: everything a vessel believes about one object around it. A :class:`PlannedTrack` is
+a team mate that collision avoidance predicts along its own broadcast plan instead. World frame
+ENU, SI units.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Any, Callable
 
 import numpy as np
 
@@ -55,6 +57,20 @@ class TrackEstimate:
             [x0 + v / w * (np.sin(th_t) - np.sin(th)), y0 - v / w * (np.cos(th_t) - np.cos(th))],
             axis=-1,
         )
+
+
+@dataclass(frozen=True, eq=False)
+class PlannedTrack(TrackEstimate):
+    """A team mate predicted from its own broadcast plan (``intention``, a
+    :class:`~mjasc.cooperation.messages.TeamIntention`): ``predict_positions`` follows the plan (its
+    path, a detour included, at its planned speed) instead of constant speed and turn rate.
+    ``speed_m_s`` is the plan's largest speed (the prediction samples the swept stretch with it),
+    position/heading/time are the broadcast's. Built by :mod:`mjasc.avoidance.team_mates`."""
+
+    intention: Any = None
+
+    def predict_positions(self, times_s: np.ndarray) -> np.ndarray:
+        return self.intention.positions(times_s)
 
 
 @dataclass(frozen=True)

@@ -2,36 +2,47 @@
 and the decision σ (docs/thesis.md §3, steps 2–4; thesis §3.2.2, eqs. 3.16–3.17). World frame ENU, SI
 units, absolute simulation times [s].
 
-- **Temporal correlation.** d(t) = ‖P_v(t) − P_o(t)‖ on the window's time grid (P_v from the
-  plan's γ(t), :mod:`mjasc.avoidance.prediction.timing`; P_o the track's constant-speed,
-  constant-turn prediction), its local minima refined between grid points (bounded Brent). A
-  collision is predicted at a minimum t_c when d(t_c) ≤ R_vh + R_ob + safety (eq. 3.16 plus the
-  safety distance). By default t_c is the first local minimum that *is* a collision;
+- **Temporal correlation.** d(t) = ‖P_v(t) − P_o(t)‖ on the window's time grid for all tracks at
+  once: P_v = path(γ(t)) from one vectorized path evaluation (γ(t) of the plan,
+  :mod:`~mjasc.avoidance.prediction.timing`), P_o of every track from one stacked evaluation
+  (:class:`~mjasc.avoidance.prediction.motion.TrackMotions`: constant speed and turn, or a team
+  mate's broadcast plan); its local minima refined in closed form over all (track, minimum) pairs
+  (:func:`~mjasc.avoidance.prediction.cpa.closest_approaches`: the CPA of linear relative motion
+  between samples, polished on true positions; exact for straight motion, the error bound in that
+  module). A collision is predicted at a minimum t_c when d(t_c) ≤ R_vh + R_ob + safety (eq. 3.16
+  plus the safety distance). By default t_c is the first local minimum that *is* a collision;
   ``stop_at_first_minimum`` gives the thesis's rule (the first minimum only).
-- **Spatial correlation** (only after a predicted collision). The obstruction interval
-  Δt_o = [t_i, t_f] ∋ t_c, during which the obstacle's inflated disc meets the vessel's path ahead
-  (bisection on the gap between disc and path); [γ_A, γ_B], the connected stretch of path covered
-  by the union of those discs that contains γ(t_c). A static obstacle obstructs for ever.
+- **Spatial correlation** (only after a predicted collision;
+  :mod:`~mjasc.avoidance.prediction.spatial`). The obstruction interval Δt_o = [t_i, t_f] ∋ t_c,
+  during which the obstacle's inflated disc meets the vessel's path ahead; [γ_A, γ_B], the
+  connected stretch of path covered by the union of those discs that contains γ(t_c). A static
+  obstacle obstructs for ever.
 - **Decision** σ(Δt_o) (eq. 3.17): t_f − t_i ≥ Δt_threshold (or a static obstacle) → REPLAN with
   a static virtual obstacle (:mod:`mjasc.avoidance.prediction.svo`); otherwise VELOCITY_CORRECTION.
+
+**A fleet in one call.** :func:`predict_fleet` takes one :class:`PredictionQuery` per vessel and
+predicts every (vessel, track) pair in the same array operations (each vessel's own grid, padded
+to the longest); :func:`predict_conflicts` is its one-vessel form.
 """
 
 from __future__ import annotations
 
 import enum
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from mjasc.avoidance.prediction.config import CollisionPredictionConfig
+from mjasc.avoidance.prediction.cpa import closest_approaches
+from mjasc.avoidance.prediction.motion import TrackMotions
+from mjasc.avoidance.prediction.spatial import PlanContext, obstructed_stretch, obstruction_interval
 from mjasc.avoidance.prediction.svo import svo_polygon
 from mjasc.avoidance.prediction.timing import SpeedProfile, gamma_of_time, prediction_window, speed_now
 from mjasc.core.estimates import TrackEstimate
 from mjasc.guidance.paths import Path
 
-__all__ = ["Decision", "PredictedConflict", "predict_conflicts"]
+__all__ = ["Decision", "PredictedConflict", "PredictionQuery", "predict_conflicts", "predict_fleet"]
 
 
 class Decision(enum.Enum):
@@ -83,6 +94,20 @@ class PredictedConflict:
 
 
 # ---------------------------------------------------------------------------- temporal correlation
+@dataclass(frozen=True)
+class PredictionQuery:
+    """One vessel's prediction (the arguments of :func:`predict_conflicts`)."""
+
+    vessel_path: Path
+    gamma_now: float
+    t_now: float
+    speed_profile: SpeedProfile
+    vessel_radius_m: float
+    tracks: Sequence[TrackEstimate]
+    config: CollisionPredictionConfig = CollisionPredictionConfig()
+    include_clear: bool = False
+
+
 def predict_conflicts(
     vessel_path: Path,
     gamma_now: float,
@@ -100,110 +125,125 @@ def predict_conflicts(
     Returns one :class:`PredictedConflict` per track with a predicted collision (every checked
     track when ``include_clear``), sorted by t_c.
     """
-    if not isinstance(vessel_path, Path):
-        raise ValueError(f"vessel_path: expected a Path, got {type(vessel_path).__name__}")
-    gamma_now, t_now, r_vh = float(gamma_now), float(t_now), float(vessel_radius_m)
-    if not (0.0 <= gamma_now <= vessel_path.length + 1e-9):
-        raise ValueError(f"gamma_now: must be in [0, {vessel_path.length:g}], got {gamma_now}")
+    query = PredictionQuery(vessel_path, gamma_now, t_now, speed_profile, vessel_radius_m, tracks, config,
+                            include_clear)
+    return predict_fleet([query])[0]
+
+
+def _plan_context(q: PredictionQuery) -> PlanContext:
+    """The validated plan of one query, with its window."""
+    path, cfg = q.vessel_path, q.config
+    if not isinstance(path, Path):
+        raise ValueError(f"vessel_path: expected a Path, got {type(path).__name__}")
+    gamma_now, t_now, r_vh = float(q.gamma_now), float(q.t_now), float(q.vessel_radius_m)
+    if not (0.0 <= gamma_now <= path.length + 1e-9):
+        raise ValueError(f"gamma_now: must be in [0, {path.length:g}], got {gamma_now}")
     if not np.isfinite(t_now):
         raise ValueError(f"t_now: must be finite, got {t_now}")
     if not np.isfinite(r_vh) or r_vh < 0.0:
-        raise ValueError(f"vessel_radius_m: must be finite and ≥ 0, got {vessel_radius_m}")
-    gamma_fn = gamma_of_time(speed_profile, gamma_now, t_now)
-    delta = prediction_window(
-        speed_now(gamma_fn, t_now), config.brake_decel_m_s2, config.margin_s, config.window_s
-    )
-    n = max(2, int(np.ceil(delta / config.time_step_s - 1e-9)) + 1)
-    times = np.linspace(t_now, t_now + delta, n)
-    ctx = _Context(vessel_path, gamma_now, t_now, t_now + delta, gamma_fn, r_vh, config)
-    vessel_xy = ctx.vessel_at(times)
-    own_now = vessel_path.point(gamma_now)
-    out = []
-    for i, track in enumerate(tracks):
-        if not isinstance(track, TrackEstimate):
-            raise ValueError(f"tracks[{i}]: expected a TrackEstimate, got {type(track).__name__}")
-        if config.max_range_m is not None:
-            if np.hypot(*(track.predict_positions(np.array([t_now]))[0] - own_now)) > config.max_range_m:
-                continue
-        conflict = _predict_one(ctx, track, times, vessel_xy)
-        if conflict.collision or include_clear:
-            out.append(conflict)
-    out.sort(key=lambda c: c.t_closest_s)
+        raise ValueError(f"vessel_radius_m: must be finite and ≥ 0, got {q.vessel_radius_m}")
+    gamma_fn = gamma_of_time(q.speed_profile, gamma_now, t_now)
+    delta = prediction_window(speed_now(gamma_fn, t_now), cfg.brake_decel_m_s2, cfg.margin_s, cfg.window_s)
+    return PlanContext(path, gamma_now, t_now, t_now + delta, gamma_fn, r_vh, cfg)
+
+
+def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConflict]]:
+    """:func:`predict_conflicts` for several vessels at once: one result list per query, equal to
+    what :func:`predict_conflicts` returns for it. All (vessel, track) pairs share one stacked
+    track evaluation and one closest-approach pass; each vessel's path is evaluated once per stage."""
+    ctxs = [_plan_context(q) for q in queries]
+    grids = []
+    for c in ctxs:
+        n = max(2, int(np.ceil((c.t_end - c.t_now) / c.config.time_step_s - 1e-9)) + 1)
+        times = np.linspace(c.t_now, c.t_end, n)
+        grids.append((times, c.vessel_at(times)))
+    tracks, owner = [], []
+    for k, q in enumerate(queries):
+        for i, tr in enumerate(q.tracks):
+            if not isinstance(tr, TrackEstimate):
+                raise ValueError(f"tracks[{i}]: expected a TrackEstimate, got {type(tr).__name__}")
+            tracks.append(tr)
+            owner.append(k)
+    out: list[list[PredictedConflict]] = [[] for _ in queries]
+    if not tracks:
+        return out
+    owner = np.asarray(owner, dtype=np.intp)
+    motions = TrackMotions(tracks)
+    rows = np.arange(len(tracks))
+    max_range = np.array([np.inf if c.config.max_range_m is None else c.config.max_range_m for c in ctxs])
+    if np.isfinite(max_range).any():  # only tracks within range of the vessel now are checked
+        t_now = np.array([c.t_now for c in ctxs])
+        own_now = np.array([c.path.point(c.gamma_now) for c in ctxs])
+        gap = motions.at(rows, t_now[owner][:, None])[:, 0] - own_now[owner]
+        rows = rows[~(np.hypot(gap[:, 0], gap[:, 1]) > max_range[owner])]
+    r_ob = np.array([float(tracks[r].radius_m) for r in rows])
+    bad = np.flatnonzero(~(np.isfinite(r_ob) & (r_ob >= 0.0)))
+    if bad.size:
+        tr = tracks[rows[bad[0]]]
+        raise ValueError(f"tracks[{tr.track_id}].radius_m: must be finite and ≥ 0, got {r_ob[bad[0]]}")
+    if rows.size == 0:
+        return out
+    vessel = owner[rows]  # the query of each pair
+    n_max = max(g[0].size for g in grids)
+    if len(grids) == 1:
+        times_q, xy_q = grids[0][0][None, :], grids[0][1][None, :, :]
+    else:
+        times_q, xy_q = np.full((len(grids), n_max), np.nan), np.full((len(grids), n_max, 2), np.nan)
+        for k, (times, xy) in enumerate(grids):
+            times_q[k, :times.size], xy_q[k, :times.size] = times, xy
+    times_p = times_q[vessel]
+    obst = motions.at(rows, times_p)
+    vessel_l, rows_l = vessel.tolist(), rows.tolist()
+    r_col = np.array([ctxs[k].r_vh + r + ctxs[k].config.safety_distance_m for k, r in zip(vessel_l, r_ob.tolist())])
+    stop_first = np.array([ctxs[k].config.stop_at_first_minimum for k in vessel_l])
+
+    def rel_at(pairs, t):
+        """Track minus vessel position (k, j, 2) of pairs (k,) at times t (k, j)."""
+        r = motions.at(rows[pairs], t)
+        if len(ctxs) == 1:
+            return r - ctxs[0].vessel_at(t)
+        v = vessel[pairs]
+        for k in np.unique(v):
+            sel = v == k
+            r[sel] -= ctxs[k].vessel_at(t[sel])
+        return r
+
+    t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, rel_at, stop_first)
+    for p, (r, k, tc, dc, rc) in enumerate(zip(rows_l, vessel_l, t_c.tolist(), d_c.tolist(), r_col.tolist())):
+        times, xy = grids[k]
+        c = _conflict(ctxs[k], tracks[r], tc, dc, rc, times, xy, obst[p, :times.size])
+        if c.collision or queries[k].include_clear:
+            out[k].append(c)
+    for lst in out:
+        lst.sort(key=lambda c: c.t_closest_s)
     return out
 
 
-@dataclass(frozen=True)
-class _Context:
-    path: Path
-    gamma_now: float
-    t_now: float
-    t_end: float
-    gamma_fn: Callable
-    r_vh: float
-    config: CollisionPredictionConfig
-
-    def vessel_at(self, t):
-        g = np.clip(self.gamma_fn(np.atleast_1d(np.asarray(t, dtype=float))), 0.0, self.path.length)
-        return self.path.point(g)
-
-
-def _local_minima(d: np.ndarray) -> np.ndarray:
-    """Grid indices of local minima of d (window ends included when d rises from / falls to them)."""
-    n = d.size
-    left = np.concatenate([[True], d[1:] <= d[:-1]])  # not higher than the left neighbour
-    right = np.concatenate([d[:-1] < d[1:], [True]])  # strictly lower than the right neighbour
-    idx = np.flatnonzero(left & right)
-    if idx.size == 0:  # flat everywhere (e.g. both at rest)
-        idx = np.array([int(np.argmin(d))])
-    return idx[idx < n]
-
-
-def _predict_one(ctx: _Context, track: TrackEstimate, times, vessel_xy) -> PredictedConflict:
+def _conflict(ctx: PlanContext, track: TrackEstimate, t_c: float, d_c: float, r_col: float, times, vessel_xy,
+              obst_xy) -> PredictedConflict:
+    """The PredictedConflict of one pair from its closest approach (t_c, d_c): spatial correlation
+    and decision σ when it is a collision."""
     cfg = ctx.config
-    r_ob = float(track.radius_m)
-    if not np.isfinite(r_ob) or r_ob < 0.0:
-        raise ValueError(f"tracks[{track.track_id}].radius_m: must be finite and ≥ 0, got {r_ob}")
-    r_col = ctx.r_vh + r_ob + cfg.safety_distance_m
     static = bool(track.is_static) or track.speed_m_s == 0.0
-    obst_xy = track.predict_positions(times)
-    d = np.hypot(*(vessel_xy - obst_xy).T)
-
-    def dist(t):
-        return float(np.hypot(*(ctx.vessel_at(t)[0] - track.predict_positions(np.array([t]))[0])))
-
-    t_c, d_c = None, None
-    for i in _local_minima(d):
-        lo, hi = times[max(i - 1, 0)], times[min(i + 1, times.size - 1)]
-        res = minimize_scalar(dist, bounds=(lo, hi), method="bounded", options={"xatol": 1e-7})
-        tt, dd = (float(res.x), float(res.fun)) if res.fun <= d[i] else (float(times[i]), float(d[i]))
-        if t_c is None:
-            t_c, d_c = tt, dd
-        if dd <= r_col:
-            t_c, d_c = tt, dd
-            break
-        if cfg.stop_at_first_minimum:
-            break
     collision = d_c <= r_col
+    if not collision:  # the common case, built positionally
+        nan = float("nan")
+        return PredictedConflict(track.track_id, t_c, d_c, False, nan, nan, nan, nan, None, None, Decision.NONE,
+                                 None, vessel_xy, obst_xy, times, r_col, static)
     base = dict(
         track_id=track.track_id,
         t_closest_s=t_c,
         min_distance_m=d_c,
-        collision=collision,
+        collision=True,
         vessel_positions=vessel_xy,
         obstacle_positions=obst_xy,
         times=times,
         collision_distance_m=r_col,
         is_static=static,
     )
-    if not collision:
-        nan = float("nan")
-        return PredictedConflict(
-            t_i=nan, t_f=nan, gamma_a=nan, gamma_b=nan, point_a=None, point_b=None,
-            decision=Decision.NONE, svo_polygon=None, **base,
-        )
-    t_i, t_f, truncated = _obstruction_interval(ctx, track, t_c, r_col, static)
+    t_i, t_f, truncated = obstruction_interval(ctx, track, t_c, r_col, static)
     gamma_c = float(np.clip(ctx.gamma_fn(np.array([t_c]))[0], 0.0, ctx.path.length))
-    gamma_a, gamma_b = _obstructed_stretch(ctx, track, t_i, t_f, gamma_c, r_col, static)
+    gamma_a, gamma_b = obstructed_stretch(ctx, track, t_i, t_f, gamma_c, r_col, static)
     if static or t_f - t_i >= cfg.obstruction_threshold_s:
         decision = Decision.REPLAN
         svo = svo_polygon(track, t_i, t_f, r_col, ctx.r_vh + cfg.safety_distance_m, static, cfg.svo_vertices)
@@ -221,104 +261,3 @@ def _predict_one(ctx: _Context, track: TrackEstimate, times, vessel_xy) -> Predi
         obstruction_truncated=truncated,
         **base,
     )
-
-
-# ---------------------------------------------------------------------------- spatial correlation
-def _path_gap(ctx: _Context, track: TrackEstimate, t, r_col: float) -> np.ndarray:
-    """Distance from the obstacle centre at times t to the path ahead, minus r_col (≤ 0: obstructing)."""
-    q = track.predict_positions(np.atleast_1d(np.asarray(t, dtype=float)))
-    _, dist = ctx.path.closest_points(q, ctx.gamma_now, ctx.path.length)
-    return dist - r_col
-
-
-def _bisect_time(f, t_in: float, t_out: float, tol: float = 1e-6) -> float:
-    """Boundary between t_in (f ≤ 0) and t_out (f > 0)."""
-    for _ in range(100):
-        if abs(t_out - t_in) <= tol:
-            break
-        mid = 0.5 * (t_in + t_out)
-        if f(mid) <= 0.0:
-            t_in = mid
-        else:
-            t_out = mid
-    return 0.5 * (t_in + t_out)
-
-
-def _obstruction_interval(ctx: _Context, track, t_c: float, r_col: float, static: bool):
-    """[t_i, t_f] ∋ t_c: the continuous span during which the inflated disc meets the path ahead."""
-    cfg = ctx.config
-    if static:
-        return ctx.t_now, float("inf"), False
-
-    def f(t):
-        return float(_path_gap(ctx, track, t, r_col)[0])
-
-    dt = cfg.time_step_s
-    # Backwards from t_c to t_now.
-    back = np.arange(t_c, ctx.t_now - 1e-12, -dt)
-    back = np.append(back, ctx.t_now) if back[-1] > ctx.t_now else back
-    gb = _path_gap(ctx, track, back, r_col)
-    out = np.flatnonzero(gb > 0.0)
-    t_i = ctx.t_now if out.size == 0 else _bisect_time(f, back[out[0] - 1] if out[0] > 0 else t_c, back[out[0]])
-    # Forwards from t_c, far enough to decide σ (at least Δt_threshold past t_i).
-    horizon = max(ctx.t_end, t_i + cfg.obstruction_threshold_s) + dt
-    fwd = np.arange(t_c, horizon + 1e-12, dt)
-    gf = _path_gap(ctx, track, fwd, r_col)
-    out = np.flatnonzero(gf > 0.0)
-    if out.size == 0:
-        return t_i, float(fwd[-1]), True
-    t_f = _bisect_time(f, fwd[out[0] - 1] if out[0] > 0 else t_c, fwd[out[0]])
-    return t_i, t_f, False
-
-
-def _obstructed_stretch(ctx: _Context, track, t_i, t_f, gamma_c, r_col, static):
-    """[γ_A, γ_B]: the connected stretch of the path ahead that contains γ(t_c) and is covered
-    by the union of the inflated discs over [t_i, t_f]."""
-    path = ctx.path
-    h = min(0.25, r_col / 20.0) if r_col > 0 else 0.25
-    if static or track.speed_m_s == 0.0:
-        q = track.predict_positions(np.array([ctx.t_now]))
-    else:
-        n_t = int(np.clip(np.ceil(track.speed_m_s * (t_f - t_i) / h), 1, 4000)) + 1
-        q = track.predict_positions(np.linspace(t_i, t_f, n_t))
-    g_lo, g_hi = ctx.gamma_now, path.length
-    n_s = int(np.ceil((g_hi - g_lo) / h)) + 1
-    gs = np.linspace(g_lo, g_hi, max(n_s, 2))
-    pts = path.point(gs)
-    # Only path samples near the swept area's bounding box need the full distance matrix.
-    bb_lo, bb_hi = q.min(axis=0) - r_col, q.max(axis=0) + r_col
-    near = np.all((pts >= bb_lo) & (pts <= bb_hi), axis=1)
-    covered = np.zeros(gs.size, dtype=bool)
-    idx = np.flatnonzero(near)
-
-    def min_dist(p):
-        """Distance from points p (m, 2) to the obstacle's trajectory, a polyline through q
-        (exact for straight motion; the chord sagitta h²/8ρ for a turning one)."""
-        if q.shape[0] == 1:
-            return np.hypot(*(p - q[0]).T)
-        a, ab = q[:-1], np.diff(q, axis=0)
-        ab2 = np.maximum(np.sum(ab**2, axis=1), 1e-300)
-        rel = p[:, None, :] - a[None, :, :]
-        u = np.clip(np.sum(rel * ab, axis=-1) / ab2, 0.0, 1.0)
-        return np.sqrt(np.min(np.sum((rel - u[..., None] * ab) ** 2, axis=-1), axis=1))
-
-    chunk = max(1, 400_000 // q.shape[0])
-    for c in range(0, idx.size, chunk):
-        sel = idx[c : c + chunk]
-        covered[sel] = min_dist(pts[sel]) <= r_col
-    if not covered.any():  # cannot happen after a collision unless the disc only grazes the path
-        return gamma_c, gamma_c
-    k = int(np.argmin(np.where(covered, np.abs(gs - gamma_c), np.inf)))
-    a = k
-    while a > 0 and covered[a - 1]:
-        a -= 1
-    b = k
-    while b < gs.size - 1 and covered[b + 1]:
-        b += 1
-
-    def f(g):
-        return float(min_dist(path.point(np.array([g])))[0] - r_col)
-
-    gamma_a = gs[a] if a == 0 else _bisect_time(f, gs[a], gs[a - 1], tol=1e-6)
-    gamma_b = gs[b] if b == gs.size - 1 else _bisect_time(f, gs[b], gs[b + 1], tol=1e-6)
-    return float(gamma_a), float(gamma_b)

@@ -1,0 +1,178 @@
+"""Many tracks' predicted motion at once: :class:`TrackMotions`, the stacked form of
+:meth:`TrackEstimate.predict_positions <mjasc.core.estimates.TrackEstimate.predict_positions>`.
+
+Collision prediction needs every track's position on the window's time grid and, for refining
+the closest approaches, at a few more times per track. One :class:`TrackMotions` holds the
+parameters of m tracks in arrays and evaluates any (track, time) pairs in one array operation:
+
+- **constant speed and turn** (a :class:`~mjasc.core.estimates.TrackEstimate`; thesis eq. 3.2
+  without noise), with τ = t − t₀:
+
+      straight (|ω| < 1e-9):  p(t) = p₀ + v τ (cos θ, sin θ)
+      turning:                 p(t) = p₀ + (v/ω) (sin(θ + ωτ) − sin θ, cos θ − cos(θ + ωτ))
+      static (or v = 0):       p(t) = p₀
+
+  (the same formulas in the same operation order as ``predict_positions``: equal to it bit for bit);
+- **a team mate's plan** (a :class:`~mjasc.core.estimates.PlannedTrack`: knots (t_k, p_k) of its
+  :class:`~mjasc.cooperation.messages.TeamIntention`): linear interpolation between knots, along the
+  broadcast velocity before the first knot, along the last segment after the last one (as
+  ``TeamIntention.positions``). All plans are stacked in one knot array; the knot interval of every
+  query is found by one ``searchsorted`` on the knot times shifted per plan by a multiple of a span
+  longer than any plan (the interpolation itself uses the unshifted times).
+
+World frame ENU, metres, absolute simulation times [s].
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from mjasc.core.estimates import PlannedTrack, TrackEstimate
+
+__all__ = ["TrackMotions", "intention_positions"]
+
+_STRAIGHT_OMEGA = 1e-9  # |ω| below this: a straight line (as TrackEstimate.predict_positions)
+
+
+class TrackMotions:
+    """The predicted motion of ``tracks`` (a sequence of TrackEstimate / PlannedTrack), row k for
+    ``tracks[k]``. :meth:`at` evaluates positions of rows at times in one array operation per
+    kind of motion (straight or static, turning, plan)."""
+
+    __slots__ = ("n", "_par", "_kind", "_kinds", "_pl")
+
+    _STRAIGHT, _TURN, _PLAN = 0, 1, 2
+
+    def __init__(self, tracks: Sequence[TrackEstimate]):
+        m = self.n = len(tracks)
+        a = np.array([(tr.position_m[0], tr.position_m[1], tr.time_s, tr.speed_m_s, tr.heading_rad,
+                       tr.turn_rate_rad_s, tr.is_static, isinstance(tr, PlannedTrack)) for tr in tracks],
+                     dtype=float).reshape(m, 8)
+        plan = a[:, 7] != 0.0
+        moving = ~((a[:, 6] != 0.0) | (a[:, 3] == 0.0) | plan)
+        v, th, w = a[:, 3] * moving, a[:, 4] * moving, a[:, 5] * moving
+        turn = np.abs(w) >= _STRAIGHT_OMEGA
+        # Columns: x₀, y₀, t₀, v, cos θ, sin θ, θ, ω, v/ω (turning tracks).
+        par = self._par = np.empty((m, 9))
+        par[:, :3], par[:, 3], par[:, 6], par[:, 7] = a[:, :3], v, th, w
+        par[:, 4], par[:, 5] = np.cos(th), np.sin(th)
+        par[:, 8] = v / np.where(turn, w, 1.0)
+        self._kind = np.where(plan, self._PLAN, np.where(turn, self._TURN, self._STRAIGHT))
+        self._kinds = sorted(set(self._kind.tolist()))
+        self._pl = _StackedPlans(m, [(k, tracks[k].intention) for k in np.flatnonzero(plan)]) if plan.any() else None
+
+    def at(self, rows, times) -> np.ndarray:
+        """Positions (P, K, 2) [m] of tracks ``rows`` (P,) at absolute ``times`` (P, K) — each row
+        its own times — or (K,) — the same times for every row [s]."""
+        rows = np.asarray(rows, dtype=np.intp)
+        times = np.asarray(times, dtype=float)
+        P = rows.shape[0]
+        K = times.shape[-1]
+        if len(self._kinds) == 1:
+            return self._eval(self._kinds[0], rows, times, P, K)
+        out = np.empty((P, K, 2))
+        kind = self._kind[rows]
+        for g in self._kinds:
+            sel = np.flatnonzero(kind == g)
+            if sel.size:
+                out[sel] = self._eval(g, rows[sel], times if times.ndim == 1 else times[sel], sel.size, K)
+        return out
+
+    def grid(self, times) -> np.ndarray:
+        """Positions (m, n, 2) of every track on the time grid ``times`` (n,) [s]."""
+        return self.at(np.arange(self.n), np.asarray(times, dtype=float))
+
+    def _eval(self, kind, rows, times, P, K) -> np.ndarray:
+        out = np.empty((P, K, 2))
+        if kind == self._PLAN:
+            t = np.broadcast_to(times, (P, K)).ravel()
+            return self._pl.at(np.repeat(rows, K), t).reshape(P, K, 2)
+        par = self._par[rows]
+        x0, y0, t0 = par[:, 0:1], par[:, 1:2], par[:, 2:3]
+        tau = times - t0
+        if kind == self._STRAIGHT:  # x₀ + (v τ) cos θ: the order of predict_positions
+            v_tau = par[:, 3:4] * tau
+            out[..., 0] = x0 + v_tau * par[:, 4:5]
+            out[..., 1] = y0 + v_tau * par[:, 5:6]
+        else:
+            th_t = par[:, 6:7] + par[:, 7:8] * tau
+            r = par[:, 8:9]
+            out[..., 0] = x0 + r * (np.sin(th_t) - par[:, 5:6])
+            out[..., 1] = y0 - r * (np.cos(th_t) - par[:, 4:5])
+        return out
+
+
+def intention_positions(intentions, times) -> np.ndarray:
+    """Positions (k, n, 2) [m] of k team mates' intentions
+    (:meth:`TeamIntention.positions <mjasc.cooperation.messages.TeamIntention.positions>`, the same
+    numbers) at absolute ``times`` (n,) [s], all in one array operation."""
+    times = np.asarray(times, dtype=float)
+    k, n = len(intentions), times.size
+    if k <= 4:  # stacking costs more than it saves for a few
+        return np.stack([it.positions(times) for it in intentions]) if k else np.zeros((0, n, 2))
+    plans = _StackedPlans(k, list(enumerate(intentions)))
+    return plans.at(np.repeat(np.arange(k), n), np.tile(times, k)).reshape(k, n, 2)
+
+
+class _StackedPlans:
+    """The knots of several plans in one array (see the module docstring). ``plans``: (row, intention)
+    pairs; rows without one are never evaluated."""
+
+    def __init__(self, m: int, plans):
+        rows = np.array([k for k, _ in plans], dtype=np.intp)
+        its = [it for _, it in plans]
+        counts = np.array([it.plan_times_s.size for it in its], dtype=np.intp)
+        counts[counts < 2] = 0  # fewer than 2 knots: no plan
+        has = counts > 0
+        start, count = np.zeros(m, dtype=np.intp), np.zeros(m, dtype=np.intp)
+        ends = np.cumsum(counts)
+        start[rows], count[rows] = ends - counts, counts
+        with_plan = [it for it, c in zip(its, counts) if c]
+        self.ts = np.concatenate([it.plan_times_s for it in with_plan]) if with_plan else np.zeros(0)
+        pts = np.concatenate([it.plan_points_m for it in with_plan]) if with_plan else np.zeros((0, 2))
+        self.xs, self.ys = pts[:, 0].copy(), pts[:, 1].copy()
+        self.start, self.count = start, count
+        first, lastk = (ends - counts)[has], ends[has] - 1
+        r_has = rows[has]
+        # Before the first knot: along the broadcast velocity from the first knot (no plan: from
+        # the broadcast position at the send time); after the last: along the last segment.
+        self.t_first, self.t_last = np.full(m, np.inf), np.full(m, np.inf)
+        self.t_first[r_has], self.t_last[r_has] = self.ts[first], self.ts[lastk]
+        self.anchor, self.t_anchor = np.zeros((m, 2)), np.zeros(m)
+        self.anchor[rows] = np.array([it.position_m for it in its], dtype=float).reshape(-1, 2)
+        self.t_anchor[rows] = np.array([it.sent_time_s for it in its], dtype=float)
+        self.anchor[r_has], self.t_anchor[r_has] = pts[first], self.ts[first]
+        self.vel = np.zeros((m, 2))
+        self.vel[rows] = np.array([it.velocity_m_s for it in its], dtype=float).reshape(-1, 2)
+        self.p_last, self.v_end = np.zeros((m, 2)), np.zeros((m, 2))
+        self.p_last[r_has] = pts[lastk]
+        self.v_end[r_has] = (pts[lastk] - pts[lastk - 1]) / \
+            np.maximum(self.ts[lastk] - self.ts[lastk - 1], 1e-9)[:, None]
+        # Shifted knot times: plan r's knots lie in [r·span, r·span + span).
+        self.span = span = float(np.max(self.ts[lastk] - self.ts[first])) + 1.0 if has.any() else 1.0
+        self.key = self.ts - np.repeat(self.ts[first], counts[has]) + np.repeat(rows[has] * span, counts[has])
+
+    def at(self, rows, t) -> np.ndarray:
+        """Positions (k, 2) of plan rows ``rows`` (k,) at times ``t`` (k,)."""
+        out = np.empty(rows.shape + (2,))
+        before = t < self.t_first[rows]
+        after = t >= self.t_last[rows]
+        inside = ~(before | after)
+        if before.any():
+            rb = rows[before]
+            out[before] = self.anchor[rb] + (t[before] - self.t_anchor[rb])[:, None] * self.vel[rb]
+        if after.any():
+            ra = rows[after]
+            out[after] = self.p_last[ra] + (t[after] - self.t_last[ra])[:, None] * self.v_end[ra]
+        if inside.any():
+            ri, ti = rows[inside], t[inside]
+            key = ti - self.t_first[ri] + ri * self.span
+            j = np.searchsorted(self.key, key, side="right") - 1
+            j = np.clip(j, self.start[ri], self.start[ri] + self.count[ri] - 2)
+            t_a, t_b = self.ts[j], self.ts[j + 1]
+            dt, dtt = t_b - t_a, ti - t_a
+            out[inside, 0] = (self.xs[j + 1] - self.xs[j]) / dt * dtt + self.xs[j]
+            out[inside, 1] = (self.ys[j + 1] - self.ys[j]) / dt * dtt + self.ys[j]
+        return out
