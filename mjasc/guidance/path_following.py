@@ -30,6 +30,7 @@ so a vessel's commands do not depend on which fleet it is in (``tests/test_path_
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from types import SimpleNamespace
 
@@ -37,11 +38,12 @@ import numpy as np
 
 from mjasc.core.config_tables import check_params, param
 from mjasc.guidance.paths import Path
+from mjasc.guidance.segment_geometry import wrap_scalar
 from mjasc.guidance.stacked_paths import StackedPaths
 from mjasc.physics.thrusters import PropellerCoefficients
 from mjasc.physics.vessels import VesselType
 
-__all__ = ["PathFollowingConfig", "PathFollowingStatus", "FleetFollowingStatus", "FleetPathFollower", "PathFollower"]
+__all__ = ["PathFollowingConfig", "PathFollowingStatus", "FleetPathFollower", "PathFollower", "SCALAR_FLEET_MAX"]
 
 
 @dataclass(frozen=True)
@@ -79,25 +81,6 @@ class PathFollowingStatus:
     finished: bool
 
 
-@dataclass(frozen=True)
-class FleetFollowingStatus:
-    """What the followers did at one control tick, arrays over the commanded vessels (fields as
-    :class:`PathFollowingStatus`)."""
-
-    gamma_m: np.ndarray
-    cross_track_m: np.ndarray
-    course_ref_rad: np.ndarray
-    heading_ref_rad: np.ndarray
-    speed_ref_m_s: np.ndarray
-    finished: np.ndarray
-
-    def statuses(self) -> list[PathFollowingStatus]:
-        """One :class:`PathFollowingStatus` per vessel (plain floats)."""
-        return [PathFollowingStatus(*v) for v in zip(self.gamma_m.tolist(), self.cross_track_m.tolist(),
-                                                      self.course_ref_rad.tolist(), self.heading_ref_rad.tolist(),
-                                                      self.speed_ref_m_s.tolist(), self.finished.tolist())]
-
-
 # Rows of the parameter array (one column per vessel).
 (_LOOKAHEAD, _WINDOW, _SIGMA, _FINISH, _KP_PSI, _KD_PSI, _NR, _TI, _KP_U, _KI_U, _XU, _XUU, _D, _TMAX, _TMIN,
  _KF, _KR, _NMAX, _NMIN) = range(19)
@@ -129,9 +112,99 @@ def _wrap(a: np.ndarray) -> np.ndarray:
 
 
 def _squares(x: np.ndarray) -> np.ndarray:
-    """x² elementwise through the C library's pow, as the scalar law computed it (numpy's x·x
-    differs in the last bit for ~0.1 % of values): keeps runs bit-identical across the change."""
+    """x² elementwise through the C library's pow, as ``x**2`` of a float computes it (numpy's x·x
+    differs in the last bit for ~0.1 % of values): both forms of the law give the same bits, and
+    the same as before the law was batched."""
     return np.array([v**2 for v in x.tolist()])
+
+
+class _ArrayOps:
+    """The operations of :func:`_law` over arrays of vessels."""
+
+    where, abs, minimum, maximum = staticmethod(np.where), staticmethod(np.abs), staticmethod(np.minimum), \
+        staticmethod(np.maximum)
+    sin, cos, atan2 = staticmethod(np.sin), staticmethod(np.cos), staticmethod(np.arctan2)
+    wrap, sq = staticmethod(_wrap), staticmethod(_squares)
+    not_, and_, or_ = staticmethod(np.logical_not), staticmethod(np.logical_and), staticmethod(np.logical_or)
+
+
+class _FloatOps:
+    """The operations of :func:`_law` for one vessel in plain floats (numpy's semantics)."""
+
+    @staticmethod
+    def where(c, a, b):
+        return a if c else b
+
+    @staticmethod
+    def minimum(a, b):
+        return a if a <= b else b
+
+    @staticmethod
+    def maximum(a, b):
+        return a if a >= b else b
+
+    @staticmethod
+    def sq(a):
+        return a**2
+
+    @staticmethod
+    def not_(a):
+        return not a
+
+    @staticmethod
+    def and_(a, b):
+        return a and b
+
+    @staticmethod
+    def or_(a, b):
+        return a or b
+
+    abs, sin, cos, atan2, wrap = staticmethod(abs), staticmethod(math.sin), staticmethod(math.cos), \
+        staticmethod(math.atan2), staticmethod(wrap_scalar)
+
+
+def _law(o, P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p, kappa, length):
+    """The control law of the module docstring, once for arrays of vessels (``o`` = _ArrayOps,
+    P, S the parameter and state arrays) and for one vessel (``o`` = _FloatOps, P, S its columns
+    as lists). Inputs: position (x, y), heading, surge u, yaw rate r, speed reference; the
+    projection: γ, the path's point (qx, qy), course χ_p, curvature κ and length L there.
+    Returns (T_port, T_starboard, new states (γ, e_i, ∫e_u, ∫e_ψ), status (e, ψ_d, u_d, finished))."""
+    e = -(x - qx) * o.sin(chi_p) + (y - qy) * o.cos(chi_p)
+    finished = gamma >= length - P[_FINISH]
+    # integral LOS
+    delta, xte_i = P[_LOOKAHEAD], S[_XTE_I]
+    e_eff = e + P[_SIGMA] * xte_i
+    psi_d = o.wrap(chi_p - o.atan2(e_eff, delta))
+    xte_i = o.where(finished, xte_i, xte_i + dt_s * delta * e / (o.sq(delta) + o.sq(e_eff)))
+    # heading and speed loops
+    u_d = o.where(finished, 0.0, speed_ref)
+    r_d = kappa * u
+    e_psi = o.wrap(heading - psi_d)
+    kp_psi = P[_KP_PSI]
+    n_cmd = -kp_psi * e_psi - P[_KD_PSI] * (r - r_d) - P[_NR] * r_d + -kp_psi / P[_TI] * S[_HEAD_I]
+    e_u = u_d - u
+    x_cmd = -P[_XU] * u_d - P[_XUU] * o.abs(u_d) * u_d + P[_KP_U] * e_u + P[_KI_U] * S[_SPEED_I]
+    # allocation to the twin propellers, yaw first: T_s + T_p = X, d (T_s − T_p) = N
+    t_max, t_min = P[_TMAX], P[_TMIN]
+    half_diff_free = 0.5 * n_cmd / P[_D]
+    half_range = (t_max + t_min) / 2
+    half_diff = o.minimum(o.maximum(half_diff_free, -half_range), half_range)
+    lo = -t_min + o.abs(half_diff)
+    hi = t_max - o.abs(half_diff)
+    half_sum_free = 0.5 * x_cmd
+    saturated = o.or_(o.not_(o.and_(lo <= half_sum_free, half_sum_free <= hi)), o.abs(half_diff_free) > o.abs(half_diff))
+    half_sum = o.minimum(o.maximum(half_sum_free, lo), hi)
+    # conditional integration: no wind-up while the propellers saturate; the heading integral
+    # only near the reference (not through large turns)
+    speed_i = o.where(saturated, S[_SPEED_I], S[_SPEED_I] + e_u * dt_s)
+    head_i = o.where(o.and_(o.not_(saturated), o.abs(e_psi) < 0.5), S[_HEAD_I] + e_psi * dt_s, S[_HEAD_I])
+    speed_i = o.where(finished, 0.0, speed_i)
+    return half_sum - half_diff, half_sum + half_diff, (gamma, xte_i, speed_i, head_i), (e, psi_d, u_d, finished)
+
+
+#: Up to this many vessels a command runs the law vessel by vessel in plain floats (cheaper than
+#: numpy's per-call overhead); above, once over arrays. Both give the same bits.
+SCALAR_FLEET_MAX = 20
 
 
 class FleetPathFollower:
@@ -144,6 +217,7 @@ class FleetPathFollower:
         self.paths = StackedPaths(paths)
         self._members: list = []
         self._prop = self._propellers(None)
+        self._P_cols = self._P.T.tolist()
 
     def __len__(self) -> int:
         return self._S.shape[1]
@@ -183,61 +257,62 @@ class FleetPathFollower:
         self._S[_GAMMA, i] = float(gamma0_m)
 
     def command(self, position_m, heading_rad, body_velocity, speed_ref_m_s, dt_s: float,
-                rows=None) -> tuple[np.ndarray, FleetFollowingStatus]:
-        """Normalized (port, starboard) commands (k, 2) and the tick's status for the vessels
-        ``rows`` (k,) (None: all n, in order).
+                rows=None) -> tuple[np.ndarray, list[PathFollowingStatus]]:
+        """Normalized (port, starboard) commands (k, 2) and each vessel's status at this tick, for
+        the vessels ``rows`` (k,) (None: all n, in order).
 
         position_m (k, 2) world [m]; heading_rad (k,); body_velocity (k, 3) = (u, v, r);
         speed_ref_m_s (k,) [m/s]; dt_s the control period [s].
         """
+        pos = np.asarray(position_m, dtype=float)
+        bv = np.asarray(body_velocity, dtype=float)
+        idx = range(len(self)) if rows is None else [int(i) for i in rows]
+        if len(idx) <= SCALAR_FLEET_MAX:
+            thrust, statuses = self._command_floats(idx, pos.tolist(), np.asarray(heading_rad, dtype=float).tolist(),
+                                                    bv.tolist(), np.asarray(speed_ref_m_s, dtype=float).tolist(), dt_s)
+        else:
+            thrust, statuses = self._command_arrays(rows, pos, np.asarray(heading_rad, dtype=float), bv,
+                                                    np.asarray(speed_ref_m_s, dtype=float), dt_s)
+        prop = self._prop if rows is None else self._propellers(rows)
+        return PropellerCoefficients.command_for_thrust(prop, thrust), statuses  # the inverse curve, per vessel
+
+    def _command_floats(self, idx, pos, heading, bv, speed, dt_s):
+        """The law vessel by vessel in plain floats; the projection by each path's scalar query."""
+        thrust = np.empty((len(idx), 2))
+        statuses = []
+        S = self._S
+        paths = self.paths.paths
+        for k, i in enumerate(idx):
+            P = self._P_cols[i]
+            s = S[:, i].tolist()
+            x, y = pos[k][0], pos[k][1]
+            path = paths[i]
+            g = path.project((x, y), gamma_hint=s[_GAMMA], search_window_m=P[_WINDOW])
+            qx, qy, chi_p, kappa = path.at(g)
+            t_p, t_s, new, (e, psi_d, u_d, finished) = _law(_FloatOps, P, s, x, y, heading[k], bv[k][0], bv[k][2],
+                                                             speed[k], dt_s, g, qx, qy, chi_p, kappa, path.length)
+            thrust[k] = t_p, t_s
+            S[:, i] = new
+            statuses.append(PathFollowingStatus(g, e, chi_p, psi_d, u_d, finished))
+        return thrust, statuses
+
+    def _command_arrays(self, rows, pos, heading, bv, speed, dt_s):
+        """The law once over arrays; the projection in one pass over the stacked paths."""
         P = self._P if rows is None else self._P[:, rows]
         S = self._S if rows is None else self._S[:, rows]
-        pos = np.asarray(position_m, dtype=float)
         px, py = pos[:, 0], pos[:, 1]
-        bv = np.asarray(body_velocity, dtype=float)
-        u, r = bv[:, 0], bv[:, 2]
         q = self.paths.project(px, py, S[_GAMMA], P[_WINDOW], rows)
-        gamma, chi_p = q.gamma_m, q.course_rad
-        e = -(px - q.x_m) * np.sin(chi_p) + (py - q.y_m) * np.cos(chi_p)
-        finished = gamma >= q.length_m - P[_FINISH]
-        # integral LOS
-        delta, sigma, xte_i = P[_LOOKAHEAD], P[_SIGMA], S[_XTE_I]
-        e_eff = e + sigma * xte_i
-        psi_d = _wrap(chi_p - np.arctan2(e_eff, delta))
-        xte_i = np.where(finished, xte_i, xte_i + dt_s * delta * e / (_squares(delta) + _squares(e_eff)))
-        # heading and speed loops
-        u_d = np.where(finished, 0.0, speed_ref_m_s)
-        r_d = q.curvature_1_m * u
-        e_psi = _wrap(np.asarray(heading_rad, dtype=float) - psi_d)
-        kp_psi = P[_KP_PSI]
-        n_i = -kp_psi / P[_TI] * S[_HEAD_I]
-        n_cmd = -kp_psi * e_psi - P[_KD_PSI] * (r - r_d) - P[_NR] * r_d + n_i
-        e_u = u_d - u
-        x_cmd = -P[_XU] * u_d - P[_XUU] * np.abs(u_d) * u_d + P[_KP_U] * e_u + P[_KI_U] * S[_SPEED_I]
-        # allocation to the twin propellers, yaw first: T_s + T_p = X, d (T_s − T_p) = N
-        d, t_max, t_min = P[_D], P[_TMAX], P[_TMIN]
-        half_diff_free = 0.5 * n_cmd / d
-        half_range = (t_max + t_min) / 2
-        half_diff = np.minimum(np.maximum(half_diff_free, -half_range), half_range)
-        lo = -t_min + np.abs(half_diff)
-        hi = t_max - np.abs(half_diff)
-        half_sum_free = 0.5 * x_cmd
-        saturated = ~((lo <= half_sum_free) & (half_sum_free <= hi)) | (np.abs(half_diff_free) > np.abs(half_diff))
-        half_sum = np.minimum(np.maximum(half_sum_free, lo), hi)
-        thrust = np.stack([half_sum - half_diff, half_sum + half_diff], axis=-1)
-        # conditional integration: no wind-up while the propellers saturate; the heading integral
-        # only near the reference (not through large turns)
-        speed_i = np.where(saturated, S[_SPEED_I], S[_SPEED_I] + e_u * dt_s)
-        head_i = np.where(~saturated & (np.abs(e_psi) < 0.5), S[_HEAD_I] + e_psi * dt_s, S[_HEAD_I])
-        speed_i = np.where(finished, 0.0, speed_i)
+        t_p, t_s, new, (e, psi_d, u_d, finished) = _law(_ArrayOps, P, S, px, py, heading, bv[:, 0], bv[:, 2], speed,
+                                                         dt_s, q.gamma_m, q.x_m, q.y_m, q.course_rad, q.curvature_1_m,
+                                                         q.length_m)
         if rows is None:
-            self._S[_GAMMA], self._S[_XTE_I], self._S[_SPEED_I], self._S[_HEAD_I] = gamma, xte_i, speed_i, head_i
-            prop = self._prop
+            for j in range(4):
+                self._S[j] = new[j]
         else:
-            self._S[:, rows] = np.stack([gamma, xte_i, speed_i, head_i])
-            prop = self._propellers(rows)
-        cmd = PropellerCoefficients.command_for_thrust(prop, thrust)  # the inverse curve, per-vessel columns
-        return cmd, FleetFollowingStatus(gamma, e, chi_p, psi_d, u_d, finished)
+            self._S[:, rows] = np.stack(new)
+        statuses = [PathFollowingStatus(*v) for v in zip(q.gamma_m.tolist(), e.tolist(), q.course_rad.tolist(),
+                                                          psi_d.tolist(), u_d.tolist(), finished.tolist())]
+        return np.stack([t_p, t_s], axis=-1), statuses
 
 
 class PathFollower:
@@ -296,4 +371,4 @@ class PathFollower:
         cmd, status = fleet.command(np.asarray(position_m, dtype=float).reshape(1, -1)[:, :2],
                                     np.array([float(heading_rad)]), np.asarray(body_velocity, dtype=float).reshape(1, 3),
                                     np.array([float(speed_ref_m_s)]), dt_s, rows)
-        return cmd[0], status.statuses()[0]
+        return cmd[0], status[0]

@@ -383,6 +383,13 @@ class Path:
         k = self._table[K, idx]
         return float(k) if np.ndim(k) == 0 else k.copy()
 
+    def at(self, gamma: float) -> tuple[float, float, float, float]:
+        """(x [m], y [m], course [rad] wrapped, curvature [1/m]) at one γ, in plain floats: what
+        :meth:`point`, :meth:`tangent_angle` and :meth:`curvature` give, in one look-up."""
+        row, s = self._locate_scalar(gamma)
+        x, y = point_scalar(row, s)
+        return x, y, wrap_scalar(row[TH0] + row[K] * s), row[K]
+
     def sample(self, spacing_m: float) -> np.ndarray:
         """Points (n, 2) every ``spacing_m`` metres along the path, both ends included."""
         spacing_m = float(spacing_m)

@@ -66,7 +66,7 @@ def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: floa
         cmds, status = fleet.command(np.array([n.position_m for n in own]), np.array([n.heading_rad for n in own]),
                                      np.array([n.body_velocity for n in own]), np.array(speeds, dtype=float),
                                      control_dt_s)
-        for k, (i, st) in enumerate(zip(rows, status.statuses())):
+        for k, (i, st) in enumerate(zip(rows, status)):
             outputs[i] = agents[i].control_output(cmds[k], st, modes[k])
     return outputs
 
