@@ -113,7 +113,7 @@ def _sum(values) -> float:
     """Σ values with numpy's summation order (sequential below 8 values, numpy's own above), so a
     plain-float sum of a few scalars equals ``np.sum`` of them bit for bit."""
     if len(values) >= 8:
-        return float(np.sum(values))
+        return float(np.add.reduce(values))
     acc = 0.0
     for v in values:
         acc += v
@@ -185,6 +185,7 @@ class Coordination:
         self.neighbours: dict[str, _Neighbour] = {}
         self._team: _TeamView | None = None  # the neighbours as the law uses them (rebuilt on change)
         self._intent_cache: dict[str, TeamIntention] = {}
+        self._intentions: dict[str, TeamIntention] | None = None  # team_picture's mapping, until a message arrives
         self._events: list[tuple[float, str]] = []
         self.received = 0
         self.last_error_m = 0.0
@@ -244,7 +245,7 @@ class Coordination:
             if old is not None and not old.active:
                 self._events.append((t_s, f"comms: regained {msg.sender} after {msg.sent_time_s - old.sent_time_s:.1f} s"))
             self.neighbours[msg.sender] = _Neighbour(msg.sent_time_s, msg.received_time_s, msg.payload, True)
-            self._team = None
+            self._team = self._intentions = None
         timeout = self.config.neighbour_timeout_s
         if t_s - self._oldest_active_s() > timeout:
             for name, nb in self.neighbours.items():
@@ -334,8 +335,11 @@ class Coordination:
 
     def team_picture(self, t_s: float) -> TeamPicture:
         """What this vessel knows of its team now: every team mate's newest intention and the
-        latest factor on the mission speed."""
-        return TeamPicture(float(t_s), self.team_intentions(), self.last_factor)
+        latest factor on the mission speed (the intentions' mapping is rebuilt only when a message
+        has arrived; treat it as read-only)."""
+        if self._intentions is None:
+            self._intentions = self.team_intentions()
+        return TeamPicture(float(t_s), self._intentions, self.last_factor)
 
     def team_positions(self) -> dict:
         """Latest received position of every team mate: name → (sent time [s], (2,) world [m])."""

@@ -49,7 +49,8 @@ _DUPLICATE_TOLERANCE_M = 1e-9
 
 #: Scalar γ types: queries with one of these take the plain-float path.
 _SCALARS = (float, int, np.floating, np.integer)
-#: A projection over fewer segments than this is done in plain floats, else vectorized.
+#: A projection over fewer segments than this, or a query of at most this many γ, is done in plain
+#: floats (numpy's per-call overhead dominates small arrays), else vectorized.
 _SCALAR_SEGMENTS = 8
 
 
@@ -364,6 +365,8 @@ class Path:
         """Position at γ: (2,) for scalar γ, (n, 2) for an array [m]."""
         if isinstance(gamma, _SCALARS):
             return np.array(point_scalar(*self._locate_scalar(gamma)))
+        if isinstance(gamma, np.ndarray) and gamma.ndim == 1 and gamma.size <= _SCALAR_SEGMENTS:
+            return np.array([point_scalar(*self._locate_scalar(g)) for g in gamma.tolist()]).reshape(-1, 2)
         _, idx, s = self._locate(gamma)
         return np.stack(eval_points(self._table[:, idx], s), axis=-1)
 
@@ -372,6 +375,8 @@ class Path:
         if isinstance(gamma, _SCALARS):
             row, s = self._locate_scalar(gamma)
             return wrap_scalar(row[TH0] + row[K] * s)
+        if isinstance(gamma, np.ndarray) and gamma.ndim == 1 and gamma.size <= _SCALAR_SEGMENTS:
+            return np.array([wrap_scalar(r[TH0] + r[K] * s) for r, s in map(self._locate_scalar, gamma.tolist())])
         _, idx, s = self._locate(gamma)
         return wrap_angle(self._table[TH0, idx] + self._table[K, idx] * s)
 

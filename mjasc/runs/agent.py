@@ -28,6 +28,7 @@ reports events with ``drain_events()``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,7 +93,7 @@ class VesselAgent:
     def speed_factor(self) -> float:
         """The coordination law's latest factor on the mission speed (1 without coordination)."""
         factor = self.coordination.last_factor if self.coordination is not None else 1.0
-        return float(factor if np.isfinite(factor) else 1.0)
+        return float(factor) if math.isfinite(factor) else 1.0
 
     def guidance_state(self) -> GuidanceState | None:
         """The path follower's path and γ now, and the mission speed × the coordination factor
