@@ -313,7 +313,8 @@ class Coordination:
         ff = view.omega * self.path_length_m / self.mission_speed_m_s
         e = view.l_bar * _sum(own - xis if isinstance(xis, np.ndarray) else [own - x for x in xis]) if len(xis) else 0.0
         lead = e / len(xis) if len(xis) else 0.0
-        corr = 0.0 if self.config.role == "leader" else self.config.max_speed_correction * np.tanh(e / self.config.error_scale_m)
+        cfg = self.config
+        corr = 0.0 if cfg.role == "leader" else cfg.max_speed_correction * np.tanh(e / cfg.error_scale_m)
         f = ff * (1.0 - corr)
         f = float(min(f, self.top_speed_m_s / self.mission_speed_m_s))
         self.last_error_m, self.last_factor, self.last_xi = lead, f, own

@@ -19,13 +19,19 @@ plus PI on the surge error. Allocation to the twin propellers at y = ±d:
 ``T_s + T_p = X``, ``d (T_s − T_p) = N`` (FLU: more starboard thrust turns left), then the inverse
 propeller curve gives the normalized commands; when saturated, yaw moment has priority.
 
-One copy of the law, over arrays of vessels: :class:`FleetPathFollower` holds every vessel's
-parameters and loop states (γ, the LOS, speed and heading integrals) as rows of arrays and their
-paths stacked (:class:`~mjasc.guidance.stacked_paths.StackedPaths`); one :meth:`~FleetPathFollower.command`
-projects every vessel on its path and runs the law for all of them. :class:`PathFollower` is one
-vessel's follower: a row of a fleet (its own fleet of one until :meth:`FleetPathFollower.of`
-gathers several followers into one, as the runner's control slot does). The law is elementwise,
-so a vessel's commands do not depend on which fleet it is in (``tests/test_path_following.py``).
+One copy of the law for a fleet: :class:`FleetPathFollower` holds every vessel's parameters and
+loop states (γ, the LOS, speed and heading integrals) as rows of arrays and their paths stacked
+(:class:`~mjasc.guidance.stacked_paths.StackedPaths`); one :meth:`~FleetPathFollower.command`
+projects every vessel on its path and runs the law for all of them. The law (:func:`_law`) is
+written once over a table of operations: above :data:`SCALAR_FLEET_MAX` vessels it runs once over
+arrays (the projection in one vectorized pass over each vessel's window of segments); up to it,
+vessel by vessel in plain floats (each path's scalar projection), because numpy's per-call
+overhead, not arithmetic, is the cost of small fleets. Both forms give the same bits (elementwise
+operations in the same order, ``x**2`` through the C library's pow in both; ``math``'s sin, cos
+and atan2 equal numpy's on x86-64 without AVX-512, elsewhere they may differ in the last bit), so
+a vessel's commands do not depend on the fleet it is in (``tests/test_fleet_following.py``).
+:class:`PathFollower` is one vessel's follower: a row of a fleet (its own fleet of one until
+:meth:`FleetPathFollower.of` gathers several followers into one, as the runner's control slot does).
 """
 
 from __future__ import annotations
@@ -192,7 +198,8 @@ def _law(o, P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p, ka
     lo = -t_min + o.abs(half_diff)
     hi = t_max - o.abs(half_diff)
     half_sum_free = 0.5 * x_cmd
-    saturated = o.or_(o.not_(o.and_(lo <= half_sum_free, half_sum_free <= hi)), o.abs(half_diff_free) > o.abs(half_diff))
+    inside = o.and_(lo <= half_sum_free, half_sum_free <= hi)
+    saturated = o.or_(o.not_(inside), o.abs(half_diff_free) > o.abs(half_diff))
     half_sum = o.minimum(o.maximum(half_sum_free, lo), hi)
     # conditional integration: no wind-up while the propellers saturate; the heading integral
     # only near the reference (not through large turns)
@@ -369,6 +376,7 @@ class PathFollower:
         fleet = self._fleet
         rows = None if len(fleet) == 1 else np.array([self._row])
         cmd, status = fleet.command(np.asarray(position_m, dtype=float).reshape(1, -1)[:, :2],
-                                    np.array([float(heading_rad)]), np.asarray(body_velocity, dtype=float).reshape(1, 3),
+                                    np.array([float(heading_rad)]),
+                                    np.asarray(body_velocity, dtype=float).reshape(1, 3),
                                     np.array([float(speed_ref_m_s)]), dt_s, rows)
         return cmd[0], status[0]

@@ -7,8 +7,8 @@ segment of a path, or every vessel's window of segments in a fleet
 length s ∈ [0, LEN] from the segment's start; the path parameter there is γ = C + s.
 
     p(s) = p₀ + s (cos θ₀, sin θ₀)                                   κ = 0 (line)
-    p(s) = p₀ + (sin(θ₀ + κs) − sin θ₀, cos θ₀ − cos(θ₀ + κs)) / κ    κ ≠ 0 (arc, centre c = p₀ + (−sin θ₀, cos θ₀)/κ)
-    θ(s) = θ₀ + κ s
+    p(s) = p₀ + (sin(θ₀ + κs) − sin θ₀, cos θ₀ − cos(θ₀ + κs)) / κ    κ ≠ 0 (arc)
+    θ(s) = θ₀ + κ s                     an arc's centre: c = p₀ + (−sin θ₀, cos θ₀) / κ
 
 Closest point of a query q on a segment, restricted to local arc lengths [lo, hi] (a window):
 a line has one candidate, the clamped foot of the perpendicular s* = clamp((q − p₀)·t₀, lo, hi);

@@ -63,10 +63,10 @@ def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: floa
     if rows:
         fleet = FleetPathFollower.of([agents[i].follower for i in rows])
         own = [navs[i] for i in rows]
-        cmds, status = fleet.command(np.array([n.position_m for n in own]), np.array([n.heading_rad for n in own]),
-                                     np.array([n.body_velocity for n in own]), np.array(speeds, dtype=float),
-                                     control_dt_s)
-        for k, (i, st) in enumerate(zip(rows, status)):
+        cmds, statuses = fleet.command(np.array([n.position_m for n in own]), np.array([n.heading_rad for n in own]),
+                                       np.array([n.body_velocity for n in own]), np.array(speeds, dtype=float),
+                                       control_dt_s)
+        for k, (i, st) in enumerate(zip(rows, statuses)):
             outputs[i] = agents[i].control_output(cmds[k], st, modes[k])
     return outputs
 
