@@ -182,28 +182,26 @@ class CommsNetwork:
         return mid
 
     def receive(self, t_s: float, receiver: str, receiver_position) -> list[Message]:
-        """Messages that reached ``receiver`` by ``t_s``, ordered by arrival time."""
-        self._member(receiver, "receiver")
-        cfg, rng, stats = self.config, self.rng, self.link[receiver]
-        pos = np.array(receiver_position, dtype=float).reshape(-1)[:2]
-        heap = self._pending[receiver]
-        k = self._cursor[receiver] - self._base
-        while k < len(self._log) and self._log[k].time_s <= t_s:
-            m = self._log[k]
+        """Messages that reached ``receiver`` by ``t_s``, ordered by arrival time.
+
+        The messages sent since the receiver's last call are decided together (distances, the
+        two uniforms of each pair drawn in message order, loss and delay over arrays); a call
+        with nothing new to decide or deliver costs a few dictionary look-ups."""
+        cursor = self._cursor.get(receiver)
+        if cursor is None:
+            self._member(receiver, "receiver")
+        log, heap = self._log, self._pending[receiver]
+        k0 = cursor - self._base
+        k = k0
+        while k < len(log) and log[k].time_s <= t_s:
             k += 1
-            if m.sender == receiver:
-                continue
-            d = float(np.hypot(*(m.position_m - pos)))
-            u_loss, u_jitter = rng.random(2)
-            stats.offered += 1
-            if d >= cfg.range_m or u_loss < float(cfg.loss_at(d)):
-                stats.lost += 1
-                stats.lost_out_of_range += d >= cfg.range_m
-                continue
-            arrival = m.time_s + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u_jitter * cfg.jitter_s
-            heapq.heappush(heap, (arrival, m.id, Message(m.sender, m.time_s, arrival, _copy_payload(m.payload))))
-        self._cursor[receiver] = self._base + k
-        self._prune()
+        if k > k0:
+            self._decide(receiver, log[k0:k], receiver_position)
+            self._cursor[receiver] = self._base + k
+            self._prune()
+        if not heap or heap[0][0] > t_s:
+            return []
+        stats = self.link[receiver]
         out = []
         while heap and heap[0][0] <= t_s:
             arrival, _, msg = heapq.heappop(heap)
@@ -212,6 +210,32 @@ class CommsNetwork:
             stats.delay_max_s = max(stats.delay_max_s, msg.delay_s)
             out.append(msg)
         return out
+
+    def _decide(self, receiver: str, sent: list, receiver_position) -> None:
+        """Loss and delay of each message of ``sent`` (not the receiver's own) for ``receiver``
+        at ``receiver_position``; survivors go on its heap of pending arrivals."""
+        sent = [m for m in sent if m.sender != receiver]
+        if not sent:
+            return
+        cfg, stats = self.config, self.link[receiver]
+        pos = np.asarray(receiver_position, dtype=float).reshape(-1)
+        from_xy = np.array([m.position_m for m in sent])
+        d = np.hypot(from_xy[:, 0] - pos[0], from_xy[:, 1] - pos[1])
+        u = self.rng.random((len(sent), 2))  # (u_loss, u_jitter) per message, in message order
+        out_of_range = d >= cfg.range_m
+        lost = out_of_range | (u[:, 0] < cfg.loss_at(d))
+        times = np.array([m.time_s for m in sent])
+        arrival = times + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u[:, 1] * cfg.jitter_s
+        stats.offered += len(sent)
+        n_lost = int(np.count_nonzero(lost))
+        stats.lost += n_lost
+        stats.lost_out_of_range += int(np.count_nonzero(out_of_range))
+        if n_lost == len(sent):
+            return
+        heap = self._pending[receiver]
+        for m, a, gone in zip(sent, arrival.tolist(), lost.tolist()):
+            if not gone:
+                heapq.heappush(heap, (a, m.id, Message(m.sender, m.time_s, a, _copy_payload(m.payload))))
 
     def _prune(self) -> None:
         done = min(self._cursor.values()) - self._base

@@ -109,6 +109,55 @@ class _Neighbour:
     active: bool = True
 
 
+def _sum(values) -> float:
+    """Σ values with numpy's summation order (sequential below 8 values, numpy's own above), so a
+    plain-float sum of a few scalars equals ``np.sum`` of them bit for bit."""
+    if len(values) >= 8:
+        return float(np.add.reduce(values))
+    acc = 0.0
+    for v in values:
+        acc += v
+    return acc
+
+
+class _TeamView:
+    """The neighbours as the speed law uses them, from one vessel's neighbour table: L̄ and ω_d
+    over itself and every neighbour with a path (active or not); of the active ones, ξ_j, ξ̇_j, the
+    send time and the end value 1 − o_j/L_j (as lists below 8 of them, arrays above)."""
+
+    def __init__(self, own, neighbours):
+        lengths, speeds, rows = [own.path_length_m], [own.mission_speed_m_s], []
+        oldest = np.inf
+        for nb in neighbours:
+            if nb.active:
+                oldest = min(oldest, nb.sent_time_s)
+            p = nb.message
+            if not p.has_path:
+                continue
+            lengths.append(p.path_length_m)
+            speeds.append(p.mission_speed_m_s)
+            if nb.active:  # the neighbour stops at the end of its path: ξ_end = 1 − o/L
+                rows.append((p.xi, p.xi_rate_1_s, nb.sent_time_s, 1.0 - p.offset_m / p.path_length_m))
+        self.oldest_active_s = oldest
+        if own.path_length_m is None:
+            self.l_bar = self.omega = np.nan
+        else:
+            self.l_bar = _sum(lengths) / len(lengths)
+            self.omega = _sum(speeds) / len(speeds) / self.l_bar
+        self.rows = rows
+        self.arrays = np.array(rows).T if len(rows) >= 8 else None
+
+    def xi_hat(self, t_s: float, extrapolate: bool):
+        """ξ̂_j(t) of the active neighbours: ξ_j + ξ̇_j (t − t_j), not beyond the end of their path
+        (``extrapolate``), else the held ξ_j; a list below 8 neighbours, else an array."""
+        if self.arrays is not None:
+            xi, rate, sent, x_end = self.arrays
+            return np.minimum(xi + rate * (t_s - sent), np.maximum(xi, x_end)) if extrapolate else xi
+        if not extrapolate:
+            return [r[0] for r in self.rows]
+        return [min(x + rate * (t_s - sent), max(x, x_end)) for x, rate, sent, x_end in self.rows]
+
+
 class Coordination:
     """One vessel's coordination controller (the ``coordination`` component of ``VesselAgent``).
 
@@ -134,7 +183,9 @@ class Coordination:
         self.radius_m = None if radius_m is None else float(radius_m)
         self.top_speed_m_s = float(top_speed_m_s)
         self.neighbours: dict[str, _Neighbour] = {}
+        self._team: _TeamView | None = None  # the neighbours as the law uses them (rebuilt on change)
         self._intent_cache: dict[str, TeamIntention] = {}
+        self._intentions: dict[str, TeamIntention] | None = None  # team_picture's mapping, until a message arrives
         self._events: list[tuple[float, str]] = []
         self.received = 0
         self.last_error_m = 0.0
@@ -194,34 +245,33 @@ class Coordination:
             if old is not None and not old.active:
                 self._events.append((t_s, f"comms: regained {msg.sender} after {msg.sent_time_s - old.sent_time_s:.1f} s"))
             self.neighbours[msg.sender] = _Neighbour(msg.sent_time_s, msg.received_time_s, msg.payload, True)
-        for name, nb in self.neighbours.items():
-            if nb.active and t_s - nb.sent_time_s > self.config.neighbour_timeout_s:
-                nb.active = False
-                self._events.append((t_s, f"comms: lost {name} (last message {t_s - nb.sent_time_s:.1f} s old)"))
+            self._team = self._intentions = None
+        timeout = self.config.neighbour_timeout_s
+        if t_s - self._oldest_active_s() > timeout:
+            for name, nb in self.neighbours.items():
+                if nb.active and t_s - nb.sent_time_s > timeout:
+                    nb.active = False
+                    self._team = None
+                    self._events.append((t_s, f"comms: lost {name} (last message {t_s - nb.sent_time_s:.1f} s old)"))
 
     def active_neighbours(self) -> list[str]:
         return [n for n, nb in self.neighbours.items() if nb.active]
 
+    def _team_view(self) -> "_TeamView":
+        """What the law needs of the neighbours, rebuilt only when a message arrives or a neighbour
+        times out (:class:`_TeamView`)."""
+        if self._team is None:
+            self._team = _TeamView(self, self.neighbours.values())
+        return self._team
+
+    def _oldest_active_s(self) -> float:
+        """Send time of the oldest newest message among the active neighbours (+inf: none)."""
+        return self._team_view().oldest_active_s
+
     def _estimates(self, t_s: float) -> tuple[np.ndarray, float, float]:
         """(ξ̂_j of the active neighbours with a path, L̄, ω_d)."""
-        lengths = [self.path_length_m]
-        speeds = [self.mission_speed_m_s]
-        xis = []
-        for nb in self.neighbours.values():
-            p = nb.message
-            if not p.has_path:
-                continue
-            lengths.append(p.path_length_m)
-            speeds.append(p.mission_speed_m_s)
-            if not nb.active:
-                continue
-            x = p.xi
-            if self.config.extrapolate:
-                x_end = 1.0 - p.offset_m / p.path_length_m  # the neighbour stops at the end of its path
-                x = min(x + p.xi_rate_1_s * (t_s - nb.sent_time_s), max(x, x_end))
-            xis.append(x)
-        l_bar = float(np.mean(lengths))
-        return np.array(xis), l_bar, float(np.mean(speeds)) / l_bar
+        view = self._team_view()
+        return np.array(view.xi_hat(t_s, self.config.extrapolate)), view.l_bar, view.omega
 
     def coordination_error(self, t_s: float, gamma_m: float) -> tuple[float, float, float, int]:
         """As this vessel sees the team (active neighbours' extrapolated ξ̂_j), in metres of path:
@@ -257,14 +307,17 @@ class Coordination:
         self._poll(t_s, nav)
         if self.path_length_m is None:
             return 1.0
-        xis, l_bar, omega = self._estimates(t_s)
-        ff = omega * self.path_length_m / self.mission_speed_m_s
-        e = float(l_bar * np.sum(self.xi(gamma_m) - xis)) if len(xis) else 0.0
+        view = self._team_view()
+        xis = view.xi_hat(t_s, self.config.extrapolate)
+        own = self.xi(gamma_m)
+        ff = view.omega * self.path_length_m / self.mission_speed_m_s
+        e = view.l_bar * _sum(own - xis if isinstance(xis, np.ndarray) else [own - x for x in xis]) if len(xis) else 0.0
         lead = e / len(xis) if len(xis) else 0.0
-        corr = 0.0 if self.config.role == "leader" else self.config.max_speed_correction * np.tanh(e / self.config.error_scale_m)
+        cfg = self.config
+        corr = 0.0 if cfg.role == "leader" else cfg.max_speed_correction * np.tanh(e / cfg.error_scale_m)
         f = ff * (1.0 - corr)
         f = float(min(f, self.top_speed_m_s / self.mission_speed_m_s))
-        self.last_error_m, self.last_factor, self.last_xi = lead, f, self.xi(gamma_m)
+        self.last_error_m, self.last_factor, self.last_xi = lead, f, own
         return f
 
     def team_intentions(self, t_s: float | None = None, max_age_s: float | None = None) -> dict[str, TeamIntention]:
@@ -283,8 +336,11 @@ class Coordination:
 
     def team_picture(self, t_s: float) -> TeamPicture:
         """What this vessel knows of its team now: every team mate's newest intention and the
-        latest factor on the mission speed."""
-        return TeamPicture(float(t_s), self.team_intentions(), self.last_factor)
+        latest factor on the mission speed (the intentions' mapping is rebuilt only when a message
+        has arrived; treat it as read-only)."""
+        if self._intentions is None:
+            self._intentions = self.team_intentions()
+        return TeamPicture(float(t_s), self._intentions, self.last_factor)
 
     def team_positions(self) -> dict:
         """Latest received position of every team mate: name → (sent time [s], (2,) world [m])."""

@@ -13,6 +13,7 @@ World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
+from bisect import bisect_right
 from dataclasses import dataclass, field
 from typing import Mapping
 
@@ -88,6 +89,9 @@ class TeamIntention:
     def positions(self, times_s) -> np.ndarray:
         """Intended positions (n, 2) at absolute ``times_s``: the plan, linearly interpolated;
         before its start along the broadcast velocity, after its end along its last segment."""
+        if isinstance(times_s, (float, int, np.floating)) or (isinstance(times_s, np.ndarray) and times_s.size == 1):
+            return np.array([self._position(float(np.asarray(times_s).reshape(-1)[0]) if isinstance(times_s, np.ndarray)
+                                            else float(times_s))])
         t = np.atleast_1d(np.asarray(times_s, dtype=float))
         if not self.has_plan:
             return self.position_m + (t - self.sent_time_s)[:, None] * self.velocity_m_s
@@ -100,6 +104,34 @@ class TeamIntention:
             v_end = (pts[-1] - pts[-2]) / max(ts[-1] - ts[-2], 1e-9)
             out[hi] = pts[-1] + (t[hi] - ts[-1])[:, None] * v_end
         return out
+
+    def _position(self, t: float) -> tuple[float, float]:
+        """:meth:`positions` at one time, in plain floats (``np.interp``'s formula and end rules)."""
+        if not self.has_plan:
+            dt = t - self.sent_time_s
+            return self.position_m[0] + dt * self.velocity_m_s[0], self.position_m[1] + dt * self.velocity_m_s[1]
+        ts, xs, ys = self._plan_lists()
+        if t < ts[0]:
+            dt = t - ts[0]
+            return xs[0] + dt * float(self.velocity_m_s[0]), ys[0] + dt * float(self.velocity_m_s[1])
+        if t > ts[-1]:
+            span = max(ts[-1] - ts[-2], 1e-9)
+            vx, vy = (xs[-1] - xs[-2]) / span, (ys[-1] - ys[-2]) / span
+            dt = t - ts[-1]
+            return xs[-1] + dt * vx, ys[-1] + dt * vy
+        if t == ts[-1]:
+            return xs[-1], ys[-1]
+        j = bisect_right(ts, t) - 1
+        h = ts[j + 1] - ts[j]
+        return (xs[j + 1] - xs[j]) / h * (t - ts[j]) + xs[j], (ys[j + 1] - ys[j]) / h * (t - ts[j]) + ys[j]
+
+    def _plan_lists(self):
+        """The plan as plain-float lists (times, x, y), made once."""
+        cached = self.__dict__.get("_lists")
+        if cached is None:
+            cached = (self.plan_times_s.tolist(), self.plan_points_m[:, 0].tolist(), self.plan_points_m[:, 1].tolist())
+            object.__setattr__(self, "_lists", cached)
+        return cached
 
     def max_speed_m_s(self) -> float:
         """Largest speed along the plan (or the broadcast speed) [m/s]."""

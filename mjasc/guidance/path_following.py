@@ -1,4 +1,4 @@
-"""Single-vessel path following: integral line-of-sight guidance, heading and speed loops.
+"""Path following for a fleet: integral line-of-sight guidance, heading and speed loops, allocation.
 
 Guidance: integral LOS (Børhaug, Pavlov & Pettersen 2008; Fossen 2021 §12.4). With γ the vessel's
 projection on the path, χ_p the path's course there and e the signed cross-track error (positive
@@ -18,20 +18,38 @@ crab in a cross current causes (the Munk moment (X_u̇ − Y_v̇) u_r v_r and cr
 plus PI on the surge error. Allocation to the twin propellers at y = ±d:
 ``T_s + T_p = X``, ``d (T_s − T_p) = N`` (FLU: more starboard thrust turns left), then the inverse
 propeller curve gives the normalized commands; when saturated, yaw moment has priority.
+
+One copy of the law for a fleet: :class:`FleetPathFollower` holds every vessel's parameters and
+loop states (γ, the LOS, speed and heading integrals) as rows of arrays and their paths stacked
+(:class:`~mjasc.guidance.stacked_paths.StackedPaths`); one :meth:`~FleetPathFollower.command`
+projects every vessel on its path and runs the law for all of them. The law (:func:`_law`) is
+written once over a table of operations: above :data:`SCALAR_FLEET_MAX` vessels it runs once over
+arrays (the projection in one vectorized pass over each vessel's window of segments); up to it,
+vessel by vessel in plain floats (each path's scalar projection), because numpy's per-call
+overhead, not arithmetic, is the cost of small fleets. Both forms give the same bits (elementwise
+operations in the same order, ``x**2`` through the C library's pow in both; ``math``'s sin, cos
+and atan2 equal numpy's on x86-64 without AVX-512, elsewhere they may differ in the last bit), so
+a vessel's commands do not depend on the fleet it is in (``tests/test_fleet_following.py``).
+:class:`PathFollower` is one vessel's follower: a row of a fleet (its own fleet of one until
+:meth:`FleetPathFollower.of` gathers several followers into one, as the runner's control slot does).
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from types import SimpleNamespace
 
 import numpy as np
 
 from mjasc.core.config_tables import check_params, param
-from mjasc.core.frames import wrap_angle
 from mjasc.guidance.paths import Path
+from mjasc.guidance.segment_geometry import wrap_scalar
+from mjasc.guidance.stacked_paths import StackedPaths
+from mjasc.physics.thrusters import PropellerCoefficients
 from mjasc.physics.vessels import VesselType
 
-__all__ = ["PathFollowingConfig", "PathFollowingStatus", "PathFollower"]
+__all__ = ["PathFollowingConfig", "PathFollowingStatus", "FleetPathFollower", "PathFollower", "SCALAR_FLEET_MAX"]
 
 
 @dataclass(frozen=True)
@@ -69,88 +87,296 @@ class PathFollowingStatus:
     finished: bool
 
 
+# Rows of the parameter array (one column per vessel).
+(_LOOKAHEAD, _WINDOW, _SIGMA, _FINISH, _KP_PSI, _KD_PSI, _NR, _TI, _KP_U, _KI_U, _XU, _XUU, _D, _TMAX, _TMIN,
+ _KF, _KR, _NMAX, _NMIN) = range(19)
+# Rows of the state array: γ [m], ∫ LOS state e_i [m], ∫ surge error [m], ∫ heading error [rad·s].
+_GAMMA, _XTE_I, _SPEED_I, _HEAD_I = range(4)
+
+
+def _parameters(vessel: VesselType, total_mass, lateral_offset_m: float, config: PathFollowingConfig) -> list[float]:
+    """One vessel's column of the parameter array: gains from its rigid-body + added mass (3, 3)
+    and damping, its propellers at y = ±lateral_offset_m [m]."""
+    lookahead = config.lookahead_m or max(3.0 * vessel.length_m, 5.0)
+    m = np.asarray(total_mass, dtype=float)
+    m11, m33 = float(m[0, 0]), float(m[2, 2])
+    h, p = vessel.hydro, vessel.propellers
+    w, z = config.heading_bandwidth_rad_s, config.heading_damping_ratio
+    kp_u = m11 * config.speed_bandwidth_rad_s
+    return [lookahead, max(4.0 * lookahead, 20.0), config.integral_los_gain, config.finish_tolerance_m,
+            m33 * w * w, max(2 * z * w * m33 + h.N_r, 0.0),  # N_r < 0 already damps
+            h.N_r, config.heading_integral_time_s, kp_u, config.speed_integral_gain_ratio * kp_u, h.X_u, h.X_uu,
+            abs(float(lateral_offset_m)), p.max_thrust_n,
+            p.k_reverse * p.n_min_rad_s**2,  # reverse thrust magnitude [N]
+            p.k_forward, p.k_reverse, p.n_max_rad_s, p.n_min_rad_s]
+
+
+def _wrap(a: np.ndarray) -> np.ndarray:
+    """:func:`~mjasc.core.frames.wrap_angle` for a float array (the same operations, fewer calls)."""
+    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
+    return np.where(w == -np.pi, np.pi, w)
+
+
+def _squares(x: np.ndarray) -> np.ndarray:
+    """x² elementwise through the C library's pow, as ``x**2`` of a float computes it (numpy's x·x
+    differs in the last bit for ~0.1 % of values): both forms of the law give the same bits, and
+    the same as before the law was batched."""
+    return np.array([v**2 for v in x.tolist()])
+
+
+class _ArrayOps:
+    """The operations of :func:`_law` over arrays of vessels."""
+
+    where, abs, minimum, maximum = staticmethod(np.where), staticmethod(np.abs), staticmethod(np.minimum), \
+        staticmethod(np.maximum)
+    sin, cos, atan2 = staticmethod(np.sin), staticmethod(np.cos), staticmethod(np.arctan2)
+    wrap, sq = staticmethod(_wrap), staticmethod(_squares)
+    not_, and_, or_ = staticmethod(np.logical_not), staticmethod(np.logical_and), staticmethod(np.logical_or)
+
+
+class _FloatOps:
+    """The operations of :func:`_law` for one vessel in plain floats (numpy's semantics)."""
+
+    @staticmethod
+    def where(c, a, b):
+        return a if c else b
+
+    @staticmethod
+    def minimum(a, b):
+        return a if a <= b else b
+
+    @staticmethod
+    def maximum(a, b):
+        return a if a >= b else b
+
+    @staticmethod
+    def sq(a):
+        return a**2
+
+    @staticmethod
+    def not_(a):
+        return not a
+
+    @staticmethod
+    def and_(a, b):
+        return a and b
+
+    @staticmethod
+    def or_(a, b):
+        return a or b
+
+    abs, sin, cos, atan2, wrap = staticmethod(abs), staticmethod(math.sin), staticmethod(math.cos), \
+        staticmethod(math.atan2), staticmethod(wrap_scalar)
+
+
+def _law(o, P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p, kappa, length):
+    """The control law of the module docstring, once for arrays of vessels (``o`` = _ArrayOps,
+    P, S the parameter and state arrays) and for one vessel (``o`` = _FloatOps, P, S its columns
+    as lists). Inputs: position (x, y), heading, surge u, yaw rate r, speed reference; the
+    projection: γ, the path's point (qx, qy), course χ_p, curvature κ and length L there.
+    Returns (T_port, T_starboard, new states (γ, e_i, ∫e_u, ∫e_ψ), status (e, ψ_d, u_d, finished))."""
+    e = -(x - qx) * o.sin(chi_p) + (y - qy) * o.cos(chi_p)
+    finished = gamma >= length - P[_FINISH]
+    # integral LOS
+    delta, xte_i = P[_LOOKAHEAD], S[_XTE_I]
+    e_eff = e + P[_SIGMA] * xte_i
+    psi_d = o.wrap(chi_p - o.atan2(e_eff, delta))
+    xte_i = o.where(finished, xte_i, xte_i + dt_s * delta * e / (o.sq(delta) + o.sq(e_eff)))
+    # heading and speed loops
+    u_d = o.where(finished, 0.0, speed_ref)
+    r_d = kappa * u
+    e_psi = o.wrap(heading - psi_d)
+    kp_psi = P[_KP_PSI]
+    n_cmd = -kp_psi * e_psi - P[_KD_PSI] * (r - r_d) - P[_NR] * r_d + -kp_psi / P[_TI] * S[_HEAD_I]
+    e_u = u_d - u
+    x_cmd = -P[_XU] * u_d - P[_XUU] * o.abs(u_d) * u_d + P[_KP_U] * e_u + P[_KI_U] * S[_SPEED_I]
+    # allocation to the twin propellers, yaw first: T_s + T_p = X, d (T_s − T_p) = N
+    t_max, t_min = P[_TMAX], P[_TMIN]
+    half_diff_free = 0.5 * n_cmd / P[_D]
+    half_range = (t_max + t_min) / 2
+    half_diff = o.minimum(o.maximum(half_diff_free, -half_range), half_range)
+    lo = -t_min + o.abs(half_diff)
+    hi = t_max - o.abs(half_diff)
+    half_sum_free = 0.5 * x_cmd
+    inside = o.and_(lo <= half_sum_free, half_sum_free <= hi)
+    saturated = o.or_(o.not_(inside), o.abs(half_diff_free) > o.abs(half_diff))
+    half_sum = o.minimum(o.maximum(half_sum_free, lo), hi)
+    # conditional integration: no wind-up while the propellers saturate; the heading integral
+    # only near the reference (not through large turns)
+    speed_i = o.where(saturated, S[_SPEED_I], S[_SPEED_I] + e_u * dt_s)
+    head_i = o.where(o.and_(o.not_(saturated), o.abs(e_psi) < 0.5), S[_HEAD_I] + e_psi * dt_s, S[_HEAD_I])
+    speed_i = o.where(finished, 0.0, speed_i)
+    return half_sum - half_diff, half_sum + half_diff, (gamma, xte_i, speed_i, head_i), (e, psi_d, u_d, finished)
+
+
+#: Up to this many vessels a command runs the law vessel by vessel in plain floats (cheaper than
+#: numpy's per-call overhead); above, once over arrays. Both give the same bits.
+SCALAR_FLEET_MAX = 20
+
+
+class FleetPathFollower:
+    """The path followers of n vessels: parameters (n_params, n) and loop states (4, n) as arrays,
+    the paths stacked. Build it from followers with :meth:`of`."""
+
+    def __init__(self, params: np.ndarray, states: np.ndarray, paths):
+        self._P = np.array(params, dtype=float).reshape(19, -1)
+        self._S = np.array(states, dtype=float).reshape(4, -1)
+        self.paths = StackedPaths(paths)
+        self._members: list = []
+        self._prop = self._propellers(None)
+        self._P_cols = self._P.T.tolist()
+
+    def __len__(self) -> int:
+        return self._S.shape[1]
+
+    def _propellers(self, rows):
+        """The propeller coefficients as (k, 1) columns, for the inverse propeller curve."""
+        P = self._P if rows is None else self._P[:, rows]
+        return SimpleNamespace(k_forward=P[_KF, :, None], k_reverse=P[_KR, :, None],
+                               n_max_rad_s=P[_NMAX, :, None], n_min_rad_s=P[_NMIN, :, None])
+
+    @classmethod
+    def of(cls, followers) -> "FleetPathFollower":
+        """The one fleet whose rows are ``followers`` in order: theirs if they already form one,
+        else a new fleet that takes over their states and paths (they become its rows)."""
+        followers = list(followers)
+        fleet = followers[0]._fleet if followers else None
+        if fleet is not None and fleet._members == followers and all(f._fleet is fleet for f in followers):
+            return fleet
+        params = np.column_stack([f._fleet._P[:, f._row] for f in followers]) if followers else np.zeros((19, 0))
+        states = np.column_stack([f._fleet._S[:, f._row] for f in followers]) if followers else np.zeros((4, 0))
+        new = cls(params, states, [f.path for f in followers])
+        new._members = followers
+        for k, f in enumerate(followers):
+            f._fleet, f._row = new, k
+        return new
+
+    @property
+    def gamma_m(self) -> np.ndarray:
+        """Each vessel's γ on its current path (n,) [m] (read-only view)."""
+        v = self._S[_GAMMA].view()
+        v.flags.writeable = False
+        return v
+
+    def set_path(self, i: int, path: Path, gamma0_m: float = 0.0) -> None:
+        """Vessel i switches to ``path`` at γ = gamma0_m (e.g. a re-planned detour), keeping its loop states."""
+        self.paths.set_path(i, path)
+        self._S[_GAMMA, i] = float(gamma0_m)
+
+    def command(self, position_m, heading_rad, body_velocity, speed_ref_m_s, dt_s: float,
+                rows=None) -> tuple[np.ndarray, list[PathFollowingStatus]]:
+        """Normalized (port, starboard) commands (k, 2) and each vessel's status at this tick, for
+        the vessels ``rows`` (k,) (None: all n, in order).
+
+        position_m (k, 2) world [m]; heading_rad (k,); body_velocity (k, 3) = (u, v, r);
+        speed_ref_m_s (k,) [m/s]; dt_s the control period [s].
+        """
+        pos = np.asarray(position_m, dtype=float)
+        bv = np.asarray(body_velocity, dtype=float)
+        idx = range(len(self)) if rows is None else [int(i) for i in rows]
+        if len(idx) <= SCALAR_FLEET_MAX:
+            thrust, statuses = self._command_floats(idx, pos.tolist(), np.asarray(heading_rad, dtype=float).tolist(),
+                                                    bv.tolist(), np.asarray(speed_ref_m_s, dtype=float).tolist(), dt_s)
+        else:
+            thrust, statuses = self._command_arrays(rows, pos, np.asarray(heading_rad, dtype=float), bv,
+                                                    np.asarray(speed_ref_m_s, dtype=float), dt_s)
+        prop = self._prop if rows is None else self._propellers(rows)
+        return PropellerCoefficients.command_for_thrust(prop, thrust), statuses  # the inverse curve, per vessel
+
+    def _command_floats(self, idx, pos, heading, bv, speed, dt_s):
+        """The law vessel by vessel in plain floats; the projection by each path's scalar query."""
+        thrust = np.empty((len(idx), 2))
+        statuses = []
+        S = self._S
+        paths = self.paths.paths
+        for k, i in enumerate(idx):
+            P = self._P_cols[i]
+            s = S[:, i].tolist()
+            x, y = pos[k][0], pos[k][1]
+            path = paths[i]
+            g = path.project((x, y), gamma_hint=s[_GAMMA], search_window_m=P[_WINDOW])
+            qx, qy, chi_p, kappa = path.at(g)
+            t_p, t_s, new, (e, psi_d, u_d, finished) = _law(_FloatOps, P, s, x, y, heading[k], bv[k][0], bv[k][2],
+                                                             speed[k], dt_s, g, qx, qy, chi_p, kappa, path.length)
+            thrust[k] = t_p, t_s
+            S[:, i] = new
+            statuses.append(PathFollowingStatus(g, e, chi_p, psi_d, u_d, finished))
+        return thrust, statuses
+
+    def _command_arrays(self, rows, pos, heading, bv, speed, dt_s):
+        """The law once over arrays; the projection in one pass over the stacked paths."""
+        P = self._P if rows is None else self._P[:, rows]
+        S = self._S if rows is None else self._S[:, rows]
+        px, py = pos[:, 0], pos[:, 1]
+        q = self.paths.project(px, py, S[_GAMMA], P[_WINDOW], rows)
+        t_p, t_s, new, (e, psi_d, u_d, finished) = _law(_ArrayOps, P, S, px, py, heading, bv[:, 0], bv[:, 2], speed,
+                                                         dt_s, q.gamma_m, q.x_m, q.y_m, q.course_rad, q.curvature_1_m,
+                                                         q.length_m)
+        if rows is None:
+            for j in range(4):
+                self._S[j] = new[j]
+        else:
+            self._S[:, rows] = np.stack(new)
+        statuses = [PathFollowingStatus(*v) for v in zip(q.gamma_m.tolist(), e.tolist(), q.course_rad.tolist(),
+                                                          psi_d.tolist(), u_d.tolist(), finished.tolist())]
+        return np.stack([t_p, t_s], axis=-1), statuses
+
+
 class PathFollower:
-    """Follows one :class:`Path` at a commanded speed with one vessel's twin propellers."""
+    """Follows one :class:`Path` at a commanded speed with one vessel's twin propellers: one row of
+    a :class:`FleetPathFollower` (a fleet of one until it is gathered with others)."""
 
     def __init__(self, path: Path, vessel: VesselType, total_mass: np.ndarray, lateral_offset_m: float,
                  config: PathFollowingConfig = PathFollowingConfig(), gamma0_m: float = 0.0):
-        self.path = path
         self.vessel = vessel
         self.config = config
-        self.lookahead_m = config.lookahead_m or max(3.0 * vessel.length_m, 5.0)
-        m = np.asarray(total_mass, dtype=float)
-        self._m11, self._m33 = float(m[0, 0]), float(m[2, 2])
-        h = vessel.hydro
-        self._xu, self._xuu, self._nr = h.X_u, h.X_uu, h.N_r
-        w, z = config.heading_bandwidth_rad_s, config.heading_damping_ratio
-        self._kp_psi = self._m33 * w * w
-        self._kd_psi = max(2 * z * w * self._m33 + self._nr, 0.0)  # N_r < 0 already damps
-        self._kp_u = self._m11 * config.speed_bandwidth_rad_s
-        self._ki_u = config.speed_integral_gain_ratio * self._kp_u
-        self._d = abs(float(lateral_offset_m))
-        self._tmax = vessel.propellers.max_thrust_n
-        self._tmin = vessel.propellers.k_reverse * vessel.propellers.n_min_rad_s**2  # reverse thrust magnitude [N]
-        self.gamma_m = float(gamma0_m)
-        self._xte_integral = 0.0
-        self._speed_integral = 0.0
-        self._heading_integral = 0.0
-        self._heading_integral = 0.0
-        self._n_limit = 0.5 * (self._tmax + self._tmin) * 2 * self._d  # largest yaw moment [N·m]
+        states = [float(gamma0_m), 0.0, 0.0, 0.0]
+        self._fleet = FleetPathFollower(np.array(_parameters(vessel, total_mass, lateral_offset_m, config))[:, None],
+                                        np.array(states)[:, None], [path])
+        self._fleet._members = [self]
+        self._row = 0
+
+    @property
+    def fleet(self) -> FleetPathFollower:
+        """The fleet this follower is a row of."""
+        return self._fleet
+
+    @property
+    def path(self) -> Path:
+        """The path followed now."""
+        return self._fleet.paths.paths[self._row]
+
+    @property
+    def gamma_m(self) -> float:
+        """Progress γ along the path followed now [m]."""
+        return float(self._fleet._S[_GAMMA, self._row])
+
+    @gamma_m.setter
+    def gamma_m(self, value: float) -> None:
+        self._fleet._S[_GAMMA, self._row] = float(value)
+
+    @property
+    def lookahead_m(self) -> float:
+        """LOS lookahead Δ [m]."""
+        return float(self._fleet._P[_LOOKAHEAD, self._row])
 
     def reset(self, gamma0_m: float = 0.0) -> None:
-        self.gamma_m = float(gamma0_m)
-        self._xte_integral = 0.0
-        self._speed_integral = 0.0
-        self._heading_integral = 0.0
+        self._fleet._S[:, self._row] = (float(gamma0_m), 0.0, 0.0, 0.0)
 
     def set_path(self, path: Path, gamma0_m: float = 0.0) -> None:
         """Switch to a new path (e.g. a re-planned detour) keeping the loop states."""
-        self.path = path
-        self.gamma_m = float(gamma0_m)
+        self._fleet.set_path(self._row, path, gamma0_m)
 
     def command(self, position_m, heading_rad: float, velocity_m_s, body_velocity, speed_ref_m_s: float,
                 dt_s: float) -> tuple[np.ndarray, PathFollowingStatus]:
-        """Normalized (port, starboard) commands for one vessel and the tick's status.
+        """Normalized (port, starboard) commands (2,) for this vessel and the tick's status.
 
         position_m (2,), velocity_m_s (2,) world; body_velocity (3,) = (u, v, r); dt_s control period.
         """
-        path, cfg = self.path, self.config
-        window = max(4.0 * self.lookahead_m, 20.0)
-        self.gamma_m = path.project(position_m, gamma_hint=self.gamma_m, search_window_m=window)
-        e = path.cross_track_error(position_m, self.gamma_m)
-        finished = self.gamma_m >= path.length - cfg.finish_tolerance_m
-        chi_p = float(path.tangent_angle(self.gamma_m))
-        delta, sigma = self.lookahead_m, cfg.integral_los_gain
-        e_eff = e + sigma * self._xte_integral
-        psi_d = wrap_angle(chi_p - np.arctan2(e_eff, delta))
-        if not finished:
-            self._xte_integral += dt_s * delta * e / (delta**2 + e_eff**2)
-        u, r = float(body_velocity[0]), float(body_velocity[2])
-        u_d = 0.0 if finished else float(speed_ref_m_s)
-        r_d = float(path.curvature(self.gamma_m)) * u
-        e_psi = wrap_angle(heading_rad - psi_d)
-        n_i = -self._kp_psi / cfg.heading_integral_time_s * self._heading_integral
-        n_cmd = -self._kp_psi * e_psi - self._kd_psi * (r - r_d) - self._nr * r_d + n_i
-        e_u = u_d - u
-        x_cmd = -self._xu * u_d - self._xuu * abs(u_d) * u_d + self._kp_u * e_u + self._ki_u * self._speed_integral
-        thrust, saturated = self._allocate(x_cmd, n_cmd)
-        if not saturated:  # conditional integration: no wind-up while the propellers saturate
-            self._speed_integral += e_u * dt_s
-            if abs(e_psi) < 0.5:  # integrate only near the reference: not through large turns
-                self._heading_integral += e_psi * dt_s
-        if finished:
-            self._speed_integral = 0.0
-        cmd = self.vessel.propellers.command_for_thrust(thrust)
-        status = PathFollowingStatus(self.gamma_m, e, chi_p, float(psi_d), u_d, bool(finished))
-        return cmd, status
-
-    def _allocate(self, x: float, n: float) -> tuple[np.ndarray, bool]:
-        """(T_port, T_starboard) for surge force x and yaw moment n; yaw has priority."""
-        half_diff = 0.5 * n / self._d
-        half_diff = float(np.clip(half_diff, -(self._tmax + self._tmin) / 2, (self._tmax + self._tmin) / 2))
-        lo = -self._tmin + abs(half_diff)
-        hi = self._tmax - abs(half_diff)
-        half_sum = 0.5 * x
-        saturated = not (lo <= half_sum <= hi) or abs(0.5 * n / self._d) > abs(half_diff)
-        half_sum = float(np.clip(half_sum, lo, hi))
-        return np.array([half_sum - half_diff, half_sum + half_diff]), saturated
+        fleet = self._fleet
+        rows = None if len(fleet) == 1 else np.array([self._row])
+        cmd, status = fleet.command(np.asarray(position_m, dtype=float).reshape(1, -1)[:, :2],
+                                    np.array([float(heading_rad)]),
+                                    np.asarray(body_velocity, dtype=float).reshape(1, 3),
+                                    np.array([float(speed_ref_m_s)]), dt_s, rows)
+        return cmd[0], status[0]

@@ -19,16 +19,52 @@ Paths are immutable; re-planning builds new ones with :meth:`Path.split`,
 
 from __future__ import annotations
 
+import math
+from bisect import bisect_right
 from dataclasses import dataclass
 
 import numpy as np
 
 from mjasc.core.frames import wrap_angle
+from mjasc.guidance.segment_geometry import (
+    C,
+    K,
+    LEN,
+    TH0,
+    clip_scalar,
+    closest_scalar,
+    closest_candidates,
+    eval_points,
+    pick_closest,
+    point_scalar,
+    segment_table,
+    wrap_scalar,
+)
 
 #: Two segment ends closer than this are the same point [m].
 CONTINUITY_TOLERANCE_M = 1e-6
 #: Consecutive points closer than this are treated as one point [m].
 _DUPLICATE_TOLERANCE_M = 1e-9
+
+
+#: Scalar γ types: queries with one of these take the plain-float path.
+_SCALARS = (float, int, np.floating, np.integer)
+#: A projection over fewer segments than this, or a query of at most this many γ, is done in plain
+#: floats (numpy's per-call overhead dominates small arrays), else vectorized.
+_SCALAR_SEGMENTS = 8
+
+
+def _xy(value, name: str) -> tuple[float, float]:
+    """(x, y) floats of a point of shape (2,), or ValueError naming ``name``."""
+    if isinstance(value, np.ndarray) and value.shape == (2,) or isinstance(value, (tuple, list)) and len(value) == 2:
+        try:
+            x, y = float(value[0]), float(value[1])
+        except (TypeError, ValueError):
+            x = y = math.nan
+        if math.isfinite(x) and math.isfinite(y):
+            return x, y
+    p = _as_point(value, name)
+    return float(p[0]), float(p[1])
 
 
 def _as_point(value, name: str) -> np.ndarray:
@@ -152,7 +188,7 @@ class Path:
     (n, 2)); γ is clamped to [0, length].
     """
 
-    __slots__ = ("_segments", "_cum", "_p0", "_theta0", "_kappa", "_len")
+    __slots__ = ("_segments", "_cum", "_table", "_rows", "_cum_list", "_length")
 
     def __init__(self, segments):
         segments = tuple(segments)
@@ -172,13 +208,14 @@ class Path:
                 )
         lengths = np.array([s.length for s in segments])
         self._segments = segments
-        self._len = lengths
         self._cum = np.concatenate([[0.0], np.cumsum(lengths)])
-        self._p0 = np.array([s.start_point for s in segments])
-        self._theta0 = np.array([s.start_course for s in segments])
-        self._kappa = np.array([s.curvature for s in segments])
-        for a in (self._len, self._cum, self._p0, self._theta0, self._kappa):
+        self._table = segment_table(self._cum[:-1], lengths, [s.start_point for s in segments],
+                                    [s.start_course for s in segments], [s.curvature for s in segments])
+        for a in (self._cum, self._table):
             a.flags.writeable = False
+        self._rows = self._table.T.tolist()  # per segment, plain floats: the scalar queries
+        self._cum_list = self._cum.tolist()
+        self._length = self._cum_list[-1]
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -283,7 +320,7 @@ class Path:
     @property
     def length(self) -> float:
         """Total arc length [m]."""
-        return float(self._cum[-1])
+        return self._length
 
     @property
     def segments(self) -> tuple:
@@ -293,6 +330,11 @@ class Path:
     def segment_starts(self) -> np.ndarray:
         """γ at the start of each segment, (n_segments,) [m]."""
         return self._cum[:-1]
+
+    @property
+    def table(self) -> np.ndarray:
+        """The segment table (read-only, fields × segments; :mod:`mjasc.guidance.segment_geometry`)."""
+        return self._table
 
     @property
     def start_point(self) -> np.ndarray:
@@ -308,38 +350,50 @@ class Path:
     # ------------------------------------------------------------------ evaluation
     def _locate(self, gamma):
         """Segment index and local arc length for γ (clamped); at a joint the later segment wins."""
-        g = np.clip(np.asarray(gamma, dtype=float), 0.0, self.length)
+        g = np.clip(np.asarray(gamma, dtype=float), 0.0, self._length)
         idx = np.searchsorted(self._cum, g, side="right") - 1
         idx = np.clip(idx, 0, len(self._segments) - 1)
         return g, idx, g - self._cum[idx]
 
-    def _eval_local(self, idx, s):
-        """Points (…, 2) at local arc length s on segments idx (arrays of equal shape)."""
-        th0 = self._theta0[idx]
-        k = self._kappa[idx]
-        p0 = self._p0[idx]
-        straight = k == 0.0
-        k_safe = np.where(straight, 1.0, k)
-        th = th0 + k * s
-        dx = np.where(straight, s * np.cos(th0), (np.sin(th) - np.sin(th0)) / k_safe)
-        dy = np.where(straight, s * np.sin(th0), (np.cos(th0) - np.cos(th)) / k_safe)
-        return p0 + np.stack([dx, dy], axis=-1)
+    def _locate_scalar(self, gamma: float):
+        """:meth:`_locate` for one γ in plain floats: (segment row, local arc length)."""
+        g = clip_scalar(float(gamma), 0.0, self._length)
+        i = min(max(bisect_right(self._cum_list, g) - 1, 0), len(self._rows) - 1)
+        return self._rows[i], g - self._cum_list[i]
 
     def point(self, gamma) -> np.ndarray:
         """Position at γ: (2,) for scalar γ, (n, 2) for an array [m]."""
+        if isinstance(gamma, _SCALARS):
+            return np.array(point_scalar(*self._locate_scalar(gamma)))
+        if isinstance(gamma, np.ndarray) and gamma.ndim == 1 and gamma.size <= _SCALAR_SEGMENTS:
+            return np.array([point_scalar(*self._locate_scalar(g)) for g in gamma.tolist()]).reshape(-1, 2)
         _, idx, s = self._locate(gamma)
-        return self._eval_local(idx, s)
+        return np.stack(eval_points(self._table[:, idx], s), axis=-1)
 
     def tangent_angle(self, gamma):
         """Course of the path at γ [rad], CCW from east, wrapped to (−π, π]."""
+        if isinstance(gamma, _SCALARS):
+            row, s = self._locate_scalar(gamma)
+            return wrap_scalar(row[TH0] + row[K] * s)
+        if isinstance(gamma, np.ndarray) and gamma.ndim == 1 and gamma.size <= _SCALAR_SEGMENTS:
+            return np.array([wrap_scalar(r[TH0] + r[K] * s) for r, s in map(self._locate_scalar, gamma.tolist())])
         _, idx, s = self._locate(gamma)
-        return wrap_angle(self._theta0[idx] + self._kappa[idx] * s)
+        return wrap_angle(self._table[TH0, idx] + self._table[K, idx] * s)
 
     def curvature(self, gamma):
         """Signed curvature at γ [1/m], CCW (left turn) positive; 0 on lines."""
+        if isinstance(gamma, _SCALARS):
+            return self._locate_scalar(gamma)[0][K]
         _, idx, _ = self._locate(gamma)
-        k = self._kappa[idx]
+        k = self._table[K, idx]
         return float(k) if np.ndim(k) == 0 else k.copy()
+
+    def at(self, gamma: float) -> tuple[float, float, float, float]:
+        """(x [m], y [m], course [rad] wrapped, curvature [1/m]) at one γ, in plain floats: what
+        :meth:`point`, :meth:`tangent_angle` and :meth:`curvature` give, in one look-up."""
+        row, s = self._locate_scalar(gamma)
+        x, y = point_scalar(row, s)
+        return x, y, wrap_scalar(row[TH0] + row[K] * s), row[K]
 
     def sample(self, spacing_m: float) -> np.ndarray:
         """Points (n, 2) every ``spacing_m`` metres along the path, both ends included."""
@@ -352,10 +406,11 @@ class Path:
     def cross_track_error(self, point, gamma: float) -> float:
         """Signed distance of ``point`` from the path's tangent line at γ [m], positive when the
         point is LEFT of the path (port side of a vessel sailing along it)."""
-        p = _as_point(point, "point")
-        q = self.point(float(gamma))
-        th = self.tangent_angle(float(gamma))
-        return float(-(p[0] - q[0]) * np.sin(th) + (p[1] - q[1]) * np.cos(th))
+        px, py = _xy(point, "point")
+        row, s = self._locate_scalar(gamma)
+        qx, qy = point_scalar(row, s)
+        th = wrap_scalar(row[TH0] + row[K] * s)
+        return -(px - qx) * math.sin(th) + (py - qy) * math.cos(th)
 
     # ------------------------------------------------------------------ projection
     def project(self, point, gamma_hint: float | None = None, search_window_m: float | None = None) -> float:
@@ -365,17 +420,29 @@ class Path:
         which keeps γ continuous for a follower on a path that crosses or nears itself. Ties go
         to the smallest γ.
         """
-        p = _as_point(point, "point")
-        lo, hi = 0.0, self.length
+        px, py = _xy(point, "point")
+        lo, hi = 0.0, self._length
         if gamma_hint is not None or search_window_m is not None:
             if gamma_hint is None or search_window_m is None:
                 raise ValueError("gamma_hint: give both gamma_hint and search_window_m, or neither")
             w = float(search_window_m)
-            if not np.isfinite(w) or w <= 0.0:
+            if not math.isfinite(w) or w <= 0.0:
                 raise ValueError(f"search_window_m: must be finite and > 0, got {search_window_m}")
-            h = float(np.clip(gamma_hint, 0.0, self.length))
-            lo, hi = max(0.0, h - w), min(self.length, h + w)
-        gam, _ = self._closest(p[None, :], lo, hi)
+            h = clip_scalar(float(gamma_hint), 0.0, self._length)
+            lo, hi = max(0.0, h - w), min(self._length, h + w)
+        # the segments that can touch [lo, hi], one of margin each side (the exact test is below)
+        j0 = max(bisect_right(self._cum_list, lo) - 2, 0)
+        j1 = min(bisect_right(self._cum_list, hi), len(self._rows) - 1)
+        if j1 - j0 < _SCALAR_SEGMENTS:
+            cands: list = []
+            for row in self._rows[j0:j1 + 1]:
+                s_lo, s_hi = max(0.0, lo - row[C]), min(row[LEN], hi - row[C])
+                if s_lo <= s_hi:
+                    closest_scalar(px, py, row, s_lo, s_hi, cands)
+            d_min = min(c[0] for c in cands)
+            tie = d_min * (1.0 + 1e-12) + 1e-18
+            return clip_scalar(min(g for d, g in cands if d <= tie), 0.0, self._length)
+        gam, _ = self._closest(np.array([[px, py]]), lo, hi, j0, j1 + 1)
         return float(gam[0])
 
     def closest_points(self, points, gamma_min: float = 0.0, gamma_max: float | None = None):
@@ -390,48 +457,25 @@ class Path:
             raise ValueError(f"gamma_max: must be ≥ gamma_min ({gamma_min}), got {gamma_max}")
         return self._closest(pts, lo, hi)
 
-    def _closest(self, pts: np.ndarray, g_lo: float, g_hi: float, chunk: int = 200_000):
-        """Closest points on the stretch [g_lo, g_hi], vectorized over points × segments.
-
-        For each segment the candidate local arc lengths are the clamped foot of the perpendicular
-        (line) or the clamped polar angle about the centre (arc), plus both clamped ends (the
-        polar angle wraps, and an end is the answer whenever the foot lies outside)."""
-        lo = np.maximum(0.0, g_lo - self._cum[:-1])
-        hi = np.minimum(self._len, g_hi - self._cum[:-1])
-        ok = lo <= hi
-        lines = np.flatnonzero(ok & (self._kappa == 0.0))
-        arcs = np.flatnonzero(ok & (self._kappa != 0.0))
-        # Lines: one candidate, the clamped foot of the perpendicular.
-        l_lo, l_hi, l_p0 = lo[lines], hi[lines], self._p0[lines]
-        l_c, l_s = np.cos(self._theta0[lines]), np.sin(self._theta0[lines])
-        # Arcs: clamped polar angle and both clamped ends.
-        a_lo, a_hi, a_k = lo[arcs], hi[arcs], self._kappa[arcs]
-        a_th0, a_p0 = self._theta0[arcs], self._p0[arcs]
-        centre = a_p0 + np.stack([-np.sin(a_th0), np.cos(a_th0)], axis=-1) / a_k[:, None]
-        a0 = np.arctan2(a_p0[:, 1] - centre[:, 1], a_p0[:, 0] - centre[:, 0])
+    def _closest(self, pts: np.ndarray, g_lo: float, g_hi: float, j0: int = 0, j1: int | None = None,
+                 chunk: int = 200_000):
+        """Closest points on the stretch [g_lo, g_hi] (among segments j0 … j1 − 1), vectorized over
+        points × segments (:func:`~mjasc.guidance.segment_geometry.closest_candidates`)."""
+        table = self._table[:, j0:j1]
+        lo = np.maximum(0.0, g_lo - table[C])
+        hi = np.minimum(table[LEN], g_hi - table[C])
+        ok = np.flatnonzero(lo <= hi)
+        seg, lo, hi = table[:, ok], lo[ok], hi[ok]
+        n_arc = int(np.count_nonzero(seg[K]))
         out_g = np.empty(pts.shape[0])
         out_d = np.empty(pts.shape[0])
-        step = max(1, chunk // max(1, lines.size + 3 * arcs.size))
+        step = max(1, chunk // max(1, ok.size + 3 * n_arc))
         for c in range(0, pts.shape[0], step):
             q = pts[c : c + step, None, :]  # (m, 1, 2)
-            dx, dy = q[..., 0] - l_p0[:, 0], q[..., 1] - l_p0[:, 1]
-            s_l = np.clip(dx * l_c + dy * l_s, l_lo, l_hi)  # (m, n_lines)
-            d2_l = (dx - s_l * l_c) ** 2 + (dy - s_l * l_s) ** 2
-            g_l = self._cum[lines] + s_l
-            if arcs.size:
-                phi = np.arctan2(q[..., 1] - centre[:, 1], q[..., 0] - centre[:, 0])
-                s_star = np.clip(np.mod(np.sign(a_k) * (phi - a0), 2.0 * np.pi) / np.abs(a_k), a_lo, a_hi)
-                cand_s = np.stack([s_star, np.broadcast_to(a_lo, s_star.shape), np.broadcast_to(a_hi, s_star.shape)], axis=-1)
-                cand_i = np.broadcast_to(arcs[None, :, None], cand_s.shape)
-                d2_a = np.sum((self._eval_local(cand_i, cand_s) - q[:, :, None, :]) ** 2, axis=-1)
-                d2 = np.concatenate([d2_l, d2_a.reshape(d2_a.shape[0], -1)], axis=1)
-                gam = np.concatenate([g_l, (self._cum[cand_i] + cand_s).reshape(d2_a.shape[0], -1)], axis=1)
-            else:
-                d2, gam = d2_l, g_l
-            dmin = d2.min(axis=1, keepdims=True)
-            gam = np.where(d2 <= dmin * (1.0 + 1e-12) + 1e-18, gam, np.inf)
-            out_g[c : c + step] = np.clip(gam.min(axis=1), 0.0, self.length)
-            out_d[c : c + step] = np.sqrt(dmin[:, 0])
+            d2, gam = closest_candidates(q[..., 0], q[..., 1], seg, lo, hi)
+            m = d2.shape[0]
+            out_g[c : c + step], out_d[c : c + step] = pick_closest(d2.reshape(m, -1), gam.reshape(m, -1),
+                                                                    self._length)
         return out_g, out_d
 
     # ------------------------------------------------------------------ editing

@@ -12,7 +12,8 @@ the vessel's components — hands them on::
     prediction avoidance.predict(t, nav, guidance, report, team) → AvoidanceRequest
     control    coordination.speed_correction(t, nav, γ)      → factor on the mission speed
                avoidance.control(t, nav, guidance, report, team) → AvoidanceRequest
-               path_follower.command(..., speed)              → propeller commands
+               (these two are :meth:`VesselAgent.control_request`, per vessel)
+               the fleet's path followers, all at once       → propeller commands
 
 ``nav`` is the vessel's own :class:`~mjasc.core.navigation.OwnNavigation`; ``guidance`` its
 :class:`~mjasc.guidance.state.GuidanceState` (the path it follows now, γ on it, the mission speed
@@ -27,6 +28,7 @@ reports events with ``drain_events()``.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -91,7 +93,7 @@ class VesselAgent:
     def speed_factor(self) -> float:
         """The coordination law's latest factor on the mission speed (1 without coordination)."""
         factor = self.coordination.last_factor if self.coordination is not None else 1.0
-        return float(factor if np.isfinite(factor) else 1.0)
+        return float(factor) if math.isfinite(factor) else 1.0
 
     def guidance_state(self) -> GuidanceState | None:
         """The path follower's path and γ now, and the mission speed × the coordination factor
@@ -160,9 +162,10 @@ class VesselAgent:
             self._apply(self.avoidance.predict(t, nav, self.guidance_state(), self.perception_report(t),
                                                self.team_picture(t)))
 
-    def control(self, nav: OwnNavigation, dt_s: float) -> ControlOutput:
-        if self.follower is None:
-            return ControlOutput(np.asarray(self.config.commands, dtype=float), None, 0.0, "open_loop")
+    def control_request(self, nav: OwnNavigation) -> tuple[float, str]:
+        """The control slot's per-vessel part, before the (fleet's) path following: the speed
+        reference [m/s] — the mission speed × the coordination factor, or avoidance's override —
+        and the mode; avoidance's path switch is applied to the follower. Needs a path follower."""
         t = nav.time_s
         speed = self.mission_speed_m_s
         mode = "mission"
@@ -175,9 +178,21 @@ class VesselAgent:
             if req.speed_override_m_s is not None:
                 speed = req.speed_override_m_s
         self.mode = mode
+        return speed, mode
+
+    def control_output(self, commands: np.ndarray, status: PathFollowingStatus, mode: str) -> ControlOutput:
+        """The control slot's output from the follower's commands (2,) and status."""
+        return ControlOutput(commands, status, status.speed_ref_m_s, mode)
+
+    def control(self, nav: OwnNavigation, dt_s: float) -> ControlOutput:
+        """This vessel's whole control slot (its follower alone; the tick runs the fleet's
+        followers together, with the same result)."""
+        if self.follower is None:
+            return ControlOutput(np.asarray(self.config.commands, dtype=float), None, 0.0, "open_loop")
+        speed, mode = self.control_request(nav)
         cmd, status = self.follower.command(nav.position_m, nav.heading_rad, nav.velocity_m_s, nav.body_velocity,
                                             speed, dt_s)
-        return ControlOutput(cmd, status, status.speed_ref_m_s, mode)
+        return self.control_output(cmd, status, mode)
 
     # ---------------------------------------------------------------- recording
     def components(self) -> list:

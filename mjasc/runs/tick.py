@@ -2,6 +2,10 @@
 
 :func:`run_onboard_slot` runs one slot of :data:`ONBOARD_SLOTS` for every vessel agent, in vessel
 order (the order matters: the team's link draws its random numbers in the order of the calls).
+The control slot runs each agent's :meth:`~mjasc.runs.agent.VesselAgent.control_request`
+(coordination factor, avoidance request and path switch) in vessel order, then the path
+following of all vessels in one batched call (:class:`~mjasc.guidance.path_following.FleetPathFollower`:
+the agents' followers are gathered into one fleet at the first control tick and stay its rows).
 The runner calls it for each due slot of a physics step (:class:`~mjasc.runs.schedule.Schedule`),
 then records; :class:`mjasc.suite.baselines.CASPolicy` calls it inside a dm_control environment.
 """
@@ -11,7 +15,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Sequence
 
+import numpy as np
+
 from mjasc.core.navigation import OwnNavigation
+from mjasc.guidance.path_following import FleetPathFollower
 
 __all__ = ["ONBOARD_SLOTS", "run_onboard_slot", "SlotEvent"]
 
@@ -35,10 +42,33 @@ def run_onboard_slot(slot: str, agents: Sequence, navs: Sequence[OwnNavigation],
         for agent, nav in zip(agents, navs):
             agent.on_prediction(nav)
     elif slot == "control":
-        return [agent.control(nav, control_dt_s) for agent, nav in zip(agents, navs)]
+        return _control(agents, navs, control_dt_s)
     else:
         raise ValueError(f"slot: not an onboard slot: {slot!r} (known: {', '.join(ONBOARD_SLOTS)})")
     return None
+
+
+def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: float) -> list:
+    """The control slot: per-vessel requests in vessel order, then one batched path-following call."""
+    outputs = [None] * len(agents)
+    rows, speeds, modes = [], [], []
+    for i, (agent, nav) in enumerate(zip(agents, navs)):
+        if agent.follower is None:
+            outputs[i] = agent.control(nav, control_dt_s)  # open loop
+        else:
+            speed, mode = agent.control_request(nav)
+            rows.append(i)
+            speeds.append(speed)
+            modes.append(mode)
+    if rows:
+        fleet = FleetPathFollower.of([agents[i].follower for i in rows])
+        own = [navs[i] for i in rows]
+        cmds, statuses = fleet.command(np.array([n.position_m for n in own]), np.array([n.heading_rad for n in own]),
+                                       np.array([n.body_velocity for n in own]), np.array(speeds, dtype=float),
+                                       control_dt_s)
+        for k, (i, st) in enumerate(zip(rows, statuses)):
+            outputs[i] = agents[i].control_output(cmds[k], st, modes[k])
+    return outputs
 
 
 @dataclass(frozen=True)
