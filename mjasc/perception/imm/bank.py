@@ -35,7 +35,8 @@ import numpy as np
 
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.config import IMMConfig
-from mjasc.perception.imm.kernel import IMMCycle, combine_covariance, combine_state, flip_negative_speeds, wrap
+from mjasc.perception.imm.kernel import (
+    IMMCycle, combine_covariance, combine_state, flip_negative_speeds, turn_rate, wrap)
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import min_mahalanobis_squared, mixture_log_likelihoods, moment_matched
 from mjasc.perception.imm.startup import StartupFilters
@@ -527,7 +528,7 @@ class IMMBank:
     @property
     def turn_rates(self) -> np.ndarray:
         """(n,) ω̂ = Σ_j μ_j ω_j [rad/s] (0 for start-up tracks)."""
-        return np.where(self._startup.active, 0.0, self._mu @ self._omega)
+        return np.where(self._startup.active, 0.0, turn_rate(self._mu, self._omega))
 
     @property
     def mode_probabilities(self) -> np.ndarray:
@@ -567,7 +568,7 @@ class IMMBank:
             position_m=x[:2].copy(),
             heading_rad=float(wrap(x[2])),
             speed_m_s=float(x[3]),
-            turn_rate_rad_s=0.0 if self._startup.active[k] else float(self._mu[k] @ self._omega),
+            turn_rate_rad_s=0.0 if self._startup.active[k] else float(turn_rate(self._mu[k], self._omega)),
             radius_m=float(radius_m),
             position_covariance=self._covariances()[k, :2, :2].copy(),
             **fields,
