@@ -3,9 +3,7 @@
 import os
 import signal
 import threading
-import time
 
-import pytest
 
 from mjasc.campaigns.executor import IsolatedExecutor, execute_in_process
 

@@ -9,7 +9,6 @@ import textwrap
 import time
 
 import pyarrow.parquet as pq
-import pytest
 
 from mjasc.campaigns.store import CampaignStore
 

@@ -50,13 +50,18 @@ the track's radius that is not seen, ``(R_track − r̂)²``, and does not shrin
 is not a target: it is flagged ``extended`` and its returns go to the static map
 (:mod:`mjasc.perception.static_map`), not to the tracker.
 
-Every step is vectorized over the clusters of a scan (``np.add.reduceat``); no Python loop.
+**Many scans at once.** :func:`detect_many` takes the scans of a whole fleet's tick (their returns
+stacked, each with its scan's index; per-scan parameters as arrays): the cyclic neighbours, breaks,
+the rotation that starts each fan after a break, the clusters and every per-cluster sum
+(``np.add.reduceat``) run once over all returns. Every step is per return, per cluster or a
+reduction within one cluster, so each scan's detections are the same bits as when it is detected
+alone (:func:`detect` is :func:`detect_many` of one scan). No Python loop over clusters or returns.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -64,7 +69,8 @@ import numpy as np
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 from mjasc.perception.range_sensor import Scan
 
-__all__ = ["DetectionConfig", "Detections", "detect", "parse_detection_options", "check_detection"]
+__all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "parse_detection_options",
+           "check_detection"]
 
 _REFINE = 2  # Gauss–Newton iterations of the centre
 _DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at its first estimate)
@@ -155,60 +161,147 @@ class Detections:
         return ~self.extended
 
 
-def _empty(scan: Scan, k: int) -> Detections:
-    z2, z1 = np.zeros((0, 2)), np.zeros(0)
-    return Detections(scan.time_s, scan.origin_m, scan.heading_rad, z2, z2.copy(), z1, z1.copy(),
-                      np.zeros(0, dtype=int), z1.copy(), np.zeros(0, dtype=bool), np.full(k, -1),
-                      np.zeros(0, dtype=bool))
+@dataclass(frozen=True)
+class DetectionBatch:
+    """The detections of several scans (:func:`detect_many`): the fields of :class:`Detections`
+    concatenated over the scans, scan s owning detections ``det_offsets[s]:det_offsets[s+1]`` and
+    returns ``ret_offsets[s]:ret_offsets[s+1]`` (``labels``: each return's detection index within its
+    own scan, −1 dropped, in each scan's ``hit_beams`` order)."""
+
+    scans: tuple
+    centres_m: np.ndarray
+    centres_body: np.ndarray
+    radii_m: np.ndarray
+    variances_m2: np.ndarray
+    n_points: np.ndarray
+    ranges_m: np.ndarray
+    extended: np.ndarray
+    occluded: np.ndarray
+    labels: np.ndarray
+    det_offsets: np.ndarray
+    ret_offsets: np.ndarray
+
+    def split(self) -> list[Detections]:
+        """One :class:`Detections` per scan (views of the batch's arrays)."""
+        d, r = self.det_offsets.tolist(), self.ret_offsets.tolist()
+        out = []
+        for k, sc in enumerate(self.scans):
+            a, b = d[k], d[k + 1]
+            out.append(Detections(sc.time_s, sc.origin_m, sc.heading_rad, self.centres_m[a:b], self.centres_body[a:b],
+                                  self.radii_m[a:b], self.variances_m2[a:b], self.n_points[a:b], self.ranges_m[a:b],
+                                  self.extended[a:b], self.labels[r[k]:r[k + 1]], self.occluded[a:b]))
+        return out
 
 
 def detect(scan: Scan, config: DetectionConfig = DetectionConfig(), range_noise_std_m: float = 0.0) -> Detections:
     """Cluster ``scan`` and estimate each object's centre, radius and centre variance."""
-    beams = scan.hit_beams
-    k = beams.size
-    if k == 0:
-        return _empty(scan, 0)
-    n_beams = scan.angles_body.size
-    dth = scan.beam_spacing_rad
-    P = scan.hit_points_world
-    rho = scan.ranges[beams]
-    gap_max = config.max_gap_beams + 1
-    # cyclic breaks: brk[i] is the break between return i and return (i + 1) % k
-    nxt = np.roll(np.arange(k), -1)
-    gaps = beams[nxt] - beams
-    gaps[-1] += n_beams
+    return detect_many([scan], [config], [range_noise_std_m]).split()[0]
+
+
+class _PerScan:
+    """Per-scan constants (beams, beam spacing, full circle, d₀, λ, gap + 1, min points, min radius,
+    max target radius, σ_ρ, σ_ρ², σ_floor²; squares as Python floats): each a Python scalar when
+    every scan shares it (the usual fleet: one sensor and config), else an (S,) array;
+    ``take(name, index)`` gives it per return or per cluster."""
+
+    _NAMES = ("n_beams", "dth", "full", "d0", "lam", "gap_max", "min_pts", "min_rad", "max_tr", "sig", "sig2", "floor2")
+
+    def __init__(self, scans, configs, noise):
+        rows = [(sc.angles_body.size, sc.beam_spacing_rad, sc.full_circle) for sc in scans]
+        rows = [g + (c.cluster_distance_m, c.cluster_range_factor, c.max_gap_beams + 1, c.min_points, c.min_radius_m,
+                     c.max_target_radius_m, float(sig), float(sig) ** 2, c.centre_noise_floor_m ** 2)
+                for g, c, sig in zip(rows, configs, noise)]
+        for name, col in zip(self._NAMES, zip(*rows)):
+            v = col[0]
+            if any(x != v for x in col):
+                v = np.array(col, dtype=bool if name == "full" else (np.int64 if isinstance(v, int) else float))
+            setattr(self, name, v)
+
+    def take(self, name: str, index):
+        v = getattr(self, name)
+        return v[index] if isinstance(v, np.ndarray) else v
+
+    def array(self, name: str, S: int) -> np.ndarray:
+        v = getattr(self, name)
+        return v if isinstance(v, np.ndarray) else np.full(S, v)
+
+
+def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig],
+                range_noise_std_m: Sequence[float]) -> DetectionBatch:
+    """Cluster every scan of ``scans`` (one config and σ_ρ per scan) in one pass; see the module
+    docstring. Each scan's detections equal those of :func:`detect` on it alone."""
+    scans = tuple(scans)
+    S = len(scans)
+    c = _PerScan(scans, configs, range_noise_std_m)
+    k_s = np.array([sc.hit_beams.size for sc in scans], dtype=np.int64)
+    ret_off = np.zeros(S + 1, dtype=np.int64)
+    np.cumsum(k_s, out=ret_off[1:])
+    K = int(ret_off[-1])
+    if K == 0:
+        z2, z1 = np.zeros((0, 2)), np.zeros(0)
+        return DetectionBatch(scans, z2, z2.copy(), z1, z1.copy(), np.zeros(0, dtype=np.int64), z1.copy(),
+                              np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), np.full(0, -1),
+                              np.zeros(S + 1, dtype=np.int64), ret_off)
+    idx = np.arange(K)
+    if S == 1:
+        sc = scans[0]
+        sid, beams, P, hit_all, ranges_all = np.zeros(K, dtype=np.int64), sc.hit_beams, sc.hit_points_world, sc.hit, sc.ranges
+        beam_off = np.zeros(2, dtype=np.int64)
+        rho = ranges_all[beams]
+        first, last, local, k_r = 0, K - 1, idx, K
+    else:
+        beam_off = np.zeros(S + 1, dtype=np.int64)
+        np.cumsum(c.array("n_beams", S), out=beam_off[1:])
+        sid = np.repeat(np.arange(S), k_s)
+        beams = np.concatenate([sc.hit_beams for sc in scans])
+        P = np.concatenate([sc.hit_points_world for sc in scans])
+        hit_all = np.concatenate([sc.hit for sc in scans])
+        ranges_all = np.concatenate([sc.ranges for sc in scans])
+        rho = ranges_all[beam_off[sid] + beams]
+        first, last = ret_off[sid], ret_off[sid + 1] - 1
+        local, k_r = idx - first, k_s[sid]
+    at_last = idx == last
+    # cyclic breaks: brk[i] is the break between return i and the next one of its scan (cyclic)
+    nxt = np.where(at_last, first, idx + 1)
+    gaps = beams[nxt] - beams + np.where(at_last, c.take("n_beams", sid), 0)
     step = np.hypot(*(P[nxt] - P).T)
-    thr = config.cluster_distance_m + config.cluster_range_factor * np.minimum(rho, rho[nxt]) * gaps * dth
-    brk = (gaps > gap_max) | (step > thr)
-    if k >= 3 and brk.any():
-        brk &= ~_wall_continues(P, gaps, step, nxt, range_noise_std_m)
-    if not scan.full_circle or k == 1:
-        brk[-1] = True
-    if brk.any():
-        s = int(np.argmax(brk)) + 1  # start the sequence just after a break
-        order = (np.arange(k) + s) % k
-        brk = brk[order]
-    else:  # one object all around (e.g. inside a closed basin)
-        order = np.arange(k)
+    thr = c.take("d0", sid) + c.take("lam", sid) * np.minimum(rho, rho[nxt]) * gaps * c.take("dth", sid)
+    brk = (gaps > c.take("gap_max", sid)) | (step > thr)
+    if (K >= 3 if S == 1 else (k_s >= 3).any()) and brk.any():
+        prv = np.where(local == 0, last, idx - 1)
+        wall = _wall_continues(P, gaps, step, nxt, prv, c.take("sig", sid))
+        brk &= ~(wall if S == 1 else wall & (k_r >= 3))
+    full = c.take("full", sid)
+    brk |= at_last & ~np.logical_and(full, k_r > 1)
+    # each scan's sequence starts just after its first break (none: in beam order)
+    bi = np.append(np.flatnonzero(brk), K)
+    first_brk = bi[np.searchsorted(bi, ret_off[:-1])]
+    shift = np.where(first_brk < ret_off[1:], first_brk - ret_off[:-1] + 1, 0)
+    order = first + (local + shift[sid]) % k_r
+    brk = brk[order]
     P = P[order]
     rho = rho[order]
-    starts = np.concatenate([[0], np.flatnonzero(brk[:-1]) + 1])
-    counts = np.diff(np.append(starts, k))
+    is_start = local == 0
+    is_start[1:] |= brk[:-1]
+    starts = np.flatnonzero(is_start)
+    counts = np.diff(np.append(starts, K))
     lab = np.repeat(np.arange(starts.size), counts)
     ends = starts + counts - 1
+    cs = sid[starts]  # scan of each cluster
 
-    o = scan.origin_m
+    origins = scans[0].origin_m if S == 1 else np.array([sc.origin_m for sc in scans], dtype=float)
+    o = origins if S == 1 else origins[cs]
     pf, pl = P[starts], P[ends]
     width = np.hypot(*(pl - pf).T)
     rho_mean = np.add.reduceat(rho, starts) / counts
-    spacing = rho_mean * dth
-    r_w = np.maximum(0.5 * (width + spacing), config.min_radius_m)
+    spacing = rho_mean * c.take("dth", cs)
+    r_w = np.maximum(0.5 * (width + spacing), c.take("min_rad", cs))
     mid = 0.5 * (pf + pl)
     los = mid - o
     los_n = np.hypot(*los.T)
     u = los / np.where(los_n > 0, los_n, 1.0)[:, None]
     v = np.stack([-u[:, 1], u[:, 0]], axis=-1)
-    rel = P - o
+    rel = P - (o if S == 1 else o[lab])
     d = np.einsum("ij,ij->i", rel, u[lab])
     y = np.einsum("ij,ij->i", P - mid[lab], v[lab])
     behind = np.sqrt(np.maximum(r_w[lab] ** 2 - y * y, 0.0))
@@ -229,29 +322,39 @@ def detect(scan: Scan, config: DetectionConfig = DetectionConfig(), range_noise_
         centres = centres - np.stack([(a22 * g1 - a12 * g2) / det_, (a11 * g2 - a12 * g1) / det_], axis=-1)
     far = np.maximum.reduceat(np.hypot(*(P - centres[lab]).T), starts)
     radii = np.maximum(r_w, far)
-    var = spacing**2 / 12.0 + range_noise_std_m**2 / counts + config.centre_noise_floor_m**2
+    var = spacing**2 / 12.0 + c.take("sig2", cs) / counts + c.take("floor2", cs)
 
-    occluded = _occluded_edges(scan, beams[order], rho, starts, ends, gap_max)
+    occluded = _occluded_edges(beams[order], rho, starts, ends, cs, beam_off, c, hit_all, ranges_all)
 
-    keep = counts >= config.min_points
-    labels = np.full(k, -1)
+    keep = counts >= c.take("min_pts", cs)
+    det_off = np.zeros(S + 1, dtype=np.int64)
+    np.cumsum(np.bincount(cs[keep], minlength=S), out=det_off[1:])
     new_index = np.cumsum(keep) - 1
+    if S > 1:
+        new_index -= det_off[cs]  # index among the kept clusters of its scan
+    labels = np.full(K, -1)
     labels[order] = np.where(keep[lab], new_index[lab], -1)
-    centres, radii, var, counts, occluded = centres[keep], radii[keep], var[keep], counts[keep], occluded[keep]
-    rel_c = centres - o
-    c, s_ = math.cos(scan.heading_rad), math.sin(scan.heading_rad)
-    body = np.stack([c * rel_c[:, 0] + s_ * rel_c[:, 1], -s_ * rel_c[:, 0] + c * rel_c[:, 1]], axis=-1)
-    return Detections(scan.time_s, o, scan.heading_rad, centres, body, radii, var, counts,
-                      np.hypot(*rel_c.T), radii > config.max_target_radius_m, labels, occluded)
+    centres, radii, var, counts, occluded, cs = (a[keep] for a in (centres, radii, var, counts, occluded, cs))
+    if S == 1:
+        rel_c = centres - origins
+        cos_h, sin_h = math.cos(scans[0].heading_rad), math.sin(scans[0].heading_rad)
+    else:
+        rel_c = centres - origins[cs]
+        heading = [sc.heading_rad for sc in scans]
+        cos_h = np.array([math.cos(h) for h in heading])[cs]
+        sin_h = np.array([math.sin(h) for h in heading])[cs]
+    body = np.stack([cos_h * rel_c[:, 0] + sin_h * rel_c[:, 1], -sin_h * rel_c[:, 0] + cos_h * rel_c[:, 1]], axis=-1)
+    return DetectionBatch(scans, centres, body, radii, var, counts, np.hypot(*rel_c.T), radii > c.take("max_tr", cs),
+                          occluded, labels, det_off, ret_off)
 
 
-def _wall_continues(P, gaps, step, nxt, sigma) -> np.ndarray:
+def _wall_continues(P, gaps, step, nxt, prv, sigma) -> np.ndarray:
     """(k,) bool: the step from return i to i + 1 (neighbouring beams, at most ``_WALL_STEP_MAX_M``)
     continues the straight line through i − 1, i, or through i + 1, i + 2 (within the noise), and the
     two steps' lengths are alike (``_WALL_STEP_RATIO``): the beams graze a wall, whose returns spread
     out along it; they stay one object. Without the length test a short step's direction (noise:
-    anything goes) let a boat's hull in front of a wall join the wall's cluster."""
-    prv = np.roll(nxt, 2)  # i − 1 (nxt is a cyclic shift by one)
+    anything goes) let a boat's hull in front of a wall join the wall's cluster. ``nxt`` / ``prv``:
+    each return's cyclic neighbours in its scan; ``sigma`` (k,) σ_ρ of its scan."""
     seg = P[nxt] - P  # i → i + 1
     length = np.maximum(step, 1e-9)
     unit = seg / length[:, None]
@@ -259,25 +362,35 @@ def _wall_continues(P, gaps, step, nxt, sigma) -> np.ndarray:
     cross_back = np.abs(unit[prv, 0] * unit[:, 1] - unit[prv, 1] * unit[:, 0])
     similar = np.maximum(length, length[prv]) <= _WALL_STEP_RATIO * np.minimum(length, length[prv]) + 6.0 * sigma
     back = (gaps == 1) & (gaps[prv] == 1) & (np.einsum("ij,ij->i", unit[prv], unit) > 0) & (cross_back < tol) & similar
-    fwd = np.roll(back, -1)  # the step i+1 → i+2 continues i → i+1
+    fwd = back[nxt]  # the step i+1 → i+2 continues i → i+1
     return (back | fwd) & (gaps == 1) & (step <= _WALL_STEP_MAX_M)
 
 
-def _occluded_edges(scan: Scan, beams, rho, starts, ends, gap_max: int) -> np.ndarray:
-    """(m,) bool: a cluster's first or last return has, within ``gap_max`` beams beyond it, a return
-    nearer by more than ``_OCCLUDER_MARGIN_M`` (something in front hides part of the object), or its
-    edge is the edge of a partial fan."""
-    n = scan.angles_body.size
-    off = np.arange(1, gap_max + 1)
+def _occluded_edges(beams, rho, starts, ends, cs, beam_off, c: _PerScan, hit_all, ranges_all) -> np.ndarray:
+    """(m,) bool: a cluster's first or last return has, within its scan's ``gap_max`` beams beyond it,
+    a return nearer by more than ``_OCCLUDER_MARGIN_M`` (something in front hides part of the
+    object), or its edge is the edge of a partial fan. ``cs`` (m,) the scan of each cluster; the
+    scans' beams are stacked in ``hit_all`` / ``ranges_all`` from ``beam_off``."""
+    gap_max = c.take("gap_max", cs)
+    g = int(np.max(gap_max))
+    off = np.arange(1, g + 1)
+    n = c.take("n_beams", cs)
+    fc = c.take("full", cs)
+    n_col = n[:, None] if isinstance(n, np.ndarray) else n
+    within = True if not isinstance(gap_max, np.ndarray) else off[None, :] <= gap_max[:, None]
+    base = beam_off[cs][:, None]
     occ = np.zeros(starts.size, dtype=bool)
     for edge, sign in ((starts, -1), (ends, 1)):
         nb = beams[edge][:, None] + sign * off[None, :]
-        if scan.full_circle:
-            nb %= n
+        if isinstance(fc, np.ndarray):
+            occ |= ~fc & ((nb[:, 0] < 0) | (nb[:, 0] >= n))
+            nb = np.where(fc[:, None], nb % n_col, np.clip(nb, 0, n_col - 1))
+        elif fc:
+            nb %= n_col
         else:
-            outside = (nb < 0) | (nb >= n)
-            occ |= outside[:, 0]
-            nb = np.clip(nb, 0, n - 1)
-        nearer = scan.hit[nb] & (scan.ranges[nb] < rho[edge][:, None] - _OCCLUDER_MARGIN_M)
+            occ |= (nb[:, 0] < 0) | (nb[:, 0] >= n)
+            nb = np.clip(nb, 0, n_col - 1)
+        nb += base
+        nearer = hit_all[nb] & (ranges_all[nb] < rho[edge][:, None] - _OCCLUDER_MARGIN_M) & within
         occ |= nearer.any(axis=1)
     return occ

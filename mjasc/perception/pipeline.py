@@ -4,7 +4,7 @@ The component the runner attaches to a vessel with a ``[vessels.sensor]`` or ``[
 table (interface in :class:`mjasc.runs.agent.VesselAgent`)::
 
     sense(t, nav)          scan (at the sensor's rate) → detections; extended ones → static map
-    update_tracks(t, nav)  the scan's target detections → MultiTargetTracker (one batched IMM bank)
+    update_tracks(t, nav)  the scan's target detections → MultiTargetTracker (the fleet's IMM bank)
     tracks()               confirmed tracks as TrackEstimate (world ENU, SI)
     static_polygons()      convex polygons of the mapped static structures
     set_team_positions(d)  {name: (t, position)} from the comms link: marks team-mate tracks
@@ -23,6 +23,13 @@ boat passing along a quay keeps its track). Each scan also frees the map cells i
 through (:meth:`mjasc.perception.static_map.StaticMap.carve`). Everything else goes to the tracker. Nothing here reads
 another body's state from the simulator: only the scan (ranges along known beams) and the vessel's
 own pose.
+
+**Fleet.** A vessel's perception is a member of its world's
+:class:`~mjasc.perception.fleet.PerceptionFleet`: ``sense`` casts the fan at once and queues the
+scan, ``update_tracks`` queues the tracking step, and the fleet processes every vessel's queued
+work in one pass (after the last vessel was asked, or when a result is read: ``scan``,
+``detections``, ``tracker``, ``map``, ``tracks()`` … flush the queue first). The map and the
+tracker are views of the fleet's (one store of cells, one IMM bank per tracking configuration).
 """
 
 from __future__ import annotations
@@ -34,22 +41,12 @@ from dataclasses import replace
 import numpy as np
 
 from mjasc.perception.detection import Detections, detect
+from mjasc.perception.fleet import DISC_MARGIN_M, PerceptionFleet, fleet_of, tracked_discs
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
 from mjasc.perception.tracking.config import TrackingConfig
-from mjasc.perception.tracking.tracker import MultiTargetTracker
 
 __all__ = ["Perception", "covariance_ellipse"]
-
-#: A tracked disc (returns kept out of the map) is the track's radius + this + 2σ of its position [m]
-_DISC_MARGIN_M = 1.0
-#: ... at most this beyond its radius (a long-coasting track must not blank a whole wall) [m].
-_DISC_MARGIN_MAX_M = 2.5
-#: A small cluster on mapped cells is a fragment of the mapped structure only if its returns lie
-#: within this (+ 2σ_ρ) RMS of a straight line (a 4 m hull seen over ≥ 60° of its side: ≥ 0.2 m) [m].
-_FLAT_M = 0.15
-#: A confirmed track that moved this far from where it was confirmed stays "moving" for the map [m].
-_MOVED_M = 3.0
 
 
 def covariance_ellipse(centre, cov, n_sigma: float = 2.0, points: int = 33) -> np.ndarray:
@@ -63,8 +60,11 @@ def covariance_ellipse(centre, cov, n_sigma: float = 2.0, points: int = 33) -> n
 
 
 class Perception:
+    """One vessel's perception (see the module docstring); a member of its world's
+    :class:`~mjasc.perception.fleet.PerceptionFleet` (``fleet``: another one to join)."""
+
     def __init__(self, world, vessel_index: int, sensor_config: SensorConfig | None,
-                 tracking_config: TrackingConfig | None, rng: np.random.Generator):
+                 tracking_config: TrackingConfig | None, rng: np.random.Generator, fleet: PerceptionFleet | None = None):
         self.sensor_config = SensorConfig() if sensor_config is None else sensor_config
         self.config = TrackingConfig() if tracking_config is None else tracking_config
         self.world = world
@@ -72,13 +72,11 @@ class Perception:
         self.name = world.vessel_names[vessel_index]
         self.sensor = sensor_for_vessel(world, vessel_index, self.sensor_config)
         self.rng = rng
-        self.tracker = MultiTargetTracker(self.config, self.sensor_config.max_range_m)
-        self.map = StaticMap(self.config.map_cell_m, self.config.map_min_hits)
-        self.scan: Scan | None = None
-        self.detections: Detections | None = None
-        self._target_mask = np.zeros(0, dtype=bool)
-        self._anchor: dict[int, np.ndarray] = {}  # confirmed track id → where it was first confirmed
-        self._moved: set[int] = set()  # ids of confirmed tracks that have moved _MOVED_M from there
+        self.fleet = fleet_of(world) if fleet is None else fleet
+        self._map, self._tracker = self.fleet.join(self)
+        self._scan: Scan | None = None
+        self._det: Detections | None = None
+        self._targets = np.zeros(0, dtype=bool)
         self._next_scan_t = -math.inf
         self._pending = False  # a scan not yet given to the tracker
         self._drain: list[tuple[float, str]] = []
@@ -89,83 +87,80 @@ class Perception:
         self._stats = {"scans": 0, "returns": 0, "detections": 0, "target_detections": 0,
                        "sense_s": 0.0, "track_s": 0.0, "track_updates": 0, "max_tracks": 0}
 
+    # ---------------------------------------------------------------- state (read after the fleet's pass)
+    @property
+    def scan(self) -> Scan | None:
+        """The latest scan."""
+        self.fleet.flush()
+        return self._scan
+
+    @property
+    def detections(self) -> Detections | None:
+        """The latest scan's detections."""
+        self.fleet.flush()
+        return self._det
+
+    @property
+    def tracker(self):
+        """The vessel's :class:`~mjasc.perception.tracking.MultiTargetTracker` (a view of the fleet's)."""
+        self.fleet.flush()
+        return self._tracker
+
+    @property
+    def map(self) -> StaticMap:
+        """The vessel's :class:`~mjasc.perception.static_map.StaticMap` (a view of the fleet's store)."""
+        self.fleet.flush()
+        return self._map
+
+    @property
+    def _target_mask(self) -> np.ndarray:
+        self.fleet.flush()
+        return self._targets
+
     # ---------------------------------------------------------------- slots
     def sense(self, t_s: float, nav=None) -> None:
-        """Take a scan if one is due and turn it into detections."""
-        if t_s < self._next_scan_t - 1e-9:
-            return
-        w0 = time.perf_counter()
-        self._next_scan_t = t_s + 1.0 / self.sensor_config.rate_hz
-        scan = self.sensor.scan(self.world.data, self.rng)
-        det = detect(scan, self.config.detection, self.sensor_config.range_noise_std_m)
-        pts = scan.hit_points_world
-        discs = self._tracked_discs(scan.time_s)
-        if len(det) and det.extended.any() and discs[0].shape[0]:
-            det = self._split_tracked(scan, det, discs)
-        targets = det.targets.copy()
-        labels = det.labels
-        if len(det):
-            if self.map.n_occupied and targets.any():
-                occ = self.map.occupied(pts)
-                good = labels >= 0
-                frac = np.bincount(labels[good], weights=occ[good], minlength=len(det)) / np.maximum(det.n_points, 1)
-                on_map = targets & (frac >= 0.5) & ~_inside(det.centres_m, *discs)
-                if on_map.any():  # a wall fragment is flat; a hull's returns curve round it
-                    on_map &= _thickness(pts, labels, len(det)) <= _FLAT_M + 2.0 * self.sensor_config.range_noise_std_m
-                targets &= ~on_map
-            static = ~targets
-            good_static = (labels >= 0) & static[np.maximum(labels, 0)]
-            if good_static.any():
-                p = pts[good_static]
-                self.map.add_scan(p[~_inside(p, *discs)])
-        if self.map.miss_weight > 0:
-            self.map.carve(scan.origin_m, scan.angles_body + scan.heading_rad, scan.ranges, scan.hit,
-                           scan.max_range_m, scan.full_circle, self.sensor_config.range_noise_std_m, pts)
-        self.scan, self.detections, self._target_mask = scan, det, targets
-        self._pending = True
+        """Take a scan if one is due (the fan is cast now) and queue it for the fleet's pass, which
+        turns it into detections and map updates."""
+        if t_s >= self._next_scan_t - 1e-9:
+            w0 = time.perf_counter()
+            self._next_scan_t = t_s + 1.0 / self.sensor_config.rate_hz
+            scan = self.sensor.scan(self.world.data, self.rng)
+            self._stats["sense_s"] += time.perf_counter() - w0
+            self.fleet.queue_scan(self, scan)
+            self._pending = True
+        self.fleet.asked(self)
+
+    def _scanned(self, scan: Scan, det: Detections, targets: np.ndarray) -> None:
+        """The fleet's sensing pass is done with this vessel's scan."""
+        self._scan, self._det, self._targets = scan, det, targets
         st = self._stats
         st["scans"] += 1
         st["returns"] += int(scan.hit_beams.size)
         st["detections"] += len(det)
-        st["target_detections"] += int(targets.sum())
-        st["sense_s"] += time.perf_counter() - w0
+        st["target_detections"] += int(np.count_nonzero(targets))
 
-    def _tracked_discs(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+    def tracked_discs(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """Centres (q, 2) and radii (q,) [m] of the confirmed tracks whose returns must never reach
         the map, predicted to the scan time t_s: every moving track, and every static one that was
-        seen to move (a boat that stopped; ``_MOVED_M`` from where it was confirmed). The centre is
-        the combined estimate advanced along its arc (thesis eq. 3.3 with ω̂, one step of dt = t_s −
-        its last update: a coasting track is predicted, not left where it was last seen); the
-        radius is the track's radius + 1 m + 2σ of its position (at most ``_DISC_MARGIN_MAX_M``)."""
+        seen to move (a boat that stopped; ``tracking.management.MOVED_M`` from where it was
+        confirmed); :func:`mjasc.perception.fleet.tracked_discs`."""
         tr = self.tracker
-        if len(tr) == 0:
-            return np.zeros((0, 2)), np.zeros(0)
-        bank = tr.bank
-        ids = bank.track_ids
-        moved = np.fromiter((int(i) in self._moved for i in ids), dtype=bool, count=ids.size)
-        sel = tr.confirmed & (~tr.static | moved)
-        if not sel.any():
-            return np.zeros((0, 2)), np.zeros(0)
-        x = bank.states[sel]
-        dt = np.maximum(t_s - bank.times_s[sel], 0.0)
-        th = x[:, 2] + 0.5 * dt * bank.turn_rates[sel]
-        c = x[:, :2] + (dt * x[:, 3])[:, None] * np.stack([np.cos(th), np.sin(th)], axis=-1)
-        P = bank.position_covariances[sel]
-        tr_ = 0.5 * (P[:, 0, 0] + P[:, 1, 1])
-        lam = tr_ + np.sqrt(np.maximum(tr_**2 - (P[:, 0, 0] * P[:, 1, 1] - P[:, 0, 1] ** 2), 0.0))
-        r = tr.radii_m[sel] + np.minimum(_DISC_MARGIN_M + 2.0 * np.sqrt(lam), _DISC_MARGIN_MAX_M)
-        return c, r
+        ft = tr.fleet
+        rows = tr._rows()
+        mg = ft.mgmt
+        rows = rows[mg._confirmed[rows] & (~mg._static[rows] | mg._moved[rows])]
+        return tracked_discs(ft, rows, np.full(rows.size, float(t_s)))
 
     def _split_tracked(self, scan: Scan, det: Detections, discs) -> Detections:
-        """The returns of extended clusters that lie in a tracked disc (``_tracked_discs``) taken out
+        """The returns of extended clusters that lie in a tracked disc (:meth:`tracked_discs`) taken out
         of their cluster and clustered again on their own, as target detections: a boat close to a
         wall (or to another boat) whose returns joined the wall's cluster keeps its track updated
         instead of being written into the map as part of the wall."""
         lab = det.labels
         good = lab >= 0
         take = good & det.extended[np.maximum(lab, 0)] & _inside(scan.hit_points_world, *discs)
-        if take.any() and self.map.n_occupied:  # the wall behind, where it is mapped, stays the wall's
-            take[take] = ~self.map.occupied(scan.hit_points_world[take])
+        if take.any() and self._map.n_occupied:  # the wall behind, where it is mapped, stays the wall's
+            take[take] = ~self._map.occupied(scan.hit_points_world[take])
         if not take.any():
             return det
         mask = np.zeros_like(scan.hit)
@@ -180,7 +175,7 @@ class Perception:
         # its radius of the predicted centre (a piece of the wall beside it stays the wall's)
         c, r = discs
         d = np.hypot(*(extra.centres_m[:, None, :] - c[None, :, :]).transpose(2, 0, 1))
-        core = r - _DISC_MARGIN_M
+        core = r - DISC_MARGIN_M
         fits = ((d <= core[None, :]) & (extra.radii_m[:, None] <= core[None, :] + 0.5)).any(axis=1) & ~extra.extended
         if not fits.any():
             return det
@@ -199,43 +194,25 @@ class Perception:
                           cat(det.ranges_m, extra.ranges_m), cat(det.extended, extra.extended), labels, occ)
 
     def update_tracks(self, t_s: float, nav=None) -> None:
-        """Give the latest scan's target detections to the tracker (nothing new: nothing to do)."""
-        if not self._pending:
-            return
-        w0 = time.perf_counter()
-        self._pending = False
-        det = self.detections
-        self.tracker.step(det.time_s if det is not None else t_s, det, self.scan.origin_m, self._target_mask,
-                          points_m=self.scan.hit_points_world)
-        self._note_moved_tracks()
-        for ev in self.tracker.drain_events():
+        """Queue the latest scan's target detections for the fleet's tracking pass (nothing new:
+        nothing to do)."""
+        if self._pending:
+            self._pending = False
+            self.fleet.queue_track(self)
+        self.fleet.asked(self)
+
+    def _tracked(self) -> None:
+        """The fleet's tracking pass is done with this vessel's scan."""
+        tr = self._tracker
+        for ev in tr.drain_events():
             self._log_events.append(ev)
             if ev.kind != "born":
                 self._drain.append((ev.time_s, ev.text))
         st = self._stats
-        st["track_s"] += time.perf_counter() - w0
         st["track_updates"] += 1
-        st["max_tracks"] = max(st["max_tracks"], len(self.tracker))
+        st["max_tracks"] = max(st["max_tracks"], len(tr))
         if self.keep_history:
             self._append_history()
-
-    def _note_moved_tracks(self) -> None:
-        """Remember the confirmed tracks that have moved ``_MOVED_M`` from where they were first
-        seen confirmed (their returns stay out of the map even after they stop)."""
-        tr = self.tracker
-        ids = tr.bank.track_ids
-        conf = tr.confirmed
-        pos = tr.bank.positions
-        live = set()
-        for k in np.flatnonzero(conf):
-            i = int(ids[k])
-            live.add(i)
-            a = self._anchor.setdefault(i, pos[k].copy())
-            if i not in self._moved and np.hypot(*(pos[k] - a)) >= _MOVED_M:
-                self._moved.add(i)
-        if len(self._anchor) > len(live):
-            self._anchor = {i: a for i, a in self._anchor.items() if i in live}
-            self._moved &= live
 
     def _append_history(self) -> None:
         tr = self.tracker
@@ -256,9 +233,11 @@ class Perception:
         return self.map.polygons()
 
     def set_team_positions(self, positions: dict) -> None:
+        """``{name: (t_b [s], position (2,) [m])}`` from the comms link: marks team-mate tracks."""
         self.tracker.set_team_positions(positions)
 
     def drain_events(self) -> list[tuple[float, str]]:
+        self.fleet.flush()
         ev, self._drain = self._drain, []
         return ev
 
@@ -314,18 +293,6 @@ def _subset(d: Detections, keep: np.ndarray) -> Detections:
     return Detections(d.time_s, d.origin_m, d.heading_rad, d.centres_m[keep], d.centres_body[keep], d.radii_m[keep],
                       d.variances_m2[keep], d.n_points[keep], d.ranges_m[keep], d.extended[keep], d.labels,
                       None if d.occluded is None else d.occluded[keep])
-
-
-def _thickness(p: np.ndarray, labels: np.ndarray, m: int) -> np.ndarray:
-    """(m,) RMS distance [m] of each cluster's returns from their principal line (0 for 1–2 returns)."""
-    good = labels >= 0
-    lab, q = labels[good], p[good]
-    n = np.maximum(np.bincount(lab, minlength=m), 1)
-    mean = np.stack([np.bincount(lab, q[:, i], m) for i in (0, 1)], axis=-1) / n[:, None]
-    d = q - mean[lab]
-    sxx, syy, sxy = (np.bincount(lab, w, m) / n for w in (d[:, 0] ** 2, d[:, 1] ** 2, d[:, 0] * d[:, 1]))
-    tr = 0.5 * (sxx + syy)
-    return np.sqrt(np.maximum(tr - np.sqrt(np.maximum(tr**2 - (sxx * syy - sxy**2), 0.0)), 0.0))
 
 
 def _inside(p: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:

@@ -18,29 +18,36 @@ mapped, and once mapped, one hit in three keeps it. What this removes is what a 
 filled while it was taken for part of a wall (merged into the wall's cluster) are seen through
 once the boat has moved on, and vanish from the map.
 
-``polygons()`` turns the occupied cells into convex polygons for the planner: 8-connected
-components of occupied cells, each split recursively (at the median along its principal axis)
-until the cells fill at least ``min_fill`` of their convex hull, so that an L- or U-shaped dock
-becomes a few convex pieces hugging its walls instead of one hull covering its basin. Each polygon
-is the convex hull of its cells' corners (counter-clockwise, conservative by up to one cell).
+``polygons()`` turns the occupied cells into convex polygons for the planner
+(:mod:`mjasc.perception.map_polygons`), only when asked and the map changed since the last call.
+
+**One table for a fleet.** :class:`StaticMapStore` holds the maps of many vessels in one table of
+cells keyed by (member, i, j) (packed into one int64, looked up with ``np.searchsorted`` in a sorted
+copy of the keys): one call adds the static returns of every vessel's scan, one call carves the
+free space seen by every vessel's fan, one call answers "is this return on a mapped cell" for all
+returns of a tick. :class:`StaticMap` is one vessel's view of a store (a map built on its own is
+a view of a store of one); its results are the same whichever store it lives in (every step is
+per cell or per beam, reductions are per cell).
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
-from scipy import ndimage
-from scipy.spatial import ConvexHull, QhullError
 
 from mjasc.core.config_tables import check_params, param
+from mjasc.perception.map_polygons import PolygonCache
 
-__all__ = ["StaticMap", "StaticMapConfig"]
+__all__ = ["StaticMap", "StaticMapConfig", "StaticMapStore"]
 
-_CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 #: A cell's half-extent as seen from the sensor, in cells (> the half-diagonal √2/2: conservative).
 _HALF_EXTENT_CELLS = 0.75
+_IJ_BITS = 24  # cell indices i, j in [−2²³, 2²³) (±8,388 km at 1 m cells); members < 2¹⁵
+_IJ_HALF = 1 << (_IJ_BITS - 1)
+_MEMBER_SHIFT = 2 * _IJ_BITS
 
 
 @dataclass(frozen=True)
@@ -67,13 +74,227 @@ class StaticMapConfig:
         check_params(self, "static_map")
 
 
+def _cell_keys(member: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """(k,) int64 keys of cells (k, 2) of members (k,), ordered like (member, i, j)."""
+    if cells.size and (cells.min() < -_IJ_HALF or cells.max() >= _IJ_HALF):
+        raise ValueError(f"points_world: a cell index beyond ±{_IJ_HALF} cells (a position of "
+                         f"{np.abs(cells).max()} cells from the origin)")
+    return ((member << _MEMBER_SHIFT) | ((cells[:, 0] + _IJ_HALF) << _IJ_BITS)) | (cells[:, 1] + _IJ_HALF)
+
+
+class StaticMapStore:
+    """The static maps of many vessels (members) in one table of scored cells, one row per
+    (member, cell) ever hit. Rows keep their order of creation (a member's rows in the order its
+    own map would have created them)."""
+
+    def __init__(self):
+        self._configs: list[StaticMapConfig] = []
+        z = np.zeros(0)
+        self._cell_m, self._min_hits, self._cap, self._miss, self._margin = z, z, z, z, z
+        self._version = np.zeros(0, dtype=np.int64)
+        self._n_occupied = np.zeros(0, dtype=np.int64)
+        self._keys = np.zeros(0, dtype=np.int64)  # sorted keys of the rows …
+        self._key_rows = np.zeros(0, dtype=np.int64)  # … and their rows
+        self._cells = np.zeros((0, 2), dtype=np.int64)
+        self._member = np.zeros(0, dtype=np.int64)
+        self._score = np.zeros(0)
+        self._n = 0
+
+    def add_member(self, config: StaticMapConfig) -> int:
+        """A new (empty) map with this config; returns its member index."""
+        k = len(self._configs)
+        if k >= 1 << 15:
+            raise ValueError("StaticMapStore: at most 32768 maps")
+        self._configs.append(config)
+        c = config
+        app = lambda a, v: np.append(a, v)  # noqa: E731
+        self._cell_m = app(self._cell_m, float(c.cell_m))
+        self._min_hits = app(self._min_hits, float(int(c.min_hits)))
+        self._cap = app(self._cap, float(int(c.min_hits) + int(c.headroom)))
+        self._miss = app(self._miss, float(c.miss_weight))
+        self._margin = app(self._margin, float(c.carve_margin_m))
+        self._version = app(self._version, 0)
+        self._n_occupied = app(self._n_occupied, 0)
+        return k
+
+    # ------------------------------------------------------------------ the table
+    def _cells_of(self, member: np.ndarray, points: np.ndarray) -> np.ndarray:
+        return np.floor(points / self._cell_m[member][:, None]).astype(np.int64)
+
+    def _find(self, keys: np.ndarray) -> np.ndarray:
+        """(k,) rows of keys (−1: no such row)."""
+        ks = self._keys
+        if ks.size == 0:
+            return np.full(keys.shape, -1, dtype=np.int64)
+        pos = np.minimum(np.searchsorted(ks, keys), ks.size - 1)
+        return np.where(ks[pos] == keys, self._key_rows[pos], -1)
+
+    def _rows(self, member: np.ndarray, cells: np.ndarray) -> np.ndarray:
+        """Rows of the distinct (member, cell) pairs given, in key order, created (score 0) where
+        missing (new rows in key order)."""
+        keys = np.unique(_cell_keys(member, cells))
+        rows = self._find(keys)
+        new = rows < 0
+        if new.any():
+            nk = keys[new]
+            k, n = nk.size, self._n
+            if n + k > self._cells.shape[0]:
+                size = max(64, 2 * (n + k))
+                self._cells = np.resize(self._cells, (size, 2))
+                self._member = np.resize(self._member, size)
+                self._score = np.resize(self._score, size)
+            created = np.arange(n, n + k)
+            self._cells[created] = np.stack([((nk >> _IJ_BITS) & ((1 << _IJ_BITS) - 1)) - _IJ_HALF,
+                                             (nk & ((1 << _IJ_BITS) - 1)) - _IJ_HALF], axis=-1)
+            self._member[created] = nk >> _MEMBER_SHIFT
+            self._score[created] = 0.0
+            at = np.searchsorted(self._keys, nk)
+            self._keys = np.insert(self._keys, at, nk)
+            self._key_rows = np.insert(self._key_rows, at, created)
+            self._n = n + k
+            rows[new] = created
+        return rows
+
+    def _set_scores(self, rows: np.ndarray, new: np.ndarray) -> None:
+        """New scores of (distinct) rows; a member's version changes when one of its cells
+        becomes occupied or free."""
+        mem = self._member[rows]
+        m = self._min_hits[mem]
+        was = self._score[rows] >= m
+        self._score[rows] = new
+        now = new >= m
+        flip = was != now
+        if flip.any():
+            nm = self._version.size
+            self._n_occupied += np.bincount(mem[flip], np.where(now[flip], 1, -1), nm).astype(np.int64)
+            self._version += np.bincount(mem[flip], minlength=nm) > 0
+
+    # ------------------------------------------------------------------ updates
+    def add_points(self, member: np.ndarray, points_world: np.ndarray) -> None:
+        """One scan's static returns (k, 2) [m] of the members (k,) given per return: +1 per
+        (member, cell) hit, capped at min_hits + headroom."""
+        p = np.asarray(points_world, dtype=float).reshape(-1, 2)
+        if p.shape[0] == 0:
+            return
+        member = np.asarray(member, dtype=np.int64)
+        rows = self._rows(member, self._cells_of(member, p))
+        self._set_scores(rows, np.minimum(self._score[rows] + 1.0, self._cap[self._member[rows]]))
+
+    def carve(self, members: Sequence[int], origins_m, beam_angles_world: Sequence[np.ndarray],
+              ranges_m: Sequence[np.ndarray], hit: Sequence[np.ndarray], max_range_m, full_circle,
+              range_noise_std_m, hit_points_world: Sequence[np.ndarray | None]) -> np.ndarray:
+        """Free-space update from one scan of each of ``members`` (q,) (per member: sensor origin
+        (2,), beam angles (n,) uniformly spaced increasing [rad], ranges (n,) and hit (n,), max
+        range, full circle or not, σ_ρ, the scan's returns (k, 2) or None); returns (q,) the number
+        of cells each scan saw through (:meth:`StaticMap.carve`)."""
+        q = len(members)
+        counts = np.zeros(q, dtype=np.int64)
+        n = self._n
+        nb = np.array([np.size(a) for a in beam_angles_world], dtype=np.int64)
+        if n == 0 or q == 0:
+            return counts
+        slot = np.full(self._version.size, -1)
+        slot[np.asarray(members, dtype=np.int64)] = np.where(nb > 0, np.arange(q), -1)
+        rows = np.flatnonzero(slot[self._member[:n]] >= 0)
+        if rows.size == 0:
+            return counts
+        qi = slot[self._member[rows]]
+        mem = self._member[rows]
+        o = np.asarray(origins_m, dtype=float).reshape(q, 2)
+        cell = self._cell_m[mem]
+        rel = (self._cells[rows] + 0.5) * cell[:, None] - o[qi]
+        r = np.hypot(rel[:, 0], rel[:, 1])
+        half = _HALF_EXTENT_CELLS * cell
+        far = r + half
+        live = (far < np.asarray(max_range_m, dtype=float)[qi]) & (r > half)  # never the sensor's own cell
+        if not live.any():
+            return counts
+        rows, qi, rel, r, half, far = rows[live], qi[live], rel[live], r[live], half[live], far[live]
+        a0 = np.array([a[0] if np.size(a) else 0.0 for a in beam_angles_world], dtype=float)
+        a1 = np.array([a[-1] if np.size(a) else 0.0 for a in beam_angles_world], dtype=float)
+        dth_m = np.where(nb > 1, (a1 - a0) / np.maximum(nb - 1, 1), 2.0 * math.pi)
+        centre_m = 0.5 * (a0 + a1)
+        dth, centre, nbr, a0r = dth_m[qi], centre_m[qi], nb[qi], a0[qi]
+        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - centre
+        bearing = (bearing + math.pi) % (2.0 * math.pi) - math.pi + centre - a0r  # from beam 0, fan-centred
+        ext = np.maximum(half / r, 0.5 * dth)
+        lo = np.ceil((bearing - ext) / dth - 1e-9)  # first beam at or after bearing − ext
+        hi = np.floor((bearing + ext) / dth + 1e-9)
+        fc = np.asarray(full_circle, dtype=bool)[qi]
+        shift = np.where(fc, np.floor(lo / nbr) * nbr, 0.0)
+        lo, hi = lo - shift, hi - shift  # full circle: lo in [0, nb)
+        hi = np.where(fc, np.minimum(hi, lo + nbr - 1), hi)
+        inside = fc | ((lo >= 0) & (hi <= nbr - 1))
+        if not inside.all():
+            rows, qi, lo, hi, bearing, far, fc, dth, nbr = (
+                a[inside] for a in (rows, qi, lo, hi, bearing, far, fc, dth, nbr))
+        if rows.size == 0:
+            return counts
+        nearest = np.rint(bearing / dth)
+        nearest = np.where(fc, np.mod(nearest, nbr), nearest)
+        empty = hi < lo  # the cell falls between two beams: use the nearest one
+        lo = np.where(empty, np.clip(nearest, 0, nbr - 1), lo).astype(np.int64)
+        hi = np.where(empty, lo, hi).astype(np.int64)
+        fans, start = [], np.zeros(q, dtype=np.int64)
+        at = 0
+        for k in range(q):  # each fan's reach per beam (full circle: twice, for wrapping spans)
+            rho = np.where(np.asarray(hit[k], dtype=bool), np.asarray(ranges_m[k], dtype=float), math.inf)
+            fans.append(rho)
+            if full_circle[k]:
+                fans.append(rho)
+            start[k] = at
+            at += rho.size * (2 if full_circle[k] else 1)
+        fans.append(np.full(1, math.inf))
+        edges = np.empty(2 * lo.size, dtype=np.int64)
+        edges[0::2], edges[1::2] = start[qi] + lo, start[qi] + hi + 1
+        seen = np.minimum.reduceat(np.concatenate(fans), edges)[0::2]
+        noise = np.asarray(range_noise_std_m, dtype=float)
+        free = seen > far + self._margin[self._member[rows]] + 3.0 * noise[qi]
+        pts = [np.asarray(p, dtype=float).reshape(-1, 2) for p in hit_points_world if p is not None]
+        if free.any() and sum(p.shape[0] for p in pts):
+            pm = np.concatenate([np.full(np.asarray(p).reshape(-1, 2).shape[0], int(m), dtype=np.int64)
+                                 for m, p in zip(members, hit_points_world) if p is not None])
+            now = self._find(_cell_keys(pm, self._cells_of(pm, np.concatenate(pts))))
+            free &= ~np.isin(rows, now[now >= 0])  # cells with a return in this scan stay
+        rows = rows[free]
+        if rows.size:
+            self._set_scores(rows, np.maximum(self._score[rows] - self._miss[self._member[rows]], 0.0))
+            counts += np.bincount(qi[free], minlength=q)
+        return counts
+
+    # ------------------------------------------------------------------ queries
+    def occupied(self, member: np.ndarray, points_world: np.ndarray) -> np.ndarray:
+        """(k,) bool: the point lies in an occupied cell of its member's map (members (k,))."""
+        p = np.asarray(points_world, dtype=float).reshape(-1, 2)
+        if self._n == 0:
+            return np.zeros(p.shape[0], dtype=bool)
+        member = np.asarray(member, dtype=np.int64)
+        rows = self._find(_cell_keys(member, self._cells_of(member, p)))
+        safe = np.maximum(rows, 0)
+        return (rows >= 0) & (self._score[safe] >= self._min_hits[self._member[safe]])
+
+    def occupied_cells(self, member: int) -> np.ndarray:
+        """(c, 2) integer cell indices of a member's occupied cells, in row order."""
+        n = self._n
+        sel = (self._member[:n] == member) & (self._score[:n] >= self._min_hits[member])
+        return self._cells[:n][sel].reshape(-1, 2)
+
+    def version(self, member: int) -> int:
+        return int(self._version[member])
+
+    def n_occupied(self, member: int) -> int:
+        return int(self._n_occupied[member])
+
+
 class StaticMap:
-    """World grid of static returns. ``add_scan(points)`` (hits), ``carve(...)`` (rays seen through),
-    ``occupied(points)``, ``occupied_cells()``, ``polygons()``; ``version`` changes whenever the set of
-    occupied cells does. The arguments are those of :class:`StaticMapConfig` (``config``)."""
+    """One vessel's grid of static returns. ``add_scan(points)`` (hits), ``carve(...)`` (rays seen
+    through), ``occupied(points)``, ``occupied_cells()``, ``polygons()``; ``version`` changes
+    whenever the set of occupied cells does. The arguments are those of :class:`StaticMapConfig`
+    (``config``); ``store``: the :class:`StaticMapStore` it lives in (default: a store of its own)."""
 
     def __init__(self, cell_m: float = 1.0, min_hits: int = 3, min_fill: float = 0.4, max_depth: int = 6,
-                 headroom: int = 5, miss_weight: float = 0.5, carve_margin_m: float = 1.0):
+                 headroom: int = 5, miss_weight: float = 0.5, carve_margin_m: float = 1.0,
+                 store: StaticMapStore | None = None):
         self.config = c = StaticMapConfig(cell_m, min_hits, min_fill, max_depth, headroom, miss_weight, carve_margin_m)
         self.cell_m = float(c.cell_m)
         self.min_hits = int(c.min_hits)
@@ -82,24 +303,16 @@ class StaticMap:
         self.cap = float(self.min_hits + int(c.headroom))
         self.miss_weight = float(c.miss_weight)
         self.carve_margin_m = float(c.carve_margin_m)
-        self._index: dict[tuple[int, int], int] = {}  # cell → row of _cells / _score
-        self._cells = np.zeros((0, 2), dtype=np.int64)
-        self._score = np.zeros(0)
-        self._n = 0
-        self._n_occupied = 0
-        self._version = 0
+        self.store = StaticMapStore() if store is None else store
+        self.member = self.store.add_member(c)
+        self._polys = PolygonCache(self.cell_m, self.min_fill, self.max_depth)
         self._cache: list[np.ndarray] = []
         self._cached_version = 0
 
-    # ------------------------------------------------------------------ updates
     def add_scan(self, points_world: np.ndarray) -> None:
         """Add one scan's returns (k, 2) [m] of static structures (each cell counted once per scan)."""
         p = np.asarray(points_world, dtype=float).reshape(-1, 2)
-        if p.shape[0] == 0:
-            return
-        cells = np.unique(np.floor(p / self.cell_m).astype(np.int64), axis=0)
-        rows = np.array([self._row(i, j) for i, j in cells.tolist()], dtype=np.int64)
-        self._set_scores(rows, np.minimum(self._score[rows] + 1.0, self.cap))
+        self.store.add_points(np.full(p.shape[0], self.member, dtype=np.int64), p)
 
     def carve(self, origin_m, beam_angles_world: np.ndarray, ranges_m: np.ndarray, hit: np.ndarray,
               max_range_m: float, full_circle: bool = True, range_noise_std_m: float = 0.0,
@@ -113,141 +326,32 @@ class StaticMap:
         at least the nearest beam) reached beyond its far side by ``carve_margin_m`` + 3σ_ρ; cells
         with a return in this scan (``hit_points_world``) are never seen through.
         """
-        n = self._n
         a = np.asarray(beam_angles_world, dtype=float).reshape(-1)
-        nb = a.size
-        if n == 0 or nb == 0:
-            return 0
-        rho = np.where(np.asarray(hit, dtype=bool), np.asarray(ranges_m, dtype=float), math.inf)
-        o = np.asarray(origin_m, dtype=float).reshape(2)
-        rel = (self._cells[:n] + 0.5) * self.cell_m - o
-        r = np.hypot(rel[:, 0], rel[:, 1])
-        half = _HALF_EXTENT_CELLS * self.cell_m
-        far = r + half
-        live = (far < max_range_m) & (r > half)  # the sensor's own cell is never carved
-        if not live.any():
-            return 0
-        rows = np.flatnonzero(live)
-        dth = (a[-1] - a[0]) / (nb - 1) if nb > 1 else 2.0 * math.pi
-        centre = 0.5 * (a[0] + a[-1])
-        bearing = np.arctan2(rel[rows, 1], rel[rows, 0]) - centre
-        bearing = (bearing + math.pi) % (2.0 * math.pi) - math.pi + centre - a[0]  # from beam 0, fan-centred
-        ext = np.maximum(half / r[rows], 0.5 * dth)
-        lo = np.ceil((bearing - ext) / dth - 1e-9)  # first beam at or after bearing − ext
-        hi = np.floor((bearing + ext) / dth + 1e-9)
-        if full_circle:
-            shift = np.floor(lo / nb) * nb
-            lo, hi = lo - shift, hi - shift  # lo in [0, nb)
-            hi = np.minimum(hi, lo + nb - 1)
-            doubled = np.concatenate([rho, rho])
-        else:
-            inside = (lo >= 0) & (hi <= nb - 1)
-            rows, lo, hi, bearing = rows[inside], lo[inside], hi[inside], bearing[inside]
-            doubled = rho
-        if rows.size == 0:
-            return 0
-        nearest = np.rint(bearing / dth)
-        if full_circle:
-            nearest = np.mod(nearest, nb)
-        empty = hi < lo  # the cell falls between two beams: use the nearest one
-        lo = np.where(empty, np.clip(nearest, 0, nb - 1), lo).astype(np.int64)
-        hi = np.where(empty, lo, hi).astype(np.int64)
-        edges = np.empty(2 * lo.size, dtype=np.int64)
-        edges[0::2], edges[1::2] = lo, hi + 1
-        seen = np.minimum.reduceat(np.append(doubled, math.inf), edges)[0::2]
-        free = seen > far[rows] + self.carve_margin_m + 3.0 * range_noise_std_m
-        if hit_points_world is not None and free.any():
-            p = np.asarray(hit_points_world, dtype=float).reshape(-1, 2)
-            if p.shape[0]:
-                cells = np.floor(p / self.cell_m).astype(np.int64).tolist()
-                now = {self._index[(i, j)] for i, j in cells if (i, j) in self._index}
-                if now:
-                    free &= ~np.isin(rows, np.fromiter(now, dtype=np.int64))
-        rows = rows[free]
-        if rows.size:
-            self._set_scores(rows, np.maximum(self._score[rows] - self.miss_weight, 0.0))
-        return int(rows.size)
+        return int(self.store.carve([self.member], [origin_m], [a], [ranges_m], [hit], [max_range_m], [full_circle],
+                                    [range_noise_std_m], [hit_points_world])[0])
 
-    def _row(self, i: int, j: int) -> int:
-        k = self._index.get((i, j))
-        if k is None:
-            k = self._n
-            if k == self._cells.shape[0]:
-                size = max(64, 2 * k)
-                self._cells = np.resize(self._cells, (size, 2))
-                self._score = np.concatenate([self._score, np.zeros(size - self._score.size)])
-            self._cells[k] = (i, j)
-            self._score[k] = 0.0
-            self._index[(i, j)] = k
-            self._n += 1
-        return k
-
-    def _set_scores(self, rows: np.ndarray, new: np.ndarray) -> None:
-        m = self.min_hits
-        was = self._score[rows] >= m
-        self._score[rows] = new
-        now = new >= m
-        change = int(now.sum()) - int(was.sum())
-        if change or (was != now).any():
-            self._n_occupied += change
-            self._version += 1
-
-    # ------------------------------------------------------------------ queries
     def occupied(self, points_world: np.ndarray) -> np.ndarray:
         """(k,) bool: the point lies in an occupied cell."""
         p = np.asarray(points_world, dtype=float).reshape(-1, 2)
-        cells = np.floor(p / self.cell_m).astype(np.int64).tolist()
-        idx, score, m = self._index, self._score, self.min_hits
-        return np.array([(k := idx.get((i, j))) is not None and score[k] >= m for i, j in cells], dtype=bool)
+        return self.store.occupied(np.full(p.shape[0], self.member, dtype=np.int64), p)
 
     @property
     def n_occupied(self) -> int:
-        return self._n_occupied
+        return self.store.n_occupied(self.member)
 
     @property
     def version(self) -> int:
         """Changes whenever a cell becomes occupied or free (for caches and the recording)."""
-        return self._version
+        return self.store.version(self.member)
 
     def occupied_cells(self) -> np.ndarray:
         """(c, 2) integer cell indices of the occupied cells."""
-        n = self._n
-        return self._cells[:n][self._score[:n] >= self.min_hits].reshape(-1, 2)
+        return self.store.occupied_cells(self.member)
 
     def polygons(self) -> list[np.ndarray]:
-        """Convex polygons (k, 2) [m] covering the occupied cells (cached until the map changes)."""
-        if self._version == self._cached_version:
-            return list(self._cache)
-        cells = self.occupied_cells()
-        out: list[np.ndarray] = []
-        if cells.size:
-            lo = cells.min(axis=0)
-            grid = np.zeros(tuple(cells.max(axis=0) - lo + 1), dtype=bool)
-            grid[tuple((cells - lo).T)] = True
-            labels, n = ndimage.label(grid, structure=np.ones((3, 3)))
-            for k in range(1, n + 1):
-                comp = np.argwhere(labels == k) + lo
-                self._split(comp, 0, out)
-        self._cache, self._cached_version = out, self._version
-        return list(out)
-
-    def _split(self, comp: np.ndarray, depth: int, out: list) -> None:
-        corners = (comp[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * self.cell_m
-        try:
-            hull = ConvexHull(corners)
-        except QhullError:
-            return
-        fill = comp.shape[0] * self.cell_m**2 / hull.volume
-        if fill >= self.min_fill or comp.shape[0] <= 4 or depth >= self.max_depth:
-            out.append(corners[hull.vertices])
-            return
-        c = comp - comp.mean(axis=0)
-        _, vec = np.linalg.eigh(c.T @ c)
-        proj = c @ vec[:, -1]
-        cut = np.median(proj)
-        left = proj <= cut
-        if left.all() or not left.any():
-            out.append(corners[hull.vertices])
-            return
-        self._split(comp[left], depth + 1, out)
-        self._split(comp[~left], depth + 1, out)
+        """Convex polygons (k, 2) [m] covering the occupied cells (computed when asked after the
+        map changed; :mod:`mjasc.perception.map_polygons`)."""
+        v = self.version
+        if v != self._cached_version:
+            self._cache, self._cached_version = self._polys.polygons(self.occupied_cells()), v
+        return list(self._cache)

@@ -35,9 +35,10 @@ import numpy as np
 
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.config import IMMConfig
-from mjasc.perception.imm.kernel import IMMCycle, combine_covariance, combine_state, flip_negative_speeds, wrap
+from mjasc.perception.imm.kernel import (
+    IMMCycle, combine_covariance, combine_state, flip_negative_speeds, turn_rate, wrap)
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
-from mjasc.perception.imm.predictive import min_mahalanobis_squared, mixture_log_likelihoods, moment_matched
+from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.startup import StartupFilters
 
 logger = logging.getLogger("mjasc.perception.imm")
@@ -58,7 +59,7 @@ REJECTION_REASONS = (
 )
 
 
-class IMMBank:
+class IMMBank(PredictiveDensity):
     """Many IMM trackers updated in one call: arrays (n_tracks, r, 4) and (n_tracks, r, 4, 4).
 
     Each track has an integer id (``track_ids``), its own last time, model states, covariances and
@@ -143,23 +144,39 @@ class IMMBank:
             raise ValueError(f"z: need a finite [x, y] position in metres, got {z!r}")
         if not np.isfinite(t_s):
             raise ValueError(f"t_s: must be finite, got {t_s!r}")
-        if track_id is None:
-            track_id = self._next_id
-        elif np.any(self._ids == track_id):
+        if track_id is not None and np.any(self._ids == track_id):
             raise ValueError(f"track_id: {track_id} is already in the bank")
-        track_id = int(track_id)
-        self._next_id = max(self._next_id, track_id + 1)
-        grow = {"_ids": np.array([track_id]), "_mu": self._mu0[None].copy(), "_t": np.array([float(t_s)])}
+        var = None if measurement_variance is None else np.array([float(measurement_variance)])
+        return int(self.add_tracks(z[None, :], float(t_s), var, None if track_id is None else [int(track_id)])[0])
+
+    def add_tracks(self, z, t_s, measurement_variance=None, track_ids=None) -> np.ndarray:
+        """Start k tracks at once from first measurements z (k, 2) [m] at t_s (scalar or (k,) [s]),
+        with σ² ``measurement_variance`` (k,) [m²] (None: the config's); ids ``track_ids`` (k,) or
+        the next free integers, in row order. Returns the ids. Each new row is what
+        :meth:`add_track` would have made of it. ValueError on non-finite input."""
+        z = np.asarray(z, dtype=float).reshape(-1, 2)
+        k = z.shape[0]
+        t = np.broadcast_to(np.asarray(t_s, dtype=float), (k,))
+        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(t))):
+            raise ValueError("add_tracks: z and t_s must be finite")
+        if track_ids is None:
+            ids = np.arange(self._next_id, self._next_id + k, dtype=np.int64)
+        else:
+            ids = np.asarray(track_ids, dtype=np.int64).reshape(k)
+        if k == 0:
+            return ids
+        self._next_id = max(self._next_id, int(ids.max()) + 1)
+        grow = {"_ids": ids, "_mu": np.tile(self._mu0, (k, 1)), "_t": t.copy()}  # C order (as every row)
         n_before = self._ids.size
-        for name in self._PER_TRACK:  # a zero row, but for these
+        for name in self._PER_TRACK:  # zero rows, but for these
             a = getattr(self, name)
-            setattr(self, name, np.concatenate([a, grow.get(name, np.zeros((1,) + a.shape[1:], a.dtype))]))
-        self._startup.append()
-        tc = self._t_common
-        self._t_common = float(t_s) if n_before == 0 or tc == float(t_s) else None
-        row = np.array([self._ids.size - 1])
-        self._start(row, z[None, :], None if measurement_variance is None else np.array([float(measurement_variance)]))
-        return track_id
+            setattr(self, name, np.concatenate([a, grow.get(name, np.zeros((k,) + a.shape[1:], a.dtype))]))
+        self._startup.append(k)
+        tc, t0 = self._t_common, float(t[0])
+        self._t_common = t0 if (n_before == 0 or tc == t0) and np.all(t == t0) else None
+        rows = np.arange(n_before, n_before + k)
+        self._start(rows, z, None if measurement_variance is None else np.asarray(measurement_variance, dtype=float))
+        return ids
 
     def _start(self, rows, z, meas_var=None):
         """(Re)start tracks ``rows`` from measurements z (k, 2): CV filter at z, v = 0 ± σ_v0;
@@ -210,11 +227,26 @@ class IMMBank:
         """Drop a track (ValueError if unknown)."""
         keep = np.ones(self._ids.size, dtype=bool)
         keep[self.index_of(track_id)] = False
+        self.keep_rows(keep)
+
+    def keep_rows(self, keep) -> None:
+        """Keep the rows where ``keep`` (n,) bool is True (drop the others at once)."""
         for name in self._PER_TRACK:
             setattr(self, name, getattr(self, name)[keep])
         self._startup.keep(keep)
         if self._ids.size == 0:
             self._t_common = None
+
+    def update_rows(self, rows, z, t_s, mask=None, measurement_variance=None) -> np.ndarray:
+        """:meth:`update` of the tracks in ``rows`` (indices, k) only — z (k, 2), mask and
+        measurement_variance (k,) as there, t_s scalar or (k,); the other tracks are untouched
+        (:mod:`mjasc.perception.imm.subset`). Returns (k,) bool, the rows used."""
+        from mjasc.perception.imm.subset import put_rows, take_rows
+
+        sub = take_rows(self, rows)
+        used = sub.update(z, t_s, mask, measurement_variance)
+        put_rows(self, rows, sub)
+        return used
 
     # ------------------------------------------------------------------ time handling
     def _times(self, t_s):
@@ -276,57 +308,6 @@ class IMMBank:
         else:
             self._t = t
         self._t_common = t0
-
-    def predictive_models(self, t_s=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The predictive measurement density of every track at t_s (scalar or (n,) [s]; default:
-        each track's current time) as a mixture (:mod:`mjasc.perception.imm.predictive`), without
-        changing the bank: per-model predicted positions ẑ_j (n, r, 2) [m], their covariances
-        S_j = H P_j Hᵀ + R (n, r, 2, 2) [m²] and weights c̄_j (n, r); a track in the start-up
-        filter gives its one prediction in every column, with weight 1/r."""
-        _, t, dt, dtm, step = self._times(self._t if t_s is None else t_s)
-        sp, Pp, cbar = self._mix_predict(dtm, step)
-        zj = sp[..., :2].copy()
-        S = Pp[..., :2, :2] + self._R_cov
-        w = cbar.copy()
-        if self._startup.n_active:
-            if t is None:  # every track's last cycle at one time: one common step (see _times)
-                dt = np.full(self._ids.size, dtm)
-            rows = np.flatnonzero(self._startup.active)
-            xc, Pcv = self._startup.predicted(rows, dt[rows])
-            zj[rows] = xc[:, None, :2]
-            S[rows] = Pcv[:, None, :2, :2] + self._R_cov
-            w[rows] = 1.0 / self._r
-        return zj, S, w
-
-    def predicted_measurements(self, t_s=None) -> tuple[np.ndarray, np.ndarray]:
-        """Moment-matched predicted measurement ẑ (n, 2) [m] and its covariance S (n, 2, 2) [m²]
-        of every track at t_s (default: each track's current time), without changing the bank:
-        ``ẑ = Σ c̄_j ẑ_j``, ``S = Σ c̄_j [S_j + (ẑ_j − ẑ)(ẑ_j − ẑ)ᵀ]``."""
-        if self._ids.size == 0:
-            return np.zeros((0, 2)), np.zeros((0, 2, 2))
-        return moment_matched(*self.predictive_models(t_s))
-
-    def mahalanobis_squared(self, detections, t_s=None) -> np.ndarray:
-        """(n_tracks, m) squared Mahalanobis distance of detections (m, 2) [m] to each track at
-        t_s (default: current times): the smallest over the track's models of rᵀS_j⁻¹r — the
-        quantity ``update`` gates on. Non-finite detections give inf."""
-        zs = np.asarray(detections, dtype=float).reshape(-1, 2)
-        if self._ids.size == 0:
-            return np.zeros((0, zs.shape[0]))
-        zj, S, _ = self.predictive_models(t_s)
-        return min_mahalanobis_squared(zj, S, zs)
-
-    def log_likelihoods(self, detections, t_s=None) -> np.ndarray:
-        """(n_tracks, m) log of the IMM predictive density Σ_j c̄_j N(z; ẑ_j, S_j) of each
-        detection (m, 2) — an association score; −inf for non-finite detections."""
-        zs = np.asarray(detections, dtype=float).reshape(-1, 2)
-        if self._ids.size == 0:
-            return np.zeros((0, zs.shape[0]))
-        return mixture_log_likelihoods(*self.predictive_models(t_s), zs)
-
-    def gate(self, detections, t_s=None) -> np.ndarray:
-        """(n_tracks, m) bool: the detection is inside the chi-square gate of the track."""
-        return self.mahalanobis_squared(detections, t_s) <= self._gate
 
     def update(self, z, t_s, mask=None, measurement_variance=None) -> np.ndarray:
         """One IMM cycle for every track at time t_s (scalar or (n,) [s]).
@@ -527,7 +508,7 @@ class IMMBank:
     @property
     def turn_rates(self) -> np.ndarray:
         """(n,) ω̂ = Σ_j μ_j ω_j [rad/s] (0 for start-up tracks)."""
-        return np.where(self._startup.active, 0.0, self._mu @ self._omega)
+        return np.where(self._startup.active, 0.0, turn_rate(self._mu, self._omega))
 
     @property
     def mode_probabilities(self) -> np.ndarray:
@@ -567,11 +548,19 @@ class IMMBank:
             position_m=x[:2].copy(),
             heading_rad=float(wrap(x[2])),
             speed_m_s=float(x[3]),
-            turn_rate_rad_s=0.0 if self._startup.active[k] else float(self._mu[k] @ self._omega),
+            turn_rate_rad_s=0.0 if self._startup.active[k] else float(turn_rate(self._mu[k], self._omega)),
             radius_m=float(radius_m),
             position_covariance=self._covariances()[k, :2, :2].copy(),
             **fields,
         )
+
+    def estimate_fields(self, rows) -> tuple:
+        """What :meth:`estimate` reads, for the tracks ``rows`` at once: times (k,) [s], positions
+        (k, 2) [m], courses (k,) in (−π, π], speeds (k,) [m/s], ω̂ (k,) [rad/s], position
+        covariances (k, 2, 2) [m²] (the same numbers as :meth:`estimate`)."""
+        x = self._x[rows]
+        w = np.where(self._startup.active[rows], 0.0, turn_rate(self._mu[rows], self._omega))
+        return self._t[rows], x[:, :2], wrap(x[:, 2]), x[:, 3], w, self._covariances()[rows, :2, :2]
 
     def estimates(self, radius_m: float | Mapping[int, float] = 0.0) -> list[TrackEstimate]:
         """TrackEstimate of every track; radius_m a scalar or a {track_id: radius} mapping."""

@@ -44,6 +44,12 @@ uses F = [[I, G], [0, I]] with reused F and Fᵀ, does the whole Kalman update w
 (:class:`PositionUpdate`), and caches what depends only on Ts (p(Ts), Ts ω_j, Q:
 :class:`mjasc.perception.imm.markov.CycleConstants`). benchmarks/bench_imm.py: ≥ 20× fewer µs
 per update than filterpy's IMMEstimator on the same bank and data, same estimates to ~1e-13.
+
+**Rows are independent.** Every product is a stacked one (one small matrix per track) and every sum
+over models a per-row reduction in model order (``np.add.reduce``), never a 2-D BLAS product across
+tracks (OpenBLAS rounds ``(n, r) @ (r, k)`` differently for different n): a track's numbers do not
+depend on how many other tracks share its bank, so one bank holding the tracks of a whole fleet
+gives each vessel's tracks the same bits as a bank of its own (:mod:`mjasc.perception.tracking.fleet`).
 """
 
 from __future__ import annotations
@@ -52,7 +58,8 @@ import math
 
 import numpy as np
 
-__all__ = ["wrap", "PositionUpdate", "IMMCycle", "flip_negative_speeds", "combine_state", "combine_covariance"]
+__all__ = ["wrap", "PositionUpdate", "IMMCycle", "flip_negative_speeds", "combine_state", "combine_covariance",
+           "turn_rate"]
 
 _TWO_PI = 2.0 * math.pi
 _G_PHASE = np.array([[-0.5 * math.pi, 0.0], [0.0, 0.5 * math.pi]])  # cos(θ − ·) = [[−sin, cos], [cos, sin]]
@@ -69,6 +76,7 @@ def wrap(angle):
 # per cycle on arrays of a few dozen numbers)
 _add, _sub, _mul, _div, _matmul = np.add, np.subtract, np.multiply, np.divide, np.matmul
 _cos, _exp, _sqrt, _maximum, _min_reduce = np.cos, np.exp, np.sqrt, np.maximum, np.minimum.reduce
+_add_reduce = np.add.reduce
 
 # ---------------------------------------------------------------------------------------------
 # The IMM cycle on stacked arrays: per-model states (..., r, 4), covariances (..., r, 4, 4) and
@@ -176,7 +184,7 @@ class IMMCycle:
         self._Q, self._Q_of = e(r, 4, 5), None  # Q at the shape of Pp_aug: a same-shape add
         self.mahalanobis_min = e(1)
         self.mahalanobis_min_rows = self.mahalanobis_min[..., 0]
-        self._lik, self._total, self._ones = e(r), e(r), np.ones((r, r))
+        self._lik, self._total = e(r), e(1)
         self.sides = tuple((e(r, 4), e(r, 4, 4), e(r)) for _ in range(2))
         self._views = {  # per side buffer: the views mix_predict and combine_state take of it
             id(a): v
@@ -248,9 +256,9 @@ class IMMCycle:
         _div(lik, det, lik)
         _sqrt(lik, lik)
         mu = _mul(lik, self.cbar, out)
-        total = _matmul(mu, self._ones, self._total)  # Σ_j μ_j in every column (same-shape ops)
+        total = _add_reduce(mu, -1, None, self._total, True)  # Σ_j μ_j per track, in model order
         _maximum(mu, _mul(total, floor, total), out=mu)
-        _div(mu, _matmul(mu, self._ones, self._total), mu)
+        _div(mu, _add_reduce(mu, -1, None, self._total, True), mu)
         return mu
 
     def combine_state(self, s, mu):
@@ -269,6 +277,12 @@ def flip_negative_speeds(su, Pu, th_before):
     sign = np.where(neg, -1.0, 1.0)[..., None]
     Pu[..., 3, :3] *= sign
     Pu[..., :3, 3] *= sign
+
+
+def turn_rate(mu, omega):
+    """ω̂ = Σ_j μ_j ω_j [rad/s] per row of mu (..., r) (docs/thesis.md §2 step 6), summed per row in
+    model order (not a matrix-vector product across tracks: see "Rows are independent")."""
+    return _add_reduce(mu * omega, -1)
 
 
 def combine_state(s, mu):

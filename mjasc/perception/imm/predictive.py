@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-__all__ = ["moment_matched", "min_mahalanobis_squared", "mixture_log_likelihoods"]
+__all__ = ["moment_matched", "min_mahalanobis_squared", "mixture_log_likelihoods", "PredictiveDensity"]
 
 _TWO_PI = 2.0 * math.pi
 
@@ -52,3 +52,59 @@ def mixture_log_likelihoods(zj, S, w, zs) -> np.ndarray:
         top = logp.max(axis=1)
         out = top + np.log(np.exp(logp - top[:, None, :]).sum(axis=1))
     return np.where(np.isfinite(out), out, -np.inf)
+
+
+class PredictiveDensity:
+    """The association queries of :class:`mjasc.perception.imm.bank.IMMBank` (its base class): the
+    predictive density of every track at a time, without changing the bank."""
+
+    def predictive_models(self, t_s=None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The predictive measurement density of every track at t_s (scalar or (n,) [s]; default:
+        each track's current time) as a mixture (:mod:`mjasc.perception.imm.predictive`), without
+        changing the bank: per-model predicted positions ẑ_j (n, r, 2) [m], their covariances
+        S_j = H P_j Hᵀ + R (n, r, 2, 2) [m²] and weights c̄_j (n, r); a track in the start-up
+        filter gives its one prediction in every column, with weight 1/r."""
+        _, t, dt, dtm, step = self._times(self._t if t_s is None else t_s)
+        sp, Pp, cbar = self._mix_predict(dtm, step)
+        zj = sp[..., :2].copy()
+        S = Pp[..., :2, :2] + self._R_cov
+        w = cbar.copy()
+        if self._startup.n_active:
+            if t is None:  # every track's last cycle at one time: one common step (see _times)
+                dt = np.full(self._ids.size, dtm)
+            rows = np.flatnonzero(self._startup.active)
+            xc, Pcv = self._startup.predicted(rows, dt[rows])
+            zj[rows] = xc[:, None, :2]
+            S[rows] = Pcv[:, None, :2, :2] + self._R_cov
+            w[rows] = 1.0 / self._r
+        return zj, S, w
+
+    def predicted_measurements(self, t_s=None) -> tuple[np.ndarray, np.ndarray]:
+        """Moment-matched predicted measurement ẑ (n, 2) [m] and its covariance S (n, 2, 2) [m²]
+        of every track at t_s (default: each track's current time), without changing the bank:
+        ``ẑ = Σ c̄_j ẑ_j``, ``S = Σ c̄_j [S_j + (ẑ_j − ẑ)(ẑ_j − ẑ)ᵀ]``."""
+        if self._ids.size == 0:
+            return np.zeros((0, 2)), np.zeros((0, 2, 2))
+        return moment_matched(*self.predictive_models(t_s))
+
+    def mahalanobis_squared(self, detections, t_s=None) -> np.ndarray:
+        """(n_tracks, m) squared Mahalanobis distance of detections (m, 2) [m] to each track at
+        t_s (default: current times): the smallest over the track's models of rᵀS_j⁻¹r — the
+        quantity ``update`` gates on. Non-finite detections give inf."""
+        zs = np.asarray(detections, dtype=float).reshape(-1, 2)
+        if self._ids.size == 0:
+            return np.zeros((0, zs.shape[0]))
+        zj, S, _ = self.predictive_models(t_s)
+        return min_mahalanobis_squared(zj, S, zs)
+
+    def log_likelihoods(self, detections, t_s=None) -> np.ndarray:
+        """(n_tracks, m) log of the IMM predictive density Σ_j c̄_j N(z; ẑ_j, S_j) of each
+        detection (m, 2) — an association score; −inf for non-finite detections."""
+        zs = np.asarray(detections, dtype=float).reshape(-1, 2)
+        if self._ids.size == 0:
+            return np.zeros((0, zs.shape[0]))
+        return mixture_log_likelihoods(*self.predictive_models(t_s), zs)
+
+    def gate(self, detections, t_s=None) -> np.ndarray:
+        """(n_tracks, m) bool: the detection is inside the chi-square gate of the track."""
+        return self.mahalanobis_squared(detections, t_s) <= self._gate

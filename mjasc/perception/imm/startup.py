@@ -106,12 +106,25 @@ class StartupFilters:
         self.n_meas = np.zeros(0, dtype=np.int64)
         self.n_active = 0
 
-    def append(self) -> None:
-        """One more row (active; :meth:`start` fills it)."""
-        self.active = np.concatenate([self.active, np.ones(1, dtype=bool)])
-        self.x = np.concatenate([self.x, np.zeros((1, 4))])
-        self.P = np.concatenate([self.P, np.zeros((1, 4, 4))])
-        self.n_meas = np.concatenate([self.n_meas, np.zeros(1, dtype=np.int64)])
+    def append(self, k: int = 1) -> None:
+        """k more rows (active; :meth:`start` fills them)."""
+        self.active = np.concatenate([self.active, np.ones(k, dtype=bool)])
+        self.x = np.concatenate([self.x, np.zeros((k, 4))])
+        self.P = np.concatenate([self.P, np.zeros((k, 4, 4))])
+        self.n_meas = np.concatenate([self.n_meas, np.zeros(k, dtype=np.int64)])
+
+    def take(self, rows) -> "StartupFilters":
+        """A copy holding only ``rows`` (for an update of some of a bank's tracks)."""
+        sub = object.__new__(StartupFilters)
+        sub.__dict__.update(self.__dict__)
+        sub.active, sub.x, sub.P, sub.n_meas = self.active[rows], self.x[rows], self.P[rows], self.n_meas[rows]
+        sub.n_active = int(np.count_nonzero(sub.active))
+        return sub
+
+    def put(self, rows, sub: "StartupFilters") -> None:
+        """Write back the rows of a :meth:`take` copy."""
+        self.active[rows], self.x[rows], self.P[rows], self.n_meas[rows] = sub.active, sub.x, sub.P, sub.n_meas
+        self.n_active = int(np.count_nonzero(self.active))
 
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) is True."""

@@ -10,6 +10,15 @@
    ``d²_ij + ln det S_ij`` (−2 log-likelihood up to a constant); inadmissible pairs cost a large
    constant and are dropped from the solution. Each track takes at most one detection per scan
    and vice versa.
+
+**A fleet's vessels at once.** Each vessel associates only its own tracks with its own detections:
+the pairs are the blocks (tracks of vessel q) × (detections of vessel q), listed row-major per block
+(:func:`block_pairs`), and :func:`pair_costs` evaluates d² and the cost of every pair in one pass
+(per pair the same arithmetic as the matrix). :func:`gnn_assign_blocks` solves each vessel's
+problem: where no track and no detection has two admissible partners the admissible pairs *are*
+the solution (the least-cost assignment of the full matrix contains every admissible pair of such a
+problem, since one inadmissible pair costs more than any sum of admissible ones); only the other
+vessels' matrices go to ``linear_sum_assignment``.
 """
 
 from __future__ import annotations
@@ -17,10 +26,84 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["association_costs", "gnn_assign", "BIG_COST"]
+__all__ = ["association_costs", "gnn_assign", "gnn_pairs", "BIG_COST", "block_pairs", "predicted_positions",
+           "pair_costs", "gnn_assign_blocks"]
 
 #: Cost of an inadmissible pair in the assignment problems (never chosen over an admissible one).
 BIG_COST = 1e9
+
+
+def block_pairs(n_a: np.ndarray, n_b: np.ndarray):
+    """Every pair (i, j), i < n_a[q], j < n_b[q], of every block q, row-major within a block,
+    blocks in order: (q, i, j, start) with start (Q+1,) the first pair of each block."""
+    n_a, n_b = np.asarray(n_a, dtype=np.int64), np.asarray(n_b, dtype=np.int64)
+    sizes = n_a * n_b
+    start = np.zeros(sizes.size + 1, dtype=np.int64)
+    np.cumsum(sizes, out=start[1:])
+    q = np.repeat(np.arange(sizes.size), sizes)
+    loc = np.arange(start[-1]) - start[q]
+    nb = n_b[q]
+    i = loc // nb
+    return q, i, loc - i * nb, start
+
+
+def predicted_positions(states, covariances, times_s, turn_rates, t_s):
+    """ẑ (n, 2) [m] and S = J P Jᵀ (n, 2, 2) [m²] of tracks predicted to t_s (scalar or (n,) [s])
+    (the prediction of :func:`association_costs`)."""
+    x = states
+    P = covariances
+    dt = np.maximum(t_s - times_s, 0.0)
+    th_mid = x[:, 2] + 0.5 * dt * turn_rates
+    c, s = np.cos(th_mid), np.sin(th_mid)
+    dv = dt * x[:, 3]
+    zhat = x[:, :2] + np.stack([dv * c, dv * s], axis=-1)
+    J = np.zeros((x.shape[0], 2, 4))
+    J[:, 0, 0] = J[:, 1, 1] = 1.0
+    J[:, 0, 2], J[:, 0, 3] = -dv * s, dt * c
+    J[:, 1, 2], J[:, 1, 3] = dv * c, dt * s
+    return zhat, J @ P @ np.swapaxes(J, 1, 2)
+
+
+def pair_costs(zhat, S, z, var) -> tuple[np.ndarray, np.ndarray]:
+    """d² and GNN cost of pairs: predicted positions zhat (p, 2) with covariances S (p, 2, 2) of the
+    pairs' tracks, detections z (p, 2) with isotropic variances var (p,) (:func:`association_costs`)."""
+    a = S[:, 0, 0] + var
+    b = S[:, 0, 1]
+    d = S[:, 1, 1] + var
+    det = a * d - b * b
+    y0, y1 = z[:, 0] - zhat[:, 0], z[:, 1] - zhat[:, 1]
+    d2 = (d * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / det
+    return d2, d2 + np.log(det)
+
+
+def gnn_assign_blocks(inside, cost, q, i, j, start, n_a, n_b) -> np.ndarray:
+    """Global nearest neighbour in every block of :func:`block_pairs` (``inside``, ``cost`` per pair):
+    the indices of the assigned pairs, ascending (each block's :func:`gnn_assign`)."""
+    ins = np.flatnonzero(inside)
+    if ins.size == 0:
+        return ins
+    qa = q[ins]
+    n_b = np.asarray(n_b)
+    total = int(start[-1])
+    row_key = start[qa] + i[ins] * n_b[qa]  # first pair of the pair's row: one per (block, track)
+    col_key = start[qa] + j[ins]  # one per (block, detection)
+    dup = (np.bincount(row_key, minlength=total)[row_key] > 1) | (np.bincount(col_key, minlength=total)[col_key] > 1)
+    if not dup.any():
+        return ins
+    hard = np.unique(qa[dup])
+    out = [ins[~np.isin(qa, hard)]]
+    for b in hard.tolist():
+        na, nb, s0 = int(n_a[b]), int(n_b[b]), int(start[b])
+        blk = slice(s0, s0 + na * nb)
+        out.append(s0 + gnn_pairs(inside[blk].reshape(na, nb), cost[blk].reshape(na, nb)))
+    return np.sort(np.concatenate(out))
+
+
+def gnn_pairs(inside: np.ndarray, cost: np.ndarray) -> np.ndarray:
+    """Flat indices (row-major) of the pairs :func:`gnn_assign` chooses in an (n, m) problem."""
+    rows, cols = linear_sum_assignment(np.where(inside, cost, BIG_COST))
+    ok = inside[rows, cols]
+    return rows[ok] * inside.shape[1] + cols[ok]
 
 
 def association_costs(states, covariances, times_s, turn_rates, z, var, t_s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -34,27 +117,12 @@ def association_costs(states, covariances, times_s, turn_rates, z, var, t_s: flo
     ``ẑ = p + Ts·V·[cos, sin](θ + ω̂ Ts/2)``, ``S = J P Jᵀ + σ_j² I`` with J the position rows of
     the transition Jacobian.
     """
-    x = states
-    P = covariances
-    dt = np.maximum(t_s - times_s, 0.0)
-    th_mid = x[:, 2] + 0.5 * dt * turn_rates
-    c, s = np.cos(th_mid), np.sin(th_mid)
-    dv = dt * x[:, 3]
-    zhat = x[:, :2] + np.stack([dv * c, dv * s], axis=-1)
-    J = np.zeros((x.shape[0], 2, 4))
-    J[:, 0, 0] = J[:, 1, 1] = 1.0
-    J[:, 0, 2], J[:, 0, 3] = -dv * s, dt * c
-    J[:, 1, 2], J[:, 1, 3] = dv * c, dt * s
-    S = J @ P @ np.swapaxes(J, 1, 2)
-    var = np.broadcast_to(var, (S.shape[0], z.shape[0]))
-    a = S[:, 0, 0, None] + var
-    b = S[:, 0, 1, None]
-    d = S[:, 1, 1, None] + var
-    det = a * d - b * b
-    y = z[None, :, :] - zhat[:, None, :]
-    y0, y1 = y[..., 0], y[..., 1]
-    d2 = (d * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / det
-    return d2, d2 + np.log(det)
+    zhat, S = predicted_positions(states, covariances, times_s, turn_rates, t_s)
+    n, m = zhat.shape[0], z.shape[0]
+    var = np.broadcast_to(var, (n, m)).reshape(-1)
+    ii, jj = np.repeat(np.arange(n), m), np.tile(np.arange(m), n)
+    d2, cost = pair_costs(zhat[ii], S[ii], z[jj], var)
+    return d2.reshape(n, m), cost.reshape(n, m)
 
 
 def gnn_assign(inside: np.ndarray, cost: np.ndarray) -> np.ndarray:

@@ -16,6 +16,11 @@ per-track quantities that are not the IMM's (:mod:`mjasc.perception.tracking`, i
 * **Static objects**: a confirmed track older than ``static_min_age_s`` whose speed estimate is
   below ``static_speed_m_s`` is static (``TrackEstimate.is_static``); it becomes moving again above
   twice that speed.
+* **Moved**: where a track was when first seen confirmed; once it is ``MOVED_M`` from there it has
+  *moved* (a boat that stops stays a boat: the perception keeps its returns out of the static map).
+
+Rows belong to vessels (a fleet's tracker, :mod:`mjasc.perception.tracking.fleet`): every decision
+is per row, but for merging, which pairs only tracks of the same vessel.
 
 :class:`TrackManagement` holds these per-track arrays, rows aligned with the IMM bank's; it decides,
 the tracker (:class:`mjasc.perception.tracking.tracker.MultiTargetTracker`) applies the decisions
@@ -28,9 +33,13 @@ import math
 
 import numpy as np
 
+from mjasc.perception.tracking.association import block_pairs
 from mjasc.perception.tracking.config import TrackingConfig
 
-__all__ = ["TrackManagement"]
+__all__ = ["TrackManagement", "MOVED_M"]
+
+#: A confirmed track that moved this far from where it was confirmed has moved (stays "moving") [m].
+MOVED_M = 3.0
 
 
 def _popcount_table(bits: int) -> np.ndarray:
@@ -39,9 +48,11 @@ def _popcount_table(bits: int) -> np.ndarray:
 
 class TrackManagement:
     """Per-track management state, one row per bank row: update history (M of N), scans and
-    updates since birth, confirmed / static flags, birth and last-update times [s], radius [m]."""
+    updates since birth, confirmed / static / moved flags, birth and last-update times [s], radius
+    [m], where it was first seen confirmed [m]."""
 
-    _ROWS = ("_hist", "_scans", "_n_upd", "_confirmed", "_static", "_born", "_last", "_radius")
+    _ROWS = ("_hist", "_scans", "_n_upd", "_confirmed", "_static", "_born", "_last", "_radius", "_anchor",
+             "_anchored", "_moved")
 
     def __init__(self, config: TrackingConfig):
         self.config = config
@@ -55,18 +66,28 @@ class TrackManagement:
         self._born = np.zeros(0)
         self._last = np.zeros(0)
         self._radius = np.zeros(0)
+        self._anchor = np.zeros((0, 2))
+        self._anchored = np.zeros(0, dtype=bool)
+        self._moved = np.zeros(0, dtype=bool)
 
     # ------------------------------------------------------------------ rows
-    def append(self, t_s: float, radius: float) -> None:
-        """A track born at t_s [s] from a detection of this radius [m] (its first update)."""
-        self._hist = np.append(self._hist, 1)
-        self._scans = np.append(self._scans, 1)
-        self._n_upd = np.append(self._n_upd, 1)
-        self._confirmed = np.append(self._confirmed, self.config.confirm_hits <= 1)
-        self._static = np.append(self._static, False)
-        self._born = np.append(self._born, t_s)
-        self._last = np.append(self._last, t_s)
-        self._radius = np.append(self._radius, radius)
+    def append(self, t_s, radius) -> None:
+        """Tracks born at t_s [s] (scalar or (k,)) from detections of radius [m] (k,) (their first update)."""
+        radius = np.asarray(radius, dtype=float).reshape(-1)
+        k = radius.size
+        t = np.broadcast_to(np.asarray(t_s, dtype=float), (k,))
+        cat = np.concatenate
+        self._hist = cat([self._hist, np.ones(k, dtype=np.int64)])
+        self._scans = cat([self._scans, np.ones(k, dtype=np.int64)])
+        self._n_upd = cat([self._n_upd, np.ones(k, dtype=np.int64)])
+        self._confirmed = cat([self._confirmed, np.full(k, self.config.confirm_hits <= 1)])
+        self._static = cat([self._static, np.zeros(k, dtype=bool)])
+        self._born = cat([self._born, t])
+        self._last = cat([self._last, t])
+        self._radius = cat([self._radius, radius])
+        self._anchor = cat([self._anchor, np.zeros((k, 2))])
+        self._anchored = cat([self._anchored, np.zeros(k, dtype=bool)])
+        self._moved = cat([self._moved, np.zeros(k, dtype=bool)])
 
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) is True."""
@@ -85,6 +106,11 @@ class TrackManagement:
         return self._static.copy()
 
     @property
+    def moved(self) -> np.ndarray:
+        """(n,) bool: confirmed and once ``MOVED_M`` from where it was first seen confirmed."""
+        return self._moved.copy()
+
+    @property
     def radii_m(self) -> np.ndarray:
         """(n,) smoothed radius per track [m]."""
         return self._radius.copy()
@@ -94,74 +120,99 @@ class TrackManagement:
         """(n,) birth time per track [s]."""
         return self._born.copy()
 
+    @property
+    def n_updates(self) -> np.ndarray:
+        return self._n_upd.copy()
+
     # ------------------------------------------------------------------ per scan
-    def after_update(self, t_s: float, used, assigned_det, rad, occ, speeds) -> np.ndarray:
-        """Record the scan at t_s: ``used`` (n,) bool rows updated with their detection
-        ``assigned_det`` (n,) of radii ``rad`` (m,) [m], occluded ``occ`` (m,); ``speeds`` (n,) the
-        tracks' speeds after the update [m/s]. Returns (n,) bool: the tracks confirmed now."""
+    def after_update(self, rows, t_s, used, assigned_det, rad, occ, speeds) -> np.ndarray:
+        """Record the scan of the tracks ``rows`` (indices or a slice) at t_s ((k,) or scalar [s]):
+        ``used`` (k,) bool rows updated with their detection ``assigned_det`` (k,) (index into
+        the detections' radii ``rad`` [m] and occluded flags ``occ``); ``speeds`` (k,) the tracks'
+        speeds after the update [m/s]. Returns (k,) bool: the tracks confirmed now."""
         cfg = self.config
-        self._hist = ((self._hist << 1) | used) & self._window_mask
-        self._scans += 1
-        self._n_upd += used
-        self._last = np.where(used, t_s, self._last)
+        hist = ((self._hist[rows] << 1) | used) & self._window_mask
+        self._hist[rows] = hist
+        self._scans[rows] += 1
+        self._n_upd[rows] += used
+        self._last[rows] = np.where(used, t_s, self._last[rows])
         grow = used & ~occ[np.maximum(assigned_det, 0)] if occ.size else used
         if grow.any():
+            g = np.arange(self._radius.size)[rows][grow]
             r_new = rad[assigned_det[grow]]
-            r_old = self._radius[grow]
+            r_old = self._radius[g]
             gain = np.where(r_new > r_old, cfg.radius_grow_gain, cfg.radius_shrink_gain)
-            self._radius[grow] = r_old + gain * (r_new - r_old)
-        new_conf = ~self._confirmed & (self._popcount[self._hist] >= cfg.confirm_hits)
-        self._confirmed |= new_conf
-        old = (t_s - self._born) >= cfg.static_min_age_s
-        self._static = self._confirmed & old & np.where(self._static, speeds < 2 * cfg.static_speed_m_s,
-                                                         speeds < cfg.static_speed_m_s)
+            self._radius[g] = r_old + gain * (r_new - r_old)
+        conf = self._confirmed[rows]
+        new_conf = ~conf & (self._popcount[hist] >= cfg.confirm_hits)
+        conf |= new_conf
+        self._confirmed[rows] = conf
+        old = (t_s - self._born[rows]) >= cfg.static_min_age_s
+        self._static[rows] = conf & old & np.where(self._static[rows], speeds < 2 * cfg.static_speed_m_s,
+                                                   speeds < cfg.static_speed_m_s)
         return new_conf
 
-    def drops(self, t_s: float, positions, position_covariances, origin_m, max_range_m: float):
-        """Which tracks go after the scan at t_s, given their positions (n, 2) [m] and position
-        covariances (n, 2, 2) [m²], the sensor at ``origin_m`` (None: no range test) with range
-        ``max_range_m`` [m].
+    def drops(self, rows, group, t_s, positions, position_covariances, origins_m, max_range_m):
+        """Which of the tracks ``rows`` (k,) go after their scan at t_s ((k,) or scalar [s]), given
+        their vessel ``group`` (k,) (only tracks of one vessel merge), positions (k, 2) [m] and
+        position covariances (k, 2, 2) [m²], their sensor at ``origins_m`` (k, 2) (NaN: no range
+        test) with range ``max_range_m`` (k,) [m]; rows are in bank order.
 
-        Returns (drop, reason, merged): drop (n,) bool; reason (n,) str, why a confirmed track is
+        Returns (drop, reason, merged): drop (k,) bool; reason (k,) str, why a confirmed track is
         lost ('' for tentative tracks and merged confirmed ones); merged, the confirmed tracks
-        merged into another, as (row, kept row) pairs in the order they were found.
+        merged into another, as (position in rows, kept position) pairs in the order found.
         """
         cfg = self.config
-        n = self._hist.size
-        drop = np.zeros(n, dtype=bool)
-        reason = [""] * n
+        k = rows.size
+        reason = [""] * k
         merged = []
+        hist, conf = self._hist[rows], self._confirmed[rows]
         # tentative tracks that can no longer reach M of N
-        misses = np.minimum(self._scans, cfg.confirm_window) - self._popcount[self._hist]
-        hopeless = ~self._confirmed & (misses > cfg.confirm_window - cfg.confirm_hits)
-        drop |= hopeless
-        pos = positions
+        misses = np.minimum(self._scans[rows], cfg.confirm_window) - self._popcount[hist]
+        drop = ~conf & (misses > cfg.confirm_window - cfg.confirm_hits)
         Pc = position_covariances
         tr = 0.5 * (Pc[:, 0, 0] + Pc[:, 1, 1])
         lam = tr + np.sqrt(np.maximum(tr**2 - (Pc[:, 0, 0] * Pc[:, 1, 1] - Pc[:, 0, 1] ** 2), 0.0))
-        conf = self._confirmed
-        for k in np.flatnonzero(conf & (t_s - self._last > cfg.max_coast_s)):
-            drop[k], reason[k] = True, f"not seen for {t_s - self._last[k]:.1f} s"
-        for k in np.flatnonzero(conf & ~drop & (lam > cfg.max_position_std_m**2)):
-            drop[k], reason[k] = True, f"position uncertainty {math.sqrt(lam[k]):.1f} m"
-        if origin_m is not None and math.isfinite(max_range_m):
-            rng = np.hypot(*(pos - np.asarray(origin_m)).T)
-            out = rng > max_range_m + cfg.range_margin_m
-            for k in np.flatnonzero(out & ~drop):
-                drop[k], reason[k] = True, f"out of range ({rng[k]:.0f} m)"
-        # duplicates: the track with fewer updates goes
+        since = t_s - self._last[rows]
+        for j in np.flatnonzero(conf & (since > cfg.max_coast_s)):
+            drop[j], reason[j] = True, f"not seen for {since[j]:.1f} s"
+        for j in np.flatnonzero(conf & ~drop & (lam > cfg.max_position_std_m**2)):
+            drop[j], reason[j] = True, f"position uncertainty {math.sqrt(lam[j]):.1f} m"
+        rng = np.hypot(*(positions - origins_m).T)
+        out = rng > max_range_m + cfg.range_margin_m  # False where there is no origin (NaN)
+        for j in np.flatnonzero(out & ~drop):
+            drop[j], reason[j] = True, f"out of range ({rng[j]:.0f} m)"
+        # duplicates (same vessel): the track with fewer updates goes
         live = np.flatnonzero(~drop)
         if live.size > 1:
-            p = pos[live]
-            dd = np.hypot(*(p[:, None, :] - p[None, :, :]).transpose(2, 0, 1))
-            lim = cfg.merge_fraction * np.maximum(self._radius[live][:, None], self._radius[live][None, :])
-            ii, jj = np.nonzero(np.triu(dd < lim, 1))
-            for a, b in zip(live[ii], live[jj]):
-                if drop[a] or drop[b]:
+            live = live[np.argsort(group[live], kind="stable")]
+            _, n_g = np.unique(group[live], return_counts=True)
+            q, i, j, start = block_pairs(n_g, n_g)
+            first = np.concatenate([[0], np.cumsum(n_g)[:-1]])
+            a, b = live[first[q] + i], live[first[q] + j]
+            later = i < j
+            a, b = a[later], b[later]
+            pa, pb = positions[a], positions[b]
+            dd = np.hypot(pa[:, 0] - pb[:, 0], pa[:, 1] - pb[:, 1])
+            rad = self._radius[rows]
+            close = dd < cfg.merge_fraction * np.maximum(rad[a], rad[b])
+            n_upd = self._n_upd[rows]
+            for a_, b_ in zip(a[close].tolist(), b[close].tolist()):
+                if drop[a_] or drop[b_]:
                     continue
-                keep, go = (a, b) if (conf[a], self._n_upd[a]) >= (conf[b], self._n_upd[b]) else (b, a)
+                keep, go = (a_, b_) if (conf[a_], n_upd[a_]) >= (conf[b_], n_upd[b_]) else (b_, a_)
                 drop[go] = True
                 reason[go] = ""
                 if conf[go]:
                     merged.append((go, keep))
         return drop, reason, merged
+
+    def note_moved(self, positions: np.ndarray) -> None:
+        """After a scan: anchor the tracks confirmed for the first time where they are (positions
+        (n, 2) [m]), and mark the confirmed ones now ``MOVED_M`` from their anchor as moved."""
+        new = self._confirmed & ~self._anchored
+        if new.any():
+            self._anchor[new] = positions[new]
+            self._anchored |= new
+        d = positions - self._anchor
+        self._moved |= self._anchored & (np.hypot(d[:, 0], d[:, 1]) >= MOVED_M)

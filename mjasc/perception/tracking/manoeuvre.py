@@ -32,10 +32,10 @@ class ManoeuvreDetector:
         self._nis = np.zeros(0)  # faded average of the normalized innovation squared (2: no manoeuvre)
         self._man = np.zeros(0, dtype=bool)  # manoeuvring (between the start and end thresholds)
 
-    def append(self) -> None:
-        """A new track: ε̄ = 2, not manoeuvring."""
-        self._nis = np.append(self._nis, 2.0)
-        self._man = np.append(self._man, False)
+    def append(self, k: int = 1) -> None:
+        """k new tracks: ε̄ = 2, not manoeuvring."""
+        self._nis = np.concatenate([self._nis, np.full(k, 2.0)])
+        self._man = np.concatenate([self._man, np.zeros(k, dtype=bool)])
 
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) is True."""
@@ -46,23 +46,23 @@ class ManoeuvreDetector:
         """(n,) bool: the track is manoeuvring (its process noise is raised)."""
         return self._man.copy()
 
-    def detect(self, t_s: float, assigned_det, d2, gate: float, bank: IMMBank) -> None:
-        """Update ε̄ of the tracks with a detection (``assigned_det`` (n,) index, −1 none; ``d2``
-        (n, m) their squared Mahalanobis distances, each capped at ``gate``) and raise the process
-        noise of the manoeuvring ones in ``bank`` for the cycle to t_s [s]."""
+    def detect(self, rows, d2, gate: float, t_s, bank: IMMBank) -> None:
+        """Update ε̄ of the tracks ``rows`` (indices) that have a detection, of squared Mahalanobis
+        distance ``d2`` (each capped at ``gate``), and raise the process noise of the manoeuvring
+        ones in ``bank`` for the cycle to t_s (scalar or per row [s])."""
         cfg = self.config
         if cfg.manoeuvre_speed_noise_m2_s3 == 0 and cfg.manoeuvre_heading_noise_rad2_s == 0:
             return
-        rows = np.flatnonzero(assigned_det >= 0)
         if rows.size == 0:
             return
-        eps = np.minimum(d2[rows, assigned_det[rows]], gate)
+        eps = np.minimum(d2, gate)
         a = cfg.manoeuvre_fading
-        self._nis[rows] = a * self._nis[rows] + (1.0 - a) * eps
-        nis = self._nis[rows]
-        self._man[rows] = np.where(self._man[rows], nis >= cfg.manoeuvre_end_threshold, nis > cfg.manoeuvre_threshold)
-        hot = rows[self._man[rows]]
+        nis = a * self._nis[rows] + (1.0 - a) * eps
+        self._nis[rows] = nis
+        man = np.where(self._man[rows], nis >= cfg.manoeuvre_end_threshold, nis > cfg.manoeuvre_threshold)
+        self._man[rows] = man
+        hot = rows[man]
         if hot.size:
-            dt = np.maximum(t_s - bank.times_s[hot], 0.0)
+            dt = np.maximum((t_s[man] if np.ndim(t_s) else t_s) - bank.times_s[hot], 0.0)
             bank.add_process_noise(hot, cfg.manoeuvre_heading_noise_rad2_s * dt,
                                    cfg.manoeuvre_speed_noise_m2_s3 * dt)

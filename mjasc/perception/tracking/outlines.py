@@ -28,44 +28,42 @@ class TrackOutlines:
 
     def __init__(self, config: TrackingConfig):
         self.config = config
-        self._hull: list[np.ndarray | None] = []  # per track: hull vertices (k, 2) of its returns [m]
+        self._hull = np.empty(0, dtype=object)  # per track: hull vertices (k, 2) of its returns [m], or None
         self._hull_anchor = np.zeros((0, 2))  # per track: its centre when the hull was started
 
-    def append(self, centre) -> None:
-        """A new track, now at ``centre`` (1, 2) [m]."""
-        self._hull.append(None)
-        self._hull_anchor = np.vstack([self._hull_anchor, centre])
+    def append(self, centres) -> None:
+        """New tracks, now at ``centres`` (k, 2) [m]."""
+        centres = np.asarray(centres, dtype=float).reshape(-1, 2)
+        self._hull = np.concatenate([self._hull, np.full(centres.shape[0], None, dtype=object)])
+        self._hull_anchor = np.concatenate([self._hull_anchor, centres])
 
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) is True."""
-        self._hull = [x for x, k in zip(self._hull, keep) if k]
+        self._hull = self._hull[keep]
         self._hull_anchor = self._hull_anchor[keep]
 
-    def grow(self, used, assigned_det, idx, labels, points_m, speeds, positions, radii) -> None:
-        """Add the returns of each slow track's detection to the hull of its returns; restart it
-        when the track moves. ``used`` (n,) rows updated with detection ``assigned_det`` (n,) of the
-        scan's selected detections ``idx`` (cluster labels of the returns: ``labels`` (k,), the
-        returns ``points_m`` (k, 2) [m]); the tracks' ``speeds`` (n,) [m/s], ``positions`` (n, 2) [m]
-        and ``radii`` (n,) [m]."""
+    def grow(self, rows, used, speeds, positions, radii, returns_of) -> None:
+        """After an update of the tracks ``rows`` (indices): restart the hull of those that move
+        (faster than twice ``static_speed_m_s``, or ``outline_reset_m`` from its anchor), then add
+        to the hull of each slow track updated (``used`` (k,)) the returns of its detection,
+        ``returns_of(position in rows)`` → (p, 2) [m]. speeds (k,) [m/s], positions (k, 2) [m]
+        and radii (k,) [m] are the tracks'."""
         cfg = self.config
-        v = speeds
-        pos = positions
-        moved = np.hypot(*(pos - self._hull_anchor).T) > cfg.outline_reset_m
-        for k in np.flatnonzero((v > 2.0 * cfg.static_speed_m_s) | moved):
-            self._hull[k] = None
-            self._hull_anchor[k] = pos[k]
-        rows = np.flatnonzero(used & (assigned_det >= 0) & (v < cfg.static_speed_m_s))
-        if rows.size == 0:
-            return
-        labels = np.asarray(labels)
-        points_m = np.asarray(points_m, dtype=float).reshape(-1, 2)
-        for k in rows:
-            p = points_m[labels == idx[assigned_det[k]]]
-            p = p[np.hypot(*(p - pos[k]).T) <= 1.5 * radii[k] + 0.5]
+        v, pos = speeds, positions
+        moved = np.hypot(*(pos - self._hull_anchor[rows]).T) > cfg.outline_reset_m
+        reset = (v > 2.0 * cfg.static_speed_m_s) | moved
+        if reset.any():
+            r = rows[reset]
+            self._hull[r] = None
+            self._hull_anchor[r] = pos[reset]
+        for j in np.flatnonzero(used & (v < cfg.static_speed_m_s)).tolist():
+            p = returns_of(j)
+            p = p[np.hypot(*(p - pos[j]).T) <= 1.5 * radii[j] + 0.5]
             if p.shape[0] == 0:
                 continue
+            k = rows[j]
             if self._hull[k] is None:
-                self._hull_anchor[k] = pos[k]
+                self._hull_anchor[k] = pos[j]
             else:
                 p = np.vstack([self._hull[k], p])
             self._hull[k] = convex_hull(p)

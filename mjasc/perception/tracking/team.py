@@ -7,66 +7,85 @@ track is matched against them by a global nearest neighbour (``scipy.optimize.li
 on the distances, gate ``team_match_distance_m``), comparing the broadcast with the track's position
 extrapolated back to t_b along its velocity; broadcasts older than ``team_max_age_s`` are not used.
 A match sets ``TrackEstimate.team_member``.
+
+Each vessel (owner) of a fleet's tracker has its own broadcasts (what its own link delivered) and
+matches only its own tracks: one pass over every vessel's (track, broadcast) pairs, a
+``linear_sum_assignment`` only for a vessel where a track or a broadcast has two candidates
+(:func:`mjasc.perception.tracking.association.gnn_assign_blocks`).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
-from mjasc.perception.tracking.association import BIG_COST
+from mjasc.perception.tracking.association import block_pairs, gnn_assign_blocks
 from mjasc.perception.tracking.config import TrackingConfig
 
 __all__ = ["TeamMatcher"]
 
 
 class TeamMatcher:
-    """The team's latest broadcasts and, per track (rows aligned with the bank's), the name of the
-    team mate it was matched to (None: not a team mate)."""
+    """Per vessel (owner) the team's latest broadcasts, and per track (rows aligned with the bank's)
+    the name of the team mate it was matched to (None: not a team mate)."""
 
     def __init__(self, config: TrackingConfig):
         self.config = config
-        self._team: dict[str, tuple[float, np.ndarray]] = {}
-        self._team_of: list[str | None] = []
+        self._team: dict[int, dict[str, tuple[float, np.ndarray]]] = {}
+        self._flat = None  # every owner's broadcasts as arrays (owner, name, t_b, position), built when used
+        self._team_of = np.empty(0, dtype=object)
 
-    def set_positions(self, positions: dict) -> None:
-        """``{name: (t_b [s], position (2,) [m])}``: the team's latest broadcast positions."""
-        self._team = {str(k): (float(v[0]), np.asarray(v[1], dtype=float).reshape(2)) for k, v in positions.items()}
+    def set_positions(self, owner: int, positions: dict) -> None:
+        """``{name: (t_b [s], position (2,) [m])}``: the team's latest broadcast positions, as
+        vessel ``owner`` received them."""
+        self._team[int(owner)] = {str(k): (float(v[0]), np.asarray(v[1], dtype=float).reshape(2))
+                                  for k, v in positions.items()}
+        self._flat = None
 
-    def append(self) -> None:
-        self._team_of.append(None)
+    def append(self, k: int = 1) -> None:
+        self._team_of = np.concatenate([self._team_of, np.full(k, None, dtype=object)])
 
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) is True."""
-        self._team_of = [x for x, k in zip(self._team_of, keep) if k]
+        self._team_of = self._team_of[keep]
 
-    @property
-    def members(self) -> list:
-        """Per track, the matched team mate's name or None."""
-        return list(self._team_of)
+    def members(self, rows=slice(None)) -> list:
+        """Per track (of ``rows``), the matched team mate's name or None."""
+        return self._team_of[rows].tolist()
 
-    def match(self, t_s: float, states: np.ndarray, confirmed: np.ndarray) -> None:
-        """Match the confirmed tracks (``states`` (n, 4) [x, y, θ, V], ``confirmed`` (n,) bool) at
-        t_s [s] against the broadcasts."""
-        n = states.shape[0]
-        self._team_of = [None] * n
-        if not self._team or n == 0:
+    def _arrays(self):
+        if self._flat is None:
+            items = [(o, name, tb, pb) for o, team in sorted(self._team.items()) for name, (tb, pb) in team.items()]
+            self._flat = (np.array([it[0] for it in items], dtype=np.int64), [it[1] for it in items],
+                          np.array([it[2] for it in items], dtype=float), np.array([it[3] for it in items]).reshape(-1, 2))
+        return self._flat
+
+    def match(self, rows, owner, t_s, states: np.ndarray, confirmed: np.ndarray, n_owners: int) -> None:
+        """Match the confirmed ones of tracks ``rows`` (indices, bank order; their vessel ``owner``
+        (k,), ``states`` (k, 4) [x, y, θ, V], ``confirmed`` (k,) bool) at their vessel's time
+        t_s ((n_owners,) [s], NaN for vessels not matched now) against that vessel's broadcasts."""
+        self._team_of[rows] = None
+        if not self._team or rows.size == 0:
             return
         cfg = self.config
-        names = [k for k, (tb, _) in self._team.items() if t_s - tb <= cfg.team_max_age_s]
-        rows = np.flatnonzero(confirmed)
-        if not names or rows.size == 0:
+        b_owner, names, tb, pb = self._arrays()
+        fresh = t_s[b_owner] - tb <= cfg.team_max_age_s  # NaN: False
+        c = np.flatnonzero(confirmed)
+        if not fresh.any() or c.size == 0:
             return
-        x = states[rows]
+        c = c[np.argsort(owner[c], kind="stable")]
+        bsel = np.flatnonzero(fresh)  # grouped by owner already
+        n_a = np.bincount(owner[c], minlength=n_owners)
+        n_b = np.bincount(b_owner[bsel], minlength=n_owners)
+        a_start = np.concatenate([[0], np.cumsum(n_a)[:-1]])
+        b_start = np.concatenate([[0], np.cumsum(n_b)[:-1]])
+        q, i, j, start = block_pairs(n_a, n_b)
+        ta, tb_i = c[a_start[q] + i], bsel[b_start[q] + j]
+        x = states[ta]
         vel = x[:, 3, None] * np.stack([np.cos(x[:, 2]), np.sin(x[:, 2])], axis=-1)
-        tb = np.array([self._team[k][0] for k in names])
-        pb = np.array([self._team[k][1] for k in names])
-        back = x[:, None, :2] - vel[:, None, :] * (t_s - tb)[None, :, None]
-        dist = np.hypot(*(back - pb[None, :, :]).transpose(2, 0, 1))
+        back = x[:, :2] - vel * (t_s[q] - tb[tb_i])[:, None]
+        dist = np.hypot(*(back - pb[tb_i]).T)
         inside = dist <= cfg.team_match_distance_m
         if not inside.any():
             return
-        r, c = linear_sum_assignment(np.where(inside, dist, BIG_COST))
-        for a, b in zip(r, c):
-            if inside[a, b]:
-                self._team_of[rows[a]] = names[b]
+        got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
+        self._team_of[rows[ta[got]]] = np.array([names[k] for k in tb_i[got].tolist()] + [None], dtype=object)[:-1]

@@ -2,8 +2,10 @@
 association, the batched IMM update, track management, outlines and team mates (thesis §3.2.1,
 docs/thesis.md §2; :mod:`mjasc.perception.tracking` for the whole procedure).
 
-Every track of a vessel lives in one batched :class:`mjasc.perception.imm.IMMBank` (all tracks
-predicted and updated in one call). One step:
+A vessel's tracks live in the rows of a :class:`mjasc.perception.tracking.fleet.FleetTracker` (one
+batched :class:`mjasc.perception.imm.IMMBank` for the tracks of many vessels, all predicted and
+updated in one call): :class:`MultiTargetTracker` is one vessel's view of it (on its own, a
+fleet of one). One step:
 
 1. gated GNN association of the scan's target detections with the tracks
    (:mod:`~mjasc.perception.tracking.association`), a partly hidden detection's variance inflated
@@ -18,68 +20,107 @@ predicted and updated in one call). One step:
    disc;
 6. team mates matched from their broadcasts (:mod:`~mjasc.perception.tracking.team`).
 
-Events (born, confirmed, lost, merged, with the reason) are kept for the recording.
+Events (born, confirmed, lost, merged, with the reason) are kept for the recording. ``bank`` is a
+read-only view of the vessel's rows (:class:`OwnerBank`): its ids, states, covariances, turn rates
+and mode probabilities.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.detection import Detections
-from mjasc.perception.imm.bank import IMMBank
-from mjasc.perception.tracking.association import association_costs, gnn_assign
+from mjasc.perception.tracking.association import association_costs
 from mjasc.perception.tracking.config import TrackingConfig
-from mjasc.perception.tracking.management import TrackManagement
-from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
-from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.team import TeamMatcher
+from mjasc.perception.tracking.fleet import FleetTracker, TrackEvent
 
-__all__ = ["MultiTargetTracker", "TrackEvent"]
+__all__ = ["MultiTargetTracker", "TrackEvent", "OwnerBank"]
 
 
-@dataclass(frozen=True)
-class TrackEvent:
-    time_s: float
-    kind: str  # "born" | "confirmed" | "lost" | "merged"
-    track_id: int
-    text: str
+class OwnerBank:
+    """Read-only view of one vessel's rows of a fleet's :class:`~mjasc.perception.imm.IMMBank`:
+    the bank's read-outs restricted to them, track ids in the vessel's own numbering."""
+
+    _READS = ("states", "positions", "headings", "speeds", "turn_rates", "times_s", "mode_probabilities",
+              "state_covariances", "position_covariances", "model_states", "model_covariances",
+              "velocity_initialized", "rejection_codes", "consecutive_gated")
+
+    def __init__(self, fleet: FleetTracker, owner: int):
+        self._fleet, self._owner = fleet, owner
+
+    @property
+    def config(self):
+        return self._fleet.bank.config
+
+    def __len__(self) -> int:
+        return self._fleet.rows_of(self._owner).size
+
+    def __getattr__(self, name):
+        if name in OwnerBank._READS:
+            f = self._fleet
+            return getattr(f.bank, name)[f.rows_of(self._owner)]
+        raise AttributeError(name)
+
+    @property
+    def track_ids(self) -> np.ndarray:
+        f = self._fleet
+        return f.local_id[f.rows_of(self._owner)]
+
+    @property
+    def rejection_reasons(self) -> list[str]:
+        f = self._fleet
+        reasons = f.bank.rejection_reasons
+        return [reasons[k] for k in f.rows_of(self._owner).tolist()]
+
+    def index_of(self, track_id: int) -> int:
+        """Row (in this view) of ``track_id``; ValueError if unknown."""
+        rows = np.flatnonzero(self.track_ids == track_id)
+        if rows.size == 0:
+            raise ValueError(f"track_id: no track with id {track_id}")
+        return int(rows[0])
+
+    def estimate(self, track_id: int, radius_m: float = 0.0, **fields) -> TrackEstimate:
+        """:meth:`mjasc.perception.imm.IMMBank.estimate` of one of the vessel's tracks."""
+        f = self._fleet
+        k = int(f.rows_of(self._owner)[self.index_of(track_id)])
+        e = f.bank.estimate(int(f.bank.track_ids[k]), radius_m, **fields)
+        from dataclasses import replace
+
+        return replace(e, track_id=int(track_id))
 
 
 class MultiTargetTracker:
-    """The tracks of one vessel. ``step(t, detections, origin)`` once per scan; ``estimates()``."""
+    """The tracks of one vessel. ``step(t, detections, origin)`` once per scan; ``estimates()``.
+    ``fleet``: the :class:`FleetTracker` it is a vessel of (default: a fleet of its own)."""
 
-    def __init__(self, config: TrackingConfig = TrackingConfig(), max_range_m: float = math.inf):
+    def __init__(self, config: TrackingConfig = TrackingConfig(), max_range_m: float = math.inf,
+                 fleet: FleetTracker | None = None):
         if not isinstance(config, TrackingConfig):
             raise ValueError(f"config: expected a TrackingConfig, got {type(config).__name__}")
+        self.fleet = FleetTracker(config) if fleet is None else fleet
+        if self.fleet.config != config:
+            raise ValueError("config: a vessel of a fleet's tracker shares the fleet's TrackingConfig")
         self.config = config
         self.max_range_m = float(max_range_m)
-        self.bank = IMMBank(config.imm)
-        self._R = float(config.imm.measurement_variance_m2)
-        self._gate = config.gate_threshold
-        self.events: list[TrackEvent] = []
-        self.counts = {"born": 0, "confirmed": 0, "lost": 0, "merged": 0, "scans": 0, "detections": 0,
-                       "associated": 0}
-        # per-track state beside the bank's, rows aligned with bank.track_ids
-        self._mgmt = TrackManagement(config)
-        self._manoeuvres = ManoeuvreDetector(config)
-        self._team = TeamMatcher(config)
-        self._outlines = TrackOutlines(config)
-        self.last_assignment: dict[int, int] = {}  # track id → detection index of the last step
+        self.owner = self.fleet.add_owner(self.max_range_m)
+        self.bank = OwnerBank(self.fleet, self.owner)
 
     def __len__(self) -> int:
         return len(self.bank)
+
+    def _rows(self) -> np.ndarray:
+        return self.fleet.rows_of(self.owner)
 
     # ------------------------------------------------------------------ association
     def association_costs(self, z: np.ndarray, var: np.ndarray, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """(n_tracks, m) squared Mahalanobis distances d²_ij and GNN costs d² + ln det S_ij for
         detections z (m, 2) with isotropic variances var (m,) or (n_tracks, m)
         (:func:`mjasc.perception.tracking.association.association_costs`)."""
-        bank = self.bank
-        return association_costs(bank.states, bank.state_covariances, bank.times_s, bank.turn_rates, z, var, t_s)
+        b = self.bank
+        return association_costs(b.states, b.state_covariances, b.times_s, b.turn_rates, z, var, t_s)
 
     # ------------------------------------------------------------------ one scan
     def step(self, t_s: float, detections: Detections | None, origin_m=None, use=None, points_m=None) -> None:
@@ -90,119 +131,12 @@ class MultiTargetTracker:
         sensor position (for the out-of-range test). ``points_m`` (k, 2): the scan's returns in
         world coordinates, in the order of ``detections.labels`` (for the outlines of slow tracks).
         """
-        cfg = self.config
-        self.counts["scans"] += 1
-        if detections is None:
-            z = np.zeros((0, 2))
-            var = rad = np.zeros(0)
-            idx = np.zeros(0, dtype=int)
-            occ = np.zeros(0, dtype=bool)
-        else:
-            sel = detections.targets if use is None else np.asarray(use, dtype=bool)
-            idx = np.flatnonzero(sel)
-            z = detections.centres_m[idx]
-            var = detections.variances_m2[idx] if cfg.use_detection_variance else np.full(idx.size, self._R)
-            rad = detections.radii_m[idx]
-            occ = detections.occluded[idx] if detections.occluded is not None else np.zeros(idx.size, bool)
-        m = z.shape[0]
-        self.counts["detections"] += m
-        n = len(self.bank)
-        assigned_det = np.full(n, -1)
-        claimed = np.zeros(m, dtype=bool)
-        var_ij = np.zeros((n, m))
-        if n and m:
-            # a partly hidden object shows less than its width: its centre is off by up to the
-            # unseen part of the track's radius
-            radius = self._mgmt.radii_m
-            var_ij = var[None, :] + occ[None, :] * np.maximum(radius[:, None] - rad[None, :], 0.0) ** 2
-            d2, cost = self.association_costs(z, var_ij, t_s)
-            inside = d2 <= self._gate
-            assigned_det = gnn_assign(inside, cost)
-            # a detection inside some track's gate does not start a track (split returns, near clutter)
-            claimed = inside.any(axis=0)
-            self._manoeuvres.detect(t_s, assigned_det, d2, self._gate, self.bank)
-        if n:
-            meas = assigned_det >= 0
-            zr = np.full((n, 2), np.nan)
-            vr = np.full(n, self._R)
-            zr[meas] = z[assigned_det[meas]]
-            vr[meas] = var_ij[meas, assigned_det[meas]]
-            used = self.bank.update(zr, t_s, meas, vr if cfg.use_detection_variance else None)
-            self.counts["associated"] += int(used.sum())
-            self._after_update(t_s, used, assigned_det, rad, occ)
-            if points_m is not None and detections is not None:
-                self._outlines.grow(used, assigned_det, idx, detections.labels, points_m, self.bank.speeds,
-                                    self.bank.positions, self._mgmt.radii_m)
-            ids = self.bank.track_ids
-            self.last_assignment = {int(ids[k]): int(idx[assigned_det[k]]) for k in np.flatnonzero(used)
-                                    if assigned_det[k] >= 0}
-        else:
-            self.last_assignment = {}
-        self._prune(t_s, origin_m)
-        # births
-        if m:
-            free = ~claimed
-            if len(self.bank) and free.any():
-                pos = self.bank.positions
-                dist = np.hypot(*(z[free][None, :, :] - pos[:, None, :]).transpose(2, 0, 1))
-                near = (dist <= self._mgmt.radii_m[:, None] + rad[free][None, :]).any(axis=0)
-                free[np.flatnonzero(free)[near]] = False
-            for j in np.flatnonzero(free):
-                sigma2 = var[j] if cfg.use_detection_variance else None
-                tid = self.bank.add_track(z[j], t_s, measurement_variance=sigma2)
-                self._append(t_s, rad[j])
-                self.counts["born"] += 1
-                self.events.append(TrackEvent(t_s, "born", tid, f"track {tid} born at {_fmt(z[j])}"))
-                self.last_assignment[tid] = int(idx[j])
-        self._team.match(t_s, self.bank.states, self._mgmt.confirmed)
-
-    @property
-    def manoeuvring(self) -> np.ndarray:
-        """(n,) bool per bank row: the track is manoeuvring (its process noise is raised)."""
-        return self._manoeuvres.manoeuvring
-
-    def _append(self, t_s: float, radius: float) -> None:
-        """Rows for the track just added to the bank."""
-        self._mgmt.append(t_s, radius)
-        self._manoeuvres.append()
-        self._team.append()
-        self._outlines.append(self.bank.positions[-1:])
-
-    def _after_update(self, t_s, used, assigned_det, rad, occ) -> None:
-        new_conf = self._mgmt.after_update(t_s, used, assigned_det, rad, occ, self.bank.speeds)
-        ids = self.bank.track_ids
-        born = self._mgmt.born_s
-        for k in np.flatnonzero(new_conf):
-            self.counts["confirmed"] += 1
-            self.events.append(TrackEvent(t_s, "confirmed", int(ids[k]), f"track {ids[k]} confirmed at "
-                                          f"{_fmt(self.bank.positions[k])} (born {t_s - born[k]:.1f} s ago)"))
-
-    def _prune(self, t_s: float, origin_m) -> None:
-        """Drop the tracks that management gives up (:meth:`TrackManagement.drops`), with events."""
-        if len(self.bank) == 0:
-            return
-        ids = self.bank.track_ids
-        conf = self._mgmt.confirmed
-        drop, reason, merged = self._mgmt.drops(t_s, self.bank.positions, self.bank.position_covariances, origin_m,
-                                                self.max_range_m)
-        for go, keep in merged:
-            self.counts["merged"] += 1
-            self.events.append(TrackEvent(t_s, "merged", int(ids[go]), f"track {ids[go]} merged into "
-                                          f"track {ids[keep]}"))
-        for k in np.flatnonzero(drop):
-            if conf[k] and reason[k]:
-                self.counts["lost"] += 1
-                self.events.append(TrackEvent(t_s, "lost", int(ids[k]), f"track {ids[k]} lost: {reason[k]}"))
-            self.bank.remove_track(int(ids[k]))
-        if drop.any():
-            keep = ~drop
-            for part in (self._mgmt, self._manoeuvres, self._team, self._outlines):
-                part.keep(keep)
+        self.fleet.step([self.owner], [t_s], [detections], [origin_m], [use], [points_m])
 
     # ------------------------------------------------------------------ team mates
     def set_team_positions(self, positions: dict) -> None:
         """``{name: (t_b [s], position (2,) [m])}``: the team's latest broadcast positions."""
-        self._team.set_positions(positions)
+        self.fleet.set_team_positions(self.owner, positions)
 
     # ------------------------------------------------------------------ outputs
     @property
@@ -211,47 +145,55 @@ class MultiTargetTracker:
 
     @property
     def confirmed(self) -> np.ndarray:
-        """(n,) bool per bank row."""
-        return self._mgmt.confirmed
+        """(n,) bool per row."""
+        return self.fleet.mgmt._confirmed[self._rows()]
 
     @property
     def radii_m(self) -> np.ndarray:
-        return self._mgmt.radii_m
+        return self.fleet.mgmt._radius[self._rows()]
 
     @property
     def static(self) -> np.ndarray:
-        return self._mgmt.static
+        return self.fleet.mgmt._static[self._rows()]
+
+    @property
+    def moved(self) -> np.ndarray:
+        """(n,) bool per row: confirmed and once moved ``MOVED_M`` (:mod:`~mjasc.perception.tracking.management`)."""
+        return self.fleet.mgmt._moved[self._rows()]
 
     @property
     def team_members(self) -> list:
-        return self._team.members
+        return self.fleet.team.members(self._rows())
+
+    @property
+    def manoeuvring(self) -> np.ndarray:
+        """(n,) bool per row: the track is manoeuvring (its process noise is raised)."""
+        return self.fleet.manoeuvres._man[self._rows()]
+
+    @property
+    def counts(self) -> dict:
+        return self.fleet.counts(self.owner)
+
+    @property
+    def events(self) -> list[TrackEvent]:
+        return self.fleet.events[self.owner]
+
+    @property
+    def last_assignment(self) -> dict[int, int]:
+        """{track id: detection index} of the last step."""
+        return self.fleet.last_assignment(self.owner)
 
     def estimates(self, include_tentative: bool = False) -> list[TrackEstimate]:
         """TrackEstimate of every confirmed track (and tentative ones if asked)."""
-        out = []
-        ids = self.bank.track_ids
-        confirmed, static, radius = self._mgmt.confirmed, self._mgmt.static, self._mgmt.radii_m
-        team = self._team.members
-        for k in range(ids.size):
-            if not (confirmed[k] or include_tentative):
-                continue
-            outline = None
-            if static[k] or self.bank.speeds[k] < self.config.static_speed_m_s:
-                outline = self.outline(k)
-            out.append(self.bank.estimate(int(ids[k]), float(radius[k]), is_static=bool(static[k]),
-                                          team_member=team[k], outline_m=outline))
-        return out
+        return self.fleet.estimates(self.owner, include_tentative)
 
     def outline(self, row: int) -> np.ndarray:
-        """(k, 2) CCW outline [m] of the track in bank row ``row``: the hull of its returns united
-        with its reflection through the track's centre, or the 12-gon around its disc
-        (:mod:`mjasc.perception.tracking.outlines`)."""
-        return self._outlines.outline(row, self.bank.positions[row], self._mgmt.radii_m[row])
+        """(k, 2) CCW outline [m] of the track in row ``row`` (of this vessel's rows): the hull of its
+        returns united with its reflection through the track's centre, or the 12-gon around its
+        disc (:mod:`mjasc.perception.tracking.outlines`)."""
+        return self.fleet.outline(int(self._rows()[row]))
 
     def drain_events(self) -> list[TrackEvent]:
-        ev, self.events = self.events, []
+        ev = self.fleet.events[self.owner]
+        self.fleet.events[self.owner] = []
         return ev
-
-
-def _fmt(p) -> str:
-    return f"({p[0]:.1f}, {p[1]:.1f}) m"

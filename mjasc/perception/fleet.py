@@ -1,0 +1,277 @@
+"""The perception of a whole fleet in one pass per tick: every vessel's scan → detections → static
+map → tracks, as arrays over the vessels (world ENU, SI).
+
+Each vessel keeps its own :class:`mjasc.perception.pipeline.Perception` (what the agent calls:
+``sense``, ``update_tracks``, ``tracks``, ``static_polygons``, ``set_team_positions``); the vessels
+of one :class:`~mjasc.physics.world.World` share a :class:`PerceptionFleet` (``fleet_of(world)``)
+that holds what can be shared: one :class:`~mjasc.perception.static_map.StaticMapStore` for all
+their maps and one :class:`~mjasc.perception.tracking.fleet.FleetTracker` (one IMM bank) per
+tracking configuration. A vessel's ``sense`` casts its own fan at once (``mj_multiRay``, MuJoCo's
+floor, per vessel) and queues the scan; ``update_tracks`` queues the tracking step. The fleet then
+processes the queue in one pass:
+
+* **sensing**: one :func:`~mjasc.perception.detection.detect_many` over all scans; the tracked discs
+  of every vessel's tracks at its scan time (arrays over the fleet's tracks); the returns a wall's
+  cluster swallowed from a tracked boat re-clustered (only for the vessels where that happens);
+  wall fragments among the targets, static returns into the maps, free space carved: one call
+  each for all vessels;
+* **tracking**: one :meth:`FleetTracker.step` for all vessels of a tracking configuration.
+
+A queue is processed when the fleet's last vessel (in the order they joined, which is the order the
+runner calls them in) has been asked for the slot, or as soon as anything reads a result or changes
+a vessel's inputs (``tracks()``, ``scan``, ``set_team_positions`` …), so a caller that drives one
+vessel at a time sees exactly the per-vessel semantics. Every step is per return, per cluster, per
+cell or per track, so each vessel's detections, map and tracks are the same bits as those of a
+vessel processed alone (tests/test_fleet_perception.py).
+"""
+
+from __future__ import annotations
+
+import time
+import weakref
+
+import numpy as np
+
+from mjasc.perception.detection import detect_many
+from mjasc.perception.static_map import StaticMap, StaticMapStore
+from mjasc.perception.tracking.association import block_pairs
+from mjasc.perception.tracking.fleet import FleetTracker
+from mjasc.perception.tracking.tracker import MultiTargetTracker
+
+__all__ = ["PerceptionFleet", "fleet_of", "DISC_MARGIN_M", "DISC_MARGIN_MAX_M", "FLAT_M"]
+
+#: A tracked disc (returns kept out of the map) is the track's radius + this + 2σ of its position [m]
+DISC_MARGIN_M = 1.0
+#: ... at most this beyond its radius (a long-coasting track must not blank a whole wall) [m].
+DISC_MARGIN_MAX_M = 2.5
+#: A small cluster on mapped cells is a fragment of the mapped structure only if its returns lie
+#: within this (+ 2σ_ρ) RMS of a straight line (a 4 m hull seen over ≥ 60° of its side: ≥ 0.2 m) [m].
+FLAT_M = 0.15
+
+_FLEETS: dict[int, tuple] = {}
+
+
+def fleet_of(world) -> "PerceptionFleet":
+    """The :class:`PerceptionFleet` of a world (created on first use, dropped with the world)."""
+    key = id(world)
+    got = _FLEETS.get(key)
+    if got is None or got[0]() is not world:
+        got = (weakref.ref(world), PerceptionFleet())
+        _FLEETS[key] = got
+        weakref.finalize(world, _FLEETS.pop, key, None)
+    return got[1]
+
+
+def _starts(counts: np.ndarray) -> np.ndarray:
+    out = np.zeros(counts.size, dtype=np.int64)
+    np.cumsum(counts[:-1], out=out[1:])
+    return out
+
+
+def inside_owned(points, point_owner, centres, radii, disc_owner) -> np.ndarray:
+    """(k,) bool: point k lies in one of its owner's discs. ``points`` (k, 2) grouped by owner
+    (ascending), ``centres`` (q, 2) / ``radii`` (q,) grouped likewise; owners as small ints."""
+    k = points.shape[0]
+    out = np.zeros(k, dtype=bool)
+    if k == 0 or centres.shape[0] == 0:
+        return out
+    no = int(max(point_owner.max(), disc_owner.max())) + 1
+    n_p, n_d = np.bincount(point_owner, minlength=no), np.bincount(disc_owner, minlength=no)
+    q, i, j, _ = block_pairs(n_p, n_d)
+    if q.size == 0:
+        return out
+    a, b = _starts(n_p)[q] + i, _starts(n_d)[q] + j
+    d2 = ((points[a] - centres[b]) ** 2).sum(-1)
+    out[a[d2 <= radii[b] ** 2]] = True
+    return out
+
+
+def thickness(p: np.ndarray, labels: np.ndarray, m: int) -> np.ndarray:
+    """(m,) RMS distance [m] of each cluster's returns from their principal line (0 for 1–2 returns)."""
+    good = labels >= 0
+    lab, q = labels[good], p[good]
+    n = np.maximum(np.bincount(lab, minlength=m), 1)
+    mean = np.stack([np.bincount(lab, q[:, i], m) for i in (0, 1)], axis=-1) / n[:, None]
+    d = q - mean[lab]
+    sxx, syy, sxy = (np.bincount(lab, w, m) / n for w in (d[:, 0] ** 2, d[:, 1] ** 2, d[:, 0] * d[:, 1]))
+    tr = 0.5 * (sxx + syy)
+    return np.sqrt(np.maximum(tr - np.sqrt(np.maximum(tr**2 - (sxx * syy - sxy**2), 0.0)), 0.0))
+
+
+class PerceptionFleet:
+    """The shared engine of the :class:`~mjasc.perception.pipeline.Perception` components of one world."""
+
+    def __init__(self):
+        self.members: list = []
+        self.map_store = StaticMapStore()
+        self._trackers: list[FleetTracker] = []
+        self._scans: list[tuple] = []  # (member, scan) queued for the sensing pass
+        self._tracks: list = []  # members queued for the tracking pass
+        self._busy = False
+
+    def join(self, member) -> tuple[StaticMap, MultiTargetTracker]:
+        """Register a vessel's perception; returns its map and tracker (views of the fleet's)."""
+        cfg = member.config
+        ft = next((f for f in self._trackers if f.config == cfg), None)
+        if ft is None:
+            ft = FleetTracker(cfg)
+            self._trackers.append(ft)
+        self.members.append(member)
+        return (StaticMap(cfg.map_cell_m, cfg.map_min_hits, store=self.map_store),
+                MultiTargetTracker(cfg, member.sensor_config.max_range_m, fleet=ft))
+
+    # ------------------------------------------------------------------ the queue
+    def pending(self, member) -> bool:
+        """The member has queued work."""
+        return any(m is member for m, _ in self._scans) or any(m is member for m in self._tracks)
+
+    def queue_scan(self, member, scan) -> None:
+        if self.pending(member):
+            self.flush()
+        self._scans.append((member, scan))
+
+    def queue_track(self, member) -> None:
+        if any(m is member for m in self._tracks):
+            self.flush()
+        self._tracks.append(member)
+
+    def asked(self, member) -> None:
+        """A slot call of ``member`` is done: the last member's ends the slot (process the queue)."""
+        if member is self.members[-1]:
+            self.flush()
+
+    def flush(self) -> None:
+        """Process the queued scans (sensing pass), then the queued tracking steps."""
+        if self._busy or not (self._scans or self._tracks):
+            return
+        self._busy = True
+        try:
+            if self._scans:
+                items, self._scans = self._scans, []
+                w0 = time.perf_counter()
+                self._sense(items)
+                share = (time.perf_counter() - w0) / len(items)
+                for m, _ in items:
+                    m._stats["sense_s"] += share
+            if self._tracks:
+                members, self._tracks = self._tracks, []
+                w0 = time.perf_counter()
+                self._track(members)
+                share = (time.perf_counter() - w0) / len(members)
+                for m in members:
+                    m._stats["track_s"] += share
+        finally:
+            self._busy = False
+
+    # ------------------------------------------------------------------ sensing pass
+    def _sense(self, items) -> None:
+        members = [m for m, _ in items]
+        scans = [s for _, s in items]
+        S = len(scans)
+        batch = detect_many(scans, [m.config.detection for m in members],
+                            [m.sensor_config.range_noise_std_m for m in members])
+        dets = batch.split()
+        discs = self._discs(members, scans)
+        n_det = np.diff(batch.det_offsets)
+        ext_any = np.bincount(np.repeat(np.arange(S), n_det)[batch.extended], minlength=S) > 0
+        for k in np.flatnonzero(ext_any).tolist():  # a wall's cluster swallowed a tracked boat's returns
+            if discs[k][0].shape[0]:
+                dets[k] = members[k]._split_tracked(scans[k], dets[k], discs[k])
+        # every scan's returns and detections, stacked (member slot k), labels made global
+        n_det = np.array([len(d) for d in dets], dtype=np.int64)
+        n_ret = np.array([s.hit_beams.size for s in scans], dtype=np.int64)
+        det_off = _starts(n_det)
+        ret_k = np.repeat(np.arange(S), n_ret)
+        det_k = np.repeat(np.arange(S), n_det)
+        cat = np.concatenate
+        pts = cat([s.hit_points_world for s in scans]) if S > 1 else scans[0].hit_points_world
+        lab = cat([d.labels for d in dets]) if S > 1 else dets[0].labels
+        lab = np.where(lab >= 0, lab + det_off[ret_k], -1)
+        M = int(n_det.sum())
+        targets = ~(cat([d.extended for d in dets]) if S > 1 else dets[0].extended)
+        slot = np.array([m.map.member for m in members], dtype=np.int64)  # map member of each slot
+        dc = np.concatenate([c for c, _ in discs]) if S > 1 else discs[0][0]
+        dr = np.concatenate([r for _, r in discs]) if S > 1 else discs[0][1]
+        d_k = np.repeat(np.arange(S), [c.shape[0] for c, _ in discs])
+        store = self.map_store
+        if M:
+            good = lab >= 0
+            if targets.any() and any(m.map.n_occupied for m in members):
+                occ = store.occupied(slot[ret_k], pts)
+                n_pts = cat([d.n_points for d in dets]) if S > 1 else dets[0].n_points
+                frac = np.bincount(lab[good], weights=occ[good], minlength=M) / np.maximum(n_pts, 1)
+                centres = cat([d.centres_m for d in dets]) if S > 1 else dets[0].centres_m
+                on_map = targets & (frac >= 0.5) & ~inside_owned(centres, det_k, dc, dr, d_k)
+                if on_map.any():  # a wall fragment is flat; a hull's returns curve round it
+                    sig = np.array([m.sensor_config.range_noise_std_m for m in members])
+                    on_map &= thickness(pts, lab, M) <= FLAT_M + 2.0 * sig[det_k]
+                targets &= ~on_map
+            good_static = good & ~targets[np.maximum(lab, 0)]
+            if good_static.any():
+                p, pk = pts[good_static], ret_k[good_static]
+                away = ~inside_owned(p, pk, dc, dr, d_k)
+                store.add_points(slot[pk[away]], p[away])
+        carve = [k for k, m in enumerate(members) if m.map.miss_weight > 0]
+        if carve:
+            sc = [scans[k] for k in carve]
+            store.carve(slot[carve].tolist(), [s.origin_m for s in sc], [s.angles_body + s.heading_rad for s in sc],
+                        [s.ranges for s in sc], [s.hit for s in sc], [s.max_range_m for s in sc],
+                        [s.full_circle for s in sc], [members[k].sensor_config.range_noise_std_m for k in carve],
+                        [s.hit_points_world for s in sc])
+        tk = np.split(targets, det_off[1:]) if S > 1 else [targets]
+        for m, s, d, t in zip(members, scans, dets, tk):
+            m._scanned(s, d, t)
+
+    def _discs(self, members, scans) -> list[tuple[np.ndarray, np.ndarray]]:
+        """Per member, centres (q, 2) and radii (q,) [m] of its tracks whose returns must never
+        reach its map (:meth:`mjasc.perception.pipeline.Perception.tracked_discs`), at its scan time."""
+        out = [(np.zeros((0, 2)), np.zeros(0))] * len(members)
+        for ft in self._trackers:
+            slots = [k for k, m in enumerate(members) if m.tracker.fleet is ft]
+            if not slots or len(ft.bank) == 0:
+                continue
+            owners = np.array([members[k].tracker.owner for k in slots], dtype=np.int64)
+            t_own = np.full(ft.n_owners, np.nan)
+            t_own[owners] = [scans[k].time_s for k in slots]
+            mg = ft.mgmt
+            sel = np.flatnonzero(mg._confirmed & (~mg._static | mg._moved) & ~np.isnan(t_own[ft.owner]))
+            if sel.size == 0:
+                continue
+            c, r = tracked_discs(ft, sel, t_own[ft.owner[sel]])
+            own = ft.owner[sel]
+            order = np.argsort(own, kind="stable")
+            u, cut = np.unique(own[order], return_index=True)
+            where = dict(zip(owners.tolist(), slots))
+            for o, cc, rr in zip(u.tolist(), np.split(c[order], cut[1:]), np.split(r[order], cut[1:])):
+                out[where[o]] = (cc, rr)
+        return out
+
+    # ------------------------------------------------------------------ tracking pass
+    def _track(self, members) -> None:
+        for ft in self._trackers:
+            ms = [m for m in members if m.tracker.fleet is ft]
+            if not ms:
+                continue
+            ft.step([m.tracker.owner for m in ms], [m._det.time_s for m in ms], [m._det for m in ms],
+                    [m._scan.origin_m for m in ms], [m._targets for m in ms],
+                    [m._scan.hit_points_world for m in ms])
+        for m in members:
+            m._tracked()
+
+
+def tracked_discs(ft: FleetTracker, rows: np.ndarray, t_s) -> tuple[np.ndarray, np.ndarray]:
+    """Centres (k, 2) and radii (k,) [m] of the tracks ``rows`` of a fleet's tracker predicted to
+    t_s ((k,) [s]): the combined estimate advanced along its arc (thesis eq. 3.3 with ω̂, one step
+    of dt = t_s − its last update: a coasting track is predicted, not left where it was last seen);
+    the radius is the track's radius + ``DISC_MARGIN_M`` + 2σ of its position (at most
+    ``DISC_MARGIN_MAX_M`` beyond the radius)."""
+    bank = ft.bank
+    x = bank.states[rows]
+    dt = np.maximum(t_s - bank.times_s[rows], 0.0)
+    th = x[:, 2] + 0.5 * dt * bank.turn_rates[rows]
+    c = x[:, :2] + (dt * x[:, 3])[:, None] * np.stack([np.cos(th), np.sin(th)], axis=-1)
+    P = bank.position_covariances[rows]
+    tr_ = 0.5 * (P[:, 0, 0] + P[:, 1, 1])
+    lam = tr_ + np.sqrt(np.maximum(tr_**2 - (P[:, 0, 0] * P[:, 1, 1] - P[:, 0, 1] ** 2), 0.0))
+    r = ft.mgmt._radius[rows] + np.minimum(DISC_MARGIN_M + 2.0 * np.sqrt(lam), DISC_MARGIN_MAX_M)
+    return c, r

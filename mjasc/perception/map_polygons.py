@@ -1,0 +1,82 @@
+"""Occupied cells of a static map → convex polygons for the planner (world ENU [m]).
+
+The occupied cells (integer indices (i, j) of ``cell_m`` squares, :mod:`mjasc.perception.static_map`)
+are grouped into 8-connected components (``scipy.ndimage.label``). Each component is split
+recursively (at the median of its cells along their principal axis) until its cells fill at least
+``min_fill`` of their convex hull or ``max_depth`` is reached, so that an L- or U-shaped dock
+becomes a few convex pieces hugging its walls instead of one hull covering its basin. Each polygon
+is the convex hull of its cells' corners (counter-clockwise, conservative by up to one cell).
+
+A map changes a few cells at a time, mostly in one structure: :class:`PolygonCache` keeps each
+component's pieces keyed by its cells, and splits only the components whose cells changed since
+the last call (a component's pieces depend only on its own cells, taken in row-major order).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial import ConvexHull, QhullError
+
+__all__ = ["PolygonCache", "split_component"]
+
+_CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+_EIGHT = np.ones((3, 3))
+
+
+def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth: int, depth: int, out: list) -> None:
+    """Append to ``out`` the convex pieces (k, 2) [m] of one component's cells ``comp`` (c, 2)."""
+    corners = (comp[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cell_m
+    try:
+        hull = ConvexHull(corners)
+    except QhullError:
+        return
+    fill = comp.shape[0] * cell_m**2 / hull.volume
+    if fill >= min_fill or comp.shape[0] <= 4 or depth >= max_depth:
+        out.append(corners[hull.vertices])
+        return
+    c = comp - comp.mean(axis=0)
+    _, vec = np.linalg.eigh(c.T @ c)
+    proj = c @ vec[:, -1]
+    cut = np.median(proj)
+    left = proj <= cut
+    if left.all() or not left.any():
+        out.append(corners[hull.vertices])
+        return
+    split_component(comp[left], cell_m, min_fill, max_depth, depth + 1, out)
+    split_component(comp[~left], cell_m, min_fill, max_depth, depth + 1, out)
+
+
+class PolygonCache:
+    """Convex pieces of one map's occupied cells, re-split only for the components that changed."""
+
+    def __init__(self, cell_m: float, min_fill: float, max_depth: int):
+        self.cell_m, self.min_fill, self.max_depth = float(cell_m), float(min_fill), int(max_depth)
+        self._pieces: dict[bytes, list[np.ndarray]] = {}
+
+    def polygons(self, cells: np.ndarray) -> list[np.ndarray]:
+        """Pieces of the occupied cells ``cells`` (c, 2) int64, components in raster order of
+        their first cell (``ndimage.label``'s numbering)."""
+        out: list[np.ndarray] = []
+        if cells.size == 0:
+            self._pieces = {}
+            return out
+        lo = cells.min(axis=0)
+        rel = cells - lo
+        grid = np.zeros(tuple(rel.max(axis=0) + 1), dtype=bool)
+        grid[tuple(rel.T)] = True
+        labels, n = ndimage.label(grid, structure=_EIGHT)
+        lab = labels[tuple(rel.T)]
+        order = np.lexsort((cells[:, 1], cells[:, 0], lab))  # by component, then row-major
+        comps = np.split(cells[order], np.cumsum(np.bincount(lab, minlength=n + 1)[1:])[:-1])
+        pieces = {}
+        for comp in comps:
+            key = comp.tobytes()
+            got = self._pieces.get(key)
+            if got is None:
+                got = []
+                split_component(comp, self.cell_m, self.min_fill, self.max_depth, 0, got)
+            pieces[key] = got
+            out.extend(got)
+        self._pieces = pieces
+        return out

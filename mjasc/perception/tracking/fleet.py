@@ -1,0 +1,376 @@
+"""FleetTracker: the tracks of many vessels (owners) in one IMM bank, one :meth:`~FleetTracker.step`
+for every vessel that scanned at a tick (thesis §3.2.1, docs/thesis.md §2; the procedure of
+:mod:`mjasc.perception.tracking`).
+
+Each bank row belongs to one vessel (``owner``) and carries that vessel's own track id (the ids a
+vessel hands on count from 0 per vessel). Nothing mixes vessels: a vessel's detections are
+associated only with its own tracks, merges pair only its own tracks, team mates are matched
+against its own broadcasts; but each stage runs once for all vessels, over arrays of rows or of
+(track, detection) pairs grouped by vessel (:func:`mjasc.perception.tracking.association.block_pairs`):
+
+1. gated GNN association of every vessel's target detections with its tracks, a partly hidden
+   detection's variance inflated by the unseen part of the track's radius; a
+   ``linear_sum_assignment`` only for a vessel whose gates overlap
+   (:func:`~mjasc.perception.tracking.association.gnn_assign_blocks`);
+2. manoeuvre detection on the associated tracks (:mod:`~mjasc.perception.tracking.manoeuvre`);
+3. **one IMM cycle** for the tracks of every vessel that scanned (each vessel's group of rows at its
+   own Ts when the vessels' times differ: :meth:`mjasc.perception.imm.IMMBank.update_rows`);
+4. management (:mod:`~mjasc.perception.tracking.management`): confirmation, radius, static test,
+   outlines of slow tracks (:mod:`~mjasc.perception.tracking.outlines`), losses and merges (the
+   dropped rows leave the bank at once);
+5. births from the detections no track claimed and outside every track's gate and disc (added
+   to the bank at once);
+6. team mates matched from each vessel's broadcasts (:mod:`~mjasc.perception.tracking.team`).
+
+A vessel's results do not depend on the other vessels in the bank: every step is per row or per
+pair, and the IMM kernel's rows are independent (:mod:`mjasc.perception.imm.kernel`); a fleet's
+tracker gives each vessel the same tracks, bit for bit, as a tracker of its own
+(tests/test_fleet_perception.py). :class:`mjasc.perception.tracking.tracker.MultiTargetTracker` is
+one vessel's view.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjasc.core.estimates import TrackEstimate
+from mjasc.perception.imm.bank import IMMBank
+from mjasc.perception.tracking.association import block_pairs, gnn_assign_blocks, pair_costs, predicted_positions
+from mjasc.perception.tracking.config import TrackingConfig
+from mjasc.perception.tracking.management import TrackManagement
+from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
+from mjasc.perception.tracking.outlines import TrackOutlines
+from mjasc.perception.tracking.team import TeamMatcher
+
+__all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
+
+#: Per-vessel counters (``FleetTracker.counts(owner)``).
+COUNT_KEYS = ("born", "confirmed", "lost", "merged", "scans", "detections", "associated")
+_BORN, _CONF, _LOST, _MERGED, _SCANS, _DETS, _ASSOC = range(7)
+
+
+@dataclass(frozen=True)
+class TrackEvent:
+    time_s: float
+    kind: str  # "born" | "confirmed" | "lost" | "merged"
+    track_id: int
+    text: str
+
+
+def _starts(counts: np.ndarray) -> np.ndarray:
+    out = np.zeros(counts.size, dtype=np.int64)
+    np.cumsum(counts[:-1], out=out[1:])
+    return out
+
+
+def _fmt(p) -> str:
+    return f"({p[0]:.1f}, {p[1]:.1f}) m"
+
+
+class FleetTracker:
+    """The tracks of many vessels; ``add_owner(max_range)`` per vessel, then ``step(owners, ...)``
+    once per tick for the vessels that scanned."""
+
+    def __init__(self, config: TrackingConfig = TrackingConfig()):
+        if not isinstance(config, TrackingConfig):
+            raise ValueError(f"config: expected a TrackingConfig, got {type(config).__name__}")
+        self.config = config
+        self.bank = IMMBank(config.imm)
+        self._R = float(config.imm.measurement_variance_m2)
+        self._gate = config.gate_threshold
+        self.mgmt = TrackManagement(config)
+        self.manoeuvres = ManoeuvreDetector(config)
+        self.team = TeamMatcher(config)
+        self.outlines = TrackOutlines(config)
+        self.owner = np.zeros(0, dtype=np.int64)  # per row: its vessel
+        self.local_id = np.zeros(0, dtype=np.int64)  # per row: its id in its vessel's numbering
+        self.version = 0  # changes whenever rows are added or removed
+        self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
+        self._max_range = np.zeros(0)
+        self._next_local = np.zeros(0, dtype=np.int64)
+        self._counts = np.zeros((0, len(COUNT_KEYS)), dtype=np.int64)
+        self.events: list[list[TrackEvent]] = []
+        self._last_assign: list[tuple[np.ndarray, np.ndarray]] = []
+
+    # ------------------------------------------------------------------ vessels
+    def add_owner(self, max_range_m: float = math.inf) -> int:
+        """A vessel with no tracks yet and this sensor range [m] (tracks beyond it are dropped)."""
+        k = self._max_range.size
+        self._max_range = np.append(self._max_range, float(max_range_m))
+        self._next_local = np.append(self._next_local, 0)
+        self._counts = np.vstack([self._counts, np.zeros((1, len(COUNT_KEYS)), dtype=np.int64)])
+        self.events.append([])
+        self._last_assign.append((np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)))
+        return k
+
+    @property
+    def n_owners(self) -> int:
+        return self._max_range.size
+
+    def rows_of(self, owner: int) -> np.ndarray:
+        """Bank rows of a vessel's tracks, in bank order (= the order of its own tracker)."""
+        got = self._rows_cache.get(owner)
+        if got is None or got[0] != self.version:
+            got = (self.version, np.flatnonzero(self.owner == owner) if self.n_owners > 1 else np.arange(self.owner.size))
+            self._rows_cache[owner] = got
+        return got[1]
+
+    def counts(self, owner: int) -> dict:
+        return dict(zip(COUNT_KEYS, self._counts[owner].tolist()))
+
+    def last_assignment(self, owner: int) -> dict:
+        """{track id: detection index} of the vessel's last scan (updates and births)."""
+        ids, dets = self._last_assign[owner]
+        return dict(zip(ids.tolist(), dets.tolist()))
+
+    def set_team_positions(self, owner: int, positions: dict) -> None:
+        """``{name: (t_b [s], position (2,) [m])}``: the team's broadcasts as vessel ``owner`` has them."""
+        self.team.set_positions(owner, positions)
+
+    # ------------------------------------------------------------------ one tick
+    def step(self, owners, t_s, detections, origins=None, use=None, points=None) -> None:
+        """One scan for each vessel of ``owners`` (p,) at its time t_s (p,) [s]: its ``detections``
+        (a :class:`~mjasc.perception.detection.Detections` or None: coast), sensor origin (2,) [m]
+        or None (no out-of-range test), ``use`` (m,) bool or None (default: the non-extended
+        detections), and its scan's returns (k, 2) [m] in the order of ``detections.labels`` or None
+        (for the outlines of slow tracks). Lists of p."""
+        cfg = self.config
+        p = len(owners)
+        owners = np.asarray(owners, dtype=np.int64)
+        t_o = np.asarray(t_s, dtype=float).reshape(p)
+        origins = [None] * p if origins is None else origins
+        use = [None] * p if use is None else use
+        points = [None] * p if points is None else points
+        no = self.n_owners
+        pos_of = np.full(no, -1)
+        pos_of[owners] = np.arange(p)
+        t_own = np.full(no, np.nan)
+        t_own[owners] = t_o
+        self._counts[owners, _SCANS] += 1
+        # every vessel's selected detections, stacked in vessel order
+        dets = list(detections)
+        m_all = np.array([len(d) if d is not None else 0 for d in dets], dtype=np.int64)
+        M_all = int(m_all.sum())
+        if M_all:
+            live = [d for d in dets if d is not None and len(d)]
+            sel = np.concatenate([(d.targets if u is None else np.asarray(u, dtype=bool)) for d, u in zip(dets, use)
+                                  if d is not None and len(d)])
+            gidx = np.flatnonzero(sel)
+            d_pos = np.repeat(np.arange(p), m_all)[gidx]
+            idx = gidx - _starts(m_all)[d_pos]  # index in the vessel's own Detections
+            z = np.concatenate([d.centres_m for d in live])[gidx]
+            var = (np.concatenate([d.variances_m2 for d in live])[gidx] if cfg.use_detection_variance
+                   else np.full(gidx.size, self._R))
+            rad = np.concatenate([d.radii_m for d in live])[gidx]
+            occ = np.concatenate([d.occluded if d.occluded is not None else np.zeros(len(d), bool) for d in live])[gidx]
+        else:
+            d_pos = idx = np.zeros(0, dtype=np.int64)
+            z, var, rad, occ = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
+        M = z.shape[0]
+        m_q = np.bincount(d_pos, minlength=p)
+        self._counts[owners, _DETS] += m_q
+        n = len(self.bank)
+        row_pos = pos_of[self.owner]
+        due = row_pos >= 0
+        all_due = bool(due.all())
+        rows = np.arange(n) if all_due else np.flatnonzero(due)
+        claimed = np.zeros(M, dtype=bool)
+        empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+        for o in owners.tolist():
+            self._last_assign[o] = empty
+        if rows.size:
+            self._update(rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, dets, points, claimed)
+        self._prune(owners, pos_of, t_o, origins)
+        if M:
+            self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
+        rows = np.flatnonzero(pos_of[self.owner] >= 0)
+        self.team.match(rows, self.owner[rows], t_own, self.bank.states[rows], self.mgmt._confirmed[rows], no)
+        self.mgmt.note_moved(self.bank.positions)
+
+    def _update(self, rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, dets, points, claimed) -> None:
+        """Steps 1–4a: association, manoeuvres, the IMM cycle, confirmation and outlines."""
+        cfg, bank = self.config, self.bank
+        n, M = len(bank), z.shape[0]
+        p = owners.size
+        assigned = np.full(n, -1)
+        var_row = np.full(n, self._R)
+        rpos = row_pos[rows]
+        n_q = np.bincount(rpos, minlength=p)
+        if M:
+            grouped = rows[np.argsort(rpos, kind="stable")]  # by vessel, bank order within
+            m_q = np.bincount(d_pos, minlength=p)
+            q, i, j, start = block_pairs(n_q, m_q)
+            if q.size:
+                gi = _starts(n_q)[q] + i
+                ta, db = grouped[gi], _starts(m_q)[q] + j
+                radius = self.mgmt._radius
+                var_p = var[db] + occ[db] * np.maximum(radius[ta] - rad[db], 0.0) ** 2
+                zhat, S = predicted_positions(bank.states[grouped], bank.state_covariances[grouped],
+                                              bank.times_s[grouped], bank.turn_rates[grouped], t_o[row_pos[grouped]])
+                d2, cost = pair_costs(zhat[gi], S[gi], z[db], var_p)
+                inside = d2 <= self._gate
+                got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
+                claimed |= np.bincount(db[inside], minlength=M) > 0
+                hit = ta[got]
+                assigned[hit] = db[got]
+                var_row[hit] = var_p[got]
+                self.manoeuvres.detect(hit, d2[got], self._gate, t_o[row_pos[hit]], bank)
+        meas = assigned >= 0
+        zr = np.full((n, 2), np.nan)
+        zr[meas] = z[assigned[meas]]
+        vr = var_row if cfg.use_detection_variance else None
+        used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
+        self._counts[owners, _ASSOC] += np.bincount(row_pos[rows[used[rows]]], minlength=p)
+        sel = slice(None) if all_due else rows
+        t_rows = t_o[row_pos[rows]]
+        speeds = bank.speeds[sel]
+        new_conf = self.mgmt.after_update(sel, t_rows, used[sel], assigned[sel], rad, occ, speeds)
+        if new_conf.any():
+            pos, born = bank.positions, self.mgmt._born
+            for k in rows[new_conf].tolist():
+                o, tid, t = int(self.owner[k]), int(self.local_id[k]), float(t_o[row_pos[k]])
+                self._counts[o, _CONF] += 1
+                self.events[o].append(TrackEvent(t, "confirmed", tid, f"track {tid} confirmed at {_fmt(pos[k])} "
+                                                                      f"(born {t - born[k]:.1f} s ago)"))
+        with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)])
+        orows = rows[with_pts[rpos]]
+        if orows.size:
+            def returns_of(j, orows=orows):
+                k = orows[j]
+                q = row_pos[k]
+                return np.asarray(points[q], dtype=float).reshape(-1, 2)[np.asarray(dets[q].labels) == idx[assigned[k]]]
+
+            self.outlines.grow(orows, used[orows] & (assigned[orows] >= 0), bank.speeds[orows], bank.positions[orows],
+                               self.mgmt._radius[orows], returns_of)
+        got = rows[used[rows] & (assigned[rows] >= 0)]
+        if got.size:
+            got = got[np.argsort(row_pos[got], kind="stable")]
+            qs, cut = np.unique(row_pos[got], return_index=True)
+            for q, ids, det in zip(qs.tolist(), np.split(self.local_id[got], cut[1:]),
+                                   np.split(idx[assigned[got]], cut[1:])):
+                self._last_assign[owners[q]] = (ids, det)
+
+    def _cycle(self, rows, all_due, row_pos, t_o, zr, meas, vr) -> np.ndarray:
+        """Step 3: one IMM cycle of ``rows``, per group of vessels sharing their last and new time
+        (one group, the whole bank, in the usual tick). Returns (n,) bool, the rows used."""
+        bank = self.bank
+        n = len(bank)
+        t_last = bank.times_s[rows]
+        t_new = t_o[row_pos[rows]]
+        if all_due and (t_last == t_last[0]).all() and (t_new == t_new[0]).all():
+            return bank.update(zr, float(t_new[0]), meas, vr)
+        used = np.zeros(n, dtype=bool)
+        keys = np.stack([t_last, t_new], axis=-1)
+        for tl, tn in np.unique(keys, axis=0).tolist():
+            g = rows[(t_last == tl) & (t_new == tn)]
+            used[g] = bank.update_rows(g, zr[g], tn, meas[g], None if vr is None else vr[g])
+        return used
+
+    def _prune(self, owners, pos_of, t_o, origins) -> None:
+        """Step 4b: drop the tracks management gives up (lost, hopeless, merged), with events."""
+        bank = self.bank
+        rows = np.flatnonzero(pos_of[self.owner] >= 0)
+        if rows.size == 0:
+            return
+        rpos = pos_of[self.owner[rows]]
+        org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
+        conf = self.mgmt._confirmed[rows]
+        drop, reason, merged = self.mgmt.drops(rows, self.owner[rows], t_o[rpos], bank.positions[rows],
+                                               bank.position_covariances[rows], org[rpos],
+                                               self._max_range[self.owner[rows]])
+        ids, own = self.local_id[rows], self.owner[rows]
+        for go, keep in merged:
+            o, t = int(own[go]), float(t_o[rpos[go]])
+            self._counts[o, _MERGED] += 1
+            self.events[o].append(TrackEvent(t, "merged", int(ids[go]), f"track {ids[go]} merged into track {ids[keep]}"))
+        for j in np.flatnonzero(drop).tolist():
+            if conf[j] and reason[j]:
+                o = int(own[j])
+                self._counts[o, _LOST] += 1
+                self.events[o].append(TrackEvent(float(t_o[rpos[j]]), "lost", int(ids[j]),
+                                                 f"track {ids[j]} lost: {reason[j]}"))
+        if drop.any():
+            keep = np.ones(len(bank), dtype=bool)
+            keep[rows[drop]] = False
+            bank.keep_rows(keep)
+            for part in (self.mgmt, self.manoeuvres, self.team, self.outlines):
+                part.keep(keep)
+            self.owner, self.local_id = self.owner[keep], self.local_id[keep]
+            self.version += 1
+
+    def _births(self, owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed) -> None:
+        """Step 5: new tracks from the detections no track claimed, away from every track's disc."""
+        cfg, bank = self.config, self.bank
+        p = owners.size
+        free = ~claimed
+        rows = np.flatnonzero(pos_of[self.owner] >= 0)
+        if rows.size and free.any():
+            rpos = pos_of[self.owner[rows]]
+            n_q = np.bincount(rpos, minlength=p)
+            grouped = rows[np.argsort(rpos, kind="stable")]
+            fidx = np.flatnonzero(free)
+            m_f = np.bincount(d_pos[fidx], minlength=p)
+            q, i, j, _ = block_pairs(n_q, m_f)
+            if q.size:
+                ta, fb = grouped[_starts(n_q)[q] + i], fidx[_starts(m_f)[q] + j]
+                pos = bank.positions[ta]
+                dist = np.hypot(z[fb, 0] - pos[:, 0], z[fb, 1] - pos[:, 1])
+                free[fb[dist <= self.mgmt._radius[ta] + rad[fb]]] = False
+        new = np.flatnonzero(free)
+        k = new.size
+        if k == 0:
+            return
+        bp = d_pos[new]
+        t_b = t_o[bp]
+        bank.add_tracks(z[new], t_b, var[new] if cfg.use_detection_variance else None)
+        own = owners[bp]
+        first = np.searchsorted(bp, bp)  # births are grouped by vessel: rank within the vessel
+        local = self._next_local[own] + (np.arange(k) - first)
+        self._next_local[owners] += np.bincount(bp, minlength=p)
+        self.owner = np.concatenate([self.owner, own])
+        self.local_id = np.concatenate([self.local_id, local])
+        self.mgmt.append(t_b, rad[new])
+        self.manoeuvres.append(k)
+        self.team.append(k)
+        self.outlines.append(bank.positions[-k:])
+        self.version += 1
+        self._counts[owners, _BORN] += np.bincount(bp, minlength=p)
+        for q in np.unique(bp).tolist():
+            sel = bp == q
+            o = int(owners[q])
+            ids, dets, t = local[sel], idx[new[sel]], float(t_o[q])
+            for tid, zj in zip(ids.tolist(), z[new[sel]]):
+                self.events[o].append(TrackEvent(t, "born", tid, f"track {tid} born at {_fmt(zj)}"))
+            a_ids, a_dets = self._last_assign[o]
+            self._last_assign[o] = (np.concatenate([a_ids, ids]), np.concatenate([a_dets, dets]))
+
+    # ------------------------------------------------------------------ outputs
+    def estimates(self, owner: int, include_tentative: bool = False) -> list[TrackEstimate]:
+        """TrackEstimate of every confirmed track of a vessel (and tentative ones if asked), in
+        bank order."""
+        rows = self.rows_of(owner)
+        if not include_tentative:
+            rows = rows[self.mgmt._confirmed[rows]]
+        if rows.size == 0:
+            return []
+        t, pos, th, v, w, P = self.bank.estimate_fields(rows)
+        static = self.mgmt._static[rows]
+        radius = self.mgmt._radius[rows]
+        slow = static | (v < self.config.static_speed_m_s)
+        team = self.team.members(rows)
+        out = []
+        for j, (k, tid) in enumerate(zip(rows.tolist(), self.local_id[rows].tolist())):
+            out.append(TrackEstimate(track_id=tid, time_s=float(t[j]), position_m=pos[j].copy(),
+                                     heading_rad=float(th[j]), speed_m_s=float(v[j]), turn_rate_rad_s=float(w[j]),
+                                     radius_m=float(radius[j]), position_covariance=P[j].copy(),
+                                     is_static=bool(static[j]), team_member=team[j],
+                                     outline_m=self.outline(k) if slow[j] else None))
+        return out
+
+    def outline(self, row: int) -> np.ndarray:
+        """(k, 2) CCW outline [m] of the track in bank row ``row``
+        (:mod:`mjasc.perception.tracking.outlines`)."""
+        return self.outlines.outline(row, self.bank.positions[row], self.mgmt._radius[row])
