@@ -178,6 +178,8 @@ def test_a_diverging_run_is_a_result_and_the_campaign_goes_on(tmp_path):
     res = run_campaign(spec, tmp_path / "out", workers=0, progress=False)
     assert [r.status for r in res.runs] == ["diverged", "diverged"]
     assert "physics diverged" in res.runs[0].error and res.runs[0].attempts == 1  # not retried
+    diverged = res.runs[0].metrics  # the summary up to the divergence is kept, with its evaluation
+    assert diverged["status"] == "diverged" and diverged["sim_time_s"] < 3.0 and "evaluation" in diverged
     assert res.aggregate["runs_failed"] == 2 and res.aggregate["collision"]["rate"] is None
 
 

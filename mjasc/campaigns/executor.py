@@ -55,7 +55,7 @@ def execute_in_process(request: dict) -> dict:
             out["summary"] = runner.run().summary
         except RunFailed as exc:
             out["status"], out["error"] = "diverged", str(exc).split("; partial outputs")[0]
-            out["summary"] = getattr(runner, "last_summary", None)
+            out["summary"] = exc.summary
         if evaluator is not None and out["summary"] is not None:
             out["summary"]["evaluation"] = evaluator.summary()
     except Exception as exc:  # noqa: BLE001 — one failed run must not stop the campaign

@@ -53,7 +53,12 @@ PATH_POINTS = 400
 
 
 class RunFailed(RuntimeError):
-    """A run stopped early; the message says why and where its partial outputs are."""
+    """A run stopped early; the message says why and where its partial outputs are. ``summary`` is
+    the run's summary up to the stop (the same fields as a completed run's, ``status`` saying why)."""
+
+    def __init__(self, message: str, summary: dict | None = None):
+        super().__init__(message)
+        self.summary = summary
 
 
 @dataclass
@@ -372,7 +377,7 @@ class Runner:
             files["summary"].write_text(json.dumps(summary, indent=2))
         result = RunResult(self.out_dir, summary, files)
         if status != "completed":
-            raise RunFailed(f"{error}; partial outputs kept in {self.out_dir}")
+            raise RunFailed(f"{error}; partial outputs kept in {self.out_dir}", summary)
         return result
 
 
