@@ -161,6 +161,42 @@ def _cmd_report(args) -> int:
     return 0
 
 
+def _cmd_extract(args) -> int:
+    from mjasc.campaigns.scenario_text import write_scenario
+    from mjasc.campaigns.statistics import run_outcome
+    from mjasc.campaigns.store import CampaignStore
+
+    try:
+        store = CampaignStore.open_existing(args.folder)
+    except FileNotFoundError as exc:
+        print(f"mjasc: {exc}", file=sys.stderr)
+        return 2
+    with store:
+        runs = {r.index: r for r in store.runs()}
+    wanted = set(args.runs or [])
+    missing = sorted(wanted - set(runs))
+    if missing:
+        print(f"mjasc: {args.folder}: no stored run {', '.join(map(str, missing))} (stored: {len(runs)} runs)",
+              file=sys.stderr)
+        return 2
+    if args.outcome:
+        for k, r in runs.items():
+            o = run_outcome(r.metrics)
+            if (args.outcome == "failed" and r.status != "completed") or \
+                    (args.outcome in ("collision", "near_miss") and r.status == "completed" and o[args.outcome]):
+                wanted.add(k)
+    if not wanted:
+        print("mjasc: no run selected (give run indices or --outcome)" if not args.outcome else
+              f"no stored run with outcome {args.outcome}", file=sys.stderr)
+        return 2 if not args.outcome else 0
+    out = Path(args.out) if args.out else Path(args.folder) / "scenarios"
+    for k in sorted(wanted):
+        path = write_scenario(runs[k].scenario, out / f"run_{k}.toml")
+        print(f"run {k} ({runs[k].family}, seed {runs[k].seed}, {runs[k].status}): {path}")
+    print(f"replay one with: mjasc run {out / f'run_{min(wanted)}.toml'}")
+    return 0
+
+
 def _cmd_search(args) -> int:
     from mjasc.campaigns.search import SearchConfig, search_failures
     from mjasc.campaigns.spec import CampaignError, load_campaign_spec
@@ -251,6 +287,14 @@ def build_parser() -> argparse.ArgumentParser:
     rp.add_argument("--format", nargs="+", default=["png", "svg"], choices=["png", "svg", "pdf"],
                     help="figure formats (default: png svg)")
     rp.set_defaults(func=_cmd_report)
+    ex = sub.add_parser("extract", help="write stored campaign runs as scenario files that 'mjasc run' replays "
+                                        "exactly")
+    ex.add_argument("folder", help="the campaign's output folder (it holds campaign.sqlite)")
+    ex.add_argument("runs", nargs="*", type=int, help="run indices (as in the report and the exports)")
+    ex.add_argument("--outcome", choices=["collision", "near_miss", "failed"],
+                    help="also every run with this outcome (failed: error, timeout or divergence)")
+    ex.add_argument("--out", help="folder for the files (default: FOLDER/scenarios)")
+    ex.set_defaults(func=_cmd_extract)
     se = sub.add_parser("search", help="search an encounter family for failures of the collision avoidance "
                                        "(cross-entropy method, or uniform sampling as the baseline)")
     se.add_argument("campaign", help=f"a campaign file's path or a bundled campaign's name ({NAMED_HELP})")

@@ -63,3 +63,22 @@ def test_mjasc_run_on_the_written_file_replays_the_run(campaign, index, tmp_path
     assert replayed["seed"] == run.seed == campaign.base_seed + index
     assert without_timing(replayed) == without_timing(stored) == without_timing(json.loads(json.dumps(direct.summary)))
     assert replayed["vessels"]  # something ran
+
+
+def test_mjasc_extract_writes_a_stored_run_that_replays_exactly(campaign, tmp_path, monkeypatch, capsys):
+    """The store → `mjasc extract` → `mjasc run` gives the stored run's summary (the evaluation
+    aside: the campaign adds it, a plain run does not)."""
+    from mjasc.campaigns.engine import run_campaign
+
+    res = run_campaign(campaign.with_overrides(runs=3), tmp_path / "out", workers=0, progress=False)
+    stored = {r.index: r for r in res.runs}
+    monkeypatch.chdir(tmp_path)
+    assert main(["extract", str(tmp_path / "out"), "2", "--out", str(tmp_path / "files")]) == 0
+    path = tmp_path / "files" / "run_2.toml"
+    assert path.read_text() == campaign.run(2).scenario_toml and "mjasc run" in capsys.readouterr().out
+    assert main(["run", str(path), "--out", str(tmp_path / "replay"), "--no-progress"]) == 0
+    replayed = json.loads((tmp_path / "replay" / "summary.json").read_text())
+    metrics = {k: v for k, v in stored[2].metrics.items() if k != "evaluation"}
+    assert without_timing(replayed) == without_timing(metrics)
+    assert main(["extract", str(tmp_path / "out"), "7"]) == 2  # not stored: a clear error
+    assert "no stored run 7" in capsys.readouterr().err
