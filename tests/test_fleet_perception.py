@@ -115,7 +115,7 @@ def test_runner_fleet_equals_per_vessel(monkeypatch, tmp_path):
     def strip(s):
         if isinstance(s, dict):
             return {k: strip(v) for k, v in s.items() if not k.endswith("_us") and k not in ("wall_time_s",
-                                                                                            "real_time_factor")}
+                                                                                            "real_time_factor", "timing_s")}
         return s
 
     assert strip(with_fleet[0]) == strip(alone[0])

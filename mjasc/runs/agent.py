@@ -126,7 +126,7 @@ class VesselAgent:
             return self.avoidance.mission_gamma_m(self.guidance_state())
         return self.follower.gamma_m
 
-    def _apply(self, request) -> None:
+    def apply_request(self, request) -> None:
         """Apply an avoidance request's path switch to the path follower."""
         sw = request.path_switch
         if sw is not None:
@@ -156,11 +156,19 @@ class VesselAgent:
             self.perception.set_team_positions(c.team_positions())
             self._report = None
 
+    def prediction_call(self, nav: OwnNavigation) -> tuple | None:
+        """The arguments of this vessel's prediction, ``(avoidance, t, nav, GuidanceState,
+        PerceptionReport, TeamPicture)`` (:func:`mjasc.avoidance.system.predict_slot`), or None when
+        it predicts nothing (no avoidance, perception or path follower)."""
+        if self.avoidance is None or self.perception is None or self.follower is None:
+            return None
+        t = nav.time_s
+        return (self.avoidance, t, nav, self.guidance_state(), self.perception_report(t), self.team_picture(t))
+
     def on_prediction(self, nav: OwnNavigation) -> None:
-        if self.avoidance is not None and self.perception is not None and self.follower is not None:
-            t = nav.time_s
-            self._apply(self.avoidance.predict(t, nav, self.guidance_state(), self.perception_report(t),
-                                               self.team_picture(t)))
+        call = self.prediction_call(nav)
+        if call is not None:
+            self.apply_request(call[0].predict(*call[1:]))
 
     def control_request(self, nav: OwnNavigation) -> tuple[float, str]:
         """The control slot's per-vessel part, before the (fleet's) path following: the speed
@@ -173,7 +181,7 @@ class VesselAgent:
             speed *= self.coordination.speed_correction(t, nav, self.mission_gamma_m())
         if self.avoidance is not None:
             req = self.avoidance.control(t, nav, self.guidance_state(), self.perception_report(t), self.team_picture(t))
-            self._apply(req)
+            self.apply_request(req)
             mode = req.mode
             if req.speed_override_m_s is not None:
                 speed = req.speed_override_m_s

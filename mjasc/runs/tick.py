@@ -2,7 +2,8 @@
 
 :func:`run_onboard_slot` runs one slot of :data:`ONBOARD_SLOTS` for every vessel agent, in vessel
 order (the order matters: the team's link draws its random numbers in the order of the calls).
-The control slot runs each agent's :meth:`~mjasc.runs.agent.VesselAgent.control_request`
+The prediction slot predicts every vessel's (vessel, track) pairs in one batched call
+(:func:`~mjasc.avoidance.system.predict_slot`). The control slot runs each agent's :meth:`~mjasc.runs.agent.VesselAgent.control_request`
 (coordination factor, avoidance request and path switch) in vessel order, then the path
 following of all vessels in one batched call (:class:`~mjasc.guidance.path_following.FleetPathFollower`:
 the agents' followers are gathered into one fleet at the first control tick and stay its rows).
@@ -39,13 +40,28 @@ def run_onboard_slot(slot: str, agents: Sequence, navs: Sequence[OwnNavigation],
         for agent, nav in zip(agents, navs):
             agent.on_comms(nav)
     elif slot == "prediction":
-        for agent, nav in zip(agents, navs):
-            agent.on_prediction(nav)
+        _prediction(agents, navs)
     elif slot == "control":
         return _control(agents, navs, control_dt_s)
     else:
         raise ValueError(f"slot: not an onboard slot: {slot!r} (known: {', '.join(ONBOARD_SLOTS)})")
     return None
+
+
+def _prediction(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
+    """The prediction slot: every predicting vessel's (vessel, track) pairs in one batched call
+    (:func:`~mjasc.avoidance.system.predict_slot`; the same requests as vessel by vessel: the
+    avoidance systems share no state), then each request applied in vessel order."""
+    calls = [(agent, agent.prediction_call(nav)) for agent, nav in zip(agents, navs)]
+    live = [(agent, call) for agent, call in calls if call is not None]
+    if len(live) == 1:
+        agent, call = live[0]
+        agent.apply_request(call[0].predict(*call[1:]))
+    elif live:
+        from mjasc.avoidance.system import predict_slot
+
+        for (agent, _), request in zip(live, predict_slot([call for _, call in live])):
+            agent.apply_request(request)
 
 
 def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: float) -> list:
