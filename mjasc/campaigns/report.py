@@ -219,7 +219,7 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
         plt.close(fig)
     # mission cost per vessel
     samples = {f: [run_outcome(r.metrics)["per_vessel"] for r in runs if r.family == f] for f in fams}
-    if any(x for f in fams for o in samples[f] for x in o["path_cost"]):
+    if any(o["path_cost"] for f in fams for o in samples[f]):
         fig, axes = plt.subplots(1, 2, figsize=(max(8, 2.4 * len(fams) + 3), 4))
         for ax, key, scale, label in ((axes[0], "path_cost", 100.0, "extra distance for the same progress [%]"),
                                       (axes[1], "time_cost_s", 1.0, "later than without traffic [s]")):
