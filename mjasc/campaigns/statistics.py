@@ -28,7 +28,8 @@ __all__ = ["Z95", "wilson_interval", "quantiles", "run_outcome", "vessel_samples
 
 #: Per-vessel values (:func:`vessel_samples`): name → (where in the summary, field).
 PER_VESSEL = {"path_cost": ("cost", "path_cost"), "time_cost_s": ("cost", "time_cost_s"),
-              "mean_cross_track_m": ("vessel", "mean_cross_track_m"), "max_cross_track_m": ("vessel", "max_cross_track_m"),
+              "mean_cross_track_m": ("vessel", "mean_cross_track_m"),
+              "max_cross_track_m": ("vessel", "max_cross_track_m"),
               "formation_error_m": ("coordination", "mean_abs_error_m"),
               "formation_max_error_m": ("coordination", "max_abs_error_m")}
 

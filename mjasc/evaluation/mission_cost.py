@@ -96,7 +96,7 @@ def _reach(t: np.ndarray, m: np.ndarray, level: float) -> float | None:
 
 
 def _r(x: float | None, nd: int = 4):
-    return None if x is None or not math.isfinite(x) else round(float(x), nd)
+    return None if x is None or not math.isfinite(x) else round(float(x), nd) + 0.0  # + 0.0: no −0.0
 
 
 def zero_cost(trace: ProgressTrace, tolerance_m: float = 0.5) -> dict:
@@ -119,7 +119,8 @@ def mission_cost(run: ProgressTrace, ref: ProgressTrace, tolerance_m: float = 0.
     for i, name in enumerate(run.vessel_names):
         if not run.has_path[i] or not len(t) or not len(tr):
             continue
-        m, mr = np.fmax.accumulate(np.nan_to_num(g[:, i], nan=0.0)), np.fmax.accumulate(np.nan_to_num(gr[:, i], nan=0.0))
+        m = np.fmax.accumulate(np.nan_to_num(g[:, i], nan=0.0))
+        mr = np.fmax.accumulate(np.nan_to_num(gr[:, i], nan=0.0))
         level = float(m[-1]) - tolerance_m
         ref_level = float(mr[-1]) - tolerance_m
         row = {"reference": reference, "progress_m": _r(max(level, 0.0), 3), "reached_s": None, "distance_m": None,
