@@ -2,7 +2,8 @@
 LocalCluster of 2 worker processes; results are stored as each run finishes, so a campaign cut short
 (or whose driver is SIGKILLed) resumes without losing, duplicating or recomputing a run; a worker
 killed mid-campaign costs nothing; a diverged run is a result, not a crash; every stored run replays
-exactly from its scenario text; the Wilson interval matches its closed form; exports and the CLI."""
+exactly from its scenario text; the Wilson interval matches its closed form; exports and the CLI;
+each run's mission cost against its reference without traffic lands in the store and the report."""
 
 import json
 import os
@@ -73,6 +74,7 @@ name = "short"
 base_seed = 5
 [outputs]
 recordings = {recordings}
+{evaluation}
 [[families]]
 kind = "perturbation"
 scenario = "short.toml"
@@ -85,11 +87,13 @@ traffic_speed_sigma_m_s = 0.1
 """
 
 
-def write_campaign(folder, runs=4, duration=6.0, recordings=False, scenario=SHORT):
+def write_campaign(folder, runs=4, duration=6.0, recordings=False, scenario=SHORT, mission_cost=None):
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "short.toml").write_text(scenario)
     path = folder / "c.toml"
-    path.write_text(CAMPAIGN.format(runs=runs, duration=duration, recordings=str(recordings).lower()))
+    evaluation = "" if mission_cost is None else f"[evaluation]\nmission_cost = {str(mission_cost).lower()}"
+    path.write_text(CAMPAIGN.format(runs=runs, duration=duration, recordings=str(recordings).lower(),
+                                    evaluation=evaluation))
     return path
 
 
@@ -127,6 +131,31 @@ def test_wilson_interval_solves_the_score_equation():
     assert wilson_interval(0, 0) is None
 
 
+def test_per_vessel_samples_read_cost_cross_track_and_formation():
+    """Per vessel: the cost from evaluation.cost, the cross-track error from the run's metrics, the
+    formation error from the vessel's coordination summary; quantiles over every vessel of the runs."""
+    from mjasc.campaigns.statistics import aggregate, vessel_samples
+    from mjasc.campaigns.store import StoredRun
+
+    def summary(pc, tc, xte, lead):
+        return {"vessels": {"a": {"mean_cross_track_m": xte, "max_cross_track_m": 2 * xte,
+                                  "coordination": {"mean_abs_error_m": lead, "max_abs_error_m": 3 * lead}},
+                            "b": {"mean_cross_track_m": None}},
+                "evaluation": {"cost": {"a": {"path_cost": pc, "time_cost_s": tc, "progress_short_m": None},
+                                        "b": {"path_cost": 0.5, "time_cost_s": None, "progress_short_m": 2.0}}}}
+
+    s = vessel_samples(summary(0.1, 4.0, 0.3, 1.5))
+    assert s == {"path_cost": [0.1, 0.5], "time_cost_s": [4.0], "mean_cross_track_m": [0.3],
+                 "max_cross_track_m": [0.6], "formation_error_m": [1.5], "formation_max_error_m": [4.5],
+                 "reference_short": 1}
+    runs = [StoredRun(index=k, family="f", parameters={}, seed=k, scenario="", status="completed", attempts=1,
+                      error=None, metrics=summary(0.1 * k, float(k), 0.1, 1.0), wall_time_s=0.0, worker="w")
+            for k in range(1, 4)]
+    pv = aggregate(runs)["families"]["f"]["per_vessel"]
+    assert pv["path_cost"]["n"] == 6 and pv["path_cost"]["p50"] == pytest.approx(0.4)
+    assert pv["time_cost_s"]["p50"] == 2.0 and pv["reference_short"] == 3
+
+
 # ---------------------------------------------------------------------- engine
 def test_local_cluster_gives_the_in_process_results(here, cluster, tmp_path):
     spec, sync = here
@@ -157,6 +186,29 @@ def test_outputs_on_disk(here):
     assert (out / "runs.csv").read_text().count("\n") == 5
     enc = sync.runs[0].metrics["evaluation"]["encounters"]
     assert enc and enc[0]["other"] == "ferry"
+    assert "metric.evaluation.cost.alpha.path_cost" in rows[0]
+
+
+def test_mission_cost_against_the_run_without_traffic(here, tmp_path):
+    """Neither vessel avoids and the ferry never touches one: without the ferry each vessel sails
+    exactly the same, so every cost is 0 exactly (the reference did run: its kind says so); the
+    aggregate has one sample per vessel and run. With ``mission_cost = false`` there is no reference."""
+    _, sync = here
+    for r in sync.runs:
+        ev = r.metrics["evaluation"]
+        assert ev["cost_reference"]["kind"] == "no_traffic" and ev["cost_reference"]["status"] == "completed"
+        assert set(ev["cost"]) == {"alpha", "bravo"}
+        for c in ev["cost"].values():
+            assert c["path_cost"] == 0.0 and c["time_cost_s"] == 0.0 and c["progress_m"] > 4.0
+            assert c["distance_m"] == c["ref_distance_m"] and c["reached_s"] == c["ref_reached_s"]
+    pv = sync.aggregate["families"]["perturbation"]["per_vessel"]
+    assert pv["path_cost"]["n"] == 8 and pv["path_cost"]["p95"] == 0.0 and pv["time_cost_s"]["p50"] == 0.0
+    assert pv["mean_cross_track_m"]["n"] == 8 and pv["formation_error_m"] is None  # no coordination here
+    spec = load_campaign_spec(write_campaign(tmp_path, runs=1, duration=2.0, mission_cost=False))
+    assert not spec.evaluation.mission_cost
+    off = run_campaign(spec, tmp_path / "out", workers=0, progress=False)
+    assert "cost" not in off.runs[0].metrics["evaluation"]
+    assert off.aggregate["per_vessel"]["path_cost"] is None
 
 
 def test_a_campaign_cut_short_resumes_without_recomputing(tmp_path):
@@ -270,10 +322,12 @@ def test_report_on_a_campaign_and_as_json(here, tmp_path, capsys):
     assert main(["report", str(sync.out_dir), "--out", str(out), "--format", "png", "svg"]) == 0
     text = capsys.readouterr().out
     assert "| perturbation | 4 |" in text and "COLREG" in text
-    for stem in ("rates", "separation", "colreg", "tracking"):
+    assert "path cost [%]" in text and "| perturbation | 8 | 0.0 / 0.0 | 0.0 / 0.0 |" in text
+    for stem in ("rates", "separation", "colreg", "tracking", "cost"):
         assert (out / f"{stem}.png").stat().st_size > 0 and (out / f"{stem}.svg").stat().st_size > 0
     assert main(["report", str(sync.out_dir), "--json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert data["runs_defined"] == 4 and data["runs_recorded"] == 4 and data["runs_failed"] == 0
     assert data["outcomes"]["completed"] == 4 and "collision" in data["outcomes"]
+    assert data["families"]["perturbation"]["per_vessel"]["time_cost_s"]["n"] == 8
     assert main(["report", str(tmp_path / "nothing")]) == 2

@@ -1,5 +1,6 @@
 """mjasc.evaluation: COLREG roles and compliance on constructed encounters, GOSPA against closed
-forms, identity switches and time to confirm."""
+forms, identity switches and time to confirm; the mission cost against the same mission without
+traffic in closed form, a run against its own rerun (0 exactly), and a detour around a buoy."""
 
 import math
 
@@ -125,3 +126,116 @@ def test_run_evaluator_on_the_velocity_correction_scenario():
     assert e["role"] in ("crossing_give_way", "head_on") and e["acted"] and not e["collision"]
     tr = out["tracking"][vessel]
     assert tr["evaluations"] > 100 and tr["gospa_mean_m"] < 5.0
+
+
+# ------------------------------------------------------------------ mission cost
+def _trace(t, xy, gamma):
+    from mjasc.evaluation.mission_cost import ProgressTrace
+
+    return ProgressTrace.from_samples(["a"], t, np.asarray(xy)[:, None, :], np.asarray(gamma)[:, None])
+
+
+def test_mission_cost_closed_forms():
+    """Reference: straight east at 1 m/s, γ = t. A run that waits 3 s first is 3 s late on the same
+    track length; one that sails at 45° to its path (|Δp| = √2 Δγ) is on time but sails √2 − 1 further;
+    a reference that stopped at γ = 6 gives no time cost and says by how much it fell short."""
+    from mjasc.evaluation.mission_cost import mission_cost
+
+    t = np.arange(0.0, 20.01, 0.1)
+    ref = _trace(t, np.column_stack([t, 0 * t]), t)
+    late = np.maximum(t - 3.0, 0.0)
+    c = mission_cost(_trace(t, np.column_stack([late, 0 * t]), late), ref, tolerance_m=0.5)["a"]
+    assert c["time_cost_s"] == pytest.approx(3.0, abs=1e-9) and c["path_cost"] == pytest.approx(0.0, abs=1e-9)
+    assert c["progress_m"] == pytest.approx(16.5) and c["reached_s"] == pytest.approx(19.5)
+    c = mission_cost(_trace(t, np.column_stack([t, t]), t), ref, tolerance_m=0.5)["a"]
+    assert c["path_cost"] == pytest.approx(math.sqrt(2) - 1, abs=1e-4)
+    assert c["time_cost_s"] == pytest.approx(0.0, abs=1e-9)
+    stop = np.minimum(t, 6.0)
+    c = mission_cost(_trace(t, np.column_stack([t, 0 * t]), t), _trace(t, np.column_stack([stop, 0 * t]), stop),
+                     tolerance_m=0.5)["a"]
+    assert c["time_cost_s"] is None and c["progress_short_m"] == pytest.approx(14.0)
+    assert c["path_cost"] == pytest.approx(0.0, abs=1e-9)  # the same distance per metre of progress
+    still = _trace(t, np.zeros((len(t), 2)), 0 * t)  # no progress: no cost
+    assert mission_cost(still, still)["a"]["path_cost"] is None
+
+
+STRAIGHT = """
+name = "straight"
+duration_s = 5.0
+seed = 4
+[[vessels]]
+name = "a"
+type = "otter"
+position_m = [0.0, 1.0]
+speed_m_s = 1.0
+controller = { type = "path_following", waypoints = [[0.0, 0.0], [100.0, 0.0]], speed_m_s = 1.5 }
+"""
+
+
+def test_a_run_without_traffic_against_its_rerun_costs_exactly_nothing():
+    """A run is a pure function of its text: rerun as the reference, its cost is 0 exactly — why a
+    run without traffic is its own reference (no second run)."""
+    import tomllib
+
+    from mjasc.evaluation.mission_cost import ProgressTrace, mission_cost, reference_document
+    from mjasc.evaluation.run_evaluation import RunEvaluator
+    from mjasc.runs.runner import Runner
+    from mjasc.runs.scenario import parse_scenario
+
+    doc = tomllib.loads(STRAIGHT)
+    assert reference_document(doc) is None
+    runner = Runner(parse_scenario(doc), None, progress=False)
+    ev = RunEvaluator(runner)
+    runner.observe("record", ev)
+    runner.run()
+    again = Runner(parse_scenario(doc), None, progress=False)
+    trace = ProgressTrace(again)
+    again.observe("record", trace)
+    again.run()
+    cost = mission_cost(ev.progress, trace)["a"]
+    assert cost["path_cost"] == 0.0 and cost["time_cost_s"] == 0.0 and cost["progress_m"] > 5.0
+    assert ev.cost(None)["a"] == {**cost, "reference": "self"}
+
+
+DETOUR = """
+name = "detour"
+duration_s = 30.0
+seed = 3
+[rates]
+prediction_period_s = 2.0
+[[vessels]]
+name = "a"
+type = "otter"
+position_m = [0.0, 0.0]
+speed_m_s = 1.5
+controller = { type = "path_following", waypoints = [[0.0, 0.0], [200.0, 0.0]], speed_m_s = 1.5 }
+avoidance = {}
+sensor = { beams = 180, max_range_m = 100.0 }
+tracking = {}
+[[moving_obstacles]]
+name = "buoy"
+radius_m = 3.0
+position_m = [35.0, 0.5]
+heading_deg = 90.0
+speed_m_s = 0.0
+"""
+
+
+def test_a_detour_around_a_buoy_costs_path_and_time():
+    """A buoy (a stationary target) on the path: the vessel replans around it and sails further and
+    later than the same mission without the buoy, whose vessel stays on its straight path (distance
+    = progress)."""
+    from mjasc.campaigns.executor import execute_in_process
+
+    out = execute_in_process({"index": 0, "scenario_toml": DETOUR, "run_dir": None, "evaluate": True,
+                              "reference": True})
+    assert out["status"] == "completed", out["error"]
+    ev = out["summary"]["evaluation"]
+    assert ev["cost_reference"]["kind"] == "no_traffic" and ev["cost_reference"]["status"] == "completed"
+    c = ev["cost"]["a"]
+    assert out["summary"]["vessels"]["a"]["avoidance"]["actions"]["replan"] >= 1
+    assert c["path_cost"] > 0.02 and c["time_cost_s"] > 0.5 and c["progress_short_m"] is None
+    assert c["ref_distance_m"] == pytest.approx(c["progress_m"], abs=0.05)  # the reference sails its path
+    assert c["distance_m"] <= out["summary"]["vessels"]["a"]["distance_m"] + 1e-6
+    plain = execute_in_process({"index": 0, "scenario_toml": DETOUR, "run_dir": None, "evaluate": True})
+    assert "cost" not in plain["summary"]["evaluation"]  # no reference unless asked

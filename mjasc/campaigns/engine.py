@@ -84,9 +84,10 @@ def without_timing(obj: Any) -> Any:
 
 
 # ---------------------------------------------------------------------- one run
-def _request(run, out_dir: Path, recordings: bool) -> dict:
+def _request(run, out_dir: Path, recordings: bool, reference: bool) -> dict:
     run_dir = str(out_dir / "runs" / str(run.index)) if recordings else None
-    return {"index": run.index, "scenario_toml": run.scenario_toml, "run_dir": run_dir, "evaluate": True}
+    return {"index": run.index, "scenario_toml": run.scenario_toml, "run_dir": run_dir, "evaluate": True,
+            "reference": reference}
 
 
 def _task(request: dict, time_limit_s: float | None, isolate: bool) -> dict:
@@ -171,9 +172,10 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
         done = store.done(max_attempts)
         todo = [campaign.run(k) for k in range(n_runs) if k not in done]
         recordings = bool(getattr(getattr(campaign, "outputs", None), "recordings", False))
+        reference = bool(getattr(getattr(campaign, "evaluation", None), "mission_cost", True))
         info = execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
                             max_attempts=max_attempts, time_limit_s=time_limit_s, isolate=isolate,
-                            recordings=recordings, label=campaign.name)
+                            recordings=recordings, reference=reference, label=campaign.name)
         info["already_done"] = n_runs - len(todo)
         runs = store.runs()
         agg = aggregate(runs, campaign.runs_defined)
@@ -196,10 +198,12 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
 
 def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=None, workers: int | None = None,
                  progress: bool = True, max_attempts: int = 2, time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
-                 isolate: bool = True, recordings: bool = False, label: str = "campaign") -> dict:
+                 isolate: bool = True, recordings: bool = False, reference: bool = False,
+                 label: str = "campaign") -> dict:
     """Execute ``runs`` (:class:`~mjasc.campaigns.spec.RunSpec`) and write each result into ``store``
-    as it arrives (module docstring: where they run, retries). Returns how it ran: scheduler,
-    workers, start-up and wall time [s], runs_to_do."""
+    as it arrives (module docstring: where they run, retries). ``reference``: follow each run with
+    traffic by its run without traffic, for the mission cost (:mod:`mjasc.campaigns.executor`).
+    Returns how it ran: scheduler, workers, start-up and wall time [s], runs_to_do."""
     in_process = scheduler == "synchronous" or workers == 0 or (
         workers is None and scheduler is None and len(runs) <= IN_PROCESS_MAX_RUNS)
     info: dict[str, Any] = {"runs_to_do": len(runs)}
@@ -214,10 +218,10 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
             info.update(scheduler="none")
         elif in_process:
             info.update(scheduler="synchronous", workers=0, startup_s=0.0)
-            _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, bar)
+            _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar)
         else:
             _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
-                         bar, info)
+                         reference, bar, info)
     finally:
         if bar is not None:
             bar.close()
@@ -232,11 +236,11 @@ def _record(store: CampaignStore, run, result: dict) -> int:
                         worker=result.get("worker"))
 
 
-def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, bar) -> None:
+def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar) -> None:
     executor = IsolatedExecutor() if isolate else None
     try:
         for run in runs:
-            request = _request(run, out_dir, recordings)
+            request = _request(run, out_dir, recordings, reference)
             while True:
                 result = executor.run(request, time_limit_s) if executor else execute_in_process(request)
                 attempts = _record(store, run, result)
@@ -249,8 +253,8 @@ def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordi
             executor.close()
 
 
-def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings, bar,
-                 info) -> None:
+def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
+                 reference, bar, info) -> None:
     from distributed import as_completed
 
     t_start = time.perf_counter()
@@ -275,7 +279,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
         attempts = store.attempts()
 
         def submit(run) -> None:
-            fut = client.submit(_task, _request(run, out_dir, recordings), time_limit_s, isolate, pure=False,
+            fut = client.submit(_task, _request(run, out_dir, recordings, reference), time_limit_s, isolate, pure=False,
                                 key=f"mjasc-run-{tag}-{run.index}-{attempts.get(run.index, 0)}")
             pending[fut] = run
 

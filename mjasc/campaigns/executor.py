@@ -9,10 +9,19 @@ its exit code or signal) the next run starts a new one. Plain ``subprocess`` is 
 ``multiprocessing``: Dask's worker processes are daemonic and may not start multiprocessing
 children.
 
-A request is ``{"index", "scenario_toml", "run_dir" (None: no files), "evaluate"}``; the result
+A request is ``{"index", "scenario_toml", "run_dir" (None: no files), "evaluate", "reference"}``; the result
 ``{"status": completed | diverged | error | timeout | crashed, "error", "summary", "wall_time_s",
 "cpu_time_s", "worker"}``. :func:`execute_in_process` runs one request in the calling process (the
 child's own code path; also what ``workers = 0`` uses when isolation is off).
+
+With ``"reference": true`` (and evaluation on) a completed run with traffic is followed, in the
+same process, by its reference — the same scenario text without its ``[[moving_obstacles]]``,
+same seed, no recording, no video, no evaluation (:mod:`mjasc.evaluation.mission_cost`) — and
+``summary["evaluation"]["cost"]`` holds each vessel's path-length and time cost against it;
+``summary["evaluation"]["cost_reference"]`` says how the reference was made (``no_traffic``, or
+``self`` for a run without traffic: a run is a pure function of its text, so it is its own
+reference and costs nothing to compare) with its status and wall time. The reference's time
+counts in the run's ``wall_time_s`` and time limit.
 """
 
 from __future__ import annotations
@@ -41,7 +50,8 @@ def execute_in_process(request: dict) -> dict:
     try:
         from dataclasses import replace
 
-        sc = parse_scenario(tomllib.loads(request["scenario_toml"]), f"<run {request.get('index')}>")
+        doc = tomllib.loads(request["scenario_toml"])
+        sc = parse_scenario(doc, f"<run {request.get('index')}>")
         run_dir = request.get("run_dir")
         sc = replace(sc, outputs=replace(sc.outputs, recording=run_dir is not None, video=False))
         runner = Runner(sc, run_dir, progress=False)
@@ -58,6 +68,8 @@ def execute_in_process(request: dict) -> dict:
             out["summary"] = exc.summary
         if evaluator is not None and out["summary"] is not None:
             out["summary"]["evaluation"] = evaluator.summary()
+            if request.get("reference", False) and out["status"] == "completed":
+                out["summary"]["evaluation"].update(_cost(doc, evaluator, request.get("index")))
     except Exception as exc:  # noqa: BLE001 — one failed run must not stop the campaign
         tb = traceback.extract_tb(exc.__traceback__)
         where = f" at {tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno}" if tb else ""
@@ -66,6 +78,34 @@ def execute_in_process(request: dict) -> dict:
     out["cpu_time_s"] = round(time.process_time() - c0, 3)
     out["worker"] = f"{os.uname().nodename}:{os.getpid()}"
     return _plain(out)
+
+
+def _cost(doc: dict, evaluator, index) -> dict:
+    """``{"cost", "cost_reference"}`` of a completed run (module docstring): runs its reference."""
+    from dataclasses import replace
+
+    from mjasc.evaluation.mission_cost import ProgressTrace, reference_document
+    from mjasc.runs.runner import RunFailed, Runner
+    from mjasc.runs.scenario import parse_scenario
+
+    ref_doc = reference_document(doc)
+    if ref_doc is None:
+        return {"cost": evaluator.cost(None), "cost_reference": {"kind": "self", "status": "completed"}}
+    t0 = time.perf_counter()
+    sc = parse_scenario(ref_doc, f"<reference of run {index}>")
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    runner = Runner(sc, None, progress=False)
+    trace = ProgressTrace(runner)
+    runner.observe("record", trace)
+    info = {"kind": "no_traffic", "status": "completed"}
+    try:
+        runner.run()
+        cost = evaluator.cost(trace)
+    except RunFailed as exc:
+        info.update(status="diverged", error=str(exc).split("; partial outputs")[0])
+        cost = {}
+    info["wall_time_s"] = round(time.perf_counter() - t0, 3)
+    return {"cost": cost, "cost_reference": info}
 
 
 def _plain(obj):

@@ -11,7 +11,14 @@ in while the driver writes). :func:`report_data` computes everything from the st
   parameters (e.g. relative bearing × DCPA), each run coloured by its minimum separation,
   collisions marked;
 * ``colreg`` — the share of encounters where the own vessel acted as its COLREG role asks, per role;
-* ``tracking`` — mean GOSPA per run, per family.
+* ``tracking`` — mean GOSPA per run, per family;
+* ``cost`` — per vessel, the path-length and time cost against the same mission without traffic,
+  per family.
+
+The Markdown has two tables per family: outcomes (rates, separation, compliance, actions) and per
+vessel (median / p95 over every vessel of every completed run, :mod:`mjasc.campaigns.statistics`):
+path cost (extra distance for the same progress), time cost, mean and max cross-track error,
+formation error (mean |lead| over the neighbours, metres of path).
 """
 
 from __future__ import annotations
@@ -65,7 +72,23 @@ def format_report(data: dict) -> str:
         acts = ", ".join(f"{k} {v}" for k, v in sorted(g["actions"].items()) if v) or "—"
         lines.append(f"| {fam} | {g['completed']} | {_pct(g['collision'])} | {_pct(g['near_miss'])} | {sep} | "
                      f"{_pct(g['colreg']['compliant'])} | {acts} |")
+    lines += ["", "Per vessel, median / p95 over the vessels of the completed runs; cost against the same mission "
+                  "without traffic (path: extra distance for the same progress; time: later than without traffic "
+                  "by; *short*: vessels whose reference never got as far, no time cost):", "",
+              "| family | vessels | path cost [%] | time cost [s] | mean cross-track [m] | max cross-track [m] "
+              "| formation error [m] | short |", "|---|---:|---|---|---|---|---|---:|"]
+    for fam, g in list(data["families"].items()) + [("**all**", data)]:
+        pv = g["per_vessel"]
+        n = max((q["n"] for k, q in pv.items() if k != "reference_short" and q), default=0)
+        lines.append(f"| {fam} | {n} | {_q(pv['path_cost'], 100, 1)} | {_q(pv['time_cost_s'], 1, 1)} | "
+                     f"{_q(pv['mean_cross_track_m'], 1, 2)} | {_q(pv['max_cross_track_m'], 1, 2)} | "
+                     f"{_q(pv['formation_error_m'], 1, 2)} | {pv['reference_short']} |")
     return "\n".join(lines) + "\n"
+
+
+def _q(q: dict | None, scale: float, digits: int) -> str:
+    """``median / p95`` of a quantiles dict, scaled; — when there are none."""
+    return "—" if not q else f"{scale * q['p50']:.{digits}f} / {scale * q['p95']:.{digits}f}"
 
 
 # ---------------------------------------------------------------------- figures
@@ -193,5 +216,19 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
         ax.set_title("Tracking accuracy against the truth")
         fig.tight_layout()
         files += _save(fig, out, "tracking", formats)
+        plt.close(fig)
+    # mission cost per vessel
+    samples = {f: [run_outcome(r.metrics)["per_vessel"] for r in runs if r.family == f] for f in fams}
+    if any(o["path_cost"] for f in fams for o in samples[f]):
+        fig, axes = plt.subplots(1, 2, figsize=(max(8, 2.4 * len(fams) + 3), 4))
+        for ax, key, scale, label in ((axes[0], "path_cost", 100.0, "extra distance for the same progress [%]"),
+                                      (axes[1], "time_cost_s", 1.0, "later than without traffic [s]")):
+            ax.boxplot([[scale * x for o in samples[f] for x in o[key]] or [np.nan] for f in fams])
+            ax.set_xticks(np.arange(1, len(fams) + 1), fams, rotation=20, ha="right")
+            ax.axhline(0.0, color="grey", lw=1, ls="--")
+            ax.set_ylabel(label)
+        fig.suptitle("Mission cost per vessel against the same mission without traffic")
+        fig.tight_layout()
+        files += _save(fig, out, "cost", formats)
         plt.close(fig)
     return {"data": data, "files": files}

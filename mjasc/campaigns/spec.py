@@ -8,6 +8,8 @@ scenario (:class:`RunSpec`: its TOML text replays it with ``mjasc run``)::
     base_seed = 0                         # default 0
     [outputs]
     recordings = false                    # keep each run's recording.rrd + summary.json
+    [evaluation]
+    mission_cost = true                   # also run each run with traffic without it: path-length and time cost
     [colreg]                              # optional: the numeric reading of rules 13–14 (mjasc.evaluation.colreg.ColregConfig)
     head_on_bearing_deg = 15.0
 
@@ -66,8 +68,8 @@ from mjasc.core.config_tables import (
 from mjasc.core.resources import resolve_bundled
 from mjasc.runs.scenario import ScenarioError
 
-__all__ = ["SPEC_FORMAT", "CampaignError", "RunSpec", "CampaignOutputs", "CampaignSpec", "parse_campaign_spec",
-           "load_campaign_spec", "write_scenario"]
+__all__ = ["SPEC_FORMAT", "CampaignError", "RunSpec", "CampaignOutputs", "CampaignEvaluation", "CampaignSpec",
+           "parse_campaign_spec", "load_campaign_spec", "write_scenario"]
 
 #: Version of the run generation: bump when the same campaign file would generate different runs.
 SPEC_FORMAT = 1
@@ -97,6 +99,19 @@ class CampaignOutputs:
 
 
 @dataclass(frozen=True)
+class CampaignEvaluation:
+    """How a campaign judges its runs beyond their own summary (the ``[evaluation]`` table)."""
+
+    mission_cost: bool = param(True, doc="run each run that has traffic again without its [[moving_obstacles]] "
+                                         "(same seed, no recording) and report each vessel's path-length and time "
+                                         "cost against it (mjasc.evaluation.mission_cost); costs up to one more "
+                                         "run per run")
+
+    def __post_init__(self):
+        check_params(self, "evaluation")
+
+
+@dataclass(frozen=True)
 class CampaignSpec:
     name: str
     description: str
@@ -108,6 +123,7 @@ class CampaignSpec:
     data: dict = field(default_factory=dict, repr=False)  # the file's parsed content
     base_dir: str = "."
     limit: int | None = None  # only the first `limit` runs (the same campaign: same digest, same runs)
+    evaluation: CampaignEvaluation = field(default_factory=CampaignEvaluation)
 
     @property
     def runs_defined(self) -> int:
@@ -173,7 +189,7 @@ def _short(v: Any) -> str:
 
 
 # ---------------------------------------------------------------------- parsing
-_TOP = {"name", "description", "base_seed", "outputs", "colreg", "families"}
+_TOP = {"name", "description", "base_seed", "outputs", "evaluation", "colreg", "families"}
 _LEGACY = {"scenario", "runs", "duration_s", "randomize"}
 
 
@@ -226,6 +242,7 @@ def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path
             raise CampaignError(f"description: must be a string, got {show(description)}")
         base_seed = integer(data.get("base_seed", 0), "base_seed", minimum=0)
         outputs = dataclass_from_table(CampaignOutputs, data.get("outputs", {}), "outputs")
+        evaluation = dataclass_from_table(CampaignEvaluation, data.get("evaluation", {}), "evaluation")
         thresholds = dataclass_from_table(ColregConfig, data.get("colreg", {}), "colreg")
         parsers = _family_parsers()
         families = []
@@ -241,7 +258,7 @@ def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path
         refs.update(getattr(fam, "references", dict)())
     digest = hashlib.sha256(_canonical({"format": SPEC_FORMAT, "campaign": data, "files": refs}).encode()).hexdigest()
     spec = CampaignSpec(name, description, base_seed, tuple(families), outputs, digest, source, dict(data),
-                        str(base_dir))
+                        str(base_dir), evaluation=evaluation)
     first = 0
     for i, fam in enumerate(families):  # each family's first run must be a valid scenario (own overrides, rates)
         try:

@@ -4,9 +4,17 @@ Per run (from its summary, :func:`run_outcome`): collision (hull contact), near 
 separation below the near-miss distance, and no collision), the minimum separation over the run
 (the smallest clearance between a vessel's bounding circle and anything), the mean and max
 cross-track error, the CAS actions by kind, the COLREG compliance of its encounters with traffic,
-and tracking quality (mean GOSPA, identity switches). Per family and overall
-(:func:`aggregate`): counts per status, collision and near-miss rates with Wilson 95 % intervals,
-separation quantiles, compliance rate, actions, tracking means, throughput.
+and tracking quality (mean GOSPA, identity switches). Per vessel of a run (:func:`vessel_samples`,
+lists over the vessels): the mission cost against the same mission without traffic
+(``evaluation.cost``, :mod:`mjasc.evaluation.mission_cost`: ``path_cost`` relative extra distance,
+``time_cost_s``), the mean and max |cross-track error| (``vessels.<v>``, :mod:`mjasc.runs.metrics`)
+and the formation error — the vessel's mean and max |lead| over its neighbours in metres of path,
+as its coordination reports it (``vessels.<v>.coordination.mean_abs_error_m`` /
+``max_abs_error_m``). Per family and overall (:func:`aggregate`): counts per status, collision and
+near-miss rates with Wilson 95 % intervals, separation quantiles, compliance rate, actions,
+tracking means, throughput, and ``per_vessel``: quantiles (median p50, p95, …) of each per-vessel
+value over every vessel of every completed run, with ``reference_short`` counting the vessels whose
+reference never got as far as they did (no time cost).
 """
 
 from __future__ import annotations
@@ -16,7 +24,14 @@ from collections import Counter, defaultdict
 
 import numpy as np
 
-__all__ = ["Z95", "wilson_interval", "quantiles", "run_outcome", "aggregate", "format_aggregate"]
+__all__ = ["Z95", "wilson_interval", "quantiles", "run_outcome", "vessel_samples", "aggregate", "format_aggregate"]
+
+#: Per-vessel values (:func:`vessel_samples`): name → (where in the summary, field).
+PER_VESSEL = {"path_cost": ("cost", "path_cost"), "time_cost_s": ("cost", "time_cost_s"),
+              "mean_cross_track_m": ("vessel", "mean_cross_track_m"),
+              "max_cross_track_m": ("vessel", "max_cross_track_m"),
+              "formation_error_m": ("coordination", "mean_abs_error_m"),
+              "formation_max_error_m": ("coordination", "max_abs_error_m")}
 
 #: z for a two-sided 95 % interval.
 Z95 = 1.959963984540054
@@ -50,6 +65,23 @@ def quantiles(values) -> dict | None:
     return out
 
 
+def vessel_samples(summary: dict | None) -> dict:
+    """Per-vessel values of a run (module docstring): ``{name in PER_VESSEL: [value per vessel that
+    has it]}`` and ``reference_short``: how many vessels' reference fell short (no time cost)."""
+    s = summary or {}
+    cost = (s.get("evaluation") or {}).get("cost") or {}
+    out: dict = {k: [] for k in PER_VESSEL}
+    short = 0
+    for name, v in (s.get("vessels") or {}).items():
+        where = {"cost": cost.get(name) or {}, "vessel": v, "coordination": v.get("coordination") or {}}
+        for key, (src, fld) in PER_VESSEL.items():
+            if where[src].get(fld) is not None:
+                out[key].append(where[src][fld])
+        short += where["cost"].get("progress_short_m") is not None
+    out["reference_short"] = short
+    return out
+
+
 def run_outcome(summary: dict | None, near_miss_m: float = 1.0) -> dict:
     """Per-run scalars from a run's summary (None where the run has no value)."""
     s = summary or {}
@@ -78,6 +110,7 @@ def run_outcome(summary: dict | None, near_miss_m: float = 1.0) -> dict:
         "gospa_mean_m": round(float(np.mean([t["gospa_mean_m"] for t in tracking])), 4) if tracking else None,
         "id_switches": sum(t.get("id_switches", 0) for t in tracking) if tracking else None,
         "sim_time_s": s.get("sim_time_s"),
+        "per_vessel": vessel_samples(s),
     }
 
 
@@ -111,6 +144,8 @@ def _group(runs, near_miss_m: float) -> dict:
         "actions": dict(actions),
         "gospa_mean_m": quantiles(o["gospa_mean_m"] for o in outs),
         "id_switches": sum(o["id_switches"] or 0 for o in outs),
+        "per_vessel": {**{k: quantiles(x for o in outs for x in o["per_vessel"][k]) for k in PER_VESSEL},
+                       "reference_short": sum(o["per_vessel"]["reference_short"] for o in outs)},
         "sim_time_s_total": round(sum(o["sim_time_s"] or 0.0 for o in outs), 3),
         "run_wall_time_s": {"sum": round(sum(walls), 3), "mean": round(float(np.mean(walls)), 3) if walls else None},
     }
@@ -129,7 +164,8 @@ def aggregate(runs, runs_defined: int | None = None, near_miss_m: float = 1.0) -
 
 def format_aggregate(agg: dict, name: str = "") -> str:
     """A short plain-text table (what ``mjasc campaign`` prints): per family and overall, runs,
-    collision and near-miss rates with Wilson 95 % intervals, median and minimum separation."""
+    collision and near-miss rates with Wilson 95 % intervals, median and minimum separation, the
+    median mission cost per vessel (extra path length, time)."""
     def rate(d):
         if d["rate"] is None:
             return "—"
@@ -138,11 +174,17 @@ def format_aggregate(agg: dict, name: str = "") -> str:
     def sep(q):
         return "—" if not q else f"min {q['p0']:.2f} m, median {q['p50']:.2f} m"
 
+    def cost(pv):
+        p, t = pv["path_cost"], pv["time_cost_s"]
+        return "—" if not p else f"+{100 * p['p50']:.1f} % / " + ("—" if not t else f"{t['p50']:+.1f} s")
+
     lines = [f"{name}: {agg['runs_recorded']} of {agg['runs_defined']} run(s) recorded, {agg['completed']} completed, "
              f"{agg['runs_failed']} failed"]
-    rows = [("family", "runs", "collision (Wilson 95 %)", "near miss (Wilson 95 %)", "separation")]
+    rows = [("family", "runs", "collision (Wilson 95 %)", "near miss (Wilson 95 %)", "separation",
+             "median cost: path / time")]
     for fam, g in list(agg["families"].items()) + [("all", agg)]:
-        rows.append((fam, str(g["completed"]), rate(g["collision"]), rate(g["near_miss"]), sep(g["min_separation_m"])))
+        rows.append((fam, str(g["completed"]), rate(g["collision"]), rate(g["near_miss"]), sep(g["min_separation_m"]),
+                     cost(g["per_vessel"])))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines += ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
     return "\n".join(lines)

@@ -13,7 +13,10 @@ confirmed tracks, at the record rate. :meth:`RunEvaluator.summary` then evaluate
   (:func:`mjasc.evaluation.colreg.judge_compliance`);
 * **tracking** — per vessel with perception, GOSPA against the truth objects within its sensor
   range (the other vessels and the traffic), identity switches, time to confirm
-  (:class:`mjasc.evaluation.tracking_metrics.TrackingScore`).
+  (:class:`mjasc.evaluation.tracking_metrics.TrackingScore`);
+* **cost** (:meth:`RunEvaluator.cost`, given the reference run's trace) — per vessel with a path, the
+  path-length and time cost against the same mission without traffic
+  (:mod:`mjasc.evaluation.mission_cost`; the evaluator's :class:`ProgressTrace` samples γ).
 
 World frame ENU, SI units.
 """
@@ -27,6 +30,7 @@ import numpy as np
 
 from mjasc.core.config_tables import check_params, param
 from mjasc.evaluation.colreg import ColregConfig, classify, judge_compliance
+from mjasc.evaluation.mission_cost import ProgressTrace, mission_cost, zero_cost
 from mjasc.evaluation.tracking_metrics import TrackingScore
 
 __all__ = ["EvaluationConfig", "RunEvaluator"]
@@ -46,6 +50,10 @@ class EvaluationConfig:
     gospa_cutoff_m: float = param(10.0, positive=True, unit="m", doc="GOSPA's cut-off c")
     gospa_order: float = param(2.0, minimum=1.0, doc="GOSPA's order p")
     colreg: ColregConfig = param(default_factory=ColregConfig, doc="role and compliance thresholds")
+    cost_tolerance_m: float = param(0.5, nonneg=True, unit="m",
+                                    doc="mission cost: run and reference are compared where the run's progress "
+                                        "was this much short of its final progress (a vessel loitering at its "
+                                        "path's end creeps on by millimetres)")
 
     def __post_init__(self):
         check_params(self, "evaluation")
@@ -71,6 +79,7 @@ class RunEvaluator:
         self._t, self._p, self._h, self._v = [], [], [], []
         self._tp, self._th, self._tv = [], [], []
         self._scores: dict[int, TrackingScore] = {}
+        self.progress = ProgressTrace(runner)
         for i, agent in enumerate(runner.agents):
             if agent.perception is not None:
                 rng = float(getattr(getattr(agent.perception, "sensor_config", None), "max_range_m", math.inf))
@@ -86,6 +95,7 @@ class RunEvaluator:
         self._tp.append(np.array(tp, dtype=float).reshape(-1, 2))
         self._th.append(np.array(th, dtype=float).reshape(-1))
         self._tv.append(np.array(tv, dtype=float).reshape(-1, 2))
+        self.progress(event)
         if not self._scores:
             return
         ids = self.vessel_names + self.traffic_names
@@ -134,6 +144,13 @@ class RunEvaluator:
                             "acted": judged.acted,
                             "action_range_m": None if judged.action_range_m is None else round(judged.action_range_m, 3)})
         return out
+
+    def cost(self, reference: ProgressTrace | None) -> dict:
+        """Per vessel with a path, the cost against ``reference`` (the same mission without traffic;
+        None: the run had no traffic and is its own reference), :func:`mission_cost`."""
+        if reference is None:
+            return zero_cost(self.progress, self.config.cost_tolerance_m)
+        return mission_cost(self.progress, reference, self.config.cost_tolerance_m)
 
     def summary(self) -> dict:
         """``{"encounters": [...], "tracking": {vessel: {...}}}``."""
