@@ -30,6 +30,7 @@ class TrackOutlines:
         self.config = config
         self._hull = np.empty(0, dtype=object)  # per track: hull vertices (k, 2) of its returns [m], or None
         self._hull_anchor = np.zeros((0, 2))  # per track: its centre when the hull was started
+        self._made: dict[int, tuple] = {}  # row → (hull, centre x, y, radius, outline): the last outline made
 
     def append(self, centres) -> None:
         """New tracks, now at ``centres`` (k, 2) [m]."""
@@ -41,6 +42,7 @@ class TrackOutlines:
         """Keep the rows where ``keep`` (n,) is True."""
         self._hull = self._hull[keep]
         self._hull_anchor = self._hull_anchor[keep]
+        self._made.clear()  # rows renumbered
 
     def grow(self, rows, used, speeds, positions, radii, returns_of) -> None:
         """After an update of the tracks ``rows`` (indices): restart the hull of those that move
@@ -74,6 +76,13 @@ class TrackOutlines:
         12-gon around its disc."""
         c = centre
         h = self._hull[row]
+        x, y, r = float(c[0]), float(c[1]), float(radius)
+        made = self._made.get(row)
+        if made is not None and made[0] is h and made[1:4] == (x, y, r):  # asked again between updates
+            return made[4].copy()
         if h is None or h.shape[0] < 2:
-            return circle_polygon(c, radius, 12)  # the 12-gon circumscribing the disc
-        return convex_hull(np.vstack([h, 2.0 * c - h]))
+            out = circle_polygon(c, radius, 12)  # the 12-gon circumscribing the disc
+        else:
+            out = convex_hull(np.vstack([h, 2.0 * c - h]))
+        self._made[row] = (h, x, y, r, out)
+        return out.copy()
