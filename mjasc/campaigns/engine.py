@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mjasc.campaigns.executor import IsolatedExecutor, execute_in_process, run_isolated
+from mjasc.campaigns.executor import IsolatedExecutor, execute_in_process, run_isolated, start_isolated
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
 from mjasc.campaigns.store import RETRY_STATUSES, CampaignStore
 from mjasc.core.config_tables import integer, number
@@ -97,9 +97,11 @@ def _task(request: dict, time_limit_s: float | None, isolate: bool) -> dict:
 
 # ---------------------------------------------------------------------- scheduling
 def _warm_up() -> str:
-    """Run on every worker before the tasks: import mjasc once, report its version."""
+    """Run on every worker before the tasks: import mjasc once, start the worker's run process
+    (it imports while the other workers come up), report mjasc's version."""
     import mjasc
 
+    start_isolated()
     return getattr(mjasc, "__version__", "unknown")
 
 

@@ -34,7 +34,7 @@ import sys
 import time
 import traceback
 
-__all__ = ["IsolatedExecutor", "execute_in_process", "run_isolated"]
+__all__ = ["IsolatedExecutor", "execute_in_process", "run_isolated", "start_isolated"]
 
 
 def execute_in_process(request: dict) -> dict:
@@ -160,11 +160,16 @@ class IsolatedExecutor:
                 self._kill()
         self._proc = None
 
+    def start(self) -> None:
+        """Start the child now (if it is not running), so it imports while the caller does other
+        work: a child takes ~2 s to import MuJoCo and mjasc, once per worker and campaign."""
+        if self._proc is None or self._proc.poll() is not None:
+            self._start()
+
     def run(self, request: dict, time_limit_s: float | None = None) -> dict:
         """The result of one request (module docstring); ``time_limit_s`` None: no limit."""
         t0 = time.perf_counter()
-        if self._proc is None or self._proc.poll() is not None:
-            self._start()
+        self.start()
         proc = self._proc
         try:
             proc.stdin.write((json.dumps(request) + "\n").encode())
@@ -198,12 +203,21 @@ class IsolatedExecutor:
 _EXECUTOR: IsolatedExecutor | None = None
 
 
-def run_isolated(request: dict, time_limit_s: float | None = None) -> dict:
-    """Run ``request`` in this process's persistent child (created on first use): the Dask task."""
+def _executor() -> IsolatedExecutor:
     global _EXECUTOR
     if _EXECUTOR is None:
         _EXECUTOR = IsolatedExecutor()
-    return _EXECUTOR.run(request, time_limit_s)
+    return _EXECUTOR
+
+
+def run_isolated(request: dict, time_limit_s: float | None = None) -> dict:
+    """Run ``request`` in this process's persistent child (created on first use): the Dask task."""
+    return _executor().run(request, time_limit_s)
+
+
+def start_isolated() -> None:
+    """Start this process's persistent child now (a Dask worker's warm-up)."""
+    _executor().start()
 
 
 def _serve() -> None:
@@ -213,6 +227,14 @@ def _serve() -> None:
     os.dup2(2, 1)  # stray prints of libraries must not corrupt the result stream
     sys.stdout = sys.stderr
     import mjasc  # noqa: F401  (MUJOCO_GL before mujoco)
+
+    # What every run imports, loaded before the first request instead of during it.
+    import mjasc.avoidance.system  # noqa: F401
+    import mjasc.cooperation.coordination  # noqa: F401
+    import mjasc.evaluation.mission_cost  # noqa: F401
+    import mjasc.evaluation.run_evaluation  # noqa: F401
+    import mjasc.perception.pipeline  # noqa: F401
+    import mjasc.runs.runner  # noqa: F401
 
     for line in sys.stdin:
         if not line.strip():
