@@ -15,6 +15,7 @@ Readers (``where`` is always the second argument):
 * :func:`integer` — an int (not a bool, not 3.0), optional ``minimum`` / ``maximum``;
 * :func:`boolean` — ``true`` / ``false`` only; :func:`string` — a non-empty string, optional ``choices``;
 * :func:`point` — ``[x, y]`` → (2,) float array [m]; :func:`points` — ``[[x, y], ...]`` → (n, 2);
+  :func:`within` — every element of an array within bounds (an array field's ``minimum`` / ``maximum``);
 * :func:`dataclass_from_table` — a whole table → a frozen dataclass, each key read by the reader
   of its field's type (float, int, bool, str, ``X | None``, ``tuple[X, ...]``) or a given converter,
   unknown keys rejected, missing keys left at the dataclass's defaults;
@@ -58,8 +59,8 @@ from typing import Any, Callable, Iterable, Iterator, Mapping
 
 import numpy as np
 
-__all__ = ["ConfigError", "show", "load_toml", "table", "check_keys", "number", "integer", "boolean", "string", "point",
-           "points", "dataclass_from_table", "read_field", "errors_as", "Param", "param", "check_params",
+__all__ = ["ConfigError", "show", "load_toml", "path_problem", "show_path", "one_line", "table", "check_keys", "number", "integer", "boolean", "string", "point",
+           "points", "within", "dataclass_from_table", "read_field", "errors_as", "Param", "param", "check_params",
            "describe_params"]
 
 Converter = Callable[[Any, str], Any]
@@ -88,15 +89,72 @@ def _fail(where: str, reason: str, value: Any) -> typing.NoReturn:
 # ---------------------------------------------------------------------------------------------- tables
 def load_toml(path: str | Path, error: type[ValueError] = ConfigError, what: str = "TOML") -> dict:
     """Read the TOML file ``path`` into its top-level table. Raises ``error`` (a ValueError
-    subclass) ``"<path>: no such <what> file"`` or ``"<path>: not valid TOML: <reason>"``."""
+    subclass), one line naming the file: ``"<path>: no such <what> file"``, ``"<path>: not a
+    usable file name (<reason>)"`` (a NUL, an over-long name), ``"<path>: cannot read: <reason>"``,
+    ``"<path>: not UTF-8 text (byte 0x.. at offset n)"`` or ``"<path>: not valid TOML: <reason>"``."""
+    shown = show_path(path)
+    reason = path_problem(path)
+    if reason:
+        raise error(f"{shown}: not a usable file name ({reason})")
     path = Path(path)
-    if not path.is_file():
-        raise error(f"{path}: no such {what} file")
     try:
+        if not path.is_file():
+            raise error(f"{shown}: no such {what} file")
         with open(path, "rb") as f:
-            return tomllib.load(f)
+            raw = f.read(MAX_TOML_BYTES + 1)
+    except OSError as exc:
+        raise error(f"{shown}: cannot read: {exc.strerror or exc}") from None
+    if len(raw) > MAX_TOML_BYTES:
+        raise error(f"{shown}: larger than {MAX_TOML_BYTES} bytes, not a {what} file")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise error(f"{shown}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start})") from None
+    try:
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise error(f"{path}: not valid TOML: {exc}") from None
+        raise error(f"{shown}: not valid TOML: {one_line(str(exc))}") from None
+    except RecursionError:
+        raise error(f"{shown}: not valid TOML: nested too deeply") from None
+
+
+MAX_TOML_BYTES = 64 * 1024 * 1024
+"""Largest config file read [bytes] (a scenario of thousands of vessels is well under a megabyte)."""
+
+MAX_PATH_CHARS = 4096
+"""Longest file path accepted (Linux PATH_MAX); one name (between slashes) at most 255 bytes."""
+
+
+def path_problem(path: Any) -> str:
+    """Why ``path`` cannot name a file ("" if it can): a NUL character, an unencodable character,
+    more than :data:`MAX_PATH_CHARS` characters or a name (between slashes) over 255 bytes. Checked
+    before the path reaches the OS, so that the answer is a sentence rather than an OSError."""
+    text = str(path)
+    if "\x00" in text:
+        return "contains a NUL character"
+    try:
+        encoded = text.encode("utf-8")
+    except UnicodeEncodeError:
+        return "contains a character that is not valid UTF-8"
+    if len(encoded) > MAX_PATH_CHARS:
+        return f"longer than {MAX_PATH_CHARS} bytes"
+    if any(len(part) > 255 for part in encoded.split(b"/")):
+        return "a name in it is longer than 255 bytes"
+    return ""
+
+
+def show_path(path: Any) -> str:
+    """A path as an error message shows it: on one line, NUL and control characters escaped,
+    cut to 120 characters."""
+    text = one_line(str(path).encode("utf-8", "backslashreplace").decode("utf-8"))
+    return text if len(text) <= 120 else text[:100] + "..." + text[-17:]
+
+
+def one_line(text: str) -> str:
+    """``text`` on one line: newlines and control characters shown escaped (``\\n``, ``\\x00``)."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def table(value: Any, where: str) -> dict:
@@ -177,12 +235,27 @@ def point(value: Any, where: str) -> np.ndarray:
     return np.array([number(value[0], f"{where}[0]"), number(value[1], f"{where}[1]")])
 
 
-def points(value: Any, where: str, minimum: int) -> np.ndarray:
+def points(value: Any, where: str, minimum: int, limit: float | None = None) -> np.ndarray:
     """A list of at least ``minimum`` points ``[[x, y], ...]`` → (n, 2) float array; point k's
-    errors name ``where[k]``."""
+    errors name ``where[k]``; with ``limit``, every coordinate within ±limit (:func:`within`)."""
     if not isinstance(value, list) or len(value) < minimum:
         _fail(where, f"must be a list of at least {minimum} points [x, y]", value)
-    return np.array([point(p, f"{where}[{i}]") for i, p in enumerate(value)]).reshape(-1, 2)
+    out = np.array([point(p, f"{where}[{i}]") for i, p in enumerate(value)]).reshape(-1, 2)
+    if limit is not None:
+        for i, p in enumerate(out):
+            within(p, f"{where}[{i}]", -limit, limit)
+    return out
+
+
+def within(values: np.ndarray, where: str, minimum: float | None, maximum: float | None) -> np.ndarray:
+    """Every element of an array within [minimum, maximum]; the error names the element,
+    ``"<where>[k]: must be ≤ 1000000.0, got 1e+300"``."""
+    for k, v in enumerate(np.ravel(values)):
+        if minimum is not None and v < minimum:
+            _fail(f"{where}[{k}]", f"must be ≥ {minimum}", float(v))
+        if maximum is not None and v > maximum:
+            _fail(f"{where}[{k}]", f"must be ≤ {maximum}", float(v))
+    return values
 
 
 # ---------------------------------------------------------------------------------------------- dataclasses
@@ -265,6 +338,8 @@ def _check_value(value: Any, tp: Any, p: Param, where: str) -> Any:
         if not isinstance(value, tp):
             _fail(where, f"must be a {tp.__name__}", value)
         return value
+    if isinstance(value, np.ndarray) and (p.minimum is not None or p.maximum is not None):
+        return within(value, where, p.minimum, p.maximum)  # bounds of an array: element by element
     try:
         if tp is bool:
             return boolean(value, where)
