@@ -46,7 +46,7 @@ def _cmd_run(args) -> int:
         return 2
     out = _out_dir(args.out, Path("runs") / scenario.name)
     try:
-        result = run_scenario(scenario, out, progress=None if args.progress else False)
+        result = run_scenario(scenario, out, progress=None if args.progress else False, interruptible=True)
     except RunFailed as exc:
         print(f"mjasc: run failed: {exc}", file=sys.stderr)
         return 130 if exc.summary and exc.summary.get("status") == "interrupted" else 1

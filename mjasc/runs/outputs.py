@@ -6,7 +6,7 @@
   :class:`OutputError` (one line naming the path and the reason). Permission bits alone are not
   trusted: as root they pass, so the probe writes.
 * :func:`atomic_write_text` / :func:`atomic_target` — a file is written under a temporary name in
-  its own folder (``.<name>.part``) and renamed over the final name when complete (``os.replace``
+  its own folder (``.<stem>.part<suffix>``) and renamed over the final name when complete (``os.replace``
   is atomic on POSIX within one file system): a reader sees the old file or the new one, never a
   half-written one; a writer that fails leaves no ``.part`` behind.
 """
@@ -53,9 +53,10 @@ def check_out_dir(path: str | Path, what: str = "--out") -> Path:
 
 
 def part_path(path: str | Path) -> Path:
-    """The temporary name a file is written under: ``<folder>/.<name>.part``."""
+    """The temporary name a file is written under: ``<folder>/.<stem>.part<suffix>`` (the suffix
+    kept: encoders choose the format by it)."""
     path = Path(path)
-    return path.with_name(f".{path.name}.part")
+    return path.with_name(f".{path.stem}.part{path.suffix}")
 
 
 @contextmanager

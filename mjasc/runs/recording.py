@@ -24,6 +24,7 @@ always flushes, so a run that stops on an error keeps everything recorded until 
 
 from __future__ import annotations
 
+import os
 import uuid
 from collections import defaultdict
 from pathlib import Path
@@ -34,6 +35,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 from rerun.encodings import Vec3DBatch
 
+from mjasc.runs.outputs import part_path
 from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
 
 __all__ = ["Recorder", "default_blueprint", "TIMELINE", "DETAILS", "vessel_colour"]
@@ -102,10 +104,11 @@ class Recorder:
         self.full = detail == "full"
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._part = part_path(self.path)  # written here, renamed to path by close()
         rid = str(uuid.uuid5(uuid.NAMESPACE_URL, f"mjasc/{recording_name}/{seed}"))
         self.rec = rr.RecordingStream("mjasc", recording_id=rid)
         self.rec.set_log_time_enabled(False)
-        self.rec.save(str(self.path), default_blueprint=blueprint or default_blueprint())
+        self.rec.save(str(self._part), default_blueprint=blueprint or default_blueprint())
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._scalars: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))
         self._texts: dict[str, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
@@ -247,7 +250,9 @@ class Recorder:
         self._pending = 0
 
     def close(self) -> None:
-        """Flush and write the file footer (a reader needs it). Safe to call twice."""
+        """Flush, write the file footer (a reader needs it) and rename the file from its temporary
+        name (``.recording.part.rrd``) to its own: a file under the final name is always complete.
+        Safe to call twice."""
         if self._closed:
             return
         try:
@@ -256,6 +261,7 @@ class Recorder:
             self.rec.flush()
             self.rec.disconnect()
             self._closed = True
+            os.replace(self._part, self.path)
 
     def __enter__(self) -> "Recorder":
         return self
