@@ -112,7 +112,7 @@ class DivergenceMonitor:
             bad = ~(value <= limit)  # NaN is bad
             if np.any(bad):
                 i = int(np.flatnonzero(bad)[0])
-                what = "is not finite" if not np.isfinite(value[i]) else \
+                what = "is non-finite" if not np.isfinite(value[i]) else \
                     f"{value[i]:.6g} {unit} beyond its bound {limit[i]:.6g} {unit}"
                 return f"t = {time_s:.3f} s: vessel {self.names[i]!r} {quantity} {what}"
         return None
