@@ -35,6 +35,7 @@ import signal
 import sys
 import threading
 import time
+import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -383,7 +384,9 @@ class Runner:
             if self.recorder:
                 self.recorder.event(sim.time_s, error, "WARN")
         except Exception as exc:  # noqa: BLE001 - a failed run still leaves its summary and recording
-            status, error = "error", f"{type(exc).__name__} at t = {sim.time_s:.3f} s: {exc}"
+            tb = traceback.extract_tb(exc.__traceback__)
+            where = f" ({tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno})" if tb else ""
+            status, error = "error", f"{type(exc).__name__} at t = {sim.time_s:.3f} s: {exc}{where}"
             if self.recorder:
                 self.recorder.event(sim.time_s, error, "ERROR")
         finally:
