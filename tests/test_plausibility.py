@@ -121,3 +121,10 @@ def test_a_campaign_naming_its_scenario_with_a_nul_is_a_campaign_error(tmp_path)
     f.write_text('runs = 2\nscenario = "' + "d" * 5000 + '.toml"\n')
     with pytest.raises(CampaignError, match=r"scenario: not a usable file name \(longer than 4096 bytes\)"):
         load_campaign(f)
+
+
+def test_a_duration_override_below_one_control_period_is_rejected():
+    sc = parse_scenario(demo(), "demo.toml")
+    with pytest.raises(ScenarioError, match=r"^duration_s: must be at least one control period"):
+        sc.with_overrides(duration_s=0.01)
+    assert sc.with_overrides(duration_s=0.1).duration_s == 0.1

@@ -22,7 +22,9 @@ than ~10 vessels, whose sum is large; or a real divergence) a second test scales
 own bound, Σ (q̇_k / bound_k)² ≤ 1 (:meth:`DivergenceMonitor.scaled_ok`); only when that fails
 too does :meth:`DivergenceMonitor.violation` check each vessel against its own bounds. Per block
 of steps the state at its start is kept (``mj_getState``, 1.4 µs): on a violation the block is
-replayed to the step before it, the last good state.
+replayed to the step before it, the last good state. Measured (one process, shared machine): the
+per-step test costs 1.2 µs with 3 Otters (a physics step: ~60 µs, so 2 %) and 3.4 µs with 50
+(the scaled test included; step ~185 µs: 1.9 %).
 """
 
 from __future__ import annotations

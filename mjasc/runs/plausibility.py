@@ -34,7 +34,7 @@ from mjasc.core.config_tables import ConfigError, param, show
 from mjasc.core.geometry import distance_to_polygon, hull_outline, point_in_polygon, segments_intersect
 from mjasc.physics.obstacles import PolygonObstacle
 
-__all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "check_plausible", "hulls_overlap"]
+__all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "check_duration", "check_plausible", "hulls_overlap"]
 
 MAX_NAME_CHARS = 64
 """Longest vessel or obstacle name (it becomes a MuJoCo body name and a Rerun entity path)."""
@@ -134,12 +134,17 @@ def _check_current(scenario) -> None:
                               f"{speed[worst]:.3g} m/s, must be ≤ {limit} m/s")
 
 
-def check_plausible(scenario, types: dict) -> None:
-    """Raise ConfigError (naming the field) when the scenario is absurd at its start (module
-    docstring). ``types``: vessel type name → :class:`~mjasc.physics.vessels.VesselType`."""
+def check_duration(scenario) -> None:
+    """The run lasts at least one control period (``duration_s: must be at least ...``)."""
     period = 1.0 / scenario.rates.control_hz
     if scenario.duration_s < period:
         raise ConfigError(f"duration_s: must be at least one control period (1 / rates.control_hz = {period:g} s), "
                           f"got {scenario.duration_s:g}")
+
+
+def check_plausible(scenario, types: dict) -> None:
+    """Raise ConfigError (naming the field) when the scenario is absurd at its start (module
+    docstring). ``types``: vessel type name → :class:`~mjasc.physics.vessels.VesselType`."""
+    check_duration(scenario)
     _check_clearance(scenario, types)
     _check_current(scenario)

@@ -39,7 +39,7 @@ from mjasc.guidance.paths import Path
 from mjasc.physics.currents import CurrentField, UniformCurrent, current_from_config
 from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
 from mjasc.physics.vessels import available_vessels, load_vessel_type
-from mjasc.runs.plausibility import check_name, check_plausible
+from mjasc.runs.plausibility import check_duration, check_name, check_plausible
 
 __all__ = ["ScenarioError", "Scenario", "VesselConfig", "Rates", "Outputs", "RECORDING_DETAILS", "load_scenario",
            "parse_scenario"]
@@ -175,6 +175,7 @@ class Scenario:
                 s = replace(s, outputs=replace(s.outputs, video=bool(video)))
             if duration_s is not None:
                 s = replace(s, duration_s=read_field(Scenario, "duration_s", {"duration_s": duration_s}, ""))
+                check_duration(s)
         return s
 
 
