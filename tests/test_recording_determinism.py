@@ -32,3 +32,21 @@ def test_same_seed_same_recording_content_different_seed_different(tmp_path):
 
     assert same(paths[0], paths[1])
     assert not same(paths[0], paths[2])
+
+
+@pytest.mark.skipif(not RERUN.exists(), reason="the rerun CLI is not installed next to this Python")
+def test_recording_holds_no_wall_clock_start_time_and_derived_blueprint_ids(tmp_path):
+    import re
+    import uuid
+
+    from mjasc.runs.recording import Recorder, default_blueprint
+
+    rec = Recorder(tmp_path / "r.rrd", "x", 3, default_blueprint(vessels=("a",), avoidance=True))
+    rec.close()
+    text = subprocess.run([str(RERUN), "rrd", "print", "-vv", str(tmp_path / "r.rrd")], capture_output=True,
+                          text=True, timeout=120).stdout
+    assert "RecordingInfo:name" in text and "start_time" not in text
+    ids = set(re.findall(r"/(?:view|container)/([0-9a-f-]{36})", text))
+    assert len(ids) >= 5 and all(uuid.UUID(i).version == 5 for i in ids)
+    key = "mjasc/x/3/blueprint"
+    assert str(uuid.uuid5(uuid.NAMESPACE_URL, f"{key}/1")) in ids  # the first view under the root container
