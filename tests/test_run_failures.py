@@ -174,3 +174,11 @@ def test_a_failed_run_exits_1(tmp_path, capsys, monkeypatch):
     assert code == 1 and "RuntimeError at t = 0.000 s: a component broke" in err
     summary = json.loads((tmp_path / "o" / "summary.json").read_text())
     assert summary["status"] == "error" and "a component broke" in summary["error"]
+
+
+def test_campaign_rejects_an_out_under_a_file_before_running(tmp_path, capsys):
+    (tmp_path / "file").write_text("x")
+    code, err = _cli(capsys, "campaign", "demo_monte_carlo", "--out", str(tmp_path / "file" / "out"), "--runs", "1",
+                     "--workers", "0", "--no-progress")
+    assert code == 2 and "file is a file, not a folder" in err
+    assert not (tmp_path / "file" / "out").exists()
