@@ -37,7 +37,8 @@ def test_vessel_names_follow_the_documented_rule(name):
 
 
 def test_obstacle_names_follow_the_rule_too():
-    rejected(lambda d: d["static_obstacles"][0].update(name="the pontoon"), r"^static_obstacles\[0\]\.name: must be ASCII")
+    rejected(lambda d: d["static_obstacles"][0].update(name="the pontoon"),
+             r"^static_obstacles\[0\]\.name: must be ASCII")
     rejected(lambda d: d["moving_obstacles"][0].update(name="fer/ry"), r"^moving_obstacles\[0\]\.name: must be ASCII")
 
 
@@ -53,14 +54,17 @@ def test_a_polygon_written_as_a_closed_ring_is_the_same_polygon():
 @pytest.mark.parametrize("mutation, match", [
     (lambda d: d["vessels"][0]["controller"]["waypoints"].append([1e308, 0.0]),
      r"vessels\[0\]\.controller\.waypoints\[\d\]\[0\]: must be ≤ 1000000.0, got 1e\+308"),
-    (lambda d: d["vessels"][0].update(position_m=[0.0, -2e6]), r"vessels\[0\]\.position_m\[1\]: must be ≥ -1000000.0"),
-    (lambda d: d["static_obstacles"][1].update(centre_m=[2e6, 0.0]), r"static_obstacles\[1\]\.centre_m\[0\]: must be ≤"),
+    (lambda d: d["vessels"][0].update(position_m=[0.0, -2e6]),
+     r"vessels\[0\]\.position_m\[1\]: must be ≥ -1000000.0"),
+    (lambda d: d["static_obstacles"][1].update(centre_m=[2e6, 0.0]),
+     r"static_obstacles\[1\]\.centre_m\[0\]: must be ≤"),
     (lambda d: d["static_obstacles"][0]["vertices"].__setitem__(0, [0, 1e7]), r"static_obstacles\[0\]\.vertices"),
     (lambda d: d["moving_obstacles"][0].update(position_m=[1e9, 0.0]), r"moving_obstacles\[0\]\.position_m\[0\]"),
     (lambda d: d["moving_obstacles"][0].update(speed_m_s=1e6), r"moving_obstacles\[0\]\.speed_m_s: must be ≤ 30.0"),
     (lambda d: d["rates"].update(physics_hz=1e15), r"^rates\.physics_hz: must be ≤ 1000.0"),
     (lambda d: d["rates"].update(physics_hz=1.0), r"^rates\.physics_hz: must be ≥ 10.0"),
-    (lambda d: d.update(duration_s=0.05), r"^duration_s: must be at least one control period \(1 / rates\.control_hz = 0\.1 s\)"),
+    (lambda d: d.update(duration_s=0.05),
+     r"^duration_s: must be at least one control period \(1 / rates\.control_hz = 0\.1 s\)"),
     (lambda d: d.update(duration_s=1e9), r"^duration_s: must be ≤ 86400"),
     (lambda d: d.update(current={"type": "uniform", "velocity_m_s": [1e6, 0.0]}),
      r"^current: the water speed at \[0\.0, 12\.0\] m, t = 0 s is 1e\+06 m/s, must be ≤ 10\.0 m/s"),

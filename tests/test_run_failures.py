@@ -65,7 +65,8 @@ def test_non_finite_velocity_is_reported_with_vessel_and_time():
     sim = two_otters()
     sim.step(5)
     sim.data.qvel[sim.world.dof_adr[0][2]] = np.nan
-    with pytest.raises(PhysicsDivergence, match=r"t = 0\.120 s: vessel 'a' (speed|yaw rate|acceleration) is non-finite"):
+    with pytest.raises(PhysicsDivergence,
+                       match=r"t = 0\.120 s: vessel 'a' (speed|yaw rate|acceleration) is non-finite"):
         sim.step(5)
 
 

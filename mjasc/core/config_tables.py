@@ -59,7 +59,8 @@ from typing import Any, Callable, Iterable, Iterator, Mapping
 
 import numpy as np
 
-__all__ = ["ConfigError", "show", "load_toml", "path_problem", "show_path", "one_line", "table", "check_keys", "number", "integer", "boolean", "string", "point",
+__all__ = ["ConfigError", "show", "load_toml", "path_problem", "show_path", "one_line", "table", "check_keys",
+           "number", "integer", "boolean", "string", "point",
            "points", "within", "dataclass_from_table", "read_field", "errors_as", "Param", "param", "check_params",
            "describe_params"]
 

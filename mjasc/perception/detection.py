@@ -69,7 +69,8 @@ import numpy as np
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 from mjasc.perception.range_sensor import Scan
 
-__all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "finite_detections", "parse_detection_options",
+__all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "finite_detections",
+           "parse_detection_options",
            "check_detection"]
 
 _REFINE = 2  # Gauss–Newton iterations of the centre

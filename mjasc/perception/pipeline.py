@@ -85,7 +85,8 @@ class Perception:
         self.keep_history = False
         self.history: list[tuple] = []  # (t, id, x, y, θ, V, ω, team, static) of confirmed tracks
         self._stats = {"scans": 0, "returns": 0, "detections": 0, "target_detections": 0,
-                       "non_finite_detections_dropped": 0, "sense_s": 0.0, "track_s": 0.0, "track_updates": 0, "max_tracks": 0}
+                       "non_finite_detections_dropped": 0, "sense_s": 0.0, "track_s": 0.0, "track_updates": 0,
+                       "max_tracks": 0}
 
     # ---------------------------------------------------------------- state (read after the fleet's pass)
     @property

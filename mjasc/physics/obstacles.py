@@ -28,7 +28,8 @@ class PolygonObstacle:
     """A static polygon (k, 2), stored counter-clockwise; height is only for drawing and sensing."""
 
     name: str = param(doc="the obstacle's name (unique among a scenario's obstacles)")
-    vertices: np.ndarray = param(minimum=-WORLD_LIMIT_M, maximum=WORLD_LIMIT_M, unit="m", doc="corners [[x, y], ...], at least 3, either winding (stored CCW)")
+    vertices: np.ndarray = param(minimum=-WORLD_LIMIT_M, maximum=WORLD_LIMIT_M, unit="m",
+                                 doc="corners [[x, y], ...], at least 3, either winding (stored CCW)")
     height_m: float = param(2.0, positive=True, unit="m", doc="height above the water, for drawing and sensing")
 
     def __post_init__(self):
