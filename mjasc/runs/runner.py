@@ -31,9 +31,7 @@ runner or patching its components.
 from __future__ import annotations
 
 import json
-import signal
 import sys
-import threading
 import time
 import traceback
 from dataclasses import dataclass, field
@@ -48,6 +46,7 @@ from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 from mjasc.runs.agent import build_agent
+from mjasc.runs.interrupts import catch_sigterm, restore_sigterm, signal_name
 from mjasc.runs.outputs import atomic_target, atomic_write_text
 from mjasc.runs.recording import Recorder, default_blueprint, vessel_colour
 from mjasc.runs.scenario import Scenario
@@ -75,8 +74,8 @@ class RunFailed(RuntimeError):
 
 
 class RunInterrupted(RunFailed):
-    """A run stopped by Ctrl-C or SIGTERM; its recording was closed and its summary written
-    (``status`` ``interrupted``). Raised inside the run by the SIGTERM handler too."""
+    """A run stopped by Ctrl-C or SIGTERM (:mod:`mjasc.runs.interrupts`); its recording was closed
+    and its summary written (``status`` ``interrupted``)."""
 
 
 #: The MuJoCo state (``Simulation.get_state``) before the step where the physics diverged.
@@ -325,7 +324,7 @@ class Runner:
             bar = tqdm(total=round(sc.duration_s), unit="sim s", desc=sc.name, leave=False)
         step = 0
         diverged = None
-        previous = _catch_termination() if interruptible else None
+        previous = catch_sigterm() if interruptible else None
         clock = time.perf_counter
         stage = self.stage_seconds = dict.fromkeys([*self.schedule.period_steps, "physics"], 0.0)
         try:
@@ -379,8 +378,8 @@ class Runner:
             status, error, diverged = "diverged", str(exc), exc
             if self.recorder:
                 self.recorder.event(sim.time_s, str(exc), "ERROR")
-        except (KeyboardInterrupt, RunInterrupted) as exc:
-            status, error = "interrupted", f"interrupted at t = {sim.time_s:.3f} s ({_signal_name(exc)})"
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (interrupts.Terminated)
+            status, error = "interrupted", f"interrupted at t = {sim.time_s:.3f} s ({signal_name(exc)})"
             if self.recorder:
                 self.recorder.event(sim.time_s, error, "WARN")
         except Exception as exc:  # noqa: BLE001 - a failed run still leaves its summary and recording
@@ -390,7 +389,7 @@ class Runner:
             if self.recorder:
                 self.recorder.event(sim.time_s, error, "ERROR")
         finally:
-            _restore_signals(previous)
+            restore_sigterm(previous)
             if bar is not None:
                 bar.close()
             for slot, out in (("record", self.recorder), ("video", self.video)):
@@ -431,24 +430,3 @@ class Runner:
 def run_scenario(scenario: Scenario, out_dir=None, progress: bool | None = None,
                  interruptible: bool = False) -> RunResult:
     return Runner(scenario, out_dir, progress).run(interruptible)
-
-
-def _on_sigterm(signum, frame):
-    raise RunInterrupted(signal.Signals(signum).name)
-
-
-def _catch_termination():
-    """SIGTERM → :class:`RunInterrupted` in the main thread while a run goes (SIGINT already
-    raises KeyboardInterrupt); returns the previous handler, or None when not the main thread."""
-    if threading.current_thread() is not threading.main_thread():
-        return None
-    return signal.signal(signal.SIGTERM, _on_sigterm)
-
-
-def _restore_signals(previous) -> None:
-    if previous is not None:
-        signal.signal(signal.SIGTERM, previous)
-
-
-def _signal_name(exc: BaseException) -> str:
-    return "SIGINT" if isinstance(exc, KeyboardInterrupt) else (str(exc.args[0]) if exc.args else "SIGTERM")
