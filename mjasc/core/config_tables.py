@@ -8,7 +8,8 @@ ValueError) whose message names the path and the reason, then shows the value::
 
 Readers (``where`` is always the second argument):
 
-* :func:`load_toml` — a TOML file → its top-level table (a missing file or bad TOML names the file);
+* :func:`load_toml` — a TOML file → its top-level table (a missing, unreadable, non-UTF-8 or badly
+  named file, or bad TOML, is one error naming the file: :mod:`mjasc.core.input_files`);
 * :func:`table` — a TOML table (a dict); :func:`check_keys` — no key outside ``allowed``;
 * :func:`number` — a finite real (bools are not numbers; ints become floats), with optional
   bounds ``positive`` (> 0), ``nonneg`` (≥ 0), ``minimum`` (≥), ``maximum`` (≤);
@@ -50,14 +51,14 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import tomllib
 import types
 import typing
 from contextlib import contextmanager
-from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping
 
 import numpy as np
+
+from mjasc.core.input_files import load_toml, one_line, path_problem, show_path
 
 __all__ = ["ConfigError", "show", "load_toml", "path_problem", "show_path", "one_line", "table", "check_keys",
            "number", "integer", "boolean", "string", "point",
@@ -88,76 +89,6 @@ def _fail(where: str, reason: str, value: Any) -> typing.NoReturn:
 
 
 # ---------------------------------------------------------------------------------------------- tables
-def load_toml(path: str | Path, error: type[ValueError] = ConfigError, what: str = "TOML") -> dict:
-    """Read the TOML file ``path`` into its top-level table. Raises ``error`` (a ValueError
-    subclass), one line naming the file: ``"<path>: no such <what> file"``, ``"<path>: not a
-    usable file name (<reason>)"`` (a NUL, an over-long name), ``"<path>: cannot read: <reason>"``,
-    ``"<path>: not UTF-8 text (byte 0x.. at offset n)"`` or ``"<path>: not valid TOML: <reason>"``."""
-    shown = show_path(path)
-    reason = path_problem(path)
-    if reason:
-        raise error(f"{shown}: not a usable file name ({reason})")
-    path = Path(path)
-    try:
-        if not path.is_file():
-            raise error(f"{shown}: no such {what} file")
-        with open(path, "rb") as f:
-            raw = f.read(MAX_TOML_BYTES + 1)
-    except OSError as exc:
-        raise error(f"{shown}: cannot read: {exc.strerror or exc}") from None
-    if len(raw) > MAX_TOML_BYTES:
-        raise error(f"{shown}: larger than {MAX_TOML_BYTES} bytes, not a {what} file")
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise error(f"{shown}: not UTF-8 text (byte 0x{raw[exc.start]:02x} at offset {exc.start})") from None
-    try:
-        return tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise error(f"{shown}: not valid TOML: {one_line(str(exc))}") from None
-    except RecursionError:
-        raise error(f"{shown}: not valid TOML: nested too deeply") from None
-
-
-MAX_TOML_BYTES = 64 * 1024 * 1024
-"""Largest config file read [bytes] (a scenario of thousands of vessels is well under a megabyte)."""
-
-MAX_PATH_CHARS = 4096
-"""Longest file path accepted (Linux PATH_MAX); one name (between slashes) at most 255 bytes."""
-
-
-def path_problem(path: Any) -> str:
-    """Why ``path`` cannot name a file ("" if it can): a NUL character, an unencodable character,
-    more than :data:`MAX_PATH_CHARS` characters or a name (between slashes) over 255 bytes. Checked
-    before the path reaches the OS, so that the answer is a sentence rather than an OSError."""
-    text = str(path)
-    if "\x00" in text:
-        return "contains a NUL character"
-    try:
-        encoded = text.encode("utf-8")
-    except UnicodeEncodeError:
-        return "contains a character that is not valid UTF-8"
-    if len(encoded) > MAX_PATH_CHARS:
-        return f"longer than {MAX_PATH_CHARS} bytes"
-    if any(len(part) > 255 for part in encoded.split(b"/")):
-        return "a name in it is longer than 255 bytes"
-    return ""
-
-
-def show_path(path: Any) -> str:
-    """A path as an error message shows it: on one line, NUL and control characters escaped,
-    cut to 120 characters."""
-    text = one_line(str(path).encode("utf-8", "backslashreplace").decode("utf-8"))
-    return text if len(text) <= 120 else text[:100] + "..." + text[-17:]
-
-
-def one_line(text: str) -> str:
-    """``text`` on one line: newlines and control characters shown escaped (``\\n``, ``\\x00``)."""
-    if text.isprintable():
-        return text
-    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
-
-
 def table(value: Any, where: str) -> dict:
     """``value`` itself if it is a table (a mapping), else ConfigError ``"<where>: must be a table"``."""
     if not isinstance(value, Mapping):
