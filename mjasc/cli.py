@@ -44,12 +44,12 @@ def _cmd_run(args) -> int:
     except ScenarioError as exc:
         print(f"mjasc: invalid scenario: {exc}{_not_found_hint(args.scenario, 'scenario')}", file=sys.stderr)
         return 2
-    out = Path(args.out) if args.out else Path("runs") / scenario.name
+    out = _out_dir(args.out, Path("runs") / scenario.name)
     try:
-        result = run_scenario(scenario, out, progress=None if args.progress else False)
+        result = run_scenario(scenario, out, progress=None if args.progress else False, interruptible=True)
     except RunFailed as exc:
         print(f"mjasc: run failed: {exc}", file=sys.stderr)
-        return 1
+        return 130 if exc.summary and exc.summary.get("status") == "interrupted" else 1
     s = result.summary
     print(f"{scenario.name}: {s['status']} — {s['sim_time_s']} s simulated in {s['wall_time_s']} s "
           f"({s['real_time_factor']}× real time), collisions: {len(s['collisions'])}")
@@ -113,7 +113,7 @@ def _cmd_trial(args) -> int:
 def _cmd_figures(args) -> int:
     from mjasc.figures.thesis import make_all_figures
 
-    for path in make_all_figures(Path(args.out)):
+    for path in make_all_figures(_out_dir(args.out, None)):
         print(path)
     return 0
 
@@ -127,7 +127,7 @@ def _cmd_campaign(args) -> int:
     except CampaignError as exc:
         print(f"mjasc: invalid campaign: {exc}{_not_found_hint(args.campaign, 'campaign')}", file=sys.stderr)
         return 2
-    out = Path(args.out) if args.out else Path("runs") / "campaigns" / campaign.name
+    out = _out_dir(args.out, Path("runs") / "campaigns" / campaign.name)
     try:
         result = run_campaign(campaign, out, scheduler=args.scheduler, workers=args.workers,
                               progress=args.progress and sys.stderr.isatty(), max_attempts=args.max_attempts,
@@ -151,7 +151,9 @@ def _cmd_report(args) -> int:
         if args.json:
             print(json.dumps(report_data(args.folder), default=str))
             return 0
-        out = write_report(args.folder, args.out, formats=args.format)
+        if not (Path(args.folder) / "campaign.sqlite").is_file():
+            raise FileNotFoundError(f"{args.folder}: no campaign here (no campaign.sqlite)")
+        out = write_report(args.folder, _out_dir(args.out, Path(args.folder) / "report"), formats=args.format)
     except FileNotFoundError as exc:
         print(f"mjasc: {exc}", file=sys.stderr)
         return 2
@@ -189,7 +191,7 @@ def _cmd_extract(args) -> int:
         print("mjasc: no run selected (give run indices or --outcome)" if not args.outcome else
               f"no stored run with outcome {args.outcome}", file=sys.stderr)
         return 2 if not args.outcome else 0
-    out = Path(args.out) if args.out else Path(args.folder) / "scenarios"
+    out = _out_dir(args.out, Path(args.folder) / "scenarios")
     for k in sorted(wanted):
         path = write_scenario(runs[k].scenario, out / f"run_{k}.toml")
         print(f"run {k} ({runs[k].family}, seed {runs[k].seed}, {runs[k].status}): {path}")
@@ -209,7 +211,7 @@ def _cmd_search(args) -> int:
     except (CampaignError, ConfigError) as exc:
         print(f"mjasc: invalid search: {exc}", file=sys.stderr)
         return 2
-    out = Path(args.out) if args.out else Path("runs") / "search" / f"{campaign.name}_{args.family}_{args.method}"
+    out = _out_dir(args.out, Path("runs") / "search" / f"{campaign.name}_{args.family}_{args.method}")
     try:
         res = search_failures(campaign, args.family, out, config, scheduler=args.scheduler, workers=args.workers,
                               progress=sys.stderr.isatty())
@@ -228,7 +230,8 @@ def _cmd_render(args) -> int:
     from mjasc.suite.render import render_episode
 
     try:
-        result = render_episode(args.domain, args.task, policy=args.policy, out_dir=args.out, seed=args.seed)
+        result = render_episode(args.domain, args.task, policy=args.policy, out_dir=_out_dir(args.out, None),
+                                seed=args.seed)
     except ValueError as exc:
         print(f"mjasc: {exc}", file=sys.stderr)
         return 2
@@ -319,6 +322,49 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _out_dir(given: str | None, default: Path | None) -> Path:
+    """The output folder (``--out`` or the default), made and proven writable before anything runs
+    (:func:`mjasc.runs.outputs.check_out_dir`; raises OutputError, which :func:`main` reports)."""
+    from mjasc.runs.outputs import check_out_dir
+
+    return check_out_dir(given if given is not None else default, "--out" if given is not None else "output folder")
+
+
+#: The command-line arguments that name an input file or folder (checked before a command runs).
+_INPUTS = ("scenario", "campaign", "folder")
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one command. Exit status: 0 done, 1 a run or campaign failed, 2 bad input (a scenario,
+    campaign, argument or output folder: one line on stderr, no traceback), 130 interrupted.
+    An unexpected error (a bug) is one line too; ``MJASC_TRACEBACK=1`` shows its traceback."""
+    import os
+
+    from mjasc.core.config_tables import ConfigError, path_problem, show_path
+
     args = build_parser().parse_args(argv)
-    return args.func(args)
+    for name in _INPUTS:
+        value = getattr(args, name, None)
+        if isinstance(value, str) and path_problem(value):
+            print(f"mjasc: {name} {show_path(value)}: not a usable file name ({path_problem(value)})", file=sys.stderr)
+            return 2
+    try:
+        return args.func(args)
+    except KeyboardInterrupt:
+        print("mjasc: interrupted", file=sys.stderr)
+        return 130
+    except ConfigError as exc:  # includes ScenarioError and OutputError
+        print(f"mjasc: {exc}", file=sys.stderr)
+        return 2
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: one line, not a traceback
+        from mjasc.campaigns.perturbation import CampaignError
+
+        if isinstance(exc, CampaignError):
+            print(f"mjasc: invalid campaign: {exc}", file=sys.stderr)
+            return 2
+        if os.environ.get("MJASC_TRACEBACK"):
+            raise
+        text = str(exc).replace("\n", " ")
+        print(f"mjasc: internal error: {type(exc).__name__}: {text[:500]} (MJASC_TRACEBACK=1 shows where)",
+              file=sys.stderr)
+        return 1

@@ -299,3 +299,31 @@ def test_boat_crossing_close_in_front_of_a_wall_leaves_no_phantom_and_keeps_its_
     for p in polys:
         covered |= point_in_polygon(wall_face, p)
     assert covered.mean() > 0.8
+
+
+def test_non_finite_detections_are_dropped_and_counted_before_the_tracker(monkeypatch):
+    """A NaN centre (a diverged or absurd scene) is taken out at the detection boundary: the tracker
+    keeps tracking the sound detections and the summary counts what was dropped."""
+    import dataclasses
+
+    from mjasc.perception import fleet as fleet_module
+
+    real = fleet_module.detect_many
+
+    def poisoned(*args, **kwargs):
+        batch = real(*args, **kwargs)
+        if len(batch.centres_m) == 0:
+            return batch
+        centres = batch.centres_m.copy()
+        centres[0] = np.nan
+        return dataclasses.replace(batch, centres_m=centres, extended=np.zeros_like(batch.extended))
+
+    monkeypatch.setattr(fleet_module, "detect_many", poisoned)
+    bench = Bench(0, sensor=SensorConfig(rate_hz=5.0, clutter_per_scan=0.0),
+                  statics=[CircleObstacle("a", (20.0, 0.0), 1.0), CircleObstacle("b", (-20.0, 5.0), 1.0)])
+    for k in range(40):
+        bench.step(k * 0.2, np.zeros((0, 2)))
+    s = bench.p.summary()
+    assert s["non_finite_detections_dropped"] == s["scans"] == 40
+    tracks = bench.p.tracks()
+    assert len(tracks) == 1 and np.all(np.isfinite(tracks[0].position_m))

@@ -64,7 +64,8 @@ def execute_in_process(request: dict) -> dict:
         try:
             out["summary"] = runner.run().summary
         except RunFailed as exc:
-            out["status"], out["error"] = "diverged", str(exc).split("; partial outputs")[0]
+            out["status"] = (exc.summary or {}).get("status", "diverged")  # diverged, error, interrupted
+            out["error"] = str(exc).split("; partial outputs")[0]
             out["summary"] = exc.summary
         if evaluator is not None and out["summary"] is not None:
             out["summary"]["evaluation"] = evaluator.summary()
@@ -102,7 +103,7 @@ def _cost(doc: dict, evaluator, index) -> dict:
         runner.run()
         cost = evaluator.cost(trace)
     except RunFailed as exc:
-        info.update(status="diverged", error=str(exc).split("; partial outputs")[0])
+        info.update(status=(exc.summary or {}).get("status", "diverged"), error=str(exc).split("; partial outputs")[0])
         cost = {}
     info["wall_time_s"] = round(time.perf_counter() - t0, 3)
     return {"cost": cost, "cost_reference": info}

@@ -55,6 +55,8 @@ from mjasc.core.config_tables import (
     errors_as,
     integer,
     load_toml,
+    path_problem,
+    show_path,
     number,
     param,
     show,
@@ -187,6 +189,8 @@ def parse_campaign(data: dict, source: str = "<dict>", base_dir: str | Path = ".
         rel = data["scenario"]
         if not isinstance(rel, str) or not rel:
             raise CampaignError(f"scenario: must be a path string, got {show(rel)}")
+        if path_problem(rel):
+            raise CampaignError(f"scenario: not a usable file name ({path_problem(rel)}), got {show_path(rel)}")
     path = (Path(base_dir) / rel).resolve()
     try:
         scenario = load_scenario(path)
@@ -393,6 +397,8 @@ def parse_perturbation_family(t: dict, where: str, index: int, base_dir: str | P
         if not isinstance(rel, str) or not rel:
             raise CampaignError(f"{at('scenario')}: must be the path of a scenario file (relative to the campaign "
                                 f"file), got {show(rel)}")
+        if path_problem(rel):
+            raise CampaignError(f"{at('scenario')}: not a usable file name ({path_problem(rel)}), got {show_path(rel)}")
     path = (Path(base_dir) / rel).resolve()
     try:
         data = dict(load_toml(path, ScenarioError, "scenario"))

@@ -8,13 +8,15 @@ ValueError) whose message names the path and the reason, then shows the value::
 
 Readers (``where`` is always the second argument):
 
-* :func:`load_toml` — a TOML file → its top-level table (a missing file or bad TOML names the file);
+* :func:`load_toml` — a TOML file → its top-level table (a missing, unreadable, non-UTF-8 or badly
+  named file, or bad TOML, is one error naming the file: :mod:`mjasc.core.input_files`);
 * :func:`table` — a TOML table (a dict); :func:`check_keys` — no key outside ``allowed``;
 * :func:`number` — a finite real (bools are not numbers; ints become floats), with optional
   bounds ``positive`` (> 0), ``nonneg`` (≥ 0), ``minimum`` (≥), ``maximum`` (≤);
 * :func:`integer` — an int (not a bool, not 3.0), optional ``minimum`` / ``maximum``;
 * :func:`boolean` — ``true`` / ``false`` only; :func:`string` — a non-empty string, optional ``choices``;
 * :func:`point` — ``[x, y]`` → (2,) float array [m]; :func:`points` — ``[[x, y], ...]`` → (n, 2);
+  :func:`within` — every element of an array within bounds (an array field's ``minimum`` / ``maximum``);
 * :func:`dataclass_from_table` — a whole table → a frozen dataclass, each key read by the reader
   of its field's type (float, int, bool, str, ``X | None``, ``tuple[X, ...]``) or a given converter,
   unknown keys rejected, missing keys left at the dataclass's defaults;
@@ -49,17 +51,18 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
-import tomllib
 import types
 import typing
 from contextlib import contextmanager
-from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Mapping
 
 import numpy as np
 
-__all__ = ["ConfigError", "show", "load_toml", "table", "check_keys", "number", "integer", "boolean", "string", "point",
-           "points", "dataclass_from_table", "read_field", "errors_as", "Param", "param", "check_params",
+from mjasc.core.input_files import load_toml, one_line, path_problem, show_path
+
+__all__ = ["ConfigError", "show", "load_toml", "path_problem", "show_path", "one_line", "table", "check_keys",
+           "number", "integer", "boolean", "string", "point",
+           "points", "within", "dataclass_from_table", "read_field", "errors_as", "Param", "param", "check_params",
            "describe_params"]
 
 Converter = Callable[[Any, str], Any]
@@ -86,19 +89,6 @@ def _fail(where: str, reason: str, value: Any) -> typing.NoReturn:
 
 
 # ---------------------------------------------------------------------------------------------- tables
-def load_toml(path: str | Path, error: type[ValueError] = ConfigError, what: str = "TOML") -> dict:
-    """Read the TOML file ``path`` into its top-level table. Raises ``error`` (a ValueError
-    subclass) ``"<path>: no such <what> file"`` or ``"<path>: not valid TOML: <reason>"``."""
-    path = Path(path)
-    if not path.is_file():
-        raise error(f"{path}: no such {what} file")
-    try:
-        with open(path, "rb") as f:
-            return tomllib.load(f)
-    except tomllib.TOMLDecodeError as exc:
-        raise error(f"{path}: not valid TOML: {exc}") from None
-
-
 def table(value: Any, where: str) -> dict:
     """``value`` itself if it is a table (a mapping), else ConfigError ``"<where>: must be a table"``."""
     if not isinstance(value, Mapping):
@@ -177,12 +167,27 @@ def point(value: Any, where: str) -> np.ndarray:
     return np.array([number(value[0], f"{where}[0]"), number(value[1], f"{where}[1]")])
 
 
-def points(value: Any, where: str, minimum: int) -> np.ndarray:
+def points(value: Any, where: str, minimum: int, limit: float | None = None) -> np.ndarray:
     """A list of at least ``minimum`` points ``[[x, y], ...]`` → (n, 2) float array; point k's
-    errors name ``where[k]``."""
+    errors name ``where[k]``; with ``limit``, every coordinate within ±limit (:func:`within`)."""
     if not isinstance(value, list) or len(value) < minimum:
         _fail(where, f"must be a list of at least {minimum} points [x, y]", value)
-    return np.array([point(p, f"{where}[{i}]") for i, p in enumerate(value)]).reshape(-1, 2)
+    out = np.array([point(p, f"{where}[{i}]") for i, p in enumerate(value)]).reshape(-1, 2)
+    if limit is not None:
+        for i, p in enumerate(out):
+            within(p, f"{where}[{i}]", -limit, limit)
+    return out
+
+
+def within(values: np.ndarray, where: str, minimum: float | None, maximum: float | None) -> np.ndarray:
+    """Every element of an array within [minimum, maximum]; the error names the element,
+    ``"<where>[k]: must be ≤ 1000000.0, got 1e+300"``."""
+    for k, v in enumerate(np.ravel(values)):
+        if minimum is not None and v < minimum:
+            _fail(f"{where}[{k}]", f"must be ≥ {minimum}", float(v))
+        if maximum is not None and v > maximum:
+            _fail(f"{where}[{k}]", f"must be ≤ {maximum}", float(v))
+    return values
 
 
 # ---------------------------------------------------------------------------------------------- dataclasses
@@ -265,6 +270,8 @@ def _check_value(value: Any, tp: Any, p: Param, where: str) -> Any:
         if not isinstance(value, tp):
             _fail(where, f"must be a {tp.__name__}", value)
         return value
+    if isinstance(value, np.ndarray) and (p.minimum is not None or p.maximum is not None):
+        return within(value, where, p.minimum, p.maximum)  # bounds of an array: element by element
     try:
         if tp is bool:
             return boolean(value, where)

@@ -8,6 +8,11 @@ from __future__ import annotations
 
 import numpy as np
 
+WORLD_LIMIT_M = 1e6
+"""Largest |coordinate| [m] of anything placed in the world (positions, waypoints, obstacles):
+1,000 km from the origin. Beyond it float32 rendering and the path geometry lose metres, and a
+scenario that far out is a typo; the loaders reject it (``must be ≤ 1000000.0``)."""
+
 
 def wrap_angle(angle_rad):
     """Wrap angle(s) to (−π, π]. Works on scalars and arrays."""

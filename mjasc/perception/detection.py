@@ -69,7 +69,8 @@ import numpy as np
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 from mjasc.perception.range_sensor import Scan
 
-__all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "parse_detection_options",
+__all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "finite_detections",
+           "parse_detection_options",
            "check_detection"]
 
 _REFINE = 2  # Gauss–Newton iterations of the centre
@@ -191,6 +192,13 @@ class DetectionBatch:
                                   self.radii_m[a:b], self.variances_m2[a:b], self.n_points[a:b], self.ranges_m[a:b],
                                   self.extended[a:b], self.labels[r[k]:r[k + 1]], self.occluded[a:b]))
         return out
+
+
+def finite_detections(det: "Detections | DetectionBatch") -> np.ndarray:
+    """(m,) bool: detections whose centre, radius and variance are all finite. The rest are
+    dropped before the tracker (:meth:`mjasc.perception.pipeline.Perception._scanned`, counted in
+    the summary as ``non_finite_detections_dropped``): one NaN centre would poison the IMM bank."""
+    return (np.isfinite(det.centres_m).all(axis=1) & np.isfinite(det.radii_m) & np.isfinite(det.variances_m2))
 
 
 def detect(scan: Scan, config: DetectionConfig = DetectionConfig(), range_noise_std_m: float = 0.0) -> Detections:

@@ -40,7 +40,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from mjasc.perception.detection import Detections, detect
+from mjasc.perception.detection import Detections, detect, finite_detections
 from mjasc.perception.fleet import DISC_MARGIN_M, PerceptionFleet, fleet_of, tracked_discs
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
@@ -85,7 +85,8 @@ class Perception:
         self.keep_history = False
         self.history: list[tuple] = []  # (t, id, x, y, θ, V, ω, team, static) of confirmed tracks
         self._stats = {"scans": 0, "returns": 0, "detections": 0, "target_detections": 0,
-                       "sense_s": 0.0, "track_s": 0.0, "track_updates": 0, "max_tracks": 0}
+                       "non_finite_detections_dropped": 0, "sense_s": 0.0, "track_s": 0.0, "track_updates": 0,
+                       "max_tracks": 0}
 
     # ---------------------------------------------------------------- state (read after the fleet's pass)
     @property
@@ -132,8 +133,12 @@ class Perception:
 
     def _scanned(self, scan: Scan, det: Detections, targets: np.ndarray) -> None:
         """The fleet's sensing pass is done with this vessel's scan."""
-        self._scan, self._det, self._targets = scan, det, targets
         st = self._stats
+        finite = finite_detections(det)
+        if not finite.all():  # the boundary: a non-finite detection never reaches the tracker
+            st["non_finite_detections_dropped"] += int(np.count_nonzero(targets & ~finite))
+            targets = targets & finite
+        self._scan, self._det, self._targets = scan, det, targets
         st["scans"] += 1
         st["returns"] += int(scan.hit_beams.size)
         st["detections"] += len(det)
@@ -285,6 +290,9 @@ class Perception:
             "mapped_cells": self.map.n_occupied,
             "mean_sense_us": round(1e6 * st["sense_s"] / scans, 1),
             "mean_tracking_us": round(1e6 * st["track_s"] / ups, 1),
+            # only when it happened (summaries of sound runs stay as they were)
+            **({"non_finite_detections_dropped": st["non_finite_detections_dropped"]}
+               if st["non_finite_detections_dropped"] else {}),
         }
 
 

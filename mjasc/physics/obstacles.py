@@ -13,10 +13,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjasc.core.config_tables import check_params, param, point
+from mjasc.core.frames import WORLD_LIMIT_M
 from mjasc.core.geometry import circle_polygon, polygon_signed_area
 from mjasc.guidance.paths import Path
 
-__all__ = ["PolygonObstacle", "CircleObstacle", "MovingObstacle", "MovingObstacleSet"]
+__all__ = ["PolygonObstacle", "CircleObstacle", "MovingObstacle", "MovingObstacleSet", "MAX_TRAFFIC_SPEED_M_S"]
+
+MAX_TRAFFIC_SPEED_M_S = 30.0
+"""Fastest moving obstacle [m/s] (58 kn: a fast ferry); faster traffic is a typo in a scenario."""
 
 
 @dataclass(frozen=True)
@@ -24,7 +28,8 @@ class PolygonObstacle:
     """A static polygon (k, 2), stored counter-clockwise; height is only for drawing and sensing."""
 
     name: str = param(doc="the obstacle's name (unique among a scenario's obstacles)")
-    vertices: np.ndarray = param(unit="m", doc="corners [[x, y], ...], at least 3, either winding (stored CCW)")
+    vertices: np.ndarray = param(minimum=-WORLD_LIMIT_M, maximum=WORLD_LIMIT_M, unit="m",
+                                 doc="corners [[x, y], ...], at least 3, either winding (stored CCW)")
     height_m: float = param(2.0, positive=True, unit="m", doc="height above the water, for drawing and sensing")
 
     def __post_init__(self):
@@ -51,8 +56,9 @@ class CircleObstacle:
     """A static disc (buoy, pillar, small islet)."""
 
     name: str = param(doc="the obstacle's name (unique among a scenario's obstacles)")
-    centre: np.ndarray = param(reader=point, unit="m", doc="centre [x, y]")
-    radius_m: float = param(positive=True, unit="m", doc="radius")
+    centre: np.ndarray = param(reader=point, minimum=-WORLD_LIMIT_M, maximum=WORLD_LIMIT_M, unit="m",
+                               doc="centre [x, y]")
+    radius_m: float = param(positive=True, maximum=WORLD_LIMIT_M, unit="m", doc="radius")
     height_m: float = param(2.0, positive=True, unit="m", doc="height above the water, for drawing and sensing")
 
     def __post_init__(self):
@@ -73,11 +79,12 @@ class MovingObstacle:
     """
 
     name: str = param(doc="the obstacle's name (unique among a scenario's obstacles)")
-    radius_m: float = param(positive=True, unit="m", doc="radius of the circle bounding it")
-    position_m: np.ndarray = param(default_factory=lambda: np.zeros(2), reader=point, unit="m",
+    radius_m: float = param(positive=True, maximum=WORLD_LIMIT_M, unit="m", doc="radius of the circle bounding it")
+    position_m: np.ndarray = param(default_factory=lambda: np.zeros(2), reader=point, minimum=-WORLD_LIMIT_M,
+                                   maximum=WORLD_LIMIT_M, unit="m",
                                    doc="position at t = 0 [x, y]")
     heading_rad: float = param(0.0, unit="rad", doc="heading at t = 0, CCW from east")
-    speed_m_s: float = param(0.0, nonneg=True, unit="m/s", doc="speed over ground")
+    speed_m_s: float = param(0.0, nonneg=True, maximum=MAX_TRAFFIC_SPEED_M_S, unit="m/s", doc="speed over ground")
     turn_rate_rad_s: float = param(0.0, unit="rad/s", doc="constant turn rate (0: constant velocity)")
     path: Path | None = param(None, doc="a path followed at speed_m_s instead of the constant-turn motion")
     start_gamma_m: float = param(0.0, nonneg=True, unit="m", doc="arc length along path at t = 0")

@@ -22,16 +22,30 @@ import mujoco
 import numpy as np
 
 from mjasc.physics.currents import CurrentField, UniformCurrent
+from mjasc.physics.divergence import DivergenceBounds, DivergenceMonitor
 from mjasc.physics.hydrodynamics import Hydrodynamics, rigid_body_mass_matrix
 from mjasc.physics.obstacles import MovingObstacleSet
 from mjasc.physics.thrusters import Thrusters
 from mjasc.physics.world import World
 
-__all__ = ["Simulation", "VesselStates", "PhysicsDivergence"]
+__all__ = ["Simulation", "VesselStates", "PhysicsDivergence", "STATE_SPEC"]
 
 
 class PhysicsDivergence(RuntimeError):
-    """The physics produced a non-finite state or MuJoCo raised a warning; the message says which."""
+    """The physics diverged: a vessel's velocity or acceleration non-finite or beyond its type's
+    bounds (:mod:`mjasc.physics.divergence`), or a MuJoCo warning; the message says when, which
+    vessel and which quantity. ``last_good_state`` is the full MuJoCo integration state
+    (``mj_getState``, :data:`STATE_SPEC`) at the end of the last step that passed the checks."""
+
+    def __init__(self, message: str, last_good_state: np.ndarray | None = None, last_good_time_s: float | None = None):
+        super().__init__(message)
+        self.last_good_state = last_good_state
+        self.last_good_time_s = last_good_time_s
+
+
+STATE_SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
+"""What a saved state holds: everything MuJoCo integrates (time, qpos, qvel, act, warm start,
+controls, applied forces, mocap poses): ``mj_setState`` of it makes the next steps identical."""
 
 
 @dataclass(frozen=True)
@@ -120,6 +134,9 @@ class Simulation:
             self.hydro.bind(self._qpos3, self._qvel3, self._act_view, self._qfrc3)
         self._quat = np.zeros((len(self.traffic), 4))
         self.divergence_checks = True
+        self.monitor = DivergenceMonitor(d.qvel, d.qacc, world.dof_adr, [t.top_speed_m_s for t in world.vessel_types],
+                                         world.vessel_names, DivergenceBounds())
+        self._block_state = np.zeros(mujoco.mj_stateSize(self.model, STATE_SPEC))
 
     # ------------------------------------------------------------------ state access
     @property
@@ -216,36 +233,100 @@ class Simulation:
         if not self._views:
             self.data.qfrc_applied[self.world.dof_adr] = out
 
+    def get_state(self) -> np.ndarray:
+        """The full integration state now (:data:`STATE_SPEC`), a new array: save it with ``np.save``."""
+        state = np.zeros(mujoco.mj_stateSize(self.model, STATE_SPEC))
+        mujoco.mj_getState(self.model, self.data, state, STATE_SPEC)
+        return state
+
+    def set_state(self, state: np.ndarray) -> None:
+        """Restore a state from :meth:`get_state` (or a saved ``last_good_state.npy``): the next
+        steps repeat the original ones exactly (same commands, same model)."""
+        state = np.asarray(state, dtype=float)
+        if state.shape != (mujoco.mj_stateSize(self.model, STATE_SPEC),):
+            raise ValueError(f"state: expected {mujoco.mj_stateSize(self.model, STATE_SPEC)} values for this model, "
+                             f"got shape {list(state.shape)}")
+        mujoco.mj_setState(self.model, self.data, state, STATE_SPEC)
+        mujoco.mj_forward(self.model, self.data)
+
     def step(self, n_steps: int = 1) -> None:
-        """Advance ``n_steps`` physics steps. Raises :class:`PhysicsDivergence` on a bad state."""
+        """Advance ``n_steps`` physics steps. With ``divergence_checks`` every step is tested
+        (:mod:`mjasc.physics.divergence`) and :class:`PhysicsDivergence` raised at the first bad
+        one, carrying the state before it; the diverged state is left in MjData as it is."""
+        if not self.divergence_checks:
+            self._advance(n_steps, None)
+            return
+        m, d = self.model, self.data
+        mujoco.mj_getState(m, d, self._block_state, STATE_SPEC)  # known good: the last block passed
+        t0 = float(d.time)
+        bad = self._advance(n_steps, self.monitor)
+        if bad is not None:
+            k, message = bad
+            self._raise_divergence(k, message, t0)
+        counts = d.warning.number
+        if counts.any():  # (the method: np.any costs 8 µs here, more than a physics step's checks)
+            i = int(np.flatnonzero(counts)[0])
+            kind = mujoco.mjtWarning(i).name
+            raise PhysicsDivergence(f"physics diverged between t = {t0:.3f} and {d.time:.3f} s: MuJoCo warning "
+                                    f"{kind} (info {d.warning[i].lastinfo})", self._block_state.copy(), t0)
+
+    def _raise_divergence(self, k: int, message: str, t0: float) -> None:
+        """Step k of the block failed: rebuild the state before it (replaying k steps from the
+        block's start, which is deterministic), then leave the diverged state and raise."""
+        m, d = self.model, self.data
+        diverged = self.get_state()
+        mujoco.mj_setState(m, d, self._block_state, STATE_SPEC)
+        self._advance(k, None)
+        good, t_good = self.get_state(), float(d.time)
+        mujoco.mj_setState(m, d, diverged, STATE_SPEC)
+        raise PhysicsDivergence(f"physics diverged at {message} (last good state t = {t_good:.3f} s)", good, t_good)
+
+    def _advance(self, n_steps: int, monitor: DivergenceMonitor | None) -> tuple[int, str] | None:
+        """``n_steps`` physics steps; with a monitor, stop at the first step k (0-based) that breaks
+        a bound and return (k, what broke); None when all passed."""
         m, d = self.model, self.data
         traffic = len(self.traffic) > 0
+        if monitor is not None:
+            vel, acc, v2, a2 = monitor.qvel, monitor.qacc, monitor.fast_speed2, monitor.fast_acc2
+            vdot, adot = vel.dot, acc.dot
         if self._bound and self.hydrodynamics_enabled and self._current_uniform_steady and not traffic:
             # The common case, kept lean: a uniform steady current is the same at every vessel.
             vc = self.current.velocity(self._qpos3[:, :2], 0.0)
             compute, step1, step2 = self.hydro.compute_bound, mujoco.mj_step1, mujoco.mj_step2
-            for _ in range(n_steps):
+            if monitor is None:
+                for _ in range(n_steps):
+                    step1(m, d)
+                    compute(vc, None)
+                    step2(m, d)
+                return None
+            for k in range(n_steps):
                 step1(m, d)
                 compute(vc, None)
                 step2(m, d)
-            if self.divergence_checks:
-                self.check_divergence()
-            return
-        for _ in range(n_steps):
+                if not (vdot(vel) <= v2 and adot(acc) <= a2) and not monitor.scaled_ok():
+                    what = monitor.violation(float(d.time))
+                    if what is not None:
+                        return k, what
+            return None
+        for k in range(n_steps):
             if traffic:
                 self._update_traffic()
             mujoco.mj_step1(m, d)
             if self.n_vessels:
                 self._apply_forces()
             mujoco.mj_step2(m, d)
-        if self.divergence_checks:
-            self.check_divergence()
+            if monitor is not None and not (vdot(vel) <= v2 and adot(acc) <= a2) and not monitor.scaled_ok():
+                what = monitor.violation(float(d.time))
+                if what is not None:
+                    return k, what
+        return None
 
     def check_divergence(self) -> None:
-        """Raise :class:`PhysicsDivergence` if the state is not finite or MuJoCo warned."""
+        """Raise :class:`PhysicsDivergence` if a vessel's state is beyond its bounds now, or MuJoCo warned."""
         d = self.data
-        if not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
-            raise PhysicsDivergence(f"physics diverged at t = {d.time:.3f} s: non-finite vessel state")
+        what = self.monitor.violation(float(d.time))
+        if what is not None or not (np.all(np.isfinite(d.qpos)) and np.all(np.isfinite(d.qvel))):
+            raise PhysicsDivergence(f"physics diverged at {what or f't = {d.time:.3f} s: non-finite state'}")
         counts = d.warning.number
         if np.any(counts):
             i = int(np.flatnonzero(counts)[0])

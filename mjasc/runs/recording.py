@@ -2,8 +2,12 @@
 
 Entities live in a 3-D world (ENU, z up, everything on z ≈ 0) viewed from above, because Rerun's
 2-D views draw y downwards and the world frame here is y-north-up. Timeline: ``sim_time``
-(simulation seconds). Wall-clock log time is disabled so that two runs with the same seed produce
-the same content (not the same bytes: compare content, never hashes).
+(simulation seconds). Two runs with the same scenario and seed produce the same content
+(``rerun rrd compare`` finds them equal): the recording id and the blueprint's view and container
+ids are derived from the scenario name and seed, wall-clock log time is disabled and the recording
+properties (which hold the wall-clock start time) are not sent, only the recording's name. Not the
+same bytes: the Rerun 0.41 SDK stamps every row and chunk with a time-based id (TUID) and gives the
+blueprint store a random id, and has no API to set them; compare content, never hashes.
 
 **Detail.** ``[outputs] recording_detail`` (:data:`DETAILS`) says what the run's components log:
 ``standard`` (the default) is what a reviewer needs — hulls, trails, paths, speeds, thrust,
@@ -24,6 +28,7 @@ always flushes, so a run that stops on an error keeps everything recorded until 
 
 from __future__ import annotations
 
+import os
 import uuid
 from collections import defaultdict
 from pathlib import Path
@@ -34,6 +39,7 @@ import rerun as rr
 import rerun.blueprint as rrb
 from rerun.encodings import Vec3DBatch
 
+from mjasc.runs.outputs import part_path
 from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
 
 __all__ = ["Recorder", "default_blueprint", "TIMELINE", "DETAILS", "vessel_colour"]
@@ -88,6 +94,25 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
     )
 
 
+def stable_blueprint_ids(blueprint: rrb.Blueprint, key: str) -> None:
+    """Give the blueprint's views and containers ids derived from ``key`` (uuid5 of ``key/k``, k in
+    tree order) instead of the random uuid4 Rerun draws: the same run gives the same blueprint."""
+    from rerun.blueprint.api import Container, View
+
+    k = 0
+
+    def walk(node) -> None:
+        nonlocal k
+        if isinstance(node, (Container, View)):
+            node.id = uuid.uuid5(uuid.NAMESPACE_URL, f"{key}/{k}")
+            k += 1
+            if isinstance(node, Container):
+                for child in node.contents:
+                    walk(child)
+
+    walk(getattr(blueprint, "root_container", None))
+
+
 class Recorder:
     """Writes one ``.rrd`` file. Buffered rows are written by :meth:`flush` / :meth:`close`.
 
@@ -102,10 +127,15 @@ class Recorder:
         self.full = detail == "full"
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._part = part_path(self.path)  # written here, renamed to path by close()
         rid = str(uuid.uuid5(uuid.NAMESPACE_URL, f"mjasc/{recording_name}/{seed}"))
-        self.rec = rr.RecordingStream("mjasc", recording_id=rid)
+        # No recording properties: they would carry the wall-clock start time; the name alone is sent.
+        self.rec = rr.RecordingStream("mjasc", recording_id=rid, send_properties=False)
         self.rec.set_log_time_enabled(False)
-        self.rec.save(str(self.path), default_blueprint=blueprint or default_blueprint())
+        blueprint = blueprint or default_blueprint()
+        stable_blueprint_ids(blueprint, f"mjasc/{recording_name}/{seed}/blueprint")
+        self.rec.save(str(self._part), default_blueprint=blueprint)
+        self.rec.send_recording_name(str(recording_name))
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._scalars: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))
         self._texts: dict[str, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
@@ -247,7 +277,9 @@ class Recorder:
         self._pending = 0
 
     def close(self) -> None:
-        """Flush and write the file footer (a reader needs it). Safe to call twice."""
+        """Flush, write the file footer (a reader needs it) and rename the file from its temporary
+        name (``.recording.part.rrd``) to its own: a file under the final name is always complete.
+        Safe to call twice."""
         if self._closed:
             return
         try:
@@ -256,6 +288,7 @@ class Recorder:
             self.rec.flush()
             self.rec.disconnect()
             self._closed = True
+            os.replace(self._part, self.path)
 
     def __enter__(self) -> "Recorder":
         return self

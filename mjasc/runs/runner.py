@@ -6,9 +6,17 @@ One run writes one folder::
     <out>/summary.json     per-vessel metrics, collisions, wall time, real-time factor
     <out>/video.mp4        with video on: offscreen render (OSMesa)
 
-A run is a pure function of the scenario and its seed. If the physics diverges (non-finite state
-or a MuJoCo warning) the run stops with :class:`RunFailed`, after closing the recording (so what was
-recorded so far is readable) and writing a summary whose ``status`` says what happened.
+    <out>/last_good_state.npy   when the physics diverged: the MuJoCo state before the bad step
+
+A run is a pure function of the scenario and its seed. If the physics diverges (a velocity or
+acceleration non-finite or beyond its vessel type's bounds, checked every physics step, or a MuJoCo
+warning) or a component raises, the run stops with :class:`RunFailed`; on Ctrl-C (and SIGTERM with
+``run(interruptible=True)``, as ``mjasc run`` does) with :class:`RunInterrupted`. Either way the
+recording is closed first (what was recorded so far is readable) and a summary is written whose
+``status`` says what happened (``diverged``, ``error``, ``interrupted``) and ``error`` why. Files
+are written under a temporary name and renamed when complete (:mod:`mjasc.runs.outputs`): a
+``recording.rrd`` or ``summary.json`` is never half-written. ``Simulation.set_state(np.load(
+"last_good_state.npy"))`` on the same scenario's runner reproduces the divergence.
 
 **Timing.** The main loop times each slot's work and the physics (``time.perf_counter``, about
 0.1 µs per reading) and keeps the sums in ``Runner.stage_seconds`` (slot → seconds, plus
@@ -25,6 +33,7 @@ from __future__ import annotations
 import json
 import sys
 import time
+import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,12 +46,14 @@ from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 from mjasc.runs.agent import build_agent
+from mjasc.runs.interrupts import catch_sigterm, restore_sigterm, signal_name
+from mjasc.runs.outputs import atomic_target, atomic_write_text
 from mjasc.runs.recording import Recorder, default_blueprint, vessel_colour
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
 from mjasc.runs.tick import ONBOARD_SLOTS, SlotEvent, run_onboard_slot
 
-__all__ = ["Runner", "RunFailed", "RunResult", "run_scenario"]
+__all__ = ["Runner", "RunFailed", "RunInterrupted", "RunResult", "run_scenario", "LAST_GOOD_STATE"]
 
 #: A trail point is kept (for the recording and the video) every this many seconds [s].
 TRAIL_PERIOD_S = 1.0
@@ -54,11 +65,21 @@ PATH_POINTS = 400
 
 class RunFailed(RuntimeError):
     """A run stopped early; the message says why and where its partial outputs are. ``summary`` is
-    the run's summary up to the stop (the same fields as a completed run's, ``status`` saying why)."""
+    the run's summary up to the stop (the same fields as a completed run's, ``status`` saying why:
+    ``diverged``, ``error`` or ``interrupted``)."""
 
     def __init__(self, message: str, summary: dict | None = None):
         super().__init__(message)
         self.summary = summary
+
+
+class RunInterrupted(RunFailed):
+    """A run stopped by Ctrl-C or SIGTERM (:mod:`mjasc.runs.interrupts`); its recording was closed
+    and its summary written (``status`` ``interrupted``)."""
+
+
+#: The MuJoCo state (``Simulation.get_state``) before the step where the physics diverged.
+LAST_GOOD_STATE = "last_good_state.npy"
 
 
 @dataclass
@@ -261,7 +282,10 @@ class Runner:
         rec.static("scenario", rr.TextDocument(json.dumps(sc.raw, indent=2, default=str), media_type="text/plain"))
 
     # ------------------------------------------------------------------ main loop
-    def run(self) -> RunResult:
+    def run(self, interruptible: bool = False) -> RunResult:
+        """Run the scenario to its end. Raises :class:`RunFailed` (after writing the outputs) when
+        the physics diverges or a component raises, :class:`RunInterrupted` on Ctrl-C, and with
+        ``interruptible`` (the main thread only) on SIGTERM too."""
         from mjasc.runs.metrics import RunMetrics
 
         sc, sim = self.scenario, self.sim
@@ -299,6 +323,8 @@ class Runner:
 
             bar = tqdm(total=round(sc.duration_s), unit="sim s", desc=sc.name, leave=False)
         step = 0
+        diverged = None
+        previous = catch_sigterm() if interruptible else None
         clock = time.perf_counter
         stage = self.stage_seconds = dict.fromkeys([*self.schedule.period_steps, "physics"], 0.0)
         try:
@@ -349,10 +375,21 @@ class Runner:
                     bar.update(int(sim.time_s) - bar.n)
                 step = nxt
         except PhysicsDivergence as exc:
-            status, error = "diverged", str(exc)
+            status, error, diverged = "diverged", str(exc), exc
             if self.recorder:
                 self.recorder.event(sim.time_s, str(exc), "ERROR")
+        except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (interrupts.Terminated)
+            status, error = "interrupted", f"interrupted at t = {sim.time_s:.3f} s ({signal_name(exc)})"
+            if self.recorder:
+                self.recorder.event(sim.time_s, error, "WARN")
+        except Exception as exc:  # noqa: BLE001 - a failed run still leaves its summary and recording
+            tb = traceback.extract_tb(exc.__traceback__)
+            where = f" ({tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno})" if tb else ""
+            status, error = "error", f"{type(exc).__name__} at t = {sim.time_s:.3f} s: {exc}{where}"
+            if self.recorder:
+                self.recorder.event(sim.time_s, error, "ERROR")
         finally:
+            restore_sigterm(previous)
             if bar is not None:
                 bar.close()
             for slot, out in (("record", self.recorder), ("video", self.video)):
@@ -372,14 +409,24 @@ class Runner:
         if self.video is not None:
             summary["video_frames"] = self.video.frames
         summary["timing_s"] = {k: round(v, 4) for k, v in stage.items()}
+        if diverged is not None and diverged.last_good_state is not None:
+            summary["last_good_state"] = {"time_s": round(diverged.last_good_time_s, 6)}
+            if self.out_dir is not None:
+                files["last_good_state"] = self.out_dir / LAST_GOOD_STATE
+                with atomic_target(files["last_good_state"]) as tmp, open(tmp, "wb") as f:
+                    np.save(f, diverged.last_good_state)
+                summary["last_good_state"]["file"] = LAST_GOOD_STATE
         if self.out_dir is not None:
             files["summary"] = self.out_dir / "summary.json"
-            files["summary"].write_text(json.dumps(summary, indent=2))
+            atomic_write_text(files["summary"], json.dumps(summary, indent=2))
         result = RunResult(self.out_dir, summary, files)
+        if status == "interrupted":
+            raise RunInterrupted(f"{error}; partial outputs kept in {self.out_dir}", summary)
         if status != "completed":
             raise RunFailed(f"{error}; partial outputs kept in {self.out_dir}", summary)
         return result
 
 
-def run_scenario(scenario: Scenario, out_dir=None, progress: bool | None = None) -> RunResult:
-    return Runner(scenario, out_dir, progress).run()
+def run_scenario(scenario: Scenario, out_dir=None, progress: bool | None = None,
+                 interruptible: bool = False) -> RunResult:
+    return Runner(scenario, out_dir, progress).run(interruptible)

@@ -32,12 +32,14 @@ from mjasc.core.config_tables import (
     string,
     table,
 )
+from mjasc.core.frames import WORLD_LIMIT_M
 from mjasc.core.resources import resolve_bundled
 from mjasc.guidance.path_following import PathFollowingConfig
 from mjasc.guidance.paths import Path
 from mjasc.physics.currents import CurrentField, UniformCurrent, current_from_config
 from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
 from mjasc.physics.vessels import available_vessels, load_vessel_type
+from mjasc.runs.plausibility import check_duration, check_name, check_plausible
 
 __all__ = ["ScenarioError", "Scenario", "VesselConfig", "Rates", "Outputs", "RECORDING_DETAILS", "load_scenario",
            "parse_scenario"]
@@ -56,7 +58,8 @@ class Rates:
     """Multi-rate schedule (the ``[rates]`` table). Control, sensing, tracking, comms and recording
     run every ``round(physics_hz / rate)`` physics steps; prediction every ``prediction_period_s``."""
 
-    physics_hz: float = param(50.0, positive=True, unit="Hz", doc="physics steps per second (timestep 1/rate)")
+    physics_hz: float = param(50.0, minimum=10.0, maximum=1000.0, unit="Hz",
+                              doc="physics steps per second (timestep 1/rate: 1 to 100 ms)")
     control_hz: float = param(10.0, positive=True, unit="Hz", doc="guidance and control ticks per second")
     sensing_hz: float = param(5.0, positive=True, unit="Hz", doc="range scans per second")
     tracking_hz: float = param(5.0, positive=True, unit="Hz", doc="tracker updates per second")
@@ -76,6 +79,9 @@ class Rates:
                 raise ScenarioError(f"{where}.{f.name}: must not exceed {where}.physics_hz ({rates.physics_hz}), "
                                     f"got {getattr(rates, f.name)}")
 
+
+MAX_DURATION_S = 86400.0
+"""Longest run [s]: one day of simulated time."""
 
 _CAMERAS = ("top_down", "overview")
 """The fixed cameras; ``chase:<vessel>`` follows a vessel."""
@@ -122,7 +128,8 @@ class VesselConfig:
 
     name: str = param(doc="the vessel's name: unique, no '/', not starting with 'obstacle'")
     type: str = param(doc="vessel type: a folder of assets/vessels")
-    position_m: np.ndarray = param(reader=point, unit="m", doc="start position [x, y]")
+    position_m: np.ndarray = param(reader=point, minimum=-WORLD_LIMIT_M, maximum=WORLD_LIMIT_M, unit="m",
+                                   doc="start position [x, y]")
     heading_rad: float = param(unit="rad", doc="start heading, CCW from east (heading_deg in the file)")
     speed_m_s: float = param(nonneg=True, unit="m/s", doc="start surge speed (≤ 1.5 × the type's top speed)")
     controller: str = param(choices=("path_following", "none"), doc="path_following, or none (constant commands)")
@@ -140,7 +147,8 @@ class VesselConfig:
 class Scenario:
     name: str
     description: str
-    duration_s: float = param(positive=True, unit="s", doc="how long the run lasts")
+    duration_s: float = param(positive=True, maximum=MAX_DURATION_S, unit="s",
+                              doc="how long the run lasts (at least one control period)")
     seed: int = param(nonneg=True, doc="the run's seed: sensor noise, packet loss, seeded currents")
     rates: Rates
     outputs: Outputs
@@ -167,6 +175,7 @@ class Scenario:
                 s = replace(s, outputs=replace(s.outputs, video=bool(video)))
             if duration_s is not None:
                 s = replace(s, duration_s=read_field(Scenario, "duration_s", {"duration_s": duration_s}, ""))
+                check_duration(s)
         return s
 
 
@@ -176,7 +185,7 @@ def _heading(t: dict, where: str) -> float:
 
 
 def _path(t: dict, where: str) -> Path:
-    wps = points(t.get("waypoints"), f"{where}.waypoints", 2)
+    wps = points(t.get("waypoints"), f"{where}.waypoints", 2, limit=WORLD_LIMIT_M)
     radius = number(t.get("turn_radius_m", 0.0), f"{where}.turn_radius_m", nonneg=True)
     try:
         return Path.from_waypoints(wps, turn_radius_m=radius)
@@ -230,9 +239,7 @@ def _vessel(t: Any, i: int) -> VesselConfig:
     where = f"vessels[{i}]"
     t = table(t, where)
     check_keys(t, _VESSEL, where)
-    name = string(t.get("name", f"v{i}"), f"{where}.name")
-    if "/" in name or name.startswith("obstacle"):
-        raise ScenarioError(f"{where}.name: must not contain '/' or start with 'obstacle', got {name!r}")
+    name = check_name(string(t.get("name", f"v{i}"), f"{where}.name"), f"{where}.name", vessel=True)
     vtype = string(t.get("type"), f"{where}.type", choices=set(available_vessels()))
     pos = read_field(VesselConfig, "position_m", t, where, default=np.zeros(2))
     heading = _heading(t, where)
@@ -269,11 +276,13 @@ def _static(t: Any, i: int):
     where = f"static_obstacles[{i}]"
     t = table(t, where)
     kind = string(t.get("type"), f"{where}.type", choices={"polygon", "circle"})
-    name = string(t.get("name", f"static{i}"), f"{where}.name")
+    name = check_name(string(t.get("name", f"static{i}"), f"{where}.name"), f"{where}.name", vessel=False)
     if kind == "polygon":
         height = read_field(PolygonObstacle, "height_m", t, where)
         check_keys(t, {"type", "name", "vertices", "height_m"}, where)
-        v = points(t.get("vertices"), f"{where}.vertices", 3)
+        v = points(t.get("vertices"), f"{where}.vertices", 3, limit=WORLD_LIMIT_M)
+        if len(v) > 3 and np.array_equal(v[0], v[-1]):
+            v = v[:-1]  # written as a closed ring: the last vertex repeats the first
         try:
             return PolygonObstacle(name, v, height)
         except ValueError as exc:
@@ -289,7 +298,7 @@ def _moving(t: Any, i: int) -> MovingObstacle:
     t = table(t, where)
     check_keys(t, {"name", "radius_m", "position_m", "heading_deg", "speed_m_s", "turn_rate_deg_s", "waypoints",
                    "turn_radius_m", "start_gamma_m"}, where)
-    name = string(t.get("name", f"traffic{i}"), f"{where}.name")
+    name = check_name(string(t.get("name", f"traffic{i}"), f"{where}.name"), f"{where}.name", vessel=False)
     radius = read_field(MovingObstacle, "radius_m", t, where, default=2.5)
     speed = read_field(MovingObstacle, "speed_m_s", t, where)
     if "waypoints" in t:
@@ -297,7 +306,9 @@ def _moving(t: Any, i: int) -> MovingObstacle:
         g0 = number(read_field(MovingObstacle, "start_gamma_m", t, where), f"{where}.start_gamma_m",
                     maximum=path.length)
         return MovingObstacle(name, radius, path.point(g0), float(path.tangent_angle(g0)), speed, 0.0, path, g0)
-    pos = point(t.get("position_m"), f"{where}.position_m")
+    if "position_m" not in t:
+        raise ScenarioError(f"{where}.position_m: missing (or give waypoints)")
+    pos = read_field(MovingObstacle, "position_m", t, where)
     turn = math.radians(number(t.get("turn_rate_deg_s", 0.0), f"{where}.turn_rate_deg_s"))
     return MovingObstacle(name, radius, pos, _heading(t, where), speed, turn)
 
@@ -356,8 +367,10 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
         except ValueError as exc:
             msg = str(exc)
             raise ScenarioError(msg if msg.startswith("comms") else f"comms: {msg}") from None
-    return Scenario(name, str(data.get("description", "")), duration, seed, rates, outputs, current, dict(cur_cfg),
-                    vessels, statics, moving, source, data, comms)
+    scenario = Scenario(name, str(data.get("description", "")), duration, seed, rates, outputs, current,
+                        dict(cur_cfg), vessels, statics, moving, source, data, comms)
+    check_plausible(scenario, {v.type: load_vessel_type(v.type) for v in vessels})
+    return scenario
 
 
 def _list(value: Any, where: str) -> list:

@@ -8,11 +8,14 @@ line overlays. Software GL is the bottleneck (see the cheap visual profile in as
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import imageio_ffmpeg
 import mujoco
 import numpy as np
+
+from mjasc.runs.outputs import part_path
 
 __all__ = ["VideoWriter"]
 
@@ -24,6 +27,7 @@ class VideoWriter:
                  extent_xy: tuple[np.ndarray, np.ndarray] | None = None, overlays: list[np.ndarray] = ()):
         self.path = Path(path)
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._part = part_path(self.path)  # encoded here, renamed to path by close()
         self.model = model
         self.width, self.height = int(width), int(height)
         self.renderer = mujoco.Renderer(model, height=self.height, width=self.width)
@@ -33,7 +37,7 @@ class VideoWriter:
         self.marker_m = 0.04 * self._span if isinstance(self.camera, mujoco.MjvCamera) else 0.0
         self.overlays = [np.asarray(o, dtype=float) for o in overlays]
         self._writer = imageio_ffmpeg.write_frames(
-            str(self.path), (self.width, self.height), fps=float(fps), codec="libx264", pix_fmt_out="yuv420p",
+            str(self._part), (self.width, self.height), fps=float(fps), codec="libx264", pix_fmt_out="yuv420p",
             quality=7, macro_block_size=2, ffmpeg_log_level="error")
         self._writer.send(None)
         self.frames = 0
@@ -98,7 +102,9 @@ class VideoWriter:
         return frame
 
     def close(self) -> None:
+        """Finish the file and rename it from ``.video.part.mp4`` to its own name."""
         if self._writer is not None:
             self._writer.close()
             self._writer = None
+            os.replace(self._part, self.path)
         self.renderer.close()

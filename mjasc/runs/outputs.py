@@ -1,0 +1,83 @@
+"""Output folders and files: checked before anything runs, written whole or not at all.
+
+* :func:`check_out_dir` — the folder a command writes into is made (with its parents) and probed
+  by creating and removing a file in it, before any run starts; a path naming a file, a path under
+  a file, a read-only or virtual file system (``/proc``), a NUL or an over-long name is an
+  :class:`OutputError` (one line naming the path and the reason). Permission bits alone are not
+  trusted: as root they pass, so the probe writes.
+* :func:`atomic_write_text` / :func:`atomic_target` — a file is written under a temporary name in
+  its own folder (``.<stem>.part<suffix>``) and renamed over the final name when complete (``os.replace``
+  is atomic on POSIX within one file system): a reader sees the old file or the new one, never a
+  half-written one; a writer that fails leaves no ``.part`` behind.
+"""
+
+from __future__ import annotations
+
+import os
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+from mjasc.core.config_tables import ConfigError, path_problem, show_path
+
+__all__ = ["OutputError", "check_out_dir", "atomic_write_text", "atomic_target", "part_path"]
+
+
+class OutputError(ConfigError):
+    """An output folder or file cannot be written; the message names the path and the reason."""
+
+
+def check_out_dir(path: str | Path, what: str = "--out") -> Path:
+    """Make the folder ``path`` (and its parents) and prove it writable; returns it as a Path.
+    Raises :class:`OutputError` ``"<what> <path>: <reason>"``."""
+    shown = f"{what} {show_path(path)}"
+    problem = path_problem(path)
+    if problem:
+        raise OutputError(f"{shown}: not a usable folder name ({problem})")
+    path = Path(path)
+    for parent in (path, *path.parents):
+        if parent.exists() or parent.is_symlink():
+            if not parent.is_dir():
+                where = "is a file, not a folder" if parent == path else f"{show_path(parent)} is a file, not a folder"
+                raise OutputError(f"{shown}: {where}")
+            break
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        probe = path / f".mjasc-write-probe-{os.getpid()}"
+        with open(probe, "wb") as f:
+            f.write(b"ok")
+        probe.unlink()
+    except OSError as exc:
+        raise OutputError(f"{shown}: cannot write there ({exc.strerror or exc})") from None
+    return path
+
+
+def part_path(path: str | Path) -> Path:
+    """The temporary name a file is written under: ``<folder>/.<stem>.part<suffix>`` (the suffix
+    kept: encoders choose the format by it)."""
+    path = Path(path)
+    return path.with_name(f".{path.stem}.part{path.suffix}")
+
+
+@contextmanager
+def atomic_target(path: str | Path) -> Iterator[Path]:
+    """``with atomic_target(p) as tmp:`` write ``tmp``; on a normal exit it is renamed to ``p``, on
+    an exception it is removed (and the exception goes on)."""
+    path = Path(path)
+    tmp = part_path(path)
+    try:
+        yield tmp
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    os.replace(tmp, path)
+
+
+def atomic_write_text(path: str | Path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` under a temporary name, flushed to disk, then rename it."""
+    with atomic_target(path) as tmp:
+        with open(tmp, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+    return Path(path)

@@ -1,0 +1,150 @@
+"""Plausibility of a scenario at its start: what the field readers cannot see one value at a time.
+
+A scenario whose every value is in bounds can still describe a run that is absurd from t = 0;
+:func:`check_plausible` rejects it when the scenario loads (ScenarioError naming the field, the
+reason and the distance), before any model is built:
+
+* **names** — vessel and obstacle names are ASCII letters, digits, ``_`` or ``-`` (at most
+  :data:`MAX_NAME_CHARS`); a vessel's name does not start with ``obstacle`` (the model's own
+  bodies). They become MuJoCo body names and Rerun entity paths.
+* **start clearance** — no vessel hull overlaps another vessel's hull, a static obstacle or a
+  moving obstacle's disc at t = 0 (else the run reports collisions from its first step). The hull
+  is the pentagon of :func:`mjasc.core.geometry.hull_outline` (length × beam of the vessel type,
+  pointed bow) at the start pose; two shapes overlap when an edge of one crosses an edge of the
+  other or one lies inside the other. The error gives the centre distance.
+* **current** — the water speed ``|V(p, t)|`` at every vessel's start, every waypoint and every
+  obstacle centre, at t = 0 and t = duration, is at most :data:`Bounds.current_speed_m_s`
+  (evaluated on a copy of the field: a seeded field's own random state is not advanced).
+* **duration** — at least one control period ``1 / rates.control_hz`` (a shorter run never ticks).
+
+The bounds of single values (|coordinate| ≤ :data:`mjasc.core.frames.WORLD_LIMIT_M`, the physics
+rate, speeds) are declared on the fields themselves with :func:`mjasc.core.config_tables.param`;
+the bounds here are declared once in :class:`Bounds`.
+"""
+
+from __future__ import annotations
+
+import copy
+import re
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjasc.core.config_tables import ConfigError, param, show
+from mjasc.core.geometry import distance_to_polygon, hull_outline, point_in_polygon, segments_intersect
+from mjasc.physics.obstacles import PolygonObstacle
+
+__all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "check_duration", "check_plausible", "hulls_overlap"]
+
+MAX_NAME_CHARS = 64
+"""Longest vessel or obstacle name (it becomes a MuJoCo body name and a Rerun entity path)."""
+
+_NAME = re.compile(r"[A-Za-z0-9_-]+")
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """The scenario-wide plausibility bounds (see the module docstring)."""
+
+    current_speed_m_s: float = param(10.0, positive=True, unit="m/s",
+                                     doc="fastest water current anywhere the run goes (the strongest tidal "
+                                         "streams are ~5 m/s)")
+
+
+BOUNDS = Bounds()
+
+
+def check_name(name: str, where: str, *, vessel: bool) -> str:
+    """``name`` if it follows the naming rule (module docstring), else ConfigError at ``where``."""
+    if len(name) > MAX_NAME_CHARS:
+        raise ConfigError(f"{where}: must be at most {MAX_NAME_CHARS} characters, got {show(name)}")
+    if not _NAME.fullmatch(name):
+        raise ConfigError(f"{where}: must be ASCII letters, digits, '_' or '-', got {show(name)}")
+    if vessel and name.startswith("obstacle"):
+        raise ConfigError(f"{where}: must not start with 'obstacle', got {show(name)}")
+    return name
+
+
+def _polygons_overlap(a: np.ndarray, b: np.ndarray) -> bool:
+    """Do the closed polygons a (k, 2) and b (m, 2) overlap (edges cross, or one inside the other)?"""
+    a1, a2 = a, np.roll(a, -1, axis=0)
+    b1, b2 = b, np.roll(b, -1, axis=0)
+    if np.any(segments_intersect(a1[:, None], a2[:, None], b1[None], b2[None], 0.0)):
+        return True
+    return bool(point_in_polygon(a[:1], b)[0] or point_in_polygon(b[:1], a)[0])
+
+
+def hulls_overlap(hull: np.ndarray, shape) -> bool:
+    """Does the hull polygon (k, 2) overlap ``shape``: a polygon (m, 2) or a disc ``(centre, radius)``?"""
+    if isinstance(shape, tuple):
+        centre, radius = shape
+        return bool(point_in_polygon(centre[None], hull)[0] or distance_to_polygon(centre[None], hull)[0] < radius)
+    return _polygons_overlap(hull, shape)
+
+
+def _check_clearance(scenario, types: dict) -> None:
+    hulls, radii = [], []
+    for v in scenario.vessels:
+        vt = types[v.type]
+        hulls.append(hull_outline(vt.length_m, vt.beam_m, v.position_m, v.heading_rad)[:-1])
+        radii.append(vt.radius_m)
+    pos = np.array([v.position_m for v in scenario.vessels])
+    radii = np.array(radii)
+    # Vessel pairs: only those whose bounding circles meet can overlap.
+    dist = np.linalg.norm(pos[:, None] - pos[None], axis=-1)
+    for i, j in zip(*np.nonzero(np.triu(dist < radii[:, None] + radii[None], 1))):
+        if _polygons_overlap(hulls[i], hulls[j]):
+            raise ConfigError(f"vessels[{j}].position_m: the hull overlaps vessel {scenario.vessels[i].name!r} "
+                              f"at the start (centres {dist[i, j]:.2f} m apart)")
+    for i, v in enumerate(scenario.vessels):
+        for k, o in enumerate(scenario.static_obstacles):
+            if isinstance(o, PolygonObstacle):
+                d = float(distance_to_polygon(v.position_m[None], o.vertices)[0])
+                if d < radii[i] or point_in_polygon(v.position_m[None], o.vertices)[0]:
+                    if hulls_overlap(hulls[i], o.vertices):
+                        inside = "inside" if point_in_polygon(v.position_m[None], o.vertices)[0] else "from"
+                        raise ConfigError(f"vessels[{i}].position_m: the hull overlaps static obstacle {o.name!r} at "
+                                          f"the start (its centre {d:.2f} m {inside} the obstacle's edge)")
+            elif hulls_overlap(hulls[i], (o.centre, o.radius_m)):
+                raise ConfigError(f"vessels[{i}].position_m: the hull overlaps static obstacle {o.name!r} at the "
+                                  f"start (centres {np.linalg.norm(v.position_m - o.centre):.2f} m apart, "
+                                  f"radius {o.radius_m:g} m)")
+        for k, o in enumerate(scenario.moving_obstacles):
+            if hulls_overlap(hulls[i], (o.position_m, o.radius_m)):
+                raise ConfigError(f"vessels[{i}].position_m: the hull overlaps moving obstacle {o.name!r} at the "
+                                  f"start (centres {np.linalg.norm(v.position_m - o.position_m):.2f} m apart, "
+                                  f"radius {o.radius_m:g} m)")
+
+
+def _check_current(scenario) -> None:
+    pts = [v.position_m for v in scenario.vessels]
+    for v in scenario.vessels:
+        if v.path is not None:  # nine points along the path, its ends included
+            pts.extend(np.asarray(v.path.point(g), dtype=float) for g in np.linspace(0.0, v.path.length, 9))
+    pts += [o.centre for o in scenario.static_obstacles] + [o.position_m for o in scenario.moving_obstacles]
+    pts = np.array(pts, dtype=float).reshape(-1, 2)
+    field = copy.deepcopy(scenario.current)
+    limit = BOUNDS.current_speed_m_s
+    for t in (0.0, scenario.duration_s):
+        with np.errstate(all="ignore"):
+            speed = np.linalg.norm(field.velocity(pts.copy(), t), axis=1)
+        worst = int(np.argmax(np.where(np.isfinite(speed), speed, np.inf)))
+        if not speed[worst] <= limit:
+            raise ConfigError(f"current: the water speed at {np.round(pts[worst], 1).tolist()} m, t = {t:g} s is "
+                              f"{speed[worst]:.3g} m/s, must be ≤ {limit} m/s")
+
+
+def check_duration(scenario) -> None:
+    """The run lasts at least one control period (``duration_s: must be at least ...``)."""
+    period = 1.0 / scenario.rates.control_hz
+    if scenario.duration_s < period:
+        raise ConfigError(f"duration_s: must be at least one control period (1 / rates.control_hz = {period:g} s), "
+                          f"got {scenario.duration_s:g}")
+
+
+def check_plausible(scenario, types: dict) -> None:
+    """Raise ConfigError (naming the field) when the scenario is absurd at its start (module
+    docstring). ``types``: vessel type name → :class:`~mjasc.physics.vessels.VesselType`."""
+    check_duration(scenario)
+    _check_clearance(scenario, types)
+    _check_current(scenario)

@@ -1,0 +1,134 @@
+"""Plausibility checks when a scenario loads (mjasc.runs.plausibility, the bounds declared on the
+fields) and the loaders' file errors: every bad input is one ScenarioError / CampaignError line
+naming the file or field, the reason and, for overlaps, the distance."""
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjasc.campaigns.perturbation import CampaignError, load_campaign
+from mjasc.campaigns.spec import load_campaign_spec
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.runs.runner import Runner
+from mjasc.runs.scenario import ScenarioError, load_scenario, parse_scenario
+
+TASKS = Path(__file__).resolve().parent.parent / "tasks"
+
+
+def demo() -> dict:
+    with open(TASKS / "demo.toml", "rb") as f:
+        return tomllib.load(f)
+
+
+def rejected(mutation, match: str):
+    d = demo()
+    mutation(d)
+    with pytest.raises(ScenarioError, match=match) as info:
+        parse_scenario(d, "demo.toml")
+    assert "\n" not in str(info.value)
+    return str(info.value)
+
+
+@pytest.mark.parametrize("name", ["a b", "a<b", "a.b", "x\x00y", "ü", "x" * 65, "obstacle1"])
+def test_vessel_names_follow_the_documented_rule(name):
+    rejected(lambda d: d["vessels"][1].update(name=name), r"^vessels\[1\]\.name: must")
+
+
+def test_obstacle_names_follow_the_rule_too():
+    rejected(lambda d: d["static_obstacles"][0].update(name="the pontoon"),
+             r"^static_obstacles\[0\]\.name: must be ASCII")
+    rejected(lambda d: d["moving_obstacles"][0].update(name="fer/ry"), r"^moving_obstacles\[0\]\.name: must be ASCII")
+
+
+def test_a_polygon_written_as_a_closed_ring_is_the_same_polygon():
+    d = demo()
+    open_ring = parse_scenario(d, "demo.toml").static_obstacles[0].vertices
+    d["static_obstacles"][0]["vertices"].append(list(d["static_obstacles"][0]["vertices"][0]))
+    sc = parse_scenario(d, "demo.toml")
+    np.testing.assert_array_equal(sc.static_obstacles[0].vertices, open_ring)
+    Runner(sc, None, progress=False)  # the world builds (it rejected the repeated vertex before)
+
+
+@pytest.mark.parametrize("mutation, match", [
+    (lambda d: d["vessels"][0]["controller"]["waypoints"].append([1e308, 0.0]),
+     r"vessels\[0\]\.controller\.waypoints\[\d\]\[0\]: must be ≤ 1000000.0, got 1e\+308"),
+    (lambda d: d["vessels"][0].update(position_m=[0.0, -2e6]),
+     r"vessels\[0\]\.position_m\[1\]: must be ≥ -1000000.0"),
+    (lambda d: d["static_obstacles"][1].update(centre_m=[2e6, 0.0]),
+     r"static_obstacles\[1\]\.centre_m\[0\]: must be ≤"),
+    (lambda d: d["static_obstacles"][0]["vertices"].__setitem__(0, [0, 1e7]), r"static_obstacles\[0\]\.vertices"),
+    (lambda d: d["moving_obstacles"][0].update(position_m=[1e9, 0.0]), r"moving_obstacles\[0\]\.position_m\[0\]"),
+    (lambda d: d["moving_obstacles"][0].update(speed_m_s=1e6), r"moving_obstacles\[0\]\.speed_m_s: must be ≤ 30.0"),
+    (lambda d: d["rates"].update(physics_hz=1e15), r"^rates\.physics_hz: must be ≤ 1000.0"),
+    (lambda d: d["rates"].update(physics_hz=1.0), r"^rates\.physics_hz: must be ≥ 10.0"),
+    (lambda d: d.update(duration_s=0.05),
+     r"^duration_s: must be at least one control period \(1 / rates\.control_hz = 0\.1 s\)"),
+    (lambda d: d.update(duration_s=1e9), r"^duration_s: must be ≤ 86400"),
+    (lambda d: d.update(current={"type": "uniform", "velocity_m_s": [1e6, 0.0]}),
+     r"^current: the water speed at \[0\.0, 12\.0\] m, t = 0 s is 1e\+06 m/s, must be ≤ 10\.0 m/s"),
+])
+def test_implausible_values_are_rejected_naming_the_field(mutation, match):
+    rejected(mutation, match)
+
+
+def test_vessels_starting_on_top_of_each_other_are_rejected_with_the_distance():
+    msg = rejected(lambda d: d["vessels"][1].update(position_m=[0.5, 12.0]),
+                   r"^vessels\[1\]\.position_m: the hull overlaps vessel 'alpha' at the start")
+    assert "(centres 0.50 m apart)" in msg
+
+
+@pytest.mark.parametrize("gap_m, ok", [(0.05, True), (-0.05, False)])
+def test_side_by_side_hulls_overlap_exactly_when_closer_than_one_beam(gap_m, ok):
+    """Two Otters abeam on parallel headings: the hulls (beam B) touch at centre distance B."""
+    beam = load_vessel_type("otter").beam_m
+    d = demo()
+    d["vessels"] = d["vessels"][:2]
+    for v, y in zip(d["vessels"], (0.0, beam + gap_m)):
+        v.update(position_m=[-50.0, y], heading_deg=0.0)
+    if ok:
+        parse_scenario(d, "demo.toml")
+    else:
+        with pytest.raises(ScenarioError, match=f"centres {beam + gap_m:.2f} m apart"):
+            parse_scenario(d, "demo.toml")
+
+
+def test_vessels_starting_inside_or_on_obstacles_are_rejected():
+    rejected(lambda d: d["vessels"][0].update(position_m=[75.0, 33.0]),
+             r"vessels\[0\]\.position_m: the hull overlaps static obstacle 'pontoon' at the start \(its centre "
+             r"5\.00 m inside the obstacle's edge\)")
+    rejected(lambda d: d["vessels"][0].update(position_m=[130.0, -26.0]),
+             r"overlaps static obstacle 'buoy' at the start \(centres 2\.00 m apart, radius 1\.5 m\)")
+    rejected(lambda d: d["vessels"][2].update(position_m=[105.0, 76.0]),
+             r"vessels\[2\]\.position_m: the hull overlaps moving obstacle 'ferry' at the start \(centres 4\.00 m")
+
+
+def test_bad_files_are_one_line_errors_naming_the_file(tmp_path):
+    f = tmp_path / "bin.toml"
+    f.write_bytes((TASKS / "demo.toml").read_bytes()[:100] + b"\xff\xfe" + b"x = 1\n")
+    with pytest.raises(ScenarioError, match=r"bin\.toml: not UTF-8 text \(byte 0xff at offset 100\)"):
+        load_scenario(f)
+    with pytest.raises(ScenarioError, match="not a usable file name \\(contains a NUL character\\)"):
+        load_scenario("a\x00.toml")
+    with pytest.raises(ScenarioError, match="not a usable file name \\(a name in it is longer than 255 bytes\\)"):
+        load_scenario("x" * 300 + ".toml")
+    with pytest.raises(CampaignError, match=r"tasks: no such campaign file"):
+        load_campaign_spec(str(TASKS))
+
+
+def test_a_campaign_naming_its_scenario_with_a_nul_is_a_campaign_error(tmp_path):
+    f = tmp_path / "c.toml"
+    f.write_text('runs = 2\nscenario = "demo\\u0000.toml"\n')
+    with pytest.raises(CampaignError, match=r"c\.toml: scenario: not a usable file name \(contains a NUL"):
+        load_campaign(f)
+    f.write_text('runs = 2\nscenario = "' + "d" * 5000 + '.toml"\n')
+    with pytest.raises(CampaignError, match=r"scenario: not a usable file name \(longer than 4096 bytes\)"):
+        load_campaign(f)
+
+
+def test_a_duration_override_below_one_control_period_is_rejected():
+    sc = parse_scenario(demo(), "demo.toml")
+    with pytest.raises(ScenarioError, match=r"^duration_s: must be at least one control period"):
+        sc.with_overrides(duration_s=0.01)
+    assert sc.with_overrides(duration_s=0.1).duration_s == 0.1

@@ -1,0 +1,185 @@
+"""Runs that go wrong leave complete, readable outputs: divergence found at the physics step where it
+happens (vessel, quantity, time) with the state before it saved and reproducible; a run stopped by
+SIGTERM or Ctrl-C writes a summary with status ``interrupted`` and a recording that verifies; files
+appear only complete (temporary name, then rename); the CLI reports bad input in one line (exit
+2) and a failed run with exit 1."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from mjasc.cli import main
+from mjasc.physics.currents import UniformCurrent
+from mjasc.physics.simulation import PhysicsDivergence, Simulation
+from mjasc.physics.vessels import load_vessel_type
+from mjasc.physics.world import build_world
+from mjasc.runs.runner import LAST_GOOD_STATE, RunFailed, Runner
+from mjasc.runs.scenario import load_scenario
+
+ROOT = Path(__file__).resolve().parent.parent
+RERUN = Path(sys.executable).parent / "rerun"
+
+
+def two_otters() -> Simulation:
+    vt = load_vessel_type("otter")
+    sim = Simulation(build_world([("a", vt), ("b", vt)]), UniformCurrent((0.1, 0.0)))
+    sim.reset([[0.0, 0.0, 0.0], [20.0, 0.0, 0.0]], [[1.0, 0.0, 0.0]] * 2)
+    sim.set_commands([[0.5, 0.5], [0.5, 0.5]])
+    return sim
+
+
+def speed(sim, i):
+    return float(np.hypot(*sim.data.qvel[sim.world.dof_adr[i][:2]]))
+
+
+def test_a_speed_beyond_the_bound_is_caught_at_the_step_it_happens_and_the_state_before_replays_it():
+    sim = two_otters()
+    sim.step(10)
+    bound = sim.monitor.speed_limit[1]
+    # A steady push of ~400 m/s² on b (below the acceleration bound): b passes its speed bound
+    # inside a block of 25 steps, not at its end.
+    sim.data.xfrc_applied[sim.world.hull_body_id[1], 0] = 400.0 * sim.hydro.total_mass[1][0, 0]
+    with pytest.raises(PhysicsDivergence) as info:
+        sim.step(25)
+    exc = info.value
+    dt = sim.timestep_s
+    t_bad = sim.time_s
+    assert f"t = {t_bad:.3f} s: vessel 'b' speed" in str(exc) and f"beyond its bound {bound:.6g} m/s" in str(exc)
+    assert speed(sim, 1) > bound and 0.2 + dt < t_bad < 0.2 + 25 * dt  # inside the block
+    assert exc.last_good_time_s == pytest.approx(t_bad - dt)
+    sim.set_state(exc.last_good_state)  # the step before: within bounds, and replaying it fails the same way
+    assert sim.time_s == pytest.approx(t_bad - dt) and speed(sim, 1) <= bound
+    with pytest.raises(PhysicsDivergence) as again:
+        sim.step(5)
+    assert str(again.value) == str(exc)
+
+
+def test_non_finite_velocity_is_reported_with_vessel_and_time():
+    sim = two_otters()
+    sim.step(5)
+    sim.data.qvel[sim.world.dof_adr[0][2]] = np.nan
+    with pytest.raises(PhysicsDivergence,
+                       match=r"t = 0\.120 s: vessel 'a' (speed|yaw rate|acceleration) is non-finite"):
+        sim.step(5)
+
+
+def test_checks_do_not_change_a_healthy_run():
+    a, b = two_otters(), two_otters()
+    b.divergence_checks = False
+    for _ in range(40):
+        a.step(5)
+        b.step(5)
+    np.testing.assert_array_equal(a.get_state(), b.get_state())
+
+
+def _push_at(runner, t_s, accel):
+    def observer(event):
+        if event.time_s >= t_s:
+            runner.sim.data.xfrc_applied[runner.world.hull_body_id[0], 0] = accel * runner.sim.hydro.total_mass[0][0, 0]
+    runner.observe("control", observer)
+
+
+def test_a_diverged_run_leaves_its_summary_a_readable_recording_and_the_last_good_state(tmp_path):
+    sc = load_scenario(ROOT / "tasks" / "thesis_6_1_static.toml").with_overrides(duration_s=6.0)
+    runner = Runner(sc, tmp_path, progress=False)
+    _push_at(runner, 2.0, 900.0)
+    with pytest.raises(RunFailed) as info:
+        runner.run()
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["status"] == "diverged" and "speed" in summary["error"]
+    assert summary == info.value.summary
+    t_good = summary["last_good_state"]["time_s"]
+    assert 2.0 < t_good < 6.0 and summary["last_good_state"]["file"] == LAST_GOOD_STATE
+    state = np.load(tmp_path / LAST_GOOD_STATE)
+    fresh = Runner(sc, None, progress=False)
+    fresh.sim.set_state(state)
+    assert fresh.sim.time_s == pytest.approx(t_good)
+    with pytest.raises(PhysicsDivergence, match=f"t = {t_good + fresh.sim.timestep_s:.3f} s"):
+        fresh.sim.step(1)  # the saved xfrc push is part of the state
+    assert not list(tmp_path.glob(".*part*"))
+    if RERUN.exists():
+        subprocess.run([str(RERUN), "rrd", "verify", str(tmp_path / "recording.rrd")], check=True,
+                       capture_output=True, timeout=120)
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_a_run_stopped_by_a_signal_closes_its_recording_and_says_interrupted(tmp_path, sig):
+    out = tmp_path / "run"
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen([sys.executable, "-m", "mjasc", "run", "thesis_6_1_static", "--out", str(out),
+                             "--no-progress", "--duration", "300"], cwd=tmp_path, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    while not (out / ".recording.part.rrd").exists() and time.time() < deadline:
+        time.sleep(0.1)
+    time.sleep(1.0)  # inside the main loop
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "interrupted at t = " in err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and 0 < summary["sim_time_s"] < 300
+    assert summary["error"].endswith(f"({sig.name})")
+    assert (out / "recording.rrd").exists() and not list(out.glob(".*part*"))
+    if RERUN.exists():
+        subprocess.run([str(RERUN), "rrd", "verify", str(out / "recording.rrd")], check=True, capture_output=True,
+                       timeout=120)
+
+
+def _cli(capsys, *argv):
+    code = main(list(argv))
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and err.count("\n") <= 1, err
+    return code, err
+
+
+@pytest.mark.parametrize("make_out, reason", [
+    (lambda d: (d / "file").write_text("x") and d / "file", "is a file, not a folder"),
+    (lambda d: (d / "file").write_text("x") and d / "file" / "sub", "file is a file, not a folder"),
+    (lambda d: Path("/proc/mjasc_test_out"), "cannot write there"),
+    (lambda d: d / ("x" * 300), "not a usable folder name (a name in it is longer than 255 bytes)"),
+])
+def test_run_rejects_an_unwritable_out_before_running(tmp_path, capsys, make_out, reason):
+    out = make_out(tmp_path)
+    code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(out), "--no-progress")
+    assert code == 2 and reason in err and err.startswith("mjasc: --out ")
+
+
+def test_run_reports_bad_scenario_files_in_one_line(tmp_path, capsys):
+    f = tmp_path / "bin.toml"
+    f.write_bytes(b"\x00\xff\xfe binary")
+    code, err = _cli(capsys, "run", str(f), "--out", str(tmp_path / "o"))
+    assert code == 2 and "not UTF-8 text (byte 0xff at offset 1)" in err
+    code, err = _cli(capsys, "run", "y" * 5000, "--out", str(tmp_path / "o"))
+    assert code == 2 and "not a usable file name" in err
+    code, err = _cli(capsys, "campaign", "a\x00b", "--out", str(tmp_path / "o"))
+    assert code == 2 and "contains a NUL character" in err
+
+
+def test_a_failed_run_exits_1(tmp_path, capsys, monkeypatch):
+    from mjasc.runs import runner as runner_module
+
+    def boom(self, *a, **k):
+        raise RuntimeError("a component broke")
+
+    monkeypatch.setattr(runner_module.Runner, "_control", boom)
+    code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(tmp_path / "o"), "--no-progress",
+                     "--duration", "2")
+    assert code == 1 and "RuntimeError at t = 0.000 s: a component broke" in err
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["status"] == "error" and "a component broke" in summary["error"]
+
+
+def test_campaign_rejects_an_out_under_a_file_before_running(tmp_path, capsys):
+    (tmp_path / "file").write_text("x")
+    code, err = _cli(capsys, "campaign", "demo_monte_carlo", "--out", str(tmp_path / "file" / "out"), "--runs", "1",
+                     "--workers", "0", "--no-progress")
+    assert code == 2 and "file is a file, not a folder" in err
+    assert not (tmp_path / "file" / "out").exists()
