@@ -7,8 +7,8 @@ in while the driver writes). :func:`report_data` computes everything from the st
 
 * ``rates`` — collision and near-miss rates per encounter family with their Wilson 95 % intervals;
 * ``separation`` — the distribution of each run's minimum separation per family;
-* ``outcomes_<family>`` — an outcome map over the family's two most varied numeric encounter
-  parameters (e.g. relative bearing × DCPA), each run coloured by its minimum separation,
+* ``outcomes_<family>`` — an outcome map over the family's two leading varied encounter parameters
+  (geometry first: relative bearing or aspect × DCPA), each run coloured by its minimum separation,
   collisions marked;
 * ``colreg`` — the share of encounters where the own vessel acted as its COLREG role asks, per role;
 * ``tracking`` — mean GOSPA per run, per family;
@@ -93,13 +93,28 @@ def _q(q: dict | None, scale: float, digits: int) -> str:
 
 # ---------------------------------------------------------------------- figures
 def _numeric_params(runs) -> list[str]:
-    """The family's numeric parameters, most varied first (by the number of distinct values)."""
+    """The family's numeric parameters that vary, the encounter's geometry first (bearing or
+    aspect, DCPA, TCPA, speed ratio: what an outcome map is read against), then the others, each
+    group most varied first (by the number of distinct values)."""
     values: dict[str, set] = defaultdict(set)
     for r in runs:
         for k, v in r.parameters.items():
-            if isinstance(v, (int, float)) and not isinstance(v, bool):
+            if isinstance(v, (int, float)) and not isinstance(v, bool) and k != "attempts":
                 values[k].add(round(float(v), 9))
-    return [k for k, s in sorted(values.items(), key=lambda e: -len(e[1])) if len(s) > 1]
+
+    def rank(item):
+        name, distinct = item
+        base = name.rsplit(".", 1)[-1]  # t2.dcpa_m → dcpa_m
+        return (_GEOMETRY.index(base) if base in _GEOMETRY else len(_GEOMETRY), -len(distinct))
+
+    ordered = [k for k, s in sorted(values.items(), key=rank) if len(s) > 1]
+    # bearing and aspect: one follows from the other (with speed ratio, DCPA, TCPA): map one of them
+    angles = [k for k in ordered if k.rsplit(".", 1)[-1] in _GEOMETRY[:2]]
+    return [k for k in ordered if k not in angles[1:]]
+
+
+#: Encounter parameters an outcome map is drawn over first, in this order.
+_GEOMETRY = ("relative_bearing_deg", "relative_course_deg", "dcpa_m", "tcpa_s", "speed_ratio", "case")
 
 
 def _save(fig, out: Path, stem: str, formats) -> list[Path]:
