@@ -116,6 +116,12 @@ class MovingObstacleSet:
         self._th0 = np.array([o.heading_rad for o in ct])
         self._v = np.array([o.speed_m_s for o in ct])
         self._w = np.array([o.turn_rate_rad_s for o in ct])
+        # constant per obstacle, computed once (the same expressions as per call: the same bits)
+        self._small = np.abs(self._w) < 1e-9
+        w_safe = np.where(self._small, 1.0, self._w)
+        self._vw, self._nvw = self._v / w_safe, -self._v / w_safe
+        self._c0, self._s0 = np.cos(self._th0), np.sin(self._th0)
+        self._last = (None, None)  # (t, state): the physics step and the record slot ask the same t
         paths = [o for o in self.obstacles if o.path is not None]
         self._path_idx = np.array([i for i, o in enumerate(self.obstacles) if o.path is not None], dtype=int)
         if paths:
@@ -140,18 +146,21 @@ class MovingObstacleSet:
 
     def state(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(positions (M, 2) [m], headings (M,) [rad], velocities (M, 2) [m/s]) at time t."""
+        t_last, last = self._last
+        if t_last == t_s:
+            return last[0].copy(), last[1].copy(), last[2].copy()
         m = len(self.obstacles)
         pos, head, vel = np.zeros((m, 2)), np.zeros(m), np.zeros((m, 2))
         if self._ct_idx.size:
-            w, v, th0 = self._w, self._v, self._th0
-            th = th0 + w * t_s
-            small = np.abs(w) < 1e-9
-            w_safe = np.where(small, 1.0, w)
-            dx = np.where(small, v * t_s * np.cos(th0), v / w_safe * (np.sin(th) - np.sin(th0)))
-            dy = np.where(small, v * t_s * np.sin(th0), -v / w_safe * (np.cos(th) - np.cos(th0)))
+            v = self._v
+            th = self._th0 + self._w * t_s
+            c, s = np.cos(th), np.sin(th)
+            vt = v * t_s
+            dx = np.where(self._small, vt * self._c0, self._vw * (s - self._s0))
+            dy = np.where(self._small, vt * self._s0, self._nvw * (c - self._c0))
             pos[self._ct_idx] = self._p0 + np.stack([dx, dy], axis=-1)
             head[self._ct_idx] = th
-            vel[self._ct_idx] = np.stack([v * np.cos(th), v * np.sin(th)], axis=-1)
+            vel[self._ct_idx] = np.stack([v * c, v * s], axis=-1)
         if self._path_idx.size:
             g = np.minimum(self._g0 + self._pv * t_s, self._plen)
             x = g / self.PATH_SAMPLE_M
@@ -166,4 +175,5 @@ class MovingObstacleSet:
             head[self._path_idx] = h
             moving = np.where(g < self._plen, self._pv, 0.0)
             vel[self._path_idx] = moving[:, None] * np.stack([np.cos(h), np.sin(h)], axis=-1)
-        return pos, head, vel
+        self._last = (t_s, (pos, head, vel))
+        return pos.copy(), head.copy(), vel.copy()
