@@ -48,10 +48,11 @@ TIMELINE = "sim_time"
 #: Buffered rows (summed over entities; a fleet row of n vessels counts n) that trigger a flush.
 FLUSH_ROWS = 1_000_000
 
-#: Stable colours per vessel index (RGB).
-PALETTE = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (148, 103, 189), (140, 86, 75), (227, 119, 194),
-           (127, 127, 127), (188, 189, 34), (23, 190, 207)]
-
+#: Stable colours per vessel index (RGB), chosen to stand out on the blue water of the videos and
+#: on Rerun's dark background, and apart from the red of traffic and predicted conflicts and the cyan
+#: of detours: gold, pink, lime, orange, violet, white, olive, salmon, mint.
+PALETTE = [(255, 200, 0), (255, 85, 170), (120, 230, 50), (255, 140, 20), (185, 140, 255), (240, 240, 240),
+           (200, 200, 90), (255, 160, 130), (130, 255, 190)]
 
 def vessel_colour(i: int) -> tuple[int, int, int]:
     return PALETTE[i % len(PALETTE)]

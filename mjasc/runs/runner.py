@@ -313,7 +313,8 @@ class Runner:
             files["video"] = self.out_dir / "video.mp4"
             overlays = [v.path.sample(1.0) for v in sc.vessels if v.path is not None]
             self.video = VideoWriter(files["video"], self.world.model, sc.outputs.video_width, sc.outputs.video_height,
-                                     sc.outputs.video_fps, sc.outputs.video_camera, self.extent(), overlays)
+                                     sc.outputs.video_fps, sc.outputs.video_camera, self.extent(), overlays,
+                                     title=sc.name)
         total_steps = int(round(sc.duration_s / sim.timestep_s))
         status, error = "completed", None
         wall0 = time.perf_counter()
@@ -354,12 +355,7 @@ class Runner:
                             if self.recorder:
                                 agent.log(self.recorder, states.time_s)
                     elif slot == "video" and self.video is not None:
-                        colours = [(*np.array(vessel_colour(i)) / 255, 1.0) for i in range(len(self.agents))]
-                        self.video.add_frame(
-                            sim.data,
-                            [(states.position_m[i], states.heading_rad[i], colours[i]) for i in range(len(self.agents))],
-                            [(np.array([p for _, p in self._trail[i]][::-4][:60]), colours[i])
-                             for i in range(len(self.agents)) if len(self._trail[i]) > 1])
+                        self.video.add_event(SlotEvent(slot, states.time_s, states, tuple(navs), self))
                     stage[slot] += clock() - t_slot
                     if self._observers[slot]:
                         event = SlotEvent(slot, states.time_s, states, tuple(navs), self)
@@ -408,6 +404,7 @@ class Runner:
                     summary["vessels"][agent.name][kind] = comp.summary()
         if self.video is not None:
             summary["video_frames"] = self.video.frames
+            summary["video_timing_s"] = {k: round(v, 4) for k, v in self.video.seconds.items()}
         summary["timing_s"] = {k: round(v, 4) for k, v in stage.items()}
         if diverged is not None and diverged.last_good_state is not None:
             summary["last_good_state"] = {"time_s": round(diverged.last_good_time_s, 6)}
