@@ -57,8 +57,8 @@ class VideoWriter:
         self._span = 0.0
         self._centre = np.zeros(3)
         self.camera = self._camera(camera, extent_xy)
-        # Map-symbol size for markers in the top-down view: 4 % of the view span.
-        self.marker_m = 0.04 * self._span if camera == "top_down" and extent_xy is not None else 0.0
+        # Map-symbol size for markers in the framed views (2 m hulls are a few pixels): 4 % of the span.
+        self.marker_m = 0.04 * self._span if isinstance(self.camera, mujoco.MjvCamera) else 0.0
         # Paths thinned to at most OVERLAY_POINTS points: every line is a geom to render.
         self.overlays = [_thin(np.asarray(o, dtype=float), OVERLAY_POINTS) for o in overlays]
         self._writer = imageio_ffmpeg.write_frames(

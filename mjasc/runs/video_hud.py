@@ -3,7 +3,7 @@
 Drawn with Pillow (pixels; image rows grow downwards) after MuJoCo rendered the scene:
 
 - top left: the scenario name and the simulation time ``t`` [s], then one line per vessel — its
-  colour, its name and its mode (``mission``, ``avoidance:yield`` …);
+  colour, its name, its mode (``mission``, ``avoidance:yield`` …) and its last conflict decision;
 - each vessel's name next to its hull, at the pixel :class:`Projection` gives its position;
 - bottom left: a scale bar of a round length ``L ∈ {1, 2, 5}·10^k`` m close to a fifth of the
   frame's width, ``L / s`` pixels long for ``s`` metres per pixel at the view's centre (top-down
@@ -104,15 +104,19 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
     fs = max(10, min(16, H // 36))
     font, small = _font(fs), _font(max(9, fs - 2))
     line = fs + 4
-    # Top left: title, time, one line per vessel with its mode.
-    rows = [f"{title}  t = {view.time_s:6.1f} s".strip()] + [f"{v.name}: {v.mode or '-'}" for v in view.vessels]
-    box_w = 12 + fs + max(draw.textlength(r, font=font) for r in rows)
+    # Top left: title and time, then per vessel its mode and (smaller, below) its last decision.
+    rows = [(f"{title}  t = {view.time_s:6.1f} s".strip(), font, None)]
+    for v in view.vessels:
+        rows.append((f"{v.name}: {v.mode or '-'}", font, v))
+        if v.decision:
+            rows.append((v.decision, small, None))
+    box_w = 12 + fs + max(draw.textlength(text, font=f) for text, f, _ in rows)
     draw.rectangle([4, 4, 4 + box_w, 8 + line * len(rows)], fill=(0, 0, 0, 140))
-    draw.text((10, 6), rows[0], font=font, fill=(255, 255, 255))
-    for k, v in enumerate(view.vessels, start=1):
+    for k, (text, f, v) in enumerate(rows):
         y = 6 + line * k
-        draw.rectangle([10, y + 3, 10 + fs - 5, y + fs - 2], fill=tuple(v.colour))
-        draw.text((10 + fs, y), rows[k], font=font, fill=(255, 255, 255))
+        if v is not None:
+            draw.rectangle([10, y + 3, 10 + fs - 5, y + fs - 2], fill=tuple(v.colour))
+        draw.text((10 if k == 0 else 10 + fs, y), text, font=f, fill=(255, 255, 255) if f is font else (200, 200, 200))
     # Names by the hulls.
     px = proj(np.array([[*v.position_m, 0.5] for v in view.vessels]))
     for v, (x, y) in zip(view.vessels, px):

@@ -3,7 +3,8 @@
 :func:`frame_view` reads only what a runner observer may read (a
 :class:`~mjasc.runs.tick.SlotEvent`: the true states, ``runner.agents``, ``runner.last_outputs``,
 ``runner.sim.current``, ``runner.scenario``; per agent the public ``perception.scan`` and
-``perception.tracks()``, ``avoidance.last_prediction`` and ``avoidance.detour``) into a
+``perception.tracks()``, ``avoidance.last_prediction``, ``avoidance.detour`` and the latest entry of
+``avoidance.conflict_log``, the decision taken) into a
 :class:`FrameView`. :func:`add_scene_geoms` draws it as user geoms of the ``mjvScene`` (after
 ``update_scene``, before rendering), all in the world frame (ENU, metres), a few centimetres above
 the water so that MuJoCo's own geoms (hulls, obstacles) stay visible:
@@ -51,6 +52,7 @@ class VesselView:
     position_m: np.ndarray
     heading_rad: float
     mode: str = ""
+    decision: str = ""  # the latest conflict's decision, e.g. "velocity_correction for T112 at 41 s"
     fan: np.ndarray | None = None  # (k, 2) closed outline of the latest scan [m]
     returns: np.ndarray | None = None  # (m, 2) world returns of the latest scan [m]
     tracks: list = field(default_factory=list)  # TrackEstimate
@@ -84,6 +86,10 @@ def frame_view(event, centre_xy) -> FrameView:
             v.tracks = [tr for tr in p.tracks() if not tr.is_static]
         a = agent.avoidance
         if a is not None:
+            if a.conflict_log:  # capped at 50 entries: the latest decision shown is the 50th's after that
+                c = a.conflict_log[-1]
+                what = "a static obstacle" if c.get("static") else f"T{c['track_id']}"
+                v.decision = f"{c['decision']} for {what} at {c['time_s']:.0f} s"
             last = a.last_prediction
             if last is not None:
                 for c in last.conflicts:
