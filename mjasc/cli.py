@@ -3,8 +3,12 @@
     mjasc run SCENARIO [--out DIR] [--video] [--seed N] [--duration S] [--no-progress]
     mjasc list
     mjasc campaign CAMPAIGN [--out DIR] [--workers N] [--scheduler ADDR] [--runs N] [--no-progress]
+    mjasc report FOLDER [--json] [--out DIR] [--format png svg pdf]
+    mjasc extract FOLDER [RUN ...] [--outcome collision|near_miss|failed] [--out DIR]
+    mjasc search CAMPAIGN FAMILY [--method cross_entropy|uniform] [--budget N] [--out DIR]
     mjasc trial speed|turning-circle|zigzag|stopping --vessel NAME [--port F] [--starboard F] [--json]
-    mjasc figures [--out DIR]
+    mjasc view RUN_DIR|RECORDING [--print]
+    mjasc figures [--out DIR] [--format png svg pdf]
     mjasc render DOMAIN TASK [--policy random|baseline] [--seed N] [--out DIR]   (dm_control suite)
 
 SCENARIO and CAMPAIGN are a TOML file's path or the name of a bundled one (``mjasc run demo``,
@@ -22,7 +26,7 @@ from pathlib import Path
 
 import mjasc  # noqa: F401  (chooses the OpenGL backend before mujoco is imported)
 
-NAMED_HELP = "`mjasc list` shows the bundled names"
+NAMED_HELP = "'mjasc list' shows the bundled names"
 
 
 def _not_found_hint(ref: str, kind: str) -> str:
@@ -61,8 +65,46 @@ def _cmd_run(args) -> int:
     for kind, path in result.files.items():
         print(f"  {kind}: {path}")
     if "recording" in result.files:
-        print(f"  open the recording with: rerun {result.files['recording']}")
+        print(f"  open the recording with: mjasc view {out}  (or: {viewer_command(result.files['recording'])})")
     return 0
+
+
+def viewer_executable() -> str | None:
+    """The Rerun viewer installed with this package: the ``rerun`` executable next to the running
+    Python (the same virtual environment, whether or not it is on PATH), else the one on PATH."""
+    import shutil
+
+    here = Path(sys.executable).parent
+    for name in ("rerun", "rerun.exe"):
+        if (here / name).is_file():
+            return str(here / name)
+    return shutil.which("rerun")
+
+
+def viewer_command(recording: str | Path) -> str:
+    """The exact shell command that opens ``recording`` in :func:`viewer_executable`."""
+    import shlex
+
+    return shlex.join([viewer_executable() or "rerun", str(recording)])
+
+
+def _cmd_view(args) -> int:
+    import subprocess
+
+    target = Path(args.run)
+    rrd = target / "recording.rrd" if target.is_dir() else target
+    if not rrd.is_file():
+        print(f"mjasc: {args.run}: no recording here ({'no recording.rrd in the folder' if target.is_dir() else 'no such file'}"
+              f"; a run writes one with [outputs] recording = true)", file=sys.stderr)
+        return 2
+    exe = viewer_executable()
+    if args.print or exe is None:
+        print(viewer_command(rrd))
+        if exe is None:
+            print("mjasc: the Rerun viewer is not installed here (pip install rerun-sdk)", file=sys.stderr)
+            return 1
+        return 0
+    return subprocess.call([exe, str(rrd)])
 
 
 def _cmd_list(args) -> int:
@@ -106,15 +148,23 @@ def _cmd_trial(args) -> int:
         print(json.dumps(result, sort_keys=True))
     else:
         for k, v in result.items():
-            print(f"{k:24s} {v}")
+            unit = trials.UNITS.get(k, "")
+            print(f"{k:24s} {v}{' ' + unit if unit else ''}")
     return 0
 
 
 def _cmd_figures(args) -> int:
+    import time
+
     from mjasc.figures.thesis import make_all_figures
 
-    for path in make_all_figures(_out_dir(args.out, None)):
-        print(path)
+    t0 = time.perf_counter()
+
+    def progress(text: str) -> None:
+        print(f"[{time.perf_counter() - t0:5.1f} s] {text}", flush=True)
+
+    paths = make_all_figures(_out_dir(args.out, None), formats=tuple(dict.fromkeys(args.format)), progress=progress)
+    print(f"{len(paths)} file(s) in {time.perf_counter() - t0:.1f} s")
     return 0
 
 
@@ -227,21 +277,51 @@ def _cmd_search(args) -> int:
 
 
 def _cmd_render(args) -> int:
+    import time
+
+    from mjasc.suite import TASKS_BY_DOMAIN
     from mjasc.suite.render import render_episode
 
+    tasks = TASKS_BY_DOMAIN.get(args.domain)
+    if tasks is None or args.task not in tasks:  # checked before the output folder is made
+        what = f"domain {args.domain!r}" if tasks is None else f"task {args.task!r} of domain {args.domain!r}"
+        print(f"mjasc: render: no {what} (known: {_suite_tasks(TASKS_BY_DOMAIN)})", file=sys.stderr)
+        return 2
+    out = _out_dir(args.out, None)
+    print(f"rendering {args.domain} {args.task} ({args.policy} policy, seed {args.seed}) into {out} ...", flush=True)
+    t0 = time.perf_counter()
     try:
-        result = render_episode(args.domain, args.task, policy=args.policy, out_dir=_out_dir(args.out, None),
-                                seed=args.seed)
+        result = render_episode(args.domain, args.task, policy=args.policy, out_dir=out, seed=args.seed)
     except ValueError as exc:
         print(f"mjasc: {exc}", file=sys.stderr)
         return 2
-    print(result)
+    end = "ended by the task (a collision)" if result.terminated else "ran to its time limit"
+    print(f"{args.domain} {args.task}: {result.steps} control steps, return {result.episode_return:.3f} "
+          f"(sum of rewards, each in [0, 1]); the episode {end}; {time.perf_counter() - t0:.1f} s")
+    for kind, path in (("video", result.video_path), ("recording", result.rerun_path)):
+        if path is not None:
+            print(f"  {kind}: {path}")
+    if result.rerun_path is not None:
+        print(f"  open the recording with: mjasc view {result.rerun_path}")
     return 0
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="mjasc", description=__doc__.split("\n\n")[0].replace("``", ""),
-                                epilog=__doc__.split("\n\n")[2].replace("``", "'"),
+def _suite_tasks(by_domain) -> str:
+    return "; ".join(f"{d}: {', '.join(t)}" for d, t in by_domain.items())
+
+
+def _plain(text: str) -> str:
+    """Docstring text as plain help text: reStructuredText literals ``x`` shown as 'x'."""
+    return text.replace("``", "'")
+
+
+def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
+    """The parser. The render command's help lists the suite's domains and tasks, read (importing
+    dm_control, ~2 s) only when ``argv`` is a render command."""
+    argv = sys.argv[1:] if argv is None else argv
+    p = argparse.ArgumentParser(prog="mjasc", description="mjasc: autonomous surface craft in MuJoCo. Commands:\n\n"
+                                + "\n".join(line.strip() for line in __doc__.split("\n\n")[1].splitlines()),
+                                epilog=_plain(__doc__.split("\n\n")[2]),
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="command", required=True)
     r = sub.add_parser("run", help="run a scenario (a file or a bundled name): recording, summary and "
@@ -256,17 +336,24 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=_cmd_run)
     ls = sub.add_parser("list", help="list the vessels and the bundled scenarios and campaigns")
     ls.set_defaults(func=_cmd_list)
-    t = sub.add_parser("trial", help="standard manoeuvring trial of one hull")
+    t = sub.add_parser("trial", help="standard manoeuvring trial of one hull (results in SI units)")
     t.add_argument("kind", choices=["speed", "turning-circle", "zigzag", "stopping"])
-    t.add_argument("--vessel", required=True)
+    t.add_argument("--vessel", required=True, help="a vessel type ('mjasc list' shows them), e.g. otter")
     t.add_argument("--port", type=float, default=None, help="constant port propeller command in [-1, 1]")
     t.add_argument("--starboard", type=float, default=None, help="constant starboard propeller command in [-1, 1]")
     t.add_argument("--json", action="store_true", help="print one JSON object")
     t.set_defaults(func=_cmd_trial)
-    f = sub.add_parser("figures", help="make the thesis-style figures (PNG)")
+    f = sub.add_parser("figures", help="make the thesis-style figures (tracking, potential fields, collision "
+                                       "avoidance; runs simulations, ~30 s)")
     f.add_argument("--out", default="runs/figures",
                    help="output folder (default: runs/figures in the current folder)")
+    f.add_argument("--format", nargs="+", default=["png"], choices=["png", "svg", "pdf"],
+                   help="file formats, one file per figure and format (default: png)")
     f.set_defaults(func=_cmd_figures)
+    v = sub.add_parser("view", help="open a run's recording in the Rerun viewer installed with mjasc")
+    v.add_argument("run", help="a run's output folder (it holds recording.rrd) or an .rrd file")
+    v.add_argument("--print", action="store_true", help="print the command that opens it, do not open it")
+    v.set_defaults(func=_cmd_view)
     c = sub.add_parser("campaign", help="a campaign of encounter runs on Dask, resumable (docs/campaigns.md)")
     c.add_argument("campaign", help="a campaign TOML file's path (relative to the current folder; format in "
                                     "docs/campaigns.md) or a bundled campaign's name such as 'demo_monte_carlo' "
@@ -312,12 +399,18 @@ def build_parser() -> argparse.ArgumentParser:
     se.add_argument("--scheduler", help="address of an existing Dask scheduler")
     se.add_argument("--out", help="output folder (default: runs/search/<campaign>_<family>_<method>)")
     se.set_defaults(func=_cmd_search)
-    rd = sub.add_parser("render", help="render one episode of a dm_control suite task to MP4 + Rerun")
-    rd.add_argument("domain")
-    rd.add_argument("task")
-    rd.add_argument("--policy", default="random", choices=["random", "baseline"])
-    rd.add_argument("--seed", type=int, default=0)
-    rd.add_argument("--out", default="runs/render")
+    tasks = ""
+    if argv[:1] == ["render"]:
+        from mjasc.suite import TASKS_BY_DOMAIN
+
+        tasks = f"Domains and their tasks: {_suite_tasks(TASKS_BY_DOMAIN)}."
+    rd = sub.add_parser("render", help="render one episode of a dm_control suite task to MP4 + Rerun", epilog=tasks)
+    rd.add_argument("domain", help="a suite domain: otter, delfim or otter_team")
+    rd.add_argument("task", help="one of the domain's tasks, e.g. path_following, collision_avoidance, formation")
+    rd.add_argument("--policy", default="random", choices=["random", "baseline"],
+                    help="random actions, or the testbed's own guidance and avoidance (default: random)")
+    rd.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
+    rd.add_argument("--out", default="runs/render", help="output folder (default: runs/render)")
     rd.set_defaults(func=_cmd_render)
     return p
 
@@ -331,7 +424,7 @@ def _out_dir(given: str | None, default: Path | None) -> Path:
 
 
 #: The command-line arguments that name an input file or folder (checked before a command runs).
-_INPUTS = ("scenario", "campaign", "folder")
+_INPUTS = ("scenario", "campaign", "folder", "run")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -342,7 +435,7 @@ def main(argv: list[str] | None = None) -> int:
 
     from mjasc.core.config_tables import ConfigError, path_problem, show_path
 
-    args = build_parser().parse_args(argv)
+    args = build_parser(argv).parse_args(argv)
     for name in _INPUTS:
         value = getattr(args, name, None)
         if isinstance(value, str) and path_problem(value):

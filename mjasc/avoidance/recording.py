@@ -56,10 +56,14 @@ class AvoidanceLog:
         self._pending = True
 
     def _style(self, recorder, vessel_name: str, base: str) -> None:
+        col = recorder.colour(vessel_name)
         recorder.series_style(f"plots/speed/{vessel_name}/virtual_target", f"{vessel_name} virtual target",
                               (230, 60, 60), 1.0)
         recorder.series_style(f"plots/mode/{vessel_name}", f"{vessel_name} mode (0 mission, 1 yield, 2 pass, "
-                              f"3 detour)", (200, 200, 200), 1.5)
+                              f"3 detour)", col, 2.0)
+        recorder.series_style(f"plots/gamma/{vessel_name}/virtual_target", f"{vessel_name} virtual target γ_d",
+                              (230, 60, 60), 1.0)
+        recorder.series_style(f"plots/gamma/{vessel_name}/actual", f"{vessel_name} γ", col, 2.0)
         styles = {"virtual_target": rr.Points3D.from_fields(colors=[(230, 60, 60)], radii=[0.4]),
                   "predicted_own": rr.LineStrips3D.from_fields(colors=[_OWN], radii=[0.08]),
                   "predicted_tracks": rr.LineStrips3D.from_fields(colors=[_TRACK], radii=[0.08]),

@@ -104,7 +104,7 @@ def _closed(p):
     return np.vstack([p, p[:1]])
 
 
-def plot_trace(trace: RunTrace, title: str, path: Path, plt) -> Path:
+def plot_trace(trace: RunTrace, title: str, path: Path, plt, formats=("png",)) -> list[Path]:
     sc = trace.scenario
     fig, (ax, ax2) = plt.subplots(1, 2, figsize=(14, 6), gridspec_kw={"width_ratios": [3, 2]})
     pos = np.array(trace.positions)
@@ -154,19 +154,21 @@ def plot_trace(trace: RunTrace, title: str, path: Path, plt) -> Path:
                   ", ".join(f"{n} {c:.1f}" for n, c in clear.items() if c is not None), fontsize=8)
     ax2.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    from mjasc.figures.thesis import save_figure
+
+    paths = save_figure(fig, path, formats)
     plt.close(fig)
-    return path
+    return paths
 
 
-def make_avoidance_figures(out_dir, scenarios=None, duration_s: float | None = None) -> list[Path]:
+def make_avoidance_figures(out_dir, scenarios=None, duration_s: float | None = None, formats=("png",)) -> list[Path]:
     """Run each scenario (default: all of :data:`FIGURE_SCENARIOS`) and write
-    ``avoidance_<name>.png`` to ``out_dir``. Returns the written paths."""
+    ``avoidance_<name>.<format>`` to ``out_dir`` for each of ``formats``. Returns the written paths."""
     from mjasc.figures.thesis import figure_backend
 
     plt, out = figure_backend(out_dir)
     written = []
     for name in scenarios or FIGURE_SCENARIOS:
         trace = trace_run(name, duration_s)
-        written.append(plot_trace(trace, FIGURE_SCENARIOS.get(name, name), out / f"avoidance_{name}.png", plt))
+        written += plot_trace(trace, FIGURE_SCENARIOS.get(name, name), out / f"avoidance_{name}.png", plt, formats)
     return written

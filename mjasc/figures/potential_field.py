@@ -212,7 +212,7 @@ def _draw_scene(ax, sc: DockScenario, field: PotentialField | None = None, ponto
     ax.grid(alpha=0.3)
 
 
-def _figure_dock(out_dir: Path, plt) -> tuple[Path, dict]:
+def _figure_dock(out_dir: Path, plt, formats=("png",)) -> tuple[list[Path], dict]:
     sc = dock_scenario()
     fig, axes = plt.subplots(1, 3, figsize=(18, 6.2))
     # (a) team, hand-set V_i
@@ -249,8 +249,9 @@ def _figure_dock(out_dir: Path, plt) -> tuple[Path, dict]:
     ax.legend(fontsize=8, loc="upper left")
     fig.suptitle("Harmonic potential field path planning in the dock (after thesis Fig. 6.3)")
     fig.tight_layout()
-    path = out_dir / "potential_field_dock.png"
-    fig.savefig(path, dpi=110)
+    from mjasc.figures.thesis import save_figure
+
+    path = save_figure(fig, out_dir / "potential_field_dock.png", formats)
     plt.close(fig)
     table = {
         "sweep": [
@@ -277,7 +278,7 @@ def _figure_dock(out_dir: Path, plt) -> tuple[Path, dict]:
     return path, table
 
 
-def _figure_gradient(out_dir: Path, plt) -> Path:
+def _figure_gradient(out_dir: Path, plt, formats=("png",)) -> list[Path]:
     """Thesis Fig. 6.4: direction of the field (normalized velocity) around vessel 2's
     obstacles, with streamlines and the planned path."""
     sc = dock_scenario()
@@ -314,19 +315,20 @@ def _figure_gradient(out_dir: Path, plt) -> Path:
     ax.set_title("Field direction (colour: log10 speed) — after thesis Fig. 6.4")
     ax.legend(loc="upper left", fontsize=8)
     fig.tight_layout()
-    path = out_dir / "potential_field_gradient.png"
-    fig.savefig(path, dpi=110)
+    from mjasc.figures.thesis import save_figure
+
+    path = save_figure(fig, out_dir / "potential_field_gradient.png", formats)
     plt.close(fig)
     return path
 
 
-def make_figures(out_dir) -> list[Path]:
-    """Write the §6.2 figures as PNG into ``out_dir`` (created if needed); return their paths."""
+def make_figures(out_dir, formats=("png",)) -> list[Path]:
+    """Write the §6.2 figures (each in ``formats``) into ``out_dir`` (created if needed); return their paths."""
     from mjasc.figures.thesis import figure_backend
 
     plt, out = figure_backend(out_dir)
-    dock_path, _ = _figure_dock(out, plt)
-    return [dock_path, _figure_gradient(out, plt)]
+    dock_paths, _ = _figure_dock(out, plt, formats)
+    return [*dock_paths, *_figure_gradient(out, plt, formats)]
 
 
 def sweep_table() -> dict:

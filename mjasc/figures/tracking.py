@@ -91,7 +91,7 @@ def _degrees_0_360(heading):
     return h - 360.0 * np.floor(np.nanmin(h) / 360.0) if np.isfinite(h).any() else h
 
 
-def _figure(run: TrackingRun, out: Path, title: str, plt) -> Path:
+def _figure(run: TrackingRun, out: Path, title: str, plt, formats=("png",)) -> list[Path]:
     fig, ax = plt.subplots(2, 2, figsize=(11, 7.5))
     t = run.t
     for a, key, label in ((ax[0, 0], "speed", "V [m/s]"), (ax[0, 1], "omega", "ω [rad/s]")):
@@ -126,23 +126,26 @@ def _figure(run: TrackingRun, out: Path, title: str, plt) -> Path:
     v, w = run.est["speed"][-1], run.est["omega"][-1]
     fig.suptitle(f"{title}\nat t = {t[-1]:.0f} s: V̂ = {v:.4f} m/s, ω̂ = {w:.4f} rad/s (seed {run.seed})")
     fig.tight_layout()
-    fig.savefig(out, dpi=110)
+    from mjasc.figures.thesis import save_figure
+
+    paths = save_figure(fig, out, formats)
     plt.close(fig)
-    return out
+    return paths
 
 
-def make_tracking_figures(out_dir) -> list[Path]:
-    """Run both §6.1 scenarios (their own seeds) and write the two figures; returns their paths."""
+def make_tracking_figures(out_dir, formats=("png",)) -> list[Path]:
+    """Run both §6.1 scenarios (their own seeds) and write the two figures (each in ``formats``);
+    returns their paths."""
     from mjasc.figures.thesis import figure_backend
 
     plt, out_dir = figure_backend(out_dir)
     return [
-        _figure(run_tracking_scenario(DYNAMIC), out_dir / "thesis_fig_6_1_tracking.png",
+        *_figure(run_tracking_scenario(DYNAMIC), out_dir / "thesis_fig_6_1_tracking.png",
                 "IMM tracking of a 1.5 m/s, 0.03 rad/s target from the ASC's range sensor (after thesis Fig. 6.1;"
                 f" thesis: V̂ = {THESIS_V_M_S}, ω̂ = {THESIS_OMEGA_RAD_S})",
-                plt),
-        _figure(run_tracking_scenario(STATIC), out_dir / "thesis_fig_6_2_static.png",
-                "IMM tracking of a static target (after thesis Fig. 6.2; its course is unobservable)", plt),
+                plt, formats),
+        *_figure(run_tracking_scenario(STATIC), out_dir / "thesis_fig_6_2_static.png",
+                 "IMM tracking of a static target (after thesis Fig. 6.2; its course is unobservable)", plt, formats),
     ]
 
 

@@ -81,7 +81,9 @@ class PerceptionLog:
         self._series: set[int] = set()
 
     def _style(self, rec, base: str, name: str, colour) -> None:
-        rec.static(f"{base}/tracks/positions", rr.Points3D.from_fields(colors=[(*colour, 255)], radii=[0.25]))
+        # Track labels show on hover or selection, not over the boats (show_labels False).
+        rec.static(f"{base}/tracks/positions", rr.Points3D.from_fields(colors=[(*colour, 255)], radii=[0.25],
+                                                                       show_labels=[False], class_ids=[102]))
         rec.static(f"{base}/static_map", rr.LineStrips3D.from_fields(colors=[(160, 120, 60)], radii=[0.1]))
         if rec.full:
             rec.static(f"{base}/sensor/hits", rr.Points3D.from_fields(colors=[(*colour, 150)], radii=[0.12]))
@@ -93,7 +95,7 @@ class PerceptionLog:
             rec.static(f"{base}/tracks/ellipses", rr.LineStrips3D.from_fields(colors=[(*colour, 255)], radii=[0.07]))
             rec.static(f"{base}/tracks/discs", rr.LineStrips3D.from_fields(colors=[(*colour, 110)], radii=[0.05]))
             rec.static(f"{base}/tracks/velocity", rr.Arrows3D.from_fields(colors=[(*colour, 255)], radii=[0.08]))
-            rec.static(f"{base}/tracks/labels", rr.Points3D.from_fields(radii=[0.01]))
+            rec.static(f"{base}/tracks/labels", rr.Points3D.from_fields(radii=[0.01], show_labels=[False]))
         self._styled = True
 
     def log(self, rec, t_s: float, perception, vessel_name: str) -> None:
@@ -172,7 +174,9 @@ class PerceptionLog:
                 rec.scalar(f"{plot}/modes/T{tid}/w{j}", t_s, mu[k, j])
             if tid not in self._series:
                 self._series.add(tid)
-                rec.series_style(f"{plot}/omega/T{tid}", f"{vessel_name} T{tid} ω̂ [rad/s]")
-                rec.series_style(f"{plot}/speed/T{tid}", f"{vessel_name} T{tid} V̂ [m/s]")
+                col = rec.colour(vessel_name)
+                rec.series_style(f"{plot}/omega/T{tid}", f"{vessel_name} T{tid} ω̂ [rad/s]", col)
+                rec.series_style(f"{plot}/speed/T{tid}", f"{vessel_name} T{tid} V̂ [m/s]", col)
                 for j, wj in enumerate(p.config.imm.turn_rates_rad_s):
-                    rec.series_style(f"{plot}/modes/T{tid}/w{j}", f"T{tid} μ(ω={wj:+.2f})")
+                    rec.series_style(f"{plot}/modes/T{tid}/w{j}", f"{vessel_name} T{tid} μ(ω={wj:+.2f} rad/s)",
+                                     (*col, 140))

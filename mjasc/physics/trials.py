@@ -70,7 +70,16 @@ from mjasc.physics.simulation import Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 
-__all__ = ["TRIAL_KINDS", "DEFAULT_COMMANDS", "SteadyStateCriterion", "STEADY", "run_trial"]
+__all__ = ["TRIAL_KINDS", "DEFAULT_COMMANDS", "SteadyStateCriterion", "STEADY", "run_trial", "UNITS"]
+
+#: The unit of each numeric result of :func:`run_trial` (printed by ``mjasc trial``).
+UNITS = {"timestep_s": "s", "port": "(command in [-1, 1])", "starboard": "(command in [-1, 1])",
+         "approach_commands": "(commands in [-1, 1])", "approach_speed": "m/s", "steady_speed": "m/s",
+         "steady_surge": "m/s", "steady_yaw_rate": "rad/s", "t63": "s", "advance": "m", "transfer": "m",
+         "tactical_diameter": "m", "steady_diameter": "m", "steady_drift_angle_deg": "deg", "time_to_90_deg": "s",
+         "time_to_180_deg": "s", "initial_turning_time": "s", "time_to_third_execute": "s",
+         "overshoot_1_deg": "deg", "overshoot_2_deg": "deg", "zigzag_angle_deg": "deg", "head_reach": "m",
+         "lateral_deviation": "m", "stopping_distance": "m", "stopping_time": "s"}
 
 TRIAL_KINDS = ("speed", "turning-circle", "zigzag", "stopping")
 

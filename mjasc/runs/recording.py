@@ -9,6 +9,8 @@ properties (which hold the wall-clock start time) are not sent, only the recordi
 same bytes: the Rerun 0.41 SDK stamps every row and chunk with a time-based id (TUID) and gives the
 blueprint store a random id, and has no API to set them; compare content, never hashes.
 
+The default blueprint and the legend are in :mod:`mjasc.runs.blueprint` (re-exported here).
+
 **Detail.** ``[outputs] recording_detail`` (:data:`DETAILS`) says what the run's components log:
 ``standard`` (the default) is what a reviewer needs — hulls, trails, paths, speeds, thrust,
 heading, cross-track, each vessel's confirmed tracks as one labelled point batch, the avoidance
@@ -39,79 +41,17 @@ import rerun as rr
 import rerun.blueprint as rrb
 from rerun.encodings import Vec3DBatch
 
+from mjasc.runs.blueprint import (LEGEND_CLASSES, PALETTE, annotation_context, default_blueprint,  # noqa: F401
+                                  legend_classes, legend_markdown, stable_blueprint_ids, vessel_colour)
 from mjasc.runs.outputs import part_path
 from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
 
-__all__ = ["Recorder", "default_blueprint", "TIMELINE", "DETAILS", "vessel_colour"]
+__all__ = ["Recorder", "default_blueprint", "TIMELINE", "DETAILS", "vessel_colour", "legend_classes",
+           "annotation_context", "legend_markdown", "LEGEND_CLASSES"]
 
 TIMELINE = "sim_time"
 #: Buffered rows (summed over entities; a fleet row of n vessels counts n) that trigger a flush.
 FLUSH_ROWS = 1_000_000
-
-#: Stable colours per vessel index (RGB).
-PALETTE = [(31, 119, 180), (255, 127, 14), (44, 160, 44), (148, 103, 189), (140, 86, 75), (227, 119, 194),
-           (127, 127, 127), (188, 189, 34), (23, 190, 207)]
-
-
-def vessel_colour(i: int) -> tuple[int, int, int]:
-    return PALETTE[i % len(PALETTE)]
-
-
-def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), perception: bool = False,
-                      avoidance: bool = False, coordination: bool = False, detail: str = "full") -> rrb.Blueprint:
-    """Top-down world view on the left; on the right tabs of time series (speed, thrust,
-    cross-track, and the plots of whichever onboard components the run has: the per-track plots
-    only with ``detail = "full"``) above the event log."""
-    top = rrb.Spatial3DView(
-        origin="world",
-        name="Top-down (ENU, y north up)",
-        eye_controls=rrb.EyeControls3D(position=(0.0, -0.01 * extent_m, 1.6 * extent_m), look_target=(0.0, 0.0, 0.0),
-                                        eye_up=(0.0, 1.0, 0.0)),
-        line_grid=rrb.LineGrid3D(visible=True, spacing=10.0, plane=rr.components.Plane3D.XY),
-    )
-    tabs = [rrb.TimeSeriesView(origin="plots/speed", name="speed [m/s]"),
-            rrb.TimeSeriesView(origin="plots/cross_track", name="cross-track [m]"),
-            rrb.TimeSeriesView(origin="plots/thrust", name="thrust [N]"),
-            rrb.TimeSeriesView(origin="plots/heading", name="heading [deg]")]
-    if avoidance:
-        tabs.append(rrb.TimeSeriesView(origin="plots/mode", name="avoidance mode"))
-        tabs.append(rrb.TimeSeriesView(origin="plots/gamma", name="virtual target γ [m]"))
-    if coordination:
-        for quantity, title in (("spread_m", "formation spread [m]"), ("speed_factor", "coordination speed factor"),
-                                ("gamma_normalized", "γ/L")):
-            tabs.append(rrb.TimeSeriesView(origin="plots/coordination", name=title,
-                                           contents=[f"plots/coordination/{v}/{quantity}" for v in vessels]))
-    if perception and detail == "full":
-        tabs.append(rrb.TimeSeriesView(origin="plots/tracking", name="tracks: ω̂, V̂, mode probabilities"))
-    return rrb.Blueprint(
-        rrb.Horizontal(
-            top,
-            rrb.Vertical(rrb.Tabs(*tabs), rrb.TextLogView(origin="events", name="events"), row_shares=[3, 2]),
-            column_shares=[3, 2],
-        ),
-        rrb.TimePanel(state="collapsed"),
-        collapse_panels=False,
-    )
-
-
-def stable_blueprint_ids(blueprint: rrb.Blueprint, key: str) -> None:
-    """Give the blueprint's views and containers ids derived from ``key`` (uuid5 of ``key/k``, k in
-    tree order) instead of the random uuid4 Rerun draws: the same run gives the same blueprint."""
-    from rerun.blueprint.api import Container, View
-
-    k = 0
-
-    def walk(node) -> None:
-        nonlocal k
-        if isinstance(node, (Container, View)):
-            node.id = uuid.uuid5(uuid.NAMESPACE_URL, f"{key}/{k}")
-            k += 1
-            if isinstance(node, Container):
-                for child in node.contents:
-                    walk(child)
-
-    walk(getattr(blueprint, "root_container", None))
-
 
 class Recorder:
     """Writes one ``.rrd`` file. Buffered rows are written by :meth:`flush` / :meth:`close`.
@@ -147,6 +87,12 @@ class Recorder:
         self._fleet: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (kind, entities, z)
         self._pending = 0
         self._closed = False
+        #: Vessel name → RGB, set by the runner: components style their entities and plots with it.
+        self.colours: dict[str, tuple[int, int, int]] = {}
+
+    def colour(self, vessel_name: str, default=(200, 200, 200)) -> tuple[int, int, int]:
+        """The vessel's colour (:attr:`colours`), ``default`` for an unknown vessel."""
+        return self.colours.get(vessel_name, default)
 
     # ---------------------------------------------------------------- immediate logging
     def static(self, entity: str, archetype) -> None:

@@ -48,7 +48,7 @@ from mjasc.physics.world import build_world
 from mjasc.runs.agent import build_agent
 from mjasc.runs.interrupts import catch_sigterm, restore_sigterm, signal_name
 from mjasc.runs.outputs import atomic_target, atomic_write_text
-from mjasc.runs.recording import Recorder, default_blueprint, vessel_colour
+from mjasc.runs.recording import Recorder, annotation_context, default_blueprint, legend_markdown, vessel_colour
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
 from mjasc.runs.tick import ONBOARD_SLOTS, SlotEvent, run_onboard_slot
@@ -231,21 +231,27 @@ class Runner:
     def _log_static_scene(self) -> None:
         rec, sc = self.recorder, self.scenario
         lo, hi = self.extent()
+        names = tuple(v.name for v in sc.vessels)
+        rec.static("world", annotation_context(names))
+        rec.static("legend", rr.TextDocument(legend_markdown(names), media_type="text/markdown"))
         rec.static("world/water", rr.Boxes3D(centers=[[*(0.5 * (lo + hi)), -0.05]],
                                              half_sizes=[[*(0.5 * (hi - lo)), 0.01]], colors=[[40, 90, 150, 60]],
                                              fill_mode="solid"))
         for i, v in enumerate(sc.vessels):
             col = vessel_colour(i)
             base = f"world/vessels/{v.name}"
-            rec.static(f"{base}/hull", rr.LineStrips3D.from_fields(colors=[col], radii=[0.08]))
+            rec.static(f"{base}/hull", rr.LineStrips3D.from_fields(colors=[col], radii=[0.08], class_ids=[i + 1]))
             rec.static(f"{base}/position", rr.Points3D.from_fields(colors=[col], radii=[0.3], labels=[v.name],
-                                                                   show_labels=[True]))
-            rec.static(f"{base}/trail", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05]))
-            rec.static(f"{base}/trail/recent", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05]))
+                                                                   show_labels=[True], class_ids=[i + 1]))
+            rec.static(f"{base}/trail", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05],
+                                                                    class_ids=[101]))
+            rec.static(f"{base}/trail/recent", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05],
+                                                                           class_ids=[101]))
             if v.path is not None:
                 xy = v.path.sample(max(0.5, v.path.length / PATH_POINTS))
                 rec.static(f"{base}/mission_path", rr.LineStrips3D([np.column_stack([xy, np.zeros(len(xy))])],
-                                                                   colors=[(*col, 120)], radii=[0.06]))
+                                                                   colors=[(*col, 120)], radii=[0.06],
+                                                                   class_ids=[100]))
             rec.series_style(f"plots/speed/{v.name}/actual", f"{v.name} speed", col, 2.0)
             rec.series_style(f"plots/speed/{v.name}/reference", f"{v.name} reference", (*col, 120), 1.0)
             rec.series_style(f"plots/thrust/{v.name}/port", f"{v.name} port", col)
@@ -256,10 +262,11 @@ class Runner:
             closed = np.vstack([poly, poly[:1]])
             rec.static(f"world/obstacles/static/{o.name}", rr.LineStrips3D(
                 [np.column_stack([closed, np.full(len(closed), 0.5)])], colors=[(150, 110, 80)], radii=[0.15],
-                labels=[o.name]))
+                labels=[o.name], class_ids=[110]))
         for o in sc.moving_obstacles:
             rec.static(f"world/obstacles/moving/{o.name}", rr.Points3D.from_fields(
-                radii=[o.radius_m], colors=[(220, 60, 60, 160)], labels=[o.name], show_labels=[True]))
+                radii=[o.radius_m], colors=[(220, 60, 60, 160)], labels=[o.name], show_labels=[True],
+                class_ids=[109]))
             if o.path is not None:
                 xy = o.path.sample(max(1.0, o.path.length / PATH_POINTS))
                 rec.static(f"world/obstacles/moving/{o.name}_path", rr.LineStrips3D(
@@ -298,11 +305,12 @@ class Runner:
             lo, hi = self.extent()
             files["recording"] = self.out_dir / "recording.rrd"
             bp = default_blueprint(
-                extent_m=float(np.max(hi - lo)), vessels=tuple(a.name for a in self.agents),
+                extent_m=float(np.max(hi - lo)), extent_xy=(lo, hi), vessels=tuple(a.name for a in self.agents),
                 perception=any(a.perception is not None for a in self.agents),
                 avoidance=any(a.avoidance is not None for a in self.agents),
                 coordination=any(a.coordination is not None for a in self.agents), detail=sc.outputs.recording_detail)
             self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp, detail=sc.outputs.recording_detail)
+            self.recorder.colours = {a.name: vessel_colour(i) for i, a in enumerate(self.agents)}
             self._entities = self._entity_names()
             self._log_static_scene()
             self.recorder.event(0.0, f"scenario {sc.name!r} seed {sc.seed}: {len(sc.vessels)} vessel(s), "
@@ -313,7 +321,8 @@ class Runner:
             files["video"] = self.out_dir / "video.mp4"
             overlays = [v.path.sample(1.0) for v in sc.vessels if v.path is not None]
             self.video = VideoWriter(files["video"], self.world.model, sc.outputs.video_width, sc.outputs.video_height,
-                                     sc.outputs.video_fps, sc.outputs.video_camera, self.extent(), overlays)
+                                     sc.outputs.video_fps, sc.outputs.video_camera, self.extent(), overlays,
+                                     title=sc.name)
         total_steps = int(round(sc.duration_s / sim.timestep_s))
         status, error = "completed", None
         wall0 = time.perf_counter()
@@ -354,12 +363,7 @@ class Runner:
                             if self.recorder:
                                 agent.log(self.recorder, states.time_s)
                     elif slot == "video" and self.video is not None:
-                        colours = [(*np.array(vessel_colour(i)) / 255, 1.0) for i in range(len(self.agents))]
-                        self.video.add_frame(
-                            sim.data,
-                            [(states.position_m[i], states.heading_rad[i], colours[i]) for i in range(len(self.agents))],
-                            [(np.array([p for _, p in self._trail[i]][::-4][:60]), colours[i])
-                             for i in range(len(self.agents)) if len(self._trail[i]) > 1])
+                        self.video.add_event(SlotEvent(slot, states.time_s, states, tuple(navs), self))
                     stage[slot] += clock() - t_slot
                     if self._observers[slot]:
                         event = SlotEvent(slot, states.time_s, states, tuple(navs), self)
@@ -408,6 +412,7 @@ class Runner:
                     summary["vessels"][agent.name][kind] = comp.summary()
         if self.video is not None:
             summary["video_frames"] = self.video.frames
+            summary["video_timing_s"] = {k: round(v, 4) for k, v in self.video.seconds.items()}
         summary["timing_s"] = {k: round(v, 4) for k, v in stage.items()}
         if diverged is not None and diverged.last_good_state is not None:
             summary["last_good_state"] = {"time_s": round(diverged.last_good_time_s, 6)}

@@ -1,0 +1,178 @@
+"""The heads-up overlay of a video frame: text and map furniture drawn onto the rendered RGB image.
+
+Drawn with Pillow (pixels; image rows grow downwards) after MuJoCo rendered the scene:
+
+- top left: the scenario name and the simulation time ``t`` [s], then one line per vessel — its
+  colour, its name, its mode (``mission``, ``avoidance:yield`` …) and its last conflict decision;
+- each vessel's name next to its hull, at the pixel :class:`Projection` gives its position;
+- bottom left: a scale bar of a round length ``L ∈ {1, 2, 5}·10^k`` m close to a fifth of the
+  frame's width, ``L / s`` pixels long for ``s`` metres per pixel at the view's centre (top-down
+  views only: an oblique view has no single scale);
+- bottom right: a north arrow (the projected direction of world +y at the view's centre) and the
+  current's arrow at the view's centre with its speed [m/s];
+- right: a legend of the scene overlays (:mod:`mjasc.runs.video_scene`).
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from PIL import Image, ImageDraw, ImageFont
+
+from mjasc.runs.video_scene import COLOURS, VELOCITY_ARROW_S
+
+__all__ = ["Projection", "draw_hud", "scale_bar_m"]
+
+
+class Projection:
+    """World → pixel mapping of a rendered MuJoCo scene's camera (``mjvScene.camera``, the mean of
+    its two eyes). Camera axes: forward ``f``, up ``u``, right ``r = f × u``; a point ``p`` at
+    ``d = p − pos`` has depth ``z = d·f`` and lands at normalized coordinates
+    ``x_n = (n·(d·r)/z − c_x) / w``, ``y_n = (n·(d·u)/z − c_y) / h`` on the near plane ``n``
+    (half-height ``h = (top − bottom)/2``, ``c_y = (top + bottom)/2``, ``c_x`` the frustum centre,
+    half-width ``w = h · W/H``), i.e. column ``(x_n + 1)·W/2``, row ``(1 − y_n)·H/2``."""
+
+    def __init__(self, scene, width: int, height: int):
+        cams = [scene.camera[0], scene.camera[1]]
+        self.pos = np.mean([c.pos for c in cams], axis=0)
+        self.forward = np.mean([c.forward for c in cams], axis=0)
+        self.up = np.mean([c.up for c in cams], axis=0)
+        self.right = np.cross(self.forward, self.up)
+        c = cams[0]
+        self.near = float(c.frustum_near)
+        self.half_h = 0.5 * float(c.frustum_top - c.frustum_bottom)
+        self.centre_y = 0.5 * float(c.frustum_top + c.frustum_bottom)
+        self.centre_x = float(c.frustum_center)
+        self.half_w = self.half_h * width / height
+        self.width, self.height = int(width), int(height)
+        self.top_down = abs(float(self.forward[2])) > 0.999
+
+    def __call__(self, points_xyz) -> np.ndarray:
+        """Pixels (n, 2) (column, row) of world points (n, 3) [m]; NaN behind the camera."""
+        d = np.asarray(points_xyz, float).reshape(-1, 3) - self.pos
+        z = d @ self.forward
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xn = (self.near * (d @ self.right) / z - self.centre_x) / self.half_w
+            yn = (self.near * (d @ self.up) / z - self.centre_y) / self.half_h
+        px = np.column_stack([(xn + 1.0) * 0.5 * self.width, (1.0 - yn) * 0.5 * self.height])
+        px[z <= 0] = np.nan
+        return px
+
+    def metres_per_pixel(self, at_xyz) -> float:
+        """Ground distance [m] of one pixel at world point ``at_xyz`` (along the image's x)."""
+        p = np.asarray(at_xyz, float)
+        a, b = self(np.array([p, p + np.array([1.0, 0.0, 0.0])]))
+        c, d = self(np.array([p, p + np.array([0.0, 1.0, 0.0])]))
+        return 1.0 / max(np.hypot(*(b - a)), np.hypot(*(d - c)), 1e-9)
+
+
+def scale_bar_m(metres_per_pixel: float, width_px: int) -> float:
+    """The round length L ∈ {1, 2, 5}·10^k [m] closest below a fifth of the frame's width."""
+    target = max(0.2 * width_px * metres_per_pixel, 1e-6)
+    k = np.floor(np.log10(target))
+    return float(max(m * 10.0 ** k for m in (1.0, 2.0, 5.0) if m * 10.0 ** k <= target))
+
+
+@lru_cache(maxsize=4)
+def _font(size: int):
+    return ImageFont.load_default(size=size)
+
+
+def _c(rgba) -> tuple:
+    return tuple(int(round(255 * v)) for v in rgba[:3])
+
+
+def _arrow(draw, tail, tip, fill, width=2, head=6.0) -> None:
+    tail, tip = np.asarray(tail, float), np.asarray(tip, float)
+    d = tip - tail
+    n = np.hypot(*d)
+    if n < 1e-6:
+        return
+    u = d / n
+    p = np.array([-u[1], u[0]])
+    draw.line([tuple(tail), tuple(tip)], fill=fill, width=width)
+    draw.polygon([tuple(tip), tuple(tip - head * u + 0.5 * head * p), tuple(tip - head * u - 0.5 * head * p)], fill=fill)
+
+
+def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str = "") -> np.ndarray:
+    """The frame (H, W, 3 uint8) with the heads-up overlay of ``view`` (a
+    :class:`~mjasc.runs.video_scene.FrameView`) drawn on it."""
+    img = Image.fromarray(frame)
+    draw = ImageDraw.Draw(img, "RGBA")
+    W, H = img.size
+    fs = max(10, min(16, H // 36))
+    font, small = _font(fs), _font(max(9, fs - 2))
+    line = fs + 4
+    # Top left: title and time, then per vessel its mode and (smaller, below) its last decision.
+    rows = [(f"{title}  t = {view.time_s:6.1f} s".strip(), font, None)]
+    for v in view.vessels:
+        rows.append((f"{v.name}: {v.mode or '-'}", font, v))
+        if v.decision:
+            rows.append((v.decision, small, None))
+    box_w = 12 + fs + max(draw.textlength(text, font=f) for text, f, _ in rows)
+    draw.rectangle([4, 4, 4 + box_w, 8 + line * len(rows)], fill=(0, 0, 0, 140))
+    for k, (text, f, v) in enumerate(rows):
+        y = 6 + line * k
+        if v is not None:
+            draw.rectangle([10, y + 3, 10 + fs - 5, y + fs - 2], fill=tuple(v.colour))
+        draw.text((10 if k == 0 else 10 + fs, y), text, font=f, fill=(255, 255, 255) if f is font else (200, 200, 200))
+    # Names by the hulls.
+    px = proj(np.array([[*v.position_m, 0.5] for v in view.vessels]))
+    for v, (x, y) in zip(view.vessels, px):
+        if np.isfinite(x) and -50 < x < W + 50 and -50 < y < H + 50:
+            draw.text((x + 8, y - fs - 4), v.name, font=font, fill=tuple(v.colour), stroke_width=2, stroke_fill=(0, 0, 0))
+    # Bottom left: scale bar (top-down views only).
+    if proj.top_down:
+        mpp = proj.metres_per_pixel(centre_xyz)
+        L = scale_bar_m(mpp, W)
+        n = L / mpp
+        x0, y0 = 14, H - 16
+        draw.rectangle([x0 - 6, y0 - fs - 10, x0 + n + 8, y0 + 8], fill=(0, 0, 0, 140))
+        draw.line([(x0, y0), (x0 + n, y0)], fill=(255, 255, 255), width=3)
+        for x in (x0, x0 + n):
+            draw.line([(x, y0 - 5), (x, y0 + 3)], fill=(255, 255, 255), width=2)
+        draw.text((x0, y0 - fs - 7), f"{L:g} m", font=small, fill=(255, 255, 255))
+    # Bottom right: north arrow and current.
+    cx, cy = W - 40, H - 44
+    draw.rectangle([W - 150, H - 84, W - 4, H - 4], fill=(0, 0, 0, 140))
+    c = np.asarray(centre_xyz, float)
+    a, b = proj(np.array([c, c + np.array([0.0, 1.0, 0.0])]))
+    d = (b - a) / max(np.hypot(*(b - a)), 1e-9)
+    _arrow(draw, (cx - 14 * d[0], cy - 14 * d[1]), (cx + 22 * d[0], cy + 22 * d[1]), (255, 255, 255), 3, 9)
+    draw.text((cx + 26 * d[0] - 4, cy + 26 * d[1] - fs), "N", font=font, fill=(255, 255, 255))
+    speed = float(np.hypot(*view.current_m_s))
+    ux, uy = W - 112, H - 44
+    if speed > 1e-6:
+        a, b = proj(np.array([c, c + np.array([*(view.current_m_s / speed), 0.0])]))
+        d = (b - a) / max(np.hypot(*(b - a)), 1e-9)
+        _arrow(draw, (ux - 18 * d[0], uy - 18 * d[1]), (ux + 18 * d[0], uy + 18 * d[1]), (120, 200, 255), 3, 8)
+    draw.text((W - 146, H - 20), f"current {speed:.2f} m/s", font=small, fill=(120, 200, 255))
+    _legend(draw, W, H, small)
+    return np.asarray(img)
+
+
+def _legend(draw, W, H, font) -> None:
+    items = [("line", COLOURS["path"], "mission path"), ("line", COLOURS["detour"], "detour"),
+             ("disc", (0.85, 0.85, 0.85, 1.0), f"track: disc, 2-sigma, {VELOCITY_ARROW_S:g} s of velocity"),
+             ("thin", (0.85, 0.85, 0.85, 1.0), "sensor fan, returns"),
+             ("dot", COLOURS["conflict"], "predicted conflict (CPA)"), ("line", COLOURS["svo"], "virtual obstacle")]
+    fs = font.size
+    line = fs + 3
+    w = 34 + max(draw.textlength(t, font=font) for _, _, t in items)
+    x0, y0 = W - w - 6, 6
+    draw.rectangle([x0 - 4, y0 - 2, W - 4, y0 + line * len(items) + 2], fill=(0, 0, 0, 140))
+    for k, (kind, rgba, text) in enumerate(items):
+        y = y0 + k * line + line // 2
+        col = _c(rgba)
+        if kind == "line":
+            draw.line([(x0 + 2, y), (x0 + 22, y)], fill=col, width=3)
+        elif kind == "thin":
+            draw.line([(x0 + 2, y), (x0 + 22, y)], fill=col, width=1)
+            draw.ellipse([x0 + 20, y - 2, x0 + 24, y + 2], fill=col)
+        elif kind == "disc":
+            draw.ellipse([x0 + 4, y - 5, x0 + 14, y + 5], outline=col, width=1, fill=(*col, 90))
+            draw.line([(x0 + 9, y), (x0 + 24, y)], fill=col, width=2)
+        else:
+            draw.ellipse([x0 + 8, y - 4, x0 + 16, y + 4], fill=col)
+        draw.text((x0 + 30, y - fs // 2 - 1), text, font=font, fill=(255, 255, 255))

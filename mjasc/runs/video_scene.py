@@ -1,0 +1,210 @@
+"""What a video frame shows of a run's sensing and decisions, and how it is drawn into MuJoCo's scene.
+
+:func:`frame_view` reads only what a runner observer may read (a
+:class:`~mjasc.runs.tick.SlotEvent`: the true states, ``runner.agents``, ``runner.last_outputs``,
+``runner.sim.current``, ``runner.scenario``; per agent the public ``perception.scan`` and
+``perception.tracks()``, ``avoidance.last_prediction``, ``avoidance.detour`` and the latest entry of
+``avoidance.conflict_log``, the decision taken) into a
+:class:`FrameView`. :func:`add_scene_geoms` draws it as user geoms of the ``mjvScene`` (after
+``update_scene``, before rendering), all in the world frame (ENU, metres), a few centimetres above
+the water so that MuJoCo's own geoms (hulls, obstacles) stay visible:
+
+- mission paths (white, faint) and each vessel's trail (its colour);
+- the sensor fan: the outline of what the latest scan saw (range ``ρ_k`` along beam ``k`` at world
+  angle ``ψ + a_k``; the maximum range where there was no return), decimated to every 6th beam
+  except where returns are, and the returns as small dots, in the vessel's colour;
+- each confirmed track as a disc of its estimated radius, its 2σ position ellipse and its velocity
+  vector (the distance covered in :data:`VELOCITY_ARROW_S` seconds), in the tracking vessel's colour;
+- the latest prediction's conflicts: own position at the closest approach ``t_c`` (red) joined to
+  the obstacle's predicted position then (the predicted miss distance), and the static virtual
+  obstacle of a conflict that asked for a re-plan (orange outline);
+- the detour streamline (cyan) and the potential field's obstacle polygons (orange);
+- a map-symbol arrow per vessel (a 2 m hull is a few pixels in a 200 m view), ``marker_m`` long.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from mjasc.perception.pipeline import covariance_ellipse
+from mjasc.runs.recording import vessel_colour
+
+__all__ = ["FrameView", "VesselView", "frame_view", "add_scene_geoms", "VELOCITY_ARROW_S", "COLOURS"]
+
+#: A track's velocity vector is drawn as the distance it covers in this time [s].
+VELOCITY_ARROW_S = 10.0
+#: Overlay colours (RGBA 0–1) shared by the scene and the legend.
+COLOURS = {"path": (1.0, 1.0, 1.0, 0.45), "detour": (0.0, 0.9, 1.0, 1.0), "conflict": (1.0, 0.15, 0.15, 1.0),
+           "svo": (1.0, 0.55, 0.0, 0.9), "fan_alpha": 0.3, "track_alpha": 0.35}
+#: The sensor fan keeps every FAN_DECIMATION-th beam without a return (all beams with one).
+FAN_DECIMATION = 6
+
+
+@dataclass
+class VesselView:
+    """One vessel as the frame shows it: true pose [m, rad], its colour (RGB 0–255), its mode."""
+
+    name: str
+    colour: tuple
+    position_m: np.ndarray
+    heading_rad: float
+    mode: str = ""
+    decision: str = ""  # the latest conflict's decision, e.g. "velocity_correction for T112 at 41 s"
+    fan: np.ndarray | None = None  # (k, 2) closed outline of the latest scan [m]
+    returns: np.ndarray | None = None  # (m, 2) world returns of the latest scan [m]
+    tracks: list = field(default_factory=list)  # TrackEstimate
+    conflicts: list = field(default_factory=list)  # (own (2,), obstacle (2,)) at t_c [m]
+    svos: list = field(default_factory=list)  # (k, 2) polygons [m]
+    detour: np.ndarray | None = None  # (k, 2) streamline [m]
+    field_obstacles: list = field(default_factory=list)  # (k, 2) polygons [m]
+
+
+@dataclass
+class FrameView:
+    time_s: float
+    vessels: list
+    current_m_s: np.ndarray  # (2,) the current at the view's centre [m/s]
+
+
+def frame_view(event, centre_xy) -> FrameView:
+    """The :class:`FrameView` of a :class:`~mjasc.runs.tick.SlotEvent` (public attributes only)."""
+    runner, st = event.runner, event.states
+    outputs = getattr(runner, "last_outputs", [None] * len(runner.agents))
+    vessels = []
+    for i, agent in enumerate(runner.agents):
+        out = outputs[i] if i < len(outputs) else None
+        v = VesselView(agent.name, vessel_colour(i), np.asarray(st.position_m[i], float), float(st.heading_rad[i]),
+                       out.mode if out is not None else getattr(agent, "mode", ""))
+        p = agent.perception
+        if p is not None:
+            scan = p.scan
+            if scan is not None:
+                v.fan, v.returns = scan_outline(scan), scan.hit_points_world
+            v.tracks = [tr for tr in p.tracks() if not tr.is_static]
+        a = agent.avoidance
+        if a is not None:
+            if a.conflict_log:  # capped at 50 entries: the latest decision shown is the 50th's after that
+                c = a.conflict_log[-1]
+                what = "a static obstacle" if c.get("static") else f"T{c['track_id']}"
+                v.decision = f"{c['decision']} for {what} at {c['time_s']:.0f} s"
+            last = a.last_prediction
+            if last is not None:
+                for c in last.conflicts:
+                    k = int(np.argmin(np.abs(c.times - c.t_closest_s)))
+                    v.conflicts.append((c.vessel_positions[k], c.obstacle_positions[k]))
+                    if c.svo_polygon is not None:
+                        v.svos.append(np.asarray(c.svo_polygon, float))
+            if a.detour is not None:
+                v.detour = np.asarray(a.detour.streamline, float)
+                v.field_obstacles = [np.asarray(o, float) for o in a.detour.obstacles]
+        vessels.append(v)
+    current = np.asarray(runner.sim.current.velocity(np.asarray(centre_xy, float).reshape(1, 2), event.time_s),
+                         float).reshape(-1)[:2]
+    return FrameView(float(event.time_s), vessels, current)
+
+
+def scan_outline(scan) -> np.ndarray:
+    """Closed world outline (k, 2) [m] of a scan's fan: the sensor origin, then the beam ends
+    ``o + ρ_k (cos(ψ + a_k), sin(ψ + a_k))`` of the kept beams (every :data:`FAN_DECIMATION`-th,
+    the first and last, and all with a return), then the origin again (a full circle closes on its
+    first beam end instead)."""
+    n = len(scan.angles_body)
+    keep = scan.hit.copy()
+    keep[::FAN_DECIMATION] = True
+    keep[[0, n - 1]] = True
+    ang = scan.heading_rad + scan.angles_body[keep]
+    ends = scan.origin_m + scan.ranges[keep, None] * np.column_stack([np.cos(ang), np.sin(ang)])
+    o = np.asarray(scan.origin_m, float)[None, :]
+    return np.vstack([ends, ends[:1]]) if scan.full_circle else np.vstack([o, ends, o])
+
+
+# ---------------------------------------------------------------------------------- geoms
+_EYE3 = np.eye(3).ravel()
+
+
+def _free(scn) -> bool:
+    return scn.ngeom < scn.maxgeom
+
+
+def add_line(scn, a, b, rgba, width: float = 2.0, z: float = 0.05) -> None:
+    """A line from world xy ``a`` to ``b`` [m] at height z, ``width`` pixels."""
+    if not _free(scn):
+        return
+    g = scn.geoms[scn.ngeom]
+    mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3), _EYE3, np.asarray(rgba, np.float32))
+    mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_LINE, width, np.array([a[0], a[1], z]), np.array([b[0], b[1], z]))
+    scn.ngeom += 1
+
+
+def add_strip(scn, points, rgba, width: float = 2.0, z: float = 0.05) -> None:
+    pts = np.asarray(points, float)
+    for a, b in zip(pts[:-1], pts[1:]):
+        add_line(scn, a, b, rgba, width, z)
+
+
+def add_arrow(scn, tail, tip, rgba, width_m: float, z: float = 0.3) -> None:
+    """A 3-D arrow from world xy ``tail`` to ``tip`` [m], shaft ``width_m`` wide."""
+    if not _free(scn) or np.hypot(tip[0] - tail[0], tip[1] - tail[1]) < 1e-6:
+        return
+    g = scn.geoms[scn.ngeom]
+    mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_ARROW, np.zeros(3), np.zeros(3), _EYE3, np.asarray(rgba, np.float32))
+    mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_ARROW, width_m, np.array([tail[0], tail[1], z]),
+                         np.array([tip[0], tip[1], z]))
+    scn.ngeom += 1
+
+
+def add_disc(scn, centre, radius_m: float, rgba, z: float = 0.04, kind=mujoco.mjtGeom.mjGEOM_CYLINDER) -> None:
+    """A flat disc (cylinder 2 cm high) or, with ``kind`` sphere, a ball of ``radius_m`` [m]."""
+    if not _free(scn):
+        return
+    g = scn.geoms[scn.ngeom]
+    size = np.array([radius_m, radius_m, 0.02 if kind == mujoco.mjtGeom.mjGEOM_CYLINDER else radius_m])
+    mujoco.mjv_initGeom(g, kind, size, np.array([centre[0], centre[1], z]), _EYE3, np.asarray(rgba, np.float32))
+    scn.ngeom += 1
+
+
+def _rgba(colour, alpha: float = 1.0) -> tuple:
+    return (*(np.asarray(colour[:3], float) / 255.0), alpha)
+
+
+def add_scene_geoms(scn, view: FrameView, marker_m: float, trails=(), paths=()) -> None:
+    """Draw ``view`` into ``scn`` (see the module docstring). ``marker_m`` [m]: map-symbol size
+    (0 draws no symbols: hulls are large enough, e.g. in a chase view); ``trails``: (k, 2) per
+    vessel in vessel order; ``paths``: (k, 2) mission paths."""
+    m = max(marker_m, 1.0)
+    for line in paths:
+        add_strip(scn, line, COLOURS["path"], 1.5, 0.02)
+    for v, trail in zip(view.vessels, trails):
+        if len(trail) > 1:
+            add_strip(scn, trail, _rgba(v.colour, 0.9), 3.0, 0.06)
+    for v in view.vessels:
+        if v.fan is not None:
+            add_strip(scn, v.fan, _rgba(v.colour, COLOURS["fan_alpha"]), 1.0, 0.03)
+        if v.returns is not None:  # short lines: a disc per return costs ~0.2 ms of software rendering
+            d = np.array([0.06 * m, 0.0])
+            for p in v.returns:
+                add_line(scn, p - d, p + d, _rgba(v.colour), 4.0, 0.08)
+        for tr in v.tracks:
+            add_disc(scn, tr.position_m, max(float(tr.radius_m), 0.1 * m), _rgba(v.colour, COLOURS["track_alpha"]), 0.1)
+            add_strip(scn, covariance_ellipse(tr.position_m, tr.position_covariance, 2.0, 17), _rgba(v.colour, 0.9), 1.5, 0.12)
+            vel = tr.speed_m_s * VELOCITY_ARROW_S * np.array([np.cos(tr.heading_rad), np.sin(tr.heading_rad)])
+            add_arrow(scn, tr.position_m, tr.position_m + vel, _rgba(v.colour, 0.95), 0.12 * m, 0.15)
+        for own, other in v.conflicts:
+            add_disc(scn, own, 0.18 * m, COLOURS["conflict"], 0.5, mujoco.mjtGeom.mjGEOM_SPHERE)
+            add_disc(scn, other, 0.12 * m, COLOURS["conflict"], 0.5, mujoco.mjtGeom.mjGEOM_SPHERE)
+            add_line(scn, own, other, COLOURS["conflict"], 2.0, 0.5)
+        for poly in v.svos:
+            add_strip(scn, np.vstack([poly, poly[:1]]), COLOURS["svo"], 2.0, 0.2)
+        for poly in v.field_obstacles:
+            add_strip(scn, np.vstack([poly, poly[:1]]), COLOURS["svo"], 2.0, 0.2)
+        if v.detour is not None:
+            add_strip(scn, v.detour, COLOURS["detour"], 3.0, 0.25)
+    if marker_m > 0:
+        for v in view.vessels:
+            d = np.array([np.cos(v.heading_rad), np.sin(v.heading_rad)])
+            add_arrow(scn, v.position_m - 0.5 * marker_m * d, v.position_m + marker_m * d, _rgba(v.colour), 0.35 * marker_m,
+                      0.6)
+

@@ -1,0 +1,109 @@
+"""What the command line shows a user: plain help, the viewer's exact path, units, progress,
+figure formats, and no output folder for a bad render request."""
+
+from __future__ import annotations
+
+import shlex
+import sys
+from pathlib import Path
+
+import pytest
+
+from mjasc.cli import build_parser, main, viewer_executable
+
+SUBCOMMANDS = ("run", "list", "trial", "figures", "view", "campaign", "report", "extract", "search", "render")
+
+
+@pytest.mark.parametrize("argv", [["--help"], *[[c, "--help"] for c in SUBCOMMANDS]])
+def test_help_has_no_restructuredtext_markup(argv, capsys):
+    with pytest.raises(SystemExit):
+        main(argv)
+    text = capsys.readouterr().out
+    assert text.strip()
+    for markup in ("``", ":func:", ":class:", ":mod:", ":data:", ":meth:", "`mjasc"):
+        assert markup not in text, markup
+
+
+def test_render_help_lists_every_domain_and_task(capsys):
+    from mjasc.suite import TASKS_BY_DOMAIN
+
+    with pytest.raises(SystemExit):
+        main(["render", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for domain, tasks in TASKS_BY_DOMAIN.items():
+        assert f"{domain}: {', '.join(tasks)}" in text
+
+
+def test_view_uses_the_viewer_installed_next_to_this_python(tmp_path, capsys):
+    (tmp_path / "recording.rrd").write_bytes(b"")
+    assert main(["view", str(tmp_path), "--print"]) == 0
+    exe = viewer_executable()
+    assert exe is not None and Path(exe).parent == Path(sys.executable).parent  # the venv's, not PATH's
+    assert capsys.readouterr().out.strip() == shlex.join([exe, str(tmp_path / "recording.rrd")])
+
+
+def test_view_without_a_recording_is_bad_input(tmp_path, capsys):
+    assert main(["view", str(tmp_path), "--print"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no recording.rrd" in err
+
+
+@pytest.mark.parametrize("domain, task", [("nope", "path_following"), ("otter", "nope")])
+def test_render_with_an_unknown_domain_or_task_creates_nothing(domain, task, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", domain, task]) == 2
+    assert list(tmp_path.iterdir()) == []
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "otter: path_following" in err
+
+
+def test_trial_prints_units(capsys):
+    assert main(["trial", "speed", "--vessel", "otter"]) == 0
+    rows = dict(line.split(None, 1) for line in capsys.readouterr().out.splitlines())
+    assert rows["steady_speed"].endswith(" m/s") and rows["t63"].endswith(" s")
+    assert rows["steady_yaw_rate"].endswith(" rad/s") and rows["timestep_s"].endswith(" s")
+
+
+def test_figures_prints_progress_and_writes_every_format(tmp_path, monkeypatch, capsys):
+    """The figure makers are replaced by one quick figure each: what is checked is the command's
+    progress and formats, not the figures (tests/test_figures.py)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    import mjasc.figures.avoidance as avoidance
+    import mjasc.figures.potential_field as potential_field
+    import mjasc.figures.tracking as tracking
+    from mjasc.figures.thesis import save_figure
+
+    def fake(stem):
+        def make(out_dir, formats=("png",)):
+            Path(out_dir).mkdir(parents=True, exist_ok=True)
+            fig = plt.figure()
+            try:
+                return save_figure(fig, Path(out_dir) / f"{stem}.png", formats)
+            finally:
+                plt.close(fig)
+        return make
+
+    monkeypatch.setattr(tracking, "make_tracking_figures", fake("t"))
+    monkeypatch.setattr(potential_field, "make_figures", fake("p"))
+    monkeypatch.setattr(avoidance, "make_avoidance_figures", fake("a"))
+    assert main(["figures", "--out", str(tmp_path), "--format", "png", "svg", "pdf"]) == 0
+    out = capsys.readouterr().out
+    assert out.count(" ...") == 3 and out.count("wrote") == 9 and "9 file(s)" in out
+    magic = {".png": b"\x89PNG", ".svg": b"<?xml", ".pdf": b"%PDF"}
+    files = sorted(tmp_path.rglob("*.*"))
+    assert len(files) == 9
+    for f in files:
+        assert f.read_bytes().startswith(magic[f.suffix]), f
+
+
+def test_figure_formats_are_checked():
+    from mjasc.figures.thesis import save_figure
+
+    with pytest.raises(ValueError, match="formats: must be some of png, svg, pdf, got jpg"):
+        save_figure(None, "x.png", ("jpg",))
+    with pytest.raises(SystemExit):
+        build_parser(["figures"]).parse_args(["figures", "--format", "jpg"])

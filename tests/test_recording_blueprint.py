@@ -1,0 +1,78 @@
+"""The demo recording's default blueprint opens on the scene, with a legend and per-vessel colours."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import rerun as rr
+
+from mjasc.runs.recording import LEGEND_CLASSES, legend_classes, vessel_colour
+from mjasc.runs.runner import Runner
+from mjasc.runs.scenario import load_scenario
+
+TASKS = Path(__file__).resolve().parents[1] / "tasks"
+
+
+def _columns(store) -> dict[str, list]:
+    """Every component column of a store: 'entity:Archetype:field' → its values (row lists)."""
+    out: dict[str, list] = {}
+    for chunk in store.stream():
+        batch = chunk.to_record_batch()
+        for name in batch.schema.names:
+            if ":" in name:
+                out.setdefault(f"{chunk.entity_path}:{name}", []).extend(batch.column(name).to_pylist())
+    return out
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory):
+    out = tmp_path_factory.mktemp("demo")
+    sc = load_scenario(TASKS / "demo.toml").with_overrides(duration_s=6.0)
+    runner = Runner(sc, out, progress=False)
+    runner.run()
+    reader = rr.chunk.RrdReader(out / "recording.rrd")
+    return runner, _columns(reader.store(store=reader.blueprints()[0])), _columns(reader.store())
+
+
+def test_top_down_view_looks_at_the_scene_not_the_origin(demo):
+    runner, blueprint, _ = demo
+    lo, hi = runner.extent()
+    targets = [v for k, v in blueprint.items() if k.endswith("EyeControls3D:look_target")]
+    positions = [v for k, v in blueprint.items() if k.endswith("EyeControls3D:position")]
+    assert len(targets) == 1 and len(positions) == 1
+    target = np.array(targets[0][0][0])
+    eye = np.array(positions[0][0][0])
+    assert np.all(target[:2] > lo) and np.all(target[:2] < hi)  # inside the extent
+    assert np.allclose(target[:2], 0.5 * (lo + hi))
+    assert np.linalg.norm(target[:2]) > 50.0  # the demo's centre is far from the origin
+    assert eye[2] > np.max(hi - lo) and np.allclose(eye[:2], target[:2], atol=0.02 * np.max(hi - lo))
+
+
+def test_the_legend_exists_with_every_vessel_in_its_colour(demo):
+    runner, blueprint, rec = demo
+    context = rec["/world:AnnotationContext:context"][0][0]
+    infos = {c["class_id"]: c["class_description"]["info"] for c in context}
+    names = [a.name for a in runner.agents]
+    for i, name in enumerate(names):
+        info = infos[i + 1]
+        assert info["label"] == name
+        r, g, b = vessel_colour(i)
+        assert info["color"] == (r << 24) | (g << 16) | (b << 8) | 0xFF
+    assert set(LEGEND_CLASSES) <= set(infos)
+    assert len(infos) == len(legend_classes(tuple(names)))
+    legend = rec["/legend:TextDocument:text"][0][0]
+    assert all(name in legend for name in names)
+    views = {k.split(":")[0]: v[0][0] for k, v in blueprint.items() if k.endswith("ViewBlueprint:space_origin")}
+    kinds = {k.split(":")[0]: v[0][0] for k, v in blueprint.items() if k.endswith("ViewBlueprint:class_identifier")}
+    assert any(origin == "legend" and kinds[view] == "TextDocument" for view, origin in views.items())
+    assert {f"plots/mode/{n}" for n in names} <= set(views.values())  # plots grouped per vessel
+
+
+def test_track_labels_are_off_by_default_and_plots_use_the_vessel_colour(demo):
+    runner, _, rec = demo
+    for i, agent in enumerate(runner.agents):
+        assert rec[f"/world/vessels/{agent.name}/tracks/positions:Points3D:show_labels"][0] == [False]
+        r, g, b = vessel_colour(i)
+        assert rec[f"/plots/mode/{agent.name}:SeriesLines:colors"][0] == [(r << 24) | (g << 16) | (b << 8) | 0xFF]

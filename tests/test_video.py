@@ -1,0 +1,118 @@
+"""The video's camera framing, world → pixel projection, overlays and heads-up display."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjasc.perception.range_sensor import Scan
+from mjasc.runs.runner import Runner
+from mjasc.runs.scenario import load_scenario
+from mjasc.runs.video import VideoWriter
+from mjasc.runs.video_hud import Projection, scale_bar_m
+from mjasc.runs.video_scene import FAN_DECIMATION, add_disc, frame_view, scan_outline
+
+TASKS = Path(__file__).resolve().parents[1] / "tasks"
+
+_WATER = """<mujoco><visual><global offwidth="640" offheight="480"/><quality shadowsize="0" offsamples="0"/></visual>
+<worldbody><light pos="0 0 100" dir="0 0 -1"/><geom type="plane" size="500 500 1" rgba="0.1 0.3 0.5 1"/></worldbody>
+</mujoco>"""
+
+
+@pytest.fixture(scope="module")
+def water():
+    m = mujoco.MjModel.from_xml_string(_WATER)
+    return m, mujoco.MjData(m)
+
+
+@pytest.mark.parametrize("camera", ["top_down", "overview"])
+def test_a_ball_lands_on_the_pixel_the_projection_predicts(tmp_path, water, camera):
+    m, d = water
+    extent = (np.array([40.0, -20.0]), np.array([240.0, 130.0]))
+    w = VideoWriter(tmp_path / "v.mp4", m, 320, 240, 10, camera, extent)
+    try:
+        for target in ([140.0, 55.0], [80.0, 100.0], [200.0, -5.0]):
+            w.renderer.update_scene(d, camera=w.camera)
+            add_disc(w.renderer.scene, target, 5.0, (1.0, 0.0, 1.0, 1.0), 0.0, mujoco.mjtGeom.mjGEOM_SPHERE)
+            img = w.renderer.render().astype(int)
+            magenta = (img[..., 0] - img[..., 1] > 60) & (img[..., 2] - img[..., 1] > 60)
+            assert magenta.sum() > 20, "the ball is in view"
+            rows, cols = np.nonzero(magenta)
+            px = Projection(w.renderer.scene, 320, 240)(np.array([[*target, 0.0]]))[0]
+            assert np.hypot(cols.mean() + 0.5 - px[0], rows.mean() + 0.5 - px[1]) < 2.0
+    finally:
+        w.close()
+
+
+def test_top_down_view_fits_the_extent_and_its_scale_is_span_over_height(tmp_path, water):
+    m, d = water
+    lo, hi = np.array([0.0, 0.0]), np.array([300.0, 100.0])  # wide: the width sets the span
+    w = VideoWriter(tmp_path / "v.mp4", m, 320, 240, 10, "top_down", (lo, hi))
+    try:
+        w.renderer.update_scene(d, camera=w.camera)
+        proj = Projection(w.renderer.scene, 320, 240)
+        span = 1.1 * max(100.0, 300.0 * 240 / 320)  # vertical span [m]
+        assert proj.top_down
+        assert proj.metres_per_pixel([150.0, 50.0, 0.0]) == pytest.approx(span / 240, rel=1e-6)
+        corners = proj(np.array([[0.0, 0.0, 0.0], [300.0, 100.0, 0.0]]))
+        assert np.all((corners >= 0) & (corners <= [320, 240]))  # the extent is inside the frame
+        assert corners[1, 1] < corners[0, 1]  # north is up
+    finally:
+        w.close()
+
+
+@pytest.mark.parametrize("mpp, width, expected", [(0.5, 640, 50.0), (1.0, 100, 20.0), (0.01, 640, 1.0),
+                                                   (3.0, 640, 200.0)])
+def test_scale_bar_is_the_round_length_below_a_fifth_of_the_width(mpp, width, expected):
+    assert scale_bar_m(mpp, width) == expected
+
+
+def test_fan_outline_keeps_every_return_and_ends_at_the_measured_ranges():
+    n = 36
+    angles = -np.pi + (np.arange(n) + 0.5) * 2 * np.pi / n
+    hit = np.zeros(n, bool)
+    hit[[4, 5, 20]] = True
+    ranges = np.where(hit, 10.0, 50.0)
+    scan = Scan(0.0, np.array([3.0, 4.0]), 0.5, angles, ranges, hit, np.flatnonzero(hit), np.zeros((3, 2)),
+                np.zeros((3, 2)), np.full(n, -1), 50.0, 2 * np.pi / n, True)
+    out = scan_outline(scan)
+    keep = set(range(0, n, FAN_DECIMATION)) | {0, n - 1, 4, 5, 20}
+    assert len(out) == len(keep) + 1 and np.allclose(out[0], out[-1])  # closed
+    dist = np.hypot(*(out[:-1] - [3.0, 4.0]).T)
+    assert sorted(np.round(dist, 9)) == sorted([10.0 if k in (4, 5, 20) else 50.0 for k in keep])
+    end = out[1] - [3.0, 4.0]  # beam 4 is the second kept beam: world angle ψ + a_4
+    assert np.arctan2(end[1], end[0]) == pytest.approx(np.angle(np.exp(1j * (0.5 + angles[4]))))
+
+
+def test_demo_frames_show_what_each_vessel_senses_and_decides(tmp_path):
+    """After the ferry is tracked, the frame view holds every vessel's fan and tracks, and the
+    rendered frame shows each vessel's name in its colour next to its projected position."""
+    sc = load_scenario(TASKS / "demo.toml").with_overrides(duration_s=12.0, video=True)
+    sc = dataclasses.replace(sc, outputs=dataclasses.replace(sc.outputs, video_width=320, video_height=240,
+                                                             video_fps=1.0))
+    runner = Runner(sc, tmp_path, progress=False)
+    seen = {}
+
+    def grab(event):
+        seen["view"] = frame_view(event, (0.0, 0.0))
+        seen["frame"] = runner.video.add_event(event)  # one more frame, read back here
+        seen["proj"] = Projection(runner.video.renderer.scene, 320, 240)
+
+    runner.observe("video", grab)
+    result = runner.run()
+    view, frame, proj = seen["view"], seen["frame"], seen["proj"]
+    assert [v.name for v in view.vessels] == ["alpha", "bravo", "charlie"]
+    assert all(v.fan is not None and len(v.fan) > 10 for v in view.vessels)
+    assert all(v.mode == "mission" for v in view.vessels)
+    assert any(v.tracks for v in view.vessels)
+    assert view.current_m_s == pytest.approx([0.0, 0.2])
+    for v in view.vessels:  # the name label in the vessel's colour, up and right of the hull
+        x, y = proj(np.array([[*v.position_m, 0.5]]))[0].astype(int)
+        patch = frame[max(y - 20, 0):y, x:x + 50].astype(int)
+        assert (np.abs(patch - np.array(v.colour)).sum(axis=-1) < 60).sum() >= 5, v.name
+    assert result.summary["video_frames"] == 2 * 13  # the slot's 13 and this test's 13
+    assert set(result.summary["video_timing_s"]) == {"view", "scene", "render", "hud", "encode"}
