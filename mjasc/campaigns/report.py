@@ -171,7 +171,7 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
     ax.boxplot([[s for s in v if s is not None] or [np.nan] for v in seps], showfliers=True)
     ax.set_xticks(np.arange(1, len(fams) + 1), fams, rotation=20, ha="right")
     ax.axhline(0.0, color="tab:red", lw=1, ls="--")
-    ax.set_ylabel("minimum separation [m] (< 0: hull circles overlap)")
+    ax.set_ylabel("minimum separation [m]\n(< 0: hull circles overlap)")
     ax.set_title("Minimum separation per run")
     fig.tight_layout()
     files += _save(fig, out, "separation", formats)
