@@ -76,7 +76,7 @@ class RunEvaluator:
         self.vessel_radii = np.array([t.radius_m for t in world.vessel_types])
         self.traffic_names = [o.name for o in world.moving_obstacles]
         self.traffic_radii = np.array([o.radius_m for o in world.moving_obstacles])
-        self._t, self._p, self._h, self._v = [], [], [], []
+        self._h, self._v = [], []  # times and positions: self.progress (t, p)
         self._tp, self._th, self._tv = [], [], []
         self._scores: dict[int, TrackingScore] = {}
         self.progress = ProgressTrace(runner)
@@ -88,8 +88,6 @@ class RunEvaluator:
     def __call__(self, event) -> None:
         s, runner = event.states, event.runner
         tp, th, tv = runner.sim.traffic_state()
-        self._t.append(s.time_s)
-        self._p.append(s.position_m.copy())
         self._h.append(s.heading_rad.copy())
         self._v.append(s.velocity_m_s.copy())
         self._tp.append(np.array(tp, dtype=float).reshape(-1, 2))
@@ -111,11 +109,11 @@ class RunEvaluator:
     # ------------------------------------------------------------------ evaluation
     def encounters(self) -> list[dict]:
         """One entry per (vessel, traffic object) encounter (module docstring)."""
-        if not self._t or not self.traffic_names:
+        if not self.progress.t or not self.traffic_names:
             return []
         cfg = self.config
-        t = np.array(self._t)
-        p, h, v = np.array(self._p), np.array(self._h), np.array(self._v)
+        t = np.array(self.progress.t)
+        p, h, v = np.array(self.progress.p), np.array(self._h), np.array(self._v)
         q, qh, w = np.array(self._tp), np.array(self._th), np.array(self._tv)
         out = []
         for i, name in enumerate(self.vessel_names):
