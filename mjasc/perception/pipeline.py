@@ -41,7 +41,7 @@ from dataclasses import replace
 import numpy as np
 
 from mjasc.perception.detection import Detections, detect, finite_detections
-from mjasc.perception.fleet import DISC_MARGIN_M, PerceptionFleet, fleet_of, tracked_discs
+from mjasc.perception.fleet import DISC_MARGIN_M, PerceptionFleet, fleet_of
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
 from mjasc.perception.tracking.config import TrackingConfig
@@ -144,20 +144,8 @@ class Perception:
         st["detections"] += len(det)
         st["target_detections"] += int(np.count_nonzero(targets))
 
-    def tracked_discs(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-        """Centres (q, 2) and radii (q,) [m] of the confirmed tracks whose returns must never reach
-        the map, predicted to the scan time t_s: every moving track, and every static one that was
-        seen to move (a boat that stopped; ``tracking.management.MOVED_M`` from where it was
-        confirmed); :func:`mjasc.perception.fleet.tracked_discs`."""
-        tr = self.tracker
-        ft = tr.fleet
-        rows = tr._rows()
-        mg = ft.mgmt
-        rows = rows[mg._confirmed[rows] & (~mg._static[rows] | mg._moved[rows])]
-        return tracked_discs(ft, rows, np.full(rows.size, float(t_s)))
-
     def _split_tracked(self, scan: Scan, det: Detections, discs) -> Detections:
-        """The returns of extended clusters that lie in a tracked disc (:meth:`tracked_discs`) taken out
+        """The returns of extended clusters that lie in a tracked disc (:func:`mjasc.perception.fleet.tracked_discs`) taken out
         of their cluster and clustered again on their own, as target detections: a boat close to a
         wall (or to another boat) whose returns joined the wall's cluster keeps its track updated
         instead of being written into the map as part of the wall."""
