@@ -265,3 +265,39 @@ def test_sample_moments_of_the_draws_match_the_sigmas(base_campaign):
     assert base.moving_obstacles[0].speed_m_s > 6 * r.traffic_speed_sigma_m_s
     dv = np.array([d.traffic_speed_offset_m_s for d in draws])[:, 0]
     assert abs(dv.mean()) < 4 * 0.1 / math.sqrt(n) and dv.std(ddof=1) == pytest.approx(0.1, rel=4 / math.sqrt(2 * n))
+
+
+def test_a_stress_family_runs_the_scenario_on_its_own_seeds_under_the_stated_conditions():
+    """thesis_stress: each family's run k uses seed 1 + k whatever its place in the campaign; the
+    stressed families write 30 % dropout into every sensor and 30 % loss into the link, nothing else."""
+    import tomllib
+
+    from mjasc.campaigns.spec import load_campaign_spec, parse_campaign_spec
+    from mjasc.campaigns.perturbation import CampaignError
+
+    spec = load_campaign_spec("thesis_stress")
+    runs = list(spec.runs())
+    assert len(runs) == 200
+    by_family = {}
+    for r in runs:
+        by_family.setdefault(r.family, []).append(r)
+    for fam, rs in by_family.items():
+        assert [r.seed for r in rs] == list(range(1, 21)), fam
+        docs = [tomllib.loads(r.scenario_toml) for r in rs]
+        assert all(d["seed"] == r.seed for d, r in zip(docs, rs))
+        for d in docs:
+            dropouts = {v["sensor"].get("dropout_probability") for v in d["vessels"] if "sensor" in v}
+            if fam.endswith("_stressed"):
+                assert dropouts == {0.3}
+                assert "comms" not in d or d["comms"]["loss_probability"] == 0.3
+            else:
+                assert 0.3 not in dropouts
+    shipped = tomllib.loads(by_family["crossing"][4].scenario_toml)
+    stressed = tomllib.loads(by_family["crossing_stressed"][4].scenario_toml)
+    for v in stressed["vessels"]:
+        v["sensor"].pop("dropout_probability")
+    stressed["comms"]["loss_probability"] = shipped["comms"]["loss_probability"]
+    assert stressed == shipped
+    with pytest.raises(CampaignError, match=r"families\[0\]\.conditions\.sensor_dropout"):
+        parse_campaign_spec({"families": [{"kind": "perturbation", "scenario": "thesis_6_2_dock.toml",
+                                           "conditions": {"sensor_dropout": 1.5}}]}, "x.toml", "tasks")

@@ -346,10 +346,37 @@ def _flat_draws(draws: dict) -> dict:
 
 
 @dataclass(frozen=True)
+class Conditions:
+    """Fixed conditions a perturbation family imposes on every run (unset: as the scenario says):
+    a stress test of the same scenario under worse sensing and a worse link."""
+
+    sensor_dropout: float | None = param(None, nonneg=True, maximum=0.95,
+                                         doc="every vessel's range sensor loses each true return with this probability")
+    comms_loss: float | None = param(None, nonneg=True, maximum=1.0,
+                                     doc="the link's packet-loss probability near the sender ([comms] loss_probability)")
+
+    def __post_init__(self):
+        check_params(self, "conditions")
+
+    def apply(self, doc: dict) -> dict:
+        """``doc`` (a scenario document) with the conditions written in (a new dict)."""
+        doc = dict(doc)
+        if self.sensor_dropout is not None:
+            doc["vessels"] = [{**v, "sensor": {**v["sensor"], "dropout_probability": self.sensor_dropout}}
+                              if isinstance(v.get("sensor"), dict) else v for v in doc.get("vessels", [])]
+        if self.comms_loss is not None and isinstance(doc.get("comms"), dict):
+            doc["comms"] = {**doc["comms"], "loss_probability": self.comms_loss}
+        return doc
+
+
+@dataclass(frozen=True)
 class PerturbationFamily:
     """Today's campaign as one family kind: run ``index`` of the campaign is
     :func:`randomized_scenario` of run ``index`` (seed ``base_seed + index``, draws from
-    ``default_rng([base_seed, index, 0xC0FFEE])``), written out as a scenario document."""
+    ``default_rng([base_seed, index, 0xC0FFEE])``), written out as a scenario document.
+    ``first_seed`` set: family run k uses seed ``first_seed + k`` instead (the same seeds in every
+    family: a scenario on its seeds 1–20 as shipped and stressed); ``conditions`` are imposed on
+    every run (:class:`Conditions`)."""
 
     name: str
     index: int
@@ -358,6 +385,8 @@ class PerturbationFamily:
     scenario: Scenario = field(repr=False)  # its parsed form
     randomize: Randomization = field(default_factory=Randomization)
     runs_per_point: int = 1
+    first_seed: int | None = None
+    conditions: Conditions = field(default_factory=Conditions)
     kind = "perturbation"
 
     @property
@@ -372,12 +401,18 @@ class PerturbationFamily:
         """(parameters, scenario document, seed, header) of the campaign's run ``index`` (family run k)."""
         doc = {"name": self.scenario.name, **perturbed_document(self.data, self.scenario, self.randomize, base_seed,
                                                                   index)}
-        params = _flat_draws(draw_perturbations(self.scenario, self.randomize, base_seed, index).as_dict(self.scenario))
-        header = f"perturbation of {self.scenario_ref} ({self.scenario.name}), draws of run {index}"
-        return params, doc, base_seed + index, header
+        seed = base_seed + index
+        if self.first_seed is not None:
+            seed = doc["seed"] = self.first_seed + k
+        doc = self.conditions.apply(doc)
+        params = {} if self.randomize.is_zero else \
+            _flat_draws(draw_perturbations(self.scenario, self.randomize, base_seed, index).as_dict(self.scenario))
+        params.update({f"conditions.{key}": v for key, v in vars(self.conditions).items() if v is not None})
+        header = f"perturbation of {self.scenario_ref} ({self.scenario.name}), draws of run {index}, seed {seed}"
+        return params, doc, seed, header
 
 
-_FAMILY = {"name", "kind", "scenario", "runs_per_point", "duration_s", "randomize"}
+_FAMILY = {"name", "kind", "scenario", "runs_per_point", "duration_s", "randomize", "first_seed", "conditions"}
 
 
 def parse_perturbation_family(t: dict, where: str, index: int, base_dir: str | Path) -> PerturbationFamily:
@@ -393,6 +428,8 @@ def parse_perturbation_family(t: dict, where: str, index: int, base_dir: str | P
         runs = integer(t.get("runs_per_point", 1), at("runs_per_point"), minimum=1)
         randomize = dataclass_from_table(Randomization, t.get("randomize", {}), at("randomize"))
         duration = number(t["duration_s"], at("duration_s"), positive=True) if "duration_s" in t else None
+        first_seed = integer(t["first_seed"], at("first_seed"), minimum=0) if "first_seed" in t else None
+        conditions = dataclass_from_table(Conditions, t.get("conditions", {}), at("conditions"))
         rel = t.get("scenario")
         if not isinstance(rel, str) or not rel:
             raise CampaignError(f"{at('scenario')}: must be the path of a scenario file (relative to the campaign "
@@ -409,4 +446,8 @@ def parse_perturbation_family(t: dict, where: str, index: int, base_dir: str | P
         scenario = parse_scenario(data, str(path))
     except ScenarioError as exc:
         raise CampaignError(f"{at('scenario')}: {exc}") from None
-    return PerturbationFamily(name, index, rel, data, scenario, randomize, runs)
+    try:
+        parse_scenario(conditions.apply(data), str(path))
+    except ScenarioError as exc:
+        raise CampaignError(f"{at('conditions')}: {exc}") from None
+    return PerturbationFamily(name, index, rel, data, scenario, randomize, runs, first_seed, conditions)
