@@ -69,9 +69,23 @@ class AvoidanceConfig:
     static_speed_m_s: float = param(0.15, nonneg=True, unit="m/s",
                                     doc="tracks estimated slower than this are taken as static (a moored boat's IMM "
                                         "speed is noise around zero)")
+    structure_speed_m_s: float = param(0.5, nonneg=True, unit="m/s",
+                                       doc="a track slower than this whose disc overlaps a mapped static polygon is "
+                                           "that structure seen again (a false track formed by its returns) and is "
+                                           "taken as static; 0: off")
     last_resort_s: float = param(10.0, nonneg=True, unit="s",
                                  doc="a stand-on vessel acts too when the collision is this close in time "
                                      "(COLREG rule 17)")
+    traffic_rule: str = param("thesis", choices=("thesis", "colreg"),
+                              doc="towards traffic outside the team: 'thesis' always gives way (slows down, or "
+                                  "re-plans); 'colreg' acts by the vessel's role (rules 13–17): head-on → lane change "
+                                  "to starboard; crossing give-way → slow down and pass astern, never ahead; "
+                                  "stand-on (crossing from port, being overtaken) → keep course and speed until "
+                                  "the collision is stand_on_s away, then act; overtaking → keep out of the way")
+    stand_on_s: float = param(20.0, nonneg=True, unit="s",
+                              doc="with traffic_rule = 'colreg': a stand-on vessel keeps course and speed until the "
+                                  "predicted collision is this close in time (rule 17 (a)(ii): the give-way vessel "
+                                  "is evidently not acting)")
     team_broadcast_max_age_s: float = param(3.0, nonneg=True, unit="s",
                                             doc="a team mate is predicted from its own broadcast (position, "
                                                 "velocity, heading rate, plan) when that is at most this old; "

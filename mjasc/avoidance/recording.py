@@ -131,7 +131,7 @@ class AvoidanceLog:
             self._detour_shown = True
             recorder.strips(f"{base}/detour", t, [d.streamline], z=0.25)
             recorder.strips(f"{base}/field_obstacles", t, [_closed(p) for p in d.obstacles], z=0.25)
-            if full:
+            if full and d.field is not None:
                 self._log_field(recorder, t, base, d)
         elif self._detour_shown:  # the detour ended: empty rows clear it from the view
             self._detour_shown = False

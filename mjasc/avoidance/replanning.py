@@ -39,7 +39,8 @@ __all__ = ["Detour", "swept_area", "merge_overlapping", "plan_detour"]
 class Detour:
     """A re-planned path: ``path`` = streamline (length ``detour_length_m``) + the rest of the
     mission path from ``mission_gamma_goal_m``; it replaced the mission path from
-    ``mission_gamma_start_m``. ``obstacles`` the field's polygons, ``field`` the field itself."""
+    ``mission_gamma_start_m``. ``obstacles`` the field's polygons, ``field`` the field itself
+    (None for a lane change, :mod:`~mjasc.avoidance.lane_change`, which has neither)."""
 
     path: Path
     detour_length_m: float
@@ -47,7 +48,7 @@ class Detour:
     mission_gamma_goal_m: float
     streamline: np.ndarray
     obstacles: tuple
-    field: PotentialField
+    field: PotentialField | None
     time_s: float
 
     def mission_gamma(self, gamma_m: float) -> float:

@@ -61,6 +61,7 @@ import numpy as np
 
 from mjasc.avoidance.config import AvoidanceConfig, parse_avoidance_options
 from mjasc.avoidance.decision import Correction, emergency_yield, velocity_correction_for
+from mjasc.avoidance.lane_change import plan_lane_change
 from mjasc.avoidance.prediction import (Decision, PredictedConflict, PredictionQuery, TrackMotions, gamma_of_time,
                                         predict_fleet)
 from mjasc.avoidance.recording import AvoidanceLog
@@ -69,6 +70,8 @@ from mjasc.avoidance.request import MODES, AvoidanceRequest, PathSwitch
 from mjasc.avoidance.right_of_way import gives_way, relative_bearing
 from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, track_outline
 from mjasc.avoidance.team_mates import PlannedTrack, TeamMates
+from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+from mjasc.evaluation.colreg import classify
 from mjasc.guidance.paths import Path
 from mjasc.guidance.state import GuidanceState
 
@@ -124,6 +127,36 @@ def predict_slot(calls) -> list[AvoidanceRequest]:
     return out
 
 
+def _correction_profile(correction: Correction | None, t_now: float, gamma_now: float, mission_speed_m_s: float):
+    """γ(t) [m] for t ≥ t_now under ``correction``: its V_d until its goal time, the mission speed
+    after; None → the mission speed [m/s] itself (a constant profile)."""
+    v_m = float(mission_speed_m_s)
+    if correction is None:
+        return v_m
+    t_g, v_d = correction.law.t_goal, max(correction.law.desired_speed, 0.0)
+
+    def gamma_fn(t):
+        t = np.asarray(t, dtype=float)
+        return gamma_now + v_d * np.clip(t - t_now, 0.0, max(t_g - t_now, 0.0)) + v_m * np.maximum(t - max(t_g, t_now), 0.0)
+
+    return gamma_fn
+
+
+#: A track bearing more than this far from the bow [rad] is abaft the beam (COLREG rule 13: 22.5° abaft).
+_ABAFT_BEAM_RAD = np.radians(112.5)
+
+
+def _overtaking_us(nav, track) -> bool:
+    """The track comes up from abaft the vessel's beam and is faster along the vessel's course:
+    it is overtaking (COLREG rule 13), and the vessel slowing down would only close the gap faster."""
+    bearing = relative_bearing(nav.position_m, nav.heading_rad, track.position_m)
+    if abs(bearing) < _ABAFT_BEAM_RAD:
+        return False
+    course = np.array([np.cos(nav.heading_rad), np.sin(nav.heading_rad)])
+    v_track = track.speed_m_s * np.array([np.cos(track.heading_rad), np.sin(track.heading_rad)])
+    return bool(v_track @ course > float(np.hypot(*np.asarray(nav.velocity_m_s, dtype=float)[:2])))
+
+
 class CollisionAvoidance:
     """Collision avoidance of one vessel (see the module docstring).
 
@@ -168,11 +201,13 @@ class CollisionAvoidance:
         self.mode_time_s = {m: 0.0 for m in MODES}
         self.stats = {"predictions": 0, "predicted_conflicts": 0, "static_conflicts": 0, "yield": 0, "pass": 0,
                       "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
-                      "deviation_predictions": 0, "emergency": 0}
+                      "deviation_predictions": 0, "emergency": 0, "lane_change": 0, "checked_choice": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
         self._conflict_keys: set = set()
         self._last: PredictionRecord | None = None
+        self._last_query: PredictionQuery | None = None  # the latest prediction's query (its disc tracks)
+        self._team_track_ids: set[int] = set()  # ... and which of its tracks are team mates
         self._log = AvoidanceLog()
         # The inputs of the call in progress (set by predict / control; the guidance state follows
         # the path switches this call requests, so a re-prediction sees the new path).
@@ -228,17 +263,7 @@ class CollisionAvoidance:
     def planned_gamma(self, t_now: float, gamma_now: float, mission_speed_m_s: float):
         """γ(t) [m] on the current path for absolute times t ≥ t_now: the virtual target's speed V_d
         until its goal time while a correction runs, the mission speed [m/s] after."""
-        v_m = float(mission_speed_m_s)
-        c = self.correction
-        if c is None:
-            return v_m
-        t_g, v_d = c.law.t_goal, max(c.law.desired_speed, 0.0)
-
-        def gamma_fn(t):
-            t = np.asarray(t, dtype=float)
-            return gamma_now + v_d * np.clip(t - t_now, 0.0, max(t_g - t_now, 0.0)) + v_m * np.maximum(t - max(t_g, t_now), 0.0)
-
-        return gamma_fn
+        return _correction_profile(self.correction, t_now, gamma_now, mission_speed_m_s)
 
     def planned_trajectory(self, t, nav, guidance: GuidanceState | None, horizon_s: float, step_s: float):
         """Where this vessel intends to be: (times (k,) absolute [s], points (k, 2) world [m]) every
@@ -266,6 +291,24 @@ class CollisionAvoidance:
         all_c = predict_fleet([pending.query])[0] if pending.query is not None else []
         return self._act_on_prediction(t, nav, pending, all_c, static_polygons, after_replan)
 
+    def _on_mapped_structure(self, tracks) -> set[int]:
+        """Ids of the slow stranger tracks (slower than ``structure_speed_m_s``) whose disc overlaps
+        a mapped static polygon: the structure's own returns seen as a track (in the §6.4.3
+        bottleneck a 7.7 m track drifting at 0.23 m/s on the north island's edge sent a vessel's
+        detour into the island)."""
+        v_max = self.config.structure_speed_m_s
+        polys = list(self._perceived.static_polygons) if self._perceived is not None else []
+        slow = [tr for tr in tracks if not tr.is_static and tr.speed_m_s < v_max and tr.team_member is None]
+        if not polys or not slow:
+            return set()
+        centres = np.array([tr.position_m for tr in slow], dtype=float).reshape(-1, 2)
+        radii = np.array([tr.radius_m for tr in slow], dtype=float)
+        near = np.zeros(len(slow), dtype=bool)
+        for p in polys:
+            p = np.asarray(p, dtype=float)
+            near |= point_in_polygon(centres, p) | (distance_to_polygon(centres, p) < radii)
+        return {tr.track_id for tr, n in zip(slow, near) if n}
+
     def _prediction_query(self, t, tracks) -> "_Pending":
         """The first half of :meth:`_predict`: the tracks as predicted (team mates from their
         broadcasts, slow tracks static) and the query of the disc tracks."""
@@ -274,8 +317,10 @@ class CollisionAvoidance:
                                         self._event)
         fresh = self.team_mates.fresh(self._team, t)
         v_static = self.config.static_speed_m_s
+        on_structure = self._on_mapped_structure(tracks)
         tracks = [replace(tr, is_static=True, speed_m_s=0.0, turn_rate_rad_s=0.0)
-                  if (not tr.is_static and tr.speed_m_s < v_static and not self.team_mates.broadcast_based(tr, fresh))
+                  if (not tr.is_static and (tr.speed_m_s < v_static or tr.track_id in on_structure)
+                      and not self.team_mates.broadcast_based(tr, fresh))
                   else tr for tr in tracks]
         self._known_track_ids |= {tr.track_id for tr in tracks}
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
@@ -307,6 +352,8 @@ class CollisionAvoidance:
             statics += [replace(c, track_id=tid) for c in
                         static_conflicts(t, path, gamma, profile, [poly], self.radius_m, self.prediction_config)]
         by_id = {tr.track_id: tr for tr in tracks}
+        self._last_query = pending.query
+        self._team_track_ids = {tr.track_id for tr in tracks if tr.team_member in self.team}
         self._last = PredictionRecord(t, path, gamma, tuple(all_c), tuple(conflicts), tuple(statics), by_id)
         self._log.prediction_pending()
         for c in conflicts:
@@ -365,11 +412,34 @@ class CollisionAvoidance:
         svos: list = []
         candidates: list[Correction] = []
         unresolved: list[PredictedConflict] = []
+        starboard: list[PredictedConflict] = []  # head-on under COLREG: a lane change to starboard
         for c in conflicts:
             track = by_id.get(c.track_id)
             is_team = track is not None and track.team_member in self.team and not c.is_static
+            role = self._colreg_role(nav, track) if not is_team and track is not None and not c.is_static else None
+            if role in ("crossing_stand_on", "overtaken") and c.t_closest_s - t > cfg.stand_on_s:
+                self.stats["stand_on"] += 1
+                self._event(t, f"stand-on vessel ({role.replace('_', ' ')}) towards track {c.track_id}: keeps course "
+                               f"and speed (COLREG rule 17) until the collision is {cfg.stand_on_s:g} s away")
+                continue
+            if role == "head_on":
+                starboard.append(c)
+                continue
+            if role == "crossing_give_way":  # slow down and pass astern; never cross ahead (rule 15)
+                corr = velocity_correction_for(t, gamma, c, replace(cfg, allow_pass_first=False), self.speed_max_m_s)
+                if corr is not None:
+                    candidates.append(corr)
+                else:
+                    t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
+                    svos.append((swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), c.collision_distance_m), c))
+                continue
             if c.decision == Decision.REPLAN and not is_team:
                 svos.append((c.svo_polygon, c))
+                continue
+            if not is_team and track is not None and not c.is_static and _overtaking_us(nav, track):
+                # Slowing down lets a vessel overtaking from abaft the beam close faster: leave its lane.
+                t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
+                svos.append((swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), c.collision_distance_m), c))
                 continue
             if is_team and not gives_way(nav.position_m, nav.heading_rad, track.position_m, track.heading_rad, True):
                 astern = np.cos(relative_bearing(nav.position_m, nav.heading_rad, track.position_m)) < 0.0
@@ -397,6 +467,16 @@ class CollisionAvoidance:
                 svos.append((swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), r_col), c))
         for s in statics:
             svos.append((s.polygon, s))
+        if starboard and allow_replan:
+            if self._lane_change_to_starboard(t, nav, starboard, static_polygons, static_outlines):
+                self.correction = None
+                self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True)
+                return
+            for c in starboard:  # no starboard lane: as the thesis would
+                track = by_id[c.track_id]
+                t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
+                svos.append((c.svo_polygon if c.svo_polygon is not None else
+                             swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), c.collision_distance_m), c))
         if svos and allow_replan:
             if self._replan(t, nav, svos, static_polygons, by_id, static_outlines):
                 # The path changed: predict again on the detour (velocity corrections only).
@@ -412,6 +492,10 @@ class CollisionAvoidance:
             yields = [c for c in candidates if c.kind == "yield"]
             chosen = min(yields, key=lambda c: c.law.desired_speed) if yields else \
                 max(candidates, key=lambda c: c.law.desired_speed)
+            chosen = self._checked_choice(t, chosen, candidates, conflicts)
+            if chosen is None:
+                self.correction = None
+                return
             self.correction = chosen
             self.stats[chosen.kind] += 1
             law = chosen.law
@@ -419,12 +503,86 @@ class CollisionAvoidance:
                            f"γ {law.gamma0:.1f} → {law.gamma_goal:.1f} m by t = {law.t_goal:.1f} s, "
                            f"V_d = {law.desired_speed:.2f} m/s, k = {law.gain_k:g}")
 
+    def _colreg_role(self, nav, track) -> str | None:
+        """The vessel's COLREG role towards a stranger's track (:func:`mjasc.evaluation.colreg.classify`,
+        the geometry the evaluation judges by), or None under the thesis rule."""
+        if self.config.traffic_rule != "colreg":
+            return None
+        speed = float(np.hypot(*np.asarray(nav.velocity_m_s, dtype=float)[:2]))
+        role = classify(nav.position_m, nav.heading_rad, speed, track.position_m, track.heading_rad, track.speed_m_s)
+        return None if role == "none" else role
+
+    def _lane_change_to_starboard(self, t, nav, conflicts, static_polygons, static_outlines) -> bool:
+        """COLREG rule 14 (head-on): leave the target's lane to starboard. True when switched."""
+        lane = plan_lane_change(t, nav.position_m, self.mission_path, self.mission_gamma_m(self._guidance),
+                                self._guidance.mission_speed_m_s, conflicts,
+                                list(static_polygons) + list(static_outlines), self.config, self.static_inflation_m,
+                                starboard_only=True)
+        if isinstance(lane, str):
+            self._event(t, f"head-on: {lane}")
+            return False
+        self.detour = lane
+        self._set_path(lane.path, 0.0, "detour")
+        self.stats["replan"] += 1
+        self.stats["lane_change"] += 1
+        self._event(t, f"head-on (COLREG rule 14): lane change to starboard of {lane.detour_length_m:.1f} m, "
+                       f"rejoining the mission path at γ = {lane.mission_gamma_goal_m:.1f} m")
+        self._log.prediction_pending()
+        return True
+
+    def _checked_choice(self, t, chosen: Correction, candidates: list[Correction], conflicts) -> Correction | None:
+        """``chosen``, unless the speed it plans runs into another track. Every option's planned
+        motion (its V_d until its goal time, the mission speed after) is predicted against all the
+        disc tracks in one call (conflicts with strangers only: between team mates the right of way
+        and the broadcast plans decide); the options are ``chosen``, the other candidates (slowest first),
+        passing first for each conflict where feasible, and keeping the mission speed (None). The
+        first with no predicted collision is taken; when every one collides, ``chosen`` (the
+        thesis's choice) stays. (In Imazu case 19 the slow-down for one target put the vessel in
+        the path of another 5 s later.)"""
+        query = self._last_query
+        if query is None or len(query.tracks) < 2 or any(
+                getattr(c, "track_id", None) in self._team_track_ids for c in conflicts):
+            return chosen  # team mates coordinate by right of way and their broadcast plans
+        g_state = self._guidance
+        gamma = float(np.clip(g_state.gamma_m, 0.0, g_state.path.length))
+        options = [chosen] + sorted((c for c in candidates if c is not chosen), key=lambda c: c.law.desired_speed)
+        for c in conflicts:
+            if isinstance(c, PredictedConflict) and not any(o.kind == "pass" and o.track_id == c.track_id
+                                                             for o in options):
+                alt = velocity_correction_for(t, gamma, c, self.config, self.speed_max_m_s, pass_only=True)
+                if alt is not None:
+                    options.append(alt)
+        options.append(None)
+        queries = [replace(query, vessel_path=g_state.path, gamma_now=gamma, t_now=float(t),
+                           speed_profile=_correction_profile(c, float(t), gamma, g_state.mission_speed_m_s),
+                           include_clear=True) for c in options]
+        results = predict_fleet(queries)
+        clear = [k for k, res in enumerate(results) if not any(r.collision for r in res)]
+        k = clear[0] if clear else 0
+        if k != 0:
+            self.stats["checked_choice"] += 1
+            what = "keep the mission speed" if options[k] is None else \
+                f"{options[k].kind} for track {options[k].track_id}"
+            self._event(t, f"{chosen.kind} for track {chosen.track_id} still leaves a predicted collision (with it or "
+                           f"another track): {what} instead")
+        return options[k]
+
     def _replan(self, t, nav, svos, static_polygons, by_id=None, static_outlines=()) -> bool:
         """Plan a detour (:func:`~mjasc.avoidance.replanning.plan_detour`) and switch to it. True on success."""
         mission = self.mission_path
         g_now_m = self.mission_gamma_m(self._guidance)
         out = plan_detour(t, nav.position_m, mission, g_now_m, svos, static_polygons, by_id, static_outlines,
                           self.config, self.radius_m, self.static_inflation_m, self._event)
+        dynamic = [c for _, c in svos if not isinstance(c, StaticConflict) and not c.is_static]
+        if isinstance(out, str) and dynamic:  # the swept area cannot be gone around: leave the threat's lane
+            lane = plan_lane_change(t, nav.position_m, mission, g_now_m, self._guidance.mission_speed_m_s, dynamic,
+                                    list(static_polygons) + list(static_outlines), self.config,
+                                    self.static_inflation_m)
+            if isinstance(lane, str):
+                out = f"{out}; {lane}"
+            else:
+                self._event(t, f"potential-field detour impossible ({out}): lane change instead")
+                out = lane
         if isinstance(out, str):
             self.stats["replan_failed"] += 1
             self._event(t, f"re-planning failed: {out}")
@@ -433,10 +591,15 @@ class CollisionAvoidance:
         self._set_path(out.path, 0.0, "detour")
         self.stats["replan"] += 1
         fld = out.field
-        self._event(t, f"re-planned: detour of {out.detour_length_m:.1f} m around {len(out.obstacles)} obstacle(s) "
-                       f"(potential field, {len(fld.panels) if fld.panels is not None else 0} panels, "
-                       f"r = {fld.safety_ratio}, λ_g = {fld.sink_strength:.0f}), rejoining the mission path at "
-                       f"γ = {out.mission_gamma_goal_m:.1f} m")
+        if fld is None:
+            self.stats["lane_change"] += 1
+            self._event(t, f"re-planned: lane change of {out.detour_length_m:.1f} m, rejoining the mission path at "
+                           f"γ = {out.mission_gamma_goal_m:.1f} m")
+        else:
+            self._event(t, f"re-planned: detour of {out.detour_length_m:.1f} m around {len(out.obstacles)} obstacle(s) "
+                           f"(potential field, {len(fld.panels) if fld.panels is not None else 0} panels, "
+                           f"r = {fld.safety_ratio}, λ_g = {fld.sink_strength:.0f}), rejoining the mission path at "
+                           f"γ = {out.mission_gamma_goal_m:.1f} m")
         self._log.prediction_pending()
         return True
 
@@ -546,8 +709,8 @@ class CollisionAvoidance:
             "predictions_on_track_deviation": self.stats["deviation_predictions"],
             "predicted_conflicts": self.stats["predicted_conflicts"],
             "static_conflicts": self.stats["static_conflicts"],
-            "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "replan_failed",
-                                                          "emergency")},
+            "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "lane_change", "checked_choice",
+                                                          "replan_failed", "emergency")},
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
             "min_predicted_distance_m": round(self.min_predicted_distance_m, 3)

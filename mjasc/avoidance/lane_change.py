@@ -1,0 +1,162 @@
+"""Lane change: step sideways off the mission path while a threat passes along it, then step back.
+
+The potential-field detour (:mod:`~mjasc.avoidance.replanning`) goes *around* a static virtual
+obstacle: the area the threat sweeps over the obstruction interval. That area cannot be gone around
+when it covers the vessel's own position for the whole interval — a vessel coming up from astern on
+(nearly) the same line, which is being overtaken, or one coming head-on whose lane the vessel is
+in. Slowing down does not help either (an overtaking vessel closes all the faster; the thesis's
+"always yield" slowed the vessel into the collision in the campaign's ``overtaken`` family). What
+clears such a threat is to leave its lane: a **parallel offset** of the mission path.
+
+Geometry (world ENU, metres; e is the signed cross-track offset from the mission path, positive
+to port/left of the direction of travel):
+
+* every conflicting track's predicted centres c_k over [now, t_f + hold] that project onto the
+  stretch of the mission path the lane covers give e_k; the lane's offset o must keep
+  |o − e_k| ≥ D = R_col + ``replan_margin_m`` + ``correction_margin_m`` for every k, so
+  o_port = max(max_k e_k + D, 0) or o_starboard = min(min_k e_k − D, 0);
+* the side needing the smaller |o| is taken, starboard on a tie within 1 m (COLREG rule 8's
+  "readily apparent" action, and rules 14–15's turn to starboard); a side whose lane comes closer
+  than the static inflation to a mapped static polygon is refused; |o| is at most ``max_offset_m``;
+* the offset ramps in from the vessel's present cross-track offset e_0 with a smoothstep over
+  L_in = clip(4|o − e_0|, 10 m, what the vessel sails before the obstruction starts), holds until
+  the vessel's planned γ at t_f plus ``goal_margin_m``, and ramps out over L_out = max(4|o|, 10 m).
+
+The result is a :class:`~mjasc.avoidance.replanning.Detour` (``field`` None): the vessel's
+prediction then runs along it exactly as along a streamline, and the usual end-of-detour logic
+returns it to the mission path.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+from mjasc.guidance.paths import Path
+
+__all__ = ["lane_offsets", "plan_lane_change"]
+
+#: Starboard is preferred unless port needs this much less offset [m].
+_STARBOARD_BIAS_M = 1.0
+
+
+def _signed_offsets(mission: Path, points: np.ndarray, g_lo: float, g_hi: float):
+    """(γ (n,), signed cross-track offset e (n,) [m], port positive) of ``points`` against the
+    stretch [g_lo, g_hi] of ``mission``."""
+    g, d = mission.closest_points(points, g_lo, g_hi)
+    th = mission.tangent_angle(g)
+    rel = points - mission.point(g)
+    side = -rel[:, 0] * np.sin(th) + rel[:, 1] * np.cos(th)
+    return g, np.where(side >= 0.0, d, -d)
+
+
+def lane_offsets(e_threat: np.ndarray, clearance_m: float) -> tuple[float, float]:
+    """The least port (≥ 0) and starboard (≤ 0) offsets [m] that keep ``clearance_m`` from every
+    threat offset in ``e_threat`` (any shape; empty → 0, 0)."""
+    e = np.asarray(e_threat, dtype=float).ravel()
+    if e.size == 0:
+        return 0.0, 0.0
+    return max(float(e.max()) + clearance_m, 0.0), min(float(e.min()) - clearance_m, 0.0)
+
+
+def _ramp(x):
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: float, conflicts, static_polygons,
+                     cfg, static_inflation_m: float, max_offset_m: float = 30.0, starboard_only: bool = False):
+    """The lane change for ``conflicts`` (:class:`~mjasc.avoidance.prediction.PredictedConflict`
+    with a collision, dynamic tracks), or the reason there is none (a string).
+
+    start (2,): the vessel's position [m]; mission: its mission path, on which it is at
+    ``g_now_m``; speed_m_s: its planned speed [m/s]; static_polygons: mapped static polygons
+    (grown here by ``static_inflation_m``); cfg: the
+    :class:`~mjasc.avoidance.config.AvoidanceConfig`; starboard_only: only a starboard offset
+    (COLREG rule 14, head-on: both alter course to starboard)."""
+    start = np.asarray(start, dtype=float)
+    v = max(float(speed_m_s), 0.3)
+    g_now = float(g_now_m)
+    t_f = max((c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s) for c in conflicts)
+    t_i = min(c.t_i for c in conflicts)
+    g_hold_end = min(g_now + v * max(t_f - t, 0.0) + cfg.goal_margin_m, mission.length)
+    l_out_max = 10.0 + 4.0 * max_offset_m
+    g_hi = min(g_hold_end + l_out_max, mission.length)
+    if g_hi - g_now < 5.0:
+        return "too close to the end of the mission path for a lane change"
+    d_clear = max(c.collision_distance_m for c in conflicts) + cfg.replan_margin_m + cfg.correction_margin_m
+    threat = []
+    for c in conflicts:
+        keep = (c.times >= t - 1e-9) & (c.times <= t_f + 5.0)
+        pts = np.asarray(c.obstacle_positions, dtype=float)[keep]
+        if pts.size == 0:
+            continue
+        g, e = _signed_offsets(mission, pts, g_now, g_hi)
+        inside = (g > g_now + 1e-6) & (g < g_hi - 1e-6)  # threat centres alongside the lane
+        threat.append(e[inside])
+    e_threat = np.concatenate(threat) if threat else np.zeros(0)
+    _, e_now = _signed_offsets(mission, start[None], max(g_now - 5.0, 0.0), min(g_now + 5.0, mission.length))
+    e0 = float(e_now[0])
+    port, starboard = lane_offsets(e_threat, d_clear)
+    sides = [starboard, port] if abs(starboard) <= abs(port) + _STARBOARD_BIAS_M else [port, starboard]
+    if starboard_only:
+        sides = [starboard]
+    statics = [np.asarray(p, dtype=float) for p in static_polygons or ()]
+    reasons, late = [], []
+    for o in sides:
+        if abs(o) > max_offset_m:
+            reasons.append(f"{'port' if o > 0 else 'starboard'} offset {abs(o):.1f} m > {max_offset_m:g} m")
+            continue
+        l_in = float(np.clip(4.0 * abs(o - e0), 10.0, max(v * (t_i - t) * 0.8, 10.0)))
+        l_out = max(4.0 * abs(o), 10.0)
+        g_end = min(max(g_hold_end, g_now + l_in) + l_out, mission.length)
+        g = np.linspace(g_now, g_end, max(int(np.ceil(g_end - g_now)), 1) + 1)  # about every metre
+        s = g - g_now
+        offset = e0 + (o - e0) * _ramp(s / l_in)
+        if g_end < mission.length - 1e-6:  # step back onto the mission path before its goal
+            offset = offset * (1.0 - _ramp((s - (g_end - g_now - l_out)) / l_out))
+        th = mission.tangent_angle(g)
+        pts = mission.point(g) + offset[:, None] * np.stack([-np.sin(th), np.cos(th)], axis=1)
+        pts[0] = start
+        blocked = next((p for p in statics if np.any(point_in_polygon(pts, p))
+                        or float(np.min(distance_to_polygon(pts, p))) < static_inflation_m), None)
+        if blocked is not None:
+            reasons.append(f"the {'port' if o > 0 else 'starboard'} lane meets a static obstacle")
+            continue
+        keep = np.concatenate([np.hypot(*np.diff(pts, axis=0).T) > 0.05, [True]])  # the end joins the mission
+        pts = pts[keep]
+        lane = Path.from_points(pts)
+        margin = _timed_margin(lane, v, t, conflicts)
+        if margin < 0.0:  # the threat arrives before the vessel is out of its lane
+            reasons.append(f"the {'port' if o > 0 else 'starboard'} lane is reached too late "
+                           f"({-margin:.1f} m short)")
+            late.append((margin, lane, pts, g_end))
+            continue
+        return _detour(lane, mission, g_now, g_end, pts, t)
+    if late:  # none is clear in time: the one that comes closest to it, if it beats staying on the path
+        margin, lane, pts, g_end = max(late, key=lambda x: x[0])
+        if margin > max(c.min_distance_m - c.collision_distance_m for c in conflicts) + 1.0:
+            return _detour(lane, mission, g_now, g_end, pts, t)
+    return "no lane change: " + "; ".join(reasons)
+
+
+def _detour(lane: Path, mission: Path, g_now: float, g_end: float, pts: np.ndarray, t: float):
+    from mjasc.avoidance.replanning import Detour
+
+    full = lane.concatenate(mission.sub_path(g_end, mission.length)) if g_end < mission.length - 1e-6 else lane
+    return Detour(full, lane.length, g_now, g_end, pts, (), None, t)
+
+
+def _timed_margin(lane: Path, speed_m_s: float, t: float, conflicts) -> float:
+    """The least (distance − collision distance) [m] between the vessel sailing ``lane`` at
+    ``speed_m_s`` from time ``t`` and every conflict's predicted track centres on its time grid."""
+    worst = np.inf
+    for c in conflicts:
+        keep = c.times >= t - 1e-9
+        ts = c.times[keep]
+        if ts.size == 0:
+            continue
+        own = lane.point(np.clip(speed_m_s * (ts - t), 0.0, lane.length))
+        d = np.hypot(*(own - np.asarray(c.obstacle_positions, dtype=float)[keep]).T)
+        worst = min(worst, float(np.min(d)) - c.collision_distance_m)
+    return worst

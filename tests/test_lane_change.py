@@ -1,0 +1,62 @@
+"""Lane change (mjasc/avoidance/lane_change.py) on closed-form geometry: a straight mission path
+along +x, a threat coming up from astern on (nearly) the same line."""
+
+import numpy as np
+import pytest
+
+from mjasc.avoidance.config import AvoidanceConfig
+from mjasc.avoidance.lane_change import lane_offsets, plan_lane_change
+from mjasc.avoidance.prediction import PredictionQuery, predict_fleet
+from mjasc.core.estimates import TrackEstimate
+from mjasc.guidance.paths import Path
+
+
+def test_lane_offsets_keep_the_clearance_on_either_side():
+    port, starboard = lane_offsets(np.array([-2.0, -1.0, -1.5]), 4.0)
+    assert port == pytest.approx(3.0) and starboard == pytest.approx(-6.0)
+    assert lane_offsets(np.array([10.0]), 4.0) == (pytest.approx(14.0), 0.0)  # already clear to starboard
+    assert lane_offsets(np.zeros(0), 4.0) == (0.0, 0.0)
+
+
+def _overtaking_case(lateral_m):
+    """Own at (0, 0) sailing east at 1.5 m/s on y = 0; a 2 m target 40 m astern at y = lateral_m,
+    3 m/s east: it reaches the own vessel after about 27 s."""
+    cfg = AvoidanceConfig()
+    mission = Path.line((0.0, 0.0), (300.0, 0.0))
+    track = TrackEstimate(track_id=7, time_s=0.0, position_m=np.array([-40.0, lateral_m]), heading_rad=0.0,
+                          speed_m_s=3.0, turn_rate_rad_s=0.0, radius_m=2.0)
+    query = PredictionQuery(mission, 0.0, 0.0, 1.5, 1.0, [track], cfg.prediction, include_clear=True)
+    conflict = predict_fleet([query])[0][0]
+    return cfg, mission, track, conflict
+
+
+@pytest.mark.parametrize("lateral_m, side", [(-1.0, +1), (1.0, -1), (0.0, -1)])
+def test_a_vessel_overtaken_on_its_line_steps_aside_and_the_prediction_then_clears(lateral_m, side):
+    cfg, mission, track, c = _overtaking_case(lateral_m)
+    assert c.collision
+    d = plan_lane_change(0.0, (0.0, 0.0), mission, 0.0, 1.5, [c], [], cfg, 2.0)
+    assert not isinstance(d, str), d
+    assert d.field is None and d.mission_gamma_start_m == 0.0
+    # away from the threat's line (starboard = −y on a tie), far enough: the clearance plus margins
+    y = d.streamline[:, 1]
+    held = y[np.argmax(np.abs(y))]
+    assert np.sign(held) == side
+    assert abs(held - lateral_m) >= c.collision_distance_m + cfg.replan_margin_m + cfg.correction_margin_m - 1e-6
+    # it starts at the vessel and ends back on the mission path, which the detour path continues
+    assert np.allclose(d.streamline[0], [0.0, 0.0]) and abs(d.streamline[-1, 1]) < 1e-9
+    assert d.path.length == pytest.approx(d.detour_length_m + mission.length - d.mission_gamma_goal_m, abs=1e-6)
+    # sailing the lane at the planned speed, the prediction finds no collision any more
+    again = predict_fleet([PredictionQuery(d.path, 0.0, 0.0, 1.5, 1.0, [track], cfg.prediction,
+                                           include_clear=True)])[0][0]
+    assert not again.collision and again.min_distance_m > c.collision_distance_m
+
+
+def test_a_lane_blocked_by_a_static_obstacle_is_refused_and_the_other_side_taken():
+    cfg, mission, track, c = _overtaking_case(0.0)
+    quay = np.array([[0.0, -12.0], [200.0, -12.0], [200.0, -4.0], [0.0, -4.0]])  # south: starboard blocked
+    d = plan_lane_change(0.0, (0.0, 0.0), mission, 0.0, 1.5, [c], [quay], cfg, 1.0)
+    assert not isinstance(d, str), d
+    assert d.streamline[:, 1].max() > 4.0 and d.streamline[:, 1].min() > -1e-9
+    both = [quay, quay * np.array([1.0, -1.0])]
+    out = plan_lane_change(0.0, (0.0, 0.0), mission, 0.0, 1.5, [c], both, cfg, 1.0)
+    assert isinstance(out, str) and "static obstacle" in out
