@@ -33,11 +33,18 @@ class Correction:
 
 
 def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, speed_max_m_s: float,
-                            pass_only: bool = False) -> Correction | None:
+                            pass_only: bool = False, passing: bool = False) -> Correction | None:
     """Yield if possible (not when ``pass_only``), else pass first if allowed and feasible, else None.
-    ``cfg``: the :class:`~mjasc.avoidance.config.AvoidanceConfig` (speed_min_m_s, gain_k,
-    correction_margin_m, allow_pass_first)."""
+    ``passing``: the vessel is already passing this track first: it goes on passing while that is
+    feasible (switching to a yield halfway, and back when the next estimate moves, left a
+    Delfim-class hull at neither speed in the stressed §6.4.1 crossing). ``cfg``: the
+    :class:`~mjasc.avoidance.config.AvoidanceConfig` (speed_min_m_s, gain_k, correction_margin_m,
+    allow_pass_first)."""
     vmin, vmax, k, m = cfg.speed_min_m_s, speed_max_m_s, cfg.gain_k, cfg.correction_margin_m
+    if passing and cfg.allow_pass_first and not pass_only:
+        keep = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, pass_only=True)
+        if keep is not None:
+            return keep
     if np.isfinite(c.t_f) and not pass_only:
         try:
             law = VelocityCorrection.yield_to(c, gamma, t, k, vmin, vmax, margin_m=m)

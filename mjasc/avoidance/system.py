@@ -456,7 +456,9 @@ class CollisionAvoidance:
                         self._event(t, f"stand-on vessel towards team mate {track.team_member} (abaft the beam): "
                                        f"keeps its speed")
                     continue
-            corr = velocity_correction_for(t, gamma, c, cfg, self.speed_max_m_s)
+            running = self.correction
+            passing = running is not None and running.kind == "pass" and running.track_id == c.track_id
+            corr = velocity_correction_for(t, gamma, c, cfg, self.speed_max_m_s, passing=passing)
             if corr is not None:
                 candidates.append(corr)
             else:
@@ -619,6 +621,7 @@ class CollisionAvoidance:
         else:
             self._event(t, f"new track(s) {sorted(new)}: predicting now")
             self._predict_on_perceived(t, nav)
+            self._known_track_ids |= new  # also those the prediction set aside (a team mate's stale copy)
             return
         if t - self._last_predict_t < 1.0:
             return
