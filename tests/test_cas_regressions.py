@@ -12,12 +12,17 @@ from mjasc.runs.scenario import load_scenario
 
 CASES = Path(__file__).resolve().parent / "cas_regressions"
 
-#: file → (vessel, the avoidance action that must have acted, hull clearance it must keep [m])
+#: file → (vessel, the avoidance action that must have acted or None, hull clearance it must keep [m]).
+#: Since the detection accounts for the sensor's lost returns (steadier tracks: see
+#: docs/avoidance.md, "Hardening") the first choice in imazu19_seed94 no longer runs into the other
+#: target and the ferry's swept area in demo_run14 no longer covers bravo: both stay as no-contact
+#: checks; the checked choice and the lane change are still exercised by imazu21_seed100 and
+#: overtaken_82 (and tests/test_lane_change.py).
 EXPECT = {
     "overtaken_82": ("own", "lane_change", 1.0),
-    "imazu19_seed94": ("own", "checked_choice", 0.5),
+    "imazu19_seed94": ("own", None, 0.5),
     "imazu21_seed100": ("own", "checked_choice", 0.5),
-    "demo_run14": ("bravo", "lane_change", 0.5),
+    "demo_run14": ("bravo", None, 0.5),
 }
 
 
@@ -34,4 +39,5 @@ def test_a_case_that_collided_keeps_clear(name):
     assert not summary["any_collision"], summary["collisions"]
     v = summary["vessels"][vessel]
     assert v["min_clearance_to_any_m"] > bound, v["min_clearance_m"]
-    assert v["avoidance"]["actions"][action] >= 1, v["avoidance"]["actions"]
+    if action is not None:
+        assert v["avoidance"]["actions"][action] >= 1, v["avoidance"]["actions"]

@@ -169,7 +169,8 @@ class PerceptionFleet:
         scans = [s for _, s in items]
         S = len(scans)
         batch = detect_many(scans, [m.config.detection for m in members],
-                            [m.sensor_config.range_noise_std_m for m in members])
+                            [m.sensor_config.range_noise_std_m for m in members],
+                            [m.sensor_config.dropout_probability for m in members])
         dets = batch.split()
         discs = self._discs(members, scans)
         n_det = np.diff(batch.det_offsets)

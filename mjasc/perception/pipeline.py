@@ -161,7 +161,8 @@ class Perception:
         mask[beams] = True
         sub = replace(scan, hit=mask, ranges=np.where(mask, scan.ranges, scan.max_range_m), hit_beams=beams,
                       hit_points_body=scan.hit_points_body[take], hit_points_world=scan.hit_points_world[take])
-        extra = detect(sub, self.config.detection, self.sensor_config.range_noise_std_m)
+        extra = detect(sub, self.config.detection, self.sensor_config.range_noise_std_m,
+                       self.sensor_config.dropout_probability)
         if len(extra) == 0:
             return det
         # only what looks like a tracked object: a disc no larger than the track's, centred within
