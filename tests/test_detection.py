@@ -24,6 +24,17 @@ def make(statics=(), moving=(), config=QUIET, heading=0.0):
     return w, sensor_for_vessel(w, 0, config)
 
 
+def place_target(w, s, rho, rng):
+    """Move the world's moving target to range ``rho`` at a random bearing from the sensor:
+    its centre (2,) and the unit line of sight u (2,)."""
+    b = rng.uniform(-math.pi, math.pi)
+    u = np.array([math.cos(b), math.sin(b)])
+    centre = s.pose(w.data)[0] + rho * u
+    w.data.mocap_pos[w.mocap_id[0], :2] = centre
+    mujoco.mj_kinematics(w.model, w.data)
+    return centre, u
+
+
 def test_centre_radius_and_variance_over_random_geometries():
     """A 2.5 m disc at 30–140 m, random bearing, σ_ρ = 5 cm: the centre's bias is below 0.12 m
     (measured −0.09 m radially at 30 m to +0.06 m at 140 m; a centroid of the returns would be
@@ -31,16 +42,12 @@ def test_centre_radius_and_variance_over_random_geometries():
     and its mean square within 2×; the lateral error is small (the disc fit); the radius within 6 %."""
     cfg = SensorConfig(range_noise_std_m=0.05, dropout_probability=0.0, clutter_per_scan=0.0)
     w, s = make(moving=[MovingObstacle("t", 2.5, (50.0, 0.0))], config=cfg)
-    m, d = w.model, w.data
+    d = w.data
     rng = np.random.default_rng(0)
     for rho in (30.0, 60.0, 100.0, 140.0):
         err, var, rad = [], [], []
         for _ in range(120):
-            b = rng.uniform(-math.pi, math.pi)
-            u = np.array([math.cos(b), math.sin(b)])
-            centre = s.pose(d)[0] + rho * u
-            d.mocap_pos[w.mocap_id[0], :2] = centre
-            mujoco.mj_kinematics(m, d)
+            centre, u = place_target(w, s, rho, rng)
             det = detect(s.scan(d, rng), range_noise_std_m=0.05)
             assert len(det) == 1
             e = det.centres_m[0] - centre
@@ -130,12 +137,12 @@ def test_a_boat_in_front_of_a_wall_is_not_merged_into_it():
                                                  [36.0, -20.0], [33.0, -7.0]]))
     cfg = SensorConfig(beams=360, range_noise_std_m=0.05, dropout_probability=0.0, clutter_per_scan=0.0)
     w, s = make(statics=[island], moving=[MovingObstacle("boat", 2.2, (4.4, -5.6))], config=cfg)
-    m, d = w.model, w.data
+    d = w.data
     rng = np.random.default_rng(3)
     merged = 0
     for x, y in [(4.4, -5.6), (4.2, -5.3), (3.6, -4.9), (5.0, -5.9), (4.0, -5.0)] * 4:
         d.mocap_pos[w.mocap_id[0], :2] = (x, y)
-        mujoco.mj_kinematics(m, d)
+        mujoco.mj_kinematics(w.model, d)
         scan = s.scan(d, rng)
         det = detect(scan, range_noise_std_m=0.05)
         on_boat = np.hypot(*(scan.hit_points_world - (x, y)).T) < 2.4
@@ -158,16 +165,12 @@ def test_lost_returns_leave_the_centre_unbiased_and_its_variance_honest():
     p = 0.3
     cfg = SensorConfig(range_noise_std_m=0.05, dropout_probability=p, clutter_per_scan=0.0)
     w, s = make(moving=[MovingObstacle("t", 6.0, (50.0, 0.0))], config=cfg)
-    m, d = w.model, w.data
+    d = w.data
     rng = np.random.default_rng(1)
     for rho, bias0, var_bound in ((20.0, -0.62, 4.0), (40.0, -0.30, 1.5), (80.0, -0.18, 1.5)):
         err, var, rad, naive_var, splits, naive_splits = [], [], [], [], 0, 0
         for _ in range(150):
-            b = rng.uniform(-math.pi, math.pi)
-            u = np.array([math.cos(b), math.sin(b)])
-            centre = s.pose(d)[0] + rho * u
-            d.mocap_pos[w.mocap_id[0], :2] = centre
-            mujoco.mj_kinematics(m, d)
+            centre, u = place_target(w, s, rho, rng)
             scan = s.scan(d, rng)
             det = detect(scan, range_noise_std_m=0.05, dropout_probability=p)
             naive = detect(scan, range_noise_std_m=0.05)  # unaware of the dropout

@@ -267,7 +267,7 @@ def test_an_edited_referenced_scenario_is_a_new_campaign(tmp_path):
 def test_the_demo_campaign_gives_the_same_run_k_scenarios_as_before():
     path = TASKS / "campaigns" / "demo_monte_carlo.toml"
     s, old = load_campaign_spec(path), load_campaign(path)
-    assert s.runs_defined == old.runs == 20 and [f.kind for f in s.families] == ["perturbation"]
+    assert s.runs_defined == old.runs == 200 and [f.kind for f in s.families] == ["perturbation"]
     origin = np.zeros((1, 2))
     for r in s.runs():
         a, b = r.scenario(), randomized_scenario(old.scenario, old, r.index)

@@ -257,7 +257,7 @@ def parse_family(t: dict, where: str, index: int, base_dir: str | Path, threshol
 
 
 # ---------------------------------------------------------------------- the shipped files
-CAMPAIGN_SEEDS = 5
+CAMPAIGN_SEEDS = 10
 """Runs (seeds) per case in ``tasks/campaigns/imazu.toml``."""
 
 

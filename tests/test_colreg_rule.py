@@ -1,0 +1,46 @@
+"""The COLREG traffic rule for non-team traffic (``[vessels.avoidance] traffic_rule = "colreg"``),
+checked on the Imazu single-target cases with the evaluation's own COLREG judge
+(mjasc.evaluation.colreg): head-on, the thesis rule re-plans around the target and turns to port
+(rule 14 broken); the COLREG rule changes lane to starboard. Crossing, the give-way vessel acts
+without passing first and the stand-on vessel keeps course and speed until action is required."""
+
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from mjasc.evaluation.run_evaluation import RunEvaluator
+from mjasc.runs.runner import Runner
+from mjasc.runs.scenario import parse_scenario
+
+IMAZU = Path(__file__).resolve().parents[1] / "tasks" / "imazu"
+
+
+def run(case: int, rule: str):
+    doc = tomllib.loads((IMAZU / f"imazu_{case:02d}.toml").read_text())
+    doc["vessels"][0]["avoidance"]["traffic_rule"] = rule
+    runner = Runner(parse_scenario(doc, f"imazu_{case:02d}"), None, progress=False)
+    evaluator = RunEvaluator(runner)
+    runner.observe("record", evaluator)
+    summary = runner.run().summary
+    (encounter,) = evaluator.summary()["encounters"]
+    return summary, summary["vessels"]["own"]["avoidance"]["actions"], encounter
+
+
+def test_head_on_the_colreg_rule_turns_to_starboard_where_the_thesis_rule_turns_to_port():
+    s, actions, enc = run(1, "thesis")
+    assert not s["any_collision"] and enc["role"] == "head_on"
+    assert "altered course to port" in enc["compliance_issues"]
+    s, actions, enc = run(1, "colreg")
+    assert not s["any_collision"] and enc["compliant"], enc["compliance_issues"]
+    assert actions["lane_change"] >= 1
+    assert s["vessels"]["own"]["min_clearance_to_any_m"] > 3.0
+
+
+@pytest.mark.parametrize("case, role", [(2, "crossing_give_way"), (4, "crossing_stand_on")])
+def test_crossing_give_way_acts_without_passing_first_and_stand_on_keeps_its_course(case, role):
+    s, actions, enc = run(case, "colreg")
+    assert not s["any_collision"] and enc["role"] == role
+    assert enc["compliant"], enc["compliance_issues"]
+    assert actions["pass"] == 0
+    assert enc["acted"] == (role == "crossing_give_way")  # compliant: not crossed ahead, not early
