@@ -30,6 +30,7 @@ class Correction:
     kind: str  # "yield" | "pass"
     track_id: int
     gamma_offset_m: float = 0.0  # γ in the law's frame = follower γ + offset
+    emergency: bool = False  # the slow-down of :func:`emergency_yield`: no manoeuvre cleared the conflict
 
 
 def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, speed_max_m_s: float,
@@ -49,7 +50,7 @@ def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, s
         try:
             law = VelocityCorrection.yield_to(c, gamma, t, k, vmin, vmax, margin_m=m)
             if law.desired_speed >= vmin - 1e-9:
-                return Correction(law, "yield", c.track_id)
+                return Correction(law, "yield", c.track_id, emergency=True)
         except ValueError:
             pass
     if cfg.allow_pass_first:
@@ -64,8 +65,9 @@ def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, s
 
 def emergency_yield(t: float, gamma: float, c: PredictedConflict, cfg, speed_max_m_s: float) -> Correction:
     """When no manoeuvre clears a conflict: slow to ``speed_min_m_s`` and hold it until the
-    obstruction ends (5–30 s)."""
+    obstruction ends (5–30 s). The caller predicts again every second while it runs (a re-plan or
+    lane change may clear the conflict a moment later)."""
     hold = float(np.clip((c.t_f if np.isfinite(c.t_f) else c.t_i) - t, 5.0, 30.0))
     vmin = cfg.speed_min_m_s
     law = VelocityCorrection(gamma, t, gamma + vmin * hold, t + hold, cfg.gain_k, vmin, speed_max_m_s)
-    return Correction(law, "yield", c.track_id)
+    return Correction(law, "yield", c.track_id, emergency=True)

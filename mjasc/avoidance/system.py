@@ -413,6 +413,7 @@ class CollisionAvoidance:
         candidates: list[Correction] = []
         unresolved: list[PredictedConflict] = []
         starboard: list[PredictedConflict] = []  # head-on under COLREG: a lane change to starboard
+        go_around: list[PredictedConflict] = []  # σ chose a re-plan for these (long obstructions)
         for c in conflicts:
             track = by_id.get(c.track_id)
             is_team = track is not None and track.team_member in self.team and not c.is_static
@@ -435,6 +436,8 @@ class CollisionAvoidance:
                 continue
             if c.decision == Decision.REPLAN and not is_team:
                 svos.append((c.svo_polygon, c))
+                if not c.is_static:
+                    go_around.append(c)
                 continue
             if not is_team and track is not None and not c.is_static and _overtaking_us(nav, track):
                 # Slowing down lets a vessel overtaking from abaft the beam close faster: leave its lane.
@@ -485,6 +488,9 @@ class CollisionAvoidance:
                 self.correction = None
                 self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True)
                 return
+            # No detour: the path sailed is known to conflict (in the stressed dock, a moored boat's
+            # track moving by noise): slow down and look again every second rather than sail on.
+            unresolved += go_around
         if not candidates and unresolved and (self.correction is None or self.correction.kind != "yield"):
             c = unresolved[0]
             candidates.append(emergency_yield(t, gamma, c, cfg, self.speed_max_m_s))
@@ -624,6 +630,10 @@ class CollisionAvoidance:
             self._known_track_ids |= new  # also those the prediction set aside (a team mate's stale copy)
             return
         if t - self._last_predict_t < 1.0:
+            return
+        if self.correction is not None and self.correction.emergency:  # nothing cleared it: look again
+            self.stats["deviation_predictions"] += 1
+            self._predict_on_perceived(t, nav)
             return
         if self.correction is None and self._predicted_speed is not None and \
                 abs(self._guidance.mission_speed_m_s - self._predicted_speed) > self.config.speed_change_m_s:
