@@ -216,6 +216,39 @@ def test_neither_yield_nor_pass_falls_back_to_a_detour():
     assert ca.control_refs(0.0, nav())[1] in ("avoidance:detour", "avoidance:yield")
 
 
+def test_an_emergency_slow_down_looks_again_every_second():
+    """No manoeuvre clears the conflict on the detour: the vessel slows to speed_min (emergency)
+    and predicts again one second later instead of at the next period (a detour or lane change
+    may clear it by then: the head-on threat in the §6.2-stressed and §6.4.2 campaigns)."""
+    ca, _ = make(AvoidanceConfig(allow_pass_first=False, speed_min_m_s=0.8))
+    tr = crossing(x_cross=20.0, t_cross=20.0)
+    report = PerceptionReport(0.0, (tr,), ())
+    ca.predict(0.0, nav(), [tr], [])
+    assert ca.correction.emergency and ca.summary()["actions"]["emergency"] == 1
+    n = ca.stats["predictions"]
+    ca.agent.perception = SimpleNamespace(report=lambda t: report)
+    ca.ca.control(0.5, nav(), ca._guidance(), report, None)
+    assert ca.stats["predictions"] == n  # not before a second has passed
+    ca.ca.control(1.1, nav(), ca._guidance(), report, None)
+    assert ca.stats["predictions"] > n
+
+
+def test_a_track_inside_a_mapped_island_is_the_island_not_a_vessel():
+    """A fragment of an island tracked as a 2 m/s target (under sensor dropout the §6.4.3 islands
+    broke into such tracks): its centre lies inside a mapped static polygon, so it is taken as
+    static (no vessel floats inside land) and yields no moving conflict; the same track in open
+    water is a crossing conflict."""
+    island = np.array([[25.0, -40.0], [45.0, -40.0], [45.0, -20.0], [25.0, -20.0]])
+    inside = crossing(x_cross=30.0, t_cross=25.0, speed=1.2)  # starts at (30, −30): in the island
+    assert inside.position_m[1] == pytest.approx(-30.0)
+    ca, _ = make()
+    assert [c for c in ca.predict(0.0, nav(), [inside], [island]) if not c.is_static] == []
+    assert ca.summary()["actions"]["yield"] == 0
+    ca, _ = make()
+    water = crossing(x_cross=30.0, t_cross=25.0, speed=1.2, from_south=False)  # from (30, 30): open water
+    assert [c.track_id for c in ca.predict(0.0, nav(), [water], [island])] == [1]
+
+
 # ------------------------------------------------------------------------------------ right of way
 def test_team_mates_split_by_the_starboard_rule():
     """b crosses a's path from a's starboard side (south, heading north): a has b on its

@@ -50,7 +50,7 @@ def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, s
         try:
             law = VelocityCorrection.yield_to(c, gamma, t, k, vmin, vmax, margin_m=m)
             if law.desired_speed >= vmin - 1e-9:
-                return Correction(law, "yield", c.track_id, emergency=True)
+                return Correction(law, "yield", c.track_id)
         except ValueError:
             pass
     if cfg.allow_pass_first:
