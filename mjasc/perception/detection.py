@@ -306,7 +306,7 @@ def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range
     brk = (gaps > c.take("gap_max", sid)) | (step > thr)
     if (K >= 3 if S == 1 else (k_s >= 3).any()) and brk.any():
         prv = np.where(local == 0, last, idx - 1)
-        wall = _wall_continues(P, gaps, step, nxt, prv, c.take("sig", sid))
+        wall = _wall_continues(P, gaps, step, nxt, prv, c.take("sig", sid), c.take("gap_max", sid))
         brk &= ~(wall if S == 1 else wall & (k_r >= 3))
     full = c.take("full", sid)
     brk |= at_last & ~np.logical_and(full, k_r > 1)
@@ -385,22 +385,28 @@ def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range
                           occluded, labels, det_off, ret_off)
 
 
-def _wall_continues(P, gaps, step, nxt, prv, sigma) -> np.ndarray:
-    """(k,) bool: the step from return i to i + 1 (neighbouring beams, at most ``_WALL_STEP_MAX_M``)
-    continues the straight line through i − 1, i, or through i + 1, i + 2 (within the noise), and the
-    two steps' lengths are alike (``_WALL_STEP_RATIO``): the beams graze a wall, whose returns spread
-    out along it; they stay one object. Without the length test a short step's direction (noise:
-    anything goes) let a boat's hull in front of a wall join the wall's cluster. ``nxt`` / ``prv``:
-    each return's cyclic neighbours in its scan; ``sigma`` (k,) σ_ρ of its scan."""
+def _wall_continues(P, gaps, step, nxt, prv, sigma, gap_max) -> np.ndarray:
+    """(k,) bool: the step from return i to i + 1 (at most ``gap_max`` beams apart, at most
+    ``_WALL_STEP_MAX_M``) continues the straight line through i − 1, i, or through i + 1, i + 2
+    (within the noise), and the two steps' lengths per beam are alike (``_WALL_STEP_RATIO``): the
+    beams graze a wall, whose returns spread out along it; they stay one object. Without the length
+    test a short step's direction (noise: anything goes) let a boat's hull in front of a wall join
+    the wall's cluster. Per beam, and across the gaps the clustering bridges: with lost returns
+    the steps along a grazed wall skip beams (before, only steps between neighbouring beams
+    counted, and under 30 % dropout a quay broke into fragments tracked as moving targets).
+    ``nxt`` / ``prv``: each return's cyclic neighbours in its scan; ``sigma`` (k,) σ_ρ of its scan;
+    ``gap_max`` the largest beam difference bridged (scalar or (k,))."""
     seg = P[nxt] - P  # i → i + 1
     length = np.maximum(step, 1e-9)
     unit = seg / length[:, None]
     tol = np.minimum(1.0, 3.0 * sigma * (1.0 / length + 1.0 / length[prv])) + _WALL_SIN_TOL
     cross_back = np.abs(unit[prv, 0] * unit[:, 1] - unit[prv, 1] * unit[:, 0])
-    similar = np.maximum(length, length[prv]) <= _WALL_STEP_RATIO * np.minimum(length, length[prv]) + 6.0 * sigma
-    back = (gaps == 1) & (gaps[prv] == 1) & (np.einsum("ij,ij->i", unit[prv], unit) > 0) & (cross_back < tol) & similar
+    per_beam = length / np.maximum(gaps, 1)
+    similar = np.maximum(per_beam, per_beam[prv]) <= _WALL_STEP_RATIO * np.minimum(per_beam, per_beam[prv]) + 6.0 * sigma
+    bridged = gaps <= gap_max
+    back = bridged & bridged[prv] & (np.einsum("ij,ij->i", unit[prv], unit) > 0) & (cross_back < tol) & similar
     fwd = back[nxt]  # the step i+1 → i+2 continues i → i+1
-    return (back | fwd) & (gaps == 1) & (step <= _WALL_STEP_MAX_M)
+    return (back | fwd) & bridged & (step <= _WALL_STEP_MAX_M)
 
 
 def _occluded_edges(beams, rho, starts, ends, cs, beam_off, c: _PerScan, hit_all, ranges_all) -> np.ndarray:
