@@ -23,14 +23,22 @@ EXPECT = {
     "imazu19_seed94": ("own", None, 0.5),
     "imazu21_seed100": ("own", "checked_choice", 0.5),
     "demo_run14": ("bravo", None, 0.5),
+    # Found by tasks/campaigns/thesis_stress.toml: perception under 30 % dropout (the detection's
+    # lost-returns model and the grazed-wall continuation fixed them; no CAS action to check) and
+    # the emergency slow-down that now looks again every second.
+    "crossing_stressed_seed5": ("alpha", None, 0.5),
+    "bottleneck_stressed_seed5": ("charlie", None, 0.0),
+    "head_on_seed4": ("bravo", "emergency", 0.3),
+    "dock_stressed_seed2": ("vessel2", "emergency", 0.3),
 }
+SLOW = {"demo_run14", "crossing_stressed_seed5", "bottleneck_stressed_seed5"}
 
 
 def test_every_regression_file_is_checked():
     assert sorted(p.stem for p in CASES.glob("*.toml")) == sorted(EXPECT)
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=[pytest.mark.slow] if n == "demo_run14" else [])
+@pytest.mark.parametrize("name", [pytest.param(n, marks=[pytest.mark.slow] if n in SLOW else [])
                                   for n in sorted(EXPECT)])
 def test_a_case_that_collided_keeps_clear(name):
     vessel, action, bound = EXPECT[name]
