@@ -491,9 +491,11 @@ class CollisionAvoidance:
                 self.correction = None
                 self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True)
                 return
-            # No detour: the path sailed is known to conflict (in the stressed dock, a moored boat's
-            # track moving by noise): slow down and look again every second rather than sail on.
-            unresolved += go_around
+        # No detour (none found, or this is the check of a fresh one): the path sailed is known to
+        # conflict — in the stressed dock a moored boat's track moving by noise; in the stressed
+        # head-on a detour around a team mate led back into the oncoming vessel's swept area. Slow
+        # down and look again every second (a re-plan then sees every conflict) rather than sail on.
+        unresolved += go_around
         if not candidates and unresolved and (self.correction is None or self.correction.kind != "yield"):
             c = unresolved[0]
             candidates.append(emergency_yield(t, gamma, c, cfg, self.speed_max_m_s))
