@@ -142,6 +142,14 @@ def _correction_profile(correction: Correction | None, t_now: float, gamma_now: 
     return gamma_fn
 
 
+def _swept(track, c: PredictedConflict, t: float, cfg) -> np.ndarray:
+    """The area ``track`` sweeps over the conflict's obstruction (from now on; a static one's
+    t_f = ∞ is cut at t_i + Δt_threshold), grown by its collision distance: the obstacle a
+    re-plan or lane change goes around when the conflict's own SVO is not the one to use."""
+    t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
+    return swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), c.collision_distance_m)
+
+
 #: A track bearing more than this far from the bow [rad] is abaft the beam (COLREG rule 13: 22.5° abaft).
 _ABAFT_BEAM_RAD = np.radians(112.5)
 
@@ -434,8 +442,7 @@ class CollisionAvoidance:
                 if corr is not None:
                     candidates.append(corr)
                 else:
-                    t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
-                    svos.append((swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), c.collision_distance_m), c))
+                    svos.append((_swept(track, c, t, cfg), c))
                 continue
             if c.decision == Decision.REPLAN and not is_team:
                 svos.append((c.svo_polygon, c))
@@ -444,8 +451,7 @@ class CollisionAvoidance:
                 continue
             if not is_team and track is not None and not c.is_static and _overtaking_us(nav, track):
                 # Slowing down lets a vessel overtaking from abaft the beam close faster: leave its lane.
-                t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
-                svos.append((swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), c.collision_distance_m), c))
+                svos.append((_swept(track, c, t, cfg), c))
                 continue
             if is_team and not gives_way(nav.position_m, nav.heading_rad, track.position_m, track.heading_rad, True):
                 astern = np.cos(relative_bearing(nav.position_m, nav.heading_rad, track.position_m)) < 0.0
@@ -470,9 +476,7 @@ class CollisionAvoidance:
             else:
                 unresolved.append(c)
             if corr is None and track is not None:  # neither slowing down nor speeding up works: go around
-                r_col = c.collision_distance_m
-                t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
-                svos.append((swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), r_col), c))
+                svos.append((_swept(track, c, t, cfg), c))
         for s in statics:
             svos.append((s.polygon, s))
         if starboard and allow_replan:
@@ -481,10 +485,7 @@ class CollisionAvoidance:
                 self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True)
                 return
             for c in starboard:  # no starboard lane: as the thesis would
-                track = by_id[c.track_id]
-                t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
-                svos.append((c.svo_polygon if c.svo_polygon is not None else
-                             swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), c.collision_distance_m), c))
+                svos.append((c.svo_polygon if c.svo_polygon is not None else _swept(by_id[c.track_id], c, t, cfg), c))
         if svos and allow_replan:
             if self._replan(t, nav, svos, static_polygons, by_id, static_outlines):
                 # The path changed: predict again on the detour (velocity corrections only).
@@ -534,13 +535,8 @@ class CollisionAvoidance:
         if isinstance(lane, str):
             self._event(t, f"head-on: {lane}")
             return False
-        self.detour = lane
-        self._set_path(lane.path, 0.0, "detour")
-        self.stats["replan"] += 1
-        self.stats["lane_change"] += 1
-        self._event(t, f"head-on (COLREG rule 14): lane change to starboard of {lane.detour_length_m:.1f} m, "
-                       f"rejoining the mission path at γ = {lane.mission_gamma_goal_m:.1f} m")
-        self._log.prediction_pending()
+        self._take_detour(t, lane, f"head-on (COLREG rule 14): lane change to starboard of {lane.detour_length_m:.1f} m, "
+                                   f"rejoining the mission path at γ = {lane.mission_gamma_goal_m:.1f} m")
         return True
 
     def _checked_choice(self, t, chosen: Correction, candidates: list[Correction], conflicts) -> Correction | None:
@@ -600,21 +596,25 @@ class CollisionAvoidance:
             self.stats["replan_failed"] += 1
             self._event(t, f"re-planning failed: {out}")
             return False
-        self.detour = out
-        self._set_path(out.path, 0.0, "detour")
-        self.stats["replan"] += 1
         fld = out.field
         if fld is None:
-            self.stats["lane_change"] += 1
-            self._event(t, f"re-planned: lane change of {out.detour_length_m:.1f} m, rejoining the mission path at "
-                           f"γ = {out.mission_gamma_goal_m:.1f} m")
+            what = f"re-planned: lane change of {out.detour_length_m:.1f} m"
         else:
-            self._event(t, f"re-planned: detour of {out.detour_length_m:.1f} m around {len(out.obstacles)} obstacle(s) "
-                           f"(potential field, {len(fld.panels) if fld.panels is not None else 0} panels, "
-                           f"r = {fld.safety_ratio}, λ_g = {fld.sink_strength:.0f}), rejoining the mission path at "
-                           f"γ = {out.mission_gamma_goal_m:.1f} m")
-        self._log.prediction_pending()
+            what = (f"re-planned: detour of {out.detour_length_m:.1f} m around {len(out.obstacles)} obstacle(s) "
+                    f"(potential field, {len(fld.panels) if fld.panels is not None else 0} panels, "
+                    f"r = {fld.safety_ratio}, λ_g = {fld.sink_strength:.0f})")
+        self._take_detour(t, out, f"{what}, rejoining the mission path at γ = {out.mission_gamma_goal_m:.1f} m")
         return True
+
+    def _take_detour(self, t, detour: Detour, event: str) -> None:
+        """Switch to ``detour`` (a streamline's, or a lane change's when its ``field`` is None) and count it."""
+        self.detour = detour
+        self._set_path(detour.path, 0.0, "detour")
+        self.stats["replan"] += 1
+        if detour.field is None:
+            self.stats["lane_change"] += 1
+        self._event(t, event)
+        self._log.prediction_pending()
 
     # ------------------------------------------------------------------ control
     def _predict_on_perceived(self, t, nav) -> None:
