@@ -25,8 +25,9 @@ _PREDICTION_FIELDS = frozenset(f.name for f in dataclasses.fields(CollisionPredi
 @dataclass(frozen=True)
 class AvoidanceConfig:
     """Parameters of one vessel's collision avoidance (docs/thesis.md §3–5; defaults: thesis §6.1 where it
-    gives a value). When no action is possible at all, the vessel slows to ``speed_min_m_s`` (an
-    emergency yield). A stand-on vessel whose team mate is abaft its beam never slows down (that
+    gives a value). When no action is possible at all, the vessel slows to ``emergency_speed_m_s``
+    (an emergency yield: by default it stops), and a give-way vessel never goes around a team mate
+    (it yields, or stops). A stand-on vessel whose team mate is abaft its beam never slows down (that
     would let the give-way vessel, coming from behind, run into it; COLREG rule 13): at the last
     resort it may only speed up (pass first)."""
 
@@ -38,6 +39,9 @@ class AvoidanceConfig:
     # velocity correction (docs/thesis.md §5)
     gain_k: float = param(0.3, positive=True, unit="1/s", doc="virtual-target gain k of the speed law")
     speed_min_m_s: float = param(0.2, nonneg=True, unit="m/s", doc="slowest commanded speed (steerage way)")
+    emergency_speed_m_s: float = param(0.0, nonneg=True, unit="m/s",
+                                       doc="speed of the emergency slow-down when no manoeuvre clears a conflict "
+                                           "(0: take all way off, COLREG rule 8(e))")
     speed_max_m_s: float | None = param(None, positive=True, unit="m/s",
                                         doc="fastest commanded speed; unset: the vessel's top speed")
     correction_margin_m: float = param(2.0, nonneg=True, unit="m",

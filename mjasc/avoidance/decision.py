@@ -64,10 +64,13 @@ def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, s
 
 
 def emergency_yield(t: float, gamma: float, c: PredictedConflict, cfg, speed_max_m_s: float) -> Correction:
-    """When no manoeuvre clears a conflict: slow to ``speed_min_m_s`` and hold it until the
-    obstruction ends (5–30 s). The caller predicts again every second while it runs (a re-plan or
-    lane change may clear the conflict a moment later)."""
+    """When no manoeuvre clears a conflict: slow to ``emergency_speed_m_s`` (by default stop: take
+    all way off, COLREG rule 8(e)) and hold it until the obstruction ends (5–30 s). The caller
+    predicts again every second while it runs (a re-plan or lane change may clear the conflict a
+    moment later). Creeping on at steerage way was not enough: in the §6.4.3 bottleneck two team
+    mates slowed to 0.2 m/s side by side and their converging paths still brought them into contact
+    half a minute later."""
     hold = float(np.clip((c.t_f if np.isfinite(c.t_f) else c.t_i) - t, 5.0, 30.0))
-    vmin = cfg.speed_min_m_s
+    vmin = cfg.emergency_speed_m_s
     law = VelocityCorrection(gamma, t, gamma + vmin * hold, t + hold, cfg.gain_k, vmin, speed_max_m_s)
     return Correction(law, "yield", c.track_id, emergency=True)

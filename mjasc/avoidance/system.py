@@ -453,7 +453,9 @@ class CollisionAvoidance:
                 # Slowing down lets a vessel overtaking from abaft the beam close faster: leave its lane.
                 svos.append((_swept(track, c, t, cfg), c))
                 continue
-            if is_team and not gives_way(nav.position_m, nav.heading_rad, track.position_m, track.heading_rad, True):
+            team_gives_way = is_team and gives_way(nav.position_m, nav.heading_rad, track.position_m,
+                                                   track.heading_rad, True)
+            if is_team and not team_gives_way:
                 astern = np.cos(relative_bearing(nav.position_m, nav.heading_rad, track.position_m)) < 0.0
                 if c.t_closest_s - t > cfg.last_resort_s:
                     self.stats["stand_on"] += 1
@@ -475,7 +477,10 @@ class CollisionAvoidance:
                 candidates.append(corr)
             else:
                 unresolved.append(c)
-            if corr is None and track is not None:  # neither slowing down nor speeding up works: go around
+            # Neither slowing down nor speeding up works: go around — except a give-way vessel around
+            # a team mate (it stops instead: in the §6.4.3 bottleneck such detours began with a
+            # U-turn the hull could not sail, and the turn swept it into the third vessel's lane).
+            if corr is None and track is not None and not team_gives_way:
                 svos.append((_swept(track, c, t, cfg), c))
         for s in statics:
             svos.append((s.polygon, s))
@@ -501,7 +506,9 @@ class CollisionAvoidance:
             c = unresolved[0]
             candidates.append(emergency_yield(t, gamma, c, cfg, self.speed_max_m_s))
             self.stats["emergency"] += 1
-            self._event(t, f"no manoeuvre clears track {c.track_id}: emergency slow-down to {cfg.speed_min_m_s:g} m/s")
+            self._event(t, f"no manoeuvre clears track {c.track_id}: " + (
+                f"emergency slow-down to {cfg.emergency_speed_m_s:g} m/s" if cfg.emergency_speed_m_s > 0.0
+                else "emergency stop (all way off)"))
         if candidates:
             yields = [c for c in candidates if c.kind == "yield"]
             chosen = min(yields, key=lambda c: c.law.desired_speed) if yields else \
