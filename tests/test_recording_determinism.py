@@ -1,40 +1,94 @@
-"""The same scenario and seed give the same recording content: ``rerun rrd compare`` finds the two
-files equal (the recording id is derived from the scenario name and seed, no wall-clock log time),
-and a different seed is found different. Not the same bytes: the Rerun 0.41 SDK stamps every row
-and chunk with a time-based TUID and gives the blueprint store a random id, and has no API to set
-them (docs: known limits)."""
+"""The same scenario and seed give a byte-identical ``recording.rrd``; a different seed a different
+one. The Rerun SDK draws row and chunk ids from the wall clock; the Recorder re-encodes the finished
+file with derived ids (mjasc.runs.rrd_canonical), and these tests check that re-encoding against
+Rerun's own tools: ``rerun rrd verify`` accepts the file, ``rerun rrd compare --unordered`` finds
+its content equal to what the SDK wrote, and Rerun's reader finds both stores with the given ids."""
 
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+import rerun as rr
+import rerun.blueprint as rrb
 
+from mjasc.runs.blueprint import stable_blueprint_ids
+from mjasc.runs.rrd_canonical import BATCHER_FLUSH_BYTES, CanonicalRrdError, canonicalise
 from mjasc.runs.runner import run_scenario
 from mjasc.runs.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 RERUN = Path(sys.executable).parent / "rerun"
+needs_cli = pytest.mark.skipif(not RERUN.exists(), reason="the rerun CLI is not installed next to this Python")
 
 
-@pytest.mark.skipif(not RERUN.exists(), reason="the rerun CLI is not installed next to this Python")
-def test_same_seed_same_recording_content_different_seed_different(tmp_path):
+def _rerun(*args) -> subprocess.CompletedProcess:
+    return subprocess.run([str(RERUN), *map(str, args)], capture_output=True, text=True, timeout=120)
+
+
+@needs_cli
+def test_same_seed_same_bytes_different_seed_different(tmp_path):
     sc = load_scenario(ROOT / "tasks" / "thesis_6_1_static.toml").with_overrides(duration_s=3.0)
     paths = []
     for k, seed in enumerate((5, 5, 6)):
         out = tmp_path / f"r{k}"
         run_scenario(sc.with_overrides(seed=seed), out, progress=False)
         paths.append(out / "recording.rrd")
-
-    def same(a, b) -> bool:
-        return subprocess.run([str(RERUN), "rrd", "compare", str(a), str(b)], capture_output=True,
-                              timeout=120).returncode == 0
-
-    assert same(paths[0], paths[1])
-    assert not same(paths[0], paths[2])
+    assert paths[0].read_bytes() == paths[1].read_bytes()
+    assert paths[0].read_bytes() != paths[2].read_bytes()
+    assert _rerun("rrd", "verify", paths[0]).returncode == 0
+    assert _rerun("rrd", "compare", "--unordered", paths[0], paths[1]).returncode == 0
+    assert _rerun("rrd", "compare", "--unordered", paths[0], paths[2]).returncode != 0
 
 
-@pytest.mark.skipif(not RERUN.exists(), reason="the rerun CLI is not installed next to this Python")
+def _sdk_file(path: Path, seed: int) -> None:
+    """A recording as the SDK writes it with the Recorder's settings (size-only batching, derived
+    blueprint view ids): random row, chunk and store ids and a wall-clock blueprint log_time."""
+    batcher = rr.ChunkBatcherConfig(flush_tick=1e9, flush_num_bytes=BATCHER_FLUSH_BYTES, flush_num_rows=2**63 - 1)
+    rec = rr.RecordingStream("mjasc", recording_id=f"sdk-{seed}", send_properties=False, batcher_config=batcher)
+    rec.set_log_time_enabled(False)
+    blueprint = rrb.Blueprint(rrb.Horizontal(rrb.Spatial3DView(origin="/world", name="world"),
+                                             rrb.TimeSeriesView(origin="/plots", name="plots")))
+    stable_blueprint_ids(blueprint, "test")
+    rec.save(str(path), default_blueprint=blueprint)
+    for k in range(200):
+        rec.set_time("sim_time", duration=0.1 * k)
+        rec.log("world/p", rr.Points3D([[k, 2.0 * k, 0.0]]))
+        rec.log("plots/x", rr.Scalars(float(k) ** 0.5))
+    rec.log("world/label", rr.TextDocument("static"), static=True)
+    rec.flush()
+    rec.disconnect()
+
+
+@needs_cli
+def test_canonicalise_keeps_content_and_gives_equal_bytes_for_equal_content(tmp_path):
+    from rerun.chunk import RrdReader
+
+    for k in (1, 2):
+        _sdk_file(tmp_path / f"sdk{k}.rrd", k)
+        canonicalise(tmp_path / f"sdk{k}.rrd", tmp_path / f"c{k}.rrd", "rec-id", "bp-id")
+    assert (tmp_path / "sdk1.rrd").read_bytes() != (tmp_path / "sdk2.rrd").read_bytes()
+    assert (tmp_path / "c1.rrd").read_bytes() == (tmp_path / "c2.rrd").read_bytes()
+    assert _rerun("rrd", "verify", tmp_path / "c1.rrd").returncode == 0
+    assert _rerun("rrd", "compare", "--unordered", tmp_path / "sdk1.rrd", tmp_path / "c1.rrd").returncode == 0
+    reader = RrdReader(tmp_path / "c1.rrd")
+    (recording,), (blueprint,) = reader.recordings(), reader.blueprints()
+    assert (recording.recording_id, blueprint.recording_id, blueprint.kind) == ("rec-id", "bp-id", "blueprint")
+    rows = sum(c.num_rows for c in reader.stream(store=recording).to_chunks())
+    assert rows == 401  # 200 points, 200 scalars, 1 static text
+    printed = _rerun("rrd", "print", tmp_path / "c1.rrd").stdout
+    assert "make_default: true" in printed  # the blueprint stays the recording's default
+
+
+def test_canonicalise_refuses_a_file_that_is_not_a_recording(tmp_path):
+    bad = tmp_path / "bad.rrd"
+    bad.write_bytes(b"not a recording")
+    with pytest.raises(CanonicalRrdError, match="RRF2"):
+        canonicalise(bad, tmp_path / "out.rrd", "a", "b")
+    assert not (tmp_path / "out.rrd").exists()
+
+
+@needs_cli
 def test_recording_holds_no_wall_clock_start_time_and_derived_blueprint_ids(tmp_path):
     import re
     import uuid
@@ -43,10 +97,10 @@ def test_recording_holds_no_wall_clock_start_time_and_derived_blueprint_ids(tmp_
 
     rec = Recorder(tmp_path / "r.rrd", "x", 3, default_blueprint(vessels=("a",), avoidance=True))
     rec.close()
-    text = subprocess.run([str(RERUN), "rrd", "print", "-vv", str(tmp_path / "r.rrd")], capture_output=True,
-                          text=True, timeout=120).stdout
+    text = _rerun("rrd", "print", "-vv", tmp_path / "r.rrd").stdout
     assert "RecordingInfo:name" in text and "start_time" not in text
     ids = set(re.findall(r"/(?:view|container)/([0-9a-f-]{36})", text))
     assert len(ids) >= 5 and all(uuid.UUID(i).version == 5 for i in ids)
     key = "mjasc/x/3/blueprint"
     assert str(uuid.uuid5(uuid.NAMESPACE_URL, f"{key}/1")) in ids  # the first view under the root container
+    assert str(uuid.uuid5(uuid.NAMESPACE_URL, key)) in text  # the blueprint store's own id

@@ -2,12 +2,12 @@
 
 Entities live in a 3-D world (ENU, z up, everything on z ≈ 0) viewed from above, because Rerun's
 2-D views draw y downwards and the world frame here is y-north-up. Timeline: ``sim_time``
-(simulation seconds). Two runs with the same scenario and seed produce the same content
-(``rerun rrd compare`` finds them equal): the recording id and the blueprint's view and container
-ids are derived from the scenario name and seed, wall-clock log time is disabled and the recording
-properties (which hold the wall-clock start time) are not sent, only the recording's name. Not the
-same bytes: the Rerun 0.41 SDK stamps every row and chunk with a time-based id (TUID) and gives the
-blueprint store a random id, and has no API to set them; compare content, never hashes.
+(simulation seconds). Two runs with the same scenario and seed write the same bytes: the recording
+and blueprint store ids and the blueprint's view and container ids are derived from the scenario
+name and seed, wall-clock log time is disabled, the recording properties (which hold the wall-clock
+start time) are not sent, only the recording's name, the SDK's batcher cuts chunks by size only,
+and :meth:`Recorder.close` re-encodes the finished file with derived row and chunk ids
+(:mod:`mjasc.runs.rrd_canonical`: the SDK draws those from the wall clock).
 
 The default blueprint and the legend are in :mod:`mjasc.runs.blueprint` (re-exported here).
 
@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import os
 import uuid
+import warnings
 from collections import defaultdict
 from pathlib import Path
 
@@ -44,6 +45,7 @@ from rerun.encodings import Vec3DBatch
 from mjasc.runs.blueprint import (LEGEND_CLASSES, PALETTE, annotation_context, default_blueprint,  # noqa: F401
                                   legend_classes, legend_markdown, stable_blueprint_ids, vessel_colour)
 from mjasc.runs.outputs import part_path
+from mjasc.runs.rrd_canonical import BATCHER_FLUSH_BYTES, canonicalise
 from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
 
 __all__ = ["Recorder", "default_blueprint", "TIMELINE", "DETAILS", "vessel_colour", "legend_classes",
@@ -69,8 +71,12 @@ class Recorder:
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._part = part_path(self.path)  # written here, renamed to path by close()
         rid = str(uuid.uuid5(uuid.NAMESPACE_URL, f"mjasc/{recording_name}/{seed}"))
+        self._ids = (rid, str(uuid.uuid5(uuid.NAMESPACE_URL, f"mjasc/{recording_name}/{seed}/blueprint")))
         # No recording properties: they would carry the wall-clock start time; the name alone is sent.
-        self.rec = rr.RecordingStream("mjasc", recording_id=rid, send_properties=False)
+        # Chunks are cut by size, never by the batcher's wall-clock tick (same data, same chunks).
+        batcher = rr.ChunkBatcherConfig(flush_tick=1e9, flush_num_bytes=BATCHER_FLUSH_BYTES,
+                                        flush_num_rows=2**63 - 1)
+        self.rec = rr.RecordingStream("mjasc", recording_id=rid, send_properties=False, batcher_config=batcher)
         self.rec.set_log_time_enabled(False)
         blueprint = blueprint or default_blueprint()
         stable_blueprint_ids(blueprint, f"mjasc/{recording_name}/{seed}/blueprint")
@@ -223,9 +229,11 @@ class Recorder:
         self._pending = 0
 
     def close(self) -> None:
-        """Flush, write the file footer (a reader needs it) and rename the file from its temporary
-        name (``.recording.part.rrd``) to its own: a file under the final name is always complete.
-        Safe to call twice."""
+        """Flush, write the file footer (a reader needs it), re-encode the file with derived ids
+        (:func:`~mjasc.runs.rrd_canonical.canonicalise`) and rename it from its temporary name
+        (``.recording.part.rrd``) to its own: a file under the final name is always complete.
+        Should the re-encoding fail (a Rerun upgrade changed the container), the SDK's file is kept
+        (same content, not the same bytes) with a warning. Safe to call twice."""
         if self._closed:
             return
         try:
@@ -234,6 +242,14 @@ class Recorder:
             self.rec.flush()
             self.rec.disconnect()
             self._closed = True
+            canonical = self._part.with_name(self._part.name + ".canonical")
+            try:
+                canonicalise(self._part, canonical, *self._ids)
+                os.replace(canonical, self._part)
+            except Exception as e:  # noqa: BLE001 - the recording itself is complete either way
+                canonical.unlink(missing_ok=True)
+                warnings.warn(f"{self.path}: recording kept as the Rerun SDK wrote it (not byte-reproducible): "
+                              f"{type(e).__name__}: {e}", RuntimeWarning, stacklevel=2)
             os.replace(self._part, self.path)
 
     def __enter__(self) -> "Recorder":

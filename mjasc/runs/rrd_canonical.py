@@ -1,0 +1,324 @@
+"""Byte-identical recordings: re-encode a finished ``.rrd`` file with every id derived, not drawn.
+
+The Rerun SDK stamps each row and chunk with a time-based id (TUID: wall-clock nanoseconds and a
+random counter), gives the store-info message a fresh one, writes the blueprint's wall-clock
+``log_time`` column, and serialises Arrow schema metadata in hash-map order (random per process).
+So two runs with the same scenario and seed write the same *content* in different *bytes*.
+:func:`canonicalise` reads the file the SDK wrote and writes it again with
+
+* row ids  → (:data:`BASE_NS`, rank + 1), the rank being the row's place in the store's original
+  row-id order (Rerun breaks ties between rows at the same time by row id: the order is kept);
+* chunk ids → (:data:`BASE_NS`, store << 40 | k), the chunks in the order of their first row;
+* ``log_time`` columns → :data:`BASE_NS`; the store ids → the ones given (derived from the
+  scenario and seed by the caller);
+* every Arrow schema with its metadata keys sorted, serialised by pyarrow and LZ4-compressed;
+* the file footer (the chunk manifest Rerun's reader and viewer use to load lazily) rebuilt from
+  the SDK's own: new ids, byte offsets and sizes, rows in the new order.
+
+Nothing of the data changes (``rerun rrd compare --unordered`` finds the files equal). Chunk
+boundaries must not depend on wall-clock time either: :class:`~mjasc.runs.recording.Recorder`
+gives the SDK a batcher that flushes on size only (:data:`BATCHER`).
+
+**Container format assumptions (Rerun 0.41; re-check on every Rerun upgrade —
+tests/test_recording_determinism.py does).**
+(1) Stream header ``RRF2`` + 4 version bytes + options (1 = LZ4, 2 = protobuf, 0, 0); each
+message a 16-byte header (u64 LE kind: 0 End, 1 SetStoreInfo, 2 ArrowMsg, 3
+BlueprintActivationCommand; u64 LE length) and a protobuf body; the End body is the footer,
+followed by a 32-byte stream footer (u64 start, u64 length, u32 xxh32 of the footer with seed
+7850921, ``RRF2FOOT``, u32 1). (2) Field numbers of rerun.log_msg.v1alpha1 (``_pb`` calls below).
+(3) An ArrowMsg payload is one LZ4-block-compressed Arrow IPC stream. (4) A chunk's column 0 is
+``rerun.controls.RowId`` (fixed_size_binary[16], big-endian time and counter); its id is schema
+metadata ``rerun:id`` = ``chunk_`` + %016X time + %016x counter. (5) The footer manifest has
+``chunk_id``, ``chunk_byte_offset``, ``chunk_byte_size``, ``chunk_byte_size_uncompressed``
+columns. The manifest's schema hash is computed over pyarrow's schema encoding, not Rerun's (Rerun
+checks it only in debug builds).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import struct
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.compute as pc
+
+__all__ = ["BASE_NS", "BATCHER_FLUSH_BYTES", "CanonicalRrdError", "canonicalise"]
+
+#: The time part of every synthetic id and of ``log_time``: 2020-01-01T00:00:00Z [ns].
+BASE_NS = 1_577_836_800_000_000_000
+#: The SDK's batcher flushes when this many bytes are pending (and never on a timer).
+BATCHER_FLUSH_BYTES = 8 << 20
+_RECORDING, _BLUEPRINT = 1, 2  # StoreKind
+_END, _STORE_INFO, _ARROW, _ACTIVATION = 0, 1, 2, 3  # message kinds
+_LZ4 = pa.Codec("lz4_raw")
+_XXH_SEED = 7850921
+
+
+class CanonicalRrdError(ValueError):
+    """The file is not a complete Rerun 0.41 recording of the expected shape."""
+
+
+# ---------------------------------------------------------------- protobuf wire format
+def _varint(n: int) -> bytes:
+    out = bytearray()
+    while True:
+        b, n = n & 0x7F, n >> 7
+        out.append(b | (0x80 if n else 0))
+        if not n:
+            return bytes(out)
+
+
+def _pb_int(field: int, v: int) -> bytes:
+    return _varint(field << 3) + _varint(v)
+
+
+def _pb_fixed64(field: int, v: int) -> bytes:
+    return _varint(field << 3 | 1) + struct.pack("<Q", v)
+
+
+def _pb_bytes(field: int, b: bytes | str) -> bytes:
+    b = b.encode() if isinstance(b, str) else b
+    return _varint(field << 3 | 2) + _varint(len(b)) + b
+
+
+def _pb_tuid(t_ns: int, inc: int) -> bytes:
+    return _pb_fixed64(1, t_ns) + _pb_fixed64(2, inc)
+
+
+def _pb_store_id(kind: int, store: str, app: str) -> bytes:
+    return _pb_int(1, kind) + _pb_bytes(2, store) + _pb_bytes(3, _pb_bytes(1, app))
+
+
+def _read_varint(b, i: int) -> tuple[int, int]:
+    r = s = 0
+    while True:
+        x = b[i]
+        i += 1
+        r |= (x & 0x7F) << s
+        s += 7
+        if x < 0x80:
+            return r, i
+
+
+def _pb_parse(b) -> dict[int, list]:
+    """Field number → values (int for varint / fixed64, bytes for length-delimited)."""
+    out: dict[int, list] = {}
+    i = 0
+    while i < len(b):
+        key, i = _read_varint(b, i)
+        field, wire = key >> 3, key & 7
+        if wire == 0:
+            v, i = _read_varint(b, i)
+        elif wire == 1:
+            v, i = struct.unpack_from("<Q", b, i)[0], i + 8
+        elif wire == 2:
+            n, i = _read_varint(b, i)
+            v, i = bytes(b[i:i + n]), i + n
+        else:
+            raise CanonicalRrdError(f"unsupported protobuf wire type {wire}")
+        out.setdefault(field, []).append(v)
+    return out
+
+
+def _store_key(store_id: bytes) -> tuple[int, str]:
+    s = _pb_parse(store_id)
+    return s.get(1, [0])[0], s[2][0].decode()
+
+
+def _xxh32(data: bytes, seed: int) -> int:
+    """xxHash32 (the stream footer's checksum)."""
+    p1, p2, p3, p4, p5, m = 2654435761, 2246822519, 3266489917, 668265263, 374761393, 0xFFFFFFFF
+
+    def rotl(x, r):
+        return ((x << r) | (x >> (32 - r))) & m
+
+    n, i = len(data), 0
+    if n >= 16:
+        v = [(seed + p1 + p2) & m, (seed + p2) & m, seed & m, (seed - p1) & m]
+        while i + 16 <= n:
+            for j, w in enumerate(struct.unpack_from("<4I", data, i)):
+                v[j] = rotl((v[j] + w * p2) & m, 13) * p1 & m
+            i += 16
+        h = (rotl(v[0], 1) + rotl(v[1], 7) + rotl(v[2], 12) + rotl(v[3], 18)) & m
+    else:
+        h = (seed + p5) & m
+    h = (h + n) & m
+    while i + 4 <= n:
+        h = rotl((h + struct.unpack_from("<I", data, i)[0] * p3) & m, 17) * p4 & m
+        i += 4
+    while i < n:
+        h = rotl((h + data[i] * p5) & m, 11) * p1 & m
+        i += 1
+    h ^= h >> 15
+    h = h * p2 & m
+    h ^= h >> 13
+    h = h * p3 & m
+    return h ^ (h >> 16)
+
+
+# ---------------------------------------------------------------- Arrow
+def _sorted(md):
+    return dict(sorted(md.items())) if md else None
+
+
+def _canon_schema(schema: pa.Schema, sort_fields: bool = False, extra=None) -> pa.Schema:
+    fields = [f.with_metadata(_sorted(f.metadata)) if f.metadata else f for f in schema]
+    if sort_fields:
+        fields.sort(key=lambda f: f.name.encode())
+    md = dict(schema.metadata or {})
+    md.update(extra or {})
+    return pa.schema(fields, metadata=_sorted(md))
+
+
+def _ipc(batch: pa.RecordBatch | None, schema: pa.Schema | None = None) -> bytes:
+    """One Arrow IPC stream: the schema, the batch if any, end of stream."""
+    sink = pa.BufferOutputStream()
+    with pa.ipc.new_stream(sink, batch.schema if batch is not None else schema) as w:
+        if batch is not None:
+            w.write_batch(batch)
+    return sink.getvalue().to_pybytes()
+
+
+def _read_ipc(payload: bytes, compression: int, size: int) -> pa.RecordBatch:
+    raw = _LZ4.decompress(payload, decompressed_size=size, asbytes=True) if compression == 2 else payload
+    return pa.ipc.open_stream(raw).read_next_batch()
+
+
+def _tuids(t_ns: int, incs) -> pa.Array:
+    buf = np.empty((len(incs), 2), dtype=">u8")
+    buf[:, 0], buf[:, 1] = t_ns, incs
+    return pa.Array.from_buffers(pa.binary(16), len(incs), [None, pa.py_buffer(buf.tobytes())])
+
+
+def _fixed_log_time(batch: pa.RecordBatch, is_log_time) -> pa.RecordBatch:
+    cols = list(batch.columns)
+    for j, f in enumerate(batch.schema):
+        if is_log_time(f):
+            c = cols[j]
+            const = pa.array(np.full(len(c), BASE_NS, dtype=np.int64)).cast(c.type)
+            cols[j] = pc.if_else(c.is_null(), pa.nulls(len(c), c.type), const) if c.null_count else const
+    return pa.RecordBatch.from_arrays(cols, schema=batch.schema)
+
+
+# ---------------------------------------------------------------- the file
+def _read(data: bytes):
+    """Store infos, Arrow chunks (batch, is_static) and footer manifests per store, and the
+    blueprint activation command, of one SDK-written file."""
+    if data[:4] != b"RRF2":
+        raise CanonicalRrdError("not a Rerun RRF2 stream")
+    stores, chunks, manifests, activation = {}, {}, {}, None
+    i = 12
+    while i + 16 <= len(data):
+        if data[i:i + 4] == b"RRF2":  # a second stream header (concatenated streams)
+            i += 12
+            continue
+        kind, n = struct.unpack_from("<QQ", data, i)
+        body = data[i + 16:i + 16 + n]
+        i += 16 + n
+        if kind == _STORE_INFO:
+            info = _pb_parse(_pb_parse(body)[2][0])
+            stores.setdefault(_store_key(info[2][0]), info)
+        elif kind == _ARROW:
+            m = _pb_parse(body)
+            batch = _read_ipc(m[5][0], m.get(2, [0])[0], m.get(3, [0])[0])
+            chunks.setdefault(_store_key(m[1][0]), []).append((batch, m.get(7, [0])[0]))
+        elif kind == _ACTIVATION:
+            activation = _pb_parse(body)
+        elif kind == _END:
+            for man in _pb_parse(body).get(1, []):
+                parsed = _pb_parse(man)
+                manifests[_store_key(parsed[1][0])] = parsed
+            i += 32  # the stream footer
+    return stores, chunks, manifests, activation
+
+
+def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_id: str = "mjasc") -> None:
+    """Write ``src_path`` (a complete recording written by the Rerun 0.41 SDK: one recording
+    store, at most one blueprint store, with its footer) to ``dst_path`` with derived ids
+    (module docstring). The same content always gives the same bytes."""
+    with open(src_path, "rb") as f:
+        data = f.read()
+    stores, chunks, manifests, activation = _read(data)
+    by_kind = {k: [s for s in stores if s[0] == k] for k in (_RECORDING, _BLUEPRINT)}
+    if len(by_kind[_RECORDING]) != 1 or len(by_kind[_BLUEPRINT]) > 1:
+        raise CanonicalRrdError(f"expected one recording and at most one blueprint store, got {sorted(stores)}")
+    out = bytearray(b"RRF2" + data[4:8] + bytes([1, 2, 0, 0]))
+
+    def message(kind: int, body: bytes) -> None:
+        out.extend(struct.pack("<QQ", kind, len(body)) + body)
+
+    footer = []
+    order = [(_BLUEPRINT, blueprint_id)] * len(by_kind[_BLUEPRINT]) + [(_RECORDING, recording_id)]
+    for store_no, (kind, new_id) in enumerate(order, start=1):
+        old = by_kind[kind][0]
+        sid = _pb_store_id(kind, new_id, app_id)
+        info = stores[old]
+        message(_STORE_INFO, _pb_bytes(1, _pb_tuid(BASE_NS, store_no)) + _pb_bytes(
+            2, _pb_bytes(2, sid) + b"".join(_pb_bytes(f, info[f][0]) for f in (5, 6) if f in info)))
+        src = chunks.get(old, [])
+        if src and old not in manifests:
+            raise CanonicalRrdError(f"store {old[1]} has no footer manifest (the file was not closed)")
+        # Rank of every row id within the store: the new row ids keep the original order.
+        rids = [np.frombuffer(b.column(0).buffers()[1], ">u8").reshape(-1, 2)[b.column(0).offset:][:b.num_rows]
+                for b, _ in src]
+        every = np.concatenate(rids) if rids else np.empty((0, 2), ">u8")
+        rank = np.empty(len(every), np.int64)
+        rank[np.lexsort((every[:, 1], every[:, 0]))] = np.arange(len(every))
+        starts = np.cumsum([0] + [len(r) for r in rids])
+        first = [rank[starts[k]:starts[k + 1]].min() for k in range(len(src))]
+        new_ids, spans = {}, {}
+        for k, ci in enumerate(sorted(range(len(src)), key=lambda c: first[c])):
+            batch, is_static = src[ci]
+            if batch.schema.field(0).name != "rerun.controls.RowId":
+                raise CanonicalRrdError(f"chunk without a row-id column: {batch.schema.field(0).name}")
+            inc = store_no << 40 | k
+            new_ids[batch.schema.metadata[b"rerun:id"]] = (k, inc)
+            cols = list(batch.columns)
+            cols[0] = _tuids(BASE_NS, rank[starts[ci]:starts[ci + 1]] + 1)
+            batch = _fixed_log_time(pa.RecordBatch.from_arrays(cols, schema=batch.schema),
+                                    lambda f: (f.metadata or {}).get(b"rerun:index_name") == b"log_time")
+            schema = _canon_schema(batch.schema, extra={b"rerun:id": f"chunk_{BASE_NS:016X}{inc:016x}".encode()})
+            ipc = _ipc(pa.RecordBatch.from_arrays(batch.columns, schema=schema))
+            body = (_pb_bytes(1, sid) + _pb_int(2, 2) + _pb_int(3, len(ipc)) + _pb_int(4, 1)
+                    + _pb_bytes(5, _LZ4.compress(ipc, asbytes=True)) + _pb_bytes(6, _pb_tuid(BASE_NS, inc))
+                    + _pb_int(7, is_static))
+            spans[k] = (len(out) + 16, len(body), len(ipc))
+            message(_ARROW, body)
+        if kind == _BLUEPRINT and activation is not None:
+            message(_ACTIVATION, _pb_bytes(1, sid) + b"".join(_pb_int(f, 1) for f in (2, 3)
+                                                               if activation.get(f, [0])[0]))
+        if src:
+            footer.append(_manifest(manifests[old], sid, new_ids, spans))
+    rrd_footer = b"".join(_pb_bytes(1, m) for m in footer)
+    message(_END, rrd_footer)
+    out += struct.pack("<QQI", len(out) - len(rrd_footer), len(rrd_footer), _xxh32(rrd_footer, _XXH_SEED))
+    out += b"RRF2FOOT" + struct.pack("<I", 1)
+    with open(dst_path, "wb") as f:
+        f.write(out)
+
+
+def _manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes:
+    """The SDK's footer manifest of one store with the new store id, chunk ids, offsets and sizes."""
+    sorbet = _canon_schema(pa.ipc.read_schema(pa.py_buffer(_pb_parse(man[2][0])[1][0])), sort_fields=True)
+    sha = hashlib.sha256(pa.schema(list(sorbet)).serialize().to_pybytes()).digest()
+    part = _pb_parse(man[4][0])
+    batch = _read_ipc(part[2][0], part.get(3, [0])[0], part.get(4, [0])[0])
+    olds = [b"chunk_%016X%016x" % struct.unpack(">QQ", c) for c in batch.column("chunk_id").to_pylist()]
+    try:
+        ks = [new_ids[c][0] for c in olds]
+    except KeyError as e:
+        raise CanonicalRrdError(f"the footer names a chunk the file does not hold: {e}") from None
+    if sorted(ks) != list(range(len(spans))):
+        raise CanonicalRrdError("the footer's chunks do not match the file's")
+    cols = dict(zip(batch.schema.names, batch.columns))
+    cols["chunk_id"] = _tuids(BASE_NS, np.array([new_ids[c][1] for c in olds], dtype=np.uint64))
+    for j, name in enumerate(("chunk_byte_offset", "chunk_byte_size", "chunk_byte_size_uncompressed")):
+        cols[name] = pa.array([spans[k][j] for k in ks], pa.uint64())
+    batch = pa.RecordBatch.from_arrays([cols[n] for n in batch.schema.names], schema=batch.schema)
+    batch = _fixed_log_time(batch, lambda f: (f.metadata or {}).get(b"rerun:index") == b"log_time"
+                            and pa.types.is_timestamp(f.type))
+    batch = batch.take(pa.array(np.argsort(ks)))
+    ipc = _ipc(pa.RecordBatch.from_arrays(batch.columns, schema=_canon_schema(batch.schema)))
+    data = _pb_int(1, 1) + _pb_bytes(2, _LZ4.compress(ipc, asbytes=True)) + _pb_int(3, 2) + _pb_int(4, len(ipc))
+    return _pb_bytes(1, sid) + _pb_bytes(2, _pb_bytes(1, _ipc(None, sorbet))) + _pb_bytes(3, sha) + _pb_bytes(4, data)
