@@ -1,10 +1,14 @@
 """Right of way: which vessel of a conflicting pair corrects its speed (docs/thesis.md §5, thesis §4.2).
 
 A vessel always yields (slows down) to a dynamic obstacle that is not a team mate. Between team
-mates the rule is COLREG rule 15's: the vessel that has the other on its **starboard** side gives
-way (in the FLU body frame starboard is negative body y), the other keeps its speed. Both vessels
-evaluate the rule on their own, without messages, so it must pick exactly one of the two in
-every geometry. Where the starboard rule alone picks both or neither, ties are broken in order:
+mates, first COLREG rule 13: a vessel coming up from more than 22.5° abaft the other's beam
+(relative bearing beyond ±112.5°) is overtaking and keeps out of the way — the overtaken vessel
+keeps its speed. Then rule 15: the vessel that has the other on its **starboard** side gives
+way (in the FLU body frame starboard is negative body y), the other keeps its speed. The thesis
+applies rule 15 alone; in the §6.4.3 bottleneck that made the vessel ahead slow down for the team
+mate closing on it from its starboard quarter, which then ran into it. Both vessels evaluate the
+rules on their own, without messages, so they must pick exactly one of the two in every
+geometry. Where the rules pick both or neither, ties are broken in order:
 
 1. *The other is more nearly ahead* — the vessel whose relative bearing to the other has the larger
    cosine gives way. This covers overtaking on one line (the overtaking vessel has the other dead
@@ -28,6 +32,8 @@ from mjasc.core.frames import world_to_body
 
 #: Relative tolerance for "exactly on the bow/stern line" and equal bearings/headings.
 _TOL = 1e-9
+#: A vessel seen beyond this relative bearing [rad] (22.5° abaft the beam) is overtaking (rule 13).
+OVERTAKING_BEARING_RAD = np.radians(112.5)
 
 
 def _point(value, name):
@@ -71,6 +77,10 @@ def gives_way(own_position, own_heading, other_position, other_heading, other_is
         return True
     if np.hypot(*(other - own)) == 0.0:
         raise ValueError("other_position: coincides with own_position")
+    abaft_own = abs(relative_bearing(own, own_h, other)) > OVERTAKING_BEARING_RAD  # it overtakes me
+    abaft_other = abs(relative_bearing(other, other_h, own)) > OVERTAKING_BEARING_RAD  # I overtake it
+    if abaft_own != abaft_other:  # COLREG rule 13: the overtaking vessel keeps out of the way
+        return abaft_other
     s_own, s_other = _starboard(own, own_h, other), _starboard(other, other_h, own)
     if s_own != s_other:  # COLREG rule 15
         return s_own

@@ -502,7 +502,10 @@ class CollisionAvoidance:
         # head-on a detour around a team mate led back into the oncoming vessel's swept area. Slow
         # down and look again every second (a re-plan then sees every conflict) rather than sail on.
         unresolved += go_around
-        if not candidates and unresolved and (self.correction is None or self.correction.kind != "yield"):
+        # A running yield planned for an earlier estimate does not clear a conflict found unresolved
+        # now (in the §6.4.3 bottleneck one kept a give-way vessel creeping into its team mate's
+        # lane): only a running emergency stop is kept.
+        if not candidates and unresolved and (self.correction is None or not self.correction.emergency):
             c = unresolved[0]
             candidates.append(emergency_yield(t, gamma, c, cfg, self.speed_max_m_s))
             self.stats["emergency"] += 1
