@@ -91,3 +91,17 @@ def test_validation():
         gives_way([0, 0], 0.0, [1, 0], np.nan, True)
     with pytest.raises(ValueError, match="other_position"):
         gives_way([1, 1], 0.0, [1, 1], 0.0, True)
+
+
+def test_overtaking_from_the_starboard_quarter_gives_way_rule_13():
+    # B comes up on A from 45° abaft A's starboard beam on a converging course: by rule 15 alone A
+    # (which has B on its starboard side) would give way; rule 13 makes the overtaking B keep out.
+    a, a_h = np.array([0.0, 0.0]), 0.0
+    b, b_h = np.array([-4.0, -3.0]), np.radians(20.0)
+    assert np.degrees(abs(relative_bearing(a, a_h, b))) > 112.5
+    assert not gives_way(a, a_h, b, b_h, True)
+    assert gives_way(b, b_h, a, a_h, True)
+    # Just forward of 22.5° abaft the beam it is a crossing again: rule 15, A gives way.
+    c = np.array([-1.0, -3.0])
+    assert np.degrees(abs(relative_bearing(a, a_h, c))) < 112.5
+    assert gives_way(a, a_h, c, b_h, True) and not gives_way(c, b_h, a, a_h, True)
