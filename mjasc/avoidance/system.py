@@ -425,6 +425,7 @@ class CollisionAvoidance:
         unresolved: list[PredictedConflict] = []
         starboard: list[PredictedConflict] = []  # head-on under COLREG: a lane change to starboard
         go_around: list[PredictedConflict] = []  # σ chose a re-plan for these (long obstructions)
+        overtaken: list[PredictedConflict] = []  # strangers from abaft the beam: leave their lane
         for c in conflicts:
             track = by_id.get(c.track_id)
             is_team = track is not None and track.team_member in self.team and not c.is_static
@@ -452,6 +453,7 @@ class CollisionAvoidance:
             if not is_team and track is not None and not c.is_static and _overtaking_us(nav, track):
                 # Slowing down lets a vessel overtaking from abaft the beam close faster: leave its lane.
                 svos.append((_swept(track, c, t, cfg), c))
+                overtaken.append(c)
                 continue
             team_gives_way = is_team and gives_way(nav.position_m, nav.heading_rad, track.position_m,
                                                    track.heading_rad, True)
@@ -502,12 +504,23 @@ class CollisionAvoidance:
         # head-on a detour around a team mate led back into the oncoming vessel's swept area. Slow
         # down and look again every second (a re-plan then sees every conflict) rather than sail on.
         unresolved += go_around
-        # A running yield planned for an earlier estimate does not clear a conflict found unresolved
-        # now (in the §6.4.3 bottleneck one kept a give-way vessel creeping into its team mate's
-        # lane): only a running emergency stop is kept.
-        if not candidates and unresolved and (self.correction is None or not self.correction.emergency):
-            c = unresolved[0]
+        for c in overtaken:  # no lane to leave: speed up and let it pass astern, else stop (Imazu case 16)
+            corr = velocity_correction_for(t, gamma, c, cfg, self.speed_max_m_s, pass_only=True)
+            if corr is not None:
+                candidates.append(corr)
+            else:
+                unresolved.append(c)
+        # The emergency stop (for the nearest unresolved conflict) is a candidate whenever a conflict
+        # is left unresolved: beside corrections for other tracks (Imazu case 12: a yield to one
+        # target was taken while a conflict with another, 5 s ahead, was left; the checked choice
+        # weighs them all), and in place of a running yield planned on an earlier estimate (in
+        # the §6.4.3 bottleneck one kept a give-way vessel creeping into its team mate's lane).
+        # A running emergency stop with nothing else to choose from is simply kept.
+        emergency_running = self.correction is not None and self.correction.emergency
+        if unresolved and (candidates or not emergency_running):
+            c = min(unresolved, key=lambda u: u.t_closest_s)
             candidates.append(emergency_yield(t, gamma, c, cfg, self.speed_max_m_s))
+        if unresolved and not emergency_running:
             self.stats["emergency"] += 1
             self._event(t, f"no manoeuvre clears track {c.track_id}: " + (
                 f"emergency slow-down to {cfg.emergency_speed_m_s:g} m/s" if cfg.emergency_speed_m_s > 0.0
