@@ -291,7 +291,10 @@ def _cmd_render(args) -> int:
     print(f"rendering {args.domain} {args.task} ({args.policy} policy, seed {args.seed}) into {out} ...", flush=True)
     t0 = time.perf_counter()
     try:
-        result = render_episode(args.domain, args.task, policy=args.policy, out_dir=out, seed=args.seed)
+        result = render_episode(args.domain, args.task, policy=args.policy, out_dir=out, seed=args.seed,
+                                progress=lambda done, limit: print(f"  {100 * done // limit:3d} % ({done} of {limit} "
+                                                                   f"control steps, {time.perf_counter() - t0:.0f} s)",
+                                                                   flush=True))
     except ValueError as exc:
         print(f"mjasc: {exc}", file=sys.stderr)
         return 2
@@ -337,10 +340,14 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     ls = sub.add_parser("list", help="list the vessels and the bundled scenarios and campaigns")
     ls.set_defaults(func=_cmd_list)
     t = sub.add_parser("trial", help="standard manoeuvring trial of one hull (results in SI units)")
-    t.add_argument("kind", choices=["speed", "turning-circle", "zigzag", "stopping"])
+    t.add_argument("kind", choices=["speed", "turning-circle", "zigzag", "stopping"],
+                   help="speed: steady surge speed at constant commands; turning-circle: steady turn "
+                        "(diameter, yaw rate); zigzag: heading overshoots; stopping: distance and time to stop")
     t.add_argument("--vessel", required=True, help="a vessel type ('mjasc list' shows them), e.g. otter")
-    t.add_argument("--port", type=float, default=None, help="constant port propeller command in [-1, 1]")
-    t.add_argument("--starboard", type=float, default=None, help="constant starboard propeller command in [-1, 1]")
+    t.add_argument("--port", type=float, default=None, help="constant port propeller command in [-1, 1] "
+                                                             "(default: the trial's own)")
+    t.add_argument("--starboard", type=float, default=None, help="constant starboard propeller command in "
+                                                                  "[-1, 1] (default: the trial's own)")
     t.add_argument("--json", action="store_true", help="print one JSON object")
     t.set_defaults(func=_cmd_trial)
     f = sub.add_parser("figures", help="make the thesis-style figures (tracking, potential fields, collision "
@@ -368,7 +375,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     c.add_argument("--time-limit", type=float, default=3600.0, help="per-run time limit [s] (default: 3600)")
     c.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     c.set_defaults(func=_cmd_campaign)
-    rp = sub.add_parser("report", help="a campaign's results: table, plots (PNG/SVG), or --json; works on a "
+    rp = sub.add_parser("report", help="a campaign's results: table, plots (PNG/SVG/PDF), or --json; works on a "
                                        "campaign that is still running or was killed")
     rp.add_argument("folder", help="the campaign's output folder (it holds campaign.sqlite)")
     rp.add_argument("--json", action="store_true", help="print one JSON object (runs_defined, runs_recorded, "
@@ -389,12 +396,14 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
                                        "(cross-entropy method, or uniform sampling as the baseline)")
     se.add_argument("campaign", help=f"a campaign file's path or a bundled campaign's name ({NAMED_HELP})")
     se.add_argument("family", help="the name of one of its encounter families")
-    se.add_argument("--method", default="cross_entropy", choices=["cross_entropy", "uniform"])
+    se.add_argument("--method", default="cross_entropy", choices=["cross_entropy", "uniform"],
+                    help="cross_entropy: adapt the sampling towards failures; uniform: the baseline "
+                         "(default: cross_entropy)")
     se.add_argument("--budget", type=int, default=48, help="runs in all (default: 48)")
     se.add_argument("--batch", type=int, default=12, help="runs per iteration (default: 12)")
     se.add_argument("--failure-separation", type=float, default=0.0,
                     help="a run whose minimum separation [m] is below this is a failure (default: 0)")
-    se.add_argument("--seed", type=int, default=0)
+    se.add_argument("--seed", type=int, default=0, help="seed of the search's sampling (default: 0)")
     se.add_argument("--workers", type=int, help="local worker processes (default: CPU count; 0: in this process)")
     se.add_argument("--scheduler", help="address of an existing Dask scheduler")
     se.add_argument("--out", help="output folder (default: runs/search/<campaign>_<family>_<method>)")

@@ -33,9 +33,13 @@ def test_baseline_team_episode_matches_its_return(tmp_path):
     from mjasc import suite
     from mjasc.suite.baselines import baseline_policy, episode_return
 
+    calls = []
     out = render_episode("otter_team", "formation", policy="baseline", out_dir=tmp_path, seed=1,
-                         task_kwargs={"time_limit": 1.0}, video=False)
+                         task_kwargs={"time_limit": 1.0}, video=False, progress=lambda *a: calls.append(a))
     assert out.video_path is None and out.rerun_path.exists()
+    limit = out.steps  # the episode runs to its limit: progress every tenth of it, not at the end
+    every = max(limit // 10, 1)
+    assert calls and calls == [(k, limit) for k in range(every, limit, every)]
     env = suite.load("otter_team", "formation", task_kwargs={"random": 1, "time_limit": 1.0})
     total, steps = episode_return(env, baseline_policy(env))
     assert (out.episode_return, out.steps) == (total, steps)

@@ -91,12 +91,13 @@ def _policy_name(policy) -> str:
 
 def render_episode(domain: str, task: str, policy="random", out_dir="out", seed: int = 0, *, task_kwargs=None,
                    camera: str = "top_down", width: int = 640, height: int = 360, video: bool = True,
-                   rerun: bool = True) -> EpisodeRender:
+                   rerun: bool = True, progress=None) -> EpisodeRender:
     """Run and render one episode of ``domain``/``task`` (see the module docstring).
 
     ``policy``: ``"random"``, ``"baseline"`` or a callable ``time_step → action`` (a dm_env
     TimeStep in, an action array of the action spec's shape out). ``task_kwargs`` are passed to
     :func:`mjasc.suite.load` (``random`` is set from ``seed``; ``time_limit`` shortens episodes).
+    ``progress``: called as ``progress(steps_done, step_limit)`` after every tenth of the episode.
     """
     if not (video or rerun):
         raise ValueError("video/rerun: at least one output must be enabled")
@@ -158,12 +159,16 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
                     recorder.scalar("plots/reward/reward", t, time_step.reward)
 
         record(time_step, None)
+        limit = int(env.step_limit)
+        every = max(limit // 10, 1)
         while not time_step.last():
             action = np.asarray(act(time_step), dtype=float)
             time_step = env.step(action)
             total += time_step.reward
             steps += 1
             record(time_step, action)
+            if progress is not None and steps % every == 0 and steps < limit:
+                progress(steps, limit)
         terminated = time_step.discount == 0.0
         if recorder is not None:
             recorder.event(float(physics.data.time), f"episode end: return {total:.2f} over {steps} steps"
