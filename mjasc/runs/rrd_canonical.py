@@ -15,7 +15,8 @@ So two runs with the same scenario and seed write the same *content* in differen
 * the file footer (the chunk manifest Rerun's reader and viewer use to load lazily) rebuilt from
   the SDK's own: new ids, byte offsets and sizes, rows in the new order.
 
-Nothing of the data changes (``rerun rrd compare --unordered`` finds the files equal). Chunk
+Nothing of the data changes (``rerun rrd compare --unordered`` finds the files equal). Cost: about
+0.5 s per 50 MB; the file is held in memory while it is re-encoded (peak ≈ 5× its size). Chunk
 boundaries must not depend on wall-clock time either: :class:`~mjasc.runs.recording.Recorder`
 gives the SDK a batcher that flushes on size only (:data:`BATCHER`).
 
