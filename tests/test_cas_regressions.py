@@ -22,9 +22,7 @@ EXPECT = {
     "overtaken_82": ("own", "lane_change", 1.0),
     "imazu19_seed94": ("own", None, 0.5),
     "imazu21_seed100": ("own", "checked_choice", 0.5),
-    # 1.55 m before the emergency stop became a candidate beside other corrections, 0.41 m since
-    # (bravo stops for the ferry between two lane changes): a no-contact check with a smaller margin.
-    "demo_run14": ("bravo", None, 0.3),
+    "demo_run14": ("bravo", None, 0.5),
     # Found by tasks/campaigns/thesis_stress.toml: perception under 30 % dropout (the detection's
     # lost-returns model and the grazed-wall continuation fixed them; no CAS action to check) and
     # the emergency slow-down that now looks again every second.

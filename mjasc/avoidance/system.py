@@ -568,8 +568,9 @@ class CollisionAvoidance:
         disc tracks in one call (conflicts with strangers only: between team mates the right of way
         and the broadcast plans decide); the options are ``chosen``, the other candidates (slowest first),
         passing first for each conflict where feasible, and keeping the mission speed (None). The
-        first with no predicted collision is taken; when every one collides, ``chosen`` (the
-        thesis's choice) stays. (In Imazu case 19 the slow-down for one target put the vessel in
+        first with no predicted collision is taken; when every one collides, the one whose worst
+        predicted miss distance is largest (``chosen``, the thesis's choice, unless another keeps
+        0.5 m more: an emergency stop in a crossing ferry's path waits for it to arrive). (In Imazu case 19 the slow-down for one target put the vessel in
         the path of another 5 s later.)"""
         query = self._last_query
         if query is None or len(query.tracks) < 2 or any(
@@ -590,13 +591,19 @@ class CollisionAvoidance:
                            include_clear=True) for c in options]
         results = predict_fleet(queries)
         clear = [k for k, res in enumerate(results) if not any(r.collision for r in res)]
-        k = clear[0] if clear else 0
+        if clear:
+            k = clear[0]
+        else:  # every plan collides: the one that keeps the most distance (the thesis's choice on ties)
+            margin = [min((r.min_distance_m - r.collision_distance_m for r in res if r.collision), default=np.inf)
+                      for res in results]
+            k = int(np.argmax(margin)) if margin[int(np.argmax(margin))] > margin[0] + 0.5 else 0
         if k != 0:
             self.stats["checked_choice"] += 1
             what = "keep the mission speed" if options[k] is None else \
                 f"{options[k].kind} for track {options[k].track_id}"
             self._event(t, f"{chosen.kind} for track {chosen.track_id} still leaves a predicted collision (with it or "
-                           f"another track): {what} instead")
+                           f"another track): {what} instead" + ("" if clear else " (no plan clears every track: "
+                                                                 "this one keeps the most distance)"))
         return options[k]
 
     def _replan(self, t, nav, svos, static_polygons, by_id=None, static_outlines=()) -> bool:
