@@ -54,16 +54,18 @@ def run_all(out: Path, seeds: list[int] | None, only: list[str] | None) -> None:
                 except Exception as exc:  # a failed run is a result too
                     summary = {"failed": type(exc).__name__, "message": str(exc).split(";")[0]}
             tag = f"{name}" + (f"_seed{seed}" if seed is not None else "")
-            (out / f"{tag}.json").write_text(json.dumps(_strip(summary), indent=1, sort_keys=True))
+            target = out / f"{tag}.json"  # a scenario in a subfolder (imazu/…) keeps its folder
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_text(json.dumps(_strip(summary), indent=1, sort_keys=True))
             print(tag, "written", flush=True)
 
 
 def compare(a: Path, b: Path) -> int:
     bad = 0
-    for fa in sorted(a.glob("*.json")):
-        fb = b / fa.name
+    for fa in sorted(a.rglob("*.json")):
+        fb = b / fa.relative_to(a)
         if not fb.exists():
-            print(f"{fa.name}: missing in {b}")
+            print(f"{fa.relative_to(a)}: missing in {b}")
             bad += 1
             continue
         ja, jb = _strip(json.loads(fa.read_text())), _strip(json.loads(fb.read_text()))

@@ -34,7 +34,10 @@ fresh (:mod:`~mjasc.avoidance.team_mates`). Decision σ (thesis eq. 3.17) per co
 - VELOCITY_CORRECTION: right of way (docs/thesis.md §5): always yield to a non-team obstacle; between
   team mates :func:`~mjasc.avoidance.right_of_way.gives_way` decides and the stand-on vessel keeps
   its speed. Yielding that is impossible becomes passing first when feasible
-  (:mod:`~mjasc.avoidance.decision`), else a re-plan around the swept area.
+  (:mod:`~mjasc.avoidance.decision`), else a re-plan around the swept area (a give-way vessel
+  stops instead of going around a team mate). Which conflict goes where is
+  :func:`~mjasc.avoidance.triage.triage`; what is left unresolved makes the emergency stop a
+  candidate, and every candidate speed plan is checked against all tracks (``_checked_choice``).
 
 **The fleet in one call.** :func:`predict_slot` runs the prediction slot of many vessels: each
 system prepares its query (its tracks as predicted, its planned motion), all (vessel, track) pairs
@@ -62,16 +65,15 @@ import numpy as np
 from mjasc.avoidance.config import AvoidanceConfig, parse_avoidance_options
 from mjasc.avoidance.decision import Correction, emergency_yield, velocity_correction_for
 from mjasc.avoidance.lane_change import plan_lane_change
-from mjasc.avoidance.prediction import (Decision, PredictedConflict, PredictionQuery, TrackMotions, gamma_of_time,
+from mjasc.avoidance.prediction import (PredictedConflict, PredictionQuery, TrackMotions, gamma_of_time,
                                         predict_fleet)
 from mjasc.avoidance.recording import AvoidanceLog
 from mjasc.avoidance.replanning import Detour, merge_overlapping, plan_detour, swept_area
 from mjasc.avoidance.request import MODES, AvoidanceRequest, PathSwitch
-from mjasc.avoidance.right_of_way import gives_way, relative_bearing
 from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, track_outline
 from mjasc.avoidance.team_mates import PlannedTrack, TeamMates
+from mjasc.avoidance.triage import swept, triage
 from mjasc.core.geometry import distance_to_polygon, point_in_polygon
-from mjasc.evaluation.colreg import classify
 from mjasc.guidance.paths import Path
 from mjasc.guidance.state import GuidanceState
 
@@ -140,29 +142,6 @@ def _correction_profile(correction: Correction | None, t_now: float, gamma_now: 
         return gamma_now + v_d * np.clip(t - t_now, 0.0, max(t_g - t_now, 0.0)) + v_m * np.maximum(t - max(t_g, t_now), 0.0)
 
     return gamma_fn
-
-
-def _swept(track, c: PredictedConflict, t: float, cfg) -> np.ndarray:
-    """The area ``track`` sweeps over the conflict's obstruction (from now on; a static one's
-    t_f = ∞ is cut at t_i + Δt_threshold), grown by its collision distance: the obstacle a
-    re-plan or lane change goes around when the conflict's own SVO is not the one to use."""
-    t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
-    return swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), c.collision_distance_m)
-
-
-#: A track bearing more than this far from the bow [rad] is abaft the beam (COLREG rule 13: 22.5° abaft).
-_ABAFT_BEAM_RAD = np.radians(112.5)
-
-
-def _overtaking_us(nav, track) -> bool:
-    """The track comes up from abaft the vessel's beam and is faster along the vessel's course:
-    it is overtaking (COLREG rule 13), and the vessel slowing down would only close the gap faster."""
-    bearing = relative_bearing(nav.position_m, nav.heading_rad, track.position_m)
-    if abs(bearing) < _ABAFT_BEAM_RAD:
-        return False
-    course = np.array([np.cos(nav.heading_rad), np.sin(nav.heading_rad)])
-    v_track = track.speed_m_s * np.array([np.cos(track.heading_rad), np.sin(track.heading_rad)])
-    return bool(v_track @ course > float(np.hypot(*np.asarray(nav.velocity_m_s, dtype=float)[:2])))
 
 
 class CollisionAvoidance:
@@ -420,79 +399,19 @@ class CollisionAvoidance:
                 static_outlines=()) -> None:
         gamma = float(self._guidance.gamma_m)
         cfg = self.config
-        svos: list = []
-        candidates: list[Correction] = []
-        unresolved: list[PredictedConflict] = []
-        starboard: list[PredictedConflict] = []  # head-on under COLREG: a lane change to starboard
-        go_around: list[PredictedConflict] = []  # σ chose a re-plan for these (long obstructions)
-        overtaken: list[PredictedConflict] = []  # strangers from abaft the beam: leave their lane
-        for c in conflicts:
-            track = by_id.get(c.track_id)
-            is_team = track is not None and track.team_member in self.team and not c.is_static
-            role = self._colreg_role(nav, track) if not is_team and track is not None and not c.is_static else None
-            if role in ("crossing_stand_on", "overtaken") and c.t_closest_s - t > cfg.stand_on_s:
-                self.stats["stand_on"] += 1
-                self._event(t, f"stand-on vessel ({role.replace('_', ' ')}) towards track {c.track_id}: keeps course "
-                               f"and speed (COLREG rule 17) until the collision is {cfg.stand_on_s:g} s away")
-                continue
-            if role == "head_on":
-                starboard.append(c)
-                continue
-            if role == "crossing_give_way":  # slow down and pass astern; never cross ahead (rule 15)
-                corr = velocity_correction_for(t, gamma, c, replace(cfg, allow_pass_first=False), self.speed_max_m_s)
-                if corr is not None:
-                    candidates.append(corr)
-                else:
-                    svos.append((_swept(track, c, t, cfg), c))
-                continue
-            if c.decision == Decision.REPLAN and not is_team:
-                svos.append((c.svo_polygon, c))
-                if not c.is_static:
-                    go_around.append(c)
-                continue
-            if not is_team and track is not None and not c.is_static and _overtaking_us(nav, track):
-                # Slowing down lets a vessel overtaking from abaft the beam close faster: leave its lane.
-                svos.append((_swept(track, c, t, cfg), c))
-                overtaken.append(c)
-                continue
-            team_gives_way = is_team and gives_way(nav.position_m, nav.heading_rad, track.position_m,
-                                                   track.heading_rad, True)
-            if is_team and not team_gives_way:
-                astern = np.cos(relative_bearing(nav.position_m, nav.heading_rad, track.position_m)) < 0.0
-                if c.t_closest_s - t > cfg.last_resort_s:
-                    self.stats["stand_on"] += 1
-                    self._event(t, f"stand-on vessel towards team mate {track.team_member}: keeps its speed")
-                    continue
-                if astern:  # last resort with the give-way vessel abaft the beam: never slow down
-                    corr = velocity_correction_for(t, gamma, c, cfg, self.speed_max_m_s, pass_only=True)
-                    if corr is not None:
-                        candidates.append(corr)
-                    else:
-                        self.stats["stand_on"] += 1
-                        self._event(t, f"stand-on vessel towards team mate {track.team_member} (abaft the beam): "
-                                       f"keeps its speed")
-                    continue
-            running = self.correction
-            passing = running is not None and running.kind == "pass" and running.track_id == c.track_id
-            corr = velocity_correction_for(t, gamma, c, cfg, self.speed_max_m_s, passing=passing)
-            if corr is not None:
-                candidates.append(corr)
-            else:
-                unresolved.append(c)
-            # Neither slowing down nor speeding up works: go around — except a give-way vessel around
-            # a team mate (it stops instead: in the §6.4.3 bottleneck such detours began with a
-            # U-turn the hull could not sail, and the turn swept it into the third vessel's lane).
-            if corr is None and track is not None and not team_gives_way:
-                svos.append((_swept(track, c, t, cfg), c))
-        for s in statics:
-            svos.append((s.polygon, s))
+        tri = triage(t, nav, gamma, conflicts, statics, by_id, self.team, cfg, self.speed_max_m_s, self.correction)
+        for stat, text in tri.notes:
+            if stat is not None:
+                self.stats[stat] += 1
+            self._event(t, text)
+        candidates, svos, unresolved, starboard = tri.candidates, tri.svos, tri.unresolved, tri.starboard
         if starboard and allow_replan:
             if self._lane_change_to_starboard(t, nav, starboard, static_polygons, static_outlines):
                 self.correction = None
                 self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True)
                 return
             for c in starboard:  # no starboard lane: as the thesis would
-                svos.append((c.svo_polygon if c.svo_polygon is not None else _swept(by_id[c.track_id], c, t, cfg), c))
+                svos.append((c.svo_polygon if c.svo_polygon is not None else swept(by_id[c.track_id], c, t, cfg), c))
         if svos and allow_replan:
             if self._replan(t, nav, svos, static_polygons, by_id, static_outlines):
                 # The path changed: predict again on the detour (velocity corrections only).
@@ -503,8 +422,8 @@ class CollisionAvoidance:
         # conflict — in the stressed dock a moored boat's track moving by noise; in the stressed
         # head-on a detour around a team mate led back into the oncoming vessel's swept area. Slow
         # down and look again every second (a re-plan then sees every conflict) rather than sail on.
-        unresolved += go_around
-        for c in overtaken:  # no lane to leave: speed up and let it pass astern, else stop (Imazu case 16)
+        unresolved += tri.go_around
+        for c in tri.overtaken:  # no lane to leave: speed up and let it pass astern, else stop (Imazu case 16)
             corr = velocity_correction_for(t, gamma, c, cfg, self.speed_max_m_s, pass_only=True)
             if corr is not None:
                 candidates.append(corr)
@@ -539,15 +458,6 @@ class CollisionAvoidance:
             self._event(t, f"velocity correction ({chosen.kind}) for track {chosen.track_id}: virtual target "
                            f"γ {law.gamma0:.1f} → {law.gamma_goal:.1f} m by t = {law.t_goal:.1f} s, "
                            f"V_d = {law.desired_speed:.2f} m/s, k = {law.gain_k:g}")
-
-    def _colreg_role(self, nav, track) -> str | None:
-        """The vessel's COLREG role towards a stranger's track (:func:`mjasc.evaluation.colreg.classify`,
-        the geometry the evaluation judges by), or None under the thesis rule."""
-        if self.config.traffic_rule != "colreg":
-            return None
-        speed = float(np.hypot(*np.asarray(nav.velocity_m_s, dtype=float)[:2]))
-        role = classify(nav.position_m, nav.heading_rad, speed, track.position_m, track.heading_rad, track.speed_m_s)
-        return None if role == "none" else role
 
     def _lane_change_to_starboard(self, t, nav, conflicts, static_polygons, static_outlines) -> bool:
         """COLREG rule 14 (head-on): leave the target's lane to starboard. True when switched."""

@@ -1,0 +1,147 @@
+"""Triage: what one vessel can do about each conflict of a prediction (docs/avoidance.md, Decisions).
+
+:func:`triage` takes the conflicts with a predicted collision and sorts each into what answers it,
+by the rules in this order:
+
+* **Traffic rule** (``traffic_rule = "colreg"``, strangers only): a stand-on vessel (crossing from
+  port, being overtaken) keeps course and speed until the collision is ``stand_on_s`` away; head-on
+  → a lane change to starboard (:attr:`Triage.starboard`); crossing give-way → slow down and pass
+  astern, never ahead (else go around).
+* **Re-plan** (decision σ = REPLAN, strangers): go around the conflict's SVO
+  (:attr:`Triage.svos`, :attr:`Triage.go_around`).
+* **A stranger overtaking from abaft the beam**: leave its lane (go around; :attr:`Triage.overtaken`
+  — the caller speeds up or stops when no lane can be left). Slowing down would let it close faster.
+* **Right of way between team mates** (:func:`~mjasc.avoidance.right_of_way.gives_way`): the
+  stand-on vessel keeps its speed until ``last_resort_s``; at the last resort, with the give-way
+  vessel abaft its beam, it may only speed up.
+* **Velocity correction** (:func:`~mjasc.avoidance.decision.velocity_correction_for`): yield, or pass
+  first (a pass already running goes on while feasible). Neither → :attr:`Triage.unresolved`, and
+  the vessel goes around the track's swept area — except a give-way vessel around a team mate, which
+  stops instead (in the §6.4.3 bottleneck such detours began with a U-turn the hull could not sail).
+
+Static conflicts are always gone around. Pure: the stats to count and the events to emit come back
+in :attr:`Triage.notes`; world frame ENU, SI units, absolute times [s].
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from mjasc.avoidance.decision import Correction, velocity_correction_for
+from mjasc.avoidance.prediction import Decision, PredictedConflict
+from mjasc.avoidance.replanning import swept_area
+from mjasc.avoidance.right_of_way import OVERTAKING_BEARING_RAD, gives_way, relative_bearing
+from mjasc.evaluation.colreg import classify
+
+__all__ = ["Triage", "triage", "swept", "overtaking_us", "colreg_role"]
+
+
+@dataclass
+class Triage:
+    """One prediction's conflicts sorted by what answers them (module docstring)."""
+
+    candidates: list[Correction] = field(default_factory=list)  # velocity corrections that clear a conflict
+    svos: list[tuple] = field(default_factory=list)  # (polygon, conflict) to go around
+    unresolved: list[PredictedConflict] = field(default_factory=list)  # neither yield nor pass
+    starboard: list[PredictedConflict] = field(default_factory=list)  # head-on under COLREG: lane change
+    go_around: list[PredictedConflict] = field(default_factory=list)  # σ chose a re-plan (long obstructions)
+    overtaken: list[PredictedConflict] = field(default_factory=list)  # strangers from abaft the beam
+    notes: list[tuple[str | None, str]] = field(default_factory=list)  # (stat to count or None, event)
+
+
+def swept(track, c: PredictedConflict, t: float, cfg) -> np.ndarray:
+    """The area ``track`` sweeps over the conflict's obstruction (from now on; a static one's
+    t_f = ∞ is cut at t_i + Δt_threshold), grown by its collision distance: the obstacle a
+    re-plan or lane change goes around when the conflict's own SVO is not the one to use."""
+    t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
+    return swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), c.collision_distance_m)
+
+
+def overtaking_us(nav, track) -> bool:
+    """The track comes up from abaft the vessel's beam and is faster along the vessel's course:
+    it is overtaking (COLREG rule 13), and the vessel slowing down would only close the gap faster."""
+    bearing = relative_bearing(nav.position_m, nav.heading_rad, track.position_m)
+    if abs(bearing) < OVERTAKING_BEARING_RAD:
+        return False
+    course = np.array([np.cos(nav.heading_rad), np.sin(nav.heading_rad)])
+    v_track = track.speed_m_s * np.array([np.cos(track.heading_rad), np.sin(track.heading_rad)])
+    return bool(v_track @ course > float(np.hypot(*np.asarray(nav.velocity_m_s, dtype=float)[:2])))
+
+
+def colreg_role(nav, track, traffic_rule: str) -> str | None:
+    """The vessel's COLREG role towards a stranger's track (:func:`mjasc.evaluation.colreg.classify`,
+    the geometry the evaluation judges by), or None under the thesis rule."""
+    if traffic_rule != "colreg":
+        return None
+    speed = float(np.hypot(*np.asarray(nav.velocity_m_s, dtype=float)[:2]))
+    role = classify(nav.position_m, nav.heading_rad, speed, track.position_m, track.heading_rad, track.speed_m_s)
+    return None if role == "none" else role
+
+
+def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: set, cfg, speed_max_m_s: float,
+           running: Correction | None) -> Triage:
+    """Sort ``conflicts`` (with a predicted collision) and ``statics`` (static conflicts) of a
+    vessel at ``nav`` and γ = ``gamma`` [m] at time t (module docstring). by_id: track id → track
+    as predicted; team: the team mates' names; cfg: the
+    :class:`~mjasc.avoidance.config.AvoidanceConfig`; running: the correction running now."""
+    out = Triage()
+    for c in conflicts:
+        track = by_id.get(c.track_id)
+        is_team = track is not None and track.team_member in team and not c.is_static
+        role = colreg_role(nav, track, cfg.traffic_rule) if not is_team and track is not None and not c.is_static \
+            else None
+        if role in ("crossing_stand_on", "overtaken") and c.t_closest_s - t > cfg.stand_on_s:
+            out.notes.append(("stand_on", f"stand-on vessel ({role.replace('_', ' ')}) towards track {c.track_id}: "
+                                          f"keeps course and speed (COLREG rule 17) until the collision is "
+                                          f"{cfg.stand_on_s:g} s away"))
+            continue
+        if role == "head_on":
+            out.starboard.append(c)
+            continue
+        if role == "crossing_give_way":  # slow down and pass astern; never cross ahead (rule 15)
+            corr = velocity_correction_for(t, gamma, c, replace(cfg, allow_pass_first=False), speed_max_m_s)
+            if corr is not None:
+                out.candidates.append(corr)
+            else:
+                out.svos.append((swept(track, c, t, cfg), c))
+            continue
+        if c.decision == Decision.REPLAN and not is_team:
+            out.svos.append((c.svo_polygon, c))
+            if not c.is_static:
+                out.go_around.append(c)
+            continue
+        if not is_team and track is not None and not c.is_static and overtaking_us(nav, track):
+            out.svos.append((swept(track, c, t, cfg), c))  # leave its lane: slowing lets it close faster
+            out.overtaken.append(c)
+            continue
+        team_gives_way = is_team and gives_way(nav.position_m, nav.heading_rad, track.position_m,
+                                               track.heading_rad, True)
+        if is_team and not team_gives_way:
+            astern = np.cos(relative_bearing(nav.position_m, nav.heading_rad, track.position_m)) < 0.0
+            if c.t_closest_s - t > cfg.last_resort_s:
+                out.notes.append(("stand_on", f"stand-on vessel towards team mate {track.team_member}: "
+                                              f"keeps its speed"))
+                continue
+            if astern:  # last resort with the give-way vessel abaft the beam: never slow down
+                corr = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, pass_only=True)
+                if corr is not None:
+                    out.candidates.append(corr)
+                else:
+                    out.notes.append(("stand_on", f"stand-on vessel towards team mate {track.team_member} "
+                                                  f"(abaft the beam): keeps its speed"))
+                continue
+        passing = running is not None and running.kind == "pass" and running.track_id == c.track_id
+        corr = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, passing=passing)
+        if corr is not None:
+            out.candidates.append(corr)
+        else:
+            out.unresolved.append(c)
+        # Neither slowing down nor speeding up works: go around — except a give-way vessel around
+        # a team mate (it stops instead).
+        if corr is None and track is not None and not team_gives_way:
+            out.svos.append((swept(track, c, t, cfg), c))
+    for s in statics:
+        out.svos.append((s.polygon, s))
+    return out
