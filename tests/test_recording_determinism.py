@@ -13,7 +13,8 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from mjasc.runs.blueprint import stable_blueprint_ids
-from mjasc.runs.rrd_canonical import BATCHER_FLUSH_BYTES, CanonicalRrdError, canonicalise
+from mjasc.runs.recording import size_only_batcher
+from mjasc.runs.rrd_canonical import CanonicalRrdError, canonicalise
 from mjasc.runs.runner import run_scenario
 from mjasc.runs.scenario import load_scenario
 
@@ -44,8 +45,8 @@ def test_same_seed_same_bytes_different_seed_different(tmp_path):
 def _sdk_file(path: Path, seed: int) -> None:
     """A recording as the SDK writes it with the Recorder's settings (size-only batching, derived
     blueprint view ids): random row, chunk and store ids and a wall-clock blueprint log_time."""
-    batcher = rr.ChunkBatcherConfig(flush_tick=1e9, flush_num_bytes=BATCHER_FLUSH_BYTES, flush_num_rows=2**63 - 1)
-    rec = rr.RecordingStream("mjasc", recording_id=f"sdk-{seed}", send_properties=False, batcher_config=batcher)
+    rec = rr.RecordingStream("mjasc", recording_id=f"sdk-{seed}", send_properties=False,
+                             batcher_config=size_only_batcher())
     rec.set_log_time_enabled(False)
     blueprint = rrb.Blueprint(rrb.Horizontal(rrb.Spatial3DView(origin="/world", name="world"),
                                              rrb.TimeSeriesView(origin="/plots", name="plots")))

@@ -144,6 +144,11 @@ def _correction_profile(correction: Correction | None, t_now: float, gamma_now: 
     return gamma_fn
 
 
+#: When every candidate speed plan collides, another is taken over the first choice only if its
+#: worst predicted miss distance is larger by this much [m] (estimates are not finer than that).
+_MARGIN_GAIN_M = 0.5
+
+
 class CollisionAvoidance:
     """Collision avoidance of one vessel (see the module docstring).
 
@@ -435,15 +440,16 @@ class CollisionAvoidance:
         # weighs them all), and in place of a running yield planned on an earlier estimate (in
         # the §6.4.3 bottleneck one kept a give-way vessel creeping into its team mate's lane).
         # A running emergency stop with nothing else to choose from is simply kept.
-        emergency_running = self.correction is not None and self.correction.emergency
-        if unresolved and (candidates or not emergency_running):
-            c = min(unresolved, key=lambda u: u.t_closest_s)
-            candidates.append(emergency_yield(t, gamma, c, cfg, self.speed_max_m_s))
-        if unresolved and not emergency_running:
-            self.stats["emergency"] += 1
-            self._event(t, f"no manoeuvre clears track {c.track_id}: " + (
-                f"emergency slow-down to {cfg.emergency_speed_m_s:g} m/s" if cfg.emergency_speed_m_s > 0.0
-                else "emergency stop (all way off)"))
+        if unresolved:
+            nearest = min(unresolved, key=lambda u: u.t_closest_s)
+            emergency_running = self.correction is not None and self.correction.emergency
+            if candidates or not emergency_running:
+                candidates.append(emergency_yield(t, gamma, nearest, cfg, self.speed_max_m_s))
+            if not emergency_running:
+                self.stats["emergency"] += 1
+                self._event(t, f"no manoeuvre clears track {nearest.track_id}: " + (
+                    f"emergency slow-down to {cfg.emergency_speed_m_s:g} m/s" if cfg.emergency_speed_m_s > 0.0
+                    else "emergency stop (all way off)"))
         if candidates:
             yields = [c for c in candidates if c.kind == "yield"]
             chosen = min(yields, key=lambda c: c.law.desired_speed) if yields else \
@@ -480,8 +486,9 @@ class CollisionAvoidance:
         passing first for each conflict where feasible, and keeping the mission speed (None). The
         first with no predicted collision is taken; when every one collides, the one whose worst
         predicted miss distance is largest (``chosen``, the thesis's choice, unless another keeps
-        0.5 m more: an emergency stop in a crossing ferry's path waits for it to arrive). (In Imazu case 19 the slow-down for one target put the vessel in
-        the path of another 5 s later.)"""
+        :data:`_MARGIN_GAIN_M` more: an emergency stop in a crossing ferry's path waits for it to
+        arrive). (In Imazu case 19 the slow-down for one target put the vessel in the path of
+        another 5 s later.)"""
         query = self._last_query
         if query is None or len(query.tracks) < 2 or any(
                 getattr(c, "track_id", None) in self._team_track_ids for c in conflicts):
@@ -506,7 +513,8 @@ class CollisionAvoidance:
         else:  # every plan collides: the one that keeps the most distance (the thesis's choice on ties)
             margin = [min((r.min_distance_m - r.collision_distance_m for r in res if r.collision), default=np.inf)
                       for res in results]
-            k = int(np.argmax(margin)) if margin[int(np.argmax(margin))] > margin[0] + 0.5 else 0
+            best = int(np.argmax(margin))
+            k = best if margin[best] > margin[0] + _MARGIN_GAIN_M else 0
         if k != 0:
             self.stats["checked_choice"] += 1
             what = "keep the mission speed" if options[k] is None else \

@@ -55,6 +55,12 @@ TIMELINE = "sim_time"
 #: Buffered rows (summed over entities; a fleet row of n vessels counts n) that trigger a flush.
 FLUSH_ROWS = 1_000_000
 
+def size_only_batcher() -> rr.ChunkBatcherConfig:
+    """The SDK's chunk batcher cutting chunks by size only, never by its wall-clock tick: the same
+    data gives the same chunks (what :func:`~mjasc.runs.rrd_canonical.canonicalise` needs)."""
+    return rr.ChunkBatcherConfig(flush_tick=1e9, flush_num_bytes=BATCHER_FLUSH_BYTES, flush_num_rows=2**63 - 1)
+
+
 class Recorder:
     """Writes one ``.rrd`` file. Buffered rows are written by :meth:`flush` / :meth:`close`.
 
@@ -73,10 +79,8 @@ class Recorder:
         rid = str(uuid.uuid5(uuid.NAMESPACE_URL, f"mjasc/{recording_name}/{seed}"))
         self._ids = (rid, str(uuid.uuid5(uuid.NAMESPACE_URL, f"mjasc/{recording_name}/{seed}/blueprint")))
         # No recording properties: they would carry the wall-clock start time; the name alone is sent.
-        # Chunks are cut by size, never by the batcher's wall-clock tick (same data, same chunks).
-        batcher = rr.ChunkBatcherConfig(flush_tick=1e9, flush_num_bytes=BATCHER_FLUSH_BYTES,
-                                        flush_num_rows=2**63 - 1)
-        self.rec = rr.RecordingStream("mjasc", recording_id=rid, send_properties=False, batcher_config=batcher)
+        self.rec = rr.RecordingStream("mjasc", recording_id=rid, send_properties=False,
+                                      batcher_config=size_only_batcher())
         self.rec.set_log_time_enabled(False)
         blueprint = blueprint or default_blueprint()
         stable_blueprint_ids(blueprint, f"mjasc/{recording_name}/{seed}/blueprint")
