@@ -15,14 +15,14 @@ CASES = Path(__file__).resolve().parent / "cas_regressions"
 #: file → (vessel, the avoidance action that must have acted or None, hull clearance it must keep [m]).
 #: Since the detection accounts for the sensor's lost returns (steadier tracks: see
 #: docs/avoidance.md, "Hardening") the first choice in imazu19_seed94 no longer runs into the other
-#: target and the ferry's swept area in demo_run14 no longer covers bravo: both stay as no-contact
-#: checks; the checked choice and the lane change are still exercised by imazu21_seed100 and
-#: overtaken_82 (and tests/test_lane_change.py).
+#: target: it stays as a no-contact check; the checked choice and the lane change are still
+#: exercised by imazu21_seed100 and overtaken_82 (and tests/test_lane_change.py). demo_run14 is
+#: withdrawn (cas_regressions/withdrawn/: its ferry sailed through the pontoon, an impossible run
+#: that scenarios and campaign draws now reject; tests/test_plausibility.py keeps it).
 EXPECT = {
     "overtaken_82": ("own", "lane_change", 1.0),
     "imazu19_seed94": ("own", None, 0.5),
     "imazu21_seed100": ("own", "checked_choice", 0.5),
-    "demo_run14": ("bravo", None, 0.5),
     # Found by tasks/campaigns/thesis_stress.toml: perception under 30 % dropout (the detection's
     # lost-returns model and the grazed-wall continuation fixed them; no CAS action to check) and
     # the emergency slow-down that now looks again every second.
@@ -41,7 +41,7 @@ EXPECT = {
     "imazu16_seed150": ("own", "checked_choice", 1.0),
     "demo_run3": ("charlie", "checked_choice", 1.0),
 }
-SLOW = {"demo_run14", "crossing_stressed_seed5", "bottleneck_stressed_seed5", "bottleneck_seed7", "bottleneck_seed1",
+SLOW = {"crossing_stressed_seed5", "bottleneck_stressed_seed5", "bottleneck_seed7", "bottleneck_seed1",
         "demo_run3"}
 
 

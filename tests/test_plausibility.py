@@ -132,3 +132,45 @@ def test_a_duration_override_below_one_control_period_is_rejected():
     with pytest.raises(ScenarioError, match=r"^duration_s: must be at least one control period"):
         sc.with_overrides(duration_s=0.01)
     assert sc.with_overrides(duration_s=0.1).duration_s == 0.1
+
+
+# ---------------------------------------------------------------------- traffic through structures
+def test_traffic_sailing_into_a_static_obstacle_is_rejected_with_the_time():
+    """The demo's ferry starts at (105, 80) heading south at 1.2 m/s; the pontoon spans x 55–95,
+    y 28–38. Heading −100° it crosses the pontoon's north edge y = 38 at x = 105 − 42·tan 10° ≈ 97.6,
+    so its 4 m disc first touches the pontoon's north-east corner (95, 38): from the closed form,
+    when the centre comes within 4 m of the corner."""
+    msg = rejected(lambda d: d["moving_obstacles"][0].update(heading_deg=-100.0),
+                   r"^moving_obstacles\[0\]: 'ferry' \(a disc of radius 4 m\) sails into static obstacle 'pontoon' "
+                   r"at t = \d+\.\d s")
+    t_msg = float(msg.split("at t = ")[1].split(" s")[0])
+    p0, v = np.array([105.0, 80.0]), 1.2 * np.array([np.cos(np.radians(-100)), np.sin(np.radians(-100))])
+    # first time |p0 + v t − corner| = 4 (the disc meets the corner before it meets an edge here)
+    d0 = p0 - np.array([95.0, 38.0])
+    a, b, c = v @ v, 2 * d0 @ v, d0 @ d0 - 16.0
+    t_touch = (-b - np.sqrt(b * b - 4 * a * c)) / (2 * a)
+    step = 0.25 * 4.0 / 1.2  # the check's sampling interval
+    assert t_touch <= t_msg <= t_touch + step + 0.05
+    # The same line shifted to pass 4.5 m east of the corner is accepted.
+    d = demo()
+    d["moving_obstacles"][0].update(heading_deg=-90.0, position_m=[99.5, 80.0])
+    parse_scenario(d, "demo.toml")
+    rejected(lambda d: d["moving_obstacles"][0].update(heading_deg=-90.0, position_m=[98.5, 80.0]),
+             r"sails into static obstacle 'pontoon'")
+
+
+def test_traffic_into_a_circle_and_path_traffic_are_checked_too():
+    rejected(lambda d: d["moving_obstacles"][0].update(heading_deg=-76.0),  # reaches y = −28 at x ≈ 131.9: 1.9 m from the buoy
+             r"sails into static obstacle 'buoy'")
+    rejected(lambda d: d["moving_obstacles"].__setitem__(0, {
+        "name": "barge", "radius_m": 2.0, "speed_m_s": 1.0, "waypoints": [[40.0, 45.0], [75.0, 45.0], [75.0, 20.0]]}),
+        r"^moving_obstacles\[0\]: 'barge' .* sails into static obstacle 'pontoon' at t = 4[01]\.\d s")  # 40 m along its path at 1 m/s
+
+
+def test_the_campaign_run_with_the_ferry_through_the_pontoon_is_rejected():
+    """Demo campaign run 14 (before draws were checked): the ferry sailed through the pontoon and
+    came out of it next to bravo (tests/cas_regressions/README.md, "Withdrawn")."""
+    path = Path(__file__).resolve().parent / "cas_regressions" / "withdrawn" / "demo_run14.toml"
+    with pytest.raises(ScenarioError, match=r"demo_run14\.toml: moving_obstacles\[0\]: 'ferry' .* sails into static "
+                                            r"obstacle 'pontoon' at t = 3\d\.\d s"):
+        load_scenario(path)

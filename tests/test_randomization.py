@@ -301,3 +301,24 @@ def test_a_stress_family_runs_the_scenario_on_its_own_seeds_under_the_stated_con
     with pytest.raises(CampaignError, match=r"families\[0\]\.conditions\.sensor_dropout"):
         parse_campaign_spec({"families": [{"kind": "perturbation", "scenario": "thesis_6_2_dock.toml",
                                            "conditions": {"sensor_dropout": 1.5}}]}, "x.toml", "tasks")
+
+
+def test_draws_that_send_traffic_through_a_structure_are_drawn_again():
+    """Scripted traffic avoids nothing: a draw whose ferry would sail through the demo's pontoon is
+    replaced by the next draw of the same generator; a run whose first draw is clear keeps it."""
+    from mjasc.campaigns.perturbation import RANDOMIZATION_STREAM
+    from mjasc.runs.plausibility import traffic_through_structure
+
+    camp = load_campaign(TASKS / "campaigns" / "demo_monte_carlo.toml")
+    base, r = camp.scenario, camp.randomize
+    redrawn = 0
+    for k in range(60):
+        d = draw_perturbations(base, r, camp.base_seed, k)
+        sc = randomized_scenario(base, camp, k)
+        assert traffic_through_structure(sc.moving_obstacles, sc.static_obstacles, sc.duration_s) is None
+        first = np.random.default_rng([camp.base_seed, k, RANDOMIZATION_STREAM]).standard_normal(
+            2 * len(base.vessels) + len(base.vessels) + 2)  # z_pos, z_head, z_cur of the first set
+        same = np.allclose(d.vessel_offset_m.ravel(), r.vessel_position_sigma_m * first[:6])
+        redrawn += not same
+    # ~1/3 of the demo's ferry headings (σ = 10°) meet the pontoon or the buoy within 240 s
+    assert 10 <= redrawn <= 35

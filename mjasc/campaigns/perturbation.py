@@ -36,6 +36,12 @@ any other field ``F`` becomes the sum ``F + Uniform(ΔV_c)``. The scenario's see
 table with that seed, exactly as if the scenario file said ``seed = base_seed + k``. With every
 sigma 0, run k *is* that scenario (the same objects, nothing redrawn).
 
+**Rejected draws.** Traffic is scripted and avoids nothing, so a heading or speed draw that takes
+a moving obstacle's disc into a static obstacle during the run (the demo's ferry sailing through
+the pontoon; :func:`mjasc.runs.plausibility.traffic_through_structure`) describes an impossible
+encounter: the run draws its whole set again, the next variates of the same generator in the same
+order, at most :data:`MAX_DRAWS` times. A run whose first set is accepted is unchanged.
+
 Only :func:`dataclasses.replace` is used on the scenario's dataclasses (no edits to scenario.py).
 """
 
@@ -66,13 +72,16 @@ from mjasc.core.config_tables import (
 from mjasc.core.frames import wrap_angle
 from mjasc.core.resources import resolve_bundled
 from mjasc.physics.currents import SumCurrent, UniformCurrent, current_from_config
+from mjasc.runs.plausibility import traffic_through_structure
 from mjasc.runs.scenario import Scenario, ScenarioError, load_scenario
 
 __all__ = ["CampaignError", "Randomization", "Campaign", "RunDraws", "load_campaign", "parse_campaign",
-           "draw_perturbations", "randomized_scenario", "RANDOMIZATION_STREAM"]
+           "draw_perturbations", "randomized_scenario", "RANDOMIZATION_STREAM", "MAX_DRAWS"]
 
 #: Third entry of the per-run seed sequence ``[base_seed, k, RANDOMIZATION_STREAM]``.
 RANDOMIZATION_STREAM = 0xC0FFEE
+#: Draws tried per run before a run whose traffic always meets a static obstacle is an error.
+MAX_DRAWS = 100
 
 
 class CampaignError(ValueError):
@@ -215,10 +224,24 @@ def load_campaign(path: str | Path) -> Campaign:
 
 # ---------------------------------------------------------------------- randomization
 def draw_perturbations(scenario: Scenario, randomize: Randomization, base_seed: int, k: int) -> RunDraws:
-    """Draws of run k (module docstring): deterministic in (base_seed, k), fixed draw order."""
+    """Draws of run k (module docstring): deterministic in (base_seed, k), fixed draw order. A draw
+    that sends traffic into a static obstacle is drawn again from the same generator (module
+    docstring, "Rejected draws"); CampaignError when none of :data:`MAX_DRAWS` keeps it clear."""
     if k < 0 or base_seed < 0:
         raise ValueError(f"k, base_seed: must be ≥ 0, got k={k}, base_seed={base_seed}")
     rng = np.random.default_rng([base_seed, k, RANDOMIZATION_STREAM])
+    reason = ""
+    for _ in range(MAX_DRAWS):
+        draws = _one_draw(scenario, randomize, rng)
+        reason = traffic_through_structure(_moved_traffic(scenario, draws), scenario.static_obstacles,
+                                           scenario.duration_s)
+        if reason is None:
+            return draws
+    raise CampaignError(f"run {k}: no draw in {MAX_DRAWS} keeps the traffic clear of the static obstacles; last: "
+                        f"{reason}")
+
+
+def _one_draw(scenario: Scenario, randomize: Randomization, rng: np.random.Generator) -> RunDraws:
     n, m = len(scenario.vessels), len(scenario.moving_obstacles)
     z_pos = rng.standard_normal((n, 2))
     z_head = rng.standard_normal(n)
@@ -236,6 +259,14 @@ def draw_perturbations(scenario: Scenario, randomize: Randomization, base_seed: 
         traffic_heading_offset_deg=np.where(on_path, 0.0, r.traffic_heading_sigma_deg * z_thead),
         traffic_speed_offset_m_s=dspeed,
     )
+
+
+def _moved_traffic(scenario: Scenario, d: RunDraws) -> tuple:
+    """The scenario's moving obstacles with the draws' heading and speed offsets applied."""
+    return tuple(replace(o, heading_rad=o.heading_rad if o.path is not None else
+                         float(wrap_angle(o.heading_rad + math.radians(d.traffic_heading_offset_deg[j]))),
+                         speed_m_s=float(o.speed_m_s + d.traffic_speed_offset_m_s[j]))
+                 for j, o in enumerate(scenario.moving_obstacles))
 
 
 def _reseeded_current(scenario: Scenario, seed: int):
@@ -276,11 +307,7 @@ def randomized_scenario(scenario: Scenario, config: Campaign | Randomization, k:
             new = SumCurrent([current, UniformCurrent(d.current_offset_m_s)])
         sc = replace(sc, current=new, current_config=new.describe())
     if randomize.traffic_heading_sigma_deg > 0 or randomize.traffic_speed_sigma_m_s > 0:
-        sc = replace(sc, moving_obstacles=tuple(
-            replace(o, heading_rad=o.heading_rad if o.path is not None else
-                    float(wrap_angle(o.heading_rad + math.radians(d.traffic_heading_offset_deg[j]))),
-                    speed_m_s=float(o.speed_m_s + d.traffic_speed_offset_m_s[j]))
-            for j, o in enumerate(sc.moving_obstacles)))
+        sc = replace(sc, moving_obstacles=_moved_traffic(sc, d))
     return sc
 
 

@@ -16,6 +16,12 @@ reason and the distance), before any model is built:
   obstacle centre, at t = 0 and t = duration, is at most :data:`Bounds.current_speed_m_s`
   (evaluated on a copy of the field: a seeded field's own random state is not advanced).
 * **duration** — at least one control period ``1 / rates.control_hz`` (a shorter run never ticks).
+* **traffic through structures** — moving obstacles are scripted (kinematic: they follow their
+  constant-turn motion or path and avoid nothing), so one whose disc would enter a static obstacle
+  during the run describes a ferry sailing through a pontoon: the vessels would meet it emerging
+  from inside the structure, hidden until it does. :func:`traffic_through_structure` samples the
+  motion every :data:`TRAFFIC_SAMPLE_FRACTION` of the smallest radius of travel (at most every
+  :data:`TRAFFIC_SAMPLE_MAX_S`) and the error names the obstacle, the structure and the time.
 
 The bounds of single values (|coordinate| ≤ :data:`mjasc.core.frames.WORLD_LIMIT_M`, the physics
 rate, speeds) are declared on the fields themselves with :func:`mjasc.core.config_tables.param`;
@@ -32,11 +38,16 @@ import numpy as np
 
 from mjasc.core.config_tables import ConfigError, param, show
 from mjasc.core.geometry import distance_to_polygon, hull_outline, point_in_polygon, segments_intersect
-from mjasc.physics.obstacles import PolygonObstacle
+from mjasc.physics.obstacles import MovingObstacleSet, PolygonObstacle
 
-__all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "check_duration", "check_plausible", "hulls_overlap"]
+__all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "check_duration", "check_plausible", "hulls_overlap",
+           "traffic_through_structure", "TRAFFIC_SAMPLE_FRACTION", "TRAFFIC_SAMPLE_MAX_S"]
 
 MAX_NAME_CHARS = 64
+TRAFFIC_SAMPLE_FRACTION = 0.25
+"""Traffic is sampled every time it moves this fraction of its radius (the fastest, smallest one)."""
+TRAFFIC_SAMPLE_MAX_S = 1.0
+"""Longest sampling interval [s] of the traffic-through-structures check."""
 """Longest vessel or obstacle name (it becomes a MuJoCo body name and a Rerun entity path)."""
 
 _NAME = re.compile(r"[A-Za-z0-9_-]+")
@@ -134,6 +145,41 @@ def _check_current(scenario) -> None:
                               f"{speed[worst]:.3g} m/s, must be ≤ {limit} m/s")
 
 
+def traffic_through_structure(moving_obstacles, static_obstacles, duration_s: float) -> str | None:
+    """The first moving obstacle whose disc enters a static obstacle during ``[0, duration_s]``, as
+    a one-line reason naming both and the time (``None`` when every track stays clear). Sampled
+    every :data:`TRAFFIC_SAMPLE_FRACTION` radii of travel (module docstring); the disc enters a
+    polygon when its centre is inside or nearer than its radius to an edge, a circle when the
+    centres are nearer than the radii's sum."""
+    moving, static = list(moving_obstacles), list(static_obstacles)
+    if not moving or not static or duration_s <= 0:
+        return None
+    traffic = MovingObstacleSet(moving)
+    speeds = np.array([o.speed_m_s for o in moving])
+    step = float(np.min(np.where(speeds > 0, TRAFFIC_SAMPLE_FRACTION * traffic.radii_m / np.maximum(speeds, 1e-12),
+                                 TRAFFIC_SAMPLE_MAX_S)))
+    step = min(max(step, 1e-3), TRAFFIC_SAMPLE_MAX_S)
+    times = np.append(np.arange(0.0, duration_s, step), duration_s)
+    centres = np.array([traffic.state(float(t))[0] for t in times])  # (T, M, 2)
+    flat = centres.reshape(-1, 2)
+    radii = np.broadcast_to(traffic.radii_m, centres.shape[:2]).reshape(-1)
+    first = None  # (time index, moving index, static obstacle)
+    for o in static:
+        if isinstance(o, PolygonObstacle):
+            inside = point_in_polygon(flat, o.vertices) | (distance_to_polygon(flat, o.vertices) < radii)
+        else:
+            inside = np.linalg.norm(flat - o.centre, axis=1) < radii + o.radius_m
+        hits = np.flatnonzero(inside)
+        if hits.size and (first is None or hits[0] // len(moving) < first[0]):
+            first = (int(hits[0] // len(moving)), int(hits[0] % len(moving)), o)
+    if first is None:
+        return None
+    k, j, o = first
+    return (f"moving_obstacles[{j}]: {moving[j].name!r} (a disc of radius {moving[j].radius_m:g} m) sails into static "
+            f"obstacle {o.name!r} at t = {times[k]:.1f} s, near {np.round(centres[k, j], 1).tolist()} m; traffic "
+            f"is scripted and avoids nothing, so its heading, speed or path must keep it clear")
+
+
 def check_duration(scenario) -> None:
     """The run lasts at least one control period (``duration_s: must be at least ...``)."""
     period = 1.0 / scenario.rates.control_hz
@@ -148,3 +194,6 @@ def check_plausible(scenario, types: dict) -> None:
     check_duration(scenario)
     _check_clearance(scenario, types)
     _check_current(scenario)
+    reason = traffic_through_structure(scenario.moving_obstacles, scenario.static_obstacles, scenario.duration_s)
+    if reason is not None:
+        raise ConfigError(reason)
