@@ -165,8 +165,8 @@ def _legend(draw, W, H, font) -> None:
     items = [("line", COLOURS["path"], "mission path"), ("line", COLOURS["detour"], "detour"),
              ("disc", (0.85, 0.85, 0.85, 1.0), f"track: disc, 2-sigma, {VELOCITY_ARROW_S:g} s of velocity"),
              ("thin", (0.85, 0.85, 0.85, 1.0), "sensor fan, returns"),
-             ("dot", COLOURS["conflict"], "predicted conflict (CPA)"), ("line", COLOURS["svo"], "static virtual obstacle"),
-             ("line", COLOURS["field"], "potential-field obstacle")]
+             ("dot", COLOURS["conflict"], "predicted conflict (CPA)"),
+             ("line", COLOURS["svo"], "static virtual obstacle"), ("line", COLOURS["field"], "potential-field obstacle")]
     fs = font.size
     line = fs + 3
     w = 34 + max(draw.textlength(t, font=font) for _, _, t in items)

@@ -41,7 +41,7 @@ VELOCITY_ARROW_S = 10.0
 #: out on the blue water: light blue paths (not the white of vessel 5), cyan detours, red
 #: conflicts, black static virtual obstacles (not vessel 0's gold nor vessel 3's orange) and deep
 #: purple potential-field obstacles (not vessel 4's light violet).
-COLOURS = {"path": (0.45, 0.6, 1.0, 0.7), "detour": (0.0, 0.9, 1.0, 1.0), "conflict": (1.0, 0.15, 0.15, 1.0),
+COLOURS = {"path": (0.45, 0.6, 1.0, 0.5), "detour": (0.0, 0.9, 1.0, 1.0), "conflict": (1.0, 0.15, 0.15, 1.0),
            "svo": (0.02, 0.02, 0.02, 0.9), "field": (0.45, 0.0, 0.55, 0.95), "fan_alpha": 0.3, "track_alpha": 0.35}
 #: The sensor fan keeps every FAN_DECIMATION-th beam without a return (all beams with one).
 FAN_DECIMATION = 6
