@@ -14,7 +14,7 @@ Not run in CI (it needs Chromium: ``apt-get install chromium`` on Debian). What 
    ``--virtual-time-budget`` does not help: its screenshot shows "Loading Application Bundle"),
    then ``Page.captureScreenshot`` ``--shots`` times, ``--interval`` seconds apart (``name-1.png``,
    ``name-2.png`` … when more than one);
-3. stop both processes it started.
+3. stop both processes it started, with their children (each runs in its own process group).
 
 The viewer opens the recording at its end with the recording's default blueprint.
 """
@@ -24,7 +24,9 @@ from __future__ import annotations
 import argparse
 import base64
 import json
+import os
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -80,13 +82,14 @@ def screenshots(rrd: Path, out: Path, width: int, height: int, wait_s: float, sh
     try:
         procs.append(subprocess.Popen([rerun, "--serve-web", str(rrd), "--web-viewer-port", str(web),
                                        "--port", str(grpc), "--bind", "127.0.0.1"],
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
         wait_http(f"http://127.0.0.1:{web}/", 30)
         procs.append(subprocess.Popen([chromium, "--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
                                        "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
                                        "--hide-scrollbars", f"--window-size={width},{height}",
                                        f"--remote-debugging-port={debug}", f"--user-data-dir={profile}",
-                                       "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+                                       "about:blank"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                                      start_new_session=True))
         wait_http(f"http://127.0.0.1:{debug}/json/version", 30)
         pages = [t for t in json.loads(wait_http(f"http://127.0.0.1:{debug}/json/list", 10)) if t["type"] == "page"]
         from websockets.sync.client import connect
@@ -112,13 +115,24 @@ def screenshots(rrd: Path, out: Path, width: int, height: int, wait_s: float, sh
                 paths.append(path)
             return paths
     finally:
-        for p in reversed(procs):  # only the processes started here
-            p.terminate()
-            try:
-                p.wait(10)
-            except subprocess.TimeoutExpired:
-                p.kill()
+        for p in reversed(procs):  # only the processes started here, each with its own group:
+            stop_group(p)  # .venv/bin/rerun is a Python wrapper whose child is the real viewer
         shutil.rmtree(profile, ignore_errors=True)
+
+
+def stop_group(p: subprocess.Popen) -> None:
+    """Stop ``p`` and its children (its own process group, from ``start_new_session``)."""
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        try:
+            os.killpg(p.pid, sig)
+        except ProcessLookupError:
+            return
+        try:
+            p.wait(10)
+            time.sleep(0.5)  # children leave after their parent
+        except subprocess.TimeoutExpired:
+            continue
+    p.wait()
 
 
 def main(argv=None) -> int:
