@@ -1,6 +1,6 @@
 """The ``mjasc`` command line.
 
-    mjasc run SCENARIO [--out DIR] [--video] [--seed N] [--duration S] [--no-progress]
+    mjasc run SCENARIO [--out DIR] [--video] [--camera CAM] [--seed N] [--duration S] [--no-progress]
     mjasc list
     mjasc campaign CAMPAIGN [--out DIR] [--workers N] [--scheduler ADDR] [--runs N] [--no-progress]
     mjasc report FOLDER [--json] [--out DIR] [--format png svg pdf]
@@ -9,7 +9,7 @@
     mjasc trial speed|turning-circle|zigzag|stopping --vessel NAME [--port F] [--starboard F] [--json]
     mjasc view RUN_DIR|RECORDING [--print]
     mjasc figures [--out DIR] [--format png svg pdf]
-    mjasc render DOMAIN TASK [--policy random|baseline] [--seed N] [--out DIR]   (dm_control suite)
+    mjasc render DOMAIN TASK [--policy random|baseline] [--seed N] [--camera CAM] [--out DIR]   (dm_control suite)
 
 SCENARIO and CAMPAIGN are a TOML file's path or the name of a bundled one (``mjasc run demo``,
 ``mjasc campaign demo_monte_carlo``; ``mjasc list`` shows them), so every command works from any
@@ -43,8 +43,9 @@ def _cmd_run(args) -> int:
     from mjasc.runs.scenario import ScenarioError, load_scenario
 
     try:
-        scenario = load_scenario(args.scenario).with_overrides(seed=args.seed, video=True if args.video else None,
-                                                               duration_s=args.duration)
+        scenario = load_scenario(args.scenario).with_overrides(
+            seed=args.seed, video=True if args.video or args.camera else None, duration_s=args.duration,
+            video_camera=args.camera)
     except ScenarioError as exc:
         print(f"mjasc: invalid scenario: {exc}{_not_found_hint(args.scenario, 'scenario')}", file=sys.stderr)
         return 2
@@ -283,6 +284,10 @@ def _cmd_render(args) -> int:
     from mjasc.suite.render import render_episode
 
     tasks = TASKS_BY_DOMAIN.get(args.domain)
+    if not (args.camera in ("top_down", "overview", "split") or args.camera.startswith(("chase:", "split:"))):
+        print(f"mjasc: render --camera: must be top_down, overview, chase:VESSEL, split or split:VESSEL, "
+              f"got {args.camera!r}", file=sys.stderr)
+        return 2
     if tasks is None or args.task not in tasks:  # checked before the output folder is made
         what = f"domain {args.domain!r}" if tasks is None else f"task {args.task!r} of domain {args.domain!r}"
         print(f"mjasc: render: no {what} (known: {_suite_tasks(TASKS_BY_DOMAIN)})", file=sys.stderr)
@@ -292,6 +297,7 @@ def _cmd_render(args) -> int:
     t0 = time.perf_counter()
     try:
         result = render_episode(args.domain, args.task, policy=args.policy, out_dir=out, seed=args.seed,
+                                camera=args.camera,
                                 progress=lambda done, limit: print(f"  {100 * done // limit:3d} % ({done} of {limit} "
                                                                    f"control steps, {time.perf_counter() - t0:.0f} s)",
                                                                    flush=True))
@@ -333,6 +339,9 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
                                     f"tasks/README.md) or a bundled scenario's name such as 'demo' ({NAMED_HELP})")
     r.add_argument("--out", help="output folder (default: runs/<scenario name> in the current folder)")
     r.add_argument("--video", action="store_true", help="render an MP4 offscreen (OSMesa)")
+    r.add_argument("--camera", help="the video's camera (implies --video): top_down, overview, chase:VESSEL, "
+                                    "split (overview beside the first vessel's chase view) or split:VESSEL "
+                                    "(default: the scenario's [outputs] video_camera, else top_down)")
     r.add_argument("--seed", type=int, help="override the scenario's seed")
     r.add_argument("--duration", type=float, help="override the scenario's duration [s]")
     r.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
@@ -419,6 +428,9 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     rd.add_argument("--policy", default="random", choices=["random", "baseline"],
                     help="random actions, or the testbed's own guidance and avoidance (default: random)")
     rd.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
+    rd.add_argument("--camera", default="top_down",
+                    help="top_down, overview, chase:VESSEL (e.g. chase:otter), split (overview beside the first "
+                         "vessel's chase view) or split:VESSEL (default: top_down)")
     rd.add_argument("--out", default="runs/render", help="output folder (default: runs/render)")
     rd.set_defaults(func=_cmd_render)
     return p

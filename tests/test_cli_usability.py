@@ -57,6 +57,17 @@ def test_render_with_an_unknown_domain_or_task_creates_nothing(domain, task, tmp
     assert err.count("\n") == 1 and "otter: path_following" in err
 
 
+@pytest.mark.parametrize("argv, field", [(["render", "otter", "path_following", "--camera", "sideways"],
+                                          "render --camera"),
+                                         (["run", "demo", "--camera", "split:zulu"], "outputs.video_camera")])
+def test_a_bad_camera_is_one_line_naming_the_field_and_creates_nothing(argv, field, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    assert list(tmp_path.iterdir()) == []
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and field in err
+
+
 def test_trial_prints_units(capsys):
     assert main(["trial", "speed", "--vessel", "otter"]) == 0
     rows = dict(line.split(None, 1) for line in capsys.readouterr().out.splitlines())

@@ -25,3 +25,43 @@ def test_avoidance_figure_of_a_short_run(tmp_path):
     paths = make_avoidance_figures(tmp_path, scenarios=["thesis_6_4_crossing"], duration_s=30.0)
     assert [p.name for p in paths] == ["avoidance_thesis_6_4_crossing.png"]
     _check_pngs(paths)
+
+
+def test_bottleneck_conflict_labels_do_not_overlap_and_the_axis_frames_the_action():
+    """The bottleneck run predicts the same conflicts again and again at the narrows: their labels
+    are merged into numbered groups whose boxes (as the renderer draws them) do not overlap, each
+    in the axes; the axis spans where the vessels sailed, not the 250 m of their mission paths."""
+    import itertools
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from mjasc.figures.avoidance import trace_figure, trace_run
+    from mjasc.figures.conflict_labels import LABEL_GID
+
+    trace = trace_run("thesis_6_4_bottleneck")
+    raw = sum(len(v) for v in trace.collision_points.values())
+    fig = trace_figure(trace, "bottleneck", plt)
+    try:
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        ax = fig.axes[0]
+        labels = [t for t in ax.texts if t.get_gid() == LABEL_GID]
+        assert 2 <= len(labels) < raw  # merged, but not into one
+        assert [t.get_text() for t in labels] == [str(k) for k in range(1, len(labels) + 1)]
+        boxes = [t.get_bbox_patch().get_window_extent(renderer) for t in labels]
+        for a, b in itertools.combinations(boxes, 2):
+            assert not a.overlaps(b), (a, b)
+        axes_box = ax.get_window_extent(renderer)
+        assert all(axes_box.contains(b.x0, b.y0) and axes_box.contains(b.x1, b.y1) for b in boxes)
+        (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+        pts = np.array([p for v in trace.collision_points.values() for _, p, _, _ in v])
+        assert np.all((pts >= [x0, y0]) & (pts <= [x1, y1]))  # no conflict cropped away
+        assert y1 < 150.0, "the mission paths' northern 100 m of empty water are cut off"
+        key = " ".join(t.get_text() for t in fig.axes[2].texts)
+        assert all(f"{k}: " in key for k in range(1, len(labels) + 1)) and " s" in key  # units
+    finally:
+        plt.close(fig)

@@ -116,3 +116,58 @@ def test_demo_frames_show_what_each_vessel_senses_and_decides(tmp_path):
         assert (np.abs(patch - np.array(v.colour)).sum(axis=-1) < 60).sum() >= 5, v.name
     assert result.summary["video_frames"] == 2 * 13  # the slot's 13 and this test's 13
     assert set(result.summary["video_timing_s"]) == {"view", "scene", "render", "hud", "encode"}
+
+
+def _demo_runner(tmp_path, camera: str, width: int, height: int, duration_s: float = 12.0):
+    sc = load_scenario(TASKS / "demo.toml").with_overrides(duration_s=duration_s, video=True, video_camera=camera)
+    sc = dataclasses.replace(sc, outputs=dataclasses.replace(sc.outputs, video_width=width, video_height=height,
+                                                             video_fps=1.0, recording=False))
+    return Runner(sc, tmp_path, progress=False)
+
+
+def test_split_frame_shows_the_overview_left_and_the_first_vessels_chase_view_right(tmp_path):
+    runner = _demo_runner(tmp_path, "split", 640, 240)
+    seen = {}
+
+    def grab(event):
+        w = runner.video
+        seen.update(frame=w.add_event(event), panes=[(p.chased, p.width, p.height) for p in w.panes])
+
+    runner.observe("video", grab)
+    runner.run()
+    # split without a name: the first vessel's chase camera; each half is rendered at 320 × 240.
+    assert seen["panes"] == [(None, 320, 240), ("alpha", 320, 240)]
+    frame = seen["frame"].astype(int)
+    assert frame.shape == (240, 640, 3)
+    left, right = frame[:, :319], frame[:, 321:]
+    assert np.abs(left - right).mean() > 20, "the halves show different views"
+    # The chase half: the chased Otter's gold pontoons near the centre, large (not a map symbol).
+    centre = right[60:200, 80:240]
+    assert (np.abs(centre - np.array([245, 184, 20])).sum(axis=-1) < 90).sum() > 200
+    # The overview half: the vessels' map symbols in their palette colours (gold, pink, lime).
+    for colour in ((255, 200, 0), (255, 85, 170), (120, 230, 50)):
+        assert (np.abs(left - np.array(colour)).sum(axis=-1) < 60).sum() > 5, colour
+
+
+@pytest.mark.parametrize("camera, message", [("split:zulu", "no vessel named 'zulu'"),
+                                             ("chase:zulu", "no vessel named 'zulu'"),
+                                             ("sideways", "must be top_down, overview")])
+def test_a_bad_camera_is_one_line_naming_the_field(camera, message):
+    from mjasc.runs.scenario import ScenarioError
+
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(TASKS / "demo.toml").with_overrides(video_camera=camera)
+    text = str(err.value)
+    assert text.startswith("outputs.video_camera: ") and message in text and "\n" not in text
+
+
+def test_overlay_colours_are_no_vessel_colour_and_show_on_the_water():
+    """Every overlay colour is far from each vessel colour (RGB distance) and from the water."""
+    from mjasc.runs.blueprint import PALETTE
+    from mjasc.runs.video_hud import WATER_SWATCH
+    from mjasc.runs.video_scene import COLOURS
+
+    for key in ("path", "detour", "conflict", "svo", "field"):
+        rgb = 255 * np.array(COLOURS[key][:3])
+        assert min(np.linalg.norm(rgb - np.array(p)) for p in PALETTE) > 70, key
+        assert np.linalg.norm(rgb - np.array(WATER_SWATCH)) > 90, key

@@ -1,6 +1,7 @@
 """Figures of the collision avoidance runs (thesis §6.2–6.4): top-down tracks with the mission
-paths, the obstacles' tracks, the predicted collision points, the static virtual obstacles and the
-re-planned paths, plus speed and mode against time.
+paths, the obstacles' tracks, the predicted collision points (merged into numbered groups with a key:
+:mod:`mjasc.figures.conflict_labels`), the static virtual obstacles and the re-planned paths, framed
+on where things happen (:func:`action_extent`), plus speed and mode against time.
 
 Each figure is made by running the scenario file in ``tasks/`` through the real runner (the
 vessels avoid with their own perception), recording what the avoidance components did on the way.
@@ -104,9 +105,38 @@ def _closed(p):
     return np.vstack([p, p[:1]])
 
 
-def plot_trace(trace: RunTrace, title: str, path: Path, plt, formats=("png",)) -> list[Path]:
+def action_extent(trace: RunTrace, margin: float = 0.08, min_span_m: float = 40.0) -> tuple[np.ndarray, np.ndarray]:
+    """Lower-left and upper-right corners [m] of where things happen: the vessels' sailed tracks,
+    the static obstacles, the predicted collision points, the SVOs and the detours, with ``margin``
+    of the span on each side (at least ``min_span_m`` across). Mission paths and traffic beyond it
+    are cut off: they would otherwise stretch the axis over empty water."""
     sc = trace.scenario
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(14, 6), gridspec_kw={"width_ratios": [3, 2]})
+    pts = [np.asarray(trace.positions, float).reshape(-1, 2)]
+    for o in sc.static_obstacles:
+        pts.append(np.asarray(o.vertices if hasattr(o, "vertices") else o.polygon(32), float))
+    for rows in trace.collision_points.values():
+        pts += [np.asarray(p, float).reshape(1, 2) for _, p, _, _ in rows]
+    for rows in trace.svos.values():
+        pts += [np.asarray(poly, float) for _, poly in rows]
+    for rows in trace.detours.values():
+        pts += [np.asarray(sl, float) for _, sl, _ in rows]
+    allp = np.vstack(pts)
+    lo, hi = allp.min(axis=0), allp.max(axis=0)
+    centre, span = 0.5 * (lo + hi), np.maximum(hi - lo, min_span_m)
+    half = 0.5 * span * (1.0 + 2.0 * margin)
+    return centre - half, centre + half
+
+
+def trace_figure(trace: RunTrace, title: str, plt):
+    """The figure of a run: top-down (framed on :func:`action_extent`, conflicts numbered with a
+    key, :mod:`mjasc.figures.conflict_labels`) on the left, speed and mode against time on the right."""
+    from mjasc.figures.conflict_labels import label_conflicts
+
+    sc = trace.scenario
+    fig = plt.figure(figsize=(14, 6.5))
+    gs = fig.add_gridspec(2, 2, width_ratios=[3, 2], height_ratios=[3, 1])
+    ax, ax2, key_ax = fig.add_subplot(gs[:, 0]), fig.add_subplot(gs[0, 1]), fig.add_subplot(gs[1, 1])
+    key_ax.axis("off")
     pos = np.array(trace.positions)
     names = [v.name for v in sc.vessels]
     for o in sc.static_obstacles:
@@ -128,11 +158,11 @@ def plot_trace(trace: RunTrace, title: str, path: Path, plt, formats=("png",)) -
                 ax.plot(*_closed(p).T, color="purple", lw=0.8, alpha=0.6)
         for t, poly in trace.svos.get(v.name, []):
             ax.fill(*_closed(poly).T, color="gold", alpha=0.25)
-        for t, p, t_i, t_f in trace.collision_points.get(v.name, []):
-            ax.plot(*p, "x", color="red", ms=8)
-            tf = "∞" if not np.isfinite(t_f) else f"{t_f:.0f}"
-            ax.annotate(f"{t:.0f}s: [{t_i:.0f}, {tf}]", p, fontsize=7, color="red")
-    ax.set_aspect("equal")
+    # Autoscale on the action's extent alone; the equal aspect then widens one axis to fill the box.
+    ax.ignore_existing_data_limits = True
+    ax.update_datalim(np.array(action_extent(trace)))
+    ax.autoscale_view(tight=True)
+    ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x east [m]")
     ax.set_ylabel("y north [m]")
     ax.set_title(title, fontsize=10)
@@ -154,8 +184,15 @@ def plot_trace(trace: RunTrace, title: str, path: Path, plt, formats=("png",)) -
                   ", ".join(f"{n} {c:.1f}" for n, c in clear.items() if c is not None), fontsize=8)
     ax2.legend(fontsize=7)
     fig.tight_layout()
+    label_conflicts(ax, key_ax, trace.collision_points)
+    return fig
+
+
+def plot_trace(trace: RunTrace, title: str, path: Path, plt, formats=("png",)) -> list[Path]:
+    """Write :func:`trace_figure` as ``path`` in each of ``formats``; returns the paths."""
     from mjasc.figures.thesis import save_figure
 
+    fig = trace_figure(trace, title, plt)
     paths = save_figure(fig, path, formats)
     plt.close(fig)
     return paths

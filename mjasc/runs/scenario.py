@@ -83,8 +83,10 @@ class Rates:
 MAX_DURATION_S = 86400.0
 """Longest run [s]: one day of simulated time."""
 
-_CAMERAS = ("top_down", "overview")
-"""The fixed cameras; ``chase:<vessel>`` follows a vessel."""
+_CAMERAS = ("top_down", "overview", "split")
+"""The fixed cameras (``split``: overview and the first vessel's chase camera side by side);
+``chase:<vessel>`` follows a vessel, ``split:<vessel>`` shows the overview beside its chase camera."""
+_CAMERA_HELP = "top_down, overview, chase:<vessel>, split or split:<vessel>"
 
 RECORDING_DETAILS = ("standard", "full")
 """What the recording holds (``[outputs] recording_detail``; :mod:`mjasc.runs.recording`)."""
@@ -100,7 +102,9 @@ class Outputs:
                                       "detours, events; full: also sensor returns, detections, track ellipses and "
                                       "discs, one plot per track, every predicted track, the detour's flow field")
     video: bool = param(False, doc="write an MP4 video")
-    video_camera: str = param("top_down", doc="top_down, overview or chase:<vessel>")
+    video_camera: str = param("top_down", doc="top_down, overview, chase:<vessel> (its chase camera), split or "
+                                               "split:<vessel> (overview left, the vessel's chase camera right; "
+                                               "split: the first vessel)")
     video_fps: float = param(20.0, positive=True, maximum=120, unit="1/s", doc="video frames per second")
     video_width: int = param(640, minimum=16, maximum=1280, unit="px",
                              doc="frame width: within the scene's offscreen buffer (1280×720), even (H.264)")
@@ -118,8 +122,17 @@ class Outputs:
             if getattr(outputs, name) % 2:
                 raise ScenarioError(f"{where}.{name}: must be even (H.264), got {getattr(outputs, name)}")
         camera = outputs.video_camera
-        if camera not in _CAMERAS and not camera.startswith("chase:"):
-            raise ScenarioError(f"{where}.video_camera: must be top_down, overview or chase:<vessel>, got {camera!r}")
+        if camera not in _CAMERAS and not camera.startswith(("chase:", "split:")):
+            raise ScenarioError(f"{where}.video_camera: must be {_CAMERA_HELP}, got {camera!r}")
+
+
+def check_camera_vessel(outputs: Outputs, names) -> None:
+    """``chase:<vessel>`` and ``split:<vessel>`` name one of the scenario's vessels."""
+    camera = outputs.video_camera
+    for kind in ("chase:", "split:"):
+        if camera.startswith(kind) and camera[len(kind):] not in names:
+            raise ScenarioError(f"outputs.video_camera: no vessel named {camera[len(kind):]!r} "
+                                f"(vessels: {', '.join(names)})")
 
 
 @dataclass(frozen=True)
@@ -161,7 +174,9 @@ class Scenario:
     raw: dict = field(default_factory=dict)
     comms: Any = None  # network config (comms.parse_network_options) or None
 
-    def with_overrides(self, seed: int | None = None, video: bool | None = None, duration_s: float | None = None) -> "Scenario":
+    def with_overrides(self, seed: int | None = None, video: bool | None = None, duration_s: float | None = None,
+                       video_camera: str | None = None) -> "Scenario":
+        """The scenario with these fields replaced (None: kept), each checked as when read from a file."""
         from dataclasses import replace
 
         s = self
@@ -173,6 +188,9 @@ class Scenario:
                 s = replace(s, seed=new_seed, current=current_from_config(dict(s.current_config), seed=new_seed))
             if video is not None:
                 s = replace(s, outputs=replace(s.outputs, video=bool(video)))
+            if video_camera is not None:
+                s = replace(s, outputs=replace(s.outputs, video_camera=str(video_camera)))
+                check_camera_vessel(s.outputs, [v.name for v in s.vessels])
             if duration_s is not None:
                 s = replace(s, duration_s=read_field(Scenario, "duration_s", {"duration_s": duration_s}, ""))
                 check_duration(s)
@@ -352,8 +370,7 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
     for i, n in enumerate(obstacle_names):
         if obstacle_names.index(n) != i:
             raise ScenarioError(f"obstacles: duplicate obstacle name {n!r}")
-    if outputs.video_camera.startswith("chase:") and outputs.video_camera[6:] not in names:
-        raise ScenarioError(f"outputs.video_camera: no vessel named {outputs.video_camera[6:]!r}")
+    check_camera_vessel(outputs, names)
     comms = None
     if "comms" in data:
         import importlib

@@ -3,7 +3,10 @@
 Cameras (``[outputs] video_camera``): ``top_down`` a free camera looking straight down, north up,
 fitted to the scenario's extent (the scene's fixed ``top_down`` camera only covers the area
 around the origin); ``overview`` a free camera from the south, 50° down, framed on the same extent;
-``chase:<vessel>`` that vessel's chase camera. The extent (``extent_xy``: lower-left and
+``chase:<vessel>`` that vessel's chase camera; ``split:<vessel>`` (``split``: the first vessel) both
+side by side in one frame, the overview in the left half and the chase view in the right, each half
+rendered on its own (``W/2 × H`` pixels) with its own heads-up overlay (the chase half: time and
+names only). The extent (``extent_xy``: lower-left and
 upper-right corners, world ENU [m]) fits the frame with 10 % margin: the camera's distance is
 ``D = (s / 2) / tan(fovy / 2)`` for the vertical span ``s = 1.1 · max(Δy, Δx · H / W)``.
 
@@ -30,7 +33,7 @@ from mjasc.runs.outputs import part_path
 from mjasc.runs.video_hud import Projection, draw_hud
 from mjasc.runs.video_scene import FrameView, VesselView, add_scene_geoms, frame_view
 
-__all__ = ["VideoWriter", "TRAIL_PERIOD_S", "TRAIL_POINTS"]
+__all__ = ["VideoWriter", "split_cameras", "TRAIL_PERIOD_S", "TRAIL_POINTS"]
 
 #: A frame's trail keeps a point every TRAIL_PERIOD_S [s], at most TRAIL_POINTS of them.
 TRAIL_PERIOD_S = 1.0
@@ -41,6 +44,62 @@ OVERLAY_POINTS = 150
 OVERVIEW_ELEVATION_DEG = -50.0
 
 
+class _Pane:
+    """One camera's view: its renderer, the camera, the view's span and centre [m]."""
+
+    def __init__(self, model, camera: str, width: int, height: int, extent_xy):
+        self.width, self.height = int(width), int(height)
+        self.renderer = mujoco.Renderer(model, height=self.height, width=self.width)
+        self.span = 0.0
+        self.centre = np.zeros(3)
+        self.camera = self._camera(model, camera, extent_xy)
+        # Map-symbol size for markers in the framed views (2 m hulls are a few pixels): 4 % of the span.
+        self.marker_m = 0.04 * self.span if isinstance(self.camera, mujoco.MjvCamera) else 0.0
+        #: The vessel of a chase camera (its sensing and decisions alone are drawn), else None.
+        self.chased = camera[len("chase:"):] if camera.startswith("chase:") else None
+
+    def _camera(self, m, camera: str, extent_xy):
+        if camera in ("top_down", "overview") and extent_xy is not None:
+            lo, hi = np.asarray(extent_xy[0], float), np.asarray(extent_xy[1], float)
+            dx, dy = np.maximum(hi - lo, 20.0)
+            span = 1.1 * max(dy, dx * self.height / self.width)
+            cam = mujoco.MjvCamera()
+            cam.type = mujoco.mjtCamera.mjCAMERA_FREE
+            cam.lookat[:] = [*(0.5 * (lo + hi)), 0.0]
+            cam.distance = 0.5 * span / np.tan(0.5 * np.deg2rad(m.vis.global_.fovy))
+            cam.elevation = -90.0 if camera == "top_down" else OVERVIEW_ELEVATION_DEG
+            cam.azimuth = 90.0  # looking north: x to the right, y up the frame
+            self.span = span
+            self.centre = np.array(cam.lookat)
+            return cam
+        name = camera.replace("chase:", "") + "/chase" if camera.startswith("chase:") else camera
+        cid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, name)
+        if cid < 0:
+            raise ValueError(f"camera: no camera {name!r} in the model")
+        return cid
+
+    def view_centre(self, model, data) -> np.ndarray:
+        """World point the view looks at [m]: the extent's centre, or the chase camera's target."""
+        if isinstance(self.camera, mujoco.MjvCamera):
+            return self.centre
+        return np.array([*data.xpos[model.cam_bodyid[self.camera]][:2], 0.0])
+
+
+def split_cameras(model, camera: str) -> list[str]:
+    """The cameras of each pane, left to right: ``split:NAME`` → overview and NAME's chase camera
+    (``split``: the first vessel's, the model's first ``*/chase`` camera); any other camera alone."""
+    if camera != "split" and not camera.startswith("split:"):
+        return [camera]
+    name = camera[len("split:"):]
+    if not name:
+        chases = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, k) or "" for k in range(model.ncam)]
+        chases = [c[:-len("/chase")] for c in chases if c.endswith("/chase")]
+        if not chases:
+            raise ValueError("camera: split needs a vessel's chase camera, the model has none")
+        name = chases[0]
+    return ["overview", f"chase:{name}"]
+
+
 class VideoWriter:
     """Render frames of a model/data pair and encode them to an MP4 file."""
 
@@ -48,17 +107,13 @@ class VideoWriter:
                  extent_xy: tuple[np.ndarray, np.ndarray] | None = None, overlays: list[np.ndarray] = (),
                  title: str = ""):
         self.path = Path(path)
-        self.path.parent.mkdir(parents=True, exist_ok=True)
-        self._part = part_path(self.path)  # encoded here, renamed to path by close()
         self.model = model
         self.width, self.height = int(width), int(height)
         self.title = str(title)
-        self.renderer = mujoco.Renderer(model, height=self.height, width=self.width)
-        self._span = 0.0
-        self._centre = np.zeros(3)
-        self.camera = self._camera(camera, extent_xy)
-        # Map-symbol size for markers in the framed views (2 m hulls are a few pixels): 4 % of the span.
-        self.marker_m = 0.04 * self._span if isinstance(self.camera, mujoco.MjvCamera) else 0.0
+        cameras = split_cameras(model, camera)  # raises before any file is made
+        self.panes = [_Pane(model, c, self.width // len(cameras), self.height, extent_xy) for c in cameras]
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self._part = part_path(self.path)  # encoded here, renamed to path by close()
         # Paths thinned to at most OVERLAY_POINTS points: every line is a geom to render.
         self.overlays = [_thin(np.asarray(o, dtype=float), OVERLAY_POINTS) for o in overlays]
         self._writer = imageio_ffmpeg.write_frames(
@@ -71,37 +126,28 @@ class VideoWriter:
         #: Wall seconds per frame stage: view (reading the run), scene (user geoms), render, hud, encode.
         self.seconds = dict.fromkeys(("view", "scene", "render", "hud", "encode"), 0.0)
 
-    def _camera(self, camera: str, extent_xy):
-        m = self.model
-        if camera in ("top_down", "overview") and extent_xy is not None:
-            lo, hi = np.asarray(extent_xy[0], float), np.asarray(extent_xy[1], float)
-            dx, dy = np.maximum(hi - lo, 20.0)
-            span = 1.1 * max(dy, dx * self.height / self.width)
-            cam = mujoco.MjvCamera()
-            cam.type = mujoco.mjtCamera.mjCAMERA_FREE
-            cam.lookat[:] = [*(0.5 * (lo + hi)), 0.0]
-            cam.distance = 0.5 * span / np.tan(0.5 * np.deg2rad(m.vis.global_.fovy))
-            cam.elevation = -90.0 if camera == "top_down" else OVERVIEW_ELEVATION_DEG
-            cam.azimuth = 90.0  # looking north: x to the right, y up the frame
-            self._span = span
-            self._centre = np.array(cam.lookat)
-            return cam
-        name = camera.replace("chase:", "") + "/chase" if camera.startswith("chase:") else camera
-        cid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, name)
-        if cid < 0:
-            raise ValueError(f"outputs.video_camera: no camera {name!r} in the model")
-        return cid
+    # The first pane's renderer, camera and marker size (the whole frame unless split).
+    @property
+    def renderer(self):
+        return self.panes[0].renderer
+
+    @property
+    def camera(self):
+        return self.panes[0].camera
+
+    @property
+    def marker_m(self) -> float:
+        return self.panes[0].marker_m
 
     # ------------------------------------------------------------------ frames
     def add_event(self, event) -> np.ndarray:
         """Render and encode the frame of a run's ``video`` slot (a :class:`~mjasc.runs.tick.SlotEvent`)."""
         t0 = time.perf_counter()
         data = event.runner.sim.data
-        centre = self._view_centre(data)
-        view = frame_view(event, centre[:2])
+        view = frame_view(event, self.panes[0].view_centre(self.model, data)[:2])
         self._append_trails(view)
         self.seconds["view"] += time.perf_counter() - t0
-        return self._frame(data, view, centre)
+        return self._frame(data, view)
 
     def add_frame(self, data, markers=(), trails=()) -> np.ndarray:
         """Render and encode one frame without a runner (:mod:`mjasc.suite.render`): ``markers``
@@ -110,34 +156,35 @@ class VideoWriter:
                    for i, (p, h, rgba) in enumerate(markers)]
         view = FrameView(float(data.time), vessels, np.zeros(2))
         self._trails = [[tuple(p) for p in pts] for pts, _ in trails]
-        return self._frame(data, view, self._view_centre(data), hud=False)
+        return self._frame(data, view, hud=False)
 
-    def _frame(self, data, view: FrameView, centre, hud: bool = True) -> np.ndarray:
-        t0 = time.perf_counter()
-        self.renderer.update_scene(data, camera=self.camera)
-        scn = self.renderer.scene
+    def _frame(self, data, view: FrameView, hud: bool = True) -> np.ndarray:
         trails = [np.array([*t, tuple(v.position_m)]) if hud else np.array(t)
                   for t, v in zip(self._trails, view.vessels)] if view.vessels else []
-        add_scene_geoms(scn, view, self.marker_m, trails, self.overlays)
-        t1 = time.perf_counter()
-        frame = self.renderer.render()
-        t2 = time.perf_counter()
-        if hud:
-            frame = draw_hud(frame, view, Projection(scn, self.width, self.height), centre, self.title)
+        images = []
+        for k, pane in enumerate(self.panes):
+            t0 = time.perf_counter()
+            pane.renderer.update_scene(data, camera=pane.camera)
+            scn = pane.renderer.scene
+            add_scene_geoms(scn, view, pane.marker_m, trails, self.overlays, only=pane.chased)
+            t1 = time.perf_counter()
+            image = pane.renderer.render()
+            t2 = time.perf_counter()
+            if hud:
+                proj = Projection(scn, pane.width, pane.height)
+                centre = pane.view_centre(self.model, data)
+                image = draw_hud(image, view, proj, centre, self.title) if k == 0 else \
+                    draw_hud(image, view, proj, centre, f"{pane.chased}: what it senses", furniture=False)
+            t3 = time.perf_counter()
+            images.append(image)
+            for key, dt in zip(("scene", "render", "hud"), (t1 - t0, t2 - t1, t3 - t2)):
+                self.seconds[key] += dt
+        frame = images[0] if len(images) == 1 else _side_by_side(images)
         t3 = time.perf_counter()
         self._writer.send(np.ascontiguousarray(frame))
-        t4 = time.perf_counter()
-        for k, dt in zip(("scene", "render", "hud", "encode"), (t1 - t0, t2 - t1, t3 - t2, t4 - t3)):
-            self.seconds[k] += dt
+        self.seconds["encode"] += time.perf_counter() - t3
         self.frames += 1
         return frame
-
-    def _view_centre(self, data) -> np.ndarray:
-        """World point the view looks at [m]: the extent's centre, or the chase camera's target."""
-        if isinstance(self.camera, mujoco.MjvCamera):
-            return self._centre
-        body = self.model.cam_bodyid[self.camera]
-        return np.array([*data.xpos[body][:2], 0.0])
 
     def _append_trails(self, view: FrameView) -> None:
         """A trail point per vessel every :data:`TRAIL_PERIOD_S` (the frame adds the position now)."""
@@ -155,7 +202,18 @@ class VideoWriter:
             self._writer.close()
             self._writer = None
             os.replace(self._part, self.path)
-        self.renderer.close()
+        for pane in self.panes:
+            pane.renderer.close()
+
+
+def _side_by_side(images) -> np.ndarray:
+    """The panes left to right, a 2-pixel dark line between neighbours."""
+    frame = np.concatenate(images, axis=1)
+    x = 0
+    for image in images[:-1]:
+        x += image.shape[1]
+        frame[:, x - 1:x + 1] = 20
+    return frame
 
 
 def _thin(points: np.ndarray, n: int) -> np.ndarray:

@@ -95,9 +95,11 @@ def _arrow(draw, tail, tip, fill, width=2, head=6.0) -> None:
     draw.polygon([tuple(tip), tuple(tip - head * u + 0.5 * head * p), tuple(tip - head * u - 0.5 * head * p)], fill=fill)
 
 
-def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str = "") -> np.ndarray:
+def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str = "",
+             furniture: bool = True) -> np.ndarray:
     """The frame (H, W, 3 uint8) with the heads-up overlay of ``view`` (a
-    :class:`~mjasc.runs.video_scene.FrameView`) drawn on it."""
+    :class:`~mjasc.runs.video_scene.FrameView`) drawn on it; without ``furniture`` only the title
+    with the time and the names by the hulls (the chase half of a split frame)."""
     img = Image.fromarray(frame)
     draw = ImageDraw.Draw(img, "RGBA")
     W, H = img.size
@@ -106,7 +108,7 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
     line = fs + 4
     # Top left: title and time, then per vessel its mode and (smaller, below) its last decision.
     rows = [(f"{title}  t = {view.time_s:6.1f} s".strip(), font, None)]
-    for v in view.vessels:
+    for v in view.vessels if furniture else ():
         rows.append((f"{v.name}: {v.mode or '-'}", font, v))
         if v.decision:
             rows.append((v.decision, small, None))
@@ -122,6 +124,8 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
     for v, (x, y) in zip(view.vessels, px):
         if np.isfinite(x) and -50 < x < W + 50 and -50 < y < H + 50:
             draw.text((x + 8, y - fs - 4), v.name, font=font, fill=tuple(v.colour), stroke_width=2, stroke_fill=(0, 0, 0))
+    if not furniture:
+        return np.asarray(img)
     # Bottom left: scale bar (top-down views only).
     if proj.top_down:
         mpp = proj.metres_per_pixel(centre_xyz)
@@ -152,11 +156,17 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
     return np.asarray(img)
 
 
+#: The legend's swatches are drawn on the water's colour (assets/scene/water.xml, as rendered), so a
+#: dark overlay (the black static virtual obstacle) shows on the legend's dark box too.
+WATER_SWATCH = (30, 88, 138)
+
+
 def _legend(draw, W, H, font) -> None:
     items = [("line", COLOURS["path"], "mission path"), ("line", COLOURS["detour"], "detour"),
              ("disc", (0.85, 0.85, 0.85, 1.0), f"track: disc, 2-sigma, {VELOCITY_ARROW_S:g} s of velocity"),
              ("thin", (0.85, 0.85, 0.85, 1.0), "sensor fan, returns"),
-             ("dot", COLOURS["conflict"], "predicted conflict (CPA)"), ("line", COLOURS["svo"], "virtual obstacle")]
+             ("dot", COLOURS["conflict"], "predicted conflict (CPA)"),
+             ("line", COLOURS["svo"], "static virtual obstacle"), ("line", COLOURS["field"], "potential-field obstacle")]
     fs = font.size
     line = fs + 3
     w = 34 + max(draw.textlength(t, font=font) for _, _, t in items)
@@ -165,6 +175,7 @@ def _legend(draw, W, H, font) -> None:
     for k, (kind, rgba, text) in enumerate(items):
         y = y0 + k * line + line // 2
         col = _c(rgba)
+        draw.rectangle([x0, y - line // 2 + 1, x0 + 26, y + line // 2 - 1], fill=WATER_SWATCH)  # as on the water
         if kind == "line":
             draw.line([(x0 + 2, y), (x0 + 22, y)], fill=col, width=3)
         elif kind == "thin":

@@ -17,8 +17,8 @@ the water so that MuJoCo's own geoms (hulls, obstacles) stay visible:
   vector (the distance covered in :data:`VELOCITY_ARROW_S` seconds), in the tracking vessel's colour;
 - the latest prediction's conflicts: own position at the closest approach ``t_c`` (red) joined to
   the obstacle's predicted position then (the predicted miss distance), and the static virtual
-  obstacle of a conflict that asked for a re-plan (orange outline);
-- the detour streamline (cyan) and the potential field's obstacle polygons (orange);
+  obstacle of a conflict that asked for a re-plan (black outline);
+- the detour streamline (cyan) and the potential field's obstacle polygons (deep purple);
 - a map-symbol arrow per vessel (a 2 m hull is a few pixels in a 200 m view), ``marker_m`` long.
 """
 
@@ -36,9 +36,13 @@ __all__ = ["FrameView", "VesselView", "frame_view", "add_scene_geoms", "VELOCITY
 
 #: A track's velocity vector is drawn as the distance it covers in this time [s].
 VELOCITY_ARROW_S = 10.0
-#: Overlay colours (RGBA 0–1) shared by the scene and the legend.
-COLOURS = {"path": (1.0, 1.0, 1.0, 0.45), "detour": (0.0, 0.9, 1.0, 1.0), "conflict": (1.0, 0.15, 0.15, 1.0),
-           "svo": (1.0, 0.55, 0.0, 0.9), "fan_alpha": 0.3, "track_alpha": 0.35}
+#: Overlay colours (RGBA 0–1) shared by the scene and the legend. None equals a vessel colour
+#: (:data:`mjasc.runs.blueprint.PALETTE`: gold, pink, lime, orange, violet, white, …) and each stands
+#: out on the blue water: light blue paths (not the white of vessel 5), cyan detours, red
+#: conflicts, black static virtual obstacles (not vessel 0's gold nor vessel 3's orange) and deep
+#: purple potential-field obstacles (not vessel 4's light violet).
+COLOURS = {"path": (0.45, 0.6, 1.0, 0.5), "detour": (0.0, 0.9, 1.0, 1.0), "conflict": (1.0, 0.15, 0.15, 1.0),
+           "svo": (0.02, 0.02, 0.02, 0.9), "field": (0.45, 0.0, 0.55, 0.95), "fan_alpha": 0.3, "track_alpha": 0.35}
 #: The sensor fan keeps every FAN_DECIMATION-th beam without a return (all beams with one).
 FAN_DECIMATION = 6
 
@@ -161,7 +165,8 @@ def add_disc(scn, centre, radius_m: float, rgba, z: float = 0.04, kind=mujoco.mj
     if not _free(scn):
         return
     g = scn.geoms[scn.ngeom]
-    size = np.array([radius_m, radius_m, 0.02 if kind == mujoco.mjtGeom.mjGEOM_CYLINDER else radius_m])
+    # mjv_initGeom takes a model geom's size: (radius, half-height) for a cylinder, (radius,) for a sphere.
+    size = np.array([radius_m, 0.01, 0.0] if kind == mujoco.mjtGeom.mjGEOM_CYLINDER else [radius_m] * 3)
     mujoco.mjv_initGeom(g, kind, size, np.array([centre[0], centre[1], z]), _EYE3, np.asarray(rgba, np.float32))
     scn.ngeom += 1
 
@@ -170,10 +175,11 @@ def _rgba(colour, alpha: float = 1.0) -> tuple:
     return (*(np.asarray(colour[:3], float) / 255.0), alpha)
 
 
-def add_scene_geoms(scn, view: FrameView, marker_m: float, trails=(), paths=()) -> None:
+def add_scene_geoms(scn, view: FrameView, marker_m: float, trails=(), paths=(), only: str | None = None) -> None:
     """Draw ``view`` into ``scn`` (see the module docstring). ``marker_m`` [m]: map-symbol size
     (0 draws no symbols: hulls are large enough, e.g. in a chase view); ``trails``: (k, 2) per
-    vessel in vessel order; ``paths``: (k, 2) mission paths."""
+    vessel in vessel order; ``paths``: (k, 2) mission paths; ``only``: draw the sensing and the
+    decisions of this vessel alone (a chase view: what that vessel sees), trails of all."""
     m = max(marker_m, 1.0)
     for line in paths:
         add_strip(scn, line, COLOURS["path"], 1.5, 0.02)
@@ -181,6 +187,8 @@ def add_scene_geoms(scn, view: FrameView, marker_m: float, trails=(), paths=()) 
         if len(trail) > 1:
             add_strip(scn, trail, _rgba(v.colour, 0.9), 3.0, 0.06)
     for v in view.vessels:
+        if only is not None and v.name != only:
+            continue
         if v.fan is not None:
             add_strip(scn, v.fan, _rgba(v.colour, COLOURS["fan_alpha"]), 1.0, 0.03)
         if v.returns is not None:  # short lines: a disc per return costs ~0.2 ms of software rendering
@@ -199,7 +207,7 @@ def add_scene_geoms(scn, view: FrameView, marker_m: float, trails=(), paths=()) 
         for poly in v.svos:
             add_strip(scn, np.vstack([poly, poly[:1]]), COLOURS["svo"], 2.0, 0.2)
         for poly in v.field_obstacles:
-            add_strip(scn, np.vstack([poly, poly[:1]]), COLOURS["svo"], 2.0, 0.2)
+            add_strip(scn, np.vstack([poly, poly[:1]]), COLOURS["field"], 2.0, 0.19)
         if v.detour is not None:
             add_strip(scn, v.detour, COLOURS["detour"], 3.0, 0.25)
     if marker_m > 0:
