@@ -690,4 +690,5 @@ class CollisionAvoidance:
     def log(self, recorder, t, vessel_name, guidance: GuidanceState | None = None) -> None:
         """Log to the recording: the mode, the virtual target (on ``guidance``'s path, the path
         follower's state now), and what the latest prediction and re-plan produced."""
-        self._log.log(recorder, t, vessel_name, self.mode, self.correction, guidance, self._last, self.detour)
+        self._log.log(recorder, t, vessel_name, self.mode, self.correction, guidance, self._last, self.detour,
+                      self.team)
