@@ -190,7 +190,9 @@ class Runner:
         if e["moving"]:
             rec.fleet_points(e["moving"], t, traffic[0], z=0.3)
         if self._comms_log is not None:
-            self._comms_log.log(rec, t, self.network.drain_outcomes(), states.position_m)
+            net = self.network
+            self._comms_log.log(rec, t, net.drain_outcomes(), states.position_m,
+                                [(s["delivered"], s["lost"]) for s in map(net.stats, self._comms_log.names)])
         if not self.sim.current.is_steady and self._current_grid is not None and \
                 (not self._current_times or t - self._current_times[-1] >= 2.0):
             self._current_times.append(t)
@@ -325,8 +327,9 @@ class Runner:
             if self.network is not None and tuple(self.network.team) == names:
                 from mjasc.cooperation.recording import CommsLog
 
-                self.network.keep_outcomes()
                 self._comms_log = CommsLog(names)
+                if self._comms_log.lines:
+                    self.network.keep_outcomes()
             self.recorder.event(0.0, f"scenario {sc.name!r} seed {sc.seed}: {len(sc.vessels)} vessel(s), "
                                      f"{len(sc.static_obstacles)} static and {len(sc.moving_obstacles)} moving obstacle(s)")
         if self.out_dir is not None and sc.outputs.video:
