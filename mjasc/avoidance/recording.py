@@ -5,7 +5,8 @@ styled by a static ``StateConfiguration``: names and colours of
 :data:`~mjasc.runs.blueprint.MODE_STATES`) written when it changes, and as a time series
 ``plots/mode/<vessel>`` (the code of :data:`~mjasc.avoidance.request.MODES`); the threat panel
 (:mod:`mjasc.avoidance.threat_panel`, markdown at ``threats/<vessel>``) written when its text
-changes; the virtual target's speed and γ; in the world view under ``world/vessels/<vessel>/avoidance``:
+changes — at once when the mode, the running correction or the set of conflicts changed, else at
+most every ``THREAT_PERIOD_S`` (a new prediction's CPA and TCPA); the virtual target's speed and γ; in the world view under ``world/vessels/<vessel>/avoidance``:
 the virtual target, the predicted own motion and the predicted motions of the tracks in conflict
 (every ``_PREDICTION_STEP_S``) of the latest prediction, the predicted collision points with their
 obstruction interval, the obstructed stretches, the SVOs, and while a detour runs its streamline
@@ -25,10 +26,13 @@ import rerun as rr
 from mjasc.avoidance.request import MODES
 from mjasc.avoidance.threat_panel import threat_markdown
 
-__all__ = ["AvoidanceLog"]
+__all__ = ["AvoidanceLog", "THREAT_PERIOD_S"]
 
 #: Standard detail: predicted trajectories are drawn with a point about this often [s of prediction].
 _PREDICTION_STEP_S = 2.0
+#: The threat panel's text is re-written for new CPA/TCPA values at most this often [s] (in a
+#: 50-vessel fleet, predictions every second or two made the panels 10 % of the recording).
+THREAT_PERIOD_S = 2.0
 #: Legend classes (:data:`mjasc.runs.blueprint.LEGEND_CLASSES`) of the overlays.
 _CONFLICT, _OBSTRUCTED, _SVO, _DETOUR, _FIELD_OBSTACLE, _VIRTUAL_TARGET, _OWN = 103, 104, 105, 106, 107, 108, 117
 
@@ -60,7 +64,9 @@ class AvoidanceLog:
         self._detour_shown = False
         self._mode: str | None = None  # the mode last written as a state
         self._threats: str | None = None  # the threat panel's text last written
-        self._mode_of_threats: str | None = None
+        self._threats_key: tuple | None = None  # (mode, correction, conflicts) of that text
+        self._threats_t = -np.inf  # when it was written [s]
+        self._threats_due = True  # a prediction or the mode changed since
 
     def prediction_pending(self) -> None:
         """A new prediction or detour is to be drawn at the next :meth:`log`."""
@@ -111,13 +117,7 @@ class AvoidanceLog:
         if mode != self._mode:
             self._mode = mode
             recorder.state(f"modes/{vessel_name}", t, mode)
-        if self._pending or self._threats is None or mode != self._mode_of_threats:
-            shown = last if last is not None and last.time_s <= t else None
-            text = threat_markdown(vessel_name, shown, team, mode, correction)
-            self._mode_of_threats = mode
-            if text != self._threats:
-                self._threats = text
-                recorder.document(f"threats/{vessel_name}", t, text)
+        self._log_threats(recorder, t, vessel_name, mode, correction, last, team)
         c = correction
         if c is not None and guidance is not None:
             g_d = c.law.gamma_desired(t) - c.gamma_offset_m
@@ -129,6 +129,19 @@ class AvoidanceLog:
         if self._pending:
             self._log_prediction(recorder, t, base, last, detour)
             self._pending = False
+
+    def _log_threats(self, recorder, t, vessel_name, mode, correction, last, team) -> None:
+        shown = last if last is not None and last.time_s <= t else None
+        key = (mode, id(correction), () if shown is None else
+               (tuple(c.track_id for c in shown.conflicts), tuple(s.track_id for s in shown.statics)))
+        self._threats_due |= self._pending or key != self._threats_key
+        if not self._threats_due or (key == self._threats_key and t - self._threats_t < THREAT_PERIOD_S - 1e-9):
+            return
+        self._threats_due, self._threats_key = False, key
+        text = threat_markdown(vessel_name, shown, team, mode, correction)
+        if text != self._threats:
+            self._threats, self._threats_t = text, t
+            recorder.document(f"threats/{vessel_name}", t, text)
 
     def _log_prediction(self, recorder, t, base, last, detour) -> None:
         full = recorder.full

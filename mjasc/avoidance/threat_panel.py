@@ -19,7 +19,7 @@ import numpy as np
 __all__ = ["ThreatRow", "threat_rows", "threat_markdown", "MAX_ROWS"]
 
 #: At most this many tracks are listed (collisions first, then by CPA).
-MAX_ROWS = 12
+MAX_ROWS = 8
 
 
 @dataclass(frozen=True)
