@@ -149,8 +149,8 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
              rrb.TimeSeriesView(origin="plots/thrust", name="thrust [N]")]
     if avoidance and vessels:
         fleet.insert(0, rrb.StateTimelineView(origin="modes", name="avoidance mode (a lane per vessel)"))
-    tabs = [rrb.Vertical(*fleet, row_shares=[1.0 + 0.5 * len(vessels)] + [2.0] * 4 if len(fleet) == 5 else None,
-                         name="fleet")]
+    lanes = min(1.0 + len(vessels), 6.0)  # the mode lanes' share beside 2 per plot (a lane is ~35 UI points)
+    tabs = [rrb.Vertical(*fleet, row_shares=[lanes] + [2.0] * 4 if len(fleet) == 5 else None, name="fleet")]
     sensor_range_m = sensor_range_m or {}
     for v in vessels:
         panels = []
