@@ -39,11 +39,11 @@ def demo(tmp_path_factory):
 def test_top_down_view_looks_at_the_scene_not_the_origin(demo):
     runner, blueprint, _ = demo
     lo, hi = runner.extent()
-    targets = [v for k, v in blueprint.items() if k.endswith("EyeControls3D:look_target")]
-    positions = [v for k, v in blueprint.items() if k.endswith("EyeControls3D:position")]
-    assert len(targets) == 1 and len(positions) == 1
-    target = np.array(targets[0][0][0])
-    eye = np.array(positions[0][0][0])
+    top = [k.split(":")[0] for k, v in blueprint.items()
+           if k.endswith("ViewBlueprint:display_name") and v[0][0].startswith("Top-down")]
+    assert len(top) == 1
+    target = np.array(blueprint[f"{top[0]}/EyeControls3D:EyeControls3D:look_target"][0][0])
+    eye = np.array(blueprint[f"{top[0]}/EyeControls3D:EyeControls3D:position"][0][0])
     assert np.all(target[:2] > lo) and np.all(target[:2] < hi)  # inside the extent
     assert np.allclose(target[:2], 0.5 * (lo + hi))
     assert np.linalg.norm(target[:2]) > 50.0  # the demo's centre is far from the origin
@@ -67,7 +67,8 @@ def test_the_legend_exists_with_every_vessel_in_its_colour(demo):
     views = {k.split(":")[0]: v[0][0] for k, v in blueprint.items() if k.endswith("ViewBlueprint:space_origin")}
     kinds = {k.split(":")[0]: v[0][0] for k, v in blueprint.items() if k.endswith("ViewBlueprint:class_identifier")}
     assert any(origin == "legend" and kinds[view] == "TextDocument" for view, origin in views.items())
-    assert {f"plots/mode/{n}" for n in names} <= set(views.values())  # plots grouped per vessel
+    assert {f"plots/speed/{n}" for n in names} <= set(views.values())  # plots grouped per vessel
+    assert {f"modes/{n}" for n in names} <= set(views.values())  # the mode as a state lane per vessel
 
 
 def test_track_labels_are_off_by_default_and_plots_use_the_vessel_colour(demo):

@@ -88,7 +88,9 @@ def test_recording_detail_standard_is_small_full_adds_the_per_track_plots(tmp_pa
     for origin in ("/world/vessels", "/plots/speed", "/plots/cross_track", "/plots/thrust", "/plots/heading",
                    "/plots/mode", "/plots/coordination", "/events"):  # the default blueprint's views
         assert any(e.startswith(origin) for e in rows_std), origin
-    assert not any(e.startswith(("/plots/tracking", "/sensor", "/tracking_events")) for e in rows_std)
+    assert not any(e.startswith(("/plots/tracking", "/tracking_events")) for e in rows_std)
+    assert not any(e.endswith(("/sensor/hits", "/sensor/detections")) for e in rows_std)  # world-frame returns
+    assert rows_std["/sensor/alpha/hits_body"] < rows_full["/sensor/alpha/hits_body"]  # the body view, thinned
     for name in ("alpha", "bravo", "charlie"):
         assert rows_std[f"/world/vessels/{name}/tracks/positions"] > 0
         assert f"/world/vessels/{name}/tracks/ellipses" not in rows_std
@@ -102,11 +104,16 @@ def test_recording_detail_standard_is_small_full_adds_the_per_track_plots(tmp_pa
     # recording with the same blueprint).
     from mjasc.runs.recording import Recorder, default_blueprint
 
+    names = ("alpha", "bravo", "charlie")
     with Recorder(tmp_path / "empty.rrd", "demo", 7, default_blueprint(
-            vessels=("alpha", "bravo", "charlie"), perception=True, avoidance=True, coordination=True)):
+            vessels=names, perception=True, avoidance=True, coordination=True, comms=True,
+            sensor_range_m=dict.fromkeys(names, 120.0))):
         pass
     fixed = (tmp_path / "empty.rrd").stat().st_size
-    assert std.files["recording"].stat().st_size - fixed < 0.4 * (full.files["recording"].stat().st_size - fixed)
+    # Standard also holds the body-frame sensor view, threat panels, mode lanes and comms links: ~30
+    # entities whose first chunk costs a few kB each, a large share of an 8 s run (0.41 here; on the
+    # 240 s demo they add 17 % to the standard recording).
+    assert std.files["recording"].stat().st_size - fixed < 0.45 * (full.files["recording"].stat().st_size - fixed)
 
 
 def test_video_has_the_right_frames_and_they_change(tmp_path):

@@ -1,14 +1,21 @@
 """How one vessel's collision avoidance draws itself in the Rerun recording.
 
-Time series ``plots/mode/<vessel>`` (the mode code of :data:`~mjasc.avoidance.request.MODES`),
-the virtual target's speed and γ; in the world view under ``world/vessels/<vessel>/avoidance``:
+The mode as a state (``StateChange`` at ``modes/<vessel>``, one lane per vessel in a state timeline,
+styled by a static ``StateConfiguration``: names and colours of
+:data:`~mjasc.runs.blueprint.MODE_STATES`) written when it changes, and as a time series
+``plots/mode/<vessel>`` (the code of :data:`~mjasc.avoidance.request.MODES`); the threat panel
+(:mod:`mjasc.avoidance.threat_panel`, markdown at ``threats/<vessel>``) written when its text
+changes — at once when the mode, the running correction or the set of conflicts changed, else at
+most every ``THREAT_PERIOD_S`` (a new prediction's CPA and TCPA); the virtual target's speed and γ; in the world view under ``world/vessels/<vessel>/avoidance``:
 the virtual target, the predicted own motion and the predicted motions of the tracks in conflict
 (every ``_PREDICTION_STEP_S``) of the latest prediction, the predicted collision points with their
 obstruction interval, the obstructed stretches, the SVOs, and while a detour runs its streamline
 and the field's obstacles. ``full`` detail (``[outputs] recording_detail``) draws every predicted
 track (the clear ones pale) at the prediction's own time step and a grid of the detour field's
 flow directions. Everything goes through the recorder's buffers (written column-wise); a row with
-no strips empties an entity when the detour ends.
+no strips empties an entity when the detour ends. Overlays use the legend's classes and colours
+(:data:`~mjasc.runs.blueprint.LEGEND_CLASSES`); the collision points' labels (t_c and the
+obstruction interval) show on hover or selection only.
 """
 
 from __future__ import annotations
@@ -17,12 +24,17 @@ import numpy as np
 import rerun as rr
 
 from mjasc.avoidance.request import MODES
+from mjasc.avoidance.threat_panel import threat_markdown
 
-__all__ = ["AvoidanceLog"]
+__all__ = ["AvoidanceLog", "THREAT_PERIOD_S"]
 
 #: Standard detail: predicted trajectories are drawn with a point about this often [s of prediction].
 _PREDICTION_STEP_S = 2.0
-_OWN, _TRACK, _TRACK_CLEAR = (120, 220, 120), (230, 80, 80), (230, 160, 160)
+#: The threat panel's text is re-written for new CPA/TCPA values at most this often [s] (in a
+#: 50-vessel fleet, predictions every second or two made the panels 10 % of the recording).
+THREAT_PERIOD_S = 2.0
+#: Legend classes (:data:`mjasc.runs.blueprint.LEGEND_CLASSES`) of the overlays.
+_CONFLICT, _OBSTRUCTED, _SVO, _DETOUR, _FIELD_OBSTACLE, _VIRTUAL_TARGET, _OWN = 103, 104, 105, 106, 107, 108, 117
 
 
 def _closed(p):
@@ -50,39 +62,62 @@ class AvoidanceLog:
         self._styled = False
         self._pending = False
         self._detour_shown = False
+        self._mode: str | None = None  # the mode last written as a state
+        self._threats: str | None = None  # the threat panel's text last written
+        self._threats_key: tuple | None = None  # (mode, correction, conflicts) of that text
+        self._threats_t = -np.inf  # when it was written [s]
+        self._threats_due = True  # a prediction or the mode changed since
 
     def prediction_pending(self) -> None:
         """A new prediction or detour is to be drawn at the next :meth:`log`."""
         self._pending = True
 
     def _style(self, recorder, vessel_name: str, base: str) -> None:
+        from mjasc.runs.blueprint import MODE_STATES
+
         col = recorder.colour(vessel_name)
+        c = recorder.legend_colour
+        recorder.static(f"modes/{vessel_name}", rr.StateConfiguration(
+            values=list(MODE_STATES), labels=[label for label, _ in MODE_STATES.values()],
+            colors=[(*rgb, 255) for _, rgb in MODE_STATES.values()]))
         recorder.series_style(f"plots/speed/{vessel_name}/virtual_target", f"{vessel_name} virtual target",
-                              (230, 60, 60), 1.0)
+                              c(_VIRTUAL_TARGET), 1.0)
         recorder.series_style(f"plots/mode/{vessel_name}", f"{vessel_name} mode (0 mission, 1 yield, 2 pass, "
                               f"3 detour)", col, 2.0)
         recorder.series_style(f"plots/gamma/{vessel_name}/virtual_target", f"{vessel_name} virtual target γ_d",
-                              (230, 60, 60), 1.0)
+                              c(_VIRTUAL_TARGET), 1.0)
         recorder.series_style(f"plots/gamma/{vessel_name}/actual", f"{vessel_name} γ", col, 2.0)
-        styles = {"virtual_target": rr.Points3D.from_fields(colors=[(230, 60, 60)], radii=[0.4]),
-                  "predicted_own": rr.LineStrips3D.from_fields(colors=[_OWN], radii=[0.08]),
-                  "predicted_tracks": rr.LineStrips3D.from_fields(colors=[_TRACK], radii=[0.08]),
-                  "collision_points": rr.Points3D.from_fields(colors=[(255, 0, 0)], radii=[0.6]),
-                  "obstructed": rr.LineStrips3D.from_fields(colors=[(255, 140, 0)], radii=[0.3]),
-                  "svo": rr.LineStrips3D.from_fields(colors=[(255, 200, 0)], radii=[0.12]),
-                  "detour": rr.LineStrips3D.from_fields(colors=[(0, 220, 255)], radii=[0.15]),
-                  "field_obstacles": rr.LineStrips3D.from_fields(colors=[(200, 120, 255)], radii=[0.1])}
+        styles = {"virtual_target": rr.Points3D.from_fields(colors=[c(_VIRTUAL_TARGET)], radii=[0.4],
+                                                            class_ids=[_VIRTUAL_TARGET], show_labels=[False]),
+                  "predicted_own": rr.LineStrips3D.from_fields(colors=[c(_OWN)], radii=[0.08], class_ids=[_OWN],
+                                                               show_labels=[False]),
+                  "predicted_tracks": rr.LineStrips3D.from_fields(colors=[c(_CONFLICT)], radii=[0.08],
+                                                                  class_ids=[_CONFLICT], show_labels=[False]),
+                  "collision_points": rr.Points3D.from_fields(colors=[c(_CONFLICT)], radii=[0.6], show_labels=[False],
+                                                              class_ids=[_CONFLICT]),
+                  "obstructed": rr.LineStrips3D.from_fields(colors=[c(_OBSTRUCTED)], radii=[0.3],
+                                                            class_ids=[_OBSTRUCTED], show_labels=[False]),
+                  "svo": rr.LineStrips3D.from_fields(colors=[c(_SVO)], radii=[0.12], class_ids=[_SVO],
+                                                     show_labels=[False]),
+                  "detour": rr.LineStrips3D.from_fields(colors=[c(_DETOUR)], radii=[0.15], class_ids=[_DETOUR],
+                                                        show_labels=[False]),
+                  "field_obstacles": rr.LineStrips3D.from_fields(colors=[c(_FIELD_OBSTACLE)], radii=[0.1],
+                                                                 class_ids=[_FIELD_OBSTACLE], show_labels=[False])}
         if recorder.full:
             styles["field"] = rr.Arrows3D.from_fields(colors=[(160, 160, 255, 150)], radii=[0.04])
         for entity, style in styles.items():
             recorder.static(f"{base}/{entity}", style)
         self._styled = True
 
-    def log(self, recorder, t, vessel_name, mode, correction, guidance, last, detour) -> None:
+    def log(self, recorder, t, vessel_name, mode, correction, guidance, last, detour, team=frozenset()) -> None:
         base = f"world/vessels/{vessel_name}/avoidance"
         if not self._styled:
             self._style(recorder, vessel_name, base)
         recorder.scalar(f"plots/mode/{vessel_name}", t, MODES[mode])
+        if mode != self._mode:
+            self._mode = mode
+            recorder.state(f"modes/{vessel_name}", t, mode)
+        self._log_threats(recorder, t, vessel_name, mode, correction, last, team)
         c = correction
         if c is not None and guidance is not None:
             g_d = c.law.gamma_desired(t) - c.gamma_offset_m
@@ -94,6 +129,19 @@ class AvoidanceLog:
         if self._pending:
             self._log_prediction(recorder, t, base, last, detour)
             self._pending = False
+
+    def _log_threats(self, recorder, t, vessel_name, mode, correction, last, team) -> None:
+        shown = last if last is not None and last.time_s <= t else None
+        key = (mode, id(correction), () if shown is None else
+               (tuple(c.track_id for c in shown.conflicts), tuple(s.track_id for s in shown.statics)))
+        self._threats_due |= self._pending or key != self._threats_key
+        if not self._threats_due or (key == self._threats_key and t - self._threats_t < THREAT_PERIOD_S - 1e-9):
+            return
+        self._threats_due, self._threats_key = False, key
+        text = threat_markdown(vessel_name, shown, team, mode, correction)
+        if text != self._threats:
+            self._threats, self._threats_t = text, t
+            recorder.document(f"threats/{vessel_name}", t, text)
 
     def _log_prediction(self, recorder, t, base, last, detour) -> None:
         full = recorder.full
@@ -109,7 +157,8 @@ class AvoidanceLog:
                                 z=0.3)
                 if full:
                     recorder.strips(f"{base}/predicted_tracks", t, [c.obstacle_positions for c in last.all], z=0.3,
-                                    colours=[_TRACK if c.collision else _TRACK_CLEAR for c in last.all])
+                                    colours=[(*recorder.legend_colour(_CONFLICT), 255 if c.collision else 90)
+                                             for c in last.all])
                 else:
                     recorder.strips(f"{base}/predicted_tracks", t,
                                     [_thin(c.times, c.obstacle_positions, _PREDICTION_STEP_S) for c in last.all

@@ -85,7 +85,8 @@ __all__ = ["AvoidanceConfig", "CollisionAvoidance", "StaticConflict", "Detour", 
 class PredictionRecord:
     """What the latest prediction saw (for the recording and figures): its time, the path and γ it
     predicted along, every track's result (``all``, collision or not), the conflicts with a
-    collision, the static conflicts, and the tracks by id."""
+    collision, the static conflicts, the tracks by id, and the triage's answer per track id
+    (:attr:`~mjasc.avoidance.triage.Triage.roles`; empty when nothing was decided)."""
 
     time_s: float
     path: Path
@@ -94,6 +95,7 @@ class PredictionRecord:
     conflicts: tuple
     statics: tuple
     tracks: dict
+    roles: tuple = ()  # ((track id, answer), ...)
 
 
 @dataclass(frozen=True, eq=False)
@@ -375,7 +377,7 @@ class CollisionAvoidance:
         tf = "∞" if not np.isfinite(c.t_f) else f"{c.t_f:.1f}"
         text = (f"collision predicted with {who} at t_c = {c.t_closest_s:.1f} s (d = {c.min_distance_m:.1f} m < "
                 f"{c.collision_distance_m:.1f} m), obstruction [t_i, t_f] = [{c.t_i:.1f}, {tf}] s on "
-                f"γ ∈ [{c.gamma_a:.1f}, {c.gamma_b:.1f}] m → {c.decision.value}")
+                f"γ in [{c.gamma_a:.1f}, {c.gamma_b:.1f}] m → {c.decision.value}")
         self._event(t, text)
         if len(self.conflict_log) < 50:
             self.conflict_log.append({"time_s": round(t, 2), "track_id": int(c.track_id),
@@ -393,7 +395,7 @@ class CollisionAvoidance:
             self.stats["static_conflicts"] += 1
             self.stats["predicted_conflicts"] += 1
             what = "static obstacle" if s.track_id is None else f"static track {s.track_id} (its outline)"
-            self._event(t, f"{what} obstructs the path on γ ∈ [{s.gamma_a:.1f}, {s.gamma_b:.1f}] m "
+            self._event(t, f"{what} obstructs the path on γ in [{s.gamma_a:.1f}, {s.gamma_b:.1f}] m "
                            f"(reached at t ≈ {s.t_i:.1f} s) → replan")
             if len(self.conflict_log) < 50:
                 self.conflict_log.append({"time_s": round(t, 2), "static": True, "gamma_a": round(s.gamma_a, 2),
@@ -405,6 +407,7 @@ class CollisionAvoidance:
         gamma = float(self._guidance.gamma_m)
         cfg = self.config
         tri = triage(t, nav, gamma, conflicts, statics, by_id, self.team, cfg, self.speed_max_m_s, self.correction)
+        self._last = replace(self._last, roles=tuple(tri.roles.items()))  # for the threat panel
         for stat, text in tri.notes:
             if stat is not None:
                 self.stats[stat] += 1
@@ -687,4 +690,5 @@ class CollisionAvoidance:
     def log(self, recorder, t, vessel_name, guidance: GuidanceState | None = None) -> None:
         """Log to the recording: the mode, the virtual target (on ``guidance``'s path, the path
         follower's state now), and what the latest prediction and re-plan produced."""
-        self._log.log(recorder, t, vessel_name, self.mode, self.correction, guidance, self._last, self.detour)
+        self._log.log(recorder, t, vessel_name, self.mode, self.correction, guidance, self._last, self.detour,
+                      self.team)

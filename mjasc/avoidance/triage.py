@@ -20,7 +20,8 @@ by the rules in this order:
   stops instead (in the §6.4.3 bottleneck such detours began with a U-turn the hull could not sail).
 
 Static conflicts are always gone around. Pure: the stats to count and the events to emit come back
-in :attr:`Triage.notes`; world frame ENU, SI units, absolute times [s].
+in :attr:`Triage.notes`, and each conflict's answer as a short text in :attr:`Triage.roles` (the
+recording's threat panel shows it); world frame ENU, SI units, absolute times [s].
 """
 
 from __future__ import annotations
@@ -49,6 +50,7 @@ class Triage:
     go_around: list[PredictedConflict] = field(default_factory=list)  # σ chose a re-plan (long obstructions)
     overtaken: list[PredictedConflict] = field(default_factory=list)  # strangers from abaft the beam
     notes: list[tuple[str | None, str]] = field(default_factory=list)  # (stat to count or None, event)
+    roles: dict = field(default_factory=dict)  # track id → its COLREG / team role and answer (text)
 
 
 def swept(track, c: PredictedConflict, t: float, cfg) -> np.ndarray:
@@ -93,11 +95,13 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
         role = colreg_role(nav, track, cfg.traffic_rule) if not is_team and track is not None and not c.is_static \
             else None
         if role in ("crossing_stand_on", "overtaken") and c.t_closest_s - t > cfg.stand_on_s:
+            out.roles[c.track_id] = f"stand-on ({role.replace('_stand_on', '')}): keeps course and speed"
             out.notes.append(("stand_on", f"stand-on vessel ({role.replace('_', ' ')}) towards track {c.track_id}: "
                                           f"keeps course and speed (COLREG rule 17) until the collision is "
                                           f"{cfg.stand_on_s:g} s away"))
             continue
         if role == "head_on":
+            out.roles[c.track_id] = "head-on: lane change to starboard"
             out.starboard.append(c)
             continue
         if role == "crossing_give_way":  # slow down and pass astern; never cross ahead (rule 15)
@@ -106,8 +110,12 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
                 out.candidates.append(corr)
             else:
                 out.svos.append((swept(track, c, t, cfg), c))
+            out.roles[c.track_id] = "give-way (crossing): " + ("slow down, pass astern" if corr is not None
+                                                                else "go around")
             continue
         if c.decision == Decision.REPLAN and not is_team:
+            out.roles[c.track_id] = "long obstruction: re-plan around it" + (f" ({role.replace('_', ' ')})"
+                                                                               if role else "")
             out.svos.append((c.svo_polygon, c))
             if not c.is_static:
                 out.go_around.append(c)
@@ -115,12 +123,14 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
         if not is_team and track is not None and not c.is_static and overtaking_us(nav, track):
             out.svos.append((swept(track, c, t, cfg), c))  # leave its lane: slowing lets it close faster
             out.overtaken.append(c)
+            out.roles[c.track_id] = "being overtaken: leave its lane"
             continue
         team_gives_way = is_team and gives_way(nav.position_m, nav.heading_rad, track.position_m,
                                                track.heading_rad, True)
         if is_team and not team_gives_way:
             astern = np.cos(relative_bearing(nav.position_m, nav.heading_rad, track.position_m)) < 0.0
             if c.t_closest_s - t > cfg.last_resort_s:
+                out.roles[c.track_id] = "team right of way: stand-on, keeps its speed"
                 out.notes.append(("stand_on", f"stand-on vessel towards team mate {track.team_member}: "
                                               f"keeps its speed"))
                 continue
@@ -131,6 +141,8 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
                 else:
                     out.notes.append(("stand_on", f"stand-on vessel towards team mate {track.team_member} "
                                                   f"(abaft the beam): keeps its speed"))
+                out.roles[c.track_id] = "team right of way: stand-on, last resort: " + (
+                    "speed up" if corr is not None else "keeps its speed")
                 continue
         passing = running is not None and running.kind == "pass" and running.track_id == c.track_id
         corr = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, passing=passing)
@@ -138,10 +150,17 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
             out.candidates.append(corr)
         else:
             out.unresolved.append(c)
+        who = "team right of way: give-way, " if team_gives_way else \
+            (f"{role.replace('_', ' ')}: " if role else "")
+        out.roles[c.track_id] = who + ({"yield": "yield (slow down)", "pass": "pass first (speed up)"}[corr.kind]
+                                       if corr is not None else "unresolved: " + ("stop" if team_gives_way
+                                                                                  else "go around"))
         # Neither slowing down nor speeding up works: go around — except a give-way vessel around
         # a team mate (it stops instead).
         if corr is None and track is not None and not team_gives_way:
             out.svos.append((swept(track, c, t, cfg), c))
     for s in statics:
         out.svos.append((s.polygon, s))
+        if s.track_id is not None:
+            out.roles[s.track_id] = "static: go around its outline"
     return out

@@ -28,6 +28,11 @@ receiver's position at that call (vessels move ~1 m per comms period; ranges are
 metres). The random draws (two uniforms per pair, from the generator passed in) happen in the
 order of the calls, so a run is a pure function of its seed. Messages are returned in order of
 arrival (``received_time_s``), which is non-decreasing over successive calls of one receiver.
+
+**Outcomes.** For the recording, :meth:`CommsNetwork.keep_outcomes` makes the link keep every
+decided (message, receiver) pair as a :class:`LinkOutcome` (delivered with its arrival time, or
+lost) until :meth:`CommsNetwork.drain_outcomes` hands them over; it draws nothing and changes
+nothing else (``mjasc.cooperation.recording`` draws them).
 """
 
 from __future__ import annotations
@@ -40,7 +45,7 @@ import numpy as np
 from mjasc.core.config_tables import check_keys, check_params, dataclass_from_table, param, string
 from mjasc.core.config_tables import table as as_table
 
-__all__ = ["NetworkConfig", "Message", "CommsNetwork", "parse_network_options", "PRESETS"]
+__all__ = ["NetworkConfig", "Message", "LinkOutcome", "CommsNetwork", "parse_network_options", "PRESETS"]
 
 
 @dataclass(frozen=True)
@@ -105,6 +110,18 @@ class Message:
         return self.received_time_s - self.sent_time_s
 
 
+@dataclass(frozen=True)
+class LinkOutcome:
+    """What became of one message for one receiver: sent by ``sender`` at ``sent_time_s`` [s];
+    ``lost`` (then ``arrival_time_s`` is NaN) or delivered at ``arrival_time_s`` [s]."""
+
+    sender: str
+    receiver: str
+    sent_time_s: float
+    arrival_time_s: float
+    lost: bool
+
+
 @dataclass
 class _Sent:
     id: int
@@ -162,6 +179,18 @@ class CommsNetwork:
         self._last_send_s = -np.inf
         self.sent = {n: 0 for n in self.team}
         self.link = {n: _LinkStats() for n in self.team}  # per receiver
+        self._outcomes: list[LinkOutcome] | None = None  # kept only when asked (keep_outcomes)
+
+    def keep_outcomes(self) -> None:
+        """From now on keep each decided (message, receiver) pair for :meth:`drain_outcomes`."""
+        if self._outcomes is None:
+            self._outcomes = []
+
+    def drain_outcomes(self) -> list[LinkOutcome]:
+        """The outcomes decided since the last call (in the order decided); empty unless
+        :meth:`keep_outcomes` was called."""
+        out, self._outcomes = self._outcomes or [], ([] if self._outcomes is not None else None)
+        return out
 
     def _member(self, name: str, role: str) -> None:
         if name not in self._cursor:
@@ -230,6 +259,9 @@ class CommsNetwork:
         n_lost = int(np.count_nonzero(lost))
         stats.lost += n_lost
         stats.lost_out_of_range += int(np.count_nonzero(out_of_range))
+        if self._outcomes is not None:
+            self._outcomes += [LinkOutcome(m.sender, receiver, m.time_s, float("nan") if gone else a, gone)
+                               for m, a, gone in zip(sent, arrival.tolist(), lost.tolist())]
         if n_lost == len(sent):
             return
         heap = self._pending[receiver]

@@ -12,8 +12,14 @@ Standard detail (``[outputs] recording_detail = "standard"``, the default):
     world/vessels/<v>/static_map         mapped polygons when the map changed, at most every
                                          ``MAP_LOG_PERIOD_S``
 
-Full detail (``"full"``) writes the tracks at every record tick and adds: returns
-(``world/vessels/<v>/sensor/hits`` and ``sensor/<v>/hits_body``, every ``HITS_LOG_PERIOD_S``),
+The body-frame sensor view (``sensor/<v>``, FLU: x forward, y to port, metres from the sensor
+mount; a static ``ViewCoordinates``): the fan's outline ``sensor/<v>/fan`` (its range and field of
+view, static) and a bow arrow ``sensor/<v>/bow`` (static), the returns ``sensor/<v>/hits_body``
+(every ``BODY_HITS_PERIOD_S``) and the detections ``sensor/<v>/detections_body`` (every
+``BODY_DETECTIONS_PERIOD_S``; full detail: every scan).
+
+Full detail (``"full"``) writes the tracks at every record tick and adds: returns in the world
+(``world/vessels/<v>/sensor/hits``, every ``HITS_LOG_PERIOD_S``, as the body-frame returns),
 detections and their discs (each new scan), the 2-σ position ellipses, the track discs and velocity
 arrows, ``tracks/labels`` (every ``LABEL_LOG_PERIOD_S``), the time series
 ``plots/tracking/<v>/{omega,speed}/T<id>`` and ``.../modes/T<id>/w<j>``, the map at every change and
@@ -27,10 +33,15 @@ import math
 import numpy as np
 import rerun as rr
 
-__all__ = ["PerceptionLog", "HITS_LOG_PERIOD_S", "LABEL_LOG_PERIOD_S", "MAP_LOG_PERIOD_S", "ARROW_HORIZON_S"]
+__all__ = ["PerceptionLog", "HITS_LOG_PERIOD_S", "BODY_HITS_PERIOD_S", "LABEL_LOG_PERIOD_S", "MAP_LOG_PERIOD_S",
+           "BODY_DETECTIONS_PERIOD_S", "ARROW_HORIZON_S", "fan_outline_body"]
 
-#: Returns are written to the recording at most this often (a 720-beam fan is heavy) [s].
+#: Full detail: returns are written to the recording at most this often (a 720-beam fan is heavy) [s].
 HITS_LOG_PERIOD_S = 0.5
+#: Standard detail: the body-frame returns and detections are written at most this often [s] (the
+#: returns at 1 s would add ~15 % to the demo's recording).
+BODY_HITS_PERIOD_S = 2.0
+BODY_DETECTIONS_PERIOD_S = 1.0
 #: Full detail: the separate track labels are written this often [s].
 LABEL_LOG_PERIOD_S = 1.0
 #: Standard detail: the mapped polygons are written at most this often [s] (building them costs ~10 ms
@@ -60,6 +71,22 @@ def _ellipses(centres: np.ndarray, covariances: np.ndarray, n_sigma: float = 2.0
     return centres[:, None, :] + n_sigma * np.einsum("kij,jm->kmi", scaled, circle)
 
 
+def fan_outline_body(fov_deg: float, max_range_m: float, min_range_m: float = 0.0) -> list[np.ndarray]:
+    """The sensor fan's outline in the body frame (FLU, x forward, y to port) [m]: closed strips
+    (m, 2) — the outer arc at ``max_range_m`` from −fov/2 to +fov/2 (a full circle for 360°), the
+    blind zone's arc at ``min_range_m`` and, for a sector, its two edges."""
+    half = 0.5 * math.radians(fov_deg)
+    arc = np.linspace(-half, half, max(8, int(round(fov_deg / 5.0)) + 1))
+    unit = np.column_stack([np.cos(arc), np.sin(arc)])
+    out = [max_range_m * unit]
+    if min_range_m > 0.0:
+        out.append(min_range_m * unit)
+    if fov_deg < 360.0 - 1e-9:
+        out += [np.array([min_range_m * unit[0], max_range_m * unit[0]]),
+                np.array([min_range_m * unit[-1], max_range_m * unit[-1]])]
+    return out
+
+
 def _labels(vessel_name: str, ids, conf, team, static) -> list[str]:
     """``<vessel>:T<id>[ (<team mate>)][ static]`` per confirmed track."""
     return [f"{vessel_name}:T{i}" + (f" ({team[k]})" if team[k] else "") + (" static" if static[k] else "")
@@ -72,6 +99,8 @@ class PerceptionLog:
     def __init__(self):
         self._styled = False
         self._last_hits_log = -math.inf
+        self._last_body_hits_log = -math.inf
+        self._last_body_det_log = -math.inf
         self._last_label_log = -math.inf
         self._last_map_log = -math.inf
         self._logged_scan_t = -math.inf
@@ -80,17 +109,32 @@ class PerceptionLog:
         self._label_key: tuple | None = None  # what the latest logged labels say
         self._series: set[int] = set()
 
-    def _style(self, rec, base: str, name: str, colour) -> None:
+    def _style(self, rec, base: str, name: str, colour, sensor_config) -> None:
         # Track labels show on hover or selection, not over the boats (show_labels False).
         rec.static(f"{base}/tracks/positions", rr.Points3D.from_fields(colors=[(*colour, 255)], radii=[0.25],
                                                                        show_labels=[False], class_ids=[102]))
-        rec.static(f"{base}/static_map", rr.LineStrips3D.from_fields(colors=[(160, 120, 60)], radii=[0.1]))
+        rec.static(f"{base}/static_map", rr.LineStrips3D.from_fields(colors=[rec.legend_colour(111)], radii=[0.1],
+                                                                     class_ids=[111], show_labels=[False]))
+        det = rec.legend_colour(116)
+        body = f"sensor/{name}"
+        rec.static(body, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
+        cfg = sensor_config
+        fan = fan_outline_body(cfg.fov_deg, cfg.max_range_m, cfg.min_range_m)
+        rec.static(f"{body}/fan", rr.LineStrips3D([np.column_stack([f, np.zeros(len(f))]) for f in fan],
+                                                  colors=[rec.legend_colour(115)], radii=[-1.0], class_ids=[115],
+                                                  show_labels=[False]))
+        rec.static(f"{body}/bow", rr.Arrows3D(origins=[[0.0, 0.0, 0.0]], vectors=[[0.1 * cfg.max_range_m, 0.0, 0.0]],
+                                              colors=[colour], radii=[-2.0], labels=[f"{name} bow (x)"],
+                                              show_labels=[True]))
+        # Sizes in UI points (negative radii): the view spans the whole fan, hundreds of metres.
+        rec.static(f"{body}/hits_body", rr.Points3D.from_fields(colors=[(*colour, 220)], radii=[-1.5]))
+        rec.static(f"{body}/detections_body", rr.Points3D.from_fields(colors=[det], radii=[-4.0], class_ids=[116],
+                                                                      show_labels=[False]))
         if rec.full:
             rec.static(f"{base}/sensor/hits", rr.Points3D.from_fields(colors=[(*colour, 150)], radii=[0.12]))
-            rec.static(f"sensor/{name}/hits_body", rr.Points3D.from_fields(colors=[(*colour, 150)], radii=[0.12]))
-            rec.static(f"{base}/sensor/detections", rr.Points3D.from_fields(colors=[(255, 220, 0)], radii=[0.35]))
-            rec.static(f"sensor/{name}/detections_body", rr.Points3D.from_fields(colors=[(255, 220, 0)], radii=[0.35]))
-            rec.static(f"{base}/sensor/detection_discs", rr.LineStrips3D.from_fields(colors=[(255, 220, 0, 160)],
+            rec.static(f"{base}/sensor/detections", rr.Points3D.from_fields(colors=[det], radii=[0.35],
+                                                                            class_ids=[116], show_labels=[False]))
+            rec.static(f"{base}/sensor/detection_discs", rr.LineStrips3D.from_fields(colors=[(*det, 160)],
                                                                                      radii=[0.04]))
             rec.static(f"{base}/tracks/ellipses", rr.LineStrips3D.from_fields(colors=[(*colour, 255)], radii=[0.07]))
             rec.static(f"{base}/tracks/discs", rr.LineStrips3D.from_fields(colors=[(*colour, 110)], radii=[0.05]))
@@ -105,9 +149,8 @@ class PerceptionLog:
         p, full = perception, rec.full
         base = f"world/vessels/{vessel_name}"
         if not self._styled:
-            self._style(rec, base, vessel_name, vessel_colour(p.vessel_index))
-        if full:
-            self._log_scan(rec, t_s, p, base, vessel_name)
+            self._style(rec, base, vessel_name, vessel_colour(p.vessel_index), p.sensor_config)
+        self._log_scan(rec, t_s, p, base, vessel_name, full)
         update = p._stats["track_updates"]
         if full or update != self._logged_update:
             self._logged_update = update
@@ -122,17 +165,23 @@ class PerceptionLog:
             self._logged_map_version, self._last_map_log = version, t_s
             rec.strips(f"{base}/static_map", t_s, [np.vstack([q, q[:1]]) for q in p.map.polygons()], z=0.4)
 
-    def _log_scan(self, rec, t_s, p, base, vessel_name) -> None:
+    def _log_scan(self, rec, t_s, p, base, vessel_name, full) -> None:
         scan, det = p.scan, p.detections
         if scan is None or scan.time_s == self._logged_scan_t:
             return
         self._logged_scan_t = scan.time_s
+        if t_s - self._last_body_hits_log >= (HITS_LOG_PERIOD_S if full else BODY_HITS_PERIOD_S) - 1e-9:
+            self._last_body_hits_log = t_s
+            rec.points(f"sensor/{vessel_name}/hits_body", t_s, scan.hit_points_body, z=0.1)
+        if full or t_s - self._last_body_det_log >= BODY_DETECTIONS_PERIOD_S - 1e-9:
+            self._last_body_det_log = t_s
+            rec.points(f"sensor/{vessel_name}/detections_body", t_s, det.centres_body, z=0.15)
+        if not full:
+            return
         if t_s - self._last_hits_log >= HITS_LOG_PERIOD_S - 1e-9:
             self._last_hits_log = t_s
             rec.points(f"{base}/sensor/hits", t_s, scan.hit_points_world, z=0.1)
-            rec.points(f"sensor/{vessel_name}/hits_body", t_s, scan.hit_points_body, z=0.1)
         rec.points(f"{base}/sensor/detections", t_s, det.centres_m, z=0.15)
-        rec.points(f"sensor/{vessel_name}/detections_body", t_s, det.centres_body, z=0.15)
         rec.strips(f"{base}/sensor/detection_discs", t_s, list(_circles(det.centres_m, det.radii_m, _CIRCLE_16)),
                    z=0.15)
 

@@ -1,10 +1,16 @@
 """The default Rerun blueprint of a run and its legend: the views a recording opens with.
 
-The top-down 3-D view of the world (ENU, z up, looked at from above: Rerun's 2-D views draw y
-downwards) framed on the scene's extent, tabs of time series grouped per vessel, and the event
-log, legend and scenario text. Every vessel has a stable colour (:func:`vessel_colour`) that the
-recording (hull, name, trail, tracks, plots) and the video reuse; the legend lists those colours
-and the overlay classes both as a Rerun annotation context (``world``) and as a markdown document
+On the left, tabs of 3-D views of the world (ENU, z up, looked at from above: Rerun's 2-D views
+draw y downwards): the top-down overview framed on the scene's extent (the tab shown first), then
+one "follow <vessel>" view per vessel whose eye tracks that vessel's hull. On the right, tabs of
+time series and panels grouped per vessel — "fleet" (the avoidance mode of every vessel as a state
+timeline, one lane per vessel, and the speed, cross-track, heading and thrust plots), then one tab
+per vessel with its body-frame sensor view (FLU: x forward drawn up, y to port drawn left) beside
+its threat panel, its mode lane and its own plots — above tabs with the event log, the legend and
+the scenario text. Every vessel has a stable colour (:func:`vessel_colour`) that the recording
+(hull, name, trail, tracks, plots, comms links) and the video reuse; the legend lists those
+colours and the overlay classes (:data:`LEGEND_CLASSES`, colours apart from every vessel colour
+and from each other) both as a Rerun annotation context (``world``) and as a markdown document
 (``legend``). View and container ids are derived from the run (:func:`stable_blueprint_ids`) so
 that the same run gives the same blueprint.
 """
@@ -18,7 +24,8 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 __all__ = ["default_blueprint", "stable_blueprint_ids", "vessel_colour", "PALETTE", "LEGEND_CLASSES",
-           "legend_classes", "annotation_context", "legend_markdown"]
+           "VESSEL_COLOURED", "legend_colour", "legend_classes", "annotation_context", "legend_markdown",
+           "MODE_STATES", "FOLLOW_EYE_OFFSET_M"]
 
 #: Stable colours per vessel index (RGB), chosen to stand out on the blue water of the videos and
 #: on Rerun's dark background, and apart from the red of traffic and predicted conflicts and the cyan
@@ -31,20 +38,49 @@ def vessel_colour(i: int) -> tuple[int, int, int]:
 
 
 #: The legend's classes beyond the vessels (ids 1…n): id → (label, RGB). The recording's annotation
-#: context (``world``) and the legend document (``legend``) list the same classes and colours.
+#: context (``world``) and the legend document (``legend``) list the same classes and colours. The
+#: classes in :data:`VESSEL_COLOURED` are drawn in each vessel's colour (their RGB here is only the
+#: legend's placeholder); every other class has its own colour, at least 70 (RGB distance) from
+#: every :data:`PALETTE` colour and 70 from every other class (``tests/test_recording_views.py``).
 LEGEND_CLASSES = {100: ("mission path (vessel colour, pale)", (200, 200, 200)),
                   101: ("trail (vessel colour)", (200, 200, 200)),
                   102: ("track: a vessel's estimate of another body (vessel colour)", (200, 200, 200)),
-                  103: ("predicted conflict: own position at closest approach", (255, 0, 0)),
-                  104: ("obstructed stretch of the path", (255, 140, 0)),
-                  105: ("static virtual obstacle", (255, 200, 0)),
+                  103: ("predicted conflict: the track's predicted motion; own position at closest approach (dot)",
+                        (255, 0, 0)),
+                  104: ("obstructed stretch of the path", (170, 0, 60)),
+                  105: ("static virtual obstacle", (255, 0, 255)),
                   106: ("detour (re-planned path)", (0, 220, 255)),
-                  107: ("potential-field obstacle", (200, 120, 255)),
-                  108: ("virtual target", (230, 60, 60)),
+                  107: ("potential-field obstacle", (120, 60, 200)),
+                  108: ("virtual target", (0, 140, 140)),
                   109: ("moving traffic (truth)", (220, 60, 60)),
-                  110: ("static obstacle (truth)", (150, 110, 80)),
-                  111: ("mapped structure (a vessel's map)", (160, 120, 60)),
-                  112: ("water current", (120, 200, 255))}
+                  110: ("static obstacle (truth)", (160, 100, 50)),
+                  111: ("mapped structure (a vessel's map)", (95, 55, 15)),
+                  112: ("water current", (120, 200, 255)),
+                  113: ("comms: a message delivered, sender → receiver (sender's colour)", (200, 200, 200)),
+                  114: ("comms: a message lost", (140, 140, 140)),
+                  115: ("sensor fan (body frame)", (50, 90, 160)),
+                  116: ("detection (a cluster of sensor returns)", (255, 255, 150)),
+                  117: ("predicted own motion", (20, 200, 80))}
+
+#: Legend classes drawn in the vessel's own colour (no colour of their own).
+VESSEL_COLOURED = frozenset({100, 101, 102, 113})
+
+
+def legend_colour(class_id: int) -> tuple[int, int, int]:
+    """The RGB of an overlay class of :data:`LEGEND_CLASSES`."""
+    return LEGEND_CLASSES[class_id][1]
+
+
+#: The avoidance modes (:data:`mjasc.avoidance.request.MODES`) as states of the mode timeline:
+#: mode → (label, RGB). Mission is dim, the avoidance modes bright and apart from each other.
+MODE_STATES = {"mission": ("mission", (90, 110, 130)),
+               "avoidance:yield": ("yield (slow down)", (255, 170, 0)),
+               "avoidance:pass": ("pass first (speed up)", (0, 200, 255)),
+               "avoidance:detour": ("detour", (255, 0, 255))}
+
+#: The follow views' eye relative to the tracked hull at the start [m] (world ENU): behind (south
+#: of) and above it, so the vessel and ~40 m around it fill the view.
+FOLLOW_EYE_OFFSET_M = (0.0, -25.0, 45.0)
 
 
 def legend_classes(vessels: tuple[str, ...]) -> list[tuple[int, str, tuple[int, int, int]]]:
@@ -66,57 +102,95 @@ def legend_markdown(vessels: tuple[str, ...]) -> str:
     rows += [f"| `#{c[0]:02x}{c[1]:02x}{c[2]:02x}` | {'vessel ' if k <= len(vessels) else ''}{label} |"
              for k, label, c in legend_classes(vessels)]
     return ("# Legend\n\nEach vessel's colour is reused for its hull, name, trail, mission path, the tracks "
-            "it holds and its plots. Track labels (`<vessel>:T<id>`) show on hover or selection.\n\n"
+            "it holds, its plots and the comms links it sends. Track labels (`<vessel>:T<id>`) and the "
+            "predicted conflicts' labels show on hover or selection.\n\n"
             + "\n".join(rows) + "\n")
 
 
 def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), perception: bool = False,
                       avoidance: bool = False, coordination: bool = False, detail: str = "full",
-                      extent_xy: tuple | None = None) -> rrb.Blueprint:
-    """Top-down world view on the left, framed on the scene: looking at the centre of
+                      extent_xy: tuple | None = None, starts_xy: dict | None = None,
+                      sensor_range_m: dict | None = None, comms: bool = False) -> rrb.Blueprint:
+    """The default layout (module docstring). The top-down view looks at the centre of
     ``extent_xy`` (lower-left, upper-right corners, world ENU [m]; a square of side ``extent_m``
-    around the origin without it) from ``1.2 ×`` its larger side above. On the right, tabs of time
-    series — "fleet" (every vessel's speed, cross-track, heading and thrust), then one tab per
-    vessel with its own speed (the virtual target's included), cross-track, avoidance mode, and
-    with ``detail = "full"`` its per-track plots, then the coordination plots — above tabs with
-    the event log, the legend and the scenario text. (Every view adds ~5 kB to the recording.)"""
+    around the origin without it) from ``1.2 ×`` its larger side above. ``starts_xy``: vessel name
+    → start position (world [m]), where each follow view's eye begins (offset
+    :data:`FOLLOW_EYE_OFFSET_M`; it then tracks the hull). ``sensor_range_m``: vessel name → its
+    sensor's range [m] (a body-frame sensor view for each; with ``perception``). ``avoidance``:
+    mode timelines and threat panels; ``coordination`` / ``comms``: the formation and link plots.
+    (Every view adds ~5 kB to the recording.)"""
     if extent_xy is None:
         lo, hi = -0.5 * np.full(2, extent_m), 0.5 * np.full(2, extent_m)
     else:
         lo, hi = np.asarray(extent_xy[0], float), np.asarray(extent_xy[1], float)
     centre, span = 0.5 * (lo + hi), float(np.max(hi - lo))
+    grid = rrb.LineGrid3D(visible=True, spacing=10.0, plane=rr.components.Plane3D.XY)
     top = rrb.Spatial3DView(
         origin="world",
         name="Top-down (ENU, y north up)",
         eye_controls=rrb.EyeControls3D(position=(centre[0], centre[1] - 0.01 * span, 1.2 * span),
                                         look_target=(centre[0], centre[1], 0.0), eye_up=(0.0, 1.0, 0.0)),
-        line_grid=rrb.LineGrid3D(visible=True, spacing=10.0, plane=rr.components.Plane3D.XY),
+        line_grid=grid,
     )
-    tabs = [rrb.Vertical(rrb.TimeSeriesView(origin="plots/speed", name="speed [m/s]"),
-                         rrb.TimeSeriesView(origin="plots/cross_track", name="cross-track [m]"),
-                         rrb.TimeSeriesView(origin="plots/heading", name="heading [deg]"),
-                         rrb.TimeSeriesView(origin="plots/thrust", name="thrust [N]"), name="fleet")]
+    starts_xy = starts_xy or {}
+    follow = []
     for v in vessels:
-        views = [rrb.TimeSeriesView(origin=f"plots/speed/{v}", name=f"{v} speed [m/s]"),
-                 rrb.TimeSeriesView(origin=f"plots/cross_track/{v}", name=f"{v} cross-track [m]")]
+        s = np.asarray(starts_xy.get(v, centre), float)
+        off = np.asarray(FOLLOW_EYE_OFFSET_M)
+        follow.append(rrb.Spatial3DView(
+            origin="world", name=f"follow {v}", line_grid=grid,
+            eye_controls=rrb.EyeControls3D(kind=rrb.Eye3DKind.Orbital, position=(s[0] + off[0], s[1] + off[1], off[2]),
+                                            look_target=(s[0], s[1], 0.0), eye_up=(0.0, 0.0, 1.0),
+                                            tracking_entity=f"world/vessels/{v}/hull")))
+    world_views = rrb.Tabs(top, *follow, active_tab=0, name="world") if follow else top
+    fleet = [rrb.TimeSeriesView(origin="plots/speed", name="speed [m/s]"),
+             rrb.TimeSeriesView(origin="plots/cross_track", name="cross-track [m]"),
+             rrb.TimeSeriesView(origin="plots/heading", name="heading [deg]"),
+             rrb.TimeSeriesView(origin="plots/thrust", name="thrust [N]")]
+    if avoidance and vessels:
+        fleet.insert(0, rrb.StateTimelineView(origin="modes", name="avoidance mode (a lane per vessel)"))
+    lanes = min(1.0 + len(vessels), 6.0)  # the mode lanes' share beside 2 per plot (a lane is ~35 UI points)
+    tabs = [rrb.Vertical(*fleet, row_shares=[lanes] + [2.0] * 4 if len(fleet) == 5 else None, name="fleet")]
+    sensor_range_m = sensor_range_m or {}
+    for v in vessels:
+        panels = []
+        if perception and v in sensor_range_m:
+            r = float(sensor_range_m[v])
+            panels.append(rrb.Spatial3DView(
+                origin=f"sensor/{v}", name=f"{v} sensor (body FLU: x forward up, y port left)",
+                eye_controls=rrb.EyeControls3D(position=(0.01 * r, 0.0, 2.4 * r), look_target=(0.0, 0.0, 0.0),
+                                                eye_up=(1.0, 0.0, 0.0)),
+                line_grid=rrb.LineGrid3D(visible=True, spacing=10.0, plane=rr.components.Plane3D.XY)))
         if avoidance:
-            views.append(rrb.TimeSeriesView(origin=f"plots/mode/{v}", name=f"{v} avoidance mode"))
+            panels.append(rrb.TextDocumentView(origin=f"threats/{v}", name=f"{v} threats: CPA, TCPA, role"))
+        views = [rrb.Horizontal(*panels)] if panels else []
+        shares = [4] if panels else []
+        if avoidance:
+            views.append(rrb.StateTimelineView(origin=f"modes/{v}", name=f"{v} avoidance mode"))
+            shares.append(1)
+        views += [rrb.TimeSeriesView(origin=f"plots/speed/{v}", name=f"{v} speed [m/s]"),
+                  rrb.TimeSeriesView(origin=f"plots/cross_track/{v}", name=f"{v} cross-track [m]")]
+        shares += [2, 2]
         if perception and detail == "full":
             views.append(rrb.TimeSeriesView(origin=f"plots/tracking/{v}", name=f"{v} tracks: ω̂, V̂, μ"))
-        tabs.append(rrb.Vertical(*views, name=v))
+            shares.append(2)
+        tabs.append(rrb.Vertical(*views, row_shares=shares, name=v))
     if coordination:
-        tabs.append(rrb.Vertical(*[rrb.TimeSeriesView(origin="plots/coordination", name=title,
-                                                      contents=[f"plots/coordination/{v}/{quantity}" for v in vessels])
-                                   for quantity, title in (("spread_m", "formation spread [m]"),
-                                                           ("speed_factor", "coordination speed factor"),
-                                                           ("gamma_normalized", "γ/L"))], name="coordination"))
+        team = [rrb.TimeSeriesView(origin="plots/coordination", name=title,
+                                   contents=[f"plots/coordination/{v}/{quantity}" for v in vessels])
+                for quantity, title in (("spread_m", "formation spread [m]"),
+                                        ("speed_factor", "coordination speed factor"),
+                                        ("gamma_normalized", "γ/L"))]
+        if comms:
+            team.append(rrb.TimeSeriesView(origin="plots/comms", name="messages received and lost (count)"))
+        tabs.append(rrb.Vertical(*team, name="coordination"))
     texts = rrb.Tabs(rrb.TextLogView(origin="events", name="events"),
                      rrb.TextDocumentView(origin="legend", name="legend"),
                      rrb.TextDocumentView(origin="scenario", name="scenario"))
     return rrb.Blueprint(
         rrb.Horizontal(
-            top,
-            rrb.Vertical(rrb.Tabs(*tabs), texts, row_shares=[3, 2]),
+            world_views,
+            rrb.Vertical(rrb.Tabs(*tabs), texts, row_shares=[3, 1]),
             column_shares=[3, 2],
         ),
         rrb.TimePanel(state="collapsed"),

@@ -42,8 +42,9 @@ import rerun as rr
 import rerun.blueprint as rrb
 from rerun.encodings import Vec3DBatch
 
-from mjasc.runs.blueprint import (LEGEND_CLASSES, PALETTE, annotation_context, default_blueprint,  # noqa: F401
-                                  legend_classes, legend_markdown, stable_blueprint_ids, vessel_colour)
+from mjasc.runs.blueprint import (LEGEND_CLASSES, MODE_STATES, PALETTE, annotation_context,  # noqa: F401
+                                  default_blueprint, legend_classes, legend_colour, legend_markdown,
+                                  stable_blueprint_ids, vessel_colour)
 from mjasc.runs.outputs import part_path
 from mjasc.runs.rrd_canonical import BATCHER_FLUSH_BYTES, canonicalise
 from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
@@ -95,6 +96,8 @@ class Recorder:
         self._labels: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # Points3D labels
         self._colours: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # LineStrips3D colours
         self._fleet: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (kind, entities, z)
+        self._states: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # StateChange
+        self._documents: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # markdown TextDocument
         self._pending = 0
         self._closed = False
         #: Vessel name → RGB, set by the runner: components style their entities and plots with it.
@@ -103,6 +106,12 @@ class Recorder:
     def colour(self, vessel_name: str, default=(200, 200, 200)) -> tuple[int, int, int]:
         """The vessel's colour (:attr:`colours`), ``default`` for an unknown vessel."""
         return self.colours.get(vessel_name, default)
+
+    @staticmethod
+    def legend_colour(class_id: int) -> tuple[int, int, int]:
+        """The RGB of a legend overlay class (:data:`~mjasc.runs.blueprint.LEGEND_CLASSES`): components
+        draw their overlays in the legend's colours."""
+        return legend_colour(class_id)
 
     # ---------------------------------------------------------------- immediate logging
     def static(self, entity: str, archetype) -> None:
@@ -124,6 +133,20 @@ class Recorder:
         times.append(t_s)
         texts.append(text)
         levels.append(level)
+        self._count(1)
+
+    def state(self, entity: str, t_s: float, state: str) -> None:
+        """A state change (``StateChange``: a lane of a state timeline view) at t_s."""
+        times, states = self._states[entity]
+        times.append(t_s)
+        states.append(str(state))
+        self._count(1)
+
+    def document(self, entity: str, t_s: float, markdown: str) -> None:
+        """A markdown document's new text at t_s (``TextDocument``; the view shows the latest)."""
+        times, texts = self._documents[entity]
+        times.append(t_s)
+        texts.append(markdown)
         self._count(1)
 
     def scalar(self, entity: str, t_s: float, value: float) -> None:
@@ -195,6 +218,11 @@ class Recorder:
             send(entity, indexes=[_time_column(times)], columns=rr.Scalars.columns(scalars=np.asarray(values)))
         for entity, (times, texts, levels) in self._texts.items():
             send(entity, indexes=[_time_column(times)], columns=rr.TextLog.columns(text=texts, level=levels))
+        for entity, (times, states) in self._states.items():
+            send(entity, indexes=[_time_column(times)], columns=rr.StateChange.columns(state=states))
+        for entity, (times, texts) in self._documents.items():
+            send(entity, indexes=[_time_column(times)],
+                 columns=rr.TextDocument.columns(text=texts, media_type=["text/markdown"] * len(texts)))
         for (entity, z), (times, rows) in self._points.items():
             send(entity, indexes=[_time_column(times)],
                  columns=rr.Points3D.columns(positions=_xyz(_cat(rows), z)).partition([len(r) for r in rows]))
@@ -227,8 +255,8 @@ class Recorder:
                         send(entity, indexes=[_time_column(t[ok])], columns=rr.Scalars.columns(scalars=d[ok]))
                 else:
                     send(entity, indexes=[_time_column(t)], columns=rr.Points3D.columns(positions=_xyz(d, z)))
-        for buffer in (self._scalars, self._texts, self._points, self._labels, self._strips, self._colours,
-                       self._arrows, self._fleet):
+        for buffer in (self._scalars, self._texts, self._states, self._documents, self._points, self._labels,
+                       self._strips, self._colours, self._arrows, self._fleet):
             buffer.clear()
         self._pending = 0
 

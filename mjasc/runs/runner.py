@@ -189,6 +189,10 @@ class Runner:
         self._record_trails(t, states.position_m)
         if e["moving"]:
             rec.fleet_points(e["moving"], t, traffic[0], z=0.3)
+        if self._comms_log is not None:
+            net = self.network
+            self._comms_log.log(rec, t, net.drain_outcomes(), states.position_m,
+                                [(s["delivered"], s["lost"]) for s in map(net.stats, self._comms_log.names)])
         if not self.sim.current.is_steady and self._current_grid is not None and \
                 (not self._current_times or t - self._current_times[-1] >= 2.0):
             self._current_times.append(t)
@@ -240,18 +244,19 @@ class Runner:
         for i, v in enumerate(sc.vessels):
             col = vessel_colour(i)
             base = f"world/vessels/{v.name}"
-            rec.static(f"{base}/hull", rr.LineStrips3D.from_fields(colors=[col], radii=[0.08], class_ids=[i + 1]))
+            rec.static(f"{base}/hull", rr.LineStrips3D.from_fields(colors=[col], radii=[0.08], class_ids=[i + 1],
+                                                                   show_labels=[False]))
             rec.static(f"{base}/position", rr.Points3D.from_fields(colors=[col], radii=[0.3], labels=[v.name],
                                                                    show_labels=[True], class_ids=[i + 1]))
             rec.static(f"{base}/trail", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05],
-                                                                    class_ids=[101]))
+                                                                    class_ids=[101], show_labels=[False]))
             rec.static(f"{base}/trail/recent", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05],
-                                                                           class_ids=[101]))
+                                                                           class_ids=[101], show_labels=[False]))
             if v.path is not None:
                 xy = v.path.sample(max(0.5, v.path.length / PATH_POINTS))
                 rec.static(f"{base}/mission_path", rr.LineStrips3D([np.column_stack([xy, np.zeros(len(xy))])],
                                                                    colors=[(*col, 120)], radii=[0.06],
-                                                                   class_ids=[100]))
+                                                                   class_ids=[100], show_labels=[False]))
             rec.series_style(f"plots/speed/{v.name}/actual", f"{v.name} speed", col, 2.0)
             rec.series_style(f"plots/speed/{v.name}/reference", f"{v.name} reference", (*col, 120), 1.0)
             rec.series_style(f"plots/thrust/{v.name}/port", f"{v.name} port", col)
@@ -301,18 +306,30 @@ class Runner:
             self.out_dir.mkdir(parents=True, exist_ok=True)
         self.metrics = RunMetrics(self.world, sc)
         self._current_grid = None
+        self._comms_log = None
         if self.out_dir is not None and sc.outputs.recording:
             lo, hi = self.extent()
             files["recording"] = self.out_dir / "recording.rrd"
+            names = tuple(a.name for a in self.agents)
             bp = default_blueprint(
-                extent_m=float(np.max(hi - lo)), extent_xy=(lo, hi), vessels=tuple(a.name for a in self.agents),
+                extent_m=float(np.max(hi - lo)), extent_xy=(lo, hi), vessels=names,
                 perception=any(a.perception is not None for a in self.agents),
                 avoidance=any(a.avoidance is not None for a in self.agents),
-                coordination=any(a.coordination is not None for a in self.agents), detail=sc.outputs.recording_detail)
+                coordination=any(a.coordination is not None for a in self.agents), detail=sc.outputs.recording_detail,
+                starts_xy={v.name: v.position_m for v in sc.vessels},
+                sensor_range_m={a.name: a.perception.sensor_config.max_range_m for a in self.agents
+                                if a.perception is not None},
+                comms=self.network is not None)
             self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp, detail=sc.outputs.recording_detail)
             self.recorder.colours = {a.name: vessel_colour(i) for i, a in enumerate(self.agents)}
             self._entities = self._entity_names()
             self._log_static_scene()
+            if self.network is not None and tuple(self.network.team) == names:
+                from mjasc.cooperation.recording import CommsLog
+
+                self._comms_log = CommsLog(names)
+                if self._comms_log.lines:
+                    self.network.keep_outcomes()
             self.recorder.event(0.0, f"scenario {sc.name!r} seed {sc.seed}: {len(sc.vessels)} vessel(s), "
                                      f"{len(sc.static_obstacles)} static and {len(sc.moving_obstacles)} moving obstacle(s)")
         if self.out_dir is not None and sc.outputs.video:

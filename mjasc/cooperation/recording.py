@@ -1,0 +1,88 @@
+"""How the team's comms link draws itself in the Rerun recording.
+
+From the link's :class:`~mjasc.cooperation.comms.LinkOutcome` (each message's fate per receiver,
+:meth:`~mjasc.cooperation.comms.CommsNetwork.drain_outcomes`) and its counters
+(:meth:`~mjasc.cooperation.comms.CommsNetwork.stats`), at the record ticks:
+
+    world/comms/delivered     a line from sender to receiver for every message sent in the last
+                              ``LINK_WINDOW_S``, in the sender's colour (legend class 113)
+    world/comms/lost          a lost message: a thin grey line from the sender stopping halfway to
+                              the receiver (legend class 114)
+    plots/comms/<v>/received  messages received by vessel v so far (a count, every ``COUNT_PERIOD_S``)
+    plots/comms/<v>/lost      messages lost on their way to v so far (when it changed)
+
+Lines are drawn for teams of at most ``MAX_LINE_VESSELS`` (a team of n has n(n − 1) links: 50
+vessels on a 1 Hz link would draw 2450 lines a second); larger teams get the counts only. Lines
+join the vessels' positions at the record tick (world ENU [m], drawn at z = 0.6 above the
+hulls, 1.5 UI points wide, lost ones 1); rows are written when the set of lines changes (an empty row clears them), and at least
+every ``LINK_WINDOW_S`` while lines are shown (they follow the vessels).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["CommsLog", "LINK_WINDOW_S", "COUNT_PERIOD_S", "MAX_LINE_VESSELS"]
+
+#: A message's line stays this long after it was sent [s].
+LINK_WINDOW_S = 1.0
+#: The message counts are written at most this often [s].
+COUNT_PERIOD_S = 5.0
+#: Teams larger than this get no lines, only the counts.
+MAX_LINE_VESSELS = 12
+_DELIVERED, _LOST = 113, 114
+_Z = 0.6
+
+
+class CommsLog:
+    """Logging state of the link (one per run): the recent outcomes and the counts."""
+
+    def __init__(self, names: tuple[str, ...]):
+        self.names = tuple(names)
+        self.lines = len(self.names) <= MAX_LINE_VESSELS
+        self._recent: list = []
+        self._shown: tuple = ((), ())  # the (delivered, lost) pairs last drawn
+        self._shown_t = -np.inf
+        self._written: dict[str, tuple[float, int, int]] = {}  # receiver → (t, received, lost) last written
+        self._styled = False
+
+    def _style(self, recorder) -> None:
+        import rerun as rr
+
+        if self.lines:
+            recorder.static("world/comms/delivered", rr.LineStrips3D.from_fields(
+                radii=[-1.5], class_ids=[_DELIVERED], show_labels=[False]))
+            recorder.static("world/comms/lost", rr.LineStrips3D.from_fields(
+                colors=[recorder.legend_colour(_LOST)], radii=[-1.0], class_ids=[_LOST], show_labels=[False]))
+        for n in self.names:
+            col = recorder.colour(n)
+            recorder.series_style(f"plots/comms/{n}/received", f"{n} received", col, 1.5)
+            recorder.series_style(f"plots/comms/{n}/lost", f"{n} lost", (*col, 130), 1.0)
+        self._styled = True
+
+    def log(self, recorder, t_s: float, outcomes, positions_xy, counts) -> None:
+        """Add ``outcomes`` (decided since the last call; unused without lines) and draw the links
+        alive at t_s; ``positions_xy`` (n, 2) the vessels' positions [m] and ``counts`` (n pairs:
+        messages received, lost so far), both in the order of :attr:`names`."""
+        if not self._styled:
+            self._style(recorder)
+        for n, (received_now, lost_now) in zip(self.names, counts):
+            t0, received, lost = self._written.get(n, (-np.inf, -1, -1))
+            if lost_now != lost or (received_now != received and t_s - t0 >= COUNT_PERIOD_S - 1e-9):
+                self._written[n] = (t_s, received_now, lost_now)
+                recorder.scalar(f"plots/comms/{n}/received", t_s, received_now)
+                recorder.scalar(f"plots/comms/{n}/lost", t_s, lost_now)
+        if not self.lines:
+            return
+        self._recent = [o for o in self._recent + list(outcomes) if o.sent_time_s > t_s - LINK_WINDOW_S]
+        delivered = tuple(sorted({(o.sender, o.receiver) for o in self._recent if not o.lost}))
+        lost = tuple(sorted({(o.sender, o.receiver) for o in self._recent if o.lost} - set(delivered)))
+        if (delivered, lost) == self._shown and not ((delivered or lost) and t_s - self._shown_t >= LINK_WINDOW_S):
+            return  # nothing new to draw (shown links are redrawn where the vessels are now every window)
+        self._shown, self._shown_t = (delivered, lost), t_s
+        index = {n: k for k, n in enumerate(self.names)}
+        p = np.asarray(positions_xy, dtype=float)
+        recorder.strips("world/comms/delivered", t_s, [p[[index[a], index[b]]] for a, b in delivered], z=_Z,
+                        colours=[(*recorder.colour(a), 160) for a, _ in delivered])
+        recorder.strips("world/comms/lost", t_s, [np.array([p[index[a]], 0.5 * (p[index[a]] + p[index[b]])])
+                                                  for a, b in lost], z=_Z)
