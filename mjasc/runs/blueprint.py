@@ -167,7 +167,7 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
         shares = [4] if panels else []
         if avoidance:
             views.append(rrb.StateTimelineView(origin=f"modes/{v}", name=f"{v} avoidance mode"))
-            shares.append(1)
+            shares.append(2)  # header, lane name and bar: at 1 share the bar was cut off
         views += [rrb.TimeSeriesView(origin=f"plots/speed/{v}", name=f"{v} speed [m/s]"),
                   rrb.TimeSeriesView(origin=f"plots/cross_track/{v}", name=f"{v} cross-track [m]")]
         shares += [2, 2]
