@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from mjasc.perception.range_sensor import Scan
+from mjasc.runs.blueprint import PALETTE
 from mjasc.runs.runner import Runner
 from mjasc.runs.scenario import load_scenario
 from mjasc.runs.video import VideoWriter
@@ -145,7 +146,7 @@ def test_split_frame_shows_the_overview_left_and_the_first_vessels_chase_view_ri
     centre = right[60:200, 80:240]
     assert (np.abs(centre - np.array([245, 184, 20])).sum(axis=-1) < 90).sum() > 200
     # The overview half: the vessels' map symbols in their palette colours (gold, pink, lime).
-    for colour in ((255, 200, 0), (255, 85, 170), (120, 230, 50)):
+    for colour in PALETTE[:3]:
         assert (np.abs(left - np.array(colour)).sum(axis=-1) < 60).sum() > 5, colour
 
 
@@ -171,3 +172,23 @@ def test_overlay_colours_are_no_vessel_colour_and_show_on_the_water():
         rgb = 255 * np.array(COLOURS[key][:3])
         assert min(np.linalg.norm(rgb - np.array(p)) for p in PALETTE) > 70, key
         assert np.linalg.norm(rgb - np.array(WATER_SWATCH)) > 90, key
+
+
+def test_every_vessel_colour_stands_out_on_the_water():
+    """WCAG's contrast ratio (L1 + 0.05) / (L2 + 0.05) of relative luminances, ≥ 3:1 for graphics,
+    between each palette colour and both squares of the water's checker texture (assets)."""
+    import xml.etree.ElementTree as ET
+
+    root = ET.parse(Path(__file__).resolve().parent.parent / "assets" / "scene" / "water.xml").getroot()
+    tex = next(t for t in root.iter("texture") if t.get("name") == "water")
+
+    def luminance(rgb01):
+        c = np.asarray(rgb01, float)
+        c = np.where(c <= 0.03928, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+        return float(c @ [0.2126, 0.7152, 0.0722])
+
+    for key in ("rgb1", "rgb2"):
+        water = luminance([float(x) for x in tex.get(key).split()])
+        for colour in PALETTE:
+            ratio = (luminance(np.array(colour) / 255) + 0.05) / (water + 0.05)
+            assert ratio >= 3.0, (colour, key, ratio)

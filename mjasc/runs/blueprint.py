@@ -27,10 +27,11 @@ __all__ = ["default_blueprint", "stable_blueprint_ids", "vessel_colour", "PALETT
            "VESSEL_COLOURED", "legend_colour", "legend_classes", "annotation_context", "legend_markdown",
            "MODE_STATES", "FOLLOW_EYE_OFFSET_M"]
 
-#: Stable colours per vessel index (RGB), chosen to stand out on the blue water of the videos and
+#: Stable colours per vessel index (RGB), chosen to stand out on the blue water of the videos (a
+#: luminance contrast of at least 3:1 against both squares of its checker, tests/test_video.py) and
 #: on Rerun's dark background, and apart from the red of traffic and predicted conflicts and the cyan
 #: of detours: gold, pink, lime, orange, violet, white, olive, salmon, mint.
-PALETTE = [(255, 200, 0), (255, 85, 170), (120, 230, 50), (255, 140, 20), (185, 140, 255), (240, 240, 240),
+PALETTE = [(255, 200, 0), (255, 130, 200), (120, 230, 50), (255, 150, 30), (200, 165, 255), (240, 240, 240),
            (200, 200, 90), (255, 160, 130), (130, 255, 190)]
 
 def vessel_colour(i: int) -> tuple[int, int, int]:
