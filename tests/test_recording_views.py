@@ -202,3 +202,23 @@ def test_large_teams_get_comms_counts_but_no_lines():
 
     assert CommsLog(tuple(f"v{i}" for i in range(MAX_LINE_VESSELS))).lines
     assert not CommsLog(tuple(f"v{i}" for i in range(MAX_LINE_VESSELS + 1))).lines  # n(n-1) lines a period
+
+
+def test_a_large_fleet_gets_per_vessel_views_for_its_first_vessels_only(tmp_path):
+    """Beyond MAX_VIEW_VESSELS, no follow view, vessel tab, body-frame sensor data or threat panel
+    (their fixed cost per vessel made a 50-vessel recording 1.6 MB per vessel-minute); the
+    world data of every vessel stays."""
+    import rerun as rr
+
+    from mjasc.runs.blueprint import MAX_VIEW_VESSELS
+    from mjasc.runs.fleet import formation_among_traffic
+    from mjasc.runs.runner import run_scenario
+
+    sc = formation_among_traffic(MAX_VIEW_VESSELS + 2, duration_s=3.0)
+    names = [v.name for v in sc.vessels]
+    run_scenario(sc, tmp_path, progress=False)
+    paths = set(rr.chunk.RrdReader(str(tmp_path / "recording.rrd")).store().schema().entity_paths())
+    first, last = names[0], names[-1]
+    assert f"/sensor/{first}/fan" in paths and f"/sensor/{last}/fan" not in paths
+    assert not any(p.startswith(f"/sensor/{last}") or p.startswith(f"/threats/{last}") for p in paths)
+    assert f"/world/vessels/{last}/hull" in paths and f"/modes/{last}" in paths

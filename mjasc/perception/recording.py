@@ -115,6 +115,8 @@ class PerceptionLog:
                                                                        show_labels=[False], class_ids=[102]))
         rec.static(f"{base}/static_map", rr.LineStrips3D.from_fields(colors=[rec.legend_colour(111)], radii=[0.1],
                                                                      class_ids=[111], show_labels=[False]))
+        if not rec.has_views(name):
+            return
         det = rec.legend_colour(116)
         body = f"sensor/{name}"
         rec.static(body, rr.ViewCoordinates.RIGHT_HAND_Z_UP)
@@ -170,10 +172,11 @@ class PerceptionLog:
         if scan is None or scan.time_s == self._logged_scan_t:
             return
         self._logged_scan_t = scan.time_s
-        if t_s - self._last_body_hits_log >= (HITS_LOG_PERIOD_S if full else BODY_HITS_PERIOD_S) - 1e-9:
+        views = rec.has_views(vessel_name)
+        if views and t_s - self._last_body_hits_log >= (HITS_LOG_PERIOD_S if full else BODY_HITS_PERIOD_S) - 1e-9:
             self._last_body_hits_log = t_s
             rec.points(f"sensor/{vessel_name}/hits_body", t_s, scan.hit_points_body, z=0.1)
-        if full or t_s - self._last_body_det_log >= BODY_DETECTIONS_PERIOD_S - 1e-9:
+        if views and (full or t_s - self._last_body_det_log >= BODY_DETECTIONS_PERIOD_S - 1e-9):
             self._last_body_det_log = t_s
             rec.points(f"sensor/{vessel_name}/detections_body", t_s, det.centres_body, z=0.15)
         if not full:

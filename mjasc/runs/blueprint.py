@@ -23,7 +23,8 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-__all__ = ["default_blueprint", "stable_blueprint_ids", "vessel_colour", "PALETTE", "LEGEND_CLASSES",
+__all__ = ["default_blueprint", "stable_blueprint_ids", "vessel_colour", "view_vessels", "MAX_VIEW_VESSELS", "PALETTE",
+           "LEGEND_CLASSES",
            "VESSEL_COLOURED", "legend_colour", "legend_classes", "annotation_context", "legend_markdown",
            "MODE_STATES", "FOLLOW_EYE_OFFSET_M"]
 
@@ -83,6 +84,17 @@ MODE_STATES = {"mission": ("mission", (90, 110, 130)),
 #: of) and above it, so the vessel and ~40 m around it fill the view.
 FOLLOW_EYE_OFFSET_M = (0.0, -25.0, 45.0)
 
+#: Per-vessel views (a follow view, a tab with the body-frame sensor view, threat panel, mode lane
+#: and plots) are made for the first MAX_VIEW_VESSELS vessels only: each adds a few views (~5 kB
+#: each) and the data only they show, and 50 tabs are not a layout anyone reads. The fleet tab,
+#: the top-down view and every vessel's world data cover the whole fleet.
+MAX_VIEW_VESSELS = 12
+
+
+def view_vessels(vessels: tuple[str, ...]) -> tuple[str, ...]:
+    """The vessels that get per-vessel views: the first :data:`MAX_VIEW_VESSELS`."""
+    return tuple(vessels)[:MAX_VIEW_VESSELS]
+
 
 def legend_classes(vessels: tuple[str, ...]) -> list[tuple[int, str, tuple[int, int, int]]]:
     """(class id, label, RGB) of every legend entry: the vessels (ids 1…n, :func:`vessel_colour`),
@@ -135,7 +147,7 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
     )
     starts_xy = starts_xy or {}
     follow = []
-    for v in vessels:
+    for v in view_vessels(vessels):
         s = np.asarray(starts_xy.get(v, centre), float)
         off = np.asarray(FOLLOW_EYE_OFFSET_M)
         follow.append(rrb.Spatial3DView(
@@ -153,7 +165,7 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
     lanes = min(1.0 + len(vessels), 6.0)  # the mode lanes' share beside 2 per plot (a lane is ~35 UI points)
     tabs = [rrb.Vertical(*fleet, row_shares=[lanes] + [2.0] * 4 if len(fleet) == 5 else None, name="fleet")]
     sensor_range_m = sensor_range_m or {}
-    for v in vessels:
+    for v in view_vessels(vessels):
         panels = []
         if perception and v in sensor_range_m:
             r = float(sensor_range_m[v])

@@ -102,6 +102,13 @@ class Recorder:
         self._closed = False
         #: Vessel name → RGB, set by the runner: components style their entities and plots with it.
         self.colours: dict[str, tuple[int, int, int]] = {}
+        #: Vessels with per-vessel views (follow, body-frame sensor, threat panel); None: every vessel.
+        #: Data only those views show is not logged for the others (a large fleet's recording size).
+        self.view_vessels: frozenset[str] | None = None
+
+    def has_views(self, vessel_name: str) -> bool:
+        """Does ``vessel_name`` get per-vessel views (:attr:`view_vessels`)?"""
+        return self.view_vessels is None or vessel_name in self.view_vessels
 
     def colour(self, vessel_name: str, default=(200, 200, 200)) -> tuple[int, int, int]:
         """The vessel's colour (:attr:`colours`), ``default`` for an unknown vessel."""

@@ -46,6 +46,7 @@ from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 from mjasc.runs.agent import build_agent
+from mjasc.runs.blueprint import view_vessels
 from mjasc.runs.interrupts import catch_sigterm, restore_sigterm, signal_name
 from mjasc.runs.outputs import atomic_target, atomic_write_text
 from mjasc.runs.recording import Recorder, annotation_context, default_blueprint, legend_markdown, vessel_colour
@@ -322,6 +323,8 @@ class Runner:
                 comms=self.network is not None)
             self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp, detail=sc.outputs.recording_detail)
             self.recorder.colours = {a.name: vessel_colour(i) for i, a in enumerate(self.agents)}
+            if len(view_vessels(names)) < len(names):
+                self.recorder.view_vessels = frozenset(view_vessels(names))
             self._entities = self._entity_names()
             self._log_static_scene()
             if self.network is not None and tuple(self.network.team) == names:
