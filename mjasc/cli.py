@@ -280,13 +280,13 @@ def _cmd_search(args) -> int:
 def _cmd_render(args) -> int:
     import time
 
+    from mjasc.runs.scenario import camera_problem
     from mjasc.suite import TASKS_BY_DOMAIN
     from mjasc.suite.render import render_episode
 
     tasks = TASKS_BY_DOMAIN.get(args.domain)
-    if not (args.camera in ("top_down", "overview", "split") or args.camera.startswith(("chase:", "split:"))):
-        print(f"mjasc: render --camera: must be top_down, overview, chase:VESSEL, split or split:VESSEL, "
-              f"got {args.camera!r}", file=sys.stderr)
+    if camera_problem(args.camera):
+        print(f"mjasc: render --camera: {camera_problem(args.camera)}", file=sys.stderr)
         return 2
     if tasks is None or args.task not in tasks:  # checked before the output folder is made
         what = f"domain {args.domain!r}" if tasks is None else f"task {args.task!r} of domain {args.domain!r}"

@@ -131,11 +131,11 @@ class AvoidanceLog:
             self._pending = False
 
     def _log_threats(self, recorder, t, vessel_name, mode, correction, last, team) -> None:
+        if not recorder.has_views(vessel_name):
+            return
         shown = last if last is not None and last.time_s <= t else None
         key = (mode, id(correction), () if shown is None else
                (tuple(c.track_id for c in shown.conflicts), tuple(s.track_id for s in shown.statics)))
-        if not recorder.has_views(vessel_name):
-            return
         self._threats_due |= self._pending or key != self._threats_key
         if not self._threats_due or (key == self._threats_key and t - self._threats_t < THREAT_PERIOD_S - 1e-9):
             return

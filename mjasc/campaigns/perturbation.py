@@ -325,17 +325,19 @@ def _exact_degrees(angle_rad: float) -> float:
     return math.degrees(angle_rad)
 
 
-def perturbed_document(data: dict, scenario: Scenario, randomize: Randomization, base_seed: int, k: int) -> dict:
+def perturbed_document(data: dict, scenario: Scenario, randomize: Randomization, base_seed: int, k: int,
+                       draws: RunDraws | None = None) -> dict:
     """The scenario *file* of run k: ``data`` (the base scenario's TOML document) with the seed
-    ``base_seed + k`` and the draws of :func:`draw_perturbations` written in, so that
-    ``parse_scenario(document)`` is :func:`randomized_scenario`'s scenario of run k (same numbers;
-    a seeded current keeps its derived seed written out when a perturbation wraps it in a sum)."""
+    ``base_seed + k`` and the draws of :func:`draw_perturbations` written in (``draws``: those
+    draws, when the caller has them already), so that ``parse_scenario(document)`` is
+    :func:`randomized_scenario`'s scenario of run k (same numbers; a seeded current keeps its
+    derived seed written out when a perturbation wraps it in a sum)."""
     doc = {key: value for key, value in data.items()}
     seed = base_seed + int(k)
     doc["seed"] = seed
     if randomize.is_zero:
         return doc
-    d = draw_perturbations(scenario, randomize, base_seed, k)
+    d = draws if draws is not None else draw_perturbations(scenario, randomize, base_seed, k)
     if randomize.vessel_position_sigma_m > 0 or randomize.vessel_heading_sigma_deg > 0:
         vessels = []
         for i, (table_i, v) in enumerate(zip(data["vessels"], scenario.vessels)):
@@ -426,14 +428,14 @@ class PerturbationFamily:
 
     def generate(self, k: int, base_seed: int, index: int) -> tuple[dict, dict, int, str]:
         """(parameters, scenario document, seed, header) of the campaign's run ``index`` (family run k)."""
+        draws = None if self.randomize.is_zero else draw_perturbations(self.scenario, self.randomize, base_seed, index)
         doc = {"name": self.scenario.name, **perturbed_document(self.data, self.scenario, self.randomize, base_seed,
-                                                                  index)}
+                                                                  index, draws)}
         seed = base_seed + index
         if self.first_seed is not None:
             seed = doc["seed"] = self.first_seed + k
         doc = self.conditions.apply(doc)
-        params = {} if self.randomize.is_zero else \
-            _flat_draws(draw_perturbations(self.scenario, self.randomize, base_seed, index).as_dict(self.scenario))
+        params = {} if draws is None else _flat_draws(draws.as_dict(self.scenario))
         params.update({f"conditions.{key}": v for key, v in vars(self.conditions).items() if v is not None})
         header = f"perturbation of {self.scenario_ref} ({self.scenario.name}), draws of run {index}, seed {seed}"
         return params, doc, seed, header

@@ -147,9 +147,9 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
     )
     starts_xy = starts_xy or {}
     follow = []
+    off = np.asarray(FOLLOW_EYE_OFFSET_M)
     for v in view_vessels(vessels):
         s = np.asarray(starts_xy.get(v, centre), float)
-        off = np.asarray(FOLLOW_EYE_OFFSET_M)
         follow.append(rrb.Spatial3DView(
             origin="world", name=f"follow {v}", line_grid=grid,
             eye_controls=rrb.EyeControls3D(kind=rrb.Eye3DKind.Orbital, position=(s[0] + off[0], s[1] + off[1], off[2]),
@@ -173,7 +173,7 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
                 origin=f"sensor/{v}", name=f"{v} sensor (body FLU: x forward up, y port left)",
                 eye_controls=rrb.EyeControls3D(position=(0.01 * r, 0.0, 2.4 * r), look_target=(0.0, 0.0, 0.0),
                                                 eye_up=(1.0, 0.0, 0.0)),
-                line_grid=rrb.LineGrid3D(visible=True, spacing=10.0, plane=rr.components.Plane3D.XY)))
+                line_grid=grid))
         if avoidance:
             panels.append(rrb.TextDocumentView(origin=f"threats/{v}", name=f"{v} threats: CPA, TCPA, role"))
         views = [rrb.Horizontal(*panels)] if panels else []

@@ -44,11 +44,11 @@ __all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "check_duration",
            "traffic_through_structure", "TRAFFIC_SAMPLE_FRACTION", "TRAFFIC_SAMPLE_MAX_S"]
 
 MAX_NAME_CHARS = 64
+"""Longest vessel or obstacle name (it becomes a MuJoCo body name and a Rerun entity path)."""
 TRAFFIC_SAMPLE_FRACTION = 0.25
 """Traffic is sampled every time it moves this fraction of its radius (the fastest, smallest one)."""
 TRAFFIC_SAMPLE_MAX_S = 1.0
 """Longest sampling interval [s] of the traffic-through-structures check."""
-"""Longest vessel or obstacle name (it becomes a MuJoCo body name and a Rerun entity path)."""
 
 _NAME = re.compile(r"[A-Za-z0-9_-]+")
 

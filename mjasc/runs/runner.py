@@ -323,8 +323,7 @@ class Runner:
                 comms=self.network is not None)
             self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp, detail=sc.outputs.recording_detail)
             self.recorder.colours = {a.name: vessel_colour(i) for i, a in enumerate(self.agents)}
-            if len(view_vessels(names)) < len(names):
-                self.recorder.view_vessels = frozenset(view_vessels(names))
+            self.recorder.view_vessels = frozenset(view_vessels(names))
             self._entities = self._entity_names()
             self._log_static_scene()
             if self.network is not None and tuple(self.network.team) == names:

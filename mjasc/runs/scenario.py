@@ -88,6 +88,13 @@ _CAMERAS = ("top_down", "overview", "split")
 ``chase:<vessel>`` follows a vessel, ``split:<vessel>`` shows the overview beside its chase camera."""
 _CAMERA_HELP = "top_down, overview, chase:<vessel>, split or split:<vessel>"
 
+
+def camera_problem(camera: str) -> str | None:
+    """Why ``camera`` is not a video camera name (``must be …``), or None when it is one."""
+    if camera in _CAMERAS or camera.startswith(("chase:", "split:")):
+        return None
+    return f"must be {_CAMERA_HELP}, got {camera!r}"
+
 RECORDING_DETAILS = ("standard", "full")
 """What the recording holds (``[outputs] recording_detail``; :mod:`mjasc.runs.recording`)."""
 
@@ -122,8 +129,8 @@ class Outputs:
             if getattr(outputs, name) % 2:
                 raise ScenarioError(f"{where}.{name}: must be even (H.264), got {getattr(outputs, name)}")
         camera = outputs.video_camera
-        if camera not in _CAMERAS and not camera.startswith(("chase:", "split:")):
-            raise ScenarioError(f"{where}.video_camera: must be {_CAMERA_HELP}, got {camera!r}")
+        if camera_problem(camera):
+            raise ScenarioError(f"{where}.video_camera: {camera_problem(camera)}")
 
 
 def check_camera_vessel(outputs: Outputs, names) -> None:
