@@ -129,7 +129,7 @@ def test_scenario_loader_validates_the_avoidance_table():
     with pytest.raises(ScenarioError, match=r"vessels\[0\]\.avoidance\.gain_k"):
         parse_scenario(doc)
     doc["vessels"][0]["avoidance"] = {"gain_k": 1.0}
-    assert parse_scenario(doc).vessels[0].options["avoidance"].gain_k == 1.0
+    assert parse_scenario(doc).vessels[0].options["avoidance"].options.gain_k == 1.0
 
 
 # ------------------------------------------------------------------------------------ mode machine

@@ -236,7 +236,7 @@ def test_own_overrides_and_rates_reach_the_scenario():
               "parameters": {"sensor_range_noise_m": 0.2, "sensor_dropout": 0.3}})
     sc = s.run(0).scenario()
     v = sc.vessels[0]
-    prediction = v.options["avoidance"].prediction
+    prediction = v.options["avoidance"].options.prediction
     assert prediction.window_s == 25.0 and prediction.safety_distance_m == 1.5  # merged into the defaults
     assert v.options["sensor"].beams == 720 and v.options["sensor"].range_noise_std_m == 0.2
     assert v.options["sensor"].dropout_probability == 0.3

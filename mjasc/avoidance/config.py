@@ -17,7 +17,7 @@ from typing import Any
 from mjasc.avoidance.prediction import CollisionPredictionConfig
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 
-__all__ = ["AvoidanceConfig", "parse_avoidance_options"]
+__all__ = ["AvoidanceConfig", "parse_avoidance_options", "check_avoidance"]
 
 _PREDICTION_FIELDS = frozenset(f.name for f in dataclasses.fields(CollisionPredictionConfig))
 
@@ -97,7 +97,7 @@ class AvoidanceConfig:
 
     def __post_init__(self):
         check_params(self, "avoidance")
-        _check_avoidance(self, "avoidance")
+        check_avoidance(self, "avoidance")
 
     def __getattr__(self, name: str) -> Any:
         """The prediction parameters read flat, as in the TOML table (``config.window_s``)."""
@@ -109,7 +109,7 @@ class AvoidanceConfig:
         return self.prediction
 
 
-def _check_avoidance(c: AvoidanceConfig, where: str) -> None:
+def check_avoidance(c: AvoidanceConfig, where: str) -> None:
     """Cross-field checks of an :class:`AvoidanceConfig` (each field's own bounds are declared)."""
     if c.speed_max_m_s is not None and c.speed_max_m_s <= c.speed_min_m_s:
         raise ConfigError(f"{where}.speed_max_m_s: must exceed speed_min_m_s ({c.speed_min_m_s}), "
@@ -122,4 +122,4 @@ def parse_avoidance_options(table: dict, where: str = "avoidance") -> AvoidanceC
     ``window_s = "dynamic"`` selects the dynamic window δ = v/a_brake + ζ; every other field is a
     number or a boolean as declared. Unknown keys, wrong types and out-of-range values raise
     ValueError naming ``f"{where}.{key}"`` (:func:`mjasc.core.config_tables.dataclass_from_table`)."""
-    return dataclass_from_table(AvoidanceConfig, table, where, check=_check_avoidance)
+    return dataclass_from_table(AvoidanceConfig, table, where, check=check_avoidance)

@@ -62,7 +62,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from mjasc.avoidance.config import AvoidanceConfig, parse_avoidance_options
+from mjasc.avoidance.config import AvoidanceConfig, check_avoidance, parse_avoidance_options
 from mjasc.avoidance.decision import Correction, emergency_yield, velocity_correction_for
 from mjasc.avoidance.lane_change import plan_lane_change
 from mjasc.avoidance.prediction import (PredictedConflict, PredictionQuery, TrackMotions, gamma_of_time,
@@ -76,6 +76,7 @@ from mjasc.avoidance.triage import swept, triage
 from mjasc.core.geometry import distance_to_polygon, point_in_polygon
 from mjasc.guidance.paths import Path
 from mjasc.guidance.state import GuidanceState
+from mjasc.plugins.stages import AvoidanceMethod
 
 __all__ = ["AvoidanceConfig", "CollisionAvoidance", "StaticConflict", "Detour", "PlannedTrack", "PredictionRecord",
            "parse_avoidance_options", "MODES", "merge_overlapping", "swept_area", "predict_slot"]
@@ -151,14 +152,30 @@ def _correction_profile(correction: Correction | None, t_now: float, gamma_now: 
 _MARGIN_GAIN_M = 0.5
 
 
-class CollisionAvoidance:
-    """Collision avoidance of one vessel (see the module docstring).
+class CollisionAvoidance(AvoidanceMethod):
+    """Collision avoidance of one vessel (see the module docstring): the thesis's method, registered
+    as the avoidance method ``"thesis"`` (options: :class:`AvoidanceConfig`).
 
     name: the vessel's name; vessel: its :class:`~mjasc.physics.vessels.VesselType` (radius, beam,
     top speed); mission_path: its mission path; config: :class:`AvoidanceConfig` or a raw table;
     team_names: names of all vessels of the team (tracks whose ``team_member`` is one of them are
     team mates); rng: the component's random stream (unused: the system is deterministic).
     """
+
+    method = "thesis"
+    Options = AvoidanceConfig
+    check_options = staticmethod(check_avoidance)
+
+    @classmethod
+    def from_context(cls, context, options) -> "CollisionAvoidance":
+        """The method for one vessel from its :class:`~mjasc.plugins.context.StageContext`."""
+        return cls(context.vessel_name, context.vessel, context.mission_path, options, context.team_names,
+                   context.rng)
+
+    @classmethod
+    def predict_many(cls, calls) -> list[AvoidanceRequest]:
+        """Several vessels' prediction slot in one batched call (:func:`predict_slot`)."""
+        return predict_slot(calls)
 
     def __init__(self, name: str, vessel, mission_path: Path | None, config, team_names, rng=None):
         if isinstance(config, dict):
@@ -673,6 +690,7 @@ class CollisionAvoidance:
     def summary(self) -> dict:
         total = sum(self.mode_time_s.values())
         return {
+            "method": self.method,
             "enabled": self.config.enabled,
             "predictions": self.stats["predictions"],
             "predictions_on_track_deviation": self.stats["deviation_predictions"],

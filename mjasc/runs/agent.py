@@ -244,8 +244,9 @@ def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray,
                                           mission_speed_m_s=agent.mission_speed_m_s, radius_m=vessel.radius_m,
                                           top_speed_m_s=vessel.top_speed_m_s)
     if "avoidance" in opts:
-        from mjasc.avoidance.system import CollisionAvoidance
+        from mjasc.plugins.context import StageContext
 
-        agent.avoidance = CollisionAvoidance(config.name, vessel, agent.follower.path if agent.follower else None,
-                                             opts["avoidance"], team_names, rng(3))
+        context = StageContext(config.name, vessel, agent.follower.path if agent.follower else None,
+                               tuple(team_names), opts.get("sensor"), rng(3))
+        agent.avoidance = opts["avoidance"].build(context)
     return agent

@@ -227,7 +227,7 @@ _TOP = {"name", "description", "duration_s", "seed", "rates", "outputs", "curren
 COMPONENT_PARSERS = {
     "sensor": ("mjasc.perception.range_sensor", "parse_sensor_options"),
     "tracking": ("mjasc.perception.tracking", "parse_tracking_options"),
-    "avoidance": ("mjasc.avoidance.system", "parse_avoidance_options"),
+    "avoidance": ("mjasc.plugins.registry", "parse_avoidance_table"),
     "comms": ("mjasc.cooperation.coordination", "parse_coordination_options"),
 }
 

@@ -49,19 +49,25 @@ def run_onboard_slot(slot: str, agents: Sequence, navs: Sequence[OwnNavigation],
 
 
 def _prediction(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
-    """The prediction slot: every predicting vessel's (vessel, track) pairs in one batched call
-    (:func:`~mjasc.avoidance.system.predict_slot`; the same requests as vessel by vessel: the
-    avoidance systems share no state), then each request applied in vessel order."""
+    """The prediction slot: the vessels using one avoidance method predict in one call of the
+    method's ``predict_many`` (the thesis method batches every (vessel, track) pair:
+    :func:`~mjasc.avoidance.system.predict_slot`; the same requests as vessel by vessel: the
+    methods share no state), then each request is applied in vessel order."""
     calls = [(agent, agent.prediction_call(nav)) for agent, nav in zip(agents, navs)]
     live = [(agent, call) for agent, call in calls if call is not None]
     if len(live) == 1:
         agent, call = live[0]
         agent.apply_request(call[0].predict(*call[1:]))
-    elif live:
-        from mjasc.avoidance.system import predict_slot
-
-        for (agent, _), request in zip(live, predict_slot([call for _, call in live])):
-            agent.apply_request(request)
+        return
+    groups: dict[type, list] = {}
+    for k, (_, call) in enumerate(live):
+        groups.setdefault(type(call[0]), []).append(k)
+    requests = [None] * len(live)
+    for cls, ks in groups.items():
+        for k, request in zip(ks, cls.predict_many([live[k][1] for k in ks])):
+            requests[k] = request
+    for (agent, _), request in zip(live, requests):
+        agent.apply_request(request)
 
 
 def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: float) -> list:

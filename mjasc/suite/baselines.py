@@ -30,6 +30,7 @@ import time
 import numpy as np
 
 from mjasc.avoidance.config import AvoidanceConfig
+from mjasc.plugins.registry import MethodChoice, method_class
 from mjasc.avoidance.prediction import CollisionPredictionConfig
 from mjasc.core.config_tables import number
 from mjasc.core.navigation import OwnNavigation
@@ -173,17 +174,25 @@ class CASPolicy:
     state. Its sensor is ``sensor_config`` (default: the project's 720-beam scanner,
     :class:`mjasc.perception.range_sensor.SensorConfig`), not the 32 normalized ranges of the observation.
     ``seed`` seeds the sensor's noise (the policy is otherwise deterministic).
+
+    ``method``: any registered collision-avoidance method (:func:`mjasc.plugins.available`
+    ``("avoidance")``; default the thesis's), with ``avoidance_config`` its options (an instance of
+    the method's ``Options``; default :data:`CAS_AVOIDANCE` for the thesis method, the method's
+    defaults for any other).
     """
 
     def __init__(self, env, sensor_config=None, tracking_config=None, avoidance_config=None,
-                 prediction_period_s: float = PREDICTION_PERIOD_S, seed: int = 0):
+                 prediction_period_s: float = PREDICTION_PERIOD_S, seed: int = 0, method: str = "thesis"):
         if not isinstance(env.task, CollisionAvoidance):
             raise ValueError(f"env: the CAS policy is for collision_avoidance tasks, not {type(env.task).__name__}")
         prediction_period_s = number(prediction_period_s, "prediction_period_s", positive=True)
         self.env = env
         self.sensor_config = sensor_config
         self.tracking_config = CAS_TRACKING if tracking_config is None else tracking_config
-        self.avoidance_config = CAS_AVOIDANCE if avoidance_config is None else avoidance_config
+        cls = method_class("avoidance", method, "method")
+        if avoidance_config is None:
+            avoidance_config = CAS_AVOIDANCE if method == "thesis" else (cls.Options() if cls.Options else None)
+        self.avoidance = MethodChoice("avoidance", method, avoidance_config)
         self.prediction_period_s = prediction_period_s
         self.seed = int(seed)
         self.agent: VesselAgent | None = None
@@ -202,7 +211,7 @@ class CASPolicy:
                               heading_rad=physics.heading(0), speed_m_s=0.0, controller="path_following",
                               path=Path.line(task.start_m, task.goal_m), cruise_speed_m_s=vessel.cruise_speed_m_s,
                               options={"sensor": self.sensor_config, "tracking": self.tracking_config,
-                                       "avoidance": self.avoidance_config})
+                                       "avoidance": self.avoidance})
         self.agent = build_agent(config, 0, world, physics.simulation.hydro.total_mass[0], [name], None,
                                  [self.seed, self.episodes, 0])
         self.goal_m = np.asarray(task.goal_m, dtype=float)

@@ -1,0 +1,155 @@
+"""Stage methods by name: the built-in ones, those registered in code, and those installed packages
+declare through Python entry points.
+
+A scenario selects a method by name in the stage's table (``[vessels.avoidance] method =
+"velocity_obstacle"``); the rest of the table is the method's options, validated from its
+``Options`` dataclass like every other table. Lookup order: methods registered in this process
+(:func:`register`), the built-ins, then the entry points of installed packages in the stage's group:
+
+===========  ====================  =======================
+stage        entry-point group     default method
+===========  ====================  =======================
+avoidance    ``mjasc.avoidance``   ``thesis``
+tracking     ``mjasc.tracking``    ``imm``
+===========  ====================  =======================
+
+A package adds a method without touching mjasc by declaring, in its ``pyproject.toml``::
+
+    [project.entry-points."mjasc.avoidance"]
+    my_method = "my_package.module:MyMethod"
+
+The class must subclass the stage's interface (:mod:`mjasc.plugins.stages`); a wrong name, a class
+that does not, or a package that fails to import is a one-line error naming the scenario field.
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+from importlib import metadata
+from typing import Any
+
+from mjasc.core.config_tables import ConfigError, dataclass_from_table, show, string, table
+from mjasc.plugins.context import StageContext
+from mjasc.plugins.stages import AvoidanceMethod, StageMethod, TrackingMethod
+
+__all__ = ["STAGES", "MethodChoice", "register", "unregister", "available", "method_class", "parse_method_table",
+           "entry_point_group", "parse_avoidance_table"]
+
+#: stage → (interface, default method name).
+STAGES: dict[str, tuple[type, str]] = {
+    "avoidance": (AvoidanceMethod, "thesis"),
+    "tracking": (TrackingMethod, "imm"),
+}
+
+#: The built-in methods: stage → {name: "module:Class"} (imported on first use).
+BUILTIN: dict[str, dict[str, str]] = {
+    "avoidance": {"thesis": "mjasc.avoidance.system:CollisionAvoidance"},
+    "tracking": {},
+}
+
+_registered: dict[str, dict[str, type]] = {stage: {} for stage in STAGES}
+
+
+def entry_point_group(stage: str) -> str:
+    """The entry-point group of a stage (``mjasc.<stage>``)."""
+    _check_stage(stage)
+    return f"mjasc.{stage}"
+
+
+def _check_stage(stage: str) -> None:
+    if stage not in STAGES:
+        raise ValueError(f"stage: unknown stage {stage!r} (known: {', '.join(STAGES)})")
+
+
+def _entry_points(stage: str) -> dict[str, Any]:
+    return {ep.name: ep for ep in metadata.entry_points(group=entry_point_group(stage))}
+
+
+def register(stage: str, cls: type, name: str | None = None) -> type:
+    """Register ``cls`` as a method of ``stage`` under ``name`` (default ``cls.method``) for this
+    process (a notebook, a test); usable as a decorator via ``functools.partial``. Returns ``cls``."""
+    _check_stage(stage)
+    name = name or cls.method
+    _check_class(stage, cls, f"register({name!r})")
+    if not name:
+        raise ValueError("register: the method needs a name (cls.method or name=)")
+    _registered[stage][name] = cls
+    return cls
+
+
+def unregister(stage: str, name: str) -> None:
+    """Forget a method registered with :func:`register` (no error if it was not)."""
+    _check_stage(stage)
+    _registered[stage].pop(name, None)
+
+
+def available(stage: str) -> list[str]:
+    """Every method name of ``stage`` this process can use, sorted."""
+    _check_stage(stage)
+    return sorted(set(_registered[stage]) | set(BUILTIN[stage]) | set(_entry_points(stage)))
+
+
+def _check_class(stage: str, cls: Any, where: str) -> None:
+    interface = STAGES[stage][0]
+    if not (isinstance(cls, type) and issubclass(cls, interface)):
+        raise ConfigError(f"{where}: {show(cls)} is not a {interface.__name__} "
+                          f"(a {stage} method must subclass mjasc.plugins.{interface.__name__})")
+
+
+def method_class(stage: str, name: str, where: str = "method") -> type:
+    """The class of method ``name`` of ``stage``; ConfigError naming ``where`` when there is none or
+    it cannot be loaded."""
+    _check_stage(stage)
+    if name in _registered[stage]:
+        return _registered[stage][name]
+    if name in BUILTIN[stage]:
+        module, attr = BUILTIN[stage][name].split(":")
+        return getattr(importlib.import_module(module), attr)
+    eps = _entry_points(stage)
+    if name not in eps:
+        raise ConfigError(f"{where}: unknown {stage} method {name!r} (available: {', '.join(available(stage))})")
+    try:
+        cls = eps[name].load()
+    except Exception as exc:  # a broken plugin package: say which, do not crash the loader
+        raise ConfigError(f"{where}: {stage} method {name!r} from entry point {eps[name].value!r} failed to load: "
+                          f"{type(exc).__name__}: {exc}") from None
+    _check_class(stage, cls, where)
+    return cls
+
+
+@dataclass(frozen=True, eq=False)
+class MethodChoice:
+    """A stage's method chosen in a scenario: its name and validated options (an instance of the
+    method's ``Options``, or None)."""
+
+    stage: str
+    name: str
+    options: Any = None
+
+    @property
+    def cls(self) -> type:
+        return method_class(self.stage, self.name)
+
+    def build(self, context: StageContext) -> StageMethod:
+        """The method for one vessel."""
+        return self.cls.from_context(context, self.options)
+
+
+def parse_method_table(stage: str, tbl: Any, where: str) -> MethodChoice:
+    """A stage's scenario table → :class:`MethodChoice`: ``method`` (default: the stage's default)
+    picks the method, the other keys are its options, read and checked from its ``Options``."""
+    tbl = dict(table({} if tbl is None else tbl, where))
+    name = string(tbl.pop("method", STAGES[stage][1]), f"{where}.method")
+    cls = method_class(stage, name, f"{where}.method")
+    if cls.Options is None:
+        if tbl:
+            raise ConfigError(f"{where}.{next(iter(tbl))}: unknown field (the {stage} method {name!r} takes no options)")
+        return MethodChoice(stage, name, None)
+    check = cls.check_options if cls.check_options is not StageMethod.check_options else None
+    return MethodChoice(stage, name, dataclass_from_table(cls.Options, tbl, where, check=check))
+
+
+def parse_avoidance_table(tbl: Any, where: str = "avoidance") -> MethodChoice:
+    """A ``[vessels.avoidance]`` table → the chosen avoidance method and its options."""
+    return parse_method_table("avoidance", tbl, where)

@@ -1,0 +1,146 @@
+"""The interface of each pluggable onboard stage: what it may read, what it returns.
+
+Every stage method is a class with a registered ``method`` name, an ``Options`` dataclass (fields
+declared with :func:`mjasc.core.config_tables.param`: default, bounds, unit, doc — the scenario's
+table is validated from it) and a constructor ``(context, options)``
+(:class:`~mjasc.plugins.context.StageContext`: the vessel's own particulars and random stream,
+nothing of the world). Each call hands it typed values and it answers with a typed value:
+
+========================  ==========================================================  =====================================
+stage (scenario key)      called with                                                 returns
+========================  ==========================================================  =====================================
+tracking                  ``update(t, nav, detections)``: own navigation, own          nothing; ``tracks()`` → confirmed
+(``[vessels.tracking]``)  sensor's target detections (world frame)                    :class:`TrackEstimate` tuple
+avoidance                 ``predict`` / ``control(t, nav, guidance, report, team)``:  :class:`AvoidanceRequest` (speed
+(``[vessels.avoidance]``) own navigation, :class:`GuidanceState`,                     override, course override, path
+                          :class:`PerceptionReport` (own tracks and mapped            switch, mode)
+                          structures), :class:`TeamPicture` (what the link
+                          delivered) or None
+========================  ==========================================================  =====================================
+
+All methods may report events (``drain_events``), draw themselves in the Rerun recording
+(``log``) and add to the vessel's summary (``summary``). The defaults here do nothing.
+"""
+
+from __future__ import annotations
+
+import abc
+from typing import Any, ClassVar
+
+from mjasc.plugins.context import StageContext
+
+__all__ = ["StageMethod", "AvoidanceMethod", "TrackingMethod"]
+
+
+class StageMethod(abc.ABC):
+    """Common part of every stage method.
+
+    ``method``: the registered name; ``Options``: the frozen options dataclass (None: the method
+    takes no options); ``check_options(options, where)``: an optional cross-field validator run
+    after the fields' own bounds (raise ValueError naming ``where.<key>``)."""
+
+    stage: ClassVar[str] = ""
+    method: ClassVar[str] = ""
+    Options: ClassVar[type | None] = None
+
+    def __init__(self, context: StageContext, options: Any = None):
+        self.context = context
+        self.options = options
+
+    @classmethod
+    def from_context(cls, context: StageContext, options: Any) -> "StageMethod":
+        """Build the method for one vessel (the registry calls this)."""
+        return cls(context, options)
+
+    @staticmethod
+    def check_options(options: Any, where: str) -> None:
+        """Cross-field checks of the options beyond each field's declared bounds (none here)."""
+
+    def drain_events(self) -> list[tuple[float, str]]:
+        """Events since the last call, ``[(t [s], text)]``, for the recording and the summary."""
+        return []
+
+    def log(self, recorder, t_s: float, vessel_name: str, **kwargs) -> None:
+        """Draw the method's state in the Rerun recording (``recorder``: :class:`mjasc.runs.recording.Recorder`)."""
+
+    def summary(self) -> dict:
+        """What the method adds to the vessel's entry in summary.json (JSON-serializable)."""
+        return {"method": self.method}
+
+
+class AvoidanceMethod(StageMethod):
+    """A collision-avoidance method.
+
+    It reads, per call: ``t`` [s]; ``nav`` the vessel's own
+    :class:`~mjasc.core.navigation.OwnNavigation`; ``guidance`` its
+    :class:`~mjasc.guidance.state.GuidanceState` (the path it follows now, γ, the mission speed);
+    ``report`` its perception's :class:`~mjasc.core.estimates.PerceptionReport` (confirmed tracks of
+    its own sensor, mapped static polygons); ``team`` the
+    :class:`~mjasc.cooperation.messages.TeamPicture` its link delivered (None without a team).
+    It returns an :class:`~mjasc.avoidance.request.AvoidanceRequest`, which the vessel applies: a
+    speed override, a course override (the path follower steers that course over ground instead of
+    its line-of-sight course; γ keeps following the path), a path switch, the mode.
+
+    ``control`` runs at the control rate (10 Hz by default); ``predict`` at the prediction slot
+    (every few seconds and on new tracks) — a method that needs no slow loop leaves it to the
+    default (no request). Between the two, the method keeps whatever state it needs.
+    """
+
+    stage = "avoidance"
+    #: The detour being followed (a :class:`~mjasc.avoidance.replanning.Detour`), for observers; None.
+    detour: Any = None
+    #: The decisions taken, newest last (dicts with ``time_s``, ``track_id``, ``decision``, ``static``), for the video.
+    conflict_log: tuple = ()
+
+    @abc.abstractmethod
+    def control(self, t, nav, guidance, report, team=None):
+        """Control tick → :class:`~mjasc.avoidance.request.AvoidanceRequest`."""
+
+    def predict(self, t, nav, guidance, report, team=None):
+        """Prediction slot → :class:`~mjasc.avoidance.request.AvoidanceRequest` (default: none)."""
+        from mjasc.avoidance.request import AvoidanceRequest
+
+        return AvoidanceRequest()
+
+    @classmethod
+    def predict_many(cls, calls) -> list:
+        """The prediction slot of several vessels using this method, ``calls`` a list of
+        ``(method, t, nav, guidance, report, team)``; returns their requests in order. A method
+        that can batch across vessels overrides this (the methods share no state)."""
+        return [c[0].predict(*c[1:]) for c in calls]
+
+    @property
+    def last_prediction(self):
+        """The latest prediction for the threat panel (a
+        :class:`~mjasc.avoidance.system.PredictionRecord`), or None."""
+        return None
+
+    def mission_gamma_m(self, guidance) -> float:
+        """Progress along the mission path [m] (γ); a method that leaves the mission path maps back."""
+        return float(guidance.gamma_m) if guidance is not None else 0.0
+
+    def planned_trajectory(self, t, nav, guidance, horizon_s: float, step_s: float):
+        """Where the vessel intends to be, ``(times (k,) [s], points (k, 2) [m])`` for the team's
+        broadcast, or None (the coordination layer then samples the guidance's path)."""
+        return None
+
+
+class TrackingMethod(StageMethod):
+    """A multi-target tracker of one vessel.
+
+    ``update(t, nav, detections)`` is called at the tracking rate with the vessel's own
+    :class:`~mjasc.core.navigation.OwnNavigation` and its own sensor's target detections of the
+    latest scan (:class:`~mjasc.perception.detection.Detections`: centres (m, 2) world [m], radii,
+    covariances; structures wider than a target have gone to the static map). ``tracks()`` returns
+    the confirmed tracks as :class:`~mjasc.core.estimates.TrackEstimate` (world ENU, SI).
+    """
+
+    stage = "tracking"
+
+    @abc.abstractmethod
+    def update(self, t_s: float, nav, detections) -> None:
+        """One tracking step with the latest scan's target detections."""
+
+    @abc.abstractmethod
+    def tracks(self) -> tuple:
+        """The confirmed tracks now, a tuple of :class:`~mjasc.core.estimates.TrackEstimate`."""

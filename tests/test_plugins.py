@@ -1,0 +1,110 @@
+"""The plugin registry: methods by name in the scenario, options validated from their declaration,
+one-line errors, and a method registered in code running a scenario."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pytest
+
+from mjasc.avoidance.request import AvoidanceRequest
+from mjasc.core.config_tables import param
+from mjasc.plugins import AvoidanceMethod, available, method_class, register, unregister
+from mjasc.runs.scenario import ScenarioError, parse_scenario
+
+BASE = {
+    "name": "p", "duration_s": 4.0, "seed": 1,
+    "vessels": [{"name": "a", "type": "otter", "position_m": [0, 0], "heading_deg": 0,
+                 "controller": {"type": "path_following", "waypoints": [[0, 0], [100, 0]]},
+                 "sensor": {}, "avoidance": {}}],
+}
+
+
+def _doc(avoidance: dict) -> dict:
+    import copy
+
+    d = copy.deepcopy(BASE)
+    d["vessels"][0]["avoidance"] = avoidance
+    return d
+
+
+@dataclass(frozen=True)
+class StopOptions:
+    stop_below_m: float = param(20.0, positive=True, unit="m", doc="stop when a track is closer than this")
+
+
+class StopNearTracks(AvoidanceMethod):
+    """Stops the vessel while any track is within ``stop_below_m``: a test method."""
+
+    method = "test_stop"
+    Options = StopOptions
+
+    def control(self, t, nav, guidance, report, team=None):
+        import numpy as np
+
+        near = any(np.hypot(*(tr.position_m - nav.position_m)) < self.options.stop_below_m for tr in report.tracks)
+        return AvoidanceRequest("avoidance:yield", 0.0) if near else AvoidanceRequest()
+
+
+@pytest.fixture
+def stop_method():
+    register("avoidance", StopNearTracks)
+    yield StopNearTracks
+    unregister("avoidance", "test_stop")
+
+
+def test_default_method_is_the_thesis_and_listed():
+    choice = parse_scenario(_doc({"gain_k": 1.0})).vessels[0].options["avoidance"]
+    assert choice.name == "thesis" and choice.options.gain_k == 1.0
+    assert "thesis" in available("avoidance")
+    assert method_class("avoidance", "thesis").__name__ == "CollisionAvoidance"
+
+
+def test_unknown_method_is_one_line_error_naming_the_field():
+    with pytest.raises(ScenarioError, match=r"vessels\[0\]\.avoidance\.method: unknown avoidance method 'nope' "
+                                            r"\(available: .*thesis"):
+        parse_scenario(_doc({"method": "nope"}))
+
+
+def test_method_options_are_validated_from_their_declaration(stop_method):
+    choice = parse_scenario(_doc({"method": "test_stop", "stop_below_m": 5})).vessels[0].options["avoidance"]
+    assert choice.options == StopOptions(5.0)
+    with pytest.raises(ScenarioError, match=r"vessels\[0\]\.avoidance\.stop_below_m: must be > 0"):
+        parse_scenario(_doc({"method": "test_stop", "stop_below_m": -1}))
+    with pytest.raises(ScenarioError, match=r"vessels\[0\]\.avoidance\.gain_k: unknown field"):
+        parse_scenario(_doc({"method": "test_stop", "gain_k": 1}))
+
+
+def test_register_rejects_a_class_of_the_wrong_stage():
+    with pytest.raises(ValueError, match="is not a AvoidanceMethod"):
+        register("avoidance", dict, "bad")
+    with pytest.raises(ValueError, match="unknown stage"):
+        available("sailing")
+
+
+def test_the_interface_cannot_be_built_without_its_control_method():
+    class Half(AvoidanceMethod):
+        method = "half"
+
+    with pytest.raises(TypeError, match="abstract"):
+        Half(None, None)
+
+
+def test_a_registered_method_runs_a_scenario_and_stops_for_traffic(stop_method, tmp_path):
+    """A head-on boat 60 m ahead: the test method stops the vessel once its track is within 20 m
+    (it sails less far than with a threshold it never reaches); the summary names the method."""
+    from mjasc.runs.runner import run_scenario
+
+    def scenario(avoidance):
+        d = _doc(avoidance)
+        d["duration_s"] = 30.0
+        d["outputs"] = {"recording": False}
+        d["moving_obstacles"] = [{"name": "boat", "radius_m": 1.0, "position_m": [60, 0], "heading_deg": 180,
+                                  "speed_m_s": 0.5}]
+        return parse_scenario(d)
+
+    stop = run_scenario(scenario({"method": "test_stop"}), tmp_path / "stop").summary
+    never = run_scenario(scenario({"method": "test_stop", "stop_below_m": 0.01}), tmp_path / "never").summary
+    assert stop["vessels"]["a"]["avoidance"]["method"] == "test_stop"
+    assert stop["vessels"]["a"]["distance_m"] < 0.8 * never["vessels"]["a"]["distance_m"]
+    assert not stop["any_collision"]
