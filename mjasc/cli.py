@@ -134,6 +134,16 @@ def _cmd_list(args) -> int:
             print(f"  {short:36s} {c.description}")
         except CampaignError as exc:
             print(f"  {short:36s} INVALID: {exc}")
+    from mjasc.plugins.registry import STAGES, available, method_class
+
+    print("methods (select with method = \"NAME\" in the stage's table; docs/plugins.md):")
+    for stage in STAGES:
+        for name in available(stage):
+            try:
+                doc = (method_class(stage, name).__doc__ or "").strip().splitlines()[0]
+            except ValueError as exc:
+                doc = f"INVALID: {exc}"
+            print(f"  {stage + ' ' + name:36s} {doc}")
     return 0
 
 
@@ -346,7 +356,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     r.add_argument("--duration", type=float, help="override the scenario's duration [s]")
     r.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     r.set_defaults(func=_cmd_run)
-    ls = sub.add_parser("list", help="list the vessels and the bundled scenarios and campaigns")
+    ls = sub.add_parser("list", help="list the vessels, the bundled scenarios and campaigns, and the stage methods")
     ls.set_defaults(func=_cmd_list)
     t = sub.add_parser("trial", help="standard manoeuvring trial of one hull (results in SI units)")
     t.add_argument("kind", choices=["speed", "turning-circle", "zigzag", "stopping"],

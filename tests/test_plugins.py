@@ -9,7 +9,7 @@ import pytest
 
 from mjasc.avoidance.request import AvoidanceRequest
 from mjasc.core.config_tables import param
-from mjasc.plugins import AvoidanceMethod, available, method_class, register, unregister
+from mjasc.plugins import AvoidanceMethod, CoordinationMethod, available, method_class, register, unregister
 from mjasc.runs.scenario import ScenarioError, parse_scenario
 
 BASE = {
@@ -108,3 +108,95 @@ def test_a_registered_method_runs_a_scenario_and_stops_for_traffic(stop_method, 
     assert stop["vessels"]["a"]["avoidance"]["method"] == "test_stop"
     assert stop["vessels"]["a"]["distance_m"] < 0.8 * never["vessels"]["a"]["distance_m"]
     assert not stop["any_collision"]
+
+
+class HalfSpeed(CoordinationMethod):
+    """Halves the mission speed and broadcasts nothing: a test coordination method."""
+
+    method = "test_half"
+
+    def exchange(self, t_s, nav, gamma_m, guidance=None, plan=None):
+        self.sent = getattr(self, "sent", 0) + 1
+
+    def speed_correction(self, t_s, nav, gamma_m):
+        self.last_factor = 0.5
+        return 0.5
+
+    def team_picture(self, t_s):
+        return None
+
+
+def test_a_registered_coordination_method_sets_the_speed(tmp_path):
+    """A coordination method halving the mission speed: the vessel sails about half as far as with
+    factor 1 (the thesis law alone in its team gives 1)."""
+    from mjasc.runs.runner import run_scenario
+
+    register("coordination", HalfSpeed)
+    try:
+        def run(comms, name):
+            d = _doc({})
+            del d["vessels"][0]["avoidance"]
+            d["duration_s"] = 40.0
+            d["outputs"] = {"recording": False}
+            d["vessels"][0]["comms"] = comms
+            return run_scenario(parse_scenario(d), tmp_path / name).summary["vessels"]["a"]
+
+        half, full = run({"method": "test_half"}, "half"), run({}, "full")
+    finally:
+        unregister("coordination", "test_half")
+    assert half["coordination"]["method"] == "test_half" and full["coordination"]["method"] == "thesis"
+    assert 0.4 < half["distance_m"] / full["distance_m"] < 0.65
+
+
+def test_example_package_adds_a_method_through_its_entry_point(tmp_path):
+    """examples/cpa_brake installed as a package (its own pyproject.toml): mjasc finds its method
+    through the entry point in a fresh interpreter, validates its options and runs a head-on
+    scenario with it, braking for the boat."""
+    import json
+    import shutil
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    target = tmp_path / "site"
+    src = tmp_path / "cpa_brake"  # a copy: the build writes into the source folder
+    shutil.copytree(root / "examples" / "cpa_brake", src)
+    subprocess.run([sys.executable, "-m", "pip", "install", "-q", "--no-deps", "--target", str(target), str(src)],
+                   check=True, capture_output=True, cwd=tmp_path, timeout=600)
+    scenario = tmp_path / "headon.toml"
+    scenario.write_text('''name = "headon"
+duration_s = 40.0
+seed = 3
+[outputs]
+recording = false
+[[vessels]]
+name = "a"
+type = "otter"
+position_m = [0, 0]
+heading_deg = 0
+controller = { type = "path_following", waypoints = [[0, 0], [150, 0]] }
+sensor = {}
+avoidance = { method = "cpa_brake", safety_distance_m = 6.0 }
+[[moving_obstacles]]
+name = "boat"
+radius_m = 1.0
+position_m = [70, 1]
+heading_deg = 180
+speed_m_s = 0.6
+''')
+    env = {"PYTHONPATH": f"{target}:{root}", "PATH": "/usr/bin:/bin", "MUJOCO_GL": "osmesa"}
+    code = ("import json, mjasc; from mjasc.plugins import available; "
+            "print(json.dumps(available('avoidance'))); "
+            f"r = mjasc.run_scenario(mjasc.load_scenario({str(scenario)!r}), {str(tmp_path / 'out')!r}); "
+            "print(json.dumps(r.summary['vessels']['a']['avoidance']))")
+    out = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True, env=env,
+                         cwd=tmp_path).stdout.splitlines()
+    assert "cpa_brake" in json.loads(out[0])
+    summary = json.loads(out[1])
+    assert summary["method"] == "cpa_brake" and summary["brakes"] >= 1
+    # without the package the same file is a one-line error naming the field
+    bad = subprocess.run([sys.executable, "-m", "mjasc", "run", str(scenario)], capture_output=True, text=True,
+                         env={**env, "PYTHONPATH": str(root)}, cwd=tmp_path)
+    assert bad.returncode != 0
+    assert "vessels[0].avoidance.method: unknown avoidance method 'cpa_brake'" in bad.stderr

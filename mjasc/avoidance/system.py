@@ -153,8 +153,10 @@ _MARGIN_GAIN_M = 0.5
 
 
 class CollisionAvoidance(AvoidanceMethod):
-    """Collision avoidance of one vessel (see the module docstring): the thesis's method, registered
-    as the avoidance method ``"thesis"`` (options: :class:`AvoidanceConfig`).
+    """The thesis's method: collision prediction, velocity correction, potential-field re-planning.
+
+    Collision avoidance of one vessel (see the module docstring), registered as the avoidance
+    method ``"thesis"`` (options: :class:`AvoidanceConfig`).
 
     name: the vessel's name; vessel: its :class:`~mjasc.physics.vessels.VesselType` (radius, beam,
     top speed); mission_path: its mission path; config: :class:`AvoidanceConfig` or a raw table;

@@ -56,8 +56,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjasc.cooperation.comms import CommsNetwork
+from mjasc.cooperation.link import LinkEndpoint
 from mjasc.cooperation.messages import TeamIntention, TeamMessage, TeamPicture
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
+from mjasc.plugins.stages import CoordinationMethod
 
 __all__ = ["CoordinationConfig", "Coordination", "TeamIntention", "parse_coordination_options"]
 
@@ -158,23 +160,35 @@ class _TeamView:
         return [min(x + rate * (t_s - sent), max(x, x_end)) for x, rate, sent, x_end in self.rows]
 
 
-class Coordination:
-    """One vessel's coordination controller (the ``coordination`` component of ``VesselAgent``).
+class Coordination(CoordinationMethod):
+    """The thesis's cooperative path following: consensus on the path parameter over the link.
 
-    name: the vessel's name on the link; network: the team's link (the environment's broadcast
-    medium, shared by the team); mission_path: the vessel's mission path (its length is L_i; None
+    One vessel's coordination controller (the ``coordination`` component of ``VesselAgent``),
+    registered as the coordination method ``"thesis"`` (options: :class:`CoordinationConfig`).
+
+    name: the vessel's name on the link; network: its end of the team's link
+    (:class:`~mjasc.cooperation.link.LinkEndpoint`; a :class:`CommsNetwork` is wrapped in one); mission_path: the vessel's mission path (its length is L_i; None
     for a vessel without one: it broadcasts its pose only); mission_speed_m_s: its mission's
     cruise speed v_i; radius_m: its bounding radius, broadcast to the team (None: not sent);
     top_speed_m_s: the cap on the corrected speed.
     """
 
-    def __init__(self, name: str, network: CommsNetwork, config: CoordinationConfig | None = None,
+    method = "thesis"
+    Options = CoordinationConfig
+    check_options = staticmethod(_validate)
+
+    @classmethod
+    def from_context(cls, context, options) -> "Coordination":
+        """The method for one vessel from its :class:`~mjasc.plugins.context.StageContext`."""
+        v = context.vessel
+        return cls(context.vessel_name, context.link, options, context.rng, mission_path=context.mission_path,
+                   mission_speed_m_s=context.mission_speed_m_s, radius_m=v.radius_m, top_speed_m_s=v.top_speed_m_s)
+
+    def __init__(self, name: str, network: CommsNetwork | LinkEndpoint, config: CoordinationConfig | None = None,
                  rng: np.random.Generator | None = None, *, mission_path=None, mission_speed_m_s: float = 1.0,
                  radius_m: float | None = None, top_speed_m_s: float = np.inf):
-        if network is None:
-            raise ValueError(f"{name}.comms: coordination needs a comms network")
         self.name = name
-        self.network = network
+        self.link = network if isinstance(network, LinkEndpoint) else LinkEndpoint(network, name)
         self.config = config if config is not None else CoordinationConfig()
         self.rng = rng  # unused: the law is deterministic; kept for the component interface
         self.path = mission_path  # the mission path (a detour never changes L_i)
@@ -237,7 +251,7 @@ class Coordination:
 
     def _poll(self, t_s: float, nav) -> None:
         """Read arrived messages, keep each neighbour's newest, time out stale ones."""
-        for msg in self.network.receive(t_s, self.name, nav.position_m):
+        for msg in self.link.receive(t_s, nav.position_m):
             self.received += 1
             old = self.neighbours.get(msg.sender)
             if old is not None and msg.sent_time_s <= old.sent_time_s:
@@ -295,7 +309,7 @@ class Coordination:
         path [m]; guidance: the :class:`~mjasc.guidance.state.GuidanceState` (for the plan when
         ``plan`` is None); plan: (times (k,), points (k, 2)) the vessel's planned trajectory over
         :meth:`plan_request` (from its collision avoidance), or None."""
-        self.network.send(t_s, self.name, self._message(t_s, nav, gamma_m, guidance, plan), nav.position_m)
+        self.link.send(t_s, self._message(t_s, nav, gamma_m, guidance, plan), nav.position_m)
         self._poll(t_s, nav)
         _, lead, spread, n = self.coordination_error(t_s, gamma_m)
         self.last_xi, self.last_spread_m = self.xi(gamma_m), spread
@@ -355,7 +369,7 @@ class Coordination:
         if not self._logged_style:
             from mjasc.runs.recording import vessel_colour
 
-            col = vessel_colour(self.network.team.index(vessel_name)) if vessel_name in self.network.team else None
+            col = vessel_colour(self.link.team.index(vessel_name)) if vessel_name in self.link.team else None
             recorder.series_style(f"{base}/gamma_normalized", f"{vessel_name} γ/L", col)
             if recorder.full:
                 recorder.series_style(f"{base}/error_m", f"{vessel_name} lead [m]", col)
@@ -373,8 +387,8 @@ class Coordination:
         """This vessel's view of the formation, sampled at each exchange: its lead over the
         neighbours and the formation spread (see :meth:`coordination_error`, metres of path), the
         time from which the spread stays below ``formation_tolerance_m``; and its link statistics."""
-        link = self.network.stats(self.name)
-        out = {"role": self.config.role, "messages_sent": link["sent"], "messages_received": link["delivered"],
+        link = self.link.stats()
+        out = {"method": self.method, "role": self.config.role, "messages_sent": link["sent"], "messages_received": link["delivered"],
                "messages_lost": link["lost"], "loss_rate": round(link["loss_rate"], 4),
                "mean_delay_s": None if not link["delivered"] else round(float(link["mean_delay_s"]), 4),
                "neighbours_active": sorted(self.active_neighbours()),

@@ -30,7 +30,10 @@ class StageContext:
     team_names: every team member's name, itself included (empty without a team);
     sensor: its own range sensor's :class:`~mjasc.perception.range_sensor.SensorConfig` (None
     without a sensor); rng: the method's own random stream (seeded from the scenario seed, the
-    vessel index and the stage, so the same seed gives the same run).
+    vessel index and the stage, so the same seed gives the same run); mission_speed_m_s: its
+    mission's cruise speed [m/s]; link: its end of the team's link
+    (:class:`~mjasc.cooperation.link.LinkEndpoint`: send its own messages, receive those delivered
+    to it; None without a link).
     """
 
     vessel_name: str
@@ -39,3 +42,5 @@ class StageContext:
     team_names: tuple[str, ...] = ()
     sensor: Any = None
     rng: np.random.Generator | None = None
+    mission_speed_m_s: float = 0.0
+    link: Any = None

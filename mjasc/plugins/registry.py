@@ -11,6 +11,7 @@ stage        entry-point group     default method
 ===========  ====================  =======================
 avoidance    ``mjasc.avoidance``   ``thesis``
 tracking     ``mjasc.tracking``    ``imm``
+coordination ``mjasc.coordination`` ``thesis`` (the ``[vessels.comms]`` table)
 ===========  ====================  =======================
 
 A package adds a method without touching mjasc by declaring, in its ``pyproject.toml``::
@@ -31,21 +32,24 @@ from typing import Any
 
 from mjasc.core.config_tables import ConfigError, dataclass_from_table, show, string, table
 from mjasc.plugins.context import StageContext
-from mjasc.plugins.stages import AvoidanceMethod, StageMethod, TrackingMethod
+from mjasc.plugins.stages import AvoidanceMethod, CoordinationMethod, StageMethod, TrackingMethod
 
 __all__ = ["STAGES", "MethodChoice", "register", "unregister", "available", "method_class", "parse_method_table",
-           "entry_point_group", "parse_avoidance_table"]
+           "entry_point_group", "parse_avoidance_table",
+           "parse_coordination_table"]
 
 #: stage → (interface, default method name).
 STAGES: dict[str, tuple[type, str]] = {
     "avoidance": (AvoidanceMethod, "thesis"),
     "tracking": (TrackingMethod, "imm"),
+    "coordination": (CoordinationMethod, "thesis"),
 }
 
 #: The built-in methods: stage → {name: "module:Class"} (imported on first use).
 BUILTIN: dict[str, dict[str, str]] = {
     "avoidance": {"thesis": "mjasc.avoidance.system:CollisionAvoidance"},
     "tracking": {},
+    "coordination": {"thesis": "mjasc.cooperation.coordination:Coordination"},
 }
 
 _registered: dict[str, dict[str, type]] = {stage: {} for stage in STAGES}
@@ -153,3 +157,8 @@ def parse_method_table(stage: str, tbl: Any, where: str) -> MethodChoice:
 def parse_avoidance_table(tbl: Any, where: str = "avoidance") -> MethodChoice:
     """A ``[vessels.avoidance]`` table → the chosen avoidance method and its options."""
     return parse_method_table("avoidance", tbl, where)
+
+
+def parse_coordination_table(tbl: Any, where: str = "comms") -> MethodChoice:
+    """A ``[vessels.comms]`` table → the chosen coordination method and its options."""
+    return parse_method_table("coordination", tbl, where)

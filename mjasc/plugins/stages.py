@@ -16,6 +16,11 @@ avoidance                 ``predict`` / ``control(t, nav, guidance, report, team
                           :class:`PerceptionReport` (own tracks and mapped            switch, mode)
                           structures), :class:`TeamPicture` (what the link
                           delivered) or None
+coordination              ``exchange(t, nav, γ, guidance, plan)``: own navigation,     nothing (it broadcasts on its
+(``[vessels.comms]``)     γ on the mission path, :class:`GuidanceState`, own plan;    :class:`LinkEndpoint`);
+                          ``speed_correction(t, nav, γ)``                             a factor on the mission speed;
+                                                                                      ``team_picture(t)`` →
+                                                                                      :class:`TeamPicture`
 ========================  ==========================================================  =====================================
 
 All methods may report events (``drain_events``), draw themselves in the Rerun recording
@@ -29,7 +34,7 @@ from typing import Any, ClassVar
 
 from mjasc.plugins.context import StageContext
 
-__all__ = ["StageMethod", "AvoidanceMethod", "TrackingMethod"]
+__all__ = ["StageMethod", "AvoidanceMethod", "TrackingMethod", "CoordinationMethod"]
 
 
 class StageMethod(abc.ABC):
@@ -144,3 +149,42 @@ class TrackingMethod(StageMethod):
     @abc.abstractmethod
     def tracks(self) -> tuple:
         """The confirmed tracks now, a tuple of :class:`~mjasc.core.estimates.TrackEstimate`."""
+
+
+class CoordinationMethod(StageMethod):
+    """A coordination law of one vessel (cooperative path following over the team's link).
+
+    Built with ``context.link`` (:class:`~mjasc.cooperation.link.LinkEndpoint`: broadcast its own
+    messages, receive those delivered to it), ``context.mission_path`` and
+    ``context.mission_speed_m_s``. At the comms slot ``exchange(t, nav, gamma_m, guidance, plan)``
+    (``plan``: the vessel's intended ``(times, points)`` from its avoidance method, or None; ask for
+    it with :meth:`plan_request`) receives and broadcasts; at the control slot
+    ``speed_correction(t, nav, gamma_m)`` returns the factor on the mission speed (1: none).
+    ``team_picture(t)`` hands what the link delivered to collision avoidance
+    (:class:`~mjasc.cooperation.messages.TeamPicture`); ``team_positions()`` the team mates' latest
+    broadcast positions ``{name: (t, (2,) position)}`` for perception to mark their tracks.
+    """
+
+    stage = "coordination"
+    #: The latest factor on the mission speed (for the agent's guidance state).
+    last_factor: float = 1.0
+
+    @abc.abstractmethod
+    def exchange(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None) -> None:
+        """The comms slot: receive what was delivered, broadcast the vessel's message."""
+
+    @abc.abstractmethod
+    def speed_correction(self, t_s: float, nav, gamma_m: float) -> float:
+        """The control slot: the factor on the mission speed."""
+
+    @abc.abstractmethod
+    def team_picture(self, t_s: float):
+        """What the link delivered, for collision avoidance (:class:`~mjasc.cooperation.messages.TeamPicture`)."""
+
+    def team_positions(self) -> dict:
+        """Team mates' latest broadcast positions ``{name: (t [s], (2,) [m])}`` (default: none)."""
+        return {}
+
+    def plan_request(self):
+        """``(horizon_s, step_s)`` of the plan to broadcast, or None (default: no plan)."""
+        return None

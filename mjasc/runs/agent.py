@@ -238,15 +238,16 @@ def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray,
 
         agent.perception = Perception(world, index, opts.get("sensor"), opts.get("tracking"), rng(1))
     if "comms" in opts:
-        from mjasc.cooperation.coordination import Coordination
+        from mjasc.cooperation.link import LinkEndpoint
+        from mjasc.plugins.context import StageContext
 
-        agent.coordination = Coordination(config.name, network, opts["comms"], rng(2), mission_path=mission_path,
-                                          mission_speed_m_s=agent.mission_speed_m_s, radius_m=vessel.radius_m,
-                                          top_speed_m_s=vessel.top_speed_m_s)
+        link = LinkEndpoint(network, config.name) if network is not None else None
+        agent.coordination = opts["comms"].build(StageContext(config.name, vessel, mission_path, tuple(team_names),
+                                                              opts.get("sensor"), rng(2), agent.mission_speed_m_s, link))
     if "avoidance" in opts:
         from mjasc.plugins.context import StageContext
 
         context = StageContext(config.name, vessel, agent.follower.path if agent.follower else None,
-                               tuple(team_names), opts.get("sensor"), rng(3))
+                               tuple(team_names), opts.get("sensor"), rng(3), agent.mission_speed_m_s)
         agent.avoidance = opts["avoidance"].build(context)
     return agent

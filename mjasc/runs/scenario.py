@@ -228,7 +228,7 @@ COMPONENT_PARSERS = {
     "sensor": ("mjasc.perception.range_sensor", "parse_sensor_options"),
     "tracking": ("mjasc.perception.tracking", "parse_tracking_options"),
     "avoidance": ("mjasc.plugins.registry", "parse_avoidance_table"),
-    "comms": ("mjasc.cooperation.coordination", "parse_coordination_options"),
+    "comms": ("mjasc.plugins.registry", "parse_coordination_table"),
 }
 
 

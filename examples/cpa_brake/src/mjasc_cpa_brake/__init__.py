@@ -1,0 +1,1 @@
+"""Example mjasc plugin: the speed-only collision-avoidance method ``cpa_brake``."""

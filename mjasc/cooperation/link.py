@@ -1,0 +1,43 @@
+"""One vessel's end of the team's link: what its coordination method may do with the medium.
+
+The :class:`~mjasc.cooperation.comms.CommsNetwork` is the environment's shared broadcast medium
+(distance-dependent delay and loss). A vessel's coordination method gets a :class:`LinkEndpoint`
+on it: it can broadcast its own messages and receive those delivered to it by now, and read its
+own link statistics. It cannot read what is in flight, what others received, or where anyone is.
+"""
+
+from __future__ import annotations
+
+__all__ = ["LinkEndpoint"]
+
+
+class LinkEndpoint:
+    """Vessel ``name``'s end of ``network`` (a :class:`~mjasc.cooperation.comms.CommsNetwork`)."""
+
+    __slots__ = ("_network", "name")
+
+    def __init__(self, network, name: str):
+        if network is None:
+            raise ValueError(f"{name}.comms: coordination needs a comms network")
+        self._network = network
+        self.name = str(name)
+
+    @property
+    def team(self) -> tuple[str, ...]:
+        """The names of the team on this link (its members, in scenario order)."""
+        return tuple(self._network.team)
+
+    def send(self, t_s: float, payload, own_position_m) -> int:
+        """Broadcast ``payload`` (a frozen message such as
+        :class:`~mjasc.cooperation.messages.TeamMessage`) at ``t_s`` [s] from the vessel's own
+        position (2,) world [m]; returns the message id."""
+        return self._network.send(t_s, self.name, payload, own_position_m)
+
+    def receive(self, t_s: float, own_position_m) -> list:
+        """The messages delivered to this vessel by ``t_s`` [s]
+        (:class:`~mjasc.cooperation.comms.Message`: sender, sent and received times, payload)."""
+        return self._network.receive(t_s, self.name, own_position_m)
+
+    def stats(self) -> dict:
+        """This vessel's link statistics (sent, received, lost, delays)."""
+        return self._network.stats(self.name)
