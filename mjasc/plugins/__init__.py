@@ -4,7 +4,7 @@ points). See docs/plugins.md."""
 
 from mjasc.plugins.context import StageContext
 from mjasc.plugins.registry import MethodChoice, available, method_class, parse_method_table, register, unregister
-from mjasc.plugins.stages import AvoidanceMethod, CoordinationMethod, StageMethod, TrackingMethod
+from mjasc.plugins.stages import AvoidanceMethod, ControlMethod, CoordinationMethod, StageMethod, TrackingMethod
 
-__all__ = ["StageContext", "StageMethod", "AvoidanceMethod", "TrackingMethod", "CoordinationMethod", "MethodChoice", "available",
+__all__ = ["StageContext", "StageMethod", "AvoidanceMethod", "TrackingMethod", "CoordinationMethod", "ControlMethod", "MethodChoice", "available",
            "method_class", "parse_method_table", "register", "unregister"]

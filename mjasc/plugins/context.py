@@ -33,7 +33,8 @@ class StageContext:
     vessel index and the stage, so the same seed gives the same run); mission_speed_m_s: its
     mission's cruise speed [m/s]; link: its end of the team's link
     (:class:`~mjasc.cooperation.link.LinkEndpoint`: send its own messages, receive those delivered
-    to it; None without a link).
+    to it; None without a link); total_mass: its (3, 3) mass matrix [kg, kg·m²] (rigid body + added
+    mass, surge/sway/yaw); propeller_lateral_m: its propellers' distance from the centre line [m].
     """
 
     vessel_name: str
@@ -44,3 +45,5 @@ class StageContext:
     rng: np.random.Generator | None = None
     mission_speed_m_s: float = 0.0
     link: Any = None
+    total_mass: Any = None
+    propeller_lateral_m: float = 0.0

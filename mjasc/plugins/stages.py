@@ -16,6 +16,9 @@ avoidance                 ``predict`` / ``control(t, nav, guidance, report, team
                           :class:`PerceptionReport` (own tracks and mapped            switch, mode)
                           structures), :class:`TeamPicture` (what the link
                           delivered) or None
+control                   ``steer(nav, guidance, speed_ref, course_ref, dt)``: own     propeller commands (2,) and a
+(``[vessels.controller]`` navigation, :class:`GuidanceState` (path, γ), the speed    :class:`PathFollowingStatus`
+``type``)                 to track [m/s], a course override [rad] or None
 coordination              ``exchange(t, nav, γ, guidance, plan)``: own navigation,     nothing (it broadcasts on its
 (``[vessels.comms]``)     γ on the mission path, :class:`GuidanceState`, own plan;    :class:`LinkEndpoint`);
                           ``speed_correction(t, nav, γ)``                             a factor on the mission speed;
@@ -34,7 +37,7 @@ from typing import Any, ClassVar
 
 from mjasc.plugins.context import StageContext
 
-__all__ = ["StageMethod", "AvoidanceMethod", "TrackingMethod", "CoordinationMethod"]
+__all__ = ["StageMethod", "AvoidanceMethod", "TrackingMethod", "CoordinationMethod", "ControlMethod"]
 
 
 class StageMethod(abc.ABC):
@@ -188,3 +191,35 @@ class CoordinationMethod(StageMethod):
     def plan_request(self):
         """``(horizon_s, step_s)`` of the plan to broadcast, or None (default: no plan)."""
         return None
+
+
+class ControlMethod(StageMethod):
+    """A path-following controller of one vessel: from the guidance reference to propeller commands.
+
+    The method holds the path it follows (``path``, replaced by :meth:`set_path` when avoidance
+    splices in a detour or returns to the mission) and its progress ``gamma_m`` γ along it [m]. At
+    each control tick :meth:`steer` gets the vessel's own
+    :class:`~mjasc.core.navigation.OwnNavigation`, its :class:`~mjasc.guidance.state.GuidanceState`
+    (that path, γ, the mission speed), the speed to track [m/s] (the mission speed × the
+    coordination factor, or avoidance's override) and a course to steer [rad, world course over
+    ground, ENU, CCW from east] when avoidance overrides the course (None: follow the path). It
+    returns the normalized propeller commands (port, starboard) in [−1, 1] and a
+    :class:`~mjasc.guidance.path_following.PathFollowingStatus` whose ``gamma_m`` is the new γ.
+    ``context`` gives the hull's datasheet (``vessel``), its mass matrix ``total_mass`` (3, 3)
+    (rigid body + added mass) and its propellers' lateral arm ``propeller_lateral_m`` [m].
+    """
+
+    stage = "control"
+
+    def __init__(self, context: StageContext, options: Any = None):
+        super().__init__(context, options)
+        self.path = context.mission_path
+        self.gamma_m = 0.0
+
+    def set_path(self, path, gamma0_m: float = 0.0) -> None:
+        """Follow ``path`` from γ = ``gamma0_m`` [m] on."""
+        self.path, self.gamma_m = path, float(gamma0_m)
+
+    @abc.abstractmethod
+    def steer(self, nav, guidance, speed_ref_m_s: float, course_ref_rad: float | None, dt_s: float):
+        """One control tick → ``(commands (2,), PathFollowingStatus)``; updates ``gamma_m``."""
