@@ -9,7 +9,7 @@
     mjasc trial speed|turning-circle|zigzag|stopping --vessel NAME [--port F] [--starboard F] [--json]
     mjasc view RUN_DIR|RECORDING [--print]
     mjasc figures [--out DIR] [--format png svg pdf]
-    mjasc render DOMAIN TASK [--policy random|baseline] [--seed N] [--camera CAM] [--out DIR]   (dm_control suite)
+    mjasc render DOMAIN TASK [--policy random|baseline|goal_line|cas|cas:METHOD] [--seed N] [--camera CAM] [--out DIR]   (dm_control suite)
 
 SCENARIO and CAMPAIGN are a TOML file's path or the name of a bundled one (``mjasc run demo``,
 ``mjasc campaign demo_monte_carlo``; ``mjasc list`` shows them), so every command works from any
@@ -106,6 +106,20 @@ def _cmd_view(args) -> int:
             return 1
         return 0
     return subprocess.call([exe, str(rrd)])
+
+
+def _policy_arg(text: str) -> str:
+    """A render policy name (checked here so a typo is an argparse error, not a traceback)."""
+    if text in ("random", "baseline", "goal_line", "cas"):
+        return text
+    if text.startswith("cas:"):
+        from mjasc.plugins.registry import available
+
+        if text[4:] in available("avoidance"):
+            return text
+        raise argparse.ArgumentTypeError(f"unknown avoidance method {text[4:]!r} (available: "
+                                         f"{', '.join(available('avoidance'))})")
+    raise argparse.ArgumentTypeError(f"must be random, baseline, goal_line, cas or cas:METHOD, got {text!r}")
 
 
 def _cmd_list(args) -> int:
@@ -435,8 +449,11 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     rd = sub.add_parser("render", help="render one episode of a dm_control suite task to MP4 + Rerun", epilog=tasks)
     rd.add_argument("domain", help="a suite domain: otter, delfim or otter_team")
     rd.add_argument("task", help="one of the domain's tasks, e.g. path_following, collision_avoidance, formation")
-    rd.add_argument("--policy", default="random", choices=["random", "baseline"],
-                    help="random actions, or the testbed's own guidance and avoidance (default: random)")
+    rd.add_argument("--policy", default="random", type=_policy_arg,
+                    help="random (random actions), baseline (the testbed's own guidance and avoidance), goal_line "
+                         "(collision_avoidance: the line to the goal, no avoidance), cas (the vessel's own pipeline "
+                         "with the thesis CAS) or cas:METHOD (with any avoidance method of 'mjasc list'); "
+                         "default: random")
     rd.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
     rd.add_argument("--camera", default="top_down",
                     help="top_down, overview, chase:VESSEL (e.g. chase:otter), split (overview beside the first "

@@ -200,3 +200,20 @@ speed_m_s = 0.6
                          env={**env, "PYTHONPATH": str(root)}, cwd=tmp_path)
     assert bad.returncode != 0
     assert "vessels[0].avoidance.method: unknown avoidance method 'cpa_brake'" in bad.stderr
+
+
+def test_suite_cas_baseline_takes_any_registered_method(stop_method):
+    """The suite's collision-avoidance baseline runs the vessel's pipeline with the method named:
+    ``CASPolicy(env, method=...)`` and ``make_policy(env, "cas:NAME")``; an unknown name is an error."""
+    from mjasc import suite
+    from mjasc.suite.baselines import CASPolicy, make_policy
+
+    env = suite.load("otter", "collision_avoidance", task_kwargs={"random": 1})
+    policy = make_policy(env, "cas:test_stop", seed=1)
+    time_step = env.reset()
+    for _ in range(30):
+        time_step = env.step(policy(time_step))
+    assert type(policy.agent.avoidance) is StopNearTracks
+    assert policy.agent.avoidance.options == StopOptions()
+    with pytest.raises(ValueError, match="method: unknown avoidance method 'nope'"):
+        CASPolicy(env, method="nope")

@@ -240,7 +240,9 @@ class CASPolicy:
 
 
 def make_policy(env, policy="random", seed: int = 0):
-    """``"random"``, ``"baseline"`` or a callable ``time_step → action`` (returned as is)."""
+    """``"random"``, ``"baseline"``, ``"goal_line"``, ``"cas"`` (the thesis CAS), ``"cas:METHOD"`` (the
+    vessel's pipeline with any registered avoidance method, e.g. ``"cas:velocity_obstacle"``) or a
+    callable ``time_step → action`` (returned as is)."""
     if callable(policy):
         return policy
     if policy == "random":
@@ -251,7 +253,10 @@ def make_policy(env, policy="random", seed: int = 0):
         return goal_line_policy(env)
     if policy == "cas":
         return CASPolicy(env, seed=seed)
-    raise ValueError(f"policy: must be 'random', 'baseline', 'goal_line', 'cas' or a callable, got {policy!r}")
+    if isinstance(policy, str) and policy.startswith("cas:"):
+        return CASPolicy(env, seed=seed, method=policy.removeprefix("cas:"))
+    raise ValueError(f"policy: must be 'random', 'baseline', 'goal_line', 'cas', 'cas:METHOD' or a callable, "
+                     f"got {policy!r}")
 
 
 def episode_return(env, policy) -> tuple[float, int]:

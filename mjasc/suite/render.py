@@ -85,7 +85,7 @@ def _extent(lines, positions, margin_m: float = 10.0):
 
 def _policy_name(policy) -> str:
     if isinstance(policy, str):
-        return policy
+        return policy.replace(":", "_")
     return re.sub(r"[^A-Za-z0-9_]+", "_", getattr(policy, "__name__", "policy")).strip("_") or "policy"
 
 
