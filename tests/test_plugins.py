@@ -9,7 +9,7 @@ import pytest
 
 from mjasc.avoidance.request import AvoidanceRequest
 from mjasc.core.config_tables import param
-from mjasc.plugins import AvoidanceMethod, CoordinationMethod, available, method_class, register, unregister
+from mjasc.plugins import AvoidanceMethod, ControlMethod, CoordinationMethod, available, method_class, register, unregister
 from mjasc.runs.scenario import ScenarioError, parse_scenario
 
 BASE = {
@@ -217,3 +217,54 @@ def test_suite_cas_baseline_takes_any_registered_method(stop_method):
     assert policy.agent.avoidance.options == StopOptions()
     with pytest.raises(ValueError, match="method: unknown avoidance method 'nope'"):
         CASPolicy(env, method="nope")
+
+
+class PurePursuit(ControlMethod):
+    """Pure pursuit of the path point a lookahead ahead: a test control method (heading P-loop by
+    differential thrust, common thrust from the speed reference)."""
+
+    method = "test_pursuit"
+
+    def steer(self, nav, guidance, speed_ref_m_s, course_ref_rad, dt_s):
+        import numpy as np
+
+        from mjasc.core.frames import wrap_angle
+        from mjasc.guidance.path_following import PathFollowingStatus
+
+        path = self.path
+        self.gamma_m = path.project(nav.position_m, gamma_hint=self.gamma_m, search_window_m=20.0)
+        target = path.point(min(self.gamma_m + 8.0, path.length))
+        los = float(np.arctan2(*(target - nav.position_m)[::-1]))
+        err = float(wrap_angle(los - nav.heading_rad))
+        common = float(np.clip(speed_ref_m_s / self.context.vessel.top_speed_m_s, 0.0, 1.0))
+        diff = float(np.clip(1.5 * err - 2.0 * nav.body_velocity[2], -0.6, 0.6))
+        cmd = np.clip([common - diff, common + diff], -1.0, 1.0)  # port, starboard: starboard up turns left
+        status = PathFollowingStatus(self.gamma_m, path.cross_track_error(nav.position_m, self.gamma_m),
+                                     float(path.tangent_angle(self.gamma_m)), los, speed_ref_m_s,
+                                     self.gamma_m >= path.length - 0.5)
+        return cmd, status
+
+
+def test_a_registered_control_method_follows_the_path(tmp_path):
+    """A pure-pursuit controller chosen by `[vessels.controller] type`: from 6 m off a straight path
+    it converges onto it and progresses along it; its summary cross-track comes from its status."""
+    from mjasc.runs.runner import run_scenario
+
+    register("control", PurePursuit)
+    try:
+        d = _doc({})
+        del d["vessels"][0]["avoidance"]
+        d["vessels"][0]["position_m"] = [0, 6]
+        d["vessels"][0]["controller"] = {"type": "test_pursuit", "waypoints": [[0, 0], [300, 0]]}
+        d["duration_s"] = 90.0
+        d["outputs"] = {"recording": False}
+        sc = parse_scenario(d)
+        assert sc.vessels[0].options["control"].name == "test_pursuit"
+        result = run_scenario(sc, tmp_path / "pursuit")
+    finally:
+        unregister("control", "test_pursuit")
+    a = result.summary["vessels"]["a"]
+    assert a["distance_m"] > 60.0
+    assert a["max_cross_track_m"] >= 5.0 and a["mean_cross_track_m"] < 2.5
+    with pytest.raises(ScenarioError, match=r"vessels\[0\]\.controller\.type: unknown control method 'test_pursuit'"):
+        parse_scenario(d)

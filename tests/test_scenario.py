@@ -31,7 +31,8 @@ def test_demo_is_parsed_into_typed_values():
     assert [v.name for v in sc.vessels] == ["alpha", "bravo", "charlie"]
     assert sc.vessels[0].path.length == pytest.approx(160 + 158 - 2 * 20 + np.pi * 20 / 2, rel=1e-9)
     np.testing.assert_allclose(sc.current.velocity(np.zeros((1, 2)), 0.0), [[0.0, 0.2]])
-    assert set(sc.vessels[0].options) == {"sensor", "tracking", "avoidance", "comms"}
+    assert set(sc.vessels[0].options) == {"sensor", "tracking", "avoidance", "comms", "control"}
+    assert sc.vessels[0].options["control"].name == "path_following"
     assert sc.rates.physics_hz == 50.0 and sc.static_obstacles[0].name == "pontoon"
 
 

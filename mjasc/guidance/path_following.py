@@ -48,6 +48,7 @@ from mjasc.guidance.segment_geometry import wrap_scalar
 from mjasc.guidance.stacked_paths import StackedPaths
 from mjasc.physics.thrusters import PropellerCoefficients
 from mjasc.physics.vessels import VesselType
+from mjasc.plugins.stages import ControlMethod
 
 __all__ = ["PathFollowingConfig", "PathFollowingStatus", "FleetPathFollower", "PathFollower", "SCALAR_FLEET_MAX"]
 
@@ -322,9 +323,23 @@ class FleetPathFollower:
         return np.stack([t_p, t_s], axis=-1), statuses
 
 
-class PathFollower:
-    """Follows one :class:`Path` at a commanded speed with one vessel's twin propellers: one row of
-    a :class:`FleetPathFollower` (a fleet of one until it is gathered with others)."""
+class PathFollower(ControlMethod):
+    """Integral line-of-sight path following with heading and speed loops and thrust allocation.
+
+    Follows one :class:`Path` at a commanded speed with one vessel's twin propellers: one row of a
+    :class:`FleetPathFollower` (a fleet of one until it is gathered with others). Registered as the
+    control method ``"path_following"`` (options: :class:`PathFollowingConfig`); the runner's
+    control slot commands all such followers of a fleet in one call.
+    """
+
+    method = "path_following"
+    Options = PathFollowingConfig
+
+    @classmethod
+    def from_context(cls, context, options) -> "PathFollower":
+        """The follower of one vessel from its :class:`~mjasc.plugins.context.StageContext`."""
+        return cls(context.mission_path, context.vessel, context.total_mass, context.propeller_lateral_m,
+                   PathFollowingConfig() if options is None else options)
 
     def __init__(self, path: Path, vessel: VesselType, total_mass: np.ndarray, lateral_offset_m: float,
                  config: PathFollowingConfig = PathFollowingConfig(), gamma0_m: float = 0.0):
@@ -380,3 +395,7 @@ class PathFollower:
                                     np.asarray(body_velocity, dtype=float).reshape(1, 3),
                                     np.array([float(speed_ref_m_s)]), dt_s, rows)
         return cmd[0], status[0]
+
+    def steer(self, nav, guidance, speed_ref_m_s: float, course_ref_rad: float | None, dt_s: float):
+        """The :class:`~mjasc.plugins.stages.ControlMethod` call: :meth:`command` on ``nav``."""
+        return self.command(nav.position_m, nav.heading_rad, nav.velocity_m_s, nav.body_velocity, speed_ref_m_s, dt_s)

@@ -11,6 +11,7 @@ stage        entry-point group     default method
 ===========  ====================  =======================
 avoidance    ``mjasc.avoidance``   ``thesis``
 tracking     ``mjasc.tracking``    ``imm``
+control      ``mjasc.control``     ``path_following`` (``[vessels.controller] type``)
 coordination ``mjasc.coordination`` ``thesis`` (the ``[vessels.comms]`` table)
 ===========  ====================  =======================
 
@@ -32,7 +33,7 @@ from typing import Any
 
 from mjasc.core.config_tables import ConfigError, dataclass_from_table, show, string, table
 from mjasc.plugins.context import StageContext
-from mjasc.plugins.stages import AvoidanceMethod, CoordinationMethod, StageMethod, TrackingMethod
+from mjasc.plugins.stages import AvoidanceMethod, ControlMethod, CoordinationMethod, StageMethod, TrackingMethod
 
 __all__ = ["STAGES", "MethodChoice", "register", "unregister", "available", "method_class", "parse_method_table",
            "entry_point_group", "parse_avoidance_table",
@@ -42,6 +43,7 @@ __all__ = ["STAGES", "MethodChoice", "register", "unregister", "available", "met
 STAGES: dict[str, tuple[type, str]] = {
     "avoidance": (AvoidanceMethod, "thesis"),
     "tracking": (TrackingMethod, "imm"),
+    "control": (ControlMethod, "path_following"),
     "coordination": (CoordinationMethod, "thesis"),
 }
 
@@ -49,6 +51,7 @@ STAGES: dict[str, tuple[type, str]] = {
 BUILTIN: dict[str, dict[str, str]] = {
     "avoidance": {"thesis": "mjasc.avoidance.system:CollisionAvoidance"},
     "tracking": {},
+    "control": {"path_following": "mjasc.guidance.path_following:PathFollower"},
     "coordination": {"thesis": "mjasc.cooperation.coordination:Coordination"},
 }
 
@@ -140,12 +143,13 @@ class MethodChoice:
         return self.cls.from_context(context, self.options)
 
 
-def parse_method_table(stage: str, tbl: Any, where: str) -> MethodChoice:
-    """A stage's scenario table → :class:`MethodChoice`: ``method`` (default: the stage's default)
-    picks the method, the other keys are its options, read and checked from its ``Options``."""
+def parse_method_table(stage: str, tbl: Any, where: str, name_key: str = "method") -> MethodChoice:
+    """A stage's scenario table → :class:`MethodChoice`: ``name_key`` (``method``; default: the
+    stage's default method) picks the method, the other keys are its options, read and checked from
+    its ``Options``."""
     tbl = dict(table({} if tbl is None else tbl, where))
-    name = string(tbl.pop("method", STAGES[stage][1]), f"{where}.method")
-    cls = method_class(stage, name, f"{where}.method")
+    name = string(tbl.pop(name_key, STAGES[stage][1]), f"{where}.{name_key}")
+    cls = method_class(stage, name, f"{where}.{name_key}")
     if cls.Options is None:
         if tbl:
             raise ConfigError(f"{where}.{next(iter(tbl))}: unknown field (the {stage} method {name!r} takes no options)")

@@ -73,7 +73,8 @@ class VesselAgent:
     All three: ``drain_events()``, ``log(recorder, t, vessel_name)``, ``summary()``.
     """
 
-    def __init__(self, config: VesselConfig, vessel: VesselType, total_mass: np.ndarray, lateral_offset_m: float):
+    def __init__(self, config: VesselConfig, vessel: VesselType, total_mass: np.ndarray, lateral_offset_m: float,
+                 rng: np.random.Generator | None = None):
         self.name = config.name
         self.config = config
         self.vessel = vessel
@@ -84,9 +85,14 @@ class VesselAgent:
         self.avoidance = None
         self.coordination = None
         self._report: PerceptionReport | None = None
-        if config.controller == "path_following":
-            cfg = PathFollowingConfig(lookahead_m=config.options.get("lookahead_m"))
-            self.follower = PathFollower(config.path, vessel, total_mass, lateral_offset_m, cfg)
+        if config.controller != "none":
+            from mjasc.plugins.context import StageContext
+            from mjasc.plugins.registry import MethodChoice
+
+            choice = config.options.get("control") or MethodChoice("control", config.controller, PathFollowingConfig())
+            self.follower = choice.build(StageContext(config.name, vessel, config.path, rng=rng,
+                                                      mission_speed_m_s=config.cruise_speed_m_s,
+                                                      total_mass=total_mass, propeller_lateral_m=lateral_offset_m))
             self.follower.gamma_m = config.path.project(config.position_m)
 
     # ---------------------------------------------------------------- typed values handed to the stages
@@ -198,8 +204,7 @@ class VesselAgent:
         if self.follower is None:
             return ControlOutput(np.asarray(self.config.commands, dtype=float), None, 0.0, "open_loop")
         speed, mode = self.control_request(nav)
-        cmd, status = self.follower.command(nav.position_m, nav.heading_rad, nav.velocity_m_s, nav.body_velocity,
-                                            speed, dt_s)
+        cmd, status = self.follower.steer(nav, self.guidance_state(), speed, None, dt_s)
         return self.control_output(cmd, status, mode)
 
     # ---------------------------------------------------------------- recording
@@ -229,8 +234,8 @@ def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray,
     avoidance), so adding a sensor to one vessel does not change another vessel's noise; the runner
     uses ``seed_key = [scenario seed, vessel index]``."""
     vessel = world.vessel_types[index]
-    agent = VesselAgent(config, vessel, total_mass, float(world.propeller_lateral_m[index, 0]))
     rng = lambda k: np.random.default_rng([*seed_key, k])  # noqa: E731
+    agent = VesselAgent(config, vessel, total_mass, float(world.propeller_lateral_m[index, 0]), rng(4))
     opts = config.options
     mission_path = config.path if config.path is not None else (agent.follower.path if agent.follower else None)
     if "sensor" in opts or "tracking" in opts:

@@ -34,7 +34,6 @@ from mjasc.core.config_tables import (
 )
 from mjasc.core.frames import WORLD_LIMIT_M
 from mjasc.core.resources import resolve_bundled
-from mjasc.guidance.path_following import PathFollowingConfig
 from mjasc.guidance.paths import Path
 from mjasc.physics.currents import CurrentField, UniformCurrent, current_from_config
 from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
@@ -152,7 +151,8 @@ class VesselConfig:
                                    doc="start position [x, y]")
     heading_rad: float = param(unit="rad", doc="start heading, CCW from east (heading_deg in the file)")
     speed_m_s: float = param(nonneg=True, unit="m/s", doc="start surge speed (≤ 1.5 × the type's top speed)")
-    controller: str = param(choices=("path_following", "none"), doc="path_following, or none (constant commands)")
+    controller: str = param(doc="a control method (path_following, or any of 'mjasc list'), or none (constant "
+                                "commands)")
     path: Path | None = param(doc="the mission path (path_following)")
     cruise_speed_m_s: float = param(positive=True, unit="m/s",
                                     doc="path-following speed (≤ the type's top speed; speed_m_s in the file)")
@@ -249,7 +249,8 @@ def _parse_component(kind: str, value: Any, where: str):
         raise ScenarioError(msg if msg.startswith(where) else f"{where}: {msg}") from None
 _VESSEL = {"name", "type", "position_m", "heading_deg", "speed_m_s", "controller", "sensor", "tracking",
            "avoidance", "comms"}
-_CONTROLLER = {"type", "waypoints", "turn_radius_m", "speed_m_s", "commands", "lookahead_m"}
+#: The controller table's mission keys; its other keys are the control method's options.
+_CONTROLLER = {"type", "waypoints", "turn_radius_m", "speed_m_s", "commands"}
 
 
 def _rates(t: dict) -> Rates:
@@ -272,23 +273,27 @@ def _vessel(t: Any, i: int) -> VesselConfig:
     speed = number(read_field(VesselConfig, "speed_m_s", t, where, default=0.0), f"{where}.speed_m_s",
                    maximum=vt.top_speed_m_s * 1.5)
     ctrl = table(t.get("controller", {"type": "none"}), f"{where}.controller")
-    check_keys(ctrl, _CONTROLLER, f"{where}.controller")
-    ctype = read_field(VesselConfig, "controller", ctrl, f"{where}.controller", key="type", default="path_following")
+    ctype = string(ctrl.get("type", "path_following"), f"{where}.controller.type")
+    if ctype == "none":
+        check_keys(ctrl, _CONTROLLER, f"{where}.controller")
     path, commands = None, (0.0, 0.0)
     cruise = vt.cruise_speed_m_s
     options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}
     if "avoidance" in options and "sensor" not in options:
         raise ScenarioError(f"{where}.avoidance: needs a [vessels.sensor] table — a vessel avoids only what its "
                             "own sensor sees")
-    if ctype == "path_following":
+    if ctype != "none":
+        from mjasc.plugins.registry import parse_method_table
+
+        method_table = {k: v for k, v in ctrl.items() if k not in _CONTROLLER}
+        options["control"] = parse_method_table("control", {"type": ctype, **method_table}, f"{where}.controller",
+                                                name_key="type")
         if "waypoints" not in ctrl:
-            raise ScenarioError(f"{where}.controller.waypoints: missing (path_following needs a path)")
+            raise ScenarioError(f"{where}.controller.waypoints: missing ({ctype} needs a path)")
         path = _path(ctrl, f"{where}.controller")
         cruise = number(read_field(VesselConfig, "cruise_speed_m_s", ctrl, f"{where}.controller", key="speed_m_s",
                                    default=vt.cruise_speed_m_s), f"{where}.controller.speed_m_s",
                         maximum=vt.top_speed_m_s)
-        if "lookahead_m" in ctrl:
-            options["lookahead_m"] = read_field(PathFollowingConfig, "lookahead_m", ctrl, f"{where}.controller")
     else:
         c = ctrl.get("commands", [0.0, 0.0])
         if not isinstance(c, list) or len(c) != 2:

@@ -19,7 +19,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from mjasc.core.navigation import OwnNavigation
-from mjasc.guidance.path_following import FleetPathFollower
+from mjasc.guidance.path_following import FleetPathFollower, PathFollower
 
 __all__ = ["ONBOARD_SLOTS", "run_onboard_slot", "SlotEvent"]
 
@@ -82,14 +82,19 @@ def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: floa
             rows.append(i)
             speeds.append(speed)
             modes.append(mode)
-    if rows:
-        fleet = FleetPathFollower.of([agents[i].follower for i in rows])
-        own = [navs[i] for i in rows]
+    batched = [k for k, i in enumerate(rows) if type(agents[i].follower) is PathFollower]
+    for k, i in enumerate(rows):  # other control methods, one vessel at a time
+        if type(agents[i].follower) is not PathFollower:
+            cmd, st = agents[i].follower.steer(navs[i], agents[i].guidance_state(), speeds[k], None, control_dt_s)
+            outputs[i] = agents[i].control_output(cmd, st, modes[k])
+    if batched:
+        fleet = FleetPathFollower.of([agents[rows[k]].follower for k in batched])
+        own = [navs[rows[k]] for k in batched]
         cmds, statuses = fleet.command(np.array([n.position_m for n in own]), np.array([n.heading_rad for n in own]),
-                                       np.array([n.body_velocity for n in own]), np.array(speeds, dtype=float),
-                                       control_dt_s)
-        for k, (i, st) in enumerate(zip(rows, statuses)):
-            outputs[i] = agents[i].control_output(cmds[k], st, modes[k])
+                                       np.array([n.body_velocity for n in own]),
+                                       np.array([speeds[k] for k in batched], dtype=float), control_dt_s)
+        for j, (k, st) in enumerate(zip(batched, statuses)):
+            outputs[rows[k]] = agents[rows[k]].control_output(cmds[j], st, modes[k])
     return outputs
 
 
