@@ -40,8 +40,12 @@ EXPECT = {
     # stop in the ferry's path, demo run 3; a slow-down into a second crossing target, Imazu 16).
     "imazu16_seed150": ("own", "checked_choice", 1.0),
     "demo_run3": ("charlie", "checked_choice", 1.0),
+    # A team mate's track not yet matched to its broadcast (30 % packet loss) sent charlie onto a
+    # 98 m detour it then sailed for 88 s, into the crossing ship's path: a detour whose causes are
+    # gone is withdrawn when the mission path is clear.
+    "crossing_stressed_seed12": ("charlie", "withdrawn", 2.0),
 }
-SLOW = {"crossing_stressed_seed5", "bottleneck_stressed_seed5", "bottleneck_seed7", "bottleneck_seed1",
+SLOW = {"crossing_stressed_seed5", "crossing_stressed_seed12", "bottleneck_stressed_seed5", "bottleneck_seed7", "bottleneck_seed1",
         "demo_run3"}
 
 

@@ -64,6 +64,10 @@ class AvoidanceConfig:
                                    doc="SVOs handed to the planner are grown by this much, so that the detour, "
                                        "followed with some cross-track error, is not itself flagged by the next "
                                        "prediction (hysteresis against re-plan churn)")
+    withdraw_offset_m: float = param(10.0, nonneg=True, unit="m",
+                                     doc="a detour whose every cause is gone (the tracks it went around were team "
+                                         "mates' stale copies or are lost) is withdrawn when the mission path, this "
+                                         "close or closer, is clear: the vessel returns to it; 0: never withdraw")
     # when to predict again
     track_deviation_m: float = param(5.0, positive=True, unit="m",
                                      doc="predict again at once when a track (or a team mate's plan) is this far "

@@ -197,6 +197,7 @@ class CollisionAvoidance(AvoidanceMethod):
         self.mode = "mission"
         self.correction: Correction | None = None
         self.detour: Detour | None = None
+        self._detour_causes: set[int] | None = None  # the moving tracks a detour goes around (None: statics too)
         self.team_mates = TeamMates(self.name, self.team, self.radius_m, config.team_broadcast_max_age_s,
                                     config.track_deviation_m, config.window_s or 30.0)
         self._known_track_ids: set[int] = set()
@@ -214,7 +215,8 @@ class CollisionAvoidance(AvoidanceMethod):
         self.mode_time_s = {m: 0.0 for m in MODES}
         self.stats = {"predictions": 0, "predicted_conflicts": 0, "static_conflicts": 0, "yield": 0, "pass": 0,
                       "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
-                      "deviation_predictions": 0, "emergency": 0, "lane_change": 0, "checked_choice": 0}
+                      "deviation_predictions": 0, "emergency": 0, "lane_change": 0, "checked_choice": 0,
+                      "withdrawn": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
         self._conflict_keys: set = set()
@@ -368,6 +370,9 @@ class CollisionAvoidance(AvoidanceMethod):
             statics += [replace(c, track_id=tid) for c in
                         static_conflicts(t, path, gamma, profile, [poly], self.radius_m, self.prediction_config)]
         by_id = {tr.track_id: tr for tr in tracks}
+        if not after_replan and self._perceived is not None and \
+                self._withdraw_detour(t, nav, by_id, static_polygons):
+            return self._predict(t, nav, list(self._perceived.tracks), static_polygons)
         self._last_query = pending.query
         self._team_track_ids = {tr.track_id for tr in tracks if tr.team_member in self.team}
         self._last = PredictionRecord(t, path, gamma, tuple(all_c), tuple(conflicts), tuple(statics), by_id)
@@ -574,11 +579,50 @@ class CollisionAvoidance(AvoidanceMethod):
                     f"(potential field, {len(fld.panels) if fld.panels is not None else 0} panels, "
                     f"r = {fld.safety_ratio}, λ_g = {fld.sink_strength:.0f})")
         self._take_detour(t, out, f"{what}, rejoining the mission path at γ = {out.mission_gamma_goal_m:.1f} m")
+        self._detour_causes = None if len(dynamic) < len(svos) else {int(c.track_id) for c in dynamic}
+        return True
+
+    def _withdraw_detour(self, t, nav, by_id, static_polygons) -> bool:
+        """Leave a detour whose causes are gone — every track it went around is no longer among the
+        predicted tracks (a team mate's stale copy set aside once its broadcast was heard, or a
+        track lost) — for the mission path, when the vessel is within ``withdraw_offset_m`` of it
+        and the mission path from there is clear of every track and mapped structure. (Thesis
+        §6.4.1 under packet loss: a team mate's track, not yet matched to its broadcast, sent a
+        vessel onto a 98 m detour that it sailed for 88 s after the track was set aside, into the
+        crossing ship's path.) True when it switched back."""
+        d, causes, g = self.detour, self._detour_causes, self._guidance
+        if (d is None or causes is None or g.path is not d.path or self.config.withdraw_offset_m <= 0.0
+                or any(k in by_id for k in causes) or self.mission_path is None):
+            return False
+        mission = self.mission_path
+        g_m = float(mission.project(nav.position_m))
+        if float(np.hypot(*(mission.point(g_m) - nav.position_m))) > self.config.withdraw_offset_m:
+            return False
+        profile = self.planned_gamma(t, g_m, g.mission_speed_m_s)
+        outlined = {k: track_outline(tr) for k, tr in by_id.items() if tr.is_static and tr.outline_m is not None}
+        outlined = {k: o for k, o in outlined.items() if o is not None}
+        discs = [tr for k, tr in by_id.items() if k not in outlined]
+        if discs:
+            q = PredictionQuery(mission, g_m, t, profile, self.radius_m, discs, self.prediction_config)
+            if any(c.collision for c in predict_fleet([q])[0]):
+                return False
+        if static_conflicts(t, mission, g_m, profile, list(static_polygons) + list(outlined.values()), self.radius_m,
+                            self.prediction_config):
+            return False
+        if self.correction is not None:  # keep the virtual target in the follower's new γ frame
+            self.correction.gamma_offset_m += g.gamma_m - g_m
+        self._set_path(mission, g_m, "mission")
+        self.detour, self._detour_causes = None, None
+        self.stats["withdrawn"] += 1
+        self._event(t, f"detour withdrawn: the track(s) {sorted(causes)} it went around are gone (a team mate's "
+                       f"stale copy, or lost) and the mission path is clear: back on it at γ = {g_m:.1f} m")
+        self._log.prediction_pending()
         return True
 
     def _take_detour(self, t, detour: Detour, event: str) -> None:
         """Switch to ``detour`` (a streamline's, or a lane change's when its ``field`` is None) and count it."""
         self.detour = detour
+        self._detour_causes = None  # statics or unknown: the detour is sailed to its end
         self._set_path(detour.path, 0.0, "detour")
         self.stats["replan"] += 1
         if detour.field is None:
@@ -699,7 +743,7 @@ class CollisionAvoidance(AvoidanceMethod):
             "predicted_conflicts": self.stats["predicted_conflicts"],
             "static_conflicts": self.stats["static_conflicts"],
             "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "lane_change", "checked_choice",
-                                                          "replan_failed", "emergency")},
+                                                          "replan_failed", "emergency", "withdrawn")},
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
             "min_predicted_distance_m": round(self.min_predicted_distance_m, 3)
