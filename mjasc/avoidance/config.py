@@ -68,6 +68,12 @@ class AvoidanceConfig:
                                      doc="a detour whose every cause is gone (the tracks it went around were team "
                                          "mates' stale copies or are lost) is withdrawn when the mission path, this "
                                          "close or closer, is clear: the vessel returns to it; 0: never withdraw")
+    sharp_turn_deg: float = param(60.0, nonneg=True, maximum=180.0, unit="deg",
+                                  doc="on a detour, an aim point 5 m ahead this far off the heading is a sharp turn: "
+                                      "it is sailed at sharp_turn_speed_m_s; 180: never")
+    sharp_turn_speed_m_s: float = param(0.3, nonneg=True, unit="m/s",
+                                        doc="speed for a sharp turn on a detour (the hull turns tighter and advances "
+                                            "less toward what it turns away from)")
     # when to predict again
     track_deviation_m: float = param(5.0, positive=True, unit="m",
                                      doc="predict again at once when a track (or a team mate's plan) is this far "
