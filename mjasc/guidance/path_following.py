@@ -191,17 +191,14 @@ def _law(o, P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p, ka
     n_cmd = -kp_psi * e_psi - P[_KD_PSI] * (r - r_d) - P[_NR] * r_d + -kp_psi / P[_TI] * S[_HEAD_I]
     e_u = u_d - u
     x_cmd = -P[_XU] * u_d - P[_XUU] * o.abs(u_d) * u_d + P[_KP_U] * e_u + P[_KI_U] * S[_SPEED_I]
-    # allocation to the twin propellers, yaw first: T_s + T_p = X, d (T_s − T_p) = N; but the yaw
-    # differential never forces more forward thrust than the speed loop asks for (a full
-    # differential leaves T_max − T_min of forward thrust, reverse being the weaker: turning hard
-    # while the speed loop brakes, the hull kept 0.55 m/s and advanced into a pontoon)
+    # allocation to the twin propellers, yaw first: T_s + T_p = X, d (T_s − T_p) = N
     t_max, t_min = P[_TMAX], P[_TMIN]
     half_diff_free = 0.5 * n_cmd / P[_D]
-    half_sum_free = 0.5 * x_cmd
-    half_range = o.minimum((t_max + t_min) / 2, t_min + o.maximum(half_sum_free, 0.0))
+    half_range = (t_max + t_min) / 2
     half_diff = o.minimum(o.maximum(half_diff_free, -half_range), half_range)
     lo = -t_min + o.abs(half_diff)
     hi = t_max - o.abs(half_diff)
+    half_sum_free = 0.5 * x_cmd
     inside = o.and_(lo <= half_sum_free, half_sum_free <= hi)
     saturated = o.or_(o.not_(inside), o.abs(half_diff_free) > o.abs(half_diff))
     half_sum = o.minimum(o.maximum(half_sum_free, lo), hi)
