@@ -34,7 +34,7 @@ from mjasc.plugins.context import StageContext
 from mjasc.plugins.stages import AvoidanceMethod, StageMethod, TrackingMethod
 
 __all__ = ["STAGES", "MethodChoice", "register", "unregister", "available", "method_class", "parse_method_table",
-           "entry_point_group", "parse_avoidance_table"]
+           "entry_point_group", "parse_avoidance_table", "parse_tracking_table"]
 
 #: stage → (interface, default method name).
 STAGES: dict[str, tuple[type, str]] = {
@@ -45,7 +45,8 @@ STAGES: dict[str, tuple[type, str]] = {
 #: The built-in methods: stage → {name: "module:Class"} (imported on first use).
 BUILTIN: dict[str, dict[str, str]] = {
     "avoidance": {"thesis": "mjasc.avoidance.system:CollisionAvoidance"},
-    "tracking": {},
+    "tracking": {"imm": "mjasc.perception.tracking.method:IMMMethod",
+                 "filterpy_imm": "mjasc.perception.tracking.filterpy_tracker:FilterpyIMMMethod"},
 }
 
 _registered: dict[str, dict[str, type]] = {stage: {} for stage in STAGES}
@@ -153,3 +154,9 @@ def parse_method_table(stage: str, tbl: Any, where: str) -> MethodChoice:
 def parse_avoidance_table(tbl: Any, where: str = "avoidance") -> MethodChoice:
     """A ``[vessels.avoidance]`` table → the chosen avoidance method and its options."""
     return parse_method_table("avoidance", tbl, where)
+
+
+def parse_tracking_table(tbl: Any, where: str = "tracking") -> MethodChoice:
+    """A ``[vessels.tracking]`` table → the chosen tracking method and its options (``imm``, the
+    default: a :class:`~mjasc.perception.tracking.config.TrackingConfig`)."""
+    return parse_method_table("tracking", tbl, where)
