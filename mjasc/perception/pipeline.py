@@ -166,6 +166,12 @@ class Perception:
         self.fleet.flush()
         return self._map
 
+    def target_detections(self) -> Detections | None:
+        """The latest scan's target detections (the structures that went to the map left out,
+        returns' labels renumbered): what a tracker is given (a plugin's ``update``)."""
+        self.fleet.flush()
+        return None if self._det is None else _targets_only(self._det, self._targets)
+
     @property
     def _target_mask(self) -> np.ndarray:
         self.fleet.flush()

@@ -34,6 +34,10 @@ class IMMMethod(TrackingMethod):
         sensor = getattr(context, "sensor", None)
         self.tracker = MultiTargetTracker(self.options, sensor.max_range_m if sensor is not None else math.inf)
 
+    def __len__(self) -> int:
+        """Tracks held now, tentative ones included."""
+        return len(self.tracker)
+
     def update(self, t_s: float, nav, detections) -> None:
         self.tracker.step(t_s, detections, None if detections is None else detections.origin_m)
 
