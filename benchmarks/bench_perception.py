@@ -98,7 +98,12 @@ def run(n, steps, per_track_loop=False):
 # ---------------------------------------------------------------------------- tracking methods compared
 #: (scenario, duration [s] or None for the whole run) of the comparison; --quick: the first 20 s of the first.
 METHOD_SCENARIOS = (("thesis_6_1_tracking", None), ("thesis_6_4_crossing", None))
-METHODS = ("imm", "filterpy_imm")
+#: (row label, [vessels.tracking] table): the methods, and imm without its manoeuvre detector (what
+#: filterpy_imm lacks), to tell the filter from the detector.
+METHODS = (("imm", {"method": "imm"}),
+           ("imm, manoeuvre detector off", {"method": "imm", "manoeuvre_speed_noise_m2_s3": 0.0,
+                                            "manoeuvre_heading_noise_rad2_s": 0.0}),
+           ("filterpy_imm", {"method": "filterpy_imm"}))
 GOSPA_CUTOFF_M = 10.0
 
 
@@ -142,14 +147,13 @@ def record_scans(name: str, duration_s: float | None):
     return [(runner.agents[i].name, runner.agents[i].perception.sensor_config, scans[i]) for i in own]
 
 
-def replay(method: str, sensor, scans):
-    """One method over a vessel's recorded scans: (per-scan update times [s], per-scan tracks held,
-    accuracy sums)."""
+def replay(method: dict, sensor, scans):
+    """One method (its ``[vessels.tracking]`` table) over a vessel's recorded scans: (per-scan
+    update times [s], per-scan tracks held, accuracy sums)."""
     from mjasc.plugins.context import StageContext
-    from mjasc.plugins.registry import method_class
+    from mjasc.plugins.registry import parse_tracking_table
 
-    cls = method_class("tracking", method)
-    m = cls(StageContext("own", None, sensor=sensor), cls.Options())
+    m = parse_tracking_table(method).build(StageContext("own", None, sensor=sensor))
     times, held = np.zeros(len(scans)), np.zeros(len(scans), dtype=np.int64)
     acc = {"gospa": 0.0, "n": 0, "d2": 0.0, "w2": 0.0, "pairs": 0}
     for k, (t, nav, det, xy, w) in enumerate(scans):
@@ -174,7 +178,7 @@ def compare_methods(repeats: int, quick: bool) -> None:
     rows = []
     for name, duration in cases:
         vessels = record_scans(name, 20.0 if quick else duration)
-        for method in METHODS:
+        for label, method in METHODS:
             best, held, acc = None, None, None
             for _ in range(repeats):  # accuracy is the same each time; keep each scan's fastest update
                 per = [replay(method, sensor, scans) for _, sensor, scans in vessels]
@@ -183,7 +187,7 @@ def compare_methods(repeats: int, quick: bool) -> None:
                 held = np.concatenate([p[1] for p in per])
                 acc = {k: sum(p[2][k] for p in per) for k in per[0][2]}
             pairs = max(acc["pairs"], 1)
-            rows.append((name, method, len(held), acc["gospa"] / max(acc["n"], 1), math.sqrt(acc["d2"] / pairs),
+            rows.append((name, label, len(held), acc["gospa"] / max(acc["n"], 1), math.sqrt(acc["d2"] / pairs),
                          math.sqrt(acc["w2"] / pairs), 1e6 * best.mean(), 1e6 * best.sum() / max(held.sum(), 1)))
     print(f"Tracking methods on the same scans (each vessel's target detections; best of {repeats})\n")
     print("| scenario | method | scans | mean GOSPA [m] | position RMSE [m] | ω̂ RMS error [rad/s] | µs / update "

@@ -369,6 +369,8 @@ class Perception:
 
             self._log = PerceptionLog()
         self._log.log(recorder, t_s, self, vessel_name)
+        if self.method is not None:  # a plugin tracker may add its own drawings
+            self.method.log(recorder, t_s, vessel_name)
 
     # ---------------------------------------------------------------- results
     def summary(self) -> dict:
