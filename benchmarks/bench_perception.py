@@ -43,13 +43,16 @@ from mjasc.physics.world import build_world
 DT = 0.2
 
 
-def targets(n, steps, seed=0):
+def target_draws(n, seed=0):
+    """Initial ranges [m], courses [rad] and turn rates [rad/s] of the n targets."""
     rng = np.random.default_rng(seed)
-    r0 = rng.uniform(30, 120, n)
+    return rng.uniform(30, 120, n), rng.uniform(-math.pi, math.pi, n), rng.choice([-0.03, 0.0, 0.03], n)
+
+
+def targets(n, steps, seed=0):
+    r0, th0, w = target_draws(n, seed)
     b0 = np.linspace(0, 2 * math.pi, n, endpoint=False)
     p0 = np.stack([r0 * np.cos(b0), r0 * np.sin(b0)], axis=-1)
-    th0 = rng.uniform(-math.pi, math.pi, n)
-    w = rng.choice([-0.03, 0.0, 0.03], n)
     t = np.arange(steps)[:, None] * DT
     th = th0 + w * t
     safe = np.where(w == 0, 1.0, w)
@@ -97,7 +100,9 @@ def run(n, steps, per_track_loop=False):
 
 # ---------------------------------------------------------------------------- tracking methods compared
 #: (scenario, duration [s] or None for the whole run) of the comparison; --quick: the first 20 s of the first.
-METHOD_SCENARIOS = (("thesis_6_1_tracking", None), ("thesis_6_4_crossing", None))
+#: TEN_TARGETS: this benchmark's world (10 moving targets around a still Otter, 60 s).
+TEN_TARGETS = "10 targets (this benchmark's world)"
+METHOD_SCENARIOS = (("thesis_6_1_tracking", None), ("thesis_6_4_crossing", None), (TEN_TARGETS, 60.0))
 #: (row label, [vessels.tracking] table): the methods, and imm without its manoeuvre detector (what
 #: filterpy_imm lacks), to tell the filter from the detector.
 METHODS = (("imm", {"method": "imm"}),
@@ -147,6 +152,29 @@ def record_scans(name: str, duration_s: float | None):
     return [(runner.agents[i].name, runner.agents[i].perception.sensor_config, scans[i]) for i in own]
 
 
+def record_ten_targets(duration_s: float):
+    """The scans of :func:`run`'s world (10 targets on constant-turn paths at 1 m/s) as
+    :func:`record_scans` gives them, the truth from :func:`targets` (ω of each path)."""
+    n, steps = 10, int(round(duration_s / DT))
+    world = build_world([("own", load_vessel_type("otter"))], [],
+                        [MovingObstacle(f"t{k}", 2.5, (500.0 + 10 * k, 500.0)) for k in range(n)])
+    mujoco.mj_forward(world.model, world.data)
+    p = Perception(world, 0, SensorConfig(), TrackingConfig(), np.random.default_rng(0))
+    X = targets(n, steps + 1)
+    w = target_draws(n)[2]
+    d = world.data
+    scans = []
+    for k in range(steps):
+        d.mocap_pos[world.mocap_id, :2] = X[k]
+        d.time = k * DT
+        mujoco.mj_kinematics(world.model, d)
+        p.sense(k * DT)
+        det = p.target_detections()
+        near = np.hypot(*(X[k] - det.origin_m).T) <= p.sensor_config.max_range_m
+        scans.append((det.time_s, None, det, X[k][near], w[near]))
+    return [("own", p.sensor_config, scans)]
+
+
 def replay(method: dict, sensor, scans):
     """One method (its ``[vessels.tracking]`` table) over a vessel's recorded scans: (per-scan
     update times [s], per-scan tracks held, accuracy sums)."""
@@ -177,7 +205,8 @@ def compare_methods(repeats: int, quick: bool) -> None:
     cases = METHOD_SCENARIOS[:1] if quick else METHOD_SCENARIOS
     rows = []
     for name, duration in cases:
-        vessels = record_scans(name, 20.0 if quick else duration)
+        vessels = (record_ten_targets(duration) if name == TEN_TARGETS
+                   else record_scans(name, 20.0 if quick else duration))
         for label, method in METHODS:
             best, held, acc = None, None, None
             for _ in range(repeats):  # accuracy is the same each time; keep each scan's fastest update

@@ -101,8 +101,10 @@ def test_methods_are_listed_and_options_validated_from_their_declaration():
     ({"method": 3}, r"vessels\[0\]\.tracking\.method: "),
     ({"confirm_hits": 9}, r"vessels\[0\]\.tracking\.confirm_hits: must be ≤ confirm_window \(6\), got 9"),
     ({"method": "imm", "max_coast_s": -1}, r"vessels\[0\]\.tracking\.max_coast_s: must be > 0"),
-    ({"method": "filterpy_imm", "confirm_hits": 9}, r"vessels\[0\]\.tracking\.confirm_hits: must be ≤ confirm_window"),
-    ({"method": "filterpy_imm", "manoeuvre_threshold": 3}, r"vessels\[0\]\.tracking\.manoeuvre_threshold: unknown field"),
+    ({"method": "filterpy_imm", "confirm_hits": 9},
+     r"vessels\[0\]\.tracking\.confirm_hits: must be ≤ confirm_window"),
+    ({"method": "filterpy_imm", "manoeuvre_threshold": 3},
+     r"vessels\[0\]\.tracking\.manoeuvre_threshold: unknown field"),
     ({"method": "filterpy_imm", "imm": {"min_mode_probability": 0.5}},
      r"vessels\[0\]\.tracking\.imm\.min_mode_probability: must be < 1/r"),
 ])
@@ -212,7 +214,8 @@ def test_scenario_with_filterpy_imm_avoids_and_reports_its_tracks(tmp_path):
     assert {a for a, _ in ship} >= {"alpha", "bravo"}  # the ship is tracked by the threatened vessels
     for name in ("alpha", "bravo", "charlie"):
         p = s["vessels"][name]["perception"]
-        assert p["tracking_method"] == "filterpy_imm" and p["tracks_confirmed"] >= 2 and p["tracker"]["filter_cycles"] > 0
+        assert p["tracking_method"] == "filterpy_imm" and p["tracks_confirmed"] >= 2
+        assert p["tracker"]["filter_cycles"] > 0
     assert (tmp_path / "recording.rrd").stat().st_size > 0
 
 
