@@ -15,7 +15,9 @@ processes the queue in one pass:
   cluster swallowed from a tracked boat re-clustered (only for the vessels where that happens);
   wall fragments among the targets, static returns into the maps, free space carved: one call
   each for all vessels;
-* **tracking**: one :meth:`FleetTracker.step` for all vessels of a tracking configuration.
+* **tracking**: one :meth:`FleetTracker.step` for all vessels of a tracking configuration; a vessel
+  with a plugin tracker (``[vessels.tracking] method``) gets its own ``update`` call, and its
+  tracked discs come from its plugin's tracks (:func:`estimate_discs`).
 
 A queue is processed when the fleet's last vessel (in the order they joined, which is the order the
 runner calls them in) has been asked for the slot, or as soon as anything reads a result or changes
@@ -38,7 +40,7 @@ from mjasc.perception.tracking.association import block_pairs
 from mjasc.perception.tracking.fleet import FleetTracker
 from mjasc.perception.tracking.tracker import MultiTargetTracker
 
-__all__ = ["PerceptionFleet", "fleet_of", "DISC_MARGIN_M", "DISC_MARGIN_MAX_M", "FLAT_M"]
+__all__ = ["PerceptionFleet", "fleet_of", "DISC_MARGIN_M", "DISC_MARGIN_MAX_M", "FLAT_M", "estimate_discs"]
 
 #: A tracked disc (returns kept out of the map) is the track's radius + this + 2σ of its position [m]
 DISC_MARGIN_M = 1.0
@@ -109,9 +111,13 @@ class PerceptionFleet:
         self._tracks: list = []  # members queued for the tracking pass
         self._busy = False
 
-    def join(self, member) -> tuple[StaticMap, MultiTargetTracker]:
-        """Register a vessel's perception; returns its map and tracker (views of the fleet's)."""
+    def join(self, member) -> tuple[StaticMap, MultiTargetTracker | None]:
+        """Register a vessel's perception; returns its map and tracker (views of the fleet's; no
+        tracker for a vessel with a plugin tracker, ``member.method``)."""
         cfg = member.config
+        if member.method is not None:
+            self.members.append(member)
+            return StaticMap(cfg.map_cell_m, cfg.map_min_hits, store=self.map_store), None
         ft = next((f for f in self._trackers if f.config == cfg), None)
         if ft is None:
             ft = FleetTracker(cfg)
@@ -227,11 +233,14 @@ class PerceptionFleet:
         """Per member, centres (q, 2) and radii (q,) [m] of its tracks whose returns must never
         reach its map (:meth:`mjasc.perception.pipeline.Perception.tracked_discs`), at its scan time."""
         out = [(np.zeros((0, 2)), np.zeros(0))] * len(members)
+        for k, m in enumerate(members):
+            if m.method is not None:
+                out[k] = m.tracked_discs(scans[k].time_s)
         for ft in self._trackers:
-            slots = [k for k, m in enumerate(members) if m.tracker.fleet is ft]
+            slots = [k for k, m in enumerate(members) if m._tracker is not None and m._tracker.fleet is ft]
             if not slots or len(ft.bank) == 0:
                 continue
-            owners = np.array([members[k].tracker.owner for k in slots], dtype=np.int64)
+            owners = np.array([members[k]._tracker.owner for k in slots], dtype=np.int64)
             t_own = np.full(ft.n_owners, np.nan)
             t_own[owners] = [scans[k].time_s for k in slots]
             mg = ft.mgmt
@@ -250,12 +259,15 @@ class PerceptionFleet:
     # ------------------------------------------------------------------ tracking pass
     def _track(self, members) -> None:
         for ft in self._trackers:
-            ms = [m for m in members if m.tracker.fleet is ft]
+            ms = [m for m in members if m._tracker is not None and m._tracker.fleet is ft]
             if not ms:
                 continue
-            ft.step([m.tracker.owner for m in ms], [m._det.time_s for m in ms], [m._det for m in ms],
+            ft.step([m._tracker.owner for m in ms], [m._det.time_s for m in ms], [m._det for m in ms],
                     [m._scan.origin_m for m in ms], [m._targets for m in ms],
                     [m._scan.hit_points_world for m in ms])
+        for m in members:
+            if m.method is not None:
+                m._track_with_method()
         for m in members:
             m._tracked()
 
@@ -271,8 +283,26 @@ def tracked_discs(ft: FleetTracker, rows: np.ndarray, t_s) -> tuple[np.ndarray, 
     dt = np.maximum(t_s - bank.times_s[rows], 0.0)
     th = x[:, 2] + 0.5 * dt * bank.turn_rates[rows]
     c = x[:, :2] + (dt * x[:, 3])[:, None] * np.stack([np.cos(th), np.sin(th)], axis=-1)
-    P = bank.position_covariances[rows]
+    r = ft.mgmt._radius[rows] + disc_margin(bank.position_covariances[rows])
+    return c, r
+
+
+def disc_margin(P: np.ndarray) -> np.ndarray:
+    """(k,) how far a tracked disc reaches beyond the track's radius [m]: ``DISC_MARGIN_M`` + 2σ
+    along the major axis of each position covariance P (k, 2, 2), at most ``DISC_MARGIN_MAX_M``."""
     tr_ = 0.5 * (P[:, 0, 0] + P[:, 1, 1])
     lam = tr_ + np.sqrt(np.maximum(tr_**2 - (P[:, 0, 0] * P[:, 1, 1] - P[:, 0, 1] ** 2), 0.0))
-    r = ft.mgmt._radius[rows] + np.minimum(DISC_MARGIN_M + 2.0 * np.sqrt(lam), DISC_MARGIN_MAX_M)
-    return c, r
+    return np.minimum(DISC_MARGIN_M + 2.0 * np.sqrt(lam), DISC_MARGIN_MAX_M)
+
+
+def estimate_discs(tracks, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Centres (k, 2) and radii (k,) [m] of the tracked discs of a plugin tracker's confirmed
+    tracks (:class:`~mjasc.core.estimates.TrackEstimate`): the moving ones (not ``is_static``)
+    predicted to t_s along their constant-turn motion (not before their own time), radius +
+    :func:`disc_margin` — what :func:`tracked_discs` is for the built-in tracker."""
+    moving = [e for e in tracks if not e.is_static]
+    if not moving:
+        return np.zeros((0, 2)), np.zeros(0)
+    c = np.array([e.predict_positions(np.array([max(t_s, e.time_s)]))[0] for e in moving])
+    P = np.array([e.position_covariance for e in moving], dtype=float).reshape(-1, 2, 2)
+    return c, np.array([e.radius_m for e in moving], dtype=float) + disc_margin(P)

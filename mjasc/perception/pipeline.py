@@ -24,6 +24,21 @@ through (:meth:`mjasc.perception.static_map.StaticMap.carve`). Everything else g
 another body's state from the simulator: only the scan (ranges along known beams) and the vessel's
 own pose.
 
+**Tracking methods.** ``tracking_config`` is the scenario's choice
+(:class:`~mjasc.plugins.registry.MethodChoice` of ``[vessels.tracking] method``), or a
+:class:`~mjasc.perception.tracking.config.TrackingConfig` / None for the built-in ``imm``. The
+built-in runs on the fleet path below. Any other :class:`~mjasc.plugins.stages.TrackingMethod` (a
+plugin) is built from ``context`` (:class:`~mjasc.plugins.context.StageContext`) and gets, at each
+tracking step, ``update(t, nav, detections)`` with the scan's target detections only (not the
+structures that went to the map; no scan, no truth); its ``tracks()`` are this perception's tracks.
+The sensor, the detection, the static map and the team-mate marking stay here: a plugin's confirmed
+moving tracks (predicted to the scan time, radius + margin) keep their returns out of the map, and
+its tracks are matched to the team's broadcasts as the built-in's are (by position, extrapolated
+back to the broadcast time). A plugin's ``Options`` may carry ``detection``, ``map_cell_m``,
+``map_min_hits``, ``team_match_distance_m`` and ``team_max_age_s`` (as in
+:class:`~mjasc.perception.tracking.config.TrackingConfig`) to set what the perception does around
+it; otherwise their defaults.
+
 **Fleet.** A vessel's perception is a member of its world's
 :class:`~mjasc.perception.fleet.PerceptionFleet`: ``sense`` casts the fan at once and queues the
 scan, ``update_tracks`` queues the tracking step, and the fleet processes every vessel's queued
@@ -37,14 +52,23 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import replace
+from types import SimpleNamespace
 
 import numpy as np
 
 from mjasc.perception.detection import Detections, detect, finite_detections
-from mjasc.perception.fleet import DISC_MARGIN_M, PerceptionFleet, fleet_of
+from mjasc.perception.fleet import DISC_MARGIN_M, PerceptionFleet, estimate_discs, fleet_of
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
 from mjasc.perception.tracking.config import TrackingConfig
+from mjasc.perception.tracking.fleet import TrackEvent
+from mjasc.perception.tracking.method import IMMMethod
+from mjasc.perception.tracking.team import TeamMatcher
+from mjasc.plugins.context import StageContext
+from mjasc.plugins.registry import MethodChoice
+
+#: Fields of a tracking plugin's ``Options`` that set the perception around it (as in TrackingConfig).
+PERCEPTION_FIELDS = ("detection", "map_cell_m", "map_min_hits", "team_match_distance_m", "team_max_age_s")
 
 __all__ = ["Perception", "covariance_ellipse"]
 
@@ -61,17 +85,41 @@ def covariance_ellipse(centre, cov, n_sigma: float = 2.0, points: int = 33) -> n
 
 class Perception:
     """One vessel's perception (see the module docstring); a member of its world's
-    :class:`~mjasc.perception.fleet.PerceptionFleet` (``fleet``: another one to join)."""
+    :class:`~mjasc.perception.fleet.PerceptionFleet` (``fleet``: another one to join).
+    ``tracking_config``: a :class:`~mjasc.plugins.registry.MethodChoice`, a TrackingConfig or None
+    (the built-in ``imm``); ``context``: what a plugin tracker is built from (default: the
+    vessel's name, type and sensor, a stream seeded by the vessel index)."""
 
     def __init__(self, world, vessel_index: int, sensor_config: SensorConfig | None,
-                 tracking_config: TrackingConfig | None, rng: np.random.Generator, fleet: PerceptionFleet | None = None):
+                 tracking_config: TrackingConfig | MethodChoice | None, rng: np.random.Generator,
+                 fleet: PerceptionFleet | None = None, context: StageContext | None = None):
         self.sensor_config = SensorConfig() if sensor_config is None else sensor_config
-        self.config = TrackingConfig() if tracking_config is None else tracking_config
         self.world = world
         self.vessel_index = int(vessel_index)
         self.name = world.vessel_names[vessel_index]
+        self.method = None  # a plugin TrackingMethod (None: the built-in fleet IMM)
+        if isinstance(tracking_config, MethodChoice):
+            if tracking_config.cls is IMMMethod:
+                tracking_config = tracking_config.options
+            else:
+                if context is None:
+                    context = StageContext(self.name, world.vessel_types[vessel_index], sensor=self.sensor_config,
+                                           rng=np.random.default_rng([self.vessel_index, 4]))
+                self.method = tracking_config.build(context)
+                opts = tracking_config.options
+                tracking_config = TrackingConfig(**{k: getattr(opts, k) for k in PERCEPTION_FIELDS if hasattr(opts, k)})
+        self.config = TrackingConfig() if tracking_config is None else tracking_config
         self.sensor = sensor_for_vessel(world, vessel_index, self.sensor_config)
         self.rng = rng
+        if self.method is not None:
+            self._method_tracks: tuple = ()
+            self._method_view = None
+            self._method_ids: set = set()  # the ids of its tracks now
+            self._method_seen: set = set()  # every id it ever reported
+            self._method_lost = 0
+            self._team = TeamMatcher(self.config)
+            self._has_team = False
+            self._nav = None
         self.fleet = fleet_of(world) if fleet is None else fleet
         self._map, self._tracker = self.fleet.join(self)
         self._scan: Scan | None = None
@@ -103,8 +151,13 @@ class Perception:
 
     @property
     def tracker(self):
-        """The vessel's :class:`~mjasc.perception.tracking.MultiTargetTracker` (a view of the fleet's)."""
+        """The vessel's :class:`~mjasc.perception.tracking.MultiTargetTracker` (a view of the fleet's);
+        with a plugin tracker, its confirmed tracks read the same way (what the recording draws)."""
         self.fleet.flush()
+        if self.method is not None:
+            if self._method_view is None:
+                self._method_view = _TracksView(self._method_tracks)
+            return self._method_view
         return self._tracker
 
     @property
@@ -112,6 +165,12 @@ class Perception:
         """The vessel's :class:`~mjasc.perception.static_map.StaticMap` (a view of the fleet's store)."""
         self.fleet.flush()
         return self._map
+
+    def target_detections(self) -> Detections | None:
+        """The latest scan's target detections (the structures that went to the map left out,
+        returns' labels renumbered): what a tracker is given (a plugin's ``update``)."""
+        self.fleet.flush()
+        return None if self._det is None else _targets_only(self._det, self._targets)
 
     @property
     def _target_mask(self) -> np.ndarray:
@@ -192,23 +251,66 @@ class Perception:
         nothing to do)."""
         if self._pending:
             self._pending = False
+            if self.method is not None:
+                self._nav = nav
             self.fleet.queue_track(self)
         self.fleet.asked(self)
 
+    def _track_with_method(self) -> None:
+        """The tracking step of a plugin tracker (the fleet's tracking pass calls it): the scan's
+        target detections to ``update``, then its tracks, marked with team mates."""
+        det = self._det
+        self.method.update(det.time_s, self._nav, _targets_only(det, self._targets))
+        tracks = tuple(self.method.tracks())
+        if self._has_team and tracks:
+            tracks = self._mark_team(tracks, det.time_s)
+        ids = {e.track_id for e in tracks}
+        self._method_lost += len(self._method_ids - ids)
+        self._method_ids = ids
+        self._method_seen |= ids
+        self._method_tracks, self._method_view = tracks, None
+
+    def _mark_team(self, tracks: tuple, t_s: float) -> tuple:
+        """The tracks with ``team_member`` set from the team's broadcasts, as the built-in tracker
+        does (:class:`~mjasc.perception.tracking.team.TeamMatcher`: each track's position at t_s
+        extrapolated back to the broadcast time along its velocity, GNN within
+        ``team_match_distance_m``, broadcasts no older than ``team_max_age_s``)."""
+        n = len(tracks)
+        tm = self._team
+        tm.keep(np.zeros(len(tm.members()), dtype=bool))
+        tm.append(n)
+        t = np.array([max(t_s, e.time_s) for e in tracks])
+        pos = np.array([e.predict_positions(np.array([tk]))[0] for e, tk in zip(tracks, t)])
+        states = np.column_stack([pos, [e.heading_rad for e in tracks], [e.speed_m_s for e in tracks]])
+        tm.match(np.arange(n), np.zeros(n, dtype=np.int64), np.array([float(t_s)]), states, np.ones(n, dtype=bool), 1)
+        names = tm.members()
+        return tuple(e if e.team_member == nm else replace(e, team_member=nm) for e, nm in zip(tracks, names))
+
     def _tracked(self) -> None:
         """The fleet's tracking pass is done with this vessel's scan."""
-        tr = self._tracker
-        for ev in tr.drain_events():
+        if self.method is not None:
+            events = [TrackEvent(t, "event", -1, text) for t, text in self.method.drain_events()]
+            n = len(self._method_tracks)
+        else:
+            tr = self._tracker
+            events = tr.drain_events()
+            n = len(tr)
+        for ev in events:
             self._log_events.append(ev)
             if ev.kind != "born":
                 self._drain.append((ev.time_s, ev.text))
         st = self._stats
         st["track_updates"] += 1
-        st["max_tracks"] = max(st["max_tracks"], len(tr))
+        st["max_tracks"] = max(st["max_tracks"], n)
         if self.keep_history:
             self._append_history()
 
     def _append_history(self) -> None:
+        if self.method is not None:
+            for e in self._method_tracks:
+                self.history.append((e.time_s, e.track_id, *map(float, e.position_m), e.heading_rad, e.speed_m_s,
+                                     e.turn_rate_rad_s, e.team_member, e.is_static))
+            return
         tr = self.tracker
         if len(tr) == 0:
             return
@@ -220,7 +322,15 @@ class Perception:
 
     def tracks(self):
         """Confirmed tracks (list of :class:`mjasc.core.estimates.TrackEstimate`)."""
+        if self.method is not None:
+            self.fleet.flush()
+            return list(self._method_tracks)
         return self.tracker.estimates()
+
+    def tracked_discs(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
+        """A plugin tracker's discs whose returns never reach the map: its confirmed moving tracks
+        predicted to t_s, radius + margin (:func:`mjasc.perception.fleet.estimate_discs`)."""
+        return estimate_discs(self._method_tracks, t_s)
 
     def static_polygons(self) -> list[np.ndarray]:
         """Convex polygons (k, 2) [m] of the static structures mapped so far."""
@@ -228,6 +338,11 @@ class Perception:
 
     def set_team_positions(self, positions: dict) -> None:
         """``{name: (t_b [s], position (2,) [m])}`` from the comms link: marks team-mate tracks."""
+        if self.method is not None:
+            self.fleet.flush()
+            self._team.set_positions(0, positions)
+            self._has_team = True
+            return
         self.tracker.set_team_positions(positions)
 
     def drain_events(self) -> list[tuple[float, str]]:
@@ -254,11 +369,19 @@ class Perception:
 
             self._log = PerceptionLog()
         self._log.log(recorder, t_s, self, vessel_name)
+        if self.method is not None:  # a plugin tracker may add its own drawings
+            self.method.log(recorder, t_s, vessel_name)
 
     # ---------------------------------------------------------------- results
     def summary(self) -> dict:
         st = self._stats
-        c = self.tracker.counts
+        if self.method is not None:
+            ms = self.method.summary()
+            seen = len(self._method_seen)
+            c = {"born": ms.get("born", seen), "confirmed": ms.get("confirmed", seen),
+                 "lost": ms.get("lost", self._method_lost), "merged": ms.get("merged", 0)}
+        else:
+            c = self.tracker.counts
         scans = max(st["scans"], 1)
         ups = max(st["track_updates"], 1)
         ests = self.tracks()
@@ -282,7 +405,42 @@ class Perception:
             # only when it happened (summaries of sound runs stay as they were)
             **({"non_finite_detections_dropped": st["non_finite_detections_dropped"]}
                if st["non_finite_detections_dropped"] else {}),
+            **({"tracking_method": self.method.method, "tracker": ms} if self.method is not None else {}),
         }
+
+
+class _TracksView:
+    """A plugin tracker's confirmed tracks read like the built-in tracker's (what the recording
+    draws): every row confirmed, the estimates' ids, states, covariances, radii, flags; no modes."""
+
+    def __init__(self, tracks: tuple):
+        n = len(tracks)
+        self._tracks = tracks
+        self.confirmed = np.ones(n, dtype=bool)
+        self.static = np.array([e.is_static for e in tracks], dtype=bool)
+        self.radii_m = np.array([e.radius_m for e in tracks], dtype=float)
+        self.team_members = [e.team_member for e in tracks]
+        states = np.array([[*e.position_m, e.heading_rad, e.speed_m_s] for e in tracks], dtype=float).reshape(n, 4)
+        self.bank = SimpleNamespace(
+            track_ids=np.array([e.track_id for e in tracks], dtype=np.int64), states=states,
+            positions=states[:, :2], times_s=np.array([e.time_s for e in tracks], dtype=float),
+            position_covariances=np.array([e.position_covariance for e in tracks], dtype=float).reshape(n, 2, 2),
+            turn_rates=np.array([e.turn_rate_rad_s for e in tracks], dtype=float), mode_probabilities=np.zeros((n, 0)))
+
+    def __len__(self) -> int:
+        return len(self._tracks)
+
+    def estimates(self, include_tentative: bool = False) -> list:
+        return list(self._tracks)
+
+
+def _targets_only(d: Detections, mask: np.ndarray) -> Detections:
+    """The detections ``mask`` of d, the returns' labels renumbered (−1: a return of another one)."""
+    keep = np.flatnonzero(mask)
+    new = np.full(len(d), -1)
+    new[keep] = np.arange(keep.size)
+    labels = np.where(d.labels >= 0, new[np.maximum(d.labels, 0)], -1)
+    return replace(_subset(d, keep), labels=labels)
 
 
 def _subset(d: Detections, keep: np.ndarray) -> Detections:

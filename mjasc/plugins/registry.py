@@ -36,8 +36,7 @@ from mjasc.plugins.context import StageContext
 from mjasc.plugins.stages import AvoidanceMethod, ControlMethod, CoordinationMethod, StageMethod, TrackingMethod
 
 __all__ = ["STAGES", "MethodChoice", "register", "unregister", "available", "method_class", "parse_method_table",
-           "entry_point_group", "parse_avoidance_table",
-           "parse_coordination_table"]
+           "entry_point_group", "parse_avoidance_table", "parse_coordination_table", "parse_tracking_table"]
 
 #: stage → (interface, default method name).
 STAGES: dict[str, tuple[type, str]] = {
@@ -50,7 +49,8 @@ STAGES: dict[str, tuple[type, str]] = {
 #: The built-in methods: stage → {name: "module:Class"} (imported on first use).
 BUILTIN: dict[str, dict[str, str]] = {
     "avoidance": {"thesis": "mjasc.avoidance.system:CollisionAvoidance"},
-    "tracking": {},
+    "tracking": {"imm": "mjasc.perception.tracking.method:IMMMethod",
+                 "filterpy_imm": "mjasc.perception.tracking.filterpy_tracker:FilterpyIMMMethod"},
     "control": {"path_following": "mjasc.guidance.path_following:PathFollower"},
     "coordination": {"thesis": "mjasc.cooperation.coordination:Coordination"},
 }
@@ -166,3 +166,9 @@ def parse_avoidance_table(tbl: Any, where: str = "avoidance") -> MethodChoice:
 def parse_coordination_table(tbl: Any, where: str = "comms") -> MethodChoice:
     """A ``[vessels.comms]`` table → the chosen coordination method and its options."""
     return parse_method_table("coordination", tbl, where)
+
+
+def parse_tracking_table(tbl: Any, where: str = "tracking") -> MethodChoice:
+    """A ``[vessels.tracking]`` table → the chosen tracking method and its options (``imm``, the
+    default: a :class:`~mjasc.perception.tracking.config.TrackingConfig`)."""
+    return parse_method_table("tracking", tbl, where)

@@ -231,17 +231,20 @@ def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray,
     components its tables ask for: perception (``sensor`` / ``tracking``), coordination (``comms``,
     on ``network``, the team's link), collision avoidance (``avoidance``). Every component gets its
     own random stream ``default_rng([*seed_key, k])`` (k = 1 perception, 2 coordination, 3
-    avoidance), so adding a sensor to one vessel does not change another vessel's noise; the runner
-    uses ``seed_key = [scenario seed, vessel index]``."""
+    avoidance, 4 a plugin tracker, 5 the control method), so adding a sensor to one vessel does not change another
+    vessel's noise; the runner uses ``seed_key = [scenario seed, vessel index]``."""
     vessel = world.vessel_types[index]
     rng = lambda k: np.random.default_rng([*seed_key, k])  # noqa: E731
-    agent = VesselAgent(config, vessel, total_mass, float(world.propeller_lateral_m[index, 0]), rng(4))
+    agent = VesselAgent(config, vessel, total_mass, float(world.propeller_lateral_m[index, 0]), rng(5))
     opts = config.options
     mission_path = config.path if config.path is not None else (agent.follower.path if agent.follower else None)
     if "sensor" in opts or "tracking" in opts:
         from mjasc.perception.pipeline import Perception
+        from mjasc.plugins.context import StageContext
 
-        agent.perception = Perception(world, index, opts.get("sensor"), opts.get("tracking"), rng(1))
+        tracking = StageContext(config.name, vessel, agent.follower.path if agent.follower else None,
+                                tuple(team_names), opts.get("sensor"), rng(4))
+        agent.perception = Perception(world, index, opts.get("sensor"), opts.get("tracking"), rng(1), context=tracking)
     if "comms" in opts:
         from mjasc.cooperation.link import LinkEndpoint
         from mjasc.plugins.context import StageContext

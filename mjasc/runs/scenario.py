@@ -226,7 +226,7 @@ _TOP = {"name", "description", "duration_s", "seed", "rates", "outputs", "curren
 #: (table, where) and returns a typed config, raising ValueError that names ``where.<key>``.
 COMPONENT_PARSERS = {
     "sensor": ("mjasc.perception.range_sensor", "parse_sensor_options"),
-    "tracking": ("mjasc.perception.tracking", "parse_tracking_options"),
+    "tracking": ("mjasc.plugins.registry", "parse_tracking_table"),
     "avoidance": ("mjasc.plugins.registry", "parse_avoidance_table"),
     "comms": ("mjasc.plugins.registry", "parse_coordination_table"),
 }
