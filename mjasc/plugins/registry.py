@@ -44,7 +44,8 @@ STAGES: dict[str, tuple[type, str]] = {
 
 #: The built-in methods: stage → {name: "module:Class"} (imported on first use).
 BUILTIN: dict[str, dict[str, str]] = {
-    "avoidance": {"thesis": "mjasc.avoidance.system:CollisionAvoidance"},
+    "avoidance": {"thesis": "mjasc.avoidance.system:CollisionAvoidance",
+                  "velocity_obstacle": "mjasc.avoidance.velocity_obstacles.method:VelocityObstacleAvoidance"},
     "tracking": {},
 }
 
