@@ -80,6 +80,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self._last_control_t: float | None = None
         self._events: list[tuple[float, str]] = []
         self._static_conflict = False
+        self._stand_on_course = None  # the heading when a stand-on vessel began to act (rule 17 (c))
         self._log = AvoidanceLog()
         self.conflict_log: list[dict] = []
         self.mode_time_s = {m: 0.0 for m in _MODES}
@@ -192,8 +193,12 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         if o.colreg and engaged.any():
             forbidden = cr.forbidden_side(rel, w, np.where(engaged, roles, cr.NONE)).any(axis=1)
             acting = engaged & (roles == cr.STAND_ON) & ~waived
-            if acting.any():  # rule 17 (c): no turn to port for a vessel on the own port side
-                forbidden |= cr.port_turn(courses, heading, math.radians(5.0)) & (speeds > 0.0)
+            if acting.any():  # rule 17 (c): no turn to port (of the course it stood on) for a vessel on its port side
+                if self._stand_on_course is None:
+                    self._stand_on_course = heading
+                forbidden |= cr.port_turn(courses, self._stand_on_course, math.radians(5.0)) & (speeds > 0.0)
+            else:
+                self._stand_on_course = None
         choice, _ = choose(courses, speeds, velocities, chi_pref, u_pref, self._previous_velocity,
                            ttc.min(axis=1), o.horizon_s, forbidden, o)
         self.choice = choice
@@ -208,6 +213,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
     def _release(self, t: float) -> AvoidanceRequest:
         self.choice = None
         self._previous_velocity = None
+        self._stand_on_course = None
         return self._set_mode(t, "mission")
 
     def _set_mode(self, t: float, mode: str) -> AvoidanceRequest:
