@@ -182,14 +182,14 @@ def _method(**options):
     return VelocityObstacleAvoidance(context, VelocityObstacleOptions(**options)), vessel
 
 
-def _sail(target_pos, target_course_deg, target_speed, duration_s=80.0, speed=1.5, **options):
+def _sail(target_pos, target_course_deg, target_speed, duration_s=80.0, speed=1.5, polygons=(), **options):
     """Own vessel on the path x = 0 northwards; it follows the method's requests at once (a
-    kinematic vessel), else the path's LOS course. Returns the log (t, own x, y, target x, y, course
-    requested or NaN) and the method."""
+    kinematic vessel), else the path's LOS course; ``polygons`` are mapped static structures. Returns
+    the log (t, own x, y, target x, y, course requested or NaN) and the method."""
     method, _ = _method(**options)
     path = Path.line([0.0, 0.0], [0.0, 400.0])
     p = np.zeros(2)
-    q = np.asarray(target_pos, float)
+    q = np.asarray(target_pos if target_pos is not None else (1e3, 1e3), float)
     vq = target_speed * np.array([math.cos(math.radians(target_course_deg)), math.sin(math.radians(target_course_deg))])
     heading, dt, log = math.pi / 2, 0.1, []
     for k in range(int(duration_s / dt)):
@@ -198,7 +198,8 @@ def _sail(target_pos, target_course_deg, target_speed, duration_s=80.0, speed=1.
         gamma = path.project(p)
         v = 1.5 * np.array([math.cos(heading), math.sin(heading)])
         nav = OwnNavigation(t, p.copy(), heading, v, np.array([1.5, 0.0, 0.0]))
-        req = method.control(t, nav, GuidanceState(path, gamma, speed), PerceptionReport(t, (track,)))
+        tracks = (track,) if target_pos is not None else ()
+        req = method.control(t, nav, GuidanceState(path, gamma, speed), PerceptionReport(t, tracks, polygons))
         course = req.course_override_rad
         spd = speed if req.speed_override_m_s is None else req.speed_override_m_s
         heading = preferred_velocity(p, path, gamma, speed, method.lookahead_m)[0] if course is None else course
@@ -250,6 +251,50 @@ def test_stand_on_keeps_course_until_collision_is_imminent():
     assert len(acting) > 0
     assert np.all(np.array([math.remainder(c - math.pi / 2, 2 * math.pi) for c in log[acting, 5]])
                   <= math.radians(5.0) + 1e-9)  # rule 17 (c): not to port while closing
+
+
+def test_a_mapped_structure_on_the_path_is_sailed_around_and_the_path_regained():
+    """An island 12 m wide across the path: the vessel keeps r_A + d_safety from its edges (the edge
+    discs cover that strip) and is back on the path beyond it."""
+    from mjasc.core.geometry import distance_to_polygon
+
+    island = np.array([[-6.0, 40.0], [6.0, 40.0], [6.0, 52.0], [-6.0, 52.0]])
+    log, method = _sail(None, 0.0, 0.0, duration_s=90.0, polygons=(island,))
+    d = distance_to_polygon(log[:, 1:3], island)
+    assert d.min() >= method.radius_m + method.options.safety_distance_m - 0.1
+    assert log[-1, 2] > 110.0 and abs(log[-1, 1]) < 0.5
+    assert any(c["static"] for c in method.conflict_log)
+
+
+def test_team_mates_share_the_avoidance_reciprocally():
+    """Two team mates head-on on one line, each seeing the other as a track marked team_member: with
+    RVO each turns to starboard and they pass port to port, clear by the combined radius."""
+    vessel = load_vessel_type("otter")
+    paths = [Path.line([0.0, 0.0], [0.0, 200.0]), Path.line([0.0, 100.0], [0.0, -100.0])]
+    methods = [VelocityObstacleAvoidance(StageContext(n, vessel, pa, ("a", "b")), VelocityObstacleOptions())
+               for n, pa in zip("ab", paths)]
+    p = [np.array([0.0, 0.0]), np.array([0.0, 100.0])]
+    h = [math.pi / 2, -math.pi / 2]
+    dt, sep, lateral = 0.1, [], []
+    for k in range(800):
+        t = k * dt
+        v = [1.5 * np.array([math.cos(x), math.sin(x)]) for x in h]
+        new_h = []
+        for i in (0, 1):
+            j = 1 - i
+            mate = TrackEstimate(j, t, p[j].copy(), h[j], 1.5, 0.0, vessel.radius_m, team_member="ab"[j])
+            req = methods[i].control(t, OwnNavigation(t, p[i].copy(), h[i], v[i], np.array([1.5, 0, 0])),
+                                     GuidanceState(paths[i], paths[i].project(p[i]), 1.5),
+                                     PerceptionReport(t, (mate,)))
+            new_h.append(preferred_velocity(p[i], paths[i], paths[i].project(p[i]), 1.5, methods[i].lookahead_m)[0]
+                         if req.course_override_rad is None else req.course_override_rad)
+        h = new_h
+        p = [p[i] + dt * 1.5 * np.array([math.cos(h[i]), math.sin(h[i])]) for i in (0, 1)]
+        sep.append(float(np.hypot(*(p[0] - p[1]))))
+        lateral.append((p[0][0], p[1][0]))
+    k = int(np.argmin(sep))
+    assert lateral[k][0] > 0.0 > lateral[k][1]  # a (northbound) east, b (southbound) west: port to port
+    assert sep[k] >= 2 * vessel.radius_m + methods[0].options.safety_distance_m - 0.3
 
 
 def test_no_conflict_asks_nothing():

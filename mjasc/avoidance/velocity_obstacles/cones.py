@@ -53,7 +53,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Obstacles", "half_angle_rad", "relative_velocities", "time_to_collision", "in_velocity_obstacle",
+__all__ = ["Obstacles", "half_angle_rad", "relative_velocities", "at_speed", "time_to_collision", "in_velocity_obstacle",
            "closest_approach", "edge_points", "static_disc_radius_m"]
 
 
@@ -102,6 +102,15 @@ def relative_velocities(candidates_m_s, own_velocity_m_s, obstacles: Obstacles) 
     a = np.where(obstacles.reciprocal, 2.0, 1.0)[None, :, None]
     b = obstacles.velocity_m_s + np.where(obstacles.reciprocal[:, None], np.asarray(own_velocity_m_s, float), 0.0)
     return a * v - b[None, :, :]
+
+
+def at_speed(velocities_m_s, speed_m_s: float) -> np.ndarray:
+    """Each velocity (c, 2) turned into its direction at ``speed_m_s`` (the zero velocity stays zero):
+    a structure at rest is checked along the candidate's course at the preferred speed, so its
+    truncated cone is cut by distance (speed · T), not by the candidate's own speed."""
+    v = np.asarray(velocities_m_s, dtype=float)
+    n = np.hypot(v[:, 0], v[:, 1])
+    return np.where(n[:, None] > 1e-12, v * (float(speed_m_s) / np.maximum(n, 1e-12))[:, None], 0.0)
 
 
 def time_to_collision(relative_position_m, w, radius_m) -> np.ndarray:

@@ -11,7 +11,11 @@ guidance state, its perception's tracks and mapped structures, never the truth:
    standard deviation of the track's position); team mates as reciprocal obstacles (RVO, half the
    effort each) when ``team_reciprocal``; static structures — mapped polygons, the outlines of
    static tracks (slower than ``static_speed_m_s``), a static track without outline as a disc —
-   as discs at rest along their edges (:func:`~.cones.edge_points`);
+   as discs at rest along their edges (:func:`~.cones.edge_points`), checked along each candidate's
+   course at the preferred speed (:func:`~.cones.at_speed`: the horizon cuts them by distance U·T, so
+   slowing down does not leave a structure's cone, only turning does — or stopping, the last
+   resort; with the time horizon alone a vessel heading for an island slowed to keep the collision
+   beyond T and stopped short of it, a local minimum of the truncated VO);
 3. computes the time to collision of a grid of candidate velocities against every obstacle at
    once (:mod:`.cones`: VO = collision cone ⊕ v_B, truncated at the horizon T);
 4. with ``colreg`` on, gives each moving track its COLREG role (fixed at its first conflict and
@@ -39,7 +43,7 @@ from mjasc.avoidance.recording import AvoidanceLog
 from mjasc.avoidance.request import AvoidanceRequest
 from mjasc.avoidance.velocity_obstacles import colreg_constraints as cr
 from mjasc.avoidance.velocity_obstacles.candidates import candidate_grid, choose, preferred_velocity
-from mjasc.avoidance.velocity_obstacles.cones import (Obstacles, edge_points, relative_velocities,
+from mjasc.avoidance.velocity_obstacles.cones import (Obstacles, at_speed, edge_points, relative_velocities,
                                                       static_disc_radius_m, time_to_collision)
 from mjasc.avoidance.velocity_obstacles.options import VelocityObstacleOptions, check_options
 from mjasc.evaluation.colreg import ColregConfig
@@ -158,6 +162,8 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         v_now = np.asarray(nav.velocity_m_s, dtype=float)[:2]
         rel = obs.position_m - p_a
         w = relative_velocities(velocities, v_now, obs)
+        if obs.static.any():  # structures: each course at the preferred speed (the horizon cuts by distance U·T)
+            w[:, obs.static] = at_speed(velocities, u_pref)[:, None, :]
         ttc = time_to_collision(rel, w, obs.radius_m)
         in_vo_pref = ttc[0] <= o.horizon_s
         roles = np.full(len(obs), cr.NONE)

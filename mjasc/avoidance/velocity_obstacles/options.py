@@ -29,7 +29,7 @@ class VelocityObstacleOptions:
     weight_course: float = param(1.0, nonneg=True, unit="1/rad", doc="cost of a course change from the preferred one")
     weight_speed: float = param(1.0, nonneg=True,
                                 doc="cost of a speed change, per fraction of the preferred speed")
-    weight_change: float = param(0.5, nonneg=True,
+    weight_change: float = param(2.0, nonneg=True,
                                  doc="cost of changing the chosen velocity from the last choice, per preferred "
                                      "speed (against chattering)")
     weight_collision: float = param(10.0, positive=True,
