@@ -53,8 +53,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Obstacles", "half_angle_rad", "relative_velocities", "at_speed", "time_to_collision", "in_velocity_obstacle",
-           "closest_approach", "edge_points", "static_disc_radius_m"]
+__all__ = ["Obstacles", "half_angle_rad", "relative_velocities", "at_speed", "time_to_collision",
+           "in_velocity_obstacle", "closest_approach", "edge_points", "static_disc_radius_m"]
 
 
 @dataclass(frozen=True, eq=False)

@@ -106,7 +106,9 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         o = self.options
         p_a = np.asarray(nav.position_m, dtype=float)[:2]
         tracks = list(report.tracks)
-        moving = [tr for tr in tracks if not tr.is_static and tr.speed_m_s >= o.static_speed_m_s]
+        is_moving = [not tr.is_static and tr.speed_m_s >= o.static_speed_m_s for tr in tracks]
+        moving = [tr for tr, m in zip(tracks, is_moving) if m]
+        still = [tr for tr, m in zip(tracks, is_moving) if not m]
         parts = []
         if moving:
             dt = np.array([t - tr.time_s for tr in moving])
@@ -122,8 +124,8 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             parts.append(Obstacles(pos, vel, radius, team & o.team_reciprocal,
                                    np.array([tr.track_id for tr in moving], dtype=int), np.zeros(len(moving), bool)))
         rho = self.radius_m + o.safety_distance_m
-        outlines = [np.asarray(tr.outline_m, dtype=float) for tr in tracks
-                    if tr not in moving and tr.outline_m is not None and len(tr.outline_m) >= 2]
+        outlines = [np.asarray(tr.outline_m, dtype=float) for tr in still
+                    if tr.outline_m is not None and len(tr.outline_m) >= 2]
         pts = [self._static_points(t, report), edge_points(outlines, o.static_spacing_m)]
         pts = np.concatenate(pts)
         pts = pts[np.hypot(pts[:, 0] - p_a[0], pts[:, 1] - p_a[1]) <= o.static_range_m] if len(pts) else pts
@@ -131,7 +133,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             n = len(pts)
             parts.append(Obstacles(pts, np.zeros((n, 2)), np.full(n, static_disc_radius_m(rho, o.static_spacing_m)),
                                    np.zeros(n, bool), np.full(n, -1), np.ones(n, bool)))
-        discs = [tr for tr in tracks if tr not in moving and (tr.outline_m is None or len(tr.outline_m) < 2)]
+        discs = [tr for tr in still if tr.outline_m is None or len(tr.outline_m) < 2]
         if discs:
             n = len(discs)
             parts.append(Obstacles(np.array([np.asarray(tr.position_m, float)[:2] for tr in discs]), np.zeros((n, 2)),
@@ -193,8 +195,8 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         # COLREG: the forbidden half-plane of engaged head-on / give-way tracks (closing velocities on
         # the wrong side, however far their collision: a horizon here would let the vessel cross ahead
         # just beyond it)
-        engaged = np.array([i >= 0 and not s and self.roles.role(i) is not None
-                            for i, s in zip(obs.track_id.tolist(), obs.static.tolist())], dtype=bool)
+        engaged = np.zeros(len(obs), bool)
+        engaged[tracked] = [self.roles.role(i) is not None for i in obs.track_id[tracked].tolist()]
         forbidden = np.zeros(len(courses), bool)
         if o.colreg and engaged.any():
             forbidden = cr.forbidden_side(rel, w, np.where(engaged, roles, cr.NONE)).any(axis=1)
