@@ -200,6 +200,8 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         forbidden = np.zeros(len(courses), bool)
         if o.colreg and engaged.any():
             forbidden = cr.forbidden_side(rel, w, np.where(engaged, roles, cr.NONE)).any(axis=1)
+            if o.give_way_starboard and (engaged & np.isin(roles, (cr.HEAD_ON, cr.GIVE_WAY))).any():
+                forbidden |= cr.port_turn(courses, chi_pref, math.radians(5.0)) & (speeds > 0.0)
             acting = engaged & (roles == cr.STAND_ON) & ~waived
             if acting.any():  # rule 17 (c): no turn to port (of the course it stood on) for a vessel on its port side
                 if self._stand_on_course is None:

@@ -39,6 +39,8 @@ class VelocityObstacleOptions:
                                  doc="penalty of a velocity COLREG forbids (wrong side, crossing ahead, stand-on "
                                      "turning to port)")
     colreg: bool = param(True, doc="apply Kuwata et al.'s COLREG constraints (roles, forbidden half-planes, stand on)")
+    give_way_starboard: bool = param(True, doc="a head-on or give-way vessel alters to starboard: courses more than "
+                                               "5° to port of the preferred one cost weight_colreg (rules 14, 16)")
     stand_on_ttc_s: float = param(12.0, nonneg=True, unit="s",
                                   doc="a stand-on vessel keeps course and speed until keeping them would collide "
                                       "within this time (rule 17)")
