@@ -223,6 +223,15 @@ def test_head_on_turns_to_starboard_and_passes_port_to_port():
     assert method.summary()["roles"]["head_on"] >= 1
 
 
+def test_without_colreg_the_velocity_obstacle_alone_keeps_clear():
+    """colreg = false: no roles, no forbidden side; the VO alone still keeps the combined radius."""
+    log, method = _sail([0.0, 110.0], -90.0, 1.5, colreg=False)
+    sep = np.hypot(log[:, 1] - log[:, 3], log[:, 2] - log[:, 4])
+    assert sep.min() >= method.radius_m + 2.0 + method.options.safety_distance_m - 0.2
+    assert not np.all(np.isnan(log[:, 5]))
+    assert method.conflict_log and method.conflict_log[0]["decision"] == "steer"
+
+
 def test_crossing_from_starboard_passes_astern():
     """The target comes from the east heading west across the path: the own vessel gives way and
     crosses the target's track behind it (the target is already west of the own vessel then)."""

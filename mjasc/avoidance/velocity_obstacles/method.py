@@ -157,8 +157,9 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         heading = float(nav.heading_rad)
         courses, speeds, velocities = candidate_grid(chi_pref, u_pref, o.course_candidates,
                                                      math.radians(o.course_span_deg), o.speed_candidates, heading)
-        if not len(obs):
-            self._last_conflict_t = -math.inf if self.mode == "mission" else self._last_conflict_t
+        if not len(obs):  # nothing around (or a track lost for a moment): hold a choice through the hysteresis
+            if self.choice is not None and t - self._last_conflict_t <= o.hysteresis_s:
+                return AvoidanceRequest(STEER, self.choice.speed_m_s, course_override_rad=self.choice.course_rad)
             return self._release(t)
         p_a = np.asarray(nav.position_m, dtype=float)[:2]
         v_now = np.asarray(nav.velocity_m_s, dtype=float)[:2]
@@ -170,10 +171,10 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         in_vo_pref = ttc[0] <= o.horizon_s
         roles = np.full(len(obs), cr.NONE)
         tracked = (~obs.static) & (obs.track_id >= 0)
-        if o.colreg and tracked.any():
+        if tracked.any():  # roles (all "none" without COLREG): remembered from a track's first conflict
             fresh = cr.roles(p_a, heading, obs.position_m[tracked],
                              np.arctan2(obs.velocity_m_s[tracked, 1], obs.velocity_m_s[tracked, 0]),
-                             self.colreg_config)
+                             self.colreg_config) if o.colreg else np.full(int(tracked.sum()), cr.NONE)
             known = {i for i in obs.track_id[tracked].tolist() if self.roles.role(i) is not None}
             roles[tracked] = self.roles.update(t, obs.track_id[tracked], fresh, in_vo_pref[tracked])
             for i, r in zip(obs.track_id[tracked].tolist(), roles[tracked].tolist()):
