@@ -21,7 +21,10 @@ side (their V_1), on the other (V_2) and those moving away (V_3, r·w < 0). Writ
   Head-on these are the velocities that pass B starboard to starboard (turning to port); crossing
   from starboard they are the velocities that cross ahead of B: A reaches B's track when the
   relative position along w has turned past r, and s > 0 ⇔ A is then on B's bow side
-  (tests/test_velocity_obstacles.py checks both against the straight-line geometry);
+  (tests/test_velocity_obstacles.py checks both against the straight-line geometry); and, as the
+  alteration of a give-way vessel is to starboard (rules 14, 16; Kuwata et al. prefer starboard
+  manoeuvres), courses more than 5° to port of the preferred course are penalized like forbidden
+  ones (option ``give_way_starboard``, :func:`port_turn`);
 * **overtaking** (rule 13: A keeps out of the way, either side): no side constraint, B's VO alone;
 * **stand on** (crossing with B on A's port side, being overtaken; rule 17): A keeps course and
   speed — B's VO is not applied — until keeping the preferred velocity would collide within
