@@ -83,7 +83,7 @@ class AvoidanceLog:
         recorder.series_style(f"plots/speed/{vessel_name}/virtual_target", f"{vessel_name} virtual target",
                               c(_VIRTUAL_TARGET), 1.0)
         recorder.series_style(f"plots/mode/{vessel_name}", f"{vessel_name} mode (0 mission, 1 yield, 2 pass, "
-                              f"3 detour)", col, 2.0)
+                              f"3 detour, 4 steer)", col, 2.0)
         recorder.series_style(f"plots/gamma/{vessel_name}/virtual_target", f"{vessel_name} virtual target γ_d",
                               c(_VIRTUAL_TARGET), 1.0)
         recorder.series_style(f"plots/gamma/{vessel_name}/actual", f"{vessel_name} γ", col, 2.0)

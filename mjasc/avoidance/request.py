@@ -2,7 +2,8 @@
 
 The avoidance stage does not hold the path follower; it returns an :class:`AvoidanceRequest` that
 the vessel's agent applies: a speed override for the path follower (a velocity correction's
-virtual-target law) and/or a :class:`PathSwitch` (onto a re-planned detour, or back onto the
+virtual-target law), a course override (a course over ground the path follower steers instead of
+its line-of-sight course, e.g. the velocity obstacles' choice) and/or a :class:`PathSwitch` (onto a re-planned detour, or back onto the
 mission path at the matching γ). The request also carries the mode (for the recording and the
 summary) and the conflicts this call predicted.
 """
@@ -16,7 +17,7 @@ from mjasc.guidance.paths import Path
 __all__ = ["AvoidanceRequest", "PathSwitch", "MODES"]
 
 #: Mode strings and their codes in the ``plots/mode/<vessel>`` time series.
-MODES = {"mission": 0, "avoidance:yield": 1, "avoidance:pass": 2, "avoidance:detour": 3}
+MODES = {"mission": 0, "avoidance:yield": 1, "avoidance:pass": 2, "avoidance:detour": 3, "avoidance:steer": 4}
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,12 +35,15 @@ class AvoidanceRequest:
     """The avoidance stage's output for one call.
 
     mode: one of :data:`MODES`; speed_override_m_s: the speed the path follower must track instead
-    of the mission speed [m/s] (None: the mission speed); path_switch: the path to follow from now
-    on (None: keep the current one); conflicts: the conflicts this call predicted with a collision
-    (:class:`~mjasc.avoidance.prediction.PredictedConflict` and
+    of the mission speed [m/s] (None: the mission speed); course_override_rad: the course over
+    ground the path follower steers instead of its line-of-sight course [rad, world ENU, CCW from
+    east] (None: the LOS course; γ keeps following the path meanwhile, so the vessel returns to it
+    afterwards); path_switch: the path to follow from now on (None: keep the current one);
+    conflicts: the conflicts this call predicted with a collision (:class:`~mjasc.avoidance.prediction.PredictedConflict` and
     :class:`~mjasc.avoidance.static_conflicts.StaticConflict`; empty when it did not predict)."""
 
     mode: str = "mission"
     speed_override_m_s: float | None = None
     path_switch: PathSwitch | None = None
     conflicts: tuple = ()
+    course_override_rad: float | None = None

@@ -214,7 +214,8 @@ class CollisionAvoidance(AvoidanceMethod):
         self._predicted_speed = None
         self._events: list[tuple[float, str]] = []
         self._last_control_t: float | None = None
-        self.mode_time_s = {m: 0.0 for m in MODES}
+        # The thesis's modes (it never steers a course: "avoidance:steer" is the velocity obstacles')
+        self.mode_time_s = {m: 0.0 for m in MODES if m != "avoidance:steer"}
         self.stats = {"predictions": 0, "predicted_conflicts": 0, "static_conflicts": 0, "yield": 0, "pass": 0,
                       "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
                       "deviation_predictions": 0, "emergency": 0, "lane_change": 0, "checked_choice": 0,

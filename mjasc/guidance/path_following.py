@@ -7,6 +7,12 @@ when the vessel is left of the path)::
     ψ_d = χ_p − atan((e + σ e_i) / Δ)         desired heading, lookahead Δ [m], integral gain σ
     ė_i = Δ e / (Δ² + (e + σ e_i)²)           integral of the cross-track error (bounded rate)
 
+A course override (collision avoidance steering a chosen course over ground, e.g. the velocity
+obstacles' choice) replaces ψ_d by that course while it is set; the LOS integral is frozen and the
+curvature feed-forward dropped meanwhile, and γ keeps following the path, so the vessel comes back
+to its path through the LOS law when the override ends. No override (NaN) gives the same bits as
+before the override existed.
+
 In a constant current the integral term settles at the crab angle that cancels the drift, so the
 cross-track error converges to zero (the tests check it). Measuring the crab angle and feeding it
 back instead couples the sway dynamics into the heading loop and oscillated on the Otter.
@@ -170,22 +176,25 @@ class _FloatOps:
         staticmethod(math.atan2), staticmethod(wrap_scalar)
 
 
-def _law(o, P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p, kappa, length):
+def _law(o, P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p, kappa, length, course=math.nan):
     """The control law of the module docstring, once for arrays of vessels (``o`` = _ArrayOps,
     P, S the parameter and state arrays) and for one vessel (``o`` = _FloatOps, P, S its columns
     as lists). Inputs: position (x, y), heading, surge u, yaw rate r, speed reference; the
-    projection: γ, the path's point (qx, qy), course χ_p, curvature κ and length L there.
+    projection: γ, the path's point (qx, qy), course χ_p, curvature κ and length L there; a course
+    override [rad] (NaN: none; else ψ_d = the override, the LOS integral frozen and no curvature
+    feed-forward — γ keeps following the path).
     Returns (T_port, T_starboard, new states (γ, e_i, ∫e_u, ∫e_ψ), status (e, ψ_d, u_d, finished))."""
     e = -(x - qx) * o.sin(chi_p) + (y - qy) * o.cos(chi_p)
     finished = gamma >= length - P[_FINISH]
+    steered = course == course  # a course override (not NaN)
     # integral LOS
     delta, xte_i = P[_LOOKAHEAD], S[_XTE_I]
     e_eff = e + P[_SIGMA] * xte_i
-    psi_d = o.wrap(chi_p - o.atan2(e_eff, delta))
-    xte_i = o.where(finished, xte_i, xte_i + dt_s * delta * e / (o.sq(delta) + o.sq(e_eff)))
+    psi_d = o.where(steered, course, o.wrap(chi_p - o.atan2(e_eff, delta)))
+    xte_i = o.where(o.or_(finished, steered), xte_i, xte_i + dt_s * delta * e / (o.sq(delta) + o.sq(e_eff)))
     # heading and speed loops
     u_d = o.where(finished, 0.0, speed_ref)
-    r_d = kappa * u
+    r_d = o.where(steered, 0.0, kappa * u)
     e_psi = o.wrap(heading - psi_d)
     kp_psi = P[_KP_PSI]
     n_cmd = -kp_psi * e_psi - P[_KD_PSI] * (r - r_d) - P[_NR] * r_d + -kp_psi / P[_TI] * S[_HEAD_I]
@@ -265,26 +274,33 @@ class FleetPathFollower:
         self._S[_GAMMA, i] = float(gamma0_m)
 
     def command(self, position_m, heading_rad, body_velocity, speed_ref_m_s, dt_s: float,
-                rows=None) -> tuple[np.ndarray, list[PathFollowingStatus]]:
+                rows=None, course_override_rad=None) -> tuple[np.ndarray, list[PathFollowingStatus]]:
         """Normalized (port, starboard) commands (k, 2) and each vessel's status at this tick, for
         the vessels ``rows`` (k,) (None: all n, in order).
 
         position_m (k, 2) world [m]; heading_rad (k,); body_velocity (k, 3) = (u, v, r);
-        speed_ref_m_s (k,) [m/s]; dt_s the control period [s].
+        speed_ref_m_s (k,) [m/s]; dt_s the control period [s]; course_override_rad (k,) [rad, ENU,
+        CCW from east] or None: a vessel with a finite entry steers that course instead of its LOS
+        course (collision avoidance's steering, e.g. velocity obstacles) while γ keeps following its
+        path, so it returns to the path when the override ends; NaN = no override (the same bits as
+        without the argument).
         """
         pos = np.asarray(position_m, dtype=float)
         bv = np.asarray(body_velocity, dtype=float)
         idx = range(len(self)) if rows is None else [int(i) for i in rows]
+        course = (np.full(len(idx), np.nan) if course_override_rad is None
+                  else np.asarray(course_override_rad, dtype=float).reshape(len(idx)))
         if len(idx) <= SCALAR_FLEET_MAX:
             thrust, statuses = self._command_floats(idx, pos.tolist(), np.asarray(heading_rad, dtype=float).tolist(),
-                                                    bv.tolist(), np.asarray(speed_ref_m_s, dtype=float).tolist(), dt_s)
+                                                    bv.tolist(), np.asarray(speed_ref_m_s, dtype=float).tolist(), dt_s,
+                                                    course.tolist())
         else:
             thrust, statuses = self._command_arrays(rows, pos, np.asarray(heading_rad, dtype=float), bv,
-                                                    np.asarray(speed_ref_m_s, dtype=float), dt_s)
+                                                    np.asarray(speed_ref_m_s, dtype=float), dt_s, course)
         prop = self._prop if rows is None else self._propellers(rows)
         return PropellerCoefficients.command_for_thrust(prop, thrust), statuses  # the inverse curve, per vessel
 
-    def _command_floats(self, idx, pos, heading, bv, speed, dt_s):
+    def _command_floats(self, idx, pos, heading, bv, speed, dt_s, course):
         """The law vessel by vessel in plain floats; the projection by each path's scalar query."""
         thrust = np.empty((len(idx), 2))
         statuses = []
@@ -298,13 +314,14 @@ class FleetPathFollower:
             g = path.project((x, y), gamma_hint=s[_GAMMA], search_window_m=P[_WINDOW])
             qx, qy, chi_p, kappa = path.at(g)
             t_p, t_s, new, (e, psi_d, u_d, finished) = _law(_FloatOps, P, s, x, y, heading[k], bv[k][0], bv[k][2],
-                                                             speed[k], dt_s, g, qx, qy, chi_p, kappa, path.length)
+                                                             speed[k], dt_s, g, qx, qy, chi_p, kappa, path.length,
+                                                             course[k])
             thrust[k] = t_p, t_s
             S[:, i] = new
             statuses.append(PathFollowingStatus(g, e, chi_p, psi_d, u_d, finished))
         return thrust, statuses
 
-    def _command_arrays(self, rows, pos, heading, bv, speed, dt_s):
+    def _command_arrays(self, rows, pos, heading, bv, speed, dt_s, course):
         """The law once over arrays; the projection in one pass over the stacked paths."""
         P = self._P if rows is None else self._P[:, rows]
         S = self._S if rows is None else self._S[:, rows]
@@ -312,7 +329,7 @@ class FleetPathFollower:
         q = self.paths.project(px, py, S[_GAMMA], P[_WINDOW], rows)
         t_p, t_s, new, (e, psi_d, u_d, finished) = _law(_ArrayOps, P, S, px, py, heading, bv[:, 0], bv[:, 2], speed,
                                                          dt_s, q.gamma_m, q.x_m, q.y_m, q.course_rad, q.curvature_1_m,
-                                                         q.length_m)
+                                                         q.length_m, course)
         if rows is None:
             for j in range(4):
                 self._S[j] = new[j]
@@ -383,19 +400,22 @@ class PathFollower(ControlMethod):
         self._fleet.set_path(self._row, path, gamma0_m)
 
     def command(self, position_m, heading_rad: float, velocity_m_s, body_velocity, speed_ref_m_s: float,
-                dt_s: float) -> tuple[np.ndarray, PathFollowingStatus]:
+                dt_s: float, course_override_rad: float | None = None) -> tuple[np.ndarray, PathFollowingStatus]:
         """Normalized (port, starboard) commands (2,) for this vessel and the tick's status.
 
-        position_m (2,), velocity_m_s (2,) world; body_velocity (3,) = (u, v, r); dt_s control period.
+        position_m (2,), velocity_m_s (2,) world; body_velocity (3,) = (u, v, r); dt_s control period;
+        course_override_rad: steer this course [rad] instead of the LOS course (None: no override).
         """
         fleet = self._fleet
         rows = None if len(fleet) == 1 else np.array([self._row])
         cmd, status = fleet.command(np.asarray(position_m, dtype=float).reshape(1, -1)[:, :2],
                                     np.array([float(heading_rad)]),
                                     np.asarray(body_velocity, dtype=float).reshape(1, 3),
-                                    np.array([float(speed_ref_m_s)]), dt_s, rows)
+                                    np.array([float(speed_ref_m_s)]), dt_s, rows,
+                                    None if course_override_rad is None else np.array([float(course_override_rad)]))
         return cmd[0], status[0]
 
     def steer(self, nav, guidance, speed_ref_m_s: float, course_ref_rad: float | None, dt_s: float):
         """The :class:`~mjasc.plugins.stages.ControlMethod` call: :meth:`command` on ``nav``."""
-        return self.command(nav.position_m, nav.heading_rad, nav.velocity_m_s, nav.body_velocity, speed_ref_m_s, dt_s)
+        return self.command(nav.position_m, nav.heading_rad, nav.velocity_m_s, nav.body_velocity, speed_ref_m_s, dt_s,
+                            course_ref_rad)

@@ -48,7 +48,8 @@ STAGES: dict[str, tuple[type, str]] = {
 
 #: The built-in methods: stage → {name: "module:Class"} (imported on first use).
 BUILTIN: dict[str, dict[str, str]] = {
-    "avoidance": {"thesis": "mjasc.avoidance.system:CollisionAvoidance"},
+    "avoidance": {"thesis": "mjasc.avoidance.system:CollisionAvoidance",
+                  "velocity_obstacle": "mjasc.avoidance.velocity_obstacles.method:VelocityObstacleAvoidance"},
     "tracking": {"imm": "mjasc.perception.tracking.method:IMMMethod",
                  "filterpy_imm": "mjasc.perception.tracking.filterpy_tracker:FilterpyIMMMethod"},
     "control": {"path_following": "mjasc.guidance.path_following:PathFollower"},

@@ -18,7 +18,7 @@ the vessel's components — hands them on::
 ``nav`` is the vessel's own :class:`~mjasc.core.navigation.OwnNavigation`; ``guidance`` its
 :class:`~mjasc.guidance.state.GuidanceState` (the path it follows now, γ on it, the mission speed
 with the coordination factor); an :class:`~mjasc.avoidance.request.AvoidanceRequest` (speed
-override, path switch) is applied by the agent to its path follower. A vessel knows its own state
+override, course override, path switch) is applied by the agent to its path follower. A vessel knows its own state
 (its navigation system) and nothing else of the simulator's truth: other bodies reach it only
 through its sensor and its comms link. Components are optional: a vessel without a
 ``[vessels.sensor]`` table has no perception, and so on; :func:`build_agent` attaches what the
@@ -176,13 +176,15 @@ class VesselAgent:
         if call is not None:
             self.apply_request(call[0].predict(*call[1:]))
 
-    def control_request(self, nav: OwnNavigation) -> tuple[float, str]:
+    def control_request(self, nav: OwnNavigation) -> tuple[float, str, float]:
         """The control slot's per-vessel part, before the (fleet's) path following: the speed
-        reference [m/s] — the mission speed × the coordination factor, or avoidance's override —
-        and the mode; avoidance's path switch is applied to the follower. Needs a path follower."""
+        reference [m/s] — the mission speed × the coordination factor, or avoidance's override —,
+        the mode and the course override [rad] (NaN: none, the follower steers its LOS course);
+        avoidance's path switch is applied to the follower. Needs a path follower."""
         t = nav.time_s
         speed = self.mission_speed_m_s
         mode = "mission"
+        course = math.nan
         if self.coordination is not None:
             speed *= self.coordination.speed_correction(t, nav, self.mission_gamma_m())
         if self.avoidance is not None:
@@ -191,8 +193,10 @@ class VesselAgent:
             mode = req.mode
             if req.speed_override_m_s is not None:
                 speed = req.speed_override_m_s
+            if req.course_override_rad is not None:
+                course = float(req.course_override_rad)
         self.mode = mode
-        return speed, mode
+        return speed, mode, course
 
     def control_output(self, commands: np.ndarray, status: PathFollowingStatus, mode: str) -> ControlOutput:
         """The control slot's output from the follower's commands (2,) and status."""
@@ -203,8 +207,9 @@ class VesselAgent:
         followers together, with the same result)."""
         if self.follower is None:
             return ControlOutput(np.asarray(self.config.commands, dtype=float), None, 0.0, "open_loop")
-        speed, mode = self.control_request(nav)
-        cmd, status = self.follower.steer(nav, self.guidance_state(), speed, None, dt_s)
+        speed, mode, course = self.control_request(nav)
+        cmd, status = self.follower.steer(nav, self.guidance_state(), speed, None if math.isnan(course) else course,
+                                          dt_s)
         return self.control_output(cmd, status, mode)
 
     # ---------------------------------------------------------------- recording

@@ -78,7 +78,8 @@ def legend_colour(class_id: int) -> tuple[int, int, int]:
 MODE_STATES = {"mission": ("mission", (90, 110, 130)),
                "avoidance:yield": ("yield (slow down)", (255, 170, 0)),
                "avoidance:pass": ("pass first (speed up)", (0, 200, 255)),
-               "avoidance:detour": ("detour", (255, 0, 255))}
+               "avoidance:detour": ("detour", (255, 0, 255)),
+               "avoidance:steer": ("steer (velocity obstacle)", (0, 220, 120))}
 
 #: The follow views' eye relative to the tracked hull at the start [m] (world ENU): behind (south
 #: of) and above it, so the vessel and ~40 m around it fill the view.

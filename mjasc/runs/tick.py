@@ -5,7 +5,8 @@ order (the order matters: the team's link draws its random numbers in the order 
 The prediction slot predicts every vessel's (vessel, track) pairs in one batched call
 (:func:`~mjasc.avoidance.system.predict_slot`). The control slot runs each agent's :meth:`~mjasc.runs.agent.VesselAgent.control_request`
 (coordination factor, avoidance request and path switch) in vessel order, then the path
-following of all vessels in one batched call (:class:`~mjasc.guidance.path_following.FleetPathFollower`:
+following of all vessels in one batched call (speeds and course overrides as arrays over vessels,
+NaN = no course override) (:class:`~mjasc.guidance.path_following.FleetPathFollower`:
 the agents' followers are gathered into one fleet at the first control tick and stay its rows).
 The runner calls it for each due slot of a physics step (:class:`~mjasc.runs.schedule.Schedule`),
 then records; :class:`mjasc.suite.baselines.CASPolicy` calls it inside a dm_control environment.
@@ -13,6 +14,7 @@ then records; :class:`mjasc.suite.baselines.CASPolicy` calls it inside a dm_cont
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Sequence
 
@@ -73,26 +75,29 @@ def _prediction(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
 def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: float) -> list:
     """The control slot: per-vessel requests in vessel order, then one batched path-following call."""
     outputs = [None] * len(agents)
-    rows, speeds, modes = [], [], []
+    rows, speeds, modes, courses = [], [], [], []
     for i, (agent, nav) in enumerate(zip(agents, navs)):
         if agent.follower is None:
             outputs[i] = agent.control(nav, control_dt_s)  # open loop
         else:
-            speed, mode = agent.control_request(nav)
+            speed, mode, course = agent.control_request(nav)
             rows.append(i)
             speeds.append(speed)
             modes.append(mode)
+            courses.append(course)
     batched = [k for k, i in enumerate(rows) if type(agents[i].follower) is PathFollower]
     for k, i in enumerate(rows):  # other control methods, one vessel at a time
         if type(agents[i].follower) is not PathFollower:
-            cmd, st = agents[i].follower.steer(navs[i], agents[i].guidance_state(), speeds[k], None, control_dt_s)
+            course = None if math.isnan(courses[k]) else courses[k]
+            cmd, st = agents[i].follower.steer(navs[i], agents[i].guidance_state(), speeds[k], course, control_dt_s)
             outputs[i] = agents[i].control_output(cmd, st, modes[k])
     if batched:
         fleet = FleetPathFollower.of([agents[rows[k]].follower for k in batched])
         own = [navs[rows[k]] for k in batched]
         cmds, statuses = fleet.command(np.array([n.position_m for n in own]), np.array([n.heading_rad for n in own]),
                                        np.array([n.body_velocity for n in own]),
-                                       np.array([speeds[k] for k in batched], dtype=float), control_dt_s)
+                                       np.array([speeds[k] for k in batched], dtype=float), control_dt_s,
+                                       course_override_rad=np.array([courses[k] for k in batched], dtype=float))
         for j, (k, st) in enumerate(zip(batched, statuses)):
             outputs[rows[k]] = agents[rows[k]].control_output(cmds[j], st, modes[k])
     return outputs

@@ -1,0 +1,103 @@
+"""The velocities the velocity-obstacle method chooses among, and what each costs.
+
+The **preferred velocity** is the path's: the line-of-sight course of the path being followed at
+the mission speed (integral-free LOS, Fossen 2021 §12.4)::
+
+    χ_pref = χ_p(γ) − atan(e / Δ),      v_pref = U (cos χ_pref, sin χ_pref)
+
+with χ_p the path's course at the vessel's γ, e its cross-track error (positive left of the path),
+Δ the lookahead and U the mission speed × the coordination factor (:class:`GuidanceState`). So
+when the method lets go, the path follower's own LOS law takes over from the same course.
+
+The **candidates** are a grid of courses χ_pref + δ_i, δ_i evenly over ±span (the preferred course
+among them) × speeds U·j/(m−1), j = m−1 … 0 — the stop (speed 0) once; the preferred velocity is
+row 0.
+
+The **cost** of a candidate v = s (cos χ, sin χ) (Kuwata et al. 2014 §III, in the spirit of their
+weighted objective: deviation from the preferred velocity, hysteresis, collision penalty)::
+
+    J(v) = w_χ |wrap(χ − χ_pref)| + w_u |s − U| / U + w_Δ ‖v − v_prev‖ / U
+           + [v ∈ ∪VO^T] · w_c (1 + T / max(τ_c,min, τ_floor)) + [v forbidden by COLREG] · w_r
+
+τ_c,min the earliest time to collision of v over all obstacles: sooner collisions cost more, so when
+no candidate is collision-free the one that collides latest (most time to act) is taken and a
+choice always exists. With w_c above every deviation cost (w_χ·span + w_u + w_Δ·2), any admissible
+velocity — outside every VO and not forbidden — beats every inadmissible one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["preferred_velocity", "candidate_grid", "Choice", "choose"]
+
+#: τ_c below this counts as this in the collision penalty [s] (an overlap now is not infinitely worse).
+TTC_FLOOR_S = 0.5
+
+
+def preferred_velocity(position_m, path, gamma_m: float, speed_m_s: float, lookahead_m: float) -> tuple[float, float]:
+    """(χ_pref [rad], U [m/s]): the path's LOS course at the vessel's position and γ, and the speed
+    (module docstring)."""
+    g = min(max(float(gamma_m), 0.0), path.length)
+    qx, qy, chi, _ = path.at(g)
+    x, y = float(position_m[0]), float(position_m[1])
+    e = -(x - qx) * math.sin(chi) + (y - qy) * math.cos(chi)
+    course = chi - math.atan2(e, float(lookahead_m))
+    return math.atan2(math.sin(course), math.cos(course)), max(float(speed_m_s), 0.0)
+
+
+def candidate_grid(course_rad: float, speed_m_s: float, n_courses: int, span_rad: float, n_speeds: int,
+                   stop_course_rad: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(courses (c,) [rad], speeds (c,) [m/s], velocities (c, 2)): row 0 the preferred velocity,
+    then every course × every nonzero speed, then the stop (course ``stop_course_rad``, the heading
+    kept while stopping)."""
+    offsets = np.linspace(-span_rad, span_rad, int(n_courses))
+    fractions = np.linspace(1.0, 0.0, int(n_speeds))[:-1]
+    off, frac = np.meshgrid(offsets, fractions, indexing="ij")
+    courses = np.concatenate([[course_rad], course_rad + off.ravel(), [stop_course_rad]])
+    courses = np.mod(courses + np.pi, 2 * np.pi) - np.pi
+    speeds = np.concatenate([[speed_m_s], speed_m_s * frac.ravel(), [0.0]])
+    velocities = speeds[:, None] * np.stack([np.cos(courses), np.sin(courses)], axis=-1)
+    return courses, speeds, velocities
+
+
+@dataclass(frozen=True)
+class Choice:
+    """The chosen candidate: index, course [rad], speed [m/s], velocity (2,), cost, its earliest
+    time to collision [s] (∞: none within the horizon), whether it was admissible (outside every VO
+    and not forbidden) and whether COLREG forbade it."""
+
+    index: int
+    course_rad: float
+    speed_m_s: float
+    velocity_m_s: np.ndarray
+    cost: float
+    ttc_s: float
+    admissible: bool
+    forbidden: bool
+
+
+def choose(courses, speeds, velocities, course_pref_rad: float, speed_pref_m_s: float, previous_velocity,
+           ttc_min_s, horizon_s: float, forbidden, weights) -> tuple[Choice, np.ndarray]:
+    """The cheapest candidate (module docstring) and every candidate's cost (c,).
+
+    ttc_min_s (c,): each candidate's earliest time to collision over the obstacles (∞ none);
+    forbidden (c,) bool: COLREG forbids it; previous_velocity (2,) or None; weights: an object with
+    ``weight_course``, ``weight_speed``, ``weight_change``, ``weight_collision``, ``weight_colreg``."""
+    u = max(float(speed_pref_m_s), 0.1)
+    dchi = np.abs(np.mod(np.asarray(courses) - course_pref_rad + np.pi, 2 * np.pi) - np.pi)
+    dchi = np.where(np.asarray(speeds) > 0.0, dchi, 0.0)  # stopping has no course
+    cost = weights.weight_course * dchi + weights.weight_speed * np.abs(np.asarray(speeds) - speed_pref_m_s) / u
+    if previous_velocity is not None:
+        cost = cost + weights.weight_change * np.hypot(*(np.asarray(velocities) - previous_velocity).T) / u
+    ttc = np.asarray(ttc_min_s, dtype=float)
+    colliding = ttc <= float(horizon_s)
+    cost = cost + np.where(colliding, weights.weight_collision * (1.0 + horizon_s / np.maximum(ttc, TTC_FLOOR_S)), 0.0)
+    forbidden = np.asarray(forbidden, dtype=bool)
+    cost = cost + np.where(forbidden, weights.weight_colreg, 0.0)
+    k = int(np.argmin(cost))
+    return Choice(k, float(courses[k]), float(speeds[k]), np.asarray(velocities[k], dtype=float), float(cost[k]),
+                  float(ttc[k]), bool(not colliding[k] and not forbidden[k]), bool(forbidden[k])), cost

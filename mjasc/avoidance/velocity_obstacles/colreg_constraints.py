@@ -1,0 +1,128 @@
+"""COLREG roles and the velocities they forbid, over arrays (Kuwata, Wolf, Zarzhitsky & Huntsberger
+2014, "Safe maritime autonomous navigation with COLREGS, using velocity obstacles", IEEE JOE 39(1)).
+
+World frame ENU (z up), headings CCW from east. For the own vessel A and an obstacle B with
+r = p_B − p_A and a candidate's relative velocity w = v_A − v_B (:mod:`.cones`), the sign of the
+cross product
+
+    s(w) = (r × w)_z = r_x w_y − r_y w_x
+
+tells on which side of the line of sight A's relative motion passes B: s > 0 turns w
+counter-clockwise from r, so A passes B's left in the relative frame — B stays on A's **starboard**
+side while they pass. Kuwata et al. split the velocities outside the VO into those passing on one
+side (their V_1), on the other (V_2) and those moving away (V_3, r·w < 0). Written in ENU:
+
+* **head-on** (rule 14: both alter to starboard, pass port to port) and **crossing, give way**
+  (rule 15: B on A's starboard side; A keeps out of the way and does not cross ahead of B, it
+  passes astern) forbid the closing velocities passing on the wrong side, the half-plane
+
+      V_forbidden = { v_A : r·w > 0 and (r × w)_z > 0 }
+
+  Head-on these are the velocities that pass B starboard to starboard (turning to port); crossing
+  from starboard they are the velocities that cross ahead of B: A reaches B's track when the
+  relative position along w has turned past r, and s > 0 ⇔ A is then on B's bow side
+  (tests/test_velocity_obstacles.py checks both against the straight-line geometry); and, as the
+  alteration of a give-way vessel is to starboard (rules 14, 16; Kuwata et al. prefer starboard
+  manoeuvres), courses more than 5° to port of the preferred course are penalized like forbidden
+  ones (option ``give_way_starboard``, :func:`port_turn`);
+* **overtaking** (rule 13: A keeps out of the way, either side): no side constraint, B's VO alone;
+* **stand on** (crossing with B on A's port side, being overtaken; rule 17): A keeps course and
+  speed — B's VO is not applied — until keeping the preferred velocity would collide within
+  ``stand_on_ttc_s`` (rule 17 (a)(ii)/(b): action when collision cannot be avoided by the
+  give-way vessel alone); then B's VO applies and, crossing, a turn to port is penalized
+  (rule 17 (c): not to port for a vessel on her own port side).
+
+The roles are those of :func:`mjasc.evaluation.colreg.role_from_geometry` (a pure function of the
+relative bearing and course; the same :class:`~mjasc.evaluation.colreg.ColregConfig` thresholds),
+computed here over arrays of tracks from the own navigation and the tracks' estimates only.
+
+**Role persistence** (Kuwata's hysteresis): a track's role is fixed when it first comes into
+conflict and kept while it stays in conflict and for ``hold_s`` after (:class:`RoleMemory`): as the
+geometry changes during the manoeuvre (A turning to starboard changes the bearing of B), a role
+recomputed each tick would flip between head-on and crossing and the allowed side with it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.evaluation.colreg import ColregConfig
+
+__all__ = ["ROLE_NAMES", "NONE", "HEAD_ON", "GIVE_WAY", "STAND_ON", "OVERTAKING", "OVERTAKEN", "roles",
+           "side_of_passing", "forbidden_side", "port_turn", "RoleMemory"]
+
+#: Role codes (index into :data:`ROLE_NAMES`; the names of mjasc.evaluation.colreg.ROLES).
+ROLE_NAMES = ("none", "head_on", "crossing_give_way", "crossing_stand_on", "overtaking", "overtaken")
+NONE, HEAD_ON, GIVE_WAY, STAND_ON, OVERTAKING, OVERTAKEN = range(6)
+
+
+def _wrap_deg(a: np.ndarray) -> np.ndarray:
+    """Degrees wrapped to (−180, 180] (as :func:`mjasc.evaluation.colreg.wrap_deg`)."""
+    w = (np.asarray(a, dtype=float) + 180.0) % 360.0 - 180.0
+    return np.where(w == -180.0, 180.0, w)
+
+
+def roles(own_position_m, own_heading_rad: float, target_position_m, target_course_rad,
+          config: ColregConfig = ColregConfig()) -> np.ndarray:
+    """The own vessel's role code (t,) towards each target (positions (t, 2), courses (t,) [rad]),
+    as :func:`mjasc.evaluation.colreg.role_from_geometry` of the relative bearing β (clockwise from
+    the own bow) and relative course c (clockwise), checked in its order: overtaking (|β_t| ≥ abaft),
+    overtaken (|β| ≥ abaft), head-on (|β| ≤ 15°, courses reciprocal within 15°), else crossing —
+    give way with B to starboard (β ≥ 0), stand on to port."""
+    d = np.asarray(target_position_m, dtype=float).reshape(-1, 2) - np.asarray(own_position_m, dtype=float)[:2]
+    beta = _wrap_deg(np.degrees(own_heading_rad - np.arctan2(d[:, 1], d[:, 0])))
+    c = _wrap_deg(-np.degrees(np.asarray(target_course_rad, dtype=float) - own_heading_rad))
+    beta_t = _wrap_deg(beta + 180.0 - c)
+    abaft = config.abaft_beam_deg
+    head_on = (np.abs(beta) <= config.head_on_bearing_deg) & (np.abs(180.0 - np.abs(c)) <= config.head_on_course_deg)
+    return np.select([np.abs(beta_t) >= abaft, np.abs(beta) >= abaft, head_on, beta >= 0.0],
+                     [OVERTAKING, OVERTAKEN, HEAD_ON, GIVE_WAY], STAND_ON)
+
+
+def side_of_passing(relative_position_m, w) -> np.ndarray:
+    """s = (r × w)_z (c, t) for relative positions r (t, 2) and relative velocities w (c, t, 2):
+    > 0 when A's relative motion passes with B on A's starboard side (module docstring)."""
+    r = np.asarray(relative_position_m, dtype=float)[None, :, :]
+    return r[..., 0] * w[..., 1] - r[..., 1] * w[..., 0]
+
+
+def forbidden_side(relative_position_m, w, role_codes) -> np.ndarray:
+    """(c, t) bool: the candidate's relative velocity closes on a head-on or give-way target (r·w > 0)
+    on the forbidden side ((r × w)_z > 0: passing it starboard to starboard, crossing ahead of it)."""
+    r = np.asarray(relative_position_m, dtype=float)[None, :, :]
+    closing = np.sum(r * w, axis=-1) > 0.0
+    bound = np.isin(np.asarray(role_codes), (HEAD_ON, GIVE_WAY))[None, :]
+    return bound & closing & (side_of_passing(relative_position_m, w) > 0.0)
+
+
+def port_turn(candidate_courses_rad, own_heading_rad: float, tolerance_rad: float) -> np.ndarray:
+    """(c,) bool: the candidate course lies counter-clockwise (to port) of the own heading by more
+    than ``tolerance_rad`` (rule 17 (c) for a stand-on vessel that must act)."""
+    d = np.mod(np.asarray(candidate_courses_rad, dtype=float) - own_heading_rad + np.pi, 2 * np.pi) - np.pi
+    return d > tolerance_rad
+
+
+class RoleMemory:
+    """Roles kept per track id (module docstring): ``update(t, ids, fresh, engaged)`` returns the
+    roles to use (t,) — a track's remembered role while it is remembered, else its fresh role; a
+    track engaged now is (re)remembered with that role until ``hold_s`` after it was last engaged."""
+
+    def __init__(self, hold_s: float):
+        self.hold_s = float(hold_s)
+        self._roles: dict[int, tuple[int, float]] = {}  # track id → (role, last engaged [s])
+
+    def update(self, t_s: float, track_ids, fresh_roles, engaged) -> np.ndarray:
+        self._roles = {k: v for k, v in self._roles.items() if t_s - v[1] <= self.hold_s}
+        ids = [int(i) for i in np.asarray(track_ids).tolist()]
+        out = np.asarray(fresh_roles, dtype=int).copy()
+        for k, (i, e) in enumerate(zip(ids, np.asarray(engaged, dtype=bool).tolist())):
+            if i in self._roles:
+                out[k] = self._roles[i][0]
+            if e:
+                self._roles[i] = (int(out[k]), float(t_s))
+        return out
+
+    def role(self, track_id: int) -> int | None:
+        """The remembered role of a track, or None."""
+        v = self._roles.get(int(track_id))
+        return None if v is None else v[0]

@@ -1,0 +1,280 @@
+"""Collision avoidance by velocity obstacles with COLREG constraints: the avoidance method
+``"velocity_obstacle"`` (Fiorini & Shiller 1998; Kuwata, Wolf, Zarzhitsky & Huntsberger 2014).
+
+Each control tick (10 Hz by default) the vessel, from what it knows — its own navigation, its
+guidance state, its perception's tracks and mapped structures, never the truth:
+
+1. takes the **preferred velocity** of its path (LOS course at the mission speed,
+   :mod:`.candidates`);
+2. builds the **obstacles**: moving tracks as discs moving at their estimated velocity (position
+   extrapolated to now), combined radius R = r_A + r_B + d_safety + k σ_max (σ_max the largest
+   standard deviation of the track's position); team mates as reciprocal obstacles (RVO, half the
+   effort each) when ``team_reciprocal``; static structures — mapped polygons, the outlines of
+   static tracks (slower than ``static_speed_m_s``), a static track without outline as a disc —
+   as discs at rest along their edges (:func:`~.cones.edge_points`), checked along each candidate's
+   course at the preferred speed (:func:`~.cones.at_speed`: the horizon cuts them by distance U·T, so
+   slowing down does not leave a structure's cone, only turning does — or stopping, the last
+   resort; with the time horizon alone a vessel heading for an island slowed to keep the collision
+   beyond T and stopped short of it, a local minimum of the truncated VO);
+3. computes the time to collision of a grid of candidate velocities against every obstacle at
+   once (:mod:`.cones`: VO = collision cone ⊕ v_B, truncated at the horizon T);
+4. with ``colreg`` on, gives each moving track its COLREG role (fixed at its first conflict and
+   kept, :class:`~.colreg_constraints.RoleMemory`), ignores a stand-on track's VO until keeping
+   course would collide within ``stand_on_ttc_s``, and marks the velocities passing a head-on or
+   give-way track on the forbidden side (:mod:`.colreg_constraints`);
+5. when the preferred velocity lies in a VO (a conflict), or did less than ``hysteresis_s`` ago
+   while steering, takes the cheapest candidate (:func:`~.candidates.choose`) and asks the path
+   follower to steer its course at its speed (``AvoidanceRequest.course_override_rad`` and
+   ``speed_override_m_s``, mode ``avoidance:steer``); otherwise asks nothing (mode ``mission``):
+   γ has kept following the path, so the LOS law brings the vessel back onto it.
+
+The method has no slow loop: the prediction slot asks nothing of it. Static polygons are read
+from the perception report at most once a second (they change slowly; building them is the
+expensive part of a report).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mjasc.avoidance.recording import AvoidanceLog
+from mjasc.avoidance.request import AvoidanceRequest
+from mjasc.avoidance.velocity_obstacles import colreg_constraints as cr
+from mjasc.avoidance.velocity_obstacles.candidates import candidate_grid, choose, preferred_velocity
+from mjasc.avoidance.velocity_obstacles.cones import (Obstacles, at_speed, edge_points, relative_velocities,
+                                                      static_disc_radius_m, time_to_collision)
+from mjasc.avoidance.velocity_obstacles.options import VelocityObstacleOptions, check_options
+from mjasc.evaluation.colreg import ColregConfig
+from mjasc.plugins.stages import AvoidanceMethod
+
+__all__ = ["VelocityObstacleAvoidance", "STEER"]
+
+STEER = "avoidance:steer"
+_MODES = ("mission", STEER)
+_STATIC_REFRESH_S = 1.0
+_CONFLICT_LOG_MAX = 50
+
+
+class VelocityObstacleAvoidance(AvoidanceMethod):
+    """One vessel's velocity-obstacle collision avoidance (module docstring); registered as the
+    avoidance method ``"velocity_obstacle"``, options :class:`VelocityObstacleOptions`."""
+
+    method = "velocity_obstacle"
+    Options = VelocityObstacleOptions
+    check_options = staticmethod(check_options)
+
+    def __init__(self, context, options: VelocityObstacleOptions | None = None):
+        super().__init__(context, options if options is not None else VelocityObstacleOptions())
+        o = self.options
+        vessel = context.vessel
+        self.name = str(context.vessel_name)
+        self.team = frozenset(context.team_names) - {self.name}
+        self.radius_m = float(vessel.radius_m)
+        self.lookahead_m = float(o.lookahead_m if o.lookahead_m is not None else max(3.0 * vessel.length_m, 5.0))
+        self.colreg_config = ColregConfig()
+        self.roles = cr.RoleMemory(o.hysteresis_s)
+        self.mode = "mission"
+        self.choice = None  # the latest Choice while steering
+        self._previous_velocity = None
+        self._last_conflict_t = -math.inf
+        self._statics = np.zeros((0, 2))
+        self._statics_t = -math.inf
+        self._last_control_t: float | None = None
+        self._events: list[tuple[float, str]] = []
+        self._static_conflict = False
+        self._stand_on_course = None  # the heading when a stand-on vessel began to act (rule 17 (c))
+        self._log = AvoidanceLog()
+        self.conflict_log: list[dict] = []
+        self.mode_time_s = {m: 0.0 for m in _MODES}
+        self.stats = {"steer_episodes": 0, "decisions": 0, "inadmissible": 0, "colreg_forbidden_taken": 0,
+                      "roles": {name: 0 for name in cr.ROLE_NAMES if name != "none"}}
+        self.min_choice_ttc_s = math.inf
+
+    # ------------------------------------------------------------------ obstacles
+    def _static_points(self, t: float, report) -> np.ndarray:
+        if t - self._statics_t >= _STATIC_REFRESH_S:
+            self._statics_t = t
+            polygons = [np.asarray(p, dtype=float) for p in report.static_polygons]
+            self._statics = np.concatenate([edge_points(polygons, self.options.static_spacing_m)]) \
+                if polygons else np.zeros((0, 2))
+        return self._statics
+
+    def obstacles(self, t: float, nav, report) -> Obstacles:
+        """The obstacles of this tick (module docstring, step 2)."""
+        o = self.options
+        p_a = np.asarray(nav.position_m, dtype=float)[:2]
+        tracks = list(report.tracks)
+        is_moving = [not tr.is_static and tr.speed_m_s >= o.static_speed_m_s for tr in tracks]
+        moving = [tr for tr, m in zip(tracks, is_moving) if m]
+        still = [tr for tr, m in zip(tracks, is_moving) if not m]
+        parts = []
+        if moving:
+            dt = np.array([t - tr.time_s for tr in moving])
+            heading = np.array([tr.heading_rad for tr in moving])
+            speed = np.array([tr.speed_m_s for tr in moving])
+            vel = speed[:, None] * np.stack([np.cos(heading), np.sin(heading)], axis=-1)
+            pos = np.array([np.asarray(tr.position_m, dtype=float)[:2] for tr in moving]) + vel * dt[:, None]
+            sigma = np.sqrt(np.array([np.max(np.linalg.eigvalsh(np.asarray(tr.position_covariance, float)))
+                                      for tr in moving]).clip(min=0.0))
+            radius = self.radius_m + np.array([tr.radius_m for tr in moving]) + o.safety_distance_m \
+                + o.covariance_sigmas * sigma
+            team = np.array([tr.team_member is not None and tr.team_member in self.team for tr in moving])
+            parts.append(Obstacles(pos, vel, radius, team & o.team_reciprocal,
+                                   np.array([tr.track_id for tr in moving], dtype=int), np.zeros(len(moving), bool)))
+        rho = self.radius_m + o.safety_distance_m
+        outlines = [np.asarray(tr.outline_m, dtype=float) for tr in still
+                    if tr.outline_m is not None and len(tr.outline_m) >= 2]
+        pts = [self._static_points(t, report), edge_points(outlines, o.static_spacing_m)]
+        pts = np.concatenate(pts)
+        pts = pts[np.hypot(pts[:, 0] - p_a[0], pts[:, 1] - p_a[1]) <= o.static_range_m] if len(pts) else pts
+        if len(pts):
+            n = len(pts)
+            parts.append(Obstacles(pts, np.zeros((n, 2)), np.full(n, static_disc_radius_m(rho, o.static_spacing_m)),
+                                   np.zeros(n, bool), np.full(n, -1), np.ones(n, bool)))
+        discs = [tr for tr in still if tr.outline_m is None or len(tr.outline_m) < 2]
+        if discs:
+            n = len(discs)
+            parts.append(Obstacles(np.array([np.asarray(tr.position_m, float)[:2] for tr in discs]), np.zeros((n, 2)),
+                                   rho + np.array([tr.radius_m for tr in discs]), np.zeros(n, bool),
+                                   np.array([tr.track_id for tr in discs], dtype=int), np.ones(n, bool)))
+        return Obstacles.concatenate(parts)
+
+    # ------------------------------------------------------------------ the decision
+    def control(self, t, nav, guidance, report, team=None) -> AvoidanceRequest:
+        """Control tick → the course and speed to steer while in conflict, else nothing (module docstring)."""
+        t = float(t)
+        if self._last_control_t is not None:
+            self.mode_time_s[self.mode] += max(t - self._last_control_t, 0.0)
+        self._last_control_t = t
+        if guidance is None or report is None:
+            return self._set_mode(t, "mission")
+        o = self.options
+        chi_pref, u_pref = preferred_velocity(nav.position_m, guidance.path, guidance.gamma_m,
+                                              guidance.mission_speed_m_s, self.lookahead_m)
+        obs = self.obstacles(t, nav, report)
+        heading = float(nav.heading_rad)
+        courses, speeds, velocities = candidate_grid(chi_pref, u_pref, o.course_candidates,
+                                                     math.radians(o.course_span_deg), o.speed_candidates, heading)
+        if not len(obs):  # nothing around (or a track lost for a moment): hold a choice through the hysteresis
+            if self.choice is not None and t - self._last_conflict_t <= o.hysteresis_s:
+                return AvoidanceRequest(STEER, self.choice.speed_m_s, course_override_rad=self.choice.course_rad)
+            return self._release(t)
+        p_a = np.asarray(nav.position_m, dtype=float)[:2]
+        v_now = np.asarray(nav.velocity_m_s, dtype=float)[:2]
+        rel = obs.position_m - p_a
+        w = relative_velocities(velocities, v_now, obs)
+        if obs.static.any():  # structures: each course at the preferred speed (the horizon cuts by distance U·T)
+            w[:, obs.static] = at_speed(velocities, u_pref)[:, None, :]
+        ttc = time_to_collision(rel, w, obs.radius_m)
+        in_vo_pref = ttc[0] <= o.horizon_s
+        roles = np.full(len(obs), cr.NONE)
+        tracked = (~obs.static) & (obs.track_id >= 0)
+        if tracked.any():  # roles (all "none" without COLREG): remembered from a track's first conflict
+            fresh = cr.roles(p_a, heading, obs.position_m[tracked],
+                             np.arctan2(obs.velocity_m_s[tracked, 1], obs.velocity_m_s[tracked, 0]),
+                             self.colreg_config) if o.colreg else np.full(int(tracked.sum()), cr.NONE)
+            known = {i for i in obs.track_id[tracked].tolist() if self.roles.role(i) is not None}
+            roles[tracked] = self.roles.update(t, obs.track_id[tracked], fresh, in_vo_pref[tracked])
+            for i, r in zip(obs.track_id[tracked].tolist(), roles[tracked].tolist()):
+                if i not in known and self.roles.role(i) is not None:
+                    self._new_conflict(t, i, cr.ROLE_NAMES[r])
+        # stand on (rule 17): a stand-on track's VO counts only once keeping course collides soon
+        stand_on = np.isin(roles, (cr.STAND_ON, cr.OVERTAKEN))
+        waived = stand_on & (ttc[0] > o.stand_on_ttc_s)
+        ttc = np.where(waived[None, :], np.inf, ttc)
+        conflict = bool(np.any(ttc[0] <= o.horizon_s))
+        static_now = bool(np.any((ttc[0] <= o.horizon_s) & obs.static))
+        if static_now and not self._static_conflict:
+            self._new_conflict(t, -1, "static", static=True)
+        self._static_conflict = static_now
+        if conflict:
+            self._last_conflict_t = t
+        elif self.mode != STEER or t - self._last_conflict_t > o.hysteresis_s:
+            return self._release(t)
+        # COLREG: the forbidden half-plane of engaged head-on / give-way tracks (closing velocities on
+        # the wrong side, however far their collision: a horizon here would let the vessel cross ahead
+        # just beyond it)
+        engaged = np.zeros(len(obs), bool)
+        engaged[tracked] = [self.roles.role(i) is not None for i in obs.track_id[tracked].tolist()]
+        forbidden = np.zeros(len(courses), bool)
+        if o.colreg and engaged.any():
+            forbidden = cr.forbidden_side(rel, w, np.where(engaged, roles, cr.NONE)).any(axis=1)
+            if o.give_way_starboard and (engaged & np.isin(roles, (cr.HEAD_ON, cr.GIVE_WAY))).any():
+                forbidden |= cr.port_turn(courses, chi_pref, math.radians(5.0)) & (speeds > 0.0)
+            acting = engaged & (roles == cr.STAND_ON) & ~waived
+            if acting.any():  # rule 17 (c): no turn to port (of the course it stood on) for a vessel on its port side
+                if self._stand_on_course is None:
+                    self._stand_on_course = heading
+                forbidden |= cr.port_turn(courses, self._stand_on_course, math.radians(5.0)) & (speeds > 0.0)
+            else:
+                self._stand_on_course = None
+        choice, _ = choose(courses, speeds, velocities, chi_pref, u_pref, self._previous_velocity,
+                           ttc.min(axis=1), o.horizon_s, forbidden, o)
+        self.choice = choice
+        self._previous_velocity = choice.velocity_m_s
+        self.stats["decisions"] += 1
+        self.stats["inadmissible"] += int(not choice.admissible)
+        self.stats["colreg_forbidden_taken"] += int(choice.forbidden)
+        self.min_choice_ttc_s = min(self.min_choice_ttc_s, choice.ttc_s)
+        req = self._set_mode(t, STEER)
+        return AvoidanceRequest(req.mode, choice.speed_m_s, course_override_rad=choice.course_rad)
+
+    def _release(self, t: float) -> AvoidanceRequest:
+        self.choice = None
+        self._previous_velocity = None
+        self._stand_on_course = None
+        return self._set_mode(t, "mission")
+
+    def _set_mode(self, t: float, mode: str) -> AvoidanceRequest:
+        if mode != self.mode:
+            self._event(t, f"mode {self.mode} → {mode}")
+            if mode == STEER:
+                self.stats["steer_episodes"] += 1
+            self.mode = mode
+        return AvoidanceRequest(mode)
+
+    def _new_conflict(self, t: float, track_id: int, role: str, static: bool = False) -> None:
+        if not static:
+            self.stats["roles"][role] = self.stats["roles"].get(role, 0) + 1
+        what = "a static obstacle" if static else f"T{track_id}"
+        self._event(t, f"velocity obstacle: {what} in conflict" + ("" if static else f" (role {role})"))
+        if len(self.conflict_log) < _CONFLICT_LOG_MAX:
+            self.conflict_log.append({"time_s": round(t, 2), "track_id": int(track_id), "static": bool(static),
+                                      "decision": "steer" if static or role == "none" else f"steer ({role})"})
+
+    # ------------------------------------------------------------------ the rest of the interface
+    def planned_trajectory(self, t, nav, guidance, horizon_s: float, step_s: float):
+        """While steering: straight on at the chosen velocity from the vessel's position over the
+        horizon; else None (the team samples the path being followed)."""
+        if self.choice is None:
+            return None
+        times = float(t) + np.arange(0.0, float(horizon_s) + 0.5 * float(step_s), float(step_s))
+        pts = np.asarray(nav.position_m, dtype=float)[:2] + (times - float(t))[:, None] * self.choice.velocity_m_s
+        return times, pts
+
+    def drain_events(self) -> list[tuple[float, str]]:
+        ev, self._events = self._events, []
+        return ev
+
+    def _event(self, t: float, text: str) -> None:
+        self._events.append((float(t), text))
+
+    def summary(self) -> dict:
+        total = sum(self.mode_time_s.values())
+        return {
+            "method": self.method,
+            "colreg": self.options.colreg,
+            "actions": {k: self.stats[k] for k in ("steer_episodes", "decisions", "inadmissible",
+                                                   "colreg_forbidden_taken")},
+            "roles": dict(self.stats["roles"]),
+            "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
+            "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
+            "min_chosen_ttc_s": round(self.min_choice_ttc_s, 3) if math.isfinite(self.min_choice_ttc_s) else None,
+            "conflicts": self.conflict_log,
+        }
+
+    def log(self, recorder, t, vessel_name, guidance=None) -> None:
+        """The mode (state lane, plots/mode) and the threat panel's header, as the thesis method does."""
+        self._log.log(recorder, t, vessel_name, self.mode, None, guidance, None, None, self.team)
