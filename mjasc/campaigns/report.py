@@ -366,7 +366,8 @@ def _grouped_boxes(ax, cats: list[str], series: dict) -> None:
     for j, (label, per_cat) in enumerate(series.items()):
         pos = x - 0.4 + width * (j + 0.5)
         bp = ax.boxplot([[v for v in vals if v is not None] or [np.nan] for vals in per_cat], positions=pos,
-                        widths=width * 0.85, patch_artist=True, manage_ticks=False)
+                        widths=width * 0.85, patch_artist=True, manage_ticks=False,
+                        medianprops={"color": "black"})
         for patch in bp["boxes"]:
             patch.set_facecolor(f"C{j}")
             patch.set_alpha(0.6)
@@ -468,6 +469,8 @@ def _comparison_figures(plt, data: dict, runs, out: Path, formats) -> list[Path]
             series[m] = (vals, lo, hi)
         fig, ax = plt.subplots(figsize=(max(6, 1.8 * len(roles) + 2), 4.2))
         _grouped_bars(ax, roles, series)
+        ax.set_xticks(np.arange(len(roles)), [f"{role}\n(n = {' / '.join(str(per_role.get((role, m), [0, 0])[1]) for m in methods)})"
+                                              for role in roles], rotation=0, ha="center", fontsize=8)
         ax.set_ylabel("compliant encounters [%]")
         ax.set_ylim(0, 105)
         ax.set_title("COLREG compliance per role of the own vessel and method")
