@@ -265,3 +265,20 @@ def test_a_method_registered_only_here_and_not_importable_runs_only_in_this_proc
         assert sorted((r.method, r.status) for r in res.runs) == [("test_local", "completed"), ("thesis", "completed")]
     finally:
         unregister("avoidance", "test_local")
+
+
+def test_outcome_maps_use_the_parameters_every_run_of_the_family_has(tmp_path):
+    """An Imazu family mixes one-target and multi-target cases (``t2.dcpa_m`` only in some runs): the
+    outcome map is drawn over parameters every run has, as a comparison and as a single method."""
+    for methods in ([""], ["thesis", "other"]):
+        out = tmp_path / ("plain" if methods == [""] else "cmp")
+        with CampaignStore(out, "abc", name="c", runs_defined=4) as s:
+            for k in range(4):
+                params = {"case": k + 1, "t1.dcpa_m": 0.5 * k, "t1.tcpa_s": 30.0 + k}
+                if k % 2:
+                    params["t2.dcpa_m"] = 1.0 * k
+                for m in methods:
+                    s.record(k, method=m, family="imazu", parameters=params, seed=k, scenario="", status="completed",
+                             metrics={"vessels": {"own": {"min_clearance_to_any_m": 1.0 + k}}, "any_collision": False})
+        names = {p.name for p in write_report(out, formats=("png",))["files"]}
+        assert ("outcomes_imazu.png" if methods == [""] else "outcomes_imazu_other.png") in names

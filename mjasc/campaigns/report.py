@@ -183,13 +183,15 @@ def _q(q: dict | None, scale: float, digits: int) -> str:
 
 # ---------------------------------------------------------------------- figures
 def _numeric_params(runs) -> list[str]:
-    """The family's numeric parameters that vary, the encounter's geometry first (bearing or
+    """The family's numeric parameters that vary (among those every run has: an Imazu case with one
+    target has no ``t2.dcpa_m``), the encounter's geometry first (bearing or
     aspect, DCPA, TCPA, speed ratio: what an outcome map is read against), then the others, each
     group most varied first (by the number of distinct values)."""
     values: dict[str, set] = defaultdict(set)
+    common = set.intersection(*(set(r.parameters) for r in runs)) if runs else set()
     for r in runs:
         for k, v in r.parameters.items():
-            if isinstance(v, (int, float)) and not isinstance(v, bool) and k != "attempts":
+            if k in common and isinstance(v, (int, float)) and not isinstance(v, bool) and k != "attempts":
                 values[k].add(round(float(v), 9))
 
     def rank(item):
