@@ -218,7 +218,7 @@ def paired(runs, labels, near_miss_m: float = 1.0) -> dict:
         keys = ("pairs", "collision_only_" + base, "collision_only_" + m, "collision_both", "separation_larger",
                 "separation_smaller")
         out[m] = {"baseline": base, **{g: {k: int(c[k]) for k in keys}
-                                       for g, c in sorted(groups.items(), key=lambda kv: kv[0] == "all")}}
+                                       for g, c in sorted(groups.items(), key=lambda kv: (kv[0] == "all", kv[0]))}}
     return out
 
 
