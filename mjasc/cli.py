@@ -249,28 +249,32 @@ def _cmd_extract(args) -> int:
         print(f"mjasc: {exc}", file=sys.stderr)
         return 2
     with store:
-        runs = {r.index: r for r in store.runs()}
-    wanted = set(args.runs or [])
-    missing = sorted(wanted - set(runs))
+        runs = {(r.index, r.method): r for r in store.runs()}  # method "" unless the campaign compares methods
+    indices = {k for k, _ in runs}
+    wanted_idx = set(args.runs or [])
+    missing = sorted(wanted_idx - indices)
     if missing:
-        print(f"mjasc: {args.folder}: no stored run {', '.join(map(str, missing))} (stored: {len(runs)} runs)",
+        print(f"mjasc: {args.folder}: no stored run {', '.join(map(str, missing))} (stored: {len(indices)} runs)",
               file=sys.stderr)
         return 2
+    wanted = {key for key in runs if key[0] in wanted_idx}  # an index: its run with every method
     if args.outcome:
-        for k, r in runs.items():
+        for key, r in runs.items():
             o = run_outcome(r.metrics)
             if (args.outcome == "failed" and r.status != "completed") or \
                     (args.outcome in ("collision", "near_miss") and r.status == "completed" and o[args.outcome]):
-                wanted.add(k)
+                wanted.add(key)
     if not wanted:
         print("mjasc: no run selected (give run indices or --outcome)" if not args.outcome else
               f"no stored run with outcome {args.outcome}", file=sys.stderr)
         return 2 if not args.outcome else 0
     out = _out_dir(args.out, Path(args.folder) / "scenarios")
-    for k in sorted(wanted):
-        path = write_scenario(runs[k].scenario, out / f"run_{k}.toml")
-        print(f"run {k} ({runs[k].family}, seed {runs[k].seed}, {runs[k].status}): {path}")
-    print(f"replay one with: mjasc run {out / f'run_{min(wanted)}.toml'}")
+    paths = {}
+    for k, m in sorted(wanted):
+        r = runs[(k, m)]
+        paths[(k, m)] = path = write_scenario(r.scenario, out / (f"run_{k}_{m}.toml" if m else f"run_{k}.toml"))
+        print(f"run {k}{f' ({m})' if m else ''} ({r.family}, seed {r.seed}, {r.status}): {path}")
+    print(f"replay one with: mjasc run {paths[min(wanted)]}")
     return 0
 
 

@@ -1,8 +1,9 @@
 """Run a campaign: every run of a campaign file, resumable, on Dask or in this process.
 
 The driver (:func:`run_campaign`) opens the campaign's store in the output folder
-(:mod:`mjasc.campaigns.store`: SQLite, one row per run keyed by the file's digest and the run's
-index), asks it which runs are already done, and runs only the others. Each run's result is written
+(:mod:`mjasc.campaigns.store`: SQLite, one row per run keyed by the file's digest, the run's
+index and its method label — a campaign comparing avoidance methods runs each index once per method,
+:mod:`mjasc.campaigns.methods`), asks it which runs are already done, and runs only the others. Each run's result is written
 the moment it arrives, so a campaign killed at any moment and started again with the same command
 loses, duplicates and recomputes nothing.
 
@@ -23,7 +24,8 @@ worker holds one task at a time and a dying worker takes no queued runs with it.
 Outputs in ``out_dir``: ``campaign.sqlite`` (the store), ``runs.csv`` and ``runs.parquet`` (exports),
 ``campaign.json`` (the campaign and its aggregate statistics, :mod:`mjasc.campaigns.statistics`),
 and with ``[outputs] recordings = true`` ``runs/<k>/`` (recording.rrd + summary.json of run k,
-written by the worker: on a remote cluster ``out_dir`` must be a shared path).
+``runs/<label>/<k>/`` with methods; written by the worker: on a remote cluster ``out_dir`` must be a
+shared path).
 """
 
 from __future__ import annotations
@@ -84,10 +86,15 @@ def without_timing(obj: Any) -> Any:
 
 
 # ---------------------------------------------------------------------- one run
-def _request(run, out_dir: Path, recordings: bool, reference: bool) -> dict:
-    run_dir = str(out_dir / "runs" / str(run.index)) if recordings else None
-    return {"index": run.index, "scenario_toml": run.scenario_toml, "run_dir": run_dir, "evaluate": True,
-            "reference": reference}
+def _request(run, out_dir: Path, recordings: bool, reference: bool, plugins: dict | None = None) -> dict:
+    method = getattr(run, "method", "")
+    run_dir = str(out_dir / "runs" / method / str(run.index) if method else out_dir / "runs" / str(run.index)) \
+        if recordings else None
+    request = {"index": run.index, "scenario_toml": run.scenario_toml, "run_dir": run_dir, "evaluate": True,
+               "reference": reference}
+    if plugins:
+        request["plugins"] = plugins
+    return request
 
 
 def _task(request: dict, time_limit_s: float | None, isolate: bool) -> dict:
@@ -157,30 +164,43 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
     ``distributed.Client`` — used as is (not closed); "synchronous" (or ``workers = 0``) — this process.
     max_attempts: tries per run for errors, timeouts and crashes. time_limit_s: per-run limit [s]
     (None: none). isolate: run each run in a child process (the default; False runs it in the
-    worker itself: no protection from crashes or hangs). limit: only runs 0 … limit − 1.
+    worker itself: no protection from crashes or hangs). limit: only runs 0 … limit − 1 (with
+    ``methods``: each with every method).
+
+    A compared method registered only in this process (:func:`mjasc.plugins.register`) reaches the
+    runs' processes by its import path; one that has none is a ValueError unless the runs execute
+    here unisolated (:mod:`mjasc.campaigns.methods`).
     """
     if workers is not None:
         workers = integer(workers, "workers", minimum=0)
     max_attempts = integer(max_attempts, "max_attempts", minimum=1)
     if time_limit_s is not None:
         time_limit_s = number(time_limit_s, "time_limit_s", positive=True)
-    n_runs = campaign.runs_defined if limit is None else min(integer(limit, "limit", minimum=1), campaign.runs_defined)
+    per_method = getattr(campaign, "runs_per_method", campaign.runs_defined)
+    n_runs = per_method if limit is None else min(integer(limit, "limit", minimum=1), per_method)
+    labels = tuple(getattr(campaign, "method_labels", ("",)))
+    plugins = None
+    if getattr(campaign, "methods", ()):
+        from mjasc.campaigns.methods import plugin_sources
+
+        plugins = {"avoidance": plugin_sources(m.name for m in campaign.methods)}
     out_dir = Path(out_dir).resolve()
     out_dir.mkdir(parents=True, exist_ok=True)
     store = CampaignStore(out_dir, campaign.digest, name=campaign.name, source=str(campaign.source),
                           file_text=json.dumps(getattr(campaign, "data", {}), sort_keys=True, default=str),
                           runs_defined=campaign.runs_defined)
     try:
-        done = store.done(max_attempts)
-        todo = [campaign.run(k) for k in range(n_runs) if k not in done]
+        done = {label: store.done(max_attempts, label) for label in labels}
+        todo = [campaign.run(k, label) if label else campaign.run(k)
+                for k in range(n_runs) for label in labels if k not in done[label]]
         recordings = bool(getattr(getattr(campaign, "outputs", None), "recordings", False))
         reference = bool(getattr(getattr(campaign, "evaluation", None), "mission_cost", True))
         info = execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
                             max_attempts=max_attempts, time_limit_s=time_limit_s, isolate=isolate,
-                            recordings=recordings, reference=reference, label=campaign.name)
-        info["already_done"] = n_runs - len(todo)
+                            recordings=recordings, reference=reference, label=campaign.name, plugins=plugins)
+        info["already_done"] = n_runs * len(labels) - len(todo)
         runs = store.runs()
-        agg = aggregate(runs, campaign.runs_defined)
+        agg = aggregate(runs, campaign.runs_defined, methods=[label for label in labels if label] or None)
         if todo and info["wall_time_s"] > 0:
             agg["throughput_runs_per_hour"] = round(3600.0 * len(todo) / info["wall_time_s"], 1)
         files = store.export()
@@ -201,13 +221,22 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
 def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=None, workers: int | None = None,
                  progress: bool = True, max_attempts: int = 2, time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
                  isolate: bool = True, recordings: bool = False, reference: bool = False,
-                 label: str = "campaign") -> dict:
+                 label: str = "campaign", plugins: dict | None = None) -> dict:
     """Execute ``runs`` (:class:`~mjasc.campaigns.spec.RunSpec`) and write each result into ``store``
     as it arrives (module docstring: where they run, retries). ``reference``: follow each run with
     traffic by its run without traffic, for the mission cost (:mod:`mjasc.campaigns.executor`).
+    ``plugins``: ``{stage: {name: "module:QualifiedName" or None}}``, methods registered in this
+    process that the runs' processes import by name (None: not importable, only unisolated here).
     Returns how it ran: scheduler, workers, start-up and wall time [s], runs_to_do."""
     in_process = scheduler == "synchronous" or workers == 0 or (
         workers is None and scheduler is None and len(runs) <= IN_PROCESS_MAX_RUNS)
+    if plugins and runs:
+        from mjasc.campaigns.methods import check_plugins_reach
+
+        for sources in plugins.values():
+            check_plugins_reach(sources, in_this_process=in_process and not isolate)
+        plugins = {stage: {n: p for n, p in sources.items() if p} for stage, sources in plugins.items()}
+        plugins = {stage: sources for stage, sources in plugins.items() if sources} or None
     info: dict[str, Any] = {"runs_to_do": len(runs)}
     bar = None
     if progress and runs:
@@ -220,10 +249,10 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
             info.update(scheduler="none")
         elif in_process:
             info.update(scheduler="synchronous", workers=0, startup_s=0.0)
-            _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar)
+            _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar, plugins)
         else:
             _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
-                         reference, bar, info)
+                         reference, bar, info, plugins)
     finally:
         if bar is not None:
             bar.close()
@@ -235,14 +264,15 @@ def _record(store: CampaignStore, run, result: dict) -> int:
     return store.record(run.index, family=run.family, parameters=run.parameters, seed=run.seed,
                         scenario=run.scenario_toml, status=result["status"], error=result.get("error"),
                         metrics=result.get("summary"), wall_time_s=result.get("wall_time_s"),
-                        worker=result.get("worker"))
+                        worker=result.get("worker"), method=getattr(run, "method", ""))
 
 
-def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar) -> None:
+def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar,
+              plugins=None) -> None:
     executor = IsolatedExecutor() if isolate else None
     try:
         for run in runs:
-            request = _request(run, out_dir, recordings, reference)
+            request = _request(run, out_dir, recordings, reference, plugins)
             while True:
                 result = executor.run(request, time_limit_s) if executor else execute_in_process(request)
                 attempts = _record(store, run, result)
@@ -256,7 +286,7 @@ def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordi
 
 
 def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
-                 reference, bar, info) -> None:
+                 reference, bar, info, plugins=None) -> None:
     from distributed import as_completed
 
     t_start = time.perf_counter()
@@ -278,11 +308,16 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
                     startup_s=round(time.perf_counter() - t_start, 3))
         tag = f"{store.digest[:10]}-{os.getpid()}-{time.time_ns()}"
         pending: dict = {}
-        attempts = store.attempts()
+        attempts = {(i, m): n for m in dict.fromkeys(getattr(r, "method", "") for r in runs)
+                    for i, n in store.attempts(m).items()}
+
+        def key(run) -> tuple:
+            return run.index, getattr(run, "method", "")
 
         def submit(run) -> None:
-            fut = client.submit(_task, _request(run, out_dir, recordings, reference), time_limit_s, isolate, pure=False,
-                                key=f"mjasc-run-{tag}-{run.index}-{attempts.get(run.index, 0)}")
+            method = f"-{run.method}" if getattr(run, "method", "") else ""
+            fut = client.submit(_task, _request(run, out_dir, recordings, reference, plugins), time_limit_s, isolate,
+                                pure=False, key=f"mjasc-run-{tag}-{run.index}{method}-{attempts.get(key(run), 0)}")
             pending[fut] = run
 
         for run in runs:
@@ -296,10 +331,10 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
                 result = {"status": "crashed", "error": f"{type(exc).__name__}: {exc}", "summary": None,
                           "wall_time_s": None, "worker": None}
             fut.release()
-            attempts[run.index] = _record(store, run, result)
-            if result["status"] in RETRY_STATUSES and attempts[run.index] < max_attempts:
+            attempts[key(run)] = _record(store, run, result)
+            if result["status"] in RETRY_STATUSES and attempts[key(run)] < max_attempts:
                 submit(run)
-                queue.add(next(f for f, r in pending.items() if r.index == run.index))
+                queue.add(next(f for f, r in pending.items() if key(r) == key(run)))
                 continue
             if bar is not None:
                 bar.update(1)

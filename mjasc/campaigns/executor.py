@@ -9,7 +9,9 @@ its exit code or signal) the next run starts a new one. Plain ``subprocess`` is 
 ``multiprocessing``: Dask's worker processes are daemonic and may not start multiprocessing
 children.
 
-A request is ``{"index", "scenario_toml", "run_dir" (None: no files), "evaluate", "reference"}``; the result
+A request is ``{"index", "scenario_toml", "run_dir" (None: no files), "evaluate", "reference"}`` and
+optionally ``"plugins"`` (``{stage: {name: "module:QualifiedName"}}``: methods registered in the
+driver's process, imported and registered here before the run; :mod:`mjasc.campaigns.methods`); the result
 ``{"status": completed | diverged | error | timeout | crashed, "error", "summary", "wall_time_s",
 "cpu_time_s", "worker"}``. :func:`execute_in_process` runs one request in the calling process (the
 child's own code path; also what ``workers = 0`` uses when isolation is off).
@@ -50,6 +52,10 @@ def execute_in_process(request: dict) -> dict:
     try:
         from dataclasses import replace
 
+        if request.get("plugins"):
+            from mjasc.campaigns.methods import register_plugins
+
+            register_plugins(request["plugins"])
         doc = tomllib.loads(request["scenario_toml"])
         sc = parse_scenario(doc, f"<run {request.get('index')}>")
         run_dir = request.get("run_dir")

@@ -19,6 +19,15 @@ The Markdown has two tables per family: outcomes (rates, separation, compliance,
 vessel (median / p95 over every vessel of every completed run, :mod:`mjasc.campaigns.statistics`):
 path cost (extra distance for the same progress), time cost, mean and max cross-track error,
 formation error (mean |lead| over the neighbours, metres of path).
+
+**Comparing methods.** A campaign with ``methods`` (:mod:`mjasc.campaigns.methods`) reports its
+methods side by side: one table with a row per (family, method) and per method over all families
+(runs, collision and near-miss rates with Wilson 95 % intervals, minimum separation min / p5 /
+median, COLREG compliance, median path and time cost, actions), the per-vessel table likewise, and
+each method against the first on the same runs (``paired``: collisions only with one of them,
+separation larger or smaller). The JSON has ``methods`` (per label: the statistics overall and per
+family) and ``paired``. The figures draw the methods side by side (grouped bars and boxes, one
+colour per method) and an outcome map per family and method (``outcomes_<family>_<method>``).
 """
 
 from __future__ import annotations
@@ -41,7 +50,8 @@ def report_data(folder: str | Path) -> dict:
     with CampaignStore.open_existing(folder) as store:
         info = store.info()
         runs = store.runs()
-    agg = aggregate(runs, info.get("runs_defined"))
+        order = _file_methods(store.file_text())
+    agg = aggregate(runs, info.get("runs_defined"), methods=order)
     outcomes = dict(agg["statuses"])
     outcomes["collision"] = agg["collision"]["count"]
     outcomes["near_miss"] = agg["near_miss"]["count"]
@@ -49,6 +59,22 @@ def report_data(folder: str | Path) -> dict:
             "runs_defined": agg["runs_defined"], "runs_recorded": agg["runs_recorded"],
             "runs_failed": agg["runs_failed"], "outcomes": outcomes, **{k: v for k, v in agg.items() if k not in (
                 "runs_defined", "runs_recorded", "runs_failed")}}
+
+
+def _file_methods(text: str) -> list[str]:
+    """The method labels in the campaign file's order (from the stored file), or []."""
+    import json
+
+    try:
+        entries = json.loads(text).get("methods") or []
+    except (ValueError, AttributeError):
+        return []
+    out = []
+    for e in entries if isinstance(entries, list) else []:
+        label = e if isinstance(e, str) else (e.get("label", e.get("name")) if isinstance(e, dict) else None)
+        if isinstance(label, str):
+            out.append(label)
+    return out
 
 
 def _pct(r: dict) -> str:
@@ -60,6 +86,8 @@ def _pct(r: dict) -> str:
 
 def format_report(data: dict) -> str:
     """The report's table as Markdown (also printed by ``mjasc report``)."""
+    if data.get("methods"):
+        return _format_comparison(data)
     c = data["campaign"]
     lines = [f"# Campaign {c.get('name')} (digest {str(c.get('digest'))[:12]})", "",
              f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
@@ -86,6 +114,68 @@ def format_report(data: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _sep3(q: dict | None) -> str:
+    return "—" if not q else f"{q['p0']:.2f} / {q['p5']:.2f} / {q['p50']:.2f}"
+
+
+def _med(q: dict | None, scale: float, digits: int, sign: bool = False) -> str:
+    return "—" if not q else f"{scale * q['p50']:{'+' if sign else ''}.{digits}f}"
+
+
+def _comparison_rows(data: dict):
+    """``(family, method, group)`` per family and method, then ``**all**`` per method."""
+    for fam in data["families"]:
+        for m, gm in data["methods"].items():
+            if fam in gm["families"]:
+                yield fam, m, gm["families"][fam]
+    for m, gm in data["methods"].items():
+        yield "**all**", m, gm
+
+
+def _format_comparison(data: dict) -> str:
+    """The Markdown of a campaign comparing methods (module docstring)."""
+    c = data["campaign"]
+    methods = list(data["methods"])
+    lines = [f"# Campaign {c.get('name')} (digest {str(c.get('digest'))[:12]})", "",
+             f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
+             f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}). "
+             f"Methods compared: {', '.join(methods)} (each generated run once per method, the same scenario but "
+             f"for its avoidance tables).", "",
+             "| family | method | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] "
+             "| min separation: min / p5 / median [m] | COLREG compliant | path cost, median [%] "
+             "| time cost, median [s] | actions |", "|---|---|---:|---|---|---|---|---:|---:|---|"]
+    for fam, m, g in _comparison_rows(data):
+        acts = ", ".join(f"{k} {v}" for k, v in sorted(g["actions"].items()) if v) or "—"
+        pv = g["per_vessel"]
+        lines.append(f"| {fam} | {m} | {g['completed']} | {_pct(g['collision'])} | {_pct(g['near_miss'])} | "
+                     f"{_sep3(g['min_separation_m'])} | {_pct(g['colreg']['compliant'])} | "
+                     f"{_med(pv['path_cost'], 100, 1, True)} | {_med(pv['time_cost_s'], 1, 1, True)} | {acts} |")
+    lines += ["", "Per vessel, median / p95 over the vessels of the completed runs; cost against the same mission "
+                  "without traffic, with the same method (*short*: vessels whose reference never got as far, no "
+                  "time cost):", "",
+              "| family | method | vessels | path cost [%] | time cost [s] | mean cross-track [m] | max cross-track [m] "
+              "| formation error [m] | short |", "|---|---|---:|---|---|---|---|---|---:|"]
+    for fam, m, g in _comparison_rows(data):
+        pv = g["per_vessel"]
+        n = max((q["n"] for k, q in pv.items() if k != "reference_short" and q), default=0)
+        lines.append(f"| {fam} | {m} | {n} | {_q(pv['path_cost'], 100, 1)} | {_q(pv['time_cost_s'], 1, 1)} | "
+                     f"{_q(pv['mean_cross_track_m'], 1, 2)} | {_q(pv['max_cross_track_m'], 1, 2)} | "
+                     f"{_q(pv['formation_error_m'], 1, 2)} | {pv['reference_short']} |")
+    for m, p in (data.get("paired") or {}).items():
+        base = p["baseline"]
+        lines += ["", f"{m} against {base} on the same runs (both completed): collisions with only one of them, "
+                      f"and how often {m}'s minimum separation was larger or smaller than {base}'s:", "",
+                  f"| family | pairs | collision only {base} | collision only {m} | both collide "
+                  f"| separation larger | separation smaller |", "|---|---:|---:|---:|---:|---:|---:|"]
+        for fam, cnt in p.items():
+            if fam == "baseline":
+                continue
+            lines.append(f"| {'**all**' if fam == 'all' else fam} | {cnt['pairs']} | {cnt['collision_only_' + base]} | "
+                         f"{cnt['collision_only_' + m]} | {cnt['collision_both']} | {cnt['separation_larger']} | "
+                         f"{cnt['separation_smaller']} |")
+    return "\n".join(lines) + "\n"
+
+
 def _q(q: dict | None, scale: float, digits: int) -> str:
     """``median / p95`` of a quantiles dict, scaled; — when there are none."""
     return "—" if not q else f"{scale * q['p50']:.{digits}f} / {scale * q['p95']:.{digits}f}"
@@ -93,13 +183,15 @@ def _q(q: dict | None, scale: float, digits: int) -> str:
 
 # ---------------------------------------------------------------------- figures
 def _numeric_params(runs) -> list[str]:
-    """The family's numeric parameters that vary, the encounter's geometry first (bearing or
+    """The family's numeric parameters that vary (among those every run has: an Imazu case with one
+    target has no ``t2.dcpa_m``), the encounter's geometry first (bearing or
     aspect, DCPA, TCPA, speed ratio: what an outcome map is read against), then the others, each
     group most varied first (by the number of distinct values)."""
     values: dict[str, set] = defaultdict(set)
+    common = set.intersection(*(set(r.parameters) for r in runs)) if runs else set()
     for r in runs:
         for k, v in r.parameters.items():
-            if isinstance(v, (int, float)) and not isinstance(v, bool) and k != "attempts":
+            if k in common and isinstance(v, (int, float)) and not isinstance(v, bool) and k != "attempts":
                 values[k].add(round(float(v), 9))
 
     def rank(item):
@@ -144,6 +236,9 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
         runs = [r for r in store.runs() if r.status == "completed"]
     fams = sorted({r.family for r in runs})
     if not runs:
+        return {"data": data, "files": files}
+    if data.get("methods"):
+        files += _comparison_figures(plt, data, runs, out, formats)
         return {"data": data, "files": files}
     # rates with Wilson intervals
     fig, ax = plt.subplots(figsize=(max(5, 1.4 * len(fams) + 2), 4))
@@ -247,3 +342,167 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
         files += _save(fig, out, "cost", formats)
         plt.close(fig)
     return {"data": data, "files": files}
+
+
+# ---------------------------------------------------------------------- figures of a comparison
+def _grouped_bars(ax, cats: list[str], series: dict) -> None:
+    """Bars per category, one per series side by side: ``series[label] = (values, lo, hi)``
+    (values in %, lo/hi the interval's ends, or None for no error bar)."""
+    k = max(1, len(series))
+    width = 0.8 / k
+    x = np.arange(len(cats))
+    for j, (label, (vals, lo, hi)) in enumerate(series.items()):
+        pos = x - 0.4 + width * (j + 0.5)
+        ax.bar(pos, vals, width=width * 0.95, color=f"C{j}", label=label)
+        if lo is not None:
+            ax.errorbar(pos, vals, yerr=[np.subtract(vals, lo), np.subtract(hi, vals)], fmt="none", ecolor="black",
+                        capsize=2)
+    ax.set_xticks(x, cats, rotation=20, ha="right")
+
+
+def _grouped_boxes(ax, cats: list[str], series: dict) -> None:
+    """Box plots per category, one per series side by side: ``series[label] = [values per category]``."""
+    k = max(1, len(series))
+    width = 0.8 / k
+    x = np.arange(len(cats))
+    for j, (label, per_cat) in enumerate(series.items()):
+        pos = x - 0.4 + width * (j + 0.5)
+        bp = ax.boxplot([[v for v in vals if v is not None] or [np.nan] for vals in per_cat], positions=pos,
+                        widths=width * 0.85, patch_artist=True, manage_ticks=False,
+                        medianprops={"color": "black"})
+        for patch in bp["boxes"]:
+            patch.set_facecolor(f"C{j}")
+            patch.set_alpha(0.6)
+        ax.plot([], [], color=f"C{j}", lw=6, alpha=0.6, label=label)
+    ax.set_xticks(x, cats, rotation=20, ha="right")
+    ax.set_xlim(-0.6, len(cats) - 0.4)
+
+
+def _comparison_figures(plt, data: dict, runs, out: Path, formats) -> list[Path]:
+    """The figures of a campaign comparing methods (module docstring)."""
+    files: list[Path] = []
+    methods = list(data["methods"])
+    fams = sorted({r.family for r in runs})
+    outcome = {(r.index, r.method): run_outcome(r.metrics) for r in runs}
+
+    def of(m, f):
+        return [outcome[(r.index, r.method)] for r in runs if r.method == m and r.family == f]
+
+    def rate_series(key):
+        series = {}
+        for m in methods:
+            vals, lo, hi = [], [], []
+            for f in fams:
+                g = data["methods"][m]["families"].get(f, {}).get(key) or {"rate": None, "wilson95": None}
+                vals.append(100 * (g["rate"] or 0.0))
+                w = g["wilson95"] or [g["rate"] or 0.0] * 2
+                lo.append(100 * w[0])
+                hi.append(100 * w[1])
+            series[m] = (vals, lo, hi)
+        return series
+
+    fig, axes = plt.subplots(1, 2, figsize=(max(9, 2.2 * len(fams) + 3), 4.2))
+    for ax, key, title in ((axes[0], "collision", "collision"), (axes[1], "near_miss", "near miss (< 1 m, no contact)")):
+        _grouped_bars(ax, fams, rate_series(key))
+        ax.set_ylabel("runs [%] (bars: Wilson 95 %)")
+        ax.set_title(title)
+    axes[0].legend(title="method")
+    fig.suptitle("Collision and near-miss rate per encounter family and method")
+    fig.tight_layout()
+    files += _save(fig, out, "rates", formats)
+    plt.close(fig)
+
+    fig, ax = plt.subplots(figsize=(max(6, 1.8 * len(fams) + 2), 4.2))
+    _grouped_boxes(ax, fams, {m: [[o["min_separation_m"] for o in of(m, f)] for f in fams] for m in methods})
+    ax.axhline(0.0, color="tab:red", lw=1, ls="--")
+    ax.set_ylabel("minimum separation [m]\n(< 0: hull circles overlap)")
+    ax.set_title("Minimum separation per run and method")
+    ax.legend(title="method")
+    fig.tight_layout()
+    files += _save(fig, out, "separation", formats)
+    plt.close(fig)
+
+    for f in fams:  # outcome maps per family and method, on shared axes and colour scale
+        fr = [r for r in runs if r.family == f]
+        params = _numeric_params(fr)
+        if len(params) < 2:
+            continue
+        px, py = params[0], params[1]
+        seps = [outcome[(r.index, r.method)]["min_separation_m"] for r in fr]
+        seps = [s for s in seps if s is not None]
+        vmin, vmax = (min(seps), max(seps)) if seps else (0.0, 1.0)
+        for m in methods:
+            mr = [r for r in fr if r.method == m]
+            if not mr:
+                continue
+            xs = np.array([r.parameters[px] for r in mr], dtype=float)
+            ys = np.array([r.parameters[py] for r in mr], dtype=float)
+            sep = np.array([outcome[(r.index, m)]["min_separation_m"] or np.nan for r in mr], dtype=float)
+            coll = np.array([outcome[(r.index, m)]["collision"] for r in mr])
+            fig, ax = plt.subplots(figsize=(6, 4.5))
+            sc = ax.scatter(xs, ys, c=sep, cmap="viridis", s=30, vmin=vmin, vmax=vmax)
+            if coll.any():
+                ax.scatter(xs[coll], ys[coll], marker="x", color="tab:red", s=60, label="collision")
+                ax.legend()
+            fig.colorbar(sc, ax=ax, label="minimum separation [m]")
+            ax.set_xlabel(px)
+            ax.set_ylabel(py)
+            ax.set_title(f"{f}, {m}: outcome over {px} × {py}")
+            fig.tight_layout()
+            files += _save(fig, out, f"outcomes_{f}_{m}", formats)
+            plt.close(fig)
+
+    per_role: dict = defaultdict(lambda: [0, 0])
+    for r in runs:
+        for e in (r.metrics or {}).get("evaluation", {}).get("encounters", []):
+            per_role[(e["role"], r.method)][0] += bool(e["compliant"])
+            per_role[(e["role"], r.method)][1] += 1
+    if per_role:
+        roles = sorted({k[0] for k in per_role})
+        series = {}
+        for m in methods:
+            vals, lo, hi = [], [], []
+            for role in roles:
+                k, n = per_role.get((role, m), [0, 0])
+                w = wilson_interval(k, n) or (0.0, 0.0)
+                vals.append(100 * k / n if n else 0.0)
+                lo.append(100 * w[0])
+                hi.append(100 * w[1])
+            series[m] = (vals, lo, hi)
+        fig, ax = plt.subplots(figsize=(max(6, 1.8 * len(roles) + 2), 4.2))
+        _grouped_bars(ax, roles, series)
+        ax.set_xticks(np.arange(len(roles)), [f"{role}\n(n = {' / '.join(str(per_role.get((role, m), [0, 0])[1]) for m in methods)})"
+                                              for role in roles], rotation=0, ha="center", fontsize=8)
+        ax.set_ylabel("compliant encounters [%]")
+        ax.set_ylim(0, 105)
+        ax.set_title("COLREG compliance per role of the own vessel and method")
+        ax.legend(title="method")
+        fig.tight_layout()
+        files += _save(fig, out, "colreg", formats)
+        plt.close(fig)
+
+    gospa = {m: [[o["gospa_mean_m"] for o in of(m, f)] for f in fams] for m in methods}
+    if any(v is not None for g in gospa.values() for vals in g for v in vals):
+        fig, ax = plt.subplots(figsize=(max(6, 1.8 * len(fams) + 2), 4.2))
+        _grouped_boxes(ax, fams, gospa)
+        ax.set_ylabel("mean GOSPA per run [m] (c = 10 m, p = 2)")
+        ax.set_title("Tracking accuracy against the truth, per method")
+        ax.legend(title="method")
+        fig.tight_layout()
+        files += _save(fig, out, "tracking", formats)
+        plt.close(fig)
+
+    if any(o["per_vessel"]["path_cost"] for o in outcome.values()):
+        fig, axes = plt.subplots(1, 2, figsize=(max(10, 3.2 * len(fams) + 3), 4.2))
+        for ax, key, scale, label in ((axes[0], "path_cost", 100.0, "extra distance for the same progress [%]"),
+                                      (axes[1], "time_cost_s", 1.0, "later than without traffic [s]")):
+            _grouped_boxes(ax, fams, {m: [[scale * x for o in of(m, f) for x in o["per_vessel"][key]] for f in fams]
+                                      for m in methods})
+            ax.axhline(0.0, color="grey", lw=1, ls="--")
+            ax.set_ylabel(label)
+        axes[0].legend(title="method")
+        fig.suptitle("Mission cost per vessel against the same mission without traffic, per method")
+        fig.tight_layout()
+        files += _save(fig, out, "cost", formats)
+        plt.close(fig)
+    return files

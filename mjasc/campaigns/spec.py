@@ -36,6 +36,11 @@ grid point ``k // runs_per_point`` and draws from ``default_rng([base_seed, fami
 :data:`mjasc.campaigns.encounters.MAX_ATTEMPTS` times; a run for which no draw is accepted is a
 :class:`CampaignError` naming the family, the run and the last reason.
 
+**Methods.** A top-level ``methods = ["thesis", "velocity_obstacle"]`` (entries may be tables
+with options and a label, :mod:`mjasc.campaigns.methods`) runs every generated run once per method:
+run ``(index, label)``, same seed and scenario text except the ``[vessels.avoidance]`` tables.
+Without ``methods`` a run is ``(index, "")`` and its text is the family's, exactly as before.
+
 **Digest.** ``sha256`` of the canonical JSON (sorted keys) of the file's parsed content, the
 content of every scenario file a family reads, and :data:`SPEC_FORMAT`: an edited file (or an edited
 referenced scenario) is a new campaign; comments and layout do not count.
@@ -50,6 +55,7 @@ from pathlib import Path
 from typing import Any, Iterator
 
 from mjasc.evaluation.colreg import ColregConfig
+from mjasc.campaigns.methods import apply_method, parse_methods
 from mjasc.campaigns.perturbation import CampaignError, parse_perturbation_family
 from mjasc.campaigns.scenario_text import load_run_scenario, scenario_toml, write_scenario
 from mjasc.core.config_tables import (
@@ -82,6 +88,7 @@ class RunSpec:
     parameters: dict      # the drawn encounter parameters (name → float | str), for reports and maps
     scenario_toml: str    # the complete scenario as TOML text: `mjasc run` on it replays the run exactly
     seed: int             # the scenario's seed (also inside scenario_toml)
+    method: str = ""      # the compared method's label (campaigns with `methods`); "" otherwise
 
     def scenario(self):
         """The parsed :class:`~mjasc.runs.scenario.Scenario` (what the engine runs)."""
@@ -124,16 +131,29 @@ class CampaignSpec:
     base_dir: str = "."
     limit: int | None = None  # only the first `limit` runs (the same campaign: same digest, same runs)
     evaluation: CampaignEvaluation = field(default_factory=CampaignEvaluation)
+    methods: tuple = ()  # the compared avoidance methods (mjasc.campaigns.methods.MethodEntry); () = as written
 
     @property
-    def runs_defined(self) -> int:
-        """How many runs the campaign defines (the sum over its families; at most ``limit``)."""
+    def method_labels(self) -> tuple[str, ...]:
+        """The labels runs are stored under: the compared methods' labels, or ``("",)`` without ``methods``."""
+        return tuple(m.label for m in self.methods) or ("",)
+
+    @property
+    def runs_per_method(self) -> int:
+        """How many runs the families generate (the sum over them; at most ``limit``): the run
+        indices; with ``methods`` each index runs once per method."""
         total = sum(f.runs for f in self.families)
         return total if self.limit is None else min(total, self.limit)
 
+    @property
+    def runs_defined(self) -> int:
+        """How many runs the campaign makes: :attr:`runs_per_method` × the number of methods (1
+        without ``methods``)."""
+        return self.runs_per_method * len(self.method_labels)
+
     def _locate(self, index: int):
-        if not 0 <= index < self.runs_defined:
-            raise IndexError(f"run {index}: the campaign defines {self.runs_defined} run(s)")
+        if not 0 <= index < self.runs_per_method:
+            raise IndexError(f"run {index}: the campaign defines {self.runs_per_method} run(s)")
         k = index
         for fam in self.families:
             if k < fam.runs:
@@ -141,22 +161,44 @@ class CampaignSpec:
             k -= fam.runs
         raise AssertionError("unreachable")
 
-    def run(self, index: int) -> RunSpec:
-        """Run ``index`` of the campaign (module docstring): the same RunSpec on every call."""
+    def run(self, index: int, method: str | None = None) -> RunSpec:
+        """Run ``index`` of the campaign (module docstring): the same RunSpec on every call. With
+        ``methods``, ``method`` (a label) says which method's run; the runs of one index differ
+        only in their ``[vessels.avoidance]`` tables (:mod:`mjasc.campaigns.methods`)."""
+        entry = self._method(method)
         fam, k = self._locate(int(index))
         params, doc, seed, header = fam.generate(k, self.base_seed, index)  # CampaignError: no draw accepted
         doc = {"name": doc.get("name", f"{fam.name}_{index}"), **doc, "seed": int(seed)}
+        which = ""
+        if entry is not None:
+            doc, _ = apply_method(doc, entry)
+            options = ", ".join(f"{k} = {_short(v)}" for k, v in entry.options.items())
+            which = f"Avoidance method: {entry.label} ({entry.name}{': ' + options if options else ''}).\n"
         shown = ", ".join(f"{k} = {_short(v)}" for k, v in params.items())
         text = scenario_toml(doc, header=(
             f"Campaign {self.name} (digest {self.digest[:12]}), family {fam.name} ({fam.kind}), run {index} "
-            f"(run {k} of the family), seed {seed}.\n{header}\nParameters: {shown}\n"
+            f"(run {k} of the family), seed {seed}.\n{which}{header}\nParameters: {shown}\n"
             f"Replay: mjasc run <this file>"))
-        return RunSpec(int(index), fam.name, params, text, int(seed))
+        return RunSpec(int(index), fam.name, params, text, int(seed), entry.label if entry is not None else "")
+
+    def _method(self, method: str | None):
+        if not self.methods:
+            if method not in (None, ""):
+                raise ValueError(f"method: the campaign {self.name} compares no methods, got {method!r}")
+            return None
+        if method is None:
+            raise ValueError(f"method: the campaign {self.name} compares methods ({', '.join(self.method_labels)}): "
+                             f"say which run (method=…)")
+        for m in self.methods:
+            if m.label == method:
+                return m
+        raise ValueError(f"method: no method labelled {method!r} in {self.name} (have: {', '.join(self.method_labels)})")
 
     def runs(self) -> Iterator[RunSpec]:
-        """Every run, in index order."""
-        for index in range(self.runs_defined):
-            yield self.run(index)
+        """Every run, in index order (with ``methods``: each index once per method, in file order)."""
+        for index in range(self.runs_per_method):
+            for label in self.method_labels:
+                yield self.run(index, label or None)
 
     def with_overrides(self, base_seed: int | None = None, runs_per_point: int | None = None,
                        duration_s: float | None = None, runs: int | None = None) -> "CampaignSpec":
@@ -189,7 +231,7 @@ def _short(v: Any) -> str:
 
 
 # ---------------------------------------------------------------------- parsing
-_TOP = {"name", "description", "base_seed", "outputs", "evaluation", "colreg", "families"}
+_TOP = {"name", "description", "base_seed", "outputs", "evaluation", "colreg", "families", "methods"}
 _LEGACY = {"scenario", "runs", "duration_s", "randomize"}
 
 
@@ -244,6 +286,7 @@ def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path
         outputs = dataclass_from_table(CampaignOutputs, data.get("outputs", {}), "outputs")
         evaluation = dataclass_from_table(CampaignEvaluation, data.get("evaluation", {}), "evaluation")
         thresholds = dataclass_from_table(ColregConfig, data.get("colreg", {}), "colreg")
+        methods = parse_methods(data["methods"]) if "methods" in data else ()
         parsers = _family_parsers()
         families = []
         for i, t in enumerate(_family_tables(data)):
@@ -258,13 +301,20 @@ def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path
         refs.update(getattr(fam, "references", dict)())
     digest = hashlib.sha256(_canonical({"format": SPEC_FORMAT, "campaign": data, "files": refs}).encode()).hexdigest()
     spec = CampaignSpec(name, description, base_seed, tuple(families), outputs, digest, source, dict(data),
-                        str(base_dir), evaluation=evaluation)
+                        str(base_dir), evaluation=evaluation, methods=methods)
     first = 0
     for i, fam in enumerate(families):  # each family's first run must be a valid scenario (own overrides, rates)
-        try:
-            spec.run(first).scenario()
-        except ScenarioError as exc:
-            raise CampaignError(f"families[{i}] ({fam.name}): its first run is not a valid scenario: {exc}") from None
+        for label in spec.method_labels:
+            run = spec.run(first, label or None)
+            with_method = f" with method {label!r}" if label else ""
+            try:
+                sc = run.scenario()
+            except ScenarioError as exc:
+                raise CampaignError(f"families[{i}] ({fam.name}): its first run{with_method} is not a valid scenario: "
+                                    f"{exc}") from None
+            if label and not any("avoidance" in v.options for v in sc.vessels):
+                raise CampaignError(f"methods: family {fam.name!r} (families[{i}]) has no vessel with a "
+                                    f"[vessels.avoidance] table: its runs would not differ between methods")
         first += fam.runs
     return spec
 

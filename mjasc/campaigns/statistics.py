@@ -15,6 +15,10 @@ near-miss rates with Wilson 95 % intervals, separation quantiles, compliance rat
 tracking means, throughput, and ``per_vessel``: quantiles (median p50, p95, …) of each per-vessel
 value over every vessel of every completed run, with ``reference_short`` counting the vessels whose
 reference never got as far as they did (no time cost).
+
+A campaign comparing avoidance methods (runs stored with a method label) also gets ``methods``:
+per label, the same statistics over that method's runs, overall and per family (``families``);
+the top-level figures then pool every method's runs.
 """
 
 from __future__ import annotations
@@ -24,7 +28,8 @@ from collections import Counter, defaultdict
 
 import numpy as np
 
-__all__ = ["Z95", "wilson_interval", "quantiles", "run_outcome", "vessel_samples", "aggregate", "format_aggregate"]
+__all__ = ["Z95", "wilson_interval", "quantiles", "run_outcome", "vessel_samples", "aggregate", "format_aggregate",
+           "method_order", "paired"]
 
 #: Per-vessel values (:func:`vessel_samples`): name → (where in the summary, field).
 PER_VESSEL = {"path_cost": ("cost", "path_cost"), "time_cost_s": ("cost", "time_cost_s"),
@@ -151,14 +156,69 @@ def _group(runs, near_miss_m: float) -> dict:
     }
 
 
-def aggregate(runs, runs_defined: int | None = None, near_miss_m: float = 1.0) -> dict:
-    """Overall and per-family statistics of stored runs (:class:`~mjasc.campaigns.store.StoredRun`)."""
+def _by_family(runs, near_miss_m: float) -> dict:
     by_family: dict[str, list] = defaultdict(list)
     for r in runs:
         by_family[r.family].append(r)
+    return {f: _group(rs, near_miss_m) for f, rs in sorted(by_family.items())}
+
+
+def method_order(runs, methods=None) -> list[str]:
+    """The method labels of ``runs``: those of ``methods`` first (the file's order), then any other
+    stored label, sorted; empty for a campaign without methods."""
+    stored = {getattr(r, "method", "") for r in runs} - {""}
+    order = [m for m in (methods or []) if m]
+    return order + sorted(stored - set(order))
+
+
+def aggregate(runs, runs_defined: int | None = None, near_miss_m: float = 1.0, methods=None) -> dict:
+    """Overall and per-family statistics of stored runs (:class:`~mjasc.campaigns.store.StoredRun`);
+    with method labels (stored, or ``methods``: the compared labels in file order) also per method."""
     out = {"runs_defined": runs_defined, "runs_recorded": len(runs), **_group(runs, near_miss_m),
-           "families": {f: _group(rs, near_miss_m) for f, rs in sorted(by_family.items())}}
+           "families": _by_family(runs, near_miss_m)}
     out["runs_failed"] = sum(n for s, n in out["statuses"].items() if s != "completed")
+    labels = method_order(runs, methods)
+    if labels:
+        out["methods"] = {}
+        for m in labels:
+            rm = [r for r in runs if getattr(r, "method", "") == m]
+            out["methods"][m] = {**_group(rm, near_miss_m), "families": _by_family(rm, near_miss_m)}
+        if len(labels) > 1:
+            out["paired"] = paired(runs, labels, near_miss_m)
+    return out
+
+
+def paired(runs, labels, near_miss_m: float = 1.0) -> dict:
+    """Each method against the first (the baseline) on the same runs: per family and ``all``, per
+    other method, over the indices both completed — ``pairs``, collisions only with the baseline /
+    only with the other / with both, and how often the other's minimum separation was larger /
+    smaller than the baseline's (ties counted in neither)."""
+    base = labels[0]
+    seps: dict = {}
+    for r in runs:
+        if r.status == "completed":
+            o = run_outcome(r.metrics, near_miss_m)
+            seps[(r.index, getattr(r, "method", ""))] = (r.family, o["collision"], o["min_separation_m"])
+    out: dict = {}
+    for m in labels[1:]:
+        groups: dict[str, Counter] = defaultdict(Counter)
+        for (i, lab), (fam, coll_b, sep_b) in seps.items():
+            if lab != base or (i, m) not in seps:
+                continue
+            _, coll_m, sep_m = seps[(i, m)]
+            for g in (fam, "all"):
+                c = groups[g]
+                c["pairs"] += 1
+                c["collision_only_" + base] += coll_b and not coll_m
+                c["collision_only_" + m] += coll_m and not coll_b
+                c["collision_both"] += coll_b and coll_m
+                if sep_b is not None and sep_m is not None:
+                    c["separation_larger"] += sep_m > sep_b
+                    c["separation_smaller"] += sep_m < sep_b
+        keys = ("pairs", "collision_only_" + base, "collision_only_" + m, "collision_both", "separation_larger",
+                "separation_smaller")
+        out[m] = {"baseline": base, **{g: {k: int(c[k]) for k in keys}
+                                       for g, c in sorted(groups.items(), key=lambda kv: (kv[0] == "all", kv[0]))}}
     return out
 
 
@@ -182,9 +242,19 @@ def format_aggregate(agg: dict, name: str = "") -> str:
              f"{agg['runs_failed']} failed"]
     rows = [("family", "runs", "collision (Wilson 95 %)", "near miss (Wilson 95 %)", "separation",
              "median cost: path / time")]
-    for fam, g in list(agg["families"].items()) + [("all", agg)]:
-        rows.append((fam, str(g["completed"]), rate(g["collision"]), rate(g["near_miss"]), sep(g["min_separation_m"]),
-                     cost(g["per_vessel"])))
+    if agg.get("methods"):  # a comparison: one row per family and method
+        rows = [("family", "method") + rows[0][1:]]
+        fams = list(agg["families"]) + ["all"]
+        for fam in fams:
+            for m, gm in agg["methods"].items():
+                g = gm if fam == "all" else gm["families"].get(fam)
+                if g is not None:
+                    rows.append((fam, m, str(g["completed"]), rate(g["collision"]), rate(g["near_miss"]),
+                                 sep(g["min_separation_m"]), cost(g["per_vessel"])))
+    else:
+        for fam, g in list(agg["families"].items()) + [("all", agg)]:
+            rows.append((fam, str(g["completed"]), rate(g["collision"]), rate(g["near_miss"]),
+                         sep(g["min_separation_m"]), cost(g["per_vessel"])))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines += ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
     return "\n".join(lines)

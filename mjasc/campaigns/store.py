@@ -1,7 +1,8 @@
 """The campaign store: one SQLite database in the campaign folder, written as each run finishes.
 
 A campaign is identified by the digest of its file (an edited file is a new campaign) and each run
-by its index k; the driver writes one row per run the moment its result arrives, in its own
+by its index k and its method label (a campaign comparing avoidance methods runs index k once per
+method; ``""`` without ``methods``); the driver writes one row per run the moment its result arrives, in its own
 transaction, in WAL mode. A campaign killed at any moment (even SIGKILL) keeps every finished run;
 restarted with the same command it reads which runs are done and computes only the others: none
 lost, none duplicated, none recomputed.
@@ -10,7 +11,11 @@ Schema (``campaign.sqlite``)::
 
     campaigns(digest PRIMARY KEY, name, source, file_text, runs_defined, created_unix_s)
     runs(digest, idx, family, parameters JSON, seed, scenario TOML, status, attempts, error,
-         metrics JSON, wall_time_s, worker, finished_unix_s, PRIMARY KEY (digest, idx))
+         metrics JSON, wall_time_s, worker, finished_unix_s, method, PRIMARY KEY (digest, idx, method))
+
+A store written before ``method`` existed (key ``(digest, idx)``) is migrated when opened: its runs
+table is rebuilt with the new key in one transaction, every row with method ``""`` (nothing else
+changes; its runs stay done).
 
 Statuses: ``completed`` and ``diverged`` are results (a divergence is deterministic: the run
 replays it); ``error`` (the run raised), ``timeout`` (over the per-run time limit) and ``crashed``
@@ -42,8 +47,10 @@ CREATE TABLE IF NOT EXISTS campaigns (
 CREATE TABLE IF NOT EXISTS runs (
     digest TEXT NOT NULL, idx INTEGER NOT NULL, family TEXT, parameters TEXT, seed INTEGER, scenario TEXT,
     status TEXT NOT NULL, attempts INTEGER NOT NULL, error TEXT, metrics TEXT, wall_time_s REAL, worker TEXT,
-    finished_unix_s REAL, PRIMARY KEY (digest, idx));
+    finished_unix_s REAL, method TEXT NOT NULL DEFAULT '', PRIMARY KEY (digest, idx, method));
 """
+_OLD_COLUMNS = ("digest, idx, family, parameters, seed, scenario, status, attempts, error, metrics, wall_time_s, "
+                "worker, finished_unix_s")
 
 
 @dataclass(frozen=True)
@@ -62,6 +69,7 @@ class StoredRun:
     metrics: dict | None
     wall_time_s: float | None
     worker: str | None
+    method: str = ""  # the compared method's label; "" in a campaign without methods
 
 
 class CampaignStore:
@@ -77,9 +85,28 @@ class CampaignStore:
         self._db.execute("PRAGMA journal_mode=WAL")
         self._db.execute("PRAGMA synchronous=NORMAL")
         self._db.executescript(_SCHEMA)
+        self._migrate()
         if name or runs_defined:
             self._db.execute("INSERT OR IGNORE INTO campaigns VALUES (?, ?, ?, ?, ?, ?)",
                              (digest, name, source, file_text, int(runs_defined), time.time()))
+
+    def _migrate(self) -> None:
+        """Give a store written before the ``method`` column its new key (module docstring)."""
+        db = self._db
+        if "method" in {r[1] for r in db.execute("PRAGMA table_info(runs)")}:
+            return
+        db.execute("BEGIN IMMEDIATE")
+        try:
+            if "method" not in {r[1] for r in db.execute("PRAGMA table_info(runs)")}:  # another process may have
+                db.execute("DROP TABLE IF EXISTS runs_migrating")
+                db.execute(_SCHEMA.split(";")[1].replace("IF NOT EXISTS runs", "runs_migrating"))
+                db.execute(f"INSERT INTO runs_migrating ({_OLD_COLUMNS}, method) SELECT {_OLD_COLUMNS}, '' FROM runs")
+                db.execute("DROP TABLE runs")
+                db.execute("ALTER TABLE runs_migrating RENAME TO runs")
+            db.execute("COMMIT")
+        except BaseException:
+            db.execute("ROLLBACK")
+            raise
 
     @classmethod
     def open_existing(cls, folder: str | Path) -> "CampaignStore":
@@ -106,24 +133,25 @@ class CampaignStore:
     # ------------------------------------------------------------------ writing
     def record(self, index: int, *, family: str, parameters: dict, seed: int, scenario: str, status: str,
                error: str | None = None, metrics: dict | None = None, wall_time_s: float | None = None,
-               worker: str | None = None) -> int:
-        """Write run ``index``'s result (one transaction); returns its attempt count. A later
+               worker: str | None = None, method: str = "") -> int:
+        """Write run ``(index, method)``'s result (one transaction); returns its attempt count. A later
         result of the same run replaces an earlier retryable one; a final result is never replaced."""
         if status not in FINAL_STATUSES | RETRY_STATUSES:
             raise ValueError(f"status: must be one of {sorted(FINAL_STATUSES | RETRY_STATUSES)}, got {status!r}")
         db = self._db
         db.execute("BEGIN IMMEDIATE")
         try:
-            row = db.execute("SELECT status, attempts FROM runs WHERE digest = ? AND idx = ?",
-                             (self.digest, int(index))).fetchone()
+            row = db.execute("SELECT status, attempts FROM runs WHERE digest = ? AND idx = ? AND method = ?",
+                             (self.digest, int(index), method)).fetchone()
             if row is not None and row[0] in FINAL_STATUSES:
                 db.execute("COMMIT")
                 return int(row[1])
             attempts = 1 + (int(row[1]) if row is not None else 0)
-            db.execute("INSERT OR REPLACE INTO runs VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
+            db.execute(f"INSERT OR REPLACE INTO runs ({_OLD_COLUMNS}, method) "
+                       f"VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                        (self.digest, int(index), family, json.dumps(parameters, sort_keys=True), int(seed), scenario,
                         status, attempts, error, None if metrics is None else json.dumps(metrics, sort_keys=True),
-                        wall_time_s, worker, time.time()))
+                        wall_time_s, worker, time.time(), method))
             db.execute("COMMIT")
         except BaseException:
             db.execute("ROLLBACK")
@@ -139,29 +167,45 @@ class CampaignStore:
         return {"digest": self.digest, "name": row[0], "source": row[1], "runs_defined": row[2],
                 "created_unix_s": row[3]}
 
-    def done(self, max_attempts: int) -> set[int]:
-        """Indices that need no more work: a final status, or a retryable one ``max_attempts`` times."""
-        rows = self._db.execute("SELECT idx FROM runs WHERE digest = ? AND (status IN ('completed', 'diverged') "
-                                "OR attempts >= ?)", (self.digest, int(max_attempts))).fetchall()
+    def file_text(self) -> str:
+        """The campaign's parsed file as stored (JSON text; "" when unknown)."""
+        row = self._db.execute("SELECT file_text FROM campaigns WHERE digest = ?", (self.digest,)).fetchone()
+        return (row[0] or "") if row else ""
+
+    def done(self, max_attempts: int, method: str = "") -> set[int]:
+        """Indices whose run with ``method`` needs no more work: a final status, or a retryable one
+        ``max_attempts`` times."""
+        rows = self._db.execute("SELECT idx FROM runs WHERE digest = ? AND method = ? AND (status IN ('completed', "
+                                "'diverged') OR attempts >= ?)", (self.digest, method, int(max_attempts))).fetchall()
         return {int(r[0]) for r in rows}
 
-    def attempts(self) -> dict[int, int]:
-        return {int(i): int(a) for i, a in
-                self._db.execute("SELECT idx, attempts FROM runs WHERE digest = ?", (self.digest,))}
+    def attempts(self, method: str = "") -> dict[int, int]:
+        """Attempts so far per index, of the runs with ``method``."""
+        return {int(i): int(a) for i, a in self._db.execute(
+            "SELECT idx, attempts FROM runs WHERE digest = ? AND method = ?", (self.digest, method))}
 
-    def runs(self, statuses: Iterable[str] | None = None) -> list[StoredRun]:
-        """Every stored run (sorted by index), optionally only those with these statuses."""
-        sql = ("SELECT idx, family, parameters, seed, scenario, status, attempts, error, metrics, wall_time_s, worker "
-               "FROM runs WHERE digest = ?")
+    def methods(self) -> list[str]:
+        """The method labels of the stored runs (``[""]`` for a campaign without methods), sorted."""
+        return [r[0] for r in self._db.execute("SELECT DISTINCT method FROM runs WHERE digest = ? ORDER BY method",
+                                               (self.digest,))]
+
+    def runs(self, statuses: Iterable[str] | None = None, method: str | None = None) -> list[StoredRun]:
+        """Every stored run (sorted by index, then method), optionally only those with these
+        statuses, or with this method label."""
+        sql = ("SELECT idx, family, parameters, seed, scenario, status, attempts, error, metrics, wall_time_s, worker, "
+               "method FROM runs WHERE digest = ?")
         args: list = [self.digest]
         if statuses is not None:
             statuses = list(statuses)
             sql += f" AND status IN ({', '.join('?' * len(statuses))})"
             args += statuses
+        if method is not None:
+            sql += " AND method = ?"
+            args.append(method)
         out = []
-        for r in self._db.execute(sql + " ORDER BY idx", args):
+        for r in self._db.execute(sql + " ORDER BY idx, method", args):
             out.append(StoredRun(int(r[0]), r[1], json.loads(r[2] or "{}"), int(r[3]), r[4], r[5], int(r[6]), r[7],
-                                 None if r[8] is None else json.loads(r[8]), r[9], r[10]))
+                                 None if r[8] is None else json.loads(r[8]), r[9], r[10], r[11]))
         return out
 
     def counts(self) -> dict[str, int]:
@@ -172,7 +216,8 @@ class CampaignStore:
     # ------------------------------------------------------------------ export
     def export(self, stem: str | Path | None = None) -> dict[str, Path]:
         """Write ``runs.csv`` and ``runs.parquet`` (or ``<stem>.csv/.parquet``): one row per run,
-        the metrics flattened to dotted columns (lists as JSON text)."""
+        the metrics flattened to dotted columns (lists as JSON text); a ``method`` column after
+        ``index`` when the campaign compares methods."""
         rows = [_flat_row(r) for r in self.runs()]
         stem = Path(stem) if stem is not None else self.folder / "runs"
         columns: list[str] = []
@@ -202,7 +247,7 @@ def _flat(prefix: str, value, out: dict) -> None:
 
 
 def _flat_row(r: StoredRun) -> dict:
-    row = {"index": r.index, "family": r.family, "seed": r.seed, "status": r.status, "attempts": r.attempts,
+    row = {"index": r.index, **({"method": r.method} if r.method else {}), "family": r.family, "seed": r.seed, "status": r.status, "attempts": r.attempts,
            "error": r.error, "wall_time_s": r.wall_time_s, "worker": r.worker}
     _flat("param", r.parameters, row)
     if r.metrics:

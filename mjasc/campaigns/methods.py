@@ -1,0 +1,202 @@
+"""Comparing avoidance methods: a campaign's ``methods`` list, and a run's scenario with a method set.
+
+A campaign file may list the avoidance methods it compares (top level, before the tables)::
+
+    methods = ["thesis", "velocity_obstacle"]
+    # or entries with options and a label (the label names the method in the store and the report;
+    # default: the name; labels are unique, letters, digits, "_", "-", ".")
+    methods = [{ name = "thesis", label = "thesis_k05", gain_k = 0.5 }, "thesis", "velocity_obstacle"]
+
+Every generated run (family × draw × seed) is then run once per entry, on the same scenario text
+except every ``[vessels.avoidance]`` table present (a vessel without one is untouched): that table
+becomes ``method = <name>``, then those of its keys the method declares in its ``Options`` (the
+family's own settings, such as ``safety_distance_m``, for a method that has them; the others are
+another method's options and are dropped), then the entry's options. Names are checked against
+:func:`mjasc.plugins.available` and options against the method's ``Options`` when the file is read
+(one-line errors naming ``methods[i]``). A campaign without ``methods`` runs each scenario as
+written, as before (same runs, same digest).
+
+**Where a method is found.** Runs execute in child processes (:mod:`mjasc.campaigns.executor`) and on
+Dask workers, which know the built-in methods and the installed packages' entry points
+(``mjasc.avoidance``). A method registered in code (:func:`mjasc.plugins.register`) is carried to
+them by its import path (``module:QualifiedName``, imported and registered there before the run),
+which works for a class defined at the top level of an importable module. A class that cannot be
+imported by name (defined in ``__main__``, in a function) runs only in this process, unisolated
+(``run_campaign(…, workers=0, isolate=False)``); anything else is a one-line error before any run
+starts (:func:`plugin_sources`).
+"""
+
+from __future__ import annotations
+
+import copy
+import functools
+import importlib
+import json
+import re
+from dataclasses import dataclass, field
+from importlib import metadata
+from typing import Any
+
+from mjasc.core.config_tables import ConfigError, show, string, table
+
+__all__ = ["MethodEntry", "parse_methods", "apply_method", "plugin_sources", "register_plugins", "check_plugins_reach"]
+
+STAGE = "avoidance"
+_LABEL = re.compile(r"^[A-Za-z0-9_.-]{1,64}$")
+
+
+@dataclass(frozen=True)
+class MethodEntry:
+    """One compared method: its ``label`` (in the store, the report, file names), its registered
+    ``name`` and its options (the TOML values, validated against the method's ``Options``)."""
+
+    label: str
+    name: str
+    options: dict = field(default_factory=dict)
+
+
+def parse_methods(value: Any, where: str = "methods") -> tuple[MethodEntry, ...]:
+    """The campaign's ``methods`` list → entries (ConfigError naming ``methods[i]``)."""
+    from mjasc.plugins import available, parse_method_table
+
+    if not isinstance(value, list) or not value:
+        raise ConfigError(f"{where}: must be a non-empty list of avoidance method names or tables "
+                          f"({{ name = …, label = …, options… }}), got {show(value)}")
+    known = available(STAGE)
+    entries: list[MethodEntry] = []
+    for i, item in enumerate(value):
+        at = f"{where}[{i}]"
+        if isinstance(item, str):
+            item = {"name": item}
+        tbl = dict(table(item, at))
+        if "name" not in tbl:
+            raise ConfigError(f"{at}.name: missing (the avoidance method's name; available: {', '.join(known)})")
+        name = tbl.pop("name")
+        name_at = at if isinstance(value[i], str) else f"{at}.name"
+        name = string(name, name_at)
+        if name not in known:
+            raise ConfigError(f"{name_at}: unknown avoidance method {name!r} (available: {', '.join(known)})")
+        label = string(tbl.pop("label", name), f"{at}.label")
+        if not _LABEL.match(label):
+            raise ConfigError(f"{at}.label: must be 1–64 letters, digits, '_', '-' or '.' (it names files), "
+                              f"got {show(label)}")
+        if "method" in tbl:
+            raise ConfigError(f"{at}.method: unknown field (the method is given by name)")
+        parse_method_table(STAGE, {"method": name, **tbl}, at)  # the options, checked from the method's Options
+        if any(e.label == label for e in entries):
+            raise ConfigError(f"{at}.label: duplicate label {label!r} (give entries of the same method a label)")
+        entries.append(MethodEntry(label, name, tbl))
+    return tuple(entries)
+
+
+@functools.lru_cache(maxsize=None)
+def _declares(cls: type, key: str, value_json: str) -> bool:
+    """Whether method class ``cls`` takes option ``key`` (its table would not call it unknown)."""
+    from mjasc.plugins import parse_method_table
+    from mjasc.plugins.registry import register, unregister
+
+    name = f"_probe_{id(cls)}"
+    register(STAGE, cls, name)
+    try:
+        parse_method_table(STAGE, {"method": name, key: json.loads(value_json)}, "probe")
+    except ConfigError as exc:
+        return not str(exc).startswith(f"probe.{key}: unknown field")
+    finally:
+        unregister(STAGE, name)
+    return True
+
+
+def _keeps(name: str, key: str, value: Any) -> bool:
+    from mjasc.plugins import method_class
+
+    try:
+        value_json = json.dumps(value, sort_keys=True)
+    except (TypeError, ValueError):
+        return True  # not a TOML value: let the scenario's own validation name it
+    return _declares(method_class(STAGE, name), key, value_json)
+
+
+def apply_method(doc: dict, entry: MethodEntry) -> tuple[dict, int]:
+    """A copy of scenario document ``doc`` with ``entry`` set in every vessel's avoidance table
+    (module docstring); returns ``(doc, number of tables set)``."""
+    doc = copy.deepcopy(doc)
+    n = 0
+    for v in doc.get("vessels") or []:
+        if not isinstance(v, dict) or not isinstance(v.get("avoidance"), dict):
+            continue
+        base = v["avoidance"]
+        kept = {k: x for k, x in base.items() if k != "method" and _keeps(entry.name, k, x)}
+        v["avoidance"] = {"method": entry.name, **kept, **copy.deepcopy(entry.options)}
+        n += 1
+    return doc, n
+
+
+# ---------------------------------------------------------------------- reaching child processes
+def _importable(cls: type) -> str | None:
+    """``module:QualifiedName`` when importing it gives ``cls`` back, else None."""
+    mod, qual = getattr(cls, "__module__", ""), getattr(cls, "__qualname__", "")
+    if not mod or mod in ("__main__", "__mp_main__") or "<locals>" in qual:
+        return None
+    try:
+        obj: Any = importlib.import_module(mod)
+        for part in qual.split("."):
+            obj = getattr(obj, part)
+    except Exception:  # noqa: BLE001 — not importable by name
+        return None
+    return f"{mod}:{qual}" if obj is cls else None
+
+
+def plugin_sources(names) -> dict[str, str | None]:
+    """For each avoidance method name that child processes would not find by themselves (neither
+    built in nor an installed entry point: registered in this process), its import path, or None
+    when its class cannot be imported by name."""
+    from mjasc.plugins import method_class
+    from mjasc.plugins.registry import BUILTIN, entry_point_group
+
+    eps = {ep.name: ep for ep in metadata.entry_points(group=entry_point_group(STAGE))}
+    out: dict[str, str | None] = {}
+    for name in dict.fromkeys(names):
+        cls = method_class(STAGE, name)
+        if name in BUILTIN[STAGE]:
+            mod, attr = BUILTIN[STAGE][name].split(":")
+            if getattr(importlib.import_module(mod), attr) is cls:
+                continue
+        elif name in eps and name not in out:
+            try:
+                if eps[name].load() is cls:
+                    continue
+            except Exception:  # noqa: BLE001 — a broken entry point: carry the class that is used here
+                pass
+        out[name] = _importable(cls)
+    return out
+
+
+def check_plugins_reach(sources: dict[str, str | None], in_this_process: bool) -> None:
+    """ValueError (one line) when a method registered only in this process, not importable by
+    name, would have to run in a child process or on a Dask worker."""
+    local = [n for n, path in sources.items() if path is None]
+    if local and not in_this_process:
+        from mjasc.plugins import method_class
+
+        cls = method_class(STAGE, local[0])
+        raise ValueError(f"avoidance method {local[0]!r} is registered only in this process and its class "
+                         f"{cls.__module__}.{cls.__qualname__} cannot be imported by name, so the runs' child "
+                         f"processes and Dask workers cannot find it: define it at the top level of an importable "
+                         f"module, install it as an entry point (group 'mjasc.avoidance'), or run the campaign in "
+                         f"this process with workers=0, isolate=False")
+
+
+def register_plugins(plugins: dict | None) -> None:
+    """In a run's process: import and register the methods a request carries
+    (``{stage: {name: "module:QualifiedName"}}``)."""
+    if not plugins:
+        return
+    from mjasc.plugins import register
+
+    for stage, entries in plugins.items():
+        for name, path in entries.items():
+            mod, qual = path.split(":", 1)
+            obj: Any = importlib.import_module(mod)
+            for part in qual.split("."):
+                obj = getattr(obj, part)
+            register(stage, obj, name)
