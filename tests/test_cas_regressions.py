@@ -44,6 +44,11 @@ EXPECT = {
     # 98 m detour it then sailed for 88 s, into the crossing ship's path: a detour whose causes are
     # gone is withdrawn when the mission path is clear.
     "crossing_stressed_seed12": ("charlie", "withdrawn", 2.0),
+    # A re-plan 7 m from the pontoon asked for a 92° turn: the saturated turn kept the hull at
+    # 0.55 m/s (a full differential leaves forward thrust) and it advanced into the pontoon. A sharp
+    # turn on a detour now takes all way off on the heading first, then turns slowly. The hull
+    # circles overlap (the vessel passes the pontoon's corner at a crawl); the hulls stay apart.
+    "dock_stressed_seed9": ("vessel2", "sharp_turn", -0.9),
 }
 SLOW = {"crossing_stressed_seed5", "crossing_stressed_seed12", "bottleneck_stressed_seed5", "bottleneck_seed7", "bottleneck_seed1",
         "demo_run3"}

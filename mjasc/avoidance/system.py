@@ -199,7 +199,7 @@ class CollisionAvoidance(AvoidanceMethod):
         self.correction: Correction | None = None
         self.detour: Detour | None = None
         self._detour_causes: set[int] | None = None  # the moving tracks a detour goes around (None: statics too)
-        self._sharp_turn = False  # a sharp turn on the detour is being made
+        self._sharp_turn: tuple | None = None  # a sharp turn on the detour: ("brake", heading) or ("turn", None)
         self.team_mates = TeamMates(self.name, self.team, self.radius_m, config.team_broadcast_max_age_s,
                                     config.track_deviation_m, config.window_s or 30.0)
         self._known_track_ids: set[int] = set()
@@ -249,8 +249,8 @@ class CollisionAvoidance(AvoidanceMethod):
         (back on the mission path when a detour is finished); predicts at once on a new track, a
         deviating track or plan, or a changed mission speed. ``perceived`` None: no perception."""
         self._begin(guidance, perceived, team)
-        override, mode = self._control_refs(float(t), nav)
-        return AvoidanceRequest(mode, override, self._switch, ())
+        override, mode, course = self._control_refs(float(t), nav)
+        return AvoidanceRequest(mode, override, self._switch, (), course)
 
     def _begin(self, guidance, perceived, team) -> None:
         self._guidance, self._switch, self._perceived, self._team = guidance, None, perceived, team
@@ -692,9 +692,9 @@ class CollisionAvoidance(AvoidanceMethod):
         pos = np.array(pos, dtype=float)
         return bool(np.any(np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > self.config.track_deviation_m))
 
-    def _control_refs(self, t, nav) -> tuple[float | None, str]:
-        """(speed override [m/s] or None, mode) for this control tick; switches back to the mission
-        path when a detour is finished."""
+    def _control_refs(self, t, nav) -> tuple[float | None, str, float | None]:
+        """(speed override [m/s] or None, mode, course override [rad] or None) for this control
+        tick; switches back to the mission path when a detour is finished."""
         self.team_mates.poll(self._team)
         self._check_new_tracks(t, nav)
         d = self.detour
@@ -721,8 +721,11 @@ class CollisionAvoidance(AvoidanceMethod):
                 c = self.correction
             if c is not None and not c.law.finished(t):
                 override = c.law.command(self._guidance.gamma_m + c.gamma_offset_m, t)
+        course = None
         if self.detour is not None and self.correction is None:
-            override = self._sharp_turn_speed(t, nav, override)
+            override, course = self._sharp_turn_speed(t, nav, override)
+        elif self._sharp_turn is not None:
+            self._sharp_turn = None
         if self.correction is not None:
             mode = f"avoidance:{self.correction.kind}"
         elif self.detour is not None:
@@ -735,26 +738,35 @@ class CollisionAvoidance(AvoidanceMethod):
         if mode != self.mode:
             self._event(t, f"mode {self.mode} → {mode}")
             self.mode = mode
-        return override, mode
+        return override, mode, course
 
-    def _sharp_turn_speed(self, t, nav, override):
-        """The speed for a sharp turn on a detour: when the detour's point 5 m ahead is more than
-        ``sharp_turn_deg`` off the heading, at most ``sharp_turn_speed_m_s`` (a re-plan can ask
-        for a turn of 90° and more a few metres from a structure — thesis §6.2 under 30 % dropout:
-        at 0.9 m/s the Otter's saturated turn advanced 5 m into the pontoon)."""
-        g = self._guidance
+    def _sharp_turn_speed(self, t, nav, override) -> tuple[float | None, float | None]:
+        """Brake, then turn, when a detour asks for a sharp turn: its point 5 m ahead more than
+        ``sharp_turn_deg`` off the heading. While the hull is faster than ``sharp_turn_speed_m_s``
+        it takes all way off holding its heading (course override); then it turns at that speed.
+        Returns (speed override, course override [rad] or None). A saturated turn at speed leaves
+        forward thrust (a full differential: reverse is the weaker propeller direction) and
+        advances the hull several metres — thesis §6.2 and §6.4.3 under 30 % dropout: a re-plan 7 m
+        from the pontoon / the south island asked for a 92° turn and the Otter, still at 0.55 m/s,
+        ran into it; it stops from 1 m/s within a metre."""
+        g, cfg = self._guidance, self.config
         x, y, _, _ = g.path.at(min(g.gamma_m + 5.0, g.path.length))
         err = abs(float(wrap_angle(np.arctan2(y - nav.position_m[1], x - nav.position_m[0]) - nav.heading_rad)))
-        sharp = err > np.radians(self.config.sharp_turn_deg)
-        if sharp and not self._sharp_turn:
+        if err <= np.radians(cfg.sharp_turn_deg):
+            self._sharp_turn = None
+            return override, None
+        limit = cfg.sharp_turn_speed_m_s
+        if self._sharp_turn is None:  # onset: brake first when faster than the turn speed
             self.stats["sharp_turn"] += 1
+            fast = float(nav.body_velocity[0]) > limit
+            self._sharp_turn = ("brake", float(nav.heading_rad)) if fast else ("turn", None)
             self._event(t, f"sharp turn on the detour ({np.degrees(err):.0f}° off the heading): "
-                           f"{self.config.sharp_turn_speed_m_s:g} m/s until it is made")
-        self._sharp_turn = sharp
-        if not sharp:
-            return override
-        limit = self.config.sharp_turn_speed_m_s
-        return limit if override is None else min(override, limit)
+                           + ("all way off on the heading, then " if fast else "") + f"turning at {limit:g} m/s")
+        if self._sharp_turn[0] == "brake":
+            if float(nav.body_velocity[0]) > limit:
+                return 0.0, self._sharp_turn[1]
+            self._sharp_turn = ("turn", None)
+        return (limit if override is None else min(override, limit)), None
 
     # ------------------------------------------------------------------ summary and recording
     def summary(self) -> dict:
