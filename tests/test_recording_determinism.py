@@ -105,3 +105,37 @@ def test_recording_holds_no_wall_clock_start_time_and_derived_blueprint_ids(tmp_
     key = "mjasc/x/3/blueprint"
     assert str(uuid.uuid5(uuid.NAMESPACE_URL, f"{key}/1")) in ids  # the first view under the root container
     assert str(uuid.uuid5(uuid.NAMESPACE_URL, key)) in text  # the blueprint store's own id
+
+
+def test_footer_checksum_is_xxh32():
+    """The stream footer's checksum (xxHash32, four lanes packed in one integer) on the reference
+    vectors of the xxHash project, and across the 16-byte stripe boundaries."""
+    from mjasc.runs.rrd_canonical import _xxh32
+
+    assert [_xxh32(b, 0) for b in (b"", b"a", b"abc", b"Nobody inspects the spammish repetition")] == \
+        [0x02CC5D05, 0x550D7456, 0x32D153FF, 0xE2293B2F]
+
+    def reference(data: bytes, seed: int) -> int:  # the algorithm as specified, lane by lane
+        p1, p2, p3, p4, p5, m = 2654435761, 2246822519, 3266489917, 668265263, 374761393, 0xFFFFFFFF
+        rotl = lambda x, r: ((x << r) | (x >> (32 - r))) & m  # noqa: E731
+        n, i = len(data), 0
+        if n >= 16:
+            v = [(seed + p1 + p2) & m, (seed + p2) & m, seed & m, (seed - p1) & m]
+            while i + 16 <= n:
+                for j in range(4):
+                    v[j] = rotl((v[j] + int.from_bytes(data[i + 4 * j:i + 4 * j + 4], "little") * p2) & m, 13) * p1 & m
+                i += 16
+            h = (rotl(v[0], 1) + rotl(v[1], 7) + rotl(v[2], 12) + rotl(v[3], 18) + n) & m
+        else:
+            h = (seed + p5 + n) & m
+        for k in range(i, n - 3, 4):
+            h = rotl((h + int.from_bytes(data[k:k + 4], "little") * p3) & m, 17) * p4 & m
+        for b in data[i + (n - i) // 4 * 4:]:
+            h = rotl((h + b * p5) & m, 11) * p1 & m
+        h = (h ^ (h >> 15)) * p2 & m
+        h = (h ^ (h >> 13)) * p3 & m
+        return h ^ (h >> 16)
+
+    data = bytes(range(256)) * 3
+    for n in (15, 16, 17, 31, 32, 33, 63, 64, 65, 255, 768):
+        assert _xxh32(data[:n], 7850921) == reference(data[:n], 7850921), n

@@ -222,3 +222,4 @@ def test_a_large_fleet_gets_per_vessel_views_for_its_first_vessels_only(tmp_path
     assert f"/sensor/{first}/fan" in paths and f"/sensor/{last}/fan" not in paths
     assert not any(p.startswith(f"/sensor/{last}") or p.startswith(f"/threats/{last}") for p in paths)
     assert f"/world/vessels/{last}/hull" in paths and f"/modes/{last}" in paths
+    assert f"/plots/comms/{first}/received" in paths and f"/plots/comms/{last}/received" not in paths

@@ -129,6 +129,8 @@ def test_video_has_the_right_frames_and_they_change(tmp_path):
 class _PoisonedCurrent(UniformCurrent):
     """A current that turns to NaN after 3 s: the physics must stop cleanly."""
 
+    is_steady = False  # it changes in time (a steady current is read once per physics block)
+
     def velocity(self, points, t):
         v = super().velocity(points, t)
         return v * np.nan if t > 3.0 else v

@@ -73,14 +73,25 @@ class TeamIntention:
 
     @classmethod
     def from_message(cls, msg: TeamMessage, sent_time_s: float) -> "TeamIntention":
-        """The intention a received message states (a plan whose sample counts disagree is dropped)."""
+        """The intention a received message states (a plan whose sample counts disagree is dropped).
+
+        Made once per message and shared by every receiver (a broadcast reaches each team mate as
+        the same immutable object; the intention's arrays are views of the message's anyway): in a
+        team of n, n − 1 receivers no longer each rebuild it and its :meth:`max_speed_m_s`."""
+        t = float(sent_time_s)
+        cached = msg.__dict__.get("_intention")
+        if cached is not None and cached.sent_time_s == t:
+            return cached
         vel = np.asarray(msg.velocity_m_s, dtype=float)[:2]
         plan_t = np.asarray(msg.plan_times_s, dtype=float).reshape(-1)
         plan_xy = np.asarray(msg.plan_points_m, dtype=float).reshape(-1, 2)
         if plan_t.size != plan_xy.shape[0]:
             plan_t, plan_xy = np.zeros(0), np.zeros((0, 2))
-        return cls(msg.sender, float(sent_time_s), np.asarray(msg.position_m, dtype=float)[:2], float(msg.heading_rad),
-                   vel, msg.radius_m, plan_t, plan_xy)
+        out = cls(msg.sender, t, np.asarray(msg.position_m, dtype=float)[:2], float(msg.heading_rad),
+                  vel, msg.radius_m, plan_t, plan_xy)
+        if isinstance(msg, TeamMessage):
+            object.__setattr__(msg, "_intention", out)
+        return out
 
     @property
     def has_plan(self) -> bool:
@@ -134,11 +145,14 @@ class TeamIntention:
         return cached
 
     def max_speed_m_s(self) -> float:
-        """Largest speed along the plan (or the broadcast speed) [m/s]."""
-        v = float(np.hypot(*self.velocity_m_s))
-        if self.has_plan:
-            seg = np.hypot(*np.diff(self.plan_points_m, axis=0).T) / np.maximum(np.diff(self.plan_times_s), 1e-9)
-            v = max(v, float(seg.max()))
+        """Largest speed along the plan (or the broadcast speed) [m/s] (computed once per intention)."""
+        v = self.__dict__.get("_max_speed")
+        if v is None:
+            v = float(np.hypot(*self.velocity_m_s))
+            if self.has_plan:
+                seg = np.hypot(*np.diff(self.plan_points_m, axis=0).T) / np.maximum(np.diff(self.plan_times_s), 1e-9)
+                v = max(v, float(seg.max()))
+            object.__setattr__(self, "_max_speed", v)
         return v
 
 

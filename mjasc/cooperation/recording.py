@@ -11,6 +11,9 @@ From the link's :class:`~mjasc.cooperation.comms.LinkOutcome` (each message's fa
     plots/comms/<v>/received  messages received by vessel v so far (a count, every ``COUNT_PERIOD_S``)
     plots/comms/<v>/lost      messages lost on their way to v so far (when it changed)
 
+The counts are written for the vessels with per-vessel views only
+(:meth:`~mjasc.runs.recording.Recorder.has_views`: a large fleet's recording size).
+
 Lines are drawn for teams of at most ``MAX_LINE_VESSELS`` (a team of n has n(n − 1) links: 50
 vessels on a 1 Hz link would draw 2450 lines a second); larger teams get the counts only. Lines
 join the vessels' positions at the record tick (world ENU [m], drawn at z = 0.6 above the
@@ -45,6 +48,7 @@ class CommsLog:
         self._shown_t = -np.inf
         self._written: dict[str, tuple[float, int, int]] = {}  # receiver → (t, received, lost) last written
         self._styled = False
+        self._counted: tuple[int, ...] = ()  # indices of the vessels whose counts are written
 
     def _style(self, recorder) -> None:
         import rerun as rr
@@ -54,7 +58,8 @@ class CommsLog:
                 radii=[-1.5], class_ids=[_DELIVERED], show_labels=[False]))
             recorder.static("world/comms/lost", rr.LineStrips3D.from_fields(
                 colors=[recorder.legend_colour(_LOST)], radii=[-1.0], class_ids=[_LOST], show_labels=[False]))
-        for n in self.names:
+        self._counted = tuple(k for k, n in enumerate(self.names) if recorder.has_views(n))
+        for n in (self.names[k] for k in self._counted):
             col = recorder.colour(n)
             recorder.series_style(f"plots/comms/{n}/received", f"{n} received", col, 1.5)
             recorder.series_style(f"plots/comms/{n}/lost", f"{n} lost", (*col, 130), 1.0)
@@ -66,7 +71,8 @@ class CommsLog:
         messages received, lost so far), both in the order of :attr:`names`."""
         if not self._styled:
             self._style(recorder)
-        for n, (received_now, lost_now) in zip(self.names, counts):
+        for k in self._counted:
+            n, (received_now, lost_now) = self.names[k], counts[k]
             t0, received, lost = self._written.get(n, (-np.inf, -1, -1))
             if lost_now != lost or (received_now != received and t_s - t0 >= COUNT_PERIOD_S - 1e-9):
                 self._written[n] = (t_s, received_now, lost_now)

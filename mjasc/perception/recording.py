@@ -115,6 +115,7 @@ class PerceptionLog:
                                                                        show_labels=[False], class_ids=[102]))
         rec.static(f"{base}/static_map", rr.LineStrips3D.from_fields(colors=[rec.legend_colour(111)], radii=[0.1],
                                                                      class_ids=[111], show_labels=[False]))
+        self._styled = True  # (set before the early return: a vessel without views was styled at every tick)
         if not rec.has_views(name):
             return
         det = rec.legend_colour(116)
@@ -142,7 +143,6 @@ class PerceptionLog:
             rec.static(f"{base}/tracks/discs", rr.LineStrips3D.from_fields(colors=[(*colour, 110)], radii=[0.05]))
             rec.static(f"{base}/tracks/velocity", rr.Arrows3D.from_fields(colors=[(*colour, 255)], radii=[0.08]))
             rec.static(f"{base}/tracks/labels", rr.Points3D.from_fields(radii=[0.01], show_labels=[False]))
-        self._styled = True
 
     def log(self, rec, t_s: float, perception, vessel_name: str) -> None:
         """Log ``perception`` (a :class:`mjasc.perception.pipeline.Perception`) at time t_s."""
