@@ -76,4 +76,4 @@ def test_track_labels_are_off_by_default_and_plots_use_the_vessel_colour(demo):
     for i, agent in enumerate(runner.agents):
         assert rec[f"/world/vessels/{agent.name}/tracks/positions:Points3D:show_labels"][0] == [False]
         r, g, b = vessel_colour(i)
-        assert rec[f"/plots/mode/{agent.name}:SeriesLines:colors"][0] == [(r << 24) | (g << 16) | (b << 8) | 0xFF]
+        assert rec[f"/plots/speed/{agent.name}/actual:SeriesLines:colors"][0] == [(r << 24) | (g << 16) | (b << 8) | 0xFF]

@@ -86,7 +86,7 @@ def test_recording_detail_standard_is_small_full_adds_the_per_track_plots(tmp_pa
     assert without_timing(std.summary) == without_timing(full.summary)
     rows_std, rows_full = entity_rows(std.files["recording"]), entity_rows(full.files["recording"])
     for origin in ("/world/vessels", "/plots/speed", "/plots/cross_track", "/plots/thrust", "/plots/heading",
-                   "/plots/mode", "/plots/coordination", "/events"):  # the default blueprint's views
+                   "/modes", "/plots/coordination", "/events"):  # the default blueprint's views
         assert any(e.startswith(origin) for e in rows_std), origin
     assert not any(e.startswith(("/plots/tracking", "/tracking_events")) for e in rows_std)
     assert not any(e.endswith(("/sensor/hits", "/sensor/detections")) for e in rows_std)  # world-frame returns

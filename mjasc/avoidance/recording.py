@@ -2,8 +2,7 @@
 
 The mode as a state (``StateChange`` at ``modes/<vessel>``, one lane per vessel in a state timeline,
 styled by a static ``StateConfiguration``: names and colours of
-:data:`~mjasc.runs.blueprint.MODE_STATES`) written when it changes, and as a time series
-``plots/mode/<vessel>`` (the code of :data:`~mjasc.avoidance.request.MODES`); the threat panel
+:data:`~mjasc.runs.blueprint.MODE_STATES`) written when it changes; the threat panel
 (:mod:`mjasc.avoidance.threat_panel`, markdown at ``threats/<vessel>``) written when its text
 changes — at once when the mode, the running correction or the set of conflicts changed, else at
 most every ``THREAT_PERIOD_S`` (a new prediction's CPA and TCPA); the virtual target's speed and γ; in the world view under ``world/vessels/<vessel>/avoidance``:
@@ -23,7 +22,6 @@ from __future__ import annotations
 import numpy as np
 import rerun as rr
 
-from mjasc.avoidance.request import MODES
 from mjasc.avoidance.threat_panel import threat_markdown
 
 __all__ = ["AvoidanceLog", "THREAT_PERIOD_S"]
@@ -82,8 +80,6 @@ class AvoidanceLog:
             colors=[(*rgb, 255) for _, rgb in MODE_STATES.values()]))
         recorder.series_style(f"plots/speed/{vessel_name}/virtual_target", f"{vessel_name} virtual target",
                               c(_VIRTUAL_TARGET), 1.0)
-        recorder.series_style(f"plots/mode/{vessel_name}", f"{vessel_name} mode (0 mission, 1 yield, 2 pass, "
-                              f"3 detour, 4 steer)", col, 2.0)
         recorder.series_style(f"plots/gamma/{vessel_name}/virtual_target", f"{vessel_name} virtual target γ_d",
                               c(_VIRTUAL_TARGET), 1.0)
         recorder.series_style(f"plots/gamma/{vessel_name}/actual", f"{vessel_name} γ", col, 2.0)
@@ -113,7 +109,6 @@ class AvoidanceLog:
         base = f"world/vessels/{vessel_name}/avoidance"
         if not self._styled:
             self._style(recorder, vessel_name, base)
-        recorder.scalar(f"plots/mode/{vessel_name}", t, MODES[mode])
         if mode != self._mode:
             self._mode = mode
             recorder.state(f"modes/{vessel_name}", t, mode)

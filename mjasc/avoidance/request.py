@@ -16,7 +16,7 @@ from mjasc.guidance.paths import Path
 
 __all__ = ["AvoidanceRequest", "PathSwitch", "MODES"]
 
-#: Mode strings and their codes in the ``plots/mode/<vessel>`` time series.
+#: Mode strings and their codes (the recording shows the mode as a state lane, ``modes/<vessel>``).
 MODES = {"mission": 0, "avoidance:yield": 1, "avoidance:pass": 2, "avoidance:detour": 3, "avoidance:steer": 4}
 
 

@@ -276,5 +276,5 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         }
 
     def log(self, recorder, t, vessel_name, guidance=None) -> None:
-        """The mode (state lane, plots/mode) and the threat panel's header, as the thesis method does."""
+        """The mode (state lane) and the threat panel's header, as the thesis method does."""
         self._log.log(recorder, t, vessel_name, self.mode, None, guidance, None, None, self.team)
