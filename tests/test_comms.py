@@ -168,3 +168,60 @@ def test_long_runs_prune_the_log():
         net.receive(float(i), "b", [1, 0])
     assert len(net._log) < 300
     assert net.stats("b")["delivered"] == 2999
+
+
+def _round(cfg, names, rounds=200, seed=3):
+    """Every member broadcasts once per round from 10 m apart; everyone polls after each round.
+    Returns the network and {receiver: senders heard}."""
+    net = CommsNetwork(names, cfg, np.random.default_rng(seed))
+    heard = {r: set() for r in names}
+    for i in range(rounds):
+        t = float(i)
+        for k, n in enumerate(names):
+            net.send(t, n, {"i": i}, [10.0 * k, 0.0])
+        for k, r in enumerate(names):
+            heard[r] |= {m.sender for m in net.receive(t + 0.5, r, [10.0 * k, 0.0])}
+    return net, heard
+
+
+def test_topologies_decide_who_hears_whom():
+    names = ["a", "b", "c", "d", "e"]
+    _, ring = _round(NetworkConfig(topology="ring"), names)
+    assert ring == {"a": {"b", "e"}, "b": {"a", "c"}, "c": {"b", "d"}, "d": {"c", "e"}, "e": {"d", "a"}}
+    _, star = _round(NetworkConfig(topology="leader_followers", leader="c"), names)
+    assert star["c"] == {"a", "b", "d", "e"} and all(star[r] == {"c"} for r in "abde")
+    _, graph = _round(NetworkConfig(topology="graph", links=(("a", "b"), ("b", "e"))), names)
+    assert graph == {"a": {"b"}, "b": {"a", "e"}, "c": set(), "d": set(), "e": {"b"}}
+    _, everyone = _round(NetworkConfig(), names)
+    assert all(everyone[r] == set(names) - {r} for r in names)
+
+
+def test_link_matrix_counts_each_pair_and_adds_up_to_the_receivers_statistics():
+    """Who heard whom: per (sender, receiver) offered = delivered + lost (nothing in flight after
+    the last poll), the loss rate of each pair near its model's p(d), and the per-receiver totals."""
+    cfg = NetworkConfig(range_m=100.0, loss_probability=0.2, loss_exponent=2.0)
+    names = ["a", "b", "c"]
+    net, _ = _round(cfg, names, rounds=2000)
+    m = net.link_matrix()
+    off, dlv, lost = (np.array(m[k]) for k in ("offered", "delivered", "lost"))
+    assert m["team"] == names and m["topology"] == "all"
+    np.testing.assert_array_equal(np.diag(off), 0)
+    np.testing.assert_array_equal(off, dlv + lost)
+    for j, r in enumerate(names):
+        st = net.stats(r)
+        assert off[:, j].sum() == st["offered"] and dlv[:, j].sum() == st["delivered"]
+    # a–c are 20 m apart: p = 0.2 + 0.8 · 0.2² = 0.232 (3σ of a binomial over 2000 draws ≈ 0.028)
+    assert lost[0, 2] / off[0, 2] == pytest.approx(0.232, abs=0.03)
+    assert m["mean_delay_s"][0][1] == pytest.approx(cfg.mean_delay_at(10.0), abs=0.002)
+
+
+def test_topology_errors_name_the_field():
+    base = {"name": "t", "duration_s": 1.0, "vessels": [
+        {"name": n, "type": "otter", "position_m": [10.0 * k, 0.0], "comms": {}} for k, n in enumerate("ab")]}
+    for comms, match in [({"topology": "star"}, r"comms\.topology: must be one of"),
+                         ({"topology": "graph"}, r"comms\.links: a graph topology needs links"),
+                         ({"topology": "graph", "links": [["a", "z"]]}, r"comms\.links\[0\]: 'z' is not a team member"),
+                         ({"topology": "graph", "links": [["a"]]}, r"comms\.links\[0\]: must be a pair"),
+                         ({"topology": "leader_followers", "leader": "q"}, r"comms\.leader: 'q' is not a team member")]:
+        with pytest.raises(ScenarioError, match=match):
+            parse_scenario({**base, "comms": comms})

@@ -29,6 +29,16 @@ metres). The random draws (two uniforms per pair, from the generator passed in) 
 order of the calls, so a run is a pure function of its seed. Messages are returned in order of
 arrival (``received_time_s``), which is non-decreasing over successive calls of one receiver.
 
+**Topology.** Who can hear whom (``topology``): ``all`` (default: every team member hears every
+other), ``ring`` (each hears its two neighbours in the team's order, the last closing the ring),
+``leader_followers`` (the ``leader`` — default the first vessel — hears every follower, each
+follower only the leader) or ``graph`` (the undirected ``links = [["a", "b"], ...]``). A message
+is offered only to the members that can hear its sender; the range limit and the loss law still
+decide each offered pair. With ``all`` the random draws are those of a plain broadcast.
+
+**Who heard whom.** The link counts, per (sender, receiver), the messages offered, delivered and
+lost and the delivered ones' delays (:meth:`CommsNetwork.link_matrix`; the run's summary has it).
+
 **Outcomes.** For the recording, :meth:`CommsNetwork.keep_outcomes` makes the link keep every
 decided (message, receiver) pair as a :class:`LinkOutcome` (delivered with its arrival time, or
 lost) until :meth:`CommsNetwork.drain_outcomes` hands them over; it draws nothing and changes
@@ -42,10 +52,28 @@ from dataclasses import dataclass, fields, is_dataclass
 
 import numpy as np
 
-from mjasc.core.config_tables import check_keys, check_params, dataclass_from_table, param, string
+from mjasc.core.config_tables import ConfigError, check_keys, check_params, dataclass_from_table, param, show, string
 from mjasc.core.config_tables import table as as_table
 
-__all__ = ["NetworkConfig", "Message", "LinkOutcome", "CommsNetwork", "parse_network_options", "PRESETS"]
+__all__ = ["NetworkConfig", "Message", "LinkOutcome", "CommsNetwork", "parse_network_options", "PRESETS",
+           "TOPOLOGIES"]
+
+#: Who can hear whom on the link (:attr:`NetworkConfig.topology`).
+TOPOLOGIES = ("all", "ring", "leader_followers", "graph")
+
+
+def _links(value, where: str) -> tuple:
+    """``links = [["a", "b"], ...]`` → a tuple of (a, b) name pairs (a ≠ b)."""
+    if not isinstance(value, (list, tuple)):
+        raise ConfigError(f"{where}: must be an array of [name, name] pairs, got {show(value)}")
+    out = []
+    for k, pair in enumerate(value):
+        if not (isinstance(pair, (list, tuple)) and len(pair) == 2 and all(isinstance(x, str) for x in pair)):
+            raise ConfigError(f"{where}[{k}]: must be a pair of vessel names [\"a\", \"b\"], got {show(pair)}")
+        if pair[0] == pair[1]:
+            raise ConfigError(f"{where}[{k}]: a link joins two different vessels, got {show(list(pair))}")
+        out.append((pair[0], pair[1]))
+    return tuple(out)
 
 
 @dataclass(frozen=True)
@@ -58,9 +86,39 @@ class NetworkConfig:
     base_delay_s: float = param(0.02, nonneg=True, unit="s", doc="modem / MAC / processing latency")
     propagation_speed_m_s: float = param(3.0e8, positive=True, unit="m/s", doc="c: the delay grows by d / c")
     jitter_s: float = param(0.01, nonneg=True, unit="s", doc="a uniform extra delay in [0, jitter]")
+    topology: str = param("all", choices=TOPOLOGIES, doc="who can hear whom: all, ring (team order), "
+                                                          "leader_followers, graph (links)")
+    leader: str | None = param(None, doc="leader_followers: the leader's name (default: the first vessel)")
+    links: tuple = param((), reader=_links,
+                         doc="graph: undirected links [[\"a\", \"b\"], ...] between team members")
 
     def __post_init__(self):
         check_params(self, "comms")
+        if self.topology == "graph" and not self.links:
+            raise ConfigError("comms.links: a graph topology needs links [[\"a\", \"b\"], ...], got []")
+
+    def hears(self, team) -> dict[str, frozenset]:
+        """Receiver → the senders it can hear, for the team ``team`` (names in scenario order);
+        ValueError naming ``comms.leader`` / ``comms.links[k]`` for a name not in the team."""
+        team = list(team)
+        n = len(team)
+        if self.topology == "all":
+            return {r: frozenset(team) - {r} for r in team}
+        if self.topology == "ring":
+            return {r: frozenset({team[(i - 1) % n], team[(i + 1) % n]}) - {r} for i, r in enumerate(team)}
+        if self.topology == "leader_followers":
+            leader = self.leader if self.leader is not None else team[0]
+            if leader not in team:
+                raise ConfigError(f"comms.leader: {leader!r} is not a team member ({', '.join(team)})")
+            return {r: (frozenset(team) - {r} if r == leader else frozenset({leader})) for r in team}
+        edges: dict[str, set] = {r: set() for r in team}
+        for k, (a, b) in enumerate(self.links):
+            for name in (a, b):
+                if name not in edges:
+                    raise ConfigError(f"comms.links[{k}]: {name!r} is not a team member ({', '.join(team)})")
+            edges[a].add(b)
+            edges[b].add(a)
+        return {r: frozenset(e) for r, e in edges.items()}
 
     def loss_at(self, distance_m) -> np.ndarray:
         """Loss probability p(d) for distances [m] (any shape)."""
@@ -179,6 +237,14 @@ class CommsNetwork:
         self._last_send_s = -np.inf
         self.sent = {n: 0 for n in self.team}
         self.link = {n: _LinkStats() for n in self.team}  # per receiver
+        self.hears = self.config.hears(self.team)  # receiver → the senders it can hear
+        self._everyone = all(len(h) == len(self.team) - 1 for h in self.hears.values())
+        self._index = {n: k for k, n in enumerate(self.team)}
+        n = len(self.team)
+        # who heard whom: (sender, receiver) counts and the delivered messages' summed delays
+        self._pair_offered = np.zeros((n, n), dtype=np.int64)
+        self._pair_delivered = np.zeros((n, n), dtype=np.int64)
+        self._pair_delay_s = np.zeros((n, n))
         self._outcomes: list[LinkOutcome] | None = None  # kept only when asked (keep_outcomes)
 
     def keep_outcomes(self) -> None:
@@ -232,10 +298,14 @@ class CommsNetwork:
             return []
         stats = self.link[receiver]
         out = []
+        r = self._index[receiver]
         while heap and heap[0][0] <= t_s:
             arrival, _, msg = heapq.heappop(heap)
             stats.delivered += 1
             stats.delay_sum_s += msg.delay_s
+            snd = self._index[msg.sender]
+            self._pair_delivered[snd, r] += 1
+            self._pair_delay_s[snd, r] += msg.delay_s
             stats.delay_max_s = max(stats.delay_max_s, msg.delay_s)
             out.append(msg)
         return out
@@ -243,7 +313,11 @@ class CommsNetwork:
     def _decide(self, receiver: str, sent: list, receiver_position) -> None:
         """Loss and delay of each message of ``sent`` (not the receiver's own) for ``receiver``
         at ``receiver_position``; survivors go on its heap of pending arrivals."""
-        sent = [m for m in sent if m.sender != receiver]
+        if self._everyone:
+            sent = [m for m in sent if m.sender != receiver]
+        else:
+            hears = self.hears[receiver]
+            sent = [m for m in sent if m.sender in hears]
         if not sent:
             return
         cfg, stats = self.config, self.link[receiver]
@@ -256,6 +330,7 @@ class CommsNetwork:
         times = np.array([m.time_s for m in sent])
         arrival = times + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u[:, 1] * cfg.jitter_s
         stats.offered += len(sent)
+        np.add.at(self._pair_offered[:, self._index[receiver]], [self._index[m.sender] for m in sent], 1)
         n_lost = int(np.count_nonzero(lost))
         stats.lost += n_lost
         stats.lost_out_of_range += int(np.count_nonzero(out_of_range))
@@ -276,6 +351,21 @@ class CommsNetwork:
             self._base += done
 
     # ------------------------------------------------------------------ statistics
+    def link_matrix(self) -> dict:
+        """Who heard whom: ``{"topology", "team", "offered", "delivered", "lost", "mean_delay_s"}``,
+        the last four n × n lists indexed [sender][receiver] in team order (offered: the
+        message–receiver pairs decided; mean delay of the delivered ones [s], None where none).
+        Messages still in flight count as offered, not yet as delivered or lost."""
+        off, dlv, dly = self._pair_offered, self._pair_delivered, self._pair_delay_s
+        pending = np.zeros_like(off)
+        for receiver, heap in self._pending.items():
+            for _, _, msg in heap:
+                pending[self._index[msg.sender], self._index[receiver]] += 1
+        mean = [[round(float(dly[i, j] / dlv[i, j]), 4) if dlv[i, j] else None for j in range(len(self.team))]
+                for i in range(len(self.team))]
+        return {"topology": self.config.topology, "team": list(self.team), "offered": off.tolist(),
+                "delivered": dlv.tolist(), "lost": (off - dlv - pending).tolist(), "mean_delay_s": mean}
+
     def stats(self, receiver: str | None = None) -> dict:
         """Counts and delays, for one receiver or the whole team: ``sent`` (broadcasts),
         ``offered`` (message–receiver pairs decided), ``delivered``, ``lost`` (of which

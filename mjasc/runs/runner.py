@@ -429,6 +429,8 @@ class Runner:
                                ("avoidance", agent.avoidance)):
                 if comp is not None and hasattr(comp, "summary"):
                     summary["vessels"][agent.name][kind] = comp.summary()
+        if self.network is not None:
+            summary["comms"] = self.network.link_matrix()
         if self.video is not None:
             summary["video_frames"] = self.video.frames
             summary["video_timing_s"] = {k: round(v, 4) for k, v in self.video.seconds.items()}

@@ -393,6 +393,7 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
             raise ScenarioError("comms: the comms link is not available in this version of mjasc") from None
         try:
             comms = parse_network(table(data["comms"], "comms"), "comms")
+            comms.hears(names)  # leader and links name team members
         except ValueError as exc:
             msg = str(exc)
             raise ScenarioError(msg if msg.startswith("comms") else f"comms: {msg}") from None
