@@ -116,7 +116,7 @@ class VesselAgent:
         if self.perception is None:
             return None
         if self._report is None:
-            self._report = PerceptionReport(float(t_s), tuple(self.perception.tracks()),
+            self._report = PerceptionReport(float(t_s), self.perception.report_tracks(float(t_s)),
                                             Deferred(self.perception.static_polygons))
         return self._report
 
@@ -157,9 +157,19 @@ class VesselAgent:
         plan, req = None, c.plan_request()
         if req is not None and self.avoidance is not None:
             plan = self.avoidance.planned_trajectory(nav.time_s, nav, guidance, *req)
-        c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan)
+        sharing = c.track_sharing() if hasattr(c, "track_sharing") else None
+        if sharing is not None and self.perception is not None:
+            # team-shared perception: the own confirmed tracks go out, the team's are fused in
+            c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan,
+                       tracks=self.perception.shareable_tracks(nav.position_m, sharing.max_tracks))
+        else:
+            c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan)
         if self.perception is not None:
-            self.perception.set_team_positions(c.team_positions())
+            positions = c.team_positions()
+            self.perception.set_team_positions(positions)
+            if sharing is not None:
+                self.perception.set_team_tracks(nav.time_s, c.team_tracks(), nav.position_m, positions, sharing,
+                                                list(c.link.team) if hasattr(c, "link") else sorted(positions))
             self._report = None
 
     def prediction_call(self, nav: OwnNavigation) -> tuple | None:
