@@ -32,7 +32,7 @@ every team mate with its own each time it builds its :class:`~mjasc.core.estimat
        ω   = argmin_{ω∈[0,1]} det P  =  argmax det(P_b⁻¹ + ω (P_a⁻¹ − P_b⁻¹))
 
    For 2 × 2 matrices det(B + ωD) = det B + ω (B₀₀D₁₁ + B₁₁D₀₀ − B₀₁D₁₀ − B₁₀D₀₁) + ω² det D, a
-   quadratic: ω is its maximiser on [0, 1] in closed form (end points or the vertex). CI is
+   quadratic: ω is its maximiser on [0, 1] in closed form (end points or the vertex; ω = ½ on a tie). CI is
    consistent whatever the (unknown) correlation of the two estimates: if P_a ≥ E[ẽ_a ẽ_aᵀ] and
    P_b ≥ E[ẽ_b ẽ_bᵀ], then P ≥ E[ẽ ẽᵀ]. The velocity is the own and the team velocity weighted by
    their share of the fused information, w_a = ω tr P_a⁻¹ / (ω tr P_a⁻¹ + (1 − ω) tr P_b⁻¹) (the
@@ -164,7 +164,8 @@ def covariance_intersection(xa, pa, xb, pb) -> tuple[np.ndarray, np.ndarray, np.
     with np.errstate(divide="ignore", invalid="ignore"):
         vertex = np.where(c2 < 0, -c1 / (2 * c2), 0.0)
     vertex = np.clip(np.nan_to_num(vertex), 0.0, 1.0)
-    cands = np.stack([np.zeros_like(c1), np.ones_like(c1), vertex], axis=-1)
+    # ½ first: on a tie (equal information, D = 0) the two estimates count equally
+    cands = np.stack([np.full_like(c1, 0.5), np.zeros_like(c1), np.ones_like(c1), vertex], axis=-1)
     vals = c1[:, None] * cands + c2[:, None] * cands ** 2  # det(B + ωD) − det B
     om = cands[np.arange(len(c1)), np.argmax(vals, axis=-1)]
     info = ib + om[:, None, None] * dd
