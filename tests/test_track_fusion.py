@@ -168,12 +168,13 @@ def test_coordination_sends_tracks_only_with_sharing_on():
 # ---------------------------------------------------------------------------- the scenario
 @pytest.mark.slow
 def test_occluded_crossing_needs_the_team_track(tmp_path):
-    from mjasc.core.resources import bundled_scenarios
+    from pathlib import Path
+
     from mjasc.runs.runner import run_scenario
     from mjasc.runs.scenario import load_scenario
 
-    src = bundled_scenarios()["shared_perception_occluded"]
-    text = src.read_text() if hasattr(src, "read_text") else open(src).read()
+    src = Path(__file__).resolve().parent.parent / "tasks" / "shared_perception_occluded.toml"
+    text = src.read_text()
     off = tmp_path / "off.toml"
     off.write_text(text.replace("share_tracks = true", "share_tracks = false"))
     on_s = run_scenario(load_scenario(src).with_overrides(video=False), tmp_path / "on", progress=False).summary
