@@ -385,9 +385,9 @@ class Coordination(CoordinationMethod):
 
     def team_tracks(self) -> dict:
         """Each team mate's newest message's shared tracks: name → (sent time [s], tuple of
-        :class:`~mjasc.core.estimates.SharedTrack`) (team mates whose message carries none left out)."""
-        return {n: (nb.sent_time_s, nb.message.tracks) for n, nb in self.neighbours.items()
-                if getattr(nb.message, "tracks", ())}
+        :class:`~mjasc.core.estimates.SharedTrack`); an empty tuple (it sees nothing now) replaces
+        what the receiver kept of that team mate."""
+        return {n: (nb.sent_time_s, tuple(getattr(nb.message, "tracks", ()))) for n, nb in self.neighbours.items()}
 
     def team_positions(self) -> dict:
         """Latest received position of every team mate: name → (sent time [s], (2,) world [m])."""

@@ -6,9 +6,11 @@ the vessel's components — hands them on::
 
     sensing    perception.sense(t, nav)                      own range scan → detections
     tracking   perception.update_tracks(t, nav)              detections → IMM tracks
-               → PerceptionReport (tracks, static polygons)
+               → PerceptionReport (tracks, static polygons; with ``share_tracks`` the team's
+                 broadcast tracks fused in: perception.report_tracks, mjasc.perception.track_fusion)
     comms      avoidance.planned_trajectory(t, nav, guidance) → the plan to broadcast
-               coordination.exchange(t, nav, γ, guidance, plan) → TeamMessage out; TeamPicture in
+               coordination.exchange(t, nav, γ, guidance, plan[, tracks]) → TeamMessage out; TeamPicture in
+               (with ``share_tracks``: the own confirmed tracks out, the team's to perception.set_team_tracks)
     prediction avoidance.predict(t, nav, guidance, report, team) → AvoidanceRequest
     control    coordination.speed_correction(t, nav, γ)      → factor on the mission speed
                avoidance.control(t, nav, guidance, report, team) → AvoidanceRequest
@@ -112,7 +114,8 @@ class VesselAgent:
     def perception_report(self, t_s: float) -> PerceptionReport | None:
         """What the perception reports now (None without perception); rebuilt only after a slot that
         changed the perception's state (sensing, tracking, comms). The static polygons are computed
-        when a prediction first asks for them."""
+        when a prediction first asks for them. With ``share_tracks`` the tracks are the own ones
+        fused with the team's newest (:meth:`~mjasc.perception.pipeline.Perception.report_tracks`)."""
         if self.perception is None:
             return None
         if self._report is None:
