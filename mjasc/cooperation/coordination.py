@@ -84,6 +84,15 @@ class CoordinationConfig:
     intent_horizon_s: float = param(60.0, nonneg=True, unit="s", doc="the broadcast plan covers this far ahead "
                                                                      "(0: no plan, pose only)")
     intent_step_s: float = param(1.0, positive=True, unit="s", doc="spacing of the plan's samples")
+    share_tracks: bool = param(False, doc="team-shared perception: broadcast the own confirmed tracks and fuse "
+                                          "the team's with the own (covariance intersection, "
+                                          "mjasc.perception.track_fusion)")
+    share_max_tracks: int = param(8, minimum=1, maximum=64, doc="at most this many tracks per message, nearest "
+                                                                "first")
+    share_max_age_s: float = param(3.0, positive=True, unit="s", doc="a team track estimated longer ago is not "
+                                                                     "used")
+    share_gate: float = param(9.21, positive=True, doc="gate on the Mahalanobis d² between a team and an own "
+                                                       "track's positions (χ²₂ 99 %: 9.21)")
 
     def __post_init__(self):
         check_params(self, "comms")
@@ -208,6 +217,7 @@ class Coordination(CoordinationMethod):
         self.last_spread_m = 0.0
         self._history: list[tuple[float, float, float]] = []  # (t, lead, spread) at exchanges with ≥ 1 neighbour
         self._logged_style = False
+        self._tracks_sent = 0
 
     # ------------------------------------------------------------------ state
     def xi(self, gamma_m: float) -> float:
@@ -221,7 +231,7 @@ class Coordination(CoordinationMethod):
         h = self.config.intent_horizon_s
         return (h, self.config.intent_step_s) if h > 0 else None
 
-    def _message(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None) -> TeamMessage:
+    def _message(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=()) -> TeamMessage:
         kw = {}
         plan = plan if plan is not None else self._own_plan(t_s, guidance)
         if plan is not None:
@@ -232,6 +242,8 @@ class Coordination(CoordinationMethod):
             along = float(np.dot(nav.velocity_m_s[:2], (np.cos(chi), np.sin(chi))))
             kw.update(gamma_m=float(gamma_m), path_length_m=self.path_length_m, xi=self.xi(gamma_m),
                       xi_rate_1_s=along / self.path_length_m, offset_m=self.config.formation_offset_m)
+        if tracks:
+            kw["tracks"] = tuple(tracks)
         return TeamMessage(self.name, np.array(nav.position_m[:2], dtype=float), float(nav.heading_rad),
                            np.array(nav.velocity_m_s[:2], dtype=float), self.mission_speed_m_s, self.radius_m, **kw)
 
@@ -302,14 +314,19 @@ class Coordination(CoordinationMethod):
         return float(d.sum()), float(d.mean()), float(spread), len(xis)
 
     # ------------------------------------------------------------------ component interface
-    def exchange(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None) -> None:
+    def exchange(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=()) -> None:
         """Comms slot: broadcast own ξ, path rate, pose and plan; read what has arrived.
 
         nav: own :class:`~mjasc.core.navigation.OwnNavigation`; gamma_m: progress along the mission
         path [m]; guidance: the :class:`~mjasc.guidance.state.GuidanceState` (for the plan when
         ``plan`` is None); plan: (times (k,), points (k, 2)) the vessel's planned trajectory over
-        :meth:`plan_request` (from its collision avoidance), or None."""
-        self.link.send(t_s, self._message(t_s, nav, gamma_m, guidance, plan), nav.position_m)
+        :meth:`plan_request` (from its collision avoidance), or None; tracks: the vessel's own
+        confirmed tracks to share (:class:`~mjasc.core.estimates.SharedTrack`, with ``share_tracks``;
+        sent as given, the caller caps them)."""
+        if tracks and self.config.share_tracks:
+            self._tracks_sent += len(tracks)
+        self.link.send(t_s, self._message(t_s, nav, gamma_m, guidance, plan,
+                                          tracks if self.config.share_tracks else ()), nav.position_m)
         self._poll(t_s, nav)
         _, lead, spread, n = self.coordination_error(t_s, gamma_m)
         self.last_xi, self.last_spread_m = self.xi(gamma_m), spread
@@ -356,6 +373,22 @@ class Coordination(CoordinationMethod):
             self._intentions = self.team_intentions()
         return TeamPicture(float(t_s), self._intentions, self.last_factor)
 
+    def track_sharing(self):
+        """The team-shared perception settings
+        (:class:`~mjasc.perception.track_fusion.FusionSettings`) when ``share_tracks`` is on, else None."""
+        if not self.config.share_tracks:
+            return None
+        from mjasc.perception.track_fusion import FusionSettings
+
+        c = self.config
+        return FusionSettings(c.share_max_tracks, c.share_max_age_s, c.share_gate)
+
+    def team_tracks(self) -> dict:
+        """Each team mate's newest message's shared tracks: name → (sent time [s], tuple of
+        :class:`~mjasc.core.estimates.SharedTrack`); an empty tuple (it sees nothing now) replaces
+        what the receiver kept of that team mate."""
+        return {n: (nb.sent_time_s, tuple(getattr(nb.message, "tracks", ()))) for n, nb in self.neighbours.items()}
+
     def team_positions(self) -> dict:
         """Latest received position of every team mate: name → (sent time [s], (2,) world [m])."""
         return {n: (nb.sent_time_s, nb.message.position_m) for n, nb in self.neighbours.items()}
@@ -393,6 +426,8 @@ class Coordination(CoordinationMethod):
                "mean_delay_s": None if not link["delivered"] else round(float(link["mean_delay_s"]), 4),
                "neighbours_active": sorted(self.active_neighbours()),
                "neighbours_lost": sorted(n for n, nb in self.neighbours.items() if not nb.active)}
+        if self.config.share_tracks:
+            out["tracks_sent"] = self._tracks_sent
         if self._history:
             t, lead, spread = np.array(self._history).T
             a = np.abs(lead)

@@ -30,7 +30,9 @@ class TeamMessage:
     cruise speed; radius_m: its bounding radius [m] (None: not sent); plan_times_s (k,),
     plan_points_m (k, 2): its plan (k = 0: none). Progress along its mission path (all None for a
     vessel without one): gamma_m γ [m], path_length_m L [m], xi ξ = (γ − o)/L, xi_rate_1_s ξ̇ [1/s]
-    (its along-path speed / L), offset_m its formation offset o [m].
+    (its along-path speed / L), offset_m its formation offset o [m]. tracks: the sender's confirmed
+    own tracks (:class:`~mjasc.core.estimates.SharedTrack`, nearest first, capped) when it shares
+    its perception (``share_tracks``; empty otherwise).
     """
 
     sender: str
@@ -46,6 +48,7 @@ class TeamMessage:
     xi: float | None = None
     xi_rate_1_s: float | None = None
     offset_m: float | None = None
+    tracks: tuple = ()
 
     @property
     def has_path(self) -> bool:

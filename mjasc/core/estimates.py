@@ -1,7 +1,8 @@
 """Typed values that flow between a vessel's perception and its collision avoidance.
 
 A :class:`TrackEstimate` is what the tracker (``tracking``/``imm``) hands to collision
-prediction: everything a vessel believes about one object around it. A :class:`PlannedTrack` is
+prediction: everything a vessel believes about one object around it. A :class:`SharedTrack` is
+an own track as a vessel broadcasts it to its team. A :class:`PlannedTrack` is
 a team mate that collision avoidance predicts along its own broadcast plan instead. World frame
 ENU, SI units.
 """
@@ -28,6 +29,9 @@ class TrackEstimate:
     is_static: True for objects that do not move (docks, islands, moored buoys).
     team_member: name of the team mate this track was matched to, or None.
     outline_m: (k, 2) world-frame polygon of a static object's extent, or None.
+    source: None for the vessel's own track (its sensor; possibly fused with team tracks), or
+        ``"team:<sender>"`` for a track only a team mate saw (team-shared perception,
+        :mod:`mjasc.perception.track_fusion`).
     """
 
     track_id: int
@@ -41,6 +45,7 @@ class TrackEstimate:
     is_static: bool = False
     team_member: str | None = None
     outline_m: np.ndarray | None = None
+    source: str | None = None
 
     def predict_positions(self, times_s: np.ndarray) -> np.ndarray:
         """Positions (n, 2) at absolute times ``times_s`` under constant speed and turn rate
@@ -57,6 +62,25 @@ class TrackEstimate:
             [x0 + v / w * (np.sin(th_t) - np.sin(th)), y0 - v / w * (np.cos(th_t) - np.cos(th))],
             axis=-1,
         )
+
+
+@dataclass(frozen=True, eq=False)
+class SharedTrack:
+    """One confirmed own track as a vessel broadcasts it to its team (team-shared perception,
+    :mod:`mjasc.perception.track_fusion`): the sender's estimate, never the truth.
+
+    track_id: the sender's id; time_s: the estimate's time [s]; position_m (2,) [m]; velocity_m_s
+    (2,) over ground [m/s]; turn_rate_rad_s ω̂ [rad/s]; radius_m [m]; position_covariance (2, 2)
+    [m²]; is_static."""
+
+    track_id: int
+    time_s: float
+    position_m: np.ndarray
+    velocity_m_s: np.ndarray
+    turn_rate_rad_s: float
+    radius_m: float
+    position_covariance: np.ndarray
+    is_static: bool = False
 
 
 @dataclass(frozen=True, eq=False)

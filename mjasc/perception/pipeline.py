@@ -130,6 +130,7 @@ class Perception:
         self._drain: list[tuple[float, str]] = []
         self._log_events: list = []
         self._log = None  # PerceptionLog (mjasc.perception.recording), made at the first log()
+        self._fusion = None  # TeamTrackFusion, made when team tracks first arrive (share_tracks)
         self.keep_history = False
         self.history: list[tuple] = []  # (t, id, x, y, θ, V, ω, team, static) of confirmed tracks
         self._stats = {"scans": 0, "returns": 0, "detections": 0, "target_detections": 0,
@@ -345,9 +346,42 @@ class Perception:
             return
         self.tracker.set_team_positions(positions)
 
+    # ---------------------------------------------------------------- team-shared perception
+    def shareable_tracks(self, own_position_m, max_tracks: int) -> tuple:
+        """The confirmed own tracks this vessel may broadcast (not team mates, not team tracks),
+        nearest first, at most ``max_tracks`` (:func:`mjasc.perception.track_fusion.shareable`)."""
+        from mjasc.perception.track_fusion import shareable
+
+        return shareable(self.tracks(), own_position_m, max_tracks)
+
+    def set_team_tracks(self, t_s: float, by_sender: dict, own_position_m, team_positions: dict, settings,
+                        team: list[str]) -> None:
+        """The team's shared tracks from the comms link (name → (sent time, SharedTrack tuple)),
+        cleared of this vessel and its team mates (``team_positions`` {name: (t_b, position)}) and
+        kept for :meth:`report_tracks` (:class:`~mjasc.perception.track_fusion.TeamTrackFusion`)."""
+        if self._fusion is None:
+            from dataclasses import replace as _replace
+
+            from mjasc.perception.track_fusion import TeamTrackFusion
+
+            settings = _replace(settings, team_match_distance_m=self.config.team_match_distance_m)
+            self._fusion = TeamTrackFusion(self.name, list(team), self.world.vessel_types[self.vessel_index].radius_m,
+                                           settings)
+        self._fusion.receive(t_s, by_sender, own_position_m, team_positions)
+
+    def report_tracks(self, t_s: float) -> tuple:
+        """The tracks this vessel's report hands on: its confirmed tracks, fused with the newest
+        team tracks when it shares perception (:meth:`set_team_tracks` was called)."""
+        own = tuple(self.tracks())
+        if self._fusion is None:
+            return own
+        return self._fusion.fuse(own, t_s)
+
     def drain_events(self) -> list[tuple[float, str]]:
         self.fleet.flush()
         ev, self._drain = self._drain, []
+        if self._fusion is not None:
+            ev.extend(self._fusion.drain_events())
         return ev
 
     def history_arrays(self) -> dict:
@@ -406,6 +440,7 @@ class Perception:
             **({"non_finite_detections_dropped": st["non_finite_detections_dropped"]}
                if st["non_finite_detections_dropped"] else {}),
             **({"tracking_method": self.method.method, "tracker": ms} if self.method is not None else {}),
+            **({"team_shared": self._fusion.summary()} if self._fusion is not None else {}),
         }
 
 

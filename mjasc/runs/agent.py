@@ -6,9 +6,11 @@ the vessel's components — hands them on::
 
     sensing    perception.sense(t, nav)                      own range scan → detections
     tracking   perception.update_tracks(t, nav)              detections → IMM tracks
-               → PerceptionReport (tracks, static polygons)
+               → PerceptionReport (tracks, static polygons; with ``share_tracks`` the team's
+                 broadcast tracks fused in: perception.report_tracks, mjasc.perception.track_fusion)
     comms      avoidance.planned_trajectory(t, nav, guidance) → the plan to broadcast
-               coordination.exchange(t, nav, γ, guidance, plan) → TeamMessage out; TeamPicture in
+               coordination.exchange(t, nav, γ, guidance, plan[, tracks]) → TeamMessage out; TeamPicture in
+               (with ``share_tracks``: the own confirmed tracks out, the team's to perception.set_team_tracks)
     prediction avoidance.predict(t, nav, guidance, report, team) → AvoidanceRequest
     control    coordination.speed_correction(t, nav, γ)      → factor on the mission speed
                avoidance.control(t, nav, guidance, report, team) → AvoidanceRequest
@@ -112,11 +114,12 @@ class VesselAgent:
     def perception_report(self, t_s: float) -> PerceptionReport | None:
         """What the perception reports now (None without perception); rebuilt only after a slot that
         changed the perception's state (sensing, tracking, comms). The static polygons are computed
-        when a prediction first asks for them."""
+        when a prediction first asks for them. With ``share_tracks`` the tracks are the own ones
+        fused with the team's newest (:meth:`~mjasc.perception.pipeline.Perception.report_tracks`)."""
         if self.perception is None:
             return None
         if self._report is None:
-            self._report = PerceptionReport(float(t_s), tuple(self.perception.tracks()),
+            self._report = PerceptionReport(float(t_s), self.perception.report_tracks(float(t_s)),
                                             Deferred(self.perception.static_polygons))
         return self._report
 
@@ -157,9 +160,19 @@ class VesselAgent:
         plan, req = None, c.plan_request()
         if req is not None and self.avoidance is not None:
             plan = self.avoidance.planned_trajectory(nav.time_s, nav, guidance, *req)
-        c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan)
+        sharing = c.track_sharing() if hasattr(c, "track_sharing") else None
+        if sharing is not None and self.perception is not None:
+            # team-shared perception: the own confirmed tracks go out, the team's are fused in
+            c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan,
+                       tracks=self.perception.shareable_tracks(nav.position_m, sharing.max_tracks))
+        else:
+            c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan)
         if self.perception is not None:
-            self.perception.set_team_positions(c.team_positions())
+            positions = c.team_positions()
+            self.perception.set_team_positions(positions)
+            if sharing is not None:
+                self.perception.set_team_tracks(nav.time_s, c.team_tracks(), nav.position_m, positions, sharing,
+                                                list(c.link.team) if hasattr(c, "link") else sorted(positions))
             self._report = None
 
     def prediction_call(self, nav: OwnNavigation) -> tuple | None:
