@@ -62,6 +62,11 @@ TRAIL_PERIOD_S = 1.0
 TRAIL_SEGMENT_S = 30.0
 #: Paths are drawn with points every 0.5 m (traffic 1 m), or this many points on a longer path.
 PATH_POINTS = 400
+#: The per-vessel plot series the runner writes at each record tick: kind → entity template. The
+#: vessels without views share one entity per kind at standard detail (Recorder.vessel_scalars).
+PLOT_SERIES = {"speed": "plots/speed/{}/actual", "speed_ref": "plots/speed/{}/reference",
+               "thrust_port": "plots/thrust/{}/port", "thrust_starboard": "plots/thrust/{}/starboard",
+               "heading": "plots/heading/{}", "cross_track": "plots/cross_track/{}"}
 
 
 class RunFailed(RuntimeError):
@@ -177,12 +182,11 @@ class Runner:
         hulls = np.einsum("nkj,nij->nki", self._hull_body, np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], 1))
         rec.fleet_strips(e["hull"], t, hulls + states.position_m[:, None, :], z=0.2)
         rec.fleet_points(e["position"], t, states.position_m, z=0.2)
-        rec.fleet_scalars(e["speed"], t, states.speed_m_s)
-        rec.fleet_scalars(e["speed_ref"], t, [o.speed_ref_m_s if o else 0.0 for o in self.last_outputs])
-        rec.fleet_scalars(e["thrust_port"], t, states.thrust_n[:, 0])
-        rec.fleet_scalars(e["thrust_starboard"], t, states.thrust_n[:, 1])
-        rec.fleet_scalars(e["heading"], t, np.degrees(states.heading_rad))
-        rec.fleet_scalars(e["cross_track"], t, xte)  # NaN (no path) is left out
+        series = (("speed", states.speed_m_s), ("speed_ref", [o.speed_ref_m_s if o else 0.0 for o in self.last_outputs]),
+                  ("thrust_port", states.thrust_n[:, 0]), ("thrust_starboard", states.thrust_n[:, 1]),
+                  ("heading", np.degrees(states.heading_rad)), ("cross_track", xte))  # NaN (no path) is left out
+        for kind, values in series:  # the vessels without views: one entity per kind (Recorder.vessel_scalars)
+            rec.vessel_scalars(PLOT_SERIES[kind], e[kind], t, values)
         if rec.full:
             ctrl = self.sim.data.ctrl[self.world.ctrl_adr]
             rec.fleet_scalars(e["command_port"], t, ctrl[:, 0])
@@ -225,11 +229,9 @@ class Runner:
         names = [a.name for a in self.agents]
         kinds = {"hull": "world/vessels/{}/hull", "position": "world/vessels/{}/position",
                  "trail": "world/vessels/{}/trail", "trail_recent": "world/vessels/{}/trail/recent",
-                 "speed": "plots/speed/{}/actual", "speed_ref": "plots/speed/{}/reference",
-                 "thrust_port": "plots/thrust/{}/port", "thrust_starboard": "plots/thrust/{}/starboard",
-                 "command_port": "plots/commands/{}/port", "command_starboard": "plots/commands/{}/starboard",
-                 "heading": "plots/heading/{}", "cross_track": "plots/cross_track/{}"}
+                 "command_port": "plots/commands/{}/port", "command_starboard": "plots/commands/{}/starboard"}
         out = {k: tuple(v.format(n) for n in names) for k, v in kinds.items()}
+        out.update({k: self.recorder.vessel_entities(v, tuple(names)) for k, v in PLOT_SERIES.items()})
         out["moving"] = tuple(f"world/obstacles/moving/{o.name}" for o in self.world.moving_obstacles)
         return out
 
@@ -258,11 +260,11 @@ class Runner:
                 rec.static(f"{base}/mission_path", rr.LineStrips3D([np.column_stack([xy, np.zeros(len(xy))])],
                                                                    colors=[(*col, 120)], radii=[0.06],
                                                                    class_ids=[100], show_labels=[False]))
-            rec.series_style(f"plots/speed/{v.name}/actual", f"{v.name} speed", col, 2.0)
-            rec.series_style(f"plots/speed/{v.name}/reference", f"{v.name} reference", (*col, 120), 1.0)
-            rec.series_style(f"plots/thrust/{v.name}/port", f"{v.name} port", col)
-            rec.series_style(f"plots/thrust/{v.name}/starboard", f"{v.name} starboard", (*col, 140))
-            rec.series_style(f"plots/cross_track/{v.name}", f"{v.name}", col)
+            rec.vessel_series_style(PLOT_SERIES["speed"], v.name, f"{v.name} speed", col, 2.0)
+            rec.vessel_series_style(PLOT_SERIES["speed_ref"], v.name, f"{v.name} reference", (*col, 120), 1.0)
+            rec.vessel_series_style(PLOT_SERIES["thrust_port"], v.name, f"{v.name} port", col)
+            rec.vessel_series_style(PLOT_SERIES["thrust_starboard"], v.name, f"{v.name} starboard", (*col, 140))
+            rec.vessel_series_style(PLOT_SERIES["cross_track"], v.name, f"{v.name}", col)
         for o in sc.static_obstacles:
             poly = o.vertices if hasattr(o, "vertices") else o.polygon(32)
             closed = np.vstack([poly, poly[:1]])
@@ -323,7 +325,7 @@ class Runner:
                 comms=self.network is not None)
             self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp, detail=sc.outputs.recording_detail)
             self.recorder.colours = {a.name: vessel_colour(i) for i, a in enumerate(self.agents)}
-            self.recorder.view_vessels = frozenset(view_vessels(names))
+            self.recorder.set_vessels(names, view_vessels(names))
             self._entities = self._entity_names()
             self._log_static_scene()
             if self.network is not None and tuple(self.network.team) == names:
