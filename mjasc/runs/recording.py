@@ -185,6 +185,22 @@ class Recorder:
         rows[t_s] = values[n_own:].copy()
         self._count(len(self.batched))
 
+    def vessel_points(self, template: str, entities: tuple[str, ...], t_s: float, positions_xy, z: float = 0.0) -> None:
+        """:meth:`fleet_points` of every vessel (positions (n, 2) in vessel order, ``entities`` from
+        :meth:`vessel_entities`): the batched vessels' points in one row of the batch entity."""
+        p = np.asarray(positions_xy, dtype=np.float64).reshape(-1, 2)
+        self.fleet_points(entities, t_s, p[:len(entities)] if self.batched else p, z)
+        if self.batched:
+            self.points(template.format(OTHERS), t_s, p[len(entities):], z)
+
+    def vessel_strips(self, template: str, entities: tuple[str, ...], t_s: float, strips_xy, z: float = 0.0) -> None:
+        """:meth:`fleet_strips` of every vessel (strips (n, m, 2) in vessel order, ``entities`` from
+        :meth:`vessel_entities`): the batched vessels' strips in one row of the batch entity."""
+        s = np.asarray(strips_xy, dtype=np.float64)
+        self.fleet_strips(entities, t_s, s[:len(entities)] if self.batched else s, z)
+        if self.batched:
+            self.strips(template.format(OTHERS), t_s, list(s[len(entities):]), z)
+
     def vessel_entities(self, template: str, names: tuple[str, ...]) -> tuple[str, ...]:
         """The own entities of ``template`` for the vessels of ``names`` that are not batched; the
         batched ones must come last (as :meth:`set_vessels` keeps them: views go to the first)."""
