@@ -20,6 +20,15 @@ arrows, one time series per track (ω̂, V̂, mode probabilities), track births,
 track and the detour's flow field (several MB per vessel-minute, growing with the tracks each
 vessel holds). Components ask :attr:`Recorder.full`.
 
+**Fleets.** Rerun's footer holds ~0.5 kB per entity and component, whatever the run's length.
+At standard detail the vessels without per-vessel views (beyond
+:data:`~mjasc.runs.blueprint.MAX_VIEW_VESSELS`, :meth:`Recorder.set_vessels`) share one entity per
+kind — ``world/vessels/_others/{hull,position,trail,trail/recent,mission_path}`` an instance per
+vessel, ``plots/<kind>/_others`` (speed, reference, virtual target, thrust, heading, cross-track,
+formation) a series per vessel (:meth:`Recorder.vessel_scalar` and friends; ``_others`` is
+:data:`~mjasc.runs.blueprint.OTHERS`); their avoidance overlays, tracks, map and mode lanes stay
+per vessel (written at their own times). ``full`` keeps an entity per vessel.
+
 **Buffered columns.** Nothing is written per row while the run goes: rows are buffered per entity
 (or per group of entities that share their times, :meth:`Recorder.fleet_scalars` and friends: one
 call per record tick for the whole fleet) and written column-wise with ``send_columns`` — one
