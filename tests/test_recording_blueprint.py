@@ -77,3 +77,26 @@ def test_track_labels_are_off_by_default_and_plots_use_the_vessel_colour(demo):
         assert rec[f"/world/vessels/{agent.name}/tracks/positions:Points3D:show_labels"][0] == [False]
         r, g, b = vessel_colour(i)
         assert rec[f"/plots/speed/{agent.name}/actual:SeriesLines:colors"][0] == [(r << 24) | (g << 16) | (b << 8) | 0xFF]
+
+
+def test_the_formation_plots_of_a_large_fleet_include_the_shared_entity():
+    """Beyond MAX_VIEW_VESSELS the vessels' formation series share one entity (standard detail):
+    the coordination views must list it, or the plots would show the first vessels only."""
+    import rerun.blueprint as rrb
+
+    from mjasc.runs.blueprint import MAX_VIEW_VESSELS, OTHERS, default_blueprint
+
+    def contents(detail):
+        names = tuple(f"v{i:03d}" for i in range(MAX_VIEW_VESSELS + 3))
+        bp = default_blueprint(vessels=names, coordination=True, detail=detail)
+        out, stack = [], [bp.root_container]
+        while stack:
+            node = stack.pop()
+            if isinstance(node, rrb.TimeSeriesView) and node.origin == "plots/coordination":
+                out += list(node.contents)
+            stack += list(getattr(node, "contents", None) or []) if not isinstance(node, rrb.TimeSeriesView) else []
+        return " ".join(str(c) for c in out)
+
+    std, full = contents("standard"), contents("full")
+    assert f"plots/coordination/{OTHERS}/spread_m" in std and f"v{MAX_VIEW_VESSELS + 2:03d}" not in std
+    assert OTHERS not in full and f"plots/coordination/v{MAX_VIEW_VESSELS + 2:03d}/spread_m" in full

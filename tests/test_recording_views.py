@@ -221,5 +221,20 @@ def test_a_large_fleet_gets_per_vessel_views_for_its_first_vessels_only(tmp_path
     first, last = names[0], names[-1]
     assert f"/sensor/{first}/fan" in paths and f"/sensor/{last}/fan" not in paths
     assert not any(p.startswith(f"/sensor/{last}") or p.startswith(f"/threats/{last}") for p in paths)
-    assert f"/world/vessels/{last}/hull" in paths and f"/modes/{last}" in paths
+    assert f"/world/vessels/{first}/hull" in paths and f"/modes/{last}" in paths  # the follow views' hulls
     assert f"/plots/comms/{first}/received" in paths and f"/plots/comms/{last}/received" not in paths
+    # The vessels without views share one entity per kind (each entity costs footer space per
+    # component): their hulls, positions, trails and paths an instance each, their plots a series each.
+    others = [n for n in names if n not in names[:MAX_VIEW_VESSELS]]
+    for kind in ("world/vessels/{}/hull", "world/vessels/{}/position", "world/vessels/{}/mission_path",
+                 "plots/speed/{}/actual", "plots/heading/{}", "plots/coordination/{}/spread_m"):
+        assert "/" + kind.format("_others") in paths and "/" + kind.format(last) not in paths, kind
+    assert "/" + "plots/speed/{}/actual".format(first) in paths
+    store = rr.chunk.RrdReader(str(tmp_path / "recording.rrd")).store()
+    speed = [c.to_record_batch() for c in store.stream() if c.entity_path == "/plots/speed/_others/actual"]
+    names_col = [b.column(b.schema.get_field_index("SeriesLines:names")) for b in speed
+                 if "SeriesLines:names" in b.schema.names]
+    assert [str(s) for s in names_col[0][0].as_py()] == [f"{n} speed" for n in others]
+    values = [row for b in speed if "Scalars:scalars" in b.schema.names
+              for row in b.column(b.schema.get_field_index("Scalars:scalars")).to_pylist()]
+    assert values and all(len(row) == len(others) for row in values)  # a series per vessel, every row

@@ -5,7 +5,8 @@ styled by a static ``StateConfiguration``: names and colours of
 :data:`~mjasc.runs.blueprint.MODE_STATES`) written when it changes; the threat panel
 (:mod:`mjasc.avoidance.threat_panel`, markdown at ``threats/<vessel>``) written when its text
 changes — at once when the mode, the running correction or the set of conflicts changed, else at
-most every ``THREAT_PERIOD_S`` (a new prediction's CPA and TCPA); the virtual target's speed and γ; in the world view under ``world/vessels/<vessel>/avoidance``:
+most every ``THREAT_PERIOD_S`` (a new prediction's CPA and TCPA); the virtual target's speed (and,
+``full`` detail only, its γ and the vessel's: no view of the default blueprint shows them); in the world view under ``world/vessels/<vessel>/avoidance``:
 the virtual target, the predicted own motion and the predicted motions of the tracks in conflict
 (every ``_PREDICTION_STEP_S``) of the latest prediction, the predicted collision points with their
 obstruction interval, the obstructed stretches, the SVOs, and while a detour runs its streamline
@@ -33,6 +34,9 @@ _PREDICTION_STEP_S = 2.0
 THREAT_PERIOD_S = 2.0
 #: Legend classes (:data:`mjasc.runs.blueprint.LEGEND_CLASSES`) of the overlays.
 _CONFLICT, _OBSTRUCTED, _SVO, _DETOUR, _FIELD_OBSTACLE, _VIRTUAL_TARGET, _OWN = 103, 104, 105, 106, 107, 108, 117
+#: The virtual target's speed beside the vessel's (the vessels without views share one entity,
+#: :meth:`mjasc.runs.recording.Recorder.vessel_scalar`).
+_TARGET_SPEED = "plots/speed/{}/virtual_target"
 
 
 def _closed(p):
@@ -78,11 +82,12 @@ class AvoidanceLog:
         recorder.static(f"modes/{vessel_name}", rr.StateConfiguration(
             values=list(MODE_STATES), labels=[label for label, _ in MODE_STATES.values()],
             colors=[(*rgb, 255) for _, rgb in MODE_STATES.values()]))
-        recorder.series_style(f"plots/speed/{vessel_name}/virtual_target", f"{vessel_name} virtual target",
-                              c(_VIRTUAL_TARGET), 1.0)
-        recorder.series_style(f"plots/gamma/{vessel_name}/virtual_target", f"{vessel_name} virtual target γ_d",
-                              c(_VIRTUAL_TARGET), 1.0)
-        recorder.series_style(f"plots/gamma/{vessel_name}/actual", f"{vessel_name} γ", col, 2.0)
+        recorder.vessel_series_style(_TARGET_SPEED, vessel_name, f"{vessel_name} virtual target", c(_VIRTUAL_TARGET),
+                                     1.0)
+        if recorder.full:  # no view of the default blueprint shows γ
+            recorder.series_style(f"plots/gamma/{vessel_name}/virtual_target", f"{vessel_name} virtual target γ_d",
+                                  c(_VIRTUAL_TARGET), 1.0)
+            recorder.series_style(f"plots/gamma/{vessel_name}/actual", f"{vessel_name} γ", col, 2.0)
         styles = {"virtual_target": rr.Points3D.from_fields(colors=[c(_VIRTUAL_TARGET)], radii=[0.4],
                                                             class_ids=[_VIRTUAL_TARGET], show_labels=[False]),
                   "predicted_own": rr.LineStrips3D.from_fields(colors=[c(_OWN)], radii=[0.08], class_ids=[_OWN],
@@ -116,9 +121,10 @@ class AvoidanceLog:
         c = correction
         if c is not None and guidance is not None:
             g_d = c.law.gamma_desired(t) - c.gamma_offset_m
-            recorder.scalar(f"plots/speed/{vessel_name}/virtual_target", t, c.law.desired_speed)
-            recorder.scalar(f"plots/gamma/{vessel_name}/virtual_target", t, c.law.gamma_desired(t))
-            recorder.scalar(f"plots/gamma/{vessel_name}/actual", t, guidance.gamma_m + c.gamma_offset_m)
+            recorder.vessel_scalar(_TARGET_SPEED, vessel_name, t, c.law.desired_speed)
+            if recorder.full:
+                recorder.scalar(f"plots/gamma/{vessel_name}/virtual_target", t, c.law.gamma_desired(t))
+                recorder.scalar(f"plots/gamma/{vessel_name}/actual", t, guidance.gamma_m + c.gamma_offset_m)
             recorder.points(f"{base}/virtual_target", t, guidance.path.point(min(max(g_d, 0.0), guidance.path.length)),
                             z=0.4)
         if self._pending:

@@ -403,18 +403,21 @@ class Coordination(CoordinationMethod):
             from mjasc.runs.recording import vessel_colour
 
             col = vessel_colour(self.link.team.index(vessel_name)) if vessel_name in self.link.team else None
-            recorder.series_style(f"{base}/gamma_normalized", f"{vessel_name} γ/L", col)
+            # Vessels without views share one entity per quantity (Recorder.vessel_scalar).
+            recorder.vessel_series_style("plots/coordination/{}/gamma_normalized", vessel_name, f"{vessel_name} γ/L", col)
             if recorder.full:
                 recorder.series_style(f"{base}/error_m", f"{vessel_name} lead [m]", col)
-            recorder.series_style(f"{base}/spread_m", f"{vessel_name} formation spread [m]", col)
-            recorder.series_style(f"{base}/speed_factor", f"{vessel_name} speed factor", col)
+            recorder.vessel_series_style("plots/coordination/{}/spread_m", vessel_name,
+                                         f"{vessel_name} formation spread [m]", col)
+            recorder.vessel_series_style("plots/coordination/{}/speed_factor", vessel_name,
+                                         f"{vessel_name} speed factor", col)
             self._logged_style = True
         if np.isfinite(self.last_xi):
-            recorder.scalar(f"{base}/gamma_normalized", t_s, self.last_xi)
+            recorder.vessel_scalar("plots/coordination/{}/gamma_normalized", vessel_name, t_s, self.last_xi)
         if recorder.full:  # the lead has no view in the default blueprint
             recorder.scalar(f"{base}/error_m", t_s, self.last_error_m)
-        recorder.scalar(f"{base}/spread_m", t_s, self.last_spread_m)
-        recorder.scalar(f"{base}/speed_factor", t_s, self.last_factor)
+        recorder.vessel_scalar("plots/coordination/{}/spread_m", vessel_name, t_s, self.last_spread_m)
+        recorder.vessel_scalar("plots/coordination/{}/speed_factor", vessel_name, t_s, self.last_factor)
 
     def summary(self) -> dict:
         """This vessel's view of the formation, sampled at each exchange: its lead over the

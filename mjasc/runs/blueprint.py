@@ -23,7 +23,8 @@ import numpy as np
 import rerun as rr
 import rerun.blueprint as rrb
 
-__all__ = ["default_blueprint", "stable_blueprint_ids", "vessel_colour", "view_vessels", "MAX_VIEW_VESSELS", "PALETTE",
+__all__ = ["default_blueprint", "stable_blueprint_ids", "vessel_colour", "view_vessels", "MAX_VIEW_VESSELS", "OTHERS",
+           "PALETTE",
            "LEGEND_CLASSES",
            "VESSEL_COLOURED", "legend_colour", "legend_classes", "annotation_context", "legend_markdown",
            "MODE_STATES", "FOLLOW_EYE_OFFSET_M"]
@@ -90,6 +91,9 @@ FOLLOW_EYE_OFFSET_M = (0.0, -25.0, 45.0)
 #: each) and the data only they show, and 50 tabs are not a layout anyone reads. The fleet tab,
 #: the top-down view and every vessel's world data cover the whole fleet.
 MAX_VIEW_VESSELS = 12
+#: In place of a vessel name, the entity holding one series per vessel without views
+#: (``plots/speed/_others/actual``; :meth:`mjasc.runs.recording.Recorder.vessel_entity`).
+OTHERS = "_others"
 
 
 def view_vessels(vessels: tuple[str, ...]) -> tuple[str, ...]:
@@ -190,8 +194,11 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
             shares.append(2)
         tabs.append(rrb.Vertical(*views, row_shares=shares, name=v))
     if coordination:
+        # (vessels beyond the views share one entity per quantity at standard detail: Recorder.vessel_entity)
+        shown = list(vessels) if detail == "full" or len(vessels) <= MAX_VIEW_VESSELS else \
+            [*view_vessels(vessels), OTHERS]
         team = [rrb.TimeSeriesView(origin="plots/coordination", name=title,
-                                   contents=[f"plots/coordination/{v}/{quantity}" for v in vessels])
+                                   contents=[f"plots/coordination/{v}/{quantity}" for v in shown])
                 for quantity, title in (("spread_m", "formation spread [m]"),
                                         ("speed_factor", "coordination speed factor"),
                                         ("gamma_normalized", "γ/L"))]

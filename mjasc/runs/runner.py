@@ -46,7 +46,7 @@ from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 from mjasc.runs.agent import build_agent
-from mjasc.runs.blueprint import view_vessels
+from mjasc.runs.blueprint import OTHERS, view_vessels
 from mjasc.runs.interrupts import catch_sigterm, restore_sigterm, signal_name
 from mjasc.runs.outputs import atomic_target, atomic_write_text
 from mjasc.runs.recording import Recorder, annotation_context, default_blueprint, legend_markdown, vessel_colour
@@ -62,6 +62,15 @@ TRAIL_PERIOD_S = 1.0
 TRAIL_SEGMENT_S = 30.0
 #: Paths are drawn with points every 0.5 m (traffic 1 m), or this many points on a longer path.
 PATH_POINTS = 400
+#: The per-vessel world entities the runner writes at each record tick (hull, position) or trail
+#: point: kind → entity template (the vessels without views share one, as PLOT_SERIES).
+WORLD_SERIES = {"hull": "world/vessels/{}/hull", "position": "world/vessels/{}/position",
+                "trail": "world/vessels/{}/trail", "trail_recent": "world/vessels/{}/trail/recent"}
+#: The per-vessel plot series the runner writes at each record tick: kind → entity template. The
+#: vessels without views share one entity per kind at standard detail (Recorder.vessel_scalars).
+PLOT_SERIES = {"speed": "plots/speed/{}/actual", "speed_ref": "plots/speed/{}/reference",
+               "thrust_port": "plots/thrust/{}/port", "thrust_starboard": "plots/thrust/{}/starboard",
+               "heading": "plots/heading/{}", "cross_track": "plots/cross_track/{}"}
 
 
 class RunFailed(RuntimeError):
@@ -175,14 +184,13 @@ class Runner:
         t, e = states.time_s, self._entities
         c, s = np.cos(states.heading_rad), np.sin(states.heading_rad)
         hulls = np.einsum("nkj,nij->nki", self._hull_body, np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], 1))
-        rec.fleet_strips(e["hull"], t, hulls + states.position_m[:, None, :], z=0.2)
-        rec.fleet_points(e["position"], t, states.position_m, z=0.2)
-        rec.fleet_scalars(e["speed"], t, states.speed_m_s)
-        rec.fleet_scalars(e["speed_ref"], t, [o.speed_ref_m_s if o else 0.0 for o in self.last_outputs])
-        rec.fleet_scalars(e["thrust_port"], t, states.thrust_n[:, 0])
-        rec.fleet_scalars(e["thrust_starboard"], t, states.thrust_n[:, 1])
-        rec.fleet_scalars(e["heading"], t, np.degrees(states.heading_rad))
-        rec.fleet_scalars(e["cross_track"], t, xte)  # NaN (no path) is left out
+        rec.vessel_strips(WORLD_SERIES["hull"], e["hull"], t, hulls + states.position_m[:, None, :], z=0.2)
+        rec.vessel_points(WORLD_SERIES["position"], e["position"], t, states.position_m, z=0.2)
+        series = (("speed", states.speed_m_s), ("speed_ref", [o.speed_ref_m_s if o else 0.0 for o in self.last_outputs]),
+                  ("thrust_port", states.thrust_n[:, 0]), ("thrust_starboard", states.thrust_n[:, 1]),
+                  ("heading", np.degrees(states.heading_rad)), ("cross_track", xte))  # NaN (no path) is left out
+        for kind, values in series:  # the vessels without views: one entity per kind (Recorder.vessel_scalars)
+            rec.vessel_scalars(PLOT_SERIES[kind], e[kind], t, values)
         if rec.full:
             ctrl = self.sim.data.ctrl[self.world.ctrl_adr]
             rec.fleet_scalars(e["command_port"], t, ctrl[:, 0])
@@ -216,20 +224,18 @@ class Runner:
             return
         e = self._entities
         if t - times[self._trail_cut] >= TRAIL_SEGMENT_S:
-            self.recorder.fleet_strips(e["trail"], t, np.stack(xy, axis=1), z=0.1)
+            self.recorder.vessel_strips(WORLD_SERIES["trail"], e["trail"], t, np.stack(xy, axis=1), z=0.1)
             self._trail_cut = len(times) - 1
-        self.recorder.fleet_strips(e["trail_recent"], t, np.stack(xy[self._trail_cut:], axis=1), z=0.1)
+        self.recorder.vessel_strips(WORLD_SERIES["trail_recent"], e["trail_recent"], t,
+                                    np.stack(xy[self._trail_cut:], axis=1), z=0.1)
 
     def _entity_names(self) -> dict[str, tuple[str, ...]]:
         """The recording's per-vessel entities, one tuple (in vessel order) per kind."""
         names = [a.name for a in self.agents]
-        kinds = {"hull": "world/vessels/{}/hull", "position": "world/vessels/{}/position",
-                 "trail": "world/vessels/{}/trail", "trail_recent": "world/vessels/{}/trail/recent",
-                 "speed": "plots/speed/{}/actual", "speed_ref": "plots/speed/{}/reference",
-                 "thrust_port": "plots/thrust/{}/port", "thrust_starboard": "plots/thrust/{}/starboard",
-                 "command_port": "plots/commands/{}/port", "command_starboard": "plots/commands/{}/starboard",
-                 "heading": "plots/heading/{}", "cross_track": "plots/cross_track/{}"}
+        kinds = {"command_port": "plots/commands/{}/port", "command_starboard": "plots/commands/{}/starboard"}
         out = {k: tuple(v.format(n) for n in names) for k, v in kinds.items()}
+        out.update({k: self.recorder.vessel_entities(v, tuple(names))
+                    for k, v in {**WORLD_SERIES, **PLOT_SERIES}.items()})
         out["moving"] = tuple(f"world/obstacles/moving/{o.name}" for o in self.world.moving_obstacles)
         return out
 
@@ -242,27 +248,48 @@ class Runner:
         rec.static("world/water", rr.Boxes3D(centers=[[*(0.5 * (lo + hi)), -0.05]],
                                              half_sizes=[[*(0.5 * (hi - lo)), 0.01]], colors=[[40, 90, 150, 60]],
                                              fill_mode="solid"))
+        others = [(i, v) for i, v in enumerate(sc.vessels) if v.name in rec.batched]
+        if others:  # the vessels without views: one entity per kind, an instance per vessel
+            cols = [vessel_colour(i) for i, _ in others]
+            ids = [i + 1 for i, _ in others]
+            base = f"world/vessels/{OTHERS}"
+            rec.static(f"{base}/hull", rr.LineStrips3D.from_fields(colors=cols, radii=[0.08], class_ids=ids,
+                                                                   show_labels=[False]))
+            rec.static(f"{base}/position", rr.Points3D.from_fields(colors=cols, radii=[0.3], class_ids=ids,
+                                                                   labels=[v.name for _, v in others],
+                                                                   show_labels=[True]))
+            for trail in ("trail", "trail/recent"):
+                rec.static(f"{base}/{trail}", rr.LineStrips3D.from_fields(colors=[(*c, 140) for c in cols],
+                                                                          radii=[0.05], class_ids=[101],
+                                                                          show_labels=[False]))
+            paths = [(c, v.path.sample(max(0.5, v.path.length / PATH_POINTS))) for c, (_, v) in zip(cols, others)
+                     if v.path is not None]
+            if paths:
+                rec.static(f"{base}/mission_path", rr.LineStrips3D(
+                    [np.column_stack([xy, np.zeros(len(xy))]) for _, xy in paths], colors=[(*c, 120) for c, _ in paths],
+                    radii=[0.06], class_ids=[100], show_labels=[False]))
         for i, v in enumerate(sc.vessels):
             col = vessel_colour(i)
             base = f"world/vessels/{v.name}"
-            rec.static(f"{base}/hull", rr.LineStrips3D.from_fields(colors=[col], radii=[0.08], class_ids=[i + 1],
-                                                                   show_labels=[False]))
-            rec.static(f"{base}/position", rr.Points3D.from_fields(colors=[col], radii=[0.3], labels=[v.name],
-                                                                   show_labels=[True], class_ids=[i + 1]))
-            rec.static(f"{base}/trail", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05],
-                                                                    class_ids=[101], show_labels=[False]))
-            rec.static(f"{base}/trail/recent", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05],
-                                                                           class_ids=[101], show_labels=[False]))
-            if v.path is not None:
-                xy = v.path.sample(max(0.5, v.path.length / PATH_POINTS))
-                rec.static(f"{base}/mission_path", rr.LineStrips3D([np.column_stack([xy, np.zeros(len(xy))])],
-                                                                   colors=[(*col, 120)], radii=[0.06],
-                                                                   class_ids=[100], show_labels=[False]))
-            rec.series_style(f"plots/speed/{v.name}/actual", f"{v.name} speed", col, 2.0)
-            rec.series_style(f"plots/speed/{v.name}/reference", f"{v.name} reference", (*col, 120), 1.0)
-            rec.series_style(f"plots/thrust/{v.name}/port", f"{v.name} port", col)
-            rec.series_style(f"plots/thrust/{v.name}/starboard", f"{v.name} starboard", (*col, 140))
-            rec.series_style(f"plots/cross_track/{v.name}", f"{v.name}", col)
+            if v.name not in rec.batched:  # (the others: one entity per kind, above)
+                rec.static(f"{base}/hull", rr.LineStrips3D.from_fields(colors=[col], radii=[0.08], class_ids=[i + 1],
+                                                                       show_labels=[False]))
+                rec.static(f"{base}/position", rr.Points3D.from_fields(colors=[col], radii=[0.3], labels=[v.name],
+                                                                       show_labels=[True], class_ids=[i + 1]))
+                rec.static(f"{base}/trail", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05],
+                                                                        class_ids=[101], show_labels=[False]))
+                rec.static(f"{base}/trail/recent", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05],
+                                                                               class_ids=[101], show_labels=[False]))
+                if v.path is not None:
+                    xy = v.path.sample(max(0.5, v.path.length / PATH_POINTS))
+                    rec.static(f"{base}/mission_path", rr.LineStrips3D([np.column_stack([xy, np.zeros(len(xy))])],
+                                                                       colors=[(*col, 120)], radii=[0.06],
+                                                                       class_ids=[100], show_labels=[False]))
+            rec.vessel_series_style(PLOT_SERIES["speed"], v.name, f"{v.name} speed", col, 2.0)
+            rec.vessel_series_style(PLOT_SERIES["speed_ref"], v.name, f"{v.name} reference", (*col, 120), 1.0)
+            rec.vessel_series_style(PLOT_SERIES["thrust_port"], v.name, f"{v.name} port", col)
+            rec.vessel_series_style(PLOT_SERIES["thrust_starboard"], v.name, f"{v.name} starboard", (*col, 140))
+            rec.vessel_series_style(PLOT_SERIES["cross_track"], v.name, f"{v.name}", col)
         for o in sc.static_obstacles:
             poly = o.vertices if hasattr(o, "vertices") else o.polygon(32)
             closed = np.vstack([poly, poly[:1]])
@@ -323,7 +350,7 @@ class Runner:
                 comms=self.network is not None)
             self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp, detail=sc.outputs.recording_detail)
             self.recorder.colours = {a.name: vessel_colour(i) for i, a in enumerate(self.agents)}
-            self.recorder.view_vessels = frozenset(view_vessels(names))
+            self.recorder.set_vessels(names, view_vessels(names))
             self._entities = self._entity_names()
             self._log_static_scene()
             if self.network is not None and tuple(self.network.team) == names:
