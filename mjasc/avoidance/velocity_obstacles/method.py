@@ -99,6 +99,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self.conflict_log: list[dict] = []
         self.mode_time_s = {m: 0.0 for m in _MODES}
         self.stats = {"steer_episodes": 0, "decisions": 0, "inadmissible": 0, "colreg_forbidden_taken": 0,
+                      "colreg_hold": 0,
                       "roles": {name: 0 for name in cr.ROLE_NAMES if name != "none"}}
         self.min_choice_ttc_s = math.inf
 
@@ -209,6 +210,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self._static_conflict = static_now
         if conflict:
             self._last_conflict_t = t
+            self.stats["colreg_hold"] += int(not np.any(ttc[0] <= o.horizon_s))  # held by step 6 alone
         elif self.mode != STEER or t - self._last_conflict_t > o.hysteresis_s:
             return self._release(t)
         # COLREG: the forbidden half-plane of engaged head-on / give-way tracks (closing velocities on
@@ -285,7 +287,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             "method": self.method,
             "colreg": self.options.colreg,
             "actions": {k: self.stats[k] for k in ("steer_episodes", "decisions", "inadmissible",
-                                                   "colreg_forbidden_taken")},
+                                                   "colreg_forbidden_taken", "colreg_hold")},
             "roles": dict(self.stats["roles"]),
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
