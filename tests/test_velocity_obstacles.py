@@ -223,6 +223,29 @@ def test_head_on_turns_to_starboard_and_passes_port_to_port():
     assert method.summary()["roles"]["head_on"] >= 1
 
 
+def test_head_on_manoeuvre_is_held_until_the_target_is_past():
+    """The target's track runs 3.7 m to starboard of the path (inside R): the vessel turns to
+    starboard and keeps steering until the target is past (rule 8 (d)) — released as soon as the
+    path's velocity left the VO, it steered back towards the target on the wrong side (passing it
+    starboard to starboard) and met it again, closer (tests/cas_regressions/vo_team_vs_traffic_19)."""
+    log, method = _sail([3.7, 110.0], -90.0, 1.5, duration_s=60.0)
+    k = int(np.argmin(np.hypot(log[:, 1] - log[:, 3], log[:, 2] - log[:, 4])))
+    steered = ~np.isnan(log[:, 5])
+    first = int(np.flatnonzero(steered)[0])
+    assert steered[first:k].all()  # not released before the closest approach
+    assert method.stats["colreg_hold"] > 0  # held by the forbidden side alone at some point
+    assert log[k, 1] > log[k, 3]  # port to port
+    assert float(np.hypot(log[k, 1] - log[k, 3], log[k, 2] - log[k, 4])) >= method.radius_m + 2.0 + 2.0 - 0.2
+
+
+def test_role_memory_keep_extends_only_remembered_roles():
+    m = cr.RoleMemory(hold_s=5.0)
+    m.update(0.0, [3], [cr.HEAD_ON], [True])
+    m.keep(4.0, [3, 8])
+    assert m.update(8.5, [3, 8], [cr.GIVE_WAY, cr.GIVE_WAY], [False, False]).tolist() == [cr.HEAD_ON, cr.GIVE_WAY]
+    assert m.role(8) is None
+
+
 def test_without_colreg_the_velocity_obstacle_alone_keeps_clear():
     """colreg = false: no roles, no forbidden side; the VO alone still keeps the combined radius."""
     log, method = _sail([0.0, 110.0], -90.0, 1.5, colreg=False)

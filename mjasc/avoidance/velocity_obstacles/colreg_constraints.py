@@ -105,7 +105,8 @@ def port_turn(candidate_courses_rad, own_heading_rad: float, tolerance_rad: floa
 class RoleMemory:
     """Roles kept per track id (module docstring): ``update(t, ids, fresh, engaged)`` returns the
     roles to use (t,) — a track's remembered role while it is remembered, else its fresh role; a
-    track engaged now is (re)remembered with that role until ``hold_s`` after it was last engaged."""
+    track engaged now is (re)remembered with that role until ``hold_s`` after it was last engaged
+    (``keep`` engages remembered tracks again without a fresh role)."""
 
     def __init__(self, hold_s: float):
         self.hold_s = float(hold_s)
@@ -121,6 +122,13 @@ class RoleMemory:
             if e:
                 self._roles[i] = (int(out[k]), float(t_s))
         return out
+
+    def keep(self, t_s: float, track_ids) -> None:
+        """Count the remembered tracks among ``track_ids`` as engaged at ``t_s`` (their role is kept
+        another ``hold_s``); ids not remembered are ignored."""
+        for i in np.asarray(track_ids).tolist():
+            if int(i) in self._roles:
+                self._roles[int(i)] = (self._roles[int(i)][0], float(t_s))
 
     def role(self, track_id: int) -> int | None:
         """The remembered role of a track, or None."""

@@ -26,7 +26,17 @@ guidance state, its perception's tracks and mapped structures, never the truth:
    while steering, takes the cheapest candidate (:func:`~.candidates.choose`) and asks the path
    follower to steer its course at its speed (``AvoidanceRequest.course_override_rad`` and
    ``speed_override_m_s``, mode ``avoidance:steer``); otherwise asks nothing (mode ``mission``):
-   γ has kept following the path, so the LOS law brings the vessel back onto it.
+   γ has kept following the path, so the LOS law brings the vessel back onto it;
+6. **holds a COLREG manoeuvre until the target is past** (rule 8 (d): the action is kept until the
+   other vessel is finally past and clear): a head-on or give-way track whose role is engaged is
+   also a conflict — and stays engaged — while the preferred velocity still closes on it on the
+   forbidden side (passing starboard to starboard, crossing ahead). Why: the preferred velocity is
+   the LOS course, which converges onto the path, so its straight-line miss distance overstates
+   how clear the path is. Released as soon as the preferred velocity merely left the VO, a vessel
+   whose path runs within R of the target's track steered back towards it on the wrong side, met
+   the VO again closer, was sent across the target's bow the other way, and after three such
+   cycles turned too late for its hull (campaign compare_methods, team_vs_traffic run 19: contact,
+   −0.72 m; tests/cas_regressions/vo_team_vs_traffic_19.toml).
 
 The method has no slow loop: the prediction slot asks nothing of it. Static polygons are read
 from the perception report at most once a second (they change slowly; building them is the
@@ -89,6 +99,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self.conflict_log: list[dict] = []
         self.mode_time_s = {m: 0.0 for m in _MODES}
         self.stats = {"steer_episodes": 0, "decisions": 0, "inadmissible": 0, "colreg_forbidden_taken": 0,
+                      "colreg_hold": 0,
                       "roles": {name: 0 for name in cr.ROLE_NAMES if name != "none"}}
         self.min_choice_ttc_s = math.inf
 
@@ -180,17 +191,26 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             for i, r in zip(obs.track_id[tracked].tolist(), roles[tracked].tolist()):
                 if i not in known and self.roles.role(i) is not None:
                     self._new_conflict(t, i, cr.ROLE_NAMES[r])
+        # rule 8 (d): an engaged head-on / give-way track holds the manoeuvre while the path's velocity
+        # would still close on it on the forbidden side (step 6 of the module docstring)
+        wrong_side = np.zeros(len(obs), bool)
+        if o.colreg and tracked.any():
+            remembered = np.zeros(len(obs), bool)
+            remembered[tracked] = [self.roles.role(i) is not None for i in obs.track_id[tracked].tolist()]
+            wrong_side = remembered & cr.forbidden_side(rel, w[:1], roles)[0]
+            self.roles.keep(t, obs.track_id[wrong_side])
         # stand on (rule 17): a stand-on track's VO counts only once keeping course collides soon
         stand_on = np.isin(roles, (cr.STAND_ON, cr.OVERTAKEN))
         waived = stand_on & (ttc[0] > o.stand_on_ttc_s)
         ttc = np.where(waived[None, :], np.inf, ttc)
-        conflict = bool(np.any(ttc[0] <= o.horizon_s))
+        conflict = bool(np.any(ttc[0] <= o.horizon_s) or wrong_side.any())
         static_now = bool(np.any((ttc[0] <= o.horizon_s) & obs.static))
         if static_now and not self._static_conflict:
             self._new_conflict(t, -1, "static", static=True)
         self._static_conflict = static_now
         if conflict:
             self._last_conflict_t = t
+            self.stats["colreg_hold"] += int(not np.any(ttc[0] <= o.horizon_s))  # held by step 6 alone
         elif self.mode != STEER or t - self._last_conflict_t > o.hysteresis_s:
             return self._release(t)
         # COLREG: the forbidden half-plane of engaged head-on / give-way tracks (closing velocities on
@@ -267,7 +287,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             "method": self.method,
             "colreg": self.options.colreg,
             "actions": {k: self.stats[k] for k in ("steer_episodes", "decisions", "inadmissible",
-                                                   "colreg_forbidden_taken")},
+                                                   "colreg_forbidden_taken", "colreg_hold")},
             "roles": dict(self.stats["roles"]),
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
