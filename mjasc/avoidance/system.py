@@ -133,6 +133,13 @@ def predict_slot(calls) -> list[AvoidanceRequest]:
     return out
 
 
+def _outlines(tracks) -> dict:
+    """Track id → outline polygon of the static tracks that carry one (checked like a mapped
+    polygon; the other tracks are predicted as discs)."""
+    outlined = {tr.track_id: track_outline(tr) for tr in tracks if tr.is_static and tr.outline_m is not None}
+    return {k: o for k, o in outlined.items() if o is not None}
+
+
 def _correction_profile(correction: Correction | None, t_now: float, gamma_now: float, mission_speed_m_s: float):
     """γ(t) [m] for t ≥ t_now under ``correction``: its V_d until its goal time, the mission speed
     after; None → the mission speed [m/s] itself (a constant profile)."""
@@ -346,8 +353,7 @@ class CollisionAvoidance(AvoidanceMethod):
         self._known_track_ids |= {tr.track_id for tr in tracks}
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
         self._predicted_motion, self._checked_tracks = None, None
-        outlined = {tr.track_id: track_outline(tr) for tr in tracks if tr.is_static and tr.outline_m is not None}
-        outlined = {k: o for k, o in outlined.items() if o is not None}
+        outlined = _outlines(tracks)
         self.team_mates.remember_prediction(fresh)
         self._last_predict_t = t
         self._predicted_speed = g_state.mission_speed_m_s
@@ -602,8 +608,7 @@ class CollisionAvoidance(AvoidanceMethod):
         if float(np.hypot(*(mission.point(g_m) - nav.position_m))) > self.config.withdraw_offset_m:
             return False
         profile = self.planned_gamma(t, g_m, g.mission_speed_m_s)
-        outlined = {k: track_outline(tr) for k, tr in by_id.items() if tr.is_static and tr.outline_m is not None}
-        outlined = {k: o for k, o in outlined.items() if o is not None}
+        outlined = _outlines(by_id.values())
         discs = [tr for k, tr in by_id.items() if k not in outlined]
         if discs:
             q = PredictionQuery(mission, g_m, t, profile, self.radius_m, discs, self.prediction_config)
@@ -612,15 +617,21 @@ class CollisionAvoidance(AvoidanceMethod):
         if static_conflicts(t, mission, g_m, profile, list(static_polygons) + list(outlined.values()), self.radius_m,
                             self.prediction_config):
             return False
-        if self.correction is not None:  # keep the virtual target in the follower's new γ frame
-            self.correction.gamma_offset_m += g.gamma_m - g_m
-        self._set_path(mission, g_m, "mission")
-        self.detour, self._detour_causes = None, None
         self.stats["withdrawn"] += 1
-        self._event(t, f"detour withdrawn: the track(s) {sorted(causes)} it went around are gone (a team mate's "
-                       f"stale copy, or lost) and the mission path is clear: back on it at γ = {g_m:.1f} m")
-        self._log.prediction_pending()
+        self._back_to_mission(t, g_m, f"detour withdrawn: the track(s) {sorted(causes)} it went around are gone (a "
+                                      f"team mate's stale copy, or lost) and the mission path is clear: back on it at "
+                                      f"γ = {g_m:.1f} m")
         return True
+
+    def _back_to_mission(self, t, gamma_m: float, event: str) -> None:
+        """Leave the detour for the mission path at γ = ``gamma_m`` [m] (a running velocity
+        correction's virtual target kept in the follower's new γ frame)."""
+        if self.correction is not None:
+            self.correction.gamma_offset_m += self._guidance.gamma_m - gamma_m
+        self._set_path(self.mission_path, gamma_m, "mission")
+        self.detour, self._detour_causes = None, None
+        self._event(t, event)
+        self._log.prediction_pending()
 
     def _take_detour(self, t, detour: Detour, event: str) -> None:
         """Switch to ``detour`` (a streamline's, or a lane change's when its ``field`` is None) and count it."""
@@ -701,12 +712,7 @@ class CollisionAvoidance(AvoidanceMethod):
         g = self._guidance
         if d is not None and g.path is d.path and g.gamma_m >= d.detour_length_m - 0.5:
             g_m = d.mission_gamma(g.gamma_m)
-            if self.correction is not None:  # keep the virtual target in the follower's new γ frame
-                self.correction.gamma_offset_m += g.gamma_m - g_m
-            self._set_path(self.mission_path, g_m, "mission")
-            self.detour = None
-            self._event(t, f"detour finished: back on the mission path at γ = {g_m:.1f} m")
-            self._log.prediction_pending()
+            self._back_to_mission(t, g_m, f"detour finished: back on the mission path at γ = {g_m:.1f} m")
         elif d is not None and g.path is not d.path:
             self.detour = None
         override = None

@@ -105,6 +105,8 @@ class Perception:
                 if context is None:
                     context = StageContext(self.name, world.vessel_types[vessel_index], sensor=self.sensor_config,
                                            rng=np.random.default_rng([self.vessel_index, 4]))
+                elif context.sensor is None:  # no [vessels.sensor] table: the default sensor it runs
+                    context = replace(context, sensor=self.sensor_config)
                 self.method = tracking_config.build(context)
                 opts = tracking_config.options
                 tracking_config = TrackingConfig(**{k: getattr(opts, k) for k in PERCEPTION_FIELDS if hasattr(opts, k)})

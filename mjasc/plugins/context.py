@@ -14,6 +14,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+import math
+
 import numpy as np
 
 __all__ = ["StageContext"]
@@ -47,3 +49,8 @@ class StageContext:
     link: Any = None
     total_mass: Any = None
     propeller_lateral_m: float = 0.0
+
+    @property
+    def sensor_range_m(self) -> float:
+        """Its own range sensor's maximum range [m] (infinite without a sensor)."""
+        return float(self.sensor.max_range_m) if self.sensor is not None else math.inf

@@ -52,8 +52,9 @@ class StageMethod(abc.ABC):
     Options: ClassVar[type | None] = None
 
     def __init__(self, context: StageContext, options: Any = None):
+        """``options`` None: the method's defaults (``Options()``)."""
         self.context = context
-        self.options = options
+        self.options = options if options is not None or self.Options is None else self.Options()
 
     @classmethod
     def from_context(cls, context: StageContext, options: Any) -> "StageMethod":
@@ -191,6 +192,18 @@ class CoordinationMethod(StageMethod):
     def plan_request(self):
         """``(horizon_s, step_s)`` of the plan to broadcast, or None (default: no plan)."""
         return None
+
+    def track_sharing(self):
+        """Team-shared perception: the fusion settings
+        (:class:`~mjasc.perception.track_fusion.FusionSettings`) when the method shares tracks —
+        then :meth:`exchange` is also given ``tracks=`` (the own confirmed tracks to broadcast) —
+        else None (default)."""
+        return None
+
+    def team_tracks(self) -> dict:
+        """The team mates' shared tracks, name → (sent time [s], tuple of
+        :class:`~mjasc.core.estimates.SharedTrack`) (default: none)."""
+        return {}
 
 
 class ControlMethod(StageMethod):

@@ -40,6 +40,7 @@ from mjasc.core.navigation import OwnNavigation
 from mjasc.guidance.path_following import PathFollower, PathFollowingConfig, PathFollowingStatus
 from mjasc.guidance.state import GuidanceState
 from mjasc.physics.vessels import VesselType
+from mjasc.plugins.context import StageContext
 from mjasc.runs.scenario import VesselConfig
 
 __all__ = ["OwnNavigation", "VesselAgent", "ControlOutput", "build_agent"]
@@ -87,8 +88,8 @@ class VesselAgent:
         self.avoidance = None
         self.coordination = None
         self._report: PerceptionReport | None = None
+        self.team_names: tuple[str, ...] = (config.name,)  # the team on the link (build_agent sets it)
         if config.controller != "none":
-            from mjasc.plugins.context import StageContext
             from mjasc.plugins.registry import MethodChoice
 
             choice = config.options.get("control") or MethodChoice("control", config.controller, PathFollowingConfig())
@@ -160,9 +161,8 @@ class VesselAgent:
         plan, req = None, c.plan_request()
         if req is not None and self.avoidance is not None:
             plan = self.avoidance.planned_trajectory(nav.time_s, nav, guidance, *req)
-        sharing = c.track_sharing() if hasattr(c, "track_sharing") else None
-        if sharing is not None and self.perception is not None:
-            # team-shared perception: the own confirmed tracks go out, the team's are fused in
+        sharing = c.track_sharing() if self.perception is not None else None
+        if sharing is not None:  # team-shared perception: the own confirmed tracks go out, the team's are fused in
             c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan,
                        tracks=self.perception.shareable_tracks(nav.position_m, sharing.max_tracks))
         else:
@@ -172,7 +172,7 @@ class VesselAgent:
             self.perception.set_team_positions(positions)
             if sharing is not None:
                 self.perception.set_team_tracks(nav.time_s, c.team_tracks(), nav.position_m, positions, sharing,
-                                                list(c.link.team) if hasattr(c, "link") else sorted(positions))
+                                                list(self.team_names))
             self._report = None
 
     def prediction_call(self, nav: OwnNavigation) -> tuple | None:
@@ -256,24 +256,21 @@ def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray,
     agent = VesselAgent(config, vessel, total_mass, float(world.propeller_lateral_m[index, 0]), rng(5))
     opts = config.options
     mission_path = config.path if config.path is not None else (agent.follower.path if agent.follower else None)
+    agent.team_names = tuple(team_names)
+
+    def context(k: int, link=None) -> StageContext:
+        return StageContext(config.name, vessel, mission_path, agent.team_names, opts.get("sensor"), rng(k),
+                            agent.mission_speed_m_s, link)
+
     if "sensor" in opts or "tracking" in opts:
         from mjasc.perception.pipeline import Perception
-        from mjasc.plugins.context import StageContext
 
-        tracking = StageContext(config.name, vessel, agent.follower.path if agent.follower else None,
-                                tuple(team_names), opts.get("sensor"), rng(4))
-        agent.perception = Perception(world, index, opts.get("sensor"), opts.get("tracking"), rng(1), context=tracking)
+        agent.perception = Perception(world, index, opts.get("sensor"), opts.get("tracking"), rng(1), context=context(4))
     if "comms" in opts:
         from mjasc.cooperation.link import LinkEndpoint
-        from mjasc.plugins.context import StageContext
 
-        link = LinkEndpoint(network, config.name) if network is not None else None
-        agent.coordination = opts["comms"].build(StageContext(config.name, vessel, mission_path, tuple(team_names),
-                                                              opts.get("sensor"), rng(2), agent.mission_speed_m_s, link))
+        agent.coordination = opts["comms"].build(context(2, LinkEndpoint(network, config.name)
+                                                         if network is not None else None))
     if "avoidance" in opts:
-        from mjasc.plugins.context import StageContext
-
-        context = StageContext(config.name, vessel, agent.follower.path if agent.follower else None,
-                               tuple(team_names), opts.get("sensor"), rng(3), agent.mission_speed_m_s)
-        agent.avoidance = opts["avoidance"].build(context)
+        agent.avoidance = opts["avoidance"].build(context(3))
     return agent

@@ -73,33 +73,32 @@ def _prediction(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
 
 
 def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: float) -> list:
-    """The control slot: per-vessel requests in vessel order, then one batched path-following call."""
+    """The control slot: per-vessel requests in vessel order, then one batched call for the built-in
+    path followers (other control methods steer one vessel at a time, right after its request)."""
     outputs = [None] * len(agents)
-    rows, speeds, modes, courses = [], [], [], []
+    rows, speeds, modes, courses = [], [], [], []  # the built-in followers, commanded together
     for i, (agent, nav) in enumerate(zip(agents, navs)):
         if agent.follower is None:
             outputs[i] = agent.control(nav, control_dt_s)  # open loop
-        else:
-            speed, mode, course = agent.control_request(nav)
+            continue
+        speed, mode, course = agent.control_request(nav)
+        if type(agent.follower) is PathFollower:
             rows.append(i)
             speeds.append(speed)
             modes.append(mode)
             courses.append(course)
-    batched = [k for k, i in enumerate(rows) if type(agents[i].follower) is PathFollower]
-    for k, i in enumerate(rows):  # other control methods, one vessel at a time
-        if type(agents[i].follower) is not PathFollower:
-            course = None if math.isnan(courses[k]) else courses[k]
-            cmd, st = agents[i].follower.steer(navs[i], agents[i].guidance_state(), speeds[k], course, control_dt_s)
-            outputs[i] = agents[i].control_output(cmd, st, modes[k])
-    if batched:
-        fleet = FleetPathFollower.of([agents[rows[k]].follower for k in batched])
-        own = [navs[rows[k]] for k in batched]
+        else:
+            cmd, st = agent.follower.steer(nav, agent.guidance_state(), speed, None if math.isnan(course) else course,
+                                           control_dt_s)
+            outputs[i] = agent.control_output(cmd, st, mode)
+    if rows:
+        fleet = FleetPathFollower.of([agents[i].follower for i in rows])
+        own = [navs[i] for i in rows]
         cmds, statuses = fleet.command(np.array([n.position_m for n in own]), np.array([n.heading_rad for n in own]),
-                                       np.array([n.body_velocity for n in own]),
-                                       np.array([speeds[k] for k in batched], dtype=float), control_dt_s,
-                                       course_override_rad=np.array([courses[k] for k in batched], dtype=float))
-        for j, (k, st) in enumerate(zip(batched, statuses)):
-            outputs[rows[k]] = agents[rows[k]].control_output(cmds[j], st, modes[k])
+                                       np.array([n.body_velocity for n in own]), np.array(speeds, dtype=float),
+                                       control_dt_s, course_override_rad=np.array(courses, dtype=float))
+        for k, (i, st) in enumerate(zip(rows, statuses)):
+            outputs[i] = agents[i].control_output(cmds[k], st, modes[k])
     return outputs
 
 

@@ -76,7 +76,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
     check_options = staticmethod(check_options)
 
     def __init__(self, context, options: VelocityObstacleOptions | None = None):
-        super().__init__(context, options if options is not None else VelocityObstacleOptions())
+        super().__init__(context, options)
         o = self.options
         vessel = context.vessel
         self.name = str(context.vessel_name)

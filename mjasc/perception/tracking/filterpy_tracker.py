@@ -108,9 +108,8 @@ class FilterpyIMMMethod(TrackingMethod):
     check_options = staticmethod(check_filterpy_options)
 
     def __init__(self, context=None, options: FilterpyIMMOptions | None = None):
-        super().__init__(context, FilterpyIMMOptions() if options is None else options)
-        sensor = getattr(context, "sensor", None)
-        self.max_range_m = float(sensor.max_range_m) if sensor is not None else math.inf
+        super().__init__(context, options)
+        self.max_range_m = context.sensor_range_m if context is not None else math.inf
         self.mgmt = TrackManagement(self.options)
         self.filters: list[FilterpyIMMTracker] = []
         self.ids: list[int] = []

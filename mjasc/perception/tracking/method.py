@@ -30,9 +30,8 @@ class IMMMethod(TrackingMethod):
     check_options = staticmethod(check_tracking)
 
     def __init__(self, context=None, options: TrackingConfig | None = None):
-        super().__init__(context, TrackingConfig() if options is None else options)
-        sensor = getattr(context, "sensor", None)
-        self.tracker = MultiTargetTracker(self.options, sensor.max_range_m if sensor is not None else math.inf)
+        super().__init__(context, options)
+        self.tracker = MultiTargetTracker(self.options, context.sensor_range_m if context is not None else math.inf)
 
     def __len__(self) -> int:
         """Tracks held now, tentative ones included."""
