@@ -219,6 +219,7 @@ class CollisionAvoidance(AvoidanceMethod):
         self._no_new_in = None  # perceived tracks found to hold no new track id
         self._last_predict_t = -np.inf
         self._predicted_speed = None
+        self._mission_moved = False  # the mission gave a new path: predict on it at the next control tick
         self._events: list[tuple[float, str]] = []
         self._last_control_t: float | None = None
         # The thesis's modes (it never steers a course: "avoidance:steer" is the velocity obstacles')
@@ -277,6 +278,19 @@ class CollisionAvoidance(AvoidanceMethod):
     def last_prediction(self) -> PredictionRecord | None:
         """What the latest prediction saw (None before the first)."""
         return self._last
+
+    def set_mission(self, t_s: float, leg) -> None:
+        """A new mission leg (:class:`~mjasc.missions.legs.MissionLeg`, a chained mission): its path
+        is the mission path from now (the one a detour returns to); a detour still running is left
+        (the mission hands over only in mission mode, so this is rare) and the next control tick
+        predicts along the new path."""
+        if not leg.new_path:
+            return
+        self.mission_path = leg.path
+        if self.detour is not None:
+            self.detour, self._detour_causes, self._sharp_turn = None, None, None
+            self._log.prediction_pending()
+        self._mission_moved = True
 
     # ------------------------------------------------------------------ own plan
     def mission_gamma_m(self, guidance: GuidanceState) -> float:
@@ -663,6 +677,10 @@ class CollisionAvoidance(AvoidanceMethod):
             self._known_track_ids |= new  # also those the prediction set aside (a team mate's stale copy)
             return
         if t - self._last_predict_t < 1.0:
+            return
+        if self._mission_moved:  # a new mission leg (mjasc.missions): look along it
+            self._mission_moved = False
+            self._predict_on_perceived(t, nav)
             return
         if self.correction is not None and self.correction.emergency:  # nothing cleared it: look again
             self.stats["deviation_predictions"] += 1

@@ -143,7 +143,7 @@ class _TeamView:
             if nb.active:
                 oldest = min(oldest, nb.sent_time_s)
             p = nb.message
-            if not p.has_path:
+            if not p.has_path or p.phase != own.phase:  # a mate in another mission phase is not coordinated with
                 continue
             lengths.append(p.path_length_m)
             speeds.append(p.mission_speed_m_s)
@@ -203,6 +203,7 @@ class Coordination(CoordinationMethod):
         self.path = mission_path  # the mission path (a detour never changes L_i)
         self.path_length_m = float(mission_path.length) if mission_path is not None else None
         self.mission_speed_m_s = float(mission_speed_m_s)
+        self.phase = 0  # the mission phase (set_mission); mates coordinate within a phase only
         self.radius_m = None if radius_m is None else float(radius_m)
         self.top_speed_m_s = float(top_speed_m_s)
         self.neighbours: dict[str, _Neighbour] = {}
@@ -220,6 +221,18 @@ class Coordination(CoordinationMethod):
         self._tracks_sent = 0
 
     # ------------------------------------------------------------------ state
+    def set_mission(self, t_s: float, leg) -> None:
+        """A new mission leg (:class:`~mjasc.missions.legs.MissionLeg`): its path is the one whose
+        length is L_i and its speed v_i; an uncoordinated leg (target tracking) takes no part in the
+        consensus (factor 1, no ξ broadcast). Mates in another phase are not coordinated with."""
+        if leg.coordinated:
+            self.path, self.path_length_m = leg.path, float(leg.path.length)
+        else:
+            self.path = self.path_length_m = None
+        self.mission_speed_m_s = float(leg.speed_m_s)
+        self.phase = int(leg.index)
+        self._team = None
+
     def xi(self, gamma_m: float) -> float:
         """Own normalized coordination state ξ_i = (γ_i − o_i) / L_i."""
         if self.path_length_m is None:
@@ -231,8 +244,11 @@ class Coordination(CoordinationMethod):
         h = self.config.intent_horizon_s
         return (h, self.config.intent_step_s) if h > 0 else None
 
-    def _message(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=()) -> TeamMessage:
+    def _message(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None) \
+            -> TeamMessage:
         kw = {}
+        if mission is not None:
+            kw.update(phase=self.phase, mission=mission)
         plan = plan if plan is not None else self._own_plan(t_s, guidance)
         if plan is not None:
             kw["plan_times_s"], kw["plan_points_m"] = plan
@@ -314,7 +330,7 @@ class Coordination(CoordinationMethod):
         return float(d.sum()), float(d.mean()), float(spread), len(xis)
 
     # ------------------------------------------------------------------ component interface
-    def exchange(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=()) -> None:
+    def exchange(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None) -> None:
         """Comms slot: broadcast own ξ, path rate, pose and plan; read what has arrived.
 
         nav: own :class:`~mjasc.core.navigation.OwnNavigation`; gamma_m: progress along the mission
@@ -322,11 +338,12 @@ class Coordination(CoordinationMethod):
         ``plan`` is None); plan: (times (k,), points (k, 2)) the vessel's planned trajectory over
         :meth:`plan_request` (from its collision avoidance), or None; tracks: the vessel's own
         confirmed tracks to share (:class:`~mjasc.core.estimates.SharedTrack`, with ``share_tracks``;
-        sent as given, the caller caps them)."""
+        sent as given, the caller caps them); mission: the vessel's
+        :class:`~mjasc.missions.legs.MissionBroadcast` (a chained mission), sent with its phase."""
         if tracks and self.config.share_tracks:
             self._tracks_sent += len(tracks)
         self.link.send(t_s, self._message(t_s, nav, gamma_m, guidance, plan,
-                                          tracks if self.config.share_tracks else ()), nav.position_m)
+                                          tracks if self.config.share_tracks else (), mission), nav.position_m)
         self._poll(t_s, nav)
         _, lead, spread, n = self.coordination_error(t_s, gamma_m)
         self.last_xi, self.last_spread_m = self.xi(gamma_m), spread

@@ -32,7 +32,9 @@ class TeamMessage:
     vessel without one): gamma_m γ [m], path_length_m L [m], xi ξ = (γ − o)/L, xi_rate_1_s ξ̇ [1/s]
     (its along-path speed / L), offset_m its formation offset o [m]. tracks: the sender's confirmed
     own tracks (:class:`~mjasc.core.estimates.SharedTrack`, nearest first, capped) when it shares
-    its perception (``share_tracks``; empty otherwise).
+    its perception (``share_tracks``; empty otherwise). phase: the index of its mission phase
+    (0 without a chained mission: team mates coordinate with mates in their own phase only);
+    mission: its :class:`~mjasc.missions.legs.MissionBroadcast` (None without a ``[mission]``).
     """
 
     sender: str
@@ -49,6 +51,8 @@ class TeamMessage:
     xi_rate_1_s: float | None = None
     offset_m: float | None = None
     tracks: tuple = ()
+    phase: int = 0
+    mission: object = None
 
     @property
     def has_path(self) -> bool:
@@ -63,7 +67,8 @@ class TeamIntention:
     name, sent_time_s: who and when. position_m (2,), heading_rad, velocity_m_s (2,): its own
     navigation at ``sent_time_s``. radius_m: its bounding radius [m] (None if not sent).
     plan_times_s (k,), plan_points_m (k, 2): where it intends to be (k = 0: no plan; then
-    :meth:`positions` extrapolates the velocity)."""
+    :meth:`positions` extrapolates the velocity). mission: its mission broadcast
+    (:class:`~mjasc.missions.legs.MissionBroadcast`, None without a chained mission)."""
 
     name: str
     sent_time_s: float
@@ -73,6 +78,7 @@ class TeamIntention:
     radius_m: float | None = None
     plan_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     plan_points_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    mission: object = None
 
     @classmethod
     def from_message(cls, msg: TeamMessage, sent_time_s: float) -> "TeamIntention":
@@ -91,7 +97,7 @@ class TeamIntention:
         if plan_t.size != plan_xy.shape[0]:
             plan_t, plan_xy = np.zeros(0), np.zeros((0, 2))
         out = cls(msg.sender, t, np.asarray(msg.position_m, dtype=float)[:2], float(msg.heading_rad),
-                  vel, msg.radius_m, plan_t, plan_xy)
+                  vel, msg.radius_m, plan_t, plan_xy, getattr(msg, "mission", None))
         if isinstance(msg, TeamMessage):
             object.__setattr__(msg, "_intention", out)
         return out

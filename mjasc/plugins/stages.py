@@ -76,6 +76,12 @@ class StageMethod(abc.ABC):
         """What the method adds to the vessel's entry in summary.json (JSON-serializable)."""
         return {"method": self.method}
 
+    def set_mission(self, t_s: float, leg) -> None:
+        """The vessel's mission changed (a scenario with a ``[mission]``): ``leg`` is a
+        :class:`~mjasc.missions.legs.MissionLeg` — the path the mission follows from now, its speed,
+        whether the team coordinates along it. Avoidance and coordination methods that keep the
+        mission path override this; the default ignores it."""
+
 
 class AvoidanceMethod(StageMethod):
     """A collision-avoidance method.

@@ -12,7 +12,9 @@ the vessel's components — hands them on::
                coordination.exchange(t, nav, γ, guidance, plan[, tracks]) → TeamMessage out; TeamPicture in
                (with ``share_tracks``: the own confirmed tracks out, the team's to perception.set_team_tracks)
     prediction avoidance.predict(t, nav, guidance, report, team) → AvoidanceRequest
-    control    coordination.speed_correction(t, nav, γ)      → factor on the mission speed
+    control    mission.update(t, nav, γ, report, team, mode)  → MissionLeg (a new phase, line or speed), or None
+               (with a [mission]: mjasc.missions; the leg goes to the follower, avoidance and coordination)
+               coordination.speed_correction(t, nav, γ)      → factor on the mission speed
                avoidance.control(t, nav, guidance, report, team) → AvoidanceRequest
                (these two are :meth:`VesselAgent.control_request`, per vessel)
                the fleet's path followers, all at once       → propeller commands
@@ -87,6 +89,7 @@ class VesselAgent:
         self.perception = None
         self.avoidance = None
         self.coordination = None
+        self.mission = None  # the chained mission (mjasc.missions.sequencer.MissionSequencer), with a [mission]
         self._report: PerceptionReport | None = None
         self.team_names: tuple[str, ...] = (config.name,)  # the team on the link (build_agent sets it)
         if config.controller != "none":
@@ -136,6 +139,16 @@ class VesselAgent:
             return self.avoidance.mission_gamma_m(self.guidance_state())
         return self.follower.gamma_m
 
+    def apply_leg(self, t_s: float, leg) -> None:
+        """Apply a :class:`~mjasc.missions.legs.MissionLeg`: a new path for the follower (from the
+        leg's γ), the mission speed, and the leg to avoidance and coordination (``set_mission``)."""
+        if leg.new_path:
+            self.follower.set_path(leg.path, leg.gamma_m)
+        self.mission_speed_m_s = float(leg.speed_m_s)
+        for comp in (self.avoidance, self.coordination):
+            if comp is not None:
+                comp.set_mission(t_s, leg)
+
     def apply_request(self, request) -> None:
         """Apply an avoidance request's path switch to the path follower."""
         sw = request.path_switch
@@ -162,11 +175,12 @@ class VesselAgent:
         if req is not None and self.avoidance is not None:
             plan = self.avoidance.planned_trajectory(nav.time_s, nav, guidance, *req)
         sharing = c.track_sharing() if self.perception is not None else None
+        extra = {}
         if sharing is not None:  # team-shared perception: the own confirmed tracks go out, the team's are fused in
-            c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan,
-                       tracks=self.perception.shareable_tracks(nav.position_m, sharing.max_tracks))
-        else:
-            c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan)
+            extra["tracks"] = self.perception.shareable_tracks(nav.position_m, sharing.max_tracks)
+        if self.mission is not None:  # the mission's part: phase, arrival time, target estimate
+            extra["mission"] = self.mission.broadcast()
+        c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan, **extra)
         if self.perception is not None:
             positions = c.team_positions()
             self.perception.set_team_positions(positions)
@@ -195,6 +209,11 @@ class VesselAgent:
         the mode and the course override [rad] (NaN: none, the follower steers its LOS course);
         avoidance's path switch is applied to the follower. Needs a path follower."""
         t = nav.time_s
+        if self.mission is not None:
+            leg = self.mission.update(t, nav, self.mission_gamma_m(), self.perception_report(t), self.team_picture(t),
+                                      self.mode)
+            if leg is not None:
+                self.apply_leg(t, leg)
         speed = self.mission_speed_m_s
         mode = "mission"
         course = math.nan
@@ -227,7 +246,7 @@ class VesselAgent:
 
     # ---------------------------------------------------------------- recording
     def components(self) -> list:
-        return [c for c in (self.perception, self.coordination, self.avoidance) if c is not None]
+        return [c for c in (self.perception, self.coordination, self.avoidance, self.mission) if c is not None]
 
     def drain_events(self) -> list[tuple[float, str]]:
         events = []
@@ -244,13 +263,16 @@ class VesselAgent:
 
 
 def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray, team_names, network,
-                seed_key) -> VesselAgent:
+                seed_key, mission=None, mission_members=None) -> VesselAgent:
     """The vessel agent of scenario vessel ``config`` (index ``index`` in ``world``) with the
     components its tables ask for: perception (``sensor`` / ``tracking``), coordination (``comms``,
     on ``network``, the team's link), collision avoidance (``avoidance``). Every component gets its
     own random stream ``default_rng([*seed_key, k])`` (k = 1 perception, 2 coordination, 3
     avoidance, 4 a plugin tracker, 5 the control method), so adding a sensor to one vessel does not change another
-    vessel's noise; the runner uses ``seed_key = [scenario seed, vessel index]``."""
+    vessel's noise; the runner uses ``seed_key = [scenario seed, vessel index]``. ``mission``: the
+    scenario's :class:`~mjasc.missions.config.MissionConfig` (None: the controller's path is the
+    whole mission); a vessel with a path follower then runs it, its first leg applied here;
+    ``mission_members``: the names of the vessels that run it (default: the whole team)."""
     vessel = world.vessel_types[index]
     rng = lambda k: np.random.default_rng([*seed_key, k])  # noqa: E731
     agent = VesselAgent(config, vessel, total_mass, float(world.propeller_lateral_m[index, 0]), rng(5))
@@ -273,4 +295,17 @@ def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray,
                                                          if network is not None else None))
     if "avoidance" in opts:
         agent.avoidance = opts["avoidance"].build(context(3))
+    if mission is not None and agent.follower is not None:
+        mission_team = set(mission_members) if mission_members is not None else set(team_names)
+        from mjasc.core.navigation import OwnNavigation
+        from mjasc.missions.sequencer import MissionSequencer
+
+        agent.mission = MissionSequencer(mission, config.name, config.path, config.cruise_speed_m_s,
+                                         vessel.top_speed_m_s, opts.get("mission"),
+                                         team_size=sum(1 for n in team_names if n in mission_team))
+        c, s = math.cos(config.heading_rad), math.sin(config.heading_rad)
+        u = config.speed_m_s
+        start = OwnNavigation(0.0, np.array(config.position_m, dtype=float), float(config.heading_rad),
+                              np.array([u * c, u * s]), np.array([u, 0.0, 0.0]))
+        agent.apply_leg(0.0, agent.mission.begin(0.0, start))
     return agent

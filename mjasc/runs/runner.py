@@ -119,7 +119,8 @@ class Runner:
             from mjasc.cooperation.comms import CommsNetwork
 
             self.network = CommsNetwork(team, sc.comms, np.random.default_rng([sc.seed, 1_000_003]))
-        self.agents = [build_agent(v, i, self.world, self.sim.hydro.total_mass[i], team, self.network, [sc.seed, i])
+        self.agents = [build_agent(v, i, self.world, self.sim.hydro.total_mass[i], team, self.network, [sc.seed, i],
+                                   sc.mission, [u.name for u in sc.vessels if u.controller != "none"])
                        for i, v in enumerate(sc.vessels)]
         r = sc.rates
         periods = {"control": 1 / r.control_hz, "sensing": 1 / r.sensing_hz, "tracking": 1 / r.tracking_hz,
@@ -453,9 +454,13 @@ class Runner:
                    **self.metrics.summary(wall, sim.time_s)}
         for agent in self.agents:  # components add their own per-vessel results
             for kind, comp in (("perception", agent.perception), ("coordination", agent.coordination),
-                               ("avoidance", agent.avoidance)):
+                               ("avoidance", agent.avoidance), ("mission", agent.mission)):
                 if comp is not None and hasattr(comp, "summary"):
                     summary["vessels"][agent.name][kind] = comp.summary()
+        if sc.mission is not None:
+            from mjasc.missions.sequencer import team_mission_summary
+
+            summary["mission"] = team_mission_summary(self.agents)
         if self.network is not None:
             summary["comms"] = self.network.link_matrix()
         if self.video is not None:

@@ -180,6 +180,7 @@ class Scenario:
     source: str = ""
     raw: dict = field(default_factory=dict)
     comms: Any = None  # network config (comms.parse_network_options) or None
+    mission: Any = None  # the chained mission (mjasc.missions.config.MissionConfig) or None: path following
 
     def with_overrides(self, seed: int | None = None, video: bool | None = None, duration_s: float | None = None,
                        video_camera: str | None = None) -> "Scenario":
@@ -220,7 +221,7 @@ def _path(t: dict, where: str) -> Path:
 
 # ---------------------------------------------------------------------- sections
 _TOP = {"name", "description", "duration_s", "seed", "rates", "outputs", "current", "vessels",
-        "static_obstacles", "moving_obstacles", "comms"}
+        "static_obstacles", "moving_obstacles", "comms", "mission"}
 
 #: Optional per-vessel components: scenario table → (module, parser). Each parser takes
 #: (table, where) and returns a typed config, raising ValueError that names ``where.<key>``.
@@ -229,6 +230,7 @@ COMPONENT_PARSERS = {
     "tracking": ("mjasc.plugins.registry", "parse_tracking_table"),
     "avoidance": ("mjasc.plugins.registry", "parse_avoidance_table"),
     "comms": ("mjasc.plugins.registry", "parse_coordination_table"),
+    "mission": ("mjasc.missions.config", "parse_vessel_mission"),
 }
 
 
@@ -248,7 +250,7 @@ def _parse_component(kind: str, value: Any, where: str):
         msg = str(exc)
         raise ScenarioError(msg if msg.startswith(where) else f"{where}: {msg}") from None
 _VESSEL = {"name", "type", "position_m", "heading_deg", "speed_m_s", "controller", "sensor", "tracking",
-           "avoidance", "comms"}
+           "avoidance", "comms", "mission"}
 #: The controller table's mission keys; its other keys are the control method's options.
 _CONTROLLER = {"type", "waypoints", "turn_radius_m", "speed_m_s", "commands"}
 
@@ -397,8 +399,18 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
         except ValueError as exc:
             msg = str(exc)
             raise ScenarioError(msg if msg.startswith("comms") else f"comms: {msg}") from None
+    mission = None
+    if "mission" in data:
+        from mjasc.missions.config import check_mission, parse_mission
+
+        mission = parse_mission(data["mission"], "mission")
+        check_mission(mission, vessels, [o.name for o in moving])
+    else:
+        for i, v in enumerate(vessels):
+            if "mission" in v.options:
+                raise ScenarioError(f"vessels[{i}].mission: the scenario has no [mission] table to take part in")
     scenario = Scenario(name, str(data.get("description", "")), duration, seed, rates, outputs, current,
-                        dict(cur_cfg), vessels, statics, moving, source, data, comms)
+                        dict(cur_cfg), vessels, statics, moving, source, data, comms, mission)
     check_plausible(scenario, {v.type: load_vessel_type(v.type) for v in vessels})
     return scenario
 

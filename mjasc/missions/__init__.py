@@ -1,0 +1,2 @@
+"""Missions: the thesis's mission primitives (go-to-formation, cooperative path following,
+cooperative target tracking) chained per scenario (docs/missions.md)."""

@@ -1,0 +1,166 @@
+"""Go-to-formation: from arbitrary deployment poses, every vessel at its formation pose at one time.
+
+The formation pose of a vessel is the start of its formation path (its ``controller`` path): that
+point, on the path's course, at its cruise speed. The plan (docs/missions.md):
+
+1. **A feasible transit per hull.** Each vessel plans the shortest path its turn radius allows
+   from its pose to its formation pose: a Dubins curve (:mod:`mjasc.missions.dubins`) to a point
+   ``lead_in_m`` short of it, then straight on the formation course — length L_i.
+2. **One arrival time, set by the slowest.** Each vessel's earliest arrival is
+   t₀ + L_i / v_i (v_i its cruise speed); it broadcasts it, and once it has heard every team mate
+   (or after ``agree_s``) takes the latest, T = max_j (t₀ + L_j / v_j). It then re-plans its transit
+   to arrive at T at its cruise speed: a vessel that would be early lengthens its straight lead-in
+   (the length found with scipy's ``brentq``) — so the whole team reaches its formation poses at
+   cruise speed; when no longer path exists it sails slower, L_i / (T − t) (not below
+   ``min_speed_fraction`` of its cruise). A later arrival heard afterwards slows it down.
+3. **Arriving together over the lossy link.** Along the transits the team runs the same γ/L
+   consensus as in cooperative path following: equal normalized progress γ_i / L_i means equal
+   time to go, so the consensus absorbs speed lag, currents and lost messages; with all transit
+   speeds L_i / (T − t₀) its feed-forward is the common rate 1 / (T − t₀).
+
+The phase ends for a vessel when its progress reaches ``arrival_band_m`` before the transit's end;
+it records when (extrapolated to the pose), and its position, heading and speed errors there.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import brentq
+
+from mjasc.core.frames import wrap_angle
+from mjasc.guidance.paths import LineSegment, Path
+from mjasc.missions.config import GoToFormationOptions
+from mjasc.missions.dubins import dubins_path
+from mjasc.missions.legs import MissionLeg
+
+__all__ = ["plan_transit", "GoToFormation"]
+
+
+def plan_transit(position_m, heading_rad: float, formation_path: Path, turn_radius_m: float,
+                 lead_in_m: float) -> Path:
+    """The transit from a pose to the start of ``formation_path``: a Dubins curve to ``lead_in_m``
+    before it, then straight along its start course (a straight line alone when the vessel already
+    lies on that lead-in, ahead of its start)."""
+    goal = np.asarray(formation_path.point(0.0), dtype=float)
+    course = float(formation_path.tangent_angle(0.0))
+    u = np.array([math.cos(course), math.sin(course)])
+    entry = goal - lead_in_m * u
+    p = np.asarray(position_m, dtype=float)[:2]
+    try:
+        head = dubins_path(p, heading_rad, entry, course, turn_radius_m)
+    except ValueError:  # already at the entry on the formation course
+        return Path.line(p, goal)
+    if lead_in_m <= 0.0:
+        return head
+    return Path.from_segments([*head.segments, LineSegment(head.end_point, goal)])
+
+
+class GoToFormation:
+    """The go-to-formation phase of one vessel (see the module docstring)."""
+
+    name = "go_to_formation"
+
+    def __init__(self, index: int, options: GoToFormationOptions, formation_path: Path, cruise_speed_m_s: float,
+                 team_size: int = 1):
+        self.index = index
+        self.options = options
+        self.formation_path = formation_path
+        self.cruise_m_s = float(cruise_speed_m_s)
+        self.mates = max(int(team_size) - 1, 0)
+        self.path: Path | None = None
+        self.t0_s = 0.0
+        self.own_arrival_s = math.inf
+        self.team_arrival_s = math.inf
+        self.agreed = False
+        self.lead_in_m = options.lead_in_m
+        self.speed_m_s = self.cruise_m_s
+        self.result: dict = {}
+
+    def _plan(self, nav, lead_in_m: float) -> Path:
+        o = self.options
+        return plan_transit(nav.position_m, nav.heading_rad, self.formation_path, o.turn_radius_m, lead_in_m)
+
+    def begin(self, t_s: float, nav) -> MissionLeg:
+        self.path = self._plan(nav, self.options.lead_in_m)
+        self.t0_s = float(t_s)
+        self.own_arrival_s = self.team_arrival_s = self.t0_s + self.path.length / self.cruise_m_s
+        self.speed_m_s = self.cruise_m_s
+        return MissionLeg(self.name, self.index, self.path, 0.0, self.speed_m_s, True)
+
+    def broadcast_arrival_s(self) -> float:
+        """The arrival time this vessel states: its own earliest, or the team's once agreed."""
+        return self.team_arrival_s
+
+    def _agree(self, t_s: float, nav) -> MissionLeg:
+        """Fix the team's arrival time and re-plan the transit to arrive then at cruise speed: the
+        lead-in lengthened (brentq on the path length) when the vessel would be early, else slower."""
+        self.agreed = True
+        need_m = self.cruise_m_s * (self.team_arrival_s - t_s)
+        base = self._plan(nav, self.options.lead_in_m)
+        path, lead = base, self.options.lead_in_m
+        if base.length < need_m - 1.0:
+            # Path length against the lead-in's extension x: continuous but for jumps where the
+            # shortest Dubins word changes; a grid finds the first crossing, brentq refines it.
+            f = lambda x: self._plan(nav, self.options.lead_in_m + x).length - need_m  # noqa: E731
+            xs = np.linspace(0.0, need_m, 121)
+            fs = np.array([f(x) for x in xs])
+            j = int(np.argmin(np.abs(fs)))  # the extension whose length comes closest to the need
+            x = xs[j]
+            for a, b in ((j - 1, j), (j, j + 1)):  # refine where the sign changes without a jump
+                if 0 <= a and b < len(xs) and fs[a] * fs[b] < 0.0 and abs(fs[b] - fs[a]) < 2.0 * (xs[b] - xs[a]) + 1.0:
+                    x = brentq(f, xs[a], xs[b], xtol=0.05)
+                    break
+            if abs(f(x)) < abs(base.length - need_m):
+                lead = self.options.lead_in_m + float(x)
+                path = self._plan(nav, lead)
+        self.path, self.lead_in_m = path, lead
+        self.speed_m_s = self._speed(t_s, path.length)
+        return MissionLeg(self.name, self.index, path, 0.0, self.speed_m_s, True)
+
+    def _speed(self, t_s: float, remaining_m: float) -> float:
+        v = remaining_m / max(self.team_arrival_s - t_s, 1e-6)
+        return min(max(v, self.options.min_speed_fraction * self.cruise_m_s), self.cruise_m_s)
+
+    def step(self, t_s: float, nav, gamma_m: float, mates: dict) -> tuple[MissionLeg | None, bool]:
+        """(a new leg — the agreed transit, or a new speed when a later arrival is heard —, whether
+        the vessel has arrived). mates: name → :class:`~mjasc.missions.legs.MissionBroadcast`."""
+        heard = [b.arrival_time_s for b in mates.values() if b.phase_index == self.index and b.arrival_time_s]
+        latest = max([self.team_arrival_s, *heard])
+        leg = None
+        if not self.agreed:
+            self.team_arrival_s = latest
+            if len(heard) >= self.mates or t_s - self.t0_s >= self.options.agree_s:
+                leg = self._agree(t_s, nav)
+                gamma_m = 0.0
+        elif latest > self.team_arrival_s + 0.5:  # a mate that planned later, heard late: slow down
+            self.team_arrival_s = latest
+            speed = self._speed(t_s, self.path.length - gamma_m)
+            if abs(speed - self.speed_m_s) > 1e-6:
+                self.speed_m_s = speed
+                leg = MissionLeg(self.name, self.index, self.path, float(gamma_m), speed, True, new_path=False)
+        arrived = gamma_m >= self.path.length - self.options.arrival_band_m
+        if arrived:
+            self._record(t_s, nav, gamma_m)
+        return leg, arrived
+
+    def _record(self, t_s: float, nav, gamma_m: float) -> None:
+        g = float(self.path.project(nav.position_m, gamma_m, search_window_m=20.0))
+        vel = np.asarray(nav.velocity_m_s[:2], dtype=float)
+        sog = float(math.hypot(*vel))
+        remaining = max(self.path.length - g, 0.0)
+        course = float(self.path.tangent_angle(self.path.length))
+        cog = float(math.atan2(vel[1], vel[0])) if sog > 0.05 else float(nav.heading_rad)
+        self.result = {
+            "arrival_time_s": round(float(t_s) + (remaining / sog if sog > 0.05 else 0.0), 3),
+            "planned_arrival_s": round(self.team_arrival_s, 3),
+            "transit_length_m": round(self.path.length, 3),
+            "lead_in_m": round(self.lead_in_m, 3),
+            "transit_speed_m_s": round(self.speed_m_s, 4),
+            "position_error_m": round(float(math.hypot(*(np.asarray(nav.position_m[:2]) - self.path.point(g)))), 3),
+            "course_error_deg": round(math.degrees(float(wrap_angle(cog - course))), 3),
+            "heading_error_deg": round(math.degrees(float(wrap_angle(nav.heading_rad - course))), 3),
+            "speed_m_s": round(sog, 4),
+            "speed_error_m_s": round(sog - self.cruise_m_s, 4),
+        }

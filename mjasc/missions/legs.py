@@ -1,0 +1,70 @@
+"""The typed values of the mission layer.
+
+* :class:`MissionLeg` — what the mission asks of the vessel now: a path to follow from a given γ,
+  a speed, and whether the team coordinates its progress along that path (the γ/L consensus of
+  :mod:`mjasc.cooperation.coordination`). The agent hands it to the path follower, to collision
+  avoidance and to coordination (``set_mission``): none of them holds the mission.
+* :class:`TargetEstimate` — a moving target's estimated state (world ENU, SI, absolute time).
+* :class:`MissionBroadcast` — the mission's part of a vessel's team message: its phase, its
+  earliest arrival at the formation pose (go-to-formation), its target estimate (the leader of
+  target tracking).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from mjasc.guidance.paths import Path
+
+__all__ = ["MissionLeg", "TargetEstimate", "MissionBroadcast"]
+
+
+@dataclass(frozen=True, eq=False)
+class MissionLeg:
+    """phase: the primitive (``go_to_formation``, ``follow_path``, ``track_target``); index: its place
+    in the chain (0 first) — team mates coordinate only with mates in the same phase; path: the path
+    to follow; gamma_m: where to join it [m]; speed_m_s: the mission speed along it [m/s];
+    coordinated: the team keeps γ/L equal along its paths (False: the phase sets the speed itself);
+    new_path: the path changed (False: only the speed did)."""
+
+    phase: str
+    index: int
+    path: Path
+    gamma_m: float
+    speed_m_s: float
+    coordinated: bool = True
+    new_path: bool = True
+
+
+@dataclass(frozen=True, eq=False)
+class TargetEstimate:
+    """A target's state as estimated at ``time_s`` [s] by ``source`` (a vessel's name) from its track
+    ``track_id``: position_m (2,) and velocity_m_s (2,), world ENU."""
+
+    time_s: float
+    position_m: np.ndarray
+    velocity_m_s: np.ndarray
+    track_id: int
+    source: str
+
+    def position_at(self, t_s: float) -> np.ndarray:
+        """The position extrapolated at constant velocity to ``t_s`` [m]."""
+        return self.position_m + (float(t_s) - self.time_s) * self.velocity_m_s
+
+    @property
+    def speed_m_s(self) -> float:
+        return float(math.hypot(*self.velocity_m_s))
+
+
+@dataclass(frozen=True, eq=False)
+class MissionBroadcast:
+    """phase_index: the sender's phase in the chain; arrival_time_s: its earliest arrival at its
+    formation pose at its cruise speed [s, absolute] (go-to-formation; None otherwise); target: its
+    own estimate of the tracked target (the leader; None otherwise)."""
+
+    phase_index: int
+    arrival_time_s: float | None = None
+    target: TargetEstimate | None = None
