@@ -80,8 +80,9 @@ class TrackTargetOptions:
                                 "vessels never read it)")
     speed_gain_1_s: float = param(0.05, positive=True, maximum=2.0, unit="1/s",
                                   doc="speed correction per metre of along-course station error")
-    line_ahead_m: float = param(150.0, positive=True, unit="m",
-                                doc="each station line extends this far ahead of the station")
+    line_ahead_s: float = param(10.0, positive=True, maximum=120.0, unit="s",
+                                doc="each station line ends this long ahead of the station at the target's speed "
+                                    "(+ 5 m): short of the target when the station is astern of it")
     replan_period_s: float = param(2.0, positive=True, unit="s", doc="how often the station line is re-drawn")
     reacquire_gate_m: float = param(15.0, positive=True, unit="m",
                                     doc="a lost target track is replaced by the nearest track within this "

@@ -42,13 +42,15 @@ class MissionLeg:
 @dataclass(frozen=True, eq=False)
 class TargetEstimate:
     """A target's state as estimated at ``time_s`` [s] by ``source`` (a vessel's name) from its track
-    ``track_id``: position_m (2,) and velocity_m_s (2,), world ENU."""
+    ``track_id``: position_m (2,) and velocity_m_s (2,), world ENU; turn_rate_rad_s its course rate
+    (CCW positive; the IMM's ω̂)."""
 
     time_s: float
     position_m: np.ndarray
     velocity_m_s: np.ndarray
     track_id: int
     source: str
+    turn_rate_rad_s: float = 0.0
 
     def position_at(self, t_s: float) -> np.ndarray:
         """The position extrapolated at constant velocity to ``t_s`` [m]."""

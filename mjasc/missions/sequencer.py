@@ -102,7 +102,8 @@ class MissionSequencer:
 
     def _end(self, t_s: float, completed: bool, result: dict) -> None:
         entry = self.timeline[-1]
-        entry.update(end_s=round(float(t_s), 3), completed=bool(completed), **result)
+        entry.update(result)
+        entry.update(end_s=round(float(t_s), 3), completed=bool(completed))
         self._events.append((t_s, f"mission: {entry['phase']} {'completed' if completed else 'ended, not completed'}"))
 
     def broadcast(self) -> MissionBroadcast:

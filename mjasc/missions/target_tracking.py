@@ -12,9 +12,12 @@ target out of track.
 Station keeping, per vessel, from the estimate (position p_T, velocity v_T, course χ_T):
 
     s      = p_T + R(χ_T) o_i                     the station: offset o_i = [ahead, to port] in the target's frame
-    path   = the line through s along χ_T         re-drawn every ``replan_period_s`` (in mission mode only)
+    path   = the line through s along χ_T         re-drawn every ``replan_period_s`` (in mission mode only),
+                                                  ending |v_T| ``line_ahead_s`` + 5 m ahead of s
     e_a    = (s − p) · (cos χ_T, sin χ_T)         along-course station error [m]
-    v_ref  = clip(|v_T| + k e_a, 0, v_max)        k = ``speed_gain_1_s``
+    v_s    = |v_T| − ω_T o_port                    the station's along-course speed (ω_T the target's turn
+                                                  rate: ṡ = v_T + ω_T J R(χ_T) o, J the 90° rotation)
+    v_ref  = clip(v_s + k e_a, 0, v_max)          k = ``speed_gain_1_s``
 
 The path follower's line-of-sight law brings the vessel onto the line, the speed law onto the
 station; collision avoidance may override both (a detour, a slow-down) and the mission resumes.
@@ -112,7 +115,7 @@ class TrackTarget:
             self.events.append((t_s, f"mission: target re-acquired (track {keep} → {tr.track_id})"))
         v = (tr.speed_m_s * math.cos(tr.heading_rad), tr.speed_m_s * math.sin(tr.heading_rad))
         return TargetEstimate(float(tr.time_s), np.array(tr.position_m[:2], dtype=float), np.array(v), tr.track_id,
-                              vessel_name)
+                              vessel_name, float(tr.turn_rate_rad_s))
 
     def _update_estimate(self, t_s: float, report, mates: dict, vessel_name: str) -> None:
         if self.is_leader:
@@ -129,14 +132,17 @@ class TrackTarget:
 
     # ------------------------------------------------------------------ the phase
     def begin(self, t_s: float, nav) -> MissionLeg:
-        """Start: towards the target's expected position at cruise speed until an estimate exists."""
+        """Start: towards the station around the target's expected position (its course taken as
+        the bearing from the vessel) at cruise speed, until an estimate exists."""
         self.t0_s = self._last_t = float(t_s)
         p = np.asarray(nav.position_m[:2], dtype=float)
         hint = self.options.target_hint_m
         d = hint - p
-        dist = float(math.hypot(*d))
-        end = hint if dist > 1.0 else p + np.array([math.cos(nav.heading_rad), math.sin(nav.heading_rad)]) * 50.0
-        self._path = Path.line(p, end)
+        bearing = float(math.atan2(d[1], d[0])) if math.hypot(*d) > 1.0 else float(nav.heading_rad)
+        goal = station(hint, bearing, self.offset_m)
+        if math.hypot(*(goal - p)) < 1.0:
+            goal = p + 20.0 * np.array([math.cos(bearing), math.sin(bearing)])
+        self._path = Path.line(p, goal)
         return MissionLeg(self.name, self.index, self._path, 0.0, self.cruise_m_s, coordinated=False)
 
     def broadcast_target(self) -> TargetEstimate | None:
@@ -168,14 +174,16 @@ class TrackTarget:
         u = np.array([math.cos(chi), math.sin(chi)])
         pos = np.asarray(nav.position_m[:2], dtype=float)
         along = float((s - pos) @ u)
-        speed = min(max(est.speed_m_s + o.speed_gain_1_s * along, 0.0), self.top_m_s)
+        # the station's own along-course speed: |v_T| + ω (J o)·x̂ = |v_T| − ω o_port (outside a turn: faster)
+        station_speed = est.speed_m_s - est.turn_rate_rad_s * float(self.offset_m[1])
+        speed = min(max(station_speed + o.speed_gain_1_s * along, 0.0), self.top_m_s)
         if t_s - self.t0_s >= o.settle_s:
             self._errors.append((float(math.hypot(*(s - pos))), along, float(math.hypot(*(p_t - pos)))))
         leg = None
         if in_mission and t_s - self._last_replan_s >= o.replan_period_s:
             self._last_replan_s = float(t_s)
             back = min(float((pos - s) @ u), 0.0) - 20.0
-            self._path = Path.line(s + back * u, s + o.line_ahead_m * u)
+            self._path = Path.line(s + back * u, s + (est.speed_m_s * o.line_ahead_s + 5.0) * u)
             g0 = float(self._path.project(pos))
             self._speed = speed
             leg = MissionLeg(self.name, self.index, self._path, g0, speed, coordinated=False)

@@ -128,14 +128,15 @@ def legend_markdown(vessels: tuple[str, ...]) -> str:
 def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), perception: bool = False,
                       avoidance: bool = False, coordination: bool = False, detail: str = "full",
                       extent_xy: tuple | None = None, starts_xy: dict | None = None,
-                      sensor_range_m: dict | None = None, comms: bool = False) -> rrb.Blueprint:
+                      sensor_range_m: dict | None = None, comms: bool = False, mission: bool = False) -> rrb.Blueprint:
     """The default layout (module docstring). The top-down view looks at the centre of
     ``extent_xy`` (lower-left, upper-right corners, world ENU [m]; a square of side ``extent_m``
     around the origin without it) from ``1.2 ×`` its larger side above. ``starts_xy``: vessel name
     → start position (world [m]), where each follow view's eye begins (offset
     :data:`FOLLOW_EYE_OFFSET_M`; it then tracks the hull). ``sensor_range_m``: vessel name → its
     sensor's range [m] (a body-frame sensor view for each; with ``perception``). ``avoidance``:
-    mode timelines and threat panels; ``coordination`` / ``comms``: the formation and link plots.
+    mode timelines and threat panels; ``coordination`` / ``comms``: the formation and link plots;
+    ``mission``: the mission phase as a lane per vessel (a chained mission, docs/missions.md).
     (Every view adds ~5 kB to the recording.)"""
     if extent_xy is None:
         lo, hi = -0.5 * np.full(2, extent_m), 0.5 * np.full(2, extent_m)
@@ -167,8 +168,11 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
              rrb.TimeSeriesView(origin="plots/thrust", name="thrust [N]")]
     if avoidance and vessels:
         fleet.insert(0, rrb.StateTimelineView(origin="modes", name="avoidance mode (a lane per vessel)"))
-    lanes = min(1.0 + len(vessels), 6.0)  # the mode lanes' share beside 2 per plot (a lane is ~35 UI points)
-    tabs = [rrb.Vertical(*fleet, row_shares=[lanes] + [2.0] * 4 if len(fleet) == 5 else None, name="fleet")]
+    if mission and vessels:
+        fleet.insert(0, rrb.StateTimelineView(origin="missions", name="mission phase (a lane per vessel)"))
+    lanes = min(1.0 + len(vessels), 6.0)  # the state lanes' share beside 2 per plot (a lane is ~35 UI points)
+    shares = [lanes if isinstance(v, rrb.StateTimelineView) else 2.0 for v in fleet]
+    tabs = [rrb.Vertical(*fleet, row_shares=shares if len(fleet) > 4 else None, name="fleet")]
     sensor_range_m = sensor_range_m or {}
     for v in view_vessels(vessels):
         panels = []

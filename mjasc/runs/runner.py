@@ -132,6 +132,7 @@ class Runner:
         self.recorder: Recorder | None = None
         self.video = None
         self.metrics = None
+        self._target_judge = None
         self.last_outputs = [None] * len(self.agents)
         self._trail: list[list[tuple[float, np.ndarray]]] = [[] for _ in self.agents]  # (t, xy) per vessel
         self._trail_t: list[float] = []  # times of the trail points [s]
@@ -179,6 +180,8 @@ class Runner:
         xte = np.array([o.status.cross_track_m if o and o.status else np.nan for o in self.last_outputs])
         traffic = self.sim.traffic_state()
         self.metrics.update(states, xte, traffic)
+        if self._target_judge is not None:
+            self._target_judge.update(states, traffic, self.agents)
         rec = self.recorder
         if rec is None:
             return
@@ -334,6 +337,12 @@ class Runner:
         if self.out_dir is not None:
             self.out_dir.mkdir(parents=True, exist_ok=True)
         self.metrics = RunMetrics(self.world, sc)
+        self._target_judge = None
+        tt = sc.mission.track_target if sc.mission is not None else None
+        if tt is not None and tt.target:
+            from mjasc.evaluation.mission_judge import TargetJudge
+
+            self._target_judge = TargetJudge(sc, self.world)
         self._current_grid = None
         self._comms_log = None
         if self.out_dir is not None and sc.outputs.recording:
@@ -348,7 +357,7 @@ class Runner:
                 starts_xy={v.name: v.position_m for v in sc.vessels},
                 sensor_range_m={a.name: a.perception.sensor_config.max_range_m for a in self.agents
                                 if a.perception is not None},
-                comms=self.network is not None)
+                comms=self.network is not None, mission=sc.mission is not None)
             self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp, detail=sc.outputs.recording_detail)
             self.recorder.colours = {a.name: vessel_colour(i) for i, a in enumerate(self.agents)}
             self.recorder.set_vessels(names, view_vessels(names))
@@ -461,6 +470,8 @@ class Runner:
             from mjasc.missions.sequencer import team_mission_summary
 
             summary["mission"] = team_mission_summary(self.agents)
+            if self._target_judge is not None:
+                summary["mission"]["track_target_truth"] = self._target_judge.summary()
         if self.network is not None:
             summary["comms"] = self.network.link_matrix()
         if self.video is not None:

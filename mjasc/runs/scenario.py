@@ -263,7 +263,10 @@ def _outputs(t: dict) -> Outputs:
     return dataclass_from_table(Outputs, t, "outputs", check=Outputs.check)
 
 
-def _vessel(t: Any, i: int) -> VesselConfig:
+def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
+    """One ``[[vessels]]`` table. ``path_optional``: the scenario's mission never follows the
+    controller's path (target tracking only): without waypoints the vessel gets a 10 m line ahead
+    of its start pose, which its first mission leg replaces."""
     where = f"vessels[{i}]"
     t = table(t, where)
     check_keys(t, _VESSEL, where)
@@ -290,9 +293,13 @@ def _vessel(t: Any, i: int) -> VesselConfig:
         method_table = {k: v for k, v in ctrl.items() if k not in _CONTROLLER}
         options["control"] = parse_method_table("control", {"type": ctype, **method_table}, f"{where}.controller",
                                                 name_key="type")
-        if "waypoints" not in ctrl:
+        if "waypoints" in ctrl:
+            path = _path(ctrl, f"{where}.controller")
+        elif path_optional:
+            ahead = pos + 10.0 * np.array([math.cos(heading), math.sin(heading)])
+            path = Path.line(pos, ahead)
+        else:
             raise ScenarioError(f"{where}.controller.waypoints: missing ({ctype} needs a path)")
-        path = _path(ctrl, f"{where}.controller")
         cruise = number(read_field(VesselConfig, "cruise_speed_m_s", ctrl, f"{where}.controller", key="speed_m_s",
                                    default=vt.cruise_speed_m_s), f"{where}.controller.speed_m_s",
                         maximum=vt.top_speed_m_s)
@@ -373,7 +380,13 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
     vessels_raw = data.get("vessels")
     if not isinstance(vessels_raw, list) or not vessels_raw:
         raise ScenarioError("vessels: need at least one [[vessels]] table")
-    vessels = tuple(_vessel(v, i) for i, v in enumerate(vessels_raw))
+    mission = None
+    if "mission" in data:
+        from mjasc.missions.config import check_mission, parse_mission
+
+        mission = parse_mission(data["mission"], "mission")
+    path_optional = mission is not None and not {"go_to_formation", "follow_path"} & set(mission.phases)
+    vessels = tuple(_vessel(v, i, path_optional) for i, v in enumerate(vessels_raw))
     names = [v.name for v in vessels]
     for i, n in enumerate(names):
         if names.index(n) != i:
@@ -399,11 +412,7 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
         except ValueError as exc:
             msg = str(exc)
             raise ScenarioError(msg if msg.startswith("comms") else f"comms: {msg}") from None
-    mission = None
-    if "mission" in data:
-        from mjasc.missions.config import check_mission, parse_mission
-
-        mission = parse_mission(data["mission"], "mission")
+    if mission is not None:
         check_mission(mission, vessels, [o.name for o in moving])
     else:
         for i, v in enumerate(vessels):

@@ -1,0 +1,64 @@
+"""Judging a target-tracking mission against the truth (the vessels never see it).
+
+While a vessel is in its ``track_target`` phase, at every record tick from ``settle_s`` after the
+phase began: its true station s = p_T + R(ψ_T) o_i (the target's true position and heading, the
+vessel's offset o_i = [ahead, to port]) and the errors
+
+    station error  |s − p_i|          standoff  |p_T − p_i|
+
+summarized per vessel (RMS, max, mean, min) in summary.json under ``mission.track_target_truth``.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+__all__ = ["TargetJudge"]
+
+
+class TargetJudge:
+    """Record-slot judge of the team's stations around the named target (a moving obstacle)."""
+
+    def __init__(self, scenario, world):
+        tt = scenario.mission.track_target
+        names = [o.name for o in world.moving_obstacles]
+        self.index = names.index(tt.target)
+        self.settle_s = tt.settle_s
+        self.offsets = {}
+        for v in scenario.vessels:
+            opts = v.options.get("mission")
+            if v.controller != "none":
+                self.offsets[v.name] = np.asarray(opts.target_offset_m if opts is not None else (-30.0, 0.0), float)
+        self._rows: dict[str, list[tuple[float, float]]] = {n: [] for n in self.offsets}
+
+    def update(self, states, traffic, agents) -> None:
+        """One record tick: states (true :class:`~mjasc.physics.simulation.VesselStates`), traffic
+        (positions (M, 2), headings (M,), velocities (M, 2)), the agents (their mission phase)."""
+        pos_t, head_t = traffic[0][self.index], float(traffic[1][self.index])
+        c, s = math.cos(head_t), math.sin(head_t)
+        for i, agent in enumerate(agents):
+            m = agent.mission
+            if m is None or m.phase_name != "track_target" or agent.name not in self.offsets:
+                continue
+            if states.time_s - m.timeline[-1]["start_s"] < self.settle_s:
+                continue
+            o = self.offsets[agent.name]
+            st = (pos_t[0] + c * o[0] - s * o[1], pos_t[1] + s * o[0] + c * o[1])
+            p = states.position_m[i]
+            self._rows[agent.name].append((math.hypot(st[0] - p[0], st[1] - p[1]),
+                                           math.hypot(pos_t[0] - p[0], pos_t[1] - p[1])))
+
+    def summary(self) -> dict:
+        out = {}
+        for name, rows in self._rows.items():
+            if not rows:
+                continue
+            e = np.array(rows)
+            out[name] = {"station_error_rms_m": round(float(np.sqrt(np.mean(e[:, 0] ** 2))), 3),
+                         "station_error_max_m": round(float(e[:, 0].max()), 3),
+                         "standoff_mean_m": round(float(e[:, 1].mean()), 3),
+                         "standoff_min_m": round(float(e[:, 1].min()), 3),
+                         "standoff_nominal_m": round(float(math.hypot(*self.offsets[name])), 3)}
+        return out
