@@ -3,6 +3,7 @@
 * tracking (thesis Fig. 6.1–6.2): true vs estimated speed, turn rate and heading — tracking_figures
 * potential fields (Fig. 6.3–6.4): the dock safety-ratio sweep and the field's gradient — potential_field_figures
 * collision avoidance (§6.3–6.4): top-down runs with predicted conflicts and detours — avoidance_figures
+* missions (docs/missions.md): the chained mission from above, its phases and station errors — missions
 
 Each figure is written once per format (``formats``, of :data:`FORMATS`) under the same stem.
 """
@@ -43,8 +44,9 @@ def save_figure(fig, path: str | Path, formats=("png",), dpi: int = 110) -> list
 
 def make_all_figures(out_dir: str | Path, formats=("png",), progress=None) -> list[Path]:
     """Make every figure in each of ``formats``; ``progress(text)`` is told what starts and what was
-    written (the three groups run simulations: ~30 s in all). Returns the written paths."""
+    written (the groups run simulations: ~50 s in all). Returns the written paths."""
     from mjasc.figures.avoidance import make_avoidance_figures
+    from mjasc.figures.missions import make_mission_figures
     from mjasc.figures.potential_field import make_figures as make_potential_field_figures
     from mjasc.figures.tracking import make_tracking_figures
 
@@ -56,7 +58,8 @@ def make_all_figures(out_dir: str | Path, formats=("png",), progress=None) -> li
                             ("potential fields (Fig. 6.3-6.4): the dock safety-ratio sweep",
                              make_potential_field_figures, "potential_field"),
                             ("collision avoidance (6.3-6.4): one run per scenario", make_avoidance_figures,
-                             "avoidance")):
+                             "avoidance"),
+                            ("missions: the chained mission", make_mission_figures, "missions")):
         say(f"{what} ...")
         written = make(out / sub, formats=formats)
         for p in written:
