@@ -33,7 +33,7 @@ from mjasc.core.frames import wrap_angle
 from mjasc.guidance.paths import LineSegment, Path
 from mjasc.missions.config import GoToFormationOptions
 from mjasc.missions.dubins import dubins_path
-from mjasc.missions.legs import MissionLeg
+from mjasc.missions.legs import MissionBroadcast, MissionLeg, PhaseInputs
 
 __all__ = ["plan_transit", "GoToFormation"]
 
@@ -76,7 +76,8 @@ class GoToFormation:
         self.agreed = False
         self.lead_in_m = options.lead_in_m
         self.speed_m_s = self.cruise_m_s
-        self.result: dict = {}
+        self.arrival: dict = {}  # the arrival's figures, once arrived
+        self.events: list[tuple[float, str]] = []
 
     def _plan(self, nav, lead_in_m: float) -> Path:
         o = self.options
@@ -89,9 +90,12 @@ class GoToFormation:
         self.speed_m_s = self.cruise_m_s
         return MissionLeg(self.name, self.index, self.path, 0.0, self.speed_m_s, True)
 
-    def broadcast_arrival_s(self) -> float:
+    def broadcast(self) -> MissionBroadcast:
         """The arrival time this vessel states: its own earliest, or the team's once agreed."""
-        return self.team_arrival_s
+        return MissionBroadcast(self.index, arrival_time_s=self.team_arrival_s)
+
+    def result(self) -> dict:
+        return {**self.arrival, "completed": bool(self.arrival)}
 
     def _agree(self, t_s: float, nav) -> MissionLeg:
         """Fix the team's arrival time and re-plan the transit to arrive then at cruise speed: the
@@ -123,10 +127,11 @@ class GoToFormation:
         v = remaining_m / max(self.team_arrival_s - t_s, 1e-6)
         return min(max(v, self.options.min_speed_fraction * self.cruise_m_s), self.cruise_m_s)
 
-    def step(self, t_s: float, nav, gamma_m: float, mates: dict) -> tuple[MissionLeg | None, bool]:
+    def step(self, x: PhaseInputs) -> tuple[MissionLeg | None, bool]:
         """(a new leg — the agreed transit, or a new speed when a later arrival is heard —, whether
-        the vessel has arrived). mates: name → :class:`~mjasc.missions.legs.MissionBroadcast`."""
-        heard = [b.arrival_time_s for b in mates.values() if b.phase_index == self.index and b.arrival_time_s]
+        the vessel has arrived)."""
+        t_s, nav, gamma_m = x.t_s, x.nav, x.gamma_m
+        heard = [b.arrival_time_s for b in x.mates.values() if b.phase_index == self.index and b.arrival_time_s]
         latest = max([self.team_arrival_s, *heard])
         leg = None
         if not self.agreed:
@@ -152,7 +157,7 @@ class GoToFormation:
         remaining = max(self.path.length - g, 0.0)
         course = float(self.path.tangent_angle(self.path.length))
         cog = float(math.atan2(vel[1], vel[0])) if sog > 0.05 else float(nav.heading_rad)
-        self.result = {
+        self.arrival = {
             "arrival_time_s": round(float(t_s) + (remaining / sog if sog > 0.05 else 0.0), 3),
             "planned_arrival_s": round(self.team_arrival_s, 3),
             "transit_length_m": round(self.path.length, 3),

@@ -5,6 +5,7 @@
   :mod:`mjasc.cooperation.coordination`). The agent hands it to the path follower, to collision
   avoidance and to coordination (``set_mission``): none of them holds the mission.
 * :class:`TargetEstimate` — a moving target's estimated state (world ENU, SI, absolute time).
+* :class:`PhaseInputs` — what a phase reads at a control tick (typed values only).
 * :class:`MissionBroadcast` — the mission's part of a vessel's team message: its phase, its
   earliest arrival at the formation pose (go-to-formation), its target estimate (the leader of
   target tracking).
@@ -19,7 +20,7 @@ import numpy as np
 
 from mjasc.guidance.paths import Path
 
-__all__ = ["MissionLeg", "TargetEstimate", "MissionBroadcast"]
+__all__ = ["MissionLeg", "TargetEstimate", "MissionBroadcast", "PhaseInputs"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,3 +71,20 @@ class MissionBroadcast:
     phase_index: int
     arrival_time_s: float | None = None
     target: TargetEstimate | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class PhaseInputs:
+    """What a mission phase reads at one control tick: t_s [s]; nav the vessel's own
+    :class:`~mjasc.core.navigation.OwnNavigation`; gamma_m its progress along the leg's path [m]
+    (mapped back from a detour by avoidance); report its
+    :class:`~mjasc.core.estimates.PerceptionReport` (None without perception); mates: team mate
+    name → the :class:`MissionBroadcast` last heard from it; in_mission: avoidance is not acting
+    (a phase re-draws its path and hands over only then)."""
+
+    t_s: float
+    nav: object
+    gamma_m: float
+    report: object
+    mates: dict
+    in_mission: bool

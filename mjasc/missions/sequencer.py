@@ -16,40 +16,20 @@ its results) goes to summary.json; the recording shows the phase as a state lane
 
 from __future__ import annotations
 
-import numpy as np
-
 from mjasc.guidance.paths import Path
 from mjasc.missions.config import MissionConfig, VesselMissionOptions
+from mjasc.missions.follow_path import FollowPath
 from mjasc.missions.go_to_formation import GoToFormation
-from mjasc.missions.legs import MissionBroadcast, MissionLeg
+from mjasc.missions.legs import MissionBroadcast, MissionLeg, PhaseInputs
 from mjasc.missions.target_tracking import TrackTarget
 
-__all__ = ["FollowPath", "MissionSequencer", "PHASE_STATES"]
+__all__ = ["MissionSequencer", "PHASE_STATES", "team_mission_summary"]
 
 PHASE_STATES = {"go_to_formation": ("go to formation", (90, 160, 230)),
                 "follow_path": ("follow path", (80, 190, 120)),
                 "track_target": ("track target", (230, 150, 60)),
                 "done": ("mission done", (150, 150, 150))}
 """The phases as the recording's state lane shows them: label, colour."""
-
-
-class FollowPath:
-    """Cooperative path following along the formation path (the thesis's primitive)."""
-
-    name = "follow_path"
-
-    def __init__(self, index: int, end_band_m: float, formation_path: Path, cruise_speed_m_s: float):
-        self.index = index
-        self.end_band_m = end_band_m
-        self.path = formation_path
-        self.cruise_m_s = float(cruise_speed_m_s)
-
-    def begin(self, t_s: float, nav) -> MissionLeg:
-        g0 = float(self.path.project(nav.position_m, 0.0, search_window_m=max(50.0, 0.25 * self.path.length)))
-        return MissionLeg(self.name, self.index, self.path, g0, self.cruise_m_s, True)
-
-    def step(self, gamma_m: float) -> bool:
-        return gamma_m >= self.path.length - self.end_band_m
 
 
 class MissionSequencer:
@@ -76,7 +56,8 @@ class MissionSequencer:
         self._pending_end: bool = False
         self._logged_style = False
         self._logged_state: str | None = None
-        self._leg_paths: list[tuple[float, Path]] = []
+        self._leg_paths: list[tuple[float, Path]] = []  # new leg paths not yet recorded
+        self.leg_path: Path | None = None  # the current leg's path (for observers: the video)
 
     @property
     def phase(self):
@@ -98,6 +79,7 @@ class MissionSequencer:
                               "completed": False})
         self._events.append((t_s, f"mission: {self.phases[k].name} (phase {k + 1} of {len(self.phases)})"))
         self._leg_paths.append((float(t_s), leg.path))
+        self.leg_path = leg.path
         return leg
 
     def _end(self, t_s: float, completed: bool, result: dict) -> None:
@@ -109,11 +91,7 @@ class MissionSequencer:
     def broadcast(self) -> MissionBroadcast:
         """The mission's part of this vessel's next team message."""
         ph = self.phase
-        if isinstance(ph, GoToFormation):
-            return MissionBroadcast(ph.index, arrival_time_s=ph.broadcast_arrival_s())
-        if isinstance(ph, TrackTarget):
-            return MissionBroadcast(ph.index, target=ph.broadcast_target())
-        return MissionBroadcast(self.current if ph is not None else len(self.phases))
+        return ph.broadcast() if ph is not None else MissionBroadcast(len(self.phases))
 
     def update(self, t_s: float, nav, gamma_m: float, report, team, mode: str) -> MissionLeg | None:
         """One control tick: a new leg, or None (keep going). ``gamma_m``: progress along the
@@ -130,21 +108,12 @@ class MissionSequencer:
                 if b is not None:
                     mates[n] = b
         in_mission = mode == "mission"
-        leg, ended = None, False
-        if isinstance(ph, GoToFormation):
-            leg, ended = ph.step(t_s, nav, gamma_m, mates)
-            result = ph.result
-            completed = ended
-        elif isinstance(ph, FollowPath):
-            ended = ph.step(gamma_m)
-            completed, result = ended, {}
-        else:
-            leg, ended = ph.step(t_s, nav, report, mates, self.name, in_mission)
-            self._events.extend(ph.events)
-            ph.events.clear()
-            result = ph.result() if ended else {}
-            completed = result.get("completed", False)
+        leg, ended = ph.step(PhaseInputs(float(t_s), nav, float(gamma_m), report, mates, in_mission))
+        self._events.extend(ph.events)
+        ph.events.clear()
         if ended and not self._pending_end:
+            result = ph.result()
+            completed = result.pop("completed")
             self._end(t_s, completed, result)
             self._pending_end = True
         if self._pending_end and in_mission:
@@ -154,6 +123,7 @@ class MissionSequencer:
             return None
         if leg is not None and leg.new_path:
             self._leg_paths.append((float(t_s), leg.path))
+            self.leg_path = leg.path
         return leg
 
     # ------------------------------------------------------------------ outputs
@@ -170,10 +140,8 @@ class MissionSequencer:
         running at the end of the run has ``end_s`` None and its results so far)."""
         timeline = [dict(e) for e in self.timeline]
         ph = self.phase
-        if timeline and timeline[-1]["end_s"] is None and isinstance(ph, TrackTarget):
+        if timeline and timeline[-1]["end_s"] is None and ph is not None:  # still running: its results so far
             timeline[-1].update(ph.result(), completed=False)
-        if timeline and timeline[-1]["end_s"] is None and isinstance(ph, GoToFormation) and ph.result:
-            timeline[-1].update(ph.result)
         return {"mission_completed": self.completed, "phase": self.phase_name, "phases": timeline}
 
     def log(self, recorder, t_s: float, vessel_name: str) -> None:

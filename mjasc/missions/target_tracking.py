@@ -32,7 +32,7 @@ import numpy as np
 
 from mjasc.guidance.paths import Path
 from mjasc.missions.config import TrackTargetOptions
-from mjasc.missions.legs import MissionLeg, TargetEstimate
+from mjasc.missions.legs import MissionBroadcast, MissionLeg, PhaseInputs, TargetEstimate
 
 __all__ = ["designate_target", "station", "TrackTarget"]
 
@@ -78,6 +78,7 @@ class TrackTarget:
                  top_speed_m_s: float):
         self.index = index
         self.options = options
+        self.vessel_name = vessel_name
         self.is_leader = vessel_name == options.leader
         self.offset_m = np.asarray(offset_m, dtype=float)
         self.cruise_m_s = float(cruise_speed_m_s)
@@ -117,9 +118,9 @@ class TrackTarget:
         return TargetEstimate(float(tr.time_s), np.array(tr.position_m[:2], dtype=float), np.array(v), tr.track_id,
                               vessel_name, float(tr.turn_rate_rad_s))
 
-    def _update_estimate(self, t_s: float, report, mates: dict, vessel_name: str) -> None:
+    def _update_estimate(self, t_s: float, report, mates: dict) -> None:
         if self.is_leader:
-            est = self.own_estimate(t_s, report, vessel_name)
+            est = self.own_estimate(t_s, report, self.vessel_name)
         else:
             b = mates.get(self.options.leader)
             est = b.target if b is not None else None
@@ -145,16 +146,17 @@ class TrackTarget:
         self._path = Path.line(p, goal)
         return MissionLeg(self.name, self.index, self._path, 0.0, self.cruise_m_s, coordinated=False)
 
-    def broadcast_target(self) -> TargetEstimate | None:
-        return self.estimate if self.is_leader else None
+    def broadcast(self) -> MissionBroadcast:
+        """The leader's estimate goes out with its messages (followers send none)."""
+        return MissionBroadcast(self.index, target=self.estimate if self.is_leader else None)
 
-    def step(self, t_s: float, nav, report, mates: dict, vessel_name: str, in_mission: bool) \
-            -> tuple[MissionLeg | None, bool]:
+    def step(self, x: PhaseInputs) -> tuple[MissionLeg | None, bool]:
         """(a new leg — a re-drawn line or a new speed —, whether the phase's time is up)."""
+        t_s, nav, in_mission = x.t_s, x.nav, x.in_mission
         o = self.options
         dt = t_s - self._last_t if self._last_t is not None else 0.0
         self._last_t = float(t_s)
-        self._update_estimate(t_s, report, mates, vessel_name)
+        self._update_estimate(t_s, x.report, x.mates)
         done = t_s - self.t0_s >= o.duration_s
         est = self.estimate
         fresh = est is not None and t_s - est.time_s <= o.max_estimate_age_s

@@ -109,7 +109,8 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
     # Top left: title and time, then per vessel its mode and (smaller, below) its last decision.
     rows = [(f"{title}  t = {view.time_s:6.1f} s".strip(), font, None)]
     for v in view.vessels if furniture else ():
-        rows.append((f"{v.name}: {v.mode or '-'}", font, v))
+        phase = f"{v.mission_phase} · " if getattr(v, "mission_phase", "") else ""
+        rows.append((f"{v.name}: {phase}{v.mode or '-'}", font, v))
         if v.decision:
             rows.append((v.decision, small, None))
     box_w = 12 + fs + max(draw.textlength(text, font=f) for text, f, _ in rows)

@@ -64,6 +64,8 @@ class VesselView:
     svos: list = field(default_factory=list)  # (k, 2) polygons [m]
     detour: np.ndarray | None = None  # (k, 2) streamline [m]
     field_obstacles: list = field(default_factory=list)  # (k, 2) polygons [m]
+    mission_phase: str = ""  # the chained mission's phase ("go to formation" …; "" without a mission)
+    leg: np.ndarray | None = None  # (k, 2) the mission leg's path when it is not the formation path [m]
 
 
 @dataclass
@@ -88,6 +90,14 @@ def frame_view(event, centre_xy) -> FrameView:
             if scan is not None:
                 v.fan, v.returns = scan_outline(scan), scan.hit_points_world
             v.tracks = [tr for tr in p.tracks() if not tr.is_static]
+        m = getattr(agent, "mission", None)
+        if m is not None:
+            from mjasc.missions.sequencer import PHASE_STATES
+
+            v.mission_phase = PHASE_STATES[m.phase_name][0]
+            leg = m.leg_path
+            if leg is not None and leg is not agent.config.path:
+                v.leg = leg.sample(max(0.5, leg.length / 100.0))
         a = agent.avoidance
         if a is not None:
             if a.conflict_log:  # capped at 50 entries: the latest decision shown is the 50th's after that
@@ -183,6 +193,9 @@ def add_scene_geoms(scn, view: FrameView, marker_m: float, trails=(), paths=(), 
     m = max(marker_m, 1.0)
     for line in paths:
         add_strip(scn, line, COLOURS["path"], 1.5, 0.02)
+    for v in view.vessels:  # a mission leg (transit, station line) in the vessel's colour, faint
+        if v.leg is not None and len(v.leg) > 1:
+            add_strip(scn, v.leg, _rgba(v.colour, 0.45), 1.5, 0.03)
     for v, trail in zip(view.vessels, trails):
         if len(trail) > 1:
             add_strip(scn, trail, _rgba(v.colour, 0.9), 3.0, 0.06)
