@@ -84,6 +84,7 @@ def test_figures_prints_progress_and_writes_every_format(tmp_path, monkeypatch, 
     import matplotlib.pyplot as plt
 
     import mjasc.figures.avoidance as avoidance
+    import mjasc.figures.missions as missions
     import mjasc.figures.potential_field as potential_field
     import mjasc.figures.tracking as tracking
     from mjasc.figures.thesis import save_figure
@@ -101,12 +102,13 @@ def test_figures_prints_progress_and_writes_every_format(tmp_path, monkeypatch, 
     monkeypatch.setattr(tracking, "make_tracking_figures", fake("t"))
     monkeypatch.setattr(potential_field, "make_figures", fake("p"))
     monkeypatch.setattr(avoidance, "make_avoidance_figures", fake("a"))
+    monkeypatch.setattr(missions, "make_mission_figures", fake("m"))
     assert main(["figures", "--out", str(tmp_path), "--format", "png", "svg", "pdf"]) == 0
     out = capsys.readouterr().out
-    assert out.count(" ...") == 3 and out.count("wrote") == 9 and "9 file(s)" in out
+    assert out.count(" ...") == 4 and out.count("wrote") == 12 and "12 file(s)" in out
     magic = {".png": b"\x89PNG", ".svg": b"<?xml", ".pdf": b"%PDF"}
     files = sorted(tmp_path.rglob("*.*"))
-    assert len(files) == 9
+    assert len(files) == 12
     for f in files:
         assert f.read_bytes().startswith(magic[f.suffix]), f
 
