@@ -40,6 +40,10 @@ class PolygonObstacle:
             raise ValueError(f"{self.name}.vertices: need at least 3 [x, y] points, got shape {v.shape}")
         if not np.all(np.isfinite(v)):
             raise ValueError(f"{self.name}.vertices: must be finite")
+        edge = np.hypot(*(np.roll(v, -1, axis=0) - v).T)
+        if np.any(edge < 1e-9):  # a zero-length wall: MuJoCo cannot place a box along it
+            k = int(np.argmax(edge < 1e-9))
+            raise ValueError(f"{self.name}.vertices[{k}]: repeats the next vertex")
         area = polygon_signed_area(v)
         if abs(area) < 1e-9:
             raise ValueError(f"{self.name}.vertices: polygon has zero area")
