@@ -246,3 +246,74 @@ def test_thesis_cooperative_scenarios_pass_with_30_percent_packet_loss(name, dur
     for v in s["vessels"].values():
         assert v["min_clearance_to_any_m"] > 0.5
         assert v["coordination"]["loss_rate"] > 0.2  # the loss really applied
+
+
+# ---------------------------------------------------------------------- the phases' logic, without a run
+def _nav(x, y, heading=0.0, speed=1.0, t=0.0):
+    return OwnNavigation(t, np.array([x, y]), heading, np.array([speed * math.cos(heading), speed * math.sin(heading)]),
+                         np.array([speed, 0.0, 0.0]))
+
+
+def test_go_to_formation_agrees_on_the_slowest_arrival_and_lengthens_the_early_transit():
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    ph = GoToFormation(0, GoToFormationOptions(), formation, 1.5, team_size=2)
+    leg = ph.begin(0.0, _nav(40.0, 0.0))  # 60 m straight ahead of its pose: earliest arrival 40 s
+    assert leg.path.length == pytest.approx(60.0) and ph.broadcast().arrival_time_s == pytest.approx(40.0)
+    late = {"mate": MissionBroadcast(0, arrival_time_s=100.0)}  # the mate needs 100 s
+    leg, arrived = ph.step(PhaseInputs(1.0, _nav(41.5, 0.0), 1.5, None, late, True))
+    assert not arrived and leg is not None and leg.new_path
+    # re-planned to arrive at 100 s at cruise speed: 1.5 m/s × 99 s of path
+    assert leg.path.length == pytest.approx(1.5 * 99.0, abs=1.0) and leg.speed_m_s == pytest.approx(1.5, abs=0.02)
+    assert np.allclose(leg.path.point(leg.path.length), [100.0, 0.0], atol=1e-6)
+    assert ph.broadcast().arrival_time_s == pytest.approx(100.0)
+    # a mate in another phase is not heard; a later arrival heard afterwards slows the vessel
+    leg, _ = ph.step(PhaseInputs(2.0, _nav(43.0, 0.0), 1.5, None, {"m": MissionBroadcast(1, arrival_time_s=500.0)}, True))
+    assert leg is None
+    leg, _ = ph.step(PhaseInputs(2.0, _nav(43.0, 0.0), 1.5, None, {"m": MissionBroadcast(0, arrival_time_s=130.0)}, True))
+    assert leg is not None and not leg.new_path and leg.speed_m_s < 1.5
+    # at the pose: arrived, with its figures
+    _, arrived = ph.step(PhaseInputs(130.0, _nav(99.5, 0.0, speed=1.5, t=130.0), ph.path.length - 0.5, None, {}, True))
+    assert arrived and ph.result()["completed"] and abs(ph.result()["course_error_deg"]) < 1e-6
+
+
+def _track(track_id, x, y, heading=0.0, speed=1.0, team=None, static=False, t=0.0):
+    from mjasc.core.estimates import TrackEstimate
+
+    return TrackEstimate(track_id, t, np.array([x, y]), heading, speed, 0.0, 2.5, is_static=static, team_member=team)
+
+
+def test_target_designation_keeps_its_track_and_reacquires_within_the_gate():
+    from mjasc.core.estimates import PerceptionReport
+    from mjasc.missions.target_tracking import designate_target
+
+    rep = PerceptionReport(0.0, [_track(1, 50, 0), _track(2, 10, 0, team="bravo"), _track(3, 20, 5, static=True),
+                                 _track(4, 80, 0)], [])
+    assert designate_target(rep, [15.0, 0.0]).track_id == 1  # nearest non-team, non-static track
+    assert designate_target(rep, [15.0, 0.0], keep_id=4).track_id == 4  # its own track, wherever
+    assert designate_target(rep, [60.0, 0.0], gate_m=15.0, keep_id=9).track_id == 1  # lost: nearest within the gate
+    assert designate_target(rep, [65.0, 30.0], gate_m=15.0, keep_id=9) is None
+
+
+def test_followers_hold_stations_from_the_leaders_broadcast_and_count_stale_estimates():
+    from mjasc.missions.config import TrackTargetOptions
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs, TargetEstimate
+    from mjasc.missions.target_tracking import TrackTarget
+
+    opts = TrackTargetOptions(leader="alpha", target_hint_m=np.array([100.0, 0.0]), duration_s=100.0, settle_s=0.0)
+    ph = TrackTarget(0, opts, "bravo", [-30.0, 10.0], 1.5, 3.0)
+    ph.begin(0.0, _nav(0.0, 0.0))
+    est = TargetEstimate(0.0, np.array([100.0, 0.0]), np.array([1.0, 0.0]), 7, "alpha")
+    leg, done = ph.step(PhaseInputs(0.1, _nav(60.0, 10.0), 0.0, None, {"alpha": MissionBroadcast(0, target=est)}, True))
+    # the station is 30 m astern and 10 m to port of the extrapolated target: (70.1, 10)
+    assert leg.new_path and not leg.coordinated and not done
+    assert abs(leg.path.cross_track_error(np.array([70.1, 10.0]), leg.path.project([70.1, 10.0]))) < 1e-6
+    assert abs(math.atan2(*(leg.path.end_point - leg.path.start_point)[::-1])) < 1e-9  # along the target's course
+    assert leg.speed_m_s == pytest.approx(1.0 + opts.speed_gain_1_s * 10.1, abs=1e-6)  # behind: faster than it
+    for t in np.arange(0.2, 10.0, 0.1):  # the leader falls silent: the estimate ages out after 5 s
+        ph.step(PhaseInputs(float(t), _nav(60.0, 10.0), 0.0, None, {}, True))
+    r = ph.result()
+    assert r["role"] == "follower" and r["longest_gap_s"] > 4.0 and r["in_track_fraction"] < 0.6
