@@ -317,3 +317,24 @@ def test_followers_hold_stations_from_the_leaders_broadcast_and_count_stale_esti
         ph.step(PhaseInputs(float(t), _nav(60.0, 10.0), 0.0, None, {}, True))
     r = ph.result()
     assert r["role"] == "follower" and r["longest_gap_s"] > 4.0 and r["in_track_fraction"] < 0.6
+
+
+@pytest.mark.slow
+def test_a_mission_campaign_reports_completion_and_arrival_spread(tmp_path):
+    """The shipped deployment campaign, cut to 3 runs: every run completes its mission and
+    the report shows the mission table (completion with its Wilson interval, arrival spread)."""
+    from mjasc.campaigns.engine import run_campaign
+    from mjasc.campaigns.report import format_report, report_data
+    from mjasc.campaigns.spec import load_campaign_spec
+
+    text = (TASKS / "campaigns" / "go_to_formation_deployments.toml").read_text()
+    text = text.replace('scenario = "../go_to_formation.toml"', f'scenario = "{TASKS / "go_to_formation.toml"}"')
+    text = text.replace("runs = 40", "runs = 3")
+    (tmp_path / "c.toml").write_text(text)
+    run_campaign(load_campaign_spec(tmp_path / "c.toml"), tmp_path / "out", workers=0, progress=False)
+    data = report_data(tmp_path / "out")
+    m = data["mission"]
+    assert m["completed"]["count"] == 3 and m["completed"]["n"] == 3
+    assert m["arrival_spread_s"]["p100"] <= 2.0
+    text = format_report(data)
+    assert "mission completed [Wilson 95 %]" in text and "arrival spread [s]" in text

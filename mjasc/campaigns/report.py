@@ -112,7 +112,20 @@ def format_report(data: dict) -> str:
         lines.append(f"| {fam} | {n} | {_q(pv['path_cost'], 100, 1)} | {_q(pv['time_cost_s'], 1, 1)} | "
                      f"{_q(pv['mean_cross_track_m'], 1, 2)} | {_q(pv['max_cross_track_m'], 1, 2)} | "
                      f"{_q(pv['formation_error_m'], 1, 2)} | {pv['reference_short']} |")
+    if data.get("mission"):  # chained missions (docs/missions.md)
+        lines += ["", "Missions (median / p95 / max over the completed runs; arrival: go-to-formation):", "",
+                  "| family | mission completed [Wilson 95 %] | arrival spread [s] | arrival position error [m] |",
+                  "|---|---|---|---|"]
+        for fam, g in list(data["families"].items()) + [("**all**", data)]:
+            m = g.get("mission")
+            if m:
+                lines.append(f"| {fam} | {_pct(m['completed'])} | {_q3(m['arrival_spread_s'])} | "
+                             f"{_q3(m['arrival_position_error_m'])} |")
     return "\n".join(lines) + "\n"
+
+
+def _q3(q: dict | None) -> str:
+    return "—" if not q else f"{q['p50']:.2f} / {q['p95']:.2f} / {q['p100']:.2f}"
 
 
 def _sep3(q: dict | None) -> str:

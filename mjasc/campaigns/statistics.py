@@ -102,6 +102,8 @@ def run_outcome(summary: dict | None, near_miss_m: float = 1.0) -> dict:
     tracking = list((ev.get("tracking") or {}).values())
     min_sep = min(clear) if clear else None
     collision = bool(s.get("any_collision"))
+    mission = s.get("mission") or None  # a chained mission (docs/missions.md)
+    gtf = (mission or {}).get("go_to_formation") or {}
     return {
         "collision": collision,
         "near_miss": (not collision) and min_sep is not None and min_sep < near_miss_m,
@@ -116,6 +118,9 @@ def run_outcome(summary: dict | None, near_miss_m: float = 1.0) -> dict:
         "id_switches": sum(t.get("id_switches", 0) for t in tracking) if tracking else None,
         "sim_time_s": s.get("sim_time_s"),
         "per_vessel": vessel_samples(s),
+        "mission_completed": None if mission is None else bool(mission.get("mission_completed")),
+        "arrival_spread_s": gtf.get("arrival_spread_s"),
+        "arrival_position_error_m": gtf.get("max_position_error_m"),
     }
 
 
@@ -138,6 +143,11 @@ def _group(runs, near_miss_m: float) -> dict:
         roles.update(o["roles"])
     n_enc = sum(o["encounters"] for o in outs)
     walls = [r.wall_time_s for r in runs if r.wall_time_s is not None]
+    missions = [o for o in outs if o["mission_completed"] is not None]
+    mission = None if not missions else {
+        "completed": _rate(sum(o["mission_completed"] for o in missions), len(missions)),
+        "arrival_spread_s": quantiles(o["arrival_spread_s"] for o in missions),
+        "arrival_position_error_m": quantiles(o["arrival_position_error_m"] for o in missions)}
     return {
         "runs": len(runs), "statuses": dict(statuses), "completed": n,
         "collision": _rate(sum(o["collision"] for o in outs), n),
@@ -153,6 +163,7 @@ def _group(runs, near_miss_m: float) -> dict:
                        "reference_short": sum(o["per_vessel"]["reference_short"] for o in outs)},
         "sim_time_s_total": round(sum(o["sim_time_s"] or 0.0 for o in outs), 3),
         "run_wall_time_s": {"sum": round(sum(walls), 3), "mean": round(float(np.mean(walls)), 3) if walls else None},
+        "mission": mission,
     }
 
 
