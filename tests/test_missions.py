@@ -338,3 +338,20 @@ def test_a_mission_campaign_reports_completion_and_arrival_spread(tmp_path):
     assert m["arrival_spread_s"]["p100"] <= 2.0
     text = format_report(data)
     assert "mission completed [Wilson 95 %]" in text and "arrival spread [s]" in text
+
+
+def test_the_leader_designates_only_near_the_hint():
+    from mjasc.core.estimates import PerceptionReport
+    from mjasc.missions.config import TrackTargetOptions
+    from mjasc.missions.legs import PhaseInputs
+    from mjasc.missions.target_tracking import TrackTarget
+
+    opts = TrackTargetOptions(leader="alpha", target_hint_m=np.array([100.0, 0.0]), duration_s=100.0)
+    ph = TrackTarget(0, opts, "alpha", [-30.0, 0.0], 1.5, 3.0)
+    ph.begin(0.0, _nav(0.0, 0.0))
+    far = PerceptionReport(0.5, [_track(3, 100.0, 90.0, t=0.5)], [])  # a boat 90 m from the hint
+    leg, _ = ph.step(PhaseInputs(0.5, _nav(0.5, 0.0), 0.5, far, {}, True))
+    assert leg is None and ph.estimate is None and ph.broadcast().target is None
+    near = PerceptionReport(1.0, [_track(3, 100.0, 90.0, t=1.0), _track(5, 104.0, 3.0, t=1.0)], [])
+    leg, _ = ph.step(PhaseInputs(1.0, _nav(1.0, 0.0), 1.0, near, {}, True))
+    assert ph.estimate.track_id == 5 and ph.broadcast().target.track_id == 5 and leg is not None

@@ -84,6 +84,9 @@ class TrackTargetOptions:
                                 doc="each station line ends this long ahead of the station at the target's speed "
                                     "(+ 5 m): short of the target when the station is astern of it")
     replan_period_s: float = param(2.0, positive=True, unit="s", doc="how often the station line is re-drawn")
+    designation_gate_m: float = param(60.0, positive=True, unit="m",
+                                      doc="the target is designated only among tracks this close to target_hint_m "
+                                          "(until then the leader heads for the hint)")
     reacquire_gate_m: float = param(15.0, positive=True, unit="m",
                                     doc="a lost target track is replaced by the nearest track within this "
                                         "distance of the predicted target")

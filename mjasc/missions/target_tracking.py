@@ -2,7 +2,7 @@
 
 The target (a boat, a tagged animal: anything that moves) is never read from the simulator.
 The **leader** designates it among its own confirmed tracks — the non-team, non-static track
-nearest ``target_hint_m`` when the phase starts — keeps that track's id, and when the track is
+nearest ``target_hint_m`` within ``designation_gate_m`` (heading for the hint until one is) — keeps that track's id, and when the track is
 lost takes the nearest track within ``reacquire_gate_m`` of where the target should be now.
 It broadcasts its estimate (:class:`~mjasc.missions.legs.TargetEstimate`) with every team
 message; the **followers** use the newest estimate they have heard, extrapolated at constant
@@ -105,7 +105,7 @@ class TrackTarget:
         o = self.options
         keep = self.estimate.track_id if self.estimate is not None else None
         around = self.estimate.position_at(t_s) if self.estimate is not None else o.target_hint_m
-        gate = o.reacquire_gate_m if self.estimate is not None else math.inf
+        gate = o.reacquire_gate_m if self.estimate is not None else o.designation_gate_m
         tr = designate_target(report, around, gate, keep)
         if tr is None:
             return None
