@@ -47,6 +47,7 @@ __all__ = ["IMMBank", "REJECTION_REASONS", "ACCEPTED", "NOT_MEASURED", "NON_FINI
 
 _TINY_PROB = 1e-300  # floor when min_mode_probability = 0: keeps every μ_j, c̄_j > 0 (no 0/0)
 _EYE2 = np.eye(2)
+_MAX_CYCLES = 32  # IMMCycle buffer sets kept per bank (one per number of tracks)
 
 #: Codes of :attr:`IMMBank.rejection_codes` (indices into ``REJECTION_REASONS``).
 ACCEPTED, NOT_MEASURED, NON_FINITE, GATED, RESTARTED = 0, 1, 2, 3, 4
@@ -97,6 +98,9 @@ class IMMBank(PredictiveDensity):
         self._R_cov = self._R * _EYE2
         self._Pc_stale = False  # combined covariances are computed when read
         self._cyc = None  # IMMCycle buffers for the current number of tracks
+        self._cycles: dict[int, IMMCycle] = {}  # IMMCycle buffers per number of tracks (births and
+        # drops move the count up and down by a few rows: the buffers are made once per count)
+        self._sub_cycles: dict[int, IMMCycle] = {}  # the same for subsets (mjasc.perception.imm.subset)
         self._t_common = None  # the time of every track's last cycle when they share it [s]
         self._flagged = True  # _n_gated or _reasons may be non-zero
         self._floor = max(config.min_mode_probability, _TINY_PROB)
@@ -254,9 +258,19 @@ class IMMBank(PredictiveDensity):
         return cycle_steps(self._t, self._t_common, self._ids, t_s, self._consts)
 
     def _cycle_buffers(self) -> IMMCycle:
+        """The IMMCycle buffers for the current number of tracks, made once per number. (Reusing
+        them is safe: the bank's arrays are new ones whenever the number changed, so neither side
+        of a reused cycle holds the bank's state.)"""
         cyc = self._cyc
-        if cyc is None or cyc.lead[0] != self._ids.size:
-            cyc = self._cyc = IMMCycle((self._ids.size,), self._r)
+        n = self._ids.size
+        if cyc is None or cyc.lead[0] != n:
+            cache = self._cycles
+            cyc = cache.get(n)
+            if cyc is None:
+                if len(cache) >= _MAX_CYCLES:
+                    cache.clear()
+                cyc = cache[n] = IMMCycle((n,), self._r)
+            self._cyc = cyc
         return cyc
 
     def _mix_predict(self, dtm, step):

@@ -26,12 +26,13 @@ from mjasc.perception.imm.kernel import PositionUpdate
 __all__ = ["StartupFilters", "cv_predict", "cv_to_polar", "ready_for_handover"]
 
 _UNIFORM_ANGLE_VAR = math.pi**2 / 3.0  # variance of an angle uniform on (−π, π]
+_EYE4 = np.eye(4)[None]
 
 
 def cv_predict(xc, Pc, dt, q):
     """Constant-velocity prediction with white acceleration of intensity q; dt (k,)."""
     k = dt.shape[0]
-    F = np.broadcast_to(np.eye(4), (k, 4, 4)).copy()
+    F = np.repeat(_EYE4, k, axis=0)
     F[:, 0, 2] = F[:, 1, 3] = dt
     xp = (F @ xc[..., None])[..., 0]
     Pp = F @ Pc @ np.swapaxes(F, 1, 2)
@@ -70,7 +71,10 @@ def cv_to_polar(xc, Pc):
     scale = np.sqrt(np.minimum(1.0, _UNIFORM_ANGLE_VAR / P[:, 2, 2]))
     P[:, 2, :] *= scale[:, None]
     P[:, :, 2] *= scale[:, None]
-    s = np.stack([xc[:, 0], xc[:, 1], np.arctan2(vy, vx), speed], axis=-1)
+    s = np.empty((k, 4))
+    s[:, :2] = xc[:, :2]
+    s[:, 2] = np.arctan2(vy, vx)
+    s[:, 3] = speed
     return s, 0.5 * (P + np.swapaxes(P, 1, 2))
 
 
