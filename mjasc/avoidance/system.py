@@ -701,7 +701,7 @@ class CollisionAvoidance(AvoidanceMethod):
         rows, times, pos = zip(*sel)
         pred = self._predicted_motion.at(np.array(rows), np.array(times)[:, None])[:, 0]
         pos = np.array(pos, dtype=float)
-        return bool(np.any(np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > self.config.track_deviation_m))
+        return bool((np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > self.config.track_deviation_m).any())
 
     def _control_refs(self, t, nav) -> tuple[float | None, str, float | None]:
         """(speed override [m/s] or None, mode, course override [rad] or None) for this control

@@ -182,9 +182,12 @@ class Runner:
         if rec is None:
             return
         t, e = states.time_s, self._entities
-        c, s = np.cos(states.heading_rad), np.sin(states.heading_rad)
-        hulls = np.einsum("nkj,nij->nki", self._hull_body, np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], 1))
-        rec.vessel_strips(WORLD_SERIES["hull"], e["hull"], t, hulls + states.position_m[:, None, :], z=0.2)
+        c, s = np.cos(states.heading_rad)[:, None], np.sin(states.heading_rad)[:, None]
+        hb, pos = self._hull_body, states.position_m
+        hulls = np.empty(hb.shape)  # each outline rotated by the heading, then placed at the position
+        hulls[..., 0] = (hb[..., 0] * c + hb[..., 1] * -s) + pos[:, None, 0]
+        hulls[..., 1] = (hb[..., 0] * s + hb[..., 1] * c) + pos[:, None, 1]
+        rec.vessel_strips(WORLD_SERIES["hull"], e["hull"], t, hulls, z=0.2)
         rec.vessel_points(WORLD_SERIES["position"], e["position"], t, states.position_m, z=0.2)
         series = (("speed", states.speed_m_s), ("speed_ref", [o.speed_ref_m_s if o else 0.0 for o in self.last_outputs]),
                   ("thrust_port", states.thrust_n[:, 0]), ("thrust_starboard", states.thrust_n[:, 1]),

@@ -161,7 +161,7 @@ class IMMBank(PredictiveDensity):
         z = np.asarray(z, dtype=float).reshape(-1, 2)
         k = z.shape[0]
         t = np.broadcast_to(np.asarray(t_s, dtype=float), (k,))
-        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(t))):
+        if not (np.isfinite(z).all() and np.isfinite(t).all()):
             raise ValueError("add_tracks: z and t_s must be finite")
         if track_ids is None:
             ids = np.arange(self._next_id, self._next_id + k, dtype=np.int64)
@@ -177,7 +177,7 @@ class IMMBank(PredictiveDensity):
             setattr(self, name, np.concatenate([a, grow.get(name, np.zeros((k,) + a.shape[1:], a.dtype))]))
         self._startup.append(k)
         tc, t0 = self._t_common, float(t[0])
-        self._t_common = t0 if (n_before == 0 or tc == t0) and np.all(t == t0) else None
+        self._t_common = t0 if (n_before == 0 or tc == t0) and (t == t0).all() else None
         rows = np.arange(n_before, n_before + k)
         self._start(rows, z, None if measurement_variance is None else np.asarray(measurement_variance, dtype=float))
         return ids
