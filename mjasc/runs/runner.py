@@ -47,6 +47,8 @@ from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 from mjasc.runs.agent import build_agent
 from mjasc.runs.blueprint import OTHERS, view_vessels
+from mjasc.runs.collector import pause as pause_collector
+from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import catch_sigterm, restore_sigterm, signal_name
 from mjasc.runs.outputs import atomic_target, atomic_write_text
 from mjasc.runs.recording import Recorder, annotation_context, default_blueprint, legend_markdown, vessel_colour
@@ -385,6 +387,7 @@ class Runner:
         previous = catch_sigterm() if interruptible else None
         clock = time.perf_counter
         stage = self.stage_seconds = dict.fromkeys([*self.schedule.period_steps, "physics"], 0.0)
+        collector = pause_collector()  # what exists now lives for the run (mjasc.runs.collector)
         try:
             while step <= total_steps:
                 due = self.schedule.due(step)
@@ -442,6 +445,7 @@ class Runner:
             if self.recorder:
                 self.recorder.event(sim.time_s, error, "ERROR")
         finally:
+            resume_collector(collector)
             restore_sigterm(previous)
             if bar is not None:
                 bar.close()
