@@ -358,17 +358,13 @@ class FleetTracker:
             return []
         t, pos, th, v, w, P = self.bank.estimate_fields(rows)
         static = self.mgmt._static[rows]
-        radius = self.mgmt._radius[rows]
-        slow = static | (v < self.config.static_speed_m_s)
-        team = self.team.members(rows)
-        out = []
-        for j, (k, tid) in enumerate(zip(rows.tolist(), self.local_id[rows].tolist())):
-            out.append(TrackEstimate(track_id=tid, time_s=float(t[j]), position_m=pos[j].copy(),
-                                     heading_rad=float(th[j]), speed_m_s=float(v[j]), turn_rate_rad_s=float(w[j]),
-                                     radius_m=float(radius[j]), position_covariance=P[j].copy(),
-                                     is_static=bool(static[j]), team_member=team[j],
-                                     outline_m=self.outline(k) if slow[j] else None))
-        return out
+        slow = (static | (v < self.config.static_speed_m_s)).tolist()
+        # Python values per track in one conversion per field; each track's position and
+        # covariance are rows of arrays made for this call (views: no track shares another's).
+        return [TrackEstimate(tid, tk, pk, hk, vk, wk, rk, Pk, sk, mk, self.outline(k) if lk else None)
+                for k, tid, tk, pk, hk, vk, wk, rk, Pk, sk, mk, lk in zip(
+                    rows.tolist(), self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(),
+                    w.tolist(), self.mgmt._radius[rows].tolist(), P, static.tolist(), self.team.members(rows), slow)]
 
     def outline(self, row: int) -> np.ndarray:
         """(k, 2) CCW outline [m] of the track in bank row ``row``
