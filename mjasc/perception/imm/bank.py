@@ -160,7 +160,9 @@ class IMMBank(PredictiveDensity):
         :meth:`add_track` would have made of it. ValueError on non-finite input."""
         z = np.asarray(z, dtype=float).reshape(-1, 2)
         k = z.shape[0]
-        t = np.broadcast_to(np.asarray(t_s, dtype=float), (k,))
+        t = np.asarray(t_s, dtype=float)
+        if t.shape != (k,):
+            t = np.broadcast_to(t, (k,))
         if not (np.isfinite(z).all() and np.isfinite(t).all()):
             raise ValueError("add_tracks: z and t_s must be finite")
         if track_ids is None:
@@ -170,7 +172,7 @@ class IMMBank(PredictiveDensity):
         if k == 0:
             return ids
         self._next_id = max(self._next_id, int(ids.max()) + 1)
-        grow = {"_ids": ids, "_mu": np.tile(self._mu0, (k, 1)), "_t": t.copy()}  # C order (as every row)
+        grow = {"_ids": ids, "_mu": np.repeat(self._mu0[None], k, axis=0), "_t": t.copy()}  # C order (as every row)
         n_before = self._ids.size
         for name in self._PER_TRACK:  # zero rows, but for these
             a = getattr(self, name)

@@ -59,10 +59,13 @@ def cv_to_polar(xc, Pc):
     vx, vy = xc[:, 2], xc[:, 3]
     speed = np.hypot(vx, vy)
     moving = speed > 0
-    safe = np.where(moving, speed, 1.0)
-    ux = np.where(moving, vx / safe, 1.0)
-    uy = np.where(moving, vy / safe, 0.0)
-    inv_v = np.where(moving, 1.0 / safe, 1e150)
+    if moving.all():  # (the usual case: the same numbers without the masks)
+        ux, uy, inv_v = vx / speed, vy / speed, 1.0 / speed
+    else:
+        safe = np.where(moving, speed, 1.0)
+        ux = np.where(moving, vx / safe, 1.0)
+        uy = np.where(moving, vy / safe, 0.0)
+        inv_v = np.where(moving, 1.0 / safe, 1e150)
     J = np.zeros((k, 4, 4))
     J[:, 0, 0] = J[:, 1, 1] = 1.0
     J[:, 2, 2], J[:, 2, 3] = -uy * inv_v, ux * inv_v
@@ -109,6 +112,7 @@ class StartupFilters:
         self.P = np.zeros((0, 4, 4))
         self.n_meas = np.zeros(0, dtype=np.int64)
         self.n_active = 0
+        self._updates: dict[int, PositionUpdate] = {}  # scratch of update(), per number of rows
 
     def append(self, k: int = 1) -> None:
         """k more rows (active; :meth:`start` fills them)."""
@@ -175,7 +179,12 @@ class StartupFilters:
         covariance R ((2, 2) or (k, 2, 2)), if inside the chi-square gate; returns (k,) bool of the
         rows updated (the others coast)."""
         xc, Pcv = self.predicted(rows, dt)
-        cv_update = PositionUpdate(xc)
+        cv_update = self._updates.get(xc.shape[0])  # the update's buffers, made once per number of rows
+        if cv_update is None:
+            if len(self._updates) >= 32:
+                self._updates.clear()
+            cv_update = self._updates[xc.shape[0]] = PositionUpdate(np.empty_like(xc))
+        np.copyto(cv_update.x, xc)
         np.copyto(cv_update.P, Pcv)
         d2, _ = cv_update.innovate(z, R)
         xu, Pcu = np.empty_like(xc), np.empty_like(Pcv)

@@ -75,7 +75,9 @@ class TrackManagement:
         """Tracks born at t_s [s] (scalar or (k,)) from detections of radius [m] (k,) (their first update)."""
         radius = np.asarray(radius, dtype=float).reshape(-1)
         k = radius.size
-        t = np.broadcast_to(np.asarray(t_s, dtype=float), (k,))
+        t = np.asarray(t_s, dtype=float)
+        if t.shape != (k,):
+            t = np.broadcast_to(t, (k,))
         cat = np.concatenate
         self._hist = cat([self._hist, np.ones(k, dtype=np.int64)])
         self._scans = cat([self._scans, np.ones(k, dtype=np.int64)])
