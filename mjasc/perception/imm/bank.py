@@ -578,14 +578,18 @@ class IMMBank(PredictiveDensity):
         w = np.where(self._startup.active[rows], 0.0, turn_rate(self._mu[rows], self._omega))
         return self._t[rows], x[:, :2], wrap(x[:, 2]), x[:, 3], w, self._covariances()[rows, :2, :2]
 
+    def states_of(self, rows) -> np.ndarray:
+        """``states`` of the tracks ``rows`` only: (k, 4) [x, y, θ, V], θ in (−π, π]."""
+        x = self._x[rows]
+        x[:, 2] = wrap(x[:, 2])
+        return x
+
     def prediction_fields(self, rows) -> tuple:
         """What predicting the tracks ``rows`` needs, at once: combined states (k, 4) [x, y, θ, V]
         (θ in (−π, π]), covariances (k, 4, 4), times (k,) [s] and ω̂ (k,) [rad/s] (the numbers of
         ``states``, ``state_covariances``, ``times_s`` and ``turn_rates`` at those rows)."""
-        x = self._x[rows]
-        x[:, 2] = wrap(x[:, 2])
         w = np.where(self._startup.active[rows], 0.0, turn_rate(self._mu[rows], self._omega))
-        return x, self._covariances()[rows], self._t[rows], w
+        return self.states_of(rows), self._covariances()[rows], self._t[rows], w
 
     def estimates(self, radius_m: float | Mapping[int, float] = 0.0) -> list[TrackEstimate]:
         """TrackEstimate of every track; radius_m a scalar or a {track_id: radius} mapping."""
