@@ -133,6 +133,28 @@ def predict_slot(calls) -> list[AvoidanceRequest]:
     return out
 
 
+def control_slot(calls) -> list[AvoidanceRequest]:
+    """The control tick of many vessels at once: ``calls`` is a sequence of (system, t, nav,
+    guidance, perceived, team), the arguments of :meth:`CollisionAvoidance.control` per vessel.
+    Returns each vessel's request — the same as calling ``control`` vessel by vessel (the systems
+    share no state) — with the predictions the tick triggers (a new track, a deviating track or
+    team plan, a changed mission speed, an emergency) of every vessel in one
+    :func:`~mjasc.avoidance.prediction.predict_fleet` call. Predictions a decision triggers (after a
+    re-plan, a finished velocity correction) run per vessel."""
+    pending = []
+    for system, t, nav, guidance, perceived, team in calls:
+        system._begin(guidance, perceived, team)
+        pending.append(system._control_query(float(t)))
+    results = iter(predict_fleet([p[0].query for p in pending if p is not None and p[0].query is not None]))
+    out = []
+    for (system, t, nav, _, _, _), p in zip(calls, pending):
+        if p is not None:
+            system._control_predict(float(t), nav, p, next(results) if p[0].query is not None else [])
+        override, mode, course = system._control_rest(float(t), nav)
+        out.append(AvoidanceRequest(mode, override, system._switch, (), course))
+    return out
+
+
 def _outlines(tracks) -> dict:
     """Track id → outline polygon of the static tracks that carry one (checked like a mapped
     polygon; the other tracks are predicted as discs)."""
@@ -186,6 +208,12 @@ class CollisionAvoidance(AvoidanceMethod):
     def predict_many(cls, calls) -> list[AvoidanceRequest]:
         """Several vessels' prediction slot in one batched call (:func:`predict_slot`)."""
         return predict_slot(calls)
+
+    @classmethod
+    def control_many(cls, calls) -> list[AvoidanceRequest]:
+        """Several vessels' control tick, their triggered predictions in one batched call
+        (:func:`control_slot`)."""
+        return control_slot(calls)
 
     def __init__(self, name: str, vessel, mission_path: Path | None, config, team_names, rng=None):
         if isinstance(config, dict):
@@ -663,41 +691,55 @@ class CollisionAvoidance(AvoidanceMethod):
         p = self._perceived
         self._predict(t, nav, list(p.tracks), list(p.static_polygons))
 
-    def _check_new_tracks(self, t, nav) -> None:
+    def _prediction_due(self, t) -> set | None:
+        """Whether the control tick predicts at once: None (no), the new track ids (a new track),
+        or an empty set (an emergency not yet cleared, the own mission speed changed, a team mate
+        re-planned, a track deviates); the event and counters are noted here."""
         perceived = self._perceived
         if perceived is None:
-            return
+            return None
         tracks = perceived.tracks
         new = () if tracks is self._no_new_in else {tr.track_id for tr in tracks} - self._known_track_ids
         if not new:
             self._no_new_in = tracks  # known ids only grow: these tracks stay known
         else:
             self._event(t, f"new track(s) {sorted(new)}: predicting now")
-            self._predict_on_perceived(t, nav)
-            self._known_track_ids |= new  # also those the prediction set aside (a team mate's stale copy)
-            return
+            return new
         if t - self._last_predict_t < 1.0:
-            return
+            return None
         if self._mission_moved:  # a new mission leg (mjasc.missions): look along it
             self._mission_moved = False
-            self._predict_on_perceived(t, nav)
-            return
+            return set()
         if self.correction is not None and self.correction.emergency:  # nothing cleared it: look again
             self.stats["deviation_predictions"] += 1
-            self._predict_on_perceived(t, nav)
-            return
+            return set()
         if self.correction is None and self._predicted_speed is not None and \
                 abs(self._guidance.mission_speed_m_s - self._predicted_speed) > self.config.speed_change_m_s:
             self.stats["deviation_predictions"] += 1  # own plan changed (coordination): predict again
-            self._predict_on_perceived(t, nav)
-            return
+            return set()
         if self.team_mates.plans_changed(t, self._team):  # a team mate re-planned or changed its speed
             self.stats["deviation_predictions"] += 1
-            self._predict_on_perceived(t, nav)
-            return
+            return set()
         if self._deviating(tracks):  # a track that left the motion the last prediction assumed
             self.stats["deviation_predictions"] += 1
-            self._predict_on_perceived(t, nav)
+            return set()
+        return None
+
+    def _control_query(self, t) -> tuple | None:
+        """The control tick up to its prediction: the team polled, and when a prediction is due
+        (:meth:`_prediction_due`) its query and the new track ids, else None."""
+        self.team_mates.poll(self._team)
+        new = self._prediction_due(t)
+        if new is None:
+            return None
+        return self._prediction_query(t, list(self._perceived.tracks)), new
+
+    def _control_predict(self, t, nav, pending, all_c) -> None:
+        """Act on the control tick's prediction (``pending`` from :meth:`_control_query`, its
+        conflicts ``all_c``)."""
+        query, new = pending
+        self._act_on_prediction(t, nav, query, all_c, list(self._perceived.static_polygons))
+        self._known_track_ids |= new  # also those the prediction set aside (a team mate's stale copy)
 
     def _deviating(self, tracks) -> bool:
         """Some track is farther than ``track_deviation_m`` from where the last prediction put it
@@ -719,13 +761,20 @@ class CollisionAvoidance(AvoidanceMethod):
         rows, times, pos = zip(*sel)
         pred = self._predicted_motion.at(np.array(rows), np.array(times)[:, None])[:, 0]
         pos = np.array(pos, dtype=float)
-        return bool(np.any(np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > self.config.track_deviation_m))
+        return bool((np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > self.config.track_deviation_m).any())
 
     def _control_refs(self, t, nav) -> tuple[float | None, str, float | None]:
         """(speed override [m/s] or None, mode, course override [rad] or None) for this control
-        tick; switches back to the mission path when a detour is finished."""
-        self.team_mates.poll(self._team)
-        self._check_new_tracks(t, nav)
+        tick (one vessel's :func:`control_slot`)."""
+        pending = self._control_query(t)
+        if pending is not None:
+            query = pending[0].query
+            self._control_predict(t, nav, pending, predict_fleet([query])[0] if query is not None else [])
+        return self._control_rest(t, nav)
+
+    def _control_rest(self, t, nav) -> tuple[float | None, str, float | None]:
+        """The control tick after its prediction: :meth:`_control_refs`' result; switches back to
+        the mission path when a detour is finished."""
         d = self.detour
         g = self._guidance
         if d is not None and g.path is d.path and g.gamma_m >= d.detour_length_m - 0.5:

@@ -231,6 +231,9 @@ def dropout_gap_beams(p: float) -> int:
     return max(0, math.ceil(math.log(SPLIT_PROBABILITY) / math.log(p) - 1e-9) - 1)
 
 
+_PER_SCAN_CACHE: dict = {}  # _PerScan.of: (configs, constants) per combination of scans
+
+
 class _PerScan:
     """Per-scan constants (beams, beam spacing, full circle, d₀, λ, gap + 1, min points, min radius,
     max target radius, σ_ρ, σ_ρ², σ_floor², mean and variance of the beams lost beyond each edge;
@@ -253,6 +256,20 @@ class _PerScan:
                 v = np.array(col, dtype=bool if name == "full" else (np.int64 if isinstance(v, int) else float))
             setattr(self, name, v)
 
+    @classmethod
+    def of(cls, scans, configs, noise, dropout) -> "_PerScan":
+        """The constants of these scans and configs, made once per combination (a fleet's scans
+        at a tick are the same combination every tick). Configs are frozen; the cache keeps them
+        alive, so their ids name them."""
+        key = tuple((sc.angles_body.size, sc.beam_spacing_rad, sc.full_circle, id(c), float(sig), float(p))
+                    for sc, c, sig, p in zip(scans, configs, noise, dropout))
+        got = _PER_SCAN_CACHE.get(key)
+        if got is None:
+            if len(_PER_SCAN_CACHE) >= 64:
+                _PER_SCAN_CACHE.clear()
+            got = _PER_SCAN_CACHE[key] = (tuple(configs), cls(scans, configs, noise, dropout))
+        return got[1]
+
     def take(self, name: str, index):
         v = getattr(self, name)
         return v[index] if isinstance(v, np.ndarray) else v
@@ -269,7 +286,7 @@ def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range
     :func:`detect` on it alone."""
     scans = tuple(scans)
     S = len(scans)
-    c = _PerScan(scans, configs, range_noise_std_m, [0.0] * S if dropout_probability is None else dropout_probability)
+    c = _PerScan.of(scans, configs, range_noise_std_m, [0.0] * S if dropout_probability is None else dropout_probability)
     k_s = np.array([sc.hit_beams.size for sc in scans], dtype=np.int64)
     ret_off = np.zeros(S + 1, dtype=np.int64)
     np.cumsum(k_s, out=ret_off[1:])
@@ -337,10 +354,11 @@ def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range
     los = mid - o
     los_n = np.hypot(*los.T)
     u = los / np.where(los_n > 0, los_n, 1.0)[:, None]
-    v = np.stack([-u[:, 1], u[:, 0]], axis=-1)
     rel = P - (o if S == 1 else o[lab])
-    d = np.einsum("ij,ij->i", rel, u[lab])
-    y = np.einsum("ij,ij->i", P - mid[lab], v[lab])
+    u_l = u[lab]
+    d = rel[:, 0] * u_l[:, 0] + rel[:, 1] * u_l[:, 1]
+    pm = P - mid[lab]
+    y = pm[:, 0] * -u_l[:, 1] + pm[:, 1] * u_l[:, 0]  # along v = (−u_y, u_x)
     behind = np.sqrt(np.maximum(r_w[lab] ** 2 - y * y, 0.0))
     wgt = behind + 1e-3 * r_w[lab]  # ∝ cos of the surface angle (edges carry the radius error)
     D = np.add.reduceat(wgt * (d + behind), starts) / np.add.reduceat(wgt, starts)
@@ -356,7 +374,10 @@ def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range
         g1 = np.add.reduceat(J[:, 0] * e, starts)
         g2 = np.add.reduceat(J[:, 1] * e, starts)
         det_ = a11 * a22 - a12 * a12
-        centres = centres - np.stack([(a22 * g1 - a12 * g2) / det_, (a11 * g2 - a12 * g1) / det_], axis=-1)
+        step_c = np.empty_like(centres)
+        step_c[:, 0] = (a22 * g1 - a12 * g2) / det_
+        step_c[:, 1] = (a11 * g2 - a12 * g1) / det_
+        centres = centres - step_c
     far = np.maximum.reduceat(np.hypot(*(P - centres[lab]).T), starts)
     radii = np.maximum(r_w, far)
     var = spacing**2 * (1.0 / 12.0 + c.take("edge_var", cs)) + c.take("sig2", cs) / counts + c.take("floor2", cs)
@@ -380,7 +401,9 @@ def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range
         heading = [sc.heading_rad for sc in scans]
         cos_h = np.array([math.cos(h) for h in heading])[cs]
         sin_h = np.array([math.sin(h) for h in heading])[cs]
-    body = np.stack([cos_h * rel_c[:, 0] + sin_h * rel_c[:, 1], -sin_h * rel_c[:, 0] + cos_h * rel_c[:, 1]], axis=-1)
+    body = np.empty_like(rel_c)
+    body[:, 0] = cos_h * rel_c[:, 0] + sin_h * rel_c[:, 1]
+    body[:, 1] = -sin_h * rel_c[:, 0] + cos_h * rel_c[:, 1]
     return DetectionBatch(scans, centres, body, radii, var, counts, np.hypot(*rel_c.T), radii > c.take("max_tr", cs),
                           occluded, labels, det_off, ret_off)
 
@@ -404,7 +427,8 @@ def _wall_continues(P, gaps, step, nxt, prv, sigma, gap_max) -> np.ndarray:
     per_beam = length / np.maximum(gaps, 1)
     similar = np.maximum(per_beam, per_beam[prv]) <= _WALL_STEP_RATIO * np.minimum(per_beam, per_beam[prv]) + 6.0 * sigma
     bridged = gaps <= gap_max
-    back = bridged & bridged[prv] & (np.einsum("ij,ij->i", unit[prv], unit) > 0) & (cross_back < tol) & similar
+    up = unit[prv]
+    back = bridged & bridged[prv] & (up[:, 0] * unit[:, 0] + up[:, 1] * unit[:, 1] > 0) & (cross_back < tol) & similar
     fwd = back[nxt]  # the step i+1 → i+2 continues i → i+1
     return (back | fwd) & bridged & (step <= _WALL_STEP_MAX_M)
 
@@ -415,7 +439,7 @@ def _occluded_edges(beams, rho, starts, ends, cs, beam_off, c: _PerScan, hit_all
     object), or its edge is the edge of a partial fan. ``cs`` (m,) the scan of each cluster; the
     scans' beams are stacked in ``hit_all`` / ``ranges_all`` from ``beam_off``."""
     gap_max = c.take("gap_max", cs)
-    g = int(np.max(gap_max))
+    g = int(gap_max.max()) if isinstance(gap_max, np.ndarray) else int(gap_max)
     off = np.arange(1, g + 1)
     n = c.take("n_beams", cs)
     fc = c.take("full", cs)

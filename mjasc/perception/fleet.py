@@ -36,7 +36,7 @@ import numpy as np
 
 from mjasc.perception.detection import detect_many
 from mjasc.perception.static_map import StaticMap, StaticMapStore
-from mjasc.perception.tracking.association import block_pairs
+from mjasc.perception.tracking.association import block_pairs, group_starts
 from mjasc.perception.tracking.fleet import FleetTracker
 from mjasc.perception.tracking.tracker import MultiTargetTracker
 
@@ -250,10 +250,11 @@ class PerceptionFleet:
             c, r = tracked_discs(ft, sel, t_own[ft.owner[sel]])
             own = ft.owner[sel]
             order = np.argsort(own, kind="stable")
-            u, cut = np.unique(own[order], return_index=True)
+            u, cut = group_starts(own[order])
+            c, r = c[order], r[order]
             where = dict(zip(owners.tolist(), slots))
-            for o, cc, rr in zip(u.tolist(), np.split(c[order], cut[1:]), np.split(r[order], cut[1:])):
-                out[where[o]] = (cc, rr)
+            for o, a, b in zip(u.tolist(), cut.tolist(), cut[1:].tolist() + [sel.size]):
+                out[where[o]] = (c[a:b], r[a:b])
         return out
 
     # ------------------------------------------------------------------ tracking pass
@@ -278,12 +279,14 @@ def tracked_discs(ft: FleetTracker, rows: np.ndarray, t_s) -> tuple[np.ndarray, 
     of dt = t_s − its last update: a coasting track is predicted, not left where it was last seen);
     the radius is the track's radius + ``DISC_MARGIN_M`` + 2σ of its position (at most
     ``DISC_MARGIN_MAX_M`` beyond the radius)."""
-    bank = ft.bank
-    x = bank.states[rows]
-    dt = np.maximum(t_s - bank.times_s[rows], 0.0)
-    th = x[:, 2] + 0.5 * dt * bank.turn_rates[rows]
-    c = x[:, :2] + (dt * x[:, 3])[:, None] * np.stack([np.cos(th), np.sin(th)], axis=-1)
-    r = ft.mgmt._radius[rows] + disc_margin(bank.position_covariances[rows])
+    t, pos, th, v, w, P = ft.bank.estimate_fields(rows)
+    dt = np.maximum(t_s - t, 0.0)
+    th = th + 0.5 * dt * w
+    step = dt * v
+    c = np.empty((rows.size, 2))
+    c[:, 0] = pos[:, 0] + step * np.cos(th)
+    c[:, 1] = pos[:, 1] + step * np.sin(th)
+    r = ft.mgmt._radius[rows] + disc_margin(P)
     return c, r
 
 

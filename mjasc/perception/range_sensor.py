@@ -161,6 +161,7 @@ class RangeSensor:
         fov = math.radians(config.fov_deg)
         self.angles_body = -0.5 * fov + (np.arange(n) + 0.5) * fov / n
         self._vec = np.zeros((n, 3))
+        self._vec_flat = self._vec.reshape(-1)
         self._geomid = np.zeros(n, dtype=np.int32)
         self._dist = np.zeros(n)
         self._pnt = np.zeros(3)
@@ -174,19 +175,27 @@ class RangeSensor:
         """The true (noise-free) first-hit distances (n,) (−1: nothing within range), geom ids (n,),
         origin (2,) and yaw of one scan."""
         c = self.config
-        origin, yaw = self.pose(data)
+        xm = data.site_xmat[self.site_id]
+        yaw = math.atan2(xm[3], xm[0])
+        pnt = self._pnt
+        pnt[:2] = data.site_xpos[self.site_id, :2]
+        origin = pnt[:2].copy()
+        pnt[2] = c.ray_height_m
         a = self.angles_body + yaw
-        self._vec[:, 0] = np.cos(a)
-        self._vec[:, 1] = np.sin(a)
-        self._pnt[:2] = origin
-        self._pnt[2] = c.ray_height_m
-        mujoco.mj_multiRay(self.model, data, self._pnt, self._vec.reshape(-1), self.geomgroup, 1, self.body_id,
-                           self._geomid, self._dist, None, c.beams, c.max_range_m)
-        dist = self._dist.copy()
-        gid = self._geomid.copy()
-        miss = (gid < 0) | (dist < 0) | (dist > c.max_range_m)
-        dist[miss] = -1.0
-        gid[miss] = -1
+        vec = self._vec
+        vec[:, 0] = np.cos(a)
+        vec[:, 1] = np.sin(a)
+        gid, dist = self._geomid, self._dist
+        mujoco.mj_multiRay(self.model, data, pnt, self._vec_flat, self.geomgroup, 1, self.body_id,
+                           gid, dist, None, c.beams, c.max_range_m)
+        miss = gid < 0  # mj_multiRay: geom −1 and distance −1 when nothing is hit within the cutoff
+        miss |= dist < 0
+        miss |= dist > c.max_range_m
+        if miss.any():
+            dist = np.where(miss, -1.0, dist)
+            gid = np.where(miss, -1, gid)
+        else:
+            dist, gid = dist.copy(), gid.copy()
         return dist, gid, origin, yaw
 
     def scan(self, data, rng: np.random.Generator | None) -> Scan:
@@ -209,16 +218,21 @@ class RangeSensor:
                     dist[beams] = rho
                     hit[beams] = True
                     gid[beams] = CLUTTER_GEOM
-        hit &= (dist >= c.min_range_m) & (dist <= c.max_range_m)
+        hit &= dist >= c.min_range_m
+        hit &= dist <= c.max_range_m
         gid = np.where(hit, gid, -1)
         ranges = np.where(hit, dist, c.max_range_m)
         beams = np.flatnonzero(hit)
         a = self.angles_body[beams]
         r = ranges[beams]
-        body = np.stack([r * np.cos(a), r * np.sin(a)], axis=-1)
+        body = np.empty((beams.size, 2))
+        bx, by = body[:, 0], body[:, 1]
+        np.multiply(r, np.cos(a), out=bx)
+        np.multiply(r, np.sin(a), out=by)
         cy, sy = math.cos(yaw), math.sin(yaw)
-        world = np.stack([origin[0] + cy * body[:, 0] - sy * body[:, 1],
-                          origin[1] + sy * body[:, 0] + cy * body[:, 1]], axis=-1)
+        world = np.empty((beams.size, 2))
+        world[:, 0] = origin[0] + cy * bx - sy * by
+        world[:, 1] = origin[1] + sy * bx + cy * by
         return Scan(float(data.time), origin, float(yaw), self.angles_body, ranges, hit, beams, body, world, gid,
                     c.max_range_m, c.beam_spacing_rad, c.full_circle)
 

@@ -193,7 +193,7 @@ class PerceptionLog:
         conf = np.flatnonzero(tr.confirmed)
         bank = tr.bank
         ids = bank.track_ids[conf]
-        x = bank.states[conf]
+        x = bank.states[conf]  # (the vessel's rows only)
         team, static = tr.team_members, tr.static
         if not full:  # labels only when they change (the strings are built only then)
             key = (ids.tobytes(), static[conf].tobytes(), tuple(team[k] for k in conf))

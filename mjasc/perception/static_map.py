@@ -190,9 +190,9 @@ class StaticMapStore:
         q = len(members)
         counts = np.zeros(q, dtype=np.int64)
         n = self._n
-        nb = np.array([np.size(a) for a in beam_angles_world], dtype=np.int64)
         if n == 0 or q == 0:
             return counts
+        nb = np.array([np.size(a) for a in beam_angles_world], dtype=np.int64)
         slot = np.full(self._version.size, -1)
         slot[np.asarray(members, dtype=np.int64)] = np.where(nb > 0, np.arange(q), -1)
         rows = np.flatnonzero(slot[self._member[:n]] >= 0)

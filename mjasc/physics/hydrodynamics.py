@@ -313,6 +313,15 @@ class Hydrodynamics:
         self._aa = np.zeros((n, 2))
         self._tau = np.zeros((n, 1, 3))
         self._tau_xy = self._tau[:, 0, 0:2].view(np.complex128)[:, 0]
+        self._tau_n = self._tau[:, 0, 2]
+        # the views compute_bound writes through, made once (slicing per step costs more than the step's math)
+        self._F_x = self._F[:, :5]
+        self._F_r = self._F[:, 2]
+        self._F_xx = self._F[:, 30:35]
+        self._F_ww = self._F[:, None, 35:35 + S]
+        self._F_aa = self._F[:, 37 + S:39 + S]
+        self._F_a2 = self._F[:, 39 + S:41 + S]
+        self._cur_of = (None, None)  # (current array, its complex view)
         self._bound = None
 
     def bind(self, qpos3, qvel3, activation, out) -> None:
@@ -342,29 +351,32 @@ class Hydrodynamics:
         e^{∓iψ}: body = world · e^{−iψ}, world = body · e^{iψ}.
         """
         psi, qvel_xy, yaw_rate, activation, out_xy, out_n = self._bound
-        F, S, rot = self._F, self._S, self._rot
+        rot, mul, absolute = self._rot, np.multiply, np.abs
         np.negative(psi, out=self._arg_imag)
         np.exp(self._arg, out=rot)                                                # e^{−iψ}
-        np.multiply(qvel_xy, rot, out=self._F_uv)                                 # u + iv
-        F[:, 2] = yaw_rate                                                        # r
-        np.multiply(current_world.view(np.complex128)[:, 0], rot, out=self._cur)
+        mul(qvel_xy, rot, out=self._F_uv)                                         # u + iv
+        self._F_r[:] = yaw_rate                                                   # r
+        cur_of = self._cur_of
+        if cur_of[0] is not current_world:  # (the same array every step of a uniform steady current)
+            cur_of = self._cur_of = (current_world, current_world.view(np.complex128)[:, 0])
+        mul(cur_of[1], rot, out=self._cur)
         np.subtract(self._F_uv, self._cur, out=self._F_rel)                       # u_r + i v_r
         if current_rate_world is not None:
-            np.multiply(current_rate_world.view(np.complex128)[:, 0], rot, out=self._F_rb)
-        np.multiply(self._x_col, self._x_row, out=self._F_outer)                 # x_i x_j
-        np.abs(F[:, :5], out=self._tmp5)
-        np.multiply(self._tmp5, F[:, :5], out=F[:, 30:35])                        # |x_i| x_i
-        if S:
+            mul(current_rate_world.view(np.complex128)[:, 0], rot, out=self._F_rb)
+        mul(self._x_col, self._x_row, out=self._F_outer)                          # x_i x_j
+        absolute(self._F_x, out=self._tmp5)
+        mul(self._tmp5, self._F_x, out=self._F_xx)                                # |x_i| x_i
+        if self._S:
             np.matmul(self._x_row, self._strip_map, out=self._w)                  # v_r + x_k r
-            np.abs(self._w, out=self._wabs)
-            np.multiply(self._wabs, self._w, out=F[:, None, 35:35 + S])
-        np.abs(activation, out=self._aa)
-        np.multiply(self._aa, activation, out=F[:, 37 + S:39 + S])                # a|a|
-        np.multiply(activation, activation, out=F[:, 39 + S:41 + S])              # a²
+            absolute(self._w, out=self._wabs)
+            mul(self._wabs, self._w, out=self._F_ww)
+        absolute(activation, out=self._aa)
+        mul(self._aa, activation, out=self._F_aa)                                 # a|a|
+        mul(activation, activation, out=self._F_a2)                               # a²
         np.matmul(self._F_row, self._G, out=self._tau)                            # τ = F·G (body)
         np.conjugate(rot, out=self._conj)
-        np.multiply(self._tau_xy, self._conj, out=out_xy)
-        out_n[:] = self._tau[:, 0, 2]
+        mul(self._tau_xy, self._conj, out=out_xy)
+        out_n[:] = self._tau_n
 
     def kinetic_energy_relative(self, nu_r: np.ndarray) -> np.ndarray:
         """½ ν_rᵀ (M_RB + M_A) ν_r per vessel [J] (a Lyapunov function without thrust)."""

@@ -177,9 +177,9 @@ class Simulation:
     def set_commands(self, commands) -> None:
         """Normalized propeller commands (N, 2) in [−1, 1], port then starboard (clipped)."""
         c = np.asarray(commands, dtype=float).reshape(self.n_vessels, 2)
-        if not np.all(np.isfinite(c)):
+        if not np.isfinite(c).all():
             raise ValueError(f"commands: must be finite, got {c.tolist()}")
-        self.data.ctrl[self.world.ctrl_adr] = np.clip(c, -1.0, 1.0)
+        self.data.ctrl[self.world.ctrl_adr] = np.minimum(np.maximum(c, -1.0), 1.0)  # (np.clip, fewer calls)
 
     def states(self) -> VesselStates:
         q = np.array(self._qpos())

@@ -124,6 +124,13 @@ class AvoidanceMethod(StageMethod):
         that can batch across vessels overrides this (the methods share no state)."""
         return [c[0].predict(*c[1:]) for c in calls]
 
+    @classmethod
+    def control_many(cls, calls) -> list:
+        """The control tick of several vessels using this method, ``calls`` a list of
+        ``(method, t, nav, guidance, report, team)``; returns their requests in order. A method
+        that can batch across vessels overrides this (the methods share no state)."""
+        return [c[0].control(*c[1:]) for c in calls]
+
     @property
     def last_prediction(self):
         """The latest prediction for the threat panel (a

@@ -16,7 +16,8 @@ the vessel's components — hands them on::
                (with a [mission]: mjasc.missions; the leg goes to the follower, avoidance and coordination)
                coordination.speed_correction(t, nav, γ)      → factor on the mission speed
                avoidance.control(t, nav, guidance, report, team) → AvoidanceRequest
-               (these two are :meth:`VesselAgent.control_request`, per vessel)
+               (these two are :meth:`VesselAgent.control_request`; the tick asks every vessel's
+               coordination first, then its avoidance methods for the fleet at once, control_many)
                the fleet's path followers, all at once       → propeller commands
 
 ``nav`` is the vessel's own :class:`~mjasc.core.navigation.OwnNavigation`; ``guidance`` its
@@ -207,7 +208,17 @@ class VesselAgent:
         """The control slot's per-vessel part, before the (fleet's) path following: the speed
         reference [m/s] — the mission speed × the coordination factor, or avoidance's override —,
         the mode and the course override [rad] (NaN: none, the follower steers its LOS course);
-        avoidance's path switch is applied to the follower. Needs a path follower."""
+        avoidance's path switch is applied to the follower. Needs a path follower. (The tick runs
+        it in two halves, :meth:`control_call` and :meth:`control_answer`, so that it can ask the
+        vessels' avoidance methods together.)"""
+        speed, call = self.control_call(nav)
+        return self.control_answer(speed, call[0].control(*call[1:]) if call is not None else None)
+
+    def control_call(self, nav: OwnNavigation) -> tuple[float, tuple | None]:
+        """The first half of :meth:`control_request`: the mission speed × the coordination factor
+        [m/s] (the coordination law asked now), and the arguments of the avoidance method's control
+        tick ``(avoidance, t, nav, GuidanceState, PerceptionReport, TeamPicture)`` (None without
+        avoidance)."""
         t = nav.time_s
         if self.mission is not None:
             leg = self.mission.update(t, nav, self.mission_gamma_m(), self.perception_report(t), self.team_picture(t),
@@ -215,12 +226,18 @@ class VesselAgent:
             if leg is not None:
                 self.apply_leg(t, leg)
         speed = self.mission_speed_m_s
-        mode = "mission"
-        course = math.nan
         if self.coordination is not None:
             speed *= self.coordination.speed_correction(t, nav, self.mission_gamma_m())
-        if self.avoidance is not None:
-            req = self.avoidance.control(t, nav, self.guidance_state(), self.perception_report(t), self.team_picture(t))
+        if self.avoidance is None:
+            return speed, None
+        return speed, (self.avoidance, t, nav, self.guidance_state(), self.perception_report(t), self.team_picture(t))
+
+    def control_answer(self, speed: float, req) -> tuple[float, str, float]:
+        """The second half of :meth:`control_request`: avoidance's request ``req`` (None without
+        avoidance) applied to the speed from :meth:`control_call` and to the follower's path."""
+        mode = "mission"
+        course = math.nan
+        if req is not None:
             self.apply_request(req)
             mode = req.mode
             if req.speed_override_m_s is not None:

@@ -16,6 +16,12 @@ from mjasc.physics.obstacles import PolygonObstacle
 __all__ = ["RunMetrics"]
 
 
+def _norm(d: np.ndarray) -> np.ndarray:
+    """‖d‖ over the last axis (2) of d: √(x² + y²), the numbers of ``np.linalg.norm(d, axis=-1)``."""
+    x, y = d[..., 0], d[..., 1]
+    return np.sqrt(x * x + y * y)
+
+
 class RunMetrics:
     def __init__(self, world, scenario):
         self.world = world
@@ -58,9 +64,8 @@ class RunMetrics:
             columns.append(d - self.radii)
         tpos = traffic[0]
         if len(tpos):
-            columns.extend((np.linalg.norm(pos[:, None] - tpos[None], axis=-1)
-                            - self.radii[:, None] - self._traffic_radii[None]).T)
-        pair = np.linalg.norm(pos[:, None] - pos[None], axis=-1) - self.radii[:, None] - self.radii[None]
+            columns.extend((_norm(pos[:, None] - tpos[None]) - self.radii[:, None] - self._traffic_radii[None]).T)
+        pair = _norm(pos[:, None] - pos[None]) - self.radii[:, None] - self.radii[None]
         np.fill_diagonal(pair, np.inf)
         clearance = np.column_stack(columns + [pair]) if columns else pair
         np.minimum(self._min_clear, clearance, out=self._min_clear)

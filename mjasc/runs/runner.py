@@ -47,6 +47,8 @@ from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 from mjasc.runs.agent import build_agent
 from mjasc.runs.blueprint import OTHERS, view_vessels
+from mjasc.runs.collector import pause as pause_collector
+from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import catch_sigterm, restore_sigterm, signal_name
 from mjasc.runs.outputs import atomic_target, atomic_write_text
 from mjasc.runs.recording import Recorder, annotation_context, default_blueprint, legend_markdown, vessel_colour
@@ -186,9 +188,12 @@ class Runner:
         if rec is None:
             return
         t, e = states.time_s, self._entities
-        c, s = np.cos(states.heading_rad), np.sin(states.heading_rad)
-        hulls = np.einsum("nkj,nij->nki", self._hull_body, np.stack([np.stack([c, -s], -1), np.stack([s, c], -1)], 1))
-        rec.vessel_strips(WORLD_SERIES["hull"], e["hull"], t, hulls + states.position_m[:, None, :], z=0.2)
+        c, s = np.cos(states.heading_rad)[:, None], np.sin(states.heading_rad)[:, None]
+        hb, pos = self._hull_body, states.position_m
+        hulls = np.empty(hb.shape)  # each outline rotated by the heading, then placed at the position
+        hulls[..., 0] = (hb[..., 0] * c + hb[..., 1] * -s) + pos[:, None, 0]
+        hulls[..., 1] = (hb[..., 0] * s + hb[..., 1] * c) + pos[:, None, 1]
+        rec.vessel_strips(WORLD_SERIES["hull"], e["hull"], t, hulls, z=0.2)
         rec.vessel_points(WORLD_SERIES["position"], e["position"], t, states.position_m, z=0.2)
         series = (("speed", states.speed_m_s), ("speed_ref", [o.speed_ref_m_s if o else 0.0 for o in self.last_outputs]),
                   ("thrust_port", states.thrust_n[:, 0]), ("thrust_starboard", states.thrust_n[:, 1]),
@@ -392,6 +397,7 @@ class Runner:
         previous = catch_sigterm() if interruptible else None
         clock = time.perf_counter
         stage = self.stage_seconds = dict.fromkeys([*self.schedule.period_steps, "physics"], 0.0)
+        collector = pause_collector()  # what exists now lives for the run (mjasc.runs.collector)
         try:
             while step <= total_steps:
                 due = self.schedule.due(step)
@@ -449,6 +455,7 @@ class Runner:
             if self.recorder:
                 self.recorder.event(sim.time_s, error, "ERROR")
         finally:
+            resume_collector(collector)
             restore_sigterm(previous)
             if bar is not None:
                 bar.close()

@@ -3,8 +3,11 @@
 :func:`run_onboard_slot` runs one slot of :data:`ONBOARD_SLOTS` for every vessel agent, in vessel
 order (the order matters: the team's link draws its random numbers in the order of the calls).
 The prediction slot predicts every vessel's (vessel, track) pairs in one batched call
-(:func:`~mjasc.avoidance.system.predict_slot`). The control slot runs each agent's :meth:`~mjasc.runs.agent.VesselAgent.control_request`
-(coordination factor, avoidance request and path switch) in vessel order, then the path
+(:func:`~mjasc.avoidance.system.predict_slot`). The control slot runs each agent's
+:meth:`~mjasc.runs.agent.VesselAgent.control_request` (coordination factor, avoidance request and
+path switch): the coordination in vessel order, then the avoidance methods of every vessel at once
+per method (``control_many``: the thesis method predicts what the tick triggers for all vessels in
+one batched call, :func:`~mjasc.avoidance.system.control_slot`), then the path
 following of all vessels in one batched call (speeds and course overrides as arrays over vessels,
 NaN = no course override) (:class:`~mjasc.guidance.path_following.FleetPathFollower`:
 the agents' followers are gathered into one fleet at the first control tick and stay its rows).
@@ -76,12 +79,24 @@ def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: floa
     """The control slot: per-vessel requests in vessel order, then one batched call for the built-in
     path followers (other control methods steer one vessel at a time, right after its request)."""
     outputs = [None] * len(agents)
-    rows, speeds, modes, courses = [], [], [], []  # the built-in followers, commanded together
+    asked = []  # (vessel, speed after coordination, avoidance call or None)
     for i, (agent, nav) in enumerate(zip(agents, navs)):
         if agent.follower is None:
             outputs[i] = agent.control(nav, control_dt_s)  # open loop
             continue
-        speed, mode, course = agent.control_request(nav)
+        asked.append((i, *agent.control_call(nav)))
+    groups: dict[type, list] = {}  # the avoidance methods, each for its vessels at once
+    for k, (_, _, call) in enumerate(asked):
+        if call is not None:
+            groups.setdefault(type(call[0]), []).append(k)
+    requests = [None] * len(asked)
+    for cls, ks in groups.items():
+        for k, request in zip(ks, cls.control_many([asked[k][2] for k in ks])):
+            requests[k] = request
+    rows, speeds, modes, courses = [], [], [], []  # the built-in followers, commanded together
+    for (i, speed, _), request in zip(asked, requests):
+        agent, nav = agents[i], navs[i]
+        speed, mode, course = agent.control_answer(speed, request)
         if type(agent.follower) is PathFollower:
             rows.append(i)
             speeds.append(speed)

@@ -47,6 +47,7 @@ __all__ = ["IMMBank", "REJECTION_REASONS", "ACCEPTED", "NOT_MEASURED", "NON_FINI
 
 _TINY_PROB = 1e-300  # floor when min_mode_probability = 0: keeps every μ_j, c̄_j > 0 (no 0/0)
 _EYE2 = np.eye(2)
+_MAX_CYCLES = 32  # IMMCycle buffer sets kept per bank (one per number of tracks)
 
 #: Codes of :attr:`IMMBank.rejection_codes` (indices into ``REJECTION_REASONS``).
 ACCEPTED, NOT_MEASURED, NON_FINITE, GATED, RESTARTED = 0, 1, 2, 3, 4
@@ -97,6 +98,9 @@ class IMMBank(PredictiveDensity):
         self._R_cov = self._R * _EYE2
         self._Pc_stale = False  # combined covariances are computed when read
         self._cyc = None  # IMMCycle buffers for the current number of tracks
+        self._cycles: dict[int, IMMCycle] = {}  # IMMCycle buffers per number of tracks (births and
+        # drops move the count up and down by a few rows: the buffers are made once per count)
+        self._sub_cycles: dict[int, IMMCycle] = {}  # the same for subsets (mjasc.perception.imm.subset)
         self._t_common = None  # the time of every track's last cycle when they share it [s]
         self._flagged = True  # _n_gated or _reasons may be non-zero
         self._floor = max(config.min_mode_probability, _TINY_PROB)
@@ -156,8 +160,10 @@ class IMMBank(PredictiveDensity):
         :meth:`add_track` would have made of it. ValueError on non-finite input."""
         z = np.asarray(z, dtype=float).reshape(-1, 2)
         k = z.shape[0]
-        t = np.broadcast_to(np.asarray(t_s, dtype=float), (k,))
-        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(t))):
+        t = np.asarray(t_s, dtype=float)
+        if t.shape != (k,):
+            t = np.broadcast_to(t, (k,))
+        if not (np.isfinite(z).all() and np.isfinite(t).all()):
             raise ValueError("add_tracks: z and t_s must be finite")
         if track_ids is None:
             ids = np.arange(self._next_id, self._next_id + k, dtype=np.int64)
@@ -166,14 +172,14 @@ class IMMBank(PredictiveDensity):
         if k == 0:
             return ids
         self._next_id = max(self._next_id, int(ids.max()) + 1)
-        grow = {"_ids": ids, "_mu": np.tile(self._mu0, (k, 1)), "_t": t.copy()}  # C order (as every row)
+        grow = {"_ids": ids, "_mu": np.repeat(self._mu0[None], k, axis=0), "_t": t.copy()}  # C order (as every row)
         n_before = self._ids.size
         for name in self._PER_TRACK:  # zero rows, but for these
             a = getattr(self, name)
             setattr(self, name, np.concatenate([a, grow.get(name, np.zeros((k,) + a.shape[1:], a.dtype))]))
         self._startup.append(k)
         tc, t0 = self._t_common, float(t[0])
-        self._t_common = t0 if (n_before == 0 or tc == t0) and np.all(t == t0) else None
+        self._t_common = t0 if (n_before == 0 or tc == t0) and (t == t0).all() else None
         rows = np.arange(n_before, n_before + k)
         self._start(rows, z, None if measurement_variance is None else np.asarray(measurement_variance, dtype=float))
         return ids
@@ -254,9 +260,19 @@ class IMMBank(PredictiveDensity):
         return cycle_steps(self._t, self._t_common, self._ids, t_s, self._consts)
 
     def _cycle_buffers(self) -> IMMCycle:
+        """The IMMCycle buffers for the current number of tracks, made once per number. (Reusing
+        them is safe: the bank's arrays are new ones whenever the number changed, so neither side
+        of a reused cycle holds the bank's state.)"""
         cyc = self._cyc
-        if cyc is None or cyc.lead[0] != self._ids.size:
-            cyc = self._cyc = IMMCycle((self._ids.size,), self._r)
+        n = self._ids.size
+        if cyc is None or cyc.lead[0] != n:
+            cache = self._cycles
+            cyc = cache.get(n)
+            if cyc is None:
+                if len(cache) >= _MAX_CYCLES:
+                    cache.clear()
+                cyc = cache[n] = IMMCycle((n,), self._r)
+            self._cyc = cyc
         return cyc
 
     def _mix_predict(self, dtm, step):
@@ -561,6 +577,19 @@ class IMMBank(PredictiveDensity):
         x = self._x[rows]
         w = np.where(self._startup.active[rows], 0.0, turn_rate(self._mu[rows], self._omega))
         return self._t[rows], x[:, :2], wrap(x[:, 2]), x[:, 3], w, self._covariances()[rows, :2, :2]
+
+    def states_of(self, rows) -> np.ndarray:
+        """``states`` of the tracks ``rows`` only: (k, 4) [x, y, θ, V], θ in (−π, π]."""
+        x = self._x[rows]
+        x[:, 2] = wrap(x[:, 2])
+        return x
+
+    def prediction_fields(self, rows) -> tuple:
+        """What predicting the tracks ``rows`` needs, at once: combined states (k, 4) [x, y, θ, V]
+        (θ in (−π, π]), covariances (k, 4, 4), times (k,) [s] and ω̂ (k,) [rad/s] (the numbers of
+        ``states``, ``state_covariances``, ``times_s`` and ``turn_rates`` at those rows)."""
+        w = np.where(self._startup.active[rows], 0.0, turn_rate(self._mu[rows], self._omega))
+        return self.states_of(rows), self._covariances()[rows], self._t[rows], w
 
     def estimates(self, radius_m: float | Mapping[int, float] = 0.0) -> list[TrackEstimate]:
         """TrackEstimate of every track; radius_m a scalar or a {track_id: radius} mapping."""

@@ -26,12 +26,13 @@ from mjasc.perception.imm.kernel import PositionUpdate
 __all__ = ["StartupFilters", "cv_predict", "cv_to_polar", "ready_for_handover"]
 
 _UNIFORM_ANGLE_VAR = math.pi**2 / 3.0  # variance of an angle uniform on (−π, π]
+_EYE4 = np.eye(4)[None]
 
 
 def cv_predict(xc, Pc, dt, q):
     """Constant-velocity prediction with white acceleration of intensity q; dt (k,)."""
     k = dt.shape[0]
-    F = np.broadcast_to(np.eye(4), (k, 4, 4)).copy()
+    F = np.repeat(_EYE4, k, axis=0)
     F[:, 0, 2] = F[:, 1, 3] = dt
     xp = (F @ xc[..., None])[..., 0]
     Pp = F @ Pc @ np.swapaxes(F, 1, 2)
@@ -58,10 +59,13 @@ def cv_to_polar(xc, Pc):
     vx, vy = xc[:, 2], xc[:, 3]
     speed = np.hypot(vx, vy)
     moving = speed > 0
-    safe = np.where(moving, speed, 1.0)
-    ux = np.where(moving, vx / safe, 1.0)
-    uy = np.where(moving, vy / safe, 0.0)
-    inv_v = np.where(moving, 1.0 / safe, 1e150)
+    if moving.all():  # (the usual case: the same numbers without the masks)
+        ux, uy, inv_v = vx / speed, vy / speed, 1.0 / speed
+    else:
+        safe = np.where(moving, speed, 1.0)
+        ux = np.where(moving, vx / safe, 1.0)
+        uy = np.where(moving, vy / safe, 0.0)
+        inv_v = np.where(moving, 1.0 / safe, 1e150)
     J = np.zeros((k, 4, 4))
     J[:, 0, 0] = J[:, 1, 1] = 1.0
     J[:, 2, 2], J[:, 2, 3] = -uy * inv_v, ux * inv_v
@@ -70,7 +74,10 @@ def cv_to_polar(xc, Pc):
     scale = np.sqrt(np.minimum(1.0, _UNIFORM_ANGLE_VAR / P[:, 2, 2]))
     P[:, 2, :] *= scale[:, None]
     P[:, :, 2] *= scale[:, None]
-    s = np.stack([xc[:, 0], xc[:, 1], np.arctan2(vy, vx), speed], axis=-1)
+    s = np.empty((k, 4))
+    s[:, :2] = xc[:, :2]
+    s[:, 2] = np.arctan2(vy, vx)
+    s[:, 3] = speed
     return s, 0.5 * (P + np.swapaxes(P, 1, 2))
 
 
@@ -105,6 +112,7 @@ class StartupFilters:
         self.P = np.zeros((0, 4, 4))
         self.n_meas = np.zeros(0, dtype=np.int64)
         self.n_active = 0
+        self._updates: dict[int, PositionUpdate] = {}  # scratch of update(), per number of rows
 
     def append(self, k: int = 1) -> None:
         """k more rows (active; :meth:`start` fills them)."""
@@ -171,7 +179,12 @@ class StartupFilters:
         covariance R ((2, 2) or (k, 2, 2)), if inside the chi-square gate; returns (k,) bool of the
         rows updated (the others coast)."""
         xc, Pcv = self.predicted(rows, dt)
-        cv_update = PositionUpdate(xc)
+        cv_update = self._updates.get(xc.shape[0])  # the update's buffers, made once per number of rows
+        if cv_update is None:
+            if len(self._updates) >= 32:
+                self._updates.clear()
+            cv_update = self._updates[xc.shape[0]] = PositionUpdate(np.empty_like(xc))
+        np.copyto(cv_update.x, xc)
         np.copyto(cv_update.P, Pcv)
         d2, _ = cv_update.innovate(z, R)
         xu, Pcu = np.empty_like(xc), np.empty_like(Pcv)

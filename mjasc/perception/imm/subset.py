@@ -28,11 +28,10 @@ def take_rows(bank, rows):
     sub._startup = bank._startup.take(rows)
     t = sub._t
     sub._t_common = float(t[0]) if t.size and np.all(t == t[0]) else None
-    cache = bank.__dict__.setdefault("_sub_cycles", {})  # IMMCycle buffers per subset size
-    sub._cyc = cache.get(t.size)
+    sub._cycles = bank._sub_cycles  # IMMCycle buffers per subset size (not the bank's own: a
+    sub._cyc = None                 # bank's state may be a side of one of those)
     sub._flagged = True
     sub._mv = None
-    sub.__dict__["_sub_cycles"] = cache
     return sub
 
 
@@ -47,5 +46,3 @@ def put_rows(bank, rows, sub) -> None:
     t = bank._t
     bank._t_common = float(t[0]) if t.size and np.all(t == t[0]) else None
     bank._flagged = True
-    if sub._cyc is not None:
-        sub.__dict__["_sub_cycles"][sub._cyc.lead[0]] = sub._cyc

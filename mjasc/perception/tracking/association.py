@@ -26,8 +26,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-__all__ = ["association_costs", "gnn_assign", "gnn_pairs", "BIG_COST", "block_pairs", "predicted_positions",
-           "pair_costs", "gnn_assign_blocks"]
+__all__ = ["association_costs", "gnn_assign", "gnn_pairs", "BIG_COST", "block_pairs", "group_starts",
+           "predicted_positions", "pair_costs", "gnn_assign_blocks"]
 
 #: Cost of an inadmissible pair in the assignment problems (never chosen over an admissible one).
 BIG_COST = 1e9
@@ -47,6 +47,18 @@ def block_pairs(n_a: np.ndarray, n_b: np.ndarray):
     return q, i, loc - i * nb, start
 
 
+def group_starts(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The groups of a sorted 1-D array ``keys``: (values (g,), index of each group's first element
+    (g,)) — ``np.unique(keys, return_index=True)`` for sorted input, without its sort."""
+    if keys.size == 0:
+        return keys[:0], np.zeros(0, dtype=np.intp)
+    first = np.empty(keys.size, dtype=bool)
+    first[0] = True
+    np.not_equal(keys[1:], keys[:-1], out=first[1:])
+    starts = np.flatnonzero(first)
+    return keys[starts], starts
+
+
 def predicted_positions(states, covariances, times_s, turn_rates, t_s):
     """ẑ (n, 2) [m] and S = J P Jᵀ (n, 2, 2) [m²] of tracks predicted to t_s (scalar or (n,) [s])
     (the prediction of :func:`association_costs`)."""
@@ -56,7 +68,9 @@ def predicted_positions(states, covariances, times_s, turn_rates, t_s):
     th_mid = x[:, 2] + 0.5 * dt * turn_rates
     c, s = np.cos(th_mid), np.sin(th_mid)
     dv = dt * x[:, 3]
-    zhat = x[:, :2] + np.stack([dv * c, dv * s], axis=-1)
+    zhat = np.empty((x.shape[0], 2))
+    zhat[:, 0] = x[:, 0] + dv * c
+    zhat[:, 1] = x[:, 1] + dv * s
     J = np.zeros((x.shape[0], 2, 4))
     J[:, 0, 0] = J[:, 1, 1] = 1.0
     J[:, 0, 2], J[:, 0, 3] = -dv * s, dt * c
@@ -90,7 +104,7 @@ def gnn_assign_blocks(inside, cost, q, i, j, start, n_a, n_b) -> np.ndarray:
     dup = (np.bincount(row_key, minlength=total)[row_key] > 1) | (np.bincount(col_key, minlength=total)[col_key] > 1)
     if not dup.any():
         return ins
-    hard = np.unique(qa[dup])
+    hard = np.unique(qa[dup])  # (small: the blocks with a conflict)
     out = [ins[~np.isin(qa, hard)]]
     for b in hard.tolist():
         na, nb, s0 = int(n_a[b]), int(n_b[b]), int(start[b])

@@ -38,7 +38,8 @@ import numpy as np
 
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.bank import IMMBank
-from mjasc.perception.tracking.association import block_pairs, gnn_assign_blocks, pair_costs, predicted_positions
+from mjasc.perception.tracking.association import (
+    block_pairs, gnn_assign_blocks, group_starts, pair_costs, predicted_positions)
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
@@ -208,8 +209,7 @@ class FleetTracker:
                 ta, db = grouped[gi], _starts(m_q)[q] + j
                 radius = self.mgmt._radius
                 var_p = var[db] + occ[db] * np.maximum(radius[ta] - rad[db], 0.0) ** 2
-                zhat, S = predicted_positions(bank.states[grouped], bank.state_covariances[grouped],
-                                              bank.times_s[grouped], bank.turn_rates[grouped], t_o[row_pos[grouped]])
+                zhat, S = predicted_positions(*bank.prediction_fields(grouped), t_o[row_pos[grouped]])
                 d2, cost = pair_costs(zhat[gi], S[gi], z[db], var_p)
                 inside = d2 <= self._gate
                 got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
@@ -248,10 +248,10 @@ class FleetTracker:
         got = rows[used[rows] & (assigned[rows] >= 0)]
         if got.size:
             got = got[np.argsort(row_pos[got], kind="stable")]
-            qs, cut = np.unique(row_pos[got], return_index=True)
-            for q, ids, det in zip(qs.tolist(), np.split(self.local_id[got], cut[1:]),
-                                   np.split(idx[assigned[got]], cut[1:])):
-                self._last_assign[owners[q]] = (ids, det)
+            qs, cut = group_starts(row_pos[got])
+            ids, det = self.local_id[got], idx[assigned[got]]
+            for q, a, b in zip(qs.tolist(), cut.tolist(), cut[1:].tolist() + [got.size]):
+                self._last_assign[owners[q]] = (ids[a:b], det[a:b])
 
     def _cycle(self, rows, all_due, row_pos, t_o, zr, meas, vr) -> np.ndarray:
         """Step 3: one IMM cycle of ``rows``, per group of vessels sharing their last and new time
@@ -338,7 +338,7 @@ class FleetTracker:
         self.outlines.append(bank.positions[-k:])
         self.version += 1
         self._counts[owners, _BORN] += np.bincount(bp, minlength=p)
-        for q in np.unique(bp).tolist():
+        for q in group_starts(bp)[0].tolist():  # (bp is sorted)
             sel = bp == q
             o = int(owners[q])
             ids, dets, t = local[sel], idx[new[sel]], float(t_o[q])
@@ -358,17 +358,13 @@ class FleetTracker:
             return []
         t, pos, th, v, w, P = self.bank.estimate_fields(rows)
         static = self.mgmt._static[rows]
-        radius = self.mgmt._radius[rows]
-        slow = static | (v < self.config.static_speed_m_s)
-        team = self.team.members(rows)
-        out = []
-        for j, (k, tid) in enumerate(zip(rows.tolist(), self.local_id[rows].tolist())):
-            out.append(TrackEstimate(track_id=tid, time_s=float(t[j]), position_m=pos[j].copy(),
-                                     heading_rad=float(th[j]), speed_m_s=float(v[j]), turn_rate_rad_s=float(w[j]),
-                                     radius_m=float(radius[j]), position_covariance=P[j].copy(),
-                                     is_static=bool(static[j]), team_member=team[j],
-                                     outline_m=self.outline(k) if slow[j] else None))
-        return out
+        slow = (static | (v < self.config.static_speed_m_s)).tolist()
+        # Python values per track in one conversion per field; each track's position and
+        # covariance are rows of arrays made for this call (views: no track shares another's).
+        return [TrackEstimate(tid, tk, pk, hk, vk, wk, rk, Pk, sk, mk, self.outline(k) if lk else None)
+                for k, tid, tk, pk, hk, vk, wk, rk, Pk, sk, mk, lk in zip(
+                    rows.tolist(), self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(),
+                    w.tolist(), self.mgmt._radius[rows].tolist(), P, static.tolist(), self.team.members(rows), slow)]
 
     def outline(self, row: int) -> np.ndarray:
         """(k, 2) CCW outline [m] of the track in bank row ``row``

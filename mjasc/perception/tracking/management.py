@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from mjasc.perception.tracking.association import block_pairs
+from mjasc.perception.tracking.association import block_pairs, group_starts
 from mjasc.perception.tracking.config import TrackingConfig
 
 __all__ = ["TrackManagement", "MOVED_M"]
@@ -75,7 +75,9 @@ class TrackManagement:
         """Tracks born at t_s [s] (scalar or (k,)) from detections of radius [m] (k,) (their first update)."""
         radius = np.asarray(radius, dtype=float).reshape(-1)
         k = radius.size
-        t = np.broadcast_to(np.asarray(t_s, dtype=float), (k,))
+        t = np.asarray(t_s, dtype=float)
+        if t.shape != (k,):
+            t = np.broadcast_to(t, (k,))
         cat = np.concatenate
         self._hist = cat([self._hist, np.ones(k, dtype=np.int64)])
         self._scans = cat([self._scans, np.ones(k, dtype=np.int64)])
@@ -174,21 +176,27 @@ class TrackManagement:
         tr = 0.5 * (Pc[:, 0, 0] + Pc[:, 1, 1])
         lam = tr + np.sqrt(np.maximum(tr**2 - (Pc[:, 0, 0] * Pc[:, 1, 1] - Pc[:, 0, 1] ** 2), 0.0))
         since = t_s - self._last[rows]
-        for j in np.flatnonzero(conf & (since > cfg.max_coast_s)):
-            drop[j], reason[j] = True, f"not seen for {since[j]:.1f} s"
-        for j in np.flatnonzero(conf & ~drop & (lam > cfg.max_position_std_m**2)):
-            drop[j], reason[j] = True, f"position uncertainty {math.sqrt(lam[j]):.1f} m"
-        rng = np.hypot(*(positions - origins_m).T)
+        gone = conf & (since > cfg.max_coast_s)
+        if gone.any():
+            for j in np.flatnonzero(gone):
+                drop[j], reason[j] = True, f"not seen for {since[j]:.1f} s"
+        vague = conf & ~drop & (lam > cfg.max_position_std_m**2)
+        if vague.any():
+            for j in np.flatnonzero(vague):
+                drop[j], reason[j] = True, f"position uncertainty {math.sqrt(lam[j]):.1f} m"
+        rng = np.hypot(positions[:, 0] - origins_m[:, 0], positions[:, 1] - origins_m[:, 1])
         out = rng > max_range_m + cfg.range_margin_m  # False where there is no origin (NaN)
-        for j in np.flatnonzero(out & ~drop):
-            drop[j], reason[j] = True, f"out of range ({rng[j]:.0f} m)"
+        out &= ~drop
+        if out.any():
+            for j in np.flatnonzero(out):
+                drop[j], reason[j] = True, f"out of range ({rng[j]:.0f} m)"
         # duplicates (same vessel): the track with fewer updates goes
         live = np.flatnonzero(~drop)
         if live.size > 1:
             live = live[np.argsort(group[live], kind="stable")]
-            _, n_g = np.unique(group[live], return_counts=True)
+            _, first = group_starts(group[live])
+            n_g = np.diff(first, append=live.size)
             q, i, j, start = block_pairs(n_g, n_g)
-            first = np.concatenate([[0], np.cumsum(n_g)[:-1]])
             a, b = live[first[q] + i], live[first[q] + j]
             later = i < j
             a, b = a[later], b[later]

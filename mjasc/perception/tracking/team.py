@@ -76,14 +76,16 @@ class TeamMatcher:
         bsel = np.flatnonzero(fresh)  # grouped by owner already
         n_a = np.bincount(owner[c], minlength=n_owners)
         n_b = np.bincount(b_owner[bsel], minlength=n_owners)
-        a_start = np.concatenate([[0], np.cumsum(n_a)[:-1]])
-        b_start = np.concatenate([[0], np.cumsum(n_b)[:-1]])
+        a_start = np.cumsum(n_a) - n_a
+        b_start = np.cumsum(n_b) - n_b
         q, i, j, start = block_pairs(n_a, n_b)
-        ta, tb_i = c[a_start[q] + i], bsel[b_start[q] + j]
-        x = states[ta]
-        vel = x[:, 3, None] * np.stack([np.cos(x[:, 2]), np.sin(x[:, 2])], axis=-1)
-        back = x[:, :2] - vel * (t_s[q] - tb[tb_i])[:, None]
-        dist = np.hypot(*(back - pb[tb_i]).T)
+        ai = a_start[q] + i
+        ta, tb_i = c[ai], bsel[b_start[q] + j]
+        x = states[c]  # per confirmed track, then per pair (a track meets every broadcast of its vessel)
+        vx, vy = x[:, 3] * np.cos(x[:, 2]), x[:, 3] * np.sin(x[:, 2])
+        dtb = t_s[q] - tb[tb_i]
+        pbt = pb[tb_i]
+        dist = np.hypot(x[ai, 0] - vx[ai] * dtb - pbt[:, 0], x[ai, 1] - vy[ai] * dtb - pbt[:, 1])
         inside = dist <= cfg.team_match_distance_m
         if not inside.any():
             return

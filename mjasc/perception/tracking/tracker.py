@@ -61,6 +61,8 @@ class OwnerBank:
     def __getattr__(self, name):
         if name in OwnerBank._READS:
             f = self._fleet
+            if name == "states":  # (read for the vessel's rows only: a fleet's bank holds every vessel's tracks)
+                return f.bank.states_of(f.rows_of(self._owner))
             return getattr(f.bank, name)[f.rows_of(self._owner)]
         raise AttributeError(name)
 
