@@ -199,3 +199,23 @@ def test_prediction_slot_for_the_fleet_gives_the_same_run(monkeypatch):
     batched = run(True)
     assert sum(v["avoidance"]["predictions"] for v in batched["vessels"].values()) >= 8  # it did predict
     assert without_timing(batched) == without_timing(run(False))
+
+
+def test_control_slot_for_the_fleet_gives_the_same_run(monkeypatch):
+    """The control slot asks the thesis method for every vessel at once (control_slot: the
+    predictions the tick triggers in one predict_fleet call); the run is the same — tracks,
+    decisions, commands — as each vessel's control tick on its own (the method's base class
+    default, vessel by vessel)."""
+    from mjasc.avoidance.system import CollisionAvoidance
+    from mjasc.campaigns.engine import without_timing
+    from mjasc.plugins.stages import AvoidanceMethod
+    from mjasc.runs.runner import run_scenario
+
+    def run(batched):
+        if not batched:
+            monkeypatch.setattr(CollisionAvoidance, "control_many", AvoidanceMethod.__dict__["control_many"])
+        return run_scenario(_fleet(4, duration_s=10.0), None, progress=False).summary
+
+    batched = run(True)
+    assert sum(v["avoidance"]["predictions"] for v in batched["vessels"].values()) >= 8  # it did predict
+    assert without_timing(batched) == without_timing(run(False))

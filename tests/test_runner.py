@@ -178,3 +178,14 @@ def test_polygon_walls_lie_inside_the_declared_outline():
     dist = mujoco.mj_ray(world.model, world.data, np.array([0.0, 0.0, 0.1]), np.array([1.0, 0.0, 0.0]),
                          SENSOR_GEOM_GROUPS, 1, int(world.hull_body_id[0]), geomid)
     assert dist == pytest.approx(20.0, abs=1e-6)
+
+
+def test_the_run_loop_leaves_the_garbage_collector_as_it_found_it():
+    """The loop freezes what exists before it and collects young objects less often
+    (mjasc.runs.collector); afterwards both are as they were."""
+    import gc
+
+    before = gc.get_threshold()
+    run_scenario(short_demo(2.0), None, progress=False)
+    assert gc.get_threshold() == before
+    assert gc.get_freeze_count() == 0
