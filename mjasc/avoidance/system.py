@@ -316,26 +316,33 @@ class CollisionAvoidance(AvoidanceMethod):
         all_c = predict_fleet([pending.query])[0] if pending.query is not None else []
         return self._act_on_prediction(t, nav, pending, all_c, static_polygons, after_replan)
 
-    def _on_mapped_structure(self, tracks) -> set[int]:
+    def _on_mapped_structure(self, tracks) -> tuple[set[int], set[int]]:
         """Ids of the stranger tracks that are a mapped structure's own returns seen as a target:
-        a track whose centre lies inside a mapped static polygon (no vessel floats inside land:
-        under 30 % sensor dropout the §6.4.3 islands broke into fragments tracked at 1–4 m/s), or a
-        slow one (slower than ``structure_speed_m_s``) whose disc overlaps such a polygon (in the
-        bottleneck a 7.7 m track drifting at 0.23 m/s on the north island's edge sent a vessel's
-        detour into the island)."""
+        (inside, beside). Inside: a track whose centre lies inside a mapped static polygon (no
+        vessel floats inside land: under 30 % sensor dropout the §6.4.3 islands broke into
+        fragments tracked at 1–4 m/s) — it is the structure, which the map already holds, and is
+        set aside: predicted as a static disc of its bounding radius (7–8 m) it closed the whole
+        gap between the islands (seed 11: bravo re-planned from inside the merged safety region and
+        touched the south island). Beside: a slow one (slower than ``structure_speed_m_s``) whose
+        disc overlaps such a polygon (in the bottleneck a 7.7 m track drifting at 0.23 m/s on the
+        north island's edge sent a vessel's detour into the island; a boat moored at a pontoon
+        looks the same) — it is taken as static."""
         v_max = self.config.structure_speed_m_s
         polys = list(self._perceived.static_polygons) if self._perceived is not None else []
         strangers = [tr for tr in tracks if not tr.is_static and tr.team_member is None]
         if not polys or not strangers:
-            return set()
+            return set(), set()
         centres = np.array([tr.position_m for tr in strangers], dtype=float).reshape(-1, 2)
         radii = np.array([tr.radius_m for tr in strangers], dtype=float)
         slow = np.array([tr.speed_m_s < v_max for tr in strangers])
-        on = np.zeros(len(strangers), dtype=bool)
+        inside = np.zeros(len(strangers), dtype=bool)
+        beside = np.zeros(len(strangers), dtype=bool)
         for p in polys:
             p = np.asarray(p, dtype=float)
-            on |= point_in_polygon(centres, p) | (slow & (distance_to_polygon(centres, p) < radii))
-        return {tr.track_id for tr, n in zip(strangers, on) if n}
+            inside |= point_in_polygon(centres, p)
+            beside |= slow & (distance_to_polygon(centres, p) < radii)
+        return ({tr.track_id for tr, n in zip(strangers, inside) if n},
+                {tr.track_id for tr, n, b in zip(strangers, inside, beside) if b and not n})
 
     def _prediction_query(self, t, tracks) -> "_Pending":
         """The first half of :meth:`_predict`: the tracks as predicted (team mates from their
@@ -345,11 +352,12 @@ class CollisionAvoidance(AvoidanceMethod):
                                         self._event)
         fresh = self.team_mates.fresh(self._team, t)
         v_static = self.config.static_speed_m_s
-        on_structure = self._on_mapped_structure(tracks)
+        inside, on_structure = self._on_mapped_structure(tracks)
+        self._known_track_ids |= inside
         tracks = [replace(tr, is_static=True, speed_m_s=0.0, turn_rate_rad_s=0.0)
                   if (not tr.is_static and (tr.speed_m_s < v_static or tr.track_id in on_structure)
                       and not self.team_mates.broadcast_based(tr, fresh))
-                  else tr for tr in tracks]
+                  else tr for tr in tracks if tr.track_id not in inside]
         self._known_track_ids |= {tr.track_id for tr in tracks}
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
         self._predicted_motion, self._checked_tracks = None, None
@@ -567,6 +575,8 @@ class CollisionAvoidance(AvoidanceMethod):
         out = plan_detour(t, nav.position_m, mission, g_now_m, svos, static_polygons, by_id, static_outlines,
                           self.config, self.radius_m, self.static_inflation_m, self._event)
         dynamic = [c for _, c in svos if not isinstance(c, StaticConflict) and not c.is_static]
+        if not isinstance(out, str) and dynamic:
+            out = self._onto_structure(t, nav, out, list(static_polygons) + list(static_outlines)) or out
         if isinstance(out, str) and dynamic:  # the swept area cannot be gone around: leave the threat's lane
             lane = plan_lane_change(t, nav.position_m, mission, g_now_m, self._guidance.mission_speed_m_s, dynamic,
                                     list(static_polygons) + list(static_outlines), self.config,
@@ -590,6 +600,28 @@ class CollisionAvoidance(AvoidanceMethod):
         self._take_detour(t, out, f"{what}, rejoining the mission path at γ = {out.mission_gamma_goal_m:.1f} m")
         self._detour_causes = None if len(dynamic) < len(svos) else {int(c.track_id) for c in dynamic}
         return True
+
+    def _onto_structure(self, t, nav, detour: Detour, polygons) -> str | None:
+        """Why ``detour`` (planned around a moving track) is not to be taken, or None: its streamline
+        passes a mapped structure or a static track's outline closer than R_vh + safety distance,
+        and closer by more than ``detour_structure_slack_m`` than the vessel is now. A re-plan from
+        inside the merged safety region of a track and the land beside it shrinks that region about
+        its centre and the streamline can run into the land: in the §6.4.3 bottleneck under 30 %
+        dropout an island fragment tracked as an 8 m target sent charlie (seed 2) and bravo (seed
+        11) onto detours whose first check found them crossing the south island; they sailed them
+        with a sharp turn toward it (the saturated turn gathers way again) and touched it. The
+        vessel stops instead (the emergency stop, predicted again every second)."""
+        slack = self.config.detour_structure_slack_m
+        here = np.asarray(nav.position_m, dtype=float)[None, :2]
+        for s in static_conflicts(t, detour.path, 0.0, self._guidance.mission_speed_m_s, polygons, self.radius_m,
+                                  self.prediction_config):
+            if s.gamma_a >= detour.detour_length_m:
+                continue  # on the mission path after the detour: the next prediction's business
+            now = float(distance_to_polygon(here, s.polygon)[0]) if not point_in_polygon(here, s.polygon)[0] else 0.0
+            if s.min_distance_m < now - slack:
+                return (f"the detour passes a mapped structure at {s.min_distance_m:.1f} m "
+                        f"(γ = {s.gamma_a:.1f} m on it; the vessel is {now:.1f} m from it now)")
+        return None
 
     def _withdraw_detour(self, t, nav, by_id, static_polygons) -> bool:
         """Leave a detour whose causes are gone — every track it went around is no longer among the
