@@ -71,10 +71,10 @@ from mjasc.avoidance.recording import AvoidanceLog
 from mjasc.avoidance.replanning import Detour, merge_overlapping, plan_detour, swept_area
 from mjasc.avoidance.request import MODES, AvoidanceRequest, PathSwitch
 from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, track_outline
+from mjasc.avoidance.structure import detour_onto_structure, structure_tracks
 from mjasc.avoidance.team_mates import PlannedTrack, TeamMates
 from mjasc.avoidance.triage import swept, triage
 from mjasc.core.frames import wrap_angle
-from mjasc.core.geometry import distance_to_polygon, point_in_polygon
 from mjasc.guidance.paths import Path
 from mjasc.guidance.state import GuidanceState
 from mjasc.plugins.stages import AvoidanceMethod
@@ -210,6 +210,7 @@ class CollisionAvoidance(AvoidanceMethod):
         self.team_mates = TeamMates(self.name, self.team, self.radius_m, config.team_broadcast_max_age_s,
                                     config.track_deviation_m, config.window_s or 30.0)
         self._known_track_ids: set[int] = set()
+        self._set_aside: set[int] = set()  # tracks set aside as a mapped structure's own returns
         self._predicted_tracks: dict = {}
         # The last prediction's tracks for the deviation check of the control tick: their stacked
         # motion, track id → row, and whether the row is checked (not a team mate on a broadcast).
@@ -226,7 +227,7 @@ class CollisionAvoidance(AvoidanceMethod):
         self.stats = {"predictions": 0, "predicted_conflicts": 0, "static_conflicts": 0, "yield": 0, "pass": 0,
                       "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
                       "deviation_predictions": 0, "emergency": 0, "lane_change": 0, "checked_choice": 0,
-                      "withdrawn": 0, "sharp_turn": 0}
+                      "withdrawn": 0, "sharp_turn": 0, "detour_rejected": 0, "set_aside": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
         self._conflict_keys: set = set()
@@ -316,43 +317,23 @@ class CollisionAvoidance(AvoidanceMethod):
         all_c = predict_fleet([pending.query])[0] if pending.query is not None else []
         return self._act_on_prediction(t, nav, pending, all_c, static_polygons, after_replan)
 
-    def _on_mapped_structure(self, tracks) -> tuple[set[int], set[int]]:
-        """Ids of the stranger tracks that are a mapped structure's own returns seen as a target:
-        (inside, beside). Inside: a track whose centre lies inside a mapped static polygon (no
-        vessel floats inside land: under 30 % sensor dropout the §6.4.3 islands broke into
-        fragments tracked at 1–4 m/s) — it is the structure, which the map already holds, and is
-        set aside: predicted as a static disc of its bounding radius (7–8 m) it closed the whole
-        gap between the islands (seed 11: bravo re-planned from inside the merged safety region and
-        touched the south island). Beside: a slow one (slower than ``structure_speed_m_s``) whose
-        disc overlaps such a polygon (in the bottleneck a 7.7 m track drifting at 0.23 m/s on the
-        north island's edge sent a vessel's detour into the island; a boat moored at a pontoon
-        looks the same) — it is taken as static."""
-        v_max = self.config.structure_speed_m_s
-        polys = list(self._perceived.static_polygons) if self._perceived is not None else []
-        strangers = [tr for tr in tracks if not tr.is_static and tr.team_member is None]
-        if not polys or not strangers:
-            return set(), set()
-        centres = np.array([tr.position_m for tr in strangers], dtype=float).reshape(-1, 2)
-        radii = np.array([tr.radius_m for tr in strangers], dtype=float)
-        slow = np.array([tr.speed_m_s < v_max for tr in strangers])
-        inside = np.zeros(len(strangers), dtype=bool)
-        beside = np.zeros(len(strangers), dtype=bool)
-        for p in polys:
-            p = np.asarray(p, dtype=float)
-            inside |= point_in_polygon(centres, p)
-            beside |= slow & (distance_to_polygon(centres, p) < radii)
-        return ({tr.track_id for tr, n in zip(strangers, inside) if n},
-                {tr.track_id for tr, n, b in zip(strangers, inside, beside) if b and not n})
-
     def _prediction_query(self, t, tracks) -> "_Pending":
         """The first half of :meth:`_predict`: the tracks as predicted (team mates from their
-        broadcasts, slow tracks static) and the query of the disc tracks."""
+        broadcasts, slow tracks static, a mapped structure's own returns set aside or static:
+        :func:`~mjasc.avoidance.structure.structure_tracks`) and the query of the disc tracks."""
         g_state = self._guidance
         tracks = self.team_mates.tracks([tr for tr in tracks if tr.team_member != self.name], t, self._team,
                                         self._event)
         fresh = self.team_mates.fresh(self._team, t)
         v_static = self.config.static_speed_m_s
-        inside, on_structure = self._on_mapped_structure(tracks)
+        inside, on_structure = structure_tracks(
+            tracks, list(self._perceived.static_polygons) if self._perceived is not None else [],
+            self.config.structure_speed_m_s)
+        if inside - self._set_aside:
+            self._set_aside |= inside
+            self.stats["set_aside"] = len(self._set_aside)
+            self._event(t, f"track(s) {sorted(inside)} centred inside mapped structure: the structure's own returns, "
+                           f"set aside (the map holds it)")
         self._known_track_ids |= inside
         tracks = [replace(tr, is_static=True, speed_m_s=0.0, turn_rate_rad_s=0.0)
                   if (not tr.is_static and (tr.speed_m_s < v_static or tr.track_id in on_structure)
@@ -576,7 +557,12 @@ class CollisionAvoidance(AvoidanceMethod):
                           self.config, self.radius_m, self.static_inflation_m, self._event)
         dynamic = [c for _, c in svos if not isinstance(c, StaticConflict) and not c.is_static]
         if not isinstance(out, str) and dynamic:
-            out = self._onto_structure(t, nav, out, list(static_polygons) + list(static_outlines)) or out
+            why = detour_onto_structure(t, nav.position_m, out, list(static_polygons) + list(static_outlines),
+                                        self._guidance.mission_speed_m_s, self.radius_m, self.prediction_config,
+                                        self.config.detour_structure_slack_m)
+            if why is not None:
+                self.stats["detour_rejected"] += 1
+                out = why
         if isinstance(out, str) and dynamic:  # the swept area cannot be gone around: leave the threat's lane
             lane = plan_lane_change(t, nav.position_m, mission, g_now_m, self._guidance.mission_speed_m_s, dynamic,
                                     list(static_polygons) + list(static_outlines), self.config,
@@ -600,28 +586,6 @@ class CollisionAvoidance(AvoidanceMethod):
         self._take_detour(t, out, f"{what}, rejoining the mission path at γ = {out.mission_gamma_goal_m:.1f} m")
         self._detour_causes = None if len(dynamic) < len(svos) else {int(c.track_id) for c in dynamic}
         return True
-
-    def _onto_structure(self, t, nav, detour: Detour, polygons) -> str | None:
-        """Why ``detour`` (planned around a moving track) is not to be taken, or None: its streamline
-        passes a mapped structure or a static track's outline closer than R_vh + safety distance,
-        and closer by more than ``detour_structure_slack_m`` than the vessel is now. A re-plan from
-        inside the merged safety region of a track and the land beside it shrinks that region about
-        its centre and the streamline can run into the land: in the §6.4.3 bottleneck under 30 %
-        dropout an island fragment tracked as an 8 m target sent charlie (seed 2) and bravo (seed
-        11) onto detours whose first check found them crossing the south island; they sailed them
-        with a sharp turn toward it (the saturated turn gathers way again) and touched it. The
-        vessel stops instead (the emergency stop, predicted again every second)."""
-        slack = self.config.detour_structure_slack_m
-        here = np.asarray(nav.position_m, dtype=float)[None, :2]
-        for s in static_conflicts(t, detour.path, 0.0, self._guidance.mission_speed_m_s, polygons, self.radius_m,
-                                  self.prediction_config):
-            if s.gamma_a >= detour.detour_length_m:
-                continue  # on the mission path after the detour: the next prediction's business
-            now = float(distance_to_polygon(here, s.polygon)[0]) if not point_in_polygon(here, s.polygon)[0] else 0.0
-            if s.min_distance_m < now - slack:
-                return (f"the detour passes a mapped structure at {s.min_distance_m:.1f} m "
-                        f"(γ = {s.gamma_a:.1f} m on it; the vessel is {now:.1f} m from it now)")
-        return None
 
     def _withdraw_detour(self, t, nav, by_id, static_polygons) -> bool:
         """Leave a detour whose causes are gone — every track it went around is no longer among the
@@ -817,7 +781,8 @@ class CollisionAvoidance(AvoidanceMethod):
             "predicted_conflicts": self.stats["predicted_conflicts"],
             "static_conflicts": self.stats["static_conflicts"],
             "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "lane_change", "checked_choice",
-                                                          "replan_failed", "emergency", "withdrawn", "sharp_turn")},
+                                                          "replan_failed", "emergency", "withdrawn", "sharp_turn",
+                                                          "detour_rejected", "set_aside")},
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
             "min_predicted_distance_m": round(self.min_predicted_distance_m, 3)
