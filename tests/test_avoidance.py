@@ -249,16 +249,24 @@ def test_a_track_inside_a_mapped_island_is_the_island_not_a_vessel():
     assert [c.track_id for c in ca.predict(0.0, nav(), [water], [island])] == [1]
 
 
-def test_a_fragment_centred_in_mapped_land_is_set_aside_not_a_static_disc():
-    """Under 30 % dropout an island's face broke into a 7.8 m track centred inside the mapped face
-    (§6.4.3 seed 11). As a static disc of its bounding radius it closed the whole gap between the
-    islands and bravo re-planned into the south island; the structure is already in the map, so
-    the track is set aside: the path 9 m from the face keeps no conflict at all."""
+def test_a_fragment_centred_in_mapped_land_is_no_larger_than_the_land_around_it():
+    """Under 30 % dropout an island's face broke into a 7.8 m track centred inside the 2 m sliver
+    the map holds of the face (§6.4.3 seed 11). As a static disc of its bounding radius it closed
+    the whole gap between the islands and bravo re-planned into the south island; no vessel floats
+    inside land, so the track is static and no larger than the structure around its centre (here
+    0.5 m): the path 9 m from the face keeps no conflict at all. A track deep inside a mapped
+    footprint (a vessel whose own returns the map absorbed) keeps its radius."""
     face = np.array([[20.0, 9.0], [40.0, 9.0], [40.0, 10.0], [20.0, 10.0]])
     fragment = TrackEstimate(5, 0.0, np.array([30.0, 9.5]), -0.5 * np.pi, 0.3, 0.0, 7.8)
     ca, agent = make()
     assert ca.predict(0.0, nav(), [fragment], [face]) == []
-    assert ca.detour is None and ca.summary()["actions"]["set_aside"] == 1
+    assert ca.detour is None and ca.summary()["actions"]["in_structure"] == 1
+    assert ca.last_prediction.tracks[5].is_static and ca.last_prediction.tracks[5].radius_m == pytest.approx(0.5)
+    footprint = np.array([[26.0, 6.0], [34.0, 6.0], [34.0, 14.0], [26.0, 14.0]])  # 4 m deep around (30, 10)
+    boat = TrackEstimate(6, 0.0, np.array([30.0, 10.0]), 0.0, 1.0, 0.0, 3.5)
+    ca, _ = make()
+    ca.predict(0.0, nav(), [boat], [footprint])
+    assert ca.last_prediction.tracks[6].is_static and ca.last_prediction.tracks[6].radius_m == pytest.approx(3.5)
     # The same track in open water is predicted (a 7.8 m target crossing the path as the vessel passes).
     ca, _ = make()
     assert [c.track_id for c in ca.predict(0.0, nav(), [fragment], [face + [0.0, 30.0]])] == [5]

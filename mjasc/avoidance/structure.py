@@ -18,31 +18,37 @@ from mjasc.core.geometry import distance_to_polygon, point_in_polygon
 __all__ = ["structure_tracks", "detour_onto_structure"]
 
 
-def structure_tracks(tracks, polygons, slow_m_s: float) -> tuple[set[int], set[int]]:
-    """Ids of the stranger tracks (moving, no team mate) that are a mapped structure's own returns
-    seen as a target, as (inside, beside), given the mapped static ``polygons``.
+def structure_tracks(tracks, polygons, slow_m_s: float) -> tuple[dict[int, float], set[int]]:
+    """The stranger tracks (moving, no team mate) that are a mapped structure's own returns seen as
+    a target, as (inside: track id → depth [m], beside: track ids), given the mapped static
+    ``polygons``.
 
-    Inside: the track's centre lies inside a mapped polygon. No vessel floats inside land; the
-    structure is already in the map, so the track is to be set aside. (Taken as a static disc of its
-    bounding radius, a 7.8 m fragment of the south island's face, collision distance 11.4 m, closed
-    the whole gap between the §6.4.3 islands and bravo re-planned into the island — seed 11.)
+    Inside: the track's centre lies inside a mapped polygon, ``depth`` [m] from its boundary. No
+    vessel floats inside land: the track is static, and the object it stands for is no larger than
+    the mapped structure around its centre — a disc of radius min(radius, depth). (As a static disc
+    of its bounding radius a 7.8 m fragment of the south island's face, centred in the 2 m sliver
+    the map holds of that face, closed the whole gap between the §6.4.3 islands — collision
+    distance 11.4 m — and bravo re-planned into the island: seed 11. A vessel whose own returns the
+    map absorbed, the demo's ferry passing the pontoon's end, sits deep in its own footprint and
+    keeps about its radius.)
     Beside: slower than ``slow_m_s`` with its disc overlapping a mapped polygon — to be taken as
     static (a 7.7 m track drifting at 0.23 m/s on the north island's edge sent a detour into the
     island; a boat moored at a pontoon looks the same, so it stays an obstacle)."""
     polys = [np.asarray(p, dtype=float) for p in polygons or ()]
     strangers = [tr for tr in tracks if not tr.is_static and tr.team_member is None]
     if not polys or not strangers:
-        return set(), set()
+        return {}, set()
     centres = np.array([tr.position_m for tr in strangers], dtype=float).reshape(-1, 2)
     radii = np.array([tr.radius_m for tr in strangers], dtype=float)
     slow = np.array([tr.speed_m_s < slow_m_s for tr in strangers])
-    inside = np.zeros(len(strangers), dtype=bool)
+    depth = np.full(len(strangers), -1.0)
     beside = np.zeros(len(strangers), dtype=bool)
     for p in polys:
-        inside |= point_in_polygon(centres, p)
-        beside |= slow & (distance_to_polygon(centres, p) < radii)
-    return ({tr.track_id for tr, n in zip(strangers, inside) if n},
-            {tr.track_id for tr, n, b in zip(strangers, inside, beside) if b and not n})
+        d = distance_to_polygon(centres, p)
+        depth = np.where(point_in_polygon(centres, p), np.maximum(depth, d), depth)
+        beside |= slow & (d < radii)
+    return ({tr.track_id: float(k) for tr, k in zip(strangers, depth) if k >= 0.0},
+            {tr.track_id for tr, k, b in zip(strangers, depth, beside) if b and k < 0.0})
 
 
 def detour_onto_structure(t: float, position_m, detour, polygons, speed_m_s: float, radius_m: float,

@@ -210,7 +210,7 @@ class CollisionAvoidance(AvoidanceMethod):
         self.team_mates = TeamMates(self.name, self.team, self.radius_m, config.team_broadcast_max_age_s,
                                     config.track_deviation_m, config.window_s or 30.0)
         self._known_track_ids: set[int] = set()
-        self._set_aside: set[int] = set()  # tracks set aside as a mapped structure's own returns
+        self._in_structure: set[int] = set()  # tracks centred inside mapped structure (its own returns)
         self._predicted_tracks: dict = {}
         # The last prediction's tracks for the deviation check of the control tick: their stacked
         # motion, track id → row, and whether the row is checked (not a team mate on a broadcast).
@@ -227,7 +227,7 @@ class CollisionAvoidance(AvoidanceMethod):
         self.stats = {"predictions": 0, "predicted_conflicts": 0, "static_conflicts": 0, "yield": 0, "pass": 0,
                       "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
                       "deviation_predictions": 0, "emergency": 0, "lane_change": 0, "checked_choice": 0,
-                      "withdrawn": 0, "sharp_turn": 0, "detour_rejected": 0, "set_aside": 0}
+                      "withdrawn": 0, "sharp_turn": 0, "detour_rejected": 0, "in_structure": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
         self._conflict_keys: set = set()
@@ -319,7 +319,7 @@ class CollisionAvoidance(AvoidanceMethod):
 
     def _prediction_query(self, t, tracks) -> "_Pending":
         """The first half of :meth:`_predict`: the tracks as predicted (team mates from their
-        broadcasts, slow tracks static, a mapped structure's own returns set aside or static:
+        broadcasts, slow tracks static, a mapped structure's own returns static and no larger than it:
         :func:`~mjasc.avoidance.structure.structure_tracks`) and the query of the disc tracks."""
         g_state = self._guidance
         tracks = self.team_mates.tracks([tr for tr in tracks if tr.team_member != self.name], t, self._team,
@@ -329,16 +329,17 @@ class CollisionAvoidance(AvoidanceMethod):
         inside, on_structure = structure_tracks(
             tracks, list(self._perceived.static_polygons) if self._perceived is not None else [],
             self.config.structure_speed_m_s)
-        if inside - self._set_aside:
-            self._set_aside |= inside
-            self.stats["set_aside"] = len(self._set_aside)
+        if set(inside) - self._in_structure:
+            self._in_structure |= set(inside)
+            self.stats["in_structure"] = len(self._in_structure)
             self._event(t, f"track(s) {sorted(inside)} centred inside mapped structure: the structure's own returns, "
-                           f"set aside (the map holds it)")
-        self._known_track_ids |= inside
-        tracks = [replace(tr, is_static=True, speed_m_s=0.0, turn_rate_rad_s=0.0)
-                  if (not tr.is_static and (tr.speed_m_s < v_static or tr.track_id in on_structure)
+                           f"static and no larger than the structure around their centre")
+        tracks = [replace(tr, is_static=True, speed_m_s=0.0, turn_rate_rad_s=0.0,
+                          radius_m=min(tr.radius_m, inside.get(tr.track_id, np.inf)))
+                  if (not tr.is_static and (tr.speed_m_s < v_static or tr.track_id in on_structure
+                                            or tr.track_id in inside)
                       and not self.team_mates.broadcast_based(tr, fresh))
-                  else tr for tr in tracks if tr.track_id not in inside]
+                  else tr for tr in tracks]
         self._known_track_ids |= {tr.track_id for tr in tracks}
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
         self._predicted_motion, self._checked_tracks = None, None
@@ -782,7 +783,7 @@ class CollisionAvoidance(AvoidanceMethod):
             "static_conflicts": self.stats["static_conflicts"],
             "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "lane_change", "checked_choice",
                                                           "replan_failed", "emergency", "withdrawn", "sharp_turn",
-                                                          "detour_rejected", "set_aside")},
+                                                          "detour_rejected", "in_structure")},
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
             "min_predicted_distance_m": round(self.min_predicted_distance_m, 3)
