@@ -249,6 +249,53 @@ def test_a_track_inside_a_mapped_island_is_the_island_not_a_vessel():
     assert [c.track_id for c in ca.predict(0.0, nav(), [water], [island])] == [1]
 
 
+def test_a_fragment_centred_in_mapped_land_is_no_larger_than_the_land_around_it():
+    """Under 30 % dropout an island's face broke into a 7.8 m track centred inside the 2 m sliver
+    the map holds of the face (§6.4.3 seed 11). As a static disc of its bounding radius it closed
+    the whole gap between the islands and bravo re-planned into the south island; no vessel floats
+    inside land, so the track is static and no larger than the structure around its centre (here
+    0.5 m): the path 9 m from the face keeps no conflict at all. A track deep inside a mapped
+    footprint (a vessel whose own returns the map absorbed) keeps its radius."""
+    face = np.array([[20.0, 9.0], [40.0, 9.0], [40.0, 10.0], [20.0, 10.0]])
+    fragment = TrackEstimate(5, 0.0, np.array([30.0, 9.5]), -0.5 * np.pi, 0.3, 0.0, 7.8)
+    ca, agent = make()
+    assert ca.predict(0.0, nav(), [fragment], [face]) == []
+    assert ca.detour is None and ca.summary()["actions"]["in_structure"] == 1
+    assert ca.last_prediction.tracks[5].is_static and ca.last_prediction.tracks[5].radius_m == pytest.approx(0.5)
+    footprint = np.array([[26.0, 6.0], [34.0, 6.0], [34.0, 14.0], [26.0, 14.0]])  # 4 m deep around (30, 10)
+    boat = TrackEstimate(6, 0.0, np.array([30.0, 10.0]), 0.0, 1.0, 0.0, 3.5)
+    ca, _ = make()
+    ca.predict(0.0, nav(), [boat], [footprint])
+    assert ca.last_prediction.tracks[6].is_static and ca.last_prediction.tracks[6].radius_m == pytest.approx(3.5)
+    # The same track in open water is predicted (a 7.8 m target crossing the path as the vessel passes).
+    ca, _ = make()
+    assert [c.track_id for c in ca.predict(0.0, nav(), [fragment], [face + [0.0, 30.0]])] == [5]
+
+
+def test_a_detour_that_runs_onto_mapped_structure_is_not_taken():
+    """A detour around a moving track passing a mapped structure closer than R_vh + safety, and
+    closer than the vessel is now, is refused (§6.4.3 seed 2: charlie's detour from the gap ran
+    into the south island); one that keeps its distance, or moves away from a structure the vessel
+    is already near, is taken."""
+    from mjasc.avoidance.replanning import Detour
+    from mjasc.avoidance.structure import detour_onto_structure
+    cfg = AvoidanceConfig()
+    land = np.array([[0.0, -20.0], [40.0, -20.0], [40.0, -6.0], [0.0, -6.0]])
+
+    def refused(start, points):
+        pts = np.array(points, dtype=float)
+        path = Path.from_points(pts)
+        d = Detour(path, path.length, 0.0, 40.0, pts, (), None, 0.0)
+        return detour_onto_structure(0.0, start, d, [land], 1.0, DELFIM.radius_m, cfg.prediction,
+                                     cfg.detour_structure_slack_m)
+
+    assert "mapped structure" in refused([0.0, 0.0], [[0.0, 0.0], [5.0, -2.0], [10.0, -4.5], [20.0, -4.5],
+                                                      [40.0, 0.0]])
+    assert refused([0.0, 0.0], [[0.0, 0.0], [10.0, 1.0], [20.0, 1.0], [40.0, 0.0]]) is None
+    # Starting 2 m from the land (inside R_vh + safety) and moving away from it.
+    assert refused([0.0, -4.0], [[0.0, -4.0], [10.0, -2.0], [20.0, 0.0], [40.0, 0.0]]) is None
+
+
 # ------------------------------------------------------------------------------------ right of way
 def test_team_mates_split_by_the_starboard_rule():
     """b crosses a's path from a's starboard side (south, heading north): a has b on its

@@ -49,6 +49,14 @@ EXPECT = {
     # turn on a detour now takes all way off on the heading first, then turns slowly. The hull
     # circles overlap (the vessel passes the pontoon's corner at a crawl); the hulls stay apart.
     "dock_stressed_seed9": ("vessel2", "sharp_turn", -0.9),
+    # §6.4.3 under 30 % dropout + 30 % packet loss: island fragments tracked as 7–8 m targets.
+    # Seed 11: one centred inside the mapped face, made a static disc of its bounding radius, closed
+    # the gap between the islands and bravo re-planned into the south island: it is static and no
+    # larger than the mapped structure around its centre (the map holds the structure). Seed 2: one beside the north island (not inside its mapped slivers)
+    # made charlie re-plan from inside the merged safety region; the detour ran into the south
+    # island: such a detour is refused and the vessel stops, looking again every second.
+    "bottleneck_stressed_seed2": ("charlie", "detour_rejected", 1.0),
+    "bottleneck_stressed_seed11": ("bravo", "in_structure", 1.0),
     # The velocity-obstacle method (compare_methods, team_vs_traffic run 19): released whenever the
     # path's velocity left the VO though it still passed the head-on target on the forbidden side,
     # own_1 steered back towards the target three times and met it. It now holds the manoeuvre until
@@ -56,7 +64,7 @@ EXPECT = {
     "vo_team_vs_traffic_19": ("own_1", "colreg_hold", 1.0),
 }
 SLOW = {"crossing_stressed_seed5", "crossing_stressed_seed12", "bottleneck_stressed_seed5", "bottleneck_seed7", "bottleneck_seed1",
-        "demo_run3"}
+        "demo_run3", "bottleneck_stressed_seed2", "bottleneck_stressed_seed11"}
 
 
 def test_every_regression_file_is_checked():

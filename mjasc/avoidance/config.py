@@ -74,6 +74,11 @@ class AvoidanceConfig:
     sharp_turn_speed_m_s: float = param(0.3, nonneg=True, unit="m/s",
                                         doc="speed for a sharp turn on a detour (the hull turns tighter and advances "
                                             "less toward what it turns away from)")
+    detour_structure_slack_m: float = param(
+        0.5, nonneg=True, unit="m",
+        doc="a detour around a moving track is not taken when it passes a mapped structure (or a static track's "
+            "outline) closer than R_vh + safety distance and closer by more than this than the vessel is now: "
+            "the vessel stops instead (emergency) and looks again every second")
     # when to predict again
     track_deviation_m: float = param(5.0, positive=True, unit="m",
                                      doc="predict again at once when a track (or a team mate's plan) is this far "

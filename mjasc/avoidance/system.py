@@ -71,10 +71,10 @@ from mjasc.avoidance.recording import AvoidanceLog
 from mjasc.avoidance.replanning import Detour, merge_overlapping, plan_detour, swept_area
 from mjasc.avoidance.request import MODES, AvoidanceRequest, PathSwitch
 from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, track_outline
+from mjasc.avoidance.structure import detour_onto_structure, structure_tracks
 from mjasc.avoidance.team_mates import PlannedTrack, TeamMates
 from mjasc.avoidance.triage import swept, triage
 from mjasc.core.frames import wrap_angle
-from mjasc.core.geometry import distance_to_polygon, point_in_polygon
 from mjasc.guidance.paths import Path
 from mjasc.guidance.state import GuidanceState
 from mjasc.plugins.stages import AvoidanceMethod
@@ -238,6 +238,7 @@ class CollisionAvoidance(AvoidanceMethod):
         self.team_mates = TeamMates(self.name, self.team, self.radius_m, config.team_broadcast_max_age_s,
                                     config.track_deviation_m, config.window_s or 30.0)
         self._known_track_ids: set[int] = set()
+        self._in_structure: set[int] = set()  # tracks centred inside mapped structure (its own returns)
         self._predicted_tracks: dict = {}
         # The last prediction's tracks for the deviation check of the control tick: their stacked
         # motion, track id → row, and whether the row is checked (not a team mate on a broadcast).
@@ -255,7 +256,7 @@ class CollisionAvoidance(AvoidanceMethod):
         self.stats = {"predictions": 0, "predicted_conflicts": 0, "static_conflicts": 0, "yield": 0, "pass": 0,
                       "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
                       "deviation_predictions": 0, "emergency": 0, "lane_change": 0, "checked_choice": 0,
-                      "withdrawn": 0, "sharp_turn": 0}
+                      "withdrawn": 0, "sharp_turn": 0, "detour_rejected": 0, "in_structure": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
         self._conflict_keys: set = set()
@@ -358,38 +359,27 @@ class CollisionAvoidance(AvoidanceMethod):
         all_c = predict_fleet([pending.query])[0] if pending.query is not None else []
         return self._act_on_prediction(t, nav, pending, all_c, static_polygons, after_replan)
 
-    def _on_mapped_structure(self, tracks) -> set[int]:
-        """Ids of the stranger tracks that are a mapped structure's own returns seen as a target:
-        a track whose centre lies inside a mapped static polygon (no vessel floats inside land:
-        under 30 % sensor dropout the §6.4.3 islands broke into fragments tracked at 1–4 m/s), or a
-        slow one (slower than ``structure_speed_m_s``) whose disc overlaps such a polygon (in the
-        bottleneck a 7.7 m track drifting at 0.23 m/s on the north island's edge sent a vessel's
-        detour into the island)."""
-        v_max = self.config.structure_speed_m_s
-        polys = list(self._perceived.static_polygons) if self._perceived is not None else []
-        strangers = [tr for tr in tracks if not tr.is_static and tr.team_member is None]
-        if not polys or not strangers:
-            return set()
-        centres = np.array([tr.position_m for tr in strangers], dtype=float).reshape(-1, 2)
-        radii = np.array([tr.radius_m for tr in strangers], dtype=float)
-        slow = np.array([tr.speed_m_s < v_max for tr in strangers])
-        on = np.zeros(len(strangers), dtype=bool)
-        for p in polys:
-            p = np.asarray(p, dtype=float)
-            on |= point_in_polygon(centres, p) | (slow & (distance_to_polygon(centres, p) < radii))
-        return {tr.track_id for tr, n in zip(strangers, on) if n}
-
     def _prediction_query(self, t, tracks) -> "_Pending":
         """The first half of :meth:`_predict`: the tracks as predicted (team mates from their
-        broadcasts, slow tracks static) and the query of the disc tracks."""
+        broadcasts, slow tracks static, a mapped structure's own returns static and no larger than it:
+        :func:`~mjasc.avoidance.structure.structure_tracks`) and the query of the disc tracks."""
         g_state = self._guidance
         tracks = self.team_mates.tracks([tr for tr in tracks if tr.team_member != self.name], t, self._team,
                                         self._event)
         fresh = self.team_mates.fresh(self._team, t)
         v_static = self.config.static_speed_m_s
-        on_structure = self._on_mapped_structure(tracks)
-        tracks = [replace(tr, is_static=True, speed_m_s=0.0, turn_rate_rad_s=0.0)
-                  if (not tr.is_static and (tr.speed_m_s < v_static or tr.track_id in on_structure)
+        inside, on_structure = structure_tracks(
+            tracks, list(self._perceived.static_polygons) if self._perceived is not None else [],
+            self.config.structure_speed_m_s)
+        if set(inside) - self._in_structure:
+            self._in_structure |= set(inside)
+            self.stats["in_structure"] = len(self._in_structure)
+            self._event(t, f"track(s) {sorted(inside)} centred inside mapped structure: the structure's own returns, "
+                           f"static and no larger than the structure around their centre")
+        tracks = [replace(tr, is_static=True, speed_m_s=0.0, turn_rate_rad_s=0.0,
+                          radius_m=min(tr.radius_m, inside.get(tr.track_id, np.inf)))
+                  if (not tr.is_static and (tr.speed_m_s < v_static or tr.track_id in on_structure
+                                            or tr.track_id in inside)
                       and not self.team_mates.broadcast_based(tr, fresh))
                   else tr for tr in tracks]
         self._known_track_ids |= {tr.track_id for tr in tracks}
@@ -609,6 +599,13 @@ class CollisionAvoidance(AvoidanceMethod):
         out = plan_detour(t, nav.position_m, mission, g_now_m, svos, static_polygons, by_id, static_outlines,
                           self.config, self.radius_m, self.static_inflation_m, self._event)
         dynamic = [c for _, c in svos if not isinstance(c, StaticConflict) and not c.is_static]
+        if not isinstance(out, str) and dynamic:
+            why = detour_onto_structure(t, nav.position_m, out, list(static_polygons) + list(static_outlines),
+                                        self._guidance.mission_speed_m_s, self.radius_m, self.prediction_config,
+                                        self.config.detour_structure_slack_m)
+            if why is not None:
+                self.stats["detour_rejected"] += 1
+                out = why
         if isinstance(out, str) and dynamic:  # the swept area cannot be gone around: leave the threat's lane
             lane = plan_lane_change(t, nav.position_m, mission, g_now_m, self._guidance.mission_speed_m_s, dynamic,
                                     list(static_polygons) + list(static_outlines), self.config,
@@ -852,7 +849,8 @@ class CollisionAvoidance(AvoidanceMethod):
             "predicted_conflicts": self.stats["predicted_conflicts"],
             "static_conflicts": self.stats["static_conflicts"],
             "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "lane_change", "checked_choice",
-                                                          "replan_failed", "emergency", "withdrawn", "sharp_turn")},
+                                                          "replan_failed", "emergency", "withdrawn", "sharp_turn",
+                                                          "detour_rejected", "in_structure")},
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
             "min_predicted_distance_m": round(self.min_predicted_distance_m, 3)

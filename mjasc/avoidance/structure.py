@@ -1,0 +1,76 @@
+"""Mapped structure (islands, piers) in the avoidance's decisions: which tracks are the structure's
+own returns seen as targets, and which detours run onto it (docs/avoidance.md, "Hardening").
+
+Under sensor dropout a large structure's returns break into clusters that the tracker follows as
+7–8 m targets moving by noise (the §6.4.3 islands under 30 % dropout), while the static map holds
+only the slivers of the faces it has seen. :func:`structure_tracks` sorts such stranger tracks
+out; :func:`detour_onto_structure` refuses a detour around a moving track that would take the
+vessel onto mapped structure. Pure functions; world frame ENU, SI units, absolute times [s].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.avoidance.static_conflicts import static_conflicts
+from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+
+__all__ = ["structure_tracks", "detour_onto_structure"]
+
+
+def structure_tracks(tracks, polygons, slow_m_s: float) -> tuple[dict[int, float], set[int]]:
+    """The stranger tracks (moving, no team mate) that are a mapped structure's own returns seen as
+    a target, as (inside: track id → depth [m], beside: track ids), given the mapped static
+    ``polygons``.
+
+    Inside: the track's centre lies inside a mapped polygon, ``depth`` [m] from its boundary. No
+    vessel floats inside land: the track is static, and the object it stands for is no larger than
+    the mapped structure around its centre — a disc of radius min(radius, depth). (As a static disc
+    of its bounding radius a 7.8 m fragment of the south island's face, centred in the 2 m sliver
+    the map holds of that face, closed the whole gap between the §6.4.3 islands — collision
+    distance 11.4 m — and bravo re-planned into the island: seed 11. A vessel whose own returns the
+    map absorbed, the demo's ferry passing the pontoon's end, sits deep in its own footprint and
+    keeps about its radius.)
+    Beside: slower than ``slow_m_s`` with its disc overlapping a mapped polygon — to be taken as
+    static (a 7.7 m track drifting at 0.23 m/s on the north island's edge sent a detour into the
+    island; a boat moored at a pontoon looks the same, so it stays an obstacle)."""
+    polys = [np.asarray(p, dtype=float) for p in polygons or ()]
+    strangers = [tr for tr in tracks if not tr.is_static and tr.team_member is None]
+    if not polys or not strangers:
+        return {}, set()
+    centres = np.array([tr.position_m for tr in strangers], dtype=float).reshape(-1, 2)
+    radii = np.array([tr.radius_m for tr in strangers], dtype=float)
+    slow = np.array([tr.speed_m_s < slow_m_s for tr in strangers])
+    depth = np.full(len(strangers), -1.0)
+    beside = np.zeros(len(strangers), dtype=bool)
+    for p in polys:
+        d = distance_to_polygon(centres, p)
+        depth = np.where(point_in_polygon(centres, p), np.maximum(depth, d), depth)
+        beside |= slow & (d < radii)
+    return ({tr.track_id: float(k) for tr, k in zip(strangers, depth) if k >= 0.0},
+            {tr.track_id for tr, k, b in zip(strangers, depth, beside) if b and k < 0.0})
+
+
+def detour_onto_structure(t: float, position_m, detour, polygons, speed_m_s: float, radius_m: float,
+                          prediction_config, slack_m: float) -> str | None:
+    """Why ``detour`` (a :class:`~mjasc.avoidance.replanning.Detour` planned around a moving track)
+    is not to be taken, or None: its streamline passes a mapped polygon (or a static track's
+    outline) closer than R_vh + safety distance (:func:`~mjasc.avoidance.static_conflicts.static_conflicts`
+    at ``speed_m_s``), and closer by more than ``slack_m`` [m] than the vessel at ``position_m`` is
+    now (a vessel already near a structure may still leave along it).
+
+    Why: a re-plan from inside the merged (convex-hull) safety region of a track and the land
+    beside it shrinks that region about its centre, and the streamline can run into the land. In
+    the §6.4.3 bottleneck under 30 % dropout a north-island fragment made charlie (seed 2) re-plan
+    from the gap; the fresh detour's own check found it crossing the south island 1.8 m ahead, and
+    charlie sailed it — a 108° sharp turn whose saturated differential gathered way again — into
+    the island."""
+    here = np.asarray(position_m, dtype=float)[None, :2]
+    for s in static_conflicts(t, detour.path, 0.0, speed_m_s, polygons, radius_m, prediction_config):
+        if s.gamma_a >= detour.detour_length_m:
+            continue  # on the mission path after the detour: the next prediction's business
+        now = 0.0 if point_in_polygon(here, s.polygon)[0] else float(distance_to_polygon(here, s.polygon)[0])
+        if s.min_distance_m < now - slack_m:
+            return (f"the detour passes a mapped structure at {s.min_distance_m:.1f} m "
+                    f"(γ = {s.gamma_a:.1f} m on it; the vessel is {now:.1f} m from it now)")
+    return None
