@@ -15,47 +15,51 @@ import math
 
 import numpy as np
 
+from mjasc.missions.config import VesselMissionOptions
+from mjasc.missions.target_tracking import station
+
 __all__ = ["TargetJudge"]
 
 
 class TargetJudge:
-    """Record-slot judge of the team's stations around the named target (a moving obstacle)."""
+    """Record-slot judge of the team's stations around the named target (a moving obstacle).
+
+    ``rows``: vessel name → [(t [s], station error [m], stand-off [m])] at every record tick the
+    vessel spent in its ``track_target`` phase (observers draw them: mjasc.figures.missions); the
+    summary judges those from ``settle_s`` after the phase began."""
 
     def __init__(self, scenario, world):
         tt = scenario.mission.track_target
         names = [o.name for o in world.moving_obstacles]
         self.index = names.index(tt.target)
         self.settle_s = tt.settle_s
-        self.offsets = {}
-        for v in scenario.vessels:
-            opts = v.options.get("mission")
-            if v.controller != "none":
-                self.offsets[v.name] = np.asarray(opts.target_offset_m if opts is not None else (-30.0, 0.0), float)
-        self._rows: dict[str, list[tuple[float, float]]] = {n: [] for n in self.offsets}
+        self.offsets = {v.name: (v.options.get("mission") or VesselMissionOptions()).target_offset_m
+                        for v in scenario.vessels if v.controller != "none"}
+        self.rows: dict[str, list[tuple[float, float, float]]] = {n: [] for n in self.offsets}
+        self._settled: dict[str, int] = {n: 0 for n in self.offsets}  # rows before settling, per vessel
 
     def update(self, states, traffic, agents) -> None:
         """One record tick: states (true :class:`~mjasc.physics.simulation.VesselStates`), traffic
         (positions (M, 2), headings (M,), velocities (M, 2)), the agents (their mission phase)."""
         pos_t, head_t = traffic[0][self.index], float(traffic[1][self.index])
-        c, s = math.cos(head_t), math.sin(head_t)
         for i, agent in enumerate(agents):
             m = agent.mission
             if m is None or m.phase_name != "track_target" or agent.name not in self.offsets:
                 continue
-            if states.time_s - m.timeline[-1]["start_s"] < self.settle_s:
-                continue
-            o = self.offsets[agent.name]
-            st = (pos_t[0] + c * o[0] - s * o[1], pos_t[1] + s * o[0] + c * o[1])
+            st = station(pos_t, head_t, self.offsets[agent.name])
             p = states.position_m[i]
-            self._rows[agent.name].append((math.hypot(st[0] - p[0], st[1] - p[1]),
-                                           math.hypot(pos_t[0] - p[0], pos_t[1] - p[1])))
+            self.rows[agent.name].append((float(states.time_s), math.hypot(st[0] - p[0], st[1] - p[1]),
+                                          math.hypot(pos_t[0] - p[0], pos_t[1] - p[1])))
+            if states.time_s - m.timeline[-1]["start_s"] < self.settle_s:
+                self._settled[agent.name] = len(self.rows[agent.name])
 
     def summary(self) -> dict:
         out = {}
-        for name, rows in self._rows.items():
+        for name, rows in self.rows.items():
+            rows = rows[self._settled[name]:]
             if not rows:
                 continue
-            e = np.array(rows)
+            e = np.array(rows)[:, 1:]
             out[name] = {"station_error_rms_m": round(float(np.sqrt(np.mean(e[:, 0] ** 2))), 3),
                          "station_error_max_m": round(float(e[:, 0].max()), 3),
                          "standoff_mean_m": round(float(e[:, 1].mean()), 3),

@@ -3,9 +3,9 @@
 One figure per scenario: (left) the top-down tracks, each vessel's line styled by its mission
 phase, its formation pose, the traffic and the target's true track with the leader's estimate;
 (right, top) the phase timeline per vessel; (right, bottom) each vessel's true station error while
-it tracks the target. The run is the scenario file through the real runner; a record-slot
-observer samples public state only (the agents' mission phase, the traffic's and vessels' truth
-for drawing).
+it tracks the target (the run's own truth-side judge). The run is the scenario file through the
+real runner; a record-slot observer samples public state only (the agents' mission phase, the
+traffic's and vessels' truth for drawing).
 
 Entry point: ``make_mission_figures(out_dir, formats=("png",), scenarios=None) -> list[Path]``.
 """
@@ -35,8 +35,9 @@ _STYLE = {"go_to_formation": ":", "follow_path": "-", "track_target": "--", "don
 
 def trace_mission(scenario):
     """Run ``scenario`` and sample, at the record rate: time, vessel positions (n, 2), each vessel's
-    phase, the traffic's positions (m, 2), the leader's target estimate (2,) or NaN. Returns
-    (trace dict, summary)."""
+    phase, the traffic's positions (m, 2), the leader's target estimate (2,) or NaN; and per vessel
+    the truth-side judge's (times, station errors) (:class:`~mjasc.evaluation.mission_judge.TargetJudge`).
+    Returns (trace dict, summary)."""
     runner = Runner(scenario, None, progress=False)
     tr = {"t": [], "pos": [], "phase": [], "traffic": [], "estimate": []}
 
@@ -54,30 +55,9 @@ def trace_mission(scenario):
 
     runner.observe("record", record)
     summary = runner.run().summary
+    judge = runner.target_judge  # the truth-side judge's rows: (t, station error, stand-off) per vessel
+    tr["station_errors"] = {} if judge is None else {n: np.array(r)[:, :2].T for n, r in judge.rows.items() if r}
     return tr, summary
-
-
-def _station_errors(scenario, tr):
-    """Per vessel: times and true station errors [m] while in track_target (the offsets from the scenario)."""
-    tt = scenario.mission.track_target if scenario.mission is not None else None
-    if tt is None or not tt.target:
-        return {}
-    k = [o.name for o in scenario.moving_obstacles].index(tt.target)
-    traffic = np.array(tr["traffic"])
-    heading = np.unwrap(np.arctan2(*np.gradient(traffic[:, k, ::-1], axis=0).T))
-    out = {}
-    for i, v in enumerate(scenario.vessels):
-        o = v.options.get("mission")
-        off = np.asarray(o.target_offset_m if o is not None else (-30.0, 0.0))
-        rows = [(t, p[i], traffic[j, k], heading[j]) for j, (t, p, ph) in enumerate(zip(tr["t"], tr["pos"], tr["phase"]))
-                if ph[i] == "track_target"]
-        if not rows:
-            continue
-        t = np.array([r[0] for r in rows])
-        err = [math.hypot(pt[0] + math.cos(h) * off[0] - math.sin(h) * off[1] - p[0],
-                          pt[1] + math.sin(h) * off[0] + math.cos(h) * off[1] - p[1]) for _, p, pt, h in rows]
-        out[v.name] = (t, np.array(err))
-    return out
 
 
 def make_mission_figures(out_dir, formats=("png",), scenarios=None) -> list[Path]:
@@ -146,7 +126,7 @@ def make_mission_figures(out_dir, formats=("png",), scenarios=None) -> list[Path
                      loc="upper left", bbox_to_anchor=(0.0, -0.18), ncol=3, frameon=False)
         err_ax = fig.add_axes([0.62, 0.08, 0.35, 0.3])
         for i, v in enumerate(sc.vessels):
-            errs = _station_errors(sc, tr).get(v.name)
+            errs = tr["station_errors"].get(v.name)
             if errs is not None:
                 err_ax.plot(*errs, color=np.array(vessel_colour(i)) / 255.0, lw=1.2, label=v.name)
         err_ax.set_xlabel("time [s]")

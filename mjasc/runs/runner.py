@@ -134,7 +134,7 @@ class Runner:
         self.recorder: Recorder | None = None
         self.video = None
         self.metrics = None
-        self._target_judge = None
+        self.target_judge = None
         self.last_outputs = [None] * len(self.agents)
         self._trail: list[list[tuple[float, np.ndarray]]] = [[] for _ in self.agents]  # (t, xy) per vessel
         self._trail_t: list[float] = []  # times of the trail points [s]
@@ -182,8 +182,8 @@ class Runner:
         xte = np.array([o.status.cross_track_m if o and o.status else np.nan for o in self.last_outputs])
         traffic = self.sim.traffic_state()
         self.metrics.update(states, xte, traffic)
-        if self._target_judge is not None:
-            self._target_judge.update(states, traffic, self.agents)
+        if self.target_judge is not None:
+            self.target_judge.update(states, traffic, self.agents)
         rec = self.recorder
         if rec is None:
             return
@@ -342,12 +342,12 @@ class Runner:
         if self.out_dir is not None:
             self.out_dir.mkdir(parents=True, exist_ok=True)
         self.metrics = RunMetrics(self.world, sc)
-        self._target_judge = None
+        self.target_judge = None
         tt = sc.mission.track_target if sc.mission is not None else None
         if tt is not None and tt.target:
             from mjasc.evaluation.mission_judge import TargetJudge
 
-            self._target_judge = TargetJudge(sc, self.world)
+            self.target_judge = TargetJudge(sc, self.world)
         self._current_grid = None
         self._comms_log = None
         if self.out_dir is not None and sc.outputs.recording:
@@ -477,8 +477,8 @@ class Runner:
             from mjasc.missions.sequencer import team_mission_summary
 
             summary["mission"] = team_mission_summary(self.agents)
-            if self._target_judge is not None:
-                summary["mission"]["track_target_truth"] = self._target_judge.summary()
+            if self.target_judge is not None:
+                summary["mission"]["track_target_truth"] = self.target_judge.summary()
         if self.network is not None:
             summary["comms"] = self.network.link_matrix()
         if self.video is not None:
