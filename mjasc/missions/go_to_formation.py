@@ -146,7 +146,7 @@ class GoToFormation:
                 self.speed_m_s = speed
                 leg = MissionLeg(self.name, self.index, self.path, float(gamma_m), speed, True, new_path=False)
         arrived = gamma_m >= self.path.length - self.options.arrival_band_m
-        if arrived:
+        if arrived and not self.arrival:  # recorded once: the pose as the vessel reached it
             self._record(t_s, nav, gamma_m)
         return leg, arrived
 
