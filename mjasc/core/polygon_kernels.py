@@ -1,0 +1,100 @@
+"""Compiled loops behind :mod:`mjasc.core.geometry`: convex hull, distance to a polygon's boundary and
+containment (world frame ENU, metres).
+
+They are called at every tick by every vessel (a static track's outline, the run metrics'
+clearance to mapped land, the static map), on a few dozen points at a time, where numpy's cost per
+call was most of the work. Each loop evaluates the same expression, in the same order, as the
+vectorized numpy formulation it replaced, so the results are bit-identical to it
+(``tests/test_geometry_kernels.py`` checks that against numpy and scipy's Qhull).
+
+* :func:`hull_indices` — Andrew's monotone chain over lexicographically sorted distinct points:
+  the counter-clockwise hull from the smallest point, collinear boundary points dropped (a
+  point is kept only on a strict left turn, ``cross > 0``).
+* :func:`boundary_distance` — per point, the minimum over edges a→b of ‖p − (a + t (b − a))‖,
+  t = clip(((p − a)·(b − a)) / max(‖b − a‖², 1e-18), 0, 1).
+* :func:`inside_even_odd` — per point, the parity of the edges crossing the horizontal ray to +x
+  (even-odd rule).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.core.compiled import kernel
+
+__all__ = ["hull_indices", "boundary_distance", "inside_even_odd"]
+
+
+@kernel
+def hull_indices(p):
+    """Indices (k,) into ``p`` (n, 2) — sorted by x then y, no repeated point — of its convex hull,
+    counter-clockwise from p[0]; n ≤ 2 or all points on a line → [0, n − 1] (or [0])."""
+    n = p.shape[0]
+    if n <= 2:
+        return np.arange(n)
+    idx = np.empty(2 * n, dtype=np.int64)
+    k = 0
+    for i in range(n):  # lower hull, left to right
+        while k >= 2:
+            o, a = idx[k - 2], idx[k - 1]
+            if (p[a, 0] - p[o, 0]) * (p[i, 1] - p[o, 1]) - (p[a, 1] - p[o, 1]) * (p[i, 0] - p[o, 0]) > 0.0:
+                break
+            k -= 1
+        idx[k] = i
+        k += 1
+    low = k + 1
+    for i in range(n - 2, -1, -1):  # upper hull, right to left
+        while k >= low:
+            o, a = idx[k - 2], idx[k - 1]
+            if (p[a, 0] - p[o, 0]) * (p[i, 1] - p[o, 1]) - (p[a, 1] - p[o, 1]) * (p[i, 0] - p[o, 0]) > 0.0:
+                break
+            k -= 1
+        idx[k] = i
+        k += 1
+    return idx[: k - 1].copy()  # the last index repeats the first
+
+
+@kernel
+def boundary_distance(pts, poly):
+    """Distance [m] (n,) from each point of ``pts`` (n, 2) to the boundary of the closed polygon
+    ``poly`` (k, 2) (module docstring)."""
+    n, m = pts.shape[0], poly.shape[0]
+    out = np.empty(n)
+    for i in range(n):
+        px, py = pts[i, 0], pts[i, 1]
+        best = np.inf
+        for j in range(m):
+            ax, ay = poly[j, 0], poly[j, 1]
+            jb = j + 1 if j + 1 < m else 0
+            abx, aby = poly[jb, 0] - ax, poly[jb, 1] - ay
+            t = ((px - ax) * abx + (py - ay) * aby) / max(abx * abx + aby * aby, 1e-18)
+            t = min(max(t, 0.0), 1.0)
+            dx, dy = px - (ax + t * abx), py - (ay + t * aby)
+            d = np.sqrt(dx * dx + dy * dy)
+            if d < best:
+                best = d
+            elif d != d:  # NaN propagates, as np.min
+                best = d
+                break
+        out[i] = best
+    return out
+
+
+@kernel
+def inside_even_odd(pts, poly):
+    """bool (n,): each point of ``pts`` (n, 2) strictly inside the closed polygon ``poly`` (k, 2) by
+    the even-odd rule (points on the boundary may fall either way)."""
+    n, m = pts.shape[0], poly.shape[0]
+    out = np.zeros(n, dtype=np.bool_)
+    for i in range(n):
+        px, py = pts[i, 0], pts[i, 1]
+        count = 0
+        for j in range(m):
+            ax, ay = poly[j, 0], poly[j, 1]
+            jb = j + 1 if j + 1 < m else 0
+            bx, by = poly[jb, 0], poly[jb, 1]
+            if (ay > py) != (by > py):
+                if px < ax + (py - ay) * (bx - ax) / (by - ay):
+                    count += 1
+        out[i] = count % 2 == 1
+    return out

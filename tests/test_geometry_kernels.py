@@ -1,0 +1,104 @@
+"""The compiled polygon kernels (mjasc.core.polygon_kernels) against the vectorized numpy forms they
+replaced (bit for bit) and against scipy's Qhull (the same hull vertices)."""
+
+import numpy as np
+import pytest
+from scipy.spatial import ConvexHull, QhullError
+
+from mjasc.core.geometry import convex_hull, distance_to_polygon, point_in_polygon
+
+
+def _numpy_distance(points, polygon):
+    """The numpy form distance_to_polygon had: points × edges, closest point a + t (b − a)."""
+    p = np.asarray(points, dtype=float).reshape(-1, 1, 2)
+    a = np.asarray(polygon, dtype=float)
+    ab = np.roll(a, -1, axis=0) - a
+    t = np.clip(np.einsum("nkj,kj->nk", p - a, ab) / np.maximum(np.einsum("kj,kj->k", ab, ab), 1e-18), 0.0, 1.0)
+    return np.min(np.linalg.norm(p - (a + t[..., None] * ab), axis=-1), axis=1)
+
+
+def _numpy_inside(points, polygon):
+    p = np.asarray(points, dtype=float).reshape(-1, 1, 2)
+    a = np.asarray(polygon, dtype=float)
+    b = np.roll(a, -1, axis=0)
+    crosses = (a[:, 1] > p[..., 1]) != (b[:, 1] > p[..., 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_int = a[:, 0] + (p[..., 1] - a[:, 1]) * (b[:, 0] - a[:, 0]) / (b[:, 1] - a[:, 1])
+    return np.count_nonzero(crosses & (p[..., 0] < x_int), axis=1) % 2 == 1
+
+
+def _qhull_canonical(points):
+    """The Qhull form convex_hull had: rounded, de-duplicated, from the smallest point."""
+    p = np.unique(np.round(np.asarray(points, dtype=float).reshape(-1, 2), 6), axis=0)
+    if p.shape[0] <= 2:
+        return p
+    try:
+        hull = p[ConvexHull(p).vertices]
+    except QhullError:
+        return p[[0, -1]]
+    k = int(np.lexsort((hull[:, 1], hull[:, 0]))[0])
+    return np.roll(hull, -k, axis=0)
+
+
+def _polygons(rng):
+    """Convex, star-shaped (non-convex) and degenerate-edged polygons."""
+    out = []
+    for _ in range(40):
+        k = int(rng.integers(3, 24))
+        ang = np.sort(rng.uniform(0, 2 * np.pi, k))
+        r = rng.uniform(0.5, 30.0, k) if rng.random() < 0.7 else np.full(k, 10.0)
+        poly = rng.normal(0, 50, 2) + np.stack([r * np.cos(ang), r * np.sin(ang)], axis=1)
+        if rng.random() < 0.2:
+            poly = np.insert(poly, 1, poly[1], axis=0)  # a zero-length edge
+        out.append(poly)
+    out.append(np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]]))  # axis-aligned: horizontal edges
+    return out
+
+
+def test_distance_and_containment_equal_the_numpy_forms_bit_for_bit():
+    rng = np.random.default_rng(3)
+    for poly in _polygons(rng):
+        c = poly.mean(axis=0)
+        pts = c + rng.normal(0, 25, (200, 2))
+        pts[:10] = poly[rng.integers(0, len(poly), 10)]  # on vertices
+        pts[10:20, 1] = poly[rng.integers(0, len(poly), 10), 1]  # at a vertex's height (ray through it)
+        np.testing.assert_array_equal(distance_to_polygon(pts, poly), _numpy_distance(pts, poly))
+        np.testing.assert_array_equal(point_in_polygon(pts, poly), _numpy_inside(pts, poly))
+    # a single (2,) point; non-contiguous inputs
+    sq = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
+    assert distance_to_polygon(np.array([2.0, 1.0]), sq).tolist() == [1.0]
+    assert point_in_polygon(np.array([2.0, 1.0]), sq).tolist() == [True]
+    wide = np.zeros((5, 4))
+    wide[:, ::2] = rng.normal(0, 3, (5, 2))
+    np.testing.assert_array_equal(distance_to_polygon(wide[:, ::2], sq), _numpy_distance(wide[:, ::2], sq))
+
+
+def test_distance_against_closed_form_and_nan():
+    sq = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
+    d = distance_to_polygon(np.array([[2.0, 1.0], [7.0, 8.0], [-3.0, 2.0], [np.nan, 1.0]]), sq)
+    assert d[:3].tolist() == [1.0, 5.0, 3.0]
+    assert np.isnan(d[3])  # a NaN point has no distance (as np.min)
+    inside = point_in_polygon(np.array([[2.0, 2.0], [5.0, 2.0], [2.0, -1.0], [0.5, 3.9]]), sq)
+    assert inside.tolist() == [True, False, False, True]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_convex_hull_equals_qhull(seed):
+    rng = np.random.default_rng(seed)
+    for _ in range(60):
+        n = int(rng.integers(1, 60))
+        pts = rng.normal(0, 20, (n, 2))
+        if rng.random() < 0.3:  # repeated points and grid-aligned collinear boundary points
+            pts = np.round(pts / 5.0) * 5.0
+        if rng.random() < 0.2:
+            pts = np.concatenate([pts, pts[: n // 2]])
+        got = convex_hull(pts)
+        np.testing.assert_array_equal(got, _qhull_canonical(pts))
+
+
+def test_convex_hull_degenerate_sets():
+    line = np.array([[0.0, 0.0], [2.0, 2.0], [1.0, 1.0], [3.0, 3.0]])
+    np.testing.assert_array_equal(convex_hull(line), [[0.0, 0.0], [3.0, 3.0]])
+    np.testing.assert_array_equal(convex_hull(np.array([[1.0, 2.0], [1.0, 2.0]])), [[1.0, 2.0]])
+    square = np.array([[0, 0], [2, 0], [2, 2], [0, 2], [1, 0], [1, 1], [0, 1]], dtype=float)
+    np.testing.assert_array_equal(convex_hull(square), [[0, 0], [2, 0], [2, 2], [0, 2]])  # CCW, collinear dropped
