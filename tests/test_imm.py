@@ -317,19 +317,34 @@ def test_track_restarts_after_consecutive_gated_measurements():
 
 
 def test_speed_never_negative_and_flip_keeps_velocity():
-    """Negative speed after an update is re-parametrized (θ + π, −V): same velocity vector."""
-    from mjasc.perception.imm.kernel import flip_negative_speeds as _flip_negative_speeds
+    """Negative speed after an update is re-parametrized (θ + π, −V): the same velocity vector and
+    covariance (up to the V sign) as the plain Kalman update, course re-charted next to the one
+    before. One compiled cycle with Ts = 0 (no motion, no mixing) against the closed form."""
+    from mjasc.perception.imm.compiled_cycle import imm_cycle
 
-    su = np.array([[[1.0, 2.0, 0.4, -0.5], [0.0, 0.0, 1.0, 0.7]]])
-    Pu = np.tile(np.eye(4) + 0.1, (1, 2, 1, 1))
-    v_before = su[..., 3] * np.array([np.cos(su[..., 2]), np.sin(su[..., 2])])
-    _flip_negative_speeds(su, Pu, np.array([[0.4, 1.0]]))
-    v_after = su[..., 3] * np.array([np.cos(su[..., 2]), np.sin(su[..., 2])])
-    np.testing.assert_allclose(v_after, v_before, atol=1e-15)
-    assert np.all(su[..., 3] >= 0) and abs(wrap(su[0, 0, 2] - 0.4 - math.pi)) < 1e-12
-    assert abs(su[0, 0, 2] - 0.4) <= math.pi + 1e-12  # re-charted next to the course before
-    np.testing.assert_allclose(Pu[0, 0, 3, :3], -0.1)
-    np.testing.assert_allclose(Pu[0, 1, 3, :3], 0.1)
+    s = np.array([[[1.0, 2.0, 0.4, 0.05], [0.0, 0.0, 1.0, 0.7]]])
+    P = np.tile(np.eye(4) + 0.1, (1, 2, 1, 1))
+    z, var = np.array([[-4.0, -3.0]]), 0.1
+    out = (np.zeros((1, 2, 4)), np.zeros((1, 2, 4, 4)), np.zeros((1, 2)), np.zeros((1, 4)), np.zeros(1))
+    imm_cycle(s, P, np.array([[0.5, 0.5]]), np.eye(2)[None], np.zeros(1), np.zeros((1, 2)), np.zeros((1, 2)),
+              z, np.array([var]), np.ones(1, dtype=bool), 1e-3, np.inf, *out)
+    su, Pu = out[0][0], out[1][0]
+    H = np.eye(2, 4)
+    refs = []
+    for j in range(2):  # the plain update, then the velocity it gives
+        S = H @ P[0, j] @ H.T + var * np.eye(2)
+        K = P[0, j] @ H.T @ np.linalg.inv(S)
+        x_ref = s[0, j] + K @ (z[0] - s[0, j, :2])
+        P_ref = P[0, j] - K @ H @ P[0, j]
+        refs.append(x_ref)
+        v_ref = x_ref[3] * np.array([np.cos(x_ref[2]), np.sin(x_ref[2])])
+        np.testing.assert_allclose(su[j, 3] * np.array([np.cos(su[j, 2]), np.sin(su[j, 2])]), v_ref, atol=1e-14)
+        sign = np.diag([1.0, 1.0, 1.0, -1.0 if x_ref[3] < 0 else 1.0])
+        np.testing.assert_allclose(Pu[j], sign @ P_ref @ sign, atol=1e-14)
+    assert refs[0][3] < 0 < refs[1][3]  # model 0 came out negative, model 1 did not
+    assert abs(wrap(su[0, 2] - refs[0][2] - math.pi)) < 1e-12 and abs(su[1, 2] - refs[1][2]) < 1e-14
+    assert abs(su[0, 2] - 0.4) <= math.pi + 1e-12  # re-charted next to the course before
+    assert np.all(su[:, 3] >= 0)
 
 
 # --------------------------------------------------------------------------- reference: filterpy

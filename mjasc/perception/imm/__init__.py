@@ -17,8 +17,8 @@ Modules (one concept each):
   :func:`parse_imm_options`;
 * :mod:`~mjasc.perception.imm.markov` — Markov matrix powers p(Ts) = p^(Ts/T_ref) and the other
   per-Ts constants of a cycle;
-* :mod:`~mjasc.perception.imm.kernel` — the IMM cycle on stacked numpy arrays (eq. 3.3 EKFs,
-  mixing, mode probabilities, combination): the equations in full, and the hot-path design;
+* :mod:`~mjasc.perception.imm.compiled_cycle` — the IMM cycle as one compiled loop over a bank's
+  tracks (eq. 3.3 EKFs, mixing, mode probabilities, combination): the equations in full;
 * :mod:`~mjasc.perception.imm.startup` — the start-up constant-velocity filter and its hand-over;
 * :mod:`~mjasc.perception.imm.predictive` — the predictive measurement mixture for association;
 * :mod:`~mjasc.perception.imm.bank` — :class:`IMMBank`, many tracks in one call (time handling,

@@ -1,6 +1,6 @@
 """IMMBank: the IMM trackers of many targets updated in one call (thesis §3.2.1, docs/thesis.md §2) — the
 track list, the time handling, coasting, gating, restarts and the start-up rows; the cycle's
-arithmetic is :mod:`mjasc.perception.imm.kernel`.
+arithmetic is one compiled call (:mod:`mjasc.perception.imm.compiled_cycle`).
 
 Choices beyond the thesis that live here (parameters of :class:`IMMConfig`):
 
@@ -35,8 +35,7 @@ import numpy as np
 
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.config import IMMConfig
-from mjasc.perception.imm.kernel import (
-    IMMCycle, combine_covariance, combine_state, flip_negative_speeds, turn_rate, wrap)
+from mjasc.perception.imm.compiled_cycle import combine_covariance, imm_cycle, turn_rate, wrap
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.startup import StartupFilters
@@ -47,7 +46,9 @@ __all__ = ["IMMBank", "REJECTION_REASONS", "ACCEPTED", "NOT_MEASURED", "NON_FINI
 
 _TINY_PROB = 1e-300  # floor when min_mode_probability = 0: keeps every μ_j, c̄_j > 0 (no 0/0)
 _EYE2 = np.eye(2)
-_MAX_CYCLES = 32  # IMMCycle buffer sets kept per bank (one per number of tracks)
+_MAX_CYCLES = 32  # CycleBuffers kept per bank (one per number of tracks)
+_ALL, _NONE = np.ones(1, dtype=bool), np.zeros(1, dtype=bool)  # ``use`` of imm_cycle: every row, none
+_NO_Z = np.zeros((1, 2))  # z of a cycle without measurements (not read)
 
 #: Codes of :attr:`IMMBank.rejection_codes` (indices into ``REJECTION_REASONS``).
 ACCEPTED, NOT_MEASURED, NON_FINITE, GATED, RESTARTED = 0, 1, 2, 3, 4
@@ -58,6 +59,23 @@ REJECTION_REASONS = (
     "measurement outside the chi-square gate of every model",
     "track restarted from this measurement after consecutive gated measurements",
 )
+
+
+class CycleBuffers:
+    """What :func:`imm_cycle` writes for n tracks × r models: two sides ``(s, P, μ, x)`` and
+    ``d2_min``. A bank's state is at most one side; a cycle writes the other (:meth:`free`), so its
+    inputs are never overwritten by it."""
+
+    def __init__(self, n: int, r: int):
+        self.n = n
+        self.sides = tuple((np.zeros((n, r, 4)), np.zeros((n, r, 4, 4)), np.zeros((n, r)), np.zeros((n, 4)))
+                           for _ in range(2))
+        self.d2_min = np.zeros(n)
+
+    def free(self, bank) -> tuple:
+        """The side that holds none of ``bank``'s arrays."""
+        a = self.sides[0]
+        return self.sides[1] if bank._s is a[0] or bank._P is a[1] or bank._mu is a[2] or bank._x is a[3] else a
 
 
 class IMMBank(PredictiveDensity):
@@ -93,14 +111,15 @@ class IMMBank(PredictiveDensity):
         )
         mu0 = np.maximum(mu0, _TINY_PROB)
         self._mu0 = mu0 / mu0.sum()
-        self._consts = CycleConstants(config)  # per Ts: p(Ts), its transpose, Ts ω_j, Q block
+        self._consts = CycleConstants(config)  # per Ts: p(Ts), Ts, Ts ω_j, Q·Ts
         self._R = float(config.measurement_variance_m2)
         self._R_cov = self._R * _EYE2
+        self._var = np.array([self._R])  # σ² of every row (imm_cycle's var)
         self._Pc_stale = False  # combined covariances are computed when read
-        self._cyc = None  # IMMCycle buffers for the current number of tracks
-        self._cycles: dict[int, IMMCycle] = {}  # IMMCycle buffers per number of tracks (births and
+        self._cyc = None  # CycleBuffers for the current number of tracks
+        self._cycles: dict[int, CycleBuffers] = {}  # CycleBuffers per number of tracks (births and
         # drops move the count up and down by a few rows: the buffers are made once per count)
-        self._sub_cycles: dict[int, IMMCycle] = {}  # the same for subsets (mjasc.perception.imm.subset)
+        self._sub_cycles: dict[int, CycleBuffers] = {}  # the same for subsets (mjasc.perception.imm.subset)
         self._t_common = None  # the time of every track's last cycle when they share it [s]
         self._flagged = True  # _n_gated or _reasons may be non-zero
         self._floor = max(config.min_mode_probability, _TINY_PROB)
@@ -259,34 +278,36 @@ class IMMBank(PredictiveDensity):
         """Time step of a cycle to t_s: (t0, t, dt, dtm, step) (:func:`~mjasc.perception.imm.markov.cycle_steps`)."""
         return cycle_steps(self._t, self._t_common, self._ids, t_s, self._consts)
 
-    def _cycle_buffers(self) -> IMMCycle:
-        """The IMMCycle buffers for the current number of tracks, made once per number. (Reusing
+    def _cycle_buffers(self) -> CycleBuffers:
+        """The CycleBuffers for the current number of tracks, made once per number. (Reusing
         them is safe: the bank's arrays are new ones whenever the number changed, so neither side
-        of a reused cycle holds the bank's state.)"""
+        of a reused set holds the bank's state.)"""
         cyc = self._cyc
         n = self._ids.size
-        if cyc is None or cyc.lead[0] != n:
+        if cyc is None or cyc.n != n:
             cache = self._cycles
             cyc = cache.get(n)
             if cyc is None:
                 if len(cache) >= _MAX_CYCLES:
                     cache.clear()
-                cyc = cache[n] = IMMCycle((n,), self._r)
+                cyc = cache[n] = CycleBuffers(n, self._r)
             self._cyc = cyc
         return cyc
 
-    def _mix_predict(self, dtm, step):
-        """Mixed and predicted (s, P, c̄) of every track: views of work buffers, valid until the
-        next cycle (copy what is kept)."""
-        markov, markov_t, dt_omega, q_block = step
-        return self._cycle_buffers().mix_predict(
-            self._s, self._P, self._mu, markov, markov_t, dtm, dt_omega, q_block
-        )
+    def _coast(self, step) -> tuple:
+        """Every track's IMM cycle without measurement (mixed and predicted s, P; μ = c̄; x) with
+        the constants ``step``: a free side of the cycle buffers, valid until the next cycle."""
+        cyc = self._cycle_buffers()
+        side = cyc.free(self)
+        imm_cycle(self._s, self._P, self._mu, *step, _NO_Z, self._var, _NONE, self._floor, self._gate,
+                  *side, cyc.d2_min)
+        return side
 
     def _covariances(self) -> np.ndarray:
         """(n, 4, 4) combined covariances, computed on first read after a cycle."""
         if self._Pc_stale:
-            Pc = combine_covariance(self._s, self._P, self._mu)
+            Pc = np.empty_like(self._Pc)
+            combine_covariance(self._s, self._P, self._mu, Pc)
             full = ~self._startup.active
             self._Pc[full] = Pc[full]
             self._Pc_stale = False
@@ -300,8 +321,7 @@ class IMMBank(PredictiveDensity):
             return
         t0, t, dt, dtm, step = self._times(t_s)
         warm = self._startup.active
-        sp, Pp, cbar = self._mix_predict(dtm, step)
-        x = combine_state(sp, cbar)
+        sp, Pp, cbar, x = self._coast(step)
         self._Pc_stale = True
         if self._startup.n_active:
             if t is None:
@@ -314,7 +334,7 @@ class IMMBank(PredictiveDensity):
             s, P = self._startup.polar(rows)
             self._x[rows], self._Pc[rows] = s, P
         else:
-            self._s, self._P, self._mu, self._x = sp.copy(), Pp.copy(), cbar.copy(), x
+            self._s, self._P, self._mu, self._x = sp, Pp, cbar, x
         self._set_times(t0, t)
 
     def _set_times(self, t0, t):
@@ -362,7 +382,7 @@ class IMMBank(PredictiveDensity):
             if use.all():
                 ok = self._cycle(z, t_s)
                 return np.ones(n, dtype=bool) if ok is None else ok
-            return self._cycle(np.where(use[:, None], z, 0.0), t_s, use, finite, measured, z)
+            return self._cycle(z, t_s, use, finite, measured)
         finally:
             self._mv = None
 
@@ -373,31 +393,27 @@ class IMMBank(PredictiveDensity):
         others were gated, or restarted the track: ``rejection_reasons``)."""
         return self._cycle(z, t_s)
 
-    def _cycle(self, zs, t_s, use=None, finite=None, measured=None, z=None):
-        """The IMM cycle behind ``update``; ``use`` None means every row is a finite measurement.
-        Returns the (n,) bool array of used rows, or None when every row was used."""
+    def _cycle(self, z, t_s, use=None, finite=None, measured=None):
+        """The IMM cycle behind ``update``: rows of z (n, 2) where ``use`` (None: every row is a
+        finite measurement). Returns the (n,) bool array of used rows, or None when every row was
+        used."""
         n = self._ids.size
         t0, t, dt, dtm, step = self._times(t_s)
         cyc = self._cyc
-        if cyc is None or cyc.lead[0] != n:
+        if cyc is None or cyc.n != n:
             cyc = self._cycle_buffers()
-        sp, Pp, cbar = cyc.mix_predict(self._s, self._P, self._mu, step[0], step[1], dtm, step[2], step[3])
+        side = cyc.free(self)
         mv = self._mv
-        maha, det = cyc.update.innovate(zs[:, None, :], self._R_cov if mv is None else mv[:, None, None, None] * _EYE2)
-        su, Pu, mu = cyc.sides[1] if self._s is cyc.sides[0][0] else cyc.sides[0]  # not the inputs
-        cyc.update.correct(su, Pu)
-        if np.minimum.reduce(su[..., 3], axis=None) < 0.0:
-            flip_negative_speeds(su, Pu, sp[..., 2])
-        cyc.mode_probabilities(maha, det, self._floor, mu)
-        maha_min = cyc.mahalanobis_min_rows
+        d2_min = cyc.d2_min
+        imm_cycle(self._s, self._P, self._mu, *step, z, self._var if mv is None else mv,
+                  _ALL if use is None else use, self._floor, self._gate, *side, d2_min)
 
         if (
             use is None
             and not self._startup.n_active
-            and (maha_min.item() if n == 1 else np.maximum.reduce(maha_min)) <= self._gate
+            and (d2_min.item() if n == 1 else np.maximum.reduce(d2_min)) <= self._gate
         ):  # the common case: every track measured and accepted
-            self._s, self._P, self._mu = su, Pu, mu
-            self._x = cyc.combine_state(su, mu)
+            self._s, self._P, self._mu, self._x = side
             self._Pc_stale = True
             if self._flagged:  # some track has consecutive gated rows or a rejection reason
                 self._n_gated.fill(0)
@@ -416,25 +432,20 @@ class IMMBank(PredictiveDensity):
         all_measured = use is None or bool(measured.all())
         if use is None:
             use = finite = measured = np.ones(n, dtype=bool)
-        if z is None:
-            z = zs
-        inside = maha_min <= self._gate
+        inside = d2_min <= self._gate  # (nan, False, where not used)
         warm = self._startup.active
         any_warm = self._startup.n_active > 0
         ok = use & inside
         if any_warm:
             rows = np.flatnonzero(warm)
-            R = self._R_cov if mv is None else mv[rows, None, None] * _EYE2
-            ok_w = self._startup.update(rows, dt[rows], zs[rows], R, use[rows], self._gate)
+            var = self._var if mv is None else mv[rows]
+            ok_w = self._startup.update(rows, dt[rows], z[rows], var, use[rows], self._gate)
             ok[rows] = ok_w
             inside[rows] = ok_w | ~use[rows]
-        full = ~warm
-        upd = ok & full
-        s_new = np.where(upd[:, None, None], su, sp)
-        P_new = np.where(upd[:, None, None, None], Pu, Pp)
-        mu_new = np.where(upd[:, None], mu, cbar)
+        full = ~warm  # the cycle updated the rows ``ok`` of these, coasted the others
+        s_new, P_new, mu_new, x_new = side
         self._s[full], self._P[full], self._mu[full] = s_new[full], P_new[full], mu_new[full]
-        self._x[full] = combine_state(s_new, mu_new)[full]
+        self._x[full] = x_new[full]
         self._Pc_stale = True
 
         reasons = np.zeros(n, dtype=np.int8)
@@ -451,7 +462,7 @@ class IMMBank(PredictiveDensity):
             self._handover(np.flatnonzero(self._startup.active))
         if restart.any():
             rows = np.flatnonzero(restart)
-            self._start(rows, zs[rows], None if mv is None else mv[rows])
+            self._start(rows, z[rows], None if mv is None else mv[rows])
             reasons[rows] = RESTARTED
             for k in rows:
                 logger.info(
@@ -469,7 +480,7 @@ class IMMBank(PredictiveDensity):
             for k in np.flatnonzero(gated & ~restart):
                 logger.debug(
                     "IMM track %d at t=%.3f s: rejected z=%s (%s; min d²=%.4g > gate %.4g)",
-                    self._ids[k], t[k], z[k], REJECTION_REASONS[GATED], maha[k].min(), self._gate,
+                    self._ids[k], t[k], z[k], REJECTION_REASONS[GATED], d2_min[k], self._gate,
                 )
         return ok | restart
 

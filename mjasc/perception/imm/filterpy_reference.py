@@ -26,7 +26,7 @@ from filterpy.kalman import IMMEstimator, KalmanFilter
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.imm.config import IMMConfig
-from mjasc.perception.imm.kernel import wrap
+from mjasc.perception.imm.compiled_cycle import wrap
 from mjasc.perception.imm.markov import MarkovPower
 
 __all__ = ["filterpy_imm", "FilterpyIMMTracker"]

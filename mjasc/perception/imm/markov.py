@@ -62,35 +62,32 @@ class MarkovPower:
         return self._from_power(dt)
 
 
-
-
 class CycleConstants:
-    """What a cycle of sample time Ts needs besides the tracks' own arrays, the tuple
-    ``(p(Ts), p(Ts)ᵀ, Ts ω_j, diag(Q_θ, Q_V)·Ts)``: for one Ts shared by every track (cached per
-    Ts: a bank run at a fixed rate computes it once), or per track."""
+    """What a cycle of sample time Ts needs besides the tracks' own arrays, in the form of
+    :func:`mjasc.perception.imm.compiled_cycle.imm_cycle`: the tuple ``(p(Ts), Ts, Ts ω_j,
+    (Q_θ, Q_V)·Ts)`` of arrays with one row shared by every track (cached per Ts: a bank run at
+    a fixed rate computes it once), or one row per track."""
 
     def __init__(self, config: IMMConfig):
         self.markov = MarkovPower(config)
         self._omega = np.asarray(config.turn_rates_rad_s, dtype=float)
-        self._q_unit = np.diag([config.heading_noise_rad2_s, config.speed_noise_m2_s3])
+        self._q_unit = np.array([config.heading_noise_rad2_s, config.speed_noise_m2_s3])
         self._steps: dict[float, tuple] = {}
 
     def scalar(self, dt: float) -> tuple:
-        """(p(Ts), p(Ts)ᵀ, Ts ω_j, diag(Q_θ, Q_V)·Ts) for one Ts, cached."""
+        """(p(Ts), Ts, Ts ω_j, (Q_θ, Q_V)·Ts) for one Ts, shapes (1, r, r), (1,), (1, r), (1, 2); cached."""
         step = self._steps.get(dt)
         if step is None:
-            markov = self.markov.scalar(dt)
-            step = (markov, np.ascontiguousarray(markov.T), dt * self._omega, self._q_unit * dt)
+            step = (self.markov.scalar(dt)[None], np.array([dt]), (dt * self._omega)[None], (self._q_unit * dt)[None])
             if len(self._steps) > 256:
                 self._steps.clear()
             self._steps[dt] = step
         return step
 
     def per_track(self, dt: np.ndarray) -> tuple:
-        """The same for per-track Ts (n,): (n, r, r), (n, r, r), (n, r), (n, 1, 2, 2)."""
-        markov = self.markov.per_track(dt)
-        col = dt[:, None, None, None]
-        return (markov, markov.mT, dt[:, None] * self._omega, col * self._q_unit)
+        """The same for per-track Ts (n,): (n, r, r), (n,), (n, r), (n, 2)."""
+        col = dt[:, None]
+        return (self.markov.per_track(dt), dt, col * self._omega, col * self._q_unit)
 
 
 def cycle_steps(t_last: np.ndarray, t_common: float | None, ids: np.ndarray, t_s, consts: CycleConstants):
@@ -102,7 +99,7 @@ def cycle_steps(t_last: np.ndarray, t_common: float | None, ids: np.ndarray, t_s
     None); t (n,) and dt (n,) the new times and steps, or None when t0 is given and every
     track's last cycle was at the same time (then dtm = that common step; the caller builds
     the arrays only if it needs them); dtm the step as a float when all tracks share it, else
-    an (n, 1, 1, 1) array; step the matching (p(Ts), p(Ts)ᵀ, Ts ω_j, Q block). ValueError if a
+    None; step the matching constants (:class:`CycleConstants`). ValueError if a
     time is not finite, of the wrong shape, or earlier than a track's last cycle.
     """
     if type(t_s) is float or np.ndim(t_s) == 0:
@@ -133,4 +130,4 @@ def cycle_steps(t_last: np.ndarray, t_common: float | None, ids: np.ndarray, t_s
     if lo == hi:
         d = float(lo)
         return t0, t, dt, d, consts.scalar(d)
-    return t0, t, dt, dt[:, None, None, None], consts.per_track(dt)
+    return t0, t, dt, None, consts.per_track(dt)

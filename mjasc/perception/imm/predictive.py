@@ -65,7 +65,7 @@ class PredictiveDensity:
         S_j = H P_j Hᵀ + R (n, r, 2, 2) [m²] and weights c̄_j (n, r); a track in the start-up
         filter gives its one prediction in every column, with weight 1/r."""
         _, t, dt, dtm, step = self._times(self._t if t_s is None else t_s)
-        sp, Pp, cbar = self._mix_predict(dtm, step)
+        sp, Pp, cbar, _ = self._coast(step)
         zj = sp[..., :2].copy()
         S = Pp[..., :2, :2] + self._R_cov
         w = cbar.copy()

@@ -10,7 +10,7 @@ axis, white-acceleration noise ``init_acceleration_noise_m2_s3``), and hands ove
 ``init_max_updates`` measurements (a static target: θ then has the variance of a uniform angle,
 π²/3, at most). With two measurements and a diffuse prior this is the classical two-point
 differencing. The filter's measurement update is the IMM's own
-(:class:`mjasc.perception.imm.kernel.PositionUpdate`). :class:`StartupFilters` holds the filters
+(:func:`mjasc.perception.imm.compiled_cycle.position_update`). :class:`StartupFilters` holds the filters
 of a bank's tracks (:class:`mjasc.perception.imm.bank.IMMBank`), one row per bank row.
 """
 
@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from mjasc.perception.imm.config import IMMConfig
-from mjasc.perception.imm.kernel import PositionUpdate
+from mjasc.perception.imm.compiled_cycle import position_update
 
 __all__ = ["StartupFilters", "cv_predict", "cv_to_polar", "ready_for_handover"]
 
@@ -112,7 +112,6 @@ class StartupFilters:
         self.P = np.zeros((0, 4, 4))
         self.n_meas = np.zeros(0, dtype=np.int64)
         self.n_active = 0
-        self._updates: dict[int, PositionUpdate] = {}  # scratch of update(), per number of rows
 
     def append(self, k: int = 1) -> None:
         """k more rows (active; :meth:`start` fills them)."""
@@ -174,24 +173,15 @@ class StartupFilters:
         """Predict rows by dt (k,) [s] (coasting)."""
         self.x[rows], self.P[rows] = self.predicted(rows, dt)
 
-    def update(self, rows, dt, z, R, use, gate: float) -> np.ndarray:
+    def update(self, rows, dt, z, var, use, gate: float) -> np.ndarray:
         """Predict rows by dt (k,) [s], then update those where ``use`` (k,) with z (k, 2), of
-        covariance R ((2, 2) or (k, 2, 2)), if inside the chi-square gate; returns (k,) bool of the
-        rows updated (the others coast)."""
+        variance var ((1,) or (k,) [m²], R = σ² I₂), if inside the chi-square gate; returns (k,)
+        bool of the rows updated (the others coast)."""
         xc, Pcv = self.predicted(rows, dt)
-        cv_update = self._updates.get(xc.shape[0])  # the update's buffers, made once per number of rows
-        if cv_update is None:
-            if len(self._updates) >= 32:
-                self._updates.clear()
-            cv_update = self._updates[xc.shape[0]] = PositionUpdate(np.empty_like(xc))
-        np.copyto(cv_update.x, xc)
-        np.copyto(cv_update.P, Pcv)
-        d2, _ = cv_update.innovate(z, R)
-        xu, Pcu = np.empty_like(xc), np.empty_like(Pcv)
-        cv_update.correct(xu, Pcu)
+        d2 = np.empty(xc.shape[0])
+        position_update(xc, Pcv, z, var, use, gate, d2)  # in place where used and inside the gate
         ok = use & (d2 <= gate)
-        self.x[rows] = np.where(ok[:, None], xu, xc)
-        self.P[rows] = np.where(ok[:, None, None], Pcu, Pcv)
+        self.x[rows], self.P[rows] = xc, Pcv
         self.n_meas[rows] += ok
         return ok
 

@@ -4,7 +4,7 @@ and written back; the other tracks are untouched (not even coasted).
 A fleet's bank (:mod:`mjasc.perception.tracking.fleet`) holds the tracks of every vessel; when only
 some vessels scanned at a tick, or vessels last scanned at different times, each group of vessels
 sharing its last and new time is cycled on its own, with one scalar Ts as in a bank of its own
-(the numbers of a row do not depend on the other rows: :mod:`mjasc.perception.imm.kernel`).
+(the numbers of a row do not depend on the other rows: :mod:`mjasc.perception.imm.compiled_cycle`).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ def take_rows(bank, rows):
     sub._startup = bank._startup.take(rows)
     t = sub._t
     sub._t_common = float(t[0]) if t.size and np.all(t == t[0]) else None
-    sub._cycles = bank._sub_cycles  # IMMCycle buffers per subset size (not the bank's own: a
+    sub._cycles = bank._sub_cycles  # CycleBuffers per subset size (not the bank's own: a
     sub._cyc = None                 # bank's state may be a side of one of those)
     sub._flagged = True
     sub._mv = None

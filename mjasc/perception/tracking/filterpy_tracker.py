@@ -39,7 +39,7 @@ from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.detection import DetectionConfig
 from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.filterpy_reference import FilterpyIMMTracker
-from mjasc.perception.imm.kernel import wrap
+from mjasc.perception.imm.compiled_cycle import wrap
 from mjasc.perception.tracking.association import association_costs, gnn_assign
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement

@@ -23,7 +23,7 @@ against its own broadcasts; but each stage runs once for all vessels, over array
 6. team mates matched from each vessel's broadcasts (:mod:`~mjasc.perception.tracking.team`).
 
 A vessel's results do not depend on the other vessels in the bank: every step is per row or per
-pair, and the IMM kernel's rows are independent (:mod:`mjasc.perception.imm.kernel`); a fleet's
+pair, and the IMM cycle's rows are independent (:mod:`mjasc.perception.imm.compiled_cycle`); a fleet's
 tracker gives each vessel the same tracks, bit for bit, as a tracker of its own
 (tests/test_fleet_perception.py). :class:`mjasc.perception.tracking.tracker.MultiTargetTracker` is
 one vessel's view.
