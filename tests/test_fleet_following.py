@@ -85,6 +85,21 @@ def test_stacked_projection_equals_path_project_through_path_switches():
         _check_projection(stack, rng)
 
 
+def test_stacked_point_equals_path_point_bit_for_bit():
+    """StackedPaths.point gives each vessel's Path.point for array γ (joints, ends and beyond included)."""
+    rng = np.random.default_rng(11)
+    stack = StackedPaths(_paths(rng, 7))
+    stack.set_path(2, _paths(rng, 1)[0])
+    rows = rng.integers(0, len(stack), 300)
+    length = np.array([p.length for p in stack.paths])[rows]
+    g = np.stack([rng.uniform(-0.1, 1.1, 300) * length,
+                  np.zeros(300), length], axis=1)
+    g[:40, 0] = [stack.paths[r].segment_starts[-1] for r in rows[:40]]  # at a joint
+    got = stack.point(np.broadcast_to(rows[:, None], g.shape), g)
+    want = np.stack([stack.paths[r].point(gg) for r, gg in zip(rows, g)])
+    np.testing.assert_array_equal(got, want)
+
+
 def _follower(path, i):
     vt = load_vessel_type("otter" if i % 2 == 0 else "delfim")
     mass = np.diag([60.0 + 5.0 * i, 90.0, 25.0 + 3.0 * i])  # surge and yaw inertia set the gains

@@ -1,6 +1,8 @@
 """Fleet-batched collision prediction: stacked track motions, closed-form closest approaches, one
 call for many vessels — the same numbers as the per-track, per-vessel forms."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
@@ -51,6 +53,12 @@ def test_track_motions_equal_predict_positions_bit_for_bit():
                                   np.stack([tracks[r].predict_positions(t) for r, t in zip(rows, per_row)]))
     its = [tr.intention for tr in tracks if isinstance(tr, PlannedTrack)]
     np.testing.assert_array_equal(intention_positions(its, times), np.stack([it.positions(times) for it in its]))
+    # every receiver's copy of a team mate shares its message: stacked once, the same positions
+    shared = tracks + [replace(tr, track_id=100 + k) for k, tr in enumerate(tracks) if isinstance(tr, PlannedTrack)]
+    knots = np.concatenate([tr.intention.plan_times_s for tr in shared if isinstance(tr, PlannedTrack)])
+    at_knots = np.broadcast_to(knots, (len(shared), knots.size))  # exactly on knots: np.interp's interval
+    np.testing.assert_array_equal(TrackMotions(shared).at(np.arange(len(shared)), at_knots),
+                                  np.stack([tr.predict_positions(knots) for tr in shared]))
 
 
 def test_segment_cpa_closed_form():

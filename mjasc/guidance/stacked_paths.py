@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mjasc.core.compiled import kernel
 from mjasc.guidance.paths import Path
 from mjasc.guidance.segment_geometry import (
     C,
@@ -109,6 +110,17 @@ class StackedPaths:
         self._first[i], self._count[i], self._length[i], self._base[i] = a, m, path.length, base
         self._used, self._key_end = b, base + path.length
 
+    def point(self, rows, gamma_m) -> np.ndarray:
+        """Positions (..., 2) [m] of vessels ``rows`` (...) at γ ``gamma_m`` (...) on their own
+        paths (clamped to [0, L_i]): what ``paths[row].point(γ)`` gives for an array γ (the same
+        segment, the same evaluation), for many vessels in one pass."""
+        rows = np.asarray(rows, dtype=np.intp)
+        g = np.minimum(np.maximum(np.asarray(gamma_m, dtype=float), 0.0), self._length[rows])
+        idx = np.empty(g.shape, dtype=np.intp)
+        _segment_of(self._first, self._count, self._table[C], rows.ravel(), g.ravel(), idx.reshape(-1))
+        seg = self._table[:, idx]
+        return np.stack(eval_points(seg, g - seg[C]), axis=-1)
+
     def project(self, x_m, y_m, gamma_hint_m, window_m, rows=None) -> PathQuery:
         """Project each vessel's position (x_m, y_m) (n,) on its own path within ±window_m (n,)
         of its hint γ (n,); ``rows`` (k,) selects vessels (None: all, in order)."""
@@ -143,3 +155,20 @@ class StackedPaths:
         x, y = eval_points(row, s)
         w = np.mod(row[TH0] + row[K] * s + np.pi, 2.0 * np.pi) - np.pi  # wrap_angle, inlined
         return PathQuery(gamma, x, y, np.where(w == -np.pi, np.pi, w), row[K], length)
+
+
+@kernel
+def _segment_of(first, count, starts, rows, g, out):
+    """Segment column of each (row, γ) into ``out``, as :meth:`Path._locate` finds it: the last
+    segment of the row's block starting at or before γ (at a joint the later one wins), by bisection
+    on the block's start γ; the block's first / last segment outside its span."""
+    for i in range(rows.size):
+        a = first[rows[i]]
+        lo, hi = a, a + count[rows[i]]
+        while lo < hi:
+            mid = (lo + hi) >> 1
+            if starts[mid] <= g[i]:
+                lo = mid + 1
+            else:
+                hi = mid
+        out[i] = min(max(lo - 1, a), a + count[rows[i]] - 1)

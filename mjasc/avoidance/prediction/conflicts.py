@@ -41,6 +41,7 @@ from mjasc.avoidance.prediction.svo import svo_polygon
 from mjasc.avoidance.prediction.timing import SpeedProfile, gamma_of_time, prediction_window, speed_now
 from mjasc.core.estimates import TrackEstimate
 from mjasc.guidance.paths import Path
+from mjasc.guidance.stacked_paths import StackedPaths
 
 __all__ = ["Decision", "PredictedConflict", "PredictionQuery", "predict_conflicts", "predict_fleet"]
 
@@ -197,16 +198,22 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
     r_col = np.array([ctxs[k].r_vh + r + ctxs[k].config.safety_distance_m for k, r in zip(vessel_l, r_ob.tolist())])
     stop_first = np.array([ctxs[k].config.stop_at_first_minimum for k in vessel_l])
 
+    paths = StackedPaths([c.path for c in ctxs]) if len(ctxs) > 1 else None
+
     def rel_at(pairs, t):
-        """Track minus vessel position (k, j, 2) of pairs (k,) at times t (k, j)."""
+        """Track minus vessel position (k, j, 2) of pairs (k,) at times t (k, j): each vessel's
+        γ(t) from its own plan, every vessel's path evaluated in one pass."""
         r = motions.at(rows[pairs], t)
-        if len(ctxs) == 1:
+        if paths is None:
             return r - ctxs[0].vessel_at(t)
         v = vessel[pairs]
-        for k in np.unique(v):
-            sel = v == k
-            r[sel] -= ctxs[k].vessel_at(t[sel])
-        return r
+        order = np.argsort(v, kind="stable")
+        vs = v[order]
+        cut = np.flatnonzero(vs[1:] != vs[:-1]) + 1
+        g = np.empty(t.shape)
+        for sel in np.split(order, cut):
+            g[sel] = ctxs[v[sel[0]]].gamma_fn(t[sel])
+        return r - paths.point(np.broadcast_to(v[:, None], t.shape), g)
 
     t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, rel_at, stop_first)
     for p, (r, k, tc, dc, rc) in enumerate(zip(rows_l, vessel_l, t_c.tolist(), d_c.tolist(), r_col.tolist())):

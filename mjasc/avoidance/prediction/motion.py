@@ -16,9 +16,10 @@ parameters of m tracks in arrays and evaluates any (track, time) pairs in one ar
 - **a team mate's plan** (a :class:`~mjasc.core.estimates.PlannedTrack`: knots (t_k, p_k) of its
   :class:`~mjasc.cooperation.messages.TeamIntention`): linear interpolation between knots, along the
   broadcast velocity before the first knot, along the last segment after the last one (as
-  ``TeamIntention.positions``). All plans are stacked in one knot array; the knot interval of every
-  query is found by one ``searchsorted`` on the knot times shifted per plan by a multiple of a span
-  longer than any plan (the interpolation itself uses the unshifted times).
+  ``TeamIntention.positions``, equal to it bit for bit). Each distinct intention is stacked once
+  in one knot array (the fleet's receivers hold the same message object: 50 vessels' copies of a
+  team mate are one plan); a compiled loop (:func:`mjasc.core.compiled.kernel`) finds each
+  query's knot interval by bisection on its plan's knot times and interpolates.
 
 World frame ENU, metres, absolute simulation times [s].
 """
@@ -29,6 +30,7 @@ from typing import Sequence
 
 import numpy as np
 
+from mjasc.core.compiled import kernel
 from mjasc.core.estimates import PlannedTrack, TrackEstimate
 
 __all__ = ["TrackMotions", "intention_positions"]
@@ -41,7 +43,7 @@ class TrackMotions:
     ``tracks[k]``. :meth:`at` evaluates positions of rows at times in one array operation per
     kind of motion (straight or static, turning, plan)."""
 
-    __slots__ = ("n", "_par", "_kind", "_kinds", "_pl")
+    __slots__ = ("n", "_par", "_kind", "_kinds", "_pl", "_plan_of")
 
     _STRAIGHT, _TURN, _PLAN = 0, 1, 2
 
@@ -61,7 +63,19 @@ class TrackMotions:
         par[:, 8] = v / np.where(turn, w, 1.0)
         self._kind = np.where(plan, self._PLAN, np.where(turn, self._TURN, self._STRAIGHT))
         self._kinds = sorted(set(self._kind.tolist()))
-        self._pl = _StackedPlans(m, [(k, tracks[k].intention) for k in np.flatnonzero(plan)]) if plan.any() else None
+        self._pl = self._plan_of = None
+        if plan.any():  # each distinct intention stacked once (every receiver's copy of a team mate shares it)
+            self._plan_of = np.full(m, -1, dtype=np.intp)
+            index: dict[int, int] = {}
+            its = []
+            for k in np.flatnonzero(plan).tolist():
+                it = tracks[k].intention
+                u = index.get(id(it))
+                if u is None:
+                    u = index[id(it)] = len(its)
+                    its.append(it)
+                self._plan_of[k] = u
+            self._pl = _StackedPlans(its)
 
     def at(self, rows, times) -> np.ndarray:
         """Positions (P, K, 2) [m] of tracks ``rows`` (P,) at absolute ``times`` (P, K) — each row
@@ -88,7 +102,7 @@ class TrackMotions:
         out = np.empty((P, K, 2))
         if kind == self._PLAN:
             t = np.broadcast_to(times, (P, K)).ravel()
-            return self._pl.at(np.repeat(rows, K), t).reshape(P, K, 2)
+            return self._pl.at(np.repeat(self._plan_of[rows], K), t).reshape(P, K, 2)
         par = self._par[rows]
         x0, y0, t0 = par[:, 0:1], par[:, 1:2], par[:, 2:3]
         tau = times - t0
@@ -112,67 +126,70 @@ def intention_positions(intentions, times) -> np.ndarray:
     k, n = len(intentions), times.size
     if k <= 4:  # stacking costs more than it saves for a few
         return np.stack([it.positions(times) for it in intentions]) if k else np.zeros((0, n, 2))
-    plans = _StackedPlans(k, list(enumerate(intentions)))
-    return plans.at(np.repeat(np.arange(k), n), np.tile(times, k)).reshape(k, n, 2)
+    return _StackedPlans(intentions).at(np.repeat(np.arange(k), n), np.tile(times, k)).reshape(k, n, 2)
 
 
 class _StackedPlans:
-    """The knots of several plans in one array (see the module docstring). ``plans``: (row, intention)
-    pairs; rows without one are never evaluated."""
+    """The knots of several plans in one array (see the module docstring), each distinct
+    intention once: ``intentions`` (k,), plan u for ``intentions[u]``."""
 
-    def __init__(self, m: int, plans):
-        rows = np.array([k for k, _ in plans], dtype=np.intp)
-        its = [it for _, it in plans]
-        counts = np.array([it.plan_times_s.size for it in its], dtype=np.intp)
+    def __init__(self, intentions):
+        k = len(intentions)
+        counts = np.array([it.plan_times_s.size for it in intentions], dtype=np.intp)
         counts[counts < 2] = 0  # fewer than 2 knots: no plan
         has = counts > 0
-        start, count = np.zeros(m, dtype=np.intp), np.zeros(m, dtype=np.intp)
         ends = np.cumsum(counts)
-        start[rows], count[rows] = ends - counts, counts
-        with_plan = [it for it, c in zip(its, counts) if c]
+        self.start, self.count = ends - counts, counts
+        with_plan = [it for it, c in zip(intentions, counts) if c]
         self.ts = np.concatenate([it.plan_times_s for it in with_plan]) if with_plan else np.zeros(0)
         pts = np.concatenate([it.plan_points_m for it in with_plan]) if with_plan else np.zeros((0, 2))
         self.xs, self.ys = pts[:, 0].copy(), pts[:, 1].copy()
-        self.start, self.count = start, count
         first, lastk = (ends - counts)[has], ends[has] - 1
-        r_has = rows[has]
         # Before the first knot: along the broadcast velocity from the first knot (no plan: from
         # the broadcast position at the send time); after the last: along the last segment.
-        self.t_first, self.t_last = np.full(m, np.inf), np.full(m, np.inf)
-        self.t_first[r_has], self.t_last[r_has] = self.ts[first], self.ts[lastk]
-        self.anchor, self.t_anchor = np.zeros((m, 2)), np.zeros(m)
-        self.anchor[rows] = np.array([it.position_m for it in its], dtype=float).reshape(-1, 2)
-        self.t_anchor[rows] = np.array([it.sent_time_s for it in its], dtype=float)
-        self.anchor[r_has], self.t_anchor[r_has] = pts[first], self.ts[first]
-        self.vel = np.zeros((m, 2))
-        self.vel[rows] = np.array([it.velocity_m_s for it in its], dtype=float).reshape(-1, 2)
-        self.p_last, self.v_end = np.zeros((m, 2)), np.zeros((m, 2))
-        self.p_last[r_has] = pts[lastk]
-        self.v_end[r_has] = (pts[lastk] - pts[lastk - 1]) / \
+        self.t_first, self.t_last = np.full(k, np.inf), np.full(k, np.inf)
+        self.t_first[has], self.t_last[has] = self.ts[first], self.ts[lastk]
+        self.anchor = np.array([it.position_m for it in intentions], dtype=float).reshape(-1, 2)
+        self.t_anchor = np.array([it.sent_time_s for it in intentions], dtype=float)
+        self.anchor[has], self.t_anchor[has] = pts[first], self.ts[first]
+        self.vel = np.array([it.velocity_m_s for it in intentions], dtype=float).reshape(-1, 2)
+        self.p_last, self.v_end = np.zeros((k, 2)), np.zeros((k, 2))
+        self.p_last[has] = pts[lastk]
+        self.v_end[has] = (pts[lastk] - pts[lastk - 1]) / \
             np.maximum(self.ts[lastk] - self.ts[lastk - 1], 1e-9)[:, None]
-        # Shifted knot times: plan r's knots lie in [r·span, r·span + span).
-        self.span = span = float(np.max(self.ts[lastk] - self.ts[first])) + 1.0 if has.any() else 1.0
-        self.key = self.ts - np.repeat(self.ts[first], counts[has]) + np.repeat(rows[has] * span, counts[has])
 
-    def at(self, rows, t) -> np.ndarray:
-        """Positions (k, 2) of plan rows ``rows`` (k,) at times ``t`` (k,)."""
-        out = np.empty(rows.shape + (2,))
-        before = t < self.t_first[rows]
-        after = t >= self.t_last[rows]
-        inside = ~(before | after)
-        if before.any():
-            rb = rows[before]
-            out[before] = self.anchor[rb] + (t[before] - self.t_anchor[rb])[:, None] * self.vel[rb]
-        if after.any():
-            ra = rows[after]
-            out[after] = self.p_last[ra] + (t[after] - self.t_last[ra])[:, None] * self.v_end[ra]
-        if inside.any():
-            ri, ti = rows[inside], t[inside]
-            key = ti - self.t_first[ri] + ri * self.span
-            j = np.searchsorted(self.key, key, side="right") - 1
-            j = np.clip(j, self.start[ri], self.start[ri] + self.count[ri] - 2)
-            t_a, t_b = self.ts[j], self.ts[j + 1]
-            dt, dtt = t_b - t_a, ti - t_a
-            out[inside, 0] = (self.xs[j + 1] - self.xs[j]) / dt * dtt + self.xs[j]
-            out[inside, 1] = (self.ys[j + 1] - self.ys[j]) / dt * dtt + self.ys[j]
+    def at(self, plans, t) -> np.ndarray:
+        """Positions (k, 2) of plans ``plans`` (k,) at times ``t`` (k,)."""
+        out = np.empty(plans.shape + (2,))
+        _plan_positions(plans, t, self.ts, self.xs, self.ys, self.start, self.count, self.t_first, self.t_last,
+                        self.anchor, self.t_anchor, self.vel, self.p_last, self.v_end, out)
         return out
+
+
+@kernel
+def _plan_positions(plans, t, ts, xs, ys, start, count, t_first, t_last, anchor, t_anchor, vel, p_last, v_end, out):
+    """:meth:`_StackedPlans.at` into ``out``: per item, before / after / inside its plan's knots,
+    the knot interval by bisection on the plan's own knot times (the last knot ≤ t, as
+    ``np.interp``), each coordinate (x_b − x_a) / (t_b − t_a) · (t − t_a) + x_a."""
+    for i in range(plans.size):
+        p, ti = plans[i], t[i]
+        if ti < t_first[p]:
+            dt = ti - t_anchor[p]
+            out[i, 0] = anchor[p, 0] + dt * vel[p, 0]
+            out[i, 1] = anchor[p, 1] + dt * vel[p, 1]
+        elif ti >= t_last[p]:
+            dt = ti - t_last[p]
+            out[i, 0] = p_last[p, 0] + dt * v_end[p, 0]
+            out[i, 1] = p_last[p, 1] + dt * v_end[p, 1]
+        else:
+            lo, hi = start[p], start[p] + count[p]  # the first knot > ti lies in [lo, hi]
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if ts[mid] <= ti:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            j = min(max(lo - 1, start[p]), start[p] + count[p] - 2)
+            dt, dtt = ts[j + 1] - ts[j], ti - ts[j]
+            out[i, 0] = (xs[j + 1] - xs[j]) / dt * dtt + xs[j]
+            out[i, 1] = (ys[j + 1] - ys[j]) / dt * dtt + ys[j]
