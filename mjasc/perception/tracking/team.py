@@ -30,15 +30,17 @@ class TeamMatcher:
 
     def __init__(self, config: TrackingConfig):
         self.config = config
-        self._team: dict[int, dict[str, tuple[float, np.ndarray]]] = {}
+        self._team: dict[int, tuple] = {}  # owner → (names, t_b (k,) [s], positions (k, 2) [m])
         self._flat = None  # every owner's broadcasts as arrays (owner, name, t_b, position), built when used
         self._team_of = np.empty(0, dtype=object)
 
     def set_positions(self, owner: int, positions: dict) -> None:
         """``{name: (t_b [s], position (2,) [m])}``: the team's latest broadcast positions, as
         vessel ``owner`` received them."""
-        self._team[int(owner)] = {str(k): (float(v[0]), np.asarray(v[1], dtype=float).reshape(2))
-                                  for k, v in positions.items()}
+        names = [str(k) for k in positions]
+        vals = list(positions.values())
+        self._team[int(owner)] = (names, np.array([v[0] for v in vals], dtype=float),
+                                  np.array([v[1] for v in vals], dtype=float).reshape(-1, 2))
         self._flat = None
 
     def append(self, k: int = 1) -> None:
@@ -53,10 +55,13 @@ class TeamMatcher:
         return self._team_of[rows].tolist()
 
     def _arrays(self):
+        """Every owner's broadcasts in one set of arrays, owners in order: (owner (B,), names (B,),
+        t_b (B,) [s], position (B, 2) [m])."""
         if self._flat is None:
-            items = [(o, name, tb, pb) for o, team in sorted(self._team.items()) for name, (tb, pb) in team.items()]
-            self._flat = (np.array([it[0] for it in items], dtype=np.int64), [it[1] for it in items],
-                          np.array([it[2] for it in items], dtype=float), np.array([it[3] for it in items]).reshape(-1, 2))
+            teams = sorted(self._team.items())
+            self._flat = (np.repeat(np.array([o for o, _ in teams], dtype=np.int64), [len(t[0]) for _, t in teams]),
+                          [name for _, t in teams for name in t[0]],
+                          np.concatenate([t[1] for _, t in teams]), np.concatenate([t[2] for _, t in teams]))
         return self._flat
 
     def match(self, rows, owner, t_s, states: np.ndarray, confirmed: np.ndarray, n_owners: int) -> None:
