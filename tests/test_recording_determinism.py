@@ -108,7 +108,7 @@ def test_recording_holds_no_wall_clock_start_time_and_derived_blueprint_ids(tmp_
 
 
 def test_footer_checksum_is_xxh32():
-    """The stream footer's checksum (xxHash32, four lanes packed in one integer) on the reference
+    """The stream footer's checksum (xxHash32, compiled) on the reference
     vectors of the xxHash project, and across the 16-byte stripe boundaries."""
     from mjasc.runs.rrd_canonical import _xxh32
 

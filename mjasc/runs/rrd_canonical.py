@@ -44,6 +44,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.compute as pc
 
+from mjasc.core.compiled import kernel
+
 __all__ = ["BASE_NS", "BATCHER_FLUSH_BYTES", "CanonicalRrdError", "canonicalise"]
 
 #: The time part of every synthetic id and of ``log_time``: 2020-01-01T00:00:00Z [ns].
@@ -127,45 +129,51 @@ def _store_key(store_id: bytes) -> tuple[int, str]:
     return s.get(1, [0])[0], s[2][0].decode()
 
 
-_P1, _P2, _P3, _P4, _P5, _M32 = 2654435761, 2246822519, 3266489917, 668265263, 374761393, 0xFFFFFFFF
-_M32X4 = int.from_bytes(np.full(4, _M32, "<u8").tobytes(), "little")  # 0xFFFFFFFF in each 64-bit slot
-
-
 def _xxh32(data: bytes, seed: int) -> int:
-    """xxHash32 (the stream footer's checksum; the footer of a 50-vessel recording is ~4 MB).
-
-    The four lanes run side by side in one Python integer, a 64-bit slot each: every lane value is
-    below 2³² after its mask, so a sum, a rotation's shifts and the product with a 32-bit prime stay
-    inside the slot (3.5× faster than four lanes of Python integers; numpy precomputes w·p2 mod 2³²)."""
-    p1, p2, p3, p4, p5, m = _P1, _P2, _P3, _P4, _P5, _M32
+    """xxHash32 of ``data`` with ``seed`` (the stream footer's checksum; the footer of a 50-vessel
+    recording is ~4 MB): :func:`_xxh32_words` over the little-endian 32-bit words."""
     n = len(data)
-    i = n - n % 16
+    words = np.frombuffer(data, "<u4", n // 4)
+    tail = np.frombuffer(data, np.uint8)[n - n % 4:]
+    return int(_xxh32_words(words, tail, n, seed & 0xFFFFFFFF))
+
+
+@kernel
+def _rotl32(x, r):
+    """x (< 2³², uint64) rotated left by r (uint64) bits within 32 bits."""
+    return ((x << r) | (x >> (np.uint64(32) - r))) & np.uint64(0xFFFFFFFF)
+
+
+@kernel
+def _xxh32_words(words, tail, n, seed):
+    """xxHash32 (Yann Collet's reference algorithm) in unsigned 64-bit arithmetic masked to 32 bits
+    (every operand uint64: numba would turn mixed signed/unsigned integers into floats): four
+    lanes over 16-byte stripes, the merge, the remaining words and bytes, the avalanche."""
+    u = np.uint64
+    p1, p2, p3, p4, p5, m = u(2654435761), u(2246822519), u(3266489917), u(668265263), u(374761393), u(0xFFFFFFFF)
+    seed, n_bytes = u(seed), u(n)
+    i = 0
     if n >= 16:
-        x = (np.frombuffer(data, "<u4", i // 4) * np.uint32(p2)).astype("<u8").tobytes()
-        v = int.from_bytes(np.array([(seed + p1 + p2) & m, (seed + p2) & m, seed & m, (seed - p1) & m],
-                                    "<u8").tobytes(), "little")
-        m4, frm = _M32X4, int.from_bytes
-        for k in range(0, len(x), 32):
-            v = (v + frm(x[k:k + 32], "little")) & m4
-            v = ((v << 13 | v >> 19) & m4) * p1 & m4
-        v1, v2, v3, v4 = (v >> s & m for s in (0, 64, 128, 192))
-        h = ((v1 << 1 | v1 >> 31) + (v2 << 7 | v2 >> 25) + (v3 << 12 | v3 >> 20) + (v4 << 18 | v4 >> 14)) & m
+        v = np.empty(4, dtype=np.uint64)
+        v[0], v[1], v[2], v[3] = (seed + p1 + p2) & m, (seed + p2) & m, seed, (seed + (u(1) << u(32)) - p1) & m
+        while 4 * i + 16 <= n:
+            for j in range(4):
+                v[j] = _rotl32((v[j] + u(words[i + j]) * p2) & m, u(13)) * p1 & m
+            i += 4
+        h = (_rotl32(v[0], u(1)) + _rotl32(v[1], u(7)) + _rotl32(v[2], u(12)) + _rotl32(v[3], u(18))) & m
     else:
         h = (seed + p5) & m
-    h = (h + n) & m
-    while i + 4 <= n:
-        h = (h + struct.unpack_from("<I", data, i)[0] * p3) & m
-        h = ((h << 17 | h >> 15) & m) * p4 & m
-        i += 4
-    while i < n:
-        h = (h + data[i] * p5) & m
-        h = ((h << 11 | h >> 21) & m) * p1 & m
+    h = (h + n_bytes) & m
+    while i < words.size:
+        h = _rotl32((h + u(words[i]) * p3) & m, u(17)) * p4 & m
         i += 1
-    h ^= h >> 15
+    for j in range(tail.size):
+        h = _rotl32((h + u(tail[j]) * p5) & m, u(11)) * p1 & m
+    h ^= h >> u(15)
     h = h * p2 & m
-    h ^= h >> 13
+    h ^= h >> u(13)
     h = h * p3 & m
-    return h ^ (h >> 16)
+    return h ^ (h >> u(16))
 
 
 # ---------------------------------------------------------------- Arrow
