@@ -39,7 +39,7 @@ import numpy as np
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.tracking.association import (
-    block_pairs, gnn_assign_blocks, group_starts, pair_costs, predicted_positions)
+    block_pairs, gnn_assign_blocks, group_starts, indexed_pair_costs, predicted_positions)
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
@@ -210,7 +210,7 @@ class FleetTracker:
                 radius = self.mgmt._radius
                 var_p = var[db] + occ[db] * np.maximum(radius[ta] - rad[db], 0.0) ** 2
                 zhat, S = predicted_positions(*bank.prediction_fields(grouped), t_o[row_pos[grouped]])
-                d2, cost = pair_costs(zhat[gi], S[gi], z[db], var_p)
+                d2, cost = indexed_pair_costs(zhat, S, gi, z, db, var_p)
                 inside = d2 <= self._gate
                 got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
                 claimed |= np.bincount(db[inside], minlength=M) > 0
