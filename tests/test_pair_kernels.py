@@ -116,3 +116,37 @@ def test_broadcast_distances_match_numpy():
         got = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, t_s, tb, pb)
         ref = broadcast_distances_numpy(q, i, j, a_start, b_start, bsel, x, vx, vy, t_s, tb, pb)
         assert np.array_equal(got, ref, equal_nan=True)
+
+
+def merge_candidates_numpy(live, group, positions, rad, fraction):
+    """The numpy form of TrackManagement.drops' duplicate search (live already sorted by group)."""
+    from mjasc.perception.tracking.association import group_starts
+    _, first = group_starts(group[live])
+    n_g = np.diff(first, append=live.size)
+    q, i, j, start = block_pairs_numpy(n_g, n_g)
+    a, b = live[first[q] + i], live[first[q] + j]
+    later = i < j
+    a, b = a[later], b[later]
+    pa, pb = positions[a], positions[b]
+    dd = np.hypot(pa[:, 0] - pb[:, 0], pa[:, 1] - pb[:, 1])
+    close = dd < fraction * np.maximum(rad[a], rad[b])
+    return a[close], b[close]
+
+
+def test_merge_candidates_match_numpy():
+    from mjasc.perception.tracking.pair_kernels import merge_candidates
+    rng = np.random.default_rng(5)
+    for trial in range(60):
+        k = int(rng.integers(0, 30))
+        group = np.sort(rng.integers(0, 4, k)) if trial % 2 else rng.integers(0, 4, k)
+        positions = rng.normal(0, 4, (k, 2))
+        rad = rng.uniform(0.5, 3.0, k)
+        if k > 3:
+            positions[1] = positions[0]  # coincident
+            rad[2] = np.nan
+            rad[3] = rad[0]
+        live = np.flatnonzero(rng.random(k) < 0.8)
+        live = live[np.argsort(group[live], kind="stable")]
+        ref = merge_candidates_numpy(live, group, positions, rad, 0.5)
+        got = merge_candidates(live, group[live], positions, rad, 0.5)
+        assert all(np.array_equal(g, r) and g.dtype == r.dtype for g, r in zip(got, ref))

@@ -33,10 +33,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import repeat
 
 import numpy as np
 
-from mjasc.core.estimates import TrackEstimate
+from mjasc.core.estimates import TrackEstimate, track_estimate_rows
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.tracking.association import (
     block_pairs, gnn_assign_blocks, group_starts, indexed_pair_costs, predicted_positions)
@@ -361,10 +362,11 @@ class FleetTracker:
         slow = (static | (v < self.config.static_speed_m_s)).tolist()
         # Python values per track in one conversion per field; each track's position and
         # covariance are rows of arrays made for this call (views: no track shares another's).
-        return [TrackEstimate(tid, tk, pk, hk, vk, wk, rk, Pk, sk, mk, self.outline(k) if lk else None)
-                for k, tid, tk, pk, hk, vk, wk, rk, Pk, sk, mk, lk in zip(
-                    rows.tolist(), self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(),
-                    w.tolist(), self.mgmt._radius[rows].tolist(), P, static.tolist(), self.team.members(rows), slow)]
+        k_rows = rows.tolist()
+        outlines = [self.outline(k) if lk else None for k, lk in zip(k_rows, slow)]
+        return track_estimate_rows(self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
+                                   self.mgmt._radius[rows].tolist(), P, static.tolist(), self.team.members(rows),
+                                   outlines, repeat(None, len(k_rows)))
 
     def outline(self, row: int) -> np.ndarray:
         """(k, 2) CCW outline [m] of the track in bank row ``row``

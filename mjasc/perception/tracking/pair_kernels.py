@@ -23,6 +23,12 @@ numpy forms as references):
   detection db[k] (z, isotropic variance σ²_k): ``a = S₀₀ + σ²``, ``b = S₀₁``, ``d = S₁₁ + σ²``,
   ``det = a·d − b·b``, ``y = z − ẑ`` and ``d² = (d·y₀·y₀ − 2·b·y₀·y₁ + a·y₁·y₁) / det``; the
   cost ``d² + ln det`` is left to numpy's log (:func:`~mjasc.perception.tracking.association.pair_costs`).
+* :func:`merge_candidates` — per vessel (a run of equal ``keys`` over the live tracks, sorted by
+  vessel), every pair a = live[i], b = live[j], i < j, row-major, closer than the merge distance::
+
+      hypot(p_a,x − p_b,x, p_a,y − p_b,y) < fraction · maximum(R_a, R_b)
+
+  (numpy's ``maximum``: NaN if either radius is NaN).
 """
 
 from __future__ import annotations
@@ -33,7 +39,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["block_pairs_loop", "broadcast_distances", "gate_terms"]
+__all__ = ["block_pairs_loop", "broadcast_distances", "gate_terms", "merge_candidates"]
 
 
 @kernel
@@ -93,3 +99,43 @@ def gate_terms(g, zhat, S, db, z, var):
         d2[k] = (d * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / dk
         det[k] = dk
     return d2, det
+
+
+@kernel
+def merge_candidates(live, keys, positions, radius, fraction):
+    """(a (c,), b (c,)): the close pairs of the tracks ``live`` (indices into positions (k, 2) [m]
+    and radius (k,) [m]) sorted by their vessel ``keys`` (module docstring), in row-major order
+    within each vessel, vessels in order."""
+    n = live.size
+    total = 0
+    f = 0
+    while f < n:  # pairs i < j per run of equal keys
+        e = f + 1
+        while e < n and keys[e] == keys[f]:
+            e += 1
+        total += (e - f) * (e - f - 1) // 2
+        f = e
+    out_a = np.empty(total, dtype=np.int64)
+    out_b = np.empty(total, dtype=np.int64)
+    c = 0
+    f = 0
+    while f < n:
+        e = f + 1
+        while e < n and keys[e] == keys[f]:
+            e += 1
+        for i in range(f, e):
+            a = live[i]
+            for j in range(i + 1, e):
+                b = live[j]
+                dd = math.hypot(positions[a, 0] - positions[b, 0], positions[a, 1] - positions[b, 1])
+                ra, rb = radius[a], radius[b]
+                if ra != ra or rb != rb:
+                    larger = math.nan
+                else:
+                    larger = ra if ra >= rb else rb
+                if dd < fraction * larger:
+                    out_a[c] = a
+                    out_b[c] = b
+                    c += 1
+        f = e
+    return out_a[:c], out_b[:c]
