@@ -113,9 +113,15 @@ def test_broadcast_distances_match_numpy():
         t_s[0] = np.nan  # a vessel not matched now
         tb, pb = rng.uniform(0, 100, B), rng.normal(0, 100, (B, 2))
         q, i, j, _ = block_pairs(n_a, n_b)
-        got = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, t_s, tb, pb)
         ref = broadcast_distances_numpy(q, i, j, a_start, b_start, bsel, x, vx, vy, t_s, tb, pb)
+        got = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, t_s, tb, pb, np.inf)
         assert np.array_equal(got, ref, equal_nan=True)
+        gate = 60.0  # beyond twice the gate: +inf; within it (and so at the gate): the same bits
+        got = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, t_s, tb, pb, (2 * gate) ** 2)
+        near = ~(ref > 2 * gate)
+        assert np.array_equal(got[near], ref[near], equal_nan=True)
+        assert np.all(got[~near] == np.inf)
+        assert np.array_equal(got <= gate, ref <= gate)
 
 
 def merge_candidates_numpy(live, group, positions, rad, fraction):

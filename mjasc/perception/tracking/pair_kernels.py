@@ -19,6 +19,10 @@ numpy forms as references):
       Δt = t_s[q] − t_b[b]
       d  = hypot((x_a − vx_a·Δt) − p_b,x, (y_a − vy_a·Δt) − p_b,y)
 
+  except that a pair whose squared offset exceeds ``far_m2`` gets d = +inf without the hypot (the
+  caller's gate is far below: ``far_m2 = (2·gate)²``; such a pair is outside the gate either way and
+  its distance is never used).
+
 * :func:`gate_terms` — per pair k of track row g[k] (predicted position ẑ, covariance S) and
   detection db[k] (z, isotropic variance σ²_k): ``a = S₀₀ + σ²``, ``b = S₀₁``, ``d = S₁₁ + σ²``,
   ``det = a·d − b·b``, ``y = z − ẑ`` and ``d² = (d·y₀·y₀ − 2·b·y₀·y₁ + a·y₁·y₁) / det``; the
@@ -66,17 +70,23 @@ def block_pairs_loop(n_a, n_b):
 
 
 @kernel
-def broadcast_distances(q, i, j, a_start, b_start, bsel, xa, vx, vy, t_s, t_b, p_b):
+def broadcast_distances(q, i, j, a_start, b_start, bsel, xa, vx, vy, t_s, t_b, p_b, far_m2):
     """(P,) distances [m] of the pairs (q, i, j) (module docstring): a vessel's confirmed tracks'
     states ``xa`` (A, 4) and velocities vx, vy (A,) [m/s], grouped by vessel from ``a_start``;
-    broadcasts ``bsel`` (indices into t_b (B,) [s] and p_b (B, 2) [m]) from ``b_start``; t_s (Q,) [s]."""
+    broadcasts ``bsel`` (indices into t_b (B,) [s] and p_b (B, 2) [m]) from ``b_start``; t_s (Q,) [s];
+    +inf beyond √far_m2 [m]."""
     out = np.empty(q.size)
     for k in range(q.size):
         qk = q[k]
         a = a_start[qk] + i[k]
         b = bsel[b_start[qk] + j[k]]
         dtb = t_s[qk] - t_b[b]
-        out[k] = math.hypot(xa[a, 0] - vx[a] * dtb - p_b[b, 0], xa[a, 1] - vy[a] * dtb - p_b[b, 1])
+        dx = xa[a, 0] - vx[a] * dtb - p_b[b, 0]
+        dy = xa[a, 1] - vy[a] * dtb - p_b[b, 1]
+        if dx * dx + dy * dy > far_m2:
+            out[k] = math.inf
+        else:
+            out[k] = math.hypot(dx, dy)
     return out
 
 

@@ -87,9 +87,10 @@ class TeamMatcher:
         q, i, j, start = block_pairs(n_a, n_b)
         x = states[c]  # per confirmed track; a track meets every broadcast of its vessel
         vx, vy = x[:, 3] * np.cos(x[:, 2]), x[:, 3] * np.sin(x[:, 2])
+        gate = float(cfg.team_match_distance_m)
         dist = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, np.ascontiguousarray(t_s, dtype=float),
-                                   tb, pb)
-        inside = dist <= cfg.team_match_distance_m
+                                   tb, pb, (2.0 * gate) ** 2)  # (+inf far outside the gate: never used)
+        inside = dist <= gate
         if not inside.any():
             return
         got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
