@@ -300,14 +300,13 @@ class Hydrodynamics:
 
     def bind(self, qpos3, qvel3, activation, out) -> None:
         """Bind the (N, 3) joint position/velocity arrays, the (N, 2) activation array and the
-        (N, 3) output array (MjData memory, C-contiguous rows) once, for :meth:`compute_bound`."""
+        (N, 3) output array (views of MjData's memory) once, for :meth:`compute_bound`."""
         self._bound = (qpos3, qvel3, activation, out)
 
     def generalized_forces(self, qpos3, qvel3, current_world, current_rate_world, activation, out) -> np.ndarray:
         """Write the generalized forces of MuJoCo's (x, y, yaw) joints for every vessel into ``out`` (N, 3).
 
-        qpos3, qvel3: (N, 3) joint positions (x, y, ψ) and velocities (ẋ, ẏ, ψ̇), world frame (the
-        x, y columns of each row must be adjacent in memory, as MjData's are).
+        qpos3, qvel3: (N, 3) joint positions (x, y, ψ) and velocities (ẋ, ẏ, ψ̇), world frame.
         current_world: (N, 2) water velocity at each vessel [m/s]; current_rate_world: (N, 2)
         ∂V_c/∂t + ∇V_c·ṗ [m/s²] or None when the current is uniform and steady.
         activation: (N, 2) normalized shaft speeds (port, starboard).
