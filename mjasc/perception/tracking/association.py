@@ -89,9 +89,7 @@ def indexed_pair_costs(zhat, S, g, z, db, var) -> tuple[np.ndarray, np.ndarray]:
     """:func:`pair_costs` of the pairs (track row g[k], detection db[k]) without gathering them
     first: zhat (n, 2) [m] and S (n, 2, 2) [m²] per track row, z (M, 2) [m] per detection, var (P,)
     [m²] per pair (the same bits; compiled: :func:`mjasc.perception.tracking.pair_kernels.gate_terms`)."""
-    d2, det = gate_terms(np.ascontiguousarray(g, dtype=np.int64), np.ascontiguousarray(zhat, dtype=float),
-                         np.ascontiguousarray(S, dtype=float), np.ascontiguousarray(db, dtype=np.int64),
-                         np.ascontiguousarray(z, dtype=float), np.ascontiguousarray(var, dtype=float))
+    d2, det = gate_terms(g, zhat, S, db, z, var)  # (integer indices, float arrays: no conversion per tick)
     return d2, d2 + np.log(det)
 
 
