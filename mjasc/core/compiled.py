@@ -14,17 +14,54 @@ cycle of a few tracks. Those few kernels are written as plain loops and compiled
 * ``error_model="numpy"``: a division by zero gives inf or nan as numpy does, never an exception;
 * ``nogil=True``: a kernel releases the GIL (threads of a Dask worker may overlap).
 
+``fma(x, y, z)`` is ``x·y + z`` rounded once, for a kernel that must give the bits of a numpy
+operation that fuses (numpy's complex multiply on FMA hardware: ``(a·b).real = fma(a.re, b.re,
+−a.im·b.im)``, ``(a·b).imag = fma(a.re, b.im, a.im·b.re)``); LLVM's ``llvm.fma``, exact on every
+machine (in software where the processor has no FMA). With ``NUMBA_DISABLE_JIT=1`` it is the
+exact rational computation, rounded once.
+
 Every kernel is tested against an independent reference (scipy, a closed form or the numpy
 formulation it replaces). ``NUMBA_DISABLE_JIT=1`` runs the same code as Python (for a debugger).
 """
 
 from __future__ import annotations
 
-import numba
+import math
+from fractions import Fraction
 
-__all__ = ["kernel"]
+import numba
+from numba.core import types
+from numba.extending import intrinsic
+
+__all__ = ["kernel", "fma"]
 
 
 def kernel(fn):
     """Decorator: compile ``fn`` with the project's settings (module docstring)."""
     return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")(fn)
+
+
+@intrinsic
+def _fma_llvm(typingctx, x, y, z):
+    """``x·y + z`` with one rounding (float64; module docstring). Only inside compiled kernels."""
+    if not all(isinstance(a, types.Float) for a in (x, y, z)):
+        return None
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        a, b, c = (context.cast(builder, v, t, types.float64) for v, t in zip(args, signature.args))
+        return builder.fma(a, b, c)
+
+    return sig, codegen
+
+
+def _fma_python(x: float, y: float, z: float) -> float:
+    """``x·y + z`` rounded once, in Python (kernels run as Python under ``NUMBA_DISABLE_JIT=1``)."""
+    x, y, z = float(x), float(y), float(z)
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+        return x * y + z  # (inf and nan: the same as fused)
+    exact = Fraction(x) * Fraction(y) + Fraction(z)
+    return float(exact) if exact != 0 else x * y + z  # (an exact zero: IEEE's sign rule)
+
+
+fma = _fma_python if numba.config.DISABLE_JIT else _fma_llvm

@@ -10,7 +10,7 @@ ENU, SI units.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import Any, Callable
 
 import numpy as np
@@ -62,6 +62,26 @@ class TrackEstimate:
             [x0 + v / w * (np.sin(th_t) - np.sin(th)), y0 - v / w * (np.cos(th_t) - np.cos(th))],
             axis=-1,
         )
+
+
+_TRACK_FIELDS = tuple(f.name for f in fields(TrackEstimate))
+
+
+def track_estimate_rows(*columns) -> list[TrackEstimate]:
+    """One :class:`TrackEstimate` per row of ``columns``, equal-length sequences of every field's
+    values in field order (track_id … source): the same objects as ``TrackEstimate(*row)``. The
+    frozen dataclass's ``__init__`` sets each of the twelve fields through ``object.__setattr__``
+    (~2 µs a track; a fleet's tracker hands on ~10⁴ tracks a second); here each instance's
+    ``__dict__`` is filled at once. Values are taken as given (the tracker's own, already typed)."""
+    if len(columns) != len(_TRACK_FIELDS):
+        raise ValueError(f"columns: expected {len(_TRACK_FIELDS)} (one per field), got {len(columns)}")
+    names, new, cls = _TRACK_FIELDS, object.__new__, TrackEstimate
+    out = []
+    for row in zip(*columns):
+        e = new(cls)
+        e.__dict__.update(zip(names, row))
+        out.append(e)
+    return out
 
 
 @dataclass(frozen=True, eq=False)

@@ -55,6 +55,7 @@ from typing import Sequence
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, param
+from mjasc.physics.hydro_kernels import hydro_features, rotate_to_world
 
 __all__ = ["HydroCoefficients", "rigid_body_mass_matrix", "Hydrodynamics"]
 
@@ -290,93 +291,45 @@ class Hydrodynamics:
         """Preallocate the per-step work arrays (the fast path allocates nothing per step)."""
         n, S = self.n_vessels, self._cf_x.shape[1]
         self._F = np.zeros((n, 41 + S))
-        self._F_uv = self._F[:, 0:2].view(np.complex128)[:, 0]      # u + i v
-        self._F_rel = self._F[:, 3:5].view(np.complex128)[:, 0]     # u_r + i v_r
-        self._F_rb = self._F[:, 35 + S:37 + S].view(np.complex128)[:, 0]
-        self._F_outer = self._F[:, 5:30].reshape(n, 5, 5)
-        self._x_col = self._F[:, :5, None]
-        self._x_row = self._F[:, None, :5]
         self._F_row = self._F[:, None, :]
         self._S = S
-        # Strip velocities w_k = v_r + x_k r as one matmul of x = (u, v, r, u_r, v_r).
-        self._strip_map = np.zeros((n, 5, S))
-        self._strip_map[:, 2, :] = self._cf_x
-        self._strip_map[:, 4, :] = 1.0
-        self._arg = np.zeros(n, dtype=np.complex128)
-        self._arg_imag = self._arg.imag
-        self._rot = np.zeros(n, dtype=np.complex128)
-        self._conj = np.zeros(n, dtype=np.complex128)
-        self._cur = np.zeros(n, dtype=np.complex128)
-        self._tmp5 = np.zeros((n, 5))
-        self._w = np.zeros((n, 1, S))
-        self._wabs = np.zeros((n, 1, S))
-        self._aa = np.zeros((n, 2))
+        self._rot2 = np.zeros((n, 2))        # e^{−iψ} as (cos, sin) per vessel
+        self._no_rate = np.zeros((n, 2))     # (the current rate's place when there is none)
         self._tau = np.zeros((n, 1, 3))
-        self._tau_xy = self._tau[:, 0, 0:2].view(np.complex128)[:, 0]
-        self._tau_n = self._tau[:, 0, 2]
-        # the views compute_bound writes through, made once (slicing per step costs more than the step's math)
-        self._F_x = self._F[:, :5]
-        self._F_r = self._F[:, 2]
-        self._F_xx = self._F[:, 30:35]
-        self._F_ww = self._F[:, None, 35:35 + S]
-        self._F_aa = self._F[:, 37 + S:39 + S]
-        self._F_a2 = self._F[:, 39 + S:41 + S]
-        self._cur_of = (None, None)  # (current array, its complex view)
         self._bound = None
 
     def bind(self, qpos3, qvel3, activation, out) -> None:
-        """Bind the (N, 3) joint position/velocity views, the (N, 2) activation view and the
-        (N, 3) output view (MjData memory) once, for :meth:`compute_bound`."""
-        self._bound = (qpos3[:, 2], qvel3[:, 0:2].view(np.complex128)[:, 0], qvel3[:, 2], activation,
-                       out[:, 0:2].view(np.complex128)[:, 0], out[:, 2])
+        """Bind the (N, 3) joint position/velocity arrays, the (N, 2) activation array and the
+        (N, 3) output array (views of MjData's memory) once, for :meth:`compute_bound`."""
+        self._bound = (qpos3, qvel3, activation, out)
 
     def generalized_forces(self, qpos3, qvel3, current_world, current_rate_world, activation, out) -> np.ndarray:
         """Write the generalized forces of MuJoCo's (x, y, yaw) joints for every vessel into ``out`` (N, 3).
 
-        qpos3, qvel3: (N, 3) joint positions (x, y, ψ) and velocities (ẋ, ẏ, ψ̇), world frame (the
-        x, y columns of each row must be adjacent in memory, as MjData's are).
+        qpos3, qvel3: (N, 3) joint positions (x, y, ψ) and velocities (ẋ, ẏ, ψ̇), world frame.
         current_world: (N, 2) water velocity at each vessel [m/s]; current_rate_world: (N, 2)
         ∂V_c/∂t + ∇V_c·ṗ [m/s²] or None when the current is uniform and steady.
         activation: (N, 2) normalized shaft speeds (port, starboard).
         ``out`` receives ``R(ψ)(τ_prop + τ_hyd)``: the body force rotated to world axes, yaw moment as is.
         """
-        self.bind(np.asarray(qpos3, dtype=float), np.ascontiguousarray(qvel3, dtype=float),
-                  np.asarray(activation, dtype=float), out)
-        return self.compute_bound(current_world, current_rate_world)
+        self.bind(np.asarray(qpos3, dtype=float), np.asarray(qvel3, dtype=float), np.asarray(activation, dtype=float), out)
+        self.compute_bound(np.asarray(current_world, dtype=float),
+                           None if current_rate_world is None else np.asarray(current_rate_world, dtype=float))
+        return out
 
     def compute_bound(self, current_world, current_rate_world):
-        """The fast path of :meth:`generalized_forces` on the views given to :meth:`bind`.
-
-        Planar vectors are complex numbers x + iy, so a rotation is one multiplication by
-        e^{∓iψ}: body = world · e^{−iψ}, world = body · e^{iψ}.
-        """
-        psi, qvel_xy, yaw_rate, activation, out_xy, out_n = self._bound
-        rot, mul, absolute = self._rot, np.multiply, np.abs
-        np.negative(psi, out=self._arg_imag)
-        np.exp(self._arg, out=rot)                                                # e^{−iψ}
-        mul(qvel_xy, rot, out=self._F_uv)                                         # u + iv
-        self._F_r[:] = yaw_rate                                                   # r
-        cur_of = self._cur_of
-        if cur_of[0] is not current_world:  # (the same array every step of a uniform steady current)
-            cur_of = self._cur_of = (current_world, current_world.view(np.complex128)[:, 0])
-        mul(cur_of[1], rot, out=self._cur)
-        np.subtract(self._F_uv, self._cur, out=self._F_rel)                       # u_r + i v_r
-        if current_rate_world is not None:
-            mul(current_rate_world.view(np.complex128)[:, 0], rot, out=self._F_rb)
-        mul(self._x_col, self._x_row, out=self._F_outer)                          # x_i x_j
-        absolute(self._F_x, out=self._tmp5)
-        mul(self._tmp5, self._F_x, out=self._F_xx)                                # |x_i| x_i
-        if self._S:
-            np.matmul(self._x_row, self._strip_map, out=self._w)                  # v_r + x_k r
-            absolute(self._w, out=self._wabs)
-            mul(self._wabs, self._w, out=self._F_ww)
-        absolute(activation, out=self._aa)
-        mul(self._aa, activation, out=self._F_aa)                                 # a|a|
-        mul(activation, activation, out=self._F_a2)                               # a²
+        """The fast path of :meth:`generalized_forces` on the arrays given to :meth:`bind`: the
+        features F of every vessel in one compiled pass, τ = F·G in one batched matmul, τ rotated
+        to world axes in a second pass (:mod:`mjasc.physics.hydro_kernels`, the same bits as the
+        numpy form it replaced)."""
+        qpos3, qvel3, activation, out = self._bound
+        if current_rate_world is None:
+            hydro_features(qpos3, qvel3, activation, current_world, self._no_rate, False, self._cf_x, self._F, self._rot2)
+        else:
+            hydro_features(qpos3, qvel3, activation, current_world, current_rate_world, True, self._cf_x, self._F,
+                           self._rot2)
         np.matmul(self._F_row, self._G, out=self._tau)                            # τ = F·G (body)
-        np.conjugate(rot, out=self._conj)
-        mul(self._tau_xy, self._conj, out=out_xy)
-        out_n[:] = self._tau_n
+        rotate_to_world(self._tau, self._rot2, out)
 
     def kinetic_energy_relative(self, nu_r: np.ndarray) -> np.ndarray:
         """½ ν_rᵀ (M_RB + M_A) ν_r per vessel [J] (a Lyapunov function without thrust)."""

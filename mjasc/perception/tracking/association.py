@@ -26,8 +26,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from mjasc.perception.tracking.pair_kernels import block_pairs_loop, gate_terms
+
 __all__ = ["association_costs", "gnn_assign", "gnn_pairs", "BIG_COST", "block_pairs", "group_starts",
-           "predicted_positions", "pair_costs", "gnn_assign_blocks"]
+           "predicted_positions", "pair_costs", "indexed_pair_costs", "gnn_assign_blocks"]
 
 #: Cost of an inadmissible pair in the assignment problems (never chosen over an admissible one).
 BIG_COST = 1e9
@@ -35,16 +37,9 @@ BIG_COST = 1e9
 
 def block_pairs(n_a: np.ndarray, n_b: np.ndarray):
     """Every pair (i, j), i < n_a[q], j < n_b[q], of every block q, row-major within a block,
-    blocks in order: (q, i, j, start) with start (Q+1,) the first pair of each block."""
-    n_a, n_b = np.asarray(n_a, dtype=np.int64), np.asarray(n_b, dtype=np.int64)
-    sizes = n_a * n_b
-    start = np.zeros(sizes.size + 1, dtype=np.int64)
-    np.cumsum(sizes, out=start[1:])
-    q = np.repeat(np.arange(sizes.size), sizes)
-    loc = np.arange(start[-1]) - start[q]
-    nb = n_b[q]
-    i = loc // nb
-    return q, i, loc - i * nb, start
+    blocks in order: (q, i, j, start) with start (Q+1,) the first pair of each block
+    (compiled: :func:`mjasc.perception.tracking.pair_kernels.block_pairs_loop`)."""
+    return block_pairs_loop(np.ascontiguousarray(n_a, dtype=np.int64), np.ascontiguousarray(n_b, dtype=np.int64))
 
 
 def group_starts(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -87,6 +82,14 @@ def pair_costs(zhat, S, z, var) -> tuple[np.ndarray, np.ndarray]:
     det = a * d - b * b
     y0, y1 = z[:, 0] - zhat[:, 0], z[:, 1] - zhat[:, 1]
     d2 = (d * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / det
+    return d2, d2 + np.log(det)
+
+
+def indexed_pair_costs(zhat, S, g, z, db, var) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`pair_costs` of the pairs (track row g[k], detection db[k]) without gathering them
+    first: zhat (n, 2) [m] and S (n, 2, 2) [m²] per track row, z (M, 2) [m] per detection, var (P,)
+    [m²] per pair (the same bits; compiled: :func:`mjasc.perception.tracking.pair_kernels.gate_terms`)."""
+    d2, det = gate_terms(g, zhat, S, db, z, var)  # (integer indices, float arrays: no conversion per tick)
     return d2, d2 + np.log(det)
 
 

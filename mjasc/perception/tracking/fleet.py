@@ -33,13 +33,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import repeat
 
 import numpy as np
 
-from mjasc.core.estimates import TrackEstimate
+from mjasc.core.estimates import TrackEstimate, track_estimate_rows
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.tracking.association import (
-    block_pairs, gnn_assign_blocks, group_starts, pair_costs, predicted_positions)
+    block_pairs, gnn_assign_blocks, group_starts, indexed_pair_costs, predicted_positions)
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
@@ -210,7 +211,7 @@ class FleetTracker:
                 radius = self.mgmt._radius
                 var_p = var[db] + occ[db] * np.maximum(radius[ta] - rad[db], 0.0) ** 2
                 zhat, S = predicted_positions(*bank.prediction_fields(grouped), t_o[row_pos[grouped]])
-                d2, cost = pair_costs(zhat[gi], S[gi], z[db], var_p)
+                d2, cost = indexed_pair_costs(zhat, S, gi, z, db, var_p)
                 inside = d2 <= self._gate
                 got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
                 claimed |= np.bincount(db[inside], minlength=M) > 0
@@ -361,10 +362,11 @@ class FleetTracker:
         slow = (static | (v < self.config.static_speed_m_s)).tolist()
         # Python values per track in one conversion per field; each track's position and
         # covariance are rows of arrays made for this call (views: no track shares another's).
-        return [TrackEstimate(tid, tk, pk, hk, vk, wk, rk, Pk, sk, mk, self.outline(k) if lk else None)
-                for k, tid, tk, pk, hk, vk, wk, rk, Pk, sk, mk, lk in zip(
-                    rows.tolist(), self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(),
-                    w.tolist(), self.mgmt._radius[rows].tolist(), P, static.tolist(), self.team.members(rows), slow)]
+        k_rows = rows.tolist()
+        outlines = [self.outline(k) if lk else None for k, lk in zip(k_rows, slow)]
+        return track_estimate_rows(self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
+                                   self.mgmt._radius[rows].tolist(), P, static.tolist(), self.team.members(rows),
+                                   outlines, repeat(None, len(k_rows)))
 
     def outline(self, row: int) -> np.ndarray:
         """(k, 2) CCW outline [m] of the track in bank row ``row``

@@ -33,8 +33,8 @@ import math
 
 import numpy as np
 
-from mjasc.perception.tracking.association import block_pairs, group_starts
 from mjasc.perception.tracking.config import TrackingConfig
+from mjasc.perception.tracking.pair_kernels import merge_candidates
 
 __all__ = ["TrackManagement", "MOVED_M"]
 
@@ -194,18 +194,11 @@ class TrackManagement:
         live = np.flatnonzero(~drop)
         if live.size > 1:
             live = live[np.argsort(group[live], kind="stable")]
-            _, first = group_starts(group[live])
-            n_g = np.diff(first, append=live.size)
-            q, i, j, start = block_pairs(n_g, n_g)
-            a, b = live[first[q] + i], live[first[q] + j]
-            later = i < j
-            a, b = a[later], b[later]
-            pa, pb = positions[a], positions[b]
-            dd = np.hypot(pa[:, 0] - pb[:, 0], pa[:, 1] - pb[:, 1])
-            rad = self._radius[rows]
-            close = dd < cfg.merge_fraction * np.maximum(rad[a], rad[b])
+            a, b = merge_candidates(live, np.ascontiguousarray(group[live], dtype=np.int64),
+                                    np.ascontiguousarray(positions, dtype=float), self._radius[rows],
+                                    float(cfg.merge_fraction))
             n_upd = self._n_upd[rows]
-            for a_, b_ in zip(a[close].tolist(), b[close].tolist()):
+            for a_, b_ in zip(a.tolist(), b.tolist()):
                 if drop[a_] or drop[b_]:
                     continue
                 keep, go = (a_, b_) if (conf[a_], n_upd[a_]) >= (conf[b_], n_upd[b_]) else (b_, a_)

@@ -20,6 +20,7 @@ import numpy as np
 
 from mjasc.perception.tracking.association import block_pairs, gnn_assign_blocks
 from mjasc.perception.tracking.config import TrackingConfig
+from mjasc.perception.tracking.pair_kernels import broadcast_distances
 
 __all__ = ["TeamMatcher"]
 
@@ -84,15 +85,15 @@ class TeamMatcher:
         a_start = np.cumsum(n_a) - n_a
         b_start = np.cumsum(n_b) - n_b
         q, i, j, start = block_pairs(n_a, n_b)
-        ai = a_start[q] + i
-        ta, tb_i = c[ai], bsel[b_start[q] + j]
-        x = states[c]  # per confirmed track, then per pair (a track meets every broadcast of its vessel)
+        x = states[c]  # per confirmed track; a track meets every broadcast of its vessel
         vx, vy = x[:, 3] * np.cos(x[:, 2]), x[:, 3] * np.sin(x[:, 2])
-        dtb = t_s[q] - tb[tb_i]
-        pbt = pb[tb_i]
-        dist = np.hypot(x[ai, 0] - vx[ai] * dtb - pbt[:, 0], x[ai, 1] - vy[ai] * dtb - pbt[:, 1])
-        inside = dist <= cfg.team_match_distance_m
+        gate = float(cfg.team_match_distance_m)
+        dist = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, np.ascontiguousarray(t_s, dtype=float),
+                                   tb, pb, (2.0 * gate) ** 2)  # (+inf far outside the gate: never used)
+        inside = dist <= gate
         if not inside.any():
             return
         got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
-        self._team_of[rows[ta[got]]] = np.array([names[k] for k in tb_i[got].tolist()] + [None], dtype=object)[:-1]
+        qg = q[got]
+        ta, tb_i = c[a_start[qg] + i[got]], bsel[b_start[qg] + j[got]]
+        self._team_of[rows[ta]] = np.array([names[k] for k in tb_i.tolist()] + [None], dtype=object)[:-1]

@@ -1,0 +1,97 @@
+"""The per-step work of :meth:`mjasc.physics.hydrodynamics.Hydrodynamics.compute_bound` around its
+one matrix product, as compiled loops over the vessels (all vessels in one call per physics step).
+
+With the feature vector F (module notes in :mod:`mjasc.physics.hydrodynamics`, "MuJoCo
+interface") the force on every hull is ``τ = F·G``. Per vessel n, body frame FLU, planar vectors as
+complex numbers x + iy, a rotation a multiplication by ``e^{∓iψ}``:
+
+:func:`hydro_features` writes F from MuJoCo's joint state and the shaft speeds::
+
+    e^{−iψ} = cos(−ψ) + i sin(−ψ)
+    u + iv   = (ẋ + iẏ)·e^{−iψ}                 body velocity [m/s]
+    ν_c      = (V_c,x + iV_c,y)·e^{−iψ}          current in the body frame [m/s]
+    u_r + iv_r = (u + iv) − ν_c
+    RB       = (∂V_c/∂t + ∇V_c·ṗ)·e^{−iψ}        only when a current rate is given [m/s²]
+    x = (u, v, r, u_r, v_r),  P_ij = x_i·x_j,  A_i = |x_i|·x_i
+    w_k = (v_r + x_k·r) + 0,  CF_k = |w_k|·w_k   cross-flow strips
+    a|a|, a·a                                    per propeller (port, starboard)
+
+:func:`rotate_to_world` writes the world-frame force ``(τ_x + iτ_y)·conj(e^{−iψ})`` and the yaw
+moment as is.
+
+Bits. Each value is the expression numpy evaluated before, in the same order: a complex product
+``a·b`` as numpy's complex multiply rounds it on FMA hardware (x86-64-v3 and later: real part
+``fma(a.re, b.re, −a.im·b.im)``, imaginary part ``fma(a.re, b.im, a.im·b.re)``,
+:func:`mjasc.core.compiled.fma`); ``e^{−iψ}`` as numpy's complex exp of a purely imaginary number
+(``exp(0) = 1`` times cos and sin); the strip velocity as the (1 × 5)·(5 × S) matrix product
+gave it (the exact products by 0 and 1 dropped; the sum starts from +0, so a zero is +0).
+``tests/test_hydro_kernels.py`` keeps the numpy form and checks every output bit for bit.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mjasc.core.compiled import fma, kernel
+
+__all__ = ["hydro_features", "rotate_to_world"]
+
+
+@kernel
+def hydro_features(qpos3, qvel3, activation, current, rate, has_rate, cf_x, F, rot):
+    """Write F (N, 41 + S) and e^{−iψ} as rot (N, 2) [cos, sin] for joint positions qpos3 (N, 3)
+    (x, y, ψ), velocities qvel3 (N, 3) (ẋ, ẏ, ψ̇), world frame; shaft speeds activation (N, 2);
+    the current (N, 2) [m/s] and, when has_rate, its rate (N, 2) [m/s²], world frame; strip
+    positions cf_x (N, S) [m] (module docstring). F's current-rate columns are left as they are
+    without a rate."""
+    n_v = qpos3.shape[0]
+    S = cf_x.shape[1]
+    x = np.empty(5)
+    for n in range(n_v):
+        c = math.cos(-qpos3[n, 2])
+        s = math.sin(-qpos3[n, 2])
+        rot[n, 0] = c
+        rot[n, 1] = s
+        qx, qy = qvel3[n, 0], qvel3[n, 1]
+        u = fma(qx, c, -(qy * s))
+        v = fma(qx, s, qy * c)
+        r = qvel3[n, 2]
+        cx, cy = current[n, 0], current[n, 1]
+        u_r = u - fma(cx, c, -(cy * s))
+        v_r = v - fma(cx, s, cy * c)
+        if has_rate:
+            ax, ay = rate[n, 0], rate[n, 1]
+            F[n, 35 + S] = fma(ax, c, -(ay * s))
+            F[n, 36 + S] = fma(ax, s, ay * c)
+        x[0] = u
+        x[1] = v
+        x[2] = r
+        x[3] = u_r
+        x[4] = v_r
+        for i in range(5):
+            F[n, i] = x[i]
+            for j in range(5):
+                F[n, 5 + 5 * i + j] = x[i] * x[j]
+            F[n, 30 + i] = abs(x[i]) * x[i]
+        for k in range(S):
+            w = (v_r + cf_x[n, k] * r) + 0.0
+            F[n, 35 + k] = abs(w) * w
+        for p in range(2):
+            a = activation[n, p]
+            F[n, 37 + S + p] = abs(a) * a
+            F[n, 39 + S + p] = a * a
+
+
+@kernel
+def rotate_to_world(tau, rot, out):
+    """out (N, 3) ← the body force tau (N, 1, 3) rotated to world axes with conj(rot) (rot: e^{−iψ}
+    as (N, 2) [cos, sin]); the yaw moment as is."""
+    for n in range(tau.shape[0]):
+        c = rot[n, 0]
+        s = -rot[n, 1]
+        tx, ty = tau[n, 0, 0], tau[n, 0, 1]
+        out[n, 0] = fma(tx, c, -(ty * s))
+        out[n, 1] = fma(tx, s, ty * c)
+        out[n, 2] = tau[n, 0, 2]

@@ -1,0 +1,33 @@
+"""track_estimate_rows builds the same TrackEstimate objects as the dataclass constructor."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from mjasc.core.estimates import TrackEstimate, track_estimate_rows
+
+
+def test_rows_equal_constructor():
+    rng = np.random.default_rng(0)
+    pos, P = rng.normal(size=(3, 2)), rng.normal(size=(3, 2, 2))
+    cols = [[0, 1, 7], [1.0, 1.0, 2.5], pos, [0.1, -3.0, 3.14], [0.0, 2.0, 1.0], [0.0, 0.01, -0.02],
+            [1.5, 2.0, 0.5], P, [False, True, False], [None, "b", None], [None, np.zeros((4, 2)), None],
+            [None, None, "team:x"]]
+    got = track_estimate_rows(*cols)
+    ref = [TrackEstimate(*row) for row in zip(*cols)]
+    assert len(got) == 3
+    for g, r in zip(got, ref):
+        assert type(g) is TrackEstimate
+        assert list(vars(g)) == list(vars(r))  # same fields, same order
+        for name, value in vars(r).items():
+            if isinstance(value, np.ndarray):  # (a row of an array given: a view, not a copy)
+                assert np.array_equal(vars(g)[name], value) and np.shares_memory(vars(g)[name], value)
+            else:
+                assert vars(g)[name] is value
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            g.speed_m_s = 1.0
+        assert np.array_equal(g.predict_positions(np.array([2.0, 3.0])), r.predict_positions(np.array([2.0, 3.0])))
+    assert track_estimate_rows(*[[] for _ in cols]) == []
+    with pytest.raises(ValueError, match="columns"):
+        track_estimate_rows(*cols[:-1])
