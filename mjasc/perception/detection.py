@@ -78,6 +78,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
+from mjasc.perception.detection_kernels import cluster_discs
 from mjasc.perception.range_sensor import Scan
 
 __all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "dropout_gap_beams",
@@ -85,8 +86,6 @@ __all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_
            "parse_detection_options",
            "check_detection"]
 
-_REFINE = 2  # Gauss–Newton iterations of the centre
-_DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at its first estimate)
 _OCCLUDER_MARGIN_M = 1.0  # a neighbouring return this much nearer hides the cluster's edge
 _WALL_SIN_TOL = 0.035  # 2°: three returns this straight on neighbouring beams are a wall
 _WALL_STEP_MAX_M = 50.0  # longest step along a grazed wall kept in one object
@@ -255,6 +254,10 @@ class _PerScan:
             if any(x != v for x in col):
                 v = np.array(col, dtype=bool if name == "full" else (np.int64 if isinstance(v, int) else float))
             setattr(self, name, v)
+        #: (S,) arrays of Δθ, edge_lost, min_rad, edge_var, σ_ρ², σ_floor² (detection_kernels.cluster_discs)
+        cols = dict(zip(self._NAMES, zip(*rows)))
+        self.per_scan = tuple(np.array(cols[name], dtype=float)
+                              for name in ("dth", "edge_lost", "min_rad", "edge_var", "sig2", "floor2"))
 
     @classmethod
     def of(cls, scans, configs, noise, dropout) -> "_PerScan":
@@ -344,43 +347,8 @@ def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range
     cs = sid[starts]  # scan of each cluster
 
     origins = scans[0].origin_m if S == 1 else np.array([sc.origin_m for sc in scans], dtype=float)
-    o = origins if S == 1 else origins[cs]
-    pf, pl = P[starts], P[ends]
-    width = np.hypot(*(pl - pf).T)
-    rho_mean = np.add.reduceat(rho, starts) / counts
-    spacing = rho_mean * c.take("dth", cs)
-    r_w = np.maximum(0.5 * (width + spacing * (1.0 + 2.0 * c.take("edge_lost", cs))), c.take("min_rad", cs))
-    mid = 0.5 * (pf + pl)
-    los = mid - o
-    los_n = np.hypot(*los.T)
-    u = los / np.where(los_n > 0, los_n, 1.0)[:, None]
-    rel = P - (o if S == 1 else o[lab])
-    u_l = u[lab]
-    d = rel[:, 0] * u_l[:, 0] + rel[:, 1] * u_l[:, 1]
-    pm = P - mid[lab]
-    y = pm[:, 0] * -u_l[:, 1] + pm[:, 1] * u_l[:, 0]  # along v = (−u_y, u_x)
-    behind = np.sqrt(np.maximum(r_w[lab] ** 2 - y * y, 0.0))
-    wgt = behind + 1e-3 * r_w[lab]  # ∝ cos of the surface angle (edges carry the radius error)
-    D = np.add.reduceat(wgt * (d + behind), starts) / np.add.reduceat(wgt, starts)
-    centres = o + D[:, None] * u
-    for _ in range(_REFINE):  # damped Gauss–Newton on Σ (‖p_i − c‖ − r_w)²
-        dv = centres[lab] - P
-        dist = np.hypot(*dv.T)
-        J = dv / np.maximum(dist, 1e-9)[:, None]
-        e = dist - r_w[lab]
-        a11 = np.add.reduceat(J[:, 0] ** 2, starts) + _DAMP * counts
-        a12 = np.add.reduceat(J[:, 0] * J[:, 1], starts)
-        a22 = np.add.reduceat(J[:, 1] ** 2, starts) + _DAMP * counts
-        g1 = np.add.reduceat(J[:, 0] * e, starts)
-        g2 = np.add.reduceat(J[:, 1] * e, starts)
-        det_ = a11 * a22 - a12 * a12
-        step_c = np.empty_like(centres)
-        step_c[:, 0] = (a22 * g1 - a12 * g2) / det_
-        step_c[:, 1] = (a11 * g2 - a12 * g1) / det_
-        centres = centres - step_c
-    far = np.maximum.reduceat(np.hypot(*(P - centres[lab]).T), starts)
-    radii = np.maximum(r_w, far)
-    var = spacing**2 * (1.0 / 12.0 + c.take("edge_var", cs)) + c.take("sig2", cs) / counts + c.take("floor2", cs)
+    centres, radii, var = cluster_discs(P, rho, starts, counts, cs, np.asarray(origins, dtype=float).reshape(S, 2),
+                                        *c.per_scan)
 
     occluded = _occluded_edges(beams[order], rho, starts, ends, cs, beam_off, c, hit_all, ranges_all)
 
