@@ -6,7 +6,7 @@ damped Gauss–Newton steps on degenerate clusters."""
 import numpy as np
 import pytest
 
-from mjasc.perception.detection_kernels import _DAMP, _REFINE, _pairwise_sum, cluster_discs
+from mjasc.perception.detection_kernels import _DAMP, _REFINE, _pairwise_sum, cluster_discs, kept_detections
 
 
 def _numpy_discs(P, rho, starts, counts, cs, origins, dth, edge_lost, min_rad, edge_var, sig2, floor2):
@@ -104,3 +104,45 @@ def test_pairwise_sum_is_numpys_reduceat(n):
     ref = np.add.reduceat(a[1:], [0])[0], np.add.reduceat(a, starts)[1]
     assert a[1] + _pairwise_sum(a, 2, n + 1) == ref[0]
     assert a[2] + _pairwise_sum(a, 3, n) == ref[1]
+
+
+def _numpy_kept(order, counts, cs, centres, radii, var, occluded, origins, cos_h, sin_h, min_pts, max_tr):
+    """detect_many's numpy form of its last step (per-scan constants as (S,) arrays)."""
+    S, K = origins.shape[0], order.size
+    lab = np.repeat(np.arange(counts.size), counts)
+    keep = counts >= min_pts[cs]
+    det_off = np.zeros(S + 1, dtype=np.int64)
+    np.cumsum(np.bincount(cs[keep], minlength=S), out=det_off[1:])
+    new_index = np.cumsum(keep) - 1
+    new_index -= det_off[cs]
+    labels = np.full(K, -1)
+    labels[order] = np.where(keep[lab], new_index[lab], -1)
+    centres, radii, var, counts, occluded, cs = (a[keep] for a in (centres, radii, var, counts, occluded, cs))
+    rel_c = centres - origins[cs]
+    ch, sh = cos_h[cs], sin_h[cs]
+    body = np.empty_like(rel_c)
+    body[:, 0] = ch * rel_c[:, 0] + sh * rel_c[:, 1]
+    body[:, 1] = -sh * rel_c[:, 0] + ch * rel_c[:, 1]
+    return centres, body, radii, var, counts, np.hypot(*rel_c.T), radii > max_tr[cs], occluded, labels, det_off
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_kept_detections_equal_the_numpy_form(seed):
+    rng = np.random.default_rng(seed)
+    P, rho, starts, counts, cs, origins, *_ = _clusters(rng)
+    S, m, K = origins.shape[0], counts.size, P.shape[0]
+    order = np.concatenate([s + rng.permutation(n) for s, n in zip(starts, counts)])  # a rotation stands in
+    centres = rng.uniform(-100.0, 100.0, (m, 2))
+    centres[rng.random(m) < 0.1] = np.nan
+    radii, var = rng.uniform(0.0, 12.0, m), rng.uniform(0.0, 1.0, m)
+    occluded = rng.random(m) < 0.3
+    heading = rng.uniform(-4.0, 4.0, S)
+    cos_h, sin_h = np.array([np.cos(h) for h in heading]), np.array([np.sin(h) for h in heading])
+    min_pts = rng.integers(1, 4, S).astype(np.int64)
+    max_tr = rng.choice([2.0, 8.0], S)
+    args = (order, counts, cs, centres, radii, var, occluded, origins, cos_h, sin_h, min_pts, max_tr)
+    want = _numpy_kept(*args)
+    got = kept_detections(*args)
+    assert K == order.size
+    for a, b in zip(got, want):
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()

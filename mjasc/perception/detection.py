@@ -81,7 +81,7 @@ import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 from mjasc.perception.cluster_kernels import cluster_order, occluded_edges
-from mjasc.perception.detection_kernels import cluster_discs
+from mjasc.perception.detection_kernels import cluster_discs, kept_detections
 from mjasc.perception.range_sensor import Scan
 
 __all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "dropout_gap_beams",
@@ -229,11 +229,11 @@ _PER_SCAN_CACHE: dict = {}  # _PerScan.of: (configs, constants) per combination 
 
 
 class _PerScan:
-    """Per-scan constants (beams, beam spacing, full circle, d₀, λ, gap + 1, min points, min radius,
-    max target radius, σ_ρ, σ_ρ², σ_floor², mean and variance of the beams lost beyond each edge;
-    squares as Python floats): each a Python scalar when
-    every scan shares it (the usual fleet: one sensor and config), else an (S,) array;
-    ``take(name, index)`` gives it per return or per cluster."""
+    """Per-scan constants, each an (S,) array (squares computed in Python floats), grouped as the
+    compiled steps take them: ``cluster_scan`` (beams, d₀, λ, beam spacing Δθ, gap bridged + 1, σ_ρ,
+    full circle), ``per_scan`` (Δθ, mean and variance of the beams lost beyond each edge, min radius,
+    σ_ρ², σ_floor²), ``keep_scan`` (min points, max target radius) and ``beam_off`` (S + 1,), the
+    offsets of the scans' beams when stacked."""
 
     _NAMES = ("n_beams", "dth", "full", "d0", "lam", "gap_max", "min_pts", "min_rad", "max_tr", "sig", "sig2", "floor2",
               "edge_lost", "edge_var")
@@ -244,20 +244,13 @@ class _PerScan:
                      c.min_points, c.min_radius_m, c.max_target_radius_m, float(sig), float(sig) ** 2,
                      c.centre_noise_floor_m ** 2, p / (1.0 - p), p / (1.0 - p) ** 2)
                 for g, c, sig, p in zip(rows, configs, noise, (float(x) for x in dropout))]
-        for name, col in zip(self._NAMES, zip(*rows)):
-            v = col[0]
-            if any(x != v for x in col):
-                v = np.array(col, dtype=bool if name == "full" else (np.int64 if isinstance(v, int) else float))
-            setattr(self, name, v)
-        #: (S,) arrays of Δθ, edge_lost, min_rad, edge_var, σ_ρ², σ_floor² (detection_kernels.cluster_discs)
         cols = dict(zip(self._NAMES, zip(*rows)))
-        self.per_scan = tuple(np.array(cols[name], dtype=float)
-                              for name in ("dth", "edge_lost", "min_rad", "edge_var", "sig2", "floor2"))
-        #: (S,) arrays of beams, d₀, λ, Δθ, gap + 1, σ_ρ, full circle (cluster_kernels.cluster_order)
         self.cluster_scan = tuple(np.array(cols[name], dtype=t) for name, t in (
             ("n_beams", np.int64), ("d0", float), ("lam", float), ("dth", float), ("gap_max", np.int64),
             ("sig", float), ("full", bool)))
-        #: (S + 1,) offsets of the scans' beams when stacked
+        self.per_scan = tuple(np.array(cols[name], dtype=float)
+                              for name in ("dth", "edge_lost", "min_rad", "edge_var", "sig2", "floor2"))
+        self.keep_scan = (np.array(cols["min_pts"], dtype=np.int64), np.array(cols["max_tr"], dtype=float))
         self.beam_off = np.zeros(len(rows) + 1, dtype=np.int64)
         np.cumsum(self.cluster_scan[0], out=self.beam_off[1:])
 
@@ -274,14 +267,6 @@ class _PerScan:
                 _PER_SCAN_CACHE.clear()
             got = _PER_SCAN_CACHE[key] = (tuple(configs), cls(scans, configs, noise, dropout))
         return got[1]
-
-    def take(self, name: str, index):
-        v = getattr(self, name)
-        return v[index] if isinstance(v, np.ndarray) else v
-
-    def array(self, name: str, S: int) -> np.ndarray:
-        v = getattr(self, name)
-        return v if isinstance(v, np.ndarray) else np.full(S, v)
 
 
 def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range_noise_std_m: Sequence[float],
@@ -315,33 +300,16 @@ def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range
     order, starts, counts, cs = cluster_order(beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sig, full)
     P = P[order]
     rho = rho[order]
-    lab = np.repeat(np.arange(starts.size), counts)
-
-    origins = scans[0].origin_m if S == 1 else np.array([sc.origin_m for sc in scans], dtype=float)
-    centres, radii, var = cluster_discs(P, rho, starts, counts, cs, np.asarray(origins, dtype=float).reshape(S, 2),
-                                        *c.per_scan)
+    if S == 1:
+        origins = np.asarray(scans[0].origin_m, dtype=float).reshape(1, 2)
+    else:
+        origins = np.array([sc.origin_m for sc in scans], dtype=float)
+    centres, radii, var = cluster_discs(P, rho, starts, counts, cs, origins, *c.per_scan)
     occluded = occluded_edges(beams[order], rho, starts, counts, cs, c.beam_off, n_beams, gap, full, hit_all,
                               ranges_all)
-
-    keep = counts >= c.take("min_pts", cs)
-    det_off = np.zeros(S + 1, dtype=np.int64)
-    np.cumsum(np.bincount(cs[keep], minlength=S), out=det_off[1:])
-    new_index = np.cumsum(keep) - 1
-    if S > 1:
-        new_index -= det_off[cs]  # index among the kept clusters of its scan
-    labels = np.full(K, -1)
-    labels[order] = np.where(keep[lab], new_index[lab], -1)
-    centres, radii, var, counts, occluded, cs = (a[keep] for a in (centres, radii, var, counts, occluded, cs))
-    if S == 1:
-        rel_c = centres - origins
-        cos_h, sin_h = math.cos(scans[0].heading_rad), math.sin(scans[0].heading_rad)
-    else:
-        rel_c = centres - origins[cs]
-        heading = [sc.heading_rad for sc in scans]
-        cos_h = np.array([math.cos(h) for h in heading])[cs]
-        sin_h = np.array([math.sin(h) for h in heading])[cs]
-    body = np.empty_like(rel_c)
-    body[:, 0] = cos_h * rel_c[:, 0] + sin_h * rel_c[:, 1]
-    body[:, 1] = -sin_h * rel_c[:, 0] + cos_h * rel_c[:, 1]
-    return DetectionBatch(scans, centres, body, radii, var, counts, np.hypot(*rel_c.T), radii > c.take("max_tr", cs),
-                          occluded, labels, det_off, ret_off)
+    cos_h = np.array([math.cos(sc.heading_rad) for sc in scans])
+    sin_h = np.array([math.sin(sc.heading_rad) for sc in scans])
+    centres, body, radii, var, counts, ranges, extended, occluded, labels, det_off = kept_detections(
+        order, counts, cs, centres, radii, var, occluded, origins, cos_h, sin_h, *c.keep_scan)
+    return DetectionBatch(scans, centres, body, radii, var, counts, ranges, extended, occluded, labels, det_off,
+                          ret_off)

@@ -30,7 +30,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["cluster_discs"]
+__all__ = ["cluster_discs", "kept_detections"]
 
 _REFINE = 2  # Gauss–Newton iterations of the centre
 _DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at its first estimate)
@@ -153,3 +153,59 @@ def cluster_discs(P, rho, starts, counts, cs, origins, dth, edge_lost, min_rad, 
         radii[c] = _maximum(r_w, far)
         var[c] = spacing * spacing * (1.0 / 12.0 + edge_var[q]) + sig2[q] / n + floor2[q]
     return centres, radii, var
+
+
+@kernel
+def kept_detections(order, counts, cs, centres, radii, var, occluded, origins, cos_h, sin_h, min_pts, max_radius_m):
+    """The clusters with at least ``min_pts[scan]`` returns become detections (scans' order kept):
+    their centres (d, 2) [m] world and body frame (x forward, y to port: ``(c·x + s·y, −s·x + c·y)``
+    of the centre relative to the sensor, c, s the cosine and sine of the scan's heading), radii,
+    variances, return counts, ranges ``‖centre − origin‖`` [m], extended (radius > ``max_radius_m``),
+    occluded; the offsets (S + 1,) of each scan's detections; and each return's detection index
+    within its scan (K,) (−1: its cluster was dropped), returns indexed before ``order``. Per
+    scan (S,): ``origins`` (S, 2), ``cos_h``, ``sin_h``, ``min_pts``, ``max_radius_m``."""
+    m = counts.shape[0]
+    S = origins.shape[0]
+    K = order.shape[0]
+    det_off = np.zeros(S + 1, dtype=np.int64)
+    new_index = np.full(m, -1, dtype=np.int64)
+    d = 0
+    for c in range(m):
+        if counts[c] >= min_pts[cs[c]]:
+            new_index[c] = d
+            d += 1
+            det_off[cs[c] + 1] += 1
+    for s in range(S):
+        det_off[s + 1] += det_off[s]
+    labels = np.full(K, -1, dtype=np.int64)
+    at = 0
+    for c in range(m):
+        n = counts[c]
+        if new_index[c] >= 0:
+            local = new_index[c] - det_off[cs[c]]  # index among the kept clusters of its scan
+            for i in range(at, at + n):
+                labels[order[i]] = local
+        at += n
+    cen = np.empty((d, 2))
+    body = np.empty((d, 2))
+    rad = np.empty(d)
+    vr = np.empty(d)
+    cnt = np.empty(d, dtype=np.int64)
+    rng = np.empty(d)
+    ext = np.empty(d, dtype=np.bool_)
+    occ = np.empty(d, dtype=np.bool_)
+    for c in range(m):
+        k = new_index[c]
+        if k < 0:
+            continue
+        s = cs[c]
+        cx, cy = centres[c, 0], centres[c, 1]
+        rx, ry = cx - origins[s, 0], cy - origins[s, 1]
+        ch, sh = cos_h[s], sin_h[s]
+        cen[k, 0], cen[k, 1] = cx, cy
+        body[k, 0] = ch * rx + sh * ry
+        body[k, 1] = -sh * rx + ch * ry
+        rad[k], vr[k], cnt[k], occ[k] = radii[c], var[c], counts[c], occluded[c]
+        rng[k] = math.hypot(rx, ry)
+        ext[k] = radii[c] > max_radius_m[s]
+    return cen, body, rad, vr, cnt, rng, ext, occ, labels, det_off
