@@ -40,13 +40,10 @@ import numpy as np
 
 from mjasc.core.config_tables import check_params, param
 from mjasc.perception.carve_kernels import cells_in_reach, cells_seen_through
+from mjasc.perception.cell_keys import IJ_BITS, IJ_HALF, MEMBER_SHIFT, find_rows, point_keys
 from mjasc.perception.map_polygons import PolygonCache
 
 __all__ = ["StaticMap", "StaticMapConfig", "StaticMapStore"]
-
-_IJ_BITS = 24  # cell indices i, j in [−2²³, 2²³) (±8,388 km at 1 m cells); members < 2¹⁵
-_IJ_HALF = 1 << (_IJ_BITS - 1)
-_MEMBER_SHIFT = 2 * _IJ_BITS
 
 
 @dataclass(frozen=True)
@@ -75,10 +72,10 @@ class StaticMapConfig:
 
 def _cell_keys(member: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """(k,) int64 keys of cells (k, 2) of members (k,), ordered like (member, i, j)."""
-    if cells.size and (cells.min() < -_IJ_HALF or cells.max() >= _IJ_HALF):
-        raise ValueError(f"points_world: a cell index beyond ±{_IJ_HALF} cells (a position of "
+    if cells.size and (cells.min() < -IJ_HALF or cells.max() >= IJ_HALF):
+        raise ValueError(f"points_world: a cell index beyond ±{IJ_HALF} cells (a position of "
                          f"{np.abs(cells).max()} cells from the origin)")
-    return ((member << _MEMBER_SHIFT) | ((cells[:, 0] + _IJ_HALF) << _IJ_BITS)) | (cells[:, 1] + _IJ_HALF)
+    return ((member << MEMBER_SHIFT) | ((cells[:, 0] + IJ_HALF) << IJ_BITS)) | (cells[:, 1] + IJ_HALF)
 
 
 class StaticMapStore:
@@ -120,18 +117,21 @@ class StaticMapStore:
     def _cells_of(self, member: np.ndarray, points: np.ndarray) -> np.ndarray:
         return np.floor(points / self._cell_m[member][:, None]).astype(np.int64)
 
+    def _keys_of(self, member: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """(k,) int64 keys of the cells of points (k, 2) [m] of members (k,) (:mod:`mjasc.perception.cell_keys`)."""
+        keys, ok = point_keys(member, points, self._cell_m)
+        if not ok:  # a cell index out of range (or a point not finite): the one-line error
+            return _cell_keys(member, self._cells_of(member, points))
+        return keys
+
     def _find(self, keys: np.ndarray) -> np.ndarray:
         """(k,) rows of keys (−1: no such row)."""
-        ks = self._keys
-        if ks.size == 0:
-            return np.full(keys.shape, -1, dtype=np.int64)
-        pos = np.minimum(np.searchsorted(ks, keys), ks.size - 1)
-        return np.where(ks[pos] == keys, self._key_rows[pos], -1)
+        return find_rows(keys, self._keys, self._key_rows)
 
-    def _rows(self, member: np.ndarray, cells: np.ndarray) -> np.ndarray:
-        """Rows of the distinct (member, cell) pairs given, in key order, created (score 0) where
+    def _rows(self, keys: np.ndarray) -> np.ndarray:
+        """Rows of the distinct (member, cell) keys given, in key order, created (score 0) where
         missing (new rows in key order)."""
-        keys = np.unique(_cell_keys(member, cells))
+        keys = np.unique(keys)
         rows = self._find(keys)
         new = rows < 0
         if new.any():
@@ -143,9 +143,9 @@ class StaticMapStore:
                 self._member = np.resize(self._member, size)
                 self._score = np.resize(self._score, size)
             created = np.arange(n, n + k)
-            self._cells[created] = np.stack([((nk >> _IJ_BITS) & ((1 << _IJ_BITS) - 1)) - _IJ_HALF,
-                                             (nk & ((1 << _IJ_BITS) - 1)) - _IJ_HALF], axis=-1)
-            self._member[created] = nk >> _MEMBER_SHIFT
+            self._cells[created] = np.stack([((nk >> IJ_BITS) & ((1 << IJ_BITS) - 1)) - IJ_HALF,
+                                             (nk & ((1 << IJ_BITS) - 1)) - IJ_HALF], axis=-1)
+            self._member[created] = nk >> MEMBER_SHIFT
             self._score[created] = 0.0
             at = np.searchsorted(self._keys, nk)
             self._keys = np.insert(self._keys, at, nk)
@@ -176,7 +176,7 @@ class StaticMapStore:
         if p.shape[0] == 0:
             return
         member = np.asarray(member, dtype=np.int64)
-        rows = self._rows(member, self._cells_of(member, p))
+        rows = self._rows(self._keys_of(member, p))
         self._set_scores(rows, np.minimum(self._score[rows] + 1.0, self._cap[self._member[rows]]))
 
     def carve(self, members: Sequence[int], origins_m, beam_angles_world: Sequence[np.ndarray],
@@ -216,7 +216,7 @@ class StaticMapStore:
         if free.any() and sum(p.shape[0] for p in pts):
             pm = np.concatenate([np.full(np.asarray(p).reshape(-1, 2).shape[0], int(m), dtype=np.int64)
                                  for m, p in zip(members, hit_points_world) if p is not None])
-            now = self._find(_cell_keys(pm, self._cells_of(pm, np.concatenate(pts))))
+            now = self._find(self._keys_of(pm, np.concatenate(pts)))
             hit_now = np.zeros(n, dtype=bool)  # cells with a return in this scan stay
             hit_now[now[now >= 0]] = True
             free &= ~hit_now[rows]
@@ -233,7 +233,7 @@ class StaticMapStore:
         if self._n == 0:
             return np.zeros(p.shape[0], dtype=bool)
         member = np.asarray(member, dtype=np.int64)
-        rows = self._find(_cell_keys(member, self._cells_of(member, p)))
+        rows = self._find(self._keys_of(member, p))
         safe = np.maximum(rows, 0)
         return (rows >= 0) & (self._score[safe] >= self._min_hits[self._member[safe]])
 
