@@ -1,6 +1,7 @@
-"""The compiled point-in-owned-disc loop (mjasc.perception.owned_discs, behind
-mjasc.perception.fleet.inside_owned) against the numpy form it replaced (kept here as the
-reference): random owners with and without points or discs, points on a disc's rim, NaN points."""
+"""The compiled point-in-disc loops (mjasc.perception.owned_discs, behind
+mjasc.perception.fleet.inside_owned and pipeline._inside) against the numpy forms they replaced
+(kept here as the reference): random owners with and without points or discs, points on a disc's
+rim, NaN points."""
 
 import numpy as np
 import pytest
@@ -40,4 +41,27 @@ def test_inside_owned_equals_the_numpy_form(seed):
             points[rng.integers(0, points.shape[0])] = np.nan
     want = _numpy_inside_owned(points, point_owner, centres, radii, disc_owner)
     got = inside_owned(points, point_owner, centres, radii, disc_owner)
+    assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+
+
+def _numpy_inside(p, centres, radii):
+    """pipeline._inside's numpy form (one owner)."""
+    if p.shape[0] == 0 or centres.shape[0] == 0:
+        return np.zeros(p.shape[0], dtype=bool)
+    d2 = ((p[:, None, :] - centres[None, :, :]) ** 2).sum(-1)
+    return (d2 <= radii[None, :] ** 2).any(axis=1)
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_inside_discs_equals_the_numpy_form(seed):
+    from mjasc.perception.pipeline import _inside
+
+    rng = np.random.default_rng(seed)
+    points = rng.uniform(-30.0, 30.0, (int(rng.integers(0, 100)), 2))
+    q = int(rng.integers(0, 6))
+    centres, radii = rng.uniform(-30.0, 30.0, (q, 2)), rng.uniform(0.0, 15.0, q)
+    if points.shape[0] and q:
+        points[0] = centres[-1] - (0.0, radii[-1])  # on a rim
+        points[-1] = np.nan
+    got, want = _inside(points, centres, radii), _numpy_inside(points, centres, radii)
     assert got.dtype == want.dtype and got.tobytes() == want.tobytes()

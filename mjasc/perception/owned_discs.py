@@ -16,7 +16,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["inside_owned_discs"]
+__all__ = ["inside_owned_discs", "inside_discs"]
 
 
 @kernel
@@ -47,4 +47,21 @@ def inside_owned_discs(points, point_owner, centres, radii, disc_owner):
                     break
         sp += n_p[q]
         sd += n_d[q]
+    return out
+
+
+@kernel
+def inside_discs(points, centres, radii):
+    """(k,) bool: point k of ``points`` (k, 2) [m] lies in one of the discs ``centres`` (q, 2) [m] /
+    ``radii`` (q,) [m] (every point and disc of one owner)."""
+    k = points.shape[0]
+    out = np.zeros(k, dtype=np.bool_)
+    for a in range(k):
+        px, py = points[a, 0], points[a, 1]
+        for b in range(centres.shape[0]):
+            dx, dy = px - centres[b, 0], py - centres[b, 1]
+            r = radii[b]
+            if dx * dx + dy * dy <= r * r:
+                out[a] = True
+                break
     return out
