@@ -20,6 +20,9 @@ reference), evaluated in the same order, so the results are bit-identical to it:
 cluster is what ``np.add.reduceat`` computes — the first term plus numpy's pairwise sum of the rest
 (:func:`_pairwise_sum`, numpy's ``pairwise_sum``: blocks of 8 partial sums up to 128 terms, halves
 above) — and ``max`` propagates NaN as ``np.maximum`` does.
+
+:func:`kept_detections` then keeps the clusters with enough returns, in order, with their centres
+in the sensor's body frame, ranges, extended flags and each return's label within its scan.
 """
 
 from __future__ import annotations

@@ -22,7 +22,7 @@ once the boat has moved on, and vanish from the map.
 (:mod:`mjasc.perception.map_polygons`), only when asked and the map changed since the last call.
 
 **One table for a fleet.** :class:`StaticMapStore` holds the maps of many vessels in one table of
-cells keyed by (member, i, j) (packed into one int64, looked up with ``np.searchsorted`` in a sorted
+cells keyed by (member, i, j) (packed into one int64, looked up by binary search in a sorted
 copy of the keys): one call adds the static returns of every vessel's scan, one call carves the
 free space seen by every vessel's fan, one call answers "is this return on a mapped cell" for all
 returns of a tick. :class:`StaticMap` is one vessel's view of a store (a map built on its own is
