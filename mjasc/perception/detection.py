@@ -62,11 +62,13 @@ is not a target: it is flagged ``extended`` and its returns go to the static map
 (:mod:`mjasc.perception.static_map`), not to the tracker.
 
 **Many scans at once.** :func:`detect_many` takes the scans of a whole fleet's tick (their returns
-stacked, each with its scan's index; per-scan parameters as arrays): the cyclic neighbours, breaks,
-the rotation that starts each fan after a break, the clusters and every per-cluster sum
-(``np.add.reduceat``) run once over all returns. Every step is per return, per cluster or a
-reduction within one cluster, so each scan's detections are the same bits as when it is detected
-alone (:func:`detect` is :func:`detect_many` of one scan). No Python loop over clusters or returns.
+stacked, each with its scan's index; per-scan parameters as (S,) arrays) and runs each step once
+over all returns, in compiled loops: the cyclic neighbours, breaks, the rotation that starts each
+fan after a break, the clusters and hidden edges (:mod:`mjasc.perception.cluster_kernels`), then
+every cluster's disc (:mod:`mjasc.perception.detection_kernels`, sums in ``np.add.reduceat``'s
+order). Every step is per return, per cluster or a reduction within one cluster, so each scan's
+detections are the same bits as when it is detected alone (:func:`detect` is :func:`detect_many`
+of one scan).
 """
 
 from __future__ import annotations
@@ -78,6 +80,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
+from mjasc.perception.cluster_kernels import cluster_order, occluded_edges
+from mjasc.perception.detection_kernels import cluster_discs, kept_detections
 from mjasc.perception.range_sensor import Scan
 
 __all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "dropout_gap_beams",
@@ -85,16 +89,6 @@ __all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_
            "parse_detection_options",
            "check_detection"]
 
-_REFINE = 2  # Gauss–Newton iterations of the centre
-_DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at its first estimate)
-_OCCLUDER_MARGIN_M = 1.0  # a neighbouring return this much nearer hides the cluster's edge
-_WALL_SIN_TOL = 0.035  # 2°: three returns this straight on neighbouring beams are a wall
-_WALL_STEP_MAX_M = 50.0  # longest step along a grazed wall kept in one object
-#: Neighbouring beams hit a straight wall at spacings h·sin Δθ / (sin φ_k sin φ_k+1) (h the wall's
-#: distance, φ_k the beam's angle to the wall), so successive spacings differ by the factor
-#: sin φ_k / sin φ_k+2: at most 5 while φ ≥ Δθ/2. A long step after (or before) a short one is
-#: not the same wall: it is the jump from another object's edge onto a wall behind it.
-_WALL_STEP_RATIO = 5.0
 #: A run of lost returns this unlikely (at one place inside an object) may split it in two.
 SPLIT_PROBABILITY = 0.005
 
@@ -235,11 +229,11 @@ _PER_SCAN_CACHE: dict = {}  # _PerScan.of: (configs, constants) per combination 
 
 
 class _PerScan:
-    """Per-scan constants (beams, beam spacing, full circle, d₀, λ, gap + 1, min points, min radius,
-    max target radius, σ_ρ, σ_ρ², σ_floor², mean and variance of the beams lost beyond each edge;
-    squares as Python floats): each a Python scalar when
-    every scan shares it (the usual fleet: one sensor and config), else an (S,) array;
-    ``take(name, index)`` gives it per return or per cluster."""
+    """Per-scan constants, each an (S,) array (squares computed in Python floats), grouped as the
+    compiled steps take them: ``cluster_scan`` (beams, d₀, λ, beam spacing Δθ, gap bridged + 1, σ_ρ,
+    full circle), ``per_scan`` (Δθ, mean and variance of the beams lost beyond each edge, min radius,
+    σ_ρ², σ_floor²), ``keep_scan`` (min points, max target radius) and ``beam_off`` (S + 1,), the
+    offsets of the scans' beams when stacked."""
 
     _NAMES = ("n_beams", "dth", "full", "d0", "lam", "gap_max", "min_pts", "min_rad", "max_tr", "sig", "sig2", "floor2",
               "edge_lost", "edge_var")
@@ -250,11 +244,15 @@ class _PerScan:
                      c.min_points, c.min_radius_m, c.max_target_radius_m, float(sig), float(sig) ** 2,
                      c.centre_noise_floor_m ** 2, p / (1.0 - p), p / (1.0 - p) ** 2)
                 for g, c, sig, p in zip(rows, configs, noise, (float(x) for x in dropout))]
-        for name, col in zip(self._NAMES, zip(*rows)):
-            v = col[0]
-            if any(x != v for x in col):
-                v = np.array(col, dtype=bool if name == "full" else (np.int64 if isinstance(v, int) else float))
-            setattr(self, name, v)
+        cols = dict(zip(self._NAMES, zip(*rows)))
+        self.cluster_scan = tuple(np.array(cols[name], dtype=t) for name, t in (
+            ("n_beams", np.int64), ("d0", float), ("lam", float), ("dth", float), ("gap_max", np.int64),
+            ("sig", float), ("full", bool)))
+        self.per_scan = tuple(np.array(cols[name], dtype=float)
+                              for name in ("dth", "edge_lost", "min_rad", "edge_var", "sig2", "floor2"))
+        self.keep_scan = (np.array(cols["min_pts"], dtype=np.int64), np.array(cols["max_tr"], dtype=float))
+        self.beam_off = np.zeros(len(rows) + 1, dtype=np.int64)
+        np.cumsum(self.cluster_scan[0], out=self.beam_off[1:])
 
     @classmethod
     def of(cls, scans, configs, noise, dropout) -> "_PerScan":
@@ -269,14 +267,6 @@ class _PerScan:
                 _PER_SCAN_CACHE.clear()
             got = _PER_SCAN_CACHE[key] = (tuple(configs), cls(scans, configs, noise, dropout))
         return got[1]
-
-    def take(self, name: str, index):
-        v = getattr(self, name)
-        return v[index] if isinstance(v, np.ndarray) else v
-
-    def array(self, name: str, S: int) -> np.ndarray:
-        v = getattr(self, name)
-        return v if isinstance(v, np.ndarray) else np.full(S, v)
 
 
 def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range_noise_std_m: Sequence[float],
@@ -296,168 +286,30 @@ def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range
         return DetectionBatch(scans, z2, z2.copy(), z1, z1.copy(), np.zeros(0, dtype=np.int64), z1.copy(),
                               np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), np.full(0, -1),
                               np.zeros(S + 1, dtype=np.int64), ret_off)
-    idx = np.arange(K)
     if S == 1:
         sc = scans[0]
-        sid, beams, P, hit_all, ranges_all = np.zeros(K, dtype=np.int64), sc.hit_beams, sc.hit_points_world, sc.hit, sc.ranges
-        beam_off = np.zeros(2, dtype=np.int64)
+        beams, P, hit_all, ranges_all = sc.hit_beams, sc.hit_points_world, sc.hit, sc.ranges
         rho = ranges_all[beams]
-        first, last, local, k_r = 0, K - 1, idx, K
     else:
-        beam_off = np.zeros(S + 1, dtype=np.int64)
-        np.cumsum(c.array("n_beams", S), out=beam_off[1:])
-        sid = np.repeat(np.arange(S), k_s)
         beams = np.concatenate([sc.hit_beams for sc in scans])
         P = np.concatenate([sc.hit_points_world for sc in scans])
         hit_all = np.concatenate([sc.hit for sc in scans])
         ranges_all = np.concatenate([sc.ranges for sc in scans])
-        rho = ranges_all[beam_off[sid] + beams]
-        first, last = ret_off[sid], ret_off[sid + 1] - 1
-        local, k_r = idx - first, k_s[sid]
-    at_last = idx == last
-    # cyclic breaks: brk[i] is the break between return i and the next one of its scan (cyclic)
-    nxt = np.where(at_last, first, idx + 1)
-    gaps = beams[nxt] - beams + np.where(at_last, c.take("n_beams", sid), 0)
-    step = np.hypot(*(P[nxt] - P).T)
-    thr = c.take("d0", sid) + c.take("lam", sid) * np.minimum(rho, rho[nxt]) * gaps * c.take("dth", sid)
-    brk = (gaps > c.take("gap_max", sid)) | (step > thr)
-    if (K >= 3 if S == 1 else (k_s >= 3).any()) and brk.any():
-        prv = np.where(local == 0, last, idx - 1)
-        wall = _wall_continues(P, gaps, step, nxt, prv, c.take("sig", sid), c.take("gap_max", sid))
-        brk &= ~(wall if S == 1 else wall & (k_r >= 3))
-    full = c.take("full", sid)
-    brk |= at_last & ~np.logical_and(full, k_r > 1)
-    # each scan's sequence starts just after its first break (none: in beam order)
-    bi = np.append(np.flatnonzero(brk), K)
-    first_brk = bi[np.searchsorted(bi, ret_off[:-1])]
-    shift = np.where(first_brk < ret_off[1:], first_brk - ret_off[:-1] + 1, 0)
-    order = first + (local + shift[sid]) % k_r
-    brk = brk[order]
+        rho = ranges_all[np.repeat(c.beam_off[:-1], k_s) + beams]
+    n_beams, d0, lam, dth, gap, sig, full = c.cluster_scan
+    order, starts, counts, cs = cluster_order(beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sig, full)
     P = P[order]
     rho = rho[order]
-    is_start = local == 0
-    is_start[1:] |= brk[:-1]
-    starts = np.flatnonzero(is_start)
-    counts = np.diff(np.append(starts, K))
-    lab = np.repeat(np.arange(starts.size), counts)
-    ends = starts + counts - 1
-    cs = sid[starts]  # scan of each cluster
-
-    origins = scans[0].origin_m if S == 1 else np.array([sc.origin_m for sc in scans], dtype=float)
-    o = origins if S == 1 else origins[cs]
-    pf, pl = P[starts], P[ends]
-    width = np.hypot(*(pl - pf).T)
-    rho_mean = np.add.reduceat(rho, starts) / counts
-    spacing = rho_mean * c.take("dth", cs)
-    r_w = np.maximum(0.5 * (width + spacing * (1.0 + 2.0 * c.take("edge_lost", cs))), c.take("min_rad", cs))
-    mid = 0.5 * (pf + pl)
-    los = mid - o
-    los_n = np.hypot(*los.T)
-    u = los / np.where(los_n > 0, los_n, 1.0)[:, None]
-    rel = P - (o if S == 1 else o[lab])
-    u_l = u[lab]
-    d = rel[:, 0] * u_l[:, 0] + rel[:, 1] * u_l[:, 1]
-    pm = P - mid[lab]
-    y = pm[:, 0] * -u_l[:, 1] + pm[:, 1] * u_l[:, 0]  # along v = (−u_y, u_x)
-    behind = np.sqrt(np.maximum(r_w[lab] ** 2 - y * y, 0.0))
-    wgt = behind + 1e-3 * r_w[lab]  # ∝ cos of the surface angle (edges carry the radius error)
-    D = np.add.reduceat(wgt * (d + behind), starts) / np.add.reduceat(wgt, starts)
-    centres = o + D[:, None] * u
-    for _ in range(_REFINE):  # damped Gauss–Newton on Σ (‖p_i − c‖ − r_w)²
-        dv = centres[lab] - P
-        dist = np.hypot(*dv.T)
-        J = dv / np.maximum(dist, 1e-9)[:, None]
-        e = dist - r_w[lab]
-        a11 = np.add.reduceat(J[:, 0] ** 2, starts) + _DAMP * counts
-        a12 = np.add.reduceat(J[:, 0] * J[:, 1], starts)
-        a22 = np.add.reduceat(J[:, 1] ** 2, starts) + _DAMP * counts
-        g1 = np.add.reduceat(J[:, 0] * e, starts)
-        g2 = np.add.reduceat(J[:, 1] * e, starts)
-        det_ = a11 * a22 - a12 * a12
-        step_c = np.empty_like(centres)
-        step_c[:, 0] = (a22 * g1 - a12 * g2) / det_
-        step_c[:, 1] = (a11 * g2 - a12 * g1) / det_
-        centres = centres - step_c
-    far = np.maximum.reduceat(np.hypot(*(P - centres[lab]).T), starts)
-    radii = np.maximum(r_w, far)
-    var = spacing**2 * (1.0 / 12.0 + c.take("edge_var", cs)) + c.take("sig2", cs) / counts + c.take("floor2", cs)
-
-    occluded = _occluded_edges(beams[order], rho, starts, ends, cs, beam_off, c, hit_all, ranges_all)
-
-    keep = counts >= c.take("min_pts", cs)
-    det_off = np.zeros(S + 1, dtype=np.int64)
-    np.cumsum(np.bincount(cs[keep], minlength=S), out=det_off[1:])
-    new_index = np.cumsum(keep) - 1
-    if S > 1:
-        new_index -= det_off[cs]  # index among the kept clusters of its scan
-    labels = np.full(K, -1)
-    labels[order] = np.where(keep[lab], new_index[lab], -1)
-    centres, radii, var, counts, occluded, cs = (a[keep] for a in (centres, radii, var, counts, occluded, cs))
     if S == 1:
-        rel_c = centres - origins
-        cos_h, sin_h = math.cos(scans[0].heading_rad), math.sin(scans[0].heading_rad)
+        origins = np.asarray(scans[0].origin_m, dtype=float).reshape(1, 2)
     else:
-        rel_c = centres - origins[cs]
-        heading = [sc.heading_rad for sc in scans]
-        cos_h = np.array([math.cos(h) for h in heading])[cs]
-        sin_h = np.array([math.sin(h) for h in heading])[cs]
-    body = np.empty_like(rel_c)
-    body[:, 0] = cos_h * rel_c[:, 0] + sin_h * rel_c[:, 1]
-    body[:, 1] = -sin_h * rel_c[:, 0] + cos_h * rel_c[:, 1]
-    return DetectionBatch(scans, centres, body, radii, var, counts, np.hypot(*rel_c.T), radii > c.take("max_tr", cs),
-                          occluded, labels, det_off, ret_off)
-
-
-def _wall_continues(P, gaps, step, nxt, prv, sigma, gap_max) -> np.ndarray:
-    """(k,) bool: the step from return i to i + 1 (at most ``gap_max`` beams apart, at most
-    ``_WALL_STEP_MAX_M``) continues the straight line through i − 1, i, or through i + 1, i + 2
-    (within the noise), and the two steps' lengths per beam are alike (``_WALL_STEP_RATIO``): the
-    beams graze a wall, whose returns spread out along it; they stay one object. Without the length
-    test a short step's direction (noise: anything goes) let a boat's hull in front of a wall join
-    the wall's cluster. Per beam, and across the gaps the clustering bridges: with lost returns
-    the steps along a grazed wall skip beams (before, only steps between neighbouring beams
-    counted, and under 30 % dropout a quay broke into fragments tracked as moving targets).
-    ``nxt`` / ``prv``: each return's cyclic neighbours in its scan; ``sigma`` (k,) σ_ρ of its scan;
-    ``gap_max`` the largest beam difference bridged (scalar or (k,))."""
-    seg = P[nxt] - P  # i → i + 1
-    length = np.maximum(step, 1e-9)
-    unit = seg / length[:, None]
-    tol = np.minimum(1.0, 3.0 * sigma * (1.0 / length + 1.0 / length[prv])) + _WALL_SIN_TOL
-    cross_back = np.abs(unit[prv, 0] * unit[:, 1] - unit[prv, 1] * unit[:, 0])
-    per_beam = length / np.maximum(gaps, 1)
-    similar = np.maximum(per_beam, per_beam[prv]) <= _WALL_STEP_RATIO * np.minimum(per_beam, per_beam[prv]) + 6.0 * sigma
-    bridged = gaps <= gap_max
-    up = unit[prv]
-    back = bridged & bridged[prv] & (up[:, 0] * unit[:, 0] + up[:, 1] * unit[:, 1] > 0) & (cross_back < tol) & similar
-    fwd = back[nxt]  # the step i+1 → i+2 continues i → i+1
-    return (back | fwd) & bridged & (step <= _WALL_STEP_MAX_M)
-
-
-def _occluded_edges(beams, rho, starts, ends, cs, beam_off, c: _PerScan, hit_all, ranges_all) -> np.ndarray:
-    """(m,) bool: a cluster's first or last return has, within its scan's ``gap_max`` beams beyond it,
-    a return nearer by more than ``_OCCLUDER_MARGIN_M`` (something in front hides part of the
-    object), or its edge is the edge of a partial fan. ``cs`` (m,) the scan of each cluster; the
-    scans' beams are stacked in ``hit_all`` / ``ranges_all`` from ``beam_off``."""
-    gap_max = c.take("gap_max", cs)
-    g = int(gap_max.max()) if isinstance(gap_max, np.ndarray) else int(gap_max)
-    off = np.arange(1, g + 1)
-    n = c.take("n_beams", cs)
-    fc = c.take("full", cs)
-    n_col = n[:, None] if isinstance(n, np.ndarray) else n
-    within = True if not isinstance(gap_max, np.ndarray) else off[None, :] <= gap_max[:, None]
-    base = beam_off[cs][:, None]
-    occ = np.zeros(starts.size, dtype=bool)
-    for edge, sign in ((starts, -1), (ends, 1)):
-        nb = beams[edge][:, None] + sign * off[None, :]
-        if isinstance(fc, np.ndarray):
-            occ |= ~fc & ((nb[:, 0] < 0) | (nb[:, 0] >= n))
-            nb = np.where(fc[:, None], nb % n_col, np.clip(nb, 0, n_col - 1))
-        elif fc:
-            nb %= n_col
-        else:
-            occ |= (nb[:, 0] < 0) | (nb[:, 0] >= n)
-            nb = np.clip(nb, 0, n_col - 1)
-        nb += base
-        nearer = hit_all[nb] & (ranges_all[nb] < rho[edge][:, None] - _OCCLUDER_MARGIN_M) & within
-        occ |= nearer.any(axis=1)
-    return occ
+        origins = np.array([sc.origin_m for sc in scans], dtype=float)
+    centres, radii, var = cluster_discs(P, rho, starts, counts, cs, origins, *c.per_scan)
+    occluded = occluded_edges(beams[order], rho, starts, counts, cs, c.beam_off, n_beams, gap, full, hit_all,
+                              ranges_all)
+    cos_h = np.array([math.cos(sc.heading_rad) for sc in scans])
+    sin_h = np.array([math.sin(sc.heading_rad) for sc in scans])
+    centres, body, radii, var, counts, ranges, extended, occluded, labels, det_off = kept_detections(
+        order, counts, cs, centres, radii, var, occluded, origins, cos_h, sin_h, *c.keep_scan)
+    return DetectionBatch(scans, centres, body, radii, var, counts, ranges, extended, occluded, labels, det_off,
+                          ret_off)

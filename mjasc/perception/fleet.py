@@ -35,8 +35,9 @@ import weakref
 import numpy as np
 
 from mjasc.perception.detection import detect_many
+from mjasc.perception.owned_discs import inside_owned_discs
 from mjasc.perception.static_map import StaticMap, StaticMapStore
-from mjasc.perception.tracking.association import block_pairs, group_starts
+from mjasc.perception.tracking.association import group_starts
 from mjasc.perception.tracking.fleet import FleetTracker
 from mjasc.perception.tracking.tracker import MultiTargetTracker
 
@@ -73,19 +74,8 @@ def _starts(counts: np.ndarray) -> np.ndarray:
 def inside_owned(points, point_owner, centres, radii, disc_owner) -> np.ndarray:
     """(k,) bool: point k lies in one of its owner's discs. ``points`` (k, 2) grouped by owner
     (ascending), ``centres`` (q, 2) / ``radii`` (q,) grouped likewise; owners as small ints."""
-    k = points.shape[0]
-    out = np.zeros(k, dtype=bool)
-    if k == 0 or centres.shape[0] == 0:
-        return out
-    no = int(max(point_owner.max(), disc_owner.max())) + 1
-    n_p, n_d = np.bincount(point_owner, minlength=no), np.bincount(disc_owner, minlength=no)
-    q, i, j, _ = block_pairs(n_p, n_d)
-    if q.size == 0:
-        return out
-    a, b = _starts(n_p)[q] + i, _starts(n_d)[q] + j
-    d2 = ((points[a] - centres[b]) ** 2).sum(-1)
-    out[a[d2 <= radii[b] ** 2]] = True
-    return out
+    return inside_owned_discs(points, np.asarray(point_owner, dtype=np.int64), centres, radii,
+                              np.asarray(disc_owner, dtype=np.int64))
 
 
 def thickness(p: np.ndarray, labels: np.ndarray, m: int) -> np.ndarray:

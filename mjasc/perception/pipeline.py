@@ -58,6 +58,7 @@ import numpy as np
 
 from mjasc.perception.detection import Detections, detect, finite_detections
 from mjasc.perception.fleet import DISC_MARGIN_M, PerceptionFleet, estimate_discs, fleet_of
+from mjasc.perception.owned_discs import inside_discs
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
 from mjasc.perception.tracking.config import TrackingConfig
@@ -489,8 +490,5 @@ def _subset(d: Detections, keep: np.ndarray) -> Detections:
 
 def _inside(p: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
     """(k,) bool: point p (k, 2) lies in one of the discs (centres (q, 2), radii (q,))."""
-    if p.shape[0] == 0 or centres.shape[0] == 0:
-        return np.zeros(p.shape[0], dtype=bool)
-    d2 = ((p[:, None, :] - centres[None, :, :]) ** 2).sum(-1)
-    return (d2 <= radii[None, :] ** 2).any(axis=1)
+    return inside_discs(p, centres, radii)
 

@@ -37,12 +37,15 @@ import mujoco
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
+from mjasc.perception.scan_kernels import clean_hits, scan_points, scan_returns
 
 __all__ = ["SensorConfig", "Scan", "RangeSensor", "parse_sensor_options", "check_sensor", "CLUTTER_GEOM"]
 
 #: ``Scan.geom_ids`` value of a false (clutter) return; −1 means no return.
 CLUTTER_GEOM = -2
 _DEFAULT_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)  # = world.SENSOR_GEOM_GROUPS
+_NO_DRAWS = np.zeros(0)  # a scan's draws that are not made (no noise, dropout or clutter)
+_NO_BEAMS = np.zeros(0, dtype=np.int64)
 
 
 @dataclass(frozen=True)
@@ -188,51 +191,32 @@ class RangeSensor:
         gid, dist = self._geomid, self._dist
         mujoco.mj_multiRay(self.model, data, pnt, self._vec_flat, self.geomgroup, 1, self.body_id,
                            gid, dist, None, c.beams, c.max_range_m)
-        miss = gid < 0  # mj_multiRay: geom −1 and distance −1 when nothing is hit within the cutoff
-        miss |= dist < 0
-        miss |= dist > c.max_range_m
-        if miss.any():
-            dist = np.where(miss, -1.0, dist)
-            gid = np.where(miss, -1, gid)
-        else:
-            dist, gid = dist.copy(), gid.copy()
+        # mj_multiRay: geom −1 and distance −1 when nothing is hit within the cutoff
+        dist, gid = clean_hits(dist, gid, c.max_range_m)
         return dist, gid, origin, yaw
 
     def scan(self, data, rng: np.random.Generator | None) -> Scan:
         c = self.config
         n = c.beams
         dist, gid, origin, yaw = self.cast(data)
-        hit = gid >= 0
-        if rng is not None:
+        normals = uniforms = _NO_DRAWS
+        clutter_beams, clutter_rho = _NO_BEAMS, _NO_DRAWS
+        if rng is not None:  # the draws, in this order (scan_kernels.scan_returns applies them)
             if c.range_noise_std_m > 0:
-                dist = np.where(hit, dist + c.range_noise_std_m * rng.standard_normal(n), dist)
+                normals = rng.standard_normal(n)
             if c.dropout_probability > 0:
-                hit &= rng.random(n) >= c.dropout_probability
+                uniforms = rng.random(n)
             if c.clutter_per_scan > 0:
                 k = int(rng.poisson(c.clutter_per_scan))
                 if k:
-                    beams = rng.integers(0, n, size=k)
-                    rho = rng.uniform(c.min_range_m, c.max_range_m, size=k)
-                    nearer = ~hit[beams] | (rho < dist[beams])
-                    beams, rho = beams[nearer], rho[nearer]
-                    dist[beams] = rho
-                    hit[beams] = True
-                    gid[beams] = CLUTTER_GEOM
-        hit &= dist >= c.min_range_m
-        hit &= dist <= c.max_range_m
-        gid = np.where(hit, gid, -1)
-        ranges = np.where(hit, dist, c.max_range_m)
-        beams = np.flatnonzero(hit)
+                    clutter_beams = rng.integers(0, n, size=k)
+                    clutter_rho = rng.uniform(c.min_range_m, c.max_range_m, size=k)
+        ranges, hit, gid, beams = scan_returns(dist, gid, c.range_noise_std_m, normals, c.dropout_probability,
+                                               uniforms, clutter_beams, clutter_rho, c.min_range_m, c.max_range_m,
+                                               CLUTTER_GEOM)
         a = self.angles_body[beams]
-        r = ranges[beams]
-        body = np.empty((beams.size, 2))
-        bx, by = body[:, 0], body[:, 1]
-        np.multiply(r, np.cos(a), out=bx)
-        np.multiply(r, np.sin(a), out=by)
-        cy, sy = math.cos(yaw), math.sin(yaw)
-        world = np.empty((beams.size, 2))
-        world[:, 0] = origin[0] + cy * bx - sy * by
-        world[:, 1] = origin[1] + sy * bx + cy * by
+        body, world = scan_points(ranges, beams, np.cos(a), np.sin(a), origin[0], origin[1], math.cos(yaw),
+                                  math.sin(yaw))
         return Scan(float(data.time), origin, float(yaw), self.angles_body, ranges, hit, beams, body, world, gid,
                     c.max_range_m, c.beam_spacing_rad, c.full_circle)
 

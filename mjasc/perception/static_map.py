@@ -22,7 +22,7 @@ once the boat has moved on, and vanish from the map.
 (:mod:`mjasc.perception.map_polygons`), only when asked and the map changed since the last call.
 
 **One table for a fleet.** :class:`StaticMapStore` holds the maps of many vessels in one table of
-cells keyed by (member, i, j) (packed into one int64, looked up with ``np.searchsorted`` in a sorted
+cells keyed by (member, i, j) (packed into one int64, looked up by binary search in a sorted
 copy of the keys): one call adds the static returns of every vessel's scan, one call carves the
 free space seen by every vessel's fan, one call answers "is this return on a mapped cell" for all
 returns of a tick. :class:`StaticMap` is one vessel's view of a store (a map built on its own is
@@ -39,15 +39,11 @@ from typing import Sequence
 import numpy as np
 
 from mjasc.core.config_tables import check_params, param
+from mjasc.perception.carve_kernels import cells_in_reach, cells_seen_through
+from mjasc.perception.cell_keys import IJ_BITS, IJ_HALF, MEMBER_SHIFT, find_rows, point_keys
 from mjasc.perception.map_polygons import PolygonCache
 
 __all__ = ["StaticMap", "StaticMapConfig", "StaticMapStore"]
-
-#: A cell's half-extent as seen from the sensor, in cells (> the half-diagonal √2/2: conservative).
-_HALF_EXTENT_CELLS = 0.75
-_IJ_BITS = 24  # cell indices i, j in [−2²³, 2²³) (±8,388 km at 1 m cells); members < 2¹⁵
-_IJ_HALF = 1 << (_IJ_BITS - 1)
-_MEMBER_SHIFT = 2 * _IJ_BITS
 
 
 @dataclass(frozen=True)
@@ -76,10 +72,10 @@ class StaticMapConfig:
 
 def _cell_keys(member: np.ndarray, cells: np.ndarray) -> np.ndarray:
     """(k,) int64 keys of cells (k, 2) of members (k,), ordered like (member, i, j)."""
-    if cells.size and (cells.min() < -_IJ_HALF or cells.max() >= _IJ_HALF):
-        raise ValueError(f"points_world: a cell index beyond ±{_IJ_HALF} cells (a position of "
+    if cells.size and (cells.min() < -IJ_HALF or cells.max() >= IJ_HALF):
+        raise ValueError(f"points_world: a cell index beyond ±{IJ_HALF} cells (a position of "
                          f"{np.abs(cells).max()} cells from the origin)")
-    return ((member << _MEMBER_SHIFT) | ((cells[:, 0] + _IJ_HALF) << _IJ_BITS)) | (cells[:, 1] + _IJ_HALF)
+    return ((member << MEMBER_SHIFT) | ((cells[:, 0] + IJ_HALF) << IJ_BITS)) | (cells[:, 1] + IJ_HALF)
 
 
 class StaticMapStore:
@@ -121,18 +117,21 @@ class StaticMapStore:
     def _cells_of(self, member: np.ndarray, points: np.ndarray) -> np.ndarray:
         return np.floor(points / self._cell_m[member][:, None]).astype(np.int64)
 
+    def _keys_of(self, member: np.ndarray, points: np.ndarray) -> np.ndarray:
+        """(k,) int64 keys of the cells of points (k, 2) [m] of members (k,) (:mod:`mjasc.perception.cell_keys`)."""
+        keys, ok = point_keys(member, points, self._cell_m)
+        if not ok:  # a cell index out of range (or a point not finite): the one-line error
+            return _cell_keys(member, self._cells_of(member, points))
+        return keys
+
     def _find(self, keys: np.ndarray) -> np.ndarray:
         """(k,) rows of keys (−1: no such row)."""
-        ks = self._keys
-        if ks.size == 0:
-            return np.full(keys.shape, -1, dtype=np.int64)
-        pos = np.minimum(np.searchsorted(ks, keys), ks.size - 1)
-        return np.where(ks[pos] == keys, self._key_rows[pos], -1)
+        return find_rows(keys, self._keys, self._key_rows)
 
-    def _rows(self, member: np.ndarray, cells: np.ndarray) -> np.ndarray:
-        """Rows of the distinct (member, cell) pairs given, in key order, created (score 0) where
+    def _rows(self, keys: np.ndarray) -> np.ndarray:
+        """Rows of the distinct (member, cell) keys given, in key order, created (score 0) where
         missing (new rows in key order)."""
-        keys = np.unique(_cell_keys(member, cells))
+        keys = np.unique(keys)
         rows = self._find(keys)
         new = rows < 0
         if new.any():
@@ -144,9 +143,9 @@ class StaticMapStore:
                 self._member = np.resize(self._member, size)
                 self._score = np.resize(self._score, size)
             created = np.arange(n, n + k)
-            self._cells[created] = np.stack([((nk >> _IJ_BITS) & ((1 << _IJ_BITS) - 1)) - _IJ_HALF,
-                                             (nk & ((1 << _IJ_BITS) - 1)) - _IJ_HALF], axis=-1)
-            self._member[created] = nk >> _MEMBER_SHIFT
+            self._cells[created] = np.stack([((nk >> IJ_BITS) & ((1 << IJ_BITS) - 1)) - IJ_HALF,
+                                             (nk & ((1 << IJ_BITS) - 1)) - IJ_HALF], axis=-1)
+            self._member[created] = nk >> MEMBER_SHIFT
             self._score[created] = 0.0
             at = np.searchsorted(self._keys, nk)
             self._keys = np.insert(self._keys, at, nk)
@@ -177,7 +176,7 @@ class StaticMapStore:
         if p.shape[0] == 0:
             return
         member = np.asarray(member, dtype=np.int64)
-        rows = self._rows(member, self._cells_of(member, p))
+        rows = self._rows(self._keys_of(member, p))
         self._set_scores(rows, np.minimum(self._score[rows] + 1.0, self._cap[self._member[rows]]))
 
     def carve(self, members: Sequence[int], origins_m, beam_angles_world: Sequence[np.ndarray],
@@ -195,67 +194,32 @@ class StaticMapStore:
         nb = np.array([np.size(a) for a in beam_angles_world], dtype=np.int64)
         slot = np.full(self._version.size, -1)
         slot[np.asarray(members, dtype=np.int64)] = np.where(nb > 0, np.arange(q), -1)
-        rows = np.flatnonzero(slot[self._member[:n]] >= 0)
+        o = np.asarray(origins_m, dtype=float).reshape(q, 2)
+        row_member = self._member[:n]
+        rows, qi, rel, r, half, far = cells_in_reach(self._cells[:n], row_member, slot, self._cell_m, o,
+                                                     np.asarray(max_range_m, dtype=float).reshape(q))
         if rows.size == 0:
             return counts
-        qi = slot[self._member[rows]]
-        mem = self._member[rows]
-        o = np.asarray(origins_m, dtype=float).reshape(q, 2)
-        cell = self._cell_m[mem]
-        rel = (self._cells[rows] + 0.5) * cell[:, None] - o[qi]
-        r = np.hypot(rel[:, 0], rel[:, 1])
-        half = _HALF_EXTENT_CELLS * cell
-        far = r + half
-        live = (far < np.asarray(max_range_m, dtype=float)[qi]) & (r > half)  # never the sensor's own cell
-        if not live.any():
-            return counts
-        rows, qi, rel, r, half, far = rows[live], qi[live], rel[live], r[live], half[live], far[live]
         a0 = np.array([a[0] if np.size(a) else 0.0 for a in beam_angles_world], dtype=float)
         a1 = np.array([a[-1] if np.size(a) else 0.0 for a in beam_angles_world], dtype=float)
         dth_m = np.where(nb > 1, (a1 - a0) / np.maximum(nb - 1, 1), 2.0 * math.pi)
         centre_m = 0.5 * (a0 + a1)
-        dth, centre, nbr, a0r = dth_m[qi], centre_m[qi], nb[qi], a0[qi]
-        bearing = np.arctan2(rel[:, 1], rel[:, 0]) - centre
-        bearing = (bearing + math.pi) % (2.0 * math.pi) - math.pi + centre - a0r  # from beam 0, fan-centred
-        ext = np.maximum(half / r, 0.5 * dth)
-        lo = np.ceil((bearing - ext) / dth - 1e-9)  # first beam at or after bearing − ext
-        hi = np.floor((bearing + ext) / dth + 1e-9)
-        fc = np.asarray(full_circle, dtype=bool)[qi]
-        shift = np.where(fc, np.floor(lo / nbr) * nbr, 0.0)
-        lo, hi = lo - shift, hi - shift  # full circle: lo in [0, nb)
-        hi = np.where(fc, np.minimum(hi, lo + nbr - 1), hi)
-        inside = fc | ((lo >= 0) & (hi <= nbr - 1))
-        if not inside.all():
-            rows, qi, lo, hi, bearing, far, fc, dth, nbr = (
-                a[inside] for a in (rows, qi, lo, hi, bearing, far, fc, dth, nbr))
-        if rows.size == 0:
-            return counts
-        nearest = np.rint(bearing / dth)
-        nearest = np.where(fc, np.mod(nearest, nbr), nearest)
-        empty = hi < lo  # the cell falls between two beams: use the nearest one
-        lo = np.where(empty, np.clip(nearest, 0, nbr - 1), lo).astype(np.int64)
-        hi = np.where(empty, lo, hi).astype(np.int64)
-        fans, start = [], np.zeros(q, dtype=np.int64)
-        at = 0
-        for k in range(q):  # each fan's reach per beam (full circle: twice, for wrapping spans)
-            rho = np.where(np.asarray(hit[k], dtype=bool), np.asarray(ranges_m[k], dtype=float), math.inf)
-            fans.append(rho)
-            if full_circle[k]:
-                fans.append(rho)
-            start[k] = at
-            at += rho.size * (2 if full_circle[k] else 1)
-        fans.append(np.full(1, math.inf))
-        edges = np.empty(2 * lo.size, dtype=np.int64)
-        edges[0::2], edges[1::2] = start[qi] + lo, start[qi] + hi + 1
-        seen = np.minimum.reduceat(np.concatenate(fans), edges)[0::2]
-        noise = np.asarray(range_noise_std_m, dtype=float)
-        free = seen > far + self._margin[self._member[rows]] + 3.0 * noise[qi]
+        beam_off = np.zeros(q, dtype=np.int64)
+        np.cumsum(nb[:-1], out=beam_off[1:])
+        cat = np.concatenate
+        free = cells_seen_through(rows, row_member, self._margin, qi, np.arctan2(rel[:, 1], rel[:, 0]), r, half, far,
+                                  a0, dth_m, centre_m, nb, np.asarray(full_circle, dtype=bool).reshape(q),
+                                  cat([np.asarray(x, dtype=float).reshape(-1) for x in ranges_m]),
+                                  cat([np.asarray(x, dtype=bool).reshape(-1) for x in hit]), beam_off,
+                                  np.asarray(range_noise_std_m, dtype=float).reshape(q))
         pts = [np.asarray(p, dtype=float).reshape(-1, 2) for p in hit_points_world if p is not None]
         if free.any() and sum(p.shape[0] for p in pts):
             pm = np.concatenate([np.full(np.asarray(p).reshape(-1, 2).shape[0], int(m), dtype=np.int64)
                                  for m, p in zip(members, hit_points_world) if p is not None])
-            now = self._find(_cell_keys(pm, self._cells_of(pm, np.concatenate(pts))))
-            free &= ~np.isin(rows, now[now >= 0])  # cells with a return in this scan stay
+            now = self._find(self._keys_of(pm, np.concatenate(pts)))
+            hit_now = np.zeros(n, dtype=bool)  # cells with a return in this scan stay
+            hit_now[now[now >= 0]] = True
+            free &= ~hit_now[rows]
         rows = rows[free]
         if rows.size:
             self._set_scores(rows, np.maximum(self._score[rows] - self._miss[self._member[rows]], 0.0))
@@ -269,7 +233,7 @@ class StaticMapStore:
         if self._n == 0:
             return np.zeros(p.shape[0], dtype=bool)
         member = np.asarray(member, dtype=np.int64)
-        rows = self._find(_cell_keys(member, self._cells_of(member, p)))
+        rows = self._find(self._keys_of(member, p))
         safe = np.maximum(rows, 0)
         return (rows >= 0) & (self._score[safe] >= self._min_hits[self._member[safe]])
 

@@ -1,0 +1,214 @@
+"""Compiled per-cluster loops of :func:`mjasc.perception.detection.detect_many`: the disc of each
+cluster of returns — centre [m] (world ENU), radius [m] and isotropic centre variance [m²]
+(equations in the docstring of :mod:`mjasc.perception.detection`, "Centre and radius" and
+"Measurement noise").
+
+Cluster c holds the returns ``starts[c] : starts[c] + counts[c]`` of ``P`` (world x, y) and
+``rho`` (their ranges), taken by the sensor of scan ``cs[c]`` at ``origins[cs[c]]``. With its
+extreme returns p_f, p_l::
+
+    w = ‖p_l − p_f‖,   ρ̄ = Σρ / n,   Δ = ρ̄·Δθ,   r_w = max(½ (w + Δ (1 + 2 e_lost)), r_min)
+    mid = ½ (p_f + p_l),   u = (mid − o) / ‖mid − o‖ (‖·‖ = 0: divided by 1)
+    d_i = (p_i − o)·u,   y_i = (p_i − mid)·(−u_y, u_x),   b_i = √max(r_w² − y_i², 0),   g_i = b_i + 10⁻³ r_w
+    D = Σ g_i (d_i + b_i) / Σ g_i,   c = o + D u
+    twice: J_i = (c − p_i) / max(‖c − p_i‖, 10⁻⁹), e_i = ‖c − p_i‖ − r_w,
+           A = [[ΣJ_x² + 0.1 n, ΣJ_x J_y], [·, ΣJ_y² + 0.1 n]],  c ← c − A⁻¹ [ΣJ_x e, ΣJ_y e]  (2×2 adjugate)
+    radius = max(r_w, max_i ‖p_i − c‖),   σ_c² = Δ² (1/12 + e_var) + σ_ρ² / n + σ_floor²
+
+This is the numpy form the function had (kept in ``tests/test_detection_kernels.py`` as the
+reference), evaluated in the same order, so the results are bit-identical to it: each sum over a
+cluster is what ``np.add.reduceat`` computes — the first term plus numpy's pairwise sum of the rest
+(:func:`_pairwise_sum`, numpy's ``pairwise_sum``: blocks of 8 partial sums up to 128 terms, halves
+above) — and ``max`` propagates NaN as ``np.maximum`` does.
+
+:func:`kept_detections` then keeps the clusters with enough returns, in order, with their centres
+in the sensor's body frame, ranges, extended flags and each return's label within its scan.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mjasc.core.compiled import kernel
+
+__all__ = ["cluster_discs", "kept_detections"]
+
+_REFINE = 2  # Gauss–Newton iterations of the centre
+_DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at its first estimate)
+
+
+@kernel
+def _pairwise_sum(a, lo, n):
+    """numpy's pairwise sum of ``a[lo : lo + n]`` (numpy/_core/src/umath/loops_utils.h.src)."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    if n <= 128:
+        r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+        r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+        i = 8
+        while i < n - (n % 8):
+            j = lo + i
+            r0 += a[j]
+            r1 += a[j + 1]
+            r2 += a[j + 2]
+            r3 += a[j + 3]
+            r4 += a[j + 4]
+            r5 += a[j + 5]
+            r6 += a[j + 6]
+            r7 += a[j + 7]
+            i += 8
+        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+        while i < n:
+            res += a[lo + i]
+            i += 1
+        return res
+    n2 = n // 2
+    n2 -= n2 % 8
+    return _pairwise_sum(a, lo, n2) + _pairwise_sum(a, lo + n2, n - n2)
+
+
+@kernel
+def _segment_sum(a, start, n):
+    """``np.add.reduceat``'s sum of ``a[start : start + n]`` (n ≥ 1): the first term plus the
+    pairwise sum of the rest."""
+    return a[start] + _pairwise_sum(a, start + 1, n - 1)
+
+
+@kernel
+def _maximum(a, b):
+    """``np.maximum`` of two floats (NaN propagates)."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a >= b else b
+
+
+@kernel
+def cluster_discs(P, rho, starts, counts, cs, origins, dth, edge_lost, min_rad, edge_var, sig2, floor2):
+    """Centres (m, 2) [m], radii (m,) [m] and centre variances (m,) [m²] of the m clusters
+    ``starts``/``counts`` of the returns ``P`` (K, 2) with ranges ``rho`` (K,), cluster c seen from
+    ``origins[cs[c]]`` (S, 2); per scan (S,): beam spacing Δθ [rad], mean and variance of the beams
+    lost beyond an edge, smallest radius [m], σ_ρ² and σ_floor² [m²] (module docstring)."""
+    m = starts.shape[0]
+    K = P.shape[0]
+    centres = np.empty((m, 2))
+    radii = np.empty(m)
+    var = np.empty(m)
+    t1 = np.empty(K)
+    t2 = np.empty(K)
+    t3 = np.empty(K)
+    t4 = np.empty(K)
+    t5 = np.empty(K)
+    for c in range(m):
+        s, n, q = starts[c], counts[c], cs[c]
+        e = s + n - 1
+        ox, oy = origins[q, 0], origins[q, 1]
+        width = math.hypot(P[e, 0] - P[s, 0], P[e, 1] - P[s, 1])
+        spacing = _segment_sum(rho, s, n) / n * dth[q]
+        r_w = _maximum(0.5 * (width + spacing * (1.0 + 2.0 * edge_lost[q])), min_rad[q])
+        mx, my = 0.5 * (P[s, 0] + P[e, 0]), 0.5 * (P[s, 1] + P[e, 1])
+        lx, ly = mx - ox, my - oy
+        los_n = math.hypot(lx, ly)
+        if not los_n > 0:
+            los_n = 1.0
+        ux, uy = lx / los_n, ly / los_n
+        r_w2 = r_w * r_w
+        for i in range(s, s + n):
+            d = (P[i, 0] - ox) * ux + (P[i, 1] - oy) * uy
+            y = (P[i, 0] - mx) * -uy + (P[i, 1] - my) * ux
+            behind = math.sqrt(_maximum(r_w2 - y * y, 0.0))
+            w = behind + 1e-3 * r_w
+            t1[i] = w * (d + behind)
+            t2[i] = w
+        D = _segment_sum(t1, s, n) / _segment_sum(t2, s, n)
+        cx, cy = ox + D * ux, oy + D * uy
+        for _ in range(_REFINE):  # damped Gauss–Newton on Σ (‖p_i − c‖ − r_w)²
+            for i in range(s, s + n):
+                dx, dy = cx - P[i, 0], cy - P[i, 1]
+                dist = math.hypot(dx, dy)
+                den = _maximum(dist, 1e-9)
+                jx, jy = dx / den, dy / den
+                err = dist - r_w
+                t1[i] = jx * jx
+                t2[i] = jx * jy
+                t3[i] = jy * jy
+                t4[i] = jx * err
+                t5[i] = jy * err
+            a11 = _segment_sum(t1, s, n) + _DAMP * n
+            a12 = _segment_sum(t2, s, n)
+            a22 = _segment_sum(t3, s, n) + _DAMP * n
+            g1 = _segment_sum(t4, s, n)
+            g2 = _segment_sum(t5, s, n)
+            det = a11 * a22 - a12 * a12
+            sx = (a22 * g1 - a12 * g2) / det
+            sy = (a11 * g2 - a12 * g1) / det
+            cx, cy = cx - sx, cy - sy
+        far = math.hypot(P[s, 0] - cx, P[s, 1] - cy)
+        for i in range(s + 1, s + n):
+            far = _maximum(far, math.hypot(P[i, 0] - cx, P[i, 1] - cy))
+        centres[c, 0], centres[c, 1] = cx, cy
+        radii[c] = _maximum(r_w, far)
+        var[c] = spacing * spacing * (1.0 / 12.0 + edge_var[q]) + sig2[q] / n + floor2[q]
+    return centres, radii, var
+
+
+@kernel
+def kept_detections(order, counts, cs, centres, radii, var, occluded, origins, cos_h, sin_h, min_pts, max_radius_m):
+    """The clusters with at least ``min_pts[scan]`` returns become detections (scans' order kept):
+    their centres (d, 2) [m] world and body frame (x forward, y to port: ``(c·x + s·y, −s·x + c·y)``
+    of the centre relative to the sensor, c, s the cosine and sine of the scan's heading), radii,
+    variances, return counts, ranges ``‖centre − origin‖`` [m], extended (radius > ``max_radius_m``),
+    occluded; the offsets (S + 1,) of each scan's detections; and each return's detection index
+    within its scan (K,) (−1: its cluster was dropped), returns indexed before ``order``. Per
+    scan (S,): ``origins`` (S, 2), ``cos_h``, ``sin_h``, ``min_pts``, ``max_radius_m``."""
+    m = counts.shape[0]
+    S = origins.shape[0]
+    K = order.shape[0]
+    det_off = np.zeros(S + 1, dtype=np.int64)
+    new_index = np.full(m, -1, dtype=np.int64)
+    d = 0
+    for c in range(m):
+        if counts[c] >= min_pts[cs[c]]:
+            new_index[c] = d
+            d += 1
+            det_off[cs[c] + 1] += 1
+    for s in range(S):
+        det_off[s + 1] += det_off[s]
+    labels = np.full(K, -1, dtype=np.int64)
+    at = 0
+    for c in range(m):
+        n = counts[c]
+        if new_index[c] >= 0:
+            local = new_index[c] - det_off[cs[c]]  # index among the kept clusters of its scan
+            for i in range(at, at + n):
+                labels[order[i]] = local
+        at += n
+    cen = np.empty((d, 2))
+    body = np.empty((d, 2))
+    rad = np.empty(d)
+    vr = np.empty(d)
+    cnt = np.empty(d, dtype=np.int64)
+    rng = np.empty(d)
+    ext = np.empty(d, dtype=np.bool_)
+    occ = np.empty(d, dtype=np.bool_)
+    for c in range(m):
+        k = new_index[c]
+        if k < 0:
+            continue
+        s = cs[c]
+        cx, cy = centres[c, 0], centres[c, 1]
+        rx, ry = cx - origins[s, 0], cy - origins[s, 1]
+        ch, sh = cos_h[s], sin_h[s]
+        cen[k, 0], cen[k, 1] = cx, cy
+        body[k, 0] = ch * rx + sh * ry
+        body[k, 1] = -sh * rx + ch * ry
+        rad[k], vr[k], cnt[k], occ[k] = radii[c], var[c], counts[c], occluded[c]
+        rng[k] = math.hypot(rx, ry)
+        ext[k] = radii[c] > max_radius_m[s]
+    return cen, body, rad, vr, cnt, rng, ext, occ, labels, det_off

@@ -1,0 +1,119 @@
+"""Compiled per-beam loops of a range scan (:mod:`mjasc.perception.range_sensor`): what becomes of
+``mj_multiRay``'s raw hits (world ENU, body FLU, metres, radians).
+
+A scan is a few hundred beams, but its post-processing was two dozen numpy calls on them (~65 µs
+per scan, 3× the ray casting itself). These loops evaluate, per beam and in the same order, the
+same expressions as the numpy form they replaced (kept in ``tests/test_scan_kernels.py`` as the
+reference), so the scans are the same bits. The random draws stay in numpy, in the caller, with
+the same generator calls in the same order; the kernels only consume them. The trigonometric
+functions stay in numpy too (numpy's SIMD sin/cos need not round like libm's).
+
+* :func:`clean_hits` — a beam misses when its geom id < 0, its distance < 0 or > the maximum
+  range: distance −1 and geom −1 (copies of the inputs).
+* :func:`scan_returns` — the imperfections of a scan, in this order (docs of ``range_sensor``):
+  hit = geom ≥ 0; noise ``ρ ← ρ + (σ_ρ·z)`` on hit beams (z the drawn normals, none: no noise);
+  dropout ``hit ← hit ∧ (u ≥ p)`` (u the drawn uniforms, none: no dropout); clutter beams b_j at
+  ranges ρ_j replace their beam where ``¬hit[b_j] ∨ ρ_j < ρ[b_j]`` (tested on the readings before
+  any clutter is placed, then placed in draw order: a later draw on the same beam wins); then
+  ``hit ← hit ∧ min ≤ ρ ≤ max``, geom −1 and range = max where not hit.
+* :func:`scan_points` — the returns in the sensor frame ``(r cos a, r sin a)`` and in the world
+  ``(o_x + c·b_x − s·b_y, o_y + s·b_x + c·b_y)`` (c, s the cosine and sine of the heading), each
+  sum evaluated left to right.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.core.compiled import kernel
+
+__all__ = ["clean_hits", "scan_returns", "scan_points"]
+
+
+@kernel
+def clean_hits(dist, gid, max_range_m):
+    """Distances [m] (n,) and geom ids (n,) of ``mj_multiRay`` with the misses (module docstring)
+    set to −1; new arrays."""
+    n = dist.shape[0]
+    d = np.empty(n)
+    g = np.empty(n, dtype=gid.dtype)
+    for i in range(n):
+        if gid[i] < 0 or dist[i] < 0.0 or dist[i] > max_range_m:
+            d[i] = -1.0
+            g[i] = -1
+        else:
+            d[i] = dist[i]
+            g[i] = gid[i]
+    return d, g
+
+
+@kernel
+def scan_returns(dist, gid, noise_std_m, normals, dropout_probability, uniforms, clutter_beams, clutter_ranges_m,
+                 min_range_m, max_range_m, clutter_geom):
+    """Ranges [m] (n,) (``max_range_m`` where no return), hit (n,) bool, geom ids (n,) (−1: no
+    return, ``clutter_geom``: a false one) and the hit beams (k,) ascending, from a cast's
+    distances ``dist`` (n,) (−1: nothing hit) and geom ids ``gid`` (n,) and the scan's draws:
+    ``normals`` (n,) or (0,) (no noise), ``uniforms`` (n,) or (0,) (no dropout), the clutter's beams
+    and ranges (k,) (module docstring). ``dist`` and ``gid`` are not modified."""
+    n = dist.shape[0]
+    d = dist.copy()
+    g = gid.copy()
+    hit = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        hit[i] = g[i] >= 0
+    if normals.shape[0]:
+        for i in range(n):
+            if hit[i]:
+                d[i] = d[i] + noise_std_m * normals[i]
+    if uniforms.shape[0]:
+        for i in range(n):
+            hit[i] = hit[i] and uniforms[i] >= dropout_probability
+    k = clutter_beams.shape[0]
+    if k:
+        nearer = np.empty(k, dtype=np.bool_)
+        for j in range(k):
+            b = clutter_beams[j]
+            nearer[j] = (not hit[b]) or clutter_ranges_m[j] < d[b]
+        for j in range(k):
+            if nearer[j]:
+                b = clutter_beams[j]
+                d[b] = clutter_ranges_m[j]
+                hit[b] = True
+                g[b] = clutter_geom
+    ranges = np.empty(n)
+    m = 0
+    for i in range(n):
+        h = hit[i] and d[i] >= min_range_m and d[i] <= max_range_m
+        hit[i] = h
+        if h:
+            ranges[i] = d[i]
+            m += 1
+        else:
+            ranges[i] = max_range_m
+            g[i] = -1
+    beams = np.empty(m, dtype=np.int64)
+    m = 0
+    for i in range(n):
+        if hit[i]:
+            beams[m] = i
+            m += 1
+    return ranges, hit, g, beams
+
+
+@kernel
+def scan_points(ranges, beams, cos_a, sin_a, origin_x, origin_y, cos_h, sin_h):
+    """The returns of ``beams`` (k,) in the sensor frame (k, 2) and in the world (k, 2) [m]:
+    range ``ranges[beams]``, beam angle with cosine ``cos_a`` and sine ``sin_a`` (k,), sensor at
+    (origin_x, origin_y) with heading cosine and sine ``cos_h``, ``sin_h`` (module docstring)."""
+    k = beams.shape[0]
+    body = np.empty((k, 2))
+    world = np.empty((k, 2))
+    for i in range(k):
+        r = ranges[beams[i]]
+        bx = r * cos_a[i]
+        by = r * sin_a[i]
+        body[i, 0] = bx
+        body[i, 1] = by
+        world[i, 0] = origin_x + cos_h * bx - sin_h * by
+        world[i, 1] = origin_y + sin_h * bx + cos_h * by
+    return body, world
