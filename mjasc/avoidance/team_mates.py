@@ -48,11 +48,10 @@ class TeamMates:
         self.max_age_s, self.deviation_m, self.horizon_s = float(max_age_s), float(deviation_m), float(horizon_s)
         self._nav: dict[str, tuple] = {}  # name → (sent t, heading, ω) from successive broadcasts
         self._predicted: dict = {}  # name → TeamIntention the last prediction used
-        self._history: dict[str, list] = {}  # name → [(sent t, position, radius)] over TEAM_HISTORY_S
+        self._history = _BroadcastHistory()  # every team mate's broadcast positions over TEAM_HISTORY_S
         self._plan_checked: dict[str, float] = {}  # name → sent time of the last message compared
         self._ghosts: set[int] = set()  # track ids found to be a team mate's stale copy (reported once)
-        self._stack = None  # the history stacked for the ghost check (rebuilt after a poll added to it)
-        self._vmax: dict[str, tuple] = {}  # name → (intention, its plan's largest speed)
+        self._parts: dict[str, tuple] = {}  # name → what its newest message gives every estimate made from it
         # What the team picture held (names and send times) at the last poll and at the last
         # complete plan comparison: an unchanged picture has nothing new for either.
         self._key_of: tuple = (None, None)  # (picture, its key)
@@ -86,12 +85,7 @@ class TeamMates:
             old = self._nav.get(name)
             if name not in self.team or (old is not None and it.sent_time_s <= old[0]):
                 continue
-            hist = self._history.setdefault(name, [])
-            hist.append((it.sent_time_s, np.asarray(it.position_m, dtype=float).copy(),
-                         float(it.radius_m) if it.radius_m else self.radius_m))
-            while hist and hist[0][0] < it.sent_time_s - TEAM_HISTORY_S:
-                hist.pop(0)
-            self._stack = None
+            self._history.add(name, it.sent_time_s, it.position_m, float(it.radius_m) if it.radius_m else self.radius_m)
             w = 0.0
             if old is not None and 0.0 < it.sent_time_s - old[0] <= 3.0:
                 w = float(np.angle(np.exp(1j * (it.heading_rad - old[1])))) / (it.sent_time_s - old[0])
@@ -109,21 +103,26 @@ class TeamMates:
     # ------------------------------------------------------------------ tracks
     def _from_intention(self, it, track: TrackEstimate | None, track_id: int) -> TrackEstimate:
         """A track of team mate ``it.name`` from its own broadcast: along its plan when it sent one
-        (:class:`PlannedTrack`), else constant velocity and the heading rate of successive messages."""
-        vel = it.velocity_m_s
-        speed = float(np.hypot(*vel))
-        course = float(np.arctan2(vel[1], vel[0])) if speed > 0.05 else it.heading_rad
-        radius = float(track.radius_m) if track is not None else float(it.radius_m if it.radius_m else self.radius_m)
+        (:class:`PlannedTrack`), else constant velocity and the heading rate of successive messages.
+        What depends on the message alone (position, course, speed, the plan's largest speed) is
+        worked out once per message: every prediction until the next one reuses it."""
+        parts = self._parts.get(it.name)
+        if parts is None or parts[0] is not it:
+            vel = it.velocity_m_s
+            speed = float(np.hypot(*vel))
+            course = float(np.arctan2(vel[1], vel[0])) if speed > 0.05 else it.heading_rad
+            vmax = max(it.max_speed_m_s(), 1e-3) if it.has_plan else None
+            parts = self._parts[it.name] = (it, np.asarray(it.position_m, dtype=float).copy(), course, speed, vmax)
+        _, position, course, speed, vmax = parts
+        if track is None:
+            radius, cov = float(it.radius_m if it.radius_m else self.radius_m), np.zeros((2, 2))
+        else:
+            radius, cov = float(track.radius_m), track.position_covariance
         w = self.heading_rate(it.name)
-        base = dict(track_id=track_id, time_s=it.sent_time_s, position_m=np.asarray(it.position_m, dtype=float).copy(),
-                    heading_rad=course, radius_m=radius, is_static=False, team_member=it.name,
-                    position_covariance=np.zeros((2, 2)) if track is None else track.position_covariance)
-        if it.has_plan:
-            cached = self._vmax.get(it.name)
-            if cached is None or cached[0] is not it:
-                cached = self._vmax[it.name] = (it, max(it.max_speed_m_s(), 1e-3))
-            return PlannedTrack(speed_m_s=cached[1], turn_rate_rad_s=w, intention=it, **base)
-        return TrackEstimate(speed_m_s=speed, turn_rate_rad_s=w, **base)
+        if vmax is not None:
+            return PlannedTrack(track_id, it.sent_time_s, position, course, vmax, w, radius, cov, False, it.name,
+                                None, None, it)
+        return TrackEstimate(track_id, it.sent_time_s, position, course, speed, w, radius, cov, False, it.name)
 
     def tracks(self, tracks, t: float, picture, emit: Callable[[float, str], None]) -> list:
         """The tracks with team mates predicted from their fresh broadcasts (module docstring),
@@ -152,26 +151,14 @@ class TeamMates:
         drop = {unmatched[k] for k in np.flatnonzero(ghost)}
         return [tr for k, tr in enumerate(out) if k not in drop]
 
-    def _stacked_history(self):
-        """The kept broadcasts of all team mates in one array: (sent t (H,), position (H, 2),
-        radius (H,), team mate index (H,), names, each name's newest sent time), names in the
-        order they were first heard."""
-        if self._stack is None:
-            names = [n for n, h in self._history.items() if h]
-            rows = [(h[0], h[1][0], h[1][1], h[2], i) for i, n in enumerate(names) for h in self._history[n]]
-            a = np.array(rows, dtype=float).reshape(-1, 5)
-            newest = np.array([self._history[n][-1][0] for n in names], dtype=float)
-            self._stack = (a[:, 0], a[:, 1:3], a[:, 3], a[:, 4].astype(np.intp), names, newest)
-        return self._stack
-
     def ghosts(self, tracks, t: float, emit: Callable[[float, str], None]) -> np.ndarray:
         """:meth:`is_ghost` for many unmatched tracks at once: a bool mask (k,). All tracks'
         positions followed back to every kept broadcast time in one array operation
         (:class:`~mjasc.avoidance.prediction.motion.TrackMotions`)."""
         out = np.zeros(len(tracks), dtype=bool)
-        if not self._history or not tracks:
+        if not self._history.names or not tracks:
             return out
-        tb, pb, rb, who, names, newest = self._stacked_history()
+        tb, pb, rb, who, names, newest = self._history.arrays()
         live = t - newest <= TEAM_HISTORY_S  # team mates heard within the kept history
         if tb.size == 0 or not live.any():
             return out
@@ -237,3 +224,45 @@ class TeamMates:
         ts = t + np.linspace(0.0, self.horizon_s, 16)
         new, old = intention_positions([p[0] for p in pairs], ts), intention_positions([p[1] for p in pairs], ts)
         return bool(np.max(np.hypot(new[..., 0] - old[..., 0], new[..., 1] - old[..., 1])) > self.deviation_m)
+
+
+class _BroadcastHistory:
+    """The team mates' broadcast positions of the last :data:`TEAM_HISTORY_S` seconds before each
+    one's newest message, as one table (rows in no particular order; the ghost check does not
+    depend on it): new rows are queued by :meth:`add` and joined, and the old ones dropped, when
+    the table is next read."""
+
+    def __init__(self):
+        self.names: list[str] = []  # in the order first heard
+        self._index: dict[str, int] = {}
+        self._queued: list[tuple] = []  # (sent t, x, y, radius, team mate index)
+        self._newest = np.zeros(0)
+        self._rows = (np.zeros(0), np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.intp))
+
+    def add(self, name: str, sent_time_s: float, position_m, radius_m: float) -> None:
+        i = self._index.get(name)
+        if i is None:
+            i = self._index[name] = len(self.names)
+            self.names.append(name)
+        p = np.asarray(position_m, dtype=float).reshape(-1)
+        self._queued.append((float(sent_time_s), float(p[0]), float(p[1]), float(radius_m), i))
+
+    def arrays(self) -> tuple:
+        """(sent t (H,) [s], position (H, 2) [m], radius (H,) [m], team mate index (H,), names,
+        each name's newest sent time [s])."""
+        if self._queued:
+            q = np.array(self._queued, dtype=float)
+            self._queued = []
+            newest = np.full(len(self.names), -np.inf)
+            newest[: self._newest.size] = self._newest
+            np.maximum.at(newest, q[:, 4].astype(np.intp), q[:, 0])
+            t, p, r, who = self._rows
+            t = np.concatenate([t, q[:, 0]])
+            p = np.concatenate([p, q[:, 1:3]])
+            r = np.concatenate([r, q[:, 3]])
+            who = np.concatenate([who, q[:, 4].astype(np.intp)])
+            keep = t >= newest[who] - TEAM_HISTORY_S
+            self._rows = (t[keep], p[keep], r[keep], who[keep])
+            self._newest = newest
+        return (*self._rows, self.names, self._newest)
+
