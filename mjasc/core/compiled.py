@@ -33,12 +33,32 @@ import numba
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["kernel", "fma"]
+__all__ = ["kernel", "fma", "maximum", "minimum"]
 
 
 def kernel(fn):
     """Decorator: compile ``fn`` with the project's settings (module docstring)."""
     return numba.njit(cache=True, nogil=True, fastmath=False, error_model="numpy")(fn)
+
+
+@kernel
+def maximum(a, b):
+    """``np.maximum`` of two floats inside a kernel (NaN propagates, the first operand wins ties)."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a >= b else b
+
+
+@kernel
+def minimum(a, b):
+    """``np.minimum`` of two floats inside a kernel (NaN propagates, the first operand wins ties)."""
+    if a != a:
+        return a
+    if b != b:
+        return b
+    return a if a <= b else b
 
 
 @intrinsic

@@ -26,6 +26,12 @@ __all__ = ["hull_indices", "boundary_distance", "inside_even_odd"]
 
 
 @kernel
+def _left_turn(p, o, a, i):
+    """p[o] → p[a] → p[i] turns strictly left (cross product of (a − o) and (i − o) > 0)."""
+    return (p[a, 0] - p[o, 0]) * (p[i, 1] - p[o, 1]) - (p[a, 1] - p[o, 1]) * (p[i, 0] - p[o, 0]) > 0.0
+
+
+@kernel
 def hull_indices(p):
     """Indices (k,) into ``p`` (n, 2) — sorted by x then y, no repeated point — of its convex hull,
     counter-clockwise from p[0]; n ≤ 2 or all points on a line → [0, n − 1] (or [0])."""
@@ -35,19 +41,13 @@ def hull_indices(p):
     idx = np.empty(2 * n, dtype=np.int64)
     k = 0
     for i in range(n):  # lower hull, left to right
-        while k >= 2:
-            o, a = idx[k - 2], idx[k - 1]
-            if (p[a, 0] - p[o, 0]) * (p[i, 1] - p[o, 1]) - (p[a, 1] - p[o, 1]) * (p[i, 0] - p[o, 0]) > 0.0:
-                break
+        while k >= 2 and not _left_turn(p, idx[k - 2], idx[k - 1], i):
             k -= 1
         idx[k] = i
         k += 1
     low = k + 1
     for i in range(n - 2, -1, -1):  # upper hull, right to left
-        while k >= low:
-            o, a = idx[k - 2], idx[k - 1]
-            if (p[a, 0] - p[o, 0]) * (p[i, 1] - p[o, 1]) - (p[a, 1] - p[o, 1]) * (p[i, 0] - p[o, 0]) > 0.0:
-                break
+        while k >= low and not _left_turn(p, idx[k - 2], idx[k - 1], i):
             k -= 1
         idx[k] = i
         k += 1

@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import kernel
+from mjasc.core.compiled import kernel, maximum, minimum
 
 __all__ = ["cluster_order", "occluded_edges"]
 
@@ -44,26 +44,6 @@ _WALL_STEP_MAX_M = 50.0  # longest step along a grazed wall kept in one object
 #: sin φ_k / sin φ_k+2: at most 5 while φ ≥ Δθ/2. A long step after (or before) a short one is
 #: not the same wall: it is the jump from another object's edge onto a wall behind it.
 _WALL_STEP_RATIO = 5.0
-
-
-@kernel
-def _maximum(a, b):
-    """``np.maximum`` of two floats (NaN propagates)."""
-    if a != a:
-        return a
-    if b != b:
-        return b
-    return a if a >= b else b
-
-
-@kernel
-def _minimum(a, b):
-    """``np.minimum`` of two floats (NaN propagates)."""
-    if a != a:
-        return a
-    if b != b:
-        return b
-    return a if a <= b else b
 
 
 @kernel
@@ -100,9 +80,9 @@ def cluster_order(beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sigma, ful
             dx, dy = P[j, 0] - P[i, 0], P[j, 1] - P[i, 1]
             st = math.hypot(dx, dy)
             step[i] = st
-            thr = d0[s] + lam[s] * _minimum(rho[i], rho[j]) * g * dth[s]
+            thr = d0[s] + lam[s] * minimum(rho[i], rho[j]) * g * dth[s]
             brk[i] = g > gap[s] or st > thr
-            ln = _maximum(st, 1e-9)
+            ln = maximum(st, 1e-9)
             length[i] = ln
             ux[i], uy[i] = dx / ln, dy / ln
             per_beam[i] = ln / max(g, 1)
@@ -110,10 +90,10 @@ def cluster_order(beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sigma, ful
             sig = sigma[s]
             for i in range(a, b):
                 p = b - 1 if i == a else i - 1
-                tol = _minimum(1.0, 3.0 * sig * (1.0 / length[i] + 1.0 / length[p])) + _WALL_SIN_TOL
+                tol = minimum(1.0, 3.0 * sig * (1.0 / length[i] + 1.0 / length[p])) + _WALL_SIN_TOL
                 cross = abs(ux[p] * uy[i] - uy[p] * ux[i])
-                hi_pb = _maximum(per_beam[i], per_beam[p])
-                lo_pb = _minimum(per_beam[i], per_beam[p])
+                hi_pb = maximum(per_beam[i], per_beam[p])
+                lo_pb = minimum(per_beam[i], per_beam[p])
                 similar = hi_pb <= _WALL_STEP_RATIO * lo_pb + 6.0 * sig
                 back[i] = (gaps[i] <= gap[s] and gaps[p] <= gap[s] and ux[p] * ux[i] + uy[p] * uy[i] > 0
                            and cross < tol and similar)

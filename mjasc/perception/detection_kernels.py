@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import kernel
+from mjasc.core.compiled import kernel, maximum
 
 __all__ = ["cluster_discs", "kept_detections"]
 
@@ -80,16 +80,6 @@ def _segment_sum(a, start, n):
 
 
 @kernel
-def _maximum(a, b):
-    """``np.maximum`` of two floats (NaN propagates)."""
-    if a != a:
-        return a
-    if b != b:
-        return b
-    return a if a >= b else b
-
-
-@kernel
 def cluster_discs(P, rho, starts, counts, cs, origins, dth, edge_lost, min_rad, edge_var, sig2, floor2):
     """Centres (m, 2) [m], radii (m,) [m] and centre variances (m,) [m²] of the m clusters
     ``starts``/``counts`` of the returns ``P`` (K, 2) with ranges ``rho`` (K,), cluster c seen from
@@ -111,7 +101,7 @@ def cluster_discs(P, rho, starts, counts, cs, origins, dth, edge_lost, min_rad, 
         ox, oy = origins[q, 0], origins[q, 1]
         width = math.hypot(P[e, 0] - P[s, 0], P[e, 1] - P[s, 1])
         spacing = _segment_sum(rho, s, n) / n * dth[q]
-        r_w = _maximum(0.5 * (width + spacing * (1.0 + 2.0 * edge_lost[q])), min_rad[q])
+        r_w = maximum(0.5 * (width + spacing * (1.0 + 2.0 * edge_lost[q])), min_rad[q])
         mx, my = 0.5 * (P[s, 0] + P[e, 0]), 0.5 * (P[s, 1] + P[e, 1])
         lx, ly = mx - ox, my - oy
         los_n = math.hypot(lx, ly)
@@ -122,7 +112,7 @@ def cluster_discs(P, rho, starts, counts, cs, origins, dth, edge_lost, min_rad, 
         for i in range(s, s + n):
             d = (P[i, 0] - ox) * ux + (P[i, 1] - oy) * uy
             y = (P[i, 0] - mx) * -uy + (P[i, 1] - my) * ux
-            behind = math.sqrt(_maximum(r_w2 - y * y, 0.0))
+            behind = math.sqrt(maximum(r_w2 - y * y, 0.0))
             w = behind + 1e-3 * r_w
             t1[i] = w * (d + behind)
             t2[i] = w
@@ -132,7 +122,7 @@ def cluster_discs(P, rho, starts, counts, cs, origins, dth, edge_lost, min_rad, 
             for i in range(s, s + n):
                 dx, dy = cx - P[i, 0], cy - P[i, 1]
                 dist = math.hypot(dx, dy)
-                den = _maximum(dist, 1e-9)
+                den = maximum(dist, 1e-9)
                 jx, jy = dx / den, dy / den
                 err = dist - r_w
                 t1[i] = jx * jx
@@ -151,9 +141,9 @@ def cluster_discs(P, rho, starts, counts, cs, origins, dth, edge_lost, min_rad, 
             cx, cy = cx - sx, cy - sy
         far = math.hypot(P[s, 0] - cx, P[s, 1] - cy)
         for i in range(s + 1, s + n):
-            far = _maximum(far, math.hypot(P[i, 0] - cx, P[i, 1] - cy))
+            far = maximum(far, math.hypot(P[i, 0] - cx, P[i, 1] - cy))
         centres[c, 0], centres[c, 1] = cx, cy
-        radii[c] = _maximum(r_w, far)
+        radii[c] = maximum(r_w, far)
         var[c] = spacing * spacing * (1.0 / 12.0 + edge_var[q]) + sig2[q] / n + floor2[q]
     return centres, radii, var
 
