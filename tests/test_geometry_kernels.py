@@ -102,3 +102,41 @@ def test_convex_hull_degenerate_sets():
     np.testing.assert_array_equal(convex_hull(np.array([[1.0, 2.0], [1.0, 2.0]])), [[1.0, 2.0]])
     square = np.array([[0, 0], [2, 0], [2, 2], [0, 2], [1, 0], [1, 1], [0, 1]], dtype=float)
     np.testing.assert_array_equal(convex_hull(square), [[0, 0], [2, 0], [2, 2], [0, 2]])  # CCW, collinear dropped
+
+
+def _numpy_canonical_hull(points):
+    """The numpy form convex_hull had before the compiled canonical_hull: round, lexsort, drop
+    repeats, hull_indices."""
+    from mjasc.core.polygon_kernels import hull_indices
+
+    p = np.round(np.asarray(points, dtype=float).reshape(-1, 2), 6)
+    p = p[np.lexsort((p[:, 1], p[:, 0]))]
+    if p.shape[0] > 1:
+        p = p[np.concatenate([[True], (p[1:] != p[:-1]).any(axis=1)])]
+    if p.shape[0] <= 2:
+        return p
+    return p[hull_indices(p)]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_canonical_hull_equals_the_numpy_form_bit_for_bit(seed):
+    from mjasc.core.polygon_kernels import canonical_hull
+
+    rng = np.random.default_rng(seed)
+    for _ in range(300):
+        n = int(rng.integers(0, 120))
+        pts = rng.normal(0, 30, (n, 2)) + rng.normal(0, 1e4, 2)
+        u = rng.random()
+        if u < 0.2:  # half-micrometre ties of the rounding
+            pts = (np.round(pts * 1e6) + 0.5) / 1e6
+        elif u < 0.4:  # grid points: repeats, collinear boundaries, ±0.0 coordinates
+            pts = np.round(pts / 5.0) * 5.0
+            pts[rng.random(pts.shape) < 0.2] = -0.0
+            pts[rng.random(pts.shape) < 0.2] = 0.0
+        if rng.random() < 0.2:
+            pts = np.concatenate([pts, pts[: n // 2]])
+        want = _numpy_canonical_hull(pts)
+        got = canonical_hull(np.ascontiguousarray(pts, dtype=float).reshape(-1, 2))
+        assert got.shape == want.shape
+        assert got.tobytes() == want.tobytes()  # bit for bit (signs of zeros included)
+        assert convex_hull(pts).tobytes() == want.tobytes()

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.core.polygon_kernels import boundary_distance, hull_indices, inside_even_odd
+from mjasc.core.polygon_kernels import boundary_distance, canonical_hull, hull_indices, inside_even_odd
 
 __all__ = ["distance_to_polygon", "signed_distance_to_polygon", "point_in_polygon", "polygon_signed_area",
            "counter_clockwise", "circle_polygon", "convex_hull", "disc_hull", "hull_outline", "clean_polygon",
@@ -114,13 +114,16 @@ def convex_hull(points_xy: np.ndarray, *, canonical: bool = True) -> np.ndarray:
 
         pts = np.asarray(points_xy, dtype=float)
         return pts[ConvexHull(pts).vertices]
-    p = np.round(np.asarray(points_xy, dtype=float).reshape(-1, 2), 6)
-    p = p[np.lexsort((p[:, 1], p[:, 0]))]  # sorted by x, then y (np.unique(axis=0)'s order, 5x cheaper)
-    if p.shape[0] > 1:
-        p = p[np.concatenate([[True], (p[1:] != p[:-1]).any(axis=1)])]
-    if p.shape[0] <= 2:
-        return p
-    return p[hull_indices(p)]
+    p = np.ascontiguousarray(points_xy, dtype=float).reshape(-1, 2)
+    if p.shape[0] > 256 or not np.isfinite(p).all():  # (the kernel sorts by insertion: for a few dozen points)
+        p = np.round(p, 6)
+        p = p[np.lexsort((p[:, 1], p[:, 0]))]  # sorted by x, then y (np.unique(axis=0)'s order)
+        if p.shape[0] > 1:
+            p = p[np.concatenate([[True], (p[1:] != p[:-1]).any(axis=1)])]
+        if p.shape[0] <= 2:
+            return p
+        return p[hull_indices(p)]
+    return canonical_hull(p)  # the same steps, compiled (mjasc.core.polygon_kernels)
 
 
 def disc_hull(centres_xy: np.ndarray, radius_m: float, sides: int = 16) -> np.ndarray:

@@ -10,6 +10,11 @@ vectorized numpy formulation it replaced, so the results are bit-identical to it
 * :func:`hull_indices` — Andrew's monotone chain over lexicographically sorted distinct points:
   the counter-clockwise hull from the smallest point, collinear boundary points dropped (a
   point is kept only on a strict left turn, ``cross > 0``).
+* :func:`canonical_hull` — the whole canonical hull of :func:`mjasc.core.geometry.convex_hull` in
+  one call: each coordinate rounded to 1 µm as ``np.round(x, 6)`` rounds (``rint(x·10⁶) / 10⁶``,
+  three IEEE operations), a stable sort by x then y (``np.lexsort``'s order: −0.0 = +0.0, equal
+  points keep their input order), the points equal to their predecessor dropped, then
+  :func:`hull_indices`.
 * :func:`boundary_distance` — per point, the minimum over edges a→b of ‖p − (a + t (b − a))‖,
   t = clip(((p − a)·(b − a)) / max(‖b − a‖², 1e-18), 0, 1).
 * :func:`inside_even_odd` — per point, the parity of the edges crossing the horizontal ray to +x
@@ -22,7 +27,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["hull_indices", "boundary_distance", "inside_even_odd"]
+__all__ = ["hull_indices", "canonical_hull", "boundary_distance", "inside_even_odd"]
 
 
 @kernel
@@ -52,6 +57,47 @@ def hull_indices(p):
         idx[k] = i
         k += 1
     return idx[: k - 1].copy()  # the last index repeats the first
+
+
+@kernel
+def canonical_hull(points):
+    """Vertices (k, 2) [m] of the canonical convex hull of ``points`` (n, 2) [m], all finite
+    (module docstring): counter-clockwise from the smallest point; ≤ 2 distinct points or all on a
+    line → the distinct points, or the two extreme ones."""
+    n = points.shape[0]
+    q = np.empty((n, 2))
+    for i in range(n):  # np.round(x, 6): multiply, rint, divide
+        q[i, 0] = np.rint(points[i, 0] * 1e6) / 1e6
+        q[i, 1] = np.rint(points[i, 1] * 1e6) / 1e6
+    order = np.empty(n, dtype=np.int64)
+    for i in range(n):  # stable insertion sort by (x, y): a point moves only past strictly larger ones
+        xi, yi = q[i, 0], q[i, 1]
+        j = i
+        while j > 0:
+            o = order[j - 1]
+            if q[o, 0] > xi or (q[o, 0] == xi and q[o, 1] > yi):
+                order[j] = o
+                j -= 1
+            else:
+                break
+        order[j] = i
+    p = np.empty((n, 2))
+    m = 0
+    for j in range(n):  # drop the points equal to their predecessor in that order
+        i = order[j]
+        if j == 0 or q[i, 0] != q[order[j - 1], 0] or q[i, 1] != q[order[j - 1], 1]:
+            p[m, 0] = q[i, 0]
+            p[m, 1] = q[i, 1]
+            m += 1
+    p = p[:m]
+    if m <= 2:
+        return p.copy()
+    idx = hull_indices(p)
+    out = np.empty((idx.size, 2))
+    for j in range(idx.size):
+        out[j, 0] = p[idx[j], 0]
+        out[j, 1] = p[idx[j], 1]
+    return out
 
 
 @kernel

@@ -468,6 +468,11 @@ class _TracksView:
     def __len__(self) -> int:
         return len(self._tracks)
 
+    def confirmed_fields(self) -> tuple:
+        """As :meth:`mjasc.perception.tracking.MultiTargetTracker.confirmed_fields` (every track)."""
+        b = self.bank
+        return np.arange(len(self._tracks)), b.track_ids, b.states, self.static, self.team_members
+
     def estimates(self, include_tentative: bool = False) -> list:
         return list(self._tracks)
 

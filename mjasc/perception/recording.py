@@ -87,10 +87,11 @@ def fan_outline_body(fov_deg: float, max_range_m: float, min_range_m: float = 0.
     return out
 
 
-def _labels(vessel_name: str, ids, conf, team, static) -> list[str]:
-    """``<vessel>:T<id>[ (<team mate>)][ static]`` per confirmed track."""
-    return [f"{vessel_name}:T{i}" + (f" ({team[k]})" if team[k] else "") + (" static" if static[k] else "")
-            for i, k in zip(ids, conf)]
+def _labels(vessel_name: str, ids, team, static) -> list[str]:
+    """``<vessel>:T<id>[ (<team mate>)][ static]`` per confirmed track (ids, team mates and static
+    flags of the confirmed tracks)."""
+    return [f"{vessel_name}:T{i}" + (f" ({m})" if m else "") + (" static" if st else "")
+            for i, m, st in zip(ids, team, static)]
 
 
 class PerceptionLog:
@@ -190,24 +191,21 @@ class PerceptionLog:
 
     def _log_tracks(self, rec, t_s, p, base, vessel_name, full) -> None:
         tr = p.tracker
-        conf = np.flatnonzero(tr.confirmed)
+        conf, ids, x, static, team = tr.confirmed_fields()  # (the vessel's confirmed rows only)
         bank = tr.bank
-        ids = bank.track_ids[conf]
-        x = bank.states[conf]  # (the vessel's rows only)
-        team, static = tr.team_members, tr.static
         if not full:  # labels only when they change (the strings are built only then)
-            key = (ids.tobytes(), static[conf].tobytes(), tuple(team[k] for k in conf))
+            key = (ids.tobytes(), static.tobytes(), tuple(team))
             labels = None
             if key != self._label_key:
                 self._label_key = key
-                labels = _labels(vessel_name, ids, conf, team, static)
+                labels = _labels(vessel_name, ids, team, static)
             elif not len(conf):
                 return  # nothing tracked, nothing was
             rec.points(f"{base}/tracks/positions", t_s, x[:, :2], z=0.3, labels=labels)
             return
         labels = None
         if t_s - self._last_label_log >= LABEL_LOG_PERIOD_S - 1e-9:
-            labels = _labels(vessel_name, ids, conf, team, static)
+            labels = _labels(vessel_name, ids, team, static)
         rec.points(f"{base}/tracks/positions", t_s, x[:, :2], z=0.3)
         rec.strips(f"{base}/tracks/ellipses", t_s, list(_ellipses(x[:, :2], bank.position_covariances[conf])), z=0.3)
         rec.strips(f"{base}/tracks/discs", t_s, list(_circles(x[:, :2], tr.radii_m[conf], _CIRCLE_24)), z=0.3)

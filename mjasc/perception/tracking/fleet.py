@@ -363,9 +363,11 @@ class FleetTracker:
         # Python values per track in one conversion per field; each track's position and
         # covariance are rows of arrays made for this call (views: no track shares another's).
         k_rows = rows.tolist()
-        outlines = [self.outline(k) if lk else None for k, lk in zip(k_rows, slow)]
+        radius = self.mgmt._radius[rows]
+        outline = self.outlines.outline  # (= self.outline(k): pos, radius are row k's)
+        outlines = [outline(k, pos[j], radius[j]) if lk else None for j, (k, lk) in enumerate(zip(k_rows, slow))]
         return track_estimate_rows(self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
-                                   self.mgmt._radius[rows].tolist(), P, static.tolist(), self.team.members(rows),
+                                   radius.tolist(), P, static.tolist(), self.team.members(rows),
                                    outlines, repeat(None, len(k_rows)))
 
     def outline(self, row: int) -> np.ndarray:

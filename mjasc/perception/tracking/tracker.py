@@ -150,6 +150,17 @@ class MultiTargetTracker:
         """(n,) bool per row."""
         return self.fleet.mgmt._confirmed[self._rows()]
 
+    def confirmed_fields(self) -> tuple:
+        """The confirmed tracks at once: their indices in this vessel's rows (k,), ids (k,), states
+        (k, 4) [x, y, θ, V] [m, m, rad, m/s] (θ in (−π, π]), static flags (k,) and team mates (list of
+        k names or None) — the numbers of ``confirmed``, ``track_ids``, ``bank.states``, ``static``
+        and ``team_members`` at those rows."""
+        f = self.fleet
+        rows = self._rows()
+        ok = f.mgmt._confirmed[rows]
+        conf, rows = np.flatnonzero(ok), rows[ok]
+        return conf, f.local_id[rows], f.bank.states_of(rows), f.mgmt._static[rows], f.team.members(rows)
+
     @property
     def radii_m(self) -> np.ndarray:
         return self.fleet.mgmt._radius[self._rows()]
