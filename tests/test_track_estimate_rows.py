@@ -31,3 +31,17 @@ def test_rows_equal_constructor():
     assert track_estimate_rows(*[[] for _ in cols]) == []
     with pytest.raises(ValueError, match="columns"):
         track_estimate_rows(*cols[:-1])
+
+
+def test_estimate_of_equals_the_constructors():
+    """estimate_of makes the same TrackEstimate / PlannedTrack as the dataclass constructors."""
+    from mjasc.core.estimates import PlannedTrack, estimate_of
+
+    cov = np.eye(2)
+    for cls, extra in ((TrackEstimate, ()), (PlannedTrack, ("intention",))):
+        values = (7, 1.5, np.array([1.0, 2.0]), 0.3, 1.2, 0.01, 2.5, cov, False, "b", None, None, *extra)
+        got, ref = estimate_of(cls, *values), cls(*values)
+        assert type(got) is cls and got.__dict__.keys() == ref.__dict__.keys()
+        assert all(a is b for a, b in zip(got.__dict__.values(), ref.__dict__.values()))
+    with pytest.raises(ValueError):
+        estimate_of(TrackEstimate, 1, 2.0)

@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 
 from mjasc.avoidance.prediction.motion import TrackMotions, intention_positions
-from mjasc.core.estimates import PlannedTrack, TrackEstimate
+from mjasc.core.estimates import PlannedTrack, TrackEstimate, estimate_of
 
 __all__ = ["TEAM_HISTORY_S", "PlannedTrack", "TeamMates"]
 
@@ -54,7 +54,7 @@ class TeamMates:
         self._parts: dict[str, tuple] = {}  # name → what its newest message gives every estimate made from it
         # What the team picture held (names and send times) at the last poll and at the last
         # complete plan comparison: an unchanged picture has nothing new for either.
-        self._key_of: tuple = (None, None)  # (picture, its key)
+        self._key_of: tuple = (None, None)  # (a picture's intentions mapping, its key)
         self._polled_key = self._compared_key = None
 
     # ------------------------------------------------------------------ broadcasts
@@ -66,10 +66,12 @@ class TeamMates:
         return {n: i for n, i in picture.fresh(t, self.max_age_s).items() if n in self.team}
 
     def _key(self, picture) -> tuple:
-        """The names and send times of a team picture's intentions (equal keys: nothing new)."""
-        if self._key_of[0] is not picture:
-            its = picture.intentions
-            self._key_of = (picture, (tuple(its), tuple([it.sent_time_s for it in its.values()])))
+        """The names and send times of a team picture's intentions (equal keys: nothing new).
+        Worked out once per intentions mapping: the coordination layer hands the same read-only
+        mapping in every picture until a message arrives (a new picture each control tick)."""
+        its = picture.intentions
+        if self._key_of[0] is not its:
+            self._key_of = (its, (tuple(its), tuple([it.sent_time_s for it in its.values()])))
         return self._key_of[1]
 
     def poll(self, picture) -> None:
@@ -118,11 +120,13 @@ class TeamMates:
             radius, cov = float(it.radius_m if it.radius_m else self.radius_m), np.zeros((2, 2))
         else:
             radius, cov = float(track.radius_m), track.position_covariance
-        w = self.heading_rate(it.name)
+        nav = self._nav.get(it.name)
+        w = 0.0 if nav is None else nav[2]  # heading_rate(it.name)
         if vmax is not None:
-            return PlannedTrack(track_id, it.sent_time_s, position, course, vmax, w, radius, cov, False, it.name,
-                                None, None, it)
-        return TrackEstimate(track_id, it.sent_time_s, position, course, speed, w, radius, cov, False, it.name)
+            return estimate_of(PlannedTrack, track_id, it.sent_time_s, position, course, vmax, w, radius, cov, False,
+                               it.name, None, None, it)
+        return estimate_of(TrackEstimate, track_id, it.sent_time_s, position, course, speed, w, radius, cov, False,
+                           it.name, None, None)
 
     def tracks(self, tracks, t: float, picture, emit: Callable[[float, str], None]) -> list:
         """The tracks with team mates predicted from their fresh broadcasts (module docstring),
