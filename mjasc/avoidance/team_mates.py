@@ -226,7 +226,8 @@ class TeamMates:
         if not pairs:
             return False
         ts = t + np.linspace(0.0, self.horizon_s, 16)
-        new, old = intention_positions([p[0] for p in pairs], ts), intention_positions([p[1] for p in pairs], ts)
+        both = intention_positions([p[0] for p in pairs] + [p[1] for p in pairs], ts)  # new plans, then the old
+        new, old = both[:len(pairs)], both[len(pairs):]
         return bool(np.max(np.hypot(new[..., 0] - old[..., 0], new[..., 1] - old[..., 1])) > self.deviation_m)
 
 
