@@ -83,15 +83,23 @@ class TeamMates:
         if key == self._polled_key:
             return  # the same messages as at the last poll
         self._polled_key = key
+        new, turned, dh, dt = [], [], [], []  # the new messages; of those 0 < Δt ≤ 3 s after the last: Δψ, Δt
         for name, it in picture.intentions.items():
             old = self._nav.get(name)
             if name not in self.team or (old is not None and it.sent_time_s <= old[0]):
                 continue
             self._history.add(name, it.sent_time_s, it.position_m, float(it.radius_m) if it.radius_m else self.radius_m)
-            w = 0.0
             if old is not None and 0.0 < it.sent_time_s - old[0] <= 3.0:
-                w = float(np.angle(np.exp(1j * (it.heading_rad - old[1])))) / (it.sent_time_s - old[0])
-            self._nav[name] = (it.sent_time_s, it.heading_rad, w)
+                turned.append(len(new))
+                dh.append(it.heading_rad - old[1])
+                dt.append(it.sent_time_s - old[0])
+            new.append((name, it))
+        w = [0.0] * len(new)
+        if turned:  # ω = wrap(Δψ) / Δt, all new messages in one array operation (elementwise: the same numbers)
+            for k, rate in zip(turned, (np.angle(np.exp(1j * np.array(dh))) / np.array(dt)).tolist()):
+                w[k] = rate
+        for (name, it), rate in zip(new, w):
+            self._nav[name] = (it.sent_time_s, it.heading_rad, rate)
 
     def heading_rate(self, name: str) -> float:
         """ω of team mate ``name`` from its last two broadcasts [rad/s] (0 when unknown)."""
