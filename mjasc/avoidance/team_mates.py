@@ -118,9 +118,8 @@ class TeamMates:
         worked out once per message: every prediction until the next one reuses it."""
         parts = self._parts.get(it.name)
         if parts is None or parts[0] is not it:
-            vel = it.velocity_m_s
-            speed = float(np.hypot(*vel))
-            course = float(np.arctan2(vel[1], vel[0])) if speed > 0.05 else it.heading_rad
+            direction, speed = it.velocity_polar()
+            course = direction if speed > 0.05 else it.heading_rad
             vmax = max(it.max_speed_m_s(), 1e-3) if it.has_plan else None
             parts = self._parts[it.name] = (it, np.asarray(it.position_m, dtype=float).copy(), course, speed, vmax)
         _, position, course, speed, vmax = parts
