@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 
 from mjasc.avoidance.prediction.motion import TrackMotions, intention_positions
-from mjasc.core.estimates import PlannedTrack, TrackEstimate, estimate_of
+from mjasc.core.estimates import PlannedTrack, TrackEstimate, estimate_of, estimate_replace
 
 __all__ = ["TEAM_HISTORY_S", "PlannedTrack", "TeamMates"]
 
@@ -114,26 +114,28 @@ class TeamMates:
     def _from_intention(self, it, track: TrackEstimate | None, track_id: int) -> TrackEstimate:
         """A track of team mate ``it.name`` from its own broadcast: along its plan when it sent one
         (:class:`PlannedTrack`), else constant velocity and the heading rate of successive messages.
-        What depends on the message alone (position, course, speed, the plan's largest speed) is
-        worked out once per message: every prediction until the next one reuses it."""
+        What depends on the message alone (position, course, speed, the plan's largest speed, and
+        with the heading rate the whole estimate but its id, radius and covariance) is worked out
+        once per message: every prediction until the next one copies it."""
+        nav = self._nav.get(it.name)
+        w = 0.0 if nav is None else nav[2]  # heading_rate(it.name)
         parts = self._parts.get(it.name)
-        if parts is None or parts[0] is not it:
+        if parts is None or parts[0] is not it or parts[1] != w:
             direction, speed = it.velocity_polar()
             course = direction if speed > 0.05 else it.heading_rad
-            vmax = max(it.max_speed_m_s(), 1e-3) if it.has_plan else None
-            parts = self._parts[it.name] = (it, np.asarray(it.position_m, dtype=float).copy(), course, speed, vmax)
-        _, position, course, speed, vmax = parts
+            position = np.asarray(it.position_m, dtype=float).copy()
+            if it.has_plan:
+                proto = estimate_of(PlannedTrack, -1, it.sent_time_s, position, course, max(it.max_speed_m_s(), 1e-3),
+                                    w, 0.0, None, False, it.name, None, None, it)
+            else:
+                proto = estimate_of(TrackEstimate, -1, it.sent_time_s, position, course, speed, w, 0.0, None, False,
+                                    it.name, None, None)
+            parts = self._parts[it.name] = (it, w, proto)
         if track is None:
             radius, cov = float(it.radius_m if it.radius_m else self.radius_m), np.zeros((2, 2))
         else:
             radius, cov = float(track.radius_m), track.position_covariance
-        nav = self._nav.get(it.name)
-        w = 0.0 if nav is None else nav[2]  # heading_rate(it.name)
-        if vmax is not None:
-            return estimate_of(PlannedTrack, track_id, it.sent_time_s, position, course, vmax, w, radius, cov, False,
-                               it.name, None, None, it)
-        return estimate_of(TrackEstimate, track_id, it.sent_time_s, position, course, speed, w, radius, cov, False,
-                           it.name, None, None)
+        return estimate_replace(parts[2], track_id=track_id, radius_m=radius, position_covariance=cov)
 
     def tracks(self, tracks, t: float, picture, emit: Callable[[float, str], None]) -> list:
         """The tracks with team mates predicted from their fresh broadcasts (module docstring),

@@ -99,7 +99,20 @@ def estimate_of(cls, *values):
     return e
 
 
-_FIELDS_OF: dict = {}
+_FIELDS_OF: dict = {}  # class → its field names in order (estimate_of)
+
+
+def estimate_replace(proto, **changes):
+    """``dataclasses.replace(proto, **changes)`` for a :class:`TrackEstimate` or
+    :class:`PlannedTrack` (``changes`` are field names): the same object, made as a copy of
+    ``proto``'s fields with ``changes`` (no constructor; values taken as given). Collision avoidance
+    makes every track of a team mate from one message this way, only the track's id, radius and
+    covariance differing."""
+    e = object.__new__(type(proto))
+    d = proto.__dict__.copy()
+    d.update(changes)
+    object.__setattr__(e, "__dict__", d)
+    return e
 
 
 @dataclass(frozen=True, eq=False)
