@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 
 from mjasc.avoidance.prediction.motion import TrackMotions, intention_positions
-from mjasc.core.estimates import PlannedTrack, TrackEstimate
+from mjasc.core.estimates import PlannedTrack, TrackEstimate, estimate_of, estimate_replace
 
 __all__ = ["TEAM_HISTORY_S", "PlannedTrack", "TeamMates"]
 
@@ -54,7 +54,7 @@ class TeamMates:
         self._parts: dict[str, tuple] = {}  # name → what its newest message gives every estimate made from it
         # What the team picture held (names and send times) at the last poll and at the last
         # complete plan comparison: an unchanged picture has nothing new for either.
-        self._key_of: tuple = (None, None)  # (picture, its key)
+        self._key_of: tuple = (None, None)  # (a picture's intentions mapping, its key)
         self._polled_key = self._compared_key = None
 
     # ------------------------------------------------------------------ broadcasts
@@ -66,10 +66,12 @@ class TeamMates:
         return {n: i for n, i in picture.fresh(t, self.max_age_s).items() if n in self.team}
 
     def _key(self, picture) -> tuple:
-        """The names and send times of a team picture's intentions (equal keys: nothing new)."""
-        if self._key_of[0] is not picture:
-            its = picture.intentions
-            self._key_of = (picture, (tuple(its), tuple([it.sent_time_s for it in its.values()])))
+        """The names and send times of a team picture's intentions (equal keys: nothing new).
+        Worked out once per intentions mapping: the coordination layer hands the same read-only
+        mapping in every picture until a message arrives (a new picture each control tick)."""
+        its = picture.intentions
+        if self._key_of[0] is not its:
+            self._key_of = (its, (tuple(its), tuple([it.sent_time_s for it in its.values()])))
         return self._key_of[1]
 
     def poll(self, picture) -> None:
@@ -81,15 +83,23 @@ class TeamMates:
         if key == self._polled_key:
             return  # the same messages as at the last poll
         self._polled_key = key
+        new, turned, dh, dt = [], [], [], []  # the new messages; of those 0 < Δt ≤ 3 s after the last: Δψ, Δt
         for name, it in picture.intentions.items():
             old = self._nav.get(name)
             if name not in self.team or (old is not None and it.sent_time_s <= old[0]):
                 continue
             self._history.add(name, it.sent_time_s, it.position_m, float(it.radius_m) if it.radius_m else self.radius_m)
-            w = 0.0
             if old is not None and 0.0 < it.sent_time_s - old[0] <= 3.0:
-                w = float(np.angle(np.exp(1j * (it.heading_rad - old[1])))) / (it.sent_time_s - old[0])
-            self._nav[name] = (it.sent_time_s, it.heading_rad, w)
+                turned.append(len(new))
+                dh.append(it.heading_rad - old[1])
+                dt.append(it.sent_time_s - old[0])
+            new.append((name, it))
+        w = [0.0] * len(new)
+        if turned:  # ω = wrap(Δψ) / Δt, all new messages in one array operation (elementwise: the same numbers)
+            for k, rate in zip(turned, (np.angle(np.exp(1j * np.array(dh))) / np.array(dt)).tolist()):
+                w[k] = rate
+        for (name, it), rate in zip(new, w):
+            self._nav[name] = (it.sent_time_s, it.heading_rad, rate)
 
     def heading_rate(self, name: str) -> float:
         """ω of team mate ``name`` from its last two broadcasts [rad/s] (0 when unknown)."""
@@ -104,25 +114,28 @@ class TeamMates:
     def _from_intention(self, it, track: TrackEstimate | None, track_id: int) -> TrackEstimate:
         """A track of team mate ``it.name`` from its own broadcast: along its plan when it sent one
         (:class:`PlannedTrack`), else constant velocity and the heading rate of successive messages.
-        What depends on the message alone (position, course, speed, the plan's largest speed) is
-        worked out once per message: every prediction until the next one reuses it."""
+        What depends on the message alone (position, course, speed, the plan's largest speed, and
+        with the heading rate the whole estimate but its id, radius and covariance) is worked out
+        once per message: every prediction until the next one copies it."""
+        nav = self._nav.get(it.name)
+        w = 0.0 if nav is None else nav[2]  # heading_rate(it.name)
         parts = self._parts.get(it.name)
-        if parts is None or parts[0] is not it:
-            vel = it.velocity_m_s
-            speed = float(np.hypot(*vel))
-            course = float(np.arctan2(vel[1], vel[0])) if speed > 0.05 else it.heading_rad
-            vmax = max(it.max_speed_m_s(), 1e-3) if it.has_plan else None
-            parts = self._parts[it.name] = (it, np.asarray(it.position_m, dtype=float).copy(), course, speed, vmax)
-        _, position, course, speed, vmax = parts
+        if parts is None or parts[0] is not it or parts[1] != w:
+            direction, speed = it.velocity_polar()
+            course = direction if speed > 0.05 else it.heading_rad
+            position = np.asarray(it.position_m, dtype=float).copy()
+            if it.has_plan:
+                proto = estimate_of(PlannedTrack, -1, it.sent_time_s, position, course, max(it.max_speed_m_s(), 1e-3),
+                                    w, 0.0, None, False, it.name, None, None, it)
+            else:
+                proto = estimate_of(TrackEstimate, -1, it.sent_time_s, position, course, speed, w, 0.0, None, False,
+                                    it.name, None, None)
+            parts = self._parts[it.name] = (it, w, proto)
         if track is None:
             radius, cov = float(it.radius_m if it.radius_m else self.radius_m), np.zeros((2, 2))
         else:
             radius, cov = float(track.radius_m), track.position_covariance
-        w = self.heading_rate(it.name)
-        if vmax is not None:
-            return PlannedTrack(track_id, it.sent_time_s, position, course, vmax, w, radius, cov, False, it.name,
-                                None, None, it)
-        return TrackEstimate(track_id, it.sent_time_s, position, course, speed, w, radius, cov, False, it.name)
+        return estimate_replace(parts[2], track_id=track_id, radius_m=radius, position_covariance=cov)
 
     def tracks(self, tracks, t: float, picture, emit: Callable[[float, str], None]) -> list:
         """The tracks with team mates predicted from their fresh broadcasts (module docstring),
@@ -222,7 +235,8 @@ class TeamMates:
         if not pairs:
             return False
         ts = t + np.linspace(0.0, self.horizon_s, 16)
-        new, old = intention_positions([p[0] for p in pairs], ts), intention_positions([p[1] for p in pairs], ts)
+        both = intention_positions([p[0] for p in pairs] + [p[1] for p in pairs], ts)  # new plans, then the old
+        new, old = both[:len(pairs)], both[len(pairs):]
         return bool(np.max(np.hypot(new[..., 0] - old[..., 0], new[..., 1] - old[..., 1])) > self.deviation_m)
 
 

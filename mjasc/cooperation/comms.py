@@ -297,17 +297,23 @@ class CommsNetwork:
         if not heap or heap[0][0] > t_s:
             return []
         stats = self.link[receiver]
-        out = []
-        r = self._index[receiver]
+        out, senders, delays = [], [], []
+        index, pop = self._index, heapq.heappop
+        delay_sum, delay_max = stats.delay_sum_s, stats.delay_max_s
         while heap and heap[0][0] <= t_s:
-            arrival, _, msg = heapq.heappop(heap)
-            stats.delivered += 1
-            stats.delay_sum_s += msg.delay_s
-            snd = self._index[msg.sender]
-            self._pair_delivered[snd, r] += 1
-            self._pair_delay_s[snd, r] += msg.delay_s
-            stats.delay_max_s = max(stats.delay_max_s, msg.delay_s)
+            msg = pop(heap)[2]
+            delay = msg.delay_s
+            delay_sum += delay
+            delay_max = max(delay_max, delay)
+            senders.append(index[msg.sender])
+            delays.append(delay)
             out.append(msg)
+        stats.delivered += len(out)
+        stats.delay_sum_s, stats.delay_max_s = delay_sum, delay_max
+        # Per (sender, receiver), in arrival order (np.add.at adds repeated indices one by one).
+        r = index[receiver]
+        np.add.at(self._pair_delivered[:, r], senders, 1)
+        np.add.at(self._pair_delay_s[:, r], senders, delays)
         return out
 
     def _decide(self, receiver: str, sent: list, receiver_position) -> None:

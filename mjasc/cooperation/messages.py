@@ -153,6 +153,16 @@ class TeamIntention:
             object.__setattr__(self, "_lists", cached)
         return cached
 
+    def velocity_polar(self) -> tuple[float, float]:
+        """(direction [rad] CCW from east, magnitude [m/s]) of the broadcast velocity (computed once
+        per intention: every receiver shares it)."""
+        v = self.__dict__.get("_velocity_polar")
+        if v is None:
+            vel = self.velocity_m_s
+            v = (float(np.arctan2(vel[1], vel[0])), float(np.hypot(*vel)))
+            object.__setattr__(self, "_velocity_polar", v)
+        return v
+
     def max_speed_m_s(self) -> float:
         """Largest speed along the plan (or the broadcast speed) [m/s] (computed once per intention)."""
         v = self.__dict__.get("_max_speed")

@@ -11,8 +11,9 @@ collision at t_c. World frame ENU, SI units, absolute simulation times [s].
 - **Obstructed stretch** [γ_A, γ_B]: the connected stretch of the path ahead that contains γ(t_c)
   and is covered by the union of the inflated discs over [t_i, t_f]: path samples every
   h = min(0.25 m, R_col/20) against the obstacle's trajectory as a polyline of steps ≤ h (exact for
-  straight motion; within the chord sagitta h²/8ρ for a turning one), ends located by the same
-  bisection to 1e-6 m.
+  straight motion; within the chord sagitta h²/8ρ for a turning one; the distances in a compiled
+  loop, :mod:`~mjasc.avoidance.prediction.sweep_kernels`), ends located by the same bisection to
+  1e-6 m.
 """
 
 from __future__ import annotations
@@ -23,6 +24,7 @@ from typing import Callable
 import numpy as np
 
 from mjasc.avoidance.prediction.config import CollisionPredictionConfig
+from mjasc.avoidance.prediction.sweep_kernels import polyline_distances
 from mjasc.core.estimates import TrackEstimate
 from mjasc.guidance.paths import Path
 
@@ -139,16 +141,9 @@ def obstructed_stretch(ctx: PlanContext, track, t_i, t_f, gamma_c, r_col, static
         (exact for straight motion; the chord sagitta h²/8ρ for a turning one)."""
         if q.shape[0] == 1:
             return np.hypot(*(p - q[0]).T)
-        a, ab = q[:-1], np.diff(q, axis=0)
-        ab2 = np.maximum(np.sum(ab**2, axis=1), 1e-300)
-        rel = p[:, None, :] - a[None, :, :]
-        u = np.clip(np.sum(rel * ab, axis=-1) / ab2, 0.0, 1.0)
-        return np.sqrt(np.min(np.sum((rel - u[..., None] * ab) ** 2, axis=-1), axis=1))
+        return polyline_distances(p, q)
 
-    chunk = max(1, 400_000 // q.shape[0])
-    for c in range(0, idx.size, chunk):
-        sel = idx[c : c + chunk]
-        covered[sel] = min_dist(pts[sel]) <= r_col
+    covered[idx] = min_dist(pts[idx]) <= r_col
     if not covered.any():  # cannot happen after a collision unless the disc only grazes the path
         return gamma_c, gamma_c
     k = int(np.argmin(np.where(covered, np.abs(gs - gamma_c), np.inf)))
