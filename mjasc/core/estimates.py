@@ -108,7 +108,13 @@ def estimate_replace(proto, **changes):
     ``proto``'s fields with ``changes`` (no constructor; values taken as given). Collision avoidance
     makes every track of a team mate from one message this way, only the track's id, radius and
     covariance differing."""
-    e = object.__new__(type(proto))
+    cls = type(proto)
+    names = _FIELDS_OF.get(cls)
+    if names is None:
+        names = _FIELDS_OF[cls] = tuple(f.name for f in fields(cls))
+    if not changes.keys() <= set(names):
+        raise TypeError(f"estimate_replace: {sorted(set(changes) - set(names))} are not fields of {cls.__name__}")
+    e = object.__new__(cls)
     d = proto.__dict__.copy()
     d.update(changes)
     object.__setattr__(e, "__dict__", d)
