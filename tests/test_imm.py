@@ -440,6 +440,27 @@ def test_bank_equals_separate_trackers():
     assert bank.rejection_codes.dtype == np.int8
 
 
+def test_update_rows_cycles_only_those_rows_with_the_configs_variance():
+    """update_rows without a measurement variance (the config's σ²): the rows given get the cycle
+    a bank of their own gives them, bit for bit; the other rows are untouched."""
+    z0 = np.array([[0.0, 0.0], [10.0, 0.0], [0.0, 20.0]])
+    vel = np.array([[0.5, 0.0], [0.0, 0.5], [0.3, 0.3]])
+    bank, alone = IMMBank(), IMMBank()
+    bank.add_tracks(z0, 0.0)
+    alone.add_tracks(z0[[1, 2]], 0.0)
+    for t in (1.0, 2.0, 3.0, 4.0):
+        bank.update(z0 + t * vel, t)
+        alone.update((z0 + t * vel)[[1, 2]], t)
+    before = bank.states.copy()
+    z = (z0 + 5.0 * vel)[[1, 2]]
+    used = bank.update_rows(np.array([1, 2]), z, 5.0)
+    alone.update(z, 5.0)
+    assert used.tolist() == [True, True]
+    np.testing.assert_array_equal(bank.states[0], before[0])
+    np.testing.assert_array_equal(bank.states[1:], alone.states)
+    np.testing.assert_array_equal(bank.mode_probabilities[1:], alone.mode_probabilities)
+
+
 def test_bank_track_list_gating_and_estimates():
     bank = IMMBank()
     truth_a = truth_eq32(30, 1.0, 1.5, 0.0)

@@ -13,7 +13,7 @@ import numpy as np
 
 __all__ = ["take_rows", "put_rows"]
 
-_SHARED = ("config", "_r", "_omega", "_mu0", "_consts", "_R", "_R_cov", "_floor", "_gate", "_next_id")
+_SHARED = ("config", "_r", "_omega", "_mu0", "_consts", "_R", "_R_cov", "_var", "_floor", "_gate", "_next_id")
 
 
 def take_rows(bank, rows):
