@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import kernel
+from mjasc.core.compiled import kernel, maximum, minimum
 
 __all__ = ["cells_in_reach", "cells_seen_through"]
 
@@ -98,18 +98,13 @@ def cells_seen_through(rows, row_member, margin_m, qs, atan2_rad, r, half, far, 
         d, nb, fc = dth[q], n_beams[q], full[q]
         b = atan2_rad[c] - centre[q]
         b = _mod(b + math.pi, two_pi) - math.pi + centre[q] - a0[q]
-        ext = half[c] / r[c]
-        e2 = 0.5 * d
-        if not (ext >= e2 or ext != ext):  # np.maximum
-            ext = e2
+        ext = maximum(half[c] / r[c], 0.5 * d)
         lo = np.ceil((b - ext) / d - 1e-9)  # beam indices as floats, as numpy has them
         hi = np.floor((b + ext) / d + 1e-9)
         if fc:
             shift = np.floor(lo / nb) * nb
             lo, hi = lo - shift, hi - shift
-            top = lo + nb - 1
-            if not (hi <= top or hi != hi):  # np.minimum
-                hi = top
+            hi = minimum(hi, lo + nb - 1)
         elif not (lo >= 0 and hi <= nb - 1):
             continue
         if hi < lo:  # the cell falls between two beams: the nearest one

@@ -20,6 +20,17 @@ __all__ = ["inside_owned_discs", "inside_discs"]
 
 
 @kernel
+def _in_a_disc(px, py, centres, radii, start, stop):
+    """The point (px, py) [m] lies in one of the discs ``start`` … ``stop − 1``."""
+    for b in range(start, stop):
+        dx, dy = px - centres[b, 0], py - centres[b, 1]
+        r = radii[b]
+        if dx * dx + dy * dy <= r * r:
+            return True
+    return False
+
+
+@kernel
 def inside_owned_discs(points, point_owner, centres, radii, disc_owner):
     """(k,) bool: point k of ``points`` (k, 2) [m] (owners ``point_owner`` (k,)) lies in one of its
     owner's discs, ``centres`` (q, 2) [m] / ``radii`` (q,) [m] owned by ``disc_owner`` (q,)."""
@@ -38,13 +49,7 @@ def inside_owned_discs(points, point_owner, centres, radii, disc_owner):
     sd = 0
     for q in range(no):
         for a in range(sp, sp + n_p[q]):
-            px, py = points[a, 0], points[a, 1]
-            for b in range(sd, sd + n_d[q]):
-                dx, dy = px - centres[b, 0], py - centres[b, 1]
-                r = radii[b]
-                if dx * dx + dy * dy <= r * r:
-                    out[a] = True
-                    break
+            out[a] = _in_a_disc(points[a, 0], points[a, 1], centres, radii, sd, sd + n_d[q])
         sp += n_p[q]
         sd += n_d[q]
     return out
@@ -57,11 +62,5 @@ def inside_discs(points, centres, radii):
     k = points.shape[0]
     out = np.zeros(k, dtype=np.bool_)
     for a in range(k):
-        px, py = points[a, 0], points[a, 1]
-        for b in range(centres.shape[0]):
-            dx, dy = px - centres[b, 0], py - centres[b, 1]
-            r = radii[b]
-            if dx * dx + dy * dy <= r * r:
-                out[a] = True
-                break
+        out[a] = _in_a_disc(points[a, 0], points[a, 1], centres, radii, 0, centres.shape[0])
     return out

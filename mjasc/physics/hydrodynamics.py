@@ -323,11 +323,9 @@ class Hydrodynamics:
         to world axes in a second pass (:mod:`mjasc.physics.hydro_kernels`, the same bits as the
         numpy form it replaced)."""
         qpos3, qvel3, activation, out = self._bound
-        if current_rate_world is None:
-            hydro_features(qpos3, qvel3, activation, current_world, self._no_rate, False, self._cf_x, self._F, self._rot2)
-        else:
-            hydro_features(qpos3, qvel3, activation, current_world, current_rate_world, True, self._cf_x, self._F,
-                           self._rot2)
+        has_rate = current_rate_world is not None
+        hydro_features(qpos3, qvel3, activation, current_world, current_rate_world if has_rate else self._no_rate,
+                       has_rate, self._cf_x, self._F, self._rot2)
         np.matmul(self._F_row, self._G, out=self._tau)                            # τ = F·G (body)
         rotate_to_world(self._tau, self._rot2, out)
 

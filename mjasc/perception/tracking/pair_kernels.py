@@ -41,7 +41,7 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import kernel
+from mjasc.core.compiled import kernel, maximum
 
 __all__ = ["block_pairs_loop", "broadcast_distances", "gate_terms", "merge_candidates"]
 
@@ -138,12 +138,7 @@ def merge_candidates(live, keys, positions, radius, fraction):
             for j in range(i + 1, e):
                 b = live[j]
                 dd = math.hypot(positions[a, 0] - positions[b, 0], positions[a, 1] - positions[b, 1])
-                ra, rb = radius[a], radius[b]
-                if ra != ra or rb != rb:
-                    larger = math.nan
-                else:
-                    larger = ra if ra >= rb else rb
-                if dd < fraction * larger:
+                if dd < fraction * maximum(radius[a], radius[b]):
                     out_a[c] = a
                     out_b[c] = b
                     c += 1
