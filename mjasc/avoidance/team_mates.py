@@ -117,8 +117,7 @@ class TeamMates:
         What depends on the message alone (position, course, speed, the plan's largest speed, and
         with the heading rate the whole estimate but its id, radius and covariance) is worked out
         once per message: every prediction until the next one copies it."""
-        nav = self._nav.get(it.name)
-        w = 0.0 if nav is None else nav[2]  # heading_rate(it.name)
+        w = self.heading_rate(it.name)
         parts = self._parts.get(it.name)
         if parts is None or parts[0] is not it or parts[1] != w:
             direction, speed = it.velocity_polar()

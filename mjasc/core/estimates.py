@@ -64,7 +64,15 @@ class TrackEstimate:
         )
 
 
-_TRACK_FIELDS = tuple(f.name for f in fields(TrackEstimate))
+_FIELDS_OF: dict = {}  # class → its field names in order
+
+
+def _field_names(cls) -> tuple:
+    """The dataclass ``cls``'s field names in order (looked up once per class)."""
+    names = _FIELDS_OF.get(cls)
+    if names is None:
+        names = _FIELDS_OF[cls] = tuple(f.name for f in fields(cls))
+    return names
 
 
 def track_estimate_rows(*columns) -> list[TrackEstimate]:
@@ -73,9 +81,10 @@ def track_estimate_rows(*columns) -> list[TrackEstimate]:
     frozen dataclass's ``__init__`` sets each of the twelve fields through ``object.__setattr__``
     (~2 µs a track; a fleet's tracker hands on ~10⁴ tracks a second); here each instance's
     ``__dict__`` is filled at once. Values are taken as given (the tracker's own, already typed)."""
-    if len(columns) != len(_TRACK_FIELDS):
-        raise ValueError(f"columns: expected {len(_TRACK_FIELDS)} (one per field), got {len(columns)}")
-    names, new, cls = _TRACK_FIELDS, object.__new__, TrackEstimate
+    names = _field_names(TrackEstimate)
+    if len(columns) != len(names):
+        raise ValueError(f"columns: expected {len(names)} (one per field), got {len(columns)}")
+    new, cls = object.__new__, TrackEstimate
     out = []
     for row in zip(*columns):
         e = new(cls)
@@ -85,21 +94,17 @@ def track_estimate_rows(*columns) -> list[TrackEstimate]:
 
 
 def estimate_of(cls, *values):
-    """One ``cls`` (:class:`TrackEstimate` or :class:`PlannedTrack`) from every field's value in
+    """One ``cls`` — a frozen dataclass without ``__post_init__``: :class:`TrackEstimate`,
+    :class:`PlannedTrack`, collision prediction's ``PredictedConflict`` — from every field's value in
     field order: the same object as ``cls(*values)``, its ``__dict__`` filled at once (as
-    :func:`track_estimate_rows`; collision avoidance re-bases ~10⁵ team-mate tracks a minute on
-    their broadcasts). Values are taken as given."""
-    names = _FIELDS_OF.get(cls)
-    if names is None:
-        names = _FIELDS_OF[cls] = tuple(f.name for f in fields(cls))
+    :func:`track_estimate_rows`; collision avoidance makes ~10⁵ team-mate tracks and clear
+    conflicts a minute in a fleet of fifty). Values are taken as given."""
+    names = _field_names(cls)
     if len(values) != len(names):
         raise ValueError(f"values: expected {len(names)} (one per field of {cls.__name__}), got {len(values)}")
     e = object.__new__(cls)
     e.__dict__.update(zip(names, values))
     return e
-
-
-_FIELDS_OF: dict = {}  # class → its field names in order (estimate_of)
 
 
 def estimate_replace(proto, **changes):
@@ -109,9 +114,7 @@ def estimate_replace(proto, **changes):
     makes every track of a team mate from one message this way, only the track's id, radius and
     covariance differing."""
     cls = type(proto)
-    names = _FIELDS_OF.get(cls)
-    if names is None:
-        names = _FIELDS_OF[cls] = tuple(f.name for f in fields(cls))
+    names = _field_names(cls)
     if not changes.keys() <= set(names):
         raise TypeError(f"estimate_replace: {sorted(set(changes) - set(names))} are not fields of {cls.__name__}")
     e = object.__new__(cls)

@@ -28,7 +28,7 @@ to the longest); :func:`predict_conflicts` is its one-vessel form.
 from __future__ import annotations
 
 import enum
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
@@ -39,7 +39,7 @@ from mjasc.avoidance.prediction.motion import TrackMotions
 from mjasc.avoidance.prediction.spatial import PlanContext, obstructed_stretch, obstruction_interval
 from mjasc.avoidance.prediction.svo import svo_polygon
 from mjasc.avoidance.prediction.timing import SpeedProfile, gamma_of_time, prediction_window, speed_now
-from mjasc.core.estimates import TrackEstimate
+from mjasc.core.estimates import TrackEstimate, estimate_of
 from mjasc.guidance.paths import Path
 from mjasc.guidance.stacked_paths import StackedPaths
 
@@ -92,11 +92,6 @@ class PredictedConflict:
     def obstruction_s(self) -> float:
         """Δt_o = t_f − t_i [s] (inf for static obstacles, NaN without a collision)."""
         return self.t_f - self.t_i
-
-
-#: PredictedConflict's fields in order (the no-collision result is built from them directly: the
-#: same object as the dataclass's ``__init__`` makes, without its per-field ``object.__setattr__``).
-_CONFLICT_FIELDS = tuple(f.name for f in fields(PredictedConflict))
 
 
 # ---------------------------------------------------------------------------- temporal correlation
@@ -238,13 +233,10 @@ def _conflict(ctx: PlanContext, track: TrackEstimate, t_c: float, d_c: float, r_
     cfg = ctx.config
     static = bool(track.is_static) or track.speed_m_s == 0.0
     collision = d_c <= r_col
-    if not collision:  # the common case (~10⁵ a minute in a fleet of fifty): its __dict__ filled at once
+    if not collision:  # the common case (~10⁵ a minute in a fleet of fifty), without the dataclass's __init__
         nan = float("nan")
-        c = object.__new__(PredictedConflict)
-        c.__dict__.update(zip(_CONFLICT_FIELDS, (track.track_id, t_c, d_c, False, nan, nan, nan, nan, None, None,
-                                                 Decision.NONE, None, vessel_xy, obst_xy, times, r_col, static,
-                                                 False)))
-        return c
+        return estimate_of(PredictedConflict, track.track_id, t_c, d_c, False, nan, nan, nan, nan, None, None,
+                           Decision.NONE, None, vessel_xy, obst_xy, times, r_col, static, False)
     base = dict(
         track_id=track.track_id,
         t_closest_s=t_c,
