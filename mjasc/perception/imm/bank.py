@@ -46,7 +46,6 @@ __all__ = ["IMMBank", "REJECTION_REASONS", "ACCEPTED", "NOT_MEASURED", "NON_FINI
 
 _TINY_PROB = 1e-300  # floor when min_mode_probability = 0: keeps every μ_j, c̄_j > 0 (no 0/0)
 _EYE2 = np.eye(2)
-_MAX_CYCLES = 32  # CycleBuffers kept per bank (one per number of tracks)
 _ALL, _NONE = np.ones(1, dtype=bool), np.zeros(1, dtype=bool)  # ``use`` of imm_cycle: every row, none
 _NO_Z = np.zeros((1, 2))  # z of a cycle without measurements (not read)
 
@@ -62,20 +61,28 @@ REJECTION_REASONS = (
 
 
 class CycleBuffers:
-    """What :func:`imm_cycle` writes for n tracks × r models: two sides ``(s, P, μ, x)`` and
-    ``d2_min``. A bank's state is at most one side; a cycle writes the other (:meth:`free`), so its
-    inputs are never overwritten by it."""
+    """Room for what :func:`imm_cycle` writes for up to ``cap`` tracks × r models: two sides
+    ``(s, P, μ, x)`` and ``d2_min``. A bank's state lives in the first n rows of one side (its
+    ``_side``; None: in arrays of its own); a cycle writes the first n rows of the other side, so its
+    inputs are never overwritten by it. Births write into the state side's spare rows and drops
+    compact into the other side (no arrays made per birth or drop, nor per number of tracks)."""
 
-    def __init__(self, n: int, r: int):
-        self.n = n
-        self.sides = tuple((np.zeros((n, r, 4)), np.zeros((n, r, 4, 4)), np.zeros((n, r)), np.zeros((n, 4)))
+    def __init__(self, cap: int, r: int):
+        self.cap = cap
+        self.sides = tuple((np.zeros((cap, r, 4)), np.zeros((cap, r, 4, 4)), np.zeros((cap, r)), np.zeros((cap, 4)))
                            for _ in range(2))
-        self.d2_min = np.zeros(n)
+        self.d2_min = np.zeros(cap)
+        self._views: dict[tuple[int, int], tuple] = {}
 
-    def free(self, bank) -> tuple:
-        """The side that holds none of ``bank``'s arrays."""
-        a = self.sides[0]
-        return self.sides[1] if bank._s is a[0] or bank._P is a[1] or bank._mu is a[2] or bank._x is a[3] else a
+    def views(self, side: int, n: int) -> tuple:
+        """The first n rows of ``side``: (s, P, μ, x, d2_min) (the same view objects every time)."""
+        v = self._views.get((side, n))
+        if v is None:
+            if len(self._views) > 64:
+                self._views.clear()
+            s, P, mu, x = self.sides[side]
+            v = self._views[(side, n)] = (s[:n], P[:n], mu[:n], x[:n], self.d2_min[:n])
+        return v
 
 
 class IMMBank(PredictiveDensity):
@@ -116,10 +123,9 @@ class IMMBank(PredictiveDensity):
         self._R_cov = self._R * _EYE2
         self._var = np.array([self._R])  # σ² of every row (imm_cycle's var)
         self._Pc_stale = False  # combined covariances are computed when read
-        self._cyc = None  # CycleBuffers for the current number of tracks
-        self._cycles: dict[int, CycleBuffers] = {}  # CycleBuffers per number of tracks (births and
-        # drops move the count up and down by a few rows: the buffers are made once per count)
-        self._sub_cycles: dict[int, CycleBuffers] = {}  # the same for subsets (mjasc.perception.imm.subset)
+        self._cyc = None  # CycleBuffers with room for the tracks (grown when full)
+        self._side = None  # the side of _cyc holding _s, _P, _mu, _x (None: arrays of their own)
+        self._sub_cycles: dict[int, CycleBuffers] = {}  # CycleBuffers per subset size (mjasc.perception.imm.subset)
         self._t_common = None  # the time of every track's last cycle when they share it [s]
         self._flagged = True  # _n_gated or _reasons may be non-zero
         self._floor = max(config.min_mode_probability, _TINY_PROB)
@@ -191,11 +197,23 @@ class IMMBank(PredictiveDensity):
         if k == 0:
             return ids
         self._next_id = max(self._next_id, int(ids.max()) + 1)
-        grow = {"_ids": ids, "_mu": np.repeat(self._mu0[None], k, axis=0), "_t": t.copy()}  # C order (as every row)
         n_before = self._ids.size
-        for name in self._PER_TRACK:  # zero rows, but for these
-            a = getattr(self, name)
-            setattr(self, name, np.concatenate([a, grow.get(name, np.zeros((k,) + a.shape[1:], a.dtype))]))
+        n = n_before + k
+        cyc = self._cyc
+        if cyc is None or cyc.cap < n or self._side is None:
+            cyc = self._own_state(n)
+        s, P, mu, x, _ = cyc.views(self._side, n)  # the state's rows, then spare ones: zero, but μ
+        s[n_before:] = 0.0
+        P[n_before:] = 0.0
+        mu[n_before:] = self._mu0
+        x[n_before:] = 0.0
+        self._s, self._P, self._mu, self._x = s, P, mu, x
+        cat = np.concatenate
+        self._ids = cat([self._ids, ids])
+        self._t = cat([self._t, t])
+        self._Pc = cat([self._Pc, np.zeros((k, 4, 4))])
+        self._n_gated = cat([self._n_gated, np.zeros(k, dtype=np.int64)])
+        self._reasons = cat([self._reasons, np.zeros(k, dtype=np.int8)])
         self._startup.append(k)
         tc, t0 = self._t_common, float(t[0])
         self._t_common = t0 if (n_before == 0 or tc == t0) and (t == t0).all() else None
@@ -256,8 +274,21 @@ class IMMBank(PredictiveDensity):
 
     def keep_rows(self, keep) -> None:
         """Keep the rows where ``keep`` (n,) bool is True (drop the others at once)."""
-        for name in self._PER_TRACK:
-            setattr(self, name, getattr(self, name)[keep])
+        keep = np.asarray(keep, dtype=bool)
+        if self._side is None:
+            for name in self._PER_TRACK:
+                setattr(self, name, getattr(self, name)[keep])
+        else:  # the state compacted into the other side's first rows
+            side = 1 - self._side
+            out = self._cyc.views(side, int(np.count_nonzero(keep)))
+            compress = np.compress
+            self._s = compress(keep, self._s, 0, out[0])
+            self._P = compress(keep, self._P, 0, out[1])
+            self._mu = compress(keep, self._mu, 0, out[2])
+            self._x = compress(keep, self._x, 0, out[3])
+            self._side = side
+            self._ids, self._t, self._Pc = self._ids[keep], self._t[keep], self._Pc[keep]
+            self._n_gated, self._reasons = self._n_gated[keep], self._reasons[keep]
         self._startup.keep(keep)
         if self._ids.size == 0:
             self._t_common = None
@@ -278,30 +309,37 @@ class IMMBank(PredictiveDensity):
         """Time step of a cycle to t_s: (t0, t, dt, dtm, step) (:func:`~mjasc.perception.imm.markov.cycle_steps`)."""
         return cycle_steps(self._t, self._t_common, self._ids, t_s, self._consts)
 
-    def _cycle_buffers(self) -> CycleBuffers:
-        """The CycleBuffers for the current number of tracks, made once per number. (Reusing
-        them is safe: the bank's arrays are new ones whenever the number changed, so neither side
-        of a reused set holds the bank's state.)"""
+    def _own_state(self, n: int) -> CycleBuffers:
+        """Cycle buffers with room for n tracks holding the state in one side (the state copied
+        there when it was elsewhere or the buffers were full)."""
         cyc = self._cyc
-        n = self._ids.size
-        if cyc is None or cyc.n != n:
-            cache = self._cycles
-            cyc = cache.get(n)
-            if cyc is None:
-                if len(cache) >= _MAX_CYCLES:
-                    cache.clear()
-                cyc = cache[n] = CycleBuffers(n, self._r)
-            self._cyc = cyc
+        if cyc is None or cyc.cap < n:
+            cyc = CycleBuffers(n + max(16, n // 2), self._r)
+        n0 = self._ids.size
+        side = 0 if self._side is None or cyc is not self._cyc else self._side
+        out = cyc.views(side, n0)
+        if out[0] is not self._s:
+            for a, o in zip((self._s, self._P, self._mu, self._x), out):
+                o[...] = a
+            self._s, self._P, self._mu, self._x = out[:4]
+        self._cyc, self._side = cyc, side
         return cyc
+
+    def _free_side(self) -> tuple:
+        """(side index, its first n rows (s, P, μ, x, d2_min)): where a cycle writes."""
+        n = self._ids.size
+        cyc = self._cyc
+        if cyc is None or cyc.cap < n:
+            cyc = self._own_state(n)
+        side = 1 if self._side == 0 else 0
+        return side, cyc.views(side, n)
 
     def _coast(self, step) -> tuple:
         """Every track's IMM cycle without measurement (mixed and predicted s, P; μ = c̄; x) with
         the constants ``step``: a free side of the cycle buffers, valid until the next cycle."""
-        cyc = self._cycle_buffers()
-        side = cyc.free(self)
-        imm_cycle(self._s, self._P, self._mu, *step, _NO_Z, self._var, _NONE, self._floor, self._gate,
-                  *side, cyc.d2_min)
-        return side
+        side = self._free_side()[1]
+        imm_cycle(self._s, self._P, self._mu, *step, _NO_Z, self._var, _NONE, self._floor, self._gate, *side)
+        return side[:4]
 
     def _covariances(self) -> np.ndarray:
         """(n, 4, 4) combined covariances, computed on first read after a cycle."""
@@ -321,7 +359,9 @@ class IMMBank(PredictiveDensity):
             return
         t0, t, dt, dtm, step = self._times(t_s)
         warm = self._startup.active
-        sp, Pp, cbar, x = self._coast(step)
+        side, (sp, Pp, cbar, x, _) = self._free_side()
+        imm_cycle(self._s, self._P, self._mu, *step, _NO_Z, self._var, _NONE, self._floor, self._gate, sp, Pp, cbar,
+                  x, _)
         self._Pc_stale = True
         if self._startup.n_active:
             if t is None:
@@ -335,6 +375,7 @@ class IMMBank(PredictiveDensity):
             self._x[rows], self._Pc[rows] = s, P
         else:
             self._s, self._P, self._mu, self._x = sp, Pp, cbar, x
+            self._side = side
         self._set_times(t0, t)
 
     def _set_times(self, t0, t):
@@ -399,21 +440,19 @@ class IMMBank(PredictiveDensity):
         used."""
         n = self._ids.size
         t0, t, dt, dtm, step = self._times(t_s)
-        cyc = self._cyc
-        if cyc is None or cyc.n != n:
-            cyc = self._cycle_buffers()
-        side = cyc.free(self)
+        out, side = self._free_side()
         mv = self._mv
-        d2_min = cyc.d2_min
+        d2_min = side[4]
         imm_cycle(self._s, self._P, self._mu, *step, z, self._var if mv is None else mv,
-                  _ALL if use is None else use, self._floor, self._gate, *side, d2_min)
+                  _ALL if use is None else use, self._floor, self._gate, *side)
 
         if (
             use is None
             and not self._startup.n_active
             and (d2_min.item() if n == 1 else np.maximum.reduce(d2_min)) <= self._gate
         ):  # the common case: every track measured and accepted
-            self._s, self._P, self._mu, self._x = side
+            self._s, self._P, self._mu, self._x = side[:4]
+            self._side = out
             self._Pc_stale = True
             if self._flagged:  # some track has consecutive gated rows or a rejection reason
                 self._n_gated.fill(0)
@@ -443,7 +482,7 @@ class IMMBank(PredictiveDensity):
             ok[rows] = ok_w
             inside[rows] = ok_w | ~use[rows]
         full = ~warm  # the cycle updated the rows ``ok`` of these, coasted the others
-        s_new, P_new, mu_new, x_new = side
+        s_new, P_new, mu_new, x_new, _ = side
         self._s[full], self._P[full], self._mu[full] = s_new[full], P_new[full], mu_new[full]
         self._x[full] = x_new[full]
         self._Pc_stale = True

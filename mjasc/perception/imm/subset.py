@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from mjasc.perception.imm.bank import CycleBuffers
+
 __all__ = ["take_rows", "put_rows"]
 
 _SHARED = ("config", "_r", "_omega", "_mu0", "_consts", "_R", "_R_cov", "_var", "_floor", "_gate", "_next_id")
@@ -28,8 +30,14 @@ def take_rows(bank, rows):
     sub._startup = bank._startup.take(rows)
     t = sub._t
     sub._t_common = float(t[0]) if t.size and np.all(t == t[0]) else None
-    sub._cycles = bank._sub_cycles  # CycleBuffers per subset size (not the bank's own: a
-    sub._cyc = None                 # bank's state may be a side of one of those)
+    n = t.size
+    cycles = bank._sub_cycles  # CycleBuffers per subset size (not the bank's own: its state is a
+    cyc = cycles.get(n)        # side of those; a subset's state is copied back by put_rows)
+    if cyc is None:
+        if len(cycles) >= 32:
+            cycles.clear()
+        cyc = cycles[n] = CycleBuffers(n, sub._r)
+    sub._cyc, sub._side = cyc, None
     sub._flagged = True
     sub._mv = None
     return sub
