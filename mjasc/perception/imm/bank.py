@@ -38,7 +38,7 @@ from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import combine_covariance, imm_cycle, turn_rate, wrap
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
-from mjasc.perception.imm.startup import StartupFilters
+from mjasc.perception.imm.startup import StartupFilters, cv_to_polar
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -197,6 +197,22 @@ class IMMBank(PredictiveDensity):
         if k == 0:
             return ids
         self._next_id = max(self._next_id, int(ids.max()) + 1)
+        self._append(z, t, ids, None if measurement_variance is None else np.asarray(measurement_variance, dtype=float))
+        return ids
+
+    def append_tracks(self, z, t, measurement_variance=None) -> None:
+        """:meth:`add_tracks` for a caller that has checked its input: z (k ≥ 1, 2) finite [m], t (k,)
+        finite float array [s], ``measurement_variance`` (k,) float array [m²] or None; the ids are
+        the next k integers. The same rows as :meth:`add_tracks`."""
+        k = z.shape[0]
+        ids = np.arange(self._next_id, self._next_id + k, dtype=np.int64)
+        self._next_id += k
+        self._append(z, t, ids, measurement_variance)
+
+    def _append(self, z, t, ids, meas_var) -> None:
+        """New rows started from z (k, 2) at t (k,): the start-up filter at z (σ² meas_var (k,) or
+        the config's), its estimate as the row's, the ready ones handed over (as :meth:`_start`)."""
+        k = z.shape[0]
         n_before = self._ids.size
         n = n_before + k
         cyc = self._cyc
@@ -206,20 +222,25 @@ class IMMBank(PredictiveDensity):
         s[n_before:] = 0.0
         P[n_before:] = 0.0
         mu[n_before:] = self._mu0
-        x[n_before:] = 0.0
+        xc, Pcv = self._startup.append_started(z, self._R, meas_var)
+        sp, Pp = cv_to_polar(xc, Pcv)
+        x[n_before:] = sp
         self._s, self._P, self._mu, self._x = s, P, mu, x
         cat = np.concatenate
         self._ids = cat([self._ids, ids])
         self._t = cat([self._t, t])
-        self._Pc = cat([self._Pc, np.zeros((k, 4, 4))])
+        self._Pc = cat([self._Pc, Pp])
         self._n_gated = cat([self._n_gated, np.zeros(k, dtype=np.int64)])
         self._reasons = cat([self._reasons, np.zeros(k, dtype=np.int8)])
-        self._startup.append(k)
         tc, t0 = self._t_common, float(t[0])
         self._t_common = t0 if (n_before == 0 or tc == t0) and (t == t0).all() else None
-        rows = np.arange(n_before, n_before + k)
-        self._start(rows, z, None if measurement_variance is None else np.asarray(measurement_variance, dtype=float))
-        return ids
+        rows = np.arange(n_before, n)
+        ready = self._startup.hand_over(rows, sp)
+        if ready.any():
+            done = rows[ready]
+            self._s[done] = sp[ready][:, None, :]
+            self._P[done] = Pp[ready][:, None, :, :]
+            self._mu[done] = self._mu0
 
     def _start(self, rows, z, meas_var=None):
         """(Re)start tracks ``rows`` from measurements z (k, 2): CV filter at z, v = 0 ± σ_v0;

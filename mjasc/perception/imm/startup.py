@@ -120,6 +120,24 @@ class StartupFilters:
         self.P = np.concatenate([self.P, np.zeros((k, 4, 4))])
         self.n_meas = np.concatenate([self.n_meas, np.zeros(k, dtype=np.int64)])
 
+    def append_started(self, z, measurement_variance: float, meas_var=None) -> tuple[np.ndarray, np.ndarray]:
+        """k more rows, :meth:`start`-ed from z (k, 2) at once (what :meth:`append` then
+        :meth:`start` make of them); returns their x (k, 4) and P (k, 4, 4)."""
+        k = z.shape[0]
+        x = np.zeros((k, 4))
+        x[:, :2] = z
+        sv2, R = self.speed_var0, measurement_variance
+        P = np.repeat(np.diag([R, R, sv2, sv2])[None], k, axis=0)
+        if meas_var is not None:
+            P[:, 0, 0] = P[:, 1, 1] = meas_var
+        cat = np.concatenate
+        self.active = cat([self.active, np.ones(k, dtype=bool)])
+        self.x = cat([self.x, x])
+        self.P = cat([self.P, P])
+        self.n_meas = cat([self.n_meas, np.ones(k, dtype=np.int64)])
+        self.n_active += k
+        return x, P
+
     def take(self, rows) -> "StartupFilters":
         """A copy holding only ``rows`` (for an update of some of a bank's tracks)."""
         sub = object.__new__(StartupFilters)

@@ -151,6 +151,7 @@ class FleetTracker:
         pos_of[owners] = np.arange(p)
         t_own = np.full(no, np.nan)
         t_own[owners] = t_o
+        every = p == no and bool((pos_of >= 0).all())  # every vessel scanned: every row is due
         self._counts[owners, _SCANS] += 1
         # every vessel's selected detections, stacked in vessel order
         dets = list(detections)
@@ -176,23 +177,27 @@ class FleetTracker:
         self._counts[owners, _DETS] += m_q
         n = len(self.bank)
         row_pos = pos_of[self.owner]
-        due = row_pos >= 0
-        all_due = bool(due.all())
-        rows = np.arange(n) if all_due else np.flatnonzero(due)
+        all_due = every or bool((row_pos >= 0).all())
+        rows = np.arange(n) if all_due else np.flatnonzero(row_pos >= 0)
         claimed = np.zeros(M, dtype=bool)
         empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         for o in owners.tolist():
             self._last_assign[o] = empty
         if rows.size:
-            self._update(rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, dets, points, claimed)
-        self._prune(owners, pos_of, t_o, origins)
+            self._update(rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points, claimed)
+        self._prune(owners, pos_of, every, t_o, origins)
         if M:
-            self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
-        rows = np.flatnonzero(pos_of[self.owner] >= 0)
-        self.team.match(rows, self.owner[rows], t_own, self.bank.states[rows], self.mgmt._confirmed[rows], no)
-        self.mgmt.note_moved(self.bank.positions)
+            self._births(owners, pos_of, every, t_o, z, var, rad, idx, d_pos, claimed)
+        bank = self.bank
+        if every:  # (every row is a row of a vessel that scanned)
+            self.team.match(slice(None), self.owner, t_own, bank.states, self.mgmt._confirmed, no)
+        else:
+            rows = np.flatnonzero(pos_of[self.owner] >= 0)
+            self.team.match(rows, self.owner[rows], t_own, bank.states_of(rows), self.mgmt._confirmed[rows], no)
+        self.mgmt.note_moved(bank.positions)
 
-    def _update(self, rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, dets, points, claimed) -> None:
+    def _update(self, rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
+                claimed) -> None:
         """Steps 1–4a: association, manoeuvres, the IMM cycle, confirmation and outlines."""
         cfg, bank = self.config, self.bank
         n, M = len(bank), z.shape[0]
@@ -203,7 +208,6 @@ class FleetTracker:
         n_q = np.bincount(rpos, minlength=p)
         if M:
             grouped = rows[np.argsort(rpos, kind="stable")]  # by vessel, bank order within
-            m_q = np.bincount(d_pos, minlength=p)
             q, i, j, start = block_pairs(n_q, m_q)
             if q.size:
                 gi = _starts(n_q)[q] + i
@@ -270,19 +274,27 @@ class FleetTracker:
             used[g] = bank.update_rows(g, zr[g], tn, meas[g], None if vr is None else vr[g])
         return used
 
-    def _prune(self, owners, pos_of, t_o, origins) -> None:
+    def _prune(self, owners, pos_of, every, t_o, origins) -> None:
         """Step 4b: drop the tracks management gives up (lost, hopeless, merged), with events."""
         bank = self.bank
-        rows = np.flatnonzero(pos_of[self.owner] >= 0)
-        if rows.size == 0:
-            return
-        rpos = pos_of[self.owner[rows]]
+        if every:  # every row: rows as a slice (no copies)
+            n = len(bank)
+            if n == 0:
+                return
+            rows, own = slice(None), self.owner
+            rpos = pos_of[own]
+            pos, cov = bank._x[:, :2], bank._covariances()[:, :2, :2]
+        else:
+            rows = np.flatnonzero(pos_of[self.owner] >= 0)
+            if rows.size == 0:
+                return
+            own = self.owner[rows]
+            rpos = pos_of[own]
+            pos, cov = bank.positions[rows], bank.position_covariances[rows]
         org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
         conf = self.mgmt._confirmed[rows]
-        drop, reason, merged = self.mgmt.drops(rows, self.owner[rows], t_o[rpos], bank.positions[rows],
-                                               bank.position_covariances[rows], org[rpos],
-                                               self._max_range[self.owner[rows]])
-        ids, own = self.local_id[rows], self.owner[rows]
+        drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
+        ids = self.local_id[rows]
         for go, keep in merged:
             o, t = int(own[go]), float(t_o[rpos[go]])
             self._counts[o, _MERGED] += 1
@@ -294,22 +306,27 @@ class FleetTracker:
                 self.events[o].append(TrackEvent(float(t_o[rpos[j]]), "lost", int(ids[j]),
                                                  f"track {ids[j]} lost: {reason[j]}"))
         if drop.any():
-            keep = np.ones(len(bank), dtype=bool)
-            keep[rows[drop]] = False
+            if every:
+                keep = ~drop
+            else:
+                keep = np.ones(len(bank), dtype=bool)
+                keep[rows[drop]] = False
             bank.keep_rows(keep)
             for part in (self.mgmt, self.manoeuvres, self.team, self.outlines):
                 part.keep(keep)
             self.owner, self.local_id = self.owner[keep], self.local_id[keep]
             self.version += 1
 
-    def _births(self, owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed) -> None:
+    def _births(self, owners, pos_of, every, t_o, z, var, rad, idx, d_pos, claimed) -> None:
         """Step 5: new tracks from the detections no track claimed, away from every track's disc."""
         cfg, bank = self.config, self.bank
         p = owners.size
         free = ~claimed
-        rows = np.flatnonzero(pos_of[self.owner] >= 0)
-        if rows.size and free.any():
-            rpos = pos_of[self.owner[rows]]
+        if not free.any():
+            return
+        rows = np.arange(len(bank)) if every else np.flatnonzero(pos_of[self.owner] >= 0)
+        if rows.size:
+            rpos = pos_of[self.owner if every else self.owner[rows]]
             n_q = np.bincount(rpos, minlength=p)
             grouped = rows[np.argsort(rpos, kind="stable")]
             fidx = np.flatnonzero(free)
@@ -326,7 +343,8 @@ class FleetTracker:
             return
         bp = d_pos[new]
         t_b = t_o[bp]
-        bank.add_tracks(z[new], t_b, var[new] if cfg.use_detection_variance else None)
+        zb = z[new]
+        bank.append_tracks(zb, t_b, var[new] if cfg.use_detection_variance else None)
         own = owners[bp]
         first = np.searchsorted(bp, bp)  # births are grouped by vessel: rank within the vessel
         local = self._next_local[own] + (np.arange(k) - first)
@@ -343,7 +361,7 @@ class FleetTracker:
             sel = bp == q
             o = int(owners[q])
             ids, dets, t = local[sel], idx[new[sel]], float(t_o[q])
-            for tid, zj in zip(ids.tolist(), z[new[sel]]):
+            for tid, zj in zip(ids.tolist(), zb[sel]):
                 self.events[o].append(TrackEvent(t, "born", tid, f"track {tid} born at {_fmt(zj)}"))
             a_ids, a_dets = self._last_assign[o]
             self._last_assign[o] = (np.concatenate([a_ids, ids]), np.concatenate([a_dets, dets]))

@@ -155,7 +155,7 @@ class TrackManagement:
         return new_conf
 
     def drops(self, rows, group, t_s, positions, position_covariances, origins_m, max_range_m):
-        """Which of the tracks ``rows`` (k,) go after their scan at t_s ((k,) or scalar [s]), given
+        """Which of the tracks ``rows`` (k,) (indices, or a slice) go after their scan at t_s ((k,) or scalar [s]), given
         their vessel ``group`` (k,) (only tracks of one vessel merge), positions (k, 2) [m] and
         position covariances (k, 2, 2) [m²], their sensor at ``origins_m`` (k, 2) (NaN: no range
         test) with range ``max_range_m`` (k,) [m]; rows are in bank order.
@@ -165,7 +165,7 @@ class TrackManagement:
         merged into another, as (position in rows, kept position) pairs in the order found.
         """
         cfg = self.config
-        k = rows.size
+        k = positions.shape[0]
         reason = [""] * k
         merged = []
         hist, conf = self._hist[rows], self._confirmed[rows]

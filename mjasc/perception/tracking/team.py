@@ -66,11 +66,11 @@ class TeamMatcher:
         return self._flat
 
     def match(self, rows, owner, t_s, states: np.ndarray, confirmed: np.ndarray, n_owners: int) -> None:
-        """Match the confirmed ones of tracks ``rows`` (indices, bank order; their vessel ``owner``
+        """Match the confirmed ones of tracks ``rows`` (indices, bank order, or ``slice(None)``: every row; their vessel ``owner``
         (k,), ``states`` (k, 4) [x, y, θ, V], ``confirmed`` (k,) bool) at their vessel's time
         t_s ((n_owners,) [s], NaN for vessels not matched now) against that vessel's broadcasts."""
         self._team_of[rows] = None
-        if not self._team or rows.size == 0:
+        if not self._team or owner.size == 0:
             return
         cfg = self.config
         b_owner, names, tb, pb = self._arrays()
@@ -96,4 +96,4 @@ class TeamMatcher:
         got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
         qg = q[got]
         ta, tb_i = c[a_start[qg] + i[got]], bsel[b_start[qg] + j[got]]
-        self._team_of[rows[ta]] = np.array([names[k] for k in tb_i.tolist()] + [None], dtype=object)[:-1]
+        self._team_of[ta if isinstance(rows, slice) else rows[ta]] = np.array([names[k] for k in tb_i.tolist()] + [None], dtype=object)[:-1]
