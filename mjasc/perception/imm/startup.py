@@ -20,6 +20,7 @@ import math
 
 import numpy as np
 
+from mjasc.core.compiled import kernel, minimum
 from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import position_update
 
@@ -54,32 +55,59 @@ def cv_to_polar(xc, Pc):
     θ = atan2(vy, vx), V = |v|; Jacobian rows ∂θ/∂v = u⊥/V, ∂V/∂v = u (u = v/V, u⊥ = (−u_y, u_x)).
     If σ_θ² exceeds π²/3 (the variance of a uniform angle), the θ row and column are scaled down
     to it (a congruence: P stays positive semi-definite). At V = 0, u = (1, 0).
+
+    The Jacobians and the scaling are compiled loops (:func:`_polar_jacobians`,
+    :func:`_polar_finish`); |v|, atan2 and the products J P Jᵀ stay numpy's (tests/test_imm_startup.py
+    keeps the all-numpy form as the reference, bit for bit).
     """
-    k = xc.shape[0]
     vx, vy = xc[:, 2], xc[:, 3]
     speed = np.hypot(vx, vy)
-    moving = speed > 0
-    if moving.all():  # (the usual case: the same numbers without the masks)
-        ux, uy, inv_v = vx / speed, vy / speed, 1.0 / speed
-    else:
-        safe = np.where(moving, speed, 1.0)
-        ux = np.where(moving, vx / safe, 1.0)
-        uy = np.where(moving, vy / safe, 0.0)
-        inv_v = np.where(moving, 1.0 / safe, 1e150)
-    J = np.zeros((k, 4, 4))
-    J[:, 0, 0] = J[:, 1, 1] = 1.0
-    J[:, 2, 2], J[:, 2, 3] = -uy * inv_v, ux * inv_v
-    J[:, 3, 2], J[:, 3, 3] = ux, uy
-    P = J @ Pc @ np.swapaxes(J, 1, 2)
-    scale = np.sqrt(np.minimum(1.0, _UNIFORM_ANGLE_VAR / P[:, 2, 2]))
-    P[:, 2, :] *= scale[:, None]
-    P[:, :, 2] *= scale[:, None]
-    s = np.empty((k, 4))
-    s[:, :2] = xc[:, :2]
-    s[:, 2] = np.arctan2(vy, vx)
-    s[:, 3] = speed
-    return s, 0.5 * (P + np.swapaxes(P, 1, 2))
+    J = _polar_jacobians(xc, speed)
+    return _polar_finish(xc, speed, np.arctan2(vy, vx), J @ Pc @ np.swapaxes(J, 1, 2))
 
+
+@kernel
+def _polar_jacobians(xc, speed):
+    """(k, 4, 4) Jacobians of (x, y, vx, vy) → (x, y, θ, V) at xc (k, 4) with |v| = speed (k,)
+    (u = (1, 0) and 1/V = 1e150 where V is not > 0)."""
+    k = xc.shape[0]
+    J = np.zeros((k, 4, 4))
+    for i in range(k):
+        v = speed[i]
+        if v > 0.0:
+            ux, uy, inv_v = xc[i, 2] / v, xc[i, 3] / v, 1.0 / v
+        else:
+            ux, uy, inv_v = 1.0, 0.0, 1e150
+        J[i, 0, 0] = 1.0
+        J[i, 1, 1] = 1.0
+        J[i, 2, 2] = -uy * inv_v
+        J[i, 2, 3] = ux * inv_v
+        J[i, 3, 2] = ux
+        J[i, 3, 3] = uy
+    return J
+
+
+@kernel
+def _polar_finish(xc, speed, theta, P):
+    """s = [x, y, θ, V] (k, 4) and the covariance P (k, 4, 4) (changed in place) with its θ row and
+    column scaled to σ_θ² ≤ π²/3, symmetrized as ½ (P + Pᵀ) into a new array."""
+    k = xc.shape[0]
+    s = np.empty((k, 4))
+    out = np.empty((k, 4, 4))
+    for i in range(k):
+        sc = math.sqrt(minimum(1.0, _UNIFORM_ANGLE_VAR / P[i, 2, 2]))
+        for a in range(4):
+            P[i, 2, a] *= sc
+        for a in range(4):
+            P[i, a, 2] *= sc
+        for a in range(4):
+            for b in range(4):
+                out[i, a, b] = 0.5 * (P[i, a, b] + P[i, b, a])
+        s[i, 0] = xc[i, 0]
+        s[i, 1] = xc[i, 1]
+        s[i, 2] = theta[i]
+        s[i, 3] = speed[i]
+    return s, out
 
 
 def ready_for_handover(s, cv_P, n_meas, snr2: float, max_updates: int) -> np.ndarray:

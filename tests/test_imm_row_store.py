@@ -1,0 +1,132 @@
+"""The IMM bank's row store (tracks in capacity-sized cycle buffers; births into spare rows, drops
+compacted into the other side) and the compiled start-up hand-over (cv_to_polar): the same bits as
+the plain forms they replaced."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mjasc.perception.imm import IMMBank
+from mjasc.perception.imm.startup import cv_to_polar
+
+_UNIFORM_ANGLE_VAR = math.pi**2 / 3.0
+
+
+def cv_to_polar_numpy(xc, Pc):
+    """The all-numpy form of :func:`cv_to_polar` (the reference)."""
+    k = xc.shape[0]
+    vx, vy = xc[:, 2], xc[:, 3]
+    speed = np.hypot(vx, vy)
+    moving = speed > 0
+    if moving.all():
+        ux, uy, inv_v = vx / speed, vy / speed, 1.0 / speed
+    else:
+        safe = np.where(moving, speed, 1.0)
+        ux = np.where(moving, vx / safe, 1.0)
+        uy = np.where(moving, vy / safe, 0.0)
+        inv_v = np.where(moving, 1.0 / safe, 1e150)
+    J = np.zeros((k, 4, 4))
+    J[:, 0, 0] = J[:, 1, 1] = 1.0
+    J[:, 2, 2], J[:, 2, 3] = -uy * inv_v, ux * inv_v
+    J[:, 3, 2], J[:, 3, 3] = ux, uy
+    P = J @ Pc @ np.swapaxes(J, 1, 2)
+    scale = np.sqrt(np.minimum(1.0, _UNIFORM_ANGLE_VAR / P[:, 2, 2]))
+    P[:, 2, :] *= scale[:, None]
+    P[:, :, 2] *= scale[:, None]
+    s = np.empty((k, 4))
+    s[:, :2] = xc[:, :2]
+    s[:, 2] = np.arctan2(vy, vx)
+    s[:, 3] = speed
+    return s, 0.5 * (P + np.swapaxes(P, 1, 2))
+
+
+def test_cv_to_polar_equals_numpy_form_bit_for_bit():
+    rng = np.random.default_rng(3)
+    for k in (1, 2, 7, 40):
+        xc = rng.normal(size=(k, 4)) * [50.0, 50.0, 2.0, 2.0]
+        if k > 1:
+            xc[0, 2:] = 0.0  # a new track: v = 0
+            xc[1, 2:] = (1e-9, -3e-9)
+        A = rng.normal(size=(k, 4, 4))
+        Pc = A @ np.swapaxes(A, 1, 2) * rng.uniform(0.01, 5.0, size=(k, 1, 1))
+        if k > 2:
+            Pc[2] = np.diag([0.1, 0.1, 4.0, 4.0])  # a start-up filter's first covariance
+        s, P = cv_to_polar(xc, Pc.copy())
+        s_ref, P_ref = cv_to_polar_numpy(xc, Pc.copy())
+        assert s.tobytes() == s_ref.tobytes()
+        assert P.tobytes() == P_ref.tobytes()
+
+
+class _FreshArrays(IMMBank):
+    """A bank that keeps its state in arrays of their own after every change (the form before
+    the row store: a new array per birth and drop)."""
+
+    def _detach(self):
+        for name in ("_s", "_P", "_mu", "_x"):
+            setattr(self, name, getattr(self, name).copy())
+        self._side = None
+        self._cyc = None
+
+    def add_tracks(self, *a, **k):
+        ids = super().add_tracks(*a, **k)
+        self._detach()
+        return ids
+
+    def keep_rows(self, keep):
+        self._detach()
+        super().keep_rows(keep)
+
+    def update(self, *a, **k):
+        used = super().update(*a, **k)
+        self._detach()
+        return used
+
+
+def test_births_and_drops_between_cycles_give_the_bits_of_fresh_arrays():
+    """Random births, drops, coasting, gaps and subset updates: the row store's bank and one that
+    makes new arrays every time hold the same bits."""
+    rng = np.random.default_rng(11)
+    a, b = IMMBank(), _FreshArrays()
+    truth = {}
+    t = 0.0
+    for step in range(120):
+        t += 0.2
+        n = len(a)
+        if n:
+            ids = a.track_ids
+            z = np.array([truth[i] for i in ids.tolist()]) + rng.normal(scale=0.3, size=(n, 2))
+            mask = rng.random(n) < 0.8
+            var = rng.uniform(0.05, 0.3, size=n)
+            if step % 7 == 3 and n > 2:  # some rows only
+                rows = np.flatnonzero(rng.random(n) < 0.5)
+                ua = a.update_rows(rows, z[rows], t, mask[rows], var[rows])
+                ub = b.update_rows(rows, z[rows], t, mask[rows], var[rows])
+                if rows.size:
+                    a.predict(t)  # the rest coast to t
+                    b.predict(t)
+            else:
+                ua = a.update(z, t, mask, var)
+                ub = b.update(z, t, mask, var)
+            assert np.array_equal(ua, ub)
+        for i in list(truth):
+            truth[i] = truth[i] + rng.normal(scale=0.5, size=2)
+        k = int(rng.integers(0, 3))
+        if k:
+            zk = rng.uniform(-100, 100, size=(k, 2))
+            ia = a.add_tracks(zk, t)
+            ib = b.add_tracks(zk, t)
+            assert np.array_equal(ia, ib)
+            truth.update(zip(ia.tolist(), zk))
+        if len(a) > 3 and rng.random() < 0.6:
+            keep = rng.random(len(a)) < 0.8
+            for i in a.track_ids[~keep].tolist():
+                del truth[i]
+            a.keep_rows(keep)
+            b.keep_rows(keep)
+        for name in ("_ids", "_s", "_P", "_mu", "_t", "_x", "_n_gated", "_reasons"):
+            assert getattr(a, name).tobytes() == getattr(b, name).tobytes(), name
+        assert a.state_covariances.tobytes() == b.state_covariances.tobytes()
+        assert np.array_equal(a.velocity_initialized, b.velocity_initialized)
+    assert a._cyc is not None and a._side is not None  # the row store was used
