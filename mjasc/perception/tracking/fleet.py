@@ -91,6 +91,7 @@ class FleetTracker:
         self.local_id = np.zeros(0, dtype=np.int64)  # per row: its id in its vessel's numbering
         self.version = 0  # changes whenever rows are added or removed
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
+        self._reports: dict[int, list] | None = None  # every vessel's confirmed estimates since the last step
         self._max_range = np.zeros(0)
         self._next_local = np.zeros(0, dtype=np.int64)
         self._counts = np.zeros((0, len(COUNT_KEYS)), dtype=np.int64)
@@ -101,6 +102,7 @@ class FleetTracker:
     def add_owner(self, max_range_m: float = math.inf) -> int:
         """A vessel with no tracks yet and this sensor range [m] (tracks beyond it are dropped)."""
         k = self._max_range.size
+        self._reports = None
         self._max_range = np.append(self._max_range, float(max_range_m))
         self._next_local = np.append(self._next_local, 0)
         self._counts = np.vstack([self._counts, np.zeros((1, len(COUNT_KEYS)), dtype=np.int64)])
@@ -140,6 +142,7 @@ class FleetTracker:
         detections), and its scan's returns (k, 2) [m] in the order of ``detections.labels`` or None
         (for the outlines of slow tracks). Lists of p."""
         cfg = self.config
+        self._reports = None
         p = len(owners)
         owners = np.asarray(owners, dtype=np.int64)
         t_o = np.asarray(t_s, dtype=float).reshape(p)
@@ -369,10 +372,31 @@ class FleetTracker:
     # ------------------------------------------------------------------ outputs
     def estimates(self, owner: int, include_tentative: bool = False) -> list[TrackEstimate]:
         """TrackEstimate of every confirmed track of a vessel (and tentative ones if asked), in
-        bank order."""
-        rows = self.rows_of(owner)
-        if not include_tentative:
-            rows = rows[self.mgmt._confirmed[rows]]
+        bank order. The confirmed ones of every vessel are made at once, on the first call after a
+        step (each vessel asks once per step: one pass instead of one per vessel); a new list each
+        call, of the same objects until the next step."""
+        if include_tentative:
+            return self._estimates_of(self.rows_of(owner))
+        reports = self._reports
+        if reports is None:
+            reports = self._reports = {}
+            rows = np.flatnonzero(self.mgmt._confirmed)
+            if rows.size:
+                ests = self._estimates_of(rows)
+                own = self.owner[rows]
+                if self.n_owners == 1 or own.size == 1:
+                    reports[int(own[0])] = ests
+                else:
+                    order = np.argsort(own, kind="stable")  # by vessel, bank order within
+                    u, cut = group_starts(own[order])
+                    at = order.tolist()
+                    for o, a, b in zip(u.tolist(), cut.tolist(), cut[1:].tolist() + [own.size]):
+                        reports[o] = [ests[j] for j in at[a:b]]
+        got = reports.get(owner)
+        return [] if got is None else list(got)
+
+    def _estimates_of(self, rows) -> list[TrackEstimate]:
+        """TrackEstimate of the tracks ``rows`` (indices), in that order."""
         if rows.size == 0:
             return []
         t, pos, th, v, w, P = self.bank.estimate_fields(rows)
