@@ -96,3 +96,68 @@ def test_fleet_equals_each_vessel_alone_through_births_and_drops():
             assert [(e.time_s, e.kind, e.track_id, e.text) for e in fa.events[oa]] == \
                    [(e.time_s, e.kind, e.track_id, e.text) for e in fb.events[ob]]
     assert sum(fb.counts(ob)["born"] for fb, ob in alone) > 50
+
+
+def _after_update_numpy(mg, rows, t_s, used, assigned_det, rad, occ, speeds):
+    """The numpy form of TrackManagement.after_update (the reference of its compiled pass)."""
+    cfg = mg.config
+    hist = ((mg._hist[rows] << 1) | used) & mg._window_mask
+    mg._hist[rows] = hist
+    mg._scans[rows] += 1
+    mg._n_upd[rows] += used
+    mg._last[rows] = np.where(used, t_s, mg._last[rows])
+    grow = used & ~occ[np.maximum(assigned_det, 0)] if occ.size else used
+    if grow.any():
+        g = np.arange(mg._radius.size)[rows][grow]
+        r_new = rad[assigned_det[grow]]
+        r_old = mg._radius[g]
+        gain = np.where(r_new > r_old, cfg.radius_grow_gain, cfg.radius_shrink_gain)
+        mg._radius[g] = r_old + gain * (r_new - r_old)
+    conf = mg._confirmed[rows]
+    new_conf = ~conf & (mg._popcount[hist] >= cfg.confirm_hits)
+    conf |= new_conf
+    mg._confirmed[rows] = conf
+    old = (t_s - mg._born[rows]) >= cfg.static_min_age_s
+    mg._static[rows] = conf & old & np.where(mg._static[rows], speeds < 2 * cfg.static_speed_m_s,
+                                             speeds < cfg.static_speed_m_s)
+    return new_conf
+
+
+def test_after_update_equals_its_numpy_form():
+    import copy
+
+    from mjasc.perception.tracking.management import TrackManagement
+
+    rng = np.random.default_rng(2)
+    mg = TrackManagement(TrackingConfig())
+    ref = copy.deepcopy(mg)
+    seen_static = seen_conf = False
+    for step in range(200):
+        n = mg._hist.size
+        if n:
+            rows = slice(None) if step % 2 else np.sort(rng.choice(n, size=int(rng.integers(1, n + 1)), replace=False))
+            k = n if isinstance(rows, slice) else rows.size
+            m = int(rng.integers(0, 6))
+            used = rng.random(k) < 0.7 if m else np.zeros(k, dtype=bool)
+            assigned = np.where(used, rng.integers(0, max(m, 1), size=k), -1)
+            rad = rng.uniform(0.2, 3.0, size=m)
+            occ = rng.random(m) < 0.3 if step % 3 else np.zeros(0, dtype=bool)
+            speeds = rng.uniform(0.0, 0.8, size=k)
+            t = step * 0.2 if step % 5 == 0 else np.full(k, step * 0.2)
+            got = mg.after_update(rows, t, used, assigned, rad, occ, speeds)
+            want = _after_update_numpy(ref, rows, t, used, assigned, rad, occ, speeds)
+            assert np.array_equal(got, want)
+            for name in TrackManagement._ROWS:
+                assert getattr(mg, name).tobytes() == getattr(ref, name).tobytes(), name
+            seen_static |= bool(mg._static.any())
+            seen_conf |= bool(mg._confirmed.any())
+        b = int(rng.integers(0, 3))
+        if b:
+            r0 = rng.uniform(0.2, 2.0, size=b)
+            mg.append(step * 0.2, r0)
+            ref.append(step * 0.2, r0)
+        if mg._hist.size > 4 and rng.random() < 0.5:
+            keep = rng.random(mg._hist.size) < 0.8
+            mg.keep(keep)
+            ref.keep(keep)
+    assert seen_conf and seen_static

@@ -33,6 +33,7 @@ import math
 
 import numpy as np
 
+from mjasc.core.compiled import kernel
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.pair_kernels import merge_candidates
 
@@ -131,27 +132,16 @@ class TrackManagement:
         """Record the scan of the tracks ``rows`` (indices or a slice) at t_s ((k,) or scalar [s]):
         ``used`` (k,) bool rows updated with their detection ``assigned_det`` (k,) (index into
         the detections' radii ``rad`` [m] and occluded flags ``occ``); ``speeds`` (k,) the tracks'
-        speeds after the update [m/s]. Returns (k,) bool: the tracks confirmed now."""
+        speeds after the update [m/s]. Returns (k,) bool: the tracks confirmed now. (One compiled
+        pass, :func:`scan_rows`; tests/test_tracking_fleet_store.py keeps the numpy form.)"""
         cfg = self.config
-        hist = ((self._hist[rows] << 1) | used) & self._window_mask
-        self._hist[rows] = hist
-        self._scans[rows] += 1
-        self._n_upd[rows] += used
-        self._last[rows] = np.where(used, t_s, self._last[rows])
-        grow = used & ~occ[np.maximum(assigned_det, 0)] if occ.size else used
-        if grow.any():
-            g = np.arange(self._radius.size)[rows][grow]
-            r_new = rad[assigned_det[grow]]
-            r_old = self._radius[g]
-            gain = np.where(r_new > r_old, cfg.radius_grow_gain, cfg.radius_shrink_gain)
-            self._radius[g] = r_old + gain * (r_new - r_old)
-        conf = self._confirmed[rows]
-        new_conf = ~conf & (self._popcount[hist] >= cfg.confirm_hits)
-        conf |= new_conf
-        self._confirmed[rows] = conf
-        old = (t_s - self._born[rows]) >= cfg.static_min_age_s
-        self._static[rows] = conf & old & np.where(self._static[rows], speeds < 2 * cfg.static_speed_m_s,
-                                                   speeds < cfg.static_speed_m_s)
+        idx = np.arange(self._hist.size)[rows] if isinstance(rows, slice) else rows
+        t = np.full(idx.size, float(t_s)) if np.ndim(t_s) == 0 else t_s
+        new_conf = np.empty(idx.size, dtype=bool)
+        scan_rows(idx, t, used, assigned_det, rad, occ, speeds, self._hist, self._scans, self._n_upd, self._last,
+                  self._radius, self._confirmed, self._static, self._born, self._popcount, self._window_mask,
+                  float(cfg.radius_grow_gain), float(cfg.radius_shrink_gain), int(cfg.confirm_hits),
+                  float(cfg.static_min_age_s), float(cfg.static_speed_m_s), new_conf)
         return new_conf
 
     def drops(self, rows, group, t_s, positions, position_covariances, origins_m, max_range_m):
@@ -217,3 +207,33 @@ class TrackManagement:
             self._anchored |= new
         d = positions - self._anchor
         self._moved |= self._anchored & (np.hypot(d[:, 0], d[:, 1]) >= MOVED_M)
+
+
+@kernel
+def scan_rows(idx, t, used, assigned, rad, occ, speeds, hist, scans, n_upd, last, radius, confirmed, static, born,
+              popcount, window_mask, grow_gain, shrink_gain, confirm_hits, min_age, static_speed, new_conf):
+    """:meth:`TrackManagement.after_update` of the rows ``idx`` (k,) in place, per row in the order
+    of its numpy form: history bits, counters, last update time, the radius smoothed towards the
+    detection's (not from an occluded one), confirmation (new_conf (k,) written) and the static flag."""
+    for j in range(idx.size):
+        k = idx[j]
+        u = used[j]
+        h = ((hist[k] << 1) | u) & window_mask
+        hist[k] = h
+        scans[k] += 1
+        n_upd[k] += u
+        if u:
+            last[k] = t[j]
+            a = assigned[j]
+            if occ.size == 0 or not occ[max(a, 0)]:
+                r_new, r_old = rad[a], radius[k]
+                gain = grow_gain if r_new > r_old else shrink_gain
+                radius[k] = r_old + gain * (r_new - r_old)
+        conf = confirmed[k]
+        nc = not conf and popcount[h] >= confirm_hits
+        conf = conf or nc
+        confirmed[k] = conf
+        new_conf[j] = nc
+        old = (t[j] - born[k]) >= min_age
+        slow = speeds[j] < 2 * static_speed if static[k] else speeds[j] < static_speed
+        static[k] = conf and old and slow
