@@ -387,10 +387,10 @@ class IMMBank(PredictiveDensity):
         if self._startup.n_active:
             if t is None:
                 dt = np.full(self._ids.size, dtm)
-            keep = ~warm
-            self._s[keep], self._P[keep], self._mu[keep] = sp[keep], Pp[keep], cbar[keep]
-            self._x[keep] = x[keep]
-            rows = np.flatnonzero(warm)
+            rows = np.flatnonzero(warm)  # the start-up rows keep their (unused) IMM state; x is set below
+            sp[rows], Pp[rows], cbar[rows] = self._s[rows], self._P[rows], self._mu[rows]
+            self._s, self._P, self._mu, self._x = sp, Pp, cbar, x
+            self._side = side
             self._startup.predict(rows, dt[rows])
             s, P = self._startup.polar(rows)
             self._x[rows], self._Pc[rows] = s, P
@@ -502,10 +502,13 @@ class IMMBank(PredictiveDensity):
             ok_w = self._startup.update(rows, dt[rows], z[rows], var, use[rows], self._gate)
             ok[rows] = ok_w
             inside[rows] = ok_w | ~use[rows]
-        full = ~warm  # the cycle updated the rows ``ok`` of these, coasted the others
+        # the cycle updated the rows ``ok`` of the IMM rows, coasted the others; the start-up rows
+        # keep their (unused) IMM state, their x is set by the hand-over below
         s_new, P_new, mu_new, x_new, _ = side
-        self._s[full], self._P[full], self._mu[full] = s_new[full], P_new[full], mu_new[full]
-        self._x[full] = x_new[full]
+        if any_warm:
+            s_new[rows], P_new[rows], mu_new[rows] = self._s[rows], self._P[rows], self._mu[rows]
+        self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
+        self._side = out
         self._Pc_stale = True
 
         reasons = np.zeros(n, dtype=np.int8)
