@@ -161,3 +161,32 @@ def test_after_update_equals_its_numpy_form():
             mg.keep(keep)
             ref.keep(keep)
     assert seen_conf and seen_static
+
+
+def test_pair_kernels_equal_their_numpy_forms():
+    from mjasc.perception.tracking.association import block_pairs
+    from mjasc.perception.tracking.pair_kernels import block_pairs_flat, group_by_key, pair_variances
+
+    rng = np.random.default_rng(4)
+    for _ in range(50):
+        p = int(rng.integers(1, 6))
+        keys = rng.integers(0, p, size=int(rng.integers(0, 30)))
+        order, counts = group_by_key(keys, p)
+        assert np.array_equal(order, np.argsort(keys, kind="stable"))
+        assert np.array_equal(counts, np.bincount(keys, minlength=p))
+        n_a, n_b = rng.integers(0, 4, size=p), rng.integers(0, 4, size=p)
+        q, i, j, start, ga, gb = block_pairs_flat(n_a, n_b)
+        ref = block_pairs(n_a, n_b)
+        for x, y in zip((q, i, j, start), ref):
+            assert np.array_equal(x, y)
+        a0, b0 = np.cumsum(n_a) - n_a, np.cumsum(n_b) - n_b
+        assert np.array_equal(ga, a0[q] + i) and np.array_equal(gb, b0[q] + j)
+        m, n = int(n_b.sum()), int(n_a.sum())
+        var, rad, occ = rng.uniform(0.01, 0.3, size=m), rng.uniform(0.1, 3.0, size=m), rng.random(m) < 0.5
+        radius = rng.uniform(0.1, 3.0, size=max(n, 1))
+        if m:
+            rad[0] = np.nan
+        ta = rng.integers(0, max(n, 1), size=q.size)
+        got = pair_variances(ta, gb, var, occ, radius, rad)
+        want = var[gb] + occ[gb] * np.maximum(radius[ta] - rad[gb], 0.0) ** 2
+        assert got.tobytes() == want.tobytes()

@@ -40,11 +40,12 @@ import numpy as np
 from mjasc.core.estimates import TrackEstimate, track_estimate_rows
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.tracking.association import (
-    block_pairs, gnn_assign_blocks, group_starts, indexed_pair_costs, predicted_positions)
+    gnn_assign_blocks, group_starts, indexed_pair_costs, predicted_positions)
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
+from mjasc.perception.tracking.pair_kernels import block_pairs_flat, group_by_key, pair_variances
 from mjasc.perception.tracking.team import TeamMatcher
 
 __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
@@ -208,15 +209,13 @@ class FleetTracker:
         assigned = np.full(n, -1)
         var_row = np.full(n, self._R)
         rpos = row_pos[rows]
-        n_q = np.bincount(rpos, minlength=p)
         if M:
-            grouped = rows[np.argsort(rpos, kind="stable")]  # by vessel, bank order within
-            q, i, j, start = block_pairs(n_q, m_q)
+            order, n_q = group_by_key(rpos, p)
+            grouped = rows[order]  # by vessel, bank order within
+            q, i, j, start, gi, db = block_pairs_flat(n_q, m_q)
             if q.size:
-                gi = _starts(n_q)[q] + i
-                ta, db = grouped[gi], _starts(m_q)[q] + j
-                radius = self.mgmt._radius
-                var_p = var[db] + occ[db] * np.maximum(radius[ta] - rad[db], 0.0) ** 2
+                ta = grouped[gi]
+                var_p = pair_variances(ta, db, var, occ, self.mgmt._radius, rad)
                 zhat, S = predicted_positions(*bank.prediction_fields(grouped), t_o[row_pos[grouped]])
                 d2, cost = indexed_pair_costs(zhat, S, gi, z, db, var_p)
                 inside = d2 <= self._gate
@@ -330,13 +329,13 @@ class FleetTracker:
         rows = np.arange(len(bank)) if every else np.flatnonzero(pos_of[self.owner] >= 0)
         if rows.size:
             rpos = pos_of[self.owner if every else self.owner[rows]]
-            n_q = np.bincount(rpos, minlength=p)
-            grouped = rows[np.argsort(rpos, kind="stable")]
+            order, n_q = group_by_key(rpos, p)
+            grouped = rows[order]
             fidx = np.flatnonzero(free)
             m_f = np.bincount(d_pos[fidx], minlength=p)
-            q, i, j, _ = block_pairs(n_q, m_f)
+            q, i, j, _, ga, gb = block_pairs_flat(n_q, m_f)
             if q.size:
-                ta, fb = grouped[_starts(n_q)[q] + i], fidx[_starts(m_f)[q] + j]
+                ta, fb = grouped[ga], fidx[gb]
                 pos = bank.positions[ta]
                 dist = np.hypot(z[fb, 0] - pos[:, 0], z[fb, 1] - pos[:, 1])
                 free[fb[dist <= self.mgmt._radius[ta] + rad[fb]]] = False
