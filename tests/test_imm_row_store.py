@@ -130,3 +130,47 @@ def test_births_and_drops_between_cycles_give_the_bits_of_fresh_arrays():
         assert a.state_covariances.tobytes() == b.state_covariances.tobytes()
         assert np.array_equal(a.velocity_initialized, b.velocity_initialized)
     assert a._cyc is not None and a._side is not None  # the row store was used
+
+
+def test_ready_for_handover_equals_numpy_form():
+    from mjasc.perception.imm.startup import ready_for_handover
+
+    rng = np.random.default_rng(5)
+    k = 400
+    s = rng.normal(size=(k, 4)) * [1, 1, 1, 0.5]
+    s[:3, 3] = (0.0, np.nan, 1e-3)
+    A = rng.normal(size=(k, 4, 4)) * 0.3
+    P = A @ np.swapaxes(A, 1, 2)
+    n_meas = rng.integers(1, 6, size=k)
+    v2 = s[:, 3] ** 2
+    Pv = P[:, 2:, 2:]
+    half_tr = 0.5 * (Pv[:, 0, 0] + Pv[:, 1, 1])
+    lam_max = half_tr + np.sqrt((0.5 * (Pv[:, 0, 0] - Pv[:, 1, 1])) ** 2 + Pv[:, 0, 1] ** 2)
+    want = (v2 >= 4.0 * lam_max) | (n_meas >= 4)
+    got = ready_for_handover(s, P, n_meas, 4.0, 4)
+    assert np.array_equal(got, want) and 0 < want.sum() < k
+
+
+def test_rejection_bookkeeping_equals_numpy_form():
+    from mjasc.perception.imm.bank import GATED, NON_FINITE, NOT_MEASURED, _rejections
+
+    rng = np.random.default_rng(6)
+    n = 300
+    for limit in (0, 1, 3):
+        measured = rng.random(n) < 0.8
+        finite = rng.random(n) < 0.9
+        use = measured & finite
+        inside = rng.random(n) < 0.7
+        ok = use & inside
+        n_gated = rng.integers(0, 4, size=n)
+        reasons = np.zeros(n, dtype=np.int8)
+        reasons[~finite] = NON_FINITE
+        gated = use & ~inside
+        reasons[gated] = GATED
+        reasons[~measured] = NOT_MEASURED
+        want_n = np.where(gated, n_gated + 1, np.where(ok, 0, n_gated))
+        want_restart = gated & (want_n >= limit) if limit > 0 else np.zeros(n, dtype=bool)
+        got_r, got_restart = np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
+        _rejections(use, finite, measured, inside, ok, n_gated, limit, got_r, got_restart)
+        assert np.array_equal(got_r, reasons) and np.array_equal(n_gated, want_n)
+        assert np.array_equal(got_restart, want_restart)

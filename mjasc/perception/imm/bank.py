@@ -33,6 +33,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from mjasc.core.compiled import kernel
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import combine_covariance, imm_cycle, turn_rate, wrap
@@ -489,7 +490,6 @@ class IMMBank(PredictiveDensity):
         # general case: mix of updated, coasting, start-up and restarted tracks
         if t is None:
             t, dt = np.full(n, t0), np.full(n, dtm)
-        all_measured = use is None or bool(measured.all())
         if use is None:
             use = finite = measured = np.ones(n, dtype=bool)
         inside = d2_min <= self._gate  # (nan, False, where not used)
@@ -511,15 +511,10 @@ class IMMBank(PredictiveDensity):
         self._side = out
         self._Pc_stale = True
 
-        reasons = np.zeros(n, dtype=np.int8)
-        reasons[~finite] = NON_FINITE
-        gated = use & ~inside
-        reasons[gated] = GATED
-        if not all_measured:
-            reasons[~measured] = NOT_MEASURED
-        self._n_gated = np.where(gated, self._n_gated + 1, np.where(ok, 0, self._n_gated))
+        reasons = np.empty(n, dtype=np.int8)
+        restart = np.empty(n, dtype=bool)
         limit = self.config.restart_after_gated
-        restart = gated & (self._n_gated >= limit) if limit > 0 else np.zeros(n, dtype=bool)
+        _rejections(use, finite, measured, inside, ok, self._n_gated, limit, reasons, restart)
         self._set_times(t0, t)
         if any_warm:
             self._handover(np.flatnonzero(self._startup.active))
@@ -535,6 +530,7 @@ class IMMBank(PredictiveDensity):
         self._reasons = reasons
         self._flagged = True
         if logger.isEnabledFor(logging.DEBUG):
+            gated = use & ~inside
             for k in np.flatnonzero(measured & ~finite):
                 logger.debug(
                     "IMM track %d at t=%.3f s: rejected z=%s (%s)",
@@ -672,3 +668,25 @@ class IMMBank(PredictiveDensity):
             rad = radius_m.get(tid, 0.0) if isinstance(radius_m, Mapping) else radius_m
             out.append(self.estimate(tid, rad))
         return out
+
+@kernel
+def _rejections(use, finite, measured, inside, ok, n_gated, limit, reasons, restart):
+    """Per row of a general cycle, in place: why it was not used (``reasons``: not finite, then
+    gated — used but outside the gate —, then not measured, each overriding the one before),
+    its consecutive gated count ``n_gated`` (+1 when gated, 0 when used) and whether the track
+    restarts (``restart``: gated ``limit`` > 0 times in a row)."""
+    for k in range(use.size):
+        r = ACCEPTED
+        if not finite[k]:
+            r = NON_FINITE
+        g = use[k] and not inside[k]
+        if g:
+            r = GATED
+        if not measured[k]:
+            r = NOT_MEASURED
+        reasons[k] = r
+        if g:
+            n_gated[k] += 1
+        elif ok[k]:
+            n_gated[k] = 0
+        restart[k] = g and limit > 0 and n_gated[k] >= limit

@@ -113,14 +113,24 @@ def _polar_finish(xc, speed, theta, P):
 def ready_for_handover(s, cv_P, n_meas, snr2: float, max_updates: int) -> np.ndarray:
     """(k,) bool: start-up tracks ready for the IMM — speed determined, ``V² ≥ snr2·λ_max`` with
     λ_max the largest eigenvalue of the velocity covariance (``snr2 = init_speed_snr²``), or
-    ``n_meas ≥ max_updates``. s (k, 4) the polar state (:func:`cv_to_polar`), cv_P (k, 4, 4)."""
-    v2 = s[:, 3] ** 2
-    Pv = cv_P[:, 2:, 2:]
-    half_tr = 0.5 * (Pv[:, 0, 0] + Pv[:, 1, 1])
-    lam_max = half_tr + np.sqrt(
-        (0.5 * (Pv[:, 0, 0] - Pv[:, 1, 1])) ** 2 + Pv[:, 0, 1] ** 2
-    )
-    return (v2 >= snr2 * lam_max) | (n_meas >= max_updates)
+    ``n_meas ≥ max_updates``. s (k, 4) the polar state (:func:`cv_to_polar`), cv_P (k, 4, 4).
+    (Compiled, :func:`_ready`; tests/test_imm_row_store.py keeps the numpy form.)"""
+    out = np.empty(s.shape[0], dtype=bool)
+    _ready(s, cv_P, n_meas, float(snr2), int(max_updates), out)
+    return out
+
+
+@kernel
+def _ready(s, cv_P, n_meas, snr2, max_updates, out):
+    """:func:`ready_for_handover` per row into out (k,): ``V·V ≥ snr2·λ_max`` or enough updates,
+    λ_max = ½(P_vx + P_vy) + √((½(P_vx − P_vy))² + P_vxvy²)."""
+    for k in range(s.shape[0]):
+        a, b, c = cv_P[k, 2, 2], cv_P[k, 3, 3], cv_P[k, 2, 3]
+        half_tr = 0.5 * (a + b)
+        d = 0.5 * (a - b)
+        lam_max = half_tr + math.sqrt(d * d + c * c)
+        v = s[k, 3]
+        out[k] = (v * v >= snr2 * lam_max) or (n_meas[k] >= max_updates)
 
 
 class StartupFilters:
