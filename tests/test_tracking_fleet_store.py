@@ -190,3 +190,76 @@ def test_pair_kernels_equal_their_numpy_forms():
         got = pair_variances(ta, gb, var, occ, radius, rad)
         want = var[gb] + occ[gb] * np.maximum(radius[ta] - rad[gb], 0.0) ** 2
         assert got.tobytes() == want.tobytes()
+
+
+def _losses_numpy(mg, rows, t_s, positions, Pc, origins_m, max_range_m):
+    """The numpy form of the losses in TrackManagement.drops (the reference of its compiled pass)."""
+    cfg = mg.config
+    k = positions.shape[0]
+    reason = [""] * k
+    hist, conf = mg._hist[rows], mg._confirmed[rows]
+    misses = np.minimum(mg._scans[rows], cfg.confirm_window) - mg._popcount[hist]
+    drop = ~conf & (misses > cfg.confirm_window - cfg.confirm_hits)
+    tr = 0.5 * (Pc[:, 0, 0] + Pc[:, 1, 1])
+    lam = tr + np.sqrt(np.maximum(tr**2 - (Pc[:, 0, 0] * Pc[:, 1, 1] - Pc[:, 0, 1] ** 2), 0.0))
+    since = t_s - mg._last[rows]
+    gone = conf & (since > cfg.max_coast_s)
+    for j in np.flatnonzero(gone):
+        drop[j], reason[j] = True, f"not seen for {since[j]:.1f} s"
+    vague = conf & ~drop & (lam > cfg.max_position_std_m**2)
+    for j in np.flatnonzero(vague):
+        drop[j], reason[j] = True, f"position uncertainty {math.sqrt(lam[j]):.1f} m"
+    rng = np.hypot(positions[:, 0] - origins_m[:, 0], positions[:, 1] - origins_m[:, 1])
+    out = rng > max_range_m + cfg.range_margin_m
+    out &= ~drop
+    for j in np.flatnonzero(out):
+        drop[j], reason[j] = True, f"out of range ({rng[j]:.0f} m)"
+    return drop, reason
+
+
+def test_losses_and_manoeuvre_fading_equal_their_numpy_forms():
+    from mjasc.perception.imm import IMMBank
+    from mjasc.perception.tracking.management import TrackManagement
+    from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
+
+    rng = np.random.default_rng(9)
+    cfg = TrackingConfig()
+    mg = TrackManagement(cfg)
+    n = 400
+    mg.append(rng.uniform(0, 5, size=n), rng.uniform(0.2, 2, size=n))
+    mg._hist[:] = rng.integers(0, 1 << cfg.confirm_window, size=n)
+    mg._scans[:] = rng.integers(1, 10, size=n)
+    mg._confirmed[:] = rng.random(n) < 0.6
+    mg._last[:] = rng.uniform(0, 10, size=n)
+    A = rng.normal(size=(n, 2, 2)) * rng.uniform(0.1, 8.0, size=(n, 1, 1))
+    P = A @ np.swapaxes(A, 1, 2)
+    pos = rng.uniform(-120, 120, size=(n, 2))
+    org = np.where(rng.random((n, 1)) < 0.2, np.nan, rng.uniform(-5, 5, size=(n, 2)))
+    max_range = np.full(n, 100.0)
+    for rows in (slice(None), np.sort(rng.choice(n, size=150, replace=False))):
+        k = n if isinstance(rows, slice) else rows.size
+        sub = (lambda a: a) if isinstance(rows, slice) else (lambda a: a[rows])
+        t = rng.uniform(8, 14, size=k)
+        drop, reason, _ = mg.drops(rows, np.zeros(k, dtype=np.int64), t, sub(pos) + 1000.0 * np.arange(k)[:, None],
+                                   sub(P), sub(org), max_range[:k])
+        want_drop, want_reason = _losses_numpy(mg, rows, t, sub(pos) + 1000.0 * np.arange(k)[:, None], sub(P), sub(org),
+                                               max_range[:k])
+        assert np.array_equal(drop, want_drop) and reason == want_reason
+        assert {r.split()[0] for r in reason if r} == {"not", "position", "out"}
+    # manoeuvre detection: the faded NIS and the flags
+    det = ManoeuvreDetector(cfg)
+    det.append(n)
+    ref_nis, ref_man = det._nis.copy(), det._man.copy()
+    bank = IMMBank(cfg.imm)
+    bank.add_tracks(rng.uniform(-50, 50, size=(n, 2)), 0.0)
+    for step in range(30):
+        rows = np.sort(rng.choice(n, size=100, replace=False))
+        d2 = rng.exponential(4.0, size=100)
+        d2[0] = np.nan if step == 3 else d2[0]
+        det.detect(rows, d2, 9.2, 0.2 * (step + 1), bank)
+        a = cfg.manoeuvre_fading
+        nis = a * ref_nis[rows] + (1.0 - a) * np.minimum(d2, 9.2)
+        ref_nis[rows] = nis
+        ref_man[rows] = np.where(ref_man[rows], nis >= cfg.manoeuvre_end_threshold, nis > cfg.manoeuvre_threshold)
+        assert det._nis.tobytes() == ref_nis.tobytes() and np.array_equal(det._man, ref_man)
+    assert ref_man.any()

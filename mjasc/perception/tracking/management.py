@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import kernel
+from mjasc.core.compiled import kernel, maximum
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.pair_kernels import merge_candidates
 
@@ -158,28 +158,21 @@ class TrackManagement:
         k = positions.shape[0]
         reason = [""] * k
         merged = []
-        hist, conf = self._hist[rows], self._confirmed[rows]
-        # tentative tracks that can no longer reach M of N
-        misses = np.minimum(self._scans[rows], cfg.confirm_window) - self._popcount[hist]
-        drop = ~conf & (misses > cfg.confirm_window - cfg.confirm_hits)
-        Pc = position_covariances
-        tr = 0.5 * (Pc[:, 0, 0] + Pc[:, 1, 1])
-        lam = tr + np.sqrt(np.maximum(tr**2 - (Pc[:, 0, 0] * Pc[:, 1, 1] - Pc[:, 0, 1] ** 2), 0.0))
-        since = t_s - self._last[rows]
-        gone = conf & (since > cfg.max_coast_s)
-        if gone.any():
-            for j in np.flatnonzero(gone):
-                drop[j], reason[j] = True, f"not seen for {since[j]:.1f} s"
-        vague = conf & ~drop & (lam > cfg.max_position_std_m**2)
-        if vague.any():
-            for j in np.flatnonzero(vague):
-                drop[j], reason[j] = True, f"position uncertainty {math.sqrt(lam[j]):.1f} m"
-        rng = np.hypot(positions[:, 0] - origins_m[:, 0], positions[:, 1] - origins_m[:, 1])
-        out = rng > max_range_m + cfg.range_margin_m  # False where there is no origin (NaN)
-        out &= ~drop
-        if out.any():
-            for j in np.flatnonzero(out):
-                drop[j], reason[j] = True, f"out of range ({rng[j]:.0f} m)"
+        conf = self._confirmed[rows]
+        idx = np.arange(self._hist.size)[rows] if isinstance(rows, slice) else rows
+        t = np.full(k, float(t_s)) if np.ndim(t_s) == 0 else t_s
+        mr = np.full(k, float(max_range_m)) if np.ndim(max_range_m) == 0 else max_range_m
+        rng = np.hypot(positions[:, 0] - origins_m[:, 0], positions[:, 1] - origins_m[:, 1])  # NaN: no origin
+        drop, code = np.empty(k, dtype=bool), np.empty(k, dtype=np.int8)
+        lam, since = np.empty(k), np.empty(k)
+        _losses(idx, t, self._hist, self._scans, self._confirmed, self._last, self._popcount, position_covariances,
+                rng, mr, int(cfg.confirm_window), int(cfg.confirm_hits), float(cfg.max_coast_s),
+                float(cfg.max_position_std_m**2), float(cfg.range_margin_m), drop, code, lam, since)
+        for j in np.flatnonzero(code).tolist():  # why the confirmed ones are lost
+            c = code[j]
+            reason[j] = (f"not seen for {since[j]:.1f} s" if c == 1 else
+                         f"position uncertainty {math.sqrt(lam[j]):.1f} m" if c == 2 else
+                         f"out of range ({rng[j]:.0f} m)")
         # duplicates (same vessel): the track with fewer updates goes
         live = np.flatnonzero(~drop)
         if live.size > 1:
@@ -237,3 +230,29 @@ def scan_rows(idx, t, used, assigned, rad, occ, speeds, hist, scans, n_upd, last
         old = (t[j] - born[k]) >= min_age
         slow = speeds[j] < 2 * static_speed if static[k] else speeds[j] < static_speed
         static[k] = conf and old and slow
+
+
+@kernel
+def _losses(idx, t, hist, scans, confirmed, last, popcount, Pc, rng, max_range, window, hits, max_coast, max_var,
+            margin, drop, code, lam, since):
+    """The losses of :meth:`TrackManagement.drops` per row k = idx[j] at t[j], in the order of its
+    numpy form: a tentative track that can no longer reach M of N; a confirmed one not seen for
+    ``max_coast`` (code 1), then one whose position variance's largest eigenvalue lam[j] exceeds
+    ``max_var`` (code 2); then a track beyond its range + margin from its sensor, rng[j] (code 3;
+    NaN: no test). Writes drop[j], code[j] (0: none or tentative), lam[j] and since[j]."""
+    for j in range(idx.size):
+        k = idx[j]
+        conf = confirmed[k]
+        d = not conf and min(scans[k], window) - popcount[hist[k]] > window - hits
+        a, b, c = Pc[j, 0, 0], Pc[j, 1, 1], Pc[j, 0, 1]
+        tr = 0.5 * (a + b)
+        lm = tr + math.sqrt(maximum(tr * tr - (a * b - c * c), 0.0))
+        s = t[j] - last[k]
+        r = 0
+        if conf and s > max_coast:
+            d, r = True, 1
+        if conf and not d and lm > max_var:
+            d, r = True, 2
+        if not d and rng[j] > max_range[j] + margin:
+            d, r = True, 3
+        drop[j], code[j], lam[j], since[j] = d, r, lm, s
