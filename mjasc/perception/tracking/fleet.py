@@ -336,7 +336,7 @@ class FleetTracker:
             q, i, j, _, ga, gb = block_pairs_flat(n_q, m_f)
             if q.size:
                 ta, fb = grouped[ga], fidx[gb]
-                pos = bank.positions[ta]
+                pos = bank._x[ta]  # (the tracks' positions: its first two columns)
                 dist = np.hypot(z[fb, 0] - pos[:, 0], z[fb, 1] - pos[:, 1])
                 free[fb[dist <= self.mgmt._radius[ta] + rad[fb]]] = False
         new = np.flatnonzero(free)
@@ -350,15 +350,16 @@ class FleetTracker:
         own = owners[bp]
         first = np.searchsorted(bp, bp)  # births are grouped by vessel: rank within the vessel
         local = self._next_local[own] + (np.arange(k) - first)
-        self._next_local[owners] += np.bincount(bp, minlength=p)
+        born = np.bincount(bp, minlength=p)
+        self._next_local[owners] += born
         self.owner = np.concatenate([self.owner, own])
         self.local_id = np.concatenate([self.local_id, local])
         self.mgmt.append(t_b, rad[new])
         self.manoeuvres.append(k)
         self.team.append(k)
-        self.outlines.append(bank.positions[-k:])
+        self.outlines.append(bank._x[-k:, :2])
         self.version += 1
-        self._counts[owners, _BORN] += np.bincount(bp, minlength=p)
+        self._counts[owners, _BORN] += born
         for q in group_starts(bp)[0].tolist():  # (bp is sorted)
             sel = bp == q
             o = int(owners[q])

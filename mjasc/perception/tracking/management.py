@@ -80,22 +80,25 @@ class TrackManagement:
         if t.shape != (k,):
             t = np.broadcast_to(t, (k,))
         cat = np.concatenate
-        self._hist = cat([self._hist, np.ones(k, dtype=np.int64)])
-        self._scans = cat([self._scans, np.ones(k, dtype=np.int64)])
-        self._n_upd = cat([self._n_upd, np.ones(k, dtype=np.int64)])
-        self._confirmed = cat([self._confirmed, np.full(k, self.config.confirm_hits <= 1)])
-        self._static = cat([self._static, np.zeros(k, dtype=bool)])
+        one, no = np.ones(k, dtype=np.int64), np.zeros(k, dtype=bool)
+        self._hist = cat([self._hist, one])
+        self._scans = cat([self._scans, one])
+        self._n_upd = cat([self._n_upd, one])
+        self._confirmed = cat([self._confirmed, no | (self.config.confirm_hits <= 1)])
+        self._static = cat([self._static, no])
         self._born = cat([self._born, t])
         self._last = cat([self._last, t])
         self._radius = cat([self._radius, radius])
         self._anchor = cat([self._anchor, np.zeros((k, 2))])
-        self._anchored = cat([self._anchored, np.zeros(k, dtype=bool)])
-        self._moved = cat([self._moved, np.zeros(k, dtype=bool)])
+        self._anchored = cat([self._anchored, no])
+        self._moved = cat([self._moved, no])
 
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) is True."""
-        for name in self._ROWS:
-            setattr(self, name, getattr(self, name)[keep])
+        self._hist, self._scans, self._n_upd = self._hist[keep], self._scans[keep], self._n_upd[keep]
+        self._confirmed, self._static = self._confirmed[keep], self._static[keep]
+        self._born, self._last, self._radius = self._born[keep], self._last[keep], self._radius[keep]
+        self._anchor, self._anchored, self._moved = self._anchor[keep], self._anchored[keep], self._moved[keep]
 
     # ------------------------------------------------------------------ read-outs
     @property
