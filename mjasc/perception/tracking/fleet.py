@@ -372,28 +372,46 @@ class FleetTracker:
     # ------------------------------------------------------------------ outputs
     def estimates(self, owner: int, include_tentative: bool = False) -> list[TrackEstimate]:
         """TrackEstimate of every confirmed track of a vessel (and tentative ones if asked), in
-        bank order. The confirmed ones of every vessel are made at once, on the first call after a
-        step (each vessel asks once per step: one pass instead of one per vessel); a new list each
-        call, of the same objects until the next step."""
+        bank order. The numbers of every vessel's confirmed tracks are read from the bank at once,
+        on the first call after a step (each vessel asks once per step: one pass instead of one per
+        vessel, :meth:`_report_columns`); each call makes its vessel's objects from them."""
         if include_tentative:
             return self._estimates_of(self.rows_of(owner))
-        reports = self._reports
-        if reports is None:
-            reports = self._reports = {}
-            rows = np.flatnonzero(self.mgmt._confirmed)
-            if rows.size:
-                ests = self._estimates_of(rows)
-                own = self.owner[rows]
-                if self.n_owners == 1 or own.size == 1:
-                    reports[int(own[0])] = ests
-                else:
-                    order = np.argsort(own, kind="stable")  # by vessel, bank order within
-                    u, cut = group_starts(own[order])
-                    at = order.tolist()
-                    for o, a, b in zip(u.tolist(), cut.tolist(), cut[1:].tolist() + [own.size]):
-                        reports[o] = [ests[j] for j in at[a:b]]
-        got = reports.get(owner)
-        return [] if got is None else list(got)
+        cols = self._reports
+        if cols is None:
+            cols = self._reports = self._report_columns()
+        span = cols[0].get(owner)
+        if span is None:
+            return []
+        a, b = span
+        _, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow = cols
+        pos, radius = pos[a:b], radius[a:b]
+        outline = self.outlines.outline  # (= self.outline(k): pos, radius are row k's)
+        outlines = [outline(k, pos[j], radius[j]) if lk else None
+                    for j, (k, lk) in enumerate(zip(k_rows[a:b], slow[a:b]))]
+        return track_estimate_rows(ids[a:b], t[a:b], pos, th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b], static[a:b],
+                                   team[a:b], outlines, repeat(None, b - a))
+
+    def _report_columns(self) -> tuple:
+        """What :meth:`estimates` hands on, for every vessel's confirmed tracks, grouped by vessel
+        (bank order within): ({owner: (first, end)}, rows, ids, times, positions (k, 2), courses,
+        speeds, ω̂, radii (array and list), position covariances (k, 2, 2), static flags, team
+        mates, slow flags) — per-track values as :meth:`_estimates_of` makes them."""
+        rows = np.flatnonzero(self.mgmt._confirmed)
+        if rows.size == 0:
+            return ({},)
+        own = self.owner[rows]
+        if self.n_owners > 1:
+            order = np.argsort(own, kind="stable")
+            rows, own = rows[order], own[order]
+        u, cut = group_starts(own)
+        spans = dict(zip(u.tolist(), zip(cut.tolist(), cut[1:].tolist() + [own.size])))
+        t, pos, th, v, w, P = self.bank.estimate_fields(rows)
+        static = self.mgmt._static[rows]
+        slow = (static | (v < self.config.static_speed_m_s)).tolist()
+        radius = self.mgmt._radius[rows]
+        return (spans, rows.tolist(), self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
+                radius, radius.tolist(), P, static.tolist(), self.team.members(rows), slow)
 
     def _estimates_of(self, rows) -> list[TrackEstimate]:
         """TrackEstimate of the tracks ``rows`` (indices), in that order."""
