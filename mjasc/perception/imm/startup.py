@@ -27,49 +27,26 @@ from mjasc.perception.imm.compiled_cycle import position_update
 __all__ = ["StartupFilters", "cv_predict", "cv_to_polar", "ready_for_handover"]
 
 _UNIFORM_ANGLE_VAR = math.pi**2 / 3.0  # variance of an angle uniform on (−π, π]
+_EYE4 = np.eye(4)[None]
 
 
 def cv_predict(xc, Pc, dt, q):
-    """Constant-velocity prediction with white acceleration of intensity q; dt (k,).
-
-    F = [[I, dt I], [0, I]] and the noise terms are compiled loops (:func:`_cv_transitions`,
-    :func:`_add_cv_noise`); the products F x and F P Fᵀ and dt³ stay numpy's
-    (tests/test_imm_row_store.py keeps the all-numpy form as the reference, bit for bit)."""
-    F = _cv_transitions(dt)
+    """Constant-velocity prediction with white acceleration of intensity q; dt (k,)."""
+    k = dt.shape[0]
+    F = np.repeat(_EYE4, k, axis=0)
+    F[:, 0, 2] = F[:, 1, 3] = dt
     xp = (F @ xc[..., None])[..., 0]
     Pp = F @ Pc @ np.swapaxes(F, 1, 2)
-    _add_cv_noise(Pp, dt, dt**3, float(q))
+    q3, q2, q1 = q * dt**3 / 3.0, q * dt**2 / 2.0, q * dt
+    Pp[:, 0, 0] += q3
+    Pp[:, 1, 1] += q3
+    Pp[:, 0, 2] += q2
+    Pp[:, 2, 0] += q2
+    Pp[:, 1, 3] += q2
+    Pp[:, 3, 1] += q2
+    Pp[:, 2, 2] += q1
+    Pp[:, 3, 3] += q1
     return xp, Pp
-
-
-@kernel
-def _cv_transitions(dt):
-    """(k, 4, 4) constant-velocity transitions F = [[I₂, dt I₂], [0, I₂]] for dt (k,) [s]."""
-    k = dt.shape[0]
-    F = np.zeros((k, 4, 4))
-    for i in range(k):
-        for a in range(4):
-            F[i, a, a] = 1.0
-        F[i, 0, 2] = dt[i]
-        F[i, 1, 3] = dt[i]
-    return F
-
-
-@kernel
-def _add_cv_noise(P, dt, dt3, q):
-    """P (k, 4, 4) += the white-acceleration noise of intensity q over dt (k,) (dt3 = dt³): q dt³/3
-    on the positions, q dt²/2 position × velocity, q dt on the velocities."""
-    for i in range(P.shape[0]):
-        d = dt[i]
-        q3, q2, q1 = q * dt3[i] / 3.0, q * (d * d) / 2.0, q * d
-        P[i, 0, 0] += q3
-        P[i, 1, 1] += q3
-        P[i, 0, 2] += q2
-        P[i, 2, 0] += q2
-        P[i, 1, 3] += q2
-        P[i, 3, 1] += q2
-        P[i, 2, 2] += q1
-        P[i, 3, 3] += q1
 
 
 def cv_to_polar(xc, Pc):

@@ -45,7 +45,7 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.pair_kernels import block_pairs_flat, group_by_key, pair_variances
+from mjasc.perception.tracking.pair_kernels import block_pairs_flat
 from mjasc.perception.tracking.team import TeamMatcher
 
 __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
@@ -210,12 +210,12 @@ class FleetTracker:
         var_row = np.full(n, self._R)
         rpos = row_pos[rows]
         if M:
-            order, n_q = group_by_key(rpos, p)
-            grouped = rows[order]  # by vessel, bank order within
+            n_q = np.bincount(rpos, minlength=p)
+            grouped = rows[np.argsort(rpos, kind="stable")]  # by vessel, bank order within
             q, i, j, start, gi, db = block_pairs_flat(n_q, m_q)
             if q.size:
                 ta = grouped[gi]
-                var_p = pair_variances(ta, db, var, occ, self.mgmt._radius, rad)
+                var_p = var[db] + occ[db] * np.maximum(self.mgmt._radius[ta] - rad[db], 0.0) ** 2
                 zhat, S = predicted_positions(*bank.prediction_fields(grouped), t_o[row_pos[grouped]])
                 d2, cost = indexed_pair_costs(zhat, S, gi, z, db, var_p)
                 inside = d2 <= self._gate
@@ -329,8 +329,8 @@ class FleetTracker:
         rows = np.arange(len(bank)) if every else np.flatnonzero(pos_of[self.owner] >= 0)
         if rows.size:
             rpos = pos_of[self.owner if every else self.owner[rows]]
-            order, n_q = group_by_key(rpos, p)
-            grouped = rows[order]
+            n_q = np.bincount(rpos, minlength=p)
+            grouped = rows[np.argsort(rpos, kind="stable")]
             fidx = np.flatnonzero(free)
             m_f = np.bincount(d_pos[fidx], minlength=p)
             q, i, j, _, ga, gb = block_pairs_flat(n_q, m_f)

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.core.compiled import kernel, minimum
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.tracking.config import TrackingConfig
 
@@ -56,24 +55,15 @@ class ManoeuvreDetector:
             return
         if rows.size == 0:
             return
-        man = np.empty(rows.size, dtype=bool)
-        _fade(rows, d2, float(gate), float(cfg.manoeuvre_fading), float(cfg.manoeuvre_threshold),
-              float(cfg.manoeuvre_end_threshold), self._nis, self._man, man)
+        eps = np.minimum(d2, gate)
+        a = cfg.manoeuvre_fading
+        nis = a * self._nis[rows] + (1.0 - a) * eps
+        self._nis[rows] = nis
+        man = np.where(self._man[rows], nis >= cfg.manoeuvre_end_threshold, nis > cfg.manoeuvre_threshold)
+        self._man[rows] = man
         hot = rows[man]
         if hot.size:
             dt = np.maximum((t_s[man] if np.ndim(t_s) else t_s) - bank.times_s[hot], 0.0)
             bank.add_process_noise(hot, cfg.manoeuvre_heading_noise_rad2_s * dt,
                                    cfg.manoeuvre_speed_noise_m2_s3 * dt)
 
-
-@kernel
-def _fade(rows, d2, gate, a, start, end, nis, manoeuvring, man):
-    """Per row k = rows[j], in place: ε̄ ← a ε̄ + (1 − a) min(d2[j], gate) (numpy's minimum: NaN
-    propagates), manoeuvring from ε̄ > start until ε̄ < end; man[j] its new state."""
-    for j in range(rows.size):
-        k = rows[j]
-        e = a * nis[k] + (1.0 - a) * minimum(d2[j], gate)
-        nis[k] = e
-        m = e >= end if manoeuvring[k] else e > start
-        manoeuvring[k] = m
-        man[j] = m

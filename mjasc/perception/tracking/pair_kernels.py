@@ -43,8 +43,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel, maximum
 
-__all__ = ["block_pairs_loop", "block_pairs_flat", "group_by_key", "pair_variances", "broadcast_distances",
-           "gate_terms", "merge_candidates"]
+__all__ = ["block_pairs_loop", "block_pairs_flat", "broadcast_distances", "gate_terms", "merge_candidates"]
 
 
 @kernel
@@ -87,40 +86,6 @@ def block_pairs_flat(n_a, n_b):
         ga[k] = a0[q[k]] + i[k]
         gb[k] = b0[q[k]] + j[k]
     return q, i, j, start, ga, gb
-
-
-@kernel
-def group_by_key(keys, n_keys):
-    """(order, counts): the stable order of ``keys`` (k,) in [0, n_keys) (``np.argsort(keys,
-    kind="stable")``, a counting sort) and the number of each key (``np.bincount(keys,
-    minlength=n_keys)``)."""
-    counts = np.zeros(n_keys, dtype=np.int64)
-    for k in range(keys.size):
-        counts[keys[k]] += 1
-    at = np.empty(n_keys, dtype=np.int64)
-    acc = 0
-    for b in range(n_keys):
-        at[b] = acc
-        acc += counts[b]
-    order = np.empty(keys.size, dtype=np.int64)
-    for k in range(keys.size):
-        v = keys[k]
-        order[at[v]] = k
-        at[v] += 1
-    return order, counts
-
-
-@kernel
-def pair_variances(ta, db, var, occ, radius, rad):
-    """σ² of each (track ta[k], detection db[k]) pair [m²]: the detection's var, plus the square of
-    the part of the track's radius its own radius rad misses when it is occluded — numpy's
-    ``var[db] + occ[db] * np.maximum(radius[ta] - rad[db], 0.0) ** 2``."""
-    out = np.empty(ta.size)
-    for k in range(ta.size):
-        d = db[k]
-        m = maximum(radius[ta[k]] - rad[d], 0.0)
-        out[k] = var[d] + (1.0 if occ[d] else 0.0) * (m * m)
-    return out
 
 
 @kernel
