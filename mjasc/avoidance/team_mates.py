@@ -21,6 +21,7 @@ World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
+import weakref
 from typing import Callable
 
 import numpy as np
@@ -32,6 +33,37 @@ __all__ = ["TEAM_HISTORY_S", "PlannedTrack", "TeamMates"]
 
 #: How far back [s] the team mates' broadcast positions are kept to recognise their stale tracks.
 TEAM_HISTORY_S = 20.0
+
+#: Every receiver's estimate of a team mate from one message (a TeamIntention, the same object for
+#: every receiver of the broadcast) at one heading rate ω (``ω.hex()``: −0.0 kept apart): what the
+#: message alone gives, made once for the fleet. Entries go with their message.
+_PROTOS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _message_estimate(it, w: float) -> TrackEstimate:
+    """The estimate of team mate ``it.name`` from message ``it`` at heading rate ``w`` [rad/s], without
+    its id, radius and covariance (:meth:`TeamMates._from_intention`): made once per (message, ω)
+    for every receiver."""
+    by_rate = _PROTOS.get(it)
+    if by_rate is None:
+        by_rate = _PROTOS[it] = {}
+    key = w.hex() if isinstance(w, float) else float(w).hex()
+    proto = by_rate.get(key)
+    if proto is None:
+        direction, speed = it.velocity_polar()
+        course = direction if speed > 0.05 else it.heading_rad
+        position = np.asarray(it.position_m, dtype=float).copy()
+        if it.has_plan:
+            proto = estimate_of(PlannedTrack, -1, it.sent_time_s, position, course, max(it.max_speed_m_s(), 1e-3),
+                                w, 0.0, None, False, it.name, None, None, it)
+        else:
+            proto = estimate_of(TrackEstimate, -1, it.sent_time_s, position, course, speed, w, 0.0, None, False,
+                                it.name, None, None)
+        by_rate[key] = proto
+    return proto
+
+
+_NO_NAV = (None, None, 0.0)  # a team mate not heard twice: ω = 0
 
 
 class TeamMates:
@@ -51,7 +83,6 @@ class TeamMates:
         self._history = _BroadcastHistory()  # every team mate's broadcast positions over TEAM_HISTORY_S
         self._plan_checked: dict[str, float] = {}  # name → sent time of the last message compared
         self._ghosts: set[int] = set()  # track ids found to be a team mate's stale copy (reported once)
-        self._parts: dict[str, tuple] = {}  # name → what its newest message gives every estimate made from it
         # What the team picture held (names and send times) at the last poll and at the last
         # complete plan comparison: an unchanged picture has nothing new for either.
         self._key_of: tuple = (None, None)  # (a picture's intentions mapping, its key)
@@ -103,7 +134,7 @@ class TeamMates:
 
     def heading_rate(self, name: str) -> float:
         """ω of team mate ``name`` from its last two broadcasts [rad/s] (0 when unknown)."""
-        return self._nav.get(name, (None, None, 0.0))[2]
+        return self._nav.get(name, _NO_NAV)[2]
 
     def broadcast_based(self, track, fresh: dict) -> bool:
         """The track is a team mate predicted from its fresh broadcast (its speed is measured, not
@@ -116,25 +147,14 @@ class TeamMates:
         (:class:`PlannedTrack`), else constant velocity and the heading rate of successive messages.
         What depends on the message alone (position, course, speed, the plan's largest speed, and
         with the heading rate the whole estimate but its id, radius and covariance) is worked out
-        once per message: every prediction until the next one copies it."""
-        w = self.heading_rate(it.name)
-        parts = self._parts.get(it.name)
-        if parts is None or parts[0] is not it or parts[1] != w:
-            direction, speed = it.velocity_polar()
-            course = direction if speed > 0.05 else it.heading_rad
-            position = np.asarray(it.position_m, dtype=float).copy()
-            if it.has_plan:
-                proto = estimate_of(PlannedTrack, -1, it.sent_time_s, position, course, max(it.max_speed_m_s(), 1e-3),
-                                    w, 0.0, None, False, it.name, None, None, it)
-            else:
-                proto = estimate_of(TrackEstimate, -1, it.sent_time_s, position, course, speed, w, 0.0, None, False,
-                                    it.name, None, None)
-            parts = self._parts[it.name] = (it, w, proto)
+        once per message for every receiver (:func:`_message_estimate`): every prediction until the
+        next one copies it."""
+        proto = _message_estimate(it, self._nav.get(it.name, _NO_NAV)[2])
         if track is None:
             radius, cov = float(it.radius_m if it.radius_m else self.radius_m), np.zeros((2, 2))
         else:
             radius, cov = float(track.radius_m), track.position_covariance
-        return estimate_replace(parts[2], track_id=track_id, radius_m=radius, position_covariance=cov)
+        return estimate_replace(proto, track_id=track_id, radius_m=radius, position_covariance=cov)
 
     def tracks(self, tracks, t: float, picture, emit: Callable[[float, str], None]) -> list:
         """The tracks with team mates predicted from their fresh broadcasts (module docstring),

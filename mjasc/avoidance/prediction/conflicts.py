@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass
+from operator import attrgetter
 from typing import Sequence
 
 import numpy as np
@@ -39,7 +40,7 @@ from mjasc.avoidance.prediction.motion import TrackMotions
 from mjasc.avoidance.prediction.spatial import PlanContext, obstructed_stretch, obstruction_interval
 from mjasc.avoidance.prediction.svo import svo_polygon
 from mjasc.avoidance.prediction.timing import SpeedProfile, gamma_of_time, prediction_window, speed_now
-from mjasc.core.estimates import TrackEstimate, estimate_of
+from mjasc.core.estimates import TrackEstimate, _field_names
 from mjasc.guidance.paths import Path
 from mjasc.guidance.stacked_paths import StackedPaths
 
@@ -216,27 +217,36 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
         return r - paths.point(np.broadcast_to(v[:, None], t.shape), g)
 
     t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, rel_at, stop_first)
-    for p, (r, k, tc, dc, rc) in enumerate(zip(rows_l, vessel_l, t_c.tolist(), d_c.tolist(), r_col.tolist())):
+    hit = (d_c <= r_col).tolist()  # a collision: d(t_c) ≤ R_col (as _conflict decides it)
+    clear_too = [q.include_clear for q in queries]
+    # A clear pair (the common case: ~10⁵ a minute in a fleet of fifty) is made here at once,
+    # without the dataclass's __init__ (as estimate_of); a collision by _conflict.
+    names, new, cls, nan, none = _field_names(PredictedConflict), object.__new__, PredictedConflict, float("nan"), \
+        Decision.NONE
+    for p, (r, k, tc, dc, rc, h) in enumerate(zip(rows_l, vessel_l, t_c.tolist(), d_c.tolist(), r_col.tolist(), hit)):
         times, xy = grids[k]
-        c = _conflict(ctxs[k], tracks[r], tc, dc, rc, times, xy, obst[p, :times.size])
-        if c.collision or queries[k].include_clear:
+        if h:
+            out[k].append(_conflict(ctxs[k], tracks[r], tc, dc, rc, times, xy, obst[p, :times.size]))
+        elif clear_too[k]:
+            tr = tracks[r]
+            c = new(cls)
+            c.__dict__.update(zip(names, (tr.track_id, tc, dc, False, nan, nan, nan, nan, None, None, none, None, xy,
+                                          obst[p, :times.size], times, rc, bool(tr.is_static) or tr.speed_m_s == 0.0,
+                                          False)))
             out[k].append(c)
+    by_time = attrgetter("t_closest_s")
     for lst in out:
-        lst.sort(key=lambda c: c.t_closest_s)
+        lst.sort(key=by_time)
     return out
 
 
 def _conflict(ctx: PlanContext, track: TrackEstimate, t_c: float, d_c: float, r_col: float, times, vessel_xy,
               obst_xy) -> PredictedConflict:
-    """The PredictedConflict of one pair from its closest approach (t_c, d_c): spatial correlation
-    and decision σ when it is a collision."""
+    """The PredictedConflict of a pair with a predicted collision (d_c ≤ r_col) from its closest
+    approach (t_c, d_c): spatial correlation and decision σ (a clear pair is made in
+    :func:`predict_fleet`)."""
     cfg = ctx.config
     static = bool(track.is_static) or track.speed_m_s == 0.0
-    collision = d_c <= r_col
-    if not collision:  # the common case (~10⁵ a minute in a fleet of fifty), without the dataclass's __init__
-        nan = float("nan")
-        return estimate_of(PredictedConflict, track.track_id, t_c, d_c, False, nan, nan, nan, nan, None, None,
-                           Decision.NONE, None, vessel_xy, obst_xy, times, r_col, static, False)
     base = dict(
         track_id=track.track_id,
         t_closest_s=t_c,

@@ -26,6 +26,7 @@ World frame ENU, metres, absolute simulation times [s].
 
 from __future__ import annotations
 
+import weakref
 from typing import Sequence
 
 import numpy as np
@@ -64,18 +65,10 @@ class TrackMotions:
         self._kind = np.where(plan, self._PLAN, np.where(turn, self._TURN, self._STRAIGHT))
         self._kinds = sorted(set(self._kind.tolist()))
         self._pl = self._plan_of = None
-        if plan.any():  # each distinct intention stacked once (every receiver's copy of a team mate shares it)
+        if plan.any():  # each distinct intention's knots stacked once for the fleet (_PLANS)
             self._plan_of = np.full(m, -1, dtype=np.intp)
-            index: dict[int, int] = {}
-            its = []
-            for k in np.flatnonzero(plan).tolist():
-                it = tracks[k].intention
-                u = index.get(id(it))
-                if u is None:
-                    u = index[id(it)] = len(its)
-                    its.append(it)
-                self._plan_of[k] = u
-            self._pl = _StackedPlans(its)
+            sel = np.flatnonzero(plan)
+            self._pl, self._plan_of[sel] = _PLANS.rows([tracks[k].intention for k in sel.tolist()])
 
     def at(self, rows, times) -> np.ndarray:
         """Positions (P, K, 2) [m] of tracks ``rows`` (P,) at absolute ``times`` (P, K) — each row
@@ -126,7 +119,8 @@ def intention_positions(intentions, times) -> np.ndarray:
     k, n = len(intentions), times.size
     if k <= 4:  # stacking costs more than it saves for a few
         return np.stack([it.positions(times) for it in intentions]) if k else np.zeros((0, n, 2))
-    return _StackedPlans(intentions).at(np.repeat(np.arange(k), n), np.tile(times, k)).reshape(k, n, 2)
+    plans, rows = _PLANS.rows(intentions)
+    return plans.at(np.repeat(rows, n), np.tile(times, k)).reshape(k, n, 2)
 
 
 class _StackedPlans:
@@ -158,12 +152,74 @@ class _StackedPlans:
         self.v_end[has] = (pts[lastk] - pts[lastk - 1]) / \
             np.maximum(self.ts[lastk] - self.ts[lastk - 1], 1e-9)[:, None]
 
+    def joined(self, other: "_StackedPlans") -> "_StackedPlans":
+        """These plans, then ``other``'s (its plan u is u + this one's count)."""
+        out = object.__new__(_StackedPlans)
+        shift = self.ts.size
+        for name in ("ts", "xs", "ys", "count", "t_first", "t_last", "anchor", "t_anchor", "vel", "p_last", "v_end"):
+            setattr(out, name, np.concatenate([getattr(self, name), getattr(other, name)]))
+        out.start = np.concatenate([self.start, other.start + shift])
+        return out
+
     def at(self, plans, t) -> np.ndarray:
         """Positions (k, 2) of plans ``plans`` (k,) at times ``t`` (k,)."""
         out = np.empty(plans.shape + (2,))
         _plan_positions(plans, t, self.ts, self.xs, self.ys, self.start, self.count, self.t_first, self.t_last,
                         self.anchor, self.t_anchor, self.vel, self.p_last, self.v_end, out)
         return out
+
+
+class _PlanTable:
+    """Every intention's plan stacked once (a :class:`_StackedPlans` that grows): the fleet's
+    receivers hold the same message objects, so each message's knots are stacked when it is first
+    predicted and every later prediction only looks its row up. Rows are kept per intention while it
+    lives (a weak mapping); when most rows belong to intentions gone, the table is rebuilt from the
+    live ones. Each row holds the numbers ``_StackedPlans`` makes for that intention alone (they
+    are per intention: the table's layout changes no result)."""
+
+    _MIN_REBUILD = 2048  # rows before a rebuild is considered
+
+    def __init__(self):
+        self._row: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+        self._plans: _StackedPlans | None = None
+
+    def rows(self, intentions) -> tuple["_StackedPlans", np.ndarray]:
+        """(the stacked plans, each intention's row (k,)), stacking those not seen before."""
+        try:
+            get = self._row.get
+            rows = [get(it) for it in intentions]
+        except TypeError:  # not weakly referable: stacked for this call alone
+            return _StackedPlans(intentions), _distinct_rows(intentions)
+        if None in rows:
+            new, seen = [], set()
+            for it, r in zip(intentions, rows):
+                if r is None and id(it) not in seen:
+                    seen.add(id(it))
+                    new.append(it)
+            self._add(new)
+            rows = [get(it) for it in intentions]
+        return self._plans, np.array(rows, dtype=np.intp)
+
+    def _add(self, new) -> None:
+        old = self._plans
+        n_old = 0 if old is None else old.t_first.size
+        if n_old >= self._MIN_REBUILD and 2 * len(self._row) < n_old:  # most rows dead: rebuild from the live
+            live = list(self._row.keys())
+            self._row = weakref.WeakKeyDictionary()
+            self._plans, n_old = None, 0
+            self._add(live)
+            old, n_old = self._plans, self._plans.t_first.size
+        part = _StackedPlans(new)
+        self._plans = part if old is None else old.joined(part)
+        for u, it in enumerate(new):
+            self._row[it] = n_old + u
+
+
+def _distinct_rows(intentions) -> np.ndarray:
+    return np.arange(len(intentions), dtype=np.intp)
+
+
+_PLANS = _PlanTable()
 
 
 @kernel
