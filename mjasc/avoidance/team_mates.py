@@ -83,6 +83,8 @@ class TeamMates:
         self._history = _BroadcastHistory()  # every team mate's broadcast positions over TEAM_HISTORY_S
         self._plan_checked: dict[str, float] = {}  # name → sent time of the last message compared
         self._ghosts: set[int] = set()  # track ids found to be a team mate's stale copy (reported once)
+        self._mate_id = {n: -1 - k for k, n in enumerate(sorted(self.team))}  # a team mate's id without a track
+        self._unmatched: dict[str, tuple] = {}  # name → (message estimate, the track made of it alone)
         # What the team picture held (names and send times) at the last poll and at the last
         # complete plan comparison: an unchanged picture has nothing new for either.
         self._key_of: tuple = (None, None)  # (a picture's intentions mapping, its key)
@@ -150,11 +152,15 @@ class TeamMates:
         once per message for every receiver (:func:`_message_estimate`): every prediction until the
         next one copies it."""
         proto = _message_estimate(it, self._nav.get(it.name, _NO_NAV)[2])
-        if track is None:
-            radius, cov = float(it.radius_m if it.radius_m else self.radius_m), np.zeros((2, 2))
-        else:
-            radius, cov = float(track.radius_m), track.position_covariance
-        return estimate_replace(proto, track_id=track_id, radius_m=radius, position_covariance=cov)
+        if track is None:  # its id, radius and covariance are fixed: one estimate per message
+            made = self._unmatched.get(it.name)
+            if made is None or made[0] is not proto:
+                made = self._unmatched[it.name] = (proto, estimate_replace(
+                    proto, track_id=track_id, radius_m=float(it.radius_m if it.radius_m else self.radius_m),
+                    position_covariance=np.zeros((2, 2))))
+            return made[1]
+        return estimate_replace(proto, track_id=track_id, radius_m=float(track.radius_m),
+                                position_covariance=track.position_covariance)
 
     def tracks(self, tracks, t: float, picture, emit: Callable[[float, str], None]) -> list:
         """The tracks with team mates predicted from their fresh broadcasts (module docstring),
@@ -170,10 +176,10 @@ class TeamMates:
                 continue
             seen.add(tr.team_member)
             out.append(self._from_intention(it, tr, tr.track_id))
-        order = sorted(self.team)
+        mate_id = self._mate_id
         for name, it in intents.items():
             if name not in seen:
-                out.append(self._from_intention(it, None, -1 - order.index(name)))
+                out.append(self._from_intention(it, None, mate_id[name]))
         unmatched = [k for k, tr in enumerate(out) if tr.team_member is None]
         if not unmatched:
             return out

@@ -159,17 +159,16 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
         n = max(2, int(np.ceil((c.t_end - c.t_now) / c.config.time_step_s - 1e-9)) + 1)
         times = np.linspace(c.t_now, c.t_end, n)
         grids.append((times, c.vessel_at(times)))
-    tracks, owner = [], []
-    for k, q in enumerate(queries):
-        for i, tr in enumerate(q.tracks):
-            if not isinstance(tr, TrackEstimate):
-                raise ValueError(f"tracks[{i}]: expected a TrackEstimate, got {type(tr).__name__}")
-            tracks.append(tr)
-            owner.append(k)
+    tracks = [tr for q in queries for tr in q.tracks]
+    if not all(issubclass(c, TrackEstimate) for c in set(map(type, tracks))):
+        for q in queries:
+            for i, tr in enumerate(q.tracks):
+                if not isinstance(tr, TrackEstimate):
+                    raise ValueError(f"tracks[{i}]: expected a TrackEstimate, got {type(tr).__name__}")
     out: list[list[PredictedConflict]] = [[] for _ in queries]
     if not tracks:
         return out
-    owner = np.asarray(owner, dtype=np.intp)
+    owner = np.repeat(np.arange(len(queries), dtype=np.intp), [len(q.tracks) for q in queries])
     motions = TrackMotions(tracks)
     rows = np.arange(len(tracks))
     max_range = np.array([np.inf if c.config.max_range_m is None else c.config.max_range_m for c in ctxs])
@@ -178,7 +177,7 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
         own_now = np.array([c.path.point(c.gamma_now) for c in ctxs])
         gap = motions.at(rows, t_now[owner][:, None])[:, 0] - own_now[owner]
         rows = rows[~(np.hypot(gap[:, 0], gap[:, 1]) > max_range[owner])]
-    r_ob = np.array([float(tracks[r].radius_m) for r in rows])
+    r_ob = motions.radius_m[rows]
     bad = np.flatnonzero(~(np.isfinite(r_ob) & (r_ob >= 0.0)))
     if bad.size:
         tr = tracks[rows[bad[0]]]
@@ -196,10 +195,19 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
     times_p = times_q[vessel]
     obst = motions.at(rows, times_p)
     vessel_l, rows_l = vessel.tolist(), rows.tolist()
-    r_col = np.array([ctxs[k].r_vh + r + ctxs[k].config.safety_distance_m for k, r in zip(vessel_l, r_ob.tolist())])
-    stop_first = np.array([ctxs[k].config.stop_at_first_minimum for k in vessel_l])
+    # R_vh + R_ob + safety per pair (elementwise: the numbers of the sum per pair)
+    r_col = np.array([c.r_vh for c in ctxs])[vessel] + r_ob + np.array([c.config.safety_distance_m
+                                                                        for c in ctxs])[vessel]
+    stop_first = np.array([c.config.stop_at_first_minimum for c in ctxs], dtype=bool)[vessel]
 
     paths = StackedPaths([c.path for c in ctxs]) if len(ctxs) > 1 else None
+    # γ(t) = γ_now + v (t − t_now) of the vessels at a constant speed, for all their pairs at once
+    # (the numbers of gamma_of_time's form, elementwise); the others by their own γ(t).
+    speed = [_constant_speed(q.speed_profile) for q in queries]
+    steady = np.array([v is not None for v in speed])
+    g_now = np.array([c.gamma_now for c in ctxs])
+    t_now_q = np.array([c.t_now for c in ctxs])
+    v_q = np.array([0.0 if v is None else v for v in speed])
 
     def rel_at(pairs, t):
         """Track minus vessel position (k, j, 2) of pairs (k,) at times t (k, j): each vessel's
@@ -208,12 +216,20 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
         if paths is None:
             return r - ctxs[0].vessel_at(t)
         v = vessel[pairs]
-        order = np.argsort(v, kind="stable")
-        vs = v[order]
-        cut = np.flatnonzero(vs[1:] != vs[:-1]) + 1
-        g = np.empty(t.shape)
-        for sel in np.split(order, cut):
-            g[sel] = ctxs[v[sel[0]]].gamma_fn(t[sel])
+        st = steady[v]
+        if st.all():
+            g = g_now[v][:, None] + v_q[v][:, None] * (t - t_now_q[v][:, None])
+        else:
+            g = np.empty(t.shape)
+            if st.any():
+                vs = v[st]
+                g[st] = g_now[vs][:, None] + v_q[vs][:, None] * (t[st] - t_now_q[vs][:, None])
+            other = np.flatnonzero(~st)
+            order = other[np.argsort(v[other], kind="stable")]
+            vs = v[order]
+            cut = np.flatnonzero(vs[1:] != vs[:-1]) + 1
+            for sel in np.split(order, cut):
+                g[sel] = ctxs[v[sel[0]]].gamma_fn(t[sel])
         return r - paths.point(np.broadcast_to(v[:, None], t.shape), g)
 
     t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, rel_at, stop_first)
@@ -238,6 +254,16 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
     for lst in out:
         lst.sort(key=by_time)
     return out
+
+
+def _constant_speed(profile) -> float | None:
+    """The speed [m/s] of a constant speed profile (a number; :func:`gamma_of_time` has checked it),
+    None for a callable or knots."""
+    if isinstance(profile, (float, int)) and not isinstance(profile, bool):
+        return float(profile)
+    if isinstance(profile, np.ndarray) and profile.ndim == 0 or isinstance(profile, np.floating):
+        return float(profile)
+    return None
 
 
 def _conflict(ctx: PlanContext, track: TrackEstimate, t_c: float, d_c: float, r_col: float, times, vessel_xy,

@@ -44,16 +44,19 @@ class TrackMotions:
     ``tracks[k]``. :meth:`at` evaluates positions of rows at times in one array operation per
     kind of motion (straight or static, turning, plan)."""
 
-    __slots__ = ("n", "_par", "_kind", "_kinds", "_pl", "_plan_of")
+    __slots__ = ("n", "radius_m", "_par", "_kind", "_kinds", "_pl", "_plan_of")
 
     _STRAIGHT, _TURN, _PLAN = 0, 1, 2
 
     def __init__(self, tracks: Sequence[TrackEstimate]):
         m = self.n = len(tracks)
-        a = np.array([(tr.position_m[0], tr.position_m[1], tr.time_s, tr.speed_m_s, tr.heading_rad,
-                       tr.turn_rate_rad_s, tr.is_static, isinstance(tr, PlannedTrack)) for tr in tracks],
-                     dtype=float).reshape(m, 8)
-        plan = a[:, 7] != 0.0
+        plan = np.array([isinstance(tr, PlannedTrack) for tr in tracks], dtype=bool).reshape(m)
+        # A plan's motion is its intention's: its other numbers are not read (zeros).
+        a = np.array([(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, tr.radius_m) if p else
+                      (tr.position_m[0], tr.position_m[1], tr.time_s, tr.speed_m_s, tr.heading_rad,
+                       tr.turn_rate_rad_s, tr.is_static, 0.0, tr.radius_m) for tr, p in zip(tracks, plan.tolist())],
+                     dtype=float).reshape(m, 9)
+        self.radius_m = a[:, 8]  # each track's radius [m] (m,)
         moving = ~((a[:, 6] != 0.0) | (a[:, 3] == 0.0) | plan)
         v, th, w = a[:, 3] * moving, a[:, 4] * moving, a[:, 5] * moving
         turn = np.abs(w) >= _STRAIGHT_OMEGA
