@@ -21,7 +21,6 @@ World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
-import weakref
 from typing import Callable
 
 import numpy as np
@@ -36,17 +35,22 @@ TEAM_HISTORY_S = 20.0
 
 #: Every receiver's estimate of a team mate from one message (a TeamIntention, the same object for
 #: every receiver of the broadcast) at one heading rate ω (``ω.hex()``: −0.0 kept apart): what the
-#: message alone gives, made once for the fleet. Entries go with their message.
-_PROTOS: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+#: message alone gives, made once for the fleet. id(message) → (message, {ω: estimate}); the
+#: message is held so that its id stays its own; emptied when it holds :data:`_PROTOS_MAX` messages.
+_PROTOS: dict[int, tuple] = {}
+_PROTOS_MAX = 4096
 
 
 def _message_estimate(it, w: float) -> TrackEstimate:
     """The estimate of team mate ``it.name`` from message ``it`` at heading rate ``w`` [rad/s], without
     its id, radius and covariance (:meth:`TeamMates._from_intention`): made once per (message, ω)
     for every receiver."""
-    by_rate = _PROTOS.get(it)
-    if by_rate is None:
-        by_rate = _PROTOS[it] = {}
+    entry = _PROTOS.get(id(it))
+    if entry is None or entry[0] is not it:
+        if len(_PROTOS) >= _PROTOS_MAX:
+            _PROTOS.clear()
+        entry = _PROTOS[id(it)] = (it, {})
+    by_rate = entry[1]
     key = w.hex() if isinstance(w, float) else float(w).hex()
     proto = by_rate.get(key)
     if proto is None:

@@ -26,7 +26,6 @@ World frame ENU, metres, absolute simulation times [s].
 
 from __future__ import annotations
 
-import weakref
 from typing import Sequence
 
 import numpy as np
@@ -175,51 +174,44 @@ class _StackedPlans:
 class _PlanTable:
     """Every intention's plan stacked once (a :class:`_StackedPlans` that grows): the fleet's
     receivers hold the same message objects, so each message's knots are stacked when it is first
-    predicted and every later prediction only looks its row up. Rows are kept per intention while it
-    lives (a weak mapping); when most rows belong to intentions gone, the table is rebuilt from the
-    live ones. Each row holds the numbers ``_StackedPlans`` makes for that intention alone (they
-    are per intention: the table's layout changes no result)."""
+    predicted and every later prediction only looks its row up (id(intention) → (intention, row);
+    the intention is held so that its id stays its own). When the table holds :data:`_MAX_ROWS`
+    plans it starts again empty. Each row holds the numbers ``_StackedPlans`` makes for that
+    intention alone (they are per intention: the table's layout changes no result)."""
 
-    _MIN_REBUILD = 2048  # rows before a rebuild is considered
+    _MAX_ROWS = 4096
 
     def __init__(self):
-        self._row: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+        self._row: dict[int, tuple] = {}
         self._plans: _StackedPlans | None = None
 
     def rows(self, intentions) -> tuple["_StackedPlans", np.ndarray]:
         """(the stacked plans, each intention's row (k,)), stacking those not seen before."""
-        try:
-            get = self._row.get
-            rows = [get(it) for it in intentions]
-        except TypeError:  # not weakly referable: stacked for this call alone
-            return _StackedPlans(intentions), _distinct_rows(intentions)
-        if None in rows:
-            new, seen = [], set()
-            for it, r in zip(intentions, rows):
-                if r is None and id(it) not in seen:
-                    seen.add(id(it))
-                    new.append(it)
+        get = self._row.get
+        rows = []
+        new = []
+        for it in intentions:
+            e = get(id(it))
+            if e is None or e[0] is not it:
+                new.append(it)
+                rows.append(-1)
+            else:
+                rows.append(e[1])
+        if new:
+            if self._plans is not None and self._plans.t_first.size + len(new) > self._MAX_ROWS:
+                self._row, self._plans = {}, None  # start again, with this call's intentions
+                new = intentions
             self._add(new)
-            rows = [get(it) for it in intentions]
+            rows = [self._row[id(it)][1] for it in intentions]
         return self._plans, np.array(rows, dtype=np.intp)
 
     def _add(self, new) -> None:
-        old = self._plans
-        n_old = 0 if old is None else old.t_first.size
-        if n_old >= self._MIN_REBUILD and 2 * len(self._row) < n_old:  # most rows dead: rebuild from the live
-            live = list(self._row.keys())
-            self._row = weakref.WeakKeyDictionary()
-            self._plans, n_old = None, 0
-            self._add(live)
-            old, n_old = self._plans, self._plans.t_first.size
-        part = _StackedPlans(new)
-        self._plans = part if old is None else old.joined(part)
-        for u, it in enumerate(new):
-            self._row[it] = n_old + u
-
-
-def _distinct_rows(intentions) -> np.ndarray:
-    return np.arange(len(intentions), dtype=np.intp)
+        distinct = list({id(it): it for it in new}.values())
+        n_old = 0 if self._plans is None else self._plans.t_first.size
+        part = _StackedPlans(distinct)
+        self._plans = part if self._plans is None else self._plans.joined(part)
+        for u, it in enumerate(distinct):
+            self._row[id(it)] = (it, n_old + u)
 
 
 _PLANS = _PlanTable()
