@@ -147,3 +147,55 @@ def test_predict_fleet_with_constant_and_planned_speeds_equals_one_call_per_vess
                 (b.t_closest_s, b.min_distance_m, b.collision, b.collision_distance_m, b.is_static)
             assert (a.t_i, a.t_f, a.gamma_a, a.gamma_b) == (b.t_i, b.t_f, b.gamma_a, b.gamma_b) or \
                 (np.isnan(a.t_i) and np.isnan(b.t_i))
+
+
+def test_distinct_rows_find_each_vessels_shared_brackets():
+    from mjasc.avoidance.prediction.conflicts import _distinct_rows
+
+    rng = np.random.default_rng(1)
+    brackets = rng.uniform(0.0, 10.0, (3, 2))
+    pick = rng.integers(0, 3, 40)
+    v = rng.integers(0, 2, 40)
+    t = brackets[pick, :1] + (brackets[pick, 1:] - brackets[pick, :1]) * np.linspace(0.0, 1.0, 17)
+    u, inv = _distinct_rows(v, t)
+    assert u is not None and u.size == len(set(zip(v.tolist(), pick.tolist())))
+    np.testing.assert_array_equal(t[u][inv], t)
+    np.testing.assert_array_equal(v[u][inv], v)
+    assert _distinct_rows(np.arange(40), t) == (None, None)  # every row its own: nothing to share
+
+
+def test_the_zoom_evaluates_shared_brackets_once_with_the_same_numbers(monkeypatch):
+    """Team mates sailing away (their first minimum at the window's start: one bracket for all of a
+    vessel's pairs): the prediction with the vessel's positions evaluated once per distinct
+    bracket equals the one evaluating them per pair, bit for bit."""
+    from mjasc.avoidance.prediction import conflicts
+
+    rng = np.random.default_rng(3)
+    queries = []
+    for v in range(3):
+        path = Path.from_waypoints(np.array([60.0 * v, 0.0]) + [[0, 0], [80, 0], [80, 60]], turn_radius_m=8.0)
+        tracks = []
+        for k, it in enumerate(_intentions(rng, 12)):
+            off = path.point(3.0) + it.position_m
+            away = replace(it, position_m=off, plan_points_m=off + np.outer(it.plan_times_s - 49.7, [0.0, 1.5])
+                           if it.has_plan else it.plan_points_m, velocity_m_s=np.array([0.0, 1.5]))
+            tracks.append(PlannedTrack(k, away.sent_time_s, off, 0.0, 1.5, 0.0, 2.0, team_member=away.name,
+                                       intention=away))
+        queries.append(PredictionQuery(path, 3.0, 50.0, 1.0 + 0.2 * v, 2.0, tracks,
+                                       CollisionPredictionConfig(window_s=25.0, time_step_s=0.5), include_clear=True))
+    calls = []
+    orig = conflicts._distinct_rows
+
+    def counted(v, t):
+        out = orig(v, t)
+        calls.append(out[0] is not None)
+        return out
+
+    monkeypatch.setattr(conflicts, "_distinct_rows", counted)
+    shared = predict_fleet(queries)
+    assert any(calls)
+    monkeypatch.setattr(conflicts, "_distinct_rows", lambda v, t: (None, None))
+    per_pair = predict_fleet(queries)
+    for got, ref in zip(shared, per_pair):
+        assert [(c.track_id, c.t_closest_s, c.min_distance_m, c.collision) for c in got] == \
+            [(c.track_id, c.t_closest_s, c.min_distance_m, c.collision) for c in ref]

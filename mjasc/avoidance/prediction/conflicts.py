@@ -211,11 +211,19 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
 
     def rel_at(pairs, t):
         """Track minus vessel position (k, j, 2) of pairs (k,) at times t (k, j): each vessel's
-        γ(t) from its own plan, every vessel's path evaluated in one pass."""
+        γ(t) from its own plan, every vessel's path evaluated in one pass, once per distinct
+        (vessel, times) row (many pairs of a vessel share a bracket: elementwise, the same numbers)."""
         r = motions.at(rows[pairs], t)
-        if paths is None:
-            return r - ctxs[0].vessel_at(t)
         v = vessel[pairs]
+        u, inv = _distinct_rows(v, t)
+        if u is None:
+            return r - own_at(v, t)
+        return r - own_at(v[u], t[u])[inv]
+
+    def own_at(v, t):
+        """The vessels' positions (k, j, 2) [m]: vessel v (k,) at its times t (k, j)."""
+        if paths is None:
+            return ctxs[0].vessel_at(t)
         st = steady[v]
         if st.all():
             g = g_now[v][:, None] + v_q[v][:, None] * (t - t_now_q[v][:, None])
@@ -230,7 +238,7 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
             cut = np.flatnonzero(vs[1:] != vs[:-1]) + 1
             for sel in np.split(order, cut):
                 g[sel] = ctxs[v[sel[0]]].gamma_fn(t[sel])
-        return r - paths.point(np.broadcast_to(v[:, None], t.shape), g)
+        return paths.point(np.broadcast_to(v[:, None], t.shape), g)
 
     t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, rel_at, stop_first)
     hit = (d_c <= r_col).tolist()  # a collision: d(t_c) ≤ R_col (as _conflict decides it)
@@ -254,6 +262,30 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
     for lst in out:
         lst.sort(key=by_time)
     return out
+
+
+def _distinct_rows(v: np.ndarray, t: np.ndarray) -> tuple:
+    """(u, inv): rows ``u`` of the distinct (v, t-row) pairs and ``inv`` (k,) each row's among them,
+    so that ``t[u][inv]`` is ``t`` (a zoom's rows are told apart by their first and last time, then
+    checked whole); (None, None) when few rows repeat."""
+    k = v.size
+    if k < 8 or t.ndim != 2:
+        return None, None
+    a, b = t[:, 0], t[:, -1]
+    order = np.lexsort((b, a, v))
+    vs, a_s, b_s = v[order], a[order], b[order]
+    new = np.empty(k, dtype=bool)
+    new[0] = True
+    new[1:] = (vs[1:] != vs[:-1]) | (a_s[1:] != a_s[:-1]) | (b_s[1:] != b_s[:-1])
+    n = int(np.count_nonzero(new))
+    if 4 * n > 3 * k:
+        return None, None
+    inv = np.empty(k, dtype=np.intp)
+    inv[order] = np.cumsum(new) - 1
+    u = order[new]
+    if not np.array_equal(t[u][inv], t):
+        return None, None
+    return u, inv
 
 
 def _constant_speed(profile) -> float | None:

@@ -154,15 +154,6 @@ class _StackedPlans:
         self.v_end[has] = (pts[lastk] - pts[lastk - 1]) / \
             np.maximum(self.ts[lastk] - self.ts[lastk - 1], 1e-9)[:, None]
 
-    def joined(self, other: "_StackedPlans") -> "_StackedPlans":
-        """These plans, then ``other``'s (its plan u is u + this one's count)."""
-        out = object.__new__(_StackedPlans)
-        shift = self.ts.size
-        for name in ("ts", "xs", "ys", "count", "t_first", "t_last", "anchor", "t_anchor", "vel", "p_last", "v_end"):
-            setattr(out, name, np.concatenate([getattr(self, name), getattr(other, name)]))
-        out.start = np.concatenate([self.start, other.start + shift])
-        return out
-
     def at(self, plans, t) -> np.ndarray:
         """Positions (k, 2) of plans ``plans`` (k,) at times ``t`` (k,)."""
         out = np.empty(plans.shape + (2,))
@@ -175,15 +166,20 @@ class _PlanTable:
     """Every intention's plan stacked once (a :class:`_StackedPlans` that grows): the fleet's
     receivers hold the same message objects, so each message's knots are stacked when it is first
     predicted and every later prediction only looks its row up (id(intention) → (intention, row);
-    the intention is held so that its id stays its own). When the table holds :data:`_MAX_ROWS`
-    plans it starts again empty. Each row holds the numbers ``_StackedPlans`` makes for that
-    intention alone (they are per intention: the table's layout changes no result)."""
+    the intention is held so that its id stays its own). New plans are written into spare room
+    (doubled when full: a plan's rows never move while the table lives); when the table holds
+    :data:`_MAX_ROWS` plans it starts again empty. Each row holds the numbers ``_StackedPlans``
+    makes for that intention alone (they are per intention: the table's layout changes no result)."""
 
     _MAX_ROWS = 4096
+    _KNOTS = ("ts", "xs", "ys")
+    _PER_PLAN = ("start", "count", "t_first", "t_last", "anchor", "t_anchor", "vel", "p_last", "v_end")
 
     def __init__(self):
         self._row: dict[int, tuple] = {}
         self._plans: _StackedPlans | None = None
+        self._buf: dict[str, np.ndarray] = {}
+        self._n = self._knots = 0  # plans and knots in use
 
     def rows(self, intentions) -> tuple["_StackedPlans", np.ndarray]:
         """(the stacked plans, each intention's row (k,)), stacking those not seen before."""
@@ -198,8 +194,8 @@ class _PlanTable:
             else:
                 rows.append(e[1])
         if new:
-            if self._plans is not None and self._plans.t_first.size + len(new) > self._MAX_ROWS:
-                self._row, self._plans = {}, None  # start again, with this call's intentions
+            if self._n + len(new) > self._MAX_ROWS:  # start again, with this call's intentions
+                self._row, self._plans, self._buf, self._n, self._knots = {}, None, {}, 0, 0
                 new = intentions
             self._add(new)
             rows = [self._row[id(it)][1] for it in intentions]
@@ -207,11 +203,28 @@ class _PlanTable:
 
     def _add(self, new) -> None:
         distinct = list({id(it): it for it in new}.values())
-        n_old = 0 if self._plans is None else self._plans.t_first.size
         part = _StackedPlans(distinct)
-        self._plans = part if self._plans is None else self._plans.joined(part)
+        n0, k0 = self._n, self._knots
+        n1, k1 = n0 + len(distinct), k0 + part.ts.size
+        for names, used, need in ((self._KNOTS, k0, k1), (self._PER_PLAN, n0, n1)):
+            for name in names:
+                src, buf = getattr(part, name), self._buf.get(name)
+                if buf is None or buf.shape[0] < need:
+                    grown = np.empty((max(need, 2 * (0 if buf is None else buf.shape[0]), 64),) + src.shape[1:],
+                                     dtype=src.dtype)
+                    if buf is not None:
+                        grown[:used] = buf[:used]
+                    buf = self._buf[name] = grown
+                buf[used:need] = src + k0 if name == "start" else src
+        self._n, self._knots = n1, k1
+        view = object.__new__(_StackedPlans)
+        for name in self._KNOTS:
+            setattr(view, name, self._buf[name][:k1])
+        for name in self._PER_PLAN:
+            setattr(view, name, self._buf[name][:n1])
+        self._plans = view
         for u, it in enumerate(distinct):
-            self._row[id(it)] = (it, n_old + u)
+            self._row[id(it)] = (it, n0 + u)
 
 
 _PLANS = _PlanTable()
