@@ -61,6 +61,10 @@ def test_track_motions_and_intention_positions_read_the_shared_table():
         np.testing.assert_array_equal(m.grid(times), np.stack([tr.predict_positions(times) for tr in tracks]))
         np.testing.assert_array_equal(m.radius_m, [tr.radius_m for tr in tracks])
         np.testing.assert_array_equal(intention_positions(its, times), np.stack([it.positions(times) for it in its]))
+        for k in range(1, 5):  # a few, as in a small team: the table too
+            np.testing.assert_array_equal(intention_positions(its[:k], times),
+                                          np.stack([it.positions(times) for it in its[:k]]))
+        assert intention_positions([], times).shape == (0, times.size, 2)
     assert motion._PLANS.rows(its)[1].tolist() == motion._PLANS.rows(list(reversed(its)))[1].tolist()[::-1]
 
 
