@@ -59,6 +59,7 @@ World frame ENU, SI units, absolute simulation times [s].
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from operator import attrgetter
 
 import numpy as np
 
@@ -176,6 +177,8 @@ def _correction_profile(correction: Correction | None, t_now: float, gamma_now: 
 
     return gamma_fn
 
+
+_TRACK_ID = attrgetter("track_id")
 
 #: When every candidate speed plan collides, another is taken over the first choice only if its
 #: worst predicted miss distance is larger by this much [m] (estimates are not finer than that).
@@ -696,10 +699,10 @@ class CollisionAvoidance(AvoidanceMethod):
         if perceived is None:
             return None
         tracks = perceived.tracks
-        new = () if tracks is self._no_new_in else {tr.track_id for tr in tracks} - self._known_track_ids
-        if not new:
+        if tracks is self._no_new_in or self._known_track_ids.issuperset(map(_TRACK_ID, tracks)):
             self._no_new_in = tracks  # known ids only grow: these tracks stay known
         else:
+            new = {tr.track_id for tr in tracks} - self._known_track_ids
             self._event(t, f"new track(s) {sorted(new)}: predicting now")
             return new
         if t - self._last_predict_t < 1.0:
