@@ -178,7 +178,7 @@ def _correction_profile(correction: Correction | None, t_now: float, gamma_now: 
     return gamma_fn
 
 
-_TRACK_ID = attrgetter("track_id")
+_TRACK_ID, _MIN_DISTANCE = attrgetter("track_id"), attrgetter("min_distance_m")
 
 #: When every candidate speed plan collides, another is taken over the first choice only if its
 #: worst predicted miss distance is larger by this much [m] (estimates are not finer than that).
@@ -406,8 +406,10 @@ class CollisionAvoidance(AvoidanceMethod):
         disc track), check the static ones and decide."""
         tracks, outlined, path, gamma, profile = (pending.tracks, pending.outlined, pending.path, pending.gamma,
                                                   pending.profile)
-        for c in all_c:
-            self.min_predicted_distance_m = min(self.min_predicted_distance_m, c.min_distance_m)
+        m = self.min_predicted_distance_m
+        for d in map(_MIN_DISTANCE, all_c):
+            m = min(m, d)
+        self.min_predicted_distance_m = m
         conflicts: list = [c for c in all_c if c.collision]
         statics = static_conflicts(t, path, gamma, profile, static_polygons, self.radius_m, self.prediction_config)
         for tid, poly in outlined.items():  # static tracks: their outline, checked like a mapped polygon

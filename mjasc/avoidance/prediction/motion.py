@@ -26,6 +26,7 @@ World frame ENU, metres, absolute simulation times [s].
 
 from __future__ import annotations
 
+import threading
 from typing import Sequence
 
 import numpy as np
@@ -180,9 +181,15 @@ class _PlanTable:
         self._plans: _StackedPlans | None = None
         self._buf: dict[str, np.ndarray] = {}
         self._n = self._knots = 0  # plans and knots in use
+        self._lock = threading.Lock()
 
     def rows(self, intentions) -> tuple["_StackedPlans", np.ndarray]:
-        """(the stacked plans, each intention's row (k,)), stacking those not seen before."""
+        """(the stacked plans, each intention's row (k,)), stacking those not seen before (one
+        caller at a time: runs sharing a process in threads share the table)."""
+        with self._lock:
+            return self._rows(intentions)
+
+    def _rows(self, intentions) -> tuple["_StackedPlans", np.ndarray]:
         get = self._row.get
         rows = []
         new = []
