@@ -155,7 +155,7 @@ class TeamMates:
         with the heading rate the whole estimate but its id, radius and covariance) is worked out
         once per message for every receiver (:func:`_message_estimate`): every prediction until the
         next one copies it."""
-        proto = _message_estimate(it, self._nav.get(it.name, _NO_NAV)[2])
+        proto = _message_estimate(it, self.heading_rate(it.name))
         if track is None:  # its id, radius and covariance are fixed: one estimate per message
             made = self._unmatched.get(it.name)
             if made is None or made[0] is not proto:

@@ -17,9 +17,10 @@ parameters of m tracks in arrays and evaluates any (track, time) pairs in one ar
   :class:`~mjasc.cooperation.messages.TeamIntention`): linear interpolation between knots, along the
   broadcast velocity before the first knot, along the last segment after the last one (as
   ``TeamIntention.positions``, equal to it bit for bit). Each distinct intention is stacked once
-  in one knot array (the fleet's receivers hold the same message object: 50 vessels' copies of a
-  team mate are one plan); a compiled loop (:func:`mjasc.core.compiled.kernel`) finds each
-  query's knot interval by bisection on its plan's knot times and interpolates.
+  for the process in one growing knot table (:class:`_PlanTable`: the fleet's receivers hold the
+  same message object, so 50 vessels' copies of a team mate are one plan, stacked when first
+  predicted and only looked up after); a compiled loop (:func:`mjasc.core.compiled.kernel`) finds
+  each query's knot interval by bisection on its plan's knot times and interpolates.
 
 World frame ENU, metres, absolute simulation times [s].
 """
