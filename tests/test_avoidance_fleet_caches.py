@@ -203,3 +203,33 @@ def test_the_zoom_evaluates_shared_brackets_once_with_the_same_numbers(monkeypat
     for got, ref in zip(shared, per_pair):
         assert [(c.track_id, c.t_closest_s, c.min_distance_m, c.collision) for c in got] == \
             [(c.track_id, c.t_closest_s, c.min_distance_m, c.collision) for c in ref]
+
+
+def test_the_lazy_results_are_predict_fleets_lists():
+    """predict_fleet_lazy: the same conflicts in the same order as predict_fleet, the clear ones made
+    on first read; its collisions and distances are those of the list."""
+    from mjasc.avoidance.prediction.conflicts import ConflictList, predict_fleet_lazy
+
+    rng = np.random.default_rng(12)
+    queries = []
+    for v in range(3):
+        path = Path.from_waypoints(np.array([40.0 * v, 0.0]) + [[0, 0], [80, 0], [80, 60]], turn_radius_m=8.0)
+        tracks = [TrackEstimate(k, 49.8, path.point(10.0 + 7 * k) + rng.normal(0, 6, 2), rng.uniform(-3, 3),
+                                rng.uniform(0.0, 2.0), rng.normal(0, 0.03), 2.0 + k % 3) for k in range(9)]
+        queries.append(PredictionQuery(path, 3.0, 50.0, 1.2, 2.0, tracks,
+                                       CollisionPredictionConfig(window_s=25.0), include_clear=v != 1))
+    lists = predict_fleet(queries)
+    lazy = predict_fleet_lazy(queries)
+    assert any(c.collision for res in lists for c in res) and any(not c.collision for res in lists for c in res)
+    for ref, got in zip(lists, lazy):
+        assert isinstance(got, ConflictList) and len(got) == len(ref)
+        assert got.collisions == [got[i] for i in range(len(got)) if got[i].collision]
+        assert got.min_distances == [c.min_distance_m for c in ref]
+        for a, b in zip(got, ref):
+            assert a.__dict__.keys() == b.__dict__.keys()
+            for k, x in b.__dict__.items():
+                if isinstance(x, np.ndarray):
+                    np.testing.assert_array_equal(a.__dict__[k], x)
+                else:
+                    assert a.__dict__[k] == x or (x != x and a.__dict__[k] != a.__dict__[k]), k
+        assert got[-1:] == [got[len(got) - 1]] if len(got) else True

@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass
-from operator import attrgetter
 from typing import Sequence
 
 import numpy as np
@@ -44,7 +43,8 @@ from mjasc.core.estimates import TrackEstimate, _field_names
 from mjasc.guidance.paths import Path
 from mjasc.guidance.stacked_paths import StackedPaths
 
-__all__ = ["Decision", "PredictedConflict", "PredictionQuery", "predict_conflicts", "predict_fleet"]
+__all__ = ["ConflictList", "Decision", "PredictedConflict", "PredictionQuery", "predict_conflicts", "predict_fleet",
+           "predict_fleet_lazy"]
 
 
 class Decision(enum.Enum):
@@ -153,6 +153,40 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
     """:func:`predict_conflicts` for several vessels at once: one result list per query, equal to
     what :func:`predict_conflicts` returns for it. All (vessel, track) pairs share one stacked
     track evaluation and one closest-approach pass; each vessel's path is evaluated once per stage."""
+    return [list(r) for r in predict_fleet_lazy(queries)]
+
+
+class ConflictList(Sequence):
+    """One query's result of :func:`predict_fleet_lazy`: the :class:`PredictedConflict` of every
+    checked pair sorted by t_c (as :func:`predict_fleet`'s list), the clear ones made on first
+    use (a fleet's predictions read only the collisions and the smallest distance; the recording
+    and the threat panel read the rest). ``collisions``: the collisions in order;
+    ``min_distances``: every pair's d(t_c) [m] in order."""
+
+    __slots__ = ("_items", "_make", "collisions", "min_distances")
+
+    def __init__(self, items: list, make, collisions: list, min_distances: list):
+        self._items, self._make, self.collisions, self.min_distances = items, make, collisions, min_distances
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self._items)))]
+        c = self._items[i]
+        if type(c) is int:  # a clear pair not made yet
+            c = self._items[i] = self._make(c)
+        return c
+
+    def __iter__(self):
+        for i in range(len(self._items)):
+            yield self[i]
+
+
+def predict_fleet_lazy(queries: Sequence[PredictionQuery]) -> list[ConflictList]:
+    """:func:`predict_fleet` with each result a :class:`ConflictList` (the same conflicts in the
+    same order; a clear pair's object made when read)."""
     ctxs = [_plan_context(q) for q in queries]
     grids = []
     for c in ctxs:
@@ -165,9 +199,8 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
             for i, tr in enumerate(q.tracks):
                 if not isinstance(tr, TrackEstimate):
                     raise ValueError(f"tracks[{i}]: expected a TrackEstimate, got {type(tr).__name__}")
-    out: list[list[PredictedConflict]] = [[] for _ in queries]
     if not tracks:
-        return out
+        return [ConflictList([], None, [], []) for _ in queries]
     owner = np.repeat(np.arange(len(queries), dtype=np.intp), [len(q.tracks) for q in queries])
     motions = TrackMotions(tracks)
     rows = np.arange(len(tracks))
@@ -183,7 +216,7 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
         tr = tracks[rows[bad[0]]]
         raise ValueError(f"tracks[{tr.track_id}].radius_m: must be finite and ≥ 0, got {r_ob[bad[0]]}")
     if rows.size == 0:
-        return out
+        return [ConflictList([], None, [], []) for _ in queries]
     vessel = owner[rows]  # the query of each pair
     n_max = max(g[0].size for g in grids)
     if len(grids) == 1:
@@ -242,25 +275,40 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
 
     t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, rel_at, stop_first)
     hit = (d_c <= r_col).tolist()  # a collision: d(t_c) ≤ R_col (as _conflict decides it)
-    clear_too = [q.include_clear for q in queries]
-    # A clear pair (the common case: ~10⁵ a minute in a fleet of fifty) is made here at once,
-    # without the dataclass's __init__ (as estimate_of); a collision by _conflict.
+    tc_l, dc_l, rc_l = t_c.tolist(), d_c.tolist(), r_col.tolist()
+    # A clear pair (the common case: ~10⁵ a minute in a fleet of fifty) is made when read, without
+    # the dataclass's __init__ (as estimate_of); a collision at once by _conflict.
     names, new, cls, nan, none = _field_names(PredictedConflict), object.__new__, PredictedConflict, float("nan"), \
         Decision.NONE
-    for p, (r, k, tc, dc, rc, h) in enumerate(zip(rows_l, vessel_l, t_c.tolist(), d_c.tolist(), r_col.tolist(), hit)):
+
+    def make_clear(p: int) -> PredictedConflict:
+        k, tr = vessel_l[p], tracks[rows_l[p]]
         times, xy = grids[k]
+        c = new(cls)
+        c.__dict__.update(zip(names, (tr.track_id, tc_l[p], dc_l[p], False, nan, nan, nan, nan, None, None, none, None,
+                                      xy, obst[p, :times.size], times, rc_l[p],
+                                      bool(tr.is_static) or tr.speed_m_s == 0.0, False)))
+        return c
+
+    items: list[list] = [[] for _ in queries]  # per query: a collision, or a clear pair's index
+    keys: list[list] = [[] for _ in queries]
+    clear_too = [q.include_clear for q in queries]
+    for p, (k, h) in enumerate(zip(vessel_l, hit)):
         if h:
-            out[k].append(_conflict(ctxs[k], tracks[r], tc, dc, rc, times, xy, obst[p, :times.size]))
+            times, xy = grids[k]
+            items[k].append(_conflict(ctxs[k], tracks[rows_l[p]], tc_l[p], dc_l[p], rc_l[p], times, xy,
+                                      obst[p, :times.size]))
         elif clear_too[k]:
-            tr = tracks[r]
-            c = new(cls)
-            c.__dict__.update(zip(names, (tr.track_id, tc, dc, False, nan, nan, nan, nan, None, None, none, None, xy,
-                                          obst[p, :times.size], times, rc, bool(tr.is_static) or tr.speed_m_s == 0.0,
-                                          False)))
-            out[k].append(c)
-    by_time = attrgetter("t_closest_s")
-    for lst in out:
-        lst.sort(key=by_time)
+            items[k].append(p)
+        else:
+            continue
+        keys[k].append(tc_l[p])
+    out = []
+    for its, ks in zip(items, keys):  # sorted by t_c: list.sort's order (stable, on the same keys)
+        order = sorted(range(len(its)), key=ks.__getitem__)
+        its = [its[i] for i in order]
+        out.append(ConflictList(its, make_clear, [c for c in its if type(c) is not int],
+                                [dc_l[c] if type(c) is int else c.min_distance_m for c in its]))
     return out
 
 
