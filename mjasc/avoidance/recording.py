@@ -163,9 +163,9 @@ class AvoidanceLog:
                                     colours=[(*recorder.legend_colour(_CONFLICT), 255 if c.collision else 90)
                                              for c in last.all])
                 else:
-                    recorder.strips(f"{base}/predicted_tracks", t,
-                                    [_thin(c.times, c.obstacle_positions, _PREDICTION_STEP_S) for c in last.all
-                                     if c.collision], z=0.3)
+                    recorder.strips(f"{base}/predicted_tracks", t,  # the collisions of ``all``, in its order
+                                    [_thin(c.times, c.obstacle_positions, _PREDICTION_STEP_S) for c in conflicts],
+                                    z=0.3)
             pts, labels = [], []
             for c in conflicts:
                 k = int(np.argmin(np.abs(c.times - c.t_closest_s)))

@@ -58,7 +58,9 @@ World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
+from operator import attrgetter
 
 import numpy as np
 
@@ -67,6 +69,7 @@ from mjasc.avoidance.decision import Correction, emergency_yield, velocity_corre
 from mjasc.avoidance.lane_change import plan_lane_change
 from mjasc.avoidance.prediction import (PredictedConflict, PredictionQuery, TrackMotions, gamma_of_time,
                                         predict_fleet)
+from mjasc.avoidance.prediction.conflicts import ConflictList, predict_fleet_lazy
 from mjasc.avoidance.recording import AvoidanceLog
 from mjasc.avoidance.replanning import Detour, merge_overlapping, plan_detour, swept_area
 from mjasc.avoidance.request import MODES, AvoidanceRequest, PathSwitch
@@ -86,14 +89,16 @@ __all__ = ["AvoidanceConfig", "CollisionAvoidance", "StaticConflict", "Detour", 
 @dataclass(frozen=True, eq=False)
 class PredictionRecord:
     """What the latest prediction saw (for the recording and figures): its time, the path and γ it
-    predicted along, every track's result (``all``, collision or not), the conflicts with a
-    collision, the static conflicts, the tracks by id, and the triage's answer per track id
+    predicted along, every track's result (``all``, collision or not, sorted by t_c: a read-only
+    sequence whose clear entries are made on first read,
+    :class:`~mjasc.avoidance.prediction.conflicts.ConflictList`), the conflicts with a collision,
+    the static conflicts, the tracks by id, and the triage's answer per track id
     (:attr:`~mjasc.avoidance.triage.Triage.roles`; empty when nothing was decided)."""
 
     time_s: float
     path: Path
     gamma_m: float
-    all: tuple
+    all: Sequence
     conflicts: tuple
     statics: tuple
     tracks: dict
@@ -123,7 +128,7 @@ def predict_slot(calls) -> list[AvoidanceRequest]:
     for system, t, nav, guidance, perceived, team in calls:
         system._begin(guidance, perceived, team)
         pending.append(system._prediction_query(float(t), list(perceived.tracks)))
-    results = iter(predict_fleet([p.query for p in pending if p.query is not None]))
+    results = iter(predict_fleet_lazy([p.query for p in pending if p.query is not None]))
     out = []
     for (system, t, nav, guidance, perceived, team), p in zip(calls, pending):
         system._begin(guidance, perceived, team)
@@ -145,7 +150,7 @@ def control_slot(calls) -> list[AvoidanceRequest]:
     for system, t, nav, guidance, perceived, team in calls:
         system._begin(guidance, perceived, team)
         pending.append(system._control_query(float(t)))
-    results = iter(predict_fleet([p[0].query for p in pending if p is not None and p[0].query is not None]))
+    results = iter(predict_fleet_lazy([p[0].query for p in pending if p is not None and p[0].query is not None]))
     out = []
     for (system, t, nav, _, _, _), p in zip(calls, pending):
         if p is not None:
@@ -176,6 +181,8 @@ def _correction_profile(correction: Correction | None, t_now: float, gamma_now: 
 
     return gamma_fn
 
+
+_TRACK_ID = attrgetter("track_id")
 
 #: When every candidate speed plan collides, another is taken over the first choice only if its
 #: worst predicted miss distance is larger by this much [m] (estimates are not finer than that).
@@ -356,7 +363,7 @@ class CollisionAvoidance(AvoidanceMethod):
         """Predict conflicts with the vessel's tracks and static polygons and act on them.
         Returns the conflicts with a predicted collision (PredictedConflict / StaticConflict)."""
         pending = self._prediction_query(t, tracks)
-        all_c = predict_fleet([pending.query])[0] if pending.query is not None else []
+        all_c = predict_fleet_lazy([pending.query])[0] if pending.query is not None else []
         return self._act_on_prediction(t, nav, pending, all_c, static_polygons, after_replan)
 
     def _prediction_query(self, t, tracks) -> "_Pending":
@@ -403,9 +410,15 @@ class CollisionAvoidance(AvoidanceMethod):
         disc track), check the static ones and decide."""
         tracks, outlined, path, gamma, profile = (pending.tracks, pending.outlined, pending.path, pending.gamma,
                                                   pending.profile)
-        for c in all_c:
-            self.min_predicted_distance_m = min(self.min_predicted_distance_m, c.min_distance_m)
-        conflicts: list = [c for c in all_c if c.collision]
+        if isinstance(all_c, ConflictList):  # the clear conflicts are made only when read
+            distances, conflicts = all_c.min_distances, list(all_c.collisions)
+        else:
+            all_c = tuple(all_c)
+            distances, conflicts = [c.min_distance_m for c in all_c], [c for c in all_c if c.collision]
+        m = self.min_predicted_distance_m
+        for d in distances:
+            m = min(m, d)
+        self.min_predicted_distance_m = m
         statics = static_conflicts(t, path, gamma, profile, static_polygons, self.radius_m, self.prediction_config)
         for tid, poly in outlined.items():  # static tracks: their outline, checked like a mapped polygon
             statics += [replace(c, track_id=tid) for c in
@@ -416,7 +429,7 @@ class CollisionAvoidance(AvoidanceMethod):
             return self._predict(t, nav, list(self._perceived.tracks), static_polygons)
         self._last_query = pending.query
         self._team_track_ids = {tr.track_id for tr in tracks if tr.team_member in self.team}
-        self._last = PredictionRecord(t, path, gamma, tuple(all_c), tuple(conflicts), tuple(statics), by_id)
+        self._last = PredictionRecord(t, path, gamma, all_c, tuple(conflicts), tuple(statics), by_id)
         self._log.prediction_pending()
         for c in conflicts:
             self._record_conflict(t, c, by_id.get(c.track_id))
@@ -696,10 +709,10 @@ class CollisionAvoidance(AvoidanceMethod):
         if perceived is None:
             return None
         tracks = perceived.tracks
-        new = () if tracks is self._no_new_in else {tr.track_id for tr in tracks} - self._known_track_ids
-        if not new:
+        if tracks is self._no_new_in or self._known_track_ids.issuperset(map(_TRACK_ID, tracks)):
             self._no_new_in = tracks  # known ids only grow: these tracks stay known
         else:
+            new = {tr.track_id for tr in tracks} - self._known_track_ids
             self._event(t, f"new track(s) {sorted(new)}: predicting now")
             return new
         if t - self._last_predict_t < 1.0:
@@ -766,7 +779,7 @@ class CollisionAvoidance(AvoidanceMethod):
         pending = self._control_query(t)
         if pending is not None:
             query = pending[0].query
-            self._control_predict(t, nav, pending, predict_fleet([query])[0] if query is not None else [])
+            self._control_predict(t, nav, pending, predict_fleet_lazy([query])[0] if query is not None else [])
         return self._control_rest(t, nav)
 
     def _control_rest(self, t, nav) -> tuple[float | None, str, float | None]:

@@ -33,6 +33,42 @@ __all__ = ["TEAM_HISTORY_S", "PlannedTrack", "TeamMates"]
 #: How far back [s] the team mates' broadcast positions are kept to recognise their stale tracks.
 TEAM_HISTORY_S = 20.0
 
+#: Every receiver's estimate of a team mate from one message (a TeamIntention, the same object for
+#: every receiver of the broadcast) at one heading rate ω (``ω.hex()``: −0.0 kept apart): what the
+#: message alone gives, made once for the fleet. id(message) → (message, {ω: estimate}); the
+#: message is held so that its id stays its own; emptied when it holds :data:`_PROTOS_MAX` messages.
+_PROTOS: dict[int, tuple] = {}
+_PROTOS_MAX = 4096
+
+
+def _message_estimate(it, w: float) -> TrackEstimate:
+    """The estimate of team mate ``it.name`` from message ``it`` at heading rate ``w`` [rad/s], without
+    its id, radius and covariance (:meth:`TeamMates._from_intention`): made once per (message, ω)
+    for every receiver."""
+    entry = _PROTOS.get(id(it))
+    if entry is None or entry[0] is not it:
+        if len(_PROTOS) >= _PROTOS_MAX:
+            _PROTOS.clear()
+        entry = _PROTOS[id(it)] = (it, {})
+    by_rate = entry[1]
+    key = w.hex() if isinstance(w, float) else float(w).hex()
+    proto = by_rate.get(key)
+    if proto is None:
+        direction, speed = it.velocity_polar()
+        course = direction if speed > 0.05 else it.heading_rad
+        position = np.asarray(it.position_m, dtype=float).copy()
+        if it.has_plan:
+            proto = estimate_of(PlannedTrack, -1, it.sent_time_s, position, course, max(it.max_speed_m_s(), 1e-3),
+                                w, 0.0, None, False, it.name, None, None, it)
+        else:
+            proto = estimate_of(TrackEstimate, -1, it.sent_time_s, position, course, speed, w, 0.0, None, False,
+                                it.name, None, None)
+        by_rate[key] = proto
+    return proto
+
+
+_NO_NAV = (None, None, 0.0)  # a team mate not heard twice: ω = 0
+
 
 class TeamMates:
     """What one vessel's avoidance remembers of its team mates' broadcasts.
@@ -51,7 +87,8 @@ class TeamMates:
         self._history = _BroadcastHistory()  # every team mate's broadcast positions over TEAM_HISTORY_S
         self._plan_checked: dict[str, float] = {}  # name → sent time of the last message compared
         self._ghosts: set[int] = set()  # track ids found to be a team mate's stale copy (reported once)
-        self._parts: dict[str, tuple] = {}  # name → what its newest message gives every estimate made from it
+        self._mate_id = {n: -1 - k for k, n in enumerate(sorted(self.team))}  # a team mate's id without a track
+        self._unmatched: dict[str, tuple] = {}  # name → (message estimate, the track made of it alone)
         # What the team picture held (names and send times) at the last poll and at the last
         # complete plan comparison: an unchanged picture has nothing new for either.
         self._key_of: tuple = (None, None)  # (a picture's intentions mapping, its key)
@@ -103,7 +140,7 @@ class TeamMates:
 
     def heading_rate(self, name: str) -> float:
         """ω of team mate ``name`` from its last two broadcasts [rad/s] (0 when unknown)."""
-        return self._nav.get(name, (None, None, 0.0))[2]
+        return self._nav.get(name, _NO_NAV)[2]
 
     def broadcast_based(self, track, fresh: dict) -> bool:
         """The track is a team mate predicted from its fresh broadcast (its speed is measured, not
@@ -116,25 +153,18 @@ class TeamMates:
         (:class:`PlannedTrack`), else constant velocity and the heading rate of successive messages.
         What depends on the message alone (position, course, speed, the plan's largest speed, and
         with the heading rate the whole estimate but its id, radius and covariance) is worked out
-        once per message: every prediction until the next one copies it."""
-        w = self.heading_rate(it.name)
-        parts = self._parts.get(it.name)
-        if parts is None or parts[0] is not it or parts[1] != w:
-            direction, speed = it.velocity_polar()
-            course = direction if speed > 0.05 else it.heading_rad
-            position = np.asarray(it.position_m, dtype=float).copy()
-            if it.has_plan:
-                proto = estimate_of(PlannedTrack, -1, it.sent_time_s, position, course, max(it.max_speed_m_s(), 1e-3),
-                                    w, 0.0, None, False, it.name, None, None, it)
-            else:
-                proto = estimate_of(TrackEstimate, -1, it.sent_time_s, position, course, speed, w, 0.0, None, False,
-                                    it.name, None, None)
-            parts = self._parts[it.name] = (it, w, proto)
-        if track is None:
-            radius, cov = float(it.radius_m if it.radius_m else self.radius_m), np.zeros((2, 2))
-        else:
-            radius, cov = float(track.radius_m), track.position_covariance
-        return estimate_replace(parts[2], track_id=track_id, radius_m=radius, position_covariance=cov)
+        once per message for every receiver (:func:`_message_estimate`): every prediction until the
+        next one copies it."""
+        proto = _message_estimate(it, self.heading_rate(it.name))
+        if track is None:  # its id, radius and covariance are fixed: one estimate per message
+            made = self._unmatched.get(it.name)
+            if made is None or made[0] is not proto:
+                made = self._unmatched[it.name] = (proto, estimate_replace(
+                    proto, track_id=track_id, radius_m=float(it.radius_m if it.radius_m else self.radius_m),
+                    position_covariance=np.zeros((2, 2))))
+            return made[1]
+        return estimate_replace(proto, track_id=track_id, radius_m=float(track.radius_m),
+                                position_covariance=track.position_covariance)
 
     def tracks(self, tracks, t: float, picture, emit: Callable[[float, str], None]) -> list:
         """The tracks with team mates predicted from their fresh broadcasts (module docstring),
@@ -150,10 +180,10 @@ class TeamMates:
                 continue
             seen.add(tr.team_member)
             out.append(self._from_intention(it, tr, tr.track_id))
-        order = sorted(self.team)
+        mate_id = self._mate_id
         for name, it in intents.items():
             if name not in seen:
-                out.append(self._from_intention(it, None, -1 - order.index(name)))
+                out.append(self._from_intention(it, None, mate_id[name]))
         unmatched = [k for k, tr in enumerate(out) if tr.team_member is None]
         if not unmatched:
             return out

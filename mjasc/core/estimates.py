@@ -114,14 +114,19 @@ def estimate_replace(proto, **changes):
     makes every track of a team mate from one message this way, only the track's id, radius and
     covariance differing."""
     cls = type(proto)
-    names = _field_names(cls)
-    if not changes.keys() <= set(names):
-        raise TypeError(f"estimate_replace: {sorted(set(changes) - set(names))} are not fields of {cls.__name__}")
+    names = _FIELD_SETS.get(cls)
+    if names is None:
+        names = _FIELD_SETS[cls] = frozenset(_field_names(cls))
+    if not changes.keys() <= names:
+        raise TypeError(f"estimate_replace: {sorted(set(changes) - names)} are not fields of {cls.__name__}")
     e = object.__new__(cls)
     d = proto.__dict__.copy()
     d.update(changes)
     object.__setattr__(e, "__dict__", d)
     return e
+
+
+_FIELD_SETS: dict = {}  # class → its field names as a set (estimate_replace's check)
 
 
 @dataclass(frozen=True, eq=False)

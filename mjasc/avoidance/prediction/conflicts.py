@@ -39,11 +39,12 @@ from mjasc.avoidance.prediction.motion import TrackMotions
 from mjasc.avoidance.prediction.spatial import PlanContext, obstructed_stretch, obstruction_interval
 from mjasc.avoidance.prediction.svo import svo_polygon
 from mjasc.avoidance.prediction.timing import SpeedProfile, gamma_of_time, prediction_window, speed_now
-from mjasc.core.estimates import TrackEstimate, estimate_of
+from mjasc.core.estimates import TrackEstimate, _field_names
 from mjasc.guidance.paths import Path
 from mjasc.guidance.stacked_paths import StackedPaths
 
-__all__ = ["Decision", "PredictedConflict", "PredictionQuery", "predict_conflicts", "predict_fleet"]
+__all__ = ["ConflictList", "Decision", "PredictedConflict", "PredictionQuery", "predict_conflicts", "predict_fleet",
+           "predict_fleet_lazy"]
 
 
 class Decision(enum.Enum):
@@ -152,23 +153,55 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
     """:func:`predict_conflicts` for several vessels at once: one result list per query, equal to
     what :func:`predict_conflicts` returns for it. All (vessel, track) pairs share one stacked
     track evaluation and one closest-approach pass; each vessel's path is evaluated once per stage."""
+    return [list(r) for r in predict_fleet_lazy(queries)]
+
+
+class ConflictList(Sequence):
+    """One query's result of :func:`predict_fleet_lazy`: the :class:`PredictedConflict` of every
+    checked pair sorted by t_c (as :func:`predict_fleet`'s list), the clear ones made on first
+    use (a fleet's predictions read only the collisions and the smallest distance; the recording
+    and the threat panel read the rest). ``collisions``: the collisions in order;
+    ``min_distances``: every pair's d(t_c) [m] in order."""
+
+    __slots__ = ("_items", "_make", "collisions", "min_distances")
+
+    def __init__(self, items: list, make, collisions: list, min_distances: list):
+        self._items, self._make, self.collisions, self.min_distances = items, make, collisions, min_distances
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(len(self._items)))]
+        c = self._items[i]
+        if type(c) is int:  # a clear pair not made yet
+            c = self._items[i] = self._make(c)
+        return c
+
+    def __iter__(self):
+        for i in range(len(self._items)):
+            yield self[i]
+
+
+def predict_fleet_lazy(queries: Sequence[PredictionQuery]) -> list[ConflictList]:
+    """:func:`predict_fleet` with each result a :class:`ConflictList` (the same conflicts in the
+    same order; a clear pair's object made when read)."""
     ctxs = [_plan_context(q) for q in queries]
     grids = []
     for c in ctxs:
         n = max(2, int(np.ceil((c.t_end - c.t_now) / c.config.time_step_s - 1e-9)) + 1)
         times = np.linspace(c.t_now, c.t_end, n)
         grids.append((times, c.vessel_at(times)))
-    tracks, owner = [], []
-    for k, q in enumerate(queries):
-        for i, tr in enumerate(q.tracks):
-            if not isinstance(tr, TrackEstimate):
-                raise ValueError(f"tracks[{i}]: expected a TrackEstimate, got {type(tr).__name__}")
-            tracks.append(tr)
-            owner.append(k)
-    out: list[list[PredictedConflict]] = [[] for _ in queries]
+    tracks = [tr for q in queries for tr in q.tracks]
+    if not all(issubclass(c, TrackEstimate) for c in set(map(type, tracks))):
+        for q in queries:
+            for i, tr in enumerate(q.tracks):
+                if not isinstance(tr, TrackEstimate):
+                    raise ValueError(f"tracks[{i}]: expected a TrackEstimate, got {type(tr).__name__}")
     if not tracks:
-        return out
-    owner = np.asarray(owner, dtype=np.intp)
+        return [ConflictList([], None, [], []) for _ in queries]
+    owner = np.repeat(np.arange(len(queries), dtype=np.intp), [len(q.tracks) for q in queries])
     motions = TrackMotions(tracks)
     rows = np.arange(len(tracks))
     max_range = np.array([np.inf if c.config.max_range_m is None else c.config.max_range_m for c in ctxs])
@@ -177,13 +210,13 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
         own_now = np.array([c.path.point(c.gamma_now) for c in ctxs])
         gap = motions.at(rows, t_now[owner][:, None])[:, 0] - own_now[owner]
         rows = rows[~(np.hypot(gap[:, 0], gap[:, 1]) > max_range[owner])]
-    r_ob = np.array([float(tracks[r].radius_m) for r in rows])
+    r_ob = motions.radius_m[rows]
     bad = np.flatnonzero(~(np.isfinite(r_ob) & (r_ob >= 0.0)))
     if bad.size:
         tr = tracks[rows[bad[0]]]
         raise ValueError(f"tracks[{tr.track_id}].radius_m: must be finite and ≥ 0, got {r_ob[bad[0]]}")
     if rows.size == 0:
-        return out
+        return [ConflictList([], None, [], []) for _ in queries]
     vessel = owner[rows]  # the query of each pair
     n_max = max(g[0].size for g in grids)
     if len(grids) == 1:
@@ -195,48 +228,131 @@ def predict_fleet(queries: Sequence[PredictionQuery]) -> list[list[PredictedConf
     times_p = times_q[vessel]
     obst = motions.at(rows, times_p)
     vessel_l, rows_l = vessel.tolist(), rows.tolist()
-    r_col = np.array([ctxs[k].r_vh + r + ctxs[k].config.safety_distance_m for k, r in zip(vessel_l, r_ob.tolist())])
-    stop_first = np.array([ctxs[k].config.stop_at_first_minimum for k in vessel_l])
+    # R_vh + R_ob + safety per pair (elementwise: the numbers of the sum per pair)
+    r_col = np.array([c.r_vh for c in ctxs])[vessel] + r_ob + np.array([c.config.safety_distance_m
+                                                                        for c in ctxs])[vessel]
+    stop_first = np.array([c.config.stop_at_first_minimum for c in ctxs], dtype=bool)[vessel]
 
     paths = StackedPaths([c.path for c in ctxs]) if len(ctxs) > 1 else None
+    # γ(t) = γ_now + v (t − t_now) of the vessels at a constant speed, for all their pairs at once
+    # (the numbers of gamma_of_time's form, elementwise); the others by their own γ(t).
+    speed = [_constant_speed(q.speed_profile) for q in queries]
+    steady = np.array([v is not None for v in speed])
+    g_now = np.array([c.gamma_now for c in ctxs])
+    t_now_q = np.array([c.t_now for c in ctxs])
+    v_q = np.array([0.0 if v is None else v for v in speed])
 
     def rel_at(pairs, t):
         """Track minus vessel position (k, j, 2) of pairs (k,) at times t (k, j): each vessel's
-        γ(t) from its own plan, every vessel's path evaluated in one pass."""
+        γ(t) from its own plan, every vessel's path evaluated in one pass, once per distinct
+        (vessel, times) row (many pairs of a vessel share a bracket: elementwise, the same numbers)."""
         r = motions.at(rows[pairs], t)
-        if paths is None:
-            return r - ctxs[0].vessel_at(t)
         v = vessel[pairs]
-        order = np.argsort(v, kind="stable")
-        vs = v[order]
-        cut = np.flatnonzero(vs[1:] != vs[:-1]) + 1
-        g = np.empty(t.shape)
-        for sel in np.split(order, cut):
-            g[sel] = ctxs[v[sel[0]]].gamma_fn(t[sel])
-        return r - paths.point(np.broadcast_to(v[:, None], t.shape), g)
+        u, inv = _distinct_rows(v, t)
+        if u is None:
+            return r - own_at(v, t)
+        return r - own_at(v[u], t[u])[inv]
+
+    def own_at(v, t):
+        """The vessels' positions (k, j, 2) [m]: vessel v (k,) at its times t (k, j)."""
+        if paths is None:
+            return ctxs[0].vessel_at(t)
+        st = steady[v]
+        if st.all():
+            g = g_now[v][:, None] + v_q[v][:, None] * (t - t_now_q[v][:, None])
+        else:
+            g = np.empty(t.shape)
+            if st.any():
+                vs = v[st]
+                g[st] = g_now[vs][:, None] + v_q[vs][:, None] * (t[st] - t_now_q[vs][:, None])
+            other = np.flatnonzero(~st)
+            order = other[np.argsort(v[other], kind="stable")]
+            vs = v[order]
+            cut = np.flatnonzero(vs[1:] != vs[:-1]) + 1
+            for sel in np.split(order, cut):
+                g[sel] = ctxs[v[sel[0]]].gamma_fn(t[sel])
+        return paths.point(np.broadcast_to(v[:, None], t.shape), g)
 
     t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, rel_at, stop_first)
-    for p, (r, k, tc, dc, rc) in enumerate(zip(rows_l, vessel_l, t_c.tolist(), d_c.tolist(), r_col.tolist())):
+    hit = (d_c <= r_col).tolist()  # a collision: d(t_c) ≤ R_col (as _conflict decides it)
+    tc_l, dc_l, rc_l = t_c.tolist(), d_c.tolist(), r_col.tolist()
+    # A clear pair (the common case: ~10⁵ a minute in a fleet of fifty) is made when read, without
+    # the dataclass's __init__ (as estimate_of); a collision at once by _conflict.
+    names, new, cls, nan, none = _field_names(PredictedConflict), object.__new__, PredictedConflict, float("nan"), \
+        Decision.NONE
+
+    def make_clear(p: int) -> PredictedConflict:
+        k, tr = vessel_l[p], tracks[rows_l[p]]
         times, xy = grids[k]
-        c = _conflict(ctxs[k], tracks[r], tc, dc, rc, times, xy, obst[p, :times.size])
-        if c.collision or queries[k].include_clear:
-            out[k].append(c)
-    for lst in out:
-        lst.sort(key=lambda c: c.t_closest_s)
+        c = new(cls)
+        c.__dict__.update(zip(names, (tr.track_id, tc_l[p], dc_l[p], False, nan, nan, nan, nan, None, None, none, None,
+                                      xy, obst[p, :times.size], times, rc_l[p],
+                                      bool(tr.is_static) or tr.speed_m_s == 0.0, False)))
+        return c
+
+    items: list[list] = [[] for _ in queries]  # per query: a collision, or a clear pair's index
+    keys: list[list] = [[] for _ in queries]
+    clear_too = [q.include_clear for q in queries]
+    for p, (k, h) in enumerate(zip(vessel_l, hit)):
+        if h:
+            times, xy = grids[k]
+            items[k].append(_conflict(ctxs[k], tracks[rows_l[p]], tc_l[p], dc_l[p], rc_l[p], times, xy,
+                                      obst[p, :times.size]))
+        elif clear_too[k]:
+            items[k].append(p)
+        else:
+            continue
+        keys[k].append(tc_l[p])
+    out = []
+    for its, ks in zip(items, keys):  # sorted by t_c: list.sort's order (stable, on the same keys)
+        order = sorted(range(len(its)), key=ks.__getitem__)
+        its = [its[i] for i in order]
+        out.append(ConflictList(its, make_clear, [c for c in its if type(c) is not int],
+                                [dc_l[c] if type(c) is int else c.min_distance_m for c in its]))
     return out
+
+
+def _distinct_rows(v: np.ndarray, t: np.ndarray) -> tuple:
+    """(u, inv): rows ``u`` of the distinct (v, t-row) pairs and ``inv`` (k,) each row's among them,
+    so that ``t[u][inv]`` is ``t`` (a zoom's rows are told apart by their first and last time, then
+    checked whole); (None, None) when few rows repeat."""
+    k = v.size
+    if k < 8 or t.ndim != 2:
+        return None, None
+    a, b = t[:, 0], t[:, -1]
+    order = np.lexsort((b, a, v))
+    vs, a_s, b_s = v[order], a[order], b[order]
+    new = np.empty(k, dtype=bool)
+    new[0] = True
+    new[1:] = (vs[1:] != vs[:-1]) | (a_s[1:] != a_s[:-1]) | (b_s[1:] != b_s[:-1])
+    n = int(np.count_nonzero(new))
+    if 4 * n > 3 * k:
+        return None, None
+    inv = np.empty(k, dtype=np.intp)
+    inv[order] = np.cumsum(new) - 1
+    u = order[new]
+    if not np.array_equal(t[u][inv], t):
+        return None, None
+    return u, inv
+
+
+def _constant_speed(profile) -> float | None:
+    """The speed [m/s] of a constant speed profile (a number; :func:`gamma_of_time` has checked it),
+    None for a callable or knots."""
+    if isinstance(profile, (float, int)) and not isinstance(profile, bool):
+        return float(profile)
+    if isinstance(profile, np.ndarray) and profile.ndim == 0 or isinstance(profile, np.floating):
+        return float(profile)
+    return None
 
 
 def _conflict(ctx: PlanContext, track: TrackEstimate, t_c: float, d_c: float, r_col: float, times, vessel_xy,
               obst_xy) -> PredictedConflict:
-    """The PredictedConflict of one pair from its closest approach (t_c, d_c): spatial correlation
-    and decision σ when it is a collision."""
+    """The PredictedConflict of a pair with a predicted collision (d_c ≤ r_col) from its closest
+    approach (t_c, d_c): spatial correlation and decision σ (a clear pair is made in
+    :func:`predict_fleet`)."""
     cfg = ctx.config
     static = bool(track.is_static) or track.speed_m_s == 0.0
-    collision = d_c <= r_col
-    if not collision:  # the common case (~10⁵ a minute in a fleet of fifty), without the dataclass's __init__
-        nan = float("nan")
-        return estimate_of(PredictedConflict, track.track_id, t_c, d_c, False, nan, nan, nan, nan, None, None,
-                           Decision.NONE, None, vessel_xy, obst_xy, times, r_col, static, False)
     base = dict(
         track_id=track.track_id,
         t_closest_s=t_c,

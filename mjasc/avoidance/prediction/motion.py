@@ -17,15 +17,17 @@ parameters of m tracks in arrays and evaluates any (track, time) pairs in one ar
   :class:`~mjasc.cooperation.messages.TeamIntention`): linear interpolation between knots, along the
   broadcast velocity before the first knot, along the last segment after the last one (as
   ``TeamIntention.positions``, equal to it bit for bit). Each distinct intention is stacked once
-  in one knot array (the fleet's receivers hold the same message object: 50 vessels' copies of a
-  team mate are one plan); a compiled loop (:func:`mjasc.core.compiled.kernel`) finds each
-  query's knot interval by bisection on its plan's knot times and interpolates.
+  for the process in one growing knot table (:class:`_PlanTable`: the fleet's receivers hold the
+  same message object, so 50 vessels' copies of a team mate are one plan, stacked when first
+  predicted and only looked up after); a compiled loop (:func:`mjasc.core.compiled.kernel`) finds
+  each query's knot interval by bisection on its plan's knot times and interpolates.
 
 World frame ENU, metres, absolute simulation times [s].
 """
 
 from __future__ import annotations
 
+import threading
 from typing import Sequence
 
 import numpy as np
@@ -43,16 +45,19 @@ class TrackMotions:
     ``tracks[k]``. :meth:`at` evaluates positions of rows at times in one array operation per
     kind of motion (straight or static, turning, plan)."""
 
-    __slots__ = ("n", "_par", "_kind", "_kinds", "_pl", "_plan_of")
+    __slots__ = ("n", "radius_m", "_par", "_kind", "_kinds", "_pl", "_plan_of")
 
     _STRAIGHT, _TURN, _PLAN = 0, 1, 2
 
     def __init__(self, tracks: Sequence[TrackEstimate]):
         m = self.n = len(tracks)
-        a = np.array([(tr.position_m[0], tr.position_m[1], tr.time_s, tr.speed_m_s, tr.heading_rad,
-                       tr.turn_rate_rad_s, tr.is_static, isinstance(tr, PlannedTrack)) for tr in tracks],
-                     dtype=float).reshape(m, 8)
-        plan = a[:, 7] != 0.0
+        plan = np.array([isinstance(tr, PlannedTrack) for tr in tracks], dtype=bool).reshape(m)
+        # A plan's motion is its intention's: its other numbers are not read (zeros).
+        a = np.array([(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, tr.radius_m) if p else
+                      (tr.position_m[0], tr.position_m[1], tr.time_s, tr.speed_m_s, tr.heading_rad,
+                       tr.turn_rate_rad_s, tr.is_static, 0.0, tr.radius_m) for tr, p in zip(tracks, plan.tolist())],
+                     dtype=float).reshape(m, 9)
+        self.radius_m = a[:, 8]  # each track's radius [m] (m,)
         moving = ~((a[:, 6] != 0.0) | (a[:, 3] == 0.0) | plan)
         v, th, w = a[:, 3] * moving, a[:, 4] * moving, a[:, 5] * moving
         turn = np.abs(w) >= _STRAIGHT_OMEGA
@@ -64,18 +69,10 @@ class TrackMotions:
         self._kind = np.where(plan, self._PLAN, np.where(turn, self._TURN, self._STRAIGHT))
         self._kinds = sorted(set(self._kind.tolist()))
         self._pl = self._plan_of = None
-        if plan.any():  # each distinct intention stacked once (every receiver's copy of a team mate shares it)
+        if plan.any():  # each distinct intention's knots stacked once for the fleet (_PLANS)
             self._plan_of = np.full(m, -1, dtype=np.intp)
-            index: dict[int, int] = {}
-            its = []
-            for k in np.flatnonzero(plan).tolist():
-                it = tracks[k].intention
-                u = index.get(id(it))
-                if u is None:
-                    u = index[id(it)] = len(its)
-                    its.append(it)
-                self._plan_of[k] = u
-            self._pl = _StackedPlans(its)
+            sel = np.flatnonzero(plan)
+            self._pl, self._plan_of[sel] = _PLANS.rows([tracks[k].intention for k in sel.tolist()])
 
     def at(self, rows, times) -> np.ndarray:
         """Positions (P, K, 2) [m] of tracks ``rows`` (P,) at absolute ``times`` (P, K) — each row
@@ -124,9 +121,10 @@ def intention_positions(intentions, times) -> np.ndarray:
     numbers) at absolute ``times`` (n,) [s], all in one array operation."""
     times = np.asarray(times, dtype=float)
     k, n = len(intentions), times.size
-    if k <= 4:  # stacking costs more than it saves for a few
+    if k <= 4:  # a small team: each message is compared by one or two receivers, stacking it costs more
         return np.stack([it.positions(times) for it in intentions]) if k else np.zeros((0, n, 2))
-    return _StackedPlans(intentions).at(np.repeat(np.arange(k), n), np.tile(times, k)).reshape(k, n, 2)
+    plans, rows = _PLANS.rows(intentions)  # each message stacked once for the fleet
+    return plans.at(np.repeat(rows, n), np.tile(times, k)).reshape(k, n, 2)
 
 
 class _StackedPlans:
@@ -164,6 +162,80 @@ class _StackedPlans:
         _plan_positions(plans, t, self.ts, self.xs, self.ys, self.start, self.count, self.t_first, self.t_last,
                         self.anchor, self.t_anchor, self.vel, self.p_last, self.v_end, out)
         return out
+
+
+class _PlanTable:
+    """Every intention's plan stacked once (a :class:`_StackedPlans` that grows): the fleet's
+    receivers hold the same message objects, so each message's knots are stacked when it is first
+    predicted and every later prediction only looks its row up (id(intention) → (intention, row);
+    the intention is held so that its id stays its own). New plans are written into spare room
+    (doubled when full: a plan's rows never move while the table lives); when the table holds
+    :data:`_MAX_ROWS` plans it starts again empty. Each row holds the numbers ``_StackedPlans``
+    makes for that intention alone (they are per intention: the table's layout changes no result)."""
+
+    _MAX_ROWS = 4096
+    _KNOTS = ("ts", "xs", "ys")
+    _PER_PLAN = ("start", "count", "t_first", "t_last", "anchor", "t_anchor", "vel", "p_last", "v_end")
+
+    def __init__(self):
+        self._row: dict[int, tuple] = {}
+        self._plans: _StackedPlans | None = None
+        self._buf: dict[str, np.ndarray] = {}
+        self._n = self._knots = 0  # plans and knots in use
+        self._lock = threading.Lock()
+
+    def rows(self, intentions) -> tuple["_StackedPlans", np.ndarray]:
+        """(the stacked plans, each intention's row (k,)), stacking those not seen before (one
+        caller at a time: runs sharing a process in threads share the table)."""
+        with self._lock:
+            return self._rows(intentions)
+
+    def _rows(self, intentions) -> tuple["_StackedPlans", np.ndarray]:
+        get = self._row.get
+        rows = []
+        new = []
+        for it in intentions:
+            e = get(id(it))
+            if e is None or e[0] is not it:
+                new.append(it)
+                rows.append(-1)
+            else:
+                rows.append(e[1])
+        if new:
+            if self._n + len(new) > self._MAX_ROWS:  # start again, with this call's intentions
+                self._row, self._plans, self._buf, self._n, self._knots = {}, None, {}, 0, 0
+                new = intentions
+            self._add(new)
+            rows = [self._row[id(it)][1] for it in intentions]
+        return self._plans, np.array(rows, dtype=np.intp)
+
+    def _add(self, new) -> None:
+        distinct = list({id(it): it for it in new}.values())
+        part = _StackedPlans(distinct)
+        n0, k0 = self._n, self._knots
+        n1, k1 = n0 + len(distinct), k0 + part.ts.size
+        for names, used, need in ((self._KNOTS, k0, k1), (self._PER_PLAN, n0, n1)):
+            for name in names:
+                src, buf = getattr(part, name), self._buf.get(name)
+                if buf is None or buf.shape[0] < need:
+                    grown = np.empty((max(need, 2 * (0 if buf is None else buf.shape[0]), 64),) + src.shape[1:],
+                                     dtype=src.dtype)
+                    if buf is not None:
+                        grown[:used] = buf[:used]
+                    buf = self._buf[name] = grown
+                buf[used:need] = src + k0 if name == "start" else src
+        self._n, self._knots = n1, k1
+        view = object.__new__(_StackedPlans)
+        for name in self._KNOTS:
+            setattr(view, name, self._buf[name][:k1])
+        for name in self._PER_PLAN:
+            setattr(view, name, self._buf[name][:n1])
+        self._plans = view
+        for u, it in enumerate(distinct):
+            self._row[id(it)] = (it, n0 + u)
+
+
+_PLANS = _PlanTable()
 
 
 @kernel

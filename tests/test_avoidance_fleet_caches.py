@@ -1,0 +1,235 @@
+"""What collision avoidance makes once for the fleet — a team mate's estimate per message, each
+plan's knots in one table — and the columns of a fleet's prediction: the same numbers as the
+readable forms (the dataclass constructors, one stacked table per call, one vessel at a time)."""
+
+from dataclasses import replace
+
+import numpy as np
+
+from mjasc.avoidance.prediction import CollisionPredictionConfig, PredictionQuery, TrackMotions, predict_conflicts, \
+    predict_fleet
+from mjasc.avoidance.prediction import motion
+from mjasc.avoidance.prediction.motion import _PlanTable, _StackedPlans, intention_positions
+from mjasc.avoidance.team_mates import TeamMates
+from mjasc.cooperation.messages import TeamIntention
+from mjasc.core.estimates import PlannedTrack, TrackEstimate
+from mjasc.guidance.paths import Path
+
+
+def _intentions(rng, n, t0=50.0, plan=True):
+    out = []
+    for k in range(n):
+        pos = rng.uniform(-50, 50, 2)
+        if plan and k % 4:
+            ts = t0 - 0.3 + np.arange(0.0, 20.0 + k % 3, 0.5)
+            pts = pos + np.cumsum(rng.normal(0.0, 0.6, (ts.size, 2)), axis=0)
+        else:  # no plan: the broadcast velocity
+            ts, pts = np.zeros(0), np.zeros((0, 2))
+        out.append(TeamIntention(f"m{k}", t0 - 0.3, pos, rng.uniform(-3, 3), rng.normal(0, 1, 2), 2.0, ts, pts))
+    return out
+
+
+def test_the_plan_table_gives_each_plans_positions_across_calls_and_restarts():
+    """Rows looked up in a table filled over many calls (and started again when full) give the
+    positions of a table stacked for the call alone, bit for bit."""
+    rng = np.random.default_rng(2)
+    table = _PlanTable()
+    table._MAX_ROWS = 12  # restarts within the test
+    pool = _intentions(rng, 20)
+    times = np.linspace(40.0, 80.0, 37)
+    for call in range(15):
+        its = [pool[k] for k in rng.choice(len(pool), 7)]  # repeats included
+        plans, rows = table.rows(its)
+        got = plans.at(np.repeat(rows, times.size), np.tile(times, len(its))).reshape(len(its), -1, 2)
+        ref = _StackedPlans(its).at(np.repeat(np.arange(len(its)), times.size),
+                                    np.tile(times, len(its))).reshape(len(its), -1, 2)
+        np.testing.assert_array_equal(got, ref)
+        np.testing.assert_array_equal(got, np.stack([it.positions(times) for it in its]))
+        assert plans.t_first.size <= 12 + 7
+
+
+def test_track_motions_and_intention_positions_read_the_shared_table():
+    rng = np.random.default_rng(4)
+    its = _intentions(rng, 9)
+    tracks = [PlannedTrack(k, it.sent_time_s, it.position_m, 0.0, 1.0, 0.0, 1.5 + k, team_member=it.name,
+                           intention=it) for k, it in enumerate(its)]
+    tracks += [TrackEstimate(100, 49.0, np.array([3.0, 4.0]), 0.4, 1.2, 0.02, 2.5),
+               TrackEstimate(101, 49.0, np.array([-3.0, 4.0]), 0.4, 0.0, 0.0, 0.5, is_static=True)]
+    times = np.linspace(30.0, 90.0, 61)
+    for _ in range(2):  # first stacked, then looked up
+        m = TrackMotions(tracks)
+        np.testing.assert_array_equal(m.grid(times), np.stack([tr.predict_positions(times) for tr in tracks]))
+        np.testing.assert_array_equal(m.radius_m, [tr.radius_m for tr in tracks])
+        np.testing.assert_array_equal(intention_positions(its, times), np.stack([it.positions(times) for it in its]))
+        for k in range(1, 5):  # a few, as in a small team: the table too
+            np.testing.assert_array_equal(intention_positions(its[:k], times),
+                                          np.stack([it.positions(times) for it in its[:k]]))
+        assert intention_positions([], times).shape == (0, times.size, 2)
+    assert motion._PLANS.rows(its)[1].tolist() == motion._PLANS.rows(list(reversed(its)))[1].tolist()[::-1]
+
+
+def test_a_team_mates_estimate_is_made_once_per_message_for_every_receiver():
+    """Two receivers of the same messages: their team-mate tracks equal the dataclass forms, and
+    the part made of the message alone is one object for both."""
+    rng = np.random.default_rng(7)
+    its = _intentions(rng, 4)
+
+    class Picture:
+        def __init__(self, intentions):
+            self.intentions = {it.name: it for it in intentions}
+
+        def fresh(self, t, max_age):
+            return {n: it for n, it in self.intentions.items() if t - it.sent_time_s <= max_age}
+
+    team = {it.name for it in its}
+    a = TeamMates("a", team, 1.0, 3.0, 2.0, 30.0)
+    b = TeamMates("b", team, 1.0, 3.0, 2.0, 30.0)
+    pic = Picture(its)
+    own = [TrackEstimate(7, 49.9, its[1].position_m + 0.3, 0.1, 1.0, 0.03, 2.2, np.eye(2) * 0.4,
+                         team_member=its[1].name)]
+    got_a = a.tracks(own, 50.0, pic, lambda *_: None)
+    got_b = b.tracks(own, 50.0, pic, lambda *_: None)
+    assert len(got_a) == len(its)
+    for x, y in zip(got_a, got_b):
+        assert type(x) is type(y) and x.__dict__.keys() == y.__dict__.keys()
+        assert x.track_id == y.track_id and x.team_member == y.team_member
+    order = sorted(team)
+    for tr in got_a:
+        it = next(i for i in its if i.name == tr.team_member)
+        direction, speed = it.velocity_polar()
+        course = direction if speed > 0.05 else it.heading_rad
+        matched = tr.team_member == its[1].name
+        radius, cov = (2.2, own[0].position_covariance) if matched else (2.0, np.zeros((2, 2)))
+        track_id = 7 if matched else -1 - order.index(it.name)
+        if it.has_plan:
+            ref = PlannedTrack(track_id, it.sent_time_s, np.asarray(it.position_m, float), course,
+                               max(it.max_speed_m_s(), 1e-3), 0.0, radius, cov, False, it.name, None, None, it)
+        else:
+            ref = TrackEstimate(track_id, it.sent_time_s, np.asarray(it.position_m, float), course, speed, 0.0,
+                                radius, cov, False, it.name, None, None)
+        assert type(tr) is type(ref)
+        assert tr.__dict__.keys() == ref.__dict__.keys()
+        for k, v in ref.__dict__.items():
+            if isinstance(v, np.ndarray):
+                np.testing.assert_array_equal(tr.__dict__[k], v)
+            else:
+                assert tr.__dict__[k] is v or tr.__dict__[k] == v, k
+    again = a.tracks(own, 50.1, pic, lambda *_: None)  # a second prediction on the same messages
+    assert [t.track_id for t in again] == [t.track_id for t in got_a]
+
+
+def test_predict_fleet_with_constant_and_planned_speeds_equals_one_call_per_vessel():
+    """The zoom's γ(t) of the vessels at a constant speed in one array operation, the others by
+    their own γ(t): the same numbers as each vessel predicted alone."""
+    rng = np.random.default_rng(9)
+    queries = []
+    for v in range(4):
+        o = np.array([50.0 * v, 5.0 * v])
+        path = Path.from_waypoints(o + [[0, 0], [70, 0], [70, 50]], turn_radius_m=8.0)
+        cfg = CollisionPredictionConfig(window_s=25.0, time_step_s=0.5)
+        if v % 2:
+            def profile(t, g0=3.0, v_d=0.4 + 0.1 * v):  # a slow-down until t = 60 s, then 1.5 m/s
+                t = np.asarray(t, dtype=float)
+                return g0 + v_d * np.clip(t - 50.0, 0.0, 10.0) + 1.5 * np.maximum(t - 60.0, 0.0)
+        else:
+            profile = 1.0 + 0.3 * v
+        its = _intentions(rng, 6)
+        tracks = [PlannedTrack(k, it.sent_time_s, it.position_m + path.point(5.0), 0.0, 1.0, 0.0, 2.0,
+                               team_member=it.name,
+                               intention=replace(it, position_m=it.position_m + path.point(5.0),
+                                                 plan_points_m=it.plan_points_m + path.point(5.0)))
+                  for k, it in enumerate(its)]
+        tracks.append(TrackEstimate(50, 49.8, path.point(30.0) + [0.0, -20.0], np.pi / 2, 1.0, 0.01, 2.5))
+        queries.append(PredictionQuery(path, 3.0, 50.0, profile, 2.0, tracks, cfg, include_clear=True))
+    fleet = predict_fleet(queries)
+    for q, got in zip(queries, fleet):
+        one = predict_conflicts(q.vessel_path, q.gamma_now, q.t_now, q.speed_profile, q.vessel_radius_m, q.tracks,
+                                q.config, include_clear=True)
+        assert [c.track_id for c in got] == [c.track_id for c in one]
+        for a, b in zip(got, one):
+            assert (a.t_closest_s, a.min_distance_m, a.collision, a.collision_distance_m, a.is_static) == \
+                (b.t_closest_s, b.min_distance_m, b.collision, b.collision_distance_m, b.is_static)
+            assert (a.t_i, a.t_f, a.gamma_a, a.gamma_b) == (b.t_i, b.t_f, b.gamma_a, b.gamma_b) or \
+                (np.isnan(a.t_i) and np.isnan(b.t_i))
+
+
+def test_distinct_rows_find_each_vessels_shared_brackets():
+    from mjasc.avoidance.prediction.conflicts import _distinct_rows
+
+    rng = np.random.default_rng(1)
+    brackets = rng.uniform(0.0, 10.0, (3, 2))
+    pick = rng.integers(0, 3, 40)
+    v = rng.integers(0, 2, 40)
+    t = brackets[pick, :1] + (brackets[pick, 1:] - brackets[pick, :1]) * np.linspace(0.0, 1.0, 17)
+    u, inv = _distinct_rows(v, t)
+    assert u is not None and u.size == len(set(zip(v.tolist(), pick.tolist())))
+    np.testing.assert_array_equal(t[u][inv], t)
+    np.testing.assert_array_equal(v[u][inv], v)
+    assert _distinct_rows(np.arange(40), t) == (None, None)  # every row its own: nothing to share
+
+
+def test_the_zoom_evaluates_shared_brackets_once_with_the_same_numbers(monkeypatch):
+    """Team mates sailing away (their first minimum at the window's start: one bracket for all of a
+    vessel's pairs): the prediction with the vessel's positions evaluated once per distinct
+    bracket equals the one evaluating them per pair, bit for bit."""
+    from mjasc.avoidance.prediction import conflicts
+
+    rng = np.random.default_rng(3)
+    queries = []
+    for v in range(3):
+        path = Path.from_waypoints(np.array([60.0 * v, 0.0]) + [[0, 0], [80, 0], [80, 60]], turn_radius_m=8.0)
+        tracks = []
+        for k, it in enumerate(_intentions(rng, 12)):
+            off = path.point(3.0) + it.position_m
+            away = replace(it, position_m=off, plan_points_m=off + np.outer(it.plan_times_s - 49.7, [0.0, 1.5])
+                           if it.has_plan else it.plan_points_m, velocity_m_s=np.array([0.0, 1.5]))
+            tracks.append(PlannedTrack(k, away.sent_time_s, off, 0.0, 1.5, 0.0, 2.0, team_member=away.name,
+                                       intention=away))
+        queries.append(PredictionQuery(path, 3.0, 50.0, 1.0 + 0.2 * v, 2.0, tracks,
+                                       CollisionPredictionConfig(window_s=25.0, time_step_s=0.5), include_clear=True))
+    calls = []
+    orig = conflicts._distinct_rows
+
+    def counted(v, t):
+        out = orig(v, t)
+        calls.append(out[0] is not None)
+        return out
+
+    monkeypatch.setattr(conflicts, "_distinct_rows", counted)
+    shared = predict_fleet(queries)
+    assert any(calls)
+    monkeypatch.setattr(conflicts, "_distinct_rows", lambda v, t: (None, None))
+    per_pair = predict_fleet(queries)
+    for got, ref in zip(shared, per_pair):
+        assert [(c.track_id, c.t_closest_s, c.min_distance_m, c.collision) for c in got] == \
+            [(c.track_id, c.t_closest_s, c.min_distance_m, c.collision) for c in ref]
+
+
+def test_the_lazy_results_are_predict_fleets_lists():
+    """predict_fleet_lazy: the same conflicts in the same order as predict_fleet, the clear ones made
+    on first read; its collisions and distances are those of the list."""
+    from mjasc.avoidance.prediction.conflicts import ConflictList, predict_fleet_lazy
+
+    rng = np.random.default_rng(12)
+    queries = []
+    for v in range(3):
+        path = Path.from_waypoints(np.array([40.0 * v, 0.0]) + [[0, 0], [80, 0], [80, 60]], turn_radius_m=8.0)
+        tracks = [TrackEstimate(k, 49.8, path.point(10.0 + 7 * k) + rng.normal(0, 6, 2), rng.uniform(-3, 3),
+                                rng.uniform(0.0, 2.0), rng.normal(0, 0.03), 2.0 + k % 3) for k in range(9)]
+        queries.append(PredictionQuery(path, 3.0, 50.0, 1.2, 2.0, tracks,
+                                       CollisionPredictionConfig(window_s=25.0), include_clear=v != 1))
+    lists = predict_fleet(queries)
+    lazy = predict_fleet_lazy(queries)
+    assert any(c.collision for res in lists for c in res) and any(not c.collision for res in lists for c in res)
+    for ref, got in zip(lists, lazy):
+        assert isinstance(got, ConflictList) and len(got) == len(ref)
+        assert got.collisions == [got[i] for i in range(len(got)) if got[i].collision]
+        assert got.min_distances == [c.min_distance_m for c in ref]
+        for a, b in zip(got, ref):
+            assert a.__dict__.keys() == b.__dict__.keys()
+            for k, x in b.__dict__.items():
+                if isinstance(x, np.ndarray):
+                    np.testing.assert_array_equal(a.__dict__[k], x)
+                else:
+                    assert a.__dict__[k] == x or (x != x and a.__dict__[k] != a.__dict__[k]), k
+        assert got[-1:] == [got[len(got) - 1]] if len(got) else True
