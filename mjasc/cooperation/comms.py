@@ -47,7 +47,8 @@ nothing else (``mjasc.cooperation.recording`` draws them).
 
 from __future__ import annotations
 
-import heapq
+import math
+from bisect import bisect_right
 from dataclasses import dataclass, fields, is_dataclass
 
 import numpy as np
@@ -181,15 +182,6 @@ class LinkOutcome:
 
 
 @dataclass
-class _Sent:
-    id: int
-    time_s: float
-    sender: str
-    payload: dict
-    position_m: np.ndarray
-
-
-@dataclass
 class _LinkStats:
     offered: int = 0  # (message, receiver) pairs decided
     delivered: int = 0
@@ -230,10 +222,16 @@ class CommsNetwork:
         if not isinstance(self.config, NetworkConfig):
             raise ValueError(f"comms: config must be a NetworkConfig or None, got {type(self.config).__name__}")
         self.rng = rng if rng is not None else np.random.default_rng(0)
-        self._log: list[_Sent] = []
-        self._base = 0  # id of self._log[0] (the log is pruned once every receiver has read past it)
+        # the sent messages, as parallel lists (id − self._base is the position in each)
+        self._log_time: list[float] = []
+        self._log_sender: list[int] = []  # the sender's team index
+        self._log_x: list[float] = []
+        self._log_y: list[float] = []
+        self._log_payload: list = []
+        self._base = 0  # id of the logs' first entry (pruned once every receiver has read past it)
         self._cursor = {n: 0 for n in self.team}  # next message id each receiver has not decided yet
-        self._pending: dict[str, list] = {n: [] for n in self.team}  # heap of (arrival, id, Message)
+        # per receiver: the pending (arrival, id, sender index, sent time, payload), sorted by (arrival, id)
+        self._pending: dict[str, list] = {n: [] for n in self.team}
         self._last_send_s = -np.inf
         self.sent = {n: 0 for n in self.team}
         self.link = {n: _LinkStats() for n in self.team}  # per receiver
@@ -241,11 +239,18 @@ class CommsNetwork:
         self._everyone = all(len(h) == len(self.team) - 1 for h in self.hears.values())
         self._index = {n: k for k, n in enumerate(self.team)}
         n = len(self.team)
+        # receiver index → (n,) bool: the senders it can hear
+        self._hears_mask = [np.array([s in self.hears[r] for s in self.team]) for r in self.team]
         # who heard whom: (sender, receiver) counts and the delivered messages' summed delays
         self._pair_offered = np.zeros((n, n), dtype=np.int64)
         self._pair_delivered = np.zeros((n, n), dtype=np.int64)
         self._pair_delay_s = np.zeros((n, n))
         self._outcomes: list[LinkOutcome] | None = None  # kept only when asked (keep_outcomes)
+
+    @property
+    def _log(self) -> list[float]:
+        """The send times of the messages still logged (not yet pruned)."""
+        return self._log_time
 
     def keep_outcomes(self) -> None:
         """From now on keep each decided (message, receiver) pair for :meth:`drain_outcomes`."""
@@ -270,9 +275,13 @@ class CommsNetwork:
         if not (isinstance(payload, dict) or (is_dataclass(payload) and payload.__dataclass_params__.frozen)):
             raise ValueError(f"comms.send: payload must be a dict or a frozen dataclass, got {type(payload).__name__}")
         self._last_send_s = float(t_s)
-        mid = self._base + len(self._log)
-        self._log.append(_Sent(mid, float(t_s), sender, _copy_payload(payload),
-                               np.array(sender_position, dtype=float).reshape(-1)[:2]))
+        mid = self._base + len(self._log_time)
+        xy = np.array(sender_position, dtype=float).reshape(-1)[:2]
+        self._log_time.append(float(t_s))
+        self._log_sender.append(self._index[sender])
+        self._log_x.append(float(xy[0]))
+        self._log_y.append(float(xy[1]))
+        self._log_payload.append(_copy_payload(payload))
         self.sent[sender] += 1
         return mid
 
@@ -282,78 +291,95 @@ class CommsNetwork:
         The messages sent since the receiver's last call are decided together (distances, the
         two uniforms of each pair drawn in message order, loss and delay over arrays); a call
         with nothing new to decide or deliver costs a few dictionary look-ups."""
+        return [Message(s, sent, arrived, _copy_payload(payload))
+                for s, sent, arrived, payload in self.receive_raw(t_s, receiver, receiver_position)]
+
+    def receive_raw(self, t_s: float, receiver: str, receiver_position) -> list[tuple]:
+        """:meth:`receive` as plain tuples ``(sender, sent time [s], arrival time [s],
+        payload)``, the payload the sender's (not the receiver's copy: a dict payload
+        must not be changed; a typed message is immutable anyway). The same decisions, draws and
+        statistics as :meth:`receive`."""
         cursor = self._cursor.get(receiver)
         if cursor is None:
             self._member(receiver, "receiver")
-        log, heap = self._log, self._pending[receiver]
+        times, pending = self._log_time, self._pending[receiver]
         k0 = cursor - self._base
         k = k0
-        while k < len(log) and log[k].time_s <= t_s:
-            k += 1
-        if k > k0:
-            self._decide(receiver, log[k0:k], receiver_position)
+        n_log = len(times)
+        if k < n_log and times[k] <= t_s:
+            k = bisect_right(times, t_s, k0)  # send times are non-decreasing
+            self._decide(receiver, k0, k, receiver_position)
             self._cursor[receiver] = self._base + k
             self._prune()
-        if not heap or heap[0][0] > t_s:
+        if not pending or pending[0][0] > t_s:
             return []
+        k = bisect_right(pending, (t_s, math.inf))  # those arrived by t_s (sorted by arrival, id)
+        arrived = pending[:k]
+        del pending[:k]
         stats = self.link[receiver]
-        out, senders, delays = [], [], []
-        index, pop = self._index, heapq.heappop
+        team = self.team
+        senders = [item[2] for item in arrived]
+        delays = [item[0] - item[3] for item in arrived]
         delay_sum, delay_max = stats.delay_sum_s, stats.delay_max_s
-        while heap and heap[0][0] <= t_s:
-            msg = pop(heap)[2]
-            delay = msg.delay_s
+        for delay in delays:  # in arrival order, as the running sums always were
             delay_sum += delay
             delay_max = max(delay_max, delay)
-            senders.append(index[msg.sender])
-            delays.append(delay)
-            out.append(msg)
-        stats.delivered += len(out)
+        stats.delivered += k
         stats.delay_sum_s, stats.delay_max_s = delay_sum, delay_max
+        out = [(team[s], sent, a, payload) for a, _, s, sent, payload in arrived]
         # Per (sender, receiver), in arrival order (np.add.at adds repeated indices one by one).
-        r = index[receiver]
+        r = self._index[receiver]
         np.add.at(self._pair_delivered[:, r], senders, 1)
         np.add.at(self._pair_delay_s[:, r], senders, delays)
         return out
 
-    def _decide(self, receiver: str, sent: list, receiver_position) -> None:
-        """Loss and delay of each message of ``sent`` (not the receiver's own) for ``receiver``
-        at ``receiver_position``; survivors go on its heap of pending arrivals."""
-        if self._everyone:
-            sent = [m for m in sent if m.sender != receiver]
-        else:
-            hears = self.hears[receiver]
-            sent = [m for m in sent if m.sender in hears]
-        if not sent:
+    def _decide(self, receiver: str, k0: int, k1: int, receiver_position) -> None:
+        """Loss and delay of each logged message k0 … k1 − 1 (not the receiver's own, only those
+        it can hear) for ``receiver`` at ``receiver_position``; survivors go on its list of
+        pending arrivals."""
+        r = self._index[receiver]
+        senders = np.array(self._log_sender[k0:k1], dtype=np.intp)
+        keep = (senders != r) if self._everyone else self._hears_mask[r][senders]
+        m = int(np.count_nonzero(keep))
+        if not m:
             return
+        pick = None if m == k1 - k0 else np.flatnonzero(keep)
+        x = np.array(self._log_x[k0:k1])
+        y = np.array(self._log_y[k0:k1])
+        times = np.array(self._log_time[k0:k1])
+        if pick is not None:
+            senders, x, y, times = senders[pick], x[pick], y[pick], times[pick]
         cfg, stats = self.config, self.link[receiver]
         pos = np.asarray(receiver_position, dtype=float).reshape(-1)
-        from_xy = np.array([m.position_m for m in sent])
-        d = np.hypot(from_xy[:, 0] - pos[0], from_xy[:, 1] - pos[1])
-        u = self.rng.random((len(sent), 2))  # (u_loss, u_jitter) per message, in message order
+        d = np.hypot(x - pos[0], y - pos[1])
+        u = self.rng.random((m, 2))  # (u_loss, u_jitter) per message, in message order
         out_of_range = d >= cfg.range_m
         lost = out_of_range | (u[:, 0] < cfg.loss_at(d))
-        times = np.array([m.time_s for m in sent])
         arrival = times + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u[:, 1] * cfg.jitter_s
-        stats.offered += len(sent)
-        np.add.at(self._pair_offered[:, self._index[receiver]], [self._index[m.sender] for m in sent], 1)
+        stats.offered += m
+        self._pair_offered[:, r] += np.bincount(senders, minlength=len(self.team))
         n_lost = int(np.count_nonzero(lost))
         stats.lost += n_lost
         stats.lost_out_of_range += int(np.count_nonzero(out_of_range))
+        ks = range(k0, k1) if pick is None else (pick + k0).tolist()
         if self._outcomes is not None:
-            self._outcomes += [LinkOutcome(m.sender, receiver, m.time_s, float("nan") if gone else a, gone)
-                               for m, a, gone in zip(sent, arrival.tolist(), lost.tolist())]
-        if n_lost == len(sent):
+            team, log_t = self.team, self._log_time
+            self._outcomes += [LinkOutcome(team[s], receiver, log_t[k], float("nan") if gone else a, gone)
+                               for k, s, a, gone in zip(ks, senders.tolist(), arrival.tolist(), lost.tolist())]
+        if n_lost == m:
             return
-        heap = self._pending[receiver]
-        for m, a, gone in zip(sent, arrival.tolist(), lost.tolist()):
-            if not gone:
-                heapq.heappush(heap, (a, m.id, Message(m.sender, m.time_s, a, _copy_payload(m.payload))))
+        pending, base = self._pending[receiver], self._base
+        log_t, log_p = self._log_time, self._log_payload
+        new = [(a, base + k, s, log_t[k], log_p[k])
+               for k, s, a, gone in zip(ks, senders.tolist(), arrival.tolist(), lost.tolist()) if not gone]
+        # kept sorted by (arrival, id) (unique: the payloads are never compared)
+        pending[:] = sorted(pending + new) if pending else sorted(new)
 
     def _prune(self) -> None:
         done = min(self._cursor.values()) - self._base
         if done > 256:
-            del self._log[:done]
+            for log in (self._log_time, self._log_sender, self._log_x, self._log_y, self._log_payload):
+                del log[:done]
             self._base += done
 
     # ------------------------------------------------------------------ statistics
@@ -364,9 +390,9 @@ class CommsNetwork:
         Messages still in flight count as offered, not yet as delivered or lost."""
         off, dlv, dly = self._pair_offered, self._pair_delivered, self._pair_delay_s
         pending = np.zeros_like(off)
-        for receiver, heap in self._pending.items():
-            for _, _, msg in heap:
-                pending[self._index[msg.sender], self._index[receiver]] += 1
+        for receiver, waiting in self._pending.items():
+            for item in waiting:
+                pending[item[2], self._index[receiver]] += 1
         mean = [[round(float(dly[i, j] / dlv[i, j]), 4) if dlv[i, j] else None for j in range(len(self.team))]
                 for i in range(len(self.team))]
         return {"topology": self.config.topology, "team": list(self.team), "offered": off.tolist(),

@@ -112,12 +112,15 @@ def parse_coordination_options(table: dict, where: str = "comms") -> Coordinatio
     return dataclass_from_table(CoordinationConfig, table, where, check=_validate)
 
 
-@dataclass
 class _Neighbour:
-    sent_time_s: float
-    received_time_s: float
-    message: TeamMessage
-    active: bool = True
+    """A team mate's newest message as received: send and arrival times [s], the message, and
+    whether it is still heard (not timed out)."""
+
+    __slots__ = ("sent_time_s", "received_time_s", "message", "active")
+
+    def __init__(self, sent_time_s: float, received_time_s: float, message: TeamMessage, active: bool = True):
+        self.sent_time_s, self.received_time_s, self.message, self.active = \
+            sent_time_s, received_time_s, message, active
 
 
 def _sum(values) -> float:
@@ -279,15 +282,19 @@ class Coordination(CoordinationMethod):
 
     def _poll(self, t_s: float, nav) -> None:
         """Read arrived messages, keep each neighbour's newest, time out stale ones."""
-        for msg in self.link.receive(t_s, nav.position_m):
-            self.received += 1
-            old = self.neighbours.get(msg.sender)
-            if old is not None and msg.sent_time_s <= old.sent_time_s:
-                continue  # overtaken by a newer message (jitter)
-            if old is not None and not old.active:
-                self._events.append((t_s, f"comms: regained {msg.sender} after {msg.sent_time_s - old.sent_time_s:.1f} s"))
-            self.neighbours[msg.sender] = _Neighbour(msg.sent_time_s, msg.received_time_s, msg.payload, True)
-            self._team = self._intentions = None
+        arrived = self.link.receive_raw(t_s, nav.position_m)
+        if arrived:
+            self.received += len(arrived)
+            neighbours = self.neighbours
+            for sender, sent, received, payload in arrived:
+                old = neighbours.get(sender)
+                if old is not None:
+                    if sent <= old.sent_time_s:
+                        continue  # overtaken by a newer message (jitter)
+                    if not old.active:
+                        self._events.append((t_s, f"comms: regained {sender} after {sent - old.sent_time_s:.1f} s"))
+                neighbours[sender] = _Neighbour(sent, received, payload, True)
+                self._team = self._intentions = None
         timeout = self.config.neighbour_timeout_s
         if t_s - self._oldest_active_s() > timeout:
             for name, nb in self.neighbours.items():

@@ -38,6 +38,12 @@ class LinkEndpoint:
         (:class:`~mjasc.cooperation.comms.Message`: sender, sent and received times, payload)."""
         return self._network.receive(t_s, self.name, own_position_m)
 
+    def receive_raw(self, t_s: float, own_position_m) -> list:
+        """:meth:`receive` as plain tuples (sender, sent time [s], received time [s], payload):
+        no :class:`~mjasc.cooperation.comms.Message` per message; the payload is shared (a typed
+        message is immutable; do not change a dict payload)."""
+        return self._network.receive_raw(t_s, self.name, own_position_m)
+
     def stats(self) -> dict:
         """This vessel's link statistics (sent, received, lost, delays)."""
         return self._network.stats(self.name)
