@@ -105,6 +105,16 @@ class _ReferenceNetwork:
                 heapq.heappush(self._pending[receiver], (a, m.id, Message(m.sender, m.time_s, a, _copy_payload(m.payload))))
 
 
+def _check(got, want, shared=False):
+    assert len(got) == len(want)
+    for g, w in zip(got, want):
+        assert (g.sender, g.sent_time_s, g.received_time_s) == (w.sender, w.sent_time_s, w.received_time_s)
+        if isinstance(w.payload, dict):
+            assert g.payload["k"] == w.payload["k"] and (shared or g.payload is not w.payload)
+        else:
+            assert g.payload is w.payload
+
+
 def _same(a, b):
     return a == b or (a != a and b != b)
 
@@ -132,15 +142,22 @@ def test_link_matches_the_per_message_reference(cfg):
             payload = (TeamMessage(team[i], xy[i].copy(), 0.0, np.zeros(2), 1.0) if drive.random() < 0.5
                        else {"k": step, "a": np.arange(3.0)})
             assert new.send(t, team[i], payload, xy[i]) == ref.send(t, team[i], payload, xy[i])
-        else:
-            got, want = new.receive(t, team[i], xy[i]), ref.receive(t, team[i], xy[i])
-            assert len(got) == len(want)
-            for g, w in zip(got, want):
-                assert (g.sender, g.sent_time_s, g.received_time_s) == (w.sender, w.sent_time_s, w.received_time_s)
-                if isinstance(w.payload, dict):
-                    assert g.payload["k"] == w.payload["k"] and g.payload is not w.payload
-                else:
-                    assert g.payload is w.payload
+        elif drive.random() < 0.8:
+            _check(new.receive(t, team[i], xy[i]), ref.receive(t, team[i], xy[i]))
+        elif drive.random() < 0.5:  # a fleet's tick: everyone decided in one pass, then each delivered
+            who = [team[j] for j in np.sort(drive.choice(len(team), int(drive.integers(1, len(team) + 1)), False))]
+            where = [xy[team.index(n)] for n in who]
+            new.decide_many(t, who, where)
+            for n, p in zip(who, where):
+                got = [Message(s, a, b, c) for s, a, b, c in new.receive_raw(t, n, p, decide=False)]
+                _check(got, ref.receive(t, n, p), shared=True)
+        else:  # a comms slot: each member sends, then polls; batched: all send, then one pass with limits
+            limits = [new.send(t, n, {"k": -j}, xy[j]) + 1 for j, n in enumerate(team)]
+            new.decide_many(t, team, list(xy), limits)
+            for j, n in enumerate(team):
+                ref.send(t, n, {"k": -j}, xy[j])
+                got = [Message(s, a, b, c) for s, a, b, c in new.receive_raw(t, n, xy[j], decide=False)]
+                _check(got, ref.receive(t, n, xy[j]), shared=True)
         outcomes += new.drain_outcomes()
     assert len(outcomes) == len(ref._outcomes)
     for g, w in zip(outcomes, ref._outcomes):

@@ -239,8 +239,8 @@ class CommsNetwork:
         self._everyone = all(len(h) == len(self.team) - 1 for h in self.hears.values())
         self._index = {n: k for k, n in enumerate(self.team)}
         n = len(self.team)
-        # receiver index → (n,) bool: the senders it can hear
-        self._hears_mask = [np.array([s in self.hears[r] for s in self.team]) for r in self.team]
+        # [receiver, sender] (n, n) bool: who can hear whom
+        self._hears_matrix = np.array([[s in self.hears[r] for s in self.team] for r in self.team], dtype=bool)
         # who heard whom: (sender, receiver) counts and the delivered messages' summed delays
         self._pair_offered = np.zeros((n, n), dtype=np.int64)
         self._pair_delivered = np.zeros((n, n), dtype=np.int64)
@@ -294,23 +294,19 @@ class CommsNetwork:
         return [Message(s, sent, arrived, _copy_payload(payload))
                 for s, sent, arrived, payload in self.receive_raw(t_s, receiver, receiver_position)]
 
-    def receive_raw(self, t_s: float, receiver: str, receiver_position) -> list[tuple]:
+    def receive_raw(self, t_s: float, receiver: str, receiver_position, decide: bool = True) -> list[tuple]:
         """:meth:`receive` as plain tuples ``(sender, sent time [s], arrival time [s],
         payload)``, the payload the sender's (not the receiver's copy: a dict payload
         must not be changed; a typed message is immutable anyway). The same decisions, draws and
-        statistics as :meth:`receive`."""
+        statistics as :meth:`receive`. ``decide=False``: deliver only what is decided already (by
+        :meth:`decide_many`), deciding nothing new."""
         cursor = self._cursor.get(receiver)
         if cursor is None:
             self._member(receiver, "receiver")
         times, pending = self._log_time, self._pending[receiver]
         k0 = cursor - self._base
-        k = k0
-        n_log = len(times)
-        if k < n_log and times[k] <= t_s:
-            k = bisect_right(times, t_s, k0)  # send times are non-decreasing
-            self._decide(receiver, k0, k, receiver_position)
-            self._cursor[receiver] = self._base + k
-            self._prune()
+        if decide and k0 < len(times) and times[k0] <= t_s:
+            self.decide_many(t_s, (receiver,), (receiver_position,))
         if not pending or pending[0][0] > t_s:
             return []
         k = bisect_right(pending, (t_s, math.inf))  # those arrived by t_s (sorted by arrival, id)
@@ -333,47 +329,92 @@ class CommsNetwork:
         np.add.at(self._pair_delay_s[:, r], senders, delays)
         return out
 
-    def _decide(self, receiver: str, k0: int, k1: int, receiver_position) -> None:
-        """Loss and delay of each logged message k0 … k1 − 1 (not the receiver's own, only those
-        it can hear) for ``receiver`` at ``receiver_position``; survivors go on its list of
-        pending arrivals."""
-        r = self._index[receiver]
-        senders = np.array(self._log_sender[k0:k1], dtype=np.intp)
-        keep = (senders != r) if self._everyone else self._hears_mask[r][senders]
+    def decide_many(self, t_s: float, receivers, positions, limits=None) -> None:
+        """Decide, for each of ``receivers`` in turn at its position ``positions[k]`` (2,) world [m],
+        the messages sent by ``t_s`` it has not decided yet (with ``limits``: only those whose id
+        is below ``limits[k]``): loss and delay of every (message, receiver) pair; the survivors
+        wait on the receiver's list of pending arrivals for :meth:`receive_raw`.
+
+        The same decisions, random draws and statistics as the receivers' :meth:`receive` calls
+        one after the other (the draws in receiver order, then message order: one draw of all
+        the uniforms gives the same numbers), over arrays for all pairs at once."""
+        base, times = self._base, self._log_time
+        n_log = len(times)
+        segs = []  # (receiver index, name, k in receivers, first log position, end)
+        for k, name in enumerate(receivers):
+            cursor = self._cursor.get(name)
+            if cursor is None:
+                self._member(name, "receiver")
+            k0 = cursor - base
+            if k0 >= n_log or times[k0] > t_s:
+                continue
+            k1 = bisect_right(times, t_s, k0)  # send times are non-decreasing
+            if limits is not None:
+                k1 = min(k1, limits[k] - base)
+            if k1 > k0:
+                self._cursor[name] = base + k1
+                segs.append((self._index[name], name, k, k0, k1))
+        if segs:
+            self._decide(segs, positions)
+            self._prune()
+
+    def _decide(self, segs: list, positions) -> None:
+        """Loss and delay of the logged messages ``k0 … k1 − 1`` of each receiver's segment (not
+        its own, only those it can hear), the receivers in order; survivors go on their lists of
+        pending arrivals (kept sorted by (arrival, id))."""
+        lo = min(sg[3] for sg in segs)
+        hi = max(sg[4] for sg in segs)
+        n_seg = len(segs)
+        length = np.array([sg[4] - sg[3] for sg in segs], dtype=np.intp)
+        start = np.array([sg[3] for sg in segs], dtype=np.intp)
+        J = np.repeat(np.arange(n_seg), length)  # each pair's segment
+        K = np.arange(int(length.sum())) + np.repeat(start - (np.cumsum(length) - length), length)  # log position
+        R = np.array([sg[0] for sg in segs], dtype=np.intp)[J]  # receiver's team index
+        senders = np.array(self._log_sender[lo:hi], dtype=np.intp)[K - lo]
+        keep = (senders != R) if self._everyone else self._hears_matrix[R, senders]
         m = int(np.count_nonzero(keep))
         if not m:
             return
-        pick = None if m == k1 - k0 else np.flatnonzero(keep)
-        x = np.array(self._log_x[k0:k1])
-        y = np.array(self._log_y[k0:k1])
-        times = np.array(self._log_time[k0:k1])
-        if pick is not None:
-            senders, x, y, times = senders[pick], x[pick], y[pick], times[pick]
-        cfg, stats = self.config, self.link[receiver]
-        pos = np.asarray(receiver_position, dtype=float).reshape(-1)
-        d = np.hypot(x - pos[0], y - pos[1])
-        u = self.rng.random((m, 2))  # (u_loss, u_jitter) per message, in message order
+        if m < K.size:
+            pick = np.flatnonzero(keep)
+            J, K, R, senders = J[pick], K[pick], R[pick], senders[pick]
+        x = np.array(self._log_x[lo:hi])[K - lo]
+        y = np.array(self._log_y[lo:hi])[K - lo]
+        times = np.array(self._log_time[lo:hi])[K - lo]
+        own = [np.asarray(positions[sg[2]], dtype=float).reshape(-1) for sg in segs]
+        px = np.array([p[0] for p in own])[J]
+        py = np.array([p[1] for p in own])[J]
+        cfg = self.config
+        d = np.hypot(x - px, y - py)
+        u = self.rng.random((m, 2))  # (u_loss, u_jitter) per pair, in receiver then message order
         out_of_range = d >= cfg.range_m
         lost = out_of_range | (u[:, 0] < cfg.loss_at(d))
         arrival = times + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u[:, 1] * cfg.jitter_s
-        stats.offered += m
-        self._pair_offered[:, r] += np.bincount(senders, minlength=len(self.team))
-        n_lost = int(np.count_nonzero(lost))
-        stats.lost += n_lost
-        stats.lost_out_of_range += int(np.count_nonzero(out_of_range))
-        ks = range(k0, k1) if pick is None else (pick + k0).tolist()
+        np.add.at(self._pair_offered, (senders, R), 1)
+        offered = np.bincount(J, minlength=n_seg).tolist()
+        n_lost = np.bincount(J, weights=lost, minlength=n_seg).astype(np.int64).tolist()
+        n_far = np.bincount(J, weights=out_of_range, minlength=n_seg).astype(np.int64).tolist()
+        for sg, a, b, c in zip(segs, offered, n_lost, n_far):
+            stats = self.link[sg[1]]
+            stats.offered += a
+            stats.lost += b
+            stats.lost_out_of_range += c
+        team, base, log_t, log_p = self.team, self._base, self._log_time, self._log_payload
         if self._outcomes is not None:
-            team, log_t = self.team, self._log_time
-            self._outcomes += [LinkOutcome(team[s], receiver, log_t[k], float("nan") if gone else a, gone)
-                               for k, s, a, gone in zip(ks, senders.tolist(), arrival.tolist(), lost.tolist())]
-        if n_lost == m:
+            self._outcomes += [LinkOutcome(team[s], team[r], log_t[k], float("nan") if gone else a, gone)
+                               for k, s, r, a, gone in zip(K.tolist(), senders.tolist(), R.tolist(),
+                                                           arrival.tolist(), lost.tolist())]
+        alive = np.flatnonzero(~lost)
+        if not alive.size:
             return
-        pending, base = self._pending[receiver], self._base
-        log_t, log_p = self._log_time, self._log_payload
-        new = [(a, base + k, s, log_t[k], log_p[k])
-               for k, s, a, gone in zip(ks, senders.tolist(), arrival.tolist(), lost.tolist()) if not gone]
-        # kept sorted by (arrival, id) (unique: the payloads are never compared)
-        pending[:] = sorted(pending + new) if pending else sorted(new)
+        new = [[] for _ in segs]
+        for k, s, j, a in zip(K[alive].tolist(), senders[alive].tolist(), J[alive].tolist(), arrival[alive].tolist()):
+            new[j].append((a, base + k, s, log_t[k], log_p[k]))
+        for sg, items in zip(segs, new):
+            if items:
+                pending = self._pending[sg[1]]
+                # kept sorted by (arrival, id) (unique: the payloads are never compared)
+                pending[:] = sorted(pending + items) if pending else sorted(items)
 
     def _prune(self) -> None:
         done = min(self._cursor.values()) - self._base

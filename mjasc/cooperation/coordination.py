@@ -280,9 +280,9 @@ class Coordination(CoordinationMethod):
         g = np.clip(float(guidance.gamma_m) + v * (times - t_s), 0.0, path.length)
         return times, np.asarray(path.point(g), dtype=float).reshape(-1, 2)
 
-    def _poll(self, t_s: float, nav) -> None:
+    def _poll(self, t_s: float, nav, decide: bool = True) -> None:
         """Read arrived messages, keep each neighbour's newest, time out stale ones."""
-        arrived = self.link.receive_raw(t_s, nav.position_m)
+        arrived = self.link.receive_raw(t_s, nav.position_m, decide)
         if arrived:
             self.received += len(arrived)
             neighbours = self.neighbours
@@ -347,15 +347,32 @@ class Coordination(CoordinationMethod):
         confirmed tracks to share (:class:`~mjasc.core.estimates.SharedTrack`, with ``share_tracks``;
         sent as given, the caller caps them); mission: the vessel's
         :class:`~mjasc.missions.legs.MissionBroadcast` (a chained mission), sent with its phase."""
+        self.broadcast(t_s, nav, gamma_m, guidance, plan, tracks, mission)
+        self.take_in(t_s, nav, gamma_m)
+
+    def broadcast(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None) -> int:
+        """The first half of :meth:`exchange`: broadcast the message; returns its id on the link."""
         if tracks and self.config.share_tracks:
             self._tracks_sent += len(tracks)
-        self.link.send(t_s, self._message(t_s, nav, gamma_m, guidance, plan,
-                                          tracks if self.config.share_tracks else (), mission), nav.position_m)
-        self._poll(t_s, nav)
+        return self.link.send(t_s, self._message(t_s, nav, gamma_m, guidance, plan,
+                                                 tracks if self.config.share_tracks else (), mission), nav.position_m)
+
+    def take_in(self, t_s: float, nav, gamma_m: float, decided: bool = False) -> None:
+        """The second half of :meth:`exchange`: read what has arrived, note the formation's state.
+        ``decided``: the link was decided for this vessel already (:meth:`decide_link`)."""
+        self._poll(t_s, nav, decide=not decided)
         _, lead, spread, n = self.coordination_error(t_s, gamma_m)
         self.last_xi, self.last_spread_m = self.xi(gamma_m), spread
         if n:
             self._history.append((float(t_s), lead, spread))
+
+    @staticmethod
+    def decide_link(coordinations, t_s: float, positions_m, limits=None) -> None:
+        """Decide the link for several vessels' coordination at ``t_s`` in one pass, in their
+        order, before their :meth:`speed_correction` (or, with ``limits`` = each one's message id
+        + 1, their :meth:`take_in` with ``decided``): the same draws as their calls one after the
+        other (:meth:`~mjasc.cooperation.link.LinkEndpoint.decide_together`)."""
+        LinkEndpoint.decide_together([c.link for c in coordinations], t_s, positions_m, limits)
 
     def speed_correction(self, t_s: float, nav, gamma_m: float) -> float:
         """Factor f_i on the mission speed (see the module docstring), from the newest data."""

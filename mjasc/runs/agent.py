@@ -171,6 +171,30 @@ class VesselAgent:
         c = self.coordination
         if c is None:
             return
+        gamma, guidance, plan, extra, sharing = self._comms_message(nav)
+        c.exchange(nav.time_s, nav, gamma, guidance, plan, **extra)
+        self._comms_taken_in(nav, sharing)
+
+    def comms_send(self, nav: OwnNavigation) -> tuple:
+        """The first half of :meth:`on_comms` for the thesis coordination
+        (:class:`~mjasc.cooperation.coordination.Coordination`, needs one): broadcast this
+        vessel's message. Returns what :meth:`comms_receive` needs, its message id first. (The tick
+        sends every vessel's message, decides the link for all at once, then lets each take in what
+        arrived: the same as :meth:`on_comms` vessel by vessel.)"""
+        gamma, guidance, plan, extra, sharing = self._comms_message(nav)
+        return self.coordination.broadcast(nav.time_s, nav, gamma, guidance, plan, **extra), gamma, sharing
+
+    def comms_receive(self, nav: OwnNavigation, sent: tuple) -> None:
+        """The second half of :meth:`on_comms` (after :meth:`comms_send` returned ``sent`` and the
+        link was decided for this vessel): take in what arrived."""
+        _, gamma, sharing = sent
+        self.coordination.take_in(nav.time_s, nav, gamma, decided=True)
+        self._comms_taken_in(nav, sharing)
+
+    def _comms_message(self, nav: OwnNavigation) -> tuple:
+        """(γ on the mission path, the guidance state, the plan, the message's other parts
+        (shared tracks, mission broadcast), the track-sharing settings or None)."""
+        c = self.coordination
         guidance = self.guidance_state()
         plan, req = None, c.plan_request()
         if req is not None and self.avoidance is not None:
@@ -181,8 +205,12 @@ class VesselAgent:
             extra["tracks"] = self.perception.shareable_tracks(nav.position_m, sharing.max_tracks)
         if self.mission is not None:  # the mission's part: phase, arrival time, target estimate
             extra["mission"] = self.mission.broadcast()
-        c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan, **extra)
+        return self.mission_gamma_m(), guidance, plan, extra, sharing
+
+    def _comms_taken_in(self, nav: OwnNavigation, sharing) -> None:
+        """After the exchange: the team's positions (and tracks) to the perception."""
         if self.perception is not None:
+            c = self.coordination
             positions = c.team_positions()
             self.perception.set_team_positions(positions)
             if sharing is not None:
