@@ -134,6 +134,18 @@ def _sum(values) -> float:
     return acc
 
 
+def _law_terms(msg) -> tuple | None:
+    """What the speed law reads of a team mate's message: (phase, L, v, ξ, ξ̇, ξ_end = 1 − o/L, where
+    the mate stops at the end of its path), None without a path; made once per message (every
+    receiver shares the same immutable message)."""
+    terms = msg.__dict__.get("_law_terms", False)
+    if terms is False:
+        terms = None if not msg.has_path else (msg.phase, msg.path_length_m, msg.mission_speed_m_s, msg.xi,
+                                               msg.xi_rate_1_s, 1.0 - msg.offset_m / msg.path_length_m)
+        object.__setattr__(msg, "_law_terms", terms)
+    return terms
+
+
 class _TeamView:
     """The neighbours as the speed law uses them, from one vessel's neighbour table: L̄ and ω_d
     over itself and every neighbour with a path (active or not); of the active ones, ξ_j, ξ̇_j, the
@@ -142,16 +154,19 @@ class _TeamView:
     def __init__(self, own, neighbours):
         lengths, speeds, rows = [own.path_length_m], [own.mission_speed_m_s], []
         oldest = np.inf
+        phase = own.phase
         for nb in neighbours:
             if nb.active:
                 oldest = min(oldest, nb.sent_time_s)
-            p = nb.message
-            if not p.has_path or p.phase != own.phase:  # a mate in another mission phase is not coordinated with
+            terms = nb.message.__dict__.get("_law_terms", False)
+            if terms is False:
+                terms = _law_terms(nb.message)
+            if terms is None or terms[0] != phase:  # a mate in another mission phase is not coordinated with
                 continue
-            lengths.append(p.path_length_m)
-            speeds.append(p.mission_speed_m_s)
-            if nb.active:  # the neighbour stops at the end of its path: ξ_end = 1 − o/L
-                rows.append((p.xi, p.xi_rate_1_s, nb.sent_time_s, 1.0 - p.offset_m / p.path_length_m))
+            lengths.append(terms[1])
+            speeds.append(terms[2])
+            if nb.active:
+                rows.append((terms[3], terms[4], nb.sent_time_s, terms[5]))
         self.oldest_active_s = oldest
         if own.path_length_m is None:
             self.l_bar = self.omega = np.nan
@@ -412,7 +427,9 @@ class Coordination(CoordinationMethod):
         has arrived; treat it as read-only)."""
         if self._intentions is None:
             self._intentions = self.team_intentions()
-        return TeamPicture(float(t_s), self._intentions, self.last_factor)
+        picture = object.__new__(TeamPicture)  # TeamPicture(t, intentions, factor) without its __init__
+        picture.__dict__.update(time_s=float(t_s), intentions=self._intentions, speed_factor=self.last_factor)
+        return picture
 
     def track_sharing(self):
         """The team-shared perception settings

@@ -111,10 +111,10 @@ class VesselAgent:
     def guidance_state(self) -> GuidanceState | None:
         """The path follower's path and γ now, and the mission speed × the coordination factor
         (None without a path follower)."""
-        if self.follower is None:
+        follower = self.follower
+        if follower is None:
             return None
-        return GuidanceState(self.follower.path, self.follower.gamma_m,
-                             float(self.mission_speed_m_s) * self.speed_factor())
+        return GuidanceState.of(follower.path, follower.gamma_m, float(self.mission_speed_m_s) * self.speed_factor())
 
     def perception_report(self, t_s: float) -> PerceptionReport | None:
         """What the perception reports now (None without perception); rebuilt only after a slot that
