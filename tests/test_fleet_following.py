@@ -133,6 +133,11 @@ def test_stacked_point_equals_the_segment_formula_with_and_without_arcs(turn_rad
         _, idx, local = stack.paths[r]._locate(g[sel])  # each path's own segment and local arc length
         want[sel] = np.stack(_eval_points_reference(stack.paths[r].table[:, idx], local), axis=-1)
     np.testing.assert_array_equal(got, want)
+    for r, p in enumerate(stack.paths):  # Path.point over arrays (lines only: no table gather, no trigonometry)
+        gg = np.concatenate([g[:3].ravel(), [-0.0, 0.0, p.length, p.length + 1.0]])  # > 8: the array form
+        _, idx, local = p._locate(gg)
+        ref = np.stack(_eval_points_reference(p.table[:, idx], local), axis=-1)
+        assert np.array_equal(p.point(gg), ref) and np.array_equal(np.signbit(p.point(gg)), np.signbit(ref))
     seg = stack._table[:, rng.integers(0, stack._used, 500)]
     s = rng.uniform(0.0, 30.0, 500)
     for a, b in zip(eval_points(seg, s), _eval_points_reference(seg, s)):
