@@ -58,6 +58,7 @@ import numpy as np
 from mjasc.cooperation.comms import CommsNetwork
 from mjasc.cooperation.link import LinkEndpoint
 from mjasc.cooperation.messages import TeamIntention, TeamMessage, TeamPicture
+from mjasc.core.compiled import kernel, maximum, minimum
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 from mjasc.plugins.stages import CoordinationMethod
 
@@ -174,7 +175,7 @@ class _TeamView:
             self.l_bar = _sum(lengths) / len(lengths)
             self.omega = _sum(speeds) / len(speeds) / self.l_bar
         self.rows = rows
-        self.arrays = np.array(rows).T if len(rows) >= 8 else None
+        self.arrays = np.ascontiguousarray(np.array(rows).T) if len(rows) >= 8 else None
 
     def xi_hat(self, t_s: float, extrapolate: bool):
         """ξ̂_j(t) of the active neighbours: ξ_j + ξ̇_j (t − t_j), not beyond the end of their path
@@ -185,6 +186,25 @@ class _TeamView:
         if not extrapolate:
             return [r[0] for r in self.rows]
         return [min(x + rate * (t_s - sent), max(x, x_end)) for x, rate, sent, x_end in self.rows]
+
+    def gap_sum(self, t_s: float, extrapolate: bool, own: float) -> float:
+        """Σ_j (ξ_own − ξ̂_j(t)) over the active neighbours, as ``_sum`` of the gaps to
+        :meth:`xi_hat` gives it (above 8 neighbours the gaps in one compiled pass, numpy's sum)."""
+        if self.arrays is None:
+            return _sum([own - x for x in self.xi_hat(t_s, extrapolate)])
+        xi, rate, sent, x_end = self.arrays
+        gaps = np.empty(xi.size)
+        _gaps(xi, rate, sent, x_end, float(t_s), float(own), bool(extrapolate), gaps)
+        return float(np.add.reduce(gaps))
+
+
+@kernel
+def _gaps(xi, rate, sent, x_end, t_s, own, extrapolate, out):
+    """ξ_own − ξ̂_j of each neighbour j into ``out``, ξ̂_j as :meth:`_TeamView.xi_hat`'s array form
+    computes it (np.minimum / np.maximum: NaN propagates)."""
+    for j in range(xi.size):
+        x = minimum(xi[j] + rate[j] * (t_s - sent[j]), maximum(xi[j], x_end[j])) if extrapolate else xi[j]
+        out[j] = own - x
 
 
 class Coordination(CoordinationMethod):
@@ -391,17 +411,42 @@ class Coordination(CoordinationMethod):
 
     def speed_correction(self, t_s: float, nav, gamma_m: float) -> float:
         """Factor f_i on the mission speed (see the module docstring), from the newest data."""
+        law = self._consensus(t_s, nav, gamma_m)
+        if law is None:
+            return 1.0
+        cfg = self.config
+        return self._factor(law, None if cfg.role == "leader" else np.tanh(law[2] / cfg.error_scale_m))
+
+    @staticmethod
+    def speed_correction_many(calls) -> list[float]:
+        """:meth:`speed_correction` of several vessels, ``calls`` = [(coordination, t, nav, γ)]:
+        each reads its arrivals and sums its gaps, then one ``tanh`` for all of them. The same
+        factors and states as the calls one after the other (the link decided before them:
+        :meth:`decide_link`)."""
+        laws = [c._consensus(t, nav, g) for c, t, nav, g in calls]
+        ask = [k for k, law in enumerate(laws) if law is not None and calls[k][0].config.role != "leader"]
+        tanh = np.tanh(np.array([laws[k][2] / calls[k][0].config.error_scale_m for k in ask])).tolist() if ask else []
+        th = dict(zip(ask, tanh))
+        return [1.0 if law is None else c._factor(law, th.get(k)) for k, ((c, _, _, _), law) in enumerate(zip(calls, laws))]
+
+    def _consensus(self, t_s: float, nav, gamma_m: float):
+        """Read the arrivals; then (the team view, ξ_own, e_i, |N_i|), or None without a path."""
         self._poll(t_s, nav)
         if self.path_length_m is None:
-            return 1.0
+            return None
         view = self._team_view()
-        xis = view.xi_hat(t_s, self.config.extrapolate)
         own = self.xi(gamma_m)
+        n = len(view.rows)
+        e = view.l_bar * view.gap_sum(t_s, self.config.extrapolate, own) if n else 0.0
+        return view, own, e, n
+
+    def _factor(self, law, tanh) -> float:
+        """f_i from :meth:`_consensus`'s ``law`` and tanh(e_i / e_s) (None for a leader); notes
+        the lead, factor and ξ."""
+        view, own, e, n = law
         ff = view.omega * self.path_length_m / self.mission_speed_m_s
-        e = view.l_bar * _sum(own - xis if isinstance(xis, np.ndarray) else [own - x for x in xis]) if len(xis) else 0.0
-        lead = e / len(xis) if len(xis) else 0.0
-        cfg = self.config
-        corr = 0.0 if cfg.role == "leader" else cfg.max_speed_correction * np.tanh(e / cfg.error_scale_m)
+        lead = e / n if n else 0.0
+        corr = 0.0 if tanh is None else self.config.max_speed_correction * tanh
         f = ff * (1.0 - corr)
         f = float(min(f, self.top_speed_m_s / self.mission_speed_m_s))
         self.last_error_m, self.last_factor, self.last_xi = lead, f, own

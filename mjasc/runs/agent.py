@@ -247,17 +247,31 @@ class VesselAgent:
         [m/s] (the coordination law asked now), and the arguments of the avoidance method's control
         tick ``(avoidance, t, nav, GuidanceState, PerceptionReport, TeamPicture)`` (None without
         avoidance)."""
-        t = nav.time_s
+        self.control_mission(nav)
+        factor = None
+        if self.coordination is not None:
+            factor = self.coordination.speed_correction(nav.time_s, nav, self.mission_gamma_m())
+        return self.avoidance_call(nav, factor)
+
+    def control_mission(self, nav: OwnNavigation) -> None:
+        """The mission's part of :meth:`control_call`: its update, and the new leg applied if it
+        gives one."""
         if self.mission is not None:
+            t = nav.time_s
             leg = self.mission.update(t, nav, self.mission_gamma_m(), self.perception_report(t), self.team_picture(t),
                                       self.mode)
             if leg is not None:
                 self.apply_leg(t, leg)
+
+    def avoidance_call(self, nav: OwnNavigation, factor: float | None) -> tuple[float, tuple | None]:
+        """The rest of :meth:`control_call` after the coordination's factor on the mission speed
+        (None without coordination; the tick asks the fleet's coordination together)."""
         speed = self.mission_speed_m_s
-        if self.coordination is not None:
-            speed *= self.coordination.speed_correction(t, nav, self.mission_gamma_m())
+        if factor is not None:
+            speed *= factor
         if self.avoidance is None:
             return speed, None
+        t = nav.time_s
         return speed, (self.avoidance, t, nav, self.guidance_state(), self.perception_report(t), self.team_picture(t))
 
     def control_answer(self, speed: float, req) -> tuple[float, str, float]:

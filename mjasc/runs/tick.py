@@ -112,16 +112,30 @@ def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: floa
     """The control slot: per-vessel requests in vessel order, then one batched call for the built-in
     path followers (other control methods steer one vessel at a time, right after its request)."""
     outputs = [None] * len(agents)
-    if _thesis_link(agents, navs):  # the link decided once for the vessels whose coordination reads it now
-        polled = [k for k, agent in enumerate(agents) if agent.follower is not None and agent.coordination is not None]
-        Coordination.decide_link([agents[k].coordination for k in polled], navs[0].time_s,
-                                 [navs[k].position_m for k in polled])
     asked = []  # (vessel, speed after coordination, avoidance call or None)
-    for i, (agent, nav) in enumerate(zip(agents, navs)):
-        if agent.follower is None:
-            outputs[i] = agent.control(nav, control_dt_s)  # open loop
-            continue
-        asked.append((i, *agent.control_call(nav)))
+    if _thesis_link(agents, navs):
+        # Every vessel's mission first, then the coordination of all of them (the link decided once,
+        # then each reads its arrivals: one tanh for the fleet), then each one's avoidance call. The
+        # same as vessel by vessel: a vessel's mission and coordination read only its own state.
+        steered = [i for i, agent in enumerate(agents) if agent.follower is not None]
+        for i in steered:
+            agents[i].control_mission(navs[i])
+        polled = [i for i in steered if agents[i].coordination is not None]
+        Coordination.decide_link([agents[i].coordination for i in polled], navs[0].time_s,
+                                 [navs[i].position_m for i in polled])
+        factors = dict(zip(polled, Coordination.speed_correction_many(
+            [(agents[i].coordination, navs[i].time_s, navs[i], agents[i].mission_gamma_m()) for i in polled])))
+        for i, (agent, nav) in enumerate(zip(agents, navs)):
+            if agent.follower is None:
+                outputs[i] = agent.control(nav, control_dt_s)  # open loop
+            else:
+                asked.append((i, *agent.avoidance_call(nav, factors.get(i))))
+    else:
+        for i, (agent, nav) in enumerate(zip(agents, navs)):
+            if agent.follower is None:
+                outputs[i] = agent.control(nav, control_dt_s)  # open loop
+                continue
+            asked.append((i, *agent.control_call(nav)))
     groups: dict[type, list] = {}  # the avoidance methods, each for its vessels at once
     for k, (_, _, call) in enumerate(asked):
         if call is not None:
