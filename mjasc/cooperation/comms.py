@@ -56,6 +56,11 @@ import numpy as np
 from mjasc.core.config_tables import ConfigError, check_keys, check_params, dataclass_from_table, param, show, string
 from mjasc.core.config_tables import table as as_table
 
+#: Up to this many receivers with something to decide, :meth:`CommsNetwork.decide_many` decides
+#: them one by one (fewer numpy calls); above, all their pairs over arrays at once. Both give the
+#: same bits and draws.
+_FEW_RECEIVERS = 4
+
 __all__ = ["NetworkConfig", "Message", "LinkOutcome", "CommsNetwork", "parse_network_options", "PRESETS",
            "TOPOLOGIES"]
 
@@ -355,8 +360,53 @@ class CommsNetwork:
                 self._cursor[name] = base + k1
                 segs.append((self._index[name], name, k, k0, k1))
         if segs:
-            self._decide(segs, positions)
+            if len(segs) <= _FEW_RECEIVERS:  # a few receivers: one by one costs fewer numpy calls
+                for sg in segs:
+                    self._decide_one(sg, positions[sg[2]])
+            else:
+                self._decide(segs, positions)
             self._prune()
+
+    def _decide_one(self, seg: tuple, receiver_position) -> None:
+        """:meth:`_decide` for one receiver's segment ``seg`` at ``receiver_position`` (the same
+        operations on that receiver's pairs, the same draws)."""
+        r, receiver, _, k0, k1 = seg
+        senders = np.array(self._log_sender[k0:k1], dtype=np.intp)
+        keep = (senders != r) if self._everyone else self._hears_matrix[r, senders]
+        m = int(np.count_nonzero(keep))
+        if not m:
+            return
+        pick = None if m == k1 - k0 else np.flatnonzero(keep)
+        x = np.array(self._log_x[k0:k1])
+        y = np.array(self._log_y[k0:k1])
+        times = np.array(self._log_time[k0:k1])
+        if pick is not None:
+            senders, x, y, times = senders[pick], x[pick], y[pick], times[pick]
+        cfg, stats = self.config, self.link[receiver]
+        pos = np.asarray(receiver_position, dtype=float).reshape(-1)
+        d = np.hypot(x - pos[0], y - pos[1])
+        u = self.rng.random((m, 2))  # (u_loss, u_jitter) per message, in message order
+        out_of_range = d >= cfg.range_m
+        lost = out_of_range | (u[:, 0] < cfg.loss_at(d))
+        arrival = times + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u[:, 1] * cfg.jitter_s
+        stats.offered += m
+        np.add.at(self._pair_offered[:, r], senders, 1)
+        lost_l = lost.tolist()
+        n_lost = sum(lost_l)
+        stats.lost += n_lost
+        stats.lost_out_of_range += int(np.count_nonzero(out_of_range))
+        ks = range(k0, k1) if pick is None else (pick + k0).tolist()
+        team, base, log_t, log_p = self.team, self._base, self._log_time, self._log_payload
+        if self._outcomes is not None:
+            self._outcomes += [LinkOutcome(team[s], receiver, log_t[k], float("nan") if gone else a, gone)
+                               for k, s, a, gone in zip(ks, senders.tolist(), arrival.tolist(), lost_l)]
+        if n_lost == m:
+            return
+        items = [(a, base + k, s, log_t[k], log_p[k])
+                 for k, s, a, gone in zip(ks, senders.tolist(), arrival.tolist(), lost_l) if not gone]
+        pending = self._pending[receiver]
+        # kept sorted by (arrival, id) (unique: the payloads are never compared)
+        pending[:] = sorted(pending + items) if pending else sorted(items)
 
     def _decide(self, segs: list, positions) -> None:
         """Loss and delay of the logged messages ``k0 … k1 − 1`` of each receiver's segment (not

@@ -52,13 +52,15 @@ class LinkEndpoint:
         each one's position (2,) world [m]; ``limits``: each one decides only the messages whose id
         is below its limit (a comms slot: what was sent up to its own message)
         (:meth:`~mjasc.cooperation.comms.CommsNetwork.decide_many`)."""
-        endpoints = list(endpoints)
-        if not endpoints:
-            return
-        network = endpoints[0]._network
-        if any(e._network is not network for e in endpoints):
-            raise ValueError("decide_together: the endpoints must share one network")
-        network.decide_many(t_s, [e.name for e in endpoints], own_positions_m, limits)
+        network, names = None, []
+        for e in endpoints:
+            if network is None:
+                network = e._network
+            elif e._network is not network:
+                raise ValueError("decide_together: the endpoints must share one network")
+            names.append(e.name)
+        if names:
+            network.decide_many(t_s, names, own_positions_m, limits)
 
     def stats(self) -> dict:
         """This vessel's link statistics (sent, received, lost, delays)."""
