@@ -9,7 +9,10 @@ the control slot before the vessels' coordination reads it.
 The prediction slot predicts every vessel's (vessel, track) pairs in one batched call
 (:func:`~mjasc.avoidance.system.predict_slot`). The control slot runs each agent's
 :meth:`~mjasc.runs.agent.VesselAgent.control_request` (coordination factor, avoidance request and
-path switch): the coordination in vessel order, then the avoidance methods of every vessel at once
+path switch): the coordination in vessel order (with the thesis coordination: every vessel's
+mission first, then the fleet's speed law in one call,
+:meth:`~mjasc.cooperation.coordination.Coordination.speed_correction_many`), then the avoidance
+methods of every vessel at once
 per method (``control_many``: the thesis method predicts what the tick triggers for all vessels in
 one batched call, :func:`~mjasc.avoidance.system.control_slot`), then the path
 following of all vessels in one batched call (speeds and course overrides as arrays over vessels,
