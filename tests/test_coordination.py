@@ -327,3 +327,73 @@ def test_intent_options_are_validated():
         parse_coordination_options({"intent_step_s": 0}, "vessels[0].comms")
     with pytest.raises(ValueError, match=r"^comms\.intent_horizon_s: must be ≥ 0"):
         CoordinationConfig(intent_horizon_s=-1.0)
+
+
+def _fleet_run(batched, n=12, duration_s=25.0, dt=0.1):
+    """n vessels on parallel lines over a lossy, jittery link (one leader, one holding values, one
+    falling silent for a while); vessel by vessel, or batched as the runner's tick does it."""
+    paths = [Path.from_waypoints(np.array([[0.0, 10.0 * k], [400.0 + 3 * k, 10.0 * k]])) for k in range(n)]
+    names = [f"v{k}" for k in range(n)]
+    net = CommsNetwork(names, NetworkConfig(loss_probability=0.2, jitter_s=0.4, base_delay_s=0.05, range_m=120.0),
+                       np.random.default_rng(4))
+    cfgs = [CoordinationConfig(role="leader" if k == 0 else "peer", extrapolate=k != 3,
+                               formation_offset_m=2.0 * (k % 3)) for k in range(n)]
+    coords = [_Coordination(nm, net, c, mission_path=p, mission_speed_m_s=1.0 + 0.05 * k, top_speed_m_s=1.6)
+              for k, (nm, p, c) in enumerate(zip(names, paths, cfgs))]
+    gam = np.linspace(0.0, 30.0, n)
+    out = []
+    for step in range(int(round(duration_s / dt)) + 1):
+        t = step * dt
+        navs = [nav(p, t, g, 1.0) for p, g in zip(paths, gam)]
+        talking = [k for k in range(n) if not (k == 5 and 6.0 < t < 14.0)]
+        if step % 10 == 0:
+            if batched:
+                ids = [coords[k].broadcast(t, navs[k], gam[k]) for k in talking]
+                _Coordination.decide_link([coords[k] for k in talking], t, [navs[k].position_m for k in talking],
+                                          [i + 1 for i in ids])
+                for k in talking:
+                    coords[k].take_in(t, navs[k], gam[k], decided=True)
+            else:
+                for k in talking:
+                    coords[k].exchange(t, navs[k], gam[k])
+        if batched:
+            _Coordination.decide_link(coords, t, [v.position_m for v in navs])
+            f = _Coordination.speed_correction_many([(c, t, v, g) for c, v, g in zip(coords, navs, gam)])
+        else:
+            f = [c.speed_correction(t, v, g) for c, v, g in zip(coords, navs, gam)]
+        out.append(f)
+        gam = gam + np.array(f) * dt
+    return np.array(out), coords, net
+
+
+def test_batched_coordination_equals_vessel_by_vessel_bit_for_bit():
+    """The runner's tick: every message sent, the link decided once per slot, one tanh for the
+    fleet — the same factors, states, events and link statistics as the calls one by one."""
+    f1, c1, n1 = _fleet_run(False)
+    f2, c2, n2 = _fleet_run(True)
+    np.testing.assert_array_equal(f1, f2)
+    assert np.ptp(f1) > 0.1  # the law acts
+    for a, b in zip(c1, c2):
+        assert (a.last_error_m, a.last_xi, a.last_spread_m, a.received) == (b.last_error_m, b.last_xi,
+                                                                           b.last_spread_m, b.received)
+        assert a._history == b._history and a.drain_events() == b.drain_events()
+        assert a.summary() == b.summary()
+    assert n1.link_matrix() == n2.link_matrix() and n1.stats() == n2.stats()
+    assert any(len(c.active_neighbours()) >= 8 for c in c1)  # the compiled gaps ran
+
+
+def test_gap_sum_equals_the_sum_of_the_gaps_to_xi_hat():
+    """_TeamView.gap_sum (compiled above 8 neighbours) against _sum(own − xi_hat) bit for bit."""
+    from mjasc.cooperation.coordination import _sum, _TeamView
+
+    rng = np.random.default_rng(8)
+    for n in (3, 8, 9, 40, 200):
+        view = object.__new__(_TeamView)
+        view.rows = [tuple(r) for r in np.column_stack([rng.uniform(0, 1, n), rng.normal(0, 0.01, n),
+                                                        rng.uniform(0, 10, n), rng.uniform(0.5, 1, n)]).tolist()]
+        view.arrays = np.ascontiguousarray(np.array(view.rows).T) if n >= 8 else None
+        for extrapolate in (True, False):
+            own, t = float(rng.uniform(0, 1)), float(rng.uniform(10, 40))
+            xis = view.xi_hat(t, extrapolate)
+            want = _sum(own - xis if isinstance(xis, np.ndarray) else [own - x for x in xis])
+            assert view.gap_sum(t, extrapolate, own) == want

@@ -100,6 +100,50 @@ def test_stacked_point_equals_path_point_bit_for_bit():
     np.testing.assert_array_equal(got, want)
 
 
+def _eval_points_reference(seg, s):
+    """segment_geometry.eval_points as it was: both formulas everywhere, picked by np.where."""
+    from mjasc.guidance.segment_geometry import COS0, K, SIN0, TH0, X0, Y0
+
+    k = seg[K]
+    straight = k == 0.0
+    k_safe = np.where(straight, 1.0, k)
+    th = seg[TH0] + k * s
+    dx = np.where(straight, s * seg[COS0], (np.sin(th) - seg[SIN0]) / k_safe)
+    dy = np.where(straight, s * seg[SIN0], (seg[COS0] - np.cos(th)) / k_safe)
+    return seg[X0] + dx, seg[Y0] + dy
+
+
+@pytest.mark.parametrize("turn_radius_m", [0.0, 5.0])
+def test_stacked_point_equals_the_segment_formula_with_and_without_arcs(turn_radius_m):
+    """Lines only (no trigonometry), or lines and arcs: the bits of the general formula."""
+    from mjasc.guidance.segment_geometry import eval_points
+
+    rng = np.random.default_rng(5)
+    paths = [Path.from_waypoints(np.cumsum(np.vstack([rng.uniform(-50, 50, 2), rng.uniform(30, 60, (4, 2))]), axis=0),
+                                 turn_radius_m=turn_radius_m) for _ in range(6)]
+    stack = StackedPaths(paths)
+    assert stack._arcs == (turn_radius_m > 0.0)
+    rows = rng.integers(0, len(stack), (200, 7))
+    length = np.array([p.length for p in stack.paths])[rows]
+    g = rng.uniform(-0.1, 1.1, rows.shape) * length
+    got = stack.point(rows, g)
+    want = np.empty_like(got)
+    for r in range(len(stack)):
+        sel = rows == r
+        _, idx, local = stack.paths[r]._locate(g[sel])  # each path's own segment and local arc length
+        want[sel] = np.stack(_eval_points_reference(stack.paths[r].table[:, idx], local), axis=-1)
+    np.testing.assert_array_equal(got, want)
+    for r, p in enumerate(stack.paths):  # Path.point over arrays (lines only: no table gather, no trigonometry)
+        gg = np.concatenate([g[:3].ravel(), [-0.0, 0.0, p.length, p.length + 1.0]])  # > 8: the array form
+        _, idx, local = p._locate(gg)
+        ref = np.stack(_eval_points_reference(p.table[:, idx], local), axis=-1)
+        assert np.array_equal(p.point(gg), ref) and np.array_equal(np.signbit(p.point(gg)), np.signbit(ref))
+    seg = stack._table[:, rng.integers(0, stack._used, 500)]
+    s = rng.uniform(0.0, 30.0, 500)
+    for a, b in zip(eval_points(seg, s), _eval_points_reference(seg, s)):
+        np.testing.assert_array_equal(a, b)
+
+
 def _follower(path, i):
     vt = load_vessel_type("otter" if i % 2 == 0 else "delfim")
     mass = np.diag([60.0 + 5.0 * i, 90.0, 25.0 + 3.0 * i])  # surge and yaw inertia set the gains

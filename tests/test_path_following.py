@@ -44,3 +44,20 @@ def test_l_shaped_path_in_current_stays_close():
 def test_config_validation_names_the_field():
     with pytest.raises(ValueError, match="heading_bandwidth_rad_s"):
         PathFollowingConfig(heading_bandwidth_rad_s=0)
+
+
+def test_command_for_thrust_in_floats_equals_the_array_form():
+    """The float inverse propeller curve (small fleets) gives the array form's bits, saturation,
+    both signs, zeros and NaN included."""
+    from mjasc.physics.thrusters import PropellerCoefficients, command_for_thrust_scalar
+
+    props = PropellerCoefficients(k_forward=0.0111, k_reverse=0.0071, n_max_rad_s=993.0 / 9.55,
+                                  n_min_rad_s=-972.0 / 9.55, time_constant_s=0.1)
+    rng = np.random.default_rng(3)
+    t = np.concatenate([rng.uniform(-300.0, 300.0, 4000), rng.normal(0.0, 1.0, 1000),
+                        [0.0, -0.0, 1e-300, -1e-300, 1e9, -1e9, np.nan]])
+    want = props.command_for_thrust(t)
+    got = np.array([command_for_thrust_scalar(v, props.k_forward, props.k_reverse, props.n_max_rad_s,
+                                              props.n_min_rad_s) for v in t.tolist()])
+    np.testing.assert_array_equal(got, want)
+    assert np.array_equal(np.signbit(got), np.signbit(want))

@@ -47,13 +47,19 @@ nothing else (``mjasc.cooperation.recording`` draws them).
 
 from __future__ import annotations
 
-import heapq
+import math
+from bisect import bisect_right
 from dataclasses import dataclass, fields, is_dataclass
 
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_keys, check_params, dataclass_from_table, param, show, string
 from mjasc.core.config_tables import table as as_table
+
+#: Up to this many receivers with something to decide, :meth:`CommsNetwork.decide_many` decides
+#: them one by one (fewer numpy calls); above, all their pairs over arrays at once. Both give the
+#: same bits and draws.
+_FEW_RECEIVERS = 4
 
 __all__ = ["NetworkConfig", "Message", "LinkOutcome", "CommsNetwork", "parse_network_options", "PRESETS",
            "TOPOLOGIES"]
@@ -181,15 +187,6 @@ class LinkOutcome:
 
 
 @dataclass
-class _Sent:
-    id: int
-    time_s: float
-    sender: str
-    payload: dict
-    position_m: np.ndarray
-
-
-@dataclass
 class _LinkStats:
     offered: int = 0  # (message, receiver) pairs decided
     delivered: int = 0
@@ -230,10 +227,16 @@ class CommsNetwork:
         if not isinstance(self.config, NetworkConfig):
             raise ValueError(f"comms: config must be a NetworkConfig or None, got {type(self.config).__name__}")
         self.rng = rng if rng is not None else np.random.default_rng(0)
-        self._log: list[_Sent] = []
-        self._base = 0  # id of self._log[0] (the log is pruned once every receiver has read past it)
+        # the sent messages, as parallel lists (id − self._base is the position in each)
+        self._log_time: list[float] = []
+        self._log_sender: list[int] = []  # the sender's team index
+        self._log_x: list[float] = []
+        self._log_y: list[float] = []
+        self._log_payload: list = []
+        self._base = 0  # id of the logs' first entry (pruned once every receiver has read past it)
         self._cursor = {n: 0 for n in self.team}  # next message id each receiver has not decided yet
-        self._pending: dict[str, list] = {n: [] for n in self.team}  # heap of (arrival, id, Message)
+        # per receiver: the pending (arrival, id, sender index, sent time, payload), sorted by (arrival, id)
+        self._pending: dict[str, list] = {n: [] for n in self.team}
         self._last_send_s = -np.inf
         self.sent = {n: 0 for n in self.team}
         self.link = {n: _LinkStats() for n in self.team}  # per receiver
@@ -241,11 +244,18 @@ class CommsNetwork:
         self._everyone = all(len(h) == len(self.team) - 1 for h in self.hears.values())
         self._index = {n: k for k, n in enumerate(self.team)}
         n = len(self.team)
+        # [receiver, sender] (n, n) bool: who can hear whom
+        self._hears_matrix = np.array([[s in self.hears[r] for s in self.team] for r in self.team], dtype=bool)
         # who heard whom: (sender, receiver) counts and the delivered messages' summed delays
         self._pair_offered = np.zeros((n, n), dtype=np.int64)
         self._pair_delivered = np.zeros((n, n), dtype=np.int64)
         self._pair_delay_s = np.zeros((n, n))
         self._outcomes: list[LinkOutcome] | None = None  # kept only when asked (keep_outcomes)
+
+    @property
+    def _log(self) -> list[float]:
+        """The send times of the messages still logged (not yet pruned)."""
+        return self._log_time
 
     def keep_outcomes(self) -> None:
         """From now on keep each decided (message, receiver) pair for :meth:`drain_outcomes`."""
@@ -270,9 +280,13 @@ class CommsNetwork:
         if not (isinstance(payload, dict) or (is_dataclass(payload) and payload.__dataclass_params__.frozen)):
             raise ValueError(f"comms.send: payload must be a dict or a frozen dataclass, got {type(payload).__name__}")
         self._last_send_s = float(t_s)
-        mid = self._base + len(self._log)
-        self._log.append(_Sent(mid, float(t_s), sender, _copy_payload(payload),
-                               np.array(sender_position, dtype=float).reshape(-1)[:2]))
+        mid = self._base + len(self._log_time)
+        xy = np.array(sender_position, dtype=float).reshape(-1)[:2]
+        self._log_time.append(float(t_s))
+        self._log_sender.append(self._index[sender])
+        self._log_x.append(float(xy[0]))
+        self._log_y.append(float(xy[1]))
+        self._log_payload.append(_copy_payload(payload))
         self.sent[sender] += 1
         return mid
 
@@ -282,78 +296,181 @@ class CommsNetwork:
         The messages sent since the receiver's last call are decided together (distances, the
         two uniforms of each pair drawn in message order, loss and delay over arrays); a call
         with nothing new to decide or deliver costs a few dictionary look-ups."""
+        return [Message(s, sent, arrived, _copy_payload(payload))
+                for s, sent, arrived, payload in self.receive_raw(t_s, receiver, receiver_position)]
+
+    def receive_raw(self, t_s: float, receiver: str, receiver_position, decide: bool = True) -> list[tuple]:
+        """:meth:`receive` as plain tuples ``(sender, sent time [s], arrival time [s],
+        payload)``, the payload the sender's (not the receiver's copy: a dict payload
+        must not be changed; a typed message is immutable anyway). The same decisions, draws and
+        statistics as :meth:`receive`. ``decide=False``: deliver only what is decided already (by
+        :meth:`decide_many`), deciding nothing new."""
         cursor = self._cursor.get(receiver)
         if cursor is None:
             self._member(receiver, "receiver")
-        log, heap = self._log, self._pending[receiver]
+        times, pending = self._log_time, self._pending[receiver]
         k0 = cursor - self._base
-        k = k0
-        while k < len(log) and log[k].time_s <= t_s:
-            k += 1
-        if k > k0:
-            self._decide(receiver, log[k0:k], receiver_position)
-            self._cursor[receiver] = self._base + k
-            self._prune()
-        if not heap or heap[0][0] > t_s:
+        if decide and k0 < len(times) and times[k0] <= t_s:
+            self.decide_many(t_s, (receiver,), (receiver_position,))
+        if not pending or pending[0][0] > t_s:
             return []
+        k = bisect_right(pending, (t_s, math.inf))  # those arrived by t_s (sorted by arrival, id)
+        arrived = pending[:k]
+        del pending[:k]
         stats = self.link[receiver]
-        out, senders, delays = [], [], []
-        index, pop = self._index, heapq.heappop
+        team = self.team
+        senders = [item[2] for item in arrived]
+        delays = [item[0] - item[3] for item in arrived]
         delay_sum, delay_max = stats.delay_sum_s, stats.delay_max_s
-        while heap and heap[0][0] <= t_s:
-            msg = pop(heap)[2]
-            delay = msg.delay_s
+        for delay in delays:  # in arrival order, as the running sums always were
             delay_sum += delay
             delay_max = max(delay_max, delay)
-            senders.append(index[msg.sender])
-            delays.append(delay)
-            out.append(msg)
-        stats.delivered += len(out)
+        stats.delivered += k
         stats.delay_sum_s, stats.delay_max_s = delay_sum, delay_max
+        out = [(team[s], sent, a, payload) for a, _, s, sent, payload in arrived]
         # Per (sender, receiver), in arrival order (np.add.at adds repeated indices one by one).
-        r = index[receiver]
+        r = self._index[receiver]
         np.add.at(self._pair_delivered[:, r], senders, 1)
         np.add.at(self._pair_delay_s[:, r], senders, delays)
         return out
 
-    def _decide(self, receiver: str, sent: list, receiver_position) -> None:
-        """Loss and delay of each message of ``sent`` (not the receiver's own) for ``receiver``
-        at ``receiver_position``; survivors go on its heap of pending arrivals."""
-        if self._everyone:
-            sent = [m for m in sent if m.sender != receiver]
-        else:
-            hears = self.hears[receiver]
-            sent = [m for m in sent if m.sender in hears]
-        if not sent:
+    def decide_many(self, t_s: float, receivers, positions, limits=None) -> None:
+        """Decide, for each of ``receivers`` in turn at its position ``positions[k]`` (2,) world [m],
+        the messages sent by ``t_s`` it has not decided yet (with ``limits``: only those whose id
+        is below ``limits[k]``): loss and delay of every (message, receiver) pair; the survivors
+        wait on the receiver's list of pending arrivals for :meth:`receive_raw`.
+
+        The same decisions, random draws and statistics as the receivers' :meth:`receive` calls
+        one after the other (the draws in receiver order, then message order: one draw of all
+        the uniforms gives the same numbers), over arrays for all pairs at once."""
+        base, times = self._base, self._log_time
+        n_log = len(times)
+        segs = []  # (receiver index, name, k in receivers, first log position, end)
+        for k, name in enumerate(receivers):
+            cursor = self._cursor.get(name)
+            if cursor is None:
+                self._member(name, "receiver")
+            k0 = cursor - base
+            if k0 >= n_log or times[k0] > t_s:
+                continue
+            k1 = bisect_right(times, t_s, k0)  # send times are non-decreasing
+            if limits is not None:
+                k1 = min(k1, limits[k] - base)
+            if k1 > k0:
+                self._cursor[name] = base + k1
+                segs.append((self._index[name], name, k, k0, k1))
+        if segs:
+            if len(segs) <= _FEW_RECEIVERS:  # a few receivers: one by one costs fewer numpy calls
+                for sg in segs:
+                    self._decide_one(sg, positions[sg[2]])
+            else:
+                self._decide(segs, positions)
+            self._prune()
+
+    def _decide_one(self, seg: tuple, receiver_position) -> None:
+        """:meth:`_decide` for one receiver's segment ``seg`` at ``receiver_position`` (the same
+        operations on that receiver's pairs, the same draws)."""
+        r, receiver, _, k0, k1 = seg
+        senders = np.array(self._log_sender[k0:k1], dtype=np.intp)
+        keep = (senders != r) if self._everyone else self._hears_matrix[r, senders]
+        m = int(np.count_nonzero(keep))
+        if not m:
             return
+        pick = None if m == k1 - k0 else np.flatnonzero(keep)
+        x = np.array(self._log_x[k0:k1])
+        y = np.array(self._log_y[k0:k1])
+        times = np.array(self._log_time[k0:k1])
+        if pick is not None:
+            senders, x, y, times = senders[pick], x[pick], y[pick], times[pick]
         cfg, stats = self.config, self.link[receiver]
         pos = np.asarray(receiver_position, dtype=float).reshape(-1)
-        from_xy = np.array([m.position_m for m in sent])
-        d = np.hypot(from_xy[:, 0] - pos[0], from_xy[:, 1] - pos[1])
-        u = self.rng.random((len(sent), 2))  # (u_loss, u_jitter) per message, in message order
+        d = np.hypot(x - pos[0], y - pos[1])
+        u = self.rng.random((m, 2))  # (u_loss, u_jitter) per message, in message order
         out_of_range = d >= cfg.range_m
         lost = out_of_range | (u[:, 0] < cfg.loss_at(d))
-        times = np.array([m.time_s for m in sent])
         arrival = times + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u[:, 1] * cfg.jitter_s
-        stats.offered += len(sent)
-        np.add.at(self._pair_offered[:, self._index[receiver]], [self._index[m.sender] for m in sent], 1)
-        n_lost = int(np.count_nonzero(lost))
+        stats.offered += m
+        np.add.at(self._pair_offered[:, r], senders, 1)
+        lost_l = lost.tolist()
+        n_lost = sum(lost_l)
         stats.lost += n_lost
         stats.lost_out_of_range += int(np.count_nonzero(out_of_range))
+        ks = range(k0, k1) if pick is None else (pick + k0).tolist()
+        team, base, log_t, log_p = self.team, self._base, self._log_time, self._log_payload
         if self._outcomes is not None:
-            self._outcomes += [LinkOutcome(m.sender, receiver, m.time_s, float("nan") if gone else a, gone)
-                               for m, a, gone in zip(sent, arrival.tolist(), lost.tolist())]
-        if n_lost == len(sent):
+            self._outcomes += [LinkOutcome(team[s], receiver, log_t[k], float("nan") if gone else a, gone)
+                               for k, s, a, gone in zip(ks, senders.tolist(), arrival.tolist(), lost_l)]
+        if n_lost == m:
             return
-        heap = self._pending[receiver]
-        for m, a, gone in zip(sent, arrival.tolist(), lost.tolist()):
-            if not gone:
-                heapq.heappush(heap, (a, m.id, Message(m.sender, m.time_s, a, _copy_payload(m.payload))))
+        items = [(a, base + k, s, log_t[k], log_p[k])
+                 for k, s, a, gone in zip(ks, senders.tolist(), arrival.tolist(), lost_l) if not gone]
+        pending = self._pending[receiver]
+        # kept sorted by (arrival, id) (unique: the payloads are never compared)
+        pending[:] = sorted(pending + items) if pending else sorted(items)
+
+    def _decide(self, segs: list, positions) -> None:
+        """Loss and delay of the logged messages ``k0 … k1 − 1`` of each receiver's segment (not
+        its own, only those it can hear), the receivers in order; survivors go on their lists of
+        pending arrivals (kept sorted by (arrival, id))."""
+        lo = min(sg[3] for sg in segs)
+        hi = max(sg[4] for sg in segs)
+        n_seg = len(segs)
+        length = np.array([sg[4] - sg[3] for sg in segs], dtype=np.intp)
+        start = np.array([sg[3] for sg in segs], dtype=np.intp)
+        J = np.repeat(np.arange(n_seg), length)  # each pair's segment
+        K = np.arange(int(length.sum())) + np.repeat(start - (np.cumsum(length) - length), length)  # log position
+        R = np.array([sg[0] for sg in segs], dtype=np.intp)[J]  # receiver's team index
+        senders = np.array(self._log_sender[lo:hi], dtype=np.intp)[K - lo]
+        keep = (senders != R) if self._everyone else self._hears_matrix[R, senders]
+        m = int(np.count_nonzero(keep))
+        if not m:
+            return
+        if m < K.size:
+            pick = np.flatnonzero(keep)
+            J, K, R, senders = J[pick], K[pick], R[pick], senders[pick]
+        x = np.array(self._log_x[lo:hi])[K - lo]
+        y = np.array(self._log_y[lo:hi])[K - lo]
+        times = np.array(self._log_time[lo:hi])[K - lo]
+        own = [np.asarray(positions[sg[2]], dtype=float).reshape(-1) for sg in segs]
+        px = np.array([p[0] for p in own])[J]
+        py = np.array([p[1] for p in own])[J]
+        cfg = self.config
+        d = np.hypot(x - px, y - py)
+        u = self.rng.random((m, 2))  # (u_loss, u_jitter) per pair, in receiver then message order
+        out_of_range = d >= cfg.range_m
+        lost = out_of_range | (u[:, 0] < cfg.loss_at(d))
+        arrival = times + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u[:, 1] * cfg.jitter_s
+        np.add.at(self._pair_offered, (senders, R), 1)
+        offered = np.bincount(J, minlength=n_seg).tolist()
+        n_lost = np.bincount(J, weights=lost, minlength=n_seg).astype(np.int64).tolist()
+        n_far = np.bincount(J, weights=out_of_range, minlength=n_seg).astype(np.int64).tolist()
+        for sg, a, b, c in zip(segs, offered, n_lost, n_far):
+            stats = self.link[sg[1]]
+            stats.offered += a
+            stats.lost += b
+            stats.lost_out_of_range += c
+        team, base, log_t, log_p = self.team, self._base, self._log_time, self._log_payload
+        if self._outcomes is not None:
+            self._outcomes += [LinkOutcome(team[s], team[r], log_t[k], float("nan") if gone else a, gone)
+                               for k, s, r, a, gone in zip(K.tolist(), senders.tolist(), R.tolist(),
+                                                           arrival.tolist(), lost.tolist())]
+        alive = np.flatnonzero(~lost)
+        if not alive.size:
+            return
+        new = [[] for _ in segs]
+        for k, s, j, a in zip(K[alive].tolist(), senders[alive].tolist(), J[alive].tolist(), arrival[alive].tolist()):
+            new[j].append((a, base + k, s, log_t[k], log_p[k]))
+        for sg, items in zip(segs, new):
+            if items:
+                pending = self._pending[sg[1]]
+                # kept sorted by (arrival, id) (unique: the payloads are never compared)
+                pending[:] = sorted(pending + items) if pending else sorted(items)
 
     def _prune(self) -> None:
         done = min(self._cursor.values()) - self._base
         if done > 256:
-            del self._log[:done]
+            for log in (self._log_time, self._log_sender, self._log_x, self._log_y, self._log_payload):
+                del log[:done]
             self._base += done
 
     # ------------------------------------------------------------------ statistics
@@ -364,9 +481,9 @@ class CommsNetwork:
         Messages still in flight count as offered, not yet as delivered or lost."""
         off, dlv, dly = self._pair_offered, self._pair_delivered, self._pair_delay_s
         pending = np.zeros_like(off)
-        for receiver, heap in self._pending.items():
-            for _, _, msg in heap:
-                pending[self._index[msg.sender], self._index[receiver]] += 1
+        for receiver, waiting in self._pending.items():
+            for item in waiting:
+                pending[item[2], self._index[receiver]] += 1
         mean = [[round(float(dly[i, j] / dlv[i, j]), 4) if dlv[i, j] else None for j in range(len(self.team))]
                 for i in range(len(self.team))]
         return {"topology": self.config.topology, "team": list(self.team), "offered": off.tolist(),

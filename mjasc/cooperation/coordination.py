@@ -58,6 +58,7 @@ import numpy as np
 from mjasc.cooperation.comms import CommsNetwork
 from mjasc.cooperation.link import LinkEndpoint
 from mjasc.cooperation.messages import TeamIntention, TeamMessage, TeamPicture
+from mjasc.core.compiled import kernel, maximum, minimum
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 from mjasc.plugins.stages import CoordinationMethod
 
@@ -112,12 +113,15 @@ def parse_coordination_options(table: dict, where: str = "comms") -> Coordinatio
     return dataclass_from_table(CoordinationConfig, table, where, check=_validate)
 
 
-@dataclass
 class _Neighbour:
-    sent_time_s: float
-    received_time_s: float
-    message: TeamMessage
-    active: bool = True
+    """A team mate's newest message as received: send and arrival times [s], the message, and
+    whether it is still heard (not timed out)."""
+
+    __slots__ = ("sent_time_s", "received_time_s", "message", "active")
+
+    def __init__(self, sent_time_s: float, received_time_s: float, message: TeamMessage, active: bool = True):
+        self.sent_time_s, self.received_time_s, self.message, self.active = \
+            sent_time_s, received_time_s, message, active
 
 
 def _sum(values) -> float:
@@ -131,6 +135,18 @@ def _sum(values) -> float:
     return acc
 
 
+def _law_terms(msg) -> tuple | None:
+    """What the speed law reads of a team mate's message: (phase, L, v, ξ, ξ̇, ξ_end = 1 − o/L, where
+    the mate stops at the end of its path), None without a path; made once per message (every
+    receiver shares the same immutable message)."""
+    terms = msg.__dict__.get("_law_terms", False)
+    if terms is False:
+        terms = None if not msg.has_path else (msg.phase, msg.path_length_m, msg.mission_speed_m_s, msg.xi,
+                                               msg.xi_rate_1_s, 1.0 - msg.offset_m / msg.path_length_m)
+        object.__setattr__(msg, "_law_terms", terms)
+    return terms
+
+
 class _TeamView:
     """The neighbours as the speed law uses them, from one vessel's neighbour table: L̄ and ω_d
     over itself and every neighbour with a path (active or not); of the active ones, ξ_j, ξ̇_j, the
@@ -139,16 +155,19 @@ class _TeamView:
     def __init__(self, own, neighbours):
         lengths, speeds, rows = [own.path_length_m], [own.mission_speed_m_s], []
         oldest = np.inf
+        phase = own.phase
         for nb in neighbours:
             if nb.active:
                 oldest = min(oldest, nb.sent_time_s)
-            p = nb.message
-            if not p.has_path or p.phase != own.phase:  # a mate in another mission phase is not coordinated with
+            terms = nb.message.__dict__.get("_law_terms", False)
+            if terms is False:
+                terms = _law_terms(nb.message)
+            if terms is None or terms[0] != phase:  # a mate in another mission phase is not coordinated with
                 continue
-            lengths.append(p.path_length_m)
-            speeds.append(p.mission_speed_m_s)
-            if nb.active:  # the neighbour stops at the end of its path: ξ_end = 1 − o/L
-                rows.append((p.xi, p.xi_rate_1_s, nb.sent_time_s, 1.0 - p.offset_m / p.path_length_m))
+            lengths.append(terms[1])
+            speeds.append(terms[2])
+            if nb.active:
+                rows.append((terms[3], terms[4], nb.sent_time_s, terms[5]))
         self.oldest_active_s = oldest
         if own.path_length_m is None:
             self.l_bar = self.omega = np.nan
@@ -156,7 +175,7 @@ class _TeamView:
             self.l_bar = _sum(lengths) / len(lengths)
             self.omega = _sum(speeds) / len(speeds) / self.l_bar
         self.rows = rows
-        self.arrays = np.array(rows).T if len(rows) >= 8 else None
+        self.arrays = np.ascontiguousarray(np.array(rows).T) if len(rows) >= 8 else None
 
     def xi_hat(self, t_s: float, extrapolate: bool):
         """ξ̂_j(t) of the active neighbours: ξ_j + ξ̇_j (t − t_j), not beyond the end of their path
@@ -167,6 +186,25 @@ class _TeamView:
         if not extrapolate:
             return [r[0] for r in self.rows]
         return [min(x + rate * (t_s - sent), max(x, x_end)) for x, rate, sent, x_end in self.rows]
+
+    def gap_sum(self, t_s: float, extrapolate: bool, own: float) -> float:
+        """Σ_j (ξ_own − ξ̂_j(t)) over the active neighbours, as ``_sum`` of the gaps to
+        :meth:`xi_hat` gives it (above 8 neighbours the gaps in one compiled pass, numpy's sum)."""
+        if self.arrays is None:
+            return _sum([own - x for x in self.xi_hat(t_s, extrapolate)])
+        xi, rate, sent, x_end = self.arrays
+        gaps = np.empty(xi.size)
+        _gaps(xi, rate, sent, x_end, float(t_s), float(own), bool(extrapolate), gaps)
+        return float(np.add.reduce(gaps))
+
+
+@kernel
+def _gaps(xi, rate, sent, x_end, t_s, own, extrapolate, out):
+    """ξ_own − ξ̂_j of each neighbour j into ``out``, ξ̂_j as :meth:`_TeamView.xi_hat`'s array form
+    computes it (np.minimum / np.maximum: NaN propagates)."""
+    for j in range(xi.size):
+        x = minimum(xi[j] + rate[j] * (t_s - sent[j]), maximum(xi[j], x_end[j])) if extrapolate else xi[j]
+        out[j] = own - x
 
 
 class Coordination(CoordinationMethod):
@@ -277,17 +315,21 @@ class Coordination(CoordinationMethod):
         g = np.clip(float(guidance.gamma_m) + v * (times - t_s), 0.0, path.length)
         return times, np.asarray(path.point(g), dtype=float).reshape(-1, 2)
 
-    def _poll(self, t_s: float, nav) -> None:
+    def _poll(self, t_s: float, nav, decide: bool = True) -> None:
         """Read arrived messages, keep each neighbour's newest, time out stale ones."""
-        for msg in self.link.receive(t_s, nav.position_m):
-            self.received += 1
-            old = self.neighbours.get(msg.sender)
-            if old is not None and msg.sent_time_s <= old.sent_time_s:
-                continue  # overtaken by a newer message (jitter)
-            if old is not None and not old.active:
-                self._events.append((t_s, f"comms: regained {msg.sender} after {msg.sent_time_s - old.sent_time_s:.1f} s"))
-            self.neighbours[msg.sender] = _Neighbour(msg.sent_time_s, msg.received_time_s, msg.payload, True)
-            self._team = self._intentions = None
+        arrived = self.link.receive_raw(t_s, nav.position_m, decide)
+        if arrived:
+            self.received += len(arrived)
+            neighbours = self.neighbours
+            for sender, sent, received, payload in arrived:
+                old = neighbours.get(sender)
+                if old is not None:
+                    if sent <= old.sent_time_s:
+                        continue  # overtaken by a newer message (jitter)
+                    if not old.active:
+                        self._events.append((t_s, f"comms: regained {sender} after {sent - old.sent_time_s:.1f} s"))
+                neighbours[sender] = _Neighbour(sent, received, payload, True)
+                self._team = self._intentions = None
         timeout = self.config.neighbour_timeout_s
         if t_s - self._oldest_active_s() > timeout:
             for name, nb in self.neighbours.items():
@@ -340,29 +382,71 @@ class Coordination(CoordinationMethod):
         confirmed tracks to share (:class:`~mjasc.core.estimates.SharedTrack`, with ``share_tracks``;
         sent as given, the caller caps them); mission: the vessel's
         :class:`~mjasc.missions.legs.MissionBroadcast` (a chained mission), sent with its phase."""
+        self.broadcast(t_s, nav, gamma_m, guidance, plan, tracks, mission)
+        self.take_in(t_s, nav, gamma_m)
+
+    def broadcast(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None) -> int:
+        """The first half of :meth:`exchange`: broadcast the message; returns its id on the link."""
         if tracks and self.config.share_tracks:
             self._tracks_sent += len(tracks)
-        self.link.send(t_s, self._message(t_s, nav, gamma_m, guidance, plan,
-                                          tracks if self.config.share_tracks else (), mission), nav.position_m)
-        self._poll(t_s, nav)
+        return self.link.send(t_s, self._message(t_s, nav, gamma_m, guidance, plan,
+                                                 tracks if self.config.share_tracks else (), mission), nav.position_m)
+
+    def take_in(self, t_s: float, nav, gamma_m: float, decided: bool = False) -> None:
+        """The second half of :meth:`exchange`: read what has arrived, note the formation's state.
+        ``decided``: the link was decided for this vessel already (:meth:`decide_link`)."""
+        self._poll(t_s, nav, decide=not decided)
         _, lead, spread, n = self.coordination_error(t_s, gamma_m)
         self.last_xi, self.last_spread_m = self.xi(gamma_m), spread
         if n:
             self._history.append((float(t_s), lead, spread))
 
+    @staticmethod
+    def decide_link(coordinations, t_s: float, positions_m, limits=None) -> None:
+        """Decide the link for several vessels' coordination at ``t_s`` in one pass, in their
+        order, before their :meth:`speed_correction` (or, with ``limits`` = each one's message id
+        + 1, their :meth:`take_in` with ``decided``): the same draws as their calls one after the
+        other (:meth:`~mjasc.cooperation.link.LinkEndpoint.decide_together`)."""
+        LinkEndpoint.decide_together([c.link for c in coordinations], t_s, positions_m, limits)
+
     def speed_correction(self, t_s: float, nav, gamma_m: float) -> float:
         """Factor f_i on the mission speed (see the module docstring), from the newest data."""
+        law = self._consensus(t_s, nav, gamma_m)
+        if law is None:
+            return 1.0
+        cfg = self.config
+        return self._factor(law, None if cfg.role == "leader" else np.tanh(law[2] / cfg.error_scale_m))
+
+    @staticmethod
+    def speed_correction_many(calls) -> list[float]:
+        """:meth:`speed_correction` of several vessels, ``calls`` = [(coordination, t, nav, γ)]:
+        each reads its arrivals and sums its gaps, then one ``tanh`` for all of them. The same
+        factors and states as the calls one after the other (the link decided before them:
+        :meth:`decide_link`)."""
+        laws = [c._consensus(t, nav, g) for c, t, nav, g in calls]
+        ask = [k for k, law in enumerate(laws) if law is not None and calls[k][0].config.role != "leader"]
+        tanh = np.tanh(np.array([laws[k][2] / calls[k][0].config.error_scale_m for k in ask])).tolist() if ask else []
+        th = dict(zip(ask, tanh))
+        return [1.0 if law is None else c._factor(law, th.get(k)) for k, ((c, _, _, _), law) in enumerate(zip(calls, laws))]
+
+    def _consensus(self, t_s: float, nav, gamma_m: float):
+        """Read the arrivals; then (the team view, ξ_own, e_i, |N_i|), or None without a path."""
         self._poll(t_s, nav)
         if self.path_length_m is None:
-            return 1.0
+            return None
         view = self._team_view()
-        xis = view.xi_hat(t_s, self.config.extrapolate)
         own = self.xi(gamma_m)
+        n = len(view.rows)
+        e = view.l_bar * view.gap_sum(t_s, self.config.extrapolate, own) if n else 0.0
+        return view, own, e, n
+
+    def _factor(self, law, tanh) -> float:
+        """f_i from :meth:`_consensus`'s ``law`` and tanh(e_i / e_s) (None for a leader); notes
+        the lead, factor and ξ."""
+        view, own, e, n = law
         ff = view.omega * self.path_length_m / self.mission_speed_m_s
-        e = view.l_bar * _sum(own - xis if isinstance(xis, np.ndarray) else [own - x for x in xis]) if len(xis) else 0.0
-        lead = e / len(xis) if len(xis) else 0.0
-        cfg = self.config
-        corr = 0.0 if cfg.role == "leader" else cfg.max_speed_correction * np.tanh(e / cfg.error_scale_m)
+        lead = e / n if n else 0.0
+        corr = 0.0 if tanh is None else self.config.max_speed_correction * tanh
         f = ff * (1.0 - corr)
         f = float(min(f, self.top_speed_m_s / self.mission_speed_m_s))
         self.last_error_m, self.last_factor, self.last_xi = lead, f, own
@@ -388,7 +472,9 @@ class Coordination(CoordinationMethod):
         has arrived; treat it as read-only)."""
         if self._intentions is None:
             self._intentions = self.team_intentions()
-        return TeamPicture(float(t_s), self._intentions, self.last_factor)
+        picture = object.__new__(TeamPicture)  # TeamPicture(t, intentions, factor) without its __init__
+        picture.__dict__.update(time_s=float(t_s), intentions=self._intentions, speed_factor=self.last_factor)
+        return picture
 
     def track_sharing(self):
         """The team-shared perception settings

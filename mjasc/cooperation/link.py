@@ -38,6 +38,30 @@ class LinkEndpoint:
         (:class:`~mjasc.cooperation.comms.Message`: sender, sent and received times, payload)."""
         return self._network.receive(t_s, self.name, own_position_m)
 
+    def receive_raw(self, t_s: float, own_position_m, decide: bool = True) -> list:
+        """:meth:`receive` as plain tuples (sender, sent time [s], received time [s], payload):
+        no :class:`~mjasc.cooperation.comms.Message` per message; the payload is shared (a typed
+        message is immutable; do not change a dict payload). ``decide=False``: only what
+        :meth:`decide_together` decided already."""
+        return self._network.receive_raw(t_s, self.name, own_position_m, decide)
+
+    @staticmethod
+    def decide_together(endpoints, t_s: float, own_positions_m, limits=None) -> None:
+        """Decide the link for several vessels' ends of one network at once, in their order, as
+        their :meth:`receive` calls one after the other would (the same draws): ``own_positions_m``
+        each one's position (2,) world [m]; ``limits``: each one decides only the messages whose id
+        is below its limit (a comms slot: what was sent up to its own message)
+        (:meth:`~mjasc.cooperation.comms.CommsNetwork.decide_many`)."""
+        network, names = None, []
+        for e in endpoints:
+            if network is None:
+                network = e._network
+            elif e._network is not network:
+                raise ValueError("decide_together: the endpoints must share one network")
+            names.append(e.name)
+        if names:
+            network.decide_many(t_s, names, own_positions_m, limits)
+
     def stats(self) -> dict:
         """This vessel's link statistics (sent, received, lost, delays)."""
         return self._network.stats(self.name)

@@ -52,7 +52,7 @@ from mjasc.core.config_tables import check_params, param
 from mjasc.guidance.paths import Path
 from mjasc.guidance.segment_geometry import wrap_scalar
 from mjasc.guidance.stacked_paths import StackedPaths
-from mjasc.physics.thrusters import PropellerCoefficients
+from mjasc.physics.thrusters import PropellerCoefficients, command_for_thrust_scalar
 from mjasc.physics.vessels import VesselType
 from mjasc.plugins.stages import ControlMethod
 
@@ -294,6 +294,9 @@ class FleetPathFollower:
             thrust, statuses = self._command_floats(idx, pos.tolist(), np.asarray(heading_rad, dtype=float).tolist(),
                                                     bv.tolist(), np.asarray(speed_ref_m_s, dtype=float).tolist(), dt_s,
                                                     course.tolist())
+            cols = self._P_cols
+            return np.array([[command_for_thrust_scalar(t, *cols[i][_KF:_NMIN + 1]) for t in pair]
+                             for i, pair in zip(idx, thrust)]).reshape(-1, 2), statuses  # the inverse curve
         else:
             thrust, statuses = self._command_arrays(rows, pos, np.asarray(heading_rad, dtype=float), bv,
                                                     np.asarray(speed_ref_m_s, dtype=float), dt_s, course)
@@ -302,7 +305,7 @@ class FleetPathFollower:
 
     def _command_floats(self, idx, pos, heading, bv, speed, dt_s, course):
         """The law vessel by vessel in plain floats; the projection by each path's scalar query."""
-        thrust = np.empty((len(idx), 2))
+        thrust = []
         statuses = []
         S = self._S
         paths = self.paths.paths
@@ -316,7 +319,7 @@ class FleetPathFollower:
             t_p, t_s, new, (e, psi_d, u_d, finished) = _law(_FloatOps, P, s, x, y, heading[k], bv[k][0], bv[k][2],
                                                              speed[k], dt_s, g, qx, qy, chi_p, kappa, path.length,
                                                              course[k])
-            thrust[k] = t_p, t_s
+            thrust.append((t_p, t_s))
             S[:, i] = new
             statuses.append(PathFollowingStatus(g, e, chi_p, psi_d, u_d, finished))
         return thrust, statuses

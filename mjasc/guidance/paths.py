@@ -27,6 +27,10 @@ import numpy as np
 
 from mjasc.core.frames import wrap_angle
 from mjasc.guidance.segment_geometry import (
+    COS0,
+    SIN0,
+    X0,
+    Y0,
     C,
     K,
     LEN,
@@ -188,7 +192,7 @@ class Path:
     (n, 2)); γ is clamped to [0, length].
     """
 
-    __slots__ = ("_segments", "_cum", "_table", "_rows", "_cum_list", "_length")
+    __slots__ = ("_segments", "_cum", "_table", "_rows", "_cum_list", "_length", "_arcs")
 
     def __init__(self, segments):
         segments = tuple(segments)
@@ -216,6 +220,7 @@ class Path:
         self._rows = self._table.T.tolist()  # per segment, plain floats: the scalar queries
         self._cum_list = self._cum.tolist()
         self._length = self._cum_list[-1]
+        self._arcs = bool(np.any(self._table[K] != 0.0))  # False: lines only (no trigonometry to evaluate)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -368,7 +373,13 @@ class Path:
         if isinstance(gamma, np.ndarray) and gamma.ndim == 1 and gamma.size <= _SCALAR_SEGMENTS:
             return np.array([point_scalar(*self._locate_scalar(g)) for g in gamma.tolist()]).reshape(-1, 2)
         _, idx, s = self._locate(gamma)
-        return np.stack(eval_points(self._table[:, idx], s), axis=-1)
+        table = self._table
+        if not self._arcs:  # lines only: eval_points' line formula on the three fields it reads
+            out = np.empty(np.shape(s) + (2,))
+            np.add(table[X0][idx], s * table[COS0][idx], out=out[..., 0])
+            np.add(table[Y0][idx], s * table[SIN0][idx], out=out[..., 1])
+            return out
+        return np.stack(eval_points(table[:, idx], s), axis=-1)
 
     def tangent_angle(self, gamma):
         """Course of the path at γ [rad], CCW from east, wrapped to (−π, π]."""

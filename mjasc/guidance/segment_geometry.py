@@ -67,6 +67,8 @@ def eval_points(seg: np.ndarray, s):
     broadcast with ``s``)."""
     k = seg[K]
     straight = k == 0.0
+    if straight.all():  # lines only (the common case): no trigonometry, the same bits
+        return seg[X0] + s * seg[COS0], seg[Y0] + s * seg[SIN0]
     k_safe = np.where(straight, 1.0, k)
     th = seg[TH0] + k * s
     dx = np.where(straight, s * seg[COS0], (np.sin(th) - seg[SIN0]) / k_safe)

@@ -25,10 +25,14 @@ import numpy as np
 from mjasc.core.compiled import kernel
 from mjasc.guidance.paths import Path
 from mjasc.guidance.segment_geometry import (
+    COS0,
     C,
     FIELDS,
     LEN,
+    SIN0,
     TH0,
+    X0,
+    Y0,
     K,
     closest_candidates,
     eval_points,
@@ -92,6 +96,7 @@ class StackedPaths:
         self._used = used
         self._dead = 0
         self._key_end = float(self._base[-1] + self._length[-1]) if tables else 0.0
+        self._arcs = bool(np.any(self._table[K, :used] != 0.0))  # some live segment is an arc
 
     def set_path(self, i: int, path: Path) -> None:
         """Vessel i follows ``path`` from now on (its old block becomes dead)."""
@@ -109,6 +114,7 @@ class StackedPaths:
         self._key[a:b] = path.table[C] + base
         self._first[i], self._count[i], self._length[i], self._base[i] = a, m, path.length, base
         self._used, self._key_end = b, base + path.length
+        self._arcs = self._arcs or bool(np.any(path.table[K] != 0.0))
 
     def point(self, rows, gamma_m) -> np.ndarray:
         """Positions (..., 2) [m] of vessels ``rows`` (...) at γ ``gamma_m`` (...) on their own
@@ -117,8 +123,15 @@ class StackedPaths:
         rows = np.asarray(rows, dtype=np.intp)
         g = np.minimum(np.maximum(np.asarray(gamma_m, dtype=float), 0.0), self._length[rows])
         idx = np.empty(g.shape, dtype=np.intp)
-        _segment_of(self._first, self._count, self._table[C], rows.ravel(), g.ravel(), idx.reshape(-1))
-        seg = self._table[:, idx]
+        table = self._table
+        _segment_of(self._first, self._count, table[C], rows.ravel(), g.ravel(), idx.reshape(-1))
+        if not self._arcs:  # lines only: eval_points' line formula on the five fields it reads
+            s = g - table[C][idx]
+            out = np.empty(g.shape + (2,))
+            np.add(table[X0][idx], s * table[COS0][idx], out=out[..., 0])
+            np.add(table[Y0][idx], s * table[SIN0][idx], out=out[..., 1])
+            return out
+        seg = table[:, idx]
         return np.stack(eval_points(seg, g - seg[C]), axis=-1)
 
     def project(self, x_m, y_m, gamma_hint_m, window_m, rows=None) -> PathQuery:

@@ -23,3 +23,12 @@ class GuidanceState:
     path: Path
     gamma_m: float
     mission_speed_m_s: float
+
+    @classmethod
+    def of(cls, path: Path, gamma_m: float, mission_speed_m_s: float) -> "GuidanceState":
+        """The same value as ``GuidanceState(path, gamma_m, mission_speed_m_s)``, without the frozen
+        dataclass's ``__init__`` (the agent makes a few per vessel and control tick); values taken
+        as given."""
+        state = object.__new__(cls)
+        state.__dict__.update(path=path, gamma_m=gamma_m, mission_speed_m_s=mission_speed_m_s)
+        return state

@@ -14,6 +14,7 @@ Each propeller pushes along the body x axis at its site (x_i, y_i), so the body 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Sequence
 
@@ -21,7 +22,7 @@ import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, param, show
 
-__all__ = ["PropellerCoefficients", "Thrusters"]
+__all__ = ["PropellerCoefficients", "Thrusters", "command_for_thrust_scalar"]
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,16 @@ class PropellerCoefficients:
         t = np.asarray(thrust_n, dtype=float)
         n = np.where(t >= 0, np.sqrt(np.abs(t) / self.k_forward), -np.sqrt(np.abs(t) / self.k_reverse))
         return np.clip(np.where(n >= 0, n / self.n_max_rad_s, n / -self.n_min_rad_s), -1.0, 1.0)
+
+
+def command_for_thrust_scalar(thrust_n: float, k_forward: float, k_reverse: float, n_max_rad_s: float,
+                              n_min_rad_s: float) -> float:
+    """:meth:`PropellerCoefficients.command_for_thrust` for one thrust [N] in plain floats: the same
+    operations (IEEE division and square root round alike in both), without numpy's cost per call."""
+    n = math.sqrt(abs(thrust_n) / k_forward) if thrust_n >= 0 else -math.sqrt(abs(thrust_n) / k_reverse)
+    c = n / n_max_rad_s if n >= 0 else n / -n_min_rad_s
+    c = c if c >= -1.0 or c != c else -1.0  # np.clip: NaN stays NaN
+    return c if c <= 1.0 or c != c else 1.0
 
 
 class Thrusters:

@@ -111,10 +111,10 @@ class VesselAgent:
     def guidance_state(self) -> GuidanceState | None:
         """The path follower's path and γ now, and the mission speed × the coordination factor
         (None without a path follower)."""
-        if self.follower is None:
+        follower = self.follower
+        if follower is None:
             return None
-        return GuidanceState(self.follower.path, self.follower.gamma_m,
-                             float(self.mission_speed_m_s) * self.speed_factor())
+        return GuidanceState.of(follower.path, follower.gamma_m, float(self.mission_speed_m_s) * self.speed_factor())
 
     def perception_report(self, t_s: float) -> PerceptionReport | None:
         """What the perception reports now (None without perception); rebuilt only after a slot that
@@ -171,6 +171,30 @@ class VesselAgent:
         c = self.coordination
         if c is None:
             return
+        gamma, guidance, plan, extra, sharing = self._comms_message(nav)
+        c.exchange(nav.time_s, nav, gamma, guidance, plan, **extra)
+        self._comms_taken_in(nav, sharing)
+
+    def comms_send(self, nav: OwnNavigation) -> tuple:
+        """The first half of :meth:`on_comms` for the thesis coordination
+        (:class:`~mjasc.cooperation.coordination.Coordination`, needs one): broadcast this
+        vessel's message. Returns what :meth:`comms_receive` needs, its message id first. (The tick
+        sends every vessel's message, decides the link for all at once, then lets each take in what
+        arrived: the same as :meth:`on_comms` vessel by vessel.)"""
+        gamma, guidance, plan, extra, sharing = self._comms_message(nav)
+        return self.coordination.broadcast(nav.time_s, nav, gamma, guidance, plan, **extra), gamma, sharing
+
+    def comms_receive(self, nav: OwnNavigation, sent: tuple) -> None:
+        """The second half of :meth:`on_comms` (after :meth:`comms_send` returned ``sent`` and the
+        link was decided for this vessel): take in what arrived."""
+        _, gamma, sharing = sent
+        self.coordination.take_in(nav.time_s, nav, gamma, decided=True)
+        self._comms_taken_in(nav, sharing)
+
+    def _comms_message(self, nav: OwnNavigation) -> tuple:
+        """(γ on the mission path, the guidance state, the plan, the message's other parts
+        (shared tracks, mission broadcast), the track-sharing settings or None)."""
+        c = self.coordination
         guidance = self.guidance_state()
         plan, req = None, c.plan_request()
         if req is not None and self.avoidance is not None:
@@ -181,8 +205,12 @@ class VesselAgent:
             extra["tracks"] = self.perception.shareable_tracks(nav.position_m, sharing.max_tracks)
         if self.mission is not None:  # the mission's part: phase, arrival time, target estimate
             extra["mission"] = self.mission.broadcast()
-        c.exchange(nav.time_s, nav, self.mission_gamma_m(), guidance, plan, **extra)
+        return self.mission_gamma_m(), guidance, plan, extra, sharing
+
+    def _comms_taken_in(self, nav: OwnNavigation, sharing) -> None:
+        """After the exchange: the team's positions (and tracks) to the perception."""
         if self.perception is not None:
+            c = self.coordination
             positions = c.team_positions()
             self.perception.set_team_positions(positions)
             if sharing is not None:
@@ -219,17 +247,31 @@ class VesselAgent:
         [m/s] (the coordination law asked now), and the arguments of the avoidance method's control
         tick ``(avoidance, t, nav, GuidanceState, PerceptionReport, TeamPicture)`` (None without
         avoidance)."""
-        t = nav.time_s
+        self.control_mission(nav)
+        factor = None
+        if self.coordination is not None:
+            factor = self.coordination.speed_correction(nav.time_s, nav, self.mission_gamma_m())
+        return self.avoidance_call(nav, factor)
+
+    def control_mission(self, nav: OwnNavigation) -> None:
+        """The mission's part of :meth:`control_call`: its update, and the new leg applied if it
+        gives one."""
         if self.mission is not None:
+            t = nav.time_s
             leg = self.mission.update(t, nav, self.mission_gamma_m(), self.perception_report(t), self.team_picture(t),
                                       self.mode)
             if leg is not None:
                 self.apply_leg(t, leg)
+
+    def avoidance_call(self, nav: OwnNavigation, factor: float | None) -> tuple[float, tuple | None]:
+        """The rest of :meth:`control_call` after the coordination's factor on the mission speed
+        (None without coordination; the tick asks the fleet's coordination together)."""
         speed = self.mission_speed_m_s
-        if self.coordination is not None:
-            speed *= self.coordination.speed_correction(t, nav, self.mission_gamma_m())
+        if factor is not None:
+            speed *= factor
         if self.avoidance is None:
             return speed, None
+        t = nav.time_s
         return speed, (self.avoidance, t, nav, self.guidance_state(), self.perception_report(t), self.team_picture(t))
 
     def control_answer(self, speed: float, req) -> tuple[float, str, float]:

@@ -2,10 +2,17 @@
 
 :func:`run_onboard_slot` runs one slot of :data:`ONBOARD_SLOTS` for every vessel agent, in vessel
 order (the order matters: the team's link draws its random numbers in the order of the calls).
+With the thesis coordination the link is decided for the whole fleet in one pass
+(:meth:`~mjasc.cooperation.coordination.Coordination.decide_link`, the same draws in the same
+order): in the comms slot after every vessel has sent (each receiver up to its own message), in
+the control slot before the vessels' coordination reads it.
 The prediction slot predicts every vessel's (vessel, track) pairs in one batched call
 (:func:`~mjasc.avoidance.system.predict_slot`). The control slot runs each agent's
 :meth:`~mjasc.runs.agent.VesselAgent.control_request` (coordination factor, avoidance request and
-path switch): the coordination in vessel order, then the avoidance methods of every vessel at once
+path switch): the coordination in vessel order (with the thesis coordination: every vessel's
+mission first, then the fleet's speed law in one call,
+:meth:`~mjasc.cooperation.coordination.Coordination.speed_correction_many`), then the avoidance
+methods of every vessel at once
 per method (``control_many``: the thesis method predicts what the tick triggers for all vessels in
 one batched call, :func:`~mjasc.avoidance.system.control_slot`), then the path
 following of all vessels in one batched call (speeds and course overrides as arrays over vessels,
@@ -23,6 +30,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from mjasc.cooperation.coordination import Coordination
 from mjasc.core.navigation import OwnNavigation
 from mjasc.guidance.path_following import FleetPathFollower, PathFollower
 
@@ -42,8 +50,7 @@ def run_onboard_slot(slot: str, agents: Sequence, navs: Sequence[OwnNavigation],
         for agent, nav in zip(agents, navs):
             agent.on_tracking(nav)
     elif slot == "comms":
-        for agent, nav in zip(agents, navs):
-            agent.on_comms(nav)
+        _comms(agents, navs)
     elif slot == "prediction":
         _prediction(agents, navs)
     elif slot == "control":
@@ -51,6 +58,35 @@ def run_onboard_slot(slot: str, agents: Sequence, navs: Sequence[OwnNavigation],
     else:
         raise ValueError(f"slot: not an onboard slot: {slot!r} (known: {', '.join(ONBOARD_SLOTS)})")
     return None
+
+
+def _thesis_link(agents: Sequence, navs: Sequence[OwnNavigation]) -> bool:
+    """Whether the link can be decided for the whole fleet at once: every vessel's coordination
+    (if any) is the thesis method and the navigations share one time."""
+    coordinated = False
+    for agent in agents:
+        c = agent.coordination
+        if c is not None:
+            if type(c) is not Coordination:
+                return False
+            coordinated = True
+    return coordinated and all(nav.time_s == navs[0].time_s for nav in navs)
+
+
+def _comms(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
+    """The comms slot: each vessel broadcasts, then reads what has arrived, in vessel order. With
+    the thesis coordination: every vessel's message is sent first, the link is decided for all
+    receivers in one pass (each up to its own message, as when it read right after sending), then
+    each takes in its arrivals — the same draws and the same result."""
+    if not _thesis_link(agents, navs):
+        for agent, nav in zip(agents, navs):
+            agent.on_comms(nav)
+        return
+    sent = [(k, agents[k].comms_send(navs[k])) for k in range(len(agents)) if agents[k].coordination is not None]
+    Coordination.decide_link([agents[k].coordination for k, _ in sent], navs[0].time_s,
+                             [navs[k].position_m for k, _ in sent], [s[0] + 1 for _, s in sent])
+    for k, s in sent:
+        agents[k].comms_receive(navs[k], s)
 
 
 def _prediction(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
@@ -80,11 +116,29 @@ def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: floa
     path followers (other control methods steer one vessel at a time, right after its request)."""
     outputs = [None] * len(agents)
     asked = []  # (vessel, speed after coordination, avoidance call or None)
-    for i, (agent, nav) in enumerate(zip(agents, navs)):
-        if agent.follower is None:
-            outputs[i] = agent.control(nav, control_dt_s)  # open loop
-            continue
-        asked.append((i, *agent.control_call(nav)))
+    if _thesis_link(agents, navs):
+        # Every vessel's mission first, then the coordination of all of them (the link decided once,
+        # then each reads its arrivals: one tanh for the fleet), then each one's avoidance call. The
+        # same as vessel by vessel: a vessel's mission and coordination read only its own state.
+        steered = [i for i, agent in enumerate(agents) if agent.follower is not None]
+        for i in steered:
+            agents[i].control_mission(navs[i])
+        polled = [i for i in steered if agents[i].coordination is not None]
+        Coordination.decide_link([agents[i].coordination for i in polled], navs[0].time_s,
+                                 [navs[i].position_m for i in polled])
+        factors = dict(zip(polled, Coordination.speed_correction_many(
+            [(agents[i].coordination, navs[i].time_s, navs[i], agents[i].mission_gamma_m()) for i in polled])))
+        for i, (agent, nav) in enumerate(zip(agents, navs)):
+            if agent.follower is None:
+                outputs[i] = agent.control(nav, control_dt_s)  # open loop
+            else:
+                asked.append((i, *agent.avoidance_call(nav, factors.get(i))))
+    else:
+        for i, (agent, nav) in enumerate(zip(agents, navs)):
+            if agent.follower is None:
+                outputs[i] = agent.control(nav, control_dt_s)  # open loop
+                continue
+            asked.append((i, *agent.control_call(nav)))
     groups: dict[type, list] = {}  # the avoidance methods, each for its vessels at once
     for k, (_, _, call) in enumerate(asked):
         if call is not None:
