@@ -54,9 +54,9 @@ class CommsLog:
         import rerun as rr
 
         if self.lines:
-            recorder.static("world/comms/delivered", rr.LineStrips3D.from_fields(
+            recorder.style("world/comms/delivered", rr.LineStrips3D.from_fields(
                 radii=[-1.5], class_ids=[_DELIVERED], show_labels=[False]))
-            recorder.static("world/comms/lost", rr.LineStrips3D.from_fields(
+            recorder.style("world/comms/lost", rr.LineStrips3D.from_fields(
                 colors=[recorder.legend_colour(_LOST)], radii=[-1.0], class_ids=[_LOST], show_labels=[False]))
         self._counted = tuple(k for k, n in enumerate(self.names) if recorder.has_views(n))
         for n in (self.names[k] for k in self._counted):

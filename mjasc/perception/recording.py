@@ -28,6 +28,7 @@ the track events (births included) in ``tracking_events/<v>``.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -94,6 +95,17 @@ def _labels(vessel_name: str, ids, team, static) -> list[str]:
             for i, m, st in zip(ids, team, static)]
 
 
+@functools.lru_cache(maxsize=64)
+def _track_style(colour: tuple) -> rr.Points3D:
+    """The confirmed tracks' style in the vessel's colour (vessels share the palette's colours)."""
+    return rr.Points3D.from_fields(colors=[(*colour, 255)], radii=[0.25], show_labels=[False], class_ids=[102])
+
+
+@functools.lru_cache(maxsize=4)
+def _map_style(colour: tuple) -> rr.LineStrips3D:
+    return rr.LineStrips3D.from_fields(colors=[colour], radii=[0.1], class_ids=[111], show_labels=[False])
+
+
 class PerceptionLog:
     """Logging state of one vessel's perception; :meth:`log` at every record tick."""
 
@@ -111,11 +123,10 @@ class PerceptionLog:
         self._series: set[int] = set()
 
     def _style(self, rec, base: str, name: str, colour, sensor_config) -> None:
-        # Track labels show on hover or selection, not over the boats (show_labels False).
-        rec.static(f"{base}/tracks/positions", rr.Points3D.from_fields(colors=[(*colour, 255)], radii=[0.25],
-                                                                       show_labels=[False], class_ids=[102]))
-        rec.static(f"{base}/static_map", rr.LineStrips3D.from_fields(colors=[rec.legend_colour(111)], radii=[0.1],
-                                                                     class_ids=[111], show_labels=[False]))
+        # Track labels show on hover or selection, not over the boats (show_labels False). A vessel
+        # without views has its styles written with the entity's first rows (Recorder.vessel_style).
+        rec.vessel_style(name, f"{base}/tracks/positions", _track_style(tuple(colour)))
+        rec.vessel_style(name, f"{base}/static_map", _map_style(rec.legend_colour(111)))
         self._styled = True  # (set before the early return: a vessel without views was styled at every tick)
         if not rec.has_views(name):
             return

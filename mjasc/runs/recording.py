@@ -99,14 +99,15 @@ class Recorder:
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._scalars: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))
         self._texts: dict[str, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
-        self._points: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (entity, z)
-        self._strips: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (entity, z)
+        # (entity, z) → times, rows and per row its labels / strip colours or None (the latest stay)
+        self._points: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
+        self._strips: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
         self._arrows: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))  # (entity, z)
-        self._labels: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # Points3D labels
-        self._colours: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # LineStrips3D colours
         self._fleet: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (kind, entities, z)
         self._states: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # StateChange
         self._documents: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # markdown TextDocument
+        self._styles: dict[str, object] = {}  # entity → its static style, written with its first rows (style())
+        self._drawn: set[str] = set()  # point and strip entities that had a row with something in it
         self._pending = 0
         self._closed = False
         #: Vessel name → RGB, set by the runner: components style their entities and plots with it.
@@ -153,8 +154,28 @@ class Recorder:
     def static(self, entity: str, archetype) -> None:
         self.rec.log(entity, archetype, static=True)
 
+    def style(self, entity: str, archetype) -> None:
+        """The static style of ``entity`` (colours, radii, classes: an archetype's ``from_fields``
+        without data), written with the entity's first rows (:meth:`flush`, :meth:`log`): an
+        entity that never gets a row is not written at all (its style alone would cost a chunk
+        and footer; most of a large fleet's overlays never show)."""
+        self._styles[entity] = archetype
+
+    def vessel_style(self, vessel_name: str, entity: str, archetype) -> None:
+        """The style of one of ``vessel_name``'s entities: written now for a vessel with views
+        (:meth:`has_views`: its panels and follow view show every overlay's style, drawn or not),
+        with the entity's first rows for the others (:meth:`style`)."""
+        (self.static if self.has_views(vessel_name) else self.style)(entity, archetype)
+
+    def _write_style(self, entity: str) -> None:
+        style = self._styles.pop(entity, None)
+        if style is not None:
+            self.rec.log(entity, style, static=True)
+
     def log(self, entity: str, archetype, t_s: float) -> None:
         """One row now (sporadic data only: each call costs ~0.5 ms)."""
+        if self._styles:
+            self._write_style(entity)
         self.rec.set_time(TIMELINE, duration=float(t_s))
         self.rec.log(entity, archetype)
 
@@ -277,24 +298,18 @@ class Recorder:
         """A row of points (world xy [m] at height z); ``labels`` (one per point) in the same row.
         Rows without labels keep the latest labels (Rerun's latest-at), so labels need only be
         given when they change."""
-        times, rows = self._points[(entity, z)]
+        times, rows, label_rows = self._points[(entity, z)]
         times.append(t_s)
         rows.append(np.asarray(positions_xy, dtype=np.float64).reshape(-1, 2))
-        if labels is not None:
-            ltimes, lrows = self._labels[entity]
-            ltimes.append(t_s)
-            lrows.append(list(labels))
+        label_rows.append(None if labels is None else list(labels))
         self._count(1)
 
     def strips(self, entity: str, t_s: float, strips_xy: list[np.ndarray], z: float = 0.0, colours=None) -> None:
         """A row of line strips (each (m, 2) world xy [m]) at height z; ``colours`` one RGB(A) per strip."""
-        times, rows = self._strips[(entity, z)]
+        times, rows, colour_rows = self._strips[(entity, z)]
         times.append(t_s)
         rows.append([np.asarray(s, dtype=np.float64).reshape(-1, 2) for s in strips_xy])
-        if colours is not None:
-            ctimes, crows = self._colours[entity]
-            ctimes.append(t_s)
-            crows.append([_rgba(c) for c in colours])
+        colour_rows.append(None if colours is None else [_rgba(c) for c in colours])
         self._count(1)
 
     def arrows(self, entity: str, t_s: float, origins_xy: np.ndarray, vectors_xy: np.ndarray, z: float = 0.0) -> None:
@@ -330,8 +345,14 @@ class Recorder:
 
     # ---------------------------------------------------------------- writing
     def flush(self) -> None:
-        """Write every buffered row column-wise (one chunk per entity) and empty the buffers."""
-        send = self.rec.send_columns
+        """Write every buffered row column-wise (one chunk per entity) and empty the buffers; an
+        entity's pending :meth:`style` goes just before its first rows."""
+        send_columns = self.rec.send_columns
+
+        def send(entity: str, indexes, columns) -> None:
+            if self._styles:
+                self._write_style(entity)
+            send_columns(entity, indexes=indexes, columns=columns)
         for entity, (times, values) in self._scalars.items():
             send(entity, indexes=[_time_column(times)], columns=rr.Scalars.columns(scalars=np.asarray(values)))
         for entity, (times, texts, levels) in self._texts.items():
@@ -341,19 +362,23 @@ class Recorder:
         for entity, (times, texts) in self._documents.items():
             send(entity, indexes=[_time_column(times)],
                  columns=rr.TextDocument.columns(text=texts, media_type=["text/markdown"] * len(texts)))
-        for (entity, z), (times, rows) in self._points.items():
-            send(entity, indexes=[_time_column(times)],
-                 columns=rr.Points3D.columns(positions=_xyz(_cat(rows), z)).partition([len(r) for r in rows]))
-        for entity, (times, rows) in self._labels.items():
-            send(entity, indexes=[_time_column(times)],
-                 columns=rr.Points3D.columns(labels=[s for r in rows for s in r]).partition([len(r) for r in rows]))
-        for (entity, z), (times, rows) in self._strips.items():
+        for (entity, z), (times, rows, labels) in self._points.items():  # labels in the same chunk
+            if not self._draws(entity, any(len(r) for r in rows)):
+                continue
+            columns = list(rr.Points3D.columns(positions=_xyz(_cat(rows), z)).partition([len(r) for r in rows]))
+            if any(r is not None for r in labels):
+                columns.append(_sparse_column(rr.Points3D.descriptor_labels(), labels,
+                                              lambda flat: pa.array(flat, pa.string())))
+            send(entity, indexes=[_time_column(times)], columns=columns)
+        for (entity, z), (times, rows, colours) in self._strips.items():  # colours in the same chunk
+            if not self._draws(entity, any(len(r) for r in rows)):
+                continue
             flat = [s for row in rows for s in row]
-            send(entity, indexes=[_time_column(times)], columns=[_strip_column(flat, z, [len(r) for r in rows])])
-        for entity, (times, rows) in self._colours.items():
-            cols = np.array([c for r in rows for c in r], dtype=np.uint8).reshape(-1, 4)
-            send(entity, indexes=[_time_column(times)],
-                 columns=rr.LineStrips3D.columns(colors=cols).partition([len(r) for r in rows]))
+            columns = [_strip_column(flat, z, [len(r) for r in rows])]
+            if any(r is not None for r in colours):
+                columns.append(_sparse_column(rr.LineStrips3D.descriptor_colors(), colours, lambda flat: (
+                    rr.components.ColorBatch(np.array(flat, dtype=np.uint8).reshape(-1, 4)).as_arrow_array())))
+            send(entity, indexes=[_time_column(times)], columns=columns)
         for (entity, z), (times, origins, vectors) in self._arrows.items():
             send(entity, indexes=[_time_column(times)],
                  columns=rr.Arrows3D.columns(origins=_xyz(_cat(origins), z), vectors=_xyz(_cat(vectors), 0.0))
@@ -374,10 +399,18 @@ class Recorder:
                 else:
                     send(entity, indexes=[_time_column(t)], columns=rr.Points3D.columns(positions=_xyz(d, z)))
         self._write_batches()
-        for buffer in (self._scalars, self._texts, self._states, self._documents, self._points, self._labels,
-                       self._strips, self._colours, self._arrows, self._fleet):
+        for buffer in (self._scalars, self._texts, self._states, self._documents, self._points, self._strips,
+                       self._arrows, self._fleet):
             buffer.clear()
         self._pending = 0
+
+    def _draws(self, entity: str, anything: bool) -> bool:
+        """Are the buffered point or strip rows of ``entity`` to be written? Not when every one
+        is empty and the entity never showed anything: empty rows only clear what was drawn (an
+        overlay of a vessel that never meets a conflict costs no chunk and no style)."""
+        if anything:
+            self._drawn.add(entity)
+        return entity in self._drawn
 
     def close(self) -> None:
         """Flush, write the file footer (a reader needs it), re-encode the file with derived ids
@@ -431,6 +464,30 @@ def _strip_column(strips: list[np.ndarray], z: float, per_row) -> rr.ComponentCo
     points = Vec3DBatch(_xyz(_cat(strips), z).astype(np.float32)).as_arrow_array()
     array = pa.ListArray.from_arrays(pa.array(offsets, pa.int32()), points, type=_STRIP_TYPE)
     return rr.ComponentColumn(rr.LineStrips3D.descriptor_strips(), _ArrowBatch(array), lengths=per_row)
+
+
+class _Column:
+    """A ready arrow list array (a row each) as a component column for ``send_columns``."""
+
+    def __init__(self, descriptor, array: pa.Array):
+        self._descriptor, self._array = descriptor, array
+
+    def component_descriptor(self):
+        return self._descriptor
+
+    def as_arrow_array(self) -> pa.Array:
+        return self._array
+
+
+def _sparse_column(descriptor, rows: list, to_arrow) -> _Column:
+    """A column with a list of values (``to_arrow(flat values)``) in the rows where ``rows`` has
+    one and null in those where it holds None: Rerun's latest-at skips null rows, so rows without
+    labels (or colours) keep the latest ones, as rows of an entity of their own did."""
+    lengths = np.fromiter((0 if r is None else len(r) for r in rows), dtype=np.int32, count=len(rows))
+    offsets = pa.array(np.concatenate([[0], np.cumsum(lengths, dtype=np.int32)]).astype(np.int32))
+    values = to_arrow([v for r in rows if r is not None for v in r])
+    mask = pa.array(np.fromiter((r is None for r in rows), dtype=bool, count=len(rows)))
+    return _Column(descriptor, pa.ListArray.from_arrays(offsets, values, mask=mask))
 
 
 def _time_column(times) -> rr.TimeColumn:
