@@ -35,6 +35,15 @@ call per record tick for the whole fleet) and written column-wise with ``send_co
 chunk per entity and flush — when :data:`FLUSH_ROWS` rows have piled up and at :meth:`close`. A
 ``log`` per row costs ~0.5 ms in the Rerun SDK; a column costs that once. :meth:`Recorder.close`
 always flushes, so a run that stops on an error keeps everything recorded until then.
+
+**Few chunks.** Every chunk costs the SDK, the re-encoding (:mod:`mjasc.runs.rrd_canonical`) and
+the footer, so a 10 s recording of 50 vessels is mostly chunks, not rows. Labels and strip colours
+go into their points' or strips' chunk (null in the rows without: Rerun's latest-at skips null
+rows, so those keep the latest labels, as Rerun's own chunk compaction writes them); a vessel
+without views has its overlays' styles written with each overlay's first rows
+(:meth:`Recorder.vessel_style`), and a point or strip entity whose rows are all empty and that
+never drew anything is not written at all (empty rows only clear what was drawn: the overlays of
+a vessel that never meets a conflict).
 """
 
 from __future__ import annotations
