@@ -270,8 +270,7 @@ class Recorder:
             times = sorted(rows)
             data = np.stack([rows[t] for t in times])  # (T, batched)
             self.rec.send_columns(entity, indexes=[_time_column(times)],
-                                  columns=rr.Scalars.columns(scalars=data.reshape(-1)).partition(
-                                      [data.shape[1]] * len(times)))
+                                  columns=[_scalar_column(data.reshape(-1), data.shape[1])])
             rows.clear()
 
     # ---------------------------------------------------------------- buffered rows, one entity
@@ -363,7 +362,7 @@ class Recorder:
                 self._write_style(entity)
             send_columns(entity, indexes=indexes, columns=columns)
         for entity, (times, values) in self._scalars.items():
-            send(entity, indexes=[_time_column(times)], columns=rr.Scalars.columns(scalars=np.asarray(values)))
+            send(entity, indexes=[_time_column(times)], columns=[_scalar_column(values)])
         for entity, (times, texts, levels) in self._texts.items():
             send(entity, indexes=[_time_column(times)], columns=rr.TextLog.columns(text=texts, level=levels))
         for entity, (times, states) in self._states.items():
@@ -374,7 +373,7 @@ class Recorder:
         for (entity, z), (times, rows, labels) in self._points.items():  # labels in the same chunk
             if not self._draws(entity, any(len(r) for r in rows)):
                 continue
-            columns = list(rr.Points3D.columns(positions=_xyz(_cat(rows), z)).partition([len(r) for r in rows]))
+            columns = [_points_column(_xyz(_cat(rows), z), [len(r) for r in rows])]
             if any(r is not None for r in labels):
                 columns.append(_sparse_column(rr.Points3D.descriptor_labels(), labels,
                                               lambda flat: pa.array(flat, pa.string())))
@@ -404,9 +403,9 @@ class Recorder:
                 if kind == "scalar":
                     ok = np.isfinite(d)
                     if ok.any():
-                        send(entity, indexes=[_time_column(t[ok])], columns=rr.Scalars.columns(scalars=d[ok]))
+                        send(entity, indexes=[_time_column(t[ok])], columns=[_scalar_column(d[ok])])
                 else:
-                    send(entity, indexes=[_time_column(t)], columns=rr.Points3D.columns(positions=_xyz(d, z)))
+                    send(entity, indexes=[_time_column(t)], columns=[_points_column(_xyz(d, z), 1)])
         self._write_batches()
         for buffer in (self._scalars, self._texts, self._states, self._documents, self._points, self._strips,
                        self._arrows, self._fleet):
@@ -499,10 +498,50 @@ def _sparse_column(descriptor, rows: list, to_arrow) -> _Column:
     return _Column(descriptor, pa.ListArray.from_arrays(offsets, values, mask=mask))
 
 
-def _time_column(times) -> rr.TimeColumn:
+_SCALARS = rr.Scalars.descriptor_scalars()
+_POSITIONS = rr.Points3D.descriptor_positions()
+
+
+def _list_offsets(n_rows: int, per_row) -> pa.Array:
+    """int32 list offsets of ``n_rows`` rows of ``per_row`` values each (an int, or one per row)."""
+    if np.ndim(per_row) == 0:
+        return pa.array(np.arange(n_rows + 1, dtype=np.int32) * np.int32(per_row))
+    return pa.array(np.concatenate([[0], np.cumsum(per_row, dtype=np.int32)]).astype(np.int32))
+
+
+def _scalar_column(values, per_row=1) -> _Column:
+    """The ``Scalars:scalars`` column of float64 ``values``, ``per_row`` (an int, or one per row)
+    to a row: the arrays ``rr.Scalars.columns(...).partition(...)`` builds, without its per-call cost."""
+    v = pa.array(np.asarray(values, dtype=np.float64).reshape(-1))
+    n_rows = len(v) // per_row if np.ndim(per_row) == 0 else len(per_row)
+    return _Column(_SCALARS, pa.ListArray.from_arrays(_list_offsets(n_rows, per_row), v))
+
+
+def _points_column(xyz: np.ndarray, per_row) -> _Column:
+    """The ``Points3D:positions`` column of points (k, 3) [m], ``per_row`` (an int, or one per row)
+    to a row (float32 xyz, as ``rr.Points3D.columns`` writes them)."""
+    points = Vec3DBatch(np.asarray(xyz, dtype=np.float32)).as_arrow_array()
+    n_rows = len(points) // per_row if np.ndim(per_row) == 0 else len(per_row)
+    return _Column(_POSITIONS, pa.ListArray.from_arrays(_list_offsets(n_rows, per_row), points))
+
+
+class _TimeColumn:
+    """A ``sim_time`` index column (what ``rr.TimeColumn(..., duration=...)`` gives ``send_columns``)."""
+
+    def __init__(self, ns: np.ndarray):
+        self._array = pa.array(ns.astype("timedelta64[ns]"), pa.duration("ns"))
+
+    @staticmethod
+    def timeline_name() -> str:
+        return TIMELINE
+
+    def as_arrow_array(self) -> pa.Array:
+        return self._array
+
+
+def _time_column(times) -> _TimeColumn:
     """Simulation times [s] as a ``sim_time`` column (rounded to ns like ``set_time``)."""
-    ns = np.rint(np.asarray(times, dtype=np.float64) * 1e9).astype(np.int64)
-    return rr.TimeColumn(TIMELINE, duration=ns.astype("timedelta64[ns]"))
+    return _TimeColumn(np.rint(np.asarray(times, dtype=np.float64) * 1e9).astype(np.int64))
 
 
 def _cat(arrays: list[np.ndarray]) -> np.ndarray:
