@@ -396,7 +396,10 @@ def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_i
 def _manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes:
     """The SDK's footer manifest of one store with the new store id, chunk ids, offsets and sizes."""
     sorbet = _canon_schema(pa.ipc.read_schema(pa.py_buffer(_pb_parse(man[2][0])[1][0])), sort_fields=True)
-    sha = hashlib.sha256(pa.schema(list(sorbet)).serialize().to_pybytes()).digest()
+    sorbet_ipc = _ipc(None, sorbet)  # (the schema message and the end of stream)
+    # The hash is over the schema without its own metadata (it has none: the message itself then).
+    sha = hashlib.sha256(pa.schema(list(sorbet)).serialize().to_pybytes() if sorbet.metadata
+                         else sorbet_ipc[:-len(_EOS)]).digest()
     part = _pb_parse(man[4][0])
     batch = _read_ipc(part[2][0], part.get(3, [0])[0], part.get(4, [0])[0])
     olds = [b"chunk_%016X%016x" % struct.unpack(">QQ", c) for c in batch.column("chunk_id").to_pylist()]
@@ -416,4 +419,4 @@ def _manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes:
     batch = batch.take(pa.array(np.argsort(ks)))
     ipc = _ipc(pa.RecordBatch.from_arrays(batch.columns, schema=_canon_schema(batch.schema)))
     data = _pb_int(1, 1) + _pb_bytes(2, _LZ4.compress(ipc, asbytes=True)) + _pb_int(3, 2) + _pb_int(4, len(ipc))
-    return _pb_bytes(1, sid) + _pb_bytes(2, _pb_bytes(1, _ipc(None, sorbet))) + _pb_bytes(3, sha) + _pb_bytes(4, data)
+    return _pb_bytes(1, sid) + _pb_bytes(2, _pb_bytes(1, sorbet_ipc)) + _pb_bytes(3, sha) + _pb_bytes(4, data)
