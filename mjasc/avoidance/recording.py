@@ -106,6 +106,8 @@ class AvoidanceLog:
         self._threats_key: tuple | None = None  # (mode, correction, conflicts) of that text
         self._threats_t = -np.inf  # when it was written [s]
         self._threats_due = True  # a prediction or the mode changed since
+        self._shown = None  # the prediction whose conflicts _shown_ids names
+        self._shown_ids: tuple = ()
 
     def prediction_pending(self) -> None:
         """A new prediction or detour is to be drawn at the next :meth:`log`."""
@@ -150,8 +152,10 @@ class AvoidanceLog:
         if not recorder.has_views(vessel_name):
             return
         shown = last if last is not None and last.time_s <= t else None
-        key = (mode, id(correction), () if shown is None else
-               (tuple(c.track_id for c in shown.conflicts), tuple(s.track_id for s in shown.statics)))
+        if shown is not self._shown:  # (the conflicts' ids only change with the prediction)
+            self._shown, self._shown_ids = shown, () if shown is None else (
+                tuple(c.track_id for c in shown.conflicts), tuple(s.track_id for s in shown.statics))
+        key = (mode, id(correction), self._shown_ids)
         self._threats_due |= self._pending or key != self._threats_key
         if not self._threats_due or (key == self._threats_key and t - self._threats_t < THREAT_PERIOD_S - 1e-9):
             return

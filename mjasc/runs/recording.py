@@ -131,6 +131,7 @@ class Recorder:
         self._batch_rows: dict[str, dict[float, np.ndarray]] = {}  # batch entity → time → row (NaN: none)
         self._batch_styles: dict[str, dict[int, tuple]] = {}  # batch entity → member → (name, colour, width)
         self._batch_styled: dict[str, tuple] = {}  # batch entity → style last written
+        self._own_entities: dict[tuple[str, str], str] = {}  # (template, vessel) → entity (vessel_scalar)
 
     def set_vessels(self, names: tuple[str, ...], view_vessels) -> None:
         """The run's vessels and those with per-vessel views (:attr:`view_vessels`). At standard
@@ -207,7 +208,10 @@ class Recorder:
         :attr:`batched`, one series each in vessel order; NaN where a vessel has no value)."""
         k = self._batch_index.get(vessel_name)
         if k is None:
-            self.scalar(template.format(vessel_name), t_s, value)
+            entity = self._own_entities.get((template, vessel_name))
+            if entity is None:
+                entity = self._own_entities[(template, vessel_name)] = template.format(vessel_name)
+            self.scalar(entity, t_s, value)
         else:
             self._batch_value(template.format(OTHERS), t_s, k, value)
 
