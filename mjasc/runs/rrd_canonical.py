@@ -276,6 +276,8 @@ def _canon_fields(schema: pa.Schema) -> tuple[list, list]:
     key = schema.remove_metadata()
     hit = _FIELDS.get(key)
     if hit is None:
+        if len(_FIELDS) >= 4096:  # (a run has a few dozen; a long-lived worker stays bounded)
+            _FIELDS.clear()
         fields = [f.with_metadata(_sorted(f.metadata)) if f.metadata else f for f in schema]
         log_times = [j for j, f in enumerate(schema) if (f.metadata or {}).get(b"rerun:index_name") == b"log_time"]
         hit = _FIELDS[key] = (fields, log_times)
