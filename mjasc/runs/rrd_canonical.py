@@ -23,8 +23,8 @@ fields: a run's thousands of chunks share a few dozen). Cost: ~0.1 ms per chunk 
 recording holds ~1,500) plus about 0.5 s per 50 MB.
 
 Nothing of the data changes (``rerun rrd compare --unordered`` finds the files equal). The file is
-held in memory while it is re-encoded (peak ≈ 5× its size). Chunk
-boundaries must not depend on wall-clock time either: :class:`~mjasc.runs.recording.Recorder`
+held in memory while it is re-encoded (peak ≈ 5× its size). Chunk boundaries must not depend on
+wall-clock time either: :class:`~mjasc.runs.recording.Recorder`
 gives the SDK a batcher that flushes on size only (:data:`BATCHER`).
 
 **Container format assumptions (Rerun 0.41; re-check on every Rerun upgrade —
@@ -34,8 +34,10 @@ message a 16-byte header (u64 LE kind: 0 End, 1 SetStoreInfo, 2 ArrowMsg, 3
 BlueprintActivationCommand; u64 LE length) and a protobuf body; the End body is the footer,
 followed by a 32-byte stream footer (u64 start, u64 length, u32 xxh32 of the footer with seed
 7850921, ``RRF2FOOT``, u32 1). (2) Field numbers of rerun.log_msg.v1alpha1 (``_pb`` calls below).
-(3) An ArrowMsg payload is one LZ4-block-compressed Arrow IPC stream. (4) A chunk's column 0 is
-``rerun.controls.RowId`` (fixed_size_binary[16], big-endian time and counter); its id is schema
+(3) An ArrowMsg payload is one LZ4-block-compressed Arrow IPC stream: one schema message, one
+record-batch message (uncompressed buffers: read in place, its row ids written over), the end.
+(4) A chunk's column 0 is ``rerun.controls.RowId`` (fixed_size_binary[16], big-endian time and
+counter); its id is schema
 metadata ``rerun:id`` = ``chunk_`` + %016X time + %016x counter. (5) The footer manifest has
 ``chunk_id``, ``chunk_byte_offset``, ``chunk_byte_size``, ``chunk_byte_size_uncompressed``
 columns. The manifest's schema hash is computed over pyarrow's schema encoding, not Rerun's (Rerun
