@@ -20,6 +20,8 @@ obstruction interval) show on hover or selection only.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import rerun as rr
 
@@ -56,6 +58,41 @@ def _thin(times, points, step_s: float):
     return np.asarray(points)[idx]
 
 
+@functools.cache
+def _mode_states() -> rr.StateConfiguration:
+    """The mode lane's states: names and colours of :data:`~mjasc.runs.blueprint.MODE_STATES`."""
+    from mjasc.runs.blueprint import MODE_STATES
+
+    return rr.StateConfiguration(values=list(MODE_STATES), labels=[label for label, _ in MODE_STATES.values()],
+                                 colors=[(*rgb, 255) for _, rgb in MODE_STATES.values()])
+
+
+@functools.cache
+def _overlay_styles(full: bool) -> dict:
+    """Overlay entity (under ``world/vessels/<v>/avoidance``) → its style, in the legend's classes
+    and colours (the same for every vessel: built once)."""
+    from mjasc.runs.blueprint import legend_colour as c
+
+    styles = {"virtual_target": rr.Points3D.from_fields(colors=[c(_VIRTUAL_TARGET)], radii=[0.4],
+                                                        class_ids=[_VIRTUAL_TARGET], show_labels=[False]),
+              "predicted_own": rr.LineStrips3D.from_fields(colors=[c(_OWN)], radii=[0.08], class_ids=[_OWN],
+                                                           show_labels=[False]),
+              "predicted_tracks": rr.LineStrips3D.from_fields(colors=[c(_CONFLICT)], radii=[0.08],
+                                                              class_ids=[_CONFLICT], show_labels=[False]),
+              "collision_points": rr.Points3D.from_fields(colors=[c(_CONFLICT)], radii=[0.6], show_labels=[False],
+                                                          class_ids=[_CONFLICT]),
+              "obstructed": rr.LineStrips3D.from_fields(colors=[c(_OBSTRUCTED)], radii=[0.3],
+                                                        class_ids=[_OBSTRUCTED], show_labels=[False]),
+              "svo": rr.LineStrips3D.from_fields(colors=[c(_SVO)], radii=[0.12], class_ids=[_SVO], show_labels=[False]),
+              "detour": rr.LineStrips3D.from_fields(colors=[c(_DETOUR)], radii=[0.15], class_ids=[_DETOUR],
+                                                    show_labels=[False]),
+              "field_obstacles": rr.LineStrips3D.from_fields(colors=[c(_FIELD_OBSTACLE)], radii=[0.1],
+                                                             class_ids=[_FIELD_OBSTACLE], show_labels=[False])}
+    if full:
+        styles["field"] = rr.Arrows3D.from_fields(colors=[(160, 160, 255, 150)], radii=[0.04])
+    return styles
+
+
 class AvoidanceLog:
     """Logging state of one vessel's avoidance: styles logged once, the latest prediction and
     detour logged once each (when :meth:`prediction_pending` was called since the last log)."""
@@ -69,45 +106,25 @@ class AvoidanceLog:
         self._threats_key: tuple | None = None  # (mode, correction, conflicts) of that text
         self._threats_t = -np.inf  # when it was written [s]
         self._threats_due = True  # a prediction or the mode changed since
+        self._shown = None  # the prediction whose conflicts _shown_ids names
+        self._shown_ids: tuple = ()
 
     def prediction_pending(self) -> None:
         """A new prediction or detour is to be drawn at the next :meth:`log`."""
         self._pending = True
 
     def _style(self, recorder, vessel_name: str, base: str) -> None:
-        from mjasc.runs.blueprint import MODE_STATES
-
         col = recorder.colour(vessel_name)
         c = recorder.legend_colour
-        recorder.static(f"modes/{vessel_name}", rr.StateConfiguration(
-            values=list(MODE_STATES), labels=[label for label, _ in MODE_STATES.values()],
-            colors=[(*rgb, 255) for _, rgb in MODE_STATES.values()]))
+        recorder.static(f"modes/{vessel_name}", _mode_states())
         recorder.vessel_series_style(_TARGET_SPEED, vessel_name, f"{vessel_name} virtual target", c(_VIRTUAL_TARGET),
                                      1.0)
         if recorder.full:  # no view of the default blueprint shows γ
             recorder.series_style(f"plots/gamma/{vessel_name}/virtual_target", f"{vessel_name} virtual target γ_d",
                                   c(_VIRTUAL_TARGET), 1.0)
             recorder.series_style(f"plots/gamma/{vessel_name}/actual", f"{vessel_name} γ", col, 2.0)
-        styles = {"virtual_target": rr.Points3D.from_fields(colors=[c(_VIRTUAL_TARGET)], radii=[0.4],
-                                                            class_ids=[_VIRTUAL_TARGET], show_labels=[False]),
-                  "predicted_own": rr.LineStrips3D.from_fields(colors=[c(_OWN)], radii=[0.08], class_ids=[_OWN],
-                                                               show_labels=[False]),
-                  "predicted_tracks": rr.LineStrips3D.from_fields(colors=[c(_CONFLICT)], radii=[0.08],
-                                                                  class_ids=[_CONFLICT], show_labels=[False]),
-                  "collision_points": rr.Points3D.from_fields(colors=[c(_CONFLICT)], radii=[0.6], show_labels=[False],
-                                                              class_ids=[_CONFLICT]),
-                  "obstructed": rr.LineStrips3D.from_fields(colors=[c(_OBSTRUCTED)], radii=[0.3],
-                                                            class_ids=[_OBSTRUCTED], show_labels=[False]),
-                  "svo": rr.LineStrips3D.from_fields(colors=[c(_SVO)], radii=[0.12], class_ids=[_SVO],
-                                                     show_labels=[False]),
-                  "detour": rr.LineStrips3D.from_fields(colors=[c(_DETOUR)], radii=[0.15], class_ids=[_DETOUR],
-                                                        show_labels=[False]),
-                  "field_obstacles": rr.LineStrips3D.from_fields(colors=[c(_FIELD_OBSTACLE)], radii=[0.1],
-                                                                 class_ids=[_FIELD_OBSTACLE], show_labels=[False])}
-        if recorder.full:
-            styles["field"] = rr.Arrows3D.from_fields(colors=[(160, 160, 255, 150)], radii=[0.04])
-        for entity, style in styles.items():
-            recorder.static(f"{base}/{entity}", style)
+        for entity, style in _overlay_styles(recorder.full).items():  # without views: with the first rows
+            recorder.vessel_style(vessel_name, f"{base}/{entity}", style)
         self._styled = True
 
     def log(self, recorder, t, vessel_name, mode, correction, guidance, last, detour, team=frozenset()) -> None:
@@ -135,8 +152,10 @@ class AvoidanceLog:
         if not recorder.has_views(vessel_name):
             return
         shown = last if last is not None and last.time_s <= t else None
-        key = (mode, id(correction), () if shown is None else
-               (tuple(c.track_id for c in shown.conflicts), tuple(s.track_id for s in shown.statics)))
+        if shown is not self._shown:  # (the conflicts' ids only change with the prediction)
+            self._shown, self._shown_ids = shown, () if shown is None else (
+                tuple(c.track_id for c in shown.conflicts), tuple(s.track_id for s in shown.statics))
+        key = (mode, id(correction), self._shown_ids)
         self._threats_due |= self._pending or key != self._threats_key
         if not self._threats_due or (key == self._threats_key and t - self._threats_t < THREAT_PERIOD_S - 1e-9):
             return

@@ -44,6 +44,8 @@ class CommsLog:
         self.names = tuple(names)
         self.lines = len(self.names) <= MAX_LINE_VESSELS
         self._recent: list = []
+        self._oldest_s = np.inf  # the earliest send time in _recent [s]
+        self._pairs: tuple = ((), ())  # the (delivered, lost) pairs of _recent
         self._shown: tuple = ((), ())  # the (delivered, lost) pairs last drawn
         self._shown_t = -np.inf
         self._written: dict[str, tuple[float, int, int]] = {}  # receiver → (t, received, lost) last written
@@ -54,9 +56,9 @@ class CommsLog:
         import rerun as rr
 
         if self.lines:
-            recorder.static("world/comms/delivered", rr.LineStrips3D.from_fields(
+            recorder.style("world/comms/delivered", rr.LineStrips3D.from_fields(
                 radii=[-1.5], class_ids=[_DELIVERED], show_labels=[False]))
-            recorder.static("world/comms/lost", rr.LineStrips3D.from_fields(
+            recorder.style("world/comms/lost", rr.LineStrips3D.from_fields(
                 colors=[recorder.legend_colour(_LOST)], radii=[-1.0], class_ids=[_LOST], show_labels=[False]))
         self._counted = tuple(k for k, n in enumerate(self.names) if recorder.has_views(n))
         for n in (self.names[k] for k in self._counted):
@@ -67,12 +69,14 @@ class CommsLog:
 
     def log(self, recorder, t_s: float, outcomes, positions_xy, counts) -> None:
         """Add ``outcomes`` (decided since the last call; unused without lines) and draw the links
-        alive at t_s; ``positions_xy`` (n, 2) the vessels' positions [m] and ``counts`` (n pairs:
-        messages received, lost so far), both in the order of :attr:`names`."""
+        alive at t_s; ``positions_xy`` (n, 2) the vessels' positions [m] in the order of
+        :attr:`names`, ``counts(name)`` → (messages received, lost so far) of a vessel (asked only
+        for the vessels whose counts are written)."""
         if not self._styled:
             self._style(recorder)
         for k in self._counted:
-            n, (received_now, lost_now) = self.names[k], counts[k]
+            n = self.names[k]
+            received_now, lost_now = counts(n)
             t0, received, lost = self._written.get(n, (-np.inf, -1, -1))
             if lost_now != lost or (received_now != received and t_s - t0 >= COUNT_PERIOD_S - 1e-9):
                 self._written[n] = (t_s, received_now, lost_now)
@@ -80,9 +84,14 @@ class CommsLog:
                 recorder.scalar(f"plots/comms/{n}/lost", t_s, lost_now)
         if not self.lines:
             return
-        self._recent = [o for o in self._recent + list(outcomes) if o.sent_time_s > t_s - LINK_WINDOW_S]
-        delivered = tuple(sorted({(o.sender, o.receiver) for o in self._recent if not o.lost}))
-        lost = tuple(sorted({(o.sender, o.receiver) for o in self._recent if o.lost} - set(delivered)))
+        cutoff = t_s - LINK_WINDOW_S
+        if outcomes or (self._recent and self._oldest_s <= cutoff):  # else the same links as last time
+            self._recent = [o for o in self._recent + list(outcomes) if o.sent_time_s > cutoff]
+            self._oldest_s = min((o.sent_time_s for o in self._recent), default=np.inf)
+            delivered = tuple(sorted({(o.sender, o.receiver) for o in self._recent if not o.lost}))
+            lost = tuple(sorted({(o.sender, o.receiver) for o in self._recent if o.lost} - set(delivered)))
+            self._pairs = (delivered, lost)
+        delivered, lost = self._pairs
         if (delivered, lost) == self._shown and not ((delivered or lost) and t_s - self._shown_t >= LINK_WINDOW_S):
             return  # nothing new to draw (shown links are redrawn where the vessels are now every window)
         self._shown, self._shown_t = (delivered, lost), t_s

@@ -28,6 +28,7 @@ the track events (births included) in ``tracking_events/<v>``.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -94,6 +95,17 @@ def _labels(vessel_name: str, ids, team, static) -> list[str]:
             for i, m, st in zip(ids, team, static)]
 
 
+@functools.lru_cache(maxsize=64)
+def _track_style(colour: tuple) -> rr.Points3D:
+    """The confirmed tracks' style in the vessel's colour (vessels share the palette's colours)."""
+    return rr.Points3D.from_fields(colors=[(*colour, 255)], radii=[0.25], show_labels=[False], class_ids=[102])
+
+
+@functools.lru_cache(maxsize=4)
+def _map_style(colour: tuple) -> rr.LineStrips3D:
+    return rr.LineStrips3D.from_fields(colors=[colour], radii=[0.1], class_ids=[111], show_labels=[False])
+
+
 class PerceptionLog:
     """Logging state of one vessel's perception; :meth:`log` at every record tick."""
 
@@ -109,13 +121,14 @@ class PerceptionLog:
         self._logged_map_version = 0
         self._label_key: tuple | None = None  # what the latest logged labels say
         self._series: set[int] = set()
+        self._base_of: str | None = None  # the vessel whose world entity _base is
+        self._base = ""
 
     def _style(self, rec, base: str, name: str, colour, sensor_config) -> None:
-        # Track labels show on hover or selection, not over the boats (show_labels False).
-        rec.static(f"{base}/tracks/positions", rr.Points3D.from_fields(colors=[(*colour, 255)], radii=[0.25],
-                                                                       show_labels=[False], class_ids=[102]))
-        rec.static(f"{base}/static_map", rr.LineStrips3D.from_fields(colors=[rec.legend_colour(111)], radii=[0.1],
-                                                                     class_ids=[111], show_labels=[False]))
+        # Track labels show on hover or selection, not over the boats (show_labels False). A vessel
+        # without views has its styles written with the entity's first rows (Recorder.vessel_style).
+        rec.vessel_style(name, f"{base}/tracks/positions", _track_style(tuple(colour)))
+        rec.vessel_style(name, f"{base}/static_map", _map_style(rec.legend_colour(111)))
         self._styled = True  # (set before the early return: a vessel without views was styled at every tick)
         if not rec.has_views(name):
             return
@@ -147,11 +160,11 @@ class PerceptionLog:
 
     def log(self, rec, t_s: float, perception, vessel_name: str) -> None:
         """Log ``perception`` (a :class:`mjasc.perception.pipeline.Perception`) at time t_s."""
-        from mjasc.runs.recording import vessel_colour
-
         p, full = perception, rec.full
-        base = f"world/vessels/{vessel_name}"
+        base = self._base if self._base_of == vessel_name else self._name(vessel_name)
         if not self._styled:
+            from mjasc.runs.recording import vessel_colour
+
             self._style(rec, base, vessel_name, vessel_colour(p.vessel_index), p.sensor_config)
         self._log_scan(rec, t_s, p, base, vessel_name, full)
         update = p._stats["track_updates"]
@@ -167,6 +180,11 @@ class PerceptionLog:
         if version != self._logged_map_version and (full or t_s - self._last_map_log >= MAP_LOG_PERIOD_S - 1e-9):
             self._logged_map_version, self._last_map_log = version, t_s
             rec.strips(f"{base}/static_map", t_s, [np.vstack([q, q[:1]]) for q in p.map.polygons()], z=0.4)
+
+    def _name(self, vessel_name: str) -> str:
+        """The vessel's world entity (kept: :meth:`log` runs at every record tick)."""
+        self._base_of, self._base = vessel_name, f"world/vessels/{vessel_name}"
+        return self._base
 
     def _log_scan(self, rec, t_s, p, base, vessel_name, full) -> None:
         scan, det = p.scan, p.detections

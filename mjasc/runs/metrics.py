@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+from mjasc.core.polygon_kernels import boundary_distance, inside_even_odd
 from mjasc.physics.obstacles import PolygonObstacle
 
 __all__ = ["RunMetrics"]
@@ -34,6 +34,11 @@ class RunMetrics:
         self._xte_max = np.zeros(n)
         self._xte_count = np.zeros(n, dtype=int)
         self.static = list(world.static_obstacles)
+        # Per static obstacle: (vertices as the compiled kernels take them, None) for a polygon,
+        # (None, centre, radius) for a circle.
+        self._static_shapes = [(np.ascontiguousarray(np.asarray(o.vertices, dtype=float).reshape(-1, 2)), None, None)
+                               if isinstance(o, PolygonObstacle)
+                               else (None, o.centre, o.radius_m) for o in self.static]
         # Minimum clearance per (vessel, object): columns are the static obstacles, the moving
         # obstacles, then the vessels (the diagonal stays +inf: no clearance to oneself).
         self._objects = [o.name for o in self.static] + [o.name for o in world.moving_obstacles] + self.names
@@ -44,7 +49,10 @@ class RunMetrics:
         self._geom_owner = dict(enumerate(world.geom_owner))
 
     def update(self, states, cross_track_m: np.ndarray, traffic) -> None:
-        """Called at the record rate with the true states, each vessel's |xte| (nan = no path)."""
+        """Called at the record rate with the true states, each vessel's |xte| (nan = no path).
+        Each block of the clearance matrix (a static obstacle's column, the moving obstacles', the
+        vessels') is folded into the running minimum in place: the same numbers as one stacked
+        matrix, without building it (this runs at every record tick)."""
         pos = states.position_m
         if self._last_pos is not None:
             self.distance += np.hypot(*(pos - self._last_pos).T)
@@ -53,22 +61,27 @@ class RunMetrics:
         a = np.abs(np.where(ok, cross_track_m, 0.0))
         self._xte_sum += a
         self._xte_count += ok
-        self._xte_max = np.maximum(self._xte_max, a)
-        columns = []
-        for o in self.static:
-            if isinstance(o, PolygonObstacle):
-                d = distance_to_polygon(pos, o.vertices)
-                d = np.where(point_in_polygon(pos, o.vertices), -d, d)
-            else:
-                d = np.hypot(*(pos - o.centre).T) - o.radius_m
-            columns.append(d - self.radii)
+        np.maximum(self._xte_max, a, out=self._xte_max)
+        mc, radii = self._min_clear, self.radii
+        if self._static_shapes:
+            p = np.ascontiguousarray(pos, dtype=float)  # (the kernels' layout: core.geometry's distance and inside)
+            for j, (vertices, centre, radius) in enumerate(self._static_shapes):
+                if vertices is not None:
+                    d = boundary_distance(p, vertices)
+                    d = np.where(inside_even_odd(p, vertices), -d, d)
+                else:
+                    d = np.hypot(*(pos - centre).T) - radius
+                np.minimum(mc[:, j], d - radii, out=mc[:, j])
+        j = len(self._static_shapes)
         tpos = traffic[0]
         if len(tpos):
-            columns.extend((_norm(pos[:, None] - tpos[None]) - self.radii[:, None] - self._traffic_radii[None]).T)
-        pair = _norm(pos[:, None] - pos[None]) - self.radii[:, None] - self.radii[None]
+            k = len(tpos)
+            block = _norm(pos[:, None] - tpos[None]) - radii[:, None] - self._traffic_radii[None]
+            np.minimum(mc[:, j:j + k], block, out=mc[:, j:j + k])
+            j += k
+        pair = _norm(pos[:, None] - pos[None]) - radii[:, None] - radii[None]
         np.fill_diagonal(pair, np.inf)
-        clearance = np.column_stack(columns + [pair]) if columns else pair
-        np.minimum(self._min_clear, clearance, out=self._min_clear)
+        np.minimum(mc[:, j:], pair, out=mc[:, j:])
 
     def check_contacts(self, t_s: float) -> list[tuple[str, str]]:
         """New hull contacts since the last call (pairs of owner names); records them."""

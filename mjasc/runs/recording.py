@@ -35,6 +35,15 @@ call per record tick for the whole fleet) and written column-wise with ``send_co
 chunk per entity and flush — when :data:`FLUSH_ROWS` rows have piled up and at :meth:`close`. A
 ``log`` per row costs ~0.5 ms in the Rerun SDK; a column costs that once. :meth:`Recorder.close`
 always flushes, so a run that stops on an error keeps everything recorded until then.
+
+**Few chunks.** Every chunk costs the SDK, the re-encoding (:mod:`mjasc.runs.rrd_canonical`) and
+the footer, so a 10 s recording of 50 vessels is mostly chunks, not rows. Labels and strip colours
+go into their points' or strips' chunk (null in the rows without: Rerun's latest-at skips null
+rows, so those keep the latest labels, as Rerun's own chunk compaction writes them); a vessel
+without views has its overlays' styles written with each overlay's first rows
+(:meth:`Recorder.vessel_style`), and a point or strip entity whose rows are all empty and that
+never drew anything is not written at all (empty rows only clear what was drawn: the overlays of
+a vessel that never meets a conflict).
 """
 
 from __future__ import annotations
@@ -99,14 +108,15 @@ class Recorder:
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
         self._scalars: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))
         self._texts: dict[str, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
-        self._points: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (entity, z)
-        self._strips: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (entity, z)
+        # (entity, z) → times, rows and per row its labels / strip colours or None (the latest stay)
+        self._points: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
+        self._strips: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
         self._arrows: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))  # (entity, z)
-        self._labels: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # Points3D labels
-        self._colours: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # LineStrips3D colours
         self._fleet: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (kind, entities, z)
         self._states: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # StateChange
         self._documents: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # markdown TextDocument
+        self._styles: dict[str, object] = {}  # entity → its static style, written with its first rows (style())
+        self._drawn: set[str] = set()  # point and strip entities that had a row with something in it
         self._pending = 0
         self._closed = False
         #: Vessel name → RGB, set by the runner: components style their entities and plots with it.
@@ -121,6 +131,7 @@ class Recorder:
         self._batch_rows: dict[str, dict[float, np.ndarray]] = {}  # batch entity → time → row (NaN: none)
         self._batch_styles: dict[str, dict[int, tuple]] = {}  # batch entity → member → (name, colour, width)
         self._batch_styled: dict[str, tuple] = {}  # batch entity → style last written
+        self._own_entities: dict[tuple[str, str], str] = {}  # (template, vessel) → entity (vessel_scalar)
 
     def set_vessels(self, names: tuple[str, ...], view_vessels) -> None:
         """The run's vessels and those with per-vessel views (:attr:`view_vessels`). At standard
@@ -153,8 +164,28 @@ class Recorder:
     def static(self, entity: str, archetype) -> None:
         self.rec.log(entity, archetype, static=True)
 
+    def style(self, entity: str, archetype) -> None:
+        """The static style of ``entity`` (colours, radii, classes: an archetype's ``from_fields``
+        without data), written with the entity's first rows (:meth:`flush`, :meth:`log`): an
+        entity that never gets a row is not written at all (its style alone would cost a chunk
+        and footer; most of a large fleet's overlays never show)."""
+        self._styles[entity] = archetype
+
+    def vessel_style(self, vessel_name: str, entity: str, archetype) -> None:
+        """The style of one of ``vessel_name``'s entities: written now for a vessel with views
+        (:meth:`has_views`: its panels and follow view show every overlay's style, drawn or not),
+        with the entity's first rows for the others (:meth:`style`)."""
+        (self.static if self.has_views(vessel_name) else self.style)(entity, archetype)
+
+    def _write_style(self, entity: str) -> None:
+        style = self._styles.pop(entity, None)
+        if style is not None:
+            self.rec.log(entity, style, static=True)
+
     def log(self, entity: str, archetype, t_s: float) -> None:
         """One row now (sporadic data only: each call costs ~0.5 ms)."""
+        if self._styles:
+            self._write_style(entity)
         self.rec.set_time(TIMELINE, duration=float(t_s))
         self.rec.log(entity, archetype)
 
@@ -177,7 +208,10 @@ class Recorder:
         :attr:`batched`, one series each in vessel order; NaN where a vessel has no value)."""
         k = self._batch_index.get(vessel_name)
         if k is None:
-            self.scalar(template.format(vessel_name), t_s, value)
+            entity = self._own_entities.get((template, vessel_name))
+            if entity is None:
+                entity = self._own_entities[(template, vessel_name)] = template.format(vessel_name)
+            self.scalar(entity, t_s, value)
         else:
             self._batch_value(template.format(OTHERS), t_s, k, value)
 
@@ -240,8 +274,7 @@ class Recorder:
             times = sorted(rows)
             data = np.stack([rows[t] for t in times])  # (T, batched)
             self.rec.send_columns(entity, indexes=[_time_column(times)],
-                                  columns=rr.Scalars.columns(scalars=data.reshape(-1)).partition(
-                                      [data.shape[1]] * len(times)))
+                                  columns=[_scalar_column(data.reshape(-1), data.shape[1])])
             rows.clear()
 
     # ---------------------------------------------------------------- buffered rows, one entity
@@ -277,24 +310,18 @@ class Recorder:
         """A row of points (world xy [m] at height z); ``labels`` (one per point) in the same row.
         Rows without labels keep the latest labels (Rerun's latest-at), so labels need only be
         given when they change."""
-        times, rows = self._points[(entity, z)]
+        times, rows, label_rows = self._points[(entity, z)]
         times.append(t_s)
         rows.append(np.asarray(positions_xy, dtype=np.float64).reshape(-1, 2))
-        if labels is not None:
-            ltimes, lrows = self._labels[entity]
-            ltimes.append(t_s)
-            lrows.append(list(labels))
+        label_rows.append(None if labels is None else list(labels))
         self._count(1)
 
     def strips(self, entity: str, t_s: float, strips_xy: list[np.ndarray], z: float = 0.0, colours=None) -> None:
         """A row of line strips (each (m, 2) world xy [m]) at height z; ``colours`` one RGB(A) per strip."""
-        times, rows = self._strips[(entity, z)]
+        times, rows, colour_rows = self._strips[(entity, z)]
         times.append(t_s)
         rows.append([np.asarray(s, dtype=np.float64).reshape(-1, 2) for s in strips_xy])
-        if colours is not None:
-            ctimes, crows = self._colours[entity]
-            ctimes.append(t_s)
-            crows.append([_rgba(c) for c in colours])
+        colour_rows.append(None if colours is None else [_rgba(c) for c in colours])
         self._count(1)
 
     def arrows(self, entity: str, t_s: float, origins_xy: np.ndarray, vectors_xy: np.ndarray, z: float = 0.0) -> None:
@@ -330,10 +357,16 @@ class Recorder:
 
     # ---------------------------------------------------------------- writing
     def flush(self) -> None:
-        """Write every buffered row column-wise (one chunk per entity) and empty the buffers."""
-        send = self.rec.send_columns
+        """Write every buffered row column-wise (one chunk per entity) and empty the buffers; an
+        entity's pending :meth:`style` goes just before its first rows."""
+        send_columns = self.rec.send_columns
+
+        def send(entity: str, indexes, columns) -> None:
+            if self._styles:
+                self._write_style(entity)
+            send_columns(entity, indexes=indexes, columns=columns)
         for entity, (times, values) in self._scalars.items():
-            send(entity, indexes=[_time_column(times)], columns=rr.Scalars.columns(scalars=np.asarray(values)))
+            send(entity, indexes=[_time_column(times)], columns=[_scalar_column(values)])
         for entity, (times, texts, levels) in self._texts.items():
             send(entity, indexes=[_time_column(times)], columns=rr.TextLog.columns(text=texts, level=levels))
         for entity, (times, states) in self._states.items():
@@ -341,19 +374,23 @@ class Recorder:
         for entity, (times, texts) in self._documents.items():
             send(entity, indexes=[_time_column(times)],
                  columns=rr.TextDocument.columns(text=texts, media_type=["text/markdown"] * len(texts)))
-        for (entity, z), (times, rows) in self._points.items():
-            send(entity, indexes=[_time_column(times)],
-                 columns=rr.Points3D.columns(positions=_xyz(_cat(rows), z)).partition([len(r) for r in rows]))
-        for entity, (times, rows) in self._labels.items():
-            send(entity, indexes=[_time_column(times)],
-                 columns=rr.Points3D.columns(labels=[s for r in rows for s in r]).partition([len(r) for r in rows]))
-        for (entity, z), (times, rows) in self._strips.items():
+        for (entity, z), (times, rows, labels) in self._points.items():  # labels in the same chunk
+            if not self._draws(entity, any(len(r) for r in rows)):
+                continue
+            columns = [_points_column(_xyz(_cat(rows), z), [len(r) for r in rows])]
+            if any(r is not None for r in labels):
+                columns.append(_sparse_column(rr.Points3D.descriptor_labels(), labels,
+                                              lambda flat: pa.array(flat, pa.string())))
+            send(entity, indexes=[_time_column(times)], columns=columns)
+        for (entity, z), (times, rows, colours) in self._strips.items():  # colours in the same chunk
+            if not self._draws(entity, any(len(r) for r in rows)):
+                continue
             flat = [s for row in rows for s in row]
-            send(entity, indexes=[_time_column(times)], columns=[_strip_column(flat, z, [len(r) for r in rows])])
-        for entity, (times, rows) in self._colours.items():
-            cols = np.array([c for r in rows for c in r], dtype=np.uint8).reshape(-1, 4)
-            send(entity, indexes=[_time_column(times)],
-                 columns=rr.LineStrips3D.columns(colors=cols).partition([len(r) for r in rows]))
+            columns = [_strip_column(flat, z, [len(r) for r in rows])]
+            if any(r is not None for r in colours):
+                columns.append(_sparse_column(rr.LineStrips3D.descriptor_colors(), colours, lambda flat: (
+                    rr.components.ColorBatch(np.array(flat, dtype=np.uint8).reshape(-1, 4)).as_arrow_array())))
+            send(entity, indexes=[_time_column(times)], columns=columns)
         for (entity, z), (times, origins, vectors) in self._arrows.items():
             send(entity, indexes=[_time_column(times)],
                  columns=rr.Arrows3D.columns(origins=_xyz(_cat(origins), z), vectors=_xyz(_cat(vectors), 0.0))
@@ -370,14 +407,22 @@ class Recorder:
                 if kind == "scalar":
                     ok = np.isfinite(d)
                     if ok.any():
-                        send(entity, indexes=[_time_column(t[ok])], columns=rr.Scalars.columns(scalars=d[ok]))
+                        send(entity, indexes=[_time_column(t[ok])], columns=[_scalar_column(d[ok])])
                 else:
-                    send(entity, indexes=[_time_column(t)], columns=rr.Points3D.columns(positions=_xyz(d, z)))
+                    send(entity, indexes=[_time_column(t)], columns=[_points_column(_xyz(d, z), 1)])
         self._write_batches()
-        for buffer in (self._scalars, self._texts, self._states, self._documents, self._points, self._labels,
-                       self._strips, self._colours, self._arrows, self._fleet):
+        for buffer in (self._scalars, self._texts, self._states, self._documents, self._points, self._strips,
+                       self._arrows, self._fleet):
             buffer.clear()
         self._pending = 0
+
+    def _draws(self, entity: str, anything: bool) -> bool:
+        """Are the buffered point or strip rows of ``entity`` to be written? Not when every one
+        is empty and the entity never showed anything: empty rows only clear what was drawn (an
+        overlay of a vessel that never meets a conflict costs no chunk and no style)."""
+        if anything:
+            self._drawn.add(entity)
+        return entity in self._drawn
 
     def close(self) -> None:
         """Flush, write the file footer (a reader needs it), re-encode the file with derived ids
@@ -433,10 +478,74 @@ def _strip_column(strips: list[np.ndarray], z: float, per_row) -> rr.ComponentCo
     return rr.ComponentColumn(rr.LineStrips3D.descriptor_strips(), _ArrowBatch(array), lengths=per_row)
 
 
-def _time_column(times) -> rr.TimeColumn:
+class _Column:
+    """A ready arrow list array (a row each) as a component column for ``send_columns``."""
+
+    def __init__(self, descriptor, array: pa.Array):
+        self._descriptor, self._array = descriptor, array
+
+    def component_descriptor(self):
+        return self._descriptor
+
+    def as_arrow_array(self) -> pa.Array:
+        return self._array
+
+
+def _sparse_column(descriptor, rows: list, to_arrow) -> _Column:
+    """A column with a list of values (``to_arrow(flat values)``) in the rows where ``rows`` has
+    one and null in those where it holds None: Rerun's latest-at skips null rows, so rows without
+    labels (or colours) keep the latest ones, as rows of an entity of their own did."""
+    lengths = np.fromiter((0 if r is None else len(r) for r in rows), dtype=np.int32, count=len(rows))
+    offsets = pa.array(np.concatenate([[0], np.cumsum(lengths, dtype=np.int32)]).astype(np.int32))
+    values = to_arrow([v for r in rows if r is not None for v in r])
+    mask = pa.array(np.fromiter((r is None for r in rows), dtype=bool, count=len(rows)))
+    return _Column(descriptor, pa.ListArray.from_arrays(offsets, values, mask=mask))
+
+
+_SCALARS = rr.Scalars.descriptor_scalars()
+_POSITIONS = rr.Points3D.descriptor_positions()
+
+
+def _list_offsets(n_rows: int, per_row) -> pa.Array:
+    """int32 list offsets of ``n_rows`` rows of ``per_row`` values each (an int, or one per row)."""
+    if np.ndim(per_row) == 0:
+        return pa.array(np.arange(n_rows + 1, dtype=np.int32) * np.int32(per_row))
+    return pa.array(np.concatenate([[0], np.cumsum(per_row, dtype=np.int32)]).astype(np.int32))
+
+
+def _scalar_column(values, per_row=1) -> _Column:
+    """The ``Scalars:scalars`` column of float64 ``values``, ``per_row`` (an int, or one per row)
+    to a row: the arrays ``rr.Scalars.columns(...).partition(...)`` builds, without its per-call cost."""
+    v = pa.array(np.asarray(values, dtype=np.float64).reshape(-1))
+    n_rows = len(v) // per_row if np.ndim(per_row) == 0 else len(per_row)
+    return _Column(_SCALARS, pa.ListArray.from_arrays(_list_offsets(n_rows, per_row), v))
+
+
+def _points_column(xyz: np.ndarray, per_row) -> _Column:
+    """The ``Points3D:positions`` column of points (k, 3) [m], ``per_row`` (an int, or one per row)
+    to a row (float32 xyz, as ``rr.Points3D.columns`` writes them)."""
+    points = Vec3DBatch(np.asarray(xyz, dtype=np.float32)).as_arrow_array()
+    n_rows = len(points) // per_row if np.ndim(per_row) == 0 else len(per_row)
+    return _Column(_POSITIONS, pa.ListArray.from_arrays(_list_offsets(n_rows, per_row), points))
+
+
+class _TimeColumn:
+    """A ``sim_time`` index column (what ``rr.TimeColumn(..., duration=...)`` gives ``send_columns``)."""
+
+    def __init__(self, ns: np.ndarray):
+        self._array = pa.array(ns.astype("timedelta64[ns]"), pa.duration("ns"))
+
+    @staticmethod
+    def timeline_name() -> str:
+        return TIMELINE
+
+    def as_arrow_array(self) -> pa.Array:
+        return self._array
+
+
+def _time_column(times) -> _TimeColumn:
     """Simulation times [s] as a ``sim_time`` column (rounded to ns like ``set_time``)."""
-    ns = np.rint(np.asarray(times, dtype=np.float64) * 1e9).astype(np.int64)
-    return rr.TimeColumn(TIMELINE, duration=ns.astype("timedelta64[ns]"))
+    return _TimeColumn(np.rint(np.asarray(times, dtype=np.float64) * 1e9).astype(np.int64))
 
 
 def _cat(arrays: list[np.ndarray]) -> np.ndarray:

@@ -15,9 +15,16 @@ So two runs with the same scenario and seed write the same *content* in differen
 * the file footer (the chunk manifest Rerun's reader and viewer use to load lazily) rebuilt from
   the SDK's own: new ids, byte offsets and sizes, rows in the new order.
 
-Nothing of the data changes (``rerun rrd compare --unordered`` finds the files equal). Cost: about
-0.5 s per 50 MB; the file is held in memory while it is re-encoded (peak ≈ 5× its size). Chunk
-boundaries must not depend on wall-clock time either: :class:`~mjasc.runs.recording.Recorder`
+A chunk is not decoded and encoded again: its Arrow IPC stream keeps the SDK's record-batch message
+(the data as Arrow-rs wrote it; the SDK writes the same bytes for the same data) with the new row ids
+and ``log_time`` values written over the old ones in place, behind a schema message serialised by
+pyarrow from the canonical schema (the canonical fields are computed once per distinct set of
+fields: a run's thousands of chunks share a few dozen). Cost: ~0.1 ms per chunk (a 50-vessel
+recording holds ~1,500) plus about 0.5 s per 50 MB.
+
+Nothing of the data changes (``rerun rrd compare --unordered`` finds the files equal). The file is
+held in memory while it is re-encoded (peak ≈ 5× its size). Chunk boundaries must not depend on
+wall-clock time either: :class:`~mjasc.runs.recording.Recorder`
 gives the SDK a batcher that flushes on size only (:data:`BATCHER`).
 
 **Container format assumptions (Rerun 0.41; re-check on every Rerun upgrade —
@@ -27,8 +34,10 @@ message a 16-byte header (u64 LE kind: 0 End, 1 SetStoreInfo, 2 ArrowMsg, 3
 BlueprintActivationCommand; u64 LE length) and a protobuf body; the End body is the footer,
 followed by a 32-byte stream footer (u64 start, u64 length, u32 xxh32 of the footer with seed
 7850921, ``RRF2FOOT``, u32 1). (2) Field numbers of rerun.log_msg.v1alpha1 (``_pb`` calls below).
-(3) An ArrowMsg payload is one LZ4-block-compressed Arrow IPC stream. (4) A chunk's column 0 is
-``rerun.controls.RowId`` (fixed_size_binary[16], big-endian time and counter); its id is schema
+(3) An ArrowMsg payload is one LZ4-block-compressed Arrow IPC stream: one schema message, one
+record-batch message (uncompressed buffers: read in place, its row ids written over), the end.
+(4) A chunk's column 0 is ``rerun.controls.RowId`` (fixed_size_binary[16], big-endian time and
+counter); its id is schema
 metadata ``rerun:id`` = ``chunk_`` + %016X time + %016x counter. (5) The footer manifest has
 ``chunk_id``, ``chunk_byte_offset``, ``chunk_byte_size``, ``chunk_byte_size_uncompressed``
 columns. The manifest's schema hash is computed over pyarrow's schema encoding, not Rerun's (Rerun
@@ -37,6 +46,7 @@ checks it only in debug builds).
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import struct
 
@@ -124,6 +134,7 @@ def _pb_parse(b) -> dict[int, list]:
     return out
 
 
+@functools.lru_cache(maxsize=16)
 def _store_key(store_id: bytes) -> tuple[int, str]:
     s = _pb_parse(store_id)
     return s.get(1, [0])[0], s[2][0].decode()
@@ -200,8 +211,79 @@ def _ipc(batch: pa.RecordBatch | None, schema: pa.Schema | None = None) -> bytes
 
 
 def _read_ipc(payload: bytes, compression: int, size: int) -> pa.RecordBatch:
-    raw = _LZ4.decompress(payload, decompressed_size=size, asbytes=True) if compression == 2 else payload
-    return pa.ipc.open_stream(raw).read_next_batch()
+    return pa.ipc.open_stream(_raw_ipc(payload, compression, size)).read_next_batch()
+
+
+def _raw_ipc(payload: bytes, compression: int, size: int) -> bytes:
+    return _LZ4.decompress(payload, decompressed_size=size, asbytes=True) if compression == 2 else payload
+
+
+_EOS = b"\xff\xff\xff\xff\x00\x00\x00\x00"  # an Arrow IPC stream's end
+
+
+class _Chunk:
+    """One chunk as the SDK wrote it: its decompressed IPC stream ``raw`` (schema message, one
+    record-batch message from ``start``, end of stream), schema, row ids (n, 2) (big-endian time,
+    counter), where the row ids and the ``log_time`` values lie in ``raw`` and whether it is static."""
+
+    __slots__ = ("raw", "start", "schema", "fields", "row_ids", "row_id_at", "log_times", "is_static")
+
+    def __init__(self, raw: bytes, is_static: int):
+        buf = pa.py_buffer(raw)
+        reader = pa.BufferReader(buf)
+        self.schema = schema = pa.ipc.read_schema(pa.ipc.read_message(reader))
+        self.start = reader.tell()
+        batch = pa.ipc.read_record_batch(pa.ipc.read_message(reader), schema)  # zero-copy: buffers lie in raw
+        if reader.tell() != len(raw) - 8 or raw[-8:] != _EOS:
+            raise CanonicalRrdError("a chunk's Arrow stream is not one schema and one record batch")
+        if schema.field(0).name != "rerun.controls.RowId" or schema.field(0).type != pa.binary(16):
+            raise CanonicalRrdError(f"chunk without a row-id column: {schema.field(0).name}")
+        self.raw, self.is_static = raw, is_static
+        n = batch.num_rows
+        self.row_id_at = self._at(batch.column(0), 16, buf, raw)
+        self.row_ids = np.frombuffer(raw, ">u8", 2 * n, self.row_id_at).reshape(n, 2)
+        self.fields, log_times = _canon_fields(schema)
+        self.log_times = [(self._at(batch.column(j), 8, buf, raw), n) for j in log_times]
+
+    def _at(self, column: pa.Array, width: int, buf: pa.Buffer, raw: bytes) -> int:
+        """Where the values of ``column`` (fixed ``width`` bytes each) lie in ``raw``."""
+        values = column.buffers()[1]
+        at = values.address + width * column.offset - buf.address
+        size = width * len(column)
+        if not (self.start <= at and at + size <= len(raw) - 8) or \
+                memoryview(values).cast("B")[width * column.offset:][:size] != memoryview(raw)[at:at + size]:
+            raise CanonicalRrdError("a chunk's column does not lie in its Arrow stream")
+        return at
+
+    def ipc(self, row_ids: np.ndarray, chunk_id: bytes) -> bytes:
+        """The canonical IPC stream: the canonical schema with ``chunk_id``, the record batch with
+        ``row_ids`` ((n, 2) big-endian) and every ``log_time`` at :data:`BASE_NS`."""
+        md = dict(self.schema.metadata or {})
+        md[b"rerun:id"] = chunk_id
+        schema = pa.schema(self.fields, metadata=dict(sorted(md.items())))
+        body = bytearray(memoryview(self.raw)[self.start:])
+        at = self.row_id_at - self.start
+        body[at:at + row_ids.nbytes] = row_ids.tobytes()
+        for at, n in self.log_times:
+            body[at - self.start:at - self.start + 8 * n] = np.full(n, BASE_NS, "<i8").tobytes()
+        return schema.serialize().to_pybytes() + bytes(body)
+
+
+_FIELDS: dict = {}  # schema without its metadata → (canonical fields, indices of log_time columns)
+
+
+def _canon_fields(schema: pa.Schema) -> tuple[list, list]:
+    """The fields of ``schema`` with their metadata keys sorted, and which are ``log_time``
+    indexes (pyarrow's schema equality ignores the metadata's key order)."""
+    key = schema.remove_metadata()
+    hit = _FIELDS.get(key)
+    if hit is None:
+        if len(_FIELDS) >= 4096:  # (a run has a few dozen; a long-lived worker stays bounded)
+            _FIELDS.clear()
+        fields = [f.with_metadata(_sorted(f.metadata)) if f.metadata else f for f in schema]
+        log_times = [j for j, f in enumerate(schema) if (f.metadata or {}).get(b"rerun:index_name") == b"log_time"]
+        hit = _FIELDS[key] = (fields, log_times)
+    return hit
 
 
 def _tuids(t_ns: int, incs) -> pa.Array:
@@ -240,8 +322,8 @@ def _read(data: bytes):
             stores.setdefault(_store_key(info[2][0]), info)
         elif kind == _ARROW:
             m = _pb_parse(body)
-            batch = _read_ipc(m[5][0], m.get(2, [0])[0], m.get(3, [0])[0])
-            chunks.setdefault(_store_key(m[1][0]), []).append((batch, m.get(7, [0])[0]))
+            raw = _raw_ipc(m[5][0], m.get(2, [0])[0], m.get(3, [0])[0])
+            chunks.setdefault(_store_key(m[1][0]), []).append(_Chunk(raw, m.get(7, [0])[0]))
         elif kind == _ACTIVATION:
             activation = _pb_parse(body)
         elif kind == _END:
@@ -265,7 +347,8 @@ def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_i
     out = bytearray(b"RRF2" + data[4:8] + bytes([1, 2, 0, 0]))
 
     def message(kind: int, body: bytes) -> None:
-        out.extend(struct.pack("<QQ", kind, len(body)) + body)
+        out.extend(struct.pack("<QQ", kind, len(body)))
+        out.extend(body)
 
     footer = []
     order = [(_BLUEPRINT, blueprint_id)] * len(by_kind[_BLUEPRINT]) + [(_RECORDING, recording_id)]
@@ -279,29 +362,26 @@ def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_i
         if src and old not in manifests:
             raise CanonicalRrdError(f"store {old[1]} has no footer manifest (the file was not closed)")
         # Rank of every row id within the store: the new row ids keep the original order.
-        rids = [np.frombuffer(b.column(0).buffers()[1], ">u8").reshape(-1, 2)[b.column(0).offset:][:b.num_rows]
-                for b, _ in src]
-        every = np.concatenate(rids) if rids else np.empty((0, 2), ">u8")
+        every = np.concatenate([c.row_ids for c in src]) if src else np.empty((0, 2), ">u8")
         rank = np.empty(len(every), np.int64)
         rank[np.lexsort((every[:, 1], every[:, 0]))] = np.arange(len(every))
-        starts = np.cumsum([0] + [len(r) for r in rids])
-        first = [rank[starts[k]:starts[k + 1]].min() for k in range(len(src))]
+        counts = np.array([len(c.row_ids) for c in src], dtype=np.int64)
+        if src and not counts.all():
+            raise CanonicalRrdError("a chunk without rows")
+        starts = np.concatenate([[0], np.cumsum(counts)])
+        first = np.minimum.reduceat(rank, starts[:-1]) if src else rank
+        head = _pb_bytes(1, sid) + _pb_int(2, 2)
+        tail = _pb_int(4, 1)
         new_ids, spans = {}, {}
-        for k, ci in enumerate(sorted(range(len(src)), key=lambda c: first[c])):
-            batch, is_static = src[ci]
-            if batch.schema.field(0).name != "rerun.controls.RowId":
-                raise CanonicalRrdError(f"chunk without a row-id column: {batch.schema.field(0).name}")
+        for k, ci in enumerate(np.argsort(first, kind="stable").tolist()):
+            chunk = src[ci]
             inc = store_no << 40 | k
-            new_ids[batch.schema.metadata[b"rerun:id"]] = (k, inc)
-            cols = list(batch.columns)
-            cols[0] = _tuids(BASE_NS, rank[starts[ci]:starts[ci + 1]] + 1)
-            batch = _fixed_log_time(pa.RecordBatch.from_arrays(cols, schema=batch.schema),
-                                    lambda f: (f.metadata or {}).get(b"rerun:index_name") == b"log_time")
-            schema = _canon_schema(batch.schema, extra={b"rerun:id": f"chunk_{BASE_NS:016X}{inc:016x}".encode()})
-            ipc = _ipc(pa.RecordBatch.from_arrays(batch.columns, schema=schema))
-            body = (_pb_bytes(1, sid) + _pb_int(2, 2) + _pb_int(3, len(ipc)) + _pb_int(4, 1)
-                    + _pb_bytes(5, _LZ4.compress(ipc, asbytes=True)) + _pb_bytes(6, _pb_tuid(BASE_NS, inc))
-                    + _pb_int(7, is_static))
+            new_ids[chunk.schema.metadata[b"rerun:id"]] = (k, inc)
+            ids = np.empty((counts[ci], 2), ">u8")
+            ids[:, 0], ids[:, 1] = BASE_NS, rank[starts[ci]:starts[ci + 1]] + 1
+            ipc = chunk.ipc(ids, f"chunk_{BASE_NS:016X}{inc:016x}".encode())
+            body = (head + _pb_int(3, len(ipc)) + tail + _pb_bytes(5, _LZ4.compress(ipc, asbytes=True))
+                    + _pb_bytes(6, _pb_tuid(BASE_NS, inc)) + _pb_int(7, chunk.is_static))
             spans[k] = (len(out) + 16, len(body), len(ipc))
             message(_ARROW, body)
         if kind == _BLUEPRINT and activation is not None:
@@ -320,7 +400,10 @@ def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_i
 def _manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes:
     """The SDK's footer manifest of one store with the new store id, chunk ids, offsets and sizes."""
     sorbet = _canon_schema(pa.ipc.read_schema(pa.py_buffer(_pb_parse(man[2][0])[1][0])), sort_fields=True)
-    sha = hashlib.sha256(pa.schema(list(sorbet)).serialize().to_pybytes()).digest()
+    sorbet_ipc = _ipc(None, sorbet)  # (the schema message and the end of stream)
+    # The hash is over the schema without its own metadata (it has none: the message itself then).
+    sha = hashlib.sha256(pa.schema(list(sorbet)).serialize().to_pybytes() if sorbet.metadata
+                         else sorbet_ipc[:-len(_EOS)]).digest()
     part = _pb_parse(man[4][0])
     batch = _read_ipc(part[2][0], part.get(3, [0])[0], part.get(4, [0])[0])
     olds = [b"chunk_%016X%016x" % struct.unpack(">QQ", c) for c in batch.column("chunk_id").to_pylist()]
@@ -340,4 +423,4 @@ def _manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes:
     batch = batch.take(pa.array(np.argsort(ks)))
     ipc = _ipc(pa.RecordBatch.from_arrays(batch.columns, schema=_canon_schema(batch.schema)))
     data = _pb_int(1, 1) + _pb_bytes(2, _LZ4.compress(ipc, asbytes=True)) + _pb_int(3, 2) + _pb_int(4, len(ipc))
-    return _pb_bytes(1, sid) + _pb_bytes(2, _pb_bytes(1, _ipc(None, sorbet))) + _pb_bytes(3, sha) + _pb_bytes(4, data)
+    return _pb_bytes(1, sid) + _pb_bytes(2, _pb_bytes(1, sorbet_ipc)) + _pb_bytes(3, sha) + _pb_bytes(4, data)

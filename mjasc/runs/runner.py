@@ -75,6 +75,14 @@ PLOT_SERIES = {"speed": "plots/speed/{}/actual", "speed_ref": "plots/speed/{}/re
                "heading": "plots/heading/{}", "cross_track": "plots/cross_track/{}"}
 
 
+def _link_counts(network):
+    """A vessel's messages delivered and lost so far on ``network`` (the comms log's counts)."""
+    def counts(name: str) -> tuple[int, int]:
+        s = network.stats(name)
+        return s["delivered"], s["lost"]
+    return counts
+
+
 class RunFailed(RuntimeError):
     """A run stopped early; the message says why and where its partial outputs are. ``summary`` is
     the run's summary up to the stop (the same fields as a completed run's, ``status`` saying why:
@@ -209,8 +217,7 @@ class Runner:
             rec.fleet_points(e["moving"], t, traffic[0], z=0.3)
         if self._comms_log is not None:
             net = self.network
-            self._comms_log.log(rec, t, net.drain_outcomes(), states.position_m,
-                                [(s["delivered"], s["lost"]) for s in map(net.stats, self._comms_log.names)])
+            self._comms_log.log(rec, t, net.drain_outcomes(), states.position_m, _link_counts(net))
         if not self.sim.current.is_steady and self._current_grid is not None and \
                 (not self._current_times or t - self._current_times[-1] >= 2.0):
             self._current_times.append(t)
