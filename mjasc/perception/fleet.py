@@ -41,6 +41,7 @@ from mjasc.perception.detection import detect_many
 from mjasc.perception.owned_discs import inside_owned_discs
 from mjasc.perception.scan_batch import ScanBatch, ScanStack
 from mjasc.perception.static_map import StaticMap, StaticMapStore
+from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows
 from mjasc.perception.tracking.fleet import FleetTracker
 from mjasc.perception.tracking.tracker import MultiTargetTracker
 
@@ -285,7 +286,7 @@ class PerceptionFleet:
             t_own = np.full(ft.n_owners, np.nan)
             t_own[owners] = [scans[k].time_s for k in slots]
             mg = ft.mgmt
-            sel = np.flatnonzero(mg._confirmed & (~mg._static | mg._moved) & ~np.isnan(t_own[ft.owner]))
+            sel = disc_rows(mg._confirmed, mg._static, mg._moved, ft.owner, t_own)
             if sel.size == 0:
                 continue
             own = ft.owner[sel]
@@ -325,16 +326,12 @@ def tracked_discs(ft: FleetTracker, rows: np.ndarray, t_s) -> tuple[np.ndarray, 
     t_s ((k,) [s]): the combined estimate advanced along its arc (thesis eq. 3.3 with ω̂, one step
     of dt = t_s − its last update: a coasting track is predicted, not left where it was last seen);
     the radius is the track's radius + ``DISC_MARGIN_M`` + 2σ of its position (at most
-    ``DISC_MARGIN_MAX_M`` beyond the radius)."""
+    ``DISC_MARGIN_MAX_M`` beyond the radius). Compiled loops (:mod:`mjasc.perception.tracked_disc_kernels`)
+    but numpy's cosine and sine."""
     t, pos, th, v, w, P = ft.bank.estimate_fields(rows)
-    dt = np.maximum(t_s - t, 0.0)
-    th = th + 0.5 * dt * w
-    step = dt * v
-    c = np.empty((rows.size, 2))
-    c[:, 0] = pos[:, 0] + step * np.cos(th)
-    c[:, 1] = pos[:, 1] + step * np.sin(th)
-    r = ft.mgmt._radius[rows] + disc_margin(P)
-    return c, r
+    dt, th = disc_courses(t_s, t, th, w)
+    return disc_geometry(pos, dt, v, np.cos(th), np.sin(th), ft.mgmt._radius[rows], P, DISC_MARGIN_M,
+                         DISC_MARGIN_MAX_M)
 
 
 def disc_margin(P: np.ndarray) -> np.ndarray:
