@@ -105,6 +105,7 @@ class PerceptionFleet:
         self._scans: list = []  # members queued for the sensing pass (their casts in _batch, in order)
         self._tracks: list = []  # members queued for the tracking pass
         self._scan_ids: set[int] = set()
+        self._plans: dict = {}  # _disc_plan per combination of members
         self._track_ids: set[int] = set()
         self._busy = False
 
@@ -232,9 +233,9 @@ class PerceptionFleet:
                         [s.ranges for s in sc], [s.hit for s in sc], [s.max_range_m for s in sc],
                         [s.full_circle for s in sc], [members[k].sensor_config.range_noise_std_m for k in carve],
                         [s.hit_points_world for s in sc])
-        tk = np.split(targets, det_off[1:]) if S > 1 else [targets]
-        for m, s, d, t in zip(members, scans, dets, tk):
-            m._scanned(s, d, t)
+        cut = det_off.tolist() + [M]
+        for k, m in enumerate(members):
+            m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]])
 
     @staticmethod
     def _split(members, scans, dets, batch, lab, ret_k, pts, slot, dc, dr, d_k) -> None:
@@ -272,17 +273,13 @@ class PerceptionFleet:
         scan time, and the slot of that vessel (q,) (grouped by slot, ascending; within a slot in
         the order of its tracker's rows)."""
         parts = []
-        for k, m in enumerate(members):
-            if m.method is not None:
-                c, r = m.tracked_discs(scans[k].time_s)
-                parts.append((np.full(r.shape[0], k, dtype=np.int64), c, r))
-        for ft in self._trackers:
+        plugins, trackers = self._disc_plan(members)
+        for k in plugins:
+            c, r = members[k].tracked_discs(scans[k].time_s)
+            parts.append((np.full(r.shape[0], k, dtype=np.int64), c, r))
+        for ft, slots, owners, slot_of in trackers:
             if len(ft.bank) == 0:
                 continue
-            slots = [k for k, m in enumerate(members) if m._tracker is not None and m._tracker.fleet is ft]
-            if not slots:
-                continue
-            owners = np.array([members[k]._tracker.owner for k in slots], dtype=np.int64)
             t_own = np.full(ft.n_owners, np.nan)
             t_own[owners] = [scans[k].time_s for k in slots]
             mg = ft.mgmt
@@ -291,8 +288,6 @@ class PerceptionFleet:
                 continue
             own = ft.owner[sel]
             c, r = tracked_discs(ft, sel, t_own[own])
-            slot_of = np.zeros(ft.n_owners, dtype=np.int64)
-            slot_of[owners] = slots
             parts.append((slot_of[own], c, r))
         if not parts:
             return np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)
@@ -304,6 +299,28 @@ class PerceptionFleet:
             r = np.concatenate([p[2] for p in parts])
         order = np.argsort(k, kind="stable")
         return c[order], r[order], k[order]
+
+    def _disc_plan(self, members) -> tuple[list[int], list[tuple]]:
+        """The slots of ``members`` with a plugin tracker, and per fleet tracker with members among
+        them: (tracker, their slots, their owner indices (q,), the slot of each owner index): made
+        once per combination of members (and trackers' owners)."""
+        key = tuple(members)
+        size = tuple(ft.n_owners for ft in self._trackers)
+        got = self._plans.get(key)
+        if got is None or got[0] != size:
+            if len(self._plans) >= 64:
+                self._plans.clear()
+            plugins = [k for k, m in enumerate(members) if m.method is not None]
+            trackers = []
+            for ft in self._trackers:
+                slots = [k for k, m in enumerate(members) if m._tracker is not None and m._tracker.fleet is ft]
+                if slots:
+                    owners = np.array([members[k]._tracker.owner for k in slots], dtype=np.int64)
+                    slot_of = np.zeros(ft.n_owners, dtype=np.int64)
+                    slot_of[owners] = slots
+                    trackers.append((ft, slots, owners, slot_of))
+            got = self._plans[key] = (size, plugins, trackers)
+        return got[1], got[2]
 
     # ------------------------------------------------------------------ tracking pass
     def _track(self, members) -> None:

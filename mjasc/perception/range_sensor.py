@@ -166,6 +166,7 @@ class RangeSensor:
         #: cosines and sines of ``angles_body`` (numpy's, taken once: a scan's returns gather them)
         self.cos_body, self.sin_body = np.cos(self.angles_body), np.sin(self.angles_body)
         self.beam_spacing_rad = config.beam_spacing_rad
+        self.full_circle = config.full_circle
         self._vec = np.zeros((n, 3))
         self._vec_flat = self._vec.reshape(-1)
         self._angles, self._cos, self._sin = np.empty(n), np.empty(n), np.empty(n)

@@ -65,12 +65,8 @@ class ScanBatch:
     def _clear(self) -> None:
         self._sensors: list[RangeSensor] = []
         self._offs = [0]
-        self._times: list[float] = []
-        self._xy: list[tuple[float, float]] = []
-        self._yaw: list[float] = []
-        self._has_normals: list[bool] = []
-        self._has_uniforms: list[bool] = []
-        self._clutter: list[tuple[np.ndarray, np.ndarray]] = []
+        self._queued: list[tuple] = []  # per cast: time [s], x, y [m], yaw [rad], has normals, has uniforms
+        self._clutter: list[tuple[np.ndarray, np.ndarray]] = []  # per cast: clutter beams, ranges [m]
 
     def _grow(self, need: int) -> None:
         cap = max(1024, 2 * need)
@@ -103,18 +99,14 @@ class ScanBatch:
             tables.append((sensor, a))
         self._sensors.append(sensor)
         self._offs.append(b)
-        self._times.append(float(data.time))
-        self._xy.append((x, y))
-        self._yaw.append(yaw)
-        self._has_normals.append(has_n)
-        self._has_uniforms.append(has_u)
+        self._queued.append((float(data.time), x, y, yaw, has_n, has_u))
         self._clutter.append((cb, cr))
 
     def _constants(self):
         """Per-scan parameters (S,) of the queued sensors (made again when the sensors change)."""
         key = tuple(self._sensors)
         if key != self._const_key or self._const is None:
-            cs = [s.config for s in key]
+            cs = [sn.config for sn in key]
             self._const_key = key
             self._const = (np.array(self._offs, dtype=np.int64), np.array([c.range_noise_std_m for c in cs], float),
                            np.array([c.dropout_probability for c in cs], float),
@@ -123,26 +115,27 @@ class ScanBatch:
 
     def take(self) -> ScanStack:
         """The queued casts as scans (module docstring); the batch is emptied."""
-        sensors, offs, times, yaws = self._sensors, self._offs, self._times, self._yaw
+        sensors, offs, queued, clutter = self._sensors, self._offs, self._queued, self._clutter
         S = len(sensors)
         N = offs[-1]
         beam_off, noise, dropout, min_r, max_r = self._constants()
-        origins = np.array(self._xy, dtype=float).reshape(S, 2)
+        times, xs, ys, yaws, has_n, has_u = zip(*queued)
+        origins = np.empty((S, 2))
+        origins[:, 0], origins[:, 1] = xs, ys
         cos_h = np.array([math.cos(y) for y in yaws])
         sin_h = np.array([math.sin(y) for y in yaws])
-        clutter = self._clutter
         if S == 1:
             cb, cr = clutter[0]
+            c_off = np.array([0, cb.size], dtype=np.int64)
         else:
             cb = np.concatenate([c[0] for c in clutter])
             cr = np.concatenate([c[1] for c in clutter])
-        c_off = np.zeros(S + 1, dtype=np.int64)
-        np.cumsum([c[0].size for c in clutter], out=c_off[1:])
+            c_off = np.zeros(S + 1, dtype=np.int64)
+            np.cumsum([c[0].size for c in clutter], out=c_off[1:])
         ranges, hit, geom, beams, ret_off, rho, body, world = scan_batch(
-            self._dist[:N], self._gid[:N], beam_off, noise, self._normals[:N], np.array(self._has_normals), dropout,
-            self._uniforms[:N],
-            np.array(self._has_uniforms), cb, cr, c_off, min_r, max_r, CLUTTER_GEOM, self._cos[:N], self._sin[:N],
-            origins, cos_h, sin_h)
+            self._dist[:N], self._gid[:N], beam_off, noise, self._normals[:N], np.array(has_n), dropout,
+            self._uniforms[:N], np.array(has_u), cb, cr, c_off, min_r, max_r, CLUTTER_GEOM, self._cos[:N],
+            self._sin[:N], origins, cos_h, sin_h)
         ro = ret_off.tolist()
         scans = []
         for k, sensor in enumerate(sensors):
@@ -150,6 +143,7 @@ class ScanBatch:
             c = sensor.config
             scans.append(estimate_of(Scan, times[k], origins[k], yaws[k], sensor.angles_body, ranges[a:b], hit[a:b],
                                      beams[p:q], body[p:q], world[p:q], geom[a:b], c.max_range_m,
-                                     sensor.beam_spacing_rad, c.full_circle))
+                                     sensor.beam_spacing_rad, sensor.full_circle))
         self._clear()
-        return ScanStack(tuple(scans), beam_off, ret_off, ranges, hit, beams, rho, world, origins, cos_h, sin_h)
+        return estimate_of(ScanStack, tuple(scans), beam_off, ret_off, ranges, hit, beams, rho, world, origins, cos_h,
+                           sin_h)
