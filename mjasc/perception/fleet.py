@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import time
 import weakref
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -105,7 +106,7 @@ class PerceptionFleet:
         self._scans: list = []  # members queued for the sensing pass (their casts in _batch, in order)
         self._tracks: list = []  # members queued for the tracking pass
         self._scan_ids: set[int] = set()
-        self._plans: dict = {}  # _disc_plan per combination of members
+        self._plans: dict = {}  # _plan per combination of members
         self._track_ids: set[int] = set()
         self._busy = False
 
@@ -179,16 +180,15 @@ class PerceptionFleet:
     def _sense(self, members, stack: ScanStack) -> None:
         scans = stack.scans
         S = len(scans)
-        batch = detect_many(scans, [m.config.detection for m in members],
-                            [m.sensor_config.range_noise_std_m for m in members],
-                            [m.sensor_config.dropout_probability for m in members], stack=stack)
+        plan = self._plan(members)
+        batch = detect_many(scans, plan.detection, plan.noise, plan.dropout, stack=stack)
         dets = batch.split()
         split = list(dets)
-        dc, dr, d_k = self._discs(members, scans)
+        dc, dr, d_k = self._discs(members, scans, plan)
         store = self.map_store
-        slot = np.array([m._map.member for m in members], dtype=np.int64)  # map member of each slot
+        slot = plan.slot  # map member of each slot
         ret_off, det_off_all = stack.ret_off, batch.det_offsets
-        ret_k = np.repeat(np.arange(S), np.diff(ret_off))
+        ret_k = np.repeat(plan.index, np.diff(ret_off))
         lab = batch.labels
         if d_k.size and batch.extended.any():  # a wall's cluster may have swallowed a tracked boat's returns
             self._split(members, scans, dets, batch, lab, ret_k, stack.hit_points_world, slot, dc, dr, d_k)
@@ -204,7 +204,7 @@ class PerceptionFleet:
             n_det = np.diff(det_off_all)
             det_off = det_off_all[:-1]
             extended, n_pts, centres = batch.extended, batch.n_points, batch.centres_m
-        det_k = np.repeat(np.arange(S), n_det)
+        det_k = np.repeat(plan.index, n_det)
         pts = stack.hit_points_world
         lab = np.where(lab >= 0, lab + det_off[ret_k], -1)
         M = int(n_det.sum())
@@ -216,17 +216,16 @@ class PerceptionFleet:
                 frac = np.bincount(lab[good], weights=occ[good], minlength=M) / np.maximum(n_pts, 1)
                 on_map = targets & (frac >= 0.5) & ~inside_owned(centres, det_k, dc, dr, d_k)
                 if on_map.any():  # a wall fragment is flat; a hull's returns curve round it
-                    sig = np.array([m.sensor_config.range_noise_std_m for m in members])
-                    on_map &= thickness(pts, lab, M) <= FLAT_M + 2.0 * sig[det_k]
+                    on_map &= thickness(pts, lab, M) <= FLAT_M + 2.0 * plan.sigma[det_k]
                 targets &= ~on_map
             good_static = good & ~targets[np.maximum(lab, 0)]
             if good_static.any():
                 p, pk = pts[good_static], ret_k[good_static]
                 away = ~inside_owned(p, pk, dc, dr, d_k)
                 store.add_points(slot[pk[away]], p[away])
-        carve = [k for k, m in enumerate(members) if m._map.miss_weight > 0]
+        carve = plan.carve
         if len(carve) == S:
-            store.carve_stack(slot, stack, [m.sensor_config.range_noise_std_m for m in members])
+            store.carve_stack(slot, stack, plan.noise)
         elif carve:
             sc = [scans[k] for k in carve]
             store.carve(slot[carve].tolist(), [s.origin_m for s in sc], [s.angles_body + s.heading_rad for s in sc],
@@ -267,17 +266,16 @@ class PerceptionFleet:
             a = d_off[k]
             dets[k] = members[k]._split_tracked(scans[k], dets[k], (dc[a:a + d_cnt[k]], dr[a:a + d_cnt[k]]))
 
-    def _discs(self, members, scans) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _discs(self, members, scans, plan: "_Plan") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centres (q, 2) and radii (q,) [m] of the tracks whose returns must never reach their
         vessel's map (:meth:`mjasc.perception.pipeline.Perception.tracked_discs`), at the vessel's
         scan time, and the slot of that vessel (q,) (grouped by slot, ascending; within a slot in
         the order of its tracker's rows)."""
         parts = []
-        plugins, trackers = self._disc_plan(members)
-        for k in plugins:
+        for k in plan.plugins:
             c, r = members[k].tracked_discs(scans[k].time_s)
             parts.append((np.full(r.shape[0], k, dtype=np.int64), c, r))
-        for ft, slots, owners, slot_of in trackers:
+        for ft, slots, owners, slot_of in plan.trackers:
             if len(ft.bank) == 0:
                 continue
             t_own = np.full(ft.n_owners, np.nan)
@@ -300,17 +298,15 @@ class PerceptionFleet:
         order = np.argsort(k, kind="stable")
         return c[order], r[order], k[order]
 
-    def _disc_plan(self, members) -> tuple[list[int], list[tuple]]:
-        """The slots of ``members`` with a plugin tracker, and per fleet tracker with members among
-        them: (tracker, their slots, their owner indices (q,), the slot of each owner index): made
-        once per combination of members (and trackers' owners)."""
+    def _plan(self, members) -> "_Plan":
+        """The constants of a sensing pass over these members, made once per combination of
+        members (and of the trackers' owners)."""
         key = tuple(members)
         size = tuple(ft.n_owners for ft in self._trackers)
         got = self._plans.get(key)
         if got is None or got[0] != size:
             if len(self._plans) >= 64:
                 self._plans.clear()
-            plugins = [k for k, m in enumerate(members) if m.method is not None]
             trackers = []
             for ft in self._trackers:
                 slots = [k for k, m in enumerate(members) if m._tracker is not None and m._tracker.fleet is ft]
@@ -319,8 +315,15 @@ class PerceptionFleet:
                     slot_of = np.zeros(ft.n_owners, dtype=np.int64)
                     slot_of[owners] = slots
                     trackers.append((ft, slots, owners, slot_of))
-            got = self._plans[key] = (size, plugins, trackers)
-        return got[1], got[2]
+            noise = [m.sensor_config.range_noise_std_m for m in members]
+            got = self._plans[key] = (size, _Plan(
+                detection=[m.config.detection for m in members], noise=noise, sigma=np.array(noise, dtype=float),
+                dropout=[m.sensor_config.dropout_probability for m in members],
+                slot=np.array([m._map.member for m in members], dtype=np.int64),
+                carve=[k for k, m in enumerate(members) if m._map.miss_weight > 0],
+                index=np.arange(len(members)), plugins=[k for k, m in enumerate(members) if m.method is not None],
+                trackers=trackers))
+        return got[1]
 
     # ------------------------------------------------------------------ tracking pass
     def _track(self, members) -> None:
@@ -336,6 +339,24 @@ class PerceptionFleet:
                 m._track_with_method()
         for m in members:
             m._tracked()
+
+
+@dataclass(frozen=True, eq=False)
+class _Plan:
+    """What a sensing pass over one combination of members (slots 0 … S−1) needs of them: per slot
+    the detection config, σ_ρ (list and array), dropout probability, map member, the slot index;
+    the slots whose maps carve; the slots with a plugin tracker; per fleet tracker with members
+    among them (tracker, their slots, their owner indices (q,), the slot of each owner index)."""
+
+    detection: list
+    noise: list
+    sigma: np.ndarray
+    dropout: list
+    slot: np.ndarray
+    carve: list
+    index: np.ndarray
+    plugins: list
+    trackers: list
 
 
 def tracked_discs(ft: FleetTracker, rows: np.ndarray, t_s) -> tuple[np.ndarray, np.ndarray]:

@@ -174,6 +174,7 @@ class RangeSensor:
         self._dist = np.zeros(n)
         self._pnt = np.zeros(3)
         self._pnt[2] = config.ray_height_m
+        self._yaw = math.nan  # the heading [rad] _vec's directions are for
         self._data = None  # the MjData whose mount pose views are kept (_xpos, _xmat)
         self._batch = None  # the ScanBatch of scan() on its own
 
@@ -193,10 +194,12 @@ class RangeSensor:
         yaw = math.atan2(xm[3], xm[0])
         x, y = float(self._xpos[0]), float(self._xpos[1])
         pnt[0], pnt[1] = x, y
-        a = np.add(self.angles_body, yaw, out=self._angles)
-        vec = self._vec
-        vec[:, 0] = np.cos(a, out=self._cos)
-        vec[:, 1] = np.sin(a, out=self._sin)
+        if yaw != self._yaw:  # the world directions of the beams (kept while the heading stays the same)
+            a = np.add(self.angles_body, yaw, out=self._angles)
+            vec = self._vec
+            vec[:, 0] = np.cos(a, out=self._cos)
+            vec[:, 1] = np.sin(a, out=self._sin)
+            self._yaw = yaw
         c = self.config
         mujoco.mj_multiRay(self.model, data, pnt, self._vec_flat, self.geomgroup, 1, self.body_id, geom_ids, dist,
                            None, c.beams, c.max_range_m)
