@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from itertools import accumulate
 
 import numpy as np
 
@@ -120,8 +121,7 @@ class ScanBatch:
         N = offs[-1]
         beam_off, noise, dropout, min_r, max_r = self._constants()
         times, xs, ys, yaws, has_n, has_u = zip(*queued)
-        origins = np.empty((S, 2))
-        origins[:, 0], origins[:, 1] = xs, ys
+        origins = np.array([xs, ys], dtype=float).T.copy()
         cos_h = np.array([math.cos(y) for y in yaws])
         sin_h = np.array([math.sin(y) for y in yaws])
         if S == 1:
@@ -130,8 +130,7 @@ class ScanBatch:
         else:
             cb = np.concatenate([c[0] for c in clutter])
             cr = np.concatenate([c[1] for c in clutter])
-            c_off = np.zeros(S + 1, dtype=np.int64)
-            np.cumsum([c[0].size for c in clutter], out=c_off[1:])
+            c_off = np.array([0, *accumulate(c[0].size for c in clutter)], dtype=np.int64)
         ranges, hit, geom, beams, ret_off, rho, body, world = scan_batch(
             self._dist[:N], self._gid[:N], beam_off, noise, self._normals[:N], np.array(has_n), dropout,
             self._uniforms[:N], np.array(has_u), cb, cr, c_off, min_r, max_r, CLUTTER_GEOM, self._cos[:N],
