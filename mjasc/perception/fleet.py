@@ -14,8 +14,7 @@ floor, per vessel) and makes its draws into the fleet's :class:`~mjasc.perceptio
   call; one :func:`~mjasc.perception.detection.detect_many` over all scans (their returns stacked
   as the batch made them); the tracked discs
   of every vessel's tracks at its scan time (arrays over the fleet's tracks); the returns a wall's
-  cluster swallowed from a tracked boat re-clustered (only for the vessels where that happens:
-  the returns of every scan's wall clusters are tested against the discs at once);
+  cluster swallowed from a tracked boat re-clustered (only for the vessels where that happens);
   wall fragments among the targets, static returns into the maps, free space carved: one call
   each for all vessels;
 * **tracking**: one :meth:`FleetTracker.step` for all vessels of a tracking configuration; a vessel
@@ -191,7 +190,12 @@ class PerceptionFleet:
         ret_k = np.repeat(plan.index, np.diff(ret_off))
         lab = batch.labels
         if d_k.size and batch.extended.any():  # a wall's cluster may have swallowed a tracked boat's returns
-            self._split(members, scans, dets, batch, lab, ret_k, stack.hit_points_world, slot, dc, dr, d_k)
+            ext_any = np.bincount(np.repeat(plan.index, np.diff(det_off_all))[batch.extended], minlength=S) > 0
+            d_cnt = np.bincount(d_k, minlength=S)
+            d_off = _starts(d_cnt).tolist()
+            for k in np.flatnonzero(ext_any & (d_cnt > 0)).tolist():
+                a, b = d_off[k], d_off[k] + int(d_cnt[k])
+                dets[k] = members[k]._split_tracked(scans[k], dets[k], (dc[a:b], dr[a:b]))
         if any(d is not b for d, b in zip(dets, split)):  # stacked again
             n_det = np.array([len(d) for d in dets], dtype=np.int64)
             det_off = _starts(n_det)
@@ -235,36 +239,6 @@ class PerceptionFleet:
         cut = det_off.tolist() + [M]
         for k, m in enumerate(members):
             m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]])
-
-    @staticmethod
-    def _split(members, scans, dets, batch, lab, ret_k, pts, slot, dc, dr, d_k) -> None:
-        """Give the scans whose wall clusters hold returns in one of their vessel's tracked discs
-        (outside its mapped cells) to ``_split_tracked`` (``dets`` updated in place); the others
-        would come back unchanged. The returns are tested for all scans at once, as
-        :meth:`~mjasc.perception.pipeline.Perception._split_tracked` tests them per scan."""
-        S = len(scans)
-        det_off = batch.det_offsets
-        glob = np.where(lab >= 0, lab + det_off[:-1][ret_k], 0)
-        take = (lab >= 0) & batch.extended[glob]
-        if not take.any():
-            return
-        sel = np.flatnonzero(take)
-        inside = inside_owned(pts[sel], ret_k[sel], dc, dr, d_k)
-        sel = sel[inside]
-        if sel.size == 0:
-            return
-        has_occ = np.array([m._map.n_occupied > 0 for m in members])
-        mapped = has_occ[ret_k[sel]]
-        if mapped.any():
-            on = sel[mapped]
-            occ = np.zeros(sel.size, dtype=bool)
-            occ[mapped] = members[0]._map.store.occupied(slot[ret_k[on]], pts[on])
-            sel = sel[~occ]
-        d_cnt = np.bincount(d_k, minlength=S)
-        d_off = _starts(d_cnt).tolist()
-        for k in np.unique(ret_k[sel]).tolist():
-            a = d_off[k]
-            dets[k] = members[k]._split_tracked(scans[k], dets[k], (dc[a:a + d_cnt[k]], dr[a:a + d_cnt[k]]))
 
     def _discs(self, members, scans, plan: "_Plan") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centres (q, 2) and radii (q,) [m] of the tracks whose returns must never reach their
