@@ -10,6 +10,7 @@ import pytest
 
 from mjasc.perception.cluster_kernels import (_OCCLUDER_MARGIN_M, _WALL_SIN_TOL, _WALL_STEP_MAX_M, _WALL_STEP_RATIO,
                                               cluster_order, occluded_edges)
+from mjasc.perception.detection_kernels import cluster_discs, detect_clusters, kept_detections
 
 
 def _numpy_wall_continues(P, gaps, step, nxt, prv, sigma, gap_max):
@@ -137,3 +138,32 @@ def test_clusters_and_hidden_edges_equal_the_numpy_form(seed):
     occ = occluded_edges(beams[order], rho[order], starts, counts, cs, beam_off, n_beams, gap, full, hit_all,
                          ranges_all)
     assert occ.tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_detect_clusters_is_the_steps_in_sequence(seed):
+    """detection_kernels.detect_clusters (one call) equals cluster_order, cluster_discs,
+    occluded_edges and kept_detections called one after the other, as detect_many called them."""
+    rng = np.random.default_rng(1000 + seed)
+    args, beam_off, hit_all, ranges_all = _scans(rng)
+    if args[0].size == 0:
+        return
+    beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sig, full = args
+    S = n_beams.size
+    origins = rng.uniform(-5.0, 5.0, (S, 2))
+    yaw = rng.uniform(-4.0, 4.0, S)
+    cos_h, sin_h = np.cos(yaw), np.sin(yaw)
+    edge_lost, edge_var = rng.uniform(0.0, 0.5, S), rng.uniform(0.0, 0.5, S)
+    min_rad, sig2, floor2 = rng.uniform(0.0, 0.5, S), sig**2, np.full(S, 0.0025)
+    min_pts, max_tr = rng.integers(1, 4, S).astype(np.int64), rng.uniform(2.0, 10.0, S)
+    with np.errstate(all="ignore"):
+        order, starts, counts, cs = cluster_order(*args)
+        centres, radii, var = cluster_discs(P[order], rho[order], starts, counts, cs, origins, dth, edge_lost,
+                                            min_rad, edge_var, sig2, floor2)
+        occ = occluded_edges(beams[order], rho[order], starts, counts, cs, beam_off, n_beams, gap, full, hit_all,
+                             ranges_all)
+        want = kept_detections(order, counts, cs, centres, radii, var, occ, origins, cos_h, sin_h, min_pts, max_tr)
+        got = detect_clusters(*args, beam_off, hit_all, ranges_all, origins, cos_h, sin_h, edge_lost, min_rad,
+                              edge_var, sig2, floor2, min_pts, max_tr)
+    for a, b in zip(got, want):
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()

@@ -80,9 +80,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
-from mjasc.perception.cluster_kernels import cluster_order, occluded_edges
-from mjasc.perception.detection_kernels import cluster_discs, kept_detections
+from mjasc.core.estimates import estimate_of
+from mjasc.perception.detection_kernels import detect_clusters
 from mjasc.perception.range_sensor import Scan
+from mjasc.perception.scan_batch import ScanStack
 
 __all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "dropout_gap_beams",
            "finite_detections",
@@ -194,11 +195,12 @@ class DetectionBatch:
         """One :class:`Detections` per scan (views of the batch's arrays)."""
         d, r = self.det_offsets.tolist(), self.ret_offsets.tolist()
         out = []
-        for k, sc in enumerate(self.scans):
+        cen, body, rad, var = self.centres_m, self.centres_body, self.radii_m, self.variances_m2
+        n, rng, ext, lab, occ = self.n_points, self.ranges_m, self.extended, self.labels, self.occluded
+        for k, sc in enumerate(self.scans):  # made as Detections(...) is, without its per-field setattr
             a, b = d[k], d[k + 1]
-            out.append(Detections(sc.time_s, sc.origin_m, sc.heading_rad, self.centres_m[a:b], self.centres_body[a:b],
-                                  self.radii_m[a:b], self.variances_m2[a:b], self.n_points[a:b], self.ranges_m[a:b],
-                                  self.extended[a:b], self.labels[r[k]:r[k + 1]], self.occluded[a:b]))
+            out.append(estimate_of(Detections, sc.time_s, sc.origin_m, sc.heading_rad, cen[a:b], body[a:b], rad[a:b],
+                                   var[a:b], n[a:b], rng[a:b], ext[a:b], lab[r[k]:r[k + 1]], occ[a:b]))
         return out
 
 
@@ -270,46 +272,51 @@ class _PerScan:
 
 
 def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range_noise_std_m: Sequence[float],
-                dropout_probability: Sequence[float] | None = None) -> DetectionBatch:
+                dropout_probability: Sequence[float] | None = None, stack: ScanStack | None = None) -> DetectionBatch:
     """Cluster every scan of ``scans`` (one config, σ_ρ and return dropout probability — None: 0 —
     per scan) in one pass; see the module docstring. Each scan's detections equal those of
-    :func:`detect` on it alone."""
+    :func:`detect` on it alone. ``stack``: the :class:`~mjasc.perception.scan_batch.ScanStack` these
+    scans came in (its stacked arrays are taken as they are)."""
     scans = tuple(scans)
     S = len(scans)
     c = _PerScan.of(scans, configs, range_noise_std_m, [0.0] * S if dropout_probability is None else dropout_probability)
+    if stack is not None:
+        return _detect(scans, c, stack.hit_beams, stack.hit_points_world, stack.hit_ranges_m, stack.hit,
+                       stack.ranges_m, stack.ret_off, stack.origins_m, stack.cos_heading, stack.sin_heading)
     k_s = np.array([sc.hit_beams.size for sc in scans], dtype=np.int64)
     ret_off = np.zeros(S + 1, dtype=np.int64)
     np.cumsum(k_s, out=ret_off[1:])
-    K = int(ret_off[-1])
-    if K == 0:
-        z2, z1 = np.zeros((0, 2)), np.zeros(0)
-        return DetectionBatch(scans, z2, z2.copy(), z1, z1.copy(), np.zeros(0, dtype=np.int64), z1.copy(),
-                              np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), np.full(0, -1),
-                              np.zeros(S + 1, dtype=np.int64), ret_off)
     if S == 1:
         sc = scans[0]
         beams, P, hit_all, ranges_all = sc.hit_beams, sc.hit_points_world, sc.hit, sc.ranges
         rho = ranges_all[beams]
+        origins = np.asarray(sc.origin_m, dtype=float).reshape(1, 2)
     else:
         beams = np.concatenate([sc.hit_beams for sc in scans])
         P = np.concatenate([sc.hit_points_world for sc in scans])
         hit_all = np.concatenate([sc.hit for sc in scans])
         ranges_all = np.concatenate([sc.ranges for sc in scans])
         rho = ranges_all[np.repeat(c.beam_off[:-1], k_s) + beams]
-    n_beams, d0, lam, dth, gap, sig, full = c.cluster_scan
-    order, starts, counts, cs = cluster_order(beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sig, full)
-    P = P[order]
-    rho = rho[order]
-    if S == 1:
-        origins = np.asarray(scans[0].origin_m, dtype=float).reshape(1, 2)
-    else:
         origins = np.array([sc.origin_m for sc in scans], dtype=float)
-    centres, radii, var = cluster_discs(P, rho, starts, counts, cs, origins, *c.per_scan)
-    occluded = occluded_edges(beams[order], rho, starts, counts, cs, c.beam_off, n_beams, gap, full, hit_all,
-                              ranges_all)
     cos_h = np.array([math.cos(sc.heading_rad) for sc in scans])
     sin_h = np.array([math.sin(sc.heading_rad) for sc in scans])
-    centres, body, radii, var, counts, ranges, extended, occluded, labels, det_off = kept_detections(
-        order, counts, cs, centres, radii, var, occluded, origins, cos_h, sin_h, *c.keep_scan)
+    return _detect(scans, c, beams, P, rho, hit_all, ranges_all, ret_off, origins, cos_h, sin_h)
+
+
+def _detect(scans, c: _PerScan, beams, P, rho, hit_all, ranges_all, ret_off, origins, cos_h, sin_h) -> DetectionBatch:
+    """The steps of :func:`detect_many` on the scans' stacked returns: hit beams (K,), points (K, 2)
+    and ranges (K,), scan s owning ``ret_off[s] : ret_off[s+1]``; every beam's hit and range
+    stacked; per scan the origin (S, 2), cosine and sine of the heading."""
+    S = len(scans)
+    if P.shape[0] == 0:
+        z2, z1 = np.zeros((0, 2)), np.zeros(0)
+        return DetectionBatch(scans, z2, z2.copy(), z1, z1.copy(), np.zeros(0, dtype=np.int64), z1.copy(),
+                              np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), np.full(0, -1),
+                              np.zeros(S + 1, dtype=np.int64), ret_off)
+    n_beams, d0, lam, dth, gap, sig, full = c.cluster_scan
+    _, edge_lost, min_rad, edge_var, sig2, floor2 = c.per_scan
+    centres, body, radii, var, counts, ranges, extended, occluded, labels, det_off = detect_clusters(
+        beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sig, full, c.beam_off, hit_all, ranges_all, origins, cos_h,
+        sin_h, edge_lost, min_rad, edge_var, sig2, floor2, *c.keep_scan)
     return DetectionBatch(scans, centres, body, radii, var, counts, ranges, extended, occluded, labels, det_off,
                           ret_off)

@@ -23,6 +23,8 @@ above) — and ``max`` propagates NaN as ``np.maximum`` does.
 
 :func:`kept_detections` then keeps the clusters with enough returns, in order, with their centres
 in the sensor's body frame, ranges, extended flags and each return's label within its scan.
+:func:`detect_clusters` is the whole detection of a tick's stacked returns in one call: the
+clusters and hidden edges (:mod:`mjasc.perception.cluster_kernels`), the discs, the kept ones.
 """
 
 from __future__ import annotations
@@ -32,8 +34,9 @@ import math
 import numpy as np
 
 from mjasc.core.compiled import kernel, maximum
+from mjasc.perception.cluster_kernels import cluster_order, occluded_edges
 
-__all__ = ["cluster_discs", "kept_detections"]
+__all__ = ["cluster_discs", "kept_detections", "detect_clusters"]
 
 _REFINE = 2  # Gauss–Newton iterations of the centre
 _DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at its first estimate)
@@ -202,3 +205,23 @@ def kept_detections(order, counts, cs, centres, radii, var, occluded, origins, c
         rng[k] = math.hypot(rx, ry)
         ext[k] = radii[c] > max_radius_m[s]
     return cen, body, rad, vr, cnt, rng, ext, occ, labels, det_off
+
+
+@kernel
+def detect_clusters(beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sigma, full, beam_off, hit_all, ranges_all,
+                    origins, cos_h, sin_h, edge_lost, min_rad, edge_var, sig2, floor2, min_pts, max_radius_m):
+    """The detections of the stacked returns of S scans (:func:`mjasc.perception.detection.detect_many`):
+    :func:`~mjasc.perception.cluster_kernels.cluster_order` of the returns (hit beams (K,), points
+    (K, 2) [m], ranges (K,) [m], scan s owning ``ret_off[s] : ret_off[s+1]``), then
+    :func:`cluster_discs` and :func:`~mjasc.perception.cluster_kernels.occluded_edges` of the returns
+    in cluster sequence, then :func:`kept_detections`; the per-scan (S,) arguments are theirs
+    (``dth`` the beam spacing). Returns what :func:`kept_detections` returns."""
+    order, starts, counts, cs = cluster_order(beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sigma, full)
+    P_o = P[order]
+    rho_o = rho[order]
+    centres, radii, var = cluster_discs(P_o, rho_o, starts, counts, cs, origins, dth, edge_lost, min_rad, edge_var,
+                                        sig2, floor2)
+    occluded = occluded_edges(beams[order], rho_o, starts, counts, cs, beam_off, n_beams, gap, full, hit_all,
+                              ranges_all)
+    return kept_detections(order, counts, cs, centres, radii, var, occluded, origins, cos_h, sin_h, min_pts,
+                           max_radius_m)

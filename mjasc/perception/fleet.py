@@ -7,10 +7,12 @@ of one :class:`~mjasc.physics.world.World` share a :class:`PerceptionFleet` (``f
 that holds what can be shared: one :class:`~mjasc.perception.static_map.StaticMapStore` for all
 their maps and one :class:`~mjasc.perception.tracking.fleet.FleetTracker` (one IMM bank) per
 tracking configuration. A vessel's ``sense`` casts its own fan at once (``mj_multiRay``, MuJoCo's
-floor, per vessel) and queues the scan; ``update_tracks`` queues the tracking step. The fleet then
-processes the queue in one pass:
+floor, per vessel) and makes its draws into the fleet's :class:`~mjasc.perception.scan_batch.ScanBatch`;
+``update_tracks`` queues the tracking step. The fleet then processes the queue in one pass:
 
-* **sensing**: one :func:`~mjasc.perception.detection.detect_many` over all scans; the tracked discs
+* **sensing**: every queued cast made a :class:`~mjasc.perception.range_sensor.Scan` in one compiled
+  call; one :func:`~mjasc.perception.detection.detect_many` over all scans (their returns stacked
+  as the batch made them); the tracked discs
   of every vessel's tracks at its scan time (arrays over the fleet's tracks); the returns a wall's
   cluster swallowed from a tracked boat re-clustered (only for the vessels where that happens);
   wall fragments among the targets, static returns into the maps, free space carved: one call
@@ -31,13 +33,15 @@ from __future__ import annotations
 
 import time
 import weakref
+from dataclasses import dataclass
 
 import numpy as np
 
 from mjasc.perception.detection import detect_many
 from mjasc.perception.owned_discs import inside_owned_discs
+from mjasc.perception.scan_batch import ScanBatch, ScanStack
 from mjasc.perception.static_map import StaticMap, StaticMapStore
-from mjasc.perception.tracking.association import group_starts
+from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows
 from mjasc.perception.tracking.fleet import FleetTracker
 from mjasc.perception.tracking.tracker import MultiTargetTracker
 
@@ -97,8 +101,12 @@ class PerceptionFleet:
         self.members: list = []
         self.map_store = StaticMapStore()
         self._trackers: list[FleetTracker] = []
-        self._scans: list[tuple] = []  # (member, scan) queued for the sensing pass
+        self._batch = ScanBatch()  # the casts of the queued scans
+        self._scans: list = []  # members queued for the sensing pass (their casts in _batch, in order)
         self._tracks: list = []  # members queued for the tracking pass
+        self._scan_ids: set[int] = set()
+        self._plans: dict = {}  # _plan per combination of members
+        self._track_ids: set[int] = set()
         self._busy = False
 
     def join(self, member) -> tuple[StaticMap, MultiTargetTracker | None]:
@@ -119,17 +127,23 @@ class PerceptionFleet:
     # ------------------------------------------------------------------ the queue
     def pending(self, member) -> bool:
         """The member has queued work."""
-        return any(m is member for m, _ in self._scans) or any(m is member for m in self._tracks)
+        key = id(member)
+        return key in self._scan_ids or key in self._track_ids
 
-    def queue_scan(self, member, scan) -> None:
+    def queue_scan(self, member, data, rng) -> None:
+        """Cast ``member``'s fan in ``data`` now (its draws from ``rng``) and queue the scan for the
+        sensing pass (:class:`~mjasc.perception.scan_batch.ScanBatch`)."""
         if self.pending(member):
             self.flush()
-        self._scans.append((member, scan))
+        self._batch.add(member.sensor, data, rng)
+        self._scans.append(member)
+        self._scan_ids.add(id(member))
 
     def queue_track(self, member) -> None:
-        if any(m is member for m in self._tracks):
+        if id(member) in self._track_ids:
             self.flush()
         self._tracks.append(member)
+        self._track_ids.add(id(member))
 
     def asked(self, member) -> None:
         """A slot call of ``member`` is done: the last member's ends the slot (process the queue)."""
@@ -143,14 +157,16 @@ class PerceptionFleet:
         self._busy = True
         try:
             if self._scans:
-                items, self._scans = self._scans, []
+                members, self._scans = self._scans, []
+                self._scan_ids.clear()
                 w0 = time.perf_counter()
-                self._sense(items)
-                share = (time.perf_counter() - w0) / len(items)
-                for m, _ in items:
+                self._sense(members, self._batch.take())
+                share = (time.perf_counter() - w0) / len(members)
+                for m in members:
                     m._stats["sense_s"] += share
             if self._tracks:
                 members, self._tracks = self._tracks, []
+                self._track_ids.clear()
                 w0 = time.perf_counter()
                 self._track(members)
                 share = (time.perf_counter() - w0) / len(members)
@@ -160,92 +176,128 @@ class PerceptionFleet:
             self._busy = False
 
     # ------------------------------------------------------------------ sensing pass
-    def _sense(self, items) -> None:
-        members = [m for m, _ in items]
-        scans = [s for _, s in items]
+    def _sense(self, members, stack: ScanStack) -> None:
+        scans = stack.scans
         S = len(scans)
-        batch = detect_many(scans, [m.config.detection for m in members],
-                            [m.sensor_config.range_noise_std_m for m in members],
-                            [m.sensor_config.dropout_probability for m in members])
+        plan = self._plan(members)
+        batch = detect_many(scans, plan.detection, plan.noise, plan.dropout, stack=stack)
         dets = batch.split()
-        discs = self._discs(members, scans)
-        n_det = np.diff(batch.det_offsets)
-        ext_any = np.bincount(np.repeat(np.arange(S), n_det)[batch.extended], minlength=S) > 0
-        for k in np.flatnonzero(ext_any).tolist():  # a wall's cluster swallowed a tracked boat's returns
-            if discs[k][0].shape[0]:
-                dets[k] = members[k]._split_tracked(scans[k], dets[k], discs[k])
-        # every scan's returns and detections, stacked (member slot k), labels made global
-        n_det = np.array([len(d) for d in dets], dtype=np.int64)
-        n_ret = np.array([s.hit_beams.size for s in scans], dtype=np.int64)
-        det_off = _starts(n_det)
-        ret_k = np.repeat(np.arange(S), n_ret)
-        det_k = np.repeat(np.arange(S), n_det)
-        cat = np.concatenate
-        pts = cat([s.hit_points_world for s in scans]) if S > 1 else scans[0].hit_points_world
-        lab = cat([d.labels for d in dets]) if S > 1 else dets[0].labels
+        split = list(dets)
+        dc, dr, d_k = self._discs(members, scans, plan)
+        store = self.map_store
+        slot = plan.slot  # map member of each slot
+        ret_off, det_off_all = stack.ret_off, batch.det_offsets
+        ret_k = np.repeat(plan.index, np.diff(ret_off))
+        lab = batch.labels
+        if d_k.size and batch.extended.any():  # a wall's cluster may have swallowed a tracked boat's returns
+            ext_any = np.bincount(np.repeat(plan.index, np.diff(det_off_all))[batch.extended], minlength=S) > 0
+            d_cnt = np.bincount(d_k, minlength=S)
+            d_off = _starts(d_cnt).tolist()
+            for k in np.flatnonzero(ext_any & (d_cnt > 0)).tolist():
+                a, b = d_off[k], d_off[k] + int(d_cnt[k])
+                dets[k] = members[k]._split_tracked(scans[k], dets[k], (dc[a:b], dr[a:b]))
+        if any(d is not b for d, b in zip(dets, split)):  # stacked again
+            n_det = np.array([len(d) for d in dets], dtype=np.int64)
+            det_off = _starts(n_det)
+            cat = np.concatenate
+            lab = cat([d.labels for d in dets])
+            extended = cat([d.extended for d in dets])
+            n_pts = cat([d.n_points for d in dets])
+            centres = cat([d.centres_m for d in dets])
+        else:
+            n_det = np.diff(det_off_all)
+            det_off = det_off_all[:-1]
+            extended, n_pts, centres = batch.extended, batch.n_points, batch.centres_m
+        det_k = np.repeat(plan.index, n_det)
+        pts = stack.hit_points_world
         lab = np.where(lab >= 0, lab + det_off[ret_k], -1)
         M = int(n_det.sum())
-        targets = ~(cat([d.extended for d in dets]) if S > 1 else dets[0].extended)
-        slot = np.array([m.map.member for m in members], dtype=np.int64)  # map member of each slot
-        dc = np.concatenate([c for c, _ in discs]) if S > 1 else discs[0][0]
-        dr = np.concatenate([r for _, r in discs]) if S > 1 else discs[0][1]
-        d_k = np.repeat(np.arange(S), [c.shape[0] for c, _ in discs])
-        store = self.map_store
+        targets = ~extended
         if M:
             good = lab >= 0
-            if targets.any() and any(m.map.n_occupied for m in members):
+            if targets.any() and store.any_occupied(slot):
                 occ = store.occupied(slot[ret_k], pts)
-                n_pts = cat([d.n_points for d in dets]) if S > 1 else dets[0].n_points
                 frac = np.bincount(lab[good], weights=occ[good], minlength=M) / np.maximum(n_pts, 1)
-                centres = cat([d.centres_m for d in dets]) if S > 1 else dets[0].centres_m
                 on_map = targets & (frac >= 0.5) & ~inside_owned(centres, det_k, dc, dr, d_k)
                 if on_map.any():  # a wall fragment is flat; a hull's returns curve round it
-                    sig = np.array([m.sensor_config.range_noise_std_m for m in members])
-                    on_map &= thickness(pts, lab, M) <= FLAT_M + 2.0 * sig[det_k]
+                    on_map &= thickness(pts, lab, M) <= FLAT_M + 2.0 * plan.sigma[det_k]
                 targets &= ~on_map
             good_static = good & ~targets[np.maximum(lab, 0)]
             if good_static.any():
                 p, pk = pts[good_static], ret_k[good_static]
                 away = ~inside_owned(p, pk, dc, dr, d_k)
                 store.add_points(slot[pk[away]], p[away])
-        carve = [k for k, m in enumerate(members) if m.map.miss_weight > 0]
-        if carve:
+        carve = plan.carve
+        if len(carve) == S:
+            store.carve_stack(slot, stack, plan.noise)
+        elif carve:
             sc = [scans[k] for k in carve]
             store.carve(slot[carve].tolist(), [s.origin_m for s in sc], [s.angles_body + s.heading_rad for s in sc],
                         [s.ranges for s in sc], [s.hit for s in sc], [s.max_range_m for s in sc],
                         [s.full_circle for s in sc], [members[k].sensor_config.range_noise_std_m for k in carve],
                         [s.hit_points_world for s in sc])
-        tk = np.split(targets, det_off[1:]) if S > 1 else [targets]
-        for m, s, d, t in zip(members, scans, dets, tk):
-            m._scanned(s, d, t)
-
-    def _discs(self, members, scans) -> list[tuple[np.ndarray, np.ndarray]]:
-        """Per member, centres (q, 2) and radii (q,) [m] of its tracks whose returns must never
-        reach its map (:meth:`mjasc.perception.pipeline.Perception.tracked_discs`), at its scan time."""
-        out = [(np.zeros((0, 2)), np.zeros(0))] * len(members)
+        cut = det_off.tolist() + [M]
         for k, m in enumerate(members):
-            if m.method is not None:
-                out[k] = m.tracked_discs(scans[k].time_s)
-        for ft in self._trackers:
-            slots = [k for k, m in enumerate(members) if m._tracker is not None and m._tracker.fleet is ft]
-            if not slots or len(ft.bank) == 0:
+            m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]])
+
+    def _discs(self, members, scans, plan: "_Plan") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Centres (q, 2) and radii (q,) [m] of the tracks whose returns must never reach their
+        vessel's map (:meth:`mjasc.perception.pipeline.Perception.tracked_discs`), at the vessel's
+        scan time, and the slot of that vessel (q,) (grouped by slot, ascending; within a slot in
+        the order of its tracker's rows)."""
+        parts = []
+        for k in plan.plugins:
+            c, r = members[k].tracked_discs(scans[k].time_s)
+            parts.append((np.full(r.shape[0], k, dtype=np.int64), c, r))
+        for ft, slots, owners, slot_of in plan.trackers:
+            if len(ft.bank) == 0:
                 continue
-            owners = np.array([members[k]._tracker.owner for k in slots], dtype=np.int64)
             t_own = np.full(ft.n_owners, np.nan)
             t_own[owners] = [scans[k].time_s for k in slots]
             mg = ft.mgmt
-            sel = np.flatnonzero(mg._confirmed & (~mg._static | mg._moved) & ~np.isnan(t_own[ft.owner]))
+            sel = disc_rows(mg._confirmed, mg._static, mg._moved, ft.owner, t_own)
             if sel.size == 0:
                 continue
-            c, r = tracked_discs(ft, sel, t_own[ft.owner[sel]])
             own = ft.owner[sel]
-            order = np.argsort(own, kind="stable")
-            u, cut = group_starts(own[order])
-            c, r = c[order], r[order]
-            where = dict(zip(owners.tolist(), slots))
-            for o, a, b in zip(u.tolist(), cut.tolist(), cut[1:].tolist() + [sel.size]):
-                out[where[o]] = (c[a:b], r[a:b])
-        return out
+            c, r = tracked_discs(ft, sel, t_own[own])
+            parts.append((slot_of[own], c, r))
+        if not parts:
+            return np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)
+        if len(parts) == 1:
+            k, c, r = parts[0]
+        else:
+            k = np.concatenate([p[0] for p in parts])
+            c = np.concatenate([p[1] for p in parts])
+            r = np.concatenate([p[2] for p in parts])
+        order = np.argsort(k, kind="stable")
+        return c[order], r[order], k[order]
+
+    def _plan(self, members) -> "_Plan":
+        """The constants of a sensing pass over these members, made once per combination of
+        members (and of the trackers' owners)."""
+        key = tuple(members)
+        size = tuple(ft.n_owners for ft in self._trackers)
+        got = self._plans.get(key)
+        if got is None or got[0] != size:
+            if len(self._plans) >= 64:
+                self._plans.clear()
+            trackers = []
+            for ft in self._trackers:
+                slots = [k for k, m in enumerate(members) if m._tracker is not None and m._tracker.fleet is ft]
+                if slots:
+                    owners = np.array([members[k]._tracker.owner for k in slots], dtype=np.int64)
+                    slot_of = np.zeros(ft.n_owners, dtype=np.int64)
+                    slot_of[owners] = slots
+                    trackers.append((ft, slots, owners, slot_of))
+            noise = [m.sensor_config.range_noise_std_m for m in members]
+            got = self._plans[key] = (size, _Plan(
+                detection=[m.config.detection for m in members], noise=noise, sigma=np.array(noise, dtype=float),
+                dropout=[m.sensor_config.dropout_probability for m in members],
+                slot=np.array([m._map.member for m in members], dtype=np.int64),
+                carve=[k for k, m in enumerate(members) if m._map.miss_weight > 0],
+                index=np.arange(len(members)), plugins=[k for k, m in enumerate(members) if m.method is not None],
+                trackers=trackers))
+        return got[1]
 
     # ------------------------------------------------------------------ tracking pass
     def _track(self, members) -> None:
@@ -263,21 +315,35 @@ class PerceptionFleet:
             m._tracked()
 
 
+@dataclass(frozen=True, eq=False)
+class _Plan:
+    """What a sensing pass over one combination of members (slots 0 … S−1) needs of them: per slot
+    the detection config, σ_ρ (list and array), dropout probability, map member, the slot index;
+    the slots whose maps carve; the slots with a plugin tracker; per fleet tracker with members
+    among them (tracker, their slots, their owner indices (q,), the slot of each owner index)."""
+
+    detection: list
+    noise: list
+    sigma: np.ndarray
+    dropout: list
+    slot: np.ndarray
+    carve: list
+    index: np.ndarray
+    plugins: list
+    trackers: list
+
+
 def tracked_discs(ft: FleetTracker, rows: np.ndarray, t_s) -> tuple[np.ndarray, np.ndarray]:
     """Centres (k, 2) and radii (k,) [m] of the tracks ``rows`` of a fleet's tracker predicted to
     t_s ((k,) [s]): the combined estimate advanced along its arc (thesis eq. 3.3 with ω̂, one step
     of dt = t_s − its last update: a coasting track is predicted, not left where it was last seen);
     the radius is the track's radius + ``DISC_MARGIN_M`` + 2σ of its position (at most
-    ``DISC_MARGIN_MAX_M`` beyond the radius)."""
+    ``DISC_MARGIN_MAX_M`` beyond the radius). Compiled loops (:mod:`mjasc.perception.tracked_disc_kernels`)
+    but numpy's cosine and sine."""
     t, pos, th, v, w, P = ft.bank.estimate_fields(rows)
-    dt = np.maximum(t_s - t, 0.0)
-    th = th + 0.5 * dt * w
-    step = dt * v
-    c = np.empty((rows.size, 2))
-    c[:, 0] = pos[:, 0] + step * np.cos(th)
-    c[:, 1] = pos[:, 1] + step * np.sin(th)
-    r = ft.mgmt._radius[rows] + disc_margin(P)
-    return c, r
+    dt, th = disc_courses(t_s, t, th, w)
+    return disc_geometry(pos, dt, v, np.cos(th), np.sin(th), ft.mgmt._radius[rows], P, DISC_MARGIN_M,
+                         DISC_MARGIN_MAX_M)
 
 
 def disc_margin(P: np.ndarray) -> np.ndarray:

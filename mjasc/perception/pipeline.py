@@ -185,14 +185,16 @@ class Perception:
     def sense(self, t_s: float, nav=None) -> None:
         """Take a scan if one is due (the fan is cast now) and queue it for the fleet's pass, which
         turns it into detections and map updates."""
+        fleet = self.fleet
         if t_s >= self._next_scan_t - 1e-9:
+            if fleet.pending(self):  # its previous scan is processed first
+                fleet.flush()
             w0 = time.perf_counter()
             self._next_scan_t = t_s + 1.0 / self.sensor_config.rate_hz
-            scan = self.sensor.scan(self.world.data, self.rng)
+            fleet.queue_scan(self, self.world.data, self.rng)
             self._stats["sense_s"] += time.perf_counter() - w0
-            self.fleet.queue_scan(self, scan)
             self._pending = True
-        self.fleet.asked(self)
+        fleet.asked(self)
 
     def _scanned(self, scan: Scan, det: Detections, targets: np.ndarray) -> None:
         """The fleet's sensing pass is done with this vessel's scan."""

@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
-from mjasc.perception.scan_kernels import clean_hits, scan_points, scan_returns
+from mjasc.perception.scan_kernels import clean_hits
 
 __all__ = ["SensorConfig", "Scan", "RangeSensor", "parse_sensor_options", "check_sensor", "CLUTTER_GEOM"]
 
@@ -163,62 +163,87 @@ class RangeSensor:
         n = config.beams
         fov = math.radians(config.fov_deg)
         self.angles_body = -0.5 * fov + (np.arange(n) + 0.5) * fov / n
+        #: cosines and sines of ``angles_body`` (numpy's, taken once: a scan's returns gather them)
+        self.cos_body, self.sin_body = np.cos(self.angles_body), np.sin(self.angles_body)
+        self.beam_spacing_rad = config.beam_spacing_rad
+        self.full_circle = config.full_circle
         self._vec = np.zeros((n, 3))
         self._vec_flat = self._vec.reshape(-1)
+        self._angles, self._cos, self._sin = np.empty(n), np.empty(n), np.empty(n)
         self._geomid = np.zeros(n, dtype=np.int32)
         self._dist = np.zeros(n)
         self._pnt = np.zeros(3)
+        self._pnt[2] = config.ray_height_m
+        self._yaw = math.nan  # the heading [rad] _vec's directions are for
+        self._data = None  # the MjData whose mount pose views are kept (_xpos, _xmat)
+        self._batch = None  # the ScanBatch of scan() on its own
 
     def pose(self, data) -> tuple[np.ndarray, float]:
         """World x, y [m] and yaw [rad] of the sensor mount in ``data``."""
         xm = data.site_xmat[self.site_id]
         return data.site_xpos[self.site_id, :2].copy(), math.atan2(xm[3], xm[0])
 
-    def cast(self, data) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-        """The true (noise-free) first-hit distances (n,) (−1: nothing within range), geom ids (n,),
-        origin (2,) and yaw of one scan."""
-        c = self.config
-        xm = data.site_xmat[self.site_id]
+    def fire(self, data, dist: np.ndarray, geom_ids: np.ndarray) -> tuple[float, float, float]:
+        """Cast the fan in ``data`` (``mj_multiRay``) into ``dist`` (n,) [m] and ``geom_ids`` (n,)
+        int32 as MuJoCo leaves them (−1 where nothing is hit within the cutoff); returns the world
+        x, y [m] and yaw [rad] of the sensor."""
+        if data is not self._data:
+            self._data = data
+            self._xpos, self._xmat = data.site_xpos[self.site_id], data.site_xmat[self.site_id]
+        xm, pnt = self._xmat, self._pnt
         yaw = math.atan2(xm[3], xm[0])
-        pnt = self._pnt
-        pnt[:2] = data.site_xpos[self.site_id, :2]
-        origin = pnt[:2].copy()
-        pnt[2] = c.ray_height_m
-        a = self.angles_body + yaw
-        vec = self._vec
-        vec[:, 0] = np.cos(a)
-        vec[:, 1] = np.sin(a)
-        gid, dist = self._geomid, self._dist
-        mujoco.mj_multiRay(self.model, data, pnt, self._vec_flat, self.geomgroup, 1, self.body_id,
-                           gid, dist, None, c.beams, c.max_range_m)
-        # mj_multiRay: geom −1 and distance −1 when nothing is hit within the cutoff
-        dist, gid = clean_hits(dist, gid, c.max_range_m)
-        return dist, gid, origin, yaw
-
-    def scan(self, data, rng: np.random.Generator | None) -> Scan:
+        x, y = float(self._xpos[0]), float(self._xpos[1])
+        pnt[0], pnt[1] = x, y
+        if yaw != self._yaw:  # the world directions of the beams (kept while the heading stays the same)
+            a = np.add(self.angles_body, yaw, out=self._angles)
+            vec = self._vec
+            vec[:, 0] = np.cos(a, out=self._cos)
+            vec[:, 1] = np.sin(a, out=self._sin)
+            self._yaw = yaw
         c = self.config
-        n = c.beams
-        dist, gid, origin, yaw = self.cast(data)
-        normals = uniforms = _NO_DRAWS
+        mujoco.mj_multiRay(self.model, data, pnt, self._vec_flat, self.geomgroup, 1, self.body_id, geom_ids, dist,
+                           None, c.beams, c.max_range_m)
+        return x, y, yaw
+
+    def draw(self, rng: np.random.Generator | None, normals: np.ndarray, uniforms: np.ndarray
+             ) -> tuple[bool, bool, np.ndarray, np.ndarray]:
+        """A scan's draws from ``rng`` (None: none), in this order (:func:`scan_kernels.scan_returns`
+        applies them): the range noise's normals into ``normals`` (n,), the dropout's uniforms into
+        ``uniforms`` (n,), the clutter's count, beams and ranges. Returns whether the normals and
+        the uniforms were drawn, the clutter beams (k,) and ranges (k,) [m]."""
+        c = self.config
+        has_normals = has_uniforms = False
         clutter_beams, clutter_rho = _NO_BEAMS, _NO_DRAWS
-        if rng is not None:  # the draws, in this order (scan_kernels.scan_returns applies them)
+        if rng is not None:
             if c.range_noise_std_m > 0:
-                normals = rng.standard_normal(n)
+                rng.standard_normal(out=normals)
+                has_normals = True
             if c.dropout_probability > 0:
-                uniforms = rng.random(n)
+                rng.random(out=uniforms)
+                has_uniforms = True
             if c.clutter_per_scan > 0:
                 k = int(rng.poisson(c.clutter_per_scan))
                 if k:
-                    clutter_beams = rng.integers(0, n, size=k)
+                    clutter_beams = rng.integers(0, c.beams, size=k)
                     clutter_rho = rng.uniform(c.min_range_m, c.max_range_m, size=k)
-        ranges, hit, gid, beams = scan_returns(dist, gid, c.range_noise_std_m, normals, c.dropout_probability,
-                                               uniforms, clutter_beams, clutter_rho, c.min_range_m, c.max_range_m,
-                                               CLUTTER_GEOM)
-        a = self.angles_body[beams]
-        body, world = scan_points(ranges, beams, np.cos(a), np.sin(a), origin[0], origin[1], math.cos(yaw),
-                                  math.sin(yaw))
-        return Scan(float(data.time), origin, float(yaw), self.angles_body, ranges, hit, beams, body, world, gid,
-                    c.max_range_m, c.beam_spacing_rad, c.full_circle)
+        return has_normals, has_uniforms, clutter_beams, clutter_rho
+
+    def cast(self, data) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """The true (noise-free) first-hit distances (n,) (−1: nothing within range), geom ids (n,),
+        origin (2,) and yaw of one scan."""
+        x, y, yaw = self.fire(data, self._dist, self._geomid)
+        # mj_multiRay: geom −1 and distance −1 when nothing is hit within the cutoff
+        dist, gid = clean_hits(self._dist, self._geomid, self.config.max_range_m)
+        return dist, gid, np.array([x, y]), yaw
+
+    def scan(self, data, rng: np.random.Generator | None) -> Scan:
+        """One scan (a :class:`~mjasc.perception.scan_batch.ScanBatch` of one)."""
+        if self._batch is None:
+            from mjasc.perception.scan_batch import ScanBatch
+
+            self._batch = ScanBatch()
+        self._batch.add(self, data, rng)
+        return self._batch.take().scans[0]
 
 
 def sensor_for_vessel(world, vessel_index: int, config: SensorConfig) -> RangeSensor:

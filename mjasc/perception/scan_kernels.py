@@ -19,6 +19,10 @@ functions stay in numpy too (numpy's SIMD sin/cos need not round like libm's).
 * :func:`scan_points` — the returns in the sensor frame ``(r cos a, r sin a)`` and in the world
   ``(o_x + c·b_x − s·b_y, o_y + s·b_x + c·b_y)`` (c, s the cosine and sine of the heading), each
   sum evaluated left to right.
+* :func:`scan_batch` — the three above for several casts stacked (a fleet's tick, one call): each
+  cast's beams ``beam_off[s] : beam_off[s+1]``, its draws and parameters per cast; the beam
+  cosines and sines are the sensor's ``np.cos`` / ``np.sin`` of its beam angles, taken once
+  (numpy's trigonometry rounds each element alike wherever it stands in the array).
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["clean_hits", "scan_returns", "scan_points"]
+__all__ = ["clean_hits", "scan_returns", "scan_points", "scan_batch"]
 
 
 @kernel
@@ -117,3 +121,55 @@ def scan_points(ranges, beams, cos_a, sin_a, origin_x, origin_y, cos_h, sin_h):
         world[i, 0] = origin_x + cos_h * bx - sin_h * by
         world[i, 1] = origin_y + sin_h * bx + cos_h * by
     return body, world
+
+
+@kernel
+def scan_batch(dist, gid, beam_off, noise_std_m, normals, has_normals, dropout_probability, uniforms, has_uniforms,
+               clutter_beams, clutter_ranges_m, clutter_off, min_range_m, max_range_m, clutter_geom, cos_body,
+               sin_body, origins, cos_h, sin_h):
+    """The scans of S casts stacked: cast s owns the beams ``beam_off[s] : beam_off[s+1]`` of the raw
+    ``mj_multiRay`` distances ``dist`` and geom ids ``gid``, of the draws ``normals`` / ``uniforms``
+    (used where ``has_normals[s]`` / ``has_uniforms[s]``) and of the beam cosines / sines
+    ``cos_body`` / ``sin_body``, and its clutter ``clutter_off[s] : clutter_off[s+1]``; per cast
+    (S,): σ_ρ, dropout probability, min and max range [m], origin (S, 2) [m], cosine and sine of
+    the heading. Each cast is :func:`clean_hits`, :func:`scan_returns` and :func:`scan_points`.
+    Returns the stacked ranges (N,) [m], hit (N,), geom ids (N,), the hit beams (K,) (indices
+    within their cast), ``ret_off`` (S + 1,) (cast s owns returns ``ret_off[s] : ret_off[s+1]``),
+    the returns' ranges (K,) [m], their points in the sensor frame (K, 2) and in the world (K, 2) [m]."""
+    S = beam_off.shape[0] - 1
+    N = dist.shape[0]
+    ranges = np.empty(N)
+    hit = np.empty(N, dtype=np.bool_)
+    geom = np.empty(N, dtype=gid.dtype)
+    beams = np.empty(N, dtype=np.int64)
+    rho = np.empty(N)
+    body = np.empty((N, 2))
+    world = np.empty((N, 2))
+    ret_off = np.zeros(S + 1, dtype=np.int64)
+    k = 0
+    for s in range(S):
+        a, b = beam_off[s], beam_off[s + 1]
+        d, g = clean_hits(dist[a:b], gid[a:b], max_range_m[s])
+        z = normals[a:b] if has_normals[s] else normals[a:a]
+        u = uniforms[a:b] if has_uniforms[s] else uniforms[a:a]
+        c0, c1 = clutter_off[s], clutter_off[s + 1]
+        r, h, gg, bm = scan_returns(d, g, noise_std_m[s], z, dropout_probability[s], u, clutter_beams[c0:c1],
+                                    clutter_ranges_m[c0:c1], min_range_m[s], max_range_m[s], clutter_geom)
+        m = bm.shape[0]
+        ca = np.empty(m)
+        sa = np.empty(m)
+        for i in range(m):
+            ca[i] = cos_body[a + bm[i]]
+            sa[i] = sin_body[a + bm[i]]
+        bd, wd = scan_points(r, bm, ca, sa, origins[s, 0], origins[s, 1], cos_h[s], sin_h[s])
+        ranges[a:b] = r
+        hit[a:b] = h
+        geom[a:b] = gg
+        for i in range(m):
+            beams[k + i] = bm[i]
+            rho[k + i] = r[bm[i]]
+            body[k + i, 0], body[k + i, 1] = bd[i, 0], bd[i, 1]
+            world[k + i, 0], world[k + i, 1] = wd[i, 0], wd[i, 1]
+        k += m
+        ret_off[s + 1] = k
+    return ranges, hit, geom, beams[:k], ret_off, rho[:k], body[:k], world[:k]

@@ -187,36 +187,64 @@ class StaticMapStore:
         range, full circle or not, σ_ρ, the scan's returns (k, 2) or None); returns (q,) the number
         of cells each scan saw through (:meth:`StaticMap.carve`)."""
         q = len(members)
+        if self._n == 0 or q == 0:
+            return np.zeros(q, dtype=np.int64)
+        nb = np.array([np.size(a) for a in beam_angles_world], dtype=np.int64)
+        a0 = [a[0] if np.size(a) else 0.0 for a in beam_angles_world]
+        a1 = [a[-1] if np.size(a) else 0.0 for a in beam_angles_world]
+        beam_off = np.zeros(q, dtype=np.int64)
+        np.cumsum(nb[:-1], out=beam_off[1:])
+        cat = np.concatenate
+        pts = [np.asarray(p, dtype=float).reshape(-1, 2) for p in hit_points_world if p is not None]
+        pm = cat([np.full(np.asarray(p).reshape(-1, 2).shape[0], int(m), dtype=np.int64)
+                  for m, p in zip(members, hit_points_world) if p is not None] or [np.zeros(0, dtype=np.int64)])
+        ranges = cat([np.asarray(x, dtype=float).reshape(-1) for x in ranges_m])
+        hits = cat([np.asarray(x, dtype=bool).reshape(-1) for x in hit])
+        return self._carve(np.asarray(members, dtype=np.int64), np.asarray(origins_m, dtype=float).reshape(q, 2), nb,
+                           a0, a1, max_range_m, full_circle, ranges, hits, beam_off, range_noise_std_m, pm,
+                           cat(pts) if pts else np.zeros((0, 2)))
+
+    def carve_stack(self, members: np.ndarray, stack, range_noise_std_m) -> np.ndarray:
+        """:meth:`carve` of the scans of a :class:`~mjasc.perception.scan_batch.ScanStack`, scan s
+        by member ``members[s]`` (its σ_ρ ``range_noise_std_m[s]``): the same update, the scans'
+        arrays taken stacked as they are."""
+        scans = stack.scans
+        q = len(scans)
+        if self._n == 0 or q == 0:
+            return np.zeros(q, dtype=np.int64)
+        # the world angle of each fan's first and last beam, as ``angles_body + heading_rad`` has them
+        a0 = [s.angles_body[0] + s.heading_rad for s in scans]
+        a1 = [s.angles_body[-1] + s.heading_rad for s in scans]
+        ret_off = stack.ret_off
+        return self._carve(members, stack.origins_m, np.diff(stack.beam_off), a0, a1,
+                           [s.max_range_m for s in scans], [s.full_circle for s in scans], stack.ranges_m, stack.hit,
+                           stack.beam_off[:-1], range_noise_std_m, np.repeat(members, np.diff(ret_off)),
+                           stack.hit_points_world)
+
+    def _carve(self, members, o, nb, a0, a1, max_range_m, full_circle, ranges, hit, beam_off, range_noise_std_m,
+               point_member, points) -> np.ndarray:
+        """:meth:`carve` on arrays: per fan (q,) member, origin (q, 2), beams, world angle of the
+        first and last beam, max range, full circle, σ_ρ; ranges and hit stacked (fan q from
+        ``beam_off[q]``); the fans' returns (k, 2) with their members (k,)."""
+        q = members.shape[0]
         counts = np.zeros(q, dtype=np.int64)
         n = self._n
-        if n == 0 or q == 0:
-            return counts
-        nb = np.array([np.size(a) for a in beam_angles_world], dtype=np.int64)
         slot = np.full(self._version.size, -1)
-        slot[np.asarray(members, dtype=np.int64)] = np.where(nb > 0, np.arange(q), -1)
-        o = np.asarray(origins_m, dtype=float).reshape(q, 2)
+        slot[members] = np.where(nb > 0, np.arange(q), -1)
         row_member = self._member[:n]
         rows, qi, rel, r, half, far = cells_in_reach(self._cells[:n], row_member, slot, self._cell_m, o,
                                                      np.asarray(max_range_m, dtype=float).reshape(q))
         if rows.size == 0:
             return counts
-        a0 = np.array([a[0] if np.size(a) else 0.0 for a in beam_angles_world], dtype=float)
-        a1 = np.array([a[-1] if np.size(a) else 0.0 for a in beam_angles_world], dtype=float)
+        a0 = np.array(a0, dtype=float)
+        a1 = np.array(a1, dtype=float)
         dth_m = np.where(nb > 1, (a1 - a0) / np.maximum(nb - 1, 1), 2.0 * math.pi)
         centre_m = 0.5 * (a0 + a1)
-        beam_off = np.zeros(q, dtype=np.int64)
-        np.cumsum(nb[:-1], out=beam_off[1:])
-        cat = np.concatenate
         free = cells_seen_through(rows, row_member, self._margin, qi, np.arctan2(rel[:, 1], rel[:, 0]), r, half, far,
-                                  a0, dth_m, centre_m, nb, np.asarray(full_circle, dtype=bool).reshape(q),
-                                  cat([np.asarray(x, dtype=float).reshape(-1) for x in ranges_m]),
-                                  cat([np.asarray(x, dtype=bool).reshape(-1) for x in hit]), beam_off,
-                                  np.asarray(range_noise_std_m, dtype=float).reshape(q))
-        pts = [np.asarray(p, dtype=float).reshape(-1, 2) for p in hit_points_world if p is not None]
-        if free.any() and sum(p.shape[0] for p in pts):
-            pm = np.concatenate([np.full(np.asarray(p).reshape(-1, 2).shape[0], int(m), dtype=np.int64)
-                                 for m, p in zip(members, hit_points_world) if p is not None])
-            now = self._find(self._keys_of(pm, np.concatenate(pts)))
+                                  a0, dth_m, centre_m, nb, np.asarray(full_circle, dtype=bool).reshape(q), ranges,
+                                  hit, beam_off, np.asarray(range_noise_std_m, dtype=float).reshape(q))
+        if free.any() and points.shape[0]:
+            now = self._find(self._keys_of(point_member, points))
             hit_now = np.zeros(n, dtype=bool)  # cells with a return in this scan stay
             hit_now[now[now >= 0]] = True
             free &= ~hit_now[rows]
@@ -236,6 +264,10 @@ class StaticMapStore:
         rows = self._find(self._keys_of(member, p))
         safe = np.maximum(rows, 0)
         return (rows >= 0) & (self._score[safe] >= self._min_hits[self._member[safe]])
+
+    def any_occupied(self, members: np.ndarray) -> bool:
+        """One of the maps ``members`` has an occupied cell."""
+        return bool(self._n_occupied[members].any())
 
     def occupied_cells(self, member: int) -> np.ndarray:
         """(c, 2) integer cell indices of a member's occupied cells, in row order."""

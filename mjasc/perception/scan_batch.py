@@ -1,0 +1,148 @@
+"""The scans of several range sensors taken at one tick, post-processed in one pass (world ENU,
+body FLU, SI).
+
+A fleet's sensing slot casts every due vessel's fan (``mj_multiRay`` per vessel: each excludes its
+own hull) at once, into one set of buffers: :meth:`ScanBatch.add` casts a sensor's fan
+(:meth:`~mjasc.perception.range_sensor.RangeSensor.fire`) and makes its draws
+(:meth:`~mjasc.perception.range_sensor.RangeSensor.draw`, from the vessel's own stream, in the
+scan's order) into the next rows. :meth:`ScanBatch.take` then turns every queued cast into its
+:class:`~mjasc.perception.range_sensor.Scan` with one compiled call
+(:func:`mjasc.perception.scan_kernels.scan_batch`, per beam the loops of a single scan) and hands
+them on as a :class:`ScanStack`: the scans, and their arrays stacked as the detection and the
+map take them (each scan's arrays are views of these). A scan is the same bits whether it was
+taken alone (:meth:`RangeSensor.scan` is a batch of one) or with others.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from itertools import accumulate
+
+import numpy as np
+
+from mjasc.core.estimates import estimate_of
+from mjasc.perception.range_sensor import CLUTTER_GEOM, RangeSensor, Scan
+from mjasc.perception.scan_kernels import scan_batch
+
+__all__ = ["ScanBatch", "ScanStack"]
+
+
+@dataclass(frozen=True, eq=False)
+class ScanStack:
+    """The scans of one :class:`ScanBatch` (S of them, N beams and K returns in all), their arrays
+    stacked: scan s owns beams ``beam_off[s] : beam_off[s+1]`` and returns
+    ``ret_off[s] : ret_off[s+1]`` (each in ascending beam order).
+
+    ranges_m (N,) [m]; hit (N,) bool; hit_beams (K,) beam indices within each scan;
+    hit_ranges_m (K,) [m]; hit_points_world (K, 2) [m]; origins_m (S, 2) [m]; cos_heading,
+    sin_heading (S,): of each scan's heading (``math.cos`` / ``math.sin``)."""
+
+    scans: tuple
+    beam_off: np.ndarray
+    ret_off: np.ndarray
+    ranges_m: np.ndarray
+    hit: np.ndarray
+    hit_beams: np.ndarray
+    hit_ranges_m: np.ndarray
+    hit_points_world: np.ndarray
+    origins_m: np.ndarray
+    cos_heading: np.ndarray
+    sin_heading: np.ndarray
+
+
+class ScanBatch:
+    """Casts queued for one post-processing pass (module docstring): ``add(sensor, data, rng)``
+    per due sensor, then ``take()`` → :class:`ScanStack` (the batch is empty again)."""
+
+    def __init__(self):
+        self._cap = 0
+        self._grow(1024)
+        self._clear()
+        self._tables: list[tuple] = []
+        self._const_key: tuple = ()
+        self._const = None
+
+    def _clear(self) -> None:
+        self._sensors: list[RangeSensor] = []
+        self._offs = [0]
+        self._queued: list[tuple] = []  # per cast: time [s], x, y [m], yaw [rad], has normals, has uniforms
+        self._clutter: list[tuple[np.ndarray, np.ndarray]] = []  # per cast: clutter beams, ranges [m]
+
+    def _grow(self, need: int) -> None:
+        cap = max(1024, 2 * need)
+        old = self._cap
+        for name, dt in (("_dist", float), ("_gid", np.int32), ("_normals", float), ("_uniforms", float),
+                         ("_cos", float), ("_sin", float)):
+            a = np.zeros(cap, dtype=dt)
+            if old:
+                a[:old] = getattr(self, name)
+            setattr(self, name, a)
+        self._cap = cap
+
+    def __len__(self) -> int:
+        return len(self._sensors)
+
+    def add(self, sensor: RangeSensor, data, rng: np.random.Generator | None) -> None:
+        """Cast ``sensor``'s fan in ``data`` now and draw its imperfections from ``rng`` (None:
+        none) into the next rows."""
+        k = len(self._sensors)
+        a = self._offs[-1]
+        b = a + sensor.config.beams
+        if b > self._cap:
+            self._grow(b)
+        x, y, yaw = sensor.fire(data, self._dist[a:b], self._gid[a:b])
+        has_n, has_u, cb, cr = sensor.draw(rng, self._normals[a:b], self._uniforms[a:b])
+        tables = self._tables  # (sensor, first row) whose beam cosines / sines are in place, per slot
+        if k >= len(tables) or tables[k][0] is not sensor or tables[k][1] != a:
+            self._cos[a:b], self._sin[a:b] = sensor.cos_body, sensor.sin_body
+            del tables[k:]  # the later slots' rows may have been overwritten
+            tables.append((sensor, a))
+        self._sensors.append(sensor)
+        self._offs.append(b)
+        self._queued.append((float(data.time), x, y, yaw, has_n, has_u))
+        self._clutter.append((cb, cr))
+
+    def _constants(self):
+        """Per-scan parameters (S,) of the queued sensors (made again when the sensors change)."""
+        key = tuple(self._sensors)
+        if key != self._const_key or self._const is None:
+            cs = [sn.config for sn in key]
+            self._const_key = key
+            self._const = (np.array(self._offs, dtype=np.int64), np.array([c.range_noise_std_m for c in cs], float),
+                           np.array([c.dropout_probability for c in cs], float),
+                           np.array([c.min_range_m for c in cs], float), np.array([c.max_range_m for c in cs], float))
+        return self._const
+
+    def take(self) -> ScanStack:
+        """The queued casts as scans (module docstring); the batch is emptied."""
+        sensors, offs, queued, clutter = self._sensors, self._offs, self._queued, self._clutter
+        S = len(sensors)
+        N = offs[-1]
+        beam_off, noise, dropout, min_r, max_r = self._constants()
+        times, xs, ys, yaws, has_n, has_u = zip(*queued)
+        origins = np.array([xs, ys], dtype=float).T.copy()
+        cos_h = np.array([math.cos(y) for y in yaws])
+        sin_h = np.array([math.sin(y) for y in yaws])
+        if S == 1:
+            cb, cr = clutter[0]
+            c_off = np.array([0, cb.size], dtype=np.int64)
+        else:
+            cb = np.concatenate([c[0] for c in clutter])
+            cr = np.concatenate([c[1] for c in clutter])
+            c_off = np.array([0, *accumulate(c[0].size for c in clutter)], dtype=np.int64)
+        ranges, hit, geom, beams, ret_off, rho, body, world = scan_batch(
+            self._dist[:N], self._gid[:N], beam_off, noise, self._normals[:N], np.array(has_n), dropout,
+            self._uniforms[:N], np.array(has_u), cb, cr, c_off, min_r, max_r, CLUTTER_GEOM, self._cos[:N],
+            self._sin[:N], origins, cos_h, sin_h)
+        ro = ret_off.tolist()
+        scans = []
+        for k, sensor in enumerate(sensors):
+            a, b, p, q = offs[k], offs[k + 1], ro[k], ro[k + 1]
+            c = sensor.config
+            scans.append(estimate_of(Scan, times[k], origins[k], yaws[k], sensor.angles_body, ranges[a:b], hit[a:b],
+                                     beams[p:q], body[p:q], world[p:q], geom[a:b], c.max_range_m,
+                                     sensor.beam_spacing_rad, sensor.full_circle))
+        self._clear()
+        return estimate_of(ScanStack, tuple(scans), beam_off, ret_off, ranges, hit, beams, rho, world, origins, cos_h,
+                           sin_h)

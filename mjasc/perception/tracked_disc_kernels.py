@@ -1,0 +1,72 @@
+"""Compiled loops behind :func:`mjasc.perception.fleet.tracked_discs`: the discs of a fleet's
+tracks whose returns must not reach their vessel's map, at each vessel's scan time (world ENU,
+metres, seconds, radians).
+
+* :func:`disc_rows` — the tracker's rows that get a disc: confirmed, moving (or moved since they
+  stopped), of a vessel that scanned (its scan time ``t_own[owner]`` not NaN).
+* :func:`disc_courses` — one step of the combined estimate's arc, ``dt = max(t_s − t, 0)`` and
+  the course at its middle ``θ + ½·dt·ω̂``; numpy then takes its cosine and sine.
+* :func:`disc_geometry` — the centre ``p + dt·V·(cos, sin)`` and the radius ``R +
+  min(DISC_MARGIN_M + 2√λ, DISC_MARGIN_MAX_M)``, λ the major eigenvalue of the position
+  covariance, ``tr + √max(tr² − det, 0)`` with ``tr = ½(P₀₀ + P₁₁)``, ``det = P₀₀P₁₁ − P₀₁²``.
+
+These are the expressions of the numpy form ``tracked_discs`` had (kept in
+``tests/test_tracked_disc_kernels.py`` as the reference, with :func:`mjasc.perception.fleet.disc_margin`),
+in the same order; min and max propagate NaN as ``np.minimum`` / ``np.maximum`` do.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mjasc.core.compiled import kernel, maximum, minimum
+
+__all__ = ["disc_rows", "disc_courses", "disc_geometry"]
+
+
+@kernel
+def disc_rows(confirmed, static, moved, owner, t_own):
+    """(k,) ascending rows r with ``confirmed[r] ∧ (¬static[r] ∨ moved[r])`` and
+    ``t_own[owner[r]]`` not NaN."""
+    n = owner.shape[0]
+    out = np.empty(n, dtype=np.int64)
+    k = 0
+    for r in range(n):
+        if confirmed[r] and (not static[r] or moved[r]) and not np.isnan(t_own[owner[r]]):
+            out[k] = r
+            k += 1
+    return out[:k].copy()
+
+
+@kernel
+def disc_courses(t_s, t, th, w):
+    """``dt = max(t_s − t, 0)`` [s] and ``θ + ½·dt·ω̂`` [rad], each (k,)."""
+    k = t.shape[0]
+    dt = np.empty(k)
+    mid = np.empty(k)
+    for i in range(k):
+        d = maximum(t_s[i] - t[i], 0.0)
+        dt[i] = d
+        mid[i] = th[i] + 0.5 * d * w[i]
+    return dt, mid
+
+
+@kernel
+def disc_geometry(pos, dt, v, cos_th, sin_th, radius, P, margin_m, margin_max_m):
+    """Centres (k, 2) [m] and radii (k,) [m] of the discs (module docstring): positions ``pos``
+    (k, 2), steps ``dt`` (k,) at speeds ``v`` (k,) along the courses of cosine / sine ``cos_th``,
+    ``sin_th``; track radii ``radius`` (k,), position covariances ``P`` (k, 2, 2)."""
+    k = pos.shape[0]
+    c = np.empty((k, 2))
+    r = np.empty(k)
+    for i in range(k):
+        step = dt[i] * v[i]
+        c[i, 0] = pos[i, 0] + step * cos_th[i]
+        c[i, 1] = pos[i, 1] + step * sin_th[i]
+        p00, p01, p11 = P[i, 0, 0], P[i, 0, 1], P[i, 1, 1]
+        tr = 0.5 * (p00 + p11)
+        lam = tr + math.sqrt(maximum(tr * tr - (p00 * p11 - p01 * p01), 0.0))
+        r[i] = radius[i] + minimum(margin_m + 2.0 * math.sqrt(lam), margin_max_m)
+    return c, r

@@ -1,0 +1,52 @@
+"""The compiled tracked-disc loops (mjasc.perception.tracked_disc_kernels) against the numpy form of
+mjasc.perception.fleet.tracked_discs / disc_margin (kept as the reference), bit for bit: random
+tracks with coasting and future times, zero, huge, NaN and indefinite covariances."""
+
+import numpy as np
+import pytest
+
+from mjasc.perception.fleet import DISC_MARGIN_M, DISC_MARGIN_MAX_M, disc_margin
+from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows
+
+
+def _numpy_discs(t_s, t, pos, th, v, w, P, radius):
+    """fleet.tracked_discs after ``estimate_fields``."""
+    dt = np.maximum(t_s - t, 0.0)
+    th = th + 0.5 * dt * w
+    step = dt * v
+    c = np.empty((t.size, 2))
+    c[:, 0] = pos[:, 0] + step * np.cos(th)
+    c[:, 1] = pos[:, 1] + step * np.sin(th)
+    return c, radius + disc_margin(P)
+
+
+def _same(a, b):
+    assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_tracked_disc_kernels_equal_the_numpy_form(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(0, 40))
+    t = rng.uniform(0.0, 100.0, n)
+    t_s = t + rng.choice([-1.0, 0.0, 0.2, 3.0], n) * rng.random(n)
+    pos = rng.uniform(-500.0, 500.0, (n, 2))
+    th, v, w = rng.uniform(-np.pi, np.pi, n), rng.uniform(0.0, 8.0, n), rng.normal(0.0, 0.1, n)
+    L = rng.normal(0.0, rng.choice([0.0, 0.1, 3.0, 1e3]), (n, 2, 2))
+    P = L @ L.transpose(0, 2, 1)
+    if n:
+        P[rng.random(n) < 0.1] = np.nan
+        P[rng.random(n) < 0.1, 0, 1] = 5.0  # indefinite
+        t_s[rng.random(n) < 0.05] = np.nan
+    radius = rng.uniform(0.5, 10.0, n)
+    with np.errstate(invalid="ignore"):
+        c_ref, r_ref = _numpy_discs(t_s, t, pos, th, v, w, P, radius)
+        dt, mid = disc_courses(t_s, t, th, w)
+        c, r = disc_geometry(pos, dt, v, np.cos(mid), np.sin(mid), radius, P, DISC_MARGIN_M, DISC_MARGIN_MAX_M)
+    _same(c, c_ref)
+    _same(r, r_ref)
+    confirmed, static, moved = (rng.random(n) < 0.6 for _ in range(3))
+    owner = rng.integers(0, 5, n)
+    t_own = np.where(rng.random(5) < 0.3, np.nan, rng.uniform(0.0, 10.0, 5))
+    want = np.flatnonzero(confirmed & (~static | moved) & ~np.isnan(t_own[owner]))
+    _same(disc_rows(confirmed, static, moved, owner, t_own), want)
