@@ -162,6 +162,31 @@ def test_local_cluster_gives_the_in_process_results(here, cluster, tmp_path):
     assert dist.info["scheduler"].startswith("tcp://") and dist.info["workers"] == 2
 
 
+def test_own_local_cluster_gives_the_in_process_results_and_closes_its_children(here, tmp_path):
+    from mjasc.campaigns import executor
+
+    spec, sync = here
+    before = dict(executor._EXECUTORS)
+    dist = run_campaign(spec, tmp_path, workers=2, progress=False)
+    assert results(dist) == results(sync)
+    assert dist.info["scheduler"] == "local" and dist.info["workers"] == 2
+    # every run in a child of its own worker: two children, not this process
+    workers = {r.worker for r in dist.runs}
+    assert len(workers) == 2 and not any(w.endswith(f":{os.getpid()}") for w in workers)
+    assert executor._EXECUTORS == before  # the workers' children were closed and forgotten
+    for w in workers:  # and have left
+        pid = int(w.rsplit(":", 1)[1])
+        t0 = time.time()
+        while time.time() - t0 < 10:
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                break
+            time.sleep(0.05)
+        else:
+            raise AssertionError(f"child {pid} still running")
+
+
 def test_every_stored_run_replays_exactly_from_its_scenario_text(here):
     spec, sync = here
     r = sync.runs[2]
