@@ -9,7 +9,9 @@ loses, duplicates and recomputes nothing.
 
 Where runs execute:
 
-* a Dask ``LocalCluster`` of ``workers`` single-threaded processes (default: one per core), or an
+* a Dask ``LocalCluster`` of ``workers`` single-threaded workers (default: one per core) — threads
+  of this process when runs are isolated (each worker only hands its runs to its own child process,
+  below; the children start before Dask and import while it starts), processes otherwise — or an
   existing cluster by its scheduler address (``tcp://host:8786``; see docs/campaigns.md for SLURM/PBS
   via dask-jobqueue), or a ``distributed.Client``;
 * this process (``workers = 0`` or ``scheduler = "synchronous"``, and by default for campaigns of at
@@ -19,7 +21,9 @@ Either way each run executes in a child process of its worker (:mod:`mjasc.campa
 a run that raises, diverges, hangs past ``time_limit_s`` or kills its process is recorded with its
 error and retried up to ``max_attempts`` times (a divergence is deterministic and is a result, not
 retried); it never stops the campaign. The LocalCluster runs with ``worker-saturation = 1.0``, so a
-worker holds one task at a time and a dying worker takes no queued runs with it.
+worker holds one task at a time and a dying worker takes no queued runs with it. ``startup_s`` (in
+the returned info) ends when every worker is up and, on an own LocalCluster, every worker's child has
+imported what runs need.
 
 Outputs in ``out_dir``: ``campaign.sqlite`` (the store), ``runs.csv`` and ``runs.parquet`` (exports),
 ``campaign.json`` (the campaign and its aggregate statistics, :mod:`mjasc.campaigns.statistics`),

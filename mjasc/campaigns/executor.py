@@ -149,6 +149,9 @@ class IsolatedExecutor:
     def _start(self) -> None:
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)  # the same mjasc as the parent
+        # A campaign run never renders (no video: execute_in_process): no OpenGL back-end to load
+        # (MuJoCo and dm_control skip it; ~0.3 s of the child's start-up).
+        env["MUJOCO_GL"] = "disable"
         self._proc = subprocess.Popen([self.python, "-m", "mjasc.campaigns.executor"], stdin=subprocess.PIPE,
                                       stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, bufsize=0)
         self._buf = b""
