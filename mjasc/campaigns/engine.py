@@ -340,7 +340,9 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
                 keys.append(w.id)
                 adopt_isolated(w.id, child)
             for child in children:  # start-up ends when every child has imported what runs need
-                child.wait_ready(WORKER_WAIT_S)
+                if not child.wait_ready(WORKER_WAIT_S):
+                    raise RuntimeError(f"a run's child process (python -m mjasc.campaigns.executor) did not start "
+                                       f"within {WORKER_WAIT_S:.0f} s; no run was done")
             versions = {k: getattr(mjasc, "__version__", "unknown") for k in keys}
         else:
             try:
@@ -385,10 +387,10 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
             if bar is not None:
                 bar.update(1)
     finally:
-        try:
-            _close(closers, local)
-        finally:
+        try:  # the children first: a task still waiting on one (an interrupted campaign) ends with it
             for k in keys:
                 release_isolated(k)
             for child in children:  # also those never adopted (the cluster failed to start)
                 child.close()
+        finally:
+            _close(closers, local)
