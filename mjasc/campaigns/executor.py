@@ -295,6 +295,11 @@ def _serve() -> None:
     import mjasc.evaluation.run_evaluation  # noqa: F401
     import mjasc.perception.pipeline  # noqa: F401
     import mjasc.runs.runner  # noqa: F401
+    from mjasc.core.compiled import maximum
+
+    # numba sets up its compiler target (registries, BLAS, typed containers: ~1 s) at the first
+    # kernel call of a process: here, before the ready line, not inside the first run.
+    maximum(0.0, 1.0)
 
     out.write(json.dumps({"ready": os.getpid()}) + "\n")  # IsolatedExecutor.wait_ready
     out.flush()
