@@ -187,6 +187,17 @@ def test_own_local_cluster_gives_the_in_process_results_and_closes_its_children(
             raise AssertionError(f"child {pid} still running")
 
 
+def test_a_child_that_cannot_start_stops_the_campaign_before_any_run(tmp_path, monkeypatch):
+    from mjasc.campaigns import executor
+
+    spec = load_campaign_spec(write_campaign(tmp_path, runs=2, duration=2.0))
+    monkeypatch.setattr(executor.IsolatedExecutor, "wait_ready", lambda self, timeout_s=None: False)
+    with pytest.raises(RuntimeError, match="did not start"):
+        run_campaign(spec, tmp_path / "out", workers=1, progress=False)
+    with CampaignStore(tmp_path / "out", spec.digest) as s:
+        assert s.runs() == []  # nothing recorded as crashed: the same command later does every run
+
+
 def test_every_stored_run_replays_exactly_from_its_scenario_text(here):
     spec, sync = here
     r = sync.runs[2]
