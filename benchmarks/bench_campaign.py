@@ -13,12 +13,12 @@ machine hits all alike), best of ``--repeats`` per configuration:
   own compute in a campaign), one after the other: no engine at all.
 * **engine, no Dask** — :func:`mjasc.campaigns.engine.run_campaign` with ``workers = 0``: the runs in
   one persistent child process (:mod:`mjasc.campaigns.executor`), results into the SQLite store.
-* **1 worker / 2 workers** — ``run_campaign`` on a Dask LocalCluster of that many processes, each
-  with its own child process.
+* **1 worker / 2 workers** — ``run_campaign`` on its own Dask LocalCluster of that many workers
+  (threads of this process), each with its own child process.
 
 Every ``run_campaign`` goes into a fresh folder (nothing resumed); its wall time is taken around
 the call (store, exports and campaign.json included); ``start-up`` is the engine's own
-``info["startup_s"]`` (cluster up, mjasc imported on every worker).
+``info["startup_s"]`` (cluster up, every worker's child process has imported what runs need).
 
 Definitions (N runs of T simulated seconds):
 

@@ -162,6 +162,42 @@ def test_local_cluster_gives_the_in_process_results(here, cluster, tmp_path):
     assert dist.info["scheduler"].startswith("tcp://") and dist.info["workers"] == 2
 
 
+def test_own_local_cluster_gives_the_in_process_results_and_closes_its_children(here, tmp_path):
+    from mjasc.campaigns import executor
+
+    spec, sync = here
+    before = dict(executor._EXECUTORS)
+    dist = run_campaign(spec, tmp_path, workers=2, progress=False)
+    assert results(dist) == results(sync)
+    assert dist.info["scheduler"] == "local" and dist.info["workers"] == 2
+    # every run in a child of its own worker: two children, not this process
+    workers = {r.worker for r in dist.runs}
+    assert len(workers) == 2 and not any(w.endswith(f":{os.getpid()}") for w in workers)
+    assert executor._EXECUTORS == before  # the workers' children were closed and forgotten
+    for w in workers:  # and have left
+        pid = int(w.rsplit(":", 1)[1])
+        t0 = time.time()
+        while time.time() - t0 < 10:
+            try:
+                os.kill(pid, 0)
+            except ProcessLookupError:
+                break
+            time.sleep(0.05)
+        else:
+            raise AssertionError(f"child {pid} still running")
+
+
+def test_a_child_that_cannot_start_stops_the_campaign_before_any_run(tmp_path, monkeypatch):
+    from mjasc.campaigns import executor
+
+    spec = load_campaign_spec(write_campaign(tmp_path, runs=2, duration=2.0))
+    monkeypatch.setattr(executor.IsolatedExecutor, "wait_ready", lambda self, timeout_s=None: False)
+    with pytest.raises(RuntimeError, match="did not start"):
+        run_campaign(spec, tmp_path / "out", workers=1, progress=False)
+    with CampaignStore(tmp_path / "out", spec.digest) as s:
+        assert s.runs() == []  # nothing recorded as crashed: the same command later does every run
+
+
 def test_every_stored_run_replays_exactly_from_its_scenario_text(here):
     spec, sync = here
     r = sync.runs[2]

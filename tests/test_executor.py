@@ -66,3 +66,23 @@ def test_a_dying_child_costs_only_its_run():
         assert ex.run(_req(), time_limit_s=120)["status"] == "completed"
     finally:
         ex.close()
+
+
+def test_wait_ready_then_runs_and_a_closed_child_leaves():
+    ex = IsolatedExecutor()
+    try:
+        assert ex.wait_ready(120)  # imports done: the "ready" line is read here, not by the run
+        pid = ex._proc.pid
+        assert ex.run(_req(), time_limit_s=120)["status"] == "completed"
+        assert ex.wait_ready(1) and ex._proc.pid == pid  # no new child
+        proc = ex._proc
+    finally:
+        ex.close()
+    assert proc.returncode == 0
+    ex = IsolatedExecutor()
+    try:  # a run on a child started but not waited for reads the ready line first
+        ex.start()
+        a, b = ex.run(_req(), time_limit_s=120), ex.run(_req(k=1), time_limit_s=120)
+        assert a["status"] == b["status"] == "completed" and a["worker"] == b["worker"]
+    finally:
+        ex.close()

@@ -9,7 +9,9 @@ loses, duplicates and recomputes nothing.
 
 Where runs execute:
 
-* a Dask ``LocalCluster`` of ``workers`` single-threaded processes (default: one per core), or an
+* a Dask ``LocalCluster`` of ``workers`` single-threaded workers (default: one per core) — threads
+  of this process when runs are isolated (each worker only hands its runs to its own child process,
+  below; the children start before Dask and import while it starts), processes otherwise — or an
   existing cluster by its scheduler address (``tcp://host:8786``; see docs/campaigns.md for SLURM/PBS
   via dask-jobqueue), or a ``distributed.Client``;
 * this process (``workers = 0`` or ``scheduler = "synchronous"``, and by default for campaigns of at
@@ -19,7 +21,9 @@ Either way each run executes in a child process of its worker (:mod:`mjasc.campa
 a run that raises, diverges, hangs past ``time_limit_s`` or kills its process is recorded with its
 error and retried up to ``max_attempts`` times (a divergence is deterministic and is a result, not
 retried); it never stops the campaign. The LocalCluster runs with ``worker-saturation = 1.0``, so a
-worker holds one task at a time and a dying worker takes no queued runs with it.
+worker holds one task at a time and a dying worker takes no queued runs with it. ``startup_s`` (in
+the returned info) ends when every worker is up and, on an own LocalCluster, every worker's child has
+imported what runs need.
 
 Outputs in ``out_dir``: ``campaign.sqlite`` (the store), ``runs.csv`` and ``runs.parquet`` (exports),
 ``campaign.json`` (the campaign and its aggregate statistics, :mod:`mjasc.campaigns.statistics`),
@@ -38,7 +42,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mjasc.campaigns.executor import IsolatedExecutor, execute_in_process, run_isolated, start_isolated
+from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
+                                      run_isolated, start_isolated)
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
 from mjasc.campaigns.store import RETRY_STATUSES, CampaignStore
 from mjasc.core.config_tables import integer, number
@@ -97,9 +102,16 @@ def _request(run, out_dir: Path, recordings: bool, reference: bool, plugins: dic
     return request
 
 
-def _task(request: dict, time_limit_s: float | None, isolate: bool) -> dict:
-    """The Dask task: run one request in the worker's persistent child process."""
-    return run_isolated(request, time_limit_s) if isolate else execute_in_process(request)
+def _task(request: dict, time_limit_s: float | None, isolate: bool, threaded: bool = False) -> dict:
+    """The Dask task: run one request in the worker's persistent child process (``threaded``: the
+    workers are threads of one process, each with its own child, keyed by the worker's id)."""
+    if not isolate:
+        return execute_in_process(request)
+    if threaded:
+        from distributed import get_worker
+
+        return run_isolated(request, time_limit_s, key=get_worker().id)
+    return run_isolated(request, time_limit_s)
 
 
 # ---------------------------------------------------------------------- scheduling
@@ -112,9 +124,11 @@ def _warm_up() -> str:
     return getattr(mjasc, "__version__", "unknown")
 
 
-def _open_client(scheduler, workers: int | None):
+def _open_client(scheduler, workers: int | None, threaded: bool = False):
     """(client, closers): a Client instance is used as is; None/"local" starts a LocalCluster of
-    ``workers`` single-threaded processes; any other string is an existing scheduler's address."""
+    ``workers`` single-threaded processes (``threaded``: single-threaded workers in this process,
+    for runs that execute in child processes of their own — module docstring); any other string is
+    an existing scheduler's address."""
     import dask
     from distributed import Client, LocalCluster
 
@@ -124,10 +138,15 @@ def _open_client(scheduler, workers: int | None):
         import logging
 
         logging.getLogger("distributed").setLevel(logging.WARNING)  # no INFO chatter from the scheduler
-        n = workers if workers is not None else (os.cpu_count() or 1)
-        with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+        n = local_workers(workers)
+        # A threaded worker only waits on its run's child process: no stack sampling of it (Dask's
+        # profiler would cost CPU that the runs need) and no memory limit (the runs' memory is
+        # their children's).
+        with dask.config.set({"distributed.scheduler.worker-saturation": 1.0,
+                              **({"distributed.worker.profile.enabled": False} if threaded else {})}):
             # dashboard_address ":0": the scheduler's HTTP server takes a free port (8787 may be in use).
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=":0")
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=not threaded, dashboard_address=":0",
+                                   **({"memory_limit": 0} if threaded else {}))
         client = Client(cluster)
         return client, [client, cluster]
     if not isinstance(scheduler, str):
@@ -136,6 +155,11 @@ def _open_client(scheduler, workers: int | None):
     if workers is not None:
         raise ValueError(f"workers: only for a local cluster; the cluster at {scheduler} has its own workers")
     return Client(scheduler), []
+
+
+def local_workers(workers: int | None) -> int:
+    """The number of workers of a local cluster: ``workers``, default one per core."""
+    return workers if workers is not None else (os.cpu_count() or 1)
 
 
 def _close(closers, local: bool) -> None:
@@ -291,18 +315,41 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
 
     t_start = time.perf_counter()
     local = scheduler in (None, "local")
-    client, closers = _open_client(scheduler, workers)
+    # A local cluster for isolated runs: its workers are threads of this process, each handing
+    # its runs to its own child process (which does all the work and gives the isolation; worker
+    # processes would only add their start-up, shutdown and traffic). The children start first,
+    # so that they import MuJoCo and mjasc while Dask starts.
+    threaded = local and isolate
+    children = [IsolatedExecutor() for _ in range(local_workers(workers))] if threaded else []
+    for child in children:
+        child.start()
+    client, closers = None, []
+    keys: list = []
     try:
+        client, closers = _open_client(scheduler, workers, threaded)
         try:
             client.wait_for_workers(1, timeout=WORKER_WAIT_S)
         except TimeoutError:
             raise RuntimeError(f"no Dask worker joined the scheduler at {client.scheduler.address} "
                                f"within {WORKER_WAIT_S:.0f} s") from None
-        try:
-            versions = client.run(_warm_up)
-        except Exception as exc:  # noqa: BLE001
-            raise RuntimeError(f"the Dask workers cannot import mjasc ({type(exc).__name__}: {exc}); "
-                               f"install mjasc on every worker") from None
+        if threaded:
+            import mjasc
+
+            cluster = closers[-1]
+            for w, child in zip(cluster.workers.values(), children):
+                keys.append(w.id)
+                adopt_isolated(w.id, child)
+            for child in children:  # start-up ends when every child has imported what runs need
+                if not child.wait_ready(WORKER_WAIT_S):
+                    raise RuntimeError(f"a run's child process (python -m mjasc.campaigns.executor) did not start "
+                                       f"within {WORKER_WAIT_S:.0f} s; no run was done")
+            versions = {k: getattr(mjasc, "__version__", "unknown") for k in keys}
+        else:
+            try:
+                versions = client.run(_warm_up)
+            except Exception as exc:  # noqa: BLE001
+                raise RuntimeError(f"the Dask workers cannot import mjasc ({type(exc).__name__}: {exc}); "
+                                   f"install mjasc on every worker") from None
         info.update(scheduler="local" if local else scheduler if isinstance(scheduler, str) else "client",
                     address=client.scheduler.address, workers=len(versions),
                     startup_s=round(time.perf_counter() - t_start, 3))
@@ -317,7 +364,8 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
         def submit(run) -> None:
             method = f"-{run.method}" if getattr(run, "method", "") else ""
             fut = client.submit(_task, _request(run, out_dir, recordings, reference, plugins), time_limit_s, isolate,
-                                pure=False, key=f"mjasc-run-{tag}-{run.index}{method}-{attempts.get(key(run), 0)}")
+                                threaded, pure=False,
+                                key=f"mjasc-run-{tag}-{run.index}{method}-{attempts.get(key(run), 0)}")
             pending[fut] = run
 
         for run in runs:
@@ -339,4 +387,10 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
             if bar is not None:
                 bar.update(1)
     finally:
-        _close(closers, local)
+        try:  # the children first: a task still waiting on one (an interrupted campaign) ends with it
+            for k in keys:
+                release_isolated(k)
+            for child in children:  # also those never adopted (the cluster failed to start)
+                child.close()
+        finally:
+            _close(closers, local)

@@ -3,9 +3,10 @@ native library), hangs, or exceeds its time limit costs only itself.
 
 :class:`IsolatedExecutor` keeps one persistent child Python process (``python -m
 mjasc.campaigns.executor``) and hands it one run at a time over a pipe (one JSON line per request
-and per result): the interpreter, MuJoCo and mjasc load once per child, not once per run. When a
-run exceeds its time limit the child is killed (``timeout``); when the child dies (``crashed``, with
-its exit code or signal) the next run starts a new one. Plain ``subprocess`` is used rather than
+and per result, after one ``{"ready": pid}`` line once its imports are done,
+:meth:`IsolatedExecutor.wait_ready`): the interpreter, MuJoCo and mjasc load once per child, not
+once per run. When a run exceeds its time limit the child is killed (``timeout``); when the child
+dies (``crashed``, with its exit code or signal) the next run starts a new one. Plain ``subprocess`` is used rather than
 ``multiprocessing``: Dask's worker processes are daemonic and may not start multiprocessing
 children.
 
@@ -36,7 +37,8 @@ import sys
 import time
 import traceback
 
-__all__ = ["IsolatedExecutor", "execute_in_process", "run_isolated", "start_isolated"]
+__all__ = ["IsolatedExecutor", "execute_in_process", "run_isolated", "start_isolated", "adopt_isolated",
+           "release_isolated"]
 
 
 def execute_in_process(request: dict) -> dict:
@@ -141,13 +143,19 @@ class IsolatedExecutor:
         self.python = python or sys.executable
         self._proc: subprocess.Popen | None = None
         self._buf = b""
+        self._starting = False  # the child's "ready" line (imports done) is still to be read
+        self._exit: int | None = None  # the exit code of a child that died
 
     def _start(self) -> None:
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)  # the same mjasc as the parent
+        # A campaign run never renders (no video: execute_in_process): no OpenGL back-end to load
+        # (MuJoCo and dm_control skip it; ~0.3 s of the child's start-up).
+        env["MUJOCO_GL"] = "disable"
         self._proc = subprocess.Popen([self.python, "-m", "mjasc.campaigns.executor"], stdin=subprocess.PIPE,
                                       stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, bufsize=0)
         self._buf = b""
+        self._starting = True
 
     def _kill(self) -> None:
         if self._proc is not None:
@@ -159,6 +167,7 @@ class IsolatedExecutor:
         self._proc = None
 
     def close(self) -> None:
+        """End the child: it leaves at the end of its input (every result it wrote is complete)."""
         if self._proc is not None and self._proc.poll() is None:
             try:
                 self._proc.stdin.close()
@@ -173,8 +182,43 @@ class IsolatedExecutor:
         if self._proc is None or self._proc.poll() is not None:
             self._start()
 
+    def wait_ready(self, timeout_s: float | None = None) -> bool:
+        """Start the child if needed and wait until it has imported what runs need (its first line);
+        False if it died or is not ready within ``timeout_s`` (it is then killed: the next run
+        starts a new one)."""
+        self.start()
+        if not self._starting:
+            return True
+        deadline = None if timeout_s is None else time.monotonic() + float(timeout_s)
+        if self._line(deadline) is None:
+            self._kill()
+            return False
+        self._starting = False
+        return True
+
+    def _line(self, deadline: float | None) -> bytes | None:
+        """The child's next output line; None at the deadline or when the child died (then reaped,
+        its exit code in ``self._exit``)."""
+        proc = self._proc
+        fd = proc.stdout.fileno()
+        while b"\n" not in self._buf:
+            wait = None if deadline is None else max(0.0, deadline - time.monotonic())
+            ready, _, _ = select.select([fd], [], [], wait)
+            if not ready:
+                self._exit = None
+                return None
+            chunk = os.read(fd, 1 << 20)
+            if not chunk:
+                self._exit = proc.wait()
+                self._proc = None
+                return None
+            self._buf += chunk
+        line, self._buf = self._buf.split(b"\n", 1)
+        return line
+
     def run(self, request: dict, time_limit_s: float | None = None) -> dict:
-        """The result of one request (module docstring); ``time_limit_s`` None: no limit."""
+        """The result of one request (module docstring); ``time_limit_s`` None: no limit. The limit
+        counts from the request (and the child's start-up when this request starts it)."""
         t0 = time.perf_counter()
         self.start()
         proc = self._proc
@@ -184,21 +228,16 @@ class IsolatedExecutor:
             self._kill()
             return self._failure("crashed", "the run's process could not be started", t0)
         deadline = None if time_limit_s is None else time.monotonic() + float(time_limit_s)
-        fd = proc.stdout.fileno()
-        while b"\n" not in self._buf:
-            wait = None if deadline is None else max(0.0, deadline - time.monotonic())
-            ready, _, _ = select.select([fd], [], [], wait)
-            if not ready:
-                self._kill()
-                return self._failure("timeout", f"the run exceeded its time limit of {time_limit_s:g} s", t0)
-            chunk = os.read(fd, 1 << 20)
-            if not chunk:
-                code = proc.wait()
-                self._proc = None
+        for _ in range(2 if self._starting else 1):  # the "ready" line first, if not read yet
+            line = self._line(deadline)
+            if line is None:
+                if self._proc is not None:
+                    self._kill()
+                    return self._failure("timeout", f"the run exceeded its time limit of {time_limit_s:g} s", t0)
+                code = self._exit
                 what = f"signal {-code}" if code < 0 else f"exit code {code}"
                 return self._failure("crashed", f"the run's process died ({what})", t0)
-            self._buf += chunk
-        line, self._buf = self._buf.split(b"\n", 1)
+        self._starting = False
         return json.loads(line)
 
     @staticmethod
@@ -207,24 +246,38 @@ class IsolatedExecutor:
                 "cpu_time_s": None, "worker": f"{os.uname().nodename}:{os.getpid()}"}
 
 
-_EXECUTOR: IsolatedExecutor | None = None
+_EXECUTORS: dict = {}  # key (a Dask worker's id; None: this process) → its IsolatedExecutor
 
 
-def _executor() -> IsolatedExecutor:
-    global _EXECUTOR
-    if _EXECUTOR is None:
-        _EXECUTOR = IsolatedExecutor()
-    return _EXECUTOR
+def _executor(key: str | None = None) -> IsolatedExecutor:
+    ex = _EXECUTORS.get(key)
+    if ex is None:
+        ex = _EXECUTORS[key] = IsolatedExecutor()
+    return ex
 
 
-def run_isolated(request: dict, time_limit_s: float | None = None) -> dict:
-    """Run ``request`` in this process's persistent child (created on first use): the Dask task."""
-    return _executor().run(request, time_limit_s)
+def run_isolated(request: dict, time_limit_s: float | None = None, key: str | None = None) -> dict:
+    """Run ``request`` in the persistent child of ``key`` (created on first use): the Dask task.
+    ``key``: the worker's id when several workers share this process (threads of a local cluster),
+    so that each has its own child; None: one child per process."""
+    return _executor(key).run(request, time_limit_s)
 
 
-def start_isolated() -> None:
-    """Start this process's persistent child now (a Dask worker's warm-up)."""
-    _executor().start()
+def start_isolated(key: str | None = None) -> None:
+    """Start the persistent child of ``key`` now (a Dask worker's warm-up)."""
+    _executor(key).start()
+
+
+def adopt_isolated(key: str, executor: IsolatedExecutor) -> None:
+    """Make ``executor`` (started by the caller, e.g. before the cluster) the child of ``key``."""
+    _EXECUTORS[key] = executor
+
+
+def release_isolated(key: str) -> None:
+    """Close and forget the child of ``key`` (a worker of a local cluster that is shutting down)."""
+    ex = _EXECUTORS.pop(key, None)
+    if ex is not None:
+        ex.close()
 
 
 def _serve() -> None:
@@ -242,12 +295,22 @@ def _serve() -> None:
     import mjasc.evaluation.run_evaluation  # noqa: F401
     import mjasc.perception.pipeline  # noqa: F401
     import mjasc.runs.runner  # noqa: F401
+    from mjasc.core.compiled import maximum
 
+    # numba sets up its compiler target (registries, BLAS, typed containers: ~1 s) at the first
+    # kernel call of a process: here, before the ready line, not inside the first run.
+    maximum(0.0, 1.0)
+
+    out.write(json.dumps({"ready": os.getpid()}) + "\n")  # IsolatedExecutor.wait_ready
+    out.flush()
     for line in sys.stdin:
         if not line.strip():
             continue
         out.write(json.dumps(execute_in_process(json.loads(line))) + "\n")
         out.flush()
+    # Every result is written and every run closed its files: leave without the interpreter's
+    # clean-up of MuJoCo, numba and the rest (~0.5 s that the driver would wait for).
+    os._exit(0)
 
 
 if __name__ == "__main__":
