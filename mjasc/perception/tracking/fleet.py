@@ -242,13 +242,19 @@ class FleetTracker:
                 self._counts[o, _CONF] += 1
                 self.events[o].append(TrackEvent(t, "confirmed", tid, f"track {tid} confirmed at {_fmt(pos[k])} "
                                                                       f"(born {t - born[k]:.1f} s ago)"))
-        with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)])
-        orows = rows[with_pts[rpos]]
+        with_pts = [points[q] is not None and dets[q] is not None for q in range(p)]
+        orows = rows if all(with_pts) else rows[np.array(with_pts)[rpos]]
         if orows.size:
-            def returns_of(j, orows=orows):
+            scans = {}
+
+            def returns_of(j, orows=orows):  # (a vessel's returns and labels: once per step)
                 k = orows[j]
                 q = row_pos[k]
-                return np.asarray(points[q], dtype=float).reshape(-1, 2)[np.asarray(dets[q].labels) == idx[assigned[k]]]
+                got = scans.get(q)
+                if got is None:
+                    got = scans[q] = (np.ascontiguousarray(points[q], dtype=float).reshape(-1, 2),
+                                      np.ascontiguousarray(dets[q].labels, dtype=np.int64))
+                return got[0], got[1], int(idx[assigned[k]])
 
             self.outlines.grow(orows, used[orows] & (assigned[orows] >= 0), bank.speeds[orows], bank.positions[orows],
                                self.mgmt._radius[orows], returns_of)
