@@ -157,7 +157,7 @@ class IMMBank(PredictiveDensity):
 
     def index_of(self, track_id: int) -> int:
         """Row of ``track_id``; ValueError if unknown."""
-        rows = np.flatnonzero(self._ids == track_id)
+        rows = (self._ids == track_id).nonzero()[0]
         if rows.size == 0:
             raise ValueError(f"track_id: no track with id {track_id}")
         return int(rows[0])
@@ -388,7 +388,7 @@ class IMMBank(PredictiveDensity):
         if self._startup.n_active:
             if t is None:
                 dt = np.full(self._ids.size, dtm)
-            rows = np.flatnonzero(warm)  # the start-up rows keep their (unused) IMM state; x is set below
+            rows = warm.nonzero()[0]  # the start-up rows keep their (unused) IMM state; x is set below
             sp[rows], Pp[rows], cbar[rows] = self._s[rows], self._P[rows], self._mu[rows]
             self._s, self._P, self._mu, self._x = sp, Pp, cbar, x
             self._side = side
@@ -497,7 +497,7 @@ class IMMBank(PredictiveDensity):
         any_warm = self._startup.n_active > 0
         ok = use & inside
         if any_warm:
-            rows = np.flatnonzero(warm)
+            rows = warm.nonzero()[0]
             var = self._var if mv is None else mv[rows]
             ok_w = self._startup.update(rows, dt[rows], z[rows], var, use[rows], self._gate)
             ok[rows] = ok_w
@@ -517,9 +517,9 @@ class IMMBank(PredictiveDensity):
         _rejections(use, finite, measured, inside, ok, self._n_gated, limit, reasons, restart)
         self._set_times(t0, t)
         if any_warm:
-            self._handover(np.flatnonzero(self._startup.active))
+            self._handover(self._startup.active.nonzero()[0])
         if restart.any():
-            rows = np.flatnonzero(restart)
+            rows = restart.nonzero()[0]
             self._start(rows, z[rows], None if mv is None else mv[rows])
             reasons[rows] = RESTARTED
             for k in rows:
@@ -531,12 +531,12 @@ class IMMBank(PredictiveDensity):
         self._flagged = True
         if logger.isEnabledFor(logging.DEBUG):
             gated = use & ~inside
-            for k in np.flatnonzero(measured & ~finite):
+            for k in (measured & ~finite).nonzero()[0]:
                 logger.debug(
                     "IMM track %d at t=%.3f s: rejected z=%s (%s)",
                     self._ids[k], t[k], z[k], REJECTION_REASONS[NON_FINITE],
                 )
-            for k in np.flatnonzero(gated & ~restart):
+            for k in (gated & ~restart).nonzero()[0]:
                 logger.debug(
                     "IMM track %d at t=%.3f s: rejected z=%s (%s; min d²=%.4g > gate %.4g)",
                     self._ids[k], t[k], z[k], REJECTION_REASONS[GATED], d2_min[k], self._gate,

@@ -65,7 +65,7 @@ class TrackOutlines:
             r = rows[reset]
             self._hull[r] = None
             self._hull_anchor[r] = pos[reset]
-        grow = np.flatnonzero(used & (v < cfg.static_speed_m_s))
+        grow = (used & (v < cfg.static_speed_m_s)).nonzero()[0]
         if grow.size == 0:
             return
         hulls, no_hull = self._hull, _NO_HULL

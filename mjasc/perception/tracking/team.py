@@ -75,11 +75,11 @@ class TeamMatcher:
         cfg = self.config
         b_owner, names, tb, pb = self._arrays()
         fresh = t_s[b_owner] - tb <= cfg.team_max_age_s  # NaN: False
-        c = np.flatnonzero(confirmed)
+        c = confirmed.nonzero()[0]
         if not fresh.any() or c.size == 0:
             return
         c = c[np.argsort(owner[c], kind="stable")]
-        bsel = np.flatnonzero(fresh)  # grouped by owner already
+        bsel = fresh.nonzero()[0]  # grouped by owner already
         n_a = np.bincount(owner[c], minlength=n_owners)
         n_b = np.bincount(b_owner[bsel], minlength=n_owners)
         a_start = np.cumsum(n_a) - n_a
