@@ -115,3 +115,77 @@ def test_admissible_pairs_and_assignment(seed):
     v2[h2] = var_p[got]
     assert hit.tobytes() == h2.tobytes() and d2g.tobytes() == d2[got].tobytes()
     assert assigned.tobytes() == a2.tobytes() and var_row.tobytes() == v2.tobytes() and claimed.tobytes() == c2.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_fade_nis(seed):
+    from mjasc.perception.tracking.manoeuvre import fade_nis
+
+    rng = np.random.default_rng(seed)
+    n = 15
+    nis, man = rng.random(n) * 10, rng.random(n) < 0.5
+    rows = np.sort(rng.choice(n, size=int(rng.integers(0, n)), replace=False)).astype(np.int64)
+    d2 = rng.random(rows.size) * 20
+    d2[rng.random(rows.size) < 0.1] = np.nan
+    gate, a, start, end = 9.21, 0.8, 6.0, 3.0
+    nis2, man2 = nis.copy(), man.copy()
+    hot = np.empty(rows.size, dtype=bool)
+    n_hot = fade_nis(rows, d2, gate, a, start, end, nis, man, hot)
+    eps = np.minimum(d2, gate)
+    v = a * nis2[rows] + (1.0 - a) * eps
+    nis2[rows] = v
+    m = np.where(man2[rows], v >= end, v > start)
+    man2[rows] = m
+    assert nis.tobytes() == nis2.tobytes() and man.tobytes() == man2.tobytes()
+    assert hot.tobytes() == m.tobytes() and n_hot == int(m.sum())
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_measurements(seed):
+    from mjasc.perception.imm.bank import _measurements
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 12))
+    z = rng.normal(size=(n, 2))
+    z[rng.random((n, 2)) < 0.1] = np.nan
+    z[rng.random((n, 2)) < 0.05] = np.inf
+    measured = rng.random(n) < 0.8
+    mv = rng.normal(size=n)
+    mv[rng.random(n) < 0.1] = np.nan
+    for per_row in (True, False):
+        m = mv.copy()
+        finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        every = _measurements(z, measured, m, per_row, 0.25, finite, use)
+        f2 = np.isfinite(z).all(axis=1)
+        assert finite.tobytes() == f2.tobytes() and use.tobytes() == (measured & f2).tobytes()
+        assert every == bool((measured & f2).all())
+        want = np.where(np.isfinite(mv) & (mv > 0), mv, 0.25) if per_row else mv
+        assert m.tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_team_blocks(seed):
+    from mjasc.perception.tracking.team import team_blocks
+
+    rng = np.random.default_rng(seed)
+    n_owners = int(rng.integers(1, 4))
+    k = int(rng.integers(0, 10))
+    owner = rng.integers(0, n_owners, size=k).astype(np.int64)
+    confirmed = rng.random(k) < 0.6
+    B = int(rng.integers(0, 6))
+    b_owner = np.sort(rng.integers(0, n_owners, size=B)).astype(np.int64)
+    t_b = rng.random(B) * 5
+    t_s = rng.random(n_owners) * 5
+    t_s[rng.random(n_owners) < 0.2] = np.nan
+    got = team_blocks(confirmed, owner, t_s, b_owner, t_b, 2.0, n_owners)
+    fresh = t_s[b_owner] - t_b <= 2.0
+    c = np.flatnonzero(confirmed)
+    if not fresh.any() or c.size == 0:
+        assert got[0].size == 0 or got[1].size == 0
+        return
+    c = c[np.argsort(owner[c], kind="stable")]
+    bsel = np.flatnonzero(fresh)
+    n_a = np.bincount(owner[c], minlength=n_owners)
+    n_b = np.bincount(b_owner[bsel], minlength=n_owners)
+    for a, b in zip(got, (c, bsel, n_a, n_b, np.cumsum(n_a) - n_a, np.cumsum(n_b) - n_b)):
+        assert a.tobytes() == b.astype(np.int64).tobytes()

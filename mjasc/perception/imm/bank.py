@@ -29,6 +29,7 @@ Rejections are logged (debug: each rejected measurement; info: each restart) on 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -426,23 +427,23 @@ class IMMBank(PredictiveDensity):
         if n == 0:
             return np.zeros(0, dtype=bool)
         if measurement_variance is not None:
-            mv = np.asarray(measurement_variance, dtype=float)
+            mv = np.array(measurement_variance, dtype=float)  # (a copy: unusable σ² are replaced in it)
             if mv.shape != (n,):
                 raise ValueError(f"measurement_variance: need shape ({n},), got {mv.shape}")
-            mv = np.where(np.isfinite(mv) & (mv > 0), mv, self._R)  # unusable rows: config's σ²
-            self._mv = mv
         else:
-            self._mv = None
-        finite = np.isfinite(z).all(axis=1)
+            mv = None
         if mask is None:
             measured = np.ones(n, dtype=bool)
         else:
             measured = np.asarray(mask, dtype=bool)
             if measured.shape != (n,):
                 raise ValueError(f"mask: need shape ({n},), got {measured.shape}")
-        use = measured & finite
+        # finite rows, the rows used, unusable σ² replaced by the config's: one compiled pass
+        finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        all_used = _measurements(z, measured, mv if mv is not None else self._var, mv is not None, self._R, finite, use)
+        self._mv = mv
         try:
-            if use.all():
+            if all_used:
                 ok = self._cycle(z, t_s)
                 return np.ones(n, dtype=bool) if ok is None else ok
             return self._cycle(z, t_s, use, finite, measured)
@@ -690,3 +691,20 @@ def _rejections(use, finite, measured, inside, ok, n_gated, limit, reasons, rest
         elif ok[k]:
             n_gated[k] = 0
         restart[k] = g and limit > 0 and n_gated[k] >= limit
+
+
+@kernel
+def _measurements(z, measured, mv, per_row, R, finite, use):
+    """Per row of an update, in place: ``finite`` (both coordinates of z finite), ``use`` (measured
+    and finite) and, where ``per_row``, the σ² mv replaced by R where it is not finite and > 0.
+    Returns whether every row is used."""
+    every = True
+    for k in range(z.shape[0]):
+        f = math.isfinite(z[k, 0]) and math.isfinite(z[k, 1])
+        finite[k] = f
+        u = measured[k] and f
+        use[k] = u
+        every = every and u
+        if per_row and not (math.isfinite(mv[k]) and mv[k] > 0):
+            mv[k] = R
+    return every

@@ -263,6 +263,10 @@ class FleetTracker:
         (one group, the whole bank, in the usual tick). Returns (n,) bool, the rows used."""
         bank = self.bank
         n = len(bank)
+        if all_due and bank._t_common is not None:  # every row's last cycle at one time (the bank's invariant)
+            t_q = t_o.tolist()
+            if t_q.count(t_q[0]) == len(t_q):  # ... and every vessel's scan at one time
+                return bank.update(zr, t_q[0], meas, vr)
         t_last = bank.times_s[rows]
         t_new = t_o[row_pos[rows]]
         if all_due and (t_last == t_last[0]).all() and (t_new == t_new[0]).all():
