@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from mjasc.perception.tracking.association import block_pairs, gnn_pairs
-from mjasc.perception.tracking.step_kernels import admissible_pairs, apply_assignment, pair_setup, select_detections
+from mjasc.perception.tracking.step_kernels import (admissible_pairs, apply_assignment, birth_rows, pair_setup,
+                                                    select_detections)
 
 
 def _starts(counts):
@@ -189,3 +190,55 @@ def test_team_blocks(seed):
     n_b = np.bincount(b_owner[bsel], minlength=n_owners)
     for a, b in zip(got, (c, bsel, n_a, n_b, np.cumsum(n_a) - n_a, np.cumsum(n_b) - n_b)):
         assert a.tobytes() == b.astype(np.int64).tobytes()
+
+
+def _births_numpy(claimed, rows, rpos, d_pos, z, var, rad, x, radius, owners, t_o, next_local):
+    """The numpy form of the births' selection and numbering (FleetTracker._births before birth_rows)."""
+    p = owners.size
+    free = ~claimed
+    if rows.size:
+        n_q = np.bincount(rpos, minlength=p)
+        grouped = rows[np.argsort(rpos, kind="stable")]
+        fidx = np.flatnonzero(free)
+        m_f = np.bincount(d_pos[fidx], minlength=p)
+        q, i, j, start = block_pairs(n_q, m_f)
+        if q.size:
+            ta, fb = grouped[_starts(n_q)[q] + i], fidx[_starts(m_f)[q] + j]
+            pos = x[ta]
+            dist = np.hypot(z[fb, 0] - pos[:, 0], z[fb, 1] - pos[:, 1])
+            free[fb[dist <= radius[ta] + rad[fb]]] = False
+    new = np.flatnonzero(free)
+    k = new.size
+    bp = d_pos[new]
+    own = owners[bp]
+    first = np.searchsorted(bp, bp)
+    local = next_local[own] + (np.arange(k) - first)
+    born = np.bincount(bp, minlength=p)
+    next_local[owners] += born
+    return new, bp, own, local, born, t_o[bp], z[new], var[new], rad[new]
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_birth_rows(seed):
+    rng = np.random.default_rng(seed)
+    n_owners = 4
+    p = int(rng.integers(1, 4))
+    owners = np.sort(rng.choice(n_owners, size=p, replace=False)).astype(np.int64)
+    m_q = rng.integers(0, 6, size=p)
+    d_pos = np.repeat(np.arange(p), m_q).astype(np.int64)
+    M = d_pos.size
+    z, var, rad = rng.normal(scale=5, size=(M, 2)), rng.random(M), rng.random(M) * 2
+    rad[rng.random(M) < 0.1] = np.nan
+    claimed = rng.random(M) < 0.3
+    n = int(rng.integers(0, 10))
+    x, radius = rng.normal(scale=5, size=(n, 4)), rng.random(n) * 3
+    rows = np.sort(rng.choice(n, size=int(rng.integers(0, n + 1)), replace=False)).astype(np.int64)
+    rpos = rng.integers(0, p, size=rows.size).astype(np.int64)
+    t_o = rng.random(p)
+    nl = rng.integers(0, 9, size=n_owners).astype(np.int64)
+    nl2 = nl.copy()
+    got = birth_rows(claimed, rows, rpos, d_pos, z, var, rad, x, radius, owners, t_o, nl)
+    want = _births_numpy(claimed, rows, rpos, d_pos, z, var, rad, x, radius, owners, t_o, nl2)
+    for a, b in zip(got, want):
+        assert a.shape == b.shape and a.tobytes() == b.astype(a.dtype).tobytes()
+    assert nl.tobytes() == nl2.tobytes()

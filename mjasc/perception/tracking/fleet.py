@@ -46,7 +46,7 @@ from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import block_pairs_flat
-from mjasc.perception.tracking.step_kernels import apply_assignment, pair_setup, select_detections
+from mjasc.perception.tracking.step_kernels import apply_assignment, birth_rows, pair_setup, select_detections
 from mjasc.perception.tracking.team import TeamMatcher
 
 __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
@@ -324,52 +324,39 @@ class FleetTracker:
     def _births(self, owners, pos_of, every, t_o, z, var, rad, idx, d_pos, claimed) -> None:
         """Step 5: new tracks from the detections no track claimed, away from every track's disc."""
         cfg, bank = self.config, self.bank
-        p = owners.size
-        free = ~claimed
-        if not free.any():
+        if np.count_nonzero(claimed) == claimed.size:
             return
         rows = np.arange(len(bank)) if every else (pos_of[self.owner] >= 0).nonzero()[0]
-        if rows.size:
-            rpos = pos_of[self.owner if every else self.owner[rows]]
-            n_q = np.bincount(rpos, minlength=p)
-            grouped = rows[np.argsort(rpos, kind="stable")]
-            fidx = free.nonzero()[0]
-            m_f = np.bincount(d_pos[fidx], minlength=p)
-            q, i, j, _, ga, gb = block_pairs_flat(n_q, m_f)
-            if q.size:
-                ta, fb = grouped[ga], fidx[gb]
-                pos = bank._x[ta]  # (the tracks' positions: its first two columns)
-                dist = np.hypot(z[fb, 0] - pos[:, 0], z[fb, 1] - pos[:, 1])
-                free[fb[dist <= self.mgmt._radius[ta] + rad[fb]]] = False
-        new = free.nonzero()[0]
+        rpos = pos_of[self.owner if every else self.owner[rows]]
+        new, bp, own, local, born, t_b, zb, var_b, rad_b = birth_rows(
+            claimed, rows, rpos, d_pos, z, var, rad, bank._x, self.mgmt._radius, owners, t_o, self._next_local)
         k = new.size
         if k == 0:
             return
-        bp = d_pos[new]
-        t_b = t_o[bp]
-        zb = z[new]
-        bank.append_tracks(zb, t_b, var[new] if cfg.use_detection_variance else None)
-        own = owners[bp]
-        first = np.searchsorted(bp, bp)  # births are grouped by vessel: rank within the vessel
-        local = self._next_local[own] + (np.arange(k) - first)
-        born = np.bincount(bp, minlength=p)
-        self._next_local[owners] += born
+        bank.append_tracks(zb, t_b, var_b if cfg.use_detection_variance else None)
         self.owner = np.concatenate([self.owner, own])
         self.local_id = np.concatenate([self.local_id, local])
-        self.mgmt.append(t_b, rad[new])
+        self.mgmt.append(t_b, rad_b)
         self.manoeuvres.append(k)
         self.team.append(k)
         self.outlines.append(bank._x[-k:, :2])
         self.version += 1
         self._counts[owners, _BORN] += born
-        for q in group_starts(bp)[0].tolist():  # (bp is sorted)
-            sel = bp == q
-            o = int(owners[q])
-            ids, dets, t = local[sel], idx[new[sel]], float(t_o[q])
-            for tid, zj in zip(ids.tolist(), zb[sel]):
-                self.events[o].append(TrackEvent(t, "born", tid, f"track {tid} born at {_fmt(zj)}"))
+        dets = idx[new]
+        bl, ll, zl = bp.tolist(), local.tolist(), zb.tolist()
+        a = 0
+        while a < k:  # per vessel (bp is sorted): its events and last assignment
+            q = bl[a]
+            b = a + 1
+            while b < k and bl[b] == q:
+                b += 1
+            o, t = int(owners[q]), float(t_o[q])
+            events = self.events[o]
+            for tid, zj in zip(ll[a:b], zl[a:b]):
+                events.append(TrackEvent(t, "born", tid, f"track {tid} born at {_fmt(zj)}"))
             a_ids, a_dets = self._last_assign[o]
-            self._last_assign[o] = (np.concatenate([a_ids, ids]), np.concatenate([a_dets, dets]))
+            self._last_assign[o] = (np.concatenate([a_ids, local[a:b]]), np.concatenate([a_dets, dets[a:b]]))
+            a = b
 
     # ------------------------------------------------------------------ outputs
     def estimates(self, owner: int, include_tentative: bool = False) -> list[TrackEstimate]:

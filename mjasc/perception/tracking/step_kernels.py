@@ -22,16 +22,23 @@ as references, bit for bit):
 * :func:`apply_assignment` — the assigned pairs ``got`` written back: ``hit = ta[got]``,
   ``assigned[hit] = db[got]``, ``var_row[hit] = var_p[got]``, ``claimed[db[inside]] = True``;
   returns hit and ``d2[got]``.
+* :func:`birth_rows` — the detections that start tracks: those no track claimed and outside the
+  disc of every track of their vessel, ``hypot(z_x − x_x, z_y − x_y) > R_track + r_det``
+  (a NaN distance or radius: outside), in order; with their vessel position ``bp``, vessel ``own``, ids (the vessel's
+  next ids in order), births per vessel ``born`` (the vessels' next ids advanced in place) and
+  their ``t_o[bp]``, ``z``, ``var`` and ``rad``.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from mjasc.core.compiled import kernel, maximum
 from mjasc.perception.tracking.pair_kernels import block_pairs_flat
 
-__all__ = ["select_detections", "pair_setup", "admissible_pairs", "apply_assignment"]
+__all__ = ["select_detections", "pair_setup", "admissible_pairs", "apply_assignment", "birth_rows"]
 
 
 @kernel
@@ -153,3 +160,55 @@ def apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
         var_row[t] = var_p[c]
         d2g[a] = d2[c]
     return hit, d2g
+
+
+@kernel
+def birth_rows(claimed, rows, rpos, d_pos, z, var, rad, x, radius, owners, t_o, next_local):
+    """(new, bp, own, local, born, t_b, z_b, var_b, rad_b) of the births (module docstring): claimed (M,)
+    bool per detection, d_pos (M,) its vessel's position (sorted), z (M, 2) [m], var (M,) [m²],
+    rad (M,) [m]; the vessels' bank ``rows`` (k,) with their positions ``rpos`` (k,); the bank's
+    states x (n, ≥ 2) [m] and radii (n,) [m]; owners (p,) and times t_o (p,) [s] per vessel
+    position; next_local (n_owners,) the vessels' next ids (advanced in place)."""
+    M = claimed.size
+    p = owners.size
+    free = np.empty(M, dtype=np.bool_)
+    for d in range(M):
+        free[d] = not claimed[d]
+    for a in range(rows.size):
+        t = rows[a]
+        q = rpos[a]
+        for d in range(M):
+            if free[d] and d_pos[d] == q:
+                if math.hypot(z[d, 0] - x[t, 0], z[d, 1] - x[t, 1]) <= radius[t] + rad[d]:
+                    free[d] = False
+    k = 0
+    for d in range(M):
+        k += free[d]
+    new = np.empty(k, dtype=np.int64)
+    bp = np.empty(k, dtype=np.int64)
+    own = np.empty(k, dtype=np.int64)
+    local = np.empty(k, dtype=np.int64)
+    born = np.zeros(p, dtype=np.int64)
+    t_b = np.empty(k)
+    z_b = np.empty((k, 2))
+    var_b = np.empty(k)
+    rad_b = np.empty(k)
+    c = 0
+    for d in range(M):
+        if free[d]:
+            q = d_pos[d]
+            o = owners[q]
+            new[c] = d
+            bp[c] = q
+            own[c] = o
+            local[c] = next_local[o] + born[q]
+            born[q] += 1
+            t_b[c] = t_o[q]
+            z_b[c, 0] = z[d, 0]
+            z_b[c, 1] = z[d, 1]
+            var_b[c] = var[d]
+            rad_b[c] = rad[d]
+            c += 1
+    for q in range(p):
+        next_local[owners[q]] += born[q]
+    return new, bp, own, local, born, t_b, z_b, var_b, rad_b
