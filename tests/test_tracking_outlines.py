@@ -79,3 +79,19 @@ def test_gather_returns_corner_cases():
     want = bad[:100][np.hypot(bad[:100, 0], bad[:100, 1]) <= np.inf]  # (the NaN return fails the test, the inf one passes)
     assert m == want.shape[0] == 99 and p.tobytes() == np.vstack([hull, want]).tobytes()
     assert not canonical
+
+
+def test_reflected_hull_matches_numpy_form():
+    from mjasc.perception.tracking.outlines import reflected_hull
+
+    rng = np.random.default_rng(4)
+    cases = [convex_hull(rng.normal(size=(int(rng.integers(3, 40)), 2)) * 3) for _ in range(50)]
+    cases.append(rng.normal(size=(200, 2)))  # (more than 256 points with the reflections: not hulled here)
+    for h in cases:
+        c = rng.normal(size=2)
+        out, hulled = reflected_hull(h, float(c[0]), float(c[1]))
+        want = convex_hull(np.vstack([h, 2.0 * c - h]))
+        if not hulled:
+            assert h.shape[0] > 128
+            out = convex_hull(out)
+        assert out.tobytes() == want.tobytes()

@@ -93,7 +93,9 @@ class TrackOutlines:
         if h is None or h.shape[0] < 2:
             out = circle_polygon(c, radius, 12)  # the 12-gon circumscribing the disc
         else:
-            out = convex_hull(np.vstack([h, 2.0 * c - h]))
+            out, hulled = reflected_hull(h, x, y)  # (convex_hull(np.vstack([h, 2.0 * c - h])), compiled)
+            if not hulled:
+                out = convex_hull(out)
         self._made[row] = (h, x, y, r, out)
         return out.copy()
 
@@ -127,3 +129,25 @@ def gather_returns(points, labels, label, px, py, limit, hull):
         if not (math.isfinite(p[i, 0]) and math.isfinite(p[i, 1])):
             finite = False
     return p, m, finite and h + m <= 256
+
+
+@kernel
+def reflected_hull(hull, cx, cy):
+    """(out, hulled): the canonical hull (:func:`canonical_hull`) of the hull's vertices (h, 2) [m]
+    and their reflections through (cx, cy) [m], ``2·c − hull``, stacked in that order — or, when
+    they are more than 256 points or not all finite (hulled False), the stacked points for
+    :func:`mjasc.core.geometry.convex_hull`."""
+    h = hull.shape[0]
+    p = np.empty((2 * h, 2))
+    finite = True
+    for i in range(h):
+        p[i, 0] = hull[i, 0]
+        p[i, 1] = hull[i, 1]
+        p[h + i, 0] = 2.0 * cx - hull[i, 0]
+        p[h + i, 1] = 2.0 * cy - hull[i, 1]
+    for i in range(2 * h):
+        if not (math.isfinite(p[i, 0]) and math.isfinite(p[i, 1])):
+            finite = False
+    if finite and 2 * h <= 256:
+        return canonical_hull(p), True
+    return p, False
