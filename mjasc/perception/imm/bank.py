@@ -29,6 +29,7 @@ Rejections are logged (debug: each rejected measurement; info: each restart) on 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Mapping
 
 import numpy as np
@@ -157,7 +158,7 @@ class IMMBank(PredictiveDensity):
 
     def index_of(self, track_id: int) -> int:
         """Row of ``track_id``; ValueError if unknown."""
-        rows = np.flatnonzero(self._ids == track_id)
+        rows = (self._ids == track_id).nonzero()[0]
         if rows.size == 0:
             raise ValueError(f"track_id: no track with id {track_id}")
         return int(rows[0])
@@ -388,7 +389,7 @@ class IMMBank(PredictiveDensity):
         if self._startup.n_active:
             if t is None:
                 dt = np.full(self._ids.size, dtm)
-            rows = np.flatnonzero(warm)  # the start-up rows keep their (unused) IMM state; x is set below
+            rows = warm.nonzero()[0]  # the start-up rows keep their (unused) IMM state; x is set below
             sp[rows], Pp[rows], cbar[rows] = self._s[rows], self._P[rows], self._mu[rows]
             self._s, self._P, self._mu, self._x = sp, Pp, cbar, x
             self._side = side
@@ -426,23 +427,23 @@ class IMMBank(PredictiveDensity):
         if n == 0:
             return np.zeros(0, dtype=bool)
         if measurement_variance is not None:
-            mv = np.asarray(measurement_variance, dtype=float)
+            mv = np.array(measurement_variance, dtype=float)  # (a copy: unusable σ² are replaced in it)
             if mv.shape != (n,):
                 raise ValueError(f"measurement_variance: need shape ({n},), got {mv.shape}")
-            mv = np.where(np.isfinite(mv) & (mv > 0), mv, self._R)  # unusable rows: config's σ²
-            self._mv = mv
         else:
-            self._mv = None
-        finite = np.isfinite(z).all(axis=1)
+            mv = None
         if mask is None:
             measured = np.ones(n, dtype=bool)
         else:
             measured = np.asarray(mask, dtype=bool)
             if measured.shape != (n,):
                 raise ValueError(f"mask: need shape ({n},), got {measured.shape}")
-        use = measured & finite
+        # finite rows, the rows used, unusable σ² replaced by the config's: one compiled pass
+        finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        all_used = _measurements(z, measured, mv if mv is not None else self._var, mv is not None, self._R, finite, use)
+        self._mv = mv
         try:
-            if use.all():
+            if all_used:
                 ok = self._cycle(z, t_s)
                 return np.ones(n, dtype=bool) if ok is None else ok
             return self._cycle(z, t_s, use, finite, measured)
@@ -497,7 +498,7 @@ class IMMBank(PredictiveDensity):
         any_warm = self._startup.n_active > 0
         ok = use & inside
         if any_warm:
-            rows = np.flatnonzero(warm)
+            rows = warm.nonzero()[0]
             var = self._var if mv is None else mv[rows]
             ok_w = self._startup.update(rows, dt[rows], z[rows], var, use[rows], self._gate)
             ok[rows] = ok_w
@@ -517,9 +518,9 @@ class IMMBank(PredictiveDensity):
         _rejections(use, finite, measured, inside, ok, self._n_gated, limit, reasons, restart)
         self._set_times(t0, t)
         if any_warm:
-            self._handover(np.flatnonzero(self._startup.active))
+            self._handover(self._startup.active.nonzero()[0])
         if restart.any():
-            rows = np.flatnonzero(restart)
+            rows = restart.nonzero()[0]
             self._start(rows, z[rows], None if mv is None else mv[rows])
             reasons[rows] = RESTARTED
             for k in rows:
@@ -531,12 +532,12 @@ class IMMBank(PredictiveDensity):
         self._flagged = True
         if logger.isEnabledFor(logging.DEBUG):
             gated = use & ~inside
-            for k in np.flatnonzero(measured & ~finite):
+            for k in (measured & ~finite).nonzero()[0]:
                 logger.debug(
                     "IMM track %d at t=%.3f s: rejected z=%s (%s)",
                     self._ids[k], t[k], z[k], REJECTION_REASONS[NON_FINITE],
                 )
-            for k in np.flatnonzero(gated & ~restart):
+            for k in (gated & ~restart).nonzero()[0]:
                 logger.debug(
                     "IMM track %d at t=%.3f s: rejected z=%s (%s; min d²=%.4g > gate %.4g)",
                     self._ids[k], t[k], z[k], REJECTION_REASONS[GATED], d2_min[k], self._gate,
@@ -690,3 +691,20 @@ def _rejections(use, finite, measured, inside, ok, n_gated, limit, reasons, rest
         elif ok[k]:
             n_gated[k] = 0
         restart[k] = g and limit > 0 and n_gated[k] >= limit
+
+
+@kernel
+def _measurements(z, measured, mv, per_row, R, finite, use):
+    """Per row of an update, in place: ``finite`` (both coordinates of z finite), ``use`` (measured
+    and finite) and, where ``per_row``, the σ² mv replaced by R where it is not finite and > 0.
+    Returns whether every row is used."""
+    every = True
+    for k in range(z.shape[0]):
+        f = math.isfinite(z[k, 0]) and math.isfinite(z[k, 1])
+        finite[k] = f
+        u = measured[k] and f
+        use[k] = u
+        every = every and u
+        if per_row and not (math.isfinite(mv[k]) and mv[k] > 0):
+            mv[k] = R
+    return every

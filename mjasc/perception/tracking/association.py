@@ -27,6 +27,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from mjasc.perception.tracking.pair_kernels import block_pairs_loop, gate_terms
+from mjasc.perception.tracking.step_kernels import admissible_pairs
 
 __all__ = ["association_costs", "gnn_assign", "gnn_pairs", "BIG_COST", "block_pairs", "group_starts",
            "predicted_positions", "pair_costs", "indexed_pair_costs", "gnn_assign_blocks"]
@@ -50,7 +51,7 @@ def group_starts(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     first = np.empty(keys.size, dtype=bool)
     first[0] = True
     np.not_equal(keys[1:], keys[:-1], out=first[1:])
-    starts = np.flatnonzero(first)
+    starts = first.nonzero()[0]
     return keys[starts], starts
 
 
@@ -95,20 +96,13 @@ def indexed_pair_costs(zhat, S, g, z, db, var) -> tuple[np.ndarray, np.ndarray]:
 
 def gnn_assign_blocks(inside, cost, q, i, j, start, n_a, n_b) -> np.ndarray:
     """Global nearest neighbour in every block of :func:`block_pairs` (``inside``, ``cost`` per pair):
-    the indices of the assigned pairs, ascending (each block's :func:`gnn_assign`)."""
-    ins = np.flatnonzero(inside)
-    if ins.size == 0:
-        return ins
-    qa = q[ins]
-    n_b = np.asarray(n_b)
-    total = int(start[-1])
-    row_key = start[qa] + i[ins] * n_b[qa]  # first pair of the pair's row: one per (block, track)
-    col_key = start[qa] + j[ins]  # one per (block, detection)
-    dup = (np.bincount(row_key, minlength=total)[row_key] > 1) | (np.bincount(col_key, minlength=total)[col_key] > 1)
-    if not dup.any():
-        return ins
-    hard = np.unique(qa[dup])  # (small: the blocks with a conflict)
-    out = [ins[~np.isin(qa, hard)]]
+    the indices of the assigned pairs, ascending (each block's :func:`gnn_assign`). The blocks where
+    no track and no detection has two admissible partners are sorted out in one compiled pass
+    (:func:`mjasc.perception.tracking.step_kernels.admissible_pairs`)."""
+    easy, hard = admissible_pairs(inside, q, i, j, start, np.ascontiguousarray(n_b, dtype=np.int64))
+    if hard.size == 0:
+        return easy
+    out = [easy]
     for b in hard.tolist():
         na, nb, s0 = int(n_a[b]), int(n_b[b]), int(start[b])
         blk = slice(s0, s0 + na * nb)

@@ -46,6 +46,7 @@ from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import block_pairs_flat
+from mjasc.perception.tracking.step_kernels import apply_assignment, birth_rows, pair_setup, select_detections
 from mjasc.perception.tracking.team import TeamMatcher
 
 __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
@@ -119,7 +120,7 @@ class FleetTracker:
         """Bank rows of a vessel's tracks, in bank order (= the order of its own tracker)."""
         got = self._rows_cache.get(owner)
         if got is None or got[0] != self.version:
-            got = (self.version, np.flatnonzero(self.owner == owner) if self.n_owners > 1 else np.arange(self.owner.size))
+            got = (self.version, (self.owner == owner).nonzero()[0] if self.n_owners > 1 else np.arange(self.owner.size))
             self._rows_cache[owner] = got
         return got[1]
 
@@ -157,32 +158,29 @@ class FleetTracker:
         t_own[owners] = t_o
         every = p == no and bool((pos_of >= 0).all())  # every vessel scanned: every row is due
         self._counts[owners, _SCANS] += 1
-        # every vessel's selected detections, stacked in vessel order
+        # every vessel's selected detections, stacked in vessel order (one compiled pass)
         dets = list(detections)
-        m_all = np.array([len(d) if d is not None else 0 for d in dets], dtype=np.int64)
-        M_all = int(m_all.sum())
-        if M_all:
-            live = [d for d in dets if d is not None and len(d)]
-            sel = np.concatenate([(d.targets if u is None else np.asarray(u, dtype=bool)) for d, u in zip(dets, use)
-                                  if d is not None and len(d)])
-            gidx = np.flatnonzero(sel)
-            d_pos = np.repeat(np.arange(p), m_all)[gidx]
-            idx = gidx - _starts(m_all)[d_pos]  # index in the vessel's own Detections
-            z = np.concatenate([d.centres_m for d in live])[gidx]
-            var = (np.concatenate([d.variances_m2 for d in live])[gidx] if cfg.use_detection_variance
-                   else np.full(gidx.size, self._R))
-            rad = np.concatenate([d.radii_m for d in live])[gidx]
-            occ = np.concatenate([d.occluded if d.occluded is not None else np.zeros(len(d), bool) for d in live])[gidx]
+        lens = [0 if d is None else d.centres_m.shape[0] for d in dets]
+        if any(lens):
+            live = [(d, u) for d, u, m in zip(dets, use, lens) if m]
+            cat = np.concatenate
+            d_pos, idx, z, var, rad, occ, m_q = select_detections(
+                np.array(lens, dtype=np.int64),
+                cat([d.targets if u is None else np.asarray(u, dtype=bool) for d, u in live]),
+                cat([d.centres_m for d, _ in live]), cat([d.variances_m2 for d, _ in live]),
+                cat([d.radii_m for d, _ in live]),
+                cat([d.occluded if d.occluded is not None else np.zeros(len(d), bool) for d, _ in live]),
+                bool(cfg.use_detection_variance), self._R)
         else:
             d_pos = idx = np.zeros(0, dtype=np.int64)
             z, var, rad, occ = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
+            m_q = np.zeros(p, dtype=np.int64)
         M = z.shape[0]
-        m_q = np.bincount(d_pos, minlength=p)
         self._counts[owners, _DETS] += m_q
         n = len(self.bank)
         row_pos = pos_of[self.owner]
         all_due = every or bool((row_pos >= 0).all())
-        rows = np.arange(n) if all_due else np.flatnonzero(row_pos >= 0)
+        rows = np.arange(n) if all_due else (row_pos >= 0).nonzero()[0]
         claimed = np.zeros(M, dtype=bool)
         empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         for o in owners.tolist():
@@ -196,7 +194,7 @@ class FleetTracker:
         if every:  # (every row is a row of a vessel that scanned)
             self.team.match(slice(None), self.owner, t_own, bank.states, self.mgmt._confirmed, no)
         else:
-            rows = np.flatnonzero(pos_of[self.owner] >= 0)
+            rows = (pos_of[self.owner] >= 0).nonzero()[0]
             self.team.match(rows, self.owner[rows], t_own, bank.states_of(rows), self.mgmt._confirmed[rows], no)
         self.mgmt.note_moved(bank.positions)
 
@@ -210,21 +208,15 @@ class FleetTracker:
         var_row = np.full(n, self._R)
         rpos = row_pos[rows]
         if M:
-            n_q = np.bincount(rpos, minlength=p)
-            grouped = rows[np.argsort(rpos, kind="stable")]  # by vessel, bank order within
-            q, i, j, start, gi, db = block_pairs_flat(n_q, m_q)
+            n_q, grouped, q, i, j, start, gi, db, ta, var_p = pair_setup(rows, rpos, p, m_q, self.mgmt._radius, var,
+                                                                          rad, occ)
             if q.size:
-                ta = grouped[gi]
-                var_p = var[db] + occ[db] * np.maximum(self.mgmt._radius[ta] - rad[db], 0.0) ** 2
                 zhat, S = predicted_positions(*bank.prediction_fields(grouped), t_o[row_pos[grouped]])
                 d2, cost = indexed_pair_costs(zhat, S, gi, z, db, var_p)
                 inside = d2 <= self._gate
                 got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
-                claimed |= np.bincount(db[inside], minlength=M) > 0
-                hit = ta[got]
-                assigned[hit] = db[got]
-                var_row[hit] = var_p[got]
-                self.manoeuvres.detect(hit, d2[got], self._gate, t_o[row_pos[hit]], bank)
+                hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
+                self.manoeuvres.detect(hit, d2_hit, self._gate, t_o[row_pos[hit]], bank)
         meas = assigned >= 0
         zr = np.full((n, 2), np.nan)
         zr[meas] = z[assigned[meas]]
@@ -242,13 +234,19 @@ class FleetTracker:
                 self._counts[o, _CONF] += 1
                 self.events[o].append(TrackEvent(t, "confirmed", tid, f"track {tid} confirmed at {_fmt(pos[k])} "
                                                                       f"(born {t - born[k]:.1f} s ago)"))
-        with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)])
-        orows = rows[with_pts[rpos]]
+        with_pts = [points[q] is not None and dets[q] is not None for q in range(p)]
+        orows = rows if all(with_pts) else rows[np.array(with_pts)[rpos]]
         if orows.size:
-            def returns_of(j, orows=orows):
+            scans = {}
+
+            def returns_of(j, orows=orows):  # (a vessel's returns and labels: once per step)
                 k = orows[j]
                 q = row_pos[k]
-                return np.asarray(points[q], dtype=float).reshape(-1, 2)[np.asarray(dets[q].labels) == idx[assigned[k]]]
+                got = scans.get(q)
+                if got is None:
+                    got = scans[q] = (np.ascontiguousarray(points[q], dtype=float).reshape(-1, 2),
+                                      np.ascontiguousarray(dets[q].labels, dtype=np.int64))
+                return got[0], got[1], int(idx[assigned[k]])
 
             self.outlines.grow(orows, used[orows] & (assigned[orows] >= 0), bank.speeds[orows], bank.positions[orows],
                                self.mgmt._radius[orows], returns_of)
@@ -265,6 +263,10 @@ class FleetTracker:
         (one group, the whole bank, in the usual tick). Returns (n,) bool, the rows used."""
         bank = self.bank
         n = len(bank)
+        if all_due and bank._t_common is not None:  # every row's last cycle at one time (the bank's invariant)
+            t_q = t_o.tolist()
+            if t_q.count(t_q[0]) == len(t_q):  # ... and every vessel's scan at one time
+                return bank.update(zr, t_q[0], meas, vr)
         t_last = bank.times_s[rows]
         t_new = t_o[row_pos[rows]]
         if all_due and (t_last == t_last[0]).all() and (t_new == t_new[0]).all():
@@ -287,7 +289,7 @@ class FleetTracker:
             rpos = pos_of[own]
             pos, cov = bank._x[:, :2], bank._covariances()[:, :2, :2]
         else:
-            rows = np.flatnonzero(pos_of[self.owner] >= 0)
+            rows = (pos_of[self.owner] >= 0).nonzero()[0]
             if rows.size == 0:
                 return
             own = self.owner[rows]
@@ -301,7 +303,7 @@ class FleetTracker:
             o, t = int(own[go]), float(t_o[rpos[go]])
             self._counts[o, _MERGED] += 1
             self.events[o].append(TrackEvent(t, "merged", int(ids[go]), f"track {ids[go]} merged into track {ids[keep]}"))
-        for j in np.flatnonzero(drop).tolist():
+        for j in drop.nonzero()[0].tolist():
             if conf[j] and reason[j]:
                 o = int(own[j])
                 self._counts[o, _LOST] += 1
@@ -322,52 +324,39 @@ class FleetTracker:
     def _births(self, owners, pos_of, every, t_o, z, var, rad, idx, d_pos, claimed) -> None:
         """Step 5: new tracks from the detections no track claimed, away from every track's disc."""
         cfg, bank = self.config, self.bank
-        p = owners.size
-        free = ~claimed
-        if not free.any():
+        if np.count_nonzero(claimed) == claimed.size:
             return
-        rows = np.arange(len(bank)) if every else np.flatnonzero(pos_of[self.owner] >= 0)
-        if rows.size:
-            rpos = pos_of[self.owner if every else self.owner[rows]]
-            n_q = np.bincount(rpos, minlength=p)
-            grouped = rows[np.argsort(rpos, kind="stable")]
-            fidx = np.flatnonzero(free)
-            m_f = np.bincount(d_pos[fidx], minlength=p)
-            q, i, j, _, ga, gb = block_pairs_flat(n_q, m_f)
-            if q.size:
-                ta, fb = grouped[ga], fidx[gb]
-                pos = bank._x[ta]  # (the tracks' positions: its first two columns)
-                dist = np.hypot(z[fb, 0] - pos[:, 0], z[fb, 1] - pos[:, 1])
-                free[fb[dist <= self.mgmt._radius[ta] + rad[fb]]] = False
-        new = np.flatnonzero(free)
+        rows = np.arange(len(bank)) if every else (pos_of[self.owner] >= 0).nonzero()[0]
+        rpos = pos_of[self.owner if every else self.owner[rows]]
+        new, bp, own, local, born, t_b, zb, var_b, rad_b = birth_rows(
+            claimed, rows, rpos, d_pos, z, var, rad, bank._x, self.mgmt._radius, owners, t_o, self._next_local)
         k = new.size
         if k == 0:
             return
-        bp = d_pos[new]
-        t_b = t_o[bp]
-        zb = z[new]
-        bank.append_tracks(zb, t_b, var[new] if cfg.use_detection_variance else None)
-        own = owners[bp]
-        first = np.searchsorted(bp, bp)  # births are grouped by vessel: rank within the vessel
-        local = self._next_local[own] + (np.arange(k) - first)
-        born = np.bincount(bp, minlength=p)
-        self._next_local[owners] += born
+        bank.append_tracks(zb, t_b, var_b if cfg.use_detection_variance else None)
         self.owner = np.concatenate([self.owner, own])
         self.local_id = np.concatenate([self.local_id, local])
-        self.mgmt.append(t_b, rad[new])
+        self.mgmt.append(t_b, rad_b)
         self.manoeuvres.append(k)
         self.team.append(k)
         self.outlines.append(bank._x[-k:, :2])
         self.version += 1
         self._counts[owners, _BORN] += born
-        for q in group_starts(bp)[0].tolist():  # (bp is sorted)
-            sel = bp == q
-            o = int(owners[q])
-            ids, dets, t = local[sel], idx[new[sel]], float(t_o[q])
-            for tid, zj in zip(ids.tolist(), zb[sel]):
-                self.events[o].append(TrackEvent(t, "born", tid, f"track {tid} born at {_fmt(zj)}"))
+        dets = idx[new]
+        bl, ll, zl = bp.tolist(), local.tolist(), zb.tolist()
+        a = 0
+        while a < k:  # per vessel (bp is sorted): its events and last assignment
+            q = bl[a]
+            b = a + 1
+            while b < k and bl[b] == q:
+                b += 1
+            o, t = int(owners[q]), float(t_o[q])
+            events = self.events[o]
+            for tid, zj in zip(ll[a:b], zl[a:b]):
+                events.append(TrackEvent(t, "born", tid, f"track {tid} born at {_fmt(zj)}"))
             a_ids, a_dets = self._last_assign[o]
-            self._last_assign[o] = (np.concatenate([a_ids, ids]), np.concatenate([a_dets, dets]))
+            self._last_assign[o] = (np.concatenate([a_ids, local[a:b]]), np.concatenate([a_dets, dets[a:b]]))
+            a = b
 
     # ------------------------------------------------------------------ outputs
     def estimates(self, owner: int, include_tentative: bool = False) -> list[TrackEstimate]:
@@ -397,7 +386,7 @@ class FleetTracker:
         (bank order within): ({owner: (first, end)}, rows, ids, times, positions (k, 2), courses,
         speeds, ω̂, radii (array and list), position covariances (k, 2, 2), static flags, team
         mates, slow flags) — per-track values as :meth:`_estimates_of` makes them."""
-        rows = np.flatnonzero(self.mgmt._confirmed)
+        rows = self.mgmt._confirmed.nonzero()[0]
         if rows.size == 0:
             return ({},)
         own = self.owner[rows]

@@ -171,13 +171,13 @@ class TrackManagement:
         _losses(idx, t, self._hist, self._scans, self._confirmed, self._last, self._popcount, position_covariances,
                 rng, mr, int(cfg.confirm_window), int(cfg.confirm_hits), float(cfg.max_coast_s),
                 float(cfg.max_position_std_m**2), float(cfg.range_margin_m), drop, code, lam, since)
-        for j in np.flatnonzero(code).tolist():  # why the confirmed ones are lost
+        for j in code.nonzero()[0].tolist():  # why the confirmed ones are lost
             c = code[j]
             reason[j] = (f"not seen for {since[j]:.1f} s" if c == 1 else
                          f"position uncertainty {math.sqrt(lam[j]):.1f} m" if c == 2 else
                          f"out of range ({rng[j]:.0f} m)")
         # duplicates (same vessel): the track with fewer updates goes
-        live = np.flatnonzero(~drop)
+        live = (~drop).nonzero()[0]
         if live.size > 1:
             live = live[np.argsort(group[live], kind="stable")]
             a, b = merge_candidates(live, np.ascontiguousarray(group[live], dtype=np.int64),

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mjasc.core.compiled import kernel, minimum
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.tracking.config import TrackingConfig
 
@@ -55,15 +56,29 @@ class ManoeuvreDetector:
             return
         if rows.size == 0:
             return
-        eps = np.minimum(d2, gate)
-        a = cfg.manoeuvre_fading
-        nis = a * self._nis[rows] + (1.0 - a) * eps
-        self._nis[rows] = nis
-        man = np.where(self._man[rows], nis >= cfg.manoeuvre_end_threshold, nis > cfg.manoeuvre_threshold)
-        self._man[rows] = man
-        hot = rows[man]
-        if hot.size:
-            dt = np.maximum((t_s[man] if np.ndim(t_s) else t_s) - bank.times_s[hot], 0.0)
-            bank.add_process_noise(hot, cfg.manoeuvre_heading_noise_rad2_s * dt,
+        hot = np.empty(rows.size, dtype=bool)
+        n_hot = fade_nis(rows, d2, float(gate), float(cfg.manoeuvre_fading), float(cfg.manoeuvre_threshold),
+                         float(cfg.manoeuvre_end_threshold), self._nis, self._man, hot)
+        if n_hot:
+            hot_rows = rows[hot]
+            dt = np.maximum((t_s[hot] if np.ndim(t_s) else t_s) - bank.times_s[hot_rows], 0.0)
+            bank.add_process_noise(hot_rows, cfg.manoeuvre_heading_noise_rad2_s * dt,
                                    cfg.manoeuvre_speed_noise_m2_s3 * dt)
 
+
+@kernel
+def fade_nis(rows, d2, gate, a, start, end, nis, man, hot):
+    """:meth:`ManoeuvreDetector.detect`'s average and hysteresis per row k = rows[j], in place, in
+    the order of its numpy form: ``ε̄_k = a·ε̄_k + (1 − a)·minimum(d2_j, gate)``; manoeuvring
+    while ε̄ ≥ ``end`` once it was, from ε̄ > ``start`` on (hot (k,) written). Returns the number
+    manoeuvring. (tests/test_tracking_step_kernels.py keeps the numpy form.)"""
+    n = 0
+    for j in range(rows.size):
+        k = rows[j]
+        v = a * nis[k] + (1.0 - a) * minimum(d2[j], gate)
+        nis[k] = v
+        m = v >= end if man[k] else v > start
+        man[k] = m
+        hot[j] = m
+        n += m
+    return n

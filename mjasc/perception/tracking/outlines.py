@@ -14,9 +14,13 @@ about midships; only the side facing the sensor is ever seen at once); without r
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from mjasc.core.compiled import kernel
 from mjasc.core.geometry import circle_polygon, convex_hull
+from mjasc.core.polygon_kernels import canonical_hull
 from mjasc.perception.tracking.config import TrackingConfig
 
 __all__ = ["TrackOutlines"]
@@ -48,8 +52,11 @@ class TrackOutlines:
         """After an update of the tracks ``rows`` (indices): restart the hull of those that move
         (faster than twice ``static_speed_m_s``, or ``outline_reset_m`` from its anchor), then add
         to the hull of each slow track updated (``used`` (k,)) the returns of its detection,
-        ``returns_of(position in rows)`` → (p, 2) [m]. speeds (k,) [m/s], positions (k, 2) [m]
-        and radii (k,) [m] are the tracks'."""
+        ``returns_of(position in rows)`` → (points (p, 2) [m], labels (p,), label): the returns
+        whose label is the detection's. speeds (k,) [m/s], positions (k, 2) [m] and radii (k,) [m]
+        are the tracks'. (The returns near the track and the hull they join are gathered by one
+        compiled call per track, :func:`gather_returns`; tests/test_tracking_outlines.py keeps
+        the numpy form.)"""
         cfg = self.config
         v, pos = speeds, positions
         moved = np.hypot(*(pos - self._hull_anchor[rows]).T) > cfg.outline_reset_m
@@ -58,17 +65,20 @@ class TrackOutlines:
             r = rows[reset]
             self._hull[r] = None
             self._hull_anchor[r] = pos[reset]
-        for j in np.flatnonzero(used & (v < cfg.static_speed_m_s)).tolist():
-            p = returns_of(j)
-            p = p[np.hypot(*(p - pos[j]).T) <= 1.5 * radii[j] + 0.5]
-            if p.shape[0] == 0:
+        grow = (used & (v < cfg.static_speed_m_s)).nonzero()[0]
+        if grow.size == 0:
+            return
+        hulls, no_hull = self._hull, _NO_HULL
+        for j, k, px, py, lim in zip(grow.tolist(), rows[grow].tolist(), pos[grow, 0].tolist(), pos[grow, 1].tolist(),
+                                     (1.5 * radii[grow] + 0.5).tolist()):
+            pts, labels, label = returns_of(j)
+            h = hulls[k]
+            p, n_new, canonical = gather_returns(pts, labels, label, px, py, lim, no_hull if h is None else h)
+            if n_new == 0:
                 continue
-            k = rows[j]
-            if self._hull[k] is None:
+            if h is None:
                 self._hull_anchor[k] = pos[j]
-            else:
-                p = np.vstack([self._hull[k], p])
-            self._hull[k] = convex_hull(p)
+            hulls[k] = canonical_hull(p) if canonical else convex_hull(p)
 
     def outline(self, row: int, centre, radius: float) -> np.ndarray:
         """(k, 2) CCW outline [m] of the track in ``row``, centred at ``centre`` (2,) [m] with this
@@ -83,6 +93,61 @@ class TrackOutlines:
         if h is None or h.shape[0] < 2:
             out = circle_polygon(c, radius, 12)  # the 12-gon circumscribing the disc
         else:
-            out = convex_hull(np.vstack([h, 2.0 * c - h]))
+            out, hulled = reflected_hull(h, x, y)  # (convex_hull(np.vstack([h, 2.0 * c - h])), compiled)
+            if not hulled:
+                out = convex_hull(out)
         self._made[row] = (h, x, y, r, out)
         return out.copy()
+
+
+_NO_HULL = np.zeros((0, 2))
+
+
+@kernel
+def gather_returns(points, labels, label, px, py, limit, hull):
+    """(p (h + m, 2), m, canonical): the hull's vertices (h, 2) [m] followed by the returns of
+    ``points`` (k, 2) [m] whose ``labels`` equal ``label`` and within ``limit`` [m] of (px, py) —
+    ``hypot(x − px, y − py) ≤ limit`` —, in their order; canonical: p has at most 256 points, all
+    finite (:func:`mjasc.core.geometry.convex_hull` hulls it with :func:`canonical_hull`)."""
+    k = points.shape[0]
+    h = hull.shape[0]
+    take = np.empty(k, dtype=np.int64)
+    m = 0
+    for i in range(k):
+        if labels[i] == label and math.hypot(points[i, 0] - px, points[i, 1] - py) <= limit:
+            take[m] = i
+            m += 1
+    p = np.empty((h + m, 2))
+    finite = True
+    for i in range(h):
+        p[i, 0] = hull[i, 0]
+        p[i, 1] = hull[i, 1]
+    for i in range(m):
+        p[h + i, 0] = points[take[i], 0]
+        p[h + i, 1] = points[take[i], 1]
+    for i in range(h + m):
+        if not (math.isfinite(p[i, 0]) and math.isfinite(p[i, 1])):
+            finite = False
+    return p, m, finite and h + m <= 256
+
+
+@kernel
+def reflected_hull(hull, cx, cy):
+    """(out, hulled): the canonical hull (:func:`canonical_hull`) of the hull's vertices (h, 2) [m]
+    and their reflections through (cx, cy) [m], ``2·c − hull``, stacked in that order — or, when
+    they are more than 256 points or not all finite (hulled False), the stacked points for
+    :func:`mjasc.core.geometry.convex_hull`."""
+    h = hull.shape[0]
+    p = np.empty((2 * h, 2))
+    finite = True
+    for i in range(h):
+        p[i, 0] = hull[i, 0]
+        p[i, 1] = hull[i, 1]
+        p[h + i, 0] = 2.0 * cx - hull[i, 0]
+        p[h + i, 1] = 2.0 * cy - hull[i, 1]
+    for i in range(2 * h):
+        if not (math.isfinite(p[i, 0]) and math.isfinite(p[i, 1])):
+            finite = False
+    if finite and 2 * h <= 256:
+        return canonical_hull(p), True
+    return p, False

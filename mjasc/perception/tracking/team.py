@@ -18,9 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.perception.tracking.association import block_pairs, gnn_assign_blocks
+from mjasc.core.compiled import kernel
+from mjasc.perception.tracking.association import gnn_assign_blocks
 from mjasc.perception.tracking.config import TrackingConfig
-from mjasc.perception.tracking.pair_kernels import broadcast_distances
+from mjasc.perception.tracking.pair_kernels import block_pairs_loop, broadcast_distances
 
 __all__ = ["TeamMatcher"]
 
@@ -74,26 +75,63 @@ class TeamMatcher:
             return
         cfg = self.config
         b_owner, names, tb, pb = self._arrays()
-        fresh = t_s[b_owner] - tb <= cfg.team_max_age_s  # NaN: False
-        c = np.flatnonzero(confirmed)
-        if not fresh.any() or c.size == 0:
+        c, bsel, n_a, n_b, a_start, b_start = team_blocks(confirmed, owner, t_s, b_owner, tb,
+                                                          float(cfg.team_max_age_s), n_owners)
+        if c.size == 0 or bsel.size == 0:
             return
-        c = c[np.argsort(owner[c], kind="stable")]
-        bsel = np.flatnonzero(fresh)  # grouped by owner already
-        n_a = np.bincount(owner[c], minlength=n_owners)
-        n_b = np.bincount(b_owner[bsel], minlength=n_owners)
-        a_start = np.cumsum(n_a) - n_a
-        b_start = np.cumsum(n_b) - n_b
-        q, i, j, start = block_pairs(n_a, n_b)
+        q, i, j, start = block_pairs_loop(n_a, n_b)
         x = states[c]  # per confirmed track; a track meets every broadcast of its vessel
         vx, vy = x[:, 3] * np.cos(x[:, 2]), x[:, 3] * np.sin(x[:, 2])
         gate = float(cfg.team_match_distance_m)
         dist = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, np.ascontiguousarray(t_s, dtype=float),
                                    tb, pb, (2.0 * gate) ** 2)  # (+inf far outside the gate: never used)
         inside = dist <= gate
-        if not inside.any():
+        if not np.count_nonzero(inside):
             return
         got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
         qg = q[got]
         ta, tb_i = c[a_start[qg] + i[got]], bsel[b_start[qg] + j[got]]
         self._team_of[ta if isinstance(rows, slice) else rows[ta]] = np.array([names[k] for k in tb_i.tolist()] + [None], dtype=object)[:-1]
+
+
+@kernel
+def team_blocks(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners):
+    """The (track, broadcast) blocks of :meth:`TeamMatcher.match` in one pass: (c, bsel, n_a, n_b,
+    a_start, b_start) — the confirmed tracks (positions in ``confirmed`` (k,)) sorted by their
+    vessel ``owner`` (stable), the fresh broadcasts (``t_s[b_owner] − t_b ≤ max_age``; NaN: not
+    fresh) in their order (grouped by vessel already), per vessel their counts and first
+    positions; c and bsel empty when there is nothing to match. (tests/test_tracking_step_kernels.py
+    keeps the numpy form.)"""
+    nb = b_owner.size
+    fresh = np.empty(nb, dtype=np.int64)
+    m = 0
+    for b in range(nb):
+        if t_s[b_owner[b]] - t_b[b] <= max_age:
+            fresh[m] = b
+            m += 1
+    n_a = np.zeros(n_owners, dtype=np.int64)
+    n_b = np.zeros(n_owners, dtype=np.int64)
+    a_start = np.zeros(n_owners, dtype=np.int64)
+    b_start = np.zeros(n_owners, dtype=np.int64)
+    n_c = 0
+    for k in range(confirmed.size):
+        if confirmed[k]:
+            n_c += 1
+    if m == 0 or n_c == 0:
+        return np.zeros(0, dtype=np.int64), fresh[:0], n_a, n_b, a_start, b_start
+    for k in range(confirmed.size):
+        if confirmed[k]:
+            n_a[owner[k]] += 1
+    for a in range(m):
+        n_b[b_owner[fresh[a]]] += 1
+    for o in range(1, n_owners):
+        a_start[o] = a_start[o - 1] + n_a[o - 1]
+        b_start[o] = b_start[o - 1] + n_b[o - 1]
+    c = np.empty(n_c, dtype=np.int64)
+    fill = a_start.copy()
+    for k in range(confirmed.size):
+        if confirmed[k]:
+            o = owner[k]
+            c[fill[o]] = k
+            fill[o] += 1
+    return c, fresh[:m], n_a, n_b, a_start, b_start

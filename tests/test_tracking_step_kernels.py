@@ -1,0 +1,244 @@
+"""The fleet tracker's compiled bookkeeping (:mod:`mjasc.perception.tracking.step_kernels`) against
+the numpy forms it replaced, bit for bit, on random problems shaped like a tick's (a few vessels,
+some without tracks or detections, NaN radii, conflicts that need ``linear_sum_assignment``)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mjasc.perception.tracking.association import block_pairs, gnn_pairs
+from mjasc.perception.tracking.step_kernels import (admissible_pairs, apply_assignment, birth_rows, pair_setup,
+                                                    select_detections)
+
+
+def _starts(counts):
+    out = np.zeros(counts.size, dtype=np.int64)
+    np.cumsum(counts[:-1], out=out[1:])
+    return out
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_select_detections(seed):
+    rng = np.random.default_rng(seed)
+    p = int(rng.integers(1, 5))
+    m_all = rng.integers(0, 7, size=p)
+    M = int(m_all.sum())
+    sel = rng.random(M) < 0.7
+    cen, var, rad = rng.normal(size=(M, 2)), rng.random(M), rng.random(M)
+    occ = rng.random(M) < 0.3
+    for use_var in (True, False):
+        got = select_detections(m_all.astype(np.int64), sel, cen, var, rad, occ, use_var, 0.25)
+        gidx = np.flatnonzero(sel)
+        d_pos = np.repeat(np.arange(p), m_all)[gidx]
+        want = (d_pos, gidx - _starts(m_all)[d_pos], cen[gidx], var[gidx] if use_var else np.full(gidx.size, 0.25),
+                rad[gidx], occ[gidx], np.bincount(d_pos, minlength=p))
+        for a, b in zip(got, want):
+            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+def _pairs(rng, p):
+    n = int(rng.integers(0, 12))
+    rows = np.sort(rng.choice(20, size=n, replace=False)).astype(np.int64)
+    rpos = rng.integers(0, p, size=n).astype(np.int64)
+    m_q = rng.integers(0, 5, size=p).astype(np.int64)
+    return rows, rpos, m_q
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_pair_setup(seed):
+    rng = np.random.default_rng(seed)
+    p = int(rng.integers(1, 5))
+    rows, rpos, m_q = _pairs(rng, p)
+    M = int(m_q.sum())
+    radius = rng.random(20) * 3
+    radius[rng.random(20) < 0.1] = np.nan
+    var, rad, occ = rng.random(M), rng.random(M) * 3, rng.random(M) < 0.4
+    got = pair_setup(rows, rpos, p, m_q, radius, var, rad, occ)
+    n_q = np.bincount(rpos, minlength=p)
+    grouped = rows[np.argsort(rpos, kind="stable")]
+    q, i, j, start = block_pairs(n_q, m_q)
+    gi = _starts(n_q)[q] + i
+    db = _starts(m_q)[q] + j
+    ta = grouped[gi]
+    var_p = var[db] + occ[db] * np.maximum(radius[ta] - rad[db], 0.0) ** 2
+    for a, b in zip(got, (n_q, grouped, q, i, j, start, gi, db, ta, var_p)):
+        assert a.shape == b.shape and a.tobytes() == b.astype(a.dtype).tobytes()
+
+
+def _assign_numpy(inside, cost, q, i, j, start, n_a, n_b):
+    """The numpy form of gnn_assign_blocks."""
+    ins = np.flatnonzero(inside)
+    if ins.size == 0:
+        return ins
+    qa = q[ins]
+    total = int(start[-1])
+    row_key = start[qa] + i[ins] * n_b[qa]
+    col_key = start[qa] + j[ins]
+    dup = (np.bincount(row_key, minlength=total)[row_key] > 1) | (np.bincount(col_key, minlength=total)[col_key] > 1)
+    if not dup.any():
+        return ins
+    hard = np.unique(qa[dup])
+    out = [ins[~np.isin(qa, hard)]]
+    for b in hard.tolist():
+        na, nb, s0 = int(n_a[b]), int(n_b[b]), int(start[b])
+        blk = slice(s0, s0 + na * nb)
+        out.append(s0 + gnn_pairs(inside[blk].reshape(na, nb), cost[blk].reshape(na, nb)))
+    return np.sort(np.concatenate(out))
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_admissible_pairs_and_assignment(seed):
+    from mjasc.perception.tracking.association import gnn_assign_blocks
+
+    rng = np.random.default_rng(seed)
+    p = int(rng.integers(1, 5))
+    n_a = rng.integers(0, 5, size=p).astype(np.int64)
+    n_b = rng.integers(0, 5, size=p).astype(np.int64)
+    q, i, j, start = block_pairs(n_a, n_b)
+    inside = rng.random(q.size) < (0.15 if seed % 2 else 0.5)
+    cost = rng.random(q.size)
+    want = _assign_numpy(inside, cost, q, i, j, start, n_a, n_b)
+    got = gnn_assign_blocks(inside, cost, q, i, j, start, n_a, n_b)
+    assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+    # written back
+    ta = rng.permutation(30)[: max(q.size, 1)][: q.size].astype(np.int64)
+    ta = np.sort(rng.choice(60, size=q.size, replace=False)).astype(np.int64) if q.size else ta
+    M = int(n_b.sum())
+    db = (_starts(n_b)[q] + j).astype(np.int64)
+    var_p, d2 = rng.random(q.size), rng.random(q.size)
+    assigned, var_row, claimed = np.full(60, -1), np.full(60, 0.5), np.zeros(M, dtype=bool)
+    a2, v2, c2 = assigned.copy(), var_row.copy(), claimed.copy()
+    hit, d2g = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
+    c2 |= np.bincount(db[inside], minlength=M) > 0
+    h2 = ta[got]
+    a2[h2] = db[got]
+    v2[h2] = var_p[got]
+    assert hit.tobytes() == h2.tobytes() and d2g.tobytes() == d2[got].tobytes()
+    assert assigned.tobytes() == a2.tobytes() and var_row.tobytes() == v2.tobytes() and claimed.tobytes() == c2.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_fade_nis(seed):
+    from mjasc.perception.tracking.manoeuvre import fade_nis
+
+    rng = np.random.default_rng(seed)
+    n = 15
+    nis, man = rng.random(n) * 10, rng.random(n) < 0.5
+    rows = np.sort(rng.choice(n, size=int(rng.integers(0, n)), replace=False)).astype(np.int64)
+    d2 = rng.random(rows.size) * 20
+    d2[rng.random(rows.size) < 0.1] = np.nan
+    gate, a, start, end = 9.21, 0.8, 6.0, 3.0
+    nis2, man2 = nis.copy(), man.copy()
+    hot = np.empty(rows.size, dtype=bool)
+    n_hot = fade_nis(rows, d2, gate, a, start, end, nis, man, hot)
+    eps = np.minimum(d2, gate)
+    v = a * nis2[rows] + (1.0 - a) * eps
+    nis2[rows] = v
+    m = np.where(man2[rows], v >= end, v > start)
+    man2[rows] = m
+    assert nis.tobytes() == nis2.tobytes() and man.tobytes() == man2.tobytes()
+    assert hot.tobytes() == m.tobytes() and n_hot == int(m.sum())
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_measurements(seed):
+    from mjasc.perception.imm.bank import _measurements
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 12))
+    z = rng.normal(size=(n, 2))
+    z[rng.random((n, 2)) < 0.1] = np.nan
+    z[rng.random((n, 2)) < 0.05] = np.inf
+    measured = rng.random(n) < 0.8
+    mv = rng.normal(size=n)
+    mv[rng.random(n) < 0.1] = np.nan
+    for per_row in (True, False):
+        m = mv.copy()
+        finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        every = _measurements(z, measured, m, per_row, 0.25, finite, use)
+        f2 = np.isfinite(z).all(axis=1)
+        assert finite.tobytes() == f2.tobytes() and use.tobytes() == (measured & f2).tobytes()
+        assert every == bool((measured & f2).all())
+        want = np.where(np.isfinite(mv) & (mv > 0), mv, 0.25) if per_row else mv
+        assert m.tobytes() == want.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_team_blocks(seed):
+    from mjasc.perception.tracking.team import team_blocks
+
+    rng = np.random.default_rng(seed)
+    n_owners = int(rng.integers(1, 4))
+    k = int(rng.integers(0, 10))
+    owner = rng.integers(0, n_owners, size=k).astype(np.int64)
+    confirmed = rng.random(k) < 0.6
+    B = int(rng.integers(0, 6))
+    b_owner = np.sort(rng.integers(0, n_owners, size=B)).astype(np.int64)
+    t_b = rng.random(B) * 5
+    t_s = rng.random(n_owners) * 5
+    t_s[rng.random(n_owners) < 0.2] = np.nan
+    got = team_blocks(confirmed, owner, t_s, b_owner, t_b, 2.0, n_owners)
+    fresh = t_s[b_owner] - t_b <= 2.0
+    c = np.flatnonzero(confirmed)
+    if not fresh.any() or c.size == 0:
+        assert got[0].size == 0 or got[1].size == 0
+        return
+    c = c[np.argsort(owner[c], kind="stable")]
+    bsel = np.flatnonzero(fresh)
+    n_a = np.bincount(owner[c], minlength=n_owners)
+    n_b = np.bincount(b_owner[bsel], minlength=n_owners)
+    for a, b in zip(got, (c, bsel, n_a, n_b, np.cumsum(n_a) - n_a, np.cumsum(n_b) - n_b)):
+        assert a.tobytes() == b.astype(np.int64).tobytes()
+
+
+def _births_numpy(claimed, rows, rpos, d_pos, z, var, rad, x, radius, owners, t_o, next_local):
+    """The numpy form of the births' selection and numbering (FleetTracker._births before birth_rows)."""
+    p = owners.size
+    free = ~claimed
+    if rows.size:
+        n_q = np.bincount(rpos, minlength=p)
+        grouped = rows[np.argsort(rpos, kind="stable")]
+        fidx = np.flatnonzero(free)
+        m_f = np.bincount(d_pos[fidx], minlength=p)
+        q, i, j, start = block_pairs(n_q, m_f)
+        if q.size:
+            ta, fb = grouped[_starts(n_q)[q] + i], fidx[_starts(m_f)[q] + j]
+            pos = x[ta]
+            dist = np.hypot(z[fb, 0] - pos[:, 0], z[fb, 1] - pos[:, 1])
+            free[fb[dist <= radius[ta] + rad[fb]]] = False
+    new = np.flatnonzero(free)
+    k = new.size
+    bp = d_pos[new]
+    own = owners[bp]
+    first = np.searchsorted(bp, bp)
+    local = next_local[own] + (np.arange(k) - first)
+    born = np.bincount(bp, minlength=p)
+    next_local[owners] += born
+    return new, bp, own, local, born, t_o[bp], z[new], var[new], rad[new]
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_birth_rows(seed):
+    rng = np.random.default_rng(seed)
+    n_owners = 4
+    p = int(rng.integers(1, 4))
+    owners = np.sort(rng.choice(n_owners, size=p, replace=False)).astype(np.int64)
+    m_q = rng.integers(0, 6, size=p)
+    d_pos = np.repeat(np.arange(p), m_q).astype(np.int64)
+    M = d_pos.size
+    z, var, rad = rng.normal(scale=5, size=(M, 2)), rng.random(M), rng.random(M) * 2
+    rad[rng.random(M) < 0.1] = np.nan
+    claimed = rng.random(M) < 0.3
+    n = int(rng.integers(0, 10))
+    x, radius = rng.normal(scale=5, size=(n, 4)), rng.random(n) * 3
+    rows = np.sort(rng.choice(n, size=int(rng.integers(0, n + 1)), replace=False)).astype(np.int64)
+    rpos = rng.integers(0, p, size=rows.size).astype(np.int64)
+    t_o = rng.random(p)
+    nl = rng.integers(0, 9, size=n_owners).astype(np.int64)
+    nl2 = nl.copy()
+    got = birth_rows(claimed, rows, rpos, d_pos, z, var, rad, x, radius, owners, t_o, nl)
+    want = _births_numpy(claimed, rows, rpos, d_pos, z, var, rad, x, radius, owners, t_o, nl2)
+    for a, b in zip(got, want):
+        assert a.shape == b.shape and a.tobytes() == b.astype(a.dtype).tobytes()
+    assert nl.tobytes() == nl2.tobytes()
