@@ -233,3 +233,47 @@ def test_the_lazy_results_are_predict_fleets_lists():
                 else:
                     assert a.__dict__[k] == x or (x != x and a.__dict__[k] != a.__dict__[k]), k
         assert got[-1:] == [got[len(got) - 1]] if len(got) else True
+
+
+def test_a_few_intentions_positions_in_the_compiled_pass_equal_their_own_positions():
+    """A small team's intentions (k ≤ 4, one compiled pass each) at times before, on and between
+    the knots, on the last knot and after it: ``TeamIntention.positions`` bit for bit (plans of
+    2 and more knots, uneven spans, no plan)."""
+    rng = np.random.default_rng(11)
+    its = _intentions(rng, 8)
+    its.append(TeamIntention("two", 49.7, np.array([1.0, 2.0]), 0.3, np.array([0.5, -0.2]), 2.0,
+                             np.array([50.0, 50.0 + 1e-12]), np.array([[1.0, 2.0], [1.5, 2.5]])))
+    its.append(TeamIntention("uneven", 49.7, np.array([1.0, 2.0]), 0.3, np.array([0.5, -0.2]), 2.0,
+                             np.array([49.0, 49.3, 51.0, 55.5]), rng.normal(0.0, 10.0, (4, 2))))
+    for it in its:
+        knots = it.plan_times_s
+        times = np.sort(np.concatenate([knots, np.linspace(20.0, 100.0, 33), knots + 1e-9, rng.uniform(40, 80, 9)]))
+        for k in range(1, 5):
+            group = ([it] + its[:k - 1])[:k]
+            np.testing.assert_array_equal(intention_positions(group, times),
+                                          np.stack([g.positions(times) for g in group]))
+
+
+def test_plans_changed_on_the_thesis_crossing_compares_the_plans_positions():
+    """On the thesis crossing (3 vessels, plans broadcast over a lossy link) every plan comparison's
+    positions equal ``TeamIntention.positions``, bit for bit."""
+    import mjasc
+    from mjasc.avoidance import team_mates
+    from mjasc.runs.runner import Runner
+
+    seen = []
+
+    def checked(intentions, times):
+        got = intention_positions(intentions, times)
+        np.testing.assert_array_equal(got, np.stack([it.positions(times) for it in intentions]))
+        seen.append(len(intentions))
+        return got
+
+    original = team_mates.intention_positions
+    team_mates.intention_positions = checked
+    try:
+        sc = mjasc.load_scenario("tasks/thesis_6_4_crossing.toml").with_overrides(duration_s=30.0, video=False)
+        Runner(replace(sc, outputs=replace(sc.outputs, recording=False))).run()
+    finally:
+        team_mates.intention_positions = original
+    assert len(seen) > 20 and max(seen) <= 4

@@ -122,7 +122,18 @@ def intention_positions(intentions, times) -> np.ndarray:
     times = np.asarray(times, dtype=float)
     k, n = len(intentions), times.size
     if k <= 4:  # a small team: each message is compared by one or two receivers, stacking it costs more
-        return np.stack([it.positions(times) for it in intentions]) if k else np.zeros((0, n, 2))
+        if times.ndim != 1 or not times.flags.c_contiguous:
+            return np.stack([it.positions(times) for it in intentions]) if k else np.zeros((0, n, 2))
+        out = np.empty((k, n, 2))
+        for u, it in enumerate(intentions):  # each one's own arrays in one compiled pass
+            ts, pts, pos, vel = it.plan_times_s, it.plan_points_m, it.position_m, it.velocity_m_s
+            if (type(ts) is np.ndarray and type(pts) is np.ndarray and type(pos) is np.ndarray
+                    and type(vel) is np.ndarray and ts.dtype == pts.dtype == pos.dtype == vel.dtype == np.float64
+                    and ts.ndim == 1 and pts.shape == (ts.size, 2) and pos.shape == vel.shape == (2,)):
+                _intention_positions(ts, pts, pos, float(it.sent_time_s), vel, times, out[u])
+            else:
+                out[u] = it.positions(times)
+        return out
     plans, rows = _PLANS.rows(intentions)  # each message stacked once for the fleet
     return plans.at(np.repeat(rows, n), np.tile(times, k)).reshape(k, n, 2)
 
@@ -265,3 +276,56 @@ def _plan_positions(plans, t, ts, xs, ys, start, count, t_first, t_last, anchor,
             dt, dtt = ts[j + 1] - ts[j], ti - ts[j]
             out[i, 0] = (xs[j + 1] - xs[j]) / dt * dtt + xs[j]
             out[i, 1] = (ys[j + 1] - ys[j]) / dt * dtt + ys[j]
+
+
+@kernel
+def _intention_positions(ts, pts, position, sent_time_s, velocity, times, out):
+    """:meth:`TeamIntention.positions <mjasc.cooperation.messages.TeamIntention.positions>` of one
+    intention (plan knots ``ts`` (k,), ``pts`` (k, 2); broadcast position, send time and velocity)
+    at ``times`` (n,) into ``out`` (n, 2), its operations in its order: fewer than two knots, along
+    the broadcast velocity from the broadcast position; after the last knot along the last segment; before the
+    first along the broadcast velocity from it (its span at least 1e-9 s, as
+    ``max``); else ``np.interp``'s rule (the last knot's value at the last knot, a knot's value on
+    a knot, else slope · (t − t_j) + x_j, with its fall-backs for a NaN)."""
+    k = ts.size
+    for i in range(times.size):
+        t = times[i]
+        if k < 2:
+            dt = t - sent_time_s
+            out[i, 0] = position[0] + dt * velocity[0]
+            out[i, 1] = position[1] + dt * velocity[1]
+        elif t > ts[k - 1]:
+            span = ts[k - 1] - ts[k - 2]
+            if 1e-9 > span:
+                span = 1e-9
+            dt = t - ts[k - 1]
+            out[i, 0] = pts[k - 1, 0] + dt * ((pts[k - 1, 0] - pts[k - 2, 0]) / span)
+            out[i, 1] = pts[k - 1, 1] + dt * ((pts[k - 1, 1] - pts[k - 2, 1]) / span)
+        elif t < ts[0]:
+            dt = t - ts[0]
+            out[i, 0] = pts[0, 0] + dt * velocity[0]
+            out[i, 1] = pts[0, 1] + dt * velocity[1]
+        elif t == ts[k - 1]:
+            out[i, 0] = pts[k - 1, 0]
+            out[i, 1] = pts[k - 1, 1]
+        else:
+            lo, hi = 0, k  # the last knot ≤ t
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if ts[mid] <= t:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            j = lo - 1
+            if ts[j] == t:
+                out[i, 0] = pts[j, 0]
+                out[i, 1] = pts[j, 1]
+            else:
+                for c in range(2):
+                    slope = (pts[j + 1, c] - pts[j, c]) / (ts[j + 1] - ts[j])
+                    v = slope * (t - ts[j]) + pts[j, c]
+                    if v != v:
+                        v = slope * (t - ts[j + 1]) + pts[j + 1, c]
+                        if v != v and pts[j, c] == pts[j + 1, c]:
+                            v = pts[j, c]
+                    out[i, c] = v
