@@ -27,6 +27,7 @@ World frame ENU, metres, absolute simulation times [s].
 
 from __future__ import annotations
 
+import math
 import threading
 from typing import Sequence
 
@@ -90,6 +91,22 @@ class TrackMotions:
             if sel.size:
                 out[sel] = self._eval(g, rows[sel], times if times.ndim == 1 else times[sel], sel.size, K)
         return out
+
+    def farther_than(self, rows, times, positions_m, distance_m: float) -> bool:
+        """Whether some track ``rows[k]`` (P,) at its time ``times[k]`` [s] is farther than
+        ``distance_m`` [m] from ``positions_m[k]`` (P, 2): ``np.hypot`` of :meth:`at`'s positions
+        minus the given ones ``> distance_m``, any. Tracks on straight lines (or static) in one
+        compiled pass (:meth:`at`'s operations in its order); with a turning track or a plan among
+        them, :meth:`at` itself."""
+        rows = np.asarray(rows, dtype=np.intp)
+        times = np.asarray(times, dtype=float)
+        pos = np.asarray(positions_m, dtype=float)
+        limit = float(distance_m)
+        found = _straight_farther(self._par, self._kind, rows, times, pos, limit)
+        if found >= 0:
+            return bool(found)
+        pred = self.at(rows, times[:, None])[:, 0]
+        return bool((np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > limit).any())
 
     def grid(self, times) -> np.ndarray:
         """Positions (m, n, 2) of every track on the time grid ``times`` (n,) [s]."""
@@ -329,3 +346,20 @@ def _intention_positions(ts, pts, position, sent_time_s, velocity, times, out):
                         if v != v and pts[j, c] == pts[j + 1, c]:
                             v = pts[j, c]
                     out[i, c] = v
+
+
+@kernel
+def _straight_farther(par, kind, rows, times, pos, limit):
+    """:meth:`TrackMotions.farther_than` when every row is a straight (or static) track: 1 when one
+    of them lies farther than ``limit`` from its position (``hypot`` of x₀ + (v τ) cos θ − x and
+    y₀ + (v τ) sin θ − y, τ = t − t₀: :meth:`TrackMotions._eval`'s operations), else 0; −1 (not
+    decided here) when a row turns or follows a plan."""
+    for i in range(rows.size):
+        if kind[rows[i]] != 0:
+            return -1
+    for i in range(rows.size):
+        r = rows[i]
+        v_tau = par[r, 3] * (times[i] - par[r, 2])
+        if math.hypot(par[r, 0] + v_tau * par[r, 4] - pos[i, 0], par[r, 1] + v_tau * par[r, 5] - pos[i, 1]) > limit:
+            return 1
+    return 0
