@@ -95,16 +95,19 @@ class TrackMotions:
     def farther_than(self, rows, times, positions_m, distance_m: float) -> bool:
         """Whether some track ``rows[k]`` (P,) at its time ``times[k]`` [s] is farther than
         ``distance_m`` [m] from ``positions_m[k]`` (P, 2): ``np.hypot`` of :meth:`at`'s positions
-        minus the given ones ``> distance_m``, any. Tracks on straight lines (or static) in one
-        compiled pass (:meth:`at`'s operations in its order); with a turning track or a plan among
-        them, :meth:`at` itself."""
+        minus the given ones ``> distance_m``, any. Without a plan among the rows in two compiled
+        passes around numpy's sin and cos of the turning rows' angles — the array :meth:`at` hands
+        them (those rows in order), so the same bits — and :meth:`at`'s operations in its order;
+        with a plan, :meth:`at` itself."""
         rows = np.asarray(rows, dtype=np.intp)
         times = np.asarray(times, dtype=float)
         pos = np.asarray(positions_m, dtype=float)
         limit = float(distance_m)
-        found = _straight_farther(self._par, self._kind, rows, times, pos, limit)
-        if found >= 0:
-            return bool(found)
+        angles = np.empty(rows.size)
+        n_turn = _turn_angles(self._par, self._kind, rows, times, angles)
+        if n_turn >= 0:
+            th = angles[:n_turn]
+            return bool(_farther(self._par, self._kind, rows, times, pos, limit, np.sin(th), np.cos(th)))
         pred = self.at(rows, times[:, None])[:, 0]
         return bool((np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > limit).any())
 
@@ -349,17 +352,37 @@ def _intention_positions(ts, pts, position, sent_time_s, velocity, times, out):
 
 
 @kernel
-def _straight_farther(par, kind, rows, times, pos, limit):
-    """:meth:`TrackMotions.farther_than` when every row is a straight (or static) track: 1 when one
-    of them lies farther than ``limit`` from its position (``hypot`` of x₀ + (v τ) cos θ − x and
-    y₀ + (v τ) sin θ − y, τ = t − t₀: :meth:`TrackMotions._eval`'s operations), else 0; −1 (not
-    decided here) when a row turns or follows a plan."""
-    for i in range(rows.size):
-        if kind[rows[i]] != 0:
-            return -1
+def _turn_angles(par, kind, rows, times, out):
+    """The angles θ₀ + ω τ (τ = t − t₀) of the turning rows among ``rows``, in order, into ``out``
+    (:meth:`TrackMotions._eval`'s operations); returns how many, or −1 when a row follows a plan."""
+    n = 0
     for i in range(rows.size):
         r = rows[i]
-        v_tau = par[r, 3] * (times[i] - par[r, 2])
-        if math.hypot(par[r, 0] + v_tau * par[r, 4] - pos[i, 0], par[r, 1] + v_tau * par[r, 5] - pos[i, 1]) > limit:
-            return 1
-    return 0
+        if kind[r] == 2:
+            return -1
+        if kind[r] == 1:
+            out[n] = par[r, 6] + par[r, 7] * (times[i] - par[r, 2])
+            n += 1
+    return n
+
+
+@kernel
+def _farther(par, kind, rows, times, pos, limit, sin_t, cos_t):
+    """:meth:`TrackMotions.farther_than` without plans: True when a row's position at its time lies
+    farther than ``limit`` from ``pos`` (``hypot``); straight (or static) rows x₀ + (v τ) cos θ,
+    y₀ + (v τ) sin θ, turning rows x₀ + (v/ω)(sin θ(t) − sin θ), y₀ − (v/ω)(cos θ(t) − cos θ) with
+    ``sin_t``, ``cos_t`` the turning rows' sin θ(t), cos θ(t) in order (:meth:`TrackMotions._eval`)."""
+    n = 0
+    for i in range(rows.size):
+        r = rows[i]
+        if kind[r] == 1:
+            x = par[r, 0] + par[r, 8] * (sin_t[n] - par[r, 5])
+            y = par[r, 1] - par[r, 8] * (cos_t[n] - par[r, 4])
+            n += 1
+        else:
+            v_tau = par[r, 3] * (times[i] - par[r, 2])
+            x = par[r, 0] + v_tau * par[r, 4]
+            y = par[r, 1] + v_tau * par[r, 5]
+        if math.hypot(x - pos[i, 0], y - pos[i, 1]) > limit:
+            return True
+    return False
