@@ -233,3 +233,98 @@ def test_the_lazy_results_are_predict_fleets_lists():
                 else:
                     assert a.__dict__[k] == x or (x != x and a.__dict__[k] != a.__dict__[k]), k
         assert got[-1:] == [got[len(got) - 1]] if len(got) else True
+
+
+def test_a_few_intentions_positions_in_the_compiled_pass_equal_their_own_positions():
+    """A small team's intentions (k ≤ 4, one compiled pass each) at times before, on and between
+    the knots, on the last knot and after it: ``TeamIntention.positions`` bit for bit (plans of
+    2 and more knots, uneven spans, no plan)."""
+    rng = np.random.default_rng(11)
+    its = _intentions(rng, 8)
+    its.append(TeamIntention("two", 49.7, np.array([1.0, 2.0]), 0.3, np.array([0.5, -0.2]), 2.0,
+                             np.array([50.0, 50.0 + 1e-12]), np.array([[1.0, 2.0], [1.5, 2.5]])))
+    its.append(TeamIntention("uneven", 49.7, np.array([1.0, 2.0]), 0.3, np.array([0.5, -0.2]), 2.0,
+                             np.array([49.0, 49.3, 51.0, 55.5]), rng.normal(0.0, 10.0, (4, 2))))
+    for it in its:
+        knots = it.plan_times_s
+        times = np.sort(np.concatenate([knots, np.linspace(20.0, 100.0, 33), knots + 1e-9, rng.uniform(40, 80, 9)]))
+        for k in range(1, 5):
+            group = ([it] + its[:k - 1])[:k]
+            np.testing.assert_array_equal(intention_positions(group, times),
+                                          np.stack([g.positions(times) for g in group]))
+
+
+def test_plans_changed_on_the_thesis_crossing_compares_the_plans_positions():
+    """On the thesis crossing (3 vessels, plans broadcast over a lossy link) every plan comparison's
+    positions equal ``TeamIntention.positions``, bit for bit."""
+    import mjasc
+    from mjasc.avoidance import team_mates
+    from mjasc.runs.runner import Runner
+
+    seen = []
+
+    def checked(intentions, times):
+        got = intention_positions(intentions, times)
+        np.testing.assert_array_equal(got, np.stack([it.positions(times) for it in intentions]))
+        seen.append(len(intentions))
+        return got
+
+    original = team_mates.intention_positions
+    team_mates.intention_positions = checked
+    try:
+        sc = mjasc.load_scenario("tasks/thesis_6_4_crossing.toml").with_overrides(duration_s=30.0, video=False)
+        Runner(replace(sc, outputs=replace(sc.outputs, recording=False))).run()
+    finally:
+        team_mates.intention_positions = original
+    assert len(seen) > 20 and max(seen) <= 4
+
+
+def _farther_reference(motions, rows, times, pos, limit):
+    pred = motions.at(np.array(rows), np.array(times, dtype=float)[:, None])[:, 0]
+    pos = np.array(pos, dtype=float)
+    return bool((np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > limit).any())
+
+
+def test_farther_than_equals_the_distance_of_at_for_straight_turning_static_and_planned_tracks():
+    """``TrackMotions.farther_than`` (straight and static tracks in one compiled pass, else through
+    ``at``) answers as ``np.hypot`` of ``at``'s positions, on limits placed at the distances
+    themselves (the comparison's edge)."""
+    rng = np.random.default_rng(21)
+    its = _intentions(rng, 3)
+    tracks = [TrackEstimate(k, 49.0 + 0.1 * k, rng.uniform(-40, 40, 2), rng.uniform(-3, 3), rng.uniform(0, 3),
+                            float(rng.choice([0.0, 0.0, 0.03, -0.02])), 2.0, is_static=bool(k % 5 == 4))
+              for k in range(12)]
+    tracks += [PlannedTrack(20 + k, it.sent_time_s, it.position_m, 0.0, 1.0, 0.0, 1.5, team_member=it.name,
+                            intention=it) for k, it in enumerate(its)]
+    straight = [k for k, tr in enumerate(tracks) if isinstance(tr, TrackEstimate) and not isinstance(tr, PlannedTrack)
+                and (tr.is_static or tr.speed_m_s == 0.0 or abs(tr.turn_rate_rad_s) < 1e-9)]
+    assert len(straight) >= 4
+    for m in (TrackMotions(tracks), TrackMotions([tracks[k] for k in straight])):
+        n = m.n
+        for trial in range(200):
+            rows = rng.choice(n, size=int(rng.integers(1, 6)))
+            times = 50.0 + rng.uniform(0.0, 3.0, rows.size)
+            pos = m.at(rows, times[:, None])[:, 0] + rng.normal(0.0, 1.0, (rows.size, 2))
+            d = np.hypot(*(m.at(rows, times[:, None])[:, 0] - pos).T)
+            for limit in (0.5, 2.0, float(d.max()), float(np.nextafter(d.max(), -np.inf)), float(d.min())):
+                assert m.farther_than(tuple(rows.tolist()), tuple(times.tolist()), tuple(pos), limit) == \
+                    _farther_reference(m, rows, times, pos, limit)
+
+
+def test_deviation_checks_on_the_demo_equal_the_reference_form(monkeypatch):
+    """Every deviation check of the demo's control ticks (60 s) answers as ``np.hypot`` of ``at``."""
+    import mjasc
+    from mjasc.runs.runner import Runner
+
+    farther, seen = TrackMotions.farther_than, []
+
+    def checked(self, rows, times, pos, limit):
+        got = farther(self, rows, times, pos, limit)
+        assert got == _farther_reference(self, rows, times, pos, limit)
+        seen.append(got)
+        return got
+
+    monkeypatch.setattr(TrackMotions, "farther_than", checked)
+    sc = mjasc.load_scenario("demo").with_overrides(duration_s=60.0, video=False)
+    Runner(replace(sc, outputs=replace(sc.outputs, recording=False))).run()
+    assert len(seen) > 100

@@ -231,3 +231,29 @@ def test_batched_control_slot_equals_vessel_by_vessel_on_the_demo(form):
             _same(np.array([getattr(sb, f) for f in sb.__dataclass_fields__], dtype=float),
                   np.array([getattr(ss, f) for f in ss.__dataclass_fields__], dtype=float))
             assert mb == ms
+
+
+def test_float_law_and_near_projection_equal_their_reference_forms_on_the_demo(monkeypatch):
+    """The control tick's plain-float law (:func:`_law_floats`) equals the law written once over the
+    operations table (``_law(_FloatOps, …)``), and the follower's projection ``Path.project_near``
+    equals ``Path.project`` with the same hint and window, bit for bit at every tick of the demo."""
+    law, near = path_following._law_floats, Path.project_near
+    seen = {"law": 0, "projection": 0}
+
+    def law_checked(P, S, *args):
+        got = law(P, S, *args)
+        ref = path_following._law(path_following._FloatOps, P, list(S), *args)
+        assert got == ref and [type(v) for v in got[3]] == [type(v) for v in ref[3]]
+        seen["law"] += 1
+        return got
+
+    def near_checked(path, px, py, hint, window):
+        got = near(path, px, py, hint, window)
+        assert got == path.project((px, py), gamma_hint=hint, search_window_m=window)
+        seen["projection"] += 1
+        return got
+
+    monkeypatch.setattr(path_following, "_law_floats", law_checked)
+    monkeypatch.setattr(Path, "project_near", near_checked)
+    _record_control(per_vessel=False, duration_s=20.0)
+    assert seen["law"] == seen["projection"] == 3 * 201

@@ -47,3 +47,13 @@ class AvoidanceRequest:
     path_switch: PathSwitch | None = None
     conflicts: tuple = ()
     course_override_rad: float | None = None
+
+    @classmethod
+    def of(cls, mode: str, speed_override_m_s, path_switch, conflicts: tuple, course_override_rad) -> "AvoidanceRequest":
+        """The same value as ``AvoidanceRequest(mode, speed_override_m_s, path_switch, conflicts,
+        course_override_rad)``, without the frozen dataclass's ``__init__`` (one per vessel and
+        control tick); values taken as given."""
+        request = object.__new__(cls)
+        request.__dict__.update(mode=mode, speed_override_m_s=speed_override_m_s, path_switch=path_switch,
+                                conflicts=conflicts, course_override_rad=course_override_rad)
+        return request

@@ -68,12 +68,23 @@ def static_conflicts(t: float, path: Path, gamma: float, profile, polygons, radi
     near = pts[:n_ahead]  # the path beyond the window only matters for a stretch that starts in it
     near_lo, near_hi = near.min(axis=0), near.max(axis=0)
     out = []
-    for poly in polygons:
-        # Only path samples within the polygon's bounding box grown by the limit can be closer
-        # than the limit or inside (the same answer as testing them all).
-        lo, hi = poly.min(axis=0) - limit, poly.max(axis=0) + limit
-        if (lo > near_hi).any() or (hi < near_lo).any():
-            continue
+    # Only path samples within a polygon's bounding box grown by the limit can be closer than the
+    # limit or inside (the same answer as testing them all): the boxes of all polygons at once
+    # (min and max are exact: the numbers of each polygon's own min and max).
+    if len(polygons) > 1 and all(p.ndim == 2 and p.shape[0] and p.shape[1] == 2 for p in polygons):
+        starts = np.cumsum([0] + [p.shape[0] for p in polygons[:-1]])
+        stacked = np.concatenate(polygons)
+        lo_all = np.minimum.reduceat(stacked, starts, axis=0) - limit
+        hi_all = np.maximum.reduceat(stacked, starts, axis=0) + limit
+        apart = ((lo_all > near_hi) | (hi_all < near_lo)).any(axis=1)
+        boxes = [(poly, lo_all[k], hi_all[k]) for k, poly in enumerate(polygons) if not apart[k]]
+    else:
+        boxes = []
+        for poly in polygons:
+            lo, hi = poly.min(axis=0) - limit, poly.max(axis=0) + limit
+            if not ((lo > near_hi).any() or (hi < near_lo).any()):
+                boxes.append((poly, lo, hi))
+    for poly, lo, hi in boxes:
         cand = near[((near >= lo) & (near <= hi)).all(axis=1)]
         if not cand.size or not ((distance_to_polygon(cand, poly) < limit) | point_in_polygon(cand, poly)).any():
             continue

@@ -150,13 +150,14 @@ def control_slot(calls) -> list[AvoidanceRequest]:
     for system, t, nav, guidance, perceived, team in calls:
         system._begin(guidance, perceived, team)
         pending.append(system._control_query(float(t)))
-    results = iter(predict_fleet_lazy([p[0].query for p in pending if p is not None and p[0].query is not None]))
+    queries = [p[0].query for p in pending if p is not None and p[0].query is not None]
+    results = iter(predict_fleet_lazy(queries) if queries else ())  # (most ticks predict nothing)
     out = []
     for (system, t, nav, _, _, _), p in zip(calls, pending):
         if p is not None:
             system._control_predict(float(t), nav, p, next(results) if p[0].query is not None else [])
         override, mode, course = system._control_rest(float(t), nav)
-        out.append(AvoidanceRequest(mode, override, system._switch, (), course))
+        out.append(AvoidanceRequest.of(mode, override, system._switch, (), course))
     return out
 
 
@@ -769,9 +770,7 @@ class CollisionAvoidance(AvoidanceMethod):
         if not sel:
             return False
         rows, times, pos = zip(*sel)
-        pred = self._predicted_motion.at(np.array(rows), np.array(times)[:, None])[:, 0]
-        pos = np.array(pos, dtype=float)
-        return bool((np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > self.config.track_deviation_m).any())
+        return self._predicted_motion.farther_than(rows, times, pos, self.config.track_deviation_m)
 
     def _control_refs(self, t, nav) -> tuple[float | None, str, float | None]:
         """(speed override [m/s] or None, mode, course override [rad] or None) for this control

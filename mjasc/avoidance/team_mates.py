@@ -82,6 +82,7 @@ class TeamMates:
                  horizon_s: float):
         self.name, self.team, self.radius_m = name, set(team), float(radius_m)
         self.max_age_s, self.deviation_m, self.horizon_s = float(max_age_s), float(deviation_m), float(horizon_s)
+        self._window_grid = np.linspace(0.0, self.horizon_s, 16)  # the plan comparison's times after now [s]
         self._nav: dict[str, tuple] = {}  # name → (sent t, heading, ω) from successive broadcasts
         self._predicted: dict = {}  # name → TeamIntention the last prediction used
         self._history = _BroadcastHistory()  # every team mate's broadcast positions over TEAM_HISTORY_S
@@ -263,7 +264,7 @@ class TeamMates:
         self._compared_key = key
         if not pairs:
             return False
-        ts = t + np.linspace(0.0, self.horizon_s, 16)
+        ts = t + self._window_grid
         both = intention_positions([p[0] for p in pairs] + [p[1] for p in pairs], ts)  # new plans, then the old
         new, old = both[:len(pairs)], both[len(pairs):]
         return bool(np.max(np.hypot(new[..., 0] - old[..., 0], new[..., 1] - old[..., 1])) > self.deviation_m)

@@ -328,10 +328,17 @@ class CommsNetwork:
         stats.delivered += k
         stats.delay_sum_s, stats.delay_max_s = delay_sum, delay_max
         out = [(team[s], sent, a, payload) for a, _, s, sent, payload in arrived]
-        # Per (sender, receiver), in arrival order (np.add.at adds repeated indices one by one).
+        # Per (sender, receiver), in arrival order (np.add.at adds repeated indices one by one; a
+        # few arrivals item by item: the same additions in the same order).
         r = self._index[receiver]
-        np.add.at(self._pair_delivered[:, r], senders, 1)
-        np.add.at(self._pair_delay_s[:, r], senders, delays)
+        if k <= 8:
+            delivered, delay_s = self._pair_delivered, self._pair_delay_s
+            for s, delay in zip(senders, delays):
+                delivered[s, r] += 1
+                delay_s[s, r] += delay
+        else:
+            np.add.at(self._pair_delivered[:, r], senders, 1)
+            np.add.at(self._pair_delay_s[:, r], senders, delays)
         return out
 
     def decide_many(self, t_s: float, receivers, positions, limits=None) -> None:

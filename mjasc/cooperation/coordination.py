@@ -190,8 +190,15 @@ class _TeamView:
     def gap_sum(self, t_s: float, extrapolate: bool, own: float) -> float:
         """Σ_j (ξ_own − ξ̂_j(t)) over the active neighbours, as ``_sum`` of the gaps to
         :meth:`xi_hat` gives it (above 8 neighbours the gaps in one compiled pass, numpy's sum)."""
-        if self.arrays is None:
-            return _sum([own - x for x in self.xi_hat(t_s, extrapolate)])
+        if self.arrays is None:  # _sum of the gaps to xi_hat's list: below 8 values, in order
+            acc = 0.0
+            if extrapolate:
+                for x, rate, sent, x_end in self.rows:
+                    acc += own - min(x + rate * (t_s - sent), max(x, x_end))
+            else:
+                for row in self.rows:
+                    acc += own - row[0]
+            return acc
         xi, rate, sent, x_end = self.arrays
         gaps = np.empty(xi.size)
         _gaps(xi, rate, sent, x_end, float(t_s), float(own), bool(extrapolate), gaps)

@@ -32,7 +32,9 @@ projects every vessel on its path and runs the law for all of them. The law (:fu
 written once over a table of operations: above :data:`SCALAR_FLEET_MAX` vessels it runs once over
 arrays (the projection in one vectorized pass over each vessel's window of segments); up to it,
 vessel by vessel in plain floats (each path's scalar projection), because numpy's per-call
-overhead, not arithmetic, is the cost of small fleets. Both forms give the same bits (elementwise
+overhead, not arithmetic, is the cost of small fleets. The plain-float form the control tick runs
+is :func:`_law_floats`, the float operations written out (a Python call per operation cost more
+than the law's arithmetic); a test holds it to ``_law(_FloatOps, …)`` bit for bit on the demo. Both forms give the same bits (elementwise
 operations in the same order, ``x**2`` through the C library's pow in both; ``math``'s sin, cos
 and atan2 equal numpy's on x86-64 without AVX-512, elsewhere they may differ in the last bit), so
 a vessel's commands do not depend on the fleet it is in (``tests/test_fleet_following.py``).
@@ -219,6 +221,50 @@ def _law(o, P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p, ka
     return half_sum - half_diff, half_sum + half_diff, (gamma, xte_i, speed_i, head_i), (e, psi_d, u_d, finished)
 
 
+def _law_floats(P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p, kappa, length, course):
+    """:func:`_law` for one vessel in plain floats with the operations of :class:`_FloatOps` written
+    out (the same expressions in the same order: the same bits, ``tests/test_fleet_following.py``
+    checks it on real runs); the control tick's form, a few Python calls instead of ~30."""
+    e = -(x - qx) * math.sin(chi_p) + (y - qy) * math.cos(chi_p)
+    finished = gamma >= length - P[_FINISH]
+    steered = course == course  # a course override (not NaN)
+    # integral LOS
+    delta, xte_i = P[_LOOKAHEAD], S[_XTE_I]
+    e_eff = e + P[_SIGMA] * xte_i
+    psi_d = course if steered else wrap_scalar(chi_p - math.atan2(e_eff, delta))
+    if not (finished or steered):
+        xte_i = xte_i + dt_s * delta * e / (delta**2 + e_eff**2)
+    # heading and speed loops
+    u_d = 0.0 if finished else speed_ref
+    r_d = 0.0 if steered else kappa * u
+    e_psi = wrap_scalar(heading - psi_d)
+    kp_psi = P[_KP_PSI]
+    n_cmd = -kp_psi * e_psi - P[_KD_PSI] * (r - r_d) - P[_NR] * r_d + -kp_psi / P[_TI] * S[_HEAD_I]
+    e_u = u_d - u
+    x_cmd = -P[_XU] * u_d - P[_XUU] * abs(u_d) * u_d + P[_KP_U] * e_u + P[_KI_U] * S[_SPEED_I]
+    # allocation to the twin propellers, yaw first: T_s + T_p = X, d (T_s − T_p) = N
+    t_max, t_min = P[_TMAX], P[_TMIN]
+    half_diff_free = 0.5 * n_cmd / P[_D]
+    half_range = (t_max + t_min) / 2
+    half_diff = half_diff_free if half_diff_free >= -half_range else -half_range
+    if not half_diff <= half_range:
+        half_diff = half_range
+    lo = -t_min + abs(half_diff)
+    hi = t_max - abs(half_diff)
+    half_sum_free = 0.5 * x_cmd
+    saturated = not (lo <= half_sum_free and half_sum_free <= hi) or abs(half_diff_free) > abs(half_diff)
+    half_sum = half_sum_free if half_sum_free >= lo else lo
+    if not half_sum <= hi:
+        half_sum = hi
+    # conditional integration: no wind-up while the propellers saturate; the heading integral
+    # only near the reference (not through large turns)
+    speed_i = S[_SPEED_I] if saturated else S[_SPEED_I] + e_u * dt_s
+    head_i = S[_HEAD_I] + e_psi * dt_s if not saturated and abs(e_psi) < 0.5 else S[_HEAD_I]
+    if finished:
+        speed_i = 0.0
+    return half_sum - half_diff, half_sum + half_diff, (gamma, xte_i, speed_i, head_i), (e, psi_d, u_d, finished)
+
+
 #: Up to this many vessels a command runs the law vessel by vessel in plain floats (cheaper than
 #: numpy's per-call overhead); above, once over arrays. Both give the same bits.
 SCALAR_FLEET_MAX = 20
@@ -304,24 +350,31 @@ class FleetPathFollower:
         return PropellerCoefficients.command_for_thrust(prop, thrust), statuses  # the inverse curve, per vessel
 
     def _command_floats(self, idx, pos, heading, bv, speed, dt_s, course):
-        """The law vessel by vessel in plain floats; the projection by each path's scalar query."""
+        """The law vessel by vessel in plain floats (:func:`_law_floats`); the projection by each
+        path's scalar query."""
         thrust = []
         statuses = []
         S = self._S
         paths = self.paths.paths
+        cols = self._P_cols
+        new_status = object.__new__
         for k, i in enumerate(idx):
-            P = self._P_cols[i]
+            P = cols[i]
             s = S[:, i].tolist()
             x, y = pos[k][0], pos[k][1]
             path = paths[i]
-            g = path.project((x, y), gamma_hint=s[_GAMMA], search_window_m=P[_WINDOW])
+            g = path.project_near(x, y, s[_GAMMA], P[_WINDOW])
             qx, qy, chi_p, kappa = path.at(g)
-            t_p, t_s, new, (e, psi_d, u_d, finished) = _law(_FloatOps, P, s, x, y, heading[k], bv[k][0], bv[k][2],
-                                                             speed[k], dt_s, g, qx, qy, chi_p, kappa, path.length,
-                                                             course[k])
+            t_p, t_s, new, (e, psi_d, u_d, finished) = _law_floats(P, s, x, y, heading[k], bv[k][0], bv[k][2],
+                                                                    speed[k], dt_s, g, qx, qy, chi_p, kappa,
+                                                                    path.length, course[k])
             thrust.append((t_p, t_s))
             S[:, i] = new
-            statuses.append(PathFollowingStatus(g, e, chi_p, psi_d, u_d, finished))
+            # PathFollowingStatus(g, e, chi_p, psi_d, u_d, finished) without the frozen dataclass's __init__
+            status = new_status(PathFollowingStatus)
+            status.__dict__.update(gamma_m=g, cross_track_m=e, course_ref_rad=chi_p, heading_ref_rad=psi_d,
+                                   speed_ref_m_s=u_d, finished=finished)
+            statuses.append(status)
         return thrust, statuses
 
     def _command_arrays(self, rows, pos, heading, bv, speed, dt_s, course):

@@ -441,18 +441,48 @@ class Path:
                 raise ValueError(f"search_window_m: must be finite and > 0, got {search_window_m}")
             h = clip_scalar(float(gamma_hint), 0.0, self._length)
             lo, hi = max(0.0, h - w), min(self._length, h + w)
+        return self._project_between(px, py, lo, hi)
+
+    def project_near(self, px: float, py: float, gamma_hint: float, search_window_m: float) -> float:
+        """:meth:`project` of the point (px, py) with ``gamma_hint`` and ``search_window_m``, for
+        plain floats a caller has checked already (a path follower's window: finite and > 0); a
+        point that is not finite goes through :meth:`project` (and its error). The same bits."""
+        if not (-math.inf < px < math.inf and -math.inf < py < math.inf):
+            return self.project((px, py), gamma_hint, search_window_m)
+        length = self._length
+        h = clip_scalar(gamma_hint, 0.0, length)
+        return self._project_between(px, py, max(0.0, h - search_window_m), min(length, h + search_window_m))
+
+    def _project_between(self, px: float, py: float, lo: float, hi: float) -> float:
+        """:meth:`project`'s search on the stretch [lo, hi] of the path."""
         # the segments that can touch [lo, hi], one of margin each side (the exact test is below)
-        j0 = max(bisect_right(self._cum_list, lo) - 2, 0)
-        j1 = min(bisect_right(self._cum_list, hi), len(self._rows) - 1)
+        cum = self._cum_list
+        j0 = max(bisect_right(cum, lo) - 2, 0)
+        j1 = min(bisect_right(cum, hi), len(self._rows) - 1)
         if j1 - j0 < _SCALAR_SEGMENTS:
             cands: list = []
             for row in self._rows[j0:j1 + 1]:
-                s_lo, s_hi = max(0.0, lo - row[C]), min(row[LEN], hi - row[C])
+                s_lo, s_hi = lo - row[C], hi - row[C]  # max(0, ·) and min(LEN, ·) as the builtins pick
+                if not s_lo > 0.0:
+                    s_lo = 0.0
+                if not s_hi < row[LEN]:
+                    s_hi = row[LEN]
                 if s_lo <= s_hi:
                     closest_scalar(px, py, row, s_lo, s_hi, cands)
-            d_min = min(c[0] for c in cands)
+            if not cands:
+                raise ValueError("min() arg is an empty sequence")
+            d_min = cands[0][0]  # min(d) and then min(γ within the tie) as the builtin min runs
+            for d, _ in cands:
+                if d < d_min:
+                    d_min = d
             tie = d_min * (1.0 + 1e-12) + 1e-18
-            return clip_scalar(min(g for d, g in cands if d <= tie), 0.0, self._length)
+            best = None
+            for d, g in cands:
+                if d <= tie and (best is None or g < best):
+                    best = g
+            if best is None:
+                raise ValueError("min() arg is an empty sequence")
+            return clip_scalar(best, 0.0, self._length)
         gam, _ = self._closest(np.array([[px, py]]), lo, hi, j0, j1 + 1)
         return float(gam[0])
 

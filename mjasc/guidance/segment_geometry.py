@@ -161,7 +161,8 @@ def closest_scalar(qx: float, qy: float, row, lo: float, hi: float, out: list) -
     phi = math.atan2(qy - row[CY], qx - row[CX])
     sgn = 1.0 if k > 0.0 else -1.0
     s_star = clip_scalar((sgn * (phi - row[A0])) % _TWO_PI / abs(k), lo, hi)
+    x0, y0, th0, sin0, cos0, c0 = row[X0], row[Y0], row[TH0], row[SIN0], row[COS0], row[C]
     for s in (s_star, lo, hi):
-        x, y = point_scalar(row, s)
-        ex, ey = x - qx, y - qy
-        out.append((ex * ex + ey * ey, row[C] + s))
+        th = th0 + k * s  # point_scalar(row, s) on an arc
+        ex, ey = x0 + (math.sin(th) - sin0) / k - qx, y0 + (cos0 - math.cos(th)) / k - qy
+        out.append((ex * ex + ey * ey, c0 + s))

@@ -114,7 +114,12 @@ class VesselAgent:
         follower = self.follower
         if follower is None:
             return None
-        return GuidanceState.of(follower.path, follower.gamma_m, float(self.mission_speed_m_s) * self.speed_factor())
+        c = self.coordination
+        factor = c.last_factor if c is not None else 1.0
+        if not (type(factor) is float and -math.inf < factor < math.inf):  # (speed_factor without its calls)
+            factor = float(factor) if math.isfinite(factor) else 1.0
+        speed = self.mission_speed_m_s
+        return GuidanceState.of(follower.path, follower.gamma_m, (speed if type(speed) is float else float(speed)) * factor)
 
     def perception_report(self, t_s: float) -> PerceptionReport | None:
         """What the perception reports now (None without perception); rebuilt only after a slot that
@@ -291,7 +296,9 @@ class VesselAgent:
 
     def control_output(self, commands: np.ndarray, status: PathFollowingStatus, mode: str) -> ControlOutput:
         """The control slot's output from the follower's commands (2,) and status."""
-        return ControlOutput(commands, status, status.speed_ref_m_s, mode)
+        out = object.__new__(ControlOutput)  # ControlOutput(commands, status, speed, mode) without the frozen __init__
+        out.__dict__.update(commands=commands, status=status, speed_ref_m_s=status.speed_ref_m_s, mode=mode)
+        return out
 
     def control(self, nav: OwnNavigation, dt_s: float) -> ControlOutput:
         """This vessel's whole control slot (its follower alone; the tick runs the fleet's

@@ -27,6 +27,7 @@ World frame ENU, metres, absolute simulation times [s].
 
 from __future__ import annotations
 
+import math
 import threading
 from typing import Sequence
 
@@ -91,6 +92,25 @@ class TrackMotions:
                 out[sel] = self._eval(g, rows[sel], times if times.ndim == 1 else times[sel], sel.size, K)
         return out
 
+    def farther_than(self, rows, times, positions_m, distance_m: float) -> bool:
+        """Whether some track ``rows[k]`` (P,) at its time ``times[k]`` [s] is farther than
+        ``distance_m`` [m] from ``positions_m[k]`` (P, 2): ``np.hypot`` of :meth:`at`'s positions
+        minus the given ones ``> distance_m``, any. Without a plan among the rows in two compiled
+        passes around numpy's sin and cos of the turning rows' angles — the array :meth:`at` hands
+        them (those rows in order), so the same bits — and :meth:`at`'s operations in its order;
+        with a plan, :meth:`at` itself."""
+        rows = np.asarray(rows, dtype=np.intp)
+        times = np.asarray(times, dtype=float)
+        pos = np.asarray(positions_m, dtype=float)
+        limit = float(distance_m)
+        angles = np.empty(rows.size)
+        n_turn = _turn_angles(self._par, self._kind, rows, times, angles)
+        if n_turn >= 0:
+            th = angles[:n_turn]
+            return bool(_farther(self._par, self._kind, rows, times, pos, limit, np.sin(th), np.cos(th)))
+        pred = self.at(rows, times[:, None])[:, 0]
+        return bool((np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > limit).any())
+
     def grid(self, times) -> np.ndarray:
         """Positions (m, n, 2) of every track on the time grid ``times`` (n,) [s]."""
         return self.at(np.arange(self.n), np.asarray(times, dtype=float))
@@ -122,7 +142,18 @@ def intention_positions(intentions, times) -> np.ndarray:
     times = np.asarray(times, dtype=float)
     k, n = len(intentions), times.size
     if k <= 4:  # a small team: each message is compared by one or two receivers, stacking it costs more
-        return np.stack([it.positions(times) for it in intentions]) if k else np.zeros((0, n, 2))
+        if times.ndim != 1 or not times.flags.c_contiguous:
+            return np.stack([it.positions(times) for it in intentions]) if k else np.zeros((0, n, 2))
+        out = np.empty((k, n, 2))
+        for u, it in enumerate(intentions):  # each one's own arrays in one compiled pass
+            ts, pts, pos, vel = it.plan_times_s, it.plan_points_m, it.position_m, it.velocity_m_s
+            if (type(ts) is np.ndarray and type(pts) is np.ndarray and type(pos) is np.ndarray
+                    and type(vel) is np.ndarray and ts.dtype == pts.dtype == pos.dtype == vel.dtype == np.float64
+                    and ts.ndim == 1 and pts.shape == (ts.size, 2) and pos.shape == vel.shape == (2,)):
+                _intention_positions(ts, pts, pos, float(it.sent_time_s), vel, times, out[u])
+            else:
+                out[u] = it.positions(times)
+        return out
     plans, rows = _PLANS.rows(intentions)  # each message stacked once for the fleet
     return plans.at(np.repeat(rows, n), np.tile(times, k)).reshape(k, n, 2)
 
@@ -265,3 +296,93 @@ def _plan_positions(plans, t, ts, xs, ys, start, count, t_first, t_last, anchor,
             dt, dtt = ts[j + 1] - ts[j], ti - ts[j]
             out[i, 0] = (xs[j + 1] - xs[j]) / dt * dtt + xs[j]
             out[i, 1] = (ys[j + 1] - ys[j]) / dt * dtt + ys[j]
+
+
+@kernel
+def _intention_positions(ts, pts, position, sent_time_s, velocity, times, out):
+    """:meth:`TeamIntention.positions <mjasc.cooperation.messages.TeamIntention.positions>` of one
+    intention (plan knots ``ts`` (k,), ``pts`` (k, 2); broadcast position, send time and velocity)
+    at ``times`` (n,) into ``out`` (n, 2), its operations in its order: fewer than two knots, along
+    the broadcast velocity from the broadcast position; after the last knot along the last segment; before the
+    first along the broadcast velocity from it (its span at least 1e-9 s, as
+    ``max``); else ``np.interp``'s rule (the last knot's value at the last knot, a knot's value on
+    a knot, else slope · (t − t_j) + x_j, with its fall-backs for a NaN)."""
+    k = ts.size
+    for i in range(times.size):
+        t = times[i]
+        if k < 2:
+            dt = t - sent_time_s
+            out[i, 0] = position[0] + dt * velocity[0]
+            out[i, 1] = position[1] + dt * velocity[1]
+        elif t > ts[k - 1]:
+            span = ts[k - 1] - ts[k - 2]
+            if 1e-9 > span:
+                span = 1e-9
+            dt = t - ts[k - 1]
+            out[i, 0] = pts[k - 1, 0] + dt * ((pts[k - 1, 0] - pts[k - 2, 0]) / span)
+            out[i, 1] = pts[k - 1, 1] + dt * ((pts[k - 1, 1] - pts[k - 2, 1]) / span)
+        elif t < ts[0]:
+            dt = t - ts[0]
+            out[i, 0] = pts[0, 0] + dt * velocity[0]
+            out[i, 1] = pts[0, 1] + dt * velocity[1]
+        elif t == ts[k - 1]:
+            out[i, 0] = pts[k - 1, 0]
+            out[i, 1] = pts[k - 1, 1]
+        else:
+            lo, hi = 0, k  # the last knot ≤ t
+            while lo < hi:
+                mid = (lo + hi) >> 1
+                if ts[mid] <= t:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            j = lo - 1
+            if ts[j] == t:
+                out[i, 0] = pts[j, 0]
+                out[i, 1] = pts[j, 1]
+            else:
+                for c in range(2):
+                    slope = (pts[j + 1, c] - pts[j, c]) / (ts[j + 1] - ts[j])
+                    v = slope * (t - ts[j]) + pts[j, c]
+                    if v != v:
+                        v = slope * (t - ts[j + 1]) + pts[j + 1, c]
+                        if v != v and pts[j, c] == pts[j + 1, c]:
+                            v = pts[j, c]
+                    out[i, c] = v
+
+
+@kernel
+def _turn_angles(par, kind, rows, times, out):
+    """The angles θ₀ + ω τ (τ = t − t₀) of the turning rows among ``rows``, in order, into ``out``
+    (:meth:`TrackMotions._eval`'s operations); returns how many, or −1 when a row follows a plan."""
+    n = 0
+    for i in range(rows.size):
+        r = rows[i]
+        if kind[r] == 2:
+            return -1
+        if kind[r] == 1:
+            out[n] = par[r, 6] + par[r, 7] * (times[i] - par[r, 2])
+            n += 1
+    return n
+
+
+@kernel
+def _farther(par, kind, rows, times, pos, limit, sin_t, cos_t):
+    """:meth:`TrackMotions.farther_than` without plans: True when a row's position at its time lies
+    farther than ``limit`` from ``pos`` (``hypot``); straight (or static) rows x₀ + (v τ) cos θ,
+    y₀ + (v τ) sin θ, turning rows x₀ + (v/ω)(sin θ(t) − sin θ), y₀ − (v/ω)(cos θ(t) − cos θ) with
+    ``sin_t``, ``cos_t`` the turning rows' sin θ(t), cos θ(t) in order (:meth:`TrackMotions._eval`)."""
+    n = 0
+    for i in range(rows.size):
+        r = rows[i]
+        if kind[r] == 1:
+            x = par[r, 0] + par[r, 8] * (sin_t[n] - par[r, 5])
+            y = par[r, 1] - par[r, 8] * (cos_t[n] - par[r, 4])
+            n += 1
+        else:
+            v_tau = par[r, 3] * (times[i] - par[r, 2])
+            x = par[r, 0] + v_tau * par[r, 4]
+            y = par[r, 1] + v_tau * par[r, 5]
+        if math.hypot(x - pos[i, 0], y - pos[i, 1]) > limit:
+            return True
+    return False
