@@ -40,6 +40,7 @@ import numpy as np
 from mjasc.perception.detection import detect_many
 from mjasc.perception.owned_discs import inside_owned_discs
 from mjasc.perception.scan_batch import ScanBatch, ScanStack
+from mjasc.perception.sense_kernels import sort_returns
 from mjasc.perception.static_map import StaticMap, StaticMapStore
 from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows
 from mjasc.perception.tracking.fleet import FleetTracker
@@ -56,6 +57,7 @@ DISC_MARGIN_MAX_M = 2.5
 FLAT_M = 0.15
 
 _FLEETS: dict[int, tuple] = {}
+_NO_FLAGS = np.zeros(0, dtype=bool)  # sort_returns: the map's occupancy not checked
 
 
 def fleet_of(world) -> "PerceptionFleet":
@@ -187,7 +189,6 @@ class PerceptionFleet:
         store = self.map_store
         slot = plan.slot  # map member of each slot
         ret_off, det_off_all = stack.ret_off, batch.det_offsets
-        ret_k = np.repeat(plan.index, np.diff(ret_off))
         lab = batch.labels
         if d_k.size and batch.extended.any():  # a wall's cluster may have swallowed a tracked boat's returns
             ext_any = np.bincount(np.repeat(plan.index, np.diff(det_off_all))[batch.extended], minlength=S) > 0
@@ -198,35 +199,27 @@ class PerceptionFleet:
                 dets[k] = members[k]._split_tracked(scans[k], dets[k], (dc[a:b], dr[a:b]))
         if any(d is not b for d, b in zip(dets, split)):  # stacked again
             n_det = np.array([len(d) for d in dets], dtype=np.int64)
-            det_off = _starts(n_det)
+            det_off = np.zeros(S + 1, dtype=np.int64)
+            np.cumsum(n_det, out=det_off[1:])
             cat = np.concatenate
             lab = cat([d.labels for d in dets])
             extended = cat([d.extended for d in dets])
             n_pts = cat([d.n_points for d in dets])
             centres = cat([d.centres_m for d in dets])
+            radii = cat([d.radii_m for d in dets])
+            variances = cat([d.variances_m2 for d in dets])
         else:
-            n_det = np.diff(det_off_all)
-            det_off = det_off_all[:-1]
+            det_off = det_off_all
             extended, n_pts, centres = batch.extended, batch.n_points, batch.centres_m
-        det_k = np.repeat(plan.index, n_det)
+            radii, variances = batch.radii_m, batch.variances_m2
         pts = stack.hit_points_world
-        lab = np.where(lab >= 0, lab + det_off[ret_k], -1)
-        M = int(n_det.sum())
-        targets = ~extended
-        if M:
-            good = lab >= 0
-            if targets.any() and store.any_occupied(slot):
-                occ = store.occupied(slot[ret_k], pts)
-                frac = np.bincount(lab[good], weights=occ[good], minlength=M) / np.maximum(n_pts, 1)
-                on_map = targets & (frac >= 0.5) & ~inside_owned(centres, det_k, dc, dr, d_k)
-                if on_map.any():  # a wall fragment is flat; a hull's returns curve round it
-                    on_map &= thickness(pts, lab, M) <= FLAT_M + 2.0 * plan.sigma[det_k]
-                targets &= ~on_map
-            good_static = good & ~targets[np.maximum(lab, 0)]
-            if good_static.any():
-                p, pk = pts[good_static], ret_k[good_static]
-                away = ~inside_owned(p, pk, dc, dr, d_k)
-                store.add_points(slot[pk[away]], p[away])
+        occ = _NO_FLAGS
+        if extended.size and not extended.all() and store.any_occupied(slot):
+            occ = store.occupied(np.repeat(slot, np.diff(ret_off)), pts)
+        targets, p_static, m_static, counts = sort_returns(lab, ret_off, det_off, extended, n_pts, centres, radii,
+                                                           variances, pts, occ, plan.sigma, FLAT_M, dc, dr, d_k, slot)
+        if m_static.size:
+            store.add_points(m_static, p_static)
         carve = plan.carve
         if len(carve) == S:
             store.carve_stack(slot, stack, plan.noise)
@@ -236,9 +229,9 @@ class PerceptionFleet:
                         [s.ranges for s in sc], [s.hit for s in sc], [s.max_range_m for s in sc],
                         [s.full_circle for s in sc], [members[k].sensor_config.range_noise_std_m for k in carve],
                         [s.hit_points_world for s in sc])
-        cut = det_off.tolist() + [M]
-        for k, m in enumerate(members):
-            m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]])
+        cut = det_off.tolist()
+        for k, (m, c) in enumerate(zip(members, counts.tolist())):
+            m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]], c)
 
     def _discs(self, members, scans, plan: "_Plan") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centres (q, 2) and radii (q,) [m] of the tracks whose returns must never reach their
