@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from mjasc.perception.fleet import FLAT_M, _starts, inside_owned, thickness
-from mjasc.perception.sense_kernels import sort_returns
+from mjasc.perception.owned_discs import inside_discs
+from mjasc.perception.sense_kernels import sort_returns, tracked_in_walls
 
 
 def _numpy_form(labels, ret_off, det_off, extended, n_points, centres, radii, variances, points, occ, sigma, dc, dr,
@@ -141,6 +142,21 @@ def test_sort_returns_on_a_shipped_scenario():
         if a[9].size == 0:
             a[9] = None
         _check(tuple(a))
+
+
+@pytest.mark.parametrize("seed", range(200))
+def test_tracked_in_walls_matches_numpy_form(seed):
+    """Per scan: a return of an extended detection inside one of the scan's discs (the test
+    Perception._split_tracked starts with)."""
+    labels, ret_off, det_off, extended, _, _, _, _, points, _, _, dc, dr, d_k, _ = _case(np.random.default_rng(seed))
+    got = tracked_in_walls(labels, ret_off, det_off, extended, points, dc, dr, d_k)
+    for s in range(ret_off.size - 1):
+        lab = labels[ret_off[s]:ret_off[s + 1]]
+        ext = extended[det_off[s]:det_off[s + 1]]
+        mine = d_k == s
+        take = ((lab >= 0) & (ext[np.maximum(lab, 0)] if ext.size else False)
+                & inside_discs(points[ret_off[s]:ret_off[s + 1]], dc[mine], dr[mine]))
+        assert bool(got[s]) == bool(np.any(take))
 
 
 def test_starts_unchanged():

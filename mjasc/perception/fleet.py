@@ -40,7 +40,7 @@ import numpy as np
 from mjasc.perception.detection import detect_many
 from mjasc.perception.owned_discs import inside_owned_discs
 from mjasc.perception.scan_batch import ScanBatch, ScanStack
-from mjasc.perception.sense_kernels import sort_returns
+from mjasc.perception.sense_kernels import sort_returns, tracked_in_walls
 from mjasc.perception.static_map import StaticMap, StaticMapStore
 from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows
 from mjasc.perception.tracking.fleet import FleetTracker
@@ -191,12 +191,13 @@ class PerceptionFleet:
         ret_off, det_off_all = stack.ret_off, batch.det_offsets
         lab = batch.labels
         if d_k.size and batch.extended.any():  # a wall's cluster may have swallowed a tracked boat's returns
-            ext_any = np.bincount(np.repeat(plan.index, np.diff(det_off_all))[batch.extended], minlength=S) > 0
-            d_cnt = np.bincount(d_k, minlength=S)
-            d_off = _starts(d_cnt).tolist()
-            for k in np.flatnonzero(ext_any & (d_cnt > 0)).tolist():
-                a, b = d_off[k], d_off[k] + int(d_cnt[k])
-                dets[k] = members[k]._split_tracked(scans[k], dets[k], (dc[a:b], dr[a:b]))
+            swallowed = tracked_in_walls(lab, ret_off, det_off_all, batch.extended, stack.hit_points_world, dc, dr, d_k)
+            if swallowed.any():
+                d_cnt = np.bincount(d_k, minlength=S)
+                d_off = _starts(d_cnt).tolist()
+                for k in np.flatnonzero(swallowed).tolist():
+                    a, b = d_off[k], d_off[k] + int(d_cnt[k])
+                    dets[k] = members[k]._split_tracked(scans[k], dets[k], (dc[a:b], dr[a:b]))
         if any(d is not b for d, b in zip(dets, split)):  # stacked again
             n_det = np.array([len(d) for d in dets], dtype=np.int64)
             det_off = np.zeros(S + 1, dtype=np.int64)

@@ -19,6 +19,10 @@ as the reference), with its expressions in the same order:
 4. the targets with a non-finite centre, radius or variance are dropped (counted per scan).
 
 Per scan it counts the returns, detections, targets kept and non-finite targets dropped.
+
+:func:`tracked_in_walls` finds, before that, the scans where a wall's cluster holds returns inside
+one of the vessel's discs: only those are clustered again
+(:meth:`mjasc.perception.pipeline.Perception._split_tracked`).
 """
 
 from __future__ import annotations
@@ -30,7 +34,7 @@ import numpy as np
 from mjasc.core.compiled import kernel, maximum
 from mjasc.perception.owned_discs import _in_a_disc
 
-__all__ = ["sort_returns"]
+__all__ = ["sort_returns", "tracked_in_walls"]
 
 
 @kernel
@@ -135,3 +139,29 @@ def sort_returns(labels, ret_off, det_off, extended, n_points, centres, radii, v
                 targets[d] = False
                 stats[s, 3] += 1
     return targets, pts[:k], mem[:k], stats
+
+
+@kernel
+def tracked_in_walls(labels, ret_off, det_off, extended, points, disc_centres, disc_radii, disc_scan):
+    """(S,) bool: scan s has a return of one of its extended detections (a wall's cluster) inside
+    one of its vessel's discs — the scans whose wall clusters may have swallowed a tracked boat's
+    returns (:meth:`mjasc.perception.pipeline.Perception._split_tracked` changes nothing elsewhere)."""
+    S = ret_off.shape[0] - 1
+    out = np.zeros(S, dtype=np.bool_)
+    d_lo = np.zeros(S, dtype=np.int64)
+    d_hi = np.zeros(S, dtype=np.int64)
+    for j in range(disc_scan.shape[0]):
+        s = disc_scan[j]
+        if d_hi[s] == 0:
+            d_lo[s] = j
+        d_hi[s] = j + 1
+    for s in range(S):
+        if d_hi[s] == 0:
+            continue
+        for i in range(ret_off[s], ret_off[s + 1]):
+            lab = labels[i]
+            if lab >= 0 and extended[det_off[s] + lab] and _in_a_disc(points[i, 0], points[i, 1], disc_centres,
+                                                                       disc_radii, d_lo[s], d_hi[s]):
+                out[s] = True
+                break
+    return out
