@@ -42,7 +42,7 @@ from mjasc.perception.owned_discs import inside_owned_discs
 from mjasc.perception.scan_batch import ScanBatch, ScanStack
 from mjasc.perception.sense_kernels import sort_returns, tracked_in_walls
 from mjasc.perception.static_map import StaticMap, StaticMapStore
-from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows
+from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows_at, disc_table
 from mjasc.perception.tracking.fleet import FleetTracker
 from mjasc.perception.tracking.tracker import MultiTargetTracker
 
@@ -185,7 +185,7 @@ class PerceptionFleet:
         batch = detect_many(scans, plan.detection, plan.noise, plan.dropout, stack=stack)
         dets = batch.split()
         split = list(dets)
-        dc, dr, d_k = self._discs(members, scans, plan)
+        dc, dr, d_k = self._discs(members, stack, plan)
         store = self.map_store
         slot = plan.slot  # map member of each slot
         ret_off, det_off_all = stack.ret_off, batch.det_offsets
@@ -234,31 +234,35 @@ class PerceptionFleet:
         for k, (m, c) in enumerate(zip(members, counts.tolist())):
             m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]], c)
 
-    def _discs(self, members, scans, plan: "_Plan") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _discs(self, members, stack: ScanStack, plan: "_Plan") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centres (q, 2) and radii (q,) [m] of the tracks whose returns must never reach their
         vessel's map (:meth:`mjasc.perception.pipeline.Perception.tracked_discs`), at the vessel's
         scan time, and the slot of that vessel (q,) (grouped by slot, ascending; within a slot in
         the order of its tracker's rows)."""
         parts = []
+        scans = stack.scans
         for k in plan.plugins:
             c, r = members[k].tracked_discs(scans[k].time_s)
             parts.append((np.full(r.shape[0], k, dtype=np.int64), c, r))
-        for ft, slots, owners, slot_of in plan.trackers:
+        times = stack.times_s
+        S = times.shape[0]
+        for ft, owner_slot in plan.trackers:
             if len(ft.bank) == 0:
                 continue
-            t_own = np.full(ft.n_owners, np.nan)
-            t_own[owners] = [scans[k].time_s for k in slots]
             mg = ft.mgmt
-            sel = disc_rows(mg._confirmed, mg._static, mg._moved, ft.owner, t_own)
-            if sel.size == 0:
+            rows, t_s, slots = disc_rows_at(mg._confirmed, mg._static, mg._moved, ft.owner, owner_slot, times)
+            if rows.size == 0:
                 continue
-            own = ft.owner[sel]
-            c, r = tracked_discs(ft, sel, t_own[own])
-            parts.append((slot_of[own], c, r))
+            t, pos, th, v, w, P = ft.bank.estimate_fields(rows)
+            dt, th = disc_courses(t_s, t, th, w)
+            c, r, k = disc_table(pos, dt, v, np.cos(th), np.sin(th), mg._radius, rows, P, DISC_MARGIN_M,
+                                 DISC_MARGIN_MAX_M, slots, S)
+            parts.append((k, c, r))
         if not parts:
             return np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)
-        if len(parts) == 1:
+        if len(parts) == 1:  # (each part is in slot order already)
             k, c, r = parts[0]
+            return c, r, k
         else:
             k = np.concatenate([p[0] for p in parts])
             c = np.concatenate([p[1] for p in parts])
@@ -279,10 +283,9 @@ class PerceptionFleet:
             for ft in self._trackers:
                 slots = [k for k, m in enumerate(members) if m._tracker is not None and m._tracker.fleet is ft]
                 if slots:
-                    owners = np.array([members[k]._tracker.owner for k in slots], dtype=np.int64)
-                    slot_of = np.zeros(ft.n_owners, dtype=np.int64)
-                    slot_of[owners] = slots
-                    trackers.append((ft, slots, owners, slot_of))
+                    owner_slot = np.full(ft.n_owners, -1, dtype=np.int64)
+                    owner_slot[[members[k]._tracker.owner for k in slots]] = slots
+                    trackers.append((ft, owner_slot))
             noise = [m.sensor_config.range_noise_std_m for m in members]
             got = self._plans[key] = (size, _Plan(
                 detection=[m.config.detection for m in members], noise=noise, sigma=np.array(noise, dtype=float),
@@ -314,7 +317,7 @@ class _Plan:
     """What a sensing pass over one combination of members (slots 0 … S−1) needs of them: per slot
     the detection config, σ_ρ (list and array), dropout probability, map member, the slot index;
     the slots whose maps carve; the slots with a plugin tracker; per fleet tracker with members
-    among them (tracker, their slots, their owner indices (q,), the slot of each owner index)."""
+    among them (tracker, the slot of each of its owner indices, −1: not among them)."""
 
     detection: list
     noise: list

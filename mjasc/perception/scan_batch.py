@@ -36,7 +36,8 @@ class ScanStack:
 
     ranges_m (N,) [m]; hit (N,) bool; hit_beams (K,) beam indices within each scan;
     hit_ranges_m (K,) [m]; hit_points_world (K, 2) [m]; origins_m (S, 2) [m]; cos_heading,
-    sin_heading (S,): of each scan's heading (``math.cos`` / ``math.sin``)."""
+    sin_heading (S,): of each scan's heading (``math.cos`` / ``math.sin``); times_s (S,) [s] and
+    headings_rad (S,) [rad]: each scan's ``time_s`` and ``heading_rad``."""
 
     scans: tuple
     beam_off: np.ndarray
@@ -49,6 +50,8 @@ class ScanStack:
     origins_m: np.ndarray
     cos_heading: np.ndarray
     sin_heading: np.ndarray
+    times_s: np.ndarray
+    headings_rad: np.ndarray
 
 
 class ScanBatch:
@@ -145,4 +148,4 @@ class ScanBatch:
                                      sensor.beam_spacing_rad, sensor.full_circle))
         self._clear()
         return estimate_of(ScanStack, tuple(scans), beam_off, ret_off, ranges, hit, beams, rho, world, origins, cos_h,
-                           sin_h)
+                           sin_h, np.array(times, dtype=float), np.array(yaws, dtype=float))
