@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mjasc.perception.detection import detect_many
+from mjasc.perception.detection import detect_many, detection_constants
 from mjasc.perception.owned_discs import inside_owned_discs
 from mjasc.perception.scan_batch import ScanBatch, ScanStack
 from mjasc.perception.sense_kernels import sort_returns, tracked_in_walls
@@ -182,7 +182,7 @@ class PerceptionFleet:
         scans = stack.scans
         S = len(scans)
         plan = self._plan(members)
-        batch = detect_many(scans, plan.detection, plan.noise, plan.dropout, stack=stack)
+        batch = detect_many(scans, None, plan.noise, plan.dropout, stack=stack, constants=plan.detection)
         dets = batch.split()
         split = list(dets)
         dc, dr, d_k = self._discs(members, stack, plan)
@@ -287,9 +287,11 @@ class PerceptionFleet:
                     owner_slot[[members[k]._tracker.owner for k in slots]] = slots
                     trackers.append((ft, owner_slot))
             noise = [m.sensor_config.range_noise_std_m for m in members]
+            dropout = [m.sensor_config.dropout_probability for m in members]
             got = self._plans[key] = (size, _Plan(
-                detection=[m.config.detection for m in members], noise=noise, sigma=np.array(noise, dtype=float),
-                dropout=[m.sensor_config.dropout_probability for m in members],
+                detection=detection_constants([m.sensor for m in members], [m.config.detection for m in members],
+                                              noise, dropout),
+                noise=noise, sigma=np.array(noise, dtype=float), dropout=dropout,
                 slot=np.array([m._map.member for m in members], dtype=np.int64),
                 carve=[k for k, m in enumerate(members) if m._map.miss_weight > 0],
                 index=np.arange(len(members)), plugins=[k for k, m in enumerate(members) if m.method is not None],
@@ -314,12 +316,13 @@ class PerceptionFleet:
 
 @dataclass(frozen=True, eq=False)
 class _Plan:
-    """What a sensing pass over one combination of members (slots 0 … S−1) needs of them: per slot
-    the detection config, σ_ρ (list and array), dropout probability, map member, the slot index;
-    the slots whose maps carve; the slots with a plugin tracker; per fleet tracker with members
-    among them (tracker, the slot of each of its owner indices, −1: not among them)."""
+    """What a sensing pass over one combination of members (slots 0 … S−1) needs of them: the
+    detection's per-scan constants (:func:`~mjasc.perception.detection.detection_constants`); per
+    slot σ_ρ (list and array), dropout probability, map member, the slot index; the slots whose
+    maps carve; the slots with a plugin tracker; per fleet tracker with members among them
+    (tracker, the slot of each of its owner indices, −1: not among them)."""
 
-    detection: list
+    detection: object
     noise: list
     sigma: np.ndarray
     dropout: list
