@@ -184,7 +184,7 @@ class PerceptionFleet:
         plan = self._plan(members)
         batch = detect_many(scans, None, plan.noise, plan.dropout, stack=stack, constants=plan.detection)
         dets = batch.split()
-        split = list(dets)
+        restacked = False
         dc, dr, d_k = self._discs(members, stack, plan)
         store = self.map_store
         slot = plan.slot  # map member of each slot
@@ -197,8 +197,10 @@ class PerceptionFleet:
                 d_off = _starts(d_cnt).tolist()
                 for k in np.flatnonzero(swallowed).tolist():
                     a, b = d_off[k], d_off[k] + int(d_cnt[k])
-                    dets[k] = members[k]._split_tracked(scans[k], dets[k], (dc[a:b], dr[a:b]))
-        if any(d is not b for d, b in zip(dets, split)):  # stacked again
+                    det = members[k]._split_tracked(scans[k], dets[k], (dc[a:b], dr[a:b]))
+                    restacked |= det is not dets[k]
+                    dets[k] = det
+        if restacked:  # stacked again
             n_det = np.array([len(d) for d in dets], dtype=np.int64)
             det_off = np.zeros(S + 1, dtype=np.int64)
             np.cumsum(n_det, out=det_off[1:])
