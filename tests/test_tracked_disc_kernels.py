@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from mjasc.perception.fleet import DISC_MARGIN_M, DISC_MARGIN_MAX_M, disc_margin
-from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows
+from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows, disc_rows_at, disc_table
 
 
 def _numpy_discs(t_s, t, pos, th, v, w, P, radius):
@@ -50,3 +50,41 @@ def test_tracked_disc_kernels_equal_the_numpy_form(seed):
     t_own = np.where(rng.random(5) < 0.3, np.nan, rng.uniform(0.0, 10.0, 5))
     want = np.flatnonzero(confirmed & (~static | moved) & ~np.isnan(t_own[owner]))
     _same(disc_rows(confirmed, static, moved, owner, t_own), want)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_pass_disc_kernels_equal_the_per_tracker_form(seed):
+    """disc_rows_at + disc_table (one sensing pass) against disc_rows + tracked_discs' kernels with
+    the owners' scan times, then the discs stably sorted by slot (the pass's former form)."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(0, 40))
+    n_owners, S = 5, 4
+    confirmed, static, moved = (rng.random(n) < 0.6 for _ in range(3))
+    owner = rng.integers(0, n_owners, n).astype(np.int64)
+    owner_slot = np.full(n_owners, -1, dtype=np.int64)
+    scanned = rng.permutation(n_owners)[: int(rng.integers(0, S + 1))]
+    owner_slot[scanned] = rng.permutation(S)[: scanned.size]
+    slot_time = rng.uniform(0.0, 10.0, S)
+    t_own = np.full(n_owners, np.nan)
+    t_own[scanned] = slot_time[owner_slot[scanned]]
+    sel = disc_rows(confirmed, static, moved, owner, t_own)
+    rows, t_s, slots = disc_rows_at(confirmed, static, moved, owner, owner_slot, slot_time)
+    _same(rows, sel)
+    _same(t_s, t_own[owner[sel]])
+    _same(slots, owner_slot[owner[sel]])
+    k = rows.size
+    t = rng.uniform(0.0, 10.0, k)
+    pos = rng.uniform(-500.0, 500.0, (k, 2))
+    th, v, w = rng.uniform(-np.pi, np.pi, k), rng.uniform(0.0, 8.0, k), rng.normal(0.0, 0.1, k)
+    L = rng.normal(0.0, 1.0, (k, 2, 2))
+    P = L @ L.transpose(0, 2, 1)
+    radius_all = rng.uniform(0.5, 10.0, n)
+    dt, mid = disc_courses(t_s, t, th, w)
+    c_ref, r_ref = disc_geometry(pos, dt, v, np.cos(mid), np.sin(mid), radius_all[rows], P, DISC_MARGIN_M,
+                                 DISC_MARGIN_MAX_M)
+    order = np.argsort(slots, kind="stable")
+    c, r, kk = disc_table(pos, dt, v, np.cos(mid), np.sin(mid), radius_all, rows, P, DISC_MARGIN_M,
+                          DISC_MARGIN_MAX_M, slots, S)
+    _same(c, c_ref[order])
+    _same(r, r_ref[order])
+    _same(kk, slots[order])

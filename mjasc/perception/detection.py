@@ -85,7 +85,8 @@ from mjasc.perception.detection_kernels import detect_clusters
 from mjasc.perception.range_sensor import Scan
 from mjasc.perception.scan_batch import ScanStack
 
-__all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "dropout_gap_beams",
+__all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "detection_constants",
+           "dropout_gap_beams",
            "finite_detections",
            "parse_detection_options",
            "check_detection"]
@@ -272,14 +273,17 @@ class _PerScan:
 
 
 def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range_noise_std_m: Sequence[float],
-                dropout_probability: Sequence[float] | None = None, stack: ScanStack | None = None) -> DetectionBatch:
+                dropout_probability: Sequence[float] | None = None, stack: ScanStack | None = None,
+                constants: _PerScan | None = None) -> DetectionBatch:
     """Cluster every scan of ``scans`` (one config, σ_ρ and return dropout probability — None: 0 —
     per scan) in one pass; see the module docstring. Each scan's detections equal those of
     :func:`detect` on it alone. ``stack``: the :class:`~mjasc.perception.scan_batch.ScanStack` these
-    scans came in (its stacked arrays are taken as they are)."""
-    scans = tuple(scans)
+    scans came in (its stacked arrays are taken as they are); ``constants``: their
+    :func:`detection_constants`, made before (otherwise looked up)."""
+    scans = tuple(scans) if stack is None else stack.scans
     S = len(scans)
-    c = _PerScan.of(scans, configs, range_noise_std_m, [0.0] * S if dropout_probability is None else dropout_probability)
+    c = constants if constants is not None else _PerScan.of(
+        scans, configs, range_noise_std_m, [0.0] * S if dropout_probability is None else dropout_probability)
     if stack is not None:
         return _detect(scans, c, stack.hit_beams, stack.hit_points_world, stack.hit_ranges_m, stack.hit,
                        stack.ranges_m, stack.ret_off, stack.origins_m, stack.cos_heading, stack.sin_heading)
@@ -303,6 +307,15 @@ def detect_many(scans: Sequence[Scan], configs: Sequence[DetectionConfig], range
     return _detect(scans, c, beams, P, rho, hit_all, ranges_all, ret_off, origins, cos_h, sin_h)
 
 
+def detection_constants(sensors, configs: Sequence[DetectionConfig], range_noise_std_m: Sequence[float],
+                        dropout_probability: Sequence[float]) -> _PerScan:
+    """The per-scan constants :func:`detect_many` makes for scans of these sensors (anything with a
+    scan's ``angles_body``, ``beam_spacing_rad`` and ``full_circle``: a
+    :class:`~mjasc.perception.range_sensor.RangeSensor` or its :class:`Scan`), one config, σ_ρ and
+    dropout probability each: made once for a fleet's sensing passes (``detect_many(…, constants=)``)."""
+    return _PerScan.of(sensors, configs, range_noise_std_m, dropout_probability)
+
+
 def _detect(scans, c: _PerScan, beams, P, rho, hit_all, ranges_all, ret_off, origins, cos_h, sin_h) -> DetectionBatch:
     """The steps of :func:`detect_many` on the scans' stacked returns: hit beams (K,), points (K, 2)
     and ranges (K,), scan s owning ``ret_off[s] : ret_off[s+1]``; every beam's hit and range
@@ -318,5 +331,5 @@ def _detect(scans, c: _PerScan, beams, P, rho, hit_all, ranges_all, ret_off, ori
     centres, body, radii, var, counts, ranges, extended, occluded, labels, det_off = detect_clusters(
         beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sig, full, c.beam_off, hit_all, ranges_all, origins, cos_h,
         sin_h, edge_lost, min_rad, edge_var, sig2, floor2, *c.keep_scan)
-    return DetectionBatch(scans, centres, body, radii, var, counts, ranges, extended, occluded, labels, det_off,
-                          ret_off)
+    return estimate_of(DetectionBatch, scans, centres, body, radii, var, counts, ranges, extended, occluded, labels,
+                       det_off, ret_off)

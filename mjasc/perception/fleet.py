@@ -37,11 +37,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mjasc.perception.detection import detect_many
+from mjasc.perception.detection import detect_many, detection_constants
 from mjasc.perception.owned_discs import inside_owned_discs
 from mjasc.perception.scan_batch import ScanBatch, ScanStack
+from mjasc.perception.sense_kernels import sort_returns, tracked_in_walls
 from mjasc.perception.static_map import StaticMap, StaticMapStore
-from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows
+from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows_at, disc_table
 from mjasc.perception.tracking.fleet import FleetTracker
 from mjasc.perception.tracking.tracker import MultiTargetTracker
 
@@ -56,6 +57,7 @@ DISC_MARGIN_MAX_M = 2.5
 FLAT_M = 0.15
 
 _FLEETS: dict[int, tuple] = {}
+_NO_FLAGS = np.zeros(0, dtype=bool)  # sort_returns: the map's occupancy not checked
 
 
 def fleet_of(world) -> "PerceptionFleet":
@@ -180,53 +182,47 @@ class PerceptionFleet:
         scans = stack.scans
         S = len(scans)
         plan = self._plan(members)
-        batch = detect_many(scans, plan.detection, plan.noise, plan.dropout, stack=stack)
+        batch = detect_many(scans, None, plan.noise, plan.dropout, stack=stack, constants=plan.detection)
         dets = batch.split()
-        split = list(dets)
-        dc, dr, d_k = self._discs(members, scans, plan)
+        restacked = False
+        dc, dr, d_k = self._discs(members, stack, plan)
         store = self.map_store
         slot = plan.slot  # map member of each slot
         ret_off, det_off_all = stack.ret_off, batch.det_offsets
-        ret_k = np.repeat(plan.index, np.diff(ret_off))
         lab = batch.labels
         if d_k.size and batch.extended.any():  # a wall's cluster may have swallowed a tracked boat's returns
-            ext_any = np.bincount(np.repeat(plan.index, np.diff(det_off_all))[batch.extended], minlength=S) > 0
-            d_cnt = np.bincount(d_k, minlength=S)
-            d_off = _starts(d_cnt).tolist()
-            for k in np.flatnonzero(ext_any & (d_cnt > 0)).tolist():
-                a, b = d_off[k], d_off[k] + int(d_cnt[k])
-                dets[k] = members[k]._split_tracked(scans[k], dets[k], (dc[a:b], dr[a:b]))
-        if any(d is not b for d, b in zip(dets, split)):  # stacked again
+            swallowed = tracked_in_walls(lab, ret_off, det_off_all, batch.extended, stack.hit_points_world, dc, dr, d_k)
+            if swallowed.any():
+                d_cnt = np.bincount(d_k, minlength=S)
+                d_off = _starts(d_cnt).tolist()
+                for k in np.flatnonzero(swallowed).tolist():
+                    a, b = d_off[k], d_off[k] + int(d_cnt[k])
+                    det = members[k]._split_tracked(scans[k], dets[k], (dc[a:b], dr[a:b]))
+                    restacked |= det is not dets[k]
+                    dets[k] = det
+        if restacked:  # stacked again
             n_det = np.array([len(d) for d in dets], dtype=np.int64)
-            det_off = _starts(n_det)
+            det_off = np.zeros(S + 1, dtype=np.int64)
+            np.cumsum(n_det, out=det_off[1:])
             cat = np.concatenate
             lab = cat([d.labels for d in dets])
             extended = cat([d.extended for d in dets])
             n_pts = cat([d.n_points for d in dets])
             centres = cat([d.centres_m for d in dets])
+            radii = cat([d.radii_m for d in dets])
+            variances = cat([d.variances_m2 for d in dets])
         else:
-            n_det = np.diff(det_off_all)
-            det_off = det_off_all[:-1]
+            det_off = det_off_all
             extended, n_pts, centres = batch.extended, batch.n_points, batch.centres_m
-        det_k = np.repeat(plan.index, n_det)
+            radii, variances = batch.radii_m, batch.variances_m2
         pts = stack.hit_points_world
-        lab = np.where(lab >= 0, lab + det_off[ret_k], -1)
-        M = int(n_det.sum())
-        targets = ~extended
-        if M:
-            good = lab >= 0
-            if targets.any() and store.any_occupied(slot):
-                occ = store.occupied(slot[ret_k], pts)
-                frac = np.bincount(lab[good], weights=occ[good], minlength=M) / np.maximum(n_pts, 1)
-                on_map = targets & (frac >= 0.5) & ~inside_owned(centres, det_k, dc, dr, d_k)
-                if on_map.any():  # a wall fragment is flat; a hull's returns curve round it
-                    on_map &= thickness(pts, lab, M) <= FLAT_M + 2.0 * plan.sigma[det_k]
-                targets &= ~on_map
-            good_static = good & ~targets[np.maximum(lab, 0)]
-            if good_static.any():
-                p, pk = pts[good_static], ret_k[good_static]
-                away = ~inside_owned(p, pk, dc, dr, d_k)
-                store.add_points(slot[pk[away]], p[away])
+        occ = _NO_FLAGS
+        if extended.size and not extended.all() and store.any_occupied(slot):
+            occ = store.occupied(np.repeat(slot, np.diff(ret_off)), pts)
+        targets, p_static, m_static, counts = sort_returns(lab, ret_off, det_off, extended, n_pts, centres, radii,
+                                                           variances, pts, occ, plan.sigma, FLAT_M, dc, dr, d_k, slot)
+        if m_static.size:
+            store.add_points(m_static, p_static)
         carve = plan.carve
         if len(carve) == S:
             store.carve_stack(slot, stack, plan.noise)
@@ -236,35 +232,39 @@ class PerceptionFleet:
                         [s.ranges for s in sc], [s.hit for s in sc], [s.max_range_m for s in sc],
                         [s.full_circle for s in sc], [members[k].sensor_config.range_noise_std_m for k in carve],
                         [s.hit_points_world for s in sc])
-        cut = det_off.tolist() + [M]
-        for k, m in enumerate(members):
-            m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]])
+        cut = det_off.tolist()
+        for k, (m, c) in enumerate(zip(members, counts.tolist())):
+            m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]], c)
 
-    def _discs(self, members, scans, plan: "_Plan") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _discs(self, members, stack: ScanStack, plan: "_Plan") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centres (q, 2) and radii (q,) [m] of the tracks whose returns must never reach their
         vessel's map (:meth:`mjasc.perception.pipeline.Perception.tracked_discs`), at the vessel's
         scan time, and the slot of that vessel (q,) (grouped by slot, ascending; within a slot in
         the order of its tracker's rows)."""
         parts = []
+        scans = stack.scans
         for k in plan.plugins:
             c, r = members[k].tracked_discs(scans[k].time_s)
             parts.append((np.full(r.shape[0], k, dtype=np.int64), c, r))
-        for ft, slots, owners, slot_of in plan.trackers:
+        times = stack.times_s
+        S = times.shape[0]
+        for ft, owner_slot in plan.trackers:
             if len(ft.bank) == 0:
                 continue
-            t_own = np.full(ft.n_owners, np.nan)
-            t_own[owners] = [scans[k].time_s for k in slots]
             mg = ft.mgmt
-            sel = disc_rows(mg._confirmed, mg._static, mg._moved, ft.owner, t_own)
-            if sel.size == 0:
+            rows, t_s, slots = disc_rows_at(mg._confirmed, mg._static, mg._moved, ft.owner, owner_slot, times)
+            if rows.size == 0:
                 continue
-            own = ft.owner[sel]
-            c, r = tracked_discs(ft, sel, t_own[own])
-            parts.append((slot_of[own], c, r))
+            t, pos, th, v, w, P = ft.bank.estimate_fields(rows)
+            dt, th = disc_courses(t_s, t, th, w)
+            c, r, k = disc_table(pos, dt, v, np.cos(th), np.sin(th), mg._radius, rows, P, DISC_MARGIN_M,
+                                 DISC_MARGIN_MAX_M, slots, S)
+            parts.append((k, c, r))
         if not parts:
             return np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)
-        if len(parts) == 1:
+        if len(parts) == 1:  # (each part is in slot order already)
             k, c, r = parts[0]
+            return c, r, k
         else:
             k = np.concatenate([p[0] for p in parts])
             c = np.concatenate([p[1] for p in parts])
@@ -285,14 +285,15 @@ class PerceptionFleet:
             for ft in self._trackers:
                 slots = [k for k, m in enumerate(members) if m._tracker is not None and m._tracker.fleet is ft]
                 if slots:
-                    owners = np.array([members[k]._tracker.owner for k in slots], dtype=np.int64)
-                    slot_of = np.zeros(ft.n_owners, dtype=np.int64)
-                    slot_of[owners] = slots
-                    trackers.append((ft, slots, owners, slot_of))
+                    owner_slot = np.full(ft.n_owners, -1, dtype=np.int64)
+                    owner_slot[[members[k]._tracker.owner for k in slots]] = slots
+                    trackers.append((ft, owner_slot))
             noise = [m.sensor_config.range_noise_std_m for m in members]
+            dropout = [m.sensor_config.dropout_probability for m in members]
             got = self._plans[key] = (size, _Plan(
-                detection=[m.config.detection for m in members], noise=noise, sigma=np.array(noise, dtype=float),
-                dropout=[m.sensor_config.dropout_probability for m in members],
+                detection=detection_constants([m.sensor for m in members], [m.config.detection for m in members],
+                                              noise, dropout),
+                noise=noise, sigma=np.array(noise, dtype=float), dropout=dropout,
                 slot=np.array([m._map.member for m in members], dtype=np.int64),
                 carve=[k for k, m in enumerate(members) if m._map.miss_weight > 0],
                 index=np.arange(len(members)), plugins=[k for k, m in enumerate(members) if m.method is not None],
@@ -317,12 +318,13 @@ class PerceptionFleet:
 
 @dataclass(frozen=True, eq=False)
 class _Plan:
-    """What a sensing pass over one combination of members (slots 0 … S−1) needs of them: per slot
-    the detection config, σ_ρ (list and array), dropout probability, map member, the slot index;
-    the slots whose maps carve; the slots with a plugin tracker; per fleet tracker with members
-    among them (tracker, their slots, their owner indices (q,), the slot of each owner index)."""
+    """What a sensing pass over one combination of members (slots 0 … S−1) needs of them: the
+    detection's per-scan constants (:func:`~mjasc.perception.detection.detection_constants`); per
+    slot σ_ρ (list and array), dropout probability, map member, the slot index; the slots whose
+    maps carve; the slots with a plugin tracker; per fleet tracker with members among them
+    (tracker, the slot of each of its owner indices, −1: not among them)."""
 
-    detection: list
+    detection: object
     noise: list
     sigma: np.ndarray
     dropout: list

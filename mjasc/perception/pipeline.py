@@ -56,7 +56,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from mjasc.perception.detection import Detections, detect, finite_detections
+from mjasc.perception.detection import Detections, detect
 from mjasc.perception.fleet import DISC_MARGIN_M, PerceptionFleet, estimate_discs, fleet_of
 from mjasc.perception.owned_discs import inside_discs
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
@@ -196,18 +196,20 @@ class Perception:
             self._pending = True
         fleet.asked(self)
 
-    def _scanned(self, scan: Scan, det: Detections, targets: np.ndarray) -> None:
-        """The fleet's sensing pass is done with this vessel's scan."""
+    def _scanned(self, scan: Scan, det: Detections, targets: np.ndarray, counts) -> None:
+        """The fleet's sensing pass is done with this vessel's scan: its detections, the targets
+        among them (non-finite ones already dropped: the boundary, a non-finite detection never
+        reaches the tracker) and ``counts`` (returns, detections, targets, non-finite targets
+        dropped; :func:`mjasc.perception.sense_kernels.sort_returns`)."""
         st = self._stats
-        finite = finite_detections(det)
-        if not finite.all():  # the boundary: a non-finite detection never reaches the tracker
-            st["non_finite_detections_dropped"] += int(np.count_nonzero(targets & ~finite))
-            targets = targets & finite
+        n_ret, n_det, n_tgt, n_bad = counts
+        if n_bad:
+            st["non_finite_detections_dropped"] += n_bad
         self._scan, self._det, self._targets = scan, det, targets
         st["scans"] += 1
-        st["returns"] += int(scan.hit_beams.size)
-        st["detections"] += len(det)
-        st["target_detections"] += int(np.count_nonzero(targets))
+        st["returns"] += n_ret
+        st["detections"] += n_det
+        st["target_detections"] += n_tgt
 
     def _split_tracked(self, scan: Scan, det: Detections, discs) -> Detections:
         """The returns of extended clusters that lie in a tracked disc (:func:`mjasc.perception.fleet.tracked_discs`) taken out

@@ -27,6 +27,8 @@ from mjasc.perception.scan_kernels import scan_batch
 
 __all__ = ["ScanBatch", "ScanStack"]
 
+_NO_BEAMS, _NO_DRAWS = np.zeros(0, dtype=np.int64), np.zeros(0)  # no clutter in any cast of a batch
+
 
 @dataclass(frozen=True, eq=False)
 class ScanStack:
@@ -36,7 +38,8 @@ class ScanStack:
 
     ranges_m (N,) [m]; hit (N,) bool; hit_beams (K,) beam indices within each scan;
     hit_ranges_m (K,) [m]; hit_points_world (K, 2) [m]; origins_m (S, 2) [m]; cos_heading,
-    sin_heading (S,): of each scan's heading (``math.cos`` / ``math.sin``)."""
+    sin_heading (S,): of each scan's heading (``math.cos`` / ``math.sin``); times_s (S,) [s] and
+    headings_rad (S,) [rad]: each scan's ``time_s`` and ``heading_rad``."""
 
     scans: tuple
     beam_off: np.ndarray
@@ -49,6 +52,8 @@ class ScanStack:
     origins_m: np.ndarray
     cos_heading: np.ndarray
     sin_heading: np.ndarray
+    times_s: np.ndarray
+    headings_rad: np.ndarray
 
 
 class ScanBatch:
@@ -59,7 +64,6 @@ class ScanBatch:
         self._cap = 0
         self._grow(1024)
         self._clear()
-        self._tables: list[tuple] = []
         self._const_key: tuple = ()
         self._const = None
 
@@ -68,6 +72,7 @@ class ScanBatch:
         self._offs = [0]
         self._queued: list[tuple] = []  # per cast: time [s], x, y [m], yaw [rad], has normals, has uniforms
         self._clutter: list[tuple[np.ndarray, np.ndarray]] = []  # per cast: clutter beams, ranges [m]
+        self._n_clutter = 0  # casts with clutter
 
     def _grow(self, need: int) -> None:
         cap = max(1024, 2 * need)
@@ -79,6 +84,9 @@ class ScanBatch:
                 a[:old] = getattr(self, name)
             setattr(self, name, a)
         self._cap = cap
+        #: per slot: (sensor, first row, its rows of _dist, _gid, _normals, _uniforms) whose beam cosines and
+        #: sines are in place (views of the buffers made now)
+        self._tables: list[tuple] = []
 
     def __len__(self) -> int:
         return len(self._sensors)
@@ -91,17 +99,20 @@ class ScanBatch:
         b = a + sensor.config.beams
         if b > self._cap:
             self._grow(b)
-        x, y, yaw = sensor.fire(data, self._dist[a:b], self._gid[a:b])
-        has_n, has_u, cb, cr = sensor.draw(rng, self._normals[a:b], self._uniforms[a:b])
-        tables = self._tables  # (sensor, first row) whose beam cosines / sines are in place, per slot
+        tables = self._tables
         if k >= len(tables) or tables[k][0] is not sensor or tables[k][1] != a:
             self._cos[a:b], self._sin[a:b] = sensor.cos_body, sensor.sin_body
             del tables[k:]  # the later slots' rows may have been overwritten
-            tables.append((sensor, a))
+            tables.append((sensor, a, self._dist[a:b], self._gid[a:b], self._normals[a:b], self._uniforms[a:b]))
+        _, _, dist, gid, normals, uniforms = tables[k]
+        x, y, yaw = sensor.fire(data, dist, gid)
+        has_n, has_u, cb, cr = sensor.draw(rng, normals, uniforms)
         self._sensors.append(sensor)
         self._offs.append(b)
         self._queued.append((float(data.time), x, y, yaw, has_n, has_u))
         self._clutter.append((cb, cr))
+        if cb.size:
+            self._n_clutter += 1
 
     def _constants(self):
         """Per-scan parameters (S,) of the queued sensors (made again when the sensors change)."""
@@ -127,6 +138,9 @@ class ScanBatch:
         if S == 1:
             cb, cr = clutter[0]
             c_off = np.array([0, cb.size], dtype=np.int64)
+        elif not self._n_clutter:
+            cb, cr = _NO_BEAMS, _NO_DRAWS
+            c_off = np.zeros(S + 1, dtype=np.int64)
         else:
             cb = np.concatenate([c[0] for c in clutter])
             cr = np.concatenate([c[1] for c in clutter])
@@ -145,4 +159,4 @@ class ScanBatch:
                                      sensor.beam_spacing_rad, sensor.full_circle))
         self._clear()
         return estimate_of(ScanStack, tuple(scans), beam_off, ret_off, ranges, hit, beams, rho, world, origins, cos_h,
-                           sin_h)
+                           sin_h, np.array(times, dtype=float), np.array(yaws, dtype=float))

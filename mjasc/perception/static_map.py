@@ -42,6 +42,7 @@ from mjasc.core.config_tables import check_params, param
 from mjasc.perception.carve_kernels import cells_in_reach, cells_seen_through
 from mjasc.perception.cell_keys import IJ_BITS, IJ_HALF, MEMBER_SHIFT, find_rows, point_keys
 from mjasc.perception.map_polygons import PolygonCache
+from mjasc.perception.score_kernels import add_hits, carve_cells, cell_rows, occupied_points, set_scores
 
 __all__ = ["StaticMap", "StaticMapConfig", "StaticMapStore"]
 
@@ -132,7 +133,10 @@ class StaticMapStore:
         """Rows of the distinct (member, cell) keys given, in key order, created (score 0) where
         missing (new rows in key order)."""
         keys = np.unique(keys)
-        rows = self._find(keys)
+        return self._create(keys, self._find(keys))
+
+    def _create(self, keys: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """``rows`` (u,) of the distinct ascending ``keys`` (u,) with the missing ones (−1) created."""
         new = rows < 0
         if new.any():
             nk = keys[new]
@@ -156,17 +160,8 @@ class StaticMapStore:
 
     def _set_scores(self, rows: np.ndarray, new: np.ndarray) -> None:
         """New scores of (distinct) rows; a member's version changes when one of its cells
-        becomes occupied or free."""
-        mem = self._member[rows]
-        m = self._min_hits[mem]
-        was = self._score[rows] >= m
-        self._score[rows] = new
-        now = new >= m
-        flip = was != now
-        if flip.any():
-            nm = self._version.size
-            self._n_occupied += np.bincount(mem[flip], np.where(now[flip], 1, -1), nm).astype(np.int64)
-            self._version += np.bincount(mem[flip], minlength=nm) > 0
+        becomes occupied or free (:func:`~mjasc.perception.score_kernels.set_scores`)."""
+        set_scores(rows, new, self._score, self._member, self._min_hits, self._n_occupied, self._version)
 
     # ------------------------------------------------------------------ updates
     def add_points(self, member: np.ndarray, points_world: np.ndarray) -> None:
@@ -176,8 +171,12 @@ class StaticMapStore:
         if p.shape[0] == 0:
             return
         member = np.asarray(member, dtype=np.int64)
-        rows = self._rows(self._keys_of(member, p))
-        self._set_scores(rows, np.minimum(self._score[rows] + 1.0, self._cap[self._member[rows]]))
+        keys, rows, ok = cell_rows(member, p, self._cell_m, self._keys, self._key_rows)
+        if not ok:  # a cell index out of range (or a point not finite): the one-line error
+            keys = np.unique(self._keys_of(member, p))
+            rows = self._find(keys)
+        rows = self._create(keys, rows)
+        add_hits(rows, self._score, self._member, self._cap, self._min_hits, self._n_occupied, self._version)
 
     def carve(self, members: Sequence[int], origins_m, beam_angles_world: Sequence[np.ndarray],
               ranges_m: Sequence[np.ndarray], hit: Sequence[np.ndarray], max_range_m, full_circle,
@@ -238,11 +237,18 @@ class StaticMapStore:
             return counts
         a0 = np.array(a0, dtype=float)
         a1 = np.array(a1, dtype=float)
+        full = np.asarray(full_circle, dtype=bool).reshape(q)
+        noise = np.asarray(range_noise_std_m, dtype=float).reshape(q)
+        bearing = np.arctan2(rel[:, 1], rel[:, 0])
+        got, ok = carve_cells(rows, row_member, self._margin, qi, bearing, r, half, far, a0, a1, nb, full, ranges, hit,
+                              beam_off, noise, point_member, points, self._cell_m, self._keys, self._key_rows,
+                              self._score, self._member, self._miss, self._min_hits, self._n_occupied, self._version)
+        if ok:
+            return got
+        # a return's cell index out of range (nothing was changed): the numpy form raises the one-line error
         dth_m = np.where(nb > 1, (a1 - a0) / np.maximum(nb - 1, 1), 2.0 * math.pi)
-        centre_m = 0.5 * (a0 + a1)
-        free = cells_seen_through(rows, row_member, self._margin, qi, np.arctan2(rel[:, 1], rel[:, 0]), r, half, far,
-                                  a0, dth_m, centre_m, nb, np.asarray(full_circle, dtype=bool).reshape(q), ranges,
-                                  hit, beam_off, np.asarray(range_noise_std_m, dtype=float).reshape(q))
+        free = cells_seen_through(rows, row_member, self._margin, qi, bearing, r, half, far, a0, dth_m, 0.5 * (a0 + a1),
+                                  nb, full, ranges, hit, beam_off, noise)
         if free.any() and points.shape[0]:
             now = self._find(self._keys_of(point_member, points))
             hit_now = np.zeros(n, dtype=bool)  # cells with a return in this scan stay
@@ -261,7 +267,11 @@ class StaticMapStore:
         if self._n == 0:
             return np.zeros(p.shape[0], dtype=bool)
         member = np.asarray(member, dtype=np.int64)
-        rows = self._find(self._keys_of(member, p))
+        occ, ok = occupied_points(member, p, self._cell_m, self._keys, self._key_rows, self._score, self._member,
+                                  self._min_hits)
+        if ok:
+            return occ
+        rows = self._find(self._keys_of(member, p))  # raises the one-line error
         safe = np.maximum(rows, 0)
         return (rows >= 0) & (self._score[safe] >= self._min_hits[self._member[safe]])
 

@@ -9,6 +9,8 @@ metres, seconds, radians).
 * :func:`disc_geometry` — the centre ``p + dt·V·(cos, sin)`` and the radius ``R +
   min(DISC_MARGIN_M + 2√λ, DISC_MARGIN_MAX_M)``, λ the major eigenvalue of the position
   covariance, ``tr + √max(tr² − det, 0)`` with ``tr = ½(P₀₀ + P₁₁)``, ``det = P₀₀P₁₁ − P₀₁²``.
+* :func:`disc_rows_at` and :func:`disc_table` — the same for one sensing pass, with each row's
+  scan time and slot gathered and the discs ordered by slot.
 
 These are the expressions of the numpy form ``tracked_discs`` had (kept in
 ``tests/test_tracked_disc_kernels.py`` as the reference, with :func:`mjasc.perception.fleet.disc_margin`),
@@ -23,7 +25,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel, maximum, minimum
 
-__all__ = ["disc_rows", "disc_courses", "disc_geometry"]
+__all__ = ["disc_rows", "disc_courses", "disc_geometry", "disc_rows_at", "disc_table"]
 
 
 @kernel
@@ -70,3 +72,46 @@ def disc_geometry(pos, dt, v, cos_th, sin_th, radius, P, margin_m, margin_max_m)
         lam = tr + math.sqrt(maximum(tr * tr - (p00 * p11 - p01 * p01), 0.0))
         r[i] = radius[i] + minimum(margin_m + 2.0 * math.sqrt(lam), margin_max_m)
     return c, r
+
+
+@kernel
+def disc_rows_at(confirmed, static, moved, owner, owner_slot, slot_time):
+    """:func:`disc_rows` for the vessels of one sensing pass: the rows (k,) ascending whose owner
+    scanned (``owner_slot[owner] ≥ 0``, its slot in the pass), their scan times (k,) [s] (the
+    slot's ``slot_time``) and slots (k,)."""
+    n = owner.shape[0]
+    rows = np.empty(n, dtype=np.int64)
+    t_s = np.empty(n)
+    slots = np.empty(n, dtype=np.int64)
+    k = 0
+    for r in range(n):
+        q = owner_slot[owner[r]]
+        if confirmed[r] and (not static[r] or moved[r]) and q >= 0:
+            rows[k], t_s[k], slots[k] = r, slot_time[q], q
+            k += 1
+    return rows[:k].copy(), t_s[:k].copy(), slots[:k].copy()
+
+
+@kernel
+def disc_table(pos, dt, v, cos_th, sin_th, radius_all, rows, P, margin_m, margin_max_m, slots, n_slots):
+    """:func:`disc_geometry` of the rows ``rows`` (their radii gathered from ``radius_all``), the
+    discs ordered by slot (``slots`` (k,) < ``n_slots``; stable: within a slot in row order, as
+    ``np.argsort(kind="stable")``): centres (k, 2), radii (k,), slots (k,)."""
+    k = rows.shape[0]
+    radius = np.empty(k)
+    for i in range(k):
+        radius[i] = radius_all[rows[i]]
+    c, r = disc_geometry(pos, dt, v, cos_th, sin_th, radius, P, margin_m, margin_max_m)
+    start = np.zeros(n_slots + 1, dtype=np.int64)
+    for i in range(k):
+        start[slots[i] + 1] += 1
+    for q in range(n_slots):
+        start[q + 1] += start[q]
+    oc = np.empty((k, 2))
+    orr = np.empty(k)
+    ok = np.empty(k, dtype=np.int64)
+    for i in range(k):
+        j = start[slots[i]]
+        start[slots[i]] += 1
+        oc[j, 0], oc[j, 1], orr[j], ok[j] = c[i, 0], c[i, 1], r[i], slots[i]
+    return oc, orr, ok
