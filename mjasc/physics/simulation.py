@@ -24,8 +24,10 @@ import numpy as np
 
 from mjasc.physics.currents import CurrentField, UniformCurrent
 from mjasc.physics.divergence import DivergenceBounds, DivergenceMonitor
+from mjasc.physics.hydro_kernels import rotate_to_world
 from mjasc.physics.hydrodynamics import Hydrodynamics, rigid_body_mass_matrix
 from mjasc.physics.obstacles import MovingObstacleSet
+from mjasc.physics.step_kernels import prepare_step, traffic_table
 from mjasc.physics.thrusters import Thrusters
 from mjasc.physics.world import World
 
@@ -134,6 +136,11 @@ class Simulation:
         if self._bound:
             self.hydro.bind(self._qpos3, self._qvel3, self._act_view, self._qfrc3)
         self._mocap_rows = [int(k) for k in self.world.mocap_id]
+        # The compiled step's inputs (mjasc.physics.step_kernels): MjData's arrays, whole, and the
+        # traffic's constants as arrays.
+        self._traffic_table, self._traffic_samples = traffic_table(self.traffic.constants(), self._mocap_rows,
+                                                                   MovingObstacleSet.PATH_SAMPLE_M)
+        self._mj_arrays = (d.qpos, d.qvel, d.qacc, d.act, d.mocap_pos, d.mocap_quat)
         self.divergence_checks = True
         self.monitor = DivergenceMonitor(d.qvel, d.qacc, world.dof_adr, [t.top_speed_m_s for t in world.vessel_types],
                                          world.vessel_names, DivergenceBounds())
@@ -293,28 +300,33 @@ class Simulation:
             vel, acc, v2, a2 = monitor.qvel, monitor.qacc, monitor.fast_speed2, monitor.fast_acc2
             vdot, adot = vel.dot, acc.dot
         if self._bound and self.hydrodynamics_enabled and self._current_uniform_steady:
-            # The common case, kept lean: a uniform steady current is the same at every vessel.
+            # The common case, one compiled call per step before MuJoCo's two (mjasc.physics.step_kernels):
+            # the previous step's fast divergence test, the traffic's mocap poses and the force's
+            # features; then τ = F·G (numpy) rotated into qfrc_applied, mj_step1, mj_step2.
             vc = self.current.velocity(self._qpos3[:, :2], 0.0)
-            compute, step1, step2 = self.hydro.compute_bound, mujoco.mj_step1, mujoco.mj_step2
-            move = self._update_traffic if traffic else None
-            if monitor is None:
-                for _ in range(n_steps):
-                    if move:
-                        move()
-                    step1(m, d)
-                    compute(vc, None)
-                    step2(m, d)
-                return None
+            h = self.hydro
+            f_row, g, tau, rot, feats, cf_x, out = h._F_row, h._G, h._tau, h._rot2, h._F, h._cf_x, self._qfrc3
+            qpos, qvel, qacc, act, mocap_pos, mocap_quat = self._mj_arrays
+            table, samples = self._traffic_table, self._traffic_samples
+            prepare, matmul, rotate, step1, step2 = prepare_step, np.matmul, rotate_to_world, mujoco.mj_step1, mujoco.mj_step2
+            checking = monitor is not None
+            v2, a2 = (monitor.fast_speed2, monitor.fast_acc2) if checking else (math.inf, math.inf)
             for k in range(n_steps):
-                if move:
-                    move()
-                step1(m, d)
-                compute(vc, None)
-                step2(m, d)
-                if not (vdot(vel) <= v2 and adot(acc) <= a2) and not monitor.scaled_ok():
-                    what = monitor.violation(float(d.time))
+                if not prepare(checking and k > 0, qpos, qvel, qacc, act, v2, a2, d.time, table, samples,
+                               mocap_pos, mocap_quat, vc, cf_x, feats, rot):
+                    what = self._exact_check(monitor)  # (None: the bounds hold after all)
                     if what is not None:
-                        return k, what
+                        return k - 1, what
+                    prepare(False, qpos, qvel, qacc, act, v2, a2, d.time, table, samples, mocap_pos, mocap_quat,
+                            vc, cf_x, feats, rot)
+                matmul(f_row, g, tau)
+                rotate(tau, rot, out)
+                step1(m, d)
+                step2(m, d)
+            if checking and not (vdot(vel) <= v2 and adot(acc) <= a2):
+                what = self._exact_check(monitor)
+                if what is not None:
+                    return n_steps - 1, what
             return None
         for k in range(n_steps):
             if traffic:
@@ -328,6 +340,12 @@ class Simulation:
                 if what is not None:
                     return k, what
         return None
+
+    def _exact_check(self, monitor: DivergenceMonitor) -> str | None:
+        """The divergence tests after a failed fast test: None when the bounds hold."""
+        if monitor.fast_ok() or monitor.scaled_ok():
+            return None
+        return monitor.violation(float(self.data.time))
 
     def check_divergence(self) -> None:
         """Raise :class:`PhysicsDivergence` if a vessel's state is beyond its bounds now, or MuJoCo warned."""
