@@ -496,6 +496,12 @@ class CommsNetwork:
         return {"topology": self.config.topology, "team": list(self.team), "offered": off.tolist(),
                 "delivered": dlv.tolist(), "lost": (off - dlv - pending).tolist(), "mean_delay_s": mean}
 
+    def counts(self, receiver: str) -> tuple[int, int]:
+        """(delivered, lost) so far to ``receiver``: :meth:`stats`' two counts, without the dict
+        (the recording asks at every record tick)."""
+        s = self.link[receiver]
+        return s.delivered, s.lost
+
     def stats(self, receiver: str | None = None) -> dict:
         """Counts and delays, for one receiver or the whole team: ``sent`` (broadcasts),
         ``offered`` (message–receiver pairs decided), ``delivered``, ``lost`` (of which

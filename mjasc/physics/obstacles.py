@@ -163,6 +163,12 @@ class MovingObstacleSet:
     def __len__(self) -> int:
         return len(self.obstacles)
 
+    def constants(self) -> list:
+        """Per obstacle, in order, (kind, constants) as :meth:`rows` evaluates them: kind 0 a
+        constant turn (x0, y0, θ0, v, ω, small ω, v/ω, −v/ω, cos θ0, sin θ0), kind 1 along a path
+        (γ0, speed, length, sample γ, sample points, sample headings, last sample index)."""
+        return self._plain
+
     def state(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(positions (M, 2) [m], headings (M,) [rad], velocities (M, 2) [m/s]) at time t."""
         rows = self.rows(t_s)

@@ -24,8 +24,11 @@ import numpy as np
 
 from mjasc.physics.currents import CurrentField, UniformCurrent
 from mjasc.physics.divergence import DivergenceBounds, DivergenceMonitor
+from mjasc.physics.hydro_kernels import rotate_to_world
 from mjasc.physics.hydrodynamics import Hydrodynamics, rigid_body_mass_matrix
 from mjasc.physics.obstacles import MovingObstacleSet
+from mjasc.physics.state_kernels import vessel_states
+from mjasc.physics.step_kernels import prepare_step, traffic_table
 from mjasc.physics.thrusters import Thrusters
 from mjasc.physics.world import World
 
@@ -134,6 +137,14 @@ class Simulation:
         if self._bound:
             self.hydro.bind(self._qpos3, self._qvel3, self._act_view, self._qfrc3)
         self._mocap_rows = [int(k) for k in self.world.mocap_id]
+        # The compiled step's inputs (mjasc.physics.step_kernels): MjData's arrays, whole, and the
+        # traffic's constants as arrays.
+        self._traffic_table, self._traffic_samples = traffic_table(self.traffic.constants(), self._mocap_rows,
+                                                                   MovingObstacleSet.PATH_SAMPLE_M)
+        self._mj_arrays = (d.qpos, d.qvel, d.qacc, d.act, d.mocap_pos, d.mocap_quat)
+        th = self.thrusters
+        self._propellers = np.ascontiguousarray(np.column_stack([th._n_pos, th._n_neg, th._k_f, th._k_r]), dtype=float)
+        self._uniform_current = self.current.velocity(np.zeros((n, 2)), 0.0) if self._current_uniform_steady else None
         self.divergence_checks = True
         self.monitor = DivergenceMonitor(d.qvel, d.qacc, world.dof_adr, [t.top_speed_m_s for t in world.vessel_types],
                                          world.vessel_names, DivergenceBounds())
@@ -182,6 +193,27 @@ class Simulation:
         self.data.ctrl[self.world.ctrl_adr] = np.minimum(np.maximum(c, -1.0), 1.0)  # (np.clip, fewer calls)
 
     def states(self) -> VesselStates:
+        """Every vessel's true state now (new arrays), in one compiled pass when the vessels' dofs
+        are MjData's first (:mod:`mjasc.physics.state_kernels`)."""
+        if not self._bound:
+            return self._states_numpy()
+        n = self.n_vessels
+        qpos, qvel, _, act = self._mj_arrays[:4]
+        psi = self._qpos3[:, 2]
+        out = np.empty(12 * n)  # (each quantity a contiguous block: state_kernels.vessel_states)
+        vessel_states(qpos, qvel, act, np.cos(psi), np.sin(psi), self._propellers, out)
+        pos, heading, vel = out[:2 * n].reshape(n, 2), out[2 * n:3 * n], out[3 * n:5 * n].reshape(n, 2)
+        body, shaft, thrust = out[5 * n:8 * n].reshape(n, 3), out[8 * n:10 * n].reshape(n, 2), out[10 * n:].reshape(n, 2)
+        t = self.time_s
+        if self._current_uniform_steady:  # (the same everywhere, always)
+            current = self._uniform_current.copy()
+        else:
+            current = self.current.velocity(np.array(self._qpos3)[:, :2], t)  # (the numpy form's layout)
+        return VesselStates(time_s=t, position_m=pos, heading_rad=heading, velocity_m_s=vel, body_velocity=body,
+                            current_m_s=current, shaft_speed=shaft, thrust_n=thrust)
+
+    def _states_numpy(self) -> VesselStates:
+        """:meth:`states` in numpy (any layout of the vessels' dofs; the compiled form's reference)."""
         q = np.array(self._qpos())
         qd = np.array(self._qvel())
         psi = q[:, 2]
@@ -293,28 +325,33 @@ class Simulation:
             vel, acc, v2, a2 = monitor.qvel, monitor.qacc, monitor.fast_speed2, monitor.fast_acc2
             vdot, adot = vel.dot, acc.dot
         if self._bound and self.hydrodynamics_enabled and self._current_uniform_steady:
-            # The common case, kept lean: a uniform steady current is the same at every vessel.
-            vc = self.current.velocity(self._qpos3[:, :2], 0.0)
-            compute, step1, step2 = self.hydro.compute_bound, mujoco.mj_step1, mujoco.mj_step2
-            move = self._update_traffic if traffic else None
-            if monitor is None:
-                for _ in range(n_steps):
-                    if move:
-                        move()
-                    step1(m, d)
-                    compute(vc, None)
-                    step2(m, d)
-                return None
+            # The common case, one compiled call per step before MuJoCo's two (mjasc.physics.step_kernels):
+            # the previous step's fast divergence test, the traffic's mocap poses and the force's
+            # features; then τ = F·G (numpy) rotated into qfrc_applied, mj_step1, mj_step2.
+            vc = self._uniform_current
+            h = self.hydro
+            f_row, g, tau, rot, feats, cf_x, out = h._F_row, h._G, h._tau, h._rot2, h._F, h._cf_x, self._qfrc3
+            qpos, qvel, qacc, act, mocap_pos, mocap_quat = self._mj_arrays
+            table, samples = self._traffic_table, self._traffic_samples
+            prepare, matmul, rotate, step1, step2 = prepare_step, np.matmul, rotate_to_world, mujoco.mj_step1, mujoco.mj_step2
+            checking = monitor is not None
+            v2, a2 = (monitor.fast_speed2, monitor.fast_acc2) if checking else (math.inf, math.inf)
             for k in range(n_steps):
-                if move:
-                    move()
-                step1(m, d)
-                compute(vc, None)
-                step2(m, d)
-                if not (vdot(vel) <= v2 and adot(acc) <= a2) and not monitor.scaled_ok():
-                    what = monitor.violation(float(d.time))
+                if not prepare(checking and k > 0, qpos, qvel, qacc, act, v2, a2, d.time, table, samples,
+                               mocap_pos, mocap_quat, vc, cf_x, feats, rot):
+                    what = self._exact_check(monitor)  # (None: the bounds hold after all)
                     if what is not None:
-                        return k, what
+                        return k - 1, what
+                    prepare(False, qpos, qvel, qacc, act, v2, a2, d.time, table, samples, mocap_pos, mocap_quat,
+                            vc, cf_x, feats, rot)
+                matmul(f_row, g, tau)
+                rotate(tau, rot, out)
+                step1(m, d)
+                step2(m, d)
+            if checking and not (vdot(vel) <= v2 and adot(acc) <= a2):
+                what = self._exact_check(monitor)
+                if what is not None:
+                    return n_steps - 1, what
             return None
         for k in range(n_steps):
             if traffic:
@@ -328,6 +365,12 @@ class Simulation:
                 if what is not None:
                     return k, what
         return None
+
+    def _exact_check(self, monitor: DivergenceMonitor) -> str | None:
+        """The divergence tests after a failed fast test: None when the bounds hold."""
+        if monitor.fast_ok() or monitor.scaled_ok():
+            return None
+        return monitor.violation(float(self.data.time))
 
     def check_divergence(self) -> None:
         """Raise :class:`PhysicsDivergence` if a vessel's state is beyond its bounds now, or MuJoCo warned."""

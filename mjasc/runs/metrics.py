@@ -10,16 +10,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.core.polygon_kernels import boundary_distance, inside_even_odd
 from mjasc.physics.obstacles import PolygonObstacle
+from mjasc.runs.metrics_kernels import update_metrics
 
 __all__ = ["RunMetrics"]
-
-
-def _norm(d: np.ndarray) -> np.ndarray:
-    """‖d‖ over the last axis (2) of d: √(x² + y²), the numbers of ``np.linalg.norm(d, axis=-1)``."""
-    x, y = d[..., 0], d[..., 1]
-    return np.sqrt(x * x + y * y)
 
 
 class RunMetrics:
@@ -34,15 +28,20 @@ class RunMetrics:
         self._xte_max = np.zeros(n)
         self._xte_count = np.zeros(n, dtype=int)
         self.static = list(world.static_obstacles)
-        # Per static obstacle: (vertices as the compiled kernels take them, None) for a polygon,
-        # (None, centre, radius) for a circle.
-        self._static_shapes = [(np.ascontiguousarray(np.asarray(o.vertices, dtype=float).reshape(-1, 2)), None, None)
-                               if isinstance(o, PolygonObstacle)
-                               else (None, o.centre, o.radius_m) for o in self.static]
+        # Static obstacle j as the compiled update takes it (mjasc.runs.metrics_kernels): a polygon
+        # is vertices[offsets[j]:offsets[j + 1]]; an empty range is a circle, circles[j] = (x, y, radius).
+        polys = [np.asarray(o.vertices, dtype=float).reshape(-1, 2) if isinstance(o, PolygonObstacle)
+                 else np.zeros((0, 2)) for o in self.static]
+        self._vertices = np.ascontiguousarray(np.concatenate(polys)) if polys else np.zeros((0, 2))
+        self._offsets = np.cumsum([0] + [len(v) for v in polys]).astype(np.int64)
+        self._circles = np.array([[np.nan] * 3 if isinstance(o, PolygonObstacle)
+                                  else [o.centre[0], o.centre[1], o.radius_m] for o in self.static],
+                                 dtype=float).reshape(-1, 3)
+        self._no_traffic = np.zeros((0, 2))
         # Minimum clearance per (vessel, object): columns are the static obstacles, the moving
         # obstacles, then the vessels (the diagonal stays +inf: no clearance to oneself).
         self._objects = [o.name for o in self.static] + [o.name for o in world.moving_obstacles] + self.names
-        self._traffic_radii = np.array([o.radius_m for o in world.moving_obstacles])
+        self._traffic_radii = np.array([o.radius_m for o in world.moving_obstacles], dtype=float)
         self._min_clear = np.full((n, len(self._objects)), np.inf)
         self.collisions: list[dict] = []
         self._in_contact: set[tuple[str, str]] = set()
@@ -52,36 +51,15 @@ class RunMetrics:
         """Called at the record rate with the true states, each vessel's |xte| (nan = no path).
         Each block of the clearance matrix (a static obstacle's column, the moving obstacles', the
         vessels') is folded into the running minimum in place: the same numbers as one stacked
-        matrix, without building it (this runs at every record tick)."""
+        matrix, without building it, in one compiled pass (:mod:`mjasc.runs.metrics_kernels`)."""
         pos = states.position_m
-        if self._last_pos is not None:
-            self.distance += np.hypot(*(pos - self._last_pos).T)
-        self._last_pos = pos.copy()
-        ok = np.isfinite(cross_track_m)
-        a = np.abs(np.where(ok, cross_track_m, 0.0))
-        self._xte_sum += a
-        self._xte_count += ok
-        np.maximum(self._xte_max, a, out=self._xte_max)
-        mc, radii = self._min_clear, self.radii
-        if self._static_shapes:
-            p = np.ascontiguousarray(pos, dtype=float)  # (the kernels' layout: core.geometry's distance and inside)
-            for j, (vertices, centre, radius) in enumerate(self._static_shapes):
-                if vertices is not None:
-                    d = boundary_distance(p, vertices)
-                    d = np.where(inside_even_odd(p, vertices), -d, d)
-                else:
-                    d = np.hypot(*(pos - centre).T) - radius
-                np.minimum(mc[:, j], d - radii, out=mc[:, j])
-        j = len(self._static_shapes)
+        has_last = self._last_pos is not None
+        if not has_last:
+            self._last_pos = np.empty_like(pos, dtype=float)
         tpos = traffic[0]
-        if len(tpos):
-            k = len(tpos)
-            block = _norm(pos[:, None] - tpos[None]) - radii[:, None] - self._traffic_radii[None]
-            np.minimum(mc[:, j:j + k], block, out=mc[:, j:j + k])
-            j += k
-        pair = _norm(pos[:, None] - pos[None]) - radii[:, None] - radii[None]
-        np.fill_diagonal(pair, np.inf)
-        np.minimum(mc[:, j:], pair, out=mc[:, j:])
+        update_metrics(pos, self._last_pos, has_last, np.asarray(cross_track_m, dtype=float), self.distance,
+                       self._xte_sum, self._xte_count, self._xte_max, self._vertices, self._offsets, self._circles,
+                       self.radii, tpos if len(tpos) else self._no_traffic, self._traffic_radii, self._min_clear)
 
     def check_contacts(self, t_s: float) -> list[tuple[str, str]]:
         """New hull contacts since the last call (pairs of owner names); records them."""

@@ -228,6 +228,18 @@ class Recorder:
         rows[t_s] = values[n_own:].copy()
         self._count(len(self.batched))
 
+    def vessel_scalar_table(self, series, t_s: float, values) -> None:
+        """:meth:`vessel_scalars` of several series at t_s: ``series`` ((template, entities), ...)
+        (entities from :meth:`vessel_entities`), ``values`` one (n,) row per series in vessel
+        order. The same rows as one :meth:`vessel_scalars` call per series, in that order."""
+        table = np.array(values, dtype=np.float64)
+        if self.batched:
+            for (template, entities), row in zip(series, table):
+                self.vessel_scalars(template, entities, t_s, row)
+            return
+        for (_, entities), row in zip(series, table):
+            self._fleet_row(("scalar", entities, 0.0), t_s, row)
+
     def vessel_points(self, template: str, entities: tuple[str, ...], t_s: float, positions_xy, z: float = 0.0) -> None:
         """:meth:`fleet_points` of every vessel (positions (n, 2) in vessel order, ``entities`` from
         :meth:`vessel_entities`): the batched vessels' points in one row of the batch entity."""

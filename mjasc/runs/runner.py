@@ -51,6 +51,7 @@ from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import catch_sigterm, restore_sigterm, signal_name
 from mjasc.runs.outputs import atomic_target, atomic_write_text
+from mjasc.runs.record_kernels import record_rows
 from mjasc.runs.recording import Recorder, annotation_context, default_blueprint, legend_markdown, vessel_colour
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
@@ -73,14 +74,6 @@ WORLD_SERIES = {"hull": "world/vessels/{}/hull", "position": "world/vessels/{}/p
 PLOT_SERIES = {"speed": "plots/speed/{}/actual", "speed_ref": "plots/speed/{}/reference",
                "thrust_port": "plots/thrust/{}/port", "thrust_starboard": "plots/thrust/{}/starboard",
                "heading": "plots/heading/{}", "cross_track": "plots/cross_track/{}"}
-
-
-def _link_counts(network):
-    """A vessel's messages delivered and lost so far on ``network`` (the comms log's counts)."""
-    def counts(name: str) -> tuple[int, int]:
-        s = network.stats(name)
-        return s["delivered"], s["lost"]
-    return counts
 
 
 class RunFailed(RuntimeError):
@@ -196,18 +189,15 @@ class Runner:
         if rec is None:
             return
         t, e = states.time_s, self._entities
-        c, s = np.cos(states.heading_rad)[:, None], np.sin(states.heading_rad)[:, None]
-        hb, pos = self._hull_body, states.position_m
-        hulls = np.empty(hb.shape)  # each outline rotated by the heading, then placed at the position
-        hulls[..., 0] = (hb[..., 0] * c + hb[..., 1] * -s) + pos[:, None, 0]
-        hulls[..., 1] = (hb[..., 0] * s + hb[..., 1] * c) + pos[:, None, 1]
+        heading = states.heading_rad
+        hulls, speed, heading_deg = record_rows(states.position_m, states.velocity_m_s, heading, np.cos(heading),
+                                                np.sin(heading), self._hull_body)  # (mjasc.runs.record_kernels)
         rec.vessel_strips(WORLD_SERIES["hull"], e["hull"], t, hulls, z=0.2)
         rec.vessel_points(WORLD_SERIES["position"], e["position"], t, states.position_m, z=0.2)
-        series = (("speed", states.speed_m_s), ("speed_ref", [o.speed_ref_m_s if o else 0.0 for o in self.last_outputs]),
-                  ("thrust_port", states.thrust_n[:, 0]), ("thrust_starboard", states.thrust_n[:, 1]),
-                  ("heading", np.degrees(states.heading_rad)), ("cross_track", xte))  # NaN (no path) is left out
-        for kind, values in series:  # the vessels without views: one entity per kind (Recorder.vessel_scalars)
-            rec.vessel_scalars(PLOT_SERIES[kind], e[kind], t, values)
+        thrust = states.thrust_n
+        rec.vessel_scalar_table(self._plot_series, t, (  # in PLOT_SERIES' order; NaN (no path) is left out
+            speed, [o.speed_ref_m_s if o else 0.0 for o in self.last_outputs], thrust[:, 0], thrust[:, 1],
+            heading_deg, xte))
         if rec.full:
             ctrl = self.sim.data.ctrl[self.world.ctrl_adr]
             rec.fleet_scalars(e["command_port"], t, ctrl[:, 0])
@@ -217,7 +207,7 @@ class Runner:
             rec.fleet_points(e["moving"], t, traffic[0], z=0.3)
         if self._comms_log is not None:
             net = self.network
-            self._comms_log.log(rec, t, net.drain_outcomes(), states.position_m, _link_counts(net))
+            self._comms_log.log(rec, t, net.drain_outcomes(), states.position_m, net.counts)
         if not self.sim.current.is_steady and self._current_grid is not None and \
                 (not self._current_times or t - self._current_times[-1] >= 2.0):
             self._current_times.append(t)
@@ -374,6 +364,7 @@ class Runner:
             self.recorder.colours = {a.name: vessel_colour(i) for i, a in enumerate(self.agents)}
             self.recorder.set_vessels(names, view_vessels(names))
             self._entities = self._entity_names()
+            self._plot_series = tuple((PLOT_SERIES[k], self._entities[k]) for k in PLOT_SERIES)
             self._log_static_scene()
             if self.network is not None and tuple(self.network.team) == names:
                 from mjasc.cooperation.recording import CommsLog

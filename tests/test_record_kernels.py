@@ -1,0 +1,38 @@
+"""The record tick's compiled per-vessel arithmetic (mjasc.runs.record_kernels) gives the bits of the
+numpy form it replaced, kept here as the reference, on the demo's own states."""
+
+from pathlib import Path
+
+import numpy as np
+
+from mjasc.runs.record_kernels import record_rows
+from mjasc.runs.runner import Runner
+from mjasc.runs.scenario import load_scenario
+
+TASKS = Path(__file__).resolve().parents[1] / "tasks"
+
+
+def _reference(states, hull_body):
+    c, s = np.cos(states.heading_rad)[:, None], np.sin(states.heading_rad)[:, None]
+    hb, pos = hull_body, states.position_m
+    hulls = np.empty(hb.shape)
+    hulls[..., 0] = (hb[..., 0] * c + hb[..., 1] * -s) + pos[:, None, 0]
+    hulls[..., 1] = (hb[..., 0] * s + hb[..., 1] * c) + pos[:, None, 1]
+    return hulls, states.speed_m_s, np.degrees(states.heading_rad)
+
+
+def test_record_rows_have_the_bits_of_the_numpy_form():
+    runner = Runner(load_scenario(TASKS / "demo.toml").with_overrides(duration_s=30.0), None, progress=False)
+    seen = []
+
+    def observe(event):
+        st = event.states
+        h = st.heading_rad
+        got = record_rows(st.position_m, st.velocity_m_s, h, np.cos(h), np.sin(h), runner._hull_body)
+        for g, w in zip(got, _reference(st, runner._hull_body)):
+            assert g.shape == w.shape and g.tobytes() == w.tobytes()
+        seen.append(st.time_s)
+
+    runner.observe("record", observe)
+    runner.run()
+    assert len(seen) > 200

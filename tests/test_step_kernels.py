@@ -1,0 +1,76 @@
+"""The compiled physics step (mjasc.physics.step_kernels) gives the bits of the sequence it replaced:
+the traffic poses of MovingObstacleSet.rows, and whole steps of the readable order — traffic, mj_step1,
+hydrodynamic force, mj_step2 — on a scenario with traffic and a current."""
+
+import math
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+from mjasc.guidance.paths import Path as GuidancePath
+from mjasc.physics.obstacles import MovingObstacle, MovingObstacleSet
+from mjasc.physics.simulation import PhysicsDivergence
+from mjasc.physics.step_kernels import traffic_poses, traffic_table
+from mjasc.runs.runner import Runner
+from mjasc.runs.scenario import load_scenario
+
+TASKS = Path(__file__).resolve().parents[1] / "tasks"
+
+
+def test_traffic_poses_have_the_bits_of_rows():
+    bend = GuidancePath.from_waypoints([[0, 0], [50, 0], [50, 50]], turn_radius_m=10.0)
+    s = MovingObstacleSet([MovingObstacle("a", 2.0, position_m=(3.0, -4.0), heading_rad=2.1, speed_m_s=1.7),
+                           MovingObstacle("b", 3.0, speed_m_s=0.8, path=bend, start_gamma_m=3.3),
+                           MovingObstacle("c", 1.0, position_m=(-7, 9), heading_rad=-0.4, speed_m_s=2.2,
+                                          turn_rate_rad_s=-0.031),
+                           MovingObstacle("d", 1.0, speed_m_s=1.1, path=bend)])
+    mocap = [3, 0, 2, 1]
+    table, samples = traffic_table(s.constants(), mocap, MovingObstacleSet.PATH_SAMPLE_M)
+    pos, quat = np.full((4, 3), 7.0), np.full((4, 4), 7.0)
+    for t in np.concatenate([np.arange(0.0, 150.0, 0.02), [1e-3, 999.0]]):
+        traffic_poses(float(t), table, samples, pos, quat)
+        for k, (x, y, h, _, _) in zip(mocap, s.rows(float(t))):
+            want = np.array([x, y, 7.0, math.cos(0.5 * h), 0.0, 0.0, math.sin(0.5 * h)])
+            assert np.concatenate([pos[k], quat[k]]).tobytes() == want.tobytes()
+
+
+def _reference_steps(sim, n: int) -> None:
+    """The physics step as it was written before the compiled one (no divergence checks)."""
+    m, d = sim.model, sim.data
+    vc = sim.current.velocity(sim._qpos3[:, :2], 0.0)
+    for _ in range(n):
+        sim._update_traffic()
+        mujoco.mj_step1(m, d)
+        sim.hydro.compute_bound(vc, None)
+        mujoco.mj_step2(m, d)
+
+
+def test_compiled_steps_have_the_bits_of_the_readable_sequence():
+    sc = load_scenario(TASKS / "demo.toml")
+    ref, new = Runner(sc, None, progress=False), Runner(sc, None, progress=False)
+    assert len(new.sim.traffic) and new.sim._bound and new.sim._current_uniform_steady
+    rng = np.random.default_rng(3)
+    for block in range(400):
+        cmd = rng.uniform(-1.0, 1.0, (new.sim.n_vessels, 2))
+        ref.sim.set_commands(cmd)
+        new.sim.set_commands(cmd)
+        _reference_steps(ref.sim, 5)
+        new.sim.step(5)
+        for field in ("qpos", "qvel", "qacc", "act", "qfrc_applied", "mocap_pos", "mocap_quat"):
+            assert getattr(new.sim.data, field).tobytes() == getattr(ref.sim.data, field).tobytes(), (block, field)
+        assert new.sim.data.time == ref.sim.data.time
+
+
+def test_a_divergence_inside_a_block_is_still_caught_at_its_step():
+    sc = load_scenario(TASKS / "demo.toml")
+    runner = Runner(sc, None, progress=False)
+    sim = runner.sim
+    sim.step(5)
+    t0 = sim.time_s
+    sim.data.qvel[0] = 1e6  # diverged before the next block's first step
+    with pytest.raises(PhysicsDivergence, match="speed") as err:
+        sim.step(5)
+    assert f"t = {t0 + 0.02:.3f} s: vessel 'alpha' speed" in str(err.value)  # the block's first step
+    assert err.value.last_good_time_s == t0
