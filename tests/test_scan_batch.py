@@ -122,12 +122,37 @@ def test_batched_scans_equal_the_numpy_form_each_alone():
         _same(stack.cos_heading, np.array([math.cos(s.heading_rad) for s in stack.scans]))
         _same(stack.ret_off, np.cumsum([0] + [s.hit_beams.size for s in stack.scans]))
         _same(stack.beam_off, np.cumsum([0] + [s.ranges.size for s in stack.scans]))
+        _same(stack.times_s, np.array([s.time_s for s in stack.scans], dtype=float))
+        _same(stack.headings_rad, np.array([s.heading_rad for s in stack.scans], dtype=float))
     # RangeSensor.scan on its own is a batch of one: the same scans
     for i in range(4):
         got = sensors[i].scan(d, rngs[i])
         want = _reference_scan(twins[i], d, ref_rngs[i])
         _same(got.ranges, want[0])
         _same(got.hit_points_world, want[5])
+
+
+def test_a_batch_that_grows_while_casting_keeps_every_scan():
+    """The buffers grow at the third cast of a batch (720 + 720 + 720 beams > 1024): the earlier
+    casts' rows and every later batch's scans stay those of the numpy form."""
+    w = _world()
+    d = w.data
+    cfg = SensorConfig()
+    sensors = [sensor_for_vessel(w, i, cfg) for i in range(3)]
+    twins = [sensor_for_vessel(w, i, cfg) for i in range(3)]
+    rngs = [np.random.default_rng([9, i]) for i in range(3)]
+    ref_rngs = [np.random.default_rng([9, i]) for i in range(3)]
+    batch = ScanBatch()
+    for step in range(3):
+        d.time = 0.2 * step
+        refs = [_reference_scan(twins[i], d, ref_rngs[i]) for i in range(3)]
+        for i in range(3):
+            batch.add(sensors[i], d, rngs[i])
+        stack = batch.take()
+        for scan, ref in zip(stack.scans, refs):
+            for got, want in [(scan.ranges, ref[0]), (scan.hit, ref[1]), (scan.geom_ids, ref[2]),
+                              (scan.hit_beams, ref[3]), (scan.hit_points_world, ref[5])]:
+                _same(got, want)
 
 
 @pytest.mark.parametrize("seed", range(12))

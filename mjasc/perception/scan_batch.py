@@ -85,8 +85,12 @@ class ScanBatch:
             setattr(self, name, a)
         self._cap = cap
         #: per slot: (sensor, first row, its rows of _dist, _gid, _normals, _uniforms) whose beam cosines and
-        #: sines are in place (views of the buffers made now)
-        self._tables: list[tuple] = []
+        #: sines are in place (the views made again on the new buffers)
+        self._tables: list[tuple] = [(sn, a, *self._views(a, a + sn.config.beams))
+                                     for sn, a, *_ in getattr(self, "_tables", ())]
+
+    def _views(self, a: int, b: int) -> tuple:
+        return self._dist[a:b], self._gid[a:b], self._normals[a:b], self._uniforms[a:b]
 
     def __len__(self) -> int:
         return len(self._sensors)
@@ -103,7 +107,7 @@ class ScanBatch:
         if k >= len(tables) or tables[k][0] is not sensor or tables[k][1] != a:
             self._cos[a:b], self._sin[a:b] = sensor.cos_body, sensor.sin_body
             del tables[k:]  # the later slots' rows may have been overwritten
-            tables.append((sensor, a, self._dist[a:b], self._gid[a:b], self._normals[a:b], self._uniforms[a:b]))
+            tables.append((sensor, a, *self._views(a, b)))
         _, _, dist, gid, normals, uniforms = tables[k]
         x, y, yaw = sensor.fire(data, dist, gid)
         has_n, has_u, cb, cr = sensor.draw(rng, normals, uniforms)
