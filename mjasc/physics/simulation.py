@@ -11,7 +11,11 @@ One physics step (``Simulation.step``)::
     mj_step2             acceleration, shaft lag, integration (MuJoCo)
 
 All vessels are handled together on (N, ·) arrays viewed straight into MjData: no per-vessel
-Python loop. Commands are set between steps with :meth:`Simulation.set_commands`.
+Python loop. Commands are set between steps with :meth:`Simulation.set_commands`. In the common
+case (vessels' dofs first in MjData, a uniform steady current) the force is computed before
+``mj_step1``, which neither reads nor changes what it depends on: one compiled call per step
+(:mod:`mjasc.physics.step_kernels`: the previous step's divergence test, the mocap poses, the
+force's features), numpy's product τ = F·G, the rotation into ``qfrc_applied``, then MuJoCo's two.
 """
 
 from __future__ import annotations
