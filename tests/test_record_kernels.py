@@ -19,8 +19,9 @@ def _reference(states, hull_body, speed_ref, xte):
     hulls = np.empty(hb.shape)
     hulls[..., 0] = (hb[..., 0] * c + hb[..., 1] * -s) + pos[:, None, 0]
     hulls[..., 1] = (hb[..., 0] * s + hb[..., 1] * c) + pos[:, None, 1]
-    return hulls, np.stack([np.asarray(v, dtype=np.float64) for v in (
-        states.speed_m_s, speed_ref, states.thrust_n[:, 0], states.thrust_n[:, 1], np.degrees(states.heading_rad), xte)])
+    rows = (states.speed_m_s, speed_ref, states.thrust_n[:, 0], states.thrust_n[:, 1], np.degrees(states.heading_rad),
+            xte)
+    return hulls, np.stack([np.asarray(v, dtype=np.float64) for v in rows])
 
 
 def test_record_rows_have_the_bits_of_the_numpy_form():

@@ -207,7 +207,8 @@ class Simulation:
         out = np.empty(12 * n)  # (each quantity a contiguous block: state_kernels.vessel_states)
         vessel_states(qpos, qvel, act, np.cos(psi), np.sin(psi), self._propellers, out)
         pos, heading, vel = out[:2 * n].reshape(n, 2), out[2 * n:3 * n], out[3 * n:5 * n].reshape(n, 2)
-        body, shaft, thrust = out[5 * n:8 * n].reshape(n, 3), out[8 * n:10 * n].reshape(n, 2), out[10 * n:].reshape(n, 2)
+        body, shaft = out[5 * n:8 * n].reshape(n, 3), out[8 * n:10 * n].reshape(n, 2)
+        thrust = out[10 * n:].reshape(n, 2)
         t = self.time_s
         if self._current_uniform_steady:  # (the same everywhere, always)
             current = self._uniform_current.copy()
@@ -337,7 +338,8 @@ class Simulation:
             f_row, g, tau, rot, feats, cf_x, out = h._F_row, h._G, h._tau, h._rot2, h._F, h._cf_x, self._qfrc3
             qpos, qvel, qacc, act, mocap_pos, mocap_quat = self._mj_arrays
             table, samples = self._traffic_table, self._traffic_samples
-            prepare, matmul, rotate, step1, step2 = prepare_step, np.matmul, rotate_to_world, mujoco.mj_step1, mujoco.mj_step2
+            prepare, matmul, rotate = prepare_step, np.matmul, rotate_to_world
+            step1, step2 = mujoco.mj_step1, mujoco.mj_step2
             checking = monitor is not None
             v2, a2 = (monitor.fast_speed2, monitor.fast_acc2) if checking else (math.inf, math.inf)
             for k in range(n_steps):
