@@ -74,3 +74,14 @@ def test_a_divergence_inside_a_block_is_still_caught_at_its_step():
         sim.step(5)
     assert f"t = {t0 + 0.02:.3f} s: vessel 'alpha' speed" in str(err.value)  # the block's first step
     assert err.value.last_good_time_s == t0
+
+
+def test_a_mujoco_warning_during_a_block_stops_the_run():
+    runner = Runner(load_scenario(TASKS / "demo.toml"), None, progress=False)
+    sim = runner.sim
+    sim.step(5)
+    t0 = sim.time_s
+    sim.data.warning[int(mujoco.mjtWarning.mjWARN_BADQACC)].number = 1  # (as if MuJoCo had warned)
+    with pytest.raises(PhysicsDivergence, match="MuJoCo warning mjWARN_BADQACC") as err:
+        sim.step(5)
+    assert err.value.last_good_time_s == t0

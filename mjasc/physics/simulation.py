@@ -11,7 +11,11 @@ One physics step (``Simulation.step``)::
     mj_step2             acceleration, shaft lag, integration (MuJoCo)
 
 All vessels are handled together on (N, ·) arrays viewed straight into MjData: no per-vessel
-Python loop. Commands are set between steps with :meth:`Simulation.set_commands`.
+Python loop. Commands are set between steps with :meth:`Simulation.set_commands`. In the common
+case (vessels' dofs first in MjData, a uniform steady current) the force is computed before
+``mj_step1``, which neither reads nor changes what it depends on: one compiled call per step
+(:mod:`mjasc.physics.step_kernels`: the previous step's divergence test, the mocap poses, the
+force's features), numpy's product τ = F·G, the rotation into ``qfrc_applied``, then MuJoCo's two.
 """
 
 from __future__ import annotations
@@ -145,6 +149,10 @@ class Simulation:
         th = self.thrusters
         self._propellers = np.ascontiguousarray(np.column_stack([th._n_pos, th._n_neg, th._k_f, th._k_r]), dtype=float)
         self._uniform_current = self.current.velocity(np.zeros((n, 2)), 0.0) if self._current_uniform_steady else None
+        h = self.hydro
+        self._step_arrays = (h._F_row, h._tau, h._rot2, h._F, h._cf_x, self._qfrc3 if self._views else None,
+                             *self._mj_arrays, self._traffic_table, self._traffic_samples)
+        self._warning_counts = d.warning.number  # (a view of MjData's warning counters)
         self.divergence_checks = True
         self.monitor = DivergenceMonitor(d.qvel, d.qacc, world.dof_adr, [t.top_speed_m_s for t in world.vessel_types],
                                          world.vessel_names, DivergenceBounds())
@@ -203,7 +211,8 @@ class Simulation:
         out = np.empty(12 * n)  # (each quantity a contiguous block: state_kernels.vessel_states)
         vessel_states(qpos, qvel, act, np.cos(psi), np.sin(psi), self._propellers, out)
         pos, heading, vel = out[:2 * n].reshape(n, 2), out[2 * n:3 * n], out[3 * n:5 * n].reshape(n, 2)
-        body, shaft, thrust = out[5 * n:8 * n].reshape(n, 3), out[8 * n:10 * n].reshape(n, 2), out[10 * n:].reshape(n, 2)
+        body, shaft = out[5 * n:8 * n].reshape(n, 3), out[8 * n:10 * n].reshape(n, 2)
+        thrust = out[10 * n:].reshape(n, 2)
         t = self.time_s
         if self._current_uniform_steady:  # (the same everywhere, always)
             current = self._uniform_current.copy()
@@ -298,7 +307,7 @@ class Simulation:
         if bad is not None:
             k, message = bad
             self._raise_divergence(k, message, t0)
-        counts = d.warning.number
+        counts = self._warning_counts
         if counts.any():  # (the method: np.any costs 8 µs here, more than a physics step's checks)
             i = int(np.flatnonzero(counts)[0])
             kind = mujoco.mjtWarning(i).name
@@ -328,12 +337,11 @@ class Simulation:
             # The common case, one compiled call per step before MuJoCo's two (mjasc.physics.step_kernels):
             # the previous step's fast divergence test, the traffic's mocap poses and the force's
             # features; then τ = F·G (numpy) rotated into qfrc_applied, mj_step1, mj_step2.
-            vc = self._uniform_current
-            h = self.hydro
-            f_row, g, tau, rot, feats, cf_x, out = h._F_row, h._G, h._tau, h._rot2, h._F, h._cf_x, self._qfrc3
-            qpos, qvel, qacc, act, mocap_pos, mocap_quat = self._mj_arrays
-            table, samples = self._traffic_table, self._traffic_samples
-            prepare, matmul, rotate, step1, step2 = prepare_step, np.matmul, rotate_to_world, mujoco.mj_step1, mujoco.mj_step2
+            vc, g = self._uniform_current, self.hydro._G
+            f_row, tau, rot, feats, cf_x, out, qpos, qvel, qacc, act, mocap_pos, mocap_quat, table, samples = \
+                self._step_arrays
+            prepare, matmul, rotate = prepare_step, np.matmul, rotate_to_world
+            step1, step2 = mujoco.mj_step1, mujoco.mj_step2
             checking = monitor is not None
             v2, a2 = (monitor.fast_speed2, monitor.fast_acc2) if checking else (math.inf, math.inf)
             for k in range(n_steps):

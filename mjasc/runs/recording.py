@@ -232,7 +232,7 @@ class Recorder:
         """:meth:`vessel_scalars` of several series at t_s: ``series`` ((template, entities), ...)
         (entities from :meth:`vessel_entities`), ``values`` one (n,) row per series in vessel
         order. The same rows as one :meth:`vessel_scalars` call per series, in that order."""
-        table = np.array(values, dtype=np.float64)
+        table = np.asarray(values, dtype=np.float64)
         if self.batched:
             for (template, entities), row in zip(series, table):
                 self.vessel_scalars(template, entities, t_s, row)

@@ -189,15 +189,14 @@ class Runner:
         if rec is None:
             return
         t, e = states.time_s, self._entities
-        heading = states.heading_rad
-        hulls, speed, heading_deg = record_rows(states.position_m, states.velocity_m_s, heading, np.cos(heading),
-                                                np.sin(heading), self._hull_body)  # (mjasc.runs.record_kernels)
+        heading, n = states.heading_rad, len(self.agents)
+        hulls, table = np.empty(self._hull_body.shape), np.empty((len(PLOT_SERIES), n))  # table: PLOT_SERIES' order
+        record_rows(states.position_m, states.velocity_m_s, heading, np.cos(heading), np.sin(heading), self._hull_body,
+                    np.array([o.speed_ref_m_s if o else 0.0 for o in self.last_outputs], dtype=float),
+                    states.thrust_n, xte, hulls, table)  # (mjasc.runs.record_kernels)
         rec.vessel_strips(WORLD_SERIES["hull"], e["hull"], t, hulls, z=0.2)
         rec.vessel_points(WORLD_SERIES["position"], e["position"], t, states.position_m, z=0.2)
-        thrust = states.thrust_n
-        rec.vessel_scalar_table(self._plot_series, t, (  # in PLOT_SERIES' order; NaN (no path) is left out
-            speed, [o.speed_ref_m_s if o else 0.0 for o in self.last_outputs], thrust[:, 0], thrust[:, 1],
-            heading_deg, xte))
+        rec.vessel_scalar_table(self._plot_series, t, table)  # (NaN, no path, is left out)
         if rec.full:
             ctrl = self.sim.data.ctrl[self.world.ctrl_adr]
             rec.fleet_scalars(e["command_port"], t, ctrl[:, 0])
