@@ -107,6 +107,82 @@ class TrackingScore:
             self._last_id[tid] = trk
         return terms
 
+    def add_run(self, times_s, own_positions_m, truth_ids, truth_xy, track_ids, track_xy,
+                truth_radii_m=None) -> None:
+        """:meth:`add` at every time of a run at once: the same state after it, bit for bit (the
+        same GOSPA terms summed in the same order, the same assignments, identity switches and
+        first times). times_s (T,) [s]; own_positions_m (T, 2) [m]; truth_ids (M,) and truth_xy
+        (T, M, 2) [m] (radii (M,)): the truth objects at every time; track_ids and track_xy: per
+        time, the tracks' ids (k_t,) and positions (k_t, 2) [m].
+
+        The distances of every (time, track, truth) triple are computed in one pass (elementwise,
+        the numbers :func:`gospa` computes per time); what is left per time is the assignment and
+        the bookkeeping in plain floats."""
+        times = [float(t) for t in times_s]
+        n_t = len(times)
+        if n_t == 0:
+            return
+        own = np.asarray(own_positions_m, dtype=float).reshape(n_t, 2)
+        q = np.asarray(truth_xy, dtype=float).reshape(n_t, -1, 2)
+        n_truth = q.shape[1]
+        c, p = float(self.cutoff_m), float(self.order)
+        if not (c > 0 and p >= 1):
+            raise ValueError(f"cutoff_m, order: must be > 0 and ≥ 1, got {self.cutoff_m}, {self.order}")
+        half = 0.5 * c ** p
+        # which truth objects are observable at each time, and when each one first was
+        rng = np.hypot(q[:, :, 0] - own[:, None, 0], q[:, :, 1] - own[:, None, 1])
+        if truth_radii_m is not None:
+            rng = rng - np.asarray(truth_radii_m, dtype=float).reshape(-1)
+        in_range = rng <= self.sensor_range_m
+        seen = np.flatnonzero(in_range.any(axis=0))
+        first = in_range[:, seen].argmax(axis=0)
+        for k in np.lexsort((seen, first)).tolist():
+            self._first_seen.setdefault(truth_ids[int(seen[k])], times[int(first[k])])
+        # every track's distance to every truth object of its time: (M, R), truth-major
+        counts = [len(ids) for ids in track_ids]
+        ends = np.cumsum(counts).tolist()
+        n_rows = ends[-1] if ends else 0
+        if n_rows and n_truth:
+            y = np.concatenate([np.asarray(xy, dtype=float).reshape(-1, 2) for xy in track_xy])
+            qt = q[np.repeat(np.arange(n_t), counts)]  # (R, M, 2): the truth at each track's time
+            d_all = np.hypot(qt[:, :, 0].T - y[None, :, 0], qt[:, :, 1].T - y[None, :, 1])
+            cost_all = np.minimum(d_all, c) ** p
+        ids_all = [int(i) for ids in track_ids for i in np.asarray(ids).reshape(-1).tolist()]
+        in_lists = in_range.tolist()
+        sums = self._sum
+        s_dist, s_loc, s_miss, s_false = sums["distance"], sums["localization"], sums["missed"], sums["false"]
+        first_at, last_id, confirmed_at = 0, self._last_id, self._confirmed_at
+        switches = self.id_switches
+        for k in range(n_t):
+            a, b = first_at, ends[k]
+            first_at = b
+            idx = [j for j, ok in enumerate(in_lists[k]) if ok]
+            n_x, n_y = len(idx), b - a
+            loc, n_assigned = 0.0, 0
+            if n_x and n_y:
+                rows, cols = linear_sum_assignment(cost_all[idx, a:b])
+                d = d_all[idx, a:b].tolist()
+                t = times[k]
+                for r, j in zip(rows.tolist(), cols.tolist()):
+                    dr = d[r][j]
+                    if dr < c:
+                        n_assigned += 1
+                        loc += dr ** p
+                        tid, trk = truth_ids[idx[r]], ids_all[a + j]
+                        confirmed_at.setdefault(tid, t)
+                        old = last_id.get(tid)
+                        if old is not None and old != trk:
+                            switches += 1
+                        last_id[tid] = trk
+            missed, false = half * (n_x - n_assigned), half * (n_y - n_assigned)
+            s_dist += (loc + missed + false) ** (1.0 / p)
+            s_loc += loc
+            s_miss += missed
+            s_false += false
+        sums["distance"], sums["localization"], sums["missed"], sums["false"] = s_dist, s_loc, s_miss, s_false
+        self.id_switches = switches
+        self._n += n_t
+
     def summary(self) -> dict:
         """Mean GOSPA and its parts over the evaluation times, identity switches, and per truth
         object the time to confirm [s] (None: never confirmed while in range)."""
