@@ -99,3 +99,23 @@ def test_add_run_equals_add_per_time_on_synthetic_ties_and_gaps():
         a.add(float(k) * 0.1, own[k], truth_ids, truth[k], tracks_ids[k], tracks_xy[k], radii)
     b.add_run([float(k) * 0.1 for k in range(n_t)], own, truth_ids, truth, tracks_ids, tracks_xy, radii)
     assert _state(a) == _state(b) and a.id_switches > 0
+
+
+def test_one_truth_or_one_track_is_assigned_as_scipy_assigns_it():
+    """The single-row and single-column shortcut of the assignment, ties included (scipy decides)."""
+    from scipy.optimize import linear_sum_assignment
+
+    from mjasc.evaluation.tracking_metrics import _assignment
+
+    rng = np.random.default_rng(9)
+    for trial in range(400):
+        n_truth, n_tracks = int(rng.integers(1, 4)), int(rng.integers(1, 6))
+        cost = np.minimum(rng.uniform(0, 12, size=(n_tracks, n_truth)).round(int(rng.integers(0, 3))), 10.0) ** 2
+        rows = cost.tolist()
+        truths = sorted(rng.choice(n_truth, size=int(rng.integers(1, n_truth + 1)), replace=False).tolist())
+        if trial % 2:
+            truths = truths[:1]
+        a, b = (0, n_tracks) if trial % 3 else (n_tracks - 1, n_tracks)
+        got = [tuple(map(int, rc)) for rc in _assignment(rows, a, b, truths)]
+        r, c = linear_sum_assignment(cost[a:b][:, truths].T)
+        assert got == list(zip(r.tolist(), c.tolist()))

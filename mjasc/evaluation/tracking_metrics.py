@@ -65,6 +65,27 @@ def gospa(truth_xy, estimates_xy, cutoff_m: float = 10.0, order: float = 2.0) ->
     return GospaTerms((loc + missed + false) ** (1.0 / p), loc, missed, false, n_missed, n_false, assignment)
 
 
+def _assignment(cost_rows: list, a: int, b: int, truths: list, fast: bool = True):
+    """The pairs (k, j) :func:`scipy.optimize.linear_sum_assignment` gives for the costs of the
+    truth objects ``truths`` (rows k) to the tracks a … b − 1 (columns j): ``cost_rows[a + j][m]``
+    is track a + j's cost to truth m. One truth or one track with a unique least cost has that one
+    optimal assignment, found here without scipy (``fast``); any other problem goes to scipy."""
+    if fast and len(truths) == 1:
+        m = truths[0]
+        costs = [cost_rows[r][m] for r in range(a, b)]
+        best = min(costs)
+        if costs.count(best) == 1:
+            return ((0, costs.index(best)),)
+    elif fast and b - a == 1:
+        row = cost_rows[a]
+        costs = [row[m] for m in truths]
+        best = min(costs)
+        if costs.count(best) == 1:
+            return ((costs.index(best), 0),)
+    rows, cols = linear_sum_assignment(np.array([[cost_rows[r][m] for r in range(a, b)] for m in truths]))
+    return zip(rows.tolist(), cols.tolist())
+
+
 @dataclass
 class TrackingScore:
     """Accumulates one vessel's tracking quality over a run, one :meth:`add` per evaluation time.
@@ -147,6 +168,8 @@ class TrackingScore:
             qt = q[np.repeat(np.arange(n_t), counts)]  # (R, M, 2): the truth at each track's time
             d_all = np.hypot(qt[:, :, 0].T - y[None, :, 0], qt[:, :, 1].T - y[None, :, 1])
             cost_all = np.minimum(d_all, c) ** p
+            fast = bool(np.isfinite(cost_all).all())  # (scipy refuses NaN: it decides every time then)
+            d_rows, cost_rows = d_all.T.tolist(), cost_all.T.tolist()  # per track: to each truth object
         ids_all = [int(i) for ids in track_ids for i in np.asarray(ids).reshape(-1).tolist()]
         in_lists = in_range.tolist()
         sums = self._sum
@@ -160,11 +183,9 @@ class TrackingScore:
             n_x, n_y = len(idx), b - a
             loc, n_assigned = 0.0, 0
             if n_x and n_y:
-                rows, cols = linear_sum_assignment(cost_all[idx, a:b])
-                d = d_all[idx, a:b].tolist()
                 t = times[k]
-                for r, j in zip(rows.tolist(), cols.tolist()):
-                    dr = d[r][j]
+                for r, j in _assignment(cost_rows, a, b, idx, fast):
+                    dr = d_rows[a + j][idx[r]]
                     if dr < c:
                         n_assigned += 1
                         loc += dr ** p
