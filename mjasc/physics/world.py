@@ -19,6 +19,7 @@ once and copy it (``mj_copyModel``: the same bits) instead of parsing, composing
 from __future__ import annotations
 
 import os
+import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 
@@ -176,6 +177,7 @@ def _model_key(vessels, static_obstacles, moving_obstacles, timestep_s) -> tuple
 
 
 _MODELS: OrderedDict = OrderedDict()  # model key → (compiled model as compiled, World index fields)
+_MODELS_LOCK = threading.Lock()
 
 
 def _compose(vessels, static_obstacles, moving_obstacles, timestep_s) -> mjcf.RootElement:
@@ -242,9 +244,11 @@ def build_world(
     import mujoco
 
     key = _model_key(vessels, static_obstacles, moving_obstacles, timestep_s)
-    cached = _MODELS.get(key) if key is not None else None
+    with _MODELS_LOCK:
+        cached = _MODELS.get(key) if key is not None else None
+        if cached is not None:
+            _MODELS.move_to_end(key)
     if cached is not None:
-        _MODELS.move_to_end(key)
         compiled, fields = cached
         # Before reset() places them, every vessel sits at the origin: the model is compiled (and
         # its data made) with contacts off, then they are switched on — as below.
@@ -313,8 +317,9 @@ def build_world(
         propeller_lateral_m=lateral,
     )
     if key is not None:
-        _MODELS[key] = (compiled, {k: (list(v) if isinstance(v, list) else v.copy()) for k, v in fields.items()})
-        while len(_MODELS) > MODEL_CACHE_SIZE:
-            _MODELS.popitem(last=False)
+        with _MODELS_LOCK:
+            _MODELS[key] = (compiled, {k: (list(v) if isinstance(v, list) else v.copy()) for k, v in fields.items()})
+            while len(_MODELS) > MODEL_CACHE_SIZE:
+                _MODELS.popitem(last=False)
     return World(mjcf_model=root, physics=physics, vessel_names=names, vessel_types=[t for _, t in vessels],
                  static_obstacles=list(static_obstacles), moving_obstacles=list(moving_obstacles), **fields)
