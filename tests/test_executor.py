@@ -86,3 +86,26 @@ def test_wait_ready_then_runs_and_a_closed_child_leaves():
         assert a["status"] == b["status"] == "completed" and a["worker"] == b["worker"]
     finally:
         ex.close()
+
+
+def test_a_run_without_recording_never_imports_rerun():
+    """A campaign's child process imports what runs need; Rerun (with pyarrow and PIL, ~0.4 s of
+    its start-up) only loads when a run records."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    demo = (Path(__file__).resolve().parent.parent / "tasks" / "demo.toml").read_text()
+    code = ("import json, sys\n"
+            "import mjasc.campaigns.executor as ex\n"
+            "import mjasc.avoidance.system, mjasc.evaluation.run_evaluation, mjasc.runs.runner\n"
+            "out = ex.execute_in_process(json.loads(sys.stdin.read()))\n"
+            "print(out['status'], 'rerun' in sys.modules, 'pyarrow' in sys.modules)\n")
+    request = {"index": 0, "scenario_toml": demo.replace("duration_s = 240.0", "duration_s = 1.0"), "run_dir": None,
+               "evaluate": True}
+    env = dict(os.environ, MUJOCO_GL="disable", PYTHONPATH=os.pathsep.join(p for p in sys.path if p))
+    import json
+
+    got = subprocess.run([sys.executable, "-c", code], input=json.dumps(request), capture_output=True, text=True,
+                         env=env, timeout=300)
+    assert got.stdout.split() == ["completed", "False", "False"], got.stderr[-2000:]

@@ -22,10 +22,14 @@ from __future__ import annotations
 
 import functools
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import rerun as rr
 
 from mjasc.avoidance.threat_panel import threat_markdown
+
+if TYPE_CHECKING:  # rerun loads when a recording is made (a run without one never imports it)
+    import rerun as rr
 
 __all__ = ["AvoidanceLog", "THREAT_PERIOD_S"]
 
@@ -61,6 +65,8 @@ def _thin(times, points, step_s: float):
 @functools.cache
 def _mode_states() -> rr.StateConfiguration:
     """The mode lane's states: names and colours of :data:`~mjasc.runs.blueprint.MODE_STATES`."""
+    import rerun as rr
+
     from mjasc.runs.blueprint import MODE_STATES
 
     return rr.StateConfiguration(values=list(MODE_STATES), labels=[label for label, _ in MODE_STATES.values()],
@@ -71,6 +77,8 @@ def _mode_states() -> rr.StateConfiguration:
 def _overlay_styles(full: bool) -> dict:
     """Overlay entity (under ``world/vessels/<v>/avoidance``) → its style, in the legend's classes
     and colours (the same for every vessel: built once)."""
+    import rerun as rr
+
     from mjasc.runs.blueprint import legend_colour as c
 
     styles = {"virtual_target": rr.Points3D.from_fields(colors=[c(_VIRTUAL_TARGET)], radii=[0.4],

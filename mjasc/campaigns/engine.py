@@ -23,7 +23,7 @@ error and retried up to ``max_attempts`` times (a divergence is deterministic an
 retried); it never stops the campaign. The LocalCluster runs with ``worker-saturation = 1.0``, so a
 worker holds one task at a time and a dying worker takes no queued runs with it. ``startup_s`` (in
 the returned info) ends when every worker is up and, on an own LocalCluster, every worker's child has
-imported what runs need.
+imported what runs need; in this process, when the runs' child has (``isolate``).
 
 Outputs in ``out_dir``: ``campaign.sqlite`` (the store), ``runs.csv`` and ``runs.parquet`` (exports),
 ``campaign.json`` (the campaign and its aggregate statistics, :mod:`mjasc.campaigns.statistics`),
@@ -273,7 +273,8 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
             info.update(scheduler="none")
         elif in_process:
             info.update(scheduler="synchronous", workers=0, startup_s=0.0)
-            _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar, plugins)
+            _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar, plugins,
+                      info)
         else:
             _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
                          reference, bar, info, plugins)
@@ -292,9 +293,16 @@ def _record(store: CampaignStore, run, result: dict) -> int:
 
 
 def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar,
-              plugins=None) -> None:
+              plugins=None, info: dict | None = None) -> None:
     executor = IsolatedExecutor() if isolate else None
     try:
+        if executor is not None:
+            # The child's start-up (it imports what runs need, ~1.5–2 s) is the campaign's, as a
+            # cluster's is; a child that fails to start is started again by the first run.
+            t0 = time.perf_counter()
+            executor.wait_ready(WORKER_WAIT_S)
+            if info is not None:
+                info["startup_s"] = round(time.perf_counter() - t0, 3)
         for run in runs:
             request = _request(run, out_dir, recordings, reference, plugins)
             while True:

@@ -67,7 +67,12 @@ def _course(velocity, heading) -> np.ndarray:
 
 
 class RunEvaluator:
-    """Runner observer (record slot) that evaluates a run (module docstring)."""
+    """Runner observer (record slot) that evaluates a run (module docstring).
+
+    At each record tick it only keeps the samples (the vessels' headings and velocities, the
+    traffic's states as the simulation's plain-float rows, each vessel's moving tracks as ids and
+    positions, and the :class:`ProgressTrace`); :meth:`summary` evaluates them at once — the same
+    numbers as scoring each tick as it comes (:meth:`TrackingScore.add_run`)."""
 
     def __init__(self, runner, config: EvaluationConfig | None = None):
         self.config = config if config is not None else EvaluationConfig()
@@ -77,34 +82,50 @@ class RunEvaluator:
         self.traffic_names = [o.name for o in world.moving_obstacles]
         self.traffic_radii = np.array([o.radius_m for o in world.moving_obstacles])
         self._h, self._v = [], []  # times and positions: self.progress (t, p)
-        self._tp, self._th, self._tv = [], [], []
+        self._rows: list = []  # the traffic per tick: (x, y, heading, vx, vy) per obstacle
         self._scores: dict[int, TrackingScore] = {}
+        self._tracks: dict[int, list] = {}  # vessel → per tick (track ids (k,), positions (k, 2))
+        self._scored = 0  # ticks already in self._scores
         self.progress = ProgressTrace(runner)
+        self._perceptions = []
         for i, agent in enumerate(runner.agents):
             if agent.perception is not None:
                 rng = float(getattr(getattr(agent.perception, "sensor_config", None), "max_range_m", math.inf))
                 self._scores[i] = TrackingScore(self.config.gospa_cutoff_m, self.config.gospa_order, rng)
+                self._tracks[i] = []
+                self._perceptions.append((i, agent.perception))
 
     def __call__(self, event) -> None:
-        s, runner = event.states, event.runner
-        tp, th, tv = runner.sim.traffic_state()
+        s, sim = event.states, event.runner.sim
         self._h.append(s.heading_rad.copy())
         self._v.append(s.velocity_m_s.copy())
-        self._tp.append(np.array(tp, dtype=float).reshape(-1, 2))
-        self._th.append(np.array(th, dtype=float).reshape(-1))
-        self._tv.append(np.array(tv, dtype=float).reshape(-1, 2))
+        self._rows.append(sim.traffic.rows(sim.time_s))  # (a new list per time: kept as is)
         self.progress(event)
-        if not self._scores:
+        for i, perception in self._perceptions:
+            self._tracks[i].append(perception.moving_tracks())
+
+    def _traffic(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The traffic's positions (k, M, 2), headings (k, M), velocities (k, M, 2) at the ticks:
+        the numbers of ``Simulation.traffic_state`` (the arrays of the same rows)."""
+        a = np.array(self._rows, dtype=float).reshape(len(self._rows), len(self.traffic_names), 5)
+        return a[:, :, 0:2].copy(), a[:, :, 2].copy(), a[:, :, 3:5].copy()
+
+    def _score(self) -> None:
+        """Score every tick not yet scored (:meth:`TrackingScore.add_run`)."""
+        k0, k1 = self._scored, len(self.progress.t)
+        if not self._scores or k1 <= k0:
             return
+        t = self.progress.t[k0:k1]
+        p = np.array(self.progress.p[k0:k1], dtype=float)
+        xy = np.concatenate([p, self._traffic()[0][k0:k1]], axis=1)
         ids = self.vessel_names + self.traffic_names
-        xy = np.vstack([s.position_m, self._tp[-1]]) if len(self.traffic_names) else s.position_m
         radii = np.concatenate([self.vessel_radii, self.traffic_radii])
         for i, score in self._scores.items():
-            tracks = [tr for tr in runner.agents[i].perception.tracks() if not tr.is_static]
             others = [k for k in range(len(ids)) if k != i]
-            score.add(s.time_s, s.position_m[i], [ids[k] for k in others], xy[others],
-                      [tr.track_id for tr in tracks],
-                      np.array([tr.position_m for tr in tracks]).reshape(-1, 2), radii[others])
+            tracks = self._tracks[i][k0:k1]
+            score.add_run(t, p[:, i], [ids[k] for k in others], xy[:, others], [ti for ti, _ in tracks],
+                          [tx for _, tx in tracks], radii[others])
+        self._scored = k1
 
     # ------------------------------------------------------------------ evaluation
     def encounters(self) -> list[dict]:
@@ -114,7 +135,7 @@ class RunEvaluator:
         cfg = self.config
         t = np.array(self.progress.t)
         p, h, v = np.array(self.progress.p), np.array(self._h), np.array(self._v)
-        q, qh, w = np.array(self._tp), np.array(self._th), np.array(self._tv)
+        q, qh, w = self._traffic()
         out = []
         for i, name in enumerate(self.vessel_names):
             for j, other in enumerate(self.traffic_names):
@@ -152,5 +173,6 @@ class RunEvaluator:
 
     def summary(self) -> dict:
         """``{"encounters": [...], "tracking": {vessel: {...}}}``."""
+        self._score()
         return {"encounters": self.encounters(),
                 "tracking": {self.vessel_names[i]: s.summary() for i, s in self._scores.items()}}

@@ -65,6 +65,27 @@ def gospa(truth_xy, estimates_xy, cutoff_m: float = 10.0, order: float = 2.0) ->
     return GospaTerms((loc + missed + false) ** (1.0 / p), loc, missed, false, n_missed, n_false, assignment)
 
 
+def _assignment(cost_rows: list, a: int, b: int, truths: list, fast: bool = True):
+    """The pairs (k, j) :func:`scipy.optimize.linear_sum_assignment` gives for the costs of the
+    truth objects ``truths`` (rows k) to the tracks a … b − 1 (columns j): ``cost_rows[a + j][m]``
+    is track a + j's cost to truth m. One truth or one track with a unique least cost has that one
+    optimal assignment, found here without scipy (``fast``); any other problem goes to scipy."""
+    if fast and len(truths) == 1:
+        m = truths[0]
+        costs = [cost_rows[r][m] for r in range(a, b)]
+        best = min(costs)
+        if costs.count(best) == 1:
+            return ((0, costs.index(best)),)
+    elif fast and b - a == 1:
+        row = cost_rows[a]
+        costs = [row[m] for m in truths]
+        best = min(costs)
+        if costs.count(best) == 1:
+            return ((costs.index(best), 0),)
+    rows, cols = linear_sum_assignment(np.array([[cost_rows[r][m] for r in range(a, b)] for m in truths]))
+    return zip(rows.tolist(), cols.tolist())
+
+
 @dataclass
 class TrackingScore:
     """Accumulates one vessel's tracking quality over a run, one :meth:`add` per evaluation time.
@@ -106,6 +127,82 @@ class TrackingScore:
                 self.id_switches += 1
             self._last_id[tid] = trk
         return terms
+
+    def add_run(self, times_s, own_positions_m, truth_ids, truth_xy, track_ids, track_xy,
+                truth_radii_m=None) -> None:
+        """:meth:`add` at every time of a run at once: the same state after it, bit for bit (the
+        same GOSPA terms summed in the same order, the same assignments, identity switches and
+        first times). times_s (T,) [s]; own_positions_m (T, 2) [m]; truth_ids (M,) and truth_xy
+        (T, M, 2) [m] (radii (M,)): the truth objects at every time; track_ids and track_xy: per
+        time, the tracks' ids (k_t,) and positions (k_t, 2) [m].
+
+        The distances of every (time, track, truth) triple are computed in one pass (elementwise,
+        the numbers :func:`gospa` computes per time); what is left per time is the assignment and
+        the bookkeeping in plain floats."""
+        times = [float(t) for t in times_s]
+        n_t = len(times)
+        if n_t == 0:
+            return
+        own = np.asarray(own_positions_m, dtype=float).reshape(n_t, 2)
+        q = np.asarray(truth_xy, dtype=float).reshape(n_t, -1, 2)
+        n_truth = q.shape[1]
+        c, p = float(self.cutoff_m), float(self.order)
+        if not (c > 0 and p >= 1):
+            raise ValueError(f"cutoff_m, order: must be > 0 and ≥ 1, got {self.cutoff_m}, {self.order}")
+        half = 0.5 * c ** p
+        # which truth objects are observable at each time, and when each one first was
+        rng = np.hypot(q[:, :, 0] - own[:, None, 0], q[:, :, 1] - own[:, None, 1])
+        if truth_radii_m is not None:
+            rng = rng - np.asarray(truth_radii_m, dtype=float).reshape(-1)
+        in_range = rng <= self.sensor_range_m
+        seen = np.flatnonzero(in_range.any(axis=0))
+        first = in_range[:, seen].argmax(axis=0)
+        for k in np.lexsort((seen, first)).tolist():
+            self._first_seen.setdefault(truth_ids[int(seen[k])], times[int(first[k])])
+        # every track's distance to every truth object of its time: (M, R), truth-major
+        counts = [len(ids) for ids in track_ids]
+        ends = np.cumsum(counts).tolist()
+        n_rows = ends[-1] if ends else 0
+        if n_rows and n_truth:
+            y = np.concatenate([np.asarray(xy, dtype=float).reshape(-1, 2) for xy in track_xy])
+            qt = q[np.repeat(np.arange(n_t), counts)]  # (R, M, 2): the truth at each track's time
+            d_all = np.hypot(qt[:, :, 0].T - y[None, :, 0], qt[:, :, 1].T - y[None, :, 1])
+            cost_all = np.minimum(d_all, c) ** p
+            fast = bool(np.isfinite(cost_all).all())  # (scipy refuses NaN: it decides every time then)
+            d_rows, cost_rows = d_all.T.tolist(), cost_all.T.tolist()  # per track: to each truth object
+        ids_all = [int(i) for ids in track_ids for i in np.asarray(ids).reshape(-1).tolist()]
+        in_lists = in_range.tolist()
+        sums = self._sum
+        s_dist, s_loc, s_miss, s_false = sums["distance"], sums["localization"], sums["missed"], sums["false"]
+        first_at, last_id, confirmed_at = 0, self._last_id, self._confirmed_at
+        switches = self.id_switches
+        for k in range(n_t):
+            a, b = first_at, ends[k]
+            first_at = b
+            idx = [j for j, ok in enumerate(in_lists[k]) if ok]
+            n_x, n_y = len(idx), b - a
+            loc, n_assigned = 0.0, 0
+            if n_x and n_y:
+                t = times[k]
+                for r, j in _assignment(cost_rows, a, b, idx, fast):
+                    dr = d_rows[a + j][idx[r]]
+                    if dr < c:
+                        n_assigned += 1
+                        loc += dr ** p
+                        tid, trk = truth_ids[idx[r]], ids_all[a + j]
+                        confirmed_at.setdefault(tid, t)
+                        old = last_id.get(tid)
+                        if old is not None and old != trk:
+                            switches += 1
+                        last_id[tid] = trk
+            missed, false = half * (n_x - n_assigned), half * (n_y - n_assigned)
+            s_dist += (loc + missed + false) ** (1.0 / p)
+            s_loc += loc
+            s_miss += missed
+            s_false += false
+        sums["distance"], sums["localization"], sums["missed"], sums["false"] = s_dist, s_loc, s_miss, s_false
+        self.id_switches = switches
+        self._n += n_t
 
     def summary(self) -> dict:
         """Mean GOSPA and its parts over the evaluation times, identity switches, and per truth

@@ -9,10 +9,18 @@ visuals, 3 vessel collision hulls. Range sensors see groups 0 and 3 only.
 Static polygons become walls along their edges (one box per edge): ray casts hit the true outline
 and hull contacts happen at the true boundary, which a single convex mesh could not give for a
 non-convex dock. Moving obstacles are mocap bodies (kinematic, position set every physics step).
+
+A process keeps the last few compiled models by what they were built from (:func:`build_world`):
+a campaign's runs that share a world (the demo campaign's perturb starts, not the scene) compile it
+once and copy it (``mj_copyModel``: the same bits) instead of parsing, composing and compiling
+~0.1 s of MJCF per run; such a world composes its MJCF tree only when it is read.
 """
 
 from __future__ import annotations
 
+import os
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +36,42 @@ SENSOR_GEOM_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)
 OBSTACLE_RGBA = "0.55 0.45 0.35 1"
 MOVING_RGBA = "0.85 0.2 0.2 1"
 WALL_THICKNESS_M = 0.4
+#: Compiled models a process keeps (:func:`build_world`).
+MODEL_CACHE_SIZE = 4
+
+
+class _Tree:
+    """``World.mjcf_model``: the MJCF tree, or for a world copied from the model cache the recipe
+    that composes it (:class:`_Deferred`), composed at its first read."""
+
+    def __set_name__(self, owner, name):
+        self._attr = f"_{name}"
+
+    def __get__(self, world, owner=None):
+        if world is None:
+            raise AttributeError("mjcf_model")  # (a dataclass field without a default)
+        tree = world.__dict__[self._attr]
+        if isinstance(tree, _Deferred):
+            tree = world.__dict__[self._attr] = tree.compose()
+        return tree
+
+    def __set__(self, world, tree):
+        world.__dict__[self._attr] = tree
+
+
+@dataclass(frozen=True)
+class _Deferred:
+    """The arguments of :func:`_compose`: the tree of a world built from the model cache."""
+
+    vessels: tuple
+    static_obstacles: tuple
+    moving_obstacles: tuple
+    timestep_s: float | None
+
+    def compose(self) -> mjcf.RootElement:
+        root = _compose(self.vessels, self.static_obstacles, self.moving_obstacles, self.timestep_s)
+        root.option.flag.contact = "enable"  # as build_world leaves it after compiling
+        return root
 
 
 @dataclass
@@ -41,7 +85,7 @@ class World:
     hull_body_id: (N,) body id of each hull; mocap_id: (M,) mocap index per moving obstacle.
     """
 
-    mjcf_model: mjcf.RootElement
+    mjcf_model: mjcf.RootElement = _Tree()
     physics: mjcf.Physics
     vessel_names: list[str]
     vessel_types: list[VesselType]
@@ -103,24 +147,44 @@ def _add_polygon(root: mjcf.RootElement, obstacle: PolygonObstacle) -> None:
         )
 
 
-def build_world(
-    vessels: list[tuple[str, VesselType]],
-    static_obstacles: list[PolygonObstacle | CircleObstacle] = (),
-    moving_obstacles: list[MovingObstacle] = (),
-    timestep_s: float | None = None,
-) -> World:
-    """Build and compile the model of a run. ``vessels`` is a list of (unique name, type)."""
-    names = [n for n, _ in vessels]
-    if len(set(names)) != len(names):
-        raise ValueError(f"vessels: names must be unique, got {names}")
-    for n in names:
-        if not n or "/" in n or n.startswith("obstacle") or not n.replace("_", "").replace("-", "").isalnum():
-            raise ValueError(f"vessels: invalid vessel name {n!r} (letters, digits, '_' or '-'; not 'obstacle…')")
+def _files(path) -> tuple:
+    """(name, modification time [ns], size) of every file in ``path``'s folder: a model's key
+    changes when its MJCF or an asset next to it does."""
+    with os.scandir(os.path.dirname(os.fspath(path))) as it:
+        return tuple(sorted((e.name, e.stat().st_mtime_ns, e.stat().st_size) for e in it if e.is_file()))
+
+
+def _model_key(vessels, static_obstacles, moving_obstacles, timestep_s) -> tuple:
+    """Everything :func:`_compose` reads, as plain values: equal keys compose the same tree."""
+    def arr(a):
+        a = np.asarray(a)
+        return a.dtype.str, a.shape, a.tobytes()
+
+    def num(x):
+        return type(x).__name__, float(x)
+
+    statics = []
+    for o in static_obstacles:
+        if isinstance(o, PolygonObstacle):
+            statics.append(("polygon", o.name, arr(o.vertices), num(o.height_m)))
+        elif isinstance(o, CircleObstacle):
+            statics.append(("circle", o.name, arr(o.centre), num(o.radius_m), num(o.height_m)))
+        else:
+            return None  # (an unsupported obstacle: _compose raises)
+    return (_files(SCENE_XML), None if timestep_s is None else num(timestep_s),
+            tuple((name, str(vt.mjcf_path), _files(vt.mjcf_path)) for name, vt in vessels), tuple(statics),
+            tuple((o.name, num(o.radius_m), arr(o.position_m)) for o in moving_obstacles))
+
+
+_MODELS: OrderedDict = OrderedDict()  # model key → (compiled model as compiled, World index fields)
+_MODELS_LOCK = threading.Lock()
+
+
+def _compose(vessels, static_obstacles, moving_obstacles, timestep_s) -> mjcf.RootElement:
+    """The MJCF tree of a run's world (:func:`build_world`)."""
     root = mjcf.from_path(str(SCENE_XML))
     root.model = "mjasc_world"
     if timestep_s is not None:
-        if not timestep_s > 0:
-            raise ValueError(f"timestep_s: must be > 0, got {timestep_s}")
         root.option.timestep = timestep_s
     for name, vtype in vessels:
         vm = mjcf.from_path(str(vtype.mjcf_path))
@@ -156,13 +220,52 @@ def build_world(
         )
         body.add("geom", name=f"obstacle_{obstacle.name}_bow", type="box", size=[0.3 * obstacle.radius_m, 0.1, 0.05],
                  pos=[0.7 * obstacle.radius_m, 0, 1.05], rgba="1 1 1 1", group=0, contype=0, conaffinity=0)
+    return root
+
+
+def build_world(
+    vessels: list[tuple[str, VesselType]],
+    static_obstacles: list[PolygonObstacle | CircleObstacle] = (),
+    moving_obstacles: list[MovingObstacle] = (),
+    timestep_s: float | None = None,
+) -> World:
+    """Build and compile the model of a run. ``vessels`` is a list of (unique name, type).
+
+    A world built before in this process from the same values (the model cache, module docstring)
+    is copied from its compiled model: the same model and data, bit for bit (tests/test_world_cache.py)."""
+    names = [n for n, _ in vessels]
+    if len(set(names)) != len(names):
+        raise ValueError(f"vessels: names must be unique, got {names}")
+    for n in names:
+        if not n or "/" in n or n.startswith("obstacle") or not n.replace("_", "").replace("-", "").isalnum():
+            raise ValueError(f"vessels: invalid vessel name {n!r} (letters, digits, '_' or '-'; not 'obstacle…')")
+    if timestep_s is not None and not timestep_s > 0:
+        raise ValueError(f"timestep_s: must be > 0, got {timestep_s}")
+    import mujoco
+
+    key = _model_key(vessels, static_obstacles, moving_obstacles, timestep_s)
+    with _MODELS_LOCK:
+        cached = _MODELS.get(key) if key is not None else None
+        if cached is not None:
+            _MODELS.move_to_end(key)
+    if cached is not None:
+        compiled, fields = cached
+        # Before reset() places them, every vessel sits at the origin: the model is compiled (and
+        # its data made) with contacts off, then they are switched on — as below.
+        physics = mjcf.Physics.from_model(compiled.copy())
+        physics.model.ptr.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+        tree = _Deferred(tuple(vessels), tuple(static_obstacles), tuple(moving_obstacles), timestep_s)
+        return World(mjcf_model=tree, physics=physics, vessel_names=names, vessel_types=[t for _, t in vessels],
+                     static_obstacles=list(static_obstacles), moving_obstacles=list(moving_obstacles),
+                     **{k: (list(v) if isinstance(v, list) else v.copy()) for k, v in fields.items()})
+    root = _compose(vessels, static_obstacles, moving_obstacles, timestep_s)
 
     # Before reset() places them, every vessel sits at the origin: compile with contacts off so
     # that construction does not report thousands of spurious overlaps, then switch them on.
     root.option.flag.contact = "disable"
     physics = mjcf.Physics.from_mjcf_model(root)
+    compiled = physics.model.copy() if key is not None else None
     root.option.flag.contact = "enable"
-    import mujoco
 
     m = physics.model.ptr
     m.opt.disableflags &= ~int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
@@ -203,14 +306,8 @@ def build_world(
     for g in range(m.ngeom):
         if int(m.geom_bodyid[g]) in body_owner:
             owner[g] = body_owner[int(m.geom_bodyid[g])]
-    return World(
+    fields = dict(
         geom_owner=owner,
-        mjcf_model=root,
-        physics=physics,
-        vessel_names=names,
-        vessel_types=[t for _, t in vessels],
-        static_obstacles=list(static_obstacles),
-        moving_obstacles=list(moving_obstacles),
         qpos_adr=m.jnt_qposadr[joints] if joints.size else np.zeros((0, 3), int),
         dof_adr=m.jnt_dofadr[joints] if joints.size else np.zeros((0, 3), int),
         act_adr=m.actuator_actadr[acts] if acts.size else np.zeros((0, 2), int),
@@ -219,3 +316,10 @@ def build_world(
         mocap_id=mocap,
         propeller_lateral_m=lateral,
     )
+    if key is not None:
+        with _MODELS_LOCK:
+            _MODELS[key] = (compiled, {k: (list(v) if isinstance(v, list) else v.copy()) for k, v in fields.items()})
+            while len(_MODELS) > MODEL_CACHE_SIZE:
+                _MODELS.popitem(last=False)
+    return World(mjcf_model=root, physics=physics, vessel_names=names, vessel_types=[t for _, t in vessels],
+                 static_obstacles=list(static_obstacles), moving_obstacles=list(moving_obstacles), **fields)

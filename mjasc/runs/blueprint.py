@@ -19,9 +19,13 @@ from __future__ import annotations
 
 import uuid
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-import rerun as rr
-import rerun.blueprint as rrb
+
+if TYPE_CHECKING:  # rerun loads when a recording is made (a run without one never imports it)
+    import rerun as rr
+    import rerun.blueprint as rrb
 
 __all__ = ["default_blueprint", "stable_blueprint_ids", "vessel_colour", "view_vessels", "MAX_VIEW_VESSELS", "OTHERS",
            "PALETTE",
@@ -110,6 +114,8 @@ def legend_classes(vessels: tuple[str, ...]) -> list[tuple[int, str, tuple[int, 
 
 def annotation_context(vessels: tuple[str, ...]) -> rr.AnnotationContext:
     """The legend as a Rerun annotation context (log it static at ``world``)."""
+    import rerun as rr
+
     return rr.AnnotationContext([rr.AnnotationInfo(id=k, label=label, color=col)
                                  for k, label, col in legend_classes(vessels)])
 
@@ -138,6 +144,9 @@ def default_blueprint(extent_m: float = 200.0, vessels: tuple[str, ...] = (), pe
     mode timelines and threat panels; ``coordination`` / ``comms``: the formation and link plots;
     ``mission``: the mission phase as a lane per vessel (a chained mission, docs/missions.md).
     (Every view adds ~5 kB to the recording.)"""
+    import rerun as rr
+    import rerun.blueprint as rrb
+
     if extent_xy is None:
         lo, hi = -0.5 * np.full(2, extent_m), 0.5 * np.full(2, extent_m)
     else:

@@ -36,9 +36,9 @@ import time
 import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
-import rerun as rr
 
 from mjasc.core.geometry import hull_outline
 from mjasc.core.navigation import FleetNavigation
@@ -52,10 +52,12 @@ from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import catch_sigterm, restore_sigterm, signal_name
 from mjasc.runs.outputs import atomic_target, atomic_write_text
 from mjasc.runs.record_kernels import record_rows
-from mjasc.runs.recording import Recorder, annotation_context, default_blueprint, legend_markdown, vessel_colour
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
 from mjasc.runs.tick import ONBOARD_SLOTS, SlotEvent, run_onboard_slot
+
+if TYPE_CHECKING:  # rerun and the recorder load when a recording is made (a campaign run without one skips ~0.4 s)
+    from mjasc.runs.recording import Recorder
 
 __all__ = ["Runner", "RunFailed", "RunInterrupted", "RunResult", "run_scenario", "LAST_GOOD_STATE"]
 
@@ -245,6 +247,10 @@ class Runner:
         return out
 
     def _log_static_scene(self) -> None:
+        import rerun as rr
+
+        from mjasc.runs.recording import annotation_context, legend_markdown, vessel_colour
+
         rec, sc = self.recorder, self.scenario
         lo, hi = self.extent()
         names = tuple(v.name for v in sc.vessels)
@@ -347,6 +353,8 @@ class Runner:
         self._current_grid = None
         self._comms_log = None
         if self.out_dir is not None and sc.outputs.recording:
+            from mjasc.runs.recording import Recorder, default_blueprint, vessel_colour
+
             lo, hi = self.extent()
             files["recording"] = self.out_dir / "recording.rrd"
             names = tuple(a.name for a in self.agents)

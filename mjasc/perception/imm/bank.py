@@ -649,6 +649,10 @@ class IMMBank(PredictiveDensity):
         w = np.where(self._startup.active[rows], 0.0, turn_rate(self._mu[rows], self._omega))
         return self._t[rows], x[:, :2], wrap(x[:, 2]), x[:, 3], w, self._covariances()[rows, :2, :2]
 
+    def positions_of(self, rows) -> np.ndarray:
+        """``positions`` of the tracks ``rows`` only: (k, 2) [m]."""
+        return self._x[rows, :2]
+
     def states_of(self, rows) -> np.ndarray:
         """``states`` of the tracks ``rows`` only: (k, 4) [x, y, θ, V], θ in (−π, π]."""
         x = self._x[rows]

@@ -161,6 +161,15 @@ class MultiTargetTracker:
         conf, rows = np.flatnonzero(ok), rows[ok]
         return conf, f.local_id[rows], f.bank.states_of(rows), f.mgmt._static[rows], f.team.members(rows)
 
+    def moving_positions(self) -> tuple[np.ndarray, np.ndarray]:
+        """The confirmed tracks that are not static, as :meth:`estimates` hands them on (bank
+        order): their ids (k,) and positions (k, 2) [m] — the ``track_id`` and ``position_m`` of
+        those estimates, without making them (what a run's evaluation compares with the truth)."""
+        f = self.fleet
+        rows = self._rows()
+        rows = rows[f.mgmt._confirmed[rows] & ~f.mgmt._static[rows]]
+        return f.local_id[rows], f.bank.positions_of(rows)
+
     @property
     def radii_m(self) -> np.ndarray:
         return self.fleet.mgmt._radius[self._rows()]

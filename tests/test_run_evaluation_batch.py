@@ -1,0 +1,121 @@
+"""The run evaluator keeps samples per record tick and scores them at the end
+(:meth:`mjasc.evaluation.tracking_metrics.TrackingScore.add_run`): the same state, bit for bit,
+as scoring every tick as it comes with :meth:`TrackingScore.add` on the vessels' estimates and the
+simulation's traffic arrays (the readable reference form, kept here), on a real run."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from mjasc.evaluation.tracking_metrics import TrackingScore
+
+
+class _PerTick:
+    """The reference: every record tick scored at once from the perception's TrackEstimates and
+    ``Simulation.traffic_state()`` (what the evaluator did before it deferred the work)."""
+
+    def __init__(self, runner, config):
+        world = runner.world
+        self.ids = list(world.vessel_names) + [o.name for o in world.moving_obstacles]
+        self.radii = np.array([t.radius_m for t in world.vessel_types] + [o.radius_m for o in world.moving_obstacles])
+        self.scores = {i: TrackingScore(config.gospa_cutoff_m, config.gospa_order,
+                                        float(a.perception.sensor_config.max_range_m))
+                       for i, a in enumerate(runner.agents) if a.perception is not None}
+        self.tp, self.th, self.tv = [], [], []
+        self.moving_same = True
+
+    def __call__(self, event):
+        s, runner = event.states, event.runner
+        tp, th, tv = runner.sim.traffic_state()
+        self.tp.append(np.array(tp, dtype=float).reshape(-1, 2))
+        self.th.append(np.array(th, dtype=float).reshape(-1))
+        self.tv.append(np.array(tv, dtype=float).reshape(-1, 2))
+        xy = np.vstack([s.position_m, self.tp[-1]])
+        for i, score in self.scores.items():
+            perception = runner.agents[i].perception
+            tracks = [tr for tr in perception.tracks() if not tr.is_static]
+            ids, pos = [tr.track_id for tr in tracks], np.array([tr.position_m for tr in tracks]).reshape(-1, 2)
+            got_ids, got_pos = perception.moving_tracks()
+            self.moving_same &= got_ids.tolist() == ids and np.array_equal(got_pos, pos)
+            others = [k for k in range(len(self.ids)) if k != i]
+            score.add(s.time_s, s.position_m[i], [self.ids[k] for k in others], xy[others], ids, pos,
+                      self.radii[others])
+
+
+def _state(score: TrackingScore):
+    return (score._n, dict(score._sum), list(score._sum), score.id_switches, list(score._first_seen.items()),
+            list(score._confirmed_at.items()), dict(score._last_id))
+
+
+def test_deferred_scoring_matches_scoring_every_tick_on_a_demo_run():
+    import mjasc
+    from mjasc.evaluation.run_evaluation import RunEvaluator
+    from mjasc.runs.runner import Runner
+
+    sc = mjasc.load_scenario("demo").with_overrides(duration_s=40.0)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    runner = Runner(sc, None, progress=False)
+    ev = RunEvaluator(runner)
+    ref = _PerTick(runner, ev.config)
+    runner.observe("record", ev)
+    runner.observe("record", ref)
+    runner.run()
+    out = ev.summary()
+    assert ref.moving_same
+    assert set(ev._scores) == set(ref.scores) and len(ref.scores) >= 3
+    for i, score in ref.scores.items():
+        assert _state(ev._scores[i]) == _state(score)
+        assert out["tracking"][ev.vessel_names[i]] == score.summary()
+    # the run exercises what matters: several truths and tracks at once, identity switches
+    assert sum(s.id_switches for s in ref.scores.values()) > 0
+    assert ev.summary() == out  # scoring again adds nothing
+    # the traffic kept as the simulation's rows: the arrays of traffic_state(), bit for bit
+    q, qh, w = ev._traffic()
+    assert np.array_equal(q, np.array(ref.tp)) and np.array_equal(qh, np.array(ref.th))
+    assert np.array_equal(w, np.array(ref.tv))
+
+
+def test_add_run_equals_add_per_time_on_synthetic_ties_and_gaps():
+    """Times without truths in range or without tracks, exact ties, tracks beyond the cut-off."""
+    rng = np.random.default_rng(5)
+    n_t, truth_ids = 60, ["a", "b", "c"]
+    own = rng.normal(size=(n_t, 2)) * 5
+    truth = rng.normal(size=(n_t, 3, 2)) * 30
+    truth[10:20, 2] = 500.0  # out of range
+    tracks_ids, tracks_xy = [], []
+    for k in range(n_t):
+        n = int(rng.integers(0, 5))
+        xy = truth[k, rng.integers(0, 3, size=n)] + rng.normal(size=(n, 2)) * (3 if k % 3 else 15)
+        if k % 7 == 0 and n >= 2:
+            xy[1] = xy[0]  # an exact tie
+        tracks_ids.append(np.array(rng.integers(1, 6, size=n)))
+        tracks_xy.append(xy)
+    radii = np.array([1.0, 2.0, 0.5])
+    a = TrackingScore(8.0, 2.0, 60.0)
+    b = TrackingScore(8.0, 2.0, 60.0)
+    for k in range(n_t):
+        a.add(float(k) * 0.1, own[k], truth_ids, truth[k], tracks_ids[k], tracks_xy[k], radii)
+    b.add_run([float(k) * 0.1 for k in range(n_t)], own, truth_ids, truth, tracks_ids, tracks_xy, radii)
+    assert _state(a) == _state(b) and a.id_switches > 0
+
+
+def test_one_truth_or_one_track_is_assigned_as_scipy_assigns_it():
+    """The single-row and single-column shortcut of the assignment, ties included (scipy decides)."""
+    from scipy.optimize import linear_sum_assignment
+
+    from mjasc.evaluation.tracking_metrics import _assignment
+
+    rng = np.random.default_rng(9)
+    for trial in range(400):
+        n_truth, n_tracks = int(rng.integers(1, 4)), int(rng.integers(1, 6))
+        cost = np.minimum(rng.uniform(0, 12, size=(n_tracks, n_truth)).round(int(rng.integers(0, 3))), 10.0) ** 2
+        rows = cost.tolist()
+        truths = sorted(rng.choice(n_truth, size=int(rng.integers(1, n_truth + 1)), replace=False).tolist())
+        if trial % 2:
+            truths = truths[:1]
+        a, b = (0, n_tracks) if trial % 3 else (n_tracks - 1, n_tracks)
+        got = [tuple(map(int, rc)) for rc in _assignment(rows, a, b, truths)]
+        r, c = linear_sum_assignment(cost[a:b][:, truths].T)
+        assert got == list(zip(r.tolist(), c.tolist()))
