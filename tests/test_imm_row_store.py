@@ -175,3 +175,37 @@ def test_rejection_bookkeeping_equals_numpy_form():
         assert np.array_equal(got_r, reasons) and np.array_equal(n_gated, want_n)
         assert np.array_equal(got_restart, want_restart)
 
+
+
+def cv_predict_numpy(xc, Pc, dt, q):
+    """The all-numpy form of :func:`cv_predict` (the reference)."""
+    k = dt.shape[0]
+    F = np.repeat(np.eye(4)[None], k, axis=0)
+    F[:, 0, 2] = F[:, 1, 3] = dt
+    xp = (F @ xc[..., None])[..., 0]
+    Pp = F @ Pc @ np.swapaxes(F, 1, 2)
+    q3, q2, q1 = q * dt**3 / 3.0, q * dt**2 / 2.0, q * dt
+    Pp[:, 0, 0] += q3
+    Pp[:, 1, 1] += q3
+    Pp[:, 0, 2] += q2
+    Pp[:, 2, 0] += q2
+    Pp[:, 1, 3] += q2
+    Pp[:, 3, 1] += q2
+    Pp[:, 2, 2] += q1
+    Pp[:, 3, 3] += q1
+    return xp, Pp
+
+
+def test_cv_predict_equals_numpy_form_bit_for_bit():
+    from mjasc.perception.imm.startup import cv_predict
+
+    rng = np.random.default_rng(5)
+    for k in (1, 2, 7, 40):
+        xc = rng.normal(size=(k, 4)) * [50.0, 50.0, 2.0, 2.0]
+        A = rng.normal(size=(k, 4, 4))
+        Pc = A @ np.swapaxes(A, 1, 2)
+        dt = rng.uniform(0.0, 1.0, size=k)
+        dt[0] = 0.2
+        xp, Pp = cv_predict(xc, Pc, dt, 0.05)
+        xr, Pr = cv_predict_numpy(xc, Pc, dt, 0.05)
+        assert xp.tobytes() == xr.tobytes() and Pp.tobytes() == Pr.tobytes()

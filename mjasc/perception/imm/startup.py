@@ -31,22 +31,43 @@ _EYE4 = np.eye(4)[None]
 
 
 def cv_predict(xc, Pc, dt, q):
-    """Constant-velocity prediction with white acceleration of intensity q; dt (k,)."""
-    k = dt.shape[0]
-    F = np.repeat(_EYE4, k, axis=0)
-    F[:, 0, 2] = F[:, 1, 3] = dt
+    """Constant-velocity prediction with white acceleration of intensity q; dt (k,). The
+    transition matrices and the noise added are compiled loops (:func:`_cv_transitions`,
+    :func:`_add_cv_noise`); the products and the powers of dt stay numpy's (tests/test_imm_row_store.py
+    keeps the all-numpy form as the reference, bit for bit)."""
+    F = _cv_transitions(dt)
     xp = (F @ xc[..., None])[..., 0]
     Pp = F @ Pc @ np.swapaxes(F, 1, 2)
-    q3, q2, q1 = q * dt**3 / 3.0, q * dt**2 / 2.0, q * dt
-    Pp[:, 0, 0] += q3
-    Pp[:, 1, 1] += q3
-    Pp[:, 0, 2] += q2
-    Pp[:, 2, 0] += q2
-    Pp[:, 1, 3] += q2
-    Pp[:, 3, 1] += q2
-    Pp[:, 2, 2] += q1
-    Pp[:, 3, 3] += q1
+    _add_cv_noise(Pp, q * dt**3 / 3.0, q * dt**2 / 2.0, q * dt)
     return xp, Pp
+
+
+@kernel
+def _cv_transitions(dt):
+    """(k, 4, 4) constant-velocity transitions: the identity with dt in (0, 2) and (1, 3)."""
+    k = dt.shape[0]
+    F = np.zeros((k, 4, 4))
+    for i in range(k):
+        for a in range(4):
+            F[i, a, a] = 1.0
+        F[i, 0, 2] = dt[i]
+        F[i, 1, 3] = dt[i]
+    return F
+
+
+@kernel
+def _add_cv_noise(P, q3, q2, q1):
+    """The white-acceleration noise added to P (k, 4, 4) in place: q3 (k,) to (0, 0), (1, 1); q2 to
+    (0, 2), (2, 0), (1, 3), (3, 1); q1 to (2, 2), (3, 3)."""
+    for i in range(P.shape[0]):
+        P[i, 0, 0] += q3[i]
+        P[i, 1, 1] += q3[i]
+        P[i, 0, 2] += q2[i]
+        P[i, 2, 0] += q2[i]
+        P[i, 1, 3] += q2[i]
+        P[i, 3, 1] += q2[i]
+        P[i, 2, 2] += q1[i]
+        P[i, 3, 3] += q1[i]
 
 
 def cv_to_polar(xc, Pc):
