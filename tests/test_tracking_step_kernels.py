@@ -242,3 +242,28 @@ def test_birth_rows(seed):
     for a, b in zip(got, want):
         assert a.shape == b.shape and a.tobytes() == b.astype(a.dtype).tobytes()
     assert nl.tobytes() == nl2.tobytes()
+
+
+def test_management_append_matches_concatenation():
+    from mjasc.perception.tracking import TrackingConfig
+    from mjasc.perception.tracking.management import TrackManagement
+
+    rng = np.random.default_rng(1)
+    for hits in (1, 3):
+        m = TrackManagement(TrackingConfig(confirm_hits=hits))
+        want = {name: getattr(m, name).copy() for name in TrackManagement._ROWS}
+        for step in range(6):
+            k = int(rng.integers(1, 4))
+            t, r = (rng.random(k) if step % 2 else float(rng.random())), rng.random(k)
+            m.append(t, r)
+            tk = np.broadcast_to(np.asarray(t, dtype=float), (k,))
+            one, no = np.ones(k, dtype=np.int64), np.zeros(k, dtype=bool)
+            add = {"_hist": one, "_scans": one, "_n_upd": one, "_confirmed": no | (hits <= 1), "_static": no,
+                   "_born": tk, "_last": tk, "_radius": r, "_anchor": np.zeros((k, 2)), "_anchored": no, "_moved": no}
+            want = {name: np.concatenate([want[name], add[name]]) for name in want}
+            for name in TrackManagement._ROWS:
+                a, b = getattr(m, name), want[name]
+                assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+            keep = rng.random(m._hist.size) < 0.7
+            m.keep(keep)
+            want = {name: want[name][keep] for name in want}
