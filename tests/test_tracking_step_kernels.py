@@ -267,3 +267,25 @@ def test_management_append_matches_concatenation():
             keep = rng.random(m._hist.size) < 0.7
             m.keep(keep)
             want = {name: want[name][keep] for name in want}
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_confirmed_by_owner(seed):
+    from mjasc.perception.tracking.association import group_starts
+    from mjasc.perception.tracking.step_kernels import confirmed_by_owner
+
+    rng = np.random.default_rng(seed)
+    n_owners = int(rng.integers(1, 5))
+    n = int(rng.integers(0, 20))
+    owner = rng.integers(0, n_owners, size=n).astype(np.int64)
+    confirmed = rng.random(n) < 0.6
+    rows, first = confirmed_by_owner(confirmed, owner, n_owners)
+    want = np.flatnonzero(confirmed)
+    own = owner[want]
+    order = np.argsort(own, kind="stable")
+    want, own = want[order], own[order]
+    assert rows.tobytes() == want.tobytes()
+    u, cut = group_starts(own)
+    f = first.tolist()
+    spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
+    assert spans == dict(zip(u.tolist(), zip(cut.tolist(), cut[1:].tolist() + [own.size])))

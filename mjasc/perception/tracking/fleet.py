@@ -46,7 +46,8 @@ from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import block_pairs_flat
-from mjasc.perception.tracking.step_kernels import apply_assignment, birth_rows, pair_setup, select_detections
+from mjasc.perception.tracking.step_kernels import (apply_assignment, birth_rows, confirmed_by_owner, pair_setup,
+                                                    select_detections)
 from mjasc.perception.tracking.team import TeamMatcher
 
 __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
@@ -399,15 +400,11 @@ class FleetTracker:
         (bank order within): ({owner: (first, end)}, rows, ids, times, positions (k, 2), courses,
         speeds, ω̂, radii (array and list), position covariances (k, 2, 2), static flags, team
         mates, slow flags) — per-track values as :meth:`_estimates_of` makes them."""
-        rows = self.mgmt._confirmed.nonzero()[0]
+        rows, first = confirmed_by_owner(self.mgmt._confirmed, self.owner, self.n_owners)
         if rows.size == 0:
             return ({},)
-        own = self.owner[rows]
-        if self.n_owners > 1:
-            order = np.argsort(own, kind="stable")
-            rows, own = rows[order], own[order]
-        u, cut = group_starts(own)
-        spans = dict(zip(u.tolist(), zip(cut.tolist(), cut[1:].tolist() + [own.size])))
+        f = first.tolist()
+        spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
         t, pos, th, v, w, P = self.bank.estimate_fields(rows)
         static = self.mgmt._static[rows]
         slow = (static | (v < self.config.static_speed_m_s)).tolist()
