@@ -64,7 +64,9 @@ def predicted_positions(states, covariances, times_s, turn_rates, t_s):
     :func:`~mjasc.perception.tracking.pair_kernels.position_jacobians`; tests/test_pair_kernels.py
     keeps the numpy form)."""
     x = states
-    t = np.broadcast_to(np.asarray(t_s, dtype=float), times_s.shape)
+    t = np.asarray(t_s, dtype=float)
+    if t.shape != times_s.shape:
+        t = np.broadcast_to(t, times_s.shape)
     dt, th_mid, dv = arc_midpoints(x, times_s, turn_rates, t)
     zhat, J = position_jacobians(x, dt, dv, np.cos(th_mid), np.sin(th_mid))
     return zhat, J @ covariances @ np.swapaxes(J, 1, 2)
