@@ -209,3 +209,22 @@ def test_cv_predict_equals_numpy_form_bit_for_bit():
         xp, Pp = cv_predict(xc, Pc, dt, 0.05)
         xr, Pr = cv_predict_numpy(xc, Pc, dt, 0.05)
         assert xp.tobytes() == xr.tobytes() and Pp.tobytes() == Pr.tobytes()
+
+
+def test_warm_rows_equals_numpy_form():
+    from mjasc.perception.imm.bank import _warm_rows
+
+    rng = np.random.default_rng(8)
+    n, r = 12, 3
+    s, P, mu = rng.normal(size=(n, r, 4)), rng.normal(size=(n, r, 4, 4)), rng.random((n, r))
+    rows = np.array([1, 4, 5, 9], dtype=np.int64)
+    ok_w, use_w = rng.random(4) < 0.5, rng.random(4) < 0.5
+    ok, inside = rng.random(n) < 0.5, rng.random(n) < 0.5
+    s_new, P_new, mu_new = rng.normal(size=(n, r, 4)), rng.normal(size=(n, r, 4, 4)), rng.random((n, r))
+    want = [a.copy() for a in (ok, inside, s_new, P_new, mu_new)]
+    want[0][rows] = ok_w
+    want[1][rows] = ok_w | ~use_w
+    want[2][rows], want[3][rows], want[4][rows] = s[rows], P[rows], mu[rows]
+    _warm_rows(rows, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new)
+    for a, b in zip((ok, inside, s_new, P_new, mu_new), want):
+        assert a.tobytes() == b.tobytes()

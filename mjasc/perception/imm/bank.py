@@ -497,17 +497,15 @@ class IMMBank(PredictiveDensity):
         warm = self._startup.active
         any_warm = self._startup.n_active > 0
         ok = use & inside
-        if any_warm:
-            rows = warm.nonzero()[0]
-            var = self._var if mv is None else mv[rows]
-            ok_w = self._startup.update(rows, dt[rows], z[rows], var, use[rows], self._gate)
-            ok[rows] = ok_w
-            inside[rows] = ok_w | ~use[rows]
         # the cycle updated the rows ``ok`` of the IMM rows, coasted the others; the start-up rows
         # keep their (unused) IMM state, their x is set by the hand-over below
         s_new, P_new, mu_new, x_new, _ = side
         if any_warm:
-            s_new[rows], P_new[rows], mu_new[rows] = self._s[rows], self._P[rows], self._mu[rows]
+            rows = warm.nonzero()[0]
+            var = self._var if mv is None else mv[rows]
+            use_w = use[rows]
+            ok_w = self._startup.update(rows, dt[rows], z[rows], var, use_w, self._gate)
+            _warm_rows(rows, ok_w, use_w, ok, inside, self._s, self._P, self._mu, s_new, P_new, mu_new)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
         self._side = out
         self._Pc_stale = True
@@ -708,3 +706,20 @@ def _measurements(z, measured, mv, per_row, R, finite, use):
         if per_row and not (math.isfinite(mv[k]) and mv[k] > 0):
             mv[k] = R
     return every
+
+
+@kernel
+def _warm_rows(rows, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new):
+    """A general cycle's start-up rows k = rows[j], in place: ``ok[k] = ok_w[j]``, ``inside[k] =
+    ok_w[j] or not use_w[j]``, and their IMM state (s, P, μ) kept unchanged in the cycle's output."""
+    r = s.shape[1]
+    for j in range(rows.size):
+        k = rows[j]
+        ok[k] = ok_w[j]
+        inside[k] = ok_w[j] or not use_w[j]
+        for a in range(r):
+            mu_new[k, a] = mu[k, a]
+            for b in range(4):
+                s_new[k, a, b] = s[k, a, b]
+                for c in range(4):
+                    P_new[k, a, b, c] = P[k, a, b, c]
