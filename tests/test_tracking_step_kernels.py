@@ -289,3 +289,28 @@ def test_confirmed_by_owner(seed):
     f = first.tolist()
     spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
     assert spans == dict(zip(u.tolist(), zip(cut.tolist(), cut[1:].tolist() + [own.size])))
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_note_moved_matches_numpy_form(seed):
+    from mjasc.perception.tracking import TrackingConfig
+    from mjasc.perception.tracking.management import MOVED_M, TrackManagement
+
+    rng = np.random.default_rng(seed)
+    n = 12
+    m = TrackManagement(TrackingConfig())
+    m.append(np.zeros(n), np.ones(n))
+    anchor, anchored, moved = np.zeros((n, 2)), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+    for _ in range(8):
+        m._confirmed |= rng.random(n) < 0.3
+        x = rng.normal(scale=3.0, size=(n, 4))
+        x[rng.random(n) < 0.1, 0] = np.nan
+        m.note_moved(x)
+        positions = x[:, :2]
+        new = m._confirmed & ~anchored
+        anchor[new] = positions[new]
+        anchored |= new
+        d = positions - anchor
+        moved |= anchored & (np.hypot(d[:, 0], d[:, 1]) >= MOVED_M)
+        assert m._anchor.tobytes() == anchor.tobytes() and m._anchored.tobytes() == anchored.tobytes()
+        assert m._moved.tobytes() == moved.tobytes()

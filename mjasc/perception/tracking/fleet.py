@@ -207,7 +207,7 @@ class FleetTracker:
         else:
             rows = (pos_of[self.owner] >= 0).nonzero()[0]
             self.team.match(rows, self.owner[rows], t_own, bank.states_of(rows), self.mgmt._confirmed[rows], no)
-        self.mgmt.note_moved(bank.positions)
+        self.mgmt.note_moved(bank._x)  # (its first two columns: the positions)
 
     def _update(self, rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
                 claimed) -> None:

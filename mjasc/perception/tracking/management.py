@@ -188,13 +188,12 @@ class TrackManagement:
 
     def note_moved(self, positions: np.ndarray) -> None:
         """After a scan: anchor the tracks confirmed for the first time where they are (positions
-        (n, 2) [m]), and mark the confirmed ones now ``MOVED_M`` from their anchor as moved."""
-        new = self._confirmed & ~self._anchored
-        if new.any():
-            self._anchor[new] = positions[new]
-            self._anchored |= new
-        d = positions - self._anchor
-        self._moved |= self._anchored & (np.hypot(d[:, 0], d[:, 1]) >= MOVED_M)
+        (n, ≥ 2) [m]: the first two columns), and mark the confirmed ones now ``MOVED_M`` from their
+        anchor as moved (one compiled pass, :func:`_moved_rows`)."""
+        positions = np.asarray(positions, dtype=float)
+        if positions.ndim != 2:  # (no tracks: an empty list of positions)
+            positions = positions.reshape(-1, 2)
+        _moved_rows(positions, self._confirmed, self._anchored, self._anchor, self._moved, MOVED_M)
 
 
 @kernel
@@ -303,3 +302,17 @@ def appended_rows(hist, scans, n_upd, confirmed, static, born, last, radius, anc
         out_moved[i] = False
     return (out_hist, out_scans, out_n_upd, out_conf, out_static, out_born, out_last, out_radius, out_anchor,
             out_anchored, out_moved)
+
+
+@kernel
+def _moved_rows(positions, confirmed, anchored, anchor, moved, moved_m):
+    """:meth:`TrackManagement.note_moved` per row, in place: a confirmed row not anchored yet is
+    anchored at its position (n, ≥ 2) [m]; an anchored one is moved once
+    ``hypot(x − anchor_x, y − anchor_y) ≥ moved_m``."""
+    for k in range(confirmed.size):
+        if confirmed[k] and not anchored[k]:
+            anchor[k, 0] = positions[k, 0]
+            anchor[k, 1] = positions[k, 1]
+            anchored[k] = True
+        if anchored[k] and math.hypot(positions[k, 0] - anchor[k, 0], positions[k, 1] - anchor[k, 1]) >= moved_m:
+            moved[k] = True
