@@ -228,3 +228,32 @@ def test_warm_rows_equals_numpy_form():
     _warm_rows(rows, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new)
     for a, b in zip((ok, inside, s_new, P_new, mu_new), want):
         assert a.tobytes() == b.tobytes()
+
+
+def test_append_started_equals_numpy_form():
+    from mjasc.perception.imm import IMMConfig
+    from mjasc.perception.imm.startup import StartupFilters
+
+    rng = np.random.default_rng(9)
+    for per_row in (False, True):
+        f = StartupFilters(IMMConfig())
+        ref = {"active": f.active.copy(), "x": f.x.copy(), "P": f.P.copy(), "n_meas": f.n_meas.copy()}
+        for _ in range(5):
+            k = int(rng.integers(1, 4))
+            z = rng.normal(size=(k, 2)) * 20
+            mv = rng.random(k) if per_row else None
+            x_new, P_new = f.append_started(z, 0.3, mv)
+            x = np.zeros((k, 4))
+            x[:, :2] = z
+            sv2 = f.speed_var0
+            P = np.repeat(np.diag([0.3, 0.3, sv2, sv2])[None], k, axis=0)
+            if mv is not None:
+                P[:, 0, 0] = P[:, 1, 1] = mv
+            ref = {"active": np.concatenate([ref["active"], np.ones(k, dtype=bool)]),
+                   "x": np.concatenate([ref["x"], x]), "P": np.concatenate([ref["P"], P]),
+                   "n_meas": np.concatenate([ref["n_meas"], np.ones(k, dtype=np.int64)])}
+            assert x_new.tobytes() == x.tobytes() and P_new.tobytes() == P.tobytes()
+            for name, want in ref.items():
+                got = getattr(f, name)
+                assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+            assert f.n_active == int(f.active.sum())

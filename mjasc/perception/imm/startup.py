@@ -28,6 +28,7 @@ __all__ = ["StartupFilters", "cv_predict", "cv_to_polar", "ready_for_handover"]
 
 _UNIFORM_ANGLE_VAR = math.pi**2 / 3.0  # variance of an angle uniform on (−π, π]
 _EYE4 = np.eye(4)[None]
+_NO_VAR = np.zeros(0)
 
 
 def cv_predict(xc, Pc, dt, q):
@@ -183,19 +184,14 @@ class StartupFilters:
         """k more rows, :meth:`start`-ed from z (k, 2) at once (what :meth:`append` then
         :meth:`start` make of them); returns their x (k, 4) and P (k, 4, 4)."""
         k = z.shape[0]
-        x = np.zeros((k, 4))
-        x[:, :2] = z
-        sv2, R = self.speed_var0, measurement_variance
-        P = np.repeat(np.diag([R, R, sv2, sv2])[None], k, axis=0)
-        if meas_var is not None:
-            P[:, 0, 0] = P[:, 1, 1] = meas_var
-        cat = np.concatenate
-        self.active = cat([self.active, np.ones(k, dtype=bool)])
-        self.x = cat([self.x, x])
-        self.P = cat([self.P, P])
-        self.n_meas = cat([self.n_meas, np.ones(k, dtype=np.int64)])
+        R = float(measurement_variance)
+        per_row = meas_var is not None
+        self.active, self.x, self.P, self.n_meas = _appended_started(
+            self.active, self.x, self.P, self.n_meas, np.ascontiguousarray(z, dtype=float), R, float(self.speed_var0),
+            np.ascontiguousarray(meas_var, dtype=float) if per_row else _NO_VAR, per_row)
         self.n_active += k
-        return x, P
+        n = self.x.shape[0] - k
+        return self.x[n:], self.P[n:]
 
     def take(self, rows) -> "StartupFilters":
         """A copy holding only ``rows`` (for an update of some of a bank's tracks)."""
@@ -266,3 +262,37 @@ class StartupFilters:
         """Add dv [m²/s²] (k,) to both velocity variances of rows (manoeuvre process noise)."""
         self.P[rows, 2, 2] += dv
         self.P[rows, 3, 3] += dv
+
+
+@kernel
+def _appended_started(active, x, P, n_meas, z, R, sv2, meas_var, per_row):
+    """:meth:`StartupFilters.append_started`'s arrays, each a new array with k = len(z) rows appended
+    (one compiled call instead of building the rows and four concatenations): active, one
+    measurement, x = [z, 0, 0], P = diag(R, R, sv2, sv2) with meas_var[j] (if ``per_row``) in
+    place of R."""
+    n = active.size
+    k = z.shape[0]
+    m = n + k
+    a2 = np.empty(m, dtype=np.bool_)
+    x2 = np.zeros((m, 4))
+    P2 = np.zeros((m, 4, 4))
+    c2 = np.empty(m, dtype=np.int64)
+    for i in range(n):
+        a2[i] = active[i]
+        c2[i] = n_meas[i]
+        for a in range(4):
+            x2[i, a] = x[i, a]
+            for b in range(4):
+                P2[i, a, b] = P[i, a, b]
+    for j in range(k):
+        i = n + j
+        a2[i] = True
+        c2[i] = 1
+        x2[i, 0] = z[j, 0]
+        x2[i, 1] = z[j, 1]
+        r = meas_var[j] if per_row else R
+        P2[i, 0, 0] = r
+        P2[i, 1, 1] = r
+        P2[i, 2, 2] = sv2
+        P2[i, 3, 3] = sv2
+    return a2, x2, P2, c2
