@@ -175,3 +175,85 @@ def test_rejection_bookkeeping_equals_numpy_form():
         assert np.array_equal(got_r, reasons) and np.array_equal(n_gated, want_n)
         assert np.array_equal(got_restart, want_restart)
 
+
+
+def cv_predict_numpy(xc, Pc, dt, q):
+    """The all-numpy form of :func:`cv_predict` (the reference)."""
+    k = dt.shape[0]
+    F = np.repeat(np.eye(4)[None], k, axis=0)
+    F[:, 0, 2] = F[:, 1, 3] = dt
+    xp = (F @ xc[..., None])[..., 0]
+    Pp = F @ Pc @ np.swapaxes(F, 1, 2)
+    q3, q2, q1 = q * dt**3 / 3.0, q * dt**2 / 2.0, q * dt
+    Pp[:, 0, 0] += q3
+    Pp[:, 1, 1] += q3
+    Pp[:, 0, 2] += q2
+    Pp[:, 2, 0] += q2
+    Pp[:, 1, 3] += q2
+    Pp[:, 3, 1] += q2
+    Pp[:, 2, 2] += q1
+    Pp[:, 3, 3] += q1
+    return xp, Pp
+
+
+def test_cv_predict_equals_numpy_form_bit_for_bit():
+    from mjasc.perception.imm.startup import cv_predict
+
+    rng = np.random.default_rng(5)
+    for k in (1, 2, 7, 40):
+        xc = rng.normal(size=(k, 4)) * [50.0, 50.0, 2.0, 2.0]
+        A = rng.normal(size=(k, 4, 4))
+        Pc = A @ np.swapaxes(A, 1, 2)
+        dt = rng.uniform(0.0, 1.0, size=k)
+        dt[0] = 0.2
+        xp, Pp = cv_predict(xc, Pc, dt, 0.05)
+        xr, Pr = cv_predict_numpy(xc, Pc, dt, 0.05)
+        assert xp.tobytes() == xr.tobytes() and Pp.tobytes() == Pr.tobytes()
+
+
+def test_warm_rows_equals_numpy_form():
+    from mjasc.perception.imm.bank import _warm_rows
+
+    rng = np.random.default_rng(8)
+    n, r = 12, 3
+    s, P, mu = rng.normal(size=(n, r, 4)), rng.normal(size=(n, r, 4, 4)), rng.random((n, r))
+    rows = np.array([1, 4, 5, 9], dtype=np.int64)
+    ok_w, use_w = rng.random(4) < 0.5, rng.random(4) < 0.5
+    ok, inside = rng.random(n) < 0.5, rng.random(n) < 0.5
+    s_new, P_new, mu_new = rng.normal(size=(n, r, 4)), rng.normal(size=(n, r, 4, 4)), rng.random((n, r))
+    want = [a.copy() for a in (ok, inside, s_new, P_new, mu_new)]
+    want[0][rows] = ok_w
+    want[1][rows] = ok_w | ~use_w
+    want[2][rows], want[3][rows], want[4][rows] = s[rows], P[rows], mu[rows]
+    _warm_rows(rows, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new)
+    for a, b in zip((ok, inside, s_new, P_new, mu_new), want):
+        assert a.tobytes() == b.tobytes()
+
+
+def test_append_started_equals_numpy_form():
+    from mjasc.perception.imm import IMMConfig
+    from mjasc.perception.imm.startup import StartupFilters
+
+    rng = np.random.default_rng(9)
+    for per_row in (False, True):
+        f = StartupFilters(IMMConfig())
+        ref = {"active": f.active.copy(), "x": f.x.copy(), "P": f.P.copy(), "n_meas": f.n_meas.copy()}
+        for _ in range(5):
+            k = int(rng.integers(1, 4))
+            z = rng.normal(size=(k, 2)) * 20
+            mv = rng.random(k) if per_row else None
+            x_new, P_new = f.append_started(z, 0.3, mv)
+            x = np.zeros((k, 4))
+            x[:, :2] = z
+            sv2 = f.speed_var0
+            P = np.repeat(np.diag([0.3, 0.3, sv2, sv2])[None], k, axis=0)
+            if mv is not None:
+                P[:, 0, 0] = P[:, 1, 1] = mv
+            ref = {"active": np.concatenate([ref["active"], np.ones(k, dtype=bool)]),
+                   "x": np.concatenate([ref["x"], x]), "P": np.concatenate([ref["P"], P]),
+                   "n_meas": np.concatenate([ref["n_meas"], np.ones(k, dtype=np.int64)])}
+            assert x_new.tobytes() == x.tobytes() and P_new.tobytes() == P.tobytes()
+            for name, want in ref.items():
+                got = getattr(f, name)
+                assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
+            assert f.n_active == int(f.active.sum())

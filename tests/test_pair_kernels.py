@@ -156,3 +156,39 @@ def test_merge_candidates_match_numpy():
         ref = merge_candidates_numpy(live, group, positions, rad, 0.5)
         got = merge_candidates(live, group[live], positions, rad, 0.5)
         assert all(np.array_equal(g, r) and g.dtype == r.dtype for g, r in zip(got, ref))
+
+
+def _predicted_positions_numpy(states, covariances, times_s, turn_rates, t_s):
+    """The numpy form of association.predicted_positions."""
+    x = states
+    P = covariances
+    dt = np.maximum(t_s - times_s, 0.0)
+    th_mid = x[:, 2] + 0.5 * dt * turn_rates
+    c, s = np.cos(th_mid), np.sin(th_mid)
+    dv = dt * x[:, 3]
+    zhat = np.empty((x.shape[0], 2))
+    zhat[:, 0] = x[:, 0] + dv * c
+    zhat[:, 1] = x[:, 1] + dv * s
+    J = np.zeros((x.shape[0], 2, 4))
+    J[:, 0, 0] = J[:, 1, 1] = 1.0
+    J[:, 0, 2], J[:, 0, 3] = -dv * s, dt * c
+    J[:, 1, 2], J[:, 1, 3] = dv * c, dt * s
+    return zhat, J @ P @ np.swapaxes(J, 1, 2)
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_predicted_positions_matches_numpy_form(seed):
+    from mjasc.perception.tracking.association import predicted_positions
+
+    rng = np.random.default_rng(seed)
+    k = int(rng.integers(0, 30))
+    x = rng.normal(scale=[30, 30, 2, 3], size=(k, 4))
+    A = rng.normal(size=(k, 4, 4))
+    P = A @ np.swapaxes(A, 1, 2)
+    t = rng.random(k) * 10
+    w = rng.normal(scale=0.1, size=k)
+    for t_s in (rng.random(k) * 10 + 5 * rng.random(k), 7.5):
+        got = predicted_positions(x, P, t, w, t_s)
+        want = _predicted_positions_numpy(x, P, t, w, t_s)
+        for a, b in zip(got, want):
+            assert a.shape == b.shape and a.tobytes() == b.tobytes()

@@ -242,3 +242,75 @@ def test_birth_rows(seed):
     for a, b in zip(got, want):
         assert a.shape == b.shape and a.tobytes() == b.astype(a.dtype).tobytes()
     assert nl.tobytes() == nl2.tobytes()
+
+
+def test_management_append_matches_concatenation():
+    from mjasc.perception.tracking import TrackingConfig
+    from mjasc.perception.tracking.management import TrackManagement
+
+    rng = np.random.default_rng(1)
+    for hits in (1, 3):
+        m = TrackManagement(TrackingConfig(confirm_hits=hits))
+        want = {name: getattr(m, name).copy() for name in TrackManagement._ROWS}
+        for step in range(6):
+            k = int(rng.integers(1, 4))
+            t, r = (rng.random(k) if step % 2 else float(rng.random())), rng.random(k)
+            m.append(t, r)
+            tk = np.broadcast_to(np.asarray(t, dtype=float), (k,))
+            one, no = np.ones(k, dtype=np.int64), np.zeros(k, dtype=bool)
+            add = {"_hist": one, "_scans": one, "_n_upd": one, "_confirmed": no | (hits <= 1), "_static": no,
+                   "_born": tk, "_last": tk, "_radius": r, "_anchor": np.zeros((k, 2)), "_anchored": no, "_moved": no}
+            want = {name: np.concatenate([want[name], add[name]]) for name in want}
+            for name in TrackManagement._ROWS:
+                a, b = getattr(m, name), want[name]
+                assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+            keep = rng.random(m._hist.size) < 0.7
+            m.keep(keep)
+            want = {name: want[name][keep] for name in want}
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_confirmed_by_owner(seed):
+    from mjasc.perception.tracking.association import group_starts
+    from mjasc.perception.tracking.step_kernels import confirmed_by_owner
+
+    rng = np.random.default_rng(seed)
+    n_owners = int(rng.integers(1, 5))
+    n = int(rng.integers(0, 20))
+    owner = rng.integers(0, n_owners, size=n).astype(np.int64)
+    confirmed = rng.random(n) < 0.6
+    rows, first = confirmed_by_owner(confirmed, owner, n_owners)
+    want = np.flatnonzero(confirmed)
+    own = owner[want]
+    order = np.argsort(own, kind="stable")
+    want, own = want[order], own[order]
+    assert rows.tobytes() == want.tobytes()
+    u, cut = group_starts(own)
+    f = first.tolist()
+    spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
+    assert spans == dict(zip(u.tolist(), zip(cut.tolist(), cut[1:].tolist() + [own.size])))
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_note_moved_matches_numpy_form(seed):
+    from mjasc.perception.tracking import TrackingConfig
+    from mjasc.perception.tracking.management import MOVED_M, TrackManagement
+
+    rng = np.random.default_rng(seed)
+    n = 12
+    m = TrackManagement(TrackingConfig())
+    m.append(np.zeros(n), np.ones(n))
+    anchor, anchored, moved = np.zeros((n, 2)), np.zeros(n, dtype=bool), np.zeros(n, dtype=bool)
+    for _ in range(8):
+        m._confirmed |= rng.random(n) < 0.3
+        x = rng.normal(scale=3.0, size=(n, 4))
+        x[rng.random(n) < 0.1, 0] = np.nan
+        m.note_moved(x)
+        positions = x[:, :2]
+        new = m._confirmed & ~anchored
+        anchor[new] = positions[new]
+        anchored |= new
+        d = positions - anchor
+        moved |= anchored & (np.hypot(d[:, 0], d[:, 1]) >= MOVED_M)
+        assert m._anchor.tobytes() == anchor.tobytes() and m._anchored.tobytes() == anchored.tobytes()
+        assert m._moved.tobytes() == moved.tobytes()

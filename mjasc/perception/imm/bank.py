@@ -221,21 +221,15 @@ class IMMBank(PredictiveDensity):
         if cyc is None or cyc.cap < n or self._side is None:
             cyc = self._own_state(n)
         s, P, mu, x, _ = cyc.views(self._side, n)  # the state's rows, then spare ones: zero, but μ
-        s[n_before:] = 0.0
-        P[n_before:] = 0.0
-        mu[n_before:] = self._mu0
         xc, Pcv = self._startup.append_started(z, self._R, meas_var)
         sp, Pp = cv_to_polar(xc, Pcv)
-        x[n_before:] = sp
+        # the new rows' state (zero, μ0, x = the start-up estimate) and per-track arrays: one compiled call
+        self._ids, self._t, self._Pc, self._n_gated, self._reasons, one_time = _appended_rows(
+            s, P, mu, x, n_before, self._mu0, sp, self._ids, self._t, self._Pc, self._n_gated, self._reasons,
+            ids, np.ascontiguousarray(t, dtype=float), Pp)
         self._s, self._P, self._mu, self._x = s, P, mu, x
-        cat = np.concatenate
-        self._ids = cat([self._ids, ids])
-        self._t = cat([self._t, t])
-        self._Pc = cat([self._Pc, Pp])
-        self._n_gated = cat([self._n_gated, np.zeros(k, dtype=np.int64)])
-        self._reasons = cat([self._reasons, np.zeros(k, dtype=np.int8)])
         tc, t0 = self._t_common, float(t[0])
-        self._t_common = t0 if (n_before == 0 or tc == t0) and (t == t0).all() else None
+        self._t_common = t0 if (n_before == 0 or tc == t0) and one_time else None
         rows = np.arange(n_before, n)
         ready = self._startup.hand_over(rows, sp)
         if ready.any():
@@ -497,17 +491,15 @@ class IMMBank(PredictiveDensity):
         warm = self._startup.active
         any_warm = self._startup.n_active > 0
         ok = use & inside
-        if any_warm:
-            rows = warm.nonzero()[0]
-            var = self._var if mv is None else mv[rows]
-            ok_w = self._startup.update(rows, dt[rows], z[rows], var, use[rows], self._gate)
-            ok[rows] = ok_w
-            inside[rows] = ok_w | ~use[rows]
         # the cycle updated the rows ``ok`` of the IMM rows, coasted the others; the start-up rows
         # keep their (unused) IMM state, their x is set by the hand-over below
         s_new, P_new, mu_new, x_new, _ = side
         if any_warm:
-            s_new[rows], P_new[rows], mu_new[rows] = self._s[rows], self._P[rows], self._mu[rows]
+            rows = warm.nonzero()[0]
+            var = self._var if mv is None else mv[rows]
+            use_w = use[rows]
+            ok_w = self._startup.update(rows, dt[rows], z[rows], var, use_w, self._gate)
+            _warm_rows(rows, ok_w, use_w, ok, inside, self._s, self._P, self._mu, s_new, P_new, mu_new)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
         self._side = out
         self._Pc_stale = True
@@ -712,3 +704,67 @@ def _measurements(z, measured, mv, per_row, R, finite, use):
         if per_row and not (math.isfinite(mv[k]) and mv[k] > 0):
             mv[k] = R
     return every
+
+
+@kernel
+def _warm_rows(rows, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new):
+    """A general cycle's start-up rows k = rows[j], in place: ``ok[k] = ok_w[j]``, ``inside[k] =
+    ok_w[j] or not use_w[j]``, and their IMM state (s, P, μ) kept unchanged in the cycle's output."""
+    r = s.shape[1]
+    for j in range(rows.size):
+        k = rows[j]
+        ok[k] = ok_w[j]
+        inside[k] = ok_w[j] or not use_w[j]
+        for a in range(r):
+            mu_new[k, a] = mu[k, a]
+            for b in range(4):
+                s_new[k, a, b] = s[k, a, b]
+                for c in range(4):
+                    P_new[k, a, b, c] = P[k, a, b, c]
+
+
+@kernel
+def _appended_rows(s, P, mu, x, n0, mu0, sp, ids, t, Pc, n_gated, reasons, new_ids, new_t, Pp):
+    """:meth:`IMMBank._append` of k rows after the first n0: in place, the rows n0… of the state's
+    views s, P (zero), μ (μ0) and x (sp (k, 4)); returned, the per-track arrays (ids, t, Pc, n_gated,
+    reasons) each a new array with the k rows appended (new_ids, new_t, Pp, 0, 0), and whether every
+    new t equals the first."""
+    k = new_t.size
+    r = s.shape[1]
+    for j in range(k):
+        i = n0 + j
+        for a in range(r):
+            mu[i, a] = mu0[a]
+            for b in range(4):
+                s[i, a, b] = 0.0
+                for c in range(4):
+                    P[i, a, b, c] = 0.0
+        for b in range(4):
+            x[i, b] = sp[j, b]
+    m = n0 + k
+    ids2 = np.empty(m, dtype=np.int64)
+    t2 = np.empty(m)
+    Pc2 = np.empty((m, 4, 4))
+    g2 = np.empty(m, dtype=np.int64)
+    r2 = np.empty(m, dtype=np.int8)
+    for i in range(n0):
+        ids2[i] = ids[i]
+        t2[i] = t[i]
+        g2[i] = n_gated[i]
+        r2[i] = reasons[i]
+        for a in range(4):
+            for b in range(4):
+                Pc2[i, a, b] = Pc[i, a, b]
+    one_time = True
+    for j in range(k):
+        i = n0 + j
+        ids2[i] = new_ids[j]
+        t2[i] = new_t[j]
+        g2[i] = 0
+        r2[i] = 0
+        for a in range(4):
+            for b in range(4):
+                Pc2[i, a, b] = Pp[j, a, b]
+        if new_t[j] != new_t[0]:
+            one_time = False
+    return ids2, t2, Pc2, g2, r2, one_time

@@ -28,25 +28,47 @@ __all__ = ["StartupFilters", "cv_predict", "cv_to_polar", "ready_for_handover"]
 
 _UNIFORM_ANGLE_VAR = math.pi**2 / 3.0  # variance of an angle uniform on (−π, π]
 _EYE4 = np.eye(4)[None]
+_NO_VAR = np.zeros(0)
 
 
 def cv_predict(xc, Pc, dt, q):
-    """Constant-velocity prediction with white acceleration of intensity q; dt (k,)."""
-    k = dt.shape[0]
-    F = np.repeat(_EYE4, k, axis=0)
-    F[:, 0, 2] = F[:, 1, 3] = dt
+    """Constant-velocity prediction with white acceleration of intensity q; dt (k,). The
+    transition matrices and the noise added are compiled loops (:func:`_cv_transitions`,
+    :func:`_add_cv_noise`); the products and the powers of dt stay numpy's (tests/test_imm_row_store.py
+    keeps the all-numpy form as the reference, bit for bit)."""
+    F = _cv_transitions(dt)
     xp = (F @ xc[..., None])[..., 0]
     Pp = F @ Pc @ np.swapaxes(F, 1, 2)
-    q3, q2, q1 = q * dt**3 / 3.0, q * dt**2 / 2.0, q * dt
-    Pp[:, 0, 0] += q3
-    Pp[:, 1, 1] += q3
-    Pp[:, 0, 2] += q2
-    Pp[:, 2, 0] += q2
-    Pp[:, 1, 3] += q2
-    Pp[:, 3, 1] += q2
-    Pp[:, 2, 2] += q1
-    Pp[:, 3, 3] += q1
+    _add_cv_noise(Pp, q * dt**3 / 3.0, q * dt**2 / 2.0, q * dt)
     return xp, Pp
+
+
+@kernel
+def _cv_transitions(dt):
+    """(k, 4, 4) constant-velocity transitions: the identity with dt in (0, 2) and (1, 3)."""
+    k = dt.shape[0]
+    F = np.zeros((k, 4, 4))
+    for i in range(k):
+        for a in range(4):
+            F[i, a, a] = 1.0
+        F[i, 0, 2] = dt[i]
+        F[i, 1, 3] = dt[i]
+    return F
+
+
+@kernel
+def _add_cv_noise(P, q3, q2, q1):
+    """The white-acceleration noise added to P (k, 4, 4) in place: q3 (k,) to (0, 0), (1, 1); q2 to
+    (0, 2), (2, 0), (1, 3), (3, 1); q1 to (2, 2), (3, 3)."""
+    for i in range(P.shape[0]):
+        P[i, 0, 0] += q3[i]
+        P[i, 1, 1] += q3[i]
+        P[i, 0, 2] += q2[i]
+        P[i, 2, 0] += q2[i]
+        P[i, 1, 3] += q2[i]
+        P[i, 3, 1] += q2[i]
+        P[i, 2, 2] += q1[i]
+        P[i, 3, 3] += q1[i]
 
 
 def cv_to_polar(xc, Pc):
@@ -162,19 +184,14 @@ class StartupFilters:
         """k more rows, :meth:`start`-ed from z (k, 2) at once (what :meth:`append` then
         :meth:`start` make of them); returns their x (k, 4) and P (k, 4, 4)."""
         k = z.shape[0]
-        x = np.zeros((k, 4))
-        x[:, :2] = z
-        sv2, R = self.speed_var0, measurement_variance
-        P = np.repeat(np.diag([R, R, sv2, sv2])[None], k, axis=0)
-        if meas_var is not None:
-            P[:, 0, 0] = P[:, 1, 1] = meas_var
-        cat = np.concatenate
-        self.active = cat([self.active, np.ones(k, dtype=bool)])
-        self.x = cat([self.x, x])
-        self.P = cat([self.P, P])
-        self.n_meas = cat([self.n_meas, np.ones(k, dtype=np.int64)])
+        R = float(measurement_variance)
+        per_row = meas_var is not None
+        self.active, self.x, self.P, self.n_meas = _appended_started(
+            self.active, self.x, self.P, self.n_meas, np.ascontiguousarray(z, dtype=float), R, float(self.speed_var0),
+            np.ascontiguousarray(meas_var, dtype=float) if per_row else _NO_VAR, per_row)
         self.n_active += k
-        return x, P
+        n = self.x.shape[0] - k
+        return self.x[n:], self.P[n:]
 
     def take(self, rows) -> "StartupFilters":
         """A copy holding only ``rows`` (for an update of some of a bank's tracks)."""
@@ -245,3 +262,37 @@ class StartupFilters:
         """Add dv [m²/s²] (k,) to both velocity variances of rows (manoeuvre process noise)."""
         self.P[rows, 2, 2] += dv
         self.P[rows, 3, 3] += dv
+
+
+@kernel
+def _appended_started(active, x, P, n_meas, z, R, sv2, meas_var, per_row):
+    """:meth:`StartupFilters.append_started`'s arrays, each a new array with k = len(z) rows appended
+    (one compiled call instead of building the rows and four concatenations): active, one
+    measurement, x = [z, 0, 0], P = diag(R, R, sv2, sv2) with meas_var[j] (if ``per_row``) in
+    place of R."""
+    n = active.size
+    k = z.shape[0]
+    m = n + k
+    a2 = np.empty(m, dtype=np.bool_)
+    x2 = np.zeros((m, 4))
+    P2 = np.zeros((m, 4, 4))
+    c2 = np.empty(m, dtype=np.int64)
+    for i in range(n):
+        a2[i] = active[i]
+        c2[i] = n_meas[i]
+        for a in range(4):
+            x2[i, a] = x[i, a]
+            for b in range(4):
+                P2[i, a, b] = P[i, a, b]
+    for j in range(k):
+        i = n + j
+        a2[i] = True
+        c2[i] = 1
+        x2[i, 0] = z[j, 0]
+        x2[i, 1] = z[j, 1]
+        r = meas_var[j] if per_row else R
+        P2[i, 0, 0] = r
+        P2[i, 1, 1] = r
+        P2[i, 2, 2] = sv2
+        P2[i, 3, 3] = sv2
+    return a2, x2, P2, c2

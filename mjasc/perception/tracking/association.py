@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from mjasc.perception.tracking.pair_kernels import block_pairs_loop, gate_terms
+from mjasc.perception.tracking.pair_kernels import arc_midpoints, block_pairs_loop, gate_terms, position_jacobians
 from mjasc.perception.tracking.step_kernels import admissible_pairs
 
 __all__ = ["association_costs", "gnn_assign", "gnn_pairs", "BIG_COST", "block_pairs", "group_starts",
@@ -57,21 +57,19 @@ def group_starts(keys: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def predicted_positions(states, covariances, times_s, turn_rates, t_s):
     """ẑ (n, 2) [m] and S = J P Jᵀ (n, 2, 2) [m²] of tracks predicted to t_s (scalar or (n,) [s])
-    (the prediction of :func:`association_costs`)."""
+    (the prediction of :func:`association_costs`): ``dt = maximum(t_s − t, 0)``,
+    ``θ_mid = θ + 0.5·dt·ω̂``, ``ẑ = p + dt·V·[cos θ_mid, sin θ_mid]`` and J the position rows of
+    the transition Jacobian. The cosine, the sine and the products J P Jᵀ are numpy's; the rest
+    is two compiled passes (:func:`mjasc.perception.tracking.pair_kernels.arc_midpoints`,
+    :func:`~mjasc.perception.tracking.pair_kernels.position_jacobians`; tests/test_pair_kernels.py
+    keeps the numpy form)."""
     x = states
-    P = covariances
-    dt = np.maximum(t_s - times_s, 0.0)
-    th_mid = x[:, 2] + 0.5 * dt * turn_rates
-    c, s = np.cos(th_mid), np.sin(th_mid)
-    dv = dt * x[:, 3]
-    zhat = np.empty((x.shape[0], 2))
-    zhat[:, 0] = x[:, 0] + dv * c
-    zhat[:, 1] = x[:, 1] + dv * s
-    J = np.zeros((x.shape[0], 2, 4))
-    J[:, 0, 0] = J[:, 1, 1] = 1.0
-    J[:, 0, 2], J[:, 0, 3] = -dv * s, dt * c
-    J[:, 1, 2], J[:, 1, 3] = dv * c, dt * s
-    return zhat, J @ P @ np.swapaxes(J, 1, 2)
+    t = np.asarray(t_s, dtype=float)
+    if t.shape != times_s.shape:
+        t = np.broadcast_to(t, times_s.shape)
+    dt, th_mid, dv = arc_midpoints(x, times_s, turn_rates, t)
+    zhat, J = position_jacobians(x, dt, dv, np.cos(th_mid), np.sin(th_mid))
+    return zhat, J @ covariances @ np.swapaxes(J, 1, 2)
 
 
 def pair_costs(zhat, S, z, var) -> tuple[np.ndarray, np.ndarray]:

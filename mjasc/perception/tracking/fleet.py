@@ -46,7 +46,8 @@ from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import block_pairs_flat
-from mjasc.perception.tracking.step_kernels import apply_assignment, birth_rows, pair_setup, select_detections
+from mjasc.perception.tracking.step_kernels import (apply_assignment, birth_rows, confirmed_by_owner, pair_setup,
+                                                    select_detections)
 from mjasc.perception.tracking.team import TeamMatcher
 
 __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
@@ -93,6 +94,7 @@ class FleetTracker:
         self.local_id = np.zeros(0, dtype=np.int64)  # per row: its id in its vessel's numbering
         self.version = 0  # changes whenever rows are added or removed
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
+        self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, position of each owner, every)
         self._reports: dict[int, list] | None = None  # every vessel's confirmed estimates since the last step
         self._max_range = np.zeros(0)
         self._next_local = np.zeros(0, dtype=np.int64)
@@ -146,17 +148,26 @@ class FleetTracker:
         cfg = self.config
         self._reports = None
         p = len(owners)
-        owners = np.asarray(owners, dtype=np.int64)
+        no = self.n_owners
+        key = (no, *owners) if type(owners) is list else None
+        got = self._owner_plans.get(key) if key is not None else None
+        if got is None:  # the scanning vessels' arrays (the same few combinations tick after tick)
+            owners_a = np.asarray(owners, dtype=np.int64)
+            pos_of = np.full(no, -1)
+            pos_of[owners_a] = np.arange(p)
+            got = (owners_a, pos_of, p == no and bool((pos_of >= 0).all()))  # every vessel scanned: every row is due
+            if key is not None:
+                if len(self._owner_plans) >= 64:
+                    self._owner_plans.clear()
+                self._owner_plans[key] = got
+        owners, pos_of, every = got
         t_o = np.asarray(t_s, dtype=float).reshape(p)
         origins = [None] * p if origins is None else origins
         use = [None] * p if use is None else use
         points = [None] * p if points is None else points
-        no = self.n_owners
-        pos_of = np.full(no, -1)
-        pos_of[owners] = np.arange(p)
-        t_own = np.full(no, np.nan)
+        t_own = np.empty(no)
+        t_own.fill(np.nan)
         t_own[owners] = t_o
-        every = p == no and bool((pos_of >= 0).all())  # every vessel scanned: every row is due
         self._counts[owners, _SCANS] += 1
         # every vessel's selected detections, stacked in vessel order (one compiled pass)
         dets = list(detections)
@@ -196,7 +207,7 @@ class FleetTracker:
         else:
             rows = (pos_of[self.owner] >= 0).nonzero()[0]
             self.team.match(rows, self.owner[rows], t_own, bank.states_of(rows), self.mgmt._confirmed[rows], no)
-        self.mgmt.note_moved(bank.positions)
+        self.mgmt.note_moved(bank._x)  # (its first two columns: the positions)
 
     def _update(self, rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
                 claimed) -> None:
@@ -204,8 +215,10 @@ class FleetTracker:
         cfg, bank = self.config, self.bank
         n, M = len(bank), z.shape[0]
         p = owners.size
-        assigned = np.full(n, -1)
-        var_row = np.full(n, self._R)
+        assigned = np.empty(n, dtype=np.int64)
+        assigned.fill(-1)
+        var_row = np.empty(n)
+        var_row.fill(self._R)
         rpos = row_pos[rows]
         if M:
             n_q, grouped, q, i, j, start, gi, db, ta, var_p = pair_setup(rows, rpos, p, m_q, self.mgmt._radius, var,
@@ -218,7 +231,8 @@ class FleetTracker:
                 hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
                 self.manoeuvres.detect(hit, d2_hit, self._gate, t_o[row_pos[hit]], bank)
         meas = assigned >= 0
-        zr = np.full((n, 2), np.nan)
+        zr = np.empty((n, 2))
+        zr.fill(np.nan)
         zr[meas] = z[assigned[meas]]
         vr = var_row if cfg.use_detection_variance else None
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
@@ -386,15 +400,11 @@ class FleetTracker:
         (bank order within): ({owner: (first, end)}, rows, ids, times, positions (k, 2), courses,
         speeds, ω̂, radii (array and list), position covariances (k, 2, 2), static flags, team
         mates, slow flags) — per-track values as :meth:`_estimates_of` makes them."""
-        rows = self.mgmt._confirmed.nonzero()[0]
+        rows, first = confirmed_by_owner(self.mgmt._confirmed, self.owner, self.n_owners)
         if rows.size == 0:
             return ({},)
-        own = self.owner[rows]
-        if self.n_owners > 1:
-            order = np.argsort(own, kind="stable")
-            rows, own = rows[order], own[order]
-        u, cut = group_starts(own)
-        spans = dict(zip(u.tolist(), zip(cut.tolist(), cut[1:].tolist() + [own.size])))
+        f = first.tolist()
+        spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
         t, pos, th, v, w, P = self.bank.estimate_fields(rows)
         static = self.mgmt._static[rows]
         slow = (static | (v < self.config.static_speed_m_s)).tolist()

@@ -79,19 +79,11 @@ class TrackManagement:
         t = np.asarray(t_s, dtype=float)
         if t.shape != (k,):
             t = np.broadcast_to(t, (k,))
-        cat = np.concatenate
-        one, no = np.ones(k, dtype=np.int64), np.zeros(k, dtype=bool)
-        self._hist = cat([self._hist, one])
-        self._scans = cat([self._scans, one])
-        self._n_upd = cat([self._n_upd, one])
-        self._confirmed = cat([self._confirmed, no | (self.config.confirm_hits <= 1)])
-        self._static = cat([self._static, no])
-        self._born = cat([self._born, t])
-        self._last = cat([self._last, t])
-        self._radius = cat([self._radius, radius])
-        self._anchor = cat([self._anchor, np.zeros((k, 2))])
-        self._anchored = cat([self._anchored, no])
-        self._moved = cat([self._moved, no])
+        (self._hist, self._scans, self._n_upd, self._confirmed, self._static, self._born, self._last, self._radius,
+         self._anchor, self._anchored, self._moved) = appended_rows(
+            self._hist, self._scans, self._n_upd, self._confirmed, self._static, self._born, self._last, self._radius,
+            self._anchor, self._anchored, self._moved, np.ascontiguousarray(t, dtype=float), radius,
+            self.config.confirm_hits <= 1)
 
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) is True."""
@@ -196,13 +188,12 @@ class TrackManagement:
 
     def note_moved(self, positions: np.ndarray) -> None:
         """After a scan: anchor the tracks confirmed for the first time where they are (positions
-        (n, 2) [m]), and mark the confirmed ones now ``MOVED_M`` from their anchor as moved."""
-        new = self._confirmed & ~self._anchored
-        if new.any():
-            self._anchor[new] = positions[new]
-            self._anchored |= new
-        d = positions - self._anchor
-        self._moved |= self._anchored & (np.hypot(d[:, 0], d[:, 1]) >= MOVED_M)
+        (n, ≥ 2) [m]: the first two columns), and mark the confirmed ones now ``MOVED_M`` from their
+        anchor as moved (one compiled pass, :func:`_moved_rows`)."""
+        positions = np.asarray(positions, dtype=float)
+        if positions.ndim != 2:  # (no tracks: an empty list of positions)
+            positions = positions.reshape(-1, 2)
+        _moved_rows(positions, self._confirmed, self._anchored, self._anchor, self._moved, MOVED_M)
 
 
 @kernel
@@ -259,3 +250,69 @@ def _losses(idx, t, hist, scans, confirmed, last, popcount, Pc, rng, max_range, 
         if not d and rng[j] > max_range[j] + margin:
             d, r = True, 3
         drop[j], code[j], lam[j], since[j] = d, r, lm, s
+
+
+@kernel
+def appended_rows(hist, scans, n_upd, confirmed, static, born, last, radius, anchor, anchored, moved, t, r_new,
+                  confirm_now):
+    """:meth:`TrackManagement.append`'s arrays, each a new array with k rows appended (one compiled
+    call instead of eleven concatenations): one update in the history and the counters, confirmed
+    iff ``confirm_now``, born and last updated at t (k,) [s], radius r_new (k,) [m], no anchor, not
+    static, not moved."""
+    n = hist.size
+    k = t.size
+    m = n + k
+    out_hist = np.empty(m, dtype=np.int64)
+    out_scans = np.empty(m, dtype=np.int64)
+    out_n_upd = np.empty(m, dtype=np.int64)
+    out_conf = np.empty(m, dtype=np.bool_)
+    out_static = np.empty(m, dtype=np.bool_)
+    out_born = np.empty(m)
+    out_last = np.empty(m)
+    out_radius = np.empty(m)
+    out_anchor = np.empty((m, 2))
+    out_anchored = np.empty(m, dtype=np.bool_)
+    out_moved = np.empty(m, dtype=np.bool_)
+    for i in range(n):
+        out_hist[i] = hist[i]
+        out_scans[i] = scans[i]
+        out_n_upd[i] = n_upd[i]
+        out_conf[i] = confirmed[i]
+        out_static[i] = static[i]
+        out_born[i] = born[i]
+        out_last[i] = last[i]
+        out_radius[i] = radius[i]
+        out_anchor[i, 0] = anchor[i, 0]
+        out_anchor[i, 1] = anchor[i, 1]
+        out_anchored[i] = anchored[i]
+        out_moved[i] = moved[i]
+    for j in range(k):
+        i = n + j
+        out_hist[i] = 1
+        out_scans[i] = 1
+        out_n_upd[i] = 1
+        out_conf[i] = confirm_now
+        out_static[i] = False
+        out_born[i] = t[j]
+        out_last[i] = t[j]
+        out_radius[i] = r_new[j]
+        out_anchor[i, 0] = 0.0
+        out_anchor[i, 1] = 0.0
+        out_anchored[i] = False
+        out_moved[i] = False
+    return (out_hist, out_scans, out_n_upd, out_conf, out_static, out_born, out_last, out_radius, out_anchor,
+            out_anchored, out_moved)
+
+
+@kernel
+def _moved_rows(positions, confirmed, anchored, anchor, moved, moved_m):
+    """:meth:`TrackManagement.note_moved` per row, in place: a confirmed row not anchored yet is
+    anchored at its position (n, ≥ 2) [m]; an anchored one is moved once
+    ``hypot(x − anchor_x, y − anchor_y) ≥ moved_m``."""
+    for k in range(confirmed.size):
+        if confirmed[k] and not anchored[k]:
+            anchor[k, 0] = positions[k, 0]
+            anchor[k, 1] = positions[k, 1]
+            anchored[k] = True
+        if anchored[k] and math.hypot(positions[k, 0] - anchor[k, 0], positions[k, 1] - anchor[k, 1]) >= moved_m:
+            moved[k] = True

@@ -33,6 +33,10 @@ numpy forms as references):
       hypot(p_a,x − p_b,x, p_a,y − p_b,y) < fraction · maximum(R_a, R_b)
 
   (numpy's ``maximum``: NaN if either radius is NaN).
+* :func:`arc_midpoints` and :func:`position_jacobians` — the two halves of
+  :func:`~mjasc.perception.tracking.association.predicted_positions` around numpy's cosine and
+  sine: per track ``dt = maximum(t − t_last, 0)``, ``θ_mid = θ + (0.5·dt)·ω̂``, ``dV = dt·V``; then
+  ``ẑ = (x + dV·c, y + dV·s)`` and the Jacobian rows ``[[1, 0, (−dV)·s, dt·c], [0, 1, dV·c, dt·s]]``.
 """
 
 from __future__ import annotations
@@ -43,7 +47,8 @@ import numpy as np
 
 from mjasc.core.compiled import kernel, maximum
 
-__all__ = ["block_pairs_loop", "block_pairs_flat", "broadcast_distances", "gate_terms", "merge_candidates"]
+__all__ = ["block_pairs_loop", "block_pairs_flat", "broadcast_distances", "gate_terms", "merge_candidates",
+           "arc_midpoints", "position_jacobians"]
 
 
 @kernel
@@ -163,3 +168,38 @@ def merge_candidates(live, keys, positions, radius, fraction):
                     c += 1
         f = e
     return out_a[:c], out_b[:c]
+
+
+@kernel
+def arc_midpoints(x, t_last, w, t):
+    """(dt, θ_mid, dV) (k,) of tracks with states x (k, 4) [x, y, θ, V], last times t_last (k,) [s]
+    and turn rates w (k,) [rad/s] predicted to t (k,) [s] (module docstring)."""
+    k = x.shape[0]
+    dt = np.empty(k)
+    th = np.empty(k)
+    dv = np.empty(k)
+    for a in range(k):
+        d = maximum(t[a] - t_last[a], 0.0)
+        dt[a] = d
+        th[a] = x[a, 2] + (0.5 * d) * w[a]
+        dv[a] = d * x[a, 3]
+    return dt, th, dv
+
+
+@kernel
+def position_jacobians(x, dt, dv, c, s):
+    """(ẑ (k, 2) [m], J (k, 2, 4)) from states x (k, 4), dt, dV (k,) and c, s (k,) the cosine and
+    sine of θ_mid (module docstring)."""
+    k = x.shape[0]
+    zhat = np.empty((k, 2))
+    J = np.zeros((k, 2, 4))
+    for a in range(k):
+        zhat[a, 0] = x[a, 0] + dv[a] * c[a]
+        zhat[a, 1] = x[a, 1] + dv[a] * s[a]
+        J[a, 0, 0] = 1.0
+        J[a, 1, 1] = 1.0
+        J[a, 0, 2] = -dv[a] * s[a]
+        J[a, 0, 3] = dt[a] * c[a]
+        J[a, 1, 2] = dv[a] * c[a]
+        J[a, 1, 3] = dt[a] * s[a]
+    return zhat, J

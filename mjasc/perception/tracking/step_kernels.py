@@ -27,6 +27,9 @@ as references, bit for bit):
   (a NaN distance or radius: outside), in order; with their vessel position ``bp``, vessel ``own``, ids (the vessel's
   next ids in order), births per vessel ``born`` (the vessels' next ids advanced in place) and
   their ``t_o[bp]``, ``z``, ``var`` and ``rad``.
+* :func:`confirmed_by_owner` — the confirmed rows grouped by vessel, bank order within
+  (``rows = flatnonzero(confirmed)`` sorted stably by ``owner[rows]``), and each vessel's first
+  position in them.
 """
 
 from __future__ import annotations
@@ -38,7 +41,8 @@ import numpy as np
 from mjasc.core.compiled import kernel, maximum
 from mjasc.perception.tracking.pair_kernels import block_pairs_flat
 
-__all__ = ["select_detections", "pair_setup", "admissible_pairs", "apply_assignment", "birth_rows"]
+__all__ = ["select_detections", "pair_setup", "admissible_pairs", "apply_assignment", "birth_rows",
+           "confirmed_by_owner"]
 
 
 @kernel
@@ -212,3 +216,24 @@ def birth_rows(claimed, rows, rpos, d_pos, z, var, rad, x, radius, owners, t_o, 
     for q in range(p):
         next_local[owners[q]] += born[q]
     return new, bp, own, local, born, t_b, z_b, var_b, rad_b
+
+
+@kernel
+def confirmed_by_owner(confirmed, owner, n_owners):
+    """(rows, first): the rows where ``confirmed`` (n,) grouped by their vessel ``owner`` (n,), bank
+    order within a vessel, and first (n_owners + 1,) each vessel's first position in rows (module
+    docstring)."""
+    first = np.zeros(n_owners + 1, dtype=np.int64)
+    for k in range(confirmed.size):
+        if confirmed[k]:
+            first[owner[k] + 1] += 1
+    for o in range(n_owners):
+        first[o + 1] += first[o]
+    rows = np.empty(first[n_owners], dtype=np.int64)
+    fill = first[:n_owners].copy()
+    for k in range(confirmed.size):
+        if confirmed[k]:
+            o = owner[k]
+            rows[fill[o]] = k
+            fill[o] += 1
+    return rows, first
