@@ -21,7 +21,7 @@ For each row, in one process and interleaved (floor, recording on, recording off
   with recording on, as shares of its wall time; "other" is the loop itself (navigation snapshots,
   scheduling).
 
-    .venv/bin/python benchmarks/bench_fullstack.py                 # full mode (~15 min today)
+    .venv/bin/python benchmarks/bench_fullstack.py                 # full mode (~3 min on a quiet 2-core machine)
     .venv/bin/python benchmarks/bench_fullstack.py --quick         # a few seconds of two rows
     .venv/bin/python benchmarks/bench_fullstack.py --rows demo fleet_10 --duration 20 --repeats 2
 
