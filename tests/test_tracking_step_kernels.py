@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from mjasc.perception.tracking.association import block_pairs, gnn_pairs
-from mjasc.perception.tracking.step_kernels import (admissible_pairs, apply_assignment, birth_rows, pair_setup,
+from mjasc.perception.tracking.step_kernels import (apply_assignment, birth_rows, pair_setup,
                                                     select_detections)
 
 

@@ -38,6 +38,20 @@ __all__ = ["sort_returns", "tracked_in_walls"]
 
 
 @kernel
+def _disc_ranges(disc_scan, S):
+    """Each scan's discs as a range ``d_lo[s] … d_hi[s] − 1`` of the discs sorted by scan
+    (``disc_scan`` (D,), non-decreasing); a scan without discs has ``d_hi[s] = 0``."""
+    d_lo = np.zeros(S, dtype=np.int64)
+    d_hi = np.zeros(S, dtype=np.int64)
+    for j in range(disc_scan.shape[0]):
+        s = disc_scan[j]
+        if d_hi[s] == 0:
+            d_lo[s] = j
+        d_hi[s] = j + 1
+    return d_lo, d_hi
+
+
+@kernel
 def sort_returns(labels, ret_off, det_off, extended, n_points, centres, radii, variances, points, occ, sigma, flat_m,
                  disc_centres, disc_radii, disc_scan, map_member):
     """Targets (M,) bool, the map's new returns (s, 2) [m] with their map members (s,), and per
@@ -56,13 +70,7 @@ def sort_returns(labels, ret_off, det_off, extended, n_points, centres, radii, v
     for s in range(S):
         for d in range(det_off[s], det_off[s + 1]):
             det_scan[d] = s
-    d_lo = np.zeros(S, dtype=np.int64)  # each scan's discs d_lo[s] … d_hi[s] − 1
-    d_hi = np.zeros(S, dtype=np.int64)
-    for j in range(disc_scan.shape[0]):
-        s = disc_scan[j]
-        if d_hi[s] == 0:
-            d_lo[s] = j
-        d_hi[s] = j + 1
+    d_lo, d_hi = _disc_ranges(disc_scan, S)  # each scan's discs d_lo[s] … d_hi[s] − 1
     targets = np.empty(M, dtype=np.bool_)
     for d in range(M):
         targets[d] = not extended[d]
@@ -148,13 +156,7 @@ def tracked_in_walls(labels, ret_off, det_off, extended, points, disc_centres, d
     returns (:meth:`mjasc.perception.pipeline.Perception._split_tracked` changes nothing elsewhere)."""
     S = ret_off.shape[0] - 1
     out = np.zeros(S, dtype=np.bool_)
-    d_lo = np.zeros(S, dtype=np.int64)
-    d_hi = np.zeros(S, dtype=np.int64)
-    for j in range(disc_scan.shape[0]):
-        s = disc_scan[j]
-        if d_hi[s] == 0:
-            d_lo[s] = j
-        d_hi[s] = j + 1
+    d_lo, d_hi = _disc_ranges(disc_scan, S)
     for s in range(S):
         if d_hi[s] == 0:
             continue

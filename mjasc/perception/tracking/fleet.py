@@ -45,7 +45,6 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.pair_kernels import block_pairs_flat
 from mjasc.perception.tracking.step_kernels import (apply_assignment, birth_rows, confirmed_by_owner, pair_setup,
                                                     select_detections)
 from mjasc.perception.tracking.team import TeamMatcher
