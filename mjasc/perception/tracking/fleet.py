@@ -96,6 +96,7 @@ class FleetTracker:
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
         self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, position of each owner, every)
         self._reports: dict[int, list] | None = None  # every vessel's confirmed estimates since the last step
+        self._report_memo: tuple = (None, {})  # (columns, {owner: estimates}): estimates of the current step
         self._max_range = np.zeros(0)
         self._next_local = np.zeros(0, dtype=np.int64)
         self._counts = np.zeros((0, len(COUNT_KEYS)), dtype=np.int64)
@@ -383,6 +384,19 @@ class FleetTracker:
         cols = self._reports
         if cols is None:
             cols = self._reports = self._report_columns()
+        memo = self._report_memo
+        if memo[0] is not cols:  # a new step: the lists made from the old columns are stale
+            memo = self._report_memo = (cols, {})
+        made = memo[1].get(owner)
+        if made is None:
+            made = memo[1][owner] = self._report_estimates(cols, owner)
+        return list(made)
+
+    def _report_estimates(self, cols: tuple, owner: int) -> list[TrackEstimate]:
+        """:meth:`estimates` of vessel ``owner`` from the columns ``cols`` (:meth:`_report_columns`).
+        Made once per vessel and step (:meth:`estimates` keeps them until the next step: its
+        vessel's report is asked again after comms, between steps, and gets the same frozen
+        objects; the outlines depend only on the columns and the hulls, which change in a step)."""
         span = cols[0].get(owner)
         if span is None:
             return []
