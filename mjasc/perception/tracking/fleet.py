@@ -403,8 +403,8 @@ class FleetTracker:
         a, b = span
         _, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow = cols
         pos, radius = pos[a:b], radius[a:b]
-        outline = self.outlines.outline  # (= self.outline(k): pos, radius are row k's)
-        outlines = [outline(k, pos[j], radius[j]) if lk else None
+        pending = self.outlines.pending  # (= self.outline(k) on first read: pos, radius are row k's)
+        outlines = [pending(k, pos[j], radius[j]) if lk else None
                     for j, (k, lk) in enumerate(zip(k_rows[a:b], slow[a:b]))]
         return track_estimate_rows(ids[a:b], t[a:b], pos, th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b], static[a:b],
                                    team[a:b], outlines, repeat(None, b - a))
