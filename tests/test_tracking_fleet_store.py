@@ -230,3 +230,22 @@ def test_losses_equal_their_numpy_form():
                                                max_range[:k])
         assert np.array_equal(drop, want_drop) and reason == want_reason
         assert {r.split()[0] for r in reason if r} == {"not", "position", "out"}
+
+
+def test_estimates_asked_again_between_steps_are_the_first_ones_and_renewed_by_a_step():
+    """A vessel's confirmed estimates are made once per step (its report is asked again after comms):
+    asked again they are the same objects, equal to the readable form made afresh; after a step, new."""
+    cfg = TrackingConfig()
+    ft = FleetTracker(cfg)
+    owners = [ft.add_owner(60.0) for _ in range(N_VESSELS)]
+    before = {}
+    for _ in _run([(ft, o) for o in owners]):
+        for o in owners:
+            first = ft.estimates(o)
+            rows = ft.rows_of(o)
+            readable = ft._estimates_of(rows[ft.mgmt._confirmed[rows]])
+            again = ft.estimates(o)
+            assert again is not first and all(a is b for a, b in zip(again, first)) and len(again) == len(first)
+            assert _fields(again) == _fields(readable)
+            assert not any(e is b for e in first for b in before.get(o, ()))  # made afresh after the step
+            before[o] = first

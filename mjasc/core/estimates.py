@@ -16,6 +16,38 @@ from typing import Any, Callable
 import numpy as np
 
 
+class Pending:
+    """A value not made yet: ``make(*args)`` on first read of the field that holds it (a
+    :class:`TrackEstimate`'s ``outline_m``: the tracker hands one on for every slow track, only a
+    prediction reads them). ``make`` is a module-level function and ``args`` values that do not
+    change afterwards, so the value is the same whenever it is made (and the object pickles)."""
+
+    __slots__ = ("make", "args")
+
+    def __init__(self, make: Callable, *args):
+        self.make, self.args = make, args
+
+
+class _MadeOnRead:
+    """A dataclass field's descriptor: the value in the instance's ``__dict__``, or — when that is a
+    :class:`Pending` — the value it makes, kept in its place on first read. The default is None."""
+
+    def __set_name__(self, owner, name: str) -> None:
+        self.name = name
+
+    def __get__(self, obj, cls=None):
+        if obj is None:
+            return None  # the field's default
+        d = obj.__dict__
+        v = d[self.name]
+        if type(v) is Pending:
+            v = d[self.name] = v.make(*v.args)
+        return v
+
+    def __set__(self, obj, value) -> None:  # (the frozen dataclass's __init__ sets fields through object.__setattr__)
+        obj.__dict__[self.name] = value
+
+
 @dataclass(frozen=True)
 class TrackEstimate:
     """One tracked object as estimated by one vessel at time ``time_s``.
@@ -28,7 +60,8 @@ class TrackEstimate:
     position_covariance: (2, 2) covariance of position_m [m²].
     is_static: True for objects that do not move (docks, islands, moored buoys).
     team_member: name of the team mate this track was matched to, or None.
-    outline_m: (k, 2) world-frame polygon of a static object's extent, or None.
+    outline_m: (k, 2) world-frame polygon of a static object's extent, or None (the tracker may
+        hand on a :class:`Pending` outline: it is made on first read).
     source: None for the vessel's own track (its sensor; possibly fused with team tracks), or
         ``"team:<sender>"`` for a track only a team mate saw (team-shared perception,
         :mod:`mjasc.perception.track_fusion`).
@@ -44,7 +77,7 @@ class TrackEstimate:
     position_covariance: np.ndarray = field(default_factory=lambda: np.zeros((2, 2)))
     is_static: bool = False
     team_member: str | None = None
-    outline_m: np.ndarray | None = None
+    outline_m: np.ndarray | None = _MadeOnRead()  # (None by default; a Pending is made on first read)
     source: str | None = None
 
     def predict_positions(self, times_s: np.ndarray) -> np.ndarray:

@@ -94,7 +94,7 @@ class FleetTracker:
         self.version = 0  # changes whenever rows are added or removed
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
         self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, position of each owner, every)
-        self._reports: dict[int, list] | None = None  # every vessel's confirmed estimates since the last step
+        self._reports: tuple | None = None  # every vessel's confirmed estimates since the last step (_report_estimates)
         self._max_range = np.zeros(0)
         self._next_local = np.zeros(0, dtype=np.int64)
         self._counts = np.zeros((0, len(COUNT_KEYS)), dtype=np.int64)
@@ -374,25 +374,31 @@ class FleetTracker:
     # ------------------------------------------------------------------ outputs
     def estimates(self, owner: int, include_tentative: bool = False) -> list[TrackEstimate]:
         """TrackEstimate of every confirmed track of a vessel (and tentative ones if asked), in
-        bank order. The numbers of every vessel's confirmed tracks are read from the bank at once,
-        on the first call after a step (each vessel asks once per step: one pass instead of one per
-        vessel, :meth:`_report_columns`); each call makes its vessel's objects from them."""
+        bank order. Every vessel's confirmed estimates are made at once, on the first call after a
+        step (each vessel asks at least once per step — again after comms, between steps: one pass
+        instead of one per vessel and call, :meth:`_report_columns`, :meth:`_report_estimates`);
+        each call hands on its vessel's objects (frozen: the same until the next step) in a new list."""
         if include_tentative:
             return self._estimates_of(self.rows_of(owner))
-        cols = self._reports
-        if cols is None:
-            cols = self._reports = self._report_columns()
-        span = cols[0].get(owner)
+        made = self._reports
+        if made is None:
+            made = self._reports = self._report_estimates(self._report_columns())
+        span = made[0].get(owner)
         if span is None:
             return []
-        a, b = span
-        _, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow = cols
-        pos, radius = pos[a:b], radius[a:b]
-        outline = self.outlines.outline  # (= self.outline(k): pos, radius are row k's)
-        outlines = [outline(k, pos[j], radius[j]) if lk else None
-                    for j, (k, lk) in enumerate(zip(k_rows[a:b], slow[a:b]))]
-        return track_estimate_rows(ids[a:b], t[a:b], pos, th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b], static[a:b],
-                                   team[a:b], outlines, repeat(None, b - a))
+        return made[1][span[0]:span[1]]
+
+    def _report_estimates(self, cols: tuple) -> tuple:
+        """({owner: (first, end)}, the TrackEstimate of every vessel's confirmed tracks, grouped by
+        vessel) from the columns ``cols`` (:meth:`_report_columns`). A slow track's outline is
+        :meth:`~mjasc.perception.tracking.outlines.TrackOutlines.pending`: made on first read."""
+        if len(cols) == 1:
+            return cols[0], []
+        spans, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow = cols
+        pending = self.outlines.pending  # (= self.outline(k) on first read: pos, radius are row k's)
+        outlines = [pending(k, pos[j], radius[j]) if lk else None for j, (k, lk) in enumerate(zip(k_rows, slow))]
+        return spans, track_estimate_rows(ids, t, pos, th, v, w, radius_l, P, static, team, outlines,
+                                          repeat(None, len(k_rows)))
 
     def _report_columns(self) -> tuple:
         """What :meth:`estimates` hands on, for every vessel's confirmed tracks, grouped by vessel

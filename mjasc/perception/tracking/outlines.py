@@ -19,11 +19,12 @@ import math
 import numpy as np
 
 from mjasc.core.compiled import kernel
+from mjasc.core.estimates import Pending
 from mjasc.core.geometry import circle_polygon, convex_hull
 from mjasc.core.polygon_kernels import canonical_hull
 from mjasc.perception.tracking.config import TrackingConfig
 
-__all__ = ["TrackOutlines"]
+__all__ = ["TrackOutlines", "outline_at"]
 
 
 class TrackOutlines:
@@ -90,14 +91,26 @@ class TrackOutlines:
         made = self._made.get(row)
         if made is not None and made[0] is h and made[1:4] == (x, y, r):  # asked again between updates
             return made[4].copy()
-        if h is None or h.shape[0] < 2:
-            out = circle_polygon(c, radius, 12)  # the 12-gon circumscribing the disc
-        else:
-            out, hulled = reflected_hull(h, x, y)  # (convex_hull(np.vstack([h, 2.0 * c - h])), compiled)
-            if not hulled:
-                out = convex_hull(out)
+        out = outline_at(h, x, y, r)
         self._made[row] = (h, x, y, r, out)
         return out.copy()
+
+    def pending(self, row: int, centre, radius: float) -> Pending:
+        """:meth:`outline` of the track in ``row`` as a :class:`~mjasc.core.estimates.Pending`
+        value: made on first read (only a prediction reads a track's outline; the tracker hands one
+        on for every slow track at every step). It holds the row's hull now — a hull is replaced,
+        never changed in place — and the centre's coordinates and the radius as numbers."""
+        return Pending(outline_at, self._hull[row], float(centre[0]), float(centre[1]), float(radius))
+
+
+def outline_at(hull, x: float, y: float, radius: float) -> np.ndarray:
+    """(k, 2) CCW outline [m]: the hull (h, 2) [m] (or None) united with its reflection through
+    the centre (x, y) [m], or — without a hull of two points — the 12-gon circumscribing the disc
+    of this radius [m] about the centre."""
+    if hull is None or hull.shape[0] < 2:
+        return circle_polygon((x, y), radius, 12)  # the 12-gon circumscribing the disc
+    out, hulled = reflected_hull(hull, x, y)  # (convex_hull(np.vstack([h, 2.0 * c - h])), compiled)
+    return out if hulled else convex_hull(out)
 
 
 _NO_HULL = np.zeros((0, 2))
