@@ -41,11 +41,11 @@ def plan_offsets(horizon_s: float, step_s: float) -> np.ndarray:
 
 @kernel
 def _clip(v, lo, hi):
-    """numpy's clip for one float: min(max(v, lo), hi), NaN propagating (the bound wins ties)."""
+    """numpy's clip for one float: min(max(v, lo), hi), NaN propagating (the value wins ties: −0.0 stays −0.0)."""
     if v != v:
         return v
-    v = v if v > lo else lo
-    return v if v < hi else hi
+    v = lo if v < lo else v
+    return hi if v > hi else v
 
 
 @kernel

@@ -78,6 +78,7 @@ from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, t
 from mjasc.avoidance.structure import detour_onto_structure, structure_tracks
 from mjasc.avoidance.team_mates import PlannedTrack, TeamMates
 from mjasc.avoidance.triage import swept, triage
+from mjasc.core.compiled import clip_float
 from mjasc.core.frames import wrap_angle
 from mjasc.guidance.paths import Path
 from mjasc.guidance.state import GuidanceState
@@ -363,12 +364,13 @@ class CollisionAvoidance(AvoidanceMethod):
         if guidance is None:  # no path follower: it intends to stay where it is
             return times, np.tile(np.asarray(nav.position_m, dtype=float)[:2], (times.size, 1))
         path = guidance.path
-        g0 = float(np.clip(guidance.gamma_m, 0.0, path.length))
         if type(self).planned_gamma is CollisionAvoidance.planned_gamma:  # the compiled form, the same bits
+            g0 = clip_float(float(guidance.gamma_m), 0.0, path.length)
             fast = planned_points(path, t, g0, _correction_terms(self.correction, t, guidance.mission_speed_m_s),
                                   plan_offsets(float(horizon_s), float(step_s)), nav.position_m)
             if fast is not None:
                 return fast
+        g0 = float(np.clip(guidance.gamma_m, 0.0, path.length))
         g = np.clip(gamma_of_time(self.planned_gamma(t, g0, guidance.mission_speed_m_s), g0, t)(times), 0.0, path.length)
         pts = np.asarray(path.point(g), dtype=float).reshape(-1, 2)
         off = np.asarray(nav.position_m, dtype=float)[:2] - pts[0]
