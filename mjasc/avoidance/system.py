@@ -187,7 +187,8 @@ def _correction_profile(correction: Correction | None, t_now: float, gamma_now: 
 
 def _correction_terms(correction: Correction | None, t_now: float, mission_speed_m_s: float) -> tuple:
     """The numbers of :func:`_correction_profile`: ``(0, v_m)`` without a correction, else
-    ``(1, V_d, span, v_m, t_start)`` for γ(t) = γ_now + V_d·clip(t − t_now, 0, span) + v_m·max(t − t_start, 0)."""
+    ``(1, V_d, span, v_m, t_start)`` for
+    γ(t) = γ_now + V_d·clip(t − t_now, 0, span) + v_m·max(t − t_start, 0)."""
     v_m = float(mission_speed_m_s)
     if correction is None:
         return 0, v_m
