@@ -66,6 +66,7 @@ import numpy as np
 
 from mjasc.avoidance.config import AvoidanceConfig, check_avoidance, parse_avoidance_options
 from mjasc.avoidance.decision import Correction, emergency_yield, velocity_correction_for
+from mjasc.avoidance.intent_plan import plan_offsets, planned_points
 from mjasc.avoidance.lane_change import plan_lane_change
 from mjasc.avoidance.prediction import (PredictedConflict, PredictionQuery, TrackMotions, gamma_of_time,
                                         predict_fleet)
@@ -77,6 +78,7 @@ from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, t
 from mjasc.avoidance.structure import detour_onto_structure, structure_tracks
 from mjasc.avoidance.team_mates import PlannedTrack, TeamMates
 from mjasc.avoidance.triage import swept, triage
+from mjasc.core.compiled import clip_float
 from mjasc.core.frames import wrap_angle
 from mjasc.guidance.paths import Path
 from mjasc.guidance.state import GuidanceState
@@ -171,16 +173,27 @@ def _outlines(tracks) -> dict:
 def _correction_profile(correction: Correction | None, t_now: float, gamma_now: float, mission_speed_m_s: float):
     """γ(t) [m] for t ≥ t_now under ``correction``: its V_d until its goal time, the mission speed
     after; None → the mission speed [m/s] itself (a constant profile)."""
-    v_m = float(mission_speed_m_s)
-    if correction is None:
-        return v_m
-    t_g, v_d = correction.law.t_goal, max(correction.law.desired_speed, 0.0)
+    terms = _correction_terms(correction, t_now, mission_speed_m_s)
+    if terms[0] == 0:
+        return terms[1]
+    _, v_d, span, v_m, t_start = terms
 
     def gamma_fn(t):
         t = np.asarray(t, dtype=float)
-        return gamma_now + v_d * np.clip(t - t_now, 0.0, max(t_g - t_now, 0.0)) + v_m * np.maximum(t - max(t_g, t_now), 0.0)
+        return gamma_now + v_d * np.clip(t - t_now, 0.0, span) + v_m * np.maximum(t - t_start, 0.0)
 
     return gamma_fn
+
+
+def _correction_terms(correction: Correction | None, t_now: float, mission_speed_m_s: float) -> tuple:
+    """The numbers of :func:`_correction_profile`: ``(0, v_m)`` without a correction, else
+    ``(1, V_d, span, v_m, t_start)`` for
+    γ(t) = γ_now + V_d·clip(t − t_now, 0, span) + v_m·max(t − t_start, 0)."""
+    v_m = float(mission_speed_m_s)
+    if correction is None:
+        return 0, v_m
+    t_g, v_d = correction.law.t_goal, max(correction.law.desired_speed, 0.0)
+    return 1, v_d, max(t_g - t_now, 0.0), v_m, max(t_g, t_now)
 
 
 _TRACK_ID = attrgetter("track_id")
@@ -352,6 +365,12 @@ class CollisionAvoidance(AvoidanceMethod):
         if guidance is None:  # no path follower: it intends to stay where it is
             return times, np.tile(np.asarray(nav.position_m, dtype=float)[:2], (times.size, 1))
         path = guidance.path
+        if type(self).planned_gamma is CollisionAvoidance.planned_gamma:  # the compiled form, the same bits
+            g0 = clip_float(float(guidance.gamma_m), 0.0, path.length)
+            fast = planned_points(path, t, g0, _correction_terms(self.correction, t, guidance.mission_speed_m_s),
+                                  plan_offsets(float(horizon_s), float(step_s)), nav.position_m)
+            if fast is not None:
+                return fast
         g0 = float(np.clip(guidance.gamma_m, 0.0, path.length))
         g = np.clip(gamma_of_time(self.planned_gamma(t, g0, guidance.mission_speed_m_s), g0, t)(times), 0.0, path.length)
         pts = np.asarray(path.point(g), dtype=float).reshape(-1, 2)

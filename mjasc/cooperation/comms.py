@@ -378,17 +378,21 @@ class CommsNetwork:
         """:meth:`_decide` for one receiver's segment ``seg`` at ``receiver_position`` (the same
         operations on that receiver's pairs, the same draws)."""
         r, receiver, _, k0, k1 = seg
-        senders = np.array(self._log_sender[k0:k1], dtype=np.intp)
-        keep = (senders != r) if self._everyone else self._hears_matrix[r, senders]
-        m = int(np.count_nonzero(keep))
+        # The pairs it hears, picked in plain lists (the logged values themselves, in log order).
+        log_s = self._log_sender
+        if self._everyone:
+            ks = [k for k in range(k0, k1) if log_s[k] != r]
+        else:
+            hears = self._hears_matrix[r].tolist()
+            ks = [k for k in range(k0, k1) if hears[log_s[k]]]
+        m = len(ks)
         if not m:
             return
-        pick = None if m == k1 - k0 else np.flatnonzero(keep)
-        x = np.array(self._log_x[k0:k1])
-        y = np.array(self._log_y[k0:k1])
-        times = np.array(self._log_time[k0:k1])
-        if pick is not None:
-            senders, x, y, times = senders[pick], x[pick], y[pick], times[pick]
+        senders = [log_s[k] for k in ks]
+        log_x, log_y, log_t = self._log_x, self._log_y, self._log_time
+        x = np.array([log_x[k] for k in ks])
+        y = np.array([log_y[k] for k in ks])
+        times = np.array([log_t[k] for k in ks])
         cfg, stats = self.config, self.link[receiver]
         pos = np.asarray(receiver_position, dtype=float).reshape(-1)
         d = np.hypot(x - pos[0], y - pos[1])
@@ -397,20 +401,21 @@ class CommsNetwork:
         lost = out_of_range | (u[:, 0] < cfg.loss_at(d))
         arrival = times + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u[:, 1] * cfg.jitter_s
         stats.offered += m
-        np.add.at(self._pair_offered[:, r], senders, 1)
+        offered = self._pair_offered  # np.add.at's additions one by one, in message order
+        for s in senders:
+            offered[s, r] += 1
         lost_l = lost.tolist()
         n_lost = sum(lost_l)
         stats.lost += n_lost
-        stats.lost_out_of_range += int(np.count_nonzero(out_of_range))
-        ks = range(k0, k1) if pick is None else (pick + k0).tolist()
-        team, base, log_t, log_p = self.team, self._base, self._log_time, self._log_payload
+        stats.lost_out_of_range += sum(out_of_range.tolist())
+        team, base, log_p = self.team, self._base, self._log_payload
         if self._outcomes is not None:
             self._outcomes += [LinkOutcome(team[s], receiver, log_t[k], float("nan") if gone else a, gone)
-                               for k, s, a, gone in zip(ks, senders.tolist(), arrival.tolist(), lost_l)]
+                               for k, s, a, gone in zip(ks, senders, arrival.tolist(), lost_l)]
         if n_lost == m:
             return
         items = [(a, base + k, s, log_t[k], log_p[k])
-                 for k, s, a, gone in zip(ks, senders.tolist(), arrival.tolist(), lost_l) if not gone]
+                 for k, s, a, gone in zip(ks, senders, arrival.tolist(), lost_l) if not gone]
         pending = self._pending[receiver]
         # kept sorted by (arrival, id) (unique: the payloads are never compared)
         pending[:] = sorted(pending + items) if pending else sorted(items)

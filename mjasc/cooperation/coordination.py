@@ -58,7 +58,7 @@ import numpy as np
 from mjasc.cooperation.comms import CommsNetwork
 from mjasc.cooperation.link import LinkEndpoint
 from mjasc.cooperation.messages import TeamIntention, TeamMessage, TeamPicture
-from mjasc.core.compiled import kernel, maximum, minimum
+from mjasc.core.compiled import clip_float, kernel, maximum, minimum
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 from mjasc.plugins.stages import CoordinationMethod
 
@@ -133,6 +133,18 @@ def _sum(values) -> float:
     for v in values:
         acc += v
     return acc
+
+
+def _error_floats(xis: list, own: float, l_bar: float):
+    """``coordination_error``'s numbers from a few ξ̂_j in plain floats: (Σ d, mean d, spread) with
+    d_j = L̄ (ξ_own − ξ̂_j), as numpy's sum, mean, max and min give them; None when a ξ̂_j is 0 or NaN
+    (numpy's max / min pick among ±0 and NaN by their own rule: the caller asks numpy)."""
+    for x in xis:
+        if x != x or x == 0.0:
+            return None
+    d = [l_bar * (own - x) for x in xis]
+    total = _sum(d)
+    return float(total), float(total / len(d)), float(l_bar * (max(own, max(xis)) - min(own, min(xis))))
 
 
 def _law_terms(msg) -> tuple | None:
@@ -298,7 +310,7 @@ class Coordination(CoordinationMethod):
         if plan is not None:
             kw["plan_times_s"], kw["plan_points_m"] = plan
         if self.path_length_m is not None:
-            g = float(np.clip(gamma_m, 0.0, self.path_length_m))
+            g = clip_float(float(gamma_m), 0.0, self.path_length_m)
             chi = float(self.path.tangent_angle(g))
             along = float(np.dot(nav.velocity_m_s[:2], (np.cos(chi), np.sin(chi))))
             kw.update(gamma_m=float(gamma_m), path_length_m=self.path_length_m, xi=self.xi(gamma_m),
@@ -370,6 +382,14 @@ class Coordination(CoordinationMethod):
         its neighbours, spread = L̄ (max − min) of {ξ_i, ξ̂_j} the formation's extent, |N_i|)."""
         if self.path_length_m is None:
             return 0.0, 0.0, 0.0, 0
+        view = self._team_view()
+        if view.arrays is None:  # below 8 neighbours: the same numbers in plain floats
+            xis = view.xi_hat(t_s, self.config.extrapolate)
+            if not xis:
+                return 0.0, 0.0, 0.0, 0
+            got = _error_floats(xis, self.xi(gamma_m), view.l_bar)
+            if got is not None:
+                return (*got, len(xis))
         xis, l_bar, _ = self._estimates(t_s)
         if not len(xis):
             return 0.0, 0.0, 0.0, 0

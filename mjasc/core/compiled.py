@@ -33,7 +33,7 @@ import numba
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["kernel", "fma", "maximum", "minimum"]
+__all__ = ["kernel", "fma", "maximum", "minimum", "clip_float"]
 
 
 def kernel(fn):
@@ -59,6 +59,16 @@ def minimum(a, b):
     if b != b:
         return b
     return a if a <= b else b
+
+
+def clip_float(v: float, lo: float, hi: float) -> float:
+    """``float(np.clip(v, lo, hi))`` for Python floats without numpy's call (plain Python, not a
+    kernel): numpy's clip loop, min(max(v, lo), hi) with NaN propagating and the value winning
+    ties (−0.0 stays −0.0)."""
+    if v != v:
+        return v
+    v = lo if v < lo else v
+    return hi if v > hi else v
 
 
 @intrinsic
