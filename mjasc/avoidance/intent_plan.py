@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.core.compiled import kernel, maximum
+from mjasc.core.compiled import kernel, maximum, search_right
 from mjasc.guidance.paths import _SCALAR_SEGMENTS, Path
 from mjasc.guidance.segment_geometry import COS0, K, SIN0, TH0, X0, Y0
 
@@ -68,14 +68,7 @@ def _plan_angles(t, base, g0, mode, a, b, c, d, length, cum, table, times, s_out
         if g != g:  # searchsorted sorts NaN last
             j = n_seg - 1
         else:
-            lo, hi = 0, cum.size
-            while lo < hi:
-                mid = (lo + hi) >> 1
-                if cum[mid] <= g:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            j = min(max(lo - 1, 0), n_seg - 1)
+            j = min(max(search_right(cum, g, 0, cum.size) - 1, 0), n_seg - 1)
         s = g - cum[j]
         idx_out[i] = j
         s_out[i] = s

@@ -33,7 +33,7 @@ import numba
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["kernel", "fma", "maximum", "minimum", "clip_float"]
+__all__ = ["kernel", "fma", "maximum", "minimum", "clip_float", "search_right"]
 
 
 def kernel(fn):
@@ -43,22 +43,39 @@ def kernel(fn):
 
 @kernel
 def maximum(a, b):
-    """``np.maximum`` of two floats inside a kernel (NaN propagates, the first operand wins ties)."""
+    """``np.maximum`` of two floats inside a kernel: NaN propagates (the first NaN), and on a tie the
+    second operand, as numpy's loop does (``np.maximum(0.0, -0.0)`` is −0.0)."""
     if a != a:
         return a
     if b != b:
         return b
-    return a if a >= b else b
+    return a if a > b else b
 
 
 @kernel
 def minimum(a, b):
-    """``np.minimum`` of two floats inside a kernel (NaN propagates, the first operand wins ties)."""
+    """``np.minimum`` of two floats inside a kernel: NaN propagates (the first NaN), and on a tie the
+    second operand, as numpy's loop does (``np.minimum(0.0, -0.0)`` is −0.0)."""
     if a != a:
         return a
     if b != b:
         return b
-    return a if a <= b else b
+    return a if a < b else b
+
+
+@kernel
+def search_right(a, x, lo, hi):
+    """``lo + np.searchsorted(a[lo:hi], x, side="right")`` inside a kernel: the first index in
+    [lo, hi) whose value is > x (hi when none), ``a`` sorted ascending; NaN is greater than every
+    number, as numpy sorts it; a NaN ``x`` is not looked for (it gives ``lo``, where numpy gives
+    ``hi``: callers handle NaN first)."""
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if a[mid] <= x:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
 
 def clip_float(v: float, lo: float, hi: float) -> float:

@@ -33,7 +33,7 @@ from typing import Sequence
 
 import numpy as np
 
-from mjasc.core.compiled import kernel
+from mjasc.core.compiled import kernel, search_right
 from mjasc.core.estimates import PlannedTrack, TrackEstimate
 
 __all__ = ["TrackMotions", "intention_positions"]
@@ -285,13 +285,7 @@ def _plan_positions(plans, t, ts, xs, ys, start, count, t_first, t_last, anchor,
             out[i, 0] = p_last[p, 0] + dt * v_end[p, 0]
             out[i, 1] = p_last[p, 1] + dt * v_end[p, 1]
         else:
-            lo, hi = start[p], start[p] + count[p]  # the first knot > ti lies in [lo, hi]
-            while lo < hi:
-                mid = (lo + hi) >> 1
-                if ts[mid] <= ti:
-                    lo = mid + 1
-                else:
-                    hi = mid
+            lo = search_right(ts, ti, start[p], start[p] + count[p])  # the first knot > ti
             j = min(max(lo - 1, start[p]), start[p] + count[p] - 2)
             dt, dtt = ts[j + 1] - ts[j], ti - ts[j]
             out[i, 0] = (xs[j + 1] - xs[j]) / dt * dtt + xs[j]
@@ -329,14 +323,7 @@ def _intention_positions(ts, pts, position, sent_time_s, velocity, times, out):
             out[i, 0] = pts[k - 1, 0]
             out[i, 1] = pts[k - 1, 1]
         else:
-            lo, hi = 0, k  # the last knot ≤ t
-            while lo < hi:
-                mid = (lo + hi) >> 1
-                if ts[mid] <= t:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            j = lo - 1
+            j = search_right(ts, t, 0, k) - 1  # the last knot ≤ t
             if ts[j] == t:
                 out[i, 0] = pts[j, 0]
                 out[i, 1] = pts[j, 1]
