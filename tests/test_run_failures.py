@@ -181,6 +181,26 @@ def test_a_failed_run_exits_1(tmp_path, capsys, monkeypatch):
     assert summary["status"] == "error" and "a component broke" in summary["error"]
 
 
+def test_a_signal_inside_a_compiled_call_counts_as_an_interrupt(tmp_path, capsys, monkeypatch):
+    """Ctrl-C while a numba kernel's result is converted surfaces as SystemError("… returned a
+    result with an exception set") caused by the KeyboardInterrupt: an interrupt (exit 130), not
+    a failure (seen in CI: SIGINT during detect_clusters)."""
+    from mjasc.runs import runner as runner_module
+
+    def interrupted_kernel(self, *a, **k):
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt as ki:
+            raise SystemError("CPUDispatcher(<function k>) returned a result with an exception set") from ki
+
+    monkeypatch.setattr(runner_module.Runner, "_control", interrupted_kernel)
+    code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(tmp_path / "o"), "--no-progress",
+                     "--duration", "2")
+    assert code == 130 and "interrupted at t = 0.000 s (SIGINT)" in err
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and summary["error"].endswith("(SIGINT)")
+
+
 def test_campaign_rejects_an_out_under_a_file_before_running(tmp_path, capsys):
     (tmp_path / "file").write_text("x")
     code, err = _cli(capsys, "campaign", "demo_monte_carlo", "--out", str(tmp_path / "file" / "out"), "--runs", "1",

@@ -29,6 +29,8 @@ import math
 
 import numpy as np
 
+from mjasc.core.compiled import clip_float
+
 __all__ = ["FIELDS", "segment_table", "eval_points", "closest_candidates", "pick_closest", "wrap_scalar",
            "clip_scalar", "point_scalar", "closest_scalar"]
 
@@ -127,10 +129,8 @@ def pick_closest(d2: np.ndarray, gam: np.ndarray, length_m):
 
 
 # ------------------------------------------------------------------ one point, plain float math
-def clip_scalar(v: float, lo: float, hi: float) -> float:
-    """numpy's clip for floats: min(max(v, lo), hi)."""
-    v = v if v > lo else lo
-    return v if v < hi else hi
+#: numpy's clip for one float (NaN propagates, the value wins ties: −0.0 clipped to [0, …] stays −0.0).
+clip_scalar = clip_float
 
 
 def wrap_scalar(a: float) -> float:

@@ -7,6 +7,10 @@ so the runner handles both alike — it closes the recording and writes the summ
 ``interrupted``). Signals can only be handled in the main thread: elsewhere (a Dask worker's
 thread) nothing is installed. SIGKILL cannot be handled: the files then stay under their
 temporary names (:mod:`mjasc.runs.outputs`), never half-written under their own.
+
+A signal that arrives while a compiled kernel's result is being converted back to Python objects
+surfaces as the ``SystemError`` "returned a result with an exception set", the interrupt as its
+context: :func:`interrupt_behind` finds it, and the run counts as interrupted, not failed.
 """
 
 from __future__ import annotations
@@ -14,7 +18,7 @@ from __future__ import annotations
 import signal
 import threading
 
-__all__ = ["Terminated", "catch_sigterm", "restore_sigterm", "signal_name"]
+__all__ = ["Terminated", "catch_sigterm", "restore_sigterm", "signal_name", "interrupt_behind"]
 
 
 class Terminated(KeyboardInterrupt):
@@ -42,3 +46,15 @@ def restore_sigterm(previous) -> None:
 def signal_name(exc: KeyboardInterrupt) -> str:
     """``"SIGTERM"`` for :class:`Terminated`, ``"SIGINT"`` for any other KeyboardInterrupt."""
     return "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
+
+
+def interrupt_behind(exc: BaseException) -> KeyboardInterrupt | None:
+    """The ``KeyboardInterrupt`` (Ctrl-C or :class:`Terminated`) that ``exc`` was raised from or
+    while handling (its ``__cause__`` / ``__context__`` chain), or None."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None

@@ -49,7 +49,7 @@ from mjasc.runs.agent import build_agent
 from mjasc.runs.blueprint import OTHERS, view_vessels
 from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
-from mjasc.runs.interrupts import catch_sigterm, restore_sigterm, signal_name
+from mjasc.runs.interrupts import catch_sigterm, interrupt_behind, restore_sigterm, signal_name
 from mjasc.runs.outputs import atomic_target, atomic_write_text
 from mjasc.runs.record_kernels import record_rows
 from mjasc.runs.scenario import Scenario
@@ -454,11 +454,16 @@ class Runner:
             if self.recorder:
                 self.recorder.event(sim.time_s, error, "WARN")
         except Exception as exc:  # noqa: BLE001 - a failed run still leaves its summary and recording
-            tb = traceback.extract_tb(exc.__traceback__)
-            where = f" ({tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno})" if tb else ""
-            status, error = "error", f"{type(exc).__name__} at t = {sim.time_s:.3f} s: {exc}{where}"
-            if self.recorder:
-                self.recorder.event(sim.time_s, error, "ERROR")
+            if (stop := interrupt_behind(exc)) is not None:  # a signal inside a compiled call (interrupts)
+                status, error = "interrupted", f"interrupted at t = {sim.time_s:.3f} s ({signal_name(stop)})"
+                if self.recorder:
+                    self.recorder.event(sim.time_s, error, "WARN")
+            else:
+                tb = traceback.extract_tb(exc.__traceback__)
+                where = f" ({tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno})" if tb else ""
+                status, error = "error", f"{type(exc).__name__} at t = {sim.time_s:.3f} s: {exc}{where}"
+                if self.recorder:
+                    self.recorder.event(sim.time_s, error, "ERROR")
         finally:
             resume_collector(collector)
             restore_sigterm(previous)
