@@ -730,41 +730,23 @@ def _appended_rows(s, P, mu, x, n0, mu0, sp, ids, t, Pc, n_gated, reasons, new_i
     reasons) each a new array with the k rows appended (new_ids, new_t, Pp, 0, 0), and whether every
     new t equals the first."""
     k = new_t.size
-    r = s.shape[1]
-    for j in range(k):
-        i = n0 + j
-        for a in range(r):
-            mu[i, a] = mu0[a]
-            for b in range(4):
-                s[i, a, b] = 0.0
-                for c in range(4):
-                    P[i, a, b, c] = 0.0
-        for b in range(4):
-            x[i, b] = sp[j, b]
+    mu[n0:n0 + k] = mu0
+    s[n0:n0 + k] = 0.0
+    P[n0:n0 + k] = 0.0
+    x[n0:n0 + k] = sp
     m = n0 + k
     ids2 = np.empty(m, dtype=np.int64)
     t2 = np.empty(m)
     Pc2 = np.empty((m, 4, 4))
     g2 = np.empty(m, dtype=np.int64)
     r2 = np.empty(m, dtype=np.int8)
-    for i in range(n0):
-        ids2[i] = ids[i]
-        t2[i] = t[i]
-        g2[i] = n_gated[i]
-        r2[i] = reasons[i]
-        for a in range(4):
-            for b in range(4):
-                Pc2[i, a, b] = Pc[i, a, b]
+    ids2[:n0], ids2[n0:] = ids[:n0], new_ids
+    t2[:n0], t2[n0:] = t[:n0], new_t
+    Pc2[:n0], Pc2[n0:] = Pc[:n0], Pp
+    g2[:n0], g2[n0:] = n_gated[:n0], 0
+    r2[:n0], r2[n0:] = reasons[:n0], 0
     one_time = True
     for j in range(k):
-        i = n0 + j
-        ids2[i] = new_ids[j]
-        t2[i] = new_t[j]
-        g2[i] = 0
-        r2[i] = 0
-        for a in range(4):
-            for b in range(4):
-                Pc2[i, a, b] = Pp[j, a, b]
         if new_t[j] != new_t[0]:
             one_time = False
     return ids2, t2, Pc2, g2, r2, one_time

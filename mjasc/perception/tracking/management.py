@@ -260,8 +260,7 @@ def appended_rows(hist, scans, n_upd, confirmed, static, born, last, radius, anc
     iff ``confirm_now``, born and last updated at t (k,) [s], radius r_new (k,) [m], no anchor, not
     static, not moved."""
     n = hist.size
-    k = t.size
-    m = n + k
+    m = n + t.size
     out_hist = np.empty(m, dtype=np.int64)
     out_scans = np.empty(m, dtype=np.int64)
     out_n_upd = np.empty(m, dtype=np.int64)
@@ -273,33 +272,17 @@ def appended_rows(hist, scans, n_upd, confirmed, static, born, last, radius, anc
     out_anchor = np.empty((m, 2))
     out_anchored = np.empty(m, dtype=np.bool_)
     out_moved = np.empty(m, dtype=np.bool_)
-    for i in range(n):
-        out_hist[i] = hist[i]
-        out_scans[i] = scans[i]
-        out_n_upd[i] = n_upd[i]
-        out_conf[i] = confirmed[i]
-        out_static[i] = static[i]
-        out_born[i] = born[i]
-        out_last[i] = last[i]
-        out_radius[i] = radius[i]
-        out_anchor[i, 0] = anchor[i, 0]
-        out_anchor[i, 1] = anchor[i, 1]
-        out_anchored[i] = anchored[i]
-        out_moved[i] = moved[i]
-    for j in range(k):
-        i = n + j
-        out_hist[i] = 1
-        out_scans[i] = 1
-        out_n_upd[i] = 1
-        out_conf[i] = confirm_now
-        out_static[i] = False
-        out_born[i] = t[j]
-        out_last[i] = t[j]
-        out_radius[i] = r_new[j]
-        out_anchor[i, 0] = 0.0
-        out_anchor[i, 1] = 0.0
-        out_anchored[i] = False
-        out_moved[i] = False
+    out_hist[:n], out_hist[n:] = hist, 1
+    out_scans[:n], out_scans[n:] = scans, 1
+    out_n_upd[:n], out_n_upd[n:] = n_upd, 1
+    out_conf[:n], out_conf[n:] = confirmed, confirm_now
+    out_static[:n], out_static[n:] = static, False
+    out_born[:n], out_born[n:] = born, t
+    out_last[:n], out_last[n:] = last, t
+    out_radius[:n], out_radius[n:] = radius, r_new
+    out_anchor[:n], out_anchor[n:] = anchor, 0.0
+    out_anchored[:n], out_anchored[n:] = anchored, False
+    out_moved[:n], out_moved[n:] = moved, False
     return (out_hist, out_scans, out_n_upd, out_conf, out_static, out_born, out_last, out_radius, out_anchor,
             out_anchored, out_moved)
 
