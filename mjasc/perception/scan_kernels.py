@@ -85,23 +85,15 @@ def scan_returns(dist, gid, noise_std_m, normals, dropout_probability, uniforms,
                 hit[b] = True
                 g[b] = clutter_geom
     ranges = np.empty(n)
-    m = 0
     for i in range(n):
         h = hit[i] and d[i] >= min_range_m and d[i] <= max_range_m
         hit[i] = h
         if h:
             ranges[i] = d[i]
-            m += 1
         else:
             ranges[i] = max_range_m
             g[i] = -1
-    beams = np.empty(m, dtype=np.int64)
-    m = 0
-    for i in range(n):
-        if hit[i]:
-            beams[m] = i
-            m += 1
-    return ranges, hit, g, beams
+    return ranges, hit, g, np.nonzero(hit)[0]
 
 
 @kernel

@@ -136,16 +136,7 @@ def admissible_pairs(inside, q, i, j, start, n_b):
         if inside[c] and not hard[q[c]]:
             easy[m] = c
             m += 1
-    n_hard = 0
-    for b in range(nq):
-        n_hard += hard[b]
-    blocks = np.empty(n_hard, dtype=np.int64)
-    m2 = 0
-    for b in range(nq):
-        if hard[b]:
-            blocks[m2] = b
-            m2 += 1
-    return easy[:m], blocks
+    return easy[:m], np.nonzero(hard)[0]
 
 
 @kernel
