@@ -37,9 +37,10 @@ import numpy as np
 from mjasc.core.compiled import kernel
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.config import IMMConfig
-from mjasc.perception.imm.compiled_cycle import combine_covariance, imm_cycle, turn_rate, wrap
+from mjasc.perception.imm.compiled_cycle import imm_cycle, turn_rate, wrap
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
+from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS, combine_covariance_rows, row_fields
 from mjasc.perception.imm.startup import StartupFilters, cv_to_polar
 
 logger = logging.getLogger("mjasc.perception.imm")
@@ -113,6 +114,7 @@ class IMMBank(PredictiveDensity):
         r = config.n_models
         self._r = r
         self._omega = np.asarray(config.turn_rates_rad_s, dtype=float)
+        self._compiled_fields = r <= SEQUENTIAL_MODELS  # row_fields' ω̂ sums as numpy does
         mu0 = (
             np.full(r, 1.0 / r)
             if config.initial_mode_probabilities is None
@@ -361,10 +363,7 @@ class IMMBank(PredictiveDensity):
     def _covariances(self) -> np.ndarray:
         """(n, 4, 4) combined covariances, computed on first read after a cycle."""
         if self._Pc_stale:
-            Pc = np.empty_like(self._Pc)
-            combine_covariance(self._s, self._P, self._mu, Pc)
-            full = ~self._startup.active
-            self._Pc[full] = Pc[full]
+            combine_covariance_rows(self._s, self._P, self._mu, self._startup.active, self._Pc)
             self._Pc_stale = False
         return self._Pc
 
@@ -637,6 +636,10 @@ class IMMBank(PredictiveDensity):
         """What :meth:`estimate` reads, for the tracks ``rows`` at once: times (k,) [s], positions
         (k, 2) [m], courses (k,) in (−π, π], speeds (k,) [m/s], ω̂ (k,) [rad/s], position
         covariances (k, 2, 2) [m²] (the same numbers as :meth:`estimate`)."""
+        if self._compiled_fields and type(rows) is np.ndarray and rows.dtype == np.int64:  # one compiled pass
+            t, xs, th, w, P = row_fields(rows, self._x, self._t, self._mu, self._omega, self._startup.active,
+                                         self._covariances(), False)
+            return t, xs[:, :2], th, xs[:, 3], w, P
         x = self._x[rows]
         w = np.where(self._startup.active[rows], 0.0, turn_rate(self._mu[rows], self._omega))
         return self._t[rows], x[:, :2], wrap(x[:, 2]), x[:, 3], w, self._covariances()[rows, :2, :2]
@@ -655,6 +658,10 @@ class IMMBank(PredictiveDensity):
         """What predicting the tracks ``rows`` needs, at once: combined states (k, 4) [x, y, θ, V]
         (θ in (−π, π]), covariances (k, 4, 4), times (k,) [s] and ω̂ (k,) [rad/s] (the numbers of
         ``states``, ``state_covariances``, ``times_s`` and ``turn_rates`` at those rows)."""
+        if self._compiled_fields and type(rows) is np.ndarray and rows.dtype == np.int64:  # one compiled pass
+            t, xs, _, w, P = row_fields(rows, self._x, self._t, self._mu, self._omega, self._startup.active,
+                                        self._covariances(), True)
+            return xs, P, t, w
         w = np.where(self._startup.active[rows], 0.0, turn_rate(self._mu[rows], self._omega))
         return self.states_of(rows), self._covariances()[rows], self._t[rows], w
 

@@ -61,7 +61,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["wrap", "imm_cycle", "position_update", "combine_covariance", "turn_rate"]
+__all__ = ["wrap", "imm_cycle", "position_update", "combine_covariance", "combine_row", "turn_rate"]
 
 _TWO_PI = 2.0 * math.pi
 
@@ -226,21 +226,28 @@ def imm_cycle(s, P, mu, markov, dt, dt_omega, q, z, var, use, floor, gate, s_out
 
 
 @kernel
+def combine_row(k, s, P, mu, x, out):
+    """Step 6, covariance, of row k into out[k]: Σ_j μ_j P_j + Σ_j μ_j (s_j − s)(s_j − s)ᵀ, s = Σ_j μ_j s_j
+    (into the scratch x (4,)) with θ in the track's common chart."""
+    r = mu.shape[1]
+    for a in range(4):
+        acc = 0.0
+        for j in range(r):
+            acc += mu[k, j] * s[k, j, a]
+        x[a] = acc
+    for a in range(4):
+        for b in range(a, 4):
+            acc, spread = 0.0, 0.0
+            for j in range(r):
+                acc += mu[k, j] * P[k, j, a, b]
+                spread += (s[k, j, a] - x[a]) * (mu[k, j] * (s[k, j, b] - x[b]))
+            out[k, a, b] = out[k, b, a] = acc + spread
+
+
+@kernel
 def combine_covariance(s, P, mu, out):
     """Step 6, covariance, per row: out[k] = Σ_j μ_j P_j + Σ_j μ_j (s_j − s)(s_j − s)ᵀ (n, 4, 4),
-    s = Σ_j μ_j s_j with θ in the track's common chart."""
-    n, r = mu.shape
+    s = Σ_j μ_j s_j with θ in the track's common chart (:func:`combine_row`)."""
     x = np.empty(4)
-    for k in range(n):
-        for a in range(4):
-            acc = 0.0
-            for j in range(r):
-                acc += mu[k, j] * s[k, j, a]
-            x[a] = acc
-        for a in range(4):
-            for b in range(a, 4):
-                acc, spread = 0.0, 0.0
-                for j in range(r):
-                    acc += mu[k, j] * P[k, j, a, b]
-                    spread += (s[k, j, a] - x[a]) * (mu[k, j] * (s[k, j, b] - x[b]))
-                out[k, a, b] = out[k, b, a] = acc + spread
+    for k in range(mu.shape[0]):
+        combine_row(k, s, P, mu, x, out)

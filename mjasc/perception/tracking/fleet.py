@@ -249,6 +249,7 @@ class FleetTracker:
                                                                       f"(born {t - born[k]:.1f} s ago)"))
         with_pts = [points[q] is not None and dets[q] is not None for q in range(p)]
         orows = rows if all(with_pts) else rows[np.array(with_pts)[rpos]]
+        hit_all = used & meas  # (n,) rows updated with their detection
         if orows.size:
             scans = {}
 
@@ -261,9 +262,9 @@ class FleetTracker:
                                       np.ascontiguousarray(dets[q].labels, dtype=np.int64))
                 return got[0], got[1], int(idx[assigned[k]])
 
-            self.outlines.grow(orows, used[orows] & (assigned[orows] >= 0), bank.speeds[orows], bank.positions[orows],
+            self.outlines.grow(orows, hit_all[orows], bank.speeds[orows], bank.positions[orows],
                                self.mgmt._radius[orows], returns_of)
-        got = rows[used[rows] & (assigned[rows] >= 0)]
+        got = rows[hit_all[rows]]
         if got.size:
             got = got[np.argsort(row_pos[got], kind="stable")]
             qs, cut = group_starts(row_pos[got])
