@@ -314,3 +314,42 @@ def test_note_moved_matches_numpy_form(seed):
         moved |= anchored & (np.hypot(d[:, 0], d[:, 1]) >= MOVED_M)
         assert m._anchor.tobytes() == anchor.tobytes() and m._anchored.tobytes() == anchored.tobytes()
         assert m._moved.tobytes() == moved.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_counts_and_measurement_rows(seed):
+    from mjasc.perception.tracking.step_kernels import add_counts, count_scans, count_used, measurement_rows
+
+    rng = np.random.default_rng(seed)
+    n_owners, p = 6, int(rng.integers(1, 6))
+    owners = rng.permutation(n_owners)[:p].astype(np.int64)
+    counts = rng.integers(0, 50, size=(n_owners, 7)).astype(np.int64)
+    want = counts.copy()
+    m_q = rng.integers(0, 9, size=p).astype(np.int64)
+    count_scans(counts, owners, 4, 5, m_q)
+    want[owners, 4] += 1
+    want[owners, 5] += m_q
+    born = rng.integers(0, 3, size=p).astype(np.int64)
+    add_counts(counts, owners, 0, born)
+    want[owners, 0] += born
+    n = int(rng.integers(0, 12))
+    pos_of = np.full(n_owners, -1)
+    pos_of[owners] = np.arange(p)
+    owner_of_row = owners[rng.integers(0, p, size=n)] if n else np.zeros(0, dtype=np.int64)
+    row_pos = pos_of[owner_of_row]
+    rows = np.flatnonzero(rng.random(n) < 0.7)
+    used = rng.random(n) < 0.6
+    count_used(counts, owners, 6, row_pos, rows, used)
+    want[owners, 6] += np.bincount(row_pos[rows[used[rows]]], minlength=p)
+    assert counts.tobytes() == want.tobytes()
+
+    M = int(rng.integers(0, 8))
+    z = rng.normal(size=(M, 2))
+    assigned = rng.integers(-1, M, size=n).astype(np.int64) if M else np.full(n, -1, dtype=np.int64)
+    zr, meas = measurement_rows(assigned, z)
+    meas_ref = assigned >= 0
+    zr_ref = np.empty((n, 2))
+    zr_ref.fill(np.nan)
+    zr_ref[meas_ref] = z[assigned[meas_ref]]
+    assert meas.tobytes() == meas_ref.tobytes()
+    assert np.array_equal(zr, zr_ref, equal_nan=True) and zr.dtype == zr_ref.dtype and zr.shape == zr_ref.shape

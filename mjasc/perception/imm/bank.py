@@ -233,7 +233,7 @@ class IMMBank(PredictiveDensity):
         tc, t0 = self._t_common, float(t[0])
         self._t_common = t0 if (n_before == 0 or tc == t0) and one_time else None
         rows = np.arange(n_before, n)
-        ready = self._startup.hand_over(rows, sp)
+        ready = self._startup.hand_over(rows, sp, Pcv)
         if ready.any():
             done = rows[ready]
             self._s[done] = sp[ready][:, None, :]
@@ -247,12 +247,13 @@ class IMMBank(PredictiveDensity):
         self._n_gated[rows] = 0
         self._handover(rows)
 
-    def _handover(self, rows):
-        """Refresh the estimate of start-up tracks ``rows``; move those ready into the IMM."""
-        s, P = self._startup.polar(rows)
+    def _handover(self, rows, xc=None, cv_P=None):
+        """Refresh the estimate of start-up tracks ``rows``; move those ready into the IMM. xc (k, 4),
+        cv_P (k, 4, 4): their filters' ``x[rows]``, ``P[rows]`` when the caller has them."""
+        s, P = self._startup.polar(rows) if xc is None else cv_to_polar(xc, cv_P)
         self._x[rows] = s
         self._Pc[rows] = P
-        ready = self._startup.hand_over(rows, s)
+        ready = self._startup.hand_over(rows, s, cv_P)
         if ready.any():
             done = rows[ready]
             self._s[done] = s[ready][:, None, :]
@@ -481,9 +482,7 @@ class IMMBank(PredictiveDensity):
             self._t_common = t0
             return None
 
-        # general case: mix of updated, coasting, start-up and restarted tracks
-        if t is None:
-            t, dt = np.full(n, t0), np.full(n, dtm)
+        # general case: mix of updated, coasting, start-up and restarted tracks (t None: every row at t0)
         if use is None:
             use = finite = measured = np.ones(n, dtype=bool)
         inside = d2_min <= self._gate  # (nan, False, where not used)
@@ -494,10 +493,11 @@ class IMMBank(PredictiveDensity):
         # keep their (unused) IMM state, their x is set by the hand-over below
         s_new, P_new, mu_new, x_new, _ = side
         if any_warm:
-            rows = warm.nonzero()[0]
+            rows_w = rows = warm.nonzero()[0]  # (still the start-up rows at the hand-over below)
             var = self._var if mv is None else mv[rows]
             use_w = use[rows]
-            ok_w = self._startup.update(rows, dt[rows], z[rows], var, use_w, self._gate)
+            ok_w, xc_w, P_w = self._startup.update_rows(rows, np.full(rows.size, dtm) if t is None else dt[rows],
+                                                        z[rows], var, use_w, self._gate)
             _warm_rows(rows, ok_w, use_w, ok, inside, self._s, self._P, self._mu, s_new, P_new, mu_new)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
         self._side = out
@@ -508,8 +508,10 @@ class IMMBank(PredictiveDensity):
         limit = self.config.restart_after_gated
         _rejections(use, finite, measured, inside, ok, self._n_gated, limit, reasons, restart)
         self._set_times(t0, t)
+        if t is None:
+            t = self._t  # (for the log below)
         if any_warm:
-            self._handover(self._startup.active.nonzero()[0])
+            self._handover(rows_w, xc_w, P_w)
         if restart.any():
             rows = restart.nonzero()[0]
             self._start(rows, z[rows], None if mv is None else mv[rows])

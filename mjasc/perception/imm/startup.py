@@ -229,10 +229,11 @@ class StartupFilters:
         """[x, y, θ, V] (k, 4) and covariance (k, 4, 4) of rows (:func:`cv_to_polar`)."""
         return cv_to_polar(self.x[rows], self.P[rows])
 
-    def hand_over(self, rows, s) -> np.ndarray:
-        """(k,) bool: rows ready for the IMM (:func:`ready_for_handover`, s their polar states),
-        made inactive."""
-        ready = ready_for_handover(s, self.P[rows], self.n_meas[rows], self.snr2, self.max_updates)
+    def hand_over(self, rows, s, cv_P=None) -> np.ndarray:
+        """(k,) bool: rows ready for the IMM (:func:`ready_for_handover`, s their polar states;
+        cv_P their filters' covariances ``P[rows]`` when the caller has them), made inactive."""
+        ready = ready_for_handover(s, self.P[rows] if cv_P is None else cv_P, self.n_meas[rows], self.snr2,
+                                   self.max_updates)
         if ready.any():
             self.active[rows[ready]] = False
             self.n_active = int(np.count_nonzero(self.active))
@@ -250,13 +251,18 @@ class StartupFilters:
         """Predict rows by dt (k,) [s], then update those where ``use`` (k,) with z (k, 2), of
         variance var ((1,) or (k,) [m²], R = σ² I₂), if inside the chi-square gate; returns (k,)
         bool of the rows updated (the others coast)."""
+        return self.update_rows(rows, dt, z, var, use, gate)[0]
+
+    def update_rows(self, rows, dt, z, var, use, gate: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`update`, returning also the rows' new x (k, 4) and P (k, 4, 4) (copies of
+        ``x[rows]``, ``P[rows]``): (ok, x, P)."""
         xc, Pcv = self.predicted(rows, dt)
         d2 = np.empty(xc.shape[0])
         position_update(xc, Pcv, z, var, use, gate, d2)  # in place where used and inside the gate
         ok = use & (d2 <= gate)
         self.x[rows], self.P[rows] = xc, Pcv
         self.n_meas[rows] += ok
-        return ok
+        return ok, xc, Pcv
 
     def add_speed_variance(self, rows, dv) -> None:
         """Add dv [m²/s²] (k,) to both velocity variances of rows (manoeuvre process noise)."""

@@ -15,7 +15,8 @@ from mjasc.perception.imm.bank import CycleBuffers
 
 __all__ = ["take_rows", "put_rows"]
 
-_SHARED = ("config", "_r", "_omega", "_mu0", "_consts", "_R", "_R_cov", "_var", "_floor", "_gate", "_next_id")
+_SHARED = ("config", "_r", "_omega", "_mu0", "_consts", "_R", "_R_cov", "_var", "_floor", "_gate", "_next_id",
+           "_compiled_fields")
 
 
 def take_rows(bank, rows):

@@ -45,7 +45,8 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.step_kernels import (apply_assignment, birth_rows, confirmed_by_owner, pair_setup,
+from mjasc.perception.tracking.step_kernels import (add_counts, apply_assignment, birth_rows, confirmed_by_owner,
+                                                    count_scans, count_used, measurement_rows, pair_setup,
                                                     select_detections)
 from mjasc.perception.tracking.team import TeamMatcher
 
@@ -167,7 +168,6 @@ class FleetTracker:
         t_own = np.empty(no)
         t_own.fill(np.nan)
         t_own[owners] = t_o
-        self._counts[owners, _SCANS] += 1
         # every vessel's selected detections, stacked in vessel order (one compiled pass)
         dets = list(detections)
         lens = [0 if d is None else d.centres_m.shape[0] for d in dets]
@@ -186,7 +186,7 @@ class FleetTracker:
             z, var, rad, occ = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
             m_q = np.zeros(p, dtype=np.int64)
         M = z.shape[0]
-        self._counts[owners, _DETS] += m_q
+        count_scans(self._counts, owners, _SCANS, _DETS, m_q)
         n = len(self.bank)
         row_pos = pos_of[self.owner]
         all_due = every or bool((row_pos >= 0).all())
@@ -229,13 +229,10 @@ class FleetTracker:
                 got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
                 hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
                 self.manoeuvres.detect(hit, d2_hit, self._gate, t_o[row_pos[hit]], bank)
-        meas = assigned >= 0
-        zr = np.empty((n, 2))
-        zr.fill(np.nan)
-        zr[meas] = z[assigned[meas]]
+        zr, meas = measurement_rows(assigned, z)
         vr = var_row if cfg.use_detection_variance else None
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
-        self._counts[owners, _ASSOC] += np.bincount(row_pos[rows[used[rows]]], minlength=p)
+        count_used(self._counts, owners, _ASSOC, row_pos, rows, used)
         sel = slice(None) if all_due else rows
         t_rows = t_o[row_pos[rows]]
         speeds = bank.speeds[sel]
@@ -355,7 +352,7 @@ class FleetTracker:
         self.team.append(k)
         self.outlines.append(bank._x[-k:, :2])
         self.version += 1
-        self._counts[owners, _BORN] += born
+        add_counts(self._counts, owners, _BORN, born)
         dets = idx[new]
         bl, ll, zl = bp.tolist(), local.tolist(), zb.tolist()
         a = 0

@@ -59,14 +59,11 @@ class TrackOutlines:
         compiled call per track, :func:`gather_returns`; tests/test_tracking_outlines.py keeps
         the numpy form.)"""
         cfg = self.config
-        v, pos = speeds, positions
-        moved = np.hypot(*(pos - self._hull_anchor[rows]).T) > cfg.outline_reset_m
-        reset = (v > 2.0 * cfg.static_speed_m_s) | moved
-        if reset.any():
-            r = rows[reset]
+        pos = positions
+        r, grow = reset_rows(rows, speeds, pos, self._hull_anchor, float(cfg.outline_reset_m),
+                             2.0 * cfg.static_speed_m_s, used, float(cfg.static_speed_m_s))
+        if r.size:
             self._hull[r] = None
-            self._hull_anchor[r] = pos[reset]
-        grow = (used & (v < cfg.static_speed_m_s)).nonzero()[0]
         if grow.size == 0:
             return
         hulls, no_hull = self._hull, _NO_HULL
@@ -114,6 +111,31 @@ def outline_at(hull, x: float, y: float, radius: float) -> np.ndarray:
 
 
 _NO_HULL = np.zeros((0, 2))
+
+
+@kernel
+def reset_rows(rows, speeds, pos, anchor, reset_m, fast, used, slow):
+    """The first part of :meth:`TrackOutlines.grow` in one pass: (reset (r,), grow (g,)) — the rows
+    of ``rows`` (k,) whose accumulation restarts, faster than ``fast`` or ``hypot(pos − anchor[row])
+    > reset_m`` from their anchor (anchor[row] set to pos (k, 2) [m] in place), and the positions
+    in rows of the ``used`` ones slower than ``slow`` [m/s] (speeds (k,))."""
+    k = rows.size
+    reset = np.empty(k, dtype=np.int64)
+    grow = np.empty(k, dtype=np.int64)
+    nr = 0
+    ng = 0
+    for a in range(k):
+        t = rows[a]
+        moved = math.hypot(pos[a, 0] - anchor[t, 0], pos[a, 1] - anchor[t, 1]) > reset_m
+        if speeds[a] > fast or moved:
+            reset[nr] = t
+            nr += 1
+            anchor[t, 0] = pos[a, 0]
+            anchor[t, 1] = pos[a, 1]
+        if used[a] and speeds[a] < slow:
+            grow[ng] = a
+            ng += 1
+    return reset[:nr], grow[:ng]
 
 
 @kernel

@@ -30,6 +30,12 @@ as references, bit for bit):
 * :func:`confirmed_by_owner` — the confirmed rows grouped by vessel, bank order within
   (``rows = flatnonzero(confirmed)`` sorted stably by ``owner[rows]``), and each vessel's first
   position in them.
+* :func:`add_counts` — a per-vessel counter column advanced, ``counts[owners, col] += values``
+  (the scanning vessels are distinct); :func:`count_scans` — a scan and its detections counted,
+  ``counts[owners, scans] += 1``, ``counts[owners, dets] += m_q``; :func:`count_used` — the rows used, per vessel,
+  ``counts[owners, col] += bincount(row_pos[rows[used[rows]]], minlength=p)``.
+* :func:`measurement_rows` — the rows' measurements of the IMM cycle: ``meas = assigned >= 0``,
+  ``zr`` NaN but ``zr[meas] = z[assigned[meas]]``.
 """
 
 from __future__ import annotations
@@ -42,7 +48,7 @@ from mjasc.core.compiled import kernel, maximum
 from mjasc.perception.tracking.pair_kernels import block_pairs_flat
 
 __all__ = ["select_detections", "pair_setup", "admissible_pairs", "apply_assignment", "birth_rows",
-           "confirmed_by_owner"]
+           "confirmed_by_owner", "add_counts", "count_scans", "count_used", "measurement_rows"]
 
 
 @kernel
@@ -228,3 +234,47 @@ def confirmed_by_owner(confirmed, owner, n_owners):
             rows[fill[o]] = k
             fill[o] += 1
     return rows, first
+
+
+@kernel
+def add_counts(counts, owners, col, values):
+    """``counts[owners, col] += values`` in place (owners (p,) distinct vessels, values (p,) int)."""
+    for q in range(owners.size):
+        counts[owners[q], col] += values[q]
+
+
+@kernel
+def count_scans(counts, owners, scans, dets, m_q):
+    """``counts[owners, scans] += 1`` and ``counts[owners, dets] += m_q`` in place (owners (p,) distinct)."""
+    for q in range(owners.size):
+        counts[owners[q], scans] += 1
+        counts[owners[q], dets] += m_q[q]
+
+
+@kernel
+def count_used(counts, owners, col, row_pos, rows, used):
+    """``counts[owners, col] += bincount(row_pos[rows[used[rows]]], minlength=p)`` in place: per
+    vessel position q (p,), the rows of ``rows`` it owns (``row_pos``) that were ``used``."""
+    for a in range(rows.size):
+        k = rows[a]
+        if used[k]:
+            counts[owners[row_pos[k]], col] += 1
+
+
+@kernel
+def measurement_rows(assigned, z):
+    """(zr (n, 2), meas (n,)): ``meas = assigned >= 0``; zr NaN, but z[assigned[k]] where meas."""
+    n = assigned.size
+    zr = np.empty((n, 2))
+    meas = np.empty(n, dtype=np.bool_)
+    for k in range(n):
+        d = assigned[k]
+        m = d >= 0
+        meas[k] = m
+        if m:
+            zr[k, 0] = z[d, 0]
+            zr[k, 1] = z[d, 1]
+        else:
+            zr[k, 0] = np.nan
+            zr[k, 1] = np.nan
+    return zr, meas
