@@ -353,3 +353,34 @@ def test_counts_and_measurement_rows(seed):
     zr_ref[meas_ref] = z[assigned[meas_ref]]
     assert meas.tobytes() == meas_ref.tobytes()
     assert np.array_equal(zr, zr_ref, equal_nan=True) and zr.dtype == zr_ref.dtype and zr.shape == zr_ref.shape
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_last_assignments(seed):
+    from mjasc.perception.tracking.association import group_starts
+    from mjasc.perception.tracking.step_kernels import last_assignments
+
+    rng = np.random.default_rng(seed)
+    n, p, M = int(rng.integers(0, 15)), int(rng.integers(1, 5)), int(rng.integers(1, 9))
+    row_pos = rng.integers(-1, p, size=n)
+    rows = np.flatnonzero(row_pos >= 0) if seed % 2 else np.arange(n)
+    row_pos[rows] = np.maximum(row_pos[rows], 0)
+    hit = rng.random(n) < 0.6
+    local_id = rng.integers(0, 100, size=n)
+    idx = rng.integers(0, 30, size=M)
+    assigned = np.where(hit, rng.integers(0, M, size=n), -1)
+    ids, det, first = last_assignments(rows, hit, row_pos, local_id, idx, assigned, p)
+    want = {}
+    got = rows[hit[rows]]
+    if got.size:  # the numpy form (FleetTracker._update before)
+        got = got[np.argsort(row_pos[got], kind="stable")]
+        qs, cut = group_starts(row_pos[got])
+        ids_r, det_r = local_id[got], idx[assigned[got]]
+        for q, a, b in zip(qs.tolist(), cut.tolist(), cut[1:].tolist() + [got.size]):
+            want[q] = (ids_r[a:b], det_r[a:b])
+    f = first.tolist()
+    have = {q: (ids[f[q]:f[q + 1]], det[f[q]:f[q + 1]]) for q in range(p) if f[q + 1] > f[q]}
+    assert have.keys() == want.keys()
+    for q in want:
+        for a, b in zip(have[q], want[q]):
+            assert a.dtype == b.dtype and a.tobytes() == b.tobytes()

@@ -295,20 +295,19 @@ class IMMBank(PredictiveDensity):
     def keep_rows(self, keep) -> None:
         """Keep the rows where ``keep`` (n,) bool is True (drop the others at once)."""
         keep = np.asarray(keep, dtype=bool)
+        if keep.shape != self._ids.shape:
+            raise IndexError(f"keep: need shape {self._ids.shape}, got {keep.shape}")
         if self._side is None:
             for name in self._PER_TRACK:
                 setattr(self, name, getattr(self, name)[keep])
         else:  # the state compacted into the other side's first rows
             side = 1 - self._side
             out = self._cyc.views(side, int(np.count_nonzero(keep)))
-            compress = np.compress
-            self._s = compress(keep, self._s, 0, out[0])
-            self._P = compress(keep, self._P, 0, out[1])
-            self._mu = compress(keep, self._mu, 0, out[2])
-            self._x = compress(keep, self._x, 0, out[3])
+            self._ids, self._t, self._Pc, self._n_gated, self._reasons = _kept_rows(
+                keep, self._s, self._P, self._mu, self._x, out[0], out[1], out[2], out[3], self._ids, self._t, self._Pc,
+                self._n_gated, self._reasons)  # (np.compress into out, boolean indexing: one compiled pass)
+            self._s, self._P, self._mu, self._x = out[:4]
             self._side = side
-            self._ids, self._t, self._Pc = self._ids[keep], self._t[keep], self._Pc[keep]
-            self._n_gated, self._reasons = self._n_gated[keep], self._reasons[keep]
         self._startup.keep(keep)
         if self._ids.size == 0:
             self._t_common = None
@@ -759,3 +758,38 @@ def _appended_rows(s, P, mu, x, n0, mu0, sp, ids, t, Pc, n_gated, reasons, new_i
         if new_t[j] != new_t[0]:
             one_time = False
     return ids2, t2, Pc2, g2, r2, one_time
+
+
+@kernel
+def _kept_rows(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons):
+    """:meth:`IMMBank.keep_rows` of a bank in its cycle buffers: the rows where ``keep`` (n,) of s, P,
+    μ, x copied in order into the other side's views s_out, P_out, mu_out, x_out (m rows, m the
+    number kept: ``np.compress(keep, a, 0, out)``), and the per-track arrays (ids, t, Pc, n_gated,
+    reasons) returned as new arrays of the kept rows (``a[keep]``)."""
+    m = s_out.shape[0]
+    r = mu.shape[1]
+    ids2 = np.empty(m, dtype=ids.dtype)
+    t2 = np.empty(m)
+    Pc2 = np.empty((m, 4, 4))
+    g2 = np.empty(m, dtype=n_gated.dtype)
+    r2 = np.empty(m, dtype=reasons.dtype)
+    c = 0
+    for k in range(keep.size):
+        if not keep[k]:
+            continue
+        for j in range(r):
+            mu_out[c, j] = mu[k, j]
+            for a in range(4):
+                s_out[c, j, a] = s[k, j, a]
+                for b in range(4):
+                    P_out[c, j, a, b] = P[k, j, a, b]
+        for a in range(4):
+            x_out[c, a] = x[k, a]
+            for b in range(4):
+                Pc2[c, a, b] = Pc[k, a, b]
+        ids2[c] = ids[k]
+        t2[c] = t[k]
+        g2[c] = n_gated[k]
+        r2[c] = reasons[k]
+        c += 1
+    return ids2, t2, Pc2, g2, r2

@@ -207,7 +207,11 @@ class StartupFilters:
         self.n_active = int(np.count_nonzero(self.active))
 
     def keep(self, keep: np.ndarray) -> None:
-        """Keep the rows where ``keep`` (n,) is True."""
+        """Keep the rows where ``keep`` (n,) is True (one compiled pass, :func:`_kept_started`)."""
+        if type(keep) is np.ndarray and keep.dtype == np.bool_ and keep.shape == self.active.shape:
+            self.active, self.x, self.P, self.n_meas, self.n_active = _kept_started(keep, self.active, self.x, self.P,
+                                                                                    self.n_meas)
+            return
         self.active, self.x, self.P, self.n_meas = self.active[keep], self.x[keep], self.P[keep], self.n_meas[keep]
         self.n_active = int(np.count_nonzero(self.active))
 
@@ -302,3 +306,30 @@ def _appended_started(active, x, P, n_meas, z, R, sv2, meas_var, per_row):
         P2[i, 2, 2] = sv2
         P2[i, 3, 3] = sv2
     return a2, x2, P2, c2
+
+
+@kernel
+def _kept_started(keep, active, x, P, n_meas):
+    """:meth:`StartupFilters.keep`'s arrays, each a new array of the rows where ``keep`` (n,) bool
+    (``a[keep]``), and the number of active rows among them."""
+    m = 0
+    for k in range(keep.size):
+        m += keep[k]
+    a2 = np.empty(m, dtype=np.bool_)
+    x2 = np.empty((m, 4))
+    P2 = np.empty((m, 4, 4))
+    c2 = np.empty(m, dtype=n_meas.dtype)
+    c = 0
+    n_active = 0
+    for k in range(keep.size):
+        if not keep[k]:
+            continue
+        a2[c] = active[k]
+        n_active += active[k]
+        c2[c] = n_meas[k]
+        for a in range(4):
+            x2[c, a] = x[k, a]
+            for b in range(4):
+                P2[c, a, b] = P[k, a, b]
+        c += 1
+    return a2, x2, P2, c2, n_active

@@ -40,14 +40,14 @@ import numpy as np
 from mjasc.core.estimates import TrackEstimate, track_estimate_rows
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.tracking.association import (
-    gnn_assign_blocks, group_starts, indexed_pair_costs, predicted_positions)
+    gnn_assign_blocks, indexed_pair_costs, predicted_positions)
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.step_kernels import (add_counts, apply_assignment, birth_rows, confirmed_by_owner,
-                                                    count_scans, count_used, measurement_rows, pair_setup,
-                                                    select_detections)
+                                                    count_scans, count_used, last_assignments, measurement_rows,
+                                                    pair_setup, select_detections)
 from mjasc.perception.tracking.team import TeamMatcher
 
 __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
@@ -259,15 +259,15 @@ class FleetTracker:
                                       np.ascontiguousarray(dets[q].labels, dtype=np.int64))
                 return got[0], got[1], int(idx[assigned[k]])
 
-            self.outlines.grow(orows, hit_all[orows], bank.speeds[orows], bank.positions[orows],
+            self.outlines.grow(orows, hit_all[orows], bank._x[orows, 3], bank._x[orows, :2],  # (speeds, positions)
                                self.mgmt._radius[orows], returns_of)
-        got = rows[hit_all[rows]]
-        if got.size:
-            got = got[np.argsort(row_pos[got], kind="stable")]
-            qs, cut = group_starts(row_pos[got])
-            ids, det = self.local_id[got], idx[assigned[got]]
-            for q, a, b in zip(qs.tolist(), cut.tolist(), cut[1:].tolist() + [got.size]):
-                self._last_assign[owners[q]] = (ids[a:b], det[a:b])
+        ids, det, first = last_assignments(rows, hit_all, row_pos, self.local_id, idx, assigned, p)
+        if ids.size:
+            f = first.tolist()
+            for q in range(p):
+                a, b = f[q], f[q + 1]
+                if b > a:
+                    self._last_assign[owners[q]] = (ids[a:b], det[a:b])
 
     def _cycle(self, rows, all_due, row_pos, t_o, zr, meas, vr) -> np.ndarray:
         """Step 3: one IMM cycle of ``rows``, per group of vessels sharing their last and new time

@@ -86,7 +86,13 @@ class TrackManagement:
             self.config.confirm_hits <= 1)
 
     def keep(self, keep: np.ndarray) -> None:
-        """Keep the rows where ``keep`` (n,) is True."""
+        """Keep the rows where ``keep`` (n,) is True (one compiled pass, :func:`kept_rows`)."""
+        if type(keep) is np.ndarray and keep.dtype == np.bool_ and keep.shape == self._hist.shape:
+            (self._hist, self._scans, self._n_upd, self._confirmed, self._static, self._born, self._last, self._radius,
+             self._anchor, self._anchored, self._moved) = kept_rows(
+                keep, self._hist, self._scans, self._n_upd, self._confirmed, self._static, self._born, self._last,
+                self._radius, self._anchor, self._anchored, self._moved)
+            return
         self._hist, self._scans, self._n_upd = self._hist[keep], self._scans[keep], self._n_upd[keep]
         self._confirmed, self._static = self._confirmed[keep], self._static[keep]
         self._born, self._last, self._radius = self._born[keep], self._last[keep], self._radius[keep]
@@ -299,3 +305,41 @@ def _moved_rows(positions, confirmed, anchored, anchor, moved, moved_m):
             anchored[k] = True
         if anchored[k] and math.hypot(positions[k, 0] - anchor[k, 0], positions[k, 1] - anchor[k, 1]) >= moved_m:
             moved[k] = True
+
+
+@kernel
+def kept_rows(keep, hist, scans, n_upd, confirmed, static, born, last, radius, anchor, anchored, moved):
+    """:meth:`TrackManagement.keep`'s arrays, each a new array of the rows where ``keep`` (n,) bool
+    (``a[keep]``; one compiled call instead of eleven boolean indexings)."""
+    m = 0
+    for k in range(keep.size):
+        m += keep[k]
+    o_hist = np.empty(m, dtype=hist.dtype)
+    o_scans = np.empty(m, dtype=scans.dtype)
+    o_n_upd = np.empty(m, dtype=n_upd.dtype)
+    o_conf = np.empty(m, dtype=np.bool_)
+    o_static = np.empty(m, dtype=np.bool_)
+    o_born = np.empty(m)
+    o_last = np.empty(m)
+    o_radius = np.empty(m)
+    o_anchor = np.empty((m, 2))
+    o_anchored = np.empty(m, dtype=np.bool_)
+    o_moved = np.empty(m, dtype=np.bool_)
+    c = 0
+    for k in range(keep.size):
+        if not keep[k]:
+            continue
+        o_hist[c] = hist[k]
+        o_scans[c] = scans[k]
+        o_n_upd[c] = n_upd[k]
+        o_conf[c] = confirmed[k]
+        o_static[c] = static[k]
+        o_born[c] = born[k]
+        o_last[c] = last[k]
+        o_radius[c] = radius[k]
+        o_anchor[c, 0] = anchor[k, 0]
+        o_anchor[c, 1] = anchor[k, 1]
+        o_anchored[c] = anchored[k]
+        o_moved[c] = moved[k]
+        c += 1
+    return o_hist, o_scans, o_n_upd, o_conf, o_static, o_born, o_last, o_radius, o_anchor, o_anchored, o_moved

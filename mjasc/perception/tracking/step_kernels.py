@@ -34,6 +34,9 @@ as references, bit for bit):
   (the scanning vessels are distinct); :func:`count_scans` — a scan and its detections counted,
   ``counts[owners, scans] += 1``, ``counts[owners, dets] += m_q``; :func:`count_used` — the rows used, per vessel,
   ``counts[owners, col] += bincount(row_pos[rows[used[rows]]], minlength=p)``.
+* :func:`last_assignments` — each vessel's last assignment: the rows of ``rows`` that were
+  ``hit``, ``got`` sorted stably by their vessel position ``row_pos[got]``, their ids
+  ``local_id[got]`` and detections ``idx[assigned[got]]``, and each vessel's first position in them.
 * :func:`measurement_rows` — the rows' measurements of the IMM cycle: ``meas = assigned >= 0``,
   ``zr`` NaN but ``zr[meas] = z[assigned[meas]]``.
 """
@@ -48,7 +51,8 @@ from mjasc.core.compiled import kernel, maximum
 from mjasc.perception.tracking.pair_kernels import block_pairs_flat
 
 __all__ = ["select_detections", "pair_setup", "admissible_pairs", "apply_assignment", "birth_rows",
-           "confirmed_by_owner", "add_counts", "count_scans", "count_used", "measurement_rows"]
+           "confirmed_by_owner", "add_counts", "count_scans", "count_used", "last_assignments",
+           "measurement_rows"]
 
 
 @kernel
@@ -278,3 +282,30 @@ def measurement_rows(assigned, z):
             zr[k, 0] = np.nan
             zr[k, 1] = np.nan
     return zr, meas
+
+
+@kernel
+def last_assignments(rows, hit, row_pos, local_id, idx, assigned, p):
+    """(ids (g,), det (g,), first (p + 1,)) of the rows of ``rows`` where ``hit`` (n,), grouped by
+    their vessel position ``row_pos`` (p positions; in the order of ``rows`` within one): their
+    ``local_id`` and detection ``idx[assigned]``, and each position's first entry."""
+    first = np.zeros(p + 1, dtype=np.int64)
+    for a in range(rows.size):
+        k = rows[a]
+        if hit[k]:
+            first[row_pos[k] + 1] += 1
+    for q in range(p):
+        first[q + 1] += first[q]
+    g = first[p]
+    ids = np.empty(g, dtype=local_id.dtype)
+    det = np.empty(g, dtype=idx.dtype)
+    fill = first[:p].copy()
+    for a in range(rows.size):
+        k = rows[a]
+        if hit[k]:
+            q = row_pos[k]
+            c = fill[q]
+            ids[c] = local_id[k]
+            det[c] = idx[assigned[k]]
+            fill[q] = c + 1
+    return ids, det, first
