@@ -200,15 +200,19 @@ def test_cv_predict_equals_numpy_form_bit_for_bit():
     from mjasc.perception.imm.startup import cv_predict
 
     rng = np.random.default_rng(5)
-    for k in (1, 2, 7, 40):
+    for k in (1, 2, 7, 40, 5000):
         xc = rng.normal(size=(k, 4)) * [50.0, 50.0, 2.0, 2.0]
         A = rng.normal(size=(k, 4, 4))
         Pc = A @ np.swapaxes(A, 1, 2)
         dt = rng.uniform(0.0, 1.0, size=k)
         dt[0] = 0.2
-        xp, Pp = cv_predict(xc, Pc, dt, 0.05)
-        xr, Pr = cv_predict_numpy(xc, Pc, dt, 0.05)
-        assert xp.tobytes() == xr.tobytes() and Pp.tobytes() == Pr.tobytes()
+        if k > 40:  # (multiples of a tick and long coasts too)
+            dt[: k // 2] = rng.integers(0, 50, size=k // 2) * 0.2
+            dt[-10:] = rng.uniform(0.0, 100.0, size=10)
+        for q in (0.05, 0.5, 3.0):
+            xp, Pp = cv_predict(xc, Pc, dt, q)
+            xr, Pr = cv_predict_numpy(xc, Pc, dt, q)
+            assert xp.tobytes() == xr.tobytes() and Pp.tobytes() == Pr.tobytes()
 
 
 def test_warm_rows_equals_numpy_form():

@@ -34,12 +34,13 @@ _NO_VAR = np.zeros(0)
 def cv_predict(xc, Pc, dt, q):
     """Constant-velocity prediction with white acceleration of intensity q; dt (k,). The
     transition matrices and the noise added are compiled loops (:func:`_cv_transitions`,
-    :func:`_add_cv_noise`); the products and the powers of dt stay numpy's (tests/test_imm_row_store.py
-    keeps the all-numpy form as the reference, bit for bit)."""
+    :func:`_add_cv_noise`, which forms ``q·dt³/3``, ``q·dt²/2`` and ``q·dt`` itself: dt² is numpy's
+    ``dt**2``, a square, ``dt·dt``); the products and dt³ (numpy's ``pow``) stay numpy's
+    (tests/test_imm_row_store.py keeps the all-numpy form as the reference, bit for bit)."""
     F = _cv_transitions(dt)
     xp = (F @ xc[..., None])[..., 0]
     Pp = F @ Pc @ np.swapaxes(F, 1, 2)
-    _add_cv_noise(Pp, q * dt**3 / 3.0, q * dt**2 / 2.0, q * dt)
+    _add_cv_noise(Pp, dt**3, dt, float(q))
     return xp, Pp
 
 
@@ -57,18 +58,23 @@ def _cv_transitions(dt):
 
 
 @kernel
-def _add_cv_noise(P, q3, q2, q1):
-    """The white-acceleration noise added to P (k, 4, 4) in place: q3 (k,) to (0, 0), (1, 1); q2 to
-    (0, 2), (2, 0), (1, 3), (3, 1); q1 to (2, 2), (3, 3)."""
+def _add_cv_noise(P, dt3, dt, q):
+    """The white-acceleration noise of intensity q added to P (k, 4, 4) in place: q3 = q·dt³/3 (dt3 (k,)
+    the cubes) to (0, 0), (1, 1); q2 = q·(dt·dt)/2 to (0, 2), (2, 0), (1, 3), (3, 1); q1 = q·dt to
+    (2, 2), (3, 3)."""
     for i in range(P.shape[0]):
-        P[i, 0, 0] += q3[i]
-        P[i, 1, 1] += q3[i]
-        P[i, 0, 2] += q2[i]
-        P[i, 2, 0] += q2[i]
-        P[i, 1, 3] += q2[i]
-        P[i, 3, 1] += q2[i]
-        P[i, 2, 2] += q1[i]
-        P[i, 3, 3] += q1[i]
+        d = dt[i]
+        q3 = q * dt3[i] / 3.0
+        q2 = q * (d * d) / 2.0
+        q1 = q * d
+        P[i, 0, 0] += q3
+        P[i, 1, 1] += q3
+        P[i, 0, 2] += q2
+        P[i, 2, 0] += q2
+        P[i, 1, 3] += q2
+        P[i, 3, 1] += q2
+        P[i, 2, 2] += q1
+        P[i, 3, 3] += q1
 
 
 def cv_to_polar(xc, Pc):
