@@ -10,7 +10,7 @@ import numpy as np
 
 from mjasc.perception.imm import IMMBank, IMMConfig
 from mjasc.perception.imm.compiled_cycle import combine_covariance, turn_rate, wrap
-from mjasc.perception.imm.row_fields import row_fields
+from mjasc.perception.imm.row_fields import row_fields, wrapped_states
 
 
 def _bank(config=IMMConfig(), n=24, steps=30, seed=5) -> IMMBank:
@@ -63,6 +63,9 @@ def test_fields_equal_numpy_forms_bit_for_bit():
     for rows in (np.arange(n), np.arange(n)[::3].copy(), rng.permutation(n)[:5], np.zeros(0, dtype=np.int64)):
         _same(bank.estimate_fields(rows), _estimate_fields_numpy(bank, rows))
         _same(bank.prediction_fields(rows), _prediction_fields_numpy(bank, rows))
+    ref = bank._x.copy()
+    ref[:, 2] = wrap(ref[:, 2])
+    _same((bank.states,), (ref,))
 
 
 def test_wrap_and_turn_rate_on_extreme_values():
@@ -82,6 +85,9 @@ def test_wrap_and_turn_rate_on_extreme_values():
     assert xs[:, 2].tobytes() == th.tobytes()
     assert w.tobytes() == np.where(active, 0.0, turn_rate(mu, omega)).tobytes()
     assert P.tobytes() == Pc.tobytes() and tt.tobytes() == t.tobytes()
+    ref = x.copy()
+    ref[:, 2] = wrap(ref[:, 2])
+    assert wrapped_states(x).tobytes() == ref.tobytes()
 
 
 def test_covariances_equal_combine_covariance_of_the_imm_rows():

@@ -384,3 +384,22 @@ def test_last_assignments(seed):
     for q in want:
         for a, b in zip(have[q], want[q]):
             assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_team_matched_rows(seed):
+    from mjasc.perception.tracking.association import block_pairs
+    from mjasc.perception.tracking.team import matched_rows
+
+    rng = np.random.default_rng(seed)
+    n_a, n_b = rng.integers(0, 4, size=3), rng.integers(0, 3, size=3)
+    q, i, j, start = block_pairs(n_a, n_b)
+    a_start, b_start = _starts(n_a), _starts(n_b)
+    c = rng.permutation(int(n_a.sum()) + 3)[: int(n_a.sum())].astype(np.int64)
+    bsel = rng.permutation(int(n_b.sum()) + 2)[: int(n_b.sum())].astype(np.int64)
+    got = np.flatnonzero(rng.random(q.size) < 0.5)
+    ta, tb = matched_rows(got, q, i, j, a_start, b_start, c, bsel)
+    qg = q[got]  # the numpy form (TeamMatcher.match before)
+    ta_r, tb_r = c[a_start[qg] + i[got]], bsel[b_start[qg] + j[got]]
+    assert ta.dtype == ta_r.dtype and ta.tobytes() == ta_r.tobytes()
+    assert tb.dtype == tb_r.dtype and tb.tobytes() == tb_r.tobytes()

@@ -40,7 +40,8 @@ from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import imm_cycle, turn_rate, wrap
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
-from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS, combine_covariance_rows, row_fields
+from mjasc.perception.imm.row_fields import (SEQUENTIAL_MODELS, combine_covariance_rows, row_fields,
+                                              wrapped_states)
 from mjasc.perception.imm.startup import StartupFilters, cv_to_polar
 
 logger = logging.getLogger("mjasc.perception.imm")
@@ -565,9 +566,7 @@ class IMMBank(PredictiveDensity):
     @property
     def states(self) -> np.ndarray:
         """(n, 4) combined [x, y, θ, V] per track (θ in (−π, π])."""
-        x = self._x.copy()
-        x[:, 2] = wrap(x[:, 2])
-        return x
+        return wrapped_states(self._x)  # (= x.copy() with x[:, 2] = wrap(x[:, 2]): one compiled pass)
 
     @property
     def positions(self) -> np.ndarray:

@@ -22,7 +22,7 @@ import numpy as np
 from mjasc.core.compiled import kernel
 from mjasc.perception.imm.compiled_cycle import combine_row
 
-__all__ = ["SEQUENTIAL_MODELS", "row_fields", "combine_covariance_rows"]
+__all__ = ["SEQUENTIAL_MODELS", "row_fields", "wrapped_states", "combine_covariance_rows"]
 
 #: Largest number of models whose ω̂ numpy sums in model order (its reduction blocks from 8 terms).
 SEQUENTIAL_MODELS = 7
@@ -65,6 +65,19 @@ def row_fields(rows, x, t, mu, omega, active, Pc, full_cov):
             for c in range(d):
                 P[i, b, c] = Pc[j, b, c]
     return tt, xs, th, w, P
+
+
+@kernel
+def wrapped_states(x):
+    """A copy of the states x (n, 4) [x, y, θ, V] with θ wrapped to (−π, π] (the bank's ``states``)."""
+    n = x.shape[0]
+    out = np.empty((n, 4))
+    for k in range(n):
+        out[k, 0] = x[k, 0]
+        out[k, 1] = x[k, 1]
+        out[k, 2] = math.pi - (math.pi - x[k, 2]) % _TWO_PI
+        out[k, 3] = x[k, 3]
+    return out
 
 
 @kernel

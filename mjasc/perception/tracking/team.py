@@ -89,8 +89,7 @@ class TeamMatcher:
         if not np.count_nonzero(inside):
             return
         got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
-        qg = q[got]
-        ta, tb_i = c[a_start[qg] + i[got]], bsel[b_start[qg] + j[got]]
+        ta, tb_i = matched_rows(got, q, i, j, a_start, b_start, c, bsel)
         self._team_of[ta if isinstance(rows, slice) else rows[ta]] = np.array([names[k] for k in tb_i.tolist()] + [None], dtype=object)[:-1]
 
 
@@ -135,3 +134,18 @@ def team_blocks(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners):
             c[fill[o]] = k
             fill[o] += 1
     return c, fresh[:m], n_a, n_b, a_start, b_start
+
+
+@kernel
+def matched_rows(got, q, i, j, a_start, b_start, c, bsel):
+    """(ta, tb) of the assigned pairs ``got`` of :meth:`TeamMatcher.match`: the track position
+    ``c[a_start[q[got]] + i[got]]`` and the broadcast ``bsel[b_start[q[got]] + j[got]]`` of each."""
+    m = got.size
+    ta = np.empty(m, dtype=c.dtype)
+    tb = np.empty(m, dtype=bsel.dtype)
+    for a in range(m):
+        g = got[a]
+        qg = q[g]
+        ta[a] = c[a_start[qg] + i[g]]
+        tb[a] = bsel[b_start[qg] + j[g]]
+    return ta, tb
