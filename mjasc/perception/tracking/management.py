@@ -163,12 +163,11 @@ class TrackManagement:
         idx = np.arange(self._hist.size)[rows] if isinstance(rows, slice) else rows
         t = np.full(k, float(t_s)) if np.ndim(t_s) == 0 else t_s
         mr = np.full(k, float(max_range_m)) if np.ndim(max_range_m) == 0 else max_range_m
-        rng = np.hypot(positions[:, 0] - origins_m[:, 0], positions[:, 1] - origins_m[:, 1])  # NaN: no origin
         drop, code = np.empty(k, dtype=bool), np.empty(k, dtype=np.int8)
-        lam, since = np.empty(k), np.empty(k)
+        lam, since, rng = np.empty(k), np.empty(k), np.empty(k)  # (rng NaN: no origin)
         _losses(idx, t, self._hist, self._scans, self._confirmed, self._last, self._popcount, position_covariances,
-                rng, mr, int(cfg.confirm_window), int(cfg.confirm_hits), float(cfg.max_coast_s),
-                float(cfg.max_position_std_m**2), float(cfg.range_margin_m), drop, code, lam, since)
+                positions, origins_m, mr, int(cfg.confirm_window), int(cfg.confirm_hits), float(cfg.max_coast_s),
+                float(cfg.max_position_std_m**2), float(cfg.range_margin_m), drop, code, lam, since, rng)
         for j in code.nonzero()[0].tolist():  # why the confirmed ones are lost
             c = code[j]
             reason[j] = (f"not seen for {since[j]:.1f} s" if c == 1 else
@@ -233,13 +232,15 @@ def scan_rows(idx, t, used, assigned, rad, occ, speeds, hist, scans, n_upd, last
 
 
 @kernel
-def _losses(idx, t, hist, scans, confirmed, last, popcount, Pc, rng, max_range, window, hits, max_coast, max_var,
-            margin, drop, code, lam, since):
+def _losses(idx, t, hist, scans, confirmed, last, popcount, Pc, pos, org, max_range, window, hits, max_coast, max_var,
+            margin, drop, code, lam, since, rng):
     """The losses of :meth:`TrackManagement.drops` per row k = idx[j] at t[j], in the order of its
     numpy form: a tentative track that can no longer reach M of N; a confirmed one not seen for
     ``max_coast`` (code 1), then one whose position variance's largest eigenvalue lam[j] exceeds
     ``max_var`` (code 2); then a track beyond its range + margin from its sensor, rng[j] (code 3;
-    NaN: no test). Writes drop[j], code[j] (0: none or tentative), lam[j] and since[j]."""
+    NaN: no test) with rng[j] = ``hypot(pos − org)`` of the row's position pos[j] and its sensor's
+    origin org[j] [m] (NaN: no origin). Writes drop[j], code[j] (0: none or tentative), lam[j],
+    since[j] and rng[j]."""
     for j in range(idx.size):
         k = idx[j]
         conf = confirmed[k]
@@ -248,12 +249,14 @@ def _losses(idx, t, hist, scans, confirmed, last, popcount, Pc, rng, max_range, 
         tr = 0.5 * (a + b)
         lm = tr + math.sqrt(maximum(tr * tr - (a * b - c * c), 0.0))
         s = t[j] - last[k]
+        dist = math.hypot(pos[j, 0] - org[j, 0], pos[j, 1] - org[j, 1])
+        rng[j] = dist
         r = 0
         if conf and s > max_coast:
             d, r = True, 1
         if conf and not d and lm > max_var:
             d, r = True, 2
-        if not d and rng[j] > max_range[j] + margin:
+        if not d and dist > max_range[j] + margin:
             d, r = True, 3
         drop[j], code[j], lam[j], since[j] = d, r, lm, s
 
