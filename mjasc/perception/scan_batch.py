@@ -39,7 +39,9 @@ class ScanStack:
     ranges_m (N,) [m]; hit (N,) bool; hit_beams (K,) beam indices within each scan;
     hit_ranges_m (K,) [m]; hit_points_world (K, 2) [m]; origins_m (S, 2) [m]; cos_heading,
     sin_heading (S,): of each scan's heading (``math.cos`` / ``math.sin``); times_s (S,) [s] and
-    headings_rad (S,) [rad]: each scan's ``time_s`` and ``heading_rad``."""
+    headings_rad (S,) [rad]: each scan's ``time_s`` and ``heading_rad``; per scan (S,) its
+    sensor's constants: beams, body angle of the first and last beam [rad], ``max_range_m`` [m],
+    ``full_circle`` (what the map's carving takes, :meth:`~mjasc.perception.static_map.StaticMapStore.carve_stack`)."""
 
     scans: tuple
     beam_off: np.ndarray
@@ -54,6 +56,11 @@ class ScanStack:
     sin_heading: np.ndarray
     times_s: np.ndarray
     headings_rad: np.ndarray
+    n_beams: np.ndarray
+    first_angle_body: np.ndarray
+    last_angle_body: np.ndarray
+    max_range_m: np.ndarray
+    full_circle: np.ndarray
 
 
 class ScanBatch:
@@ -124,9 +131,13 @@ class ScanBatch:
         if key != self._const_key or self._const is None:
             cs = [sn.config for sn in key]
             self._const_key = key
-            self._const = (np.array(self._offs, dtype=np.int64), np.array([c.range_noise_std_m for c in cs], float),
+            beam_off = np.array(self._offs, dtype=np.int64)
+            self._const = (beam_off, np.array([c.range_noise_std_m for c in cs], float),
                            np.array([c.dropout_probability for c in cs], float),
-                           np.array([c.min_range_m for c in cs], float), np.array([c.max_range_m for c in cs], float))
+                           np.array([c.min_range_m for c in cs], float), np.array([c.max_range_m for c in cs], float),
+                           np.diff(beam_off), np.array([sn.angles_body[0] for sn in key], dtype=float),
+                           np.array([sn.angles_body[-1] for sn in key], dtype=float),
+                           np.array([sn.full_circle for sn in key], dtype=bool))
         return self._const
 
     def take(self) -> ScanStack:
@@ -134,7 +145,7 @@ class ScanBatch:
         sensors, offs, queued, clutter = self._sensors, self._offs, self._queued, self._clutter
         S = len(sensors)
         N = offs[-1]
-        beam_off, noise, dropout, min_r, max_r = self._constants()
+        beam_off, noise, dropout, min_r, max_r, n_beams, first, last, full = self._constants()
         times, xs, ys, yaws, has_n, has_u = zip(*queued)
         origins = np.array([xs, ys], dtype=float).T.copy()
         cos_h = np.array([math.cos(y) for y in yaws])
@@ -163,4 +174,5 @@ class ScanBatch:
                                      sensor.beam_spacing_rad, sensor.full_circle))
         self._clear()
         return estimate_of(ScanStack, tuple(scans), beam_off, ret_off, ranges, hit, beams, rho, world, origins, cos_h,
-                           sin_h, np.array(times, dtype=float), np.array(yaws, dtype=float))
+                           sin_h, np.array(times, dtype=float), np.array(yaws, dtype=float), n_beams, first, last, max_r,
+                           full)
