@@ -40,7 +40,7 @@ import numpy as np
 
 from mjasc.core.config_tables import check_params, param
 from mjasc.perception.carve_kernels import cells_in_reach, cells_seen_through
-from mjasc.perception.cell_keys import IJ_BITS, IJ_HALF, MEMBER_SHIFT, find_rows, point_keys
+from mjasc.perception.cell_keys import IJ_BITS, IJ_HALF, MEMBER_SHIFT, create_rows, find_rows, point_keys
 from mjasc.perception.map_polygons import PolygonCache
 from mjasc.perception.score_kernels import add_hits, carve_cells, cell_rows, occupied_points, set_scores
 
@@ -146,16 +146,10 @@ class StaticMapStore:
                 self._cells = np.resize(self._cells, (size, 2))
                 self._member = np.resize(self._member, size)
                 self._score = np.resize(self._score, size)
-            created = np.arange(n, n + k)
-            self._cells[created] = np.stack([((nk >> IJ_BITS) & ((1 << IJ_BITS) - 1)) - IJ_HALF,
-                                             (nk & ((1 << IJ_BITS) - 1)) - IJ_HALF], axis=-1)
-            self._member[created] = nk >> MEMBER_SHIFT
-            self._score[created] = 0.0
-            at = np.searchsorted(self._keys, nk)
-            self._keys = np.insert(self._keys, at, nk)
-            self._key_rows = np.insert(self._key_rows, at, created)
+            self._keys, self._key_rows = create_rows(nk, n, self._cells, self._member, self._score, self._keys,
+                                                     self._key_rows)
             self._n = n + k
-            rows[new] = created
+            rows[new] = np.arange(n, n + k)
         return rows
 
     def _set_scores(self, rows: np.ndarray, new: np.ndarray) -> None:
