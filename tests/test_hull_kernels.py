@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull, QhullError
 
-from mjasc.perception.hull_kernels import hull_area2
+from mjasc.perception.hull_kernels import hull_area2, median
 from mjasc.perception.map_polygons import split_component
 
 _CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
@@ -92,3 +92,21 @@ def test_split_equals_the_qhull_only_form(seed):
             assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
         n_pieces += len(got)
     assert n_pieces > 50
+
+
+def test_median_is_numpys():
+    rng = np.random.default_rng(5)
+    for n in list(range(1, 12)) + [50, 51, 200]:
+        for _ in range(30):
+            v = rng.normal(0, 3, n)
+            if rng.random() < 0.3:
+                v = np.round(v)  # ties
+            want = np.median(v)
+            got = median(v)
+            # the same number (a zero's sign may differ: the order among equal values is the sort's);
+            # what the split takes from it, ``proj <= cut``, is the same
+            assert got == want and np.array_equal(v <= got, v <= want)
+            if want != 0.0:
+                assert np.float64(got).tobytes() == np.float64(want).tobytes()
+    v = np.array([1.0, np.nan, 3.0])
+    assert np.isnan(median(v)) and np.isnan(np.median(v))

@@ -1,6 +1,10 @@
-"""The exact area of the convex hull of a set of grid cells (integer cell indices, in cells²):
-what :func:`mjasc.perception.map_polygons.split_component` needs to decide that a piece is too
-sparse for its hull without building the hull.
+"""Compiled loops of the map's polygon split (:func:`mjasc.perception.map_polygons.split_component`):
+the exact area of the convex hull of a set of grid cells (integer cell indices, in cells²), to
+decide that a piece is too sparse for its hull without building the hull, and the median where a
+piece is cut (``np.median``'s value: the middle element of the sorted values, or the mean of the
+two middle ones, ``(a + b) / 2``, as numpy's mean of two; NaN if any value is NaN; a zero's sign
+may differ from numpy's, which picks among equal values in its partition's order: the split only
+compares with it).
 
 A cell (i, j) is the unit square with corners (i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1). The
 hull of those corners is found by Andrew's monotone chain (corners sorted by x, then y; a turn
@@ -16,7 +20,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["hull_area2"]
+__all__ = ["hull_area2", "median"]
 
 
 @kernel
@@ -61,3 +65,16 @@ def hull_area2(cells):
     for k in range(h - 1):  # the chain ends where it started
         a2 += hx[k] * hy[k + 1] - hx[k + 1] * hy[k]
     return a2
+
+
+@kernel
+def median(values):
+    """``np.median`` of ``values`` (n ≥ 1,) float (module docstring)."""
+    n = values.shape[0]
+    s = np.sort(values)  # NaN sorts last, as numpy's partition puts it
+    if s[n - 1] != s[n - 1]:
+        return s[n - 1]
+    h = n // 2
+    if n % 2 == 1:
+        return s[h]
+    return (s[h - 1] + s[h]) / 2.0

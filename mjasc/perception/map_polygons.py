@@ -20,7 +20,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import ConvexHull, QhullError
 
-from mjasc.perception.hull_kernels import hull_area2
+from mjasc.perception.hull_kernels import hull_area2, median
 
 __all__ = ["PolygonCache", "split_component"]
 
@@ -51,7 +51,7 @@ def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth:
     c = comp - comp.mean(axis=0)
     _, vec = np.linalg.eigh(c.T @ c)
     proj = c @ vec[:, -1]
-    cut = np.median(proj)
+    cut = median(proj)
     left = proj <= cut
     if left.all() or not left.any():
         if hull is None:
