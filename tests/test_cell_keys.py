@@ -5,7 +5,7 @@ cell sizes, on cell boundaries, negative, far out (the one-line error) and not f
 import numpy as np
 import pytest
 
-from mjasc.perception.cell_keys import IJ_BITS, IJ_HALF, MEMBER_SHIFT, find_rows, point_keys
+from mjasc.perception.cell_keys import IJ_BITS, IJ_HALF, MEMBER_SHIFT, create_rows, find_rows, point_keys
 from mjasc.perception.static_map import StaticMapConfig, StaticMapStore
 
 
@@ -56,3 +56,36 @@ def test_far_or_non_finite_points_give_the_one_line_error(bad):
     edge = np.array([[float(IJ_HALF) - 1.0, -float(IJ_HALF)]])
     keys, ok = point_keys(np.zeros(1, dtype=np.int64), edge, np.ones(1))
     assert ok and keys.tobytes() == _numpy_keys(np.zeros(1, dtype=np.int64), edge, np.ones(1)).tobytes()
+
+
+def _reference_create(new_keys, n, cells, member, score, sorted_keys, key_rows):
+    """The numpy form StaticMapStore._create had: decode the new keys into rows n…, then np.insert
+    the keys and their rows at np.searchsorted."""
+    k = new_keys.size
+    created = np.arange(n, n + k)
+    cells[created] = np.stack([((new_keys >> IJ_BITS) & ((1 << IJ_BITS) - 1)) - IJ_HALF,
+                               (new_keys & ((1 << IJ_BITS) - 1)) - IJ_HALF], axis=-1)
+    member[created] = new_keys >> MEMBER_SHIFT
+    score[created] = 0.0
+    at = np.searchsorted(sorted_keys, new_keys)
+    return np.insert(sorted_keys, at, new_keys), np.insert(key_rows, at, created)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_create_rows_equals_the_numpy_form(seed):
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(0, 60))
+    pool = np.unique((rng.integers(0, 4, 200) << MEMBER_SHIFT) | ((rng.integers(-40, 40, 200) + IJ_HALF) << IJ_BITS)
+                     | (rng.integers(-40, 40, 200) + IJ_HALF))
+    rng.shuffle(pool)
+    old = np.sort(pool[:n])
+    rows_old = rng.permutation(n).astype(np.int64)
+    new = np.sort(pool[n:n + int(rng.integers(0, 30))])
+    size = n + new.size + int(rng.integers(0, 5))
+    tables = [(np.zeros((size, 2), dtype=np.int64), np.zeros(size, dtype=np.int64), np.full(size, 7.0)) for _ in range(2)]
+    got = create_rows(new, n, *tables[0], old, rows_old)
+    want = _reference_create(new, n, *tables[1], old, rows_old)
+    for a, b in zip(got, want):
+        assert a.dtype == b.dtype and np.array_equal(a, b)
+    for a, b in zip(tables[0], tables[1]):
+        assert a.tobytes() == b.tobytes()

@@ -7,7 +7,8 @@ cell size [m]); its key packs ``(m, i, j)`` into one int64,
 [−2²³, 2²³). The store keeps its keys sorted with the row of each; a key's row is found by binary
 search (−1: no such row). These are the numpy form's expressions (``np.floor(p / cell)``, the shifts,
 ``np.searchsorted`` and an equality test; kept in ``tests/test_cell_keys.py`` as the reference), so
-the keys and rows are the same.
+the keys and rows are the same. :func:`create_rows` appends the rows of new keys to the table and
+merges their keys into the sorted ones (what ``np.insert`` at ``np.searchsorted`` did).
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["point_keys", "find_rows", "IJ_BITS", "IJ_HALF", "MEMBER_SHIFT"]
+__all__ = ["point_keys", "find_rows", "create_rows", "IJ_BITS", "IJ_HALF", "MEMBER_SHIFT"]
 
 IJ_BITS = 24  # cell indices i, j in [−2²³, 2²³) (±8,388 km at 1 m cells); members < 2¹⁵
 IJ_HALF = 1 << (IJ_BITS - 1)
@@ -64,3 +65,34 @@ def find_rows(keys, sorted_keys, key_rows):
         if lo < q and sorted_keys[lo] == key:
             out[n] = key_rows[lo]
     return out
+
+
+@kernel
+def create_rows(new_keys, n, cells, member, score, sorted_keys, key_rows):
+    """Rows ``n … n + k − 1`` of the table (``cells`` (≥ n + k, 2), ``member``, ``score``, filled in
+    place: the cell (i, j) and member a key packs, score 0) for the k distinct ascending keys
+    ``new_keys``, none in ``sorted_keys``; returns the sorted keys (n' + k,) with those merged in and
+    their rows (``key_rows`` with n, n + 1, … at the new keys' places)."""
+    k = new_keys.shape[0]
+    mask = (1 << IJ_BITS) - 1
+    for q in range(k):
+        key = new_keys[q]
+        cells[n + q, 0] = ((key >> IJ_BITS) & mask) - IJ_HALF
+        cells[n + q, 1] = (key & mask) - IJ_HALF
+        member[n + q] = key >> MEMBER_SHIFT
+        score[n + q] = 0.0
+    m = sorted_keys.shape[0]
+    keys = np.empty(m + k, dtype=np.int64)
+    rows = np.empty(m + k, dtype=np.int64)
+    i = 0
+    j = 0
+    for o in range(m + k):
+        if j < k and (i >= m or new_keys[j] <= sorted_keys[i]):
+            keys[o] = new_keys[j]
+            rows[o] = n + j
+            j += 1
+        else:
+            keys[o] = sorted_keys[i]
+            rows[o] = key_rows[i]
+            i += 1
+    return keys, rows

@@ -217,15 +217,17 @@ class PerceptionFleet:
             radii, variances = batch.radii_m, batch.variances_m2
         pts = stack.hit_points_world
         occ = _NO_FLAGS
+        ret_slot = None  # the map member of each return
         if extended.size and not extended.all() and store.any_occupied(slot):
-            occ = store.occupied(np.repeat(slot, np.diff(ret_off)), pts)
+            ret_slot = np.repeat(slot, np.diff(ret_off))
+            occ = store.occupied(ret_slot, pts)
         targets, p_static, m_static, counts = sort_returns(lab, ret_off, det_off, extended, n_pts, centres, radii,
                                                            variances, pts, occ, plan.sigma, FLAT_M, dc, dr, d_k, slot)
         if m_static.size:
             store.add_points(m_static, p_static)
         carve = plan.carve
         if len(carve) == S:
-            store.carve_stack(slot, stack, plan.noise)
+            store.carve_stack(slot, stack, plan.sigma, ret_slot)
         elif carve:
             sc = [scans[k] for k in carve]
             store.carve(slot[carve].tolist(), [s.origin_m for s in sc], [s.angles_body + s.heading_rad for s in sc],

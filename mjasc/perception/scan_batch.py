@@ -39,7 +39,9 @@ class ScanStack:
     ranges_m (N,) [m]; hit (N,) bool; hit_beams (K,) beam indices within each scan;
     hit_ranges_m (K,) [m]; hit_points_world (K, 2) [m]; origins_m (S, 2) [m]; cos_heading,
     sin_heading (S,): of each scan's heading (``math.cos`` / ``math.sin``); times_s (S,) [s] and
-    headings_rad (S,) [rad]: each scan's ``time_s`` and ``heading_rad``."""
+    headings_rad (S,) [rad]: each scan's ``time_s`` and ``heading_rad``; per scan (S,) its
+    sensor's constants: beams, body angle of the first and last beam [rad], ``max_range_m`` [m],
+    ``full_circle`` (what the map's carving takes, :meth:`~mjasc.perception.static_map.StaticMapStore.carve_stack`)."""
 
     scans: tuple
     beam_off: np.ndarray
@@ -54,6 +56,11 @@ class ScanStack:
     sin_heading: np.ndarray
     times_s: np.ndarray
     headings_rad: np.ndarray
+    n_beams: np.ndarray
+    first_angle_body: np.ndarray
+    last_angle_body: np.ndarray
+    max_range_m: np.ndarray
+    full_circle: np.ndarray
 
 
 class ScanBatch:
@@ -62,6 +69,7 @@ class ScanBatch:
 
     def __init__(self):
         self._cap = 0
+        self._has = np.zeros((2, 64), dtype=bool)  # per cast: normals drawn, uniforms drawn
         self._grow(1024)
         self._clear()
         self._const_key: tuple = ()
@@ -70,7 +78,7 @@ class ScanBatch:
     def _clear(self) -> None:
         self._sensors: list[RangeSensor] = []
         self._offs = [0]
-        self._queued: list[tuple] = []  # per cast: time [s], x, y [m], yaw [rad], has normals, has uniforms
+        self._queued: list[tuple] = []  # per cast: time [s], x, y [m], yaw [rad], its cosine and sine
         self._clutter: list[tuple[np.ndarray, np.ndarray]] = []  # per cast: clutter beams, ranges [m]
         self._n_clutter = 0  # casts with clutter
 
@@ -113,7 +121,11 @@ class ScanBatch:
         has_n, has_u, cb, cr = sensor.draw(rng, normals, uniforms)
         self._sensors.append(sensor)
         self._offs.append(b)
-        self._queued.append((float(data.time), x, y, yaw, has_n, has_u))
+        self._queued.append((float(data.time), x, y, yaw, math.cos(yaw), math.sin(yaw)))
+        has = self._has
+        if k >= has.shape[1]:
+            self._has = has = np.concatenate([has, np.zeros_like(has)], axis=1)
+        has[0, k], has[1, k] = has_n, has_u
         self._clutter.append((cb, cr))
         if cb.size:
             self._n_clutter += 1
@@ -124,9 +136,13 @@ class ScanBatch:
         if key != self._const_key or self._const is None:
             cs = [sn.config for sn in key]
             self._const_key = key
-            self._const = (np.array(self._offs, dtype=np.int64), np.array([c.range_noise_std_m for c in cs], float),
+            beam_off = np.array(self._offs, dtype=np.int64)
+            self._const = (beam_off, np.array([c.range_noise_std_m for c in cs], float),
                            np.array([c.dropout_probability for c in cs], float),
-                           np.array([c.min_range_m for c in cs], float), np.array([c.max_range_m for c in cs], float))
+                           np.array([c.min_range_m for c in cs], float), np.array([c.max_range_m for c in cs], float),
+                           np.diff(beam_off), np.array([sn.angles_body[0] for sn in key], dtype=float),
+                           np.array([sn.angles_body[-1] for sn in key], dtype=float),
+                           np.array([sn.full_circle for sn in key], dtype=bool))
         return self._const
 
     def take(self) -> ScanStack:
@@ -134,11 +150,12 @@ class ScanBatch:
         sensors, offs, queued, clutter = self._sensors, self._offs, self._queued, self._clutter
         S = len(sensors)
         N = offs[-1]
-        beam_off, noise, dropout, min_r, max_r = self._constants()
-        times, xs, ys, yaws, has_n, has_u = zip(*queued)
-        origins = np.array([xs, ys], dtype=float).T.copy()
-        cos_h = np.array([math.cos(y) for y in yaws])
-        sin_h = np.array([math.sin(y) for y in yaws])
+        beam_off, noise, dropout, min_r, max_r, n_beams, first, last, full = self._constants()
+        rows = np.array(queued, dtype=float)  # (S, 6): time, x, y, yaw, cos, sin of each cast
+        cols = rows.T.copy()
+        times_s, headings, cos_h, sin_h = cols[0], cols[3], cols[4], cols[5]
+        origins = rows[:, 1:3].copy()
+        has_n, has_u = self._has[0, :S], self._has[1, :S]
         if S == 1:
             cb, cr = clutter[0]
             c_off = np.array([0, cb.size], dtype=np.int64)
@@ -150,17 +167,18 @@ class ScanBatch:
             cr = np.concatenate([c[1] for c in clutter])
             c_off = np.array([0, *accumulate(c[0].size for c in clutter)], dtype=np.int64)
         ranges, hit, geom, beams, ret_off, rho, body, world = scan_batch(
-            self._dist[:N], self._gid[:N], beam_off, noise, self._normals[:N], np.array(has_n), dropout,
-            self._uniforms[:N], np.array(has_u), cb, cr, c_off, min_r, max_r, CLUTTER_GEOM, self._cos[:N],
+            self._dist[:N], self._gid[:N], beam_off, noise, self._normals[:N], has_n, dropout,
+            self._uniforms[:N], has_u, cb, cr, c_off, min_r, max_r, CLUTTER_GEOM, self._cos[:N],
             self._sin[:N], origins, cos_h, sin_h)
         ro = ret_off.tolist()
         scans = []
         for k, sensor in enumerate(sensors):
             a, b, p, q = offs[k], offs[k + 1], ro[k], ro[k + 1]
             c = sensor.config
-            scans.append(estimate_of(Scan, times[k], origins[k], yaws[k], sensor.angles_body, ranges[a:b], hit[a:b],
+            cast = queued[k]
+            scans.append(estimate_of(Scan, cast[0], origins[k], cast[3], sensor.angles_body, ranges[a:b], hit[a:b],
                                      beams[p:q], body[p:q], world[p:q], geom[a:b], c.max_range_m,
                                      sensor.beam_spacing_rad, sensor.full_circle))
         self._clear()
         return estimate_of(ScanStack, tuple(scans), beam_off, ret_off, ranges, hit, beams, rho, world, origins, cos_h,
-                           sin_h, np.array(times, dtype=float), np.array(yaws, dtype=float))
+                           sin_h, times_s, headings, n_beams, first, last, max_r, full)

@@ -40,7 +40,7 @@ import numpy as np
 
 from mjasc.core.config_tables import check_params, param
 from mjasc.perception.carve_kernels import cells_in_reach, cells_seen_through
-from mjasc.perception.cell_keys import IJ_BITS, IJ_HALF, MEMBER_SHIFT, find_rows, point_keys
+from mjasc.perception.cell_keys import IJ_BITS, IJ_HALF, MEMBER_SHIFT, create_rows, find_rows, point_keys
 from mjasc.perception.map_polygons import PolygonCache
 from mjasc.perception.score_kernels import add_hits, carve_cells, cell_rows, occupied_points, set_scores
 
@@ -146,16 +146,10 @@ class StaticMapStore:
                 self._cells = np.resize(self._cells, (size, 2))
                 self._member = np.resize(self._member, size)
                 self._score = np.resize(self._score, size)
-            created = np.arange(n, n + k)
-            self._cells[created] = np.stack([((nk >> IJ_BITS) & ((1 << IJ_BITS) - 1)) - IJ_HALF,
-                                             (nk & ((1 << IJ_BITS) - 1)) - IJ_HALF], axis=-1)
-            self._member[created] = nk >> MEMBER_SHIFT
-            self._score[created] = 0.0
-            at = np.searchsorted(self._keys, nk)
-            self._keys = np.insert(self._keys, at, nk)
-            self._key_rows = np.insert(self._key_rows, at, created)
+            self._keys, self._key_rows = create_rows(nk, n, self._cells, self._member, self._score, self._keys,
+                                                     self._key_rows)
             self._n = n + k
-            rows[new] = created
+            rows[new] = np.arange(n, n + k)
         return rows
 
     def _set_scores(self, rows: np.ndarray, new: np.ndarray) -> None:
@@ -203,22 +197,22 @@ class StaticMapStore:
                            a0, a1, max_range_m, full_circle, ranges, hits, beam_off, range_noise_std_m, pm,
                            cat(pts) if pts else np.zeros((0, 2)))
 
-    def carve_stack(self, members: np.ndarray, stack, range_noise_std_m) -> np.ndarray:
+    def carve_stack(self, members: np.ndarray, stack, range_noise_std_m, point_member: np.ndarray | None = None
+                    ) -> np.ndarray:
         """:meth:`carve` of the scans of a :class:`~mjasc.perception.scan_batch.ScanStack`, scan s
         by member ``members[s]`` (its σ_ρ ``range_noise_std_m[s]``): the same update, the scans'
-        arrays taken stacked as they are."""
-        scans = stack.scans
-        q = len(scans)
+        arrays and their sensors' constants taken stacked as they are. ``point_member``: the member
+        of each of the stack's returns (``np.repeat(members, np.diff(stack.ret_off))``), if made."""
+        q = stack.origins_m.shape[0]
         if self._n == 0 or q == 0:
             return np.zeros(q, dtype=np.int64)
+        if point_member is None:
+            point_member = np.repeat(members, np.diff(stack.ret_off))
         # the world angle of each fan's first and last beam, as ``angles_body + heading_rad`` has them
-        a0 = [s.angles_body[0] + s.heading_rad for s in scans]
-        a1 = [s.angles_body[-1] + s.heading_rad for s in scans]
-        ret_off = stack.ret_off
-        return self._carve(members, stack.origins_m, np.diff(stack.beam_off), a0, a1,
-                           [s.max_range_m for s in scans], [s.full_circle for s in scans], stack.ranges_m, stack.hit,
-                           stack.beam_off[:-1], range_noise_std_m, np.repeat(members, np.diff(ret_off)),
-                           stack.hit_points_world)
+        h = stack.headings_rad
+        return self._carve(members, stack.origins_m, stack.n_beams, stack.first_angle_body + h,
+                           stack.last_angle_body + h, stack.max_range_m, stack.full_circle, stack.ranges_m, stack.hit,
+                           stack.beam_off[:-1], range_noise_std_m, point_member, stack.hit_points_world)
 
     def _carve(self, members, o, nb, a0, a1, max_range_m, full_circle, ranges, hit, beam_off, range_noise_std_m,
                point_member, points) -> np.ndarray:
@@ -235,8 +229,8 @@ class StaticMapStore:
                                                      np.asarray(max_range_m, dtype=float).reshape(q))
         if rows.size == 0:
             return counts
-        a0 = np.array(a0, dtype=float)
-        a1 = np.array(a1, dtype=float)
+        a0 = np.asarray(a0, dtype=float)
+        a1 = np.asarray(a1, dtype=float)
         full = np.asarray(full_circle, dtype=bool).reshape(q)
         noise = np.asarray(range_noise_std_m, dtype=float).reshape(q)
         bearing = np.arctan2(rel[:, 1], rel[:, 0])

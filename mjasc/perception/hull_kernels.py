@@ -1,0 +1,80 @@
+"""Compiled loops of the map's polygon split (:func:`mjasc.perception.map_polygons.split_component`):
+the exact area of the convex hull of a set of grid cells (integer cell indices, in cells²), to
+decide that a piece is too sparse for its hull without building the hull, and the median where a
+piece is cut (``np.median``'s value: the middle element of the sorted values, or the mean of the
+two middle ones, ``(a + b) / 2``, as numpy's mean of two; NaN if any value is NaN; a zero's sign
+may differ from numpy's, which picks among equal values in its partition's order: the split only
+compares with it).
+
+A cell (i, j) is the unit square with corners (i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1). The
+hull of those corners is found by Andrew's monotone chain (corners sorted by x, then y; a turn
+that is not strictly counter-clockwise is dropped) and its doubled area by the shoelace formula,
+all in int64: exact for cell indices of up to ±2³⁰ (the map's keys allow ±2²⁰,
+:mod:`mjasc.perception.cell_keys`). Its test compares it with scipy's ``ConvexHull`` on random
+and on mapped cells.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.core.compiled import kernel
+
+__all__ = ["hull_area2", "median"]
+
+
+@kernel
+def hull_area2(cells):
+    """Twice the area [cells²] of the convex hull of the corners of the cells ``cells`` (c, 2)
+    int64 (module docstring); 0 for no cells."""
+    c = cells.shape[0]
+    if c == 0:
+        return 0
+    m = 4 * c
+    x = np.empty(m, dtype=np.int64)
+    y = np.empty(m, dtype=np.int64)
+    for k in range(c):
+        i, j = cells[k, 0], cells[k, 1]
+        x[4 * k], y[4 * k] = i, j
+        x[4 * k + 1], y[4 * k + 1] = i + 1, j
+        x[4 * k + 2], y[4 * k + 2] = i + 1, j + 1
+        x[4 * k + 3], y[4 * k + 3] = i, j + 1
+    x0 = x.min()
+    y0 = y.min()
+    key = np.empty(m, dtype=np.int64)
+    for k in range(m):
+        key[k] = ((x[k] - x0) << 32) | (y[k] - y0)
+    order = np.argsort(key)
+    hx = np.empty(2 * m + 1, dtype=np.int64)
+    hy = np.empty(2 * m + 1, dtype=np.int64)
+    h = 0
+    for q in range(m):  # lower chain
+        px, py = x[order[q]], y[order[q]]
+        while h >= 2 and (hx[h - 1] - hx[h - 2]) * (py - hy[h - 2]) - (hy[h - 1] - hy[h - 2]) * (px - hx[h - 2]) <= 0:
+            h -= 1
+        hx[h], hy[h] = px, py
+        h += 1
+    low = h + 1
+    for q in range(m - 2, -1, -1):  # upper chain
+        px, py = x[order[q]], y[order[q]]
+        while h >= low and (hx[h - 1] - hx[h - 2]) * (py - hy[h - 2]) - (hy[h - 1] - hy[h - 2]) * (px - hx[h - 2]) <= 0:
+            h -= 1
+        hx[h], hy[h] = px, py
+        h += 1
+    a2 = 0
+    for k in range(h - 1):  # the chain ends where it started
+        a2 += hx[k] * hy[k + 1] - hx[k + 1] * hy[k]
+    return a2
+
+
+@kernel
+def median(values):
+    """``np.median`` of ``values`` (n ≥ 1,) float (module docstring)."""
+    n = values.shape[0]
+    s = np.sort(values)  # NaN sorts last, as numpy's partition puts it
+    if s[n - 1] != s[n - 1]:
+        return s[n - 1]
+    h = n // 2
+    if n % 2 == 1:
+        return s[h]
+    return (s[h - 1] + s[h]) / 2.0

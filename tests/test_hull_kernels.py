@@ -1,0 +1,112 @@
+"""mjasc.perception.hull_kernels.hull_area2 against scipy's qhull, and the map's polygon split that
+uses it (mjasc.perception.map_polygons.split_component) against the qhull-only form it replaced,
+bit for bit, on walls, docks, blobs and single cells."""
+
+import numpy as np
+import pytest
+from scipy.spatial import ConvexHull, QhullError
+
+from mjasc.perception.hull_kernels import hull_area2, median
+from mjasc.perception.map_polygons import split_component
+
+_CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+
+
+def reference_split(comp, cell_m, min_fill, max_depth, depth, out):
+    """The qhull-only form of split_component (every piece's fill from qhull's area)."""
+    corners = (comp[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cell_m
+    try:
+        hull = ConvexHull(corners)
+    except QhullError:
+        return
+    fill = comp.shape[0] * cell_m**2 / hull.volume
+    if fill >= min_fill or comp.shape[0] <= 4 or depth >= max_depth:
+        out.append(corners[hull.vertices])
+        return
+    c = comp - comp.mean(axis=0)
+    _, vec = np.linalg.eigh(c.T @ c)
+    proj = c @ vec[:, -1]
+    cut = np.median(proj)
+    left = proj <= cut
+    if left.all() or not left.any():
+        out.append(corners[hull.vertices])
+        return
+    reference_split(comp[left], cell_m, min_fill, max_depth, depth + 1, out)
+    reference_split(comp[~left], cell_m, min_fill, max_depth, depth + 1, out)
+
+
+def _shapes(rng):
+    """Components as a map makes them (row-major int64 cells): walls at any angle, L and U docks,
+    blobs, single cells, far from the origin or near it."""
+    out = []
+    for _ in range(60):
+        kind = int(rng.integers(0, 4))
+        if kind == 0:  # a wall: cells along a segment, one or two thick
+            a, L = rng.uniform(0, np.pi), rng.uniform(3, 60)
+            t = np.linspace(0, L, int(L * 2) + 2)
+            p = np.stack([t * np.cos(a), t * np.sin(a)], axis=-1)
+            p = np.concatenate([p, p + rng.uniform(-1, 1, 2)]) if rng.random() < 0.5 else p
+            cells = np.floor(p).astype(np.int64)
+        elif kind == 1:  # an L or a U
+            w, h = int(rng.integers(4, 30)), int(rng.integers(4, 30))
+            cells = [(i, 0) for i in range(w)] + [(0, j) for j in range(h)]
+            if rng.random() < 0.5:
+                cells += [(w - 1, j) for j in range(h)]
+            cells = np.array(cells, dtype=np.int64)
+        elif kind == 2:  # a blob
+            cells = rng.integers(0, int(rng.integers(2, 12)), (int(rng.integers(1, 50)), 2))
+        else:
+            cells = rng.integers(0, 3, (int(rng.integers(1, 4)), 2))
+        cells = np.unique(cells + rng.integers(-200000, 200000, 2) * int(rng.random() < 0.3), axis=0)
+        out.append(cells.astype(np.int64))
+    return out
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_hull_area_is_qhulls_area(seed):
+    rng = np.random.default_rng(seed)
+    for cells in _shapes(rng):
+        cm = float(rng.choice([0.5, 1.0, 1.5, 2.0]))
+        corners = (cells[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cm
+        a2 = hull_area2(cells)
+        assert a2 % 1 == 0 and a2 >= 2
+        assert abs(ConvexHull(corners).volume / cm**2 - 0.5 * a2) <= 1e-10 * a2
+    assert hull_area2(np.zeros((0, 2), dtype=np.int64)) == 0
+    assert hull_area2(np.array([[3, -7]], dtype=np.int64)) == 2
+    assert hull_area2(np.array([[0, 0], [2, 2]], dtype=np.int64)) == 10  # a 3 × 3 box less two corners of 2 cells²
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_split_equals_the_qhull_only_form(seed):
+    rng = np.random.default_rng(10 + seed)
+    n_pieces = 0
+    for cells in _shapes(rng):
+        cm = float(rng.choice([0.5, 1.0, 2.0]))
+        fill = float(rng.choice([0.4, 0.5, 0.25, 0.0, 1.0]))
+        depth = int(rng.choice([0, 2, 6]))
+        got, want = [], []
+        split_component(cells, cm, fill, depth, 0, got)
+        reference_split(cells, cm, fill, depth, 0, want)
+        assert len(got) == len(want)
+        for a, b in zip(got, want):
+            assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+        n_pieces += len(got)
+    assert n_pieces > 50
+
+
+def test_median_is_numpys():
+    rng = np.random.default_rng(5)
+    for n in list(range(1, 12)) + [50, 51, 200]:
+        for _ in range(30):
+            v = rng.normal(0, 3, n)
+            if rng.random() < 0.3:
+                v = np.round(v)  # ties
+            want = np.median(v)
+            got = median(v)
+            # the same number (a zero's sign may differ: the order among equal values is the sort's);
+            # what the split takes from it, ``proj <= cut``, is the same
+            assert got == want and np.array_equal(v <= got, v <= want)
+            if want != 0.0:
+                assert np.float64(got).tobytes() == np.float64(want).tobytes()
+    v = np.array([1.0, np.nan, 3.0])
+    assert np.isnan(median(v)) and np.isnan(np.median(v))
