@@ -345,9 +345,15 @@ class CollisionAvoidance(AvoidanceMethod):
     # ------------------------------------------------------------------ own plan
     def mission_gamma_m(self, guidance: GuidanceState) -> float:
         """Progress along the ORIGINAL mission path [m], also while on a detour."""
-        if self.detour is not None and guidance.path is self.detour.path:
-            return self.detour.mission_gamma(guidance.gamma_m)
-        return float(guidance.gamma_m)
+        return self.mission_gamma_on(guidance.path, guidance.gamma_m)
+
+    def mission_gamma_on(self, path: Path, gamma_m: float) -> float:
+        """:meth:`mission_gamma_m` of a guidance on ``path`` at γ = ``gamma_m`` [m] (what it reads of
+        the state: the agent asks without making one)."""
+        d = self.detour
+        if d is not None and path is d.path:
+            return d.mission_gamma(gamma_m)
+        return float(gamma_m)
 
     def planned_gamma(self, t_now: float, gamma_now: float, mission_speed_m_s: float):
         """γ(t) [m] on the current path for absolute times t ≥ t_now: the virtual target's speed V_d
