@@ -150,7 +150,8 @@ def control_slot(calls) -> list[AvoidanceRequest]:
     re-plan, a finished velocity correction) run per vessel."""
     pending = []
     for system, t, nav, guidance, perceived, team in calls:
-        system._begin(guidance, perceived, team)
+        # system._begin(guidance, perceived, team), then its query
+        system._guidance, system._switch, system._perceived, system._team = guidance, None, perceived, team
         pending.append(system._control_query(float(t)))
     queries = [p[0].query for p in pending if p is not None and p[0].query is not None]
     results = iter(predict_fleet_lazy(queries) if queries else ())  # (most ticks predict nothing)

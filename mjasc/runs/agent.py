@@ -291,7 +291,9 @@ class VesselAgent:
         mode = "mission"
         course = math.nan
         if req is not None:
-            self.apply_request(req)
+            sw = req.path_switch  # (apply_request without its call)
+            if sw is not None:
+                self.follower.set_path(sw.path, sw.gamma_m)
             mode = req.mode
             if req.speed_override_m_s is not None:
                 speed = req.speed_override_m_s
