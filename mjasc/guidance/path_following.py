@@ -32,9 +32,13 @@ projects every vessel on its path and runs the law for all of them. The law (:fu
 written once over a table of operations: above :data:`SCALAR_FLEET_MAX` vessels it runs once over
 arrays (the projection in one vectorized pass over each vessel's window of segments); up to it,
 vessel by vessel in plain floats (each path's scalar projection), because numpy's per-call
-overhead, not arithmetic, is the cost of small fleets. The plain-float form the control tick runs
-is :func:`_law_floats`, the float operations written out (a Python call per operation cost more
-than the law's arithmetic); a test holds it to ``_law(_FloatOps, …)`` bit for bit on the demo. Both forms give the same bits (elementwise
+overhead, not arithmetic, is the cost of small fleets. The plain-float form is :func:`_law_floats`,
+the float operations written out (a Python call per operation cost more than the law's arithmetic);
+a test holds it to ``_law(_FloatOps, …)`` bit for bit on the demo. The control tick runs that form
+compiled: projection, law and inverse propeller curve of every vessel in one call
+(:func:`~mjasc.guidance.follow_kernel.follow_fleet`, held to :meth:`FleetPathFollower._command_floats`
+bit for bit by ``tests/test_follow_kernel.py``; the Python form stays as the fallback for a
+position that is not finite). Both forms give the same bits (elementwise
 operations in the same order, ``x**2`` through the C library's pow in both; ``math``'s sin, cos
 and atan2 equal numpy's on x86-64 without AVX-512, elsewhere they may differ in the last bit), so
 a vessel's commands do not depend on the fleet it is in (``tests/test_fleet_following.py``).
