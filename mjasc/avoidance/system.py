@@ -757,7 +757,8 @@ class CollisionAvoidance(AvoidanceMethod):
         if self.team_mates.plans_changed(t, self._team):  # a team mate re-planned or changed its speed
             self.stats["deviation_predictions"] += 1
             return set()
-        if self._deviating(tracks):  # a track that left the motion the last prediction assumed
+        # a track that left the motion the last prediction assumed (tracks checked already: no)
+        if tracks is not self._checked_tracks and self._deviating(tracks):
             self.stats["deviation_predictions"] += 1
             return set()
         return None

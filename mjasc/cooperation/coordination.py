@@ -206,7 +206,10 @@ class _TeamView:
             acc = 0.0
             if extrapolate:
                 for x, rate, sent, x_end in self.rows:
-                    acc += own - min(x + rate * (t_s - sent), max(x, x_end))
+                    # own − min(x + ξ̇ (t − t_j), max(x, x_end)), the builtins' picks written out
+                    hi = x_end if x_end > x else x
+                    ahead = x + rate * (t_s - sent)
+                    acc += own - (hi if hi < ahead else ahead)
             else:
                 for row in self.rows:
                     acc += own - row[0]
