@@ -128,3 +128,27 @@ def test_validation():
     static = PredictedConflict(**{**thesis_conflict().__dict__, "t_f": np.inf})
     with pytest.raises(ValueError, match="conflict.t_f"):
         VelocityCorrection.yield_to(static, 290.0, 140.0, K, 0, 2.5)
+
+
+def test_command_in_plain_floats_equals_the_law_and_numpy_clip():
+    """``command`` (plain floats) gives ``float(np.clip(unsaturated_command(γ, t), v_min, v_max))``
+    bit for bit, saturated or not, and keeps the same saturation record."""
+    rng = np.random.default_rng(4)
+    for _ in range(200):
+        g0, t0 = rng.uniform(0, 100), rng.uniform(0, 100)
+        vc = VelocityCorrection(g0, t0, g0 + rng.uniform(1, 60), t0 + rng.uniform(1, 40), rng.uniform(0.05, 2.0),
+                                0.0, rng.uniform(0.5, 3.0))
+        last_sat, sat_time = False, 0.0
+        t = t0
+        for _ in range(20):
+            t_prev, t = t, t + rng.uniform(0.0, 1.0)
+            gamma = g0 + rng.normal(0.0, 20.0)
+            u = vc.unsaturated_command(gamma, t)
+            want = float(np.clip(u, vc.speed_min, vc.speed_max))
+            if last_sat and t > t_prev:
+                sat_time += t - t_prev
+            got = vc.command(gamma, t)
+            assert got == want and np.copysign(1.0, got) == np.copysign(1.0, want)
+            last_sat = want != u
+            assert vc.saturated_now == last_sat
+        assert vc.saturated_time_s == sat_time

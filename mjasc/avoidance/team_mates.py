@@ -117,7 +117,8 @@ class TeamMates:
         team mate sends no plan), and the history of their positions."""
         if picture is None:
             return
-        key = self._key(picture)
+        key_of = self._key_of  # (_key without its call when the mapping is the last one seen)
+        key = key_of[1] if key_of[0] is picture.intentions else self._key(picture)
         if key == self._polled_key:
             return  # the same messages as at the last poll
         self._polled_key = key
@@ -244,7 +245,8 @@ class TeamMates:
         message is compared once; all new messages are compared in one array operation."""
         if picture is None:
             return False
-        key = self._key(picture)
+        key_of = self._key_of  # (_key without its call when the mapping is the last one seen)
+        key = key_of[1] if key_of[0] is picture.intentions else self._key(picture)
         if key == self._compared_key:
             return False  # every message still fresh was compared at the last call
         intents = self.fresh(picture, t)

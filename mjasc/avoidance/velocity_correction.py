@@ -22,6 +22,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from mjasc.core.compiled import clip_float
+
 
 def _finite(value, name: str) -> float:
     v = float(value)
@@ -128,8 +130,10 @@ class VelocityCorrection:
         Each call also advances the saturation record: the interval since the previous call
         counts as saturated if the previous command was saturated (zero-order hold)."""
         t = float(t)
-        u = self.unsaturated_command(float(gamma), t)
-        v = float(np.clip(u, self._vmin, self._vmax))
+        # unsaturated_command(γ, t) and np.clip in plain floats (the same operations; the control
+        # tick asks once per vessel in a correction)
+        u = self._vd - self._k * (float(gamma) - (self._g0 + self._vd * (t - self._t0)))
+        v = clip_float(u, self._vmin, self._vmax)
         if self._last_t is not None and t > self._last_t:
             dt = t - self._last_t
             self._run_time += dt

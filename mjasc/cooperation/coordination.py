@@ -206,7 +206,10 @@ class _TeamView:
             acc = 0.0
             if extrapolate:
                 for x, rate, sent, x_end in self.rows:
-                    acc += own - min(x + rate * (t_s - sent), max(x, x_end))
+                    # own − min(x + ξ̇ (t − t_j), max(x, x_end)), the builtins' picks written out
+                    hi = x_end if x_end > x else x
+                    ahead = x + rate * (t_s - sent)
+                    acc += own - (hi if hi < ahead else ahead)
             else:
                 for row in self.rows:
                     acc += own - row[0]
@@ -350,7 +353,10 @@ class Coordination(CoordinationMethod):
                 neighbours[sender] = _Neighbour(sent, received, payload, True)
                 self._team = self._intentions = None
         timeout = self.config.neighbour_timeout_s
-        if t_s - self._oldest_active_s() > timeout:
+        view = self._team  # (_oldest_active_s without its calls)
+        if view is None:
+            view = self._team_view()
+        if t_s - view.oldest_active_s > timeout:
             for name, nb in self.neighbours.items():
                 if nb.active and t_s - nb.sent_time_s > timeout:
                     nb.active = False
@@ -450,19 +456,29 @@ class Coordination(CoordinationMethod):
         each reads its arrivals and sums its gaps, then one ``tanh`` for all of them. The same
         factors and states as the calls one after the other (the link decided before them:
         :meth:`decide_link`)."""
-        laws = [c._consensus(t, nav, g) for c, t, nav, g in calls]
-        ask = [k for k, law in enumerate(laws) if law is not None and calls[k][0].config.role != "leader"]
-        tanh = np.tanh(np.array([laws[k][2] / calls[k][0].config.error_scale_m for k in ask])).tolist() if ask else []
-        th = dict(zip(ask, tanh))
-        return [1.0 if law is None else c._factor(law, th.get(k)) for k, ((c, _, _, _), law) in enumerate(zip(calls, laws))]
+        laws, ask, scaled = [], [], []  # ask: the followers with a law; scaled: their e_i / e_s
+        for c, t, nav, g in calls:
+            law = c._consensus(t, nav, g)
+            if law is not None and c.config.role != "leader":
+                ask.append(len(laws))
+                scaled.append(law[2] / c.config.error_scale_m)
+            laws.append(law)
+        th = dict(zip(ask, np.tanh(np.array(scaled)).tolist())) if ask else {}
+        out = []
+        for k, law in enumerate(laws):
+            out.append(1.0 if law is None else calls[k][0]._factor(law, th.get(k)))
+        return out
 
     def _consensus(self, t_s: float, nav, gamma_m: float):
         """Read the arrivals; then (the team view, ξ_own, e_i, |N_i|), or None without a path."""
         self._poll(t_s, nav)
-        if self.path_length_m is None:
+        length = self.path_length_m
+        if length is None:
             return None
-        view = self._team_view()
-        own = self.xi(gamma_m)
+        view = self._team  # (_team_view and xi without their calls)
+        if view is None:
+            view = self._team_view()
+        own = (float(gamma_m) - self.config.formation_offset_m) / length
         n = len(view.rows)
         e = view.l_bar * view.gap_sum(t_s, self.config.extrapolate, own) if n else 0.0
         return view, own, e, n

@@ -32,9 +32,13 @@ projects every vessel on its path and runs the law for all of them. The law (:fu
 written once over a table of operations: above :data:`SCALAR_FLEET_MAX` vessels it runs once over
 arrays (the projection in one vectorized pass over each vessel's window of segments); up to it,
 vessel by vessel in plain floats (each path's scalar projection), because numpy's per-call
-overhead, not arithmetic, is the cost of small fleets. The plain-float form the control tick runs
-is :func:`_law_floats`, the float operations written out (a Python call per operation cost more
-than the law's arithmetic); a test holds it to ``_law(_FloatOps, …)`` bit for bit on the demo. Both forms give the same bits (elementwise
+overhead, not arithmetic, is the cost of small fleets. The plain-float form is :func:`_law_floats`,
+the float operations written out (a Python call per operation cost more than the law's arithmetic);
+a test holds it to ``_law(_FloatOps, …)`` bit for bit on the demo. The control tick runs that form
+compiled: projection, law and inverse propeller curve of every vessel in one call
+(:func:`~mjasc.guidance.follow_kernel.follow_fleet`, held to :meth:`FleetPathFollower._command_floats`
+bit for bit by ``tests/test_follow_kernel.py``; the Python form stays as the fallback for a
+position that is not finite). Both forms give the same bits (elementwise
 operations in the same order, ``x**2`` through the C library's pow in both; ``math``'s sin, cos
 and atan2 equal numpy's on x86-64 without AVX-512, elsewhere they may differ in the last bit), so
 a vessel's commands do not depend on the fleet it is in (``tests/test_fleet_following.py``).
@@ -51,6 +55,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from mjasc.core.config_tables import check_params, param
+from mjasc.guidance.follow_kernel import follow_fleet
 from mjasc.guidance.paths import Path
 from mjasc.guidance.segment_geometry import wrap_scalar
 from mjasc.guidance.stacked_paths import StackedPaths
@@ -281,6 +286,7 @@ class FleetPathFollower:
         self._members: list = []
         self._prop = self._propellers(None)
         self._P_cols = self._P.T.tolist()
+        self._all_rows = np.arange(self._S.shape[1], dtype=np.intp)
 
     def __len__(self) -> int:
         return self._S.shape[1]
@@ -337,6 +343,9 @@ class FleetPathFollower:
         course = (np.full(len(idx), np.nan) if course_override_rad is None
                   else np.asarray(course_override_rad, dtype=float).reshape(len(idx)))
         if len(idx) <= SCALAR_FLEET_MAX:
+            done = self._command_compiled(idx, pos, heading_rad, bv, speed_ref_m_s, dt_s, course, rows)
+            if done is not None:
+                return done
             thrust, statuses = self._command_floats(idx, pos.tolist(), np.asarray(heading_rad, dtype=float).tolist(),
                                                     bv.tolist(), np.asarray(speed_ref_m_s, dtype=float).tolist(), dt_s,
                                                     course.tolist())
@@ -348,6 +357,34 @@ class FleetPathFollower:
                                                     np.asarray(speed_ref_m_s, dtype=float), dt_s, course)
         prop = self._prop if rows is None else self._propellers(rows)
         return PropellerCoefficients.command_for_thrust(prop, thrust), statuses  # the inverse curve, per vessel
+
+    def _command_compiled(self, idx, pos, heading, bv, speed, dt_s, course, rows):
+        """:meth:`_command_floats` and the inverse propeller curve in one compiled call
+        (:func:`~mjasc.guidance.follow_kernel.follow_fleet`, the same bits): (commands (k, 2),
+        statuses), or None when the kernel declines (a position not finite: the Python form raises)."""
+        k = len(idx)
+        if rows is None:
+            at = self._all_rows
+            if at.size != k:
+                at = self._all_rows = np.arange(k, dtype=np.intp)
+        else:
+            at = np.array(idx, dtype=np.intp)
+        pos = pos.reshape(k, 2)
+        commands = np.empty((k, 2))
+        status = np.empty((k, 6))
+        paths = self.paths
+        if not follow_fleet(paths._table, paths._first, paths._count, paths._length, self._P, self._S, at, pos,
+                            np.asarray(heading, dtype=float).reshape(k), bv.reshape(k, 3),
+                            np.asarray(speed, dtype=float).reshape(k), course, float(dt_s), 2.0, commands, status):
+            return None
+        new_status = object.__new__
+        statuses = []
+        for g, e, chi_p, psi_d, u_d, finished in status.tolist():
+            st = new_status(PathFollowingStatus)  # PathFollowingStatus(...) without the frozen dataclass's __init__
+            st.__dict__.update(gamma_m=g, cross_track_m=e, course_ref_rad=chi_p, heading_ref_rad=psi_d,
+                               speed_ref_m_s=u_d, finished=finished != 0.0)
+            statuses.append(st)
+        return commands, statuses
 
     def _command_floats(self, idx, pos, heading, bv, speed, dt_s, course):
         """The law vessel by vessel in plain floats (:func:`_law_floats`); the projection by each

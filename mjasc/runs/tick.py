@@ -70,7 +70,13 @@ def _thesis_link(agents: Sequence, navs: Sequence[OwnNavigation]) -> bool:
             if type(c) is not Coordination:
                 return False
             coordinated = True
-    return coordinated and all(nav.time_s == navs[0].time_s for nav in navs)
+    if not coordinated:
+        return False
+    t = navs[0].time_s
+    for nav in navs:
+        if not nav.time_s == t:
+            return False
+    return True
 
 
 def _comms(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
@@ -122,7 +128,8 @@ def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: floa
         # same as vessel by vessel: a vessel's mission and coordination read only its own state.
         steered = [i for i, agent in enumerate(agents) if agent.follower is not None]
         for i in steered:
-            agents[i].control_mission(navs[i])
+            if agents[i].mission is not None:  # (control_mission does nothing without one)
+                agents[i].control_mission(navs[i])
         polled = [i for i in steered if agents[i].coordination is not None]
         Coordination.decide_link([agents[i].coordination for i in polled], navs[0].time_s,
                                  [navs[i].position_m for i in polled])
