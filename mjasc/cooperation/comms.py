@@ -53,6 +53,7 @@ from dataclasses import dataclass, fields, is_dataclass
 
 import numpy as np
 
+from mjasc.cooperation.link_kernels import DELIVERED, LOST, LOST_OUT_OF_RANGE, UNSURE, decide_pairs
 from mjasc.core.config_tables import ConfigError, check_keys, check_params, dataclass_from_table, param, show, string
 from mjasc.core.config_tables import table as as_table
 
@@ -395,19 +396,26 @@ class CommsNetwork:
         times = np.array([log_t[k] for k in ks])
         cfg, stats = self.config, self.link[receiver]
         pos = np.asarray(receiver_position, dtype=float).reshape(-1)
-        d = np.hypot(x - pos[0], y - pos[1])
         u = self.rng.random((m, 2))  # (u_loss, u_jitter) per message, in message order
-        out_of_range = d >= cfg.range_m
-        lost = out_of_range | (u[:, 0] < cfg.loss_at(d))
-        arrival = times + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u[:, 1] * cfg.jitter_s
+        # distance, arrival and loss in one compiled call (mjasc.cooperation.link_kernels: the
+        # numpy form's numbers; a loss too close to call is left to numpy's loss_at)
+        d, arrival, outcome = np.empty(m), np.empty(m), np.empty(m, dtype=np.int8)
+        unsure = decide_pairs(x, y, times, float(pos[0]), float(pos[1]), u, cfg.range_m, cfg.loss_probability,
+                              cfg.loss_exponent, cfg.base_delay_s, cfg.propagation_speed_m_s, cfg.jitter_s, d,
+                              arrival, outcome)
+        outcome_l = outcome.tolist()
+        if unsure:
+            at = [j for j, o in enumerate(outcome_l) if o == UNSURE]
+            for j, gone in zip(at, (u[at, 0] < cfg.loss_at(d[at])).tolist()):
+                outcome_l[j] = LOST if gone else DELIVERED
         stats.offered += m
         offered = self._pair_offered  # np.add.at's additions one by one, in message order
         for s in senders:
             offered[s, r] += 1
-        lost_l = lost.tolist()
+        lost_l = [o != DELIVERED for o in outcome_l]
         n_lost = sum(lost_l)
         stats.lost += n_lost
-        stats.lost_out_of_range += sum(out_of_range.tolist())
+        stats.lost_out_of_range += outcome_l.count(LOST_OUT_OF_RANGE)
         team, base, log_p = self.team, self._base, self._log_payload
         if self._outcomes is not None:
             self._outcomes += [LinkOutcome(team[s], receiver, log_t[k], float("nan") if gone else a, gone)

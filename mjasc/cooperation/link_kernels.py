@@ -1,0 +1,63 @@
+"""The link's decision of one receiver's new messages as one compiled call
+(:meth:`mjasc.cooperation.comms.CommsNetwork.decide_many`, a few receivers one by one).
+
+For each offered (message, receiver) pair, with d the distance from the sender's position at
+sending to the receiver's position now, the two uniforms (u_loss, u_jitter) drawn beforehand by
+numpy (in message order, as before)::
+
+    arrival = t_sent + base_delay_s + d / propagation_speed + u_jitter · jitter_s
+    lost    = d ≥ R  or  u_loss < p(d),   p(d) = min(p₀ + (1 − p₀) (d / R)^n, 1)
+
+Bits: d is ``hypot`` of the C library (numpy's ``np.hypot`` calls the same), the arrival the
+numpy form's additions in its order. The loss probability alone is not recomputed bit for bit:
+numpy's ``power`` may use SIMD code that rounds differently from the C library's ``pow`` (in the
+last bits). The comparison u_loss < p(d) is therefore decided here only when u_loss lies clearly
+(by a relative 10⁻¹² — thousands of roundings) on one side of p(d); a pair within that band is
+marked *unsure* and the caller decides it with numpy's :meth:`~mjasc.cooperation.comms.NetworkConfig.loss_at`,
+as before. So the outcome is always numpy's. ``tests/test_link_kernels.py`` compares with the
+numpy form.
+"""
+
+from __future__ import annotations
+
+import math
+
+from mjasc.core.compiled import kernel
+
+__all__ = ["decide_pairs", "DELIVERED", "LOST", "LOST_OUT_OF_RANGE", "UNSURE"]
+
+#: The outcome codes of :func:`decide_pairs`.
+DELIVERED, LOST, LOST_OUT_OF_RANGE, UNSURE = 0, 1, 2, 3
+
+#: Half-width of the band around p(d), relative, in which numpy decides the loss.
+_BAND = 1e-12
+
+
+@kernel
+def decide_pairs(x, y, t_sent, px, py, u, range_m, p0, exponent, base_delay_s, speed_m_s, jitter_s, d_out,
+                 arrival_out, outcome_out):
+    """Pairs k of senders at (x[k], y[k]) [m] sent at t_sent[k] [s] and one receiver at (px, py),
+    uniforms u (k, 2): writes the distance d_out [m], the arrival time arrival_out [s] and the
+    outcome code (DELIVERED, LOST, LOST_OUT_OF_RANGE, UNSURE: the loss for the caller to decide).
+    Returns the number of UNSURE pairs."""
+    unsure = 0
+    for k in range(x.shape[0]):
+        d = math.hypot(x[k] - px, y[k] - py)
+        d_out[k] = d
+        arrival_out[k] = t_sent[k] + base_delay_s + d / speed_m_s + u[k, 1] * jitter_s
+        if d >= range_m:
+            outcome_out[k] = LOST_OUT_OF_RANGE
+            continue
+        p = p0 + (1.0 - p0) * (d / range_m) ** exponent
+        if p > 1.0:
+            p = 1.0
+        band = _BAND * p
+        u0 = u[k, 0]
+        if u0 < p - band:
+            outcome_out[k] = LOST
+        elif u0 > p + band:
+            outcome_out[k] = DELIVERED
+        else:  # (NaN too)
+            outcome_out[k] = UNSURE
+            unsure += 1
+    return unsure
