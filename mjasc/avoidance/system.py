@@ -361,16 +361,17 @@ class CollisionAvoidance(AvoidanceMethod):
         The first point is the vessel's position; its offset from the path fades out over 10 s
         (the path follower's convergence). Broadcast to the team by the coordination layer."""
         t = float(t)
-        times = t + np.arange(0.0, float(horizon_s) + 0.5 * float(step_s), float(step_s))
-        if guidance is None:  # no path follower: it intends to stay where it is
-            return times, np.tile(np.asarray(nav.position_m, dtype=float)[:2], (times.size, 1))
-        path = guidance.path
-        if type(self).planned_gamma is CollisionAvoidance.planned_gamma:  # the compiled form, the same bits
+        if guidance is not None and type(self).planned_gamma is CollisionAvoidance.planned_gamma:
+            path = guidance.path  # the compiled form, the same bits
             g0 = clip_float(float(guidance.gamma_m), 0.0, path.length)
             fast = planned_points(path, t, g0, _correction_terms(self.correction, t, guidance.mission_speed_m_s),
                                   plan_offsets(float(horizon_s), float(step_s)), nav.position_m)
             if fast is not None:
                 return fast
+        times = t + np.arange(0.0, float(horizon_s) + 0.5 * float(step_s), float(step_s))
+        if guidance is None:  # no path follower: it intends to stay where it is
+            return times, np.tile(np.asarray(nav.position_m, dtype=float)[:2], (times.size, 1))
+        path = guidance.path
         g0 = float(np.clip(guidance.gamma_m, 0.0, path.length))
         g = np.clip(gamma_of_time(self.planned_gamma(t, g0, guidance.mission_speed_m_s), g0, t)(times), 0.0, path.length)
         pts = np.asarray(path.point(g), dtype=float).reshape(-1, 2)

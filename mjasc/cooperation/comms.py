@@ -282,7 +282,9 @@ class CommsNetwork:
             raise ValueError(f"comms.send: payload must be a dict or a frozen dataclass, got {type(payload).__name__}")
         self._last_send_s = float(t_s)
         mid = self._base + len(self._log_time)
-        xy = np.array(sender_position, dtype=float).reshape(-1)[:2]
+        xy = sender_position
+        if not (type(xy) is np.ndarray and xy.ndim == 1 and xy.dtype == np.float64):  # (a float vector as it is)
+            xy = np.array(sender_position, dtype=float).reshape(-1)[:2]
         self._log_time.append(float(t_s))
         self._log_sender.append(self._index[sender])
         self._log_x.append(float(xy[0]))
