@@ -17,18 +17,17 @@ def _numpy_form(cfg, x, y, times, pos, u):
 
 
 def _kernel_form(cfg, x, y, times, pos, u):
-    m = x.size
-    d, arrival, outcome = np.empty(m), np.empty(m), np.empty(m, dtype=np.int8)
-    unsure = decide_pairs(x, y, times, float(pos[0]), float(pos[1]), u, cfg.range_m, cfg.loss_probability,
-                          cfg.loss_exponent, cfg.base_delay_s, cfg.propagation_speed_m_s, cfg.jitter_s, d, arrival,
-                          outcome)
-    assert unsure == int(np.count_nonzero(outcome == UNSURE))
-    out = outcome.tolist()
-    at = [j for j, o in enumerate(out) if o == UNSURE]
+    out = np.empty((3, x.size))
+    unsure = decide_pairs(np.column_stack([x, y, times]), float(pos[0]), float(pos[1]), u, cfg.range_m,
+                          cfg.loss_probability, cfg.loss_exponent, cfg.base_delay_s, cfg.propagation_speed_m_s,
+                          cfg.jitter_s, out)
+    d, arrival, outcome = out[0], out[1], out[2].tolist()
+    assert unsure == outcome.count(UNSURE)
+    at = [j for j, o in enumerate(outcome) if o == UNSURE]
     for j, gone in zip(at, (u[at, 0] < cfg.loss_at(d[at])).tolist()):
-        out[j] = LOST if gone else DELIVERED
-    out = np.array(out)
-    return d, arrival, out != DELIVERED, out == LOST_OUT_OF_RANGE, unsure
+        outcome[j] = LOST if gone else DELIVERED
+    outcome = np.array(outcome)
+    return d, arrival, outcome != DELIVERED, outcome == LOST_OUT_OF_RANGE, unsure
 
 
 CONFIGS = [PRESETS["radio"], PRESETS["acoustic"],

@@ -393,22 +393,21 @@ class CommsNetwork:
             return
         senders = [log_s[k] for k in ks]
         log_x, log_y, log_t = self._log_x, self._log_y, self._log_time
-        x = np.array([log_x[k] for k in ks])
-        y = np.array([log_y[k] for k in ks])
-        times = np.array([log_t[k] for k in ks])
+        sent = np.array([(log_x[k], log_y[k], log_t[k]) for k in ks])
         cfg, stats = self.config, self.link[receiver]
-        pos = np.asarray(receiver_position, dtype=float).reshape(-1)
+        pos = receiver_position
+        if not (type(pos) is np.ndarray and pos.ndim == 1 and pos.dtype == np.float64):
+            pos = np.asarray(receiver_position, dtype=float).reshape(-1)
         u = self.rng.random((m, 2))  # (u_loss, u_jitter) per message, in message order
         # distance, arrival and loss in one compiled call (mjasc.cooperation.link_kernels: the
         # numpy form's numbers; a loss too close to call is left to numpy's loss_at)
-        d, arrival, outcome = np.empty(m), np.empty(m), np.empty(m, dtype=np.int8)
-        unsure = decide_pairs(x, y, times, float(pos[0]), float(pos[1]), u, cfg.range_m, cfg.loss_probability,
-                              cfg.loss_exponent, cfg.base_delay_s, cfg.propagation_speed_m_s, cfg.jitter_s, d,
-                              arrival, outcome)
-        outcome_l = outcome.tolist()
+        out = np.empty((3, m))
+        unsure = decide_pairs(sent, float(pos[0]), float(pos[1]), u, cfg.range_m, cfg.loss_probability,
+                              cfg.loss_exponent, cfg.base_delay_s, cfg.propagation_speed_m_s, cfg.jitter_s, out)
+        _, arrival_l, outcome_l = out.tolist()
         if unsure:
             at = [j for j, o in enumerate(outcome_l) if o == UNSURE]
-            for j, gone in zip(at, (u[at, 0] < cfg.loss_at(d[at])).tolist()):
+            for j, gone in zip(at, (u[at, 0] < cfg.loss_at(out[0, at])).tolist()):
                 outcome_l[j] = LOST if gone else DELIVERED
         stats.offered += m
         offered = self._pair_offered  # np.add.at's additions one by one, in message order
@@ -421,11 +420,11 @@ class CommsNetwork:
         team, base, log_p = self.team, self._base, self._log_payload
         if self._outcomes is not None:
             self._outcomes += [LinkOutcome(team[s], receiver, log_t[k], float("nan") if gone else a, gone)
-                               for k, s, a, gone in zip(ks, senders, arrival.tolist(), lost_l)]
+                               for k, s, a, gone in zip(ks, senders, arrival_l, lost_l)]
         if n_lost == m:
             return
         items = [(a, base + k, s, log_t[k], log_p[k])
-                 for k, s, a, gone in zip(ks, senders, arrival.tolist(), lost_l) if not gone]
+                 for k, s, a, gone in zip(ks, senders, arrival_l, lost_l) if not gone]
         pending = self._pending[receiver]
         # kept sorted by (arrival, id) (unique: the payloads are never compared)
         pending[:] = sorted(pending + items) if pending else sorted(items)

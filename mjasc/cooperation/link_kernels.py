@@ -34,19 +34,18 @@ _BAND = 1e-12
 
 
 @kernel
-def decide_pairs(x, y, t_sent, px, py, u, range_m, p0, exponent, base_delay_s, speed_m_s, jitter_s, d_out,
-                 arrival_out, outcome_out):
-    """Pairs k of senders at (x[k], y[k]) [m] sent at t_sent[k] [s] and one receiver at (px, py),
-    uniforms u (k, 2): writes the distance d_out [m], the arrival time arrival_out [s] and the
-    outcome code (DELIVERED, LOST, LOST_OUT_OF_RANGE, UNSURE: the loss for the caller to decide).
-    Returns the number of UNSURE pairs."""
+def decide_pairs(sent, px, py, u, range_m, p0, exponent, base_delay_s, speed_m_s, jitter_s, out):
+    """Pairs k of messages ``sent`` (k, 3) = (x, y [m] of the sender, send time [s]) and one
+    receiver at (px, py), uniforms u (k, 2): writes out (3, k) = (the distance d [m], the arrival
+    time [s], the outcome code: DELIVERED, LOST, LOST_OUT_OF_RANGE, or UNSURE — the loss for the
+    caller to decide). Returns the number of UNSURE pairs."""
     unsure = 0
-    for k in range(x.shape[0]):
-        d = math.hypot(x[k] - px, y[k] - py)
-        d_out[k] = d
-        arrival_out[k] = t_sent[k] + base_delay_s + d / speed_m_s + u[k, 1] * jitter_s
+    for k in range(sent.shape[0]):
+        d = math.hypot(sent[k, 0] - px, sent[k, 1] - py)
+        out[0, k] = d
+        out[1, k] = sent[k, 2] + base_delay_s + d / speed_m_s + u[k, 1] * jitter_s
         if d >= range_m:
-            outcome_out[k] = LOST_OUT_OF_RANGE
+            out[2, k] = LOST_OUT_OF_RANGE
             continue
         p = p0 + (1.0 - p0) * (d / range_m) ** exponent
         if p > 1.0:
@@ -54,10 +53,10 @@ def decide_pairs(x, y, t_sent, px, py, u, range_m, p0, exponent, base_delay_s, s
         band = _BAND * p
         u0 = u[k, 0]
         if u0 < p - band:
-            outcome_out[k] = LOST
+            out[2, k] = LOST
         elif u0 > p + band:
-            outcome_out[k] = DELIVERED
+            out[2, k] = DELIVERED
         else:  # (NaN too)
-            outcome_out[k] = UNSURE
+            out[2, k] = UNSURE
             unsure += 1
     return unsure
