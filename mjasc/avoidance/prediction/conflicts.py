@@ -271,7 +271,7 @@ def predict_fleet_lazy(queries: Sequence[PredictionQuery]) -> list[ConflictList]
             cut = np.flatnonzero(vs[1:] != vs[:-1]) + 1
             for sel in np.split(order, cut):
                 g[sel] = ctxs[v[sel[0]]].gamma_fn(t[sel])
-        return paths.point(np.broadcast_to(v[:, None], t.shape), g)
+        return paths.point(v.repeat(t.shape[1]).reshape(t.shape), g)  # (each pair's vessel per time)
 
     t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, rel_at, stop_first)
     hit = (d_c <= r_col).tolist()  # a collision: d(t_c) ≤ R_col (as _conflict decides it)

@@ -66,6 +66,8 @@ ZOOM_LEVELS = 3
 ZOOM_SAMPLES = 17
 ZOOM_MAX_LEVELS = 9
 ZOOM_TOL_M = 5e-8
+_ZOOM_FRACTIONS = np.linspace(0.0, 1.0, ZOOM_SAMPLES)  # the samples' places in a bracket (read-only)
+_ZOOM_FRACTIONS.flags.writeable = False
 
 
 def segment_cpa(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -160,8 +162,7 @@ def _zoom(rel_at, pairs, a, b):
     """The sampled zoom and closed form (module docstring, steps 3–4) of brackets [a, b] (k,) of
     ``pairs`` (k,): (t*, d*) per bracket. Items whose last three samples still bend by more than
     :data:`ZOOM_TOL_M` (a kink near the minimum) zoom on, up to :data:`ZOOM_MAX_LEVELS`."""
-    K = ZOOM_SAMPLES
-    frac = np.linspace(0.0, 1.0, K)
+    K, frac = ZOOM_SAMPLES, _ZOOM_FRACTIONS
     t_out, d_out = np.empty(a.size), np.empty(a.size)
     act = np.arange(a.size)  # the items still zooming
     a, b = a.copy(), b.copy()

@@ -118,7 +118,7 @@ class TrackMotions:
     def _eval(self, kind, rows, times, P, K) -> np.ndarray:
         out = np.empty((P, K, 2))
         if kind == self._PLAN:
-            t = np.broadcast_to(times, (P, K)).ravel()
+            t = (times if times.shape == (P, K) else np.broadcast_to(times, (P, K))).ravel()
             return self._pl.at(np.repeat(self._plan_of[rows], K), t).reshape(P, K, 2)
         par = self._par[rows]
         x0, y0, t0 = par[:, 0:1], par[:, 1:2], par[:, 2:3]
