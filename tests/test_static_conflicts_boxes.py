@@ -104,3 +104,29 @@ def test_the_path_ahead_sampled_only_as_far_as_needed_gives_the_whole_paths_conf
         found += len(got)
         long += sum(c.gamma_b - c.gamma_a > 30.0 for c in got)
     assert found > 25 and long > 5
+
+
+def test_indexed_conflicts_are_each_polygons_own():
+    """static_conflicts_of: each conflict with its polygon's index, the one that polygon has alone
+    (the avoidance checks its mapped polygons and its static tracks' outlines in one call)."""
+    from mjasc.avoidance.static_conflicts import static_conflicts_of
+
+    rng = np.random.default_rng(9)
+    cfg = CollisionPredictionConfig()
+    path = Path.from_waypoints(np.array([[0.0, 0.0], [60.0, 0.0], [60.0, 50.0], [120.0, 60.0]]), turn_radius_m=6.0)
+    found = 0
+    for trial in range(200):
+        polys = []
+        for _ in range(int(rng.integers(1, 7))):
+            centre = rng.uniform([-10.0, -30.0], [130.0, 80.0])
+            k = int(rng.integers(3, 9))
+            ang = np.sort(rng.uniform(0.0, 2 * np.pi, k))
+            polys.append(centre + rng.uniform(2.0, 12.0) * np.column_stack([np.cos(ang), np.sin(ang)]))
+        gamma = float(rng.uniform(0.0, path.length - 5.0))
+        speed = float(rng.uniform(0.3, 2.5))
+        got = static_conflicts_of(100.0, path, gamma, speed, polys, 2.0, cfg)
+        ref = [(k, c) for k, p in enumerate(polys) for c in static_conflicts(100.0, path, gamma, speed, [p], 2.0, cfg)]
+        assert [k for k, _ in got] == [k for k, _ in ref]
+        _same([c for _, c in got], [c for _, c in ref])
+        found += len(got)
+    assert found > 10

@@ -74,7 +74,7 @@ from mjasc.avoidance.prediction.conflicts import ConflictList, predict_fleet_laz
 from mjasc.avoidance.recording import AvoidanceLog
 from mjasc.avoidance.replanning import Detour, merge_overlapping, plan_detour, swept_area
 from mjasc.avoidance.request import MODES, AvoidanceRequest, PathSwitch
-from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, track_outline
+from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, static_conflicts_of, track_outline
 from mjasc.avoidance.structure import detour_onto_structure, structure_tracks
 from mjasc.avoidance.team_mates import PlannedTrack, TeamMates
 from mjasc.avoidance.triage import swept, triage
@@ -440,10 +440,14 @@ class CollisionAvoidance(AvoidanceMethod):
         for d in distances:
             m = min(m, d)
         self.min_predicted_distance_m = m
-        statics = static_conflicts(t, path, gamma, profile, static_polygons, self.radius_m, self.prediction_config)
-        for tid, poly in outlined.items():  # static tracks: their outline, checked like a mapped polygon
-            statics += [replace(c, track_id=tid) for c in
-                        static_conflicts(t, path, gamma, profile, [poly], self.radius_m, self.prediction_config)]
+        # the mapped polygons, then the static tracks' outlines (checked like a mapped polygon), in one pass
+        # (each polygon's conflict is the one it has alone)
+        polys = list(static_polygons)
+        n_mapped = len(polys)
+        tids = list(outlined)
+        statics = [c if k < n_mapped else replace(c, track_id=tids[k - n_mapped]) for k, c in
+                   static_conflicts_of(t, path, gamma, profile, polys + list(outlined.values()), self.radius_m,
+                                       self.prediction_config)]
         by_id = {tr.track_id: tr for tr in tracks}
         if not after_replan and self._perceived is not None and \
                 self._withdraw_detour(t, nav, by_id, static_polygons):
