@@ -118,7 +118,7 @@ def closest_approaches(
     padded = bool(pad.any())
     if padded:
         d[pad] = np.nan
-    pi, ii = np.nonzero(grid_minima(d, padded))  # row-major: per pair in time order
+    pi, ii = grid_minima(d, padded).nonzero()  # row-major: per pair in time order
     last = times.shape[1] - 1 - np.sum(pad, axis=1)  # last valid index per pair
     lo = np.maximum(ii - 1, 0)
     hi = np.minimum(ii + 1, last[pi])
@@ -131,7 +131,7 @@ def closest_approaches(
         chord = np.maximum(np.hypot(*(r_mid - r_lo).T), np.hypot(*(r_hi - r_mid).T))
         first = np.ones(pi.size, dtype=bool)
         first[1:] = pi[1:] != pi[:-1]
-        cand = np.flatnonzero(first | (dd <= r_col[pi] + 0.5 + chord))
+        cand = (first | (dd <= r_col[pi] + 0.5 + chord)).ravel().nonzero()[0]
         tt[cand], dd[cand] = _zoom(rel_at, pi[cand], t_lo[cand], t_hi[cand])
         if cand.size < pi.size:  # the others are no collision: keep them out of the choice
             skip = np.ones(pi.size, dtype=bool)
@@ -146,7 +146,7 @@ def closest_approaches(
     first = np.searchsorted(pi, pairs)  # each pair's first minimum
     has = first < pi.size
     has[has] = pi[first[has]] == pairs[has]
-    col = np.flatnonzero((dd <= r_col[pi]) if skip is None else (dd <= r_col[pi]) & ~skip)
+    col = ((dd <= r_col[pi]) if skip is None else (dd <= r_col[pi]) & ~skip).ravel().nonzero()[0]
     first_col = np.searchsorted(pi[col], pairs)
     has_col = first_col < col.size
     has_col[has_col] = pi[col[first_col[has_col]]] == pairs[has_col]

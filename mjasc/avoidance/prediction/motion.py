@@ -72,7 +72,7 @@ class TrackMotions:
         self._pl = self._plan_of = None
         if plan.any():  # each distinct intention's knots stacked once for the fleet (_PLANS)
             self._plan_of = np.full(m, -1, dtype=np.intp)
-            sel = np.flatnonzero(plan)
+            sel = plan.ravel().nonzero()[0]
             self._pl, self._plan_of[sel] = _PLANS.rows([tracks[k].intention for k in sel.tolist()])
 
     def at(self, rows, times) -> np.ndarray:
@@ -87,7 +87,7 @@ class TrackMotions:
         out = np.empty((P, K, 2))
         kind = self._kind[rows]
         for g in self._kinds:
-            sel = np.flatnonzero(kind == g)
+            sel = (kind == g).ravel().nonzero()[0]
             if sel.size:
                 out[sel] = self._eval(g, rows[sel], times if times.ndim == 1 else times[sel], sel.size, K)
         return out
