@@ -63,3 +63,14 @@ def test_a_uniform_on_the_loss_probability_is_left_to_numpy():
         assert got[4] == 3  # all three too close to call in the kernel
         for a, b in zip(ref, got[:4]):
             np.testing.assert_array_equal(a, b)
+
+
+def test_a_tiny_loss_probability_is_left_to_numpy_for_a_tiny_uniform():
+    cfg = NetworkConfig(range_m=1000.0, loss_probability=0.0, loss_exponent=104.0)
+    x, y, times, pos = np.array([1.0, 500.0]), np.array([0.0, 0.0]), np.array([1.0, 1.0]), np.zeros(2)
+    u = np.array([[0.0, 0.5], [0.0, 0.5]])  # p(1 m) = 1e-312 (subnormal): left to numpy; p(500 m) = 2^-104
+    ref = _numpy_form(cfg, x, y, times, pos, u)
+    got = _kernel_form(cfg, x, y, times, pos, u)
+    assert got[4] == 1
+    for a, b in zip(ref, got[:4]):
+        np.testing.assert_array_equal(a, b)

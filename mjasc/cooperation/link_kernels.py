@@ -12,8 +12,9 @@ Bits: d is ``hypot`` of the C library (numpy's ``np.hypot`` calls the same), the
 numpy form's additions in its order. The loss probability alone is not recomputed bit for bit:
 numpy's ``power`` may use SIMD code that rounds differently from the C library's ``pow`` (in the
 last bits). The comparison u_loss < p(d) is therefore decided here only when u_loss lies clearly
-(by a relative 10⁻¹² — thousands of roundings) on one side of p(d); a pair within that band is
-marked *unsure* and the caller decides it with numpy's :meth:`~mjasc.cooperation.comms.NetworkConfig.loss_at`,
+(by a relative 10⁻¹² — thousands of roundings; for a loss, p(d) not near the subnormals) on one
+side of p(d); a pair within that band is marked *unsure* and the caller decides it with numpy's
+:meth:`~mjasc.cooperation.comms.NetworkConfig.loss_at`,
 as before. So the outcome is always numpy's. ``tests/test_link_kernels.py`` compares with the
 numpy form.
 """
@@ -31,6 +32,8 @@ DELIVERED, LOST, LOST_OUT_OF_RANGE, UNSURE = 0, 1, 2, 3
 
 #: Half-width of the band around p(d), relative, in which numpy decides the loss.
 _BAND = 1e-12
+#: Below this p(d) a loss (u_loss < p(d), u_loss tiny: practically never) is left to numpy too.
+_TINY = 1e-290
 
 
 @kernel
@@ -52,7 +55,7 @@ def decide_pairs(sent, px, py, u, range_m, p0, exponent, base_delay_s, speed_m_s
             p = 1.0
         band = _BAND * p
         u0 = u[k, 0]
-        if u0 < p - band:
+        if u0 < p - band and p > _TINY:  # (a subnormal p is not accurate to the band: numpy decides)
             out[2, k] = LOST
         elif u0 > p + band:
             out[2, k] = DELIVERED
