@@ -85,3 +85,36 @@ def test_a_mujoco_warning_during_a_block_stops_the_run():
     with pytest.raises(PhysicsDivergence, match="MuJoCo warning mjWARN_BADQACC") as err:
         sim.step(5)
     assert err.value.last_good_time_s == t0
+
+
+def test_write_commands_writes_numpys_clipped_commands_or_nothing():
+    from mjasc.physics.step_kernels import write_commands
+
+    rng = np.random.default_rng(3)
+    adr = np.array([[4, 1], [0, 5], [2, 3]], dtype=np.intp)
+    for _ in range(300):
+        c = rng.uniform(-2.5, 2.5, (3, 2))
+        c[rng.random((3, 2)) < 0.2] = rng.choice([-1.0, 1.0, 0.0, -0.0])
+        ref, got = np.full(6, 9.0), np.full(6, 9.0)
+        ref[adr] = np.minimum(np.maximum(c, -1.0), 1.0)
+        assert write_commands(c, got, adr)
+        assert got.tobytes() == ref.tobytes()
+    for bad in (np.nan, np.inf, -np.inf):
+        c = rng.uniform(-1, 1, (3, 2))
+        c[1, 1] = bad
+        got = np.full(6, 9.0)
+        assert not write_commands(c, got, adr)
+        assert (got == 9.0).all()
+
+
+def test_fast_bounds_and_warning_checks():
+    from mjasc.physics.step_kernels import any_nonzero, fast_bounds_ok
+
+    v, a = np.array([1.0, -2.0, 0.5]), np.array([3.0, 0.0, -1.0])
+    assert fast_bounds_ok(v, a, 5.25, 10.0)
+    assert not fast_bounds_ok(v, a, 5.0, 10.0)
+    assert not fast_bounds_ok(v, a, 5.25, 9.5)
+    a[1] = np.nan
+    assert not fast_bounds_ok(v, a, 5.25, np.inf)
+    assert not any_nonzero(np.zeros(8, dtype=np.int32))
+    assert any_nonzero(np.array([0, 0, 0, 2, 0], dtype=np.int32))

@@ -15,9 +15,15 @@ import numpy as np
 from mjasc.avoidance.prediction import Decision, gamma_of_time, prediction_window
 from mjasc.core.estimates import TrackEstimate
 from mjasc.core.geometry import distance_to_polygon, point_in_polygon
-from mjasc.guidance.paths import Path
+from mjasc.guidance.paths import _SCALAR_SEGMENTS, Path
 
-__all__ = ["StaticConflict", "static_conflicts", "track_outline"]
+__all__ = ["StaticConflict", "static_conflicts", "static_conflicts_of", "track_outline"]
+
+#: Path samples (every 0.25 m) taken beyond the prediction window's end before the whole rest of
+#: the path is needed (a stretch obstructed past them).
+_BEYOND = 40
+#: Path.point evaluates up to this many values one by one, more as an array.
+_FEW_SAMPLES = _SCALAR_SEGMENTS
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,6 +56,14 @@ def static_conflicts(t: float, path: Path, gamma: float, profile, polygons, radi
     prediction window under the speed ``profile``) closer than ``radius_m`` + safety distance to a
     static polygon (each (k, 2)). ``config``: the
     :class:`~mjasc.avoidance.prediction.CollisionPredictionConfig`."""
+    return [c for _, c in static_conflicts_of(t, path, gamma, profile, polygons, radius_m, config)]
+
+
+def static_conflicts_of(t: float, path: Path, gamma: float, profile, polygons, radius_m: float,
+                        config) -> list[tuple[int, StaticConflict]]:
+    """:func:`static_conflicts` with each conflict's polygon index: [(k, conflict with
+    ``polygons[k]``)], in polygon order (at most one per polygon; each polygon's conflict is the
+    one :func:`static_conflicts` finds for it alone)."""
     polygons = [np.asarray(p, dtype=float) for p in polygons or ()]
     if not polygons:
         return []
@@ -63,9 +77,14 @@ def static_conflicts(t: float, path: Path, gamma: float, profile, polygons, radi
         return []
     limit = radius_m + cfg.safety_distance_m
     gs = np.arange(gamma, path.length + 1e-9, 0.25)
-    pts = path.point(gs)
     n_ahead = int(np.searchsorted(gs, g_end, side="right"))
-    near = pts[:n_ahead]  # the path beyond the window only matters for a stretch that starts in it
+    # The samples up to the window's end and a little beyond: the path beyond the window only
+    # matters for a stretch that starts in it and goes on past them (then all of it, below). Each
+    # sample's point is the one of the whole array's evaluation (elementwise; at least
+    # _FEW_SAMPLES + 1 of them, as the whole array: the same form of Path.point).
+    n_eval = gs.size if gs.size <= _FEW_SAMPLES else min(gs.size, max(n_ahead + _BEYOND, _FEW_SAMPLES + 1))
+    pts = path.point(gs[:n_eval] if n_eval < gs.size else gs)
+    near = pts[:n_ahead]
     near_lo, near_hi = near.min(axis=0), near.max(axis=0)
     out = []
     # Only path samples within a polygon's bounding box grown by the limit can be closer than the
@@ -77,26 +96,33 @@ def static_conflicts(t: float, path: Path, gamma: float, profile, polygons, radi
         lo_all = np.minimum.reduceat(stacked, starts, axis=0) - limit
         hi_all = np.maximum.reduceat(stacked, starts, axis=0) + limit
         apart = ((lo_all > near_hi) | (hi_all < near_lo)).any(axis=1)
-        boxes = [(poly, lo_all[k], hi_all[k]) for k, poly in enumerate(polygons) if not apart[k]]
+        boxes = [(k, poly, lo_all[k], hi_all[k]) for k, poly in enumerate(polygons) if not apart[k]]
     else:
         boxes = []
-        for poly in polygons:
+        for k, poly in enumerate(polygons):
             lo, hi = poly.min(axis=0) - limit, poly.max(axis=0) + limit
             if not ((lo > near_hi).any() or (hi < near_lo).any()):
-                boxes.append((poly, lo, hi))
-    for poly, lo, hi in boxes:
+                boxes.append((k, poly, lo, hi))
+    for k_poly, poly, lo, hi in boxes:
         cand = near[((near >= lo) & (near <= hi)).all(axis=1)]
         if not cand.size or not ((distance_to_polygon(cand, poly) < limit) | point_in_polygon(cand, poly)).any():
             continue
         d = distance_to_polygon(pts, poly)
         blocked = (d < limit) | point_in_polygon(pts, poly)
-        ahead = blocked & (gs <= g_end)
+        ahead = blocked & (gs[:pts.shape[0]] <= g_end)
         if not ahead.any():
             continue
         a = int(np.argmax(ahead))
         b = a
-        while b + 1 < gs.size and blocked[b + 1]:
+        while b + 1 < pts.shape[0] and blocked[b + 1]:
             b += 1
+        if b + 1 == pts.shape[0] < gs.size:  # the stretch goes on past the samples taken: the whole path
+            pts = path.point(gs)
+            d = distance_to_polygon(pts, poly)
+            blocked = (d < limit) | point_in_polygon(pts, poly)
+            while b + 1 < gs.size and blocked[b + 1]:
+                b += 1
         t_i = float(t + (gs[a] - gamma) / max(v_now, 1e-3))
-        out.append(StaticConflict(float(gs[a]), float(gs[b]), pts[a], pts[b], poly, t_i, float(d[a:b + 1].min())))
+        out.append((k_poly, StaticConflict(float(gs[a]), float(gs[b]), pts[a], pts[b], poly, t_i,
+                                           float(d[a:b + 1].min()))))
     return out

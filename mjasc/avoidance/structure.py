@@ -13,7 +13,9 @@ from __future__ import annotations
 import numpy as np
 
 from mjasc.avoidance.static_conflicts import static_conflicts
+from mjasc.core.compiled import kernel, maximum
 from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+from mjasc.core.polygon_kernels import boundary_distance, inside_even_odd
 
 __all__ = ["structure_tracks", "detour_onto_structure"]
 
@@ -34,7 +36,7 @@ def structure_tracks(tracks, polygons, slow_m_s: float) -> tuple[dict[int, float
     Beside: slower than ``slow_m_s`` with its disc overlapping a mapped polygon — to be taken as
     static (a 7.7 m track drifting at 0.23 m/s on the north island's edge sent a detour into the
     island; a boat moored at a pontoon looks the same, so it stays an obstacle)."""
-    polys = [np.asarray(p, dtype=float) for p in polygons or ()]
+    polys = [np.asarray(p, dtype=float).reshape(-1, 2) for p in polygons or ()]
     strangers = [tr for tr in tracks if not tr.is_static and tr.team_member is None]
     if not polys or not strangers:
         return {}, set()
@@ -43,11 +45,10 @@ def structure_tracks(tracks, polygons, slow_m_s: float) -> tuple[dict[int, float
     slow = np.array([tr.speed_m_s < slow_m_s for tr in strangers])
     depth = np.full(len(strangers), -1.0)
     beside = np.zeros(len(strangers), dtype=bool)
-    for p in polys:
-        d = distance_to_polygon(centres, p)
-        depth = np.where(point_in_polygon(centres, p), np.maximum(depth, d), depth)
-        beside |= slow & (d < radii)
-    return ({tr.track_id: float(k) for tr, k in zip(strangers, depth) if k >= 0.0},
+    ends = np.cumsum([p.shape[0] for p in polys])
+    _structure_depths(centres, radii, slow, np.concatenate(polys), ends, depth, beside)
+    depth = depth.tolist()
+    return ({tr.track_id: k for tr, k in zip(strangers, depth) if k >= 0.0},
             {tr.track_id for tr, k, b in zip(strangers, depth, beside) if b and k < 0.0})
 
 
@@ -74,3 +75,23 @@ def detour_onto_structure(t: float, position_m, detour, polygons, speed_m_s: flo
             return (f"the detour passes a mapped structure at {s.min_distance_m:.1f} m "
                     f"(γ = {s.gamma_a:.1f} m on it; the vessel is {now:.1f} m from it now)")
     return None
+
+
+@kernel
+def _structure_depths(centres, radii, slow, stacked, ends, depth, beside):
+    """:func:`structure_tracks`' loop over the polygons (rows ``ends[p − 1] … ends[p] − 1`` of
+    ``stacked``) in one compiled pass: for each, the centres' distances to its boundary and whether
+    they lie inside (:func:`~mjasc.core.geometry.distance_to_polygon` and
+    :func:`~mjasc.core.geometry.point_in_polygon`'s kernels), ``depth = where(inside, maximum(depth,
+    d), depth)`` and ``beside |= slow & (d < radii)``, as the numpy form did."""
+    start = 0
+    for p in range(ends.shape[0]):
+        poly = stacked[start:ends[p]]
+        start = ends[p]
+        d = boundary_distance(centres, poly)
+        inside = inside_even_odd(centres, poly)
+        for i in range(centres.shape[0]):
+            if inside[i]:
+                depth[i] = maximum(depth[i], d[i])
+            if slow[i] and d[i] < radii[i]:
+                beside[i] = True

@@ -74,7 +74,7 @@ from mjasc.avoidance.prediction.conflicts import ConflictList, predict_fleet_laz
 from mjasc.avoidance.recording import AvoidanceLog
 from mjasc.avoidance.replanning import Detour, merge_overlapping, plan_detour, swept_area
 from mjasc.avoidance.request import MODES, AvoidanceRequest, PathSwitch
-from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, track_outline
+from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, static_conflicts_of, track_outline
 from mjasc.avoidance.structure import detour_onto_structure, structure_tracks
 from mjasc.avoidance.team_mates import PlannedTrack, TeamMates
 from mjasc.avoidance.triage import swept, triage
@@ -368,16 +368,17 @@ class CollisionAvoidance(AvoidanceMethod):
         The first point is the vessel's position; its offset from the path fades out over 10 s
         (the path follower's convergence). Broadcast to the team by the coordination layer."""
         t = float(t)
-        times = t + np.arange(0.0, float(horizon_s) + 0.5 * float(step_s), float(step_s))
-        if guidance is None:  # no path follower: it intends to stay where it is
-            return times, np.tile(np.asarray(nav.position_m, dtype=float)[:2], (times.size, 1))
-        path = guidance.path
-        if type(self).planned_gamma is CollisionAvoidance.planned_gamma:  # the compiled form, the same bits
+        if guidance is not None and type(self).planned_gamma is CollisionAvoidance.planned_gamma:
+            path = guidance.path  # the compiled form, the same bits
             g0 = clip_float(float(guidance.gamma_m), 0.0, path.length)
             fast = planned_points(path, t, g0, _correction_terms(self.correction, t, guidance.mission_speed_m_s),
                                   plan_offsets(float(horizon_s), float(step_s)), nav.position_m)
             if fast is not None:
                 return fast
+        times = t + np.arange(0.0, float(horizon_s) + 0.5 * float(step_s), float(step_s))
+        if guidance is None:  # no path follower: it intends to stay where it is
+            return times, np.tile(np.asarray(nav.position_m, dtype=float)[:2], (times.size, 1))
+        path = guidance.path
         g0 = float(np.clip(guidance.gamma_m, 0.0, path.length))
         g = np.clip(gamma_of_time(self.planned_gamma(t, g0, guidance.mission_speed_m_s), g0, t)(times), 0.0, path.length)
         pts = np.asarray(path.point(g), dtype=float).reshape(-1, 2)
@@ -446,10 +447,14 @@ class CollisionAvoidance(AvoidanceMethod):
         for d in distances:
             m = min(m, d)
         self.min_predicted_distance_m = m
-        statics = static_conflicts(t, path, gamma, profile, static_polygons, self.radius_m, self.prediction_config)
-        for tid, poly in outlined.items():  # static tracks: their outline, checked like a mapped polygon
-            statics += [replace(c, track_id=tid) for c in
-                        static_conflicts(t, path, gamma, profile, [poly], self.radius_m, self.prediction_config)]
+        # the mapped polygons, then the static tracks' outlines (checked like a mapped polygon), in one pass
+        # (each polygon's conflict is the one it has alone)
+        polys = list(static_polygons)
+        n_mapped = len(polys)
+        tids = list(outlined)
+        statics = [c if k < n_mapped else replace(c, track_id=tids[k - n_mapped]) for k, c in
+                   static_conflicts_of(t, path, gamma, profile, polys + list(outlined.values()), self.radius_m,
+                                       self.prediction_config)]
         by_id = {tr.track_id: tr for tr in tracks}
         if not after_replan and self._perceived is not None and \
                 self._withdraw_detour(t, nav, by_id, static_polygons):

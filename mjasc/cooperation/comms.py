@@ -53,6 +53,7 @@ from dataclasses import dataclass, fields, is_dataclass
 
 import numpy as np
 
+from mjasc.cooperation.link_kernels import DELIVERED, LOST, LOST_OUT_OF_RANGE, UNSURE, decide_pairs
 from mjasc.core.config_tables import ConfigError, check_keys, check_params, dataclass_from_table, param, show, string
 from mjasc.core.config_tables import table as as_table
 
@@ -281,7 +282,9 @@ class CommsNetwork:
             raise ValueError(f"comms.send: payload must be a dict or a frozen dataclass, got {type(payload).__name__}")
         self._last_send_s = float(t_s)
         mid = self._base + len(self._log_time)
-        xy = np.array(sender_position, dtype=float).reshape(-1)[:2]
+        xy = sender_position
+        if not (type(xy) is np.ndarray and xy.ndim == 1 and xy.dtype == np.float64):  # (a float vector as it is)
+            xy = np.array(sender_position, dtype=float).reshape(-1)[:2]
         self._log_time.append(float(t_s))
         self._log_sender.append(self._index[sender])
         self._log_x.append(float(xy[0]))
@@ -390,32 +393,38 @@ class CommsNetwork:
             return
         senders = [log_s[k] for k in ks]
         log_x, log_y, log_t = self._log_x, self._log_y, self._log_time
-        x = np.array([log_x[k] for k in ks])
-        y = np.array([log_y[k] for k in ks])
-        times = np.array([log_t[k] for k in ks])
+        sent = np.array([(log_x[k], log_y[k], log_t[k]) for k in ks])
         cfg, stats = self.config, self.link[receiver]
-        pos = np.asarray(receiver_position, dtype=float).reshape(-1)
-        d = np.hypot(x - pos[0], y - pos[1])
+        pos = receiver_position
+        if not (type(pos) is np.ndarray and pos.ndim == 1 and pos.dtype == np.float64):
+            pos = np.asarray(receiver_position, dtype=float).reshape(-1)
         u = self.rng.random((m, 2))  # (u_loss, u_jitter) per message, in message order
-        out_of_range = d >= cfg.range_m
-        lost = out_of_range | (u[:, 0] < cfg.loss_at(d))
-        arrival = times + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u[:, 1] * cfg.jitter_s
+        # distance, arrival and loss in one compiled call (mjasc.cooperation.link_kernels: the
+        # numpy form's numbers; a loss too close to call is left to numpy's loss_at)
+        out = np.empty((3, m))
+        unsure = decide_pairs(sent, float(pos[0]), float(pos[1]), u, cfg.range_m, cfg.loss_probability,
+                              cfg.loss_exponent, cfg.base_delay_s, cfg.propagation_speed_m_s, cfg.jitter_s, out)
+        _, arrival_l, outcome_l = out.tolist()
+        if unsure:
+            at = [j for j, o in enumerate(outcome_l) if o == UNSURE]
+            for j, gone in zip(at, (u[at, 0] < cfg.loss_at(out[0, at])).tolist()):
+                outcome_l[j] = LOST if gone else DELIVERED
         stats.offered += m
         offered = self._pair_offered  # np.add.at's additions one by one, in message order
         for s in senders:
             offered[s, r] += 1
-        lost_l = lost.tolist()
+        lost_l = [o != DELIVERED for o in outcome_l]
         n_lost = sum(lost_l)
         stats.lost += n_lost
-        stats.lost_out_of_range += sum(out_of_range.tolist())
+        stats.lost_out_of_range += outcome_l.count(LOST_OUT_OF_RANGE)
         team, base, log_p = self.team, self._base, self._log_payload
         if self._outcomes is not None:
             self._outcomes += [LinkOutcome(team[s], receiver, log_t[k], float("nan") if gone else a, gone)
-                               for k, s, a, gone in zip(ks, senders, arrival.tolist(), lost_l)]
+                               for k, s, a, gone in zip(ks, senders, arrival_l, lost_l)]
         if n_lost == m:
             return
         items = [(a, base + k, s, log_t[k], log_p[k])
-                 for k, s, a, gone in zip(ks, senders, arrival.tolist(), lost_l) if not gone]
+                 for k, s, a, gone in zip(ks, senders, arrival_l, lost_l) if not gone]
         pending = self._pending[receiver]
         # kept sorted by (arrival, id) (unique: the payloads are never compared)
         pending[:] = sorted(pending + items) if pending else sorted(items)

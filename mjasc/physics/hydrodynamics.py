@@ -298,6 +298,13 @@ class Hydrodynamics:
         self._tau = np.zeros((n, 1, 3))
         self._bound = None
 
+    def step_arrays(self) -> tuple:
+        """The arrays a compiled step works on (after :meth:`allocate_buffers`; the step writes
+        the first four, reads the last two): (F row view (N, 1, K), τ (N, 1, 3), e^{−iψ} (N, 2) as
+        (cos, sin), the features F (N, K), the cross-flow strips' x (N, S), the linear form G
+        (N, K, 3)), K = 41 + S (:mod:`mjasc.physics.step_kernels`; τ = F·G)."""
+        return self._F_row, self._tau, self._rot2, self._F, self._cf_x, self._G
+
     def bind(self, qpos3, qvel3, activation, out) -> None:
         """Bind the (N, 3) joint position/velocity arrays, the (N, 2) activation array and the
         (N, 3) output array (views of MjData's memory) once, for :meth:`compute_bound`."""

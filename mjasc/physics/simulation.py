@@ -32,7 +32,7 @@ from mjasc.physics.hydro_kernels import rotate_to_world
 from mjasc.physics.hydrodynamics import Hydrodynamics, rigid_body_mass_matrix
 from mjasc.physics.obstacles import MovingObstacleSet
 from mjasc.physics.state_kernels import vessel_states
-from mjasc.physics.step_kernels import prepare_step, traffic_table
+from mjasc.physics.step_kernels import any_nonzero, fast_bounds_ok, prepare_step, traffic_table, write_commands
 from mjasc.physics.thrusters import Thrusters
 from mjasc.physics.world import World
 
@@ -146,12 +146,12 @@ class Simulation:
         self._traffic_table, self._traffic_samples = traffic_table(self.traffic.constants(), self._mocap_rows,
                                                                    MovingObstacleSet.PATH_SAMPLE_M)
         self._mj_arrays = (d.qpos, d.qvel, d.qacc, d.act, d.mocap_pos, d.mocap_quat)
-        th = self.thrusters
-        self._propellers = np.ascontiguousarray(np.column_stack([th._n_pos, th._n_neg, th._k_f, th._k_r]), dtype=float)
+        self._propellers = self.thrusters.step_arrays()
         self._uniform_current = self.current.velocity(np.zeros((n, 2)), 0.0) if self._current_uniform_steady else None
-        h = self.hydro
-        self._step_arrays = (h._F_row, h._tau, h._rot2, h._F, h._cf_x, self._qfrc3 if self._views else None,
+        f_row, tau, rot2, feats, cf_x, self._linear_form = self.hydro.step_arrays()
+        self._step_arrays = (f_row, tau, rot2, feats, cf_x, self._qfrc3 if self._views else None,
                              *self._mj_arrays, self._traffic_table, self._traffic_samples)
+        self._ctrl, self._ctrl_adr = d.ctrl, np.ascontiguousarray(world.ctrl_adr, dtype=np.intp).reshape(n, 2)
         self._warning_counts = d.warning.number  # (a view of MjData's warning counters)
         self.divergence_checks = True
         self.monitor = DivergenceMonitor(d.qvel, d.qacc, world.dof_adr, [t.top_speed_m_s for t in world.vessel_types],
@@ -196,9 +196,8 @@ class Simulation:
     def set_commands(self, commands) -> None:
         """Normalized propeller commands (N, 2) in [−1, 1], port then starboard (clipped)."""
         c = np.asarray(commands, dtype=float).reshape(self.n_vessels, 2)
-        if not np.isfinite(c).all():
+        if not write_commands(c, self._ctrl, self._ctrl_adr):  # (check, clip and write in one compiled call)
             raise ValueError(f"commands: must be finite, got {c.tolist()}")
-        self.data.ctrl[self.world.ctrl_adr] = np.minimum(np.maximum(c, -1.0), 1.0)  # (np.clip, fewer calls)
 
     def states(self) -> VesselStates:
         """Every vessel's true state now (new arrays), in one compiled pass when the vessels' dofs
@@ -218,8 +217,10 @@ class Simulation:
             current = self._uniform_current.copy()
         else:
             current = self.current.velocity(np.array(self._qpos3)[:, :2], t)  # (the numpy form's layout)
-        return VesselStates(time_s=t, position_m=pos, heading_rad=heading, velocity_m_s=vel, body_velocity=body,
+        out = object.__new__(VesselStates)  # (VesselStates(...) without the frozen __init__'s eight setattr calls)
+        out.__dict__.update(time_s=t, position_m=pos, heading_rad=heading, velocity_m_s=vel, body_velocity=body,
                             current_m_s=current, shaft_speed=shaft, thrust_n=thrust)
+        return out
 
     def _states_numpy(self) -> VesselStates:
         """:meth:`states` in numpy (any layout of the vessels' dofs; the compiled form's reference)."""
@@ -308,7 +309,7 @@ class Simulation:
             k, message = bad
             self._raise_divergence(k, message, t0)
         counts = self._warning_counts
-        if counts.any():  # (the method: np.any costs 8 µs here, more than a physics step's checks)
+        if any_nonzero(counts):  # (compiled: np.any costs 8 µs here, more than a physics step's checks)
             i = int(np.flatnonzero(counts)[0])
             kind = mujoco.mjtWarning(i).name
             raise PhysicsDivergence(f"physics diverged between t = {t0:.3f} and {d.time:.3f} s: MuJoCo warning "
@@ -337,7 +338,7 @@ class Simulation:
             # The common case, one compiled call per step before MuJoCo's two (mjasc.physics.step_kernels):
             # the previous step's fast divergence test, the traffic's mocap poses and the force's
             # features; then τ = F·G (numpy) rotated into qfrc_applied, mj_step1, mj_step2.
-            vc, g = self._uniform_current, self.hydro._G
+            vc, g = self._uniform_current, self._linear_form
             f_row, tau, rot, feats, cf_x, out, qpos, qvel, qacc, act, mocap_pos, mocap_quat, table, samples = \
                 self._step_arrays
             prepare, matmul, rotate = prepare_step, np.matmul, rotate_to_world
@@ -356,7 +357,7 @@ class Simulation:
                 rotate(tau, rot, out)
                 step1(m, d)
                 step2(m, d)
-            if checking and not (vdot(vel) <= v2 and adot(acc) <= a2):
+            if checking and not fast_bounds_ok(qvel, qacc, v2, a2):  # (prepare_step's test, after the last step)
                 what = self._exact_check(monitor)
                 if what is not None:
                     return n_steps - 1, what

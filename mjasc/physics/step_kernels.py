@@ -31,7 +31,8 @@ import numpy as np
 from mjasc.core.compiled import kernel
 from mjasc.physics.hydro_kernels import hydro_features
 
-__all__ = ["traffic_table", "traffic_poses", "prepare_step", "TRAFFIC_COLUMNS"]
+__all__ = ["traffic_table", "traffic_poses", "prepare_step", "fast_bounds_ok", "any_nonzero", "write_commands",
+           "TRAFFIC_COLUMNS"]
 
 #: The columns of a traffic table row (one moving obstacle), :func:`traffic_table`.
 TRAFFIC_COLUMNS = ("kind", "mocap", "x0 | g0", "y0 | speed", "th0 | length", "v | path row", "w | last sample",
@@ -109,17 +110,54 @@ def prepare_step(check, qpos, qvel, qacc, act, fast_speed2, fast_acc2, t, table,
     (:func:`traffic_poses`) and the features F (N, 41 + S) and e^{−iψ} ``rot`` of the hydrodynamic
     force for the uniform steady ``current`` (N, 2) (:func:`~mjasc.physics.hydro_kernels.hydro_features`,
     no current rate). Returns True."""
-    if check:
-        sv = 0.0
-        for k in range(qvel.shape[0]):
-            sv += qvel[k] * qvel[k]
-        sa = 0.0
-        for k in range(qacc.shape[0]):
-            sa += qacc[k] * qacc[k]
-        if not (sv <= fast_speed2 and sa <= fast_acc2):  # (NaN fails)
-            return False
+    if check and not fast_bounds_ok(qvel, qacc, fast_speed2, fast_acc2):
+        return False
     traffic_poses(t, table, samples, mocap_pos, mocap_quat)
     n = F.shape[0]
     hydro_features(qpos[:3 * n].reshape((n, 3)), qvel[:3 * n].reshape((n, 3)), act[:2 * n].reshape((n, 2)),
                    current, current, False, cf_x, F, rot)
+    return True
+
+
+@kernel
+def fast_bounds_ok(qvel, qacc, fast_speed2, fast_acc2):
+    """The fast divergence test (:func:`prepare_step`'s, also after a block's last step): Σ q̇² ≤
+    fast_speed2 and Σ q̈² ≤ fast_acc2, summed in index order (False on NaN)."""
+    sv = 0.0
+    for k in range(qvel.shape[0]):
+        sv += qvel[k] * qvel[k]
+    sa = 0.0
+    for k in range(qacc.shape[0]):
+        sa += qacc[k] * qacc[k]
+    return sv <= fast_speed2 and sa <= fast_acc2
+
+
+@kernel
+def any_nonzero(counts):
+    """Whether some entry of ``counts`` (MjData's warning counters) is not zero."""
+    for k in range(counts.shape[0]):
+        if counts[k] != 0:
+            return True
+    return False
+
+
+@kernel
+def write_commands(commands, ctrl, ctrl_adr):
+    """``ctrl[ctrl_adr[i, p]] = min(max(commands[i, p], −1), 1)`` for N vessels' (N, 2) commands
+    (numpy's ``np.minimum(np.maximum(c, −1), 1)``: the same values for finite c), when every
+    command is finite; returns False (writing nothing) when one is not."""
+    n = commands.shape[0]
+    for i in range(n):
+        for p in range(2):
+            c = commands[i, p]
+            if not (-np.inf < c < np.inf):
+                return False
+    for i in range(n):
+        for p in range(2):
+            c = commands[i, p]
+            if c < -1.0:
+                c = -1.0
+            if c > 1.0:
+                c = 1.0
+            ctrl[ctrl_adr[i, p]] = c
     return True

@@ -89,6 +89,11 @@ class Thrusters:
         self._n_pos, self._n_neg = col("n_max_rad_s"), -col("n_min_rad_s")
         self._k_f, self._k_r = col("k_forward"), col("k_reverse")
 
+    def step_arrays(self) -> np.ndarray:
+        """The constants a compiled step reads, a new (N, 4) array: (n_max, −n_min, k_forward,
+        k_reverse) per vessel (:func:`mjasc.physics.state_kernels.vessel_states`)."""
+        return np.ascontiguousarray(np.column_stack([self._n_pos, self._n_neg, self._k_f, self._k_r]), dtype=float)
+
     def thrust(self, activation: np.ndarray) -> np.ndarray:
         """Thrust [N] of each propeller, (N, 2), from normalized shaft speeds (N, 2)."""
         a = activation

@@ -211,7 +211,7 @@ def predict_fleet_lazy(queries: Sequence[PredictionQuery]) -> list[ConflictList]
         gap = motions.at(rows, t_now[owner][:, None])[:, 0] - own_now[owner]
         rows = rows[~(np.hypot(gap[:, 0], gap[:, 1]) > max_range[owner])]
     r_ob = motions.radius_m[rows]
-    bad = np.flatnonzero(~(np.isfinite(r_ob) & (r_ob >= 0.0)))
+    bad = (~(np.isfinite(r_ob) & (r_ob >= 0.0))).ravel().nonzero()[0]
     if bad.size:
         tr = tracks[rows[bad[0]]]
         raise ValueError(f"tracks[{tr.track_id}].radius_m: must be finite and ≥ 0, got {r_ob[bad[0]]}")
@@ -265,13 +265,13 @@ def predict_fleet_lazy(queries: Sequence[PredictionQuery]) -> list[ConflictList]
             if st.any():
                 vs = v[st]
                 g[st] = g_now[vs][:, None] + v_q[vs][:, None] * (t[st] - t_now_q[vs][:, None])
-            other = np.flatnonzero(~st)
+            other = (~st).ravel().nonzero()[0]
             order = other[np.argsort(v[other], kind="stable")]
             vs = v[order]
-            cut = np.flatnonzero(vs[1:] != vs[:-1]) + 1
+            cut = (vs[1:] != vs[:-1]).ravel().nonzero()[0] + 1
             for sel in np.split(order, cut):
                 g[sel] = ctxs[v[sel[0]]].gamma_fn(t[sel])
-        return paths.point(np.broadcast_to(v[:, None], t.shape), g)
+        return paths.point(v.repeat(t.shape[1]).reshape(t.shape), g)  # (each pair's vessel per time)
 
     t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, rel_at, stop_first)
     hit = (d_c <= r_col).tolist()  # a collision: d(t_c) ≤ R_col (as _conflict decides it)

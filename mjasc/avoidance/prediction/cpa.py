@@ -52,9 +52,12 @@ one call. Times are absolute simulation times [s].
 
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 import numpy as np
+
+from mjasc.core.compiled import kernel, maximum, minimum
 
 __all__ = ["ZOOM_LEVELS", "ZOOM_MAX_LEVELS", "ZOOM_SAMPLES", "ZOOM_TOL_M", "closest_approaches", "grid_minima",
            "segment_cpa"]
@@ -66,6 +69,8 @@ ZOOM_LEVELS = 3
 ZOOM_SAMPLES = 17
 ZOOM_MAX_LEVELS = 9
 ZOOM_TOL_M = 5e-8
+_ZOOM_FRACTIONS = np.linspace(0.0, 1.0, ZOOM_SAMPLES)  # the samples' places in a bracket (read-only)
+_ZOOM_FRACTIONS.flags.writeable = False
 
 
 def segment_cpa(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -116,7 +121,7 @@ def closest_approaches(
     padded = bool(pad.any())
     if padded:
         d[pad] = np.nan
-    pi, ii = np.nonzero(grid_minima(d, padded))  # row-major: per pair in time order
+    pi, ii = grid_minima(d, padded).nonzero()  # row-major: per pair in time order
     last = times.shape[1] - 1 - np.sum(pad, axis=1)  # last valid index per pair
     lo = np.maximum(ii - 1, 0)
     hi = np.minimum(ii + 1, last[pi])
@@ -129,7 +134,7 @@ def closest_approaches(
         chord = np.maximum(np.hypot(*(r_mid - r_lo).T), np.hypot(*(r_hi - r_mid).T))
         first = np.ones(pi.size, dtype=bool)
         first[1:] = pi[1:] != pi[:-1]
-        cand = np.flatnonzero(first | (dd <= r_col[pi] + 0.5 + chord))
+        cand = (first | (dd <= r_col[pi] + 0.5 + chord)).ravel().nonzero()[0]
         tt[cand], dd[cand] = _zoom(rel_at, pi[cand], t_lo[cand], t_hi[cand])
         if cand.size < pi.size:  # the others are no collision: keep them out of the choice
             skip = np.ones(pi.size, dtype=bool)
@@ -144,7 +149,7 @@ def closest_approaches(
     first = np.searchsorted(pi, pairs)  # each pair's first minimum
     has = first < pi.size
     has[has] = pi[first[has]] == pairs[has]
-    col = np.flatnonzero((dd <= r_col[pi]) if skip is None else (dd <= r_col[pi]) & ~skip)
+    col = ((dd <= r_col[pi]) if skip is None else (dd <= r_col[pi]) & ~skip).ravel().nonzero()[0]
     first_col = np.searchsorted(pi[col], pairs)
     has_col = first_col < col.size
     has_col[has_col] = pi[col[first_col[has_col]]] == pairs[has_col]
@@ -159,30 +164,89 @@ def closest_approaches(
 def _zoom(rel_at, pairs, a, b):
     """The sampled zoom and closed form (module docstring, steps 3–4) of brackets [a, b] (k,) of
     ``pairs`` (k,): (t*, d*) per bracket. Items whose last three samples still bend by more than
-    :data:`ZOOM_TOL_M` (a kink near the minimum) zoom on, up to :data:`ZOOM_MAX_LEVELS`."""
-    K = ZOOM_SAMPLES
-    frac = np.linspace(0.0, 1.0, K)
+    :data:`ZOOM_TOL_M` (a kink near the minimum) zoom on, up to :data:`ZOOM_MAX_LEVELS`. Each
+    level is ``rel_at`` between two compiled passes (:func:`_zoom_samples`, :func:`_zoom_level`:
+    the numbers of the numpy form, ``tests/test_zoom_kernels.py``)."""
+    K, frac = ZOOM_SAMPLES, _ZOOM_FRACTIONS
     t_out, d_out = np.empty(a.size), np.empty(a.size)
     act = np.arange(a.size)  # the items still zooming
     a, b = a.copy(), b.copy()
+    keep = np.empty(a.size, dtype=np.intp)
     for level in range(ZOOM_MAX_LEVELS):
-        ts = a[act, None] + (b[act] - a[act])[:, None] * frac  # (k, K)
+        ts = np.empty((act.size, K))
+        _zoom_samples(a, b, act, frac, ts)
         r = rel_at(pairs[act], ts)
-        j = np.argmin(np.hypot(r[..., 0], r[..., 1]), axis=1)
-        idx = np.arange(act.size)
-        ja, jb = np.maximum(j - 1, 0), np.minimum(j + 1, K - 1)
-        a[act], b[act] = ts[idx, ja], ts[idx, jb]
-        if level + 1 < ZOOM_LEVELS:
+        final = level + 1 >= ZOOM_LEVELS
+        n = _zoom_level(r, ts, act, a, b, final, ZOOM_TOL_M, t_out, d_out, keep)
+        if not final:
             continue
-        r_a, r_j, r_b = r[idx, ja], r[idx, j], r[idx, jb]
-        t_out[act], d_out[act] = _two_segments(a[act], ts[idx, j], b[act], r_a, r_j, r_b)
-        # How far the middle sample is off the chord of its neighbours (0 at a bracket end: the
-        # minimum is that sample itself): a kink there, or strong curvature, zooms on.
-        bend = np.hypot(*(r_j - 0.5 * (r_a + r_b)).T)
-        act = act[(bend > ZOOM_TOL_M) & (j > 0) & (j < K - 1)]
-        if act.size == 0:
+        act = keep[:n].copy()
+        if n == 0:
             break
     return t_out, d_out
+
+
+@kernel
+def _zoom_samples(a, b, act, frac, ts):
+    """ts (k, K) ← the K sample times of each zooming item's bracket: a + (b − a)·frac."""
+    for i in range(act.shape[0]):
+        e = act[i]
+        lo = a[e]
+        span = b[e] - lo
+        for q in range(frac.shape[0]):
+            ts[i, q] = lo + span * frac[q]
+
+
+@kernel
+def _segment_cpa(ax, ay, bx, by):
+    """:func:`segment_cpa` of one segment, the same operations: (s*, distance)."""
+    dx, dy = bx - ax, by - ay
+    dd = dx * dx + dy * dy
+    num = -(ax * dx + ay * dy)
+    s = minimum(maximum(num / maximum(dd, 1e-300), 0.0), 1.0)
+    return s, math.hypot(ax + s * dx, ay + s * dy)
+
+
+@kernel
+def _zoom_level(r, ts, act, a, b, final, tol, t_out, d_out, keep):
+    """One zoom level after ``rel_at`` gave r (k, K, 2) at ts (k, K): each item's sampled minimum
+    (``np.argmin`` of the distances: the first minimum, the first NaN if any), its new bracket into
+    a, b; with ``final``, the closed form (:func:`_two_segments`) into t_out, d_out and the items
+    still bending by more than ``tol`` [m] (not at a bracket end) into ``keep``, in order: their
+    count is returned (0 without ``final``)."""
+    K = ts.shape[1]
+    n_keep = 0
+    for i in range(act.shape[0]):
+        j = 0
+        best = math.hypot(r[i, 0, 0], r[i, 0, 1])
+        if best == best:
+            for q in range(1, K):
+                v = math.hypot(r[i, q, 0], r[i, q, 1])
+                if v != v:  # (argmin: the first NaN)
+                    j = q
+                    break
+                if v < best:
+                    best = v
+                    j = q
+        ja = j - 1 if j > 0 else 0
+        jb = j + 1 if j + 1 < K else K - 1
+        e = act[i]
+        a[e], b[e] = ts[i, ja], ts[i, jb]
+        if not final:
+            continue
+        rax, ray, rjx, rjy, rbx, rby = r[i, ja, 0], r[i, ja, 1], r[i, j, 0], r[i, j, 1], r[i, jb, 0], r[i, jb, 1]
+        s1, d1 = _segment_cpa(rax, ray, rjx, rjy)
+        s2, d2 = _segment_cpa(rjx, rjy, rbx, rby)
+        t_a, t_b, t_c = ts[i, ja], ts[i, j], ts[i, jb]
+        if d2 < d1:
+            t_out[e], d_out[e] = t_b + s2 * (t_c - t_b), d2
+        else:
+            t_out[e], d_out[e] = t_a + s1 * (t_b - t_a), d1
+        bend = math.hypot(rjx - 0.5 * (rax + rbx), rjy - 0.5 * (ray + rby))
+        if bend > tol and j > 0 and j < K - 1:
+            keep[n_keep] = e
+            n_keep += 1
+    return n_keep
 
 
 def _two_segments(t_a, t_b, t_c, r_a, r_b, r_c):

@@ -59,20 +59,18 @@ class TrackMotions:
                        tr.turn_rate_rad_s, tr.is_static, 0.0, tr.radius_m) for tr, p in zip(tracks, plan.tolist())],
                      dtype=float).reshape(m, 9)
         self.radius_m = a[:, 8]  # each track's radius [m] (m,)
-        moving = ~((a[:, 6] != 0.0) | (a[:, 3] == 0.0) | plan)
-        v, th, w = a[:, 3] * moving, a[:, 4] * moving, a[:, 5] * moving
-        turn = np.abs(w) >= _STRAIGHT_OMEGA
-        # Columns: x₀, y₀, t₀, v, cos θ, sin θ, θ, ω, v/ω (turning tracks).
+        # Columns: x₀, y₀, t₀, v, cos θ, sin θ, θ, ω, v/ω (turning tracks); all but cos θ and sin θ
+        # (numpy's, of the θ column as its own array) and the kinds in one compiled pass.
         par = self._par = np.empty((m, 9))
-        par[:, :3], par[:, 3], par[:, 6], par[:, 7] = a[:, :3], v, th, w
+        th = np.empty(m)
+        kind = self._kind = np.empty(m, dtype=np.int64)
+        present = _motion_table(a, plan, par, th, kind)
         par[:, 4], par[:, 5] = np.cos(th), np.sin(th)
-        par[:, 8] = v / np.where(turn, w, 1.0)
-        self._kind = np.where(plan, self._PLAN, np.where(turn, self._TURN, self._STRAIGHT))
-        self._kinds = sorted(set(self._kind.tolist()))
+        self._kinds = [g for g in (self._STRAIGHT, self._TURN, self._PLAN) if present >> g & 1]
         self._pl = self._plan_of = None
-        if plan.any():  # each distinct intention's knots stacked once for the fleet (_PLANS)
+        if present >> self._PLAN & 1:  # each distinct intention's knots stacked once for the fleet (_PLANS)
             self._plan_of = np.full(m, -1, dtype=np.intp)
-            sel = np.flatnonzero(plan)
+            sel = plan.ravel().nonzero()[0]
             self._pl, self._plan_of[sel] = _PLANS.rows([tracks[k].intention for k in sel.tolist()])
 
     def at(self, rows, times) -> np.ndarray:
@@ -87,7 +85,7 @@ class TrackMotions:
         out = np.empty((P, K, 2))
         kind = self._kind[rows]
         for g in self._kinds:
-            sel = np.flatnonzero(kind == g)
+            sel = (kind == g).ravel().nonzero()[0]
             if sel.size:
                 out[sel] = self._eval(g, rows[sel], times if times.ndim == 1 else times[sel], sel.size, K)
         return out
@@ -118,7 +116,7 @@ class TrackMotions:
     def _eval(self, kind, rows, times, P, K) -> np.ndarray:
         out = np.empty((P, K, 2))
         if kind == self._PLAN:
-            t = np.broadcast_to(times, (P, K)).ravel()
+            t = (times if times.shape == (P, K) else np.broadcast_to(times, (P, K))).ravel()
             return self._pl.at(np.repeat(self._plan_of[rows], K), t).reshape(P, K, 2)
         par = self._par[rows]
         x0, y0, t0 = par[:, 0:1], par[:, 1:2], par[:, 2:3]
@@ -133,6 +131,29 @@ class TrackMotions:
             out[..., 0] = x0 + r * (np.sin(th_t) - par[:, 5:6])
             out[..., 1] = y0 - r * (np.cos(th_t) - par[:, 4:5])
         return out
+
+
+@kernel
+def _motion_table(a, plan, par, th, kind):
+    """:class:`TrackMotions`' table from the tracks' numbers ``a`` (m, 9) = (x₀, y₀, t₀, v, θ, ω,
+    static, plan, radius) and ``plan`` (m,): a track moves unless static, at v = 0 or a plan, and
+    v, θ, ω are multiplied by 1 or 0 as numpy multiplies by the bool (θ·0 may be −0, NaN·0 NaN);
+    turning when |ω| ≥ 1e-9. Writes par's columns but cos θ and sin θ, θ into ``th``, the kind
+    (0 straight or static, 1 turning, 2 plan) into ``kind``; returns the kinds present as bits."""
+    present = 0
+    for i in range(a.shape[0]):
+        moving = not (a[i, 6] != 0.0 or a[i, 3] == 0.0 or plan[i])
+        f = 1.0 if moving else 0.0
+        v, t, w = a[i, 3] * f, a[i, 4] * f, a[i, 5] * f
+        turn = abs(w) >= _STRAIGHT_OMEGA
+        par[i, 0], par[i, 1], par[i, 2], par[i, 3] = a[i, 0], a[i, 1], a[i, 2], v
+        par[i, 6], par[i, 7] = t, w
+        par[i, 8] = v / (w if turn else 1.0)
+        th[i] = t
+        k = 2 if plan[i] else (1 if turn else 0)
+        kind[i] = k
+        present |= 1 << k
+    return present
 
 
 def intention_positions(intentions, times) -> np.ndarray:

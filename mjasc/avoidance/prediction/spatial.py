@@ -103,13 +103,13 @@ def obstruction_interval(ctx: PlanContext, track, t_c: float, r_col: float, stat
     back = np.arange(t_c, ctx.t_now - 1e-12, -dt)
     back = np.append(back, ctx.t_now) if back[-1] > ctx.t_now else back
     gb = _path_gap(ctx, track, back, r_col)
-    out = np.flatnonzero(gb > 0.0)
+    out = (gb > 0.0).ravel().nonzero()[0]
     t_i = ctx.t_now if out.size == 0 else _bisect(f, back[out[0] - 1] if out[0] > 0 else t_c, back[out[0]])
     # Forwards from t_c, far enough to decide σ (at least Δt_threshold past t_i).
     horizon = max(ctx.t_end, t_i + cfg.obstruction_threshold_s) + dt
     fwd = np.arange(t_c, horizon + 1e-12, dt)
     gf = _path_gap(ctx, track, fwd, r_col)
-    out = np.flatnonzero(gf > 0.0)
+    out = (gf > 0.0).ravel().nonzero()[0]
     if out.size == 0:
         return t_i, float(fwd[-1]), True
     t_f = _bisect(f, fwd[out[0] - 1] if out[0] > 0 else t_c, fwd[out[0]])
@@ -134,7 +134,7 @@ def obstructed_stretch(ctx: PlanContext, track, t_i, t_f, gamma_c, r_col, static
     bb_lo, bb_hi = q.min(axis=0) - r_col, q.max(axis=0) + r_col
     near = np.all((pts >= bb_lo) & (pts <= bb_hi), axis=1)
     covered = np.zeros(gs.size, dtype=bool)
-    idx = np.flatnonzero(near)
+    idx = near.ravel().nonzero()[0]
 
     def min_dist(p):
         """Distance from points p (m, 2) to the obstacle's trajectory, a polyline through q
