@@ -21,7 +21,8 @@ def test_in_place_broadcasts_equal_rebuilt_arrays():
     team = {}
     for step in range(300):
         o = int(rng.integers(0, 4))
-        names = mates[:] if rng.random() < 0.9 else [m for m in mates if rng.random() < 0.6]  # sometimes the set changes
+        # sometimes the set of mates changes
+        names = mates[:] if rng.random() < 0.9 else [m for m in mates if rng.random() < 0.6]
         if o in team and rng.random() < 0.9:
             names = list(team[o])  # mostly: the same mates, new values
         pos = {n: (float(step * 0.2 - rng.random()), rng.normal(size=2) * 100.0) for n in names}

@@ -85,10 +85,10 @@ def warm_rows(rows, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new):
 
 @kernel
 def appended_rows(s, P, mu, x, n0, mu0, sp, ids, t, Pc, n_gated, reasons, new_ids, new_t, Pp):
-    """:meth:`~mjasc.perception.imm.bank.IMMBank._append` of k rows after the first n0: in place, the rows n0… of the state's
-    views s, P (zero), μ (μ0) and x (sp (k, 4)); returned, the per-track arrays (ids, t, Pc, n_gated,
-    reasons) each a new array with the k rows appended (new_ids, new_t, Pp, 0, 0), and whether every
-    new t equals the first."""
+    """:meth:`~mjasc.perception.imm.bank.IMMBank._append` of k rows after the first n0: in place, the rows
+    n0… of the state's views s, P (zero), μ (μ0) and x (sp (k, 4)); returned, the per-track arrays (ids, t,
+    Pc, n_gated, reasons) each a new array with the k rows appended (new_ids, new_t, Pp, 0, 0), and whether
+    every new t equals the first."""
     k = new_t.size
     mu[n0:n0 + k] = mu0
     s[n0:n0 + k] = 0.0
@@ -114,10 +114,10 @@ def appended_rows(s, P, mu, x, n0, mu0, sp, ids, t, Pc, n_gated, reasons, new_id
 
 @kernel
 def kept_rows(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons):
-    """:meth:`~mjasc.perception.imm.bank.IMMBank.keep_rows` of a bank in its cycle buffers: the rows where ``keep`` (n,) of s, P,
-    μ, x copied in order into the other side's views s_out, P_out, mu_out, x_out (m rows, m the
-    number kept: ``np.compress(keep, a, 0, out)``), and the per-track arrays (ids, t, Pc, n_gated,
-    reasons) returned as new arrays of the kept rows (``a[keep]``)."""
+    """:meth:`~mjasc.perception.imm.bank.IMMBank.keep_rows` of a bank in its cycle buffers: the rows where
+    ``keep`` (n,) of s, P, μ, x copied in order into the other side's views s_out, P_out, mu_out, x_out (m
+    rows, m the number kept: ``np.compress(keep, a, 0, out)``), and the per-track arrays (ids, t, Pc,
+    n_gated, reasons) returned as new arrays of the kept rows (``a[keep]``)."""
     m = s_out.shape[0]
     r = mu.shape[1]
     ids2 = np.empty(m, dtype=ids.dtype)
