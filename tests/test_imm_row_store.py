@@ -152,7 +152,7 @@ def test_ready_for_handover_equals_numpy_form():
 
 
 def test_rejection_bookkeeping_equals_numpy_form():
-    from mjasc.perception.imm.bank import GATED, NON_FINITE, NOT_MEASURED, _rejections
+    from mjasc.perception.imm.bank_kernels import GATED, NON_FINITE, NOT_MEASURED, rejections
 
     rng = np.random.default_rng(6)
     n = 300
@@ -171,7 +171,7 @@ def test_rejection_bookkeeping_equals_numpy_form():
         want_n = np.where(gated, n_gated + 1, np.where(ok, 0, n_gated))
         want_restart = gated & (want_n >= limit) if limit > 0 else np.zeros(n, dtype=bool)
         got_r, got_restart = np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
-        _rejections(use, finite, measured, inside, ok, n_gated, limit, got_r, got_restart)
+        rejections(use, finite, measured, inside, ok, n_gated, limit, got_r, got_restart)
         assert np.array_equal(got_r, reasons) and np.array_equal(n_gated, want_n)
         assert np.array_equal(got_restart, want_restart)
 
@@ -216,7 +216,7 @@ def test_cv_predict_equals_numpy_form_bit_for_bit():
 
 
 def test_warm_rows_equals_numpy_form():
-    from mjasc.perception.imm.bank import _warm_rows
+    from mjasc.perception.imm.bank_kernels import warm_rows
 
     rng = np.random.default_rng(8)
     n, r = 12, 3
@@ -229,7 +229,7 @@ def test_warm_rows_equals_numpy_form():
     want[0][rows] = ok_w
     want[1][rows] = ok_w | ~use_w
     want[2][rows], want[3][rows], want[4][rows] = s[rows], P[rows], mu[rows]
-    _warm_rows(rows, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new)
+    warm_rows(rows, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new)
     for a, b in zip((ok, inside, s_new, P_new, mu_new), want):
         assert a.tobytes() == b.tobytes()
 

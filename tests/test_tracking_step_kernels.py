@@ -143,7 +143,7 @@ def test_fade_nis(seed):
 
 @pytest.mark.parametrize("seed", range(20))
 def test_measurements(seed):
-    from mjasc.perception.imm.bank import _measurements
+    from mjasc.perception.imm.bank_kernels import measurements
 
     rng = np.random.default_rng(seed)
     n = int(rng.integers(1, 12))
@@ -156,7 +156,7 @@ def test_measurements(seed):
     for per_row in (True, False):
         m = mv.copy()
         finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
-        every = _measurements(z, measured, m, per_row, 0.25, finite, use)
+        every = measurements(z, measured, m, per_row, 0.25, finite, use)
         f2 = np.isfinite(z).all(axis=1)
         assert finite.tobytes() == f2.tobytes() and use.tobytes() == (measured & f2).tobytes()
         assert every == bool((measured & f2).all())

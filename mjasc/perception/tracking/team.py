@@ -34,6 +34,7 @@ class TeamMatcher:
         self.config = config
         self._team: dict[int, tuple] = {}  # owner → (names, t_b (k,) [s], positions (k, 2) [m])
         self._flat = None  # every owner's broadcasts as arrays (owner, name, t_b, position), built when used
+        self._start: dict[int, int] = {}  # owner → its first row in those arrays
         self._team_of = np.empty(0, dtype=object)
 
     def set_positions(self, owner: int, positions: dict) -> None:
@@ -41,9 +42,16 @@ class TeamMatcher:
         vessel ``owner`` received them."""
         names = [str(k) for k in positions]
         vals = list(positions.values())
-        self._team[int(owner)] = (names, np.array([v[0] for v in vals], dtype=float),
-                                  np.array([v[1] for v in vals], dtype=float).reshape(-1, 2))
-        self._flat = None
+        owner = int(owner)
+        tb, pb = np.array([v[0] for v in vals], dtype=float), np.array([v[1] for v in vals], dtype=float).reshape(-1, 2)
+        old = self._team.get(owner)
+        self._team[owner] = (names, tb, pb)
+        if self._flat is not None and old is not None and old[0] == names:  # the same mates: new values in place
+            a = self._start[owner]
+            self._flat[2][a:a + tb.size] = tb
+            self._flat[3][a:a + tb.size] = pb
+        else:
+            self._flat = None
 
     def append(self, k: int = 1) -> None:
         self._team_of = np.concatenate([self._team_of, np.full(k, None, dtype=object)])
@@ -58,9 +66,12 @@ class TeamMatcher:
 
     def _arrays(self):
         """Every owner's broadcasts in one set of arrays, owners in order: (owner (B,), names (B,),
-        t_b (B,) [s], position (B, 2) [m])."""
+        t_b (B,) [s], position (B, 2) [m]). Built again only when an owner's set of mates changes
+        (:meth:`set_positions` writes new values of the same mates in place)."""
         if self._flat is None:
             teams = sorted(self._team.items())
+            sizes = np.array([len(t[0]) for _, t in teams], dtype=np.int64)
+            self._start = dict(zip([o for o, _ in teams], (np.cumsum(sizes) - sizes).tolist()))
             self._flat = (np.repeat(np.array([o for o, _ in teams], dtype=np.int64), [len(t[0]) for _, t in teams]),
                           [name for _, t in teams for name in t[0]],
                           np.concatenate([t[1] for _, t in teams]), np.concatenate([t[2] for _, t in teams]))
