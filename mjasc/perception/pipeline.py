@@ -389,7 +389,11 @@ class Perception:
     def report_tracks(self, t_s: float) -> tuple:
         """The tracks this vessel's report hands on: its confirmed tracks, fused with the newest
         team tracks when it shares perception (:meth:`set_team_tracks` was called)."""
-        own = tuple(self.tracks())
+        if self.method is None:  # (tracks() without its calls: the fleet's queue flushed, the tracker's estimates)
+            self.fleet.flush()
+            own = tuple(self._tracker.estimates())
+        else:
+            own = tuple(self.tracks())
         if self._fusion is None:
             return own
         return self._fusion.fuse(own, t_s)

@@ -123,15 +123,23 @@ class VesselAgent:
 
     def perception_report(self, t_s: float) -> PerceptionReport | None:
         """What the perception reports now (None without perception); rebuilt only after a slot that
-        changed the perception's state (sensing, tracking, comms). The static polygons are computed
+        changed the perception's state (sensing, tracking; comms only with ``share_tracks``: the
+        team's tracks fused in — otherwise the comms slot changes neither the tracks, the same
+        objects until the next tracking step, nor the map, and the report, a frozen value, is handed
+        out again: its ``time_s`` is that of the control tick that built it). The static polygons are computed
         when a prediction first asks for them. With ``share_tracks`` the tracks are the own ones
         fused with the team's newest (:meth:`~mjasc.perception.pipeline.Perception.report_tracks`)."""
-        if self.perception is None:
-            return None
-        if self._report is None:
-            self._report = PerceptionReport(float(t_s), self.perception.report_tracks(float(t_s)),
-                                            Deferred(self.perception.static_polygons))
-        return self._report
+        report = self._report
+        if report is None:
+            perception = self.perception
+            if perception is None:
+                return None
+            t = t_s if type(t_s) is float else float(t_s)
+            # PerceptionReport(t, tracks, Deferred(...)) without the frozen __init__'s three setattr calls
+            report = self._report = object.__new__(PerceptionReport)
+            report.__dict__.update(time_s=t, tracks=perception.report_tracks(t),
+                                   static_polygons=Deferred(perception.static_polygons))
+        return report
 
     def team_picture(self, t_s: float):
         """What the coordination layer knows of the team now (None without coordination)."""
@@ -227,7 +235,7 @@ class VesselAgent:
             if sharing is not None:
                 self.perception.set_team_tracks(nav.time_s, c.team_tracks(), nav.position_m, positions, sharing,
                                                 list(self.team_names))
-            self._report = None
+                self._report = None  # (the fused tracks changed; the own tracks and the map did not)
 
     def prediction_call(self, nav: OwnNavigation) -> tuple | None:
         """The arguments of this vessel's prediction, ``(avoidance, t, nav, GuidanceState,
