@@ -132,6 +132,8 @@ class Recorder:
         self._batch_styles: dict[str, dict[int, tuple]] = {}  # batch entity → member → (name, colour, width)
         self._batch_styled: dict[str, tuple] = {}  # batch entity → style last written
         self._own_entities: dict[tuple[str, str], str] = {}  # (template, vessel) → entity (vessel_scalar)
+        # (template, vessel) → its entity's buffered (times, values) in _scalars (vessel_scalar; until flush)
+        self._own_buffers: dict[tuple[str, str], tuple[list, list]] = {}
 
     def set_vessels(self, names: tuple[str, ...], view_vessels) -> None:
         """The run's vessels and those with per-vessel views (:attr:`view_vessels`). At standard
@@ -206,14 +208,21 @@ class Recorder:
         """A vessel's value of the series ``template`` at t_s (:meth:`vessel_entity`): a row of its
         own entity, or its series' value in the row at t_s of the batch entity (the vessels in
         :attr:`batched`, one series each in vessel order; NaN where a vessel has no value)."""
-        k = self._batch_index.get(vessel_name)
-        if k is None:
+        buffer = self._own_buffers.get((template, vessel_name))  # (the buffer scalar() appends to)
+        if buffer is None:
+            k = self._batch_index.get(vessel_name)
+            if k is not None:
+                self._batch_value(template.format(OTHERS), t_s, k, value)
+                return
             entity = self._own_entities.get((template, vessel_name))
             if entity is None:
                 entity = self._own_entities[(template, vessel_name)] = template.format(vessel_name)
-            self.scalar(entity, t_s, value)
-        else:
-            self._batch_value(template.format(OTHERS), t_s, k, value)
+            buffer = self._own_buffers[(template, vessel_name)] = self._scalars[entity]
+        buffer[0].append(t_s)
+        buffer[1].append(float(value))
+        self._pending += 1
+        if self._pending >= FLUSH_ROWS:
+            self.flush()
 
     def vessel_scalars(self, template: str, entities: tuple[str, ...], t_s: float, values) -> None:
         """:meth:`fleet_scalars` of every vessel's series ``template`` (values (n,) in vessel
@@ -423,8 +432,8 @@ class Recorder:
                 else:
                     send(entity, indexes=[_time_column(t)], columns=[_points_column(_xyz(d, z), 1)])
         self._write_batches()
-        for buffer in (self._scalars, self._texts, self._states, self._documents, self._points, self._strips,
-                       self._arrows, self._fleet):
+        for buffer in (self._scalars, self._own_buffers, self._texts, self._states, self._documents, self._points,
+                       self._strips, self._arrows, self._fleet):
             buffer.clear()
         self._pending = 0
 
