@@ -420,6 +420,10 @@ class Recorder:
             t = np.asarray(times, dtype=np.float64)
             if kind == "strips":  # the strips of a row have the same length; rows may differ
                 ones = np.ones(len(t), dtype=np.int32)
+                if len({r.shape for r in rows}) == 1:  # every row alike (hulls): one stack, (n, T, m, 2)
+                    for entity, d in zip(entities, np.stack(rows, axis=1)):
+                        send(entity, indexes=[_time_column(t)], columns=[_strip_column(d, z, ones)])
+                    continue
                 for j, entity in enumerate(entities):
                     send(entity, indexes=[_time_column(t)], columns=[_strip_column([r[j] for r in rows], z, ones)])
                 continue
@@ -491,10 +495,14 @@ _STRIP_TYPE = rr.components.LineStrip3DBatch._ARROW_DATATYPE
 
 def _strip_column(strips: list[np.ndarray], z: float, per_row) -> rr.ComponentColumn:
     """The ``LineStrips3D:strips`` column of rows holding ``per_row`` strips each (strips (m, 2)
-    world xy at height z), built as one arrow list array (no per-strip conversion)."""
-    lengths = np.fromiter((len(s) for s in strips), dtype=np.int32, count=len(strips))
+    world xy at height z, or an array (k, m, 2) of strips of one length), built as one arrow list
+    array (no per-strip conversion)."""
+    if isinstance(strips, np.ndarray):
+        lengths, flat = np.full(len(strips), strips.shape[1], dtype=np.int32), strips.reshape(-1, 2)
+    else:
+        lengths, flat = np.fromiter((len(s) for s in strips), dtype=np.int32, count=len(strips)), _cat(strips)
     offsets = np.concatenate([[0], np.cumsum(lengths, dtype=np.int32)]).astype(np.int32)
-    points = Vec3DBatch(_xyz(_cat(strips), z).astype(np.float32)).as_arrow_array()
+    points = Vec3DBatch(_xyz(flat, z).astype(np.float32)).as_arrow_array()
     array = pa.ListArray.from_arrays(pa.array(offsets, pa.int32()), points, type=_STRIP_TYPE)
     return rr.ComponentColumn(rr.LineStrips3D.descriptor_strips(), _ArrowBatch(array), lengths=per_row)
 
