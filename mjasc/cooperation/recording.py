@@ -43,6 +43,7 @@ class CommsLog:
     def __init__(self, names: tuple[str, ...]):
         self.names = tuple(names)
         self.lines = len(self.names) <= MAX_LINE_VESSELS
+        self._index = {n: k for k, n in enumerate(self.names)}
         self._recent: list = []
         self._oldest_s = np.inf  # the earliest send time in _recent [s]
         self._pairs: tuple = ((), ())  # the (delivered, lost) pairs of _recent
@@ -95,9 +96,12 @@ class CommsLog:
         if (delivered, lost) == self._shown and not ((delivered or lost) and t_s - self._shown_t >= LINK_WINDOW_S):
             return  # nothing new to draw (shown links are redrawn where the vessels are now every window)
         self._shown, self._shown_t = (delivered, lost), t_s
-        index = {n: k for k, n in enumerate(self.names)}
-        p = np.asarray(positions_xy, dtype=float)
-        recorder.strips("world/comms/delivered", t_s, [p[[index[a], index[b]]] for a, b in delivered], z=_Z,
+        index, p = self._index, np.asarray(positions_xy, dtype=float)
+        # One gather per kind: the delivered lines (m, 2, 2) sender → receiver, the lost ones from
+        # the sender to halfway (the same numbers as a line per pair).
+        ends = p[np.array([[index[a], index[b]] for a, b in delivered], dtype=np.intp).reshape(-1, 2)]
+        recorder.strips("world/comms/delivered", t_s, list(ends), z=_Z,
                         colours=[(*recorder.colour(a), 160) for a, _ in delivered])
-        recorder.strips("world/comms/lost", t_s, [np.array([p[index[a]], 0.5 * (p[index[a]] + p[index[b]])])
-                                                  for a, b in lost], z=_Z)
+        ends = p[np.array([[index[a], index[b]] for a, b in lost], dtype=np.intp).reshape(-1, 2)]
+        recorder.strips("world/comms/lost", t_s, list(np.stack([ends[:, 0], 0.5 * (ends[:, 0] + ends[:, 1])], axis=1)),
+                        z=_Z)

@@ -166,7 +166,9 @@ class PerceptionLog:
             from mjasc.runs.recording import vessel_colour
 
             self._style(rec, base, vessel_name, vessel_colour(p.vessel_index), p.sensor_config)
-        self._log_scan(rec, t_s, p, base, vessel_name, full)
+        scan = p.scan
+        if scan is not None and scan.time_s != self._logged_scan_t:  # (a record tick without a new scan: no call)
+            self._log_scan(rec, t_s, p, scan, base, vessel_name, full)
         update = p._stats["track_updates"]
         if full or update != self._logged_update:
             self._logged_update = update
@@ -186,10 +188,9 @@ class PerceptionLog:
         self._base_of, self._base = vessel_name, f"world/vessels/{vessel_name}"
         return self._base
 
-    def _log_scan(self, rec, t_s, p, base, vessel_name, full) -> None:
-        scan, det = p.scan, p.detections
-        if scan is None or scan.time_s == self._logged_scan_t:
-            return
+    def _log_scan(self, rec, t_s, p, scan, base, vessel_name, full) -> None:
+        """The new ``scan``'s returns and detections (:meth:`log` calls it once per scan)."""
+        det = p.detections
         self._logged_scan_t = scan.time_s
         views = rec.has_views(vessel_name)
         if views and t_s - self._last_body_hits_log >= (HITS_LOG_PERIOD_S if full else BODY_HITS_PERIOD_S) - 1e-9:

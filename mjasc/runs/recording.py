@@ -132,6 +132,8 @@ class Recorder:
         self._batch_styles: dict[str, dict[int, tuple]] = {}  # batch entity → member → (name, colour, width)
         self._batch_styled: dict[str, tuple] = {}  # batch entity → style last written
         self._own_entities: dict[tuple[str, str], str] = {}  # (template, vessel) → entity (vessel_scalar)
+        # (template, vessel) → its entity's buffered (times, values) in _scalars (vessel_scalar; until flush)
+        self._own_buffers: dict[tuple[str, str], tuple[list, list]] = {}
 
     def set_vessels(self, names: tuple[str, ...], view_vessels) -> None:
         """The run's vessels and those with per-vessel views (:attr:`view_vessels`). At standard
@@ -206,14 +208,21 @@ class Recorder:
         """A vessel's value of the series ``template`` at t_s (:meth:`vessel_entity`): a row of its
         own entity, or its series' value in the row at t_s of the batch entity (the vessels in
         :attr:`batched`, one series each in vessel order; NaN where a vessel has no value)."""
-        k = self._batch_index.get(vessel_name)
-        if k is None:
+        buffer = self._own_buffers.get((template, vessel_name))  # (the buffer scalar() appends to)
+        if buffer is None:
+            k = self._batch_index.get(vessel_name)
+            if k is not None:
+                self._batch_value(template.format(OTHERS), t_s, k, value)
+                return
             entity = self._own_entities.get((template, vessel_name))
             if entity is None:
                 entity = self._own_entities[(template, vessel_name)] = template.format(vessel_name)
-            self.scalar(entity, t_s, value)
-        else:
-            self._batch_value(template.format(OTHERS), t_s, k, value)
+            buffer = self._own_buffers[(template, vessel_name)] = self._scalars[entity]
+        buffer[0].append(t_s)
+        buffer[1].append(float(value))
+        self._pending += 1
+        if self._pending >= FLUSH_ROWS:
+            self.flush()
 
     def vessel_scalars(self, template: str, entities: tuple[str, ...], t_s: float, values) -> None:
         """:meth:`fleet_scalars` of every vessel's series ``template`` (values (n,) in vessel
@@ -411,6 +420,10 @@ class Recorder:
             t = np.asarray(times, dtype=np.float64)
             if kind == "strips":  # the strips of a row have the same length; rows may differ
                 ones = np.ones(len(t), dtype=np.int32)
+                if len({r.shape for r in rows}) == 1:  # every row alike (hulls): one stack, (n, T, m, 2)
+                    for entity, d in zip(entities, np.stack(rows, axis=1)):
+                        send(entity, indexes=[_time_column(t)], columns=[_strip_column(d, z, ones)])
+                    continue
                 for j, entity in enumerate(entities):
                     send(entity, indexes=[_time_column(t)], columns=[_strip_column([r[j] for r in rows], z, ones)])
                 continue
@@ -423,8 +436,8 @@ class Recorder:
                 else:
                     send(entity, indexes=[_time_column(t)], columns=[_points_column(_xyz(d, z), 1)])
         self._write_batches()
-        for buffer in (self._scalars, self._texts, self._states, self._documents, self._points, self._strips,
-                       self._arrows, self._fleet):
+        for buffer in (self._scalars, self._own_buffers, self._texts, self._states, self._documents, self._points,
+                       self._strips, self._arrows, self._fleet):
             buffer.clear()
         self._pending = 0
 
@@ -482,10 +495,14 @@ _STRIP_TYPE = rr.components.LineStrip3DBatch._ARROW_DATATYPE
 
 def _strip_column(strips: list[np.ndarray], z: float, per_row) -> rr.ComponentColumn:
     """The ``LineStrips3D:strips`` column of rows holding ``per_row`` strips each (strips (m, 2)
-    world xy at height z), built as one arrow list array (no per-strip conversion)."""
-    lengths = np.fromiter((len(s) for s in strips), dtype=np.int32, count=len(strips))
+    world xy at height z, or an array (k, m, 2) of strips of one length), built as one arrow list
+    array (no per-strip conversion)."""
+    if isinstance(strips, np.ndarray):
+        lengths, flat = np.full(len(strips), strips.shape[1], dtype=np.int32), strips.reshape(-1, 2)
+    else:
+        lengths, flat = np.fromiter((len(s) for s in strips), dtype=np.int32, count=len(strips)), _cat(strips)
     offsets = np.concatenate([[0], np.cumsum(lengths, dtype=np.int32)]).astype(np.int32)
-    points = Vec3DBatch(_xyz(_cat(strips), z).astype(np.float32)).as_arrow_array()
+    points = Vec3DBatch(_xyz(flat, z).astype(np.float32)).as_arrow_array()
     array = pa.ListArray.from_arrays(pa.array(offsets, pa.int32()), points, type=_STRIP_TYPE)
     return rr.ComponentColumn(rr.LineStrips3D.descriptor_strips(), _ArrowBatch(array), lengths=per_row)
 
