@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from mjasc.core.compiled import maximum, minimum, search_right
+from mjasc.core.compiled import clip, maximum, minimum, search_right
 
 
 def test_search_right_is_numpys_searchsorted_right_on_a_slice():
@@ -23,3 +23,11 @@ def test_maximum_and_minimum_follow_numpy_on_nan_and_ties():
         for mine, ref in ((maximum(a, b), np.maximum(a, b)), (minimum(a, b), np.minimum(a, b))):
             assert np.array_equal(mine, ref, equal_nan=True)
             assert np.signbit(mine) == np.signbit(ref)
+
+
+def test_compiled_clip_is_numpys_clip_on_nan_ties_and_signed_zeros():
+    vals = (-1.5, -0.0, 0.0, 0.25, 1.0, 2.0, np.nan, -np.inf, np.inf)
+    for v in vals:
+        for lo, hi in ((0.0, 1.0), (-0.0, 0.0), (0.0, -0.0), (-1.0, np.inf), (-np.inf, -1.0)):  # bounds are numbers
+            mine, ref = clip(v, lo, hi), float(np.clip(v, lo, hi))
+            assert np.array_equal(mine, ref, equal_nan=True) and np.signbit(mine) == np.signbit(ref), (v, lo, hi)

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mjasc.core.compiled import clip as _clip
 from mjasc.core.compiled import kernel, maximum, search_right
 from mjasc.guidance.paths import _SCALAR_SEGMENTS, Path
 from mjasc.guidance.segment_geometry import COS0, K, SIN0, TH0, X0, Y0
@@ -37,15 +38,6 @@ def plan_offsets(horizon_s: float, step_s: float) -> np.ndarray:
         base.flags.writeable = False
         _OFFSETS[key] = base
     return base
-
-
-@kernel
-def _clip(v, lo, hi):
-    """numpy's clip for one float: min(max(v, lo), hi), NaN propagating (the value wins ties: −0.0 stays −0.0)."""
-    if v != v:
-        return v
-    v = lo if v < lo else v
-    return hi if v > hi else v
 
 
 @kernel

@@ -33,7 +33,7 @@ import numba
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["kernel", "fma", "maximum", "minimum", "clip_float", "search_right"]
+__all__ = ["kernel", "fma", "maximum", "minimum", "clip_float", "clip", "search_right"]
 
 
 def kernel(fn):
@@ -86,6 +86,10 @@ def clip_float(v: float, lo: float, hi: float) -> float:
         return v
     v = lo if v < lo else v
     return hi if v > hi else v
+
+
+#: :func:`clip_float` compiled, for kernels (the same rule: numpy's clip of one float).
+clip = kernel(clip_float)
 
 
 @intrinsic

@@ -28,7 +28,8 @@ from __future__ import annotations
 
 import math
 
-from mjasc.core.compiled import kernel
+from mjasc.core.compiled import clip as _clip
+from mjasc.core.compiled import kernel, search_right
 from mjasc.guidance.segment_geometry import A0, C, COS0, CX, CY, K, LEN, SIN0, TH0, X0, Y0
 
 __all__ = ["follow_fleet"]
@@ -44,15 +45,6 @@ _GAMMA, _XTE_I, _SPEED_I, _HEAD_I = range(4)
 
 
 @kernel
-def _clip(v, lo, hi):
-    """``clip_float``: NaN propagates, the value wins ties."""
-    if v != v:
-        return v
-    v = lo if v < lo else v
-    return hi if v > hi else v
-
-
-@kernel
 def _wrap(a):
     """``wrap_scalar``: to (−π, π]."""
     w = (a + math.pi) % _TWO_PI - math.pi
@@ -63,17 +55,7 @@ def _wrap(a):
 def _count_le(starts, a, m, length, x):
     """``bisect_right(cum, x)`` of a path's cumulative lengths (its segments' start γ
     ``starts[a:a + m]``, then its length)."""
-    lo, hi = a, a + m
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if starts[mid] <= x:
-            lo = mid + 1
-        else:
-            hi = mid
-    n = lo - a
-    if length <= x:
-        n += 1
-    return n
+    return search_right(starts, x, a, a + m) - a + (1 if length <= x else 0)
 
 
 @kernel
