@@ -59,6 +59,16 @@ def _count_le(starts, a, m, length, x):
 
 
 @kernel
+def _consider(d, g, pick, d_min, best, found):
+    """One candidate (d² [m²], its γ [m]) for :func:`_best`: the new (best, found)."""
+    if not pick:
+        return (d if not found or d < best else best), True
+    if d <= d_min and (not found or g < best):
+        return g, True
+    return best, found
+
+
+@kernel
 def _best(table, a, j0, j1, px, py, lo, hi, d_min, pick):
     """Over segments j0 … j1 of the block at ``a``, the candidates of the window [lo, hi]
     (``closest_scalar``): ``pick`` False → the smallest d² (``d_min`` the starting value, +inf);
@@ -82,15 +92,7 @@ def _best(table, a, j0, j1, px, py, lo, hi, d_min, pick):
             cs, sn = table[COS0, j], table[SIN0, j]
             s = _clip(dx * cs + dy * sn, s_lo, s_hi)
             ex, ey = dx - s * cs, dy - s * sn
-            d = ex * ex + ey * ey
-            g = c0 + s
-            if not pick:
-                if not found or d < best:
-                    best = d
-                found = True
-            elif d <= d_min and (not found or g < best):
-                best = g
-                found = True
+            best, found = _consider(ex * ex + ey * ey, c0 + s, pick, d_min, best, found)
             continue
         phi = math.atan2(py - table[CY, j], px - table[CX, j])
         sgn = 1.0 if k > 0.0 else -1.0
@@ -100,15 +102,7 @@ def _best(table, a, j0, j1, px, py, lo, hi, d_min, pick):
             s = s_star if q == 0 else (s_lo if q == 1 else s_hi)
             th = th0 + k * s
             ex, ey = x0 + (math.sin(th) - sin0) / k - px, y0 + (cos0 - math.cos(th)) / k - py
-            d = ex * ex + ey * ey
-            g = c0 + s
-            if not pick:
-                if not found or d < best:
-                    best = d
-                found = True
-            elif d <= d_min and (not found or g < best):
-                best = g
-                found = True
+            best, found = _consider(ex * ex + ey * ey, c0 + s, pick, d_min, best, found)
     return best, found
 
 
