@@ -372,8 +372,7 @@ class FleetPathFollower:
         pos = pos.reshape(k, 2)
         commands = np.empty((k, 2))
         status = np.empty((k, 6))
-        paths = self.paths
-        if not follow_fleet(paths._table, paths._first, paths._count, paths._length, self._P, self._S, at, pos,
+        if not follow_fleet(*self.paths.segment_arrays(), self._P, self._S, at, pos,
                             np.asarray(heading, dtype=float).reshape(k), bv.reshape(k, 3),
                             np.asarray(speed, dtype=float).reshape(k), course, float(dt_s), 2.0, commands, status):
             return None

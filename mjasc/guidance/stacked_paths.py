@@ -71,6 +71,12 @@ class StackedPaths:
     def __len__(self) -> int:
         return len(self.paths)
 
+    def segment_arrays(self) -> tuple:
+        """The store as a compiled kernel reads it: (segment table (fields, m) in the order of
+        :data:`~mjasc.guidance.segment_geometry.FIELDS`, each path's first column (n,), its segment
+        count (n,), its length L_i (n,) [m]). The store's own arrays: not to be written."""
+        return self._table, self._first, self._count, self._length
+
     @property
     def lengths_m(self) -> np.ndarray:
         """Each path's length L_i (n,) [m] (read-only view)."""
