@@ -150,8 +150,7 @@ def control_slot(calls) -> list[AvoidanceRequest]:
     re-plan, a finished velocity correction) run per vessel."""
     pending = []
     for system, t, nav, guidance, perceived, team in calls:
-        # system._begin(guidance, perceived, team), then its query
-        system._guidance, system._switch, system._perceived, system._team = guidance, None, perceived, team
+        system._begin(guidance, perceived, team)
         pending.append(system._control_query(float(t)))
     queries = [p[0].query for p in pending if p is not None and p[0].query is not None]
     results = iter(predict_fleet_lazy(queries) if queries else ())  # (most ticks predict nothing)
@@ -346,15 +345,9 @@ class CollisionAvoidance(AvoidanceMethod):
     # ------------------------------------------------------------------ own plan
     def mission_gamma_m(self, guidance: GuidanceState) -> float:
         """Progress along the ORIGINAL mission path [m], also while on a detour."""
-        return self.mission_gamma_on(guidance.path, guidance.gamma_m)
-
-    def mission_gamma_on(self, path: Path, gamma_m: float) -> float:
-        """:meth:`mission_gamma_m` of a guidance on ``path`` at γ = ``gamma_m`` [m] (what it reads of
-        the state: the agent asks without making one)."""
-        d = self.detour
-        if d is not None and path is d.path:
-            return d.mission_gamma(gamma_m)
-        return float(gamma_m)
+        if self.detour is not None and guidance.path is self.detour.path:
+            return self.detour.mission_gamma(guidance.gamma_m)
+        return float(guidance.gamma_m)
 
     def planned_gamma(self, t_now: float, gamma_now: float, mission_speed_m_s: float):
         """γ(t) [m] on the current path for absolute times t ≥ t_now: the virtual target's speed V_d

@@ -353,10 +353,7 @@ class Coordination(CoordinationMethod):
                 neighbours[sender] = _Neighbour(sent, received, payload, True)
                 self._team = self._intentions = None
         timeout = self.config.neighbour_timeout_s
-        view = self._team  # (_oldest_active_s without its calls)
-        if view is None:
-            view = self._team_view()
-        if t_s - view.oldest_active_s > timeout:
+        if t_s - self._oldest_active_s() > timeout:
             for name, nb in self.neighbours.items():
                 if nb.active and t_s - nb.sent_time_s > timeout:
                     nb.active = False
@@ -472,13 +469,10 @@ class Coordination(CoordinationMethod):
     def _consensus(self, t_s: float, nav, gamma_m: float):
         """Read the arrivals; then (the team view, ξ_own, e_i, |N_i|), or None without a path."""
         self._poll(t_s, nav)
-        length = self.path_length_m
-        if length is None:
+        if self.path_length_m is None:
             return None
-        view = self._team  # (_team_view and xi without their calls)
-        if view is None:
-            view = self._team_view()
-        own = (float(gamma_m) - self.config.formation_offset_m) / length
+        view = self._team_view()
+        own = self.xi(gamma_m)
         n = len(view.rows)
         e = view.l_bar * view.gap_sum(t_s, self.config.extrapolate, own) if n else 0.0
         return view, own, e, n

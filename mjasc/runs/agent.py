@@ -147,15 +147,11 @@ class VesselAgent:
 
     def mission_gamma_m(self) -> float:
         """Progress along the mission path [m] (the coordination variable γ)."""
-        follower = self.follower
-        if follower is None:
+        if self.follower is None:
             return 0.0
-        av = self.avoidance
-        if av is not None:
-            if type(av).mission_gamma_m is _thesis_mission_gamma():  # reads path and γ only: no state made
-                return av.mission_gamma_on(follower.path, follower.gamma_m)
-            return av.mission_gamma_m(self.guidance_state())
-        return follower.gamma_m
+        if self.avoidance is not None:
+            return self.avoidance.mission_gamma_m(self.guidance_state())
+        return self.follower.gamma_m
 
     def apply_leg(self, t_s: float, leg) -> None:
         """Apply a :class:`~mjasc.missions.legs.MissionLeg`: a new path for the follower (from the
@@ -299,9 +295,7 @@ class VesselAgent:
         mode = "mission"
         course = math.nan
         if req is not None:
-            sw = req.path_switch  # (apply_request without its call)
-            if sw is not None:
-                self.follower.set_path(sw.path, sw.gamma_m)
+            self.apply_request(req)
             mode = req.mode
             if req.speed_override_m_s is not None:
                 speed = req.speed_override_m_s
@@ -342,19 +336,6 @@ class VesselAgent:
                 c.log(recorder, t_s, self.name, guidance=self.guidance_state())
             else:
                 c.log(recorder, t_s, self.name)
-
-
-def _thesis_mission_gamma():
-    """``CollisionAvoidance.mission_gamma_m`` (imported on first use: the agent module stays light)."""
-    global _THESIS_MISSION_GAMMA
-    if _THESIS_MISSION_GAMMA is None:
-        from mjasc.avoidance.system import CollisionAvoidance
-
-        _THESIS_MISSION_GAMMA = CollisionAvoidance.mission_gamma_m
-    return _THESIS_MISSION_GAMMA
-
-
-_THESIS_MISSION_GAMMA = None
 
 
 def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray, team_names, network,

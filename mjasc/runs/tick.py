@@ -128,8 +128,7 @@ def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: floa
         # same as vessel by vessel: a vessel's mission and coordination read only its own state.
         steered = [i for i, agent in enumerate(agents) if agent.follower is not None]
         for i in steered:
-            if agents[i].mission is not None:  # (control_mission does nothing without one)
-                agents[i].control_mission(navs[i])
+            agents[i].control_mission(navs[i])
         polled = [i for i in steered if agents[i].coordination is not None]
         Coordination.decide_link([agents[i].coordination for i in polled], navs[0].time_s,
                                  [navs[i].position_m for i in polled])
