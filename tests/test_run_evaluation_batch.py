@@ -119,3 +119,32 @@ def test_one_truth_or_one_track_is_assigned_as_scipy_assigns_it():
         got = [tuple(map(int, rc)) for rc in _assignment(rows, a, b, truths)]
         r, c = linear_sum_assignment(cost[a:b][:, truths].T)
         assert got == list(zip(r.tolist(), c.tolist()))
+
+
+def test_unique_least_costs_are_assigned_as_scipy_assigns_them():
+    """The shortcut for any shape: every truth's (or, with more truths than tracks, every track's)
+    unique least cost in a column of its own; exact ties, costs at the cut-off and shared least-cost
+    tracks go to scipy. The same pairs in the same order as scipy's, on problems of every size."""
+    from scipy.optimize import linear_sum_assignment
+
+    from mjasc.evaluation.tracking_metrics import _assignment
+
+    rng = np.random.default_rng(11)
+    shortcut = 0
+    for trial in range(3000):
+        n_truth, n_tracks = int(rng.integers(1, 6)), int(rng.integers(1, 7))
+        cost = np.minimum(rng.uniform(0, 12, size=(n_tracks, n_truth)).round(int(rng.integers(0, 3))), 10.0) ** 2
+        truths = sorted(rng.choice(n_truth, size=int(rng.integers(1, n_truth + 1)), replace=False).tolist())
+        a = int(rng.integers(0, n_tracks))
+        rows = cost.tolist()
+        got = [tuple(map(int, rc)) for rc in _assignment(rows, a, n_tracks, truths)]
+        r, c = linear_sum_assignment(cost[a:][:, truths].T)
+        assert got == list(zip(r.tolist(), c.tolist()))
+        assert got == [tuple(map(int, rc)) for rc in _assignment(rows, a, n_tracks, truths, fast=False)]
+        rest = cost[a:][:, truths]
+        by_truth = len(truths) <= n_tracks - a
+        mins = rest.min(axis=0 if by_truth else 1)
+        picks = rest.argmin(axis=0 if by_truth else 1)
+        unique = ((rest == (mins[None, :] if by_truth else mins[:, None])).sum(axis=0 if by_truth else 1) == 1).all()
+        shortcut += bool(unique and len(set(picks.tolist())) == len(picks))
+    assert 500 < shortcut < 2500  # both paths taken often

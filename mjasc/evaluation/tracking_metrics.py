@@ -68,22 +68,51 @@ def gospa(truth_xy, estimates_xy, cutoff_m: float = 10.0, order: float = 2.0) ->
 def _assignment(cost_rows: list, a: int, b: int, truths: list, fast: bool = True):
     """The pairs (k, j) :func:`scipy.optimize.linear_sum_assignment` gives for the costs of the
     truth objects ``truths`` (rows k) to the tracks a … b − 1 (columns j): ``cost_rows[a + j][m]``
-    is track a + j's cost to truth m. One truth or one track with a unique least cost has that one
-    optimal assignment, found here without scipy (``fast``); any other problem goes to scipy."""
-    if fast and len(truths) == 1:
-        m = truths[0]
-        costs = [cost_rows[r][m] for r in range(a, b)]
-        best = min(costs)
-        if costs.count(best) == 1:
-            return ((0, costs.index(best)),)
-    elif fast and b - a == 1:
-        row = cost_rows[a]
-        costs = [row[m] for m in truths]
-        best = min(costs)
-        if costs.count(best) == 1:
-            return ((costs.index(best), 0),)
+    is track a + j's cost to truth m.
+
+    With no more truths than tracks every truth is assigned, so the sum of each truth's least cost
+    bounds every assignment from below: when each truth's least cost is unique and no two truths
+    share their least-cost track, those pairs are the one optimal assignment (likewise with the
+    roles swapped when there are more truths than tracks). Found here without scipy (``fast``),
+    in scipy's order (rows ascending); any other problem goes to scipy."""
+    if fast:
+        n_y = b - a
+        picks = []
+        if len(truths) <= n_y:
+            for m in truths:
+                costs = [cost_rows[r][m] for r in range(a, b)]
+                best = min(costs)
+                if costs.count(best) != 1:
+                    break
+                picks.append(costs.index(best))
+            else:
+                if len(set(picks)) == len(picks):
+                    return tuple(enumerate(picks))
+        else:
+            for r in range(a, b):
+                row = cost_rows[r]
+                costs = [row[m] for m in truths]
+                best = min(costs)
+                if costs.count(best) != 1:
+                    break
+                picks.append(costs.index(best))
+            else:
+                if len(set(picks)) == len(picks):
+                    return tuple(sorted((k, j) for j, k in enumerate(picks)))
     rows, cols = linear_sum_assignment(np.array([[cost_rows[r][m] for r in range(a, b)] for m in truths]))
     return zip(rows.tolist(), cols.tolist())
+
+
+def _rows(parts: list, dtype, shape: tuple) -> np.ndarray:
+    """The per-time arrays ``parts`` one after the other, as ``dtype`` rows of ``shape``: one
+    concatenation when they already are such arrays (a run's tracks are), else each converted."""
+    try:
+        out = np.concatenate(parts)
+        if out.dtype == dtype and out.ndim == len(shape):
+            return out
+    except ValueError:
+        pass
+    return np.concatenate([np.asarray(x, dtype=dtype).reshape(shape) for x in parts])
 
 
 @dataclass
@@ -164,13 +193,13 @@ class TrackingScore:
         ends = np.cumsum(counts).tolist()
         n_rows = ends[-1] if ends else 0
         if n_rows and n_truth:
-            y = np.concatenate([np.asarray(xy, dtype=float).reshape(-1, 2) for xy in track_xy])
+            y = _rows(track_xy, float, (-1, 2))
             qt = q[np.repeat(np.arange(n_t), counts)]  # (R, M, 2): the truth at each track's time
             d_all = np.hypot(qt[:, :, 0].T - y[None, :, 0], qt[:, :, 1].T - y[None, :, 1])
             cost_all = np.minimum(d_all, c) ** p
             fast = bool(np.isfinite(cost_all).all())  # (scipy refuses NaN: it decides every time then)
             d_rows, cost_rows = d_all.T.tolist(), cost_all.T.tolist()  # per track: to each truth object
-        ids_all = [int(i) for ids in track_ids for i in np.asarray(ids).reshape(-1).tolist()]
+        ids_all = _rows(track_ids, np.int64, (-1,)).tolist() if n_rows else []
         in_lists = in_range.tolist()
         sums = self._sum
         s_dist, s_loc, s_miss, s_false = sums["distance"], sums["localization"], sums["missed"], sums["false"]
