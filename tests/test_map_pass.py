@@ -125,3 +125,70 @@ def test_a_return_out_of_range_changes_nothing_and_the_steps_raise():
     _same_store(store, ref)
     with pytest.raises(ValueError, match="cell index beyond"):
         map_steps(store, *args)
+
+
+def test_sense_map_equals_the_steps_with_partial_fans_and_mixed_maps():
+    """Four sensors (a 90° fan, other beam counts and ranges, clutter) by a quay and a ring of buoys, maps of
+    different cell sizes, thresholds and miss weights, tracked discs drawn at random, the vessels
+    moving between scans: the two stores stay the same bits."""
+    import math
+
+    import mujoco
+
+    from mjasc.perception.detection import DetectionConfig, detect_many
+    from mjasc.perception.fleet import FLAT_M
+    from mjasc.perception.range_sensor import SensorConfig, sensor_for_vessel
+    from mjasc.perception.scan_batch import ScanBatch
+    from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
+    from mjasc.physics.vessels import load_vessel_type
+    from mjasc.physics.world import build_world
+
+    configs = [SensorConfig(range_noise_std_m=0.1, dropout_probability=0.2, clutter_per_scan=3.0), SensorConfig(),
+               SensorConfig(beams=90, fov_deg=90.0, max_range_m=100.0, clutter_per_scan=2.0),
+               SensorConfig(beams=361, range_noise_std_m=0.0, dropout_probability=0.0, clutter_per_scan=0.0,
+                            min_range_m=0.0)]
+    statics = [CircleObstacle(f"b{k}", (40 * math.cos(a), 40 * math.sin(a)), 6.0)
+               for k, a in enumerate(np.linspace(0, 2 * math.pi, 9, endpoint=False))]
+    statics.append(PolygonObstacle("quay", np.array([[-30.0, 55.0], [60.0, 55.0], [60.0, 60.0], [-30.0, 60.0]])))
+    w = build_world([(f"v{i}", load_vessel_type("otter")) for i in range(4)], statics,
+                    [MovingObstacle("m", 2.0, (0.0, 25.0))])
+    for i, pose in enumerate([(1.0, 2.0, 0.3), (15.0, -3.0, 2.0), (-12.0, 8.0, -1.0), (3.0, -20.0, 2.5)]):
+        w.data.qpos[w.qpos_adr[i]] = pose
+    d = w.data
+    sensors = [sensor_for_vessel(w, i, configs[i]) for i in range(4)]
+    stores = [StaticMapStore(), StaticMapStore()]
+    for st in stores:
+        for i in range(4):
+            st.add_member(StaticMapConfig(cell_m=1.0 + 0.5 * (i % 2), min_hits=1 + i % 3,
+                                          miss_weight=(0.5, 1.0, 0.25, 0.5)[i]))
+    batch, rng = ScanBatch(), np.random.default_rng(5)
+    rngs = [np.random.default_rng(i) for i in range(4)]
+    dcfg = [DetectionConfig()] * 4
+    freed = 0
+    for step in range(16):
+        for i in range(4):
+            d.qpos[w.qpos_adr[i][:2]] += (0.7, -0.4 * i)
+        mujoco.mj_kinematics(w.model, d)
+        who = [int(i) for i in rng.permutation(4)[:int(rng.integers(1, 5))]]
+        for i in who:
+            batch.add(sensors[i], d, rngs[i])
+        stack = batch.take()
+        S = len(who)
+        sig = np.array([configs[i].range_noise_std_m for i in who])
+        det = detect_many(stack.scans, dcfg[:S], sig, [configs[i].dropout_probability for i in who], stack=stack)
+        n_disc = rng.integers(0, 3, S)
+        d_k = np.repeat(np.arange(S), n_disc)
+        dc = rng.uniform(-40.0, 40.0, (d_k.size, 2))
+        dr = rng.uniform(1.0, 8.0, d_k.size)
+        slot = np.array([3 - i for i in who], dtype=np.int64)
+        args = (det.labels, stack.ret_off, det.det_offsets, det.extended, det.n_points, det.centres_m, det.radii_m,
+                det.variances_m2, stack.hit_points_world, sig, FLAT_M, dc, dr, d_k, slot, stack, True)
+        before = stores[0]._score[:stores[0]._n].copy()
+        got = sense_map(stores[0], *args)
+        want = map_steps(stores[1], *args)
+        assert got is not None
+        for x, y in zip(got, want):
+            assert x.dtype == y.dtype and x.shape == y.shape and x.tobytes() == y.tobytes()
+        _same_store(stores[0], stores[1])
+        freed += int((stores[0]._score[:before.size] < before).sum())  # cells seen through
+    assert stores[0]._n > 100 and stores[0]._n_occupied.sum() > 20 and freed > 20
