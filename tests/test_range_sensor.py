@@ -117,3 +117,30 @@ def test_parse_sensor_options():
                        ({"range_noise_std_m": True}, "range_noise_std_m")]:
         with pytest.raises(ValueError, match=rf"^vessels\[2\]\.sensor\.{key}:"):
             parse_sensor_options(table, w)
+
+
+@pytest.mark.parametrize("clutter", [0.5, 3.0, 12.0])
+def test_draws_are_numpys_array_draws_in_the_same_order(clutter):
+    """RangeSensor.draw draws the clutter's beams and ranges one at a time: the same numbers, and
+    the generator left in the same state, as the array draws it replaced (normals, uniforms,
+    Poisson count, ``integers(0, n, size=k)``, ``uniform(min, max, size=k)``), for every k."""
+    cfg = SensorConfig(beams=360, range_noise_std_m=0.05, dropout_probability=0.02, clutter_per_scan=clutter,
+                       min_range_m=1.5, max_range_m=150.0)
+    _, s = make(config=cfg)
+    n = cfg.beams
+    ks = set()
+    for seed in range(300):
+        a, b = np.random.default_rng([seed, 3]), np.random.default_rng([seed, 3])
+        for _ in range(3):  # a few scans in a row: the generator's buffered 32 bits carry over
+            normals, uniforms, cb, cr = np.empty(n), np.empty(n), [], []
+            assert s.draw(a, normals, uniforms, cb, cr) == (True, True)
+            want_n, want_u = b.standard_normal(n), b.random(n)
+            k = int(b.poisson(clutter))
+            want_b, want_r = b.integers(0, n, size=k), b.uniform(cfg.min_range_m, cfg.max_range_m, size=k)
+            ks.add(k)
+            assert normals.tobytes() == want_n.tobytes() and uniforms.tobytes() == want_u.tobytes()
+            assert np.array(cb, dtype=np.int64).tobytes() == want_b.tobytes()
+            assert np.array(cr, dtype=float).tobytes() == want_r.tobytes()
+            assert a.bit_generator.state == b.bit_generator.state
+    assert len(ks) >= 3
+    assert s.draw(None, np.empty(n), np.empty(n), [], []) == (False, False)

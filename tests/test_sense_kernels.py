@@ -112,15 +112,18 @@ def test_sort_returns_matches_numpy_form(seed):
 
 def test_sort_returns_on_a_shipped_scenario():
     """The real sensing pass of the bottleneck (a mapped quay, tracked boats beside it): every tick's
-    arguments of sort_returns, checked against the numpy form."""
+    arguments of sort_returns, checked against the numpy form. The pass runs its map step one step
+    at a time (map_pass.map_steps, the same results as the compiled sense_map: tests/test_map_pass.py)
+    so that sort_returns is called from Python."""
     from dataclasses import replace
 
     import mjasc
     from mjasc.perception import fleet as fleet_module
+    from mjasc.perception import map_pass
     from mjasc.runs.runner import Runner
 
     seen = []
-    orig = fleet_module.sort_returns
+    orig = map_pass.sort_returns
 
     def spy(labels, ret_off, det_off, extended, n_points, centres, radii, variances, points, occ, sigma, flat_m, dc,
             dr, d_k, slot):
@@ -131,11 +134,12 @@ def test_sort_returns_on_a_shipped_scenario():
 
     sc = mjasc.load_scenario("thesis_6_4_bottleneck").with_overrides(duration_s=25.0)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
-    fleet_module.sort_returns = spy
+    compiled = fleet_module.sense_map
+    map_pass.sort_returns, fleet_module.sense_map = spy, map_pass.map_steps
     try:
         Runner(sc, out_dir=None).run()
     finally:
-        fleet_module.sort_returns = orig
+        map_pass.sort_returns, fleet_module.sense_map = orig, compiled
     assert len(seen) > 50 and any(a[9].size for a in seen) and any(a[13].size for a in seen)
     for a in seen:
         a = list(a)

@@ -15,8 +15,8 @@ floor, per vessel) and makes its draws into the fleet's :class:`~mjasc.perceptio
   as the batch made them); the tracked discs
   of every vessel's tracks at its scan time (arrays over the fleet's tracks); the returns a wall's
   cluster swallowed from a tracked boat re-clustered (only for the vessels where that happens);
-  wall fragments among the targets, static returns into the maps, free space carved: one call
-  each for all vessels;
+  wall fragments among the targets, static returns into the maps, free space carved: two
+  compiled calls for all vessels (:func:`~mjasc.perception.map_pass.sense_map`);
 * **tracking**: one :meth:`FleetTracker.step` for all vessels of a tracking configuration; a vessel
   with a plugin tracker (``[vessels.tracking] method``) gets its own ``update`` call, and its
   tracked discs come from its plugin's tracks (:func:`estimate_discs`).
@@ -38,9 +38,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjasc.perception.detection import detect_many, detection_constants
+from mjasc.perception.map_pass import map_steps, sense_map
 from mjasc.perception.owned_discs import inside_owned_discs
 from mjasc.perception.scan_batch import ScanBatch, ScanStack
-from mjasc.perception.sense_kernels import sort_returns, tracked_in_walls
+from mjasc.perception.sense_kernels import tracked_in_walls
 from mjasc.perception.static_map import StaticMap, StaticMapStore
 from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows_at, disc_table
 from mjasc.perception.tracking.fleet import FleetTracker
@@ -57,7 +58,6 @@ DISC_MARGIN_MAX_M = 2.5
 FLAT_M = 0.15
 
 _FLEETS: dict[int, tuple] = {}
-_NO_FLAGS = np.zeros(0, dtype=bool)  # sort_returns: the map's occupancy not checked
 
 
 def fleet_of(world) -> "PerceptionFleet":
@@ -216,19 +216,15 @@ class PerceptionFleet:
             extended, n_pts, centres = batch.extended, batch.n_points, batch.centres_m
             radii, variances = batch.radii_m, batch.variances_m2
         pts = stack.hit_points_world
-        occ = _NO_FLAGS
-        ret_slot = None  # the map member of each return
-        if extended.size and not extended.all() and store.any_occupied(slot):
-            ret_slot = np.repeat(slot, np.diff(ret_off))
-            occ = store.occupied(ret_slot, pts)
-        targets, p_static, m_static, counts = sort_returns(lab, ret_off, det_off, extended, n_pts, centres, radii,
-                                                           variances, pts, occ, plan.sigma, FLAT_M, dc, dr, d_k, slot)
-        if m_static.size:
-            store.add_points(m_static, p_static)
         carve = plan.carve
-        if len(carve) == S:
-            store.carve_stack(slot, stack, plan.sigma, ret_slot)
-        elif carve:
+        got = sense_map(store, lab, ret_off, det_off, extended, n_pts, centres, radii, variances, pts, plan.sigma,
+                        FLAT_M, dc, dr, d_k, slot, stack, len(carve) == S)
+        if got is None:  # a return out of the map's range: the steps one by one raise the one-line error
+            targets, counts = map_steps(store, lab, ret_off, det_off, extended, n_pts, centres, radii, variances, pts,
+                                        plan.sigma, FLAT_M, dc, dr, d_k, slot, stack, len(carve) == S)
+        else:
+            targets, counts = got
+        if 0 < len(carve) < S:
             sc = [scans[k] for k in carve]
             store.carve(slot[carve].tolist(), [s.origin_m for s in sc], [s.angles_body + s.heading_rad for s in sc],
                         [s.ranges for s in sc], [s.hit for s in sc], [s.max_range_m for s in sc],

@@ -44,8 +44,6 @@ __all__ = ["SensorConfig", "Scan", "RangeSensor", "parse_sensor_options", "check
 #: ``Scan.geom_ids`` value of a false (clutter) return; −1 means no return.
 CLUTTER_GEOM = -2
 _DEFAULT_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)  # = world.SENSOR_GEOM_GROUPS
-_NO_DRAWS = np.zeros(0)  # a scan's draws that are not made (no noise, dropout or clutter)
-_NO_BEAMS = np.zeros(0, dtype=np.int64)
 
 
 @dataclass(frozen=True)
@@ -205,28 +203,36 @@ class RangeSensor:
                            None, c.beams, c.max_range_m)
         return x, y, yaw
 
-    def draw(self, rng: np.random.Generator | None, normals: np.ndarray, uniforms: np.ndarray
-             ) -> tuple[bool, bool, np.ndarray, np.ndarray]:
+    def draw(self, rng: np.random.Generator | None, normals: np.ndarray, uniforms: np.ndarray,
+             clutter_beams: list, clutter_ranges_m: list) -> tuple[bool, bool]:
         """A scan's draws from ``rng`` (None: none), in this order (:func:`scan_kernels.scan_returns`
         applies them): the range noise's normals into ``normals`` (n,), the dropout's uniforms into
-        ``uniforms`` (n,), the clutter's count, beams and ranges. Returns whether the normals and
-        the uniforms were drawn, the clutter beams (k,) and ranges (k,) [m]."""
+        ``uniforms`` (n,), the clutter's count, beams (appended to ``clutter_beams``) and ranges [m]
+        (appended to ``clutter_ranges_m``). Returns whether the normals and the uniforms were drawn.
+
+        The clutter's k beams and k ranges are drawn one at a time, the numbers (and the stream
+        after them) of ``rng.integers(0, n, size=k)`` and ``rng.uniform(min, max, size=k)``
+        (tests/test_range_sensor.py), without numpy's per-call size handling."""
+        if rng is None:
+            return False, False
         c = self.config
         has_normals = has_uniforms = False
-        clutter_beams, clutter_rho = _NO_BEAMS, _NO_DRAWS
-        if rng is not None:
-            if c.range_noise_std_m > 0:
-                rng.standard_normal(out=normals)
-                has_normals = True
-            if c.dropout_probability > 0:
-                rng.random(out=uniforms)
-                has_uniforms = True
-            if c.clutter_per_scan > 0:
-                k = int(rng.poisson(c.clutter_per_scan))
-                if k:
-                    clutter_beams = rng.integers(0, c.beams, size=k)
-                    clutter_rho = rng.uniform(c.min_range_m, c.max_range_m, size=k)
-        return has_normals, has_uniforms, clutter_beams, clutter_rho
+        if c.range_noise_std_m > 0:
+            rng.standard_normal(out=normals)
+            has_normals = True
+        if c.dropout_probability > 0:
+            rng.random(out=uniforms)
+            has_uniforms = True
+        if c.clutter_per_scan > 0:
+            k = int(rng.poisson(c.clutter_per_scan))
+            if k:
+                integers, uniform, n = rng.integers, rng.uniform, c.beams
+                for _ in range(k):
+                    clutter_beams.append(integers(0, n))
+                lo, hi = c.min_range_m, c.max_range_m
+                for _ in range(k):
+                    clutter_ranges_m.append(uniform(lo, hi))
+        return has_normals, has_uniforms
 
     def cast(self, data) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
         """The true (noise-free) first-hit distances (n,) (−1: nothing within range), geom ids (n,),

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from itertools import accumulate
 
 import numpy as np
 
@@ -79,8 +78,9 @@ class ScanBatch:
         self._sensors: list[RangeSensor] = []
         self._offs = [0]
         self._queued: list[tuple] = []  # per cast: time [s], x, y [m], yaw [rad], its cosine and sine
-        self._clutter: list[tuple[np.ndarray, np.ndarray]] = []  # per cast: clutter beams, ranges [m]
-        self._n_clutter = 0  # casts with clutter
+        self._cb: list = []  # every cast's clutter beams …
+        self._cr: list = []  # … and ranges [m], in cast order
+        self._c_off = [0]  # cast k's clutter: _c_off[k] : _c_off[k + 1]
 
     def _grow(self, need: int) -> None:
         cap = max(1024, 2 * need)
@@ -118,7 +118,8 @@ class ScanBatch:
             tables.append((sensor, a, *self._views(a, b)))
         _, _, dist, gid, normals, uniforms = tables[k]
         x, y, yaw = sensor.fire(data, dist, gid)
-        has_n, has_u, cb, cr = sensor.draw(rng, normals, uniforms)
+        cb = self._cb
+        has_n, has_u = sensor.draw(rng, normals, uniforms, cb, self._cr)
         self._sensors.append(sensor)
         self._offs.append(b)
         self._queued.append((float(data.time), x, y, yaw, math.cos(yaw), math.sin(yaw)))
@@ -126,9 +127,7 @@ class ScanBatch:
         if k >= has.shape[1]:
             self._has = has = np.concatenate([has, np.zeros_like(has)], axis=1)
         has[0, k], has[1, k] = has_n, has_u
-        self._clutter.append((cb, cr))
-        if cb.size:
-            self._n_clutter += 1
+        self._c_off.append(len(cb))
 
     def _constants(self):
         """Per-scan parameters (S,) of the queued sensors (made again when the sensors change)."""
@@ -147,7 +146,7 @@ class ScanBatch:
 
     def take(self) -> ScanStack:
         """The queued casts as scans (module docstring); the batch is emptied."""
-        sensors, offs, queued, clutter = self._sensors, self._offs, self._queued, self._clutter
+        sensors, offs, queued = self._sensors, self._offs, self._queued
         S = len(sensors)
         N = offs[-1]
         beam_off, noise, dropout, min_r, max_r, n_beams, first, last, full = self._constants()
@@ -156,16 +155,11 @@ class ScanBatch:
         times_s, headings, cos_h, sin_h = cols[0], cols[3], cols[4], cols[5]
         origins = rows[:, 1:3].copy()
         has_n, has_u = self._has[0, :S], self._has[1, :S]
-        if S == 1:
-            cb, cr = clutter[0]
-            c_off = np.array([0, cb.size], dtype=np.int64)
-        elif not self._n_clutter:
-            cb, cr = _NO_BEAMS, _NO_DRAWS
-            c_off = np.zeros(S + 1, dtype=np.int64)
+        if self._cb:
+            cb, cr = np.array(self._cb, dtype=np.int64), np.array(self._cr, dtype=float)
         else:
-            cb = np.concatenate([c[0] for c in clutter])
-            cr = np.concatenate([c[1] for c in clutter])
-            c_off = np.array([0, *accumulate(c[0].size for c in clutter)], dtype=np.int64)
+            cb, cr = _NO_BEAMS, _NO_DRAWS
+        c_off = np.array(self._c_off, dtype=np.int64)
         ranges, hit, geom, beams, ret_off, rho, body, world = scan_batch(
             self._dist[:N], self._gid[:N], beam_off, noise, self._normals[:N], has_n, dropout,
             self._uniforms[:N], has_u, cb, cr, c_off, min_r, max_r, CLUTTER_GEOM, self._cos[:N],

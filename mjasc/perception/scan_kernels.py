@@ -127,7 +127,9 @@ def scan_batch(dist, gid, beam_off, noise_std_m, normals, has_normals, dropout_p
     the heading. Each cast is :func:`clean_hits`, :func:`scan_returns` and :func:`scan_points`.
     Returns the stacked ranges (N,) [m], hit (N,), geom ids (N,), the hit beams (K,) (indices
     within their cast), ``ret_off`` (S + 1,) (cast s owns returns ``ret_off[s] : ret_off[s+1]``),
-    the returns' ranges (K,) [m], their points in the sensor frame (K, 2) and in the world (K, 2) [m]."""
+    the returns' ranges (K,) [m], their points in the sensor frame (K, 2) and in the world (K, 2) [m].
+    The three kernels' loops are written out over the stacked outputs (no per-cast arrays), each
+    expression as they have it."""
     S = beam_off.shape[0] - 1
     N = dist.shape[0]
     ranges = np.empty(N)
@@ -139,29 +141,49 @@ def scan_batch(dist, gid, beam_off, noise_std_m, normals, has_normals, dropout_p
     world = np.empty((N, 2))
     ret_off = np.zeros(S + 1, dtype=np.int64)
     k = 0
-    for s in range(S):
+    for s in range(S):  # the loops of clean_hits, scan_returns and scan_points, written into the outputs
         a, b = beam_off[s], beam_off[s + 1]
-        d, g = clean_hits(dist[a:b], gid[a:b], max_range_m[s])
-        z = normals[a:b] if has_normals[s] else normals[a:a]
-        u = uniforms[a:b] if has_uniforms[s] else uniforms[a:a]
+        mx, mn = max_range_m[s], min_range_m[s]
+        sig, p = noise_std_m[s], dropout_probability[s]
+        noisy, drops = has_normals[s], has_uniforms[s]
+        for i in range(a, b):
+            d, g = dist[i], gid[i]
+            if g < 0 or d < 0.0 or d > mx:
+                d, g = -1.0, -1
+            h = g >= 0
+            if noisy and h:
+                d = d + sig * normals[i]
+            if drops:
+                h = h and uniforms[i] >= p
+            ranges[i], geom[i], hit[i] = d, g, h
         c0, c1 = clutter_off[s], clutter_off[s + 1]
-        r, h, gg, bm = scan_returns(d, g, noise_std_m[s], z, dropout_probability[s], u, clutter_beams[c0:c1],
-                                    clutter_ranges_m[c0:c1], min_range_m[s], max_range_m[s], clutter_geom)
-        m = bm.shape[0]
-        ca = np.empty(m)
-        sa = np.empty(m)
-        for i in range(m):
-            ca[i] = cos_body[a + bm[i]]
-            sa[i] = sin_body[a + bm[i]]
-        bd, wd = scan_points(r, bm, ca, sa, origins[s, 0], origins[s, 1], cos_h[s], sin_h[s])
-        ranges[a:b] = r
-        hit[a:b] = h
-        geom[a:b] = gg
-        for i in range(m):
-            beams[k + i] = bm[i]
-            rho[k + i] = r[bm[i]]
-            body[k + i, 0], body[k + i, 1] = bd[i, 0], bd[i, 1]
-            world[k + i, 0], world[k + i, 1] = wd[i, 0], wd[i, 1]
-        k += m
+        if c1 > c0:
+            nearer = np.empty(c1 - c0, dtype=np.bool_)
+            for j in range(c0, c1):  # tested on the readings before any clutter is placed
+                i = a + clutter_beams[j]
+                nearer[j - c0] = (not hit[i]) or clutter_ranges_m[j] < ranges[i]
+            for j in range(c0, c1):
+                if nearer[j - c0]:
+                    i = a + clutter_beams[j]
+                    ranges[i] = clutter_ranges_m[j]
+                    hit[i] = True
+                    geom[i] = clutter_geom
+        ox, oy, ch, sh = origins[s, 0], origins[s, 1], cos_h[s], sin_h[s]
+        for i in range(a, b):
+            d = ranges[i]
+            h = hit[i] and d >= mn and d <= mx
+            hit[i] = h
+            if h:
+                bx = d * cos_body[i]
+                by = d * sin_body[i]
+                beams[k] = i - a
+                rho[k] = d
+                body[k, 0], body[k, 1] = bx, by
+                world[k, 0] = ox + ch * bx - sh * by
+                world[k, 1] = oy + sh * bx + ch * by
+                k += 1
+            else:
+                ranges[i] = mx
+                geom[i] = -1
         ret_off[s + 1] = k
     return ranges, hit, geom, beams[:k], ret_off, rho[:k], body[:k], world[:k]

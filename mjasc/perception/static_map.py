@@ -152,6 +152,26 @@ class StaticMapStore:
             rows[new] = np.arange(n, n + k)
         return rows
 
+    def pass_tables(self, extra_rows: int) -> tuple:
+        """The table as a compiled pass updates it in place (:func:`mjasc.perception.map_pass.sense_map`),
+        with room for ``extra_rows`` new rows: per member cell size, then the sorted keys and their
+        rows, cells, member and score of the rows, the number of rows, per member the score cap,
+        min hits, occupied count, version, miss weight and carve margin. The pass's new rows are
+        taken over with :meth:`set_rows`."""
+        need = self._n + extra_rows
+        if need > self._cells.shape[0]:
+            size = max(64, 2 * need)
+            self._cells = np.resize(self._cells, (size, 2))
+            self._member = np.resize(self._member, size)
+            self._score = np.resize(self._score, size)
+        return (self._cell_m, self._keys, self._key_rows, self._cells, self._member, self._score, self._n, self._cap,
+                self._min_hits, self._n_occupied, self._version, self._miss, self._margin)
+
+    def set_rows(self, sorted_keys: np.ndarray, key_rows: np.ndarray, n: int) -> None:
+        """After a compiled pass on :meth:`pass_tables` that created rows: the sorted keys with
+        their rows and the number of rows."""
+        self._keys, self._key_rows, self._n = sorted_keys, key_rows, int(n)
+
     def _set_scores(self, rows: np.ndarray, new: np.ndarray) -> None:
         """New scores of (distinct) rows; a member's version changes when one of its cells
         becomes occupied or free (:func:`~mjasc.perception.score_kernels.set_scores`)."""
