@@ -1,5 +1,8 @@
-"""The link's decision of one receiver's new messages as one compiled call
-(:meth:`mjasc.cooperation.comms.CommsNetwork.decide_many`, a few receivers one by one).
+"""The link's decision of the receivers' new messages as one compiled call
+(:meth:`mjasc.cooperation.comms.CommsNetwork.decide_many`): :func:`decide_segments` decides every
+receiver's segment of the message log in one pass, on the uniforms drawn for all of them at once
+(receiver then message order: the numbers a draw per receiver gives); :func:`decide_pairs` is the
+same decision for one receiver (the reference its test compares with).
 
 For each offered (message, receiver) pair, with d the distance from the sender's position at
 sending to the receiver's position now, the two uniforms (u_loss, u_jitter) drawn beforehand by
