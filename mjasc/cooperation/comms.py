@@ -226,14 +226,15 @@ class CommsNetwork:
         # the sent messages, as parallel lists (id − self._base is the position in each)
         self._log_time: list[float] = []
         self._log_sender: list[int] = []  # the sender's team index
-        self._log_x: list[float] = []
-        self._log_y: list[float] = []
         self._log_payload: list = []
+        # the same messages as columns (x [m], y [m], send time [s], sender) for the compiled decision
+        self._log_arr = np.empty((4, 64))
         self._base = 0  # id of the logs' first entry (pruned once every receiver has read past it)
         self._cursor = {n: 0 for n in self.team}  # next message id each receiver has not decided yet
         # per receiver: the pending (arrival, id, sender index, sent time, payload), sorted by (arrival, id)
         self._pending: dict[str, list] = {n: [] for n in self.team}
         self._last_send_s = -np.inf
+        self._work = None  # the compiled decision's buffers (segments, counts, pairs, outcomes), grown when needed
         self._next_s = math.inf  # send time of the oldest message some receiver has not decided (inf: none)
         self.sent = {n: 0 for n in self.team}
         self.link = {n: _LinkStats() for n in self.team}  # per receiver
@@ -283,10 +284,13 @@ class CommsNetwork:
         xy = sender_position
         if not (type(xy) is np.ndarray and xy.ndim == 1 and xy.dtype == np.float64):  # (a float vector as it is)
             xy = np.array(sender_position, dtype=float).reshape(-1)[:2]
-        self._log_time.append(float(t_s))
-        self._log_sender.append(self._index[sender])
-        self._log_x.append(float(xy[0]))
-        self._log_y.append(float(xy[1]))
+        k, s = mid - self._base, self._index[sender]
+        arr = self._log_arr
+        if k == arr.shape[1]:
+            arr = self._log_arr = np.concatenate([arr, np.empty_like(arr)], axis=1)
+        arr[0, k], arr[1, k], arr[2, k], arr[3, k] = xy[0], xy[1], self._last_send_s, s
+        self._log_time.append(self._last_send_s)
+        self._log_sender.append(s)
         self._log_payload.append(_copy_payload(payload))
         self.sent[sender] += 1
         return mid
@@ -397,29 +401,29 @@ class CommsNetwork:
                 m += sum(row[s] for s in log_s[k0:k1])
         if not m:
             return
-        lo = min(sg[3] for sg in segs)
-        hi = max(sg[4] for sg in segs)
-        log = np.array([self._log_x[lo:hi], self._log_y[lo:hi], self._log_time[lo:hi], log_s[lo:hi]], dtype=float)
-        rows = []
-        for r, _, k, k0, k1 in segs:
+        n_seg = len(segs)
+        work = self._work
+        if work is None or work[0].shape[0] < n_seg or work[2].shape[1] < m:
+            cap = max(m, 2 * work[2].shape[1] if work is not None else 16)
+            work = self._work = (np.empty((len(self.team), 5)), np.empty((len(self.team), 3), dtype=np.int64),
+                                 np.empty((2, cap), dtype=np.int64), np.empty((3, cap)))
+        seg_arr, counts, pairs, out = work
+        for j, (r, _, k, k0, k1) in enumerate(segs):
             pos = positions[k]
             if not (type(pos) is np.ndarray and pos.ndim == 1 and pos.dtype == np.float64):
                 pos = np.asarray(pos, dtype=float).reshape(-1)
-            rows.append((r, k0 - lo, k1 - lo, pos[0], pos[1]))
+            seg_arr[j] = (r, k0, k1, pos[0], pos[1])
         cfg = self.config
         u = self.rng.random((m, 2))  # (u_loss, u_jitter) per pair, in receiver then message order
-        counts = np.zeros((len(segs), 3), dtype=np.int64)
-        pairs = np.empty((2, m), dtype=np.int64)
-        out = np.empty((3, m))
-        unsure = decide_segments(log, np.array(rows, dtype=float), self._hears_matrix, u, cfg.range_m,
+        unsure = decide_segments(self._log_arr, seg_arr[:n_seg], self._hears_matrix, u, cfg.range_m,
                                  cfg.loss_probability, cfg.loss_exponent, cfg.base_delay_s, cfg.propagation_speed_m_s,
                                  cfg.jitter_s, self._pair_offered, counts, pairs, out)
-        ks, js = pairs.tolist()
-        _, arrival_l, outcome_l = out.tolist()
-        counts_l = counts.tolist()
+        ks, js = pairs[:, :m].tolist()
+        arrival_l, outcome_l = out[1:, :m].tolist()
+        counts_l = counts[:n_seg].tolist()
         if unsure:
             at = [j for j, o in enumerate(outcome_l) if o == UNSURE]
-            for j, gone in zip(at, (u[at, 0] < cfg.loss_at(out[0, at])).tolist()):
+            for j, gone in zip(at, (u[at, 0] < cfg.loss_at(out[0, :m][at])).tolist()):
                 outcome_l[j] = LOST if gone else DELIVERED
                 counts_l[js[j]][1] += gone
         link = self.link
@@ -430,14 +434,14 @@ class CommsNetwork:
             stats.lost_out_of_range += n_far
         team, log_t, log_p = self.team, self._log_time, self._log_payload
         if self._outcomes is not None:
-            self._outcomes += [LinkOutcome(team[log_s[lo + k]], segs[j][1], log_t[lo + k],
+            self._outcomes += [LinkOutcome(team[log_s[k]], segs[j][1], log_t[k],
                                            float("nan") if o != DELIVERED else a, o != DELIVERED)
                                for k, j, a, o in zip(ks, js, arrival_l, outcome_l)]
         new = [[] for _ in segs]
-        idb = self._base + lo
+        idb = self._base
         for k, j, a, o in zip(ks, js, arrival_l, outcome_l):
             if o == DELIVERED:
-                new[j].append((a, idb + k, log_s[lo + k], log_t[lo + k], log_p[lo + k]))
+                new[j].append((a, idb + k, log_s[k], log_t[k], log_p[k]))
         pending_all = self._pending
         for sg, items in zip(segs, new):
             if items:
@@ -449,8 +453,10 @@ class CommsNetwork:
         done = min(self._cursor.values()) - self._base
         self._next_s = self._log_time[done] if done < len(self._log_time) else math.inf
         if done > 256:
-            for log in (self._log_time, self._log_sender, self._log_x, self._log_y, self._log_payload):
+            for log in (self._log_time, self._log_sender, self._log_payload):
                 del log[:done]
+            n = len(self._log_time)
+            self._log_arr[:, :n] = self._log_arr[:, done:done + n]
             self._base += done
 
     # ------------------------------------------------------------------ statistics

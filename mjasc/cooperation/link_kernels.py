@@ -81,16 +81,19 @@ def decide_pairs(sent, px, py, u, range_m, p0, exponent, base_delay_s, speed_m_s
 def decide_segments(log, segs, hears, u, range_m, p0, exponent, base_delay_s, speed_m_s, jitter_s, offered,
                     counts, pairs, out):
     """Every receiver's new messages in one pass (:meth:`~mjasc.cooperation.comms.CommsNetwork.decide_many`):
-    ``log`` (4, n) = (x [m], y [m], send time [s], sender's team index) of the logged messages
-    concerned; ``segs`` (S, 5) = (receiver's team index, first, end (log columns), its x, y [m]),
+    ``log`` (4, ≥ n) = (x [m], y [m], send time [s], sender's team index) of the logged messages;
+    ``segs`` (S, 5) = (receiver's team index, first, end (log columns), its x, y [m]),
     the receivers in order; ``hears`` (T, T) [receiver, sender] bool; the uniforms u (m, 2) of the
     m pairs a receiver hears, in receiver then message order (as drawn for :func:`decide_pairs`
     receiver by receiver). Writes pairs (2, m) = (log column, segment) and out (3, m) as
-    :func:`decide_pairs`; adds 1 to ``offered`` [sender, receiver] per pair and counts per
-    segment into ``counts`` (S, 3) = (offered, lost — UNSURE not counted —, lost out of range).
+    :func:`decide_pairs` (the first m columns of each); adds 1 to ``offered`` [sender, receiver] per
+    pair and writes the counts per segment into ``counts`` (≥ S, 3) = (offered, lost — UNSURE not
+    counted —, lost out of range).
     Returns the number of UNSURE pairs."""
     m = 0
     unsure = 0
+    for j in range(segs.shape[0]):
+        counts[j, 0] = counts[j, 1] = counts[j, 2] = 0
     for j in range(segs.shape[0]):
         r = int(segs[j, 0])
         px, py = segs[j, 3], segs[j, 4]
