@@ -147,13 +147,9 @@ def test_link_matches_the_per_message_reference(cfg):
         elif drive.random() < 0.5:  # a fleet's tick: everyone decided in one pass, then each delivered
             who = [team[j] for j in np.sort(drive.choice(len(team), int(drive.integers(1, len(team) + 1)), False))]
             where = [xy[team.index(n)] for n in who]
-            if drive.random() < 0.5:
-                new.decide_many(t, who, where)
-                together = new.receive_many(t, who, where, decide=False)
-            else:  # the fleet's reception deciding too (as its polls one after the other would)
-                together = new.receive_many(t, who, where)
-            for n, p, raw in zip(who, where, together or [[]] * len(who)):
-                got = [Message(s, a, b, c) for s, a, b, c in raw]
+            new.decide_many(t, who, where)
+            for n, p in zip(who, where):
+                got = [Message(s, a, b, c) for s, a, b, c in new.receive_raw(t, n, p, decide=False)]
                 _check(got, ref.receive(t, n, p), shared=True)
         else:  # a comms slot: each member sends, then polls; batched: all send, then one pass with limits
             limits = [new.send(t, n, {"k": -j}, xy[j]) + 1 for j, n in enumerate(team)]

@@ -234,7 +234,6 @@ class CommsNetwork:
         # per receiver: the pending (arrival, id, sender index, sent time, payload), sorted by (arrival, id)
         self._pending: dict[str, list] = {n: [] for n in self.team}
         self._last_send_s = -np.inf
-        self._next_arrival_s = math.inf  # at most the earliest pending arrival of any receiver (inf: none)
         self._work = None  # the compiled decision's buffers (segments, counts, pairs, outcomes), grown when needed
         self._next_s = math.inf  # send time of the oldest message some receiver has not decided (inf: none)
         self.sent = {n: 0 for n in self.team}
@@ -323,7 +322,6 @@ class CommsNetwork:
         k = bisect_right(pending, (t_s, math.inf))  # those arrived by t_s (sorted by arrival, id)
         arrived = pending[:k]
         del pending[:k]
-        self._next_arrival_s = min([p[0][0] for p in self._pending.values() if p], default=math.inf)
         stats = self.link[receiver]
         team = self.team
         senders = [item[2] for item in arrived]
@@ -347,19 +345,6 @@ class CommsNetwork:
             np.add.at(self._pair_delivered[:, r], senders, 1)
             np.add.at(self._pair_delay_s[:, r], senders, delays)
         return out
-
-    def receive_many(self, t_s: float, receivers, positions, decide: bool = True) -> list | None:
-        """:meth:`receive_raw` of each of ``receivers`` in turn at its position ``positions[k]``
-        (the same deliveries, decisions and draws), or None when none of them would get anything:
-        nothing pending has arrived by ``t_s`` for anyone and (``decide``) nothing sent by ``t_s``
-        is undecided — most control ticks, answered without a call per receiver."""
-        if t_s < self._next_arrival_s and (not decide or t_s < self._next_s):
-            cursors = self._cursor
-            for name in receivers:
-                if name not in cursors:
-                    self._member(name, "receiver")
-            return None
-        return [self.receive_raw(t_s, name, pos, decide) for name, pos in zip(receivers, positions)]
 
     def decide_many(self, t_s: float, receivers, positions, limits=None) -> None:
         """Decide, for each of ``receivers`` in turn at its position ``positions[k]`` (2,) world [m],
@@ -463,8 +448,6 @@ class CommsNetwork:
                 pending = pending_all[sg[1]]
                 # kept sorted by (arrival, id) (unique: the payloads are never compared)
                 pending[:] = sorted(pending + items) if pending else sorted(items)
-                if pending[0][0] < self._next_arrival_s:
-                    self._next_arrival_s = pending[0][0]
 
     def _prune(self) -> None:
         done = min(self._cursor.values()) - self._base

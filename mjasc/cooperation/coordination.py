@@ -350,11 +350,9 @@ class Coordination(CoordinationMethod):
         g = np.clip(float(guidance.gamma_m) + v * (times - t_s), 0.0, path.length)
         return times, np.asarray(path.point(g), dtype=float).reshape(-1, 2)
 
-    def _poll(self, t_s: float, nav, decide: bool = True, arrived=None) -> None:
-        """Read arrived messages, keep each neighbour's newest, time out stale ones. ``arrived``:
-        what the link delivered, read already for the fleet (:meth:`arrivals`), else None."""
-        if arrived is None:
-            arrived = self.link.receive_raw(t_s, nav.position_m, decide)
+    def _poll(self, t_s: float, nav, decide: bool = True) -> None:
+        """Read arrived messages, keep each neighbour's newest, time out stale ones."""
+        arrived = self.link.receive_raw(t_s, nav.position_m, decide)
         if arrived:
             self.received += len(arrived)
             neighbours = self.neighbours
@@ -437,11 +435,10 @@ class Coordination(CoordinationMethod):
         return self.link.send(t_s, self._message(t_s, nav, gamma_m, guidance, plan,
                                                  tracks if self.config.share_tracks else (), mission), nav.position_m)
 
-    def take_in(self, t_s: float, nav, gamma_m: float, decided: bool = False, arrived=None) -> None:
+    def take_in(self, t_s: float, nav, gamma_m: float, decided: bool = False) -> None:
         """The second half of :meth:`exchange`: read what has arrived, note the formation's state.
-        ``decided``: the link was decided for this vessel already (:meth:`decide_link`);
-        ``arrived``: its arrivals, read already for the fleet (:meth:`arrivals`)."""
-        self._poll(t_s, nav, decide=not decided, arrived=arrived)
+        ``decided``: the link was decided for this vessel already (:meth:`decide_link`)."""
+        self._poll(t_s, nav, decide=not decided)
         _, lead, spread, n = self.coordination_error(t_s, gamma_m)
         self.last_xi, self.last_spread_m = self.xi(gamma_m), spread
         if n:
@@ -454,19 +451,6 @@ class Coordination(CoordinationMethod):
         + 1, their :meth:`take_in` with ``decided``): the same draws as their calls one after the
         other (:meth:`~mjasc.cooperation.link.LinkEndpoint.decide_together`)."""
         LinkEndpoint.decide_together([c.link for c in coordinations], t_s, positions_m, limits)
-
-    @staticmethod
-    def arrivals(coordinations, t_s: float, positions_m, decide: bool = True) -> list | None:
-        """What the link delivered to each of several vessels' coordination by ``t_s``, read for
-        all of them in one call (:meth:`~mjasc.cooperation.link.LinkEndpoint.receive_together`,
-        the same deliveries and draws as their polls one after the other; an empty tuple for
-        each when none of them gets anything), for their :meth:`take_in` or
-        :meth:`speed_correction_many`; None when they do not share one link."""
-        links = [c.link for c in coordinations]
-        if not LinkEndpoint.share_a_network(links):
-            return None
-        got = LinkEndpoint.receive_together(links, t_s, positions_m, decide)
-        return [()] * len(links) if got is None else got
 
     def speed_correction(self, t_s: float, nav, gamma_m: float) -> float:
         """Factor f_i on the mission speed (see the module docstring), from the newest data."""
@@ -483,11 +467,8 @@ class Coordination(CoordinationMethod):
         factors and states as the calls one after the other (the link decided before them:
         :meth:`decide_link`)."""
         laws, ask, scaled = [], [], []  # ask: the followers with a law; scaled: their e_i / e_s
-        got = None  # every vessel's arrivals at once (one time, one link)
-        if len(calls) > 1 and all(call[1] == calls[0][1] for call in calls):
-            got = Coordination.arrivals([call[0] for call in calls], calls[0][1], [call[2].position_m for call in calls])
-        for k, (c, t, nav, g) in enumerate(calls):
-            law = c._consensus(t, nav, g, None if got is None else got[k])
+        for c, t, nav, g in calls:
+            law = c._consensus(t, nav, g)
             if law is not None and c.config.role != "leader":
                 ask.append(len(laws))
                 scaled.append(law[2] / c.config.error_scale_m)
@@ -498,10 +479,9 @@ class Coordination(CoordinationMethod):
             out.append(1.0 if law is None else calls[k][0]._factor(law, th.get(k)))
         return out
 
-    def _consensus(self, t_s: float, nav, gamma_m: float, arrived=None):
-        """Read the arrivals (``arrived``: read already); then (the team view, ξ_own, e_i, |N_i|),
-        or None without a path."""
-        self._poll(t_s, nav, arrived=arrived)
+    def _consensus(self, t_s: float, nav, gamma_m: float):
+        """Read the arrivals; then (the team view, ξ_own, e_i, |N_i|), or None without a path."""
+        self._poll(t_s, nav)
         if self.path_length_m is None:
             return None
         view = self._team_view()

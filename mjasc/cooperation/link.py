@@ -46,32 +46,6 @@ class LinkEndpoint:
         return self._network.receive_raw(t_s, self.name, own_position_m, decide)
 
     @staticmethod
-    def share_a_network(endpoints) -> bool:
-        """Whether the ends belong to one network (what :meth:`receive_together` and
-        :meth:`decide_together` need)."""
-        network = None
-        for e in endpoints:
-            if network is None:
-                network = e._network
-            elif e._network is not network:
-                return False
-        return True
-
-    @staticmethod
-    def receive_together(endpoints, t_s: float, own_positions_m, decide: bool = True) -> list | None:
-        """:meth:`receive_raw` of several vessels' ends of one network, in their order (the same
-        deliveries and draws); None when none of them gets anything
-        (:meth:`~mjasc.cooperation.comms.CommsNetwork.receive_many`)."""
-        network, names = None, []
-        for e in endpoints:
-            if network is None:
-                network = e._network
-            elif e._network is not network:
-                raise ValueError("receive_together: the endpoints must share one network")
-            names.append(e.name)
-        return network.receive_many(t_s, names, own_positions_m, decide) if names else None
-
-    @staticmethod
     def decide_together(endpoints, t_s: float, own_positions_m, limits=None) -> None:
         """Decide the link for several vessels' ends of one network at once, in their order, as
         their :meth:`receive` calls one after the other would (the same draws): ``own_positions_m``

@@ -197,12 +197,11 @@ class VesselAgent:
         gamma, guidance, plan, extra, sharing = self._comms_message(nav)
         return self.coordination.broadcast(nav.time_s, nav, gamma, guidance, plan, **extra), gamma, sharing
 
-    def comms_receive(self, nav: OwnNavigation, sent: tuple, arrived=None) -> None:
+    def comms_receive(self, nav: OwnNavigation, sent: tuple) -> None:
         """The second half of :meth:`on_comms` (after :meth:`comms_send` returned ``sent`` and the
-        link was decided for this vessel): take in what arrived (``arrived``: read already for the
-        fleet, :meth:`~mjasc.cooperation.coordination.Coordination.arrivals`)."""
+        link was decided for this vessel): take in what arrived."""
         _, gamma, sharing = sent
-        self.coordination.take_in(nav.time_s, nav, gamma, decided=True, arrived=arrived)
+        self.coordination.take_in(nav.time_s, nav, gamma, decided=True)
         self._comms_taken_in(nav, sharing)
 
     def _comms_message(self, nav: OwnNavigation) -> tuple:

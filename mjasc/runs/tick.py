@@ -4,9 +4,8 @@
 order (the order matters: the team's link draws its random numbers in the order of the calls).
 With the thesis coordination the link is decided for the whole fleet in one pass
 (:meth:`~mjasc.cooperation.coordination.Coordination.decide_link`, the same draws in the same
-order): in the comms slot after every vessel has sent (each receiver up to its own message; then
-every vessel's arrivals are read in one call, :meth:`~mjasc.cooperation.coordination.Coordination.arrivals`),
-in the control slot before the vessels' coordination reads it.
+order): in the comms slot after every vessel has sent (each receiver up to its own message), in
+the control slot before the vessels' coordination reads it.
 The prediction slot predicts every vessel's (vessel, track) pairs in one batched call
 (:func:`~mjasc.avoidance.system.predict_slot`). The control slot runs each agent's
 :meth:`~mjasc.runs.agent.VesselAgent.control_request` (coordination factor, avoidance request and
@@ -90,11 +89,10 @@ def _comms(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
             agent.on_comms(nav)
         return
     sent = [(k, agents[k].comms_send(navs[k])) for k in range(len(agents)) if agents[k].coordination is not None]
-    coordinations, positions = [agents[k].coordination for k, _ in sent], [navs[k].position_m for k, _ in sent]
-    Coordination.decide_link(coordinations, navs[0].time_s, positions, [s[0] + 1 for _, s in sent])
-    arrived = Coordination.arrivals(coordinations, navs[0].time_s, positions, decide=False) or [None] * len(sent)
-    for (k, s), got in zip(sent, arrived):
-        agents[k].comms_receive(navs[k], s, got)
+    Coordination.decide_link([agents[k].coordination for k, _ in sent], navs[0].time_s,
+                             [navs[k].position_m for k, _ in sent], [s[0] + 1 for _, s in sent])
+    for k, s in sent:
+        agents[k].comms_receive(navs[k], s)
 
 
 def _prediction(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
