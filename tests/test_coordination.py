@@ -397,3 +397,47 @@ def test_gap_sum_equals_the_sum_of_the_gaps_to_xi_hat():
             xis = view.xi_hat(t, extrapolate)
             want = _sum(own - xis if isinstance(xis, np.ndarray) else [own - x for x in xis])
             assert view.gap_sum(t, extrapolate, own) == want
+
+
+def test_message_equals_the_team_message_constructor():
+    """Coordination._message builds its TeamMessage without the frozen __init__: every field the
+    constructor gives, in field order, with fresh default arrays where the message has no plan."""
+    from dataclasses import fields
+
+    from mjasc.cooperation.coordination import Coordination as Method
+    from mjasc.cooperation.messages import TeamMessage
+
+    paths = l_paths()
+    net = CommsNetwork(["a", "b"], PERFECT, np.random.default_rng(0))
+    own = nav(paths[0], 3.0, 40.0, 1.2)
+    plan = (np.arange(3.0), np.ones((3, 2)))
+    for path, cfg, kw in [(paths[0], CoordinationConfig(), {"plan": plan}),
+                          (paths[0], CoordinationConfig(intent_horizon_s=0.0, formation_offset_m=2.0), {}),
+                          (None, CoordinationConfig(intent_horizon_s=0.0), {"tracks": ("t1", "t2"), "mission": "m"}),
+                          (paths[1], CoordinationConfig(), {"plan": plan, "mission": "m"})]:
+        c = Method("a", net, cfg, mission_path=path, mission_speed_m_s=1.5, radius_m=2.0, top_speed_m_s=3.0)
+        c.phase = 2
+        got = c._message(3.0, own, 40.0, None, kw.get("plan"), kw.get("tracks", ()), kw.get("mission"))
+        ref = {}
+        if "mission" in kw:
+            ref.update(phase=2, mission="m")
+        if "plan" in kw:
+            ref["plan_times_s"], ref["plan_points_m"] = plan
+        if path is not None:
+            chi = float(path.tangent_angle(40.0))
+            along = float(np.dot(own.velocity_m_s[:2], (np.cos(chi), np.sin(chi))))
+            ref.update(gamma_m=40.0, path_length_m=float(path.length), xi=c.xi(40.0),
+                       xi_rate_1_s=along / float(path.length), offset_m=cfg.formation_offset_m)
+        if kw.get("tracks"):
+            ref["tracks"] = tuple(kw["tracks"])
+        want = TeamMessage("a", np.array(own.position_m[:2]), float(own.heading_rad), np.array(own.velocity_m_s[:2]),
+                           1.5, 2.0, **ref)
+        assert list(got.__dict__) == [f.name for f in fields(TeamMessage)]
+        for f in fields(TeamMessage):
+            a, b = getattr(got, f.name), getattr(want, f.name)
+            if isinstance(b, np.ndarray):
+                assert type(a) is np.ndarray and a.shape == b.shape and a.tobytes() == b.tobytes()
+            else:
+                assert type(a) is type(b) and a == b, f.name
+        if "plan" not in kw:
+            assert got.plan_times_s is not c._message(3.0, own, 40.0).plan_times_s  # fresh defaults

@@ -74,3 +74,51 @@ def test_a_tiny_loss_probability_is_left_to_numpy_for_a_tiny_uniform():
     assert got[4] == 1
     for a, b in zip(ref, got[:4]):
         np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("cfg", CONFIGS)
+def test_decide_segments_matches_decide_pairs_receiver_by_receiver(cfg):
+    """The fleet's pass (every receiver's segment of the log in one call, one draw of all the
+    uniforms) against decide_pairs per receiver with its own draw: the same pairs, bits, counts."""
+    from mjasc.cooperation.link_kernels import decide_segments
+
+    rng = np.random.default_rng(3)
+    for trial in range(100):
+        team, n = int(rng.integers(2, 7)), int(rng.integers(1, 15))
+        log = np.array([rng.uniform(-1.5, 1.5, n) * cfg.range_m, rng.uniform(-1.5, 1.5, n) * cfg.range_m,
+                        np.sort(rng.uniform(0.0, 300.0, n)), rng.integers(0, team, n)], dtype=float)
+        hears = rng.random((team, team)) < (1.0 if trial % 2 else 0.6)
+        np.fill_diagonal(hears, False)
+        segs = []
+        for r in sorted(rng.choice(team, int(rng.integers(1, team + 1)), replace=False).tolist()):
+            k0 = int(rng.integers(0, n))
+            segs.append((r, k0, int(rng.integers(k0, n + 1)), *rng.uniform(-200.0, 200.0, 2)))
+        # the reference: receiver by receiver, each drawing its own uniforms
+        draw = np.random.default_rng(trial)
+        ref_pairs, ref_out, ref_offered = [], [], np.zeros((team, team), dtype=np.int64)
+        ref_counts = np.zeros((len(segs), 3), dtype=np.int64)
+        for j, (r, k0, k1, px, py) in enumerate(segs):
+            ks = [k for k in range(k0, k1) if hears[r, int(log[3, k])]]
+            if not ks:
+                continue
+            u = draw.random((len(ks), 2))
+            out = np.empty((3, len(ks)))
+            decide_pairs(np.ascontiguousarray(log[:3, ks].T), px, py, u, cfg.range_m, cfg.loss_probability,
+                         cfg.loss_exponent, cfg.base_delay_s, cfg.propagation_speed_m_s, cfg.jitter_s, out)
+            for k, code in zip(ks, out[2]):
+                ref_offered[int(log[3, k]), r] += 1
+                ref_counts[j] += (1, code in (LOST, LOST_OUT_OF_RANGE), code == LOST_OUT_OF_RANGE)
+            ref_pairs += [(k, j) for k in ks]
+            ref_out.append(out)
+        m = len(ref_pairs)
+        u = np.random.default_rng(trial).random((m, 2))
+        offered, counts = np.zeros((team, team), dtype=np.int64), np.zeros((len(segs), 3), dtype=np.int64)
+        pairs, out = np.empty((2, m), dtype=np.int64), np.empty((3, m))
+        unsure = decide_segments(log, np.array(segs, dtype=float).reshape(-1, 5), hears, u, cfg.range_m,
+                                 cfg.loss_probability, cfg.loss_exponent, cfg.base_delay_s, cfg.propagation_speed_m_s,
+                                 cfg.jitter_s, offered, counts, pairs, out)
+        assert [tuple(p) for p in pairs.T.tolist()] == ref_pairs
+        if m:
+            assert np.concatenate(ref_out, axis=1).tobytes() == out.tobytes()
+        assert unsure == int(np.count_nonzero(out[2] == UNSURE))
+        assert np.array_equal(offered, ref_offered) and np.array_equal(counts, ref_counts)

@@ -118,3 +118,69 @@ def test_fast_bounds_and_warning_checks():
     assert not fast_bounds_ok(v, a, 5.25, np.inf)
     assert not any_nonzero(np.zeros(8, dtype=np.int32))
     assert any_nonzero(np.array([0, 0, 0, 2, 0], dtype=np.int32))
+
+
+def _sequential(F, G):
+    """F·G summed one product after the other (an order numpy's BLAS does not use)."""
+    out = np.zeros((G.shape[0], 1, G.shape[2]))
+    for n in range(G.shape[0]):
+        for p in range(G.shape[2]):
+            acc = 0.0
+            for j in range(G.shape[1]):
+                acc += F[n, j] * G[n, j, p]
+            out[n, 0, p] = acc
+    return out
+
+
+def test_the_fused_product_has_numpys_bits_where_the_probe_says_so():
+    """rows_times_matrices against np.matmul on the shipped hulls' linear forms G and on feature
+    rows F from a real run and random ones; the probe (blas_order_holds) would reject another
+    summation order: a plain sequential sum differs from numpy's for most rows."""
+    from mjasc.physics.step_kernels import blas_order_holds, rows_times_matrices
+
+    runner = Runner(load_scenario(TASKS / "demo.toml"), None, progress=False)
+    sim = runner.sim
+    G = sim._linear_form
+    if not blas_order_holds(G):
+        pytest.skip("this machine's numpy sums F·G in another order: the step keeps numpy's matmul")
+    assert sim._fused_step
+    rng = np.random.default_rng(9)
+    tau = np.empty((G.shape[0], 1, 3))
+    differs = 0
+    for k in range(300):
+        sim.set_commands(rng.uniform(-1.0, 1.0, (sim.n_vessels, 2)))
+        sim.step(1)
+        F = sim._step_arrays[3] if k % 2 else sim._step_arrays[3] * rng.normal(1.0, 0.5, G.shape[:2])
+        F = np.ascontiguousarray(F)
+        rows_times_matrices(F, G, tau)
+        want = np.matmul(F[:, None, :], G)
+        assert tau.tobytes() == want.tobytes(), k
+        differs += _sequential(F, G).tobytes() != want.tobytes()
+    assert differs > 150
+    for k in (1, 2, 3, 5, 8, 41, 62, 63):  # other feature counts: every tail of the groups of four
+        Gk = np.ascontiguousarray(rng.normal(size=(4, k, 3)))
+        if blas_order_holds(Gk):
+            for _ in range(50):
+                F = rng.normal(size=(4, k)) * 10.0 ** rng.integers(-3, 4, size=(4, k))
+                out = np.empty((4, 1, 3))
+                rows_times_matrices(F, Gk, out)
+                assert out.tobytes() == np.matmul(F[:, None, :], Gk).tobytes()
+
+
+def test_fused_and_unfused_steps_give_the_same_bits():
+    """Simulation.step with force_step (one compiled call per step) and with prepare_step, numpy's
+    matmul and rotate_to_world (its readable form), from the same state and commands."""
+    sc = load_scenario(TASKS / "demo.toml")
+    a, b = Runner(sc, None, progress=False).sim, Runner(sc, None, progress=False).sim
+    if not a._fused_step:
+        pytest.skip("this machine's numpy sums F·G in another order")
+    b._fused_step = False
+    rng = np.random.default_rng(4)
+    for block in range(300):
+        cmd = rng.uniform(-1.0, 1.0, (a.n_vessels, 2))
+        a.set_commands(cmd)
+        b.set_commands(cmd)
+        a.step(5)
+        b.step(5)
+        for field in ("qpos", "qvel", "qacc", "act", "qfrc_applied", "mocap_pos", "mocap_quat"):
+            assert getattr(a.data, field).tobytes() == getattr(b.data, field).tobytes(), (block, field)

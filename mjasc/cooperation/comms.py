@@ -53,14 +53,9 @@ from dataclasses import dataclass, fields, is_dataclass
 
 import numpy as np
 
-from mjasc.cooperation.link_kernels import DELIVERED, LOST, LOST_OUT_OF_RANGE, UNSURE, decide_pairs
+from mjasc.cooperation.link_kernels import DELIVERED, LOST, LOST_OUT_OF_RANGE, UNSURE, decide_segments
 from mjasc.core.config_tables import ConfigError, check_keys, check_params, dataclass_from_table, param, show, string
 from mjasc.core.config_tables import table as as_table
-
-#: Up to this many receivers with something to decide, :meth:`CommsNetwork.decide_many` decides
-#: them one by one (fewer numpy calls); above, all their pairs over arrays at once. Both give the
-#: same bits and draws.
-_FEW_RECEIVERS = 4
 
 __all__ = ["NetworkConfig", "Message", "LinkOutcome", "CommsNetwork", "parse_network_options", "PRESETS",
            "TOPOLOGIES"]
@@ -231,14 +226,16 @@ class CommsNetwork:
         # the sent messages, as parallel lists (id − self._base is the position in each)
         self._log_time: list[float] = []
         self._log_sender: list[int] = []  # the sender's team index
-        self._log_x: list[float] = []
-        self._log_y: list[float] = []
         self._log_payload: list = []
+        # the same messages as columns (x [m], y [m], send time [s], sender) for the compiled decision
+        self._log_arr = np.empty((4, 64))
         self._base = 0  # id of the logs' first entry (pruned once every receiver has read past it)
         self._cursor = {n: 0 for n in self.team}  # next message id each receiver has not decided yet
         # per receiver: the pending (arrival, id, sender index, sent time, payload), sorted by (arrival, id)
         self._pending: dict[str, list] = {n: [] for n in self.team}
         self._last_send_s = -np.inf
+        self._work = None  # the compiled decision's buffers (segments, counts, pairs, outcomes), grown when needed
+        self._next_s = math.inf  # send time of the oldest message some receiver has not decided (inf: none)
         self.sent = {n: 0 for n in self.team}
         self.link = {n: _LinkStats() for n in self.team}  # per receiver
         self.hears = self.config.hears(self.team)  # receiver → the senders it can hear
@@ -282,13 +279,18 @@ class CommsNetwork:
             raise ValueError(f"comms.send: payload must be a dict or a frozen dataclass, got {type(payload).__name__}")
         self._last_send_s = float(t_s)
         mid = self._base + len(self._log_time)
+        if self._next_s == math.inf:  # (everything before was decided for everyone)
+            self._next_s = self._last_send_s
         xy = sender_position
         if not (type(xy) is np.ndarray and xy.ndim == 1 and xy.dtype == np.float64):  # (a float vector as it is)
             xy = np.array(sender_position, dtype=float).reshape(-1)[:2]
-        self._log_time.append(float(t_s))
-        self._log_sender.append(self._index[sender])
-        self._log_x.append(float(xy[0]))
-        self._log_y.append(float(xy[1]))
+        k, s = mid - self._base, self._index[sender]
+        arr = self._log_arr
+        if k == arr.shape[1]:
+            arr = self._log_arr = np.concatenate([arr, np.empty_like(arr)], axis=1)
+        arr[0, k], arr[1, k], arr[2, k], arr[3, k] = xy[0], xy[1], self._last_send_s, s
+        self._log_time.append(self._last_send_s)
+        self._log_sender.append(s)
         self._log_payload.append(_copy_payload(payload))
         self.sent[sender] += 1
         return mid
@@ -351,13 +353,21 @@ class CommsNetwork:
         wait on the receiver's list of pending arrivals for :meth:`receive_raw`.
 
         The same decisions, random draws and statistics as the receivers' :meth:`receive` calls
-        one after the other (the draws in receiver order, then message order: one draw of all
-        the uniforms gives the same numbers), over arrays for all pairs at once."""
+        one after the other (the draws in receiver then message order: one draw of all the
+        uniforms gives the same numbers), every receiver's pairs in one compiled pass
+        (:func:`~mjasc.cooperation.link_kernels.decide_segments`). A call while every message
+        sent by ``t_s`` is decided for everyone (most control ticks) returns at once."""
+        cursors = self._cursor
+        if t_s < self._next_s:  # nothing sent by t_s is undecided for anyone
+            for name in receivers:
+                if name not in cursors:
+                    self._member(name, "receiver")
+            return
         base, times = self._base, self._log_time
         n_log = len(times)
         segs = []  # (receiver index, name, k in receivers, first log position, end)
         for k, name in enumerate(receivers):
-            cursor = self._cursor.get(name)
+            cursor = cursors.get(name)
             if cursor is None:
                 self._member(name, "receiver")
             k0 = cursor - base
@@ -367,131 +377,86 @@ class CommsNetwork:
             if limits is not None:
                 k1 = min(k1, limits[k] - base)
             if k1 > k0:
-                self._cursor[name] = base + k1
+                cursors[name] = base + k1
                 segs.append((self._index[name], name, k, k0, k1))
         if segs:
-            if len(segs) <= _FEW_RECEIVERS:  # a few receivers: one by one costs fewer numpy calls
-                for sg in segs:
-                    self._decide_one(sg, positions[sg[2]])
-            else:
-                self._decide(segs, positions)
+            self._decide(segs, positions)
             self._prune()
-
-    def _decide_one(self, seg: tuple, receiver_position) -> None:
-        """:meth:`_decide` for one receiver's segment ``seg`` at ``receiver_position`` (the same
-        operations on that receiver's pairs, the same draws)."""
-        r, receiver, _, k0, k1 = seg
-        # The pairs it hears, picked in plain lists (the logged values themselves, in log order).
-        log_s = self._log_sender
-        if self._everyone:
-            ks = [k for k in range(k0, k1) if log_s[k] != r]
-        else:
-            hears = self._hears_matrix[r].tolist()
-            ks = [k for k in range(k0, k1) if hears[log_s[k]]]
-        m = len(ks)
-        if not m:
-            return
-        senders = [log_s[k] for k in ks]
-        log_x, log_y, log_t = self._log_x, self._log_y, self._log_time
-        sent = np.array([(log_x[k], log_y[k], log_t[k]) for k in ks])
-        cfg, stats = self.config, self.link[receiver]
-        pos = receiver_position
-        if not (type(pos) is np.ndarray and pos.ndim == 1 and pos.dtype == np.float64):
-            pos = np.asarray(receiver_position, dtype=float).reshape(-1)
-        u = self.rng.random((m, 2))  # (u_loss, u_jitter) per message, in message order
-        # distance, arrival and loss in one compiled call (mjasc.cooperation.link_kernels: the
-        # numpy form's numbers; a loss too close to call is left to numpy's loss_at)
-        out = np.empty((3, m))
-        unsure = decide_pairs(sent, float(pos[0]), float(pos[1]), u, cfg.range_m, cfg.loss_probability,
-                              cfg.loss_exponent, cfg.base_delay_s, cfg.propagation_speed_m_s, cfg.jitter_s, out)
-        _, arrival_l, outcome_l = out.tolist()
-        if unsure:
-            at = [j for j, o in enumerate(outcome_l) if o == UNSURE]
-            for j, gone in zip(at, (u[at, 0] < cfg.loss_at(out[0, at])).tolist()):
-                outcome_l[j] = LOST if gone else DELIVERED
-        stats.offered += m
-        offered = self._pair_offered  # np.add.at's additions one by one, in message order
-        for s in senders:
-            offered[s, r] += 1
-        lost_l = [o != DELIVERED for o in outcome_l]
-        n_lost = sum(lost_l)
-        stats.lost += n_lost
-        stats.lost_out_of_range += outcome_l.count(LOST_OUT_OF_RANGE)
-        team, base, log_p = self.team, self._base, self._log_payload
-        if self._outcomes is not None:
-            self._outcomes += [LinkOutcome(team[s], receiver, log_t[k], float("nan") if gone else a, gone)
-                               for k, s, a, gone in zip(ks, senders, arrival_l, lost_l)]
-        if n_lost == m:
-            return
-        items = [(a, base + k, s, log_t[k], log_p[k])
-                 for k, s, a, gone in zip(ks, senders, arrival_l, lost_l) if not gone]
-        pending = self._pending[receiver]
-        # kept sorted by (arrival, id) (unique: the payloads are never compared)
-        pending[:] = sorted(pending + items) if pending else sorted(items)
 
     def _decide(self, segs: list, positions) -> None:
         """Loss and delay of the logged messages ``k0 … k1 − 1`` of each receiver's segment (not
-        its own, only those it can hear), the receivers in order; survivors go on their lists of
-        pending arrivals (kept sorted by (arrival, id))."""
-        lo = min(sg[3] for sg in segs)
-        hi = max(sg[4] for sg in segs)
-        n_seg = len(segs)
-        length = np.array([sg[4] - sg[3] for sg in segs], dtype=np.intp)
-        start = np.array([sg[3] for sg in segs], dtype=np.intp)
-        J = np.repeat(np.arange(n_seg), length)  # each pair's segment
-        K = np.arange(int(length.sum())) + np.repeat(start - (np.cumsum(length) - length), length)  # log position
-        R = np.array([sg[0] for sg in segs], dtype=np.intp)[J]  # receiver's team index
-        senders = np.array(self._log_sender[lo:hi], dtype=np.intp)[K - lo]
-        keep = (senders != R) if self._everyone else self._hears_matrix[R, senders]
-        m = int(np.count_nonzero(keep))
+        its own, only those it can hear), the receivers in order, in one compiled call
+        (:func:`~mjasc.cooperation.link_kernels.decide_segments`; a loss too close to call there is
+        left to numpy's :meth:`NetworkConfig.loss_at`); survivors go on their lists of pending
+        arrivals (kept sorted by (arrival, id))."""
+        log_s = self._log_sender
+        m = 0  # the pairs the receivers hear: as many uniform pairs are drawn
+        if self._everyone:
+            for r, _, _, k0, k1 in segs:
+                m += k1 - k0 - log_s[k0:k1].count(r)
+        else:
+            hm = self._hears_matrix
+            for r, _, _, k0, k1 in segs:
+                row = hm[r].tolist()
+                m += sum(row[s] for s in log_s[k0:k1])
         if not m:
             return
-        if m < K.size:
-            pick = np.flatnonzero(keep)
-            J, K, R, senders = J[pick], K[pick], R[pick], senders[pick]
-        x = np.array(self._log_x[lo:hi])[K - lo]
-        y = np.array(self._log_y[lo:hi])[K - lo]
-        times = np.array(self._log_time[lo:hi])[K - lo]
-        own = [np.asarray(positions[sg[2]], dtype=float).reshape(-1) for sg in segs]
-        px = np.array([p[0] for p in own])[J]
-        py = np.array([p[1] for p in own])[J]
+        n_seg = len(segs)
+        work = self._work
+        if work is None or work[0].shape[0] < n_seg or work[2].shape[1] < m:
+            cap = max(m, 2 * work[2].shape[1] if work is not None else 16)
+            work = self._work = (np.empty((len(self.team), 5)), np.empty((len(self.team), 3), dtype=np.int64),
+                                 np.empty((2, cap), dtype=np.int64), np.empty((3, cap)))
+        seg_arr, counts, pairs, out = work
+        for j, (r, _, k, k0, k1) in enumerate(segs):
+            pos = positions[k]
+            if not (type(pos) is np.ndarray and pos.ndim == 1 and pos.dtype == np.float64):
+                pos = np.asarray(pos, dtype=float).reshape(-1)
+            seg_arr[j] = (r, k0, k1, pos[0], pos[1])
         cfg = self.config
-        d = np.hypot(x - px, y - py)
         u = self.rng.random((m, 2))  # (u_loss, u_jitter) per pair, in receiver then message order
-        out_of_range = d >= cfg.range_m
-        lost = out_of_range | (u[:, 0] < cfg.loss_at(d))
-        arrival = times + cfg.base_delay_s + d / cfg.propagation_speed_m_s + u[:, 1] * cfg.jitter_s
-        np.add.at(self._pair_offered, (senders, R), 1)
-        offered = np.bincount(J, minlength=n_seg).tolist()
-        n_lost = np.bincount(J, weights=lost, minlength=n_seg).astype(np.int64).tolist()
-        n_far = np.bincount(J, weights=out_of_range, minlength=n_seg).astype(np.int64).tolist()
-        for sg, a, b, c in zip(segs, offered, n_lost, n_far):
-            stats = self.link[sg[1]]
-            stats.offered += a
-            stats.lost += b
-            stats.lost_out_of_range += c
-        team, base, log_t, log_p = self.team, self._base, self._log_time, self._log_payload
+        unsure = decide_segments(self._log_arr, seg_arr[:n_seg], self._hears_matrix, u, cfg.range_m,
+                                 cfg.loss_probability, cfg.loss_exponent, cfg.base_delay_s, cfg.propagation_speed_m_s,
+                                 cfg.jitter_s, self._pair_offered, counts, pairs, out)
+        ks, js = pairs[:, :m].tolist()
+        arrival_l, outcome_l = out[1:, :m].tolist()
+        counts_l = counts[:n_seg].tolist()
+        if unsure:
+            at = [j for j, o in enumerate(outcome_l) if o == UNSURE]
+            for j, gone in zip(at, (u[at, 0] < cfg.loss_at(out[0, :m][at])).tolist()):
+                outcome_l[j] = LOST if gone else DELIVERED
+                counts_l[js[j]][1] += gone
+        link = self.link
+        for sg, (n_offered, n_lost, n_far) in zip(segs, counts_l):
+            stats = link[sg[1]]
+            stats.offered += n_offered
+            stats.lost += n_lost
+            stats.lost_out_of_range += n_far
+        team, log_t, log_p = self.team, self._log_time, self._log_payload
         if self._outcomes is not None:
-            self._outcomes += [LinkOutcome(team[s], team[r], log_t[k], float("nan") if gone else a, gone)
-                               for k, s, r, a, gone in zip(K.tolist(), senders.tolist(), R.tolist(),
-                                                           arrival.tolist(), lost.tolist())]
-        alive = np.flatnonzero(~lost)
-        if not alive.size:
-            return
+            self._outcomes += [LinkOutcome(team[log_s[k]], segs[j][1], log_t[k],
+                                           float("nan") if o != DELIVERED else a, o != DELIVERED)
+                               for k, j, a, o in zip(ks, js, arrival_l, outcome_l)]
         new = [[] for _ in segs]
-        for k, s, j, a in zip(K[alive].tolist(), senders[alive].tolist(), J[alive].tolist(), arrival[alive].tolist()):
-            new[j].append((a, base + k, s, log_t[k], log_p[k]))
+        idb = self._base
+        for k, j, a, o in zip(ks, js, arrival_l, outcome_l):
+            if o == DELIVERED:
+                new[j].append((a, idb + k, log_s[k], log_t[k], log_p[k]))
+        pending_all = self._pending
         for sg, items in zip(segs, new):
             if items:
-                pending = self._pending[sg[1]]
+                pending = pending_all[sg[1]]
                 # kept sorted by (arrival, id) (unique: the payloads are never compared)
                 pending[:] = sorted(pending + items) if pending else sorted(items)
 
     def _prune(self) -> None:
         done = min(self._cursor.values()) - self._base
+        self._next_s = self._log_time[done] if done < len(self._log_time) else math.inf
         if done > 256:
-            for log in (self._log_time, self._log_sender, self._log_x, self._log_y, self._log_payload):
+            for log in (self._log_time, self._log_sender, self._log_payload):
                 del log[:done]
+            n = len(self._log_time)
+            self._log_arr[:, :n] = self._log_arr[:, done:done + n]
             self._base += done
 
     # ------------------------------------------------------------------ statistics

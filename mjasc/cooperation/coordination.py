@@ -320,8 +320,21 @@ class Coordination(CoordinationMethod):
                       xi_rate_1_s=along / self.path_length_m, offset_m=self.config.formation_offset_m)
         if tracks:
             kw["tracks"] = tuple(tracks)
-        return TeamMessage(self.name, np.array(nav.position_m[:2], dtype=float), float(nav.heading_rad),
-                           np.array(nav.velocity_m_s[:2], dtype=float), self.mission_speed_m_s, self.radius_m, **kw)
+        # TeamMessage(name, position, heading, velocity, speed, radius, **kw) without the frozen
+        # __init__'s sixteen setattr calls: every field in order, the defaults where kw has none
+        msg = object.__new__(TeamMessage)
+        fields = msg.__dict__
+        fields.update(sender=self.name, position_m=np.array(nav.position_m[:2], dtype=float),
+                      heading_rad=float(nav.heading_rad), velocity_m_s=np.array(nav.velocity_m_s[:2], dtype=float),
+                      mission_speed_m_s=self.mission_speed_m_s, radius_m=self.radius_m)
+        if "plan_times_s" in kw:
+            fields.update(plan_times_s=kw["plan_times_s"], plan_points_m=kw["plan_points_m"])
+        else:
+            fields.update(plan_times_s=np.zeros(0), plan_points_m=np.zeros((0, 2)))
+        fields.update(gamma_m=kw.get("gamma_m"), path_length_m=kw.get("path_length_m"), xi=kw.get("xi"),
+                      xi_rate_1_s=kw.get("xi_rate_1_s"), offset_m=kw.get("offset_m"), tracks=kw.get("tracks", ()),
+                      phase=kw.get("phase", 0), mission=kw.get("mission"))
+        return msg
 
     def _own_plan(self, t_s: float, guidance):
         """(times (k,), points (k, 2)) along the guidance's current path at the mission speed × the

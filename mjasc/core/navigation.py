@@ -46,7 +46,10 @@ class FleetNavigation:
     def from_states(cls, states) -> "FleetNavigation":
         """From the simulator's :class:`~mjasc.physics.simulation.VesselStates` (a perfect
         navigation system: the vessels' true own states)."""
-        return cls(states.time_s, states.position_m, states.heading_rad, states.velocity_m_s, states.body_velocity)
+        fleet = object.__new__(cls)  # (cls(...) without the frozen __init__'s five setattr calls)
+        fleet.__dict__.update(time_s=states.time_s, position_m=states.position_m, heading_rad=states.heading_rad,
+                              velocity_m_s=states.velocity_m_s, body_velocity=states.body_velocity)
+        return fleet
 
     def __len__(self) -> int:
         return int(self.heading_rad.shape[0])
@@ -55,3 +58,15 @@ class FleetNavigation:
         """Vessel ``i``'s own navigation solution."""
         return OwnNavigation(self.time_s, self.position_m[i], float(self.heading_rad[i]), self.velocity_m_s[i],
                              self.body_velocity[i])
+
+    def vessels(self) -> list[OwnNavigation]:
+        """Every vessel's :meth:`vessel`, in order (the same values; built without the frozen
+        ``__init__``'s five ``setattr`` calls per vessel: the runner asks at every tick)."""
+        t, new = self.time_s, object.__new__
+        out = []
+        for pos, heading, vel, body in zip(self.position_m, self.heading_rad.tolist(), self.velocity_m_s,
+                                           self.body_velocity):
+            nav = new(OwnNavigation)
+            nav.__dict__.update(time_s=t, position_m=pos, heading_rad=heading, velocity_m_s=vel, body_velocity=body)
+            out.append(nav)
+        return out

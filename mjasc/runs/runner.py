@@ -409,8 +409,7 @@ class Runner:
                 states = sim.states() if due else None
                 navs = []
                 if due:
-                    fleet = FleetNavigation.from_states(states)
-                    navs = [fleet.vessel(i) for i in range(len(self.agents))]
+                    navs = FleetNavigation.from_states(states).vessels()
                 for slot in due:
                     t_slot = clock()
                     if slot == "control":
