@@ -33,8 +33,7 @@ from mjasc.physics.hydro_kernels import rotate_to_world
 from mjasc.physics.hydrodynamics import Hydrodynamics, rigid_body_mass_matrix
 from mjasc.physics.obstacles import MovingObstacleSet
 from mjasc.physics.state_kernels import vessel_states
-from mjasc.physics.step_kernels import (any_nonzero, blas_order_holds, fast_bounds_ok, force_step, prepare_step,
-                                        traffic_table, write_commands)
+from mjasc.physics.step_kernels import any_nonzero, fast_bounds_ok, prepare_step, traffic_table, write_commands
 from mjasc.physics.thrusters import Thrusters
 from mjasc.physics.world import World
 
@@ -153,9 +152,6 @@ class Simulation:
         f_row, tau, rot2, feats, cf_x, self._linear_form = self.hydro.step_arrays()
         self._step_arrays = (f_row, tau, rot2, feats, cf_x, self._qfrc3 if self._views else None,
                              *self._mj_arrays, self._traffic_table, self._traffic_samples)
-        # τ = F·G inside the step's compiled call when it sums as this machine's numpy does (else numpy's
-        # matmul between two compiled calls, as the fused call's readable form)
-        self._fused_step = bool(self._bound and n and blas_order_holds(self._linear_form))
         self._ctrl, self._ctrl_adr = d.ctrl, np.ascontiguousarray(world.ctrl_adr, dtype=np.intp).reshape(n, 2)
         self._warning_counts = d.warning.number  # (a view of MjData's warning counters)
         self.divergence_checks = True
@@ -340,10 +336,9 @@ class Simulation:
             vel, acc, v2, a2 = monitor.qvel, monitor.qacc, monitor.fast_speed2, monitor.fast_acc2
             vdot, adot = vel.dot, acc.dot
         if self._bound and self.hydrodynamics_enabled and self._current_uniform_steady:
-            # The common case, compiled work before MuJoCo's two calls (mjasc.physics.step_kernels): the
-            # previous step's fast divergence test, the traffic's mocap poses and the force's features;
-            # τ = F·G rotated into qfrc_applied; then mj_step1, mj_step2. With _fused_step all of it is
-            # one call (force_step: the product in numpy's BLAS order), else numpy's matmul between two.
+            # The common case, one compiled call per step before MuJoCo's two (mjasc.physics.step_kernels):
+            # the previous step's fast divergence test, the traffic's mocap poses and the force's
+            # features; then τ = F·G (numpy) rotated into qfrc_applied, mj_step1, mj_step2.
             vc, g = self._uniform_current, self._linear_form
             f_row, tau, rot, feats, cf_x, out, qpos, qvel, qacc, act, mocap_pos, mocap_quat, table, samples = \
                 self._step_arrays
@@ -351,31 +346,18 @@ class Simulation:
             step1, step2 = mujoco.mj_step1, mujoco.mj_step2
             checking = monitor is not None
             v2, a2 = (monitor.fast_speed2, monitor.fast_acc2) if checking else (math.inf, math.inf)
-            if self._fused_step:  # the same work in one compiled call per step (step_kernels.force_step)
-                force = force_step
-                for k in range(n_steps):
-                    if not force(checking and k > 0, qpos, qvel, qacc, act, v2, a2, d.time, table, samples, mocap_pos,
-                                 mocap_quat, vc, cf_x, feats, rot, g, tau, out):
-                        what = self._exact_check(monitor)  # (None: the bounds hold after all)
-                        if what is not None:
-                            return k - 1, what
-                        force(False, qpos, qvel, qacc, act, v2, a2, d.time, table, samples, mocap_pos, mocap_quat,
-                              vc, cf_x, feats, rot, g, tau, out)
-                    step1(m, d)
-                    step2(m, d)
-            else:
-                for k in range(n_steps):
-                    if not prepare(checking and k > 0, qpos, qvel, qacc, act, v2, a2, d.time, table, samples,
-                                   mocap_pos, mocap_quat, vc, cf_x, feats, rot):
-                        what = self._exact_check(monitor)  # (None: the bounds hold after all)
-                        if what is not None:
-                            return k - 1, what
-                        prepare(False, qpos, qvel, qacc, act, v2, a2, d.time, table, samples, mocap_pos, mocap_quat,
-                                vc, cf_x, feats, rot)
-                    matmul(f_row, g, tau)
-                    rotate(tau, rot, out)
-                    step1(m, d)
-                    step2(m, d)
+            for k in range(n_steps):
+                if not prepare(checking and k > 0, qpos, qvel, qacc, act, v2, a2, d.time, table, samples,
+                               mocap_pos, mocap_quat, vc, cf_x, feats, rot):
+                    what = self._exact_check(monitor)  # (None: the bounds hold after all)
+                    if what is not None:
+                        return k - 1, what
+                    prepare(False, qpos, qvel, qacc, act, v2, a2, d.time, table, samples, mocap_pos, mocap_quat,
+                            vc, cf_x, feats, rot)
+                matmul(f_row, g, tau)
+                rotate(tau, rot, out)
+                step1(m, d)
+                step2(m, d)
             if checking and not fast_bounds_ok(qvel, qacc, v2, a2):  # (prepare_step's test, after the last step)
                 what = self._exact_check(monitor)
                 if what is not None:

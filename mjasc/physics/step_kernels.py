@@ -32,11 +32,11 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import fma, kernel
-from mjasc.physics.hydro_kernels import hydro_features, rotate_to_world
+from mjasc.core.compiled import kernel
+from mjasc.physics.hydro_kernels import hydro_features
 
 __all__ = ["traffic_table", "traffic_poses", "prepare_step", "fast_bounds_ok", "any_nonzero", "write_commands",
-           "TRAFFIC_COLUMNS", "rows_times_matrices", "blas_order_holds", "force_step"]
+           "TRAFFIC_COLUMNS"]
 
 #: The columns of a traffic table row (one moving obstacle), :func:`traffic_table`.
 TRAFFIC_COLUMNS = ("kind", "mocap", "x0 | g0", "y0 | speed", "th0 | length", "v | path row", "w | last sample",
@@ -164,59 +164,4 @@ def write_commands(commands, ctrl, ctrl_adr):
             if c > 1.0:
                 c = 1.0
             ctrl[ctrl_adr[i, p]] = c
-    return True
-
-
-@kernel
-def rows_times_matrices(F, G, tau):
-    """τ = F·G per vessel, ``tau[n, 0] = F[n] @ G[n]`` for F (N, K), G (N, K, P), tau (N, 1, P),
-    summed in the order of the BLAS call numpy's ``np.matmul(F[:, None, :], G)`` makes for each
-    vessel (a vector times a C-ordered matrix: ``dgemv`` on the transposed matrix with three or
-    fewer rows, OpenBLAS's x86-64 kernel): per output column, the products in groups of four,
-    ``acc += fma(g₀, f₀, g₁·f₁)``, ``acc += fma(g₂, f₂, g₃·f₃)``, then the last K mod 4 as
-    ``acc = fma(g, f, acc)``, from acc = +0. Whether this machine's numpy sums so is checked with
-    :func:`blas_order_holds` before it is used."""
-    K = F.shape[1]
-    main = K - K % 4
-    for n in range(F.shape[0]):
-        for p in range(G.shape[2]):
-            acc = 0.0
-            for j in range(0, main, 4):
-                acc += fma(G[n, j, p], F[n, j], G[n, j + 1, p] * F[n, j + 1])
-                acc += fma(G[n, j + 2, p], F[n, j + 2], G[n, j + 3, p] * F[n, j + 3])
-            for j in range(main, K):
-                acc = fma(G[n, j, p], F[n, j], acc)
-            tau[n, 0, p] = acc
-
-
-def blas_order_holds(G: np.ndarray, trials: int = 32, seed: int = 0) -> bool:
-    """Whether :func:`rows_times_matrices` gives ``np.matmul``'s bits for the matrices ``G``
-    (N, K, P) on this machine (its numpy and BLAS), on ``trials`` random feature rows of mixed
-    magnitudes: a product summed in any other order differs in the last bits for almost every
-    such row."""
-    G = np.ascontiguousarray(G, dtype=float)
-    if G.ndim != 3 or G.shape[2] > 3 or G.shape[0] == 0:
-        return False
-    rng = np.random.default_rng(seed)
-    tau = np.empty((G.shape[0], 1, G.shape[2]))
-    for _ in range(trials):
-        F = rng.normal(size=G.shape[:2]) * 10.0 ** rng.integers(-6, 7, size=G.shape[:2])
-        rows_times_matrices(F, G, tau)
-        if tau.tobytes() != np.matmul(F[:, None, :], G).tobytes():
-            return False
-    return True
-
-
-@kernel
-def force_step(check, qpos, qvel, qacc, act, fast_speed2, fast_acc2, t, table, samples, mocap_pos, mocap_quat,
-               current, cf_x, F, rot, G, tau, out):
-    """One physics step's work before ``mj_step1`` in one call: :func:`prepare_step` (False, and
-    nothing written, when its divergence test fails), then τ = F·G (:func:`rows_times_matrices`,
-    numpy's product where :func:`blas_order_holds`) and τ rotated into ``out`` = ``qfrc_applied``
-    (N, 3) (:func:`~mjasc.physics.hydro_kernels.rotate_to_world`). Returns True."""
-    if not prepare_step(check, qpos, qvel, qacc, act, fast_speed2, fast_acc2, t, table, samples, mocap_pos,
-                        mocap_quat, current, cf_x, F, rot):
-        return False
-    rows_times_matrices(F, G, tau)
-    rotate_to_world(tau, rot, out)
     return True
