@@ -15,8 +15,7 @@ Python loop. Commands are set between steps with :meth:`Simulation.set_commands`
 case (vessels' dofs first in MjData, a uniform steady current) the force is computed before
 ``mj_step1``, which neither reads nor changes what it depends on: one compiled call per step
 (:mod:`mjasc.physics.step_kernels`: the previous step's divergence test, the mocap poses, the
-force's features, τ = F·G summed as numpy's matmul sums it, the rotation into ``qfrc_applied``),
-then MuJoCo's two (where numpy's BLAS sums in another order: numpy's matmul between two calls).
+force's features), numpy's product τ = F·G, the rotation into ``qfrc_applied``, then MuJoCo's two.
 """
 
 from __future__ import annotations

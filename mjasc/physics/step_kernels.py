@@ -9,13 +9,9 @@ by ``mj_step1``'s collision detection), the hydrodynamic and propeller force ``q
 force reads what the other writes: the force depends on qpos, qvel and the shaft activations only,
 which ``mj_step1`` leaves as they are (autoreset is off). So the whole step's work can run before
 ``mj_step1``, and one call (:func:`prepare_step`) does the previous step's fast divergence test,
-the mocap poses and the force's features F; then τ = F·G and
-:func:`~mjasc.physics.hydro_kernels.rotate_to_world` writes ``qfrc_applied``. :func:`force_step`
-does all of it in one call per step, with the product summed as numpy's ``np.matmul`` does on this
-machine (the BLAS call it makes for a vector times a three-column matrix, :func:`rows_times_matrices`);
-the simulation uses it only where :func:`blas_order_holds` finds those bits on its own linear form
-at start, else :func:`prepare_step`, numpy's matmul and the rotation: three calls around MuJoCo's
-two instead of ~15.
+the mocap poses and the force's features F; then τ = F·G stays numpy's matrix product (OpenBLAS's
+order) and :func:`~mjasc.physics.hydro_kernels.rotate_to_world` writes ``qfrc_applied``. Per step
+that is three calls around MuJoCo's two instead of ~15.
 
 Bits: the traffic poses are :meth:`mjasc.physics.obstacles.MovingObstacleSet.rows`' expressions
 (``math.cos``/``sin`` are the C library's in both) and the features are
