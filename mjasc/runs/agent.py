@@ -332,8 +332,9 @@ class VesselAgent:
 
     def log(self, recorder, t_s: float) -> None:
         for c in self.components():
-            if c is self.avoidance:
-                c.log(recorder, t_s, self.name, guidance=self.guidance_state())
+            if c is self.avoidance:  # (the guidance state only for a method that draws it now: ``logs_guidance``)
+                c.log(recorder, t_s, self.name,
+                      guidance=self.guidance_state() if getattr(c, "logs_guidance", True) else None)
             else:
                 c.log(recorder, t_s, self.name)
 
