@@ -14,3 +14,22 @@ def test_strip_column_of_one_length_array_is_the_list_form():
     ref = _strip_column(list(strips), 0.2, per_row).as_arrow_array()
     assert fast.equals(ref)
     assert fast.to_pylist() == ref.to_pylist()
+
+
+def test_vec3_array_is_the_sdks_vec3d_batch():
+    """_vec3_array gives the array (type, values, buffers) rerun's Vec3DBatch builds, for float64,
+    float32, reversed (strided) and Fortran-ordered points, and none."""
+    from rerun.encodings import Vec3DBatch
+
+    from mjasc.runs.recording import _vec3_array
+
+    rng = np.random.default_rng(3)
+    for n in (0, 1, 7, 500):
+        x = rng.normal(scale=100.0, size=(n, 3))
+        for points in (x, x.astype(np.float32), x[::-1], np.asfortranarray(x)):
+            ref = Vec3DBatch(np.asarray(points, dtype=np.float32)).as_arrow_array()
+            fast = _vec3_array(points)
+            assert fast.type == ref.type and fast.equals(ref)
+            assert [b is None for b in fast.buffers()] == [b is None for b in ref.buffers()]
+            assert [b.to_pybytes() for b in fast.buffers() if b is not None] == \
+                [b.to_pybytes() for b in ref.buffers() if b is not None]

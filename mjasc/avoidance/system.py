@@ -895,6 +895,12 @@ class CollisionAvoidance(AvoidanceMethod):
             "conflicts": self.conflict_log,
         }
 
+    @property
+    def logs_guidance(self) -> bool:
+        """Does :meth:`log` draw anything of ``guidance`` now (the virtual target: only while a
+        velocity correction runs)? The agent builds the guidance state for it only then."""
+        return self.correction is not None
+
     def log(self, recorder, t, vessel_name, guidance: GuidanceState | None = None) -> None:
         """Log to the recording: the mode, the virtual target (on ``guidance``'s path, the path
         follower's state now), and what the latest prediction and re-plan produced."""

@@ -491,6 +491,10 @@ class _TracksView:
         b = self.bank
         return np.arange(len(self._tracks)), b.track_ids, b.states, self.static, self.team_members
 
+    def confirmed_points(self) -> tuple:
+        """As :meth:`mjasc.perception.tracking.MultiTargetTracker.confirmed_points` (every track)."""
+        return self.bank.track_ids, self.bank.positions, self.static, self.team_members
+
     def estimates(self, include_tentative: bool = False) -> list:
         return list(self._tracks)
 

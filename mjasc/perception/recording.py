@@ -210,18 +210,19 @@ class PerceptionLog:
 
     def _log_tracks(self, rec, t_s, p, base, vessel_name, full) -> None:
         tr = p.tracker
-        conf, ids, x, static, team = tr.confirmed_fields()  # (the vessel's confirmed rows only)
-        bank = tr.bank
         if not full:  # labels only when they change (the strings are built only then)
+            ids, xy, static, team = tr.confirmed_points()  # (the vessel's confirmed rows only)
             key = (ids.tobytes(), static.tobytes(), tuple(team))
             labels = None
             if key != self._label_key:
                 self._label_key = key
                 labels = _labels(vessel_name, ids, team, static)
-            elif not len(conf):
+            elif not len(ids):
                 return  # nothing tracked, nothing was
-            rec.points(f"{base}/tracks/positions", t_s, x[:, :2], z=0.3, labels=labels)
+            rec.points(f"{base}/tracks/positions", t_s, xy, z=0.3, labels=labels)
             return
+        conf, ids, x, static, team = tr.confirmed_fields()  # (the vessel's confirmed rows only)
+        bank = tr.bank
         labels = None
         if t_s - self._last_label_log >= LABEL_LOG_PERIOD_S - 1e-9:
             labels = _labels(vessel_name, ids, team, static)

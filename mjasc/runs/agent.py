@@ -326,14 +326,18 @@ class VesselAgent:
 
     def drain_events(self) -> list[tuple[float, str]]:
         events = []
-        for c in self.components():
-            events.extend(c.drain_events())
+        for c in (self.perception, self.coordination, self.avoidance, self.mission):  # (components(), per record tick)
+            if c is not None:
+                events.extend(c.drain_events())
         return events
 
     def log(self, recorder, t_s: float) -> None:
-        for c in self.components():
-            if c is self.avoidance:
-                c.log(recorder, t_s, self.name, guidance=self.guidance_state())
+        for c in (self.perception, self.coordination, self.avoidance, self.mission):  # (components())
+            if c is None:
+                continue
+            if c is self.avoidance:  # (the guidance state only for a method that draws it now: ``logs_guidance``)
+                c.log(recorder, t_s, self.name,
+                      guidance=self.guidance_state() if getattr(c, "logs_guidance", True) else None)
             else:
                 c.log(recorder, t_s, self.name)
 

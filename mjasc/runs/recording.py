@@ -502,9 +502,20 @@ def _strip_column(strips: list[np.ndarray], z: float, per_row) -> rr.ComponentCo
     else:
         lengths, flat = np.fromiter((len(s) for s in strips), dtype=np.int32, count=len(strips)), _cat(strips)
     offsets = np.concatenate([[0], np.cumsum(lengths, dtype=np.int32)]).astype(np.int32)
-    points = Vec3DBatch(_xyz(flat, z).astype(np.float32)).as_arrow_array()
+    points = _vec3_array(_xyz(flat, z))
     array = pa.ListArray.from_arrays(pa.array(offsets, pa.int32()), points, type=_STRIP_TYPE)
     return rr.ComponentColumn(rr.LineStrips3D.descriptor_strips(), _ArrowBatch(array), lengths=per_row)
+
+
+_VEC3_TYPE = Vec3DBatch._ARROW_DATATYPE
+
+
+def _vec3_array(xyz) -> pa.Array:
+    """Points (k, 3) as float32 ``Vec3D`` arrow values: the array ``Vec3DBatch(xyz).as_arrow_array()``
+    builds (its own conversion: flat float32, contiguous, a fixed-size list of 3), without its
+    per-call checks (~0.4 ms a call, a call per column)."""
+    flat = np.ascontiguousarray(np.asarray(xyz, dtype=np.float32).reshape(-1, 3)).reshape(-1)
+    return pa.FixedSizeListArray.from_arrays(flat, type=_VEC3_TYPE)
 
 
 class _Column:
@@ -553,7 +564,7 @@ def _scalar_column(values, per_row=1) -> _Column:
 def _points_column(xyz: np.ndarray, per_row) -> _Column:
     """The ``Points3D:positions`` column of points (k, 3) [m], ``per_row`` (an int, or one per row)
     to a row (float32 xyz, as ``rr.Points3D.columns`` writes them)."""
-    points = Vec3DBatch(np.asarray(xyz, dtype=np.float32)).as_arrow_array()
+    points = _vec3_array(xyz)
     n_rows = len(points) // per_row if np.ndim(per_row) == 0 else len(per_row)
     return _Column(_POSITIONS, pa.ListArray.from_arrays(_list_offsets(n_rows, per_row), points))
 

@@ -18,8 +18,9 @@ So two runs with the same scenario and seed write the same *content* in differen
 A chunk is not decoded and encoded again: its Arrow IPC stream keeps the SDK's record-batch message
 (the data as Arrow-rs wrote it; the SDK writes the same bytes for the same data) with the new row ids
 and ``log_time`` values written over the old ones in place, behind a schema message serialised by
-pyarrow from the canonical schema (the canonical fields are computed once per distinct set of
-fields: a run's thousands of chunks share a few dozen). Cost: ~0.1 ms per chunk (a 50-vessel
+pyarrow from the canonical schema (the canonical fields and the schema message are computed once
+per distinct schema, the chunk id spliced into the message: a run's thousands of chunks share a
+few dozen). Cost: ~0.1 ms per chunk (a 50-vessel
 recording holds ~1,500) plus about 0.5 s per 50 MB.
 
 Nothing of the data changes (``rerun rrd compare --unordered`` finds the files equal). The file is
@@ -73,7 +74,12 @@ class CanonicalRrdError(ValueError):
 
 
 # ---------------------------------------------------------------- protobuf wire format
+_BYTE = tuple(bytes((b,)) for b in range(0x80))
+
+
 def _varint(n: int) -> bytes:
+    if n < 0x80:  # (most: field keys, flags, small lengths)
+        return _BYTE[n]
     out = bytearray()
     while True:
         b, n = n & 0x7F, n >> 7
@@ -96,7 +102,7 @@ def _pb_bytes(field: int, b: bytes | str) -> bytes:
 
 
 def _pb_tuid(t_ns: int, inc: int) -> bytes:
-    return _pb_fixed64(1, t_ns) + _pb_fixed64(2, inc)
+    return b"\x09" + struct.pack("<Q", t_ns) + b"\x11" + struct.pack("<Q", inc)  # fields 1, 2: fixed64
 
 
 def _pb_store_id(kind: int, store: str, app: str) -> bytes:
@@ -192,8 +198,17 @@ def _sorted(md):
     return dict(sorted(md.items())) if md else None
 
 
+def _canon_field(f: pa.Field) -> pa.Field:
+    """``f`` with its metadata keys sorted (``f`` itself when they are: the same field)."""
+    md = f.metadata
+    if not md:
+        return f
+    keys = list(md)
+    return f if keys == sorted(keys) else f.with_metadata(dict(sorted(md.items())))
+
+
 def _canon_schema(schema: pa.Schema, sort_fields: bool = False, extra=None) -> pa.Schema:
-    fields = [f.with_metadata(_sorted(f.metadata)) if f.metadata else f for f in schema]
+    fields = [_canon_field(f) for f in schema]
     if sort_fields:
         fields.sort(key=lambda f: f.name.encode())
     md = dict(schema.metadata or {})
@@ -258,15 +273,42 @@ class _Chunk:
     def ipc(self, row_ids: np.ndarray, chunk_id: bytes) -> bytes:
         """The canonical IPC stream: the canonical schema with ``chunk_id``, the record batch with
         ``row_ids`` ((n, 2) big-endian) and every ``log_time`` at :data:`BASE_NS`."""
-        md = dict(self.schema.metadata or {})
-        md[b"rerun:id"] = chunk_id
-        schema = pa.schema(self.fields, metadata=dict(sorted(md.items())))
         body = bytearray(memoryview(self.raw)[self.start:])
         at = self.row_id_at - self.start
         body[at:at + row_ids.nbytes] = row_ids.tobytes()
         for at, n in self.log_times:
             body[at - self.start:at - self.start + 8 * n] = np.full(n, BASE_NS, "<i8").tobytes()
-        return schema.serialize().to_pybytes() + bytes(body)
+        return _schema_message(self.fields, self.schema.metadata, chunk_id) + bytes(body)
+
+
+def _serialized_schema(fields: list, metadata, chunk_id: bytes) -> bytes:
+    """The schema message of ``fields`` with ``metadata`` (its keys sorted) and ``rerun:id`` =
+    ``chunk_id``, serialised by pyarrow (the reference form of :func:`_schema_message`)."""
+    md = dict(metadata or {})
+    md[b"rerun:id"] = chunk_id
+    return pa.schema(fields, metadata=dict(sorted(md.items()))).serialize().to_pybytes()
+
+
+_MESSAGES: dict = {}  # (fields, metadata without rerun:id) → (message before the chunk id, after it)
+
+
+def _schema_message(fields: list, metadata, chunk_id: bytes) -> bytes:
+    """:func:`_serialized_schema`, serialised once per distinct schema (a run's hundreds of chunks
+    share a few dozen; only the chunk id differs) and the chunk id spliced in: the ids all have
+    one length (``chunk_`` + 32 hex digits), so the message's layout does not depend on which."""
+    rest = tuple(sorted((k, v) for k, v in (metadata or {}).items() if k != b"rerun:id"))
+    key = (id(fields), rest)
+    hit = _MESSAGES.get(key)
+    if hit is None or hit[0] is not fields or len(chunk_id) != hit[3]:
+        if len(_MESSAGES) >= 4096:  # (a long-lived worker stays bounded)
+            _MESSAGES.clear()
+        message = _serialized_schema(fields, metadata, chunk_id)
+        at = message.find(chunk_id)
+        if at < 0 or message.find(chunk_id, at + 1) >= 0:  # (the id must appear once: else no splicing)
+            return message
+        hit = _MESSAGES[key] = (fields, message[:at], message[at + len(chunk_id):], len(chunk_id))
+        return message
+    return hit[1] + chunk_id + hit[2]
 
 
 _FIELDS: dict = {}  # schema without its metadata → (canonical fields, indices of log_time columns)
@@ -280,7 +322,7 @@ def _canon_fields(schema: pa.Schema) -> tuple[list, list]:
     if hit is None:
         if len(_FIELDS) >= 4096:  # (a run has a few dozen; a long-lived worker stays bounded)
             _FIELDS.clear()
-        fields = [f.with_metadata(_sorted(f.metadata)) if f.metadata else f for f in schema]
+        fields = [_canon_field(f) for f in schema]
         log_times = [j for j, f in enumerate(schema) if (f.metadata or {}).get(b"rerun:index_name") == b"log_time"]
         hit = _FIELDS[key] = (fields, log_times)
     return hit
@@ -418,8 +460,8 @@ def _manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes:
     for j, name in enumerate(("chunk_byte_offset", "chunk_byte_size", "chunk_byte_size_uncompressed")):
         cols[name] = pa.array([spans[k][j] for k in ks], pa.uint64())
     batch = pa.RecordBatch.from_arrays([cols[n] for n in batch.schema.names], schema=batch.schema)
-    batch = _fixed_log_time(batch, lambda f: (f.metadata or {}).get(b"rerun:index") == b"log_time"
-                            and pa.types.is_timestamp(f.type))
+    batch = _fixed_log_time(batch, lambda f: pa.types.is_timestamp(f.type)  # (the type first: it is cheap)
+                            and (f.metadata or {}).get(b"rerun:index") == b"log_time")
     batch = batch.take(pa.array(np.argsort(ks)))
     ipc = _ipc(pa.RecordBatch.from_arrays(batch.columns, schema=_canon_schema(batch.schema)))
     data = _pb_int(1, 1) + _pb_bytes(2, _LZ4.compress(ipc, asbytes=True)) + _pb_int(3, 2) + _pb_int(4, len(ipc))

@@ -295,6 +295,9 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             "conflicts": self.conflict_log,
         }
 
+    #: :meth:`log` draws nothing of the guidance state (no velocity correction: the agent skips building it).
+    logs_guidance = False
+
     def log(self, recorder, t, vessel_name, guidance=None) -> None:
         """The mode (state lane) and the threat panel's header, as the thesis method does."""
         self._log.log(recorder, t, vessel_name, self.mode, None, guidance, None, None, self.team)

@@ -161,6 +161,15 @@ class MultiTargetTracker:
         conf, rows = np.flatnonzero(ok), rows[ok]
         return conf, f.local_id[rows], f.bank.states_of(rows), f.mgmt._static[rows], f.team.members(rows)
 
+    def confirmed_points(self) -> tuple:
+        """The confirmed tracks as the recording draws them at standard detail: ids (k,), positions
+        (k, 2) [m], static flags (k,) and team mates (list of k names or None) — the numbers of
+        :meth:`confirmed_fields` without the row indices and the headings (no angle wrap)."""
+        f = self.fleet
+        rows = self._rows()
+        rows = rows[f.mgmt._confirmed[rows]]
+        return f.local_id[rows], f.bank.positions_of(rows), f.mgmt._static[rows], f.team.members(rows)
+
     def moving_positions(self) -> tuple[np.ndarray, np.ndarray]:
         """The confirmed tracks that are not static, as :meth:`estimates` hands them on (bank
         order): their ids (k,) and positions (k, 2) [m] — the ``track_id`` and ``position_m`` of
