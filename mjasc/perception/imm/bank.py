@@ -558,6 +558,24 @@ class IMMBank(PredictiveDensity):
         return wrapped_states(self._x)  # (= x.copy() with x[:, 2] = wrap(x[:, 2]): one compiled pass)
 
     @property
+    def state_rows(self) -> np.ndarray:
+        """(n, 4) the combined estimates [x, y, θ, V] as the bank keeps them, θ unwrapped (wrap it
+        to read a course; :attr:`states` does): the bank's own array, not a copy — read it at once
+        (valid until the next cycle, birth or drop), never write it."""
+        return self._x
+
+    def covariance_rows(self) -> np.ndarray:
+        """(n, 4, 4) the combined covariances as the bank keeps them (computed on first read after
+        a cycle): the bank's own array, not a copy — read it at once (valid until the next cycle,
+        birth or drop), never write it."""
+        return self._covariances()
+
+    @property
+    def common_time_s(self) -> float | None:
+        """The time of every track's last cycle [s] when they share it, else None."""
+        return self._t_common
+
+    @property
     def positions(self) -> np.ndarray:
         """(n, 2) combined position [m]."""
         return self._x[:, :2].copy()

@@ -49,6 +49,7 @@ from mjasc.perception.tracking.step_kernels import (add_counts, apply_assignment
                                                     count_scans, count_used, last_assignments, measurement_rows,
                                                     pair_setup, select_detections)
 from mjasc.perception.tracking.team import TeamMatcher
+from mjasc.perception.tracking.track_columns import TrackColumns
 
 __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
 
@@ -86,12 +87,11 @@ class FleetTracker:
         self.bank = IMMBank(config.imm)
         self._R = float(config.imm.measurement_variance_m2)
         self._gate = config.gate_threshold
-        self.mgmt = TrackManagement(config)
-        self.manoeuvres = ManoeuvreDetector(config)
-        self.team = TeamMatcher(config)
-        self.outlines = TrackOutlines(config)
-        self.owner = np.zeros(0, dtype=np.int64)  # per row: its vessel
-        self.local_id = np.zeros(0, dtype=np.int64)  # per row: its id in its vessel's numbering
+        cols = self.cols = TrackColumns(config.confirm_hits <= 1)  # every per-track column but the bank's
+        self.mgmt = TrackManagement(config, cols)
+        self.manoeuvres = ManoeuvreDetector(config, cols)
+        self.team = TeamMatcher(config, cols)
+        self.outlines = TrackOutlines(config, cols)
         self.version = 0  # changes whenever rows are added or removed
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
         self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, position of each owner, every)
@@ -118,11 +118,21 @@ class FleetTracker:
     def n_owners(self) -> int:
         return self._max_range.size
 
+    @property
+    def owner(self) -> np.ndarray:
+        """(n,) per row: its vessel (a view of the store's column: stale after a birth or drop)."""
+        return self.cols.owner
+
+    @property
+    def local_id(self) -> np.ndarray:
+        """(n,) per row: its id in its vessel's numbering (a view: stale after a birth or drop)."""
+        return self.cols.local_id
+
     def rows_of(self, owner: int) -> np.ndarray:
         """Bank rows of a vessel's tracks, in bank order (= the order of its own tracker)."""
         got = self._rows_cache.get(owner)
         if got is None or got[0] != self.version:
-            got = (self.version, (self.owner == owner).nonzero()[0] if self.n_owners > 1 else np.arange(self.owner.size))
+            got = (self.version, (self.cols.owner == owner).nonzero()[0] if self.n_owners > 1 else np.arange(self.cols.owner.size))
             self._rows_cache[owner] = got
         return got[1]
 
@@ -188,7 +198,7 @@ class FleetTracker:
         M = z.shape[0]
         count_scans(self._counts, owners, _SCANS, _DETS, m_q)
         n = len(self.bank)
-        row_pos = pos_of[self.owner]
+        row_pos = pos_of[self.cols.owner]
         all_due = every or bool((row_pos >= 0).all())
         rows = np.arange(n) if all_due else (row_pos >= 0).nonzero()[0]
         claimed = np.zeros(M, dtype=bool)
@@ -202,11 +212,11 @@ class FleetTracker:
             self._births(owners, pos_of, every, t_o, z, var, rad, idx, d_pos, claimed)
         bank = self.bank
         if every:  # (every row is a row of a vessel that scanned)
-            self.team.match(slice(None), self.owner, t_own, bank.states, self.mgmt._confirmed, no)
+            self.team.match(slice(None), self.cols.owner, t_own, bank.states, self.cols.confirmed, no)
         else:
-            rows = (pos_of[self.owner] >= 0).nonzero()[0]
-            self.team.match(rows, self.owner[rows], t_own, bank.states_of(rows), self.mgmt._confirmed[rows], no)
-        self.mgmt.note_moved(bank._x)  # (its first two columns: the positions)
+            rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
+            self.team.match(rows, self.cols.owner[rows], t_own, bank.states_of(rows), self.cols.confirmed[rows], no)
+        self.mgmt.note_moved(bank.state_rows)  # (its first two columns: the positions)
 
     def _update(self, rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
                 claimed) -> None:
@@ -220,7 +230,7 @@ class FleetTracker:
         var_row.fill(self._R)
         rpos = row_pos[rows]
         if M:
-            n_q, grouped, q, i, j, start, gi, db, ta, var_p = pair_setup(rows, rpos, p, m_q, self.mgmt._radius, var,
+            n_q, grouped, q, i, j, start, gi, db, ta, var_p = pair_setup(rows, rpos, p, m_q, self.cols.radius, var,
                                                                           rad, occ)
             if q.size:
                 zhat, S = predicted_positions(*bank.prediction_fields(grouped), t_o[row_pos[grouped]])
@@ -238,9 +248,9 @@ class FleetTracker:
         speeds = bank.speeds[sel]
         new_conf = self.mgmt.after_update(sel, t_rows, used[sel], assigned[sel], rad, occ, speeds)
         if new_conf.any():
-            pos, born = bank.positions, self.mgmt._born
+            pos, born = bank.positions, self.cols.born
             for k in rows[new_conf].tolist():
-                o, tid, t = int(self.owner[k]), int(self.local_id[k]), float(t_o[row_pos[k]])
+                o, tid, t = int(self.cols.owner[k]), int(self.cols.local_id[k]), float(t_o[row_pos[k]])
                 self._counts[o, _CONF] += 1
                 self.events[o].append(TrackEvent(t, "confirmed", tid, f"track {tid} confirmed at {_fmt(pos[k])} "
                                                                       f"(born {t - born[k]:.1f} s ago)"))
@@ -259,9 +269,9 @@ class FleetTracker:
                                       np.ascontiguousarray(dets[q].labels, dtype=np.int64))
                 return got[0], got[1], int(idx[assigned[k]])
 
-            self.outlines.grow(orows, hit_all[orows], bank._x[orows, 3], bank._x[orows, :2],  # (speeds, positions)
-                               self.mgmt._radius[orows], returns_of)
-        ids, det, first = last_assignments(rows, hit_all, row_pos, self.local_id, idx, assigned, p)
+            self.outlines.grow(orows, hit_all[orows], bank.state_rows[orows, 3], bank.state_rows[orows, :2],  # (speeds, positions)
+                               self.cols.radius[orows], returns_of)
+        ids, det, first = last_assignments(rows, hit_all, row_pos, self.cols.local_id, idx, assigned, p)
         if ids.size:
             f = first.tolist()
             for q in range(p):
@@ -274,7 +284,7 @@ class FleetTracker:
         (one group, the whole bank, in the usual tick). Returns (n,) bool, the rows used."""
         bank = self.bank
         n = len(bank)
-        if all_due and bank._t_common is not None:  # every row's last cycle at one time (the bank's invariant)
+        if all_due and bank.common_time_s is not None:  # every row's last cycle at one time (the bank's invariant)
             t_q = t_o.tolist()
             if t_q.count(t_q[0]) == len(t_q):  # ... and every vessel's scan at one time
                 return bank.update(zr, t_q[0], meas, vr)
@@ -296,20 +306,20 @@ class FleetTracker:
             n = len(bank)
             if n == 0:
                 return
-            rows, own = slice(None), self.owner
+            rows, own = slice(None), self.cols.owner
             rpos = pos_of[own]
-            pos, cov = bank._x[:, :2], bank._covariances()[:, :2, :2]
+            pos, cov = bank.state_rows[:, :2], bank.covariance_rows()[:, :2, :2]
         else:
-            rows = (pos_of[self.owner] >= 0).nonzero()[0]
+            rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
             if rows.size == 0:
                 return
-            own = self.owner[rows]
+            own = self.cols.owner[rows]
             rpos = pos_of[own]
             pos, cov = bank.positions[rows], bank.position_covariances[rows]
         org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
-        conf = self.mgmt._confirmed[rows]
+        conf = self.cols.confirmed[rows]
         drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
-        ids = self.local_id[rows]
+        ids = self.cols.local_id[rows]
         for go, keep in merged:
             o, t = int(own[go]), float(t_o[rpos[go]])
             self._counts[o, _MERGED] += 1
@@ -327,9 +337,7 @@ class FleetTracker:
                 keep = np.ones(len(bank), dtype=bool)
                 keep[rows[drop]] = False
             bank.keep_rows(keep)
-            for part in (self.mgmt, self.manoeuvres, self.team, self.outlines):
-                part.keep(keep)
-            self.owner, self.local_id = self.owner[keep], self.local_id[keep]
+            self.cols.keep(keep)  # (every per-track column of management, manoeuvres, team and outlines)
             self.version += 1
 
     def _births(self, owners, pos_of, every, t_o, z, var, rad, idx, d_pos, claimed) -> None:
@@ -337,20 +345,17 @@ class FleetTracker:
         cfg, bank = self.config, self.bank
         if np.count_nonzero(claimed) == claimed.size:
             return
-        rows = np.arange(len(bank)) if every else (pos_of[self.owner] >= 0).nonzero()[0]
-        rpos = pos_of[self.owner if every else self.owner[rows]]
+        rows = np.arange(len(bank)) if every else (pos_of[self.cols.owner] >= 0).nonzero()[0]
+        rpos = pos_of[self.cols.owner if every else self.cols.owner[rows]]
         new, bp, own, local, born, t_b, zb, var_b, rad_b = birth_rows(
-            claimed, rows, rpos, d_pos, z, var, rad, bank._x, self.mgmt._radius, owners, t_o, self._next_local)
+            claimed, rows, rpos, d_pos, z, var, rad, bank.state_rows, self.cols.radius, owners, t_o, self._next_local)
         k = new.size
         if k == 0:
             return
         bank.append_tracks(zb, t_b, var_b if cfg.use_detection_variance else None)
-        self.owner = np.concatenate([self.owner, own])
-        self.local_id = np.concatenate([self.local_id, local])
-        self.mgmt.append(t_b, rad_b)
-        self.manoeuvres.append(k)
-        self.team.append(k)
-        self.outlines.append(bank._x[-k:, :2])
+        # every per-track column of management, manoeuvres, team and outlines (the hull anchor: the
+        # new rows' positions, which are zb)
+        self.cols.append(t_b, rad_b, zb, own, local)
         self.version += 1
         add_counts(self._counts, owners, _BORN, born)
         dets = idx[new]
@@ -403,16 +408,16 @@ class FleetTracker:
         (bank order within): ({owner: (first, end)}, rows, ids, times, positions (k, 2), courses,
         speeds, ω̂, radii (array and list), position covariances (k, 2, 2), static flags, team
         mates, slow flags) — per-track values as :meth:`_estimates_of` makes them."""
-        rows, first = confirmed_by_owner(self.mgmt._confirmed, self.owner, self.n_owners)
+        rows, first = confirmed_by_owner(self.cols.confirmed, self.cols.owner, self.n_owners)
         if rows.size == 0:
             return ({},)
         f = first.tolist()
         spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
         t, pos, th, v, w, P = self.bank.estimate_fields(rows)
-        static = self.mgmt._static[rows]
+        static = self.cols.static[rows]
         slow = (static | (v < self.config.static_speed_m_s)).tolist()
-        radius = self.mgmt._radius[rows]
-        return (spans, rows.tolist(), self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
+        radius = self.cols.radius[rows]
+        return (spans, rows.tolist(), self.cols.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
                 radius, radius.tolist(), P, static.tolist(), self.team.members(rows), slow)
 
     def _estimates_of(self, rows) -> list[TrackEstimate]:
@@ -420,19 +425,19 @@ class FleetTracker:
         if rows.size == 0:
             return []
         t, pos, th, v, w, P = self.bank.estimate_fields(rows)
-        static = self.mgmt._static[rows]
+        static = self.cols.static[rows]
         slow = (static | (v < self.config.static_speed_m_s)).tolist()
         # Python values per track in one conversion per field; each track's position and
         # covariance are rows of arrays made for this call (views: no track shares another's).
         k_rows = rows.tolist()
-        radius = self.mgmt._radius[rows]
+        radius = self.cols.radius[rows]
         outline = self.outlines.outline  # (= self.outline(k): pos, radius are row k's)
         outlines = [outline(k, pos[j], radius[j]) if lk else None for j, (k, lk) in enumerate(zip(k_rows, slow))]
-        return track_estimate_rows(self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
+        return track_estimate_rows(self.cols.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
                                    radius.tolist(), P, static.tolist(), self.team.members(rows),
                                    outlines, repeat(None, len(k_rows)))
 
     def outline(self, row: int) -> np.ndarray:
         """(k, 2) CCW outline [m] of the track in bank row ``row``
         (:mod:`mjasc.perception.tracking.outlines`)."""
-        return self.outlines.outline(row, self.bank.positions[row], self.mgmt._radius[row])
+        return self.outlines.outline(row, self.bank.positions[row], self.cols.radius[row])
