@@ -403,3 +403,40 @@ def test_team_matched_rows(seed):
     ta_r, tb_r = c[a_start[qg] + i[got]], bsel[b_start[qg] + j[got]]
     assert ta.dtype == ta_r.dtype and ta.tobytes() == ta_r.tobytes()
     assert tb.dtype == tb_r.dtype and tb.tobytes() == tb_r.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_cycled_rows(seed):
+    """cycled_rows against the numpy form of FleetTracker._update after the cycle (count_used, the rows'
+    times, speeds, used and assigned, hit = used & meas, the rows of vessels with returns and their
+    hit, speeds and positions)."""
+    from mjasc.perception.tracking.step_kernels import cycled_rows
+
+    rng = np.random.default_rng(seed)
+    p = int(rng.integers(1, 5))
+    n_owners = p + int(rng.integers(0, 3))
+    owners = rng.permutation(n_owners)[:p].astype(np.int64)
+    n = int(rng.integers(0, 15))
+    row_pos = rng.integers(-1, p, size=n)
+    all_due = seed % 3 == 0
+    if all_due:
+        row_pos = rng.integers(0, p, size=n)
+    rows = np.arange(n) if all_due else np.flatnonzero(row_pos >= 0)
+    t_o = rng.uniform(0, 10, p)
+    used, meas = rng.random(n) < 0.6, rng.random(n) < 0.7
+    x = rng.normal(size=(n, 4))
+    with_pts = rng.random(p) < 0.7
+    assigned = np.where(meas, rng.integers(0, 5, n), -1)
+    counts = rng.integers(0, 9, size=(n_owners, 7))
+    want_counts = counts.copy()
+    want_counts[owners, 6] += np.bincount(row_pos[rows[used[rows]]], minlength=p)
+    got = cycled_rows(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, 6, assigned)
+    sel = slice(None) if all_due else rows
+    hit = used & meas
+    rpos = row_pos[rows]
+    orows = rows if with_pts.all() else rows[with_pts[rpos]]
+    want = (t_o[row_pos[rows]], x[:, 3].copy()[sel], used[sel], assigned[sel], hit, orows, hit[orows], x[orows, 3],
+            x[orows, :2])
+    for a, b in zip(got, want):
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    assert np.array_equal(counts, want_counts)

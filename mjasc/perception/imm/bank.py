@@ -42,7 +42,8 @@ from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import (SEQUENTIAL_MODELS, combine_covariance_rows, row_fields,
                                               wrapped_states)
-from mjasc.perception.imm.startup import StartupFilters, cv_to_polar
+from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians, cv_to_polar
+from mjasc.perception.imm.startup_rows import gather_startup, handover_rows, update_startup
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -52,6 +53,7 @@ _TINY_PROB = 1e-300  # floor when min_mode_probability = 0: keeps every μ_j, c�
 _EYE2 = np.eye(2)
 _ALL, _NONE = np.ones(1, dtype=bool), np.zeros(1, dtype=bool)  # ``use`` of imm_cycle: every row, none
 _NO_Z = np.zeros((1, 2))  # z of a cycle without measurements (not read)
+_NO_VAR = np.zeros(0)  # (gather_startup: no per-row steps or σ²)
 
 class CycleBuffers:
     """Room for what :func:`imm_cycle` writes for up to ``cap`` tracks × r models: two sides
@@ -239,16 +241,17 @@ class IMMBank(PredictiveDensity):
 
     def _handover(self, rows, xc=None, cv_P=None):
         """Refresh the estimate of start-up tracks ``rows``; move those ready into the IMM. xc (k, 4),
-        cv_P (k, 4, 4): their filters' ``x[rows]``, ``P[rows]`` when the caller has them."""
-        s, P = self._startup.polar(rows) if xc is None else cv_to_polar(xc, cv_P)
-        self._x[rows] = s
-        self._Pc[rows] = P
-        ready = self._startup.hand_over(rows, s, cv_P)
-        if ready.any():
-            done = rows[ready]
-            self._s[done] = s[ready][:, None, :]
-            self._P[done] = P[ready][:, None, :, :]
-            self._mu[done] = self._mu0
+        cv_P (k, 4, 4): their filters' ``x[rows]``, ``P[rows]`` when the caller has them. (|v|, atan2
+        and J P Jᵀ of :func:`cv_to_polar` numpy's, the rest one compiled call: :func:`handover_rows`.)"""
+        st = self._startup
+        if xc is None:
+            xc, cv_P = st.x[rows], st.P[rows]
+        vx, vy = xc[:, 2], xc[:, 3]
+        speed = np.hypot(vx, vy)
+        J = _polar_jacobians(xc, speed)
+        st.n_active -= handover_rows(rows, xc, speed, np.arctan2(vy, vx), J @ cv_P @ np.swapaxes(J, 1, 2), cv_P,
+                                     st.n_meas, st.snr2, st.max_updates, st.active, self._x, self._Pc, self._s,
+                                     self._P, self._mu, self._mu0)
 
     def add_process_noise(self, rows, heading_var_rad2=0.0, speed_var_m2_s2=0.0) -> None:
         """Manoeuvre handling: add ``heading_var_rad2`` to P_θθ and ``speed_var_m2_s2`` to P_VV of
@@ -481,12 +484,16 @@ class IMMBank(PredictiveDensity):
         # the cycle updated the rows ``ok`` of the IMM rows, coasted the others; the start-up rows
         # keep their (unused) IMM state, their x is set by the hand-over below
         s_new, P_new, mu_new, x_new, _ = side
-        if any_warm:
+        if any_warm:  # the start-up filters' cycle (StartupFilters.update_rows): the products numpy's
             rows_w = rows = warm.nonzero()[0]  # (still the start-up rows at the hand-over below)
-            var = self._var if mv is None else mv[rows]
-            use_w = use[rows]
-            ok_w, xc_w, P_w = self._startup.update_rows(rows, np.full(rows.size, dtm) if t is None else dt[rows],
-                                                        z[rows], var, use_w, self._gate)
+            st = self._startup
+            xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
+                                                              dtm if t is None else 0.0,
+                                                              z, use, _NO_VAR if mv is None else mv, mv is not None)
+            xc_w = (F @ xc[..., None])[..., 0]
+            P_w = F @ Pc @ np.swapaxes(F, 1, 2)
+            ok_w = update_startup(rows, xc_w, P_w, dtw**3, dtw, float(st.acceleration_noise), zw,
+                                  self._var if mv is None else var_w, use_w, self._gate, st.x, st.P, st.n_meas)
             warm_rows(rows, ok_w, use_w, ok, inside, self._s, self._P, self._mu, s_new, P_new, mu_new)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
         self._side = out

@@ -46,7 +46,7 @@ from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.step_kernels import (add_counts, apply_assignment, birth_rows, confirmed_by_owner,
-                                                    count_scans, count_used, last_assignments, measurement_rows,
+                                                    count_scans, cycled_rows, last_assignments, measurement_rows,
                                                     pair_setup, select_detections)
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
@@ -242,11 +242,11 @@ class FleetTracker:
         zr, meas = measurement_rows(assigned, z)
         vr = var_row if cfg.use_detection_variance else None
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
-        count_used(self._counts, owners, _ASSOC, row_pos, rows, used)
-        sel = slice(None) if all_due else rows
-        t_rows = t_o[row_pos[rows]]
-        speeds = bank.speeds[sel]
-        new_conf = self.mgmt.after_update(sel, t_rows, used[sel], assigned[sel], rad, occ, speeds)
+        x = bank.state_rows
+        with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)], dtype=bool)
+        t_rows, speeds, u_rows, a_rows, hit_all, orows, o_hit, o_speeds, o_pos = cycled_rows(
+            rows, row_pos, t_o, used, meas, x, with_pts, self._counts, owners, _ASSOC, assigned)
+        new_conf = self.mgmt.after_update(rows, t_rows, u_rows, a_rows, rad, occ, speeds)
         if new_conf.any():
             pos, born = bank.positions, self.cols.born
             for k in rows[new_conf].tolist():
@@ -254,9 +254,6 @@ class FleetTracker:
                 self._counts[o, _CONF] += 1
                 self.events[o].append(TrackEvent(t, "confirmed", tid, f"track {tid} confirmed at {_fmt(pos[k])} "
                                                                       f"(born {t - born[k]:.1f} s ago)"))
-        with_pts = [points[q] is not None and dets[q] is not None for q in range(p)]
-        orows = rows if all(with_pts) else rows[np.array(with_pts)[rpos]]
-        hit_all = used & meas  # (n,) rows updated with their detection
         if orows.size:
             scans = {}
 
@@ -269,8 +266,7 @@ class FleetTracker:
                                       np.ascontiguousarray(dets[q].labels, dtype=np.int64))
                 return got[0], got[1], int(idx[assigned[k]])
 
-            self.outlines.grow(orows, hit_all[orows], bank.state_rows[orows, 3], bank.state_rows[orows, :2],  # (speeds, positions)
-                               self.cols.radius[orows], returns_of)
+            self.outlines.grow(orows, o_hit, o_speeds, o_pos, self.cols.radius[orows], returns_of)
         ids, det, first = last_assignments(rows, hit_all, row_pos, self.cols.local_id, idx, assigned, p)
         if ids.size:
             f = first.tolist()

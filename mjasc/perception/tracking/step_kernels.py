@@ -39,6 +39,10 @@ as references, bit for bit):
   ``local_id[got]`` and detections ``idx[assigned[got]]``, and each vessel's first position in them.
 * :func:`measurement_rows` — the rows' measurements of the IMM cycle: ``meas = assigned >= 0``,
   ``zr`` NaN but ``zr[meas] = z[assigned[meas]]``.
+* :func:`cycled_rows` — what the step reads of the cycled rows ``rows``, gathered in one pass:
+  :func:`count_used`; ``t_rows = t_o[row_pos[rows]]``, ``speeds = x[rows, 3]``, ``used[rows]``,
+  ``assigned[rows]``, ``hit = used & meas`` (n,), and the rows of vessels with returns
+  ``orows = rows[with_pts[row_pos[rows]]]`` with ``hit[orows]``, ``x[orows, 3]`` and ``x[orows, :2]``.
 """
 
 from __future__ import annotations
@@ -52,7 +56,7 @@ from mjasc.perception.tracking.pair_kernels import block_pairs_flat
 
 __all__ = ["select_detections", "pair_setup", "admissible_pairs", "apply_assignment", "birth_rows",
            "confirmed_by_owner", "add_counts", "count_scans", "count_used", "last_assignments",
-           "measurement_rows"]
+           "measurement_rows", "cycled_rows"]
 
 
 @kernel
@@ -309,3 +313,47 @@ def last_assignments(rows, hit, row_pos, local_id, idx, assigned, p):
             det[c] = idx[assigned[k]]
             fill[q] = c + 1
     return ids, det, first
+
+
+@kernel
+def cycled_rows(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned):
+    """(t_rows, speeds, used_rows, assigned_rows (k,), hit (n,), orows, hit_o, speeds_o (g,), pos_o (g, 2))
+    of the cycled ``rows`` (k,) (module docstring), with ``counts[owners[row_pos[r]], col] += 1`` for
+    each used row r of them (:func:`count_used`). x (n, ≥ 4) the bank's states, used and meas (n,)
+    bool, with_pts (p,) bool per vessel position, t_o (p,) [s], assigned (n,)."""
+    k = rows.size
+    n = used.size
+    t_rows = np.empty(k)
+    speeds = np.empty(k)
+    u_rows = np.empty(k, dtype=np.bool_)
+    a_rows = np.empty(k, dtype=assigned.dtype)
+    hit = np.empty(n, dtype=np.bool_)
+    for r in range(n):
+        hit[r] = used[r] and meas[r]
+    g = 0
+    for a in range(k):
+        r = rows[a]
+        q = row_pos[r]
+        t_rows[a] = t_o[q]
+        speeds[a] = x[r, 3]
+        u_rows[a] = used[r]
+        a_rows[a] = assigned[r]
+        if used[r]:
+            counts[owners[q], col] += 1
+        if with_pts[q]:
+            g += 1
+    orows = np.empty(g, dtype=rows.dtype)
+    hit_o = np.empty(g, dtype=np.bool_)
+    speeds_o = np.empty(g)
+    pos_o = np.empty((g, 2))
+    c = 0
+    for a in range(k):
+        r = rows[a]
+        if with_pts[row_pos[r]]:
+            orows[c] = r
+            hit_o[c] = hit[r]
+            speeds_o[c] = x[r, 3]
+            pos_o[c, 0] = x[r, 0]
+            pos_o[c, 1] = x[r, 1]
+            c += 1
+    return t_rows, speeds, u_rows, a_rows, hit, orows, hit_o, speeds_o, pos_o
