@@ -146,39 +146,21 @@ class TrackManagement:
         """
         cfg, cols = self.config, self.cols
         k = positions.shape[0]
-        reason = [""] * k
-        merged = []
-        conf = cols.confirmed[rows]
         idx = np.arange(cols.n)[rows] if isinstance(rows, slice) else rows
         t = np.full(k, float(t_s)) if np.ndim(t_s) == 0 else t_s
         mr = np.full(k, float(max_range_m)) if np.ndim(max_range_m) == 0 else max_range_m
-        drop, code = np.empty(k, dtype=bool), np.empty(k, dtype=np.int8)
-        lam, since, rng = np.empty(k), np.empty(k), np.empty(k)  # (rng NaN: no origin)
-        _losses(idx, t, cols.hist, cols.scans, cols.confirmed, cols.last, self._popcount, position_covariances,
-                positions, origins_m, mr, int(cfg.confirm_window), int(cfg.confirm_hits), float(cfg.max_coast_s),
-                float(cfg.max_position_std_m**2), float(cfg.range_margin_m), drop, code, lam, since, rng)
+        drop, code, lam, since, rng, go, kept = drop_rows(
+            idx, t, np.ascontiguousarray(group, dtype=np.int64), cols.hist, cols.scans, cols.confirmed, cols.last,
+            cols.n_upd, cols.radius, self._popcount, position_covariances, positions, origins_m, mr,
+            int(cfg.confirm_window), int(cfg.confirm_hits), float(cfg.max_coast_s), float(cfg.max_position_std_m**2),
+            float(cfg.range_margin_m), float(cfg.merge_fraction))
+        reason = [""] * k
         for j in code.nonzero()[0].tolist():  # why the confirmed ones are lost
             c = code[j]
             reason[j] = (f"not seen for {since[j]:.1f} s" if c == 1 else
                          f"position uncertainty {math.sqrt(lam[j]):.1f} m" if c == 2 else
                          f"out of range ({rng[j]:.0f} m)")
-        # duplicates (same vessel): the track with fewer updates goes
-        live = (~drop).nonzero()[0]
-        if live.size > 1:
-            live = live[np.argsort(group[live], kind="stable")]
-            a, b = merge_candidates(live, np.ascontiguousarray(group[live], dtype=np.int64),
-                                    np.ascontiguousarray(positions, dtype=float), cols.radius[rows],
-                                    float(cfg.merge_fraction))
-            n_upd = cols.n_upd[rows]
-            for a_, b_ in zip(a.tolist(), b.tolist()):
-                if drop[a_] or drop[b_]:
-                    continue
-                keep, go = (a_, b_) if (conf[a_], n_upd[a_]) >= (conf[b_], n_upd[b_]) else (b_, a_)
-                drop[go] = True
-                reason[go] = ""
-                if conf[go]:
-                    merged.append((go, keep))
-        return drop, reason, merged
+        return drop, reason, list(zip(go.tolist(), kept.tolist()))
 
     def note_moved(self, positions: np.ndarray) -> None:
         """After a scan: anchor the tracks confirmed for the first time where they are (positions
@@ -249,6 +231,73 @@ def _losses(idx, t, hist, scans, confirmed, last, popcount, Pc, pos, org, max_ra
         if not d and dist > max_range[j] + margin:
             d, r = True, 3
         drop[j], code[j], lam[j], since[j] = d, r, lm, s
+
+
+@kernel
+def drop_rows(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcount, Pc, pos, org, max_range, window, hits,
+              max_coast, max_var, margin, fraction):
+    """:meth:`TrackManagement.drops` of the rows k = idx[j] (k,) in one pass: (drop, code, lam, since, rng
+    (k,), go, kept (g,)) — the losses of :func:`_losses`, then the duplicates among the tracks not
+    dropped: the live positions sorted stably by their vessel ``group`` (k,),
+    :func:`~mjasc.perception.tracking.pair_kernels.merge_candidates` of them (positions pos (k, 2) [m],
+    radii ``radius[idx]``), and each close pair whose tracks are both still kept, in the order found:
+    the one with fewer updates goes (confirmed before tentative: ``(confirmed, n_upd)`` compared as
+    tuples, the first kept on a tie); go, kept the positions of the confirmed ones that went and of
+    the track each was merged into."""
+    k = idx.size
+    drop = np.empty(k, dtype=np.bool_)
+    code = np.empty(k, dtype=np.int8)
+    lam = np.empty(k)
+    since = np.empty(k)
+    rng = np.empty(k)
+    _losses(idx, t, hist, scans, confirmed, last, popcount, Pc, pos, org, max_range, window, hits, max_coast, max_var,
+            margin, drop, code, lam, since, rng)
+    n_live = 0
+    for j in range(k):
+        if not drop[j]:
+            n_live += 1
+    go = np.empty(0, dtype=np.int64)
+    kept = np.empty(0, dtype=np.int64)
+    if n_live <= 1:
+        return drop, code, lam, since, rng, go, kept
+    live = np.empty(n_live, dtype=np.int64)
+    c = 0
+    for j in range(k):
+        if not drop[j]:
+            live[c] = j
+            c += 1
+    keys = np.empty(n_live, dtype=np.int64)
+    for c in range(n_live):
+        keys[c] = group[live[c]]
+    order = np.argsort(keys, kind="mergesort")
+    live_s = np.empty(n_live, dtype=np.int64)
+    keys_s = np.empty(n_live, dtype=np.int64)
+    for c in range(n_live):
+        live_s[c] = live[order[c]]
+        keys_s[c] = keys[order[c]]
+    rad = np.empty(k)
+    for j in range(k):
+        rad[j] = radius[idx[j]]
+    a, b = merge_candidates(live_s, keys_s, pos, rad, fraction)
+    go = np.empty(a.size, dtype=np.int64)
+    kept = np.empty(a.size, dtype=np.int64)
+    m = 0
+    for c in range(a.size):
+        a_ = a[c]
+        b_ = b[c]
+        if drop[a_] or drop[b_]:
+            continue
+        ca, cb = confirmed[idx[a_]], confirmed[idx[b_]]
+        if ca > cb or (ca == cb and n_upd[idx[a_]] >= n_upd[idx[b_]]):
+            keep_, go_ = a_, b_
+        else:
+            keep_, go_ = b_, a_
+        drop[go_] = True
+        if confirmed[idx[go_]]:
+            go[m] = go_
+            kept[m] = keep_
+            m += 1
+    return drop, code, lam, since, rng, go[:m], kept[:m]
 
 
 @kernel
