@@ -440,3 +440,44 @@ def test_cycled_rows(seed):
     for a, b in zip(got, want):
         assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
     assert np.array_equal(counts, want_counts)
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_team_pairs_and_distances(seed):
+    """team_pairs and team_distances against the numpy form of TeamMatcher.match before them (team_blocks,
+    block_pairs_loop, the states gathered, V·cos θ and V·sin θ, broadcast_distances, the gate)."""
+    from mjasc.perception.tracking.pair_kernels import block_pairs_loop, broadcast_distances
+    from mjasc.perception.tracking.team import team_blocks, team_distances, team_pairs
+
+    rng = np.random.default_rng(seed)
+    n_owners = int(rng.integers(1, 4))
+    k = int(rng.integers(0, 10))
+    owner = rng.integers(0, n_owners, size=k).astype(np.int64)
+    confirmed = rng.random(k) < 0.6
+    states = np.column_stack([rng.uniform(-30, 30, (k, 2)), rng.uniform(-np.pi, np.pi, k), rng.uniform(0, 5, k)])
+    B = int(rng.integers(0, 6))
+    b_owner = np.sort(rng.integers(0, n_owners, size=B)).astype(np.int64)
+    t_b = rng.random(B) * 5
+    p_b = rng.uniform(-30, 30, (B, 2))
+    t_s = rng.random(n_owners) * 5
+    t_s[rng.random(n_owners) < 0.2] = np.nan
+    got = team_pairs(confirmed, owner, t_s, b_owner, t_b, 2.0, n_owners, states)
+    want = team_blocks(confirmed, owner, t_s, b_owner, t_b, 2.0, n_owners)
+    for a, b in zip(got[:6], want):
+        assert a.tobytes() == b.tobytes()
+    c, bsel, n_a, n_b, a_start, b_start = want
+    if c.size == 0 or bsel.size == 0:
+        return
+    q, i, j, start = block_pairs_loop(n_a, n_b)
+    for a, b in zip(got[6:10], (q, i, j, start)):
+        assert a.tobytes() == b.tobytes()
+    x = states[c]
+    assert got[10].tobytes() == x.tobytes()
+    vx, vy = x[:, 3] * np.cos(x[:, 2]), x[:, 3] * np.sin(x[:, 2])
+    gate = 12.0
+    dist = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, t_s, t_b, p_b, (2.0 * gate) ** 2)
+    th = got[10][:, 2]
+    d, inside, n_in = team_distances(q, i, j, a_start, b_start, bsel, got[10], np.cos(th), np.sin(th), t_s, t_b, p_b,
+                                     (2.0 * gate) ** 2, gate)
+    assert d.tobytes() == dist.tobytes() and np.array_equal(inside, dist <= gate)
+    assert n_in == np.count_nonzero(dist <= gate)

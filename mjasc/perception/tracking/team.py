@@ -94,18 +94,15 @@ class TeamMatcher:
             return
         cfg = self.config
         b_owner, names, tb, pb = self._arrays()
-        c, bsel, n_a, n_b, a_start, b_start = team_blocks(confirmed, owner, t_s, b_owner, tb,
-                                                          float(cfg.team_max_age_s), n_owners)
+        c, bsel, n_a, n_b, a_start, b_start, q, i, j, start, x = team_pairs(
+            confirmed, owner, t_s, b_owner, tb, float(cfg.team_max_age_s), n_owners, states)
         if c.size == 0 or bsel.size == 0:
             return
-        q, i, j, start = block_pairs_loop(n_a, n_b)
-        x = states[c]  # per confirmed track; a track meets every broadcast of its vessel
-        vx, vy = x[:, 3] * np.cos(x[:, 2]), x[:, 3] * np.sin(x[:, 2])
         gate = float(cfg.team_match_distance_m)
-        dist = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, np.ascontiguousarray(t_s, dtype=float),
-                                   tb, pb, (2.0 * gate) ** 2)  # (+inf far outside the gate: never used)
-        inside = dist <= gate
-        if not np.count_nonzero(inside):
+        th = x[:, 2]  # (a track meets every broadcast of its vessel: vx = V cos θ, vy = V sin θ)
+        dist, inside, n_in = team_distances(q, i, j, a_start, b_start, bsel, x, np.cos(th), np.sin(th), t_s, tb, pb,
+                                            (2.0 * gate) ** 2, gate)  # (+inf far outside the gate: never used)
+        if not n_in:
             return
         got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
         ta, tb_i = matched_rows(got, q, i, j, a_start, b_start, c, bsel)
@@ -153,6 +150,41 @@ def team_blocks(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners):
             c[fill[o]] = k
             fill[o] += 1
     return c, fresh[:m], n_a, n_b, a_start, b_start
+
+
+@kernel
+def team_pairs(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states):
+    """:func:`team_blocks`, the (track, broadcast) pairs of its blocks
+    (:func:`~mjasc.perception.tracking.pair_kernels.block_pairs_loop` of n_a, n_b) and the states
+    ``states[c]`` (g, 4) of the confirmed tracks c, in one call: (c, bsel, n_a, n_b, a_start,
+    b_start, q, i, j, start, x)."""
+    c, bsel, n_a, n_b, a_start, b_start = team_blocks(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners)
+    q, i, j, start = block_pairs_loop(n_a, n_b)
+    x = np.empty((c.size, 4))
+    for a in range(c.size):
+        for b in range(4):
+            x[a, b] = states[c[a], b]
+    return c, bsel, n_a, n_b, a_start, b_start, q, i, j, start, x
+
+
+@kernel
+def team_distances(q, i, j, a_start, b_start, bsel, x, cos_th, sin_th, t_s, t_b, p_b, far_m2, gate):
+    """(dist (P,), inside (P,), count inside) of the pairs (q, i, j):
+    :func:`~mjasc.perception.tracking.pair_kernels.broadcast_distances` with the tracks' velocities
+    ``vx = V·cos θ``, ``vy = V·sin θ`` (x (A, 4), cos_th, sin_th (A,) numpy's), and ``dist ≤ gate``."""
+    k = x.shape[0]
+    vx = np.empty(k)
+    vy = np.empty(k)
+    for a in range(k):
+        vx[a] = x[a, 3] * cos_th[a]
+        vy[a] = x[a, 3] * sin_th[a]
+    dist = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, t_s, t_b, p_b, far_m2)
+    inside = np.empty(dist.size, dtype=np.bool_)
+    n_in = 0
+    for a in range(dist.size):
+        inside[a] = dist[a] <= gate
+        n_in += inside[a]
+    return dist, inside, n_in
 
 
 @kernel
