@@ -110,7 +110,33 @@ def _numpy_cycle_bank():
     hand_over): the bank's general cycle as it was, for the run test below."""
     import mjasc.perception.imm.bank as bank_mod
 
+    from mjasc.perception.imm.bank_kernels import appended_rows
+
     class _Ref(IMMBank):
+        def _append(self, z, t, ids, meas_var) -> None:  # (IMMBank._append before born_rows)
+            k = z.shape[0]
+            n_before = self._ids.size
+            n = n_before + k
+            cyc = self._cyc
+            if cyc is None or cyc.cap < n or self._side is None:
+                cyc = self._own_state(n)
+            s, P, mu, x, _ = cyc.views(self._side, n)
+            xc, Pcv = self._startup.append_started(z, self._R, meas_var)
+            sp, Pp = cv_to_polar(xc, Pcv)
+            self._ids, self._t, self._Pc, self._n_gated, self._reasons, one_time = appended_rows(
+                s, P, mu, x, n_before, self._mu0, sp, self._ids, self._t, self._Pc, self._n_gated, self._reasons,
+                ids, np.ascontiguousarray(t, dtype=float), Pp)
+            self._s, self._P, self._mu, self._x = s, P, mu, x
+            tc, t0 = self._t_common, float(t[0])
+            self._t_common = t0 if (n_before == 0 or tc == t0) and one_time else None
+            rows = np.arange(n_before, n)
+            ready = self._startup.hand_over(rows, sp, Pcv)
+            if ready.any():
+                done = rows[ready]
+                self._s[done] = sp[ready][:, None, :]
+                self._P[done] = Pp[ready][:, None, :, :]
+                self._mu[done] = self._mu0
+
         def _handover(self, rows, xc=None, cv_P=None):
             s, P = self._startup.polar(rows) if xc is None else cv_to_polar(xc, cv_P)
             self._x[rows] = s
@@ -128,10 +154,13 @@ def _numpy_cycle_bank():
 @pytest.mark.parametrize("seed", range(4))
 def test_bank_run_with_startup_rows_equals_numpy_handover(seed):
     """A run with births, coasting, gated rows and restarts: the bank's state after every cycle equals that of
-    a bank whose hand-over is the numpy form (the start-up filters' update is compared above)."""
+    a bank whose births and hand-over are the numpy form (the start-up filters' update is compared above)."""
+    from mjasc.perception.imm.config import IMMConfig
+
     Ref, _ = _numpy_cycle_bank()
     rng = np.random.default_rng(seed)
-    a, b = IMMBank(), Ref()
+    cfg = IMMConfig() if seed < 2 else IMMConfig(init_max_updates=1)  # (then every birth hands over at once)
+    a, b = IMMBank(cfg), Ref(cfg)
     truth = rng.normal(size=(6, 2)) * 40.0
     vel = rng.normal(size=(6, 2)) * 2.0
     for bank in (a, b):
@@ -140,9 +169,12 @@ def test_bank_run_with_startup_rows_equals_numpy_handover(seed):
         t = step * 0.2
         if step % 7 == 0:
             z0 = truth[3:] + vel[3:] * t
-            var0 = rng.uniform(0.1, 1.0, 3)
+            var0 = rng.uniform(0.1, 1.0, 3) if step % 14 else None
             for bank in (a, b):
                 bank.add_tracks(z0, t, var0)
+            for name in ("_x", "_s", "_P", "_mu", "_t", "_ids", "_Pc"):
+                _same(getattr(a, name), getattr(b, name))
+            assert a._t_common == b._t_common and a._startup.n_active == b._startup.n_active
         n = len(a)
         k = min(n, 6)
         z = np.empty((n, 2))

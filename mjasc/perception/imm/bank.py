@@ -35,15 +35,15 @@ import numpy as np
 
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.bank_kernels import (ACCEPTED, GATED, NON_FINITE, NOT_MEASURED, REJECTION_REASONS, RESTARTED,
-                                                appended_rows, kept_rows, measurements, rejections, warm_rows)
+                                                kept_rows, measurements, rejections, warm_rows)
 from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import imm_cycle, turn_rate, wrap
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import (SEQUENTIAL_MODELS, combine_covariance_rows, row_fields,
                                               wrapped_states)
-from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians, cv_to_polar
-from mjasc.perception.imm.startup_rows import gather_startup, handover_rows, update_startup
+from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
+from mjasc.perception.imm.startup_rows import born_rows, gather_startup, handover_rows, update_startup
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -215,22 +215,21 @@ class IMMBank(PredictiveDensity):
         if cyc is None or cyc.cap < n or self._side is None:
             cyc = self._own_state(n)
         s, P, mu, x, _ = cyc.views(self._side, n)  # the state's rows, then spare ones: zero, but μ
-        xc, Pcv = self._startup.append_started(z, self._R, meas_var)
-        sp, Pp = cv_to_polar(xc, Pcv)
-        # the new rows' state (zero, μ0, x = the start-up estimate) and per-track arrays: one compiled call
-        self._ids, self._t, self._Pc, self._n_gated, self._reasons, one_time = appended_rows(
-            s, P, mu, x, n_before, self._mu0, sp, self._ids, self._t, self._Pc, self._n_gated, self._reasons,
-            ids, np.ascontiguousarray(t, dtype=float), Pp)
+        st = self._startup
+        xc, Pcv = st.append_started(z, self._R, meas_var)
+        # the new rows' state (zero, μ0, x = the start-up estimate), per-track arrays and hand-over (as
+        # :meth:`_start`): one compiled call around :func:`cv_to_polar`'s numpy products
+        vx, vy = xc[:, 2], xc[:, 3]
+        speed = np.hypot(vx, vy)
+        J = _polar_jacobians(xc, speed)
+        self._ids, self._t, self._Pc, self._n_gated, self._reasons, one_time, off = born_rows(
+            s, P, mu, x, n_before, self._mu0, self._ids, self._t, self._Pc, self._n_gated, self._reasons,
+            ids, np.ascontiguousarray(t, dtype=float), xc, speed, np.arctan2(vy, vx), J @ Pcv @ np.swapaxes(J, 1, 2),
+            Pcv, st.n_meas, st.snr2, st.max_updates, st.active)
+        st.n_active -= off
         self._s, self._P, self._mu, self._x = s, P, mu, x
         tc, t0 = self._t_common, float(t[0])
         self._t_common = t0 if (n_before == 0 or tc == t0) and one_time else None
-        rows = np.arange(n_before, n)
-        ready = self._startup.hand_over(rows, sp, Pcv)
-        if ready.any():
-            done = rows[ready]
-            self._s[done] = sp[ready][:, None, :]
-            self._P[done] = Pp[ready][:, None, :, :]
-            self._mu[done] = self._mu0
 
     def _start(self, rows, z, meas_var=None):
         """(Re)start tracks ``rows`` from measurements z (k, 2): CV filter at z, v = 0 ± σ_v0;

@@ -17,6 +17,10 @@ new track — nearly every tick, for clutter — ran ~25 numpy and kernel calls 
   estimate, the test :func:`~mjasc.perception.imm.startup.ready_for_handover`, and the ready rows
   made inactive with their IMM state started (every model at the polar state, μ = μ0).
 
+A bank's births (:meth:`IMMBank._append`) are :func:`born_rows`: the new rows appended
+(:func:`~mjasc.perception.imm.bank_kernels.appended_rows`) and handed over at once
+(:func:`handover_rows`), around the start-up filters' |v|, atan2 and ``J P Jᵀ``.
+
 Each is its numpy form's expressions in its order, per row (tests/test_imm_startup_rows.py keeps
 the numpy form as the reference, bit for bit).
 """
@@ -28,10 +32,11 @@ import math
 import numpy as np
 
 from mjasc.core.compiled import kernel
+from mjasc.perception.imm.bank_kernels import appended_rows
 from mjasc.perception.imm.compiled_cycle import position_update
 from mjasc.perception.imm.startup import _add_cv_noise, _polar_finish
 
-__all__ = ["gather_startup", "update_startup", "handover_rows"]
+__all__ = ["gather_startup", "update_startup", "handover_rows", "born_rows"]
 
 
 @kernel
@@ -123,3 +128,20 @@ def handover_rows(rows, xc, speed, theta, JPJ, cv_P, n_meas, snr2, max_updates, 
                     for b in range(4):
                         P[r, m, a, b] = Pp[j, a, b]
     return off
+
+
+@kernel
+def born_rows(s, P, mu, x, n0, mu0, ids, t, Pc, n_gated, reasons, new_ids, new_t, xc, speed, theta, JPJ, cv_P, n_meas,
+              snr2, max_updates, active):
+    """k new rows after the first n0 of a bank's state views s, P, μ, x (in place) and its per-track
+    arrays (ids, t, Pc, n_gated, reasons: returned as new arrays, with whether every new t equals the
+    first, :func:`~mjasc.perception.imm.bank_kernels.appended_rows`), then the hand-over of the new
+    rows n0 … n0 + k − 1 (:func:`handover_rows`: their estimate, the ready ones in the IMM; the
+    start-up filters' xc (k, 4), cv_P (k, 4, 4), n_meas and active already appended). Returns
+    (ids, t, Pc, n_gated, reasons, one_time, number of rows made inactive)."""
+    k = new_t.size
+    ids2, t2, Pc2, g2, r2, one_time = appended_rows(s, P, mu, x, n0, mu0, np.zeros((k, 4)), ids, t, Pc, n_gated,
+                                                    reasons, new_ids, new_t, np.zeros((k, 4, 4)))
+    rows = np.arange(n0, n0 + k)
+    off = handover_rows(rows, xc, speed, theta, JPJ, cv_P, n_meas, snr2, max_updates, active, x, Pc2, s, P, mu, mu0)
+    return ids2, t2, Pc2, g2, r2, one_time, off
