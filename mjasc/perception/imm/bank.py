@@ -507,7 +507,7 @@ class IMMBank(PredictiveDensity):
             t = self._t  # (for the log below)
         if any_warm:
             self._handover(rows_w, xc_w, P_w)
-        if restart.any():
+        if np.count_nonzero(restart):
             rows = restart.nonzero()[0]
             self._start(rows, z[rows], None if mv is None else mv[rows])
             reasons[rows] = RESTARTED

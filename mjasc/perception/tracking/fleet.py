@@ -100,7 +100,7 @@ class FleetTracker:
         self._next_local = np.zeros(0, dtype=np.int64)
         self._counts = np.zeros((0, len(COUNT_KEYS)), dtype=np.int64)
         self.events: list[list[TrackEvent]] = []
-        self._last_assign: list[tuple[np.ndarray, np.ndarray]] = []
+        self._last_assign: list[list] = []  # per vessel: its last scan's (ids, detections) pieces (updates, births)
 
     # ------------------------------------------------------------------ vessels
     def add_owner(self, max_range_m: float = math.inf) -> int:
@@ -111,7 +111,7 @@ class FleetTracker:
         self._next_local = np.append(self._next_local, 0)
         self._counts = np.vstack([self._counts, np.zeros((1, len(COUNT_KEYS)), dtype=np.int64)])
         self.events.append([])
-        self._last_assign.append((np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)))
+        self._last_assign.append([])
         return k
 
     @property
@@ -141,7 +141,10 @@ class FleetTracker:
 
     def last_assignment(self, owner: int) -> dict:
         """{track id: detection index} of the vessel's last scan (updates and births)."""
-        ids, dets = self._last_assign[owner]
+        pieces = self._last_assign[owner]
+        if not pieces:
+            return {}
+        ids, dets = np.concatenate([a for a, _ in pieces]), np.concatenate([b for _, b in pieces])
         return dict(zip(ids.tolist(), dets.tolist()))
 
     def set_team_positions(self, owner: int, positions: dict) -> None:
@@ -202,9 +205,8 @@ class FleetTracker:
         all_due = every or bool((row_pos >= 0).all())
         rows = np.arange(n) if all_due else (row_pos >= 0).nonzero()[0]
         claimed = np.zeros(M, dtype=bool)
-        empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
         for o in owners.tolist():
-            self._last_assign[o] = empty
+            self._last_assign[o] = []
         if rows.size:
             self._update(rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points, claimed)
         self._prune(owners, pos_of, every, t_o, origins)
@@ -247,7 +249,7 @@ class FleetTracker:
         t_rows, speeds, u_rows, a_rows, hit_all, orows, o_hit, o_speeds, o_pos = cycled_rows(
             rows, row_pos, t_o, used, meas, x, with_pts, self._counts, owners, _ASSOC, assigned)
         new_conf = self.mgmt.after_update(rows, t_rows, u_rows, a_rows, rad, occ, speeds)
-        if new_conf.any():
+        if np.count_nonzero(new_conf):
             pos, born = bank.positions, self.cols.born
             for k in rows[new_conf].tolist():
                 o, tid, t = int(self.cols.owner[k]), int(self.cols.local_id[k]), float(t_o[row_pos[k]])
@@ -273,7 +275,7 @@ class FleetTracker:
             for q in range(p):
                 a, b = f[q], f[q + 1]
                 if b > a:
-                    self._last_assign[owners[q]] = (ids[a:b], det[a:b])
+                    self._last_assign[owners[q]] = [(ids[a:b], det[a:b])]
 
     def _cycle(self, rows, all_due, row_pos, t_o, zr, meas, vr) -> np.ndarray:
         """Step 3: one IMM cycle of ``rows``, per group of vessels sharing their last and new time
@@ -326,7 +328,7 @@ class FleetTracker:
                 self._counts[o, _LOST] += 1
                 self.events[o].append(TrackEvent(float(t_o[rpos[j]]), "lost", int(ids[j]),
                                                  f"track {ids[j]} lost: {reason[j]}"))
-        if drop.any():
+        if np.count_nonzero(drop):
             if every:
                 keep = ~drop
             else:
@@ -366,8 +368,7 @@ class FleetTracker:
             events = self.events[o]
             for tid, zj in zip(ll[a:b], zl[a:b]):
                 events.append(TrackEvent(t, "born", tid, f"track {tid} born at {_fmt(zj)}"))
-            a_ids, a_dets = self._last_assign[o]
-            self._last_assign[o] = (np.concatenate([a_ids, local[a:b]]), np.concatenate([a_dets, dets[a:b]]))
+            self._last_assign[o].append((local[a:b], dets[a:b]))
             a = b
 
     # ------------------------------------------------------------------ outputs

@@ -69,15 +69,14 @@ class TrackColumns:
 
     def _views(self) -> None:
         """The columns' views of the first n rows."""
-        n, f, i, b, o = self.n, self._f, self._i, self._b, self._o
-        self.born, self.last, self.radius, self.nis = f[BORN, :n], f[LAST, :n], f[RADIUS, :n], f[NIS, :n]
-        self.anchor = f[ANCHOR_X:ANCHOR_Y + 1, :n].T  # (n, 2) [m]
-        self.hull_anchor = f[HULL_X:HULL_Y + 1, :n].T  # (n, 2) [m]
-        self.owner, self.local_id = i[OWNER, :n], i[LOCAL_ID, :n]
-        self.hist, self.scans, self.n_upd = i[HIST, :n], i[SCANS, :n], i[N_UPD, :n]
-        self.confirmed, self.static, self.anchored = b[CONFIRMED, :n], b[STATIC, :n], b[ANCHORED, :n]
-        self.moved, self.manoeuvring = b[MOVED, :n], b[MANOEUVRING, :n]
-        self.team, self.hull = o[TEAM, :n], o[HULL, :n]
+        n = self.n
+        f, i, b = self._f[:, :n], self._i[:, :n], self._b[:, :n]  # (one row per column: unpacked below)
+        self.born, self.last, self.radius, ax, ay, self.nis, hx, hy = f
+        self.anchor = f[ANCHOR_X:ANCHOR_Y + 1].T  # (n, 2) [m]
+        self.hull_anchor = f[HULL_X:HULL_Y + 1].T  # (n, 2) [m]
+        self.owner, self.local_id, self.hist, self.scans, self.n_upd = i
+        self.confirmed, self.static, self.anchored, self.moved, self.manoeuvring = b
+        self.team, self.hull = self._o[:, :n]
 
     def _grow(self, m: int) -> None:
         """Room for m rows (the first n copied into larger tables)."""
