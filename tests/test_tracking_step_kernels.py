@@ -481,3 +481,39 @@ def test_team_pairs_and_distances(seed):
                                      (2.0 * gate) ** 2, gate)
     assert d.tobytes() == dist.tobytes() and np.array_equal(inside, dist <= gate)
     assert n_in == np.count_nonzero(dist <= gate)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_step_rows(seed):
+    """step_rows against the numpy form of the start of FleetTracker.step (the vessels' times, the scans
+    counted, the rows' vessel positions and the due rows, the step's fresh arrays)."""
+    from mjasc.perception.tracking.step_kernels import step_rows
+
+    rng = np.random.default_rng(seed)
+    n_owners = int(rng.integers(1, 6))
+    p = int(rng.integers(1, n_owners + 1))
+    owners = rng.permutation(n_owners)[:p].astype(np.int64)
+    pos_of = np.full(n_owners, -1)
+    pos_of[owners] = np.arange(p)
+    every = p == n_owners
+    n = int(rng.integers(0, 12))
+    owner = rng.integers(0, n_owners, n).astype(np.int64)
+    t_o = rng.uniform(0, 9, p)
+    m_q = rng.integers(0, 5, p)
+    M = int(m_q.sum())
+    counts = rng.integers(0, 9, (n_owners, 7))
+    want_counts = counts.copy()
+    want_counts[owners, 4] += 1
+    want_counts[owners, 5] += m_q
+    got = step_rows(owner, pos_of, every, owners, t_o, n_owners, counts, 4, 5, m_q, M, 0.25)
+    t_own = np.empty(n_owners)
+    t_own.fill(np.nan)
+    t_own[owners] = t_o
+    row_pos = pos_of[owner]
+    all_due = every or bool((row_pos >= 0).all())
+    rows = np.arange(n) if all_due else (row_pos >= 0).nonzero()[0]
+    want = (t_own, row_pos, all_due, rows, row_pos[rows], np.zeros(M, dtype=bool), np.full(n, -1, dtype=np.int64),
+            np.full(n, 0.25))
+    assert got[2] == want[2] and np.array_equal(counts, want_counts)
+    for a, b in zip(got[:2] + got[3:], want[:2] + want[3:]):
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()

@@ -46,8 +46,8 @@ from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.step_kernels import (add_counts, apply_assignment, birth_rows, confirmed_by_owner,
-                                                    count_scans, cycled_rows, last_assignments, measurement_rows,
-                                                    pair_setup, select_detections)
+                                                    cycled_rows, last_assignments, measurement_rows,
+                                                    pair_setup, select_detections, step_rows)
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
 
@@ -178,9 +178,6 @@ class FleetTracker:
         origins = [None] * p if origins is None else origins
         use = [None] * p if use is None else use
         points = [None] * p if points is None else points
-        t_own = np.empty(no)
-        t_own.fill(np.nan)
-        t_own[owners] = t_o
         # every vessel's selected detections, stacked in vessel order (one compiled pass)
         dets = list(detections)
         lens = [0 if d is None else d.centres_m.shape[0] for d in dets]
@@ -199,16 +196,13 @@ class FleetTracker:
             z, var, rad, occ = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
             m_q = np.zeros(p, dtype=np.int64)
         M = z.shape[0]
-        count_scans(self._counts, owners, _SCANS, _DETS, m_q)
-        n = len(self.bank)
-        row_pos = pos_of[self.cols.owner]
-        all_due = every or bool((row_pos >= 0).all())
-        rows = np.arange(n) if all_due else (row_pos >= 0).nonzero()[0]
-        claimed = np.zeros(M, dtype=bool)
+        t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row = step_rows(
+            self.cols.owner, pos_of, every, owners, t_o, no, self._counts, _SCANS, _DETS, m_q, M, self._R)
         for o in owners.tolist():
             self._last_assign[o] = []
         if rows.size:
-            self._update(rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points, claimed)
+            self._update(rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
+                         claimed, assigned, var_row)
         self._prune(owners, pos_of, every, t_o, origins)
         if M:
             self._births(owners, pos_of, every, t_o, z, var, rad, idx, d_pos, claimed)
@@ -220,17 +214,13 @@ class FleetTracker:
             self.team.match(rows, self.cols.owner[rows], t_own, bank.states_of(rows), self.cols.confirmed[rows], no)
         self.mgmt.note_moved(bank.state_rows)  # (its first two columns: the positions)
 
-    def _update(self, rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
-                claimed) -> None:
-        """Steps 1–4a: association, manoeuvres, the IMM cycle, confirmation and outlines."""
+    def _update(self, rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
+                claimed, assigned, var_row) -> None:
+        """Steps 1–4a: association, manoeuvres, the IMM cycle, confirmation and outlines (``assigned``
+        (n,) −1 and ``var_row`` (n,) R: filled here)."""
         cfg, bank = self.config, self.bank
-        n, M = len(bank), z.shape[0]
+        M = z.shape[0]
         p = owners.size
-        assigned = np.empty(n, dtype=np.int64)
-        assigned.fill(-1)
-        var_row = np.empty(n)
-        var_row.fill(self._R)
-        rpos = row_pos[rows]
         if M:
             n_q, grouped, q, i, j, start, gi, db, ta, var_p = pair_setup(rows, rpos, p, m_q, self.cols.radius, var,
                                                                           rad, occ)

@@ -39,6 +39,11 @@ as references, bit for bit):
   ``local_id[got]`` and detections ``idx[assigned[got]]``, and each vessel's first position in them.
 * :func:`measurement_rows` — the rows' measurements of the IMM cycle: ``meas = assigned >= 0``,
   ``zr`` NaN but ``zr[meas] = z[assigned[meas]]``.
+* :func:`step_rows` — a step's arrays before association: each vessel's time ``t_own`` (NaN for
+  vessels that did not scan, ``t_own[owners] = t_o``), :func:`count_scans`, each row's vessel
+  position ``row_pos = pos_of[owner]``, whether every row is due, the due rows (every row, or
+  ``flatnonzero(row_pos >= 0)``) and their positions ``row_pos[rows]``, and the step's fresh
+  ``claimed`` (M,) False, ``assigned`` (n,) −1 and ``var_row`` (n,) R.
 * :func:`cycled_rows` — what the step reads of the cycled rows ``rows``, gathered in one pass:
   :func:`count_used`; ``t_rows = t_o[row_pos[rows]]``, ``speeds = x[rows, 3]``, ``used[rows]``,
   ``assigned[rows]``, ``hit = used & meas`` (n,), and the rows of vessels with returns
@@ -56,7 +61,7 @@ from mjasc.perception.tracking.pair_kernels import block_pairs_flat
 
 __all__ = ["select_detections", "pair_setup", "admissible_pairs", "apply_assignment", "birth_rows",
            "confirmed_by_owner", "add_counts", "count_scans", "count_used", "last_assignments",
-           "measurement_rows", "cycled_rows"]
+           "measurement_rows", "cycled_rows", "step_rows"]
 
 
 @kernel
@@ -357,3 +362,39 @@ def cycled_rows(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col
             pos_o[c, 1] = x[r, 1]
             c += 1
     return t_rows, speeds, u_rows, a_rows, hit, orows, hit_o, speeds_o, pos_o
+
+
+@kernel
+def step_rows(owner, pos_of, every, owners, t_o, n_owners, counts, scans, dets, m_q, M, R):
+    """(t_own (n_owners,), row_pos (n,), all_due, rows, rpos, claimed (M,), assigned (n,), var_row (n,)) of a
+    step (module docstring), with ``counts[owners, scans] += 1`` and ``counts[owners, dets] += m_q``
+    in place: owner (n,) each row's vessel, pos_of (n_owners,) each vessel's position among the
+    scanning ``owners`` (p,) (−1: not scanning), ``every``: every vessel scanned; t_o (p,) [s]."""
+    n = owner.size
+    row_pos = np.empty(n, dtype=np.int64)
+    due = 0
+    for k in range(n):
+        r = pos_of[owner[k]]
+        row_pos[k] = r
+        if r >= 0:
+            due += 1
+    all_due = every or due == n
+    rows = np.empty(n if all_due else due, dtype=np.int64)
+    rpos = np.empty(rows.size, dtype=np.int64)
+    c = 0
+    for k in range(n):
+        if all_due or row_pos[k] >= 0:
+            rows[c] = k
+            rpos[c] = row_pos[k]
+            c += 1
+    t_own = np.empty(n_owners)
+    t_own.fill(np.nan)
+    for q in range(owners.size):
+        t_own[owners[q]] = t_o[q]
+    count_scans(counts, owners, scans, dets, m_q)
+    claimed = np.zeros(M, dtype=np.bool_)
+    assigned = np.empty(n, dtype=np.int64)
+    assigned.fill(-1)
+    var_row = np.empty(n)
+    var_row.fill(R)
+    return t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row
