@@ -517,3 +517,41 @@ def test_step_rows(seed):
     assert got[2] == want[2] and np.array_equal(counts, want_counts)
     for a, b in zip(got[:2] + got[3:], want[:2] + want[3:]):
         assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_births_of(seed):
+    """births_of against FleetTracker._births' numpy form before it: the rows of the scanning vessels, birth_rows,
+    the births counted and their detections' indices."""
+    from mjasc.perception.tracking.step_kernels import births_of
+
+    rng = np.random.default_rng(seed)
+    n_owners = int(rng.integers(1, 5))
+    p = int(rng.integers(1, n_owners + 1))
+    owners = np.sort(rng.permutation(n_owners)[:p]).astype(np.int64)
+    pos_of = np.full(n_owners, -1)
+    pos_of[owners] = np.arange(p)
+    n = int(rng.integers(0, 10))
+    owner = rng.integers(0, n_owners, n).astype(np.int64)
+    x = rng.uniform(-20, 20, (n, 4))
+    radius = rng.uniform(0.2, 4, n)
+    m_q = rng.integers(0, 5, p)
+    M = int(m_q.sum())
+    d_pos = np.repeat(np.arange(p), m_q)
+    z, var, rad = rng.uniform(-20, 20, (M, 2)), rng.random(M), rng.uniform(0.2, 3, M)
+    claimed = rng.random(M) < 0.3
+    idx = rng.integers(0, 50, M)
+    t_o = rng.uniform(0, 9, p)
+    next_local = rng.integers(0, 9, n_owners)
+    counts = rng.integers(0, 9, (n_owners, 7))
+    nl_ref, counts_ref = next_local.copy(), counts.copy()
+    got = births_of(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts, 0)
+    every = p == n_owners
+    rows = np.arange(n) if every else (pos_of[owner] >= 0).nonzero()[0]
+    rpos = pos_of[owner if every else owner[rows]]
+    new, bp, own, local, born, t_b, zb, var_b, rad_b = birth_rows(claimed, rows, rpos, d_pos, z, var, rad, x, radius,
+                                                                  owners, t_o, nl_ref)
+    counts_ref[owners, 0] += born
+    for a, b in zip(got, (bp, own, local, t_b, zb, var_b, rad_b, idx[new])):
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    assert np.array_equal(counts, counts_ref) and np.array_equal(next_local, nl_ref)

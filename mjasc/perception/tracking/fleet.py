@@ -45,7 +45,7 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.step_kernels import (add_counts, apply_assignment, birth_rows, confirmed_by_owner,
+from mjasc.perception.tracking.step_kernels import (apply_assignment, births_of, confirmed_by_owner,
                                                     cycled_rows, last_assignments, measurement_rows,
                                                     pair_setup, select_detections, step_rows)
 from mjasc.perception.tracking.team import TeamMatcher
@@ -205,7 +205,7 @@ class FleetTracker:
                          claimed, assigned, var_row)
         self._prune(owners, pos_of, every, t_o, origins)
         if M:
-            self._births(owners, pos_of, every, t_o, z, var, rad, idx, d_pos, claimed)
+            self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
         bank = self.bank
         if every:  # (every row is a row of a vessel that scanned)
             self.team.match(slice(None), self.cols.owner, t_own, bank.states, self.cols.confirmed, no)
@@ -328,16 +328,15 @@ class FleetTracker:
             self.cols.keep(keep)  # (every per-track column of management, manoeuvres, team and outlines)
             self.version += 1
 
-    def _births(self, owners, pos_of, every, t_o, z, var, rad, idx, d_pos, claimed) -> None:
+    def _births(self, owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed) -> None:
         """Step 5: new tracks from the detections no track claimed, away from every track's disc."""
         cfg, bank = self.config, self.bank
         if np.count_nonzero(claimed) == claimed.size:
             return
-        rows = np.arange(len(bank)) if every else (pos_of[self.cols.owner] >= 0).nonzero()[0]
-        rpos = pos_of[self.cols.owner if every else self.cols.owner[rows]]
-        new, bp, own, local, born, t_b, zb, var_b, rad_b = birth_rows(
-            claimed, rows, rpos, d_pos, z, var, rad, bank.state_rows, self.cols.radius, owners, t_o, self._next_local)
-        k = new.size
+        bp, own, local, t_b, zb, var_b, rad_b, dets = births_of(
+            claimed, self.cols.owner, pos_of, d_pos, z, var, rad, bank.state_rows, self.cols.radius, owners, t_o,
+            self._next_local, idx, self._counts, _BORN)
+        k = bp.size
         if k == 0:
             return
         bank.append_tracks(zb, t_b, var_b if cfg.use_detection_variance else None)
@@ -345,8 +344,6 @@ class FleetTracker:
         # new rows' positions, which are zb)
         self.cols.append(t_b, rad_b, zb, own, local)
         self.version += 1
-        add_counts(self._counts, owners, _BORN, born)
-        dets = idx[new]
         bl, ll, zl = bp.tolist(), local.tolist(), zb.tolist()
         a = 0
         while a < k:  # per vessel (bp is sorted): its events and last assignment

@@ -27,6 +27,9 @@ as references, bit for bit):
   (a NaN distance or radius: outside), in order; with their vessel position ``bp``, vessel ``own``, ids (the vessel's
   next ids in order), births per vessel ``born`` (the vessels' next ids advanced in place) and
   their ``t_o[bp]``, ``z``, ``var`` and ``rad``.
+* :func:`births_of` — :func:`birth_rows` of the rows of the scanning vessels (``rows =
+  flatnonzero(pos_of[owner] >= 0)``, ``rpos = pos_of[owner[rows]]``), the births counted
+  (:func:`add_counts`) and their detections' indices ``idx[new]``.
 * :func:`confirmed_by_owner` — the confirmed rows grouped by vessel, bank order within
   (``rows = flatnonzero(confirmed)`` sorted stably by ``owner[rows]``), and each vessel's first
   position in them.
@@ -61,7 +64,7 @@ from mjasc.perception.tracking.pair_kernels import block_pairs_flat
 
 __all__ = ["select_detections", "pair_setup", "admissible_pairs", "apply_assignment", "birth_rows",
            "confirmed_by_owner", "add_counts", "count_scans", "count_used", "last_assignments",
-           "measurement_rows", "cycled_rows", "step_rows"]
+           "measurement_rows", "cycled_rows", "step_rows", "births_of"]
 
 
 @kernel
@@ -398,3 +401,31 @@ def step_rows(owner, pos_of, every, owners, t_o, n_owners, counts, scans, dets, 
     var_row = np.empty(n)
     var_row.fill(R)
     return t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row
+
+
+@kernel
+def births_of(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts, col):
+    """(bp, own, local, t_b, z_b, var_b, rad_b, dets) of the births (module docstring; :func:`birth_rows`
+    with the rows of the scanning vessels: owner (n,) each row's vessel, pos_of (n_owners,) its
+    position among ``owners`` or −1), ``counts[owners, col] += born`` in place and dets = idx[new]."""
+    n = owner.size
+    due = 0
+    for k in range(n):
+        if pos_of[owner[k]] >= 0:
+            due += 1
+    rows = np.empty(due, dtype=np.int64)
+    rpos = np.empty(due, dtype=np.int64)
+    c = 0
+    for k in range(n):
+        r = pos_of[owner[k]]
+        if r >= 0:
+            rows[c] = k
+            rpos[c] = r
+            c += 1
+    new, bp, own, local, born, t_b, z_b, var_b, rad_b = birth_rows(claimed, rows, rpos, d_pos, z, var, rad, x, radius,
+                                                                   owners, t_o, next_local)
+    add_counts(counts, owners, col, born)
+    dets = np.empty(new.size, dtype=idx.dtype)
+    for a in range(new.size):
+        dets[a] = idx[new[a]]
+    return bp, own, local, t_b, z_b, var_b, rad_b, dets
