@@ -265,7 +265,8 @@ def _drops_numpy(mg, rows, group, t_s, positions, Pc, origins_m, max_range_m):
     if live.size > 1:
         live = live[np.argsort(group[live], kind="stable")]
         a, b = merge_candidates(live, np.ascontiguousarray(group[live], dtype=np.int64),
-                                np.ascontiguousarray(positions, dtype=float), mg._radius[rows], float(cfg.merge_fraction))
+                                np.ascontiguousarray(positions, dtype=float), mg._radius[rows],
+                                float(cfg.merge_fraction))
         for a_, b_ in zip(a.tolist(), b.tolist()):
             if drop[a_] or drop[b_]:
                 continue

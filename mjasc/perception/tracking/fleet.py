@@ -22,6 +22,11 @@ against its own broadcasts; but each stage runs once for all vessels, over array
    to the bank at once);
 6. team mates matched from each vessel's broadcasts (:mod:`~mjasc.perception.tracking.team`).
 
+Every per-track column that is not the bank's — each row's vessel and id, management, manoeuvres,
+team mates, outlines — lives in one :class:`~mjasc.perception.tracking.track_columns.TrackColumns`
+that the components share: a step's births are one compiled append to it (and one to the bank),
+its drops one compiled compaction of it (and one of the bank).
+
 A vessel's results do not depend on the other vessels in the bank: every step is per row or per
 pair, and the IMM cycle's rows are independent (:mod:`mjasc.perception.imm.compiled_cycle`); a fleet's
 tracker gives each vessel the same tracks, bit for bit, as a tracker of its own
@@ -132,7 +137,8 @@ class FleetTracker:
         """Bank rows of a vessel's tracks, in bank order (= the order of its own tracker)."""
         got = self._rows_cache.get(owner)
         if got is None or got[0] != self.version:
-            got = (self.version, (self.cols.owner == owner).nonzero()[0] if self.n_owners > 1 else np.arange(self.cols.owner.size))
+            own = self.cols.owner
+            got = (self.version, (own == owner).nonzero()[0] if self.n_owners > 1 else np.arange(own.size))
             self._rows_cache[owner] = got
         return got[1]
 
@@ -401,7 +407,8 @@ class FleetTracker:
         static = self.cols.static[rows]
         slow = (static | (v < self.config.static_speed_m_s)).tolist()
         radius = self.cols.radius[rows]
-        return (spans, rows.tolist(), self.cols.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
+        ids = self.cols.local_id[rows].tolist()
+        return (spans, rows.tolist(), ids, t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
                 radius, radius.tolist(), P, static.tolist(), self.team.members(rows), slow)
 
     def _estimates_of(self, rows) -> list[TrackEstimate]:
@@ -417,7 +424,8 @@ class FleetTracker:
         radius = self.cols.radius[rows]
         outline = self.outlines.outline  # (= self.outline(k): pos, radius are row k's)
         outlines = [outline(k, pos[j], radius[j]) if lk else None for j, (k, lk) in enumerate(zip(k_rows, slow))]
-        return track_estimate_rows(self.cols.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
+        ids = self.cols.local_id[rows].tolist()
+        return track_estimate_rows(ids, t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
                                    radius.tolist(), P, static.tolist(), self.team.members(rows),
                                    outlines, repeat(None, len(k_rows)))
 

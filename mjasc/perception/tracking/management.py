@@ -234,8 +234,8 @@ def _losses(idx, t, hist, scans, confirmed, last, popcount, Pc, pos, org, max_ra
 
 
 @kernel
-def drop_rows(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcount, Pc, pos, org, max_range, window, hits,
-              max_coast, max_var, margin, fraction):
+def drop_rows(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcount, Pc, pos, org, max_range, window,
+              hits, max_coast, max_var, margin, fraction):
     """:meth:`TrackManagement.drops` of the rows k = idx[j] (k,) in one pass: (drop, code, lam, since, rng
     (k,), go, kept (g,)) — the losses of :func:`_losses`, then the duplicates among the tracks not
     dropped: the live positions sorted stably by their vessel ``group`` (k,),
