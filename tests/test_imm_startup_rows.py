@@ -193,3 +193,35 @@ def test_bank_run_with_startup_rows_equals_numpy_handover(seed):
         for name in ("active", "x", "P", "n_meas"):
             _same(getattr(a._startup, name), getattr(b._startup, name))
         assert a._startup.n_active == b._startup.n_active
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_settled_rows_equals_numpy_form(seed):
+    """settled_rows against the numpy form of the general cycle's outcome before it: inside, ok, warm_rows, the
+    rejections and ok | restart."""
+    from mjasc.perception.imm.bank_kernels import rejections, settled_rows, warm_rows
+
+    rng = np.random.default_rng(seed)
+    n, r = int(rng.integers(1, 12)), 3
+    d2_min = np.where(rng.random(n) < 0.2, np.nan, rng.uniform(0, 20, n))
+    use, finite = rng.random(n) < 0.8, rng.random(n) < 0.9
+    measured = use | (rng.random(n) < 0.3)
+    rows_w = np.flatnonzero(rng.random(n) < 0.4).astype(np.int64)
+    ok_w, use_w = rng.random(rows_w.size) < 0.5, rng.random(rows_w.size) < 0.7
+    s, P, mu = rng.normal(size=(n, r, 4)), rng.normal(size=(n, r, 4, 4)), rng.random((n, r))
+    s_new, P_new, mu_new = rng.normal(size=(n, r, 4)), rng.normal(size=(n, r, 4, 4)), rng.random((n, r))
+    n_gated = rng.integers(0, 4, n)
+    limit = int(rng.integers(0, 4))
+    ref = [a.copy() for a in (s_new, P_new, mu_new, n_gated)]
+    inside = d2_min <= 9.2
+    ok = use & inside
+    warm_rows(rows_w, ok_w, use_w, ok, inside, s, P, mu, ref[0], ref[1], ref[2])
+    reasons, restart = np.empty(n, dtype=np.int8), np.empty(n, dtype=bool)
+    rejections(use, finite, measured, inside, ok, ref[3], limit, reasons, restart)
+    got = settled_rows(d2_min, 9.2, use, finite, measured, rows_w, ok_w, use_w, s, P, mu, s_new, P_new, mu_new, n_gated,
+                       limit)
+    for a, b in zip(got[:4], (inside, reasons, restart, ok | restart)):
+        _same(a, b)
+    assert got[4] == np.count_nonzero(restart)
+    for a, b in zip((s_new, P_new, mu_new, n_gated), ref):
+        _same(a, b)

@@ -35,7 +35,7 @@ import numpy as np
 
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.bank_kernels import (ACCEPTED, GATED, NON_FINITE, NOT_MEASURED, REJECTION_REASONS, RESTARTED,
-                                                kept_rows, measurements, rejections, warm_rows)
+                                                kept_rows, measurements, settled_rows)
 from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import imm_cycle, turn_rate, wrap
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
@@ -54,6 +54,7 @@ _EYE2 = np.eye(2)
 _ALL, _NONE = np.ones(1, dtype=bool), np.zeros(1, dtype=bool)  # ``use`` of imm_cycle: every row, none
 _NO_Z = np.zeros((1, 2))  # z of a cycle without measurements (not read)
 _NO_VAR = np.zeros(0)  # (gather_startup: no per-row steps or σ²)
+_NO_ROWS, _NO_FLAGS = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)  # (settled_rows: no start-up rows)
 
 class CycleBuffers:
     """Room for what :func:`imm_cycle` writes for up to ``cap`` tracks × r models: two sides
@@ -476,12 +477,10 @@ class IMMBank(PredictiveDensity):
         # general case: mix of updated, coasting, start-up and restarted tracks (t None: every row at t0)
         if use is None:
             use = finite = measured = np.ones(n, dtype=bool)
-        inside = d2_min <= self._gate  # (nan, False, where not used)
         warm = self._startup.active
         any_warm = self._startup.n_active > 0
-        ok = use & inside
-        # the cycle updated the rows ``ok`` of the IMM rows, coasted the others; the start-up rows
-        # keep their (unused) IMM state, their x is set by the hand-over below
+        # the cycle updated the rows ``use & (d2_min <= gate)`` of the IMM rows, coasted the others; the
+        # start-up rows keep their (unused) IMM state, their x is set by the hand-over below
         s_new, P_new, mu_new, x_new, _ = side
         if any_warm:  # the start-up filters' cycle (StartupFilters.update_rows): the products numpy's
             rows_w = rows = warm.nonzero()[0]  # (still the start-up rows at the hand-over below)
@@ -493,21 +492,22 @@ class IMMBank(PredictiveDensity):
             P_w = F @ Pc @ np.swapaxes(F, 1, 2)
             ok_w = update_startup(rows, xc_w, P_w, dtw**3, dtw, float(st.acceleration_noise), zw,
                                   self._var if mv is None else var_w, use_w, self._gate, st.x, st.P, st.n_meas)
-            warm_rows(rows, ok_w, use_w, ok, inside, self._s, self._P, self._mu, s_new, P_new, mu_new)
+        else:
+            rows_w, ok_w, use_w = _NO_ROWS, _NO_FLAGS, _NO_FLAGS
+        limit = self.config.restart_after_gated
+        inside, reasons, restart, used, n_restart = settled_rows(
+            d2_min, self._gate, use, finite, measured, rows_w, ok_w, use_w, self._s, self._P, self._mu, s_new, P_new,
+            mu_new, self._n_gated, limit)  # (inside, ok, the start-up rows, rejections: one compiled pass)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
         self._side = out
         self._Pc_stale = True
 
-        reasons = np.empty(n, dtype=np.int8)
-        restart = np.empty(n, dtype=bool)
-        limit = self.config.restart_after_gated
-        rejections(use, finite, measured, inside, ok, self._n_gated, limit, reasons, restart)
         self._set_times(t0, t)
         if t is None:
             t = self._t  # (for the log below)
         if any_warm:
             self._handover(rows_w, xc_w, P_w)
-        if np.count_nonzero(restart):
+        if n_restart:
             rows = restart.nonzero()[0]
             self._start(rows, z[rows], None if mv is None else mv[rows])
             reasons[rows] = RESTARTED
@@ -530,7 +530,7 @@ class IMMBank(PredictiveDensity):
                     "IMM track %d at t=%.3f s: rejected z=%s (%s; min d²=%.4g > gate %.4g)",
                     self._ids[k], t[k], z[k], REJECTION_REASONS[GATED], d2_min[k], self._gate,
                 )
-        return ok | restart
+        return used
 
     # ------------------------------------------------------------------ read-only views
     @property
