@@ -1,4 +1,5 @@
-"""The fleet tracker's compiled bookkeeping (:mod:`mjasc.perception.tracking.step_kernels`) against
+"""The fleet tracker's compiled bookkeeping (:mod:`mjasc.perception.tracking.step_kernels`,
+:mod:`~mjasc.perception.tracking.step_gathers`) against
 the numpy forms it replaced, bit for bit, on random problems shaped like a tick's (a few vessels,
 some without tracks or detections, NaN radii, conflicts that need ``linear_sum_assignment``)."""
 
@@ -410,7 +411,7 @@ def test_cycled_rows(seed):
     """cycled_rows against the numpy form of FleetTracker._update after the cycle (count_used, the rows'
     times, speeds, used and assigned, hit = used & meas, the rows of vessels with returns and their
     hit, speeds and positions)."""
-    from mjasc.perception.tracking.step_kernels import cycled_rows
+    from mjasc.perception.tracking.step_gathers import cycled_rows
 
     rng = np.random.default_rng(seed)
     p = int(rng.integers(1, 5))
@@ -487,7 +488,7 @@ def test_team_pairs_and_distances(seed):
 def test_step_rows(seed):
     """step_rows against the numpy form of the start of FleetTracker.step (the vessels' times, the scans
     counted, the rows' vessel positions and the due rows, the step's fresh arrays)."""
-    from mjasc.perception.tracking.step_kernels import step_rows
+    from mjasc.perception.tracking.step_gathers import step_rows
 
     rng = np.random.default_rng(seed)
     n_owners = int(rng.integers(1, 6))
@@ -523,7 +524,7 @@ def test_step_rows(seed):
 def test_births_of(seed):
     """births_of against FleetTracker._births' numpy form before it: the rows of the scanning vessels, birth_rows,
     the births counted and their detections' indices."""
-    from mjasc.perception.tracking.step_kernels import births_of
+    from mjasc.perception.tracking.step_gathers import births_of
 
     rng = np.random.default_rng(seed)
     n_owners = int(rng.integers(1, 5))

@@ -50,9 +50,9 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.step_kernels import (apply_assignment, births_of, confirmed_by_owner,
-                                                    cycled_rows, last_assignments, measurement_rows,
-                                                    pair_setup, select_detections, step_rows)
+from mjasc.perception.tracking.step_gathers import births_of, cycled_rows, step_rows
+from mjasc.perception.tracking.step_kernels import (apply_assignment, confirmed_by_owner, last_assignments,
+                                                    measurement_rows, pair_setup, select_detections)
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
 
