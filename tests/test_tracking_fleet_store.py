@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from mjasc.perception.detection import Detections
 from mjasc.perception.tracking import TrackingConfig
@@ -249,3 +250,65 @@ def test_estimates_asked_again_between_steps_are_the_first_ones_and_renewed_by_a
             assert _fields(again) == _fields(readable)
             assert not any(e is b for e in first for b in before.get(o, ()))  # made afresh after the step
             before[o] = first
+
+
+def _drops_numpy(mg, rows, group, t_s, positions, Pc, origins_m, max_range_m):
+    """TrackManagement.drops as it was before drop_rows: the losses' pass, then the duplicates found by
+    merge_candidates on the live tracks sorted by vessel, resolved in Python in the order found."""
+    from mjasc.perception.tracking.pair_kernels import merge_candidates
+
+    cfg = mg.config
+    drop, reason = _losses_numpy(mg, rows, t_s, positions, Pc, origins_m, max_range_m)
+    conf, n_upd = mg._confirmed[rows], mg._n_upd[rows]
+    merged = []
+    live = (~drop).nonzero()[0]
+    if live.size > 1:
+        live = live[np.argsort(group[live], kind="stable")]
+        a, b = merge_candidates(live, np.ascontiguousarray(group[live], dtype=np.int64),
+                                np.ascontiguousarray(positions, dtype=float), mg._radius[rows],
+                                float(cfg.merge_fraction))
+        for a_, b_ in zip(a.tolist(), b.tolist()):
+            if drop[a_] or drop[b_]:
+                continue
+            keep, go = (a_, b_) if (conf[a_], n_upd[a_]) >= (conf[b_], n_upd[b_]) else (b_, a_)
+            drop[go] = True
+            reason[go] = ""
+            if conf[go]:
+                merged.append((go, keep))
+    return drop, reason, merged
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_drops_equal_their_numpy_form(seed):
+    """drop_rows (losses, then merges of close tracks of one vessel) against the numpy form, with many
+    duplicates: several vessels, tracks in clusters, ties in the number of updates."""
+    from mjasc.perception.tracking.management import TrackManagement
+
+    rng = np.random.default_rng(seed)
+    cfg = TrackingConfig()
+    mg = TrackManagement(cfg)
+    n = int(rng.integers(2, 60))
+    mg.append(rng.uniform(0, 5, size=n), rng.uniform(0.5, 3, size=n))
+    mg._hist[:] = rng.integers(0, 1 << cfg.confirm_window, size=n)
+    mg._scans[:] = rng.integers(1, 10, size=n)
+    mg._n_upd[:] = rng.integers(1, 4, size=n)
+    mg._confirmed[:] = rng.random(n) < 0.6
+    mg._last[:] = rng.uniform(0, 10, size=n)
+    A = rng.normal(size=(n, 2, 2)) * rng.uniform(0.1, 3.0, size=(n, 1, 1))
+    P = A @ np.swapaxes(A, 1, 2)
+    centres = rng.uniform(-60, 60, size=(5, 2))
+    pos = centres[rng.integers(0, 5, n)] + rng.normal(size=(n, 2)) * 1.5
+    org = np.where(rng.random((n, 1)) < 0.2, np.nan, rng.uniform(-5, 5, size=(n, 2)))
+    group = rng.integers(0, 3, size=n)
+    for rows in (slice(None), np.sort(rng.choice(n, size=max(1, n // 2), replace=False))):
+        k = n if isinstance(rows, slice) else rows.size
+        sub = (lambda a: a) if isinstance(rows, slice) else (lambda a: a[rows])
+        t = rng.uniform(8, 12, size=k)
+        mr = np.full(k, 100.0)
+        got = mg.drops(rows, sub(group), t, sub(pos), sub(P), sub(org), mr)
+        want = _drops_numpy(mg, rows, sub(group), t, sub(pos), sub(P), sub(org), mr)
+        assert np.array_equal(got[0], want[0]) and got[1] == want[1] and got[2] == want[2]
+        if isinstance(rows, slice):  # (a strided view of the positions, as the fleet tracker passes them)
+            x = np.concatenate([pos, rng.normal(size=(n, 2))], axis=1)
+            again = mg.drops(rows, group, t, x[:, :2], P, org, mr)
+            assert np.array_equal(again[0], want[0]) and again[1] == want[1] and again[2] == want[2]

@@ -45,7 +45,7 @@ class _NumpyOutlines(TrackOutlines):
 def test_grow_matches_numpy_form_on_a_run():
     cfg = TrackingConfig()
     fast, ref = FleetTracker(cfg), FleetTracker(cfg)
-    ref.outlines = _NumpyOutlines(cfg)
+    ref.outlines = _NumpyOutlines(cfg, ref.cols)  # (the tracker's columns)
     for ft in (fast, ref):
         for _ in range(N_VESSELS):
             ft.add_owner(60.0)

@@ -1,4 +1,5 @@
-"""The fleet tracker's compiled bookkeeping (:mod:`mjasc.perception.tracking.step_kernels`) against
+"""The fleet tracker's compiled bookkeeping (:mod:`mjasc.perception.tracking.step_kernels`,
+:mod:`~mjasc.perception.tracking.step_gathers`) against
 the numpy forms it replaced, bit for bit, on random problems shaped like a tick's (a few vessels,
 some without tracks or detections, NaN radii, conflicts that need ``linear_sum_assignment``)."""
 
@@ -403,3 +404,155 @@ def test_team_matched_rows(seed):
     ta_r, tb_r = c[a_start[qg] + i[got]], bsel[b_start[qg] + j[got]]
     assert ta.dtype == ta_r.dtype and ta.tobytes() == ta_r.tobytes()
     assert tb.dtype == tb_r.dtype and tb.tobytes() == tb_r.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_cycled_rows(seed):
+    """cycled_rows against the numpy form of FleetTracker._update after the cycle (count_used, the rows'
+    times, speeds, used and assigned, hit = used & meas, the rows of vessels with returns and their
+    hit, speeds and positions)."""
+    from mjasc.perception.tracking.step_gathers import cycled_rows
+
+    rng = np.random.default_rng(seed)
+    p = int(rng.integers(1, 5))
+    n_owners = p + int(rng.integers(0, 3))
+    owners = rng.permutation(n_owners)[:p].astype(np.int64)
+    n = int(rng.integers(0, 15))
+    row_pos = rng.integers(-1, p, size=n)
+    all_due = seed % 3 == 0
+    if all_due:
+        row_pos = rng.integers(0, p, size=n)
+    rows = np.arange(n) if all_due else np.flatnonzero(row_pos >= 0)
+    t_o = rng.uniform(0, 10, p)
+    used, meas = rng.random(n) < 0.6, rng.random(n) < 0.7
+    x = rng.normal(size=(n, 4))
+    with_pts = rng.random(p) < 0.7
+    assigned = np.where(meas, rng.integers(0, 5, n), -1)
+    counts = rng.integers(0, 9, size=(n_owners, 7))
+    want_counts = counts.copy()
+    want_counts[owners, 6] += np.bincount(row_pos[rows[used[rows]]], minlength=p)
+    got = cycled_rows(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, 6, assigned)
+    sel = slice(None) if all_due else rows
+    hit = used & meas
+    rpos = row_pos[rows]
+    orows = rows if with_pts.all() else rows[with_pts[rpos]]
+    want = (t_o[row_pos[rows]], x[:, 3].copy()[sel], used[sel], assigned[sel], hit, orows, hit[orows], x[orows, 3],
+            x[orows, :2])
+    for a, b in zip(got, want):
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    assert np.array_equal(counts, want_counts)
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_team_pairs_and_distances(seed):
+    """team_pairs and team_distances against the numpy form of TeamMatcher.match before them (team_blocks,
+    block_pairs_loop, the states gathered, V·cos θ and V·sin θ, broadcast_distances, the gate)."""
+    from mjasc.perception.tracking.pair_kernels import block_pairs_loop, broadcast_distances
+    from mjasc.perception.tracking.team import team_blocks, team_distances, team_pairs
+
+    rng = np.random.default_rng(seed)
+    n_owners = int(rng.integers(1, 4))
+    k = int(rng.integers(0, 10))
+    owner = rng.integers(0, n_owners, size=k).astype(np.int64)
+    confirmed = rng.random(k) < 0.6
+    states = np.column_stack([rng.uniform(-30, 30, (k, 2)), rng.uniform(-np.pi, np.pi, k), rng.uniform(0, 5, k)])
+    B = int(rng.integers(0, 6))
+    b_owner = np.sort(rng.integers(0, n_owners, size=B)).astype(np.int64)
+    t_b = rng.random(B) * 5
+    p_b = rng.uniform(-30, 30, (B, 2))
+    t_s = rng.random(n_owners) * 5
+    t_s[rng.random(n_owners) < 0.2] = np.nan
+    got = team_pairs(confirmed, owner, t_s, b_owner, t_b, 2.0, n_owners, states)
+    want = team_blocks(confirmed, owner, t_s, b_owner, t_b, 2.0, n_owners)
+    for a, b in zip(got[:6], want):
+        assert a.tobytes() == b.tobytes()
+    c, bsel, n_a, n_b, a_start, b_start = want
+    if c.size == 0 or bsel.size == 0:
+        return
+    q, i, j, start = block_pairs_loop(n_a, n_b)
+    for a, b in zip(got[6:10], (q, i, j, start)):
+        assert a.tobytes() == b.tobytes()
+    x = states[c]
+    assert got[10].tobytes() == x.tobytes()
+    vx, vy = x[:, 3] * np.cos(x[:, 2]), x[:, 3] * np.sin(x[:, 2])
+    gate = 12.0
+    dist = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, t_s, t_b, p_b, (2.0 * gate) ** 2)
+    th = got[10][:, 2]
+    d, inside, n_in = team_distances(q, i, j, a_start, b_start, bsel, got[10], np.cos(th), np.sin(th), t_s, t_b, p_b,
+                                     (2.0 * gate) ** 2, gate)
+    assert d.tobytes() == dist.tobytes() and np.array_equal(inside, dist <= gate)
+    assert n_in == np.count_nonzero(dist <= gate)
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_step_rows(seed):
+    """step_rows against the numpy form of the start of FleetTracker.step (the vessels' times, the scans
+    counted, the rows' vessel positions and the due rows, the step's fresh arrays)."""
+    from mjasc.perception.tracking.step_gathers import step_rows
+
+    rng = np.random.default_rng(seed)
+    n_owners = int(rng.integers(1, 6))
+    p = int(rng.integers(1, n_owners + 1))
+    owners = rng.permutation(n_owners)[:p].astype(np.int64)
+    pos_of = np.full(n_owners, -1)
+    pos_of[owners] = np.arange(p)
+    every = p == n_owners
+    n = int(rng.integers(0, 12))
+    owner = rng.integers(0, n_owners, n).astype(np.int64)
+    t_o = rng.uniform(0, 9, p)
+    m_q = rng.integers(0, 5, p)
+    M = int(m_q.sum())
+    counts = rng.integers(0, 9, (n_owners, 7))
+    want_counts = counts.copy()
+    want_counts[owners, 4] += 1
+    want_counts[owners, 5] += m_q
+    got = step_rows(owner, pos_of, every, owners, t_o, n_owners, counts, 4, 5, m_q, M, 0.25)
+    t_own = np.empty(n_owners)
+    t_own.fill(np.nan)
+    t_own[owners] = t_o
+    row_pos = pos_of[owner]
+    all_due = every or bool((row_pos >= 0).all())
+    rows = np.arange(n) if all_due else (row_pos >= 0).nonzero()[0]
+    want = (t_own, row_pos, all_due, rows, row_pos[rows], np.zeros(M, dtype=bool), np.full(n, -1, dtype=np.int64),
+            np.full(n, 0.25))
+    assert got[2] == want[2] and np.array_equal(counts, want_counts)
+    for a, b in zip(got[:2] + got[3:], want[:2] + want[3:]):
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_births_of(seed):
+    """births_of against FleetTracker._births' numpy form before it: the rows of the scanning vessels, birth_rows,
+    the births counted and their detections' indices."""
+    from mjasc.perception.tracking.step_gathers import births_of
+
+    rng = np.random.default_rng(seed)
+    n_owners = int(rng.integers(1, 5))
+    p = int(rng.integers(1, n_owners + 1))
+    owners = np.sort(rng.permutation(n_owners)[:p]).astype(np.int64)
+    pos_of = np.full(n_owners, -1)
+    pos_of[owners] = np.arange(p)
+    n = int(rng.integers(0, 10))
+    owner = rng.integers(0, n_owners, n).astype(np.int64)
+    x = rng.uniform(-20, 20, (n, 4))
+    radius = rng.uniform(0.2, 4, n)
+    m_q = rng.integers(0, 5, p)
+    M = int(m_q.sum())
+    d_pos = np.repeat(np.arange(p), m_q)
+    z, var, rad = rng.uniform(-20, 20, (M, 2)), rng.random(M), rng.uniform(0.2, 3, M)
+    claimed = rng.random(M) < 0.3
+    idx = rng.integers(0, 50, M)
+    t_o = rng.uniform(0, 9, p)
+    next_local = rng.integers(0, 9, n_owners)
+    counts = rng.integers(0, 9, (n_owners, 7))
+    nl_ref, counts_ref = next_local.copy(), counts.copy()
+    got = births_of(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts, 0)
+    every = p == n_owners
+    rows = np.arange(n) if every else (pos_of[owner] >= 0).nonzero()[0]
+    rpos = pos_of[owner if every else owner[rows]]
+    new, bp, own, local, born, t_b, zb, var_b, rad_b = birth_rows(claimed, rows, rpos, d_pos, z, var, rad, x, radius,
+                                                                  owners, t_o, nl_ref)
+    counts_ref[owners, 0] += born
+    for a, b in zip(got, (bp, own, local, t_b, zb, var_b, rad_b, idx[new])):
+        assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()
+    assert np.array_equal(counts, counts_ref) and np.array_equal(next_local, nl_ref)

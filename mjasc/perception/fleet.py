@@ -342,7 +342,7 @@ def tracked_discs(ft: FleetTracker, rows: np.ndarray, t_s) -> tuple[np.ndarray, 
     but numpy's cosine and sine."""
     t, pos, th, v, w, P = ft.bank.estimate_fields(rows)
     dt, th = disc_courses(t_s, t, th, w)
-    return disc_geometry(pos, dt, v, np.cos(th), np.sin(th), ft.mgmt._radius[rows], P, DISC_MARGIN_M,
+    return disc_geometry(pos, dt, v, np.cos(th), np.sin(th), ft.cols.radius[rows], P, DISC_MARGIN_M,
                          DISC_MARGIN_MAX_M)
 
 

@@ -35,14 +35,15 @@ import numpy as np
 
 from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.bank_kernels import (ACCEPTED, GATED, NON_FINITE, NOT_MEASURED, REJECTION_REASONS, RESTARTED,
-                                                appended_rows, kept_rows, measurements, rejections, warm_rows)
+                                                kept_rows, measurements, settled_rows)
 from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import imm_cycle, turn_rate, wrap
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import (SEQUENTIAL_MODELS, combine_covariance_rows, row_fields,
                                               wrapped_states)
-from mjasc.perception.imm.startup import StartupFilters, cv_to_polar
+from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
+from mjasc.perception.imm.startup_rows import born_rows, gather_startup, handover_rows, update_startup
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -52,6 +53,8 @@ _TINY_PROB = 1e-300  # floor when min_mode_probability = 0: keeps every μ_j, c�
 _EYE2 = np.eye(2)
 _ALL, _NONE = np.ones(1, dtype=bool), np.zeros(1, dtype=bool)  # ``use`` of imm_cycle: every row, none
 _NO_Z = np.zeros((1, 2))  # z of a cycle without measurements (not read)
+_NO_VAR = np.zeros(0)  # (gather_startup: no per-row steps or σ²)
+_NO_ROWS, _NO_FLAGS = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)  # (settled_rows: no start-up rows)
 
 class CycleBuffers:
     """Room for what :func:`imm_cycle` writes for up to ``cap`` tracks × r models: two sides
@@ -213,22 +216,21 @@ class IMMBank(PredictiveDensity):
         if cyc is None or cyc.cap < n or self._side is None:
             cyc = self._own_state(n)
         s, P, mu, x, _ = cyc.views(self._side, n)  # the state's rows, then spare ones: zero, but μ
-        xc, Pcv = self._startup.append_started(z, self._R, meas_var)
-        sp, Pp = cv_to_polar(xc, Pcv)
-        # the new rows' state (zero, μ0, x = the start-up estimate) and per-track arrays: one compiled call
-        self._ids, self._t, self._Pc, self._n_gated, self._reasons, one_time = appended_rows(
-            s, P, mu, x, n_before, self._mu0, sp, self._ids, self._t, self._Pc, self._n_gated, self._reasons,
-            ids, np.ascontiguousarray(t, dtype=float), Pp)
+        st = self._startup
+        xc, Pcv = st.append_started(z, self._R, meas_var)
+        # the new rows' state (zero, μ0, x = the start-up estimate), per-track arrays and hand-over (as
+        # :meth:`_start`): one compiled call around :func:`cv_to_polar`'s numpy products
+        vx, vy = xc[:, 2], xc[:, 3]
+        speed = np.hypot(vx, vy)
+        J = _polar_jacobians(xc, speed)
+        self._ids, self._t, self._Pc, self._n_gated, self._reasons, one_time, off = born_rows(
+            s, P, mu, x, n_before, self._mu0, self._ids, self._t, self._Pc, self._n_gated, self._reasons,
+            ids, np.ascontiguousarray(t, dtype=float), xc, speed, np.arctan2(vy, vx), J @ Pcv @ np.swapaxes(J, 1, 2),
+            Pcv, st.n_meas, st.snr2, st.max_updates, st.active)
+        st.n_active -= off
         self._s, self._P, self._mu, self._x = s, P, mu, x
         tc, t0 = self._t_common, float(t[0])
         self._t_common = t0 if (n_before == 0 or tc == t0) and one_time else None
-        rows = np.arange(n_before, n)
-        ready = self._startup.hand_over(rows, sp, Pcv)
-        if ready.any():
-            done = rows[ready]
-            self._s[done] = sp[ready][:, None, :]
-            self._P[done] = Pp[ready][:, None, :, :]
-            self._mu[done] = self._mu0
 
     def _start(self, rows, z, meas_var=None):
         """(Re)start tracks ``rows`` from measurements z (k, 2): CV filter at z, v = 0 ± σ_v0;
@@ -239,16 +241,17 @@ class IMMBank(PredictiveDensity):
 
     def _handover(self, rows, xc=None, cv_P=None):
         """Refresh the estimate of start-up tracks ``rows``; move those ready into the IMM. xc (k, 4),
-        cv_P (k, 4, 4): their filters' ``x[rows]``, ``P[rows]`` when the caller has them."""
-        s, P = self._startup.polar(rows) if xc is None else cv_to_polar(xc, cv_P)
-        self._x[rows] = s
-        self._Pc[rows] = P
-        ready = self._startup.hand_over(rows, s, cv_P)
-        if ready.any():
-            done = rows[ready]
-            self._s[done] = s[ready][:, None, :]
-            self._P[done] = P[ready][:, None, :, :]
-            self._mu[done] = self._mu0
+        cv_P (k, 4, 4): their filters' ``x[rows]``, ``P[rows]`` when the caller has them. (|v|, atan2
+        and J P Jᵀ of :func:`cv_to_polar` numpy's, the rest one compiled call: :func:`handover_rows`.)"""
+        st = self._startup
+        if xc is None:
+            xc, cv_P = st.x[rows], st.P[rows]
+        vx, vy = xc[:, 2], xc[:, 3]
+        speed = np.hypot(vx, vy)
+        J = _polar_jacobians(xc, speed)
+        st.n_active -= handover_rows(rows, xc, speed, np.arctan2(vy, vx), J @ cv_P @ np.swapaxes(J, 1, 2), cv_P,
+                                     st.n_meas, st.snr2, st.max_updates, st.active, self._x, self._Pc, self._s,
+                                     self._P, self._mu, self._mu0)
 
     def add_process_noise(self, rows, heading_var_rad2=0.0, speed_var_m2_s2=0.0) -> None:
         """Manoeuvre handling: add ``heading_var_rad2`` to P_θθ and ``speed_var_m2_s2`` to P_VV of
@@ -474,34 +477,37 @@ class IMMBank(PredictiveDensity):
         # general case: mix of updated, coasting, start-up and restarted tracks (t None: every row at t0)
         if use is None:
             use = finite = measured = np.ones(n, dtype=bool)
-        inside = d2_min <= self._gate  # (nan, False, where not used)
         warm = self._startup.active
         any_warm = self._startup.n_active > 0
-        ok = use & inside
-        # the cycle updated the rows ``ok`` of the IMM rows, coasted the others; the start-up rows
-        # keep their (unused) IMM state, their x is set by the hand-over below
+        # the cycle updated the rows ``use & (d2_min <= gate)`` of the IMM rows, coasted the others; the
+        # start-up rows keep their (unused) IMM state, their x is set by the hand-over below
         s_new, P_new, mu_new, x_new, _ = side
-        if any_warm:
+        if any_warm:  # the start-up filters' cycle (StartupFilters.update_rows): the products numpy's
             rows_w = rows = warm.nonzero()[0]  # (still the start-up rows at the hand-over below)
-            var = self._var if mv is None else mv[rows]
-            use_w = use[rows]
-            ok_w, xc_w, P_w = self._startup.update_rows(rows, np.full(rows.size, dtm) if t is None else dt[rows],
-                                                        z[rows], var, use_w, self._gate)
-            warm_rows(rows, ok_w, use_w, ok, inside, self._s, self._P, self._mu, s_new, P_new, mu_new)
+            st = self._startup
+            xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
+                                                              dtm if t is None else 0.0,
+                                                              z, use, _NO_VAR if mv is None else mv, mv is not None)
+            xc_w = (F @ xc[..., None])[..., 0]
+            P_w = F @ Pc @ np.swapaxes(F, 1, 2)
+            ok_w = update_startup(rows, xc_w, P_w, dtw**3, dtw, float(st.acceleration_noise), zw,
+                                  self._var if mv is None else var_w, use_w, self._gate, st.x, st.P, st.n_meas)
+        else:
+            rows_w, ok_w, use_w = _NO_ROWS, _NO_FLAGS, _NO_FLAGS
+        limit = self.config.restart_after_gated
+        inside, reasons, restart, used, n_restart = settled_rows(
+            d2_min, self._gate, use, finite, measured, rows_w, ok_w, use_w, self._s, self._P, self._mu, s_new, P_new,
+            mu_new, self._n_gated, limit)  # (inside, ok, the start-up rows, rejections: one compiled pass)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
         self._side = out
         self._Pc_stale = True
 
-        reasons = np.empty(n, dtype=np.int8)
-        restart = np.empty(n, dtype=bool)
-        limit = self.config.restart_after_gated
-        rejections(use, finite, measured, inside, ok, self._n_gated, limit, reasons, restart)
         self._set_times(t0, t)
         if t is None:
             t = self._t  # (for the log below)
         if any_warm:
             self._handover(rows_w, xc_w, P_w)
-        if restart.any():
+        if n_restart:
             rows = restart.nonzero()[0]
             self._start(rows, z[rows], None if mv is None else mv[rows])
             reasons[rows] = RESTARTED
@@ -524,7 +530,7 @@ class IMMBank(PredictiveDensity):
                     "IMM track %d at t=%.3f s: rejected z=%s (%s; min d²=%.4g > gate %.4g)",
                     self._ids[k], t[k], z[k], REJECTION_REASONS[GATED], d2_min[k], self._gate,
                 )
-        return ok | restart
+        return used
 
     # ------------------------------------------------------------------ read-only views
     @property
@@ -556,6 +562,24 @@ class IMMBank(PredictiveDensity):
     def states(self) -> np.ndarray:
         """(n, 4) combined [x, y, θ, V] per track (θ in (−π, π])."""
         return wrapped_states(self._x)  # (= x.copy() with x[:, 2] = wrap(x[:, 2]): one compiled pass)
+
+    @property
+    def state_rows(self) -> np.ndarray:
+        """(n, 4) the combined estimates [x, y, θ, V] as the bank keeps them, θ unwrapped (wrap it
+        to read a course; :attr:`states` does): the bank's own array, not a copy — read it at once
+        (valid until the next cycle, birth or drop), never write it."""
+        return self._x
+
+    def covariance_rows(self) -> np.ndarray:
+        """(n, 4, 4) the combined covariances as the bank keeps them (computed on first read after
+        a cycle): the bank's own array, not a copy — read it at once (valid until the next cycle,
+        birth or drop), never write it."""
+        return self._covariances()
+
+    @property
+    def common_time_s(self) -> float | None:
+        """The time of every track's last cycle [s] when they share it, else None."""
+        return self._t_common
 
     @property
     def positions(self) -> np.ndarray:

@@ -1,7 +1,7 @@
 """The compiled per-row bookkeeping of :class:`mjasc.perception.imm.bank.IMMBank` (one call instead
 of ~10 small numpy calls each): the rejection codes and why a row was not used
 (:func:`rejections`), the measurement checks of an update (:func:`measurements`), the start-up rows
-of a general cycle (:func:`warm_rows`), and the bank's births and drops in its cycle buffers
+of a general cycle (:func:`warm_rows`) and the whole outcome of one (:func:`settled_rows`), and the bank's births and drops in its cycle buffers
 (:func:`appended_rows`, :func:`kept_rows`). Each equals its numpy form bit for bit (the tests)."""
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import numpy as np
 from mjasc.core.compiled import kernel
 
 __all__ = ["ACCEPTED", "NOT_MEASURED", "NON_FINITE", "GATED", "RESTARTED", "REJECTION_REASONS",
-           "rejections", "measurements", "warm_rows", "appended_rows", "kept_rows"]
+           "rejections", "measurements", "warm_rows", "settled_rows", "appended_rows", "kept_rows"]
 
 #: Codes of :attr:`mjasc.perception.imm.bank.IMMBank.rejection_codes` (indices into ``REJECTION_REASONS``).
 ACCEPTED, NOT_MEASURED, NON_FINITE, GATED, RESTARTED = 0, 1, 2, 3, 4
@@ -81,6 +81,31 @@ def warm_rows(rows, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new):
                 s_new[k, a, b] = s[k, a, b]
                 for c in range(4):
                     P_new[k, a, b, c] = P[k, a, b, c]
+
+
+@kernel
+def settled_rows(d2_min, gate, use, finite, measured, rows_w, ok_w, use_w, s, P, mu, s_new, P_new, mu_new, n_gated,
+                 limit):
+    """A general cycle's outcome per row in one pass: ``inside = d2_min <= gate`` (NaN: False),
+    ``ok = use & inside``; the start-up rows ``rows_w`` as :func:`warm_rows` (their ok and inside
+    from their filters, their IMM state kept); then :func:`rejections` (n_gated changed in place).
+    Returns (inside, reasons, restart, used = ok | restart, the number restarted)."""
+    n = d2_min.size
+    inside = np.empty(n, dtype=np.bool_)
+    ok = np.empty(n, dtype=np.bool_)
+    for k in range(n):
+        inside[k] = d2_min[k] <= gate
+        ok[k] = use[k] and inside[k]
+    warm_rows(rows_w, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new)
+    reasons = np.empty(n, dtype=np.int8)
+    restart = np.empty(n, dtype=np.bool_)
+    rejections(use, finite, measured, inside, ok, n_gated, limit, reasons, restart)
+    used = np.empty(n, dtype=np.bool_)
+    n_restart = 0
+    for k in range(n):
+        used[k] = ok[k] or restart[k]
+        n_restart += restart[k]
+    return inside, reasons, restart, used, n_restart
 
 
 @kernel

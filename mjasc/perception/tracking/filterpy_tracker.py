@@ -144,7 +144,7 @@ class FilterpyIMMMethod(TrackingMethod):
             covs = np.array([f.state_covariance for f in fs])
             times = np.array([f.time_s for f in fs])
             omegas = np.array([f.turn_rate for f in fs])
-            var_p = var[None, :] + occ[None, :] * np.maximum(mg._radius[:, None] - rad[None, :], 0.0) ** 2
+            var_p = var[None, :] + occ[None, :] * np.maximum(mg.cols.radius[:, None] - rad[None, :], 0.0) ** 2
             d2, cost = association_costs(states, covs, times, omegas, z, var_p, t)
             inside = d2 <= self._gate
             claimed = inside.any(axis=0)
@@ -163,7 +163,7 @@ class FilterpyIMMMethod(TrackingMethod):
             for k in np.flatnonzero(new_conf).tolist():
                 self.counts["confirmed"] += 1
                 self._events.append((t, f"track {self.ids[k]} confirmed at {_fmt(self.filters[k].position)} "
-                                        f"(born {t - mg._born[k]:.1f} s ago)"))
+                                        f"(born {t - mg.cols.born[k]:.1f} s ago)"))
             self._prune(t, None if d is None else d.origin_m)
         if m:
             self._births(t, z, var, rad, claimed)
@@ -175,7 +175,7 @@ class FilterpyIMMMethod(TrackingMethod):
         pos = np.array([f.position for f in self.filters])
         P = np.array([f.position_covariance for f in self.filters])
         org = np.tile(np.full(2, np.nan) if origin is None else np.asarray(origin, dtype=float), (n, 1))
-        conf = mg._confirmed.copy()
+        conf = mg.cols.confirmed.copy()
         drop, reason, merged = mg.drops(np.arange(n), np.zeros(n, dtype=np.int64), t, pos, P, org,
                                         np.full(n, self.max_range_m))
         for go, keep in merged:
@@ -197,7 +197,7 @@ class FilterpyIMMMethod(TrackingMethod):
         if self.filters and free.any():
             pos = np.array([f.position for f in self.filters])
             dist = np.hypot(z[:, None, 0] - pos[None, :, 0], z[:, None, 1] - pos[None, :, 1])
-            free &= ~(dist <= self.mgmt._radius[None, :] + rad[:, None]).any(axis=1)
+            free &= ~(dist <= self.mgmt.cols.radius[None, :] + rad[:, None]).any(axis=1)
         new = np.flatnonzero(free)
         if new.size == 0:
             return
@@ -214,15 +214,15 @@ class FilterpyIMMMethod(TrackingMethod):
     def tracks(self) -> tuple:
         mg = self.mgmt
         out = []
-        for k in np.flatnonzero(mg._confirmed).tolist():
+        for k in np.flatnonzero(mg.cols.confirmed).tolist():
             f = self.filters[k]
             x = f.state
             th, v = float(x[2]), float(x[3])
             if v < 0.0:  # filterpy keeps V's sign free: the same velocity, the opposite course
                 th, v = float(wrap(th + math.pi)), -v
             out.append(TrackEstimate(track_id=self.ids[k], time_s=f.time_s, position_m=x[:2].copy(), heading_rad=th,
-                                     speed_m_s=v, turn_rate_rad_s=f.turn_rate, radius_m=float(mg._radius[k]),
-                                     position_covariance=f.position_covariance.copy(), is_static=bool(mg._static[k])))
+                                     speed_m_s=v, turn_rate_rad_s=f.turn_rate, radius_m=float(mg.cols.radius[k]),
+                                     position_covariance=f.position_covariance.copy(), is_static=bool(mg.cols.static[k])))
         return tuple(out)
 
     def drain_events(self) -> list[tuple[float, str]]:

@@ -22,6 +22,11 @@ against its own broadcasts; but each stage runs once for all vessels, over array
    to the bank at once);
 6. team mates matched from each vessel's broadcasts (:mod:`~mjasc.perception.tracking.team`).
 
+Every per-track column that is not the bank's — each row's vessel and id, management, manoeuvres,
+team mates, outlines — lives in one :class:`~mjasc.perception.tracking.track_columns.TrackColumns`
+that the components share: a step's births are one compiled append to it (and one to the bank),
+its drops one compiled compaction of it (and one of the bank).
+
 A vessel's results do not depend on the other vessels in the bank: every step is per row or per
 pair, and the IMM cycle's rows are independent (:mod:`mjasc.perception.imm.compiled_cycle`); a fleet's
 tracker gives each vessel the same tracks, bit for bit, as a tracker of its own
@@ -45,10 +50,11 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.step_kernels import (add_counts, apply_assignment, birth_rows, confirmed_by_owner,
-                                                    count_scans, count_used, last_assignments, measurement_rows,
-                                                    pair_setup, select_detections)
+from mjasc.perception.tracking.step_gathers import births_of, cycled_rows, step_rows
+from mjasc.perception.tracking.step_kernels import (apply_assignment, confirmed_by_owner, last_assignments,
+                                                    measurement_rows, pair_setup, select_detections)
 from mjasc.perception.tracking.team import TeamMatcher
+from mjasc.perception.tracking.track_columns import TrackColumns
 
 __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
 
@@ -86,12 +92,11 @@ class FleetTracker:
         self.bank = IMMBank(config.imm)
         self._R = float(config.imm.measurement_variance_m2)
         self._gate = config.gate_threshold
-        self.mgmt = TrackManagement(config)
-        self.manoeuvres = ManoeuvreDetector(config)
-        self.team = TeamMatcher(config)
-        self.outlines = TrackOutlines(config)
-        self.owner = np.zeros(0, dtype=np.int64)  # per row: its vessel
-        self.local_id = np.zeros(0, dtype=np.int64)  # per row: its id in its vessel's numbering
+        cols = self.cols = TrackColumns(config.confirm_hits <= 1)  # every per-track column but the bank's
+        self.mgmt = TrackManagement(config, cols)
+        self.manoeuvres = ManoeuvreDetector(config, cols)
+        self.team = TeamMatcher(config, cols)
+        self.outlines = TrackOutlines(config, cols)
         self.version = 0  # changes whenever rows are added or removed
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
         self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, position of each owner, every)
@@ -100,7 +105,7 @@ class FleetTracker:
         self._next_local = np.zeros(0, dtype=np.int64)
         self._counts = np.zeros((0, len(COUNT_KEYS)), dtype=np.int64)
         self.events: list[list[TrackEvent]] = []
-        self._last_assign: list[tuple[np.ndarray, np.ndarray]] = []
+        self._last_assign: list[list] = []  # per vessel: its last scan's (ids, detections) pieces (updates, births)
 
     # ------------------------------------------------------------------ vessels
     def add_owner(self, max_range_m: float = math.inf) -> int:
@@ -111,18 +116,29 @@ class FleetTracker:
         self._next_local = np.append(self._next_local, 0)
         self._counts = np.vstack([self._counts, np.zeros((1, len(COUNT_KEYS)), dtype=np.int64)])
         self.events.append([])
-        self._last_assign.append((np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)))
+        self._last_assign.append([])
         return k
 
     @property
     def n_owners(self) -> int:
         return self._max_range.size
 
+    @property
+    def owner(self) -> np.ndarray:
+        """(n,) per row: its vessel (a view of the store's column: stale after a birth or drop)."""
+        return self.cols.owner
+
+    @property
+    def local_id(self) -> np.ndarray:
+        """(n,) per row: its id in its vessel's numbering (a view: stale after a birth or drop)."""
+        return self.cols.local_id
+
     def rows_of(self, owner: int) -> np.ndarray:
         """Bank rows of a vessel's tracks, in bank order (= the order of its own tracker)."""
         got = self._rows_cache.get(owner)
         if got is None or got[0] != self.version:
-            got = (self.version, (self.owner == owner).nonzero()[0] if self.n_owners > 1 else np.arange(self.owner.size))
+            own = self.cols.owner
+            got = (self.version, (own == owner).nonzero()[0] if self.n_owners > 1 else np.arange(own.size))
             self._rows_cache[owner] = got
         return got[1]
 
@@ -131,7 +147,10 @@ class FleetTracker:
 
     def last_assignment(self, owner: int) -> dict:
         """{track id: detection index} of the vessel's last scan (updates and births)."""
-        ids, dets = self._last_assign[owner]
+        pieces = self._last_assign[owner]
+        if not pieces:
+            return {}
+        ids, dets = np.concatenate([a for a, _ in pieces]), np.concatenate([b for _, b in pieces])
         return dict(zip(ids.tolist(), dets.tolist()))
 
     def set_team_positions(self, owner: int, positions: dict) -> None:
@@ -165,9 +184,6 @@ class FleetTracker:
         origins = [None] * p if origins is None else origins
         use = [None] * p if use is None else use
         points = [None] * p if points is None else points
-        t_own = np.empty(no)
-        t_own.fill(np.nan)
-        t_own[owners] = t_o
         # every vessel's selected detections, stacked in vessel order (one compiled pass)
         dets = list(detections)
         lens = [0 if d is None else d.centres_m.shape[0] for d in dets]
@@ -186,41 +202,33 @@ class FleetTracker:
             z, var, rad, occ = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
             m_q = np.zeros(p, dtype=np.int64)
         M = z.shape[0]
-        count_scans(self._counts, owners, _SCANS, _DETS, m_q)
-        n = len(self.bank)
-        row_pos = pos_of[self.owner]
-        all_due = every or bool((row_pos >= 0).all())
-        rows = np.arange(n) if all_due else (row_pos >= 0).nonzero()[0]
-        claimed = np.zeros(M, dtype=bool)
-        empty = (np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+        t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row = step_rows(
+            self.cols.owner, pos_of, every, owners, t_o, no, self._counts, _SCANS, _DETS, m_q, M, self._R)
         for o in owners.tolist():
-            self._last_assign[o] = empty
+            self._last_assign[o] = []
         if rows.size:
-            self._update(rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points, claimed)
+            self._update(rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
+                         claimed, assigned, var_row)
         self._prune(owners, pos_of, every, t_o, origins)
         if M:
-            self._births(owners, pos_of, every, t_o, z, var, rad, idx, d_pos, claimed)
+            self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
         bank = self.bank
         if every:  # (every row is a row of a vessel that scanned)
-            self.team.match(slice(None), self.owner, t_own, bank.states, self.mgmt._confirmed, no)
+            self.team.match(slice(None), self.cols.owner, t_own, bank.states, self.cols.confirmed, no)
         else:
-            rows = (pos_of[self.owner] >= 0).nonzero()[0]
-            self.team.match(rows, self.owner[rows], t_own, bank.states_of(rows), self.mgmt._confirmed[rows], no)
-        self.mgmt.note_moved(bank._x)  # (its first two columns: the positions)
+            rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
+            self.team.match(rows, self.cols.owner[rows], t_own, bank.states_of(rows), self.cols.confirmed[rows], no)
+        self.mgmt.note_moved(bank.state_rows)  # (its first two columns: the positions)
 
-    def _update(self, rows, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
-                claimed) -> None:
-        """Steps 1–4a: association, manoeuvres, the IMM cycle, confirmation and outlines."""
+    def _update(self, rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
+                claimed, assigned, var_row) -> None:
+        """Steps 1–4a: association, manoeuvres, the IMM cycle, confirmation and outlines (``assigned``
+        (n,) −1 and ``var_row`` (n,) R: filled here)."""
         cfg, bank = self.config, self.bank
-        n, M = len(bank), z.shape[0]
+        M = z.shape[0]
         p = owners.size
-        assigned = np.empty(n, dtype=np.int64)
-        assigned.fill(-1)
-        var_row = np.empty(n)
-        var_row.fill(self._R)
-        rpos = row_pos[rows]
         if M:
-            n_q, grouped, q, i, j, start, gi, db, ta, var_p = pair_setup(rows, rpos, p, m_q, self.mgmt._radius, var,
+            n_q, grouped, q, i, j, start, gi, db, ta, var_p = pair_setup(rows, rpos, p, m_q, self.cols.radius, var,
                                                                           rad, occ)
             if q.size:
                 zhat, S = predicted_positions(*bank.prediction_fields(grouped), t_o[row_pos[grouped]])
@@ -232,21 +240,18 @@ class FleetTracker:
         zr, meas = measurement_rows(assigned, z)
         vr = var_row if cfg.use_detection_variance else None
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
-        count_used(self._counts, owners, _ASSOC, row_pos, rows, used)
-        sel = slice(None) if all_due else rows
-        t_rows = t_o[row_pos[rows]]
-        speeds = bank.speeds[sel]
-        new_conf = self.mgmt.after_update(sel, t_rows, used[sel], assigned[sel], rad, occ, speeds)
-        if new_conf.any():
-            pos, born = bank.positions, self.mgmt._born
+        x = bank.state_rows
+        with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)], dtype=bool)
+        t_rows, speeds, u_rows, a_rows, hit_all, orows, o_hit, o_speeds, o_pos = cycled_rows(
+            rows, row_pos, t_o, used, meas, x, with_pts, self._counts, owners, _ASSOC, assigned)
+        new_conf = self.mgmt.after_update(rows, t_rows, u_rows, a_rows, rad, occ, speeds)
+        if np.count_nonzero(new_conf):
+            pos, born = bank.positions, self.cols.born
             for k in rows[new_conf].tolist():
-                o, tid, t = int(self.owner[k]), int(self.local_id[k]), float(t_o[row_pos[k]])
+                o, tid, t = int(self.cols.owner[k]), int(self.cols.local_id[k]), float(t_o[row_pos[k]])
                 self._counts[o, _CONF] += 1
                 self.events[o].append(TrackEvent(t, "confirmed", tid, f"track {tid} confirmed at {_fmt(pos[k])} "
                                                                       f"(born {t - born[k]:.1f} s ago)"))
-        with_pts = [points[q] is not None and dets[q] is not None for q in range(p)]
-        orows = rows if all(with_pts) else rows[np.array(with_pts)[rpos]]
-        hit_all = used & meas  # (n,) rows updated with their detection
         if orows.size:
             scans = {}
 
@@ -259,22 +264,21 @@ class FleetTracker:
                                       np.ascontiguousarray(dets[q].labels, dtype=np.int64))
                 return got[0], got[1], int(idx[assigned[k]])
 
-            self.outlines.grow(orows, hit_all[orows], bank._x[orows, 3], bank._x[orows, :2],  # (speeds, positions)
-                               self.mgmt._radius[orows], returns_of)
-        ids, det, first = last_assignments(rows, hit_all, row_pos, self.local_id, idx, assigned, p)
+            self.outlines.grow(orows, o_hit, o_speeds, o_pos, self.cols.radius[orows], returns_of)
+        ids, det, first = last_assignments(rows, hit_all, row_pos, self.cols.local_id, idx, assigned, p)
         if ids.size:
             f = first.tolist()
             for q in range(p):
                 a, b = f[q], f[q + 1]
                 if b > a:
-                    self._last_assign[owners[q]] = (ids[a:b], det[a:b])
+                    self._last_assign[owners[q]] = [(ids[a:b], det[a:b])]
 
     def _cycle(self, rows, all_due, row_pos, t_o, zr, meas, vr) -> np.ndarray:
         """Step 3: one IMM cycle of ``rows``, per group of vessels sharing their last and new time
         (one group, the whole bank, in the usual tick). Returns (n,) bool, the rows used."""
         bank = self.bank
         n = len(bank)
-        if all_due and bank._t_common is not None:  # every row's last cycle at one time (the bank's invariant)
+        if all_due and bank.common_time_s is not None:  # every row's last cycle at one time (the bank's invariant)
             t_q = t_o.tolist()
             if t_q.count(t_q[0]) == len(t_q):  # ... and every vessel's scan at one time
                 return bank.update(zr, t_q[0], meas, vr)
@@ -296,20 +300,20 @@ class FleetTracker:
             n = len(bank)
             if n == 0:
                 return
-            rows, own = slice(None), self.owner
+            rows, own = slice(None), self.cols.owner
             rpos = pos_of[own]
-            pos, cov = bank._x[:, :2], bank._covariances()[:, :2, :2]
+            pos, cov = bank.state_rows[:, :2], bank.covariance_rows()[:, :2, :2]
         else:
-            rows = (pos_of[self.owner] >= 0).nonzero()[0]
+            rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
             if rows.size == 0:
                 return
-            own = self.owner[rows]
+            own = self.cols.owner[rows]
             rpos = pos_of[own]
             pos, cov = bank.positions[rows], bank.position_covariances[rows]
         org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
-        conf = self.mgmt._confirmed[rows]
+        conf = self.cols.confirmed[rows]
         drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
-        ids = self.local_id[rows]
+        ids = self.cols.local_id[rows]
         for go, keep in merged:
             o, t = int(own[go]), float(t_o[rpos[go]])
             self._counts[o, _MERGED] += 1
@@ -320,40 +324,32 @@ class FleetTracker:
                 self._counts[o, _LOST] += 1
                 self.events[o].append(TrackEvent(float(t_o[rpos[j]]), "lost", int(ids[j]),
                                                  f"track {ids[j]} lost: {reason[j]}"))
-        if drop.any():
+        if np.count_nonzero(drop):
             if every:
                 keep = ~drop
             else:
                 keep = np.ones(len(bank), dtype=bool)
                 keep[rows[drop]] = False
             bank.keep_rows(keep)
-            for part in (self.mgmt, self.manoeuvres, self.team, self.outlines):
-                part.keep(keep)
-            self.owner, self.local_id = self.owner[keep], self.local_id[keep]
+            self.cols.keep(keep)  # (every per-track column of management, manoeuvres, team and outlines)
             self.version += 1
 
-    def _births(self, owners, pos_of, every, t_o, z, var, rad, idx, d_pos, claimed) -> None:
+    def _births(self, owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed) -> None:
         """Step 5: new tracks from the detections no track claimed, away from every track's disc."""
         cfg, bank = self.config, self.bank
         if np.count_nonzero(claimed) == claimed.size:
             return
-        rows = np.arange(len(bank)) if every else (pos_of[self.owner] >= 0).nonzero()[0]
-        rpos = pos_of[self.owner if every else self.owner[rows]]
-        new, bp, own, local, born, t_b, zb, var_b, rad_b = birth_rows(
-            claimed, rows, rpos, d_pos, z, var, rad, bank._x, self.mgmt._radius, owners, t_o, self._next_local)
-        k = new.size
+        bp, own, local, t_b, zb, var_b, rad_b, dets = births_of(
+            claimed, self.cols.owner, pos_of, d_pos, z, var, rad, bank.state_rows, self.cols.radius, owners, t_o,
+            self._next_local, idx, self._counts, _BORN)
+        k = bp.size
         if k == 0:
             return
         bank.append_tracks(zb, t_b, var_b if cfg.use_detection_variance else None)
-        self.owner = np.concatenate([self.owner, own])
-        self.local_id = np.concatenate([self.local_id, local])
-        self.mgmt.append(t_b, rad_b)
-        self.manoeuvres.append(k)
-        self.team.append(k)
-        self.outlines.append(bank._x[-k:, :2])
+        # every per-track column of management, manoeuvres, team and outlines (the hull anchor: the
+        # new rows' positions, which are zb)
+        self.cols.append(t_b, rad_b, zb, own, local)
         self.version += 1
-        add_counts(self._counts, owners, _BORN, born)
-        dets = idx[new]
         bl, ll, zl = bp.tolist(), local.tolist(), zb.tolist()
         a = 0
         while a < k:  # per vessel (bp is sorted): its events and last assignment
@@ -365,8 +361,7 @@ class FleetTracker:
             events = self.events[o]
             for tid, zj in zip(ll[a:b], zl[a:b]):
                 events.append(TrackEvent(t, "born", tid, f"track {tid} born at {_fmt(zj)}"))
-            a_ids, a_dets = self._last_assign[o]
-            self._last_assign[o] = (np.concatenate([a_ids, local[a:b]]), np.concatenate([a_dets, dets[a:b]]))
+            self._last_assign[o].append((local[a:b], dets[a:b]))
             a = b
 
     # ------------------------------------------------------------------ outputs
@@ -403,16 +398,17 @@ class FleetTracker:
         (bank order within): ({owner: (first, end)}, rows, ids, times, positions (k, 2), courses,
         speeds, ω̂, radii (array and list), position covariances (k, 2, 2), static flags, team
         mates, slow flags) — per-track values as :meth:`_estimates_of` makes them."""
-        rows, first = confirmed_by_owner(self.mgmt._confirmed, self.owner, self.n_owners)
+        rows, first = confirmed_by_owner(self.cols.confirmed, self.cols.owner, self.n_owners)
         if rows.size == 0:
             return ({},)
         f = first.tolist()
         spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
         t, pos, th, v, w, P = self.bank.estimate_fields(rows)
-        static = self.mgmt._static[rows]
+        static = self.cols.static[rows]
         slow = (static | (v < self.config.static_speed_m_s)).tolist()
-        radius = self.mgmt._radius[rows]
-        return (spans, rows.tolist(), self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
+        radius = self.cols.radius[rows]
+        ids = self.cols.local_id[rows].tolist()
+        return (spans, rows.tolist(), ids, t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
                 radius, radius.tolist(), P, static.tolist(), self.team.members(rows), slow)
 
     def _estimates_of(self, rows) -> list[TrackEstimate]:
@@ -420,19 +416,20 @@ class FleetTracker:
         if rows.size == 0:
             return []
         t, pos, th, v, w, P = self.bank.estimate_fields(rows)
-        static = self.mgmt._static[rows]
+        static = self.cols.static[rows]
         slow = (static | (v < self.config.static_speed_m_s)).tolist()
         # Python values per track in one conversion per field; each track's position and
         # covariance are rows of arrays made for this call (views: no track shares another's).
         k_rows = rows.tolist()
-        radius = self.mgmt._radius[rows]
+        radius = self.cols.radius[rows]
         outline = self.outlines.outline  # (= self.outline(k): pos, radius are row k's)
         outlines = [outline(k, pos[j], radius[j]) if lk else None for j, (k, lk) in enumerate(zip(k_rows, slow))]
-        return track_estimate_rows(self.local_id[rows].tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
+        ids = self.cols.local_id[rows].tolist()
+        return track_estimate_rows(ids, t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
                                    radius.tolist(), P, static.tolist(), self.team.members(rows),
                                    outlines, repeat(None, len(k_rows)))
 
     def outline(self, row: int) -> np.ndarray:
         """(k, 2) CCW outline [m] of the track in bank row ``row``
         (:mod:`mjasc.perception.tracking.outlines`)."""
-        return self.outlines.outline(row, self.bank.positions[row], self.mgmt._radius[row])
+        return self.outlines.outline(row, self.bank.positions[row], self.cols.radius[row])

@@ -36,6 +36,7 @@ import numpy as np
 from mjasc.core.compiled import kernel, maximum
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.pair_kernels import merge_candidates
+from mjasc.perception.tracking.track_columns import TrackColumns, column
 
 __all__ = ["TrackManagement", "MOVED_M"]
 
@@ -50,53 +51,41 @@ def _popcount_table(bits: int) -> np.ndarray:
 class TrackManagement:
     """Per-track management state, one row per bank row: update history (M of N), scans and
     updates since birth, confirmed / static / moved flags, birth and last-update times [s], radius
-    [m], where it was first seen confirmed [m]."""
+    [m], where it was first seen confirmed [m] — columns of a
+    :class:`~mjasc.perception.tracking.track_columns.TrackColumns` (``columns``: a tracker's store,
+    whose births and drops it makes; None: a store of its own, changed by :meth:`append`, :meth:`keep`)."""
 
     _ROWS = ("_hist", "_scans", "_n_upd", "_confirmed", "_static", "_born", "_last", "_radius", "_anchor",
              "_anchored", "_moved")
 
-    def __init__(self, config: TrackingConfig):
+    def __init__(self, config: TrackingConfig, columns: TrackColumns | None = None):
         self.config = config
         self._window_mask = (1 << config.confirm_window) - 1
         self._popcount = _popcount_table(config.confirm_window)
-        self._hist = np.zeros(0, dtype=np.int64)  # update history bits, newest = bit 0
-        self._scans = np.zeros(0, dtype=np.int64)  # scans since birth (incl. the first)
-        self._n_upd = np.zeros(0, dtype=np.int64)
-        self._confirmed = np.zeros(0, dtype=bool)
-        self._static = np.zeros(0, dtype=bool)
-        self._born = np.zeros(0)
-        self._last = np.zeros(0)
-        self._radius = np.zeros(0)
-        self._anchor = np.zeros((0, 2))
-        self._anchored = np.zeros(0, dtype=bool)
-        self._moved = np.zeros(0, dtype=bool)
+        self.cols = TrackColumns(config.confirm_hits <= 1) if columns is None else columns
+
+    # the store's columns (views: stale after a birth or drop)
+    _hist = column("hist")  # update history bits, newest = bit 0
+    _scans = column("scans")  # scans since birth (incl. the first)
+    _n_upd = column("n_upd")
+    _confirmed = column("confirmed")
+    _static = column("static")
+    _born = column("born")
+    _last = column("last")
+    _radius = column("radius")
+    _anchor = column("anchor")
+    _anchored = column("anchored")
+    _moved = column("moved")
 
     # ------------------------------------------------------------------ rows
     def append(self, t_s, radius) -> None:
-        """Tracks born at t_s [s] (scalar or (k,)) from detections of radius [m] (k,) (their first update)."""
-        radius = np.asarray(radius, dtype=float).reshape(-1)
-        k = radius.size
-        t = np.asarray(t_s, dtype=float)
-        if t.shape != (k,):
-            t = np.broadcast_to(t, (k,))
-        (self._hist, self._scans, self._n_upd, self._confirmed, self._static, self._born, self._last, self._radius,
-         self._anchor, self._anchored, self._moved) = appended_rows(
-            self._hist, self._scans, self._n_upd, self._confirmed, self._static, self._born, self._last, self._radius,
-            self._anchor, self._anchored, self._moved, np.ascontiguousarray(t, dtype=float), radius,
-            self.config.confirm_hits <= 1)
+        """Tracks born at t_s [s] (scalar or (k,)) from detections of radius [m] (k,) (their first
+        update): new rows of the store (:meth:`TrackColumns.append`)."""
+        self.cols.append(t_s, radius)
 
     def keep(self, keep: np.ndarray) -> None:
-        """Keep the rows where ``keep`` (n,) is True (one compiled pass, :func:`kept_rows`)."""
-        if type(keep) is np.ndarray and keep.dtype == np.bool_ and keep.shape == self._hist.shape:
-            (self._hist, self._scans, self._n_upd, self._confirmed, self._static, self._born, self._last, self._radius,
-             self._anchor, self._anchored, self._moved) = kept_rows(
-                keep, self._hist, self._scans, self._n_upd, self._confirmed, self._static, self._born, self._last,
-                self._radius, self._anchor, self._anchored, self._moved)
-            return
-        self._hist, self._scans, self._n_upd = self._hist[keep], self._scans[keep], self._n_upd[keep]
-        self._confirmed, self._static = self._confirmed[keep], self._static[keep]
-        self._born, self._last, self._radius = self._born[keep], self._last[keep], self._radius[keep]
-        self._anchor, self._anchored, self._moved = self._anchor[keep], self._anchored[keep], self._moved[keep]
+        """Keep the rows where ``keep`` (n,) is True (:meth:`TrackColumns.keep`)."""
+        self.cols.keep(keep)
 
     # ------------------------------------------------------------------ read-outs
     @property
@@ -135,12 +124,12 @@ class TrackManagement:
         the detections' radii ``rad`` [m] and occluded flags ``occ``); ``speeds`` (k,) the tracks'
         speeds after the update [m/s]. Returns (k,) bool: the tracks confirmed now. (One compiled
         pass, :func:`scan_rows`; tests/test_tracking_fleet_store.py keeps the numpy form.)"""
-        cfg = self.config
-        idx = np.arange(self._hist.size)[rows] if isinstance(rows, slice) else rows
+        cfg, c = self.config, self.cols
+        idx = np.arange(c.n)[rows] if isinstance(rows, slice) else rows
         t = np.full(idx.size, float(t_s)) if np.ndim(t_s) == 0 else t_s
         new_conf = np.empty(idx.size, dtype=bool)
-        scan_rows(idx, t, used, assigned_det, rad, occ, speeds, self._hist, self._scans, self._n_upd, self._last,
-                  self._radius, self._confirmed, self._static, self._born, self._popcount, self._window_mask,
+        scan_rows(idx, t, used, assigned_det, rad, occ, speeds, c.hist, c.scans, c.n_upd, c.last,
+                  c.radius, c.confirmed, c.static, c.born, self._popcount, self._window_mask,
                   float(cfg.radius_grow_gain), float(cfg.radius_shrink_gain), int(cfg.confirm_hits),
                   float(cfg.static_min_age_s), float(cfg.static_speed_m_s), new_conf)
         return new_conf
@@ -155,41 +144,23 @@ class TrackManagement:
         lost ('' for tentative tracks and merged confirmed ones); merged, the confirmed tracks
         merged into another, as (position in rows, kept position) pairs in the order found.
         """
-        cfg = self.config
+        cfg, cols = self.config, self.cols
         k = positions.shape[0]
-        reason = [""] * k
-        merged = []
-        conf = self._confirmed[rows]
-        idx = np.arange(self._hist.size)[rows] if isinstance(rows, slice) else rows
+        idx = np.arange(cols.n)[rows] if isinstance(rows, slice) else rows
         t = np.full(k, float(t_s)) if np.ndim(t_s) == 0 else t_s
         mr = np.full(k, float(max_range_m)) if np.ndim(max_range_m) == 0 else max_range_m
-        drop, code = np.empty(k, dtype=bool), np.empty(k, dtype=np.int8)
-        lam, since, rng = np.empty(k), np.empty(k), np.empty(k)  # (rng NaN: no origin)
-        _losses(idx, t, self._hist, self._scans, self._confirmed, self._last, self._popcount, position_covariances,
-                positions, origins_m, mr, int(cfg.confirm_window), int(cfg.confirm_hits), float(cfg.max_coast_s),
-                float(cfg.max_position_std_m**2), float(cfg.range_margin_m), drop, code, lam, since, rng)
+        drop, code, lam, since, rng, go, kept = drop_rows(
+            idx, t, np.ascontiguousarray(group, dtype=np.int64), cols.hist, cols.scans, cols.confirmed, cols.last,
+            cols.n_upd, cols.radius, self._popcount, position_covariances, positions, origins_m, mr,
+            int(cfg.confirm_window), int(cfg.confirm_hits), float(cfg.max_coast_s), float(cfg.max_position_std_m**2),
+            float(cfg.range_margin_m), float(cfg.merge_fraction))
+        reason = [""] * k
         for j in code.nonzero()[0].tolist():  # why the confirmed ones are lost
             c = code[j]
             reason[j] = (f"not seen for {since[j]:.1f} s" if c == 1 else
                          f"position uncertainty {math.sqrt(lam[j]):.1f} m" if c == 2 else
                          f"out of range ({rng[j]:.0f} m)")
-        # duplicates (same vessel): the track with fewer updates goes
-        live = (~drop).nonzero()[0]
-        if live.size > 1:
-            live = live[np.argsort(group[live], kind="stable")]
-            a, b = merge_candidates(live, np.ascontiguousarray(group[live], dtype=np.int64),
-                                    np.ascontiguousarray(positions, dtype=float), self._radius[rows],
-                                    float(cfg.merge_fraction))
-            n_upd = self._n_upd[rows]
-            for a_, b_ in zip(a.tolist(), b.tolist()):
-                if drop[a_] or drop[b_]:
-                    continue
-                keep, go = (a_, b_) if (conf[a_], n_upd[a_]) >= (conf[b_], n_upd[b_]) else (b_, a_)
-                drop[go] = True
-                reason[go] = ""
-                if conf[go]:
-                    merged.append((go, keep))
-        return drop, reason, merged
+        return drop, reason, list(zip(go.tolist(), kept.tolist()))
 
     def note_moved(self, positions: np.ndarray) -> None:
         """After a scan: anchor the tracks confirmed for the first time where they are (positions
@@ -198,7 +169,8 @@ class TrackManagement:
         positions = np.asarray(positions, dtype=float)
         if positions.ndim != 2:  # (no tracks: an empty list of positions)
             positions = positions.reshape(-1, 2)
-        _moved_rows(positions, self._confirmed, self._anchored, self._anchor, self._moved, MOVED_M)
+        c = self.cols
+        _moved_rows(positions, c.confirmed, c.anchored, c.anchor, c.moved, MOVED_M)
 
 
 @kernel
@@ -262,38 +234,70 @@ def _losses(idx, t, hist, scans, confirmed, last, popcount, Pc, pos, org, max_ra
 
 
 @kernel
-def appended_rows(hist, scans, n_upd, confirmed, static, born, last, radius, anchor, anchored, moved, t, r_new,
-                  confirm_now):
-    """:meth:`TrackManagement.append`'s arrays, each a new array with k rows appended (one compiled
-    call instead of eleven concatenations): one update in the history and the counters, confirmed
-    iff ``confirm_now``, born and last updated at t (k,) [s], radius r_new (k,) [m], no anchor, not
-    static, not moved."""
-    n = hist.size
-    m = n + t.size
-    out_hist = np.empty(m, dtype=np.int64)
-    out_scans = np.empty(m, dtype=np.int64)
-    out_n_upd = np.empty(m, dtype=np.int64)
-    out_conf = np.empty(m, dtype=np.bool_)
-    out_static = np.empty(m, dtype=np.bool_)
-    out_born = np.empty(m)
-    out_last = np.empty(m)
-    out_radius = np.empty(m)
-    out_anchor = np.empty((m, 2))
-    out_anchored = np.empty(m, dtype=np.bool_)
-    out_moved = np.empty(m, dtype=np.bool_)
-    out_hist[:n], out_hist[n:] = hist, 1
-    out_scans[:n], out_scans[n:] = scans, 1
-    out_n_upd[:n], out_n_upd[n:] = n_upd, 1
-    out_conf[:n], out_conf[n:] = confirmed, confirm_now
-    out_static[:n], out_static[n:] = static, False
-    out_born[:n], out_born[n:] = born, t
-    out_last[:n], out_last[n:] = last, t
-    out_radius[:n], out_radius[n:] = radius, r_new
-    out_anchor[:n], out_anchor[n:] = anchor, 0.0
-    out_anchored[:n], out_anchored[n:] = anchored, False
-    out_moved[:n], out_moved[n:] = moved, False
-    return (out_hist, out_scans, out_n_upd, out_conf, out_static, out_born, out_last, out_radius, out_anchor,
-            out_anchored, out_moved)
+def drop_rows(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcount, Pc, pos, org, max_range, window,
+              hits, max_coast, max_var, margin, fraction):
+    """:meth:`TrackManagement.drops` of the rows k = idx[j] (k,) in one pass: (drop, code, lam, since, rng
+    (k,), go, kept (g,)) — the losses of :func:`_losses`, then the duplicates among the tracks not
+    dropped: the live positions sorted stably by their vessel ``group`` (k,),
+    :func:`~mjasc.perception.tracking.pair_kernels.merge_candidates` of them (positions pos (k, 2) [m],
+    radii ``radius[idx]``), and each close pair whose tracks are both still kept, in the order found:
+    the one with fewer updates goes (confirmed before tentative: ``(confirmed, n_upd)`` compared as
+    tuples, the first kept on a tie); go, kept the positions of the confirmed ones that went and of
+    the track each was merged into."""
+    k = idx.size
+    drop = np.empty(k, dtype=np.bool_)
+    code = np.empty(k, dtype=np.int8)
+    lam = np.empty(k)
+    since = np.empty(k)
+    rng = np.empty(k)
+    _losses(idx, t, hist, scans, confirmed, last, popcount, Pc, pos, org, max_range, window, hits, max_coast, max_var,
+            margin, drop, code, lam, since, rng)
+    n_live = 0
+    for j in range(k):
+        if not drop[j]:
+            n_live += 1
+    go = np.empty(0, dtype=np.int64)
+    kept = np.empty(0, dtype=np.int64)
+    if n_live <= 1:
+        return drop, code, lam, since, rng, go, kept
+    live = np.empty(n_live, dtype=np.int64)
+    c = 0
+    for j in range(k):
+        if not drop[j]:
+            live[c] = j
+            c += 1
+    keys = np.empty(n_live, dtype=np.int64)
+    for c in range(n_live):
+        keys[c] = group[live[c]]
+    order = np.argsort(keys, kind="mergesort")
+    live_s = np.empty(n_live, dtype=np.int64)
+    keys_s = np.empty(n_live, dtype=np.int64)
+    for c in range(n_live):
+        live_s[c] = live[order[c]]
+        keys_s[c] = keys[order[c]]
+    rad = np.empty(k)
+    for j in range(k):
+        rad[j] = radius[idx[j]]
+    a, b = merge_candidates(live_s, keys_s, pos, rad, fraction)
+    go = np.empty(a.size, dtype=np.int64)
+    kept = np.empty(a.size, dtype=np.int64)
+    m = 0
+    for c in range(a.size):
+        a_ = a[c]
+        b_ = b[c]
+        if drop[a_] or drop[b_]:
+            continue
+        ca, cb = confirmed[idx[a_]], confirmed[idx[b_]]
+        if ca > cb or (ca == cb and n_upd[idx[a_]] >= n_upd[idx[b_]]):
+            keep_, go_ = a_, b_
+        else:
+            keep_, go_ = b_, a_
+        drop[go_] = True
+        if confirmed[idx[go_]]:
+            go[m] = go_
+            kept[m] = keep_
+            m += 1
+    return drop, code, lam, since, rng, go[:m], kept[:m]
 
 
 @kernel
@@ -308,41 +312,3 @@ def _moved_rows(positions, confirmed, anchored, anchor, moved, moved_m):
             anchored[k] = True
         if anchored[k] and math.hypot(positions[k, 0] - anchor[k, 0], positions[k, 1] - anchor[k, 1]) >= moved_m:
             moved[k] = True
-
-
-@kernel
-def kept_rows(keep, hist, scans, n_upd, confirmed, static, born, last, radius, anchor, anchored, moved):
-    """:meth:`TrackManagement.keep`'s arrays, each a new array of the rows where ``keep`` (n,) bool
-    (``a[keep]``; one compiled call instead of eleven boolean indexings)."""
-    m = 0
-    for k in range(keep.size):
-        m += keep[k]
-    o_hist = np.empty(m, dtype=hist.dtype)
-    o_scans = np.empty(m, dtype=scans.dtype)
-    o_n_upd = np.empty(m, dtype=n_upd.dtype)
-    o_conf = np.empty(m, dtype=np.bool_)
-    o_static = np.empty(m, dtype=np.bool_)
-    o_born = np.empty(m)
-    o_last = np.empty(m)
-    o_radius = np.empty(m)
-    o_anchor = np.empty((m, 2))
-    o_anchored = np.empty(m, dtype=np.bool_)
-    o_moved = np.empty(m, dtype=np.bool_)
-    c = 0
-    for k in range(keep.size):
-        if not keep[k]:
-            continue
-        o_hist[c] = hist[k]
-        o_scans[c] = scans[k]
-        o_n_upd[c] = n_upd[k]
-        o_conf[c] = confirmed[k]
-        o_static[c] = static[k]
-        o_born[c] = born[k]
-        o_last[c] = last[k]
-        o_radius[c] = radius[k]
-        o_anchor[c, 0] = anchor[k, 0]
-        o_anchor[c, 1] = anchor[k, 1]
-        o_anchored[c] = anchored[k]
-        o_moved[c] = moved[k]
-        c += 1
-    return o_hist, o_scans, o_n_upd, o_conf, o_static, o_born, o_last, o_radius, o_anchor, o_anchored, o_moved

@@ -20,32 +20,37 @@ import numpy as np
 from mjasc.core.compiled import kernel, minimum
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.tracking.config import TrackingConfig
+from mjasc.perception.tracking.track_columns import TrackColumns, column
 
 __all__ = ["ManoeuvreDetector"]
 
 
 class ManoeuvreDetector:
     """Per track (rows aligned with the bank's): the faded average ε̄ of the normalized innovation
-    squared (2: no manoeuvre) and whether the track manoeuvres."""
+    squared (2: no manoeuvre) and whether the track manoeuvres — columns of a
+    :class:`~mjasc.perception.tracking.track_columns.TrackColumns` (``columns``: a tracker's store;
+    None: a store of its own)."""
 
-    def __init__(self, config: TrackingConfig):
+    def __init__(self, config: TrackingConfig, columns: TrackColumns | None = None):
         self.config = config
-        self._nis = np.zeros(0)  # faded average of the normalized innovation squared (2: no manoeuvre)
-        self._man = np.zeros(0, dtype=bool)  # manoeuvring (between the start and end thresholds)
+        self.cols = TrackColumns(config.confirm_hits <= 1) if columns is None else columns
+
+    # the store's columns (views: stale after a birth or drop)
+    _nis = column("nis")  # faded average of the normalized innovation squared (2: no manoeuvre)
+    _man = column("manoeuvring")  # manoeuvring (between the start and end thresholds)
 
     def append(self, k: int = 1) -> None:
-        """k new tracks: ε̄ = 2, not manoeuvring."""
-        self._nis = np.concatenate([self._nis, np.full(k, 2.0)])
-        self._man = np.concatenate([self._man, np.zeros(k, dtype=bool)])
+        """k new tracks: ε̄ = 2, not manoeuvring (new rows of the store: :meth:`TrackColumns.append`)."""
+        self.cols.append(0.0, np.zeros(k))
 
     def keep(self, keep: np.ndarray) -> None:
-        """Keep the rows where ``keep`` (n,) is True."""
-        self._nis, self._man = self._nis[keep], self._man[keep]
+        """Keep the rows where ``keep`` (n,) is True (:meth:`TrackColumns.keep`)."""
+        self.cols.keep(keep)
 
     @property
     def manoeuvring(self) -> np.ndarray:
         """(n,) bool: the track is manoeuvring (its process noise is raised)."""
-        return self._man.copy()
+        return self.cols.manoeuvring.copy()
 
     def detect(self, rows, d2, gate: float, t_s, bank: IMMBank) -> None:
         """Update ε̄ of the tracks ``rows`` (indices) that have a detection, of squared Mahalanobis
@@ -58,7 +63,7 @@ class ManoeuvreDetector:
             return
         hot = np.empty(rows.size, dtype=bool)
         n_hot = fade_nis(rows, d2, float(gate), float(cfg.manoeuvre_fading), float(cfg.manoeuvre_threshold),
-                         float(cfg.manoeuvre_end_threshold), self._nis, self._man, hot)
+                         float(cfg.manoeuvre_end_threshold), self.cols.nis, self.cols.manoeuvring, hot)
         if n_hot:
             hot_rows = rows[hot]
             dt = np.maximum((t_s[hot] if np.ndim(t_s) else t_s) - bank.times_s[hot_rows], 0.0)

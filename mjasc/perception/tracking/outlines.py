@@ -23,31 +23,36 @@ from mjasc.core.estimates import Pending
 from mjasc.core.geometry import circle_polygon, convex_hull
 from mjasc.core.polygon_kernels import canonical_hull
 from mjasc.perception.tracking.config import TrackingConfig
+from mjasc.perception.tracking.track_columns import TrackColumns, column
 
 __all__ = ["TrackOutlines", "outline_at"]
 
 
 class TrackOutlines:
     """Per track (rows aligned with the bank's): the hull (k, 2) [m] of its returns seen while it
-    was slow (None: none yet), and its centre when that accumulation started."""
+    was slow (None: none yet), and its centre when that accumulation started — columns of a
+    :class:`~mjasc.perception.tracking.track_columns.TrackColumns` (``columns``: a tracker's store;
+    None: a store of its own)."""
 
-    def __init__(self, config: TrackingConfig):
+    def __init__(self, config: TrackingConfig, columns: TrackColumns | None = None):
         self.config = config
-        self._hull = np.empty(0, dtype=object)  # per track: hull vertices (k, 2) of its returns [m], or None
-        self._hull_anchor = np.zeros((0, 2))  # per track: its centre when the hull was started
-        self._made: dict[int, tuple] = {}  # row → (hull, centre x, y, radius, outline): the last outline made
+        self.cols = TrackColumns(config.confirm_hits <= 1) if columns is None else columns
+        # row → (hull, centre x, y, radius, outline): the last outline made (a function of the hull,
+        # centre and radius alone: still right for whatever row holds them after a drop)
+        self._made: dict[int, tuple] = {}
+
+    # the store's columns (views: stale after a birth or drop)
+    _hull = column("hull")  # per track: hull vertices (k, 2) of its returns [m], or None
+    _hull_anchor = column("hull_anchor")  # per track: its centre when the hull was started
 
     def append(self, centres) -> None:
-        """New tracks, now at ``centres`` (k, 2) [m]."""
+        """New tracks, now at ``centres`` (k, 2) [m] (new rows of the store: :meth:`TrackColumns.append`)."""
         centres = np.asarray(centres, dtype=float).reshape(-1, 2)
-        self._hull = np.concatenate([self._hull, np.full(centres.shape[0], None, dtype=object)])
-        self._hull_anchor = np.concatenate([self._hull_anchor, centres])
+        self.cols.append(0.0, np.zeros(centres.shape[0]), centres)
 
     def keep(self, keep: np.ndarray) -> None:
-        """Keep the rows where ``keep`` (n,) is True."""
-        self._hull = self._hull[keep]
-        self._hull_anchor = self._hull_anchor[keep]
-        self._made.clear()  # rows renumbered
+        """Keep the rows where ``keep`` (n,) is True (:meth:`TrackColumns.keep`)."""
+        self.cols.keep(keep)
 
     def grow(self, rows, used, speeds, positions, radii, returns_of) -> None:
         """After an update of the tracks ``rows`` (indices): restart the hull of those that move
@@ -58,15 +63,16 @@ class TrackOutlines:
         are the tracks'. (The returns near the track and the hull they join are gathered by one
         compiled call per track, :func:`gather_returns`; tests/test_tracking_outlines.py keeps
         the numpy form.)"""
-        cfg = self.config
+        cfg, cols = self.config, self.cols
         pos = positions
-        r, grow = reset_rows(rows, speeds, pos, self._hull_anchor, float(cfg.outline_reset_m),
+        anchor, hulls = cols.hull_anchor, cols.hull
+        r, grow = reset_rows(rows, speeds, pos, anchor, float(cfg.outline_reset_m),
                              2.0 * cfg.static_speed_m_s, used, float(cfg.static_speed_m_s))
         if r.size:
-            self._hull[r] = None
+            hulls[r] = None
         if grow.size == 0:
             return
-        hulls, no_hull = self._hull, _NO_HULL
+        no_hull = _NO_HULL
         for j, k, px, py, lim in zip(grow.tolist(), rows[grow].tolist(), pos[grow, 0].tolist(), pos[grow, 1].tolist(),
                                      (1.5 * radii[grow] + 0.5).tolist()):
             pts, labels, label = returns_of(j)
@@ -75,7 +81,7 @@ class TrackOutlines:
             if n_new == 0:
                 continue
             if h is None:
-                self._hull_anchor[k] = pos[j]
+                anchor[k] = pos[j]
             hulls[k] = canonical_hull(p) if canonical else convex_hull(p)
 
     def outline(self, row: int, centre, radius: float) -> np.ndarray:
@@ -83,7 +89,7 @@ class TrackOutlines:
         radius [m]: the hull of its returns united with its reflection through the centre, or the
         12-gon around its disc."""
         c = centre
-        h = self._hull[row]
+        h = self.cols.hull[row]
         x, y, r = float(c[0]), float(c[1]), float(radius)
         made = self._made.get(row)
         if made is not None and made[0] is h and made[1:4] == (x, y, r):  # asked again between updates
@@ -97,7 +103,7 @@ class TrackOutlines:
         value: made on first read (only a prediction reads a track's outline; the tracker hands one
         on for every slow track at every step). It holds the row's hull now — a hull is replaced,
         never changed in place — and the centre's coordinates and the radius as numbers."""
-        return Pending(outline_at, self._hull[row], float(centre[0]), float(centre[1]), float(radius))
+        return Pending(outline_at, self.cols.hull[row], float(centre[0]), float(centre[1]), float(radius))
 
 
 def outline_at(hull, x: float, y: float, radius: float) -> np.ndarray:

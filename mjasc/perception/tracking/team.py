@@ -22,20 +22,26 @@ from mjasc.core.compiled import kernel
 from mjasc.perception.tracking.association import gnn_assign_blocks
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.pair_kernels import block_pairs_loop, broadcast_distances
+from mjasc.perception.tracking.track_columns import TrackColumns, column
 
 __all__ = ["TeamMatcher"]
 
 
 class TeamMatcher:
     """Per vessel (owner) the team's latest broadcasts, and per track (rows aligned with the bank's)
-    the name of the team mate it was matched to (None: not a team mate)."""
+    the name of the team mate it was matched to (None: not a team mate), a column of a
+    :class:`~mjasc.perception.tracking.track_columns.TrackColumns` (``columns``: a tracker's store;
+    None: a store of its own)."""
 
-    def __init__(self, config: TrackingConfig):
+    def __init__(self, config: TrackingConfig, columns: TrackColumns | None = None):
         self.config = config
+        self.cols = TrackColumns(config.confirm_hits <= 1) if columns is None else columns
         self._team: dict[int, tuple] = {}  # owner → (names, t_b (k,) [s], positions (k, 2) [m])
         self._flat = None  # every owner's broadcasts as arrays (owner, name, t_b, position), built when used
         self._start: dict[int, int] = {}  # owner → its first row in those arrays
-        self._team_of = np.empty(0, dtype=object)
+
+    # the store's column of matched names (a view: stale after a birth or drop)
+    _team_of = column("team")
 
     def set_positions(self, owner: int, positions: dict) -> None:
         """``{name: (t_b [s], position (2,) [m])}``: the team's latest broadcast positions, as
@@ -54,15 +60,16 @@ class TeamMatcher:
             self._flat = None
 
     def append(self, k: int = 1) -> None:
-        self._team_of = np.concatenate([self._team_of, np.full(k, None, dtype=object)])
+        """k new tracks, no team mates (new rows of the store: :meth:`TrackColumns.append`)."""
+        self.cols.append(0.0, np.zeros(k))
 
     def keep(self, keep: np.ndarray) -> None:
-        """Keep the rows where ``keep`` (n,) is True."""
-        self._team_of = self._team_of[keep]
+        """Keep the rows where ``keep`` (n,) is True (:meth:`TrackColumns.keep`)."""
+        self.cols.keep(keep)
 
     def members(self, rows=slice(None)) -> list:
         """Per track (of ``rows``), the matched team mate's name or None."""
-        return self._team_of[rows].tolist()
+        return self.cols.team[rows].tolist()
 
     def _arrays(self):
         """Every owner's broadcasts in one set of arrays, owners in order: (owner (B,), names (B,),
@@ -81,27 +88,25 @@ class TeamMatcher:
         """Match the confirmed ones of tracks ``rows`` (indices, bank order, or ``slice(None)``: every row; their vessel ``owner``
         (k,), ``states`` (k, 4) [x, y, θ, V], ``confirmed`` (k,) bool) at their vessel's time
         t_s ((n_owners,) [s], NaN for vessels not matched now) against that vessel's broadcasts."""
-        self._team_of[rows] = None
+        team_of = self.cols.team
+        team_of[rows] = None
         if not self._team or owner.size == 0:
             return
         cfg = self.config
         b_owner, names, tb, pb = self._arrays()
-        c, bsel, n_a, n_b, a_start, b_start = team_blocks(confirmed, owner, t_s, b_owner, tb,
-                                                          float(cfg.team_max_age_s), n_owners)
+        c, bsel, n_a, n_b, a_start, b_start, q, i, j, start, x = team_pairs(
+            confirmed, owner, t_s, b_owner, tb, float(cfg.team_max_age_s), n_owners, states)
         if c.size == 0 or bsel.size == 0:
             return
-        q, i, j, start = block_pairs_loop(n_a, n_b)
-        x = states[c]  # per confirmed track; a track meets every broadcast of its vessel
-        vx, vy = x[:, 3] * np.cos(x[:, 2]), x[:, 3] * np.sin(x[:, 2])
         gate = float(cfg.team_match_distance_m)
-        dist = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, np.ascontiguousarray(t_s, dtype=float),
-                                   tb, pb, (2.0 * gate) ** 2)  # (+inf far outside the gate: never used)
-        inside = dist <= gate
-        if not np.count_nonzero(inside):
+        th = x[:, 2]  # (a track meets every broadcast of its vessel: vx = V cos θ, vy = V sin θ)
+        dist, inside, n_in = team_distances(q, i, j, a_start, b_start, bsel, x, np.cos(th), np.sin(th), t_s, tb, pb,
+                                            (2.0 * gate) ** 2, gate)  # (+inf far outside the gate: never used)
+        if not n_in:
             return
         got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
         ta, tb_i = matched_rows(got, q, i, j, a_start, b_start, c, bsel)
-        self._team_of[ta if isinstance(rows, slice) else rows[ta]] = np.array([names[k] for k in tb_i.tolist()] + [None], dtype=object)[:-1]
+        team_of[ta if isinstance(rows, slice) else rows[ta]] = np.array([names[k] for k in tb_i.tolist()] + [None], dtype=object)[:-1]
 
 
 @kernel
@@ -145,6 +150,41 @@ def team_blocks(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners):
             c[fill[o]] = k
             fill[o] += 1
     return c, fresh[:m], n_a, n_b, a_start, b_start
+
+
+@kernel
+def team_pairs(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states):
+    """:func:`team_blocks`, the (track, broadcast) pairs of its blocks
+    (:func:`~mjasc.perception.tracking.pair_kernels.block_pairs_loop` of n_a, n_b) and the states
+    ``states[c]`` (g, 4) of the confirmed tracks c, in one call: (c, bsel, n_a, n_b, a_start,
+    b_start, q, i, j, start, x)."""
+    c, bsel, n_a, n_b, a_start, b_start = team_blocks(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners)
+    q, i, j, start = block_pairs_loop(n_a, n_b)
+    x = np.empty((c.size, 4))
+    for a in range(c.size):
+        for b in range(4):
+            x[a, b] = states[c[a], b]
+    return c, bsel, n_a, n_b, a_start, b_start, q, i, j, start, x
+
+
+@kernel
+def team_distances(q, i, j, a_start, b_start, bsel, x, cos_th, sin_th, t_s, t_b, p_b, far_m2, gate):
+    """(dist (P,), inside (P,), count inside) of the pairs (q, i, j):
+    :func:`~mjasc.perception.tracking.pair_kernels.broadcast_distances` with the tracks' velocities
+    ``vx = V·cos θ``, ``vy = V·sin θ`` (x (A, 4), cos_th, sin_th (A,) numpy's), and ``dist ≤ gate``."""
+    k = x.shape[0]
+    vx = np.empty(k)
+    vy = np.empty(k)
+    for a in range(k):
+        vx[a] = x[a, 3] * cos_th[a]
+        vy[a] = x[a, 3] * sin_th[a]
+    dist = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, t_s, t_b, p_b, far_m2)
+    inside = np.empty(dist.size, dtype=np.bool_)
+    n_in = 0
+    for a in range(dist.size):
+        inside[a] = dist[a] <= gate
+        n_in += inside[a]
+    return dist, inside, n_in
 
 
 @kernel

@@ -69,7 +69,7 @@ class OwnerBank:
     @property
     def track_ids(self) -> np.ndarray:
         f = self._fleet
-        return f.local_id[f.rows_of(self._owner)]
+        return f.cols.local_id[f.rows_of(self._owner)]
 
     @property
     def rejection_reasons(self) -> list[str]:
@@ -148,7 +148,7 @@ class MultiTargetTracker:
     @property
     def confirmed(self) -> np.ndarray:
         """(n,) bool per row."""
-        return self.fleet.mgmt._confirmed[self._rows()]
+        return self.fleet.cols.confirmed[self._rows()]
 
     def confirmed_fields(self) -> tuple:
         """The confirmed tracks at once: their indices in this vessel's rows (k,), ids (k,), states
@@ -157,9 +157,9 @@ class MultiTargetTracker:
         and ``team_members`` at those rows."""
         f = self.fleet
         rows = self._rows()
-        ok = f.mgmt._confirmed[rows]
+        ok = f.cols.confirmed[rows]
         conf, rows = np.flatnonzero(ok), rows[ok]
-        return conf, f.local_id[rows], f.bank.states_of(rows), f.mgmt._static[rows], f.team.members(rows)
+        return conf, f.cols.local_id[rows], f.bank.states_of(rows), f.cols.static[rows], f.team.members(rows)
 
     def confirmed_points(self) -> tuple:
         """The confirmed tracks as the recording draws them at standard detail: ids (k,), positions
@@ -176,21 +176,21 @@ class MultiTargetTracker:
         those estimates, without making them (what a run's evaluation compares with the truth)."""
         f = self.fleet
         rows = self._rows()
-        rows = rows[f.mgmt._confirmed[rows] & ~f.mgmt._static[rows]]
-        return f.local_id[rows], f.bank.positions_of(rows)
+        rows = rows[f.cols.confirmed[rows] & ~f.cols.static[rows]]
+        return f.cols.local_id[rows], f.bank.positions_of(rows)
 
     @property
     def radii_m(self) -> np.ndarray:
-        return self.fleet.mgmt._radius[self._rows()]
+        return self.fleet.cols.radius[self._rows()]
 
     @property
     def static(self) -> np.ndarray:
-        return self.fleet.mgmt._static[self._rows()]
+        return self.fleet.cols.static[self._rows()]
 
     @property
     def moved(self) -> np.ndarray:
         """(n,) bool per row: confirmed and once moved ``MOVED_M`` (:mod:`~mjasc.perception.tracking.management`)."""
-        return self.fleet.mgmt._moved[self._rows()]
+        return self.fleet.cols.moved[self._rows()]
 
     @property
     def team_members(self) -> list:
@@ -199,7 +199,7 @@ class MultiTargetTracker:
     @property
     def manoeuvring(self) -> np.ndarray:
         """(n,) bool per row: the track is manoeuvring (its process noise is raised)."""
-        return self.fleet.manoeuvres._man[self._rows()]
+        return self.fleet.cols.manoeuvring[self._rows()]
 
     @property
     def counts(self) -> dict:

@@ -1,0 +1,147 @@
+"""The start-up rows of an IMM bank's cycle in three compiled calls around numpy's products
+(:class:`mjasc.perception.imm.bank.IMMBank`, :mod:`mjasc.perception.imm.startup`): a bank with a
+new track — nearly every tick, for clutter — ran ~25 numpy and kernel calls per cycle for them.
+
+* :func:`gather_startup` — what the prediction of the rows ``rows`` reads: their filters'
+  ``x[rows]``, ``P[rows]``, their steps dt (k,), the transitions F (k, 4, 4)
+  (:func:`~mjasc.perception.imm.startup._cv_transitions`), and ``z[rows]``, ``use[rows]`` and
+  (per-row σ²) ``mv[rows]``;
+* the products ``F x``, ``F P Fᵀ`` and ``dt³`` stay numpy's (:func:`~mjasc.perception.imm.startup.cv_predict`);
+* :func:`update_startup` — the noise added (:func:`~mjasc.perception.imm.startup._add_cv_noise`),
+  the measurement update (:func:`~mjasc.perception.imm.compiled_cycle.position_update`),
+  ``ok = use & (d² ≤ gate)`` and the filters written back (``x[rows]``, ``P[rows]``,
+  ``n_meas[rows] += ok``): :meth:`~mjasc.perception.imm.startup.StartupFilters.update_rows`;
+* |v|, atan2 and ``J P Jᵀ`` of :func:`~mjasc.perception.imm.startup.cv_to_polar` stay numpy's;
+* :func:`handover_rows` — the rest of the hand-over (:meth:`IMMBank._handover`): the polar state
+  and covariance (:func:`~mjasc.perception.imm.startup._polar_finish`) written as the rows'
+  estimate, the test :func:`~mjasc.perception.imm.startup.ready_for_handover`, and the ready rows
+  made inactive with their IMM state started (every model at the polar state, μ = μ0).
+
+A bank's births (:meth:`IMMBank._append`) are :func:`born_rows`: the new rows appended
+(:func:`~mjasc.perception.imm.bank_kernels.appended_rows`) and handed over at once
+(:func:`handover_rows`), around the start-up filters' |v|, atan2 and ``J P Jᵀ``.
+
+Each is its numpy form's expressions in its order, per row (tests/test_imm_startup_rows.py keeps
+the numpy form as the reference, bit for bit).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from mjasc.core.compiled import kernel
+from mjasc.perception.imm.bank_kernels import appended_rows
+from mjasc.perception.imm.compiled_cycle import position_update
+from mjasc.perception.imm.startup import _add_cv_noise, _polar_finish
+
+__all__ = ["gather_startup", "update_startup", "handover_rows", "born_rows"]
+
+
+@kernel
+def gather_startup(rows, x, P, dt_rows, dtm, z, use, mv, per_row):
+    """(xc (k, 4), Pc (k, 4, 4), dt (k,), F (k, 4, 4), zw (k, 2), use_w (k,), var_w (k,) or (0,)) of
+    the start-up rows ``rows`` (k,) of filters x (n, 4), P (n, 4, 4): dt = dt_rows[rows], or dtm
+    for every row when dt_rows is empty; z (n, 2), use (n,) and, if ``per_row``, mv (n,) gathered."""
+    k = rows.size
+    xc = np.empty((k, 4))
+    Pc = np.empty((k, 4, 4))
+    dt = np.empty(k)
+    F = np.zeros((k, 4, 4))
+    zw = np.empty((k, 2))
+    use_w = np.empty(k, dtype=np.bool_)
+    var_w = np.empty(k if per_row else 0)
+    for j in range(k):
+        r = rows[j]
+        for a in range(4):
+            xc[j, a] = x[r, a]
+            for b in range(4):
+                Pc[j, a, b] = P[r, a, b]
+        d = dt_rows[r] if dt_rows.size else dtm
+        dt[j] = d
+        for a in range(4):
+            F[j, a, a] = 1.0
+        F[j, 0, 2] = d
+        F[j, 1, 3] = d
+        zw[j, 0] = z[r, 0]
+        zw[j, 1] = z[r, 1]
+        use_w[j] = use[r]
+        if per_row:
+            var_w[j] = mv[r]
+    return xc, Pc, dt, F, zw, use_w, var_w
+
+
+@kernel
+def update_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas):
+    """The predicted filters xp (k, 4), Pp (k, 4, 4) (changed in place) with the white-acceleration
+    noise of intensity q (dt3 (k,) numpy's ``dt**3``), updated with zw (k, 2) of σ² var ((1,) or
+    (k,)) where ``use_w`` and inside the gate; written into the rows ``rows`` of x, P, and
+    ``n_meas[rows] += ok``. Returns ok (k,) bool: the rows updated."""
+    k = rows.size
+    _add_cv_noise(Pp, dt3, dt, q)
+    d2 = np.empty(k)
+    position_update(xp, Pp, zw, var, use_w, gate, d2)
+    ok = np.empty(k, dtype=np.bool_)
+    for j in range(k):
+        o = use_w[j] and d2[j] <= gate
+        ok[j] = o
+        r = rows[j]
+        for a in range(4):
+            x[r, a] = xp[j, a]
+            for b in range(4):
+                P[r, a, b] = Pp[j, a, b]
+        n_meas[r] += o
+    return ok
+
+
+@kernel
+def handover_rows(rows, xc, speed, theta, JPJ, cv_P, n_meas, snr2, max_updates, active, x, Pc, s, P, mu, mu0):
+    """The hand-over of the start-up rows ``rows`` (k,) with filters xc (k, 4), cv_P (k, 4, 4),
+    |v| ``speed`` (k,), atan2 ``theta`` (k,) and ``JPJ`` = J P Jᵀ (k, 4, 4) (changed in place): the
+    polar state and covariance (:func:`_polar_finish`) written into the bank's x[rows] and Pc[rows];
+    a row ready for the IMM (``V·V ≥ snr2·λ_max`` of the velocity covariance, or
+    ``n_meas ≥ max_updates``) made inactive, every model's s[row] the polar state, P[row] its
+    covariance and μ[row] = μ0. Returns the number of active rows made inactive."""
+    sp, Pp = _polar_finish(xc, speed, theta, JPJ)
+    r_models = mu.shape[1]
+    off = 0
+    for j in range(rows.size):
+        r = rows[j]
+        for a in range(4):
+            x[r, a] = sp[j, a]
+            for b in range(4):
+                Pc[r, a, b] = Pp[j, a, b]
+        a_, b_, c_ = cv_P[j, 2, 2], cv_P[j, 3, 3], cv_P[j, 2, 3]
+        half_tr = 0.5 * (a_ + b_)
+        d = 0.5 * (a_ - b_)
+        lam_max = half_tr + math.sqrt(d * d + c_ * c_)
+        v = sp[j, 3]
+        if (v * v >= snr2 * lam_max) or (n_meas[r] >= max_updates):
+            if active[r]:
+                off += 1
+            active[r] = False
+            for m in range(r_models):
+                mu[r, m] = mu0[m]
+                for a in range(4):
+                    s[r, m, a] = sp[j, a]
+                    for b in range(4):
+                        P[r, m, a, b] = Pp[j, a, b]
+    return off
+
+
+@kernel
+def born_rows(s, P, mu, x, n0, mu0, ids, t, Pc, n_gated, reasons, new_ids, new_t, xc, speed, theta, JPJ, cv_P, n_meas,
+              snr2, max_updates, active):
+    """k new rows after the first n0 of a bank's state views s, P, μ, x (in place) and its per-track
+    arrays (ids, t, Pc, n_gated, reasons: returned as new arrays, with whether every new t equals the
+    first, :func:`~mjasc.perception.imm.bank_kernels.appended_rows`), then the hand-over of the new
+    rows n0 … n0 + k − 1 (:func:`handover_rows`: their estimate, the ready ones in the IMM; the
+    start-up filters' xc (k, 4), cv_P (k, 4, 4), n_meas and active already appended). Returns
+    (ids, t, Pc, n_gated, reasons, one_time, number of rows made inactive)."""
+    k = new_t.size
+    ids2, t2, Pc2, g2, r2, one_time = appended_rows(s, P, mu, x, n0, mu0, np.zeros((k, 4)), ids, t, Pc, n_gated,
+                                                    reasons, new_ids, new_t, np.zeros((k, 4, 4)))
+    rows = np.arange(n0, n0 + k)
+    off = handover_rows(rows, xc, speed, theta, JPJ, cv_P, n_meas, snr2, max_updates, active, x, Pc2, s, P, mu, mu0)
+    return ids2, t2, Pc2, g2, r2, one_time, off
