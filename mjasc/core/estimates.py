@@ -251,12 +251,14 @@ class PlannedTrack(TrackEstimate):
 
 @dataclass(frozen=True)
 class PerceptionReport:
-    """What one vessel's perception hands onward at ``time_s`` [s]: its confirmed tracks and the
-    convex polygons (each (k, 2), world [m]) of the static structures it has mapped (a sequence;
-    the agent hands a :class:`Deferred` one, computed on first use: only a prediction needs them)."""
+    """What one vessel's perception hands onward at ``time_s`` [s]: its confirmed tracks (a
+    read-only sequence of :class:`TrackEstimate`; the agent hands the built-in tracker's
+    :class:`TrackRows`, whose estimates are made on first read) and the convex polygons (each
+    (k, 2), world [m]) of the static structures it has mapped (a sequence; the agent hands a
+    :class:`Deferred` one, computed on first use: only a prediction needs them)."""
 
     time_s: float
-    tracks: tuple[TrackEstimate, ...] = ()
+    tracks: Sequence[TrackEstimate] = ()
     static_polygons: Sequence[np.ndarray] = ()
 
 
