@@ -79,6 +79,7 @@ from mjasc.avoidance.structure import detour_onto_structure, structure_tracks
 from mjasc.avoidance.team_mates import PlannedTrack, TeamMates
 from mjasc.avoidance.triage import swept, triage
 from mjasc.core.compiled import clip_float
+from mjasc.core.estimates import TrackRows, track_columns
 from mjasc.core.frames import wrap_angle
 from mjasc.guidance.paths import Path
 from mjasc.guidance.state import GuidanceState
@@ -734,10 +735,11 @@ class CollisionAvoidance(AvoidanceMethod):
         if perceived is None:
             return None
         tracks = perceived.tracks
-        if tracks is self._no_new_in or self._known_track_ids.issuperset(map(_TRACK_ID, tracks)):
+        if tracks is self._no_new_in or self._known_track_ids.issuperset(
+                tracks.track_ids if type(tracks) is TrackRows else map(_TRACK_ID, tracks)):
             self._no_new_in = tracks  # known ids only grow: these tracks stay known
         else:
-            new = {tr.track_id for tr in tracks} - self._known_track_ids
+            new = set(track_columns(tracks)[0]) - self._known_track_ids
             self._event(t, f"new track(s) {sorted(new)}: predicting now")
             return new
         if t - self._last_predict_t < 1.0:
@@ -791,10 +793,13 @@ class CollisionAvoidance(AvoidanceMethod):
             self._predicted_motion = TrackMotions(checked)
             self._predicted_row = {tr.track_id: k for k, tr in enumerate(checked)}
         row = self._predicted_row
-        sel = [(row[tr.track_id], tr.time_s, tr.position_m) for tr in tracks if tr.track_id in row]
+        ids, times, pos = track_columns(tracks)  # (a TrackRows' own columns: no estimate made)
+        sel = [(row[i], k) for k, i in enumerate(ids) if i in row]
         if not sel:
             return False
-        rows, times, pos = zip(*sel)
+        rows, ks = zip(*sel)
+        if len(ks) < len(ids):
+            times, pos = [times[k] for k in ks], [pos[k] for k in ks]
         return self._predicted_motion.farther_than(rows, times, pos, self.config.track_deviation_m)
 
     def _control_refs(self, t, nav) -> tuple[float | None, str, float | None]:

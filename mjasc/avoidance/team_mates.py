@@ -209,9 +209,8 @@ class TeamMates:
         keep = live[who]
         if not keep.all():
             tb, pb, rb, who = tb[keep], pb[keep], rb[keep], who[keep]
-        back = TrackMotions(tracks).at(np.arange(len(tracks)), tb)  # (k, H, 2)
-        radius = np.array([tr.radius_m for tr in tracks], dtype=float)
-        hit = np.hypot(back[..., 0] - pb[:, 0], back[..., 1] - pb[:, 1]) <= np.maximum(rb, radius[:, None])
+        # every track followed back to every kept broadcast: (k, H) within the larger radius
+        hit = TrackMotions(tracks).within(tb, pb, rb)
         out = hit.any(axis=1)
         for k in np.flatnonzero(out):
             track = tracks[k]

@@ -126,6 +126,60 @@ def track_estimate_rows(*columns) -> list[TrackEstimate]:
     return out
 
 
+class TrackRows(Sequence):
+    """A read-only sequence of :class:`TrackEstimate` kept as columns: the objects are made on the
+    first read of an item (:func:`track_estimate_rows` of the columns, then kept), while the
+    columns a control tick checks are read without them: ``track_ids`` (list of int), ``times_s``
+    (list of float) and ``positions_m`` ((k, 2) array [m]; item k's ``position_m`` is its row k).
+    ``columns``: every field's values in field order (track_id … source), equal lengths, not
+    changed afterwards. A tracker hands one per vessel and step to the perception report: a
+    vessel's control tick reads its tracks' ids, times and positions ~10 times a second, a
+    prediction reads the objects every few seconds."""
+
+    __slots__ = ("_columns", "_items", "track_ids", "times_s", "positions_m")
+
+    def __init__(self, columns: Sequence):
+        if len(columns) != len(_field_names(TrackEstimate)):
+            raise ValueError(f"columns: expected {len(_field_names(TrackEstimate))} (one per field), got {len(columns)}")
+        self._columns, self._items = tuple(columns), None
+        self.track_ids, self.times_s, self.positions_m = columns[0], columns[1], columns[2]
+
+    def _get(self) -> tuple:
+        items = self._items
+        if items is None:
+            items = self._items = tuple(track_estimate_rows(*self._columns))
+            self._columns = None
+        return items
+
+    def __getitem__(self, k):
+        return self._get()[k]
+
+    def __len__(self) -> int:
+        return len(self.track_ids)
+
+    def __iter__(self):
+        return iter(self._get())
+
+    def __eq__(self, other) -> bool:
+        """Equal to a sequence of the same estimates in the same order (a tuple, a list, other rows)."""
+        if not isinstance(other, (TrackRows, tuple, list)):
+            return NotImplemented
+        return self._get() == tuple(other)
+
+    __hash__ = None
+
+    def __repr__(self) -> str:
+        return f"TrackRows(track_ids={list(self.track_ids)!r})"
+
+
+def track_columns(tracks) -> tuple:
+    """(ids, times [s], positions (k, 2) or a list of (2,) [m]) of a sequence of tracks: the
+    columns of a :class:`TrackRows` as they are, else read from the objects."""
+    if type(tracks) is TrackRows:
+        return tracks.track_ids, tracks.times_s, tracks.positions_m
+    return ([tr.track_id for tr in tracks], [tr.time_s for tr in tracks], [tr.position_m for tr in tracks])
+
+
 def estimate_of(cls, *values):
     """One ``cls`` — a frozen dataclass without ``__post_init__``: :class:`TrackEstimate`,
     :class:`PlannedTrack`, collision prediction's ``PredictedConflict`` — from every field's value in
@@ -197,12 +251,14 @@ class PlannedTrack(TrackEstimate):
 
 @dataclass(frozen=True)
 class PerceptionReport:
-    """What one vessel's perception hands onward at ``time_s`` [s]: its confirmed tracks and the
-    convex polygons (each (k, 2), world [m]) of the static structures it has mapped (a sequence;
-    the agent hands a :class:`Deferred` one, computed on first use: only a prediction needs them)."""
+    """What one vessel's perception hands onward at ``time_s`` [s]: its confirmed tracks (a
+    read-only sequence of :class:`TrackEstimate`; the agent hands the built-in tracker's
+    :class:`TrackRows`, whose estimates are made on first read) and the convex polygons (each
+    (k, 2), world [m]) of the static structures it has mapped (a sequence; the agent hands a
+    :class:`Deferred` one, computed on first use: only a prediction needs them)."""
 
     time_s: float
-    tracks: tuple[TrackEstimate, ...] = ()
+    tracks: Sequence[TrackEstimate] = ()
     static_polygons: Sequence[np.ndarray] = ()
 
 

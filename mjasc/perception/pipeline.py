@@ -386,12 +386,14 @@ class Perception:
                                            settings)
         self._fusion.receive(t_s, by_sender, own_position_m, team_positions)
 
-    def report_tracks(self, t_s: float) -> tuple:
-        """The tracks this vessel's report hands on: its confirmed tracks, fused with the newest
-        team tracks when it shares perception (:meth:`set_team_tracks` was called)."""
-        if self.method is None:  # (tracks() without its calls: the fleet's queue flushed, the tracker's estimates)
+    def report_tracks(self, t_s: float):
+        """The tracks this vessel's report hands on (a read-only sequence): its confirmed tracks —
+        with the built-in tracker as :class:`~mjasc.core.estimates.TrackRows`, the estimates made
+        on first read —, fused with the newest team tracks when it shares perception
+        (:meth:`set_team_tracks` was called)."""
+        if self.method is None:  # (tracks() without its calls: the fleet's queue flushed, the tracker's rows)
             self.fleet.flush()
-            own = tuple(self._tracker.estimates())
+            own = self._tracker.report_rows()
         else:
             own = tuple(self.tracks())
         if self._fusion is None:

@@ -33,7 +33,7 @@ from typing import Sequence
 
 import numpy as np
 
-from mjasc.core.compiled import kernel, search_right
+from mjasc.core.compiled import kernel, maximum, search_right
 from mjasc.core.estimates import PlannedTrack, TrackEstimate
 
 __all__ = ["TrackMotions", "intention_positions"]
@@ -108,6 +108,28 @@ class TrackMotions:
             return bool(_farther(self._par, self._kind, rows, times, pos, limit, np.sin(th), np.cos(th)))
         pred = self.at(rows, times[:, None])[:, 0]
         return bool((np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > limit).any())
+
+    def within(self, times, positions_m, radii_m) -> np.ndarray:
+        """Whether each track lay at each of the times ``times`` (H,) [s] within reach of the
+        positions ``positions_m`` (H, 2) [m]: (m, H) bool, ``np.hypot`` of :meth:`at`'s positions
+        (every row at every time) minus ``positions_m`` ``<= np.maximum(radii_m, radius_m)``, with
+        ``radii_m`` (H,) [m] and each track's own ``radius_m``. Without a plan among the rows in two
+        compiled passes around numpy's sin and cos of the turning rows' angles (the array
+        :meth:`at` hands them, those (row, time) pairs in order: the same bits) and :meth:`at`'s
+        operations in its order; with a plan, :meth:`at` itself."""
+        times = np.ascontiguousarray(times, dtype=float)
+        pos = np.ascontiguousarray(positions_m, dtype=float).reshape(-1, 2)
+        radii = np.ascontiguousarray(radii_m, dtype=float)
+        m, h = self.n, times.size
+        if self._PLAN not in self._kinds:
+            angles = np.empty(m * h)
+            n_turn = _grid_angles(self._par, self._kind, times, angles)
+            th = angles[:n_turn]
+            out = np.empty((m, h), dtype=np.bool_)
+            _grid_within(self._par, self._kind, times, pos, radii, self.radius_m, np.sin(th), np.cos(th), out)
+            return out
+        back = self.at(np.arange(m), times)  # (m, H, 2)
+        return np.hypot(back[..., 0] - pos[:, 0], back[..., 1] - pos[:, 1]) <= np.maximum(radii, self.radius_m[:, None])
 
     def grid(self, times) -> np.ndarray:
         """Positions (m, n, 2) of every track on the time grid ``times`` (n,) [s]."""
@@ -394,3 +416,37 @@ def _farther(par, kind, rows, times, pos, limit, sin_t, cos_t):
         if math.hypot(x - pos[i, 0], y - pos[i, 1]) > limit:
             return True
     return False
+
+
+@kernel
+def _grid_angles(par, kind, times, out):
+    """The angles θ₀ + ω τ (τ = t − t₀) of every turning row at every time of ``times`` (H,), row
+    by row, into ``out`` (:meth:`TrackMotions._eval`'s operations); returns how many."""
+    n = 0
+    for r in range(kind.size):
+        if kind[r] == 1:
+            for j in range(times.size):
+                out[n] = par[r, 6] + par[r, 7] * (times[j] - par[r, 2])
+                n += 1
+    return n
+
+
+@kernel
+def _grid_within(par, kind, times, pos, radii, radius, sin_t, cos_t, out):
+    """:meth:`TrackMotions.within` without plans into ``out`` (m, H): each row's position at each
+    time (as :func:`_farther`: straight or static x₀ + (v τ) cos θ, turning x₀ + (v/ω)(sin θ(t) −
+    sin θ) with ``sin_t``, ``cos_t`` of :func:`_grid_angles`' angles in order), ``hypot`` to
+    ``pos[j]`` ``<= maximum(radii[j], radius[row])`` (numpy's maximum: NaN propagates)."""
+    n = 0
+    for r in range(kind.size):
+        turning = kind[r] == 1
+        for j in range(times.size):
+            if turning:
+                x = par[r, 0] + par[r, 8] * (sin_t[n] - par[r, 5])
+                y = par[r, 1] - par[r, 8] * (cos_t[n] - par[r, 4])
+                n += 1
+            else:
+                v_tau = par[r, 3] * (times[j] - par[r, 2])
+                x = par[r, 0] + v_tau * par[r, 4]
+                y = par[r, 1] + v_tau * par[r, 5]
+            out[r, j] = math.hypot(x - pos[j, 0], y - pos[j, 1]) <= maximum(radii[j], radius[r])

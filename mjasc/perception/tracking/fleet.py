@@ -42,7 +42,7 @@ from itertools import repeat
 
 import numpy as np
 
-from mjasc.core.estimates import TrackEstimate, track_estimate_rows
+from mjasc.core.estimates import TrackEstimate, TrackRows, track_estimate_rows
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.tracking.association import (
     gnn_assign_blocks, indexed_pair_costs, predicted_positions)
@@ -61,6 +61,9 @@ __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
 #: Per-vessel counters (``FleetTracker.counts(owner)``).
 COUNT_KEYS = ("born", "confirmed", "lost", "merged", "scans", "detections", "associated")
 _BORN, _CONF, _LOST, _MERGED, _SCANS, _DETS, _ASSOC = range(7)
+
+
+_NO_ROWS = TrackRows(([], [], np.zeros((0, 2)), [], [], [], [], np.zeros((0, 2, 2)), [], [], [], ()))
 
 
 @dataclass(frozen=True)
@@ -100,7 +103,7 @@ class FleetTracker:
         self.version = 0  # changes whenever rows are added or removed
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
         self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, position of each owner, every)
-        self._reports: tuple | None = None  # every vessel's confirmed estimates since the last step (_report_estimates)
+        self._reports: dict | None = None  # every vessel's confirmed tracks since the last step (_report_estimates)
         self._max_range = np.zeros(0)
         self._next_local = np.zeros(0, dtype=np.int64)
         self._counts = np.zeros((0, len(COUNT_KEYS)), dtype=np.int64)
@@ -367,31 +370,38 @@ class FleetTracker:
     # ------------------------------------------------------------------ outputs
     def estimates(self, owner: int, include_tentative: bool = False) -> list[TrackEstimate]:
         """TrackEstimate of every confirmed track of a vessel (and tentative ones if asked), in
-        bank order. Every vessel's confirmed estimates are made at once, on the first call after a
-        step (each vessel asks at least once per step — again after comms, between steps: one pass
-        instead of one per vessel and call, :meth:`_report_columns`, :meth:`_report_estimates`);
-        each call hands on its vessel's objects (frozen: the same until the next step) in a new list."""
+        bank order: the objects of :meth:`report_rows` (the same until the next step) in a new list."""
         if include_tentative:
             return self._estimates_of(self.rows_of(owner))
+        return list(self.report_rows(owner))
+
+    def report_rows(self, owner: int) -> TrackRows:
+        """A vessel's confirmed tracks in bank order as :class:`~mjasc.core.estimates.TrackRows`
+        (the estimates made on first read; ids, times and positions readable without them). Every
+        vessel's rows are made at once, on the first call after a step (each vessel asks at least
+        once per step — again after comms, between steps: one pass instead of one per vessel and
+        call, :meth:`_report_columns`, :meth:`_report_estimates`); the same value until the next step."""
         made = self._reports
         if made is None:
             made = self._reports = self._report_estimates(self._report_columns())
-        span = made[0].get(owner)
-        if span is None:
-            return []
-        return made[1][span[0]:span[1]]
+        got = made.get(owner)
+        return got if got is not None else _NO_ROWS
 
-    def _report_estimates(self, cols: tuple) -> tuple:
-        """({owner: (first, end)}, the TrackEstimate of every vessel's confirmed tracks, grouped by
-        vessel) from the columns ``cols`` (:meth:`_report_columns`). A slow track's outline is
-        :meth:`~mjasc.perception.tracking.outlines.TrackOutlines.pending`: made on first read."""
+    def _report_estimates(self, cols: tuple) -> dict:
+        """{owner: :class:`~mjasc.core.estimates.TrackRows` of its confirmed tracks} from the
+        columns ``cols`` (:meth:`_report_columns`), the vessels without one left out. A slow
+        track's outline is :meth:`~mjasc.perception.tracking.outlines.TrackOutlines.pending`
+        (made now: it holds the row's hull now; the outline itself on first read)."""
         if len(cols) == 1:
-            return cols[0], []
+            return {}
         spans, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow = cols
         pending = self.outlines.pending  # (= self.outline(k) on first read: pos, radius are row k's)
         outlines = [pending(k, pos[j], radius[j]) if lk else None for j, (k, lk) in enumerate(zip(k_rows, slow))]
-        return spans, track_estimate_rows(ids, t, pos, th, v, w, radius_l, P, static, team, outlines,
-                                          repeat(None, len(k_rows)))
+        out = {}
+        for o, (a, b) in spans.items():
+            out[o] = TrackRows((ids[a:b], t[a:b], pos[a:b], th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b],
+                                static[a:b], team[a:b], outlines[a:b], (None,) * (b - a)))
+        return out
 
     def _report_columns(self) -> tuple:
         """What :meth:`estimates` hands on, for every vessel's confirmed tracks, grouped by vessel

@@ -218,6 +218,11 @@ class MultiTargetTracker:
         """TrackEstimate of every confirmed track (and tentative ones if asked)."""
         return self.fleet.estimates(self.owner, include_tentative)
 
+    def report_rows(self):
+        """The confirmed tracks as :class:`~mjasc.core.estimates.TrackRows` (the report's form:
+        the estimates made on first read)."""
+        return self.fleet.report_rows(self.owner)
+
     def outline(self, row: int) -> np.ndarray:
         """(k, 2) CCW outline [m] of the track in row ``row`` (of this vessel's rows): the hull of its
         returns united with its reflection through the track's centre, or the 12-gon around its
