@@ -22,7 +22,9 @@ Modules (one concept each):
 * :mod:`~mjasc.perception.imm.startup` — the start-up constant-velocity filter and its hand-over;
 * :mod:`~mjasc.perception.imm.predictive` — the predictive measurement mixture for association;
 * :mod:`~mjasc.perception.imm.bank` — :class:`IMMBank`, many tracks in one call (time handling,
-  coasting, gating, restarts);
+  coasting, gating, restarts); its read-only views of the rows are
+  :mod:`~mjasc.perception.imm.bank_views` (its base class), the arrays its cycles write into
+  :mod:`~mjasc.perception.imm.cycle_buffers`;
 * :mod:`~mjasc.perception.imm.tracker` — :class:`IMMTracker`, one target behind a scalar API;
 * :mod:`~mjasc.perception.imm.filterpy_reference` — the same bank built with filterpy
   (``filterpy_imm``, ``FilterpyIMMTracker``), the reference for tests and benchmarks; the only

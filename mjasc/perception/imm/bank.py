@@ -24,24 +24,27 @@ Choices beyond the thesis that live here (parameters of :class:`IMMConfig`):
 
 Rejections are logged (debug: each rejected measurement; info: each restart) on the logger
 ``mjasc.perception.imm``.
+
+What the bank hands out — track ids, states, covariances, estimates, the per-row fields — is
+:class:`~mjasc.perception.imm.bank_views.BankViews`, the base class holding the read-only views; the
+arrays its cycles write into are :class:`~mjasc.perception.imm.cycle_buffers.CycleBuffers`.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
 
 import numpy as np
 
-from mjasc.core.estimates import TrackEstimate
 from mjasc.perception.imm.bank_kernels import (ACCEPTED, GATED, NON_FINITE, NOT_MEASURED, REJECTION_REASONS, RESTARTED,
                                                 kept_rows, measurements, settled_rows)
+from mjasc.perception.imm.bank_views import BankViews
 from mjasc.perception.imm.config import IMMConfig
-from mjasc.perception.imm.compiled_cycle import imm_cycle, turn_rate, wrap
+from mjasc.perception.imm.compiled_cycle import imm_cycle
+from mjasc.perception.imm.cycle_buffers import CycleBuffers
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
-from mjasc.perception.imm.row_fields import (SEQUENTIAL_MODELS, combine_covariance_rows, row_fields,
-                                              wrapped_states)
+from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS
 from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
 from mjasc.perception.imm.startup_rows import born_rows, gather_startup, handover_rows, update_startup
 
@@ -56,32 +59,8 @@ _NO_Z = np.zeros((1, 2))  # z of a cycle without measurements (not read)
 _NO_VAR = np.zeros(0)  # (gather_startup: no per-row steps or σ²)
 _NO_ROWS, _NO_FLAGS = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)  # (settled_rows: no start-up rows)
 
-class CycleBuffers:
-    """Room for what :func:`imm_cycle` writes for up to ``cap`` tracks × r models: two sides
-    ``(s, P, μ, x)`` and ``d2_min``. A bank's state lives in the first n rows of one side (its
-    ``_side``; None: in arrays of its own); a cycle writes the first n rows of the other side, so its
-    inputs are never overwritten by it. Births write into the state side's spare rows and drops
-    compact into the other side (no arrays made per birth or drop, nor per number of tracks)."""
 
-    def __init__(self, cap: int, r: int):
-        self.cap = cap
-        self.sides = tuple((np.zeros((cap, r, 4)), np.zeros((cap, r, 4, 4)), np.zeros((cap, r)), np.zeros((cap, 4)))
-                           for _ in range(2))
-        self.d2_min = np.zeros(cap)
-        self._views: dict[tuple[int, int], tuple] = {}
-
-    def views(self, side: int, n: int) -> tuple:
-        """The first n rows of ``side``: (s, P, μ, x, d2_min) (the same view objects every time)."""
-        v = self._views.get((side, n))
-        if v is None:
-            if len(self._views) > 64:
-                self._views.clear()
-            s, P, mu, x = self.sides[side]
-            v = self._views[(side, n)] = (s[:n], P[:n], mu[:n], x[:n], self.d2_min[:n])
-        return v
-
-
-class IMMBank(PredictiveDensity):
+class IMMBank(BankViews, PredictiveDensity):
     """Many IMM trackers updated in one call: arrays (n_tracks, r, 4) and (n_tracks, r, 4, 4).
 
     Each track has an integer id (``track_ids``), its own last time, model states, covariances and
@@ -143,21 +122,6 @@ class IMMBank(PredictiveDensity):
     _PER_TRACK = ("_ids", "_s", "_P", "_mu", "_t", "_x", "_Pc", "_n_gated", "_reasons")
 
     # ------------------------------------------------------------------ track list
-    def __len__(self) -> int:
-        return self._ids.size
-
-    @property
-    def track_ids(self) -> np.ndarray:
-        """(n,) integer ids, in the row order of every per-track array."""
-        return self._ids.copy()
-
-    def index_of(self, track_id: int) -> int:
-        """Row of ``track_id``; ValueError if unknown."""
-        rows = (self._ids == track_id).nonzero()[0]
-        if rows.size == 0:
-            raise ValueError(f"track_id: no track with id {track_id}")
-        return int(rows[0])
-
     def add_track(self, z, t_s: float, track_id: int | None = None, measurement_variance: float | None = None) -> int:
         """Start a track from its first position measurement z (2,) [m] at time t_s [s].
 
@@ -353,13 +317,6 @@ class IMMBank(PredictiveDensity):
         imm_cycle(self._s, self._P, self._mu, *step, _NO_Z, self._var, _NONE, self._floor, self._gate, *side)
         return side[:4]
 
-    def _covariances(self) -> np.ndarray:
-        """(n, 4, 4) combined covariances, computed on first read after a cycle."""
-        if self._Pc_stale:
-            combine_covariance_rows(self._s, self._P, self._mu, self._startup.active, self._Pc)
-            self._Pc_stale = False
-        return self._Pc
-
     # ------------------------------------------------------------------ public cycle
     def predict(self, t_s) -> None:
         """Coast every track to time t_s (scalar or (n,) absolute times [s]): an IMM cycle
@@ -531,157 +488,3 @@ class IMMBank(PredictiveDensity):
                     self._ids[k], t[k], z[k], REJECTION_REASONS[GATED], d2_min[k], self._gate,
                 )
         return used
-
-    # ------------------------------------------------------------------ read-only views
-    @property
-    def rejection_reasons(self) -> list[str]:
-        """Per track, why the last ``update`` did not use its row ('' if it did)."""
-        return [REJECTION_REASONS[c] for c in self._reasons]
-
-    @property
-    def rejection_codes(self) -> np.ndarray:
-        """(n,) int8 index into ``REJECTION_REASONS`` for the last ``update``."""
-        return self._reasons.copy()
-
-    @property
-    def consecutive_gated(self) -> np.ndarray:
-        """(n,) number of consecutive gated measurements per track (for track deletion)."""
-        return self._n_gated.copy()
-
-    @property
-    def times_s(self) -> np.ndarray:
-        """(n,) time of each track's last cycle [s]."""
-        return self._t.copy()
-
-    @property
-    def velocity_initialized(self) -> np.ndarray:
-        """(n,) bool: the track runs in the IMM (False while in the start-up CV filter)."""
-        return ~self._startup.active
-
-    @property
-    def states(self) -> np.ndarray:
-        """(n, 4) combined [x, y, θ, V] per track (θ in (−π, π])."""
-        return wrapped_states(self._x)  # (= x.copy() with x[:, 2] = wrap(x[:, 2]): one compiled pass)
-
-    @property
-    def state_rows(self) -> np.ndarray:
-        """(n, 4) the combined estimates [x, y, θ, V] as the bank keeps them, θ unwrapped (wrap it
-        to read a course; :attr:`states` does): the bank's own array, not a copy — read it at once
-        (valid until the next cycle, birth or drop), never write it."""
-        return self._x
-
-    def covariance_rows(self) -> np.ndarray:
-        """(n, 4, 4) the combined covariances as the bank keeps them (computed on first read after
-        a cycle): the bank's own array, not a copy — read it at once (valid until the next cycle,
-        birth or drop), never write it."""
-        return self._covariances()
-
-    @property
-    def common_time_s(self) -> float | None:
-        """The time of every track's last cycle [s] when they share it, else None."""
-        return self._t_common
-
-    @property
-    def positions(self) -> np.ndarray:
-        """(n, 2) combined position [m]."""
-        return self._x[:, :2].copy()
-
-    @property
-    def headings(self) -> np.ndarray:
-        """(n,) combined course θ [rad], in (−π, π]."""
-        return wrap(self._x[:, 2])
-
-    @property
-    def speeds(self) -> np.ndarray:
-        """(n,) combined speed V ≥ 0 [m/s]."""
-        return self._x[:, 3].copy()
-
-    @property
-    def turn_rates(self) -> np.ndarray:
-        """(n,) ω̂ = Σ_j μ_j ω_j [rad/s] (0 for start-up tracks)."""
-        return np.where(self._startup.active, 0.0, turn_rate(self._mu, self._omega))
-
-    @property
-    def mode_probabilities(self) -> np.ndarray:
-        """(n, r) μ_j per track."""
-        return self._mu.copy()
-
-    @property
-    def state_covariances(self) -> np.ndarray:
-        """(n, 4, 4) combined covariance over x, y, θ, V."""
-        return self._covariances().copy()
-
-    @property
-    def position_covariances(self) -> np.ndarray:
-        """(n, 2, 2) combined covariance of the position [m²]."""
-        return self._covariances()[:, :2, :2].copy()
-
-    @property
-    def model_states(self) -> np.ndarray:
-        """(n, r, 4) per-model states, θ wrapped (diagnostics)."""
-        s = self._s.copy()
-        s[..., 2] = wrap(s[..., 2])
-        return s
-
-    @property
-    def model_covariances(self) -> np.ndarray:
-        """(n, r, 4, 4) per-model covariances (diagnostics)."""
-        return self._P.copy()
-
-    def estimate(self, track_id: int, radius_m: float = 0.0, **fields) -> TrackEstimate:
-        """The :class:`TrackEstimate` of one track; further fields (is_static, team_member,
-        outline_m) are passed through."""
-        k = self.index_of(track_id)
-        x = self._x[k]
-        return TrackEstimate(
-            track_id=int(track_id),
-            time_s=float(self._t[k]),
-            position_m=x[:2].copy(),
-            heading_rad=float(wrap(x[2])),
-            speed_m_s=float(x[3]),
-            turn_rate_rad_s=0.0 if self._startup.active[k] else float(turn_rate(self._mu[k], self._omega)),
-            radius_m=float(radius_m),
-            position_covariance=self._covariances()[k, :2, :2].copy(),
-            **fields,
-        )
-
-    def estimate_fields(self, rows) -> tuple:
-        """What :meth:`estimate` reads, for the tracks ``rows`` at once: times (k,) [s], positions
-        (k, 2) [m], courses (k,) in (−π, π], speeds (k,) [m/s], ω̂ (k,) [rad/s], position
-        covariances (k, 2, 2) [m²] (the same numbers as :meth:`estimate`)."""
-        if self._compiled_fields and type(rows) is np.ndarray and rows.dtype == np.int64:  # one compiled pass
-            t, xs, th, w, P = row_fields(rows, self._x, self._t, self._mu, self._omega, self._startup.active,
-                                         self._covariances(), False)
-            return t, xs[:, :2], th, xs[:, 3], w, P
-        x = self._x[rows]
-        w = np.where(self._startup.active[rows], 0.0, turn_rate(self._mu[rows], self._omega))
-        return self._t[rows], x[:, :2], wrap(x[:, 2]), x[:, 3], w, self._covariances()[rows, :2, :2]
-
-    def positions_of(self, rows) -> np.ndarray:
-        """``positions`` of the tracks ``rows`` only: (k, 2) [m]."""
-        return self._x[rows, :2]
-
-    def states_of(self, rows) -> np.ndarray:
-        """``states`` of the tracks ``rows`` only: (k, 4) [x, y, θ, V], θ in (−π, π]."""
-        x = self._x[rows]
-        x[:, 2] = wrap(x[:, 2])
-        return x
-
-    def prediction_fields(self, rows) -> tuple:
-        """What predicting the tracks ``rows`` needs, at once: combined states (k, 4) [x, y, θ, V]
-        (θ in (−π, π]), covariances (k, 4, 4), times (k,) [s] and ω̂ (k,) [rad/s] (the numbers of
-        ``states``, ``state_covariances``, ``times_s`` and ``turn_rates`` at those rows)."""
-        if self._compiled_fields and type(rows) is np.ndarray and rows.dtype == np.int64:  # one compiled pass
-            t, xs, _, w, P = row_fields(rows, self._x, self._t, self._mu, self._omega, self._startup.active,
-                                        self._covariances(), True)
-            return xs, P, t, w
-        w = np.where(self._startup.active[rows], 0.0, turn_rate(self._mu[rows], self._omega))
-        return self.states_of(rows), self._covariances()[rows], self._t[rows], w
-
-    def estimates(self, radius_m: float | Mapping[int, float] = 0.0) -> list[TrackEstimate]:
-        """TrackEstimate of every track; radius_m a scalar or a {track_id: radius} mapping."""
-        out = []
-        for tid in self._ids.tolist():
-            rad = radius_m.get(tid, 0.0) if isinstance(radius_m, Mapping) else radius_m
-            out.append(self.estimate(tid, rad))
-        return out

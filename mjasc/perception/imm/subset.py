@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.perception.imm.bank import CycleBuffers
+from mjasc.perception.imm.cycle_buffers import CycleBuffers
 
 __all__ = ["take_rows", "put_rows"]
 
