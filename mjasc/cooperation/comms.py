@@ -53,7 +53,7 @@ from dataclasses import dataclass, fields, is_dataclass
 
 import numpy as np
 
-from mjasc.cooperation.link_kernels import DELIVERED, LOST, LOST_OUT_OF_RANGE, UNSURE, decide_segments
+from mjasc.cooperation.link_kernels import DELIVERED, LOST, UNSURE, decide_segments
 from mjasc.core.config_tables import ConfigError, check_keys, check_params, dataclass_from_table, param, show, string
 from mjasc.core.config_tables import table as as_table
 
