@@ -76,31 +76,28 @@ def _assignment(cost_rows: list, a: int, b: int, truths: list, fast: bool = True
     roles swapped when there are more truths than tracks). Found here without scipy (``fast``),
     in scipy's order (rows ascending); any other problem goes to scipy."""
     if fast:
-        n_y = b - a
-        picks = []
-        if len(truths) <= n_y:
-            for m in truths:
-                costs = [cost_rows[r][m] for r in range(a, b)]
-                best = min(costs)
-                if costs.count(best) != 1:
-                    break
-                picks.append(costs.index(best))
-            else:
-                if len(set(picks)) == len(picks):
-                    return tuple(enumerate(picks))
-        else:
-            for r in range(a, b):
-                row = cost_rows[r]
-                costs = [row[m] for m in truths]
-                best = min(costs)
-                if costs.count(best) != 1:
-                    break
-                picks.append(costs.index(best))
-            else:
-                if len(set(picks)) == len(picks):
-                    return tuple(sorted((k, j) for j, k in enumerate(picks)))
+        by_truth = len(truths) <= b - a
+        if by_truth:  # every truth is assigned: each truth's costs to the tracks
+            lists = ([cost_rows[r][m] for r in range(a, b)] for m in truths)
+        else:  # every track is assigned: each track's costs to the truths
+            lists = ([cost_rows[r][m] for m in truths] for r in range(a, b))
+        picks = _unique_least(lists)
+        if picks is not None:
+            return tuple(enumerate(picks)) if by_truth else tuple(sorted((k, j) for j, k in enumerate(picks)))
     rows, cols = linear_sum_assignment(np.array([[cost_rows[r][m] for r in range(a, b)] for m in truths]))
     return zip(rows.tolist(), cols.tolist())
+
+
+def _unique_least(cost_lists) -> list | None:
+    """Each list's index of its least cost; None when a least cost is shared within a list or two
+    lists pick the same index."""
+    picks = []
+    for costs in cost_lists:
+        best = min(costs)
+        if costs.count(best) != 1:
+            return None
+        picks.append(costs.index(best))
+    return picks if len(set(picks)) == len(picks) else None
 
 
 def _rows(parts: list, dtype, shape: tuple) -> np.ndarray:

@@ -397,6 +397,18 @@ def _turn_angles(par, kind, rows, times, out):
 
 
 @kernel
+def _row_at(par, r, turning, t, sin_t, cos_t, n):
+    """Row ``r``'s position (x, y) [m] at time ``t``: turning x₀ + (v/ω)(sin θ(t) − sin θ),
+    y₀ − (v/ω)(cos θ(t) − cos θ) with ``sin_t[n]``, ``cos_t[n]`` its sin θ(t), cos θ(t); straight
+    or static x₀ + (v τ) cos θ, y₀ + (v τ) sin θ (τ = t − t₀) — :meth:`TrackMotions._eval`'s
+    operations, for the compiled checks below."""
+    if turning:
+        return par[r, 0] + par[r, 8] * (sin_t[n] - par[r, 5]), par[r, 1] - par[r, 8] * (cos_t[n] - par[r, 4])
+    v_tau = par[r, 3] * (t - par[r, 2])
+    return par[r, 0] + v_tau * par[r, 4], par[r, 1] + v_tau * par[r, 5]
+
+
+@kernel
 def _farther(par, kind, rows, times, pos, limit, sin_t, cos_t):
     """:meth:`TrackMotions.farther_than` without plans: True when a row's position at its time lies
     farther than ``limit`` from ``pos`` (``hypot``); straight (or static) rows x₀ + (v τ) cos θ,
@@ -405,14 +417,9 @@ def _farther(par, kind, rows, times, pos, limit, sin_t, cos_t):
     n = 0
     for i in range(rows.size):
         r = rows[i]
-        if kind[r] == 1:
-            x = par[r, 0] + par[r, 8] * (sin_t[n] - par[r, 5])
-            y = par[r, 1] - par[r, 8] * (cos_t[n] - par[r, 4])
-            n += 1
-        else:
-            v_tau = par[r, 3] * (times[i] - par[r, 2])
-            x = par[r, 0] + v_tau * par[r, 4]
-            y = par[r, 1] + v_tau * par[r, 5]
+        turning = kind[r] == 1
+        x, y = _row_at(par, r, turning, times[i], sin_t, cos_t, n)
+        n += turning
         if math.hypot(x - pos[i, 0], y - pos[i, 1]) > limit:
             return True
     return False
@@ -441,12 +448,6 @@ def _grid_within(par, kind, times, pos, radii, radius, sin_t, cos_t, out):
     for r in range(kind.size):
         turning = kind[r] == 1
         for j in range(times.size):
-            if turning:
-                x = par[r, 0] + par[r, 8] * (sin_t[n] - par[r, 5])
-                y = par[r, 1] - par[r, 8] * (cos_t[n] - par[r, 4])
-                n += 1
-            else:
-                v_tau = par[r, 3] * (times[j] - par[r, 2])
-                x = par[r, 0] + v_tau * par[r, 4]
-                y = par[r, 1] + v_tau * par[r, 5]
+            x, y = _row_at(par, r, turning, times[j], sin_t, cos_t, n)
+            n += turning
             out[r, j] = math.hypot(x - pos[j, 0], y - pos[j, 1]) <= maximum(radii[j], radius[r])
