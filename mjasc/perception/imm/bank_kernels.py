@@ -67,20 +67,26 @@ def measurements(z, measured, mv, per_row, R, finite, use):
 
 
 @kernel
+def _copy_model_row(s, P, mu, k, s_out, P_out, mu_out, c):
+    """Row k of the models' states s (n, r, 4), covariances P (n, r, 4, 4) and probabilities μ
+    (n, r) copied into row c of s_out, P_out, mu_out."""
+    for a in range(s.shape[1]):
+        mu_out[c, a] = mu[k, a]
+        for b in range(4):
+            s_out[c, a, b] = s[k, a, b]
+            for d in range(4):
+                P_out[c, a, b, d] = P[k, a, b, d]
+
+
+@kernel
 def warm_rows(rows, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new):
     """A general cycle's start-up rows k = rows[j], in place: ``ok[k] = ok_w[j]``, ``inside[k] =
     ok_w[j] or not use_w[j]``, and their IMM state (s, P, μ) kept unchanged in the cycle's output."""
-    r = s.shape[1]
     for j in range(rows.size):
         k = rows[j]
         ok[k] = ok_w[j]
         inside[k] = ok_w[j] or not use_w[j]
-        for a in range(r):
-            mu_new[k, a] = mu[k, a]
-            for b in range(4):
-                s_new[k, a, b] = s[k, a, b]
-                for c in range(4):
-                    P_new[k, a, b, c] = P[k, a, b, c]
+        _copy_model_row(s, P, mu, k, s_new, P_new, mu_new, k)
 
 
 @kernel
@@ -144,7 +150,6 @@ def kept_rows(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gate
     rows, m the number kept: ``np.compress(keep, a, 0, out)``), and the per-track arrays (ids, t, Pc,
     n_gated, reasons) returned as new arrays of the kept rows (``a[keep]``)."""
     m = s_out.shape[0]
-    r = mu.shape[1]
     ids2 = np.empty(m, dtype=ids.dtype)
     t2 = np.empty(m)
     Pc2 = np.empty((m, 4, 4))
@@ -154,12 +159,7 @@ def kept_rows(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gate
     for k in range(keep.size):
         if not keep[k]:
             continue
-        for j in range(r):
-            mu_out[c, j] = mu[k, j]
-            for a in range(4):
-                s_out[c, j, a] = s[k, j, a]
-                for b in range(4):
-                    P_out[c, j, a, b] = P[k, j, a, b]
+        _copy_model_row(s, P, mu, k, s_out, P_out, mu_out, c)
         for a in range(4):
             x_out[c, a] = x[k, a]
             for b in range(4):

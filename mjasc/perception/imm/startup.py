@@ -241,7 +241,9 @@ class StartupFilters:
 
     def hand_over(self, rows, s, cv_P=None) -> np.ndarray:
         """(k,) bool: rows ready for the IMM (:func:`ready_for_handover`, s their polar states;
-        cv_P their filters' covariances ``P[rows]`` when the caller has them), made inactive."""
+        cv_P their filters' covariances ``P[rows]`` when the caller has them), made inactive. The
+        bank hands over with the compiled :func:`mjasc.perception.imm.startup_rows.handover_rows`;
+        this is its readable form, the tests' reference."""
         ready = ready_for_handover(s, self.P[rows] if cv_P is None else cv_P, self.n_meas[rows], self.snr2,
                                    self.max_updates)
         if ready.any():
