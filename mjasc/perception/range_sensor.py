@@ -212,7 +212,9 @@ class RangeSensor:
 
         The clutter's k beams and k ranges are drawn one at a time, the numbers (and the stream
         after them) of ``rng.integers(0, n, size=k)`` and ``rng.uniform(min, max, size=k)``
-        (tests/test_range_sensor.py), without numpy's per-call size handling."""
+        (tests/test_range_sensor.py), without numpy's per-call size handling; a range is
+        ``min + (max − min)·rng.random()``, numpy's own uniform formula (one double per draw), in
+        a third of ``rng.uniform``'s time."""
         if rng is None:
             return False, False
         c = self.config
@@ -226,12 +228,12 @@ class RangeSensor:
         if c.clutter_per_scan > 0:
             k = int(rng.poisson(c.clutter_per_scan))
             if k:
-                integers, uniform, n = rng.integers, rng.uniform, c.beams
+                integers, random, n = rng.integers, rng.random, c.beams
                 for _ in range(k):
                     clutter_beams.append(integers(0, n))
-                lo, hi = c.min_range_m, c.max_range_m
+                lo, span = c.min_range_m, c.max_range_m - c.min_range_m
                 for _ in range(k):
-                    clutter_ranges_m.append(uniform(lo, hi))
+                    clutter_ranges_m.append(lo + span * random())
         return has_normals, has_uniforms
 
     def cast(self, data) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
