@@ -9,9 +9,11 @@ recursively (at the median of its cells along their principal axis) until its ce
 becomes a few convex pieces hugging its walls instead of one hull covering its basin. Each polygon
 is the convex hull of its cells' corners (counter-clockwise, conservative by up to one cell).
 
-A map changes a few cells at a time, mostly in one structure: :class:`PolygonCache` keeps each
-component's pieces keyed by its cells, and splits only the components whose cells changed since
-the last call (a component's pieces depend only on its own cells, taken in row-major order).
+A map changes a few cells at a time, mostly in one structure: :class:`PolygonCache` keeps the
+pieces of every component, and of every part of one met while splitting it, keyed by its depth and
+its cells, and splits only what it has not split before (a part's pieces depend only on its own
+cells, taken in row-major order, and its depth): a cell added at one end of a wall changes the
+component, but often leaves a half or a quarter of it as it was.
 """
 
 from __future__ import annotations
@@ -28,12 +30,29 @@ __all__ = ["PolygonCache", "split_component"]
 #: this far (relative) below ``min_fill`` is below it by qhull's area too (qhull's area is within
 #: ~3e-11 of the exact one even a million cells from the origin).
 SURE_SPARSE = 1e-6
+#: The parts a :class:`PolygonCache` remembers at most (then it starts again from none).
+MEMO_PARTS = 4096
 _CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 _EIGHT = np.ones((3, 3))
 
 
-def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth: int, depth: int, out: list) -> None:
-    """Append to ``out`` the convex pieces (k, 2) [m] of one component's cells ``comp`` (c, 2)."""
+def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth: int, depth: int, out: list,
+                    memo: dict | None = None) -> None:
+    """Append to ``out`` the convex pieces (k, 2) [m] of one component's cells ``comp`` (c, 2).
+    ``memo``: the pieces of the parts split before, by (depth, cells' bytes), taken instead of
+    splitting them again (and this part's and its parts' pieces added)."""
+    if memo is None:
+        _split(comp, cell_m, min_fill, max_depth, depth, out, None)
+        return
+    key = (depth, comp.tobytes())
+    got = memo.get(key)
+    if got is None:
+        got = memo[key] = []
+        _split(comp, cell_m, min_fill, max_depth, depth, got, memo)
+    out.extend(got)
+
+
+def _split(comp, cell_m, min_fill, max_depth, depth, out, memo) -> None:
     corners = (comp[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cell_m
     hull = None
     n = comp.shape[0]
@@ -58,16 +77,16 @@ def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth:
             hull = ConvexHull(corners)
         out.append(corners[hull.vertices])
         return
-    split_component(comp[left], cell_m, min_fill, max_depth, depth + 1, out)
-    split_component(comp[~left], cell_m, min_fill, max_depth, depth + 1, out)
+    split_component(comp[left], cell_m, min_fill, max_depth, depth + 1, out, memo)
+    split_component(comp[~left], cell_m, min_fill, max_depth, depth + 1, out, memo)
 
 
 class PolygonCache:
-    """Convex pieces of one map's occupied cells, re-split only for the components that changed."""
+    """Convex pieces of one map's occupied cells; a component, or a part of one, split once (module docstring)."""
 
     def __init__(self, cell_m: float, min_fill: float, max_depth: int):
         self.cell_m, self.min_fill, self.max_depth = float(cell_m), float(min_fill), int(max_depth)
-        self._pieces: dict[bytes, list[np.ndarray]] = {}
+        self._pieces: dict[tuple, list[np.ndarray]] = {}  # (depth, cells' bytes) → pieces
 
     def polygons(self, cells: np.ndarray) -> list[np.ndarray]:
         """Pieces of the occupied cells ``cells`` (c, 2) int64, components in raster order of
@@ -84,14 +103,8 @@ class PolygonCache:
         lab = labels[tuple(rel.T)]
         order = np.lexsort((cells[:, 1], cells[:, 0], lab))  # by component, then row-major
         comps = np.split(cells[order], np.cumsum(np.bincount(lab, minlength=n + 1)[1:])[:-1])
-        pieces = {}
+        if len(self._pieces) > MEMO_PARTS:
+            self._pieces = {}
         for comp in comps:
-            key = comp.tobytes()
-            got = self._pieces.get(key)
-            if got is None:
-                got = []
-                split_component(comp, self.cell_m, self.min_fill, self.max_depth, 0, got)
-            pieces[key] = got
-            out.extend(got)
-        self._pieces = pieces
+            split_component(comp, self.cell_m, self.min_fill, self.max_depth, 0, out, self._pieces)
         return out
