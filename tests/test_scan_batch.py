@@ -174,17 +174,22 @@ def test_scan_batch_kernel_equals_the_per_scan_kernels(seed):
         ang = -math.pi + (np.arange(n) + 0.5) * 2.0 * math.pi / n
         parts.append((dist, gid, float(rng.choice([0.0, 0.05])), z, float(rng.choice([0.0, 0.3])), u, cb, cr, min_r,
                       max_r, ang, rng.uniform(-1e3, 1e3, 2), float(rng.uniform(-4, 4))))
-    cat = np.concatenate
+    tail = int(rng.choice([0, 3, 400]))  # the per-beam inputs may run on past the casts (a batch's buffers)
+
+    def cat(arrays, per_beam=False):
+        a = np.concatenate(arrays)
+        return np.concatenate([a, rng.uniform(-9.0, 9.0, tail).astype(a.dtype)]) if per_beam else a
+
     beam_off = np.cumsum([0] + [p[0].size for p in parts])
     c_off = np.cumsum([0] + [p[6].size for p in parts])
-    got = scan_batch(cat([p[0] for p in parts]), cat([p[1] for p in parts]), beam_off,
-                     np.array([p[2] for p in parts]), cat([p[0] * 0 if p[3] is None else p[3] for p in parts]),
+    got = scan_batch(cat([p[0] for p in parts], True), cat([p[1] for p in parts], True), beam_off,
+                     np.array([p[2] for p in parts]), cat([p[0] * 0 if p[3] is None else p[3] for p in parts], True),
                      np.array([p[3] is not None for p in parts]), np.array([p[4] for p in parts]),
-                     cat([p[0] * 0 if p[5] is None else p[5] for p in parts]),
+                     cat([p[0] * 0 if p[5] is None else p[5] for p in parts], True),
                      np.array([p[5] is not None for p in parts]),
                      cat([p[6] for p in parts]), cat([p[7] for p in parts]), c_off, np.array([p[8] for p in parts]),
-                     np.array([p[9] for p in parts]), CLUTTER_GEOM, cat([np.cos(p[10]) for p in parts]),
-                     cat([np.sin(p[10]) for p in parts]), np.array([p[11] for p in parts]),
+                     np.array([p[9] for p in parts]), CLUTTER_GEOM, cat([np.cos(p[10]) for p in parts], True),
+                     cat([np.sin(p[10]) for p in parts], True), np.array([p[11] for p in parts]),
                      np.array([math.cos(p[12]) for p in parts]), np.array([math.sin(p[12]) for p in parts]))
     want = [[] for _ in range(7)]
     none = np.zeros(0)

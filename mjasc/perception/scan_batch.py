@@ -148,7 +148,6 @@ class ScanBatch:
         """The queued casts as scans (module docstring); the batch is emptied."""
         sensors, offs, queued = self._sensors, self._offs, self._queued
         S = len(sensors)
-        N = offs[-1]
         beam_off, noise, dropout, min_r, max_r, n_beams, first, last, full = self._constants()
         rows = np.array(queued, dtype=float)  # (S, 6): time, x, y, yaw, cos, sin of each cast
         cols = rows.T.copy()
@@ -161,9 +160,8 @@ class ScanBatch:
             cb, cr = _NO_BEAMS, _NO_DRAWS
         c_off = np.array(self._c_off, dtype=np.int64)
         ranges, hit, geom, beams, ret_off, rho, body, world = scan_batch(
-            self._dist[:N], self._gid[:N], beam_off, noise, self._normals[:N], has_n, dropout,
-            self._uniforms[:N], has_u, cb, cr, c_off, min_r, max_r, CLUTTER_GEOM, self._cos[:N],
-            self._sin[:N], origins, cos_h, sin_h)
+            self._dist, self._gid, beam_off, noise, self._normals, has_n, dropout, self._uniforms, has_u, cb, cr,
+            c_off, min_r, max_r, CLUTTER_GEOM, self._cos, self._sin, origins, cos_h, sin_h)
         ro = ret_off.tolist()
         scans = []
         for k, sensor in enumerate(sensors):

@@ -129,9 +129,10 @@ def scan_batch(dist, gid, beam_off, noise_std_m, normals, has_normals, dropout_p
     within their cast), ``ret_off`` (S + 1,) (cast s owns returns ``ret_off[s] : ret_off[s+1]``),
     the returns' ranges (K,) [m], their points in the sensor frame (K, 2) and in the world (K, 2) [m].
     The three kernels' loops are written out over the stacked outputs (no per-cast arrays), each
-    expression as they have it."""
+    expression as they have it. The per-beam inputs may be longer than the N = ``beam_off[S]``
+    beams (a batch's buffers, passed whole)."""
     S = beam_off.shape[0] - 1
-    N = dist.shape[0]
+    N = beam_off[S]
     ranges = np.empty(N)
     hit = np.empty(N, dtype=np.bool_)
     geom = np.empty(N, dtype=gid.dtype)
