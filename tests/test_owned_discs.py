@@ -1,5 +1,5 @@
 """The compiled point-in-disc loops (mjasc.perception.owned_discs, behind
-mjasc.perception.fleet.inside_owned and pipeline._inside) against the numpy forms they replaced
+mjasc.perception.fleet.inside_owned and tracked_returns.inside) against the numpy forms they replaced
 (kept here as the reference): random owners with and without points or discs, points on a disc's
 rim, NaN points."""
 
@@ -45,7 +45,7 @@ def test_inside_owned_equals_the_numpy_form(seed):
 
 
 def _numpy_inside(p, centres, radii):
-    """pipeline._inside's numpy form (one owner)."""
+    """tracked_returns.inside's numpy form (one owner)."""
     if p.shape[0] == 0 or centres.shape[0] == 0:
         return np.zeros(p.shape[0], dtype=bool)
     d2 = ((p[:, None, :] - centres[None, :, :]) ** 2).sum(-1)
@@ -54,7 +54,7 @@ def _numpy_inside(p, centres, radii):
 
 @pytest.mark.parametrize("seed", range(30))
 def test_inside_discs_equals_the_numpy_form(seed):
-    from mjasc.perception.pipeline import _inside
+    from mjasc.perception.tracked_returns import inside as _inside
 
     rng = np.random.default_rng(seed)
     points = rng.uniform(-30.0, 30.0, (int(rng.integers(0, 100)), 2))

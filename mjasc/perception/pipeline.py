@@ -52,15 +52,15 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import replace
-from types import SimpleNamespace
 
 import numpy as np
 
-from mjasc.perception.detection import Detections, detect
-from mjasc.perception.fleet import DISC_MARGIN_M, PerceptionFleet, estimate_discs, fleet_of
-from mjasc.perception.owned_discs import inside_discs
+from mjasc.perception.detection import Detections
+from mjasc.perception.fleet import PerceptionFleet, estimate_discs, fleet_of
+from mjasc.perception.plugin_tracks import TracksView, mark_team
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
+from mjasc.perception.tracked_returns import split_tracked, targets_only
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.fleet import TrackEvent
 from mjasc.perception.tracking.method import IMMMethod
@@ -160,7 +160,7 @@ class Perception:
         self.fleet.flush()
         if self.method is not None:
             if self._method_view is None:
-                self._method_view = _TracksView(self._method_tracks)
+                self._method_view = TracksView(self._method_tracks)
             return self._method_view
         return self._tracker
 
@@ -174,7 +174,7 @@ class Perception:
         """The latest scan's target detections (the structures that went to the map left out,
         returns' labels renumbered): what a tracker is given (a plugin's ``update``)."""
         self.fleet.flush()
-        return None if self._det is None else _targets_only(self._det, self._targets)
+        return None if self._det is None else targets_only(self._det, self._targets)
 
     @property
     def _target_mask(self) -> np.ndarray:
@@ -212,47 +212,11 @@ class Perception:
         st["target_detections"] += n_tgt
 
     def _split_tracked(self, scan: Scan, det: Detections, discs) -> Detections:
-        """The returns of extended clusters that lie in a tracked disc (:func:`mjasc.perception.fleet.tracked_discs`) taken out
-        of their cluster and clustered again on their own, as target detections: a boat close to a
-        wall (or to another boat) whose returns joined the wall's cluster keeps its track updated
-        instead of being written into the map as part of the wall."""
-        lab = det.labels
-        good = lab >= 0
-        take = good & det.extended[np.maximum(lab, 0)] & _inside(scan.hit_points_world, *discs)
-        if take.any() and self._map.n_occupied:  # the wall behind, where it is mapped, stays the wall's
-            take[take] = ~self._map.occupied(scan.hit_points_world[take])
-        if not take.any():
-            return det
-        mask = np.zeros_like(scan.hit)
-        beams = scan.hit_beams[take]
-        mask[beams] = True
-        sub = replace(scan, hit=mask, ranges=np.where(mask, scan.ranges, scan.max_range_m), hit_beams=beams,
-                      hit_points_body=scan.hit_points_body[take], hit_points_world=scan.hit_points_world[take])
-        extra = detect(sub, self.config.detection, self.sensor_config.range_noise_std_m,
-                       self.sensor_config.dropout_probability)
-        if len(extra) == 0:
-            return det
-        # only what looks like a tracked object: a disc no larger than the track's, centred within
-        # its radius of the predicted centre (a piece of the wall beside it stays the wall's)
-        c, r = discs
-        d = np.hypot(*(extra.centres_m[:, None, :] - c[None, :, :]).transpose(2, 0, 1))
-        core = r - DISC_MARGIN_M
-        fits = ((d <= core[None, :]) & (extra.radii_m[:, None] <= core[None, :] + 0.5)).any(axis=1) & ~extra.extended
-        if not fits.any():
-            return det
-        keep = np.flatnonzero(fits)
-        new = np.full(len(extra), -1)
-        new[keep] = np.arange(keep.size) + len(det)
-        sub_lab = np.where(extra.labels >= 0, new[np.maximum(extra.labels, 0)], -1)
-        labels = lab.copy()
-        labels[take] = np.where(sub_lab >= 0, sub_lab, lab[take])
-        extra = _subset(extra, keep)
-        cat = lambda a, b: np.concatenate([a, b])  # noqa: E731
-        occ = None if det.occluded is None else cat(det.occluded, extra.occluded)
-        return Detections(det.time_s, det.origin_m, det.heading_rad, cat(det.centres_m, extra.centres_m),
-                          cat(det.centres_body, extra.centres_body), cat(det.radii_m, extra.radii_m),
-                          cat(det.variances_m2, extra.variances_m2), cat(det.n_points, extra.n_points),
-                          cat(det.ranges_m, extra.ranges_m), cat(det.extended, extra.extended), labels, occ)
+        """The returns of extended clusters that lie in a tracked disc taken out of their cluster
+        and clustered again on their own, as target detections
+        (:func:`mjasc.perception.tracked_returns.split_tracked`, with this vessel's map and settings)."""
+        return split_tracked(scan, det, discs, self._map, self.config.detection, self.sensor_config.range_noise_std_m,
+                             self.sensor_config.dropout_probability)
 
     def update_tracks(self, t_s: float, nav=None) -> None:
         """Queue the latest scan's target detections for the fleet's tracking pass (nothing new:
@@ -268,31 +232,15 @@ class Perception:
         """The tracking step of a plugin tracker (the fleet's tracking pass calls it): the scan's
         target detections to ``update``, then its tracks, marked with team mates."""
         det = self._det
-        self.method.update(det.time_s, self._nav, _targets_only(det, self._targets))
+        self.method.update(det.time_s, self._nav, targets_only(det, self._targets))
         tracks = tuple(self.method.tracks())
         if self._has_team and tracks:
-            tracks = self._mark_team(tracks, det.time_s)
+            tracks = mark_team(self._team, tracks, det.time_s)
         ids = {e.track_id for e in tracks}
         self._method_lost += len(self._method_ids - ids)
         self._method_ids = ids
         self._method_seen |= ids
         self._method_tracks, self._method_view = tracks, None
-
-    def _mark_team(self, tracks: tuple, t_s: float) -> tuple:
-        """The tracks with ``team_member`` set from the team's broadcasts, as the built-in tracker
-        does (:class:`~mjasc.perception.tracking.team.TeamMatcher`: each track's position at t_s
-        extrapolated back to the broadcast time along its velocity, GNN within
-        ``team_match_distance_m``, broadcasts no older than ``team_max_age_s``)."""
-        n = len(tracks)
-        tm = self._team
-        tm.keep(np.zeros(len(tm.members()), dtype=bool))
-        tm.append(n)
-        t = np.array([max(t_s, e.time_s) for e in tracks])
-        pos = np.array([e.predict_positions(np.array([tk]))[0] for e, tk in zip(tracks, t)])
-        states = np.column_stack([pos, [e.heading_rad for e in tracks], [e.speed_m_s for e in tracks]])
-        tm.match(np.arange(n), np.zeros(n, dtype=np.int64), np.array([float(t_s)]), states, np.ones(n, dtype=bool), 1)
-        names = tm.members()
-        return tuple(e if e.team_member == nm else replace(e, team_member=nm) for e, nm in zip(tracks, names))
 
     def _tracked(self) -> None:
         """The fleet's tracking pass is done with this vessel's scan."""
@@ -465,59 +413,3 @@ class Perception:
             **({"tracking_method": self.method.method, "tracker": ms} if self.method is not None else {}),
             **({"team_shared": self._fusion.summary()} if self._fusion is not None else {}),
         }
-
-
-class _TracksView:
-    """A plugin tracker's confirmed tracks read like the built-in tracker's (what the recording
-    draws): every row confirmed, the estimates' ids, states, covariances, radii, flags; no modes."""
-
-    def __init__(self, tracks: tuple):
-        n = len(tracks)
-        self._tracks = tracks
-        self.confirmed = np.ones(n, dtype=bool)
-        self.static = np.array([e.is_static for e in tracks], dtype=bool)
-        self.radii_m = np.array([e.radius_m for e in tracks], dtype=float)
-        self.team_members = [e.team_member for e in tracks]
-        states = np.array([[*e.position_m, e.heading_rad, e.speed_m_s] for e in tracks], dtype=float).reshape(n, 4)
-        self.bank = SimpleNamespace(
-            track_ids=np.array([e.track_id for e in tracks], dtype=np.int64), states=states,
-            positions=states[:, :2], times_s=np.array([e.time_s for e in tracks], dtype=float),
-            position_covariances=np.array([e.position_covariance for e in tracks], dtype=float).reshape(n, 2, 2),
-            turn_rates=np.array([e.turn_rate_rad_s for e in tracks], dtype=float), mode_probabilities=np.zeros((n, 0)))
-
-    def __len__(self) -> int:
-        return len(self._tracks)
-
-    def confirmed_fields(self) -> tuple:
-        """As :meth:`mjasc.perception.tracking.MultiTargetTracker.confirmed_fields` (every track)."""
-        b = self.bank
-        return np.arange(len(self._tracks)), b.track_ids, b.states, self.static, self.team_members
-
-    def confirmed_points(self) -> tuple:
-        """As :meth:`mjasc.perception.tracking.MultiTargetTracker.confirmed_points` (every track)."""
-        return self.bank.track_ids, self.bank.positions, self.static, self.team_members
-
-    def estimates(self, include_tentative: bool = False) -> list:
-        return list(self._tracks)
-
-
-def _targets_only(d: Detections, mask: np.ndarray) -> Detections:
-    """The detections ``mask`` of d, the returns' labels renumbered (−1: a return of another one)."""
-    keep = np.flatnonzero(mask)
-    new = np.full(len(d), -1)
-    new[keep] = np.arange(keep.size)
-    labels = np.where(d.labels >= 0, new[np.maximum(d.labels, 0)], -1)
-    return replace(_subset(d, keep), labels=labels)
-
-
-def _subset(d: Detections, keep: np.ndarray) -> Detections:
-    """The detections ``keep`` of d (labels not remapped: the caller does)."""
-    return Detections(d.time_s, d.origin_m, d.heading_rad, d.centres_m[keep], d.centres_body[keep], d.radii_m[keep],
-                      d.variances_m2[keep], d.n_points[keep], d.ranges_m[keep], d.extended[keep], d.labels,
-                      None if d.occluded is None else d.occluded[keep])
-
-
-def _inside(p: np.ndarray, centres: np.ndarray, radii: np.ndarray) -> np.ndarray:
-    """(k,) bool: point p (k, 2) lies in one of the discs (centres (q, 2), radii (q,))."""
-    return inside_discs(p, centres, radii)
-
