@@ -346,6 +346,19 @@ class CommsNetwork:
             np.add.at(self._pair_delay_s[:, r], senders, delays)
         return out
 
+    def receive_many(self, t_s: float, receivers, positions) -> list:
+        """:meth:`decide_many` for ``receivers`` at their ``positions``, then each one's
+        :meth:`receive_raw` with ``decide=False``, in their order: a list of arrivals per receiver
+        (an empty tuple when nothing is due: most control ticks). The same decisions, draws and
+        statistics as those calls."""
+        self.decide_many(t_s, receivers, positions)
+        pending_all, none = self._pending, ()
+        out = []
+        for name in receivers:
+            pending = pending_all[name]
+            out.append(none if not pending or pending[0][0] > t_s else self.receive_raw(t_s, name, None, False))
+        return out
+
     def decide_many(self, t_s: float, receivers, positions, limits=None) -> None:
         """Decide, for each of ``receivers`` in turn at its position ``positions[k]`` (2,) world [m],
         the messages sent by ``t_s`` it has not decided yet (with ``limits``: only those whose id

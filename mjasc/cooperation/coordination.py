@@ -354,6 +354,13 @@ class Coordination(CoordinationMethod):
         """Read arrived messages, keep each neighbour's newest, time out stale ones."""
         arrived = self.link.receive_raw(t_s, nav.position_m, decide)
         if arrived:
+            self._take(t_s, arrived)
+        self._time_out(t_s)
+
+    def _take(self, t_s: float, arrived: list) -> None:
+        """:meth:`_poll`'s first half: keep each sender's newest of the messages ``arrived``
+        (the link's plain tuples, :meth:`~mjasc.cooperation.link.LinkEndpoint.receive_raw`)."""
+        if arrived:
             self.received += len(arrived)
             neighbours = self.neighbours
             for sender, sent, received, payload in arrived:
@@ -365,6 +372,9 @@ class Coordination(CoordinationMethod):
                         self._events.append((t_s, f"comms: regained {sender} after {sent - old.sent_time_s:.1f} s"))
                 neighbours[sender] = _Neighbour(sent, received, payload, True)
                 self._team = self._intentions = None
+
+    def _time_out(self, t_s: float) -> None:
+        """:meth:`_poll`'s second half: a neighbour not heard for ``neighbour_timeout_s`` is lost."""
         timeout = self.config.neighbour_timeout_s
         if t_s - self._oldest_active_s() > timeout:
             for name, nb in self.neighbours.items():
@@ -479,9 +489,39 @@ class Coordination(CoordinationMethod):
             out.append(1.0 if law is None else calls[k][0]._factor(law, th.get(k)))
         return out
 
+    @staticmethod
+    def speed_correction_fleet(coordinations, t_s: float, positions_m, gammas_m) -> list[float]:
+        """:meth:`decide_link` then :meth:`speed_correction_many` of several vessels at one time
+        ``t_s`` (positions (2,) world [m] and γ [m] in their order) in one pass: the link decides
+        and delivers for all of them at once
+        (:meth:`~mjasc.cooperation.link.LinkEndpoint.receive_together`), each takes in what arrived
+        and sums its gaps, then one ``tanh`` for the followers. The same factors, states, draws and
+        statistics (each receiver's arrivals touch only its own state, so delivering all of them
+        before the laws changes nothing)."""
+        arrivals = LinkEndpoint.receive_together([c.link for c in coordinations], t_s, positions_m)
+        laws, ask, scaled = [], [], []  # as speed_correction_many
+        for c, arrived, g in zip(coordinations, arrivals, gammas_m):
+            if arrived:
+                c._take(t_s, arrived)
+            view = c._team
+            if view is None or t_s - view.oldest_active_s > c.config.neighbour_timeout_s:
+                c._time_out(t_s)  # (nothing to time out otherwise)
+            law = c._law(t_s, g)
+            if law is not None and c.config.role != "leader":
+                ask.append(len(laws))
+                scaled.append(law[2] / c.config.error_scale_m)
+            laws.append(law)
+        th = dict(zip(ask, np.tanh(np.array(scaled)).tolist())) if ask else {}
+        return [1.0 if law is None else c._factor(law, th.get(k))
+                for k, (c, law) in enumerate(zip(coordinations, laws))]
+
     def _consensus(self, t_s: float, nav, gamma_m: float):
         """Read the arrivals; then (the team view, ξ_own, e_i, |N_i|), or None without a path."""
         self._poll(t_s, nav)
+        return self._law(t_s, gamma_m)
+
+    def _law(self, t_s: float, gamma_m: float):
+        """:meth:`_consensus` after the arrivals were read."""
         if self.path_length_m is None:
             return None
         view = self._team_view()
