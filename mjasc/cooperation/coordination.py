@@ -53,6 +53,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mjasc.cooperation import fleet_speed_law
 from mjasc.cooperation.comms import CommsNetwork
 from mjasc.cooperation.coordination_config import CoordinationConfig, _validate, parse_coordination_options
 from mjasc.cooperation.link import LinkEndpoint
@@ -307,48 +308,15 @@ class Coordination(CoordinationMethod):
 
     @staticmethod
     def speed_correction_many(calls) -> list[float]:
-        """:meth:`speed_correction` of several vessels, ``calls`` = [(coordination, t, nav, γ)]:
-        each reads its arrivals and sums its gaps, then one ``tanh`` for all of them. The same
-        factors and states as the calls one after the other (the link decided before them:
-        :meth:`decide_link`)."""
-        laws, ask, scaled = [], [], []  # ask: the followers with a law; scaled: their e_i / e_s
-        for c, t, nav, g in calls:
-            law = c._consensus(t, nav, g)
-            if law is not None and c.config.role != "leader":
-                ask.append(len(laws))
-                scaled.append(law[2] / c.config.error_scale_m)
-            laws.append(law)
-        th = dict(zip(ask, np.tanh(np.array(scaled)).tolist())) if ask else {}
-        out = []
-        for k, law in enumerate(laws):
-            out.append(1.0 if law is None else calls[k][0]._factor(law, th.get(k)))
-        return out
+        """:meth:`speed_correction` of several vessels, ``calls`` = [(coordination, t, nav, γ)]
+        (:func:`~mjasc.cooperation.fleet_speed_law.speed_correction_many`)."""
+        return fleet_speed_law.speed_correction_many(calls)
 
     @staticmethod
     def speed_correction_fleet(coordinations, t_s: float, positions_m, gammas_m) -> list[float]:
         """:meth:`decide_link` then :meth:`speed_correction_many` of several vessels at one time
-        ``t_s`` (positions (2,) world [m] and γ [m] in their order) in one pass: the link decides
-        and delivers for all of them at once
-        (:meth:`~mjasc.cooperation.link.LinkEndpoint.receive_together`), each takes in what arrived
-        and sums its gaps, then one ``tanh`` for the followers. The same factors, states, draws and
-        statistics (each receiver's arrivals touch only its own state, so delivering all of them
-        before the laws changes nothing)."""
-        arrivals = LinkEndpoint.receive_together([c.link for c in coordinations], t_s, positions_m)
-        laws, ask, scaled = [], [], []  # as speed_correction_many
-        for c, arrived, g in zip(coordinations, arrivals, gammas_m):
-            if arrived:
-                c._take(t_s, arrived)
-            view = c._team
-            if view is None or t_s - view.oldest_active_s > c.config.neighbour_timeout_s:
-                c._time_out(t_s)  # (nothing to time out otherwise)
-            law = c._law(t_s, g)
-            if law is not None and c.config.role != "leader":
-                ask.append(len(laws))
-                scaled.append(law[2] / c.config.error_scale_m)
-            laws.append(law)
-        th = dict(zip(ask, np.tanh(np.array(scaled)).tolist())) if ask else {}
-        return [1.0 if law is None else c._factor(law, th.get(k))
-                for k, (c, law) in enumerate(zip(coordinations, laws))]
+        ``t_s`` in one pass (:func:`~mjasc.cooperation.fleet_speed_law.speed_correction_fleet`)."""
+        return fleet_speed_law.speed_correction_fleet(coordinations, t_s, positions_m, gammas_m)
 
     def _consensus(self, t_s: float, nav, gamma_m: float):
         """Read the arrivals; then (the team view, ξ_own, e_i, |N_i|), or None without a path."""
