@@ -171,13 +171,14 @@ class Runner:
     # ------------------------------------------------------------------ slots
     def _control(self, time_s: float, navs) -> None:
         outputs = run_onboard_slot("control", self.agents, navs, self.control_dt_s)
-        if self.recorder:
-            for agent, out, last in zip(self.agents, outputs, self.last_outputs):
-                if last is not None and out.mode != last.mode:
-                    self.recorder.event(time_s, f"{agent.name}: mode {last.mode} → {out.mode}")
-        self.last_outputs[:] = outputs
-        # (the commands stacked in one call; each (2,) row as the per-vessel assignment wrote it)
-        self.sim.set_commands(np.array([out.commands for out in outputs], dtype=float).reshape(len(outputs), 2))
+        cmds = np.zeros((len(self.agents), 2))
+        for i, (agent, out) in enumerate(zip(self.agents, outputs)):
+            last = self.last_outputs[i]
+            if last is not None and out.mode != last.mode and self.recorder:
+                self.recorder.event(time_s, f"{agent.name}: mode {last.mode} → {out.mode}")
+            cmds[i] = out.commands
+            self.last_outputs[i] = out
+        self.sim.set_commands(cmds)
 
     def _record(self, states) -> None:
         xte = np.array([o.status.cross_track_m if o and o.status else np.nan for o in self.last_outputs])
