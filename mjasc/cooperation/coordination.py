@@ -51,182 +51,18 @@ needs of them (its own navigation, γ, the guidance state, the plan) is handed i
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from mjasc.cooperation import fleet_speed_law
 from mjasc.cooperation.comms import CommsNetwork
+from mjasc.cooperation.coordination_config import CoordinationConfig, _validate, parse_coordination_options
 from mjasc.cooperation.link import LinkEndpoint
 from mjasc.cooperation.messages import TeamIntention, TeamMessage, TeamPicture
-from mjasc.core.compiled import clip_float, kernel, maximum, minimum
-from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
+from mjasc.cooperation.team_view import _error_floats, _law_terms, _Neighbour, _sum, _TeamView  # noqa: F401
+from mjasc.core.compiled import clip_float
 from mjasc.plugins.stages import CoordinationMethod
 
 __all__ = ["CoordinationConfig", "Coordination", "TeamIntention", "parse_coordination_options"]
-
-
-@dataclass(frozen=True)
-class CoordinationConfig:
-    """Gains and formation role of one vessel (``[vessels.comms]``). The broadcast period is the
-    runner's comms slot, ``rates.comms_hz``."""
-
-    max_speed_correction: float = param(0.5, doc="k ∈ (0, 1): the consensus term moves the speed within "
-                                                 "[(1 − k), (1 + k)] × nominal")
-    error_scale_m: float = param(10.0, positive=True, unit="m", doc="e_s: tanh(e / e_s); linear gain k / e_s per "
-                                                                   "metre of error")
-    formation_offset_m: float = param(0.0, unit="m", doc="o_i: desired lead along the own path over the formation "
-                                                         "reference")
-    role: str = param("peer", choices=("leader", "peer"), doc="peer (consensus) or leader (keeps its nominal speed)")
-    neighbour_timeout_s: float = param(5.0, positive=True, unit="s", doc="a neighbour whose latest message is older "
-                                                                         "is dropped from N_i")
-    extrapolate: bool = param(True, doc="extrapolate neighbours: ξ̂_j = ξ_j + ξ̇_j (t − t_j)")
-    formation_tolerance_m: float = param(1.0, positive=True, unit="m", doc="formation spread below this counts as "
-                                                                          "in formation (summary only)")
-    intent_horizon_s: float = param(60.0, nonneg=True, unit="s", doc="the broadcast plan covers this far ahead "
-                                                                     "(0: no plan, pose only)")
-    intent_step_s: float = param(1.0, positive=True, unit="s", doc="spacing of the plan's samples")
-    share_tracks: bool = param(False, doc="team-shared perception: broadcast the own confirmed tracks and fuse "
-                                          "the team's with the own (covariance intersection, "
-                                          "mjasc.perception.track_fusion)")
-    share_max_tracks: int = param(8, minimum=1, maximum=64, doc="at most this many tracks per message, nearest "
-                                                                "first")
-    share_max_age_s: float = param(3.0, positive=True, unit="s", doc="a team track estimated longer ago is not "
-                                                                     "used")
-    share_gate: float = param(9.21, positive=True, doc="gate on the Mahalanobis d² between a team and an own "
-                                                       "track's positions (χ²₂ 99 %: 9.21)")
-
-    def __post_init__(self):
-        check_params(self, "comms")
-        _validate(self, "comms")
-
-
-def _validate(cfg: CoordinationConfig, where: str) -> None:
-    """Cross-field and open-interval checks of a :class:`CoordinationConfig` (the declared bounds
-    are checked by :func:`~mjasc.core.config_tables.check_params`)."""
-    if not 0.0 < cfg.max_speed_correction < 1.0:
-        raise ConfigError(f"{where}.max_speed_correction: must be in (0, 1) so that the speed stays positive, "
-                          f"got {show(cfg.max_speed_correction)}")
-
-
-def parse_coordination_options(table: dict, where: str = "comms") -> CoordinationConfig:
-    """A ``[vessels.comms]`` table → :class:`CoordinationConfig` (ValueError names ``where.<key>``)."""
-    return dataclass_from_table(CoordinationConfig, table, where, check=_validate)
-
-
-class _Neighbour:
-    """A team mate's newest message as received: send and arrival times [s], the message, and
-    whether it is still heard (not timed out)."""
-
-    __slots__ = ("sent_time_s", "received_time_s", "message", "active")
-
-    def __init__(self, sent_time_s: float, received_time_s: float, message: TeamMessage, active: bool = True):
-        self.sent_time_s, self.received_time_s, self.message, self.active = \
-            sent_time_s, received_time_s, message, active
-
-
-def _sum(values) -> float:
-    """Σ values with numpy's summation order (sequential below 8 values, numpy's own above), so a
-    plain-float sum of a few scalars equals ``np.sum`` of them bit for bit."""
-    if len(values) >= 8:
-        return float(np.add.reduce(values))
-    acc = 0.0
-    for v in values:
-        acc += v
-    return acc
-
-
-def _error_floats(xis: list, own: float, l_bar: float):
-    """``coordination_error``'s numbers from a few ξ̂_j in plain floats: (Σ d, mean d, spread) with
-    d_j = L̄ (ξ_own − ξ̂_j), as numpy's sum, mean, max and min give them; None when a ξ̂_j is 0 or NaN
-    (numpy's max / min pick among ±0 and NaN by their own rule: the caller asks numpy)."""
-    for x in xis:
-        if x != x or x == 0.0:
-            return None
-    d = [l_bar * (own - x) for x in xis]
-    total = _sum(d)
-    return float(total), float(total / len(d)), float(l_bar * (max(own, max(xis)) - min(own, min(xis))))
-
-
-def _law_terms(msg) -> tuple | None:
-    """What the speed law reads of a team mate's message: (phase, L, v, ξ, ξ̇, ξ_end = 1 − o/L, where
-    the mate stops at the end of its path), None without a path; made once per message (every
-    receiver shares the same immutable message)."""
-    terms = msg.__dict__.get("_law_terms", False)
-    if terms is False:
-        terms = None if not msg.has_path else (msg.phase, msg.path_length_m, msg.mission_speed_m_s, msg.xi,
-                                               msg.xi_rate_1_s, 1.0 - msg.offset_m / msg.path_length_m)
-        object.__setattr__(msg, "_law_terms", terms)
-    return terms
-
-
-class _TeamView:
-    """The neighbours as the speed law uses them, from one vessel's neighbour table: L̄ and ω_d
-    over itself and every neighbour with a path (active or not); of the active ones, ξ_j, ξ̇_j, the
-    send time and the end value 1 − o_j/L_j (as lists below 8 of them, arrays above)."""
-
-    def __init__(self, own, neighbours):
-        lengths, speeds, rows = [own.path_length_m], [own.mission_speed_m_s], []
-        oldest = np.inf
-        phase = own.phase
-        for nb in neighbours:
-            if nb.active:
-                oldest = min(oldest, nb.sent_time_s)
-            terms = nb.message.__dict__.get("_law_terms", False)
-            if terms is False:
-                terms = _law_terms(nb.message)
-            if terms is None or terms[0] != phase:  # a mate in another mission phase is not coordinated with
-                continue
-            lengths.append(terms[1])
-            speeds.append(terms[2])
-            if nb.active:
-                rows.append((terms[3], terms[4], nb.sent_time_s, terms[5]))
-        self.oldest_active_s = oldest
-        if own.path_length_m is None:
-            self.l_bar = self.omega = np.nan
-        else:
-            self.l_bar = _sum(lengths) / len(lengths)
-            self.omega = _sum(speeds) / len(speeds) / self.l_bar
-        self.rows = rows
-        self.arrays = np.ascontiguousarray(np.array(rows).T) if len(rows) >= 8 else None
-
-    def xi_hat(self, t_s: float, extrapolate: bool):
-        """ξ̂_j(t) of the active neighbours: ξ_j + ξ̇_j (t − t_j), not beyond the end of their path
-        (``extrapolate``), else the held ξ_j; a list below 8 neighbours, else an array."""
-        if self.arrays is not None:
-            xi, rate, sent, x_end = self.arrays
-            return np.minimum(xi + rate * (t_s - sent), np.maximum(xi, x_end)) if extrapolate else xi
-        if not extrapolate:
-            return [r[0] for r in self.rows]
-        return [min(x + rate * (t_s - sent), max(x, x_end)) for x, rate, sent, x_end in self.rows]
-
-    def gap_sum(self, t_s: float, extrapolate: bool, own: float) -> float:
-        """Σ_j (ξ_own − ξ̂_j(t)) over the active neighbours, as ``_sum`` of the gaps to
-        :meth:`xi_hat` gives it (above 8 neighbours the gaps in one compiled pass, numpy's sum)."""
-        if self.arrays is None:  # _sum of the gaps to xi_hat's list: below 8 values, in order
-            acc = 0.0
-            if extrapolate:
-                for x, rate, sent, x_end in self.rows:
-                    # own − min(x + ξ̇ (t − t_j), max(x, x_end)), the builtins' picks written out
-                    hi = x_end if x_end > x else x
-                    ahead = x + rate * (t_s - sent)
-                    acc += own - (hi if hi < ahead else ahead)
-            else:
-                for row in self.rows:
-                    acc += own - row[0]
-            return acc
-        xi, rate, sent, x_end = self.arrays
-        gaps = np.empty(xi.size)
-        _gaps(xi, rate, sent, x_end, float(t_s), float(own), bool(extrapolate), gaps)
-        return float(np.add.reduce(gaps))
-
-
-@kernel
-def _gaps(xi, rate, sent, x_end, t_s, own, extrapolate, out):
-    """ξ_own − ξ̂_j of each neighbour j into ``out``, ξ̂_j as :meth:`_TeamView.xi_hat`'s array form
-    computes it (np.minimum / np.maximum: NaN propagates)."""
-    for j in range(xi.size):
-        x = minimum(xi[j] + rate[j] * (t_s - sent[j]), maximum(xi[j], x_end[j])) if extrapolate else xi[j]
-        out[j] = own - x
 
 
 class Coordination(CoordinationMethod):
@@ -354,6 +190,13 @@ class Coordination(CoordinationMethod):
         """Read arrived messages, keep each neighbour's newest, time out stale ones."""
         arrived = self.link.receive_raw(t_s, nav.position_m, decide)
         if arrived:
+            self._take(t_s, arrived)
+        self._time_out(t_s)
+
+    def _take(self, t_s: float, arrived: list) -> None:
+        """:meth:`_poll`'s first half: keep each sender's newest of the messages ``arrived``
+        (the link's plain tuples, :meth:`~mjasc.cooperation.link.LinkEndpoint.receive_raw`)."""
+        if arrived:
             self.received += len(arrived)
             neighbours = self.neighbours
             for sender, sent, received, payload in arrived:
@@ -365,6 +208,9 @@ class Coordination(CoordinationMethod):
                         self._events.append((t_s, f"comms: regained {sender} after {sent - old.sent_time_s:.1f} s"))
                 neighbours[sender] = _Neighbour(sent, received, payload, True)
                 self._team = self._intentions = None
+
+    def _time_out(self, t_s: float) -> None:
+        """:meth:`_poll`'s second half: a neighbour not heard for ``neighbour_timeout_s`` is lost."""
         timeout = self.config.neighbour_timeout_s
         if t_s - self._oldest_active_s() > timeout:
             for name, nb in self.neighbours.items():
@@ -462,26 +308,23 @@ class Coordination(CoordinationMethod):
 
     @staticmethod
     def speed_correction_many(calls) -> list[float]:
-        """:meth:`speed_correction` of several vessels, ``calls`` = [(coordination, t, nav, γ)]:
-        each reads its arrivals and sums its gaps, then one ``tanh`` for all of them. The same
-        factors and states as the calls one after the other (the link decided before them:
-        :meth:`decide_link`)."""
-        laws, ask, scaled = [], [], []  # ask: the followers with a law; scaled: their e_i / e_s
-        for c, t, nav, g in calls:
-            law = c._consensus(t, nav, g)
-            if law is not None and c.config.role != "leader":
-                ask.append(len(laws))
-                scaled.append(law[2] / c.config.error_scale_m)
-            laws.append(law)
-        th = dict(zip(ask, np.tanh(np.array(scaled)).tolist())) if ask else {}
-        out = []
-        for k, law in enumerate(laws):
-            out.append(1.0 if law is None else calls[k][0]._factor(law, th.get(k)))
-        return out
+        """:meth:`speed_correction` of several vessels, ``calls`` = [(coordination, t, nav, γ)]
+        (:func:`~mjasc.cooperation.fleet_speed_law.speed_correction_many`)."""
+        return fleet_speed_law.speed_correction_many(calls)
+
+    @staticmethod
+    def speed_correction_fleet(coordinations, t_s: float, positions_m, gammas_m) -> list[float]:
+        """:meth:`decide_link` then :meth:`speed_correction_many` of several vessels at one time
+        ``t_s`` in one pass (:func:`~mjasc.cooperation.fleet_speed_law.speed_correction_fleet`)."""
+        return fleet_speed_law.speed_correction_fleet(coordinations, t_s, positions_m, gammas_m)
 
     def _consensus(self, t_s: float, nav, gamma_m: float):
         """Read the arrivals; then (the team view, ξ_own, e_i, |N_i|), or None without a path."""
         self._poll(t_s, nav)
+        return self._law(t_s, gamma_m)
+
+    def _law(self, t_s: float, gamma_m: float):
+        """:meth:`_consensus` after the arrivals were read."""
         if self.path_length_m is None:
             return None
         view = self._team_view()

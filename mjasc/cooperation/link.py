@@ -62,6 +62,21 @@ class LinkEndpoint:
         if names:
             network.decide_many(t_s, names, own_positions_m, limits)
 
+    @staticmethod
+    def receive_together(endpoints, t_s: float, own_positions_m) -> list:
+        """:meth:`decide_together` then each one's :meth:`receive_raw` (``decide=False``), in one
+        call: a list per endpoint (in their order) of what arrived by ``t_s`` (the same decisions,
+        draws and statistics; :meth:`~mjasc.cooperation.comms.CommsNetwork.receive_many`)."""
+        if not endpoints:
+            return []
+        network = endpoints[0]._network
+        names = []
+        for e in endpoints:
+            if e._network is not network:
+                raise ValueError("receive_together: the endpoints must share one network")
+            names.append(e.name)
+        return network.receive_many(t_s, names, own_positions_m)
+
     def stats(self) -> dict:
         """This vessel's link statistics (sent, received, lost, delays)."""
         return self._network.stats(self.name)

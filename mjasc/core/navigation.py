@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["OwnNavigation", "FleetNavigation"]
+__all__ = ["OwnNavigation", "FleetNavigation", "NavigationList"]
 
 
 @dataclass(frozen=True)
@@ -59,14 +59,24 @@ class FleetNavigation:
         return OwnNavigation(self.time_s, self.position_m[i], float(self.heading_rad[i]), self.velocity_m_s[i],
                              self.body_velocity[i])
 
-    def vessels(self) -> list[OwnNavigation]:
+    def vessels(self) -> "NavigationList":
         """Every vessel's :meth:`vessel`, in order (the same values; built without the frozen
-        ``__init__``'s five ``setattr`` calls per vessel: the runner asks at every tick)."""
+        ``__init__``'s five ``setattr`` calls per vessel: the runner asks at every tick), as a
+        :class:`NavigationList` that knows this fleet."""
         t, new = self.time_s, object.__new__
-        out = []
+        out = NavigationList()
+        out.fleet = self
         for pos, heading, vel, body in zip(self.position_m, self.heading_rad.tolist(), self.velocity_m_s,
                                            self.body_velocity):
             nav = new(OwnNavigation)
             nav.__dict__.update(time_s=t, position_m=pos, heading_rad=heading, velocity_m_s=vel, body_velocity=body)
             out.append(nav)
         return out
+
+
+class NavigationList(list):
+    """The list of every vessel's :class:`OwnNavigation` that :meth:`FleetNavigation.vessels`
+    makes; ``fleet`` is the :class:`FleetNavigation` whose rows they are (a fleet stage reads its
+    arrays instead of stacking the vessels' values again; do not change the list)."""
+
+    __slots__ = ("fleet",)

@@ -320,6 +320,11 @@ class FleetPathFollower:
         v.flags.writeable = False
         return v
 
+    def guidance_rows(self) -> tuple[list, list[float]]:
+        """Each row's path followed now and γ on it [m] (lists in row order; what each follower's
+        ``path`` and ``gamma_m`` give, read once for the fleet)."""
+        return self.paths.paths, self._S[_GAMMA].tolist()
+
     def set_path(self, i: int, path: Path, gamma0_m: float = 0.0) -> None:
         """Vessel i switches to ``path`` at γ = gamma0_m (e.g. a re-planned detour), keeping its loop states."""
         self.paths.set_path(i, path)

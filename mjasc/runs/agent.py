@@ -114,12 +114,17 @@ class VesselAgent:
         follower = self.follower
         if follower is None:
             return None
+        return self.guidance_of(follower.path, follower.gamma_m)
+
+    def guidance_of(self, path, gamma_m: float) -> GuidanceState:
+        """:meth:`guidance_state` from the follower's path and γ [m] read by the caller (the
+        control tick reads the fleet's rows once)."""
         c = self.coordination
         factor = c.last_factor if c is not None else 1.0
         if not (type(factor) is float and -math.inf < factor < math.inf):  # (speed_factor without its calls)
             factor = float(factor) if math.isfinite(factor) else 1.0
         speed = self.mission_speed_m_s
-        return GuidanceState.of(follower.path, follower.gamma_m, (speed if type(speed) is float else float(speed)) * factor)
+        return GuidanceState.of(path, gamma_m, (speed if type(speed) is float else float(speed)) * factor)
 
     def perception_report(self, t_s: float) -> PerceptionReport | None:
         """What the perception reports now (None without perception); rebuilt only after a slot that

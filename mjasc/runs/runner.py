@@ -46,7 +46,7 @@ from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 from mjasc.runs.agent import build_agent
-from mjasc.runs.blueprint import OTHERS, view_vessels
+from mjasc.runs.blueprint import view_vessels
 from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import catch_sigterm, interrupt_behind, restore_sigterm, signal_name
@@ -54,6 +54,7 @@ from mjasc.runs.outputs import atomic_target, atomic_write_text
 from mjasc.runs.record_kernels import record_rows
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
+from mjasc.runs.static_scene import PATH_POINTS, log_static_scene  # noqa: F401 (PATH_POINTS: its old home)
 from mjasc.runs.tick import ONBOARD_SLOTS, SlotEvent, run_onboard_slot
 
 if TYPE_CHECKING:  # rerun and the recorder load when a recording is made (a campaign run without one skips ~0.4 s)
@@ -65,8 +66,6 @@ __all__ = ["Runner", "RunFailed", "RunInterrupted", "RunResult", "run_scenario",
 TRAIL_PERIOD_S = 1.0
 #: The recording re-writes a vessel's whole trail this often; in between only the newest part [s].
 TRAIL_SEGMENT_S = 30.0
-#: Paths are drawn with points every 0.5 m (traffic 1 m), or this many points on a longer path.
-PATH_POINTS = 400
 #: The per-vessel world entities the runner writes at each record tick (hull, position) or trail
 #: point: kind → entity template (the vessels without views share one, as PLOT_SERIES).
 WORLD_SERIES = {"hull": "world/vessels/{}/hull", "position": "world/vessels/{}/position",
@@ -247,90 +246,10 @@ class Runner:
         return out
 
     def _log_static_scene(self) -> None:
-        import rerun as rr
-
-        from mjasc.runs.recording import annotation_context, legend_markdown, vessel_colour
-
-        rec, sc = self.recorder, self.scenario
+        """The recording's static scene (:func:`~mjasc.runs.static_scene.log_static_scene`)."""
         lo, hi = self.extent()
-        names = tuple(v.name for v in sc.vessels)
-        rec.static("world", annotation_context(names))
-        rec.static("legend", rr.TextDocument(legend_markdown(names), media_type="text/markdown"))
-        rec.static("world/water", rr.Boxes3D(centers=[[*(0.5 * (lo + hi)), -0.05]],
-                                             half_sizes=[[*(0.5 * (hi - lo)), 0.01]], colors=[[40, 90, 150, 60]],
-                                             fill_mode="solid"))
-        others = [(i, v) for i, v in enumerate(sc.vessels) if v.name in rec.batched]
-        if others:  # the vessels without views: one entity per kind, an instance per vessel
-            cols = [vessel_colour(i) for i, _ in others]
-            ids = [i + 1 for i, _ in others]
-            base = f"world/vessels/{OTHERS}"
-            rec.static(f"{base}/hull", rr.LineStrips3D.from_fields(colors=cols, radii=[0.08], class_ids=ids,
-                                                                   show_labels=[False]))
-            rec.static(f"{base}/position", rr.Points3D.from_fields(colors=cols, radii=[0.3], class_ids=ids,
-                                                                   labels=[v.name for _, v in others],
-                                                                   show_labels=[True]))
-            for trail in ("trail", "trail/recent"):
-                rec.static(f"{base}/{trail}", rr.LineStrips3D.from_fields(colors=[(*c, 140) for c in cols],
-                                                                          radii=[0.05], class_ids=[101],
-                                                                          show_labels=[False]))
-            paths = [(c, v.path.sample(max(0.5, v.path.length / PATH_POINTS))) for c, (_, v) in zip(cols, others)
-                     if v.path is not None]
-            if paths:
-                rec.static(f"{base}/mission_path", rr.LineStrips3D(
-                    [np.column_stack([xy, np.zeros(len(xy))]) for _, xy in paths], colors=[(*c, 120) for c, _ in paths],
-                    radii=[0.06], class_ids=[100], show_labels=[False]))
-        for i, v in enumerate(sc.vessels):
-            col = vessel_colour(i)
-            base = f"world/vessels/{v.name}"
-            if v.name not in rec.batched:  # (the others: one entity per kind, above)
-                rec.static(f"{base}/hull", rr.LineStrips3D.from_fields(colors=[col], radii=[0.08], class_ids=[i + 1],
-                                                                       show_labels=[False]))
-                rec.static(f"{base}/position", rr.Points3D.from_fields(colors=[col], radii=[0.3], labels=[v.name],
-                                                                       show_labels=[True], class_ids=[i + 1]))
-                rec.static(f"{base}/trail", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05],
-                                                                        class_ids=[101], show_labels=[False]))
-                rec.static(f"{base}/trail/recent", rr.LineStrips3D.from_fields(colors=[(*col, 140)], radii=[0.05],
-                                                                               class_ids=[101], show_labels=[False]))
-                if v.path is not None:
-                    xy = v.path.sample(max(0.5, v.path.length / PATH_POINTS))
-                    rec.static(f"{base}/mission_path", rr.LineStrips3D([np.column_stack([xy, np.zeros(len(xy))])],
-                                                                       colors=[(*col, 120)], radii=[0.06],
-                                                                       class_ids=[100], show_labels=[False]))
-            rec.vessel_series_style(PLOT_SERIES["speed"], v.name, f"{v.name} speed", col, 2.0)
-            rec.vessel_series_style(PLOT_SERIES["speed_ref"], v.name, f"{v.name} reference", (*col, 120), 1.0)
-            rec.vessel_series_style(PLOT_SERIES["thrust_port"], v.name, f"{v.name} port", col)
-            rec.vessel_series_style(PLOT_SERIES["thrust_starboard"], v.name, f"{v.name} starboard", (*col, 140))
-            rec.vessel_series_style(PLOT_SERIES["cross_track"], v.name, f"{v.name}", col)
-        for o in sc.static_obstacles:
-            poly = o.vertices if hasattr(o, "vertices") else o.polygon(32)
-            closed = np.vstack([poly, poly[:1]])
-            rec.static(f"world/obstacles/static/{o.name}", rr.LineStrips3D(
-                [np.column_stack([closed, np.full(len(closed), 0.5)])], colors=[(150, 110, 80)], radii=[0.15],
-                labels=[o.name], class_ids=[110]))
-        for o in sc.moving_obstacles:
-            rec.static(f"world/obstacles/moving/{o.name}", rr.Points3D.from_fields(
-                radii=[o.radius_m], colors=[(220, 60, 60, 160)], labels=[o.name], show_labels=[True],
-                class_ids=[109]))
-            if o.path is not None:
-                xy = o.path.sample(max(1.0, o.path.length / PATH_POINTS))
-                rec.static(f"world/obstacles/moving/{o.name}_path", rr.LineStrips3D(
-                    [np.column_stack([xy, np.zeros(len(xy))])], colors=[(220, 60, 60, 90)], radii=[0.05]))
-        # Current arrows on a grid over the scenario area (static when the field is steady).
-        gx = np.linspace(lo[0], hi[0], 9)
-        gy = np.linspace(lo[1], hi[1], 7)
-        grid = np.array([[x, y] for x in gx for y in gy])
-        self._current_grid = grid
-        self._current_scale = 0.08 * float(np.max(hi - lo))
+        self._current_grid, self._current_scale = log_static_scene(self.recorder, self.scenario, lo, hi, PLOT_SERIES)
         self._current_times = []
-        vel = sc.current.velocity(grid, 0.0)
-        if sc.current.is_steady:
-            rec.static("world/current", rr.Arrows3D(origins=np.column_stack([grid, np.zeros(len(grid))]),
-                                                    vectors=np.column_stack([self._current_scale * vel,
-                                                                             np.zeros(len(grid))]),
-                                                    colors=[(120, 200, 255, 150)], radii=[0.12]))
-        else:
-            rec.static("world/current", rr.Arrows3D.from_fields(colors=[(120, 200, 255, 150)], radii=[0.12]))
-        rec.static("scenario", rr.TextDocument(json.dumps(sc.raw, indent=2, default=str), media_type="text/plain"))
 
     # ------------------------------------------------------------------ main loop
     def run(self, interruptible: bool = False) -> RunResult:

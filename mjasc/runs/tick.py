@@ -33,6 +33,7 @@ import numpy as np
 from mjasc.cooperation.coordination import Coordination
 from mjasc.core.navigation import OwnNavigation
 from mjasc.guidance.path_following import FleetPathFollower, PathFollower
+from mjasc.runs.fleet_control import ask_avoidance, control_fleet, fleet_control_applies
 
 __all__ = ["ONBOARD_SLOTS", "run_onboard_slot", "SlotEvent"]
 
@@ -119,7 +120,11 @@ def _prediction(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
 
 def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: float) -> list:
     """The control slot: per-vessel requests in vessel order, then one batched call for the built-in
-    path followers (other control methods steer one vessel at a time, right after its request)."""
+    path followers (other control methods steer one vessel at a time, right after its request).
+    With the thesis coordination and the built-in followers: the fleet in one pass
+    (:func:`~mjasc.runs.fleet_control.control_fleet`, the same values)."""
+    if _thesis_link(agents, navs) and fleet_control_applies(agents):
+        return control_fleet(agents, navs, control_dt_s)
     outputs = [None] * len(agents)
     asked = []  # (vessel, speed after coordination, avoidance call or None)
     if _thesis_link(agents, navs):
@@ -145,14 +150,7 @@ def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: floa
                 outputs[i] = agent.control(nav, control_dt_s)  # open loop
                 continue
             asked.append((i, *agent.control_call(nav)))
-    groups: dict[type, list] = {}  # the avoidance methods, each for its vessels at once
-    for k, (_, _, call) in enumerate(asked):
-        if call is not None:
-            groups.setdefault(type(call[0]), []).append(k)
-    requests = [None] * len(asked)
-    for cls, ks in groups.items():
-        for k, request in zip(ks, cls.control_many([asked[k][2] for k in ks])):
-            requests[k] = request
+    requests = ask_avoidance([call for _, _, call in asked])  # the avoidance methods, each for its vessels at once
     rows, speeds, modes, courses = [], [], [], []  # the built-in followers, commanded together
     for (i, speed, _), request in zip(asked, requests):
         agent, nav = agents[i], navs[i]

@@ -1,0 +1,50 @@
+"""The thesis coordination's speed law for several vessels at once (the control tick's fleet pass):
+each vessel's law as :meth:`~mjasc.cooperation.coordination.Coordination.speed_correction` works
+it out, then one ``tanh`` for every follower's e_i / e_s and each one's factor in vessel order —
+the same factors and states as the vessels' calls one after the other."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.cooperation.link import LinkEndpoint
+
+__all__ = ["speed_correction_many", "speed_correction_fleet"]
+
+
+def speed_correction_many(calls) -> list[float]:
+    """``speed_correction`` of several vessels, ``calls`` = [(coordination, t, nav, γ)]: each
+    reads its arrivals and sums its gaps, then one ``tanh`` for all of them. The same factors and
+    states as the calls one after the other (the link decided before them: ``decide_link``)."""
+    return _factors([call[0] for call in calls], [c._consensus(t, nav, g) for c, t, nav, g in calls])
+
+
+def speed_correction_fleet(coordinations, t_s: float, positions_m, gammas_m) -> list[float]:
+    """``decide_link`` then :func:`speed_correction_many` of several vessels at one time ``t_s``
+    (positions (2,) world [m] and γ [m] in their order) in one pass: the link decides and delivers
+    for all of them at once (:meth:`~mjasc.cooperation.link.LinkEndpoint.receive_together`), each
+    takes in what arrived and sums its gaps, then one ``tanh`` for the followers. The same
+    factors, states, draws and statistics (each receiver's arrivals touch only its own state, so
+    delivering all of them before the laws changes nothing)."""
+    arrivals = LinkEndpoint.receive_together([c.link for c in coordinations], t_s, positions_m)
+    laws = []
+    for c, arrived, g in zip(coordinations, arrivals, gammas_m):
+        if arrived:
+            c._take(t_s, arrived)
+        view = c._team
+        if view is None or t_s - view.oldest_active_s > c.config.neighbour_timeout_s:
+            c._time_out(t_s)  # (nothing to time out otherwise)
+        laws.append(c._law(t_s, g))
+    return _factors(coordinations, laws)
+
+
+def _factors(coordinations, laws) -> list[float]:
+    """Each vessel's factor from its law (None: no path, factor 1): one ``tanh`` for the
+    followers' e_i / e_s (a leader keeps its feed-forward), then each one's ``_factor`` in order."""
+    ask, scaled = [], []  # ask: the followers with a law; scaled: their e_i / e_s
+    for k, (c, law) in enumerate(zip(coordinations, laws)):
+        if law is not None and c.config.role != "leader":
+            ask.append(k)
+            scaled.append(law[2] / c.config.error_scale_m)
+    th = dict(zip(ask, np.tanh(np.array(scaled)).tolist())) if ask else {}
+    return [1.0 if law is None else c._factor(law, th.get(k)) for k, (c, law) in enumerate(zip(coordinations, laws))]
