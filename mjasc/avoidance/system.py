@@ -149,17 +149,20 @@ def control_slot(calls) -> list[AvoidanceRequest]:
     team plan, a changed mission speed, an emergency) of every vessel in one
     :func:`~mjasc.avoidance.prediction.predict_fleet` call. Predictions a decision triggers (after a
     re-plan, a finished velocity correction) run per vessel."""
-    pending = []
+    pending, queries = [], []
     for system, t, nav, guidance, perceived, team in calls:
-        system._begin(guidance, perceived, team)
-        pending.append(system._control_query(float(t)))
-    queries = [p[0].query for p in pending if p is not None and p[0].query is not None]
+        system._guidance, system._switch, system._perceived, system._team = guidance, None, perceived, team  # _begin
+        p = system._control_query(float(t))
+        pending.append(p)
+        if p is not None and p[0].query is not None:
+            queries.append(p[0].query)
     results = iter(predict_fleet_lazy(queries) if queries else ())  # (most ticks predict nothing)
     out = []
     for (system, t, nav, _, _, _), p in zip(calls, pending):
+        t = float(t)
         if p is not None:
-            system._control_predict(float(t), nav, p, next(results) if p[0].query is not None else [])
-        override, mode, course = system._control_rest(float(t), nav)
+            system._control_predict(t, nav, p, next(results) if p[0].query is not None else [])
+        override, mode, course = system._control_rest(t, nav)
         out.append(AvoidanceRequest.of(mode, override, system._switch, (), course))
     return out
 
@@ -735,13 +738,14 @@ class CollisionAvoidance(AvoidanceMethod):
         if perceived is None:
             return None
         tracks = perceived.tracks
-        if tracks is self._no_new_in or self._known_track_ids.issuperset(
-                tracks.track_ids if type(tracks) is TrackRows else map(_TRACK_ID, tracks)):
-            self._no_new_in = tracks  # known ids only grow: these tracks stay known
-        else:
-            new = set(track_columns(tracks)[0]) - self._known_track_ids
-            self._event(t, f"new track(s) {sorted(new)}: predicting now")
-            return new
+        if tracks is not self._no_new_in:
+            if self._known_track_ids.issuperset(tracks.track_ids if type(tracks) is TrackRows
+                                                else map(_TRACK_ID, tracks)):
+                self._no_new_in = tracks  # known ids only grow: these tracks stay known
+            else:
+                new = set(track_columns(tracks)[0]) - self._known_track_ids
+                self._event(t, f"new track(s) {sorted(new)}: predicting now")
+                return new
         if t - self._last_predict_t < 1.0:
             return None
         if self._mission_moved:  # a new mission leg (mjasc.missions): look along it
@@ -754,9 +758,10 @@ class CollisionAvoidance(AvoidanceMethod):
                 abs(self._guidance.mission_speed_m_s - self._predicted_speed) > self.config.speed_change_m_s:
             self.stats["deviation_predictions"] += 1  # own plan changed (coordination): predict again
             return set()
-        if self.team_mates.plans_changed(t, self._team):  # a team mate re-planned or changed its speed
-            self.stats["deviation_predictions"] += 1
-            return set()
+        team, mates = self._team, self.team_mates
+        if team is not None and team.intentions is not mates.compared_intentions and mates.plans_changed(t, team):
+            self.stats["deviation_predictions"] += 1  # a team mate re-planned or changed its speed
+            return set()  # (the mapping compared in full last holds nothing new: plans_changed False)
         # a track that left the motion the last prediction assumed (tracks checked already: no)
         if tracks is not self._checked_tracks and self._deviating(tracks):
             self.stats["deviation_predictions"] += 1
@@ -766,7 +771,9 @@ class CollisionAvoidance(AvoidanceMethod):
     def _control_query(self, t) -> tuple | None:
         """The control tick up to its prediction: the team polled, and when a prediction is due
         (:meth:`_prediction_due`) its query and the new track ids, else None."""
-        self.team_mates.poll(self._team)
+        team = self._team
+        if team is not None and team.intentions is not self.team_mates.polled_intentions:
+            self.team_mates.poll(team)  # (the mapping polled last holds nothing new)
         new = self._prediction_due(t)
         if new is None:
             return None
@@ -813,7 +820,29 @@ class CollisionAvoidance(AvoidanceMethod):
 
     def _control_rest(self, t, nav) -> tuple[float | None, str, float | None]:
         """The control tick after its prediction: :meth:`_control_refs`' result; switches back to
-        the mission path when a detour is finished."""
+        the mission path when a detour is finished. (On the mission, without a detour, a velocity
+        correction or a sharp turn to leave, there are no overrides: the mode is noted only.)"""
+        override = course = None
+        if self.detour is not None or self.correction is not None or self._sharp_turn is not None:
+            override, course = self._manoeuvre_refs(t, nav)
+        if self.correction is not None:
+            mode = f"avoidance:{self.correction.kind}"
+        elif self.detour is not None:
+            mode = "avoidance:detour"
+        else:
+            mode = "mission"
+        if self._last_control_t is not None:
+            self.mode_time_s[self.mode] += max(t - self._last_control_t, 0.0)
+        self._last_control_t = t
+        if mode != self.mode:
+            self._event(t, f"mode {self.mode} → {mode}")
+            self.mode = mode
+        return override, mode, course
+
+    def _manoeuvre_refs(self, t, nav) -> tuple[float | None, float | None]:
+        """(speed override [m/s] or None, course override [rad] or None) of a running manoeuvre:
+        back on the mission path at a detour's end, a velocity correction's law (a finished one
+        ended, the planned motion predicted again), a sharp turn on a detour."""
         d = self.detour
         g = self._guidance
         if d is not None and g.path is d.path and g.gamma_m >= d.detour_length_m - 0.5:
@@ -838,19 +867,7 @@ class CollisionAvoidance(AvoidanceMethod):
             override, course = self._sharp_turn_speed(t, nav, override)
         elif self._sharp_turn is not None:
             self._sharp_turn = None
-        if self.correction is not None:
-            mode = f"avoidance:{self.correction.kind}"
-        elif self.detour is not None:
-            mode = "avoidance:detour"
-        else:
-            mode = "mission"
-        if self._last_control_t is not None:
-            self.mode_time_s[self.mode] += max(t - self._last_control_t, 0.0)
-        self._last_control_t = t
-        if mode != self.mode:
-            self._event(t, f"mode {self.mode} → {mode}")
-            self.mode = mode
-        return override, mode, course
+        return override, course
 
     def _sharp_turn_speed(self, t, nav, override) -> tuple[float | None, float | None]:
         """Brake, then turn, when a detour asks for a sharp turn: its point 5 m ahead more than
