@@ -17,7 +17,7 @@ from mjasc.core.estimates import TrackEstimate
 from mjasc.core.geometry import distance_to_polygon, point_in_polygon
 from mjasc.guidance.paths import _SCALAR_SEGMENTS, Path
 
-__all__ = ["StaticConflict", "static_conflicts", "static_conflicts_of", "track_outline"]
+__all__ = ["StaticConflict", "static_conflicts", "static_conflicts_of", "track_outline", "track_outlines"]
 
 #: Path samples (every 0.25 m) taken beyond the prediction window's end before the whole rest of
 #: the path is needed (a stretch obstructed past them).
@@ -126,3 +126,10 @@ def static_conflicts_of(t: float, path: Path, gamma: float, profile, polygons, r
         out.append((k_poly, StaticConflict(float(gs[a]), float(gs[b]), pts[a], pts[b], poly, t_i,
                                            float(d[a:b + 1].min()))))
     return out
+
+
+def track_outlines(tracks) -> dict:
+    """Track id → outline polygon of the static tracks that carry one (checked like a mapped
+    polygon; the other tracks are predicted as discs)."""
+    outlined = {tr.track_id: track_outline(tr) for tr in tracks if tr.is_static and tr.outline_m is not None}
+    return {k: o for k, o in outlined.items() if o is not None}

@@ -94,6 +94,10 @@ class TeamMates:
         # complete plan comparison: an unchanged picture has nothing new for either.
         self._key_of: tuple = (None, None)  # (a picture's intentions mapping, its key)
         self._polled_key = self._compared_key = None
+        # The intentions mappings last polled and last compared in full: the same (read-only) mapping
+        # has the same key, so :meth:`poll` and :meth:`plans_changed` (False) have nothing new in it
+        # and the control tick does not call them for it.
+        self.polled_intentions = self.compared_intentions = None
 
     # ------------------------------------------------------------------ broadcasts
     def fresh(self, picture, t: float) -> dict:
@@ -119,6 +123,7 @@ class TeamMates:
             return
         key_of = self._key_of  # (_key without its call when the mapping is the last one seen)
         key = key_of[1] if key_of[0] is picture.intentions else self._key(picture)
+        self.polled_intentions = picture.intentions
         if key == self._polled_key:
             return  # the same messages as at the last poll
         self._polled_key = key
@@ -247,6 +252,7 @@ class TeamMates:
         key_of = self._key_of  # (_key without its call when the mapping is the last one seen)
         key = key_of[1] if key_of[0] is picture.intentions else self._key(picture)
         if key == self._compared_key:
+            self.compared_intentions = picture.intentions
             return False  # every message still fresh was compared at the last call
         intents = self.fresh(picture, t)
         pairs = []
@@ -262,7 +268,7 @@ class TeamMates:
             if it.sent_time_s <= old.sent_time_s:
                 continue
             pairs.append((it, old))
-        self._compared_key = key
+        self._compared_key, self.compared_intentions = key, picture.intentions
         if not pairs:
             return False
         ts = t + self._window_grid

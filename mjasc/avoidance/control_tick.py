@@ -1,0 +1,195 @@
+"""The control tick of a vessel's collision avoidance: whether to predict at once, and the
+running manoeuvre's references.
+
+Every control tick (:func:`~mjasc.avoidance.system.control_slot`) polls the team's broadcasts and
+asks :meth:`ControlTick._prediction_due`: a new track, a running emergency, a new mission leg, a
+changed own mission speed, a team mate's changed plan, or a track that left the motion the last
+prediction assumed (:meth:`ControlTick._deviating`, one array operation on the last prediction's
+stacked track motions) predict at once. After it :meth:`ControlTick._control_rest` gives the speed
+and course overrides of the manoeuvre running (a velocity correction's law, a detour's end, a
+sharp turn on a detour: brake, then turn) and notes the mode.
+
+:class:`ControlTick` is a part of :class:`~mjasc.avoidance.system.CollisionAvoidance` (its state
+is the system's). World frame ENU, SI units, absolute simulation times [s].
+"""
+
+from __future__ import annotations
+
+from operator import attrgetter
+
+import numpy as np
+
+from mjasc.avoidance.prediction import TrackMotions
+from mjasc.core.estimates import TrackRows, track_columns
+from mjasc.core.frames import wrap_angle
+
+__all__ = ["ControlTick"]
+
+_TRACK_ID = attrgetter("track_id")
+
+
+class ControlTick:
+    """The control tick's checks and references of :class:`~mjasc.avoidance.system.CollisionAvoidance`
+    (see the module docstring)."""
+
+    def _predict_on_perceived(self, t, nav) -> None:
+        p = self._perceived
+        self._predict(t, nav, list(p.tracks), list(p.static_polygons))
+
+    def _prediction_due(self, t) -> set | None:
+        """Whether the control tick predicts at once: None (no), the new track ids (a new track),
+        or an empty set (an emergency not yet cleared, the own mission speed changed, a team mate
+        re-planned, a track deviates); the event and counters are noted here."""
+        perceived = self._perceived
+        if perceived is None:
+            return None
+        tracks = perceived.tracks
+        if tracks is not self._no_new_in:
+            if self._known_track_ids.issuperset(tracks.track_ids if type(tracks) is TrackRows
+                                                else map(_TRACK_ID, tracks)):
+                self._no_new_in = tracks  # known ids only grow: these tracks stay known
+            else:
+                new = set(track_columns(tracks)[0]) - self._known_track_ids
+                self._event(t, f"new track(s) {sorted(new)}: predicting now")
+                return new
+        if t - self._last_predict_t < 1.0:
+            return None
+        if self._mission_moved:  # a new mission leg (mjasc.missions): look along it
+            self._mission_moved = False
+            return set()
+        if self.correction is not None and self.correction.emergency:  # nothing cleared it: look again
+            self.stats["deviation_predictions"] += 1
+            return set()
+        if self.correction is None and self._predicted_speed is not None and \
+                abs(self._guidance.mission_speed_m_s - self._predicted_speed) > self.config.speed_change_m_s:
+            self.stats["deviation_predictions"] += 1  # own plan changed (coordination): predict again
+            return set()
+        team, mates = self._team, self.team_mates
+        if team is not None and team.intentions is not mates.compared_intentions and mates.plans_changed(t, team):
+            self.stats["deviation_predictions"] += 1  # a team mate re-planned or changed its speed
+            return set()  # (the mapping compared in full last holds nothing new: plans_changed False)
+        # a track that left the motion the last prediction assumed (tracks checked already: no)
+        if tracks is not self._checked_tracks and self._deviating(tracks):
+            self.stats["deviation_predictions"] += 1
+            return set()
+        return None
+
+    def _control_query(self, t) -> tuple | None:
+        """The control tick up to its prediction: the team polled, and when a prediction is due
+        (:meth:`_prediction_due`) its query and the new track ids, else None."""
+        team = self._team
+        if team is not None and team.intentions is not self.team_mates.polled_intentions:
+            self.team_mates.poll(team)  # (the mapping polled last holds nothing new)
+        new = self._prediction_due(t)
+        if new is None:
+            return None
+        return self._prediction_query(t, list(self._perceived.tracks)), new
+
+    def _control_predict(self, t, nav, pending, all_c) -> None:
+        """Act on the control tick's prediction (``pending`` from :meth:`_control_query`, its
+        conflicts ``all_c``)."""
+        query, new = pending
+        self._act_on_prediction(t, nav, query, all_c, list(self._perceived.static_polygons))
+        self._known_track_ids |= new  # also those the prediction set aside (a team mate's stale copy)
+
+    def _deviating(self, tracks) -> bool:
+        """Some track is farther than ``track_deviation_m`` from where the last prediction put it
+        at the track's time (team mates on a fresh broadcast excepted: their plans are compared
+        instead). All tracks in one array operation on the last prediction's stacked motion; the
+        same tracks are not checked twice against the same prediction."""
+        if tracks is self._checked_tracks or not tracks:
+            return False
+        self._checked_tracks = tracks
+        if self._predicted_motion is None:
+            from_broadcast = self.team_mates.predicted_names()
+            checked = [tr for tr in self._predicted_tracks.values() if tr.team_member not in from_broadcast]
+            self._predicted_motion = TrackMotions(checked)
+            self._predicted_row = {tr.track_id: k for k, tr in enumerate(checked)}
+        row = self._predicted_row
+        ids, times, pos = track_columns(tracks)  # (a TrackRows' own columns: no estimate made)
+        sel = [(row[i], k) for k, i in enumerate(ids) if i in row]
+        if not sel:
+            return False
+        rows, ks = zip(*sel)
+        if len(ks) < len(ids):
+            times, pos = [times[k] for k in ks], [pos[k] for k in ks]
+        return self._predicted_motion.farther_than(rows, times, pos, self.config.track_deviation_m)
+
+    def _control_rest(self, t, nav) -> tuple[float | None, str, float | None]:
+        """The control tick after its prediction: :meth:`_control_refs`' result; switches back to
+        the mission path when a detour is finished. (On the mission, without a detour, a velocity
+        correction or a sharp turn to leave, there are no overrides: the mode is noted only.)"""
+        override = course = None
+        if self.detour is not None or self.correction is not None or self._sharp_turn is not None:
+            override, course = self._manoeuvre_refs(t, nav)
+        if self.correction is not None:
+            mode = f"avoidance:{self.correction.kind}"
+        elif self.detour is not None:
+            mode = "avoidance:detour"
+        else:
+            mode = "mission"
+        if self._last_control_t is not None:
+            self.mode_time_s[self.mode] += max(t - self._last_control_t, 0.0)
+        self._last_control_t = t
+        if mode != self.mode:
+            self._event(t, f"mode {self.mode} → {mode}")
+            self.mode = mode
+        return override, mode, course
+
+    def _manoeuvre_refs(self, t, nav) -> tuple[float | None, float | None]:
+        """(speed override [m/s] or None, course override [rad] or None) of a running manoeuvre:
+        back on the mission path at a detour's end, a velocity correction's law (a finished one
+        ended, the planned motion predicted again), a sharp turn on a detour."""
+        d = self.detour
+        g = self._guidance
+        if d is not None and g.path is d.path and g.gamma_m >= d.detour_length_m - 0.5:
+            g_m = d.mission_gamma(g.gamma_m)
+            self._back_to_mission(t, g_m, f"detour finished: back on the mission path at γ = {g_m:.1f} m")
+        elif d is not None and g.path is not d.path:
+            self.detour = None
+        override = None
+        c = self.correction
+        if c is not None:
+            if c.law.finished(t):
+                self._event(t, f"velocity correction ({c.kind}) complete: mission speed resumed")
+                self.correction = None
+                if self._perceived is not None:  # the planned motion changed: check it before it is sailed
+                    self.stats["deviation_predictions"] += 1
+                    self._predict_on_perceived(t, nav)
+                c = self.correction
+            if c is not None and not c.law.finished(t):
+                override = c.law.command(self._guidance.gamma_m + c.gamma_offset_m, t)
+        course = None
+        if self.detour is not None and self.correction is None:
+            override, course = self._sharp_turn_speed(t, nav, override)
+        elif self._sharp_turn is not None:
+            self._sharp_turn = None
+        return override, course
+
+    def _sharp_turn_speed(self, t, nav, override) -> tuple[float | None, float | None]:
+        """Brake, then turn, when a detour asks for a sharp turn: its point 5 m ahead more than
+        ``sharp_turn_deg`` off the heading. While the hull is faster than ``sharp_turn_speed_m_s``
+        it takes all way off holding its heading (course override); then it turns at that speed.
+        Returns (speed override, course override [rad] or None). A saturated turn at speed leaves
+        forward thrust (a full differential: reverse is the weaker propeller direction) and
+        advances the hull several metres — thesis §6.2 and §6.4.3 under 30 % dropout: a re-plan 7 m
+        from the pontoon / the south island asked for a 92° turn and the Otter, still at 0.55 m/s,
+        ran into it; it stops from 1 m/s within a metre."""
+        g, cfg = self._guidance, self.config
+        x, y, _, _ = g.path.at(min(g.gamma_m + 5.0, g.path.length))
+        err = abs(float(wrap_angle(np.arctan2(y - nav.position_m[1], x - nav.position_m[0]) - nav.heading_rad)))
+        if err <= np.radians(cfg.sharp_turn_deg):
+            self._sharp_turn = None
+            return override, None
+        limit = cfg.sharp_turn_speed_m_s
+        if self._sharp_turn is None:  # onset: brake first when faster than the turn speed
+            self.stats["sharp_turn"] += 1
+            fast = float(nav.body_velocity[0]) > limit
+            self._sharp_turn = ("brake", float(nav.heading_rad)) if fast else ("turn", None)
+            self._event(t, f"sharp turn on the detour ({np.degrees(err):.0f}° off the heading): "
+                           + ("all way off on the heading, then " if fast else "") + f"turning at {limit:g} m/s")
+        if self._sharp_turn[0] == "brake":
+            if float(nav.body_velocity[0]) > limit:
+                return 0.0, self._sharp_turn[1]
+            self._sharp_turn = ("turn", None)
+        return (limit if override is None else min(override, limit)), None

@@ -1,0 +1,256 @@
+"""Decision σ on a prediction's conflicts and the manoeuvres it switches to.
+
+:meth:`Manoeuvres._decide` sorts the conflicts (:func:`~mjasc.avoidance.triage.triage`): a lane
+change to starboard head-on (:mod:`~mjasc.avoidance.lane_change`), a re-plan around swept areas
+and static obstructions (:func:`~mjasc.avoidance.replanning.plan_detour`, a detour onto mapped
+structure refused: :func:`~mjasc.avoidance.structure.detour_onto_structure`), velocity
+corrections (:mod:`~mjasc.avoidance.decision`) with the emergency stop for what is left
+unresolved, each candidate speed plan checked against all tracks (:meth:`Manoeuvres._checked_choice`).
+The path switches: onto a detour, back to the mission path at a detour's end, a detour withdrawn
+when its causes are gone.
+
+:class:`Manoeuvres` is a part of :class:`~mjasc.avoidance.system.CollisionAvoidance` (its state is
+the system's). World frame ENU, SI units, absolute simulation times [s].
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+
+from mjasc.avoidance.decision import Correction, emergency_yield, velocity_correction_for
+from mjasc.avoidance.lane_change import plan_lane_change
+from mjasc.avoidance.prediction import PredictedConflict, PredictionQuery, predict_fleet
+from mjasc.avoidance.replanning import Detour, plan_detour
+from mjasc.avoidance.speed_plan import correction_profile
+from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, track_outlines
+from mjasc.avoidance.structure import detour_onto_structure
+from mjasc.avoidance.triage import swept, triage
+
+__all__ = ["Manoeuvres"]
+
+#: When every candidate speed plan collides, another is taken over the first choice only if its
+#: worst predicted miss distance is larger by this much [m] (estimates are not finer than that).
+_MARGIN_GAIN_M = 0.5
+
+
+class Manoeuvres:
+    """Decision σ and the path switches of :class:`~mjasc.avoidance.system.CollisionAvoidance`
+    (see the module docstring)."""
+
+    def _decide(self, t, nav, conflicts, statics, by_id, static_polygons, allow_replan=True,
+                static_outlines=()) -> None:
+        gamma = float(self._guidance.gamma_m)
+        cfg = self.config
+        tri = triage(t, nav, gamma, conflicts, statics, by_id, self.team, cfg, self.speed_max_m_s, self.correction)
+        self._last = replace(self._last, roles=tuple(tri.roles.items()))  # for the threat panel
+        for stat, text in tri.notes:
+            if stat is not None:
+                self.stats[stat] += 1
+            self._event(t, text)
+        candidates, svos, unresolved, starboard = tri.candidates, tri.svos, tri.unresolved, tri.starboard
+        if starboard and allow_replan:
+            if self._lane_change_to_starboard(t, nav, starboard, static_polygons, static_outlines):
+                self.correction = None
+                self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True)
+                return
+            for c in starboard:  # no starboard lane: as the thesis would
+                svos.append((c.svo_polygon if c.svo_polygon is not None else swept(by_id[c.track_id], c, t, cfg), c))
+        if svos and allow_replan:
+            if self._replan(t, nav, svos, static_polygons, by_id, static_outlines):
+                # The path changed: predict again on the detour (velocity corrections only).
+                self.correction = None
+                self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True)
+                return
+        # No detour (none found, or this is the check of a fresh one): the path sailed is known to
+        # conflict — in the stressed dock a moored boat's track moving by noise; in the stressed
+        # head-on a detour around a team mate led back into the oncoming vessel's swept area. Slow
+        # down and look again every second (a re-plan then sees every conflict) rather than sail on.
+        unresolved += tri.go_around
+        for c in tri.overtaken:  # no lane to leave: speed up and let it pass astern, else stop (Imazu case 16)
+            corr = velocity_correction_for(t, gamma, c, cfg, self.speed_max_m_s, pass_only=True)
+            if corr is not None:
+                candidates.append(corr)
+            else:
+                unresolved.append(c)
+        # The emergency stop (for the nearest unresolved conflict) is a candidate whenever a conflict
+        # is left unresolved: beside corrections for other tracks (Imazu case 12: a yield to one
+        # target was taken while a conflict with another, 5 s ahead, was left; the checked choice
+        # weighs them all), and in place of a running yield planned on an earlier estimate (in
+        # the §6.4.3 bottleneck one kept a give-way vessel creeping into its team mate's lane).
+        # A running emergency stop with nothing else to choose from is simply kept.
+        if unresolved:
+            nearest = min(unresolved, key=lambda u: u.t_closest_s)
+            emergency_running = self.correction is not None and self.correction.emergency
+            if candidates or not emergency_running:
+                candidates.append(emergency_yield(t, gamma, nearest, cfg, self.speed_max_m_s))
+            if not emergency_running:
+                self.stats["emergency"] += 1
+                self._event(t, f"no manoeuvre clears track {nearest.track_id}: " + (
+                    f"emergency slow-down to {cfg.emergency_speed_m_s:g} m/s" if cfg.emergency_speed_m_s > 0.0
+                    else "emergency stop (all way off)"))
+        if candidates:
+            yields = [c for c in candidates if c.kind == "yield"]
+            chosen = min(yields, key=lambda c: c.law.desired_speed) if yields else \
+                max(candidates, key=lambda c: c.law.desired_speed)
+            chosen = self._checked_choice(t, chosen, candidates, conflicts)
+            if chosen is None:
+                self.correction = None
+                return
+            self.correction = chosen
+            self.stats[chosen.kind] += 1
+            law = chosen.law
+            self._event(t, f"velocity correction ({chosen.kind}) for track {chosen.track_id}: virtual target "
+                           f"γ {law.gamma0:.1f} → {law.gamma_goal:.1f} m by t = {law.t_goal:.1f} s, "
+                           f"V_d = {law.desired_speed:.2f} m/s, k = {law.gain_k:g}")
+
+    def _lane_change_to_starboard(self, t, nav, conflicts, static_polygons, static_outlines) -> bool:
+        """COLREG rule 14 (head-on): leave the target's lane to starboard. True when switched."""
+        lane = plan_lane_change(t, nav.position_m, self.mission_path, self.mission_gamma_m(self._guidance),
+                                self._guidance.mission_speed_m_s, conflicts,
+                                list(static_polygons) + list(static_outlines), self.config, self.static_inflation_m,
+                                starboard_only=True)
+        if isinstance(lane, str):
+            self._event(t, f"head-on: {lane}")
+            return False
+        self._take_detour(t, lane, f"head-on (COLREG rule 14): lane change to starboard of {lane.detour_length_m:.1f} m, "
+                                   f"rejoining the mission path at γ = {lane.mission_gamma_goal_m:.1f} m")
+        return True
+
+    def _checked_choice(self, t, chosen: Correction, candidates: list[Correction], conflicts) -> Correction | None:
+        """``chosen``, unless the speed it plans runs into another track. Every option's planned
+        motion (its V_d until its goal time, the mission speed after) is predicted against all the
+        disc tracks in one call (conflicts with strangers only: between team mates the right of way
+        and the broadcast plans decide); the options are ``chosen``, the other candidates (slowest first),
+        passing first for each conflict where feasible, and keeping the mission speed (None). The
+        first with no predicted collision is taken; when every one collides, the one whose worst
+        predicted miss distance is largest (``chosen``, the thesis's choice, unless another keeps
+        :data:`_MARGIN_GAIN_M` more: an emergency stop in a crossing ferry's path waits for it to
+        arrive). (In Imazu case 19 the slow-down for one target put the vessel in the path of
+        another 5 s later.)"""
+        query = self._last_query
+        if query is None or len(query.tracks) < 2 or any(
+                getattr(c, "track_id", None) in self._team_track_ids for c in conflicts):
+            return chosen  # team mates coordinate by right of way and their broadcast plans
+        g_state = self._guidance
+        gamma = float(np.clip(g_state.gamma_m, 0.0, g_state.path.length))
+        options = [chosen] + sorted((c for c in candidates if c is not chosen), key=lambda c: c.law.desired_speed)
+        for c in conflicts:
+            if isinstance(c, PredictedConflict) and not any(o.kind == "pass" and o.track_id == c.track_id
+                                                             for o in options):
+                alt = velocity_correction_for(t, gamma, c, self.config, self.speed_max_m_s, pass_only=True)
+                if alt is not None:
+                    options.append(alt)
+        options.append(None)
+        queries = [replace(query, vessel_path=g_state.path, gamma_now=gamma, t_now=float(t),
+                           speed_profile=correction_profile(c, float(t), gamma, g_state.mission_speed_m_s),
+                           include_clear=True) for c in options]
+        results = predict_fleet(queries)
+        clear = [k for k, res in enumerate(results) if not any(r.collision for r in res)]
+        if clear:
+            k = clear[0]
+        else:  # every plan collides: the one that keeps the most distance (the thesis's choice on ties)
+            margin = [min((r.min_distance_m - r.collision_distance_m for r in res if r.collision), default=np.inf)
+                      for res in results]
+            best = int(np.argmax(margin))
+            k = best if margin[best] > margin[0] + _MARGIN_GAIN_M else 0
+        if k != 0:
+            self.stats["checked_choice"] += 1
+            what = "keep the mission speed" if options[k] is None else \
+                f"{options[k].kind} for track {options[k].track_id}"
+            self._event(t, f"{chosen.kind} for track {chosen.track_id} still leaves a predicted collision (with it or "
+                           f"another track): {what} instead" + ("" if clear else " (no plan clears every track: "
+                                                                 "this one keeps the most distance)"))
+        return options[k]
+
+    def _replan(self, t, nav, svos, static_polygons, by_id=None, static_outlines=()) -> bool:
+        """Plan a detour (:func:`~mjasc.avoidance.replanning.plan_detour`) and switch to it. True on success."""
+        mission = self.mission_path
+        g_now_m = self.mission_gamma_m(self._guidance)
+        out = plan_detour(t, nav.position_m, mission, g_now_m, svos, static_polygons, by_id, static_outlines,
+                          self.config, self.radius_m, self.static_inflation_m, self._event)
+        dynamic = [c for _, c in svos if not isinstance(c, StaticConflict) and not c.is_static]
+        if not isinstance(out, str) and dynamic:
+            why = detour_onto_structure(t, nav.position_m, out, list(static_polygons) + list(static_outlines),
+                                        self._guidance.mission_speed_m_s, self.radius_m, self.prediction_config,
+                                        self.config.detour_structure_slack_m)
+            if why is not None:
+                self.stats["detour_rejected"] += 1
+                out = why
+        if isinstance(out, str) and dynamic:  # the swept area cannot be gone around: leave the threat's lane
+            lane = plan_lane_change(t, nav.position_m, mission, g_now_m, self._guidance.mission_speed_m_s, dynamic,
+                                    list(static_polygons) + list(static_outlines), self.config,
+                                    self.static_inflation_m)
+            if isinstance(lane, str):
+                out = f"{out}; {lane}"
+            else:
+                self._event(t, f"potential-field detour impossible ({out}): lane change instead")
+                out = lane
+        if isinstance(out, str):
+            self.stats["replan_failed"] += 1
+            self._event(t, f"re-planning failed: {out}")
+            return False
+        fld = out.field
+        if fld is None:
+            what = f"re-planned: lane change of {out.detour_length_m:.1f} m"
+        else:
+            what = (f"re-planned: detour of {out.detour_length_m:.1f} m around {len(out.obstacles)} obstacle(s) "
+                    f"(potential field, {len(fld.panels) if fld.panels is not None else 0} panels, "
+                    f"r = {fld.safety_ratio}, λ_g = {fld.sink_strength:.0f})")
+        self._take_detour(t, out, f"{what}, rejoining the mission path at γ = {out.mission_gamma_goal_m:.1f} m")
+        self._detour_causes = None if len(dynamic) < len(svos) else {int(c.track_id) for c in dynamic}
+        return True
+
+    def _withdraw_detour(self, t, nav, by_id, static_polygons) -> bool:
+        """Leave a detour whose causes are gone — every track it went around is no longer among the
+        predicted tracks (a team mate's stale copy set aside once its broadcast was heard, or a
+        track lost) — for the mission path, when the vessel is within ``withdraw_offset_m`` of it
+        and the mission path from there is clear of every track and mapped structure. (Thesis
+        §6.4.1 under packet loss: a team mate's track, not yet matched to its broadcast, sent a
+        vessel onto a 98 m detour that it sailed for 88 s after the track was set aside, into the
+        crossing ship's path.) True when it switched back."""
+        d, causes, g = self.detour, self._detour_causes, self._guidance
+        if (d is None or causes is None or g.path is not d.path or self.config.withdraw_offset_m <= 0.0
+                or any(k in by_id for k in causes) or self.mission_path is None):
+            return False
+        mission = self.mission_path
+        g_m = float(mission.project(nav.position_m))
+        if float(np.hypot(*(mission.point(g_m) - nav.position_m))) > self.config.withdraw_offset_m:
+            return False
+        profile = self.planned_gamma(t, g_m, g.mission_speed_m_s)
+        outlined = track_outlines(by_id.values())
+        discs = [tr for k, tr in by_id.items() if k not in outlined]
+        if discs:
+            q = PredictionQuery(mission, g_m, t, profile, self.radius_m, discs, self.prediction_config)
+            if any(c.collision for c in predict_fleet([q])[0]):
+                return False
+        if static_conflicts(t, mission, g_m, profile, list(static_polygons) + list(outlined.values()), self.radius_m,
+                            self.prediction_config):
+            return False
+        self.stats["withdrawn"] += 1
+        self._back_to_mission(t, g_m, f"detour withdrawn: the track(s) {sorted(causes)} it went around are gone (a "
+                                      f"team mate's stale copy, or lost) and the mission path is clear: back on it at "
+                                      f"γ = {g_m:.1f} m")
+        return True
+
+    def _back_to_mission(self, t, gamma_m: float, event: str) -> None:
+        """Leave the detour for the mission path at γ = ``gamma_m`` [m] (a running velocity
+        correction's virtual target kept in the follower's new γ frame)."""
+        if self.correction is not None:
+            self.correction.gamma_offset_m += self._guidance.gamma_m - gamma_m
+        self._set_path(self.mission_path, gamma_m, "mission")
+        self.detour, self._detour_causes = None, None
+        self._event(t, event)
+        self._log.prediction_pending()
+
+    def _take_detour(self, t, detour: Detour, event: str) -> None:
+        """Switch to ``detour`` (a streamline's, or a lane change's when its ``field`` is None) and count it."""
+        self.detour = detour
+        self._detour_causes = None  # statics or unknown: the detour is sailed to its end
+        self._set_path(detour.path, 0.0, "detour")
+        self.stats["replan"] += 1
+        if detour.field is None:
+            self.stats["lane_change"] += 1
+        self._event(t, event)
+        self._log.prediction_pending()

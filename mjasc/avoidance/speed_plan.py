@@ -1,0 +1,43 @@
+"""The own vessel's planned progress γ(t) along its path under a velocity correction.
+
+While a velocity correction runs the virtual target moves at its desired speed V_d until the
+correction's goal time, and at the mission speed after it (docs/thesis.md §4); without one the
+vessel keeps the mission speed. :func:`correction_profile` is that speed profile as collision
+prediction takes it (a function of absolute time, or the constant speed itself);
+:func:`correction_terms` its numbers for the compiled planned trajectory
+(:mod:`~mjasc.avoidance.intent_plan`). SI units, absolute simulation times [s].
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.avoidance.decision import Correction
+
+__all__ = ["correction_profile", "correction_terms"]
+
+
+def correction_profile(correction: Correction | None, t_now: float, gamma_now: float, mission_speed_m_s: float):
+    """γ(t) [m] for t ≥ t_now under ``correction``: its V_d until its goal time, the mission speed
+    after; None → the mission speed [m/s] itself (a constant profile)."""
+    terms = correction_terms(correction, t_now, mission_speed_m_s)
+    if terms[0] == 0:
+        return terms[1]
+    _, v_d, span, v_m, t_start = terms
+
+    def gamma_fn(t):
+        t = np.asarray(t, dtype=float)
+        return gamma_now + v_d * np.clip(t - t_now, 0.0, span) + v_m * np.maximum(t - t_start, 0.0)
+
+    return gamma_fn
+
+
+def correction_terms(correction: Correction | None, t_now: float, mission_speed_m_s: float) -> tuple:
+    """The numbers of :func:`correction_profile`: ``(0, v_m)`` without a correction, else
+    ``(1, V_d, span, v_m, t_start)`` for
+    γ(t) = γ_now + V_d·clip(t − t_now, 0, span) + v_m·max(t − t_start, 0)."""
+    v_m = float(mission_speed_m_s)
+    if correction is None:
+        return 0, v_m
+    t_g, v_d = correction.law.t_goal, max(correction.law.desired_speed, 0.0)
+    return 1, v_d, max(t_g - t_now, 0.0), v_m, max(t_g, t_now)
