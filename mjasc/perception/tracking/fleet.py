@@ -50,6 +50,8 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
+from mjasc.perception.tracking.pair_kernels import position_jacobians
+from mjasc.perception.tracking.step_fusions import assign_pairs, pair_gates, predicted_pairs
 from mjasc.perception.tracking.step_gathers import births_of, cycled_rows, step_rows
 from mjasc.perception.tracking.step_kernels import (apply_assignment, confirmed_by_owner, last_assignments,
                                                     measurement_rows, pair_setup, select_detections)
@@ -230,7 +232,22 @@ class FleetTracker:
         cfg, bank = self.config, self.bank
         M = z.shape[0]
         p = owners.size
-        if M:
+        arrays = bank.prediction_arrays() if M else None
+        if arrays is not None:  # (four compiled calls around numpy's cos, sin, J P Jᵀ and log: step_fusions)
+            n_q, start, pairs, var_p, xs, P, dt, th, dv = predicted_pairs(rows, rpos, p, m_q, self.cols.radius, var,
+                                                                          rad, occ, *arrays, t_o, row_pos)
+            if var_p.size:
+                zhat, Jac = position_jacobians(xs, dt, dv, np.cos(th), np.sin(th))
+                d2, det = pair_gates(pairs, zhat, Jac @ P @ np.swapaxes(Jac, 1, 2), z, var_p)
+                inside, cost, hard, hit, d2_hit, t_hit = assign_pairs(d2, np.log(det), self._gate, pairs, start, m_q,
+                                                                      var_p, assigned, var_row, claimed, t_o, row_pos)
+                if hard.size:  # (a vessel's gates overlap: its block to linear_sum_assignment)
+                    q, i, j, _, db, ta = pairs
+                    got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
+                    hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
+                    t_hit = t_o[row_pos[hit]]
+                self.manoeuvres.detect(hit, d2_hit, self._gate, t_hit, bank)
+        elif M:
             n_q, grouped, q, i, j, start, gi, db, ta, var_p = pair_setup(rows, rpos, p, m_q, self.cols.radius, var,
                                                                           rad, occ)
             if q.size:
@@ -313,7 +330,12 @@ class FleetTracker:
             own = self.cols.owner[rows]
             rpos = pos_of[own]
             pos, cov = bank.positions[rows], bank.position_covariances[rows]
-        org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
+        try:  # (every vessel's origin given, as the perception fleet does: one conversion)
+            org = np.array(origins, dtype=float).reshape(-1, 2)
+        except (TypeError, ValueError):
+            org = None
+        if org is None or org.shape[0] != len(origins):
+            org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
         conf = self.cols.confirmed[rows]
         drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
         ids = self.cols.local_id[rows]

@@ -1,0 +1,128 @@
+"""The fused association kernels (:mod:`mjasc.perception.tracking.step_fusions`) against the calls
+they replace, bit for bit: on every step of a real run (the 3-vessel crossing scene: the tracker's
+association checked against pair_setup → prediction_fields → predicted_positions →
+indexed_pair_costs → gnn_assign_blocks → apply_assignment on the same inputs), and
+:func:`assign_pairs` on random problems whose gates overlap (the blocks left to
+``linear_sum_assignment``)."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import mjasc
+from mjasc.perception.tracking import fleet as fleet_mod
+from mjasc.perception.tracking.association import (gnn_assign_blocks, indexed_pair_costs,
+                                                   predicted_positions)
+from mjasc.perception.tracking.pair_kernels import block_pairs_flat
+from mjasc.perception.tracking.step_fusions import DB, GI, I, J, Q, TA, assign_pairs, predicted_pairs
+from mjasc.perception.tracking.step_kernels import admissible_pairs, apply_assignment, pair_setup
+from mjasc.runs.runner import Runner
+
+_ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
+
+
+def _same(a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def _reference(ft, rows, rpos, row_pos, owners, t_o, z, var, rad, occ, m_q, claimed, assigned, var_row):
+    """The association of FleetTracker._update before the fusion, on copies of its in-place arrays."""
+    a2, v2, c2 = assigned.copy(), var_row.copy(), claimed.copy()
+    n_q, grouped, q, i, j, start, gi, db, ta, var_p = pair_setup(rows, rpos, owners.size, m_q, ft.cols.radius, var,
+                                                                  rad, occ)
+    got = (n_q, grouped, q, i, j, start, gi, db, ta, var_p)
+    hit = None
+    if q.size:
+        fields = ft.bank.prediction_fields(grouped)
+        zhat, S = predicted_positions(*fields, t_o[row_pos[grouped]])
+        d2, cost = indexed_pair_costs(zhat, S, gi, z, db, var_p)
+        inside = d2 <= ft._gate
+        sel = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
+        hit, d2_hit = apply_assignment(sel, inside, ta, db, var_p, d2, a2, v2, c2)
+        hit = (hit, d2_hit, t_o[row_pos[hit]])
+    return got, hit, a2, v2, c2
+
+
+def test_fused_association_on_a_real_run(monkeypatch):
+    orig = fleet_mod.FleetTracker._update
+    n_checked = [0]
+
+    def checked(self, rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
+                claimed, assigned, var_row):
+        ref = None
+        if z.shape[0]:
+            ref = _reference(self, rows, rpos, row_pos, owners, t_o, z, var, rad, occ, m_q, claimed, assigned,
+                             var_row)
+            arrays = self.bank.prediction_arrays()
+            n_q, start, pairs, var_p, *_ = predicted_pairs(rows, rpos, owners.size, m_q, self.cols.radius, var, rad,
+                                                           occ, *arrays, t_o, row_pos)
+            g = ref[0]
+            _same(n_q, g[0])
+            _same(start, g[5])
+            for r, k in ((Q, 2), (I, 3), (J, 4), (GI, 6), (DB, 7), (TA, 8)):
+                _same(pairs[r], g[k])
+            _same(var_p, g[9])
+        seen = []
+        det = self.manoeuvres.detect
+        self.manoeuvres.detect = lambda hit, d2, gate, t, bank: (seen.append((hit, d2, t)), det(hit, d2, gate, t, bank))
+        try:
+            orig(self, rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
+                 claimed, assigned, var_row)
+        finally:
+            del self.manoeuvres.detect
+        if ref is not None:
+            _, hit, a2, v2, c2 = ref
+            _same(assigned, a2)
+            _same(var_row, v2)
+            _same(claimed, c2)
+            if hit is None:
+                assert not seen
+            else:
+                for x, y in zip(seen[0], hit):
+                    _same(x, y)
+                n_checked[0] += 1
+
+    monkeypatch.setattr(fleet_mod.FleetTracker, "_update", checked)
+    sc = mjasc.load_scenario(_ROOT / "tasks" / "thesis_6_4_crossing.toml").with_overrides(duration_s=20.0)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    Runner(sc, out_dir=None).run()
+    assert n_checked[0] > 50
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_assign_pairs_random(seed):
+    rng = np.random.default_rng(seed)
+    p = int(rng.integers(1, 4))
+    n_q = rng.integers(0, 5, size=p).astype(np.int64)
+    m_q = rng.integers(0, 5, size=p).astype(np.int64)
+    q, i, j, start, gi, db = block_pairs_flat(n_q, m_q)
+    n = int(n_q.sum()) + 3
+    M = int(m_q.sum())
+    ta = rng.permutation(n)[:n_q.sum()][gi] if gi.size else gi.copy()
+    pairs = np.stack([q, i, j, gi, db, ta]).astype(np.int64)
+    d2 = rng.random(gi.size) * 20.0
+    log_det = np.log(rng.random(gi.size) + 0.1)
+    var_p = rng.random(gi.size)
+    gate = 9.21
+    t_o = rng.random(p) + 10.0
+    row_pos = rng.integers(0, p, size=n).astype(np.int64)
+    a1, v1, c1 = np.full(n, -1, dtype=np.int64), np.full(n, 0.25), np.zeros(M, dtype=bool)
+    a2, v2, c2 = a1.copy(), v1.copy(), c1.copy()
+    inside, cost, hard, hit, d2g, t_hit = assign_pairs(d2, log_det, gate, pairs, start, m_q, var_p, a1, v1, c1, t_o,
+                                                       row_pos)
+    inside_w, cost_w = d2 <= gate, d2 + log_det
+    _same(inside, inside_w)
+    _same(cost, cost_w)
+    easy, hard_w = admissible_pairs(inside_w, q, i, j, start, m_q)
+    _same(hard, hard_w)
+    if hard.size:
+        assert hit.size == 0 and (a1 == -1).all() and not c1.any()
+        return
+    hit_w, d2_w = apply_assignment(gnn_assign_blocks(inside_w, cost_w, q, i, j, start, n_q, m_q), inside_w, ta, db,
+                                   var_p, d2, a2, v2, c2)
+    for x, y in ((hit, hit_w), (d2g, d2_w), (t_hit, t_o[row_pos[hit_w]]), (a1, a2), (v1, v2), (c1, c2)):
+        _same(x, y)
