@@ -126,3 +126,50 @@ def test_assign_pairs_random(seed):
                                    var_p, d2, a2, v2, c2)
     for x, y in ((hit, hit_w), (d2g, d2_w), (t_hit, t_o[row_pos[hit_w]]), (a1, a2), (v1, v2), (c1, c2)):
         _same(x, y)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_team_plan_and_assign(seed):
+    """team_plan and team_assign against the calls of TeamMatcher.match before them (team_pairs,
+    team_distances, gnn_assign_blocks, matched_rows), on random problems (some with a vessel's track
+    or broadcast having two candidates)."""
+    from mjasc.perception.tracking.team import matched_rows, team_assign, team_distances, team_pairs, team_plan
+
+    rng = np.random.default_rng(seed)
+    n_owners = int(rng.integers(1, 4))
+    k = int(rng.integers(0, 10))
+    owner = rng.integers(0, n_owners, size=k).astype(np.int64)
+    confirmed = rng.random(k) < 0.7
+    states = np.column_stack([rng.uniform(-10, 10, (k, 2)), rng.uniform(-np.pi, np.pi, k), rng.uniform(0, 2, k)])
+    B = int(rng.integers(0, 6))
+    b_owner = np.sort(rng.integers(0, n_owners, size=B)).astype(np.int64)
+    t_b = rng.random(B) * 2
+    p_b = rng.uniform(-10, 10, (B, 2))
+    t_s = rng.random(n_owners) * 2 + 1.0
+    want = team_pairs(confirmed, owner, t_s, b_owner, t_b, 2.0, n_owners, states)
+    c, bsel, blocks, pq, start, x = team_plan(confirmed, owner, t_s, b_owner, t_b, 2.0, n_owners, states)
+    wc, wbsel, n_a, n_b, a_start, b_start, q, i, j, wstart, wx = want
+    for a, b in ((c, wc), (bsel, wbsel), (blocks[0], n_a), (blocks[1], n_b), (blocks[2], a_start), (blocks[3], b_start),
+                 (pq[0], q), (pq[1], i), (pq[2], j), (start, wstart), (x, wx)):
+        _same(a, b)
+    if c.size == 0 or bsel.size == 0:
+        return
+    gate = 8.0
+    th = x[:, 2]
+    dist, inside, n_in, hard, ta, tb = team_assign(pq, blocks, start, bsel, c, x, np.cos(th), np.sin(th), t_s, t_b,
+                                                   p_b, (2.0 * gate) ** 2, gate)
+    d_w, in_w, n_w = team_distances(q, i, j, a_start, b_start, bsel, x, np.cos(th), np.sin(th), t_s, t_b, p_b,
+                                    (2.0 * gate) ** 2, gate)
+    _same(dist, d_w)
+    _same(inside, in_w)
+    assert n_in == n_w
+    if not n_w:
+        return
+    ta_w, tb_w = matched_rows(gnn_assign_blocks(in_w, d_w, q, i, j, wstart, n_a, n_b), q, i, j, a_start, b_start, c,
+                              bsel)
+    if hard.size:
+        assert ta.size == 0 and tb.size == 0
+        ta, tb = matched_rows(gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b), q, i, j, a_start, b_start, c,
+                              bsel)
+    _same(ta, ta_w)
+    _same(tb, tb_w)

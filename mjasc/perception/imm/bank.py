@@ -46,7 +46,7 @@ from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS
 from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
-from mjasc.perception.imm.startup_rows import born_rows, gather_startup, handover_rows, update_startup
+from mjasc.perception.imm.startup_rows import born_rows, gather_startup, handover_rows, settled_startup
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -447,14 +447,17 @@ class IMMBank(BankViews, PredictiveDensity):
                                                               z, use, _NO_VAR if mv is None else mv, mv is not None)
             xc_w = (F @ xc[..., None])[..., 0]
             P_w = F @ Pc @ np.swapaxes(F, 1, 2)
-            ok_w = update_startup(rows, xc_w, P_w, dtw**3, dtw, float(st.acceleration_noise), zw,
-                                  self._var if mv is None else var_w, use_w, self._gate, st.x, st.P, st.n_meas)
-        else:
-            rows_w, ok_w, use_w = _NO_ROWS, _NO_FLAGS, _NO_FLAGS
         limit = self.config.restart_after_gated
-        inside, reasons, restart, used, n_restart = settled_rows(
-            d2_min, self._gate, use, finite, measured, rows_w, ok_w, use_w, self._s, self._P, self._mu, s_new, P_new,
-            mu_new, self._n_gated, limit)  # (inside, ok, the start-up rows, rejections: one compiled pass)
+        if any_warm:  # (the start-up filters updated, then inside, ok, the start-up rows, rejections: one compiled call)
+            inside, reasons, restart, used, n_restart = settled_startup(
+                rows, xc_w, P_w, dtw**3, dtw, float(st.acceleration_noise), zw, self._var if mv is None else var_w,
+                use_w, self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
+                s_new, P_new, mu_new, self._n_gated, limit)
+        else:  # (inside, ok, rejections: one compiled pass)
+            rows_w = _NO_ROWS
+            inside, reasons, restart, used, n_restart = settled_rows(
+                d2_min, self._gate, use, finite, measured, _NO_ROWS, _NO_FLAGS, _NO_FLAGS, self._s, self._P, self._mu,
+                s_new, P_new, mu_new, self._n_gated, limit)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
         self._side = out
         self._Pc_stale = True

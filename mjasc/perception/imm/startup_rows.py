@@ -11,6 +11,8 @@ new track — nearly every tick, for clutter — ran ~25 numpy and kernel calls 
   the measurement update (:func:`~mjasc.perception.imm.compiled_cycle.position_update`),
   ``ok = use & (d² ≤ gate)`` and the filters written back (``x[rows]``, ``P[rows]``,
   ``n_meas[rows] += ok``): :meth:`~mjasc.perception.imm.startup.StartupFilters.update_rows`;
+* :func:`settled_startup` — :func:`update_startup` then the cycle's outcome
+  (:func:`~mjasc.perception.imm.bank_kernels.settled_rows`) in one call;
 * |v|, atan2 and ``J P Jᵀ`` of :func:`~mjasc.perception.imm.startup.cv_to_polar` stay numpy's;
 * :func:`handover_rows` — the rest of the hand-over (:meth:`IMMBank._handover`): the polar state
   and covariance (:func:`~mjasc.perception.imm.startup._polar_finish`) written as the rows'
@@ -32,11 +34,11 @@ import math
 import numpy as np
 
 from mjasc.core.compiled import kernel
-from mjasc.perception.imm.bank_kernels import appended_rows
+from mjasc.perception.imm.bank_kernels import appended_rows, settled_rows
 from mjasc.perception.imm.compiled_cycle import position_update
 from mjasc.perception.imm.startup import _add_cv_noise, _polar_finish
 
-__all__ = ["gather_startup", "update_startup", "handover_rows", "born_rows"]
+__all__ = ["gather_startup", "update_startup", "settled_startup", "handover_rows", "born_rows"]
 
 
 @kernel
@@ -93,6 +95,18 @@ def update_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas)
                 P[r, a, b] = Pp[j, a, b]
         n_meas[r] += o
     return ok
+
+
+@kernel
+def settled_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas, d2_min, use, finite, measured, s,
+                    s_P, mu, s_new, P_new, mu_new, n_gated, limit):
+    """:func:`update_startup` of the start-up rows (rows … n_meas as there) and then
+    :func:`~mjasc.perception.imm.bank_kernels.settled_rows` of the cycle with those rows and their
+    ok (d2_min … limit as there, s_P its P): returns settled_rows' (inside, reasons, restart, used,
+    the number restarted)."""
+    ok_w = update_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas)
+    return settled_rows(d2_min, gate, use, finite, measured, rows, ok_w, use_w, s, s_P, mu, s_new, P_new, mu_new,
+                        n_gated, limit)
 
 
 @kernel
