@@ -271,3 +271,26 @@ def test_settled_startup_is_update_then_settled(seed):
     assert outs[0][4] == outs[2][4]
     for a, b in zip(news + [n_gated, st.x, st.P, st.n_meas], ref_new + [ref_g, ref_st.x, ref_st.P, ref_st.n_meas]):
         _same(a, b)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_kept_bank_rows_is_kept_rows_then_kept_started(seed):
+    """kept_bank_rows against kept_rows then _kept_started (a bank's drop before it), on a bank's rows."""
+    from mjasc.perception.imm.bank_kernels import kept_rows
+    from mjasc.perception.imm.startup import _kept_started
+    from mjasc.perception.imm.startup_rows import kept_bank_rows
+
+    rng, bank = _filters(seed)
+    n, r = len(bank), bank._r
+    keep = rng.random(n) < 0.6
+    m = int(np.count_nonzero(keep))
+    st = bank._startup
+    outs = [tuple(np.full(a.shape, -1.0) for a in (np.zeros((m, r, 4)), np.zeros((m, r, 4, 4)), np.zeros((m, r)),
+                                                    np.zeros((m, 4)))) for _ in range(2)]
+    base = (bank._s, bank._P, bank._mu, bank._x)
+    per = (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons)
+    want = kept_rows(keep, *base, *outs[0], *per) + _kept_started(keep, st.active, st.x, st.P, st.n_meas)
+    got = kept_bank_rows(keep, *base, *outs[1], *per, st.active, st.x, st.P, st.n_meas)
+    for a, b in zip(got[:9] + outs[1], want[:9] + outs[0]):
+        _same(a, b)
+    assert got[9] == want[9]

@@ -37,7 +37,7 @@ import logging
 import numpy as np
 
 from mjasc.perception.imm.bank_kernels import (ACCEPTED, GATED, NON_FINITE, NOT_MEASURED, REJECTION_REASONS, RESTARTED,
-                                                kept_rows, measurements, settled_rows)
+                                                measurements, settled_rows)
 from mjasc.perception.imm.bank_views import BankViews
 from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import imm_cycle
@@ -46,7 +46,8 @@ from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS
 from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
-from mjasc.perception.imm.startup_rows import born_rows, gather_startup, handover_rows, settled_startup
+from mjasc.perception.imm.startup_rows import (born_rows, gather_startup, handover_rows, kept_bank_rows,
+                                               settled_startup)
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -257,14 +258,19 @@ class IMMBank(BankViews, PredictiveDensity):
         if self._side is None:
             for name in self._PER_TRACK:
                 setattr(self, name, getattr(self, name)[keep])
-        else:  # the state compacted into the other side's first rows
+        else:  # the state compacted into the other side's first rows, the start-up filters kept
             side = 1 - self._side
             out = self._cyc.views(side, int(np.count_nonzero(keep)))
-            self._ids, self._t, self._Pc, self._n_gated, self._reasons = kept_rows(
-                keep, self._s, self._P, self._mu, self._x, out[0], out[1], out[2], out[3], self._ids, self._t, self._Pc,
-                self._n_gated, self._reasons)  # (np.compress into out, boolean indexing: one compiled pass)
+            st = self._startup
+            (self._ids, self._t, self._Pc, self._n_gated, self._reasons, st.active, st.x, st.P, st.n_meas,
+             st.n_active) = kept_bank_rows(keep, self._s, self._P, self._mu, self._x, out[0], out[1], out[2], out[3],
+                                           self._ids, self._t, self._Pc, self._n_gated, self._reasons, st.active, st.x,
+                                           st.P, st.n_meas)  # (np.compress into out, boolean indexing: one compiled pass)
             self._s, self._P, self._mu, self._x = out[:4]
             self._side = side
+            if self._ids.size == 0:
+                self._t_common = None
+            return
         self._startup.keep(keep)
         if self._ids.size == 0:
             self._t_common = None

@@ -373,7 +373,7 @@ class FleetTracker:
         bank.append_tracks(zb, t_b, var_b if cfg.use_detection_variance else None)
         # every per-track column of management, manoeuvres, team and outlines (the hull anchor: the
         # new rows' positions, which are zb)
-        self.cols.append(t_b, rad_b, zb, own, local)
+        self.cols.append_rows(t_b, rad_b, zb, own, local)
         self.version += 1
         bl, ll, zl = bp.tolist(), local.tolist(), zb.tolist()
         a = 0

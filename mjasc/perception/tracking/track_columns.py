@@ -107,6 +107,18 @@ class TrackColumns:
         self.n = m
         self._views()
 
+    def append_rows(self, t_s, radius, centres, owner, local_id) -> None:
+        """:meth:`append` for a caller whose arrays are checked already (a fleet tracker's births):
+        t_s, radius (k,) float, centres (k, 2) float, owner and local_id (k,) int64, each contiguous."""
+        n = self.n
+        m = n + t_s.size
+        if m > self._f.shape[1]:
+            self._grow(m)
+        appended_columns(self._f, self._i, self._b, n, t_s, radius, centres, owner, local_id, self.confirm_now)
+        self._o[:, n:m] = None
+        self.n = m
+        self._views()
+
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) bool is True, in order, in place (one compiled call
         and one numpy indexing of the object columns)."""
