@@ -173,3 +173,28 @@ def test_team_plan_and_assign(seed):
                               bsel)
     _same(ta, ta_w)
     _same(tb, tb_w)
+
+
+def test_drops_all_is_drops_of_every_row_on_a_real_run(monkeypatch):
+    """TrackManagement.drops_all (the rows' values gathered in its kernel) against drops with the
+    values gathered by numpy (the tracker's step before it), at every step of a run."""
+    from mjasc.perception.tracking.management import TrackManagement
+
+    orig = TrackManagement.drops_all
+    n_checked = [0]
+
+    def checked(self, group, pos_of, t_o, states, covariances, origins_m, max_range_m):
+        got = orig(self, group, pos_of, t_o, states, covariances, origins_m, max_range_m)
+        rpos = pos_of[group]
+        want = self.drops(slice(None), group, t_o[rpos], states[:, :2], covariances[:, :2, :2], origins_m[rpos],
+                          max_range_m[group])
+        _same(got[0], want[0])
+        assert got[1] == want[1] and got[2] == want[2]
+        n_checked[0] += 1
+        return got
+
+    monkeypatch.setattr(TrackManagement, "drops_all", checked)
+    sc = mjasc.load_scenario(_ROOT / "tasks" / "demo.toml").with_overrides(duration_s=30.0)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    Runner(sc, out_dir=None).run()
+    assert n_checked[0] > 100

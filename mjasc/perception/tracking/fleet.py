@@ -321,8 +321,7 @@ class FleetTracker:
             if n == 0:
                 return
             rows, own = slice(None), self.cols.owner
-            rpos = pos_of[own]
-            pos, cov = bank.state_rows[:, :2], bank.covariance_rows()[:, :2, :2]
+            rpos = None
         else:
             rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
             if rows.size == 0:
@@ -337,17 +336,22 @@ class FleetTracker:
         if org is None or org.shape[0] != len(origins):
             org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
         conf = self.cols.confirmed[rows]
-        drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
+        if rpos is None:  # (every row's time, position, covariance, origin and range gathered by the kernel)
+            drop, reason, merged = self.mgmt.drops_all(own, pos_of, t_o, bank.state_rows, bank.covariance_rows(), org,
+                                                       self._max_range)
+        else:
+            drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
         ids = self.cols.local_id[rows]
         for go, keep in merged:
-            o, t = int(own[go]), float(t_o[rpos[go]])
+            o = int(own[go])
+            t = float(t_o[pos_of[o]])
             self._counts[o, _MERGED] += 1
             self.events[o].append(TrackEvent(t, "merged", int(ids[go]), f"track {ids[go]} merged into track {ids[keep]}"))
         for j in drop.nonzero()[0].tolist():
             if conf[j] and reason[j]:
                 o = int(own[j])
                 self._counts[o, _LOST] += 1
-                self.events[o].append(TrackEvent(float(t_o[rpos[j]]), "lost", int(ids[j]),
+                self.events[o].append(TrackEvent(float(t_o[pos_of[o]]), "lost", int(ids[j]),
                                                  f"track {ids[j]} lost: {reason[j]}"))
         if np.count_nonzero(drop):
             if every:
