@@ -198,3 +198,42 @@ def test_drops_all_is_drops_of_every_row_on_a_real_run(monkeypatch):
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()
     assert n_checked[0] > 100
+
+
+def test_cycled_scan_on_a_real_run(monkeypatch):
+    """cycled_scan against cycled_rows, TrackManagement.after_update's scan_rows, the radii of the rows with
+    returns and last_assignments (the tracker's calls before it), on copies of the arrays it writes, at every
+    step of a run."""
+    from mjasc.perception.tracking.management import scan_rows
+    from mjasc.perception.tracking.step_gathers import cycled_rows
+    from mjasc.perception.tracking.step_kernels import last_assignments
+
+    fused = fleet_mod.cycled_scan
+    n_checked = [0]
+
+    def checked(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, *rest):
+        cols_w = [a.copy() for a in rest[:8]]  # hist, scans, n_upd, last, radius, confirmed, static, born
+        consts = rest[8:15]
+        local_id, idx, p = rest[15:]
+        counts_w = counts.copy()
+        t_rows, speeds, u_rows, a_rows, hit, orows, hit_o, speeds_o, pos_o = cycled_rows(
+            rows, row_pos, t_o, used, meas, x, with_pts, counts_w, owners, col, assigned)
+        new_conf = np.empty(rows.size, dtype=bool)
+        scan_rows(rows, t_rows, u_rows, a_rows, rad, occ, speeds, *cols_w, *consts, new_conf)
+        want = (new_conf, orows, hit_o, speeds_o, pos_o, cols_w[4][orows],
+                *last_assignments(rows, hit, row_pos, local_id, idx, assigned, p))
+        got = fused(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, *rest)
+        assert got[1] == np.count_nonzero(new_conf)
+        for a, b in zip(got[:1] + got[2:], want):
+            _same(a, b)
+        for a, b in zip(rest[:8], cols_w):
+            _same(a, b)
+        _same(counts, counts_w)
+        n_checked[0] += 1
+        return got
+
+    monkeypatch.setattr(fleet_mod, "cycled_scan", checked)
+    sc = mjasc.load_scenario(_ROOT / "tasks" / "demo.toml").with_overrides(duration_s=30.0)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    Runner(sc, out_dir=None).run()
+    assert n_checked[0] > 100

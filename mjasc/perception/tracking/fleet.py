@@ -51,10 +51,10 @@ from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import position_jacobians
-from mjasc.perception.tracking.step_fusions import assign_pairs, pair_gates, predicted_pairs
-from mjasc.perception.tracking.step_gathers import births_of, cycled_rows, step_rows
-from mjasc.perception.tracking.step_kernels import (apply_assignment, confirmed_by_owner, last_assignments,
-                                                    measurement_rows, pair_setup, select_detections)
+from mjasc.perception.tracking.step_fusions import assign_pairs, cycled_scan, pair_gates, predicted_pairs
+from mjasc.perception.tracking.step_gathers import births_of, step_rows
+from mjasc.perception.tracking.step_kernels import (apply_assignment, confirmed_by_owner, measurement_rows, pair_setup,
+                                                    select_detections)
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
 
@@ -262,10 +262,12 @@ class FleetTracker:
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
         x = bank.state_rows
         with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)], dtype=bool)
-        t_rows, speeds, u_rows, a_rows, hit_all, orows, o_hit, o_speeds, o_pos = cycled_rows(
-            rows, row_pos, t_o, used, meas, x, with_pts, self._counts, owners, _ASSOC, assigned)
-        new_conf = self.mgmt.after_update(rows, t_rows, u_rows, a_rows, rad, occ, speeds)
-        if np.count_nonzero(new_conf):
+        c = self.cols  # (the cycled rows' gathers, management's record of the scan, last assignments: one call)
+        new_conf, n_conf, orows, o_hit, o_speeds, o_pos, o_radius, ids, det, first = cycled_scan(
+            rows, row_pos, t_o, used, meas, x, with_pts, self._counts, owners, _ASSOC, assigned, rad, occ, c.hist,
+            c.scans, c.n_upd, c.last, c.radius, c.confirmed, c.static, c.born, *self.mgmt.scan_constants, c.local_id,
+            idx, p)
+        if n_conf:
             pos, born = bank.positions, self.cols.born
             for k in rows[new_conf].tolist():
                 o, tid, t = int(self.cols.owner[k]), int(self.cols.local_id[k]), float(t_o[row_pos[k]])
@@ -284,8 +286,7 @@ class FleetTracker:
                                       np.ascontiguousarray(dets[q].labels, dtype=np.int64))
                 return got[0], got[1], int(idx[assigned[k]])
 
-            self.outlines.grow(orows, o_hit, o_speeds, o_pos, self.cols.radius[orows], returns_of)
-        ids, det, first = last_assignments(rows, hit_all, row_pos, self.cols.local_id, idx, assigned, p)
+            self.outlines.grow(orows, o_hit, o_speeds, o_pos, o_radius, returns_of)
         if ids.size:
             f = first.tolist()
             for q in range(p):

@@ -38,7 +38,7 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.pair_kernels import merge_candidates
 from mjasc.perception.tracking.track_columns import TrackColumns, column
 
-__all__ = ["TrackManagement", "MOVED_M"]
+__all__ = ["TrackManagement", "MOVED_M", "scan_rows"]
 
 #: A confirmed track that moved this far from where it was confirmed has moved (stays "moving") [m].
 MOVED_M = 3.0
@@ -63,6 +63,11 @@ class TrackManagement:
         self._window_mask = (1 << config.confirm_window) - 1
         self._popcount = _popcount_table(config.confirm_window)
         self.cols = TrackColumns(config.confirm_hits <= 1) if columns is None else columns
+        #: :func:`scan_rows`' constants: (popcount table, window mask, grow and shrink gains, M, static
+        #: minimum age [s], static speed [m/s])
+        self.scan_constants = (self._popcount, self._window_mask, float(config.radius_grow_gain),
+                               float(config.radius_shrink_gain), int(config.confirm_hits),
+                               float(config.static_min_age_s), float(config.static_speed_m_s))
 
     # the store's columns (views: stale after a birth or drop)
     _hist = column("hist")  # update history bits, newest = bit 0

@@ -18,6 +18,12 @@ every array a kernel returns costs a Python object):
   and the hit rows' scan times; otherwise the caller solves the hard blocks
   (:func:`~mjasc.perception.tracking.association.gnn_assign_blocks`) and applies the assignment.
 
+After the IMM cycle, :func:`cycled_scan` is :func:`~mjasc.perception.tracking.step_gathers.cycled_rows`,
+the management's record of the scan (:func:`~mjasc.perception.tracking.management.scan_rows`, the
+tracks confirmed now), the radii of the rows with returns (read after the scan's update of them) and
+:func:`~mjasc.perception.tracking.step_kernels.last_assignments` in one call instead of three and the
+management's Python layer.
+
 tests/test_tracking_step_fusions.py compares each with the calls it replaces, bit for bit, on a
 real run's steps.
 """
@@ -28,10 +34,12 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 from mjasc.perception.imm.row_fields import row_fields
+from mjasc.perception.tracking.management import scan_rows
 from mjasc.perception.tracking.pair_kernels import arc_midpoints, gate_terms
-from mjasc.perception.tracking.step_kernels import admissible_pairs, apply_assignment, pair_setup
+from mjasc.perception.tracking.step_gathers import cycled_rows
+from mjasc.perception.tracking.step_kernels import admissible_pairs, apply_assignment, last_assignments, pair_setup
 
-__all__ = ["predicted_pairs", "pair_gates", "assign_pairs", "Q", "I", "J", "GI", "DB", "TA"]
+__all__ = ["predicted_pairs", "pair_gates", "assign_pairs", "cycled_scan", "Q", "I", "J", "GI", "DB", "TA"]
 
 #: Rows of the pairs' index table (6, P): block, track in block, detection in block, grouped row
 #: position, detection, bank row.
@@ -91,3 +99,28 @@ def assign_pairs(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row,
     for a in range(hit.size):
         t_hit[a] = t_o[row_pos[hit[a]]]
     return inside, cost, hard, hit, d2g, t_hit
+
+
+@kernel
+def cycled_scan(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, hist, scans,
+                n_upd, last, radius, confirmed, static, born, popcount, window_mask, grow_gain, shrink_gain,
+                confirm_hits, min_age, static_speed, local_id, idx, p):
+    """After the IMM cycle of ``rows`` (module docstring): :func:`cycled_rows` (rows … assigned as
+    there; counts in place), :func:`scan_rows` of the rows with their times, used flags, detections
+    and speeds (rad, occ per detection; hist … static_speed: the management's columns, written in
+    place, and constants), the radii ``radius[orows]`` after it and :func:`last_assignments` (local_id,
+    idx, p as there). Returns (new_conf (k,), the number confirmed now, orows, hit_o, speeds_o, pos_o,
+    radius_o (g,), ids, det, first)."""
+    t_rows, speeds, u_rows, a_rows, hit, orows, hit_o, speeds_o, pos_o = cycled_rows(
+        rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned)
+    new_conf = np.empty(rows.size, dtype=np.bool_)
+    scan_rows(rows, t_rows, u_rows, a_rows, rad, occ, speeds, hist, scans, n_upd, last, radius, confirmed, static, born,
+              popcount, window_mask, grow_gain, shrink_gain, confirm_hits, min_age, static_speed, new_conf)
+    n_conf = 0
+    for a in range(rows.size):
+        n_conf += new_conf[a]
+    radius_o = np.empty(orows.size)
+    for a in range(orows.size):
+        radius_o[a] = radius[orows[a]]
+    ids, det, first = last_assignments(rows, hit, row_pos, local_id, idx, assigned, p)
+    return new_conf, n_conf, orows, hit_o, speeds_o, pos_o, radius_o, ids, det, first
