@@ -225,3 +225,72 @@ def test_settled_rows_equals_numpy_form(seed):
     assert got[4] == np.count_nonzero(restart)
     for a, b in zip((s_new, P_new, mu_new, n_gated), ref):
         _same(a, b)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_settled_startup_is_update_then_settled(seed):
+    """settled_startup against update_startup then settled_rows (the general cycle's two calls before it)."""
+    from mjasc.perception.imm.bank_kernels import settled_rows
+    from mjasc.perception.imm.startup_rows import settled_startup
+
+    rng, bank = _filters(seed)
+    st = bank._startup
+    n = len(bank)
+    rows = np.flatnonzero(rng.random(n) < 0.7).astype(np.int64)
+    dtm = 0.2
+    z = bank.positions + rng.normal(size=(n, 2)) * (1.0 + 5.0 * rng.random(n))[:, None]
+    use = rng.random(n) < 0.8
+    finite = rng.random(n) < 0.95
+    measured = use | (rng.random(n) < 0.3)
+    mv = rng.uniform(0.05, 3.0, n)
+    per_row = seed % 2 == 0
+    gate = bank._gate
+    r = bank._r
+    d2_min = np.where(rng.random(n) < 0.1, np.nan, rng.uniform(0, 20, n))
+    s, P, mu = rng.normal(size=(n, r, 4)), rng.normal(size=(n, r, 4, 4)), rng.random((n, r))
+    news = [rng.normal(size=(n, r, 4)), rng.normal(size=(n, r, 4, 4)), rng.random((n, r))]
+    n_gated = rng.integers(0, 4, n)
+    limit = int(rng.integers(0, 4))
+    ref_st = copy.deepcopy(st)
+    ref_new, ref_g = [a.copy() for a in news], n_gated.copy()
+    outs = []
+    for filt, new, g, fused in ((ref_st, ref_new, ref_g, False), (st, news, n_gated, True)):
+        xc, Pc, dt, F, zw, use_w, var_w = gather_startup(rows, filt.x, filt.P, np.zeros(0), dtm, z, use, mv, per_row)
+        xp = (F @ xc[..., None])[..., 0]
+        Pp = F @ Pc @ np.swapaxes(F, 1, 2)
+        args = (rows, xp, Pp, dt**3, dt, float(filt.acceleration_noise), zw, var_w if per_row else bank._var, use_w,
+                gate, filt.x, filt.P, filt.n_meas)
+        if fused:
+            outs.append(settled_startup(*args, d2_min, use, finite, measured, s, P, mu, *new, g, limit))
+        else:
+            ok_w = update_startup(*args)
+            outs.append(settled_rows(d2_min, gate, use, finite, measured, rows, ok_w, use_w, s, P, mu, *new, g, limit))
+        outs.append((xp, Pp))
+    for a, b in zip(outs[0][:4] + outs[1], outs[2][:4] + outs[3]):
+        _same(a, b)
+    assert outs[0][4] == outs[2][4]
+    for a, b in zip(news + [n_gated, st.x, st.P, st.n_meas], ref_new + [ref_g, ref_st.x, ref_st.P, ref_st.n_meas]):
+        _same(a, b)
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_kept_bank_rows_is_kept_rows_then_kept_started(seed):
+    """kept_bank_rows against kept_rows then _kept_started (a bank's drop before it), on a bank's rows."""
+    from mjasc.perception.imm.bank_kernels import kept_rows
+    from mjasc.perception.imm.startup import _kept_started
+    from mjasc.perception.imm.startup_rows import kept_bank_rows
+
+    rng, bank = _filters(seed)
+    n, r = len(bank), bank._r
+    keep = rng.random(n) < 0.6
+    m = int(np.count_nonzero(keep))
+    st = bank._startup
+    outs = [tuple(np.full(a.shape, -1.0) for a in (np.zeros((m, r, 4)), np.zeros((m, r, 4, 4)), np.zeros((m, r)),
+                                                    np.zeros((m, 4)))) for _ in range(2)]
+    base = (bank._s, bank._P, bank._mu, bank._x)
+    per = (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons)
+    want = kept_rows(keep, *base, *outs[0], *per) + _kept_started(keep, st.active, st.x, st.P, st.n_meas)
+    got = kept_bank_rows(keep, *base, *outs[1], *per, st.active, st.x, st.P, st.n_meas)
+    for a, b in zip(got[:9] + outs[1], want[:9] + outs[0]):
+        _same(a, b)
+    assert got[9] == want[9]

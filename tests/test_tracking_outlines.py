@@ -95,3 +95,27 @@ def test_reflected_hull_matches_numpy_form():
             assert h.shape[0] > 128
             out = convex_hull(out)
         assert out.tobytes() == want.tobytes()
+
+
+def test_grown_hull_is_gather_then_hull():
+    from mjasc.perception.tracking.outlines import grown_hull
+
+    rng = np.random.default_rng(5)
+    pts = rng.normal(size=(400, 2))
+    labels = rng.integers(-1, 3, size=400)
+    hull = convex_hull(rng.normal(size=(10, 2)))
+    bad = pts[:100].copy()
+    bad[5] = (np.inf, 0.0)
+    for pp, lab, label, lim, h in ((pts, labels, 1, 1.0, np.zeros((0, 2))), (pts, labels, 2, 0.5, hull),
+                                   (pts, labels, 0, 10.0, hull), (pts, labels, 7, 1.0, hull),
+                                   (pts, np.zeros(400, dtype=np.int64), 0, np.inf, hull),
+                                   (bad, np.zeros(100, dtype=np.int64), 0, np.inf, hull)):
+        p, m, hulled = grown_hull(pp, lab, label, 0.1, -0.2, lim, h)
+        q, m_w, canonical = gather_returns(pp, lab, label, 0.1, -0.2, lim, h)
+        assert m == m_w
+        if m == 0:
+            assert not hulled
+            continue
+        got = p if hulled else convex_hull(p)
+        assert hulled == canonical
+        assert got.tobytes() == convex_hull(q).tobytes()

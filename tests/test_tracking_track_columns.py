@@ -74,3 +74,30 @@ def test_keep_needs_one_flag_per_row():
     cols.append(0.0, np.ones(3))
     with pytest.raises(IndexError):
         cols.keep(np.ones(4, dtype=bool))
+
+
+def test_views_made_once_per_count_stay_the_tables_rows():
+    """The columns' views are reused when the count of rows comes back (and made again for a copied
+    store's tables): each is always the first n rows of its table."""
+    import copy
+
+    from mjasc.perception.tracking.track_columns import TrackColumns
+
+    rng = np.random.default_rng(0)
+    c = TrackColumns(capacity=4)
+    for step in range(40):
+        k = int(rng.integers(0, 4))
+        c.append(rng.random(k), rng.random(k), rng.random((k, 2)), rng.integers(0, 3, k), rng.integers(0, 9, k))
+        if step % 3 == 2:
+            c = copy.deepcopy(c)
+        c.keep(rng.random(c.n) < 0.7)
+        n = c.n
+        for name, table, row in (("born", c._f, 0), ("radius", c._f, 2), ("owner", c._i, 0), ("n_upd", c._i, 4),
+                                 ("confirmed", c._b, 0), ("manoeuvring", c._b, 4), ("team", c._o, 0),
+                                 ("hull", c._o, 1)):
+            v = getattr(c, name)
+            assert v.shape == (n,) and np.shares_memory(v, table) or n == 0
+            v[...] = v  # (writable)
+            assert (table[row, :n] == v).all()
+        assert c.anchor.shape == (n, 2) and (n == 0 or np.shares_memory(c.anchor, c._f))
+        assert c.hull_anchor.shape == (n, 2) and (n == 0 or np.shares_memory(c.hull_anchor, c._f))

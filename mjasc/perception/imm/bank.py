@@ -37,7 +37,7 @@ import logging
 import numpy as np
 
 from mjasc.perception.imm.bank_kernels import (ACCEPTED, GATED, NON_FINITE, NOT_MEASURED, REJECTION_REASONS, RESTARTED,
-                                                kept_rows, measurements, settled_rows)
+                                                measurements, settled_rows)
 from mjasc.perception.imm.bank_views import BankViews
 from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import imm_cycle
@@ -46,7 +46,8 @@ from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS
 from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
-from mjasc.perception.imm.startup_rows import born_rows, gather_startup, handover_rows, update_startup
+from mjasc.perception.imm.startup_rows import (born_rows, gather_startup, handover_rows, kept_bank_rows,
+                                               settled_startup)
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -257,14 +258,19 @@ class IMMBank(BankViews, PredictiveDensity):
         if self._side is None:
             for name in self._PER_TRACK:
                 setattr(self, name, getattr(self, name)[keep])
-        else:  # the state compacted into the other side's first rows
+        else:  # the state compacted into the other side's first rows, the start-up filters kept
             side = 1 - self._side
             out = self._cyc.views(side, int(np.count_nonzero(keep)))
-            self._ids, self._t, self._Pc, self._n_gated, self._reasons = kept_rows(
-                keep, self._s, self._P, self._mu, self._x, out[0], out[1], out[2], out[3], self._ids, self._t, self._Pc,
-                self._n_gated, self._reasons)  # (np.compress into out, boolean indexing: one compiled pass)
+            st = self._startup
+            (self._ids, self._t, self._Pc, self._n_gated, self._reasons, st.active, st.x, st.P, st.n_meas,
+             st.n_active) = kept_bank_rows(keep, self._s, self._P, self._mu, self._x, out[0], out[1], out[2], out[3],
+                                           self._ids, self._t, self._Pc, self._n_gated, self._reasons, st.active, st.x,
+                                           st.P, st.n_meas)  # (np.compress into out, boolean indexing: one compiled pass)
             self._s, self._P, self._mu, self._x = out[:4]
             self._side = side
+            if self._ids.size == 0:
+                self._t_common = None
+            return
         self._startup.keep(keep)
         if self._ids.size == 0:
             self._t_common = None
@@ -447,14 +453,17 @@ class IMMBank(BankViews, PredictiveDensity):
                                                               z, use, _NO_VAR if mv is None else mv, mv is not None)
             xc_w = (F @ xc[..., None])[..., 0]
             P_w = F @ Pc @ np.swapaxes(F, 1, 2)
-            ok_w = update_startup(rows, xc_w, P_w, dtw**3, dtw, float(st.acceleration_noise), zw,
-                                  self._var if mv is None else var_w, use_w, self._gate, st.x, st.P, st.n_meas)
-        else:
-            rows_w, ok_w, use_w = _NO_ROWS, _NO_FLAGS, _NO_FLAGS
         limit = self.config.restart_after_gated
-        inside, reasons, restart, used, n_restart = settled_rows(
-            d2_min, self._gate, use, finite, measured, rows_w, ok_w, use_w, self._s, self._P, self._mu, s_new, P_new,
-            mu_new, self._n_gated, limit)  # (inside, ok, the start-up rows, rejections: one compiled pass)
+        if any_warm:  # (the start-up filters updated, then inside, ok, the start-up rows, rejections: one compiled call)
+            inside, reasons, restart, used, n_restart = settled_startup(
+                rows, xc_w, P_w, dtw**3, dtw, float(st.acceleration_noise), zw, self._var if mv is None else var_w,
+                use_w, self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
+                s_new, P_new, mu_new, self._n_gated, limit)
+        else:  # (inside, ok, rejections: one compiled pass)
+            rows_w = _NO_ROWS
+            inside, reasons, restart, used, n_restart = settled_rows(
+                d2_min, self._gate, use, finite, measured, _NO_ROWS, _NO_FLAGS, _NO_FLAGS, self._s, self._P, self._mu,
+                s_new, P_new, mu_new, self._n_gated, limit)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
         self._side = out
         self._Pc_stale = True

@@ -202,6 +202,15 @@ class BankViews:
         w = np.where(self._startup.active[rows], 0.0, turn_rate(self._mu[rows], self._omega))
         return self.states_of(rows), self._covariances()[rows], self._t[rows], w
 
+    def prediction_arrays(self) -> tuple | None:
+        """The bank's own arrays ``prediction_fields`` reads, for a compiled caller that gathers its
+        rows itself (:func:`mjasc.perception.tracking.step_fusions.predicted_pairs`): (x (n, 4),
+        t (n,), μ (n, r), ω (r,), start-up flags (n,), covariances (n, 4, 4), current) — read-only,
+        valid until the next change of the bank; None when ω̂ is not the compiled sum (r > 7)."""
+        if not self._compiled_fields:
+            return None
+        return self._x, self._t, self._mu, self._omega, self._startup.active, self._covariances()
+
     def estimates(self, radius_m: float | Mapping[int, float] = 0.0) -> list[TrackEstimate]:
         """TrackEstimate of every track; radius_m a scalar or a {track_id: radius} mapping."""
         out = []

@@ -11,6 +11,8 @@ new track — nearly every tick, for clutter — ran ~25 numpy and kernel calls 
   the measurement update (:func:`~mjasc.perception.imm.compiled_cycle.position_update`),
   ``ok = use & (d² ≤ gate)`` and the filters written back (``x[rows]``, ``P[rows]``,
   ``n_meas[rows] += ok``): :meth:`~mjasc.perception.imm.startup.StartupFilters.update_rows`;
+* :func:`settled_startup` — :func:`update_startup` then the cycle's outcome
+  (:func:`~mjasc.perception.imm.bank_kernels.settled_rows`) in one call;
 * |v|, atan2 and ``J P Jᵀ`` of :func:`~mjasc.perception.imm.startup.cv_to_polar` stay numpy's;
 * :func:`handover_rows` — the rest of the hand-over (:meth:`IMMBank._handover`): the polar state
   and covariance (:func:`~mjasc.perception.imm.startup._polar_finish`) written as the rows'
@@ -20,6 +22,10 @@ new track — nearly every tick, for clutter — ran ~25 numpy and kernel calls 
 A bank's births (:meth:`IMMBank._append`) are :func:`born_rows`: the new rows appended
 (:func:`~mjasc.perception.imm.bank_kernels.appended_rows`) and handed over at once
 (:func:`handover_rows`), around the start-up filters' |v|, atan2 and ``J P Jᵀ``.
+
+A bank's drops (:meth:`IMMBank.keep_rows` in its cycle buffers) are :func:`kept_bank_rows`: the
+rows (:func:`~mjasc.perception.imm.bank_kernels.kept_rows`) and the start-up filters
+(:func:`~mjasc.perception.imm.startup._kept_started`) kept in one call.
 
 Each is its numpy form's expressions in its order, per row (tests/test_imm_startup_rows.py keeps
 the numpy form as the reference, bit for bit).
@@ -32,11 +38,11 @@ import math
 import numpy as np
 
 from mjasc.core.compiled import kernel
-from mjasc.perception.imm.bank_kernels import appended_rows
+from mjasc.perception.imm.bank_kernels import appended_rows, kept_rows, settled_rows
 from mjasc.perception.imm.compiled_cycle import position_update
-from mjasc.perception.imm.startup import _add_cv_noise, _polar_finish
+from mjasc.perception.imm.startup import _add_cv_noise, _kept_started, _polar_finish
 
-__all__ = ["gather_startup", "update_startup", "handover_rows", "born_rows"]
+__all__ = ["gather_startup", "update_startup", "settled_startup", "handover_rows", "born_rows", "kept_bank_rows"]
 
 
 @kernel
@@ -96,6 +102,18 @@ def update_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas)
 
 
 @kernel
+def settled_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas, d2_min, use, finite, measured, s,
+                    s_P, mu, s_new, P_new, mu_new, n_gated, limit):
+    """:func:`update_startup` of the start-up rows (rows … n_meas as there) and then
+    :func:`~mjasc.perception.imm.bank_kernels.settled_rows` of the cycle with those rows and their
+    ok (d2_min … limit as there, s_P its P): returns settled_rows' (inside, reasons, restart, used,
+    the number restarted)."""
+    ok_w = update_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas)
+    return settled_rows(d2_min, gate, use, finite, measured, rows, ok_w, use_w, s, s_P, mu, s_new, P_new, mu_new,
+                        n_gated, limit)
+
+
+@kernel
 def handover_rows(rows, xc, speed, theta, JPJ, cv_P, n_meas, snr2, max_updates, active, x, Pc, s, P, mu, mu0):
     """The hand-over of the start-up rows ``rows`` (k,) with filters xc (k, 4), cv_P (k, 4, 4),
     |v| ``speed`` (k,), atan2 ``theta`` (k,) and ``JPJ`` = J P Jᵀ (k, 4, 4) (changed in place): the
@@ -145,3 +163,14 @@ def born_rows(s, P, mu, x, n0, mu0, ids, t, Pc, n_gated, reasons, new_ids, new_t
     rows = np.arange(n0, n0 + k)
     off = handover_rows(rows, xc, speed, theta, JPJ, cv_P, n_meas, snr2, max_updates, active, x, Pc2, s, P, mu, mu0)
     return ids2, t2, Pc2, g2, r2, one_time, off
+
+
+@kernel
+def kept_bank_rows(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons, active, cv_x, cv_P,
+                   n_meas):
+    """:func:`~mjasc.perception.imm.bank_kernels.kept_rows` (keep … reasons as there) and then
+    :func:`~mjasc.perception.imm.startup._kept_started` of the start-up filters (active, cv_x, cv_P,
+    n_meas): (ids, t, Pc, n_gated, reasons, active, x, P, n_meas, number of active rows), each array new."""
+    ids2, t2, Pc2, g2, r2 = kept_rows(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons)
+    a2, x2, cP2, c2, n_active = _kept_started(keep, active, cv_x, cv_P, n_meas)
+    return ids2, t2, Pc2, g2, r2, a2, x2, cP2, c2, n_active

@@ -50,9 +50,11 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.step_gathers import births_of, cycled_rows, step_rows
-from mjasc.perception.tracking.step_kernels import (apply_assignment, confirmed_by_owner, last_assignments,
-                                                    measurement_rows, pair_setup, select_detections)
+from mjasc.perception.tracking.pair_kernels import position_jacobians
+from mjasc.perception.tracking.step_fusions import assign_pairs, cycled_scan, pair_gates, predicted_pairs
+from mjasc.perception.tracking.step_gathers import births_of, step_rows
+from mjasc.perception.tracking.step_kernels import (apply_assignment, confirmed_by_owner, measurement_rows, pair_setup,
+                                                    select_detections)
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
 
@@ -230,7 +232,22 @@ class FleetTracker:
         cfg, bank = self.config, self.bank
         M = z.shape[0]
         p = owners.size
-        if M:
+        arrays = bank.prediction_arrays() if M else None
+        if arrays is not None:  # (four compiled calls around numpy's cos, sin, J P Jᵀ and log: step_fusions)
+            n_q, start, pairs, var_p, xs, P, dt, th, dv = predicted_pairs(rows, rpos, p, m_q, self.cols.radius, var,
+                                                                          rad, occ, *arrays, t_o, row_pos)
+            if var_p.size:
+                zhat, Jac = position_jacobians(xs, dt, dv, np.cos(th), np.sin(th))
+                d2, det = pair_gates(pairs, zhat, Jac @ P @ np.swapaxes(Jac, 1, 2), z, var_p)
+                inside, cost, hard, hit, d2_hit, t_hit = assign_pairs(d2, np.log(det), self._gate, pairs, start, m_q,
+                                                                      var_p, assigned, var_row, claimed, t_o, row_pos)
+                if hard.size:  # (a vessel's gates overlap: its block to linear_sum_assignment)
+                    q, i, j, _, db, ta = pairs
+                    got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
+                    hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
+                    t_hit = t_o[row_pos[hit]]
+                self.manoeuvres.detect(hit, d2_hit, self._gate, t_hit, bank)
+        elif M:
             n_q, grouped, q, i, j, start, gi, db, ta, var_p = pair_setup(rows, rpos, p, m_q, self.cols.radius, var,
                                                                           rad, occ)
             if q.size:
@@ -245,10 +262,12 @@ class FleetTracker:
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
         x = bank.state_rows
         with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)], dtype=bool)
-        t_rows, speeds, u_rows, a_rows, hit_all, orows, o_hit, o_speeds, o_pos = cycled_rows(
-            rows, row_pos, t_o, used, meas, x, with_pts, self._counts, owners, _ASSOC, assigned)
-        new_conf = self.mgmt.after_update(rows, t_rows, u_rows, a_rows, rad, occ, speeds)
-        if np.count_nonzero(new_conf):
+        c = self.cols  # (the cycled rows' gathers, management's record of the scan, last assignments: one call)
+        new_conf, n_conf, orows, o_hit, o_speeds, o_pos, o_radius, ids, det, first = cycled_scan(
+            rows, row_pos, t_o, used, meas, x, with_pts, self._counts, owners, _ASSOC, assigned, rad, occ, c.hist,
+            c.scans, c.n_upd, c.last, c.radius, c.confirmed, c.static, c.born, *self.mgmt.scan_constants, c.local_id,
+            idx, p)
+        if n_conf:
             pos, born = bank.positions, self.cols.born
             for k in rows[new_conf].tolist():
                 o, tid, t = int(self.cols.owner[k]), int(self.cols.local_id[k]), float(t_o[row_pos[k]])
@@ -267,8 +286,7 @@ class FleetTracker:
                                       np.ascontiguousarray(dets[q].labels, dtype=np.int64))
                 return got[0], got[1], int(idx[assigned[k]])
 
-            self.outlines.grow(orows, o_hit, o_speeds, o_pos, self.cols.radius[orows], returns_of)
-        ids, det, first = last_assignments(rows, hit_all, row_pos, self.cols.local_id, idx, assigned, p)
+            self.outlines.grow(orows, o_hit, o_speeds, o_pos, o_radius, returns_of)
         if ids.size:
             f = first.tolist()
             for q in range(p):
@@ -304,8 +322,7 @@ class FleetTracker:
             if n == 0:
                 return
             rows, own = slice(None), self.cols.owner
-            rpos = pos_of[own]
-            pos, cov = bank.state_rows[:, :2], bank.covariance_rows()[:, :2, :2]
+            rpos = None
         else:
             rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
             if rows.size == 0:
@@ -313,19 +330,29 @@ class FleetTracker:
             own = self.cols.owner[rows]
             rpos = pos_of[own]
             pos, cov = bank.positions[rows], bank.position_covariances[rows]
-        org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
+        try:  # (every vessel's origin given, as the perception fleet does: one conversion)
+            org = np.array(origins, dtype=float).reshape(-1, 2)
+        except (TypeError, ValueError):
+            org = None
+        if org is None or org.shape[0] != len(origins):
+            org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
         conf = self.cols.confirmed[rows]
-        drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
+        if rpos is None:  # (every row's time, position, covariance, origin and range gathered by the kernel)
+            drop, reason, merged = self.mgmt.drops_all(own, pos_of, t_o, bank.state_rows, bank.covariance_rows(), org,
+                                                       self._max_range)
+        else:
+            drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
         ids = self.cols.local_id[rows]
         for go, keep in merged:
-            o, t = int(own[go]), float(t_o[rpos[go]])
+            o = int(own[go])
+            t = float(t_o[pos_of[o]])
             self._counts[o, _MERGED] += 1
             self.events[o].append(TrackEvent(t, "merged", int(ids[go]), f"track {ids[go]} merged into track {ids[keep]}"))
         for j in drop.nonzero()[0].tolist():
             if conf[j] and reason[j]:
                 o = int(own[j])
                 self._counts[o, _LOST] += 1
-                self.events[o].append(TrackEvent(float(t_o[rpos[j]]), "lost", int(ids[j]),
+                self.events[o].append(TrackEvent(float(t_o[pos_of[o]]), "lost", int(ids[j]),
                                                  f"track {ids[j]} lost: {reason[j]}"))
         if np.count_nonzero(drop):
             if every:
@@ -351,7 +378,7 @@ class FleetTracker:
         bank.append_tracks(zb, t_b, var_b if cfg.use_detection_variance else None)
         # every per-track column of management, manoeuvres, team and outlines (the hull anchor: the
         # new rows' positions, which are zb)
-        self.cols.append(t_b, rad_b, zb, own, local)
+        self.cols.append_rows(t_b, rad_b, zb, own, local)
         self.version += 1
         bl, ll, zl = bp.tolist(), local.tolist(), zb.tolist()
         a = 0

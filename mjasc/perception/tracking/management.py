@@ -38,7 +38,7 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.pair_kernels import merge_candidates
 from mjasc.perception.tracking.track_columns import TrackColumns, column
 
-__all__ = ["TrackManagement", "MOVED_M"]
+__all__ = ["TrackManagement", "MOVED_M", "scan_rows"]
 
 #: A confirmed track that moved this far from where it was confirmed has moved (stays "moving") [m].
 MOVED_M = 3.0
@@ -63,6 +63,11 @@ class TrackManagement:
         self._window_mask = (1 << config.confirm_window) - 1
         self._popcount = _popcount_table(config.confirm_window)
         self.cols = TrackColumns(config.confirm_hits <= 1) if columns is None else columns
+        #: :func:`scan_rows`' constants: (popcount table, window mask, grow and shrink gains, M, static
+        #: minimum age [s], static speed [m/s])
+        self.scan_constants = (self._popcount, self._window_mask, float(config.radius_grow_gain),
+                               float(config.radius_shrink_gain), int(config.confirm_hits),
+                               float(config.static_min_age_s), float(config.static_speed_m_s))
 
     # the store's columns (views: stale after a birth or drop)
     _hist = column("hist")  # update history bits, newest = bit 0
@@ -154,13 +159,22 @@ class TrackManagement:
             cols.n_upd, cols.radius, self._popcount, position_covariances, positions, origins_m, mr,
             int(cfg.confirm_window), int(cfg.confirm_hits), float(cfg.max_coast_s), float(cfg.max_position_std_m**2),
             float(cfg.range_margin_m), float(cfg.merge_fraction))
-        reason = [""] * k
-        for j in code.nonzero()[0].tolist():  # why the confirmed ones are lost
-            c = code[j]
-            reason[j] = (f"not seen for {since[j]:.1f} s" if c == 1 else
-                         f"position uncertainty {math.sqrt(lam[j]):.1f} m" if c == 2 else
-                         f"out of range ({rng[j]:.0f} m)")
-        return drop, reason, list(zip(go.tolist(), kept.tolist()))
+        return drop, _reasons(k, code, lam, since, rng), list(zip(go.tolist(), kept.tolist()))
+
+    def drops_all(self, group, pos_of, t_o, states, covariances, origins_m, max_range_m):
+        """:meth:`drops` of every row, each row's values gathered from its vessel's in the same compiled
+        call (:func:`every_drop_rows`): ``group`` (n,) each row's vessel, ``pos_of`` (n_owners,) its
+        position among the scanning vessels (every vessel scanned), t_o (p,) [s] and ``origins_m``
+        (p, 2) [m] per position, states (n, ≥ 2) [m] (the first two columns: positions) and
+        covariances (n, ≥ 2, ≥ 2) [m²] per row, ``max_range_m`` (n_owners,) [m] per vessel. Returns
+        what :meth:`drops` does."""
+        cfg, cols = self.config, self.cols
+        drop, code, lam, since, rng, go, kept = every_drop_rows(
+            group, pos_of, t_o, states, covariances, origins_m, max_range_m, cols.hist, cols.scans, cols.confirmed,
+            cols.last, cols.n_upd, cols.radius, self._popcount, int(cfg.confirm_window), int(cfg.confirm_hits),
+            float(cfg.max_coast_s), float(cfg.max_position_std_m**2), float(cfg.range_margin_m),
+            float(cfg.merge_fraction))
+        return drop, _reasons(group.size, code, lam, since, rng), list(zip(go.tolist(), kept.tolist()))
 
     def note_moved(self, positions: np.ndarray) -> None:
         """After a scan: anchor the tracks confirmed for the first time where they are (positions
@@ -171,6 +185,46 @@ class TrackManagement:
             positions = positions.reshape(-1, 2)
         c = self.cols
         _moved_rows(positions, c.confirmed, c.anchored, c.anchor, c.moved, MOVED_M)
+
+
+def _reasons(k: int, code, lam, since, rng) -> list:
+    """Why each of k rows is lost ('' for none), from :func:`drop_rows`' codes and values."""
+    reason = [""] * k
+    for j in code.nonzero()[0].tolist():  # why the confirmed ones are lost
+        c = code[j]
+        reason[j] = (f"not seen for {since[j]:.1f} s" if c == 1 else
+                     f"position uncertainty {math.sqrt(lam[j]):.1f} m" if c == 2 else
+                     f"out of range ({rng[j]:.0f} m)")
+    return reason
+
+
+@kernel
+def every_drop_rows(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, confirmed, last, n_upd, radius,
+                    popcount, window, hits, max_coast, max_var, margin, fraction):
+    """:func:`drop_rows` of every row (idx = 0 … n − 1) with each row's time ``t_o[pos_of[group]]``,
+    position ``x[:, :2]``, position covariance ``Pc[:, :2, :2]``, sensor origin ``org_o[pos_of[group]]``
+    and range ``max_range_o[group]`` gathered first (:meth:`TrackManagement.drops_all`)."""
+    n = group.size
+    idx = np.arange(n)
+    t = np.empty(n)
+    pos = np.empty((n, 2))
+    P = np.empty((n, 2, 2))
+    org = np.empty((n, 2))
+    mr = np.empty(n)
+    for k in range(n):
+        o = group[k]
+        q = pos_of[o]
+        t[k] = t_o[q]
+        pos[k, 0] = x[k, 0]
+        pos[k, 1] = x[k, 1]
+        for a in range(2):
+            for b in range(2):
+                P[k, a, b] = Pc[k, a, b]
+        org[k, 0] = org_o[q, 0]
+        org[k, 1] = org_o[q, 1]
+        mr[k] = max_range_o[o]
+    return drop_rows(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcount, P, pos, org, mr, window,
+                     hits, max_coast, max_var, margin, fraction)
 
 
 @kernel

@@ -25,7 +25,7 @@ from mjasc.core.polygon_kernels import canonical_hull
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.track_columns import TrackColumns, column
 
-__all__ = ["TrackOutlines", "outline_at"]
+__all__ = ["TrackOutlines", "outline_at", "grow_plan", "grown_hull"]
 
 
 class TrackOutlines:
@@ -60,29 +60,29 @@ class TrackOutlines:
         to the hull of each slow track updated (``used`` (k,)) the returns of its detection,
         ``returns_of(position in rows)`` → (points (p, 2) [m], labels (p,), label): the returns
         whose label is the detection's. speeds (k,) [m/s], positions (k, 2) [m] and radii (k,) [m]
-        are the tracks'. (The returns near the track and the hull they join are gathered by one
-        compiled call per track, :func:`gather_returns`; tests/test_tracking_outlines.py keeps
-        the numpy form.)"""
+        are the tracks'. (The rows to restart and to grow are one compiled call, :func:`grow_plan`;
+        the returns near each growing track gathered and hulled with the hull they join by one
+        compiled call per track, :func:`grown_hull`; tests/test_tracking_outlines.py keeps the numpy
+        form.)"""
         cfg, cols = self.config, self.cols
         pos = positions
         anchor, hulls = cols.hull_anchor, cols.hull
-        r, grow = reset_rows(rows, speeds, pos, anchor, float(cfg.outline_reset_m),
-                             2.0 * cfg.static_speed_m_s, used, float(cfg.static_speed_m_s))
+        r, grow, ks, geo = grow_plan(rows, speeds, pos, anchor, float(cfg.outline_reset_m), 2.0 * cfg.static_speed_m_s,
+                                     used, float(cfg.static_speed_m_s), radii)
         if r.size:
             hulls[r] = None
         if grow.size == 0:
             return
         no_hull = _NO_HULL
-        for j, k, px, py, lim in zip(grow.tolist(), rows[grow].tolist(), pos[grow, 0].tolist(), pos[grow, 1].tolist(),
-                                     (1.5 * radii[grow] + 0.5).tolist()):
+        for j, k, (px, py, lim) in zip(grow.tolist(), ks.tolist(), geo.tolist()):
             pts, labels, label = returns_of(j)
             h = hulls[k]
-            p, n_new, canonical = gather_returns(pts, labels, label, px, py, lim, no_hull if h is None else h)
+            p, n_new, hulled = grown_hull(pts, labels, label, px, py, lim, no_hull if h is None else h)
             if n_new == 0:
                 continue
             if h is None:
                 anchor[k] = pos[j]
-            hulls[k] = canonical_hull(p) if canonical else convex_hull(p)
+            hulls[k] = p if hulled else convex_hull(p)
 
     def outline(self, row: int, centre, radius: float) -> np.ndarray:
         """(k, 2) CCW outline [m] of the track in ``row``, centred at ``centre`` (2,) [m] with this
@@ -170,6 +170,36 @@ def gather_returns(points, labels, label, px, py, limit, hull):
         if not (math.isfinite(p[i, 0]) and math.isfinite(p[i, 1])):
             finite = False
     return p, m, finite and h + m <= 256
+
+
+@kernel
+def grow_plan(rows, speeds, pos, anchor, reset_m, fast, used, slow, radii):
+    """:func:`reset_rows` (arguments as there; anchor written in place) and what
+    :meth:`TrackOutlines.grow` reads of each growing track: (reset (r,), grow (g,) positions in rows,
+    their bank rows ``rows[grow]`` (g,), and (g, 3) [m] their positions ``pos[grow]`` and return
+    limits ``1.5·radii[grow] + 0.5``), radii (k,) [m] the tracks'."""
+    reset, grow = reset_rows(rows, speeds, pos, anchor, reset_m, fast, used, slow)
+    g = grow.size
+    ks = np.empty(g, dtype=rows.dtype)
+    geo = np.empty((g, 3))
+    for a in range(g):
+        j = grow[a]
+        ks[a] = rows[j]
+        geo[a, 0] = pos[j, 0]
+        geo[a, 1] = pos[j, 1]
+        geo[a, 2] = 1.5 * radii[j] + 0.5
+    return reset, grow, ks, geo
+
+
+@kernel
+def grown_hull(points, labels, label, px, py, limit, hull):
+    """(p, m, hulled): :func:`gather_returns` (arguments as there) and, when it found m > 0 returns and
+    its points are canonical, their :func:`canonical_hull` (hulled True); else its points (hulled
+    False: for :func:`mjasc.core.geometry.convex_hull` when m > 0)."""
+    p, m, canonical = gather_returns(points, labels, label, px, py, limit, hull)
+    if m > 0 and canonical:
+        return canonical_hull(p), m, True
+    return p, m, False
 
 
 @kernel

@@ -22,6 +22,7 @@ from mjasc.core.compiled import kernel
 from mjasc.perception.tracking.association import gnn_assign_blocks
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.pair_kernels import block_pairs_loop, broadcast_distances
+from mjasc.perception.tracking.step_kernels import admissible_pairs
 from mjasc.perception.tracking.track_columns import TrackColumns, column
 
 __all__ = ["TeamMatcher"]
@@ -94,18 +95,22 @@ class TeamMatcher:
             return
         cfg = self.config
         b_owner, names, tb, pb = self._arrays()
-        c, bsel, n_a, n_b, a_start, b_start, q, i, j, start, x = team_pairs(
-            confirmed, owner, t_s, b_owner, tb, float(cfg.team_max_age_s), n_owners, states)
+        c, bsel, blocks, pq, start, x = team_plan(confirmed, owner, t_s, b_owner, tb, float(cfg.team_max_age_s),
+                                                  n_owners, states)
         if c.size == 0 or bsel.size == 0:
             return
         gate = float(cfg.team_match_distance_m)
-        th = x[:, 2]  # (a track meets every broadcast of its vessel: vx = V cos θ, vy = V sin θ)
-        dist, inside, n_in = team_distances(q, i, j, a_start, b_start, bsel, x, np.cos(th), np.sin(th), t_s, tb, pb,
-                                            (2.0 * gate) ** 2, gate)  # (+inf far outside the gate: never used)
+        th = x[:, 2]
+        # (a track meets every broadcast of its vessel: vx = V cos θ, vy = V sin θ; +inf far outside the gate)
+        dist, inside, n_in, hard, ta, tb_i = team_assign(pq, blocks, start, bsel, c, x, np.cos(th), np.sin(th), t_s,
+                                                         tb, pb, (2.0 * gate) ** 2, gate)
         if not n_in:
             return
-        got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
-        ta, tb_i = matched_rows(got, q, i, j, a_start, b_start, c, bsel)
+        if hard.size:  # (a track or a broadcast with two candidates: that vessel's block to linear_sum_assignment)
+            q, i, j = pq
+            n_a, n_b, a_start, b_start = blocks
+            got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
+            ta, tb_i = matched_rows(got, q, i, j, a_start, b_start, c, bsel)
         team_of[ta if isinstance(rows, slice) else rows[ta]] = np.array([names[k] for k in tb_i.tolist()] + [None], dtype=object)[:-1]
 
 
@@ -200,3 +205,43 @@ def matched_rows(got, q, i, j, a_start, b_start, c, bsel):
         ta[a] = c[a_start[qg] + i[g]]
         tb[a] = bsel[b_start[qg] + j[g]]
     return ta, tb
+
+
+@kernel
+def team_plan(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states):
+    """:func:`team_pairs` (arguments as there) with its per-vessel arrays as the rows of one
+    (4, n_owners) array (n_a, n_b, a_start, b_start) and its pairs' as those of one (3, P) array
+    (q, i, j): (c, bsel, blocks, pq, start, x)."""
+    c, bsel, n_a, n_b, a_start, b_start, q, i, j, start, x = team_pairs(confirmed, owner, t_s, b_owner, t_b, max_age,
+                                                                        n_owners, states)
+    blocks = np.empty((4, n_owners), dtype=np.int64)
+    for o in range(n_owners):
+        blocks[0, o] = n_a[o]
+        blocks[1, o] = n_b[o]
+        blocks[2, o] = a_start[o]
+        blocks[3, o] = b_start[o]
+    pq = np.empty((3, q.size), dtype=np.int64)
+    for k in range(q.size):
+        pq[0, k] = q[k]
+        pq[1, k] = i[k]
+        pq[2, k] = j[k]
+    return c, bsel, blocks, pq, start, x
+
+
+@kernel
+def team_assign(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, p_b, far_m2, gate):
+    """:func:`team_distances` of the pairs of :func:`team_plan` (dist, inside, n_in) and, when some pair
+    is inside the gate, :func:`~mjasc.perception.tracking.step_kernels.admissible_pairs`; when no block is
+    hard, :func:`matched_rows` of the admissible pairs: (dist, inside, n_in, hard, ta, tb) — hard non-empty
+    (or n_in 0): ta and tb empty, the caller assigns."""
+    q, i, j = pq[0], pq[1], pq[2]
+    a_start, b_start = blocks[2], blocks[3]
+    dist, inside, n_in = team_distances(q, i, j, a_start, b_start, bsel, x, cos_th, sin_th, t_s, t_b, p_b, far_m2, gate)
+    none = np.zeros(0, dtype=np.int64)
+    if not n_in:
+        return dist, inside, n_in, none, none, none
+    easy, hard = admissible_pairs(inside, q, i, j, start, blocks[1])
+    if hard.size:
+        return dist, inside, n_in, hard, none, none
+    ta, tb = matched_rows(easy, q, i, j, a_start, b_start, c, bsel)
+    return dist, inside, n_in, hard, ta, tb

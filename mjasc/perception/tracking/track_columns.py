@@ -62,21 +62,28 @@ class TrackColumns:
         self._i = np.zeros((_NI, capacity), dtype=np.int64)
         self._b = np.zeros((_NB, capacity), dtype=bool)
         self._o = np.full((_NO, capacity), None, dtype=object)
+        self._made: dict[int, tuple] = {}  # n → the columns' views of the first n rows of these tables
         self._views()
 
     def __len__(self) -> int:
         return self.n
 
     def _views(self) -> None:
-        """The columns' views of the first n rows."""
+        """The columns' views of the first n rows (made once per n and tables: a tracker's rows go
+        up and down by a few between the same counts; the same views of the same buffers)."""
         n = self.n
-        f, i, b = self._f[:, :n], self._i[:, :n], self._b[:, :n]  # (one row per column: unpacked below)
-        self.born, self.last, self.radius, ax, ay, self.nis, hx, hy = f
-        self.anchor = f[ANCHOR_X:ANCHOR_Y + 1].T  # (n, 2) [m]
-        self.hull_anchor = f[HULL_X:HULL_Y + 1].T  # (n, 2) [m]
-        self.owner, self.local_id, self.hist, self.scans, self.n_upd = i
-        self.confirmed, self.static, self.anchored, self.moved, self.manoeuvring = b
-        self.team, self.hull = self._o[:, :n]
+        v = self._made.get(n)
+        if v is None or v[0].base is not self._f:  # (views of other tables: a copied store's)
+            f, i, b = self._f[:, :n], self._i[:, :n], self._b[:, :n]  # (one row per column: unpacked below)
+            born, last, radius, ax, ay, nis, hx, hy = f
+            anchor = f[ANCHOR_X:ANCHOR_Y + 1].T  # (n, 2) [m]
+            hull_anchor = f[HULL_X:HULL_Y + 1].T  # (n, 2) [m]
+            if len(self._made) >= 64:
+                self._made.clear()
+            v = self._made[n] = (born, last, radius, nis, anchor, hull_anchor, *i, *b, *self._o[:, :n])
+        (self.born, self.last, self.radius, self.nis, self.anchor, self.hull_anchor, self.owner, self.local_id, self.hist,
+         self.scans, self.n_upd, self.confirmed, self.static, self.anchored, self.moved, self.manoeuvring, self.team,
+         self.hull) = v
 
     def _grow(self, m: int) -> None:
         """Room for m rows (the first n copied into larger tables)."""
@@ -86,6 +93,7 @@ class TrackColumns:
         o = np.full((_NO, cap), None, dtype=object)
         f[:, :n], i[:, :n], b[:, :n], o[:, :n] = self._f[:, :n], self._i[:, :n], self._b[:, :n], self._o[:, :n]
         self._f, self._i, self._b, self._o = f, i, b, o
+        self._made.clear()
 
     def append(self, t_s, radius, centres=None, owner=None, local_id=None) -> None:
         """k new rows (module docstring): born at t_s (scalar or (k,) [s]) from detections of
@@ -104,6 +112,18 @@ class TrackColumns:
                          np.zeros((k, 2)) if centres is None else np.ascontiguousarray(centres, dtype=float),
                          z if owner is None else owner, z if local_id is None else local_id, self.confirm_now)
         self._o[:, self.n:m] = None
+        self.n = m
+        self._views()
+
+    def append_rows(self, t_s, radius, centres, owner, local_id) -> None:
+        """:meth:`append` for a caller whose arrays are checked already (a fleet tracker's births):
+        t_s, radius (k,) float, centres (k, 2) float, owner and local_id (k,) int64, each contiguous."""
+        n = self.n
+        m = n + t_s.size
+        if m > self._f.shape[1]:
+            self._grow(m)
+        appended_columns(self._f, self._i, self._b, n, t_s, radius, centres, owner, local_id, self.confirm_now)
+        self._o[:, n:m] = None
         self.n = m
         self._views()
 
