@@ -48,15 +48,14 @@ class ZoomMotion:
     def __init__(self, rel_at, motions, rows, vessel, path_arrays, steady, g_now, v_q, t_now, gamma_at):
         self.rel_at = rel_at
         self._track, self._vessel = rows, vessel
-        table, first, count, length = path_arrays
-        self._paths = (table, first, count, length)
-        par, kind, plan_of, plans = motions.kernel_arrays()
-        self._motion = (par, kind, plan_of, plans)
+        self._paths = tuple(path_arrays)
+        self._motion = motions.kernel_arrays()
         self._steady = (np.asarray(g_now, dtype=float), np.asarray(v_q, dtype=float), np.asarray(t_now, dtype=float))
         self._all_steady = bool(np.all(steady))
         self._gamma_at = gamma_at
 
     def __call__(self, pairs, t) -> np.ndarray:
+        """``rel_at(pairs, t)``: the readable form (the compiled levels' reference)."""
         return self.rel_at(pairs, t)
 
     def level(self, pairs, a, b, act, frac, final, tol, t_out, d_out, keep) -> int:
@@ -77,8 +76,8 @@ class ZoomMotion:
         else:
             _zoom_samples(a, b, act, frac, ts)
             g_in = np.ascontiguousarray(self._gamma_at(vessel[pairs[act]], ts), dtype=float)
-        n = level_angles(self._all_steady, a, b, act, frac, ts, pairs, rows, vessel, g_now, v_q, t_now, g_in, table, first,
-                         count, length, par, kind, seg, s_loc, angles)
+        n = level_angles(self._all_steady, a, b, act, frac, ts, pairs, rows, vessel, g_now, v_q, t_now, g_in, table,
+                         first, count, length, par, kind, seg, s_loc, angles)
         th = angles[:n]
         sin_a, cos_a = np.sin(th), np.cos(th)
         r = np.empty((k, J, 2))
@@ -90,12 +89,13 @@ class ZoomMotion:
 def level_angles(sample, a, b, act, frac, ts, pairs, rows, vessel, g_now, v_q, t_now, g_in, table, first, count, length,
                  par, kind, seg, s_loc, angles):
     """The first pass of a level (module docstring): with ``sample``, the sample times into ``ts``
-    (k, J) (``cpa._zoom_samples``' expressions) and each vessel's γ = g_now + v_q (t − t_now) (else γ from ``g_in`` (k, J)); γ clamped to
-    [0, L] (``np.minimum(np.maximum(γ, 0), L)``), its segment (the last of the path's block
-    starting at or before γ, as ``StackedPaths``' ``_segment_of``) into ``seg`` and local arc
-    length γ − C into ``s_loc``; item i is pair ``pairs[act[i]]`` of track ``rows[p]`` and vessel
-    ``vessel[p]``; into ``angles``, in walk order (item, sample; the track's before
-    the vessel's), a turning track's θ₀ + ω (t − t₀) and an arc's θ₀ + κ s. Returns how many angles."""
+    (k, J) (``cpa._zoom_samples``' expressions) and each vessel's γ = g_now + v_q (t − t_now) (else
+    γ from ``g_in`` (k, J)); γ clamped to [0, L] (``np.minimum(np.maximum(γ, 0), L)``), its
+    segment (the last of the path's block starting at or before γ, as ``StackedPaths``'
+    ``_segment_of``) into ``seg`` and local arc length γ − C into ``s_loc``; item i is pair
+    ``p = pairs[act[i]]`` of track ``rows[p]`` and vessel ``vessel[p]``. Into ``angles``, in walk
+    order (item, sample; the track's before the vessel's), a turning track's θ₀ + ω (t − t₀) and an
+    arc's θ₀ + κ s. Returns how many angles."""
     n = 0
     J = frac.shape[0]
     for i in range(act.shape[0]):
