@@ -173,6 +173,7 @@ def test_the_zoom_evaluates_shared_brackets_once_with_the_same_numbers(monkeypat
     vessel's pairs): the prediction with the vessel's positions evaluated once per distinct
     bracket equals the one evaluating them per pair, bit for bit."""
     from mjasc.avoidance.prediction import conflicts
+    from mjasc.avoidance.prediction.zoom_motion import ZoomMotion
 
     rng = np.random.default_rng(3)
     queries = []
@@ -187,6 +188,9 @@ def test_the_zoom_evaluates_shared_brackets_once_with_the_same_numbers(monkeypat
                                        intention=away))
         queries.append(PredictionQuery(path, 3.0, 50.0, 1.0 + 0.2 * v, 2.0, tracks,
                                        CollisionPredictionConfig(window_s=25.0, time_step_s=0.5), include_clear=True))
+    compiled = predict_fleet(queries)  # (the zoom's levels in compiled passes: zoom_motion)
+    # The readable rel_at (the compiled levels' reference) is where brackets are shared: the zoom through it.
+    monkeypatch.setattr(ZoomMotion, "level", None)
     calls = []
     orig = conflicts._distinct_rows
 
@@ -200,9 +204,10 @@ def test_the_zoom_evaluates_shared_brackets_once_with_the_same_numbers(monkeypat
     assert any(calls)
     monkeypatch.setattr(conflicts, "_distinct_rows", lambda v, t: (None, None))
     per_pair = predict_fleet(queries)
-    for got, ref in zip(shared, per_pair):
+    for got, ref, fast in zip(shared, per_pair, compiled):
         assert [(c.track_id, c.t_closest_s, c.min_distance_m, c.collision) for c in got] == \
-            [(c.track_id, c.t_closest_s, c.min_distance_m, c.collision) for c in ref]
+            [(c.track_id, c.t_closest_s, c.min_distance_m, c.collision) for c in ref] == \
+            [(c.track_id, c.t_closest_s, c.min_distance_m, c.collision) for c in fast]
 
 
 def test_the_lazy_results_are_predict_fleets_lists():

@@ -147,6 +147,8 @@ class Simulation:
                                                                    MovingObstacleSet.PATH_SAMPLE_M)
         self._mj_arrays = (d.qpos, d.qvel, d.qacc, d.act, d.mocap_pos, d.mocap_quat)
         self._propellers = self.thrusters.step_arrays()
+        # what states() reads: MjData's qpos, qvel and act, whole, the headings ψ (a view) and the propellers
+        self._state_arrays = (d.qpos, d.qvel, d.act, self._qpos3[:, 2] if self._views else None, self._propellers)
         self._uniform_current = self.current.velocity(np.zeros((n, 2)), 0.0) if self._current_uniform_steady else None
         f_row, tau, rot2, feats, cf_x, self._linear_form = self.hydro.step_arrays()
         self._step_arrays = (f_row, tau, rot2, feats, cf_x, self._qfrc3 if self._views else None,
@@ -205,14 +207,13 @@ class Simulation:
         if not self._bound:
             return self._states_numpy()
         n = self.n_vessels
-        qpos, qvel, _, act = self._mj_arrays[:4]
-        psi = self._qpos3[:, 2]
+        qpos, qvel, act, psi, propellers = self._state_arrays
         out = np.empty(12 * n)  # (each quantity a contiguous block: state_kernels.vessel_states)
-        vessel_states(qpos, qvel, act, np.cos(psi), np.sin(psi), self._propellers, out)
+        vessel_states(qpos, qvel, act, np.cos(psi), np.sin(psi), propellers, out)
         pos, heading, vel = out[:2 * n].reshape(n, 2), out[2 * n:3 * n], out[3 * n:5 * n].reshape(n, 2)
         body, shaft = out[5 * n:8 * n].reshape(n, 3), out[8 * n:10 * n].reshape(n, 2)
         thrust = out[10 * n:].reshape(n, 2)
-        t = self.time_s
+        t = float(self.data.time)
         if self._current_uniform_steady:  # (the same everywhere, always)
             current = self._uniform_current.copy()
         else:
@@ -330,10 +331,6 @@ class Simulation:
         """``n_steps`` physics steps; with a monitor, stop at the first step k (0-based) that breaks
         a bound and return (k, what broke); None when all passed."""
         m, d = self.model, self.data
-        traffic = len(self.traffic) > 0
-        if monitor is not None:
-            vel, acc, v2, a2 = monitor.qvel, monitor.qacc, monitor.fast_speed2, monitor.fast_acc2
-            vdot, adot = vel.dot, acc.dot
         if self._bound and self.hydrodynamics_enabled and self._current_uniform_steady:
             # The common case, one compiled call per step before MuJoCo's two (mjasc.physics.step_kernels):
             # the previous step's fast divergence test, the traffic's mocap poses and the force's
@@ -362,6 +359,10 @@ class Simulation:
                 if what is not None:
                     return n_steps - 1, what
             return None
+        traffic = len(self.traffic) > 0
+        if monitor is not None:
+            vel, acc, v2, a2 = monitor.qvel, monitor.qacc, monitor.fast_speed2, monitor.fast_acc2
+            vdot, adot = vel.dot, acc.dot
         for k in range(n_steps):
             if traffic:
                 self._update_traffic()

@@ -39,6 +39,7 @@ from mjasc.avoidance.prediction.motion import TrackMotions
 from mjasc.avoidance.prediction.spatial import PlanContext, obstructed_stretch, obstruction_interval
 from mjasc.avoidance.prediction.svo import svo_polygon
 from mjasc.avoidance.prediction.timing import SpeedProfile, gamma_of_time, prediction_window, speed_now
+from mjasc.avoidance.prediction.zoom_motion import ZoomMotion
 from mjasc.core.estimates import TrackEstimate, _field_names
 from mjasc.guidance.paths import Path
 from mjasc.guidance.stacked_paths import StackedPaths
@@ -257,6 +258,12 @@ def predict_fleet_lazy(queries: Sequence[PredictionQuery]) -> list[ConflictList]
         """The vessels' positions (k, j, 2) [m]: vessel v (k,) at its times t (k, j)."""
         if paths is None:
             return ctxs[0].vessel_at(t)
+        return paths.point(v.repeat(t.shape[1]).reshape(t.shape), gamma_at(v, t))  # (each pair's vessel per time)
+
+    def gamma_at(v, t):
+        """The vessels' γ (k, j) [m] (not clamped): vessel v (k,) at its times t (k, j)."""
+        if paths is None:
+            return ctxs[0].gamma_fn(t)
         st = steady[v]
         if st.all():
             g = g_now[v][:, None] + v_q[v][:, None] * (t - t_now_q[v][:, None])
@@ -271,9 +278,15 @@ def predict_fleet_lazy(queries: Sequence[PredictionQuery]) -> list[ConflictList]
             cut = (vs[1:] != vs[:-1]).ravel().nonzero()[0] + 1
             for sel in np.split(order, cut):
                 g[sel] = ctxs[v[sel[0]]].gamma_fn(t[sel])
-        return paths.point(v.repeat(t.shape[1]).reshape(t.shape), g)  # (each pair's vessel per time)
+        return g
 
-    t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, rel_at, stop_first)
+    if paths is None:
+        p0 = ctxs[0].path
+        path_arrays = (p0.table, _ZERO_ROW, np.array([p0.table.shape[1]], dtype=np.intp), np.array([p0.length]))
+    else:
+        path_arrays = paths.segment_arrays()
+    zoom = ZoomMotion(rel_at, motions, rows, vessel, path_arrays, steady, g_now, v_q, t_now_q, gamma_at)
+    t_c, d_c = closest_approaches(times_p, obst - xy_q[vessel], r_col, zoom, stop_first)
     hit = (d_c <= r_col).tolist()  # a collision: d(t_c) ≤ R_col (as _conflict decides it)
     tc_l, dc_l, rc_l = t_c.tolist(), d_c.tolist(), r_col.tolist()
     # A clear pair (the common case: ~10⁵ a minute in a fleet of fifty) is made when read, without
@@ -310,6 +323,9 @@ def predict_fleet_lazy(queries: Sequence[PredictionQuery]) -> list[ConflictList]
         out.append(ConflictList(its, make_clear, [c for c in its if type(c) is not int],
                                 [dc_l[c] if type(c) is int else c.min_distance_m for c in its]))
     return out
+
+
+_ZERO_ROW = np.zeros(1, dtype=np.intp)  # (one path's first segment column)
 
 
 def _distinct_rows(v: np.ndarray, t: np.ndarray) -> tuple:

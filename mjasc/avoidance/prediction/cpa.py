@@ -166,18 +166,24 @@ def _zoom(rel_at, pairs, a, b):
     ``pairs`` (k,): (t*, d*) per bracket. Items whose last three samples still bend by more than
     :data:`ZOOM_TOL_M` (a kink near the minimum) zoom on, up to :data:`ZOOM_MAX_LEVELS`. Each
     level is ``rel_at`` between two compiled passes (:func:`_zoom_samples`, :func:`_zoom_level`:
-    the numbers of the numpy form, ``tests/test_zoom_kernels.py``)."""
+    the numbers of the numpy form, ``tests/test_zoom_kernels.py``), or with a ``rel_at`` that has
+    a ``level`` (a :class:`~mjasc.avoidance.prediction.zoom_motion.ZoomMotion`) that level whole in
+    compiled passes."""
     K, frac = ZOOM_SAMPLES, _ZOOM_FRACTIONS
     t_out, d_out = np.empty(a.size), np.empty(a.size)
     act = np.arange(a.size)  # the items still zooming
     a, b = a.copy(), b.copy()
     keep = np.empty(a.size, dtype=np.intp)
+    compiled = getattr(rel_at, "level", None)  # (a ZoomMotion: the level in compiled passes, the same numbers)
     for level in range(ZOOM_MAX_LEVELS):
-        ts = np.empty((act.size, K))
-        _zoom_samples(a, b, act, frac, ts)
-        r = rel_at(pairs[act], ts)
         final = level + 1 >= ZOOM_LEVELS
-        n = _zoom_level(r, ts, act, a, b, final, ZOOM_TOL_M, t_out, d_out, keep)
+        if compiled is not None:
+            n = compiled(pairs, a, b, act, frac, final, ZOOM_TOL_M, t_out, d_out, keep)
+        else:
+            ts = np.empty((act.size, K))
+            _zoom_samples(a, b, act, frac, ts)
+            r = rel_at(pairs[act], ts)
+            n = _zoom_level(r, ts, act, a, b, final, ZOOM_TOL_M, t_out, d_out, keep)
         if not final:
             continue
         act = keep[:n].copy()

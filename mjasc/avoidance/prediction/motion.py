@@ -131,6 +131,15 @@ class TrackMotions:
         back = self.at(np.arange(m), times)  # (m, H, 2)
         return np.hypot(back[..., 0] - pos[:, 0], back[..., 1] - pos[:, 1]) <= np.maximum(radii, self.radius_m[:, None])
 
+    def kernel_arrays(self) -> tuple:
+        """The motions as compiled kernels read them (:mod:`~mjasc.avoidance.prediction.zoom_motion`):
+        (the table (m, 9) (columns x₀, y₀, t₀, v, cos θ, sin θ, θ, ω, v/ω), each row's kind (m,) (0
+        straight or static, 1 turning, 2 plan), each row's plan (m,) (−1: none), the plans' arrays
+        (:data:`PLAN_FIELDS` of a :class:`_StackedPlans`; empty without a plan)). Not to be written."""
+        if self._pl is None:
+            return self._par, self._kind, _NO_PLAN_OF, _NO_PLANS
+        return self._par, self._kind, self._plan_of, tuple(getattr(self._pl, f) for f in PLAN_FIELDS)
+
     def grid(self, times) -> np.ndarray:
         """Positions (m, n, 2) of every track on the time grid ``times`` (n,) [s]."""
         return self.at(np.arange(self.n), np.asarray(times, dtype=float))
@@ -199,6 +208,14 @@ def intention_positions(intentions, times) -> np.ndarray:
         return out
     plans, rows = _PLANS.rows(intentions)  # each message stacked once for the fleet
     return plans.at(np.repeat(rows, n), np.tile(times, k)).reshape(k, n, 2)
+
+
+#: The arrays of :class:`_StackedPlans` that :func:`plan_position` reads, in its order.
+PLAN_FIELDS = ("ts", "xs", "ys", "start", "count", "t_first", "t_last", "anchor", "t_anchor", "vel", "p_last", "v_end")
+_NO_PLAN_OF = np.zeros(0, dtype=np.intp)
+_NO_PLANS = (np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp),
+             np.zeros(0), np.zeros(0), np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2)),
+             np.zeros((0, 2)))
 
 
 class _StackedPlans:
@@ -314,25 +331,27 @@ _PLANS = _PlanTable()
 
 @kernel
 def _plan_positions(plans, t, ts, xs, ys, start, count, t_first, t_last, anchor, t_anchor, vel, p_last, v_end, out):
-    """:meth:`_StackedPlans.at` into ``out``: per item, before / after / inside its plan's knots,
-    the knot interval by bisection on the plan's own knot times (the last knot ≤ t, as
-    ``np.interp``), each coordinate (x_b − x_a) / (t_b − t_a) · (t − t_a) + x_a."""
+    """:meth:`_StackedPlans.at` into ``out``: :func:`plan_position` of each item."""
     for i in range(plans.size):
-        p, ti = plans[i], t[i]
-        if ti < t_first[p]:
-            dt = ti - t_anchor[p]
-            out[i, 0] = anchor[p, 0] + dt * vel[p, 0]
-            out[i, 1] = anchor[p, 1] + dt * vel[p, 1]
-        elif ti >= t_last[p]:
-            dt = ti - t_last[p]
-            out[i, 0] = p_last[p, 0] + dt * v_end[p, 0]
-            out[i, 1] = p_last[p, 1] + dt * v_end[p, 1]
-        else:
-            lo = search_right(ts, ti, start[p], start[p] + count[p])  # the first knot > ti
-            j = min(max(lo - 1, start[p]), start[p] + count[p] - 2)
-            dt, dtt = ts[j + 1] - ts[j], ti - ts[j]
-            out[i, 0] = (xs[j + 1] - xs[j]) / dt * dtt + xs[j]
-            out[i, 1] = (ys[j + 1] - ys[j]) / dt * dtt + ys[j]
+        out[i, 0], out[i, 1] = plan_position(plans[i], t[i], ts, xs, ys, start, count, t_first, t_last, anchor,
+                                             t_anchor, vel, p_last, v_end)
+
+
+@kernel
+def plan_position(p, ti, ts, xs, ys, start, count, t_first, t_last, anchor, t_anchor, vel, p_last, v_end):
+    """Plan ``p``'s position (x, y) [m] at time ``ti`` [s] in a :class:`_StackedPlans`' arrays: before /
+    after / inside its knots, the knot interval by bisection on the plan's own knot times (the last
+    knot ≤ t, as ``np.interp``), each coordinate (x_b − x_a) / (t_b − t_a) · (t − t_a) + x_a."""
+    if ti < t_first[p]:
+        dt = ti - t_anchor[p]
+        return anchor[p, 0] + dt * vel[p, 0], anchor[p, 1] + dt * vel[p, 1]
+    if ti >= t_last[p]:
+        dt = ti - t_last[p]
+        return p_last[p, 0] + dt * v_end[p, 0], p_last[p, 1] + dt * v_end[p, 1]
+    lo = search_right(ts, ti, start[p], start[p] + count[p])  # the first knot > ti
+    j = min(max(lo - 1, start[p]), start[p] + count[p] - 2)
+    dt, dtt = ts[j + 1] - ts[j], ti - ts[j]
+    return (xs[j + 1] - xs[j]) / dt * dtt + xs[j], (ys[j + 1] - ys[j]) / dt * dtt + ys[j]
 
 
 @kernel

@@ -24,6 +24,7 @@ from typing import Callable
 import numpy as np
 
 from mjasc.avoidance.prediction.config import CollisionPredictionConfig
+from mjasc.avoidance.prediction.path_distance import path_distances
 from mjasc.avoidance.prediction.sweep_kernels import polyline_distances
 from mjasc.core.estimates import TrackEstimate
 from mjasc.guidance.paths import Path
@@ -53,8 +54,7 @@ class PlanContext:
 def _path_gap(ctx: PlanContext, track: TrackEstimate, t, r_col: float) -> np.ndarray:
     """Distance from the obstacle centre at times t to the path ahead, minus r_col (≤ 0: obstructing)."""
     q = track.predict_positions(np.atleast_1d(np.asarray(t, dtype=float)))
-    _, dist = ctx.path.closest_points(q, ctx.gamma_now, ctx.path.length)
-    return dist - r_col
+    return path_distances(ctx.path, q, ctx.gamma_now) - r_col  # (closest_points' distances, far segments skipped)
 
 
 _TREE_DEPTH = 5  # bisection steps decided per vectorized evaluation
