@@ -3,7 +3,7 @@ as the readable forms."""
 
 import numpy as np
 
-from mjasc.runs.recording import _strip_column
+from mjasc.runs.recording_columns import strip_column as _strip_column
 
 
 def test_strip_column_of_one_length_array_is_the_list_form():
@@ -21,7 +21,7 @@ def test_vec3_array_is_the_sdks_vec3d_batch():
     float32, reversed (strided) and Fortran-ordered points, and none."""
     from rerun.encodings import Vec3DBatch
 
-    from mjasc.runs.recording import _vec3_array
+    from mjasc.runs.recording_columns import vec3_array as _vec3_array
 
     rng = np.random.default_rng(3)
     for n in (0, 1, 7, 500):

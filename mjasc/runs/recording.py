@@ -58,19 +58,19 @@ import numpy as np
 import pyarrow as pa
 import rerun as rr
 import rerun.blueprint as rrb
-from rerun.encodings import Vec3DBatch
 
 from mjasc.runs.blueprint import (LEGEND_CLASSES, MODE_STATES, OTHERS, PALETTE, annotation_context,  # noqa: F401
                                   default_blueprint, legend_classes, legend_colour, legend_markdown,
                                   stable_blueprint_ids, vessel_colour)
 from mjasc.runs.outputs import part_path
+from mjasc.runs.recording_columns import (TIMELINE, concat_xy, points_column, rgba, scalar_column, sparse_column,
+                                          strip_column, time_column, xyz_at)
 from mjasc.runs.rrd_canonical import BATCHER_FLUSH_BYTES, canonicalise
 from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
 
 __all__ = ["Recorder", "default_blueprint", "TIMELINE", "DETAILS", "vessel_colour", "legend_classes",
            "annotation_context", "legend_markdown", "LEGEND_CLASSES", "OTHERS"]
 
-TIMELINE = "sim_time"
 #: Buffered rows (summed over entities; a fleet row of n vessels counts n) that trigger a flush.
 FLUSH_ROWS = 1_000_000
 
@@ -287,15 +287,15 @@ class Recorder:
             if self._batch_styled.get(entity) != style:  # once (styles are set before the first row)
                 self._batch_styled[entity] = style
                 self.static(entity, rr.SeriesLines(names=[s[0] for s in style],
-                                                   colors=[_rgba(s[1] if s[1] is not None else (200, 200, 200))
+                                                   colors=[rgba(s[1] if s[1] is not None else (200, 200, 200))
                                                            for s in style],
                                                    widths=[s[2] for s in style]))
             if not rows:
                 continue
             times = sorted(rows)
             data = np.stack([rows[t] for t in times])  # (T, batched)
-            self.rec.send_columns(entity, indexes=[_time_column(times)],
-                                  columns=[_scalar_column(data.reshape(-1), data.shape[1])])
+            self.rec.send_columns(entity, indexes=[time_column(times)],
+                                  columns=[scalar_column(data.reshape(-1), data.shape[1])])
             rows.clear()
 
     # ---------------------------------------------------------------- buffered rows, one entity
@@ -342,7 +342,7 @@ class Recorder:
         times, rows, colour_rows = self._strips[(entity, z)]
         times.append(t_s)
         rows.append([np.asarray(s, dtype=np.float64).reshape(-1, 2) for s in strips_xy])
-        colour_rows.append(None if colours is None else [_rgba(c) for c in colours])
+        colour_rows.append(None if colours is None else [rgba(c) for c in colours])
         self._count(1)
 
     def arrows(self, entity: str, t_s: float, origins_xy: np.ndarray, vectors_xy: np.ndarray, z: float = 0.0) -> None:
@@ -387,34 +387,35 @@ class Recorder:
                 self._write_style(entity)
             send_columns(entity, indexes=indexes, columns=columns)
         for entity, (times, values) in self._scalars.items():
-            send(entity, indexes=[_time_column(times)], columns=[_scalar_column(values)])
+            send(entity, indexes=[time_column(times)], columns=[scalar_column(values)])
         for entity, (times, texts, levels) in self._texts.items():
-            send(entity, indexes=[_time_column(times)], columns=rr.TextLog.columns(text=texts, level=levels))
+            send(entity, indexes=[time_column(times)], columns=rr.TextLog.columns(text=texts, level=levels))
         for entity, (times, states) in self._states.items():
-            send(entity, indexes=[_time_column(times)], columns=rr.StateChange.columns(state=states))
+            send(entity, indexes=[time_column(times)], columns=rr.StateChange.columns(state=states))
         for entity, (times, texts) in self._documents.items():
-            send(entity, indexes=[_time_column(times)],
+            send(entity, indexes=[time_column(times)],
                  columns=rr.TextDocument.columns(text=texts, media_type=["text/markdown"] * len(texts)))
         for (entity, z), (times, rows, labels) in self._points.items():  # labels in the same chunk
             if not self._draws(entity, any(len(r) for r in rows)):
                 continue
-            columns = [_points_column(_xyz(_cat(rows), z), [len(r) for r in rows])]
+            columns = [points_column(xyz_at(concat_xy(rows), z), [len(r) for r in rows])]
             if any(r is not None for r in labels):
-                columns.append(_sparse_column(rr.Points3D.descriptor_labels(), labels,
+                columns.append(sparse_column(rr.Points3D.descriptor_labels(), labels,
                                               lambda flat: pa.array(flat, pa.string())))
-            send(entity, indexes=[_time_column(times)], columns=columns)
+            send(entity, indexes=[time_column(times)], columns=columns)
         for (entity, z), (times, rows, colours) in self._strips.items():  # colours in the same chunk
             if not self._draws(entity, any(len(r) for r in rows)):
                 continue
             flat = [s for row in rows for s in row]
-            columns = [_strip_column(flat, z, [len(r) for r in rows])]
+            columns = [strip_column(flat, z, [len(r) for r in rows])]
             if any(r is not None for r in colours):
-                columns.append(_sparse_column(rr.LineStrips3D.descriptor_colors(), colours, lambda flat: (
+                columns.append(sparse_column(rr.LineStrips3D.descriptor_colors(), colours, lambda flat: (
                     rr.components.ColorBatch(np.array(flat, dtype=np.uint8).reshape(-1, 4)).as_arrow_array())))
-            send(entity, indexes=[_time_column(times)], columns=columns)
+            send(entity, indexes=[time_column(times)], columns=columns)
         for (entity, z), (times, origins, vectors) in self._arrows.items():
-            send(entity, indexes=[_time_column(times)],
-                 columns=rr.Arrows3D.columns(origins=_xyz(_cat(origins), z), vectors=_xyz(_cat(vectors), 0.0))
+            send(entity, indexes=[time_column(times)],
+                 columns=rr.Arrows3D.columns(origins=xyz_at(concat_xy(origins), z),
+                                             vectors=xyz_at(concat_xy(vectors), 0.0))
                  .partition([len(o) for o in origins]))
         for (kind, entities, z), (times, rows) in self._fleet.items():
             t = np.asarray(times, dtype=np.float64)
@@ -422,19 +423,19 @@ class Recorder:
                 ones = np.ones(len(t), dtype=np.int32)
                 if len({r.shape for r in rows}) == 1:  # every row alike (hulls): one stack, (n, T, m, 2)
                     for entity, d in zip(entities, np.stack(rows, axis=1)):
-                        send(entity, indexes=[_time_column(t)], columns=[_strip_column(d, z, ones)])
+                        send(entity, indexes=[time_column(t)], columns=[strip_column(d, z, ones)])
                     continue
                 for j, entity in enumerate(entities):
-                    send(entity, indexes=[_time_column(t)], columns=[_strip_column([r[j] for r in rows], z, ones)])
+                    send(entity, indexes=[time_column(t)], columns=[strip_column([r[j] for r in rows], z, ones)])
                 continue
             data = np.stack(rows, axis=1)  # (n, T, ...)
             for entity, d in zip(entities, data):
                 if kind == "scalar":
                     ok = np.isfinite(d)
                     if ok.any():
-                        send(entity, indexes=[_time_column(t[ok])], columns=[_scalar_column(d[ok])])
+                        send(entity, indexes=[time_column(t[ok])], columns=[scalar_column(d[ok])])
                 else:
-                    send(entity, indexes=[_time_column(t)], columns=[_points_column(_xyz(d, z), 1)])
+                    send(entity, indexes=[time_column(t)], columns=[points_column(xyz_at(d, z), 1)])
         self._write_batches()
         for buffer in (self._scalars, self._own_buffers, self._texts, self._states, self._documents, self._points,
                        self._strips, self._arrows, self._fleet):
@@ -478,125 +479,3 @@ class Recorder:
 
     def __exit__(self, *exc) -> None:
         self.close()
-
-
-class _ArrowBatch:
-    """A ready arrow array as a component batch (for :class:`rerun.ComponentColumn`)."""
-
-    def __init__(self, array: pa.Array):
-        self._array = array
-
-    def as_arrow_array(self) -> pa.Array:
-        return self._array
-
-
-_STRIP_TYPE = rr.components.LineStrip3DBatch._ARROW_DATATYPE
-
-
-def _strip_column(strips: list[np.ndarray], z: float, per_row) -> rr.ComponentColumn:
-    """The ``LineStrips3D:strips`` column of rows holding ``per_row`` strips each (strips (m, 2)
-    world xy at height z, or an array (k, m, 2) of strips of one length), built as one arrow list
-    array (no per-strip conversion)."""
-    if isinstance(strips, np.ndarray):
-        lengths, flat = np.full(len(strips), strips.shape[1], dtype=np.int32), strips.reshape(-1, 2)
-    else:
-        lengths, flat = np.fromiter((len(s) for s in strips), dtype=np.int32, count=len(strips)), _cat(strips)
-    offsets = np.concatenate([[0], np.cumsum(lengths, dtype=np.int32)]).astype(np.int32)
-    points = _vec3_array(_xyz(flat, z))
-    array = pa.ListArray.from_arrays(pa.array(offsets, pa.int32()), points, type=_STRIP_TYPE)
-    return rr.ComponentColumn(rr.LineStrips3D.descriptor_strips(), _ArrowBatch(array), lengths=per_row)
-
-
-_VEC3_TYPE = Vec3DBatch._ARROW_DATATYPE
-
-
-def _vec3_array(xyz) -> pa.Array:
-    """Points (k, 3) as float32 ``Vec3D`` arrow values: the array ``Vec3DBatch(xyz).as_arrow_array()``
-    builds (its own conversion: flat float32, contiguous, a fixed-size list of 3), without its
-    per-call checks (~0.4 ms a call, a call per column)."""
-    flat = np.ascontiguousarray(np.asarray(xyz, dtype=np.float32).reshape(-1, 3)).reshape(-1)
-    return pa.FixedSizeListArray.from_arrays(flat, type=_VEC3_TYPE)
-
-
-class _Column:
-    """A ready arrow list array (a row each) as a component column for ``send_columns``."""
-
-    def __init__(self, descriptor, array: pa.Array):
-        self._descriptor, self._array = descriptor, array
-
-    def component_descriptor(self):
-        return self._descriptor
-
-    def as_arrow_array(self) -> pa.Array:
-        return self._array
-
-
-def _sparse_column(descriptor, rows: list, to_arrow) -> _Column:
-    """A column with a list of values (``to_arrow(flat values)``) in the rows where ``rows`` has
-    one and null in those where it holds None: Rerun's latest-at skips null rows, so rows without
-    labels (or colours) keep the latest ones, as rows of an entity of their own did."""
-    lengths = np.fromiter((0 if r is None else len(r) for r in rows), dtype=np.int32, count=len(rows))
-    offsets = pa.array(np.concatenate([[0], np.cumsum(lengths, dtype=np.int32)]).astype(np.int32))
-    values = to_arrow([v for r in rows if r is not None for v in r])
-    mask = pa.array(np.fromiter((r is None for r in rows), dtype=bool, count=len(rows)))
-    return _Column(descriptor, pa.ListArray.from_arrays(offsets, values, mask=mask))
-
-
-_SCALARS = rr.Scalars.descriptor_scalars()
-_POSITIONS = rr.Points3D.descriptor_positions()
-
-
-def _list_offsets(n_rows: int, per_row) -> pa.Array:
-    """int32 list offsets of ``n_rows`` rows of ``per_row`` values each (an int, or one per row)."""
-    if np.ndim(per_row) == 0:
-        return pa.array(np.arange(n_rows + 1, dtype=np.int32) * np.int32(per_row))
-    return pa.array(np.concatenate([[0], np.cumsum(per_row, dtype=np.int32)]).astype(np.int32))
-
-
-def _scalar_column(values, per_row=1) -> _Column:
-    """The ``Scalars:scalars`` column of float64 ``values``, ``per_row`` (an int, or one per row)
-    to a row: the arrays ``rr.Scalars.columns(...).partition(...)`` builds, without its per-call cost."""
-    v = pa.array(np.asarray(values, dtype=np.float64).reshape(-1))
-    n_rows = len(v) // per_row if np.ndim(per_row) == 0 else len(per_row)
-    return _Column(_SCALARS, pa.ListArray.from_arrays(_list_offsets(n_rows, per_row), v))
-
-
-def _points_column(xyz: np.ndarray, per_row) -> _Column:
-    """The ``Points3D:positions`` column of points (k, 3) [m], ``per_row`` (an int, or one per row)
-    to a row (float32 xyz, as ``rr.Points3D.columns`` writes them)."""
-    points = _vec3_array(xyz)
-    n_rows = len(points) // per_row if np.ndim(per_row) == 0 else len(per_row)
-    return _Column(_POSITIONS, pa.ListArray.from_arrays(_list_offsets(n_rows, per_row), points))
-
-
-class _TimeColumn:
-    """A ``sim_time`` index column (what ``rr.TimeColumn(..., duration=...)`` gives ``send_columns``)."""
-
-    def __init__(self, ns: np.ndarray):
-        self._array = pa.array(ns.astype("timedelta64[ns]"), pa.duration("ns"))
-
-    @staticmethod
-    def timeline_name() -> str:
-        return TIMELINE
-
-    def as_arrow_array(self) -> pa.Array:
-        return self._array
-
-
-def _time_column(times) -> _TimeColumn:
-    """Simulation times [s] as a ``sim_time`` column (rounded to ns like ``set_time``)."""
-    return _TimeColumn(np.rint(np.asarray(times, dtype=np.float64) * 1e9).astype(np.int64))
-
-
-def _cat(arrays: list[np.ndarray]) -> np.ndarray:
-    return np.concatenate(arrays) if arrays else np.zeros((0, 2))
-
-
-def _rgba(colour) -> tuple[int, int, int, int]:
-    c = tuple(int(v) for v in colour)
-    return c if len(c) == 4 else (*c, 255)
-
-
-def _xyz(points_xy, z: float) -> np.ndarray:
-    p = np.asarray(points_xy, dtype=np.float64).reshape(-1, 2)
-    return np.column_stack([p, np.full(len(p), z)])
