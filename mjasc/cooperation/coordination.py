@@ -298,6 +298,12 @@ class Coordination(CoordinationMethod):
         other (:meth:`~mjasc.cooperation.link.LinkEndpoint.decide_together`)."""
         LinkEndpoint.decide_together([c.link for c in coordinations], t_s, positions_m, limits)
 
+    @staticmethod
+    def take_in_fleet(coordinations, t_s: float, positions_m, gammas_m, limits) -> None:
+        """:meth:`decide_link` with ``limits`` then each one's :meth:`take_in` with ``decided``, in one
+        pass (:func:`~mjasc.cooperation.fleet_speed_law.take_in_fleet`)."""
+        fleet_speed_law.take_in_fleet(coordinations, t_s, positions_m, gammas_m, limits)
+
     def speed_correction(self, t_s: float, nav, gamma_m: float) -> float:
         """Factor f_i on the mission speed (see the module docstring), from the newest data."""
         law = self._consensus(t_s, nav, gamma_m)

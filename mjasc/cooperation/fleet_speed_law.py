@@ -9,7 +9,7 @@ import numpy as np
 
 from mjasc.cooperation.link import LinkEndpoint
 
-__all__ = ["speed_correction_many", "speed_correction_fleet"]
+__all__ = ["speed_correction_many", "speed_correction_fleet", "take_in_fleet"]
 
 
 def speed_correction_many(calls) -> list[float]:
@@ -68,6 +68,24 @@ def speed_correction_fleet(coordinations, t_s: float, positions_m, gammas_m) -> 
         c.last_error_m, c.last_factor, c.last_xi = lead, f, own
         out.append(f)
     return out
+
+
+def take_in_fleet(coordinations, t_s: float, positions_m, gammas_m, limits) -> None:
+    """The comms slot's second half for several vessels at one time ``t_s``: the link decides (each
+    one up to ``limits``, its own message id + 1) and delivers for all of them at once
+    (:meth:`~mjasc.cooperation.link.LinkEndpoint.receive_together`), then each takes in what arrived
+    and notes the formation's state, as its ``Coordination.take_in(t, nav, γ, decided=True)`` after
+    ``decide_link`` does (the same draws, states and statistics: a receiver's arrivals touch only
+    its own state)."""
+    arrivals = LinkEndpoint.receive_together([c.link for c in coordinations], t_s, positions_m, limits)
+    for c, arrived, g in zip(coordinations, arrivals, gammas_m):
+        if arrived:
+            c._take(t_s, arrived)
+        c._time_out(t_s)
+        _, lead, spread, n = c.coordination_error(t_s, g)
+        c.last_xi, c.last_spread_m = c.xi(g), spread
+        if n:
+            c._history.append((float(t_s), lead, spread))
 
 
 def _factors(coordinations, laws) -> list[float]:
