@@ -349,10 +349,14 @@ def _fleet_run(batched, n=12, duration_s=25.0, dt=0.1):
         if step % 10 == 0:
             if batched:
                 ids = [coords[k].broadcast(t, navs[k], gam[k]) for k in talking]
-                _Coordination.decide_link([coords[k] for k in talking], t, [navs[k].position_m for k in talking],
-                                          [i + 1 for i in ids])
-                for k in talking:
-                    coords[k].take_in(t, navs[k], gam[k], decided=True)
+                if batched == "fleet":  # (take_in_fleet: the link delivering at once)
+                    _Coordination.take_in_fleet([coords[k] for k in talking], t, [navs[k].position_m for k in talking],
+                                                [gam[k] for k in talking], [i + 1 for i in ids])
+                else:
+                    _Coordination.decide_link([coords[k] for k in talking], t, [navs[k].position_m for k in talking],
+                                              [i + 1 for i in ids])
+                    for k in talking:
+                        coords[k].take_in(t, navs[k], gam[k], decided=True)
             else:
                 for k in talking:
                     coords[k].exchange(t, navs[k], gam[k])

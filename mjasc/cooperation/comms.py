@@ -250,12 +250,12 @@ class CommsNetwork:
             np.add.at(self._pair_delay_s[:, r], senders, delays)
         return out
 
-    def receive_many(self, t_s: float, receivers, positions) -> list:
-        """:meth:`decide_many` for ``receivers`` at their ``positions``, then each one's
+    def receive_many(self, t_s: float, receivers, positions, limits=None) -> list:
+        """:meth:`decide_many` for ``receivers`` at their ``positions`` (and ``limits``), then each one's
         :meth:`receive_raw` with ``decide=False``, in their order: a list of arrivals per receiver
         (an empty tuple when nothing is due: most control ticks). The same decisions, draws and
         statistics as those calls."""
-        self.decide_many(t_s, receivers, positions)
+        self.decide_many(t_s, receivers, positions, limits)
         pending_all, none = self._pending, ()
         out = []
         for name in receivers:

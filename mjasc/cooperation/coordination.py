@@ -142,34 +142,27 @@ class Coordination(CoordinationMethod):
 
     def _message(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None) \
             -> TeamMessage:
-        kw = {}
-        if mission is not None:
-            kw.update(phase=self.phase, mission=mission)
+        # TeamMessage(name, position, heading, velocity, speed, radius, ...) without the frozen
+        # __init__'s sixteen setattr calls: every field in order, the defaults where there is no value
         plan = plan if plan is not None else self._own_plan(t_s, guidance)
-        if plan is not None:
-            kw["plan_times_s"], kw["plan_points_m"] = plan
-        if self.path_length_m is not None:
-            g = clip_float(float(gamma_m), 0.0, self.path_length_m)
+        plan_t, plan_xy = plan if plan is not None else (np.zeros(0), np.zeros((0, 2)))
+        length = self.path_length_m
+        if length is not None:
+            g = clip_float(float(gamma_m), 0.0, length)
             chi = float(self.path.tangent_angle(g))
             along = float(np.dot(nav.velocity_m_s[:2], (np.cos(chi), np.sin(chi))))
-            kw.update(gamma_m=float(gamma_m), path_length_m=self.path_length_m, xi=self.xi(gamma_m),
-                      xi_rate_1_s=along / self.path_length_m, offset_m=self.config.formation_offset_m)
-        if tracks:
-            kw["tracks"] = tuple(tracks)
-        # TeamMessage(name, position, heading, velocity, speed, radius, **kw) without the frozen
-        # __init__'s sixteen setattr calls: every field in order, the defaults where kw has none
-        msg = object.__new__(TeamMessage)
-        fields = msg.__dict__
-        fields.update(sender=self.name, position_m=np.array(nav.position_m[:2], dtype=float),
-                      heading_rad=float(nav.heading_rad), velocity_m_s=np.array(nav.velocity_m_s[:2], dtype=float),
-                      mission_speed_m_s=self.mission_speed_m_s, radius_m=self.radius_m)
-        if "plan_times_s" in kw:
-            fields.update(plan_times_s=kw["plan_times_s"], plan_points_m=kw["plan_points_m"])
+            offset = self.config.formation_offset_m
+            gamma, xi, rate = float(gamma_m), (float(gamma_m) - offset) / length, along / length  # (xi(γ))
         else:
-            fields.update(plan_times_s=np.zeros(0), plan_points_m=np.zeros((0, 2)))
-        fields.update(gamma_m=kw.get("gamma_m"), path_length_m=kw.get("path_length_m"), xi=kw.get("xi"),
-                      xi_rate_1_s=kw.get("xi_rate_1_s"), offset_m=kw.get("offset_m"), tracks=kw.get("tracks", ()),
-                      phase=kw.get("phase", 0), mission=kw.get("mission"))
+            gamma = xi = rate = offset = None
+        msg = object.__new__(TeamMessage)
+        msg.__dict__.update(sender=self.name, position_m=np.array(nav.position_m[:2], dtype=float),
+                            heading_rad=float(nav.heading_rad),
+                            velocity_m_s=np.array(nav.velocity_m_s[:2], dtype=float),
+                            mission_speed_m_s=self.mission_speed_m_s, radius_m=self.radius_m, plan_times_s=plan_t,
+                            plan_points_m=plan_xy, gamma_m=gamma, path_length_m=length, xi=xi, xi_rate_1_s=rate,
+                            offset_m=offset, tracks=tuple(tracks) if tracks else (),
+                            phase=self.phase if mission is not None else 0, mission=mission)
         return msg
 
     def _own_plan(self, t_s: float, guidance):
@@ -297,6 +290,12 @@ class Coordination(CoordinationMethod):
         + 1, their :meth:`take_in` with ``decided``): the same draws as their calls one after the
         other (:meth:`~mjasc.cooperation.link.LinkEndpoint.decide_together`)."""
         LinkEndpoint.decide_together([c.link for c in coordinations], t_s, positions_m, limits)
+
+    @staticmethod
+    def take_in_fleet(coordinations, t_s: float, positions_m, gammas_m, limits) -> None:
+        """:meth:`decide_link` with ``limits`` then each one's :meth:`take_in` with ``decided``, in one
+        pass (:func:`~mjasc.cooperation.fleet_speed_law.take_in_fleet`)."""
+        fleet_speed_law.take_in_fleet(coordinations, t_s, positions_m, gammas_m, limits)
 
     def speed_correction(self, t_s: float, nav, gamma_m: float) -> float:
         """Factor f_i on the mission speed (see the module docstring), from the newest data."""

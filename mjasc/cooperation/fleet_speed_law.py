@@ -9,7 +9,7 @@ import numpy as np
 
 from mjasc.cooperation.link import LinkEndpoint
 
-__all__ = ["speed_correction_many", "speed_correction_fleet"]
+__all__ = ["speed_correction_many", "speed_correction_fleet", "take_in_fleet"]
 
 
 def speed_correction_many(calls) -> list[float]:
@@ -27,15 +27,65 @@ def speed_correction_fleet(coordinations, t_s: float, positions_m, gammas_m) -> 
     factors, states, draws and statistics (each receiver's arrivals touch only its own state, so
     delivering all of them before the laws changes nothing)."""
     arrivals = LinkEndpoint.receive_together([c.link for c in coordinations], t_s, positions_m)
-    laws = []
+    # Each vessel's law as Coordination._law works it out (written out here: no _law, _team_view,
+    # xi, _factor calls per vessel and tick), then one tanh for the followers, then each factor as
+    # Coordination._factor computes it — the same operations in the same order.
+    laws, scaled = [], []  # laws: (c, view, own, e, n) or None (no path); scaled: the followers' e_i / e_s
     for c, arrived, g in zip(coordinations, arrivals, gammas_m):
         if arrived:
             c._take(t_s, arrived)
+        cfg = c.config
         view = c._team
-        if view is None or t_s - view.oldest_active_s > c.config.neighbour_timeout_s:
+        if view is None or t_s - view.oldest_active_s > cfg.neighbour_timeout_s:
             c._time_out(t_s)  # (nothing to time out otherwise)
-        laws.append(c._law(t_s, g))
-    return _factors(coordinations, laws)
+        length = c.path_length_m
+        if length is None:
+            laws.append(None)
+            continue
+        view = c._team
+        if view is None:
+            view = c._team_view()
+        own = (float(g) - cfg.formation_offset_m) / length  # Coordination.xi
+        n = len(view.rows)
+        e = view.l_bar * view.gap_sum(t_s, cfg.extrapolate, own) if n else 0.0
+        laws.append((c, view, own, e, n))
+        if cfg.role != "leader":
+            scaled.append(e / cfg.error_scale_m)
+    th = iter(np.tanh(np.array(scaled)).tolist() if scaled else ())
+    out = []
+    for law in laws:
+        if law is None:
+            out.append(1.0)
+            continue
+        c, view, own, e, n = law
+        cfg = c.config
+        speed = c.mission_speed_m_s
+        ff = view.omega * c.path_length_m / speed
+        lead = e / n if n else 0.0
+        corr = 0.0 if cfg.role == "leader" else cfg.max_speed_correction * next(th)
+        f = ff * (1.0 - corr)
+        f = float(min(f, c.top_speed_m_s / speed))
+        c.last_error_m, c.last_factor, c.last_xi = lead, f, own
+        out.append(f)
+    return out
+
+
+def take_in_fleet(coordinations, t_s: float, positions_m, gammas_m, limits) -> None:
+    """The comms slot's second half for several vessels at one time ``t_s``: the link decides (each
+    one up to ``limits``, its own message id + 1) and delivers for all of them at once
+    (:meth:`~mjasc.cooperation.link.LinkEndpoint.receive_together`), then each takes in what arrived
+    and notes the formation's state, as its ``Coordination.take_in(t, nav, γ, decided=True)`` after
+    ``decide_link`` does (the same draws, states and statistics: a receiver's arrivals touch only
+    its own state)."""
+    arrivals = LinkEndpoint.receive_together([c.link for c in coordinations], t_s, positions_m, limits)
+    for c, arrived, g in zip(coordinations, arrivals, gammas_m):
+        if arrived:
+            c._take(t_s, arrived)
+        c._time_out(t_s)
+        _, lead, spread, n = c.coordination_error(t_s, g)
+        c.last_xi, c.last_spread_m = c.xi(g), spread
+        if n:
+            c._history.append((float(t_s), lead, spread))
 
 
 def _factors(coordinations, laws) -> list[float]:

@@ -63,10 +63,11 @@ class LinkEndpoint:
             network.decide_many(t_s, names, own_positions_m, limits)
 
     @staticmethod
-    def receive_together(endpoints, t_s: float, own_positions_m) -> list:
+    def receive_together(endpoints, t_s: float, own_positions_m, limits=None) -> list:
         """:meth:`decide_together` then each one's :meth:`receive_raw` (``decide=False``), in one
         call: a list per endpoint (in their order) of what arrived by ``t_s`` (the same decisions,
-        draws and statistics; :meth:`~mjasc.cooperation.comms.CommsNetwork.receive_many`)."""
+        draws and statistics; :meth:`~mjasc.cooperation.comms.CommsNetwork.receive_many`); ``limits`` as
+        for :meth:`decide_together`."""
         if not endpoints:
             return []
         network = endpoints[0]._network
@@ -75,7 +76,7 @@ class LinkEndpoint:
             if e._network is not network:
                 raise ValueError("receive_together: the endpoints must share one network")
             names.append(e.name)
-        return network.receive_many(t_s, names, own_positions_m)
+        return network.receive_many(t_s, names, own_positions_m, limits)
 
     def stats(self) -> dict:
         """This vessel's link statistics (sent, received, lost, delays)."""

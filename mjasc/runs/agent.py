@@ -202,11 +202,14 @@ class VesselAgent:
         gamma, guidance, plan, extra, sharing = self._comms_message(nav)
         return self.coordination.broadcast(nav.time_s, nav, gamma, guidance, plan, **extra), gamma, sharing
 
-    def comms_receive(self, nav: OwnNavigation, sent: tuple) -> None:
+    def comms_receive(self, nav: OwnNavigation, sent: tuple, taken_in: bool = False) -> None:
         """The second half of :meth:`on_comms` (after :meth:`comms_send` returned ``sent`` and the
-        link was decided for this vessel): take in what arrived."""
+        link was decided for this vessel): take in what arrived (``taken_in``: the coordination
+        took it in already, :meth:`~mjasc.cooperation.coordination.Coordination.take_in_fleet`;
+        only the perception's part is left)."""
         _, gamma, sharing = sent
-        self.coordination.take_in(nav.time_s, nav, gamma, decided=True)
+        if not taken_in:
+            self.coordination.take_in(nav.time_s, nav, gamma, decided=True)
         self._comms_taken_in(nav, sharing)
 
     def _comms_message(self, nav: OwnNavigation) -> tuple:

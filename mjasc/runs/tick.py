@@ -90,10 +90,11 @@ def _comms(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
             agent.on_comms(nav)
         return
     sent = [(k, agents[k].comms_send(navs[k])) for k in range(len(agents)) if agents[k].coordination is not None]
-    Coordination.decide_link([agents[k].coordination for k, _ in sent], navs[0].time_s,
-                             [navs[k].position_m for k, _ in sent], [s[0] + 1 for _, s in sent])
+    Coordination.take_in_fleet([agents[k].coordination for k, _ in sent], navs[0].time_s,
+                               [navs[k].position_m for k, _ in sent], [s[1] for _, s in sent],
+                               [s[0] + 1 for _, s in sent])
     for k, s in sent:
-        agents[k].comms_receive(navs[k], s)
+        agents[k].comms_receive(navs[k], s, taken_in=True)
 
 
 def _prediction(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
