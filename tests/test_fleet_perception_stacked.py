@@ -51,5 +51,7 @@ def test_stacked_batch_equals_restacked_detections(monkeypatch):
             assert sa[1:] == sb[1:]
             assert a.drain_events() == b.drain_events()
             assert a.tracker.counts == b.tracker.counts
+            ft = a.tracker.fleet  # (the counts of rows per vessel, kept per change of rows: n_rows)
+            assert ft.n_rows(a.tracker.owner) == ft.rows_of(a.tracker.owner).size == len(a.tracker)
     assert sum(len(p.tracks()) for p in a_ps) >= 10
     assert any(taken) and not all(taken)  # (the fast path taken, and the reference's steps restacked)

@@ -104,6 +104,7 @@ class FleetTracker:
         self.outlines = TrackOutlines(config, cols)
         self.version = 0  # changes whenever rows are added or removed
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
+        self._sizes: tuple[int, list] = (-1, [])  # (version, each vessel's number of rows): n_rows
         self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, position of each owner, every)
         self._reports: dict | None = None  # every vessel's confirmed tracks since the last step (_report_estimates)
         self._max_range = np.zeros(0)
@@ -146,6 +147,14 @@ class FleetTracker:
             got = (self.version, (own == owner).nonzero()[0] if self.n_owners > 1 else np.arange(own.size))
             self._rows_cache[owner] = got
         return got[1]
+
+    def n_rows(self, owner: int) -> int:
+        """The number of a vessel's tracks (``rows_of(owner).size``; every vessel's counted at once,
+        once per change of rows)."""
+        got = self._sizes
+        if got[0] != self.version or len(got[1]) != self.n_owners:
+            got = self._sizes = (self.version, np.bincount(self.cols.owner, minlength=self.n_owners).tolist())
+        return got[1][owner]
 
     def counts(self, owner: int) -> dict:
         return dict(zip(COUNT_KEYS, self._counts[owner].tolist()))
