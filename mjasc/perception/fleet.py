@@ -109,6 +109,7 @@ class PerceptionFleet:
         self._scan_ids: set[int] = set()
         self._plans: dict = {}  # _plan per combination of members
         self._track_ids: set[int] = set()
+        self._sensed = None  # the last sensing pass's (members, detections, their stack for FleetTracker.step)
         self._busy = False
 
     def join(self, member) -> tuple[StaticMap, MultiTargetTracker | None]:
@@ -230,7 +231,10 @@ class PerceptionFleet:
                         [s.ranges for s in sc], [s.hit for s in sc], [s.max_range_m for s in sc],
                         [s.full_circle for s in sc], [members[k].sensor_config.range_noise_std_m for k in carve],
                         [s.hit_points_world for s in sc])
+        # the pass's detections as the tracker stacks them (its tracking step takes them as they are)
         cut = det_off.tolist()
+        self._sensed = None if restacked else (members, dets, cut, (
+            det_off[1:] - det_off[:-1], targets, centres, variances, radii, batch.occluded))
         for k, (m, c) in enumerate(zip(members, counts.tolist())):
             m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]], c)
 
@@ -304,14 +308,42 @@ class PerceptionFleet:
             ms = [m for m in members if m._tracker is not None and m._tracker.fleet is ft]
             if not ms:
                 continue
-            ft.step([m._tracker.owner for m in ms], [m._det.time_s for m in ms], [m._det for m in ms],
+            dets = [m._det for m in ms]
+            stacked = self._stacked(ms, dets)
+            ft.step([m._tracker.owner for m in ms], [d.time_s for d in dets], dets,
                     [m._scan.origin_m for m in ms], [m._targets for m in ms],
-                    [m._scan.hit_points_world for m in ms])
+                    [m._scan.hit_points_world for m in ms], stacked)
         for m in members:
             if m.method is not None:
                 m._track_with_method()
         for m in members:
             m._tracked()
+
+
+    def _stacked(self, ms, dets) -> tuple | None:
+        """The detections ``dets`` of the members ``ms`` stacked as :meth:`FleetTracker.step` takes
+        them, when they are consecutive slots of the last sensing pass and its detections (views of
+        its batch's arrays: no stacking again); None otherwise."""
+        sensed = self._sensed
+        if sensed is None:
+            return None
+        members, got, cut, full = sensed
+        p, S = len(ms), len(members)
+        k0 = 0
+        if p != S:
+            for k0 in range(S - p + 1):
+                if members[k0] is ms[0]:
+                    break
+            else:
+                return None
+        for j in range(p):
+            if members[k0 + j] is not ms[j] or got[k0 + j] is not dets[j]:
+                return None
+        if p == S:
+            return full
+        a, b = cut[k0], cut[k0 + p]
+        lens, sel, cen, var, rad, occ = full
+        return lens[k0:k0 + p], sel[a:b], cen[a:b], var[a:b], rad[a:b], occ[a:b]
 
 
 @dataclass(frozen=True, eq=False)

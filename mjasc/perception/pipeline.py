@@ -250,7 +250,7 @@ class Perception:
         else:
             tr = self._tracker
             events = tr.drain_events()
-            n = len(tr)
+            n = tr.fleet.n_rows(tr.owner)  # (= len(tr))
         for ev in events:
             self._log_events.append(ev)
             if ev.kind != "born":

@@ -104,6 +104,7 @@ class FleetTracker:
         self.outlines = TrackOutlines(config, cols)
         self.version = 0  # changes whenever rows are added or removed
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
+        self._sizes: tuple[int, list] = (-1, [])  # (version, each vessel's number of rows): n_rows
         self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, position of each owner, every)
         self._reports: dict | None = None  # every vessel's confirmed tracks since the last step (_report_estimates)
         self._max_range = np.zeros(0)
@@ -147,6 +148,14 @@ class FleetTracker:
             self._rows_cache[owner] = got
         return got[1]
 
+    def n_rows(self, owner: int) -> int:
+        """The number of a vessel's tracks (``rows_of(owner).size``; every vessel's counted at once,
+        once per change of rows)."""
+        got = self._sizes
+        if got[0] != self.version or len(got[1]) != self.n_owners:
+            got = self._sizes = (self.version, np.bincount(self.cols.owner, minlength=self.n_owners).tolist())
+        return got[1][owner]
+
     def counts(self, owner: int) -> dict:
         return dict(zip(COUNT_KEYS, self._counts[owner].tolist()))
 
@@ -163,12 +172,16 @@ class FleetTracker:
         self.team.set_positions(owner, positions)
 
     # ------------------------------------------------------------------ one tick
-    def step(self, owners, t_s, detections, origins=None, use=None, points=None) -> None:
+    def step(self, owners, t_s, detections, origins=None, use=None, points=None, stacked=None) -> None:
         """One scan for each vessel of ``owners`` (p,) at its time t_s (p,) [s]: its ``detections``
         (a :class:`~mjasc.perception.detection.Detections` or None: coast), sensor origin (2,) [m]
         or None (no out-of-range test), ``use`` (m,) bool or None (default: the non-extended
         detections), and its scan's returns (k, 2) [m] in the order of ``detections.labels`` or None
-        (for the outlines of slow tracks). Lists of p."""
+        (for the outlines of slow tracks). Lists of p. ``stacked``: None, or every vessel's
+        detections already stacked in vessel order, as the sensing pass has them (its detection
+        batch: no stacking again) — (detections per vessel (p,) int64, ``use`` (M,) bool, centres
+        (M, 2) [m], variances (M,) [m²], radii (M,) [m], occluded (M,) bool), the same values as
+        ``detections`` and ``use`` stacked."""
         cfg = self.config
         self._reports = None
         p = len(owners)
@@ -191,17 +204,18 @@ class FleetTracker:
         points = [None] * p if points is None else points
         # every vessel's selected detections, stacked in vessel order (one compiled pass)
         dets = list(detections)
-        lens = [0 if d is None else d.centres_m.shape[0] for d in dets]
-        if any(lens):
-            live = [(d, u) for d, u, m in zip(dets, use, lens) if m]
-            cat = np.concatenate
-            d_pos, idx, z, var, rad, occ, m_q = select_detections(
-                np.array(lens, dtype=np.int64),
-                cat([d.targets if u is None else np.asarray(u, dtype=bool) for d, u in live]),
-                cat([d.centres_m for d, _ in live]), cat([d.variances_m2 for d, _ in live]),
-                cat([d.radii_m for d, _ in live]),
-                cat([d.occluded if d.occluded is not None else np.zeros(len(d), bool) for d, _ in live]),
-                bool(cfg.use_detection_variance), self._R)
+        if stacked is None:
+            lens = [0 if d is None else d.centres_m.shape[0] for d in dets]
+            if any(lens):
+                live = [(d, u) for d, u, m in zip(dets, use, lens) if m]
+                cat = np.concatenate
+                stacked = (np.array(lens, dtype=np.int64),
+                           cat([d.targets if u is None else np.asarray(u, dtype=bool) for d, u in live]),
+                           cat([d.centres_m for d, _ in live]), cat([d.variances_m2 for d, _ in live]),
+                           cat([d.radii_m for d, _ in live]),
+                           cat([d.occluded if d.occluded is not None else np.zeros(len(d), bool) for d, _ in live]))
+        if stacked is not None and stacked[1].size:
+            d_pos, idx, z, var, rad, occ, m_q = select_detections(*stacked, bool(cfg.use_detection_variance), self._R)
         else:
             d_pos = idx = np.zeros(0, dtype=np.int64)
             z, var, rad, occ = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
@@ -390,7 +404,7 @@ class FleetTracker:
             o, t = int(owners[q]), float(t_o[q])
             events = self.events[o]
             for tid, zj in zip(ll[a:b], zl[a:b]):
-                events.append(TrackEvent(t, "born", tid, f"track {tid} born at {_fmt(zj)}"))
+                events.append(TrackEvent(t, "born", tid, f"track {tid} born at ({zj[0]:.1f}, {zj[1]:.1f}) m"))  # (as _fmt)
             self._last_assign[o].append((local[a:b], dets[a:b]))
             a = b
 

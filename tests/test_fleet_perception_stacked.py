@@ -1,0 +1,57 @@
+"""The tracking pass takes the sensing pass's detection batch as it is (``FleetTracker.step(...,
+stacked=...)``, no stacking of each vessel's detections again): the same tracks, events and
+counts, bit for bit, as the reference form that stacks every vessel's ``Detections`` again (the
+world of tests/test_fleet_perception.py: five vessels, two tracking configurations, one vessel
+scanning at half the rate, clutter)."""
+
+import numpy as np
+import mujoco
+
+from mjasc.perception.fleet import PerceptionFleet
+from mjasc.perception.tracking.fleet import FleetTracker
+from tests.test_fleet_perception import DT, _perceptions, _state, _targets, _world
+
+
+class _Restacking(PerceptionFleet):
+    """The reference: every tracking step stacks the vessels' detections itself."""
+
+    def _sense(self, members, stack):
+        super()._sense(members, stack)
+        self._sensed = None
+
+
+def test_stacked_batch_equals_restacked_detections(monkeypatch):
+    taken = []
+    step = FleetTracker.step
+
+    def counting(self, *args, **kw):
+        taken.append(len(args) > 6 and args[6] is not None)
+        return step(self, *args, **kw)
+
+    monkeypatch.setattr(FleetTracker, "step", counting)
+    world = _world()
+    fast, slow = PerceptionFleet(), _Restacking()
+    a_ps = _perceptions(world, lambda: fast)
+    b_ps = _perceptions(world, lambda: slow)
+    d = world.data
+    n = len(world.mocap_id)
+    for k in range(int(30 / DT)):
+        d.mocap_pos[world.mocap_id, :2] = _targets(k, n)
+        d.time = k * DT
+        mujoco.mj_kinematics(world.model, d)
+        for ps in (a_ps, b_ps):
+            for p in ps:
+                p.sense(k * DT)
+            for p in ps:
+                p.update_tracks(k * DT)
+        for a, b in zip(a_ps, b_ps):
+            sa, sb = _state(a), _state(b)
+            for x, y in zip(sa[0], sb[0]):
+                assert x.dtype == y.dtype and np.array_equal(x, y)
+            assert sa[1:] == sb[1:]
+            assert a.drain_events() == b.drain_events()
+            assert a.tracker.counts == b.tracker.counts
+            ft = a.tracker.fleet  # (the counts of rows per vessel, kept per change of rows: n_rows)
+            assert ft.n_rows(a.tracker.owner) == ft.rows_of(a.tracker.owner).size == len(a.tracker)
+    assert sum(len(p.tracks()) for p in a_ps) >= 10
+    assert any(taken) and not all(taken)  # (the fast path taken, and the reference's steps restacked)
