@@ -105,13 +105,6 @@ class ControlTick:
             checked = [tr for tr in self._predicted_tracks.values() if tr.team_member not in from_broadcast]
             self._predicted_motion = TrackMotions(checked)
             self._predicted_row = {tr.track_id: k for k, tr in enumerate(checked)}
-            known = sorted(self._predicted_row.items())
-            self._predicted_ids = (np.array([i for i, _ in known], dtype=np.int64).reshape(-1),
-                                   np.array([k for _, k in known], dtype=np.intp).reshape(-1))
-        if type(tracks) is TrackRows:  # its columns as they are: selection and check compiled
-            known_ids, known_rows = self._predicted_ids
-            return self._predicted_motion.farther_than_ids(known_ids, known_rows, tracks.track_ids, tracks.times_s,
-                                                           tracks.positions_m, self.config.track_deviation_m)
         row = self._predicted_row
         ids, times, pos = track_columns(tracks)  # (a TrackRows' own columns: no estimate made)
         sel = [(row[i], k) for k, i in enumerate(ids) if i in row]

@@ -111,27 +111,6 @@ class TrackMotions:
         pred = self.at(rows, times[:, None])[:, 0]
         return bool((np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > limit).any())
 
-    def farther_than_ids(self, known_ids, known_rows, ids, times, positions_m, distance_m: float) -> bool:
-        """:meth:`farther_than` of the tracks among ``ids`` (k,) whose id is one of ``known_ids``
-        (sorted ascending, int64) — row ``known_rows[j]`` for ``known_ids[j]`` —, in their order,
-        with their ``times`` (k,) [s] and ``positions_m`` (k, 2) [m]; False when none is known. The
-        selection, the turning rows' angles and, when no row turns or follows a plan, the check
-        itself in one compiled pass; else :meth:`farther_than`'s second pass or :meth:`at`."""
-        ids = np.array(ids, dtype=np.int64)
-        times = np.array(times, dtype=float)
-        pos = np.ascontiguousarray(positions_m, dtype=float)
-        k = ids.size
-        rows, ts, ps, angles = np.empty(k, dtype=np.intp), np.empty(k), np.empty((k, 2)), np.empty(k)
-        code, n, n_turn = _known_farther(known_ids, known_rows, self._par, self._kind, ids, times, pos,
-                                         float(distance_m), rows, ts, ps, angles)
-        if code < 2:
-            return code == 1
-        if code == 2:
-            th = angles[:n_turn]
-            return bool(_farther(self._par, self._kind, rows[:n], ts[:n], ps[:n], float(distance_m),
-                                 np.sin(th), np.cos(th)))
-        return self.farther_than(rows[:n], ts[:n], ps[:n], distance_m)
-
     def within(self, times, positions_m, radii_m) -> np.ndarray:
         """Whether each track lay at each of the times ``times`` (H,) [s] within reach of the
         positions ``positions_m`` (H, 2) [m]: (m, H) bool, ``np.hypot`` of :meth:`at`'s positions
@@ -465,53 +444,6 @@ def _farther(par, kind, rows, times, pos, limit, sin_t, cos_t):
         if math.hypot(x - pos[i, 0], y - pos[i, 1]) > limit:
             return True
     return False
-
-
-@kernel
-def _known_farther(known_ids, known_rows, par, kind, ids, times, pos, limit, rows, ts, ps, angles):
-    """:meth:`TrackMotions.farther_than_ids`' compiled pass: the known ids' rows, times and positions
-    in order into ``rows``, ``ts``, ``ps`` (binary search in ``known_ids``); the turning rows' angles
-    θ₀ + ω τ into ``angles`` (:func:`_turn_angles`). Returns (code, selected, turning): code 0 or 1
-    the answer (none selected: 0; no row turning or on a plan: :func:`_farther` with no sine read),
-    2 some row turns (its sines and cosines wanted), 3 a row follows a plan."""
-    n = 0
-    n_turn = 0
-    plan = False
-    m = known_ids.size
-    for k in range(ids.size):
-        x = ids[k]
-        lo, hi = 0, m
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if known_ids[mid] < x:
-                lo = mid + 1
-            else:
-                hi = mid
-        if lo == m or known_ids[lo] != x:
-            continue
-        r = known_rows[lo]
-        rows[n] = r
-        ts[n] = times[k]
-        ps[n, 0] = pos[k, 0]
-        ps[n, 1] = pos[k, 1]
-        n += 1
-        if kind[r] == 2:
-            plan = True
-        elif kind[r] == 1 and not plan:
-            angles[n_turn] = par[r, 6] + par[r, 7] * (times[k] - par[r, 2])
-            n_turn += 1
-    if n == 0:
-        return 0, n, n_turn
-    if plan:
-        return 3, n, n_turn
-    if n_turn > 0:
-        return 2, n, n_turn
-    for i in range(n):
-        r = rows[i]
-        x, y = _row_at(par, r, False, ts[i], angles, angles, 0)
-        if math.hypot(x - ps[i, 0], y - ps[i, 1]) > limit:
-            return 1, n, n_turn
-    return 0, n, n_turn
 
 
 @kernel
