@@ -263,7 +263,7 @@ def test_plans_changed_on_the_thesis_crossing_compares_the_plans_positions():
     """On the thesis crossing (3 vessels, plans broadcast over a lossy link) every plan comparison's
     positions equal ``TeamIntention.positions``, bit for bit."""
     import mjasc
-    from mjasc.avoidance import team_mates
+    from mjasc.avoidance import plan_deviation, team_mates
     from mjasc.runs.runner import Runner
 
     seen = []
@@ -274,13 +274,14 @@ def test_plans_changed_on_the_thesis_crossing_compares_the_plans_positions():
         seen.append(len(intentions))
         return got
 
-    original = team_mates.intention_positions
-    team_mates.intention_positions = checked
+    # (the comparison's readable form, plan_deviation.plans_deviate_reference, reads intention_positions)
+    original, original_deviate = plan_deviation.intention_positions, team_mates.plans_deviate
+    plan_deviation.intention_positions, team_mates.plans_deviate = checked, plan_deviation.plans_deviate_reference
     try:
         sc = mjasc.load_scenario("tasks/thesis_6_4_crossing.toml").with_overrides(duration_s=30.0, video=False)
         Runner(replace(sc, outputs=replace(sc.outputs, recording=False))).run()
     finally:
-        team_mates.intention_positions = original
+        plan_deviation.intention_positions, team_mates.plans_deviate = original, original_deviate
     assert len(seen) > 20 and max(seen) <= 4
 
 

@@ -114,6 +114,10 @@ def predict_slot(calls) -> list[AvoidanceRequest]:
     return out
 
 
+#: The control tick's request on the mission without a manoeuvre or a path switch (frozen: shared).
+_MISSION = AvoidanceRequest.of("mission", None, None, (), None)
+
+
 def control_slot(calls) -> list[AvoidanceRequest]:
     """The control tick of many vessels at once: ``calls`` is a sequence of (system, t, nav,
     guidance, perceived, team), the arguments of :meth:`CollisionAvoidance.control` per vessel.
@@ -136,7 +140,9 @@ def control_slot(calls) -> list[AvoidanceRequest]:
         if p is not None:
             system._control_predict(t, nav, p, next(results) if p[0].query is not None else [])
         override, mode, course = system._control_rest(t, nav)
-        out.append(AvoidanceRequest.of(mode, override, system._switch, (), course))
+        switch = system._switch
+        out.append(_MISSION if override is None and course is None and switch is None and mode == "mission"
+                   else AvoidanceRequest.of(mode, override, switch, (), course))
     return out
 
 

@@ -25,7 +25,8 @@ from typing import Callable
 
 import numpy as np
 
-from mjasc.avoidance.prediction.motion import TrackMotions, intention_positions
+from mjasc.avoidance.plan_deviation import plans_deviate
+from mjasc.avoidance.prediction.motion import TrackMotions
 from mjasc.core.estimates import PlannedTrack, TrackEstimate, estimate_of, estimate_replace
 
 __all__ = ["TEAM_HISTORY_S", "PlannedTrack", "TeamMates"]
@@ -271,10 +272,7 @@ class TeamMates:
         self._compared_key, self.compared_intentions = key, picture.intentions
         if not pairs:
             return False
-        ts = t + self._window_grid
-        both = intention_positions([p[0] for p in pairs] + [p[1] for p in pairs], ts)  # new plans, then the old
-        new, old = both[:len(pairs)], both[len(pairs):]
-        return bool(np.max(np.hypot(new[..., 0] - old[..., 0], new[..., 1] - old[..., 1])) > self.deviation_m)
+        return plans_deviate(pairs, t + self._window_grid, self.deviation_m)  # (new plan, old) pairs
 
 
 class _BroadcastHistory:

@@ -103,7 +103,9 @@ class TrackMotions:
         limit = float(distance_m)
         angles = np.empty(rows.size)
         n_turn = _turn_angles(self._par, self._kind, rows, times, angles)
-        if n_turn >= 0:
+        if n_turn == 0:  # no turning row: no sine or cosine read
+            return bool(_farther(self._par, self._kind, rows, times, pos, limit, angles, angles))
+        if n_turn > 0:
             th = angles[:n_turn]
             return bool(_farther(self._par, self._kind, rows, times, pos, limit, np.sin(th), np.cos(th)))
         pred = self.at(rows, times[:, None])[:, 0]
