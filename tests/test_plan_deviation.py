@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import mjasc
-from mjasc.avoidance import plan_deviation, team_mates
+from mjasc.avoidance import team_mates
 from mjasc.avoidance.plan_deviation import plans_deviate, plans_deviate_reference
 from mjasc.cooperation.messages import TeamIntention
 from mjasc.runs.runner import Runner

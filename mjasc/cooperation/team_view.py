@@ -8,9 +8,14 @@ numbers bit for bit those of its numpy form. Internal to ``mjasc.cooperation``."
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from mjasc.core.compiled import kernel, maximum, minimum
+
+if TYPE_CHECKING:
+    from mjasc.cooperation.messages import TeamMessage
 
 __all__ = []
 
