@@ -46,19 +46,7 @@ def test_the_control_tick_shortcuts_give_the_same_demo_run(monkeypatch):
 
     def full_rest(self, t, nav):  # the manoeuvre's references asked on every tick
         override, course = self._manoeuvre_refs(t, nav)
-        if self.correction is not None:
-            mode = f"avoidance:{self.correction.kind}"
-        elif self.detour is not None:
-            mode = "avoidance:detour"
-        else:
-            mode = "mission"
-        if self._last_control_t is not None:
-            self.mode_time_s[self.mode] += max(t - self._last_control_t, 0.0)
-        self._last_control_t = t
-        if mode != self.mode:
-            self._event(t, f"mode {self.mode} → {mode}")
-            self.mode = mode
-        return override, mode, course
+        return override, self._note_mode(t), course
 
     monkeypatch.setattr(CollisionAvoidance, "_control_query", full_query)
     monkeypatch.setattr(CollisionAvoidance, "_control_rest", full_rest)

@@ -122,6 +122,11 @@ class ControlTick:
         override = course = None
         if self.detour is not None or self.correction is not None or self._sharp_turn is not None:
             override, course = self._manoeuvre_refs(t, nav)
+        return override, self._note_mode(t), course
+
+    def _note_mode(self, t) -> str:
+        """The mode after this tick's manoeuvres (a correction, a detour, else the mission): its
+        time counted, its change logged as an event."""
         if self.correction is not None:
             mode = f"avoidance:{self.correction.kind}"
         elif self.detour is not None:
@@ -134,7 +139,7 @@ class ControlTick:
         if mode != self.mode:
             self._event(t, f"mode {self.mode} → {mode}")
             self.mode = mode
-        return override, mode, course
+        return mode
 
     def _manoeuvre_refs(self, t, nav) -> tuple[float | None, float | None]:
         """(speed override [m/s] or None, course override [rad] or None) of a running manoeuvre:
