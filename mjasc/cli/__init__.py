@@ -1,0 +1,54 @@
+"""The ``mjasc`` command (``python -m mjasc``): :func:`main` parses the command line
+(:mod:`mjasc.cli.parser`, which holds the usage of every command) and runs the command —
+:mod:`mjasc.cli.run_commands` (run, view, list, trial, figures, render) or
+:mod:`mjasc.cli.campaign_commands` (campaign, report, extract, search) — turning bad input into one
+line on stderr and an exit status."""
+
+from __future__ import annotations
+
+import sys
+
+import mjasc  # noqa: F401  (chooses the OpenGL backend before mujoco is imported)
+from mjasc.cli.parser import build_parser
+from mjasc.cli.run_commands import viewer_command, viewer_executable
+
+__all__ = ["main", "build_parser", "viewer_command", "viewer_executable"]
+
+#: The command-line arguments that name an input file or folder (checked before a command runs).
+_INPUTS = ("scenario", "campaign", "folder", "run")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run one command. Exit status: 0 done, 1 a run or campaign failed, 2 bad input (a scenario,
+    campaign, argument or output folder: one line on stderr, no traceback), 130 interrupted.
+    An unexpected error (a bug) is one line too; ``MJASC_TRACEBACK=1`` shows its traceback."""
+    import os
+
+    from mjasc.core.config_tables import ConfigError, path_problem, show_path
+
+    args = build_parser(argv).parse_args(argv)
+    for name in _INPUTS:
+        value = getattr(args, name, None)
+        if isinstance(value, str) and path_problem(value):
+            print(f"mjasc: {name} {show_path(value)}: not a usable file name ({path_problem(value)})", file=sys.stderr)
+            return 2
+    try:
+        return args.func(args)
+    except KeyboardInterrupt:
+        print("mjasc: interrupted", file=sys.stderr)
+        return 130
+    except ConfigError as exc:  # includes ScenarioError and OutputError
+        print(f"mjasc: {exc}", file=sys.stderr)
+        return 2
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: one line, not a traceback
+        from mjasc.campaigns.perturbation import CampaignError
+
+        if isinstance(exc, CampaignError):
+            print(f"mjasc: invalid campaign: {exc}", file=sys.stderr)
+            return 2
+        if os.environ.get("MJASC_TRACEBACK"):
+            raise
+        text = str(exc).replace("\n", " ")
+        print(f"mjasc: internal error: {type(exc).__name__}: {text[:500]} (MJASC_TRACEBACK=1 shows where)",
+              file=sys.stderr)
+        return 1

@@ -1,0 +1,122 @@
+"""The campaign commands: ``mjasc campaign`` (run one on Dask), ``report``, ``extract`` (stored runs
+as replayable scenario files) and ``search`` (failure search in an encounter family)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from mjasc.cli.arguments import not_found_hint, out_dir
+
+
+def cmd_campaign(args) -> int:
+    from mjasc.campaigns.engine import format_aggregate, run_campaign
+    from mjasc.campaigns.spec import CampaignError, load_campaign_spec
+
+    try:
+        campaign = load_campaign_spec(args.campaign).with_overrides(runs=args.runs)
+    except CampaignError as exc:
+        print(f"mjasc: invalid campaign: {exc}{not_found_hint(args.campaign, 'campaign')}", file=sys.stderr)
+        return 2
+    out = out_dir(args.out, Path("runs") / "campaigns" / campaign.name)
+    try:
+        result = run_campaign(campaign, out, scheduler=args.scheduler, workers=args.workers,
+                              progress=args.progress and sys.stderr.isatty(), max_attempts=args.max_attempts,
+                              time_limit_s=args.time_limit)
+    except (ValueError, RuntimeError, OSError) as exc:
+        print(f"mjasc: campaign failed: {exc}", file=sys.stderr)
+        return 1
+    info = result.info
+    print(f"{campaign.name}: {info['runs_to_do']} run(s) done now, {info['already_done']} already in the store "
+          f"({info['wall_time_s']} s)")
+    print(format_aggregate(result.aggregate, campaign.name))
+    for kind, path in result.files.items():
+        print(f"  {kind}: {path}")
+    return 0
+
+
+def cmd_report(args) -> int:
+    from mjasc.campaigns.report import format_report, report_data, write_report
+
+    try:
+        if args.json:
+            print(json.dumps(report_data(args.folder), default=str))
+            return 0
+        if not (Path(args.folder) / "campaign.sqlite").is_file():
+            raise FileNotFoundError(f"{args.folder}: no campaign here (no campaign.sqlite)")
+        out = write_report(args.folder, out_dir(args.out, Path(args.folder) / "report"), formats=args.format)
+    except FileNotFoundError as exc:
+        print(f"mjasc: {exc}", file=sys.stderr)
+        return 2
+    print(format_report(out["data"]), end="")
+    for path in out["files"]:
+        print(f"  {path}")
+    return 0
+
+
+def cmd_extract(args) -> int:
+    from mjasc.campaigns.scenario_text import write_scenario
+    from mjasc.campaigns.statistics import run_outcome
+    from mjasc.campaigns.store import CampaignStore
+
+    try:
+        store = CampaignStore.open_existing(args.folder)
+    except FileNotFoundError as exc:
+        print(f"mjasc: {exc}", file=sys.stderr)
+        return 2
+    with store:
+        runs = {(r.index, r.method): r for r in store.runs()}  # method "" unless the campaign compares methods
+    indices = {k for k, _ in runs}
+    wanted_idx = set(args.runs or [])
+    missing = sorted(wanted_idx - indices)
+    if missing:
+        print(f"mjasc: {args.folder}: no stored run {', '.join(map(str, missing))} (stored: {len(indices)} runs)",
+              file=sys.stderr)
+        return 2
+    wanted = {key for key in runs if key[0] in wanted_idx}  # an index: its run with every method
+    if args.outcome:
+        for key, r in runs.items():
+            o = run_outcome(r.metrics)
+            if (args.outcome == "failed" and r.status != "completed") or \
+                    (args.outcome in ("collision", "near_miss") and r.status == "completed" and o[args.outcome]):
+                wanted.add(key)
+    if not wanted:
+        print("mjasc: no run selected (give run indices or --outcome)" if not args.outcome else
+              f"no stored run with outcome {args.outcome}", file=sys.stderr)
+        return 2 if not args.outcome else 0
+    out = out_dir(args.out, Path(args.folder) / "scenarios")
+    paths = {}
+    for k, m in sorted(wanted):
+        r = runs[(k, m)]
+        paths[(k, m)] = path = write_scenario(r.scenario, out / (f"run_{k}_{m}.toml" if m else f"run_{k}.toml"))
+        print(f"run {k}{f' ({m})' if m else ''} ({r.family}, seed {r.seed}, {r.status}): {path}")
+    print(f"replay one with: mjasc run {paths[min(wanted)]}")
+    return 0
+
+
+def cmd_search(args) -> int:
+    from mjasc.campaigns.search import SearchConfig, search_failures
+    from mjasc.campaigns.spec import CampaignError, load_campaign_spec
+    from mjasc.core.config_tables import ConfigError
+
+    try:
+        campaign = load_campaign_spec(args.campaign)
+        config = SearchConfig(method=args.method, budget=args.budget, batch=args.batch,
+                              failure_separation_m=args.failure_separation, seed=args.seed)
+    except (CampaignError, ConfigError) as exc:
+        print(f"mjasc: invalid search: {exc}", file=sys.stderr)
+        return 2
+    out = out_dir(args.out, Path("runs") / "search" / f"{campaign.name}_{args.family}_{args.method}")
+    try:
+        res = search_failures(campaign, args.family, out, config, scheduler=args.scheduler, workers=args.workers,
+                              progress=sys.stderr.isatty())
+    except (ValueError, RuntimeError, OSError) as exc:
+        print(f"mjasc: search failed: {exc}", file=sys.stderr)
+        return 1
+    t = res.table()
+    print(f"{campaign.name} / {args.family} ({args.method}): {t['runs']} runs, {t['failures']} failure(s), "
+          f"minimum separation {t['min_separation_m']} m, median {t['median_separation_m']} m")
+    for path in res.failures:
+        print(f"  failure: {path}  (replay: mjasc run {path})")
+    return 0

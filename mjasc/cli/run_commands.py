@@ -1,0 +1,189 @@
+"""The commands about single runs: ``mjasc run``, ``view`` (and the Rerun viewer it opens),
+``list``, ``trial``, ``figures`` and ``render`` (a dm_control suite episode)."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from mjasc.cli.arguments import not_found_hint, out_dir, suite_tasks
+
+
+def cmd_run(args) -> int:
+    from mjasc.runs.runner import RunFailed, run_scenario
+    from mjasc.runs.scenario import ScenarioError, load_scenario
+
+    try:
+        scenario = load_scenario(args.scenario).with_overrides(
+            seed=args.seed, video=True if args.video or args.camera else None, duration_s=args.duration,
+            video_camera=args.camera)
+    except ScenarioError as exc:
+        print(f"mjasc: invalid scenario: {exc}{not_found_hint(args.scenario, 'scenario')}", file=sys.stderr)
+        return 2
+    out = out_dir(args.out, Path("runs") / scenario.name)
+    try:
+        result = run_scenario(scenario, out, progress=None if args.progress else False, interruptible=True)
+    except RunFailed as exc:
+        print(f"mjasc: run failed: {exc}", file=sys.stderr)
+        return 130 if exc.summary and exc.summary.get("status") == "interrupted" else 1
+    s = result.summary
+    print(f"{scenario.name}: {s['status']} — {s['sim_time_s']} s simulated in {s['wall_time_s']} s "
+          f"({s['real_time_factor']}× real time), collisions: {len(s['collisions'])}")
+    for name, v in s["vessels"].items():
+        xte = "" if v["mean_cross_track_m"] is None else \
+            f", cross-track mean {v['mean_cross_track_m']} m / max {v['max_cross_track_m']} m"
+        print(f"  {name} ({v['type']}): {v['distance_m']} m sailed{xte}, "
+              f"closest approach {v['min_clearance_to_any_m']} m")
+    for kind, path in result.files.items():
+        print(f"  {kind}: {path}")
+    if "recording" in result.files:
+        print(f"  open the recording with: mjasc view {out}  (or: {viewer_command(result.files['recording'])})")
+    return 0
+
+
+def viewer_executable() -> str | None:
+    """The Rerun viewer installed with this package: the ``rerun`` executable next to the running
+    Python (the same virtual environment, whether or not it is on PATH), else the one on PATH."""
+    import shutil
+
+    here = Path(sys.executable).parent
+    for name in ("rerun", "rerun.exe"):
+        if (here / name).is_file():
+            return str(here / name)
+    return shutil.which("rerun")
+
+
+def viewer_command(recording: str | Path) -> str:
+    """The exact shell command that opens ``recording`` in :func:`viewer_executable`."""
+    import shlex
+
+    return shlex.join([viewer_executable() or "rerun", str(recording)])
+
+
+def cmd_view(args) -> int:
+    import subprocess
+
+    target = Path(args.run)
+    rrd = target / "recording.rrd" if target.is_dir() else target
+    if not rrd.is_file():
+        print(f"mjasc: {args.run}: no recording here ({'no recording.rrd in the folder' if target.is_dir() else 'no such file'}"
+              f"; a run writes one with [outputs] recording = true)", file=sys.stderr)
+        return 2
+    exe = viewer_executable()
+    if args.print or exe is None:
+        print(viewer_command(rrd))
+        if exe is None:
+            print("mjasc: the Rerun viewer is not installed here (pip install rerun-sdk)", file=sys.stderr)
+            return 1
+        return 0
+    return subprocess.call([exe, str(rrd)])
+
+
+def cmd_list(args) -> int:
+    from mjasc.campaigns.spec import CampaignError, load_campaign_spec as load_campaign
+    from mjasc.core.resources import bundled_campaigns, bundled_scenarios
+    from mjasc.physics.vessels import available_vessels, load_vessel_type
+    from mjasc.runs.scenario import ScenarioError, load_scenario
+
+    print("vessels:")
+    for name in available_vessels():
+        v = load_vessel_type(name)
+        print(f"  {name:10s} {v.length_m:.2f} m × {v.beam_m:.2f} m, cruise {v.cruise_speed_m_s} m/s, "
+              f"top {v.top_speed_m_s} m/s — {v.description}")
+    print("scenarios:")
+    for name, path in bundled_scenarios().items():
+        try:
+            sc = load_scenario(path)
+            print(f"  {name:36s} {sc.duration_s:7.0f} s, {len(sc.vessels)} vessel(s) — {sc.description}")
+        except ScenarioError as exc:
+            print(f"  {name:36s} INVALID: {exc}")
+    print("campaigns:")
+    for name, path in bundled_campaigns().items():
+        short = name.removeprefix("campaigns/")  # what `mjasc campaign` takes
+        try:
+            c = load_campaign(path)
+            print(f"  {short:36s} {c.description}")
+        except CampaignError as exc:
+            print(f"  {short:36s} INVALID: {exc}")
+    from mjasc.plugins.registry import STAGES, available, method_class
+
+    print("methods (select with method = \"NAME\" in the stage's table; docs/plugins.md):")
+    for stage in STAGES:
+        for name in available(stage):
+            try:
+                doc = (method_class(stage, name).__doc__ or "").strip().splitlines()[0]
+            except ValueError as exc:
+                doc = f"INVALID: {exc}"
+            print(f"  {stage + ' ' + name:36s} {doc}")
+    return 0
+
+
+def cmd_trial(args) -> int:
+    from mjasc.physics import trials
+
+    try:
+        result = trials.run_trial(args.kind, args.vessel, port=args.port, starboard=args.starboard)
+    except ValueError as exc:
+        print(f"mjasc: {exc}", file=sys.stderr)
+        return 2
+    if args.json:
+        print(json.dumps(result, sort_keys=True))
+    else:
+        for k, v in result.items():
+            unit = trials.UNITS.get(k, "")
+            print(f"{k:24s} {v}{' ' + unit if unit else ''}")
+    return 0
+
+
+def cmd_figures(args) -> int:
+    import time
+
+    from mjasc.figures.thesis import make_all_figures
+
+    t0 = time.perf_counter()
+
+    def progress(text: str) -> None:
+        print(f"[{time.perf_counter() - t0:5.1f} s] {text}", flush=True)
+
+    paths = make_all_figures(out_dir(args.out, None), formats=tuple(dict.fromkeys(args.format)), progress=progress)
+    print(f"{len(paths)} file(s) in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def cmd_render(args) -> int:
+    import time
+
+    from mjasc.runs.scenario import camera_problem
+    from mjasc.suite import TASKS_BY_DOMAIN
+    from mjasc.suite.render import render_episode
+
+    tasks = TASKS_BY_DOMAIN.get(args.domain)
+    if camera_problem(args.camera):
+        print(f"mjasc: render --camera: {camera_problem(args.camera)}", file=sys.stderr)
+        return 2
+    if tasks is None or args.task not in tasks:  # checked before the output folder is made
+        what = f"domain {args.domain!r}" if tasks is None else f"task {args.task!r} of domain {args.domain!r}"
+        print(f"mjasc: render: no {what} (known: {suite_tasks(TASKS_BY_DOMAIN)})", file=sys.stderr)
+        return 2
+    out = out_dir(args.out, None)
+    print(f"rendering {args.domain} {args.task} ({args.policy} policy, seed {args.seed}) into {out} ...", flush=True)
+    t0 = time.perf_counter()
+    try:
+        result = render_episode(args.domain, args.task, policy=args.policy, out_dir=out, seed=args.seed,
+                                camera=args.camera,
+                                progress=lambda done, limit: print(f"  {100 * done // limit:3d} % ({done} of {limit} "
+                                                                   f"control steps, {time.perf_counter() - t0:.0f} s)",
+                                                                   flush=True))
+    except ValueError as exc:
+        print(f"mjasc: {exc}", file=sys.stderr)
+        return 2
+    end = "ended by the task (a collision)" if result.terminated else "ran to its time limit"
+    print(f"{args.domain} {args.task}: {result.steps} control steps, return {result.episode_return:.3f} "
+          f"(sum of rewards, each in [0, 1]); the episode {end}; {time.perf_counter() - t0:.1f} s")
+    for kind, path in (("video", result.video_path), ("recording", result.rerun_path)):
+        if path is not None:
+            print(f"  {kind}: {path}")
+    if result.rerun_path is not None:
+        print(f"  open the recording with: mjasc view {result.rerun_path}")
+    return 0
