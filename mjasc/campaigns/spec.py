@@ -56,7 +56,8 @@ from typing import Any, Iterator
 
 from mjasc.evaluation.colreg import ColregConfig
 from mjasc.campaigns.methods import apply_method, parse_methods
-from mjasc.campaigns.perturbation import CampaignError, parse_perturbation_family
+from mjasc.campaigns.perturbation import CampaignError
+from mjasc.campaigns.perturbation_family import parse_perturbation_family
 from mjasc.campaigns.scenario_text import load_run_scenario, scenario_toml, write_scenario
 from mjasc.core.config_tables import (
     check_keys,
