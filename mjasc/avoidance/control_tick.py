@@ -61,7 +61,8 @@ class ControlTick:
             self.stats["deviation_predictions"] += 1
             return set()
         if self.correction is None and self._predicted_speed is not None and \
-                abs(self._guidance.mission_speed_m_s - self._predicted_speed) > self.config.speed_change_m_s:
+                ((dv := self._guidance.mission_speed_m_s - self._predicted_speed) > self.config.speed_change_m_s
+                 or -dv > self.config.speed_change_m_s):  # (abs(dv) > the limit without its call)
             self.stats["deviation_predictions"] += 1  # own plan changed (coordination): predict again
             return set()
         team, mates = self._team, self.team_mates
@@ -134,7 +135,8 @@ class ControlTick:
         else:
             mode = "mission"
         if self._last_control_t is not None:
-            self.mode_time_s[self.mode] += max(t - self._last_control_t, 0.0)
+            dt = t - self._last_control_t
+            self.mode_time_s[self.mode] += 0.0 if 0.0 > dt else dt  # (max(dt, 0.0) without its call)
         self._last_control_t = t
         if mode != self.mode:
             self._event(t, f"mode {self.mode} → {mode}")

@@ -126,23 +126,26 @@ def control_slot(calls) -> list[AvoidanceRequest]:
     team plan, a changed mission speed, an emergency) of every vessel in one
     :func:`~mjasc.avoidance.prediction.predict_fleet` call. Predictions a decision triggers (after a
     re-plan, a finished velocity correction) run per vessel."""
-    pending, queries = [], []
-    for system, t, nav, guidance, perceived, team in calls:
+    pending, queries = [None] * len(calls), []  # (lists filled by index: the tick runs for every vessel)
+    for k, (system, t, nav, guidance, perceived, team) in enumerate(calls):
         system._guidance, system._switch, system._perceived, system._team = guidance, None, perceived, team  # _begin
-        p = system._control_query(float(t))
-        pending.append(p)
+        pending[k] = p = system._control_query(float(t))
         if p is not None and p[0].query is not None:
             queries.append(p[0].query)
     results = iter(predict_fleet_lazy(queries) if queries else ())  # (most ticks predict nothing)
-    out = []
-    for (system, t, nav, _, _, _), p in zip(calls, pending):
+    out = [None] * len(calls)
+    for k, ((system, t, nav, _, _, _), p) in enumerate(zip(calls, pending)):
         t = float(t)
         if p is not None:
             system._control_predict(t, nav, p, next(results) if p[0].query is not None else [])
-        override, mode, course = system._control_rest(t, nav)
+        if system.detour is None and system.correction is None and system._sharp_turn is None:
+            override = course = None  # (_control_rest on the mission: the mode noted only)
+            mode = system._note_mode(t)
+        else:
+            override, mode, course = system._control_rest(t, nav)
         switch = system._switch
-        out.append(_MISSION if override is None and course is None and switch is None and mode == "mission"
-                   else AvoidanceRequest.of(mode, override, switch, (), course))
+        out[k] = (_MISSION if override is None and course is None and switch is None and mode == "mission"
+                  else AvoidanceRequest.of(mode, override, switch, (), course))
     return out
 
 

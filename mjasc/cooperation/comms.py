@@ -256,12 +256,9 @@ class CommsNetwork:
         (an empty tuple when nothing is due: most control ticks). The same decisions, draws and
         statistics as those calls."""
         self.decide_many(t_s, receivers, positions, limits)
-        pending_all, none = self._pending, ()
-        out = []
-        for name in receivers:
-            pending = pending_all[name]
-            out.append(none if not pending or pending[0][0] > t_s else self.receive_raw(t_s, name, None, False))
-        return out
+        pending_all = self._pending
+        return [() if not (pending := pending_all[name]) or pending[0][0] > t_s
+                else self.receive_raw(t_s, name, None, False) for name in receivers]
 
     def decide_many(self, t_s: float, receivers, positions, limits=None) -> None:
         """Decide, for each of ``receivers`` in turn at its position ``positions[k]`` (2,) world [m],
