@@ -47,8 +47,18 @@ def speed_correction_fleet(coordinations, t_s: float, positions_m, gammas_m) -> 
         if view is None:
             view = c._team_view()
         own = (float(g) - cfg.formation_offset_m) / length  # Coordination.xi
-        n = len(view.rows)
-        e = view.l_bar * view.gap_sum(t_s, cfg.extrapolate, own) if n else 0.0
+        n = view.n_rows
+        if not n:
+            e = 0.0
+        elif view.arrays is None and cfg.extrapolate:  # view.gap_sum's list form, written out
+            acc = 0.0
+            for x, rate, sent, x_end in view.rows:
+                hi = x_end if x_end > x else x
+                ahead = x + rate * (t_s - sent)
+                acc += own - (hi if hi < ahead else ahead)
+            e = view.l_bar * acc
+        else:
+            e = view.l_bar * view.gap_sum(t_s, cfg.extrapolate, own)
         laws[j] = (c, view, own, e, n)
         if cfg.role != "leader":
             scaled[n_scaled] = e / cfg.error_scale_m

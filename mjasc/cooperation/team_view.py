@@ -31,10 +31,11 @@ class _Neighbour:
             sent_time_s, received_time_s, message, active
 
 
-def _sum(values) -> float:
+def _sum(values, n: int | None = None) -> float:
     """Σ values with numpy's summation order (sequential below 8 values, numpy's own above), so a
-    plain-float sum of a few scalars equals ``np.sum`` of them bit for bit."""
-    if len(values) >= 8:
+    plain-float sum of a few scalars equals ``np.sum`` of them bit for bit (``n``: their count,
+    when the caller knows it)."""
+    if (len(values) if n is None else n) >= 8:
         return float(np.add.reduce(values))
     acc = 0.0
     for v in values:
@@ -72,28 +73,29 @@ class _TeamView:
     send time and the end value 1 − o_j/L_j (as lists below 8 of them, arrays above)."""
 
     def __init__(self, own, neighbours):
-        lengths, speeds, rows = [own.path_length_m], [own.mission_speed_m_s], []
+        kept, rows = [], []  # kept: the terms of every neighbour in the own phase (active or not)
         oldest = np.inf
         phase = own.phase
         for nb in neighbours:
-            if nb.active:
-                oldest = min(oldest, nb.sent_time_s)
+            if nb.active and nb.sent_time_s < oldest:
+                oldest = nb.sent_time_s  # (min(oldest, sent) without its call)
             terms = nb.message.__dict__.get("_law_terms", False)
             if terms is False:
                 terms = _law_terms(nb.message)
             if terms is None or terms[0] != phase:  # a mate in another mission phase is not coordinated with
                 continue
-            lengths.append(terms[1])
-            speeds.append(terms[2])
+            kept.append(terms)
             if nb.active:
                 rows.append((terms[3], terms[4], nb.sent_time_s, terms[5]))
         self.oldest_active_s = oldest
         if own.path_length_m is None:
             self.l_bar = self.omega = np.nan
         else:
-            self.l_bar = _sum(lengths) / len(lengths)
-            self.omega = _sum(speeds) / len(speeds) / self.l_bar
+            n = 1 + len(kept)
+            self.l_bar = _sum([own.path_length_m] + [terms[1] for terms in kept], n) / n
+            self.omega = _sum([own.mission_speed_m_s] + [terms[2] for terms in kept], n) / n / self.l_bar
         self.rows = rows
+        self.n_rows = len(rows)  # (read by the speed law every control tick)
         self.arrays = np.ascontiguousarray(np.array(rows).T) if len(rows) >= 8 else None
 
     def xi_hat(self, t_s: float, extrapolate: bool):

@@ -378,7 +378,8 @@ class FleetPathFollower:
         speed, course, status = scratch
         speed[:] = speed_ref_m_s
         course[:] = course_override_rad
-        if n > SCALAR_FLEET_MAX or self._all_rows.size != n:
+        if n > SCALAR_FLEET_MAX or self._all_rows.size != n or \
+                type(self)._command_compiled is not _COMMAND_COMPILED:  # (a replaced compiled form: command's)
             return self.command(position_m, heading_rad, body_velocity, speed.copy(), dt_s,
                                 course_override_rad=course.copy())
         commands = np.empty((n, 2))
@@ -466,6 +467,9 @@ class FleetPathFollower:
         statuses = [PathFollowingStatus(*v) for v in zip(q.gamma_m.tolist(), e.tolist(), q.course_rad.tolist(),
                                                           psi_d.tolist(), u_d.tolist(), finished.tolist())]
         return np.stack([t_p, t_s], axis=-1), statuses
+
+
+_COMMAND_COMPILED = FleetPathFollower._command_compiled  # (command_all's kernel call is its body)
 
 
 class PathFollower(ControlMethod):
