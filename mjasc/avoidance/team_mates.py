@@ -145,7 +145,8 @@ class TeamMates:
         w = [0.0] * len(new)
         if turned:  # ω = wrap(Δψ) / Δt, all new messages in one array operation (elementwise: the same numbers)
             dh, dt = np.array([new[k][2] for k in turned]), np.array([new[k][3] for k in turned])
-            for k, rate in zip(turned, (np.angle(np.exp(1j * dh)) / dt).tolist()):
+            z = np.exp(1j * dh)
+            for k, rate in zip(turned, (np.arctan2(z.imag, z.real) / dt).tolist()):  # (np.angle(z) without its calls)
                 w[k] = rate
         for (name, it, _, _), rate in zip(new, w):
             nav[name] = (it.sent_time_s, it.heading_rad, rate)

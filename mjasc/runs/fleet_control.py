@@ -33,7 +33,8 @@ import math
 import numpy as np
 
 from mjasc.avoidance.system import CollisionAvoidance
-from mjasc.cooperation.coordination import Coordination
+from mjasc.cooperation import fleet_speed_law
+from mjasc.core.navigation import NavigationList
 from mjasc.guidance.path_following import FleetPathFollower, PathFollower
 from mjasc.guidance.state import GuidanceState
 from mjasc.runs.agent import ControlOutput
@@ -95,7 +96,8 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
     # γ on the mission path of every coordinated steered vessel (with its guidance before the new
     # factor): the avoidance method's mission_gamma_m (the thesis method's written out)
     laws = [k for k in range(m) if agents[steered[k]].coordination is not None]
-    coords, positions, mission_gammas = [None] * len(laws), [None] * len(laws), [None] * len(laws)
+    n_laws = len(laws)
+    coords, positions, mission_gammas = [None] * n_laws, [None] * n_laws, [None] * n_laws
     for j, k in enumerate(laws):
         i = steered[k]
         agent = agents[i]
@@ -109,7 +111,7 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
                                  else float(gammas[k]))
         else:
             mission_gammas[j] = avoidance.mission_gamma_m(agent.guidance_of(paths[k], gammas[k]))
-    factors = Coordination.speed_correction_fleet(coords, t, positions, mission_gammas) if coords else ()
+    factors = fleet_speed_law.speed_correction_fleet(coords, t, positions, mission_gammas) if coords else ()
     speeds, calls = [None] * m, [None] * m
     j = 0
     for k in range(m):
@@ -153,7 +155,7 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
                 course = float(req.course_override_rad)
         agent.mode = modes[k] = mode
         courses[k] = course
-    own = getattr(navs, "fleet", None)  # the fleet's arrays as they are when the navigations are its rows
+    own = navs.fleet if type(navs) is NavigationList else None  # the fleet's arrays, the navigations its rows
     if own is not None and m == own.heading_rad.shape[0]:
         pos, heading, body = own.position_m, own.heading_rad, own.body_velocity
     else:
