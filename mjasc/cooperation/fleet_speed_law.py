@@ -100,7 +100,9 @@ def take_in_fleet(coordinations, t_s: float, positions_m, gammas_m, limits) -> N
             c._take(t_s, arrived)
         c._time_out(t_s)
         _, lead, spread, n = c.coordination_error(t_s, g)
-        c.last_xi, c.last_spread_m = c.xi(g), spread
+        length = c.path_length_m  # (c.xi(g) written out)
+        c.last_xi = np.nan if length is None else (float(g) - c.config.formation_offset_m) / length
+        c.last_spread_m = spread
         if n:
             c._history.append((float(t_s), lead, spread))
 

@@ -47,12 +47,18 @@ def _error_floats(xis: list, own: float, l_bar: float):
     """``coordination_error``'s numbers from a few ξ̂_j in plain floats: (Σ d, mean d, spread) with
     d_j = L̄ (ξ_own − ξ̂_j), as numpy's sum, mean, max and min give them; None when a ξ̂_j is 0 or NaN
     (numpy's max / min pick among ±0 and NaN by their own rule: the caller asks numpy)."""
-    for x in xis:
+    hi = lo = own  # max(own, max(xis)) and min(own, min(xis)) in one pass (no NaN or zero among xis:
+    for x in xis:  # the builtins' picks are the values themselves)
         if x != x or x == 0.0:
             return None
+        if x > hi:
+            hi = x
+        if x < lo:
+            lo = x
+    n = len(xis)
     d = [l_bar * (own - x) for x in xis]
-    total = _sum(d)
-    return float(total), float(total / len(d)), float(l_bar * (max(own, max(xis)) - min(own, min(xis))))
+    total = _sum(d, n)
+    return float(total), float(total / n), float(l_bar * (hi - lo))
 
 
 def _law_terms(msg) -> tuple | None:
