@@ -112,7 +112,9 @@ class _TeamView:
             return np.minimum(xi + rate * (t_s - sent), np.maximum(xi, x_end)) if extrapolate else xi
         if not extrapolate:
             return [r[0] for r in self.rows]
-        return [min(x + rate * (t_s - sent), max(x, x_end)) for x, rate, sent, x_end in self.rows]
+        # min(x + ξ̇ (t − t_j), max(x, x_end)), the builtins' picks written out (as gap_sum)
+        return [hi if (hi := x_end if x_end > x else x) < (ahead := x + rate * (t_s - sent)) else ahead
+                for x, rate, sent, x_end in self.rows]
 
     def gap_sum(self, t_s: float, extrapolate: bool, own: float) -> float:
         """Σ_j (ξ_own − ξ̂_j(t)) over the active neighbours, as ``_sum`` of the gaps to

@@ -304,8 +304,12 @@ class FleetPathFollower:
         else a new fleet that takes over their states and paths (they become its rows)."""
         followers = list(followers)
         fleet = followers[0]._fleet if followers else None
-        if fleet is not None and fleet._members == followers and all(f._fleet is fleet for f in followers):
-            return fleet
+        if fleet is not None and fleet._members == followers:
+            for f in followers:  # (a loop, not all() of a generator: the control slot asks every tick)
+                if f._fleet is not fleet:
+                    break
+            else:
+                return fleet
         params = np.column_stack([f._fleet._P[:, f._row] for f in followers]) if followers else np.zeros((19, 0))
         states = np.column_stack([f._fleet._S[:, f._row] for f in followers]) if followers else np.zeros((4, 0))
         new = cls(params, states, [f.path for f in followers])
