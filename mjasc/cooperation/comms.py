@@ -186,7 +186,8 @@ class CommsNetwork:
         shared = type(payload) in _FROZEN_PAYLOADS  # a frozen dataclass type seen before: shared as it is
         if not shared:
             if not (isinstance(payload, dict) or (is_dataclass(payload) and payload.__dataclass_params__.frozen)):
-                raise ValueError(f"comms.send: payload must be a dict or a frozen dataclass, got {type(payload).__name__}")
+                raise ValueError("comms.send: payload must be a dict or a frozen dataclass, "
+                                 f"got {type(payload).__name__}")
             if not isinstance(payload, dict):
                 _FROZEN_PAYLOADS.add(type(payload))
         self._last_send_s = float(t_s)

@@ -3,11 +3,12 @@
 When every vessel's coordination (if any) is the thesis method and every vessel that steers does so
 with the built-in path follower, the tick hands the fleet's values over once instead of asking
 each agent piece by piece: the followers' paths and γ are read once from their
-:class:`~mjasc.guidance.path_following.FleetPathFollower` (each vessel's
-:class:`~mjasc.guidance.state.GuidanceState` built from them: once with the previous coordination
-factor for γ on the mission path, once with the new one for the avoidance method), the link
-decides and delivers for every vessel and the speed law runs for all of them in one call
-(:meth:`~mjasc.cooperation.coordination.Coordination.speed_correction_fleet`), the avoidance
+:class:`~mjasc.guidance.path_following.FleetPathFollower` (γ on the mission path from them — an
+avoidance method other than the thesis's is asked with a
+:class:`~mjasc.guidance.state.GuidanceState` with the previous coordination factor —, and each
+vessel's guidance state with the new factor for its avoidance method), the link decides and
+delivers for every vessel and the speed law runs for all of them in one call
+(:func:`~mjasc.cooperation.fleet_speed_law.speed_correction_fleet`), the avoidance
 methods are asked per method for their vessels at once, and the fleet's navigation arrays go to
 the followers' command as they are when the navigations are the fleet's rows
 (:class:`~mjasc.core.navigation.NavigationList`).
@@ -26,9 +27,8 @@ per-vessel lists filled by index.
 
 from __future__ import annotations
 
-from typing import Sequence
-
 import math
+from typing import Sequence
 
 import numpy as np
 
