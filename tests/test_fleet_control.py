@@ -71,3 +71,34 @@ def test_navigation_list_carries_its_fleet():
     assert isinstance(navs, NavigationList) and navs.fleet is fleet
     assert [n.heading_rad for n in navs] == fleet.heading_rad.tolist()
     np.testing.assert_array_equal(np.array([n.position_m for n in navs]), fleet.position_m)
+
+
+def test_command_all_equals_command_on_the_demo(monkeypatch):
+    """FleetPathFollower.command_all (the fleet pass's call: the fleet's own arrays, speeds and
+    course overrides as lists, the scratch arrays) gives command's commands, statuses and loop
+    states bit for bit at every control tick of the demo (command on a copy of the fleet's state)."""
+    import copy
+
+    from mjasc.guidance.path_following import FleetPathFollower
+
+    original = FleetPathFollower.command_all
+    seen = []
+
+    def checked(self, pos, heading, body, speeds, courses, dt_s):
+        ref = copy.copy(self)
+        ref._S = self._S.copy()
+        want_cmd, want_st = ref.command(np.array(pos), np.array(heading), np.array(body),
+                                        np.array(speeds, dtype=float), dt_s,
+                                        course_override_rad=np.array(courses, dtype=float))
+        got_cmd, got_st = original(self, pos, heading, body, speeds, courses, dt_s)
+        assert got_cmd.tobytes() == want_cmd.tobytes() and got_cmd.shape == want_cmd.shape
+        assert [dataclasses.astuple(s) for s in got_st] == [dataclasses.astuple(s) for s in want_st]
+        assert self._S.tobytes() == ref._S.tobytes()
+        seen.append(any(not np.isnan(c) for c in courses))
+        return got_cmd, got_st
+
+    monkeypatch.setattr(FleetPathFollower, "command_all", checked)
+    sc = mjasc.load_scenario("tasks/demo.toml").with_overrides(duration_s=30.0)
+    sc = dataclasses.replace(sc, outputs=dataclasses.replace(sc.outputs, recording=False, video=False))
+    Runner(sc, out_dir=None).run()
+    assert len(seen) > 250

@@ -61,7 +61,8 @@ class ControlTick:
             self.stats["deviation_predictions"] += 1
             return set()
         if self.correction is None and self._predicted_speed is not None and \
-                abs(self._guidance.mission_speed_m_s - self._predicted_speed) > self.config.speed_change_m_s:
+                ((dv := self._guidance.mission_speed_m_s - self._predicted_speed) > self.config.speed_change_m_s
+                 or -dv > self.config.speed_change_m_s):  # (abs(dv) > the limit without its call)
             self.stats["deviation_predictions"] += 1  # own plan changed (coordination): predict again
             return set()
         team, mates = self._team, self.team_mates
@@ -97,8 +98,16 @@ class ControlTick:
         at the track's time (team mates on a fresh broadcast excepted: their plans are compared
         instead). All tracks in one array operation on the last prediction's stacked motion; the
         same tracks are not checked twice against the same prediction."""
-        if tracks is self._checked_tracks or not tracks:
+        if tracks is self._checked_tracks:
             return False
+        if type(tracks) is TrackRows and type(tracks.track_ids) is list:  # (track_columns and len without
+            ids, times, pos = tracks.track_ids, tracks.times_s, tracks.positions_m  # their calls: the rows' columns)
+            if not ids:
+                return False
+        elif not tracks:
+            return False
+        else:
+            ids, times, pos = track_columns(tracks)
         self._checked_tracks = tracks
         if self._predicted_motion is None:
             from_broadcast = self.team_mates.predicted_names()
@@ -106,7 +115,6 @@ class ControlTick:
             self._predicted_motion = TrackMotions(checked)
             self._predicted_row = {tr.track_id: k for k, tr in enumerate(checked)}
         row = self._predicted_row
-        ids, times, pos = track_columns(tracks)  # (a TrackRows' own columns: no estimate made)
         sel = [(row[i], k) for k, i in enumerate(ids) if i in row]
         if not sel:
             return False
@@ -134,7 +142,8 @@ class ControlTick:
         else:
             mode = "mission"
         if self._last_control_t is not None:
-            self.mode_time_s[self.mode] += max(t - self._last_control_t, 0.0)
+            dt = t - self._last_control_t
+            self.mode_time_s[self.mode] += 0.0 if 0.0 > dt else dt  # (max(dt, 0.0) without its call)
         self._last_control_t = t
         if mode != self.mode:
             self._event(t, f"mode {self.mode} → {mode}")

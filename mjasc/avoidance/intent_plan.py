@@ -27,6 +27,7 @@ from mjasc.guidance.segment_geometry import COS0, K, SIN0, TH0, X0, Y0
 __all__ = ["plan_offsets", "planned_points"]
 
 _OFFSETS: dict = {}
+_SCRATCH: dict = {}  # sample count → planned_points' work arrays (not handed out)
 
 
 def plan_offsets(horizon_s: float, step_s: float) -> np.ndarray:
@@ -109,8 +110,11 @@ def planned_points(path, t: float, g0: float, profile: tuple, base: np.ndarray, 
     else:
         mode, a, b, c, d = 1, *profile[1:]
     n = base.size
-    times, s, th = np.empty(n), np.empty(n), np.empty(n)
-    idx = np.empty(n, dtype=np.int64)
+    scratch = _SCRATCH.get(n)  # s, θ and the segment of each sample: read by the kernels only
+    if scratch is None:
+        scratch = _SCRATCH[n] = (np.empty(n), np.empty(n), np.empty(n, dtype=np.int64))
+    s, th, idx = scratch
+    times = np.empty(n)
     table = path._table
     on_arc = _plan_angles(t, base, g0, mode, a, b, c, d, path._length, path._cum, table, times, s, idx, th)
     if on_arc:

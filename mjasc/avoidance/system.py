@@ -118,6 +118,11 @@ def predict_slot(calls) -> list[AvoidanceRequest]:
 _MISSION = AvoidanceRequest.of("mission", None, None, (), None)
 
 
+#: The control tick's methods whose bodies :func:`control_slot` writes out (a class that changes
+#: them, or a test's reference form, is called as it is).
+_CONTROL_QUERY, _CONTROL_REST = ControlTick._control_query, ControlTick._control_rest
+
+
 def control_slot(calls) -> list[AvoidanceRequest]:
     """The control tick of many vessels at once: ``calls`` is a sequence of (system, t, nav,
     guidance, perceived, team), the arguments of :meth:`CollisionAvoidance.control` per vessel.
@@ -126,23 +131,43 @@ def control_slot(calls) -> list[AvoidanceRequest]:
     team plan, a changed mission speed, an emergency) of every vessel in one
     :func:`~mjasc.avoidance.prediction.predict_fleet` call. Predictions a decision triggers (after a
     re-plan, a finished velocity correction) run per vessel."""
-    pending, queries = [], []
-    for system, t, nav, guidance, perceived, team in calls:
+    pending, queries = [None] * len(calls), []  # (lists filled by index: the tick runs for every vessel)
+    for k, (system, t, nav, guidance, perceived, team) in enumerate(calls):
         system._guidance, system._switch, system._perceived, system._team = guidance, None, perceived, team  # _begin
-        p = system._control_query(float(t))
-        pending.append(p)
-        if p is not None and p[0].query is not None:
+        t = float(t)
+        if type(system)._control_query is not _CONTROL_QUERY:  # (a changed form: as it is)
+            pending[k] = p = system._control_query(t)
+            if p is not None and p[0].query is not None:
+                queries.append(p[0].query)
+            continue
+        # system._control_query(t) written out: the team polled, then _prediction_due (its first
+        # answer read here when the tracks hold nothing new and the last prediction is recent)
+        mates = system.team_mates
+        if team is not None and team.intentions is not mates.polled_intentions:
+            mates.poll(team)  # (the mapping polled last holds nothing new)
+        if perceived is None or (perceived.tracks is system._no_new_in and t - system._last_predict_t < 1.0):
+            continue  # no prediction due
+        new = system._prediction_due(t)
+        if new is None:
+            continue
+        pending[k] = p = system._prediction_query(t, list(perceived.tracks)), new
+        if p[0].query is not None:
             queries.append(p[0].query)
     results = iter(predict_fleet_lazy(queries) if queries else ())  # (most ticks predict nothing)
-    out = []
-    for (system, t, nav, _, _, _), p in zip(calls, pending):
+    out = [None] * len(calls)
+    for k, ((system, t, nav, _, _, _), p) in enumerate(zip(calls, pending)):
         t = float(t)
         if p is not None:
             system._control_predict(t, nav, p, next(results) if p[0].query is not None else [])
-        override, mode, course = system._control_rest(t, nav)
+        if system.detour is None and system.correction is None and system._sharp_turn is None and \
+                type(system)._control_rest is _CONTROL_REST:
+            override = course = None  # (_control_rest on the mission: the mode noted only)
+            mode = system._note_mode(t)
+        else:
+            override, mode, course = system._control_rest(t, nav)
         switch = system._switch
-        out.append(_MISSION if override is None and course is None and switch is None and mode == "mission"
-                   else AvoidanceRequest.of(mode, override, switch, (), course))
+        out[k] = (_MISSION if override is None and course is None and switch is None and mode == "mission"
+                  else AvoidanceRequest.of(mode, override, switch, (), course))
     return out
 
 

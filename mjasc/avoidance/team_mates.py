@@ -128,23 +128,28 @@ class TeamMates:
         if key == self._polled_key:
             return  # the same messages as at the last poll
         self._polled_key = key
-        new, turned, dh, dt = [], [], [], []  # the new messages; of those 0 < Δt ≤ 3 s after the last: Δψ, Δt
+        # the new messages: (name, intention, Δψ, Δt), Δψ None unless 0 < Δt ≤ 3 s after the last
+        new, nav, team, history = [], self._nav, self.team, self._history
         for name, it in picture.intentions.items():
-            old = self._nav.get(name)
-            if name not in self.team or (old is not None and it.sent_time_s <= old[0]):
+            if name not in team:
                 continue
-            self._history.add(name, it.sent_time_s, it.position_m, float(it.radius_m) if it.radius_m else self.radius_m)
+            old = nav.get(name)
+            if old is not None and it.sent_time_s <= old[0]:
+                continue
+            history.add(name, it.sent_time_s, it.position_m, float(it.radius_m) if it.radius_m else self.radius_m)
             if old is not None and 0.0 < it.sent_time_s - old[0] <= 3.0:
-                turned.append(len(new))
-                dh.append(it.heading_rad - old[1])
-                dt.append(it.sent_time_s - old[0])
-            new.append((name, it))
+                new.append((name, it, it.heading_rad - old[1], it.sent_time_s - old[0]))
+            else:
+                new.append((name, it, None, None))
+        turned = [k for k, row in enumerate(new) if row[2] is not None]
         w = [0.0] * len(new)
         if turned:  # ω = wrap(Δψ) / Δt, all new messages in one array operation (elementwise: the same numbers)
-            for k, rate in zip(turned, (np.angle(np.exp(1j * np.array(dh))) / np.array(dt)).tolist()):
+            dh, dt = np.array([new[k][2] for k in turned]), np.array([new[k][3] for k in turned])
+            z = np.exp(1j * dh)
+            for k, rate in zip(turned, (np.arctan2(z.imag, z.real) / dt).tolist()):  # (np.angle(z) without its calls)
                 w[k] = rate
-        for (name, it), rate in zip(new, w):
-            self._nav[name] = (it.sent_time_s, it.heading_rad, rate)
+        for (name, it, _, _), rate in zip(new, w):
+            nav[name] = (it.sent_time_s, it.heading_rad, rate)
 
     def heading_rate(self, name: str) -> float:
         """ω of team mate ``name`` from its last two broadcasts [rad/s] (0 when unknown)."""
@@ -293,7 +298,9 @@ class _BroadcastHistory:
         if i is None:
             i = self._index[name] = len(self.names)
             self.names.append(name)
-        p = np.asarray(position_m, dtype=float).reshape(-1)
+        p = position_m  # (a float vector as it is)
+        if not (type(p) is np.ndarray and p.ndim == 1 and p.dtype == np.float64):
+            p = np.asarray(position_m, dtype=float).reshape(-1)
         self._queued.append((float(sent_time_s), float(p[0]), float(p[1]), float(radius_m), i))
 
     def arrays(self) -> tuple:

@@ -111,6 +111,9 @@ def _copy_payload(payload):
     return payload
 
 
+_FROZEN_PAYLOADS: set = set()  # frozen dataclass types sent before (checked once per type; shared, not copied)
+
+
 class CommsNetwork:
     """Broadcast medium shared by a team. ``config`` None = the ``radio`` preset.
 
@@ -176,11 +179,17 @@ class CommsNetwork:
 
     def send(self, t_s: float, sender: str, payload: dict, sender_position) -> int:
         """Broadcast ``payload`` from ``sender`` at time ``t_s`` [s], position (2,) world [m]. Returns its id."""
-        self._member(sender, "sender")
+        if sender not in self._cursor:  # (_member's check without its call)
+            self._member(sender, "sender")
         if t_s < self._last_send_s:
             raise ValueError(f"comms.send: time must not go backwards ({t_s} < {self._last_send_s})")
-        if not (isinstance(payload, dict) or (is_dataclass(payload) and payload.__dataclass_params__.frozen)):
-            raise ValueError(f"comms.send: payload must be a dict or a frozen dataclass, got {type(payload).__name__}")
+        shared = type(payload) in _FROZEN_PAYLOADS  # a frozen dataclass type seen before: shared as it is
+        if not shared:
+            if not (isinstance(payload, dict) or (is_dataclass(payload) and payload.__dataclass_params__.frozen)):
+                raise ValueError("comms.send: payload must be a dict or a frozen dataclass, "
+                                 f"got {type(payload).__name__}")
+            if not isinstance(payload, dict):
+                _FROZEN_PAYLOADS.add(type(payload))
         self._last_send_s = float(t_s)
         mid = self._base + len(self._log_time)
         if self._next_s == math.inf:  # (everything before was decided for everyone)
@@ -195,7 +204,7 @@ class CommsNetwork:
         arr[0, k], arr[1, k], arr[2, k], arr[3, k] = xy[0], xy[1], self._last_send_s, s
         self._log_time.append(self._last_send_s)
         self._log_sender.append(s)
-        self._log_payload.append(_copy_payload(payload))
+        self._log_payload.append(payload if shared else _copy_payload(payload))
         self.sent[sender] += 1
         return mid
 
@@ -256,12 +265,9 @@ class CommsNetwork:
         (an empty tuple when nothing is due: most control ticks). The same decisions, draws and
         statistics as those calls."""
         self.decide_many(t_s, receivers, positions, limits)
-        pending_all, none = self._pending, ()
-        out = []
-        for name in receivers:
-            pending = pending_all[name]
-            out.append(none if not pending or pending[0][0] > t_s else self.receive_raw(t_s, name, None, False))
-        return out
+        pending_all = self._pending
+        return [() if not (pending := pending_all[name]) or pending[0][0] > t_s
+                else self.receive_raw(t_s, name, None, False) for name in receivers]
 
     def decide_many(self, t_s: float, receivers, positions, limits=None) -> None:
         """Decide, for each of ``receivers`` in turn at its position ``positions[k]`` (2,) world [m],

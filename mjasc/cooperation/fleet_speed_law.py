@@ -30,8 +30,10 @@ def speed_correction_fleet(coordinations, t_s: float, positions_m, gammas_m) -> 
     # Each vessel's law as Coordination._law works it out (written out here: no _law, _team_view,
     # xi, _factor calls per vessel and tick), then one tanh for the followers, then each factor as
     # Coordination._factor computes it — the same operations in the same order.
-    laws, scaled = [], []  # laws: (c, view, own, e, n) or None (no path); scaled: the followers' e_i / e_s
-    for c, arrived, g in zip(coordinations, arrivals, gammas_m):
+    n_all = len(coordinations)
+    laws = [None] * n_all  # (c, view, own, e, n), None: no path
+    scaled, n_scaled = [None] * n_all, 0  # the followers' e_i / e_s
+    for j, (c, arrived, g) in enumerate(zip(coordinations, arrivals, gammas_m)):
         if arrived:
             c._take(t_s, arrived)
         cfg = c.config
@@ -40,33 +42,48 @@ def speed_correction_fleet(coordinations, t_s: float, positions_m, gammas_m) -> 
             c._time_out(t_s)  # (nothing to time out otherwise)
         length = c.path_length_m
         if length is None:
-            laws.append(None)
             continue
         view = c._team
         if view is None:
             view = c._team_view()
         own = (float(g) - cfg.formation_offset_m) / length  # Coordination.xi
-        n = len(view.rows)
-        e = view.l_bar * view.gap_sum(t_s, cfg.extrapolate, own) if n else 0.0
-        laws.append((c, view, own, e, n))
+        n = view.n_rows
+        if not n:
+            e = 0.0
+        elif view.arrays is None and cfg.extrapolate:  # view.gap_sum's list form, written out
+            acc = 0.0
+            for x, rate, sent, x_end in view.rows:
+                hi = x_end if x_end > x else x
+                ahead = x + rate * (t_s - sent)
+                acc += own - (hi if hi < ahead else ahead)
+            e = view.l_bar * acc
+        else:
+            e = view.l_bar * view.gap_sum(t_s, cfg.extrapolate, own)
+        laws[j] = (c, view, own, e, n)
         if cfg.role != "leader":
-            scaled.append(e / cfg.error_scale_m)
-    th = iter(np.tanh(np.array(scaled)).tolist() if scaled else ())
-    out = []
-    for law in laws:
+            scaled[n_scaled] = e / cfg.error_scale_m
+            n_scaled += 1
+    th = np.tanh(np.array(scaled[:n_scaled])).tolist() if n_scaled else ()
+    out = [1.0] * n_all
+    k = 0
+    for j, law in enumerate(laws):
         if law is None:
-            out.append(1.0)
             continue
         c, view, own, e, n = law
         cfg = c.config
         speed = c.mission_speed_m_s
         ff = view.omega * c.path_length_m / speed
         lead = e / n if n else 0.0
-        corr = 0.0 if cfg.role == "leader" else cfg.max_speed_correction * next(th)
+        if cfg.role == "leader":
+            corr = 0.0
+        else:
+            corr = cfg.max_speed_correction * th[k]
+            k += 1
         f = ff * (1.0 - corr)
-        f = float(min(f, c.top_speed_m_s / speed))
+        cap = c.top_speed_m_s / speed
+        f = float(cap if cap < f else f)  # (min(f, cap): f unless cap is smaller)
         c.last_error_m, c.last_factor, c.last_xi = lead, f, own
-        out.append(f)
+        out[j] = f
     return out
 
 
@@ -83,7 +100,9 @@ def take_in_fleet(coordinations, t_s: float, positions_m, gammas_m, limits) -> N
             c._take(t_s, arrived)
         c._time_out(t_s)
         _, lead, spread, n = c.coordination_error(t_s, g)
-        c.last_xi, c.last_spread_m = c.xi(g), spread
+        length = c.path_length_m  # (c.xi(g) written out)
+        c.last_xi = np.nan if length is None else (float(g) - c.config.formation_offset_m) / length
+        c.last_spread_m = spread
         if n:
             c._history.append((float(t_s), lead, spread))
 

@@ -71,12 +71,10 @@ class LinkEndpoint:
         if not endpoints:
             return []
         network = endpoints[0]._network
-        names = []
         for e in endpoints:
             if e._network is not network:
                 raise ValueError("receive_together: the endpoints must share one network")
-            names.append(e.name)
-        return network.receive_many(t_s, names, own_positions_m, limits)
+        return network.receive_many(t_s, [e.name for e in endpoints], own_positions_m, limits)
 
     def stats(self) -> dict:
         """This vessel's link statistics (sent, received, lost, delays)."""

@@ -91,14 +91,22 @@ class TeamIntention:
         cached = msg.__dict__.get("_intention")
         if cached is not None and cached.sent_time_s == t:
             return cached
-        vel = np.asarray(msg.velocity_m_s, dtype=float)[:2]
-        plan_t = np.asarray(msg.plan_times_s, dtype=float).reshape(-1)
-        plan_xy = np.asarray(msg.plan_points_m, dtype=float).reshape(-1, 2)
+        typed = type(msg) is TeamMessage
+        pos, vel = msg.position_m, msg.velocity_m_s
+        plan_t, plan_xy = msg.plan_times_s, msg.plan_points_m
+        nd, f8 = np.ndarray, np.float64
+        if not (typed and type(pos) is nd and pos.ndim == 1 and pos.dtype == f8 and type(vel) is nd
+                and vel.ndim == 1 and vel.dtype == f8 and type(plan_t) is nd and plan_t.ndim == 1
+                and plan_t.dtype == f8 and type(plan_xy) is nd and plan_xy.ndim == 2 and plan_xy.shape[1] == 2
+                and plan_xy.dtype == f8):  # (the conversions below do nothing to a typed message's float arrays)
+            plan_t = np.asarray(plan_t, dtype=float).reshape(-1)
+            plan_xy = np.asarray(plan_xy, dtype=float).reshape(-1, 2)
+            pos, vel = np.asarray(pos, dtype=float), np.asarray(vel, dtype=float)
         if plan_t.size != plan_xy.shape[0]:
             plan_t, plan_xy = np.zeros(0), np.zeros((0, 2))
-        out = cls(msg.sender, t, np.asarray(msg.position_m, dtype=float)[:2], float(msg.heading_rad),
-                  vel, msg.radius_m, plan_t, plan_xy, getattr(msg, "mission", None))
-        if isinstance(msg, TeamMessage):
+        out = cls(msg.sender, t, pos[:2], float(msg.heading_rad), vel[:2], msg.radius_m, plan_t, plan_xy,
+                  msg.mission if typed else getattr(msg, "mission", None))
+        if typed or isinstance(msg, TeamMessage):
             object.__setattr__(msg, "_intention", out)
         return out
 

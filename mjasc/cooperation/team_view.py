@@ -31,10 +31,11 @@ class _Neighbour:
             sent_time_s, received_time_s, message, active
 
 
-def _sum(values) -> float:
+def _sum(values, n: int | None = None) -> float:
     """Σ values with numpy's summation order (sequential below 8 values, numpy's own above), so a
-    plain-float sum of a few scalars equals ``np.sum`` of them bit for bit."""
-    if len(values) >= 8:
+    plain-float sum of a few scalars equals ``np.sum`` of them bit for bit (``n``: their count,
+    when the caller knows it)."""
+    if (len(values) if n is None else n) >= 8:
         return float(np.add.reduce(values))
     acc = 0.0
     for v in values:
@@ -46,12 +47,18 @@ def _error_floats(xis: list, own: float, l_bar: float):
     """``coordination_error``'s numbers from a few ξ̂_j in plain floats: (Σ d, mean d, spread) with
     d_j = L̄ (ξ_own − ξ̂_j), as numpy's sum, mean, max and min give them; None when a ξ̂_j is 0 or NaN
     (numpy's max / min pick among ±0 and NaN by their own rule: the caller asks numpy)."""
-    for x in xis:
+    hi = lo = own  # max(own, max(xis)) and min(own, min(xis)) in one pass (no NaN or zero among xis:
+    for x in xis:  # the builtins' picks are the values themselves)
         if x != x or x == 0.0:
             return None
+        if x > hi:
+            hi = x
+        if x < lo:
+            lo = x
+    n = len(xis)
     d = [l_bar * (own - x) for x in xis]
-    total = _sum(d)
-    return float(total), float(total / len(d)), float(l_bar * (max(own, max(xis)) - min(own, min(xis))))
+    total = _sum(d, n)
+    return float(total), float(total / n), float(l_bar * (hi - lo))
 
 
 def _law_terms(msg) -> tuple | None:
@@ -72,28 +79,29 @@ class _TeamView:
     send time and the end value 1 − o_j/L_j (as lists below 8 of them, arrays above)."""
 
     def __init__(self, own, neighbours):
-        lengths, speeds, rows = [own.path_length_m], [own.mission_speed_m_s], []
+        kept, rows = [], []  # kept: the terms of every neighbour in the own phase (active or not)
         oldest = np.inf
         phase = own.phase
         for nb in neighbours:
-            if nb.active:
-                oldest = min(oldest, nb.sent_time_s)
+            if nb.active and nb.sent_time_s < oldest:
+                oldest = nb.sent_time_s  # (min(oldest, sent) without its call)
             terms = nb.message.__dict__.get("_law_terms", False)
             if terms is False:
                 terms = _law_terms(nb.message)
             if terms is None or terms[0] != phase:  # a mate in another mission phase is not coordinated with
                 continue
-            lengths.append(terms[1])
-            speeds.append(terms[2])
+            kept.append(terms)
             if nb.active:
                 rows.append((terms[3], terms[4], nb.sent_time_s, terms[5]))
         self.oldest_active_s = oldest
         if own.path_length_m is None:
             self.l_bar = self.omega = np.nan
         else:
-            self.l_bar = _sum(lengths) / len(lengths)
-            self.omega = _sum(speeds) / len(speeds) / self.l_bar
+            n = 1 + len(kept)
+            self.l_bar = _sum([own.path_length_m] + [terms[1] for terms in kept], n) / n
+            self.omega = _sum([own.mission_speed_m_s] + [terms[2] for terms in kept], n) / n / self.l_bar
         self.rows = rows
+        self.n_rows = len(rows)  # (read by the speed law every control tick)
         self.arrays = np.ascontiguousarray(np.array(rows).T) if len(rows) >= 8 else None
 
     def xi_hat(self, t_s: float, extrapolate: bool):
@@ -104,7 +112,9 @@ class _TeamView:
             return np.minimum(xi + rate * (t_s - sent), np.maximum(xi, x_end)) if extrapolate else xi
         if not extrapolate:
             return [r[0] for r in self.rows]
-        return [min(x + rate * (t_s - sent), max(x, x_end)) for x, rate, sent, x_end in self.rows]
+        # min(x + ξ̇ (t − t_j), max(x, x_end)), the builtins' picks written out (as gap_sum)
+        return [hi if (hi := x_end if x_end > x else x) < (ahead := x + rate * (t_s - sent)) else ahead
+                for x, rate, sent, x_end in self.rows]
 
     def gap_sum(self, t_s: float, extrapolate: bool, own: float) -> float:
         """Σ_j (ξ_own − ξ̂_j(t)) over the active neighbours, as ``_sum`` of the gaps to

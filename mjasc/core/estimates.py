@@ -126,6 +126,9 @@ def track_estimate_rows(*columns) -> list[TrackEstimate]:
     return out
 
 
+_N_TRACK_FIELDS = len(_field_names(TrackEstimate))
+
+
 class TrackRows(Sequence):
     """A read-only sequence of :class:`TrackEstimate` kept as columns: the objects are made on the
     first read of an item (:func:`track_estimate_rows` of the columns, then kept), while the
@@ -139,8 +142,8 @@ class TrackRows(Sequence):
     __slots__ = ("_columns", "_items", "track_ids", "times_s", "positions_m")
 
     def __init__(self, columns: Sequence):
-        if len(columns) != len(_field_names(TrackEstimate)):
-            raise ValueError(f"columns: expected {len(_field_names(TrackEstimate))} (one per field), got {len(columns)}")
+        if len(columns) != _N_TRACK_FIELDS:
+            raise ValueError(f"columns: expected {_N_TRACK_FIELDS} (one per field), got {len(columns)}")
         self._columns, self._items = tuple(columns), None
         self.track_ids, self.times_s, self.positions_m = columns[0], columns[1], columns[2]
 
@@ -186,11 +189,18 @@ def estimate_of(cls, *values):
     field order: the same object as ``cls(*values)``, its ``__dict__`` filled at once (as
     :func:`track_estimate_rows`; collision avoidance makes ~10⁵ team-mate tracks and clear
     conflicts a minute in a fleet of fifty). Values are taken as given."""
-    names = _field_names(cls)
-    if len(values) != len(names):
-        raise ValueError(f"values: expected {len(names)} (one per field of {cls.__name__}), got {len(values)}")
+    try:
+        names = _FIELDS_OF[cls]  # (_field_names without its call once the class is known)
+    except KeyError:
+        names = _field_names(cls)
     e = object.__new__(cls)
-    e.__dict__.update(zip(names, values))
+    try:
+        e.__dict__.update(zip(names, values, strict=True))  # (the count checked by the zip: no len calls)
+    except ValueError:
+        if len(values) != len(names):
+            raise ValueError(f"values: expected {len(names)} (one per field of {cls.__name__}), "
+                             f"got {len(values)}") from None
+        raise
     return e
 
 

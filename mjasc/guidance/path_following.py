@@ -287,6 +287,7 @@ class FleetPathFollower:
         self._prop = self._propellers(None)
         self._P_cols = self._P.T.tolist()
         self._all_rows = np.arange(self._S.shape[1], dtype=np.intp)
+        self._scratch = None  # command_all's speed and course (n,) and status (n, 6) arrays
 
     def __len__(self) -> int:
         return self._S.shape[1]
@@ -303,8 +304,12 @@ class FleetPathFollower:
         else a new fleet that takes over their states and paths (they become its rows)."""
         followers = list(followers)
         fleet = followers[0]._fleet if followers else None
-        if fleet is not None and fleet._members == followers and all(f._fleet is fleet for f in followers):
-            return fleet
+        if fleet is not None and fleet._members == followers:
+            for f in followers:  # (a loop, not all() of a generator: the control slot asks every tick)
+                if f._fleet is not fleet:
+                    break
+            else:
+                return fleet
         params = np.column_stack([f._fleet._P[:, f._row] for f in followers]) if followers else np.zeros((19, 0))
         states = np.column_stack([f._fleet._S[:, f._row] for f in followers]) if followers else np.zeros((4, 0))
         new = cls(params, states, [f.path for f in followers])
@@ -362,6 +367,37 @@ class FleetPathFollower:
                                                     np.asarray(speed_ref_m_s, dtype=float), dt_s, course)
         prop = self._prop if rows is None else self._propellers(rows)
         return PropellerCoefficients.command_for_thrust(prop, thrust), statuses  # the inverse curve, per vessel
+
+    def command_all(self, position_m: np.ndarray, heading_rad: np.ndarray, body_velocity: np.ndarray, speed_ref_m_s,
+                    course_override_rad, dt_s: float) -> tuple[np.ndarray, list[PathFollowingStatus]]:
+        """:meth:`command` for every row in order (``rows`` None), the control slot's call: position
+        (n, 2), heading (n,) and body velocity (n, 3) float arrays as they are; the speed references
+        [m/s] and course overrides [rad] (NaN: none) as sequences of n floats, copied into the
+        fleet's own (n,) arrays. The same commands, statuses and states as :meth:`command`, in one
+        compiled call without its argument conversions."""
+        n = self._S.shape[1]
+        scratch = self._scratch
+        if scratch is None or scratch[0].shape[0] != n:
+            scratch = self._scratch = (np.empty(n), np.empty(n), np.empty((n, 6)))
+        speed, course, status = scratch
+        speed[:] = speed_ref_m_s
+        course[:] = course_override_rad
+        if n > SCALAR_FLEET_MAX or self._all_rows.size != n or \
+                type(self)._command_compiled is not _COMMAND_COMPILED:  # (a replaced compiled form: command's)
+            return self.command(position_m, heading_rad, body_velocity, speed.copy(), dt_s,
+                                course_override_rad=course.copy())
+        commands = np.empty((n, 2))
+        if not follow_fleet(*self.paths.segment_arrays(), self._P, self._S, self._all_rows, position_m, heading_rad,
+                            body_velocity, speed, course, float(dt_s), 2.0, commands, status):
+            return self.command(position_m, heading_rad, body_velocity, speed.copy(), dt_s,
+                                course_override_rad=course.copy())
+        new_status = object.__new__
+        statuses = [None] * n
+        for k, (g, e, chi_p, psi_d, u_d, finished) in enumerate(status.tolist()):
+            statuses[k] = st = new_status(PathFollowingStatus)  # without the frozen dataclass's __init__
+            st.__dict__.update(gamma_m=g, cross_track_m=e, course_ref_rad=chi_p, heading_ref_rad=psi_d,
+                               speed_ref_m_s=u_d, finished=finished != 0.0)
+        return commands, statuses
 
     def _command_compiled(self, idx, pos, heading, bv, speed, dt_s, course, rows):
         """:meth:`_command_floats` and the inverse propeller curve in one compiled call
@@ -435,6 +471,9 @@ class FleetPathFollower:
         statuses = [PathFollowingStatus(*v) for v in zip(q.gamma_m.tolist(), e.tolist(), q.course_rad.tolist(),
                                                           psi_d.tolist(), u_d.tolist(), finished.tolist())]
         return np.stack([t_p, t_s], axis=-1), statuses
+
+
+_COMMAND_COMPILED = FleetPathFollower._command_compiled  # (command_all's kernel call is its body)
 
 
 class PathFollower(ControlMethod):

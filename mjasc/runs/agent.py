@@ -336,7 +336,9 @@ class VesselAgent:
         events = []
         for c in (self.perception, self.coordination, self.avoidance, self.mission):  # (components(), per record tick)
             if c is not None:
-                events.extend(c.drain_events())
+                drained = c.drain_events()
+                if drained:  # (most record ticks drain nothing)
+                    events.extend(drained)
         return events
 
     def log(self, recorder, t_s: float) -> None:

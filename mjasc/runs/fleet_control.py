@@ -3,11 +3,12 @@
 When every vessel's coordination (if any) is the thesis method and every vessel that steers does so
 with the built-in path follower, the tick hands the fleet's values over once instead of asking
 each agent piece by piece: the followers' paths and γ are read once from their
-:class:`~mjasc.guidance.path_following.FleetPathFollower` (each vessel's
-:class:`~mjasc.guidance.state.GuidanceState` built from them: once with the previous coordination
-factor for γ on the mission path, once with the new one for the avoidance method), the link
-decides and delivers for every vessel and the speed law runs for all of them in one call
-(:meth:`~mjasc.cooperation.coordination.Coordination.speed_correction_fleet`), the avoidance
+:class:`~mjasc.guidance.path_following.FleetPathFollower` (γ on the mission path from them — an
+avoidance method other than the thesis's is asked with a
+:class:`~mjasc.guidance.state.GuidanceState` with the previous coordination factor —, and each
+vessel's guidance state with the new factor for its avoidance method), the link decides and
+delivers for every vessel and the speed law runs for all of them in one call
+(:func:`~mjasc.cooperation.fleet_speed_law.speed_correction_fleet`), the avoidance
 methods are asked per method for their vessels at once, and the fleet's navigation arrays go to
 the followers' command as they are when the navigations are the fleet's rows
 (:class:`~mjasc.core.navigation.NavigationList`).
@@ -17,16 +18,26 @@ and :meth:`~mjasc.runs.agent.VesselAgent.control_answer`): between a vessel's mi
 avoidance call nothing changes its follower's path or γ (the coordination reads and writes only its
 own state), so one reading serves both. ``tests/test_fleet_control.py`` compares with the per-agent
 form.
+
+Written out with few Python calls (the slot runs every 0.1 s for every vessel): the agents'
+:meth:`~mjasc.runs.agent.VesselAgent.guidance_of`, ``control_answer`` and ``control_output``, and
+the thesis method's ``mission_gamma_m``, as their bodies (the same operations in the same order);
+per-vessel lists filled by index.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 import numpy as np
 
-from mjasc.cooperation.coordination import Coordination
+from mjasc.avoidance.system import CollisionAvoidance
+from mjasc.cooperation import fleet_speed_law
+from mjasc.core.navigation import NavigationList
 from mjasc.guidance.path_following import FleetPathFollower, PathFollower
+from mjasc.guidance.state import GuidanceState
+from mjasc.runs.agent import ControlOutput
 
 __all__ = ["fleet_control_applies", "control_fleet", "ask_avoidance"]
 
@@ -47,6 +58,14 @@ def fleet_control_applies(agents: Sequence) -> bool:
 def ask_avoidance(calls: list) -> list:
     """Each avoidance call's request (None where the call is None): the vessels of one avoidance
     method at once, in one ``control_many`` call per method."""
+    cls = None
+    for call in calls:  # (one method for every vessel: most fleets)
+        if call is None or (cls is not None and type(call[0]) is not cls):
+            break
+        cls = type(call[0])
+    else:
+        if cls is not None:
+            return cls.control_many(calls)
     groups: dict[type, list] = {}
     for k, call in enumerate(calls):
         if call is not None:
@@ -56,6 +75,10 @@ def ask_avoidance(calls: list) -> list:
         for k, request in zip(ks, cls.control_many([calls[k] for k in ks])):
             requests[k] = request
     return requests
+
+
+_THESIS_GAMMA = CollisionAvoidance.mission_gamma_m
+_new = object.__new__
 
 
 def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list:
@@ -69,48 +92,80 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
     fleet = FleetPathFollower.of([agents[i].follower for i in steered])
     paths, gammas = fleet.guidance_rows()
     t = navs[0].time_s
-    # γ on the mission path of every steered vessel (with its guidance before the new factor)
-    coords, positions, mission_gammas = [], [], []
-    for k, i in enumerate(steered):
+    m = len(steered)
+    # γ on the mission path of every coordinated steered vessel (with its guidance before the new
+    # factor): the avoidance method's mission_gamma_m (the thesis method's written out)
+    laws = [k for k in range(m) if agents[steered[k]].coordination is not None]
+    n_laws = len(laws)
+    coords, positions, mission_gammas = [None] * n_laws, [None] * n_laws, [None] * n_laws
+    for j, k in enumerate(laws):
+        i = steered[k]
         agent = agents[i]
-        if agent.coordination is None:
-            continue
+        coords[j], positions[j] = agent.coordination, navs[i].position_m
         avoidance = agent.avoidance
-        coords.append(agent.coordination)
-        positions.append(navs[i].position_m)
-        mission_gammas.append(gammas[k] if avoidance is None else
-                              avoidance.mission_gamma_m(agent.guidance_of(paths[k], gammas[k])))
-    factors = iter(Coordination.speed_correction_fleet(coords, t, positions, mission_gammas) if coords else ())
-    speeds, calls = [], []
-    for k, i in enumerate(steered):
-        agent, nav = agents[i], navs[i]
+        if avoidance is None:
+            mission_gammas[j] = gammas[k]
+        elif type(avoidance).mission_gamma_m is _THESIS_GAMMA:
+            d = avoidance.detour
+            mission_gammas[j] = (d.mission_gamma(gammas[k]) if d is not None and paths[k] is d.path
+                                 else float(gammas[k]))
+        else:
+            mission_gammas[j] = avoidance.mission_gamma_m(agent.guidance_of(paths[k], gammas[k]))
+    factors = fleet_speed_law.speed_correction_fleet(coords, t, positions, mission_gammas) if coords else ()
+    speeds, calls = [None] * m, [None] * m
+    j = 0
+    for k in range(m):
+        agent = agents[steered[k]]
         speed = agent.mission_speed_m_s
         c = agent.coordination
         if c is not None:
-            speed *= next(factors)
-        speeds.append(speed)
+            speed *= factors[j]
+            j += 1
+        speeds[k] = speed
         avoidance = agent.avoidance
-        calls.append(None if avoidance is None else
-                     (avoidance, t, nav, agent.guidance_of(paths[k], gammas[k]), agent.perception_report(t),
-                      None if c is None else c.team_picture(t)))
+        if avoidance is not None:
+            # agent.guidance_of(paths[k], gammas[k]), agent.perception_report(t), c.team_picture(t)
+            factor = c.last_factor if c is not None else 1.0
+            if not (type(factor) is float and -math.inf < factor < math.inf):
+                factor = float(factor) if math.isfinite(factor) else 1.0
+            mission = agent.mission_speed_m_s
+            guidance = _new(GuidanceState)
+            guidance.__dict__.update(path=paths[k], gamma_m=gammas[k],
+                                     mission_speed_m_s=(mission if type(mission) is float else float(mission)) * factor)
+            report = agent._report
+            calls[k] = (avoidance, t, navs[steered[k]], guidance,
+                        report if report is not None else agent.perception_report(t),
+                        None if c is None else c.team_picture(t))
     for i, agent in enumerate(agents):
         if agent.follower is None:
             outputs[i] = agent.control(navs[i], control_dt_s)  # open loop
     requests = ask_avoidance(calls)
-    modes, courses = [], []
-    for k, (i, request) in enumerate(zip(steered, requests)):
-        speeds[k], mode, course = agents[i].control_answer(speeds[k], request)
-        modes.append(mode)
-        courses.append(course)
-    own = getattr(navs, "fleet", None)  # the fleet's arrays as they are when the navigations are its rows
-    if own is not None and len(steered) == len(own):
+    modes, courses = [None] * m, [None] * m
+    for k in range(m):  # each agent's control_answer(speeds[k], requests[k])
+        agent, req = agents[steered[k]], requests[k]
+        mode, course = "mission", math.nan
+        if req is not None:
+            sw = req.path_switch  # (apply_request)
+            if sw is not None:
+                agent.follower.set_path(sw.path, sw.gamma_m)
+            mode = req.mode
+            if req.speed_override_m_s is not None:
+                speeds[k] = req.speed_override_m_s
+            if req.course_override_rad is not None:
+                course = float(req.course_override_rad)
+        agent.mode = modes[k] = mode
+        courses[k] = course
+    own = navs.fleet if type(navs) is NavigationList else None  # the fleet's arrays, the navigations its rows
+    if own is not None and m == own.heading_rad.shape[0]:
         pos, heading, body = own.position_m, own.heading_rad, own.body_velocity
     else:
         rows = [navs[i] for i in steered]
-        pos, heading = np.array([n.position_m for n in rows]), np.array([n.heading_rad for n in rows])
-        body = np.array([n.body_velocity for n in rows])
-    cmds, statuses = fleet.command(pos, heading, body, np.array(speeds, dtype=float), control_dt_s,
-                                   course_override_rad=np.array(courses, dtype=float))
-    for k, (i, st) in enumerate(zip(steered, statuses)):
-        outputs[i] = agents[i].control_output(cmds[k], st, modes[k])
+        pos, heading = np.array([n.position_m for n in rows], dtype=float), np.array([n.heading_rad for n in rows],
+                                                                                   dtype=float)
+        body = np.array([n.body_velocity for n in rows], dtype=float)
+    cmds, statuses = fleet.command_all(pos, heading, body, speeds, courses, control_dt_s)
+    for k in range(m):  # each agent's control_output(cmds[k], statuses[k], modes[k])
+        st = statuses[k]
+        outputs[steered[k]] = out = _new(ControlOutput)
+        out.__dict__.update(commands=cmds[k], status=st, speed_ref_m_s=st.speed_ref_m_s, mode=modes[k])
     return outputs
