@@ -136,11 +136,12 @@ class PerceptionFleet:
     def queue_scan(self, member, data, rng) -> None:
         """Cast ``member``'s fan in ``data`` now (its draws from ``rng``) and queue the scan for the
         sensing pass (:class:`~mjasc.perception.scan_batch.ScanBatch`)."""
-        if self.pending(member):
+        key = id(member)
+        if key in self._scan_ids or key in self._track_ids:  # (self.pending(member): processed first)
             self.flush()
         self._batch.add(member.sensor, data, rng)
         self._scans.append(member)
-        self._scan_ids.add(id(member))
+        self._scan_ids.add(key)
 
     def queue_track(self, member) -> None:
         if id(member) in self._track_ids:
