@@ -63,6 +63,31 @@ def test_compiled_steps_have_the_bits_of_the_readable_sequence():
         assert new.sim.data.time == ref.sim.data.time
 
 
+def test_compiled_steps_have_the_bits_of_the_readable_sequence_in_contact():
+    """The common case's step calls mj_step once (Euler: mj_step1's stages then mj_step2's): the
+    same bits as the readable sequence while hulls touch (contacts found by mj_step1's collision)."""
+    sc = load_scenario(TASKS / "demo.toml")
+    ref, new = Runner(sc, None, progress=False), Runner(sc, None, progress=False)
+    assert new.sim._euler
+    for sim in (ref.sim, new.sim):  # vessels 1 and 2 pushed against vessel 0
+        sim._qpos3[1, :2] = sim._qpos3[0, :2] + [1.0, 0.5]
+        sim._qpos3[2, :2] = sim._qpos3[0, :2] + [-1.0, 0.8]
+        mujoco.mj_forward(sim.model, sim.data)
+    rng = np.random.default_rng(4)
+    contacts = 0
+    for block in range(200):
+        cmd = rng.uniform(-1.0, 1.0, (new.sim.n_vessels, 2))
+        ref.sim.set_commands(cmd)
+        new.sim.set_commands(cmd)
+        _reference_steps(ref.sim, 5)
+        new.sim.step(5)
+        contacts = max(contacts, new.sim.data.ncon)
+        for field in ("qpos", "qvel", "qacc", "act", "qfrc_applied", "mocap_pos", "mocap_quat", "efc_force"):
+            assert getattr(new.sim.data, field).tobytes() == getattr(ref.sim.data, field).tobytes(), (block, field)
+        assert new.sim.data.time == ref.sim.data.time
+    assert contacts > 0
+
+
 def test_a_divergence_inside_a_block_is_still_caught_at_its_step():
     sc = load_scenario(TASKS / "demo.toml")
     runner = Runner(sc, None, progress=False)

@@ -15,7 +15,9 @@ Python loop. Commands are set between steps with :meth:`Simulation.set_commands`
 case (vessels' dofs first in MjData, a uniform steady current) the force is computed before
 ``mj_step1``, which neither reads nor changes what it depends on: one compiled call per step
 (:mod:`mjasc.physics.step_kernels`: the previous step's divergence test, the mocap poses, the
-force's features), numpy's product τ = F·G, the rotation into ``qfrc_applied``, then MuJoCo's two.
+force's features), numpy's product τ = F·G, the rotation into ``qfrc_applied``, then MuJoCo's
+``mj_step`` (with the Euler integrator the stages of ``mj_step1`` then ``mj_step2`` in one call;
+tests/test_step_kernels.py checks the bits, contacts included).
 """
 
 from __future__ import annotations
@@ -159,6 +161,9 @@ class Simulation:
         self.monitor = DivergenceMonitor(d.qvel, d.qacc, world.dof_adr, [t.top_speed_m_s for t in world.vessel_types],
                                          world.vessel_names, DivergenceBounds())
         self._block_state = np.zeros(mujoco.mj_stateSize(self.model, STATE_SPEC))
+        # With the Euler integrator (the water scene's), mj_step runs mj_step1's stages then
+        # mj_step2's, in their order: the common case's step calls it once (RK4 would differ)
+        self._euler = self.model.opt.integrator == int(mujoco.mjtIntegrator.mjINT_EULER)
 
     # ------------------------------------------------------------------ state access
     @property
@@ -208,11 +213,9 @@ class Simulation:
             return self._states_numpy()
         n = self.n_vessels
         qpos, qvel, act, psi, propellers = self._state_arrays
-        out = np.empty(12 * n)  # (each quantity a contiguous block: state_kernels.vessel_states)
-        vessel_states(qpos, qvel, act, np.cos(psi), np.sin(psi), propellers, out)
-        pos, heading, vel = out[:2 * n].reshape(n, 2), out[2 * n:3 * n], out[3 * n:5 * n].reshape(n, 2)
-        body, shaft = out[5 * n:8 * n].reshape(n, 3), out[8 * n:10 * n].reshape(n, 2)
-        thrust = out[10 * n:].reshape(n, 2)
+        pairs, body, heading = np.empty((4, n, 2)), np.empty((n, 3)), np.empty(n)  # (state_kernels.vessel_states)
+        vessel_states(qpos, qvel, act, np.cos(psi), np.sin(psi), propellers, pairs, body, heading)
+        pos, vel, shaft, thrust = pairs[0], pairs[1], pairs[2], pairs[3]
         t = float(self.data.time)
         if self._current_uniform_steady:  # (the same everywhere, always)
             current = self._uniform_current.copy()
@@ -340,6 +343,7 @@ class Simulation:
                 self._step_arrays
             prepare, matmul, rotate = prepare_step, np.matmul, rotate_to_world
             step1, step2 = mujoco.mj_step1, mujoco.mj_step2
+            whole = mujoco.mj_step if self._euler else None  # (Euler: mj_step is mj_step1 then mj_step2)
             checking = monitor is not None
             v2, a2 = (monitor.fast_speed2, monitor.fast_acc2) if checking else (math.inf, math.inf)
             for k in range(n_steps):
@@ -352,8 +356,11 @@ class Simulation:
                             vc, cf_x, feats, rot)
                 matmul(f_row, g, tau)
                 rotate(tau, rot, out)
-                step1(m, d)
-                step2(m, d)
+                if whole is not None:
+                    whole(m, d)
+                else:
+                    step1(m, d)
+                    step2(m, d)
             if checking and not fast_bounds_ok(qvel, qacc, v2, a2):  # (prepare_step's test, after the last step)
                 what = self._exact_check(monitor)
                 if what is not None:
