@@ -64,13 +64,13 @@ class FleetNavigation:
         ``__init__``'s five ``setattr`` calls per vessel: the runner asks at every tick), as a
         :class:`NavigationList` that knows this fleet."""
         t, new = self.time_s, object.__new__
-        out = NavigationList()
+        headings = self.heading_rad.tolist()
+        out = NavigationList(headings)  # (n places, each set to its vessel's solution below)
         out.fleet = self
-        for pos, heading, vel, body in zip(self.position_m, self.heading_rad.tolist(), self.velocity_m_s,
-                                           self.body_velocity):
-            nav = new(OwnNavigation)
+        for i, (pos, heading, vel, body) in enumerate(zip(self.position_m, headings, self.velocity_m_s,
+                                                          self.body_velocity)):
+            nav = out[i] = new(OwnNavigation)
             nav.__dict__.update(time_s=t, position_m=pos, heading_rad=heading, velocity_m_s=vel, body_velocity=body)
-            out.append(nav)
         return out
 
 

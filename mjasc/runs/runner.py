@@ -329,8 +329,8 @@ class Runner:
                 navs = []
                 if due:
                     navs = FleetNavigation.from_states(states).vessels()
+                t_slot = clock()  # (each slot's time runs from the end of the one before: one clock read a slot)
                 for slot in due:
-                    t_slot = clock()
                     if slot == "control":
                         self._control(states.time_s, navs)
                     elif slot in ONBOARD_SLOTS:
@@ -349,15 +349,17 @@ class Runner:
                                 agent.log(self.recorder, states.time_s)
                     elif slot == "video" and self.video is not None:
                         self.video.add_event(SlotEvent(slot, states.time_s, states, tuple(navs), self))
-                    stage[slot] += clock() - t_slot
+                    t_end = clock()
+                    stage[slot] += t_end - t_slot
                     if self._observers[slot]:
                         event = SlotEvent(slot, states.time_s, states, tuple(navs), self)
                         for fn in self._observers[slot]:
                             fn(event)
+                        t_end = clock()
+                    t_slot = t_end
                 nxt = min(self.schedule.next_event(step), total_steps + 1)
                 if nxt > total_steps:
                     break
-                t_slot = clock()
                 sim.step(nxt - step)
                 stage["physics"] += clock() - t_slot
                 if bar is not None:

@@ -36,8 +36,17 @@ class Schedule:
 
     def due(self, step: int) -> list[str]:
         """Slots that run at physics step ``step`` (step 0 runs everything), in SLOT_ORDER."""
-        return [s for s in SLOT_ORDER if s in self.period_steps and step % self.period_steps[s] == 0]
+        periods, out = self.period_steps, []
+        for s in SLOT_ORDER:  # (a plain loop: the runner asks at every tick)
+            if s in periods and step % periods[s] == 0:
+                out += (s,)
+        return out
 
     def next_event(self, step: int) -> int:
         """The first step after ``step`` at which any slot is due."""
-        return min((step // p + 1) * p for p in self.period_steps.values())
+        first = None
+        for p in self.period_steps.values():  # (min over a generator costs a resumption per slot)
+            nxt = (step // p + 1) * p
+            if first is None or nxt < first:
+                first = nxt
+        return first
