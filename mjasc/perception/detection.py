@@ -332,9 +332,13 @@ def _detect(scans, c: _PerScan, beams, P, rho, hit_all, ranges_all, ret_off, ori
                               np.zeros(S + 1, dtype=np.int64), ret_off)
     n_beams, d0, lam, dth, gap, sig, full = c.cluster_scan
     _, edge_lost, min_rad, edge_var, sig2, floor2 = c.per_scan
-    centres, body, radii, var, counts, ranges, extended, occluded, labels, det_off = detect_clusters(
+    points, floats, ints, flags, d = detect_clusters(
         beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sig, full, c.beam_off, hit_all, ranges_all, origins, cos_h,
         sin_h, edge_lost, min_rad, edge_var, sig2, floor2, *c.keep_scan)
+    K = P.shape[0]  # (the packed outputs as views: detection_kernels.unpack_detections, inline)
+    centres, body, radii, var, counts, ranges = points[:d], points[d:], floats[:d], floats[d:2 * d], ints[:d], \
+        floats[2 * d:]
+    extended, occluded, labels, det_off = flags[:d], flags[d:], ints[d:d + K], ints[d + K:]
     batch = object.__new__(DetectionBatch)  # (DetectionBatch(...) without its frozen __init__'s setattr calls)
     batch.__dict__.update(scans=scans, centres_m=centres, centres_body=body, radii_m=radii, variances_m2=var,
                           n_points=counts, ranges_m=ranges, extended=extended, occluded=occluded, labels=labels,
