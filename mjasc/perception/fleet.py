@@ -106,9 +106,7 @@ class PerceptionFleet:
         self._batch = ScanBatch()  # the casts of the queued scans
         self._scans: list = []  # members queued for the sensing pass (their casts in _batch, in order)
         self._tracks: list = []  # members queued for the tracking pass
-        self._scan_ids: set[int] = set()
         self._plans: dict = {}  # _plan per combination of members
-        self._track_ids: set[int] = set()
         self._sensed = None  # the last sensing pass's (members, detections, their stack for FleetTracker.step)
         self._busy = False
 
@@ -116,6 +114,9 @@ class PerceptionFleet:
         """Register a vessel's perception; returns its map and tracker (views of the fleet's; no
         tracker for a vessel with a plugin tracker, ``member.method``)."""
         cfg = member.config
+        # whether the member has a scan / a tracking step queued (flags on the member: the queue is
+        # asked at every slot, and a set of ids costs three calls where an attribute costs none)
+        member._in_scan = member._in_track = False
         if member.method is not None:
             self.members.append(member)
             return StaticMap(cfg.map_cell_m, cfg.map_min_hits, store=self.map_store), None
@@ -130,24 +131,22 @@ class PerceptionFleet:
     # ------------------------------------------------------------------ the queue
     def pending(self, member) -> bool:
         """The member has queued work."""
-        key = id(member)
-        return key in self._scan_ids or key in self._track_ids
+        return member._in_scan or member._in_track
 
     def queue_scan(self, member, data, rng) -> None:
         """Cast ``member``'s fan in ``data`` now (its draws from ``rng``) and queue the scan for the
         sensing pass (:class:`~mjasc.perception.scan_batch.ScanBatch`)."""
-        key = id(member)
-        if key in self._scan_ids or key in self._track_ids:  # (self.pending(member): processed first)
+        if member._in_scan or member._in_track:  # (self.pending(member): processed first)
             self.flush()
         self._batch.add(member.sensor, data, rng)
         self._scans.append(member)
-        self._scan_ids.add(key)
+        member._in_scan = True
 
     def queue_track(self, member) -> None:
-        if id(member) in self._track_ids:
+        if member._in_track:
             self.flush()
         self._tracks.append(member)
-        self._track_ids.add(id(member))
+        member._in_track = True
 
     def asked(self, member) -> None:
         """A slot call of ``member`` is done: the last member's ends the slot (process the queue)."""
@@ -162,7 +161,8 @@ class PerceptionFleet:
         try:
             if self._scans:
                 members, self._scans = self._scans, []
-                self._scan_ids.clear()
+                for m in members:
+                    m._in_scan = False
                 w0 = time.perf_counter()
                 self._sense(members, self._batch.take())
                 share = (time.perf_counter() - w0) / len(members)
@@ -170,7 +170,8 @@ class PerceptionFleet:
                     m._stats["sense_s"] += share
             if self._tracks:
                 members, self._tracks = self._tracks, []
-                self._track_ids.clear()
+                for m in members:
+                    m._in_track = False
                 w0 = time.perf_counter()
                 self._track(members)
                 share = (time.perf_counter() - w0) / len(members)
@@ -279,7 +280,7 @@ class PerceptionFleet:
         """The constants of a sensing pass over these members, made once per combination of
         members (and of the trackers' owners)."""
         key = tuple(members)
-        size = tuple(ft.n_owners for ft in self._trackers)
+        size = [ft.n_owners for ft in self._trackers]  # (a list: a generator is resumed once per tracker)
         got = self._plans.get(key)
         if got is None or got[0] != size:
             if len(self._plans) >= 64:
