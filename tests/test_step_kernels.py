@@ -12,7 +12,7 @@ import pytest
 from mjasc.guidance.paths import Path as GuidancePath
 from mjasc.physics.obstacles import MovingObstacle, MovingObstacleSet
 from mjasc.physics.simulation import PhysicsDivergence
-from mjasc.physics.step_kernels import traffic_poses, traffic_table
+from mjasc.physics.step_kernels import traffic_poses, traffic_state_at, traffic_table
 from mjasc.runs.runner import Runner
 from mjasc.runs.scenario import load_scenario
 
@@ -34,6 +34,30 @@ def test_traffic_poses_have_the_bits_of_rows():
         for k, (x, y, h, _, _) in zip(mocap, s.rows(float(t))):
             want = np.array([x, y, 7.0, math.cos(0.5 * h), 0.0, 0.0, math.sin(0.5 * h)])
             assert np.concatenate([pos[k], quat[k]]).tobytes() == want.tobytes()
+
+
+def test_traffic_state_at_has_the_bits_of_state():
+    bend = GuidancePath.from_waypoints([[0, 0], [50, 0], [50, 50]], turn_radius_m=10.0)
+    s = MovingObstacleSet([MovingObstacle("a", 2.0, position_m=(3.0, -4.0), heading_rad=2.1, speed_m_s=1.7),
+                           MovingObstacle("b", 3.0, speed_m_s=0.8, path=bend, start_gamma_m=3.3),
+                           MovingObstacle("c", 1.0, position_m=(-7, 9), heading_rad=-0.4, speed_m_s=2.2,
+                                          turn_rate_rad_s=-0.031),
+                           MovingObstacle("d", 1.0, speed_m_s=1.1, path=bend)])
+    table, samples = traffic_table(s.constants(), [3, 0, 2, 1], MovingObstacleSet.PATH_SAMPLE_M)
+    for t in np.concatenate([np.arange(0.0, 200.0, 0.02), [1e-3, 999.0]]):  # (past the paths' ends too)
+        got, want = traffic_state_at(float(t), table, samples), s.state(float(t))
+        for a, b in zip(got, want):
+            assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes() and a.flags.c_contiguous
+
+
+def test_traffic_state_of_a_run_is_the_obstacle_sets():
+    runner = Runner(load_scenario(TASKS / "demo.toml").with_overrides(duration_s=5.0), None, progress=False)
+    sim = runner.sim
+    assert len(sim.traffic)
+    for _ in range(50):
+        sim.step(5)
+        for a, b in zip(sim.traffic_state(), sim.traffic.state(sim.time_s)):
+            assert a.shape == b.shape and a.tobytes() == b.tobytes()
 
 
 def _reference_steps(sim, n: int) -> None:

@@ -34,7 +34,8 @@ from mjasc.physics.hydro_kernels import rotate_to_world
 from mjasc.physics.hydrodynamics import Hydrodynamics, rigid_body_mass_matrix
 from mjasc.physics.obstacles import MovingObstacleSet
 from mjasc.physics.state_kernels import vessel_states
-from mjasc.physics.step_kernels import any_nonzero, fast_bounds_ok, prepare_step, traffic_table, write_commands
+from mjasc.physics.step_kernels import (any_nonzero, fast_bounds_ok, prepare_step, traffic_state_at, traffic_table,
+                                        write_commands)
 from mjasc.physics.thrusters import Thrusters
 from mjasc.physics.world import World
 
@@ -147,6 +148,7 @@ class Simulation:
         # traffic's constants as arrays.
         self._traffic_table, self._traffic_samples = traffic_table(self.traffic.constants(), self._mocap_rows,
                                                                    MovingObstacleSet.PATH_SAMPLE_M)
+        self._has_traffic = len(self.traffic) > 0
         self._mj_arrays = (d.qpos, d.qvel, d.qacc, d.act, d.mocap_pos, d.mocap_quat)
         self._propellers = self.thrusters.step_arrays()
         # what states() reads: MjData's qpos, qvel and act, whole, the headings ψ (a view) and the propellers
@@ -247,8 +249,12 @@ class Simulation:
         )
 
     def traffic_state(self):
-        """(positions (M, 2), headings (M,), velocities (M, 2)) of the moving obstacles now."""
-        return self.traffic.state(self.time_s)
+        """(positions (M, 2), headings (M,), velocities (M, 2)) of the moving obstacles now (new
+        arrays: :meth:`MovingObstacleSet.state`'s numbers in one compiled call,
+        :func:`~mjasc.physics.step_kernels.traffic_state_at`)."""
+        if self._has_traffic:
+            return traffic_state_at(float(self.data.time), self._traffic_table, self._traffic_samples)
+        return self.traffic.state(float(self.data.time))
 
     # ------------------------------------------------------------------ stepping
     def _update_traffic(self) -> None:
