@@ -256,7 +256,7 @@ class PerceptionFleet:
             if len(ft.bank) == 0:
                 continue
             mg = ft.mgmt
-            rows, t_s, slots = disc_rows_at(mg._confirmed, mg._static, mg._moved, ft.owner, owner_slot, times)
+            (rows, slots), t_s = disc_rows_at(mg._confirmed, mg._static, mg._moved, ft.owner, owner_slot, times)
             if rows.size == 0:
                 continue
             t, pos, th, v, w, P = ft.bank.estimate_fields(rows)
