@@ -157,6 +157,7 @@ class Simulation:
         f_row, tau, rot2, feats, cf_x, self._linear_form = self.hydro.step_arrays()
         self._step_arrays = (f_row, tau, rot2, feats, cf_x, self._qfrc3 if self._views else None,
                              *self._mj_arrays, self._traffic_table, self._traffic_samples)
+        self._command_shape = (n, 2)
         self._ctrl, self._ctrl_adr = d.ctrl, np.ascontiguousarray(world.ctrl_adr, dtype=np.intp).reshape(n, 2)
         self._warning_counts = d.warning.number  # (a view of MjData's warning counters)
         self.divergence_checks = True
@@ -204,7 +205,9 @@ class Simulation:
 
     def set_commands(self, commands) -> None:
         """Normalized propeller commands (N, 2) in [−1, 1], port then starboard (clipped)."""
-        c = np.asarray(commands, dtype=float).reshape(self.n_vessels, 2)
+        c = commands
+        if not (type(c) is np.ndarray and c.dtype == np.float64 and c.shape == self._command_shape):
+            c = np.asarray(commands, dtype=float).reshape(self.n_vessels, 2)  # (the runner's are (N, 2) floats)
         if not write_commands(c, self._ctrl, self._ctrl_adr):  # (check, clip and write in one compiled call)
             raise ValueError(f"commands: must be finite, got {c.tolist()}")
 
@@ -215,12 +218,13 @@ class Simulation:
             return self._states_numpy()
         n = self.n_vessels
         qpos, qvel, act, psi, propellers = self._state_arrays
-        pairs, body, heading = np.empty((4, n, 2)), np.empty((n, 3)), np.empty(n)  # (state_kernels.vessel_states)
+        pairs, body, heading = np.empty((5, n, 2)), np.empty((n, 3)), np.empty(n)  # (state_kernels.vessel_states)
         vessel_states(qpos, qvel, act, np.cos(psi), np.sin(psi), propellers, pairs, body, heading)
         pos, vel, shaft, thrust = pairs[0], pairs[1], pairs[2], pairs[3]
         t = float(self.data.time)
-        if self._current_uniform_steady:  # (the same everywhere, always)
-            current = self._uniform_current.copy()
+        if self._current_uniform_steady:  # (the same everywhere, always; copied into the fifth row)
+            current = pairs[4]
+            current[...] = self._uniform_current
         else:
             current = self.current.velocity(np.array(self._qpos3)[:, :2], t)  # (the numpy form's layout)
         out = object.__new__(VesselStates)  # (VesselStates(...) without the frozen __init__'s eight setattr calls)

@@ -23,7 +23,7 @@ __all__ = ["vessel_states"]
 @kernel
 def vessel_states(qpos, qvel, act, cos_psi, sin_psi, propellers, pairs, body, heading):
     """Write the true states of N vessels owning qpos, qvel [3i, 3i + 3) and act [2i, 2i + 2)
-    (MjData's arrays) into ``pairs`` (4, N, 2) — position, velocity, shaft speeds, thrust —,
+    (MjData's arrays) into ``pairs`` (≥ 4, N, 2) — position, velocity, shaft speeds, thrust —,
     ``body`` (N, 3) (the body velocity) and ``heading`` (N,) in [−π, π); from cos ψ and sin ψ (N,)
     and the propeller constants (N, 4) = (n_max, −n_min, k_forward, k_reverse) of
     :class:`~mjasc.physics.thrusters.Thrusters` (module docstring). (Three outputs, each of its

@@ -60,7 +60,7 @@ class RunMetrics:
         tpos = traffic[0]
         update_metrics(pos, self._last_pos, has_last, np.asarray(cross_track_m, dtype=float), self.distance,
                        self._xte_sum, self._xte_count, self._xte_max, self._vertices, self._offsets, self._circles,
-                       self.radii, tpos if len(tpos) else self._no_traffic, self._traffic_radii, self._min_clear)
+                       self.radii, tpos if tpos.shape[0] else self._no_traffic, self._traffic_radii, self._min_clear)
 
     def check_contacts(self, t_s: float) -> list[tuple[str, str]]:
         """New hull contacts since the last call (pairs of owner names); records them."""
