@@ -323,8 +323,9 @@ class Runner:
         stage = self.stage_seconds = dict.fromkeys([*self.schedule.period_steps, "physics"], 0.0)
         collector = pause_collector()  # what exists now lives for the run (mjasc.runs.collector)
         try:
+            tick = self.schedule.tick
             while step <= total_steps:
-                due = self.schedule.due(step)
+                due, nxt = tick(step)  # (the slots due now, the next step with any)
                 states = sim.states() if due else None
                 navs = []
                 if due:
@@ -357,7 +358,6 @@ class Runner:
                             fn(event)
                         t_end = clock()
                     t_slot = t_end
-                nxt = min(self.schedule.next_event(step), total_steps + 1)
                 if nxt > total_steps:
                     break
                 sim.step(nxt - step)
