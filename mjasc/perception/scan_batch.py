@@ -75,7 +75,6 @@ class ScanBatch:
     def _clear(self) -> None:
         self._n = 0  # casts queued
         self._end = 0  # rows they fill
-        self._sensors: list[RangeSensor] = []
         self._queued: list[tuple] = []  # per cast: time [s], x, y [m], yaw [rad], its clutter's end in _cb, 0, 0
         self._cb: list = []  # every cast's clutter beams …
         self._cr: list = []  # … and ranges [m], in cast order
@@ -122,7 +121,6 @@ class ScanBatch:
         x, y, yaw = sensor.fire(data, dist, gid)
         cb = self._cb
         has_n, has_u = sensor.draw(rng, normals, uniforms, cb, self._cr)
-        self._sensors.append(sensor)
         # (the two zeros: the places take() has the heading's cosine and sine written into)
         self._queued.append((float(data.time), x, y, yaw, len(cb), 0.0, 0.0))
         has = self._has
@@ -131,9 +129,9 @@ class ScanBatch:
         has[0, k], has[1, k] = has_n, has_u
         self._n, self._end = k + 1, b
 
-    def _constants(self):
+    def _constants(self, sensors: list):
         """Per-scan parameters (S,) of the queued sensors (made again when the sensors change)."""
-        key = tuple(self._sensors)
+        key = tuple(sensors)
         if key != self._const_key or self._const is None:
             cs = [sn.config for sn in key]
             self._const_key = key
@@ -149,9 +147,9 @@ class ScanBatch:
 
     def take(self) -> ScanStack:
         """The queued casts as scans (module docstring); the batch is emptied."""
-        sensors, queued = self._sensors, self._queued
-        S = self._n
-        beam_off, offs, noise, dropout, min_r, max_r, n_beams, first, last, full = self._constants()
+        queued, S = self._queued, self._n
+        sensors = [row[0] for row in self._tables[:S]]  # (slot k's table row is its cast's sensor's)
+        beam_off, offs, noise, dropout, min_r, max_r, n_beams, first, last, full = self._constants(sensors)
         rows = np.array(queued, dtype=float)  # (S, 7): time, x, y, yaw, clutter end, (cos, sin) of each cast
         cols = rows.T.copy()
         times_s, headings, c_end, cos_h, sin_h = cols[0], cols[3], cols[4], cols[5], cols[6]
