@@ -183,8 +183,8 @@ class PerceptionFleet:
     # ------------------------------------------------------------------ sensing pass
     def _sense(self, members, stack: ScanStack) -> None:
         scans = stack.scans
-        S = len(scans)
         plan = self._plan(members)
+        S = plan.index.shape[0]
         batch = detect_many(scans, None, plan.noise, plan.dropout, stack=stack, constants=plan.detection)
         dets = batch.split()
         restacked = False
@@ -221,13 +221,13 @@ class PerceptionFleet:
         pts = stack.hit_points_world
         carve = plan.carve
         got = sense_map(store, lab, ret_off, det_off, extended, n_pts, centres, radii, variances, pts, plan.sigma,
-                        FLAT_M, dc, dr, d_k, slot, stack, len(carve) == S)
+                        FLAT_M, dc, dr, d_k, slot, stack, plan.carve_all)
         if got is None:  # a return out of the map's range: the steps one by one raise the one-line error
             targets, counts = map_steps(store, lab, ret_off, det_off, extended, n_pts, centres, radii, variances, pts,
-                                        plan.sigma, FLAT_M, dc, dr, d_k, slot, stack, len(carve) == S)
+                                        plan.sigma, FLAT_M, dc, dr, d_k, slot, stack, plan.carve_all)
         else:
             targets, counts = got
-        if 0 < len(carve) < S:
+        if carve and not plan.carve_all:
             sc = [scans[k] for k in carve]
             store.carve(slot[carve].tolist(), [s.origin_m for s in sc], [s.angles_body + s.heading_rad for s in sc],
                         [s.ranges for s in sc], [s.hit for s in sc], [s.max_range_m for s in sc],
@@ -300,6 +300,7 @@ class PerceptionFleet:
                 noise=noise, sigma=np.array(noise, dtype=float), dropout=dropout,
                 slot=np.array([m._map.member for m in members], dtype=np.int64),
                 carve=[k for k, m in enumerate(members) if m._map.miss_weight > 0],
+                carve_all=all(m._map.miss_weight > 0 for m in members),
                 index=np.arange(len(members)), plugins=[k for k, m in enumerate(members) if m.method is not None],
                 trackers=trackers))
         return got[1]
@@ -353,7 +354,7 @@ class _Plan:
     """What a sensing pass over one combination of members (slots 0 … S−1) needs of them: the
     detection's per-scan constants (:func:`~mjasc.perception.detection.detection_constants`); per
     slot σ_ρ (list and array), dropout probability, map member, the slot index; the slots whose
-    maps carve; the slots with a plugin tracker; per fleet tracker with members among them
+    maps carve (``carve_all``: every slot's); the slots with a plugin tracker; per fleet tracker with members among them
     (tracker, the slot of each of its owner indices, −1: not among them)."""
 
     detection: object
@@ -362,6 +363,7 @@ class _Plan:
     dropout: list
     slot: np.ndarray
     carve: list
+    carve_all: bool
     index: np.ndarray
     plugins: list
     trackers: list
