@@ -45,7 +45,8 @@ def test_traffic_state_at_has_the_bits_of_state():
                            MovingObstacle("d", 1.0, speed_m_s=1.1, path=bend)])
     table, samples = traffic_table(s.constants(), [3, 0, 2, 1], MovingObstacleSet.PATH_SAMPLE_M)
     for t in np.concatenate([np.arange(0.0, 200.0, 0.02), [1e-3, 999.0]]):  # (past the paths' ends too)
-        got, want = traffic_state_at(float(t), table, samples), s.state(float(t))
+        pv, heading = traffic_state_at(float(t), table, samples)
+        got, want = (pv[0], heading, pv[1]), s.state(float(t))
         for a, b in zip(got, want):
             assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes() and a.flags.c_contiguous
 

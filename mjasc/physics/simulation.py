@@ -257,7 +257,8 @@ class Simulation:
         arrays: :meth:`MovingObstacleSet.state`'s numbers in one compiled call,
         :func:`~mjasc.physics.step_kernels.traffic_state_at`)."""
         if self._has_traffic:
-            return traffic_state_at(float(self.data.time), self._traffic_table, self._traffic_samples)
+            pv, heading = traffic_state_at(float(self.data.time), self._traffic_table, self._traffic_samples)
+            return pv[0], heading, pv[1]
         return self.traffic.state(float(self.data.time))
 
     # ------------------------------------------------------------------ stepping

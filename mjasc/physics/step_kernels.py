@@ -106,11 +106,12 @@ def traffic_state_at(t, table, samples):
     of :func:`traffic_table`'s arrays at time t [s]: the expressions of
     :meth:`~mjasc.physics.obstacles.MovingObstacleSet.rows` (what its ``state`` stacks), poses as
     :func:`traffic_poses` has them, velocities ``v·(cos θ, sin θ)`` (a path: the speed while short
-    of its end, else 0). New arrays (three: no copies of a stacked table)."""
+    of its end, else 0). New arrays, returned as (positions and velocities (2, M, 2), headings): two
+    arrays to unbox (``pv, h = …; pv[0], h, pv[1]``)."""
     m = table.shape[0]
-    pos = np.empty((m, 2))
+    pos_vel = np.empty((2, m, 2))
+    pos, vel = pos_vel[0], pos_vel[1]
     heading = np.empty(m)
-    vel = np.empty((m, 2))
     for o in range(m):
         row = table[o]
         if row[0] == 0.0:  # constant turn (thesis eq. 3.2)
@@ -143,7 +144,7 @@ def traffic_state_at(t, table, samples):
         heading[o] = h
         vel[o, 0] = vx
         vel[o, 1] = vy
-    return pos, heading, vel
+    return pos_vel, heading
 
 
 @kernel
