@@ -65,11 +65,11 @@ class FleetNavigation:
         :class:`NavigationList` that knows this fleet."""
         t, new = self.time_s, object.__new__
         headings = self.heading_rad.tolist()
-        out = NavigationList(headings)  # (n places, each set to its vessel's solution below)
+        out = NavigationList([None] * len(headings))  # (filled by index: no append per vessel)
         out.fleet = self
-        for i, (pos, heading, vel, body) in enumerate(zip(self.position_m, headings, self.velocity_m_s,
+        for k, (pos, heading, vel, body) in enumerate(zip(self.position_m, headings, self.velocity_m_s,
                                                           self.body_velocity)):
-            nav = out[i] = new(OwnNavigation)
+            out[k] = nav = new(OwnNavigation)
             nav.__dict__.update(time_s=t, position_m=pos, heading_rad=heading, velocity_m_s=vel, body_velocity=body)
         return out
 

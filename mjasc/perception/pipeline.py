@@ -350,7 +350,7 @@ class Perception:
 
     def drain_events(self) -> list[tuple[float, str]]:
         fleet = self.fleet
-        if fleet._scans or fleet._tracks:  # (fleet.flush() when it has anything queued: asked every tick)
+        if fleet._scans or fleet._tracks:  # (flush() only when something is queued)
             fleet.flush()
         ev, self._drain = self._drain, []
         if self._fusion is not None:

@@ -336,7 +336,7 @@ class VesselAgent:
         events = []
         for c in (self.perception, self.coordination, self.avoidance, self.mission):  # (components(), per record tick)
             if c is not None:
-                events += c.drain_events()  # (+= : no extend call, three per vessel and record tick)
+                events.extend(c.drain_events())
         return events
 
     def log(self, recorder, t_s: float) -> None:
