@@ -10,7 +10,7 @@ import pytest
 
 from mjasc.perception.cluster_kernels import (_OCCLUDER_MARGIN_M, _WALL_SIN_TOL, _WALL_STEP_MAX_M, _WALL_STEP_RATIO,
                                               cluster_order, occluded_edges)
-from mjasc.perception.detection_kernels import cluster_discs, detect_clusters, kept_detections
+from mjasc.perception.detection_kernels import cluster_discs, detect_clusters, kept_detections, unpack_detections
 
 
 def _numpy_wall_continues(P, gaps, step, nxt, prv, sigma, gap_max):
@@ -163,7 +163,9 @@ def test_detect_clusters_is_the_steps_in_sequence(seed):
         occ = occluded_edges(beams[order], rho[order], starts, counts, cs, beam_off, n_beams, gap, full, hit_all,
                              ranges_all)
         want = kept_detections(order, counts, cs, centres, radii, var, occ, origins, cos_h, sin_h, min_pts, max_tr)
-        got = detect_clusters(*args, beam_off, hit_all, ranges_all, origins, cos_h, sin_h, edge_lost, min_rad,
-                              edge_var, sig2, floor2, min_pts, max_tr)
+        packed = detect_clusters(*args, beam_off, hit_all, ranges_all, origins, cos_h, sin_h, edge_lost, min_rad,
+                                 edge_var, sig2, floor2, min_pts, max_tr)
+    got = unpack_detections(*packed, beams.shape[0])
+    assert len(got) == len(want)
     for a, b in zip(got, want):
         assert a.dtype == b.dtype and a.shape == b.shape and a.tobytes() == b.tobytes()

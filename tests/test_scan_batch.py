@@ -182,6 +182,7 @@ def test_scan_batch_kernel_equals_the_per_scan_kernels(seed):
 
     beam_off = np.cumsum([0] + [p[0].size for p in parts])
     c_off = np.cumsum([0] + [p[6].size for p in parts])
+    cos_h, sin_h = np.full(S, np.nan), np.full(S, np.nan)  # (written: the headings' cosines and sines)
     got = scan_batch(cat([p[0] for p in parts], True), cat([p[1] for p in parts], True), beam_off,
                      np.array([p[2] for p in parts]), cat([p[0] * 0 if p[3] is None else p[3] for p in parts], True),
                      np.array([p[3] is not None for p in parts]), np.array([p[4] for p in parts]),
@@ -190,7 +191,7 @@ def test_scan_batch_kernel_equals_the_per_scan_kernels(seed):
                      cat([p[6] for p in parts]), cat([p[7] for p in parts]), c_off, np.array([p[8] for p in parts]),
                      np.array([p[9] for p in parts]), CLUTTER_GEOM, cat([np.cos(p[10]) for p in parts], True),
                      cat([np.sin(p[10]) for p in parts], True), np.array([p[11] for p in parts]),
-                     np.array([math.cos(p[12]) for p in parts]), np.array([math.sin(p[12]) for p in parts]))
+                     np.array([p[12] for p in parts]), cos_h, sin_h)
     want = [[] for _ in range(7)]
     none = np.zeros(0)
     for dist, gid, std, z, p, u, cb, cr, min_r, max_r, ang, o, yaw in parts:
@@ -200,7 +201,12 @@ def test_scan_batch_kernel_equals_the_per_scan_kernels(seed):
         body, world = scan_points(r, bm, np.cos(ang[bm]), np.sin(ang[bm]), o[0], o[1], math.cos(yaw), math.sin(yaw))
         for lst, x in zip(want, (r, h, gg, bm, r[bm], body, world)):
             lst.append(x)
-    ranges, hit, geom, beams, ret_off, rho, body, world = got
+    floats, points, hit, geom, ints, k = got
+    N = beam_off[-1]
+    ranges, rho, body, world, beams, ret_off = floats[:N], floats[N:N + k], points[:k], points[N:N + k], ints[:k], \
+        ints[N:]
+    _same(cos_h, np.array([math.cos(p[12]) for p in parts]))  # (math's, the C library's, in the kernel too)
+    _same(sin_h, np.array([math.sin(p[12]) for p in parts]))
     for a, b in zip((ranges, hit, geom, beams, rho, body, world), want):
         _same(a, cat(b))
     _same(ret_off, np.cumsum([0] + [b.size for b in want[3]]))
@@ -239,3 +245,19 @@ def test_carving_from_the_stack_equals_carving_from_the_lists():
         _same(stores[0]._score[:n], stores[1]._score[:n])
         _same(stores[0]._cells[:n], stores[1]._cells[:n])
     assert stores[0]._n > 100 and freed > 20
+
+
+def test_scan_batch_heading_cosines_are_maths():
+    """The kernel's cosine and sine of each cast's heading are Python's ``math.cos`` / ``math.sin``
+    bit for bit (what ScanBatch.add took before, per cast), over many headings."""
+    rng = np.random.default_rng(5)
+    S = 4000
+    headings = np.concatenate([rng.uniform(-math.pi, math.pi, S - 6), [0.0, -0.0, math.pi, -math.pi, 1e-300, 3.1]])
+    beam_off = np.arange(S + 1, dtype=np.int64)
+    ones, zeros = np.ones(S), np.zeros(S)
+    cos_h, sin_h = np.empty(S), np.empty(S)
+    scan_batch(np.full(S, 5.0), np.zeros(S, dtype=np.int32), beam_off, zeros, zeros, np.zeros(S, dtype=bool), zeros,
+               zeros, np.zeros(S, dtype=bool), np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros(S + 1, dtype=np.int64),
+               zeros, 100.0 * ones, CLUTTER_GEOM, ones, zeros, np.zeros((S, 2)), headings, cos_h, sin_h)
+    _same(cos_h, np.array([math.cos(h) for h in headings.tolist()]))
+    _same(sin_h, np.array([math.sin(h) for h in headings.tolist()]))

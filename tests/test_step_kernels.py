@@ -12,7 +12,7 @@ import pytest
 from mjasc.guidance.paths import Path as GuidancePath
 from mjasc.physics.obstacles import MovingObstacle, MovingObstacleSet
 from mjasc.physics.simulation import PhysicsDivergence
-from mjasc.physics.step_kernels import traffic_poses, traffic_table
+from mjasc.physics.step_kernels import traffic_poses, traffic_state_at, traffic_table
 from mjasc.runs.runner import Runner
 from mjasc.runs.scenario import load_scenario
 
@@ -34,6 +34,31 @@ def test_traffic_poses_have_the_bits_of_rows():
         for k, (x, y, h, _, _) in zip(mocap, s.rows(float(t))):
             want = np.array([x, y, 7.0, math.cos(0.5 * h), 0.0, 0.0, math.sin(0.5 * h)])
             assert np.concatenate([pos[k], quat[k]]).tobytes() == want.tobytes()
+
+
+def test_traffic_state_at_has_the_bits_of_state():
+    bend = GuidancePath.from_waypoints([[0, 0], [50, 0], [50, 50]], turn_radius_m=10.0)
+    s = MovingObstacleSet([MovingObstacle("a", 2.0, position_m=(3.0, -4.0), heading_rad=2.1, speed_m_s=1.7),
+                           MovingObstacle("b", 3.0, speed_m_s=0.8, path=bend, start_gamma_m=3.3),
+                           MovingObstacle("c", 1.0, position_m=(-7, 9), heading_rad=-0.4, speed_m_s=2.2,
+                                          turn_rate_rad_s=-0.031),
+                           MovingObstacle("d", 1.0, speed_m_s=1.1, path=bend)])
+    table, samples = traffic_table(s.constants(), [3, 0, 2, 1], MovingObstacleSet.PATH_SAMPLE_M)
+    for t in np.concatenate([np.arange(0.0, 200.0, 0.02), [1e-3, 999.0]]):  # (past the paths' ends too)
+        pv, heading = traffic_state_at(float(t), table, samples)
+        got, want = (pv[0], heading, pv[1]), s.state(float(t))
+        for a, b in zip(got, want):
+            assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes() and a.flags.c_contiguous
+
+
+def test_traffic_state_of_a_run_is_the_obstacle_sets():
+    runner = Runner(load_scenario(TASKS / "demo.toml").with_overrides(duration_s=5.0), None, progress=False)
+    sim = runner.sim
+    assert len(sim.traffic)
+    for _ in range(50):
+        sim.step(5)
+        for a, b in zip(sim.traffic_state(), sim.traffic.state(sim.time_s)):
+            assert a.shape == b.shape and a.tobytes() == b.tobytes()
 
 
 def _reference_steps(sim, n: int) -> None:
@@ -61,6 +86,31 @@ def test_compiled_steps_have_the_bits_of_the_readable_sequence():
         for field in ("qpos", "qvel", "qacc", "act", "qfrc_applied", "mocap_pos", "mocap_quat"):
             assert getattr(new.sim.data, field).tobytes() == getattr(ref.sim.data, field).tobytes(), (block, field)
         assert new.sim.data.time == ref.sim.data.time
+
+
+def test_compiled_steps_have_the_bits_of_the_readable_sequence_in_contact():
+    """The common case's step calls mj_step once (Euler: mj_step1's stages then mj_step2's): the
+    same bits as the readable sequence while hulls touch (contacts found by mj_step1's collision)."""
+    sc = load_scenario(TASKS / "demo.toml")
+    ref, new = Runner(sc, None, progress=False), Runner(sc, None, progress=False)
+    assert new.sim._euler
+    for sim in (ref.sim, new.sim):  # vessels 1 and 2 pushed against vessel 0
+        sim._qpos3[1, :2] = sim._qpos3[0, :2] + [1.0, 0.5]
+        sim._qpos3[2, :2] = sim._qpos3[0, :2] + [-1.0, 0.8]
+        mujoco.mj_forward(sim.model, sim.data)
+    rng = np.random.default_rng(4)
+    contacts = 0
+    for block in range(200):
+        cmd = rng.uniform(-1.0, 1.0, (new.sim.n_vessels, 2))
+        ref.sim.set_commands(cmd)
+        new.sim.set_commands(cmd)
+        _reference_steps(ref.sim, 5)
+        new.sim.step(5)
+        contacts = max(contacts, new.sim.data.ncon)
+        for field in ("qpos", "qvel", "qacc", "act", "qfrc_applied", "mocap_pos", "mocap_quat", "efc_force"):
+            assert getattr(new.sim.data, field).tobytes() == getattr(ref.sim.data, field).tobytes(), (block, field)
+        assert new.sim.data.time == ref.sim.data.time
+    assert contacts > 0
 
 
 def test_a_divergence_inside_a_block_is_still_caught_at_its_step():

@@ -68,7 +68,7 @@ def test_pass_disc_kernels_equal_the_per_tracker_form(seed):
     t_own = np.full(n_owners, np.nan)
     t_own[scanned] = slot_time[owner_slot[scanned]]
     sel = disc_rows(confirmed, static, moved, owner, t_own)
-    rows, t_s, slots = disc_rows_at(confirmed, static, moved, owner, owner_slot, slot_time)
+    (rows, slots), t_s = disc_rows_at(confirmed, static, moved, owner, owner_slot, slot_time)
     _same(rows, sel)
     _same(t_s, t_own[owner[sel]])
     _same(slots, owner_slot[owner[sel]])

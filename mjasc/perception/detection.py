@@ -80,7 +80,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
-from mjasc.core.estimates import estimate_of
 from mjasc.perception.detection_kernels import detect_clusters
 from mjasc.perception.range_sensor import Scan
 from mjasc.perception.scan_batch import ScanStack
@@ -195,13 +194,18 @@ class DetectionBatch:
     def split(self) -> list[Detections]:
         """One :class:`Detections` per scan (views of the batch's arrays)."""
         d, r = self.det_offsets.tolist(), self.ret_offsets.tolist()
-        out = []
+        scans = self.scans
+        out = [None] * len(scans)
         cen, body, rad, var = self.centres_m, self.centres_body, self.radii_m, self.variances_m2
         n, rng, ext, lab, occ = self.n_points, self.ranges_m, self.extended, self.labels, self.occluded
-        for k, sc in enumerate(self.scans):  # made as Detections(...) is, without its per-field setattr
+        new = object.__new__
+        for k, sc in enumerate(scans):  # made as Detections(...) is, without its per-field setattr
             a, b = d[k], d[k + 1]
-            out.append(estimate_of(Detections, sc.time_s, sc.origin_m, sc.heading_rad, cen[a:b], body[a:b], rad[a:b],
-                                   var[a:b], n[a:b], rng[a:b], ext[a:b], lab[r[k]:r[k + 1]], occ[a:b]))
+            det = out[k] = new(Detections)
+            det.__dict__.update(time_s=sc.time_s, origin_m=sc.origin_m, heading_rad=sc.heading_rad,
+                                centres_m=cen[a:b], centres_body=body[a:b], radii_m=rad[a:b], variances_m2=var[a:b],
+                                n_points=n[a:b], ranges_m=rng[a:b], extended=ext[a:b], labels=lab[r[k]:r[k + 1]],
+                                occluded=occ[a:b])
         return out
 
 
@@ -328,8 +332,15 @@ def _detect(scans, c: _PerScan, beams, P, rho, hit_all, ranges_all, ret_off, ori
                               np.zeros(S + 1, dtype=np.int64), ret_off)
     n_beams, d0, lam, dth, gap, sig, full = c.cluster_scan
     _, edge_lost, min_rad, edge_var, sig2, floor2 = c.per_scan
-    centres, body, radii, var, counts, ranges, extended, occluded, labels, det_off = detect_clusters(
+    points, floats, ints, flags, d = detect_clusters(
         beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sig, full, c.beam_off, hit_all, ranges_all, origins, cos_h,
         sin_h, edge_lost, min_rad, edge_var, sig2, floor2, *c.keep_scan)
-    return estimate_of(DetectionBatch, scans, centres, body, radii, var, counts, ranges, extended, occluded, labels,
-                       det_off, ret_off)
+    K = P.shape[0]  # (the packed outputs as views: detection_kernels.unpack_detections, inline)
+    centres, body, radii, var, counts, ranges = points[:d], points[d:], floats[:d], floats[d:2 * d], ints[:d], \
+        floats[2 * d:]
+    extended, occluded, labels, det_off = flags[:d], flags[d:], ints[d:d + K], ints[d + K:]
+    batch = object.__new__(DetectionBatch)  # (DetectionBatch(...) without its frozen __init__'s setattr calls)
+    batch.__dict__.update(scans=scans, centres_m=centres, centres_body=body, radii_m=radii, variances_m2=var,
+                          n_points=counts, ranges_m=ranges, extended=extended, occluded=occluded, labels=labels,
+                          det_offsets=det_off, ret_offsets=ret_off)
+    return batch

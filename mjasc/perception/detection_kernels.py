@@ -36,7 +36,7 @@ import numpy as np
 from mjasc.core.compiled import kernel, maximum
 from mjasc.perception.cluster_kernels import cluster_order, occluded_edges
 
-__all__ = ["cluster_discs", "kept_detections", "detect_clusters"]
+__all__ = ["cluster_discs", "kept_detections", "detect_clusters", "unpack_detections"]
 
 _REFINE = 2  # Gauss–Newton iterations of the centre
 _DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at its first estimate)
@@ -215,7 +215,11 @@ def detect_clusters(beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sigma, f
     (K, 2) [m], ranges (K,) [m], scan s owning ``ret_off[s] : ret_off[s+1]``), then
     :func:`cluster_discs` and :func:`~mjasc.perception.cluster_kernels.occluded_edges` of the returns
     in cluster sequence, then :func:`kept_detections`; the per-scan (S,) arguments are theirs
-    (``dth`` the beam spacing). Returns what :func:`kept_detections` returns."""
+    (``dth`` the beam spacing). Returns what :func:`kept_detections` returns for d detections,
+    packed into four arrays (every returned array costs the caller a Python call to unbox it)
+    and d: ``points`` (2d, 2) = centres, then centres in the body frame; ``floats`` (3d,) =
+    radii, variances, ranges; ``ints`` (d + K + S + 1,) = return counts, labels (K,), offsets
+    (S + 1,); ``flags`` (2d,) = extended, occluded (:func:`unpack_detections`, the caller's slices)."""
     order, starts, counts, cs = cluster_order(beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sigma, full)
     P_o = P[order]
     rho_o = rho[order]
@@ -223,5 +227,30 @@ def detect_clusters(beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sigma, f
                                         sig2, floor2)
     occluded = occluded_edges(beams[order], rho_o, starts, counts, cs, beam_off, n_beams, gap, full, hit_all,
                               ranges_all)
-    return kept_detections(order, counts, cs, centres, radii, var, occluded, origins, cos_h, sin_h, min_pts,
-                           max_radius_m)
+    cen, body, rad, vr, cnt, rng, ext, occ, labels, det_off = kept_detections(
+        order, counts, cs, centres, radii, var, occluded, origins, cos_h, sin_h, min_pts, max_radius_m)
+    d, K, S = rad.shape[0], labels.shape[0], det_off.shape[0] - 1
+    points = np.empty((2 * d, 2))
+    floats = np.empty(3 * d)
+    ints = np.empty(d + K + S + 1, dtype=np.int64)
+    flags = np.empty(2 * d, dtype=np.bool_)
+    points[:d] = cen
+    points[d:] = body
+    floats[:d] = rad
+    floats[d:2 * d] = vr
+    floats[2 * d:] = rng
+    ints[:d] = cnt
+    ints[d:d + K] = labels
+    ints[d + K:] = det_off
+    flags[:d] = ext
+    flags[d:] = occ
+    return points, floats, ints, flags, d
+
+
+def unpack_detections(points, floats, ints, flags, d, K):
+    """:func:`detect_clusters`' packed outputs (d detections, K returns) as :func:`kept_detections`
+    returns them (views): centres, centres in the body frame, radii, variances, return counts,
+    ranges, extended, occluded, labels, offsets. (:func:`mjasc.perception.detection._detect`
+    slices them in place of this call.)"""
+    return (points[:d], points[d:], floats[:d], floats[d:2 * d], ints[:d], floats[2 * d:], flags[:d], flags[d:],
+            ints[d:d + K], ints[d + K:])

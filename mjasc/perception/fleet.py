@@ -106,9 +106,7 @@ class PerceptionFleet:
         self._batch = ScanBatch()  # the casts of the queued scans
         self._scans: list = []  # members queued for the sensing pass (their casts in _batch, in order)
         self._tracks: list = []  # members queued for the tracking pass
-        self._scan_ids: set[int] = set()
         self._plans: dict = {}  # _plan per combination of members
-        self._track_ids: set[int] = set()
         self._sensed = None  # the last sensing pass's (members, detections, their stack for FleetTracker.step)
         self._busy = False
 
@@ -116,6 +114,9 @@ class PerceptionFleet:
         """Register a vessel's perception; returns its map and tracker (views of the fleet's; no
         tracker for a vessel with a plugin tracker, ``member.method``)."""
         cfg = member.config
+        # whether the member has a scan / a tracking step queued (flags on the member: the queue is
+        # asked at every slot, and a set of ids costs three calls where an attribute costs none)
+        member._in_scan = member._in_track = False
         if member.method is not None:
             self.members.append(member)
             return StaticMap(cfg.map_cell_m, cfg.map_min_hits, store=self.map_store), None
@@ -130,23 +131,22 @@ class PerceptionFleet:
     # ------------------------------------------------------------------ the queue
     def pending(self, member) -> bool:
         """The member has queued work."""
-        key = id(member)
-        return key in self._scan_ids or key in self._track_ids
+        return member._in_scan or member._in_track
 
     def queue_scan(self, member, data, rng) -> None:
         """Cast ``member``'s fan in ``data`` now (its draws from ``rng``) and queue the scan for the
         sensing pass (:class:`~mjasc.perception.scan_batch.ScanBatch`)."""
-        if self.pending(member):
+        if member._in_scan or member._in_track:  # (self.pending(member): processed first)
             self.flush()
         self._batch.add(member.sensor, data, rng)
         self._scans.append(member)
-        self._scan_ids.add(id(member))
+        member._in_scan = True
 
     def queue_track(self, member) -> None:
-        if id(member) in self._track_ids:
+        if member._in_track:
             self.flush()
         self._tracks.append(member)
-        self._track_ids.add(id(member))
+        member._in_track = True
 
     def asked(self, member) -> None:
         """A slot call of ``member`` is done: the last member's ends the slot (process the queue)."""
@@ -161,7 +161,8 @@ class PerceptionFleet:
         try:
             if self._scans:
                 members, self._scans = self._scans, []
-                self._scan_ids.clear()
+                for m in members:
+                    m._in_scan = False
                 w0 = time.perf_counter()
                 self._sense(members, self._batch.take())
                 share = (time.perf_counter() - w0) / len(members)
@@ -169,7 +170,8 @@ class PerceptionFleet:
                     m._stats["sense_s"] += share
             if self._tracks:
                 members, self._tracks = self._tracks, []
-                self._track_ids.clear()
+                for m in members:
+                    m._in_track = False
                 w0 = time.perf_counter()
                 self._track(members)
                 share = (time.perf_counter() - w0) / len(members)
@@ -181,8 +183,8 @@ class PerceptionFleet:
     # ------------------------------------------------------------------ sensing pass
     def _sense(self, members, stack: ScanStack) -> None:
         scans = stack.scans
-        S = len(scans)
         plan = self._plan(members)
+        S = plan.index.shape[0]
         batch = detect_many(scans, None, plan.noise, plan.dropout, stack=stack, constants=plan.detection)
         dets = batch.split()
         restacked = False
@@ -219,13 +221,13 @@ class PerceptionFleet:
         pts = stack.hit_points_world
         carve = plan.carve
         got = sense_map(store, lab, ret_off, det_off, extended, n_pts, centres, radii, variances, pts, plan.sigma,
-                        FLAT_M, dc, dr, d_k, slot, stack, len(carve) == S)
+                        FLAT_M, dc, dr, d_k, slot, stack, plan.carve_all)
         if got is None:  # a return out of the map's range: the steps one by one raise the one-line error
             targets, counts = map_steps(store, lab, ret_off, det_off, extended, n_pts, centres, radii, variances, pts,
-                                        plan.sigma, FLAT_M, dc, dr, d_k, slot, stack, len(carve) == S)
+                                        plan.sigma, FLAT_M, dc, dr, d_k, slot, stack, plan.carve_all)
         else:
             targets, counts = got
-        if 0 < len(carve) < S:
+        if carve and not plan.carve_all:
             sc = [scans[k] for k in carve]
             store.carve(slot[carve].tolist(), [s.origin_m for s in sc], [s.angles_body + s.heading_rad for s in sc],
                         [s.ranges for s in sc], [s.hit for s in sc], [s.max_range_m for s in sc],
@@ -254,7 +256,7 @@ class PerceptionFleet:
             if len(ft.bank) == 0:
                 continue
             mg = ft.mgmt
-            rows, t_s, slots = disc_rows_at(mg._confirmed, mg._static, mg._moved, ft.owner, owner_slot, times)
+            (rows, slots), t_s = disc_rows_at(mg._confirmed, mg._static, mg._moved, ft.owner, owner_slot, times)
             if rows.size == 0:
                 continue
             t, pos, th, v, w, P = ft.bank.estimate_fields(rows)
@@ -278,7 +280,7 @@ class PerceptionFleet:
         """The constants of a sensing pass over these members, made once per combination of
         members (and of the trackers' owners)."""
         key = tuple(members)
-        size = tuple(ft.n_owners for ft in self._trackers)
+        size = [ft.n_owners for ft in self._trackers]  # (a list: a generator is resumed once per tracker)
         got = self._plans.get(key)
         if got is None or got[0] != size:
             if len(self._plans) >= 64:
@@ -298,6 +300,7 @@ class PerceptionFleet:
                 noise=noise, sigma=np.array(noise, dtype=float), dropout=dropout,
                 slot=np.array([m._map.member for m in members], dtype=np.int64),
                 carve=[k for k, m in enumerate(members) if m._map.miss_weight > 0],
+                carve_all=all(m._map.miss_weight > 0 for m in members),
                 index=np.arange(len(members)), plugins=[k for k, m in enumerate(members) if m.method is not None],
                 trackers=trackers))
         return got[1]
@@ -351,7 +354,7 @@ class _Plan:
     """What a sensing pass over one combination of members (slots 0 … S−1) needs of them: the
     detection's per-scan constants (:func:`~mjasc.perception.detection.detection_constants`); per
     slot σ_ρ (list and array), dropout probability, map member, the slot index; the slots whose
-    maps carve; the slots with a plugin tracker; per fleet tracker with members among them
+    maps carve (``carve_all``: every slot's); the slots with a plugin tracker; per fleet tracker with members among them
     (tracker, the slot of each of its owner indices, −1: not among them)."""
 
     detection: object
@@ -360,6 +363,7 @@ class _Plan:
     dropout: list
     slot: np.ndarray
     carve: list
+    carve_all: bool
     index: np.ndarray
     plugins: list
     trackers: list

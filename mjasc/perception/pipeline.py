@@ -96,6 +96,7 @@ class Perception:
                  fleet: PerceptionFleet | None = None, context: StageContext | None = None):
         self.sensor_config = SensorConfig() if sensor_config is None else sensor_config
         self.world = world
+        self._data = world.data  # (its MjData, what the scans read: the world's physics is never reloaded)
         self.vessel_index = int(vessel_index)
         self.name = world.vessel_names[vessel_index]
         self.method = None  # a plugin TrackingMethod (None: the built-in fleet IMM)
@@ -187,14 +188,13 @@ class Perception:
         turns it into detections and map updates."""
         fleet = self.fleet
         if t_s >= self._next_scan_t - 1e-9:
-            if fleet.pending(self):  # its previous scan is processed first
-                fleet.flush()
             w0 = time.perf_counter()
             self._next_scan_t = t_s + 1.0 / self.sensor_config.rate_hz
-            fleet.queue_scan(self, self.world.data, self.rng)
+            fleet.queue_scan(self, self._data, self.rng)  # (its previous scan, if still queued, processed first)
             self._stats["sense_s"] += time.perf_counter() - w0
             self._pending = True
-        fleet.asked(self)
+        if self is fleet.members[-1]:  # (fleet.asked(self), inline: the last member's call ends the slot)
+            fleet.flush()
 
     def _scanned(self, scan: Scan, det: Detections, targets: np.ndarray, counts) -> None:
         """The fleet's sensing pass is done with this vessel's scan: its detections, the targets
@@ -349,7 +349,9 @@ class Perception:
         return self._fusion.fuse(own, t_s)
 
     def drain_events(self) -> list[tuple[float, str]]:
-        self.fleet.flush()
+        fleet = self.fleet
+        if fleet._scans or fleet._tracks:  # (flush() only when something is queued)
+            fleet.flush()
         ev, self._drain = self._drain, []
         if self._fusion is not None:
             ev.extend(self._fusion.drain_events())

@@ -15,12 +15,10 @@ taken alone (:meth:`RangeSensor.scan` is a batch of one) or with others.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from mjasc.core.estimates import estimate_of
 from mjasc.perception.range_sensor import CLUTTER_GEOM, RangeSensor, Scan
 from mjasc.perception.scan_kernels import scan_batch
 
@@ -75,12 +73,11 @@ class ScanBatch:
         self._const = None
 
     def _clear(self) -> None:
-        self._sensors: list[RangeSensor] = []
-        self._offs = [0]
-        self._queued: list[tuple] = []  # per cast: time [s], x, y [m], yaw [rad], its cosine and sine
+        self._n = 0  # casts queued
+        self._end = 0  # rows they fill
+        self._queued: list[tuple] = []  # per cast: time [s], x, y [m], yaw [rad], its clutter's end in _cb, 0, 0
         self._cb: list = []  # every cast's clutter beams …
         self._cr: list = []  # … and ranges [m], in cast order
-        self._c_off = [0]  # cast k's clutter: _c_off[k] : _c_off[k + 1]
 
     def _grow(self, need: int) -> None:
         cap = max(1024, 2 * need)
@@ -101,42 +98,46 @@ class ScanBatch:
         return self._dist[a:b], self._gid[a:b], self._normals[a:b], self._uniforms[a:b]
 
     def __len__(self) -> int:
-        return len(self._sensors)
+        return self._n
 
     def add(self, sensor: RangeSensor, data, rng: np.random.Generator | None) -> None:
         """Cast ``sensor``'s fan in ``data`` now and draw its imperfections from ``rng`` (None:
         none) into the next rows."""
-        k = len(self._sensors)
-        a = self._offs[-1]
+        k, a = self._n, self._end
         b = a + sensor.config.beams
         if b > self._cap:
             self._grow(b)
         tables = self._tables
-        if k >= len(tables) or tables[k][0] is not sensor or tables[k][1] != a:
+        try:
+            row = tables[k]
+        except IndexError:
+            row = None
+        if row is None or row[0] is not sensor or row[1] != a:
             self._cos[a:b], self._sin[a:b] = sensor.cos_body, sensor.sin_body
             del tables[k:]  # the later slots' rows may have been overwritten
-            tables.append((sensor, a, *self._views(a, b)))
-        _, _, dist, gid, normals, uniforms = tables[k]
+            row = (sensor, a, *self._views(a, b))
+            tables.append(row)
+        _, _, dist, gid, normals, uniforms = row
         x, y, yaw = sensor.fire(data, dist, gid)
         cb = self._cb
         has_n, has_u = sensor.draw(rng, normals, uniforms, cb, self._cr)
-        self._sensors.append(sensor)
-        self._offs.append(b)
-        self._queued.append((float(data.time), x, y, yaw, math.cos(yaw), math.sin(yaw)))
+        # (the two zeros: the places take() has the heading's cosine and sine written into)
+        self._queued.append((float(data.time), x, y, yaw, len(cb), 0.0, 0.0))
         has = self._has
         if k >= has.shape[1]:
             self._has = has = np.concatenate([has, np.zeros_like(has)], axis=1)
         has[0, k], has[1, k] = has_n, has_u
-        self._c_off.append(len(cb))
+        self._n, self._end = k + 1, b
 
-    def _constants(self):
+    def _constants(self, sensors: list):
         """Per-scan parameters (S,) of the queued sensors (made again when the sensors change)."""
-        key = tuple(self._sensors)
+        key = tuple(sensors)
         if key != self._const_key or self._const is None:
             cs = [sn.config for sn in key]
             self._const_key = key
-            beam_off = np.array(self._offs, dtype=np.int64)
-            self._const = (beam_off, np.array([c.range_noise_std_m for c in cs], float),
+            beam_off = np.zeros(len(key) + 1, dtype=np.int64)
+            np.cumsum([c.beams for c in cs], out=beam_off[1:])
+            self._const = (beam_off, beam_off.tolist(), np.array([c.range_noise_std_m for c in cs], float),
                            np.array([c.dropout_probability for c in cs], float),
                            np.array([c.min_range_m for c in cs], float), np.array([c.max_range_m for c in cs], float),
                            np.diff(beam_off), np.array([sn.angles_body[0] for sn in key], dtype=float),
@@ -146,31 +147,43 @@ class ScanBatch:
 
     def take(self) -> ScanStack:
         """The queued casts as scans (module docstring); the batch is emptied."""
-        sensors, offs, queued = self._sensors, self._offs, self._queued
-        S = len(sensors)
-        beam_off, noise, dropout, min_r, max_r, n_beams, first, last, full = self._constants()
-        rows = np.array(queued, dtype=float)  # (S, 6): time, x, y, yaw, cos, sin of each cast
+        queued, S = self._queued, self._n
+        sensors = [row[0] for row in self._tables[:S]]  # (slot k's table row is its cast's sensor's)
+        beam_off, offs, noise, dropout, min_r, max_r, n_beams, first, last, full = self._constants(sensors)
+        rows = np.array(queued, dtype=float)  # (S, 7): time, x, y, yaw, clutter end, (cos, sin) of each cast
         cols = rows.T.copy()
-        times_s, headings, cos_h, sin_h = cols[0], cols[3], cols[4], cols[5]
+        times_s, headings, c_end, cos_h, sin_h = cols[0], cols[3], cols[4], cols[5], cols[6]
         origins = rows[:, 1:3].copy()
         has_n, has_u = self._has[0, :S], self._has[1, :S]
         if self._cb:
             cb, cr = np.array(self._cb, dtype=np.int64), np.array(self._cr, dtype=float)
         else:
             cb, cr = _NO_BEAMS, _NO_DRAWS
-        c_off = np.array(self._c_off, dtype=np.int64)
-        ranges, hit, geom, beams, ret_off, rho, body, world = scan_batch(
+        c_off = np.zeros(S + 1, dtype=np.int64)
+        c_off[1:] = c_end
+        floats, points, hit, geom, ints, K = scan_batch(  # (cos_h, sin_h written: of each cast's heading)
             self._dist, self._gid, beam_off, noise, self._normals, has_n, dropout, self._uniforms, has_u, cb, cr,
-            c_off, min_r, max_r, CLUTTER_GEOM, self._cos, self._sin, origins, cos_h, sin_h)
+            c_off, min_r, max_r, CLUTTER_GEOM, self._cos, self._sin, origins, headings, cos_h, sin_h)
+        N = offs[S]
+        ranges, rho, body, world, beams, ret_off = floats[:N], floats[N:N + K], points[:K], points[N:N + K], \
+            ints[:K], ints[N:]
         ro = ret_off.tolist()
-        scans = []
-        for k, sensor in enumerate(sensors):
+        new = object.__new__
+        scans = [None] * S
+        for k, sensor in enumerate(sensors):  # Scan(...) without its frozen __init__'s thirteen setattr calls
             a, b, p, q = offs[k], offs[k + 1], ro[k], ro[k + 1]
-            c = sensor.config
             cast = queued[k]
-            scans.append(estimate_of(Scan, cast[0], origins[k], cast[3], sensor.angles_body, ranges[a:b], hit[a:b],
-                                     beams[p:q], body[p:q], world[p:q], geom[a:b], c.max_range_m,
-                                     sensor.beam_spacing_rad, sensor.full_circle))
+            scan = scans[k] = new(Scan)
+            scan.__dict__.update(time_s=cast[0], origin_m=origins[k], heading_rad=cast[3],
+                                 angles_body=sensor.angles_body, ranges=ranges[a:b], hit=hit[a:b],
+                                 hit_beams=beams[p:q], hit_points_body=body[p:q], hit_points_world=world[p:q],
+                                 geom_ids=geom[a:b], max_range_m=sensor.config.max_range_m,
+                                 beam_spacing_rad=sensor.beam_spacing_rad, full_circle=sensor.full_circle)
         self._clear()
-        return estimate_of(ScanStack, tuple(scans), beam_off, ret_off, ranges, hit, beams, rho, world, origins, cos_h,
-                           sin_h, times_s, headings, n_beams, first, last, max_r, full)
+        stack = new(ScanStack)
+        stack.__dict__.update(scans=tuple(scans), beam_off=beam_off, ret_off=ret_off, ranges_m=ranges, hit=hit,
+                              hit_beams=beams, hit_ranges_m=rho, hit_points_world=world, origins_m=origins,
+                              cos_heading=cos_h, sin_heading=sin_h, times_s=times_s, headings_rad=headings,
+                              n_beams=n_beams, first_angle_body=first, last_angle_body=last, max_range_m=max_r,
+                              full_circle=full)
+        return stack

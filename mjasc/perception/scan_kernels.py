@@ -27,6 +27,8 @@ functions stay in numpy too (numpy's SIMD sin/cos need not round like libm's).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from mjasc.core.compiled import kernel
@@ -118,29 +120,41 @@ def scan_points(ranges, beams, cos_a, sin_a, origin_x, origin_y, cos_h, sin_h):
 @kernel
 def scan_batch(dist, gid, beam_off, noise_std_m, normals, has_normals, dropout_probability, uniforms, has_uniforms,
                clutter_beams, clutter_ranges_m, clutter_off, min_range_m, max_range_m, clutter_geom, cos_body,
-               sin_body, origins, cos_h, sin_h):
+               sin_body, origins, headings, cos_h, sin_h):
     """The scans of S casts stacked: cast s owns the beams ``beam_off[s] : beam_off[s+1]`` of the raw
     ``mj_multiRay`` distances ``dist`` and geom ids ``gid``, of the draws ``normals`` / ``uniforms``
     (used where ``has_normals[s]`` / ``has_uniforms[s]``) and of the beam cosines / sines
     ``cos_body`` / ``sin_body``, and its clutter ``clutter_off[s] : clutter_off[s+1]``; per cast
-    (S,): σ_ρ, dropout probability, min and max range [m], origin (S, 2) [m], cosine and sine of
-    the heading. Each cast is :func:`clean_hits`, :func:`scan_returns` and :func:`scan_points`.
-    Returns the stacked ranges (N,) [m], hit (N,), geom ids (N,), the hit beams (K,) (indices
-    within their cast), ``ret_off`` (S + 1,) (cast s owns returns ``ret_off[s] : ret_off[s+1]``),
-    the returns' ranges (K,) [m], their points in the sensor frame (K, 2) and in the world (K, 2) [m].
+    (S,): σ_ρ, dropout probability, min and max range [m], origin (S, 2) [m], heading [rad]; its
+    cosine and sine are written into ``cos_h`` and ``sin_h`` (S,) (``math.cos`` / ``math.sin``,
+    the C library's, as Python's ``math`` has them). Each cast is :func:`clean_hits`,
+    :func:`scan_returns` and :func:`scan_points`. Returns, in five arrays and K (every returned
+    array costs the caller a Python call to unbox it):
+
+    * ``floats`` (2N,): the stacked ranges (N,) [m], then the returns' ranges (K,) [m];
+    * ``points`` (2N, 2): the returns in the sensor frame (K, 2), from row N those in the world (K, 2) [m];
+    * hit (N,) and geom ids (N,);
+    * ``ints`` (N + S + 1,): the hit beams (K,) (indices within their cast), from N ``ret_off``
+      (S + 1,) (cast s owns returns ``ret_off[s] : ret_off[s+1]``);
+    * K, the number of returns.
+
     The three kernels' loops are written out over the stacked outputs (no per-cast arrays), each
     expression as they have it. The per-beam inputs may be longer than the N = ``beam_off[S]``
     beams (a batch's buffers, passed whole)."""
     S = beam_off.shape[0] - 1
     N = beam_off[S]
-    ranges = np.empty(N)
+    floats = np.empty(2 * N)
+    points = np.empty((2 * N, 2))
     hit = np.empty(N, dtype=np.bool_)
     geom = np.empty(N, dtype=gid.dtype)
-    beams = np.empty(N, dtype=np.int64)
-    rho = np.empty(N)
-    body = np.empty((N, 2))
-    world = np.empty((N, 2))
-    ret_off = np.zeros(S + 1, dtype=np.int64)
+    ints = np.empty(N + S + 1, dtype=np.int64)
+    ranges, rho = floats[:N], floats[N:]
+    body, world = points[:N], points[N:]
+    beams, ret_off = ints[:N], ints[N:]
+    ret_off[0] = 0
+    for s in range(S):
+        cos_h[s] = math.cos(headings[s])
+        sin_h[s] = math.sin(headings[s])
     k = 0
     for s in range(S):  # the loops of clean_hits, scan_returns and scan_points, written into the outputs
         a, b = beam_off[s], beam_off[s + 1]
@@ -187,4 +201,4 @@ def scan_batch(dist, gid, beam_off, noise_std_m, normals, has_normals, dropout_p
                 ranges[i] = mx
                 geom[i] = -1
         ret_off[s + 1] = k
-    return ranges, hit, geom, beams[:k], ret_off, rho[:k], body[:k], world[:k]
+    return floats, points, hit, geom, ints, k

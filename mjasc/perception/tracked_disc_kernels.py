@@ -44,15 +44,16 @@ def disc_rows(confirmed, static, moved, owner, t_own):
 
 @kernel
 def disc_courses(t_s, t, th, w):
-    """``dt = max(t_s − t, 0)`` [s] and ``θ + ½·dt·ω̂`` [rad], each (k,)."""
+    """``dt = max(t_s − t, 0)`` [s] and ``θ + ½·dt·ω̂`` [rad], each (k,): the rows of one (2, k)
+    array (``dt, mid = disc_courses(…)``; one array to unbox instead of two)."""
     k = t.shape[0]
-    dt = np.empty(k)
-    mid = np.empty(k)
+    out = np.empty((2, k))
+    dt, mid = out[0], out[1]
     for i in range(k):
         d = maximum(t_s[i] - t[i], 0.0)
         dt[i] = d
         mid[i] = th[i] + 0.5 * d * w[i]
-    return dt, mid
+    return out
 
 
 @kernel
@@ -77,8 +78,9 @@ def disc_geometry(pos, dt, v, cos_th, sin_th, radius, P, margin_m, margin_max_m)
 @kernel
 def disc_rows_at(confirmed, static, moved, owner, owner_slot, slot_time):
     """:func:`disc_rows` for the vessels of one sensing pass: the rows (k,) ascending whose owner
-    scanned (``owner_slot[owner] ≥ 0``, its slot in the pass), their scan times (k,) [s] (the
-    slot's ``slot_time``) and slots (k,)."""
+    scanned (``owner_slot[owner] ≥ 0``, its slot in the pass) and their slots (k,), the rows of
+    one (2, k) array, and their scan times (k,) [s] (the slot's ``slot_time``):
+    ``(rows, slots), t_s = disc_rows_at(…)`` (two arrays to unbox instead of three)."""
     n = owner.shape[0]
     rows = np.empty(n, dtype=np.int64)
     t_s = np.empty(n)
@@ -89,7 +91,10 @@ def disc_rows_at(confirmed, static, moved, owner, owner_slot, slot_time):
         if confirmed[r] and (not static[r] or moved[r]) and q >= 0:
             rows[k], t_s[k], slots[k] = r, slot_time[q], q
             k += 1
-    return rows[:k].copy(), t_s[:k].copy(), slots[:k].copy()
+    ints = np.empty((2, k), dtype=np.int64)
+    ints[0] = rows[:k]
+    ints[1] = slots[:k]
+    return ints, t_s[:k].copy()
 
 
 @kernel

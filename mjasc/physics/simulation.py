@@ -15,7 +15,9 @@ Python loop. Commands are set between steps with :meth:`Simulation.set_commands`
 case (vessels' dofs first in MjData, a uniform steady current) the force is computed before
 ``mj_step1``, which neither reads nor changes what it depends on: one compiled call per step
 (:mod:`mjasc.physics.step_kernels`: the previous step's divergence test, the mocap poses, the
-force's features), numpy's product τ = F·G, the rotation into ``qfrc_applied``, then MuJoCo's two.
+force's features), numpy's product τ = F·G, the rotation into ``qfrc_applied``, then MuJoCo's
+``mj_step`` (with the Euler integrator the stages of ``mj_step1`` then ``mj_step2`` in one call;
+tests/test_step_kernels.py checks the bits, contacts included).
 """
 
 from __future__ import annotations
@@ -32,7 +34,8 @@ from mjasc.physics.hydro_kernels import rotate_to_world
 from mjasc.physics.hydrodynamics import Hydrodynamics, rigid_body_mass_matrix
 from mjasc.physics.obstacles import MovingObstacleSet
 from mjasc.physics.state_kernels import vessel_states
-from mjasc.physics.step_kernels import any_nonzero, fast_bounds_ok, prepare_step, traffic_table, write_commands
+from mjasc.physics.step_kernels import (any_nonzero, fast_bounds_ok, prepare_step, traffic_state_at, traffic_table,
+                                        write_commands)
 from mjasc.physics.thrusters import Thrusters
 from mjasc.physics.world import World
 
@@ -145,6 +148,7 @@ class Simulation:
         # traffic's constants as arrays.
         self._traffic_table, self._traffic_samples = traffic_table(self.traffic.constants(), self._mocap_rows,
                                                                    MovingObstacleSet.PATH_SAMPLE_M)
+        self._has_traffic = len(self.traffic) > 0
         self._mj_arrays = (d.qpos, d.qvel, d.qacc, d.act, d.mocap_pos, d.mocap_quat)
         self._propellers = self.thrusters.step_arrays()
         # what states() reads: MjData's qpos, qvel and act, whole, the headings ψ (a view) and the propellers
@@ -153,12 +157,16 @@ class Simulation:
         f_row, tau, rot2, feats, cf_x, self._linear_form = self.hydro.step_arrays()
         self._step_arrays = (f_row, tau, rot2, feats, cf_x, self._qfrc3 if self._views else None,
                              *self._mj_arrays, self._traffic_table, self._traffic_samples)
+        self._command_shape = (n, 2)
         self._ctrl, self._ctrl_adr = d.ctrl, np.ascontiguousarray(world.ctrl_adr, dtype=np.intp).reshape(n, 2)
         self._warning_counts = d.warning.number  # (a view of MjData's warning counters)
         self.divergence_checks = True
         self.monitor = DivergenceMonitor(d.qvel, d.qacc, world.dof_adr, [t.top_speed_m_s for t in world.vessel_types],
                                          world.vessel_names, DivergenceBounds())
         self._block_state = np.zeros(mujoco.mj_stateSize(self.model, STATE_SPEC))
+        # With the Euler integrator (the water scene's), mj_step runs mj_step1's stages then
+        # mj_step2's, in their order: the common case's step calls it once (RK4 would differ)
+        self._euler = self.model.opt.integrator == int(mujoco.mjtIntegrator.mjINT_EULER)
 
     # ------------------------------------------------------------------ state access
     @property
@@ -197,7 +205,9 @@ class Simulation:
 
     def set_commands(self, commands) -> None:
         """Normalized propeller commands (N, 2) in [−1, 1], port then starboard (clipped)."""
-        c = np.asarray(commands, dtype=float).reshape(self.n_vessels, 2)
+        c = commands
+        if not (type(c) is np.ndarray and c.dtype == np.float64 and c.shape == self._command_shape):
+            c = np.asarray(commands, dtype=float).reshape(self.n_vessels, 2)  # (the runner's are (N, 2) floats)
         if not write_commands(c, self._ctrl, self._ctrl_adr):  # (check, clip and write in one compiled call)
             raise ValueError(f"commands: must be finite, got {c.tolist()}")
 
@@ -208,14 +218,13 @@ class Simulation:
             return self._states_numpy()
         n = self.n_vessels
         qpos, qvel, act, psi, propellers = self._state_arrays
-        out = np.empty(12 * n)  # (each quantity a contiguous block: state_kernels.vessel_states)
-        vessel_states(qpos, qvel, act, np.cos(psi), np.sin(psi), propellers, out)
-        pos, heading, vel = out[:2 * n].reshape(n, 2), out[2 * n:3 * n], out[3 * n:5 * n].reshape(n, 2)
-        body, shaft = out[5 * n:8 * n].reshape(n, 3), out[8 * n:10 * n].reshape(n, 2)
-        thrust = out[10 * n:].reshape(n, 2)
+        pairs, body, heading = np.empty((5, n, 2)), np.empty((n, 3)), np.empty(n)  # (state_kernels.vessel_states)
+        vessel_states(qpos, qvel, act, np.cos(psi), np.sin(psi), propellers, pairs, body, heading)
+        pos, vel, shaft, thrust = pairs[0], pairs[1], pairs[2], pairs[3]
         t = float(self.data.time)
-        if self._current_uniform_steady:  # (the same everywhere, always)
-            current = self._uniform_current.copy()
+        if self._current_uniform_steady:  # (the same everywhere, always; copied into the fifth row)
+            current = pairs[4]
+            current[...] = self._uniform_current
         else:
             current = self.current.velocity(np.array(self._qpos3)[:, :2], t)  # (the numpy form's layout)
         out = object.__new__(VesselStates)  # (VesselStates(...) without the frozen __init__'s eight setattr calls)
@@ -244,8 +253,13 @@ class Simulation:
         )
 
     def traffic_state(self):
-        """(positions (M, 2), headings (M,), velocities (M, 2)) of the moving obstacles now."""
-        return self.traffic.state(self.time_s)
+        """(positions (M, 2), headings (M,), velocities (M, 2)) of the moving obstacles now (new
+        arrays: :meth:`MovingObstacleSet.state`'s numbers in one compiled call,
+        :func:`~mjasc.physics.step_kernels.traffic_state_at`)."""
+        if self._has_traffic:
+            pv, heading = traffic_state_at(float(self.data.time), self._traffic_table, self._traffic_samples)
+            return pv[0], heading, pv[1]
+        return self.traffic.state(float(self.data.time))
 
     # ------------------------------------------------------------------ stepping
     def _update_traffic(self) -> None:
@@ -340,6 +354,7 @@ class Simulation:
                 self._step_arrays
             prepare, matmul, rotate = prepare_step, np.matmul, rotate_to_world
             step1, step2 = mujoco.mj_step1, mujoco.mj_step2
+            whole = mujoco.mj_step if self._euler else None  # (Euler: mj_step is mj_step1 then mj_step2)
             checking = monitor is not None
             v2, a2 = (monitor.fast_speed2, monitor.fast_acc2) if checking else (math.inf, math.inf)
             for k in range(n_steps):
@@ -352,8 +367,11 @@ class Simulation:
                             vc, cf_x, feats, rot)
                 matmul(f_row, g, tau)
                 rotate(tau, rot, out)
-                step1(m, d)
-                step2(m, d)
+                if whole is not None:
+                    whole(m, d)
+                else:
+                    step1(m, d)
+                    step2(m, d)
             if checking and not fast_bounds_ok(qvel, qacc, v2, a2):  # (prepare_step's test, after the last step)
                 what = self._exact_check(monitor)
                 if what is not None:

@@ -21,19 +21,15 @@ __all__ = ["vessel_states"]
 
 
 @kernel
-def vessel_states(qpos, qvel, act, cos_psi, sin_psi, propellers, out):
+def vessel_states(qpos, qvel, act, cos_psi, sin_psi, propellers, pairs, body, heading):
     """Write the true states of N vessels owning qpos, qvel [3i, 3i + 3) and act [2i, 2i + 2)
-    (MjData's arrays) into ``out`` (12 N,), each quantity a contiguous block, in this order:
-    position (N, 2), heading (N,) in [−π, π), velocity (N, 2), body velocity (N, 3), shaft speeds
-    (N, 2), thrust (N, 2); from cos ψ and sin ψ (N,) and the propeller constants (N, 4) = (n_max,
-    −n_min, k_forward, k_reverse) of :class:`~mjasc.physics.thrusters.Thrusters` (module docstring)."""
+    (MjData's arrays) into ``pairs`` (≥ 4, N, 2) — position, velocity, shaft speeds, thrust —,
+    ``body`` (N, 3) (the body velocity) and ``heading`` (N,) in [−π, π); from cos ψ and sin ψ (N,)
+    and the propeller constants (N, 4) = (n_max, −n_min, k_forward, k_reverse) of
+    :class:`~mjasc.physics.thrusters.Thrusters` (module docstring). (Three outputs, each of its
+    quantities a C-contiguous view: what the caller allocates in three calls.)"""
     n = cos_psi.shape[0]
-    position = out[0:2 * n].reshape((n, 2))
-    heading = out[2 * n:3 * n]
-    velocity = out[3 * n:5 * n].reshape((n, 2))
-    body = out[5 * n:8 * n].reshape((n, 3))
-    shaft = out[8 * n:10 * n].reshape((n, 2))
-    thrust = out[10 * n:12 * n].reshape((n, 2))
+    position, velocity, shaft, thrust = pairs[0], pairs[1], pairs[2], pairs[3]
     two_pi = 2 * np.pi
     for i in range(n):
         x, y, psi = qpos[3 * i], qpos[3 * i + 1], qpos[3 * i + 2]

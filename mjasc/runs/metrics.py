@@ -19,6 +19,7 @@ __all__ = ["RunMetrics"]
 class RunMetrics:
     def __init__(self, world, scenario):
         self.world = world
+        self._data = world.data  # (World.data is three property calls; check_contacts reads it every record tick)
         self.names = list(world.vessel_names)
         n = len(self.names)
         self.radii = np.array([t.radius_m for t in world.vessel_types])
@@ -59,11 +60,11 @@ class RunMetrics:
         tpos = traffic[0]
         update_metrics(pos, self._last_pos, has_last, np.asarray(cross_track_m, dtype=float), self.distance,
                        self._xte_sum, self._xte_count, self._xte_max, self._vertices, self._offsets, self._circles,
-                       self.radii, tpos if len(tpos) else self._no_traffic, self._traffic_radii, self._min_clear)
+                       self.radii, tpos if tpos.shape[0] else self._no_traffic, self._traffic_radii, self._min_clear)
 
     def check_contacts(self, t_s: float) -> list[tuple[str, str]]:
         """New hull contacts since the last call (pairs of owner names); records them."""
-        d = self.world.data
+        d = self._data
         now = set()
         if not d.ncon and not self._in_contact:
             return []  # (``d.contact`` costs ~0.5 ms to wrap even when empty: most calls stop here)

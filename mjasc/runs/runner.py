@@ -323,14 +323,15 @@ class Runner:
         stage = self.stage_seconds = dict.fromkeys([*self.schedule.period_steps, "physics"], 0.0)
         collector = pause_collector()  # what exists now lives for the run (mjasc.runs.collector)
         try:
+            tick = self.schedule.tick
             while step <= total_steps:
-                due = self.schedule.due(step)
+                due, nxt = tick(step)  # (the slots due now, the next step with any)
                 states = sim.states() if due else None
                 navs = []
                 if due:
                     navs = FleetNavigation.from_states(states).vessels()
+                t_slot = clock()  # (each slot's time runs from the end of the one before: one clock read a slot)
                 for slot in due:
-                    t_slot = clock()
                     if slot == "control":
                         self._control(states.time_s, navs)
                     elif slot in ONBOARD_SLOTS:
@@ -349,15 +350,16 @@ class Runner:
                                 agent.log(self.recorder, states.time_s)
                     elif slot == "video" and self.video is not None:
                         self.video.add_event(SlotEvent(slot, states.time_s, states, tuple(navs), self))
-                    stage[slot] += clock() - t_slot
+                    t_end = clock()
+                    stage[slot] += t_end - t_slot
                     if self._observers[slot]:
                         event = SlotEvent(slot, states.time_s, states, tuple(navs), self)
                         for fn in self._observers[slot]:
                             fn(event)
-                nxt = min(self.schedule.next_event(step), total_steps + 1)
+                        t_end = clock()
+                    t_slot = t_end
                 if nxt > total_steps:
                     break
-                t_slot = clock()
                 sim.step(nxt - step)
                 stage["physics"] += clock() - t_slot
                 if bar is not None:
