@@ -51,6 +51,7 @@ from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import position_jacobians
+from mjasc.perception.tracking.report_fields import report_fields
 from mjasc.perception.tracking.step_fusions import assign_pairs, cycled_scan, pair_gates, predicted_pairs
 from mjasc.perception.tracking.step_gathers import births_of, step_rows
 from mjasc.perception.tracking.step_kernels import (apply_assignment, confirmed_by_owner, measurement_rows, pair_setup,
@@ -97,6 +98,7 @@ class FleetTracker:
         self.bank = IMMBank(config.imm)
         self._R = float(config.imm.measurement_variance_m2)
         self._gate = config.gate_threshold
+        self._static_speed = float(config.static_speed_m_s)
         cols = self.cols = TrackColumns(config.confirm_hits <= 1)  # every per-track column but the bank's
         self.mgmt = TrackManagement(config, cols)
         self.manoeuvres = ManoeuvreDetector(config, cols)
@@ -437,18 +439,40 @@ class FleetTracker:
             return {}
         spans, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow = cols
         pending = self.outlines.pending  # (= self.outline(k) on first read: pos, radius are row k's)
+        of_columns = TrackRows.of_columns
         outlines = [pending(k, pos[j], radius[j]) if lk else None for j, (k, lk) in enumerate(zip(k_rows, slow))]
         out = {}
         for o, (a, b) in spans.items():
-            out[o] = TrackRows((ids[a:b], t[a:b], pos[a:b], th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b],
-                                static[a:b], team[a:b], outlines[a:b], (None,) * (b - a)))
+            out[o] = of_columns((ids[a:b], t[a:b], pos[a:b], th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b],
+                                 static[a:b], team[a:b], outlines[a:b], (None,) * (b - a)))
         return out
 
     def _report_columns(self) -> tuple:
         """What :meth:`estimates` hands on, for every vessel's confirmed tracks, grouped by vessel
         (bank order within): ({owner: (first, end)}, rows, ids, times, positions (k, 2), courses,
         speeds, ω̂, radii (array and list), position covariances (k, 2, 2), static flags, team
-        mates, slow flags) — per-track values as :meth:`_estimates_of` makes them."""
+        mates, slow flags) — per-track values as :meth:`_estimates_of` makes them (one compiled
+        gather, :func:`~mjasc.perception.tracking.report_fields.report_fields`)."""
+        c, no = self.cols, self._max_range.size
+        arrays = self.bank.prediction_arrays()
+        if arrays is None:  # (ω̂ not the compiled sum: r > 7 models)
+            return self._report_columns_numpy()
+        ints, floats, xs, P, flags = report_fields(c.confirmed, c.owner, no, *arrays, c.static, c.radius, c.local_id,
+                                                   self._static_speed)
+        k = floats.shape[1]
+        if k == 0:
+            return ({},)
+        il = ints.tolist()
+        f = il[2 * k:]
+        spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
+        t, th, v, w, radius_l = floats.tolist()
+        static, slow = flags.tolist()
+        return (spans, il[:k], il[k:2 * k], t, xs[:, :2], th, v, w, floats[4], radius_l, P, static,
+                self.team.members(ints[:k]), slow)
+
+    def _report_columns_numpy(self) -> tuple:
+        """:meth:`_report_columns` through the bank's ``estimate_fields`` (any number of models; the
+        readable form of its compiled gather)."""
         rows, first = confirmed_by_owner(self.cols.confirmed, self.cols.owner, self.n_owners)
         if rows.size == 0:
             return ({},)

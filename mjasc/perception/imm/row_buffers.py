@@ -1,0 +1,161 @@
+"""RowBuffers: an IMM bank's per-track arrays and its start-up filters in capacity buffers, so a
+birth writes its rows into spare room and a drop compacts the rows in place — one compiled call
+each, nothing allocated and no arrays returned (each array a kernel returns is a Python object to
+box; the births and drops of a tracker's clutter, on ~¾ of a demo's tracking steps, made ~20 of
+them per step).
+
+The bank (:class:`mjasc.perception.imm.bank.IMMBank`) reads its arrays ``_ids``, ``_t``, ``_Pc``,
+``_n_gated``, ``_reasons`` and its start-up filters' ``active``, ``x``, ``P``, ``n_meas``
+(:class:`~mjasc.perception.imm.startup.StartupFilters`) as the views of the first n rows of these
+buffers (:meth:`RowBuffers.views`); a cycle may replace one of them by an array of its own (new
+times, rejection codes), which the next birth or drop copies back (:meth:`RowBuffers.home`).
+The state (s, P, μ, x) lives in the bank's :class:`~mjasc.perception.imm.cycle_buffers.CycleBuffers`.
+
+* :func:`started_rows` — :func:`~mjasc.perception.imm.startup._appended_started`'s new rows
+  (active, one measurement, x = [z, 0, 0], P = diag(R, R, σ_v0², σ_v0²)) written into rows n0 …;
+* :func:`born_into` — :func:`~mjasc.perception.imm.startup_rows.born_rows` with the per-track
+  arrays' new rows written into the buffers (:func:`~mjasc.perception.imm.bank_kernels.appended_rows`'
+  values) and the hand-over (:func:`~mjasc.perception.imm.startup_rows.handover_rows`) of them;
+* :func:`kept_into` — :func:`~mjasc.perception.imm.startup_rows.kept_bank_rows`: the state's kept
+  rows copied into the other side, the per-track arrays and the start-up filters compacted in place.
+
+Each writes the values of the form it replaces (tests/test_imm_row_buffers.py: a bank in buffers
+against one whose births and drops make new arrays, bit for bit).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.core.compiled import kernel
+from mjasc.perception.imm.bank_kernels import _copy_model_row
+from mjasc.perception.imm.startup_rows import handover_rows
+
+__all__ = ["RowBuffers", "started_rows", "born_into", "kept_into"]
+
+
+class RowBuffers:
+    """Room for ``cap`` tracks: ids, t [s], Pc (4, 4), n_gated, reasons (int8) and the start-up
+    filters' active, x (4,), P (4, 4), n_meas, one row per track."""
+
+    def __init__(self, cap: int):
+        self.cap = cap
+        self.ids = np.zeros(cap, dtype=np.int64)
+        self.t = np.zeros(cap)
+        self.Pc = np.zeros((cap, 4, 4))
+        self.n_gated = np.zeros(cap, dtype=np.int64)
+        self.reasons = np.zeros(cap, dtype=np.int8)
+        self.active = np.zeros(cap, dtype=bool)
+        self.cv_x = np.zeros((cap, 4))
+        self.cv_P = np.zeros((cap, 4, 4))
+        self.n_meas = np.zeros(cap, dtype=np.int64)
+        self._views: dict[int, tuple] = {}
+
+    def views(self, n: int) -> tuple:
+        """The first n rows: (ids, t, Pc, n_gated, reasons, active, x, P, n_meas) (the same view
+        objects for the same n)."""
+        v = self._views.get(n)
+        if v is None:
+            if len(self._views) > 64:
+                self._views.clear()
+            v = self._views[n] = (self.ids[:n], self.t[:n], self.Pc[:n], self.n_gated[:n], self.reasons[:n],
+                                  self.active[:n], self.cv_x[:n], self.cv_P[:n], self.n_meas[:n])
+        return v
+
+    def home(self, arrays: tuple) -> None:
+        """Make the first n rows hold ``arrays`` (the bank's nine, n rows each, in the order of
+        :meth:`views`): those that are not these buffers' views are copied in."""
+        v = self.views(arrays[0].shape[0])
+        for a, b in zip(arrays, v):
+            if a is not b:
+                b[...] = a
+
+
+@kernel
+def started_rows(active, x, P, n_meas, n0, z, R, sv2, meas_var, per_row):
+    """Rows n0 … n0 + k − 1 (k = len(z)) of the start-up filters' buffers active, x, P, n_meas written
+    in place as :func:`~mjasc.perception.imm.startup._appended_started` makes new rows: active, one
+    measurement, x = [z, 0, 0], P = diag(R, R, sv2, sv2) with meas_var[j] (if ``per_row``) for R."""
+    for j in range(z.shape[0]):
+        i = n0 + j
+        active[i] = True
+        n_meas[i] = 1
+        x[i, 0] = z[j, 0]
+        x[i, 1] = z[j, 1]
+        x[i, 2] = 0.0
+        x[i, 3] = 0.0
+        r = meas_var[j] if per_row else R
+        for a in range(4):
+            for b in range(4):
+                P[i, a, b] = 0.0
+        P[i, 0, 0] = r
+        P[i, 1, 1] = r
+        P[i, 2, 2] = sv2
+        P[i, 3, 3] = sv2
+
+
+@kernel
+def born_into(s, P, mu, x, n0, mu0, ids, t, Pc, n_gated, reasons, new_ids, id0, new_t, xc, speed, theta, JPJ, cv_P,
+              n_meas, snr2, max_updates, active):
+    """k new rows after the first n0 (k = new_t.size): the state's views s, P (zero), μ (μ0), x
+    (zero) and the per-track buffers ids (new_ids (k,), or id0, id0 + 1, … when new_ids is empty), t (new_t), Pc (zero), n_gated and
+    reasons (0) written in place (:func:`~mjasc.perception.imm.bank_kernels.appended_rows`' values),
+    then the hand-over of the new rows (:func:`handover_rows`: their x and Pc, the ready ones in the
+    IMM; xc, speed, theta, JPJ, cv_P as there). Returns (whether every new t equals the first, the
+    number of rows made inactive)."""
+    k = new_t.size
+    r = mu.shape[1]
+    one_time = True
+    for j in range(k):
+        i = n0 + j
+        for m in range(r):
+            mu[i, m] = mu0[m]
+            for a in range(4):
+                s[i, m, a] = 0.0
+                for b in range(4):
+                    P[i, m, a, b] = 0.0
+        for a in range(4):
+            x[i, a] = 0.0
+            for b in range(4):
+                Pc[i, a, b] = 0.0
+        ids[i] = new_ids[j] if new_ids.size else id0 + j
+        t[i] = new_t[j]
+        n_gated[i] = 0
+        reasons[i] = 0
+        if new_t[j] != new_t[0]:
+            one_time = False
+    off = handover_rows(np.arange(n0, n0 + k), xc, speed, theta, JPJ, cv_P, n_meas, snr2, max_updates, active, x, Pc,
+                        s, P, mu, mu0)
+    return one_time, off
+
+
+@kernel
+def kept_into(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons, active, cv_x, cv_P,
+              n_meas):
+    """The rows where ``keep`` (n,) of the state s, P, μ, x copied in order into the other side's s_out,
+    P_out, mu_out, x_out (their first m rows), and the per-track arrays ids, t, Pc, n_gated, reasons and
+    the start-up filters' active, cv_x, cv_P, n_meas (n rows or more) compacted in place (``a[:m] =
+    a[:n][keep]``). Returns (m, the number of active rows kept)."""
+    c = 0
+    n_active = 0
+    for k in range(keep.size):
+        if not keep[k]:
+            continue
+        _copy_model_row(s, P, mu, k, s_out, P_out, mu_out, c)
+        for a in range(4):
+            x_out[c, a] = x[k, a]
+        if c != k:
+            for a in range(4):
+                cv_x[c, a] = cv_x[k, a]
+                for b in range(4):
+                    Pc[c, a, b] = Pc[k, a, b]
+                    cv_P[c, a, b] = cv_P[k, a, b]
+            ids[c] = ids[k]
+            t[c] = t[k]
+            n_gated[c] = n_gated[k]
+            reasons[c] = reasons[k]
+            active[c] = active[k]
+            n_meas[c] = n_meas[k]
+        n_active += active[c]
+        c += 1
+    return c, n_active
