@@ -226,7 +226,9 @@ class Perception:
             if self.method is not None:
                 self._nav = nav
             self.fleet.queue_track(self)
-        self.fleet.asked(self)
+        fleet = self.fleet
+        if self is fleet.members[-1]:  # (fleet.asked(self) without its call: the last member's ends the slot)
+            fleet.flush()
 
     def _track_with_method(self) -> None:
         """The tracking step of a plugin tracker (the fleet's tracking pass calls it): the scan's
@@ -249,15 +251,19 @@ class Perception:
             n = len(self._method_tracks)
         else:
             tr = self._tracker
-            events = tr.drain_events()
-            n = tr.fleet.n_rows(tr.owner)  # (= len(tr))
+            ft, o = tr.fleet, tr.owner
+            events = ft.events[o]  # (tr.drain_events() without its call)
+            if events:
+                ft.events[o] = []
+            n = ft.n_rows(o)  # (= len(tr))
         for ev in events:
             self._log_events.append(ev)
             if ev.kind != "born":
                 self._drain.append((ev.time_s, ev.text))
         st = self._stats
         st["track_updates"] += 1
-        st["max_tracks"] = max(st["max_tracks"], n)
+        if n > st["max_tracks"]:
+            st["max_tracks"] = n
         if self.keep_history:
             self._append_history()
 
@@ -340,8 +346,11 @@ class Perception:
         on first read —, fused with the newest team tracks when it shares perception
         (:meth:`set_team_tracks` was called)."""
         if self.method is None:  # (tracks() without its calls: the fleet's queue flushed, the tracker's rows)
-            self.fleet.flush()
-            own = self._tracker.report_rows()
+            fleet = self.fleet
+            if fleet._scans or fleet._tracks:  # (flush() only when something is queued)
+                fleet.flush()
+            tr = self._tracker
+            own = tr.fleet.report_rows(tr.owner)
         else:
             own = tuple(self.tracks())
         if self._fusion is None:
@@ -349,7 +358,9 @@ class Perception:
         return self._fusion.fuse(own, t_s)
 
     def drain_events(self) -> list[tuple[float, str]]:
-        self.fleet.flush()
+        fleet = self.fleet
+        if fleet._scans or fleet._tracks:  # (flush() only when something is queued)
+            fleet.flush()
         ev, self._drain = self._drain, []
         if self._fusion is not None:
             ev.extend(self._fusion.drain_events())

@@ -47,7 +47,7 @@ from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS
 from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
 from mjasc.perception.imm.row_buffers import RowBuffers, born_into, kept_into, started_rows
-from mjasc.perception.imm.startup_rows import gather_startup, handover_rows, settled_startup
+from mjasc.perception.imm.startup_rows import gather_startup, gather_startup_into, handover_rows, settled_startup
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -118,6 +118,7 @@ class IMMBank(BankViews, PredictiveDensity):
         self._Pc = np.zeros((0, 4, 4))
         self._startup = StartupFilters(config)  # the start-up CV filters, rows aligned with these
         self._sv2 = float(self._startup.speed_var0)  # (σ_v0² of a new row's filter)
+        self._q_cv = float(self._startup.acceleration_noise)  # (its white-acceleration intensity)
         self._n_gated = np.zeros(0, dtype=np.int64)
         self._reasons = np.zeros(0, dtype=np.int8)
         self._mv = None  # per-row measurement variances of the current update (None: config's)
@@ -242,7 +243,7 @@ class IMMBank(BankViews, PredictiveDensity):
         vx, vy = xc[:, 2], xc[:, 3]
         speed = np.hypot(vx, vy)
         J = _polar_jacobians(xc, speed)
-        st.n_active -= handover_rows(rows, xc, speed, np.arctan2(vy, vx), J @ cv_P @ np.swapaxes(J, 1, 2), cv_P,
+        st.n_active -= handover_rows(rows, xc, speed, np.arctan2(vy, vx), J @ cv_P @ J.transpose(0, 2, 1), cv_P,
                                      st.n_meas, st.snr2, st.max_updates, st.active, self._x, self._Pc, self._s,
                                      self._P, self._mu, self._mu0)
 
@@ -479,15 +480,23 @@ class IMMBank(BankViews, PredictiveDensity):
         if any_warm:  # the start-up filters' cycle (StartupFilters.update_rows): the products numpy's
             rows_w = rows = warm.nonzero()[0]  # (still the start-up rows at the hand-over below)
             st = self._startup
-            xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
-                                                              dtm if t is None else 0.0,
-                                                              z, use, _NO_VAR if mv is None else mv, mv is not None)
+            rb, k = self._rb, rows.size
+            if rb is not None and rb.cap >= k:  # (gathered into the row buffers' scratch rows: no arrays made)
+                gather_startup_into(rows, st.x, st.P, _NO_VAR if t is None else dt, dtm if t is None else 0.0, z, use,
+                                    _NO_VAR if mv is None else mv, mv is not None, rb.w_x, rb.w_P, rb.w_dt, rb.w_F,
+                                    rb.w_z, rb.w_use, rb.w_var)
+                xc, Pc, dtw, F, zw, use_w, var_w = (rb.w_x[:k], rb.w_P[:k], rb.w_dt[:k], rb.w_F[:k], rb.w_z[:k],
+                                                    rb.w_use[:k], rb.w_var[:k])
+            else:
+                xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
+                                                                  dtm if t is None else 0.0, z, use,
+                                                                  _NO_VAR if mv is None else mv, mv is not None)
             xc_w = (F @ xc[..., None])[..., 0]
-            P_w = F @ Pc @ np.swapaxes(F, 1, 2)
+            P_w = F @ Pc @ F.transpose(0, 2, 1)  # (= np.swapaxes(F, 1, 2))
         limit = self.config.restart_after_gated
         if any_warm:  # (the start-up filters updated, then inside, ok, the start-up rows, rejections: one compiled call)
             inside, reasons, restart, used, n_restart = settled_startup(
-                rows, xc_w, P_w, dtw**3, dtw, float(st.acceleration_noise), zw, self._var if mv is None else var_w,
+                rows, xc_w, P_w, dtw**3, dtw, self._q_cv, zw, self._var if mv is None else var_w,
                 use_w, self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
                 s_new, P_new, mu_new, self._n_gated, limit)
         else:  # (inside, ok, rejections: one compiled pass)

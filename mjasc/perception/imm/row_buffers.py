@@ -49,6 +49,9 @@ class RowBuffers:
         self.cv_x = np.zeros((cap, 4))
         self.cv_P = np.zeros((cap, 4, 4))
         self.n_meas = np.zeros(cap, dtype=np.int64)
+        # scratch rows of a general cycle's start-up rows (startup_rows.gather_startup_into)
+        self.w_x, self.w_P, self.w_dt, self.w_F = np.zeros((cap, 4)), np.zeros((cap, 4, 4)), np.zeros(cap), np.zeros((cap, 4, 4))
+        self.w_z, self.w_use, self.w_var = np.zeros((cap, 2)), np.zeros(cap, dtype=bool), np.zeros(cap)
         self._views: dict[int, tuple] = {}
 
     def views(self, n: int) -> tuple:

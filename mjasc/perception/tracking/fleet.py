@@ -106,7 +106,7 @@ class FleetTracker:
         self.outlines = TrackOutlines(config, cols)
         self.version = 0  # changes whenever rows are added or removed
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
-        self._sizes: tuple[int, list] = (-1, [])  # (version, each vessel's number of rows): n_rows
+        self._sizes: tuple = (-1, [], 0)  # (version, each vessel's number of rows, n_owners): n_rows
         self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, position of each owner, every)
         self._reports: dict | None = None  # every vessel's confirmed tracks since the last step (_report_estimates)
         self._max_range = np.zeros(0)
@@ -154,8 +154,9 @@ class FleetTracker:
         """The number of a vessel's tracks (``rows_of(owner).size``; every vessel's counted at once,
         once per change of rows)."""
         got = self._sizes
-        if got[0] != self.version or len(got[1]) != self.n_owners:
-            got = self._sizes = (self.version, np.bincount(self.cols.owner, minlength=self.n_owners).tolist())
+        no = self._max_range.size
+        if got[0] != self.version or got[2] != no:
+            got = self._sizes = (self.version, np.bincount(self.cols.owner, minlength=no).tolist(), no)
         return got[1][owner]
 
     def counts(self, owner: int) -> dict:
@@ -254,7 +255,7 @@ class FleetTracker:
                                                                           rad, occ, *arrays, t_o, row_pos)
             if var_p.size:
                 zhat, Jac = position_jacobians(xs, dt, dv, np.cos(th), np.sin(th))
-                d2, det = pair_gates(pairs, zhat, Jac @ P @ np.swapaxes(Jac, 1, 2), z, var_p)
+                d2, det = pair_gates(pairs, zhat, Jac @ P @ Jac.transpose(0, 2, 1), z, var_p)
                 inside, cost, hard, hit, d2_hit, t_hit = assign_pairs(d2, np.log(det), self._gate, pairs, start, m_q,
                                                                       var_p, assigned, var_row, claimed, t_o, row_pos)
                 if hard.size:  # (a vessel's gates overlap: its block to linear_sum_assignment)
