@@ -53,9 +53,8 @@ from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.perception.tracking.report_fields import report_fields
 from mjasc.perception.tracking.step_fusions import assign_pairs, cycled_scan, pair_gates, predicted_pairs
-from mjasc.perception.tracking.step_gathers import births_of, step_rows
-from mjasc.perception.tracking.step_kernels import (apply_assignment, confirmed_by_owner, measurement_rows, pair_setup,
-                                                    select_detections)
+from mjasc.perception.tracking.step_gathers import births_of, step_inputs, step_rows
+from mjasc.perception.tracking.step_kernels import apply_assignment, confirmed_by_owner, measurement_rows, pair_setup
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
 
@@ -99,6 +98,7 @@ class FleetTracker:
         self._R = float(config.imm.measurement_variance_m2)
         self._gate = config.gate_threshold
         self._static_speed = float(config.static_speed_m_s)
+        self._use_var = bool(config.use_detection_variance)
         cols = self.cols = TrackColumns(config.confirm_hits <= 1)  # every per-track column but the bank's
         self.mgmt = TrackManagement(config, cols)
         self.manoeuvres = ManoeuvreDetector(config, cols)
@@ -217,15 +217,24 @@ class FleetTracker:
                            cat([d.centres_m for d, _ in live]), cat([d.variances_m2 for d, _ in live]),
                            cat([d.radii_m for d, _ in live]),
                            cat([d.occluded if d.occluded is not None else np.zeros(len(d), bool) for d, _ in live]))
-        if stacked is not None and stacked[1].size:
-            d_pos, idx, z, var, rad, occ, m_q = select_detections(*stacked, bool(cfg.use_detection_variance), self._R)
+        own = self.cols.owner
+        if stacked is not None and stacked[1].size:  # (select_detections and step_rows in one call, 4 arrays)
+            ints, z, floats, flags, all_due, k = step_inputs(*stacked, self._use_var, own, pos_of, every, owners, t_o,
+                                                             no, self._counts, _SCANS, _DETS, self._R)
+            M, n = z.shape[0], own.size
+            d_pos, idx, m_q = ints[:M], ints[M:2 * M], ints[2 * M:2 * M + p]
+            c = 2 * M + p
+            row_pos, rows, rpos, assigned = ints[c:c + n], ints[c + n:c + n + k], ints[c + n + k:c + n + 2 * k], ints[
+                c + n + 2 * k:]
+            var, rad, t_own, var_row = floats[:M], floats[M:2 * M], floats[2 * M:2 * M + no], floats[2 * M + no:]
+            occ, claimed = flags[:M], flags[M:]
         else:
             d_pos = idx = np.zeros(0, dtype=np.int64)
             z, var, rad, occ = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
             m_q = np.zeros(p, dtype=np.int64)
-        M = z.shape[0]
-        t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row = step_rows(
-            self.cols.owner, pos_of, every, owners, t_o, no, self._counts, _SCANS, _DETS, m_q, M, self._R)
+            M = 0
+            t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row = step_rows(
+                own, pos_of, every, owners, t_o, no, self._counts, _SCANS, _DETS, m_q, M, self._R)
         for o in owners.tolist():
             self._last_assign[o] = []
         if rows.size:
