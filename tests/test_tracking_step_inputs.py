@@ -55,3 +55,29 @@ def test_step_inputs_equal_select_detections_then_step_rows(monkeypatch, name, d
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()
     assert n_checked[0] > 50
+
+
+def test_births_packed_equal_births_of(monkeypatch):
+    """births_packed's three arrays hold births_of's eight, on every step of a real run with births."""
+    from mjasc.perception.tracking.step_gathers import births_of, births_packed
+
+    n_checked = [0]
+
+    def checked(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts, col):
+        c_ref, nl_ref = counts.copy(), next_local.copy()
+        want = births_of(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, nl_ref, idx, c_ref, col)
+        got = births_packed(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts,
+                            col)
+        ints, floats, zb = got
+        _same(counts, c_ref)
+        _same(next_local, nl_ref)
+        for a, b in zip((ints[0], ints[1], ints[2], floats[0], zb, floats[1], floats[2], ints[3]), want):
+            _same(a, b)
+        n_checked[0] += bool(zb.shape[0])
+        return got
+
+    monkeypatch.setattr(fleet_mod, "births_packed", checked)
+    sc = mjasc.load_scenario(_ROOT / "tasks" / "demo.toml").with_overrides(duration_s=20.0)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    Runner(sc, out_dir=None).run()
+    assert n_checked[0] > 20

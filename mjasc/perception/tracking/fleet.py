@@ -53,7 +53,7 @@ from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.perception.tracking.report_fields import report_fields
 from mjasc.perception.tracking.step_fusions import assign_pairs, cycled_scan, pair_gates, predicted_pairs
-from mjasc.perception.tracking.step_gathers import births_of, step_inputs, step_rows
+from mjasc.perception.tracking.step_gathers import births_packed, step_inputs, step_rows
 from mjasc.perception.tracking.step_kernels import apply_assignment, confirmed_by_owner, measurement_rows, pair_setup
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
@@ -362,25 +362,25 @@ class FleetTracker:
             org = None
         if org is None or org.shape[0] != len(origins):
             org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
-        conf = self.cols.confirmed[rows]
         if rpos is None:  # (every row's time, position, covariance, origin and range gathered by the kernel)
-            drop, reason, merged = self.mgmt.drops_all(own, pos_of, t_o, bank.state_rows, bank.covariance_rows(), org,
-                                                       self._max_range)
+            drop, n_drop, lost, merged = self.mgmt.drops_every(own, pos_of, t_o, bank.state_rows,
+                                                               bank.covariance_rows(), org, self._max_range)
         else:
+            conf = self.cols.confirmed[rows]
             drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
+            n_drop = np.count_nonzero(drop)
+            lost = [(j, reason[j]) for j in drop.nonzero()[0].tolist() if conf[j] and reason[j]]
         ids = self.cols.local_id[rows]
         for go, keep in merged:
             o = int(own[go])
             t = float(t_o[pos_of[o]])
             self._counts[o, _MERGED] += 1
             self.events[o].append(TrackEvent(t, "merged", int(ids[go]), f"track {ids[go]} merged into track {ids[keep]}"))
-        for j in drop.nonzero()[0].tolist():
-            if conf[j] and reason[j]:
-                o = int(own[j])
-                self._counts[o, _LOST] += 1
-                self.events[o].append(TrackEvent(float(t_o[pos_of[o]]), "lost", int(ids[j]),
-                                                 f"track {ids[j]} lost: {reason[j]}"))
-        if np.count_nonzero(drop):
+        for j, why in lost:
+            o = int(own[j])
+            self._counts[o, _LOST] += 1
+            self.events[o].append(TrackEvent(float(t_o[pos_of[o]]), "lost", int(ids[j]), f"track {ids[j]} lost: {why}"))
+        if n_drop:
             if every:
                 keep = ~drop
             else:
@@ -392,21 +392,22 @@ class FleetTracker:
 
     def _births(self, owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed) -> None:
         """Step 5: new tracks from the detections no track claimed, away from every track's disc."""
-        cfg, bank = self.config, self.bank
-        if np.count_nonzero(claimed) == claimed.size:
-            return
-        bp, own, local, t_b, zb, var_b, rad_b, dets = births_of(
+        bank = self.bank
+        ints, floats, zb = births_packed(
             claimed, self.cols.owner, pos_of, d_pos, z, var, rad, bank.state_rows, self.cols.radius, owners, t_o,
             self._next_local, idx, self._counts, _BORN)
-        k = bp.size
+        k = zb.shape[0]
         if k == 0:
             return
-        bank.append_tracks(zb, t_b, var_b if cfg.use_detection_variance else None)
+        bp, own, local, dets = ints
+        t_b, var_b, rad_b = floats
+        bank.append_tracks(zb, t_b, var_b if self._use_var else None)
         # every per-track column of management, manoeuvres, team and outlines (the hull anchor: the
         # new rows' positions, which are zb)
         self.cols.append_rows(t_b, rad_b, zb, own, local)
         self.version += 1
-        bl, ll, zl = bp.tolist(), local.tolist(), zb.tolist()
+        bl, _, ll, _ = ints.tolist()
+        zl = zb.tolist()
         a = 0
         while a < k:  # per vessel (bp is sorted): its events and last assignment
             q = bl[a]

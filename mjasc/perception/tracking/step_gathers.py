@@ -17,7 +17,8 @@ keeps the numpy forms they replaced as references, bit for bit):
   caller slicing each array's views out of them).
 * :func:`births_of` — :func:`birth_rows` of the rows of the scanning vessels (``rows =
   flatnonzero(pos_of[owner] >= 0)``, ``rpos = pos_of[owner[rows]]``), the births counted
-  (:func:`add_counts`) and their detections' indices ``idx[new]``.
+  (:func:`add_counts`) and their detections' indices ``idx[new]``; :func:`births_packed` returns its
+  eight arrays as three.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import numpy as np
 from mjasc.core.compiled import kernel
 from mjasc.perception.tracking.step_kernels import add_counts, birth_rows, count_scans, select_detections
 
-__all__ = ["step_rows", "step_inputs", "cycled_rows", "births_of"]
+__all__ = ["step_rows", "step_inputs", "cycled_rows", "births_of", "births_packed"]
 
 
 @kernel
@@ -182,3 +183,23 @@ def births_of(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o
     for a in range(new.size):
         dets[a] = idx[new[a]]
     return bp, own, local, t_b, z_b, var_b, rad_b, dets
+
+
+@kernel
+def births_packed(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts, col):
+    """:func:`births_of` (arguments as there) with its arrays packed by type: (ints (4, k): bp, own, local,
+    dets; floats (3, k): t_b, var_b, rad_b; z_b (k, 2))."""
+    bp, own, local, t_b, z_b, var_b, rad_b, dets = births_of(claimed, owner, pos_of, d_pos, z, var, rad, x, radius,
+                                                             owners, t_o, next_local, idx, counts, col)
+    k = bp.size
+    ints = np.empty((4, k), dtype=np.int64)
+    floats = np.empty((3, k))
+    for a in range(k):
+        ints[0, a] = bp[a]
+        ints[1, a] = own[a]
+        ints[2, a] = local[a]
+        ints[3, a] = dets[a]
+        floats[0, a] = t_b[a]
+        floats[1, a] = var_b[a]
+        floats[2, a] = rad_b[a]
+    return ints, floats, z_b
