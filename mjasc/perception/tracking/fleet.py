@@ -52,7 +52,7 @@ from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.perception.tracking.report_fields import report_fields
-from mjasc.perception.tracking.step_fusions import assign_pairs, cycled_scan, pair_gates, predicted_pairs
+from mjasc.perception.tracking.step_fusions import assign_pairs, cycled_scan_packed, pair_gates, predicted_pairs_packed
 from mjasc.perception.tracking.step_gathers import births_packed, step_inputs, step_rows
 from mjasc.perception.tracking.step_kernels import apply_assignment, confirmed_by_owner, measurement_rows, pair_setup
 from mjasc.perception.tracking.team import TeamMatcher
@@ -260,8 +260,10 @@ class FleetTracker:
         p = owners.size
         arrays = bank.prediction_arrays() if M else None
         if arrays is not None:  # (four compiled calls around numpy's cos, sin, J P Jᵀ and log: step_fusions)
-            n_q, start, pairs, var_p, xs, P, dt, th, dv = predicted_pairs(rows, rpos, p, m_q, self.cols.radius, var,
-                                                                          rad, occ, *arrays, t_o, row_pos)
+            blocks, pairs, var_p, xs, P, arcs = predicted_pairs_packed(rows, rpos, p, m_q, self.cols.radius, var, rad,
+                                                                       occ, *arrays, t_o, row_pos)
+            n_q, start = blocks[:p], blocks[p:]
+            dt, th, dv = arcs
             if var_p.size:
                 zhat, Jac = position_jacobians(xs, dt, dv, np.cos(th), np.sin(th))
                 d2, det = pair_gates(pairs, zhat, Jac @ P @ Jac.transpose(0, 2, 1), z, var_p)
@@ -289,10 +291,14 @@ class FleetTracker:
         x = bank.state_rows
         with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)], dtype=bool)
         c = self.cols  # (the cycled rows' gathers, management's record of the scan, last assignments: one call)
-        new_conf, n_conf, orows, o_hit, o_speeds, o_pos, o_radius, ids, det, first = cycled_scan(
+        ints, floats, flags, o_pos, n_conf, g, m = cycled_scan_packed(
             rows, row_pos, t_o, used, meas, x, with_pts, self._counts, owners, _ASSOC, assigned, rad, occ, c.hist,
             c.scans, c.n_upd, c.last, c.radius, c.confirmed, c.static, c.born, *self.mgmt.scan_constants, c.local_id,
             idx, p)
+        k = rows.size
+        orows, ids, det = ints[:g], ints[g:g + m], ints[g + m:g + 2 * m]
+        o_speeds, o_radius = floats
+        new_conf, o_hit = flags[:k], flags[k:]
         if n_conf:
             pos, born = bank.positions, self.cols.born
             for k in rows[new_conf].tolist():
@@ -313,8 +319,8 @@ class FleetTracker:
                 return got[0], got[1], int(idx[assigned[k]])
 
             self.outlines.grow(orows, o_hit, o_speeds, o_pos, o_radius, returns_of)
-        if ids.size:
-            f = first.tolist()
+        if m:
+            f = ints[g + 2 * m:].tolist()
             for q in range(p):
                 a, b = f[q], f[q + 1]
                 if b > a:
