@@ -245,7 +245,7 @@ class FleetTracker:
             self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
         bank = self.bank
         if every:  # (every row is a row of a vessel that scanned)
-            self.team.match(slice(None), self.cols.owner, t_own, bank.states, self.cols.confirmed, no)
+            self.team.match(slice(None), self.cols.owner, t_own, bank.state_rows, self.cols.confirmed, no, False)
         else:
             rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
             self.team.match(rows, self.cols.owner[rows], t_own, bank.states_of(rows), self.cols.confirmed[rows], no)
