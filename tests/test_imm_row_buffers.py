@@ -152,3 +152,33 @@ def test_row_buffer_kernels_equal_their_numpy_forms():
         _same(got[:m], old[keep])
     for got, old in zip(outs, (s, P, mu, x)):
         _same(got[:m], old[keep])
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_update_measured_equals_update(seed):
+    """update_measured (the tracker's cycle: no checks, scratch rows, σ² replaced in place) against update,
+    over a run with births, drops, unmeasured and non-finite rows and per-row σ²."""
+    rng = np.random.default_rng(seed)
+    a, b = IMMBank(), IMMBank()
+    z0 = rng.normal(size=(5, 2)) * 20.0
+    for bank in (a, b):
+        bank.add_tracks(z0, 0.0)
+    for step in range(1, 40):
+        t = step * 0.2
+        n = len(a)
+        z = rng.normal(size=(n, 2)) * 20.0
+        if step % 6 == 0:
+            z[0, 1] = np.nan
+        mask = rng.random(n) < 0.8
+        var = rng.uniform(-0.5, 2.0, n) if step % 2 else None
+        ua = a.update(z, t, mask, var)
+        ub = b.update_measured(z.copy(), t, mask.copy(), None if var is None else var.copy())
+        _same(ua, ub)
+        _compare(a, b)
+        if step % 3 == 0:
+            keep = rng.random(n) < 0.7
+            zb = rng.normal(size=(2, 2)) * 30.0
+            for bank in (a, b):
+                bank.keep_rows(keep.copy())
+                bank.append_tracks(zb.copy(), np.full(2, t))
+            _compare(a, b)

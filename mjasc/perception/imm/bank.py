@@ -431,6 +431,28 @@ class IMMBank(BankViews, PredictiveDensity):
         finally:
             self._mv = None
 
+    def update_measured(self, z, t_s, measured, measurement_variance=None) -> np.ndarray:
+        """:meth:`update` for a caller that has checked its arrays: z (n, 2) float, ``measured`` (n,)
+        bool, ``measurement_variance`` (n,) float or None — changed in place (its unusable σ²
+        replaced by the config's, as :meth:`update` does in its copy); n ≥ 1. The same cycle and
+        result as :meth:`update`, without the checks and copies."""
+        n = self._ids.size
+        rb = self._rb
+        if rb is not None and rb.cap >= n:  # (the row buffers' scratch rows: no arrays made)
+            finite, use = rb.w_fin[:n], rb.w_use2[:n]
+        else:
+            finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        mv = measurement_variance
+        all_used = measurements(z, measured, mv if mv is not None else self._var, mv is not None, self._R, finite, use)
+        self._mv = mv
+        try:
+            if all_used:
+                ok = self._cycle(z, t_s)
+                return np.ones(n, dtype=bool) if ok is None else ok
+            return self._cycle(z, t_s, use, finite, measured)
+        finally:
+            self._mv = None
+
     def update_finite(self, z, t_s):
         """:meth:`update`'s fast path, for a caller that has checked that every row of z (n, 2) [m]
         is a finite measurement (no mask, the config's σ²): one IMM cycle at t_s (scalar or (n,)

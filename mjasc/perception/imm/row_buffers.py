@@ -52,6 +52,7 @@ class RowBuffers:
         # scratch rows of a general cycle's start-up rows (startup_rows.gather_startup_into)
         self.w_x, self.w_P, self.w_dt, self.w_F = np.zeros((cap, 4)), np.zeros((cap, 4, 4)), np.zeros(cap), np.zeros((cap, 4, 4))
         self.w_z, self.w_use, self.w_var = np.zeros((cap, 2)), np.zeros(cap, dtype=bool), np.zeros(cap)
+        self.w_fin, self.w_use2 = np.zeros(cap, dtype=bool), np.zeros(cap, dtype=bool)  # (an update's finite, use)
         self._views: dict[int, tuple] = {}
 
     def views(self, n: int) -> tuple:

@@ -185,7 +185,6 @@ class FleetTracker:
         batch: no stacking again) — (detections per vessel (p,) int64, ``use`` (M,) bool, centres
         (M, 2) [m], variances (M,) [m²], radii (M,) [m], occluded (M,) bool), the same values as
         ``detections`` and ``use`` stacked."""
-        cfg = self.config
         self._reports = None
         p = len(owners)
         no = self.n_owners
@@ -255,7 +254,7 @@ class FleetTracker:
                 claimed, assigned, var_row) -> None:
         """Steps 1–4a: association, manoeuvres, the IMM cycle, confirmation and outlines (``assigned``
         (n,) −1 and ``var_row`` (n,) R: filled here)."""
-        cfg, bank = self.config, self.bank
+        bank = self.bank
         M = z.shape[0]
         p = owners.size
         arrays = bank.prediction_arrays() if M else None
@@ -286,7 +285,7 @@ class FleetTracker:
                 hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
                 self.manoeuvres.detect(hit, d2_hit, self._gate, t_o[row_pos[hit]], bank)
         zr, meas = measurement_rows(assigned, z)
-        vr = var_row if cfg.use_detection_variance else None
+        vr = var_row if self._use_var else None  # (changed in place by the cycle: its unusable σ² replaced)
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
         x = bank.state_rows
         with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)], dtype=bool)
@@ -334,11 +333,11 @@ class FleetTracker:
         if all_due and bank.common_time_s is not None:  # every row's last cycle at one time (the bank's invariant)
             t_q = t_o.tolist()
             if t_q.count(t_q[0]) == len(t_q):  # ... and every vessel's scan at one time
-                return bank.update(zr, t_q[0], meas, vr)
+                return bank.update_measured(zr, t_q[0], meas, vr)  # (the step's arrays: update without its checks)
         t_last = bank.times_s[rows]
         t_new = t_o[row_pos[rows]]
         if all_due and (t_last == t_last[0]).all() and (t_new == t_new[0]).all():
-            return bank.update(zr, float(t_new[0]), meas, vr)
+            return bank.update_measured(zr, float(t_new[0]), meas, vr)
         used = np.zeros(n, dtype=bool)
         keys = np.stack([t_last, t_new], axis=-1)
         for tl, tn in np.unique(keys, axis=0).tolist():
