@@ -187,7 +187,7 @@ class FleetTracker:
         ``detections`` and ``use`` stacked."""
         self._reports = None
         p = len(owners)
-        no = self.n_owners
+        no = self._max_range.size  # (n_owners)
         key = (no, *owners) if type(owners) is list else None
         got = self._owner_plans.get(key) if key is not None else None
         if got is None:  # the scanning vessels' arrays (the same few combinations tick after tick)

@@ -207,7 +207,8 @@ class TrackManagement:
         """After a scan: anchor the tracks confirmed for the first time where they are (positions
         (n, ≥ 2) [m]: the first two columns), and mark the confirmed ones now ``MOVED_M`` from their
         anchor as moved (one compiled pass, :func:`_moved_rows`)."""
-        positions = np.asarray(positions, dtype=float)
+        if type(positions) is not np.ndarray or positions.dtype != np.float64:
+            positions = np.asarray(positions, dtype=float)
         if positions.ndim != 2:  # (no tracks: an empty list of positions)
             positions = positions.reshape(-1, 2)
         c = self.cols
