@@ -60,3 +60,30 @@ def test_packed_team_kernels_on_a_real_run(monkeypatch, name, duration):
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()
     assert seen["plans"] > 50 and seen["assigned"] > 20
+
+
+def test_set_positions_in_place_equals_rebuilt():
+    """TeamMatcher.set_positions writing the same mates' new values into its flat arrays (the owner's arrays
+    views of them) against a matcher that rebuilds them every time, over owners whose mates change."""
+    from mjasc.perception.tracking.config import TrackingConfig
+    from mjasc.perception.tracking.team import TeamMatcher
+
+    rng = np.random.default_rng(5)
+    a, b = TeamMatcher(TrackingConfig()), TeamMatcher(TrackingConfig())
+    teams = {0: ["b", "c"], 1: ["a", "c"], 2: ["a", "b"]}
+    for step in range(60):
+        if step == 20:
+            teams[1] = ["c"]  # a mate lost: that owner's set changes
+        if step == 40:
+            teams[1] = ["a", "c", "d"]
+        for o, names in teams.items():
+            pos = {n: (float(step) * 0.1 - rng.random(), rng.normal(size=2) * 50.0) for n in names}
+            a.set_positions(o, pos)
+            b.set_positions(o, pos)
+            b._flat = None
+            if step % 3 == 0:
+                fa, fb = a._arrays(), b._arrays()
+                _same(fa[0], fb[0])
+                assert fa[1] == fb[1]
+                _same(fa[2], fb[2])
+                _same(fa[3], fb[3])

@@ -315,7 +315,11 @@ class Perception:
             self._team.set_positions(0, positions)
             self._has_team = True
             return
-        self.tracker.set_team_positions(positions)
+        fleet = self.fleet
+        if fleet._scans or fleet._tracks:  # (self.tracker.set_team_positions without its three hops)
+            fleet.flush()
+        tr = self._tracker
+        tr.fleet.team.set_positions(tr.owner, positions)
 
     # ---------------------------------------------------------------- team-shared perception
     def shareable_tracks(self, own_position_m, max_tracks: int) -> tuple:

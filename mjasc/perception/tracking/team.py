@@ -55,15 +55,19 @@ class TeamMatcher:
         names = [str(k) for k in positions]
         vals = list(positions.values())
         owner = int(owner)
-        tb, pb = np.array([v[0] for v in vals], dtype=float), np.array([v[1] for v in vals], dtype=float).reshape(-1, 2)
         old = self._team.get(owner)
-        self._team[owner] = (names, tb, pb)
-        if self._flat is not None and old is not None and old[0] == names:  # the same mates: new values in place
+        flat = self._flat
+        if flat is not None and old is not None and old[0] == names and vals:
+            # the same mates: new values written in place (the flat arrays' rows are this owner's arrays)
             a = self._start[owner]
-            self._flat[2][a:a + tb.size] = tb
-            self._flat[3][a:a + tb.size] = pb
-        else:
-            self._flat = None
+            tb, pb = flat[2][a:a + len(vals)], flat[3][a:a + len(vals)]
+            tb[...] = [v[0] for v in vals]  # (numpy's conversion, as np.array(..., dtype=float) makes it)
+            pb[...] = [v[1] for v in vals]
+            self._team[owner] = (names, tb, pb)
+            return
+        tb, pb = np.array([v[0] for v in vals], dtype=float), np.array([v[1] for v in vals], dtype=float).reshape(-1, 2)
+        self._team[owner] = (names, tb, pb)
+        self._flat = None
 
     def append(self, k: int = 1) -> None:
         """k new tracks, no team mates (new rows of the store: :meth:`TrackColumns.append`)."""
