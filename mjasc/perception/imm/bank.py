@@ -37,7 +37,7 @@ import logging
 import numpy as np
 
 from mjasc.perception.imm.bank_kernels import (ACCEPTED, GATED, NON_FINITE, NOT_MEASURED, REJECTION_REASONS, RESTARTED,
-                                                measurements, settled_rows)
+                                                measurements, settled_rows, settled_rows_into)
 from mjasc.perception.imm.bank_views import BankViews
 from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import imm_cycle
@@ -47,7 +47,8 @@ from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS
 from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
 from mjasc.perception.imm.row_buffers import RowBuffers, born_into, kept_into, started_rows
-from mjasc.perception.imm.startup_rows import gather_startup, gather_startup_into, handover_rows, settled_startup
+from mjasc.perception.imm.startup_rows import (gather_startup, gather_startup_into, handover_rows, settled_startup,
+                                               settled_startup_into)
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -492,8 +493,10 @@ class IMMBank(BankViews, PredictiveDensity):
             return None
 
         # general case: mix of updated, coasting, start-up and restarted tracks (t None: every row at t0)
+        rb = self._rb
+        scratch = rb is not None and rb.cap >= n  # (the row buffers' scratch rows for the flags: no arrays made)
         if use is None:
-            use = finite = measured = np.ones(n, dtype=bool)
+            use = finite = measured = rb.w_true[:n] if scratch else np.ones(n, dtype=bool)
         warm = self._startup.active
         any_warm = self._startup.n_active > 0
         # the cycle updated the rows ``use & (d2_min <= gate)`` of the IMM rows, coasted the others; the
@@ -517,15 +520,23 @@ class IMMBank(BankViews, PredictiveDensity):
             P_w = F @ Pc @ F.transpose(0, 2, 1)  # (= np.swapaxes(F, 1, 2))
         limit = self.config.restart_after_gated
         if any_warm:  # (the start-up filters updated, then inside, ok, the start-up rows, rejections: one compiled call)
-            inside, reasons, restart, used, n_restart = settled_startup(
-                rows, xc_w, P_w, dtw**3, dtw, self._q_cv, zw, self._var if mv is None else var_w,
-                use_w, self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
-                s_new, P_new, mu_new, self._n_gated, limit)
+            args = (rows, xc_w, P_w, dtw**3, dtw, self._q_cv, zw, self._var if mv is None else var_w, use_w,
+                    self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
+                    s_new, P_new, mu_new, self._n_gated, limit)
+            if scratch:  # (the codes written into the bank's own, the flags into scratch rows)
+                inside, restart, reasons, used = rb.w_in[:n], rb.w_rs[:n], self._reasons, np.empty(n, dtype=bool)
+                n_restart = settled_startup_into(*args, inside, rb.w_ok[:n], reasons, restart, used)
+            else:
+                inside, reasons, restart, used, n_restart = settled_startup(*args)
         else:  # (inside, ok, rejections: one compiled pass)
             rows_w = _NO_ROWS
-            inside, reasons, restart, used, n_restart = settled_rows(
-                d2_min, self._gate, use, finite, measured, _NO_ROWS, _NO_FLAGS, _NO_FLAGS, self._s, self._P, self._mu,
-                s_new, P_new, mu_new, self._n_gated, limit)
+            args = (d2_min, self._gate, use, finite, measured, _NO_ROWS, _NO_FLAGS, _NO_FLAGS, self._s, self._P,
+                    self._mu, s_new, P_new, mu_new, self._n_gated, limit)
+            if scratch:
+                inside, restart, reasons, used = rb.w_in[:n], rb.w_rs[:n], self._reasons, np.empty(n, dtype=bool)
+                n_restart = settled_rows_into(*args, inside, rb.w_ok[:n], reasons, restart, used)
+            else:
+                inside, reasons, restart, used, n_restart = settled_rows(*args)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
         self._side = out
         self._Pc_stale = True

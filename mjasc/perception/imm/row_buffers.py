@@ -53,6 +53,9 @@ class RowBuffers:
         self.w_x, self.w_P, self.w_dt, self.w_F = np.zeros((cap, 4)), np.zeros((cap, 4, 4)), np.zeros(cap), np.zeros((cap, 4, 4))
         self.w_z, self.w_use, self.w_var = np.zeros((cap, 2)), np.zeros(cap, dtype=bool), np.zeros(cap)
         self.w_fin, self.w_use2 = np.zeros(cap, dtype=bool), np.zeros(cap, dtype=bool)  # (an update's finite, use)
+        # (a general cycle's inside, ok and restart flags; every row measured and used: all True, never written)
+        self.w_in, self.w_ok, self.w_rs = np.zeros(cap, dtype=bool), np.zeros(cap, dtype=bool), np.zeros(cap, dtype=bool)
+        self.w_true = np.ones(cap, dtype=bool)
         self._views: dict[int, tuple] = {}
 
     def views(self, n: int) -> tuple:

@@ -38,11 +38,11 @@ import math
 import numpy as np
 
 from mjasc.core.compiled import kernel
-from mjasc.perception.imm.bank_kernels import appended_rows, kept_rows, settled_rows
+from mjasc.perception.imm.bank_kernels import appended_rows, kept_rows, settled_rows, settled_rows_into
 from mjasc.perception.imm.compiled_cycle import position_update
 from mjasc.perception.imm.startup import _add_cv_noise, _kept_started, _polar_finish
 
-__all__ = ["gather_startup", "gather_startup_into", "update_startup", "settled_startup", "handover_rows", "born_rows", "kept_bank_rows"]
+__all__ = ["gather_startup", "gather_startup_into", "settled_startup_into", "update_startup", "settled_startup", "handover_rows", "born_rows", "kept_bank_rows"]
 
 
 @kernel
@@ -119,6 +119,16 @@ def settled_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas
     ok_w = update_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas)
     return settled_rows(d2_min, gate, use, finite, measured, rows, ok_w, use_w, s, s_P, mu, s_new, P_new, mu_new,
                         n_gated, limit)
+
+
+@kernel
+def settled_startup_into(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas, d2_min, use, finite, measured,
+                         s, s_P, mu, s_new, P_new, mu_new, n_gated, limit, inside, ok, reasons, restart, used):
+    """:func:`settled_startup` with settled_rows' outcome written into inside, ok, reasons, restart and
+    used (:func:`~mjasc.perception.imm.bank_kernels.settled_rows_into`); returns the number restarted."""
+    ok_w = update_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas)
+    return settled_rows_into(d2_min, gate, use, finite, measured, rows, ok_w, use_w, s, s_P, mu, s_new, P_new, mu_new,
+                             n_gated, limit, inside, ok, reasons, restart, used)
 
 
 @kernel
