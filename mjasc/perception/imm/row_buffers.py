@@ -50,11 +50,13 @@ class RowBuffers:
         self.cv_P = np.zeros((cap, 4, 4))
         self.n_meas = np.zeros(cap, dtype=np.int64)
         # scratch rows of a general cycle's start-up rows (startup_rows.gather_startup_into)
-        self.w_x, self.w_P, self.w_dt, self.w_F = np.zeros((cap, 4)), np.zeros((cap, 4, 4)), np.zeros(cap), np.zeros((cap, 4, 4))
+        self.w_x, self.w_P, self.w_dt = np.zeros((cap, 4)), np.zeros((cap, 4, 4)), np.zeros(cap)
+        self.w_F = np.zeros((cap, 4, 4))
         self.w_z, self.w_use, self.w_var = np.zeros((cap, 2)), np.zeros(cap, dtype=bool), np.zeros(cap)
         self.w_fin, self.w_use2 = np.zeros(cap, dtype=bool), np.zeros(cap, dtype=bool)  # (an update's finite, use)
         # (a general cycle's inside, ok and restart flags; every row measured and used: all True, never written)
-        self.w_in, self.w_ok, self.w_rs = np.zeros(cap, dtype=bool), np.zeros(cap, dtype=bool), np.zeros(cap, dtype=bool)
+        self.w_in, self.w_ok = np.zeros(cap, dtype=bool), np.zeros(cap, dtype=bool)
+        self.w_rs = np.zeros(cap, dtype=bool)
         self.w_true = np.ones(cap, dtype=bool)
         self._views: dict[int, tuple] = {}
 
@@ -105,9 +107,9 @@ def started_rows(active, x, P, n_meas, n0, z, R, sv2, meas_var, per_row):
 def born_into(s, P, mu, x, n0, mu0, ids, t, Pc, n_gated, reasons, new_ids, id0, new_t, xc, speed, theta, JPJ, cv_P,
               n_meas, snr2, max_updates, active):
     """k new rows after the first n0 (k = new_t.size): the state's views s, P (zero), μ (μ0), x
-    (zero) and the per-track buffers ids (new_ids (k,), or id0, id0 + 1, … when new_ids is empty), t (new_t), Pc (zero), n_gated and
-    reasons (0) written in place (:func:`~mjasc.perception.imm.bank_kernels.appended_rows`' values),
-    then the hand-over of the new rows (:func:`handover_rows`: their x and Pc, the ready ones in the
+    (zero) and the per-track buffers ids (new_ids (k,), or id0, id0 + 1, … when new_ids is empty),
+    t (new_t), Pc (zero), n_gated and reasons (0) written in place
+    (:func:`~mjasc.perception.imm.bank_kernels.appended_rows`' values), then the hand-over of the new rows (:func:`handover_rows`: their x and Pc, the ready ones in the
     IMM; xc, speed, theta, JPJ, cv_P as there). Returns (whether every new t equals the first, the
     number of rows made inactive)."""
     k = new_t.size

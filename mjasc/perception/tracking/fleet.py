@@ -107,7 +107,7 @@ class FleetTracker:
         self.version = 0  # changes whenever rows are added or removed
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
         self._sizes: tuple = (-1, [], 0)  # (version, each vessel's number of rows, n_owners): n_rows
-        self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, position of each owner, every)
+        self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, pos_of, every, owners list)
         self._reports: dict | None = None  # every vessel's confirmed tracks since the last step (_report_estimates)
         self._max_range = np.zeros(0)
         self._next_local = np.zeros(0, dtype=np.int64)
@@ -194,13 +194,16 @@ class FleetTracker:
             owners_a = np.asarray(owners, dtype=np.int64)
             pos_of = np.full(no, -1)
             pos_of[owners_a] = np.arange(p)
-            got = (owners_a, pos_of, p == no and bool((pos_of >= 0).all()))  # every vessel scanned: every row is due
+            got = (owners_a, pos_of, p == no and bool((pos_of >= 0).all()),  # every vessel scanned: every row is due
+                   owners_a.tolist())
             if key is not None:
                 if len(self._owner_plans) >= 64:
                     self._owner_plans.clear()
                 self._owner_plans[key] = got
-        owners, pos_of, every = got
-        t_o = np.asarray(t_s, dtype=float).reshape(p)
+        owners, pos_of, every, owners_l = got
+        t_o = np.array(t_s, dtype=float)
+        if t_o.shape != (p,):
+            t_o = t_o.reshape(p)
         origins = [None] * p if origins is None else origins
         use = [None] * p if use is None else use
         points = [None] * p if points is None else points
@@ -234,7 +237,7 @@ class FleetTracker:
             M = 0
             t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row = step_rows(
                 own, pos_of, every, owners, t_o, no, self._counts, _SCANS, _DETS, m_q, M, self._R)
-        for o in owners.tolist():
+        for o in owners_l:
             self._last_assign[o] = []
         if rows.size:
             self._update(rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
@@ -329,16 +332,14 @@ class FleetTracker:
         """Step 3: one IMM cycle of ``rows``, per group of vessels sharing their last and new time
         (one group, the whole bank, in the usual tick). Returns (n,) bool, the rows used."""
         bank = self.bank
-        n = len(bank)
         if all_due and bank.common_time_s is not None:  # every row's last cycle at one time (the bank's invariant)
-            t_q = t_o.tolist()
-            if t_q.count(t_q[0]) == len(t_q):  # ... and every vessel's scan at one time
-                return bank.update_measured(zr, t_q[0], meas, vr)  # (the step's arrays: update without its checks)
+            if (t_o == t_o[0]).all():  # ... and every vessel's scan at one time
+                return bank.update_measured(zr, float(t_o[0]), meas, vr)  # (the step's arrays: update without checks)
         t_last = bank.times_s[rows]
         t_new = t_o[row_pos[rows]]
         if all_due and (t_last == t_last[0]).all() and (t_new == t_new[0]).all():
             return bank.update_measured(zr, float(t_new[0]), meas, vr)
-        used = np.zeros(n, dtype=bool)
+        used = np.zeros(len(bank), dtype=bool)
         keys = np.stack([t_last, t_new], axis=-1)
         for tl, tn in np.unique(keys, axis=0).tolist():
             g = rows[(t_last == tl) & (t_new == tn)]
@@ -484,7 +485,7 @@ class FleetTracker:
         t, th, v, w, radius_l = floats.tolist()
         static, slow = flags.tolist()
         return (spans, il[:k], il[k:2 * k], t, xs[:, :2], th, v, w, floats[4], radius_l, P, static,
-                self.team.members(ints[:k]), slow)
+                c.team[ints[:k]].tolist(), slow)  # (team.members(rows))
 
     def _report_columns_numpy(self) -> tuple:
         """:meth:`_report_columns` through the bank's ``estimate_fields`` (any number of models; the
