@@ -259,3 +259,32 @@ def test_cycled_scan_on_a_real_run(monkeypatch):
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()
     assert n_checked[0] > 100
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_assign_pairs_packed_random(seed):
+    """assign_pairs_packed holds assign_pairs' arrays (the hard blocks, the hit rows and their d², times)."""
+    from mjasc.perception.tracking.step_fusions import assign_pairs_packed
+
+    rng = np.random.default_rng(seed)
+    p = int(rng.integers(1, 4))
+    n_q = rng.integers(0, 5, size=p).astype(np.int64)
+    m_q = rng.integers(0, 5, size=p).astype(np.int64)
+    q, i, j, start, gi, db = block_pairs_flat(n_q, m_q)
+    n = int(n_q.sum()) + 3
+    M = int(m_q.sum())
+    ta = rng.permutation(n)[:n_q.sum()][gi] if gi.size else gi.copy()
+    pairs = np.stack([q, i, j, gi, db, ta]).astype(np.int64)
+    d2 = rng.random(gi.size) * 20.0
+    log_det = np.log(rng.random(gi.size) + 0.1)
+    var_p = rng.random(gi.size)
+    t_o = rng.random(p) + 10.0
+    row_pos = rng.integers(0, p, size=n).astype(np.int64)
+    outs = [(np.full(n, -1, dtype=np.int64), np.full(n, 0.25), np.zeros(M, dtype=bool)) for _ in range(2)]
+    want = assign_pairs(d2, log_det, 9.21, pairs, start, m_q, var_p, *outs[0], t_o, row_pos)
+    inside, cost, rows, vals, h = assign_pairs_packed(d2, log_det, 9.21, pairs, start, m_q, var_p, *outs[1], t_o,
+                                                      row_pos)
+    for a, b in zip((inside, cost, rows[:h], rows[h:], vals[0], vals[1]), want):
+        _same(a, b)
+    for a, b in zip(*outs):
+        _same(a, b)

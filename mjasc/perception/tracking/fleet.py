@@ -52,7 +52,8 @@ from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.perception.tracking.report_fields import report_fields
-from mjasc.perception.tracking.step_fusions import assign_pairs, cycled_scan_packed, pair_gates, predicted_pairs_packed
+from mjasc.perception.tracking.step_fusions import (assign_pairs_packed, cycled_scan_packed, pair_gates,
+                                                   predicted_pairs_packed)
 from mjasc.perception.tracking.step_gathers import births_packed, step_inputs, step_rows
 from mjasc.perception.tracking.step_kernels import apply_assignment, confirmed_by_owner, measurement_rows, pair_setup
 from mjasc.perception.tracking.team import TeamMatcher
@@ -269,9 +270,11 @@ class FleetTracker:
             if var_p.size:
                 zhat, Jac = position_jacobians(xs, dt, dv, np.cos(th), np.sin(th))
                 d2, det = pair_gates(pairs, zhat, Jac @ P @ Jac.transpose(0, 2, 1), z, var_p)
-                inside, cost, hard, hit, d2_hit, t_hit = assign_pairs(d2, np.log(det), self._gate, pairs, start, m_q,
+                inside, cost, h_rows, h_vals, h = assign_pairs_packed(d2, np.log(det), self._gate, pairs, start, m_q,
                                                                       var_p, assigned, var_row, claimed, t_o, row_pos)
-                if hard.size:  # (a vessel's gates overlap: its block to linear_sum_assignment)
+                hard, hit = h_rows[:h], h_rows[h:]
+                d2_hit, t_hit = h_vals
+                if h:  # (a vessel's gates overlap: its block to linear_sum_assignment)
                     q, i, j, _, db, ta = pairs
                     got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
                     hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)

@@ -24,8 +24,8 @@ tracks confirmed now), the radii of the rows with returns (read after the scan's
 :func:`~mjasc.perception.tracking.step_kernels.last_assignments` in one call instead of three and the
 management's Python layer.
 
-:func:`predicted_pairs_packed` and :func:`cycled_scan_packed` are those two with their arrays packed
-by type (six arrays instead of nine, four instead of nine: each array a kernel returns is a Python
+:func:`predicted_pairs_packed`, :func:`assign_pairs_packed` and :func:`cycled_scan_packed` are those
+three with their arrays packed by type (six arrays instead of nine, four instead of six, four instead of nine: each array a kernel returns is a Python
 object made), the caller slicing the views out.
 tests/test_tracking_step_fusions.py compares each with the calls it replaces, bit for bit, on a
 real run's steps.
@@ -42,8 +42,8 @@ from mjasc.perception.tracking.pair_kernels import arc_midpoints, gate_terms
 from mjasc.perception.tracking.step_gathers import cycled_rows
 from mjasc.perception.tracking.step_kernels import admissible_pairs, apply_assignment, last_assignments, pair_setup
 
-__all__ = ["predicted_pairs", "predicted_pairs_packed", "pair_gates", "assign_pairs", "cycled_scan", "cycled_scan_packed",
-           "Q", "I", "J", "GI", "DB", "TA"]
+__all__ = ["predicted_pairs", "predicted_pairs_packed", "pair_gates", "assign_pairs", "assign_pairs_packed",
+           "cycled_scan", "cycled_scan_packed", "Q", "I", "J", "GI", "DB", "TA"]
 
 #: Rows of the pairs' index table (6, P): block, track in block, detection in block, grouped row
 #: position, detection, bank row.
@@ -180,3 +180,21 @@ def cycled_scan_packed(rows, row_pos, t_o, used, meas, x, with_pts, counts, owne
     for a in range(first.size):
         ints[g + 2 * m + a] = first[a]
     return ints, floats, flags, pos_o, n_conf, g, m
+
+
+@kernel
+def assign_pairs_packed(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row, claimed, t_o, row_pos):
+    """:func:`assign_pairs` (arguments as there) packed: (inside, cost, rows (h + m,): hard (h,) then
+    hit (m,), hit_values (2, m): d2_hit, t_hit, h)."""
+    inside, cost, hard, hit, d2g, t_hit = assign_pairs(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row,
+                                                       claimed, t_o, row_pos)
+    h, m = hard.size, hit.size
+    rows = np.empty(h + m, dtype=np.int64)
+    vals = np.empty((2, m))
+    for a in range(h):
+        rows[a] = hard[a]
+    for a in range(m):
+        rows[h + a] = hit[a]
+        vals[0, a] = d2g[a]
+        vals[1, a] = t_hit[a]
+    return inside, cost, rows, vals, h
