@@ -353,8 +353,7 @@ class FleetTracker:
         """Step 4b: drop the tracks management gives up (lost, hopeless, merged), with events."""
         bank = self.bank
         if every:  # every row: rows as a slice (no copies)
-            n = len(bank)
-            if n == 0:
+            if self.cols.n == 0:  # (the bank's number of rows)
                 return
             rows, own = slice(None), self.cols.owner
             rpos = None
@@ -366,7 +365,9 @@ class FleetTracker:
             rpos = pos_of[own]
             pos, cov = bank.positions[rows], bank.position_covariances[rows]
         try:  # (every vessel's origin given, as the perception fleet does: one conversion)
-            org = np.array(origins, dtype=float).reshape(-1, 2)
+            org = np.array(origins, dtype=float)
+            if org.ndim != 2:
+                org = org.reshape(-1, 2)
         except (TypeError, ValueError):
             org = None
         if org is None or org.shape[0] != len(origins):
