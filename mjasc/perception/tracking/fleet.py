@@ -448,8 +448,7 @@ class FleetTracker:
         made = self._reports
         if made is None:
             made = self._reports = self._report_estimates(self._report_columns())
-        got = made.get(owner)
-        return got if got is not None else _NO_ROWS
+        return made[owner] if owner in made else _NO_ROWS
 
     def _report_estimates(self, cols: tuple) -> dict:
         """{owner: :class:`~mjasc.core.estimates.TrackRows` of its confirmed tracks} from the
