@@ -182,3 +182,21 @@ def test_update_measured_equals_update(seed):
                 bank.keep_rows(keep.copy())
                 bank.append_tracks(zb.copy(), np.full(2, t))
             _compare(a, b)
+
+
+def test_add_process_noise_rows_equals_add_process_noise():
+    """The manoeuvre detector's unchecked form against the checked one, on IMM and start-up rows."""
+    rng = np.random.default_rng(2)
+    a, b = IMMBank(), IMMBank()
+    z0 = rng.normal(size=(6, 2)) * 20.0
+    for bank in (a, b):
+        bank.add_tracks(z0, 0.0)
+    for step in range(1, 12):
+        z = z0 + rng.normal(size=z0.shape) * 0.3 + step
+        for bank in (a, b):
+            bank.update(z[:len(bank)], step * 0.2)
+        rows = np.sort(rng.choice(len(a), size=3, replace=False)).astype(np.int64)
+        dth, dv = rng.random(3) * 0.1, rng.random(3)
+        a.add_process_noise(rows, dth, dv)
+        b.add_process_noise_rows(rows, dth, dv)
+        _compare(a, b)

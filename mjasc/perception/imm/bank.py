@@ -263,6 +263,11 @@ class IMMBank(BankViews, PredictiveDensity):
         dv = np.broadcast_to(np.asarray(speed_var_m2_s2, dtype=float), idx.shape)
         if not (np.all(np.isfinite(dth)) and np.all(dth >= 0) and np.all(np.isfinite(dv)) and np.all(dv >= 0)):
             raise ValueError("add_process_noise: heading_var_rad2 and speed_var_m2_s2 must be finite and ≥ 0")
+        self.add_process_noise_rows(idx, dth, dv)
+
+    def add_process_noise_rows(self, idx, dth, dv) -> None:
+        """:meth:`add_process_noise` for a caller that has checked its arrays: the rows ``idx`` (k ≥ 1,)
+        int, distinct, and their variances dth, dv (k,) float, finite and ≥ 0 (a manoeuvre detector's)."""
         warm = self._startup.active[idx]
         full = idx[~warm]
         if full.size:

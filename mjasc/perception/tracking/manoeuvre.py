@@ -67,9 +67,11 @@ class ManoeuvreDetector:
                          self.cols.manoeuvring, hot)
         if n_hot:
             hot_rows = rows[hot]
-            dt = np.maximum((t_s[hot] if np.ndim(t_s) else t_s) - bank.times_s[hot_rows], 0.0)
-            bank.add_process_noise(hot_rows, cfg.manoeuvre_heading_noise_rad2_s * dt,
-                                   cfg.manoeuvre_speed_noise_m2_s3 * dt)
+            t_hot = t_s[hot] if type(t_s) is np.ndarray and t_s.ndim else t_s  # (np.ndim(t_s) without its calls)
+            dt = np.maximum(t_hot - bank.times_s[hot_rows], 0.0)
+            # (dt ≥ 0 and the config's noise levels ≥ 0: the checked form of add_process_noise)
+            bank.add_process_noise_rows(hot_rows, cfg.manoeuvre_heading_noise_rad2_s * dt,
+                                        cfg.manoeuvre_speed_noise_m2_s3 * dt)
 
 
 @kernel
