@@ -458,9 +458,8 @@ class FleetTracker:
         if len(cols) == 1:
             return {}
         spans, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow = cols
-        pending = self.outlines.pending  # (= self.outline(k) on first read: pos, radius are row k's)
         of_columns = TrackRows.of_columns
-        outlines = [pending(k, pos[j], radius[j]) if lk else None for j, (k, lk) in enumerate(zip(k_rows, slow))]
+        outlines = self.outlines.pendings(k_rows, slow, pos, radius)  # (= self.outline(k) on first read)
         out = {}
         for o, (a, b) in spans.items():
             out[o] = of_columns((ids[a:b], t[a:b], pos[a:b], th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b],

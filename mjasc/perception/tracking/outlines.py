@@ -109,6 +109,14 @@ class TrackOutlines:
         return Pending(outline_at, self.cols.hull[row], float(centre[0]), float(centre[1]), float(radius))
 
 
+    def pendings(self, rows: list, slow: list, centres: np.ndarray, radii: np.ndarray) -> list:
+        """A report's outlines column: :meth:`pending` of ``rows[j]`` with centre ``centres[j]`` (2,) [m]
+        and radius ``radii[j]`` [m] where ``slow[j]``, None elsewhere (one call for the column)."""
+        hull = self.cols.hull
+        return [Pending(outline_at, hull[k], float(c[0]), float(c[1]), float(r)) if lk else None
+                for k, lk, c, r in zip(rows, slow, centres, radii)]
+
+
 def outline_at(hull, x: float, y: float, radius: float) -> np.ndarray:
     """(k, 2) CCW outline [m]: the hull (h, 2) [m] (or None) united with its reflection through
     the centre (x, y) [m], or — without a hull of two points — the 12-gon circumscribing the disc
