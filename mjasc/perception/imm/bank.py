@@ -546,9 +546,12 @@ class IMMBank(BankViews, PredictiveDensity):
         self._side = out
         self._Pc_stale = True
 
-        self._set_times(t0, t)
-        if t is None:
+        if t is None:  # (_set_times(t0, t) without its call)
+            self._t.fill(t0)
             t = self._t  # (for the log below)
+        else:
+            self._t = t
+        self._t_common = t0
         if any_warm:
             self._handover(rows_w, xc_w, P_w)
         if n_restart:

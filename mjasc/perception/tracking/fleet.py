@@ -318,9 +318,14 @@ class FleetTracker:
                 k = orows[j]
                 q = row_pos[k]
                 got = scans.get(q)
-                if got is None:
-                    got = scans[q] = (np.ascontiguousarray(points[q], dtype=float).reshape(-1, 2),
-                                      np.ascontiguousarray(dets[q].labels, dtype=np.int64))
+                if got is None:  # (as they are when already contiguous (k, 2) float and int64: no calls)
+                    pts, lab = points[q], dets[q].labels
+                    if not (type(pts) is np.ndarray and pts.dtype == np.float64 and pts.ndim == 2 and pts.shape[1] == 2
+                            and pts.flags.c_contiguous):
+                        pts = np.ascontiguousarray(pts, dtype=float).reshape(-1, 2)
+                    if not (type(lab) is np.ndarray and lab.dtype == np.int64 and lab.flags.c_contiguous):
+                        lab = np.ascontiguousarray(lab, dtype=np.int64)
+                    got = scans[q] = (pts, lab)
                 return got[0], got[1], int(idx[assigned[k]])
 
             self.outlines.grow(orows, o_hit, o_speeds, o_pos, o_radius, returns_of)
