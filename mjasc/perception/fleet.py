@@ -108,6 +108,7 @@ class PerceptionFleet:
         self._tracks: list = []  # members queued for the tracking pass
         self._scan_ids: set[int] = set()
         self._plans: dict = {}  # _plan per combination of members
+        self._track_ids: set[int] = set()
         self._sensed = None  # the last sensing pass's (members, detections, their stack for FleetTracker.step)
         self._busy = False
 
@@ -129,7 +130,8 @@ class PerceptionFleet:
     # ------------------------------------------------------------------ the queue
     def pending(self, member) -> bool:
         """The member has queued work."""
-        return id(member) in self._scan_ids or member in self._tracks  # (a few members: a list's identity test)
+        key = id(member)
+        return key in self._scan_ids or key in self._track_ids
 
     def queue_scan(self, member, data, rng) -> None:
         """Cast ``member``'s fan in ``data`` now (its draws from ``rng``) and queue the scan for the
@@ -141,9 +143,10 @@ class PerceptionFleet:
         self._scan_ids.add(id(member))
 
     def queue_track(self, member) -> None:
-        if member in self._tracks:  # (identity: no id() calls, no set kept beside the list)
+        if id(member) in self._track_ids:
             self.flush()
         self._tracks.append(member)
+        self._track_ids.add(id(member))
 
     def asked(self, member) -> None:
         """A slot call of ``member`` is done: the last member's ends the slot (process the queue)."""
@@ -166,6 +169,7 @@ class PerceptionFleet:
                     m._stats["sense_s"] += share
             if self._tracks:
                 members, self._tracks = self._tracks, []
+                self._track_ids.clear()
                 w0 = time.perf_counter()
                 self._track(members)
                 share = (time.perf_counter() - w0) / len(members)
