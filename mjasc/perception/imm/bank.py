@@ -46,7 +46,7 @@ from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS
 from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
-from mjasc.perception.imm.row_buffers import RowBuffers, born_into, kept_into, started_rows
+from mjasc.perception.imm.row_buffers import append_rows, home_rows, keep_rows
 from mjasc.perception.imm.startup_rows import (gather_startup, gather_startup_into, handover_rows, settled_startup,
                                                settled_startup_into)
 
@@ -177,55 +177,11 @@ class IMMBank(BankViews, PredictiveDensity):
         self._next_id += z.shape[0]
         self._append(z, t, _NO_IDS, meas_var=measurement_variance, id0=id0)
 
-    def _append(self, z, t, ids, meas_var, id0=0) -> None:
-        """New rows started from z (k, 2) at t (k,), ids ``ids`` (k,) (empty: id0, id0 + 1, …): the
-        start-up filter at z (σ² meas_var (k,) or the config's), its estimate as the row's, the
-        ready ones handed over (as :meth:`_start`) — written into spare rows of the cycle buffers
-        and the row buffers (:mod:`mjasc.perception.imm.row_buffers`)."""
-        k = z.shape[0]
-        n_before = self._ids.size
-        n = n_before + k
-        cyc = self._cyc
-        if cyc is None or cyc.cap < n or self._side is None:
-            cyc = self._own_state(n)
-        s, P, mu, x, _ = cyc.views(self._side, n)  # the state's rows, then spare ones
-        st = self._startup
-        rb = self._rows_home(n)
-        per_row = meas_var is not None
-        started_rows(rb.active, rb.cv_x, rb.cv_P, rb.n_meas, n_before, z, self._R, self._sv2,
-                     meas_var if per_row else _NO_VAR, per_row)
-        xc, Pcv = rb.cv_x[n_before:n], rb.cv_P[n_before:n]
-        # the new rows' state (zero, μ0, x = the start-up estimate), per-track arrays and hand-over (as
-        # :meth:`_start`): one compiled call around :func:`cv_to_polar`'s numpy products
-        vx, vy = xc[:, 2], xc[:, 3]
-        speed = np.hypot(vx, vy)
-        J = _polar_jacobians(xc, speed)
-        one_time, off = born_into(s, P, mu, x, n_before, self._mu0, rb.ids, rb.t, rb.Pc, rb.n_gated, rb.reasons, ids,
-                                  id0, t, xc, speed, np.arctan2(vy, vx), J @ Pcv @ J.transpose(0, 2, 1), Pcv,
-                                  rb.n_meas, st.snr2, st.max_updates, rb.active)
-        (self._ids, self._t, self._Pc, self._n_gated, self._reasons, st.active, st.x, st.P,
-         st.n_meas) = self._rv = rb.views(n)
-        st.n_active += k - off
-        self._s, self._P, self._mu, self._x = s, P, mu, x
-        tc, t0 = self._t_common, float(t[0])
-        self._t_common = t0 if (n_before == 0 or tc == t0) and one_time else None
-
-    def _rows_home(self, n: int) -> RowBuffers:
-        """Row buffers with room for n tracks holding the bank's per-track arrays and start-up
-        filters in their first rows (copied there when a cycle replaced one, or into larger buffers)."""
-        rb = self._rb
-        st = self._startup
-        arrays = (self._ids, self._t, self._Pc, self._n_gated, self._reasons, st.active, st.x, st.P, st.n_meas)
-        rv = self._rv
-        if rb is None or rb.cap < n or rv[0].shape[0] != arrays[0].shape[0]:
-            if rb is None or rb.cap < n:
-                rb = self._rb = RowBuffers(n + max(16, n // 2))
-            rb.home(arrays)
-        else:
-            for a, b in zip(arrays, rv):  # (the views the bank's arrays were set to, unless replaced since)
-                if a is not b:
-                    b[...] = a
-        return rb
+    # a birth writes into spare rows, a drop compacts in place: functions of the bank in
+    # mjasc.perception.imm.row_buffers, bound here as its methods
+    _append = append_rows
+    _rows_home = home_rows
+    keep_rows = keep_rows
 
     def _start(self, rows, z, meas_var=None):
         """(Re)start tracks ``rows`` from measurements z (k, 2): CV filter at z, v = 0 ± σ_v0;
@@ -284,34 +240,6 @@ class IMMBank(BankViews, PredictiveDensity):
         keep = np.ones(self._ids.size, dtype=bool)
         keep[self.index_of(track_id)] = False
         self.keep_rows(keep)
-
-    def keep_rows(self, keep) -> None:
-        """Keep the rows where ``keep`` (n,) bool is True (drop the others at once)."""
-        if type(keep) is not np.ndarray or keep.dtype != np.bool_:
-            keep = np.asarray(keep, dtype=bool)
-        if keep.shape != self._ids.shape:
-            raise IndexError(f"keep: need shape {self._ids.shape}, got {keep.shape}")
-        if self._side is None:
-            for name in self._PER_TRACK:
-                setattr(self, name, getattr(self, name)[keep])
-            self._startup.keep(keep)
-            if self._ids.size == 0:
-                self._t_common = None
-            return
-        # the state compacted into the other side's first rows, the per-track arrays and the start-up
-        # filters in place in the row buffers: one compiled pass (mjasc.perception.imm.row_buffers)
-        rb = self._rows_home(keep.size)
-        side = 1 - self._side
-        st = self._startup
-        cyc = self._cyc
-        m, st.n_active = kept_into(keep, self._s, self._P, self._mu, self._x, *cyc.sides[side], rb.ids, rb.t, rb.Pc,
-                                   rb.n_gated, rb.reasons, rb.active, rb.cv_x, rb.cv_P, rb.n_meas)
-        self._s, self._P, self._mu, self._x, _ = cyc.views(side, m)
-        self._side = side
-        (self._ids, self._t, self._Pc, self._n_gated, self._reasons, st.active, st.x, st.P,
-         st.n_meas) = self._rv = rb.views(m)
-        if m == 0:
-            self._t_common = None
 
     def update_rows(self, rows, z, t_s, mask=None, measurement_variance=None) -> np.ndarray:
         """:meth:`update` of the tracks in ``rows`` (indices, k) only — z (k, 2), mask and

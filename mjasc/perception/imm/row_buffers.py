@@ -4,7 +4,8 @@ each, nothing allocated and no arrays returned (each array a kernel returns is a
 box; the births and drops of a tracker's clutter, on ~¾ of a demo's tracking steps, made ~20 of
 them per step).
 
-The bank (:class:`mjasc.perception.imm.bank.IMMBank`) reads its arrays ``_ids``, ``_t``, ``_Pc``,
+The bank's births and drops are :func:`append_rows` and :func:`keep_rows`, bound as its methods
+``_append`` and ``keep_rows``. The bank (:class:`mjasc.perception.imm.bank.IMMBank`) reads its arrays ``_ids``, ``_t``, ``_Pc``,
 ``_n_gated``, ``_reasons`` and its start-up filters' ``active``, ``x``, ``P``, ``n_meas``
 (:class:`~mjasc.perception.imm.startup.StartupFilters`) as the views of the first n rows of these
 buffers (:meth:`RowBuffers.views`); a cycle may replace one of them by an array of its own (new
@@ -29,9 +30,12 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 from mjasc.perception.imm.bank_kernels import _copy_model_row
+from mjasc.perception.imm.startup import _polar_jacobians
 from mjasc.perception.imm.startup_rows import handover_rows
 
-__all__ = ["RowBuffers", "started_rows", "born_into", "kept_into"]
+__all__ = ["RowBuffers", "append_rows", "home_rows", "keep_rows", "started_rows", "born_into", "kept_into"]
+
+_NO_VAR = np.zeros(0)  # (started_rows: no per-row σ²)
 
 
 class RowBuffers:
@@ -78,6 +82,89 @@ class RowBuffers:
         for a, b in zip(arrays, v):
             if a is not b:
                 b[...] = a
+
+
+def append_rows(bank, z, t, ids, meas_var, id0=0) -> None:
+    """:meth:`IMMBank._append <mjasc.perception.imm.bank.IMMBank>` (bound as that method): new rows
+    started from z (k, 2) at t (k,), ids ``ids`` (k,) (empty: id0, id0 + 1, …): the start-up filter
+    at z (σ² meas_var (k,) or the config's), its estimate as the row's, the ready ones handed over
+    (as the bank's ``_start``) — written into spare rows of the cycle buffers and of the row buffers
+    (:func:`started_rows`, :func:`born_into` around :func:`~mjasc.perception.imm.startup.cv_to_polar`'s
+    numpy |v|, atan2 and J P Jᵀ)."""
+    k = z.shape[0]
+    n_before = bank._ids.size
+    n = n_before + k
+    cyc = bank._cyc
+    if cyc is None or cyc.cap < n or bank._side is None:
+        cyc = bank._own_state(n)
+    s, P, mu, x, _ = cyc.views(bank._side, n)  # the state's rows, then spare ones
+    st = bank._startup
+    rb = home_rows(bank, n)
+    per_row = meas_var is not None
+    started_rows(rb.active, rb.cv_x, rb.cv_P, rb.n_meas, n_before, z, bank._R, bank._sv2,
+                 meas_var if per_row else _NO_VAR, per_row)
+    xc, Pcv = rb.cv_x[n_before:n], rb.cv_P[n_before:n]
+    vx, vy = xc[:, 2], xc[:, 3]
+    speed = np.hypot(vx, vy)
+    J = _polar_jacobians(xc, speed)
+    one_time, off = born_into(s, P, mu, x, n_before, bank._mu0, rb.ids, rb.t, rb.Pc, rb.n_gated, rb.reasons, ids, id0,
+                              t, xc, speed, np.arctan2(vy, vx), J @ Pcv @ J.transpose(0, 2, 1), Pcv, rb.n_meas,
+                              st.snr2, st.max_updates, rb.active)
+    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
+     st.n_meas) = bank._rv = rb.views(n)
+    st.n_active += k - off
+    bank._s, bank._P, bank._mu, bank._x = s, P, mu, x
+    tc, t0 = bank._t_common, float(t[0])
+    bank._t_common = t0 if (n_before == 0 or tc == t0) and one_time else None
+
+
+def home_rows(bank, n: int) -> RowBuffers:
+    """The bank's row buffers with room for n tracks, holding its per-track arrays and start-up
+    filters in their first rows (copied there when a cycle replaced one since — the bank's ``_rv``:
+    the views they were last set to —, or into larger buffers). Bound as ``IMMBank._rows_home``."""
+    rb = bank._rb
+    st = bank._startup
+    arrays = (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P, st.n_meas)
+    rv = bank._rv
+    if rb is None or rb.cap < n or rv[0].shape[0] != arrays[0].shape[0]:
+        if rb is None or rb.cap < n:
+            rb = bank._rb = RowBuffers(n + max(16, n // 2))
+        rb.home(arrays)
+    else:
+        for a, b in zip(arrays, rv):
+            if a is not b:
+                b[...] = a
+    return rb
+
+
+def keep_rows(bank, keep) -> None:
+    """Keep the rows where ``keep`` (n,) bool is True (drop the others at once): ``IMMBank.keep_rows``
+    (bound as that method). A bank in its cycle buffers compacts its state into the other side's
+    first rows and its per-track arrays and start-up filters in place in the row buffers, in one
+    compiled pass (:func:`kept_into`)."""
+    if type(keep) is not np.ndarray or keep.dtype != np.bool_:
+        keep = np.asarray(keep, dtype=bool)
+    if keep.shape != bank._ids.shape:
+        raise IndexError(f"keep: need shape {bank._ids.shape}, got {keep.shape}")
+    if bank._side is None:
+        for name in bank._PER_TRACK:
+            setattr(bank, name, getattr(bank, name)[keep])
+        bank._startup.keep(keep)
+        if bank._ids.size == 0:
+            bank._t_common = None
+        return
+    rb = home_rows(bank, keep.size)
+    side = 1 - bank._side
+    st = bank._startup
+    cyc = bank._cyc
+    m, st.n_active = kept_into(keep, bank._s, bank._P, bank._mu, bank._x, *cyc.sides[side], rb.ids, rb.t, rb.Pc,
+                               rb.n_gated, rb.reasons, rb.active, rb.cv_x, rb.cv_P, rb.n_meas)
+    bank._s, bank._P, bank._mu, bank._x, _ = cyc.views(side, m)
+    bank._side = side
+    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
+     st.n_meas) = bank._rv = rb.views(m)
+    if m == 0:
+        bank._t_common = None
 
 
 @kernel
