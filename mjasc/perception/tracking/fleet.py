@@ -51,11 +51,11 @@ from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import position_jacobians
-from mjasc.perception.tracking.report_fields import report_fields
+from mjasc.perception.tracking.report_fields import report_columns, report_columns_numpy, report_estimates
 from mjasc.perception.tracking.step_fusions import (assign_pairs_packed, cycled_scan_packed, pair_gates,
                                                    predicted_pairs_packed)
 from mjasc.perception.tracking.step_gathers import births_packed, step_inputs, step_rows
-from mjasc.perception.tracking.step_kernels import apply_assignment, confirmed_by_owner, measurement_rows, pair_setup
+from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows, pair_setup
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
 
@@ -455,60 +455,10 @@ class FleetTracker:
             made = self._reports = self._report_estimates(self._report_columns())
         return made[owner] if owner in made else _NO_ROWS
 
-    def _report_estimates(self, cols: tuple) -> dict:
-        """{owner: :class:`~mjasc.core.estimates.TrackRows` of its confirmed tracks} from the
-        columns ``cols`` (:meth:`_report_columns`), the vessels without one left out. A slow
-        track's outline is :meth:`~mjasc.perception.tracking.outlines.TrackOutlines.pending`
-        (made now: it holds the row's hull now; the outline itself on first read)."""
-        if len(cols) == 1:
-            return {}
-        spans, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow = cols
-        of_columns = TrackRows.of_columns
-        outlines = self.outlines.pendings(k_rows, slow, pos, radius)  # (= self.outline(k) on first read)
-        out = {}
-        for o, (a, b) in spans.items():
-            out[o] = of_columns((ids[a:b], t[a:b], pos[a:b], th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b],
-                                 static[a:b], team[a:b], outlines[a:b], (None,) * (b - a)))
-        return out
-
-    def _report_columns(self) -> tuple:
-        """What :meth:`estimates` hands on, for every vessel's confirmed tracks, grouped by vessel
-        (bank order within): ({owner: (first, end)}, rows, ids, times, positions (k, 2), courses,
-        speeds, ω̂, radii (array and list), position covariances (k, 2, 2), static flags, team
-        mates, slow flags) — per-track values as :meth:`_estimates_of` makes them (one compiled
-        gather, :func:`~mjasc.perception.tracking.report_fields.report_fields`)."""
-        c, no = self.cols, self._max_range.size
-        arrays = self.bank.prediction_arrays()
-        if arrays is None:  # (ω̂ not the compiled sum: r > 7 models)
-            return self._report_columns_numpy()
-        ints, floats, xs, P, flags = report_fields(c.confirmed, c.owner, no, *arrays, c.static, c.radius, c.local_id,
-                                                   self._static_speed)
-        k = floats.shape[1]
-        if k == 0:
-            return ({},)
-        il = ints.tolist()
-        f = il[2 * k:]
-        spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
-        t, th, v, w, radius_l = floats.tolist()
-        static, slow = flags.tolist()
-        return (spans, il[:k], il[k:2 * k], t, xs[:, :2], th, v, w, floats[4], radius_l, P, static,
-                c.team[ints[:k]].tolist(), slow)  # (team.members(rows))
-
-    def _report_columns_numpy(self) -> tuple:
-        """:meth:`_report_columns` through the bank's ``estimate_fields`` (any number of models; the
-        readable form of its compiled gather)."""
-        rows, first = confirmed_by_owner(self.cols.confirmed, self.cols.owner, self.n_owners)
-        if rows.size == 0:
-            return ({},)
-        f = first.tolist()
-        spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
-        t, pos, th, v, w, P = self.bank.estimate_fields(rows)
-        static = self.cols.static[rows]
-        slow = (static | (v < self.config.static_speed_m_s)).tolist()
-        radius = self.cols.radius[rows]
-        ids = self.cols.local_id[rows].tolist()
-        return (spans, rows.tolist(), ids, t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
-                radius, radius.tolist(), P, static.tolist(), self.team.members(rows), slow)
+    # the report's columns and rows (mjasc.perception.tracking.report_fields), bound as methods
+    _report_estimates = report_estimates
+    _report_columns = report_columns
+    _report_columns_numpy = report_columns_numpy
 
     def _estimates_of(self, rows) -> list[TrackEstimate]:
         """TrackEstimate of the tracks ``rows`` (indices), in that order."""
