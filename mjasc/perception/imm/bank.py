@@ -399,7 +399,7 @@ class IMMBank(BankViews, PredictiveDensity):
         finite measurement). Returns the (n,) bool array of used rows, or None when every row was
         used."""
         n = self._ids.size
-        t0, t, dt, dtm, step = self._times(t_s)
+        t0, t, dt, dtm, step = cycle_steps(self._t, self._t_common, self._ids, t_s, self._consts)  # (_times)
         out, side = self._free_side()
         mv = self._mv
         d2_min = side[4]

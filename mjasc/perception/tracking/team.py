@@ -52,19 +52,21 @@ class TeamMatcher:
     def set_positions(self, owner: int, positions: dict) -> None:
         """``{name: (t_b [s], position (2,) [m])}``: the team's latest broadcast positions, as
         vessel ``owner`` received them."""
-        names = [str(k) for k in positions]
+        names = list(positions)  # (the names as given: str(name) below unless they are the same mates)
         vals = list(positions.values())
         owner = int(owner)
-        old = self._team.get(owner)
+        team = self._team
+        old = team[owner] if owner in team else None
         flat = self._flat
         if flat is not None and old is not None and old[0] == names and vals:
             # the same mates: new values written in place (the flat arrays' rows are this owner's arrays)
-            a = self._start[owner]
-            tb, pb = flat[2][a:a + len(vals)], flat[3][a:a + len(vals)]
+            a, k = self._start[owner], len(vals)
+            tb, pb = flat[2][a:a + k], flat[3][a:a + k]
             tb[...] = [v[0] for v in vals]  # (numpy's conversion, as np.array(..., dtype=float) makes it)
             pb[...] = [v[1] for v in vals]
-            self._team[owner] = (names, tb, pb)
+            team[owner] = (old[0], tb, pb)
             return
+        names = [str(k) for k in names]
         tb, pb = np.array([v[0] for v in vals], dtype=float), np.array([v[1] for v in vals], dtype=float).reshape(-1, 2)
         self._team[owner] = (names, tb, pb)
         self._flat = None
