@@ -27,7 +27,10 @@ Rejections are logged (debug: each rejected measurement; info: each restart) on 
 
 What the bank hands out — track ids, states, covariances, estimates, the per-row fields — is
 :class:`~mjasc.perception.imm.bank_views.BankViews`, the base class holding the read-only views; the
-arrays its cycles write into are :class:`~mjasc.perception.imm.cycle_buffers.CycleBuffers`.
+arrays its cycles write into are :class:`~mjasc.perception.imm.cycle_buffers.CycleBuffers`; its
+per-track arrays and start-up filters live in :class:`~mjasc.perception.imm.row_buffers.RowBuffers`
+(a birth writes spare rows, a drop compacts in place: :func:`~mjasc.perception.imm.row_buffers.append_rows`,
+:func:`~mjasc.perception.imm.row_buffers.keep_rows`, bound as the bank's ``_append`` and ``keep_rows``).
 """
 
 from __future__ import annotations
