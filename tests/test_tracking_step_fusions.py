@@ -17,7 +17,8 @@ from mjasc.perception.tracking import fleet as fleet_mod
 from mjasc.perception.tracking.association import (gnn_assign_blocks, indexed_pair_costs,
                                                    predicted_positions)
 from mjasc.perception.tracking.pair_kernels import block_pairs_flat
-from mjasc.perception.tracking.step_fusions import DB, GI, I, J, Q, TA, assign_pairs, predicted_pairs
+from mjasc.perception.tracking.step_fusions import (DB, GI, I, J, Q, TA, assign_pairs, predicted_pairs,
+                                                   predicted_pairs_packed)
 from mjasc.perception.tracking.step_kernels import admissible_pairs, apply_assignment, pair_setup
 from mjasc.runs.runner import Runner
 
@@ -60,6 +61,11 @@ def test_fused_association_on_a_real_run(monkeypatch):
             arrays = self.bank.prediction_arrays()
             n_q, start, pairs, var_p, *_ = predicted_pairs(rows, rpos, owners.size, m_q, self.cols.radius, var, rad,
                                                            occ, *arrays, t_o, row_pos)
+            full = predicted_pairs(rows, rpos, owners.size, m_q, self.cols.radius, var, rad, occ, *arrays, t_o, row_pos)
+            blocks, *packed, arcs = predicted_pairs_packed(rows, rpos, owners.size, m_q, self.cols.radius, var, rad,
+                                                           occ, *arrays, t_o, row_pos)  # (what the step calls)
+            for a, b in zip((blocks[:owners.size], blocks[owners.size:], *packed, *arcs), full):
+                _same(a, b)
             g = ref[0]
             _same(n_q, g[0])
             _same(start, g[5])
@@ -181,6 +187,7 @@ def test_drops_all_is_drops_of_every_row_on_a_real_run(monkeypatch):
     from mjasc.perception.tracking.management import TrackManagement
 
     orig = TrackManagement.drops_all
+    step_form = TrackManagement.drops_every  # (what the step calls: tests/test_tracking_drops_every.py)
     n_checked = [0]
 
     def checked(self, group, pos_of, t_o, states, covariances, origins_m, max_range_m):
@@ -191,9 +198,9 @@ def test_drops_all_is_drops_of_every_row_on_a_real_run(monkeypatch):
         _same(got[0], want[0])
         assert got[1] == want[1] and got[2] == want[2]
         n_checked[0] += 1
-        return got
+        return step_form(self, group, pos_of, t_o, states, covariances, origins_m, max_range_m)
 
-    monkeypatch.setattr(TrackManagement, "drops_all", checked)
+    monkeypatch.setattr(TrackManagement, "drops_every", checked)
     sc = mjasc.load_scenario(_ROOT / "tasks" / "demo.toml").with_overrides(duration_s=30.0)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()
@@ -208,7 +215,10 @@ def test_cycled_scan_on_a_real_run(monkeypatch):
     from mjasc.perception.tracking.step_gathers import cycled_rows
     from mjasc.perception.tracking.step_kernels import last_assignments
 
-    fused = fleet_mod.cycled_scan
+    from mjasc.perception.tracking.step_fusions import cycled_scan
+
+    fused = cycled_scan
+    packed = fleet_mod.cycled_scan_packed  # (what the step calls: cycled_scan's arrays packed by type)
     n_checked = [0]
 
     def checked(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, *rest):
@@ -222,18 +232,59 @@ def test_cycled_scan_on_a_real_run(monkeypatch):
         scan_rows(rows, t_rows, u_rows, a_rows, rad, occ, speeds, *cols_w, *consts, new_conf)
         want = (new_conf, orows, hit_o, speeds_o, pos_o, cols_w[4][orows],
                 *last_assignments(rows, hit, row_pos, local_id, idx, assigned, p))
-        got = fused(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, *rest)
+        cols_f, counts_f = [a.copy() for a in rest[:8]], counts.copy()
+        got = fused(rows, row_pos, t_o, used, meas, x, with_pts, counts_f, owners, col, assigned, rad, occ, *cols_f,
+                    *rest[8:])
         assert got[1] == np.count_nonzero(new_conf)
         for a, b in zip(got[:1] + got[2:], want):
+            _same(a, b)
+        for a, b in zip(cols_f, cols_w):
+            _same(a, b)
+        _same(counts_f, counts_w)
+        out = packed(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, *rest)
+        ints, floats, flags, pos_o, n_conf, g, m = out
+        k = rows.size
+        assert n_conf == got[1] and g == got[2].size and m == got[7].size
+        for a, b in zip((flags[:k], ints[:g], flags[k:], floats[0], pos_o, floats[1], ints[g:g + m],
+                         ints[g + m:g + 2 * m], ints[g + 2 * m:]), got[:1] + got[2:]):
             _same(a, b)
         for a, b in zip(rest[:8], cols_w):
             _same(a, b)
         _same(counts, counts_w)
         n_checked[0] += 1
-        return got
+        return out
 
-    monkeypatch.setattr(fleet_mod, "cycled_scan", checked)
+    monkeypatch.setattr(fleet_mod, "cycled_scan_packed", checked)
     sc = mjasc.load_scenario(_ROOT / "tasks" / "demo.toml").with_overrides(duration_s=30.0)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()
     assert n_checked[0] > 100
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_assign_pairs_packed_random(seed):
+    """assign_pairs_packed holds assign_pairs' arrays (the hard blocks, the hit rows and their d², times)."""
+    from mjasc.perception.tracking.step_fusions import assign_pairs_packed
+
+    rng = np.random.default_rng(seed)
+    p = int(rng.integers(1, 4))
+    n_q = rng.integers(0, 5, size=p).astype(np.int64)
+    m_q = rng.integers(0, 5, size=p).astype(np.int64)
+    q, i, j, start, gi, db = block_pairs_flat(n_q, m_q)
+    n = int(n_q.sum()) + 3
+    M = int(m_q.sum())
+    ta = rng.permutation(n)[:n_q.sum()][gi] if gi.size else gi.copy()
+    pairs = np.stack([q, i, j, gi, db, ta]).astype(np.int64)
+    d2 = rng.random(gi.size) * 20.0
+    log_det = np.log(rng.random(gi.size) + 0.1)
+    var_p = rng.random(gi.size)
+    t_o = rng.random(p) + 10.0
+    row_pos = rng.integers(0, p, size=n).astype(np.int64)
+    outs = [(np.full(n, -1, dtype=np.int64), np.full(n, 0.25), np.zeros(M, dtype=bool)) for _ in range(2)]
+    want = assign_pairs(d2, log_det, 9.21, pairs, start, m_q, var_p, *outs[0], t_o, row_pos)
+    inside, cost, rows, vals, h = assign_pairs_packed(d2, log_det, 9.21, pairs, start, m_q, var_p, *outs[1], t_o,
+                                                      row_pos)
+    for a, b in zip((inside, cost, rows[:h], rows[h:], vals[0], vals[1]), want):
+        _same(a, b)
+    for a, b in zip(*outs):
+        _same(a, b)

@@ -147,6 +147,15 @@ class TrackRows(Sequence):
         self._columns, self._items = tuple(columns), None
         self.track_ids, self.times_s, self.positions_m = columns[0], columns[1], columns[2]
 
+    @classmethod
+    def of_columns(cls, columns: tuple) -> "TrackRows":
+        """``TrackRows(columns)`` for a caller whose ``columns`` is a tuple of one value per field
+        already (a tracker's report: no check, no copy)."""
+        rows = object.__new__(cls)
+        rows._columns, rows._items = columns, None
+        rows.track_ids, rows.times_s, rows.positions_m = columns[0], columns[1], columns[2]
+        return rows
+
     def _get(self) -> tuple:
         items = self._items
         if items is None:

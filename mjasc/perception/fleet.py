@@ -311,11 +311,11 @@ class PerceptionFleet:
             ms = [m for m in members if m._tracker is not None and m._tracker.fleet is ft]
             if not ms:
                 continue
-            dets = [m._det for m in ms]
-            stacked = self._stacked(ms, dets)
-            ft.step([m._tracker.owner for m in ms], [d.time_s for d in dets], dets,
-                    [m._scan.origin_m for m in ms], [m._targets for m in ms],
-                    [m._scan.hit_points_world for m in ms], stacked)
+            # (each member's inputs in one pass: owners, detections, times, origins, targets, returns)
+            owners, dets, times, origins, targets, returns = map(list, zip(*[
+                (m._tracker.owner, m._det, m._det.time_s, m._scan.origin_m, m._targets, m._scan.hit_points_world)
+                for m in ms]))
+            ft.step(owners, times, dets, origins, targets, returns, self._stacked(ms, dets))
         for m in members:
             if m.method is not None:
                 m._track_with_method()

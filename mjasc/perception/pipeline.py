@@ -226,7 +226,9 @@ class Perception:
             if self.method is not None:
                 self._nav = nav
             self.fleet.queue_track(self)
-        self.fleet.asked(self)
+        fleet = self.fleet
+        if self is fleet.members[-1]:  # (fleet.asked(self) without its call: the last member's ends the slot)
+            fleet.flush()
 
     def _track_with_method(self) -> None:
         """The tracking step of a plugin tracker (the fleet's tracking pass calls it): the scan's
@@ -249,15 +251,19 @@ class Perception:
             n = len(self._method_tracks)
         else:
             tr = self._tracker
-            events = tr.drain_events()
-            n = tr.fleet.n_rows(tr.owner)  # (= len(tr))
+            ft, o = tr.fleet, tr.owner
+            events = ft.events[o]  # (tr.drain_events() without its call)
+            if events:
+                ft.events[o] = []
+            n = ft.n_rows(o)  # (= len(tr))
         for ev in events:
             self._log_events.append(ev)
             if ev.kind != "born":
                 self._drain.append((ev.time_s, ev.text))
         st = self._stats
         st["track_updates"] += 1
-        st["max_tracks"] = max(st["max_tracks"], n)
+        if n > st["max_tracks"]:
+            st["max_tracks"] = n
         if self.keep_history:
             self._append_history()
 
@@ -309,7 +315,11 @@ class Perception:
             self._team.set_positions(0, positions)
             self._has_team = True
             return
-        self.tracker.set_team_positions(positions)
+        fleet = self.fleet
+        if fleet._scans or fleet._tracks:  # (self.tracker.set_team_positions without its three hops)
+            fleet.flush()
+        tr = self._tracker
+        tr.fleet.team.set_positions(tr.owner, positions)
 
     # ---------------------------------------------------------------- team-shared perception
     def shareable_tracks(self, own_position_m, max_tracks: int) -> tuple:
@@ -340,8 +350,11 @@ class Perception:
         on first read —, fused with the newest team tracks when it shares perception
         (:meth:`set_team_tracks` was called)."""
         if self.method is None:  # (tracks() without its calls: the fleet's queue flushed, the tracker's rows)
-            self.fleet.flush()
-            own = self._tracker.report_rows()
+            fleet = self.fleet
+            if fleet._scans or fleet._tracks:  # (flush() only when something is queued)
+                fleet.flush()
+            tr = self._tracker
+            own = tr.fleet.report_rows(tr.owner)
         else:
             own = tuple(self.tracks())
         if self._fusion is None:

@@ -27,7 +27,10 @@ Rejections are logged (debug: each rejected measurement; info: each restart) on 
 
 What the bank hands out — track ids, states, covariances, estimates, the per-row fields — is
 :class:`~mjasc.perception.imm.bank_views.BankViews`, the base class holding the read-only views; the
-arrays its cycles write into are :class:`~mjasc.perception.imm.cycle_buffers.CycleBuffers`.
+arrays its cycles write into are :class:`~mjasc.perception.imm.cycle_buffers.CycleBuffers`; its
+per-track arrays and start-up filters live in :class:`~mjasc.perception.imm.row_buffers.RowBuffers`
+(a birth writes spare rows, a drop compacts in place: :func:`~mjasc.perception.imm.row_buffers.append_rows`,
+:func:`~mjasc.perception.imm.row_buffers.keep_rows`, bound as the bank's ``_append`` and ``keep_rows``).
 """
 
 from __future__ import annotations
@@ -37,7 +40,7 @@ import logging
 import numpy as np
 
 from mjasc.perception.imm.bank_kernels import (ACCEPTED, GATED, NON_FINITE, NOT_MEASURED, REJECTION_REASONS, RESTARTED,
-                                                measurements, settled_rows)
+                                                measurements, settled_rows, settled_rows_into)
 from mjasc.perception.imm.bank_views import BankViews
 from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import imm_cycle
@@ -46,8 +49,9 @@ from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS
 from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
-from mjasc.perception.imm.startup_rows import (born_rows, gather_startup, handover_rows, kept_bank_rows,
-                                               settled_startup)
+from mjasc.perception.imm.row_buffers import append_rows, home_rows, keep_rows
+from mjasc.perception.imm.startup_rows import (gather_startup, gather_startup_into, handover_rows, settled_startup,
+                                               settled_startup_into)
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -58,6 +62,7 @@ _EYE2 = np.eye(2)
 _ALL, _NONE = np.ones(1, dtype=bool), np.zeros(1, dtype=bool)  # ``use`` of imm_cycle: every row, none
 _NO_Z = np.zeros((1, 2))  # z of a cycle without measurements (not read)
 _NO_VAR = np.zeros(0)  # (gather_startup: no per-row steps or σ²)
+_NO_IDS = np.zeros(0, dtype=np.int64)  # (born_into: the next ids)
 _NO_ROWS, _NO_FLAGS = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)  # (settled_rows: no start-up rows)
 
 
@@ -116,9 +121,13 @@ class IMMBank(BankViews, PredictiveDensity):
         self._x = np.zeros((0, 4))  # combined estimate, kept current; θ unwrapped (wrap to read)
         self._Pc = np.zeros((0, 4, 4))
         self._startup = StartupFilters(config)  # the start-up CV filters, rows aligned with these
+        self._sv2 = float(self._startup.speed_var0)  # (σ_v0² of a new row's filter)
+        self._q_cv = float(self._startup.acceleration_noise)  # (its white-acceleration intensity)
         self._n_gated = np.zeros(0, dtype=np.int64)
         self._reasons = np.zeros(0, dtype=np.int8)
         self._mv = None  # per-row measurement variances of the current update (None: config's)
+        self._rv = ()  # the row buffers' views the per-track arrays were last set to
+        self._rb = None  # RowBuffers holding the per-track arrays and start-up filters (made on the first birth)
 
     _PER_TRACK = ("_ids", "_s", "_P", "_mu", "_t", "_x", "_Pc", "_n_gated", "_reasons")
 
@@ -159,43 +168,23 @@ class IMMBank(BankViews, PredictiveDensity):
         if k == 0:
             return ids
         self._next_id = max(self._next_id, int(ids.max()) + 1)
-        self._append(z, t, ids, None if measurement_variance is None else np.asarray(measurement_variance, dtype=float))
+        self._append(np.ascontiguousarray(z), np.ascontiguousarray(t, dtype=float), ids,
+                     None if measurement_variance is None else np.ascontiguousarray(measurement_variance, dtype=float))
         return ids
 
     def append_tracks(self, z, t, measurement_variance=None) -> None:
         """:meth:`add_tracks` for a caller that has checked its input: z (k ≥ 1, 2) finite [m], t (k,)
         finite float array [s], ``measurement_variance`` (k,) float array [m²] or None; the ids are
         the next k integers. The same rows as :meth:`add_tracks`."""
-        k = z.shape[0]
-        ids = np.arange(self._next_id, self._next_id + k, dtype=np.int64)
-        self._next_id += k
-        self._append(z, t, ids, measurement_variance)
+        id0 = self._next_id
+        self._next_id += z.shape[0]
+        self._append(z, t, _NO_IDS, meas_var=measurement_variance, id0=id0)
 
-    def _append(self, z, t, ids, meas_var) -> None:
-        """New rows started from z (k, 2) at t (k,): the start-up filter at z (σ² meas_var (k,) or
-        the config's), its estimate as the row's, the ready ones handed over (as :meth:`_start`)."""
-        k = z.shape[0]
-        n_before = self._ids.size
-        n = n_before + k
-        cyc = self._cyc
-        if cyc is None or cyc.cap < n or self._side is None:
-            cyc = self._own_state(n)
-        s, P, mu, x, _ = cyc.views(self._side, n)  # the state's rows, then spare ones: zero, but μ
-        st = self._startup
-        xc, Pcv = st.append_started(z, self._R, meas_var)
-        # the new rows' state (zero, μ0, x = the start-up estimate), per-track arrays and hand-over (as
-        # :meth:`_start`): one compiled call around :func:`cv_to_polar`'s numpy products
-        vx, vy = xc[:, 2], xc[:, 3]
-        speed = np.hypot(vx, vy)
-        J = _polar_jacobians(xc, speed)
-        self._ids, self._t, self._Pc, self._n_gated, self._reasons, one_time, off = born_rows(
-            s, P, mu, x, n_before, self._mu0, self._ids, self._t, self._Pc, self._n_gated, self._reasons,
-            ids, np.ascontiguousarray(t, dtype=float), xc, speed, np.arctan2(vy, vx), J @ Pcv @ np.swapaxes(J, 1, 2),
-            Pcv, st.n_meas, st.snr2, st.max_updates, st.active)
-        st.n_active -= off
-        self._s, self._P, self._mu, self._x = s, P, mu, x
-        tc, t0 = self._t_common, float(t[0])
-        self._t_common = t0 if (n_before == 0 or tc == t0) and one_time else None
+    # a birth writes into spare rows, a drop compacts in place: functions of the bank in
+    # mjasc.perception.imm.row_buffers, bound here as its methods
+    _append = append_rows
+    _rows_home = home_rows
+    keep_rows = keep_rows
 
     def _start(self, rows, z, meas_var=None):
         """(Re)start tracks ``rows`` from measurements z (k, 2): CV filter at z, v = 0 ± σ_v0;
@@ -214,7 +203,7 @@ class IMMBank(BankViews, PredictiveDensity):
         vx, vy = xc[:, 2], xc[:, 3]
         speed = np.hypot(vx, vy)
         J = _polar_jacobians(xc, speed)
-        st.n_active -= handover_rows(rows, xc, speed, np.arctan2(vy, vx), J @ cv_P @ np.swapaxes(J, 1, 2), cv_P,
+        st.n_active -= handover_rows(rows, xc, speed, np.arctan2(vy, vx), J @ cv_P @ J.transpose(0, 2, 1), cv_P,
                                      st.n_meas, st.snr2, st.max_updates, st.active, self._x, self._Pc, self._s,
                                      self._P, self._mu, self._mu0)
 
@@ -233,6 +222,11 @@ class IMMBank(BankViews, PredictiveDensity):
         dv = np.broadcast_to(np.asarray(speed_var_m2_s2, dtype=float), idx.shape)
         if not (np.all(np.isfinite(dth)) and np.all(dth >= 0) and np.all(np.isfinite(dv)) and np.all(dv >= 0)):
             raise ValueError("add_process_noise: heading_var_rad2 and speed_var_m2_s2 must be finite and ≥ 0")
+        self.add_process_noise_rows(idx, dth, dv)
+
+    def add_process_noise_rows(self, idx, dth, dv) -> None:
+        """:meth:`add_process_noise` for a caller that has checked its arrays: the rows ``idx`` (k ≥ 1,)
+        int, distinct, and their variances dth, dv (k,) float, finite and ≥ 0 (a manoeuvre detector's)."""
         warm = self._startup.active[idx]
         full = idx[~warm]
         if full.size:
@@ -249,31 +243,6 @@ class IMMBank(BankViews, PredictiveDensity):
         keep = np.ones(self._ids.size, dtype=bool)
         keep[self.index_of(track_id)] = False
         self.keep_rows(keep)
-
-    def keep_rows(self, keep) -> None:
-        """Keep the rows where ``keep`` (n,) bool is True (drop the others at once)."""
-        keep = np.asarray(keep, dtype=bool)
-        if keep.shape != self._ids.shape:
-            raise IndexError(f"keep: need shape {self._ids.shape}, got {keep.shape}")
-        if self._side is None:
-            for name in self._PER_TRACK:
-                setattr(self, name, getattr(self, name)[keep])
-        else:  # the state compacted into the other side's first rows, the start-up filters kept
-            side = 1 - self._side
-            out = self._cyc.views(side, int(np.count_nonzero(keep)))
-            st = self._startup
-            (self._ids, self._t, self._Pc, self._n_gated, self._reasons, st.active, st.x, st.P, st.n_meas,
-             st.n_active) = kept_bank_rows(keep, self._s, self._P, self._mu, self._x, out[0], out[1], out[2], out[3],
-                                           self._ids, self._t, self._Pc, self._n_gated, self._reasons, st.active, st.x,
-                                           st.P, st.n_meas)  # (np.compress into out, boolean indexing: one compiled pass)
-            self._s, self._P, self._mu, self._x = out[:4]
-            self._side = side
-            if self._ids.size == 0:
-                self._t_common = None
-            return
-        self._startup.keep(keep)
-        if self._ids.size == 0:
-            self._t_common = None
 
     def update_rows(self, rows, z, t_s, mask=None, measurement_variance=None) -> np.ndarray:
         """:meth:`update` of the tracks in ``rows`` (indices, k) only — z (k, 2), mask and
@@ -399,6 +368,28 @@ class IMMBank(BankViews, PredictiveDensity):
         finally:
             self._mv = None
 
+    def update_measured(self, z, t_s, measured, measurement_variance=None) -> np.ndarray:
+        """:meth:`update` for a caller that has checked its arrays: z (n, 2) float, ``measured`` (n,)
+        bool, ``measurement_variance`` (n,) float or None — changed in place (its unusable σ²
+        replaced by the config's, as :meth:`update` does in its copy); n ≥ 1. The same cycle and
+        result as :meth:`update`, without the checks and copies."""
+        n = self._ids.size
+        rb = self._rb
+        if rb is not None and rb.cap >= n:  # (the row buffers' scratch rows: no arrays made)
+            finite, use = rb.w_fin[:n], rb.w_use2[:n]
+        else:
+            finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
+        mv = measurement_variance
+        all_used = measurements(z, measured, mv if mv is not None else self._var, mv is not None, self._R, finite, use)
+        self._mv = mv
+        try:
+            if all_used:
+                ok = self._cycle(z, t_s)
+                return np.ones(n, dtype=bool) if ok is None else ok
+            return self._cycle(z, t_s, use, finite, measured)
+        finally:
+            self._mv = None
+
     def update_finite(self, z, t_s):
         """:meth:`update`'s fast path, for a caller that has checked that every row of z (n, 2) [m]
         is a finite measurement (no mask, the config's σ²): one IMM cycle at t_s (scalar or (n,)
@@ -411,7 +402,7 @@ class IMMBank(BankViews, PredictiveDensity):
         finite measurement). Returns the (n,) bool array of used rows, or None when every row was
         used."""
         n = self._ids.size
-        t0, t, dt, dtm, step = self._times(t_s)
+        t0, t, dt, dtm, step = cycle_steps(self._t, self._t_common, self._ids, t_s, self._consts)  # (_times)
         out, side = self._free_side()
         mv = self._mv
         d2_min = side[4]
@@ -438,8 +429,10 @@ class IMMBank(BankViews, PredictiveDensity):
             return None
 
         # general case: mix of updated, coasting, start-up and restarted tracks (t None: every row at t0)
+        rb = self._rb
+        scratch = rb is not None and rb.cap >= n  # (the row buffers' scratch rows for the flags: no arrays made)
         if use is None:
-            use = finite = measured = np.ones(n, dtype=bool)
+            use = finite = measured = rb.w_true[:n] if scratch else np.ones(n, dtype=bool)
         warm = self._startup.active
         any_warm = self._startup.n_active > 0
         # the cycle updated the rows ``use & (d2_min <= gate)`` of the IMM rows, coasted the others; the
@@ -448,29 +441,48 @@ class IMMBank(BankViews, PredictiveDensity):
         if any_warm:  # the start-up filters' cycle (StartupFilters.update_rows): the products numpy's
             rows_w = rows = warm.nonzero()[0]  # (still the start-up rows at the hand-over below)
             st = self._startup
-            xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
-                                                              dtm if t is None else 0.0,
-                                                              z, use, _NO_VAR if mv is None else mv, mv is not None)
+            rb, k = self._rb, rows.size
+            if rb is not None and rb.cap >= k:  # (gathered into the row buffers' scratch rows: no arrays made)
+                gather_startup_into(rows, st.x, st.P, _NO_VAR if t is None else dt, dtm if t is None else 0.0, z, use,
+                                    _NO_VAR if mv is None else mv, mv is not None, rb.w_x, rb.w_P, rb.w_dt, rb.w_F,
+                                    rb.w_z, rb.w_use, rb.w_var)
+                xc, Pc, dtw, F, zw, use_w, var_w = (rb.w_x[:k], rb.w_P[:k], rb.w_dt[:k], rb.w_F[:k], rb.w_z[:k],
+                                                    rb.w_use[:k], rb.w_var[:k])
+            else:
+                xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
+                                                                  dtm if t is None else 0.0, z, use,
+                                                                  _NO_VAR if mv is None else mv, mv is not None)
             xc_w = (F @ xc[..., None])[..., 0]
-            P_w = F @ Pc @ np.swapaxes(F, 1, 2)
+            P_w = F @ Pc @ F.transpose(0, 2, 1)  # (= np.swapaxes(F, 1, 2))
         limit = self.config.restart_after_gated
         if any_warm:  # (the start-up filters updated, then inside, ok, the start-up rows, rejections: one compiled call)
-            inside, reasons, restart, used, n_restart = settled_startup(
-                rows, xc_w, P_w, dtw**3, dtw, float(st.acceleration_noise), zw, self._var if mv is None else var_w,
-                use_w, self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
-                s_new, P_new, mu_new, self._n_gated, limit)
+            args = (rows, xc_w, P_w, dtw**3, dtw, self._q_cv, zw, self._var if mv is None else var_w, use_w,
+                    self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
+                    s_new, P_new, mu_new, self._n_gated, limit)
+            if scratch:  # (the codes written into the bank's own, the flags into scratch rows)
+                inside, restart, reasons, used = rb.w_in[:n], rb.w_rs[:n], self._reasons, np.empty(n, dtype=bool)
+                n_restart = settled_startup_into(*args, inside, rb.w_ok[:n], reasons, restart, used)
+            else:
+                inside, reasons, restart, used, n_restart = settled_startup(*args)
         else:  # (inside, ok, rejections: one compiled pass)
             rows_w = _NO_ROWS
-            inside, reasons, restart, used, n_restart = settled_rows(
-                d2_min, self._gate, use, finite, measured, _NO_ROWS, _NO_FLAGS, _NO_FLAGS, self._s, self._P, self._mu,
-                s_new, P_new, mu_new, self._n_gated, limit)
+            args = (d2_min, self._gate, use, finite, measured, _NO_ROWS, _NO_FLAGS, _NO_FLAGS, self._s, self._P,
+                    self._mu, s_new, P_new, mu_new, self._n_gated, limit)
+            if scratch:
+                inside, restart, reasons, used = rb.w_in[:n], rb.w_rs[:n], self._reasons, np.empty(n, dtype=bool)
+                n_restart = settled_rows_into(*args, inside, rb.w_ok[:n], reasons, restart, used)
+            else:
+                inside, reasons, restart, used, n_restart = settled_rows(*args)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
         self._side = out
         self._Pc_stale = True
 
-        self._set_times(t0, t)
-        if t is None:
+        if t is None:  # (_set_times(t0, t) without its call)
+            self._t.fill(t0)
             t = self._t  # (for the log below)
+        else:
+            self._t = t
+        self._t_common = t0
         if any_warm:
             self._handover(rows_w, xc_w, P_w)
         if n_restart:

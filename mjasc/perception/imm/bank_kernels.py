@@ -13,7 +13,7 @@ import numpy as np
 from mjasc.core.compiled import kernel
 
 __all__ = ["ACCEPTED", "NOT_MEASURED", "NON_FINITE", "GATED", "RESTARTED", "REJECTION_REASONS",
-           "rejections", "measurements", "warm_rows", "settled_rows", "appended_rows", "kept_rows"]
+           "rejections", "measurements", "warm_rows", "settled_rows", "settled_rows_into", "appended_rows", "kept_rows"]
 
 #: Codes of :attr:`mjasc.perception.imm.bank.IMMBank.rejection_codes` (indices into ``REJECTION_REASONS``).
 ACCEPTED, NOT_MEASURED, NON_FINITE, GATED, RESTARTED = 0, 1, 2, 3, 4
@@ -99,19 +99,30 @@ def settled_rows(d2_min, gate, use, finite, measured, rows_w, ok_w, use_w, s, P,
     n = d2_min.size
     inside = np.empty(n, dtype=np.bool_)
     ok = np.empty(n, dtype=np.bool_)
+    reasons = np.empty(n, dtype=np.int8)
+    restart = np.empty(n, dtype=np.bool_)
+    used = np.empty(n, dtype=np.bool_)
+    n_restart = settled_rows_into(d2_min, gate, use, finite, measured, rows_w, ok_w, use_w, s, P, mu, s_new, P_new,
+                                  mu_new, n_gated, limit, inside, ok, reasons, restart, used)
+    return inside, reasons, restart, used, n_restart
+
+
+@kernel
+def settled_rows_into(d2_min, gate, use, finite, measured, rows_w, ok_w, use_w, s, P, mu, s_new, P_new, mu_new,
+                      n_gated, limit, inside, ok, reasons, restart, used):
+    """:func:`settled_rows` written into inside, ok, reasons, restart and used (n rows or more: a bank's
+    scratch rows and its own rejection codes); returns the number restarted."""
+    n = d2_min.size
     for k in range(n):
         inside[k] = d2_min[k] <= gate
         ok[k] = use[k] and inside[k]
     warm_rows(rows_w, ok_w, use_w, ok, inside, s, P, mu, s_new, P_new, mu_new)
-    reasons = np.empty(n, dtype=np.int8)
-    restart = np.empty(n, dtype=np.bool_)
     rejections(use, finite, measured, inside, ok, n_gated, limit, reasons, restart)
-    used = np.empty(n, dtype=np.bool_)
     n_restart = 0
     for k in range(n):
         used[k] = ok[k] or restart[k]
         n_restart += restart[k]
-    return inside, reasons, restart, used, n_restart
+    return n_restart
 
 
 @kernel

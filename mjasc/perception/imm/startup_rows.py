@@ -38,11 +38,11 @@ import math
 import numpy as np
 
 from mjasc.core.compiled import kernel
-from mjasc.perception.imm.bank_kernels import appended_rows, kept_rows, settled_rows
+from mjasc.perception.imm.bank_kernels import appended_rows, kept_rows, settled_rows, settled_rows_into
 from mjasc.perception.imm.compiled_cycle import position_update
 from mjasc.perception.imm.startup import _add_cv_noise, _kept_started, _polar_finish
 
-__all__ = ["gather_startup", "update_startup", "settled_startup", "handover_rows", "born_rows", "kept_bank_rows"]
+__all__ = ["gather_startup", "gather_startup_into", "settled_startup_into", "update_startup", "settled_startup", "handover_rows", "born_rows", "kept_bank_rows"]
 
 
 @kernel
@@ -58,12 +58,21 @@ def gather_startup(rows, x, P, dt_rows, dtm, z, use, mv, per_row):
     zw = np.empty((k, 2))
     use_w = np.empty(k, dtype=np.bool_)
     var_w = np.empty(k if per_row else 0)
-    for j in range(k):
+    gather_startup_into(rows, x, P, dt_rows, dtm, z, use, mv, per_row, xc, Pc, dt, F, zw, use_w, var_w)
+    return xc, Pc, dt, F, zw, use_w, var_w
+
+
+@kernel
+def gather_startup_into(rows, x, P, dt_rows, dtm, z, use, mv, per_row, xc, Pc, dt, F, zw, use_w, var_w):
+    """:func:`gather_startup` written into the first k rows of xc, Pc, dt, F, zw, use_w and (if
+    ``per_row``) var_w, arrays of at least k rows (a bank's scratch rows: nothing returned)."""
+    for j in range(rows.size):
         r = rows[j]
         for a in range(4):
             xc[j, a] = x[r, a]
             for b in range(4):
                 Pc[j, a, b] = P[r, a, b]
+                F[j, a, b] = 0.0
         d = dt_rows[r] if dt_rows.size else dtm
         dt[j] = d
         for a in range(4):
@@ -75,7 +84,6 @@ def gather_startup(rows, x, P, dt_rows, dtm, z, use, mv, per_row):
         use_w[j] = use[r]
         if per_row:
             var_w[j] = mv[r]
-    return xc, Pc, dt, F, zw, use_w, var_w
 
 
 @kernel
@@ -111,6 +119,16 @@ def settled_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas
     ok_w = update_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas)
     return settled_rows(d2_min, gate, use, finite, measured, rows, ok_w, use_w, s, s_P, mu, s_new, P_new, mu_new,
                         n_gated, limit)
+
+
+@kernel
+def settled_startup_into(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas, d2_min, use, finite, measured,
+                         s, s_P, mu, s_new, P_new, mu_new, n_gated, limit, inside, ok, reasons, restart, used):
+    """:func:`settled_startup` with settled_rows' outcome written into inside, ok, reasons, restart and
+    used (:func:`~mjasc.perception.imm.bank_kernels.settled_rows_into`); returns the number restarted."""
+    ok_w = update_startup(rows, xp, Pp, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas)
+    return settled_rows_into(d2_min, gate, use, finite, measured, rows, ok_w, use_w, s, s_P, mu, s_new, P_new, mu_new,
+                             n_gated, limit, inside, ok, reasons, restart, used)
 
 
 @kernel

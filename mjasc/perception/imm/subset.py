@@ -16,7 +16,7 @@ from mjasc.perception.imm.cycle_buffers import CycleBuffers
 __all__ = ["take_rows", "put_rows"]
 
 _SHARED = ("config", "_r", "_omega", "_mu0", "_consts", "_R", "_R_cov", "_var", "_floor", "_gate", "_next_id",
-           "_compiled_fields")
+           "_compiled_fields", "_sv2", "_q_cv")
 
 
 def take_rows(bank, rows):
@@ -39,6 +39,7 @@ def take_rows(bank, rows):
             cycles.clear()
         cyc = cycles[n] = CycleBuffers(n, sub._r)
     sub._cyc, sub._side = cyc, None
+    sub._rb, sub._rv = None, ()  # (no row buffers: a subset's arrays are its own)
     sub._flagged = True
     sub._mv = None
     return sub

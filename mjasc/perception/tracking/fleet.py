@@ -51,10 +51,11 @@ from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import position_jacobians
-from mjasc.perception.tracking.step_fusions import assign_pairs, cycled_scan, pair_gates, predicted_pairs
-from mjasc.perception.tracking.step_gathers import births_of, step_rows
-from mjasc.perception.tracking.step_kernels import (apply_assignment, confirmed_by_owner, measurement_rows, pair_setup,
-                                                    select_detections)
+from mjasc.perception.tracking.report_fields import report_columns, report_columns_numpy, report_estimates
+from mjasc.perception.tracking.step_fusions import (assign_pairs_packed, cycled_scan_packed, pair_gates,
+                                                   predicted_pairs_packed)
+from mjasc.perception.tracking.step_gathers import births_packed, step_inputs, step_rows
+from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows, pair_setup
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
 
@@ -97,6 +98,8 @@ class FleetTracker:
         self.bank = IMMBank(config.imm)
         self._R = float(config.imm.measurement_variance_m2)
         self._gate = config.gate_threshold
+        self._static_speed = float(config.static_speed_m_s)
+        self._use_var = bool(config.use_detection_variance)
         cols = self.cols = TrackColumns(config.confirm_hits <= 1)  # every per-track column but the bank's
         self.mgmt = TrackManagement(config, cols)
         self.manoeuvres = ManoeuvreDetector(config, cols)
@@ -104,8 +107,8 @@ class FleetTracker:
         self.outlines = TrackOutlines(config, cols)
         self.version = 0  # changes whenever rows are added or removed
         self._rows_cache: dict[int, tuple[int, np.ndarray]] = {}
-        self._sizes: tuple[int, list] = (-1, [])  # (version, each vessel's number of rows): n_rows
-        self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, position of each owner, every)
+        self._sizes: tuple = (-1, [], 0)  # (version, each vessel's number of rows, n_owners): n_rows
+        self._owner_plans: dict[tuple, tuple] = {}  # (n_owners, *owners) → (owners, pos_of, every, owners list)
         self._reports: dict | None = None  # every vessel's confirmed tracks since the last step (_report_estimates)
         self._max_range = np.zeros(0)
         self._next_local = np.zeros(0, dtype=np.int64)
@@ -152,8 +155,9 @@ class FleetTracker:
         """The number of a vessel's tracks (``rows_of(owner).size``; every vessel's counted at once,
         once per change of rows)."""
         got = self._sizes
-        if got[0] != self.version or len(got[1]) != self.n_owners:
-            got = self._sizes = (self.version, np.bincount(self.cols.owner, minlength=self.n_owners).tolist())
+        no = self._max_range.size
+        if got[0] != self.version or got[2] != no:
+            got = self._sizes = (self.version, np.bincount(self.cols.owner, minlength=no).tolist(), no)
         return got[1][owner]
 
     def counts(self, owner: int) -> dict:
@@ -182,23 +186,25 @@ class FleetTracker:
         batch: no stacking again) — (detections per vessel (p,) int64, ``use`` (M,) bool, centres
         (M, 2) [m], variances (M,) [m²], radii (M,) [m], occluded (M,) bool), the same values as
         ``detections`` and ``use`` stacked."""
-        cfg = self.config
         self._reports = None
         p = len(owners)
-        no = self.n_owners
+        no = self._max_range.size  # (n_owners)
         key = (no, *owners) if type(owners) is list else None
         got = self._owner_plans.get(key) if key is not None else None
         if got is None:  # the scanning vessels' arrays (the same few combinations tick after tick)
             owners_a = np.asarray(owners, dtype=np.int64)
             pos_of = np.full(no, -1)
             pos_of[owners_a] = np.arange(p)
-            got = (owners_a, pos_of, p == no and bool((pos_of >= 0).all()))  # every vessel scanned: every row is due
+            got = (owners_a, pos_of, p == no and bool((pos_of >= 0).all()),  # every vessel scanned: every row is due
+                   owners_a.tolist())
             if key is not None:
                 if len(self._owner_plans) >= 64:
                     self._owner_plans.clear()
                 self._owner_plans[key] = got
-        owners, pos_of, every = got
-        t_o = np.asarray(t_s, dtype=float).reshape(p)
+        owners, pos_of, every, owners_l = got
+        t_o = np.array(t_s, dtype=float)
+        if t_o.shape != (p,):
+            t_o = t_o.reshape(p)
         origins = [None] * p if origins is None else origins
         use = [None] * p if use is None else use
         points = [None] * p if points is None else points
@@ -214,16 +220,25 @@ class FleetTracker:
                            cat([d.centres_m for d, _ in live]), cat([d.variances_m2 for d, _ in live]),
                            cat([d.radii_m for d, _ in live]),
                            cat([d.occluded if d.occluded is not None else np.zeros(len(d), bool) for d, _ in live]))
-        if stacked is not None and stacked[1].size:
-            d_pos, idx, z, var, rad, occ, m_q = select_detections(*stacked, bool(cfg.use_detection_variance), self._R)
+        own = self.cols.owner
+        if stacked is not None and stacked[1].size:  # (select_detections and step_rows in one call, 4 arrays)
+            ints, z, floats, flags, all_due, k = step_inputs(*stacked, self._use_var, own, pos_of, every, owners, t_o,
+                                                             no, self._counts, _SCANS, _DETS, self._R)
+            M, n = z.shape[0], own.size
+            d_pos, idx, m_q = ints[:M], ints[M:2 * M], ints[2 * M:2 * M + p]
+            c = 2 * M + p
+            row_pos, rows, rpos, assigned = ints[c:c + n], ints[c + n:c + n + k], ints[c + n + k:c + n + 2 * k], ints[
+                c + n + 2 * k:]
+            var, rad, t_own, var_row = floats[:M], floats[M:2 * M], floats[2 * M:2 * M + no], floats[2 * M + no:]
+            occ, claimed = flags[:M], flags[M:]
         else:
             d_pos = idx = np.zeros(0, dtype=np.int64)
             z, var, rad, occ = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
             m_q = np.zeros(p, dtype=np.int64)
-        M = z.shape[0]
-        t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row = step_rows(
-            self.cols.owner, pos_of, every, owners, t_o, no, self._counts, _SCANS, _DETS, m_q, M, self._R)
-        for o in owners.tolist():
+            M = 0
+            t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row = step_rows(
+                own, pos_of, every, owners, t_o, no, self._counts, _SCANS, _DETS, m_q, M, self._R)
+        for o in owners_l:
             self._last_assign[o] = []
         if rows.size:
             self._update(rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
@@ -233,7 +248,7 @@ class FleetTracker:
             self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
         bank = self.bank
         if every:  # (every row is a row of a vessel that scanned)
-            self.team.match(slice(None), self.cols.owner, t_own, bank.states, self.cols.confirmed, no)
+            self.team.match(slice(None), self.cols.owner, t_own, bank.state_rows, self.cols.confirmed, no, False)
         else:
             rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
             self.team.match(rows, self.cols.owner[rows], t_own, bank.states_of(rows), self.cols.confirmed[rows], no)
@@ -243,19 +258,23 @@ class FleetTracker:
                 claimed, assigned, var_row) -> None:
         """Steps 1–4a: association, manoeuvres, the IMM cycle, confirmation and outlines (``assigned``
         (n,) −1 and ``var_row`` (n,) R: filled here)."""
-        cfg, bank = self.config, self.bank
+        bank = self.bank
         M = z.shape[0]
         p = owners.size
         arrays = bank.prediction_arrays() if M else None
         if arrays is not None:  # (four compiled calls around numpy's cos, sin, J P Jᵀ and log: step_fusions)
-            n_q, start, pairs, var_p, xs, P, dt, th, dv = predicted_pairs(rows, rpos, p, m_q, self.cols.radius, var,
-                                                                          rad, occ, *arrays, t_o, row_pos)
+            blocks, pairs, var_p, xs, P, arcs = predicted_pairs_packed(rows, rpos, p, m_q, self.cols.radius, var, rad,
+                                                                       occ, *arrays, t_o, row_pos)
+            n_q, start = blocks[:p], blocks[p:]
+            dt, th, dv = arcs
             if var_p.size:
                 zhat, Jac = position_jacobians(xs, dt, dv, np.cos(th), np.sin(th))
-                d2, det = pair_gates(pairs, zhat, Jac @ P @ np.swapaxes(Jac, 1, 2), z, var_p)
-                inside, cost, hard, hit, d2_hit, t_hit = assign_pairs(d2, np.log(det), self._gate, pairs, start, m_q,
+                d2, det = pair_gates(pairs, zhat, Jac @ P @ Jac.transpose(0, 2, 1), z, var_p)
+                inside, cost, h_rows, h_vals, h = assign_pairs_packed(d2, np.log(det), self._gate, pairs, start, m_q,
                                                                       var_p, assigned, var_row, claimed, t_o, row_pos)
-                if hard.size:  # (a vessel's gates overlap: its block to linear_sum_assignment)
+                hard, hit = h_rows[:h], h_rows[h:]
+                d2_hit, t_hit = h_vals
+                if h:  # (a vessel's gates overlap: its block to linear_sum_assignment)
                     q, i, j, _, db, ta = pairs
                     got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
                     hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
@@ -272,15 +291,19 @@ class FleetTracker:
                 hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
                 self.manoeuvres.detect(hit, d2_hit, self._gate, t_o[row_pos[hit]], bank)
         zr, meas = measurement_rows(assigned, z)
-        vr = var_row if cfg.use_detection_variance else None
+        vr = var_row if self._use_var else None  # (changed in place by the cycle: its unusable σ² replaced)
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
         x = bank.state_rows
         with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)], dtype=bool)
         c = self.cols  # (the cycled rows' gathers, management's record of the scan, last assignments: one call)
-        new_conf, n_conf, orows, o_hit, o_speeds, o_pos, o_radius, ids, det, first = cycled_scan(
+        ints, floats, flags, o_pos, n_conf, g, m = cycled_scan_packed(
             rows, row_pos, t_o, used, meas, x, with_pts, self._counts, owners, _ASSOC, assigned, rad, occ, c.hist,
             c.scans, c.n_upd, c.last, c.radius, c.confirmed, c.static, c.born, *self.mgmt.scan_constants, c.local_id,
             idx, p)
+        k = rows.size
+        orows, ids, det = ints[:g], ints[g:g + m], ints[g + m:g + 2 * m]
+        o_speeds, o_radius = floats
+        new_conf, o_hit = flags[:k], flags[k:]
         if n_conf:
             pos, born = bank.positions, self.cols.born
             for k in rows[new_conf].tolist():
@@ -295,14 +318,19 @@ class FleetTracker:
                 k = orows[j]
                 q = row_pos[k]
                 got = scans.get(q)
-                if got is None:
-                    got = scans[q] = (np.ascontiguousarray(points[q], dtype=float).reshape(-1, 2),
-                                      np.ascontiguousarray(dets[q].labels, dtype=np.int64))
+                if got is None:  # (as they are when already contiguous (k, 2) float and int64: no calls)
+                    pts, lab = points[q], dets[q].labels
+                    if not (type(pts) is np.ndarray and pts.dtype == np.float64 and pts.ndim == 2 and pts.shape[1] == 2
+                            and pts.flags.c_contiguous):
+                        pts = np.ascontiguousarray(pts, dtype=float).reshape(-1, 2)
+                    if not (type(lab) is np.ndarray and lab.dtype == np.int64 and lab.flags.c_contiguous):
+                        lab = np.ascontiguousarray(lab, dtype=np.int64)
+                    got = scans[q] = (pts, lab)
                 return got[0], got[1], int(idx[assigned[k]])
 
             self.outlines.grow(orows, o_hit, o_speeds, o_pos, o_radius, returns_of)
-        if ids.size:
-            f = first.tolist()
+        if m:
+            f = ints[g + 2 * m:].tolist()
             for q in range(p):
                 a, b = f[q], f[q + 1]
                 if b > a:
@@ -312,16 +340,14 @@ class FleetTracker:
         """Step 3: one IMM cycle of ``rows``, per group of vessels sharing their last and new time
         (one group, the whole bank, in the usual tick). Returns (n,) bool, the rows used."""
         bank = self.bank
-        n = len(bank)
         if all_due and bank.common_time_s is not None:  # every row's last cycle at one time (the bank's invariant)
-            t_q = t_o.tolist()
-            if t_q.count(t_q[0]) == len(t_q):  # ... and every vessel's scan at one time
-                return bank.update(zr, t_q[0], meas, vr)
+            if (t_o == t_o[0]).all():  # ... and every vessel's scan at one time
+                return bank.update_measured(zr, float(t_o[0]), meas, vr)  # (the step's arrays: update without checks)
         t_last = bank.times_s[rows]
         t_new = t_o[row_pos[rows]]
         if all_due and (t_last == t_last[0]).all() and (t_new == t_new[0]).all():
-            return bank.update(zr, float(t_new[0]), meas, vr)
-        used = np.zeros(n, dtype=bool)
+            return bank.update_measured(zr, float(t_new[0]), meas, vr)
+        used = np.zeros(len(bank), dtype=bool)
         keys = np.stack([t_last, t_new], axis=-1)
         for tl, tn in np.unique(keys, axis=0).tolist():
             g = rows[(t_last == tl) & (t_new == tn)]
@@ -332,8 +358,7 @@ class FleetTracker:
         """Step 4b: drop the tracks management gives up (lost, hopeless, merged), with events."""
         bank = self.bank
         if every:  # every row: rows as a slice (no copies)
-            n = len(bank)
-            if n == 0:
+            if self.cols.n == 0:  # (the bank's number of rows)
                 return
             rows, own = slice(None), self.cols.owner
             rpos = None
@@ -345,30 +370,32 @@ class FleetTracker:
             rpos = pos_of[own]
             pos, cov = bank.positions[rows], bank.position_covariances[rows]
         try:  # (every vessel's origin given, as the perception fleet does: one conversion)
-            org = np.array(origins, dtype=float).reshape(-1, 2)
+            org = np.array(origins, dtype=float)
+            if org.ndim != 2:
+                org = org.reshape(-1, 2)
         except (TypeError, ValueError):
             org = None
         if org is None or org.shape[0] != len(origins):
             org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
-        conf = self.cols.confirmed[rows]
         if rpos is None:  # (every row's time, position, covariance, origin and range gathered by the kernel)
-            drop, reason, merged = self.mgmt.drops_all(own, pos_of, t_o, bank.state_rows, bank.covariance_rows(), org,
-                                                       self._max_range)
+            drop, n_drop, lost, merged = self.mgmt.drops_every(own, pos_of, t_o, bank.state_rows,
+                                                               bank.covariance_rows(), org, self._max_range)
         else:
+            conf = self.cols.confirmed[rows]
             drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
+            n_drop = np.count_nonzero(drop)
+            lost = [(j, reason[j]) for j in drop.nonzero()[0].tolist() if conf[j] and reason[j]]
         ids = self.cols.local_id[rows]
         for go, keep in merged:
             o = int(own[go])
             t = float(t_o[pos_of[o]])
             self._counts[o, _MERGED] += 1
             self.events[o].append(TrackEvent(t, "merged", int(ids[go]), f"track {ids[go]} merged into track {ids[keep]}"))
-        for j in drop.nonzero()[0].tolist():
-            if conf[j] and reason[j]:
-                o = int(own[j])
-                self._counts[o, _LOST] += 1
-                self.events[o].append(TrackEvent(float(t_o[pos_of[o]]), "lost", int(ids[j]),
-                                                 f"track {ids[j]} lost: {reason[j]}"))
-        if np.count_nonzero(drop):
+        for j, why in lost:
+            o = int(own[j])
+            self._counts[o, _LOST] += 1
+            self.events[o].append(TrackEvent(float(t_o[pos_of[o]]), "lost", int(ids[j]), f"track {ids[j]} lost: {why}"))
+        if n_drop:
             if every:
                 keep = ~drop
             else:
@@ -380,21 +407,22 @@ class FleetTracker:
 
     def _births(self, owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed) -> None:
         """Step 5: new tracks from the detections no track claimed, away from every track's disc."""
-        cfg, bank = self.config, self.bank
-        if np.count_nonzero(claimed) == claimed.size:
-            return
-        bp, own, local, t_b, zb, var_b, rad_b, dets = births_of(
+        bank = self.bank
+        ints, floats, zb = births_packed(
             claimed, self.cols.owner, pos_of, d_pos, z, var, rad, bank.state_rows, self.cols.radius, owners, t_o,
             self._next_local, idx, self._counts, _BORN)
-        k = bp.size
+        k = zb.shape[0]
         if k == 0:
             return
-        bank.append_tracks(zb, t_b, var_b if cfg.use_detection_variance else None)
+        bp, own, local, dets = ints
+        t_b, var_b, rad_b = floats
+        bank.append_tracks(zb, t_b, var_b if self._use_var else None)
         # every per-track column of management, manoeuvres, team and outlines (the hull anchor: the
         # new rows' positions, which are zb)
         self.cols.append_rows(t_b, rad_b, zb, own, local)
         self.version += 1
-        bl, ll, zl = bp.tolist(), local.tolist(), zb.tolist()
+        bl, _, ll, _ = ints.tolist()
+        zl = zb.tolist()
         a = 0
         while a < k:  # per vessel (bp is sorted): its events and last assignment
             q = bl[a]
@@ -425,42 +453,12 @@ class FleetTracker:
         made = self._reports
         if made is None:
             made = self._reports = self._report_estimates(self._report_columns())
-        got = made.get(owner)
-        return got if got is not None else _NO_ROWS
+        return made[owner] if owner in made else _NO_ROWS
 
-    def _report_estimates(self, cols: tuple) -> dict:
-        """{owner: :class:`~mjasc.core.estimates.TrackRows` of its confirmed tracks} from the
-        columns ``cols`` (:meth:`_report_columns`), the vessels without one left out. A slow
-        track's outline is :meth:`~mjasc.perception.tracking.outlines.TrackOutlines.pending`
-        (made now: it holds the row's hull now; the outline itself on first read)."""
-        if len(cols) == 1:
-            return {}
-        spans, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow = cols
-        pending = self.outlines.pending  # (= self.outline(k) on first read: pos, radius are row k's)
-        outlines = [pending(k, pos[j], radius[j]) if lk else None for j, (k, lk) in enumerate(zip(k_rows, slow))]
-        out = {}
-        for o, (a, b) in spans.items():
-            out[o] = TrackRows((ids[a:b], t[a:b], pos[a:b], th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b],
-                                static[a:b], team[a:b], outlines[a:b], (None,) * (b - a)))
-        return out
-
-    def _report_columns(self) -> tuple:
-        """What :meth:`estimates` hands on, for every vessel's confirmed tracks, grouped by vessel
-        (bank order within): ({owner: (first, end)}, rows, ids, times, positions (k, 2), courses,
-        speeds, ω̂, radii (array and list), position covariances (k, 2, 2), static flags, team
-        mates, slow flags) — per-track values as :meth:`_estimates_of` makes them."""
-        rows, first = confirmed_by_owner(self.cols.confirmed, self.cols.owner, self.n_owners)
-        if rows.size == 0:
-            return ({},)
-        f = first.tolist()
-        spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
-        t, pos, th, v, w, P = self.bank.estimate_fields(rows)
-        static = self.cols.static[rows]
-        slow = (static | (v < self.config.static_speed_m_s)).tolist()
-        radius = self.cols.radius[rows]
-        ids = self.cols.local_id[rows].tolist()
-        return (spans, rows.tolist(), ids, t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
-                radius, radius.tolist(), P, static.tolist(), self.team.members(rows), slow)
+    # the report's columns and rows (mjasc.perception.tracking.report_fields), bound as methods
+    _report_estimates = report_estimates
+    _report_columns = report_columns
+    _report_columns_numpy = report_columns_numpy
 
     def _estimates_of(self, rows) -> list[TrackEstimate]:
         """TrackEstimate of the tracks ``rows`` (indices), in that order."""

@@ -62,6 +62,10 @@ class TrackManagement:
         self.config = config
         self._window_mask = (1 << config.confirm_window) - 1
         self._popcount = _popcount_table(config.confirm_window)
+        # drop_rows' constants (drops_every)
+        self._window, self._hits = int(config.confirm_window), int(config.confirm_hits)
+        self._max_coast, self._max_var = float(config.max_coast_s), float(config.max_position_std_m**2)
+        self._margin, self._fraction = float(config.range_margin_m), float(config.merge_fraction)
         self.cols = TrackColumns(config.confirm_hits <= 1) if columns is None else columns
         #: :func:`scan_rows`' constants: (popcount table, window mask, grow and shrink gains, M, static
         #: minimum age [s], static speed [m/s])
@@ -176,11 +180,35 @@ class TrackManagement:
             float(cfg.merge_fraction))
         return drop, _reasons(group.size, code, lam, since, rng), list(zip(go.tolist(), kept.tolist()))
 
+    def drops_every(self, group, pos_of, t_o, states, covariances, origins_m, max_range_m):
+        """:meth:`drops_all` (arguments as there) in the form a fleet tracker's step reads: (drop (n,)
+        bool, the number dropped, lost, merged) — lost: the confirmed tracks lost, as (row, reason)
+        pairs in row order (the rows where :meth:`drops_all`'s reason is not ''); merged as there.
+        One compiled call returning three arrays (:func:`every_drops_packed`)."""
+        cfg, cols = self.config, self.cols
+        drop, ints, vals, n_lost, n_merged, n_drop = every_drops_packed(
+            group, pos_of, t_o, states, covariances, origins_m, max_range_m, cols.hist, cols.scans, cols.confirmed,
+            cols.last, cols.n_upd, cols.radius, self._popcount, self._window, self._hits, self._max_coast,
+            self._max_var, self._margin, self._fraction)
+        if not (n_lost or n_merged):
+            return drop, n_drop, (), ()
+        il = ints.tolist()
+        L, g = n_lost, n_merged
+        lost = []
+        if L:
+            lam, since, rng = vals.tolist()
+            for a, (j, c) in enumerate(zip(il[:L], il[L:2 * L])):
+                lost.append((j, f"not seen for {since[a]:.1f} s" if c == 1 else
+                             f"position uncertainty {math.sqrt(lam[a]):.1f} m" if c == 2 else
+                             f"out of range ({rng[a]:.0f} m)"))
+        return drop, n_drop, lost, list(zip(il[2 * L:2 * L + g], il[2 * L + g:]))
+
     def note_moved(self, positions: np.ndarray) -> None:
         """After a scan: anchor the tracks confirmed for the first time where they are (positions
         (n, ≥ 2) [m]: the first two columns), and mark the confirmed ones now ``MOVED_M`` from their
         anchor as moved (one compiled pass, :func:`_moved_rows`)."""
-        positions = np.asarray(positions, dtype=float)
+        if type(positions) is not np.ndarray or positions.dtype != np.float64:
+            positions = np.asarray(positions, dtype=float)
         if positions.ndim != 2:  # (no tracks: an empty list of positions)
             positions = positions.reshape(-1, 2)
         c = self.cols
@@ -225,6 +253,40 @@ def every_drop_rows(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, 
         mr[k] = max_range_o[o]
     return drop_rows(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcount, P, pos, org, mr, window,
                      hits, max_coast, max_var, margin, fraction)
+
+
+@kernel
+def every_drops_packed(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, confirmed, last, n_upd, radius,
+                       popcount, window, hits, max_coast, max_var, margin, fraction):
+    """:func:`every_drop_rows` (arguments as there) packed: (drop (n,), ints, vals (3, L), L, g, the
+    number dropped) — ints (2L + 2g,): the rows j of the L confirmed tracks lost (code ≠ 0, in row
+    order), their codes, then go and kept of the g merges; vals: lam, since, rng of the L rows."""
+    drop, code, lam, since, rng, go, kept = every_drop_rows(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist,
+                                                            scans, confirmed, last, n_upd, radius, popcount, window,
+                                                            hits, max_coast, max_var, margin, fraction)
+    n = drop.size
+    L = 0
+    n_drop = 0
+    for j in range(n):
+        n_drop += drop[j]
+        if code[j] != 0 and confirmed[j]:
+            L += 1
+    g = go.size
+    ints = np.empty(2 * L + 2 * g, dtype=np.int64)
+    vals = np.empty((3, L))
+    a = 0
+    for j in range(n):
+        if code[j] != 0 and confirmed[j]:
+            ints[a] = j
+            ints[L + a] = code[j]
+            vals[0, a] = lam[j]
+            vals[1, a] = since[j]
+            vals[2, a] = rng[j]
+            a += 1
+    for c in range(g):
+        ints[2 * L + c] = go[c]
+        ints[2 * L + g + c] = kept[c]
+    return drop, ints, vals, L, g, n_drop
 
 
 @kernel

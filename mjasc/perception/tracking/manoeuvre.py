@@ -34,6 +34,9 @@ class ManoeuvreDetector:
     def __init__(self, config: TrackingConfig, columns: TrackColumns | None = None):
         self.config = config
         self.cols = TrackColumns(config.confirm_hits <= 1) if columns is None else columns
+        self._off = config.manoeuvre_speed_noise_m2_s3 == 0 and config.manoeuvre_heading_noise_rad2_s == 0
+        self._fading = (float(config.manoeuvre_fading), float(config.manoeuvre_threshold),
+                        float(config.manoeuvre_end_threshold))  # (fade_nis' a, start, end)
 
     # the store's columns (views: stale after a birth or drop)
     _nis = column("nis")  # faded average of the normalized innovation squared (2: no manoeuvre)
@@ -57,18 +60,18 @@ class ManoeuvreDetector:
         distance ``d2`` (each capped at ``gate``), and raise the process noise of the manoeuvring
         ones in ``bank`` for the cycle to t_s (scalar or per row [s])."""
         cfg = self.config
-        if cfg.manoeuvre_speed_noise_m2_s3 == 0 and cfg.manoeuvre_heading_noise_rad2_s == 0:
-            return
-        if rows.size == 0:
+        if self._off or rows.size == 0:
             return
         hot = np.empty(rows.size, dtype=bool)
-        n_hot = fade_nis(rows, d2, float(gate), float(cfg.manoeuvre_fading), float(cfg.manoeuvre_threshold),
-                         float(cfg.manoeuvre_end_threshold), self.cols.nis, self.cols.manoeuvring, hot)
+        n_hot = fade_nis(rows, d2, gate if type(gate) is float else float(gate), *self._fading, self.cols.nis,
+                         self.cols.manoeuvring, hot)
         if n_hot:
             hot_rows = rows[hot]
-            dt = np.maximum((t_s[hot] if np.ndim(t_s) else t_s) - bank.times_s[hot_rows], 0.0)
-            bank.add_process_noise(hot_rows, cfg.manoeuvre_heading_noise_rad2_s * dt,
-                                   cfg.manoeuvre_speed_noise_m2_s3 * dt)
+            t_hot = t_s[hot] if type(t_s) is np.ndarray and t_s.ndim else t_s  # (np.ndim(t_s) without its calls)
+            dt = np.maximum(t_hot - bank.times_s[hot_rows], 0.0)
+            # (dt ≥ 0 and the config's noise levels ≥ 0: the checked form of add_process_noise)
+            bank.add_process_noise_rows(hot_rows, cfg.manoeuvre_heading_noise_rad2_s * dt,
+                                        cfg.manoeuvre_speed_noise_m2_s3 * dt)
 
 
 @kernel

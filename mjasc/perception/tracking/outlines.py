@@ -40,6 +40,9 @@ class TrackOutlines:
         # row → (hull, centre x, y, radius, outline): the last outline made (a function of the hull,
         # centre and radius alone: still right for whatever row holds them after a drop)
         self._made: dict[int, tuple] = {}
+        # grow_plan's reset distance [m], fast and slow speeds [m/s]
+        self._plan_constants = (float(config.outline_reset_m), 2.0 * config.static_speed_m_s,
+                                float(config.static_speed_m_s))
 
     # the store's columns (views: stale after a birth or drop)
     _hull = column("hull")  # per track: hull vertices (k, 2) of its returns [m], or None
@@ -64,17 +67,17 @@ class TrackOutlines:
         the returns near each growing track gathered and hulled with the hull they join by one
         compiled call per track, :func:`grown_hull`; tests/test_tracking_outlines.py keeps the numpy
         form.)"""
-        cfg, cols = self.config, self.cols
+        cols = self.cols
         pos = positions
         anchor, hulls = cols.hull_anchor, cols.hull
-        r, grow, ks, geo = grow_plan(rows, speeds, pos, anchor, float(cfg.outline_reset_m), 2.0 * cfg.static_speed_m_s,
-                                     used, float(cfg.static_speed_m_s), radii)
-        if r.size:
-            hulls[r] = None
-        if grow.size == 0:
+        ints, geo, n_reset, g = grow_plan(rows, speeds, pos, anchor, *self._plan_constants, used, radii)
+        if n_reset:
+            hulls[ints[:n_reset]] = None
+        if g == 0:
             return
         no_hull = _NO_HULL
-        for j, k, (px, py, lim) in zip(grow.tolist(), ks.tolist(), geo.tolist()):
+        il = ints.tolist()
+        for j, k, (px, py, lim) in zip(il[n_reset:n_reset + g], il[n_reset + g:], geo.tolist()):
             pts, labels, label = returns_of(j)
             h = hulls[k]
             p, n_new, hulled = grown_hull(pts, labels, label, px, py, lim, no_hull if h is None else h)
@@ -104,6 +107,14 @@ class TrackOutlines:
         on for every slow track at every step). It holds the row's hull now — a hull is replaced,
         never changed in place — and the centre's coordinates and the radius as numbers."""
         return Pending(outline_at, self.cols.hull[row], float(centre[0]), float(centre[1]), float(radius))
+
+
+    def pendings(self, rows: list, slow: list, centres: np.ndarray, radii: np.ndarray) -> list:
+        """A report's outlines column: :meth:`pending` of ``rows[j]`` with centre ``centres[j]`` (2,) [m]
+        and radius ``radii[j]`` [m] where ``slow[j]``, None elsewhere (one call for the column)."""
+        hull = self.cols.hull
+        return [Pending(outline_at, hull[k], float(c[0]), float(c[1]), float(r)) if lk else None
+                for k, lk, c, r in zip(rows, slow, centres, radii)]
 
 
 def outline_at(hull, x: float, y: float, radius: float) -> np.ndarray:
@@ -173,22 +184,27 @@ def gather_returns(points, labels, label, px, py, limit, hull):
 
 
 @kernel
-def grow_plan(rows, speeds, pos, anchor, reset_m, fast, used, slow, radii):
+def grow_plan(rows, speeds, pos, anchor, reset_m, fast, slow, used, radii):
     """:func:`reset_rows` (arguments as there; anchor written in place) and what
-    :meth:`TrackOutlines.grow` reads of each growing track: (reset (r,), grow (g,) positions in rows,
-    their bank rows ``rows[grow]`` (g,), and (g, 3) [m] their positions ``pos[grow]`` and return
-    limits ``1.5·radii[grow] + 0.5``), radii (k,) [m] the tracks'."""
+    :meth:`TrackOutlines.grow` reads of each growing track: (ints (r + 2g,): the rows to reset (r,),
+    the growing tracks' positions in rows (g,) and their bank rows ``rows[grow]`` (g,); (g, 3) [m]
+    their positions ``pos[grow]`` and return limits ``1.5·radii[grow] + 0.5``; r; g), radii (k,) [m]
+    the tracks' (one array per type: each array a kernel returns is a Python object made)."""
     reset, grow = reset_rows(rows, speeds, pos, anchor, reset_m, fast, used, slow)
     g = grow.size
-    ks = np.empty(g, dtype=rows.dtype)
+    r = reset.size
+    ints = np.empty(r + 2 * g, dtype=np.int64)
     geo = np.empty((g, 3))
+    for a in range(r):
+        ints[a] = reset[a]
     for a in range(g):
         j = grow[a]
-        ks[a] = rows[j]
+        ints[r + a] = j
+        ints[r + g + a] = rows[j]
         geo[a, 0] = pos[j, 0]
         geo[a, 1] = pos[j, 1]
         geo[a, 2] = 1.5 * radii[j] + 0.5
-    return reset, grow, ks, geo
+    return ints, geo, r, g
 
 
 @kernel

@@ -24,6 +24,9 @@ tracks confirmed now), the radii of the rows with returns (read after the scan's
 :func:`~mjasc.perception.tracking.step_kernels.last_assignments` in one call instead of three and the
 management's Python layer.
 
+:func:`predicted_pairs_packed`, :func:`assign_pairs_packed` and :func:`cycled_scan_packed` are those
+three with their arrays packed by type (six arrays instead of nine, four instead of six, four instead of nine: each array a kernel returns is a Python
+object made), the caller slicing the views out.
 tests/test_tracking_step_fusions.py compares each with the calls it replaces, bit for bit, on a
 real run's steps.
 """
@@ -39,7 +42,8 @@ from mjasc.perception.tracking.pair_kernels import arc_midpoints, gate_terms
 from mjasc.perception.tracking.step_gathers import cycled_rows
 from mjasc.perception.tracking.step_kernels import admissible_pairs, apply_assignment, last_assignments, pair_setup
 
-__all__ = ["predicted_pairs", "pair_gates", "assign_pairs", "cycled_scan", "Q", "I", "J", "GI", "DB", "TA"]
+__all__ = ["predicted_pairs", "predicted_pairs_packed", "pair_gates", "assign_pairs", "assign_pairs_packed",
+           "cycled_scan", "cycled_scan_packed", "Q", "I", "J", "GI", "DB", "TA"]
 
 #: Rows of the pairs' index table (6, P): block, track in block, detection in block, grouped row
 #: position, detection, bank row.
@@ -124,3 +128,73 @@ def cycled_scan(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col
         radius_o[a] = radius[orows[a]]
     ids, det, first = last_assignments(rows, hit, row_pos, local_id, idx, assigned, p)
     return new_conf, n_conf, orows, hit_o, speeds_o, pos_o, radius_o, ids, det, first
+
+
+@kernel
+def predicted_pairs_packed(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, omega, active, Pc, t_o, row_pos):
+    """:func:`predicted_pairs` (arguments as there) packed: (blocks (2p + 1,): n_q (p,) then start
+    (p + 1,); pairs (6, P); var_p (P,); xs (k, 4); P (k, 4, 4); arcs (3, k): dt, θ_mid, dV)."""
+    n_q, start, pairs, var_p, xs, P, dt, th, dv = predicted_pairs(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu,
+                                                                  omega, active, Pc, t_o, row_pos)
+    blocks = np.empty(n_q.size + start.size, dtype=np.int64)
+    for a in range(n_q.size):
+        blocks[a] = n_q[a]
+    for a in range(start.size):
+        blocks[n_q.size + a] = start[a]
+    k = dt.size
+    arcs = np.empty((3, k))
+    for a in range(k):
+        arcs[0, a] = dt[a]
+        arcs[1, a] = th[a]
+        arcs[2, a] = dv[a]
+    return blocks, pairs, var_p, xs, P, arcs
+
+
+@kernel
+def cycled_scan_packed(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, hist,
+                       scans, n_upd, last, radius, confirmed, static, born, popcount, window_mask, grow_gain,
+                       shrink_gain, confirm_hits, min_age, static_speed, local_id, idx, p):
+    """:func:`cycled_scan` (arguments as there) packed: (ints, floats (2, g): speeds_o, radius_o, flags,
+    pos_o (g, 2), n_conf, g, m) — ints (g + 2m + p + 1,): orows (g,), ids, det (m,), first (p + 1,);
+    flags (k + g,): new_conf (k,), hit_o (g,)."""
+    new_conf, n_conf, orows, hit_o, speeds_o, pos_o, radius_o, ids, det, first = cycled_scan(
+        rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, hist, scans, n_upd, last,
+        radius, confirmed, static, born, popcount, window_mask, grow_gain, shrink_gain, confirm_hits, min_age,
+        static_speed, local_id, idx, p)
+    g = orows.size
+    m = ids.size
+    k = new_conf.size
+    ints = np.empty(g + 2 * m + first.size, dtype=np.int64)
+    floats = np.empty((2, g))
+    flags = np.empty(k + g, dtype=np.bool_)
+    for a in range(k):
+        flags[a] = new_conf[a]
+    for a in range(g):
+        ints[a] = orows[a]
+        floats[0, a] = speeds_o[a]
+        floats[1, a] = radius_o[a]
+        flags[k + a] = hit_o[a]
+    for a in range(m):
+        ints[g + a] = ids[a]
+        ints[g + m + a] = det[a]
+    for a in range(first.size):
+        ints[g + 2 * m + a] = first[a]
+    return ints, floats, flags, pos_o, n_conf, g, m
+
+
+@kernel
+def assign_pairs_packed(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row, claimed, t_o, row_pos):
+    """:func:`assign_pairs` (arguments as there) packed: (inside, cost, rows (h + m,): hard (h,) then
+    hit (m,), hit_values (2, m): d2_hit, t_hit, h)."""
+    inside, cost, hard, hit, d2g, t_hit = assign_pairs(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row,
+                                                       claimed, t_o, row_pos)
+    h, m = hard.size, hit.size
+    rows = np.empty(h + m, dtype=np.int64)
+    vals = np.empty((2, m))
+    for a in range(h):
+        rows[a] = hard[a]
+    for a in range(m):
+        rows[h + a] = hit[a]
+        vals[0, a] = d2g[a]
+        vals[1, a] = t_hit[a]
+    return inside, cost, rows, vals, h

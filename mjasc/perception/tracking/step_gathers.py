@@ -12,9 +12,13 @@ keeps the numpy forms they replaced as references, bit for bit):
   :func:`~mjasc.perception.tracking.step_kernels.count_used`; ``t_rows = t_o[row_pos[rows]]``, ``speeds = x[rows, 3]``, ``used[rows]``,
   ``assigned[rows]``, ``hit = used & meas`` (n,), and the rows of vessels with returns
   ``orows = rows[with_pts[row_pos[rows]]]`` with ``hit[orows]``, ``x[orows, 3]`` and ``x[orows, :2]``.
+* :func:`step_inputs` — :func:`~mjasc.perception.tracking.step_kernels.select_detections` then
+  :func:`step_rows` in one call, their fourteen arrays returned as four (one per type, the
+  caller slicing each array's views out of them).
 * :func:`births_of` — :func:`birth_rows` of the rows of the scanning vessels (``rows =
   flatnonzero(pos_of[owner] >= 0)``, ``rpos = pos_of[owner[rows]]``), the births counted
-  (:func:`add_counts`) and their detections' indices ``idx[new]``.
+  (:func:`add_counts`) and their detections' indices ``idx[new]``; :func:`births_packed` returns its
+  eight arrays as three.
 """
 
 from __future__ import annotations
@@ -22,9 +26,9 @@ from __future__ import annotations
 import numpy as np
 
 from mjasc.core.compiled import kernel
-from mjasc.perception.tracking.step_kernels import add_counts, birth_rows, count_scans
+from mjasc.perception.tracking.step_kernels import add_counts, birth_rows, count_scans, select_detections
 
-__all__ = ["step_rows", "cycled_rows", "births_of"]
+__all__ = ["step_rows", "step_inputs", "cycled_rows", "births_of", "births_packed"]
 
 
 @kernel
@@ -61,6 +65,52 @@ def step_rows(owner, pos_of, every, owners, t_o, n_owners, counts, scans, dets, 
     var_row = np.empty(n)
     var_row.fill(R)
     return t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row
+
+
+@kernel
+def step_inputs(m_all, sel, centres, variances, radii, occluded, use_var, owner, pos_of, every, owners, t_o, n_owners,
+                counts, scans, dets, R):
+    """:func:`~mjasc.perception.tracking.step_kernels.select_detections` (m_all … occluded, use_var, R as
+    there) and then :func:`step_rows` of its detections (owner … dets as there): (ints, z, floats, flags,
+    all_due, k) — ints (2M + p + n + 2k + n,) int64: d_pos, idx (M,), m_q (p,), row_pos (n,), rows, rpos
+    (k,), assigned (n,); z (M, 2); floats (2M + n_owners + n,): var, rad (M,), t_own (n_owners,), var_row
+    (n,); flags (2M,) bool: occ, claimed (M,) (the same values as the two calls' arrays)."""
+    d_pos, idx, z, var, rad, occ, m_q = select_detections(m_all, sel, centres, variances, radii, occluded, use_var, R)
+    M = z.shape[0]
+    t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row = step_rows(owner, pos_of, every, owners, t_o,
+                                                                                n_owners, counts, scans, dets, m_q, M,
+                                                                                R)
+    p = m_q.size
+    n = owner.size
+    k = rows.size
+    ints = np.empty(2 * M + p + 2 * n + 2 * k, dtype=np.int64)
+    floats = np.empty(2 * M + n_owners + n)
+    flags = np.empty(2 * M, dtype=np.bool_)
+    for a in range(M):
+        ints[a] = d_pos[a]
+        ints[M + a] = idx[a]
+        floats[a] = var[a]
+        floats[M + a] = rad[a]
+        flags[a] = occ[a]
+        flags[M + a] = claimed[a]
+    c = 2 * M
+    for a in range(p):
+        ints[c + a] = m_q[a]
+    c += p
+    for a in range(n):
+        ints[c + a] = row_pos[a]
+    c += n
+    for a in range(k):
+        ints[c + a] = rows[a]
+        ints[c + k + a] = rpos[a]
+    c += 2 * k
+    for a in range(n):
+        ints[c + a] = assigned[a]
+    for a in range(n_owners):
+        floats[2 * M + a] = t_own[a]
+    for a in range(n):
+        floats[2 * M + n_owners + a] = var_row[a]
+    return ints, z, floats, flags, all_due, k
 
 
 @kernel
@@ -133,3 +183,23 @@ def births_of(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o
     for a in range(new.size):
         dets[a] = idx[new[a]]
     return bp, own, local, t_b, z_b, var_b, rad_b, dets
+
+
+@kernel
+def births_packed(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts, col):
+    """:func:`births_of` (arguments as there) with its arrays packed by type: (ints (4, k): bp, own, local,
+    dets; floats (3, k): t_b, var_b, rad_b; z_b (k, 2))."""
+    bp, own, local, t_b, z_b, var_b, rad_b, dets = births_of(claimed, owner, pos_of, d_pos, z, var, rad, x, radius,
+                                                             owners, t_o, next_local, idx, counts, col)
+    k = bp.size
+    ints = np.empty((4, k), dtype=np.int64)
+    floats = np.empty((3, k))
+    for a in range(k):
+        ints[0, a] = bp[a]
+        ints[1, a] = own[a]
+        ints[2, a] = local[a]
+        ints[3, a] = dets[a]
+        floats[0, a] = t_b[a]
+        floats[1, a] = var_b[a]
+        floats[2, a] = rad_b[a]
+    return ints, floats, z_b

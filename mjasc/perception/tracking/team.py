@@ -16,6 +16,8 @@ matches only its own tracks: one pass over every vessel's (track, broadcast) pai
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from mjasc.core.compiled import kernel
@@ -26,6 +28,8 @@ from mjasc.perception.tracking.step_kernels import admissible_pairs
 from mjasc.perception.tracking.track_columns import TrackColumns, column
 
 __all__ = ["TeamMatcher"]
+
+_TWO_PI = 2.0 * math.pi
 
 
 class TeamMatcher:
@@ -40,6 +44,7 @@ class TeamMatcher:
         self._team: dict[int, tuple] = {}  # owner → (names, t_b (k,) [s], positions (k, 2) [m])
         self._flat = None  # every owner's broadcasts as arrays (owner, name, t_b, position), built when used
         self._start: dict[int, int] = {}  # owner → its first row in those arrays
+        self._max_age, self._gate = float(config.team_max_age_s), float(config.team_match_distance_m)
 
     # the store's column of matched names (a view: stale after a birth or drop)
     _team_of = column("team")
@@ -47,18 +52,24 @@ class TeamMatcher:
     def set_positions(self, owner: int, positions: dict) -> None:
         """``{name: (t_b [s], position (2,) [m])}``: the team's latest broadcast positions, as
         vessel ``owner`` received them."""
-        names = [str(k) for k in positions]
+        names = list(positions)  # (the names as given: str(name) below unless they are the same mates)
         vals = list(positions.values())
         owner = int(owner)
+        team = self._team
+        old = team[owner] if owner in team else None
+        flat = self._flat
+        if flat is not None and old is not None and old[0] == names and vals:
+            # the same mates: new values written in place (the flat arrays' rows are this owner's arrays)
+            a, k = self._start[owner], len(vals)
+            tb, pb = flat[2][a:a + k], flat[3][a:a + k]
+            tb[...] = [v[0] for v in vals]  # (numpy's conversion, as np.array(..., dtype=float) makes it)
+            pb[...] = [v[1] for v in vals]
+            team[owner] = (old[0], tb, pb)
+            return
+        names = [str(k) for k in names]
         tb, pb = np.array([v[0] for v in vals], dtype=float), np.array([v[1] for v in vals], dtype=float).reshape(-1, 2)
-        old = self._team.get(owner)
         self._team[owner] = (names, tb, pb)
-        if self._flat is not None and old is not None and old[0] == names:  # the same mates: new values in place
-            a = self._start[owner]
-            self._flat[2][a:a + tb.size] = tb
-            self._flat[3][a:a + tb.size] = pb
-        else:
-            self._flat = None
+        self._flat = None
 
     def append(self, k: int = 1) -> None:
         """k new tracks, no team mates (new rows of the store: :meth:`TrackColumns.append`)."""
@@ -85,27 +96,33 @@ class TeamMatcher:
                           np.concatenate([t[1] for _, t in teams]), np.concatenate([t[2] for _, t in teams]))
         return self._flat
 
-    def match(self, rows, owner, t_s, states: np.ndarray, confirmed: np.ndarray, n_owners: int) -> None:
+    def match(self, rows, owner, t_s, states: np.ndarray, confirmed: np.ndarray, n_owners: int,
+              wrapped: bool = True) -> None:
         """Match the confirmed ones of tracks ``rows`` (indices, bank order, or ``slice(None)``: every row; their vessel ``owner``
-        (k,), ``states`` (k, 4) [x, y, θ, V], ``confirmed`` (k,) bool) at their vessel's time
+        (k,), ``states`` (k, 4) [x, y, θ, V] (θ in (−π, π], or unwrapped when not ``wrapped``: wrapped
+        here as the bank's ``states`` does), ``confirmed`` (k,) bool) at their vessel's time
         t_s ((n_owners,) [s], NaN for vessels not matched now) against that vessel's broadcasts."""
         team_of = self.cols.team
         team_of[rows] = None
         if not self._team or owner.size == 0:
             return
-        cfg = self.config
         b_owner, names, tb, pb = self._arrays()
-        c, bsel, blocks, pq, start, x = team_plan(confirmed, owner, t_s, b_owner, tb, float(cfg.team_max_age_s),
-                                                  n_owners, states)
-        if c.size == 0 or bsel.size == 0:
+        # (team_plan's arrays packed: c, bsel, start in one)
+        ints, blocks, pq, x, A, B = team_plan_packed(confirmed, owner, t_s, b_owner, tb, self._max_age, n_owners,
+                                                     states, not wrapped)
+        if A == 0 or B == 0:
             return
-        gate = float(cfg.team_match_distance_m)
+        c, bsel, start = ints[:A], ints[A:A + B], ints[A + B:]
+        gate = self._gate
         th = x[:, 2]
         # (a track meets every broadcast of its vessel: vx = V cos θ, vy = V sin θ; +inf far outside the gate)
-        dist, inside, n_in, hard, ta, tb_i = team_assign(pq, blocks, start, bsel, c, x, np.cos(th), np.sin(th), t_s,
-                                                         tb, pb, (2.0 * gate) ** 2, gate)
+        dist, inside, n_in, hits, n_hard = team_assign_packed(pq, blocks, start, bsel, c, x, np.cos(th), np.sin(th),
+                                                              t_s, tb, pb, (2.0 * gate) ** 2, gate)
         if not n_in:
             return
+        hard = hits[:n_hard]
+        m = (hits.size - n_hard) // 2
+        ta, tb_i = hits[n_hard:n_hard + m], hits[n_hard + m:]
         if hard.size:  # (a track or a broadcast with two candidates: that vessel's block to linear_sum_assignment)
             q, i, j = pq
             n_a, n_b, a_start, b_start = blocks
@@ -245,3 +262,39 @@ def team_assign(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, p_b, fa
         return dist, inside, n_in, hard, none, none
     ta, tb = matched_rows(easy, q, i, j, a_start, b_start, c, bsel)
     return dist, inside, n_in, hard, ta, tb
+
+
+@kernel
+def team_plan_packed(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states, wrap_theta):
+    """:func:`team_plan` (arguments as there; with ``wrap_theta`` the states' θ unwrapped, wrapped in the
+    gathered rows as :func:`~mjasc.perception.imm.row_fields.wrapped_states` does) with c, bsel and start
+    in one array: (ints (A + B + Q + 1,), blocks, pq, x, A, B)."""
+    c, bsel, blocks, pq, start, x = team_plan(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states)
+    if wrap_theta:
+        for a in range(x.shape[0]):
+            x[a, 2] = math.pi - (math.pi - x[a, 2]) % _TWO_PI
+    A, B = c.size, bsel.size
+    ints = np.empty(A + B + start.size, dtype=np.int64)
+    for a in range(A):
+        ints[a] = c[a]
+    for a in range(B):
+        ints[A + a] = bsel[a]
+    for a in range(start.size):
+        ints[A + B + a] = start[a]
+    return ints, blocks, pq, x, A, B
+
+
+@kernel
+def team_assign_packed(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, p_b, far_m2, gate):
+    """:func:`team_assign` (arguments as there) with hard, ta and tb in one array: (dist, inside, n_in,
+    hits (h + 2m,): hard (h,), ta, tb (m,), h)."""
+    dist, inside, n_in, hard, ta, tb = team_assign(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, p_b,
+                                                   far_m2, gate)
+    h, m = hard.size, ta.size
+    hits = np.empty(h + 2 * m, dtype=np.int64)
+    for a in range(h):
+        hits[a] = hard[a]
+    for a in range(m):
+        hits[h + a] = ta[a]
+        hits[h + m + a] = tb[a]
+    return dist, inside, n_in, hits, h

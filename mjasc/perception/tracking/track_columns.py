@@ -130,7 +130,8 @@ class TrackColumns:
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) bool is True, in order, in place (one compiled call
         and one numpy indexing of the object columns)."""
-        keep = np.asarray(keep, dtype=bool)
+        if type(keep) is not np.ndarray or keep.dtype != np.bool_:
+            keep = np.asarray(keep, dtype=bool)
         if keep.shape != (self.n,):
             raise IndexError(f"keep: need shape ({self.n},), got {keep.shape}")
         n = self.n

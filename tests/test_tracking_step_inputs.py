@@ -1,0 +1,83 @@
+"""step_inputs (mjasc.perception.tracking.step_gathers) against the two calls it fuses —
+select_detections then step_rows — bit for bit, on every step of real runs (the 3-vessel crossing
+scene and the demo's first seconds): the fourteen arrays sliced out of its four, the per-vessel
+counters it adds to."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+import mjasc
+from mjasc.perception.tracking import fleet as fleet_mod
+from mjasc.perception.tracking.step_gathers import step_inputs, step_rows
+from mjasc.perception.tracking.step_kernels import select_detections
+from mjasc.runs.runner import Runner
+
+_ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
+
+
+def _same(a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+@pytest.mark.parametrize("name, duration", [("thesis_6_4_crossing", 30.0), ("demo", 20.0)])
+def test_step_inputs_equal_select_detections_then_step_rows(monkeypatch, name, duration):
+    n_checked = [0]
+
+    def checked(m_all, sel, cen, var, rad, occ, use_var, owner, pos_of, every, owners, t_o, n_owners, counts, scans,
+                dets, R):
+        c_ref = counts.copy()
+        sd = select_detections(m_all, sel, cen, var, rad, occ, use_var, R)
+        M = sd[2].shape[0]
+        sr = step_rows(owner, pos_of, every, owners, t_o, n_owners, c_ref, scans, dets, sd[6], M, R)
+        got = step_inputs(m_all, sel, cen, var, rad, occ, use_var, owner, pos_of, every, owners, t_o, n_owners, counts,
+                          scans, dets, R)
+        ints, z, floats, flags, all_due, k = got
+        p, n = sd[6].size, owner.size
+        assert all_due == sr[2] and k == sr[3].size
+        c = 2 * M + p
+        _same(counts, c_ref)
+        for a, b in ((ints[:M], sd[0]), (ints[M:2 * M], sd[1]), (z, sd[2]), (floats[:M], sd[3]),
+                     (floats[M:2 * M], sd[4]), (flags[:M], sd[5]), (ints[2 * M:c], sd[6]),
+                     (floats[2 * M:2 * M + n_owners], sr[0]), (ints[c:c + n], sr[1]), (ints[c + n:c + n + k], sr[3]),
+                     (ints[c + n + k:c + n + 2 * k], sr[4]), (flags[M:], sr[5]), (ints[c + n + 2 * k:], sr[6]),
+                     (floats[2 * M + n_owners:], sr[7])):
+            _same(a, b)
+        n_checked[0] += 1
+        return got
+
+    monkeypatch.setattr(fleet_mod, "step_inputs", checked)
+    sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    Runner(sc, out_dir=None).run()
+    assert n_checked[0] > 50
+
+
+def test_births_packed_equal_births_of(monkeypatch):
+    """births_packed's three arrays hold births_of's eight, on every step of a real run with births."""
+    from mjasc.perception.tracking.step_gathers import births_of, births_packed
+
+    n_checked = [0]
+
+    def checked(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts, col):
+        c_ref, nl_ref = counts.copy(), next_local.copy()
+        want = births_of(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, nl_ref, idx, c_ref, col)
+        got = births_packed(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts,
+                            col)
+        ints, floats, zb = got
+        _same(counts, c_ref)
+        _same(next_local, nl_ref)
+        for a, b in zip((ints[0], ints[1], ints[2], floats[0], zb, floats[1], floats[2], ints[3]), want):
+            _same(a, b)
+        n_checked[0] += bool(zb.shape[0])
+        return got
+
+    monkeypatch.setattr(fleet_mod, "births_packed", checked)
+    sc = mjasc.load_scenario(_ROOT / "tasks" / "demo.toml").with_overrides(duration_s=20.0)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    Runner(sc, out_dir=None).run()
+    assert n_checked[0] > 20
