@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import mjasc
-from mjasc.guidance import path_following
+from mjasc.guidance import following_law, path_following
 from mjasc.guidance.path_following import FleetPathFollower, PathFollower
 from mjasc.guidance.paths import Path
 from mjasc.guidance.stacked_paths import StackedPaths
@@ -234,15 +234,15 @@ def test_batched_control_slot_equals_vessel_by_vessel_on_the_demo(form):
 
 
 def test_float_law_and_near_projection_equal_their_reference_forms_on_the_demo(monkeypatch):
-    """The control tick's plain-float law (:func:`_law_floats`) equals the law written once over the
-    operations table (``_law(_FloatOps, …)``), and the follower's projection ``Path.project_near``
+    """The control tick's plain-float law (:func:`~mjasc.guidance.following_law.law_floats`) equals the law written once over the
+    operations table (``law(FloatOps, …)``), and the follower's projection ``Path.project_near``
     equals ``Path.project`` with the same hint and window, bit for bit at every tick of the demo."""
-    law, near = path_following._law_floats, Path.project_near
+    law, near = following_law.law_floats, Path.project_near
     seen = {"law": 0, "projection": 0}
 
     def law_checked(P, S, *args):
         got = law(P, S, *args)
-        ref = path_following._law(path_following._FloatOps, P, list(S), *args)
+        ref = following_law.law(following_law.FloatOps, P, list(S), *args)
         assert got == ref and [type(v) for v in got[3]] == [type(v) for v in ref[3]]
         seen["law"] += 1
         return got
@@ -253,7 +253,7 @@ def test_float_law_and_near_projection_equal_their_reference_forms_on_the_demo(m
         seen["projection"] += 1
         return got
 
-    monkeypatch.setattr(path_following, "_law_floats", law_checked)
+    monkeypatch.setattr(following_law, "law_floats", law_checked)
     monkeypatch.setattr(Path, "project_near", near_checked)
     # the Python form the compiled kernel is held to (tests/test_follow_kernel.py)
     monkeypatch.setattr(FleetPathFollower, "_command_compiled", lambda self, *args: None)

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from mjasc.guidance import path_following as pf
+from mjasc.guidance import following_law
 from mjasc.guidance.path_following import FleetPathFollower
 from mjasc.physics.thrusters import command_for_thrust_scalar
 from tests.test_fleet_following import _follower, _paths, _record_control
@@ -18,7 +18,7 @@ def _reference(fleet, idx, xy, heading, bv, speed, course, dt_s=0.1):
     thrust, statuses = fleet._command_floats(idx, xy.tolist(), heading.tolist(), bv.tolist(), speed.tolist(), dt_s,
                                              course.tolist())
     cols = fleet._P_cols
-    cmds = np.array([[command_for_thrust_scalar(t, *cols[i][pf._KF:pf._NMIN + 1]) for t in pair]
+    cmds = np.array([[command_for_thrust_scalar(t, *cols[i][following_law.KF:following_law.NMIN + 1]) for t in pair]
                      for i, pair in zip(idx, thrust)]).reshape(-1, 2)
     return cmds, statuses
 

@@ -13,7 +13,7 @@ over the vessels, on the fleet's stacked segment table (:class:`~mjasc.guidance.
   (the candidates are evaluated twice, once for the minimum and once for the tie: the same
   numbers both times);
 * ``Path.at`` at that γ (the segment found by bisection, a later segment winning at a joint);
-* :func:`~mjasc.guidance.path_following._law_floats`, the same expressions in the same order;
+* :func:`~mjasc.guidance.following_law.law_floats`, the same expressions in the same order;
   ``x**2`` of a Python float is the C library's ``pow(|x|, 2.0)`` (CPython's float power), so the
   kernel calls ``pow`` with the exponent ``two`` passed in at run time (a literal 2 would be
   compiled to ``x·x``, which differs in the last bit for ~0.1 % of values);

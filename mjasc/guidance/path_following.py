@@ -1,40 +1,18 @@
-"""Path following for a fleet: integral line-of-sight guidance, heading and speed loops, allocation.
+"""Path following for a fleet: the followers of every vessel as rows of arrays, one command for all.
 
-Guidance: integral LOS (Børhaug, Pavlov & Pettersen 2008; Fossen 2021 §12.4). With γ the vessel's
-projection on the path, χ_p the path's course there and e the signed cross-track error (positive
-when the vessel is left of the path)::
-
-    ψ_d = χ_p − atan((e + σ e_i) / Δ)         desired heading, lookahead Δ [m], integral gain σ
-    ė_i = Δ e / (Δ² + (e + σ e_i)²)           integral of the cross-track error (bounded rate)
-
-A course override (collision avoidance steering a chosen course over ground, e.g. the velocity
-obstacles' choice) replaces ψ_d by that course while it is set; the LOS integral is frozen and the
-curvature feed-forward dropped meanwhile, and γ keeps following the path, so the vessel comes back
-to its path through the LOS law when the override ends. No override (NaN) gives the same bits as
-before the override existed.
-
-In a constant current the integral term settles at the crab angle that cancels the drift, so the
-cross-track error converges to zero (the tests check it). Measuring the crab angle and feeding it
-back instead couples the sway dynamics into the heading loop and oscillated on the Otter.
-
-Heading loop: the yaw dynamics M_33 ṙ ≈ N + N_r r give, for a closed loop of natural frequency ω_ψ
-and damping ζ, ``N = −M_33 ω_ψ² (e_ψ + ∫e_ψ/T_i) − (2ζω_ψ M_33 + N_r)(r − r_d) − N_r r_d`` with the
-path's turn rate r_d = κ u as feed-forward. The integral removes the steady heading error that a
-crab in a cross current causes (the Munk moment (X_u̇ − Y_v̇) u_r v_r and cross-flow drag). Speed loop: feed-forward of the damping at the desired speed
-plus PI on the surge error. Allocation to the twin propellers at y = ±d:
-``T_s + T_p = X``, ``d (T_s − T_p) = N`` (FLU: more starboard thrust turns left), then the inverse
-propeller curve gives the normalized commands; when saturated, yaw moment has priority.
+The law itself — integral line-of-sight guidance, heading and speed loops, allocation to the twin
+propellers, with a course override — is :mod:`mjasc.guidance.following_law`.
 
 One copy of the law for a fleet: :class:`FleetPathFollower` holds every vessel's parameters and
 loop states (γ, the LOS, speed and heading integrals) as rows of arrays and their paths stacked
 (:class:`~mjasc.guidance.stacked_paths.StackedPaths`); one :meth:`~FleetPathFollower.command`
-projects every vessel on its path and runs the law for all of them. The law (:func:`_law`) is
+projects every vessel on its path and runs the law for all of them. The law (:func:`~mjasc.guidance.following_law.law`) is
 written once over a table of operations: above :data:`SCALAR_FLEET_MAX` vessels it runs once over
 arrays (the projection in one vectorized pass over each vessel's window of segments); up to it,
 vessel by vessel in plain floats (each path's scalar projection), because numpy's per-call
-overhead, not arithmetic, is the cost of small fleets. The plain-float form is :func:`_law_floats`,
+overhead, not arithmetic, is the cost of small fleets. The plain-float form is :func:`~mjasc.guidance.following_law.law_floats`,
 the float operations written out (a Python call per operation cost more than the law's arithmetic);
-a test holds it to ``_law(_FloatOps, …)`` bit for bit on the demo. The control tick runs that form
+a test holds it to ``law(FloatOps, …)`` bit for bit on the demo. The control tick runs that form
 compiled: projection, law and inverse propeller curve of every vessel in one call
 (:func:`~mjasc.guidance.follow_kernel.follow_fleet`, held to :meth:`FleetPathFollower._command_floats`
 bit for bit by ``tests/test_follow_kernel.py``; the Python form stays as the fallback for a
@@ -48,16 +26,16 @@ a vessel's commands do not depend on the fleet it is in (``tests/test_fleet_foll
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from types import SimpleNamespace
 
 import numpy as np
 
 from mjasc.core.config_tables import check_params, param
+from mjasc.guidance import following_law
+from mjasc.guidance.following_law import GAMMA, KF, KR, LOOKAHEAD, NMAX, NMIN, WINDOW, ArrayOps, law, law_parameters
 from mjasc.guidance.follow_kernel import follow_fleet
 from mjasc.guidance.paths import Path
-from mjasc.guidance.segment_geometry import wrap_scalar
 from mjasc.guidance.stacked_paths import StackedPaths
 from mjasc.physics.thrusters import PropellerCoefficients, command_for_thrust_scalar
 from mjasc.physics.vessels import VesselType
@@ -101,175 +79,6 @@ class PathFollowingStatus:
     finished: bool
 
 
-# Rows of the parameter array (one column per vessel).
-(_LOOKAHEAD, _WINDOW, _SIGMA, _FINISH, _KP_PSI, _KD_PSI, _NR, _TI, _KP_U, _KI_U, _XU, _XUU, _D, _TMAX, _TMIN,
- _KF, _KR, _NMAX, _NMIN) = range(19)
-# Rows of the state array: γ [m], ∫ LOS state e_i [m], ∫ surge error [m], ∫ heading error [rad·s].
-_GAMMA, _XTE_I, _SPEED_I, _HEAD_I = range(4)
-
-
-def _parameters(vessel: VesselType, total_mass, lateral_offset_m: float, config: PathFollowingConfig) -> list[float]:
-    """One vessel's column of the parameter array: gains from its rigid-body + added mass (3, 3)
-    and damping, its propellers at y = ±lateral_offset_m [m]."""
-    lookahead = config.lookahead_m or max(3.0 * vessel.length_m, 5.0)
-    m = np.asarray(total_mass, dtype=float)
-    m11, m33 = float(m[0, 0]), float(m[2, 2])
-    h, p = vessel.hydro, vessel.propellers
-    w, z = config.heading_bandwidth_rad_s, config.heading_damping_ratio
-    kp_u = m11 * config.speed_bandwidth_rad_s
-    return [lookahead, max(4.0 * lookahead, 20.0), config.integral_los_gain, config.finish_tolerance_m,
-            m33 * w * w, max(2 * z * w * m33 + h.N_r, 0.0),  # N_r < 0 already damps
-            h.N_r, config.heading_integral_time_s, kp_u, config.speed_integral_gain_ratio * kp_u, h.X_u, h.X_uu,
-            abs(float(lateral_offset_m)), p.max_thrust_n,
-            p.k_reverse * p.n_min_rad_s**2,  # reverse thrust magnitude [N]
-            p.k_forward, p.k_reverse, p.n_max_rad_s, p.n_min_rad_s]
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    """:func:`~mjasc.core.frames.wrap_angle` for a float array (the same operations, fewer calls)."""
-    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
-    return np.where(w == -np.pi, np.pi, w)
-
-
-def _squares(x: np.ndarray) -> np.ndarray:
-    """x² elementwise through the C library's pow, as ``x**2`` of a float computes it (numpy's x·x
-    differs in the last bit for ~0.1 % of values): both forms of the law give the same bits, and
-    the same as before the law was batched."""
-    return np.array([v**2 for v in x.tolist()])
-
-
-class _ArrayOps:
-    """The operations of :func:`_law` over arrays of vessels."""
-
-    where, abs, minimum, maximum = staticmethod(np.where), staticmethod(np.abs), staticmethod(np.minimum), \
-        staticmethod(np.maximum)
-    sin, cos, atan2 = staticmethod(np.sin), staticmethod(np.cos), staticmethod(np.arctan2)
-    wrap, sq = staticmethod(_wrap), staticmethod(_squares)
-    not_, and_, or_ = staticmethod(np.logical_not), staticmethod(np.logical_and), staticmethod(np.logical_or)
-
-
-class _FloatOps:
-    """The operations of :func:`_law` for one vessel in plain floats (numpy's semantics)."""
-
-    @staticmethod
-    def where(c, a, b):
-        return a if c else b
-
-    @staticmethod
-    def minimum(a, b):
-        return a if a <= b else b
-
-    @staticmethod
-    def maximum(a, b):
-        return a if a >= b else b
-
-    @staticmethod
-    def sq(a):
-        return a**2
-
-    @staticmethod
-    def not_(a):
-        return not a
-
-    @staticmethod
-    def and_(a, b):
-        return a and b
-
-    @staticmethod
-    def or_(a, b):
-        return a or b
-
-    abs, sin, cos, atan2, wrap = staticmethod(abs), staticmethod(math.sin), staticmethod(math.cos), \
-        staticmethod(math.atan2), staticmethod(wrap_scalar)
-
-
-def _law(o, P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p, kappa, length, course=math.nan):
-    """The control law of the module docstring, once for arrays of vessels (``o`` = _ArrayOps,
-    P, S the parameter and state arrays) and for one vessel (``o`` = _FloatOps, P, S its columns
-    as lists). Inputs: position (x, y), heading, surge u, yaw rate r, speed reference; the
-    projection: γ, the path's point (qx, qy), course χ_p, curvature κ and length L there; a course
-    override [rad] (NaN: none; else ψ_d = the override, the LOS integral frozen and no curvature
-    feed-forward — γ keeps following the path).
-    Returns (T_port, T_starboard, new states (γ, e_i, ∫e_u, ∫e_ψ), status (e, ψ_d, u_d, finished))."""
-    e = -(x - qx) * o.sin(chi_p) + (y - qy) * o.cos(chi_p)
-    finished = gamma >= length - P[_FINISH]
-    steered = course == course  # a course override (not NaN)
-    # integral LOS
-    delta, xte_i = P[_LOOKAHEAD], S[_XTE_I]
-    e_eff = e + P[_SIGMA] * xte_i
-    psi_d = o.where(steered, course, o.wrap(chi_p - o.atan2(e_eff, delta)))
-    xte_i = o.where(o.or_(finished, steered), xte_i, xte_i + dt_s * delta * e / (o.sq(delta) + o.sq(e_eff)))
-    # heading and speed loops
-    u_d = o.where(finished, 0.0, speed_ref)
-    r_d = o.where(steered, 0.0, kappa * u)
-    e_psi = o.wrap(heading - psi_d)
-    kp_psi = P[_KP_PSI]
-    n_cmd = -kp_psi * e_psi - P[_KD_PSI] * (r - r_d) - P[_NR] * r_d + -kp_psi / P[_TI] * S[_HEAD_I]
-    e_u = u_d - u
-    x_cmd = -P[_XU] * u_d - P[_XUU] * o.abs(u_d) * u_d + P[_KP_U] * e_u + P[_KI_U] * S[_SPEED_I]
-    # allocation to the twin propellers, yaw first: T_s + T_p = X, d (T_s − T_p) = N
-    t_max, t_min = P[_TMAX], P[_TMIN]
-    half_diff_free = 0.5 * n_cmd / P[_D]
-    half_range = (t_max + t_min) / 2
-    half_diff = o.minimum(o.maximum(half_diff_free, -half_range), half_range)
-    lo = -t_min + o.abs(half_diff)
-    hi = t_max - o.abs(half_diff)
-    half_sum_free = 0.5 * x_cmd
-    inside = o.and_(lo <= half_sum_free, half_sum_free <= hi)
-    saturated = o.or_(o.not_(inside), o.abs(half_diff_free) > o.abs(half_diff))
-    half_sum = o.minimum(o.maximum(half_sum_free, lo), hi)
-    # conditional integration: no wind-up while the propellers saturate; the heading integral
-    # only near the reference (not through large turns)
-    speed_i = o.where(saturated, S[_SPEED_I], S[_SPEED_I] + e_u * dt_s)
-    head_i = o.where(o.and_(o.not_(saturated), o.abs(e_psi) < 0.5), S[_HEAD_I] + e_psi * dt_s, S[_HEAD_I])
-    speed_i = o.where(finished, 0.0, speed_i)
-    return half_sum - half_diff, half_sum + half_diff, (gamma, xte_i, speed_i, head_i), (e, psi_d, u_d, finished)
-
-
-def _law_floats(P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p, kappa, length, course):
-    """:func:`_law` for one vessel in plain floats with the operations of :class:`_FloatOps` written
-    out (the same expressions in the same order: the same bits, ``tests/test_fleet_following.py``
-    checks it on real runs); the control tick's form, a few Python calls instead of ~30."""
-    e = -(x - qx) * math.sin(chi_p) + (y - qy) * math.cos(chi_p)
-    finished = gamma >= length - P[_FINISH]
-    steered = course == course  # a course override (not NaN)
-    # integral LOS
-    delta, xte_i = P[_LOOKAHEAD], S[_XTE_I]
-    e_eff = e + P[_SIGMA] * xte_i
-    psi_d = course if steered else wrap_scalar(chi_p - math.atan2(e_eff, delta))
-    if not (finished or steered):
-        xte_i = xte_i + dt_s * delta * e / (delta**2 + e_eff**2)
-    # heading and speed loops
-    u_d = 0.0 if finished else speed_ref
-    r_d = 0.0 if steered else kappa * u
-    e_psi = wrap_scalar(heading - psi_d)
-    kp_psi = P[_KP_PSI]
-    n_cmd = -kp_psi * e_psi - P[_KD_PSI] * (r - r_d) - P[_NR] * r_d + -kp_psi / P[_TI] * S[_HEAD_I]
-    e_u = u_d - u
-    x_cmd = -P[_XU] * u_d - P[_XUU] * abs(u_d) * u_d + P[_KP_U] * e_u + P[_KI_U] * S[_SPEED_I]
-    # allocation to the twin propellers, yaw first: T_s + T_p = X, d (T_s − T_p) = N
-    t_max, t_min = P[_TMAX], P[_TMIN]
-    half_diff_free = 0.5 * n_cmd / P[_D]
-    half_range = (t_max + t_min) / 2
-    half_diff = half_diff_free if half_diff_free >= -half_range else -half_range
-    if not half_diff <= half_range:
-        half_diff = half_range
-    lo = -t_min + abs(half_diff)
-    hi = t_max - abs(half_diff)
-    half_sum_free = 0.5 * x_cmd
-    saturated = not (lo <= half_sum_free and half_sum_free <= hi) or abs(half_diff_free) > abs(half_diff)
-    half_sum = half_sum_free if half_sum_free >= lo else lo
-    if not half_sum <= hi:
-        half_sum = hi
-    # conditional integration: no wind-up while the propellers saturate; the heading integral
-    # only near the reference (not through large turns)
-    speed_i = S[_SPEED_I] if saturated else S[_SPEED_I] + e_u * dt_s
-    head_i = S[_HEAD_I] + e_psi * dt_s if not saturated and abs(e_psi) < 0.5 else S[_HEAD_I]
-    if finished:
-        speed_i = 0.0
-    return half_sum - half_diff, half_sum + half_diff, (gamma, xte_i, speed_i, head_i), (e, psi_d, u_d, finished)
-
-
 #: Up to this many vessels a command runs the law vessel by vessel in plain floats (cheaper than
 #: numpy's per-call overhead); above, once over arrays. Both give the same bits.
 SCALAR_FLEET_MAX = 20
@@ -295,8 +104,8 @@ class FleetPathFollower:
     def _propellers(self, rows):
         """The propeller coefficients as (k, 1) columns, for the inverse propeller curve."""
         P = self._P if rows is None else self._P[:, rows]
-        return SimpleNamespace(k_forward=P[_KF, :, None], k_reverse=P[_KR, :, None],
-                               n_max_rad_s=P[_NMAX, :, None], n_min_rad_s=P[_NMIN, :, None])
+        return SimpleNamespace(k_forward=P[KF, :, None], k_reverse=P[KR, :, None],
+                               n_max_rad_s=P[NMAX, :, None], n_min_rad_s=P[NMIN, :, None])
 
     @classmethod
     def of(cls, followers) -> "FleetPathFollower":
@@ -321,19 +130,19 @@ class FleetPathFollower:
     @property
     def gamma_m(self) -> np.ndarray:
         """Each vessel's γ on its current path (n,) [m] (read-only view)."""
-        v = self._S[_GAMMA].view()
+        v = self._S[GAMMA].view()
         v.flags.writeable = False
         return v
 
     def guidance_rows(self) -> tuple[list, list[float]]:
         """Each row's path followed now and γ on it [m] (lists in row order; what each follower's
         ``path`` and ``gamma_m`` give, read once for the fleet)."""
-        return self.paths.paths, self._S[_GAMMA].tolist()
+        return self.paths.paths, self._S[GAMMA].tolist()
 
     def set_path(self, i: int, path: Path, gamma0_m: float = 0.0) -> None:
         """Vessel i switches to ``path`` at γ = gamma0_m (e.g. a re-planned detour), keeping its loop states."""
         self.paths.set_path(i, path)
-        self._S[_GAMMA, i] = float(gamma0_m)
+        self._S[GAMMA, i] = float(gamma0_m)
 
     def command(self, position_m, heading_rad, body_velocity, speed_ref_m_s, dt_s: float,
                 rows=None, course_override_rad=None) -> tuple[np.ndarray, list[PathFollowingStatus]]:
@@ -360,7 +169,7 @@ class FleetPathFollower:
                                                     bv.tolist(), np.asarray(speed_ref_m_s, dtype=float).tolist(), dt_s,
                                                     course.tolist())
             cols = self._P_cols
-            return np.array([[command_for_thrust_scalar(t, *cols[i][_KF:_NMIN + 1]) for t in pair]
+            return np.array([[command_for_thrust_scalar(t, *cols[i][KF:NMIN + 1]) for t in pair]
                              for i, pair in zip(idx, thrust)]).reshape(-1, 2), statuses  # the inverse curve
         else:
             thrust, statuses = self._command_arrays(rows, pos, np.asarray(heading_rad, dtype=float), bv,
@@ -427,7 +236,7 @@ class FleetPathFollower:
         return commands, statuses
 
     def _command_floats(self, idx, pos, heading, bv, speed, dt_s, course):
-        """The law vessel by vessel in plain floats (:func:`_law_floats`); the projection by each
+        """The law vessel by vessel in plain floats (:func:`~mjasc.guidance.following_law.law_floats`); the projection by each
         path's scalar query."""
         thrust = []
         statuses = []
@@ -440,9 +249,9 @@ class FleetPathFollower:
             s = S[:, i].tolist()
             x, y = pos[k][0], pos[k][1]
             path = paths[i]
-            g = path.project_near(x, y, s[_GAMMA], P[_WINDOW])
+            g = path.project_near(x, y, s[GAMMA], P[WINDOW])
             qx, qy, chi_p, kappa = path.at(g)
-            t_p, t_s, new, (e, psi_d, u_d, finished) = _law_floats(P, s, x, y, heading[k], bv[k][0], bv[k][2],
+            t_p, t_s, new, (e, psi_d, u_d, finished) = following_law.law_floats(P, s, x, y, heading[k], bv[k][0], bv[k][2],
                                                                     speed[k], dt_s, g, qx, qy, chi_p, kappa,
                                                                     path.length, course[k])
             thrust.append((t_p, t_s))
@@ -459,8 +268,8 @@ class FleetPathFollower:
         P = self._P if rows is None else self._P[:, rows]
         S = self._S if rows is None else self._S[:, rows]
         px, py = pos[:, 0], pos[:, 1]
-        q = self.paths.project(px, py, S[_GAMMA], P[_WINDOW], rows)
-        t_p, t_s, new, (e, psi_d, u_d, finished) = _law(_ArrayOps, P, S, px, py, heading, bv[:, 0], bv[:, 2], speed,
+        q = self.paths.project(px, py, S[GAMMA], P[WINDOW], rows)
+        t_p, t_s, new, (e, psi_d, u_d, finished) = law(ArrayOps, P, S, px, py, heading, bv[:, 0], bv[:, 2], speed,
                                                          dt_s, q.gamma_m, q.x_m, q.y_m, q.course_rad, q.curvature_1_m,
                                                          q.length_m, course)
         if rows is None:
@@ -499,7 +308,7 @@ class PathFollower(ControlMethod):
         self.vessel = vessel
         self.config = config
         states = [float(gamma0_m), 0.0, 0.0, 0.0]
-        self._fleet = FleetPathFollower(np.array(_parameters(vessel, total_mass, lateral_offset_m, config))[:, None],
+        self._fleet = FleetPathFollower(np.array(law_parameters(vessel, total_mass, lateral_offset_m, config))[:, None],
                                         np.array(states)[:, None], [path])
         self._fleet._members = [self]
         self._row = 0
@@ -517,16 +326,16 @@ class PathFollower(ControlMethod):
     @property
     def gamma_m(self) -> float:
         """Progress γ along the path followed now [m]."""
-        return float(self._fleet._S[_GAMMA, self._row])
+        return float(self._fleet._S[GAMMA, self._row])
 
     @gamma_m.setter
     def gamma_m(self, value: float) -> None:
-        self._fleet._S[_GAMMA, self._row] = float(value)
+        self._fleet._S[GAMMA, self._row] = float(value)
 
     @property
     def lookahead_m(self) -> float:
         """LOS lookahead Δ [m]."""
-        return float(self._fleet._P[_LOOKAHEAD, self._row])
+        return float(self._fleet._P[LOOKAHEAD, self._row])
 
     def reset(self, gamma0_m: float = 0.0) -> None:
         self._fleet._S[:, self._row] = (float(gamma0_m), 0.0, 0.0, 0.0)
