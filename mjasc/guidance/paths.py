@@ -21,11 +21,12 @@ from __future__ import annotations
 
 import math
 from bisect import bisect_right
-from dataclasses import dataclass
 
 import numpy as np
 
 from mjasc.core.frames import wrap_angle
+from mjasc.guidance.path_segments import (DUPLICATE_TOLERANCE_M, ArcSegment, LineSegment, Segment, as_point,
+                                         xy_of)
 from mjasc.guidance.segment_geometry import (
     COS0,
     SIN0,
@@ -47,8 +48,6 @@ from mjasc.guidance.segment_geometry import (
 
 #: Two segment ends closer than this are the same point [m].
 CONTINUITY_TOLERANCE_M = 1e-6
-#: Consecutive points closer than this are treated as one point [m].
-_DUPLICATE_TOLERANCE_M = 1e-9
 
 
 #: Scalar γ types: queries with one of these take the plain-float path.
@@ -56,132 +55,6 @@ _SCALARS = (float, int, np.floating, np.integer)
 #: A projection over fewer segments than this, or a query of at most this many γ, is done in plain
 #: floats (numpy's per-call overhead dominates small arrays), else vectorized.
 _SCALAR_SEGMENTS = 8
-
-
-def _xy(value, name: str) -> tuple[float, float]:
-    """(x, y) floats of a point of shape (2,), or ValueError naming ``name``."""
-    if isinstance(value, np.ndarray) and value.shape == (2,) or isinstance(value, (tuple, list)) and len(value) == 2:
-        try:
-            x, y = float(value[0]), float(value[1])
-        except (TypeError, ValueError):
-            x = y = math.nan
-        if math.isfinite(x) and math.isfinite(y):
-            return x, y
-    p = _as_point(value, name)
-    return float(p[0]), float(p[1])
-
-
-def _as_point(value, name: str) -> np.ndarray:
-    p = np.asarray(value, dtype=float)
-    if p.shape != (2,):
-        raise ValueError(f"{name}: expected a point of shape (2,), got shape {p.shape}")
-    if not np.all(np.isfinite(p)):
-        raise ValueError(f"{name}: must be finite, got {p.tolist()}")
-    p = p.copy()
-    p.flags.writeable = False
-    return p
-
-
-@dataclass(frozen=True, eq=False)
-class LineSegment:
-    """Straight segment from ``start`` (2,) to ``end`` (2,) [m], world frame."""
-
-    start: np.ndarray
-    end: np.ndarray
-
-    def __post_init__(self):
-        object.__setattr__(self, "start", _as_point(self.start, "LineSegment.start"))
-        object.__setattr__(self, "end", _as_point(self.end, "LineSegment.end"))
-        if np.hypot(*(self.end - self.start)) <= _DUPLICATE_TOLERANCE_M:
-            raise ValueError("LineSegment.end: equals start (zero-length segment)")
-
-    @property
-    def length(self) -> float:
-        return float(np.hypot(*(self.end - self.start)))
-
-    @property
-    def start_course(self) -> float:
-        d = self.end - self.start
-        return float(np.arctan2(d[1], d[0]))
-
-    @property
-    def curvature(self) -> float:
-        return 0.0
-
-    @property
-    def end_point(self) -> np.ndarray:
-        return self.end
-
-    @property
-    def start_point(self) -> np.ndarray:
-        return self.start
-
-    def sub(self, s_a: float, s_b: float) -> "LineSegment":
-        """The piece between local arc lengths s_a < s_b."""
-        d = (self.end - self.start) / self.length
-        return LineSegment(self.start + s_a * d, self.start + s_b * d)
-
-
-@dataclass(frozen=True, eq=False)
-class ArcSegment:
-    """Circular arc: ``centre`` (2,) [m], ``radius`` [m] > 0, ``start_angle`` [rad] = direction of the
-    radius vector from the centre to the arc's start point (CCW from east), ``sweep`` [rad] signed,
-    CCW (left turn) > 0, 0 < |sweep| ≤ 2π. The path's course at the start is
-    ``start_angle + sign(sweep)·π/2``."""
-
-    centre: np.ndarray
-    radius: float
-    start_angle: float
-    sweep: float
-
-    def __post_init__(self):
-        object.__setattr__(self, "centre", _as_point(self.centre, "ArcSegment.centre"))
-        r, a, sw = float(self.radius), float(self.start_angle), float(self.sweep)
-        if not np.isfinite(r) or r <= 0.0:
-            raise ValueError(f"ArcSegment.radius: must be finite and > 0, got {self.radius}")
-        if not np.isfinite(a):
-            raise ValueError(f"ArcSegment.start_angle: must be finite, got {self.start_angle}")
-        if not np.isfinite(sw) or sw == 0.0 or abs(sw) > 2.0 * np.pi + 1e-12:
-            raise ValueError(f"ArcSegment.sweep: must be nonzero with |sweep| ≤ 2π, got {self.sweep}")
-        object.__setattr__(self, "radius", r)
-        object.__setattr__(self, "start_angle", a)
-        object.__setattr__(self, "sweep", sw)
-
-    @property
-    def length(self) -> float:
-        return self.radius * abs(self.sweep)
-
-    @property
-    def start_course(self) -> float:
-        return float(wrap_angle(self.start_angle + np.sign(self.sweep) * np.pi / 2.0))
-
-    @property
-    def curvature(self) -> float:
-        return float(np.sign(self.sweep) / self.radius)
-
-    def _at_angle(self, angle: float) -> np.ndarray:
-        return self.centre + self.radius * np.array([np.cos(angle), np.sin(angle)])
-
-    @property
-    def start_point(self) -> np.ndarray:
-        return self._at_angle(self.start_angle)
-
-    @property
-    def end_point(self) -> np.ndarray:
-        return self._at_angle(self.start_angle + self.sweep)
-
-    def sub(self, s_a: float, s_b: float) -> "ArcSegment":
-        """The piece between local arc lengths s_a < s_b."""
-        sgn = np.sign(self.sweep)
-        return ArcSegment(
-            self.centre,
-            self.radius,
-            self.start_angle + sgn * s_a / self.radius,
-            sgn * (s_b - s_a) / self.radius,
-        )
-
-
-Segment = LineSegment | ArcSegment
 
 
 class Path:
@@ -232,9 +105,9 @@ class Path:
     @classmethod
     def line(cls, start, end) -> "Path":
         """A straight path from ``start`` to ``end`` [m]."""
-        start = _as_point(start, "start")
-        end = _as_point(end, "end")
-        if np.hypot(*(end - start)) <= _DUPLICATE_TOLERANCE_M:
+        start = as_point(start, "start")
+        end = as_point(end, "end")
+        if np.hypot(*(end - start)) <= DUPLICATE_TOLERANCE_M:
             raise ValueError("end: equals start (zero-length path)")
         return cls([LineSegment(start, end)])
 
@@ -258,7 +131,7 @@ class Path:
         legs = np.diff(w, axis=0)
         leg_len = np.hypot(legs[:, 0], legs[:, 1])
         for i in range(legs.shape[0]):
-            if leg_len[i] <= _DUPLICATE_TOLERANCE_M:
+            if leg_len[i] <= DUPLICATE_TOLERANCE_M:
                 raise ValueError(f"waypoints[{i + 1}]: repeats the previous point")
         courses = np.arctan2(legs[:, 1], legs[:, 0])
         n_corners = w.shape[0] - 2
@@ -292,14 +165,14 @@ class Path:
                 continue
             a = corner - cut[i] * d_in
             b = corner + cut[i] * d_out
-            if np.hypot(*(a - cursor)) > _DUPLICATE_TOLERANCE_M:
+            if np.hypot(*(a - cursor)) > DUPLICATE_TOLERANCE_M:
                 segments.append(LineSegment(cursor, a))
             left = np.array([-d_in[1], d_in[0]])
             centre = a + np.sign(turn) * r * left
             start_angle = float(np.arctan2(a[1] - centre[1], a[0] - centre[0]))
             segments.append(ArcSegment(centre, r, start_angle, float(turn)))
             cursor = b
-        if np.hypot(*(w[-1] - cursor)) > _DUPLICATE_TOLERANCE_M:
+        if np.hypot(*(w[-1] - cursor)) > DUPLICATE_TOLERANCE_M:
             segments.append(LineSegment(cursor, w[-1]))
         return cls(segments)
 
@@ -315,7 +188,7 @@ class Path:
         if bad.size:
             raise ValueError(f"points[{bad[0]}]: must be finite, got {p[bad[0]].tolist()}")
         step = np.hypot(*np.diff(p, axis=0).T)
-        keep = np.concatenate([[True], step > _DUPLICATE_TOLERANCE_M])
+        keep = np.concatenate([[True], step > DUPLICATE_TOLERANCE_M])
         p = p[keep]
         if p.shape[0] < 2:
             raise ValueError("points: need at least two distinct points")
@@ -417,7 +290,7 @@ class Path:
     def cross_track_error(self, point, gamma: float) -> float:
         """Signed distance of ``point`` from the path's tangent line at γ [m], positive when the
         point is LEFT of the path (port side of a vessel sailing along it)."""
-        px, py = _xy(point, "point")
+        px, py = xy_of(point, "point")
         row, s = self._locate_scalar(gamma)
         qx, qy = point_scalar(row, s)
         th = wrap_scalar(row[TH0] + row[K] * s)
@@ -431,7 +304,7 @@ class Path:
         which keeps γ continuous for a follower on a path that crosses or nears itself. Ties go
         to the smallest γ.
         """
-        px, py = _xy(point, "point")
+        px, py = xy_of(point, "point")
         lo, hi = 0.0, self._length
         if gamma_hint is not None or search_window_m is not None:
             if gamma_hint is None or search_window_m is None:
@@ -528,13 +401,13 @@ class Path:
             raise ValueError(f"gamma_a: must be in [0, {self.length:g}], got {gamma_a}")
         if not (0.0 <= b <= self.length):
             raise ValueError(f"gamma_b: must be in [0, {self.length:g}], got {gamma_b}")
-        if b - a <= _DUPLICATE_TOLERANCE_M:
+        if b - a <= DUPLICATE_TOLERANCE_M:
             raise ValueError(f"gamma_b: must exceed gamma_a ({gamma_a}), got {gamma_b}")
         pieces = []
         for i, seg in enumerate(self._segments):
             s0, s1 = self._cum[i], self._cum[i + 1]
             lo, hi = max(a, s0), min(b, s1)
-            if hi - lo <= _DUPLICATE_TOLERANCE_M:
+            if hi - lo <= DUPLICATE_TOLERANCE_M:
                 continue
             if lo == s0 and hi == s1:
                 pieces.append(seg)
@@ -545,7 +418,7 @@ class Path:
     def split(self, gamma: float) -> tuple["Path", "Path"]:
         """(before, after) at 0 < γ < length; ``before.concatenate(after)`` is this path again."""
         g = float(gamma)
-        if not (_DUPLICATE_TOLERANCE_M < g < self.length - _DUPLICATE_TOLERANCE_M):
+        if not (DUPLICATE_TOLERANCE_M < g < self.length - DUPLICATE_TOLERANCE_M):
             raise ValueError(f"gamma: must be strictly inside (0, {self.length:g}), got {gamma}")
         return self.sub_path(0.0, g), self.sub_path(g, self.length)
 
