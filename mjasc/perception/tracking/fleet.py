@@ -272,7 +272,7 @@ class FleetTracker:
                 d2, det = pair_gates(pairs, zhat, Jac @ P @ Jac.transpose(0, 2, 1), z, var_p)
                 inside, cost, h_rows, h_vals, h = assign_pairs_packed(d2, np.log(det), self._gate, pairs, start, m_q,
                                                                       var_p, assigned, var_row, claimed, t_o, row_pos)
-                hard, hit = h_rows[:h], h_rows[h:]
+                hit = h_rows[h:]  # (h_rows[:h]: the rows in overlapping gates, re-solved below)
                 d2_hit, t_hit = h_vals
                 if h:  # (a vessel's gates overlap: its block to linear_sum_assignment)
                     q, i, j, _, db, ta = pairs

@@ -185,7 +185,7 @@ class TrackManagement:
         bool, the number dropped, lost, merged) — lost: the confirmed tracks lost, as (row, reason)
         pairs in row order (the rows where :meth:`drops_all`'s reason is not ''); merged as there.
         One compiled call returning three arrays (:func:`every_drops_packed`)."""
-        cfg, cols = self.config, self.cols
+        cols = self.cols
         drop, ints, vals, n_lost, n_merged, n_drop = every_drops_packed(
             group, pos_of, t_o, states, covariances, origins_m, max_range_m, cols.hist, cols.scans, cols.confirmed,
             cols.last, cols.n_upd, cols.radius, self._popcount, self._window, self._hits, self._max_coast,
