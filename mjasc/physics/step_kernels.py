@@ -62,36 +62,42 @@ def traffic_table(plain, mocap_rows, sample_step_m: float) -> tuple[np.ndarray, 
 
 
 @kernel
+def obstacle_pose(row, samples, t):
+    """(x, y [m], heading h [rad], speed [m/s]) of the moving obstacle of :func:`traffic_table`'s
+    ``row`` at time t [s]: the expressions of :meth:`~mjasc.physics.obstacles.MovingObstacleSet.rows`
+    (constant turn; or a path at constant speed interpolated in its sample table, the speed 0 once
+    it has reached the path's end)."""
+    if row[0] == 0.0:  # constant turn (thesis eq. 3.2)
+        x0, y0, th0, v, w = row[2], row[3], row[4], row[5], row[6]
+        th = th0 + w * t
+        c, s = math.cos(th), math.sin(th)
+        if row[7] != 0.0:
+            vt = v * t
+            dx, dy = vt * row[10], vt * row[11]
+        else:
+            dx, dy = row[8] * (s - row[11]), row[9] * (c - row[10])
+        return x0 + dx, y0 + dy, th, v
+    g0, pv, plen, tab, last_i, ds = row[2], row[3], row[4], samples[int(row[5])], int(row[6]), row[7]
+    g = g0 + pv * t
+    if plen < g:  # (Python's min(g, plen): the first unless the second is smaller)
+        g = plen
+    i0 = int(g / ds)
+    if last_i < i0:
+        i0 = last_i
+    g_a = tab[i0, 0]
+    span = tab[i0 + 1, 0] - g_a
+    f = (g - g_a) / span if span > 0 else 0.0
+    ax, ay, bx, by = tab[i0, 1], tab[i0, 2], tab[i0 + 1, 1], tab[i0 + 1, 2]
+    return ax + f * (bx - ax), ay + f * (by - ay), tab[i0, 3], pv if g < plen else 0.0
+
+
+@kernel
 def traffic_poses(t, table, samples, mocap_pos, mocap_quat):
-    """Write each moving obstacle's pose at time t [s] into its mocap row (position x, y; the
-    heading as the quaternion (cos h/2, 0, 0, sin h/2)): the expressions of
-    :meth:`~mjasc.physics.obstacles.MovingObstacleSet.rows` on :func:`traffic_table`'s arrays."""
+    """Write each moving obstacle's pose at time t [s] (:func:`obstacle_pose`) into its mocap row
+    (position x, y; the heading as the quaternion (cos h/2, 0, 0, sin h/2))."""
     for o in range(table.shape[0]):
-        row = table[o]
-        k = int(row[1])
-        if row[0] == 0.0:  # constant turn (thesis eq. 3.2)
-            x0, y0, th0, v, w = row[2], row[3], row[4], row[5], row[6]
-            th = th0 + w * t
-            c, s = math.cos(th), math.sin(th)
-            if row[7] != 0.0:
-                vt = v * t
-                dx, dy = vt * row[10], vt * row[11]
-            else:
-                dx, dy = row[8] * (s - row[11]), row[9] * (c - row[10])
-            x, y, h = x0 + dx, y0 + dy, th
-        else:  # a path at constant speed, interpolated in the sample table
-            g0, pv, plen, tab, last_i, ds = row[2], row[3], row[4], samples[int(row[5])], int(row[6]), row[7]
-            g = g0 + pv * t
-            if plen < g:  # (Python's min(g, plen): the first unless the second is smaller)
-                g = plen
-            i0 = int(g / ds)
-            if last_i < i0:
-                i0 = last_i
-            g_a = tab[i0, 0]
-            span = tab[i0 + 1, 0] - g_a
-            f = (g - g_a) / span if span > 0 else 0.0
-            ax, ay, bx, by = tab[i0, 1], tab[i0, 2], tab[i0 + 1, 1], tab[i0 + 1, 2]
-            x, y, h = ax + f * (bx - ax), ay + f * (by - ay), tab[i0, 3]
+        k = int(table[o, 1])
+        x, y, h, _ = obstacle_pose(table[o], samples, t)
         mocap_pos[k, 0] = x
         mocap_pos[k, 1] = y
         mocap_quat[k, 0] = math.cos(0.5 * h)
@@ -103,9 +109,9 @@ def traffic_poses(t, table, samples, mocap_pos, mocap_quat):
 @kernel
 def traffic_state_at(t, table, samples):
     """(positions (M, 2) [m], headings (M,) [rad], velocities (M, 2) [m/s]) of the moving obstacles
-    of :func:`traffic_table`'s arrays at time t [s]: the expressions of
-    :meth:`~mjasc.physics.obstacles.MovingObstacleSet.rows` (what its ``state`` stacks), poses as
-    :func:`traffic_poses` has them, velocities ``v·(cos θ, sin θ)`` (a path: the speed while short
+    of :func:`traffic_table`'s arrays at time t [s] (what
+    :meth:`~mjasc.physics.obstacles.MovingObstacleSet.state` stacks): poses as
+    :func:`obstacle_pose` has them, velocities ``v·(cos h, sin h)`` (a path: the speed while short
     of its end, else 0). New arrays, returned as (positions and velocities (2, M, 2), headings): two
     arrays to unbox (``pv, h = …; pv[0], h, pv[1]``)."""
     m = table.shape[0]
@@ -113,37 +119,12 @@ def traffic_state_at(t, table, samples):
     pos, vel = pos_vel[0], pos_vel[1]
     heading = np.empty(m)
     for o in range(m):
-        row = table[o]
-        if row[0] == 0.0:  # constant turn (thesis eq. 3.2)
-            x0, y0, th0, v, w = row[2], row[3], row[4], row[5], row[6]
-            th = th0 + w * t
-            c, s = math.cos(th), math.sin(th)
-            if row[7] != 0.0:
-                vt = v * t
-                dx, dy = vt * row[10], vt * row[11]
-            else:
-                dx, dy = row[8] * (s - row[11]), row[9] * (c - row[10])
-            x, y, h, vx, vy = x0 + dx, y0 + dy, th, v * c, v * s
-        else:  # a path at constant speed, interpolated in the sample table
-            g0, pv, plen, tab, last_i, ds = row[2], row[3], row[4], samples[int(row[5])], int(row[6]), row[7]
-            g = g0 + pv * t
-            if plen < g:  # (Python's min(g, plen): the first unless the second is smaller)
-                g = plen
-            i0 = int(g / ds)
-            if last_i < i0:
-                i0 = last_i
-            g_a = tab[i0, 0]
-            span = tab[i0 + 1, 0] - g_a
-            f = (g - g_a) / span if span > 0 else 0.0
-            ax, ay, bx, by = tab[i0, 1], tab[i0, 2], tab[i0 + 1, 1], tab[i0 + 1, 2]
-            h = tab[i0, 3]
-            moving = pv if g < plen else 0.0
-            x, y, vx, vy = ax + f * (bx - ax), ay + f * (by - ay), moving * math.cos(h), moving * math.sin(h)
+        x, y, h, speed = obstacle_pose(table[o], samples, t)
         pos[o, 0] = x
         pos[o, 1] = y
         heading[o] = h
-        vel[o, 0] = vx
-        vel[o, 1] = vy
+        vel[o, 0] = speed * math.cos(h)
+        vel[o, 1] = speed * math.sin(h)
     return pos_vel, heading
 
 

@@ -356,17 +356,7 @@ class IMMBank(BankViews, PredictiveDensity):
             measured = np.asarray(mask, dtype=bool)
             if measured.shape != (n,):
                 raise ValueError(f"mask: need shape ({n},), got {measured.shape}")
-        # finite rows, the rows used, unusable σ² replaced by the config's: one compiled pass
-        finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
-        all_used = measurements(z, measured, mv if mv is not None else self._var, mv is not None, self._R, finite, use)
-        self._mv = mv
-        try:
-            if all_used:
-                ok = self._cycle(z, t_s)
-                return np.ones(n, dtype=bool) if ok is None else ok
-            return self._cycle(z, t_s, use, finite, measured)
-        finally:
-            self._mv = None
+        return self._measured_cycle(z, t_s, measured, mv, np.empty(n, dtype=bool), np.empty(n, dtype=bool))
 
     def update_measured(self, z, t_s, measured, measurement_variance=None) -> np.ndarray:
         """:meth:`update` for a caller that has checked its arrays: z (n, 2) float, ``measured`` (n,)
@@ -379,13 +369,18 @@ class IMMBank(BankViews, PredictiveDensity):
             finite, use = rb.w_fin[:n], rb.w_use2[:n]
         else:
             finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
-        mv = measurement_variance
+        return self._measured_cycle(z, t_s, measured, measurement_variance, finite, use)
+
+    def _measured_cycle(self, z, t_s, measured, mv, finite, use) -> np.ndarray:
+        """The cycle of :meth:`update` / :meth:`update_measured` on checked arrays: the finite rows
+        and the rows used written into ``finite`` / ``use`` (n,) and unusable σ² in ``mv`` replaced
+        by the config's, in one compiled pass; then one IMM cycle (of every row when all are used)."""
         all_used = measurements(z, measured, mv if mv is not None else self._var, mv is not None, self._R, finite, use)
         self._mv = mv
         try:
             if all_used:
                 ok = self._cycle(z, t_s)
-                return np.ones(n, dtype=bool) if ok is None else ok
+                return np.ones(z.shape[0], dtype=bool) if ok is None else ok
             return self._cycle(z, t_s, use, finite, measured)
         finally:
             self._mv = None
