@@ -129,9 +129,8 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
             if not (type(factor) is float and -math.inf < factor < math.inf):
                 factor = float(factor) if math.isfinite(factor) else 1.0
             mission = agent.mission_speed_m_s
-            guidance = _new(GuidanceState)
-            guidance.__dict__.update(path=paths[k], gamma_m=gammas[k],
-                                     mission_speed_m_s=(mission if type(mission) is float else float(mission)) * factor)
+            guidance = GuidanceState.of(paths[k], gammas[k],
+                                        (mission if type(mission) is float else float(mission)) * factor)
             report = agent._report
             calls[k] = (avoidance, t, navs[steered[k]], guidance,
                         report if report is not None else agent.perception_report(t),
