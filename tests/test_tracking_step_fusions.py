@@ -99,8 +99,9 @@ def test_fused_association_on_a_real_run(monkeypatch):
     assert n_checked[0] > 50
 
 
-@pytest.mark.parametrize("seed", range(30))
-def test_assign_pairs_random(seed):
+def _assignment_problem(seed):
+    """A random association problem: vessels' blocks of tracks × detections, their pairs, d², log det,
+    variances, per-vessel times and the rows' vessel positions (the inputs of assign_pairs)."""
     rng = np.random.default_rng(seed)
     p = int(rng.integers(1, 4))
     n_q = rng.integers(0, 5, size=p).astype(np.int64)
@@ -113,9 +114,15 @@ def test_assign_pairs_random(seed):
     d2 = rng.random(gi.size) * 20.0
     log_det = np.log(rng.random(gi.size) + 0.1)
     var_p = rng.random(gi.size)
-    gate = 9.21
     t_o = rng.random(p) + 10.0
     row_pos = rng.integers(0, p, size=n).astype(np.int64)
+    return n_q, m_q, q, i, j, start, db, ta, pairs, n, M, d2, log_det, var_p, t_o, row_pos
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_assign_pairs_random(seed):
+    n_q, m_q, q, i, j, start, db, ta, pairs, n, M, d2, log_det, var_p, t_o, row_pos = _assignment_problem(seed)
+    gate = 9.21
     a1, v1, c1 = np.full(n, -1, dtype=np.int64), np.full(n, 0.25), np.zeros(M, dtype=bool)
     a2, v2, c2 = a1.copy(), v1.copy(), c1.copy()
     inside, cost, hard, hit, d2g, t_hit = assign_pairs(d2, log_det, gate, pairs, start, m_q, var_p, a1, v1, c1, t_o,
@@ -266,20 +273,7 @@ def test_assign_pairs_packed_random(seed):
     """assign_pairs_packed holds assign_pairs' arrays (the hard blocks, the hit rows and their d², times)."""
     from mjasc.perception.tracking.step_fusions import assign_pairs_packed
 
-    rng = np.random.default_rng(seed)
-    p = int(rng.integers(1, 4))
-    n_q = rng.integers(0, 5, size=p).astype(np.int64)
-    m_q = rng.integers(0, 5, size=p).astype(np.int64)
-    q, i, j, start, gi, db = block_pairs_flat(n_q, m_q)
-    n = int(n_q.sum()) + 3
-    M = int(m_q.sum())
-    ta = rng.permutation(n)[:n_q.sum()][gi] if gi.size else gi.copy()
-    pairs = np.stack([q, i, j, gi, db, ta]).astype(np.int64)
-    d2 = rng.random(gi.size) * 20.0
-    log_det = np.log(rng.random(gi.size) + 0.1)
-    var_p = rng.random(gi.size)
-    t_o = rng.random(p) + 10.0
-    row_pos = rng.integers(0, p, size=n).astype(np.int64)
+    n_q, m_q, q, i, j, start, db, ta, pairs, n, M, d2, log_det, var_p, t_o, row_pos = _assignment_problem(seed)
     outs = [(np.full(n, -1, dtype=np.int64), np.full(n, 0.25), np.zeros(M, dtype=bool)) for _ in range(2)]
     want = assign_pairs(d2, log_det, 9.21, pairs, start, m_q, var_p, *outs[0], t_o, row_pos)
     inside, cost, rows, vals, h = assign_pairs_packed(d2, log_det, 9.21, pairs, start, m_q, var_p, *outs[1], t_o,
