@@ -148,7 +148,6 @@ class Simulation:
         # traffic's constants as arrays.
         self._traffic_table, self._traffic_samples = traffic_table(self.traffic.constants(), self._mocap_rows,
                                                                    MovingObstacleSet.PATH_SAMPLE_M)
-        self._has_traffic = len(self.traffic) > 0
         self._mj_arrays = (d.qpos, d.qvel, d.qacc, d.act, d.mocap_pos, d.mocap_quat)
         self._propellers = self.thrusters.step_arrays()
         # what states() reads: MjData's qpos, qvel and act, whole, the headings ψ (a view) and the propellers
@@ -256,10 +255,8 @@ class Simulation:
         """(positions (M, 2), headings (M,), velocities (M, 2)) of the moving obstacles now (new
         arrays: :meth:`MovingObstacleSet.state`'s numbers in one compiled call,
         :func:`~mjasc.physics.step_kernels.traffic_state_at`)."""
-        if self._has_traffic:
-            pv, heading = traffic_state_at(float(self.data.time), self._traffic_table, self._traffic_samples)
-            return pv[0], heading, pv[1]
-        return self.traffic.state(float(self.data.time))
+        pv, heading = traffic_state_at(float(self.data.time), self._traffic_table, self._traffic_samples)
+        return pv[0], heading, pv[1]  # (no traffic: empty arrays of the same shapes)
 
     # ------------------------------------------------------------------ stepping
     def _update_traffic(self) -> None:

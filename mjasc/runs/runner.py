@@ -54,7 +54,7 @@ from mjasc.runs.outputs import atomic_target, atomic_write_text
 from mjasc.runs.record_kernels import record_rows
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
-from mjasc.runs.static_scene import PATH_POINTS, log_static_scene  # noqa: F401 (PATH_POINTS: its old home)
+from mjasc.runs.static_scene import log_static_scene
 from mjasc.runs.tick import ONBOARD_SLOTS, SlotEvent, run_onboard_slot
 
 if TYPE_CHECKING:  # rerun and the recorder load when a recording is made (a campaign run without one skips ~0.4 s)
