@@ -114,9 +114,6 @@ class PerceptionFleet:
         """Register a vessel's perception; returns its map and tracker (views of the fleet's; no
         tracker for a vessel with a plugin tracker, ``member.method``)."""
         cfg = member.config
-        # whether the member has a scan / a tracking step queued (flags on the member: the queue is
-        # asked at every slot, and a set of ids costs three calls where an attribute costs none)
-        member._in_scan = member._in_track = False
         if member.method is not None:
             self.members.append(member)
             return StaticMap(cfg.map_cell_m, cfg.map_min_hits, store=self.map_store), None
@@ -131,22 +128,20 @@ class PerceptionFleet:
     # ------------------------------------------------------------------ the queue
     def pending(self, member) -> bool:
         """The member has queued work."""
-        return member._in_scan or member._in_track
+        return member in self._scans or member in self._tracks  # (a few members: identity tests in C)
 
     def queue_scan(self, member, data, rng) -> None:
         """Cast ``member``'s fan in ``data`` now (its draws from ``rng``) and queue the scan for the
         sensing pass (:class:`~mjasc.perception.scan_batch.ScanBatch`)."""
-        if member._in_scan or member._in_track:  # (self.pending(member): processed first)
+        if member in self._scans or member in self._tracks:  # (pending(member): processed first)
             self.flush()
         self._batch.add(member.sensor, data, rng)
         self._scans.append(member)
-        member._in_scan = True
 
     def queue_track(self, member) -> None:
-        if member._in_track:
+        if member in self._tracks:
             self.flush()
         self._tracks.append(member)
-        member._in_track = True
 
     def asked(self, member) -> None:
         """A slot call of ``member`` is done: the last member's ends the slot (process the queue)."""
@@ -161,8 +156,6 @@ class PerceptionFleet:
         try:
             if self._scans:
                 members, self._scans = self._scans, []
-                for m in members:
-                    m._in_scan = False
                 w0 = time.perf_counter()
                 self._sense(members, self._batch.take())
                 share = (time.perf_counter() - w0) / len(members)
@@ -170,8 +163,6 @@ class PerceptionFleet:
                     m._stats["sense_s"] += share
             if self._tracks:
                 members, self._tracks = self._tracks, []
-                for m in members:
-                    m._in_track = False
                 w0 = time.perf_counter()
                 self._track(members)
                 share = (time.perf_counter() - w0) / len(members)
