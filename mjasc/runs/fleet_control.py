@@ -20,8 +20,9 @@ own state), so one reading serves both. ``tests/test_fleet_control.py`` compares
 form.
 
 Written out with few Python calls (the slot runs every 0.1 s for every vessel): the agents'
-:meth:`~mjasc.runs.agent.VesselAgent.guidance_of`, ``control_answer`` and ``control_output``, and
-the thesis method's ``mission_gamma_m``, as their bodies (the same operations in the same order);
+``control_answer`` and ``control_output`` and the thesis method's ``mission_gamma_m`` as their
+bodies (the same operations in the same order); each vessel's guidance state and perception report
+from its agent (:meth:`~mjasc.runs.agent.VesselAgent.guidance_of`, ``perception_report``);
 per-vessel lists filled by index.
 """
 
@@ -36,7 +37,6 @@ from mjasc.avoidance.system import CollisionAvoidance
 from mjasc.cooperation import fleet_speed_law
 from mjasc.core.navigation import NavigationList
 from mjasc.guidance.path_following import FleetPathFollower, PathFollower
-from mjasc.guidance.state import GuidanceState
 from mjasc.runs.agent import ControlOutput
 
 __all__ = ["fleet_control_applies", "control_fleet", "ask_avoidance"]
@@ -124,17 +124,8 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
         speeds[k] = speed
         avoidance = agent.avoidance
         if avoidance is not None:
-            # agent.guidance_of(paths[k], gammas[k]), agent.perception_report(t), c.team_picture(t)
-            factor = c.last_factor if c is not None else 1.0
-            if not (type(factor) is float and -math.inf < factor < math.inf):
-                factor = float(factor) if math.isfinite(factor) else 1.0
-            mission = agent.mission_speed_m_s
-            guidance = GuidanceState.of(paths[k], gammas[k],
-                                        (mission if type(mission) is float else float(mission)) * factor)
-            report = agent._report
-            calls[k] = (avoidance, t, navs[steered[k]], guidance,
-                        report if report is not None else agent.perception_report(t),
-                        None if c is None else c.team_picture(t))
+            calls[k] = (avoidance, t, navs[steered[k]], agent.guidance_of(paths[k], gammas[k]),
+                        agent.perception_report(t), None if c is None else c.team_picture(t))
     for i, agent in enumerate(agents):
         if agent.follower is None:
             outputs[i] = agent.control(navs[i], control_dt_s)  # open loop
