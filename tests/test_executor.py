@@ -109,3 +109,31 @@ def test_a_run_without_recording_never_imports_rerun():
     got = subprocess.run([sys.executable, "-c", code], input=json.dumps(request), capture_output=True, text=True,
                          env=env, timeout=300)
     assert got.stdout.split() == ["completed", "False", "False"], got.stderr[-2000:]
+
+
+def test_children_started_before_the_campaign_is_read_are_the_ones_that_run_it(tmp_path, monkeypatch, capsys):
+    """The ``campaign`` command starts the runs' children before it parses the campaign file
+    (prestart_isolated); the engine takes them instead of starting its own, and one left untaken
+    (a campaign with nothing to do) is killed at exit, not left behind."""
+    import mjasc.campaigns.executor as ex_mod
+    from mjasc.campaigns.engine import run_campaign
+    from mjasc.campaigns.spec import load_campaign_spec
+    from tests.test_campaign import write_campaign
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    assert ex_mod.prestart_isolated(None) == 1  # two cores: the driver parses on one, a child imports on the other
+    (child,) = ex_mod._PRESTARTED
+    pid = child._proc.pid
+    spec = load_campaign_spec(write_campaign(tmp_path, runs=2, duration=2.0))
+    res = run_campaign(spec, tmp_path / "out", workers=1, progress=False)
+    assert not ex_mod._PRESTARTED and [r.status for r in res.runs] == ["completed", "completed"]
+    assert {r.worker for r in res.runs} == {f"{os.uname().nodename}:{pid}"}  # both runs in the pre-started child
+    assert child._proc is None  # the campaign closed it
+    assert ex_mod.prestart_isolated(3) == 1  # never more than the idle cores
+    taken = ex_mod.take_prestarted(5)
+    assert len(taken) == 1 and taken[0]._proc is not None and not ex_mod._PRESTARTED
+    taken[0].close()
+    ex_mod.prestart_isolated(1)
+    spare = ex_mod._PRESTARTED[0]._proc
+    ex_mod._close_prestarted()  # (what exit does)
+    assert spare.poll() is not None and not ex_mod._PRESTARTED

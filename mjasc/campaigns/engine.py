@@ -43,7 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
-                                      run_isolated, start_isolated)
+                                      run_isolated, start_isolated, take_prestarted)
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
 from mjasc.campaigns.store import RETRY_STATUSES, CampaignStore
 from mjasc.core.config_tables import integer, number
@@ -294,7 +294,7 @@ def _record(store: CampaignStore, run, result: dict) -> int:
 
 def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar,
               plugins=None, info: dict | None = None) -> None:
-    executor = IsolatedExecutor() if isolate else None
+    executor = ((take_prestarted(1) or [IsolatedExecutor()])[0]) if isolate else None
     try:
         if executor is not None:
             # The child's start-up (it imports what runs need, ~1.5–2 s) is the campaign's, as a
@@ -328,7 +328,9 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
     # processes would only add their start-up, shutdown and traffic). The children start first,
     # so that they import MuJoCo and mjasc while Dask starts.
     threaded = local and isolate
-    children = [IsolatedExecutor() for _ in range(local_workers(workers))] if threaded else []
+    n_children = local_workers(workers) if threaded else 0
+    children = take_prestarted(n_children)  # (started before the campaign was read, if any)
+    children += [IsolatedExecutor() for _ in range(n_children - len(children))]
     for child in children:
         child.start()
     client, closers = None, []

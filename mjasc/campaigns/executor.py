@@ -29,6 +29,7 @@ counts in the run's ``wall_time_s`` and time limit.
 
 from __future__ import annotations
 
+import atexit
 import json
 import os
 import select
@@ -38,7 +39,7 @@ import time
 import traceback
 
 __all__ = ["IsolatedExecutor", "execute_in_process", "run_isolated", "start_isolated", "adopt_isolated",
-           "release_isolated"]
+           "release_isolated", "prestart_isolated", "take_prestarted"]
 
 
 def execute_in_process(request: dict) -> dict:
@@ -278,6 +279,38 @@ def release_isolated(key: str) -> None:
     ex = _EXECUTORS.pop(key, None)
     if ex is not None:
         ex.close()
+
+
+_PRESTARTED: list = []  # children started before their campaign was read (prestart_isolated)
+
+
+def prestart_isolated(workers: int | None) -> int:
+    """Start run children now, before the caller has read its campaign (the ``campaign`` command):
+    they import MuJoCo and mjasc (~2 s each) while the driver parses the campaign, which keeps one
+    core busy. As many as the cores the driver leaves idle (CPU count − 1, at least one), at most
+    ``workers`` (None: one per core); :func:`take_prestarted` hands them to the campaign, and any
+    left untaken are closed at exit. Returns how many were started."""
+    cores = os.cpu_count() or 1
+    n = min(workers if workers is not None else cores, max(1, cores - 1))
+    for _ in range(n):
+        ex = IsolatedExecutor()
+        ex.start()
+        _PRESTARTED.append(ex)
+    if n and len(_PRESTARTED) == n:
+        atexit.register(_close_prestarted)
+    return n
+
+
+def take_prestarted(n: int) -> list:
+    """Up to ``n`` children that :func:`prestart_isolated` started (now the caller's to close)."""
+    taken = _PRESTARTED[:n]
+    del _PRESTARTED[:n]
+    return taken
+
+
+def _close_prestarted() -> None:
+    while _PRESTARTED:
+        _PRESTARTED.pop()._kill()  # (never given a run: nothing to finish)
 
 
 def _serve() -> None:

@@ -11,6 +11,10 @@ from mjasc.cli.arguments import not_found_hint, out_dir
 
 
 def cmd_campaign(args) -> int:
+    from mjasc.campaigns.executor import prestart_isolated
+
+    if args.scheduler in (None, "local") and args.workers != 0:
+        prestart_isolated(args.workers)  # the runs' children import while the campaign is read
     from mjasc.campaigns.engine import format_aggregate, run_campaign
     from mjasc.campaigns.spec import CampaignError, load_campaign_spec
 
