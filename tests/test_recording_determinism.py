@@ -110,7 +110,7 @@ def test_recording_holds_no_wall_clock_start_time_and_derived_blueprint_ids(tmp_
 def test_footer_checksum_is_xxh32():
     """The stream footer's checksum (xxHash32, compiled) on the reference
     vectors of the xxHash project, and across the 16-byte stripe boundaries."""
-    from mjasc.runs.rrd_canonical import _xxh32
+    from mjasc.runs.rrd_wire import xxh32 as _xxh32
 
     assert [_xxh32(b, 0) for b in (b"", b"a", b"abc", b"Nobody inspects the spammish repetition")] == \
         [0x02CC5D05, 0x550D7456, 0x32D153FF, 0xE2293B2F]

@@ -34,7 +34,7 @@ tests/test_recording_determinism.py does).**
 message a 16-byte header (u64 LE kind: 0 End, 1 SetStoreInfo, 2 ArrowMsg, 3
 BlueprintActivationCommand; u64 LE length) and a protobuf body; the End body is the footer,
 followed by a 32-byte stream footer (u64 start, u64 length, u32 xxh32 of the footer with seed
-7850921, ``RRF2FOOT``, u32 1). (2) Field numbers of rerun.log_msg.v1alpha1 (``_pb`` calls below).
+7850921, ``RRF2FOOT``, u32 1). (2) Field numbers of rerun.log_msg.v1alpha1 (the ``pb_*`` calls below; the wire format in :mod:`mjasc.runs.rrd_wire`).
 (3) An ArrowMsg payload is one LZ4-block-compressed Arrow IPC stream: one schema message, one
 record-batch message (uncompressed buffers: read in place, its row ids written over), the end.
 (4) A chunk's column 0 is ``rerun.controls.RowId`` (fixed_size_binary[16], big-endian time and
@@ -47,7 +47,6 @@ checks it only in debug builds).
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import struct
 
@@ -55,7 +54,7 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.compute as pc
 
-from mjasc.core.compiled import kernel
+from mjasc.runs.rrd_wire import CanonicalRrdError, pb_bytes, pb_int, pb_parse, pb_store_id, pb_tuid, store_key, xxh32
 
 __all__ = ["BASE_NS", "BATCHER_FLUSH_BYTES", "CanonicalRrdError", "canonicalise"]
 
@@ -67,130 +66,6 @@ _RECORDING, _BLUEPRINT = 1, 2  # StoreKind
 _END, _STORE_INFO, _ARROW, _ACTIVATION = 0, 1, 2, 3  # message kinds
 _LZ4 = pa.Codec("lz4_raw")
 _XXH_SEED = 7850921
-
-
-class CanonicalRrdError(ValueError):
-    """The file is not a complete Rerun 0.41 recording of the expected shape."""
-
-
-# ---------------------------------------------------------------- protobuf wire format
-_BYTE = tuple(bytes((b,)) for b in range(0x80))
-
-
-def _varint(n: int) -> bytes:
-    if n < 0x80:  # (most: field keys, flags, small lengths)
-        return _BYTE[n]
-    out = bytearray()
-    while True:
-        b, n = n & 0x7F, n >> 7
-        out.append(b | (0x80 if n else 0))
-        if not n:
-            return bytes(out)
-
-
-def _pb_int(field: int, v: int) -> bytes:
-    return _varint(field << 3) + _varint(v)
-
-
-def _pb_fixed64(field: int, v: int) -> bytes:
-    return _varint(field << 3 | 1) + struct.pack("<Q", v)
-
-
-def _pb_bytes(field: int, b: bytes | str) -> bytes:
-    b = b.encode() if isinstance(b, str) else b
-    return _varint(field << 3 | 2) + _varint(len(b)) + b
-
-
-def _pb_tuid(t_ns: int, inc: int) -> bytes:
-    return b"\x09" + struct.pack("<Q", t_ns) + b"\x11" + struct.pack("<Q", inc)  # fields 1, 2: fixed64
-
-
-def _pb_store_id(kind: int, store: str, app: str) -> bytes:
-    return _pb_int(1, kind) + _pb_bytes(2, store) + _pb_bytes(3, _pb_bytes(1, app))
-
-
-def _read_varint(b, i: int) -> tuple[int, int]:
-    r = s = 0
-    while True:
-        x = b[i]
-        i += 1
-        r |= (x & 0x7F) << s
-        s += 7
-        if x < 0x80:
-            return r, i
-
-
-def _pb_parse(b) -> dict[int, list]:
-    """Field number → values (int for varint / fixed64, bytes for length-delimited)."""
-    out: dict[int, list] = {}
-    i = 0
-    while i < len(b):
-        key, i = _read_varint(b, i)
-        field, wire = key >> 3, key & 7
-        if wire == 0:
-            v, i = _read_varint(b, i)
-        elif wire == 1:
-            v, i = struct.unpack_from("<Q", b, i)[0], i + 8
-        elif wire == 2:
-            n, i = _read_varint(b, i)
-            v, i = bytes(b[i:i + n]), i + n
-        else:
-            raise CanonicalRrdError(f"unsupported protobuf wire type {wire}")
-        out.setdefault(field, []).append(v)
-    return out
-
-
-@functools.lru_cache(maxsize=16)
-def _store_key(store_id: bytes) -> tuple[int, str]:
-    s = _pb_parse(store_id)
-    return s.get(1, [0])[0], s[2][0].decode()
-
-
-def _xxh32(data: bytes, seed: int) -> int:
-    """xxHash32 of ``data`` with ``seed`` (the stream footer's checksum; the footer of a 50-vessel
-    recording is ~4 MB): :func:`_xxh32_words` over the little-endian 32-bit words."""
-    n = len(data)
-    words = np.frombuffer(data, "<u4", n // 4)
-    tail = np.frombuffer(data, np.uint8)[n - n % 4:]
-    return int(_xxh32_words(words, tail, n, seed & 0xFFFFFFFF))
-
-
-@kernel
-def _rotl32(x, r):
-    """x (< 2³², uint64) rotated left by r (uint64) bits within 32 bits."""
-    return ((x << r) | (x >> (np.uint64(32) - r))) & np.uint64(0xFFFFFFFF)
-
-
-@kernel
-def _xxh32_words(words, tail, n, seed):
-    """xxHash32 (Yann Collet's reference algorithm) in unsigned 64-bit arithmetic masked to 32 bits
-    (every operand uint64: numba would turn mixed signed/unsigned integers into floats): four
-    lanes over 16-byte stripes, the merge, the remaining words and bytes, the avalanche."""
-    u = np.uint64
-    p1, p2, p3, p4, p5, m = u(2654435761), u(2246822519), u(3266489917), u(668265263), u(374761393), u(0xFFFFFFFF)
-    seed, n_bytes = u(seed), u(n)
-    i = 0
-    if n >= 16:
-        v = np.empty(4, dtype=np.uint64)
-        v[0], v[1], v[2], v[3] = (seed + p1 + p2) & m, (seed + p2) & m, seed, (seed + (u(1) << u(32)) - p1) & m
-        while 4 * i + 16 <= n:
-            for j in range(4):
-                v[j] = _rotl32((v[j] + u(words[i + j]) * p2) & m, u(13)) * p1 & m
-            i += 4
-        h = (_rotl32(v[0], u(1)) + _rotl32(v[1], u(7)) + _rotl32(v[2], u(12)) + _rotl32(v[3], u(18))) & m
-    else:
-        h = (seed + p5) & m
-    h = (h + n_bytes) & m
-    while i < words.size:
-        h = _rotl32((h + u(words[i]) * p3) & m, u(17)) * p4 & m
-        i += 1
-    for j in range(tail.size):
-        h = _rotl32((h + u(tail[j]) * p5) & m, u(11)) * p1 & m
-    h ^= h >> u(15)
-    h = h * p2 & m
-    h ^= h >> u(13)
-    h = h * p3 & m
-    return h ^ (h >> u(16))
 
 
 # ---------------------------------------------------------------- Arrow
@@ -360,18 +235,18 @@ def _read(data: bytes):
         body = data[i + 16:i + 16 + n]
         i += 16 + n
         if kind == _STORE_INFO:
-            info = _pb_parse(_pb_parse(body)[2][0])
-            stores.setdefault(_store_key(info[2][0]), info)
+            info = pb_parse(pb_parse(body)[2][0])
+            stores.setdefault(store_key(info[2][0]), info)
         elif kind == _ARROW:
-            m = _pb_parse(body)
+            m = pb_parse(body)
             raw = _raw_ipc(m[5][0], m.get(2, [0])[0], m.get(3, [0])[0])
-            chunks.setdefault(_store_key(m[1][0]), []).append(_Chunk(raw, m.get(7, [0])[0]))
+            chunks.setdefault(store_key(m[1][0]), []).append(_Chunk(raw, m.get(7, [0])[0]))
         elif kind == _ACTIVATION:
-            activation = _pb_parse(body)
+            activation = pb_parse(body)
         elif kind == _END:
-            for man in _pb_parse(body).get(1, []):
-                parsed = _pb_parse(man)
-                manifests[_store_key(parsed[1][0])] = parsed
+            for man in pb_parse(body).get(1, []):
+                parsed = pb_parse(man)
+                manifests[store_key(parsed[1][0])] = parsed
             i += 32  # the stream footer
     return stores, chunks, manifests, activation
 
@@ -396,10 +271,10 @@ def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_i
     order = [(_BLUEPRINT, blueprint_id)] * len(by_kind[_BLUEPRINT]) + [(_RECORDING, recording_id)]
     for store_no, (kind, new_id) in enumerate(order, start=1):
         old = by_kind[kind][0]
-        sid = _pb_store_id(kind, new_id, app_id)
+        sid = pb_store_id(kind, new_id, app_id)
         info = stores[old]
-        message(_STORE_INFO, _pb_bytes(1, _pb_tuid(BASE_NS, store_no)) + _pb_bytes(
-            2, _pb_bytes(2, sid) + b"".join(_pb_bytes(f, info[f][0]) for f in (5, 6) if f in info)))
+        message(_STORE_INFO, pb_bytes(1, pb_tuid(BASE_NS, store_no)) + pb_bytes(
+            2, pb_bytes(2, sid) + b"".join(pb_bytes(f, info[f][0]) for f in (5, 6) if f in info)))
         src = chunks.get(old, [])
         if src and old not in manifests:
             raise CanonicalRrdError(f"store {old[1]} has no footer manifest (the file was not closed)")
@@ -412,8 +287,8 @@ def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_i
             raise CanonicalRrdError("a chunk without rows")
         starts = np.concatenate([[0], np.cumsum(counts)])
         first = np.minimum.reduceat(rank, starts[:-1]) if src else rank
-        head = _pb_bytes(1, sid) + _pb_int(2, 2)
-        tail = _pb_int(4, 1)
+        head = pb_bytes(1, sid) + pb_int(2, 2)
+        tail = pb_int(4, 1)
         new_ids, spans = {}, {}
         for k, ci in enumerate(np.argsort(first, kind="stable").tolist()):
             chunk = src[ci]
@@ -422,18 +297,18 @@ def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_i
             ids = np.empty((counts[ci], 2), ">u8")
             ids[:, 0], ids[:, 1] = BASE_NS, rank[starts[ci]:starts[ci + 1]] + 1
             ipc = chunk.ipc(ids, f"chunk_{BASE_NS:016X}{inc:016x}".encode())
-            body = (head + _pb_int(3, len(ipc)) + tail + _pb_bytes(5, _LZ4.compress(ipc, asbytes=True))
-                    + _pb_bytes(6, _pb_tuid(BASE_NS, inc)) + _pb_int(7, chunk.is_static))
+            body = (head + pb_int(3, len(ipc)) + tail + pb_bytes(5, _LZ4.compress(ipc, asbytes=True))
+                    + pb_bytes(6, pb_tuid(BASE_NS, inc)) + pb_int(7, chunk.is_static))
             spans[k] = (len(out) + 16, len(body), len(ipc))
             message(_ARROW, body)
         if kind == _BLUEPRINT and activation is not None:
-            message(_ACTIVATION, _pb_bytes(1, sid) + b"".join(_pb_int(f, 1) for f in (2, 3)
+            message(_ACTIVATION, pb_bytes(1, sid) + b"".join(pb_int(f, 1) for f in (2, 3)
                                                                if activation.get(f, [0])[0]))
         if src:
             footer.append(_manifest(manifests[old], sid, new_ids, spans))
-    rrd_footer = b"".join(_pb_bytes(1, m) for m in footer)
+    rrd_footer = b"".join(pb_bytes(1, m) for m in footer)
     message(_END, rrd_footer)
-    out += struct.pack("<QQI", len(out) - len(rrd_footer), len(rrd_footer), _xxh32(rrd_footer, _XXH_SEED))
+    out += struct.pack("<QQI", len(out) - len(rrd_footer), len(rrd_footer), xxh32(rrd_footer, _XXH_SEED))
     out += b"RRF2FOOT" + struct.pack("<I", 1)
     with open(dst_path, "wb") as f:
         f.write(out)
@@ -441,12 +316,12 @@ def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_i
 
 def _manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes:
     """The SDK's footer manifest of one store with the new store id, chunk ids, offsets and sizes."""
-    sorbet = _canon_schema(pa.ipc.read_schema(pa.py_buffer(_pb_parse(man[2][0])[1][0])), sort_fields=True)
+    sorbet = _canon_schema(pa.ipc.read_schema(pa.py_buffer(pb_parse(man[2][0])[1][0])), sort_fields=True)
     sorbet_ipc = _ipc(None, sorbet)  # (the schema message and the end of stream)
     # The hash is over the schema without its own metadata (it has none: the message itself then).
     sha = hashlib.sha256(pa.schema(list(sorbet)).serialize().to_pybytes() if sorbet.metadata
                          else sorbet_ipc[:-len(_EOS)]).digest()
-    part = _pb_parse(man[4][0])
+    part = pb_parse(man[4][0])
     batch = _read_ipc(part[2][0], part.get(3, [0])[0], part.get(4, [0])[0])
     olds = [b"chunk_%016X%016x" % struct.unpack(">QQ", c) for c in batch.column("chunk_id").to_pylist()]
     try:
@@ -464,5 +339,5 @@ def _manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes:
                             and (f.metadata or {}).get(b"rerun:index") == b"log_time")
     batch = batch.take(pa.array(np.argsort(ks)))
     ipc = _ipc(pa.RecordBatch.from_arrays(batch.columns, schema=_canon_schema(batch.schema)))
-    data = _pb_int(1, 1) + _pb_bytes(2, _LZ4.compress(ipc, asbytes=True)) + _pb_int(3, 2) + _pb_int(4, len(ipc))
-    return _pb_bytes(1, sid) + _pb_bytes(2, _pb_bytes(1, sorbet_ipc)) + _pb_bytes(3, sha) + _pb_bytes(4, data)
+    data = pb_int(1, 1) + pb_bytes(2, _LZ4.compress(ipc, asbytes=True)) + pb_int(3, 2) + pb_int(4, len(ipc))
+    return pb_bytes(1, sid) + pb_bytes(2, pb_bytes(1, sorbet_ipc)) + pb_bytes(3, sha) + pb_bytes(4, data)

@@ -1,0 +1,145 @@
+"""The container's wire format under :mod:`mjasc.runs.rrd_canonical`: protobuf's varints and
+fields (written and read: Rerun 0.41's log messages are protobuf, their field numbers are in the
+callers) and the xxHash32 checksum of the stream footer.
+
+Written here rather than taken from a protobuf or xxhash package: the messages are a handful of
+fields, and re-encoding must not depend on a second library's version. xxHash32 follows Yann
+Collet's reference algorithm (tests/test_recording_determinism.py checks it against known digests
+and the SDK's own footers).
+"""
+
+from __future__ import annotations
+
+import functools
+import struct
+
+import numpy as np
+
+from mjasc.core.compiled import kernel
+
+__all__ = ["CanonicalRrdError", "varint", "pb_int", "pb_fixed64", "pb_bytes", "pb_tuid", "pb_store_id", "read_varint",
+           "pb_parse", "store_key", "xxh32"]
+
+
+class CanonicalRrdError(ValueError):
+    """The file is not a complete Rerun 0.41 recording of the expected shape."""
+
+
+# ---------------------------------------------------------------- protobuf wire format
+_BYTE = tuple(bytes((b,)) for b in range(0x80))
+
+
+def varint(n: int) -> bytes:
+    if n < 0x80:  # (most: field keys, flags, small lengths)
+        return _BYTE[n]
+    out = bytearray()
+    while True:
+        b, n = n & 0x7F, n >> 7
+        out.append(b | (0x80 if n else 0))
+        if not n:
+            return bytes(out)
+
+
+def pb_int(field: int, v: int) -> bytes:
+    return varint(field << 3) + varint(v)
+
+
+def pb_fixed64(field: int, v: int) -> bytes:
+    return varint(field << 3 | 1) + struct.pack("<Q", v)
+
+
+def pb_bytes(field: int, b: bytes | str) -> bytes:
+    b = b.encode() if isinstance(b, str) else b
+    return varint(field << 3 | 2) + varint(len(b)) + b
+
+
+def pb_tuid(t_ns: int, inc: int) -> bytes:
+    return b"\x09" + struct.pack("<Q", t_ns) + b"\x11" + struct.pack("<Q", inc)  # fields 1, 2: fixed64
+
+
+def pb_store_id(kind: int, store: str, app: str) -> bytes:
+    return pb_int(1, kind) + pb_bytes(2, store) + pb_bytes(3, pb_bytes(1, app))
+
+
+def read_varint(b, i: int) -> tuple[int, int]:
+    r = s = 0
+    while True:
+        x = b[i]
+        i += 1
+        r |= (x & 0x7F) << s
+        s += 7
+        if x < 0x80:
+            return r, i
+
+
+def pb_parse(b) -> dict[int, list]:
+    """Field number → values (int for varint / fixed64, bytes for length-delimited)."""
+    out: dict[int, list] = {}
+    i = 0
+    while i < len(b):
+        key, i = read_varint(b, i)
+        field, wire = key >> 3, key & 7
+        if wire == 0:
+            v, i = read_varint(b, i)
+        elif wire == 1:
+            v, i = struct.unpack_from("<Q", b, i)[0], i + 8
+        elif wire == 2:
+            n, i = read_varint(b, i)
+            v, i = bytes(b[i:i + n]), i + n
+        else:
+            raise CanonicalRrdError(f"unsupported protobuf wire type {wire}")
+        out.setdefault(field, []).append(v)
+    return out
+
+
+@functools.lru_cache(maxsize=16)
+def store_key(store_id: bytes) -> tuple[int, str]:
+    s = pb_parse(store_id)
+    return s.get(1, [0])[0], s[2][0].decode()
+
+
+def xxh32(data: bytes, seed: int) -> int:
+    """xxHash32 of ``data`` with ``seed`` (the stream footer's checksum; the footer of a 50-vessel
+    recording is ~4 MB): :func:`_xxh32_words` over the little-endian 32-bit words."""
+    n = len(data)
+    words = np.frombuffer(data, "<u4", n // 4)
+    tail = np.frombuffer(data, np.uint8)[n - n % 4:]
+    return int(_xxh32_words(words, tail, n, seed & 0xFFFFFFFF))
+
+
+@kernel
+def _rotl32(x, r):
+    """x (< 2³², uint64) rotated left by r (uint64) bits within 32 bits."""
+    return ((x << r) | (x >> (np.uint64(32) - r))) & np.uint64(0xFFFFFFFF)
+
+
+@kernel
+def _xxh32_words(words, tail, n, seed):
+    """xxHash32 (Yann Collet's reference algorithm) in unsigned 64-bit arithmetic masked to 32 bits
+    (every operand uint64: numba would turn mixed signed/unsigned integers into floats): four
+    lanes over 16-byte stripes, the merge, the remaining words and bytes, the avalanche."""
+    u = np.uint64
+    p1, p2, p3, p4, p5, m = u(2654435761), u(2246822519), u(3266489917), u(668265263), u(374761393), u(0xFFFFFFFF)
+    seed, n_bytes = u(seed), u(n)
+    i = 0
+    if n >= 16:
+        v = np.empty(4, dtype=np.uint64)
+        v[0], v[1], v[2], v[3] = (seed + p1 + p2) & m, (seed + p2) & m, seed, (seed + (u(1) << u(32)) - p1) & m
+        while 4 * i + 16 <= n:
+            for j in range(4):
+                v[j] = _rotl32((v[j] + u(words[i + j]) * p2) & m, u(13)) * p1 & m
+            i += 4
+        h = (_rotl32(v[0], u(1)) + _rotl32(v[1], u(7)) + _rotl32(v[2], u(12)) + _rotl32(v[3], u(18))) & m
+    else:
+        h = (seed + p5) & m
+    h = (h + n_bytes) & m
+    while i < words.size:
+        h = _rotl32((h + u(words[i]) * p3) & m, u(17)) * p4 & m
+        i += 1
+    for j in range(tail.size):
+        h = _rotl32((h + u(tail[j]) * p5) & m, u(11)) * p1 & m
+    h ^= h >> u(15)
+    h = h * p2 & m
+    h ^= h >> u(13)
+    h = h * p3 & m
+    return h ^ (h >> u(16))
