@@ -256,14 +256,20 @@ def _family_tables(data: dict) -> list[dict]:
     return [legacy]
 
 
-def _family_parsers() -> dict:
+def _perturbation_parser(t, where, index, base_dir, thresholds):
+    return parse_perturbation_family(t, where, index, base_dir)
+
+
+def _family_parser(kind: Any, where: str):
+    """The parser of a family ``kind``; the encounter and Imazu families' modules (with scipy's
+    optimizer) are imported only for a campaign that has such a family."""
+    if kind == "perturbation":
+        return _perturbation_parser
     from mjasc.campaigns import encounters, imazu
 
-    parsers = {"perturbation": lambda t, w, i, d, th: parse_perturbation_family(t, w, i, d)}
-    for kind in encounters.FAMILY_KINDS:
-        parsers[kind] = encounters.parse_family
-    parsers["imazu"] = imazu.parse_family
-    return parsers
+    parsers = {"perturbation": _perturbation_parser, **{k: encounters.parse_family for k in encounters.FAMILY_KINDS},
+               "imazu": imazu.parse_family}
+    return parsers[string(kind, where, choices=parsers)]
 
 
 def _canonical(obj: Any) -> str:
@@ -288,12 +294,10 @@ def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path
         evaluation = dataclass_from_table(CampaignEvaluation, data.get("evaluation", {}), "evaluation")
         thresholds = dataclass_from_table(ColregConfig, data.get("colreg", {}), "colreg")
         methods = parse_methods(data["methods"]) if "methods" in data else ()
-        parsers = _family_parsers()
         families = []
         for i, t in enumerate(_family_tables(data)):
             where = f"families[{i}]" if not legacy else ""
-            kind = string(t.get("kind"), f"{where}.kind" if where else "kind", choices=parsers)
-            fam = parsers[kind](t, where, i, base_dir, thresholds)
+            fam = _family_parser(t.get("kind"), f"{where}.kind" if where else "kind")(t, where, i, base_dir, thresholds)
             if any(f.name == fam.name for f in families):
                 raise CampaignError(f"{where}.name: duplicate family name {fam.name!r}")
             families.append(fam)
