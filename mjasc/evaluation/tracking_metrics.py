@@ -25,6 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from mjasc.evaluation.gospa_kernels import score_ticks
+
 __all__ = ["gospa", "GospaTerms", "TrackingScore"]
 
 
@@ -63,41 +65,6 @@ def gospa(truth_xy, estimates_xy, cutoff_m: float = 10.0, order: float = 2.0) ->
     n_false = y.shape[0] - len(assignment)
     missed, false = half * n_missed, half * n_false
     return GospaTerms((loc + missed + false) ** (1.0 / p), loc, missed, false, n_missed, n_false, assignment)
-
-
-def _assignment(cost_rows: list, a: int, b: int, truths: list, fast: bool = True):
-    """The pairs (k, j) :func:`scipy.optimize.linear_sum_assignment` gives for the costs of the
-    truth objects ``truths`` (rows k) to the tracks a … b − 1 (columns j): ``cost_rows[a + j][m]``
-    is track a + j's cost to truth m.
-
-    With no more truths than tracks every truth is assigned, so the sum of each truth's least cost
-    bounds every assignment from below: when each truth's least cost is unique and no two truths
-    share their least-cost track, those pairs are the one optimal assignment (likewise with the
-    roles swapped when there are more truths than tracks). Found here without scipy (``fast``),
-    in scipy's order (rows ascending); any other problem goes to scipy."""
-    if fast:
-        by_truth = len(truths) <= b - a
-        if by_truth:  # every truth is assigned: each truth's costs to the tracks
-            lists = ([cost_rows[r][m] for r in range(a, b)] for m in truths)
-        else:  # every track is assigned: each track's costs to the truths
-            lists = ([cost_rows[r][m] for m in truths] for r in range(a, b))
-        picks = _unique_least(lists)
-        if picks is not None:
-            return tuple(enumerate(picks)) if by_truth else tuple(sorted((k, j) for j, k in enumerate(picks)))
-    rows, cols = linear_sum_assignment(np.array([[cost_rows[r][m] for r in range(a, b)] for m in truths]))
-    return zip(rows.tolist(), cols.tolist())
-
-
-def _unique_least(cost_lists) -> list | None:
-    """Each list's index of its least cost; None when a least cost is shared within a list or two
-    lists pick the same index."""
-    picks = []
-    for costs in cost_lists:
-        best = min(costs)
-        if costs.count(best) != 1:
-            return None
-        picks.append(costs.index(best))
-    return picks if len(set(picks)) == len(picks) else None
 
 
 def _rows(parts: list, dtype, shape: tuple) -> np.ndarray:
@@ -163,8 +130,10 @@ class TrackingScore:
         time, the tracks' ids (k_t,) and positions (k_t, 2) [m].
 
         The distances of every (time, track, truth) triple are computed in one pass (elementwise,
-        the numbers :func:`gospa` computes per time); what is left per time is the assignment and
-        the bookkeeping in plain floats."""
+        the numbers :func:`gospa` computes per time); the per-time assignments and sums are one
+        compiled pass (:func:`mjasc.evaluation.gospa_kernels.score_ticks`), scipy deciding the
+        times whose least costs do not. ``truth_ids`` must be distinct.
+        """
         times = [float(t) for t in times_s]
         n_t = len(times)
         if n_t == 0:
@@ -185,49 +154,48 @@ class TrackingScore:
         first = in_range[:, seen].argmax(axis=0)
         for k in np.lexsort((seen, first)).tolist():
             self._first_seen.setdefault(truth_ids[int(seen[k])], times[int(first[k])])
-        # every track's distance to every truth object of its time: (M, R), truth-major
+        # every track's distance to every truth object of its time: (R, M), track-major
         counts = [len(ids) for ids in track_ids]
-        ends = np.cumsum(counts).tolist()
-        n_rows = ends[-1] if ends else 0
+        ends = np.cumsum(np.asarray(counts, dtype=np.int64))
+        n_rows = int(ends[-1])
+        fast = True
         if n_rows and n_truth:
             y = _rows(track_xy, float, (-1, 2))
             qt = q[np.repeat(np.arange(n_t), counts)]  # (R, M, 2): the truth at each track's time
-            d_all = np.hypot(qt[:, :, 0].T - y[None, :, 0], qt[:, :, 1].T - y[None, :, 1])
-            cost_all = np.minimum(d_all, c) ** p
-            fast = bool(np.isfinite(cost_all).all())  # (scipy refuses NaN: it decides every time then)
-            d_rows, cost_rows = d_all.T.tolist(), cost_all.T.tolist()  # per track: to each truth object
-        ids_all = _rows(track_ids, np.int64, (-1,)).tolist() if n_rows else []
-        in_lists = in_range.tolist()
-        sums = self._sum
-        s_dist, s_loc, s_miss, s_false = sums["distance"], sums["localization"], sums["missed"], sums["false"]
-        first_at, last_id, confirmed_at = 0, self._last_id, self._confirmed_at
-        switches = self.id_switches
-        for k in range(n_t):
-            a, b = first_at, ends[k]
-            first_at = b
-            idx = [j for j, ok in enumerate(in_lists[k]) if ok]
-            n_x, n_y = len(idx), b - a
-            loc, n_assigned = 0.0, 0
-            if n_x and n_y:
-                t = times[k]
-                for r, j in _assignment(cost_rows, a, b, idx, fast):
-                    dr = d_rows[a + j][idx[r]]
-                    if dr < c:
-                        n_assigned += 1
-                        loc += dr ** p
-                        tid, trk = truth_ids[idx[r]], ids_all[a + j]
-                        confirmed_at.setdefault(tid, t)
-                        old = last_id.get(tid)
-                        if old is not None and old != trk:
-                            switches += 1
-                        last_id[tid] = trk
-            missed, false = half * (n_x - n_assigned), half * (n_y - n_assigned)
-            s_dist += (loc + missed + false) ** (1.0 / p)
-            s_loc += loc
-            s_miss += missed
-            s_false += false
-        sums["distance"], sums["localization"], sums["missed"], sums["false"] = s_dist, s_loc, s_miss, s_false
-        self.id_switches = switches
+            d = np.hypot(qt[:, :, 0] - y[:, None, 0], qt[:, :, 1] - y[:, None, 1])
+            cost = np.minimum(d, c) ** p
+            fast = bool(np.isfinite(cost).all())  # (scipy refuses NaN: it decides every time then)
+        else:
+            d = cost = np.zeros((n_rows, n_truth))
+        ids = _rows(track_ids, np.int64, (-1,)) if n_rows else np.zeros(0, dtype=np.int64)
+        # the per-time loop (compiled; a time whose assignment the least costs do not decide: scipy)
+        names = list(truth_ids)
+        if len(set(names)) != len(names):
+            raise ValueError(f"truth_ids: must be distinct, got {names}")
+        last, confirmed_at = self._last_id, self._confirmed_at
+        last_a = np.array([last.get(x, 0) for x in names], dtype=np.int64)
+        has_last = np.array([x in last for x in names], dtype=bool)
+        conf = np.array([confirmed_at.get(x, np.nan) for x in names], dtype=float)
+        order = np.full(len(names), -1, dtype=np.int64)
+        sums = np.array([self._sum["distance"], self._sum["localization"], self._sum["missed"], self._sum["false"]])
+        counters = np.array([self.id_switches, 0], dtype=np.int64)
+        t_a = np.asarray(times, dtype=float)
+        given_r = given_c = np.zeros(0, dtype=np.int64)
+        k, n_given = 0, -1
+        while k < n_t:
+            k = score_ticks(k, ends, in_range, d, cost, ids, t_a, c, p, half, fast, given_r, given_c, n_given, sums,
+                            last_a, has_last, conf, order, counters)
+            if k < n_t:  # (its pairs, scipy's order: truth rows ascending; the next pass starts with them)
+                a = int(ends[k - 1]) if k else 0
+                given_r, given_c = linear_sum_assignment(cost[a:int(ends[k])][:, np.flatnonzero(in_range[k])].T)
+                given_r, given_c, n_given = given_r.astype(np.int64), given_c.astype(np.int64), given_r.size
+        self._sum.update(zip(("distance", "localization", "missed", "false"), sums.tolist()))
+        self.id_switches = int(counters[0])
+        for m in np.argsort(order, kind="stable")[int((order < 0).sum()):].tolist():  # in the order first matched
+            confirmed_at[names[m]] = float(conf[m])
+            last[names[m]] = int(last_a[m])
+        for m in np.flatnonzero(has_last).tolist():
+            last[names[m]] = int(last_a[m])
         self._n += n_t
 
     def summary(self) -> dict:
