@@ -94,6 +94,15 @@ class RunEvaluator:
                 self._scores[i] = TrackingScore(self.config.gospa_cutoff_m, self.config.gospa_order, rng)
                 self._tracks[i] = []
                 self._perceptions.append((i, agent.perception))
+        # Built-in trackers of one fleet: every vessel's moving tracks in one call per tick
+        # (FleetTracker.moving_rows), split per vessel when scored; plugin trackers: one call each.
+        self._owner_of: dict[int, int] = {}
+        trackers = [(i, p.tracker) for i, p in self._perceptions if p.method is None]
+        if trackers and len(trackers) == len(self._perceptions) and \
+                len({id(p.fleet) for _, p in self._perceptions}) == 1 and \
+                len({id(tr.fleet) for _, tr in trackers}) == 1:
+            self._owner_of = {i: tr.owner for i, tr in trackers}
+        self._moving: list = []  # per tick: (vessels, ids, positions) of every moving track (_owner_of)
 
     def __call__(self, event) -> None:
         s, sim = event.states, event.runner.sim
@@ -101,8 +110,26 @@ class RunEvaluator:
         self._v.append(s.velocity_m_s.copy())
         self._rows.append(sim.traffic.rows(sim.time_s))  # (a new list per time: kept as is)
         self.progress(event)
+        if self._owner_of:
+            self._moving.append(self._perceptions[0][1].tracker.fleet.moving_rows())  # (tracker: after the flush)
+            return
         for i, perception in self._perceptions:
             self._tracks[i].append(perception.moving_tracks())
+
+    def _split_moving(self) -> None:
+        """Each vessel's per-tick (ids, positions) from the fleet's samples (:meth:`__call__`)."""
+        moving, self._moving = self._moving, []
+        if not moving:
+            return
+        counts = [m[0].size for m in moving]
+        owner = np.concatenate([m[0] for m in moving])
+        ids = np.concatenate([m[1] for m in moving])
+        pos = np.concatenate([m[2] for m in moving]).reshape(-1, 2)
+        tick = np.repeat(np.arange(len(moving)), counts)
+        for i, o in self._owner_of.items():
+            sel = owner == o
+            cuts = np.cumsum(np.bincount(tick[sel], minlength=len(moving)))[:-1]
+            self._tracks[i].extend(zip(np.split(ids[sel], cuts), np.split(pos[sel], cuts)))
 
     def _traffic(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The traffic's positions (k, M, 2), headings (k, M), velocities (k, M, 2) at the ticks:
@@ -115,6 +142,7 @@ class RunEvaluator:
         k0, k1 = self._scored, len(self.progress.t)
         if not self._scores or k1 <= k0:
             return
+        self._split_moving()
         t = self.progress.t[k0:k1]
         p = np.array(self.progress.p[k0:k1], dtype=float)
         xy = np.concatenate([p, self._traffic()[0][k0:k1]], axis=1)

@@ -160,6 +160,14 @@ class FleetTracker:
             got = self._sizes = (self.version, np.bincount(self.cols.owner, minlength=no).tolist(), no)
         return got[1][owner]
 
+    def moving_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every vessel's confirmed tracks that are not static, in bank order: their vessels (k,),
+        ids (k,) and positions (k, 2) [m] — a vessel's rows among them are, in the same order, what
+        its tracker's ``moving_positions`` gives (a run's evaluation samples them all at once)."""
+        c = self.cols
+        rows = (c.confirmed & ~c.static).nonzero()[0]
+        return c.owner[rows], c.local_id[rows], self.bank.positions_of(rows)
+
     def counts(self, owner: int) -> dict:
         return dict(zip(COUNT_KEYS, self._counts[owner].tolist()))
 
