@@ -47,7 +47,7 @@ independently takes its kind's default):
                     sailed along the track from the execute point), ``head_reach`` [m] along the
                     approach course, ``lateral_deviation`` [m], ``stopping_time`` [s].
 
-Steady state (:data:`STEADY`): sampled every ``sample_s``, the state is steady when, over the last
+Steady state (:data:`mjasc.physics.trial_track.STEADY`): sampled every ``sample_s``, the state is steady when, over the last
 ``window_s``, the spread (max − min) of u and v is below ``velocity_tol_m_s`` and that of r below
 ``yaw_rate_tol_rad_s``; a phase gives up at ``max_time_s`` and the result then says
 ``steady_state_reached: False``. For a first-order response with time constant τ the remaining error
@@ -61,16 +61,13 @@ units, rounded (m and m/s to 4 decimals, s to 3, angles to 2 in degrees, rad/s t
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
-from mjasc.core.config_tables import check_params, number, param
-from mjasc.physics.simulation import Simulation
-from mjasc.physics.vessels import load_vessel_type
-from mjasc.physics.world import build_world
+from mjasc.core.config_tables import number
+from mjasc.physics.trial_track import TrialTrack, amidships_command, new_track
 
-__all__ = ["TRIAL_KINDS", "DEFAULT_COMMANDS", "SteadyStateCriterion", "STEADY", "run_trial", "UNITS"]
+__all__ = ["TRIAL_KINDS", "DEFAULT_COMMANDS", "run_trial", "UNITS"]
 
 #: The unit of each numeric result of :func:`run_trial` (printed by ``mjasc trial``).
 UNITS = {"timestep_s": "s", "port": "(command in [-1, 1])", "starboard": "(command in [-1, 1])",
@@ -99,87 +96,6 @@ STOPPED_SURGE_M_S = 0.05
 MANOEUVRE_MAX_TIME_S = 600.0
 
 ONE_MINUS_INV_E = 1.0 - math.exp(-1.0)
-
-
-@dataclass(frozen=True)
-class SteadyStateCriterion:
-    """When a constant-command phase counts as steady (see the module docstring)."""
-
-    window_s: float = param(3.0, positive=True, unit="s", doc="the spreads are taken over this last window")
-    sample_s: float = param(0.25, positive=True, unit="s", doc="sampling period of the check")
-    velocity_tol_m_s: float = param(1e-4, positive=True, unit="m/s", doc="largest spread of u and v")
-    yaw_rate_tol_rad_s: float = param(1e-4, positive=True, unit="rad/s", doc="largest spread of r")
-    min_time_s: float = param(3.0, nonneg=True, unit="s", doc="a phase lasts at least this long")
-    max_time_s: float = param(600.0, positive=True, unit="s", doc="a phase gives up after this long")
-
-    def __post_init__(self):
-        check_params(self, "steady_state")
-
-
-STEADY = SteadyStateCriterion()
-
-
-class _Track:
-    """One vessel's simulation with the time history of every physics step.
-
-    Columns: t [s], x, y [m] (world ENU), ψ [rad] unwrapped (continuous), u, v [m/s], r [rad/s].
-    """
-
-    def __init__(self, sim: Simulation):
-        self.sim = sim
-        self.rows: list[tuple] = []
-        self._psi_unwrapped = 0.0
-        self._record()
-
-    def _record(self) -> None:
-        s = self.sim.states()
-        psi = float(s.heading_rad[0])
-        if self.rows:
-            d = psi - self._psi_wrapped
-            self._psi_unwrapped += (d + math.pi) % (2.0 * math.pi) - math.pi
-        else:
-            self._psi_unwrapped = psi
-        self._psi_wrapped = psi
-        u, v, r = (float(a) for a in s.body_velocity[0])
-        x, y = (float(a) for a in s.position_m[0])
-        self.rows.append((s.time_s, x, y, self._psi_unwrapped, u, v, r))
-
-    @property
-    def last(self) -> tuple:
-        return self.rows[-1]
-
-    def command(self, port: float, starboard: float) -> None:
-        self.sim.set_commands([[port, starboard]])
-
-    def step(self, n: int = 1) -> None:
-        for _ in range(n):
-            self.sim.step(1)
-            self._record()
-
-    def array(self, start: int = 0) -> np.ndarray:
-        """(K, 7) array of the rows from index ``start`` on."""
-        return np.array(self.rows[start:], dtype=float)
-
-    def sail_until_steady(self, criterion: SteadyStateCriterion = STEADY) -> bool:
-        """Step under the current commands until steady (True) or ``max_time_s`` (False)."""
-        dt = self.sim.timestep_s
-        k = max(1, round(criterion.sample_s / dt))
-        n_window = max(2, math.ceil(criterion.window_s / (k * dt)) + 1)
-        t0 = self.last[0]
-        samples: list[tuple] = []
-        tol = np.array([criterion.velocity_tol_m_s, criterion.velocity_tol_m_s, criterion.yaw_rate_tol_rad_s])
-        while True:
-            self.step(k)
-            samples.append(self.last[4:7])
-            if len(samples) > n_window:
-                samples.pop(0)
-            elapsed = self.last[0] - t0
-            if elapsed >= criterion.min_time_s and len(samples) == n_window:
-                spread = np.ptp(np.array(samples), axis=0)
-                if np.all(spread < tol):
-                    return True
-            if elapsed >= criterion.max_time_s:
-                return False
 
 
 # ---------------------------------------------------------------------- helpers
@@ -239,27 +155,12 @@ def _path_length(xy: np.ndarray) -> float:
     return float(np.sum(np.hypot(np.diff(xy[:, 0]), np.diff(xy[:, 1]))))
 
 
-def _new_track(vessel_name: str) -> _Track:
-    vtype = load_vessel_type(vessel_name)
-    sim = Simulation(build_world([(vessel_name, vtype)]))
-    sim.reset(np.zeros((1, 3)))
-    return _Track(sim)
-
-
-def _amidships_command(track: _Track, p: float, s: float) -> float:
-    """"Rudder amidships" for the pair (p, s): the equal command on both shafts giving the same
-    total thrust, 2 T(c₀) = T(p) + T(s), rounded to 4 decimals."""
-    props = track.sim.world.vessel_types[0].propellers
-    mean_thrust = 0.5 * float(props.thrust(p) + props.thrust(s))
-    return round(float(props.command_for_thrust(mean_thrust)), 4)
-
-
 def _r(x, nd):
     return None if x is None else round(float(x), nd)
 
 
 # ---------------------------------------------------------------------- trials
-def _speed(track: _Track, p: float, s: float) -> dict:
+def _speed(track: TrialTrack, p: float, s: float) -> dict:
     track.command(p, s)
     steady = track.sail_until_steady()
     rows = track.array()
@@ -276,7 +177,7 @@ def _speed(track: _Track, p: float, s: float) -> dict:
     }
 
 
-def _approach(track: _Track, commands: tuple[float, float]) -> tuple[bool, int, np.ndarray, float, float]:
+def _approach(track: TrialTrack, commands: tuple[float, float]) -> tuple[bool, int, np.ndarray, float, float]:
     """Sail straight to steady state; returns (steady, execute row index, execute xy, ψ0, speed)."""
     track.command(*commands)
     steady = track.sail_until_steady()
@@ -285,11 +186,11 @@ def _approach(track: _Track, commands: tuple[float, float]) -> tuple[bool, int, 
     return steady, i0, np.array([x, y]), psi, math.hypot(u, v)
 
 
-def _turning_circle(track: _Track, p: float, s: float) -> dict:
+def _turning_circle(track: TrialTrack, p: float, s: float) -> dict:
     if p == s:
         raise ValueError(f"--port/--starboard: a turning circle needs different commands, got {p:g} and {s:g} "
                          "(equal commands sail straight)")
-    m = _amidships_command(track, p, s)
+    m = amidships_command(track, p, s)
     ok_approach, i0, xy0, psi0, u0 = _approach(track, (m, m))
     t0 = track.rows[i0][0]
     track.command(p, s)
@@ -336,13 +237,13 @@ def _turning_circle(track: _Track, p: float, s: float) -> dict:
     }
 
 
-def _zigzag(track: _Track, p: float, s: float, angle_deg: float) -> dict:
+def _zigzag(track: TrialTrack, p: float, s: float, angle_deg: float) -> dict:
     if p == s:
         raise ValueError(f"--port/--starboard: a zig-zag needs different commands, got {p:g} and {s:g} "
                          "(the differential (port − starboard)/2 is the rudder angle)")
     if not 0.0 < angle_deg < 90.0:
         raise ValueError(f"zigzag_angle_deg: must be in (0, 90), got {angle_deg}")
-    m = _amidships_command(track, p, s)
+    m = amidships_command(track, p, s)
     ok_approach, i0, xy0, psi0, u0 = _approach(track, (m, m))
     t0 = track.rows[i0][0]
     alpha = math.radians(angle_deg)
@@ -386,7 +287,7 @@ def _zigzag(track: _Track, p: float, s: float, angle_deg: float) -> dict:
     }
 
 
-def _stopping(track: _Track, p: float, s: float) -> dict:
+def _stopping(track: TrialTrack, p: float, s: float) -> dict:
     for value, flag in ((p, "--port"), (s, "--starboard")):
         if value > 0:
             raise ValueError(f"{flag}: a stopping trial's command must be ≤ 0 (−1 full astern, 0 coasting), "
@@ -431,7 +332,7 @@ def run_trial(kind: str, vessel_name: str, port: float | None = None, starboard:
     p = _validate_command(default_p if port is None else port, "--port")
     s = _validate_command(default_s if starboard is None else starboard, "--starboard")
     try:
-        track = _new_track(vessel_name)
+        track = new_track(vessel_name)
     except ValueError as exc:
         raise ValueError(f"--vessel: {exc}") from None
     if kind == "speed":
