@@ -14,7 +14,8 @@ import pytest
 
 from mjasc.evaluation.colreg import own_bearing_from_target_deg, role_from_geometry, wrap_deg
 from mjasc.campaigns.cpa import bearing_deg, course_for_bearing, cpa, place_target
-from mjasc.campaigns.encounters import FAMILY_KINDS, ROLE_DEFAULTS, START_MARGIN_M
+from mjasc.campaigns.encounter_parameters import ROLE_DEFAULTS
+from mjasc.campaigns.encounters import FAMILY_KINDS, START_MARGIN_M
 from mjasc.campaigns.perturbation import load_campaign, randomized_scenario
 from mjasc.campaigns.scenario_text import scenario_toml
 from mjasc.campaigns.spec import CampaignError, load_campaign_spec, parse_campaign_spec

@@ -41,8 +41,9 @@ with the campaign's ``[colreg]`` thresholds) must be the family's; a target must
 islands. A draw that fails is drawn again from the same generator (the laws are truncated to the
 role's region), at most :data:`MAX_ATTEMPTS` times per run.
 
-**Defaults** (a parameter the file does not give is fixed at its default): :class:`Conditions`,
-:class:`Team`, :class:`Bottleneck`, :class:`TargetParameters`, and per role :data:`ROLE_DEFAULTS`
+**Defaults** (a parameter the file does not give is fixed at its default; declared in
+:mod:`mjasc.campaigns.encounter_parameters`): ``Conditions``, ``Team``, ``Bottleneck``,
+``TargetParameters``, and per role ``ROLE_DEFAULTS``
 (chosen so that the target starts 80–110 m away, inside the 120 m sensor range):
 
     role                 relative course   speed ratio   TCPA    start range (DCPA 0, 1.5 m/s)
@@ -69,14 +70,13 @@ import numpy as np
 from mjasc.evaluation.colreg import GEOMETRIC_ROLES, ColregConfig, role_from_geometry, wrap_deg
 from mjasc.campaigns.cpa import Placement, course_for_bearing, place_target
 from mjasc.campaigns.distributions import ParameterSpace, family_rng
+from mjasc.campaigns.encounter_parameters import ROLE_DEFAULTS, Bottleneck, Conditions, TargetParameters, Team
 from mjasc.campaigns.perturbation import CampaignError
 from mjasc.core.config_tables import (
     check_keys,
-    check_params,
     errors_as,
     integer,
     number,
-    param,
     read_field,
     string,
     table,
@@ -84,8 +84,7 @@ from mjasc.core.config_tables import (
 from mjasc.core.geometry import signed_distance_to_polygon
 from mjasc.physics.vessels import available_vessels, load_vessel_type
 
-__all__ = ["FAMILY_KINDS", "ROLE_DEFAULTS", "MAX_ATTEMPTS", "START_MARGIN_M", "Conditions", "Team", "Bottleneck",
-           "TargetParameters", "EncounterFamily", "parse_family", "own_vessel_table"]
+__all__ = ["FAMILY_KINDS", "MAX_ATTEMPTS", "START_MARGIN_M", "EncounterFamily", "parse_family", "own_vessel_table"]
 
 FAMILY_KINDS = (*GEOMETRIC_ROLES, "multi_target", "team_vs_traffic", "bottleneck")
 MAX_ATTEMPTS = 1000
@@ -94,78 +93,6 @@ START_MARGIN_M = 5.0
 ISLAND_MARGIN_M = 1.0
 """Distance [m] a target's track keeps from the bottleneck's islands (beyond its radius)."""
 
-
-@dataclass(frozen=True)
-class Conditions:
-    """The own vessel, the water and the sensing of a run."""
-
-    own_heading_deg: float = param(90.0, minimum=-180.0, maximum=360.0, unit="deg",
-                                   doc="own course, ENU: counter-clockwise from east (90 = north)")
-    own_speed_m_s: float | None = param(None, positive=True, unit="m/s",
-                                        doc="mission speed (none: the own vessel type's cruise speed)")
-    current_m_s: float = param(0.0, nonneg=True, maximum=1.0, unit="m/s", doc="uniform current speed")
-    current_direction_deg: float = param(0.0, minimum=-180.0, maximum=180.0, unit="deg",
-                                         doc="where the current flows to, clockwise from the own course "
-                                             "(0: from astern; 90: setting to starboard)")
-    sensor_range_noise_m: float = param(0.05, nonneg=True, maximum=5.0, unit="m", doc="1-σ range noise of the sensor")
-    sensor_dropout: float = param(0.02, nonneg=True, maximum=0.95, doc="probability a true return is lost")
-    after_cpa_s: float = param(30.0, nonneg=True, unit="s", doc="run time after the last target's TCPA")
-    seed: int | None = param(None, nonneg=True, doc="the scenario seed (none: base_seed + run index)")
-
-    def __post_init__(self):
-        check_params(self, "parameters")
-
-
-@dataclass(frozen=True)
-class Team:
-    """team_vs_traffic: the team in line abreast, its centre on the reference track."""
-
-    team_size: int = param(3, minimum=2, maximum=8, doc="number of own vessels")
-    team_spacing_m: float = param(12.0, minimum=4.0, maximum=100.0, unit="m", doc="lateral spacing")
-    comms_loss: float = param(0.05, nonneg=True, maximum=1.0, doc="packet loss probability near the sender")
-
-    def __post_init__(self):
-        check_params(self, "parameters")
-
-
-@dataclass(frozen=True)
-class Bottleneck:
-    """bottleneck: two rectangular islands across the own track, centred where the own vessel is at
-    the first target's TCPA, leaving a gap centred on the track."""
-
-    gap_width_m: float = param(24.0, minimum=6.0, maximum=200.0, unit="m", doc="width of the gap")
-    island_length_m: float = param(30.0, positive=True, maximum=500.0, unit="m", doc="island extent along the track")
-    island_width_m: float = param(30.0, positive=True, maximum=500.0, unit="m", doc="island extent across the track")
-
-    def __post_init__(self):
-        check_params(self, "parameters")
-
-
-@dataclass(frozen=True)
-class TargetParameters:
-    """One target's undisturbed motion relative to the own vessel (defaults per role: ROLE_DEFAULTS)."""
-
-    relative_bearing_deg: float | None = param(None, minimum=-180.0, maximum=180.0, unit="deg",
-                                               doc="bearing at t = 0, clockwise from the own bow; given → the "
-                                                   "course follows")
-    relative_course_deg: float | None = param(None, minimum=-180.0, maximum=180.0, unit="deg",
-                                              doc="the aspect: target course − own course, clockwise (180: "
-                                                  "reciprocal); given → the bearing follows")
-    speed_ratio: float = param(1.0, nonneg=True, maximum=4.0, doc="target speed / own speed")
-    dcpa_m: float = param(0.0, minimum=-200.0, maximum=200.0, unit="m",
-                          doc="signed distance at the CPA of the undisturbed motion (> 0: the side the rules ask)")
-    tcpa_s: float = param(40.0, positive=True, maximum=1000.0, unit="s", doc="time of that CPA")
-    target_radius_m: float = param(2.0, positive=True, maximum=8.0, unit="m", doc="the target's bounding radius")
-
-
-ROLE_DEFAULTS = {
-    "head_on": {"relative_course_deg": 180.0, "speed_ratio": 1.0, "tcpa_s": 35.0},
-    "crossing_give_way": {"relative_course_deg": -90.0, "speed_ratio": 1.0, "tcpa_s": 50.0},
-    "crossing_stand_on": {"relative_course_deg": 90.0, "speed_ratio": 1.0, "tcpa_s": 50.0},
-    "overtaking": {"relative_course_deg": 0.0, "speed_ratio": 0.4, "tcpa_s": 90.0},
-    "overtaken": {"relative_course_deg": 0.0, "speed_ratio": 1.6, "tcpa_s": 90.0},
-}
-"""Per role, the defaults that differ from :class:`TargetParameters`'s."""
 
 _GROUPS = {"team_vs_traffic": (Conditions, Team), "bottleneck": (Conditions, Bottleneck)}
 _DEFAULT_ROLES = {"multi_target": ("head_on", "crossing_give_way", "crossing_stand_on"),

@@ -32,7 +32,7 @@ the range sensor (120 m), the IMM tracker and collision avoidance of the encount
 header) and ``tasks/campaigns/imazu.toml``. A campaign family of kind ``imazu`` generates the same
 scenarios with parameters ``case`` (1–22; default: a grid over all 22), ``current_m_s``,
 ``current_direction_deg``, ``sensor_range_noise_m``, ``sensor_dropout`` and ``seed`` (as
-:class:`mjasc.campaigns.encounters.Conditions` declares them).
+:class:`mjasc.campaigns.encounter_parameters.Conditions` declares them).
 """
 
 from __future__ import annotations
@@ -46,7 +46,8 @@ import numpy as np
 from mjasc.evaluation.colreg import role_from_geometry, wrap_deg
 from mjasc.campaigns.cpa import bearing_deg, cpa
 from mjasc.campaigns.distributions import Grid, ParameterSpace, family_rng
-from mjasc.campaigns.encounters import Conditions, own_vessel_table
+from mjasc.campaigns.encounter_parameters import Conditions
+from mjasc.campaigns.encounters import own_vessel_table
 from mjasc.campaigns.perturbation import CampaignError
 from mjasc.core.config_tables import (
     check_keys,
