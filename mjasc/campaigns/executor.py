@@ -289,15 +289,13 @@ def prestart_isolated(workers: int | None) -> int:
     they import MuJoCo and mjasc (~2 s each) while the driver parses the campaign, which keeps one
     core busy. As many as the cores the driver leaves idle (CPU count − 1, at least one), at most
     ``workers`` (None: one per core); :func:`take_prestarted` hands them to the campaign, and any
-    left untaken are closed at exit. Returns how many were started."""
+    left untaken are killed at exit. Returns how many were started."""
     cores = os.cpu_count() or 1
-    n = min(workers if workers is not None else cores, max(1, cores - 1))
+    n = max(0, min(workers if workers is not None else cores, max(1, cores - 1)))
     for _ in range(n):
         ex = IsolatedExecutor()
         ex.start()
         _PRESTARTED.append(ex)
-    if n and len(_PRESTARTED) == n:
-        atexit.register(_close_prestarted)
     return n
 
 
@@ -311,6 +309,9 @@ def take_prestarted(n: int) -> list:
 def _close_prestarted() -> None:
     while _PRESTARTED:
         _PRESTARTED.pop()._kill()  # (never given a run: nothing to finish)
+
+
+atexit.register(_close_prestarted)
 
 
 def _serve() -> None:
