@@ -18,7 +18,8 @@ machine hits all alike), best of ``--repeats`` per configuration:
 
 Every ``run_campaign`` goes into a fresh folder (nothing resumed); its wall time is taken around
 the call (store, exports and campaign.json included); ``start-up`` is the engine's own
-``info["startup_s"]`` (cluster up, every worker's child process has imported what runs need).
+``info["startup_s"]`` (cluster up, the first worker's child process has imported what runs need;
+the others import while it runs).
 
 Definitions (N runs of T simulated seconds):
 
@@ -68,7 +69,7 @@ CONFIGS = (("direct", None), ("engine, no Dask", 0), ("1 worker", 1), ("2 worker
 @dataclass
 class Measure:
     wall_s: float                  # the whole configuration (run_campaign call, or the direct loop)
-    startup_s: float = 0.0         # engine start-up (cluster, workers' imports)
+    startup_s: float = 0.0         # engine start-up (cluster, the first worker's imports)
     child_run_s: float = 0.0       # Σ of the runs' own wall as timed in the child (engine only)
     loop_s: float = 0.0            # Σ of the Runner main loops (direct only)
     results: dict = field(default_factory=dict, repr=False)  # index → (status, metrics w/o timing)

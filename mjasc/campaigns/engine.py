@@ -22,8 +22,9 @@ a run that raises, diverges, hangs past ``time_limit_s`` or kills its process is
 error and retried up to ``max_attempts`` times (a divergence is deterministic and is a result, not
 retried); it never stops the campaign. The LocalCluster runs with ``worker-saturation = 1.0``, so a
 worker holds one task at a time and a dying worker takes no queued runs with it. ``startup_s`` (in
-the returned info) ends when every worker is up and, on an own LocalCluster, every worker's child has
-imported what runs need; in this process, when the runs' child has (``isolate``).
+the returned info) ends when a worker is up and, on an own LocalCluster, the first worker's child has
+imported what runs need (the others import while it runs); in this process, when the runs' child has
+(``isolate``).
 
 Outputs in ``out_dir``: ``campaign.sqlite`` (the store), ``runs.csv`` and ``runs.parquet`` (exports),
 ``campaign.json`` (the campaign and its aggregate statistics, :mod:`mjasc.campaigns.statistics`),
@@ -349,10 +350,13 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
             for w, child in zip(cluster.workers.values(), children):
                 keys.append(w.id)
                 adopt_isolated(w.id, child)
-            for child in children:  # start-up ends when every child has imported what runs need
-                if not child.wait_ready(WORKER_WAIT_S):
-                    raise RuntimeError(f"a run's child process (python -m mjasc.campaigns.executor) did not start "
-                                       f"within {WORKER_WAIT_S:.0f} s; no run was done")
+            # Start-up ends when the first child (pre-started, if any) has imported what runs need:
+            # the runs go out then, and each other child's first run reads its ready line, its
+            # imports overlapping the first child's runs. A first child that cannot start stops
+            # the campaign before any run.
+            if children and not children[0].wait_ready(WORKER_WAIT_S):
+                raise RuntimeError(f"a run's child process (python -m mjasc.campaigns.executor) did not start "
+                                   f"within {WORKER_WAIT_S:.0f} s; no run was done")
             versions = {k: getattr(mjasc, "__version__", "unknown") for k in keys}
         else:
             try:
