@@ -137,3 +137,26 @@ def test_children_started_before_the_campaign_is_read_are_the_ones_that_run_it(t
     spare = ex_mod._PRESTARTED[0]._proc
     ex_mod._close_prestarted()  # (what exit does)
     assert spare.poll() is not None and not ex_mod._PRESTARTED
+
+
+def test_a_warmed_up_child_gives_the_same_results():
+    """A pre-started child warms numba's kernels with a second of the demo while it waits for its
+    first run (``--warm``); nothing of that run stays: the demo's runs are the same as a cold
+    child's, bit for bit (timing fields aside)."""
+    from pathlib import Path
+
+    from mjasc.campaigns.engine import without_timing
+
+    demo = (Path(__file__).resolve().parent.parent / "tasks" / "demo.toml").read_text()
+    text = "\n".join("duration_s = 6.0" if ln.startswith("duration_s") else ln for ln in demo.splitlines())
+    req = {"index": 0, "scenario_toml": text, "run_dir": None, "evaluate": True}
+    out = []
+    for warm in (False, True):
+        ex = IsolatedExecutor(warm=warm)
+        try:
+            assert ex.wait_ready(120)
+            out.append(ex.run(req, time_limit_s=120))
+        finally:
+            ex.close()
+    assert out[0]["status"] == out[1]["status"] == "completed"
+    assert without_timing(out[0]["summary"]) == without_timing(out[1]["summary"])

@@ -140,8 +140,9 @@ def _plain(obj):
 class IsolatedExecutor:
     """A persistent child process that runs one request at a time (module docstring)."""
 
-    def __init__(self, python: str | None = None):
+    def __init__(self, python: str | None = None, warm: bool = False):
         self.python = python or sys.executable
+        self.warm = warm  # the child warms up numba's kernels when no run waits (_serve)
         self._proc: subprocess.Popen | None = None
         self._buf = b""
         self._starting = False  # the child's "ready" line (imports done) is still to be read
@@ -153,7 +154,8 @@ class IsolatedExecutor:
         # A campaign run never renders (no video: execute_in_process): no OpenGL back-end to load
         # (MuJoCo and dm_control skip it; ~0.3 s of the child's start-up).
         env["MUJOCO_GL"] = "disable"
-        self._proc = subprocess.Popen([self.python, "-m", "mjasc.campaigns.executor"], stdin=subprocess.PIPE,
+        self._proc = subprocess.Popen([self.python, "-m", "mjasc.campaigns.executor", *(["--warm"] if self.warm else [])],
+                                      stdin=subprocess.PIPE,
                                       stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, bufsize=0)
         self._buf = b""
         self._starting = True
@@ -293,7 +295,7 @@ def prestart_isolated(workers: int | None) -> int:
     cores = os.cpu_count() or 1
     n = max(0, min(workers if workers is not None else cores, max(1, cores - 1)))
     for _ in range(n):
-        ex = IsolatedExecutor()
+        ex = IsolatedExecutor(warm=True)
         ex.start()
         _PRESTARTED.append(ex)
     return n
@@ -312,6 +314,20 @@ def _close_prestarted() -> None:
 
 
 atexit.register(_close_prestarted)
+
+
+def _warm_up() -> None:
+    """Load numba's cached kernels before the first run asks for them (~1 s): one simulated second
+    of the bundled demo, evaluated, in the child's own time (a pre-started child waits for the
+    driver to read its campaign). Nothing of it stays but the loaded kernels: a run is a function
+    of its own text."""
+    from mjasc.core.resources import bundled_scenarios
+
+    demo = bundled_scenarios().get("demo")
+    if demo is not None:
+        body = "\n".join("duration_s = 1.0" if ln.startswith("duration_s") else ln
+                         for ln in demo.read_text().splitlines())
+        execute_in_process({"index": -1, "scenario_toml": body, "run_dir": None, "evaluate": True})
 
 
 def _serve() -> None:
@@ -337,6 +353,8 @@ def _serve() -> None:
 
     out.write(json.dumps({"ready": os.getpid()}) + "\n")  # IsolatedExecutor.wait_ready
     out.flush()
+    if "--warm" in sys.argv[1:] and not select.select([sys.stdin], [], [], 0.0)[0]:
+        _warm_up()
     for line in sys.stdin:
         if not line.strip():
             continue
