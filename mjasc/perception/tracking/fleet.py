@@ -52,7 +52,7 @@ from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.perception.tracking.report_fields import report_columns, report_columns_numpy, report_estimates
-from mjasc.perception.tracking.step_fusions import (assign_pairs_packed, cycled_scan_packed, pair_gates,
+from mjasc.perception.tracking.step_fusions import (assign_pairs_packed, cycled_scan_grown, pair_gates,
                                                    predicted_pairs_packed)
 from mjasc.perception.tracking.step_gathers import births_packed, step_inputs, step_rows
 from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows, pair_setup
@@ -295,15 +295,13 @@ class FleetTracker:
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
         x = bank.state_rows
         with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)], dtype=bool)
-        c = self.cols  # (the cycled rows' gathers, management's record of the scan, last assignments: one call)
-        ints, floats, flags, o_pos, n_conf, g, m = cycled_scan_packed(
+        c = self.cols  # (the cycled rows' gathers, management's record of the scan, last assignments and the
+        # outlines' plan of the rows with returns: one call)
+        outlines = self.outlines
+        ints, new_conf, geo, n_conf, g, m, n_reset, g2 = cycled_scan_grown(
             rows, row_pos, t_o, used, meas, x, with_pts, self._counts, owners, _ASSOC, assigned, rad, occ, c.hist,
             c.scans, c.n_upd, c.last, c.radius, c.confirmed, c.static, c.born, *self.mgmt.scan_constants, c.local_id,
-            idx, p)
-        k = rows.size
-        orows, ids, det = ints[:g], ints[g:g + m], ints[g + m:g + 2 * m]
-        o_speeds, o_radius = floats
-        new_conf, o_hit = flags[:k], flags[k:]
+            idx, p, c.hull_anchor, *outlines.plan_constants)
         if n_conf:
             pos, born = bank.positions, self.cols.born
             for k in rows[new_conf].tolist():
@@ -311,7 +309,9 @@ class FleetTracker:
                 self._counts[o, _CONF] += 1
                 self.events[o].append(TrackEvent(t, "confirmed", tid, f"track {tid} confirmed at {_fmt(pos[k])} "
                                                                       f"(born {t - born[k]:.1f} s ago)"))
-        if orows.size:
+        e = g + 2 * m + p + 1  # (the outlines' plan from here)
+        if n_reset or g2:
+            orows = ints[:g]
             scans = {}
 
             def returns_of(j, orows=orows):  # (a vessel's returns and labels: once per step)
@@ -328,9 +328,10 @@ class FleetTracker:
                     got = scans[q] = (pts, lab)
                 return got[0], got[1], int(idx[assigned[k]])
 
-            self.outlines.grow(orows, o_hit, o_speeds, o_pos, o_radius, returns_of)
+            outlines.grow_planned(ints[e:], geo, n_reset, g2, returns_of)
         if m:
-            f = ints[g + 2 * m:].tolist()
+            ids, det = ints[g:g + m], ints[g + m:g + 2 * m]
+            f = ints[g + 2 * m:e].tolist()
             for q in range(p):
                 a, b = f[q], f[q + 1]
                 if b > a:
@@ -341,8 +342,10 @@ class FleetTracker:
         (one group, the whole bank, in the usual tick). Returns (n,) bool, the rows used."""
         bank = self.bank
         if all_due and bank.common_time_s is not None:  # every row's last cycle at one time (the bank's invariant)
-            if (t_o == t_o[0]).all():  # ... and every vessel's scan at one time
-                return bank.update_measured(zr, float(t_o[0]), meas, vr)  # (the step's arrays: update without checks)
+            tl = t_o.tolist()  # (... and every vessel's scan at one time: (t_o == t_o[0]).all() on a short list)
+            t0 = tl[0]
+            if t0 == t0 and tl.count(t0) == len(tl):
+                return bank.update_measured(zr, t0, meas, vr)  # (the step's arrays: update without checks)
         t_last = bank.times_s[rows]
         t_new = t_o[row_pos[rows]]
         if all_due and (t_last == t_last[0]).all() and (t_new == t_new[0]).all():
