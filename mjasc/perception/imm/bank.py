@@ -366,7 +366,7 @@ class IMMBank(BankViews, PredictiveDensity):
         n = self._ids.size
         rb = self._rb
         if rb is not None and rb.cap >= n:  # (the row buffers' scratch rows: no arrays made)
-            finite, use = rb.w_fin[:n], rb.w_use2[:n]
+            finite, use = rb.scratch_flags(n)[:2]
         else:
             finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
         return self._measured_cycle(z, t_s, measured, measurement_variance, finite, use)
@@ -427,7 +427,7 @@ class IMMBank(BankViews, PredictiveDensity):
         rb = self._rb
         scratch = rb is not None and rb.cap >= n  # (the row buffers' scratch rows for the flags: no arrays made)
         if use is None:
-            use = finite = measured = rb.w_true[:n] if scratch else np.ones(n, dtype=bool)
+            use = finite = measured = rb.scratch_flags(n)[2] if scratch else np.ones(n, dtype=bool)
         warm = self._startup.active
         any_warm = self._startup.n_active > 0
         # the cycle updated the rows ``use & (d2_min <= gate)`` of the IMM rows, coasted the others; the
@@ -441,8 +441,7 @@ class IMMBank(BankViews, PredictiveDensity):
                 gather_startup_into(rows, st.x, st.P, _NO_VAR if t is None else dt, dtm if t is None else 0.0, z, use,
                                     _NO_VAR if mv is None else mv, mv is not None, rb.w_x, rb.w_P, rb.w_dt, rb.w_F,
                                     rb.w_z, rb.w_use, rb.w_var)
-                xc, Pc, dtw, F, zw, use_w, var_w = (rb.w_x[:k], rb.w_P[:k], rb.w_dt[:k], rb.w_F[:k], rb.w_z[:k],
-                                                    rb.w_use[:k], rb.w_var[:k])
+                xc, Pc, dtw, F, zw, use_w, var_w = rb.scratch_rows(k)
             else:
                 xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
                                                                   dtm if t is None else 0.0, z, use,
@@ -455,8 +454,9 @@ class IMMBank(BankViews, PredictiveDensity):
                     self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
                     s_new, P_new, mu_new, self._n_gated, limit)
             if scratch:  # (the codes written into the bank's own, the flags into scratch rows)
-                inside, restart, reasons, used = rb.w_in[:n], rb.w_rs[:n], self._reasons, np.empty(n, dtype=bool)
-                n_restart = settled_startup_into(*args, inside, rb.w_ok[:n], reasons, restart, used)
+                _, _, _, inside, restart, ok = rb.scratch_flags(n)
+                reasons, used = self._reasons, np.empty(n, dtype=bool)
+                n_restart = settled_startup_into(*args, inside, ok, reasons, restart, used)
             else:
                 inside, reasons, restart, used, n_restart = settled_startup(*args)
         else:  # (inside, ok, rejections: one compiled pass)
@@ -464,8 +464,9 @@ class IMMBank(BankViews, PredictiveDensity):
             args = (d2_min, self._gate, use, finite, measured, _NO_ROWS, _NO_FLAGS, _NO_FLAGS, self._s, self._P,
                     self._mu, s_new, P_new, mu_new, self._n_gated, limit)
             if scratch:
-                inside, restart, reasons, used = rb.w_in[:n], rb.w_rs[:n], self._reasons, np.empty(n, dtype=bool)
-                n_restart = settled_rows_into(*args, inside, rb.w_ok[:n], reasons, restart, used)
+                _, _, _, inside, restart, ok = rb.scratch_flags(n)
+                reasons, used = self._reasons, np.empty(n, dtype=bool)
+                n_restart = settled_rows_into(*args, inside, ok, reasons, restart, used)
             else:
                 inside, reasons, restart, used, n_restart = settled_rows(*args)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new

@@ -64,6 +64,7 @@ class RowBuffers:
         self.w_true = np.ones(cap, dtype=bool)
         self._views: dict[int, tuple] = {}
         self._zero_polar = None  # (zeros, J at V = 0) for zero_polar
+        self._scratch: dict[int, tuple] = {}  # k → scratch_rows(k); −n − 1 → scratch_flags(n)
 
     def views(self, n: int) -> tuple:
         """The first n rows: (ids, t, Pc, n_gated, reasons, active, x, P, n_meas) (the same view
@@ -74,6 +75,28 @@ class RowBuffers:
                 self._views.clear()
             v = self._views[n] = (self.ids[:n], self.t[:n], self.Pc[:n], self.n_gated[:n], self.reasons[:n],
                                   self.active[:n], self.cv_x[:n], self.cv_P[:n], self.n_meas[:n])
+        return v
+
+    def scratch_rows(self, k: int) -> tuple:
+        """The first k scratch rows of a general cycle's start-up rows: (w_x, w_P, w_dt, w_F, w_z, w_use,
+        w_var) (the same view objects for the same k)."""
+        v = self._scratch.get(k)
+        if v is None:
+            if len(self._scratch) > 128:
+                self._scratch.clear()
+            v = self._scratch[k] = (self.w_x[:k], self.w_P[:k], self.w_dt[:k], self.w_F[:k], self.w_z[:k],
+                                    self.w_use[:k], self.w_var[:k])
+        return v
+
+    def scratch_flags(self, n: int) -> tuple:
+        """The first n scratch flags of an update: (w_fin, w_use2, w_true, w_in, w_rs, w_ok) (the same view
+        objects for the same n)."""
+        v = self._scratch.get(-n - 1)
+        if v is None:
+            if len(self._scratch) > 128:
+                self._scratch.clear()
+            v = self._scratch[-n - 1] = (self.w_fin[:n], self.w_use2[:n], self.w_true[:n], self.w_in[:n],
+                                         self.w_rs[:n], self.w_ok[:n])
         return v
 
     def zero_polar(self, k: int) -> tuple:
