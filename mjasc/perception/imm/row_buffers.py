@@ -56,6 +56,7 @@ class RowBuffers:
         # scratch rows of a general cycle's start-up rows (startup_rows.gather_startup_into)
         self.w_x, self.w_P, self.w_dt = np.zeros((cap, 4)), np.zeros((cap, 4, 4)), np.zeros(cap)
         self.w_F = np.zeros((cap, 4, 4))
+        self.w_rows = np.zeros(cap, dtype=np.int64)  # (the start-up rows of a cycle: measured_cycle)
         self.w_z, self.w_use, self.w_var = np.zeros((cap, 2)), np.zeros(cap, dtype=bool), np.zeros(cap)
         self.w_fin, self.w_use2 = np.zeros(cap, dtype=bool), np.zeros(cap, dtype=bool)  # (an update's finite, use)
         # (a general cycle's inside, ok and restart flags; every row measured and used: all True, never written)
