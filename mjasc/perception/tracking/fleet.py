@@ -54,8 +54,8 @@ from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.perception.tracking.report_fields import report_columns, report_columns_numpy, report_estimates
 from mjasc.perception.tracking.step_fusions import (assign_pairs_packed, cycled_scan_grown, pair_gates,
                                                    predicted_pairs_packed)
-from mjasc.perception.tracking.step_gathers import births_packed, step_inputs, step_rows
-from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows, pair_setup
+from mjasc.perception.tracking.step_gathers import births_packed, step_inputs_into, step_rows
+from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows_into, pair_setup
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
 
@@ -115,6 +115,8 @@ class FleetTracker:
         self._counts = np.zeros((0, len(COUNT_KEYS)), dtype=np.int64)
         self.events: list[list[TrackEvent]] = []
         self._last_assign: list[list] = []  # per vessel: its last scan's (ids, detections) pieces (updates, births)
+        self._bufs = None  # the step's buffers (_step_buffers)
+        self._meas_bufs = (np.empty((0, 2)), np.empty(0, dtype=bool))  # the cycle's measurement rows (_meas_buffers)
 
     # ------------------------------------------------------------------ vessels
     def add_owner(self, max_range_m: float = math.inf) -> int:
@@ -221,16 +223,19 @@ class FleetTracker:
                            cat([d.radii_m for d, _ in live]),
                            cat([d.occluded if d.occluded is not None else np.zeros(len(d), bool) for d, _ in live]))
         own = self.cols.owner
-        if stacked is not None and stacked[1].size:  # (select_detections and step_rows in one call, 4 arrays)
-            ints, z, floats, flags, all_due, k = step_inputs(*stacked, self._use_var, own, pos_of, every, owners, t_o,
-                                                             no, self._counts, _SCANS, _DETS, self._R)
-            M, n = z.shape[0], own.size
+        if stacked is not None and stacked[1].size:  # (select_detections and step_rows in one call, into buffers)
+            S, n = stacked[1].size, own.size
+            ints, z, floats, flags = self._step_buffers(S, n, p, no)
+            M, all_due, k = step_inputs_into(*stacked, self._use_var, own, pos_of, every, owners, t_o, no,
+                                             self._counts, _SCANS, _DETS, self._R, ints, z, floats, flags)
+            z = z[:M]
             d_pos, idx, m_q = ints[:M], ints[M:2 * M], ints[2 * M:2 * M + p]
             c = 2 * M + p
             row_pos, rows, rpos, assigned = ints[c:c + n], ints[c + n:c + n + k], ints[c + n + k:c + n + 2 * k], ints[
-                c + n + 2 * k:]
-            var, rad, t_own, var_row = floats[:M], floats[M:2 * M], floats[2 * M:2 * M + no], floats[2 * M + no:]
-            occ, claimed = flags[:M], flags[M:]
+                c + n + 2 * k:c + 2 * n + 2 * k]
+            var, rad, t_own, var_row = (floats[:M], floats[M:2 * M], floats[2 * M:2 * M + no],
+                                        floats[2 * M + no:2 * M + no + n])
+            occ, claimed = flags[:M], flags[M:2 * M]
         else:
             d_pos = idx = np.zeros(0, dtype=np.int64)
             z, var, rad, occ = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
@@ -290,7 +295,9 @@ class FleetTracker:
                 got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
                 hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
                 self.manoeuvres.detect(hit, d2_hit, self._gate, t_o[row_pos[hit]], bank)
-        zr, meas = measurement_rows(assigned, z)
+        n = assigned.size
+        zr, meas = self._meas_buffers(n)
+        measurement_rows_into(assigned, z, zr, meas)
         vr = var_row if self._use_var else None  # (changed in place by the cycle: its unusable σ² replaced)
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
         x = bank.state_rows
@@ -336,6 +343,27 @@ class FleetTracker:
                 a, b = f[q], f[q + 1]
                 if b > a:
                     self._last_assign[owners[q]] = [(ids[a:b], det[a:b])]
+
+    def _step_buffers(self, S: int, n: int, p: int, no: int) -> tuple:
+        """The step's buffers for :func:`step_inputs_into` (S detections, n rows, p scanning vessels, no
+        vessels): (ints, z, floats, flags), grown when too small. Views of them are the step's arrays,
+        valid until the next step (nothing keeps them)."""
+        got = self._bufs
+        ni, nf = 2 * S + p + 4 * n, 2 * S + no + n
+        if got is None or got[0].size < ni or got[1].shape[0] < S or got[2].size < nf or got[3].size < 2 * S:
+            grow = lambda m: m + max(16, m // 2)
+            got = self._bufs = (np.empty(grow(ni), dtype=np.int64), np.empty((grow(S), 2)), np.empty(grow(nf)),
+                                np.empty(grow(2 * S), dtype=bool))
+        return got
+
+    def _meas_buffers(self, n: int) -> tuple:
+        """(zr (n, 2), meas (n,)): the cycle's measurement rows, views of buffers grown when too small
+        (valid until the next step)."""
+        got = self._meas_bufs
+        if got[1].size < n:
+            m = n + max(16, n // 2)
+            got = self._meas_bufs = (np.empty((m, 2)), np.empty(m, dtype=bool))
+        return got[0][:n], got[1][:n]
 
     def _cycle(self, rows, all_due, row_pos, t_o, zr, meas, vr) -> np.ndarray:
         """Step 3: one IMM cycle of ``rows``, per group of vessels sharing their last and new time
