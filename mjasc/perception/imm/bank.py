@@ -435,7 +435,8 @@ class IMMBank(BankViews, PredictiveDensity):
             return None
         rb = self._rb
         if use is None:
-            use = finite = measured = rb.scratch_flags(n)[2] if rb is not None and rb.cap >= n else np.ones(n, dtype=bool)
+            scratch = rb is not None and rb.cap >= n
+            use = finite = measured = rb.scratch_flags(n)[2] if scratch else np.ones(n, dtype=bool)
         return self._settle(z, out, side, t0, t, dt, dtm, use, finite, measured, mv, None)
 
     def _accept(self, out, side, t0, t) -> None:

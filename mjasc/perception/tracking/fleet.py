@@ -50,10 +50,10 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.perception.tracking.report_fields import report_columns, report_columns_numpy, report_estimates
-from mjasc.perception.tracking.step_fusions import (assign_pairs_packed, cycled_scan_grown, pair_gates,
-                                                   predicted_pairs_packed)
+from mjasc.perception.tracking.step_buffers import (AssociationBuffers, assign_pairs_into, grown,
+                                                   pair_gates_into, position_jacobians_into, predicted_pairs_into)
+from mjasc.perception.tracking.step_fusions import cycled_scan_grown
 from mjasc.perception.tracking.step_gathers import births_packed, step_inputs_into, step_rows
 from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows_into, pair_setup
 from mjasc.perception.tracking.team import TeamMatcher
@@ -116,6 +116,7 @@ class FleetTracker:
         self.events: list[list[TrackEvent]] = []
         self._last_assign: list[list] = []  # per vessel: its last scan's (ids, detections) pieces (updates, births)
         self._bufs = None  # the step's buffers (_step_buffers)
+        self._assoc = AssociationBuffers()  # the association's buffers (step_buffers; grown when too small)
         self._meas_bufs = (np.empty((0, 2)), np.empty(0, dtype=bool))  # the cycle's measurement rows (_meas_buffers)
 
     # ------------------------------------------------------------------ vessels
@@ -267,18 +268,29 @@ class FleetTracker:
         M = z.shape[0]
         p = owners.size
         arrays = bank.prediction_arrays() if M else None
-        if arrays is not None:  # (four compiled calls around numpy's cos, sin, J P Jᵀ and log: step_fusions)
-            blocks, pairs, var_p, xs, P, arcs = predicted_pairs_packed(rows, rpos, p, m_q, self.cols.radius, var, rad,
-                                                                       occ, *arrays, t_o, row_pos)
-            n_q, start = blocks[:p], blocks[p:]
-            dt, th, dv = arcs
-            if var_p.size:
-                zhat, Jac = position_jacobians(xs, dt, dv, np.cos(th), np.sin(th))
-                d2, det = pair_gates(pairs, zhat, Jac @ P @ Jac.transpose(0, 2, 1), z, var_p)
-                inside, cost, h_rows, h_vals, h = assign_pairs_packed(d2, np.log(det), self._gate, pairs, start, m_q,
-                                                                      var_p, assigned, var_row, claimed, t_o, row_pos)
-                hit = h_rows[h:]  # (h_rows[:h]: the rows in overlapping gates, re-solved below)
-                d2_hit, t_hit = h_vals
+        if arrays is not None:  # (four compiled calls around numpy's cos, sin, J P Jᵀ and log: step_fusions, written
+            # into the tracker's buffers: step_buffers)
+            ab = self._assoc
+            npairs, k, ok = predicted_pairs_into(rows, rpos, p, m_q, self.cols.radius, var, rad, occ, *arrays, t_o,
+                                                 row_pos, ab.blocks, ab.pairs, ab.var_p, ab.xs, ab.P, ab.arcs)
+            if not ok:  # (too small: larger buffers, the same call again)
+                ab = self._assoc = grown(ab, npairs, k, p)
+                predicted_pairs_into(rows, rpos, p, m_q, self.cols.radius, var, rad, occ, *arrays, t_o, row_pos,
+                                     ab.blocks, ab.pairs, ab.var_p, ab.xs, ab.P, ab.arcs)
+            n_q, start = ab.blocks[:p], ab.blocks[p:2 * p + 1]
+            if npairs:
+                arcs = ab.arcs[:3 * k]
+                dt, th, dv = arcs[:k], arcs[k:2 * k], arcs[2 * k:]
+                pairs, var_p = ab.pairs[:6 * npairs].reshape(6, npairs), ab.var_p[:npairs]
+                P, Jac, zhat = ab.P[:k], ab.J[:k], ab.zhat[:k]
+                position_jacobians_into(ab.xs[:k], dt, dv, np.cos(th), np.sin(th), zhat, Jac)
+                d2, det = ab.d2[:npairs], ab.det[:npairs]
+                pair_gates_into(pairs, zhat, Jac @ P @ Jac.transpose(0, 2, 1), z, var_p, d2, det)
+                inside, cost = ab.inside[:npairs], ab.cost[:npairs]
+                h, nh = assign_pairs_into(d2, np.log(det), self._gate, pairs, start, m_q, var_p, assigned, var_row,
+                                          claimed, t_o, row_pos, inside, cost, ab.rows, ab.vals)
+                hit = ab.rows[h:h + nh]  # (ab.rows[:h]: the blocks whose gates overlap, re-solved below)
+                d2_hit, t_hit = ab.vals[:nh], ab.vals[nh:2 * nh]
                 if h:  # (a vessel's gates overlap: its block to linear_sum_assignment)
                     q, i, j, _, db, ta = pairs
                     got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
