@@ -116,6 +116,7 @@ class FleetTracker:
         self.events: list[list[TrackEvent]] = []
         self._last_assign: list[list] = []  # per vessel: its last scan's (ids, detections) pieces (updates, births)
         self._bufs = None  # the step's buffers (_step_buffers)
+        self._report_bufs = (np.empty(0, dtype=np.int64), np.empty(0), np.empty(0, dtype=bool))  # (report_columns)
         self._assoc = AssociationBuffers()  # the association's buffers (step_buffers; grown when too small)
         self._meas_bufs = (np.empty((0, 2)), np.empty(0, dtype=bool))  # the cycle's measurement rows (_meas_buffers)
 
