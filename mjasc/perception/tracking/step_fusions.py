@@ -27,6 +27,9 @@ management's Python layer.
 :func:`predicted_pairs_packed`, :func:`assign_pairs_packed` and :func:`cycled_scan_packed` are those
 three with their arrays packed by type (six arrays instead of nine, four instead of six, four instead of nine: each array a kernel returns is a Python
 object made), the caller slicing the views out.
+:func:`cycled_scan_grown` (what the step calls after the cycle) is :func:`cycled_scan_packed` and the
+outlines' :func:`~mjasc.perception.tracking.outlines.grow_plan` of the rows with returns in one call; the
+association's four calls write into the tracker's buffers (:mod:`mjasc.perception.tracking.step_buffers`).
 tests/test_tracking_step_fusions.py compares each with the calls it replaces, bit for bit, on a
 real run's steps.
 """
