@@ -200,3 +200,18 @@ def test_add_process_noise_rows_equals_add_process_noise():
         a.add_process_noise(rows, dth, dv)
         b.add_process_noise_rows(rows, dth, dv)
         _compare(a, b)
+
+
+def test_zero_polar_is_the_polar_conversion_of_new_filters():
+    """RowBuffers.zero_polar (a birth's |v|, atan2 and polar Jacobians) against numpy's hypot, arctan2 and
+    _polar_jacobians of new start-up filters (x = [z, 0, 0]), bit for bit, for growing k."""
+    rng = np.random.default_rng(3)
+    rb = RowBuffers(4)
+    for k in (1, 3, 4, 9, 2):
+        xc = np.zeros((k, 4))
+        xc[:, :2] = rng.normal(scale=100.0, size=(k, 2))
+        speed = np.hypot(xc[:, 2], xc[:, 3])
+        zero, J = rb.zero_polar(k)
+        for a, b in ((zero, speed), (zero, np.arctan2(xc[:, 3], xc[:, 2])), (J, _polar_jacobians(xc, speed))):
+            assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+        assert J.flags.c_contiguous

@@ -216,19 +216,23 @@ def test_drops_all_is_drops_of_every_row_on_a_real_run(monkeypatch):
 
 def test_cycled_scan_on_a_real_run(monkeypatch):
     """cycled_scan against cycled_rows, TrackManagement.after_update's scan_rows, the radii of the rows with
-    returns and last_assignments (the tracker's calls before it), on copies of the arrays it writes, at every
-    step of a run."""
+    returns and last_assignments (the tracker's calls before it), cycled_scan_packed against it, and
+    cycled_scan_grown (what the step calls) against cycled_scan_packed and the outlines' grow_plan of its rows
+    with returns — on copies of the arrays they write, at every step of a run."""
     from mjasc.perception.tracking.management import scan_rows
+    from mjasc.perception.tracking.outlines import grow_plan
     from mjasc.perception.tracking.step_gathers import cycled_rows
     from mjasc.perception.tracking.step_kernels import last_assignments
 
-    from mjasc.perception.tracking.step_fusions import cycled_scan
+    from mjasc.perception.tracking.step_fusions import cycled_scan, cycled_scan_packed
 
     fused = cycled_scan
-    packed = fleet_mod.cycled_scan_packed  # (what the step calls: cycled_scan's arrays packed by type)
-    n_checked = [0]
+    packed = cycled_scan_packed
+    grown = fleet_mod.cycled_scan_grown  # (what the step calls)
+    n_checked, n_grown = [0], [0]
 
-    def checked(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, *rest):
+    def checked(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, *rest_all):
+        rest, (anchor, reset_m, fast, slow) = rest_all[:18], rest_all[18:]
         cols_w = [a.copy() for a in rest[:8]]  # hist, scans, n_upd, last, radius, confirmed, static, born
         consts = rest[8:15]
         local_id, idx, p = rest[15:]
@@ -248,24 +252,41 @@ def test_cycled_scan_on_a_real_run(monkeypatch):
         for a, b in zip(cols_f, cols_w):
             _same(a, b)
         _same(counts_f, counts_w)
-        out = packed(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, *rest)
+        cols_p, counts_p = [a.copy() for a in rest[:8]], counts.copy()
+        out = packed(rows, row_pos, t_o, used, meas, x, with_pts, counts_p, owners, col, assigned, rad, occ, *cols_p,
+                     *rest[8:])
         ints, floats, flags, pos_o, n_conf, g, m = out
         k = rows.size
         assert n_conf == got[1] and g == got[2].size and m == got[7].size
         for a, b in zip((flags[:k], ints[:g], flags[k:], floats[0], pos_o, floats[1], ints[g:g + m],
                          ints[g + m:g + 2 * m], ints[g + 2 * m:]), got[:1] + got[2:]):
             _same(a, b)
+        # the outlines' plan as TrackOutlines.grow made it from cycled_scan_packed's rows with returns
+        anchor_w = anchor.copy()
+        if g:
+            gi, geo_w, r_w, g2_w = grow_plan(ints[:g], floats[0], pos_o, anchor_w, reset_m, fast, slow, flags[k:],
+                                             floats[1])
+        else:
+            gi, geo_w, r_w, g2_w = ints[:0], np.zeros((0, 3)), 0, 0
+        res = grown(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, *rest_all)
+        ints_g, conf_g, geo_g, n_conf_g, g_g, m_g, r_g, g2_g = res
+        assert (n_conf_g, g_g, m_g, r_g, g2_g) == (n_conf, g, m, r_w, g2_w)
+        _same(conf_g, flags[:k])
+        _same(ints_g, np.concatenate([ints, gi]))
+        _same(geo_g, geo_w)
+        _same(anchor, anchor_w)
         for a, b in zip(rest[:8], cols_w):
             _same(a, b)
         _same(counts, counts_w)
         n_checked[0] += 1
-        return out
+        n_grown[0] += g2_g > 0
+        return res
 
-    monkeypatch.setattr(fleet_mod, "cycled_scan_packed", checked)
+    monkeypatch.setattr(fleet_mod, "cycled_scan_grown", checked)
     sc = mjasc.load_scenario(_ROOT / "tasks" / "demo.toml").with_overrides(duration_s=30.0)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()
-    assert n_checked[0] > 100
+    assert n_checked[0] > 100 and n_grown[0] > 10
 
 
 @pytest.mark.parametrize("seed", range(30))

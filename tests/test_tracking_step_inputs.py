@@ -12,7 +12,7 @@ import pytest
 
 import mjasc
 from mjasc.perception.tracking import fleet as fleet_mod
-from mjasc.perception.tracking.step_gathers import step_inputs, step_rows
+from mjasc.perception.tracking.step_gathers import step_inputs, step_inputs_into, step_rows
 from mjasc.perception.tracking.step_kernels import select_detections
 from mjasc.runs.runner import Runner
 
@@ -50,7 +50,22 @@ def test_step_inputs_equal_select_detections_then_step_rows(monkeypatch, name, d
         n_checked[0] += 1
         return got
 
-    monkeypatch.setattr(fleet_mod, "step_inputs", checked)
+    def checked_into(m_all, sel, cen, var, rad, occ, use_var, owner, pos_of, every, owners, t_o, n_owners, counts,
+                     scans, dets, R, ints_b, z_b, floats_b, flags_b):
+        """(what the step calls: step_inputs written into the step's buffers) against step_inputs."""
+        c_ref = counts.copy()
+        ints, z, floats, flags, all_due, k = checked(m_all, sel, cen, var, rad, occ, use_var, owner, pos_of, every,
+                                                     owners, t_o, n_owners, c_ref, scans, dets, R)
+        got = step_inputs_into(m_all, sel, cen, var, rad, occ, use_var, owner, pos_of, every, owners, t_o, n_owners,
+                               counts, scans, dets, R, ints_b, z_b, floats_b, flags_b)
+        assert got == (z.shape[0], all_due, k)
+        _same(counts, c_ref)
+        for a, b in ((ints_b[:ints.size], ints), (z_b[:z.shape[0]], z), (floats_b[:floats.size], floats),
+                     (flags_b[:flags.size], flags)):
+            _same(a, b)
+        return got
+
+    monkeypatch.setattr(fleet_mod, "step_inputs_into", checked_into)
     sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()

@@ -319,7 +319,8 @@ def test_note_moved_matches_numpy_form(seed):
 
 @pytest.mark.parametrize("seed", range(10))
 def test_counts_and_measurement_rows(seed):
-    from mjasc.perception.tracking.step_kernels import add_counts, count_scans, count_used, measurement_rows
+    from mjasc.perception.tracking.step_kernels import (add_counts, count_scans, count_used, measurement_rows,
+                                                        measurement_rows_into)
 
     rng = np.random.default_rng(seed)
     n_owners, p = 6, int(rng.integers(1, 6))
@@ -354,6 +355,9 @@ def test_counts_and_measurement_rows(seed):
     zr_ref[meas_ref] = z[assigned[meas_ref]]
     assert meas.tobytes() == meas_ref.tobytes()
     assert np.array_equal(zr, zr_ref, equal_nan=True) and zr.dtype == zr_ref.dtype and zr.shape == zr_ref.shape
+    zr_b, meas_b = np.full((n + 3, 2), 7.0), np.zeros(n + 3, dtype=bool)  # (into the caller's buffers)
+    measurement_rows_into(assigned, z, zr_b, meas_b)
+    assert zr_b[:n].tobytes() == zr.tobytes() and meas_b[:n].tobytes() == meas.tobytes()
 
 
 @pytest.mark.parametrize("seed", range(10))

@@ -54,8 +54,18 @@ def test_packed_team_kernels_on_a_real_run(monkeypatch, name, duration):
         seen["assigned"] += 1
         return got
 
-    monkeypatch.setattr(team_mod, "team_plan_packed", checked_plan)
-    monkeypatch.setattr(team_mod, "team_assign_packed", checked_assign)
+    plan_into, assign_into = team_mod.team_plan_into, team_mod.team_assign_into
+
+    def checked_plan_into(*args):  # (what match calls: the packed kernels' arrays written into its buffers,
+        checked_plan(*args[:9])  # tests/test_tracking_team_buffers.py)
+        return plan_into(*args)
+
+    def checked_assign_into(*args):
+        checked_assign(*args[:13])
+        return assign_into(*args)
+
+    monkeypatch.setattr(team_mod, "team_plan_into", checked_plan_into)
+    monkeypatch.setattr(team_mod, "team_assign_into", checked_assign_into)
     sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()

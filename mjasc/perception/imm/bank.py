@@ -46,6 +46,7 @@ from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import imm_cycle
 from mjasc.perception.imm.cycle_buffers import CycleBuffers
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
+from mjasc.perception.imm.measured_cycle import measured_cycle
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS
 from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
@@ -366,7 +367,7 @@ class IMMBank(BankViews, PredictiveDensity):
         n = self._ids.size
         rb = self._rb
         if rb is not None and rb.cap >= n:  # (the row buffers' scratch rows: no arrays made)
-            finite, use = rb.w_fin[:n], rb.w_use2[:n]
+            finite, use = rb.scratch_flags(n)[:2]
         else:
             finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
         return self._measured_cycle(z, t_s, measured, measurement_variance, finite, use)
@@ -374,7 +375,28 @@ class IMMBank(BankViews, PredictiveDensity):
     def _measured_cycle(self, z, t_s, measured, mv, finite, use) -> np.ndarray:
         """The cycle of :meth:`update` / :meth:`update_measured` on checked arrays: the finite rows
         and the rows used written into ``finite`` / ``use`` (n,) and unusable σ² in ``mv`` replaced
-        by the config's, in one compiled pass; then one IMM cycle (of every row when all are used)."""
+        by the config's, in one compiled pass; then one IMM cycle (of every row when all are used).
+        With the row buffers' scratch rows, those and the cycle's front are one compiled call
+        (:func:`~mjasc.perception.imm.measured_cycle.measured_cycle`)."""
+        rb = self._rb
+        n = z.shape[0]
+        if rb is not None and rb.cap >= n:
+            t0, t, dt, dtm, step = cycle_steps(self._t, self._t_common, self._ids, t_s, self._consts)  # (_times)
+            out, side = self._free_side()
+            st = self._startup
+            every_true = rb.scratch_flags(n)[2]
+            every, common, k = measured_cycle(
+                z, measured, self._var if mv is None else mv, mv is not None, self._R, finite, use, every_true,
+                self._s, self._P, self._mu, *step, self._floor, self._gate, *side, st.n_active, st.active, st.x, st.P,
+                _NO_VAR if t is None else dt, dtm if t is None else 0.0, rb.w_rows, rb.w_x, rb.w_P, rb.w_dt, rb.w_F,
+                rb.w_z, rb.w_use, rb.w_var)
+            if common:
+                self._accept(out, side, t0, t)
+                return np.ones(n, dtype=bool)
+            if every:
+                use = finite = measured = every_true
+            return self._settle(z, out, side, t0, t, dt, dtm, use, finite, measured, mv,
+                                rb.w_rows[:k] if st.n_active else None)
         all_used = measurements(z, measured, mv if mv is not None else self._var, mv is not None, self._R, finite, use)
         self._mv = mv
         try:
@@ -409,44 +431,62 @@ class IMMBank(BankViews, PredictiveDensity):
             and not self._startup.n_active
             and (d2_min.item() if n == 1 else np.maximum.reduce(d2_min)) <= self._gate
         ):  # the common case: every track measured and accepted
-            self._s, self._P, self._mu, self._x = side[:4]
-            self._side = out
-            self._Pc_stale = True
-            if self._flagged:  # some track has consecutive gated rows or a rejection reason
-                self._n_gated.fill(0)
-                self._reasons.fill(0)
-                self._flagged = False
-            if t is None:
-                self._t.fill(t0)
-            else:
-                self._t = t
-            self._t_common = t0
+            self._accept(out, side, t0, t)
             return None
+        rb = self._rb
+        if use is None:
+            scratch = rb is not None and rb.cap >= n
+            use = finite = measured = rb.scratch_flags(n)[2] if scratch else np.ones(n, dtype=bool)
+        return self._settle(z, out, side, t0, t, dt, dtm, use, finite, measured, mv, None)
 
-        # general case: mix of updated, coasting, start-up and restarted tracks (t None: every row at t0)
+    def _accept(self, out, side, t0, t) -> None:
+        """The end of a cycle whose every track was measured and accepted (no start-up rows): the new
+        state from ``side``, the cycle's times (``out``: the free side's index; t0, t of ``cycle_steps``)."""
+        self._s, self._P, self._mu, self._x = side[:4]
+        self._side = out
+        self._Pc_stale = True
+        if self._flagged:  # some track has consecutive gated rows or a rejection reason
+            self._n_gated.fill(0)
+            self._reasons.fill(0)
+            self._flagged = False
+        if t is None:
+            self._t.fill(t0)
+        else:
+            self._t = t
+        self._t_common = t0
+
+    def _settle(self, z, out, side, t0, t, dt, dtm, use, finite, measured, mv, rows_w) -> np.ndarray:
+        """The end of the general cycle: a mix of updated, coasting, start-up and restarted tracks (t
+        None: every row at t0), ``side`` written by the IMM cycle with the used rows ``use`` (n,) of
+        z (n, 2) and σ² mv (n,) or None; ``rows_w``: the start-up rows when already gathered into the
+        row buffers' scratch rows (:func:`~mjasc.perception.imm.measured_cycle.measured_cycle`), else
+        None. Returns the (n,) bool array of used rows."""
+        n = self._ids.size
+        d2_min = side[4]
         rb = self._rb
         scratch = rb is not None and rb.cap >= n  # (the row buffers' scratch rows for the flags: no arrays made)
-        if use is None:
-            use = finite = measured = rb.w_true[:n] if scratch else np.ones(n, dtype=bool)
         warm = self._startup.active
         any_warm = self._startup.n_active > 0
         # the cycle updated the rows ``use & (d2_min <= gate)`` of the IMM rows, coasted the others; the
         # start-up rows keep their (unused) IMM state, their x is set by the hand-over below
         s_new, P_new, mu_new, x_new, _ = side
         if any_warm:  # the start-up filters' cycle (StartupFilters.update_rows): the products numpy's
-            rows_w = rows = warm.nonzero()[0]  # (still the start-up rows at the hand-over below)
             st = self._startup
-            rb, k = self._rb, rows.size
-            if rb is not None and rb.cap >= k:  # (gathered into the row buffers' scratch rows: no arrays made)
-                gather_startup_into(rows, st.x, st.P, _NO_VAR if t is None else dt, dtm if t is None else 0.0, z, use,
-                                    _NO_VAR if mv is None else mv, mv is not None, rb.w_x, rb.w_P, rb.w_dt, rb.w_F,
-                                    rb.w_z, rb.w_use, rb.w_var)
-                xc, Pc, dtw, F, zw, use_w, var_w = (rb.w_x[:k], rb.w_P[:k], rb.w_dt[:k], rb.w_F[:k], rb.w_z[:k],
-                                                    rb.w_use[:k], rb.w_var[:k])
+            if rows_w is not None:  # (gathered already)
+                rows = rows_w
+                xc, Pc, dtw, F, zw, use_w, var_w = rb.scratch_rows(rows.size)
             else:
-                xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
-                                                                  dtm if t is None else 0.0, z, use,
-                                                                  _NO_VAR if mv is None else mv, mv is not None)
+                rows_w = rows = warm.nonzero()[0]  # (still the start-up rows at the hand-over below)
+                k = rows.size
+                if rb is not None and rb.cap >= k:  # (gathered into the row buffers' scratch rows: no arrays made)
+                    gather_startup_into(rows, st.x, st.P, _NO_VAR if t is None else dt, dtm if t is None else 0.0, z,
+                                        use, _NO_VAR if mv is None else mv, mv is not None, rb.w_x, rb.w_P, rb.w_dt,
+                                        rb.w_F, rb.w_z, rb.w_use, rb.w_var)
+                    xc, Pc, dtw, F, zw, use_w, var_w = rb.scratch_rows(k)
+                else:
+                    xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
+                                                                      dtm if t is None else 0.0, z, use,
+                                                                      _NO_VAR if mv is None else mv, mv is not None)
             xc_w = (F @ xc[..., None])[..., 0]
             P_w = F @ Pc @ F.transpose(0, 2, 1)  # (= np.swapaxes(F, 1, 2))
         limit = self.config.restart_after_gated
@@ -455,8 +495,9 @@ class IMMBank(BankViews, PredictiveDensity):
                     self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
                     s_new, P_new, mu_new, self._n_gated, limit)
             if scratch:  # (the codes written into the bank's own, the flags into scratch rows)
-                inside, restart, reasons, used = rb.w_in[:n], rb.w_rs[:n], self._reasons, np.empty(n, dtype=bool)
-                n_restart = settled_startup_into(*args, inside, rb.w_ok[:n], reasons, restart, used)
+                _, _, _, inside, restart, ok = rb.scratch_flags(n)
+                reasons, used = self._reasons, np.empty(n, dtype=bool)
+                n_restart = settled_startup_into(*args, inside, ok, reasons, restart, used)
             else:
                 inside, reasons, restart, used, n_restart = settled_startup(*args)
         else:  # (inside, ok, rejections: one compiled pass)
@@ -464,8 +505,9 @@ class IMMBank(BankViews, PredictiveDensity):
             args = (d2_min, self._gate, use, finite, measured, _NO_ROWS, _NO_FLAGS, _NO_FLAGS, self._s, self._P,
                     self._mu, s_new, P_new, mu_new, self._n_gated, limit)
             if scratch:
-                inside, restart, reasons, used = rb.w_in[:n], rb.w_rs[:n], self._reasons, np.empty(n, dtype=bool)
-                n_restart = settled_rows_into(*args, inside, rb.w_ok[:n], reasons, restart, used)
+                _, _, _, inside, restart, ok = rb.scratch_flags(n)
+                reasons, used = self._reasons, np.empty(n, dtype=bool)
+                n_restart = settled_rows_into(*args, inside, ok, reasons, restart, used)
             else:
                 inside, reasons, restart, used, n_restart = settled_rows(*args)
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new

@@ -56,6 +56,7 @@ class RowBuffers:
         # scratch rows of a general cycle's start-up rows (startup_rows.gather_startup_into)
         self.w_x, self.w_P, self.w_dt = np.zeros((cap, 4)), np.zeros((cap, 4, 4)), np.zeros(cap)
         self.w_F = np.zeros((cap, 4, 4))
+        self.w_rows = np.zeros(cap, dtype=np.int64)  # (the start-up rows of a cycle: measured_cycle)
         self.w_z, self.w_use, self.w_var = np.zeros((cap, 2)), np.zeros(cap, dtype=bool), np.zeros(cap)
         self.w_fin, self.w_use2 = np.zeros(cap, dtype=bool), np.zeros(cap, dtype=bool)  # (an update's finite, use)
         # (a general cycle's inside, ok and restart flags; every row measured and used: all True, never written)
@@ -63,6 +64,8 @@ class RowBuffers:
         self.w_rs = np.zeros(cap, dtype=bool)
         self.w_true = np.ones(cap, dtype=bool)
         self._views: dict[int, tuple] = {}
+        self._zero_polar = None  # (zeros, J at V = 0) for zero_polar
+        self._scratch: dict[int, tuple] = {}  # k → scratch_rows(k); −n − 1 → scratch_flags(n)
 
     def views(self, n: int) -> tuple:
         """The first n rows: (ids, t, Pc, n_gated, reasons, active, x, P, n_meas) (the same view
@@ -74,6 +77,39 @@ class RowBuffers:
             v = self._views[n] = (self.ids[:n], self.t[:n], self.Pc[:n], self.n_gated[:n], self.reasons[:n],
                                   self.active[:n], self.cv_x[:n], self.cv_P[:n], self.n_meas[:n])
         return v
+
+    def scratch_rows(self, k: int) -> tuple:
+        """The first k scratch rows of a general cycle's start-up rows: (w_x, w_P, w_dt, w_F, w_z, w_use,
+        w_var) (the same view objects for the same k)."""
+        v = self._scratch.get(k)
+        if v is None:
+            if len(self._scratch) > 128:
+                self._scratch.clear()
+            v = self._scratch[k] = (self.w_x[:k], self.w_P[:k], self.w_dt[:k], self.w_F[:k], self.w_z[:k],
+                                    self.w_use[:k], self.w_var[:k])
+        return v
+
+    def scratch_flags(self, n: int) -> tuple:
+        """The first n scratch flags of an update: (w_fin, w_use2, w_true, w_in, w_rs, w_ok) (the same view
+        objects for the same n)."""
+        v = self._scratch.get(-n - 1)
+        if v is None:
+            if len(self._scratch) > 128:
+                self._scratch.clear()
+            v = self._scratch[-n - 1] = (self.w_fin[:n], self.w_use2[:n], self.w_true[:n], self.w_in[:n],
+                                         self.w_rs[:n], self.w_ok[:n])
+        return v
+
+    def zero_polar(self, k: int) -> tuple:
+        """(zeros (k,), J (k, 4, 4)): |v| and atan2 of k new start-up filters (velocity (+0, +0)) and
+        their polar Jacobians (:func:`~mjasc.perception.imm.startup._polar_jacobians` at V = 0): rows of
+        arrays made once (for up to ``cap`` rows), never written."""
+        zp = self._zero_polar
+        if zp is None or zp[0].size < k:
+            m = max(k, self.cap)
+            zeros = np.zeros(m)
+            zp = self._zero_polar = (zeros, _polar_jacobians(np.zeros((m, 4)), zeros))
+        return zp[0][:k], zp[1][:k]
 
     def home(self, arrays: tuple) -> None:
         """Make the first n rows hold ``arrays`` (the bank's nine, n rows each, in the order of
@@ -104,11 +140,12 @@ def append_rows(bank, z, t, ids, meas_var, id0=0) -> None:
     started_rows(rb.active, rb.cv_x, rb.cv_P, rb.n_meas, n_before, z, bank._R, bank._sv2,
                  meas_var if per_row else _NO_VAR, per_row)
     xc, Pcv = rb.cv_x[n_before:n], rb.cv_P[n_before:n]
-    vx, vy = xc[:, 2], xc[:, 3]
-    speed = np.hypot(vx, vy)
-    J = _polar_jacobians(xc, speed)
+    # a new filter's velocity is (+0, +0): |v| = hypot(0, 0) = +0, atan2(+0, +0) = +0 and its polar
+    # Jacobian the constant one of V = 0 (_polar_jacobians' V ≤ 0 branch), whatever z — the rows of
+    # zero_polar's arrays (the same values numpy's hypot, arctan2 and _polar_jacobians give; J P Jᵀ numpy's)
+    zero, J = rb.zero_polar(k)
     one_time, off = born_into(s, P, mu, x, n_before, bank._mu0, rb.ids, rb.t, rb.Pc, rb.n_gated, rb.reasons, ids, id0,
-                              t, xc, speed, np.arctan2(vy, vx), J @ Pcv @ J.transpose(0, 2, 1), Pcv, rb.n_meas,
+                              t, xc, zero, zero, J @ Pcv @ J.transpose(0, 2, 1), Pcv, rb.n_meas,
                               st.snr2, st.max_updates, rb.active)
     (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
      st.n_meas) = bank._rv = rb.views(n)

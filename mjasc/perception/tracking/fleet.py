@@ -50,12 +50,12 @@ from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.perception.tracking.report_fields import report_columns, report_columns_numpy, report_estimates
-from mjasc.perception.tracking.step_fusions import (assign_pairs_packed, cycled_scan_packed, pair_gates,
-                                                   predicted_pairs_packed)
-from mjasc.perception.tracking.step_gathers import births_packed, step_inputs, step_rows
-from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows, pair_setup
+from mjasc.perception.tracking.step_buffers import (AssociationBuffers, assign_pairs_into, grown,
+                                                   pair_gates_into, position_jacobians_into, predicted_pairs_into)
+from mjasc.perception.tracking.step_fusions import cycled_scan_grown
+from mjasc.perception.tracking.step_gathers import births_packed, step_inputs_into, step_rows
+from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows_into, pair_setup
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
 
@@ -115,6 +115,10 @@ class FleetTracker:
         self._counts = np.zeros((0, len(COUNT_KEYS)), dtype=np.int64)
         self.events: list[list[TrackEvent]] = []
         self._last_assign: list[list] = []  # per vessel: its last scan's (ids, detections) pieces (updates, births)
+        self._bufs = None  # the step's buffers (_step_buffers)
+        self._report_bufs = (np.empty(0, dtype=np.int64), np.empty(0), np.empty(0, dtype=bool))  # (report_columns)
+        self._assoc = AssociationBuffers()  # the association's buffers (step_buffers; grown when too small)
+        self._meas_bufs = (np.empty((0, 2)), np.empty(0, dtype=bool))  # the cycle's measurement rows (_meas_buffers)
 
     # ------------------------------------------------------------------ vessels
     def add_owner(self, max_range_m: float = math.inf) -> int:
@@ -229,16 +233,19 @@ class FleetTracker:
                            cat([d.radii_m for d, _ in live]),
                            cat([d.occluded if d.occluded is not None else np.zeros(len(d), bool) for d, _ in live]))
         own = self.cols.owner
-        if stacked is not None and stacked[1].size:  # (select_detections and step_rows in one call, 4 arrays)
-            ints, z, floats, flags, all_due, k = step_inputs(*stacked, self._use_var, own, pos_of, every, owners, t_o,
-                                                             no, self._counts, _SCANS, _DETS, self._R)
-            M, n = z.shape[0], own.size
+        if stacked is not None and stacked[1].size:  # (select_detections and step_rows in one call, into buffers)
+            S, n = stacked[1].size, own.size
+            ints, z, floats, flags = self._step_buffers(S, n, p, no)
+            M, all_due, k = step_inputs_into(*stacked, self._use_var, own, pos_of, every, owners, t_o, no,
+                                             self._counts, _SCANS, _DETS, self._R, ints, z, floats, flags)
+            z = z[:M]
             d_pos, idx, m_q = ints[:M], ints[M:2 * M], ints[2 * M:2 * M + p]
             c = 2 * M + p
             row_pos, rows, rpos, assigned = ints[c:c + n], ints[c + n:c + n + k], ints[c + n + k:c + n + 2 * k], ints[
-                c + n + 2 * k:]
-            var, rad, t_own, var_row = floats[:M], floats[M:2 * M], floats[2 * M:2 * M + no], floats[2 * M + no:]
-            occ, claimed = flags[:M], flags[M:]
+                c + n + 2 * k:c + 2 * n + 2 * k]
+            var, rad, t_own, var_row = (floats[:M], floats[M:2 * M], floats[2 * M:2 * M + no],
+                                        floats[2 * M + no:2 * M + no + n])
+            occ, claimed = flags[:M], flags[M:2 * M]
         else:
             d_pos = idx = np.zeros(0, dtype=np.int64)
             z, var, rad, occ = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
@@ -270,18 +277,29 @@ class FleetTracker:
         M = z.shape[0]
         p = owners.size
         arrays = bank.prediction_arrays() if M else None
-        if arrays is not None:  # (four compiled calls around numpy's cos, sin, J P Jᵀ and log: step_fusions)
-            blocks, pairs, var_p, xs, P, arcs = predicted_pairs_packed(rows, rpos, p, m_q, self.cols.radius, var, rad,
-                                                                       occ, *arrays, t_o, row_pos)
-            n_q, start = blocks[:p], blocks[p:]
-            dt, th, dv = arcs
-            if var_p.size:
-                zhat, Jac = position_jacobians(xs, dt, dv, np.cos(th), np.sin(th))
-                d2, det = pair_gates(pairs, zhat, Jac @ P @ Jac.transpose(0, 2, 1), z, var_p)
-                inside, cost, h_rows, h_vals, h = assign_pairs_packed(d2, np.log(det), self._gate, pairs, start, m_q,
-                                                                      var_p, assigned, var_row, claimed, t_o, row_pos)
-                hit = h_rows[h:]  # (h_rows[:h]: the rows in overlapping gates, re-solved below)
-                d2_hit, t_hit = h_vals
+        if arrays is not None:  # (four compiled calls around numpy's cos, sin, J P Jᵀ and log: step_fusions, written
+            # into the tracker's buffers: step_buffers)
+            ab = self._assoc
+            npairs, k, ok = predicted_pairs_into(rows, rpos, p, m_q, self.cols.radius, var, rad, occ, *arrays, t_o,
+                                                 row_pos, ab.blocks, ab.pairs, ab.var_p, ab.xs, ab.P, ab.arcs)
+            if not ok:  # (too small: larger buffers, the same call again)
+                ab = self._assoc = grown(ab, npairs, k, p)
+                predicted_pairs_into(rows, rpos, p, m_q, self.cols.radius, var, rad, occ, *arrays, t_o, row_pos,
+                                     ab.blocks, ab.pairs, ab.var_p, ab.xs, ab.P, ab.arcs)
+            n_q, start = ab.blocks[:p], ab.blocks[p:2 * p + 1]
+            if npairs:
+                arcs = ab.arcs[:3 * k]
+                dt, th, dv = arcs[:k], arcs[k:2 * k], arcs[2 * k:]
+                pairs, var_p = ab.pairs[:6 * npairs].reshape(6, npairs), ab.var_p[:npairs]
+                P, Jac, zhat = ab.P[:k], ab.J[:k], ab.zhat[:k]
+                position_jacobians_into(ab.xs[:k], dt, dv, np.cos(th), np.sin(th), zhat, Jac)
+                d2, det = ab.d2[:npairs], ab.det[:npairs]
+                pair_gates_into(pairs, zhat, Jac @ P @ Jac.transpose(0, 2, 1), z, var_p, d2, det)
+                inside, cost = ab.inside[:npairs], ab.cost[:npairs]
+                h, nh = assign_pairs_into(d2, np.log(det), self._gate, pairs, start, m_q, var_p, assigned, var_row,
+                                          claimed, t_o, row_pos, inside, cost, ab.rows, ab.vals)
+                hit = ab.rows[h:h + nh]  # (ab.rows[:h]: the blocks whose gates overlap, re-solved below)
+                d2_hit, t_hit = ab.vals[:nh], ab.vals[nh:2 * nh]
                 if h:  # (a vessel's gates overlap: its block to linear_sum_assignment)
                     q, i, j, _, db, ta = pairs
                     got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
@@ -298,20 +316,20 @@ class FleetTracker:
                 got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
                 hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
                 self.manoeuvres.detect(hit, d2_hit, self._gate, t_o[row_pos[hit]], bank)
-        zr, meas = measurement_rows(assigned, z)
+        n = assigned.size
+        zr, meas = self._meas_buffers(n)
+        measurement_rows_into(assigned, z, zr, meas)
         vr = var_row if self._use_var else None  # (changed in place by the cycle: its unusable σ² replaced)
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
         x = bank.state_rows
         with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)], dtype=bool)
-        c = self.cols  # (the cycled rows' gathers, management's record of the scan, last assignments: one call)
-        ints, floats, flags, o_pos, n_conf, g, m = cycled_scan_packed(
+        c = self.cols  # (the cycled rows' gathers, management's record of the scan, last assignments and the
+        # outlines' plan of the rows with returns: one call)
+        outlines = self.outlines
+        ints, new_conf, geo, n_conf, g, m, n_reset, g2 = cycled_scan_grown(
             rows, row_pos, t_o, used, meas, x, with_pts, self._counts, owners, _ASSOC, assigned, rad, occ, c.hist,
             c.scans, c.n_upd, c.last, c.radius, c.confirmed, c.static, c.born, *self.mgmt.scan_constants, c.local_id,
-            idx, p)
-        k = rows.size
-        orows, ids, det = ints[:g], ints[g:g + m], ints[g + m:g + 2 * m]
-        o_speeds, o_radius = floats
-        new_conf, o_hit = flags[:k], flags[k:]
+            idx, p, c.hull_anchor, *outlines.plan_constants)
         if n_conf:
             pos, born = bank.positions, self.cols.born
             for k in rows[new_conf].tolist():
@@ -319,7 +337,9 @@ class FleetTracker:
                 self._counts[o, _CONF] += 1
                 self.events[o].append(TrackEvent(t, "confirmed", tid, f"track {tid} confirmed at {_fmt(pos[k])} "
                                                                       f"(born {t - born[k]:.1f} s ago)"))
-        if orows.size:
+        e = g + 2 * m + p + 1  # (the outlines' plan from here)
+        if n_reset or g2:
+            orows = ints[:g]
             scans = {}
 
             def returns_of(j, orows=orows):  # (a vessel's returns and labels: once per step)
@@ -336,21 +356,45 @@ class FleetTracker:
                     got = scans[q] = (pts, lab)
                 return got[0], got[1], int(idx[assigned[k]])
 
-            self.outlines.grow(orows, o_hit, o_speeds, o_pos, o_radius, returns_of)
+            outlines.grow_planned(ints[e:], geo, n_reset, g2, returns_of)
         if m:
-            f = ints[g + 2 * m:].tolist()
+            ids, det = ints[g:g + m], ints[g + m:g + 2 * m]
+            f = ints[g + 2 * m:e].tolist()
             for q in range(p):
                 a, b = f[q], f[q + 1]
                 if b > a:
                     self._last_assign[owners[q]] = [(ids[a:b], det[a:b])]
+
+    def _step_buffers(self, S: int, n: int, p: int, no: int) -> tuple:
+        """The step's buffers for :func:`step_inputs_into` (S detections, n rows, p scanning vessels, no
+        vessels): (ints, z, floats, flags), grown when too small. Views of them are the step's arrays,
+        valid until the next step (nothing keeps them)."""
+        got = self._bufs
+        ni, nf = 2 * S + p + 4 * n, 2 * S + no + n
+        if got is None or got[0].size < ni or got[1].shape[0] < S or got[2].size < nf or got[3].size < 2 * S:
+            grow = lambda m: m + max(16, m // 2)
+            got = self._bufs = (np.empty(grow(ni), dtype=np.int64), np.empty((grow(S), 2)), np.empty(grow(nf)),
+                                np.empty(grow(2 * S), dtype=bool))
+        return got
+
+    def _meas_buffers(self, n: int) -> tuple:
+        """(zr (n, 2), meas (n,)): the cycle's measurement rows, views of buffers grown when too small
+        (valid until the next step)."""
+        got = self._meas_bufs
+        if got[1].size < n:
+            m = n + max(16, n // 2)
+            got = self._meas_bufs = (np.empty((m, 2)), np.empty(m, dtype=bool))
+        return got[0][:n], got[1][:n]
 
     def _cycle(self, rows, all_due, row_pos, t_o, zr, meas, vr) -> np.ndarray:
         """Step 3: one IMM cycle of ``rows``, per group of vessels sharing their last and new time
         (one group, the whole bank, in the usual tick). Returns (n,) bool, the rows used."""
         bank = self.bank
         if all_due and bank.common_time_s is not None:  # every row's last cycle at one time (the bank's invariant)
-            if (t_o == t_o[0]).all():  # ... and every vessel's scan at one time
-                return bank.update_measured(zr, float(t_o[0]), meas, vr)  # (the step's arrays: update without checks)
+            tl = t_o.tolist()  # (... and every vessel's scan at one time: (t_o == t_o[0]).all() on a short list)
+            t0 = tl[0]
+            if t0 == t0 and tl.count(t0) == len(tl):
+                return bank.update_measured(zr, t0, meas, vr)  # (the step's arrays: update without checks)
         t_last = bank.times_s[rows]
         t_new = t_o[row_pos[rows]]
         if all_due and (t_last == t_last[0]).all() and (t_new == t_new[0]).all():

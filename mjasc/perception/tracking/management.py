@@ -62,6 +62,7 @@ class TrackManagement:
         self.config = config
         self._window_mask = (1 << config.confirm_window) - 1
         self._popcount = _popcount_table(config.confirm_window)
+        self._drop_bufs = (np.empty(0, dtype=bool), np.empty(0, dtype=np.int64), np.empty(0))  # (drops_every)
         # drop_rows' constants (drops_every)
         self._window, self._hits = int(config.confirm_window), int(config.confirm_hits)
         self._max_coast, self._max_var = float(config.max_coast_s), float(config.max_position_std_m**2)
@@ -186,14 +187,23 @@ class TrackManagement:
         pairs in row order (the rows where :meth:`drops_all`'s reason is not ''); merged as there.
         One compiled call returning three arrays (:func:`every_drops_packed`)."""
         cols = self.cols
-        drop, ints, vals, n_lost, n_merged, n_drop = every_drops_packed(
-            group, pos_of, t_o, states, covariances, origins_m, max_range_m, cols.hist, cols.scans, cols.confirmed,
-            cols.last, cols.n_upd, cols.radius, self._popcount, self._window, self._hits, self._max_coast,
-            self._max_var, self._margin, self._fraction)
-        if not (n_lost or n_merged):
+        n = group.size
+        bufs = self._drop_bufs  # (drop, ints, vals written into them: each array a kernel returns is an object made)
+        if bufs[0].size < n:
+            m = n + max(16, n // 2)
+            bufs = self._drop_bufs = (np.empty(m, dtype=bool), np.empty(4 * m, dtype=np.int64), np.empty(3 * m))
+        args = (group, pos_of, t_o, states, covariances, origins_m, max_range_m, cols.hist, cols.scans, cols.confirmed,
+                cols.last, cols.n_upd, cols.radius, self._popcount, self._window, self._hits, self._max_coast,
+                self._max_var, self._margin, self._fraction)
+        n_lost, n_merged, n_drop = every_drops_into(*args, *bufs)
+        L, g = n_lost, n_merged
+        if g < 0:  # (more merges than the buffers hold: the returning form)
+            drop, ints, vals, L, g, n_drop = every_drops_packed(*args)
+        else:
+            drop, ints, vals = bufs[0][:n], bufs[1][:2 * L + 2 * g], bufs[2][:3 * L].reshape(3, L)
+        if not (L or g):
             return drop, n_drop, (), ()
         il = ints.tolist()
-        L, g = n_lost, n_merged
         lost = []
         if L:
             lam, since, rng = vals.tolist()
@@ -287,6 +297,27 @@ def every_drops_packed(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scan
         ints[2 * L + c] = go[c]
         ints[2 * L + g + c] = kept[c]
     return drop, ints, vals, L, g, n_drop
+
+
+@kernel
+def every_drops_into(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, confirmed, last, n_upd, radius,
+                     popcount, window, hits, max_coast, max_var, margin, fraction, drop, ints, vals):
+    """:func:`every_drops_packed` (arguments group … fraction as there) written into the first rows of the
+    caller's buffers drop (≥ n), ints and vals (flat: (3, L) row-major): (L, g, the number dropped) — g = −1
+    (nothing written) when ints or vals have no room."""
+    d_, i_, v_, L, g, n_drop = every_drops_packed(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans,
+                                                  confirmed, last, n_upd, radius, popcount, window, hits, max_coast,
+                                                  max_var, margin, fraction)
+    if i_.size > ints.size or 3 * L > vals.size:
+        return L, -1, n_drop
+    for a in range(d_.size):
+        drop[a] = d_[a]
+    for a in range(i_.size):
+        ints[a] = i_[a]
+    for r in range(3):
+        for a in range(L):
+            vals[r * L + a] = v_[r, a]
+    return L, g, n_drop
 
 
 @kernel

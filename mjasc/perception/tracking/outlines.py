@@ -67,10 +67,22 @@ class TrackOutlines:
         the returns near each growing track gathered and hulled with the hull they join by one
         compiled call per track, :func:`grown_hull`; tests/test_tracking_outlines.py keeps the numpy
         form.)"""
+        ints, geo, n_reset, g = grow_plan(rows, speeds, positions, self.cols.hull_anchor, *self._plan_constants, used,
+                                          radii)
+        self.grow_planned(ints, geo, n_reset, g, returns_of)
+
+    @property
+    def plan_constants(self) -> tuple:
+        """:func:`grow_plan`'s constants (reset distance [m], fast and slow speeds [m/s]), for a caller
+        that runs it inside a compiled call of its own."""
+        return self._plan_constants
+
+    def grow_planned(self, ints, geo, n_reset: int, g: int, returns_of) -> None:
+        """The rest of :meth:`grow` after :func:`grow_plan` (anchors written) — its (ints, geo, r, g)
+        from wherever it ran (a fleet tracker's step runs it in its compiled call after the cycle):
+        the hulls of the reset rows dropped, the returns of each growing track added to its hull."""
         cols = self.cols
-        pos = positions
         anchor, hulls = cols.hull_anchor, cols.hull
-        ints, geo, n_reset, g = grow_plan(rows, speeds, pos, anchor, *self._plan_constants, used, radii)
         if n_reset:
             hulls[ints[:n_reset]] = None
         if g == 0:
@@ -84,7 +96,7 @@ class TrackOutlines:
             if n_new == 0:
                 continue
             if h is None:
-                anchor[k] = pos[j]
+                anchor[k] = (px, py)  # (= positions[j]: grow_plan's copy of it)
             hulls[k] = p if hulled else convex_hull(p)
 
     def outline(self, row: int, centre, radius: float) -> np.ndarray:

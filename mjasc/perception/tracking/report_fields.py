@@ -22,7 +22,7 @@ from mjasc.core.estimates import TrackRows
 from mjasc.perception.imm.row_fields import row_fields
 from mjasc.perception.tracking.step_kernels import confirmed_by_owner
 
-__all__ = ["report_fields", "report_columns", "report_columns_numpy", "report_estimates"]
+__all__ = ["report_fields", "report_fields_into", "report_columns", "report_columns_numpy", "report_estimates"]
 
 
 def report_estimates(ft, cols: tuple) -> dict:
@@ -52,11 +52,17 @@ def report_columns(ft) -> tuple:
     arrays = ft.bank.prediction_arrays()
     if arrays is None:  # (ω̂ not the compiled sum: r > 7 models)
         return report_columns_numpy(ft)
-    ints, floats, xs, P, flags = report_fields(c.confirmed, c.owner, no, *arrays, c.static, c.radius, c.local_id,
-                                               ft._static_speed)
-    k = floats.shape[1]
+    n = c.n
+    bufs = ft._report_bufs
+    if bufs[2].size < 2 * n or bufs[0].size < 2 * n + no + 1:  # (room for every row: grown when too small)
+        m = n + max(16, n // 2)
+        bufs = ft._report_bufs = (np.empty(2 * m + no + 1, dtype=np.int64), np.empty(5 * m),
+                                  np.empty(2 * m, dtype=bool))
+    xs, P, k = report_fields_into(c.confirmed, c.owner, no, *arrays, c.static, c.radius, c.local_id, ft._static_speed,
+                                  *bufs)
     if k == 0:
         return ({},)
+    ints, floats, flags = bufs[0][:2 * k + no + 1], bufs[1][:5 * k].reshape(5, k), bufs[2][:2 * k].reshape(2, k)
     il = ints.tolist()
     f = il[2 * k:]
     spans = {o: (a, b) for o, (a, b) in enumerate(zip(f, f[1:])) if b > a}
@@ -112,3 +118,24 @@ def report_fields(confirmed, owner, n_owners, x, t, mu, omega, active, Pc, stati
     for o in range(n_owners + 1):
         ints[2 * k + o] = first[o]
     return ints, floats, xs, P, flags
+
+
+@kernel
+def report_fields_into(confirmed, owner, n_owners, x, t, mu, omega, active, Pc, static, radius, local_id, static_speed,
+                       ints, floats, flags):
+    """:func:`report_fields` (arguments confirmed … static_speed as there) with its ints, floats and flags
+    written into the first rows of the caller's buffers ints (≥ 2n + n_owners + 1), floats (≥ 5n, flat:
+    (5, k) row-major) and flags (≥ 2n, flat: (2, k)), n = confirmed.size: (xs, P, k) — the arrays handed
+    on (positions, covariances) still new ones; the others only read into lists."""
+    i_, f_, xs, P, b_ = report_fields(confirmed, owner, n_owners, x, t, mu, omega, active, Pc, static, radius, local_id,
+                                      static_speed)
+    k = xs.shape[0]
+    for a in range(i_.size):
+        ints[a] = i_[a]
+    for r in range(5):
+        for a in range(k):
+            floats[r * k + a] = f_[r, a]
+    for r in range(2):
+        for a in range(k):
+            flags[r * k + a] = b_[r, a]
+    return xs, P, k

@@ -27,6 +27,9 @@ management's Python layer.
 :func:`predicted_pairs_packed`, :func:`assign_pairs_packed` and :func:`cycled_scan_packed` are those
 three with their arrays packed by type (six arrays instead of nine, four instead of six, four instead of nine: each array a kernel returns is a Python
 object made), the caller slicing the views out.
+:func:`cycled_scan_grown` (what the step calls after the cycle) is :func:`cycled_scan_packed` and the
+outlines' :func:`~mjasc.perception.tracking.outlines.grow_plan` of the rows with returns in one call; the
+association's four calls write into the tracker's buffers (:mod:`mjasc.perception.tracking.step_buffers`).
 tests/test_tracking_step_fusions.py compares each with the calls it replaces, bit for bit, on a
 real run's steps.
 """
@@ -38,12 +41,13 @@ import numpy as np
 from mjasc.core.compiled import kernel
 from mjasc.perception.imm.row_fields import row_fields
 from mjasc.perception.tracking.management import scan_rows
+from mjasc.perception.tracking.outlines import grow_plan
 from mjasc.perception.tracking.pair_kernels import arc_midpoints, gate_terms
 from mjasc.perception.tracking.step_gathers import cycled_rows
 from mjasc.perception.tracking.step_kernels import admissible_pairs, apply_assignment, last_assignments, pair_setup
 
 __all__ = ["predicted_pairs", "predicted_pairs_packed", "pair_gates", "assign_pairs", "assign_pairs_packed",
-           "cycled_scan", "cycled_scan_packed", "Q", "I", "J", "GI", "DB", "TA"]
+           "cycled_scan", "cycled_scan_packed", "cycled_scan_grown", "Q", "I", "J", "GI", "DB", "TA"]
 
 #: Rows of the pairs' index table (6, P): block, track in block, detection in block, grouped row
 #: position, detection, bank row.
@@ -198,3 +202,35 @@ def assign_pairs_packed(d2, log_det, gate, pairs, start, n_b, var_p, assigned, v
         vals[0, a] = d2g[a]
         vals[1, a] = t_hit[a]
     return inside, cost, rows, vals, h
+
+
+@kernel
+def cycled_scan_grown(rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, hist,
+                      scans, n_upd, last, radius, confirmed, static, born, popcount, window_mask, grow_gain,
+                      shrink_gain, confirm_hits, min_age, static_speed, local_id, idx, p, hull_anchor, reset_m, fast,
+                      slow):
+    """:func:`cycled_scan` (arguments rows … p as there) and the outlines' :func:`grow_plan` of the rows with
+    returns (orows, their hit flags, speeds, positions and radii: what
+    :meth:`~mjasc.perception.tracking.outlines.TrackOutlines.grow` hands it; ``hull_anchor`` (n, 2) written
+    in place; reset_m, fast, slow its constants) in one call: (ints, new_conf (k,), geo (g2, 3), n_conf, g,
+    m, r, g2) — ints (g + 2m + p + 1 + r + 2·g2,): orows (g,), ids, det (m,), first (p + 1,), then
+    grow_plan's ints (r + 2·g2,); geo grow_plan's."""
+    new_conf, n_conf, orows, hit_o, speeds_o, pos_o, radius_o, ids, det, first = cycled_scan(
+        rows, row_pos, t_o, used, meas, x, with_pts, counts, owners, col, assigned, rad, occ, hist, scans, n_upd, last,
+        radius, confirmed, static, born, popcount, window_mask, grow_gain, shrink_gain, confirm_hits, min_age,
+        static_speed, local_id, idx, p)
+    g = orows.size
+    m = ids.size
+    gi, geo, r, g2 = grow_plan(orows, speeds_o, pos_o, hull_anchor, reset_m, fast, slow, hit_o, radius_o)
+    c = g + 2 * m + first.size
+    ints = np.empty(c + gi.size, dtype=np.int64)
+    for a in range(g):
+        ints[a] = orows[a]
+    for a in range(m):
+        ints[g + a] = ids[a]
+        ints[g + m + a] = det[a]
+    for a in range(first.size):
+        ints[g + 2 * m + a] = first[a]
+    for a in range(gi.size):
+        ints[c + a] = gi[a]
+    return ints, new_conf, geo, n_conf, g, m, r, g2

@@ -28,7 +28,7 @@ import numpy as np
 from mjasc.core.compiled import kernel
 from mjasc.perception.tracking.step_kernels import add_counts, birth_rows, count_scans, select_detections
 
-__all__ = ["step_rows", "step_inputs", "cycled_rows", "births_of", "births_packed"]
+__all__ = ["step_inputs_into", "step_rows", "step_inputs", "cycled_rows", "births_of", "births_packed"]
 
 
 @kernel
@@ -111,6 +111,29 @@ def step_inputs(m_all, sel, centres, variances, radii, occluded, use_var, owner,
     for a in range(n):
         floats[2 * M + n_owners + a] = var_row[a]
     return ints, z, floats, flags, all_due, k
+
+
+@kernel
+def step_inputs_into(m_all, sel, centres, variances, radii, occluded, use_var, owner, pos_of, every, owners, t_o,
+                     n_owners, counts, scans, dets, R, ints, z, floats, flags):
+    """:func:`step_inputs` (arguments m_all … R as there) written into the first rows of the caller's
+    buffers ints, z, floats, flags (at least 2·S + p + 4n, (S, 2), 2·S + n_owners + n and 2·S rows,
+    S = sel.size; nothing returned but sizes — each array a kernel returns is a Python object made):
+    (M, all_due, k), the arrays' first 2M + p + 2n + 2k, M, 2M + n_owners + n and 2M rows those of
+    step_inputs."""
+    i_, z_, f_, b_, all_due, k = step_inputs(m_all, sel, centres, variances, radii, occluded, use_var, owner, pos_of,
+                                             every, owners, t_o, n_owners, counts, scans, dets, R)
+    M = z_.shape[0]
+    for a in range(i_.size):
+        ints[a] = i_[a]
+    for a in range(M):
+        z[a, 0] = z_[a, 0]
+        z[a, 1] = z_[a, 1]
+    for a in range(f_.size):
+        floats[a] = f_[a]
+    for a in range(b_.size):
+        flags[a] = b_[a]
+    return M, all_due, k
 
 
 @kernel

@@ -50,7 +50,7 @@ import numpy as np
 from mjasc.core.compiled import kernel, maximum
 from mjasc.perception.tracking.pair_kernels import block_pairs_flat
 
-__all__ = ["select_detections", "pair_setup", "admissible_pairs", "apply_assignment", "birth_rows",
+__all__ = ["measurement_rows_into", "select_detections", "pair_setup", "admissible_pairs", "apply_assignment", "birth_rows",
            "confirmed_by_owner", "add_counts", "count_scans", "count_used", "last_assignments",
            "measurement_rows"]
 
@@ -282,6 +282,22 @@ def measurement_rows(assigned, z):
             zr[k, 0] = np.nan
             zr[k, 1] = np.nan
     return zr, meas
+
+
+@kernel
+def measurement_rows_into(assigned, z, zr, meas):
+    """:func:`measurement_rows` written into the first n rows of the caller's buffers zr (≥ n, 2) and
+    meas (≥ n,) (n = assigned.size; nothing returned)."""
+    for k in range(assigned.size):
+        d = assigned[k]
+        m = d >= 0
+        meas[k] = m
+        if m:
+            zr[k, 0] = z[d, 0]
+            zr[k, 1] = z[d, 1]
+        else:
+            zr[k, 0] = np.nan
+            zr[k, 1] = np.nan
 
 
 @kernel

@@ -12,6 +12,12 @@ Each vessel (owner) of a fleet's tracker has its own broadcasts (what its own li
 matches only its own tracks: one pass over every vessel's (track, broadcast) pairs, a
 ``linear_sum_assignment`` only for a vessel where a track or a broadcast has two candidates
 (:func:`mjasc.perception.tracking.association.gnn_assign_blocks`).
+
+The match's two compiled calls write into buffers the matcher keeps (:class:`TeamBuffers`,
+:func:`team_plan_into`, :func:`team_assign_into`: :func:`team_plan_packed` and :func:`team_assign_packed`
+run as they are, their arrays copied into the buffers' first rows — each array a kernel returns is a
+Python object made, seven per match); numpy's cosine and sine between them are unchanged.
+tests/test_tracking_team_buffers.py compares them with the returning forms, bit for bit, on real runs.
 """
 
 from __future__ import annotations
@@ -27,7 +33,7 @@ from mjasc.perception.tracking.pair_kernels import block_pairs_loop, broadcast_d
 from mjasc.perception.tracking.step_kernels import admissible_pairs
 from mjasc.perception.tracking.track_columns import TrackColumns, column
 
-__all__ = ["TeamMatcher"]
+__all__ = ["TeamMatcher", "TeamBuffers", "team_plan_into", "team_assign_into"]
 
 _TWO_PI = 2.0 * math.pi
 
@@ -45,6 +51,7 @@ class TeamMatcher:
         self._flat = None  # every owner's broadcasts as arrays (owner, name, t_b, position), built when used
         self._start: dict[int, int] = {}  # owner → its first row in those arrays
         self._max_age, self._gate = float(config.team_max_age_s), float(config.team_match_distance_m)
+        self._bufs = TeamBuffers()  # the match's buffers (grown when too small)
 
     # the store's column of matched names (a view: stale after a birth or drop)
     _team_of = column("team")
@@ -107,22 +114,30 @@ class TeamMatcher:
         if not self._team or owner.size == 0:
             return
         b_owner, names, tb, pb = self._arrays()
-        # (team_plan's arrays packed: c, bsel, start in one)
-        ints, blocks, pq, x, A, B = team_plan_packed(confirmed, owner, t_s, b_owner, tb, self._max_age, n_owners,
-                                                     states, not wrapped)
+        # (team_plan's arrays packed: c, bsel, start in one; written into the matcher's buffers)
+        bf, no, wrap = self._bufs, n_owners, not wrapped
+        A, B, npairs, ok = team_plan_into(confirmed, owner, t_s, b_owner, tb, self._max_age, no, states, wrap, bf.ints,
+                                          bf.blocks, bf.pq, bf.x)
+        if not ok:  # (too small: larger buffers, the same call again)
+            bf = self._bufs = grown_team(bf, owner.size, b_owner.size, npairs, no)
+            team_plan_into(confirmed, owner, t_s, b_owner, tb, self._max_age, no, states, wrap, bf.ints, bf.blocks,
+                           bf.pq, bf.x)
         if A == 0 or B == 0:
             return
-        c, bsel, start = ints[:A], ints[A:A + B], ints[A + B:]
+        ints, x = bf.ints, bf.x[:A]
+        blocks, pq = bf.blocks[:4 * no].reshape(4, no), bf.pq[:3 * npairs].reshape(3, npairs)
+        c, bsel, start = ints[:A], ints[A:A + B], ints[A + B:A + B + no + 1]
         gate = self._gate
         th = x[:, 2]
         # (a track meets every broadcast of its vessel: vx = V cos θ, vy = V sin θ; +inf far outside the gate)
-        dist, inside, n_in, hits, n_hard = team_assign_packed(pq, blocks, start, bsel, c, x, np.cos(th), np.sin(th),
-                                                              t_s, tb, pb, (2.0 * gate) ** 2, gate)
+        dist, inside = bf.dist[:npairs], bf.inside[:npairs]
+        n_in, n_hard, m = team_assign_into(pq, blocks, start, bsel, c, x, np.cos(th), np.sin(th), t_s, tb, pb,
+                                           (2.0 * gate) ** 2, gate, dist, inside, bf.hits)
         if not n_in:
             return
+        hits = bf.hits
         hard = hits[:n_hard]
-        m = (hits.size - n_hard) // 2
-        ta, tb_i = hits[n_hard:n_hard + m], hits[n_hard + m:]
+        ta, tb_i = hits[n_hard:n_hard + m], hits[n_hard + m:n_hard + 2 * m]
         if hard.size:  # (a track or a broadcast with two candidates: that vessel's block to linear_sum_assignment)
             q, i, j = pq
             n_a, n_b, a_start, b_start = blocks
@@ -298,3 +313,68 @@ def team_assign_packed(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, 
         hits[h + a] = ta[a]
         hits[h + m + a] = tb[a]
     return dist, inside, n_in, hits, h
+
+
+class TeamBuffers:
+    """Room for ``n_a`` tracks, ``n_b`` broadcasts, ``n_pairs`` pairs and ``n_owners`` vessels."""
+
+    def __init__(self, n_a: int = 0, n_b: int = 0, n_pairs: int = 0, n_owners: int = 0):
+        self.n_a, self.n_b, self.n_pairs, self.n_owners = n_a, n_b, n_pairs, n_owners
+        self.ints = np.empty(n_a + n_b + n_owners + 1, dtype=np.int64)
+        self.blocks = np.empty(4 * n_owners, dtype=np.int64)  # (4, n_owners) row-major
+        self.pq = np.empty(3 * n_pairs, dtype=np.int64)  # (3, P) row-major
+        self.x = np.empty((n_a, 4))
+        self.dist, self.inside = np.empty(n_pairs), np.empty(n_pairs, dtype=bool)
+        self.hits = np.empty(n_owners + 2 * n_a, dtype=np.int64)
+
+    def fits(self, n_a: int, n_b: int, n_pairs: int, n_owners: int) -> bool:
+        return n_a <= self.n_a and n_b <= self.n_b and n_pairs <= self.n_pairs and n_owners <= self.n_owners
+
+
+def grown_team(bufs: TeamBuffers | None, n_a: int, n_b: int, n_pairs: int, n_owners: int) -> TeamBuffers:
+    """``bufs`` if it has room for these sizes, else buffers with room for half as much again."""
+    if bufs is not None and bufs.fits(n_a, n_b, n_pairs, n_owners):
+        return bufs
+    if bufs is not None:
+        n_a, n_b = max(n_a, bufs.n_a), max(n_b, bufs.n_b)
+        n_pairs, n_owners = max(n_pairs, bufs.n_pairs), max(n_owners, bufs.n_owners)
+    more = lambda m: m + max(16, m // 2)
+    return TeamBuffers(more(n_a), more(n_b), more(n_pairs), n_owners)
+
+
+@kernel
+def team_plan_into(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states, wrap_theta, ints, blocks, pq, x):
+    """:func:`team_plan_packed` (arguments confirmed … wrap_theta as there) written into the buffers ints,
+    blocks (4·n_owners, flat), pq (3·cap, flat) and x when they have room: (A, B, number of pairs, written)
+    — nothing written when they are too small (sizes returned)."""
+    i_, b_, pq_, x_, A, B = team_plan_packed(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states,
+                                             wrap_theta)
+    npairs = pq_.shape[1]
+    if i_.size > ints.size or b_.size > blocks.size or 3 * npairs > pq.size or x_.shape[0] > x.shape[0]:
+        return A, B, npairs, False
+    for a in range(i_.size):
+        ints[a] = i_[a]
+    for r in range(4):
+        for o in range(n_owners):
+            blocks[r * n_owners + o] = b_[r, o]
+    for r in range(3):
+        for c in range(npairs):
+            pq[r * npairs + c] = pq_[r, c]
+    for a in range(x_.shape[0]):
+        for b in range(4):
+            x[a, b] = x_[a, b]
+    return A, B, npairs, True
+
+
+@kernel
+def team_assign_into(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, p_b, far_m2, gate, dist, inside, hits):
+    """:func:`team_assign_packed` (arguments pq … gate as there) written into the first rows of dist,
+    inside (P) and hits (h + 2m): (n_in, h, m)."""
+    d_, in_, n_in, h_, h = team_assign_packed(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, p_b, far_m2,
+                                              gate)
+    for a in range(d_.size):
+        dist[a] = d_[a]
+        inside[a] = in_[a]
+    for a in range(h_.size):
+        hits[a] = h_[a]
+    return n_in, h, (h_.size - h) // 2

@@ -1,0 +1,125 @@
+"""A fleet tracker's association (:mod:`mjasc.perception.tracking.fleet`, step 1) written into buffers the
+tracker keeps: the fused kernels of :mod:`mjasc.perception.tracking.step_fusions` —
+:func:`~mjasc.perception.tracking.step_fusions.predicted_pairs_packed`,
+:func:`~mjasc.perception.tracking.pair_kernels.position_jacobians`,
+:func:`~mjasc.perception.tracking.step_fusions.pair_gates` and
+:func:`~mjasc.perception.tracking.step_fusions.assign_pairs_packed` — run as they are and their arrays
+copied into the first rows of :class:`AssociationBuffers`, nothing returned but sizes: each array a
+kernel returns is a Python object made (~1.5 µs each, fourteen per step). numpy's cosine, sine,
+``J P Jᵀ`` and logarithm between them are unchanged (the same inputs: the buffers' views are
+C-contiguous as the returned arrays were). The views are the step's arrays, valid until the next
+step (nothing keeps them). tests/test_tracking_step_buffers.py compares each with the returning form,
+bit for bit, on real runs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.core.compiled import kernel
+from mjasc.perception.tracking.pair_kernels import position_jacobians
+from mjasc.perception.tracking.step_fusions import assign_pairs_packed, pair_gates, predicted_pairs_packed
+
+__all__ = ["AssociationBuffers", "predicted_pairs_into", "position_jacobians_into", "pair_gates_into",
+           "assign_pairs_into"]
+
+
+class AssociationBuffers:
+    """Room for ``n_pairs`` (track, detection) pairs, ``n_rows`` grouped rows and ``p`` scanning vessels:
+    flat buffers whose first rows the kernels of this module write (:meth:`fit` grows them)."""
+
+    def __init__(self, n_pairs: int = 0, n_rows: int = 0, p: int = 0):
+        P, k = n_pairs, n_rows
+        self.n_pairs, self.n_rows, self.p = P, k, p
+        self.blocks = np.empty(2 * p + 1, dtype=np.int64)
+        self.pairs = np.empty(6 * P, dtype=np.int64)  # (6, P) row-major: pairs[:6·P].reshape(6, P)
+        self.var_p, self.d2, self.det, self.cost = np.empty(P), np.empty(P), np.empty(P), np.empty(P)
+        self.inside = np.empty(P, dtype=bool)
+        self.xs, self.P, self.arcs = np.empty((k, 4)), np.empty((k, 4, 4)), np.empty(3 * k)
+        self.zhat, self.J = np.empty((k, 2)), np.empty((k, 2, 4))
+        self.rows, self.vals = np.empty(p + k, dtype=np.int64), np.empty(2 * k)
+
+    def fits(self, n_pairs: int, n_rows: int, p: int) -> bool:
+        return n_pairs <= self.n_pairs and n_rows <= self.n_rows and p <= self.p
+
+
+def grown(bufs: AssociationBuffers | None, n_pairs: int, n_rows: int, p: int) -> AssociationBuffers:
+    """``bufs`` if it has room for these sizes, else buffers with room for half as much again."""
+    if bufs is not None and bufs.fits(n_pairs, n_rows, p):
+        return bufs
+    more = lambda m: m + max(16, m // 2)
+    if bufs is not None:
+        n_pairs, n_rows, p = max(n_pairs, bufs.n_pairs), max(n_rows, bufs.n_rows), max(p, bufs.p)
+    return AssociationBuffers(more(n_pairs), more(n_rows), p)
+
+
+@kernel
+def predicted_pairs_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, omega, active, Pc, t_o, row_pos,
+                         blocks, pairs, var_p, xs, P, arcs):
+    """:func:`predicted_pairs_packed` (arguments rows … row_pos as there) written into the buffers blocks,
+    pairs (6·cap, flat), var_p, xs, P, arcs (3·k, flat) when they have room: (number of pairs, number of
+    grouped rows k, written) — nothing written when the buffers are too small (sizes returned)."""
+    b_, pr, vp, xs_, P_, ar = predicted_pairs_packed(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, omega,
+                                                     active, Pc, t_o, row_pos)
+    npairs = vp.size
+    k = xs_.shape[0]
+    if npairs > var_p.size or k > xs.shape[0] or b_.size > blocks.size:
+        return npairs, k, False
+    for a in range(b_.size):
+        blocks[a] = b_[a]
+    for r in range(6):
+        for c in range(npairs):
+            pairs[r * npairs + c] = pr[r, c]
+    for c in range(npairs):
+        var_p[c] = vp[c]
+    for a in range(k):
+        for b in range(4):
+            xs[a, b] = xs_[a, b]
+            for d in range(4):
+                P[a, b, d] = P_[a, b, d]
+    for r in range(3):
+        for a in range(k):
+            arcs[r * k + a] = ar[r, a]
+    return npairs, k, True
+
+
+@kernel
+def position_jacobians_into(xs, dt, dv, c, s, zhat, J):
+    """:func:`position_jacobians` (arguments xs … s as there, k rows) written into the first k rows of zhat
+    and J (every entry of J's rows: its zeros too)."""
+    zh, Jk = position_jacobians(xs, dt, dv, c, s)
+    for a in range(zh.shape[0]):
+        zhat[a, 0] = zh[a, 0]
+        zhat[a, 1] = zh[a, 1]
+        for b in range(2):
+            for d in range(4):
+                J[a, b, d] = Jk[a, b, d]
+
+
+@kernel
+def pair_gates_into(pairs, zhat, S, z, var_p, d2, det):
+    """:func:`pair_gates` (arguments pairs … var_p as there) written into the first P rows of d2 and det."""
+    d2_, det_ = pair_gates(pairs, zhat, S, z, var_p)
+    for c in range(d2_.size):
+        d2[c] = d2_[c]
+        det[c] = det_[c]
+
+
+@kernel
+def assign_pairs_into(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row, claimed, t_o, row_pos, inside,
+                      cost, rows, vals):
+    """:func:`assign_pairs_packed` (arguments d2 … row_pos as there; assigned, var_row, claimed written in
+    place as there) with its arrays written into the first rows of inside, cost (P), rows (h + m) and vals
+    (2·m, flat: d2_hit then t_hit): (h, m)."""
+    ins, cst, rw, vl, h = assign_pairs_packed(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row, claimed,
+                                              t_o, row_pos)
+    for c in range(ins.size):
+        inside[c] = ins[c]
+        cost[c] = cst[c]
+    for a in range(rw.size):
+        rows[a] = rw[a]
+    m = rw.size - h
+    for a in range(m):
+        vals[a] = vl[0, a]
+        vals[m + a] = vl[1, a]
+    return h, m

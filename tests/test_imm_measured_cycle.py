@@ -1,0 +1,99 @@
+"""The bank's measured cycle with its front in one compiled call (mjasc.perception.imm.measured_cycle)
+against the separate calls it replaces (measurements, imm_cycle, the common-case test, nonzero and
+gather_startup_into: the bank's path without row buffers' scratch rows), bit for bit, over clutter-like
+runs with births, drops, unmeasured, non-finite and gated rows, restarts, per-row σ² and spread times."""
+
+import numpy as np
+import pytest
+
+from mjasc.perception.imm.bank import IMMBank
+from mjasc.perception.imm.bank_kernels import measurements
+from mjasc.perception.imm.config import IMMConfig
+
+
+class _Separate(IMMBank):
+    """The measured cycle through the separate calls (IMMBank._cycle)."""
+
+    def _measured_cycle(self, z, t_s, measured, mv, finite, use):
+        all_used = measurements(z, measured, mv if mv is not None else self._var, mv is not None, self._R, finite, use)
+        self._mv = mv
+        try:
+            if all_used:
+                ok = self._cycle(z, t_s)
+                return np.ones(z.shape[0], dtype=bool) if ok is None else ok
+            return self._cycle(z, t_s, use, finite, measured)
+        finally:
+            self._mv = None
+
+
+def _same(a, b):
+    a, b = np.asarray(a), np.asarray(b)
+    assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
+
+
+def _compare(a, b):
+    for name in ("_ids", "_t", "_x", "_s", "_P", "_mu", "_n_gated", "_reasons"):
+        _same(getattr(a, name), getattr(b, name))
+    _same(a.state_covariances, b.state_covariances)
+    for name in ("active", "x", "P", "n_meas"):
+        _same(getattr(a._startup, name), getattr(b._startup, name))
+    assert a._startup.n_active == b._startup.n_active
+    assert a._t_common == b._t_common
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_measured_cycle_equals_the_separate_calls(seed):
+    rng = np.random.default_rng(seed)
+    cfg = IMMConfig() if seed % 3 else IMMConfig(init_max_updates=1, restart_after_gated=2)
+    a, b = IMMBank(cfg), _Separate(cfg)
+    truth = rng.normal(size=(4, 2)) * 40.0
+    vel = rng.normal(size=(4, 2)) * 2.0
+    for bank in (a, b):
+        bank.append_tracks(truth.copy(), np.zeros(4))
+    n_common = n_warm = 0
+    t = 0.0
+    for step in range(1, 80):
+        t = step * 0.2
+        if step == 30:  # (the clutter rows dropped: only the targets, measured every cycle)
+            keep = np.arange(len(a)) < truth.shape[0]
+            for bank in (a, b):
+                bank.keep_rows(keep)
+        n = len(a)
+        z = rng.normal(size=(n, 2)) * 30.0
+        k = min(n, truth.shape[0])
+        z[:k] = truth[:k] + vel[:k] * t + rng.normal(size=(k, 2)) * 0.3
+        quiet = 30 <= step < 45  # (no clutter, every row measured: the common case once handed over)
+        if not quiet:
+            if step % 9 == 0 and n:
+                z[0] += 200.0  # gated
+            if step % 13 == 0 and n > 1:
+                z[1, 0] = np.nan
+        mask = np.ones(n, dtype=bool) if quiet else rng.random(n) < 0.85
+        var = rng.uniform(-0.5, 2.0, n) if step % 3 == 0 else None
+        n_warm += a._startup.n_active > 0
+        pre_warm = a._startup.n_active
+        if step % 2:
+            ua = a.update_measured(z.copy(), t, mask.copy(), None if var is None else var.copy())
+            ub = b.update_measured(z.copy(), t, mask.copy(), None if var is None else var.copy())
+        else:
+            ua, ub = a.update(z, t, mask, var), b.update(z, t, mask, var)
+        n_common += bool(quiet and pre_warm == 0 and ua.all())
+        _same(ua, ub)
+        _compare(a, b)
+        if quiet:
+            continue
+        if n > k and step % 4:
+            keep = np.ones(n, dtype=bool)
+            keep[k:] = rng.random(n - k) < 0.5
+            for bank in (a, b):
+                bank.keep_rows(keep.copy())
+            _compare(a, b)
+        m = int(rng.integers(0, 4))
+        if m:
+            zb = rng.normal(size=(m, 2)) * 50.0
+            tb = np.full(m, t) if step % 5 else t - rng.uniform(0.0, 0.1, m)
+            vb = rng.uniform(0.1, 1.0, m) if step % 2 else None
+            for bank in (a, b):
+                bank.append_tracks(zb.copy(), tb.copy(), None if vb is None else vb.copy())
+            _compare(a, b)
+    assert n_common > 3 and (n_warm > 20 or not seed % 3)  # (init_max_updates=1: no start-up rows)
