@@ -44,7 +44,7 @@ from mjasc.perception.map_pass import carve_stacked, map_steps, sense_map
 from mjasc.perception.owned_discs import inside_owned_discs
 from mjasc.perception.scan_batch import ScanBatch
 from mjasc.perception.sense_kernels import tracked_in_walls
-from mjasc.perception.sense_pass import DETECTED, MAPPED, OUT_OF_RANGE, scan_detect_map
+from mjasc.perception.sense_pass import DETECTED, MAPPED, OUT_OF_RANGE, scan_detect_map, unpack
 from mjasc.perception.static_map import StaticMap, StaticMapStore
 from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows_at, disc_table
 from mjasc.perception.tracking.fleet import FleetTracker
@@ -194,11 +194,13 @@ class PerceptionFleet:
         c = plan.detection
         t = store.pass_tables(int(parts[2][1][S]))  # (room for every beam's return)
         cell_m, keys, key_rows, cells, member, score, n, cap, min_hits, n_occ, version, _, _ = t
-        status, floats, points, hit, geom, ints, K, dpoints, dfloats, dints, dflags, d, swallowed, targets, counts, \
-            keys, key_rows, n, cand, geo, rel = scan_detect_map(
+        status, floats, points, hit, geom, ints, K, d, nc, bools, p_ints, p_floats, p_points, keys, key_rows, n = \
+            scan_detect_map(
                 *args, *c.cluster_scan, c.beam_off, *c.per_scan[1:], *c.keep_scan, self.map_in_pass, plan.sigma, dc,
                 dr, d_k, FLAT_M, slot, plan.carve_all, parts[2][6], cell_m, keys, key_rows, cells, member, score, n,
                 cap, min_hits, n_occ, version)
+        dpoints, dfloats, dints, dflags, swallowed, targets, counts, cand, geo, rel = unpack(
+            status, S, K, d, nc, bools, p_ints, p_floats, p_points)
         stack = casts.stack(parts, floats, points, hit, geom, ints, K)
         scans = stack.scans
         ret_off = stack.ret_off
