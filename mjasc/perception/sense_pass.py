@@ -51,8 +51,8 @@ def scan_detect_map(dist, gid, beam_off, noise_std_m, normals, has_normals, drop
     """Steps 1–4 of the module docstring. The arguments: those of
     :func:`~mjasc.perception.scan_kernels.scan_batch`; the detection's per-scan constants (those of
     :func:`~mjasc.perception.detection_kernels.detect_clusters`, its ``beam_off`` as ``det_beam_off``);
-    ``map_step`` (False: steps 1–2 only), σ_ρ per scan (S,) as the map takes it, then those of :func:`~mjasc.perception.map_pass.returns_to_map`
-    that are not made here (the scans' fans' ``max_range_m`` and beams ``map_n_beams``).
+    ``map_step`` (False: steps 1–2 only), σ_ρ per scan (S,) as the map takes it, then those of
+    :func:`~mjasc.perception.map_pass.returns_to_map` that are not made here (the scans' fans' ``max_range_m`` and beams ``map_n_beams``).
 
     Returns the status (``DETECTED``, ``SWALLOWED``, ``MAPPED``, ``OUT_OF_RANGE``), the five arrays
     and K of ``scan_batch``, d detections and c carving candidates, then four arrays packing the rest
