@@ -48,6 +48,7 @@ def test_sense_map_equals_the_steps_on_a_shipped_scenario(monkeypatch, tmp_path)
 
     calls: list = []
     monkeypatch.setattr(fleet_module, "sense_map", _checked(calls))
+    monkeypatch.setattr(fleet_module.PerceptionFleet, "map_in_pass", False)  # (sense_map after the compiled pass)
     sc = mjasc.load_scenario("demo").with_overrides(duration_s=60.0)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()
@@ -84,6 +85,7 @@ def test_sense_map_equals_the_steps_in_a_fleet_with_a_quay(monkeypatch):
 
     calls: list = []
     monkeypatch.setattr(fleet_module, "sense_map", _checked(calls))
+    monkeypatch.setattr(fleet_module.PerceptionFleet, "map_in_pass", False)  # (sense_map after the compiled pass)
     world = _quay_world()
     shared = fleet_module.PerceptionFleet()
     ps = [Perception(world, i, SensorConfig(beams=360, rate_hz=2.5 if i == 2 else 5.0, clutter_per_scan=1.0), None,

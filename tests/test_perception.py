@@ -308,7 +308,7 @@ def test_non_finite_detections_are_dropped_and_counted_before_the_tracker(monkey
 
     from mjasc.perception import fleet as fleet_module
 
-    real = fleet_module.detect_many
+    real = fleet_module.packed_batch  # (the detections of a sensing pass with returns)
 
     def poisoned(*args, **kwargs):
         batch = real(*args, **kwargs)
@@ -318,7 +318,8 @@ def test_non_finite_detections_are_dropped_and_counted_before_the_tracker(monkey
         centres[0] = np.nan
         return dataclasses.replace(batch, centres_m=centres, extended=np.zeros_like(batch.extended))
 
-    monkeypatch.setattr(fleet_module, "detect_many", poisoned)
+    monkeypatch.setattr(fleet_module, "packed_batch", poisoned)
+    monkeypatch.setattr(fleet_module.PerceptionFleet, "map_in_pass", False)  # (the map step after the poisoning)
     bench = Bench(0, sensor=SensorConfig(rate_hz=5.0, clutter_per_scan=0.0),
                   statics=[CircleObstacle("a", (20.0, 0.0), 1.0), CircleObstacle("b", (-20.0, 5.0), 1.0)])
     for k in range(40):

@@ -113,8 +113,8 @@ def test_sort_returns_matches_numpy_form(seed):
 def test_sort_returns_on_a_shipped_scenario():
     """The real sensing pass of the bottleneck (a mapped quay, tracked boats beside it): every tick's
     arguments of sort_returns, checked against the numpy form. The pass runs its map step one step
-    at a time (map_pass.map_steps, the same results as the compiled sense_map: tests/test_map_pass.py)
-    so that sort_returns is called from Python."""
+    at a time (map_pass.map_steps, the same results as the compiled sense_map and sensing pass:
+    tests/test_map_pass.py, tests/test_sense_pass.py) so that sort_returns is called from Python."""
     from dataclasses import replace
 
     import mjasc
@@ -136,10 +136,12 @@ def test_sort_returns_on_a_shipped_scenario():
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     compiled = fleet_module.sense_map
     map_pass.sort_returns, fleet_module.sense_map = spy, map_pass.map_steps
+    fleet_module.PerceptionFleet.map_in_pass = False  # (the map step after the compiled call, in Python)
     try:
         Runner(sc, out_dir=None).run()
     finally:
         map_pass.sort_returns, fleet_module.sense_map = orig, compiled
+        fleet_module.PerceptionFleet.map_in_pass = True
     assert len(seen) > 50 and any(a[9].size for a in seen) and any(a[13].size for a in seen)
     for a in seen:
         a = list(a)

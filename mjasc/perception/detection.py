@@ -324,18 +324,27 @@ def _detect(scans, c: _PerScan, beams, P, rho, hit_all, ranges_all, ret_off, ori
     """The steps of :func:`detect_many` on the scans' stacked returns: hit beams (K,), points (K, 2)
     and ranges (K,), scan s owning ``ret_off[s] : ret_off[s+1]``; every beam's hit and range
     stacked; per scan the origin (S, 2), cosine and sine of the heading."""
-    S = len(scans)
     if P.shape[0] == 0:
-        z2, z1 = np.zeros((0, 2)), np.zeros(0)
-        return DetectionBatch(scans, z2, z2.copy(), z1, z1.copy(), np.zeros(0, dtype=np.int64), z1.copy(),
-                              np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), np.full(0, -1),
-                              np.zeros(S + 1, dtype=np.int64), ret_off)
+        return empty_batch(scans, ret_off)
     n_beams, d0, lam, dth, gap, sig, full = c.cluster_scan
     _, edge_lost, min_rad, edge_var, sig2, floor2 = c.per_scan
     points, floats, ints, flags, d = detect_clusters(
         beams, P, rho, ret_off, n_beams, d0, lam, dth, gap, sig, full, c.beam_off, hit_all, ranges_all, origins, cos_h,
         sin_h, edge_lost, min_rad, edge_var, sig2, floor2, *c.keep_scan)
-    K = P.shape[0]  # (the packed outputs as views: detection_kernels.unpack_detections, inline)
+    return packed_batch(scans, ret_off, P.shape[0], points, floats, ints, flags, d)
+
+
+def empty_batch(scans, ret_off) -> DetectionBatch:
+    """The :class:`DetectionBatch` of scans without a return."""
+    z2, z1 = np.zeros((0, 2)), np.zeros(0)
+    return DetectionBatch(scans, z2, z2.copy(), z1, z1.copy(), np.zeros(0, dtype=np.int64), z1.copy(),
+                          np.zeros(0, dtype=bool), np.zeros(0, dtype=bool), np.full(0, -1),
+                          np.zeros(len(scans) + 1, dtype=np.int64), ret_off)
+
+
+def packed_batch(scans, ret_off, K, points, floats, ints, flags, d) -> DetectionBatch:
+    """The :class:`DetectionBatch` of :func:`~mjasc.perception.detection_kernels.detect_clusters`'
+    packed outputs (d detections of K returns; its slices as views)."""
     centres, body, radii, var, counts, ranges = points[:d], points[d:], floats[:d], floats[d:2 * d], ints[:d], \
         floats[2 * d:]
     extended, occluded, labels, det_off = flags[:d], flags[d:], ints[d:d + K], ints[d + K:]

@@ -10,13 +10,15 @@ tracking configuration. A vessel's ``sense`` casts its own fan at once (``mj_mul
 floor, per vessel) and makes its draws into the fleet's :class:`~mjasc.perception.scan_batch.ScanBatch`;
 ``update_tracks`` queues the tracking step. The fleet then processes the queue in one pass:
 
-* **sensing**: every queued cast made a :class:`~mjasc.perception.range_sensor.Scan` in one compiled
-  call; one :func:`~mjasc.perception.detection.detect_many` over all scans (their returns stacked
-  as the batch made them); the tracked discs
-  of every vessel's tracks at its scan time (arrays over the fleet's tracks); the returns a wall's
-  cluster swallowed from a tracked boat re-clustered (only for the vessels where that happens);
-  wall fragments among the targets, static returns into the maps, free space carved: two
-  compiled calls for all vessels (:func:`~mjasc.perception.map_pass.sense_map`);
+* **sensing**: the tracked discs of every vessel's tracks at its scan time (arrays over the
+  fleet's tracks); then one compiled call (:func:`~mjasc.perception.sense_pass.scan_detect_map`)
+  makes every queued cast a :class:`~mjasc.perception.range_sensor.Scan`, detects over all scans
+  (their returns stacked as the batch made them) and makes the map step up to the carving (wall
+  fragments among the targets, static returns into the maps, the carving's candidates), and a
+  second one carves the free space (:func:`~mjasc.perception.map_pass.carve_stacked`); when a
+  wall's cluster swallowed a tracked boat's returns, the first call stops after the detection, those
+  returns are re-clustered (only for the vessels where that happens) and the map step follows in
+  two compiled calls (:func:`~mjasc.perception.map_pass.sense_map`);
 * **tracking**: one :meth:`FleetTracker.step` for all vessels of a tracking configuration; a vessel
   with a plugin tracker (``[vessels.tracking] method``) gets its own ``update`` call, and its
   tracked discs come from its plugin's tracks (:func:`estimate_discs`).
@@ -37,11 +39,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mjasc.perception.detection import detect_many, detection_constants
-from mjasc.perception.map_pass import map_steps, sense_map
+from mjasc.perception.detection import detection_constants, empty_batch, packed_batch
+from mjasc.perception.map_pass import carve_stacked, map_steps, sense_map
 from mjasc.perception.owned_discs import inside_owned_discs
-from mjasc.perception.scan_batch import ScanBatch, ScanStack
+from mjasc.perception.scan_batch import ScanBatch
 from mjasc.perception.sense_kernels import tracked_in_walls
+from mjasc.perception.sense_pass import DETECTED, MAPPED, OUT_OF_RANGE, scan_detect_map, unpack
 from mjasc.perception.static_map import StaticMap, StaticMapStore
 from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows_at, disc_table
 from mjasc.perception.tracking.fleet import FleetTracker
@@ -98,6 +101,10 @@ def thickness(p: np.ndarray, labels: np.ndarray, m: int) -> np.ndarray:
 
 class PerceptionFleet:
     """The shared engine of the :class:`~mjasc.perception.pipeline.Perception` components of one world."""
+
+    #: The sensing pass's map step inside its compiled call (False: after it, in Python and
+    #: :func:`~mjasc.perception.map_pass.sense_map`: the reference form of tests/test_sense_pass.py).
+    map_in_pass = True
 
     def __init__(self):
         self.members: list = []
@@ -157,7 +164,7 @@ class PerceptionFleet:
             if self._scans:
                 members, self._scans = self._scans, []
                 w0 = time.perf_counter()
-                self._sense(members, self._batch.take())
+                self._sense(members, self._batch)
                 share = (time.perf_counter() - w0) / len(members)
                 for m in members:
                     m._stats["sense_s"] += share
@@ -172,21 +179,45 @@ class PerceptionFleet:
             self._busy = False
 
     # ------------------------------------------------------------------ sensing pass
-    def _sense(self, members, stack: ScanStack) -> None:
-        scans = stack.scans
+    def _sense(self, members, casts: ScanBatch) -> None:
+        """The sensing pass over the casts queued in ``casts`` (one per member, in order): the
+        scans, detections and map update in one compiled call (:mod:`mjasc.perception.sense_pass`)
+        with the carving after it, or, when a wall's cluster swallowed a tracked boat's returns,
+        the detections split again and the map pass after them."""
         plan = self._plan(members)
         S = plan.index.shape[0]
-        batch = detect_many(scans, None, plan.noise, plan.dropout, stack=stack, constants=plan.detection)
-        dets = batch.split()
-        restacked = False
-        dc, dr, d_k = self._discs(members, stack, plan)
+        args, parts = casts.kernel_inputs()
+        queued, times = parts[0], parts[3]
+        dc, dr, d_k = self._discs(members, queued, times, plan)
         store = self.map_store
         slot = plan.slot  # map member of each slot
-        ret_off, det_off_all = stack.ret_off, batch.det_offsets
-        lab = batch.labels
-        if d_k.size and batch.extended.any():  # a wall's cluster may have swallowed a tracked boat's returns
-            swallowed = tracked_in_walls(lab, ret_off, det_off_all, batch.extended, stack.hit_points_world, dc, dr, d_k)
-            if swallowed.any():
+        c = plan.detection
+        t = store.pass_tables(int(parts[2][1][S]))  # (room for every beam's return)
+        cell_m, keys, key_rows, cells, member, score, n, cap, min_hits, n_occ, version, _, _ = t
+        status, floats, points, hit, geom, ints, K, d, nc, bools, p_ints, p_floats, p_points, keys, key_rows, n = \
+            scan_detect_map(
+                *args, *c.cluster_scan, c.beam_off, *c.per_scan[1:], *c.keep_scan, self.map_in_pass, plan.sigma, dc,
+                dr, d_k, FLAT_M, slot, plan.carve_all, parts[2][6], cell_m, keys, key_rows, cells, member, score, n,
+                cap, min_hits, n_occ, version)
+        dpoints, dfloats, dints, dflags, swallowed, targets, counts, cand, geo, rel = unpack(
+            status, S, K, d, nc, bools, p_ints, p_floats, p_points)
+        stack = casts.stack(parts, floats, points, hit, geom, ints, K)
+        scans = stack.scans
+        ret_off = stack.ret_off
+        batch = packed_batch(scans, ret_off, K, dpoints, dfloats, dints, dflags, d) if K else \
+            empty_batch(scans, ret_off)
+        dets = batch.split()
+        restacked = False
+        pts = stack.hit_points_world
+        det_off = batch.det_offsets
+        extended, n_pts, centres = batch.extended, batch.n_points, batch.centres_m
+        radii, variances = batch.radii_m, batch.variances_m2
+        if status == MAPPED:
+            carve_stacked(store, t, keys, key_rows, n, cand, geo, rel, stack, plan.sigma, ret_off, slot, pts)
+        else:  # (DETECTED: the map step not made in the compiled call, the reference form of tests/test_sense_pass.py)
+            if status == DETECTED and d_k.size and extended.any():
+                swallowed = tracked_in_walls(batch.labels, ret_off, det_off, extended, pts, dc, dr, d_k)
+            if swallowed.any():  # a wall's cluster may have swallowed a tracked boat's returns
                 d_cnt = np.bincount(d_k, minlength=S)
                 d_off = _starts(d_cnt).tolist()
                 for k in np.flatnonzero(swallowed).tolist():
@@ -194,30 +225,27 @@ class PerceptionFleet:
                     det = members[k]._split_tracked(scans[k], dets[k], (dc[a:b], dr[a:b]))
                     restacked |= det is not dets[k]
                     dets[k] = det
-        if restacked:  # stacked again
-            n_det = np.array([len(d) for d in dets], dtype=np.int64)
-            det_off = np.zeros(S + 1, dtype=np.int64)
-            np.cumsum(n_det, out=det_off[1:])
-            cat = np.concatenate
-            lab = cat([d.labels for d in dets])
-            extended = cat([d.extended for d in dets])
-            n_pts = cat([d.n_points for d in dets])
-            centres = cat([d.centres_m for d in dets])
-            radii = cat([d.radii_m for d in dets])
-            variances = cat([d.variances_m2 for d in dets])
-        else:
-            det_off = det_off_all
-            extended, n_pts, centres = batch.extended, batch.n_points, batch.centres_m
-            radii, variances = batch.radii_m, batch.variances_m2
-        pts = stack.hit_points_world
+            lab = batch.labels
+            if restacked:  # stacked again
+                n_det = np.array([len(d) for d in dets], dtype=np.int64)
+                det_off = np.zeros(S + 1, dtype=np.int64)
+                np.cumsum(n_det, out=det_off[1:])
+                cat = np.concatenate
+                lab = cat([d.labels for d in dets])
+                extended = cat([d.extended for d in dets])
+                n_pts = cat([d.n_points for d in dets])
+                centres = cat([d.centres_m for d in dets])
+                radii = cat([d.radii_m for d in dets])
+                variances = cat([d.variances_m2 for d in dets])
+            got = None if status == OUT_OF_RANGE else sense_map(
+                store, lab, ret_off, det_off, extended, n_pts, centres, radii, variances, pts, plan.sigma, FLAT_M, dc,
+                dr, d_k, slot, stack, plan.carve_all)
+            if got is None:  # a return out of the map's range: the steps one by one raise the one-line error
+                targets, counts = map_steps(store, lab, ret_off, det_off, extended, n_pts, centres, radii, variances,
+                                            pts, plan.sigma, FLAT_M, dc, dr, d_k, slot, stack, plan.carve_all)
+            else:
+                targets, counts = got
         carve = plan.carve
-        got = sense_map(store, lab, ret_off, det_off, extended, n_pts, centres, radii, variances, pts, plan.sigma,
-                        FLAT_M, dc, dr, d_k, slot, stack, plan.carve_all)
-        if got is None:  # a return out of the map's range: the steps one by one raise the one-line error
-            targets, counts = map_steps(store, lab, ret_off, det_off, extended, n_pts, centres, radii, variances, pts,
-                                        plan.sigma, FLAT_M, dc, dr, d_k, slot, stack, plan.carve_all)
-        else:
-            targets, counts = got
         if carve and not plan.carve_all:
             sc = [scans[k] for k in carve]
             store.carve(slot[carve].tolist(), [s.origin_m for s in sc], [s.angles_body + s.heading_rad for s in sc],
@@ -231,17 +259,16 @@ class PerceptionFleet:
         for k, (m, c) in enumerate(zip(members, counts.tolist())):
             m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]], c)
 
-    def _discs(self, members, stack: ScanStack, plan: "_Plan") -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _discs(self, members, queued: list, times: np.ndarray, plan: "_Plan"
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centres (q, 2) and radii (q,) [m] of the tracks whose returns must never reach their
         vessel's map (:meth:`mjasc.perception.pipeline.Perception.tracked_discs`), at the vessel's
-        scan time, and the slot of that vessel (q,) (grouped by slot, ascending; within a slot in
-        the order of its tracker's rows)."""
+        scan time (``queued[k][0]``, ``times`` (S,) [s]), and the slot of that vessel (q,) (grouped by
+        slot, ascending; within a slot in the order of its tracker's rows)."""
         parts = []
-        scans = stack.scans
         for k in plan.plugins:
-            c, r = members[k].tracked_discs(scans[k].time_s)
+            c, r = members[k].tracked_discs(queued[k][0])
             parts.append((np.full(r.shape[0], k, dtype=np.int64), c, r))
-        times = stack.times_s
         S = times.shape[0]
         for ft, owner_slot in plan.trackers:
             if len(ft.bank) == 0:

@@ -29,7 +29,7 @@ from mjasc.perception.cell_keys import create_rows, find_rows, point_keys
 from mjasc.perception.score_kernels import add_hits, carve_cells, cell_rows
 from mjasc.perception.sense_kernels import sort_returns
 
-__all__ = ["sense_map", "map_steps", "returns_to_map", "carve_fans"]
+__all__ = ["sense_map", "map_steps", "returns_to_map", "carve_fans", "carve_stacked"]
 
 _NO_FLAGS = np.zeros(0, dtype=bool)  # sort_returns: the map's occupancy not checked
 
@@ -157,13 +157,22 @@ def sense_map(store, labels, ret_off, det_off, extended, n_points, centres, radi
         cells, member, score, n, cap, min_hits, n_occ, version)
     if not ok:
         return None
+    carve_stacked(store, t, keys, key_rows, n, cand, geo, rel, stack, sigma, ret_off, slot, points)
+    return targets, stats
+
+
+def carve_stacked(store, tables, keys, key_rows, n, cand, geo, rel, stack, sigma, ret_off, slot, points) -> None:
+    """The end of :func:`sense_map` after :func:`returns_to_map` (on the store's ``tables``, its
+    :meth:`~mjasc.perception.static_map.StaticMapStore.pass_tables`): the store's rows taken over
+    (``keys``, ``key_rows``, ``n``), numpy's arctan2 of the candidates' bearings and
+    :func:`carve_fans`."""
+    cell_m, _, _, _, member, score, _, _, min_hits, n_occ, version, miss, margin = tables
     store.set_rows(keys, key_rows, n)
     if cand.shape[1]:
         bearing = np.arctan2(rel[:, 1], rel[:, 0])
         carve_fans(cand, geo, bearing, n, margin, stack.first_angle_body, stack.last_angle_body, stack.headings_rad,
                    stack.n_beams, stack.full_circle, stack.ranges_m, stack.hit, stack.beam_off, sigma, ret_off, slot,
                    points, cell_m, keys, key_rows, score, member, miss, min_hits, n_occ, version)
-    return targets, stats
 
 
 def map_steps(store, labels, ret_off, det_off, extended, n_points, centres, radii, variances, points, sigma, flat_m,

@@ -147,9 +147,17 @@ class ScanBatch:
 
     def take(self) -> ScanStack:
         """The queued casts as scans (module docstring); the batch is emptied."""
+        args, parts = self.kernel_inputs()
+        return self.stack(parts, *scan_batch(*args))
+
+    def kernel_inputs(self) -> tuple[tuple, tuple]:
+        """The arguments of :func:`~mjasc.perception.scan_kernels.scan_batch` for the queued casts,
+        and what :meth:`stack` needs with its outputs (a caller may run the kernel inside a larger
+        compiled call: :mod:`mjasc.perception.sense_pass`)."""
         queued, S = self._queued, self._n
         sensors = [row[0] for row in self._tables[:S]]  # (slot k's table row is its cast's sensor's)
-        beam_off, offs, noise, dropout, min_r, max_r, n_beams, first, last, full = self._constants(sensors)
+        consts = self._constants(sensors)
+        beam_off, offs, noise, dropout, min_r, max_r, n_beams, first, last, full = consts
         rows = np.array(queued, dtype=float)  # (S, 7): time, x, y, yaw, clutter end, (cos, sin) of each cast
         cols = rows.T.copy()
         times_s, headings, c_end, cos_h, sin_h = cols[0], cols[3], cols[4], cols[5], cols[6]
@@ -161,9 +169,16 @@ class ScanBatch:
             cb, cr = _NO_BEAMS, _NO_DRAWS
         c_off = np.zeros(S + 1, dtype=np.int64)
         c_off[1:] = c_end
-        floats, points, hit, geom, ints, K = scan_batch(  # (cos_h, sin_h written: of each cast's heading)
-            self._dist, self._gid, beam_off, noise, self._normals, has_n, dropout, self._uniforms, has_u, cb, cr,
-            c_off, min_r, max_r, CLUTTER_GEOM, self._cos, self._sin, origins, headings, cos_h, sin_h)
+        args = (self._dist, self._gid, beam_off, noise, self._normals, has_n, dropout, self._uniforms, has_u, cb, cr,
+                c_off, min_r, max_r, CLUTTER_GEOM, self._cos, self._sin, origins, headings, cos_h, sin_h)
+        return args, (queued, sensors, consts, times_s, headings, origins, cos_h, sin_h)
+
+    def stack(self, parts: tuple, floats, points, hit, geom, ints, K) -> ScanStack:
+        """The :class:`ScanStack` of :meth:`kernel_inputs`' ``parts`` and the kernel's outputs
+        (cos_h and sin_h written by it); the batch is emptied."""
+        queued, sensors, consts, times_s, headings, origins, cos_h, sin_h = parts
+        beam_off, offs, noise, dropout, min_r, max_r, n_beams, first, last, full = consts
+        S = len(sensors)
         N = offs[S]
         ranges, rho, body, world, beams, ret_off = floats[:N], floats[N:N + K], points[:K], points[N:N + K], \
             ints[:K], ints[N:]
