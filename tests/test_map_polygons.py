@@ -44,30 +44,3 @@ def test_memo_gives_the_pieces_of_a_fresh_split(monkeypatch):
     assert len(cache._pieces) <= MEMO_PARTS + 64
     assert 0 < calls[0] < calls[1] / 5  # most parts were split before
     _same(cache.polygons(np.zeros((0, 2), dtype=np.int64)), [])
-
-
-def test_hull_of_and_principal_axis_are_convexhull_and_eigh():
-    """hull_of (qhull without ConvexHull's facet arrays) gives ConvexHull's vertices, in its order,
-    and its area; principal_axis gives np.linalg.eigh's last eigenvector: bit for bit, on the
-    corners of random cell sets (lines, blocks, scattered cells, other cell sizes, far from the origin)."""
-    from scipy.spatial import ConvexHull
-
-    from mjasc.perception.map_polygons import _CORNERS, hull_of, principal_axis
-
-    rng = np.random.default_rng(11)
-    for k in range(300):
-        n = int(rng.integers(1, 60))
-        spread = int(rng.integers(1, 30))
-        cells = rng.integers(-spread, spread + 1, size=(n, 2)) + rng.integers(-10**5, 10**5, size=2) * (k % 3 == 0)
-        if k % 7 == 0:
-            cells[:, 1] = cells[0, 1]  # one row
-        cells = np.unique(cells, axis=0)
-        cell_m = (1.0, 0.5, 2.0, 0.7)[k % 4]
-        corners = (cells[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cell_m
-        hull = ConvexHull(corners)
-        vertices, area = hull_of(corners)
-        assert vertices.tobytes() == hull.vertices.tobytes() and vertices.dtype == hull.vertices.dtype
-        assert area == hull.volume
-        c = cells - cells.mean(axis=0)
-        m = c.T @ c
-        assert principal_axis(m).tobytes() == np.linalg.eigh(m)[1][:, -1].tobytes()

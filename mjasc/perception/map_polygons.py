@@ -3,8 +3,7 @@
 The occupied cells (integer indices (i, j) of ``cell_m`` squares, :mod:`mjasc.perception.static_map`)
 are grouped into 8-connected components (``scipy.ndimage.label``). Each component is split
 recursively (at the median of its cells along their principal axis) until its cells fill at least
-``min_fill`` of their convex hull (scipy's qhull, run as ``ConvexHull`` runs it but without the facet arrays it also
-builds: :func:`hull_of`; a piece whose fill the hull's exact area,
+``min_fill`` of their convex hull (scipy's qhull; a piece whose fill the hull's exact area,
 :mod:`mjasc.perception.hull_kernels`, puts clearly below is split without building it) or
 ``max_depth`` is reached, so that an L- or U-shaped dock
 becomes a few convex pieces hugging its walls instead of one hull covering its basin. Each polygon
@@ -25,13 +24,7 @@ from scipy.spatial import ConvexHull, QhullError
 
 from mjasc.perception.hull_kernels import hull_area2, median
 
-try:  # the qhull run and the gufunc behind ConvexHull and np.linalg.eigh, called without their wrappers
-    from numpy.linalg import _umath_linalg
-    from scipy.spatial._qhull import _Qhull
-except ImportError:  # pragma: no cover (other versions: the public calls)
-    _Qhull = _umath_linalg = None
-
-__all__ = ["PolygonCache", "split_component", "hull_of", "principal_axis"]
+__all__ = ["PolygonCache", "split_component"]
 
 #: A piece's fill (its cells over its hull's exact area, :func:`~mjasc.perception.hull_kernels.hull_area2`)
 #: this far (relative) below ``min_fill`` is below it by qhull's area too (qhull's area is within
@@ -41,33 +34,6 @@ SURE_SPARSE = 1e-6
 MEMO_PARTS = 4096
 _CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 _EIGHT = np.ones((3, 3))
-
-
-def hull_of(corners: np.ndarray) -> tuple[np.ndarray, float]:
-    """The vertices (counter-clockwise indices into ``corners`` (k, 2) [m]) and area [m²] of their
-    convex hull, as ``scipy.spatial.ConvexHull(corners)`` has them (``vertices``, ``volume``):
-    the same qhull run (options "i", required "Qt"; triangulated, then its area and its 2-D
-    extremes, in ConvexHull's order) without the facet arrays ConvexHull also builds (a third of
-    its time). Raises ``QhullError`` as ConvexHull does."""
-    if _Qhull is None:
-        hull = ConvexHull(corners)
-        return hull.vertices, hull.volume
-    q = _Qhull(b"i", np.ascontiguousarray(corners, dtype=np.double), b"", required_options=b"Qt")
-    try:
-        q.triangulate()
-        area = q.volume_area()[0]
-        vertices = q.get_extremes_2d()
-    finally:
-        q.close()
-    return vertices, area
-
-
-def principal_axis(c: np.ndarray) -> np.ndarray:
-    """(2,) the eigenvector of the largest eigenvalue of the 2×2 symmetric ``c`` (float64), as
-    ``np.linalg.eigh(c)[1][:, -1]`` has it (its gufunc, without the wrapper's checks)."""
-    if _umath_linalg is None:
-        return np.linalg.eigh(c)[1][:, -1]
-    return _umath_linalg.eigh_lo(c, signature="d->dd")[1][:, -1]
 
 
 def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth: int, depth: int, out: list,
@@ -88,27 +54,28 @@ def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth:
 
 def _split(comp, cell_m, min_fill, max_depth, depth, out, memo) -> None:
     corners = (comp[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cell_m
-    vertices = None
+    hull = None
     n = comp.shape[0]
     if n <= 4 or depth >= max_depth or not 2.0 * n < min_fill * hull_area2(comp) * (1.0 - SURE_SPARSE):
         # a piece, or a fill that the hull's exact area does not put clearly below min_fill: qhull's
         # area decides, as it always did (a piece clearly too sparse is split without its hull)
         try:
-            vertices, area = hull_of(corners)
+            hull = ConvexHull(corners)
         except QhullError:
             return
-        fill = n * cell_m**2 / area
+        fill = n * cell_m**2 / hull.volume
         if fill >= min_fill or n <= 4 or depth >= max_depth:
-            out.append(corners[vertices])
+            out.append(corners[hull.vertices])
             return
     c = comp - comp.mean(axis=0)
-    proj = c @ principal_axis(c.T @ c)
+    _, vec = np.linalg.eigh(c.T @ c)
+    proj = c @ vec[:, -1]
     cut = median(proj)
     left = proj <= cut
     if left.all() or not left.any():
-        if vertices is None:
-            vertices = hull_of(corners)[0]
-        out.append(corners[vertices])
+        if hull is None:
+            hull = ConvexHull(corners)
+        out.append(corners[hull.vertices])
         return
     split_component(comp[left], cell_m, min_fill, max_depth, depth + 1, out, memo)
     split_component(comp[~left], cell_m, min_fill, max_depth, depth + 1, out, memo)
