@@ -271,16 +271,7 @@ def measurement_rows(assigned, z):
     n = assigned.size
     zr = np.empty((n, 2))
     meas = np.empty(n, dtype=np.bool_)
-    for k in range(n):
-        d = assigned[k]
-        m = d >= 0
-        meas[k] = m
-        if m:
-            zr[k, 0] = z[d, 0]
-            zr[k, 1] = z[d, 1]
-        else:
-            zr[k, 0] = np.nan
-            zr[k, 1] = np.nan
+    measurement_rows_into(assigned, z, zr, meas)
     return zr, meas
 
 
