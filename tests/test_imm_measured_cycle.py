@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from mjasc.perception.imm.bank import IMMBank
-from mjasc.perception.imm.bank_kernels import measurements
 from mjasc.perception.imm.config import IMMConfig
 
 
@@ -15,15 +14,7 @@ class _Separate(IMMBank):
     """The measured cycle through the separate calls (IMMBank._cycle)."""
 
     def _measured_cycle(self, z, t_s, measured, mv, finite, use):
-        all_used = measurements(z, measured, mv if mv is not None else self._var, mv is not None, self._R, finite, use)
-        self._mv = mv
-        try:
-            if all_used:
-                ok = self._cycle(z, t_s)
-                return np.ones(z.shape[0], dtype=bool) if ok is None else ok
-            return self._cycle(z, t_s, use, finite, measured)
-        finally:
-            self._mv = None
+        return self._separate_cycle(z, t_s, measured, mv, finite, use)
 
 
 def _same(a, b):

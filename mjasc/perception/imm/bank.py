@@ -397,6 +397,12 @@ class IMMBank(BankViews, PredictiveDensity):
                 use = finite = measured = every_true
             return self._settle(z, out, side, t0, t, dt, dtm, use, finite, measured, mv,
                                 rb.w_rows[:k] if st.n_active else None)
+        return self._separate_cycle(z, t_s, measured, mv, finite, use)
+
+    def _separate_cycle(self, z, t_s, measured, mv, finite, use) -> np.ndarray:
+        """:meth:`_measured_cycle` through the separate calls (the measurement check, then
+        :meth:`_cycle`): the path without the row buffers' scratch rows, and the fused call's
+        reference in the tests."""
         all_used = measurements(z, measured, mv if mv is not None else self._var, mv is not None, self._R, finite, use)
         self._mv = mv
         try:
