@@ -20,14 +20,10 @@ arrows, one time series per track (ω̂, V̂, mode probabilities), track births,
 track and the detour's flow field (several MB per vessel-minute, growing with the tracks each
 vessel holds). Components ask :attr:`Recorder.full`.
 
-**Fleets.** Rerun's footer holds ~0.5 kB per entity and component, whatever the run's length.
-At standard detail the vessels without per-vessel views (beyond
-:data:`~mjasc.runs.blueprint.MAX_VIEW_VESSELS`, :meth:`Recorder.set_vessels`) share one entity per
-kind — ``world/vessels/_others/{hull,position,trail,trail/recent,mission_path}`` an instance per
-vessel, ``plots/<kind>/_others`` (speed, reference, virtual target, thrust, heading, cross-track,
-formation) a series per vessel (:meth:`Recorder.vessel_scalar` and friends; ``_others`` is
-:data:`~mjasc.runs.blueprint.OTHERS`); their avoidance overlays, tracks, map and mode lanes stay
-per vessel (written at their own times). ``full`` keeps an entity per vessel.
+**Fleets.** At standard detail the vessels without per-vessel views share one entity per kind
+(hull, position, trail, mission path; one series per vessel in each plot); their avoidance
+overlays, tracks, map and mode lanes stay per vessel. ``full`` keeps an entity per vessel. That
+part of the recorder is :class:`~mjasc.runs.recording_vessels.VesselSeries`, its base class.
 
 **Buffered columns.** Nothing is written per row while the run goes: rows are buffered per entity
 (or per group of entities that share their times, :meth:`Recorder.fleet_scalars` and friends: one
@@ -65,6 +61,7 @@ from mjasc.runs.blueprint import (LEGEND_CLASSES, MODE_STATES, OTHERS, PALETTE, 
 from mjasc.runs.outputs import part_path
 from mjasc.runs.recording_columns import (TIMELINE, concat_xy, points_column, rgba, scalar_column, sparse_column,
                                           strip_column, time_column, xyz_at)
+from mjasc.runs.recording_vessels import VesselSeries
 from mjasc.runs.rrd_canonical import BATCHER_FLUSH_BYTES, canonicalise
 from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
 
@@ -80,7 +77,7 @@ def size_only_batcher() -> rr.ChunkBatcherConfig:
     return rr.ChunkBatcherConfig(flush_tick=1e9, flush_num_bytes=BATCHER_FLUSH_BYTES, flush_num_rows=2**63 - 1)
 
 
-class Recorder:
+class Recorder(VesselSeries):
     """Writes one ``.rrd`` file. Buffered rows are written by :meth:`flush` / :meth:`close`.
 
     ``detail`` is one of :data:`DETAILS`; a Recorder made directly (tests, figures) records
@@ -119,48 +116,7 @@ class Recorder:
         self._drawn: set[str] = set()  # point and strip entities that had a row with something in it
         self._pending = 0
         self._closed = False
-        #: Vessel name → RGB, set by the runner: components style their entities and plots with it.
-        self.colours: dict[str, tuple[int, int, int]] = {}
-        #: Vessels with per-vessel views (follow, body-frame sensor, threat panel); None: every vessel.
-        #: Data only those views show is not logged for the others (a large fleet's recording size).
-        self.view_vessels: frozenset[str] | None = None
-        #: Standard detail: the vessels without views (in vessel order) whose plot series go into one
-        #: entity per kind with a series each (:meth:`vessel_scalar`); set by :meth:`set_vessels`.
-        self.batched: tuple[str, ...] = ()
-        self._batch_index: dict[str, int] = {}
-        self._batch_rows: dict[str, dict[float, np.ndarray]] = {}  # batch entity → time → row (NaN: none)
-        self._batch_styles: dict[str, dict[int, tuple]] = {}  # batch entity → member → (name, colour, width)
-        self._batch_styled: dict[str, tuple] = {}  # batch entity → style last written
-        self._own_entities: dict[tuple[str, str], str] = {}  # (template, vessel) → entity (vessel_scalar)
-        # (template, vessel) → its entity's buffered (times, values) in _scalars (vessel_scalar; until flush)
-        self._own_buffers: dict[tuple[str, str], tuple[list, list]] = {}
-
-    def set_vessels(self, names: tuple[str, ...], view_vessels) -> None:
-        """The run's vessels and those with per-vessel views (:attr:`view_vessels`). At standard
-        detail the others' plot series are batched (:meth:`vessel_scalar`): every entity costs
-        ~0.5 kB of Rerun's footer per component, whatever the run's length."""
-        self.view_vessels = frozenset(view_vessels)
-        self.batched = () if self.full else tuple(n for n in names if n not in self.view_vessels)
-        self._batch_index = {n: k for k, n in enumerate(self.batched)}
-
-    def vessel_entity(self, template: str, vessel_name: str) -> str:
-        """The entity of a vessel's series ``template`` (``"plots/speed/{}/actual"``): its own, or
-        the batch entity (``{}`` → :data:`OTHERS`) of the vessels in :attr:`batched`."""
-        return template.format(OTHERS if vessel_name in self._batch_index else vessel_name)
-
-    def has_views(self, vessel_name: str) -> bool:
-        """Does ``vessel_name`` get per-vessel views (:attr:`view_vessels`)?"""
-        return self.view_vessels is None or vessel_name in self.view_vessels
-
-    def colour(self, vessel_name: str, default=(200, 200, 200)) -> tuple[int, int, int]:
-        """The vessel's colour (:attr:`colours`), ``default`` for an unknown vessel."""
-        return self.colours.get(vessel_name, default)
-
-    @staticmethod
-    def legend_colour(class_id: int) -> tuple[int, int, int]:
-        """The RGB of a legend overlay class (:data:`~mjasc.runs.blueprint.LEGEND_CLASSES`): components
-        draw their overlays in the legend's colours."""
-        return legend_colour(class_id)
+        self._init_vessels()
 
     # ---------------------------------------------------------------- immediate logging
     def static(self, entity: str, archetype) -> None:
@@ -172,12 +128,6 @@ class Recorder:
         entity that never gets a row is not written at all (its style alone would cost a chunk
         and footer; most of a large fleet's overlays never show)."""
         self._styles[entity] = archetype
-
-    def vessel_style(self, vessel_name: str, entity: str, archetype) -> None:
-        """The style of one of ``vessel_name``'s entities: written now for a vessel with views
-        (:meth:`has_views`: its panels and follow view show every overlay's style, drawn or not),
-        with the entity's first rows for the others (:meth:`style`)."""
-        (self.static if self.has_views(vessel_name) else self.style)(entity, archetype)
 
     def _write_style(self, entity: str) -> None:
         style = self._styles.pop(entity, None)
@@ -194,109 +144,6 @@ class Recorder:
     def series_style(self, entity: str, name: str, colour=None, width: float = 1.5) -> None:
         self.static(entity, rr.SeriesLines(names=name, colors=colour if colour is not None else [200, 200, 200],
                                            widths=width))
-
-    def vessel_series_style(self, template: str, vessel_name: str, name: str, colour=None, width: float = 1.5) -> None:
-        """:meth:`series_style` of a vessel's series ``template`` (:meth:`vessel_entity`); a batched
-        vessel's style is one series of its batch entity's style, written once at :meth:`flush`."""
-        k = self._batch_index.get(vessel_name)
-        if k is None:
-            self.series_style(template.format(vessel_name), name, colour, width)
-        else:
-            self._batch_styles.setdefault(template.format(OTHERS), {})[k] = (name, colour, width)
-
-    def vessel_scalar(self, template: str, vessel_name: str, t_s: float, value: float) -> None:
-        """A vessel's value of the series ``template`` at t_s (:meth:`vessel_entity`): a row of its
-        own entity, or its series' value in the row at t_s of the batch entity (the vessels in
-        :attr:`batched`, one series each in vessel order; NaN where a vessel has no value)."""
-        buffer = self._own_buffers.get((template, vessel_name))  # (the buffer scalar() appends to)
-        if buffer is None:
-            k = self._batch_index.get(vessel_name)
-            if k is not None:
-                self._batch_value(template.format(OTHERS), t_s, k, value)
-                return
-            entity = self._own_entities.get((template, vessel_name))
-            if entity is None:
-                entity = self._own_entities[(template, vessel_name)] = template.format(vessel_name)
-            buffer = self._own_buffers[(template, vessel_name)] = self._scalars[entity]
-        buffer[0].append(t_s)
-        buffer[1].append(float(value))
-        self._pending += 1
-        if self._pending >= FLUSH_ROWS:
-            self.flush()
-
-    def vessel_scalars(self, template: str, entities: tuple[str, ...], t_s: float, values) -> None:
-        """:meth:`fleet_scalars` of every vessel's series ``template`` (values (n,) in vessel
-        order, ``entities`` from :meth:`vessel_entities`): batched vessels' values go in one row."""
-        values = np.asarray(values, dtype=np.float64).reshape(-1)
-        if not self.batched:
-            self.fleet_scalars(entities, t_s, values)
-            return
-        n_own = len(entities)
-        self.fleet_scalars(entities, t_s, values[:n_own])
-        rows = self._batch_rows.setdefault(template.format(OTHERS), {})
-        rows[t_s] = values[n_own:].copy()
-        self._count(len(self.batched))
-
-    def vessel_scalar_table(self, series, t_s: float, values) -> None:
-        """:meth:`vessel_scalars` of several series at t_s: ``series`` ((template, entities), ...)
-        (entities from :meth:`vessel_entities`), ``values`` one (n,) row per series in vessel
-        order. The same rows as one :meth:`vessel_scalars` call per series, in that order."""
-        table = np.asarray(values, dtype=np.float64)
-        if self.batched:
-            for (template, entities), row in zip(series, table):
-                self.vessel_scalars(template, entities, t_s, row)
-            return
-        for (_, entities), row in zip(series, table):
-            self._fleet_row(("scalar", entities, 0.0), t_s, row)
-
-    def vessel_points(self, template: str, entities: tuple[str, ...], t_s: float, positions_xy, z: float = 0.0) -> None:
-        """:meth:`fleet_points` of every vessel (positions (n, 2) in vessel order, ``entities`` from
-        :meth:`vessel_entities`): the batched vessels' points in one row of the batch entity."""
-        p = np.asarray(positions_xy, dtype=np.float64).reshape(-1, 2)
-        self.fleet_points(entities, t_s, p[:len(entities)] if self.batched else p, z)
-        if self.batched:
-            self.points(template.format(OTHERS), t_s, p[len(entities):], z)
-
-    def vessel_strips(self, template: str, entities: tuple[str, ...], t_s: float, strips_xy, z: float = 0.0) -> None:
-        """:meth:`fleet_strips` of every vessel (strips (n, m, 2) in vessel order, ``entities`` from
-        :meth:`vessel_entities`): the batched vessels' strips in one row of the batch entity."""
-        s = np.asarray(strips_xy, dtype=np.float64)
-        self.fleet_strips(entities, t_s, s[:len(entities)] if self.batched else s, z)
-        if self.batched:
-            self.strips(template.format(OTHERS), t_s, list(s[len(entities):]), z)
-
-    def vessel_entities(self, template: str, names: tuple[str, ...]) -> tuple[str, ...]:
-        """The own entities of ``template`` for the vessels of ``names`` that are not batched; the
-        batched ones must come last (as :meth:`set_vessels` keeps them: views go to the first)."""
-        own = tuple(n for n in names if n not in self._batch_index)
-        assert tuple(names[len(own):]) == self.batched or not self.batched, "batched vessels come last"
-        return tuple(template.format(n) for n in own)
-
-    def _batch_value(self, entity: str, t_s: float, k: int, value: float) -> None:
-        rows = self._batch_rows.setdefault(entity, {})
-        row = rows.get(t_s)
-        if row is None:
-            row = rows[t_s] = np.full(len(self.batched), np.nan)
-        row[k] = value
-        self._count(1)
-
-    def _write_batches(self) -> None:
-        for entity, rows in self._batch_rows.items():
-            styles = self._batch_styles.get(entity, {})
-            style = tuple(styles.get(k, (n, self.colour(n), 1.5)) for k, n in enumerate(self.batched))
-            if self._batch_styled.get(entity) != style:  # once (styles are set before the first row)
-                self._batch_styled[entity] = style
-                self.static(entity, rr.SeriesLines(names=[s[0] for s in style],
-                                                   colors=[rgba(s[1] if s[1] is not None else (200, 200, 200))
-                                                           for s in style],
-                                                   widths=[s[2] for s in style]))
-            if not rows:
-                continue
-            times = sorted(rows)
-            data = np.stack([rows[t] for t in times])  # (T, batched)
-            self.rec.send_columns(entity, indexes=[time_column(times)],
-                                  columns=[scalar_column(data.reshape(-1), data.shape[1])])
-            rows.clear()
 
     # ---------------------------------------------------------------- buffered rows, one entity
     def event(self, t_s: float, text: str, level: str = "INFO", entity: str = "events") -> None:
