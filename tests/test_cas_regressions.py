@@ -80,5 +80,22 @@ def test_a_case_that_collided_keeps_clear(name):
     assert not summary["any_collision"], summary["collisions"]
     v = summary["vessels"][vessel]
     assert v["min_clearance_to_any_m"] > bound, v["min_clearance_m"]
-    if action is not None:
+    if action is not None and not (name in RECORDED_ON_AVX512 and not numpy_uses_avx512_transcendentals()):
         assert v["avoidance"]["actions"][action] >= 1, v["avoidance"]["actions"]
+
+
+#: Cases whose replay reaches the fix's situation only with numpy's AVX-512 loops for float64 sin,
+#: cos, exp, log (the x86-64-v4 dispatch of the machines the case was extracted and checked on). The
+#: AVX2 loops can differ in the last bits; the run then takes another course from the first such
+#: difference and keeps clear without the situation arising (bottleneck_stressed_seed2 on an AVX2
+#: machine: charlie 2.9 m from the south island, no detour to refuse). There only the no-contact
+#: check applies; the mechanism itself is tested directly (tests/test_avoidance.py: a detour
+#: refused near mapped structure).
+RECORDED_ON_AVX512 = {"bottleneck_stressed_seed2"}
+
+
+def numpy_uses_avx512_transcendentals() -> bool:
+    """Does numpy run its x86-64-v4 (AVX-512) loop for float64 sin on this machine?"""
+    from numpy.lib.introspect import opt_func_info
+
+    return opt_func_info(func_name="^sin$", signature="float64")["sin"]["dd"]["current"] == "X86_V4"
