@@ -40,42 +40,24 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from mjasc.core.geometry import hull_outline
 from mjasc.core.navigation import FleetNavigation
 from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
 from mjasc.runs.agent import build_agent
-from mjasc.runs.blueprint import view_vessels
 from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import catch_sigterm, interrupt_behind, restore_sigterm, signal_name
 from mjasc.runs.outputs import atomic_target, atomic_write_text
-from mjasc.runs.record_kernels import record_rows
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
-from mjasc.runs.static_scene import log_static_scene
 from mjasc.runs.tick import ONBOARD_SLOTS, SlotEvent, run_onboard_slot
+from mjasc.runs.truth_recording import PLOT_SERIES, TRAIL_PERIOD_S, TRAIL_SEGMENT_S, TruthRecording, WORLD_SERIES  # noqa: F401
 
 if TYPE_CHECKING:  # rerun and the recorder load when a recording is made (a campaign run without one skips ~0.4 s)
     from mjasc.runs.recording import Recorder
 
 __all__ = ["Runner", "RunFailed", "RunInterrupted", "RunResult", "run_scenario", "LAST_GOOD_STATE"]
-
-#: A trail point is kept (for the recording and the video) every this many seconds [s].
-TRAIL_PERIOD_S = 1.0
-#: The recording re-writes a vessel's whole trail this often; in between only the newest part [s].
-TRAIL_SEGMENT_S = 30.0
-#: The per-vessel world entities the runner writes at each record tick (hull, position) or trail
-#: point: kind → entity template (the vessels without views share one, as PLOT_SERIES).
-WORLD_SERIES = {"hull": "world/vessels/{}/hull", "position": "world/vessels/{}/position",
-                "trail": "world/vessels/{}/trail", "trail_recent": "world/vessels/{}/trail/recent"}
-#: The per-vessel plot series the runner writes at each record tick: kind → entity template. The
-#: vessels without views share one entity per kind at standard detail (Recorder.vessel_scalars).
-PLOT_SERIES = {"speed": "plots/speed/{}/actual", "speed_ref": "plots/speed/{}/reference",
-               "thrust_port": "plots/thrust/{}/port", "thrust_starboard": "plots/thrust/{}/starboard",
-               "heading": "plots/heading/{}", "cross_track": "plots/cross_track/{}"}
-
 
 class RunFailed(RuntimeError):
     """A run stopped early; the message says why and where its partial outputs are. ``summary`` is
@@ -138,13 +120,7 @@ class Runner:
         self.metrics = None
         self.target_judge = None
         self.last_outputs = [None] * len(self.agents)
-        self._trail: list[list[tuple[float, np.ndarray]]] = [[] for _ in self.agents]  # (t, xy) per vessel
-        self._trail_t: list[float] = []  # times of the trail points [s]
-        self._trail_xy: list[np.ndarray] = []  # the fleet's positions (n, 2) at those times [m]
-        self._trail_cut = 0  # index of the trail point where the recording's ``trail/recent`` starts
-        self._hull_body = np.array([hull_outline(a.vessel.length_m, a.vessel.beam_m, np.zeros(2), 0.0)
-                                    for a in self.agents])  # (n, 6, 2) body frame [m]
-        self._entities: dict[str, tuple[str, ...]] = {}
+        self._truth: TruthRecording | None = None  # the truth's recording, when one is made
         self._observers: dict[str, list] = {slot: [] for slot in SLOT_ORDER}
         #: Wall seconds spent in each slot and in the physics during :meth:`run` (observers excluded).
         self.stage_seconds: dict[str, float] = {}
@@ -186,70 +162,9 @@ class Runner:
         self.metrics.update(states, xte, traffic)
         if self.target_judge is not None:
             self.target_judge.update(states, traffic, self.agents)
-        rec = self.recorder
-        if rec is None:
-            return
-        t, e = states.time_s, self._entities
-        heading, n = states.heading_rad, len(self.agents)
-        hulls, table = np.empty(self._hull_body.shape), np.empty((len(PLOT_SERIES), n))  # table: PLOT_SERIES' order
-        record_rows(states.position_m, states.velocity_m_s, heading, np.cos(heading), np.sin(heading), self._hull_body,
-                    np.array([o.speed_ref_m_s if o else 0.0 for o in self.last_outputs], dtype=float),
-                    states.thrust_n, xte, hulls, table)  # (mjasc.runs.record_kernels)
-        rec.vessel_strips(WORLD_SERIES["hull"], e["hull"], t, hulls, z=0.2)
-        rec.vessel_points(WORLD_SERIES["position"], e["position"], t, states.position_m, z=0.2)
-        rec.vessel_scalar_table(self._plot_series, t, table)  # (NaN, no path, is left out)
-        if rec.full:
-            ctrl = self.sim.data.ctrl[self.world.ctrl_adr]
-            rec.fleet_scalars(e["command_port"], t, ctrl[:, 0])
-            rec.fleet_scalars(e["command_starboard"], t, ctrl[:, 1])
-        self._record_trails(t, states.position_m)
-        if e["moving"]:
-            rec.fleet_points(e["moving"], t, traffic[0], z=0.3)
-        if self._comms_log is not None:
-            net = self.network
-            self._comms_log.log(rec, t, net.drain_outcomes(), states.position_m, net.counts)
-        if not self.sim.current.is_steady and self._current_grid is not None and \
-                (not self._current_times or t - self._current_times[-1] >= 2.0):
-            self._current_times.append(t)
-            rec.arrows("world/current", t, self._current_grid, self._current_scale * self.sim.current.velocity(
-                self._current_grid, t))
-
-    def _record_trails(self, t: float, positions: np.ndarray) -> None:
-        """A trail point per vessel every ``TRAIL_PERIOD_S``. The recording holds each trail in two
-        strips so that its size grows linearly with the run: ``trail`` (everything up to the latest
-        ``TRAIL_SEGMENT_S`` boundary, re-written at each boundary) and ``trail/recent`` (from that
-        boundary to now, written with every new point)."""
-        times, xy = self._trail_t, self._trail_xy
-        if times and t - times[-1] < TRAIL_PERIOD_S:
-            return
-        times.append(t)
-        xy.append(positions.copy())
-        for trail, p in zip(self._trail, xy[-1]):
-            trail.append((t, p))
-        if len(times) < 2:
-            return
-        e = self._entities
-        if t - times[self._trail_cut] >= TRAIL_SEGMENT_S:
-            self.recorder.vessel_strips(WORLD_SERIES["trail"], e["trail"], t, np.stack(xy, axis=1), z=0.1)
-            self._trail_cut = len(times) - 1
-        self.recorder.vessel_strips(WORLD_SERIES["trail_recent"], e["trail_recent"], t,
-                                    np.stack(xy[self._trail_cut:], axis=1), z=0.1)
-
-    def _entity_names(self) -> dict[str, tuple[str, ...]]:
-        """The recording's per-vessel entities, one tuple (in vessel order) per kind."""
-        names = [a.name for a in self.agents]
-        kinds = {"command_port": "plots/commands/{}/port", "command_starboard": "plots/commands/{}/starboard"}
-        out = {k: tuple(v.format(n) for n in names) for k, v in kinds.items()}
-        out.update({k: self.recorder.vessel_entities(v, tuple(names))
-                    for k, v in {**WORLD_SERIES, **PLOT_SERIES}.items()})
-        out["moving"] = tuple(f"world/obstacles/moving/{o.name}" for o in self.world.moving_obstacles)
-        return out
-
-    def _log_static_scene(self) -> None:
-        """The recording's static scene (:func:`~mjasc.runs.static_scene.log_static_scene`)."""
-        lo, hi = self.extent()
-        self._current_grid, self._current_scale = log_static_scene(self.recorder, self.scenario, lo, hi, PLOT_SERIES)
-        self._current_times = []
+        if self._truth is not None:
+            self._truth.record(states, self.sim, np.array([o.speed_ref_m_s if o else 0.0 for o in self.last_outputs],
+                                                          dtype=float), xte, traffic)
 
     # ------------------------------------------------------------------ main loop
     def run(self, interruptible: bool = False) -> RunResult:
@@ -269,37 +184,10 @@ class Runner:
             from mjasc.evaluation.mission_judge import TargetJudge
 
             self.target_judge = TargetJudge(sc, self.world)
-        self._current_grid = None
-        self._comms_log = None
         if self.out_dir is not None and sc.outputs.recording:
-            from mjasc.runs.recording import Recorder, default_blueprint, vessel_colour
-
-            lo, hi = self.extent()
             files["recording"] = self.out_dir / "recording.rrd"
-            names = tuple(a.name for a in self.agents)
-            bp = default_blueprint(
-                extent_m=float(np.max(hi - lo)), extent_xy=(lo, hi), vessels=names,
-                perception=any(a.perception is not None for a in self.agents),
-                avoidance=any(a.avoidance is not None for a in self.agents),
-                coordination=any(a.coordination is not None for a in self.agents), detail=sc.outputs.recording_detail,
-                starts_xy={v.name: v.position_m for v in sc.vessels},
-                sensor_range_m={a.name: a.perception.sensor_config.max_range_m for a in self.agents
-                                if a.perception is not None},
-                comms=self.network is not None, mission=sc.mission is not None)
-            self.recorder = Recorder(files["recording"], sc.name, sc.seed, bp, detail=sc.outputs.recording_detail)
-            self.recorder.colours = {a.name: vessel_colour(i) for i, a in enumerate(self.agents)}
-            self.recorder.set_vessels(names, view_vessels(names))
-            self._entities = self._entity_names()
-            self._plot_series = tuple((PLOT_SERIES[k], self._entities[k]) for k in PLOT_SERIES)
-            self._log_static_scene()
-            if self.network is not None and tuple(self.network.team) == names:
-                from mjasc.cooperation.recording import CommsLog
-
-                self._comms_log = CommsLog(names)
-                if self._comms_log.lines:
-                    self.network.keep_outcomes()
-            self.recorder.event(0.0, f"scenario {sc.name!r} seed {sc.seed}: {len(sc.vessels)} vessel(s), "
-                                     f"{len(sc.static_obstacles)} static and {len(sc.moving_obstacles)} moving obstacle(s)")
+            self._truth = TruthRecording(files["recording"], sc, self.agents, self.world, self.network, self.extent())
+            self.recorder = self._truth.recorder
         if self.out_dir is not None and sc.outputs.video:
             from mjasc.runs.video import VideoWriter
 

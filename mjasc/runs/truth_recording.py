@@ -1,0 +1,139 @@
+"""What a run records of the truth: the recorder opened with its blueprint, and at each record tick
+every vessel's hull, position and plot series, the trails, the traffic, the link's messages and the
+current field.
+
+The runner owns one :class:`TruthRecording` when the scenario asks for a recording; the components
+draw their own state into the same :class:`~mjasc.runs.recording.Recorder` (``agent.log``). A vessel
+never reads any of this: it is the observer's view of the world (ENU metres, radians, seconds of
+simulation time).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from mjasc.core.geometry import hull_outline
+from mjasc.runs.blueprint import view_vessels
+from mjasc.runs.record_kernels import record_rows
+from mjasc.runs.static_scene import log_static_scene
+
+__all__ = ["TruthRecording", "body_hulls", "TRAIL_PERIOD_S", "TRAIL_SEGMENT_S", "WORLD_SERIES", "PLOT_SERIES"]
+
+#: A trail point is kept (for the recording and the video) every this many seconds [s].
+TRAIL_PERIOD_S = 1.0
+#: The recording re-writes a vessel's whole trail this often; in between only the newest part [s].
+TRAIL_SEGMENT_S = 30.0
+#: The per-vessel world entities written at each record tick (hull, position) or trail point:
+#: kind → entity template (the vessels without views share one, as PLOT_SERIES).
+WORLD_SERIES = {"hull": "world/vessels/{}/hull", "position": "world/vessels/{}/position",
+                "trail": "world/vessels/{}/trail", "trail_recent": "world/vessels/{}/trail/recent"}
+#: The per-vessel plot series written at each record tick: kind → entity template. The vessels
+#: without views share one entity per kind at standard detail (Recorder.vessel_scalars).
+PLOT_SERIES = {"speed": "plots/speed/{}/actual", "speed_ref": "plots/speed/{}/reference",
+               "thrust_port": "plots/thrust/{}/port", "thrust_starboard": "plots/thrust/{}/starboard",
+               "heading": "plots/heading/{}", "cross_track": "plots/cross_track/{}"}
+
+
+def body_hulls(agents) -> np.ndarray:
+    """Every vessel's hull outline in its body frame (FLU, metres about the reference point), (n, 6, 2)."""
+    return np.array([hull_outline(a.vessel.length_m, a.vessel.beam_m, np.zeros(2), 0.0) for a in agents])
+
+
+class TruthRecording:
+    """The run's recorder and the truth it writes each record tick (module docstring).
+
+    ``path``: the ``.rrd`` to write; ``extent``: the scene's (lower-left, upper-right) corners [m]
+    (the blueprint's framing and the current's arrow grid); ``agents``, ``world``, ``network``: the
+    runner's, read for names, sensor ranges, control addresses and moving obstacles."""
+
+    def __init__(self, path, scenario, agents, world, network, extent):
+        from mjasc.runs.recording import Recorder, default_blueprint, vessel_colour
+
+        sc = scenario
+        lo, hi = extent
+        names = tuple(a.name for a in agents)
+        bp = default_blueprint(
+            extent_m=float(np.max(hi - lo)), extent_xy=(lo, hi), vessels=names,
+            perception=any(a.perception is not None for a in agents),
+            avoidance=any(a.avoidance is not None for a in agents),
+            coordination=any(a.coordination is not None for a in agents), detail=sc.outputs.recording_detail,
+            starts_xy={v.name: v.position_m for v in sc.vessels},
+            sensor_range_m={a.name: a.perception.sensor_config.max_range_m for a in agents
+                            if a.perception is not None},
+            comms=network is not None, mission=sc.mission is not None)
+        self.recorder = rec = Recorder(path, sc.name, sc.seed, bp, detail=sc.outputs.recording_detail)
+        rec.colours = {a.name: vessel_colour(i) for i, a in enumerate(agents)}
+        rec.set_vessels(names, view_vessels(names))
+        self._world, self._network = world, network
+        self._entities = self._entity_names(names, world)
+        self._plot_series = tuple((PLOT_SERIES[k], self._entities[k]) for k in PLOT_SERIES)
+        self._hull_body = body_hulls(agents)
+        self._trail_t: list[float] = []  # times of the trail points [s]
+        self._trail_xy: list[np.ndarray] = []  # the fleet's positions (n, 2) at those times [m]
+        self._trail_cut = 0  # index of the trail point where the recording's ``trail/recent`` starts
+        self._current_grid, self._current_scale = log_static_scene(rec, sc, lo, hi, PLOT_SERIES)
+        self._current_times: list[float] = []
+        self._comms_log = None
+        if network is not None and tuple(network.team) == names:
+            from mjasc.cooperation.recording import CommsLog
+
+            self._comms_log = CommsLog(names)
+            if self._comms_log.lines:
+                network.keep_outcomes()
+        rec.event(0.0, f"scenario {sc.name!r} seed {sc.seed}: {len(sc.vessels)} vessel(s), "
+                       f"{len(sc.static_obstacles)} static and {len(sc.moving_obstacles)} moving obstacle(s)")
+
+    def _entity_names(self, names: tuple[str, ...], world) -> dict[str, tuple[str, ...]]:
+        """The recording's per-vessel entities, one tuple (in vessel order) per kind."""
+        kinds = {"command_port": "plots/commands/{}/port", "command_starboard": "plots/commands/{}/starboard"}
+        out = {k: tuple(v.format(n) for n in names) for k, v in kinds.items()}
+        out.update({k: self.recorder.vessel_entities(v, names) for k, v in {**WORLD_SERIES, **PLOT_SERIES}.items()})
+        out["moving"] = tuple(f"world/obstacles/moving/{o.name}" for o in world.moving_obstacles)
+        return out
+
+    def record(self, states, sim, speed_ref_m_s: np.ndarray, xte_m: np.ndarray, traffic) -> None:
+        """One record tick of the truth: ``states`` (the fleet's true states), ``sim`` (commands and
+        the current), each vessel's speed reference and cross-track error [m] (NaN: no path), the
+        traffic's (positions, ...) as ``Simulation.traffic_state`` gives them."""
+        rec, t, e = self.recorder, states.time_s, self._entities
+        heading, n = states.heading_rad, len(speed_ref_m_s)
+        hulls, table = np.empty(self._hull_body.shape), np.empty((len(PLOT_SERIES), n))  # table: PLOT_SERIES' order
+        record_rows(states.position_m, states.velocity_m_s, heading, np.cos(heading), np.sin(heading), self._hull_body,
+                    speed_ref_m_s, states.thrust_n, xte_m, hulls, table)  # (mjasc.runs.record_kernels)
+        rec.vessel_strips(WORLD_SERIES["hull"], e["hull"], t, hulls, z=0.2)
+        rec.vessel_points(WORLD_SERIES["position"], e["position"], t, states.position_m, z=0.2)
+        rec.vessel_scalar_table(self._plot_series, t, table)  # (NaN, no path, is left out)
+        if rec.full:
+            ctrl = sim.data.ctrl[self._world.ctrl_adr]
+            rec.fleet_scalars(e["command_port"], t, ctrl[:, 0])
+            rec.fleet_scalars(e["command_starboard"], t, ctrl[:, 1])
+        self._record_trails(t, states.position_m)
+        if e["moving"]:
+            rec.fleet_points(e["moving"], t, traffic[0], z=0.3)
+        if self._comms_log is not None:
+            net = self._network
+            self._comms_log.log(rec, t, net.drain_outcomes(), states.position_m, net.counts)
+        if not sim.current.is_steady and self._current_grid is not None and \
+                (not self._current_times or t - self._current_times[-1] >= 2.0):
+            self._current_times.append(t)
+            rec.arrows("world/current", t, self._current_grid, self._current_scale * sim.current.velocity(
+                self._current_grid, t))
+
+    def _record_trails(self, t: float, positions: np.ndarray) -> None:
+        """A trail point per vessel every ``TRAIL_PERIOD_S``. The recording holds each trail in two
+        strips so that its size grows linearly with the run: ``trail`` (everything up to the latest
+        ``TRAIL_SEGMENT_S`` boundary, re-written at each boundary) and ``trail/recent`` (from that
+        boundary to now, written with every new point)."""
+        times, xy = self._trail_t, self._trail_xy
+        if times and t - times[-1] < TRAIL_PERIOD_S:
+            return
+        times.append(t)
+        xy.append(positions.copy())
+        if len(times) < 2:
+            return
+        e = self._entities
+        if t - times[self._trail_cut] >= TRAIL_SEGMENT_S:
+            self.recorder.vessel_strips(WORLD_SERIES["trail"], e["trail"], t, np.stack(xy, axis=1), z=0.1)
+            self._trail_cut = len(times) - 1
+        self.recorder.vessel_strips(WORLD_SERIES["trail_recent"], e["trail_recent"], t,
+                                    np.stack(xy[self._trail_cut:], axis=1), z=0.1)
