@@ -12,10 +12,12 @@ import numpy as np
 
 from mjasc.core.frames import wrap_angle
 
-__all__ = ["LineSegment", "ArcSegment", "Segment", "DUPLICATE_TOLERANCE_M", "as_point", "xy_of"]
+__all__ = ["LineSegment", "ArcSegment", "Segment", "DUPLICATE_TOLERANCE_M", "CONTINUITY_TOLERANCE_M", "as_point", "xy_of"]
 
 #: Consecutive points closer than this are treated as one point [m].
 DUPLICATE_TOLERANCE_M = 1e-9
+#: Two segment ends closer than this are the same point [m].
+CONTINUITY_TOLERANCE_M = 1e-6
 
 
 def xy_of(value, name: str) -> tuple[float, float]:
