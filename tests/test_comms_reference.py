@@ -10,7 +10,8 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from mjasc.cooperation.comms import CommsNetwork, LinkOutcome, Message, NetworkConfig, _copy_payload, _LinkStats
+from mjasc.cooperation.comms import CommsNetwork, LinkOutcome, Message, NetworkConfig
+from mjasc.cooperation.link_records import LinkStats, copy_payload
 from mjasc.cooperation.messages import TeamMessage
 
 
@@ -33,7 +34,7 @@ class _ReferenceNetwork:
         self._cursor = {n: 0 for n in self.team}
         self._pending = {n: [] for n in self.team}
         self.sent = {n: 0 for n in self.team}
-        self.link = {n: _LinkStats() for n in self.team}
+        self.link = {n: LinkStats() for n in self.team}
         self.hears = self.config.hears(self.team)
         self._everyone = all(len(h) == len(self.team) - 1 for h in self.hears.values())
         self._index = {n: k for k, n in enumerate(self.team)}
@@ -45,7 +46,7 @@ class _ReferenceNetwork:
 
     def send(self, t_s, sender, payload, sender_position):
         mid = self._base + len(self._log)
-        self._log.append(_Sent(mid, float(t_s), sender, _copy_payload(payload),
+        self._log.append(_Sent(mid, float(t_s), sender, copy_payload(payload),
                                np.array(sender_position, dtype=float).reshape(-1)[:2]))
         self.sent[sender] += 1
         return mid
@@ -102,7 +103,7 @@ class _ReferenceNetwork:
                            for m, a, gone in zip(sent, arrival.tolist(), lost.tolist())]
         for m, a, gone in zip(sent, arrival.tolist(), lost.tolist()):
             if not gone:
-                heapq.heappush(self._pending[receiver], (a, m.id, Message(m.sender, m.time_s, a, _copy_payload(m.payload))))
+                heapq.heappush(self._pending[receiver], (a, m.id, Message(m.sender, m.time_s, a, copy_payload(m.payload))))
 
 
 def _check(got, want, shared=False):

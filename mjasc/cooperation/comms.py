@@ -49,67 +49,16 @@ from __future__ import annotations
 
 import math
 from bisect import bisect_right
-from dataclasses import dataclass, is_dataclass
+from dataclasses import is_dataclass
 
 import numpy as np
 
 from mjasc.cooperation.link_kernels import DELIVERED, LOST, UNSURE, decide_segments
+from mjasc.cooperation.link_records import LinkOutcome, LinkStats, Message, copy_payload
 from mjasc.cooperation.network_config import PRESETS, TOPOLOGIES, NetworkConfig, parse_network_options
 
 __all__ = ["NetworkConfig", "Message", "LinkOutcome", "CommsNetwork", "parse_network_options", "PRESETS",
            "TOPOLOGIES"]
-
-@dataclass(frozen=True)
-class Message:
-    """One delivered message. ``payload`` is the receiver's own copy of a dict payload, or the
-    sender's immutable typed message (:class:`~mjasc.cooperation.messages.TeamMessage`)."""
-
-    sender: str
-    sent_time_s: float
-    received_time_s: float
-    payload: object
-
-    @property
-    def delay_s(self) -> float:
-        return self.received_time_s - self.sent_time_s
-
-
-@dataclass(frozen=True)
-class LinkOutcome:
-    """What became of one message for one receiver: sent by ``sender`` at ``sent_time_s`` [s];
-    ``lost`` (then ``arrival_time_s`` is NaN) or delivered at ``arrival_time_s`` [s]."""
-
-    sender: str
-    receiver: str
-    sent_time_s: float
-    arrival_time_s: float
-    lost: bool
-
-
-@dataclass
-class _LinkStats:
-    offered: int = 0  # (message, receiver) pairs decided
-    delivered: int = 0
-    lost: int = 0
-    lost_out_of_range: int = 0
-    delay_sum_s: float = 0.0
-    delay_max_s: float = 0.0
-
-    def as_dict(self) -> dict:
-        return {"offered": self.offered, "delivered": self.delivered, "lost": self.lost,
-                "lost_out_of_range": self.lost_out_of_range,
-                "loss_rate": self.lost / self.offered if self.offered else 0.0,
-                "mean_delay_s": self.delay_sum_s / self.delivered if self.delivered else float("nan"),
-                "max_delay_s": self.delay_max_s}
-
-
-def _copy_payload(payload):
-    """A receiver's own copy of a dict payload (arrays copied); a typed message (a frozen
-    dataclass such as :class:`~mjasc.cooperation.messages.TeamMessage`) is shared: nobody mutates it."""
-    if isinstance(payload, dict):
-        return {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in payload.items()}
-    return payload
-
 
 _FROZEN_PAYLOADS: set = set()  # frozen dataclass types sent before (checked once per type; shared, not copied)
 
@@ -144,7 +93,7 @@ class CommsNetwork:
         self._work = None  # the compiled decision's buffers (segments, counts, pairs, outcomes), grown when needed
         self._next_s = math.inf  # send time of the oldest message some receiver has not decided (inf: none)
         self.sent = {n: 0 for n in self.team}
-        self.link = {n: _LinkStats() for n in self.team}  # per receiver
+        self.link = {n: LinkStats() for n in self.team}  # per receiver
         self.hears = self.config.hears(self.team)  # receiver → the senders it can hear
         self._everyone = all(len(h) == len(self.team) - 1 for h in self.hears.values())
         self._index = {n: k for k, n in enumerate(self.team)}
@@ -204,7 +153,7 @@ class CommsNetwork:
         arr[0, k], arr[1, k], arr[2, k], arr[3, k] = xy[0], xy[1], self._last_send_s, s
         self._log_time.append(self._last_send_s)
         self._log_sender.append(s)
-        self._log_payload.append(payload if shared else _copy_payload(payload))
+        self._log_payload.append(payload if shared else copy_payload(payload))
         self.sent[sender] += 1
         return mid
 
@@ -214,7 +163,7 @@ class CommsNetwork:
         The messages sent since the receiver's last call are decided together (distances, the
         two uniforms of each pair drawn in message order, loss and delay over arrays); a call
         with nothing new to decide or deliver costs a few dictionary look-ups."""
-        return [Message(s, sent, arrived, _copy_payload(payload))
+        return [Message(s, sent, arrived, copy_payload(payload))
                 for s, sent, arrived, payload in self.receive_raw(t_s, receiver, receiver_position)]
 
     def receive_raw(self, t_s: float, receiver: str, receiver_position, decide: bool = True) -> list[tuple]:
@@ -414,7 +363,7 @@ class CommsNetwork:
             out["sent"] = self.sent[receiver]
             out["pending"] = len(self._pending[receiver])
             return out
-        total = _LinkStats()
+        total = LinkStats()
         for s in self.link.values():
             total.offered += s.offered
             total.delivered += s.delivered
