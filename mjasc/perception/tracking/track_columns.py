@@ -129,15 +129,18 @@ class TrackColumns:
 
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) bool is True, in order, in place (one compiled call
-        and one numpy indexing of the object columns)."""
+        and one numpy indexing of the object columns' rows from the first dropped one on; none when
+        every row is kept)."""
         if type(keep) is not np.ndarray or keep.dtype != np.bool_:
             keep = np.asarray(keep, dtype=bool)
         if keep.shape != (self.n,):
             raise IndexError(f"keep: need shape ({self.n},), got {keep.shape}")
         n = self.n
         m = kept_columns(keep, self._f, self._i, self._b)
-        o = self._o
-        o[:, :m] = o[:, :n][:, keep]
+        if m < n:  # (the object rows from the first dropped one on: those before it stay where they are)
+            f = int(keep.argmin())
+            o = self._o
+            o[:, f:m] = o[:, f:n][:, keep[f:]]
         self.n = m
         self._views()
 
