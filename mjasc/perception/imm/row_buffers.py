@@ -33,8 +33,8 @@ from mjasc.perception.imm.bank_kernels import _copy_model_row
 from mjasc.perception.imm.startup import _polar_jacobians
 from mjasc.perception.imm.startup_rows import handover_rows
 
-__all__ = ["RowBuffers", "append_rows", "home_rows", "keep_rows", "started_rows", "born_into", "started_born_into",
-           "kept_into"]
+__all__ = ["RowBuffers", "append_rows", "birth_room", "born_set", "home_rows", "keep_rows", "started_rows", "born_into",
+           "started_born_into", "kept_into"]
 
 _NO_VAR = np.zeros(0)  # (started_rows: no per-row σ²)
 
@@ -153,6 +153,38 @@ def append_rows(bank, z, t, ids, meas_var, id0=0) -> None:
     bank._s, bank._P, bank._mu, bank._x = s, P, mu, x
     tc, t0 = bank._t_common, float(t[0])
     bank._t_common = t0 if (n_before == 0 or tc == t0) and one_time else None
+
+
+def birth_room(bank, m: int) -> tuple:
+    """Room for m tracks in the bank's cycle buffers (its state in one side) and row buffers (its
+    per-track arrays and start-up filters homed there, :func:`home_rows`), for births written past its
+    n rows by a compiled caller (:func:`started_born_into`; a fleet tracker's births, one call with
+    theirs): ((s, P, μ, x) of the state's side, every row of the buffers; the row buffers)."""
+    cyc = bank._cyc
+    if cyc is None or cyc.cap < m or bank._side is None:
+        cyc = bank._own_state(m)
+    rb = home_rows(bank, m)
+    st = bank._startup  # (the bank's arrays the views of its rows there: the same values, whether or not rows follow)
+    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
+     st.n_meas) = bank._rv = rb.views(bank._ids.size)
+    return cyc.sides[bank._side], rb
+
+
+def born_set(bank, k: int, one_time: bool, off: int) -> None:
+    """After :func:`started_born_into` wrote k new rows past the bank's n into the buffers of
+    :func:`birth_room` (ids the next k integers; ``one_time``, ``off``: its returns): the bank's arrays
+    made the views of its n + k rows, its counts and common time set, as :func:`append_rows` ends."""
+    n0 = bank._ids.size
+    n = n0 + k
+    rb, st = bank._rb, bank._startup
+    s, P, mu, x, _ = bank._cyc.views(bank._side, n)
+    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
+     st.n_meas) = bank._rv = rb.views(n)
+    st.n_active += k - off
+    bank._s, bank._P, bank._mu, bank._x = s, P, mu, x
+    bank._next_id += k
+    tc, t0 = bank._t_common, float(rb.t[n0])
+    bank._t_common = t0 if (n0 == 0 or tc == t0) and one_time else None
 
 
 def home_rows(bank, n: int) -> RowBuffers:

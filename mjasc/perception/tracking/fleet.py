@@ -38,7 +38,6 @@ outlines — is :class:`~mjasc.perception.tracking.fleet_views.FleetViews`, its 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -46,36 +45,27 @@ from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.tracking.association import (
     gnn_assign_blocks, indexed_pair_costs, predicted_positions)
 from mjasc.perception.tracking.config import TrackingConfig
-from mjasc.perception.tracking.fleet_views import COUNT_KEYS, FleetViews
+from mjasc.perception.tracking.fleet_rows import FleetRows
+from mjasc.perception.tracking.fleet_views import (_ASSOC, _CONF, _DETS, _SCANS, COUNT_KEYS, FleetViews,
+                                                  TrackEvent)
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
 from mjasc.perception.tracking.step_buffers import (AssociationBuffers, assign_pairs_into, grown,
                                                    pair_gates_into, position_jacobians_into, predicted_pairs_into)
 from mjasc.perception.tracking.step_fusions import cycled_scan_grown
-from mjasc.perception.tracking.step_gathers import births_packed, step_inputs_into, step_rows
+from mjasc.perception.tracking.step_gathers import step_inputs_into, step_rows
 from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows_into, pair_setup
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
 
 __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
 
-_BORN, _CONF, _LOST, _MERGED, _SCANS, _DETS, _ASSOC = range(7)
-
-
-@dataclass(frozen=True)
-class TrackEvent:
-    time_s: float
-    kind: str  # "born" | "confirmed" | "lost" | "merged"
-    track_id: int
-    text: str
-
-
 def _fmt(p) -> str:
     return f"({p[0]:.1f}, {p[1]:.1f}) m"
 
 
-class FleetTracker(FleetViews):
+class FleetTracker(FleetRows, FleetViews):
     """The tracks of many vessels; ``add_owner(max_range)`` per vessel, then ``step(owners, ...)``
     once per tick for the vessels that scanned."""
 
@@ -342,85 +332,3 @@ class FleetTracker(FleetViews):
             g = rows[(t_last == tl) & (t_new == tn)]
             used[g] = bank.update_rows(g, zr[g], tn, meas[g], None if vr is None else vr[g])
         return used
-
-    def _prune(self, owners, pos_of, every, t_o, origins) -> None:
-        """Step 4b: drop the tracks management gives up (lost, hopeless, merged), with events."""
-        bank = self.bank
-        if every:  # every row: rows as a slice (no copies)
-            if self.cols.n == 0:  # (the bank's number of rows)
-                return
-            rows, own = slice(None), self.cols.owner
-            rpos = None
-        else:
-            rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
-            if rows.size == 0:
-                return
-            own = self.cols.owner[rows]
-            rpos = pos_of[own]
-            pos, cov = bank.positions[rows], bank.position_covariances[rows]
-        try:  # (every vessel's origin given, as the perception fleet does: one conversion)
-            org = np.array(origins, dtype=float)
-            if org.ndim != 2:
-                org = org.reshape(-1, 2)
-        except (TypeError, ValueError):
-            org = None
-        if org is None or org.shape[0] != len(origins):
-            org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
-        if rpos is None:  # (every row's time, position, covariance, origin and range gathered by the kernel)
-            drop, n_drop, lost, merged = self.mgmt.drops_every(own, pos_of, t_o, bank.state_rows,
-                                                               bank.covariance_rows(), org, self._max_range)
-        else:
-            conf = self.cols.confirmed[rows]
-            drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
-            n_drop = np.count_nonzero(drop)
-            lost = [(j, reason[j]) for j in drop.nonzero()[0].tolist() if conf[j] and reason[j]]
-        ids = self.cols.local_id[rows]
-        for go, keep in merged:
-            o = int(own[go])
-            t = float(t_o[pos_of[o]])
-            self._counts[o, _MERGED] += 1
-            self.events[o].append(TrackEvent(t, "merged", int(ids[go]), f"track {ids[go]} merged into track {ids[keep]}"))
-        for j, why in lost:
-            o = int(own[j])
-            self._counts[o, _LOST] += 1
-            self.events[o].append(TrackEvent(float(t_o[pos_of[o]]), "lost", int(ids[j]), f"track {ids[j]} lost: {why}"))
-        if n_drop:
-            if every:
-                keep = ~drop
-            else:
-                keep = np.ones(len(bank), dtype=bool)
-                keep[rows[drop]] = False
-            bank.keep_rows(keep)
-            self.cols.keep(keep)  # (every per-track column of management, manoeuvres, team and outlines)
-            self.version += 1
-
-    def _births(self, owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed) -> None:
-        """Step 5: new tracks from the detections no track claimed, away from every track's disc."""
-        bank = self.bank
-        ints, floats, zb = births_packed(
-            claimed, self.cols.owner, pos_of, d_pos, z, var, rad, bank.state_rows, self.cols.radius, owners, t_o,
-            self._next_local, idx, self._counts, _BORN)
-        k = zb.shape[0]
-        if k == 0:
-            return
-        bp, own, local, dets = ints
-        t_b, var_b, rad_b = floats
-        bank.append_tracks(zb, t_b, var_b if self._use_var else None)
-        # every per-track column of management, manoeuvres, team and outlines (the hull anchor: the
-        # new rows' positions, which are zb)
-        self.cols.append_rows(t_b, rad_b, zb, own, local)
-        self.version += 1
-        bl, _, ll, _ = ints.tolist()
-        zl = zb.tolist()
-        a = 0
-        while a < k:  # per vessel (bp is sorted): its events and last assignment
-            q = bl[a]
-            b = a + 1
-            while b < k and bl[b] == q:
-                b += 1
-            o, t = int(owners[q]), float(t_o[q])
-            events = self.events[o]
-            for tid, zj in zip(ll[a:b], zl[a:b]):
-                events.append(TrackEvent(t, "born", tid, f"track {tid} born at ({zj[0]:.1f}, {zj[1]:.1f}) m"))  # (as _fmt)
-            self._last_assign[o].append((local[a:b], dets[a:b]))
-            a = b

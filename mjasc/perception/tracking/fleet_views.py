@@ -1,7 +1,7 @@
 """FleetViews: what a fleet tracker (:class:`mjasc.perception.tracking.fleet.FleetTracker`) hands
 out — the mixin it inherits (the tracker itself steps, adds and drops the rows; this reads them).
 
-Per vessel: its rows in the bank, their number, its counters and last assignment, its confirmed
+Per vessel: its events (:class:`TrackEvent`), its rows in the bank, their number, its counters and last assignment, its confirmed
 tracks as :class:`~mjasc.core.estimates.TrackRows` (every vessel's made at once on the first read
 after a step: :mod:`mjasc.perception.tracking.report_fields`) or as
 :class:`~mjasc.core.estimates.TrackEstimate` s, a track's outline; for the fleet, every vessel's
@@ -15,6 +15,7 @@ The mixin has no state of its own; it reads the tracker's ``bank``, ``cols``
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from itertools import repeat
 
 import numpy as np
@@ -22,10 +23,19 @@ import numpy as np
 from mjasc.core.estimates import TrackEstimate, TrackRows, track_estimate_rows
 from mjasc.perception.tracking.report_fields import report_columns, report_columns_numpy, report_estimates
 
-__all__ = ["FleetViews", "COUNT_KEYS"]
+__all__ = ["FleetViews", "TrackEvent", "COUNT_KEYS"]
 
 #: Per-vessel counters (``FleetTracker.counts(owner)``).
 COUNT_KEYS = ("born", "confirmed", "lost", "merged", "scans", "detections", "associated")
+_BORN, _CONF, _LOST, _MERGED, _SCANS, _DETS, _ASSOC = range(7)  # (their columns)
+
+
+@dataclass(frozen=True)
+class TrackEvent:  # something that happened to one of a vessel's tracks at time_s [s] (FleetTracker.events)
+    time_s: float
+    kind: str  # "born" | "confirmed" | "lost" | "merged"
+    track_id: int
+    text: str
 
 _NO_ROWS = TrackRows(([], [], np.zeros((0, 2)), [], [], [], [], np.zeros((0, 2, 2)), [], [], [], ()))
 

@@ -127,6 +127,23 @@ class TrackColumns:
         self.n = m
         self._views()
 
+    def reserve(self, m: int) -> tuple:
+        """Room for m rows: the tables (f, i, b) that :func:`appended_columns` writes new rows into
+        (a compiled caller's births, then :meth:`appended`)."""
+        if m > self._f.shape[1]:
+            self._grow(m)
+            self._views()  # (the columns' views of the new tables: the same n rows, whether or not rows follow)
+        return self._f, self._i, self._b
+
+    def appended(self, k: int) -> None:
+        """The k rows after the first n written by :func:`appended_columns` (into :meth:`reserve`'s
+        tables): they are rows now (no team mate, no hull), as :meth:`append_rows` ends."""
+        n = self.n
+        m = n + k
+        self._o[:, n:m] = None
+        self.n = m
+        self._views()
+
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) bool is True, in order, in place (one compiled call
         and one numpy indexing of the object columns' rows from the first dropped one on; none when
