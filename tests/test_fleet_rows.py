@@ -1,6 +1,7 @@
-"""A fleet tracker's births in one compiled call (mjasc.perception.tracking.fleet_rows.births_into) against
-their separate form — births_packed, then IMMBank.append_tracks and TrackColumns.append_rows — bit for bit,
-on a run with births and drops nearly every scan (per-row σ² and the config's)."""
+"""A fleet tracker's births and drops in one compiled call each (mjasc.perception.tracking.fleet_rows:
+births_into, drops_kept_into) against their separate form — births_packed, then IMMBank.append_tracks and
+TrackColumns.append_rows; drops_every, then IMMBank.keep_rows and TrackColumns.keep — bit for bit, on a run
+with births and drops nearly every scan (per-row σ² and the config's)."""
 
 from __future__ import annotations
 
@@ -16,6 +17,8 @@ from tests.test_tracking_fleet_store import N_VESSELS, _run
 
 
 class _Separate(FleetTracker):
+    _drops_in_one_call = False
+
     def _births(self, owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed) -> None:  # (the form before births_into)
         bank = self.bank
         ints, floats, zb = births_packed(
@@ -50,7 +53,7 @@ def test_births_in_one_call_equal_the_separate_calls(use_var):
     og = [got.add_owner(60.0) for _ in range(N_VESSELS)]
     ow = [want.add_owner(60.0) for _ in range(N_VESSELS)]
     runs = (_run([(got, o) for o in og]), _run([(want, o) for o in ow]))
-    n_born = 0
+    n_born = n_gone = version = 0
     for _ in zip(*runs):
         a, b = got.bank, want.bank
         for name in ("_ids", "_t", "_Pc", "_n_gated", "_reasons", "_s", "_P", "_mu", "_x"):
@@ -70,8 +73,9 @@ def test_births_in_one_call_equal_the_separate_calls(use_var):
         for o, p in zip(og, ow):
             assert got.events[o] == want.events[p]
             assert got.last_assignment(o) == want.last_assignment(p)
-        n_born = int(got._counts[:, 0].sum())
-    assert n_born > 50
+        n_born, n_gone = int(got._counts[:, 0].sum()), n_gone + got.version - version
+        version = got.version
+    assert n_born > 50 and n_gone > 100
 
 
 def test_reserve_keeps_the_columns_views_current():
@@ -85,3 +89,33 @@ def test_reserve_keeps_the_columns_views_current():
     assert f.shape[1] >= 40 and c.n == 3
     c.hist[:] = 7
     assert (i[HIST, :3] == 7).all()
+
+
+def test_drops_in_one_call_equal_the_separate_calls_on_a_run(monkeypatch):
+    """The demo's first 40 s (clutter born and dropped nearly every step, tracks lost and merged): the same
+    summary and tracks with the fleet's drops in one call and through drops_every, keep_rows and keep."""
+    from dataclasses import replace
+
+    import mjasc
+    from mjasc.perception.tracking.fleet_rows import FleetRows
+    from mjasc.runs.runner import Runner
+
+    sc = mjasc.load_scenario("demo").with_overrides(duration_s=40.0)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+
+    def run():
+        runner = Runner(sc, out_dir=None, progress=False)
+        s = runner.run().summary
+        tracks = [[(e.track_id, *e.position_m, e.heading_rad, e.speed_m_s, e.team_member, e.radius_m)
+                   for e in a.perception.tracks()] for a in runner.agents]
+        return {k: v for k, v in s.items() if k not in ("wall_time_s", "real_time_factor", "timing_s")}, tracks
+
+    def strip(s):
+        if isinstance(s, dict):
+            return {k: strip(v) for k, v in s.items() if not k.endswith("_us")}
+        return s
+
+    fused = run()
+    monkeypatch.setattr(FleetRows, "_drops_in_one_call", False)
+    separate = run()
+    assert strip(fused[0]) == strip(separate[0]) and fused[1] == separate[1]

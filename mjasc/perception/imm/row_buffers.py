@@ -33,8 +33,8 @@ from mjasc.perception.imm.bank_kernels import _copy_model_row
 from mjasc.perception.imm.startup import _polar_jacobians
 from mjasc.perception.imm.startup_rows import handover_rows
 
-__all__ = ["RowBuffers", "append_rows", "birth_room", "born_set", "home_rows", "keep_rows", "started_rows", "born_into",
-           "started_born_into", "kept_into"]
+__all__ = ["RowBuffers", "append_rows", "birth_room", "born_set", "home_rows", "keep_rows", "kept_room", "kept_set",
+           "started_rows", "born_into", "started_born_into", "kept_into"]
 
 _NO_VAR = np.zeros(0)  # (started_rows: no per-row σ²)
 
@@ -223,15 +223,33 @@ def keep_rows(bank, keep) -> None:
             bank._t_common = None
         return
     rb = home_rows(bank, keep.size)
+    m, n_active = kept_into(keep, bank._s, bank._P, bank._mu, bank._x, *bank._cyc.sides[1 - bank._side], rb.ids, rb.t,
+                            rb.Pc, rb.n_gated, rb.reasons, rb.active, rb.cv_x, rb.cv_P, rb.n_meas)
+    kept_set(bank, m, n_active)
+
+
+def kept_room(bank) -> tuple:
+    """The bank (in its cycle buffers) ready for :func:`kept_into` by a compiled caller (a fleet tracker's
+    drops, one call with theirs): its per-track arrays and start-up filters homed in the row buffers
+    (:func:`home_rows`) and made the views of its rows there. Returns ((s, P, μ, x) of the other side of
+    the cycle buffers, every row; the row buffers)."""
+    rb = home_rows(bank, bank._ids.size)
+    st = bank._startup
+    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
+     st.n_meas) = bank._rv = rb.views(bank._ids.size)
+    return bank._cyc.sides[1 - bank._side], rb
+
+
+def kept_set(bank, m: int, n_active: int) -> None:
+    """After :func:`kept_into` compacted the bank to m rows (n_active of them start-up rows), its state in
+    the other side of the cycle buffers: the bank's arrays made the views of its m rows."""
     side = 1 - bank._side
     st = bank._startup
-    cyc = bank._cyc
-    m, st.n_active = kept_into(keep, bank._s, bank._P, bank._mu, bank._x, *cyc.sides[side], rb.ids, rb.t, rb.Pc,
-                               rb.n_gated, rb.reasons, rb.active, rb.cv_x, rb.cv_P, rb.n_meas)
-    bank._s, bank._P, bank._mu, bank._x, _ = cyc.views(side, m)
+    st.n_active = n_active
+    bank._s, bank._P, bank._mu, bank._x, _ = bank._cyc.views(side, m)
     bank._side = side
     (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
-     st.n_meas) = bank._rv = rb.views(m)
+     st.n_meas) = bank._rv = bank._rb.views(m)
     if m == 0:
         bank._t_common = None
 

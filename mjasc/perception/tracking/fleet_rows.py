@@ -2,17 +2,22 @@
 :mod:`mjasc.perception.tracking.fleet`, with their events) — the mixin
 :class:`~mjasc.perception.tracking.fleet.FleetTracker` inherits.
 
-* ``_prune`` — the tracks management gives up (lost, hopeless, merged: one compiled call,
-  :meth:`~mjasc.perception.tracking.management.TrackManagement.drops_every`) leave the bank and the
-  columns at once (one compiled compaction each);
+* ``_prune`` — the tracks management gives up (lost, hopeless, merged) leave the bank and the
+  columns at once: when every row's vessel scanned (the usual tick) and no dropped track is lost or
+  merged (no event: a tentative clutter track given up, the step's common drop), the drops and both
+  compactions are one compiled call, :func:`drops_kept_into`; else the drops are read
+  (:meth:`~mjasc.perception.tracking.management.TrackManagement.drops_every`), their events written,
+  and the bank and the columns compacted by a compiled call each;
 * ``_births`` — new tracks from the detections no track claimed, away from every track's disc: the
   births chosen (:func:`~mjasc.perception.tracking.step_gathers.births_of`), the bank's new rows
   (:func:`~mjasc.perception.imm.row_buffers.started_born_into`) and the columns' new rows
   (:func:`~mjasc.perception.tracking.track_columns.appended_columns`) written in one compiled call,
   :func:`births_into`, into room made beforehand for every detection (a birth step of a demo has a
-  few rows and detections: the calls, arrays and glue between them cost more than their loops). The
-  same rows as ``births_packed``, then ``IMMBank.append_tracks`` and ``TrackColumns.append_rows``
-  (tests/test_fleet_rows.py).
+  few rows and detections: the calls, arrays and glue between them cost more than their loops).
+
+Both give the same rows as their separate calls — ``births_packed``, then ``IMMBank.append_tracks``
+and ``TrackColumns.append_rows``; ``drops_every``, then ``IMMBank.keep_rows`` and ``TrackColumns.keep``
+(tests/test_fleet_rows.py).
 
 The mixin has no state of its own; it reads and writes the tracker's ``bank``, ``cols``, ``mgmt``,
 ``events``, ``version``, ``_counts``, ``_next_local``, ``_last_assign``, ``_max_range``, ``_use_var``,
@@ -24,17 +29,21 @@ from __future__ import annotations
 import numpy as np
 
 from mjasc.core.compiled import kernel
-from mjasc.perception.imm.row_buffers import birth_room, born_set, started_born_into
+from mjasc.perception.imm.row_buffers import birth_room, born_set, kept_into, kept_room, kept_set, started_born_into
 from mjasc.perception.tracking.fleet_views import _BORN, _LOST, _MERGED, TrackEvent
+from mjasc.perception.tracking.management import every_drops_into
 from mjasc.perception.tracking.step_gathers import births_of
-from mjasc.perception.tracking.track_columns import appended_columns
+from mjasc.perception.tracking.track_columns import appended_columns, kept_columns
 
-__all__ = ["FleetRows", "births_into"]
+__all__ = ["FleetRows", "births_into", "drops_kept_into"]
 
 
 class FleetRows:
     """The births and drops of :class:`~mjasc.perception.tracking.fleet.FleetTracker`'s step (a mixin:
     the tracker's base class; see the module docstring for the attributes it uses)."""
+
+    _drops_in_one_call = True  # (False: drops read, then compacted by the bank's and the columns' own calls — the
+    # fused call's reference in tests/test_fleet_rows.py)
 
     def _prune(self, owners, pos_of, every, t_o, origins) -> None:
         """Step 4b: drop the tracks management gives up (lost, hopeless, merged), with events."""
@@ -59,7 +68,25 @@ class FleetRows:
             org = None
         if org is None or org.shape[0] != len(origins):
             org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
-        if rpos is None:  # (every row's time, position, covariance, origin and range gathered by the kernel)
+        if rpos is None and self._drops_in_one_call and bank._side is not None:  # (every row's time, position, covariance, origin and range
+            # gathered by the kernel; the rows dropped without an event compacted in the same call)
+            Pc = bank.covariance_rows()
+            (s, P, mu, x), rb = kept_room(bank)
+            cols, mg = self.cols, self.mgmt
+            n = cols.n
+            bufs = mg.drop_buffers(n)
+            args = (own, pos_of, t_o, bank.state_rows, Pc, org, self._max_range, cols.hist, cols.scans, cols.confirmed,
+                    cols.last, cols.n_upd, cols.radius, *mg.drop_constants)
+            L, g, n_drop, m, n_active = drops_kept_into(
+                *args, *bufs, bank._s, bank._P, bank._mu, bank._x, s, P, mu, x, rb.ids, rb.t, rb.Pc, rb.n_gated,
+                rb.reasons, rb.active, rb.cv_x, rb.cv_P, rb.n_meas, *cols.reserve(n))
+            if m >= 0:  # (dropped and compacted, none lost or merged: no events)
+                kept_set(bank, m, n_active)
+                cols.kept(~bufs[0][:n], m)  # (the object columns and the views)
+                self.version += 1
+                return
+            drop, n_drop, lost, merged = mg.drops_read(args, bufs, n, L, g, n_drop)
+        elif rpos is None:
             drop, n_drop, lost, merged = self.mgmt.drops_every(own, pos_of, t_o, bank.state_rows,
                                                                bank.covariance_rows(), org, self._max_range)
         else:
@@ -155,3 +182,31 @@ def births_into(claimed, owner, pos_of, d_pos, z, var, rad, x_rows, radius, owne
                                           t_b, np.zeros(k), snr2, max_updates)
         appended_columns(f, i, b, n0, t_b, rad_b, z_b, own, local, confirm_now)
     return ints, z_b, one_time, off
+
+
+@kernel
+def drops_kept_into(group, pos_of, t_o, x_rows, Pc_rows, org_o, max_range_o, hist, scans, confirmed, last, n_upd, radius,
+                    popcount, window, hits, max_coast, max_var, margin, fraction, drop, ints, vals, s, P, mu, x, s_out,
+                    P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons, active, cv_x, cv_P, n_meas, f, i, b):
+    """A fleet step's drops (every row's vessel scanned) in one call:
+    :func:`~mjasc.perception.tracking.management.every_drops_into` (its arguments first, as there, into
+    drop, ints, vals); when rows are dropped and none is lost or merged (no event to write: the step's
+    common drop, a tentative track given up), the bank compacted to the kept rows
+    (:func:`~mjasc.perception.imm.row_buffers.kept_into`: its state s, P, μ, x into the other side's
+    s_out … x_out, its per-track arrays and start-up filters in place) and the columns' tables f, i, b
+    (:func:`~mjasc.perception.tracking.track_columns.kept_columns`). Returns (L, g, the number dropped,
+    m, the number of start-up rows kept) — m = −1 when nothing was compacted (the caller reads the
+    drops and compacts, as before)."""
+    L, g, n_drop = every_drops_into(group, pos_of, t_o, x_rows, Pc_rows, org_o, max_range_o, hist, scans, confirmed,
+                                    last, n_upd, radius, popcount, window, hits, max_coast, max_var, margin, fraction,
+                                    drop, ints, vals)
+    if n_drop == 0 or L != 0 or g != 0:
+        return L, g, n_drop, -1, 0
+    n = group.size
+    keep = np.empty(n, dtype=np.bool_)
+    for k in range(n):
+        keep[k] = not drop[k]
+    m, n_active = kept_into(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons, active, cv_x,
+                            cv_P, n_meas)
+    kept_columns(keep, f, i, b)
+    return L, g, n_drop, m, n_active

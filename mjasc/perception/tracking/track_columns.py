@@ -152,9 +152,14 @@ class TrackColumns:
             keep = np.asarray(keep, dtype=bool)
         if keep.shape != (self.n,):
             raise IndexError(f"keep: need shape ({self.n},), got {keep.shape}")
+        self.kept(keep, kept_columns(keep, self._f, self._i, self._b))
+
+    def kept(self, keep: np.ndarray, m: int) -> None:
+        """After :func:`kept_columns` compacted the tables to the m rows where ``keep`` (n,) bool: the
+        object columns compacted (one numpy indexing of their rows from the first dropped one on: those
+        before it stay where they are; none when every row is kept) and the columns' views made."""
         n = self.n
-        m = kept_columns(keep, self._f, self._i, self._b)
-        if m < n:  # (the object rows from the first dropped one on: those before it stay where they are)
+        if m < n:
             f = int(keep.argmin())
             o = self._o
             o[:, f:m] = o[:, f:n][:, keep[f:]]
