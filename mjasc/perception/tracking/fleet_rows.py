@@ -68,8 +68,9 @@ class FleetRows:
             org = None
         if org is None or org.shape[0] != len(origins):
             org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
-        if rpos is None and self._drops_in_one_call and bank._side is not None:  # (every row's time, position, covariance, origin and range
-            # gathered by the kernel; the rows dropped without an event compacted in the same call)
+        if rpos is None and self._drops_in_one_call and bank._side is not None:
+            # (every row's time, position, covariance, origin and range gathered by the kernel; the rows
+            # dropped without an event compacted in the same call)
             Pc = bank.covariance_rows()
             (s, P, mu, x), rb = kept_room(bank)
             cols, mg = self.cols, self.mgmt

@@ -1,9 +1,9 @@
 """FleetViews: what a fleet tracker (:class:`mjasc.perception.tracking.fleet.FleetTracker`) hands
 out — the mixin it inherits (the tracker itself steps, adds and drops the rows; this reads them).
 
-Per vessel: its events (:class:`TrackEvent`), its rows in the bank, their number, its counters and last assignment, its confirmed
-tracks as :class:`~mjasc.core.estimates.TrackRows` (every vessel's made at once on the first read
-after a step: :mod:`mjasc.perception.tracking.report_fields`) or as
+Per vessel: its events (:class:`TrackEvent`), its rows in the bank, their number, its counters and
+last assignment, its confirmed tracks as :class:`~mjasc.core.estimates.TrackRows` (every vessel's
+made at once on the first read after a step: :mod:`mjasc.perception.tracking.report_fields`) or as
 :class:`~mjasc.core.estimates.TrackEstimate` s, a track's outline; for the fleet, every vessel's
 moving confirmed tracks at once.
 
