@@ -1,7 +1,8 @@
 """TrackManagement.drops_every (one compiled call, three arrays) against drops_all and the step's
 readable selection of the lost tracks (``drop`` rows confirmed with a reason, in row order), bit for
 bit and string for string, on every step of real runs (the crossing and the demo's first seconds:
-clutter dropped nearly every step, tracks lost and merged)."""
+clutter dropped nearly every step, tracks lost and merged; the fleet's drops read through drops_every
+on every step, not its one call with the compactions: tests/test_fleet_rows.py)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ import numpy as np
 import pytest
 
 import mjasc
+from mjasc.perception.tracking.fleet_rows import FleetRows
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.runs.runner import Runner
 
@@ -35,6 +37,7 @@ def test_drops_every_equals_drops_all(monkeypatch, name, duration):
         return drop, n_drop, lost, merged
 
     monkeypatch.setattr(TrackManagement, "drops_every", checked)
+    monkeypatch.setattr(FleetRows, "_drops_in_one_call", False)  # (every step's drops through drops_every)
     sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()

@@ -191,6 +191,7 @@ def test_team_plan_and_assign(seed):
 def test_drops_all_is_drops_of_every_row_on_a_real_run(monkeypatch):
     """TrackManagement.drops_all (the rows' values gathered in its kernel) against drops with the
     values gathered by numpy (the tracker's step before it), at every step of a run."""
+    from mjasc.perception.tracking.fleet_rows import FleetRows
     from mjasc.perception.tracking.management import TrackManagement
 
     orig = TrackManagement.drops_all
@@ -208,6 +209,7 @@ def test_drops_all_is_drops_of_every_row_on_a_real_run(monkeypatch):
         return step_form(self, group, pos_of, t_o, states, covariances, origins_m, max_range_m)
 
     monkeypatch.setattr(TrackManagement, "drops_every", checked)
+    monkeypatch.setattr(FleetRows, "_drops_in_one_call", False)  # (every step's drops through drops_every)
     sc = mjasc.load_scenario(_ROOT / "tasks" / "demo.toml").with_overrides(duration_s=30.0)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()

@@ -73,25 +73,36 @@ def test_step_inputs_equal_select_detections_then_step_rows(monkeypatch, name, d
 
 
 def test_births_packed_equal_births_of(monkeypatch):
-    """births_packed's three arrays hold births_of's eight, on every step of a real run with births."""
+    """births_packed's three arrays hold births_of's eight, and the births of the fleet's one call
+    (fleet_rows.births_into: its vessel positions, ids, detections and z) are births_of's, on every step of a
+    real run with births."""
+    from mjasc.perception.tracking import fleet_rows
     from mjasc.perception.tracking.step_gathers import births_of, births_packed
 
     n_checked = [0]
+    births_into = fleet_rows.births_into
 
-    def checked(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts, col):
+    def checked(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts, col,
+                *rest):
         c_ref, nl_ref = counts.copy(), next_local.copy()
         want = births_of(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, nl_ref, idx, c_ref, col)
-        got = births_packed(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts,
-                            col)
-        ints, floats, zb = got
+        c_p, nl_p = counts.copy(), next_local.copy()
+        ints, floats, zb = births_packed(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, nl_p, idx,
+                                         c_p, col)
+        _same(c_p, c_ref)
+        _same(nl_p, nl_ref)
+        for a, b in zip((ints[0], ints[1], ints[2], floats[0], zb, floats[1], floats[2], ints[3]), want):
+            _same(a, b)
+        got = births_into(claimed, owner, pos_of, d_pos, z, var, rad, x, radius, owners, t_o, next_local, idx, counts,
+                          col, *rest)
         _same(counts, c_ref)
         _same(next_local, nl_ref)
-        for a, b in zip((ints[0], ints[1], ints[2], floats[0], zb, floats[1], floats[2], ints[3]), want):
+        for a, b in zip((got[0][0], got[0][1], got[0][2], got[1]), (want[0], want[2], want[7], want[4])):
             _same(a, b)
         n_checked[0] += bool(zb.shape[0])
         return got
 
-    monkeypatch.setattr(fleet_mod, "births_packed", checked)
+    monkeypatch.setattr(fleet_rows, "births_into", checked)
     sc = mjasc.load_scenario(_ROOT / "tasks" / "demo.toml").with_overrides(duration_s=20.0)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()

@@ -22,8 +22,10 @@ Choices beyond the thesis that live here (parameters of :class:`IMMConfig`):
   predictive mixture). After ``restart_after_gated`` consecutive gated measurements the track is
   restarted from the latest one (a lost track heals itself).
 
-Rejections are logged (debug: each rejected measurement; info: each restart) on the logger
-``mjasc.perception.imm``.
+The measured cycle — ``update``, ``update_measured``, ``update_finite`` and behind them the common case
+and the general end of a cycle (updated, coasting, start-up and restarted tracks) — is
+:class:`~mjasc.perception.imm.bank_updates.BankUpdates`, a base class of the bank; rejections are logged
+there (debug: each rejected measurement; info: each restart) on the logger ``mjasc.perception.imm``.
 
 What the bank hands out — track ids, states, covariances, estimates, the per-row fields — is
 :class:`~mjasc.perception.imm.bank_views.BankViews`, the base class holding the read-only views; the
@@ -35,39 +37,32 @@ per-track arrays and start-up filters live in :class:`~mjasc.perception.imm.row_
 
 from __future__ import annotations
 
-import logging
-
 import numpy as np
 
-from mjasc.perception.imm.bank_kernels import (ACCEPTED, GATED, NON_FINITE, NOT_MEASURED, REJECTION_REASONS, RESTARTED,
-                                                measurements, settled_rows, settled_rows_into)
+from mjasc.perception.imm.bank_kernels import (ACCEPTED, GATED, NON_FINITE, NOT_MEASURED, REJECTION_REASONS,
+                                                RESTARTED)
+from mjasc.perception.imm.bank_updates import BankUpdates
 from mjasc.perception.imm.bank_views import BankViews
 from mjasc.perception.imm.config import IMMConfig
 from mjasc.perception.imm.compiled_cycle import imm_cycle
 from mjasc.perception.imm.cycle_buffers import CycleBuffers
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
-from mjasc.perception.imm.measured_cycle import measured_cycle
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS
 from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
 from mjasc.perception.imm.row_buffers import append_rows, home_rows, keep_rows
-from mjasc.perception.imm.startup_rows import (gather_startup, gather_startup_into, handover_rows, settled_startup,
-                                               settled_startup_into)
-
-logger = logging.getLogger("mjasc.perception.imm")
+from mjasc.perception.imm.startup_rows import handover_rows
 
 __all__ = ["IMMBank", "REJECTION_REASONS", "ACCEPTED", "NOT_MEASURED", "NON_FINITE", "GATED", "RESTARTED"]
 
 _TINY_PROB = 1e-300  # floor when min_mode_probability = 0: keeps every μ_j, c̄_j > 0 (no 0/0)
 _EYE2 = np.eye(2)
-_ALL, _NONE = np.ones(1, dtype=bool), np.zeros(1, dtype=bool)  # ``use`` of imm_cycle: every row, none
+_NONE = np.zeros(1, dtype=bool)  # ``use`` of imm_cycle: no row
 _NO_Z = np.zeros((1, 2))  # z of a cycle without measurements (not read)
-_NO_VAR = np.zeros(0)  # (gather_startup: no per-row steps or σ²)
 _NO_IDS = np.zeros(0, dtype=np.int64)  # (born_into: the next ids)
-_NO_ROWS, _NO_FLAGS = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)  # (settled_rows: no start-up rows)
 
 
-class IMMBank(BankViews, PredictiveDensity):
+class IMMBank(BankUpdates, BankViews, PredictiveDensity):
     """Many IMM trackers updated in one call: arrays (n_tracks, r, 4) and (n_tracks, r, 4, 4).
 
     Each track has an integer id (``track_ids``), its own last time, model states, covariances and
@@ -327,228 +322,3 @@ class IMMBank(BankViews, PredictiveDensity):
         else:
             self._t = t
         self._t_common = t0
-
-    def update(self, z, t_s, mask=None, measurement_variance=None) -> np.ndarray:
-        """One IMM cycle for every track at time t_s (scalar or (n,) [s]).
-
-        z: (n, 2) measured positions [m], one row per track (row order of ``track_ids``).
-        mask: (n,) bool, True where the row carries a measurement (default: all rows). Rows that
-        are unmeasured, not finite or outside the gate are not used: the track coasts to t_s.
-        Returns (n,) bool, True where the row was used (updated, or restarted from it after
-        ``restart_after_gated`` gated rows in a row); ``rejection_reasons`` says why not.
-        measurement_variance: optional (n,) σ² per row [m²] (R = σ² I₂ for that row's
-        measurement, e.g. from the detection that produced it); default the config's.
-        """
-        n = self._ids.size
-        z = np.asarray(z, dtype=float)
-        if z.shape != (n, 2):
-            raise ValueError(f"z: need shape ({n}, 2) (one [x, y] per track), got {z.shape}")
-        if n == 0:
-            return np.zeros(0, dtype=bool)
-        if measurement_variance is not None:
-            mv = np.array(measurement_variance, dtype=float)  # (a copy: unusable σ² are replaced in it)
-            if mv.shape != (n,):
-                raise ValueError(f"measurement_variance: need shape ({n},), got {mv.shape}")
-        else:
-            mv = None
-        if mask is None:
-            measured = np.ones(n, dtype=bool)
-        else:
-            measured = np.asarray(mask, dtype=bool)
-            if measured.shape != (n,):
-                raise ValueError(f"mask: need shape ({n},), got {measured.shape}")
-        return self._measured_cycle(z, t_s, measured, mv, np.empty(n, dtype=bool), np.empty(n, dtype=bool))
-
-    def update_measured(self, z, t_s, measured, measurement_variance=None) -> np.ndarray:
-        """:meth:`update` for a caller that has checked its arrays: z (n, 2) float, ``measured`` (n,)
-        bool, ``measurement_variance`` (n,) float or None — changed in place (its unusable σ²
-        replaced by the config's, as :meth:`update` does in its copy); n ≥ 1. The same cycle and
-        result as :meth:`update`, without the checks and copies."""
-        n = self._ids.size
-        rb = self._rb
-        if rb is not None and rb.cap >= n:  # (the row buffers' scratch rows: no arrays made)
-            finite, use = rb.scratch_flags(n)[:2]
-        else:
-            finite, use = np.empty(n, dtype=bool), np.empty(n, dtype=bool)
-        return self._measured_cycle(z, t_s, measured, measurement_variance, finite, use)
-
-    def _measured_cycle(self, z, t_s, measured, mv, finite, use) -> np.ndarray:
-        """The cycle of :meth:`update` / :meth:`update_measured` on checked arrays: the finite rows
-        and the rows used written into ``finite`` / ``use`` (n,) and unusable σ² in ``mv`` replaced
-        by the config's, in one compiled pass; then one IMM cycle (of every row when all are used).
-        With the row buffers' scratch rows, those and the cycle's front are one compiled call
-        (:func:`~mjasc.perception.imm.measured_cycle.measured_cycle`)."""
-        rb = self._rb
-        n = z.shape[0]
-        if rb is not None and rb.cap >= n:
-            t0, t, dt, dtm, step = cycle_steps(self._t, self._t_common, self._ids, t_s, self._consts)  # (_times)
-            out, side = self._free_side()
-            st = self._startup
-            every_true = rb.scratch_flags(n)[2]
-            every, common, k = measured_cycle(
-                z, measured, self._var if mv is None else mv, mv is not None, self._R, finite, use, every_true,
-                self._s, self._P, self._mu, *step, self._floor, self._gate, *side, st.n_active, st.active, st.x, st.P,
-                _NO_VAR if t is None else dt, dtm if t is None else 0.0, rb.w_rows, rb.w_x, rb.w_P, rb.w_dt, rb.w_F,
-                rb.w_z, rb.w_use, rb.w_var)
-            if common:
-                self._accept(out, side, t0, t)
-                return np.ones(n, dtype=bool)
-            if every:
-                use = finite = measured = every_true
-            return self._settle(z, out, side, t0, t, dt, dtm, use, finite, measured, mv,
-                                rb.w_rows[:k] if st.n_active else None)
-        return self._separate_cycle(z, t_s, measured, mv, finite, use)
-
-    def _separate_cycle(self, z, t_s, measured, mv, finite, use) -> np.ndarray:
-        """:meth:`_measured_cycle` through the separate calls (the measurement check, then
-        :meth:`_cycle`): the path without the row buffers' scratch rows, and the fused call's
-        reference in the tests."""
-        all_used = measurements(z, measured, mv if mv is not None else self._var, mv is not None, self._R, finite, use)
-        self._mv = mv
-        try:
-            if all_used:
-                ok = self._cycle(z, t_s)
-                return np.ones(z.shape[0], dtype=bool) if ok is None else ok
-            return self._cycle(z, t_s, use, finite, measured)
-        finally:
-            self._mv = None
-
-    def update_finite(self, z, t_s):
-        """:meth:`update`'s fast path, for a caller that has checked that every row of z (n, 2) [m]
-        is a finite measurement (no mask, the config's σ²): one IMM cycle at t_s (scalar or (n,)
-        [s]). Returns None when every row was used, else the (n,) bool of the used rows (the
-        others were gated, or restarted the track: ``rejection_reasons``)."""
-        return self._cycle(z, t_s)
-
-    def _cycle(self, z, t_s, use=None, finite=None, measured=None):
-        """The IMM cycle behind ``update``: rows of z (n, 2) where ``use`` (None: every row is a
-        finite measurement). Returns the (n,) bool array of used rows, or None when every row was
-        used."""
-        n = self._ids.size
-        t0, t, dt, dtm, step = cycle_steps(self._t, self._t_common, self._ids, t_s, self._consts)  # (_times)
-        out, side = self._free_side()
-        mv = self._mv
-        d2_min = side[4]
-        imm_cycle(self._s, self._P, self._mu, *step, z, self._var if mv is None else mv,
-                  _ALL if use is None else use, self._floor, self._gate, *side)
-
-        if (
-            use is None
-            and not self._startup.n_active
-            and (d2_min.item() if n == 1 else np.maximum.reduce(d2_min)) <= self._gate
-        ):  # the common case: every track measured and accepted
-            self._accept(out, side, t0, t)
-            return None
-        rb = self._rb
-        if use is None:
-            scratch = rb is not None and rb.cap >= n
-            use = finite = measured = rb.scratch_flags(n)[2] if scratch else np.ones(n, dtype=bool)
-        return self._settle(z, out, side, t0, t, dt, dtm, use, finite, measured, mv, None)
-
-    def _accept(self, out, side, t0, t) -> None:
-        """The end of a cycle whose every track was measured and accepted (no start-up rows): the new
-        state from ``side``, the cycle's times (``out``: the free side's index; t0, t of ``cycle_steps``)."""
-        self._s, self._P, self._mu, self._x = side[:4]
-        self._side = out
-        self._Pc_stale = True
-        if self._flagged:  # some track has consecutive gated rows or a rejection reason
-            self._n_gated.fill(0)
-            self._reasons.fill(0)
-            self._flagged = False
-        if t is None:
-            self._t.fill(t0)
-        else:
-            self._t = t
-        self._t_common = t0
-
-    def _settle(self, z, out, side, t0, t, dt, dtm, use, finite, measured, mv, rows_w) -> np.ndarray:
-        """The end of the general cycle: a mix of updated, coasting, start-up and restarted tracks (t
-        None: every row at t0), ``side`` written by the IMM cycle with the used rows ``use`` (n,) of
-        z (n, 2) and σ² mv (n,) or None; ``rows_w``: the start-up rows when already gathered into the
-        row buffers' scratch rows (:func:`~mjasc.perception.imm.measured_cycle.measured_cycle`), else
-        None. Returns the (n,) bool array of used rows."""
-        n = self._ids.size
-        d2_min = side[4]
-        rb = self._rb
-        scratch = rb is not None and rb.cap >= n  # (the row buffers' scratch rows for the flags: no arrays made)
-        warm = self._startup.active
-        any_warm = self._startup.n_active > 0
-        # the cycle updated the rows ``use & (d2_min <= gate)`` of the IMM rows, coasted the others; the
-        # start-up rows keep their (unused) IMM state, their x is set by the hand-over below
-        s_new, P_new, mu_new, x_new, _ = side
-        if any_warm:  # the start-up filters' cycle (StartupFilters.update_rows): the products numpy's
-            st = self._startup
-            if rows_w is not None:  # (gathered already)
-                rows = rows_w
-                xc, Pc, dtw, F, zw, use_w, var_w = rb.scratch_rows(rows.size)
-            else:
-                rows_w = rows = warm.nonzero()[0]  # (still the start-up rows at the hand-over below)
-                k = rows.size
-                if rb is not None and rb.cap >= k:  # (gathered into the row buffers' scratch rows: no arrays made)
-                    gather_startup_into(rows, st.x, st.P, _NO_VAR if t is None else dt, dtm if t is None else 0.0, z,
-                                        use, _NO_VAR if mv is None else mv, mv is not None, rb.w_x, rb.w_P, rb.w_dt,
-                                        rb.w_F, rb.w_z, rb.w_use, rb.w_var)
-                    xc, Pc, dtw, F, zw, use_w, var_w = rb.scratch_rows(k)
-                else:
-                    xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
-                                                                      dtm if t is None else 0.0, z, use,
-                                                                      _NO_VAR if mv is None else mv, mv is not None)
-            xc_w = (F @ xc[..., None])[..., 0]
-            P_w = F @ Pc @ F.transpose(0, 2, 1)  # (= np.swapaxes(F, 1, 2))
-        limit = self.config.restart_after_gated
-        if any_warm:  # (the start-up filters updated, then inside, ok, the start-up rows, rejections: one compiled call)
-            args = (rows, xc_w, P_w, dtw**3, dtw, self._q_cv, zw, self._var if mv is None else var_w, use_w,
-                    self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
-                    s_new, P_new, mu_new, self._n_gated, limit)
-            if scratch:  # (the codes written into the bank's own, the flags into scratch rows)
-                _, _, _, inside, restart, ok = rb.scratch_flags(n)
-                reasons, used = self._reasons, np.empty(n, dtype=bool)
-                n_restart = settled_startup_into(*args, inside, ok, reasons, restart, used)
-            else:
-                inside, reasons, restart, used, n_restart = settled_startup(*args)
-        else:  # (inside, ok, rejections: one compiled pass)
-            rows_w = _NO_ROWS
-            args = (d2_min, self._gate, use, finite, measured, _NO_ROWS, _NO_FLAGS, _NO_FLAGS, self._s, self._P,
-                    self._mu, s_new, P_new, mu_new, self._n_gated, limit)
-            if scratch:
-                _, _, _, inside, restart, ok = rb.scratch_flags(n)
-                reasons, used = self._reasons, np.empty(n, dtype=bool)
-                n_restart = settled_rows_into(*args, inside, ok, reasons, restart, used)
-            else:
-                inside, reasons, restart, used, n_restart = settled_rows(*args)
-        self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
-        self._side = out
-        self._Pc_stale = True
-
-        if t is None:  # (_set_times(t0, t) without its call)
-            self._t.fill(t0)
-            t = self._t  # (for the log below)
-        else:
-            self._t = t
-        self._t_common = t0
-        if any_warm:
-            self._handover(rows_w, xc_w, P_w)
-        if n_restart:
-            rows = restart.nonzero()[0]
-            self._start(rows, z[rows], None if mv is None else mv[rows])
-            reasons[rows] = RESTARTED
-            for k in rows:
-                logger.info(
-                    "IMM track %d restarted at t=%.3f s from z=%s after %d gated measurements",
-                    self._ids[k], t[k], z[k], limit,
-                )
-        self._reasons = reasons
-        self._flagged = True
-        if logger.isEnabledFor(logging.DEBUG):
-            gated = use & ~inside
-            for k in (measured & ~finite).nonzero()[0]:
-                logger.debug(
-                    "IMM track %d at t=%.3f s: rejected z=%s (%s)",
-                    self._ids[k], t[k], z[k], REJECTION_REASONS[NON_FINITE],
-                )
-            for k in (gated & ~restart).nonzero()[0]:
-                logger.debug(
-                    "IMM track %d at t=%.3f s: rejected z=%s (%s; min d²=%.4g > gate %.4g)",
-                    self._ids[k], t[k], z[k], REJECTION_REASONS[GATED], d2_min[k], self._gate,
-                )
-        return used

@@ -33,7 +33,8 @@ from mjasc.perception.imm.bank_kernels import _copy_model_row
 from mjasc.perception.imm.startup import _polar_jacobians
 from mjasc.perception.imm.startup_rows import handover_rows
 
-__all__ = ["RowBuffers", "append_rows", "home_rows", "keep_rows", "started_rows", "born_into", "kept_into"]
+__all__ = ["RowBuffers", "append_rows", "birth_room", "born_set", "home_rows", "keep_rows", "kept_room", "kept_set",
+           "started_rows", "born_into", "started_born_into", "kept_into"]
 
 _NO_VAR = np.zeros(0)  # (started_rows: no per-row σ²)
 
@@ -137,22 +138,53 @@ def append_rows(bank, z, t, ids, meas_var, id0=0) -> None:
     st = bank._startup
     rb = home_rows(bank, n)
     per_row = meas_var is not None
-    started_rows(rb.active, rb.cv_x, rb.cv_P, rb.n_meas, n_before, z, bank._R, bank._sv2,
-                 meas_var if per_row else _NO_VAR, per_row)
-    xc, Pcv = rb.cv_x[n_before:n], rb.cv_P[n_before:n]
     # a new filter's velocity is (+0, +0): |v| = hypot(0, 0) = +0, atan2(+0, +0) = +0 and its polar
     # Jacobian the constant one of V = 0 (_polar_jacobians' V ≤ 0 branch), whatever z — the rows of
-    # zero_polar's arrays (the same values numpy's hypot, arctan2 and _polar_jacobians give; J P Jᵀ numpy's)
+    # zero_polar's arrays (the same values numpy's hypot, arctan2 and _polar_jacobians give); the filters
+    # started, J P Jᵀ and the rows born in one call (started_born_into)
     zero, J = rb.zero_polar(k)
-    one_time, off = born_into(s, P, mu, x, n_before, bank._mu0, rb.ids, rb.t, rb.Pc, rb.n_gated, rb.reasons, ids, id0,
-                              t, xc, zero, zero, J @ Pcv @ J.transpose(0, 2, 1), Pcv, rb.n_meas,
-                              st.snr2, st.max_updates, rb.active)
+    one_time, off = started_born_into(rb.active, rb.cv_x, rb.cv_P, rb.n_meas, z, bank._R, bank._sv2,
+                                      meas_var if per_row else _NO_VAR, per_row, J, s, P, mu, x, n_before, bank._mu0,
+                                      rb.ids, rb.t, rb.Pc, rb.n_gated, rb.reasons, ids, id0, t, zero, st.snr2,
+                                      st.max_updates)
     (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
      st.n_meas) = bank._rv = rb.views(n)
     st.n_active += k - off
     bank._s, bank._P, bank._mu, bank._x = s, P, mu, x
     tc, t0 = bank._t_common, float(t[0])
     bank._t_common = t0 if (n_before == 0 or tc == t0) and one_time else None
+
+
+def birth_room(bank, m: int) -> tuple:
+    """Room for m tracks in the bank's cycle buffers (its state in one side) and row buffers (its
+    per-track arrays and start-up filters homed there, :func:`home_rows`), for births written past its
+    n rows by a compiled caller (:func:`started_born_into`; a fleet tracker's births, one call with
+    theirs): ((s, P, μ, x) of the state's side, every row of the buffers; the row buffers)."""
+    cyc = bank._cyc
+    if cyc is None or cyc.cap < m or bank._side is None:
+        cyc = bank._own_state(m)
+    rb = home_rows(bank, m)
+    st = bank._startup  # (the bank's arrays the views of its rows there: the same values, whether or not rows follow)
+    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
+     st.n_meas) = bank._rv = rb.views(bank._ids.size)
+    return cyc.sides[bank._side], rb
+
+
+def born_set(bank, k: int, one_time: bool, off: int) -> None:
+    """After :func:`started_born_into` wrote k new rows past the bank's n into the buffers of
+    :func:`birth_room` (ids the next k integers; ``one_time``, ``off``: its returns): the bank's arrays
+    made the views of its n + k rows, its counts and common time set, as :func:`append_rows` ends."""
+    n0 = bank._ids.size
+    n = n0 + k
+    rb, st = bank._rb, bank._startup
+    s, P, mu, x, _ = bank._cyc.views(bank._side, n)
+    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
+     st.n_meas) = bank._rv = rb.views(n)
+    st.n_active += k - off
+    bank._s, bank._P, bank._mu, bank._x = s, P, mu, x
+    bank._next_id += k
+    tc, t0 = bank._t_common, float(rb.t[n0])
+    bank._t_common = t0 if (n0 == 0 or tc == t0) and one_time else None
 
 
 def home_rows(bank, n: int) -> RowBuffers:
@@ -191,15 +223,33 @@ def keep_rows(bank, keep) -> None:
             bank._t_common = None
         return
     rb = home_rows(bank, keep.size)
+    m, n_active = kept_into(keep, bank._s, bank._P, bank._mu, bank._x, *bank._cyc.sides[1 - bank._side], rb.ids, rb.t,
+                            rb.Pc, rb.n_gated, rb.reasons, rb.active, rb.cv_x, rb.cv_P, rb.n_meas)
+    kept_set(bank, m, n_active)
+
+
+def kept_room(bank) -> tuple:
+    """The bank (in its cycle buffers) ready for :func:`kept_into` by a compiled caller (a fleet tracker's
+    drops, one call with theirs): its per-track arrays and start-up filters homed in the row buffers
+    (:func:`home_rows`) and made the views of its rows there. Returns ((s, P, μ, x) of the other side of
+    the cycle buffers, every row; the row buffers)."""
+    rb = home_rows(bank, bank._ids.size)
+    st = bank._startup
+    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
+     st.n_meas) = bank._rv = rb.views(bank._ids.size)
+    return bank._cyc.sides[1 - bank._side], rb
+
+
+def kept_set(bank, m: int, n_active: int) -> None:
+    """After :func:`kept_into` compacted the bank to m rows (n_active of them start-up rows), its state in
+    the other side of the cycle buffers: the bank's arrays made the views of its m rows."""
     side = 1 - bank._side
     st = bank._startup
-    cyc = bank._cyc
-    m, st.n_active = kept_into(keep, bank._s, bank._P, bank._mu, bank._x, *cyc.sides[side], rb.ids, rb.t, rb.Pc,
-                               rb.n_gated, rb.reasons, rb.active, rb.cv_x, rb.cv_P, rb.n_meas)
-    bank._s, bank._P, bank._mu, bank._x, _ = cyc.views(side, m)
+    st.n_active = n_active
+    bank._s, bank._P, bank._mu, bank._x, _ = bank._cyc.views(side, m)
     bank._side = side
     (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
-     st.n_meas) = bank._rv = rb.views(m)
+     st.n_meas) = bank._rv = bank._rb.views(m)
     if m == 0:
         bank._t_common = None
 
@@ -260,6 +310,39 @@ def born_into(s, P, mu, x, n0, mu0, ids, t, Pc, n_gated, reasons, new_ids, id0, 
     off = handover_rows(np.arange(n0, n0 + k), xc, speed, theta, JPJ, cv_P, n_meas, snr2, max_updates, active, x, Pc,
                         s, P, mu, mu0)
     return one_time, off
+
+
+@kernel
+def started_born_into(active, cv_x, cv_P, n_meas, z, R, sv2, meas_var, per_row, J, s, P, mu, x, n0, mu0, ids, t, Pc,
+                      n_gated, reasons, new_ids, id0, new_t, zero, snr2, max_updates):
+    """:func:`started_rows` (the start-up filters' rows n0 … n0 + k − 1, k = len(z)), then their polar
+    covariances J P Jᵀ (J (k, 4, 4): the polar Jacobians of V = 0, :meth:`RowBuffers.zero_polar`) and
+    :func:`born_into` of the new rows (``zero`` (k,): their |v| and atan2, +0). J P Jᵀ as products over
+    every term in order: each entry of J P and of (J P) Jᵀ has at most one non-zero term (P diagonal, J
+    that of V = 0) and at least one +0 term, so it is that term's product exactly, as numpy's matmul
+    gives it whatever its order of sums (tests/test_imm_row_buffers.py: against the numpy form). Returns
+    born_into's (one_time, the number of rows made inactive)."""
+    started_rows(active, cv_x, cv_P, n_meas, n0, z, R, sv2, meas_var, per_row)
+    k = z.shape[0]
+    JPJ = np.empty((k, 4, 4))
+    A = np.empty((4, 4))
+    for j in range(k):
+        Pj = cv_P[n0 + j]
+        Jj = J[j]
+        for a in range(4):
+            for b in range(4):
+                acc = 0.0
+                for c in range(4):
+                    acc += Jj[a, c] * Pj[c, b]
+                A[a, b] = acc
+        for a in range(4):
+            for b in range(4):
+                acc = 0.0
+                for c in range(4):
+                    acc += A[a, c] * Jj[b, c]
+                JPJ[j, a, b] = acc
+    return born_into(s, P, mu, x, n0, mu0, ids, t, Pc, n_gated, reasons, new_ids, id0, new_t, cv_x[n0:n0 + k], zero,
+                     zero, JPJ, cv_P[n0:n0 + k], n_meas, snr2, max_updates, active)
 
 
 @kernel

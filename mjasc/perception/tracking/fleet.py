@@ -31,63 +31,41 @@ A vessel's results do not depend on the other vessels in the bank: every step is
 pair, and the IMM cycle's rows are independent (:mod:`mjasc.perception.imm.compiled_cycle`); a fleet's
 tracker gives each vessel the same tracks, bit for bit, as a tracker of its own
 (tests/test_fleet_perception.py). :class:`mjasc.perception.tracking.tracker.MultiTargetTracker` is
-one vessel's view.
+one vessel's view. What the tracker hands out — a vessel's rows, counters, reports, estimates,
+outlines — is :class:`~mjasc.perception.tracking.fleet_views.FleetViews`, its base class.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from itertools import repeat
 
 import numpy as np
 
-from mjasc.core.estimates import TrackEstimate, TrackRows, track_estimate_rows
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.tracking.association import (
     gnn_assign_blocks, indexed_pair_costs, predicted_positions)
 from mjasc.perception.tracking.config import TrackingConfig
+from mjasc.perception.tracking.fleet_rows import FleetRows
+from mjasc.perception.tracking.fleet_views import (_ASSOC, _CONF, _DETS, _SCANS, COUNT_KEYS, FleetViews,
+                                                  TrackEvent)
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.report_fields import report_columns, report_columns_numpy, report_estimates
 from mjasc.perception.tracking.step_buffers import (AssociationBuffers, assign_pairs_into, grown,
                                                    pair_gates_into, position_jacobians_into, predicted_pairs_into)
 from mjasc.perception.tracking.step_fusions import cycled_scan_grown
-from mjasc.perception.tracking.step_gathers import births_packed, step_inputs_into, step_rows
+from mjasc.perception.tracking.step_gathers import step_inputs_into, step_rows
 from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows_into, pair_setup
 from mjasc.perception.tracking.team import TeamMatcher
 from mjasc.perception.tracking.track_columns import TrackColumns
 
 __all__ = ["FleetTracker", "TrackEvent", "COUNT_KEYS"]
 
-#: Per-vessel counters (``FleetTracker.counts(owner)``).
-COUNT_KEYS = ("born", "confirmed", "lost", "merged", "scans", "detections", "associated")
-_BORN, _CONF, _LOST, _MERGED, _SCANS, _DETS, _ASSOC = range(7)
-
-
-_NO_ROWS = TrackRows(([], [], np.zeros((0, 2)), [], [], [], [], np.zeros((0, 2, 2)), [], [], [], ()))
-
-
-@dataclass(frozen=True)
-class TrackEvent:
-    time_s: float
-    kind: str  # "born" | "confirmed" | "lost" | "merged"
-    track_id: int
-    text: str
-
-
-def _starts(counts: np.ndarray) -> np.ndarray:
-    out = np.zeros(counts.size, dtype=np.int64)
-    np.cumsum(counts[:-1], out=out[1:])
-    return out
-
-
 def _fmt(p) -> str:
     return f"({p[0]:.1f}, {p[1]:.1f}) m"
 
 
-class FleetTracker:
+class FleetTracker(FleetRows, FleetViews):
     """The tracks of many vessels; ``add_owner(max_range)`` per vessel, then ``step(owners, ...)``
     once per tick for the vessels that scanned."""
 
@@ -131,57 +109,6 @@ class FleetTracker:
         self.events.append([])
         self._last_assign.append([])
         return k
-
-    @property
-    def n_owners(self) -> int:
-        return self._max_range.size
-
-    @property
-    def owner(self) -> np.ndarray:
-        """(n,) per row: its vessel (a view of the store's column: stale after a birth or drop)."""
-        return self.cols.owner
-
-    @property
-    def local_id(self) -> np.ndarray:
-        """(n,) per row: its id in its vessel's numbering (a view: stale after a birth or drop)."""
-        return self.cols.local_id
-
-    def rows_of(self, owner: int) -> np.ndarray:
-        """Bank rows of a vessel's tracks, in bank order (= the order of its own tracker)."""
-        got = self._rows_cache.get(owner)
-        if got is None or got[0] != self.version:
-            own = self.cols.owner
-            got = (self.version, (own == owner).nonzero()[0] if self.n_owners > 1 else np.arange(own.size))
-            self._rows_cache[owner] = got
-        return got[1]
-
-    def n_rows(self, owner: int) -> int:
-        """The number of a vessel's tracks (``rows_of(owner).size``; every vessel's counted at once,
-        once per change of rows)."""
-        got = self._sizes
-        no = self._max_range.size
-        if got[0] != self.version or got[2] != no:
-            got = self._sizes = (self.version, np.bincount(self.cols.owner, minlength=no).tolist(), no)
-        return got[1][owner]
-
-    def moving_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Every vessel's confirmed tracks that are not static, in bank order: their vessels (k,),
-        ids (k,) and positions (k, 2) [m] — a vessel's rows among them are, in the same order, what
-        its tracker's ``moving_positions`` gives (a run's evaluation samples them all at once)."""
-        c = self.cols
-        rows = (c.confirmed & ~c.static).nonzero()[0]
-        return c.owner[rows], c.local_id[rows], self.bank.positions_of(rows)
-
-    def counts(self, owner: int) -> dict:
-        return dict(zip(COUNT_KEYS, self._counts[owner].tolist()))
-
-    def last_assignment(self, owner: int) -> dict:
-        """{track id: detection index} of the vessel's last scan (updates and births)."""
-        pieces = self._last_assign[owner]
-        if not pieces:
-            return {}
-        ids, dets = np.concatenate([a for a, _ in pieces]), np.concatenate([b for _, b in pieces])
-        return dict(zip(ids.tolist(), dets.tolist()))
 
     def set_team_positions(self, owner: int, positions: dict) -> None:
         """``{name: (t_b [s], position (2,) [m])}``: the team's broadcasts as vessel ``owner`` has them."""
@@ -405,132 +332,3 @@ class FleetTracker:
             g = rows[(t_last == tl) & (t_new == tn)]
             used[g] = bank.update_rows(g, zr[g], tn, meas[g], None if vr is None else vr[g])
         return used
-
-    def _prune(self, owners, pos_of, every, t_o, origins) -> None:
-        """Step 4b: drop the tracks management gives up (lost, hopeless, merged), with events."""
-        bank = self.bank
-        if every:  # every row: rows as a slice (no copies)
-            if self.cols.n == 0:  # (the bank's number of rows)
-                return
-            rows, own = slice(None), self.cols.owner
-            rpos = None
-        else:
-            rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
-            if rows.size == 0:
-                return
-            own = self.cols.owner[rows]
-            rpos = pos_of[own]
-            pos, cov = bank.positions[rows], bank.position_covariances[rows]
-        try:  # (every vessel's origin given, as the perception fleet does: one conversion)
-            org = np.array(origins, dtype=float)
-            if org.ndim != 2:
-                org = org.reshape(-1, 2)
-        except (TypeError, ValueError):
-            org = None
-        if org is None or org.shape[0] != len(origins):
-            org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
-        if rpos is None:  # (every row's time, position, covariance, origin and range gathered by the kernel)
-            drop, n_drop, lost, merged = self.mgmt.drops_every(own, pos_of, t_o, bank.state_rows,
-                                                               bank.covariance_rows(), org, self._max_range)
-        else:
-            conf = self.cols.confirmed[rows]
-            drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
-            n_drop = np.count_nonzero(drop)
-            lost = [(j, reason[j]) for j in drop.nonzero()[0].tolist() if conf[j] and reason[j]]
-        ids = self.cols.local_id[rows]
-        for go, keep in merged:
-            o = int(own[go])
-            t = float(t_o[pos_of[o]])
-            self._counts[o, _MERGED] += 1
-            self.events[o].append(TrackEvent(t, "merged", int(ids[go]), f"track {ids[go]} merged into track {ids[keep]}"))
-        for j, why in lost:
-            o = int(own[j])
-            self._counts[o, _LOST] += 1
-            self.events[o].append(TrackEvent(float(t_o[pos_of[o]]), "lost", int(ids[j]), f"track {ids[j]} lost: {why}"))
-        if n_drop:
-            if every:
-                keep = ~drop
-            else:
-                keep = np.ones(len(bank), dtype=bool)
-                keep[rows[drop]] = False
-            bank.keep_rows(keep)
-            self.cols.keep(keep)  # (every per-track column of management, manoeuvres, team and outlines)
-            self.version += 1
-
-    def _births(self, owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed) -> None:
-        """Step 5: new tracks from the detections no track claimed, away from every track's disc."""
-        bank = self.bank
-        ints, floats, zb = births_packed(
-            claimed, self.cols.owner, pos_of, d_pos, z, var, rad, bank.state_rows, self.cols.radius, owners, t_o,
-            self._next_local, idx, self._counts, _BORN)
-        k = zb.shape[0]
-        if k == 0:
-            return
-        bp, own, local, dets = ints
-        t_b, var_b, rad_b = floats
-        bank.append_tracks(zb, t_b, var_b if self._use_var else None)
-        # every per-track column of management, manoeuvres, team and outlines (the hull anchor: the
-        # new rows' positions, which are zb)
-        self.cols.append_rows(t_b, rad_b, zb, own, local)
-        self.version += 1
-        bl, _, ll, _ = ints.tolist()
-        zl = zb.tolist()
-        a = 0
-        while a < k:  # per vessel (bp is sorted): its events and last assignment
-            q = bl[a]
-            b = a + 1
-            while b < k and bl[b] == q:
-                b += 1
-            o, t = int(owners[q]), float(t_o[q])
-            events = self.events[o]
-            for tid, zj in zip(ll[a:b], zl[a:b]):
-                events.append(TrackEvent(t, "born", tid, f"track {tid} born at ({zj[0]:.1f}, {zj[1]:.1f}) m"))  # (as _fmt)
-            self._last_assign[o].append((local[a:b], dets[a:b]))
-            a = b
-
-    # ------------------------------------------------------------------ outputs
-    def estimates(self, owner: int, include_tentative: bool = False) -> list[TrackEstimate]:
-        """TrackEstimate of every confirmed track of a vessel (and tentative ones if asked), in
-        bank order: the objects of :meth:`report_rows` (the same until the next step) in a new list."""
-        if include_tentative:
-            return self._estimates_of(self.rows_of(owner))
-        return list(self.report_rows(owner))
-
-    def report_rows(self, owner: int) -> TrackRows:
-        """A vessel's confirmed tracks in bank order as :class:`~mjasc.core.estimates.TrackRows`
-        (the estimates made on first read; ids, times and positions readable without them). Every
-        vessel's rows are made at once, on the first call after a step (each vessel asks at least
-        once per step — again after comms, between steps: one pass instead of one per vessel and
-        call, :meth:`_report_columns`, :meth:`_report_estimates`); the same value until the next step."""
-        made = self._reports
-        if made is None:
-            made = self._reports = self._report_estimates(self._report_columns())
-        return made[owner] if owner in made else _NO_ROWS
-
-    # the report's columns and rows (mjasc.perception.tracking.report_fields), bound as methods
-    _report_estimates = report_estimates
-    _report_columns = report_columns
-    _report_columns_numpy = report_columns_numpy
-
-    def _estimates_of(self, rows) -> list[TrackEstimate]:
-        """TrackEstimate of the tracks ``rows`` (indices), in that order."""
-        if rows.size == 0:
-            return []
-        t, pos, th, v, w, P = self.bank.estimate_fields(rows)
-        static = self.cols.static[rows]
-        slow = (static | (v < self.config.static_speed_m_s)).tolist()
-        # Python values per track in one conversion per field; each track's position and
-        # covariance are rows of arrays made for this call (views: no track shares another's).
-        k_rows = rows.tolist()
-        radius = self.cols.radius[rows]
-        outline = self.outlines.outline  # (= self.outline(k): pos, radius are row k's)
-        outlines = [outline(k, pos[j], radius[j]) if lk else None for j, (k, lk) in enumerate(zip(k_rows, slow))]
-        ids = self.cols.local_id[rows].tolist()
-        return track_estimate_rows(ids, t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
-                                   radius.tolist(), P, static.tolist(), self.team.members(rows),
-                                   outlines, repeat(None, len(k_rows)))
-
-    def outline(self, row: int) -> np.ndarray:
-        """(k, 2) CCW outline [m] of the track in bank row ``row``
-        (:mod:`mjasc.perception.tracking.outlines`)."""
-        return self.outlines.outline(row, self.bank.positions[row], self.cols.radius[row])

@@ -67,6 +67,9 @@ class TrackManagement:
         self._window, self._hits = int(config.confirm_window), int(config.confirm_hits)
         self._max_coast, self._max_var = float(config.max_coast_s), float(config.max_position_std_m**2)
         self._margin, self._fraction = float(config.range_margin_m), float(config.merge_fraction)
+        # (every_drops_into's constants after the columns)
+        self.drop_constants = (self._popcount, self._window, self._hits, self._max_coast, self._max_var, self._margin,
+                               self._fraction)
         self.cols = TrackColumns(config.confirm_hits <= 1) if columns is None else columns
         #: :func:`scan_rows`' constants: (popcount table, window mask, grow and shrink gains, M, static
         #: minimum age [s], static speed [m/s])
@@ -188,15 +191,24 @@ class TrackManagement:
         One compiled call returning three arrays (:func:`every_drops_packed`)."""
         cols = self.cols
         n = group.size
-        bufs = self._drop_bufs  # (drop, ints, vals written into them: each array a kernel returns is an object made)
+        bufs = self.drop_buffers(n)
+        args = (group, pos_of, t_o, states, covariances, origins_m, max_range_m, cols.hist, cols.scans, cols.confirmed,
+                cols.last, cols.n_upd, cols.radius, *self.drop_constants)
+        L, g, n_drop = every_drops_into(*args, *bufs)
+        return self.drops_read(args, bufs, n, L, g, n_drop)
+
+    def drop_buffers(self, n: int) -> tuple:
+        """(drop, ints, vals): the buffers :func:`every_drops_into` writes n rows' drops into, grown
+        when too small (each array a kernel returns is an object made)."""
+        bufs = self._drop_bufs
         if bufs[0].size < n:
             m = n + max(16, n // 2)
             bufs = self._drop_bufs = (np.empty(m, dtype=bool), np.empty(4 * m, dtype=np.int64), np.empty(3 * m))
-        args = (group, pos_of, t_o, states, covariances, origins_m, max_range_m, cols.hist, cols.scans, cols.confirmed,
-                cols.last, cols.n_upd, cols.radius, self._popcount, self._window, self._hits, self._max_coast,
-                self._max_var, self._margin, self._fraction)
-        n_lost, n_merged, n_drop = every_drops_into(*args, *bufs)
-        L, g = n_lost, n_merged
+        return bufs
+
+    def drops_read(self, args, bufs, n: int, L: int, g: int, n_drop: int) -> tuple:
+        """:meth:`drops_every`'s value from what :func:`every_drops_into` (``args``, into ``bufs``)
+        returned: L lost, g merged (−1: no room, the returning form run again), n_drop dropped."""
         if g < 0:  # (more merges than the buffers hold: the returning form)
             drop, ints, vals, L, g, n_drop = every_drops_packed(*args)
         else:

@@ -143,7 +143,9 @@ class TeamMatcher:
             n_a, n_b, a_start, b_start = blocks
             got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
             ta, tb_i = matched_rows(got, q, i, j, a_start, b_start, c, bsel)
-        team_of[ta if isinstance(rows, slice) else rows[ta]] = np.array([names[k] for k in tb_i.tolist()] + [None], dtype=object)[:-1]
+        # (each matched row's name, one by one: a few rows, cheaper than an object array made for them)
+        for k, b in zip((ta if isinstance(rows, slice) else rows[ta]).tolist(), tb_i.tolist()):
+            team_of[k] = names[b]
 
 
 @kernel

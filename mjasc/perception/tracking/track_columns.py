@@ -127,17 +127,42 @@ class TrackColumns:
         self.n = m
         self._views()
 
+    def reserve(self, m: int) -> tuple:
+        """Room for m rows: the tables (f, i, b) that :func:`appended_columns` writes new rows into
+        (a compiled caller's births, then :meth:`appended`)."""
+        if m > self._f.shape[1]:
+            self._grow(m)
+            self._views()  # (the columns' views of the new tables: the same n rows, whether or not rows follow)
+        return self._f, self._i, self._b
+
+    def appended(self, k: int) -> None:
+        """The k rows after the first n written by :func:`appended_columns` (into :meth:`reserve`'s
+        tables): they are rows now (no team mate, no hull), as :meth:`append_rows` ends."""
+        n = self.n
+        m = n + k
+        self._o[:, n:m] = None
+        self.n = m
+        self._views()
+
     def keep(self, keep: np.ndarray) -> None:
         """Keep the rows where ``keep`` (n,) bool is True, in order, in place (one compiled call
-        and one numpy indexing of the object columns)."""
+        and one numpy indexing of the object columns' rows from the first dropped one on; none when
+        every row is kept)."""
         if type(keep) is not np.ndarray or keep.dtype != np.bool_:
             keep = np.asarray(keep, dtype=bool)
         if keep.shape != (self.n,):
             raise IndexError(f"keep: need shape ({self.n},), got {keep.shape}")
+        self.kept(keep, kept_columns(keep, self._f, self._i, self._b))
+
+    def kept(self, keep: np.ndarray, m: int) -> None:
+        """After :func:`kept_columns` compacted the tables to the m rows where ``keep`` (n,) bool: the
+        object columns compacted (one numpy indexing of their rows from the first dropped one on: those
+        before it stay where they are; none when every row is kept) and the columns' views made."""
         n = self.n
-        m = kept_columns(keep, self._f, self._i, self._b)
-        o = self._o
-        o[:, :m] = o[:, :n][:, keep]
+        if m < n:
+            f = int(keep.argmin())
+            o = self._o
+            o[:, f:m] = o[:, f:n][:, keep[f:]]
         self.n = m
         self._views()
 

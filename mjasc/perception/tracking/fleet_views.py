@@ -1,0 +1,144 @@
+"""FleetViews: what a fleet tracker (:class:`mjasc.perception.tracking.fleet.FleetTracker`) hands
+out — the mixin it inherits (the tracker itself steps, adds and drops the rows; this reads them).
+
+Per vessel: its events (:class:`TrackEvent`), its rows in the bank, their number, its counters and
+last assignment, its confirmed tracks as :class:`~mjasc.core.estimates.TrackRows` (every vessel's
+made at once on the first read after a step: :mod:`mjasc.perception.tracking.report_fields`) or as
+:class:`~mjasc.core.estimates.TrackEstimate` s, a track's outline; for the fleet, every vessel's
+moving confirmed tracks at once.
+
+The mixin has no state of its own; it reads the tracker's ``bank``, ``cols``
+(:class:`~mjasc.perception.tracking.track_columns.TrackColumns`), ``outlines``, ``team``, ``config``,
+``version``, ``_max_range``, ``_counts``, ``_last_assign``, ``_rows_cache``, ``_sizes`` and
+``_reports``, set by ``FleetTracker.__init__``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import repeat
+
+import numpy as np
+
+from mjasc.core.estimates import TrackEstimate, TrackRows, track_estimate_rows
+from mjasc.perception.tracking.report_fields import report_columns, report_columns_numpy, report_estimates
+
+__all__ = ["FleetViews", "TrackEvent", "COUNT_KEYS"]
+
+#: Per-vessel counters (``FleetTracker.counts(owner)``).
+COUNT_KEYS = ("born", "confirmed", "lost", "merged", "scans", "detections", "associated")
+_BORN, _CONF, _LOST, _MERGED, _SCANS, _DETS, _ASSOC = range(7)  # (their columns)
+
+
+@dataclass(frozen=True)
+class TrackEvent:  # something that happened to one of a vessel's tracks at time_s [s] (FleetTracker.events)
+    time_s: float
+    kind: str  # "born" | "confirmed" | "lost" | "merged"
+    track_id: int
+    text: str
+
+_NO_ROWS = TrackRows(([], [], np.zeros((0, 2)), [], [], [], [], np.zeros((0, 2, 2)), [], [], [], ()))
+
+
+class FleetViews:
+    """The read-only views of :class:`~mjasc.perception.tracking.fleet.FleetTracker`'s rows (a mixin:
+    the tracker's base class; see the module docstring for the attributes it reads)."""
+
+    # ------------------------------------------------------------------ vessels
+    @property
+    def n_owners(self) -> int:
+        return self._max_range.size
+
+    @property
+    def owner(self) -> np.ndarray:
+        """(n,) per row: its vessel (a view of the store's column: stale after a birth or drop)."""
+        return self.cols.owner
+
+    @property
+    def local_id(self) -> np.ndarray:
+        """(n,) per row: its id in its vessel's numbering (a view: stale after a birth or drop)."""
+        return self.cols.local_id
+
+    def rows_of(self, owner: int) -> np.ndarray:
+        """Bank rows of a vessel's tracks, in bank order (= the order of its own tracker)."""
+        got = self._rows_cache.get(owner)
+        if got is None or got[0] != self.version:
+            own = self.cols.owner
+            got = (self.version, (own == owner).nonzero()[0] if self.n_owners > 1 else np.arange(own.size))
+            self._rows_cache[owner] = got
+        return got[1]
+
+    def n_rows(self, owner: int) -> int:
+        """The number of a vessel's tracks (``rows_of(owner).size``; every vessel's counted at once,
+        once per change of rows)."""
+        got = self._sizes
+        no = self._max_range.size
+        if got[0] != self.version or got[2] != no:
+            got = self._sizes = (self.version, np.bincount(self.cols.owner, minlength=no).tolist(), no)
+        return got[1][owner]
+
+    def moving_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Every vessel's confirmed tracks that are not static, in bank order: their vessels (k,),
+        ids (k,) and positions (k, 2) [m] — a vessel's rows among them are, in the same order, what
+        its tracker's ``moving_positions`` gives (a run's evaluation samples them all at once)."""
+        c = self.cols
+        rows = (c.confirmed & ~c.static).nonzero()[0]
+        return c.owner[rows], c.local_id[rows], self.bank.positions_of(rows)
+
+    def counts(self, owner: int) -> dict:
+        return dict(zip(COUNT_KEYS, self._counts[owner].tolist()))
+
+    def last_assignment(self, owner: int) -> dict:
+        """{track id: detection index} of the vessel's last scan (updates and births)."""
+        pieces = self._last_assign[owner]
+        if not pieces:
+            return {}
+        ids, dets = np.concatenate([a for a, _ in pieces]), np.concatenate([b for _, b in pieces])
+        return dict(zip(ids.tolist(), dets.tolist()))
+
+    # ------------------------------------------------------------------ outputs
+    def estimates(self, owner: int, include_tentative: bool = False) -> list[TrackEstimate]:
+        """TrackEstimate of every confirmed track of a vessel (and tentative ones if asked), in
+        bank order: the objects of :meth:`report_rows` (the same until the next step) in a new list."""
+        if include_tentative:
+            return self._estimates_of(self.rows_of(owner))
+        return list(self.report_rows(owner))
+
+    def report_rows(self, owner: int) -> TrackRows:
+        """A vessel's confirmed tracks in bank order as :class:`~mjasc.core.estimates.TrackRows`
+        (the estimates made on first read; ids, times and positions readable without them). Every
+        vessel's rows are made at once, on the first call after a step (each vessel asks at least
+        once per step — again after comms, between steps: one pass instead of one per vessel and
+        call, :meth:`_report_columns`, :meth:`_report_estimates`); the same value until the next step."""
+        made = self._reports
+        if made is None:
+            made = self._reports = self._report_estimates(self._report_columns())
+        return made[owner] if owner in made else _NO_ROWS
+
+    # the report's columns and rows (mjasc.perception.tracking.report_fields), bound as methods
+    _report_estimates = report_estimates
+    _report_columns = report_columns
+    _report_columns_numpy = report_columns_numpy
+
+    def _estimates_of(self, rows) -> list[TrackEstimate]:
+        """TrackEstimate of the tracks ``rows`` (indices), in that order."""
+        if rows.size == 0:
+            return []
+        t, pos, th, v, w, P = self.bank.estimate_fields(rows)
+        static = self.cols.static[rows]
+        slow = (static | (v < self.config.static_speed_m_s)).tolist()
+        # Python values per track in one conversion per field; each track's position and
+        # covariance are rows of arrays made for this call (views: no track shares another's).
+        k_rows = rows.tolist()
+        radius = self.cols.radius[rows]
+        outline = self.outlines.outline  # (= self.outline(k): pos, radius are row k's)
+        outlines = [outline(k, pos[j], radius[j]) if lk else None for j, (k, lk) in enumerate(zip(k_rows, slow))]
+        ids = self.cols.local_id[rows].tolist()
+        return track_estimate_rows(ids, t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
+                                   radius.tolist(), P, static.tolist(), self.team.members(rows),
+                                   outlines, repeat(None, len(k_rows)))
+
+    def outline(self, row: int) -> np.ndarray:
+        """(k, 2) CCW outline [m] of the track in bank row ``row``
+        (:mod:`mjasc.perception.tracking.outlines`)."""
+        return self.outlines.outline(row, self.bank.positions[row], self.cols.radius[row])
