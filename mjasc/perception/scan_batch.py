@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mjasc.perception.range_sensor import CLUTTER_GEOM, RangeSensor, Scan
+from mjasc.perception.pass_views import scan_at
+from mjasc.perception.range_sensor import CLUTTER_GEOM, RangeSensor
 from mjasc.perception.scan_kernels import scan_batch
 
 __all__ = ["ScanBatch", "ScanStack"]
@@ -182,23 +183,28 @@ class ScanBatch:
         N = offs[S]
         ranges, rho, body, world, beams, ret_off = floats[:N], floats[N:N + K], points[:K], points[N:N + K], \
             ints[:K], ints[N:]
-        ro = ret_off.tolist()
+        # each scan's fields made on first read (mjasc.perception.pass_views): the same views as Scan(...) had
+        src = (offs, ret_off, queued, sensors, origins, ranges, hit, beams, body, world, geom)
+        scans = tuple([scan_at(_scan_fields, (k, src)) for k in range(S)])
         new = object.__new__
-        scans = [None] * S
-        for k, sensor in enumerate(sensors):  # Scan(...) without its frozen __init__'s thirteen setattr calls
-            a, b, p, q = offs[k], offs[k + 1], ro[k], ro[k + 1]
-            cast = queued[k]
-            scan = scans[k] = new(Scan)
-            scan.__dict__.update(time_s=cast[0], origin_m=origins[k], heading_rad=cast[3],
-                                 angles_body=sensor.angles_body, ranges=ranges[a:b], hit=hit[a:b],
-                                 hit_beams=beams[p:q], hit_points_body=body[p:q], hit_points_world=world[p:q],
-                                 geom_ids=geom[a:b], max_range_m=sensor.config.max_range_m,
-                                 beam_spacing_rad=sensor.beam_spacing_rad, full_circle=sensor.full_circle)
         self._clear()
         stack = new(ScanStack)
-        stack.__dict__.update(scans=tuple(scans), beam_off=beam_off, ret_off=ret_off, ranges_m=ranges, hit=hit,
+        stack.__dict__.update(scans=scans, beam_off=beam_off, ret_off=ret_off, ranges_m=ranges, hit=hit,
                               hit_beams=beams, hit_ranges_m=rho, hit_points_world=world, origins_m=origins,
                               cos_heading=cos_h, sin_heading=sin_h, times_s=times_s, headings_rad=headings,
                               n_beams=n_beams, first_angle_body=first, last_angle_body=last, max_range_m=max_r,
                               full_circle=full)
         return stack
+
+
+def _scan_fields(d: dict, k: int, src: tuple) -> None:
+    """The fields of scan ``k`` of a :class:`ScanStack` (``src``: :meth:`ScanBatch.stack`'s
+    arrays) into ``d``: views of the stacked arrays, as ``Scan(...)`` had them."""
+    offs, ret_off, queued, sensors, origins, ranges, hit, beams, body, world, geom = src
+    a, b = offs[k], offs[k + 1]
+    p, q = ret_off[k:k + 2].tolist()
+    cast, sensor = queued[k], sensors[k]
+    d.update(time_s=cast[0], origin_m=origins[k], heading_rad=cast[3], angles_body=sensor.angles_body,
+             ranges=ranges[a:b], hit=hit[a:b], hit_beams=beams[p:q], hit_points_body=body[p:q],
+             hit_points_world=world[p:q], geom_ids=geom[a:b], max_range_m=sensor.config.max_range_m,
+             beam_spacing_rad=sensor.beam_spacing_rad, full_circle=sensor.full_circle)
