@@ -187,8 +187,7 @@ class PerceptionFleet:
         plan = self._plan(members)
         S = plan.index.shape[0]
         args, parts = casts.kernel_inputs()
-        queued, times = parts[0], parts[3]
-        dc, dr, d_k = self._discs(members, queued, times, plan)
+        dc, dr, d_k = self._discs(members, parts[0][0], parts[3], plan)
         store = self.map_store
         slot = plan.slot  # map member of each slot
         c = plan.detection
@@ -259,15 +258,15 @@ class PerceptionFleet:
         for k, (m, c) in enumerate(zip(members, counts.tolist())):
             m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]], c)
 
-    def _discs(self, members, queued: list, times: np.ndarray, plan: "_Plan"
+    def _discs(self, members, scan_times: list, times: np.ndarray, plan: "_Plan"
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centres (q, 2) and radii (q,) [m] of the tracks whose returns must never reach their
         vessel's map (:meth:`mjasc.perception.pipeline.Perception.tracked_discs`), at the vessel's
-        scan time (``queued[k][0]``, ``times`` (S,) [s]), and the slot of that vessel (q,) (grouped by
+        scan time (``scan_times[k]``, ``times`` (S,) [s]), and the slot of that vessel (q,) (grouped by
         slot, ascending; within a slot in the order of its tracker's rows)."""
         parts = []
         for k in plan.plugins:
-            c, r = members[k].tracked_discs(queued[k][0])
+            c, r = members[k].tracked_discs(scan_times[k])
             parts.append((np.full(r.shape[0], k, dtype=np.int64), c, r))
         S = times.shape[0]
         for ft, owner_slot in plan.trackers:
