@@ -83,7 +83,7 @@ from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_t
 from mjasc.perception.detection_kernels import detect_clusters
 from mjasc.perception.pass_views import FilledOnRead
 from mjasc.perception.range_sensor import Scan
-from mjasc.perception.scan_batch import ScanStack
+from mjasc.perception.scan_batch import ScanStack, scan_pose
 
 __all__ = ["DetectionConfig", "Detections", "PassDetections", "DetectionBatch", "detect", "detect_many", "detection_constants",
            "dropout_gap_beams",
@@ -226,8 +226,8 @@ def _detection_fields(d: dict, k: int, batch: DetectionBatch) -> None:
     as ``Detections(...)`` had them."""
     a, b = batch.det_offsets[k:k + 2].tolist()
     r0, r1 = batch.ret_offsets[k:k + 2].tolist()
-    sc = batch.scans[k]
-    d.update(time_s=sc.time_s, origin_m=sc.origin_m, heading_rad=sc.heading_rad, centres_m=batch.centres_m[a:b],
+    t, origin, heading = scan_pose(batch.scans[k])  # (the scan's other fields not made)
+    d.update(time_s=t, origin_m=origin, heading_rad=heading, centres_m=batch.centres_m[a:b],
              centres_body=batch.centres_body[a:b], radii_m=batch.radii_m[a:b], variances_m2=batch.variances_m2[a:b],
              n_points=batch.n_points[a:b], ranges_m=batch.ranges_m[a:b], extended=batch.extended[a:b],
              labels=batch.labels[r0:r1], occluded=batch.occluded[a:b])

@@ -23,7 +23,7 @@ from mjasc.perception.pass_views import scan_at
 from mjasc.perception.range_sensor import CLUTTER_GEOM, RangeSensor
 from mjasc.perception.scan_kernels import scan_batch
 
-__all__ = ["ScanBatch", "ScanStack"]
+__all__ = ["ScanBatch", "ScanStack", "scan_pose"]
 
 _NO_BEAMS, _NO_DRAWS = np.zeros(0, dtype=np.int64), np.zeros(0)  # no clutter in any cast of a batch
 
@@ -216,3 +216,13 @@ def _scan_fields(d: dict, k: int, src: tuple) -> None:
              ranges=ranges[a:b], hit=hit[a:b], hit_beams=beams[p:q], hit_points_body=body[p:q],
              hit_points_world=world[p:q], geom_ids=geom[a:b], max_range_m=sensor.config.max_range_m,
              beam_spacing_rad=sensor.beam_spacing_rad, full_circle=sensor.full_circle)
+
+
+def scan_pose(scan) -> tuple:
+    """``(time_s, origin_m, heading_rad)`` of a scan, without making the other fields of a scan of
+    :meth:`ScanBatch.stack` not read yet (what a scan's detections carry of it)."""
+    src = scan.__dict__.get("_src")
+    if src is not None and src[0] is _scan_fields:
+        k, (_, _, (times, yaws), _, origins, *_) = src[1]
+        return times[k], origins[k], yaws[k]
+    return scan.time_s, scan.origin_m, scan.heading_rad
