@@ -81,10 +81,11 @@ import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 from mjasc.perception.detection_kernels import detect_clusters
+from mjasc.perception.pass_views import FilledOnRead
 from mjasc.perception.range_sensor import Scan
-from mjasc.perception.scan_batch import ScanStack
+from mjasc.perception.scan_batch import ScanStack, scan_pose
 
-__all__ = ["DetectionConfig", "Detections", "DetectionBatch", "detect", "detect_many", "detection_constants",
+__all__ = ["DetectionConfig", "Detections", "PassDetections", "DetectionBatch", "detect", "detect_many", "detection_constants",
            "dropout_gap_beams",
            "finite_detections",
            "parse_detection_options",
@@ -192,21 +193,44 @@ class DetectionBatch:
     ret_offsets: np.ndarray
 
     def split(self) -> list[Detections]:
-        """One :class:`Detections` per scan (views of the batch's arrays)."""
-        d, r = self.det_offsets.tolist(), self.ret_offsets.tolist()
-        scans = self.scans
-        out = [None] * len(scans)
-        cen, body, rad, var = self.centres_m, self.centres_body, self.radii_m, self.variances_m2
-        n, rng, ext, lab, occ = self.n_points, self.ranges_m, self.extended, self.labels, self.occluded
-        new = object.__new__
-        for k, sc in enumerate(scans):  # made as Detections(...) is, without its per-field setattr
-            a, b = d[k], d[k + 1]
-            det = out[k] = new(Detections)
-            det.__dict__.update(time_s=sc.time_s, origin_m=sc.origin_m, heading_rad=sc.heading_rad,
-                                centres_m=cen[a:b], centres_body=body[a:b], radii_m=rad[a:b], variances_m2=var[a:b],
-                                n_points=n[a:b], ranges_m=rng[a:b], extended=ext[a:b], labels=lab[r[k]:r[k + 1]],
-                                occluded=occ[a:b])
-        return out
+        """One :class:`Detections` per scan (views of the batch's arrays), each a
+        :class:`PassDetections`: its fields made on first read."""
+        return [detections_at(_detection_fields, (k, self)) for k in range(len(self.scans))]
+
+
+class PassDetections(FilledOnRead, Detections):
+    """A :class:`Detections` of a :class:`DetectionBatch` whose fields are made on first read
+    (:mod:`mjasc.perception.pass_views`)."""
+
+    @property
+    def occluded(self):  # (the field's class default would otherwise hide it while not made)
+        d = self.__dict__
+        if "occluded" not in d:
+            self.__getattr__("occluded")
+        return d["occluded"]
+
+    @occluded.setter
+    def occluded(self, value) -> None:  # (the frozen dataclass's __init__ sets fields through object.__setattr__)
+        self.__dict__["occluded"] = value
+
+
+def detections_at(make, args) -> PassDetections:
+    """A :class:`PassDetections` that ``make(fields_dict, *args)`` fills on first read."""
+    det = object.__new__(PassDetections)
+    det.__dict__["_src"] = (make, args)
+    return det
+
+
+def _detection_fields(d: dict, k: int, batch: DetectionBatch) -> None:
+    """The fields of scan ``k``'s detections of ``batch`` into ``d``: views of the batch's arrays,
+    as ``Detections(...)`` had them."""
+    a, b = batch.det_offsets[k:k + 2].tolist()
+    r0, r1 = batch.ret_offsets[k:k + 2].tolist()
+    t, origin, heading = scan_pose(batch.scans[k])  # (the scan's other fields not made)
+    d.update(time_s=t, origin_m=origin, heading_rad=heading, centres_m=batch.centres_m[a:b],
+             centres_body=batch.centres_body[a:b], radii_m=batch.radii_m[a:b], variances_m2=batch.variances_m2[a:b],
+             n_points=batch.n_points[a:b], ranges_m=batch.ranges_m[a:b], extended=batch.extended[a:b],
+             labels=batch.labels[r0:r1], occluded=batch.occluded[a:b])
 
 
 def finite_detections(det: "Detections | DetectionBatch") -> np.ndarray:

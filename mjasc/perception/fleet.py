@@ -114,7 +114,7 @@ class PerceptionFleet:
         self._scans: list = []  # members queued for the sensing pass (their casts in _batch, in order)
         self._tracks: list = []  # members queued for the tracking pass
         self._plans: dict = {}  # _plan per combination of members
-        self._sensed = None  # the last sensing pass's (members, detections, their stack for FleetTracker.step)
+        self._sensed = None  # the last sensing pass's (members, detections, cut, their stack for FleetTracker.step, scans)
         self._busy = False
 
     def join(self, member) -> tuple[StaticMap, MultiTargetTracker | None]:
@@ -187,8 +187,7 @@ class PerceptionFleet:
         plan = self._plan(members)
         S = plan.index.shape[0]
         args, parts = casts.kernel_inputs()
-        queued, times = parts[0], parts[3]
-        dc, dr, d_k = self._discs(members, queued, times, plan)
+        dc, dr, d_k = self._discs(members, parts[0][0], parts[3], plan)
         store = self.map_store
         slot = plan.slot  # map member of each slot
         c = plan.detection
@@ -255,19 +254,19 @@ class PerceptionFleet:
         # the pass's detections as the tracker stacks them (its tracking step takes them as they are)
         cut = det_off.tolist()
         self._sensed = None if restacked else (members, dets, cut, (
-            det_off[1:] - det_off[:-1], targets, centres, variances, radii, batch.occluded))
+            det_off[1:] - det_off[:-1], targets, centres, variances, radii, batch.occluded), stack)
         for k, (m, c) in enumerate(zip(members, counts.tolist())):
             m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]], c)
 
-    def _discs(self, members, queued: list, times: np.ndarray, plan: "_Plan"
+    def _discs(self, members, scan_times: list, times: np.ndarray, plan: "_Plan"
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Centres (q, 2) and radii (q,) [m] of the tracks whose returns must never reach their
         vessel's map (:meth:`mjasc.perception.pipeline.Perception.tracked_discs`), at the vessel's
-        scan time (``queued[k][0]``, ``times`` (S,) [s]), and the slot of that vessel (q,) (grouped by
+        scan time (``scan_times[k]``, ``times`` (S,) [s]), and the slot of that vessel (q,) (grouped by
         slot, ascending; within a slot in the order of its tracker's rows)."""
         parts = []
         for k in plan.plugins:
-            c, r = members[k].tracked_discs(queued[k][0])
+            c, r = members[k].tracked_discs(scan_times[k])
             parts.append((np.full(r.shape[0], k, dtype=np.int64), c, r))
         S = times.shape[0]
         for ft, owner_slot in plan.trackers:
@@ -329,17 +328,41 @@ class PerceptionFleet:
             ms = [m for m in members if m._tracker is not None and m._tracker.fleet is ft]
             if not ms:
                 continue
-            # (each member's inputs in one pass: owners, detections, times, origins, targets, returns)
-            owners, dets, times, origins, targets, returns = map(list, zip(*[
-                (m._tracker.owner, m._det, m._det.time_s, m._scan.origin_m, m._targets, m._scan.hit_points_world)
-                for m in ms]))
-            ft.step(owners, times, dets, origins, targets, returns, self._stacked(ms, dets))
+            dets = [m._det for m in ms]
+            got = self._from_pass(ms, dets)
+            if got is None:  # (each member's inputs: owners, times, origins, targets, returns)
+                owners, times, origins, targets, returns = map(list, zip(*[
+                    (m._tracker.owner, m._det.time_s, m._scan.origin_m, m._targets, m._scan.hit_points_world)
+                    for m in ms]))
+                stacked = None
+            else:  # (the sensing pass's arrays: the scans' and detections' fields not made)
+                times, origins, returns, stacked = got
+                owners = [m._tracker.owner for m in ms]
+                targets = [m._targets for m in ms]
+            ft.step(owners, times, dets, origins, targets, returns, stacked)
         for m in members:
             if m.method is not None:
                 m._track_with_method()
         for m in members:
             m._tracked()
 
+    def _from_pass(self, ms, dets) -> tuple | None:
+        """What :meth:`FleetTracker.step` takes of the members ``ms`` with the detections ``dets``,
+        read from the last sensing pass's arrays when they are consecutive slots of it and its
+        detections (:meth:`_stacked`): the scan times (p,) [s], origins (p, 2) [m], each scan's
+        returns (k, 2) [m] (views) and the stacked detections; None otherwise."""
+        stacked = self._stacked(ms, dets)
+        if stacked is None:
+            return None
+        members, stack = self._sensed[0], self._sensed[4]
+        p = len(ms)
+        k0 = 0
+        if p != len(members):
+            while members[k0] is not ms[0]:
+                k0 += 1
+        ro, world = stack.ret_off[k0:k0 + p + 1].tolist(), stack.hit_points_world
+        returns = [world[ro[j]:ro[j + 1]] for j in range(p)]
+        return stack.times_s[k0:k0 + p], stack.origins_m[k0:k0 + p], returns, stacked
 
     def _stacked(self, ms, dets) -> tuple | None:
         """The detections ``dets`` of the members ``ms`` stacked as :meth:`FleetTracker.step` takes
@@ -348,7 +371,7 @@ class PerceptionFleet:
         sensed = self._sensed
         if sensed is None:
             return None
-        members, got, cut, full = sensed
+        members, got, cut, full, _ = sensed
         p, S = len(ms), len(members)
         k0 = 0
         if p != S:

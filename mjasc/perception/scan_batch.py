@@ -19,10 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mjasc.perception.range_sensor import CLUTTER_GEOM, RangeSensor, Scan
+from mjasc.perception.pass_views import scan_at
+from mjasc.perception.range_sensor import CLUTTER_GEOM, RangeSensor
 from mjasc.perception.scan_kernels import scan_batch
 
-__all__ = ["ScanBatch", "ScanStack"]
+__all__ = ["ScanBatch", "ScanStack", "scan_pose"]
 
 _NO_BEAMS, _NO_DRAWS = np.zeros(0, dtype=np.int64), np.zeros(0)  # no clutter in any cast of a batch
 
@@ -75,7 +76,12 @@ class ScanBatch:
     def _clear(self) -> None:
         self._n = 0  # casts queued
         self._end = 0  # rows they fill
-        self._queued: list[tuple] = []  # per cast: time [s], x, y [m], yaw [rad], its clutter's end in _cb, 0, 0
+        # per cast, in Python floats (one array of them all per pass, kernel_inputs): time [s], x, y [m], yaw
+        # [rad], and the end of its clutter in _cb
+        self._times: list = []
+        self._xy: list = []
+        self._yaws: list = []
+        self._c_end: list = [0]
         self._cb: list = []  # every cast's clutter beams …
         self._cr: list = []  # … and ranges [m], in cast order
 
@@ -121,8 +127,10 @@ class ScanBatch:
         x, y, yaw = sensor.fire(data, dist, gid)
         cb = self._cb
         has_n, has_u = sensor.draw(rng, normals, uniforms, cb, self._cr)
-        # (the two zeros: the places take() has the heading's cosine and sine written into)
-        self._queued.append((float(data.time), x, y, yaw, len(cb), 0.0, 0.0))
+        self._times.append(float(data.time))
+        self._xy += (x, y)
+        self._yaws.append(yaw)
+        self._c_end.append(len(cb))
         has = self._has
         if k >= has.shape[1]:
             self._has = has = np.concatenate([has, np.zeros_like(has)], axis=1)
@@ -154,51 +162,67 @@ class ScanBatch:
         """The arguments of :func:`~mjasc.perception.scan_kernels.scan_batch` for the queued casts,
         and what :meth:`stack` needs with its outputs (a caller may run the kernel inside a larger
         compiled call: :mod:`mjasc.perception.sense_pass`)."""
-        queued, S = self._queued, self._n
+        S = self._n
         sensors = [row[0] for row in self._tables[:S]]  # (slot k's table row is its cast's sensor's)
         consts = self._constants(sensors)
         beam_off, offs, noise, dropout, min_r, max_r, n_beams, first, last, full = consts
-        rows = np.array(queued, dtype=float)  # (S, 7): time, x, y, yaw, clutter end, (cos, sin) of each cast
-        cols = rows.T.copy()
-        times_s, headings, c_end, cos_h, sin_h = cols[0], cols[3], cols[4], cols[5], cols[6]
-        origins = rows[:, 1:3].copy()
+        times, yaws = self._times, self._yaws
+        # one new array per pass (the stack keeps views of it): times, origins, headings, then the places the
+        # kernel writes the headings' cosines and sines into
+        v = np.array(times + self._xy + yaws + [0.0] * (2 * S))
+        times_s, origins, headings, cos_h, sin_h = v[:S], v[S:3 * S].reshape(S, 2), v[3 * S:4 * S], \
+            v[4 * S:5 * S], v[5 * S:]
         has_n, has_u = self._has[0, :S], self._has[1, :S]
         if self._cb:
             cb, cr = np.array(self._cb, dtype=np.int64), np.array(self._cr, dtype=float)
         else:
             cb, cr = _NO_BEAMS, _NO_DRAWS
-        c_off = np.zeros(S + 1, dtype=np.int64)
-        c_off[1:] = c_end
+        c_off = np.array(self._c_end, dtype=np.int64)
         args = (self._dist, self._gid, beam_off, noise, self._normals, has_n, dropout, self._uniforms, has_u, cb, cr,
                 c_off, min_r, max_r, CLUTTER_GEOM, self._cos, self._sin, origins, headings, cos_h, sin_h)
-        return args, (queued, sensors, consts, times_s, headings, origins, cos_h, sin_h)
+        return args, ((times, yaws), sensors, consts, times_s, headings, origins, cos_h, sin_h)
 
     def stack(self, parts: tuple, floats, points, hit, geom, ints, K) -> ScanStack:
         """The :class:`ScanStack` of :meth:`kernel_inputs`' ``parts`` and the kernel's outputs
         (cos_h and sin_h written by it); the batch is emptied."""
-        queued, sensors, consts, times_s, headings, origins, cos_h, sin_h = parts
+        casts, sensors, consts, times_s, headings, origins, cos_h, sin_h = parts
         beam_off, offs, noise, dropout, min_r, max_r, n_beams, first, last, full = consts
         S = len(sensors)
         N = offs[S]
         ranges, rho, body, world, beams, ret_off = floats[:N], floats[N:N + K], points[:K], points[N:N + K], \
             ints[:K], ints[N:]
-        ro = ret_off.tolist()
+        # each scan's fields made on first read (mjasc.perception.pass_views): the same views as Scan(...) had
+        src = (offs, ret_off, casts, sensors, origins, ranges, hit, beams, body, world, geom)
+        scans = tuple([scan_at(_scan_fields, (k, src)) for k in range(S)])
         new = object.__new__
-        scans = [None] * S
-        for k, sensor in enumerate(sensors):  # Scan(...) without its frozen __init__'s thirteen setattr calls
-            a, b, p, q = offs[k], offs[k + 1], ro[k], ro[k + 1]
-            cast = queued[k]
-            scan = scans[k] = new(Scan)
-            scan.__dict__.update(time_s=cast[0], origin_m=origins[k], heading_rad=cast[3],
-                                 angles_body=sensor.angles_body, ranges=ranges[a:b], hit=hit[a:b],
-                                 hit_beams=beams[p:q], hit_points_body=body[p:q], hit_points_world=world[p:q],
-                                 geom_ids=geom[a:b], max_range_m=sensor.config.max_range_m,
-                                 beam_spacing_rad=sensor.beam_spacing_rad, full_circle=sensor.full_circle)
         self._clear()
         stack = new(ScanStack)
-        stack.__dict__.update(scans=tuple(scans), beam_off=beam_off, ret_off=ret_off, ranges_m=ranges, hit=hit,
+        stack.__dict__.update(scans=scans, beam_off=beam_off, ret_off=ret_off, ranges_m=ranges, hit=hit,
                               hit_beams=beams, hit_ranges_m=rho, hit_points_world=world, origins_m=origins,
                               cos_heading=cos_h, sin_heading=sin_h, times_s=times_s, headings_rad=headings,
                               n_beams=n_beams, first_angle_body=first, last_angle_body=last, max_range_m=max_r,
                               full_circle=full)
         return stack
+
+
+def _scan_fields(d: dict, k: int, src: tuple) -> None:
+    """The fields of scan ``k`` of a :class:`ScanStack` (``src``: :meth:`ScanBatch.stack`'s
+    arrays) into ``d``: views of the stacked arrays, as ``Scan(...)`` had them."""
+    offs, ret_off, (times, yaws), sensors, origins, ranges, hit, beams, body, world, geom = src
+    a, b = offs[k], offs[k + 1]
+    p, q = ret_off[k:k + 2].tolist()
+    sensor = sensors[k]
+    d.update(time_s=times[k], origin_m=origins[k], heading_rad=yaws[k], angles_body=sensor.angles_body,
+             ranges=ranges[a:b], hit=hit[a:b], hit_beams=beams[p:q], hit_points_body=body[p:q],
+             hit_points_world=world[p:q], geom_ids=geom[a:b], max_range_m=sensor.config.max_range_m,
+             beam_spacing_rad=sensor.beam_spacing_rad, full_circle=sensor.full_circle)
+
+
+def scan_pose(scan) -> tuple:
+    """``(time_s, origin_m, heading_rad)`` of a scan, without making the other fields of a scan of
+    :meth:`ScanBatch.stack` not read yet (what a scan's detections carry of it)."""
+    src = scan.__dict__.get("_src")
+    if src is not None and src[0] is _scan_fields:
+        k, (_, _, (times, yaws), _, origins, *_) = src[1]
+        return times[k], origins[k], yaws[k]
+    return scan.time_s, scan.origin_m, scan.heading_rad
