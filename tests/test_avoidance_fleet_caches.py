@@ -8,8 +8,8 @@ import numpy as np
 
 from mjasc.avoidance.prediction import CollisionPredictionConfig, PredictionQuery, TrackMotions, predict_conflicts, \
     predict_fleet
-from mjasc.avoidance.prediction import motion
-from mjasc.avoidance.prediction.motion import _PlanTable, _StackedPlans, intention_positions
+from mjasc.avoidance.prediction import team_plans
+from mjasc.avoidance.prediction.team_plans import _PlanTable, _StackedPlans, intention_positions
 from mjasc.avoidance.team_mates import TeamMates
 from mjasc.cooperation.messages import TeamIntention
 from mjasc.core.estimates import PlannedTrack, TrackEstimate
@@ -65,7 +65,7 @@ def test_track_motions_and_intention_positions_read_the_shared_table():
             np.testing.assert_array_equal(intention_positions(its[:k], times),
                                           np.stack([it.positions(times) for it in its[:k]]))
         assert intention_positions([], times).shape == (0, times.size, 2)
-    assert motion._PLANS.rows(its)[1].tolist() == motion._PLANS.rows(list(reversed(its)))[1].tolist()[::-1]
+    assert team_plans._PLANS.rows(its)[1].tolist() == team_plans._PLANS.rows(list(reversed(its)))[1].tolist()[::-1]
 
 
 def test_a_team_mates_estimate_is_made_once_per_message_for_every_receiver():

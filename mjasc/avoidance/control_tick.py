@@ -15,13 +15,12 @@ is the system's). World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
+import math
 from operator import attrgetter
-
-import numpy as np
 
 from mjasc.avoidance.prediction import TrackMotions
 from mjasc.core.estimates import TrackRows, track_columns
-from mjasc.core.frames import wrap_angle
+from mjasc.guidance.segment_geometry import wrap_scalar
 
 __all__ = ["ControlTick"]
 
@@ -191,8 +190,11 @@ class ControlTick:
         ran into it; it stops from 1 m/s within a metre."""
         g, cfg = self._guidance, self.config
         x, y, _, _ = g.path.at(min(g.gamma_m + 5.0, g.path.length))
-        err = abs(float(wrap_angle(np.arctan2(y - nav.position_m[1], x - nav.position_m[0]) - nav.heading_rad)))
-        if err <= np.radians(cfg.sharp_turn_deg):
+        # wrap_angle(np.arctan2(…) − ψ) and np.radians in plain floats (the same bits: math's atan2
+        # equals numpy's on x86-64 without AVX-512, mjasc.guidance.segment_geometry; one call each)
+        p = nav.position_m
+        err = abs(wrap_scalar(math.atan2(float(y - p[1]), float(x - p[0])) - float(nav.heading_rad)))
+        if err <= math.radians(cfg.sharp_turn_deg):
             self._sharp_turn = None
             return override, None
         limit = cfg.sharp_turn_speed_m_s
@@ -200,7 +202,7 @@ class ControlTick:
             self.stats["sharp_turn"] += 1
             fast = float(nav.body_velocity[0]) > limit
             self._sharp_turn = ("brake", float(nav.heading_rad)) if fast else ("turn", None)
-            self._event(t, f"sharp turn on the detour ({np.degrees(err):.0f}° off the heading): "
+            self._event(t, f"sharp turn on the detour ({math.degrees(err):.0f}° off the heading): "
                            + ("all way off on the heading, then " if fast else "") + f"turning at {limit:g} m/s")
         if self._sharp_turn[0] == "brake":
             if float(nav.body_velocity[0]) > limit:

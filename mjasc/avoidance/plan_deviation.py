@@ -2,10 +2,10 @@
 comparison, :meth:`~mjasc.avoidance.team_mates.TeamMates.plans_changed`).
 
 :func:`plans_deviate_reference` is the readable form: both plans of every (new, old) pair at the
-comparison times (:func:`~mjasc.avoidance.prediction.motion.intention_positions`), and the largest
+comparison times (:func:`~mjasc.avoidance.prediction.team_plans.intention_positions`), and the largest
 ``np.hypot`` of their differences ``> deviation_m``. :func:`plans_deviate` gives the same answer
 for a small team (at most two pairs: each pair's positions are those
-:func:`~mjasc.avoidance.prediction.motion.intention_positions` works out for at most four
+:func:`~mjasc.avoidance.prediction.team_plans.intention_positions` works out for at most four
 intentions, one compiled pass per intention) in one compiled call per pair: both plans'
 positions and the distances in one pass, no array made per pair. ``np.max`` propagates NaN, so a
 NaN distance anywhere makes the answer False, as the reference's ``NaN > deviation_m``.
@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from mjasc.avoidance.prediction.motion import _intention_positions, intention_positions
+from mjasc.avoidance.prediction.team_plans import _intention_positions, intention_positions
 from mjasc.core.compiled import kernel
 
 __all__ = ["plans_deviate", "plans_deviate_reference"]

@@ -26,6 +26,7 @@ from mjasc.avoidance.prediction import PredictedConflict, PredictionQuery
 from mjasc.avoidance.prediction.conflicts import ConflictList
 from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts_of, track_outlines
 from mjasc.avoidance.structure import structure_tracks
+from mjasc.core.compiled import clip_float
 from mjasc.guidance.paths import Path
 
 __all__ = ["PredictionRecord", "PendingPrediction", "PredictionStep"]
@@ -97,7 +98,7 @@ class PredictionStep:
         self._last_predict_t = t
         self._predicted_speed = g_state.mission_speed_m_s
         path = g_state.path
-        gamma = float(np.clip(g_state.gamma_m, 0.0, path.length))
+        gamma = clip_float(float(g_state.gamma_m), 0.0, float(path.length))  # (float(np.clip(…)) without its call)
         profile = self.planned_gamma(t, gamma, g_state.mission_speed_m_s)
         self.stats["predictions"] += 1
         discs = [tr for tr in tracks if tr.track_id not in outlined]

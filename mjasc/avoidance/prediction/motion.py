@@ -16,11 +16,9 @@ parameters of m tracks in arrays and evaluates any (track, time) pairs in one ar
 - **a team mate's plan** (a :class:`~mjasc.core.estimates.PlannedTrack`: knots (t_k, p_k) of its
   :class:`~mjasc.cooperation.messages.TeamIntention`): linear interpolation between knots, along the
   broadcast velocity before the first knot, along the last segment after the last one (as
-  ``TeamIntention.positions``, equal to it bit for bit). Each distinct intention is stacked once
-  for the process in one growing knot table (:class:`_PlanTable`: the fleet's receivers hold the
-  same message object, so 50 vessels' copies of a team mate are one plan, stacked when first
-  predicted and only looked up after); a compiled loop (:func:`mjasc.core.compiled.kernel`) finds
-  each query's knot interval by bisection on its plan's knot times and interpolates.
+  ``TeamIntention.positions``, equal to it bit for bit): its row in the process-wide table of
+  stacked plans (:mod:`~mjasc.avoidance.prediction.team_plans`, each distinct intention stacked
+  once), evaluated by a compiled loop.
 
 World frame ENU, metres, absolute simulation times [s].
 """
@@ -28,12 +26,12 @@ World frame ENU, metres, absolute simulation times [s].
 from __future__ import annotations
 
 import math
-import threading
 from typing import Sequence
 
 import numpy as np
 
-from mjasc.core.compiled import kernel, maximum, search_right
+from mjasc.avoidance.prediction.team_plans import _NO_PLAN_OF, _NO_PLANS, _PLANS, PLAN_FIELDS, intention_positions
+from mjasc.core.compiled import kernel, maximum
 from mjasc.core.estimates import PlannedTrack, TrackEstimate
 
 __all__ = ["TrackMotions", "intention_positions"]
@@ -137,7 +135,7 @@ class TrackMotions:
         """The motions as compiled kernels read them (:mod:`~mjasc.avoidance.prediction.zoom_motion`):
         (the table (m, 9) (columns x₀, y₀, t₀, v, cos θ, sin θ, θ, ω, v/ω), each row's kind (m,) (0
         straight or static, 1 turning, 2 plan), each row's plan (m,) (−1: none), the plans' arrays
-        (:data:`PLAN_FIELDS` of a :class:`_StackedPlans`; empty without a plan)). Not to be written."""
+        (:data:`~mjasc.avoidance.prediction.team_plans.PLAN_FIELDS` of a stacked plans table; empty without a plan)). Not to be written."""
         if self._pl is None:
             return self._par, self._kind, _NO_PLAN_OF, _NO_PLANS
         return self._par, self._kind, self._plan_of, tuple(getattr(self._pl, f) for f in PLAN_FIELDS)
@@ -187,219 +185,6 @@ def _motion_table(a, plan, par, th, kind):
         kind[i] = k
         present |= 1 << k
     return present
-
-
-def intention_positions(intentions, times) -> np.ndarray:
-    """Positions (k, n, 2) [m] of k team mates' intentions
-    (:meth:`TeamIntention.positions <mjasc.cooperation.messages.TeamIntention.positions>`, the same
-    numbers) at absolute ``times`` (n,) [s], all in one array operation."""
-    times = np.asarray(times, dtype=float)
-    k, n = len(intentions), times.size
-    if k <= 4:  # a small team: each message is compared by one or two receivers, stacking it costs more
-        if times.ndim != 1 or not times.flags.c_contiguous:
-            return np.stack([it.positions(times) for it in intentions]) if k else np.zeros((0, n, 2))
-        out = np.empty((k, n, 2))
-        for u, it in enumerate(intentions):  # each one's own arrays in one compiled pass
-            ts, pts, pos, vel = it.plan_times_s, it.plan_points_m, it.position_m, it.velocity_m_s
-            if (type(ts) is np.ndarray and type(pts) is np.ndarray and type(pos) is np.ndarray
-                    and type(vel) is np.ndarray and ts.dtype == pts.dtype == pos.dtype == vel.dtype == np.float64
-                    and ts.ndim == 1 and pts.shape == (ts.size, 2) and pos.shape == vel.shape == (2,)):
-                _intention_positions(ts, pts, pos, float(it.sent_time_s), vel, times, out[u])
-            else:
-                out[u] = it.positions(times)
-        return out
-    plans, rows = _PLANS.rows(intentions)  # each message stacked once for the fleet
-    return plans.at(np.repeat(rows, n), np.tile(times, k)).reshape(k, n, 2)
-
-
-#: The arrays of :class:`_StackedPlans` that :func:`plan_position` reads, in its order.
-PLAN_FIELDS = ("ts", "xs", "ys", "start", "count", "t_first", "t_last", "anchor", "t_anchor", "vel", "p_last", "v_end")
-_NO_PLAN_OF = np.zeros(0, dtype=np.intp)
-_NO_PLANS = (np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp),
-             np.zeros(0), np.zeros(0), np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2)),
-             np.zeros((0, 2)))
-
-
-class _StackedPlans:
-    """The knots of several plans in one array (see the module docstring), each distinct
-    intention once: ``intentions`` (k,), plan u for ``intentions[u]``."""
-
-    def __init__(self, intentions):
-        k = len(intentions)
-        counts = np.array([it.plan_times_s.size for it in intentions], dtype=np.intp)
-        counts[counts < 2] = 0  # fewer than 2 knots: no plan
-        has = counts > 0
-        ends = np.cumsum(counts)
-        self.start, self.count = ends - counts, counts
-        with_plan = [it for it, c in zip(intentions, counts) if c]
-        self.ts = np.concatenate([it.plan_times_s for it in with_plan]) if with_plan else np.zeros(0)
-        pts = np.concatenate([it.plan_points_m for it in with_plan]) if with_plan else np.zeros((0, 2))
-        self.xs, self.ys = pts[:, 0].copy(), pts[:, 1].copy()
-        first, lastk = (ends - counts)[has], ends[has] - 1
-        # Before the first knot: along the broadcast velocity from the first knot (no plan: from
-        # the broadcast position at the send time); after the last: along the last segment.
-        self.t_first, self.t_last = np.full(k, np.inf), np.full(k, np.inf)
-        self.t_first[has], self.t_last[has] = self.ts[first], self.ts[lastk]
-        self.anchor = np.array([it.position_m for it in intentions], dtype=float).reshape(-1, 2)
-        self.t_anchor = np.array([it.sent_time_s for it in intentions], dtype=float)
-        self.anchor[has], self.t_anchor[has] = pts[first], self.ts[first]
-        self.vel = np.array([it.velocity_m_s for it in intentions], dtype=float).reshape(-1, 2)
-        self.p_last, self.v_end = np.zeros((k, 2)), np.zeros((k, 2))
-        self.p_last[has] = pts[lastk]
-        self.v_end[has] = (pts[lastk] - pts[lastk - 1]) / \
-            np.maximum(self.ts[lastk] - self.ts[lastk - 1], 1e-9)[:, None]
-
-    def at(self, plans, t) -> np.ndarray:
-        """Positions (k, 2) of plans ``plans`` (k,) at times ``t`` (k,)."""
-        out = np.empty(plans.shape + (2,))
-        _plan_positions(plans, t, self.ts, self.xs, self.ys, self.start, self.count, self.t_first, self.t_last,
-                        self.anchor, self.t_anchor, self.vel, self.p_last, self.v_end, out)
-        return out
-
-
-class _PlanTable:
-    """Every intention's plan stacked once (a :class:`_StackedPlans` that grows): the fleet's
-    receivers hold the same message objects, so each message's knots are stacked when it is first
-    predicted and every later prediction only looks its row up (id(intention) → (intention, row);
-    the intention is held so that its id stays its own). New plans are written into spare room
-    (doubled when full: a plan's rows never move while the table lives); when the table holds
-    :data:`_MAX_ROWS` plans it starts again empty. Each row holds the numbers ``_StackedPlans``
-    makes for that intention alone (they are per intention: the table's layout changes no result)."""
-
-    _MAX_ROWS = 4096
-    _KNOTS = ("ts", "xs", "ys")
-    _PER_PLAN = ("start", "count", "t_first", "t_last", "anchor", "t_anchor", "vel", "p_last", "v_end")
-
-    def __init__(self):
-        self._row: dict[int, tuple] = {}
-        self._plans: _StackedPlans | None = None
-        self._buf: dict[str, np.ndarray] = {}
-        self._n = self._knots = 0  # plans and knots in use
-        self._lock = threading.Lock()
-
-    def rows(self, intentions) -> tuple["_StackedPlans", np.ndarray]:
-        """(the stacked plans, each intention's row (k,)), stacking those not seen before (one
-        caller at a time: runs sharing a process in threads share the table)."""
-        with self._lock:
-            return self._rows(intentions)
-
-    def _rows(self, intentions) -> tuple["_StackedPlans", np.ndarray]:
-        get = self._row.get
-        rows = []
-        new = []
-        for it in intentions:
-            e = get(id(it))
-            if e is None or e[0] is not it:
-                new.append(it)
-                rows.append(-1)
-            else:
-                rows.append(e[1])
-        if new:
-            if self._n + len(new) > self._MAX_ROWS:  # start again, with this call's intentions
-                self._row, self._plans, self._buf, self._n, self._knots = {}, None, {}, 0, 0
-                new = intentions
-            self._add(new)
-            rows = [self._row[id(it)][1] for it in intentions]
-        return self._plans, np.array(rows, dtype=np.intp)
-
-    def _add(self, new) -> None:
-        distinct = list({id(it): it for it in new}.values())
-        part = _StackedPlans(distinct)
-        n0, k0 = self._n, self._knots
-        n1, k1 = n0 + len(distinct), k0 + part.ts.size
-        for names, used, need in ((self._KNOTS, k0, k1), (self._PER_PLAN, n0, n1)):
-            for name in names:
-                src, buf = getattr(part, name), self._buf.get(name)
-                if buf is None or buf.shape[0] < need:
-                    grown = np.empty((max(need, 2 * (0 if buf is None else buf.shape[0]), 64),) + src.shape[1:],
-                                     dtype=src.dtype)
-                    if buf is not None:
-                        grown[:used] = buf[:used]
-                    buf = self._buf[name] = grown
-                buf[used:need] = src + k0 if name == "start" else src
-        self._n, self._knots = n1, k1
-        view = object.__new__(_StackedPlans)
-        for name in self._KNOTS:
-            setattr(view, name, self._buf[name][:k1])
-        for name in self._PER_PLAN:
-            setattr(view, name, self._buf[name][:n1])
-        self._plans = view
-        for u, it in enumerate(distinct):
-            self._row[id(it)] = (it, n0 + u)
-
-
-_PLANS = _PlanTable()
-
-
-@kernel
-def _plan_positions(plans, t, ts, xs, ys, start, count, t_first, t_last, anchor, t_anchor, vel, p_last, v_end, out):
-    """:meth:`_StackedPlans.at` into ``out``: :func:`plan_position` of each item."""
-    for i in range(plans.size):
-        out[i, 0], out[i, 1] = plan_position(plans[i], t[i], ts, xs, ys, start, count, t_first, t_last, anchor,
-                                             t_anchor, vel, p_last, v_end)
-
-
-@kernel
-def plan_position(p, ti, ts, xs, ys, start, count, t_first, t_last, anchor, t_anchor, vel, p_last, v_end):
-    """Plan ``p``'s position (x, y) [m] at time ``ti`` [s] in a :class:`_StackedPlans`' arrays: before /
-    after / inside its knots, the knot interval by bisection on the plan's own knot times (the last
-    knot ≤ t, as ``np.interp``), each coordinate (x_b − x_a) / (t_b − t_a) · (t − t_a) + x_a."""
-    if ti < t_first[p]:
-        dt = ti - t_anchor[p]
-        return anchor[p, 0] + dt * vel[p, 0], anchor[p, 1] + dt * vel[p, 1]
-    if ti >= t_last[p]:
-        dt = ti - t_last[p]
-        return p_last[p, 0] + dt * v_end[p, 0], p_last[p, 1] + dt * v_end[p, 1]
-    lo = search_right(ts, ti, start[p], start[p] + count[p])  # the first knot > ti
-    j = min(max(lo - 1, start[p]), start[p] + count[p] - 2)
-    dt, dtt = ts[j + 1] - ts[j], ti - ts[j]
-    return (xs[j + 1] - xs[j]) / dt * dtt + xs[j], (ys[j + 1] - ys[j]) / dt * dtt + ys[j]
-
-
-@kernel
-def _intention_positions(ts, pts, position, sent_time_s, velocity, times, out):
-    """:meth:`TeamIntention.positions <mjasc.cooperation.messages.TeamIntention.positions>` of one
-    intention (plan knots ``ts`` (k,), ``pts`` (k, 2); broadcast position, send time and velocity)
-    at ``times`` (n,) into ``out`` (n, 2), its operations in its order: fewer than two knots, along
-    the broadcast velocity from the broadcast position; after the last knot along the last segment; before the
-    first along the broadcast velocity from it (its span at least 1e-9 s, as
-    ``max``); else ``np.interp``'s rule (the last knot's value at the last knot, a knot's value on
-    a knot, else slope · (t − t_j) + x_j, with its fall-backs for a NaN)."""
-    k = ts.size
-    for i in range(times.size):
-        t = times[i]
-        if k < 2:
-            dt = t - sent_time_s
-            out[i, 0] = position[0] + dt * velocity[0]
-            out[i, 1] = position[1] + dt * velocity[1]
-        elif t > ts[k - 1]:
-            span = ts[k - 1] - ts[k - 2]
-            if 1e-9 > span:
-                span = 1e-9
-            dt = t - ts[k - 1]
-            out[i, 0] = pts[k - 1, 0] + dt * ((pts[k - 1, 0] - pts[k - 2, 0]) / span)
-            out[i, 1] = pts[k - 1, 1] + dt * ((pts[k - 1, 1] - pts[k - 2, 1]) / span)
-        elif t < ts[0]:
-            dt = t - ts[0]
-            out[i, 0] = pts[0, 0] + dt * velocity[0]
-            out[i, 1] = pts[0, 1] + dt * velocity[1]
-        elif t == ts[k - 1]:
-            out[i, 0] = pts[k - 1, 0]
-            out[i, 1] = pts[k - 1, 1]
-        else:
-            j = search_right(ts, t, 0, k) - 1  # the last knot ≤ t
-            if ts[j] == t:
-                out[i, 0] = pts[j, 0]
-                out[i, 1] = pts[j, 1]
-            else:
-                for c in range(2):
-                    slope = (pts[j + 1, c] - pts[j, c]) / (ts[j + 1] - ts[j])
-                    v = slope * (t - ts[j]) + pts[j, c]
-                    if v != v:
-                        v = slope * (t - ts[j + 1]) + pts[j + 1, c]
-                        if v != v and pts[j, c] == pts[j + 1, c]:
-                            v = pts[j, c]
-                    out[i, c] = v
 
 
 @kernel

@@ -13,7 +13,7 @@ numpy's); :func:`level_relative` writes r and runs the level's minimum search
 (:func:`~mjasc.avoidance.prediction.cpa._zoom_level`).
 
 Bits: every position is the expression of the readable form in its order (``TrackMotions._eval``,
-:func:`~mjasc.avoidance.prediction.motion.plan_position`, ``StackedPaths.point`` /
+:func:`~mjasc.avoidance.prediction.team_plans.plan_position`, ``StackedPaths.point`` /
 ``Path.point`` with ``eval_points``, γ = γ_now + v (t − t_now) as ``gamma_of_time`` writes it);
 a vessel whose speed is not constant has its γ(t) from its own Python γ function first (each
 sample's γ depends on its time only). ``tests/test_zoom_kernels.py`` runs the zoom both ways on
@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from mjasc.avoidance.prediction.cpa import _zoom_level, _zoom_samples
-from mjasc.avoidance.prediction.motion import plan_position
+from mjasc.avoidance.prediction.team_plans import plan_position
 from mjasc.core.compiled import kernel, maximum, minimum
 from mjasc.guidance.segment_geometry import COS0, SIN0, TH0, X0, Y0, C, K
 
