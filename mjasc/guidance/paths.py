@@ -26,7 +26,7 @@ import numpy as np
 
 from mjasc.core.frames import wrap_angle
 from mjasc.guidance.path_segments import (CONTINUITY_TOLERANCE_M, DUPLICATE_TOLERANCE_M, ArcSegment,
-                                         LineSegment, Segment, as_point, xy_of)
+                                         LineSegment, as_point, xy_of)
 from mjasc.guidance.waypoint_paths import waypoint_segments
 from mjasc.guidance.segment_geometry import (
     COS0,
