@@ -76,16 +76,14 @@ def _quay_world():
 _POSES = [(0.0, 0.0, 0.0), (30.0, 12.0, 0.5), (-25.0, -10.0, 2.0), (10.0, -40.0, -1.0), (-40.0, 35.0, 3.0)]
 
 
-def test_sense_map_equals_the_steps_in_a_fleet_with_a_quay(monkeypatch):
-    """Five vessels (one scanning at half the rate), targets passing along the quay."""
+def sail_quay_fleet():
+    """Five vessels (one scanning at half the rate) sensing and tracking for 30 s while six targets
+    pass along the quay; the fleet and the vessels' perceptions at the end."""
     import mujoco
 
     from mjasc.perception.pipeline import Perception
     from mjasc.perception.range_sensor import SensorConfig
 
-    calls: list = []
-    monkeypatch.setattr(fleet_module, "sense_map", _checked(calls))
-    monkeypatch.setattr(fleet_module.PerceptionFleet, "map_in_pass", False)  # (sense_map after the compiled pass)
     world = _quay_world()
     shared = fleet_module.PerceptionFleet()
     ps = [Perception(world, i, SensorConfig(beams=360, rate_hz=2.5 if i == 2 else 5.0, clutter_per_scan=1.0), None,
@@ -104,6 +102,15 @@ def test_sense_map_equals_the_steps_in_a_fleet_with_a_quay(monkeypatch):
             p.sense(t)
         for p in ps:
             p.update_tracks(t)
+    return shared, ps
+
+
+def test_sense_map_equals_the_steps_in_a_fleet_with_a_quay(monkeypatch):
+    """Five vessels (one scanning at half the rate), targets passing along the quay."""
+    calls: list = []
+    monkeypatch.setattr(fleet_module, "sense_map", _checked(calls))
+    monkeypatch.setattr(fleet_module.PerceptionFleet, "map_in_pass", False)  # (sense_map after the compiled pass)
+    sail_quay_fleet()
     assert len(calls) >= 140 and calls[-1][1] > 0
 
 

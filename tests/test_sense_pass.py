@@ -9,12 +9,11 @@ from __future__ import annotations
 
 from dataclasses import replace
 
-import numpy as np
 
 from mjasc.perception import fleet as fleet_module
 from mjasc.perception import pipeline as pipeline_module
 from mjasc.perception import sense_pass
-from tests.test_map_pass import _POSES, _quay_world
+from tests.test_map_pass import sail_quay_fleet
 
 _SCAN = ("origin_m", "ranges", "hit", "hit_beams", "hit_points_body", "hit_points_world", "geom_ids")
 _DET = ("centres_m", "centres_body", "radii_m", "variances_m2", "n_points", "ranges_m", "extended", "labels",
@@ -74,34 +73,13 @@ def test_the_compiled_pass_equals_the_reference_on_a_shipped_scenario(monkeypatc
 def test_the_compiled_pass_equals_the_reference_in_a_fleet_with_a_quay(monkeypatch):
     """Five vessels (one scanning at half the rate), targets passing along the quay: both
     statuses of the compiled call (mapped, and a wall's cluster holding a tracked return) occur."""
-    import mujoco
 
-    from mjasc.perception.pipeline import Perception
-    from mjasc.perception.range_sensor import SensorConfig
 
     got = []
     for map_in_pass in (True, False):
         with monkeypatch.context() as m:
             seen, statuses = _record(m, map_in_pass)
-            world = _quay_world()
-            shared = fleet_module.PerceptionFleet()
-            ps = [Perception(world, i, SensorConfig(beams=360, rate_hz=2.5 if i == 2 else 5.0, clutter_per_scan=1.0),
-                             None, np.random.default_rng([7, i]), fleet=shared) for i in range(len(_POSES))]
-            d = world.data
-            n = len(world.mocap_id)
-            dt = 0.2
-            for k in range(150):
-                t = k * dt
-                ang = np.arange(n) * 2 * np.pi / n + 0.02 * t
-                r = 35.0 + 10.0 * np.arange(n) % 40.0
-                d.mocap_pos[world.mocap_id, :2] = np.stack([r * np.cos(ang) + 3.0 * np.sin(0.05 * t),
-                                                            r * np.sin(ang)], -1)
-                d.time = t
-                mujoco.mj_kinematics(world.model, d)
-                for p in ps:
-                    p.sense(t)
-                for p in ps:
-                    p.update_tracks(t)
+            shared, ps = sail_quay_fleet()
             got.append((seen, statuses, _store_bytes(shared.map_store),
                         [(len(p.tracks()), p.map.version) for p in ps]))
     a, b = got
