@@ -42,7 +42,8 @@ class LinkOutcome:
 
 @dataclass
 class LinkStats:
-    """The counts of one (sender, receiver) pair of the link (:meth:`~mjasc.cooperation.comms.CommsNetwork.link_matrix`)."""
+    """The counts of one (sender, receiver) pair of the link
+    (:meth:`~mjasc.cooperation.comms.CommsNetwork.link_matrix`)."""
 
     offered: int = 0  # (message, receiver) pairs decided
     delivered: int = 0

@@ -57,8 +57,9 @@ from typing import Any, Callable, Iterable, Mapping
 
 import numpy as np
 
-from mjasc.core.config_values import (ConfigError, Converter, _fail, _is_real, boolean, check_keys, errors_as,  # noqa: F401
-                                      integer, number, point, points, show, string, table, within)
+from mjasc.core.config_values import (  # noqa: F401 - the readers are re-exported
+    ConfigError, Converter, _fail, _is_real, boolean, check_keys, errors_as, integer, number, point, points, show,
+    string, table, within)
 from mjasc.core.input_files import load_toml, one_line, path_problem, show_path
 
 __all__ = ["ConfigError", "show", "load_toml", "path_problem", "show_path", "one_line", "table", "check_keys",

@@ -81,11 +81,12 @@ import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
 from mjasc.perception.detection_kernels import detect_clusters
-from mjasc.perception.pass_views import FilledOnRead
+from mjasc.perception.pass_views import FilledOnRead, filled_on_read
 from mjasc.perception.range_sensor import Scan
 from mjasc.perception.scan_batch import ScanStack, scan_pose
 
-__all__ = ["DetectionConfig", "Detections", "PassDetections", "DetectionBatch", "detect", "detect_many", "detection_constants",
+__all__ = ["DetectionConfig", "Detections", "PassDetections", "DetectionBatch", "detect", "detect_many",
+           "detection_constants",
            "dropout_gap_beams",
            "finite_detections",
            "parse_detection_options",
@@ -195,7 +196,7 @@ class DetectionBatch:
     def split(self) -> list[Detections]:
         """One :class:`Detections` per scan (views of the batch's arrays), each a
         :class:`PassDetections`: its fields made on first read."""
-        return [detections_at(_detection_fields, (k, self)) for k in range(len(self.scans))]
+        return [filled_on_read(PassDetections, _detection_fields, (k, self)) for k in range(len(self.scans))]
 
 
 class PassDetections(FilledOnRead, Detections):
@@ -212,13 +213,6 @@ class PassDetections(FilledOnRead, Detections):
     @occluded.setter
     def occluded(self, value) -> None:  # (the frozen dataclass's __init__ sets fields through object.__setattr__)
         self.__dict__["occluded"] = value
-
-
-def detections_at(make, args) -> PassDetections:
-    """A :class:`PassDetections` that ``make(fields_dict, *args)`` fills on first read."""
-    det = object.__new__(PassDetections)
-    det.__dict__["_src"] = (make, args)
-    return det
 
 
 def _detection_fields(d: dict, k: int, batch: DetectionBatch) -> None:

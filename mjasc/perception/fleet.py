@@ -349,29 +349,13 @@ class PerceptionFleet:
     def _from_pass(self, ms, dets) -> tuple | None:
         """What :meth:`FleetTracker.step` takes of the members ``ms`` with the detections ``dets``,
         read from the last sensing pass's arrays when they are consecutive slots of it and its
-        detections (:meth:`_stacked`): the scan times (p,) [s], origins (p, 2) [m], each scan's
-        returns (k, 2) [m] (views) and the stacked detections; None otherwise."""
-        stacked = self._stacked(ms, dets)
-        if stacked is None:
-            return None
-        members, stack = self._sensed[0], self._sensed[4]
-        p = len(ms)
-        k0 = 0
-        if p != len(members):
-            while members[k0] is not ms[0]:
-                k0 += 1
-        ro, world = stack.ret_off[k0:k0 + p + 1].tolist(), stack.hit_points_world
-        returns = [world[ro[j]:ro[j + 1]] for j in range(p)]
-        return stack.times_s[k0:k0 + p], stack.origins_m[k0:k0 + p], returns, stacked
-
-    def _stacked(self, ms, dets) -> tuple | None:
-        """The detections ``dets`` of the members ``ms`` stacked as :meth:`FleetTracker.step` takes
-        them, when they are consecutive slots of the last sensing pass and its detections (views of
-        its batch's arrays: no stacking again); None otherwise."""
+        detections: the scan times (p,) [s], origins (p, 2) [m], each scan's returns (k, 2) [m] and
+        the detections stacked as the step takes them (views of the pass's arrays: no stacking
+        again); None otherwise."""
         sensed = self._sensed
         if sensed is None:
             return None
-        members, got, cut, full, _ = sensed
+        members, got, cut, full, stack = sensed
         p, S = len(ms), len(members)
         k0 = 0
         if p != S:
@@ -384,10 +368,14 @@ class PerceptionFleet:
             if members[k0 + j] is not ms[j] or got[k0 + j] is not dets[j]:
                 return None
         if p == S:
-            return full
-        a, b = cut[k0], cut[k0 + p]
-        lens, sel, cen, var, rad, occ = full
-        return lens[k0:k0 + p], sel[a:b], cen[a:b], var[a:b], rad[a:b], occ[a:b]
+            stacked = full
+        else:
+            a, b = cut[k0], cut[k0 + p]
+            lens, sel, cen, var, rad, occ = full
+            stacked = lens[k0:k0 + p], sel[a:b], cen[a:b], var[a:b], rad[a:b], occ[a:b]
+        ro, world = stack.ret_off[k0:k0 + p + 1].tolist(), stack.hit_points_world
+        returns = [world[ro[j]:ro[j + 1]] for j in range(p)]
+        return stack.times_s[k0:k0 + p], stack.origins_m[k0:k0 + p], returns, stacked
 
 
 @dataclass(frozen=True, eq=False)

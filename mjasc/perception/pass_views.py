@@ -19,7 +19,7 @@ from __future__ import annotations
 
 from mjasc.perception.range_sensor import Scan
 
-__all__ = ["FilledOnRead", "PassScan", "scan_at"]
+__all__ = ["FilledOnRead", "PassScan", "filled_on_read"]
 
 
 class FilledOnRead:
@@ -47,11 +47,9 @@ class PassScan(FilledOnRead, Scan):
     """A :class:`~mjasc.perception.range_sensor.Scan` whose fields are made on first read."""
 
 
-_new = object.__new__
-
-
-def scan_at(make, args) -> PassScan:
-    """A :class:`PassScan` that ``make(fields_dict, *args)`` fills on first read."""
-    s = _new(PassScan)
-    s.__dict__["_src"] = (make, args)
-    return s
+def filled_on_read(cls: type, make, args):
+    """An instance of ``cls`` (a :class:`FilledOnRead` dataclass) that ``make(fields_dict, *args)``
+    fills on first read."""
+    obj = object.__new__(cls)
+    obj.__dict__["_src"] = (make, args)
+    return obj

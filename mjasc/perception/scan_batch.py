@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from mjasc.perception.pass_views import scan_at
+from mjasc.perception.pass_views import PassScan, filled_on_read
 from mjasc.perception.range_sensor import CLUTTER_GEOM, RangeSensor
 from mjasc.perception.scan_kernels import scan_batch
 
@@ -193,7 +193,7 @@ class ScanBatch:
             ints[:K], ints[N:]
         # each scan's fields made on first read (mjasc.perception.pass_views): the same views as Scan(...) had
         src = (offs, ret_off, casts, sensors, origins, ranges, hit, beams, body, world, geom)
-        scans = tuple([scan_at(_scan_fields, (k, src)) for k in range(S)])
+        scans = tuple([filled_on_read(PassScan, _scan_fields, (k, src)) for k in range(S)])
         new = object.__new__
         self._clear()
         stack = new(ScanStack)
