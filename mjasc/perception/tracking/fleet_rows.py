@@ -76,8 +76,7 @@ class FleetRows:
             cols, mg = self.cols, self.mgmt
             n = cols.n
             bufs = mg.drop_buffers(n)
-            args = (own, pos_of, t_o, bank.state_rows, Pc, org, self._max_range, cols.hist, cols.scans, cols.confirmed,
-                    cols.last, cols.n_upd, cols.radius, *mg.drop_constants)
+            args = mg.drop_args(own, pos_of, t_o, bank.state_rows, Pc, org, self._max_range)
             L, g, n_drop, m, n_active = drops_kept_into(
                 *args, *bufs, bank._s, bank._P, bank._mu, bank._x, s, P, mu, x, rb.ids, rb.t, rb.Pc, rb.n_gated,
                 rb.reasons, rb.active, rb.cv_x, rb.cv_P, rb.n_meas, *cols.reserve(n))

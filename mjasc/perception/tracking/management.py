@@ -189,13 +189,18 @@ class TrackManagement:
         bool, the number dropped, lost, merged) — lost: the confirmed tracks lost, as (row, reason)
         pairs in row order (the rows where :meth:`drops_all`'s reason is not ''); merged as there.
         One compiled call returning three arrays (:func:`every_drops_packed`)."""
-        cols = self.cols
         n = group.size
         bufs = self.drop_buffers(n)
-        args = (group, pos_of, t_o, states, covariances, origins_m, max_range_m, cols.hist, cols.scans, cols.confirmed,
-                cols.last, cols.n_upd, cols.radius, *self.drop_constants)
+        args = self.drop_args(group, pos_of, t_o, states, covariances, origins_m, max_range_m)
         L, g, n_drop = every_drops_into(*args, *bufs)
         return self.drops_read(args, bufs, n, L, g, n_drop)
+
+    def drop_args(self, group, pos_of, t_o, states, covariances, origins_m, max_range_m) -> tuple:
+        """:func:`every_drops_into`'s arguments before its buffers: the step's (those of
+        :meth:`drops_every`), then the columns' and the drop constants."""
+        cols = self.cols
+        return (group, pos_of, t_o, states, covariances, origins_m, max_range_m, cols.hist, cols.scans, cols.confirmed,
+                cols.last, cols.n_upd, cols.radius, *self.drop_constants)
 
     def drop_buffers(self, n: int) -> tuple:
         """(drop, ints, vals): the buffers :func:`every_drops_into` writes n rows' drops into, grown
