@@ -147,8 +147,7 @@ def append_rows(bank, z, t, ids, meas_var, id0=0) -> None:
                                       meas_var if per_row else _NO_VAR, per_row, J, s, P, mu, x, n_before, bank._mu0,
                                       rb.ids, rb.t, rb.Pc, rb.n_gated, rb.reasons, ids, id0, t, zero, st.snr2,
                                       st.max_updates)
-    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
-     st.n_meas) = bank._rv = rb.views(n)
+    _view_rows(bank, rb, n)
     st.n_active += k - off
     bank._s, bank._P, bank._mu, bank._x = s, P, mu, x
     tc, t0 = bank._t_common, float(t[0])
@@ -164,9 +163,7 @@ def birth_room(bank, m: int) -> tuple:
     if cyc is None or cyc.cap < m or bank._side is None:
         cyc = bank._own_state(m)
     rb = home_rows(bank, m)
-    st = bank._startup  # (the bank's arrays the views of its rows there: the same values, whether or not rows follow)
-    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
-     st.n_meas) = bank._rv = rb.views(bank._ids.size)
+    _view_rows(bank, rb, bank._ids.size)  # (the bank's arrays its rows there: the same values, rows following or not)
     return cyc.sides[bank._side], rb
 
 
@@ -178,13 +175,20 @@ def born_set(bank, k: int, one_time: bool, off: int) -> None:
     n = n0 + k
     rb, st = bank._rb, bank._startup
     s, P, mu, x, _ = bank._cyc.views(bank._side, n)
-    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
-     st.n_meas) = bank._rv = rb.views(n)
+    _view_rows(bank, rb, n)
     st.n_active += k - off
     bank._s, bank._P, bank._mu, bank._x = s, P, mu, x
     bank._next_id += k
     tc, t0 = bank._t_common, float(rb.t[n0])
     bank._t_common = t0 if (n0 == 0 or tc == t0) and one_time else None
+
+
+def _view_rows(bank, rb: RowBuffers, n: int) -> None:
+    """The bank's per-track arrays and start-up filters made the views of the first n rows of its row
+    buffers ``rb`` (and kept as its ``_rv``)."""
+    st = bank._startup
+    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
+     st.n_meas) = bank._rv = rb.views(n)
 
 
 def home_rows(bank, n: int) -> RowBuffers:
@@ -234,9 +238,7 @@ def kept_room(bank) -> tuple:
     (:func:`home_rows`) and made the views of its rows there. Returns ((s, P, μ, x) of the other side of
     the cycle buffers, every row; the row buffers)."""
     rb = home_rows(bank, bank._ids.size)
-    st = bank._startup
-    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
-     st.n_meas) = bank._rv = rb.views(bank._ids.size)
+    _view_rows(bank, rb, bank._ids.size)
     return bank._cyc.sides[1 - bank._side], rb
 
 
@@ -248,8 +250,7 @@ def kept_set(bank, m: int, n_active: int) -> None:
     st.n_active = n_active
     bank._s, bank._P, bank._mu, bank._x, _ = bank._cyc.views(side, m)
     bank._side = side
-    (bank._ids, bank._t, bank._Pc, bank._n_gated, bank._reasons, st.active, st.x, st.P,
-     st.n_meas) = bank._rv = bank._rb.views(m)
+    _view_rows(bank, bank._rb, m)
     if m == 0:
         bank._t_common = None
 
