@@ -31,7 +31,7 @@ import numpy as np
 from mjasc.core.compiled import kernel
 from mjasc.perception.imm.row_buffers import birth_room, born_set, kept_into, kept_room, kept_set, started_born_into
 from mjasc.perception.tracking.fleet_views import _BORN, _LOST, _MERGED, TrackEvent
-from mjasc.perception.tracking.management import every_drops_into
+from mjasc.perception.tracking.loss_kernels import every_drops_into
 from mjasc.perception.tracking.step_gathers import births_of
 from mjasc.perception.tracking.track_columns import appended_columns, kept_columns
 
@@ -189,7 +189,7 @@ def drops_kept_into(group, pos_of, t_o, x_rows, Pc_rows, org_o, max_range_o, his
                     popcount, window, hits, max_coast, max_var, margin, fraction, drop, ints, vals, s, P, mu, x, s_out,
                     P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons, active, cv_x, cv_P, n_meas, f, i, b):
     """A fleet step's drops (every row's vessel scanned) in one call:
-    :func:`~mjasc.perception.tracking.management.every_drops_into` (its arguments first, as there, into
+    :func:`~mjasc.perception.tracking.loss_kernels.every_drops_into` (its arguments first, as there, into
     drop, ints, vals); when rows are dropped and none is lost or merged (no event to write: the step's
     common drop, a tentative track given up), the bank compacted to the kept rows
     (:func:`~mjasc.perception.imm.row_buffers.kept_into`: its state s, P, μ, x into the other side's
