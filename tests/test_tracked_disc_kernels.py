@@ -1,16 +1,16 @@
 """The compiled tracked-disc loops (mjasc.perception.tracked_disc_kernels) against the numpy form of
-mjasc.perception.fleet.tracked_discs / disc_margin (kept as the reference), bit for bit: random
+the tracked discs (mjasc.perception.tracked_discs.disc_margin and the centres along the arc), bit for bit: random
 tracks with coasting and future times, zero, huge, NaN and indefinite covariances."""
 
 import numpy as np
 import pytest
 
-from mjasc.perception.fleet import DISC_MARGIN_M, DISC_MARGIN_MAX_M, disc_margin
+from mjasc.perception.tracked_discs import DISC_MARGIN_M, DISC_MARGIN_MAX_M, disc_margin
 from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows, disc_rows_at, disc_table
 
 
 def _numpy_discs(t_s, t, pos, th, v, w, P, radius):
-    """fleet.tracked_discs after ``estimate_fields``."""
+    """The tracked discs after ``IMMBank.estimate_fields``: centres one arc step ahead, radius + disc_margin."""
     dt = np.maximum(t_s - t, 0.0)
     th = th + 0.5 * dt * w
     step = dt * v

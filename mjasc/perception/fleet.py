@@ -46,16 +46,13 @@ from mjasc.perception.scan_batch import ScanBatch
 from mjasc.perception.sense_kernels import tracked_in_walls
 from mjasc.perception.sense_pass import DETECTED, MAPPED, OUT_OF_RANGE, scan_detect_map, unpack
 from mjasc.perception.static_map import StaticMap, StaticMapStore
-from mjasc.perception.tracked_disc_kernels import disc_courses, disc_geometry, disc_rows_at, disc_table
+from mjasc.perception.tracked_disc_kernels import disc_courses, disc_rows_at, disc_table
+from mjasc.perception.tracked_discs import DISC_MARGIN_M, DISC_MARGIN_MAX_M, estimate_discs
 from mjasc.perception.tracking.fleet import FleetTracker
 from mjasc.perception.tracking.tracker import MultiTargetTracker
 
 __all__ = ["PerceptionFleet", "fleet_of", "DISC_MARGIN_M", "DISC_MARGIN_MAX_M", "FLAT_M", "estimate_discs"]
 
-#: A tracked disc (returns kept out of the map) is the track's radius + this + 2σ of its position [m]
-DISC_MARGIN_M = 1.0
-#: ... at most this beyond its radius (a long-coasting track must not blank a whole wall) [m].
-DISC_MARGIN_MAX_M = 2.5
 #: A small cluster on mapped cells is a fragment of the mapped structure only if its returns lie
 #: within this (+ 2σ_ρ) RMS of a straight line (a 4 m hull seen over ≥ 60° of its side: ≥ 0.2 m) [m].
 FLAT_M = 0.15
@@ -396,37 +393,3 @@ class _Plan:
     index: np.ndarray
     plugins: list
     trackers: list
-
-
-def tracked_discs(ft: FleetTracker, rows: np.ndarray, t_s) -> tuple[np.ndarray, np.ndarray]:
-    """Centres (k, 2) and radii (k,) [m] of the tracks ``rows`` of a fleet's tracker predicted to
-    t_s ((k,) [s]): the combined estimate advanced along its arc (thesis eq. 3.3 with ω̂, one step
-    of dt = t_s − its last update: a coasting track is predicted, not left where it was last seen);
-    the radius is the track's radius + ``DISC_MARGIN_M`` + 2σ of its position (at most
-    ``DISC_MARGIN_MAX_M`` beyond the radius). Compiled loops (:mod:`mjasc.perception.tracked_disc_kernels`)
-    but numpy's cosine and sine."""
-    t, pos, th, v, w, P = ft.bank.estimate_fields(rows)
-    dt, th = disc_courses(t_s, t, th, w)
-    return disc_geometry(pos, dt, v, np.cos(th), np.sin(th), ft.cols.radius[rows], P, DISC_MARGIN_M,
-                         DISC_MARGIN_MAX_M)
-
-
-def disc_margin(P: np.ndarray) -> np.ndarray:
-    """(k,) how far a tracked disc reaches beyond the track's radius [m]: ``DISC_MARGIN_M`` + 2σ
-    along the major axis of each position covariance P (k, 2, 2), at most ``DISC_MARGIN_MAX_M``."""
-    tr_ = 0.5 * (P[:, 0, 0] + P[:, 1, 1])
-    lam = tr_ + np.sqrt(np.maximum(tr_**2 - (P[:, 0, 0] * P[:, 1, 1] - P[:, 0, 1] ** 2), 0.0))
-    return np.minimum(DISC_MARGIN_M + 2.0 * np.sqrt(lam), DISC_MARGIN_MAX_M)
-
-
-def estimate_discs(tracks, t_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """Centres (k, 2) and radii (k,) [m] of the tracked discs of a plugin tracker's confirmed
-    tracks (:class:`~mjasc.core.estimates.TrackEstimate`): the moving ones (not ``is_static``)
-    predicted to t_s along their constant-turn motion (not before their own time), radius +
-    :func:`disc_margin` — what :func:`tracked_discs` is for the built-in tracker."""
-    moving = [e for e in tracks if not e.is_static]
-    if not moving:
-        return np.zeros((0, 2)), np.zeros(0)
-    c = np.array([e.predict_positions(np.array([max(t_s, e.time_s)]))[0] for e in moving])
-    P = np.array([e.position_covariance for e in moving], dtype=float).reshape(-1, 2, 2)
-    return c, np.array([e.radius_m for e in moving], dtype=float) + disc_margin(P)

@@ -56,7 +56,8 @@ from dataclasses import replace
 import numpy as np
 
 from mjasc.perception.detection import Detections
-from mjasc.perception.fleet import PerceptionFleet, estimate_discs, fleet_of
+from mjasc.perception.fleet import PerceptionFleet, fleet_of
+from mjasc.perception.tracked_discs import estimate_discs
 from mjasc.perception.plugin_tracks import TracksView, mark_team
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
@@ -301,7 +302,7 @@ class Perception:
 
     def tracked_discs(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """A plugin tracker's discs whose returns never reach the map: its confirmed moving tracks
-        predicted to t_s, radius + margin (:func:`mjasc.perception.fleet.estimate_discs`)."""
+        predicted to t_s, radius + margin (:func:`mjasc.perception.tracked_discs.estimate_discs`)."""
         return estimate_discs(self._method_tracks, t_s)
 
     def static_polygons(self) -> list[np.ndarray]:

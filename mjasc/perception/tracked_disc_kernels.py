@@ -1,4 +1,4 @@
-"""Compiled loops behind :func:`mjasc.perception.fleet.tracked_discs`: the discs of a fleet's
+"""Compiled loops behind the tracked discs (:mod:`mjasc.perception.tracked_discs`): the discs of a fleet's
 tracks whose returns must not reach their vessel's map, at each vessel's scan time (world ENU,
 metres, seconds, radians).
 
@@ -13,7 +13,7 @@ metres, seconds, radians).
   scan time and slot gathered and the discs ordered by slot.
 
 These are the expressions of the numpy form ``tracked_discs`` had (kept in
-``tests/test_tracked_disc_kernels.py`` as the reference, with :func:`mjasc.perception.fleet.disc_margin`),
+``tests/test_tracked_disc_kernels.py`` as the reference, with :func:`mjasc.perception.tracked_discs.disc_margin`),
 in the same order; min and max propagate NaN as ``np.minimum`` / ``np.maximum`` do.
 """
 

@@ -17,7 +17,7 @@ from dataclasses import replace
 import numpy as np
 
 from mjasc.perception.detection import DetectionConfig, Detections, detect
-from mjasc.perception.fleet import DISC_MARGIN_M
+from mjasc.perception.tracked_discs import DISC_MARGIN_M
 from mjasc.perception.owned_discs import inside_discs
 from mjasc.perception.range_sensor import Scan
 from mjasc.perception.static_map import StaticMap
@@ -28,7 +28,7 @@ __all__ = ["split_tracked", "targets_only", "subset", "inside"]
 def split_tracked(scan: Scan, det: Detections, discs, static_map: StaticMap, config: DetectionConfig,
                   range_noise_std_m: float, dropout_probability: float) -> Detections:
     """``det`` (the detections of ``scan``) with the returns of its extended clusters that lie in a
-    tracked disc (``discs``: centres (q, 2), radii (q,) [m], :func:`mjasc.perception.fleet.tracked_discs`)
+    tracked disc (``discs``: centres (q, 2), radii (q,) [m], :meth:`mjasc.perception.fleet.PerceptionFleet._discs`)
     and on no occupied cell of ``static_map`` clustered again on their own (``config``, σ_ρ and the
     dropout probability of the sensor), as target detections appended after det's (the returns'
     labels changed to them); ``det`` itself when nothing changes."""
