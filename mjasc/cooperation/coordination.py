@@ -56,8 +56,10 @@ import numpy as np
 from mjasc.cooperation import fleet_speed_law
 from mjasc.cooperation.comms import CommsNetwork
 from mjasc.cooperation.coordination_config import CoordinationConfig, _validate, parse_coordination_options
+from mjasc.cooperation.formation_history import FormationHistory
 from mjasc.cooperation.link import LinkEndpoint
 from mjasc.cooperation.messages import TeamIntention, TeamMessage, TeamPicture
+from mjasc.cooperation.recording import CoordinationLog
 from mjasc.cooperation.team_view import _error_floats, _law_terms, _Neighbour, _sum, _TeamView  # noqa: F401
 from mjasc.core.compiled import clip_float
 from mjasc.plugins.stages import CoordinationMethod
@@ -112,8 +114,8 @@ class Coordination(CoordinationMethod):
         self.last_factor = 1.0
         self.last_xi = np.nan
         self.last_spread_m = 0.0
-        self._history: list[tuple[float, float, float]] = []  # (t, lead, spread) at exchanges with ≥ 1 neighbour
-        self._logged_style = False
+        self._history = FormationHistory()  # (t, lead, spread) at exchanges with ≥ 1 neighbour
+        self._log = CoordinationLog()
         self._tracks_sent = 0
 
     # ------------------------------------------------------------------ state
@@ -281,7 +283,7 @@ class Coordination(CoordinationMethod):
         _, lead, spread, n = self.coordination_error(t_s, gamma_m)
         self.last_xi, self.last_spread_m = self.xi(gamma_m), spread
         if n:
-            self._history.append((float(t_s), lead, spread))
+            self._history.add(t_s, lead, spread)
 
     @staticmethod
     def decide_link(coordinations, t_s: float, positions_m, limits=None) -> None:
@@ -393,26 +395,9 @@ class Coordination(CoordinationMethod):
         return out
 
     def log(self, recorder, t_s: float, vessel_name: str) -> None:
-        base = f"plots/coordination/{vessel_name}"
-        if not self._logged_style:
-            from mjasc.runs.recording import vessel_colour
-
-            col = vessel_colour(self.link.team.index(vessel_name)) if vessel_name in self.link.team else None
-            # Vessels without views share one entity per quantity (Recorder.vessel_scalar).
-            recorder.vessel_series_style("plots/coordination/{}/gamma_normalized", vessel_name, f"{vessel_name} γ/L", col)
-            if recorder.full:
-                recorder.series_style(f"{base}/error_m", f"{vessel_name} lead [m]", col)
-            recorder.vessel_series_style("plots/coordination/{}/spread_m", vessel_name,
-                                         f"{vessel_name} formation spread [m]", col)
-            recorder.vessel_series_style("plots/coordination/{}/speed_factor", vessel_name,
-                                         f"{vessel_name} speed factor", col)
-            self._logged_style = True
-        if np.isfinite(self.last_xi):
-            recorder.vessel_scalar("plots/coordination/{}/gamma_normalized", vessel_name, t_s, self.last_xi)
-        if recorder.full:  # the lead has no view in the default blueprint
-            recorder.scalar(f"{base}/error_m", t_s, self.last_error_m)
-        recorder.vessel_scalar("plots/coordination/{}/spread_m", vessel_name, t_s, self.last_spread_m)
-        recorder.vessel_scalar("plots/coordination/{}/speed_factor", vessel_name, t_s, self.last_factor)
+        """Plot this vessel's γ/L, lead, formation spread and speed factor (:class:`CoordinationLog`)."""
+        self._log.log(recorder, t_s, vessel_name, self.link.team, self.last_xi, self.last_error_m, self.last_spread_m,
+                      self.last_factor)
 
     def summary(self) -> dict:
         """This vessel's view of the formation, sampled at each exchange: its lead over the
@@ -426,18 +411,5 @@ class Coordination(CoordinationMethod):
                "neighbours_lost": sorted(n for n, nb in self.neighbours.items() if not nb.active)}
         if self.config.share_tracks:
             out["tracks_sent"] = self._tracks_sent
-        if self._history:
-            t, lead, spread = np.array(self._history).T
-            a = np.abs(lead)
-            out.update(initial_error_m=round(float(lead[0]), 3), final_error_m=round(float(lead[-1]), 3),
-                       max_abs_error_m=round(float(a.max()), 3), mean_abs_error_m=round(float(a.mean()), 3),
-                       initial_spread_m=round(float(spread[0]), 3), final_spread_m=round(float(spread[-1]), 3),
-                       max_spread_m=round(float(spread.max()), 3), mean_spread_m=round(float(spread.mean()), 3))
-            outside = np.nonzero(spread >= self.config.formation_tolerance_m)[0]
-            if not len(outside):
-                out["in_formation_from_s"] = round(float(t[0]), 3)
-            elif outside[-1] + 1 < len(t):
-                out["in_formation_from_s"] = round(float(t[outside[-1] + 1]), 3)
-            else:
-                out["in_formation_from_s"] = None
+        out.update(self._history.statistics(self.config.formation_tolerance_m))
         return out

@@ -104,7 +104,7 @@ def take_in_fleet(coordinations, t_s: float, positions_m, gammas_m, limits) -> N
         c.last_xi = np.nan if length is None else (float(g) - c.config.formation_offset_m) / length
         c.last_spread_m = spread
         if n:
-            c._history.append((float(t_s), lead, spread))
+            c._history.add(t_s, lead, spread)
 
 
 def _factors(coordinations, laws) -> list[float]:

@@ -1,4 +1,4 @@
-"""How the team's comms link draws itself in the Rerun recording.
+"""How the team's comms link and each vessel's coordination draw themselves in the Rerun recording.
 
 From the link's :class:`~mjasc.cooperation.comms.LinkOutcome` (each message's fate per receiver,
 :meth:`~mjasc.cooperation.comms.CommsNetwork.drain_outcomes`) and its counters
@@ -19,13 +19,16 @@ vessels on a 1 Hz link would draw 2450 lines a second); larger teams get the cou
 join the vessels' positions at the record tick (world ENU [m], drawn at z = 0.6 above the
 hulls, 1.5 UI points wide, lost ones 1); rows are written when the set of lines changes (an empty row clears them), and at least
 every ``LINK_WINDOW_S`` while lines are shown (they follow the vessels).
+
+Each vessel's coordination (:class:`CoordinationLog`) plots ``plots/coordination/<v>/gamma_normalized``,
+``spread_m`` and ``speed_factor`` (and ``error_m``, its lead, in the full recording).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["CommsLog", "LINK_WINDOW_S", "COUNT_PERIOD_S", "MAX_LINE_VESSELS"]
+__all__ = ["CommsLog", "CoordinationLog", "LINK_WINDOW_S", "COUNT_PERIOD_S", "MAX_LINE_VESSELS"]
 
 #: A message's line stays this long after it was sent [s].
 LINK_WINDOW_S = 1.0
@@ -105,3 +108,36 @@ class CommsLog:
         ends = p[np.array([[index[a], index[b]] for a, b in lost], dtype=np.intp).reshape(-1, 2)]
         recorder.strips("world/comms/lost", t_s, list(np.stack([ends[:, 0], 0.5 * (ends[:, 0] + ends[:, 1])], axis=1)),
                         z=_Z)
+
+
+class CoordinationLog:
+    """How a vessel's coordination draws itself, at the record ticks: its normalized path parameter
+    γ/L (when it has a path), its formation spread [m of path] and its factor on the mission speed
+    (one entity per quantity shared by the vessels without views:
+    :meth:`~mjasc.runs.recording.Recorder.vessel_scalar`), and with the full recording its lead over
+    the neighbours [m of path] (no view in the default blueprint)."""
+
+    def __init__(self):
+        self._styled = False
+
+    def log(self, recorder, t_s: float, vessel_name: str, team, xi: float, lead_m: float, spread_m: float,
+            factor: float) -> None:
+        base = f"plots/coordination/{vessel_name}"
+        if not self._styled:
+            from mjasc.runs.recording import vessel_colour
+
+            col = vessel_colour(team.index(vessel_name)) if vessel_name in team else None
+            recorder.vessel_series_style("plots/coordination/{}/gamma_normalized", vessel_name, f"{vessel_name} γ/L", col)
+            if recorder.full:
+                recorder.series_style(f"{base}/error_m", f"{vessel_name} lead [m]", col)
+            recorder.vessel_series_style("plots/coordination/{}/spread_m", vessel_name,
+                                         f"{vessel_name} formation spread [m]", col)
+            recorder.vessel_series_style("plots/coordination/{}/speed_factor", vessel_name,
+                                         f"{vessel_name} speed factor", col)
+            self._styled = True
+        if np.isfinite(xi):
+            recorder.vessel_scalar("plots/coordination/{}/gamma_normalized", vessel_name, t_s, xi)
+        if recorder.full:
+            recorder.scalar(f"{base}/error_m", t_s, lead_m)
+        recorder.vessel_scalar("plots/coordination/{}/spread_m", vessel_name, t_s, spread_m)
+        recorder.vessel_scalar("plots/coordination/{}/speed_factor", vessel_name, t_s, factor)
