@@ -8,7 +8,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjasc.perception.pipeline import Perception, covariance_ellipse
+from mjasc.core.geometry import covariance_ellipse
+from mjasc.perception.pipeline import Perception
 from mjasc.perception.range_sensor import SensorConfig
 from mjasc.perception.tracking import TrackingConfig
 from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle

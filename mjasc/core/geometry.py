@@ -12,7 +12,7 @@ and a result per point (n,).
   :func:`counter_clockwise`;
 * construction: :func:`circle_polygon` (an n-gon circumscribing a circle, or points on it),
   :func:`convex_hull`, :func:`disc_hull` (the hull of discs), :func:`hull_outline` (a vessel's
-  outline for drawing);
+  outline for drawing), :func:`covariance_ellipse` (an n-σ position ellipse for drawing);
 * clean-up: :func:`clean_polygon` (validated, counter-clockwise, no degenerate vertices),
   :func:`inflate_polygon` (outward offset by a margin, containing the Minkowski sum with the disc),
   :func:`segments_intersect`, :func:`self_intersections`.
@@ -24,7 +24,7 @@ import numpy as np
 
 from mjasc.core.polygon_kernels import boundary_distance, canonical_hull, hull_indices, inside_even_odd
 
-__all__ = ["distance_to_polygon", "signed_distance_to_polygon", "point_in_polygon", "polygon_signed_area",
+__all__ = ["covariance_ellipse", "distance_to_polygon", "signed_distance_to_polygon", "point_in_polygon", "polygon_signed_area",
            "counter_clockwise", "circle_polygon", "convex_hull", "disc_hull", "hull_outline", "clean_polygon",
            "inflate_polygon", "segments_intersect", "self_intersections"]
 
@@ -289,3 +289,13 @@ def inflate_polygon(polygon: np.ndarray, margin: float, name: str = "obstacle") 
     if np.any(signed_distance_to_polygon(probe, cleaned) > -margin * (1.0 - 1e-6)):
         raise ValueError(f"{name}: inflation {margin} m is too large for its concave parts")
     return cleaned
+
+
+def covariance_ellipse(centre, cov, n_sigma: float = 2.0, points: int = 33) -> np.ndarray:
+    """Closed contour (points, 2) of the n-σ ellipse of a 2×2 covariance, world frame: centre +
+    n·L·[cos t, sin t] with L the Cholesky-like factor V·√Λ (so it is rotated correctly)."""
+    lam, vec = np.linalg.eigh(np.asarray(cov, dtype=float))
+    lam = np.maximum(lam, 0.0)
+    t = np.linspace(0.0, 2.0 * np.pi, points)
+    circle = np.stack([np.cos(t), np.sin(t)], axis=0)
+    return np.asarray(centre) + (n_sigma * (vec * np.sqrt(lam)) @ circle).T

@@ -55,12 +55,14 @@ from dataclasses import replace
 
 import numpy as np
 
+from mjasc.core.geometry import covariance_ellipse  # noqa: F401  (re-exported: its home before core.geometry)
 from mjasc.perception.detection import Detections
 from mjasc.perception.fleet import PerceptionFleet, fleet_of
-from mjasc.perception.tracked_discs import estimate_discs
 from mjasc.perception.plugin_tracks import TracksView, mark_team
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
+from mjasc.perception.track_history import history_arrays, history_rows, plugin_history_rows
+from mjasc.perception.tracked_discs import estimate_discs
 from mjasc.perception.tracked_returns import split_tracked, targets_only
 from mjasc.perception.tracking.config import TrackingConfig
 from mjasc.perception.tracking.fleet import TrackEvent
@@ -73,16 +75,6 @@ from mjasc.plugins.registry import MethodChoice
 PERCEPTION_FIELDS = ("detection", "map_cell_m", "map_min_hits", "team_match_distance_m", "team_max_age_s")
 
 __all__ = ["Perception", "covariance_ellipse"]
-
-
-def covariance_ellipse(centre, cov, n_sigma: float = 2.0, points: int = 33) -> np.ndarray:
-    """Closed contour (points, 2) of the n-σ ellipse of a 2×2 covariance, world frame: centre +
-    n·L·[cos t, sin t] with L the Cholesky-like factor V·√Λ (so it is rotated correctly)."""
-    lam, vec = np.linalg.eigh(np.asarray(cov, dtype=float))
-    lam = np.maximum(lam, 0.0)
-    t = np.linspace(0.0, 2.0 * np.pi, points)
-    circle = np.stack([np.cos(t), np.sin(t)], axis=0)
-    return np.asarray(centre) + (n_sigma * (vec * np.sqrt(lam)) @ circle).T
 
 
 class Perception:
@@ -269,19 +261,8 @@ class Perception:
             self._append_history()
 
     def _append_history(self) -> None:
-        if self.method is not None:
-            for e in self._method_tracks:
-                self.history.append((e.time_s, e.track_id, *map(float, e.position_m), e.heading_rad, e.speed_m_s,
-                                     e.turn_rate_rad_s, e.team_member, e.is_static))
-            return
-        tr = self.tracker
-        if len(tr) == 0:
-            return
-        bank = tr.bank
-        x, w, ids, t = bank.states, bank.turn_rates, bank.track_ids, bank.times_s
-        conf, team, static = tr.confirmed, tr.team_members, tr.static
-        for k in np.flatnonzero(conf):
-            self.history.append((float(t[k]), int(ids[k]), *map(float, x[k]), float(w[k]), team[k], bool(static[k])))
+        self.history.extend(plugin_history_rows(self._method_tracks) if self.method is not None
+                            else history_rows(self.tracker))
 
     def tracks(self):
         """Confirmed tracks (list of :class:`mjasc.core.estimates.TrackEstimate`)."""
@@ -372,15 +353,8 @@ class Perception:
         return ev
 
     def history_arrays(self) -> dict:
-        """The kept history (``keep_history = True``) as arrays: t, id, x, y, heading, speed, omega."""
-        h = self.history
-        cols = ("t", "id", "x", "y", "heading", "speed", "omega")
-        if not h:
-            return {c: np.zeros(0) for c in cols}
-        a = np.array([row[:7] for row in h], dtype=float)
-        out = {c: a[:, i] for i, c in enumerate(cols)}
-        out["id"] = out["id"].astype(int)
-        return out
+        """The kept history (``keep_history = True``) as arrays (:func:`~mjasc.perception.track_history.history_arrays`)."""
+        return history_arrays(self.history)
 
     # ---------------------------------------------------------------- recording
     def log(self, recorder, t_s: float, vessel_name: str) -> None:

@@ -65,7 +65,7 @@ def _circles(centres: np.ndarray, radii: np.ndarray, angles: np.ndarray) -> np.n
 
 def _ellipses(centres: np.ndarray, covariances: np.ndarray, n_sigma: float = 2.0) -> np.ndarray:
     """Closed n-σ contours (k, 33, 2) of 2×2 covariances (k, 2, 2) (the batch form of
-    :func:`mjasc.perception.pipeline.covariance_ellipse`: centre + n·V·√Λ·[cos t, sin t])."""
+    :func:`mjasc.core.geometry.covariance_ellipse`: centre + n·V·√Λ·[cos t, sin t])."""
     lam, vec = np.linalg.eigh(covariances)
     scaled = vec * np.sqrt(np.maximum(lam, 0.0))[:, None, :]
     circle = np.stack([np.cos(_ELLIPSE_33), np.sin(_ELLIPSE_33)], axis=0)

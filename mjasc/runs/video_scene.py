@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from mjasc.perception.pipeline import covariance_ellipse
+from mjasc.core.geometry import covariance_ellipse
 from mjasc.runs.recording import vessel_colour
 
 __all__ = ["FrameView", "VesselView", "frame_view", "add_scene_geoms", "VELOCITY_ARROW_S", "COLOURS"]
