@@ -147,11 +147,7 @@ def append_rows(bank, z, t, ids, meas_var, id0=0) -> None:
                                       meas_var if per_row else _NO_VAR, per_row, J, s, P, mu, x, n_before, bank._mu0,
                                       rb.ids, rb.t, rb.Pc, rb.n_gated, rb.reasons, ids, id0, t, zero, st.snr2,
                                       st.max_updates)
-    _view_rows(bank, rb, n)
-    st.n_active += k - off
-    bank._s, bank._P, bank._mu, bank._x = s, P, mu, x
-    tc, t0 = bank._t_common, float(t[0])
-    bank._t_common = t0 if (n_before == 0 or tc == t0) and one_time else None
+    _rows_born(bank, rb, n_before, n, (s, P, mu, x), k - off, one_time, float(t[0]))
 
 
 def birth_room(bank, m: int) -> tuple:
@@ -173,13 +169,21 @@ def born_set(bank, k: int, one_time: bool, off: int) -> None:
     made the views of its n + k rows, its counts and common time set, as :func:`append_rows` ends."""
     n0 = bank._ids.size
     n = n0 + k
-    rb, st = bank._rb, bank._startup
-    s, P, mu, x, _ = bank._cyc.views(bank._side, n)
-    _view_rows(bank, rb, n)
-    st.n_active += k - off
-    bank._s, bank._P, bank._mu, bank._x = s, P, mu, x
+    rb = bank._rb
+    _rows_born(bank, rb, n0, n, bank._cyc.views(bank._side, n)[:4], k - off, one_time, float(rb.t[n0]))
     bank._next_id += k
-    tc, t0 = bank._t_common, float(rb.t[n0])
+
+
+def _rows_born(bank, rb: RowBuffers, n0: int, n: int, state: tuple, started: int, one_time: bool,
+               t0: float) -> None:
+    """The end of a birth of n − n0 rows (:func:`append_rows`, :func:`born_set`): the bank's per-track
+    arrays made the views of its n rows, its state (s, P, μ, x) those of the cycle buffers, ``started``
+    more start-up filters active, and its common time t0 [s] kept only when every row shares it
+    (``one_time``: the new rows do, and so did the old ones)."""
+    _view_rows(bank, rb, n)
+    bank._startup.n_active += started
+    bank._s, bank._P, bank._mu, bank._x = state
+    tc = bank._t_common
     bank._t_common = t0 if (n0 == 0 or tc == t0) and one_time else None
 
 
