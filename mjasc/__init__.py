@@ -2,7 +2,9 @@
 
 Importing mjasc chooses the offscreen OpenGL backend before MuJoCo or dm_control is imported
 (both read ``MUJOCO_GL`` once, at import): OSMesa (software, Debian's libosmesa6) unless the user
-set ``MUJOCO_GL`` already; EGL as a stated fallback when libOSMesa is missing.
+set ``MUJOCO_GL`` already; EGL as a stated fallback when libOSMesa is missing. Before numpy is
+imported, it also pins numpy's and OpenBLAS's loops below AVX-512, so that a seed gives the same
+bits on every x86-64 CPU with AVX2 (:mod:`mjasc.core.portable_math`; ``MJASC_NATIVE_MATH=1``: not).
 
 The top-level API (stable; each name is loaded on first use, so ``import mjasc`` stays cheap and
 imports neither MuJoCo nor numpy)::
@@ -39,6 +41,12 @@ if "MUJOCO_GL" not in os.environ:
         os.environ["MUJOCO_GL"] = "egl"
         warnings.warn("libOSMesa not found (Debian package libosmesa6): offscreen rendering falls back to EGL",
                       stacklevel=2)
+
+# numpy's and OpenBLAS's loops pinned below AVX-512 before numpy loads: the same bits on every x86-64
+# CPU with AVX2 (mjasc.core.portable_math).
+from mjasc.core.portable_math import pin as _pin_math  # noqa: E402  (imports neither numpy nor MuJoCo)
+
+_pin_math()
 
 __version__ = "0.1.0"
 
