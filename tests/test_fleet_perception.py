@@ -49,6 +49,23 @@ def _perceptions(world, fleet_factory):
     return out
 
 
+def step_and_compare(ps_a, ps_b, t_s: float) -> None:
+    """Both groups sense and track at t_s [s] (each group's vessels in turn, as the runner's slots
+    call them); then each pair of vessels has the same arrays, bit for bit, the same counts and the
+    same events."""
+    for ps in (ps_a, ps_b):
+        for p in ps:
+            p.sense(t_s)
+        for p in ps:
+            p.update_tracks(t_s)
+    for a, b in zip(ps_a, ps_b):
+        sa, sb = _state(a), _state(b)
+        for x, y in zip(sa[0], sb[0]):
+            assert x.dtype == y.dtype and np.array_equal(x, y)
+        assert sa[1:] == sb[1:]
+        assert a.drain_events() == b.drain_events()
+
+
 def _state(p: Perception):
     det, tr = p.detections, p.tracker
     b = tr.bank
@@ -77,17 +94,7 @@ def test_fleet_pass_equals_each_vessel_alone():
                 for i, p in enumerate(ps):
                     p.set_team_positions({f"v{j}": (k * DT - 0.5, np.asarray(POSES[j][:2]) + 0.1 * i)
                                           for j in range(len(POSES)) if j != i})
-        for ps in (fleet, alone):
-            for p in ps:
-                p.sense(k * DT)
-            for p in ps:
-                p.update_tracks(k * DT)
-        for a, b in zip(fleet, alone):
-            sa, sb = _state(a), _state(b)
-            for x, y in zip(sa[0], sb[0]):
-                assert x.dtype == y.dtype and np.array_equal(x, y)
-            assert sa[1:] == sb[1:]
-            assert a.drain_events() == b.drain_events()
+        step_and_compare(fleet, alone, k * DT)
     assert sum(len(p.tracks()) for p in fleet) >= 10
     assert any(e.team_member for p in fleet for e in p.tracks())
     assert all(len(p.static_polygons()) for p in fleet[:2])

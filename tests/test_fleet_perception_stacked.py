@@ -4,12 +4,11 @@ counts, bit for bit, as the reference form that stacks every vessel's ``Detectio
 world of tests/test_fleet_perception.py: five vessels, two tracking configurations, one vessel
 scanning at half the rate, clutter)."""
 
-import numpy as np
 import mujoco
 
 from mjasc.perception.fleet import PerceptionFleet
 from mjasc.perception.tracking.fleet import FleetTracker
-from tests.test_fleet_perception import DT, _perceptions, _state, _targets, _world
+from tests.test_fleet_perception import DT, _perceptions, _targets, _world, step_and_compare
 
 
 class _Restacking(PerceptionFleet):
@@ -39,17 +38,8 @@ def test_stacked_batch_equals_restacked_detections(monkeypatch):
         d.mocap_pos[world.mocap_id, :2] = _targets(k, n)
         d.time = k * DT
         mujoco.mj_kinematics(world.model, d)
-        for ps in (a_ps, b_ps):
-            for p in ps:
-                p.sense(k * DT)
-            for p in ps:
-                p.update_tracks(k * DT)
+        step_and_compare(a_ps, b_ps, k * DT)
         for a, b in zip(a_ps, b_ps):
-            sa, sb = _state(a), _state(b)
-            for x, y in zip(sa[0], sb[0]):
-                assert x.dtype == y.dtype and np.array_equal(x, y)
-            assert sa[1:] == sb[1:]
-            assert a.drain_events() == b.drain_events()
             assert a.tracker.counts == b.tracker.counts
             ft = a.tracker.fleet  # (the counts of rows per vessel, kept per change of rows: n_rows)
             assert ft.n_rows(a.tracker.owner) == ft.rows_of(a.tracker.owner).size == len(a.tracker)
