@@ -61,7 +61,6 @@ from mjasc.runs.blueprint import (LEGEND_CLASSES, MODE_STATES, OTHERS, PALETTE, 
 from mjasc.runs.outputs import part_path
 from mjasc.runs.recording_columns import (TIMELINE, concat_xy, points_column, rgba, scalar_column, sparse_column,
                                           strip_column, time_column, xyz_at)
-from mjasc.runs.recording_rows import FleetRows
 from mjasc.runs.recording_vessels import VesselSeries
 from mjasc.runs.rrd_canonical import BATCHER_FLUSH_BYTES, canonicalise
 from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
@@ -110,7 +109,7 @@ class Recorder(VesselSeries):
         self._points: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
         self._strips: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
         self._arrows: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))  # (entity, z)
-        self._fleet: dict[tuple, FleetRows] = {}  # (kind, entities, z) → its rows (recording_rows)
+        self._fleet: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (kind, entities, z)
         self._states: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # StateChange
         self._documents: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # markdown TextDocument
         self._styles: dict[str, object] = {}  # entity → its static style, written with its first rows (style())
@@ -214,11 +213,9 @@ class Recorder(VesselSeries):
         self._fleet_row(("strips", entities, z), t_s, np.asarray(strips_xy, dtype=np.float64))
 
     def _fleet_row(self, key: tuple, t_s: float, row: np.ndarray) -> None:
-        """``row`` (float64, one value or item per entity of the group ``key``) at t_s."""
-        buffer = self._fleet.get(key)
-        if buffer is None:
-            buffer = self._fleet[key] = FleetRows(row)
-        buffer.add(t_s, row)
+        times, rows = self._fleet[key]
+        times.append(t_s)
+        rows.append(row)
         self._count(len(key[1]))
 
     def _count(self, rows: int) -> None:
@@ -267,19 +264,18 @@ class Recorder(VesselSeries):
                  columns=rr.Arrows3D.columns(origins=xyz_at(concat_xy(origins), z),
                                              vectors=xyz_at(concat_xy(vectors), 0.0))
                  .partition([len(o) for o in origins]))
-        for (kind, entities, z), buffer in self._fleet.items():
-            t = buffer.time_array()
+        for (kind, entities, z), (times, rows) in self._fleet.items():
+            t = np.asarray(times, dtype=np.float64)
             if kind == "strips":  # the strips of a row have the same length; rows may differ
                 ones = np.ones(len(t), dtype=np.int32)
-                if buffer.uniform():  # every row alike (hulls): one stack, (n, T, m, 2)
-                    for entity, d in zip(entities, buffer.stacked()):
+                if len({r.shape for r in rows}) == 1:  # every row alike (hulls): one stack, (n, T, m, 2)
+                    for entity, d in zip(entities, np.stack(rows, axis=1)):
                         send(entity, indexes=[time_column(t)], columns=[strip_column(d, z, ones)])
                     continue
-                rows = buffer.rows()
                 for j, entity in enumerate(entities):
                     send(entity, indexes=[time_column(t)], columns=[strip_column([r[j] for r in rows], z, ones)])
                 continue
-            data = buffer.stacked() if buffer.uniform() else np.stack(buffer.rows(), axis=1)  # (n, T, ...)
+            data = np.stack(rows, axis=1)  # (n, T, ...)
             for entity, d in zip(entities, data):
                 if kind == "scalar":
                     ok = np.isfinite(d)
