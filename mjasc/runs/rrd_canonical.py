@@ -18,9 +18,9 @@ So two runs with the same scenario and seed write the same *content* in differen
 A chunk is not decoded and encoded again: its Arrow IPC stream keeps the SDK's record-batch message
 (the data as Arrow-rs wrote it; the SDK writes the same bytes for the same data) with the new row ids
 and ``log_time`` values written over the old ones in place, behind a schema message serialised by
-pyarrow from the canonical schema (the canonical fields and the schema message are computed once
-per distinct schema, the chunk id spliced into the message: a run's thousands of chunks share a
-few dozen). Cost: ~0.1 ms per chunk (a 50-vessel
+pyarrow from the canonical schema (the schema read, the canonical fields and the schema message
+computed once per distinct schema, the chunk id spliced into the message: a run's thousands of
+chunks share a few dozen). Cost: ~0.1 ms per chunk (a 50-vessel
 recording holds ~1,500) plus about 0.5 s per 50 MB.
 
 Nothing of the data changes (``rerun rrd compare --unordered`` finds the files equal). The file is
