@@ -173,7 +173,7 @@ def _chunk_schema(raw: bytes, reader: pa.BufferReader) -> tuple:
     if at < 0 or raw.find(b"chunk_", at + 1, end) >= 0 or at + _CHUNK_ID_LEN > end:
         schema = pa.ipc.read_schema(pa.ipc.read_message(reader))  # (not the expected layout: no cache)
         return (schema, schema.metadata[b"rerun:id"], *_canon_fields(schema))
-    key = raw[:at] + raw[at + _CHUNK_ID_LEN:end]
+    key = (at, raw[:at] + raw[at + _CHUNK_ID_LEN:end])  # (equal keys: the same message but for the id)
     hit = _SCHEMAS.get(key)
     chunk_id = raw[at:at + _CHUNK_ID_LEN]
     if hit is None:
