@@ -2,6 +2,7 @@
 as the readable forms."""
 
 import numpy as np
+import pytest
 
 from mjasc.runs.recording_columns import strip_column as _strip_column
 
@@ -33,3 +34,16 @@ def test_vec3_array_is_the_sdks_vec3d_batch():
             assert [b is None for b in fast.buffers()] == [b is None for b in ref.buffers()]
             assert [b.to_pybytes() for b in fast.buffers() if b is not None] == \
                 [b.to_pybytes() for b in ref.buffers() if b is not None]
+
+
+def test_stack_rows_is_np_stack_entity_first():
+    from mjasc.runs.recording_columns import stack_rows
+
+    rng = np.random.default_rng(5)
+    for shape in [(3,), (3, 2), (3, 6, 2), (0, 2)]:
+        rows = [rng.normal(size=shape) for _ in range(17)]
+        got, want = stack_rows(rows), np.stack(rows, axis=1)
+        assert got.shape == want.shape and got.dtype == want.dtype and got.flags.c_contiguous
+        np.testing.assert_array_equal(got, want)
+    with pytest.raises(ValueError):
+        stack_rows([np.zeros((3, 2)), np.zeros((3, 4, 2))])

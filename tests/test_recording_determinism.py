@@ -161,3 +161,34 @@ def test_spliced_schema_messages_equal_pyarrows_serialisation(tmp_path):
     assert list(rc._canon_field(field).metadata) == [b"a", b"b"]
     tidy = rc._canon_field(field)
     assert rc._canon_field(tidy) is tidy
+
+
+def test_chunk_schemas_read_once_give_each_chunk_its_own_id(tmp_path):
+    """rrd_canonical._chunk_schema reads a schema once per distinct schema message (the chunk id
+    left out): each chunk still gets its own id, and the schema and canonical fields of reading
+    its message in full (but for rerun:id); an entity path holding ``chunk_`` is read in full."""
+    import pyarrow as pa
+
+    from mjasc.runs import rrd_canonical as rc
+
+    _sdk_file(tmp_path / "sdk.rrd", 1)
+    rec = rr.RecordingStream("mjasc", recording_id="odd", send_properties=False, batcher_config=size_only_batcher())
+    rec.save(str(tmp_path / "odd.rrd"))
+    for k in range(3):
+        rec.set_time("sim_time", duration=0.1 * k)
+        rec.send_columns("world/chunk_like", indexes=[rr.TimeColumn("sim_time", duration=[0.1 * k])],
+                         columns=rr.Scalars.columns(scalars=[float(k)]))
+    rec.flush()
+    rec.disconnect()
+    rc._SCHEMAS.clear()
+    for name in ("sdk.rrd", "odd.rrd"):
+        for _ in range(2):  # the second pass is served from the cache
+            _, chunks, _, _ = rc._read((tmp_path / name).read_bytes())
+            for c in (c for cs in chunks.values() for c in cs):
+                own = pa.ipc.read_schema(pa.ipc.read_message(pa.BufferReader(pa.py_buffer(c.raw))))
+                assert c.id == own.metadata[b"rerun:id"]
+                assert c.schema.remove_metadata() == own.remove_metadata()
+                assert {k: v for k, v in c.schema.metadata.items() if k != b"rerun:id"} == \
+                    {k: v for k, v in own.metadata.items() if k != b"rerun:id"}
+                assert c.fields == rc._canon_fields(own)[0]
+    assert rc._SCHEMAS  # (the SDK's chunks went through the cache)

@@ -34,6 +34,8 @@ import math
 import numpy as np
 import rerun as rr
 
+from mjasc.perception.scan_batch import scan_pose
+
 __all__ = ["PerceptionLog", "HITS_LOG_PERIOD_S", "BODY_HITS_PERIOD_S", "LABEL_LOG_PERIOD_S", "MAP_LOG_PERIOD_S",
            "BODY_DETECTIONS_PERIOD_S", "ARROW_HORIZON_S", "fan_outline_body"]
 
@@ -167,8 +169,10 @@ class PerceptionLog:
 
             self._style(rec, base, vessel_name, vessel_colour(p.vessel_index), p.sensor_config)
         scan = p.scan
-        if scan is not None and scan.time_s != self._logged_scan_t:  # (a record tick without a new scan: no call)
-            self._log_scan(rec, t_s, p, scan, base, vessel_name, full)
+        # (a record tick without a new scan: no call; the scan's time read without filling in its
+        # other fields, which only a due drawing reads: scan_batch.scan_pose)
+        if scan is not None and (scan_t := scan_pose(scan)[0]) != self._logged_scan_t:
+            self._log_scan(rec, t_s, p, scan, scan_t, base, vessel_name, full)
         update = p._stats["track_updates"]
         if full or update != self._logged_update:
             self._logged_update = update
@@ -188,19 +192,20 @@ class PerceptionLog:
         self._base_of, self._base = vessel_name, f"world/vessels/{vessel_name}"
         return self._base
 
-    def _log_scan(self, rec, t_s, p, scan, base, vessel_name, full) -> None:
-        """The new ``scan``'s returns and detections (:meth:`log` calls it once per scan)."""
-        det = p.detections
-        self._logged_scan_t = scan.time_s
+    def _log_scan(self, rec, t_s, p, scan, scan_t, base, vessel_name, full) -> None:
+        """The new ``scan``'s (taken at ``scan_t``) returns and detections (:meth:`log` calls it
+        once per scan); the detections are read only when drawn."""
+        self._logged_scan_t = scan_t
         views = rec.has_views(vessel_name)
         if views and t_s - self._last_body_hits_log >= (HITS_LOG_PERIOD_S if full else BODY_HITS_PERIOD_S) - 1e-9:
             self._last_body_hits_log = t_s
             rec.points(f"sensor/{vessel_name}/hits_body", t_s, scan.hit_points_body, z=0.1)
         if views and (full or t_s - self._last_body_det_log >= BODY_DETECTIONS_PERIOD_S - 1e-9):
             self._last_body_det_log = t_s
-            rec.points(f"sensor/{vessel_name}/detections_body", t_s, det.centres_body, z=0.15)
+            rec.points(f"sensor/{vessel_name}/detections_body", t_s, p.detections.centres_body, z=0.15)
         if not full:
             return
+        det = p.detections
         if t_s - self._last_hits_log >= HITS_LOG_PERIOD_S - 1e-9:
             self._last_hits_log = t_s
             rec.points(f"{base}/sensor/hits", t_s, scan.hit_points_world, z=0.1)

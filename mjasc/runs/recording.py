@@ -60,7 +60,7 @@ from mjasc.runs.blueprint import (LEGEND_CLASSES, MODE_STATES, OTHERS, PALETTE, 
                                   stable_blueprint_ids, vessel_colour)
 from mjasc.runs.outputs import part_path
 from mjasc.runs.recording_columns import (TIMELINE, concat_xy, points_column, rgba, scalar_column, sparse_column,
-                                          strip_column, time_column, xyz_at)
+                                          stack_rows, strip_column, time_column, xyz_at)
 from mjasc.runs.recording_vessels import VesselSeries
 from mjasc.runs.rrd_canonical import BATCHER_FLUSH_BYTES, canonicalise
 from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
@@ -269,13 +269,13 @@ class Recorder(VesselSeries):
             if kind == "strips":  # the strips of a row have the same length; rows may differ
                 ones = np.ones(len(t), dtype=np.int32)
                 if len({r.shape for r in rows}) == 1:  # every row alike (hulls): one stack, (n, T, m, 2)
-                    for entity, d in zip(entities, np.stack(rows, axis=1)):
+                    for entity, d in zip(entities, stack_rows(rows)):
                         send(entity, indexes=[time_column(t)], columns=[strip_column(d, z, ones)])
                     continue
                 for j, entity in enumerate(entities):
                     send(entity, indexes=[time_column(t)], columns=[strip_column([r[j] for r in rows], z, ones)])
                 continue
-            data = np.stack(rows, axis=1)  # (n, T, ...)
+            data = stack_rows(rows)  # (n, T, ...)
             for entity, d in zip(entities, data):
                 if kind == "scalar":
                     ok = np.isfinite(d)

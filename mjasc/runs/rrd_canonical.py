@@ -18,9 +18,9 @@ So two runs with the same scenario and seed write the same *content* in differen
 A chunk is not decoded and encoded again: its Arrow IPC stream keeps the SDK's record-batch message
 (the data as Arrow-rs wrote it; the SDK writes the same bytes for the same data) with the new row ids
 and ``log_time`` values written over the old ones in place, behind a schema message serialised by
-pyarrow from the canonical schema (the canonical fields and the schema message are computed once
-per distinct schema, the chunk id spliced into the message: a run's thousands of chunks share a
-few dozen). Cost: ~0.1 ms per chunk (a 50-vessel
+pyarrow from the canonical schema (the schema read, the canonical fields and the schema message
+computed once per distinct schema, the chunk id spliced into the message: a run's thousands of
+chunks share a few dozen). Cost: ~0.1 ms per chunk (a 50-vessel
 recording holds ~1,500) plus about 0.5 s per 50 MB.
 
 Nothing of the data changes (``rerun rrd compare --unordered`` finds the files equal). The file is
@@ -116,12 +116,13 @@ class _Chunk:
     record-batch message from ``start``, end of stream), schema, row ids (n, 2) (big-endian time,
     counter), where the row ids and the ``log_time`` values lie in ``raw`` and whether it is static."""
 
-    __slots__ = ("raw", "start", "schema", "fields", "row_ids", "row_id_at", "log_times", "is_static")
+    __slots__ = ("raw", "start", "schema", "id", "fields", "row_ids", "row_id_at", "log_times", "is_static")
 
     def __init__(self, raw: bytes, is_static: int):
         buf = pa.py_buffer(raw)
         reader = pa.BufferReader(buf)
-        self.schema = schema = pa.ipc.read_schema(pa.ipc.read_message(reader))
+        schema, self.id, self.fields, log_times = _chunk_schema(raw, reader)
+        self.schema = schema
         self.start = reader.tell()
         batch = pa.ipc.read_record_batch(pa.ipc.read_message(reader), schema)  # zero-copy: buffers lie in raw
         if reader.tell() != len(raw) - 8 or raw[-8:] != _EOS:
@@ -132,7 +133,6 @@ class _Chunk:
         n = batch.num_rows
         self.row_id_at = self._at(batch.column(0), 16, buf, raw)
         self.row_ids = np.frombuffer(raw, ">u8", 2 * n, self.row_id_at).reshape(n, 2)
-        self.fields, log_times = _canon_fields(schema)
         self.log_times = [(self._at(batch.column(j), 8, buf, raw), n) for j in log_times]
 
     def _at(self, column: pa.Array, width: int, buf: pa.Buffer, raw: bytes) -> int:
@@ -154,6 +154,38 @@ class _Chunk:
         for at, n in self.log_times:
             body[at - self.start:at - self.start + 8 * n] = np.full(n, BASE_NS, "<i8").tobytes()
         return _schema_message(self.fields, self.schema.metadata, chunk_id) + bytes(body)
+
+
+_CHUNK_ID_LEN = len(b"chunk_") + 32  # ``chunk_`` + %016X time + %016x counter
+_SCHEMAS: dict = {}  # a schema message without its chunk id → (schema, canonical fields, log_time indices)
+
+
+def _chunk_schema(raw: bytes, reader: pa.BufferReader) -> tuple:
+    """The schema of the chunk whose IPC stream is ``raw``, its chunk id (``rerun:id``), its
+    canonical fields and ``log_time`` columns (:func:`_canon_fields`); ``reader`` (on ``raw``) is
+    left after the schema message. A run's chunks share a few dozen schemas that differ only by
+    the chunk id: the schema is read once per distinct message with the id left out (the message
+    determines the schema; the id is read from the message). The returned schema's ``rerun:id``
+    is then another chunk's: only :attr:`_Chunk.id` is the chunk's own."""
+    n = int.from_bytes(raw[4:8], "little") if raw[:4] == b"\xff\xff\xff\xff" else -1
+    end = 8 + n
+    at = raw.find(b"chunk_", 0, end) if 0 <= n and end <= len(raw) else -1
+    if at < 0 or raw.find(b"chunk_", at + 1, end) >= 0 or at + _CHUNK_ID_LEN > end:
+        schema = pa.ipc.read_schema(pa.ipc.read_message(reader))  # (not the expected layout: no cache)
+        return (schema, schema.metadata[b"rerun:id"], *_canon_fields(schema))
+    key = (at, raw[:at] + raw[at + _CHUNK_ID_LEN:end])  # (equal keys: the same message but for the id)
+    hit = _SCHEMAS.get(key)
+    chunk_id = raw[at:at + _CHUNK_ID_LEN]
+    if hit is None:
+        schema = pa.ipc.read_schema(pa.ipc.read_message(reader))
+        if reader.tell() != end or schema.metadata.get(b"rerun:id") != chunk_id:
+            return (schema, schema.metadata[b"rerun:id"], *_canon_fields(schema))
+        if len(_SCHEMAS) >= 4096:  # (a long-lived worker stays bounded)
+            _SCHEMAS.clear()
+        hit = _SCHEMAS[key] = (schema, *_canon_fields(schema))
+        return hit[0], chunk_id, hit[1], hit[2]
+    reader.seek(end)
+    return hit[0], chunk_id, hit[1], hit[2]
 
 
 def _serialized_schema(fields: list, metadata, chunk_id: bytes) -> bytes:
@@ -293,7 +325,7 @@ def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_i
         for k, ci in enumerate(np.argsort(first, kind="stable").tolist()):
             chunk = src[ci]
             inc = store_no << 40 | k
-            new_ids[chunk.schema.metadata[b"rerun:id"]] = (k, inc)
+            new_ids[chunk.id] = (k, inc)
             ids = np.empty((counts[ci], 2), ">u8")
             ids[:, 0], ids[:, 1] = BASE_NS, rank[starts[ci]:starts[ci + 1]] + 1
             ipc = chunk.ipc(ids, f"chunk_{BASE_NS:016X}{inc:016x}".encode())
