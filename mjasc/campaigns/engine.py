@@ -125,6 +125,16 @@ def _warm_up() -> str:
     return getattr(mjasc, "__version__", "unknown")
 
 
+#: Dask settings of an own threaded cluster, whose event loop shares this process's core with the
+#: runs' children: no profiler; the event-loop tick measured every 1 s instead of 20 ms and the
+#: system monitor (CPU, memory, network counters for the dashboard) every 10 s instead of 0.5 s;
+#: no work stealing (with worker-saturation 1.0 the scheduler queues the tasks itself: there is
+#: nothing to steal). Together ~0.03 s of CPU per second of campaign less (measured: an idle
+#: 2-worker cluster 0.029 → 0.005 s/s, 40 tasks 9.5 → 4.6 ms of CPU each).
+_THREADED_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.admin.tick.interval": "1s",
+                    "distributed.admin.system-monitor.interval": "10s", "distributed.scheduler.work-stealing": False}
+
+
 def _open_client(scheduler, workers: int | None, threaded: bool = False):
     """(client, closers): a Client instance is used as is; None/"local" starts a LocalCluster of
     ``workers`` single-threaded processes (``threaded``: single-threaded workers in this process,
@@ -144,7 +154,7 @@ def _open_client(scheduler, workers: int | None, threaded: bool = False):
         # profiler would cost CPU that the runs need) and no memory limit (the runs' memory is
         # their children's).
         with dask.config.set({"distributed.scheduler.worker-saturation": 1.0,
-                              **({"distributed.worker.profile.enabled": False} if threaded else {})}):
+                              **(_THREADED_CONFIG if threaded else {})}):
             # dashboard_address ":0": the scheduler's HTTP server takes a free port (8787 may be in use).
             cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=not threaded, dashboard_address=":0",
                                    **({"memory_limit": 0} if threaded else {}))
