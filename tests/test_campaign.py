@@ -188,10 +188,11 @@ def test_own_local_cluster_gives_the_in_process_results_and_closes_its_children(
 
 
 def test_a_child_that_cannot_start_stops_the_campaign_before_any_run(tmp_path, monkeypatch):
-    from mjasc.campaigns import executor
+    from mjasc.campaigns import executor, forked
 
     spec = load_campaign_spec(write_campaign(tmp_path, runs=2, duration=2.0))
-    monkeypatch.setattr(executor.IsolatedExecutor, "wait_ready", lambda self, timeout_s=None: False)
+    for cls in (executor.IsolatedExecutor, forked.ForkedExecutor):  # a new interpreter's child or a fork
+        monkeypatch.setattr(cls, "wait_ready", lambda self, timeout_s=None: False)
     with pytest.raises(RuntimeError, match="did not start"):
         run_campaign(spec, tmp_path / "out", workers=1, progress=False)
     with CampaignStore(tmp_path / "out", spec.digest) as s:

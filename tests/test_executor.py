@@ -120,23 +120,41 @@ def test_children_started_before_the_campaign_is_read_are_the_ones_that_run_it(t
     from mjasc.campaigns.spec import load_campaign_spec
     from tests.test_campaign import write_campaign
 
+    from mjasc.campaigns.forked import ForkedExecutor
+
     monkeypatch.setattr(os, "cpu_count", lambda: 2)
     assert ex_mod.prestart_isolated(None) == 1  # two cores: the driver parses on one, a child imports on the other
     (child,) = ex_mod._PRESTARTED
-    pid = child._proc.pid
+    assert isinstance(child, ForkedExecutor)  # (python -m pytest: forking is safe)
     spec = load_campaign_spec(write_campaign(tmp_path, runs=2, duration=2.0))
     res = run_campaign(spec, tmp_path / "out", workers=1, progress=False)
     assert not ex_mod._PRESTARTED and [r.status for r in res.runs] == ["completed", "completed"]
-    assert {r.worker for r in res.runs} == {f"{os.uname().nodename}:{pid}"}  # both runs in the pre-started child
-    assert child._proc is None  # the campaign closed it
+    assert {r.worker for r in res.runs} == {f"{os.uname().nodename}:{child.pid}"}  # both runs in the pre-started child
+    assert child._process is None  # the campaign closed it
     assert ex_mod.prestart_isolated(3) == 1  # never more than the idle cores
     taken = ex_mod.take_prestarted(5)
-    assert len(taken) == 1 and taken[0]._proc is not None and not ex_mod._PRESTARTED
+    assert len(taken) == 1 and isinstance(taken[0], ForkedExecutor) and not ex_mod._PRESTARTED
     taken[0].close()
     ex_mod.prestart_isolated(1)
-    spare = ex_mod._PRESTARTED[0]._proc
+    spare = ex_mod._PRESTARTED[0]
+    assert spare.wait_ready(120)
+    pid = spare.pid
     ex_mod._close_prestarted()  # (what exit does)
-    assert spare.poll() is not None and not ex_mod._PRESTARTED
+    assert spare._process is None and not ex_mod._PRESTARTED
+    assert not _alive(pid)
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` still exists (a killed fork is reaped by its server within moments)."""
+    import time
+
+    for _ in range(50):
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        time.sleep(0.1)
+    return True
 
 
 def test_a_warmed_up_child_gives_the_same_results():

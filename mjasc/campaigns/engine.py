@@ -43,8 +43,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from mjasc.campaigns.cluster import WORKER_WAIT_S, close_client, local_workers, open_client, warm_up_worker
 from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
-                                      run_isolated, start_isolated, take_prestarted)
+                                      run_isolated, take_prestarted)
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
 from mjasc.campaigns.store import RETRY_STATUSES, CampaignStore
 from mjasc.core.config_tables import integer, number
@@ -58,8 +59,6 @@ TIMING_KEYS = frozenset({"wall_time_s", "cpu_time_s", "real_time_factor", "worke
                          "run_cpu_time_s", "throughput_runs_per_hour", "startup_s", "timing_s"})
 #: Campaigns with at most this many runs to do run in this process unless asked otherwise.
 IN_PROCESS_MAX_RUNS = 4
-#: How long a campaign waits for the first worker of a cluster [s].
-WORKER_WAIT_S = 120.0
 #: Default per-run time limit [s] (a run that takes longer is killed and recorded as a timeout).
 DEFAULT_TIME_LIMIT_S = 3600.0
 
@@ -113,68 +112,6 @@ def _task(request: dict, time_limit_s: float | None, isolate: bool, threaded: bo
 
         return run_isolated(request, time_limit_s, key=get_worker().id)
     return run_isolated(request, time_limit_s)
-
-
-# ---------------------------------------------------------------------- scheduling
-def _warm_up() -> str:
-    """Run on every worker before the tasks: import mjasc once, start the worker's run process
-    (it imports while the other workers come up), report mjasc's version."""
-    import mjasc
-
-    start_isolated()
-    return getattr(mjasc, "__version__", "unknown")
-
-
-def _open_client(scheduler, workers: int | None, threaded: bool = False):
-    """(client, closers): a Client instance is used as is; None/"local" starts a LocalCluster of
-    ``workers`` single-threaded processes (``threaded``: single-threaded workers in this process,
-    for runs that execute in child processes of their own — module docstring); any other string is
-    an existing scheduler's address."""
-    import dask
-    from distributed import Client, LocalCluster
-
-    if isinstance(scheduler, Client):
-        return scheduler, []
-    if scheduler in (None, "local"):
-        import logging
-
-        logging.getLogger("distributed").setLevel(logging.WARNING)  # no INFO chatter from the scheduler
-        n = local_workers(workers)
-        # A threaded worker only waits on its run's child process: no stack sampling of it (Dask's
-        # profiler would cost CPU that the runs need) and no memory limit (the runs' memory is
-        # their children's).
-        with dask.config.set({"distributed.scheduler.worker-saturation": 1.0,
-                              **({"distributed.worker.profile.enabled": False} if threaded else {})}):
-            # dashboard_address ":0": the scheduler's HTTP server takes a free port (8787 may be in use).
-            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=not threaded, dashboard_address=":0",
-                                   **({"memory_limit": 0} if threaded else {}))
-        client = Client(cluster)
-        return client, [client, cluster]
-    if not isinstance(scheduler, str):
-        raise ValueError(f"scheduler: must be None, 'local', 'synchronous', an address or a distributed.Client, "
-                         f"got {scheduler!r}")
-    if workers is not None:
-        raise ValueError(f"workers: only for a local cluster; the cluster at {scheduler} has its own workers")
-    return Client(scheduler), []
-
-
-def local_workers(workers: int | None) -> int:
-    """The number of workers of a local cluster: ``workers``, default one per core."""
-    return workers if workers is not None else (os.cpu_count() or 1)
-
-
-def _close(closers, local: bool) -> None:
-    import logging
-
-    nanny_log = logging.getLogger("distributed.nanny")
-    level = nanny_log.level
-    if closers and local:  # our own workers: no shutdown chatter
-        nanny_log.setLevel(logging.ERROR)
-    try:
-        for c in closers:
-            c.close()
-    finally:
-        nanny_log.setLevel(level)
 
 
 def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | None = None, progress: bool = True,
@@ -327,17 +264,21 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
     # A local cluster for isolated runs: its workers are threads of this process, each handing
     # its runs to its own child process (which does all the work and gives the isolation; worker
     # processes would only add their start-up, shutdown and traffic). The children start first,
-    # so that they import MuJoCo and mjasc while Dask starts.
+    # so that they import MuJoCo and mjasc while Dask starts: forks of one server that imports
+    # and warms up once for all of them (mjasc.campaigns.forked).
     threaded = local and isolate
     n_children = local_workers(workers) if threaded else 0
     children = take_prestarted(n_children)  # (started before the campaign was read, if any)
-    children += [IsolatedExecutor() for _ in range(n_children - len(children))]
+    if n_children > len(children):
+        from mjasc.campaigns.forked import ForkedExecutor  # (a new interpreter where forking is not safe)
+
+        children += [ForkedExecutor() for _ in range(n_children - len(children))]
     for child in children:
         child.start()
     client, closers = None, []
     keys: list = []
     try:
-        client, closers = _open_client(scheduler, workers, threaded)
+        client, closers = open_client(scheduler, workers, threaded)
         try:
             client.wait_for_workers(1, timeout=WORKER_WAIT_S)
         except TimeoutError:
@@ -360,7 +301,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
             versions = {k: getattr(mjasc, "__version__", "unknown") for k in keys}
         else:
             try:
-                versions = client.run(_warm_up)
+                versions = client.run(warm_up_worker)
             except Exception as exc:  # noqa: BLE001
                 raise RuntimeError(f"the Dask workers cannot import mjasc ({type(exc).__name__}: {exc}); "
                                    f"install mjasc on every worker") from None
@@ -407,4 +348,4 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
             for child in children:  # also those never adopted (the cluster failed to start)
                 child.close()
         finally:
-            _close(closers, local)
+            close_client(closers, local)

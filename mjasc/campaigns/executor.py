@@ -289,13 +289,17 @@ _PRESTARTED: list = []  # children started before their campaign was read (prest
 def prestart_isolated(workers: int | None) -> int:
     """Start run children now, before the caller has read its campaign (the ``campaign`` command):
     they import MuJoCo and mjasc (~2 s each) while the driver parses the campaign, which keeps one
-    core busy. As many as the cores the driver leaves idle (CPU count − 1, at least one), at most
+    core busy — children forked from one warmed-up server (:mod:`mjasc.campaigns.forked`, which
+    then imports once for all) where forking is safe, new interpreters otherwise. As many as the cores the driver leaves idle (CPU count − 1, at least one), at most
     ``workers`` (None: one per core); :func:`take_prestarted` hands them to the campaign, and any
     left untaken are killed at exit. Returns how many were started."""
+    from mjasc.campaigns.forked import ForkedExecutor, forking_safe
+
     cores = os.cpu_count() or 1
     n = max(0, min(workers if workers is not None else cores, max(1, cores - 1)))
+    fork = forking_safe()
     for _ in range(n):
-        ex = IsolatedExecutor(warm=True)
+        ex = ForkedExecutor() if fork else IsolatedExecutor(warm=True)
         ex.start()
         _PRESTARTED.append(ex)
     return n
@@ -336,21 +340,7 @@ def _serve() -> None:
     out = os.fdopen(os.dup(1), "w", buffering=1)
     os.dup2(2, 1)  # stray prints of libraries must not corrupt the result stream
     sys.stdout = sys.stderr
-    import mjasc  # noqa: F401  (MUJOCO_GL before mujoco)
-
-    # What every run imports, loaded before the first request instead of during it.
-    import mjasc.avoidance.system  # noqa: F401
-    import mjasc.cooperation.coordination  # noqa: F401
-    import mjasc.evaluation.mission_cost  # noqa: F401
-    import mjasc.evaluation.run_evaluation  # noqa: F401
-    import mjasc.perception.pipeline  # noqa: F401
-    import mjasc.runs.runner  # noqa: F401
-    from mjasc.core.compiled import maximum
-
-    # numba sets up its compiler target (registries, BLAS, typed containers: ~1 s) at the first
-    # kernel call of a process: here, before the ready line, not inside the first run.
-    maximum(0.0, 1.0)
-
+    _prepare()
     out.write(json.dumps({"ready": os.getpid()}) + "\n")  # IsolatedExecutor.wait_ready
     out.flush()
     if "--warm" in sys.argv[1:] and not select.select([sys.stdin], [], [], 0.0)[0]:
@@ -363,6 +353,24 @@ def _serve() -> None:
     # Every result is written and every run closed its files: leave without the interpreter's
     # clean-up of MuJoCo, numba and the rest (~0.5 s that the driver would wait for).
     os._exit(0)
+
+
+def _prepare() -> None:
+    """Import what every run imports and set up numba's compiler target, before the first request
+    instead of during it (a child's start-up: ~1.5–2 s of CPU)."""
+    import mjasc  # noqa: F401  (MUJOCO_GL before mujoco)
+
+    import mjasc.avoidance.system  # noqa: F401
+    import mjasc.cooperation.coordination  # noqa: F401
+    import mjasc.evaluation.mission_cost  # noqa: F401
+    import mjasc.evaluation.run_evaluation  # noqa: F401
+    import mjasc.perception.pipeline  # noqa: F401
+    import mjasc.runs.runner  # noqa: F401
+    from mjasc.core.compiled import maximum
+
+    # numba sets up its compiler target (registries, BLAS, typed containers: ~1 s) at the first
+    # kernel call of a process: here, before the ready line, not inside the first run.
+    maximum(0.0, 1.0)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,235 @@
+"""Run children forked from one warmed-up server process: the runs' children of a campaign whose
+workers are threads of the driver (the local cluster, the ``campaign`` command).
+
+A child of :class:`~mjasc.campaigns.executor.IsolatedExecutor` is a new interpreter: each imports
+MuJoCo and mjasc (~1.6 s of CPU) and pays numba's first calls (its target, then loading the cached
+kernels as the first run meets them: ~1.5–2 s more), once per worker and campaign. A
+:class:`ForkedExecutor`'s child is a fork of a server process (multiprocessing's ``forkserver``)
+that did all of that once (:mod:`mjasc.campaigns.fork_warm`: the imports and one simulated second
+of the demo, as a warm-up): it is ready in milliseconds with the kernels loaded, and the server
+starts at :func:`start_server` — the ``campaign`` command calls it first, so the server imports
+while the driver reads the campaign.
+
+The child is still a process of its own, with the same protocol and statuses as a new
+interpreter: one JSON request and one JSON result per message (over a ``multiprocessing`` pipe),
+a run over its time limit is killed (``timeout``), a child that dies is ``crashed`` with its exit
+code or signal and the next run forks a new one; everything a run prints goes to /dev/null. The
+server's warm-up leaves nothing but loaded modules and kernels (a run is a function of its own
+text). When no child can be forked (the server failed to start), the executor falls back to a new
+interpreter (its base class) for good. Only for children of a non-daemonic process: a Dask worker
+process is daemonic and may not start multiprocessing children (it uses the base class).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import sys
+import threading
+import time
+
+from mjasc.campaigns.executor import IsolatedExecutor
+
+__all__ = ["ForkedExecutor", "start_server"]
+
+#: What the server imports before its first fork (module docstring).
+PRELOAD = "mjasc.campaigns.fork_warm"
+_LOCK = threading.Lock()
+
+
+def _context():
+    import multiprocessing
+
+    return multiprocessing.get_context("forkserver")
+
+
+def start_server() -> None:
+    """Start the fork server now if it is not running (it imports and warms up, ~3 s of CPU, while
+    the caller goes on): with this process's module path, and no OpenGL back-end (a campaign run
+    never renders; as for a new interpreter's child). Idempotent; a server that some other code of
+    this process started first is used as it is (its children then import what they need)."""
+    from multiprocessing import forkserver
+
+    with _LOCK:
+        saved = {k: os.environ.get(k) for k in ("MUJOCO_GL", "PYTHONPATH")}
+        os.environ["MUJOCO_GL"] = "disable"
+        os.environ["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)  # the same mjasc as this process
+        try:
+            _context().set_forkserver_preload([PRELOAD])
+            forkserver.ensure_running()
+        finally:
+            for k, v in saved.items():
+                if v is None:
+                    os.environ.pop(k, None)
+                else:
+                    os.environ[k] = v
+
+
+def forking_safe() -> bool:
+    """Whether a forked child leaves this process's main module alone: multiprocessing re-imports a
+    main *script* in every child (as ``__mp_main__``), which is only harmless under an ``if
+    __name__ == "__main__"`` guard; it skips a package's ``__main__`` (``python -m mjasc``,
+    ``python -m pytest``) and an interactive session. A script is trusted only when it is
+    ``mjasc``'s console script (guarded by its generator); any other script gets new interpreters."""
+    main = sys.modules.get("__main__")
+    if main is None or getattr(main, "__file__", None) is None:
+        return True
+    name = getattr(getattr(main, "__spec__", None), "name", None)
+    if name is not None:
+        return name == "__main__" or name.endswith(".__main__")
+    from mjasc.cli import main as cli_main
+
+    return getattr(main, "main", None) is cli_main
+
+
+def _serve(conn) -> None:
+    """The forked child's loop: one JSON request per message, one JSON result per message."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)  # what runs and libraries print goes nowhere, as from a new interpreter's child
+    os.dup2(devnull, 2)
+    from mjasc.campaigns.executor import _prepare, execute_in_process
+
+    _prepare()  # (done by the server: nothing left to import unless the server could not preload)
+    conn.send_bytes(json.dumps({"ready": os.getpid()}).encode())
+    while True:
+        try:
+            msg = conn.recv_bytes()
+        except (EOFError, OSError):  # the driver closed its end: leave
+            break
+        conn.send_bytes(json.dumps(execute_in_process(json.loads(msg))).encode())
+    os._exit(0)  # without the interpreter's clean-up (every result is sent, every run closed its files)
+
+
+class ForkedExecutor(IsolatedExecutor):
+    """An :class:`IsolatedExecutor` whose child is forked from the warmed-up server (module
+    docstring); the same methods and results."""
+
+    def __init__(self):
+        super().__init__()
+        self._process = None  # the forked child (multiprocessing.Process)
+        self._conn = None  # this end of its pipe
+        self._fallback = False  # no fork possible: a new interpreter's child (the base class)
+        self.pid: int | None = None  # the current child's process id
+
+    def start(self) -> None:
+        """Start the fork server if needed (the child itself forks when it is waited for or given
+        its first run: in milliseconds once the server is up)."""
+        if not self._fallback and not forking_safe():
+            self._fallback = True
+        if self._fallback:
+            return super().start()
+        try:
+            start_server()
+        except Exception:  # noqa: BLE001 — no server: new interpreters
+            self._fallback = True
+            super().start()
+
+    def _fork(self, deadline: float | None) -> bool:
+        """Fork the child and read its ready message; False when it is not ready by ``deadline``
+        (then killed) — or when no child could be forked (then the fallback has started)."""
+        if self._process is not None and self._process.is_alive():
+            return True
+        self._drop()
+        ctx = _context()
+        try:
+            if not forking_safe():
+                raise RuntimeError("the main module is a script")
+            start_server()
+            ours, theirs = ctx.Pipe(duplex=True)
+            proc = ctx.Process(target=_serve, args=(theirs,), daemon=True, name="mjasc-run")
+            proc.start()  # (waits for the server's warm-up the first time)
+            theirs.close()
+        except Exception:  # noqa: BLE001 — the server died or cannot fork: new interpreters from now on
+            self._fallback = True
+            super().start()
+            return False
+        self._process, self._conn, self.pid = proc, ours, proc.pid
+        if self._recv(deadline) is None:
+            self._kill()
+            return False
+        return True
+
+    def _recv(self, deadline: float | None) -> bytes | None:
+        """The child's next message; None at the deadline or when the child died (then reaped,
+        its exit code in ``self._exit``)."""
+        wait = None if deadline is None else max(0.0, deadline - time.monotonic())
+        try:
+            if self._conn.poll(wait):
+                return self._conn.recv_bytes()
+            self._exit = None
+            return None
+        except (EOFError, OSError):
+            self._process.join(10)
+            self._exit = self._process.exitcode
+            self._drop()
+            return None
+
+    def wait_ready(self, timeout_s: float | None = None) -> bool:
+        """Fork the child if there is none and wait for its ready message (module docstring)."""
+        if self._fallback:
+            return super().wait_ready(timeout_s)
+        ok = self._fork(None if timeout_s is None else time.monotonic() + float(timeout_s))
+        return super().wait_ready(timeout_s) if self._fallback else ok
+
+    def run(self, request: dict, time_limit_s: float | None = None) -> dict:
+        """The result of one request; ``time_limit_s`` counts from the request (and the fork, when
+        this request needs a new child)."""
+        if self._fallback:
+            return super().run(request, time_limit_s)
+        t0 = time.perf_counter()
+        deadline = None if time_limit_s is None else time.monotonic() + float(time_limit_s)
+        if not self._fork(deadline):
+            if self._fallback:
+                return super().run(request, time_limit_s)
+            if self._exit is None:  # (the child was killed: not ready in time)
+                return self._failure("timeout", f"the run exceeded its time limit of {time_limit_s:g} s", t0)
+            return self._died(t0)
+        try:
+            self._conn.send_bytes(json.dumps(request).encode())
+        except (BrokenPipeError, OSError):
+            self._kill()
+            return self._failure("crashed", "the run's process could not be started", t0)
+        msg = self._recv(deadline)
+        if msg is None:
+            if self._process is not None:
+                self._kill()
+                return self._failure("timeout", f"the run exceeded its time limit of {time_limit_s:g} s", t0)
+            return self._died(t0)
+        return json.loads(msg)
+
+    def _died(self, t0: float) -> dict:
+        code = self._exit if self._exit is not None else -9
+        what = f"signal {-code}" if code < 0 else f"exit code {code}"
+        return self._failure("crashed", f"the run's process died ({what})", t0)
+
+    def _drop(self) -> None:
+        if self._conn is not None:
+            self._conn.close()
+        if self._process is not None and not self._process.is_alive():
+            self._process.close()
+        self._conn = self._process = None
+
+    def _kill(self) -> None:
+        if self._fallback:
+            return super()._kill()
+        if self._process is not None:
+            try:
+                self._process.kill()
+                self._process.join(10)
+            except Exception:  # noqa: BLE001
+                pass
+        self._drop()
+
+    def close(self) -> None:
+        """End the child: it leaves when its pipe closes (every result it sent is complete)."""
+        if self._fallback:
+            return super().close()
+        if self._process is not None:
+            proc = self._process
+            self._conn.close()
+            self._conn = None
+            proc.join(5)
+            if proc.is_alive():
+                self._kill()
+            else:
+                self._drop()

@@ -1,0 +1,63 @@
+"""Run children forked from the warmed-up server (mjasc.campaigns.forked): the same results as a
+new interpreter's child, a time limit, a child that dies, a closed child that leaves."""
+
+import os
+import signal
+import threading
+
+from mjasc.campaigns.engine import without_timing
+from mjasc.campaigns.executor import execute_in_process
+from mjasc.campaigns.forked import ForkedExecutor, forking_safe
+from tests.test_executor import _alive, _req
+
+
+def test_forking_is_safe_under_pytest():
+    assert forking_safe()  # (python -m pytest: a package's __main__, never re-imported)
+
+
+def test_a_forked_child_gives_the_same_results_as_this_process():
+    a = execute_in_process(_req())
+    ex = ForkedExecutor()
+    try:
+        ex.start()
+        assert ex.wait_ready(120) and ex.pid is not None and not ex._fallback
+        b = ex.run(_req(), time_limit_s=120)
+        c = ex.run(_req(k=1), time_limit_s=120)  # the same child serves the next run
+    finally:
+        ex.close()
+    assert a["status"] == b["status"] == c["status"] == "completed"
+    assert without_timing(a["summary"]) == without_timing(b["summary"])
+    assert b["worker"] == c["worker"] == f"{os.uname().nodename}:{ex.pid}"
+
+
+def test_a_forked_child_over_its_time_limit_is_killed_and_the_next_run_works():
+    ex = ForkedExecutor()
+    try:
+        slow = ex.run(_req(duration=3000.0), time_limit_s=4.0)
+        assert slow["status"] == "timeout" and "time limit" in slow["error"]
+        assert ex.run(_req(), time_limit_s=120)["status"] == "completed"
+    finally:
+        ex.close()
+
+
+def test_a_dying_forked_child_costs_only_its_run():
+    ex = ForkedExecutor()
+    try:
+        assert ex.run(_req(), time_limit_s=120)["status"] == "completed"
+        pid = ex.pid
+        threading.Timer(2.0, lambda: os.kill(pid, signal.SIGKILL)).start()
+        dead = ex.run(_req(duration=3000.0), time_limit_s=120)
+        assert dead["status"] == "crashed" and "signal 9" in dead["error"]
+        assert ex.run(_req(), time_limit_s=120)["status"] == "completed" and ex.pid != pid
+    finally:
+        ex.close()
+
+
+def test_a_closed_forked_child_leaves():
+    ex = ForkedExecutor()
+    assert ex.wait_ready(120)
+    pid = ex.pid
+    ex.close()
+    assert ex._process is None and not _alive(pid)
+    assert ex.wait_ready(120) and ex.run(_req(), time_limit_s=120)["status"] == "completed"  # a new fork
+    ex.close()
