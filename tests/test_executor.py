@@ -4,8 +4,10 @@ import os
 import signal
 import threading
 
+import pytest
 
 from mjasc.campaigns.executor import IsolatedExecutor, execute_in_process
+from mjasc.campaigns.forked import ForkedExecutor
 
 SCENARIO = """
 name = "tiny"
@@ -45,8 +47,9 @@ def test_a_bad_scenario_is_an_error_row_not_an_exception():
     assert out["status"] == "error" and "duration_s" in out["error"]
 
 
-def test_a_run_over_its_time_limit_is_killed_and_the_next_run_works():
-    ex = IsolatedExecutor()
+@pytest.mark.parametrize("executor", [IsolatedExecutor, ForkedExecutor], ids=["new_interpreter", "forked"])
+def test_a_run_over_its_time_limit_is_killed_and_the_next_run_works(executor):
+    ex = executor()
     try:
         slow = ex.run(_req(duration=3000.0), time_limit_s=4.0)
         assert slow["status"] == "timeout" and "time limit" in slow["error"]
@@ -117,10 +120,9 @@ def test_children_started_before_the_campaign_is_read_are_the_ones_that_run_it(t
     (a campaign with nothing to do) is killed at exit, not left behind."""
     import mjasc.campaigns.executor as ex_mod
     from mjasc.campaigns.engine import run_campaign
+    from mjasc.campaigns.forked import ForkedExecutor
     from mjasc.campaigns.spec import load_campaign_spec
     from tests.test_campaign import write_campaign
-
-    from mjasc.campaigns.forked import ForkedExecutor
 
     monkeypatch.setattr(os, "cpu_count", lambda: 2)
     assert ex_mod.prestart_isolated(None) == 1  # two cores: the driver parses on one, a child imports on the other

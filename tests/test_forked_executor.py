@@ -1,5 +1,6 @@
 """Run children forked from the warmed-up server (mjasc.campaigns.forked): the same results as a
-new interpreter's child, a time limit, a child that dies, a closed child that leaves."""
+new interpreter's child, a child that dies, a closed child that leaves (the time limit:
+tests/test_executor.py, for both kinds of child)."""
 
 import os
 import signal
@@ -28,16 +29,6 @@ def test_a_forked_child_gives_the_same_results_as_this_process():
     assert a["status"] == b["status"] == c["status"] == "completed"
     assert without_timing(a["summary"]) == without_timing(b["summary"])
     assert b["worker"] == c["worker"] == f"{os.uname().nodename}:{ex.pid}"
-
-
-def test_a_forked_child_over_its_time_limit_is_killed_and_the_next_run_works():
-    ex = ForkedExecutor()
-    try:
-        slow = ex.run(_req(duration=3000.0), time_limit_s=4.0)
-        assert slow["status"] == "timeout" and "time limit" in slow["error"]
-        assert ex.run(_req(), time_limit_s=120)["status"] == "completed"
-    finally:
-        ex.close()
 
 
 def test_a_dying_forked_child_costs_only_its_run():
