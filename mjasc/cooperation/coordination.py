@@ -58,8 +58,9 @@ from mjasc.cooperation.comms import CommsNetwork
 from mjasc.cooperation.coordination_config import CoordinationConfig, _validate, parse_coordination_options
 from mjasc.cooperation.formation_history import FormationHistory
 from mjasc.cooperation.link import LinkEndpoint
-from mjasc.cooperation.messages import TeamIntention, TeamMessage, TeamPicture
+from mjasc.cooperation.messages import TeamIntention, TeamMessage
 from mjasc.cooperation.recording import CoordinationLog
+from mjasc.cooperation.team_knowledge import TeamKnowledge
 from mjasc.cooperation.team_view import _error_floats, _law_terms, _Neighbour, _sum, _TeamView  # noqa: F401
 from mjasc.core.compiled import clip_float
 from mjasc.plugins.stages import CoordinationMethod
@@ -67,7 +68,7 @@ from mjasc.plugins.stages import CoordinationMethod
 __all__ = ["CoordinationConfig", "Coordination", "TeamIntention", "parse_coordination_options"]
 
 
-class Coordination(CoordinationMethod):
+class Coordination(TeamKnowledge, CoordinationMethod):
     """The thesis's cooperative path following: consensus on the path parameter over the link.
 
     One vessel's coordination controller (the ``coordination`` component of ``VesselAgent``),
@@ -345,50 +346,6 @@ class Coordination(CoordinationMethod):
         f = float(min(f, self.top_speed_m_s / self.mission_speed_m_s))
         self.last_error_m, self.last_factor, self.last_xi = lead, f, own
         return f
-
-    def team_intentions(self, t_s: float | None = None, max_age_s: float | None = None) -> dict[str, TeamIntention]:
-        """Each team mate's newest message as a :class:`TeamIntention` (name → intention); with
-        ``t_s`` and ``max_age_s`` only those sent at most ``max_age_s`` before ``t_s``."""
-        out = {}
-        for n, nb in self.neighbours.items():
-            if max_age_s is not None and t_s is not None and t_s - nb.sent_time_s > max_age_s:
-                continue
-            cached = self._intent_cache.get(n)
-            if cached is not None and cached.sent_time_s == nb.sent_time_s:
-                out[n] = cached
-                continue
-            out[n] = self._intent_cache[n] = TeamIntention.from_message(nb.message, nb.sent_time_s)
-        return out
-
-    def team_picture(self, t_s: float) -> TeamPicture:
-        """What this vessel knows of its team now: every team mate's newest intention and the
-        latest factor on the mission speed (the intentions' mapping is rebuilt only when a message
-        has arrived; treat it as read-only)."""
-        if self._intentions is None:
-            self._intentions = self.team_intentions()
-        picture = object.__new__(TeamPicture)  # TeamPicture(t, intentions, factor) without its __init__
-        picture.__dict__.update(time_s=float(t_s), intentions=self._intentions, speed_factor=self.last_factor)
-        return picture
-
-    def track_sharing(self):
-        """The team-shared perception settings
-        (:class:`~mjasc.perception.track_fusion.FusionSettings`) when ``share_tracks`` is on, else None."""
-        if not self.config.share_tracks:
-            return None
-        from mjasc.perception.track_fusion import FusionSettings
-
-        c = self.config
-        return FusionSettings(c.share_max_tracks, c.share_max_age_s, c.share_gate)
-
-    def team_tracks(self) -> dict:
-        """Each team mate's newest message's shared tracks: name → (sent time [s], tuple of
-        :class:`~mjasc.core.estimates.SharedTrack`); an empty tuple (it sees nothing now) replaces
-        what the receiver kept of that team mate."""
-        return {n: (nb.sent_time_s, tuple(getattr(nb.message, "tracks", ()))) for n, nb in self.neighbours.items()}
-
-    def team_positions(self) -> dict:
-        """Latest received position of every team mate: name → (sent time [s], (2,) world [m])."""
-        return {n: (nb.sent_time_s, nb.message.position_m) for n, nb in self.neighbours.items()}
 
     def drain_events(self) -> list[tuple[float, str]]:
         out, self._events = self._events, []
