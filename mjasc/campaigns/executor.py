@@ -137,6 +137,13 @@ def _plain(obj):
     return obj
 
 
+def child_environment() -> dict:
+    """What a run child's environment sets over this process's: ``PYTHONPATH`` (the same mjasc as
+    this process) and ``MUJOCO_GL=disable`` (a campaign run never renders: no OpenGL back-end to
+    load; MuJoCo and dm_control skip it, ~0.3 s of the child's start-up)."""
+    return {"PYTHONPATH": os.pathsep.join(p for p in sys.path if p), "MUJOCO_GL": "disable"}
+
+
 class IsolatedExecutor:
     """A persistent child process that runs one request at a time (module docstring)."""
 
@@ -149,11 +156,7 @@ class IsolatedExecutor:
         self._exit: int | None = None  # the exit code of a child that died
 
     def _start(self) -> None:
-        env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)  # the same mjasc as the parent
-        # A campaign run never renders (no video: execute_in_process): no OpenGL back-end to load
-        # (MuJoCo and dm_control skip it; ~0.3 s of the child's start-up).
-        env["MUJOCO_GL"] = "disable"
+        env = {**os.environ, **child_environment()}
         self._proc = subprocess.Popen([self.python, "-m", "mjasc.campaigns.executor", *(["--warm"] if self.warm else [])],
                                       stdin=subprocess.PIPE,
                                       stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, bufsize=0)
@@ -236,12 +239,20 @@ class IsolatedExecutor:
             if line is None:
                 if self._proc is not None:
                     self._kill()
-                    return self._failure("timeout", f"the run exceeded its time limit of {time_limit_s:g} s", t0)
-                code = self._exit
-                what = f"signal {-code}" if code < 0 else f"exit code {code}"
-                return self._failure("crashed", f"the run's process died ({what})", t0)
+                    return self._timed_out(time_limit_s, t0)
+                return self._died(t0)
         self._starting = False
         return json.loads(line)
+
+    def _timed_out(self, time_limit_s: float, t0: float) -> dict:
+        return self._failure("timeout", f"the run exceeded its time limit of {time_limit_s:g} s", t0)
+
+    def _died(self, t0: float) -> dict:
+        """The result of a run whose child died (its exit code or signal in ``self._exit``; none
+        known: killed)."""
+        code = self._exit if self._exit is not None else -9
+        what = f"signal {-code}" if code < 0 else f"exit code {code}"
+        return self._failure("crashed", f"the run's process died ({what})", t0)
 
     @staticmethod
     def _failure(status: str, error: str, t0: float) -> dict:

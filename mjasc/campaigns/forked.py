@@ -28,7 +28,7 @@ import sys
 import threading
 import time
 
-from mjasc.campaigns.executor import IsolatedExecutor
+from mjasc.campaigns.executor import IsolatedExecutor, child_environment
 
 __all__ = ["ForkedExecutor", "start_server"]
 
@@ -51,9 +51,9 @@ def start_server() -> None:
     from multiprocessing import forkserver
 
     with _LOCK:
-        saved = {k: os.environ.get(k) for k in ("MUJOCO_GL", "PYTHONPATH")}
-        os.environ["MUJOCO_GL"] = "disable"
-        os.environ["PYTHONPATH"] = os.pathsep.join(p for p in sys.path if p)  # the same mjasc as this process
+        overrides = child_environment()
+        saved = {k: os.environ.get(k) for k in overrides}
+        os.environ.update(overrides)
         try:
             _context().set_forkserver_preload([PRELOAD])
             forkserver.ensure_running()
@@ -182,7 +182,7 @@ class ForkedExecutor(IsolatedExecutor):
             if self._fallback:
                 return super().run(request, time_limit_s)
             if self._exit is None:  # (the child was killed: not ready in time)
-                return self._failure("timeout", f"the run exceeded its time limit of {time_limit_s:g} s", t0)
+                return self._timed_out(time_limit_s, t0)
             return self._died(t0)
         try:
             self._conn.send_bytes(json.dumps(request).encode())
@@ -193,14 +193,9 @@ class ForkedExecutor(IsolatedExecutor):
         if msg is None:
             if self._process is not None:
                 self._kill()
-                return self._failure("timeout", f"the run exceeded its time limit of {time_limit_s:g} s", t0)
+                return self._timed_out(time_limit_s, t0)
             return self._died(t0)
         return json.loads(msg)
-
-    def _died(self, t0: float) -> dict:
-        code = self._exit if self._exit is not None else -9
-        what = f"signal {-code}" if code < 0 else f"exit code {code}"
-        return self._failure("crashed", f"the run's process died ({what})", t0)
 
     def _drop(self) -> None:
         if self._conn is not None:
