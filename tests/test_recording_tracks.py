@@ -1,5 +1,6 @@
 """What the recording reads of a vessel's tracks at standard detail (MultiTargetTracker.confirmed_points)
-is confirmed_fields' numbers, bit for bit, on a real run."""
+is confirmed_fields' numbers, bit for bit, on a real run — read per vessel or, with the record tick's
+time as epoch, every vessel's at once."""
 
 from pathlib import Path
 
@@ -21,11 +22,12 @@ def test_confirmed_points_are_confirmed_fields_columns():
         for agent in runner.agents:
             tracker = agent.perception.tracker
             _, ids, x, static, team = tracker.confirmed_fields()
-            ids2, xy, static2, team2 = tracker.confirmed_points()
-            np.testing.assert_array_equal(ids2, ids)
-            assert xy.shape == (len(ids), 2) and xy.tobytes() == np.ascontiguousarray(x[:, :2]).tobytes()
-            np.testing.assert_array_equal(static2, static)
-            assert team2 == team
+            for epoch in (None, event.time_s):
+                ids2, xy, static2, team2 = tracker.confirmed_points(epoch)
+                np.testing.assert_array_equal(ids2, ids)
+                assert xy.shape == (len(ids), 2) and xy.tobytes() == np.ascontiguousarray(x[:, :2]).tobytes()
+                np.testing.assert_array_equal(static2, static)
+                assert team2 == team
             seen += len(ids)
 
     runner.observe("record", check)

@@ -216,7 +216,7 @@ class PerceptionLog:
     def _log_tracks(self, rec, t_s, p, base, vessel_name, full) -> None:
         tr = p.tracker
         if not full:  # labels only when they change (the strings are built only then)
-            ids, xy, static, team = tr.confirmed_points()  # (the vessel's confirmed rows only)
+            ids, xy, static, team = tr.confirmed_points(t_s)  # (the fleet's read once per record tick)
             key = (ids.tobytes(), static.tobytes(), tuple(team))
             labels = None
             if key != self._label_key:

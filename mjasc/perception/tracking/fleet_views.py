@@ -22,6 +22,7 @@ import numpy as np
 
 from mjasc.core.estimates import TrackEstimate, TrackRows, track_estimate_rows
 from mjasc.perception.tracking.report_fields import report_columns, report_columns_numpy, report_estimates
+from mjasc.perception.tracking.step_kernels import confirmed_by_owner
 
 __all__ = ["FleetViews", "TrackEvent", "COUNT_KEYS"]
 
@@ -84,6 +85,31 @@ class FleetViews:
         c = self.cols
         rows = (c.confirmed & ~c.static).nonzero()[0]
         return c.owner[rows], c.local_id[rows], self.bank.positions_of(rows)
+
+    def confirmed_points_of(self, owner: int, epoch=None) -> tuple:
+        """A vessel's confirmed tracks as the recording draws them at standard detail, in bank
+        order: ids (k,), positions (k, 2) [m], static flags (k,) and team mates (list of k names or
+        None) — ``MultiTargetTracker.confirmed_points``. With an ``epoch`` (the recording's tick
+        time [s]) every vessel's are read at once on the first call of that epoch and the others
+        are slices of that read (one gather per record tick instead of one per vessel); the
+        caller promises that the tracker did not step between two calls of one epoch (a record
+        tick reads every vessel in one slot); a step in between that someone read the reports
+        of, or that added or dropped rows, is noticed anyway."""
+        if epoch is None:
+            return self._confirmed_points_read()[owner]
+        key = (epoch, self.version, self._reports)
+        got = self.__dict__.get("_points_read")
+        if got is None or got[0] != key[0] or got[1] != key[1] or got[2] is not key[2]:
+            got = self._points_read = (*key, self._confirmed_points_read())
+        return got[3][owner]
+
+    def _confirmed_points_read(self) -> list:
+        """Every vessel's (ids, positions, static, team) of :meth:`confirmed_points_of`, one gather."""
+        c, no = self.cols, self._max_range.size
+        rows, first = confirmed_by_owner(c.confirmed, c.owner, no)
+        ids, xy, static, team = c.local_id[rows], self.bank.positions_of(rows), c.static[rows], c.team[rows].tolist()
+        f = first.tolist()
+        return [(ids[a:b], xy[a:b], static[a:b], team[a:b]) for a, b in zip(f, f[1:])]
 
     def counts(self, owner: int) -> dict:
         return dict(zip(COUNT_KEYS, self._counts[owner].tolist()))
