@@ -97,6 +97,11 @@ def _labels(vessel_name: str, ids, team, static) -> list[str]:
             for i, m, st in zip(ids, team, static)]
 
 
+def _as_list(values) -> list:
+    """A list of the values (a list as it is; an array's as Python numbers)."""
+    return values if type(values) is list else values.tolist()
+
+
 @functools.lru_cache(maxsize=64)
 def _track_style(colour: tuple) -> rr.Points3D:
     """The confirmed tracks' style in the vessel's colour (vessels share the palette's colours)."""
@@ -217,7 +222,7 @@ class PerceptionLog:
         tr = p.tracker
         if not full:  # labels only when they change (the strings are built only then)
             ids, xy, static, team = tr.confirmed_points(t_s)  # (the fleet's read once per record tick)
-            key = (ids.tobytes(), static.tobytes(), tuple(team))
+            key = (_as_list(ids), _as_list(static), team)  # (arrays or lists: the same key)
             labels = None
             if key != self._label_key:
                 self._label_key = key

@@ -88,20 +88,33 @@ class FleetViews:
 
     def confirmed_points_of(self, owner: int, epoch=None) -> tuple:
         """A vessel's confirmed tracks as the recording draws them at standard detail, in bank
-        order: ids (k,), positions (k, 2) [m], static flags (k,) and team mates (list of k names or
-        None) — ``MultiTargetTracker.confirmed_points``. With an ``epoch`` (the recording's tick
-        time [s]) every vessel's are read at once on the first call of that epoch and the others
-        are slices of that read (one gather per record tick instead of one per vessel); the
-        caller promises that the tracker did not step between two calls of one epoch (a record
-        tick reads every vessel in one slot); a step in between that someone read the reports
-        of, or that added or dropped rows, is noticed anyway."""
+        order: ids (k,), positions (k, 2) [m], static flags (k,) and team mates (k names or None)
+        — ``MultiTargetTracker.confirmed_points``; ids and flags as lists when read from the
+        reports. Read from the columns of :meth:`report_rows` when the reports of the latest step
+        are made (a control tick asked for them: the same numbers, nothing gathered again), else
+        gathered: with an ``epoch`` (the recording's tick time [s]) every vessel's at once on the
+        first call of that epoch, the others slices of that read (the caller promises that the
+        tracker did not step between two calls of one epoch: a record tick reads every vessel in
+        one slot; a step that added or dropped rows is noticed anyway)."""
+        made = self._reports
+        if made is not None:
+            got = self.__dict__.get("_report_read")
+            if got is not None and got[0] is made:
+                return self._report_points(got[1], owner)
         if epoch is None:
             return self._confirmed_points_read()[owner]
-        key = (epoch, self.version, self._reports)
         got = self.__dict__.get("_points_read")
-        if got is None or got[0] != key[0] or got[1] != key[1] or got[2] is not key[2]:
-            got = self._points_read = (*key, self._confirmed_points_read())
-        return got[3][owner]
+        if got is None or got[0] != epoch or got[1] != self.version:
+            got = self._points_read = (epoch, self.version, self._confirmed_points_read())
+        return got[2][owner]
+
+    @staticmethod
+    def _report_points(columns: tuple, owner: int) -> tuple:
+        """:meth:`confirmed_points_of` from the report's columns (``report_columns``)."""
+        if len(columns) == 1 or owner not in columns[0]:
+            return [], np.zeros((0, 2)), [], []
+        a, b = columns[0][owner]
+        return columns[2][a:b], columns[4][a:b], columns[11][a:b], columns[12][a:b]
 
     def _confirmed_points_read(self) -> list:
         """Every vessel's (ids, positions, static, team) of :meth:`confirmed_points_of`, one gather."""
@@ -138,7 +151,9 @@ class FleetViews:
         call, :meth:`_report_columns`, :meth:`_report_estimates`); the same value until the next step."""
         made = self._reports
         if made is None:
-            made = self._reports = self._report_estimates(self._report_columns())
+            columns = self._report_columns()
+            made = self._reports = self._report_estimates(columns)
+            self._report_read = (made, columns)  # (what confirmed_points_of reads while these reports hold)
         return made[owner] if owner in made else _NO_ROWS
 
     # the report's columns and rows (mjasc.perception.tracking.report_fields), bound as methods
