@@ -60,6 +60,7 @@ class CommsLog:
         self._written: dict[str, tuple[float, int, int]] = {}  # receiver → (t, received, lost) last written
         self._styled = False
         self._counted: tuple[int, ...] = ()  # indices of the vessels whose counts are written
+        self._gathered: dict[tuple, tuple] = {}  # (delivered, lost) pairs → their indices and colours (_gathers)
 
     def _style(self, recorder) -> None:
         import rerun as rr
@@ -104,15 +105,28 @@ class CommsLog:
         if (delivered, lost) == self._shown and not ((delivered or lost) and t_s - self._shown_t >= LINK_WINDOW_S):
             return  # nothing new to draw (shown links are redrawn where the vessels are now every window)
         self._shown, self._shown_t = (delivered, lost), t_s
-        index, p = self._index, np.asarray(positions_xy, dtype=float)
+        p = np.asarray(positions_xy, dtype=float)
         # One gather per kind: the delivered lines (m, 2, 2) sender → receiver, the lost ones from
         # the sender to halfway (the same numbers as a line per pair).
-        ends = p[np.array([[index[a], index[b]] for a, b in delivered], dtype=np.intp).reshape(-1, 2)]
-        recorder.strips("world/comms/delivered", t_s, ends, z=_Z,
-                        colours=[(*recorder.colour(a), 160) for a, _ in delivered])
-        ends = p[np.array([[index[a], index[b]] for a, b in lost], dtype=np.intp).reshape(-1, 2)]
+        at_delivered, colours, at_lost = self._gathers(recorder, delivered, lost)
+        recorder.strips("world/comms/delivered", t_s, p[at_delivered], z=_Z, colours=colours)
+        ends = p[at_lost]
         recorder.strips("world/comms/lost", t_s, np.stack([ends[:, 0], 0.5 * (ends[:, 0] + ends[:, 1])], axis=1),
                         z=_Z)
+
+    def _gathers(self, recorder, delivered: tuple, lost: tuple) -> tuple:
+        """The vessel indices (m, 2) of the delivered and lost pairs and the delivered lines'
+        colours (the sender's, alpha 160), made once per set of pairs (a team's few pairs recur)."""
+        got = self._gathered.get((delivered, lost))
+        if got is None:
+            index = self._index
+            if len(self._gathered) >= 256:  # (a team of 12 has 132 pairs: bounded all the same)
+                self._gathered.clear()
+            got = self._gathered[(delivered, lost)] = (
+                np.array([[index[a], index[b]] for a, b in delivered], dtype=np.intp).reshape(-1, 2),
+                [(*recorder.colour(a), 160) for a, _ in delivered],
+                np.array([[index[a], index[b]] for a, b in lost], dtype=np.intp).reshape(-1, 2))
+        return got
 
 
 class CoordinationLog:

@@ -283,13 +283,7 @@ class Recorder(VesselSeries):
                 continue
             data = stack_rows(rows)  # (n, T, ...)
             if kind == "scalar":
-                finite = np.isfinite(data)
-                every = finite.all(axis=1).tolist()
-                for j, entity in enumerate(entities):
-                    if every[j]:  # (no value left out: the group's times)
-                        send(entity, indexes=index, columns=[scalar_column(data[j])])
-                    elif (ok := finite[j]).any():
-                        send(entity, indexes=[time_column(t[ok])], columns=[scalar_column(data[j][ok])])
+                self._send_scalars(send, entities, t, index, data)
                 continue
             for entity, d in zip(entities, data):
                 send(entity, indexes=index, columns=[points_column(xyz_at(d, z), 1)])
@@ -298,6 +292,18 @@ class Recorder(VesselSeries):
                        self._strips, self._arrows, self._fleet):
             buffer.clear()
         self._pending = 0
+
+    @staticmethod
+    def _send_scalars(send, entities: tuple, t: np.ndarray, index: list, data: np.ndarray) -> None:
+        """A fleet group's scalar rows (data (n, T), times t (T,) [s], their column ``index``), an
+        entity each; a non-finite value is left out of its entity's series."""
+        finite = np.isfinite(data)
+        every = finite.all(axis=1).tolist()
+        for j, entity in enumerate(entities):
+            if every[j]:  # (no value left out: the group's times)
+                send(entity, indexes=index, columns=[scalar_column(data[j])])
+            elif (ok := finite[j]).any():
+                send(entity, indexes=[time_column(t[ok])], columns=[scalar_column(data[j][ok])])
 
     def _draws(self, entity: str, anything: bool) -> bool:
         """Are the buffered point or strip rows of ``entity`` to be written? Not when every one
