@@ -7,10 +7,12 @@ made at once on the first read after a step: :mod:`mjasc.perception.tracking.rep
 :class:`~mjasc.core.estimates.TrackEstimate` s, a track's outline; for the fleet, every vessel's
 moving confirmed tracks at once.
 
-The mixin has no state of its own; it reads the tracker's ``bank``, ``cols``
+The mixin reads the tracker's ``bank``, ``cols``
 (:class:`~mjasc.perception.tracking.track_columns.TrackColumns`), ``outlines``, ``team``, ``config``,
 ``version``, ``_max_range``, ``_counts``, ``_last_assign``, ``_rows_cache``, ``_sizes`` and
-``_reports``, set by ``FleetTracker.__init__``.
+``_reports``, set by ``FleetTracker.__init__``; its own state is two read caches of the recording's
+track read (``_report_read``: the reports' columns, ``_points_read``: the latest fleet-wide gather,
+:meth:`FleetViews.confirmed_points_of`), set on first use.
 """
 
 from __future__ import annotations
