@@ -26,6 +26,8 @@ Each vessel's coordination (:class:`CoordinationLog`) plots ``plots/coordination
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["CommsLog", "CoordinationLog", "LINK_WINDOW_S", "COUNT_PERIOD_S", "MAX_LINE_VESSELS"]
@@ -38,6 +40,9 @@ COUNT_PERIOD_S = 5.0
 MAX_LINE_VESSELS = 12
 _DELIVERED, _LOST = 113, 114
 _Z = 0.6
+# CoordinationLog's series (Recorder.vessel_scalar templates)
+_GAMMA, _SPREAD, _FACTOR = ("plots/coordination/{}/gamma_normalized", "plots/coordination/{}/spread_m",
+                            "plots/coordination/{}/speed_factor")
 
 
 class CommsLog:
@@ -55,6 +60,7 @@ class CommsLog:
         self._written: dict[str, tuple[float, int, int]] = {}  # receiver → (t, received, lost) last written
         self._styled = False
         self._counted: tuple[int, ...] = ()  # indices of the vessels whose counts are written
+        self._gathered: dict[tuple, tuple] = {}  # (delivered, lost) pairs → their indices and colours (_gathers)
 
     def _style(self, recorder) -> None:
         import rerun as rr
@@ -99,15 +105,28 @@ class CommsLog:
         if (delivered, lost) == self._shown and not ((delivered or lost) and t_s - self._shown_t >= LINK_WINDOW_S):
             return  # nothing new to draw (shown links are redrawn where the vessels are now every window)
         self._shown, self._shown_t = (delivered, lost), t_s
-        index, p = self._index, np.asarray(positions_xy, dtype=float)
+        p = np.asarray(positions_xy, dtype=float)
         # One gather per kind: the delivered lines (m, 2, 2) sender → receiver, the lost ones from
         # the sender to halfway (the same numbers as a line per pair).
-        ends = p[np.array([[index[a], index[b]] for a, b in delivered], dtype=np.intp).reshape(-1, 2)]
-        recorder.strips("world/comms/delivered", t_s, list(ends), z=_Z,
-                        colours=[(*recorder.colour(a), 160) for a, _ in delivered])
-        ends = p[np.array([[index[a], index[b]] for a, b in lost], dtype=np.intp).reshape(-1, 2)]
-        recorder.strips("world/comms/lost", t_s, list(np.stack([ends[:, 0], 0.5 * (ends[:, 0] + ends[:, 1])], axis=1)),
+        at_delivered, colours, at_lost = self._gathers(recorder, delivered, lost)
+        recorder.strips("world/comms/delivered", t_s, p[at_delivered], z=_Z, colours=colours)
+        ends = p[at_lost]
+        recorder.strips("world/comms/lost", t_s, np.stack([ends[:, 0], 0.5 * (ends[:, 0] + ends[:, 1])], axis=1),
                         z=_Z)
+
+    def _gathers(self, recorder, delivered: tuple, lost: tuple) -> tuple:
+        """The vessel indices (m, 2) of the delivered and lost pairs and the delivered lines'
+        colours (the sender's, alpha 160), made once per set of pairs (a team's few pairs recur)."""
+        got = self._gathered.get((delivered, lost))
+        if got is None:
+            index = self._index
+            if len(self._gathered) >= 256:  # (a team of 12 has 132 pairs: bounded all the same)
+                self._gathered.clear()
+            got = self._gathered[(delivered, lost)] = (
+                np.array([[index[a], index[b]] for a, b in delivered], dtype=np.intp).reshape(-1, 2),
+                [(*recorder.colour(a), 160) for a, _ in delivered],
+                np.array([[index[a], index[b]] for a, b in lost], dtype=np.intp).reshape(-1, 2))
+        return got
 
 
 class CoordinationLog:
@@ -122,22 +141,20 @@ class CoordinationLog:
 
     def log(self, recorder, t_s: float, vessel_name: str, team, xi: float, lead_m: float, spread_m: float,
             factor: float) -> None:
-        base = f"plots/coordination/{vessel_name}"
         if not self._styled:
             from mjasc.runs.recording import vessel_colour
 
             col = vessel_colour(team.index(vessel_name)) if vessel_name in team else None
-            recorder.vessel_series_style("plots/coordination/{}/gamma_normalized", vessel_name, f"{vessel_name} γ/L", col)
+            recorder.vessel_series_style(_GAMMA, vessel_name, f"{vessel_name} γ/L", col)
             if recorder.full:
-                recorder.series_style(f"{base}/error_m", f"{vessel_name} lead [m]", col)
-            recorder.vessel_series_style("plots/coordination/{}/spread_m", vessel_name,
-                                         f"{vessel_name} formation spread [m]", col)
-            recorder.vessel_series_style("plots/coordination/{}/speed_factor", vessel_name,
-                                         f"{vessel_name} speed factor", col)
+                recorder.series_style(f"plots/coordination/{vessel_name}/error_m", f"{vessel_name} lead [m]", col)
+            recorder.vessel_series_style(_SPREAD, vessel_name, f"{vessel_name} formation spread [m]", col)
+            recorder.vessel_series_style(_FACTOR, vessel_name, f"{vessel_name} speed factor", col)
             self._styled = True
-        if np.isfinite(xi):
-            recorder.vessel_scalar("plots/coordination/{}/gamma_normalized", vessel_name, t_s, xi)
+        scalar = recorder.vessel_scalar
+        if math.isfinite(xi):
+            scalar(_GAMMA, vessel_name, t_s, xi)
         if recorder.full:
-            recorder.scalar(f"{base}/error_m", t_s, lead_m)
-        recorder.vessel_scalar("plots/coordination/{}/spread_m", vessel_name, t_s, spread_m)
-        recorder.vessel_scalar("plots/coordination/{}/speed_factor", vessel_name, t_s, factor)
+            recorder.scalar(f"plots/coordination/{vessel_name}/error_m", t_s, lead_m)
+        scalar(_SPREAD, vessel_name, t_s, spread_m)
+        scalar(_FACTOR, vessel_name, t_s, factor)

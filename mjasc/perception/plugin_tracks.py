@@ -60,8 +60,9 @@ class TracksView:
         b = self.bank
         return np.arange(len(self._tracks)), b.track_ids, b.states, self.static, self.team_members
 
-    def confirmed_points(self) -> tuple:
-        """As :meth:`mjasc.perception.tracking.MultiTargetTracker.confirmed_points` (every track)."""
+    def confirmed_points(self, epoch=None) -> tuple:
+        """As :meth:`mjasc.perception.tracking.MultiTargetTracker.confirmed_points` (every track;
+        ``epoch`` changes nothing here: a plugin's tracks are one vessel's)."""
         return self.bank.track_ids, self.bank.positions, self.static, self.team_members
 
     def estimates(self, include_tentative: bool = False) -> list:

@@ -97,6 +97,11 @@ def _labels(vessel_name: str, ids, team, static) -> list[str]:
             for i, m, st in zip(ids, team, static)]
 
 
+def _as_list(values) -> list:
+    """A list of the values (a list as it is; an array's as Python numbers)."""
+    return values if type(values) is list else values.tolist()
+
+
 @functools.lru_cache(maxsize=64)
 def _track_style(colour: tuple) -> rr.Points3D:
     """The confirmed tracks' style in the vessel's colour (vessels share the palette's colours)."""
@@ -119,6 +124,7 @@ class PerceptionLog:
         self._last_label_log = -math.inf
         self._last_map_log = -math.inf
         self._logged_scan_t = -math.inf
+        self._seen_scan = None  # the latest scan log() looked at
         self._logged_update = -1
         self._logged_map_version = 0
         self._label_key: tuple | None = None  # what the latest logged labels say
@@ -170,9 +176,12 @@ class PerceptionLog:
             self._style(rec, base, vessel_name, vessel_colour(p.vessel_index), p.sensor_config)
         scan = p.scan
         # (a record tick without a new scan: no call; the scan's time read without filling in its
-        # other fields, which only a due drawing reads: scan_batch.scan_pose)
-        if scan is not None and (scan_t := scan_pose(scan)[0]) != self._logged_scan_t:
-            self._log_scan(rec, t_s, p, scan, scan_t, base, vessel_name, full)
+        # other fields, which only a due drawing reads: scan_batch.scan_pose; a scan seen before —
+        # scans are frozen, a new one a new object — was logged or had the time logged then)
+        if scan is not None and scan is not self._seen_scan:
+            self._seen_scan = scan
+            if (scan_t := scan_pose(scan)[0]) != self._logged_scan_t:
+                self._log_scan(rec, t_s, p, scan, scan_t, base, vessel_name, full)
         update = p._stats["track_updates"]
         if full or update != self._logged_update:
             self._logged_update = update
@@ -216,8 +225,8 @@ class PerceptionLog:
     def _log_tracks(self, rec, t_s, p, base, vessel_name, full) -> None:
         tr = p.tracker
         if not full:  # labels only when they change (the strings are built only then)
-            ids, xy, static, team = tr.confirmed_points()  # (the vessel's confirmed rows only)
-            key = (ids.tobytes(), static.tobytes(), tuple(team))
+            ids, xy, static, team = tr.confirmed_points(t_s)  # (the fleet's read once per record tick)
+            key = (_as_list(ids), _as_list(static), team)  # (arrays or lists: the same key)
             labels = None
             if key != self._label_key:
                 self._label_key = key

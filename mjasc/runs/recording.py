@@ -185,10 +185,15 @@ class Recorder(VesselSeries):
         self._count(1)
 
     def strips(self, entity: str, t_s: float, strips_xy: list[np.ndarray], z: float = 0.0, colours=None) -> None:
-        """A row of line strips (each (m, 2) world xy [m]) at height z; ``colours`` one RGB(A) per strip."""
+        """A row of line strips (each (m, 2) world xy [m], or an array (k, m, 2) of k strips) at height
+        z; ``colours`` one RGB(A) per strip."""
         times, rows, colour_rows = self._strips[(entity, z)]
         times.append(t_s)
-        rows.append([np.asarray(s, dtype=np.float64).reshape(-1, 2) for s in strips_xy])
+        if type(strips_xy) is np.ndarray and strips_xy.ndim == 3 and strips_xy.dtype == np.float64 and \
+                strips_xy.shape[2] == 2:  # (k, m, 2): its rows as they are (what the conversion would give)
+            rows.append(list(strips_xy))
+        else:
+            rows.append([np.asarray(s, dtype=np.float64).reshape(-1, 2) for s in strips_xy])
         colour_rows.append(None if colours is None else [rgba(c) for c in colours])
         self._count(1)
 
@@ -266,28 +271,39 @@ class Recorder(VesselSeries):
                  .partition([len(o) for o in origins]))
         for (kind, entities, z), (times, rows) in self._fleet.items():
             t = np.asarray(times, dtype=np.float64)
+            index = [time_column(t)]  # (the group's entities share their times: one column for all)
             if kind == "strips":  # the strips of a row have the same length; rows may differ
                 ones = np.ones(len(t), dtype=np.int32)
                 if len({r.shape for r in rows}) == 1:  # every row alike (hulls): one stack, (n, T, m, 2)
                     for entity, d in zip(entities, stack_rows(rows)):
-                        send(entity, indexes=[time_column(t)], columns=[strip_column(d, z, ones)])
+                        send(entity, indexes=index, columns=[strip_column(d, z, ones)])
                     continue
                 for j, entity in enumerate(entities):
-                    send(entity, indexes=[time_column(t)], columns=[strip_column([r[j] for r in rows], z, ones)])
+                    send(entity, indexes=index, columns=[strip_column([r[j] for r in rows], z, ones)])
                 continue
             data = stack_rows(rows)  # (n, T, ...)
+            if kind == "scalar":
+                self._send_scalars(send, entities, t, index, data)
+                continue
             for entity, d in zip(entities, data):
-                if kind == "scalar":
-                    ok = np.isfinite(d)
-                    if ok.any():
-                        send(entity, indexes=[time_column(t[ok])], columns=[scalar_column(d[ok])])
-                else:
-                    send(entity, indexes=[time_column(t)], columns=[points_column(xyz_at(d, z), 1)])
+                send(entity, indexes=index, columns=[points_column(xyz_at(d, z), 1)])
         self._write_batches()
         for buffer in (self._scalars, self._own_buffers, self._texts, self._states, self._documents, self._points,
                        self._strips, self._arrows, self._fleet):
             buffer.clear()
         self._pending = 0
+
+    @staticmethod
+    def _send_scalars(send, entities: tuple, t: np.ndarray, index: list, data: np.ndarray) -> None:
+        """A fleet group's scalar rows (data (n, T), times t (T,) [s], their column ``index``), an
+        entity each; a non-finite value is left out of its entity's series."""
+        finite = np.isfinite(data)
+        every = finite.all(axis=1).tolist()
+        for j, entity in enumerate(entities):
+            if every[j]:  # (no value left out: the group's times)
+                send(entity, indexes=index, columns=[scalar_column(data[j])])
+            elif (ok := finite[j]).any():
+                send(entity, indexes=[time_column(t[ok])], columns=[scalar_column(data[j][ok])])
 
     def _draws(self, entity: str, anything: bool) -> bool:
         """Are the buffered point or strip rows of ``entity`` to be written? Not when every one

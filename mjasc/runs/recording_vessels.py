@@ -41,6 +41,7 @@ class VesselSeries:
         self._own_entities: dict[tuple[str, str], str] = {}  # (template, vessel) → entity (vessel_scalar)
         # (template, vessel) → its entity's buffered (times, values) in _scalars (vessel_scalar; until flush)
         self._own_buffers: dict[tuple[str, str], tuple[list, list]] = {}
+        self._table_keys: dict[int, tuple] = {}  # id(series) → (series, its fleet-row keys) (vessel_scalar_table)
 
     def set_vessels(self, names: tuple[str, ...], view_vessels) -> None:
         """The run's vessels and those with per-vessel views (:attr:`view_vessels`). At standard
@@ -124,8 +125,15 @@ class VesselSeries:
             for (template, entities), row in zip(series, table):
                 self.vessel_scalars(template, entities, t_s, row)
             return
-        for (_, entities), row in zip(series, table):
-            self._fleet_row(("scalar", entities, 0.0), t_s, row)
+        keys = self._table_keys.get(id(series))
+        if keys is None or keys[0] is not series:  # (each series' fleet_scalars buffer key, made once)
+            keys = self._table_keys[id(series)] = (series, [("scalar", entities, 0.0) for _, entities in series])
+        fleet, count = self._fleet, self._count
+        for key, row in zip(keys[1], table):  # (= _fleet_row of each row, in order)
+            times, rows = fleet[key]
+            times.append(t_s)
+            rows.append(row)
+            count(len(key[1]))
 
     def vessel_points(self, template: str, entities: tuple[str, ...], t_s: float, positions_xy, z: float = 0.0) -> None:
         """:meth:`fleet_points` of every vessel (positions (n, 2) in vessel order, ``entities`` from

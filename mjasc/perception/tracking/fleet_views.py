@@ -7,10 +7,12 @@ made at once on the first read after a step: :mod:`mjasc.perception.tracking.rep
 :class:`~mjasc.core.estimates.TrackEstimate` s, a track's outline; for the fleet, every vessel's
 moving confirmed tracks at once.
 
-The mixin has no state of its own; it reads the tracker's ``bank``, ``cols``
+The mixin reads the tracker's ``bank``, ``cols``
 (:class:`~mjasc.perception.tracking.track_columns.TrackColumns`), ``outlines``, ``team``, ``config``,
 ``version``, ``_max_range``, ``_counts``, ``_last_assign``, ``_rows_cache``, ``_sizes`` and
-``_reports``, set by ``FleetTracker.__init__``.
+``_reports``, set by ``FleetTracker.__init__``; its own state is two read caches of the recording's
+track read (``_report_read``: the reports' columns, ``_points_read``: the latest fleet-wide gather,
+:meth:`FleetViews.confirmed_points_of`), set on first use.
 """
 
 from __future__ import annotations
@@ -22,6 +24,7 @@ import numpy as np
 
 from mjasc.core.estimates import TrackEstimate, TrackRows, track_estimate_rows
 from mjasc.perception.tracking.report_fields import report_columns, report_columns_numpy, report_estimates
+from mjasc.perception.tracking.step_kernels import confirmed_by_owner
 
 __all__ = ["FleetViews", "TrackEvent", "COUNT_KEYS"]
 
@@ -85,6 +88,44 @@ class FleetViews:
         rows = (c.confirmed & ~c.static).nonzero()[0]
         return c.owner[rows], c.local_id[rows], self.bank.positions_of(rows)
 
+    def confirmed_points_of(self, owner: int, epoch=None) -> tuple:
+        """A vessel's confirmed tracks as the recording draws them at standard detail, in bank
+        order: ids (k,), positions (k, 2) [m], static flags (k,) and team mates (k names or None)
+        — ``MultiTargetTracker.confirmed_points``; ids and flags as lists when read from the
+        reports. Read from the columns of :meth:`report_rows` when the reports of the latest step
+        are made (a control tick asked for them: the same numbers, nothing gathered again), else
+        gathered: with an ``epoch`` (the recording's tick time [s]) every vessel's at once on the
+        first call of that epoch, the others slices of that read (the caller promises that the
+        tracker did not step between two calls of one epoch: a record tick reads every vessel in
+        one slot; a step that added or dropped rows is noticed anyway)."""
+        made = self._reports
+        if made is not None:
+            got = self.__dict__.get("_report_read")
+            if got is not None and got[0] is made:
+                return self._report_points(got[1], owner)
+        if epoch is None:
+            return self._confirmed_points_read()[owner]
+        got = self.__dict__.get("_points_read")
+        if got is None or got[0] != epoch or got[1] != self.version:
+            got = self._points_read = (epoch, self.version, self._confirmed_points_read())
+        return got[2][owner]
+
+    @staticmethod
+    def _report_points(columns: tuple, owner: int) -> tuple:
+        """:meth:`confirmed_points_of` from the report's columns (``report_columns``)."""
+        if len(columns) == 1 or owner not in columns[0]:
+            return [], np.zeros((0, 2)), [], []
+        a, b = columns[0][owner]
+        return columns[2][a:b], columns[4][a:b], columns[11][a:b], columns[12][a:b]
+
+    def _confirmed_points_read(self) -> list:
+        """Every vessel's (ids, positions, static, team) of :meth:`confirmed_points_of`, one gather."""
+        c, no = self.cols, self._max_range.size
+        rows, first = confirmed_by_owner(c.confirmed, c.owner, no)
+        ids, xy, static, team = c.local_id[rows], self.bank.positions_of(rows), c.static[rows], c.team[rows].tolist()
+        f = first.tolist()
+        return [(ids[a:b], xy[a:b], static[a:b], team[a:b]) for a, b in zip(f, f[1:])]
+
     def counts(self, owner: int) -> dict:
         return dict(zip(COUNT_KEYS, self._counts[owner].tolist()))
 
@@ -112,7 +153,9 @@ class FleetViews:
         call, :meth:`_report_columns`, :meth:`_report_estimates`); the same value until the next step."""
         made = self._reports
         if made is None:
-            made = self._reports = self._report_estimates(self._report_columns())
+            columns = self._report_columns()
+            made = self._reports = self._report_estimates(columns)
+            self._report_read = (made, columns)  # (what confirmed_points_of reads while these reports hold)
         return made[owner] if owner in made else _NO_ROWS
 
     # the report's columns and rows (mjasc.perception.tracking.report_fields), bound as methods

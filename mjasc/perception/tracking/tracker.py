@@ -161,14 +161,13 @@ class MultiTargetTracker:
         conf, rows = np.flatnonzero(ok), rows[ok]
         return conf, f.cols.local_id[rows], f.bank.states_of(rows), f.cols.static[rows], f.team.members(rows)
 
-    def confirmed_points(self) -> tuple:
+    def confirmed_points(self, epoch=None) -> tuple:
         """The confirmed tracks as the recording draws them at standard detail: ids (k,), positions
         (k, 2) [m], static flags (k,) and team mates (list of k names or None) — the numbers of
-        :meth:`confirmed_fields` without the row indices and the headings (no angle wrap)."""
-        f = self.fleet
-        rows = self._rows()
-        rows = rows[f.mgmt._confirmed[rows]]
-        return f.local_id[rows], f.bank.positions_of(rows), f.mgmt._static[rows], f.team.members(rows)
+        :meth:`confirmed_fields` without the row indices and the headings (no angle wrap). With an
+        ``epoch`` (the record tick's time [s]) the fleet's vessels are read at once, once per epoch
+        (:meth:`~mjasc.perception.tracking.fleet_views.FleetViews.confirmed_points_of`)."""
+        return self.fleet.confirmed_points_of(self.owner, epoch)
 
     def moving_positions(self) -> tuple[np.ndarray, np.ndarray]:
         """The confirmed tracks that are not static, as :meth:`estimates` hands them on (bank
