@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import mjasc.physics.simulation as simulation
-from mjasc.physics.contact_gate import SLACK_M, ContactGate, contacts_possible
+from mjasc.physics.contact_gate import ContactGate, contacts_possible
 from mjasc.runs.runner import Runner
 from mjasc.runs.scenario import load_scenario
 
@@ -117,7 +117,7 @@ def test_a_closed_gate_means_no_contact_at_random_placements():
     the gate says no two can touch (even with no slack) MuJoCo's collision finds nothing; and it
     does not say "may touch" everywhere."""
     sim = _demo_into_contact()
-    m, d, gate = sim.model, sim.data, sim.contact_gate
+    m, d, gate = sim.model, sim.data, ContactGate(sim.model, slack_m=0.0)
     rng = np.random.default_rng(5)
     anchors = np.array([[75.0, 26.0], [55.0, 33.0], [130.0, -28.0], [105.0, 70.0], [90.0, 0.0]])
     closed = 0
@@ -126,7 +126,7 @@ def test_a_closed_gate_means_no_contact_at_random_placements():
         d.qpos[sim.world.qpos_adr[:, :2]] = centre + rng.uniform(-7.0, 7.0, (sim.n_vessels, 2))
         d.qpos[sim.world.qpos_adr[:, 2]] = rng.uniform(-np.pi, np.pi, sim.n_vessels)
         d.mocap_pos[sim.world.mocap_id, :2] = [105.0, 70.0] + rng.uniform(-8.0, 8.0, 2)
-        possible = contacts_possible(d.qpos, d.mocap_pos, gate.movers, gate.statics, gate.pairs, 0.0)
+        possible = contacts_possible(d.qpos, d.mocap_pos, gate.table, gate.pairs)
         mujoco.mj_forward(m, d)
         if not possible:
             closed += 1
@@ -143,8 +143,8 @@ def test_the_gates_origins_are_mujocos_body_positions():
         d.qpos[:] = rng.uniform(-200.0, 200.0, m.nq)
         d.mocap_pos[:] = rng.uniform(-200.0, 200.0, (m.nmocap, 3))
         mujoco.mj_kinematics(m, d)
-        contacts_possible(d.qpos, d.mocap_pos, gate.movers, gate.statics, gate.pairs, SLACK_M)
-        assert np.abs(gate.movers[:, 22:25] - d.xpos[welds]).max() < 1e-9
+        contacts_possible(d.qpos, d.mocap_pos, gate.table, gate.pairs)
+        assert np.abs(gate.table[:gate.n_moving, 22:25] - d.xpos[welds]).max() < 1e-9
 
 
 def test_mujoco_does_not_collide_bodies_that_cannot_move():

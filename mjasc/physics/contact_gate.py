@@ -51,40 +51,43 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["ContactGate", "contacts_possible", "SLACK_M", "MOVER_COLUMNS", "STATIC_COLUMNS"]
+__all__ = ["ContactGate", "contacts_possible", "SLACK_M", "TABLE_COLUMNS", "STATIC"]
 
 #: Extra distance [m] added to every pair's bound: the positions are the step's own, exactly (module
 #: docstring), so this covers rounding only (~1e-12 m), with room to spare.
 SLACK_M = 0.5
 
-#: The columns of a moving group's row (:attr:`ContactGate.movers`): kind 0 a jointed body (origin
-#: from qpos), 1 a mocap body (origin = mocap_pos[mocap]); the origin at qpos0; the bounding radius
-#: [m]; up to three slide joints (qpos address, qpos0, world axis); the origin as last computed.
-MOVER_COLUMNS = ("kind", "mocap", "x0", "y0", "z0", "radius", "slides",
+#: The kind (column 0) of a static geom's row of :attr:`ContactGate.table`; 0 is a jointed body, 1 a
+#: mocap body.
+STATIC = 2.0
+
+#: The columns of a moving group's row of :attr:`ContactGate.table`: kind 0 a jointed body (origin
+#: from qpos) or 1 a mocap body (origin = mocap_pos[mocap]); the origin at qpos0 [m]; the bounding
+#: radius [m] (half the slack included); up to three slide joints (qpos address, qpos0, world
+#: axis); the origin as last computed [m]. A static geom's row (kind :data:`STATIC`) holds instead
+#: its box: centre [m] (world), axes (the rows of geom_xmat: world from box frame, row-major) and
+#: half extents [m] (margin and half the slack included), in columns 1–15.
+TABLE_COLUMNS = ("kind", "mocap", "x0", "y0", "z0", "radius", "slides",
                  *(f"{c}{k}" for k in range(3) for c in ("adr", "q0_", "ax", "ay", "az")), "x", "y", "z")
-#: The columns of a static geom's row (:attr:`ContactGate.statics`): the box centre [m] (world), its
-#: axes (the rows of geom_xmat: world from box frame, row-major) and half extents [m] (margin included).
-STATIC_COLUMNS = ("cx", "cy", "cz", *(f"r{i}{j}" for i in range(3) for j in range(3)), "hx", "hy", "hz")
 
 _SLIDE = int(mujoco.mjtJoint.mjJNT_SLIDE)
 _ROTATIONS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_BALL))
 
 
 class ContactGate:
-    """The gate's tables for one compiled model (module docstring): ``movers`` (K, 25)
-    (:data:`MOVER_COLUMNS`), ``statics`` (S, 15) (:data:`STATIC_COLUMNS`) and ``pairs`` (P, 2) int64:
-    (a, b) a moving group a and a moving group b < K, or static geom b − K. ``usable`` False (and
-    ``reason``) when something cannot be bounded: the gate then stays open. The tables are the
-    model's as given: a model whose geoms, margins or contact options change afterwards needs a new
-    gate."""
+    """The gate's tables for one compiled model (module docstring): ``table`` (K + S, 25)
+    (:data:`TABLE_COLUMNS`: the K moving groups' rows, then the S static geoms') and ``pairs``
+    (P, 2) int64, rows of the table that may touch (a moving group first). The slack [m] is
+    in the radii and half extents (half each). ``usable`` False (and ``reason``) when something
+    cannot be bounded: the gate then stays open, with no pairs. The tables are the model's as
+    given: a model whose geoms, margins or contact options change afterwards needs a new gate."""
 
-    def __init__(self, model):
+    def __init__(self, model, slack_m: float = SLACK_M):
         self.reason: str | None = None
-        self.movers = np.zeros((0, len(MOVER_COLUMNS)))
-        self.statics = np.zeros((0, len(STATIC_COLUMNS)))
+        self.table = np.zeros((0, len(TABLE_COLUMNS)))
         self.pairs = np.zeros((0, 2), dtype=np.int64)
         try:
-            self._build(model)  # (sets the tables at its end only)
+            self._build(model, 0.5 * slack_m)  # (sets the tables at its end only)
         except _Unbounded as why:
             self.reason = str(why)
 
@@ -92,7 +95,12 @@ class ContactGate:
     def usable(self) -> bool:
         return self.reason is None
 
-    def _build(self, m) -> None:
+    @property
+    def n_moving(self) -> int:
+        """K: the table's first K rows are the moving groups."""
+        return int(np.count_nonzero(self.table[:, 0] != STATIC))
+
+    def _build(self, m, half_slack: float) -> None:
         if m.npair:
             raise _Unbounded("explicit <pair> elements")
         if m.nflex:
@@ -103,14 +111,12 @@ class ContactGate:
         mujoco.mj_kinematics(m, scratch)
         collidable = (m.geom_contype | m.geom_conaffinity) != 0
         weld = m.body_weldid[m.geom_bodyid]
-        groups = sorted({int(w) for w in weld[collidable] if w != 0})
-        movers, bits = [], []
-        for w in groups:
+        rows, bits = [], []  # bits: (OR of contype, OR of conaffinity, has dofs) per row
+        for w in sorted({int(w) for w in weld[collidable] if w != 0}):
             geoms = collidable & (weld == w)
-            movers.append(self._mover(m, scratch, w, np.flatnonzero(geoms)))
+            rows.append(self._mover(m, scratch, w, np.flatnonzero(geoms), half_slack))
             bits.append((int(np.bitwise_or.reduce(m.geom_contype[geoms])),
                          int(np.bitwise_or.reduce(m.geom_conaffinity[geoms])), int(m.body_dofnum[w]) > 0))
-        statics, static_bits = [], []
         for g in np.flatnonzero(collidable & (weld == 0)):
             ct, ca = int(m.geom_contype[g]), int(m.geom_conaffinity[g])
             if not any(dof and (ct & a or t & ca) for t, a, dof in bits):
@@ -119,23 +125,18 @@ class ContactGate:
                 raise _Unbounded(f"static geom {g} has no bounding radius (a plane?)")
             rot = scratch.geom_xmat[g].reshape(3, 3)
             centre = scratch.geom_xpos[g] + rot @ m.geom_aabb[g, :3]
-            statics.append([*centre, *rot.ravel(), *(m.geom_aabb[g, 3:] + m.geom_margin[g])])
-            static_bits.append((ct, ca))
-        pairs = []
-        for a, (ta, ca_, da) in enumerate(bits):
-            for b in range(a + 1, len(bits)):
-                tb, cb, db = bits[b]
-                if (da or db) and (ta & cb or tb & ca_):
-                    pairs.append((a, b))
-            if da:
-                pairs.extend((a, len(bits) + s) for s, (t, c) in enumerate(static_bits) if ta & c or t & ca_)
-        self.movers = np.array(movers, dtype=float).reshape(-1, len(MOVER_COLUMNS))
-        self.statics = np.array(statics, dtype=float).reshape(-1, len(STATIC_COLUMNS))
+            row = [0.0] * len(TABLE_COLUMNS)
+            row[:16] = [STATIC, *centre, *rot.ravel(), *(m.geom_aabb[g, 3:] + m.geom_margin[g] + half_slack)]
+            rows.append(row)
+            bits.append((ct, ca, False))
+        pairs = [(a, b) for a in range(len(bits)) for b in range(a + 1, len(bits))
+                 if (bits[a][2] or bits[b][2]) and (bits[a][0] & bits[b][1] or bits[b][0] & bits[a][1])]
+        self.table = np.array(rows, dtype=float).reshape(-1, len(TABLE_COLUMNS))
         self.pairs = np.array(pairs, dtype=np.int64).reshape(-1, 2)
 
     @staticmethod
-    def _mover(m, scratch, w: int, geoms) -> list:
-        """Moving weld group ``w``'s row (:data:`MOVER_COLUMNS`) from the kinematics at qpos0."""
+    def _mover(m, scratch, w: int, geoms, half_slack: float) -> list:
+        """Moving weld group ``w``'s row (:data:`TABLE_COLUMNS`) from the kinematics at qpos0."""
         origin = scratch.xpos[w]
         radius = 0.0
         for g in geoms:
@@ -143,8 +144,8 @@ class ContactGate:
                 raise _Unbounded(f"moving geom {g} has no bounding radius")
             radius = max(radius, float(np.linalg.norm(scratch.geom_xpos[g] - origin)) + m.geom_rbound[g]
                          + m.geom_margin[g])
-        row = [0.0] * len(MOVER_COLUMNS)
-        row[2:6] = [*origin, radius]
+        row = [0.0] * len(TABLE_COLUMNS)
+        row[2:6] = [*origin, radius + half_slack]
         parent = int(m.body_parentid[w])
         if m.body_mocapid[w] >= 0:
             row[0], row[1] = 1.0, float(m.body_mocapid[w])
@@ -176,14 +177,16 @@ class _Unbounded(Exception):
 
 
 @kernel
-def contacts_possible(qpos, mocap_pos, movers, statics, pairs, slack):
-    """Whether some candidate pair of :class:`ContactGate`'s tables may be within contact distance
-    (+ ``slack`` [m]) with the bodies at ``qpos`` and ``mocap_pos`` (MjData's arrays, whole): each
-    moving group's origin is written into its row's last three columns, then each pair is tested,
-    sphere against sphere or sphere against a static box; True at the first that may touch (a NaN
-    position may touch). With no pairs: False."""
-    for k in range(movers.shape[0]):
-        row = movers[k]
+def contacts_possible(qpos, mocap_pos, table, pairs):
+    """Whether some pair of :class:`ContactGate`'s rows may be within contact distance (slack
+    included) with the bodies at ``qpos`` and ``mocap_pos`` (MjData's arrays, whole): each moving
+    group's origin is written into its row's last three columns, then each pair is tested, sphere
+    against sphere or sphere against a static box; True at the first that may touch (a NaN position
+    may touch). With no pairs: False."""
+    for k in range(table.shape[0]):
+        row = table[k]
+        if row[0] == STATIC:
+            break  # (the static geoms' rows follow the moving groups')
         if row[0] == 1.0:
             mk = int(row[1])
             row[22], row[23], row[24] = mocap_pos[mk, 0], mocap_pos[mk, 1], mocap_pos[mk, 2]
@@ -196,25 +199,20 @@ def contacts_possible(qpos, mocap_pos, movers, statics, pairs, slack):
                 y += row[c + 3] * dq
                 z += row[c + 4] * dq
             row[22], row[23], row[24] = x, y, z
-    n_movers = movers.shape[0]
     for p in range(pairs.shape[0]):
-        a = movers[pairs[p, 0]]
-        b = pairs[p, 1]
-        if b < n_movers:
-            o = movers[b]
+        a, o = table[pairs[p, 0]], table[pairs[p, 1]]
+        if o[0] != STATIC:
             dx, dy, dz = a[22] - o[22], a[23] - o[23], a[24] - o[24]
-            reach = a[5] + o[5] + slack
+            reach = a[5] + o[5]
             if not dx * dx + dy * dy + dz * dz > reach * reach:
                 return True
         else:
-            box = statics[b - n_movers]
-            dx, dy, dz = a[22] - box[0], a[23] - box[1], a[24] - box[2]
+            dx, dy, dz = a[22] - o[1], a[23] - o[2], a[24] - o[3]
             gap2 = 0.0
             for i in range(3):  # (the offset along the box's axis i, beyond its half extent)
-                u = abs(box[3 + i] * dx + box[6 + i] * dy + box[9 + i] * dz) - box[12 + i]
+                u = abs(o[4 + i] * dx + o[7 + i] * dy + o[10 + i] * dz) - o[13 + i]
                 if u > 0.0:
                     gap2 += u * u
-            reach = a[5] + slack
-            if not gap2 > reach * reach:
+            if not gap2 > a[5] * a[5]:
                 return True
     return False

@@ -29,7 +29,7 @@ import math
 import mujoco
 import numpy as np
 
-from mjasc.physics.contact_gate import SLACK_M, ContactGate
+from mjasc.physics.contact_gate import ContactGate
 from mjasc.physics.currents import CurrentField, UniformCurrent
 from mjasc.physics.divergence import DivergenceBounds, DivergenceMonitor, PhysicsDivergence
 from mjasc.physics.hydro_kernels import rotate_to_world
@@ -325,18 +325,18 @@ class Simulation:
             opt, gate = self._opt, self.contact_gate
             flags = opt.disableflags
             gating = self.contact_gating and gate.usable and not flags & _NO_COLLISION
-            movers, statics, pairs = gate.movers, gate.statics, gate.pairs if gating else _NO_PAIRS
+            bounds, pairs = gate.table, gate.pairs if gating else _NO_PAIRS
             closed, closed_flags = False, flags | _DSBL_CONTACT
             try:
                 for k in range(n_steps):
                     ready = prepare(checking and k > 0, qpos, qvel, qacc, act, v2, a2, d.time, table, samples,
-                                    mocap_pos, mocap_quat, vc, cf_x, feats, rot, movers, statics, pairs, SLACK_M)
+                                    mocap_pos, mocap_quat, vc, cf_x, feats, rot, bounds, pairs)
                     if not ready:
                         what = self._exact_check(monitor)  # (None: the bounds hold after all)
                         if what is not None:
                             return k - 1, what
                         ready = prepare(False, qpos, qvel, qacc, act, v2, a2, d.time, table, samples, mocap_pos,
-                                        mocap_quat, vc, cf_x, feats, rot, movers, statics, pairs, SLACK_M)
+                                        mocap_quat, vc, cf_x, feats, rot, bounds, pairs)
                     if gating and (ready == 1) is not closed:
                         closed = ready == 1
                         opt.disableflags = closed_flags if closed else flags

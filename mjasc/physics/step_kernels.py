@@ -132,7 +132,7 @@ def traffic_state_at(t, table, samples):
 
 @kernel
 def prepare_step(check, qpos, qvel, qacc, act, fast_speed2, fast_acc2, t, table, samples, mocap_pos, mocap_quat,
-                 current, cf_x, F, rot, gate_movers, gate_statics, gate_pairs, gate_slack):
+                 current, cf_x, F, rot, gate_table, gate_pairs):
     """One physics step's work before ``mj_step1`` (module docstring), for N vessels owning qpos,
     qvel [3i, 3i + 3) and act [2i, 2i + 2) (MjData's arrays, whole): with ``check``, first the
     fast divergence test of the step just taken, Σ q̇² ≤ fast_speed2 and Σ q̈² ≤ fast_acc2 — 0
@@ -148,7 +148,7 @@ def prepare_step(check, qpos, qvel, qacc, act, fast_speed2, fast_acc2, t, table,
     n = F.shape[0]
     hydro_features(qpos[:3 * n].reshape((n, 3)), qvel[:3 * n].reshape((n, 3)), act[:2 * n].reshape((n, 2)),
                    current, current, False, cf_x, F, rot)
-    return 2 if contacts_possible(qpos, mocap_pos, gate_movers, gate_statics, gate_pairs, gate_slack) else 1
+    return 2 if contacts_possible(qpos, mocap_pos, gate_table, gate_pairs) else 1
 
 
 @kernel
