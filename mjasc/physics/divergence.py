@@ -36,7 +36,20 @@ import numpy as np
 
 from mjasc.core.config_tables import check_params, param
 
-__all__ = ["DivergenceBounds", "DivergenceMonitor"]
+__all__ = ["DivergenceBounds", "DivergenceMonitor", "PhysicsDivergence"]
+
+
+class PhysicsDivergence(RuntimeError):
+    """The physics diverged: a vessel's velocity or acceleration non-finite or beyond its type's
+    bounds (:class:`DivergenceMonitor`), or a MuJoCo warning; the message says when, which
+    vessel and which quantity. ``last_good_state`` is the full MuJoCo integration state
+    (``mj_getState``, :data:`mjasc.physics.simulation.STATE_SPEC`) at the end of the last step that
+    passed the checks (raised by :meth:`mjasc.physics.simulation.Simulation.step`)."""
+
+    def __init__(self, message: str, last_good_state: np.ndarray | None = None, last_good_time_s: float | None = None):
+        super().__init__(message)
+        self.last_good_state = last_good_state
+        self.last_good_time_s = last_good_time_s
 
 
 @dataclass(frozen=True)

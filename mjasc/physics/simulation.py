@@ -17,19 +17,21 @@ case (vessels' dofs first in MjData, a uniform steady current) the force is comp
 (:mod:`mjasc.physics.step_kernels`: the previous step's divergence test, the mocap poses, the
 force's features), numpy's product τ = F·G, the rotation into ``qfrc_applied``, then MuJoCo's
 ``mj_step`` (with the Euler integrator the stages of ``mj_step1`` then ``mj_step2`` in one call;
-tests/test_step_kernels.py checks the bits, contacts included).
+tests/test_step_kernels.py checks the bits, contacts included). The same compiled call tests
+whether two bodies can touch at the step's positions; while none can, the step runs without
+MuJoCo's collision detection (:mod:`mjasc.physics.contact_gate`, ``contact_gating``: the same bits).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
+from mjasc.physics.contact_gate import ContactGate
 from mjasc.physics.currents import CurrentField, UniformCurrent
-from mjasc.physics.divergence import DivergenceBounds, DivergenceMonitor
+from mjasc.physics.divergence import DivergenceBounds, DivergenceMonitor, PhysicsDivergence
 from mjasc.physics.hydro_kernels import rotate_to_world
 from mjasc.physics.hydrodynamics import Hydrodynamics, rigid_body_mass_matrix
 from mjasc.physics.obstacles import MovingObstacleSet
@@ -37,61 +39,19 @@ from mjasc.physics.state_kernels import vessel_states
 from mjasc.physics.step_kernels import (any_nonzero, fast_bounds_ok, prepare_step, traffic_state_at, traffic_table,
                                         write_commands)
 from mjasc.physics.thrusters import Thrusters
+from mjasc.physics.vessel_states import VesselStates
 from mjasc.physics.world import World
 
 __all__ = ["Simulation", "VesselStates", "PhysicsDivergence", "STATE_SPEC"]
 
-
-class PhysicsDivergence(RuntimeError):
-    """The physics diverged: a vessel's velocity or acceleration non-finite or beyond its type's
-    bounds (:mod:`mjasc.physics.divergence`), or a MuJoCo warning; the message says when, which
-    vessel and which quantity. ``last_good_state`` is the full MuJoCo integration state
-    (``mj_getState``, :data:`STATE_SPEC`) at the end of the last step that passed the checks."""
-
-    def __init__(self, message: str, last_good_state: np.ndarray | None = None, last_good_time_s: float | None = None):
-        super().__init__(message)
-        self.last_good_state = last_good_state
-        self.last_good_time_s = last_good_time_s
+_DSBL_CONTACT = int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
+_NO_COLLISION = _DSBL_CONTACT | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)  # (either: no collision to skip)
+_NO_PAIRS = np.zeros((0, 2), dtype=np.int64)  # (the gate's pairs when it is not used: the test answers 1)
 
 
 STATE_SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
 """What a saved state holds: everything MuJoCo integrates (time, qpos, qvel, act, warm start,
 controls, applied forces, mocap poses): ``mj_setState`` of it makes the next steps identical."""
-
-
-@dataclass(frozen=True)
-class VesselStates:
-    """True states of all vessels at ``time_s`` (world ENU / body FLU, SI). Arrays are copies.
-
-    position_m (N, 2); heading_rad (N,); velocity_m_s (N, 2) world-frame velocity of CO;
-    body_velocity (N, 3) = (u, v, r); current_m_s (N, 2) water velocity at each vessel (world);
-    shaft_speed (N, 2) normalized port/starboard shaft speeds; thrust_n (N, 2).
-    """
-
-    time_s: float
-    position_m: np.ndarray
-    heading_rad: np.ndarray
-    velocity_m_s: np.ndarray
-    body_velocity: np.ndarray
-    current_m_s: np.ndarray
-    shaft_speed: np.ndarray
-    thrust_n: np.ndarray
-
-    @property
-    def speed_m_s(self) -> np.ndarray:
-        """Speed over ground [m/s]."""
-        return np.hypot(self.velocity_m_s[:, 0], self.velocity_m_s[:, 1])
-
-    @property
-    def relative_body_velocity(self) -> np.ndarray:
-        """(u_r, v_r, r): body velocity relative to the water."""
-        c, s = np.cos(self.heading_rad), np.sin(self.heading_rad)
-        uc = c * self.current_m_s[:, 0] + s * self.current_m_s[:, 1]
-        vc = -s * self.current_m_s[:, 0] + c * self.current_m_s[:, 1]
-        out = self.body_velocity.copy()
-        out[:, 0] -= uc
-        out[:, 1] -= vc
-        return out
 
 
 def _rigid_body_mass(model, body_id: int) -> np.ndarray:
@@ -166,6 +126,11 @@ class Simulation:
         # With the Euler integrator (the water scene's), mj_step runs mj_step1's stages then
         # mj_step2's, in their order: the common case's step calls it once (RK4 would differ)
         self._euler = self.model.opt.integrator == int(mujoco.mjtIntegrator.mjINT_EULER)
+        #: The common case's steps skip MuJoCo's collision detection while no two bodies can touch
+        #: (:mod:`mjasc.physics.contact_gate`: the same bits); False runs it every step.
+        self.contact_gating = True
+        self.contact_gate = ContactGate(self.model)
+        self._opt = self.model.opt  # (MjOption, a reference into the model: its flags are toggled per step)
 
     # ------------------------------------------------------------------ state access
     @property
@@ -354,21 +319,37 @@ class Simulation:
             whole = mujoco.mj_step if self._euler else None  # (Euler: mj_step is mj_step1 then mj_step2)
             checking = monitor is not None
             v2, a2 = (monitor.fast_speed2, monitor.fast_acc2) if checking else (math.inf, math.inf)
-            for k in range(n_steps):
-                if not prepare(checking and k > 0, qpos, qvel, qacc, act, v2, a2, d.time, table, samples,
-                               mocap_pos, mocap_quat, vc, cf_x, feats, rot):
-                    what = self._exact_check(monitor)  # (None: the bounds hold after all)
-                    if what is not None:
-                        return k - 1, what
-                    prepare(False, qpos, qvel, qacc, act, v2, a2, d.time, table, samples, mocap_pos, mocap_quat,
-                            vc, cf_x, feats, rot)
-                matmul(f_row, g, tau)
-                rotate(tau, rot, out)
-                if whole is not None:
-                    whole(m, d)
-                else:
-                    step1(m, d)
-                    step2(m, d)
+            # The contact gate: prepare_step answers 1 when no two bodies can touch at the step's
+            # positions, then the step runs with contacts disabled; the model's flags are restored
+            # after the block (whoever runs MuJoCo between blocks sees them as they were).
+            opt, gate = self._opt, self.contact_gate
+            flags = opt.disableflags
+            gating = self.contact_gating and gate.usable and not flags & _NO_COLLISION
+            bounds, pairs = gate.table, gate.pairs if gating else _NO_PAIRS
+            closed, closed_flags = False, flags | _DSBL_CONTACT
+            try:
+                for k in range(n_steps):
+                    ready = prepare(checking and k > 0, qpos, qvel, qacc, act, v2, a2, d.time, table, samples,
+                                    mocap_pos, mocap_quat, vc, cf_x, feats, rot, bounds, pairs)
+                    if not ready:
+                        what = self._exact_check(monitor)  # (None: the bounds hold after all)
+                        if what is not None:
+                            return k - 1, what
+                        ready = prepare(False, qpos, qvel, qacc, act, v2, a2, d.time, table, samples, mocap_pos,
+                                        mocap_quat, vc, cf_x, feats, rot, bounds, pairs)
+                    if gating and (ready == 1) is not closed:
+                        closed = ready == 1
+                        opt.disableflags = closed_flags if closed else flags
+                    matmul(f_row, g, tau)
+                    rotate(tau, rot, out)
+                    if whole is not None:
+                        whole(m, d)
+                    else:
+                        step1(m, d)
+                        step2(m, d)
+            finally:
+                if closed:
+                    opt.disableflags = flags
             if checking and not fast_bounds_ok(qvel, qacc, v2, a2):  # (prepare_step's test, after the last step)
                 what = self._exact_check(monitor)
                 if what is not None:
