@@ -11,7 +11,10 @@ call, in the same order and on the same arrays, so every result is the same bits
    return);
 3. when a vessel has tracked discs and a detection is a wall's (``extended``), the scans whose wall
    clusters hold a return inside a tracked disc (:func:`~mjasc.perception.sense_kernels.tracked_in_walls`):
-   if there is one, the call stops here and the caller re-clusters those returns in Python, as before;
+   a scan whose wall returns in its discs all lie on occupied cells of its vessel's map is not
+   counted (:func:`~mjasc.perception.tracked_returns.split_tracked` leaves the wall behind, where it
+   is mapped, the wall's: it would change nothing; :func:`walls_mapped`); if a scan is left, the
+   call stops here and the caller re-clusters those returns in Python, as before;
 4. otherwise steps 1–5 of the map pass (:func:`~mjasc.perception.map_pass.returns_to_map`).
 
 The caller then takes numpy's arctan2 of the carving's candidates and scores them down
@@ -23,12 +26,14 @@ from __future__ import annotations
 import numpy as np
 
 from mjasc.core.compiled import kernel
+from mjasc.perception.cell_keys import find_rows, point_keys
 from mjasc.perception.detection_kernels import detect_clusters
 from mjasc.perception.map_pass import returns_to_map
+from mjasc.perception.owned_discs import _in_a_disc
 from mjasc.perception.scan_kernels import scan_batch
 from mjasc.perception.sense_kernels import tracked_in_walls
 
-__all__ = ["scan_detect_map", "unpack", "DETECTED", "SWALLOWED", "MAPPED", "OUT_OF_RANGE"]
+__all__ = ["scan_detect_map", "walls_mapped", "unpack", "DETECTED", "SWALLOWED", "MAPPED", "OUT_OF_RANGE"]
 
 #: :func:`scan_detect_map`'s status: the scans and detections only (the map step not asked for).
 DETECTED = 0
@@ -102,6 +107,8 @@ def scan_detect_map(dist, gid, beam_off, noise_std_m, normals, has_normals, drop
             if walls:
                 swallowed = tracked_in_walls(labels, ret_off, det_off, extended, P, disc_centres, disc_radii,
                                              disc_scan)
+                walls_mapped(swallowed, labels, ret_off, det_off, extended, P, disc_centres, disc_radii, disc_scan,
+                             slot, cell_m, sorted_keys, key_rows, score, member, min_hits, n_occupied, n)
                 for s in range(S):
                     if swallowed[s]:
                         status = SWALLOWED
@@ -139,6 +146,51 @@ def scan_detect_map(dist, gid, beam_off, noise_std_m, normals, has_normals, drop
     points_out[2 * d:] = rel
     return (status, floats, points, hit, geom, ints, K, d, c, bools, ints_out, floats_out, points_out, sorted_keys,
             key_rows, n)
+
+
+@kernel
+def walls_mapped(swallowed, labels, ret_off, det_off, extended, points, disc_centres, disc_radii, disc_scan, slot,
+                 cell_m, sorted_keys, key_rows, score, member, min_hits, n_occupied, n):
+    """Clear ``swallowed[s]`` (in place) where the returns of scan s that
+    :func:`~mjasc.perception.tracked_returns.split_tracked` would take out of a wall's cluster (a
+    return of an extended detection inside one of the scan's discs) all lie on occupied cells of
+    its vessel's map (``slot[s]``; the store's table as :func:`scan_detect_map` takes it, before
+    this pass's hits): it keeps those returns the wall's and changes nothing. A scan whose map has
+    no occupied cell, or with such a return on an unmapped cell or out of the map's range, stays
+    (the caller's path decides, or raises, as before). The same tests as ``split_tracked``: the
+    disc test of :func:`~mjasc.perception.owned_discs.inside_discs`, the cell of
+    :func:`~mjasc.perception.cell_keys.point_keys` and the occupancy of
+    :meth:`~mjasc.perception.static_map.StaticMapStore.occupied`."""
+    S = ret_off.shape[0] - 1
+    d_lo = np.zeros(S, dtype=np.int64)
+    d_hi = np.zeros(S, dtype=np.int64)
+    for j in range(disc_scan.shape[0]):  # (the discs grouped by scan, ascending)
+        q = disc_scan[j]
+        if d_hi[q] == 0:
+            d_lo[q] = j
+        d_hi[q] = j + 1
+    one = np.empty(1, dtype=np.int64)
+    pt = np.empty((1, 2))
+    for s in range(S):
+        if not swallowed[s] or n == 0 or n_occupied[slot[s]] == 0:
+            continue
+        one[0] = slot[s]
+        mapped = True
+        for i in range(ret_off[s], ret_off[s + 1]):
+            lab = labels[i]
+            if lab >= 0 and extended[det_off[s] + lab] and _in_a_disc(points[i, 0], points[i, 1], disc_centres,
+                                                                       disc_radii, d_lo[s], d_hi[s]):
+                pt[0, 0], pt[0, 1] = points[i, 0], points[i, 1]
+                keys, ok = point_keys(one, pt, cell_m)
+                if not ok:
+                    mapped = False
+                    break
+                row = find_rows(keys, sorted_keys, key_rows)[0]
+                if row < 0 or not score[row] >= min_hits[member[row]]:
+                    mapped = False
+                    break
+        if mapped:
+            swallowed[s] = False
 
 
 def unpack(status: int, S: int, K: int, d: int, c: int, bools, ints, floats, points) -> tuple:
