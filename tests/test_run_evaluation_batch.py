@@ -25,6 +25,7 @@ class _PerTick:
                        for i, a in enumerate(runner.agents) if a.perception is not None}
         self.tp, self.th, self.tv = [], [], []
         self.moving_same = True
+        self.fleet_rows = []  # per tick: FleetTracker.moving_rows (vessels, ids, positions)
 
     def __call__(self, event):
         s, runner = event.states, event.runner
@@ -33,6 +34,7 @@ class _PerTick:
         self.th.append(np.array(th, dtype=float).reshape(-1))
         self.tv.append(np.array(tv, dtype=float).reshape(-1, 2))
         xy = np.vstack([s.position_m, self.tp[-1]])
+        self.fleet_rows.append(runner.agents[0].perception.tracker.fleet.moving_rows())
         for i, score in self.scores.items():
             perception = runner.agents[i].perception
             tracks = [tr for tr in perception.tracks() if not tr.is_static]
@@ -88,6 +90,12 @@ def test_deferred_scoring_matches_scoring_every_tick_on_a_demo_run():
     # the run exercises what matters: several truths and tracks at once, identity switches
     assert sum(s.id_switches for s in ref.scores.values()) > 0
     assert ev.summary() == out  # scoring again adds nothing
+    # the evaluator's samples of the moving tracks: the fleet's moving_rows at each tick
+    tick, owner, ids, xy = ev._moving.rows(0, len(ref.fleet_rows))
+    assert np.array_equal(tick, np.repeat(np.arange(len(ref.fleet_rows)), [m[0].size for m in ref.fleet_rows]))
+    for got, k in zip((owner, ids, xy), range(3)):
+        want = np.concatenate([m[k] for m in ref.fleet_rows])
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
     # the traffic kept as the simulation's rows: the arrays of traffic_state(), bit for bit
     q, qh, w = ev._traffic()
     assert np.array_equal(q, np.array(ref.tp)) and np.array_equal(qh, np.array(ref.th))

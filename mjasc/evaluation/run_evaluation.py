@@ -31,6 +31,7 @@ import numpy as np
 from mjasc.core.config_tables import check_params, param
 from mjasc.evaluation.colreg import ColregConfig, classify, judge_compliance
 from mjasc.evaluation.mission_cost import ProgressTrace, mission_cost, zero_cost
+from mjasc.evaluation.track_samples import TrackSamples
 from mjasc.evaluation.tracking_metrics import TrackingScore, flat_rows
 from mjasc.evaluation.traffic_truth import traffic_at
 
@@ -98,15 +99,15 @@ class RunEvaluator:
                 self._scores[i] = TrackingScore(self.config.gospa_cutoff_m, self.config.gospa_order, rng)
                 self._tracks[i] = []
                 self._perceptions.append((i, agent.perception))
-        # Built-in trackers of one fleet: every vessel's moving tracks in one call per tick
-        # (FleetTracker.moving_rows), split per vessel when scored; plugin trackers: one call each.
+        # Built-in trackers of one fleet: every vessel's moving tracks in one compiled call per tick
+        # (TrackSamples), each vessel's taken when scored; plugin trackers: one call each.
         self._owner_of: dict[int, int] = {}
         trackers = [(i, p.tracker) for i, p in self._perceptions if p.method is None]
         if trackers and len(trackers) == len(self._perceptions) and \
                 len({id(p.fleet) for _, p in self._perceptions}) == 1 and \
                 len({id(tr.fleet) for _, tr in trackers}) == 1:
             self._owner_of = {i: tr.owner for i, tr in trackers}
-        self._moving: list = []  # per tick: (vessels, ids, positions) of every moving track (_owner_of)
+        self._moving = TrackSamples()  # per tick: every vessel's moving tracks (with _owner_of)
 
     def __call__(self, event) -> None:
         s = event.states
@@ -114,25 +115,10 @@ class RunEvaluator:
         self._v.append(s.velocity_m_s.copy())
         self.progress(event)  # (the record times: the traffic is evaluated at them at the end, _traffic)
         if self._owner_of:
-            self._moving.append(self._perceptions[0][1].tracker.fleet.moving_rows())  # (tracker: after the flush)
+            self._moving.add(self._perceptions[0][1].tracker.fleet)  # (tracker: after the flush)
             return
         for i, perception in self._perceptions:
             self._tracks[i].append(perception.moving_tracks())
-
-    def _moving_of(self, k0: int, k1: int) -> dict:
-        """Each vessel's moving tracks at the ticks k0 … k1 − 1 from the fleet's samples
-        (:meth:`__call__`), flat: vessel → (tracks per tick (k,), ids (R,), positions (R, 2)) —
-        the rows of each tick one after the other, in bank order."""
-        moving = self._moving[k0:k1]
-        owner = np.concatenate([m[0] for m in moving])
-        ids = np.concatenate([m[1] for m in moving])
-        pos = np.concatenate([m[2] for m in moving]).reshape(-1, 2)
-        tick = np.repeat(np.arange(len(moving)), [m[0].size for m in moving])
-        out = {}
-        for i, o in self._owner_of.items():
-            sel = owner == o
-            out[i] = (np.bincount(tick[sel], minlength=len(moving)), ids[sel], pos[sel])
-        return out
 
     def _traffic(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The traffic's positions (k, M, 2), headings (k, M), velocities (k, M, 2) at the record
@@ -149,7 +135,7 @@ class RunEvaluator:
         k0, k1 = self._scored, len(self.progress.t)
         if not self._scores or k1 <= k0:
             return
-        moving = self._moving_of(k0, k1) if self._owner_of else None
+        moving = self._moving.of(self._owner_of.values(), k0, k1) if self._owner_of else None
         t = self.progress.t[k0:k1]
         p = np.array(self.progress.p[k0:k1], dtype=float)
         xy = np.concatenate([p, self._traffic()[0][k0:k1]], axis=1)
@@ -158,7 +144,7 @@ class RunEvaluator:
         for i, score in self._scores.items():
             others = [k for k in range(len(ids)) if k != i]
             if moving is not None:
-                counts, track_ids, track_xy = moving[i]
+                counts, track_ids, track_xy = moving[self._owner_of[i]]
             else:
                 tracks = self._tracks[i][k0:k1]
                 counts, track_ids, track_xy = flat_rows([ti for ti, _ in tracks], [tx for _, tx in tracks])
