@@ -25,6 +25,7 @@ class _PerTick:
                        for i, a in enumerate(runner.agents) if a.perception is not None}
         self.tp, self.th, self.tv = [], [], []
         self.moving_same = True
+        self.fleet_rows = []  # per tick: FleetTracker.moving_rows (vessels, ids, positions)
 
     def __call__(self, event):
         s, runner = event.states, event.runner
@@ -33,6 +34,7 @@ class _PerTick:
         self.th.append(np.array(th, dtype=float).reshape(-1))
         self.tv.append(np.array(tv, dtype=float).reshape(-1, 2))
         xy = np.vstack([s.position_m, self.tp[-1]])
+        self.fleet_rows.append(runner.agents[0].perception.tracker.fleet.moving_rows())
         for i, score in self.scores.items():
             perception = runner.agents[i].perception
             tracks = [tr for tr in perception.tracks() if not tr.is_static]
@@ -88,6 +90,12 @@ def test_deferred_scoring_matches_scoring_every_tick_on_a_demo_run():
     # the run exercises what matters: several truths and tracks at once, identity switches
     assert sum(s.id_switches for s in ref.scores.values()) > 0
     assert ev.summary() == out  # scoring again adds nothing
+    # the evaluator's samples of the moving tracks: the fleet's moving_rows at each tick
+    tick, owner, ids, xy = ev._moving.rows(0, len(ref.fleet_rows))
+    assert np.array_equal(tick, np.repeat(np.arange(len(ref.fleet_rows)), [m[0].size for m in ref.fleet_rows]))
+    for got, k in zip((owner, ids, xy), range(3)):
+        want = np.concatenate([m[k] for m in ref.fleet_rows])
+        assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
     # the traffic kept as the simulation's rows: the arrays of traffic_state(), bit for bit
     q, qh, w = ev._traffic()
     assert np.array_equal(q, np.array(ref.tp)) and np.array_equal(qh, np.array(ref.th))
@@ -167,3 +175,50 @@ def test_unique_least_costs_are_assigned_as_scipy_assigns_them():
         assert (least_pairs(cost, a, n_tracks, np.array(truths, dtype=np.int64), *out) >= 0) == decided
         shortcut += decided
     assert 500 < shortcut < 2500  # both paths taken often
+
+
+def test_progress_gamma_is_each_agents_mission_gamma_also_on_a_detour():
+    """The trace's γ (the thesis method's mission_gamma_m written out) is each vessel's
+    ``mission_gamma_m()``, bit for bit, before, on and after an avoidance detour."""
+    import mjasc
+    from mjasc.evaluation.mission_cost import ProgressTrace
+    from mjasc.runs.runner import Runner
+
+    sc = mjasc.load_scenario("thesis_6_4_head_on").with_overrides(duration_s=100.0)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    runner = Runner(sc, None, progress=False)
+    trace = ProgressTrace(runner)
+    want, on_detour = [], [0]
+
+    def reference(event):
+        agents = event.runner.agents
+        want.append([a.mission_gamma_m() if ok else np.nan for a, ok in zip(agents, trace.has_path)])
+        for a in agents:
+            d = getattr(a.avoidance, "detour", None)
+            on_detour[0] += d is not None and a.follower is not None and a.follower.path is d.path
+
+    runner.observe("record", trace)
+    runner.observe("record", reference)
+    runner.run()
+    assert on_detour[0] > 50 and len(want) == len(trace.gamma) > 400
+    assert np.asarray(trace.gamma, dtype=float).tobytes() == np.asarray(want, dtype=float).tobytes()
+
+
+def test_traffic_at_the_record_times_has_the_bits_of_rows():
+    """The evaluator's traffic, evaluated after the run at all record times at once, is
+    ``MovingObstacleSet.rows`` at each time (constant turns, straight, along a path and past its end)."""
+    from mjasc.evaluation.traffic_truth import traffic_at
+    from mjasc.guidance.paths import Path as GuidancePath
+    from mjasc.physics.obstacles import MovingObstacle, MovingObstacleSet
+
+    bend = GuidancePath.from_waypoints([[0, 0], [50, 0], [50, 50]], turn_radius_m=10.0)
+    s = MovingObstacleSet([MovingObstacle("a", 2.0, position_m=(3.0, -4.0), heading_rad=2.1, speed_m_s=1.7),
+                           MovingObstacle("b", 3.0, speed_m_s=0.8, path=bend, start_gamma_m=3.3),
+                           MovingObstacle("c", 1.0, position_m=(-7, 9), heading_rad=-0.4, speed_m_s=2.2,
+                                          turn_rate_rad_s=-0.031)])
+    times = [round(0.1 * k, 1) for k in range(2000)] + [1e-3, 999.0]
+    got = traffic_at(s, times)
+    want = np.array([s.rows(t) for t in times], dtype=float)
+    assert got.shape == (len(times), 3, 5) and got.tobytes() == want.tobytes()
+    assert traffic_at(MovingObstacleSet([]), times).shape == (len(times), 0, 5)
+    assert traffic_at(s, []).shape == (0, 3, 5)

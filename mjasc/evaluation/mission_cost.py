@@ -32,6 +32,8 @@ import math
 
 import numpy as np
 
+from mjasc.avoidance.system import CollisionAvoidance
+
 __all__ = ["ProgressTrace", "reference_document", "mission_cost", "zero_cost"]
 
 
@@ -51,7 +53,7 @@ class ProgressTrace:
         self.has_path = [a.follower is not None for a in runner.agents]
         self.t: list[float] = []
         self.p: list[np.ndarray] = []
-        self.gamma: list[np.ndarray] = []
+        self.gamma: list = []  # per tick γ (n,) [m]: a list of floats (from_samples: an array)
 
     @classmethod
     def from_samples(cls, vessel_names, t, position_m, gamma_m, has_path=None) -> "ProgressTrace":
@@ -69,8 +71,7 @@ class ProgressTrace:
         s = event.states
         self.t.append(float(s.time_s))
         self.p.append(np.array(s.position_m, dtype=float))
-        self.gamma.append(np.array([a.mission_gamma_m() if ok else np.nan
-                                    for a, ok in zip(event.runner.agents, self.has_path)], dtype=float))
+        self.gamma.append([_mission_gamma(a) if ok else math.nan for a, ok in zip(event.runner.agents, self.has_path)])
 
     def arrays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """t (k,), distance sailed d (k, n) [m] from the start, progress g (k, n) [m] from γ(0)."""
@@ -83,6 +84,22 @@ class ProgressTrace:
         d = np.vstack([np.zeros((1, p.shape[1])), np.cumsum(step, axis=0)])
         g = np.asarray(self.gamma, dtype=float)
         return t, d, g - g[0]
+
+
+_THESIS_GAMMA = CollisionAvoidance.mission_gamma_m
+
+
+def _mission_gamma(agent) -> float:
+    """``agent.mission_gamma_m()`` of a vessel with a path follower, the same number: with the
+    thesis avoidance method its :meth:`~mjasc.avoidance.system.CollisionAvoidance.mission_gamma_m`
+    written out on the follower's path and γ (as the control tick has it,
+    :func:`mjasc.runs.fleet_control.control_fleet`), without the guidance state made for it."""
+    avoidance = agent.avoidance
+    if avoidance is None or type(avoidance).mission_gamma_m is not _THESIS_GAMMA:
+        return agent.mission_gamma_m()
+    follower, d = agent.follower, avoidance.detour
+    g = follower.gamma_m
+    return d.mission_gamma(g) if d is not None and follower.path is d.path else g
 
 
 def _reach(t: np.ndarray, m: np.ndarray, level: float) -> float | None:

@@ -31,7 +31,9 @@ import numpy as np
 from mjasc.core.config_tables import check_params, param
 from mjasc.evaluation.colreg import ColregConfig, classify, judge_compliance
 from mjasc.evaluation.mission_cost import ProgressTrace, mission_cost, zero_cost
-from mjasc.evaluation.tracking_metrics import TrackingScore
+from mjasc.evaluation.track_samples import TrackSamples
+from mjasc.evaluation.tracking_metrics import TrackingScore, flat_rows
+from mjasc.evaluation.traffic_truth import traffic_at
 
 __all__ = ["EvaluationConfig", "RunEvaluator"]
 
@@ -69,10 +71,12 @@ def _course(velocity, heading) -> np.ndarray:
 class RunEvaluator:
     """Runner observer (record slot) that evaluates a run (module docstring).
 
-    At each record tick it only keeps the samples (the vessels' headings and velocities, the
-    traffic's states as the simulation's plain-float rows, each vessel's moving tracks as ids and
-    positions, and the :class:`ProgressTrace`); :meth:`summary` evaluates them at once — the same
-    numbers as scoring each tick as it comes (:meth:`TrackingScore.add_run`)."""
+    At each record tick it only keeps the samples (the vessels' headings and velocities, each
+    vessel's moving tracks as ids and positions, and the :class:`ProgressTrace`: the times, the
+    positions and γ); :meth:`summary` evaluates them at once — the traffic at the record times
+    (:func:`~mjasc.evaluation.traffic_truth.traffic_at`), the tracking scores flat
+    (:meth:`TrackingScore.add_rows`) — the same numbers as reading the traffic and scoring each
+    tick as it comes."""
 
     def __init__(self, runner, config: EvaluationConfig | None = None):
         self.config = config if config is not None else EvaluationConfig()
@@ -82,7 +86,8 @@ class RunEvaluator:
         self.traffic_names = [o.name for o in world.moving_obstacles]
         self.traffic_radii = np.array([o.radius_m for o in world.moving_obstacles])
         self._h, self._v = [], []  # times and positions: self.progress (t, p)
-        self._rows: list = []  # the traffic per tick: (x, y, heading, vx, vy) per obstacle
+        self._traffic_set = runner.sim.traffic  # (evaluated at the record times at the end: _traffic)
+        self._traffic_made = None  # (ticks, positions, headings, velocities) of _traffic
         self._scores: dict[int, TrackingScore] = {}
         self._tracks: dict[int, list] = {}  # vessel → per tick (track ids (k,), positions (k, 2))
         self._scored = 0  # ticks already in self._scores
@@ -94,55 +99,43 @@ class RunEvaluator:
                 self._scores[i] = TrackingScore(self.config.gospa_cutoff_m, self.config.gospa_order, rng)
                 self._tracks[i] = []
                 self._perceptions.append((i, agent.perception))
-        # Built-in trackers of one fleet: every vessel's moving tracks in one call per tick
-        # (FleetTracker.moving_rows), split per vessel when scored; plugin trackers: one call each.
+        # Built-in trackers of one fleet: every vessel's moving tracks in one compiled call per tick
+        # (TrackSamples), each vessel's taken when scored; plugin trackers: one call each.
         self._owner_of: dict[int, int] = {}
         trackers = [(i, p.tracker) for i, p in self._perceptions if p.method is None]
         if trackers and len(trackers) == len(self._perceptions) and \
                 len({id(p.fleet) for _, p in self._perceptions}) == 1 and \
                 len({id(tr.fleet) for _, tr in trackers}) == 1:
             self._owner_of = {i: tr.owner for i, tr in trackers}
-        self._moving: list = []  # per tick: (vessels, ids, positions) of every moving track (_owner_of)
+        self._moving = TrackSamples()  # per tick: every vessel's moving tracks (with _owner_of)
 
     def __call__(self, event) -> None:
-        s, sim = event.states, event.runner.sim
+        s = event.states
         self._h.append(s.heading_rad.copy())
         self._v.append(s.velocity_m_s.copy())
-        self._rows.append(sim.traffic.rows(sim.time_s))  # (a new list per time: kept as is)
-        self.progress(event)
+        self.progress(event)  # (the record times: the traffic is evaluated at them at the end, _traffic)
         if self._owner_of:
-            self._moving.append(self._perceptions[0][1].tracker.fleet.moving_rows())  # (tracker: after the flush)
+            self._moving.add(self._perceptions[0][1].tracker.fleet)  # (tracker: after the flush)
             return
         for i, perception in self._perceptions:
             self._tracks[i].append(perception.moving_tracks())
 
-    def _split_moving(self) -> None:
-        """Each vessel's per-tick (ids, positions) from the fleet's samples (:meth:`__call__`)."""
-        moving, self._moving = self._moving, []
-        if not moving:
-            return
-        counts = [m[0].size for m in moving]
-        owner = np.concatenate([m[0] for m in moving])
-        ids = np.concatenate([m[1] for m in moving])
-        pos = np.concatenate([m[2] for m in moving]).reshape(-1, 2)
-        tick = np.repeat(np.arange(len(moving)), counts)
-        for i, o in self._owner_of.items():
-            sel = owner == o
-            cuts = np.cumsum(np.bincount(tick[sel], minlength=len(moving)))[:-1]
-            self._tracks[i].extend(zip(np.split(ids[sel], cuts), np.split(pos[sel], cuts)))
-
     def _traffic(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The traffic's positions (k, M, 2), headings (k, M), velocities (k, M, 2) at the ticks:
-        the numbers of ``Simulation.traffic_state`` (the arrays of the same rows)."""
-        a = np.array(self._rows, dtype=float).reshape(len(self._rows), len(self.traffic_names), 5)
-        return a[:, :, 0:2].copy(), a[:, :, 2].copy(), a[:, :, 3:5].copy()
+        """The traffic's positions (k, M, 2), headings (k, M), velocities (k, M, 2) at the record
+        ticks: the numbers of ``Simulation.traffic_state`` there, evaluated at the record times in
+        one pass (:func:`~mjasc.evaluation.traffic_truth.traffic_at`; kept until a new tick)."""
+        k = len(self.progress.t)
+        if self._traffic_made is None or self._traffic_made[0] != k:
+            a = traffic_at(self._traffic_set, self.progress.t)
+            self._traffic_made = (k, a[:, :, 0:2].copy(), a[:, :, 2].copy(), a[:, :, 3:5].copy())
+        return self._traffic_made[1:]
 
     def _score(self) -> None:
-        """Score every tick not yet scored (:meth:`TrackingScore.add_run`)."""
+        """Score every tick not yet scored (:meth:`TrackingScore.add_rows`)."""
         k0, k1 = self._scored, len(self.progress.t)
         if not self._scores or k1 <= k0:
             return
-        self._split_moving()
+        moving = self._moving.of(self._owner_of.values(), k0, k1) if self._owner_of else None
         t = self.progress.t[k0:k1]
         p = np.array(self.progress.p[k0:k1], dtype=float)
         xy = np.concatenate([p, self._traffic()[0][k0:k1]], axis=1)
@@ -150,9 +143,13 @@ class RunEvaluator:
         radii = np.concatenate([self.vessel_radii, self.traffic_radii])
         for i, score in self._scores.items():
             others = [k for k in range(len(ids)) if k != i]
-            tracks = self._tracks[i][k0:k1]
-            score.add_run(t, p[:, i], [ids[k] for k in others], xy[:, others], [ti for ti, _ in tracks],
-                          [tx for _, tx in tracks], radii[others])
+            if moving is not None:
+                counts, track_ids, track_xy = moving[self._owner_of[i]]
+            else:
+                tracks = self._tracks[i][k0:k1]
+                counts, track_ids, track_xy = flat_rows([ti for ti, _ in tracks], [tx for _, tx in tracks])
+            score.add_rows(t, p[:, i], [ids[k] for k in others], xy[:, others], counts, track_ids, track_xy,
+                           radii[others])
         self._scored = k1
 
     # ------------------------------------------------------------------ evaluation

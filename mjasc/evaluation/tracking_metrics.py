@@ -27,7 +27,7 @@ from scipy.optimize import linear_sum_assignment
 
 from mjasc.evaluation.gospa_kernels import score_ticks
 
-__all__ = ["gospa", "GospaTerms", "TrackingScore"]
+__all__ = ["gospa", "GospaTerms", "TrackingScore", "flat_rows"]
 
 
 @dataclass(frozen=True)
@@ -65,6 +65,15 @@ def gospa(truth_xy, estimates_xy, cutoff_m: float = 10.0, order: float = 2.0) ->
     n_false = y.shape[0] - len(assignment)
     missed, false = half * n_missed, half * n_false
     return GospaTerms((loc + missed + false) ** (1.0 / p), loc, missed, false, n_missed, n_false, assignment)
+
+
+def flat_rows(track_ids: list, track_xy: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-time tracks (ids (k_t,), positions (k_t, 2) [m] per time) flat: the counts k_t (T,),
+    the ids (R,) int64 and the positions (R, 2) [m], the times' rows one after the other."""
+    counts = np.array([len(ids) for ids in track_ids], dtype=np.int64)
+    if not counts.sum():
+        return counts, np.zeros(0, dtype=np.int64), np.zeros((0, 2))
+    return counts, _rows(track_ids, np.int64, (-1,)), _rows(track_xy, float, (-1, 2))
 
 
 def _rows(parts: list, dtype, shape: tuple) -> np.ndarray:
@@ -127,7 +136,16 @@ class TrackingScore:
         same GOSPA terms summed in the same order, the same assignments, identity switches and
         first times). times_s (T,) [s]; own_positions_m (T, 2) [m]; truth_ids (M,) and truth_xy
         (T, M, 2) [m] (radii (M,)): the truth objects at every time; track_ids and track_xy: per
-        time, the tracks' ids (k_t,) and positions (k_t, 2) [m].
+        time, the tracks' ids (k_t,) and positions (k_t, 2) [m] (:meth:`add_rows` with them flat).
+        ``truth_ids`` must be distinct."""
+        counts, ids, xy = flat_rows(track_ids, track_xy)
+        self.add_rows(times_s, own_positions_m, truth_ids, truth_xy, counts, ids, xy, truth_radii_m)
+
+    def add_rows(self, times_s, own_positions_m, truth_ids, truth_xy, counts, track_ids, track_xy,
+                 truth_radii_m=None) -> None:
+        """:meth:`add_run` with the tracks flat: counts (T,) the number of tracks at each time,
+        track_ids (R,) int64 and track_xy (R, 2) [m] the rows of every time one after the other
+        (R = Σ counts; :func:`flat_rows`).
 
         The distances of every (time, track, truth) triple are computed in one pass (elementwise,
         the numbers :func:`gospa` computes per time); the per-time assignments and sums are one
@@ -155,19 +173,19 @@ class TrackingScore:
         for k in np.lexsort((seen, first)).tolist():
             self._first_seen.setdefault(truth_ids[int(seen[k])], times[int(first[k])])
         # every track's distance to every truth object of its time: (R, M), track-major
-        counts = [len(ids) for ids in track_ids]
-        ends = np.cumsum(np.asarray(counts, dtype=np.int64))
+        counts = np.asarray(counts, dtype=np.int64).reshape(n_t)
+        ends = np.cumsum(counts)
         n_rows = int(ends[-1])
         fast = True
         if n_rows and n_truth:
-            y = _rows(track_xy, float, (-1, 2))
+            y = np.asarray(track_xy, dtype=float).reshape(n_rows, 2)
             qt = q[np.repeat(np.arange(n_t), counts)]  # (R, M, 2): the truth at each track's time
             d = np.hypot(qt[:, :, 0] - y[:, None, 0], qt[:, :, 1] - y[:, None, 1])
             cost = np.minimum(d, c) ** p
             fast = bool(np.isfinite(cost).all())  # (scipy refuses NaN: it decides every time then)
         else:
             d = cost = np.zeros((n_rows, n_truth))
-        ids = _rows(track_ids, np.int64, (-1,)) if n_rows else np.zeros(0, dtype=np.int64)
+        ids = np.asarray(track_ids, dtype=np.int64).reshape(n_rows)
         # the per-time loop (compiled; a time whose assignment the least costs do not decide: scipy)
         names = list(truth_ids)
         if len(set(names)) != len(names):
