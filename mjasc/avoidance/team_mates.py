@@ -21,6 +21,7 @@ World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
+import math
 from typing import Callable
 
 import numpy as np
@@ -69,6 +70,18 @@ def _message_estimate(it, w: float) -> TrackEstimate:
 
 
 _NO_NAV = (None, None, 0.0)  # a team mate not heard twice: ω = 0
+
+
+def _turn_rate(dh, dt: float) -> float:
+    """ω = wrap(Δψ) / Δt [rad/s] as ``np.angle(np.exp(1j * Δψ)) / Δt`` gives it, in plain floats:
+    ``1j * Δψ`` is (±0, 0 + Δψ), whose exp is (cos, sin) of 0 + Δψ (exp(±0) = 1), and ``np.angle``
+    is ``arctan2`` of them — math's sin, cos and atan2 equal numpy's on x86-64 without AVX-512
+    (:mod:`mjasc.core.portable_math`), the same bits; numpy's form for a Δψ that is not finite."""
+    d = 0.0 + float(dh)
+    if -math.inf < d < math.inf:
+        return math.atan2(math.sin(d), math.cos(d)) / dt
+    z = np.exp(1j * np.array([dh]))
+    return (np.arctan2(z.imag, z.real) / np.array([dt])).tolist()[0]
 
 
 class TeamMates:
@@ -141,15 +154,8 @@ class TeamMates:
                 new.append((name, it, it.heading_rad - old[1], it.sent_time_s - old[0]))
             else:
                 new.append((name, it, None, None))
-        turned = [k for k, row in enumerate(new) if row[2] is not None]
-        w = [0.0] * len(new)
-        if turned:  # ω = wrap(Δψ) / Δt, all new messages in one array operation (elementwise: the same numbers)
-            dh, dt = np.array([new[k][2] for k in turned]), np.array([new[k][3] for k in turned])
-            z = np.exp(1j * dh)
-            for k, rate in zip(turned, (np.arctan2(z.imag, z.real) / dt).tolist()):  # (np.angle(z) without its calls)
-                w[k] = rate
-        for (name, it, _, _), rate in zip(new, w):
-            nav[name] = (it.sent_time_s, it.heading_rad, rate)
+        for name, it, dh, dt in new:
+            nav[name] = (it.sent_time_s, it.heading_rad, 0.0 if dh is None else _turn_rate(dh, dt))
 
     def heading_rate(self, name: str) -> float:
         """ω of team mate ``name`` from its last two broadcasts [rad/s] (0 when unknown)."""

@@ -20,10 +20,10 @@ own state), so one reading serves both. ``tests/test_fleet_control.py`` compares
 form.
 
 Written out with few Python calls (the slot runs every 0.1 s for every vessel): the agents'
-``control_answer`` and ``control_output`` and the thesis method's ``mission_gamma_m`` as their
-bodies (the same operations in the same order); each vessel's guidance state and perception report
-from its agent (:meth:`~mjasc.runs.agent.VesselAgent.guidance_of`, ``perception_report``);
-per-vessel lists filled by index.
+``control_answer``, ``control_output`` and ``guidance_of``, the coordination's ``team_picture`` and
+the thesis method's ``mission_gamma_m`` as their bodies (the same operations in the same order;
+a class that changes one of them is called as it is); each vessel's perception report from its
+agent (``perception_report``); per-vessel lists filled by index.
 """
 
 from __future__ import annotations
@@ -35,9 +35,12 @@ import numpy as np
 
 from mjasc.avoidance.system import CollisionAvoidance
 from mjasc.cooperation import fleet_speed_law
+from mjasc.cooperation.messages import TeamPicture
+from mjasc.cooperation.team_knowledge import TeamKnowledge
 from mjasc.core.navigation import NavigationList
 from mjasc.guidance.path_following import FleetPathFollower, PathFollower
-from mjasc.runs.agent import ControlOutput
+from mjasc.guidance.state import GuidanceState
+from mjasc.runs.agent import ControlOutput, VesselAgent
 
 __all__ = ["fleet_control_applies", "control_fleet", "ask_avoidance"]
 
@@ -78,6 +81,9 @@ def ask_avoidance(calls: list) -> list:
 
 
 _THESIS_GAMMA = CollisionAvoidance.mission_gamma_m
+#: The agent's and the coordination's read-outs whose bodies control_fleet writes out (a class that
+#: changes them is called as it is).
+_GUIDANCE_OF, _TEAM_PICTURE = VesselAgent.guidance_of, TeamKnowledge.team_picture
 _new = object.__new__
 
 
@@ -124,8 +130,27 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
         speeds[k] = speed
         avoidance = agent.avoidance
         if avoidance is not None:
-            calls[k] = (avoidance, t, navs[steered[k]], agent.guidance_of(paths[k], gammas[k]),
-                        agent.perception_report(t), None if c is None else c.team_picture(t))
+            if type(agent).guidance_of is _GUIDANCE_OF:  # agent.guidance_of(paths[k], gammas[k]) written out
+                factor = c.last_factor if c is not None else 1.0
+                if not (type(factor) is float and -math.inf < factor < math.inf):
+                    factor = float(factor) if math.isfinite(factor) else 1.0
+                v = agent.mission_speed_m_s
+                guidance = _new(GuidanceState)  # GuidanceState.of
+                guidance.__dict__.update(path=paths[k], gamma_m=gammas[k],
+                                         mission_speed_m_s=(v if type(v) is float else float(v)) * factor)
+            else:
+                guidance = agent.guidance_of(paths[k], gammas[k])
+            if c is None:
+                picture = None
+            elif type(c).team_picture is _TEAM_PICTURE:  # c.team_picture(t) written out
+                intentions = c._intentions
+                if intentions is None:
+                    intentions = c._intentions = c.team_intentions()
+                picture = _new(TeamPicture)
+                picture.__dict__.update(time_s=float(t), intentions=intentions, speed_factor=c.last_factor)
+            else:
+                picture = c.team_picture(t)
+            calls[k] = (avoidance, t, navs[steered[k]], guidance, agent.perception_report(t), picture)
     for i, agent in enumerate(agents):
         if agent.follower is None:
             outputs[i] = agent.control(navs[i], control_dt_s)  # open loop
