@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from scipy.spatial import ConvexHull, QhullError
 
-from mjasc.perception.hull_kernels import hull_area2, median
+from mjasc.perception.hull_kernels import centred, halves, hull_area2, median
 from mjasc.perception.map_polygons import split_component
 
 _CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
@@ -110,3 +110,30 @@ def test_median_is_numpys():
                 assert np.float64(got).tobytes() == np.float64(want).tobytes()
     v = np.array([1.0, np.nan, 3.0])
     assert np.isnan(median(v)) and np.isnan(np.median(v))
+
+
+def test_centred_is_numpys():
+    rng = np.random.default_rng(6)
+    for cells in _shapes(rng):
+        want = cells - cells.mean(axis=0)
+        got = centred(cells)
+        assert got.dtype == want.dtype and got.shape == want.shape and got.tobytes() == want.tobytes()
+
+
+def test_halves_are_the_masks_halves():
+    rng = np.random.default_rng(7)
+    n_cut = 0
+    for cells in _shapes(rng) + [np.array([[0, 0], [0, 1], [0, 2]], dtype=np.int64)]:
+        for proj in (rng.normal(0, 3, cells.shape[0]), np.round(rng.normal(0, 1, cells.shape[0])),
+                     np.zeros(cells.shape[0])):
+            left = proj <= np.median(proj)
+            got_l, got_r = halves(cells, proj)
+            if left.all() or not left.any():
+                assert got_l.shape == (0, 2) and got_r.shape == (0, 2)
+                continue
+            n_cut += 1
+            for got, want in ((got_l, cells[left]), (got_r, cells[~left])):
+                assert got.dtype == want.dtype and got.shape == want.shape and got.tobytes() == want.tobytes()
+    assert n_cut > 50
+    proj = np.array([1.0, np.nan, 3.0])  # a NaN: no cut (proj <= NaN is false everywhere)
+    assert halves(np.zeros((3, 2), dtype=np.int64), proj)[0].shape == (0, 2)

@@ -92,3 +92,17 @@ def test_ghost_check_on_a_run_as_the_numpy_form():
     finally:
         TrackMotions.within = real
     assert team_mates.TrackMotions is TrackMotions and len(calls) > 5 and sum(calls) > 100
+
+
+def test_within_of_straight_and_static_tracks_only_is_the_numpy_form():
+    """A table without turning rows or plans (checked in one compiled pass) answers as the numpy form."""
+    rng = np.random.default_rng(4)
+    for n, h in ((1, 1), (6, 9), (20, 4)):
+        tracks = [tr for tr in _tracks(rng, 4 * n) if tr.is_static or abs(tr.turn_rate_rad_s) < 1e-9][:n]
+        motions = TrackMotions(tracks)
+        times = rng.uniform(-20.0, 5.0, size=h)
+        pos = np.array([tr.position_m for tr in tracks]).mean(axis=0) + rng.normal(scale=15.0, size=(h, 2))
+        radii = rng.uniform(0.0, 30.0, size=h)
+        got = motions.within(times, pos, radii)
+        assert got.dtype == np.bool_ and got.shape == (len(tracks), h)
+        assert np.array_equal(got, _reference(motions, times, pos, radii))

@@ -4,7 +4,8 @@ decide that a piece is too sparse for its hull without building the hull, and th
 piece is cut (``np.median``'s value: the middle element of the sorted values, or the mean of the
 two middle ones, ``(a + b) / 2``, as numpy's mean of two; NaN if any value is NaN; a zero's sign
 may differ from numpy's, which picks among equal values in its partition's order: the split only
-compares with it).
+compares with it), and the cut itself: a piece's cells centred on their mean (:func:`centred`) and its two
+halves at the median (:func:`halves`), numpy's numbers without its per-call overhead.
 
 A cell (i, j) is the unit square with corners (i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1). The
 hull of those corners is found by Andrew's monotone chain (corners sorted by x, then y; a turn
@@ -20,7 +21,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["hull_area2", "median"]
+__all__ = ["centred", "halves", "hull_area2", "median"]
 
 
 @kernel
@@ -78,3 +79,51 @@ def median(values):
     if n % 2 == 1:
         return s[h]
     return (s[h - 1] + s[h]) / 2.0
+
+
+@kernel
+def halves(comp, proj):
+    """The two halves of a piece's cells ``comp`` (c, 2) int64 where it is cut: ``left`` the cells
+    whose projection ``proj`` (c,) float is at most :func:`median`'s value (``proj <= cut``), the
+    others ``right``, each in ``comp``'s order (``comp[left]``, ``comp[~left]``). Returns (left,
+    right), or two empty arrays when one half would be empty (every cell on one side, or a NaN)."""
+    n = comp.shape[0]
+    cut = median(proj)
+    n_left = 0
+    for k in range(n):
+        if proj[k] <= cut:
+            n_left += 1
+    if n_left == 0 or n_left == n:
+        return np.empty((0, 2), dtype=np.int64), np.empty((0, 2), dtype=np.int64)
+    left = np.empty((n_left, 2), dtype=np.int64)
+    right = np.empty((n - n_left, 2), dtype=np.int64)
+    a = 0
+    b = 0
+    for k in range(n):
+        if proj[k] <= cut:
+            left[a, 0], left[a, 1] = comp[k, 0], comp[k, 1]
+            a += 1
+        else:
+            right[b, 0], right[b, 1] = comp[k, 0], comp[k, 1]
+            b += 1
+    return left, right
+
+
+@kernel
+def centred(comp):
+    """The cells ``comp`` (c ≥ 1, 2) int64 minus their mean, (c, 2) float: ``comp - comp.mean(axis=0)``
+    bit for bit (the sums of int64 values below 2⁵³ are exact in float64 in any order, the mean is
+    the one rounding of sum / c, as numpy's)."""
+    n = comp.shape[0]
+    sx = 0.0
+    sy = 0.0
+    for k in range(n):
+        sx += float(comp[k, 0])
+        sy += float(comp[k, 1])
+    mx = sx / n
+    my = sy / n
+    out = np.empty((n, 2))
+    for k in range(n):
+        out[k, 0] = comp[k, 0] - mx
+        out[k, 1] = comp[k, 1] - my
+    return out

@@ -22,7 +22,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import ConvexHull, QhullError
 
-from mjasc.perception.hull_kernels import hull_area2, median
+from mjasc.perception.hull_kernels import centred, halves, hull_area2
 
 __all__ = ["PolygonCache", "split_component"]
 
@@ -53,12 +53,13 @@ def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth:
 
 
 def _split(comp, cell_m, min_fill, max_depth, depth, out, memo) -> None:
-    corners = (comp[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cell_m
+    corners = None  # (made only when qhull is asked)
     hull = None
     n = comp.shape[0]
     if n <= 4 or depth >= max_depth or not 2.0 * n < min_fill * hull_area2(comp) * (1.0 - SURE_SPARSE):
         # a piece, or a fill that the hull's exact area does not put clearly below min_fill: qhull's
         # area decides, as it always did (a piece clearly too sparse is split without its hull)
+        corners = _corners(comp, cell_m)
         try:
             hull = ConvexHull(corners)
         except QhullError:
@@ -67,18 +68,23 @@ def _split(comp, cell_m, min_fill, max_depth, depth, out, memo) -> None:
         if fill >= min_fill or n <= 4 or depth >= max_depth:
             out.append(corners[hull.vertices])
             return
-    c = comp - comp.mean(axis=0)
+    c = centred(comp)  # (comp - comp.mean(axis=0))
     _, vec = np.linalg.eigh(c.T @ c)
     proj = c @ vec[:, -1]
-    cut = median(proj)
-    left = proj <= cut
-    if left.all() or not left.any():
+    left, right = halves(comp, proj)  # (comp[proj <= median], the others, in one compiled pass)
+    if not left.shape[0]:  # every cell on one side
         if hull is None:
+            corners = _corners(comp, cell_m)
             hull = ConvexHull(corners)
         out.append(corners[hull.vertices])
         return
-    split_component(comp[left], cell_m, min_fill, max_depth, depth + 1, out, memo)
-    split_component(comp[~left], cell_m, min_fill, max_depth, depth + 1, out, memo)
+    split_component(left, cell_m, min_fill, max_depth, depth + 1, out, memo)
+    split_component(right, cell_m, min_fill, max_depth, depth + 1, out, memo)
+
+
+def _corners(comp: np.ndarray, cell_m: float) -> np.ndarray:
+    """The corners (4c, 2) [m] of the cells ``comp`` (c, 2), four per cell in turn (qhull's input)."""
+    return (comp[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cell_m
 
 
 class PolygonCache:

@@ -37,6 +37,8 @@ from mjasc.core.estimates import PlannedTrack, TrackEstimate
 __all__ = ["TrackMotions", "intention_positions"]
 
 _STRAIGHT_OMEGA = 1e-9  # |ω| below this: a straight line (as TrackEstimate.predict_positions)
+_STRAIGHT_ONLY = [0]  # TrackMotions._kinds of straight or static rows only
+_NO_ANGLES = np.empty(0)  # (the sines and cosines of no turning row: never read)
 
 
 class TrackMotions:
@@ -99,6 +101,8 @@ class TrackMotions:
         times = np.asarray(times, dtype=float)
         pos = np.asarray(positions_m, dtype=float)
         limit = float(distance_m)
+        if self._kinds == _STRAIGHT_ONLY:  # no turning row, no plan: no angle to take (one compiled pass)
+            return bool(_farther(self._par, self._kind, rows, times, pos, limit, _NO_ANGLES, _NO_ANGLES))
         angles = np.empty(rows.size)
         n_turn = _turn_angles(self._par, self._kind, rows, times, angles)
         if n_turn == 0:  # no turning row: no sine or cosine read
@@ -121,6 +125,10 @@ class TrackMotions:
         pos = np.ascontiguousarray(positions_m, dtype=float).reshape(-1, 2)
         radii = np.ascontiguousarray(radii_m, dtype=float)
         m, h = self.n, times.size
+        if self._kinds == _STRAIGHT_ONLY:  # no turning row, no plan: no angle to take (one compiled pass)
+            out = np.empty((m, h), dtype=np.bool_)
+            _grid_within(self._par, self._kind, times, pos, radii, self.radius_m, _NO_ANGLES, _NO_ANGLES, out)
+            return out
         if self._PLAN not in self._kinds:
             angles = np.empty(m * h)
             n_turn = _grid_angles(self._par, self._kind, times, angles)
