@@ -189,7 +189,7 @@ class FleetTracker(FleetRows, FleetViews):
             self._update(rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
                          claimed, assigned, var_row, labels)
         self._prune(owners, pos_of, every, t_o, origins)
-        if M and not claimed.all():  # (every detection inside a track's gate: no birth, nothing to make room for)
+        if M and False in claimed.tolist():  # (every detection inside a track's gate: no birth, nothing to make room for)
             self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
         bank = self.bank
         if every:  # (every row is a row of a vessel that scanned)
