@@ -95,8 +95,8 @@ def test_replace_equality_copies_and_pickles():
 def test_the_fleet_tracking_pass_makes_no_fields(monkeypatch):
     """What the tracking pass hands the fleet tracker comes from the sensing pass's arrays: no
     vessel's scan or detections made on the way (the tracker itself reads a detection's labels
-    for the outlines of slow tracks; a restacked pass, after a wall swallowed a tracked boat's
-    returns, reads them all)."""
+    for the outlines of slow tracks unless the pass's labels are given, ``labels=``; a restacked pass,
+    after a wall swallowed a tracked boat's returns, reads them all)."""
     import mujoco
 
     from mjasc.perception.fleet import PerceptionFleet
@@ -106,11 +106,14 @@ def test_the_fleet_tracking_pass_makes_no_fields(monkeypatch):
     seen = []
     step = FleetTracker.step
 
-    def checking(self, owners, t_s, dets, origins, use, points, stacked):
+    def checking(self, owners, t_s, dets, origins, use, points, stacked, labels=None):
         if stacked is not None:
             seen.append(all("_src" in vars(d) and "_src" in vars(d.__dict__["_src"][1][1].scans[d.__dict__["_src"][1][0]])
                             for d in dets))
-        return step(self, owners, t_s, dets, origins, use, points, stacked)
+        out = step(self, owners, t_s, dets, origins, use, points, stacked, labels)
+        if labels is not None:  # (the pass's labels given: the tracker's outlines make no detections either)
+            assert all("_src" in vars(d) for d in dets)
+        return out
 
     monkeypatch.setattr(FleetTracker, "step", checking)
     world = _world()

@@ -53,7 +53,7 @@ def test_fused_association_on_a_real_run(monkeypatch):
     n_checked = [0]
 
     def checked(self, rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
-                claimed, assigned, var_row):
+                claimed, assigned, var_row, labels=None):
         ref = None
         if z.shape[0]:
             ref = _reference(self, rows, rpos, row_pos, owners, t_o, z, var, rad, occ, m_q, claimed, assigned,
@@ -77,7 +77,7 @@ def test_fused_association_on_a_real_run(monkeypatch):
         self.manoeuvres.detect = lambda hit, d2, gate, t, bank: (seen.append((hit, d2, t)), det(hit, d2, gate, t, bank))
         try:
             orig(self, rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
-                 claimed, assigned, var_row)
+                 claimed, assigned, var_row, labels)
         finally:
             del self.manoeuvres.detect
         if ref is not None:

@@ -115,7 +115,7 @@ class FleetTracker(FleetRows, FleetViews):
         self.team.set_positions(owner, positions)
 
     # ------------------------------------------------------------------ one tick
-    def step(self, owners, t_s, detections, origins=None, use=None, points=None, stacked=None) -> None:
+    def step(self, owners, t_s, detections, origins=None, use=None, points=None, stacked=None, labels=None) -> None:
         """One scan for each vessel of ``owners`` (p,) at its time t_s (p,) [s]: its ``detections``
         (a :class:`~mjasc.perception.detection.Detections` or None: coast), sensor origin (2,) [m]
         or None (no out-of-range test), ``use`` (m,) bool or None (default: the non-extended
@@ -124,7 +124,10 @@ class FleetTracker(FleetRows, FleetViews):
         detections already stacked in vessel order, as the sensing pass has them (its detection
         batch: no stacking again) — (detections per vessel (p,) int64, ``use`` (M,) bool, centres
         (M, 2) [m], variances (M,) [m²], radii (M,) [m], occluded (M,) bool), the same values as
-        ``detections`` and ``use`` stacked."""
+        ``detections`` and ``use`` stacked. ``labels``: None, or every vessel's returns' labels as the
+        sensing pass has them — (labels (R,) int64, offsets (p + 1) list): vessel q's ``points[q]`` have
+        the labels ``labels[offsets[q]:offsets[q + 1]]``, the same values as ``detections[q].labels``
+        (read only for the outlines: a pass's detections are made on first read, every field at once)."""
         self._reports = None
         p = len(owners)
         no = self._max_range.size  # (n_owners)
@@ -184,9 +187,9 @@ class FleetTracker(FleetRows, FleetViews):
             self._last_assign[o] = []
         if rows.size:
             self._update(rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
-                         claimed, assigned, var_row)
+                         claimed, assigned, var_row, labels)
         self._prune(owners, pos_of, every, t_o, origins)
-        if M:
+        if M and False in claimed.tolist():  # (every detection inside a track's gate: no birth, nothing to make room for)
             self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
         bank = self.bank
         if every:  # (every row is a row of a vessel that scanned)
@@ -197,9 +200,9 @@ class FleetTracker(FleetRows, FleetViews):
         self.mgmt.note_moved(bank.state_rows)  # (its first two columns: the positions)
 
     def _update(self, rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
-                claimed, assigned, var_row) -> None:
+                claimed, assigned, var_row, labels=None) -> None:
         """Steps 1–4a: association, manoeuvres, the IMM cycle, confirmation and outlines (``assigned``
-        (n,) −1 and ``var_row`` (n,) R: filled here)."""
+        (n,) −1 and ``var_row`` (n,) R: filled here; ``labels`` as :meth:`step`'s)."""
         bank = self.bank
         M = z.shape[0]
         p = owners.size
@@ -274,7 +277,11 @@ class FleetTracker(FleetRows, FleetViews):
                 q = row_pos[k]
                 got = scans.get(q)
                 if got is None:  # (as they are when already contiguous (k, 2) float and int64: no calls)
-                    pts, lab = points[q], dets[q].labels
+                    if labels is None:
+                        pts, lab = points[q], dets[q].labels
+                    else:  # (the pass's labels: its detections not made)
+                        off = labels[1]
+                        pts, lab = points[q], labels[0][off[q]:off[q + 1]]
                     if not (type(pts) is np.ndarray and pts.dtype == np.float64 and pts.ndim == 2 and pts.shape[1] == 2
                             and pts.flags.c_contiguous):
                         pts = np.ascontiguousarray(pts, dtype=float).reshape(-1, 2)
