@@ -251,7 +251,7 @@ class PerceptionFleet:
         # the pass's detections as the tracker stacks them (its tracking step takes them as they are)
         cut = det_off.tolist()
         self._sensed = None if restacked else (members, dets, cut, (
-            det_off[1:] - det_off[:-1], targets, centres, variances, radii, batch.occluded), stack)
+            det_off[1:] - det_off[:-1], targets, centres, variances, radii, batch.occluded), stack, batch.labels)
         for k, (m, c) in enumerate(zip(members, counts.tolist())):
             m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]], c)
 
@@ -331,12 +331,12 @@ class PerceptionFleet:
                 owners, times, origins, targets, returns = map(list, zip(*[
                     (m._tracker.owner, m._det.time_s, m._scan.origin_m, m._targets, m._scan.hit_points_world)
                     for m in ms]))
-                stacked = None
+                stacked = labels = None
             else:  # (the sensing pass's arrays: the scans' and detections' fields not made)
-                times, origins, returns, stacked = got
+                times, origins, returns, stacked, labels = got
                 owners = [m._tracker.owner for m in ms]
                 targets = [m._targets for m in ms]
-            ft.step(owners, times, dets, origins, targets, returns, stacked)
+            ft.step(owners, times, dets, origins, targets, returns, stacked, labels)
         for m in members:
             if m.method is not None:
                 m._track_with_method()
@@ -352,7 +352,7 @@ class PerceptionFleet:
         sensed = self._sensed
         if sensed is None:
             return None
-        members, got, cut, full, stack = sensed
+        members, got, cut, full, stack, labels = sensed
         p, S = len(ms), len(members)
         k0 = 0
         if p != S:
@@ -372,7 +372,7 @@ class PerceptionFleet:
             stacked = lens[k0:k0 + p], sel[a:b], cen[a:b], var[a:b], rad[a:b], occ[a:b]
         ro, world = stack.ret_off[k0:k0 + p + 1].tolist(), stack.hit_points_world
         returns = [world[ro[j]:ro[j + 1]] for j in range(p)]
-        return stack.times_s[k0:k0 + p], stack.origins_m[k0:k0 + p], returns, stacked
+        return stack.times_s[k0:k0 + p], stack.origins_m[k0:k0 + p], returns, stacked, (labels, ro)
 
 
 @dataclass(frozen=True, eq=False)
