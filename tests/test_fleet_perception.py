@@ -49,6 +49,19 @@ def _perceptions(world, fleet_factory):
     return out
 
 
+def sail_compared(world, a_ps, b_ps, seconds: float):
+    """Move the traffic along :func:`_targets` and step both perception sets every ``DT`` for
+    ``seconds`` [s], compared by :func:`step_and_compare`; yields the step index after each step."""
+    d = world.data
+    n = len(world.mocap_id)
+    for k in range(int(seconds / DT)):
+        d.mocap_pos[world.mocap_id, :2] = _targets(k, n)
+        d.time = k * DT
+        mujoco.mj_kinematics(world.model, d)
+        step_and_compare(a_ps, b_ps, k * DT)
+        yield k
+
+
 def step_and_compare(ps_a, ps_b, t_s: float) -> None:
     """Both groups sense and track at t_s [s] (each group's vessels in turn, as the runner's slots
     call them); then each pair of vessels has the same arrays, bit for bit, the same counts and the

@@ -4,11 +4,10 @@ counts, bit for bit, as the reference form that stacks every vessel's ``Detectio
 world of tests/test_fleet_perception.py: five vessels, two tracking configurations, one vessel
 scanning at half the rate, clutter)."""
 
-import mujoco
 
 from mjasc.perception.fleet import PerceptionFleet
 from mjasc.perception.tracking.fleet import FleetTracker
-from tests.test_fleet_perception import DT, _perceptions, _targets, _world, step_and_compare
+from tests.test_fleet_perception import _perceptions, _world, sail_compared
 
 
 class _Restacking(PerceptionFleet):
@@ -32,13 +31,7 @@ def test_stacked_batch_equals_restacked_detections(monkeypatch):
     fast, slow = PerceptionFleet(), _Restacking()
     a_ps = _perceptions(world, lambda: fast)
     b_ps = _perceptions(world, lambda: slow)
-    d = world.data
-    n = len(world.mocap_id)
-    for k in range(int(30 / DT)):
-        d.mocap_pos[world.mocap_id, :2] = _targets(k, n)
-        d.time = k * DT
-        mujoco.mj_kinematics(world.model, d)
-        step_and_compare(a_ps, b_ps, k * DT)
+    for _ in sail_compared(world, a_ps, b_ps, 30.0):
         for a, b in zip(a_ps, b_ps):
             assert a.tracker.counts == b.tracker.counts
             ft = a.tracker.fleet  # (the counts of rows per vessel, kept per change of rows: n_rows)

@@ -4,12 +4,11 @@ outlines, events and counts, bit for bit, as reading each vessel's ``detections.
 tests/test_fleet_perception.py: five vessels, two tracking configurations, one vessel scanning at half
 the rate, clutter, a quay and a buoy: slow tracks with outlines)."""
 
-import mujoco
 import numpy as np
 
 from mjasc.perception.fleet import PerceptionFleet
 from mjasc.perception.tracking.fleet import FleetTracker
-from tests.test_fleet_perception import DT, _perceptions, _targets, _world, step_and_compare
+from tests.test_fleet_perception import _perceptions, _world, sail_compared
 
 
 def test_pass_labels_give_the_same_tracks(monkeypatch):
@@ -35,13 +34,7 @@ def test_pass_labels_give_the_same_tracks(monkeypatch):
     world = _world()
     a_ps = _perceptions(world, lambda: with_labels)
     b_ps = _perceptions(world, lambda: plain)
-    d = world.data
-    n = len(world.mocap_id)
-    for k in range(int(30 / DT)):
-        d.mocap_pos[world.mocap_id, :2] = _targets(k, n)
-        d.time = k * DT
-        mujoco.mj_kinematics(world.model, d)
-        step_and_compare(a_ps, b_ps, k * DT)
+    for _ in sail_compared(world, a_ps, b_ps, 30.0):
         for a, b in zip(a_ps, b_ps):
             assert a.tracker.counts == b.tracker.counts
     assert given
