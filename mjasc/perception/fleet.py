@@ -111,7 +111,7 @@ class PerceptionFleet:
         self._scans: list = []  # members queued for the sensing pass (their casts in _batch, in order)
         self._tracks: list = []  # members queued for the tracking pass
         self._plans: dict = {}  # _plan per combination of members
-        self._sensed = None  # the last sensing pass's (members, detections, cut, their stack for FleetTracker.step, scans)
+        self._sensed = None  # the last sensing pass's (members, detections, cut, their stack for FleetTracker.step, scans, return labels)
         self._busy = False
 
     def join(self, member) -> tuple[StaticMap, MultiTargetTracker | None]:
@@ -348,7 +348,8 @@ class PerceptionFleet:
         read from the last sensing pass's arrays when they are consecutive slots of it and its
         detections: the scan times (p,) [s], origins (p, 2) [m], each scan's returns (k, 2) [m] and
         the detections stacked as the step takes them (views of the pass's arrays: no stacking
-        again); None otherwise."""
+        again) and the pass's return labels with these scans' return offsets into them (the step's
+        ``labels``); None otherwise."""
         sensed = self._sensed
         if sensed is None:
             return None
