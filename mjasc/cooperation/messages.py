@@ -13,13 +13,35 @@ World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
+import math
 from bisect import bisect_right
 from dataclasses import dataclass, field
 from typing import Mapping
 
 import numpy as np
 
+from mjasc.core.compiled import kernel
+
 __all__ = ["TeamMessage", "TeamIntention", "TeamPicture"]
+
+
+@kernel
+def _plan_max_speed(ts, pts):
+    """The largest speed along a plan of at least two points [m/s]: numpy's
+    ``(np.hypot(*np.diff(pts, axis=0).T) / np.maximum(np.diff(ts), 1e-9)).max()`` in one pass —
+    the same differences, the C library's ``hypot`` (numpy's), the same division, NaN propagating
+    as ``max`` does."""
+    best = -math.inf
+    for i in range(ts.size - 1):
+        dt = ts[i + 1] - ts[i]
+        if dt < 1e-9:  # (np.maximum: a NaN stays NaN)
+            dt = 1e-9
+        v = math.hypot(pts[i + 1, 0] - pts[i, 0], pts[i + 1, 1] - pts[i, 1]) / dt
+        if v != v:
+            return v
+        if v > best:
+            best = v
+    return best
 
 
 @dataclass(frozen=True, eq=False)
@@ -177,8 +199,12 @@ class TeamIntention:
         if v is None:
             v = float(np.hypot(*self.velocity_m_s))
             if self.has_plan:
-                seg = np.hypot(*np.diff(self.plan_points_m, axis=0).T) / np.maximum(np.diff(self.plan_times_s), 1e-9)
-                v = max(v, float(seg.max()))
+                ts, pts = self.plan_times_s, self.plan_points_m
+                if ts.dtype == pts.dtype == np.float64 and ts.ndim == 1 and pts.ndim == 2 and pts.shape[1] == 2:
+                    v = max(v, float(_plan_max_speed(ts, pts)))  # (the numpy form below in one compiled pass)
+                else:
+                    seg = np.hypot(*np.diff(pts, axis=0).T) / np.maximum(np.diff(ts), 1e-9)
+                    v = max(v, float(seg.max()))
             object.__setattr__(self, "_max_speed", v)
         return v
 
