@@ -252,7 +252,7 @@ class FleetTracker(FleetRows, FleetViews):
         vr = var_row if self._use_var else None  # (changed in place by the cycle: its unusable σ² replaced)
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
         x = bank.state_rows
-        with_pts = np.array([points[q] is not None and dets[q] is not None for q in range(p)], dtype=bool)
+        with_pts = np.array([pt is not None and d is not None for pt, d in zip(points, dets)], dtype=bool)
         c = self.cols  # (the cycled rows' gathers, management's record of the scan, last assignments and the
         # outlines' plan of the rows with returns: one call)
         outlines = self.outlines

@@ -124,9 +124,15 @@ class TrackOutlines:
     def pendings(self, rows: list, slow: list, centres: np.ndarray, radii: np.ndarray) -> list:
         """A report's outlines column: :meth:`pending` of ``rows[j]`` with centre ``centres[j]`` (2,) [m]
         and radius ``radii[j]`` [m] where ``slow[j]``, None elsewhere (one call for the column)."""
-        hull = self.cols.hull
-        return [Pending(outline_at, hull[k], float(c[0]), float(c[1]), float(r)) if lk else None
-                for k, lk, c, r in zip(rows, slow, centres, radii)]
+        out = [None] * len(slow)
+        if True in slow:  # (only the slow rows, their numbers from lists: no numpy scalar per row; the
+            # same Python floats as float() of the array's elements)
+            hull, cl, rl = self.cols.hull, centres.tolist(), radii.tolist()
+            for j, lk in enumerate(slow):
+                if lk:
+                    c = cl[j]
+                    out[j] = Pending(outline_at, hull[rows[j]], c[0], c[1], rl[j])
+        return out
 
 
 def outline_at(hull, x: float, y: float, radius: float) -> np.ndarray:
