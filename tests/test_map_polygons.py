@@ -44,3 +44,24 @@ def test_memo_gives_the_pieces_of_a_fresh_split(monkeypatch):
     assert len(cache._pieces) <= MEMO_PARTS + 64
     assert 0 < calls[0] < calls[1] / 5  # most parts were split before
     _same(cache.polygons(np.zeros((0, 2), dtype=np.int64)), [])
+
+
+def test_maps_of_one_store_share_their_memo():
+    """The maps of one fleet's store with the same settings share one memo (a part split for one
+    vessel's map is not split again for another's); each map's polygons are those of a map of its
+    own, bit for bit and in the same order."""
+    from mjasc.perception.static_map import StaticMap, StaticMapStore
+
+    rng = np.random.default_rng(7)
+    store = StaticMapStore()
+    a, b = StaticMap(1.0, 1, store=store), StaticMap(1.0, 1, store=store)
+    other = StaticMap(1.0, 1, min_fill=0.6, store=store)  # other settings: a memo of its own
+    assert a._polys._pieces is b._polys._pieces and a._polys._pieces is not other._polys._pieces
+    wall = np.array([[x, 0.5 * x + 3.0] for x in np.arange(0.0, 60.0, 0.3)])
+    blobs = rng.uniform(-20, 80, size=(40, 2))
+    for m, pts in ((a, wall), (b, wall[20:]), (b, blobs), (other, wall), (a, blobs[:10])):
+        m.add_scan(pts)
+        alone = StaticMap(1.0, 1, min_fill=m.min_fill)
+        alone.add_scan(m.occupied_cells() + 0.5)
+        _same(m.polygons(), alone.polygons())
+    assert len(a._polys._pieces) > 0

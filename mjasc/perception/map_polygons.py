@@ -13,7 +13,10 @@ A map changes a few cells at a time, mostly in one structure: :class:`PolygonCac
 pieces of every component, and of every part of one met while splitting it, keyed by its depth and
 its cells, and splits only what it has not split before (a part's pieces depend only on its own
 cells, taken in row-major order, and its depth): a cell added at one end of a wall changes the
-component, but often leaves a half or a quarter of it as it was.
+component, but often leaves a half or a quarter of it as it was. The maps of one fleet share their
+memo (``PolygonCache(…, memo=)``, :meth:`mjasc.perception.static_map.StaticMapStore.polygon_memo`):
+vessels that map the same structure meet the same parts (a part's pieces depend only on its cells,
+its depth, the cell size, ``min_fill`` and ``max_depth``).
 """
 
 from __future__ import annotations
@@ -88,18 +91,19 @@ def _corners(comp: np.ndarray, cell_m: float) -> np.ndarray:
 
 
 class PolygonCache:
-    """Convex pieces of one map's occupied cells; a component, or a part of one, split once (module docstring)."""
+    """Convex pieces of one map's occupied cells; a component, or a part of one, split once (module
+    docstring). ``memo``: the dict of pieces to use, shared with the caches of the same cell size,
+    ``min_fill`` and ``max_depth`` (default: one of its own)."""
 
-    def __init__(self, cell_m: float, min_fill: float, max_depth: int):
+    def __init__(self, cell_m: float, min_fill: float, max_depth: int, memo: dict | None = None):
         self.cell_m, self.min_fill, self.max_depth = float(cell_m), float(min_fill), int(max_depth)
-        self._pieces: dict[tuple, list[np.ndarray]] = {}  # (depth, cells' bytes) → pieces
+        self._pieces: dict[tuple, list[np.ndarray]] = {} if memo is None else memo  # (depth, cells' bytes) → pieces
 
     def polygons(self, cells: np.ndarray) -> list[np.ndarray]:
         """Pieces of the occupied cells ``cells`` (c, 2) int64, components in raster order of
         their first cell (``ndimage.label``'s numbering)."""
         out: list[np.ndarray] = []
         if cells.size == 0:
-            self._pieces = {}
             return out
         lo = cells.min(axis=0)
         rel = cells - lo
@@ -110,7 +114,7 @@ class PolygonCache:
         order = np.lexsort((cells[:, 1], cells[:, 0], lab))  # by component, then row-major
         comps = np.split(cells[order], np.cumsum(np.bincount(lab, minlength=n + 1)[1:])[:-1])
         if len(self._pieces) > MEMO_PARTS:
-            self._pieces = {}
+            self._pieces.clear()  # (in place: a shared memo starts again for every cache that holds it)
         for comp in comps:
             split_component(comp, self.cell_m, self.min_fill, self.max_depth, 0, out, self._pieces)
         return out

@@ -96,6 +96,16 @@ class StaticMapStore:
         self._member = np.zeros(0, dtype=np.int64)
         self._score = np.zeros(0)
         self._n = 0
+        self._memos: dict[tuple, dict] = {}  # polygon_memo: (cell_m, min_fill, max_depth) → pieces
+
+    def polygon_memo(self, cell_m: float, min_fill: float, max_depth: int) -> dict:
+        """The pieces memo (:class:`~mjasc.perception.map_polygons.PolygonCache`) shared by the
+        maps of this store with this cell size [m], ``min_fill`` and ``max_depth``."""
+        key = (float(cell_m), float(min_fill), int(max_depth))
+        got = self._memos.get(key)
+        if got is None:
+            got = self._memos[key] = {}
+        return got
 
     def add_member(self, config: StaticMapConfig) -> int:
         """A new (empty) map with this config; returns its member index."""
@@ -325,7 +335,8 @@ class StaticMap:
         self.carve_margin_m = float(c.carve_margin_m)
         self.store = StaticMapStore() if store is None else store
         self.member = self.store.add_member(c)
-        self._polys = PolygonCache(self.cell_m, self.min_fill, self.max_depth)
+        self._polys = PolygonCache(self.cell_m, self.min_fill, self.max_depth,
+                                   self.store.polygon_memo(self.cell_m, self.min_fill, self.max_depth))
         self._cache: list[np.ndarray] = []
         self._cached_version = 0
 
