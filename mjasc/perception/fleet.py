@@ -48,6 +48,7 @@ from mjasc.perception.sense_pass import DETECTED, MAPPED, OUT_OF_RANGE, scan_det
 from mjasc.perception.static_map import StaticMap, StaticMapStore
 from mjasc.perception.tracked_disc_kernels import disc_courses, disc_rows_at, disc_table
 from mjasc.perception.tracked_discs import DISC_MARGIN_M, DISC_MARGIN_MAX_M, estimate_discs
+from mjasc.perception.tracked_returns import split_in_pass
 from mjasc.perception.tracking.fleet import FleetTracker
 from mjasc.perception.tracking.tracker import MultiTargetTracker
 
@@ -216,9 +217,11 @@ class PerceptionFleet:
             if swallowed.any():  # a wall's cluster may have swallowed a tracked boat's returns
                 d_cnt = np.bincount(d_k, minlength=S)
                 d_off = _starts(d_cnt).tolist()
-                for k in np.flatnonzero(swallowed).tolist():
+                for k in np.flatnonzero(swallowed).tolist():  # (split_tracked of each, compiled)
                     a, b = d_off[k], d_off[k] + int(d_cnt[k])
-                    det = members[k]._split_tracked(scans[k], dets[k], (dc[a:b], dr[a:b]))
+                    det = split_in_pass(k, dets[k], batch, stack, (dc, dr), a, b, c, (cell_m, keys, key_rows, *t[3:]),
+                                        int(slot[k]), lambda: members[k]._split_tracked(scans[k], dets[k],
+                                                                                         (dc[a:b], dr[a:b])))
                     restacked |= det is not dets[k]
                     dets[k] = det
             lab = batch.labels

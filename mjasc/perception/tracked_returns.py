@@ -7,7 +7,8 @@ the map as part of the wall and its track would starve. The fleet's sensing pass
 returns inside one of the vessel's tracked discs (:func:`mjasc.perception.sense_kernels.tracked_in_walls`);
 :func:`split_tracked` takes those returns out of their cluster (where the vessel's map has not
 mapped the cell: the wall behind stays the wall's), clusters them again on their own and keeps the
-new detections that look like a tracked object.
+new detections that look like a tracked object. :func:`split_in_pass` is the same for a scan of
+the pass, in one compiled call on the pass's stacked arrays (:mod:`mjasc.perception.split_kernels`).
 """
 
 from __future__ import annotations
@@ -20,9 +21,10 @@ from mjasc.perception.detection import DetectionConfig, Detections, detect
 from mjasc.perception.tracked_discs import DISC_MARGIN_M
 from mjasc.perception.owned_discs import inside_discs
 from mjasc.perception.range_sensor import Scan
+from mjasc.perception.split_kernels import OUT_OF_RANGE, SPLIT, split_pass_scan
 from mjasc.perception.static_map import StaticMap
 
-__all__ = ["split_tracked", "targets_only", "subset", "inside"]
+__all__ = ["split_tracked", "split_in_pass", "targets_only", "subset", "inside"]
 
 
 def split_tracked(scan: Scan, det: Detections, discs, static_map: StaticMap, config: DetectionConfig,
@@ -68,6 +70,37 @@ def split_tracked(scan: Scan, det: Detections, discs, static_map: StaticMap, con
                       cat(det.centres_body, extra.centres_body), cat(det.radii_m, extra.radii_m),
                       cat(det.variances_m2, extra.variances_m2), cat(det.n_points, extra.n_points),
                       cat(det.ranges_m, extra.ranges_m), cat(det.extended, extra.extended), labels, occ)
+
+
+def split_in_pass(k: int, det: Detections, batch, stack, discs, a: int, b: int, constants, tables, map_member: int,
+                  fallback) -> Detections:
+    """:func:`split_tracked` of scan ``k`` of a sensing pass: its detections ``det`` (scan k's of
+    ``batch``, a :class:`~mjasc.perception.detection.DetectionBatch` of the pass's
+    :class:`~mjasc.perception.scan_batch.ScanStack` ``stack``), its discs ``a : b`` of ``discs``
+    (centres (q, 2), radii (q,) [m], grouped by scan), the pass's detection ``constants``
+    (:func:`~mjasc.perception.detection.detection_constants`, scan k's those of its vessel's
+    settings), the store's ``tables`` as the pass found them
+    (:meth:`~mjasc.perception.static_map.StaticMapStore.pass_tables`; its sorted keys and rows as the
+    pass left them) and the vessel's map member. The same result, bit for bit
+    (:mod:`mjasc.perception.split_kernels`); ``fallback()`` (``split_tracked`` itself) where a
+    taken return's cell is out of the map's range (it raises the one-line error)."""
+    cell_m, keys, key_rows, _, member, score, _, _, min_hits, n_occ, *_ = tables
+    n_beams, d0, lam, dth, gap, sig, full = constants.cluster_scan
+    _, edge_lost, min_rad, edge_var, sig2, floor2 = constants.per_scan
+    status, labels, points, floats, counts, flags = split_pass_scan(
+        k, batch.ret_offsets, batch.det_offsets, batch.labels, batch.extended, batch.occluded, batch.centres_m,
+        batch.centres_body, batch.radii_m, batch.variances_m2, batch.n_points, batch.ranges_m, stack.hit_points_world,
+        stack.hit_beams, stack.hit_ranges_m, stack.n_beams, stack.max_range_m, stack.origins_m, stack.cos_heading,
+        stack.sin_heading, discs[0], discs[1], a, b, d0, lam, dth, gap, sig, full, edge_lost, min_rad, edge_var, sig2,
+        floor2, *constants.keep_scan, DISC_MARGIN_M, map_member, n_occ[map_member] != 0, cell_m, keys, key_rows, score,
+        member, min_hits)
+    if status == SPLIT:
+        m = counts.shape[0]
+        return Detections(det.time_s, det.origin_m, det.heading_rad, points[:m], points[m:], floats[:m],
+                          floats[m:2 * m], counts, floats[2 * m:], flags[:m], labels, flags[m:])
+    if status == OUT_OF_RANGE:
+        return fallback()
+    return det
 
 
 def targets_only(d: Detections, mask: np.ndarray) -> Detections:
