@@ -208,7 +208,7 @@ class PerceptionFleet:
         pts = stack.hit_points_world
         det_off = batch.det_offsets
         extended, n_pts, centres = batch.extended, batch.n_points, batch.centres_m
-        radii, variances = batch.radii_m, batch.variances_m2
+        radii, variances, occluded, lab = batch.radii_m, batch.variances_m2, batch.occluded, batch.labels
         if status == MAPPED:
             carve_stacked(store, t, keys, key_rows, n, cand, geo, rel, stack, plan.sigma, ret_off, slot, pts)
         else:  # (DETECTED: the map step not made in the compiled call, the reference form of tests/test_sense_pass.py)
@@ -224,7 +224,6 @@ class PerceptionFleet:
                                                                                          (dc[a:b], dr[a:b])))
                     restacked |= det is not dets[k]
                     dets[k] = det
-            lab = batch.labels
             if restacked:  # stacked again
                 n_det = np.array([len(d) for d in dets], dtype=np.int64)
                 det_off = np.zeros(S + 1, dtype=np.int64)
@@ -236,6 +235,7 @@ class PerceptionFleet:
                 centres = cat([d.centres_m for d in dets])
                 radii = cat([d.radii_m for d in dets])
                 variances = cat([d.variances_m2 for d in dets])
+                occluded = cat([d.occluded for d in dets])
             got = None if status == OUT_OF_RANGE else sense_map(
                 store, lab, ret_off, det_off, extended, n_pts, centres, radii, variances, pts, plan.sigma, FLAT_M, dc,
                 dr, d_k, slot, stack, plan.carve_all)
@@ -251,10 +251,11 @@ class PerceptionFleet:
                         [s.ranges for s in sc], [s.hit for s in sc], [s.max_range_m for s in sc],
                         [s.full_circle for s in sc], [members[k].sensor_config.range_noise_std_m for k in carve],
                         [s.hit_points_world for s in sc])
-        # the pass's detections as the tracker stacks them (its tracking step takes them as they are)
+        # the pass's detections as the tracker stacks them (its tracking step takes them as they are; stacked
+        # again when a split added some)
         cut = det_off.tolist()
-        self._sensed = None if restacked else (members, dets, cut, (
-            det_off[1:] - det_off[:-1], targets, centres, variances, radii, batch.occluded), stack, batch.labels)
+        self._sensed = (members, dets, cut, (det_off[1:] - det_off[:-1], targets, centres, variances, radii, occluded),
+                        stack, lab)
         for k, (m, c) in enumerate(zip(members, counts.tolist())):
             m._scanned(scans[k], dets[k], targets[cut[k]:cut[k + 1]], c)
 
