@@ -137,3 +137,34 @@ def test_halves_are_the_masks_halves():
     assert n_cut > 50
     proj = np.array([1.0, np.nan, 3.0])  # a NaN: no cut (proj <= NaN is false everywhere)
     assert halves(np.zeros((3, 2), dtype=np.int64), proj)[0].shape == (0, 2)
+
+
+def _components_ndimage(cells):
+    """The form map_polygons had: ndimage.label on the cells' grid, then lexsort and split."""
+    from scipy import ndimage
+
+    lo = cells.min(axis=0)
+    rel = cells - lo
+    grid = np.zeros(tuple(rel.max(axis=0) + 1), dtype=bool)
+    grid[tuple(rel.T)] = True
+    labels, n = ndimage.label(grid, structure=np.ones((3, 3)))
+    lab = labels[tuple(rel.T)]
+    order = np.lexsort((cells[:, 1], cells[:, 0], lab))
+    return cells[order], np.bincount(lab, minlength=n + 1)[1:]
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_components_match_ndimage_label(seed):
+    from mjasc.perception.hull_kernels import components
+
+    rng = np.random.default_rng(seed)
+    span = int(rng.integers(1, 40))
+    c = int(rng.integers(1, 300))
+    cells = rng.integers(-span, span + 1, size=(c, 2)) + rng.integers(-10**6, 10**6, size=2)
+    if seed % 3 == 0:  # sparse: many components
+        cells = rng.integers(-200, 201, size=(c, 2))
+    cells = rng.permutation(np.unique(cells, axis=0))
+    got, counts = components(cells)
+    want, want_counts = _components_ndimage(cells)
+    assert got.dtype == np.int64 and got.flags.c_contiguous
+    assert got.tobytes() == want.tobytes() and counts.tolist() == want_counts.tolist()

@@ -5,7 +5,10 @@ piece is cut (``np.median``'s value: the middle element of the sorted values, or
 two middle ones, ``(a + b) / 2``, as numpy's mean of two; NaN if any value is NaN; a zero's sign
 may differ from numpy's, which picks among equal values in its partition's order: the split only
 compares with it), and the cut itself: a piece's cells centred on their mean (:func:`centred`) and its two
-halves at the median (:func:`halves`), numpy's numbers without its per-call overhead.
+halves at the median (:func:`halves`), numpy's numbers without its per-call overhead; and, before
+the split, the map's cells grouped into 8-connected components (:func:`components`:
+``ndimage.label``'s components, numbering and order, without building the grid; its test compares
+them).
 
 A cell (i, j) is the unit square with corners (i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1). The
 hull of those corners is found by Andrew's monotone chain (corners sorted by x, then y; a turn
@@ -21,7 +24,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["centred", "halves", "hull_area2", "median"]
+__all__ = ["centred", "components", "halves", "hull_area2", "median"]
 
 
 @kernel
@@ -127,3 +130,64 @@ def centred(comp):
         out[k, 0] = comp[k, 0] - mx
         out[k, 1] = comp[k, 1] - my
     return out
+
+
+@kernel
+def components(cells):
+    """The 8-connected components of the distinct cells ``cells`` (c ≥ 1, 2) int64: the cells
+    ordered by component, then row-major (i, then j), and the number of cells of each component
+    (n,), components numbered in row-major order of their first cell — ``ndimage.label``'s
+    numbering on the cells' grid with the 3×3 structure, and ``np.lexsort((j, i, label))``'s order.
+    Neighbours are found by binary search in the cells' sorted row-major keys, joined by union–find."""
+    c = cells.shape[0]
+    lo_i, lo_j, hi_j = cells[0, 0], cells[0, 1], cells[0, 1]
+    for k in range(c):
+        lo_i = min(lo_i, cells[k, 0])
+        lo_j = min(lo_j, cells[k, 1])
+        hi_j = max(hi_j, cells[k, 1])
+    w = hi_j - lo_j + 3  # (j + 1 of the last column never reaches the next row)
+    key = np.empty(c, dtype=np.int64)
+    for k in range(c):
+        key[k] = (cells[k, 0] - lo_i) * w + (cells[k, 1] - lo_j + 1)
+    order = np.argsort(key)
+    skey = key[order]
+    parent = np.arange(c)
+    for p in range(c):
+        for nk in (skey[p] - w - 1, skey[p] - w, skey[p] - w + 1, skey[p] - 1):
+            q = np.searchsorted(skey, nk)
+            if q < p and skey[q] == nk:
+                a = p
+                while parent[a] != a:
+                    a = parent[a]
+                b = q
+                while parent[b] != b:
+                    b = parent[b]
+                if a != b:
+                    if a < b:
+                        parent[b] = a
+                    else:
+                        parent[a] = b
+    label = np.full(c, -1, dtype=np.int64)
+    lab = np.empty(c, dtype=np.int64)
+    n = 0
+    for p in range(c):  # (a component's root is its first cell in row-major order)
+        r = p
+        while parent[r] != r:
+            r = parent[r]
+        if label[r] < 0:
+            label[r] = n
+            n += 1
+        lab[p] = label[r]
+    counts = np.zeros(n, dtype=np.int64)
+    for p in range(c):
+        counts[lab[p]] += 1
+    start = np.zeros(n, dtype=np.int64)
+    for q in range(1, n):
+        start[q] = start[q - 1] + counts[q - 1]
+    out = np.empty((c, 2), dtype=np.int64)
+    for p in range(c):
+        at = start[lab[p]]
+        start[lab[p]] = at + 1
+        src = order[p]
+        out[at, 0], out[at, 1] = cells[src, 0], cells[src, 1]
+    return out, counts

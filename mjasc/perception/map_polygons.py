@@ -1,7 +1,8 @@
 """Occupied cells of a static map → convex polygons for the planner (world ENU [m]).
 
 The occupied cells (integer indices (i, j) of ``cell_m`` squares, :mod:`mjasc.perception.static_map`)
-are grouped into 8-connected components (``scipy.ndimage.label``). Each component is split
+are grouped into 8-connected components (``scipy.ndimage.label``'s, numbered in raster order of
+their first cell; :func:`~mjasc.perception.hull_kernels.components`). Each component is split
 recursively (at the median of its cells along their principal axis) until its cells fill at least
 ``min_fill`` of their convex hull (scipy's qhull; a piece whose fill the hull's exact area,
 :mod:`mjasc.perception.hull_kernels`, puts clearly below is split without building it) or
@@ -22,10 +23,9 @@ its depth, the cell size, ``min_fill`` and ``max_depth``).
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 from scipy.spatial import ConvexHull, QhullError
 
-from mjasc.perception.hull_kernels import centred, halves, hull_area2
+from mjasc.perception.hull_kernels import centred, components, halves, hull_area2
 
 __all__ = ["PolygonCache", "split_component"]
 
@@ -36,7 +36,6 @@ SURE_SPARSE = 1e-6
 #: The parts a :class:`PolygonCache` remembers at most (then it starts again from none).
 MEMO_PARTS = 4096
 _CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
-_EIGHT = np.ones((3, 3))
 
 
 def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth: int, depth: int, out: list,
@@ -105,14 +104,9 @@ class PolygonCache:
         out: list[np.ndarray] = []
         if cells.size == 0:
             return out
-        lo = cells.min(axis=0)
-        rel = cells - lo
-        grid = np.zeros(tuple(rel.max(axis=0) + 1), dtype=bool)
-        grid[tuple(rel.T)] = True
-        labels, n = ndimage.label(grid, structure=_EIGHT)
-        lab = labels[tuple(rel.T)]
-        order = np.lexsort((cells[:, 1], cells[:, 0], lab))  # by component, then row-major
-        comps = np.split(cells[order], np.cumsum(np.bincount(lab, minlength=n + 1)[1:])[:-1])
+        ordered, counts = components(cells)  # by component, then row-major (ndimage.label's numbering)
+        ends = np.cumsum(counts).tolist()
+        comps = [ordered[a:b] for a, b in zip([0] + ends[:-1], ends)]
         if len(self._pieces) > MEMO_PARTS:
             self._pieces.clear()  # (in place: a shared memo starts again for every cache that holds it)
         for comp in comps:
