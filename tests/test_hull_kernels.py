@@ -168,3 +168,17 @@ def test_components_match_ndimage_label(seed):
     want, want_counts = _components_ndimage(cells)
     assert got.dtype == np.int64 and got.flags.c_contiguous
     assert got.tobytes() == want.tobytes() and counts.tolist() == want_counts.tolist()
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_corners_match_numpy_form(seed):
+    from mjasc.perception.hull_kernels import corners
+    from mjasc.perception.map_polygons import _CORNERS
+
+    rng = np.random.default_rng(seed)
+    comp = rng.integers(-2**20, 2**20, size=(int(rng.integers(0, 50)), 2))
+    comp[: comp.shape[0] // 3] = rng.integers(-3, 3, size=(comp.shape[0] // 3, 2))  # zeros and signs
+    for cell_m in (1.0, 0.5, 0.3, 2.7, float(rng.uniform(0.1, 5.0))):
+        want = (comp[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cell_m
+        got = corners(comp, cell_m)
+        assert got.shape == want.shape and got.tobytes() == want.tobytes()

@@ -8,7 +8,7 @@ compares with it), and the cut itself: a piece's cells centred on their mean (:f
 halves at the median (:func:`halves`), numpy's numbers without its per-call overhead; and, before
 the split, the map's cells grouped into 8-connected components (:func:`components`:
 ``ndimage.label``'s components, numbering and order, without building the grid; its test compares
-them).
+them), and a piece's cell corners as qhull takes them (:func:`corners`).
 
 A cell (i, j) is the unit square with corners (i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1). The
 hull of those corners is found by Andrew's monotone chain (corners sorted by x, then y; a turn
@@ -24,7 +24,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["centred", "components", "halves", "hull_area2", "median"]
+__all__ = ["centred", "components", "corners", "halves", "hull_area2", "median"]
 
 
 @kernel
@@ -191,3 +191,19 @@ def components(cells):
         src = order[p]
         out[at, 0], out[at, 1] = cells[src, 0], cells[src, 1]
     return out, counts
+
+
+@kernel
+def corners(comp, cell_m):
+    """The corners (4c, 2) [m] of the cells ``comp`` (c, 2) int64, four per cell in turn: (i, j),
+    (i + 1, j), (i + 1, j + 1), (i, j + 1), each ``(index + offset) · cell_m`` in float64, as
+    numpy's ``(comp[:, None, :] + offsets).reshape(-1, 2) * cell_m`` rounds it (qhull's input)."""
+    c = comp.shape[0]
+    out = np.empty((4 * c, 2))
+    for k in range(c):
+        i, j = float(comp[k, 0]), float(comp[k, 1])
+        out[4 * k, 0], out[4 * k, 1] = (i + 0.0) * cell_m, (j + 0.0) * cell_m
+        out[4 * k + 1, 0], out[4 * k + 1, 1] = (i + 1.0) * cell_m, (j + 0.0) * cell_m
+        out[4 * k + 2, 0], out[4 * k + 2, 1] = (i + 1.0) * cell_m, (j + 1.0) * cell_m
+        out[4 * k + 3, 0], out[4 * k + 3, 1] = (i + 0.0) * cell_m, (j + 1.0) * cell_m
+    return out

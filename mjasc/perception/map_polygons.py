@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from mjasc.perception.hull_kernels import centred, components, halves, hull_area2
+from mjasc.perception.hull_kernels import centred, components, corners, halves, hull_area2
 
 __all__ = ["PolygonCache", "split_component"]
 
@@ -85,8 +85,10 @@ def _split(comp, cell_m, min_fill, max_depth, depth, out, memo) -> None:
 
 
 def _corners(comp: np.ndarray, cell_m: float) -> np.ndarray:
-    """The corners (4c, 2) [m] of the cells ``comp`` (c, 2), four per cell in turn (qhull's input)."""
-    return (comp[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cell_m
+    """The corners (4c, 2) [m] of the cells ``comp`` (c, 2), four per cell in turn (qhull's input;
+    :func:`~mjasc.perception.hull_kernels.corners`, the numpy form ``(comp[:, None, :] +
+    _CORNERS[None, :, :]).reshape(-1, 2) * cell_m`` in one compiled call)."""
+    return corners(comp, cell_m)
 
 
 class PolygonCache:
