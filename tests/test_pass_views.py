@@ -95,33 +95,50 @@ def test_replace_equality_copies_and_pickles():
 def test_the_fleet_tracking_pass_makes_no_fields(monkeypatch):
     """What the tracking pass hands the fleet tracker comes from the sensing pass's arrays: no
     vessel's scan or detections made on the way (the tracker itself reads a detection's labels
-    for the outlines of slow tracks unless the pass's labels are given, ``labels=``; a restacked pass,
-    after a wall swallowed a tracked boat's returns, reads them all)."""
+    for the outlines of slow tracks unless the pass's labels are given, ``labels=``). A pass stacked
+    again, after a wall swallowed a tracked boat's returns, has read every vessel's detections on the
+    way (the split's and the views' fields); the tracker still reads none of them."""
     import mujoco
 
     from mjasc.perception.fleet import PerceptionFleet
     from mjasc.perception.tracking.fleet import FleetTracker
     from tests.test_fleet_perception import DT, _perceptions, _targets, _world
 
+    import mjasc.perception.fleet as fleet_module
+
     seen = []
     step = FleetTracker.step
+    tick, split_ticks = [0], set()  # the sail's tick; the ticks whose pass a split stacked again
+    split = fleet_module.split_in_pass
+
+    def splitting(k, det, *args):
+        got = split(k, det, *args)
+        if got is not det:
+            split_ticks.add(tick[0])
+        return got
+
+    def lazy(d):
+        return "_src" in vars(d) and "_src" in vars(d.__dict__["_src"][1][1].scans[d.__dict__["_src"][1][0]])
 
     def checking(self, owners, t_s, dets, origins, use, points, stacked, labels=None):
-        if stacked is not None:
-            seen.append(all("_src" in vars(d) and "_src" in vars(d.__dict__["_src"][1][1].scans[d.__dict__["_src"][1][0]])
-                            for d in dets))
+        dets = list(dets)
+        if stacked is not None and tick[0] not in split_ticks:  # (stacking again read every vessel's detections)
+            seen.append(all(lazy(d) for d in dets))
+        views = [d for d in dets if "_src" in vars(d)]
         out = step(self, owners, t_s, dets, origins, use, points, stacked, labels)
         if labels is not None:  # (the pass's labels given: the tracker's outlines make no detections either)
-            assert all("_src" in vars(d) for d in dets)
+            assert all("_src" in vars(d) for d in views)
         return out
 
     monkeypatch.setattr(FleetTracker, "step", checking)
+    monkeypatch.setattr(fleet_module, "split_in_pass", splitting)
     world = _world()
     fleet = PerceptionFleet()
     ps = _perceptions(world, lambda: fleet)
     d = world.data
     n = len(world.mocap_id)
     for k in range(int(6 / DT)):
+        tick[0] = k
         d.mocap_pos[world.mocap_id, :2] = _targets(k, n)
         d.time = k * DT
         mujoco.mj_kinematics(world.model, d)
