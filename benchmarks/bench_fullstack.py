@@ -21,7 +21,7 @@ For each row, in one process and interleaved (floor, recording on, recording off
   with recording on, as shares of its wall time; "other" is the loop itself (navigation snapshots,
   scheduling).
 
-    .venv/bin/python benchmarks/bench_fullstack.py                 # full mode (~3 min on a quiet 2-core machine)
+    .venv/bin/python benchmarks/bench_fullstack.py                 # full mode (~4 min on a quiet 2-core machine)
     .venv/bin/python benchmarks/bench_fullstack.py --quick         # a few seconds of two rows
     .venv/bin/python benchmarks/bench_fullstack.py --rows demo fleet_10 --duration 20 --repeats 2
 
@@ -206,7 +206,8 @@ def main(argv=None) -> None:
     ap.add_argument("--rows", nargs="+", help="only these rows (names as in the table)")
     ap.add_argument("--duration", type=float, help="simulated seconds of every row (default: see above)")
     ap.add_argument("--repeats", type=int, default=3, help="runs per configuration, best kept (rows ≤ 10 vessels)")
-    ap.add_argument("--repeats-large", type=int, default=1, help="runs per configuration for rows > 10 vessels")
+    ap.add_argument("--repeats-large", type=int, default=3,
+                    help="runs per configuration for rows > 10 vessels (one run of a big fleet moves with the host)")
     ap.add_argument("--video", action="store_true", help="the recording-on run writes the video too")
     a = ap.parse_args(argv)
     if a.quick:
