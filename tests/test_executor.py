@@ -141,9 +141,37 @@ def test_children_started_before_the_campaign_is_read_are_the_ones_that_run_it(t
     spare = ex_mod._PRESTARTED[0]
     assert spare.wait_ready(120)
     pid = spare.pid
-    ex_mod._close_prestarted()  # (what exit does)
+    ex_mod.close_prestarted()  # (what exit does)
     assert spare._process is None and not ex_mod._PRESTARTED
     assert not _alive(pid)
+
+
+def test_an_invalid_campaign_leaves_no_prestarted_child(tmp_path, monkeypatch, capsys):
+    """The ``campaign`` command started a child before reading its file; the file is invalid, so
+    no campaign takes the child: the command kills it before it returns (a process that calls the
+    command, a test or a notebook, is not left with a child until it exits)."""
+    import mjasc.campaigns.executor as ex_mod
+    from mjasc.cli import main
+
+    monkeypatch.setattr(os, "cpu_count", lambda: 2)
+    started = []
+    prestart = ex_mod.prestart_isolated
+
+    def recording(workers):
+        n = prestart(workers)
+        for child in ex_mod._PRESTARTED:
+            assert child.wait_ready(120)
+            started.append((child, child.pid))
+        return n
+
+    monkeypatch.setattr(ex_mod, "prestart_isolated", recording)
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "bad"\nscenario = "nowhere.toml"\nruns = 2\n')
+    assert main(["campaign", str(bad), "--workers", "1", "--out", str(tmp_path / "out")]) == 2
+    assert "invalid campaign" in capsys.readouterr().err
+    assert len(started) == 1 and not ex_mod._PRESTARTED  # one started, none left
+    (child, pid), = started
+    assert child._process is None and not _alive(pid)
 
 
 def _alive(pid: int) -> bool:

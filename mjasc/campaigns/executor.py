@@ -39,7 +39,7 @@ import time
 import traceback
 
 __all__ = ["IsolatedExecutor", "execute_in_process", "run_isolated", "start_isolated", "adopt_isolated",
-           "release_isolated", "prestart_isolated", "take_prestarted"]
+           "release_isolated", "prestart_isolated", "take_prestarted", "close_prestarted"]
 
 
 def execute_in_process(request: dict) -> dict:
@@ -323,12 +323,15 @@ def take_prestarted(n: int) -> list:
     return taken
 
 
-def _close_prestarted() -> None:
+def close_prestarted() -> None:
+    """Kill the children :func:`prestart_isolated` started that no campaign took (never given a run:
+    nothing to finish): at exit, and when the ``campaign`` command ends without running (an
+    invalid campaign file), so that a process calling the command leaves no child behind."""
     while _PRESTARTED:
-        _PRESTARTED.pop()._kill()  # (never given a run: nothing to finish)
+        _PRESTARTED.pop()._kill()
 
 
-atexit.register(_close_prestarted)
+atexit.register(close_prestarted)
 
 
 def _warm_up() -> None:

@@ -11,10 +11,17 @@ from mjasc.cli.arguments import not_found_hint, out_dir
 
 
 def cmd_campaign(args) -> int:
-    from mjasc.campaigns.executor import prestart_isolated
+    from mjasc.campaigns.executor import close_prestarted, prestart_isolated
 
     if args.scheduler in (None, "local") and args.workers != 0:
         prestart_isolated(args.workers)  # the runs' children import while the campaign is read
+    try:
+        return _campaign(args)
+    finally:
+        close_prestarted()  # (any the campaign did not take: an invalid file, nothing to run)
+
+
+def _campaign(args) -> int:
     from mjasc.campaigns.engine import format_aggregate, run_campaign
     from mjasc.campaigns.spec import CampaignError, load_campaign_spec
 
