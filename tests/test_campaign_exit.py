@@ -8,37 +8,7 @@ import sys
 
 import pyarrow.parquet as pq
 
-SCENARIO = """
-name = "exit"
-duration_s = 2.0
-seed = 0
-[[vessels]]
-name = "alpha"
-type = "otter"
-speed_m_s = 1.0
-controller = { type = "path_following", waypoints = [[0.0, 0.0], [200.0, 0.0]], speed_m_s = 1.5 }
-[vessels.sensor]
-[vessels.tracking]
-[[moving_obstacles]]
-name = "ferry"
-radius_m = 4.0
-position_m = [30.0, 25.0]
-heading_deg = -90.0
-speed_m_s = 1.2
-"""
-
-CAMPAIGN = """
-name = "exit"
-scenario = "exit.toml"
-runs = 3
-base_seed = 1
-[randomize]
-vessel_position_sigma_m = 2.0
-[outputs]
-recordings = false
-[evaluation]
-mission_cost = false
-"""
+from tests.test_campaign import write_campaign
 
 
 def _command(tmp_path, *args):
@@ -48,13 +18,12 @@ def _command(tmp_path, *args):
 
 
 def test_campaign_command_leaves_with_its_outputs_complete(tmp_path):
-    (tmp_path / "exit.toml").write_text(SCENARIO)
-    (tmp_path / "c.toml").write_text(CAMPAIGN)
+    write_campaign(tmp_path, runs=3, duration=2.0, mission_cost=False)  # (the c.toml of tests/test_campaign.py)
     out = tmp_path / "out"
     proc = _command(tmp_path, "c.toml", "--workers", "2", "--out", str(out), "--no-progress")
     assert proc.returncode == 0, proc.stderr
     # stdout is a pipe (block-buffered): everything printed reached it
-    assert "exit: 3 run(s) done now, 0 already in the store" in proc.stdout
+    assert "short: 3 run(s) done now, 0 already in the store" in proc.stdout
     assert f"campaign: {out / 'campaign.json'}" in proc.stdout and proc.stdout.endswith("\n")
     doc = json.loads((out / "campaign.json").read_text())
     assert doc["campaign"]["runs_to_do"] == 3 and doc["aggregate"]

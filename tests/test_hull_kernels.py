@@ -173,7 +173,6 @@ def test_components_match_ndimage_label(seed):
 @pytest.mark.parametrize("seed", range(20))
 def test_corners_match_numpy_form(seed):
     from mjasc.perception.hull_kernels import corners
-    from mjasc.perception.map_polygons import _CORNERS
 
     rng = np.random.default_rng(seed)
     comp = rng.integers(-2**20, 2**20, size=(int(rng.integers(0, 50)), 2))

@@ -25,7 +25,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from mjasc.perception.hull_kernels import centred, components, corners, halves, hull_area2
+from mjasc.perception.hull_kernels import centred, components, halves, hull_area2
+from mjasc.perception.hull_kernels import corners as cell_corners
 
 __all__ = ["PolygonCache", "split_component"]
 
@@ -35,7 +36,6 @@ __all__ = ["PolygonCache", "split_component"]
 SURE_SPARSE = 1e-6
 #: The parts a :class:`PolygonCache` remembers at most (then it starts again from none).
 MEMO_PARTS = 4096
-_CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 
 
 def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth: int, depth: int, out: list,
@@ -61,7 +61,7 @@ def _split(comp, cell_m, min_fill, max_depth, depth, out, memo) -> None:
     if n <= 4 or depth >= max_depth or not 2.0 * n < min_fill * hull_area2(comp) * (1.0 - SURE_SPARSE):
         # a piece, or a fill that the hull's exact area does not put clearly below min_fill: qhull's
         # area decides, as it always did (a piece clearly too sparse is split without its hull)
-        corners = _corners(comp, cell_m)
+        corners = cell_corners(comp, cell_m)  # (qhull's input: four corners per cell [m])
         try:
             hull = ConvexHull(corners)
         except QhullError:
@@ -76,19 +76,12 @@ def _split(comp, cell_m, min_fill, max_depth, depth, out, memo) -> None:
     left, right = halves(comp, proj)  # (comp[proj <= median], the others, in one compiled pass)
     if not left.shape[0]:  # every cell on one side
         if hull is None:
-            corners = _corners(comp, cell_m)
+            corners = cell_corners(comp, cell_m)
             hull = ConvexHull(corners)
         out.append(corners[hull.vertices])
         return
     split_component(left, cell_m, min_fill, max_depth, depth + 1, out, memo)
     split_component(right, cell_m, min_fill, max_depth, depth + 1, out, memo)
-
-
-def _corners(comp: np.ndarray, cell_m: float) -> np.ndarray:
-    """The corners (4c, 2) [m] of the cells ``comp`` (c, 2), four per cell in turn (qhull's input;
-    :func:`~mjasc.perception.hull_kernels.corners`, the numpy form ``(comp[:, None, :] +
-    _CORNERS[None, :, :]).reshape(-1, 2) * cell_m`` in one compiled call)."""
-    return corners(comp, cell_m)
 
 
 class PolygonCache:
