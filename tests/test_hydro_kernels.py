@@ -5,7 +5,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from mjasc.physics.hydro_kernels import hydro_features, rotate_to_world
+from mjasc.physics.hydro_kernels import hydro_features, linear_form, rotate_to_world
 from tests.helpers import make_sim
 
 
@@ -154,3 +154,50 @@ def test_kernels_on_empty_fleet_and_no_strips():
                    np.zeros((1, 0)), F, np.zeros((1, 2)))
     assert F[0, 35] == 7.0 and F[0, 36] == 7.0  # no rate: its columns untouched
     assert F[0, 0] == 1.0 and F[0, 37] == 1.0 and F[0, 39] == 1.0
+
+
+def _linear_form_agrees(F, G):
+    """linear_form against np.matmul(F[:, None, :], G, out=τ) (τ starting as NaN), every bit."""
+    want, got = np.full((F.shape[0], 1, 3), np.nan), np.full((F.shape[0], 1, 3), 5.0)
+    with np.errstate(invalid="ignore", over="ignore"):
+        np.matmul(F[:, None, :], G, out=want)
+        linear_form(F, G, got)
+    return want.tobytes() == got.tobytes()
+
+
+def test_linear_form_has_the_bits_of_numpys_matmul_on_a_run():
+    """τ = F·G in OpenBLAS's dgemv order (hydro_kernels' docstring) on the real shapes and values:
+    the G of three otters, F of a simulated run, each perturbed and with random signs."""
+    sim = make_sim("otter", n=3)
+    f_row, tau, rot, F, cf_x, G = sim.hydro.step_arrays()
+    d, rng = sim.data, np.random.default_rng(3)
+    d.act[:6] = [0.8, 0.5, -0.3, 0.9, 1.0, -1.0]
+    d.qvel[:9] = rng.standard_normal(9)
+    seen = []
+    for _ in range(300):
+        sim.hydro.compute_bound(np.array([[0.2, -0.1]] * 3), None)
+        seen.append(F.copy())
+        mujoco.mj_step(sim.model, d)
+    bad = 0
+    for f in seen:
+        for _ in range(40):
+            g = f * (1 + 1e-3 * rng.standard_normal(f.shape)) * rng.choice([-1.0, 1.0], size=f.shape)
+            bad += not _linear_form_agrees(g, G)
+    assert bad == 0
+
+
+def test_linear_form_has_the_bits_of_numpys_matmul_on_random_shapes():
+    """Every K = 1…89 (every remainder of K mod 4), 1–8 vessels, magnitudes over 12 decades, zeros of
+    both signs, NaN and ±inf."""
+    rng = np.random.default_rng(11)
+    for K in range(1, 90):
+        for n in (1, 3, 8):
+            G = rng.standard_normal((n, K, 3)) * 10.0 ** rng.integers(-4, 5, size=(n, K, 3))
+            G[rng.random(G.shape) < 0.1] = 0.0
+            for rep in range(20):
+                F = rng.standard_normal((n, K)) * 10.0 ** rng.integers(-6, 6, size=(n, K))
+                u = rng.random(F.shape)
+                F[u < 0.05], F[(u > 0.05) & (u < 0.08)] = 0.0, -0.0
+                if rep % 5 == 4:
+                    F[u > 0.99] = rng.choice([np.nan, np.inf, -np.inf])
+                assert _linear_form_agrees(F, G), (K, n, rep)

@@ -16,7 +16,7 @@ complex numbers x + iy, a rotation a multiplication by ``e^{∓iψ}``:
     w_k = (v_r + x_k·r) + 0,  CF_k = |w_k|·w_k   cross-flow strips
     a|a|, a·a                                    per propeller (port, starboard)
 
-:func:`rotate_to_world` writes the world-frame force ``(τ_x + iτ_y)·conj(e^{−iψ})`` and the yaw
+:func:`linear_form` writes τ = F·G as numpy's matmul gives it, and :func:`rotate_to_world` the world-frame force ``(τ_x + iτ_y)·conj(e^{−iψ})`` and the yaw
 moment as is.
 
 Bits. Each value is the expression numpy evaluated before, in the same order: a complex product
@@ -26,6 +26,15 @@ Bits. Each value is the expression numpy evaluated before, in the same order: a 
 (``exp(0) = 1`` times cos and sin); the strip velocity as the (1 × 5)·(5 × S) matrix product
 gave it (the exact products by 0 and 1 dropped; the sum starts from +0, so a zero is +0).
 ``tests/test_hydro_kernels.py`` keeps the numpy form and checks every output bit for bit.
+
+τ = F·G: numpy's ``matmul`` of a (1 × K) row and a C-contiguous (K × 3) matrix is OpenBLAS's
+``dgemv`` (row-major, transposed: its column-major "N" kernel on 3 rows, lda 3); on this machine
+class (x86-64 with AVX2/FMA, OpenBLAS's Haswell/Zen kernels) that kernel sums each output as
+``t + (a₀x₀ + a₁x₁)`` over pairs of K, four at a time, then ``t + a·x`` for the last K mod 4,
+from t = +0 and without fused multiply-adds. :func:`linear_form` repeats that order;
+``tests/test_hydro_kernels.py`` checks it against ``np.matmul`` with ``array_equal`` (bits, NaN
+included) on the real shapes and on random ones (K = 1…89): if numpy's BLAS sums otherwise on
+another machine, that test fails there.
 """
 
 from __future__ import annotations
@@ -36,7 +45,7 @@ import numpy as np
 
 from mjasc.core.compiled import fma, kernel
 
-__all__ = ["hydro_features", "rotate_to_world"]
+__all__ = ["hydro_features", "linear_form", "rotate_to_world"]
 
 
 @kernel
@@ -82,6 +91,27 @@ def hydro_features(qpos3, qvel3, activation, current, rate, has_rate, cf_x, F, r
             a = activation[n, p]
             F[n, 37 + S + p] = abs(a) * a
             F[n, 39 + S + p] = a * a
+
+
+@kernel
+def linear_form(F, G, tau):
+    """τ (N, 1, 3) ← F (N, K)·G (N, K, 3) per vessel (the body-frame force [N, N, N·m]), in the
+    order of numpy's ``np.matmul(F[:, None, :], G, out=tau)`` (module docstring: OpenBLAS's dgemv,
+    pairs of products added to a running sum, no FMA)."""
+    K = F.shape[1]
+    K4 = K - K % 4
+    for n in range(F.shape[0]):
+        for j in range(3):
+            t = 0.0
+            i = 0
+            while i < K4:
+                t = t + (G[n, i, j] * F[n, i] + G[n, i + 1, j] * F[n, i + 1])
+                t = t + (G[n, i + 2, j] * F[n, i + 2] + G[n, i + 3, j] * F[n, i + 3])
+                i += 4
+            while i < K:
+                t = t + G[n, i, j] * F[n, i]
+                i += 1
+            tau[n, 0, j] = t
 
 
 @kernel

@@ -15,7 +15,7 @@ Python loop. Commands are set between steps with :meth:`Simulation.set_commands`
 case (vessels' dofs first in MjData, a uniform steady current) the force is computed before
 ``mj_step1``, which neither reads nor changes what it depends on: one compiled call per step
 (:mod:`mjasc.physics.step_kernels`: the previous step's divergence test, the mocap poses, the
-force's features), numpy's product τ = F·G, the rotation into ``qfrc_applied``, then MuJoCo's
+force τ = F·G in numpy's bits, rotated into ``qfrc_applied``), then MuJoCo's
 ``mj_step`` (with the Euler integrator the stages of ``mj_step1`` then ``mj_step2`` in one call;
 tests/test_step_kernels.py checks the bits, contacts included). The same compiled call tests
 whether two bodies can touch at the step's positions; while none can, the step runs without
@@ -32,7 +32,6 @@ import numpy as np
 from mjasc.physics.contact_gate import ContactGate
 from mjasc.physics.currents import CurrentField, UniformCurrent
 from mjasc.physics.divergence import DivergenceBounds, DivergenceMonitor, PhysicsDivergence
-from mjasc.physics.hydro_kernels import rotate_to_world
 from mjasc.physics.hydrodynamics import Hydrodynamics, rigid_body_mass_matrix
 from mjasc.physics.obstacles import MovingObstacleSet
 from mjasc.physics.state_kernels import vessel_states
@@ -114,7 +113,7 @@ class Simulation:
         self._state_arrays = (d.qpos, d.qvel, d.act, self._qpos3[:, 2] if self._views else None, self._propellers)
         self._uniform_current = self.current.velocity(np.zeros((n, 2)), 0.0) if self._current_uniform_steady else None
         f_row, tau, rot2, feats, cf_x, self._linear_form = self.hydro.step_arrays()
-        self._step_arrays = (f_row, tau, rot2, feats, cf_x, self._qfrc3 if self._views else None,
+        self._step_arrays = (tau, rot2, feats, cf_x, self._qfrc3 if self._views else None,
                              *self._mj_arrays, self._traffic_table, self._traffic_samples)
         self._command_shape = (n, 2)
         self._ctrl, self._ctrl_adr = d.ctrl, np.ascontiguousarray(world.ctrl_adr, dtype=np.intp).reshape(n, 2)
@@ -309,12 +308,11 @@ class Simulation:
         m, d = self.model, self.data
         if self._bound and self.hydrodynamics_enabled and self._current_uniform_steady:
             # The common case, one compiled call per step before MuJoCo's two (mjasc.physics.step_kernels):
-            # the previous step's fast divergence test, the traffic's mocap poses and the force's
-            # features; then τ = F·G (numpy) rotated into qfrc_applied, mj_step1, mj_step2.
+            # the previous step's fast divergence test, the traffic's mocap poses and the force
+            # τ = F·G rotated into qfrc_applied; then mj_step1, mj_step2.
             vc, g = self._uniform_current, self._linear_form
-            f_row, tau, rot, feats, cf_x, out, qpos, qvel, qacc, act, mocap_pos, mocap_quat, table, samples = \
-                self._step_arrays
-            prepare, matmul, rotate = prepare_step, np.matmul, rotate_to_world
+            tau, rot, feats, cf_x, out, qpos, qvel, qacc, act, mocap_pos, mocap_quat, table, samples = self._step_arrays
+            prepare = prepare_step
             step1, step2 = mujoco.mj_step1, mujoco.mj_step2
             whole = mujoco.mj_step if self._euler else None  # (Euler: mj_step is mj_step1 then mj_step2)
             checking = monitor is not None
@@ -330,18 +328,16 @@ class Simulation:
             try:
                 for k in range(n_steps):
                     ready = prepare(checking and k > 0, qpos, qvel, qacc, act, v2, a2, d.time, table, samples,
-                                    mocap_pos, mocap_quat, vc, cf_x, feats, rot, bounds, pairs)
+                                    mocap_pos, mocap_quat, vc, cf_x, feats, rot, g, tau, out, bounds, pairs)
                     if not ready:
                         what = self._exact_check(monitor)  # (None: the bounds hold after all)
                         if what is not None:
                             return k - 1, what
                         ready = prepare(False, qpos, qvel, qacc, act, v2, a2, d.time, table, samples, mocap_pos,
-                                        mocap_quat, vc, cf_x, feats, rot, bounds, pairs)
+                                        mocap_quat, vc, cf_x, feats, rot, g, tau, out, bounds, pairs)
                     if gating and (ready == 1) is not closed:
                         closed = ready == 1
                         opt.disableflags = closed_flags if closed else flags
-                    matmul(f_row, g, tau)
-                    rotate(tau, rot, out)
                     if whole is not None:
                         whole(m, d)
                     else:

@@ -10,9 +10,10 @@ force reads what the other writes: the force depends on qpos, qvel and the shaft
 which ``mj_step1`` leaves as they are (autoreset is off). So the whole step's work can run before
 ``mj_step1``, and one call (:func:`prepare_step`) does the previous step's fast divergence test,
 the mocap poses, the force's features F and the contact gate's test (may two bodies touch at the
-step's positions? :mod:`mjasc.physics.contact_gate`); then τ = F·G stays numpy's matrix product
-(OpenBLAS's order) and :func:`~mjasc.physics.hydro_kernels.rotate_to_world` writes
-``qfrc_applied``. Per step that is three calls around MuJoCo's two instead of ~15.
+step's positions? :mod:`mjasc.physics.contact_gate`), τ = F·G in the order numpy's matrix
+product (OpenBLAS's dgemv) sums it (:func:`~mjasc.physics.hydro_kernels.linear_form`) and its
+rotation into ``qfrc_applied`` (:func:`~mjasc.physics.hydro_kernels.rotate_to_world`). Per step
+that is one call before MuJoCo's step instead of ~15.
 
 Bits: the traffic poses are :meth:`mjasc.physics.obstacles.MovingObstacleSet.rows`' expressions
 (``math.cos``/``sin`` are the C library's in both) and the features are
@@ -31,7 +32,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 from mjasc.physics.contact_gate import contacts_possible
-from mjasc.physics.hydro_kernels import hydro_features
+from mjasc.physics.hydro_kernels import hydro_features, linear_form, rotate_to_world
 
 __all__ = ["traffic_table", "traffic_poses", "traffic_state_at", "prepare_step", "fast_bounds_ok", "any_nonzero", "write_commands",
            "TRAFFIC_COLUMNS"]
@@ -132,14 +133,17 @@ def traffic_state_at(t, table, samples):
 
 @kernel
 def prepare_step(check, qpos, qvel, qacc, act, fast_speed2, fast_acc2, t, table, samples, mocap_pos, mocap_quat,
-                 current, cf_x, F, rot, gate_table, gate_pairs):
+                 current, cf_x, F, rot, G, tau, out, gate_table, gate_pairs):
     """One physics step's work before ``mj_step1`` (module docstring), for N vessels owning qpos,
     qvel [3i, 3i + 3) and act [2i, 2i + 2) (MjData's arrays, whole): with ``check``, first the
     fast divergence test of the step just taken, Σ q̇² ≤ fast_speed2 and Σ q̈² ≤ fast_acc2 — 0
     when it fails (then nothing is written); then the moving obstacles' mocap poses at time t
     (:func:`traffic_poses`), the features F (N, 41 + S) and e^{−iψ} ``rot`` of the hydrodynamic
     force for the uniform steady ``current`` (N, 2) (:func:`~mjasc.physics.hydro_kernels.hydro_features`,
-    no current rate) and the contact gate's test at the step's positions
+    no current rate), τ = F·G (N, 1, 3) for the linear form G (N, 41 + S, 3)
+    (:func:`~mjasc.physics.hydro_kernels.linear_form`, numpy's bits), the world-frame force
+    ``out`` (N, 3) (``qfrc_applied``'s view, :func:`~mjasc.physics.hydro_kernels.rotate_to_world`)
+    and the contact gate's test at the step's positions
     (:func:`~mjasc.physics.contact_gate.contacts_possible` on its tables ``gate_*``): 2 when two
     bodies may touch, 1 when none can (tables without pairs: 1)."""
     if check and not fast_bounds_ok(qvel, qacc, fast_speed2, fast_acc2):
@@ -148,6 +152,8 @@ def prepare_step(check, qpos, qvel, qacc, act, fast_speed2, fast_acc2, t, table,
     n = F.shape[0]
     hydro_features(qpos[:3 * n].reshape((n, 3)), qvel[:3 * n].reshape((n, 3)), act[:2 * n].reshape((n, 2)),
                    current, current, False, cf_x, F, rot)
+    linear_form(F, G, tau)
+    rotate_to_world(tau, rot, out)
     return 2 if contacts_possible(qpos, mocap_pos, gate_table, gate_pairs) else 1
 
 
