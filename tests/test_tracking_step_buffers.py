@@ -1,7 +1,7 @@
-"""The association written into a fleet tracker's buffers (mjasc.perception.tracking.step_buffers)
-against the returning fused kernels (step_fusions, pair_kernels), bit for bit, at every step of real
-runs (the tracker's calls checked in place: each buffer kernel against its returning form on the same
-inputs, the in-place arrays on copies); and the buffers' growth."""
+"""The association written into a fleet tracker's buffers in one call (mjasc.perception.tracking.step_buffers:
+gated_assignment_into) against the returning fused kernels (step_fusions, pair_kernels) with numpy's cos,
+sin, J P Jᵀ and log between them, bit for bit, at every step of real runs (the tracker's call checked in
+place, the in-place arrays on copies); J P Jᵀ against numpy's on random stacks; and the buffers' growth."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import pytest
 import mjasc
 from mjasc.perception.tracking import fleet as fleet_mod
 from mjasc.perception.tracking.pair_kernels import position_jacobians
-from mjasc.perception.tracking.step_buffers import AssociationBuffers, grown
+from mjasc.perception.tracking.step_buffers import AssociationBuffers, grown, jpjt_into
 from mjasc.perception.tracking.step_fusions import assign_pairs_packed, pair_gates, predicted_pairs_packed
 from mjasc.runs.runner import Runner
 
@@ -25,65 +25,84 @@ def _same(a, b):
     assert a.shape == b.shape and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
 
-@pytest.mark.parametrize("name, duration", [("thesis_6_4_crossing", 20.0), ("demo", 20.0)])
-def test_association_buffers_on_a_real_run(monkeypatch, name, duration):
-    seen = {"pp": 0, "pj": 0, "pg": 0, "ap": 0, "hard": 0}
-    pp_into, pj_into = fleet_mod.predicted_pairs_into, fleet_mod.position_jacobians_into
-    pg_into, ap_into = fleet_mod.pair_gates_into, fleet_mod.assign_pairs_into
+def _numpy_form(args, p, z, gate, assigned, var_row, claimed):
+    """The association as the tracker had it before :func:`gated_assignment_into`: the returning kernels
+    with numpy's cos, sin, ``J P Jᵀ`` and log between them (assigned, var_row, claimed changed in place)."""
+    blocks, pairs, var_p, xs, P, arcs = predicted_pairs_packed(*args)
+    if var_p.size == 0:
+        return blocks, pairs, var_p, xs, P, arcs, None
+    dt, th, dv = arcs
+    zhat, Jac = position_jacobians(xs, dt, dv, np.cos(th), np.sin(th))
+    S = Jac @ P @ Jac.transpose(0, 2, 1)
+    d2, det = pair_gates(pairs, zhat, S, z, var_p)
+    log_det = np.log(det)
+    packed = assign_pairs_packed(d2, log_det, gate, pairs, blocks[p:], args[3], var_p, assigned,
+                                 var_row, claimed, args[14], args[15])
+    return blocks, pairs, var_p, xs, P, arcs, (zhat, Jac, S, d2, det, log_det, packed)
 
-    def pp(*args):
-        got = pp_into(*args)
-        npairs, k, ok = got
-        want = predicted_pairs_packed(*args[:16])
-        assert (npairs, k) == (want[2].size, want[3].shape[0])
-        if ok:
-            blocks, pairs, var_p, xs, P, arcs = args[16:]
-            p = args[2]
-            _same(blocks[:2 * p + 1], want[0])
-            _same(pairs[:6 * npairs].reshape(6, npairs), want[1])
-            _same(var_p[:npairs], want[2])
-            _same(xs[:k], want[3])
-            _same(P[:k], want[4])
-            _same(arcs[:3 * k].reshape(3, k), want[5])
-            seen["pp"] += 1
+
+@pytest.mark.parametrize("name, duration", [("thesis_6_4_crossing", 20.0), ("demo", 20.0)])
+def test_gated_assignment_on_a_real_run(monkeypatch, name, duration):
+    """The one-call association writes, bit for bit, what the numpy form computes, at every step."""
+    seen = {"calls": 0, "pairs": 0, "hard": 0}
+    into = fleet_mod.gated_assignment_into
+
+    def checked(*args):
+        head, (z, gate, assigned, var_row, claimed), bufs = args[:16], args[16:21], args[21:]
+        a2, v2, c2 = assigned.copy(), var_row.copy(), claimed.copy()
+        got = into(*args)
+        npairs, k, ok, h, m = got
+        if not ok:
+            return got
+        p = head[2]
+        blocks, pairs, var_p, xs, P, arcs, rest = _numpy_form(head, p, z, gate, a2, v2, c2)
+        assert (npairs, k) == (var_p.size, xs.shape[0])
+        (b_blocks, b_pairs, b_var_p, b_xs, b_P, b_arcs, b_cs, b_zhat, b_J, b_S, b_d2, b_det, b_log_det, b_inside,
+         b_cost, b_rows, b_vals) = bufs
+        _same(b_blocks[:2 * p + 1], blocks)
+        _same(b_pairs[:6 * npairs].reshape(6, npairs), pairs)
+        _same(b_var_p[:npairs], var_p)
+        _same(b_xs[:k], xs)
+        _same(b_P[:k], P)
+        _same(b_arcs[:3 * k].reshape(3, k), arcs)
+        seen["calls"] += 1
+        if rest is None:
+            assert h == m == 0
+            return got
+        zhat, Jac, S, d2, det, log_det, packed = rest
+        for a, b in ((b_cs[:k], np.cos(arcs[1])), (b_cs[k:2 * k], np.sin(arcs[1])), (b_zhat[:k], zhat),
+                     (b_J[:k], Jac), (b_S[:k], S), (b_d2[:npairs], d2), (b_det[:npairs], det),
+                     (b_log_det[:npairs], log_det), (b_inside[:npairs], packed[0]), (b_cost[:npairs], packed[1]),
+                     (b_rows[:h + m], packed[2]), (b_vals[:2 * m].reshape(2, m), packed[3]), (assigned, a2),
+                     (var_row, v2), (claimed, c2)):
+            _same(a, b)
+        assert h == packed[4]
+        seen["pairs"] += 1
+        seen["hard"] += h > 0
         return got
 
-    def pj(xs, dt, dv, c, s, zhat, J):
-        pj_into(xs, dt, dv, c, s, zhat, J)
-        k = xs.shape[0]
-        for a, b in zip((zhat[:k], J[:k]), position_jacobians(xs, dt, dv, c, s)):
-            _same(a, b)
-        seen["pj"] += 1
-
-    def pg(pairs, zhat, S, z, var_p, d2, det):
-        pg_into(pairs, zhat, S, z, var_p, d2, det)
-        n = var_p.size
-        for a, b in zip((d2[:n], det[:n]), pair_gates(pairs, zhat, S, z, var_p)):
-            _same(a, b)
-        seen["pg"] += 1
-
-    def ap(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row, claimed, t_o, row_pos, inside, cost, rows,
-           vals):
-        a2, v2, c2 = assigned.copy(), var_row.copy(), claimed.copy()
-        want = assign_pairs_packed(d2, log_det, gate, pairs, start, n_b, var_p, a2, v2, c2, t_o, row_pos)
-        h, m = ap_into(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row, claimed, t_o, row_pos, inside,
-                       cost, rows, vals)
-        n = d2.size
-        assert h == want[4] and h + m == want[2].size
-        for a, b in ((inside[:n], want[0]), (cost[:n], want[1]), (rows[:h + m], want[2]),
-                     (vals[:2 * m].reshape(2, m), want[3]), (assigned, a2), (var_row, v2), (claimed, c2)):
-            _same(a, b)
-        seen["ap"] += 1
-        seen["hard"] += h > 0
-        return h, m
-
-    for nm, f in (("predicted_pairs_into", pp), ("position_jacobians_into", pj), ("pair_gates_into", pg),
-                  ("assign_pairs_into", ap)):
-        monkeypatch.setattr(fleet_mod, nm, f)
+    monkeypatch.setattr(fleet_mod, "gated_assignment_into", checked)
     sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()
-    assert seen["pp"] > 50 and seen["pj"] > 50 and seen["pg"] > 50 and seen["ap"] > 50
+    assert seen["calls"] > 50 and seen["pairs"] > 50
+
+
+def test_jpjt_into_is_numpys_product_on_random_stacks():
+    """J P Jᵀ summed as OpenBLAS's dgemm sums it: numpy's stacked products' bits on random stacks of
+    every scale (and covariance-shaped P), zeros and ones of the Jacobians' shape included."""
+    rng = np.random.default_rng(9)
+    for it in range(400):
+        k = int(rng.integers(1, 30))
+        J = rng.normal(size=(k, 2, 4)) * 10.0 ** rng.uniform(-4, 4, size=(k, 2, 4))
+        if it % 2:
+            J[:, 0, 0] = J[:, 1, 1] = 1.0
+            J[:, 0, 1] = J[:, 1, 0] = 0.0
+        A = rng.normal(size=(k, 4, 4)) * 10.0 ** rng.uniform(-3, 3, size=(k, 1, 1))
+        P = A @ A.transpose(0, 2, 1) if it % 3 else A
+        S = np.empty((k + 2, 2, 2))
+        jpjt_into(J, P, k, S)
+        assert np.array_equal(S[:k], J @ P @ J.transpose(0, 2, 1))
 
 
 def test_buffers_grow_and_keep_their_room():
@@ -93,3 +112,4 @@ def test_buffers_grow_and_keep_their_room():
     c = grown(b, b.n_pairs + 1, 1, 1)
     assert c is not b and c.fits(b.n_pairs + 1, b.n_rows, b.p)
     assert AssociationBuffers().fits(0, 0, 0) and not AssociationBuffers().fits(1, 0, 0)
+    assert len(c.association) == 17 and c.association[0] is c.blocks and c.association[-1] is c.vals

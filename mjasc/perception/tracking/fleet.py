@@ -51,8 +51,7 @@ from mjasc.perception.tracking.fleet_views import (_ASSOC, _CONF, _DETS, _SCANS,
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.step_buffers import (AssociationBuffers, assign_pairs_into, grown,
-                                                   pair_gates_into, position_jacobians_into, predicted_pairs_into)
+from mjasc.perception.tracking.step_buffers import AssociationBuffers, gated_assignment_into, grown
 from mjasc.perception.tracking.step_fusions import cycled_scan_grown
 from mjasc.perception.tracking.step_gathers import step_inputs_into, step_rows
 from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows_into, pair_setup
@@ -207,32 +206,23 @@ class FleetTracker(FleetRows, FleetViews):
         M = z.shape[0]
         p = owners.size
         arrays = bank.prediction_arrays() if M else None
-        if arrays is not None:  # (four compiled calls around numpy's cos, sin, J P Jᵀ and log: step_fusions, written
-            # into the tracker's buffers: step_buffers)
+        if arrays is not None:  # (the association in one compiled call, written into the tracker's buffers:
+            # step_buffers.gated_assignment_into)
             ab = self._assoc
-            npairs, k, ok = predicted_pairs_into(rows, rpos, p, m_q, self.cols.radius, var, rad, occ, *arrays, t_o,
-                                                 row_pos, ab.blocks, ab.pairs, ab.var_p, ab.xs, ab.P, ab.arcs)
+            args = (rows, rpos, p, m_q, self.cols.radius, var, rad, occ, *arrays, t_o, row_pos, z, self._gate,
+                    assigned, var_row, claimed)
+            npairs, k, ok, h, nh = gated_assignment_into(*args, *ab.association)
             if not ok:  # (too small: larger buffers, the same call again)
                 ab = self._assoc = grown(ab, npairs, k, p)
-                predicted_pairs_into(rows, rpos, p, m_q, self.cols.radius, var, rad, occ, *arrays, t_o, row_pos,
-                                     ab.blocks, ab.pairs, ab.var_p, ab.xs, ab.P, ab.arcs)
-            n_q, start = ab.blocks[:p], ab.blocks[p:2 * p + 1]
+                npairs, k, ok, h, nh = gated_assignment_into(*args, *ab.association)
             if npairs:
-                arcs = ab.arcs[:3 * k]
-                dt, th, dv = arcs[:k], arcs[k:2 * k], arcs[2 * k:]
-                pairs, var_p = ab.pairs[:6 * npairs].reshape(6, npairs), ab.var_p[:npairs]
-                P, Jac, zhat = ab.P[:k], ab.J[:k], ab.zhat[:k]
-                position_jacobians_into(ab.xs[:k], dt, dv, np.cos(th), np.sin(th), zhat, Jac)
-                d2, det = ab.d2[:npairs], ab.det[:npairs]
-                pair_gates_into(pairs, zhat, Jac @ P @ Jac.transpose(0, 2, 1), z, var_p, d2, det)
-                inside, cost = ab.inside[:npairs], ab.cost[:npairs]
-                h, nh = assign_pairs_into(d2, np.log(det), self._gate, pairs, start, m_q, var_p, assigned, var_row,
-                                          claimed, t_o, row_pos, inside, cost, ab.rows, ab.vals)
                 hit = ab.rows[h:h + nh]  # (ab.rows[:h]: the blocks whose gates overlap, re-solved below)
                 d2_hit, t_hit = ab.vals[:nh], ab.vals[nh:2 * nh]
                 if h:  # (a vessel's gates overlap: its block to linear_sum_assignment)
-                    q, i, j, _, db, ta = pairs
-                    got = gnn_assign_blocks(inside, cost, q, i, j, start, n_q, m_q)
+                    n_q, start = ab.blocks[:p], ab.blocks[p:2 * p + 1]
+                    q, i, j, _, db, ta = ab.pairs[:6 * npairs].reshape(6, npairs)
+                    inside, d2, var_p = ab.inside[:npairs], ab.d2[:npairs], ab.var_p[:npairs]
+                    got = gnn_assign_blocks(inside, ab.cost[:npairs], q, i, j, start, n_q, m_q)
                     hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
                     t_hit = t_o[row_pos[hit]]
                 self.manoeuvres.detect(hit, d2_hit, self._gate, t_hit, bank)

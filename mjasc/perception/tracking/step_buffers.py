@@ -10,18 +10,27 @@ kernel returns is a Python object made (~1.5 µs each, fourteen per step). numpy
 C-contiguous as the returned arrays were). The views are the step's arrays, valid until the next
 step (nothing keeps them). tests/test_tracking_step_buffers.py compares each with the returning form,
 bit for bit, on real runs.
+
+:func:`gated_assignment_into` is the whole association in one call: the four kernels with numpy's
+cosine, sine, ``J P Jᵀ`` and logarithm compiled between them, giving numpy's bits — ``math.cos``,
+``math.sin`` and ``math.log`` are glibc's, as numpy's are on this machine class with mjasc's
+portable-math pin, and each 2×4·4×4·4×2 product is summed as OpenBLAS's per-matrix dgemm sums it
+(over k in order, the first product then fused multiply-adds: :func:`jpjt_into`). The tests check
+every value it writes against the numpy form, bit for bit, on real runs and random stacks.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from mjasc.core.compiled import kernel
+from mjasc.core.compiled import fma, kernel
 from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.perception.tracking.step_fusions import assign_pairs_packed, pair_gates, predicted_pairs_packed
 
 __all__ = ["AssociationBuffers", "predicted_pairs_into", "position_jacobians_into", "pair_gates_into",
-           "assign_pairs_into"]
+           "assign_pairs_into", "jpjt_into", "gated_assignment_into"]
 
 
 class AssociationBuffers:
@@ -34,10 +43,16 @@ class AssociationBuffers:
         self.blocks = np.empty(2 * p + 1, dtype=np.int64)
         self.pairs = np.empty(6 * P, dtype=np.int64)  # (6, P) row-major: pairs[:6·P].reshape(6, P)
         self.var_p, self.d2, self.det, self.cost = np.empty(P), np.empty(P), np.empty(P), np.empty(P)
+        self.log_det = np.empty(P)
         self.inside = np.empty(P, dtype=bool)
         self.xs, self.P, self.arcs = np.empty((k, 4)), np.empty((k, 4, 4)), np.empty(3 * k)
-        self.zhat, self.J = np.empty((k, 2)), np.empty((k, 2, 4))
+        self.zhat, self.J, self.S = np.empty((k, 2)), np.empty((k, 2, 4)), np.empty((k, 2, 2))
+        self.cs = np.empty(2 * k)  # (cos θ_mid then sin θ_mid)
         self.rows, self.vals = np.empty(p + k, dtype=np.int64), np.empty(2 * k)
+        # the buffers gated_assignment_into writes, in its argument order (blocks … vals)
+        self.association = (self.blocks, self.pairs, self.var_p, self.xs, self.P, self.arcs, self.cs, self.zhat,
+                            self.J, self.S, self.d2, self.det, self.log_det, self.inside, self.cost, self.rows,
+                            self.vals)
 
     def fits(self, n_pairs: int, n_rows: int, p: int) -> bool:
         return n_pairs <= self.n_pairs and n_rows <= self.n_rows and p <= self.p
@@ -123,3 +138,53 @@ def assign_pairs_into(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var
         vals[a] = vl[0, a]
         vals[m + a] = vl[1, a]
     return h, m
+
+
+@kernel
+def jpjt_into(J, P, k, S):
+    """``S[:k] = J[:k] @ P[:k] @ J[:k].transpose(0, 2, 1)`` (J (·, 2, 4), P (·, 4, 4), S (·, 2, 2)) with
+    numpy's bits: each product's entries summed over the inner index in order, the first product
+    then fused multiply-adds (OpenBLAS's dgemm on one small matrix; J P first, then (J P) Jᵀ)."""
+    T = np.empty((2, 4))
+    for s in range(k):
+        for a in range(2):
+            for d in range(4):
+                acc = J[s, a, 0] * P[s, 0, d]
+                for b in range(1, 4):
+                    acc = fma(J[s, a, b], P[s, b, d], acc)
+                T[a, d] = acc
+        for a in range(2):
+            for c in range(2):
+                acc = T[a, 0] * J[s, c, 0]
+                for d in range(1, 4):
+                    acc = fma(T[a, d], J[s, c, d], acc)
+                S[s, a, c] = acc
+
+
+@kernel
+def gated_assignment_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, omega, active, Pc, t_o, row_pos, z,
+                          gate, assigned, var_row, claimed, blocks, pairs, var_p, xs, P, arcs, cs, zhat, J, S, d2, det,
+                          log_det, inside, cost, out_rows, vals):
+    """The association in one call (module docstring): :func:`predicted_pairs_into` (rows … row_pos and
+    blocks … arcs as there), then, when it wrote and found pairs, :func:`position_jacobians_into` of
+    cos θ_mid, sin θ_mid (into cs (2k,)), :func:`jpjt_into` (into S), :func:`pair_gates_into` (z (M, 2)
+    the detections; into d2, det), ln det (into log_det) and :func:`assign_pairs_into` (gate … claimed
+    and inside … vals (out_rows its rows) as there). Returns (number of pairs, grouped rows k, written,
+    h, m) — h = m = 0 when nothing was written or there are no pairs."""
+    npairs, k, ok = predicted_pairs_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, omega, active, Pc,
+                                         t_o, row_pos, blocks, pairs, var_p, xs, P, arcs)
+    if not ok or npairs == 0:
+        return npairs, k, ok, 0, 0
+    for a in range(k):
+        th = arcs[k + a]
+        cs[a] = math.cos(th)
+        cs[k + a] = math.sin(th)
+    position_jacobians_into(xs[:k], arcs[:k], arcs[2 * k:3 * k], cs[:k], cs[k:2 * k], zhat, J)
+    jpjt_into(J, P, k, S)
+    pr = pairs[:6 * npairs].reshape((6, npairs))
+    pair_gates_into(pr, zhat[:k], S[:k], z, var_p[:npairs], d2, det)
+    for c in range(npairs):
+        log_det[c] = math.log(det[c])
+    h, m = assign_pairs_into(d2[:npairs], log_det[:npairs], gate, pr, blocks[p:2 * p + 1], m_q, var_p[:npairs],
+                             assigned, var_row, claimed, t_o, row_pos, inside, cost, out_rows, vals)
+    return npairs, k, ok, h, m
