@@ -13,7 +13,8 @@ import pytest
 
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.imm.startup import cv_to_polar
-from mjasc.perception.imm.startup_rows import gather_startup, handover_rows, update_startup
+from mjasc.perception.imm.startup_rows import (gather_startup, handover_polar, handover_rows, predicted_startup,
+                                               sandwich_into, update_startup)
 
 
 def _same(a, b):
@@ -103,6 +104,84 @@ def test_handover_rows_equals_numpy_form(seed):
     for name in ("_x", "_Pc", "_s", "_P", "_mu"):
         _same(getattr(bank, name), getattr(ref, name))
     _same(st.active, rs.active)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_predicted_startup_is_numpys_products(seed):
+    """F x, F P Fᵀ (in place) and dt³ compiled: numpy's bits, on a bank's filters and on random ones of every
+    scale (zero and negative-zero velocities included)."""
+    rng, bank = _filters(seed)
+    st = bank._startup
+    n = len(bank)
+    for trial in range(30):
+        if trial == 0:
+            x, P, rows = st.x, st.P, np.arange(n, dtype=np.int64)
+        else:
+            k = int(rng.integers(1, 25))
+            x = rng.normal(size=(k, 4)) * 10.0 ** rng.uniform(-3, 4, size=(k, 4))
+            x[rng.random((k, 4)) < 0.1] = 0.0
+            x[rng.random((k, 4)) < 0.05] = -0.0
+            A = rng.normal(size=(k, 4, 4)) * 10.0 ** rng.uniform(-3, 3, size=(k, 1, 1))
+            P = A @ np.swapaxes(A, 1, 2)
+            rows = np.arange(k, dtype=np.int64)
+        m = rows.size
+        dt_all = rng.uniform(0.0, 2.0, m) * (rng.random(m) < 0.9) if trial % 2 else np.zeros(0)
+        xc, Pc, dt, F, _, _, _ = gather_startup(rows, x, P, dt_all, 0.2, np.zeros((m, 2)), np.ones(m, dtype=bool),
+                                                np.zeros(0), False)
+        want_x, want_P, want_dt3 = (F @ xc[..., None])[..., 0], F @ Pc @ np.swapaxes(F, 1, 2), dt**3
+        dt3 = predicted_startup(xc, Pc, F, dt)
+        _same(xc, want_x)
+        _same(Pc, want_P)
+        _same(dt3, want_dt3)
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_handover_polar_is_handover_rows_with_numpys_products(seed):
+    """handover_polar: handover_rows with numpy's hypot, arctan2 and J P Jᵀ, bit for bit (every array it writes)."""
+    from mjasc.perception.imm.startup import _polar_jacobians
+
+    rng, bank = _filters(seed)
+    n = len(bank)
+    st = bank._startup
+    if seed % 2 == 0:  # random filters too (fast ones hand over, slow ones wait; some at rest)
+        st.x[...] = rng.normal(size=st.x.shape) * 10.0 ** rng.uniform(-3, 2, size=st.x.shape)
+        st.x[rng.random(n) < 0.2, 2:] = 0.0
+        A = rng.normal(size=(n, 4, 4)) * 10.0 ** rng.uniform(-2, 2, size=(n, 1, 1))
+        st.P[...] = A @ np.swapaxes(A, 1, 2) + 0.1 * np.eye(4)
+        st.n_meas[...] = rng.integers(1, 6, n)
+        st.active[...] = True
+        st.n_active = n
+    rows = np.flatnonzero(st.active).astype(np.int64)
+    xc, cv_P = st.x[rows], st.P[rows]
+    ref = copy.deepcopy(bank)
+    rs = ref._startup
+    vx, vy = xc[:, 2], xc[:, 3]
+    speed = np.hypot(vx, vy)
+    J = _polar_jacobians(xc, speed)
+    off_ref = handover_rows(rows, xc.copy(), speed, np.arctan2(vy, vx), J @ cv_P @ np.swapaxes(J, 1, 2), cv_P.copy(),
+                            rs.n_meas, rs.snr2, rs.max_updates, rs.active, ref._x, ref._Pc, ref._s, ref._P, ref._mu,
+                            ref._mu0)
+    off = handover_polar(rows, xc, cv_P, st.n_meas, st.snr2, st.max_updates, st.active, bank._x, bank._Pc, bank._s,
+                         bank._P, bank._mu, bank._mu0)
+    assert off == off_ref
+    for name in ("_x", "_Pc", "_s", "_P", "_mu"):
+        _same(getattr(bank, name), getattr(ref, name))
+    _same(st.active, rs.active)
+
+
+def test_sandwich_into_is_numpys_product_on_random_stacks():
+    rng = np.random.default_rng(5)
+    for it in range(300):
+        k = int(rng.integers(1, 30))
+        A = rng.normal(size=(k, 4, 4)) * 10.0 ** rng.uniform(-4, 4, size=(k, 4, 4))
+        B = rng.normal(size=(k, 4, 4)) * 10.0 ** rng.uniform(-3, 3, size=(k, 1, 1))
+        P = B @ np.swapaxes(B, 1, 2) if it % 2 else B
+        if it % 3 == 0:  # (exact zeros of both signs: a sum of −0 products is +0, as OpenBLAS's)
+            A = np.where(rng.random(A.shape) < 0.3, -0.0, np.where(rng.random(A.shape) < 0.3, 0.0, A))
+            P = np.where(rng.random(P.shape) < 0.3, -0.0, np.where(rng.random(P.shape) < 0.3, 0.0, P))
+        out = np.empty((k, 4, 4))
+        sandwich_into(A, P, k, out)
+        _same(out, A @ P @ np.swapaxes(A, 1, 2))
 
 
 def _numpy_cycle_bank():

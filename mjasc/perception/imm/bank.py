@@ -49,9 +49,9 @@ from mjasc.perception.imm.cycle_buffers import CycleBuffers
 from mjasc.perception.imm.markov import CycleConstants, cycle_steps
 from mjasc.perception.imm.predictive import PredictiveDensity
 from mjasc.perception.imm.row_fields import SEQUENTIAL_MODELS
-from mjasc.perception.imm.startup import StartupFilters, _polar_jacobians
+from mjasc.perception.imm.startup import StartupFilters
 from mjasc.perception.imm.row_buffers import append_rows, home_rows, keep_rows
-from mjasc.perception.imm.startup_rows import handover_rows
+from mjasc.perception.imm.startup_rows import handover_polar
 
 __all__ = ["IMMBank", "REJECTION_REASONS", "ACCEPTED", "NOT_MEASURED", "NON_FINITE", "GATED", "RESTARTED"]
 
@@ -191,17 +191,13 @@ class IMMBank(BankUpdates, BankViews, PredictiveDensity):
 
     def _handover(self, rows, xc=None, cv_P=None):
         """Refresh the estimate of start-up tracks ``rows``; move those ready into the IMM. xc (k, 4),
-        cv_P (k, 4, 4): their filters' ``x[rows]``, ``P[rows]`` when the caller has them. (|v|, atan2
-        and J P Jᵀ of :func:`cv_to_polar` numpy's, the rest one compiled call: :func:`handover_rows`.)"""
+        cv_P (k, 4, 4): their filters' ``x[rows]``, ``P[rows]`` when the caller has them (C-contiguous). (One
+        compiled call with :func:`cv_to_polar`'s |v|, atan2 and J P Jᵀ in numpy's bits: :func:`handover_polar`.)"""
         st = self._startup
         if xc is None:
             xc, cv_P = st.x[rows], st.P[rows]
-        vx, vy = xc[:, 2], xc[:, 3]
-        speed = np.hypot(vx, vy)
-        J = _polar_jacobians(xc, speed)
-        st.n_active -= handover_rows(rows, xc, speed, np.arctan2(vy, vx), J @ cv_P @ J.transpose(0, 2, 1), cv_P,
-                                     st.n_meas, st.snr2, st.max_updates, st.active, self._x, self._Pc, self._s,
-                                     self._P, self._mu, self._mu0)
+        st.n_active -= handover_polar(rows, xc, cv_P, st.n_meas, st.snr2, st.max_updates, st.active, self._x, self._Pc,
+                                      self._s, self._P, self._mu, self._mu0)
 
     def add_process_noise(self, rows, heading_var_rad2=0.0, speed_var_m2_s2=0.0) -> None:
         """Manoeuvre handling: add ``heading_var_rad2`` to P_θθ and ``speed_var_m2_s2`` to P_VV of

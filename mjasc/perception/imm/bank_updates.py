@@ -4,7 +4,7 @@ caller's checked arrays, no copies), ``update_finite`` (every row a finite measu
 the measurement check and the IMM cycle (one compiled call with the row buffers' scratch rows,
 :func:`~mjasc.perception.imm.measured_cycle.measured_cycle`), the common case (every track measured and
 accepted: ``_accept``) and the general end of a cycle (``_settle``: updated, coasting, start-up and
-restarted tracks, the start-up filters' products numpy's, the rest one compiled call).
+restarted tracks, the start-up filters' products with numpy's bits in one compiled call, the rest in another).
 
 The mixin has no state of its own: it reads and writes the bank's per-track arrays, cycle buffers,
 row buffers and start-up filters set by ``IMMBank.__init__`` (and calls its ``_free_side``,
@@ -23,8 +23,8 @@ from mjasc.perception.imm.bank_kernels import (GATED, NON_FINITE, REJECTION_REAS
 from mjasc.perception.imm.compiled_cycle import imm_cycle
 from mjasc.perception.imm.markov import cycle_steps
 from mjasc.perception.imm.measured_cycle import measured_cycle
-from mjasc.perception.imm.startup_rows import (gather_startup, gather_startup_into, settled_startup,
-                                               settled_startup_into)
+from mjasc.perception.imm.startup_rows import (gather_startup, gather_startup_into, predicted_startup,
+                                               settled_startup, settled_startup_into)
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -187,7 +187,7 @@ class BankUpdates:
         # the cycle updated the rows ``use & (d2_min <= gate)`` of the IMM rows, coasted the others; the
         # start-up rows keep their (unused) IMM state, their x is set by the hand-over below
         s_new, P_new, mu_new, x_new, _ = side
-        if any_warm:  # the start-up filters' cycle (StartupFilters.update_rows): the products numpy's
+        if any_warm:  # the start-up filters' cycle (StartupFilters.update_rows): the products with numpy's bits
             st = self._startup
             if rows_w is not None:  # (gathered already)
                 rows = rows_w
@@ -204,11 +204,11 @@ class BankUpdates:
                     xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
                                                                       dtm if t is None else 0.0, z, use,
                                                                       _NO_VAR if mv is None else mv, mv is not None)
-            xc_w = (F @ xc[..., None])[..., 0]
-            P_w = F @ Pc @ F.transpose(0, 2, 1)  # (= np.swapaxes(F, 1, 2))
+            dt3 = predicted_startup(xc, Pc, F, dtw)  # (F x, F P Fᵀ in place and dt³, numpy's bits: one call)
+            xc_w, P_w = xc, Pc
         limit = self.config.restart_after_gated
         if any_warm:  # (the start-up filters updated, then inside, ok, the start-up rows, rejections: one compiled call)
-            args = (rows, xc_w, P_w, dtw**3, dtw, self._q_cv, zw, self._var if mv is None else var_w, use_w,
+            args = (rows, xc_w, P_w, dt3, dtw, self._q_cv, zw, self._var if mv is None else var_w, use_w,
                     self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
                     s_new, P_new, mu_new, self._n_gated, limit)
             if scratch:  # (the codes written into the bank's own, the flags into scratch rows)

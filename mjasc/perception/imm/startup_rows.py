@@ -29,6 +29,12 @@ rows (:func:`~mjasc.perception.imm.bank_kernels.kept_rows`) and the start-up fil
 
 Each is its numpy form's expressions in its order, per row (tests/test_imm_startup_rows.py keeps
 the numpy form as the reference, bit for bit).
+
+The products and functions left to numpy above have compiled forms that give numpy's bits here
+(``math.hypot``, ``math.atan2`` and ``**`` are glibc's, as numpy's are with mjasc's portable-math
+pin; each small product summed as OpenBLAS sums it): :func:`predicted_startup` (``F x``, ``F P Fᵀ``,
+``dt³`` in place) and :func:`handover_polar` (|v|, atan2, ``J P Jᵀ``, then :func:`handover_rows`), each
+checked against numpy's form in tests/test_imm_startup_rows.py.
 """
 
 from __future__ import annotations
@@ -37,12 +43,13 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import kernel
+from mjasc.core.compiled import fma, kernel
 from mjasc.perception.imm.bank_kernels import appended_rows, kept_rows, settled_rows, settled_rows_into
 from mjasc.perception.imm.compiled_cycle import position_update
-from mjasc.perception.imm.startup import _add_cv_noise, _kept_started, _polar_finish
+from mjasc.perception.imm.startup import _add_cv_noise, _kept_started, _polar_finish, _polar_jacobians
 
-__all__ = ["gather_startup", "gather_startup_into", "settled_startup_into", "update_startup", "settled_startup", "handover_rows", "born_rows", "kept_bank_rows"]
+__all__ = ["gather_startup", "gather_startup_into", "settled_startup_into", "update_startup", "settled_startup",
+           "handover_rows", "born_rows", "kept_bank_rows", "sandwich_into", "predicted_startup", "handover_polar"]
 
 
 @kernel
@@ -192,3 +199,70 @@ def kept_bank_rows(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n
     ids2, t2, Pc2, g2, r2 = kept_rows(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons)
     a2, x2, cP2, c2, n_active = _kept_started(keep, active, cv_x, cv_P, n_meas)
     return ids2, t2, Pc2, g2, r2, a2, x2, cP2, c2, n_active
+
+
+@kernel
+def sandwich_into(A, P, k, out):
+    """``out[:k] = A[:k] @ P[:k] @ A[:k].transpose(0, 2, 1)`` for stacks of 4×4 matrices, with numpy's
+    bits: each entry of A P, then of (A P) Aᵀ, summed over the inner index in order from +0 by fused
+    multiply-adds (OpenBLAS's dgemm on one small matrix: a sum of −0 products is +0)."""
+    T = np.empty((4, 4))
+    for i in range(k):
+        for a in range(4):
+            for d in range(4):
+                acc = 0.0
+                for b in range(4):
+                    acc = fma(A[i, a, b], P[i, b, d], acc)
+                T[a, d] = acc
+        for a in range(4):
+            for c in range(4):
+                acc = 0.0
+                for d in range(4):
+                    acc = fma(T[a, d], A[i, c, d], acc)
+                out[i, a, c] = acc
+
+
+@kernel
+def predicted_startup(xc, Pc, F, dt):
+    """The start-up filters' prediction in place, numpy's ``(F @ xc[..., None])[..., 0]``,
+    ``F @ Pc @ F.transpose(0, 2, 1)`` and ``dt**3`` with its bits, for the k = dt.size rows of xc
+    (k, 4), Pc (k, 4, 4) and the transitions F (k, 4, 4) of :func:`gather_startup` (identity with
+    F[0, 2] = F[1, 3] = dt): F x summed in order from +0, unfused (OpenBLAS's dgemv; with F's zeros and ones
+    any order of the two non-zero terms gives the same bits), F P Fᵀ as :func:`sandwich_into`.
+    Returns dt³ (k,)."""
+    k = dt.size
+    xo = np.empty(4)
+    for i in range(k):
+        for a in range(4):
+            acc = 0.0
+            for b in range(4):
+                acc = acc + F[i, a, b] * xc[i, b]
+            xo[a] = acc
+        for a in range(4):
+            xc[i, a] = xo[a]
+    Pw = np.empty((k, 4, 4))
+    sandwich_into(F, Pc, k, Pw)
+    dt3 = np.empty(k)
+    for i in range(k):
+        for a in range(4):
+            for b in range(4):
+                Pc[i, a, b] = Pw[i, a, b]
+        dt3[i] = dt[i] ** 3.0
+    return dt3
+
+
+@kernel
+def handover_polar(rows, xc, cv_P, n_meas, snr2, max_updates, active, x, Pc, s, P, mu, mu0):
+    """:func:`handover_rows` (arguments as there) with its |v| (``np.hypot``), θ (``np.arctan2``) and
+    ``J P Jᵀ`` (J :func:`~mjasc.perception.imm.startup._polar_jacobians`, the product as
+    :func:`sandwich_into`) computed here, with numpy's bits. Returns the number of rows made inactive."""
+    k = rows.size
+    speed = np.empty(k)
+    theta = np.empty(k)
+    for j in range(k):
+        speed[j] = math.hypot(xc[j, 2], xc[j, 3])
+        theta[j] = math.atan2(xc[j, 3], xc[j, 2])
+    J = _polar_jacobians(xc, speed)
+    JPJ = np.empty((k, 4, 4))
+    sandwich_into(J, cv_P, k, JPJ)
+    return handover_rows(rows, xc, speed, theta, JPJ, cv_P, n_meas, snr2, max_updates, active, x, Pc, s, P, mu, mu0)

@@ -15,7 +15,7 @@ bit for bit, on real runs.
 cosine, sine, ``J P Jᵀ`` and logarithm compiled between them, giving numpy's bits — ``math.cos``,
 ``math.sin`` and ``math.log`` are glibc's, as numpy's are on this machine class with mjasc's
 portable-math pin, and each 2×4·4×4·4×2 product is summed as OpenBLAS's per-matrix dgemm sums it
-(over k in order, the first product then fused multiply-adds: :func:`jpjt_into`). The tests check
+(over k in order from +0 by fused multiply-adds: :func:`jpjt_into`). The tests check
 every value it writes against the numpy form, bit for bit, on real runs and random stacks.
 """
 
@@ -143,20 +143,20 @@ def assign_pairs_into(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var
 @kernel
 def jpjt_into(J, P, k, S):
     """``S[:k] = J[:k] @ P[:k] @ J[:k].transpose(0, 2, 1)`` (J (·, 2, 4), P (·, 4, 4), S (·, 2, 2)) with
-    numpy's bits: each product's entries summed over the inner index in order, the first product
-    then fused multiply-adds (OpenBLAS's dgemm on one small matrix; J P first, then (J P) Jᵀ)."""
+    numpy's bits: each product's entries summed over the inner index in order, from +0 by fused
+    multiply-adds (OpenBLAS's dgemm on one small matrix: a sum of −0 products is +0; J P first, then (J P) Jᵀ)."""
     T = np.empty((2, 4))
     for s in range(k):
         for a in range(2):
             for d in range(4):
-                acc = J[s, a, 0] * P[s, 0, d]
-                for b in range(1, 4):
+                acc = 0.0
+                for b in range(4):
                     acc = fma(J[s, a, b], P[s, b, d], acc)
                 T[a, d] = acc
         for a in range(2):
             for c in range(2):
-                acc = T[a, 0] * J[s, c, 0]
-                for d in range(1, 4):
+                acc = 0.0
+                for d in range(4):
                     acc = fma(T[a, d], J[s, c, d], acc)
                 S[s, a, c] = acc
 
