@@ -1,19 +1,21 @@
-"""The start-up rows of an IMM bank's cycle in three compiled calls around numpy's products
+"""The start-up rows of an IMM bank's cycle in a few compiled calls (first written around numpy's products
 (:class:`mjasc.perception.imm.bank.IMMBank`, :mod:`mjasc.perception.imm.startup`): a bank with a
-new track — nearly every tick, for clutter — ran ~25 numpy and kernel calls per cycle for them.
+new track — nearly every tick, for clutter — ran ~25 numpy and kernel calls per cycle for them).
 
 * :func:`gather_startup` — what the prediction of the rows ``rows`` reads: their filters'
   ``x[rows]``, ``P[rows]``, their steps dt (k,), the transitions F (k, 4, 4)
   (:func:`~mjasc.perception.imm.startup._cv_transitions`), and ``z[rows]``, ``use[rows]`` and
   (per-row σ²) ``mv[rows]``;
-* the products ``F x``, ``F P Fᵀ`` and ``dt³`` stay numpy's (:func:`~mjasc.perception.imm.startup.cv_predict`);
+* the products ``F x``, ``F P Fᵀ`` and ``dt³`` (:func:`~mjasc.perception.imm.startup.cv_predict`):
+  :func:`predicted_startup`, in numpy's bits (below);
 * :func:`update_startup` — the noise added (:func:`~mjasc.perception.imm.startup._add_cv_noise`),
   the measurement update (:func:`~mjasc.perception.imm.compiled_cycle.position_update`),
   ``ok = use & (d² ≤ gate)`` and the filters written back (``x[rows]``, ``P[rows]``,
   ``n_meas[rows] += ok``): :meth:`~mjasc.perception.imm.startup.StartupFilters.update_rows`;
 * :func:`settled_startup` — :func:`update_startup` then the cycle's outcome
   (:func:`~mjasc.perception.imm.bank_kernels.settled_rows`) in one call;
-* |v|, atan2 and ``J P Jᵀ`` of :func:`~mjasc.perception.imm.startup.cv_to_polar` stay numpy's;
+* |v|, atan2 and ``J P Jᵀ`` of :func:`~mjasc.perception.imm.startup.cv_to_polar`: computed in numpy's bits
+  by :func:`handover_polar` before it calls :func:`handover_rows`;
 * :func:`handover_rows` — the rest of the hand-over (:meth:`IMMBank._handover`): the polar state
   and covariance (:func:`~mjasc.perception.imm.startup._polar_finish`) written as the rows'
   estimate, the test :func:`~mjasc.perception.imm.startup.ready_for_handover`, and the ready rows
@@ -30,7 +32,7 @@ rows (:func:`~mjasc.perception.imm.bank_kernels.kept_rows`) and the start-up fil
 Each is its numpy form's expressions in its order, per row (tests/test_imm_startup_rows.py keeps
 the numpy form as the reference, bit for bit).
 
-The products and functions left to numpy above have compiled forms that give numpy's bits here
+The products and functions once left to numpy have compiled forms that give numpy's bits here
 (``math.hypot``, ``math.atan2`` and ``**`` are glibc's, as numpy's are with mjasc's portable-math
 pin; each small product summed as OpenBLAS sums it): :func:`predicted_startup` (``F x``, ``F P Fᵀ``,
 ``dt³`` in place) and :func:`handover_polar` (|v|, atan2, ``J P Jᵀ``, then :func:`handover_rows`), each

@@ -5,9 +5,8 @@ tracker keeps: the fused kernels of :mod:`mjasc.perception.tracking.step_fusions
 :func:`~mjasc.perception.tracking.step_fusions.pair_gates` and
 :func:`~mjasc.perception.tracking.step_fusions.assign_pairs_packed` — run as they are and their arrays
 copied into the first rows of :class:`AssociationBuffers`, nothing returned but sizes: each array a
-kernel returns is a Python object made (~1.5 µs each, fourteen per step). numpy's cosine, sine,
-``J P Jᵀ`` and logarithm between them are unchanged (the same inputs: the buffers' views are
-C-contiguous as the returned arrays were). The views are the step's arrays, valid until the next
+kernel returns is a Python object made (~1.5 µs each, fourteen per step); the buffers' views are
+C-contiguous as the returned arrays were. The views are the step's arrays, valid until the next
 step (nothing keeps them). tests/test_tracking_step_buffers.py compares each with the returning form,
 bit for bit, on real runs.
 

@@ -1,6 +1,8 @@
-"""A fleet tracker's association (:mod:`mjasc.perception.tracking.fleet`, step 1) in four compiled
-calls around numpy's cosine, sine, products and logarithm, instead of seven kernels and a dozen
-numpy calls: each fused kernel runs the existing kernels it replaces, in their order, inside one
+"""A fleet tracker's association (:mod:`mjasc.perception.tracking.fleet`, step 1) as four compiled
+kernels around numpy's cosine, sine, products and logarithm (the tracker runs them, with those
+compiled in numpy's bits between them, as one call:
+:func:`~mjasc.perception.tracking.step_buffers.gated_assignment_into`), instead of seven kernels and a
+dozen numpy calls: each fused kernel runs the existing kernels it replaces, in their order, inside one
 compiled call (the same code, hence the same bits; fewer dispatches and fewer arrays boxed —
 every array a kernel returns costs a Python object):
 
