@@ -192,6 +192,8 @@ def _numpy_cycle_bank():
     from mjasc.perception.imm.bank_kernels import appended_rows
 
     class _Ref(IMMBank):
+        _startup_in_one_call = False  # (its _handover below, the numpy form, after the start-up rows' update)
+
         def _append(self, z, t, ids, meas_var) -> None:  # (IMMBank._append before born_rows)
             k = z.shape[0]
             n_before = self._ids.size

@@ -24,7 +24,7 @@ from mjasc.perception.imm.compiled_cycle import imm_cycle
 from mjasc.perception.imm.markov import cycle_steps
 from mjasc.perception.imm.measured_cycle import measured_cycle
 from mjasc.perception.imm.startup_rows import (gather_startup, gather_startup_into, predicted_startup,
-                                               settled_startup, settled_startup_into)
+                                               settled_startup, settled_startup_into, startup_cycle_into)
 
 logger = logging.getLogger("mjasc.perception.imm")
 
@@ -38,6 +38,9 @@ _NO_ROWS, _NO_FLAGS = np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool)  # (s
 class BankUpdates:
     """The measured cycle of :class:`~mjasc.perception.imm.bank.IMMBank` (a mixin: the bank's base
     class; see the module docstring for what it reads)."""
+
+    _startup_in_one_call = True  # (False: the start-up rows' hand-over through the bank's ``_handover`` after
+    # their update — the fused call's reference in tests/test_imm_startup_rows.py)
 
     def update(self, z, t_s, mask=None, measurement_variance=None) -> np.ndarray:
         """One IMM cycle for every track at time t_s (scalar or (n,) [s]).
@@ -204,19 +207,30 @@ class BankUpdates:
                     xc, Pc, dtw, F, zw, use_w, var_w = gather_startup(rows, st.x, st.P, _NO_VAR if t is None else dt,
                                                                       dtm if t is None else 0.0, z, use,
                                                                       _NO_VAR if mv is None else mv, mv is not None)
-            dt3 = predicted_startup(xc, Pc, F, dtw)  # (F x, F P Fᵀ in place and dt³, numpy's bits: one call)
-            xc_w, P_w = xc, Pc
         limit = self.config.restart_after_gated
-        if any_warm:  # (the start-up filters updated, then inside, ok, the start-up rows, rejections: one compiled call)
-            args = (rows, xc_w, P_w, dt3, dtw, self._q_cv, zw, self._var if mv is None else var_w, use_w,
-                    self._gate, st.x, st.P, st.n_meas, d2_min, use, finite, measured, self._s, self._P, self._mu,
-                    s_new, P_new, mu_new, self._n_gated, limit)
+        handed = False  # (the start-up rows handed over already)
+        if any_warm:  # (the start-up filters predicted — F x, F P Fᵀ, dt³ in numpy's bits — and updated, then
+            # inside, ok, the start-up rows, rejections: one compiled call; with scratch rows the hand-over too)
+            var_a = self._var if mv is None else var_w
             if scratch:  # (the codes written into the bank's own, the flags into scratch rows)
                 _, _, _, inside, restart, ok = rb.scratch_flags(n)
                 reasons, used = self._reasons, np.empty(n, dtype=bool)
-                n_restart = settled_startup_into(*args, inside, ok, reasons, restart, used)
+            if scratch and self._startup_in_one_call:
+                n_restart, off = startup_cycle_into(
+                    rows, xc, Pc, F, dtw, self._q_cv, zw, var_a, use_w, self._gate, st.x, st.P, st.n_meas, d2_min, use,
+                    finite, measured, self._s, self._P, self._mu, s_new, P_new, mu_new, self._n_gated, limit, inside,
+                    ok, reasons, restart, used, st.snr2, st.max_updates, st.active, x_new, self._Pc, self._mu0)
+                st.n_active -= off
+                handed = True
             else:
-                inside, reasons, restart, used, n_restart = settled_startup(*args)
+                dt3 = predicted_startup(xc, Pc, F, dtw)  # (F x, F P Fᵀ in place and dt³, numpy's bits: one call)
+                args = (rows, xc, Pc, dt3, dtw, self._q_cv, zw, var_a, use_w, self._gate, st.x, st.P, st.n_meas,
+                        d2_min, use, finite, measured, self._s, self._P, self._mu, s_new, P_new, mu_new,
+                        self._n_gated, limit)
+                if scratch:
+                    n_restart = settled_startup_into(*args, inside, ok, reasons, restart, used)
+                else:
+                    inside, reasons, restart, used, n_restart = settled_startup(*args)
         else:  # (inside, ok, rejections: one compiled pass)
             rows_w = _NO_ROWS
             args = (d2_min, self._gate, use, finite, measured, _NO_ROWS, _NO_FLAGS, _NO_FLAGS, self._s, self._P,
@@ -237,8 +251,8 @@ class BankUpdates:
         else:
             self._t = t
         self._t_common = t0
-        if any_warm:
-            self._handover(rows_w, xc_w, P_w)
+        if any_warm and not handed:
+            self._handover(rows_w, xc, Pc)
         if n_restart:
             rows = restart.nonzero()[0]
             self._start(rows, z[rows], None if mv is None else mv[rows])

@@ -51,7 +51,8 @@ from mjasc.perception.imm.compiled_cycle import position_update
 from mjasc.perception.imm.startup import _add_cv_noise, _kept_started, _polar_finish, _polar_jacobians
 
 __all__ = ["gather_startup", "gather_startup_into", "settled_startup_into", "update_startup", "settled_startup",
-           "handover_rows", "born_rows", "kept_bank_rows", "sandwich_into", "predicted_startup", "handover_polar"]
+           "handover_rows", "born_rows", "kept_bank_rows", "sandwich_into", "predicted_startup", "handover_polar",
+           "startup_cycle_into"]
 
 
 @kernel
@@ -268,3 +269,21 @@ def handover_polar(rows, xc, cv_P, n_meas, snr2, max_updates, active, x, Pc, s, 
     JPJ = np.empty((k, 4, 4))
     sandwich_into(J, cv_P, k, JPJ)
     return handover_rows(rows, xc, speed, theta, JPJ, cv_P, n_meas, snr2, max_updates, active, x, Pc, s, P, mu, mu0)
+
+
+@kernel
+def startup_cycle_into(rows, xc, Pc, F, dt, q, zw, var, use_w, gate, x, P, n_meas, d2_min, use, finite, measured, s,
+                       s_P, mu, s_new, P_new, mu_new, n_gated, limit, inside, ok, reasons, restart, used, snr2,
+                       max_updates, active, x_new, Pc_bank, mu0):
+    """The start-up rows' part of a bank's general cycle in one call: :func:`predicted_startup` (xc, Pc, F,
+    dt: the gathered rows, in place), :func:`settled_startup_into` (its arguments rows … used as there,
+    with xp, Pp = xc, Pc and dt³ from the prediction) and then :func:`handover_polar` of the rows with
+    their updated filters (n_meas, snr2, max_updates, active: the start-up filters'; x_new, Pc_bank,
+    s_new, P_new, mu_new, mu0: the bank's new state, as its ``_handover`` writes it). Returns (the
+    number restarted, the number of rows made inactive)."""
+    dt3 = predicted_startup(xc, Pc, F, dt)
+    n_restart = settled_startup_into(rows, xc, Pc, dt3, dt, q, zw, var, use_w, gate, x, P, n_meas, d2_min, use,
+                                     finite, measured, s, s_P, mu, s_new, P_new, mu_new, n_gated, limit, inside, ok,
+                                     reasons, restart, used)
+    off = handover_polar(rows, xc, Pc, n_meas, snr2, max_updates, active, x_new, Pc_bank, s_new, P_new, mu_new, mu0)
+    return n_restart, off
