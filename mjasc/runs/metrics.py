@@ -4,26 +4,38 @@ Per vessel: distance travelled, mean and max |cross-track error|, minimum cleara
 obstacle (static: distance from the hull's bounding circle to the polygon/circle; moving and other
 vessels: centre distance minus both radii), collisions (MuJoCo hull contacts, or clearance below
 zero). Per run: wall time, simulated time and real-time factor.
+
+A record tick is folded in at once (:meth:`RunMetrics.update`, given the traffic's state) or later
+(:meth:`RunMetrics.defer`: its time, positions and cross-track errors kept, the traffic evaluated at
+the kept times and the ticks folded in one compiled call per chunk of ticks; a run without a
+recording or a target judge, which need the traffic at every tick anyway): the same numbers.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from mjasc.evaluation.traffic_truth import traffic_at
 from mjasc.physics.obstacles import PolygonObstacle
-from mjasc.runs.metrics_kernels import update_metrics
+from mjasc.runs.metrics_kernels import update_metrics, update_metrics_ticks
 
 __all__ = ["RunMetrics"]
 
 
+#: Deferred record ticks folded in at once (:meth:`RunMetrics.defer`): bounds what is kept.
+DEFER_TICKS = 512
+
+
 class RunMetrics:
-    def __init__(self, world, scenario):
+    def __init__(self, world, scenario, traffic=None):
+        """``traffic``: the run's :class:`~mjasc.physics.obstacles.MovingObstacleSet` (the
+        simulation's), needed by :meth:`defer` when the world has moving obstacles."""
         self.world = world
         self._data = world.data  # (World.data is three property calls; check_contacts reads it every record tick)
         self.names = list(world.vessel_names)
         n = len(self.names)
         self.radii = np.array([t.radius_m for t in world.vessel_types])
-        self.distance = np.zeros(n)
+        self._distance = np.zeros(n)
         self._last_pos: np.ndarray | None = None
         self._xte_sum = np.zeros(n)
         self._xte_max = np.zeros(n)
@@ -47,20 +59,64 @@ class RunMetrics:
         self.collisions: list[dict] = []
         self._in_contact: set[tuple[str, str]] = set()
         self._geom_owner = dict(enumerate(world.geom_owner))
+        self._traffic_set = traffic
+        self._pending: tuple[list, list, list] = ([], [], [])  # deferred ticks: times, positions, xte
+
+    @property
+    def distance(self) -> np.ndarray:
+        """Distance travelled per vessel so far [m] (deferred ticks folded in first)."""
+        self.flush()
+        return self._distance
 
     def update(self, states, cross_track_m: np.ndarray, traffic) -> None:
         """Called at the record rate with the true states, each vessel's |xte| (nan = no path).
         Each block of the clearance matrix (a static obstacle's column, the moving obstacles', the
         vessels') is folded into the running minimum in place: the same numbers as one stacked
         matrix, without building it, in one compiled pass (:mod:`mjasc.runs.metrics_kernels`)."""
+        if self._pending[0]:
+            self.flush()
         pos = states.position_m
         has_last = self._last_pos is not None
         if not has_last:
             self._last_pos = np.empty_like(pos, dtype=float)
         tpos = traffic[0]
-        update_metrics(pos, self._last_pos, has_last, np.asarray(cross_track_m, dtype=float), self.distance,
+        update_metrics(pos, self._last_pos, has_last, np.asarray(cross_track_m, dtype=float), self._distance,
                        self._xte_sum, self._xte_count, self._xte_max, self._vertices, self._offsets, self._circles,
                        self.radii, tpos if tpos.shape[0] else self._no_traffic, self._traffic_radii, self._min_clear)
+
+    def defer(self, states, cross_track_m) -> None:
+        """:meth:`update` of this record tick later (module docstring): keeps its time, the true
+        positions (``states.position_m``, a new array each tick: kept, not copied) and the |xte|
+        values (a sequence, nan = no path); the traffic's state is evaluated at the kept times
+        (:func:`~mjasc.evaluation.traffic_truth.traffic_at`: ``Simulation.traffic_state``'s
+        numbers) when they are folded in — every :data:`DEFER_TICKS` ticks and by :meth:`flush`."""
+        times, positions, xte = self._pending
+        times.append(states.time_s)
+        positions.append(states.position_m)
+        xte.append(cross_track_m)
+        if len(times) >= DEFER_TICKS:
+            self.flush()
+
+    def flush(self) -> None:
+        """Fold the deferred ticks in (:meth:`defer`), in one compiled call."""
+        times, positions, xte = self._pending
+        if not times:
+            return
+        self._pending = ([], [], [])
+        n = len(self.names)
+        pos = np.array(positions, dtype=float).reshape(len(times), n, 2)
+        if self._last_pos is None:
+            self._last_pos = np.empty((n, 2))
+            has_last = False
+        else:
+            has_last = True
+        if len(self._traffic_radii):
+            tpos = np.ascontiguousarray(traffic_at(self._traffic_set, times)[:, :, 0:2])
+        else:
+            tpos = np.zeros((len(times), 0, 2))
+        update_metrics_ticks(pos, self._last_pos, has_last, np.array(xte, dtype=float).reshape(len(times), n),
+                             self._distance, self._xte_sum, self._xte_count, self._xte_max, self._vertices,
+                             self._offsets, self._circles, self.radii, tpos, self._traffic_radii, self._min_clear)
 
     def check_contacts(self, t_s: float) -> list[tuple[str, str]]:
         """New hull contacts since the last call (pairs of owner names); records them."""
@@ -79,6 +135,7 @@ class RunMetrics:
         return new
 
     def summary(self, wall_time_s: float, sim_time_s: float) -> dict:
+        self.flush()
         vessels = {}
         for i, name in enumerate(self.names):
             count = max(int(self._xte_count[i]), 1)
@@ -86,7 +143,7 @@ class RunMetrics:
                      if k != name and np.isfinite(self._min_clear[i, c])}
             vessels[name] = {
                 "type": self.world.vessel_types[i].name,
-                "distance_m": round(float(self.distance[i]), 3),
+                "distance_m": round(float(self._distance[i]), 3),
                 "mean_cross_track_m": round(float(self._xte_sum[i] / count), 4) if self._xte_count[i] else None,
                 "max_cross_track_m": round(float(self._xte_max[i]), 4) if self._xte_count[i] else None,
                 "min_clearance_m": clear,

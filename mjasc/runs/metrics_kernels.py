@@ -1,5 +1,7 @@
 """The run metrics' per-record-tick update (:meth:`mjasc.runs.metrics.RunMetrics.update`) as one
-compiled pass over the vessels (the numpy form cost ~50 µs a tick in ~40 small numpy calls).
+compiled pass over the vessels (the numpy form cost ~50 µs a tick in ~40 small numpy calls), and
+the same for a batch of record ticks (:func:`update_metrics_ticks`: a run without recording folds
+its ticks in chunks, :meth:`~mjasc.runs.metrics.RunMetrics.defer`).
 
 Per vessel i, at each record tick, in this order:
 
@@ -25,7 +27,7 @@ import numpy as np
 from mjasc.core.compiled import kernel, maximum, minimum
 from mjasc.core.polygon_kernels import boundary_distance, inside_even_odd
 
-__all__ = ["update_metrics"]
+__all__ = ["update_metrics", "update_metrics_ticks"]
 
 
 @kernel
@@ -84,3 +86,14 @@ def update_metrics(pos, last_pos, has_last, xte, distance, xte_sum, xte_count, x
                 dx, dy = px - pos[m, 0], py - pos[m, 1]
                 c = math.sqrt(dx * dx + dy * dy) - radii[i] - radii[m]
             min_clear[i, base + m] = minimum(min_clear[i, base + m], c)
+
+
+@kernel
+def update_metrics_ticks(pos, last_pos, has_last, xte, distance, xte_sum, xte_count, xte_max,
+                         vertices, offsets, circles, radii, traffic_pos, traffic_radii, min_clear):
+    """:func:`update_metrics` of k record ticks in order, in one call: pos (k, N, 2), xte (k, N),
+    traffic_pos (k, M, 2) the ticks' arguments (the other arguments as there; has_last is the
+    first tick's). The same numbers as k calls (the same body, tick after tick)."""
+    for k in range(pos.shape[0]):
+        update_metrics(pos[k], last_pos, has_last or k > 0, xte[k], distance, xte_sum, xte_count, xte_max,
+                       vertices, offsets, circles, radii, traffic_pos[k], traffic_radii, min_clear)
