@@ -71,9 +71,9 @@ def _course(velocity, heading) -> np.ndarray:
 class RunEvaluator:
     """Runner observer (record slot) that evaluates a run (module docstring).
 
-    At each record tick it only keeps the samples (the vessels' headings and velocities, each
-    vessel's moving tracks as ids and positions, and the :class:`ProgressTrace`: the times, the
-    positions and γ); :meth:`summary` evaluates them at once — the traffic at the record times
+    At each record tick it only keeps the samples (the vessels' headings and velocities, copied
+    into growing arrays; each vessel's moving tracks as ids and positions; and the
+    :class:`ProgressTrace`: the times, the positions and γ); :meth:`summary` evaluates them at once — the traffic at the record times
     (:func:`~mjasc.evaluation.traffic_truth.traffic_at`), the tracking scores flat
     (:meth:`TrackingScore.add_rows`) — the same numbers as reading the traffic and scoring each
     tick as it comes."""
@@ -85,7 +85,9 @@ class RunEvaluator:
         self.vessel_radii = np.array([t.radius_m for t in world.vessel_types])
         self.traffic_names = [o.name for o in world.moving_obstacles]
         self.traffic_radii = np.array([o.radius_m for o in world.moving_obstacles])
-        self._h, self._v = [], []  # times and positions: self.progress (t, p)
+        n = len(self.vessel_names)  # per tick: headings (k, n) [rad], velocities (k, n, 2) [m/s], rows 0 … k − 1
+        self._h, self._v, self._k = np.empty((256, n)), np.empty((256, n, 2)), 0  # (times, positions: self.progress)
+        self._p_made = None  # (ticks, positions (k, n, 2) [m]) of self.progress.p: _positions
         self._traffic_set = runner.sim.traffic  # (evaluated at the record times at the end: _traffic)
         self._traffic_made = None  # (ticks, positions, headings, velocities) of _traffic
         self._scores: dict[int, TrackingScore] = {}
@@ -111,8 +113,13 @@ class RunEvaluator:
 
     def __call__(self, event) -> None:
         s = event.states
-        self._h.append(s.heading_rad.copy())
-        self._v.append(s.velocity_m_s.copy())
+        k = self._k
+        if k == self._h.shape[0]:  # (full: twice the room)
+            self._h = np.concatenate([self._h, np.empty_like(self._h)])
+            self._v = np.concatenate([self._v, np.empty_like(self._v)])
+        self._h[k] = s.heading_rad
+        self._v[k] = s.velocity_m_s
+        self._k = k + 1
         self.progress(event)  # (the record times: the traffic is evaluated at them at the end, _traffic)
         if self._owner_of:
             self._moving.add(self._perceptions[0][1].tracker.fleet)  # (tracker: after the flush)
@@ -130,6 +137,13 @@ class RunEvaluator:
             self._traffic_made = (k, a[:, :, 0:2].copy(), a[:, :, 2].copy(), a[:, :, 3:5].copy())
         return self._traffic_made[1:]
 
+    def _positions(self) -> np.ndarray:
+        """``self.progress.p`` as one array (k, n, 2) [m] (kept until a new tick)."""
+        k = len(self.progress.p)
+        if self._p_made is None or self._p_made[0] != k:
+            self._p_made = (k, np.array(self.progress.p, dtype=float).reshape(k, len(self.vessel_names), 2))
+        return self._p_made[1]
+
     def _score(self) -> None:
         """Score every tick not yet scored (:meth:`TrackingScore.add_rows`)."""
         k0, k1 = self._scored, len(self.progress.t)
@@ -137,7 +151,7 @@ class RunEvaluator:
             return
         moving = self._moving.of(self._owner_of.values(), k0, k1) if self._owner_of else None
         t = self.progress.t[k0:k1]
-        p = np.array(self.progress.p[k0:k1], dtype=float)
+        p = self._positions()[k0:k1]
         xy = np.concatenate([p, self._traffic()[0][k0:k1]], axis=1)
         ids = self.vessel_names + self.traffic_names
         radii = np.concatenate([self.vessel_radii, self.traffic_radii])
@@ -159,7 +173,8 @@ class RunEvaluator:
             return []
         cfg = self.config
         t = np.array(self.progress.t)
-        p, h, v = np.array(self.progress.p), np.array(self._h), np.array(self._v)
+        k = len(t)
+        p, h, v = self._positions(), self._h[:k], self._v[:k]
         q, qh, w = self._traffic()
         out = []
         for i, name in enumerate(self.vessel_names):
