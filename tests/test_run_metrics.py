@@ -71,3 +71,38 @@ def test_running_minima_block_by_block_equal_the_stacked_matrix_bit_for_bit():
                        ("xte_max", m._xte_max), ("min_clear", m._min_clear)):
         assert np.array_equal(ours, ref[name], equal_nan=True), name
         assert ours.tobytes() == ref[name].tobytes(), name
+
+
+def test_deferred_ticks_equal_tick_by_tick_updates_bit_for_bit():
+    """A run without recording defers its record ticks (``RunMetrics.defer``: the traffic evaluated
+    at the kept times, the ticks folded in chunks of ``DEFER_TICKS``); fed the same ticks one
+    :meth:`update` at a time (the traffic read as ``Simulation.traffic_state``, as a recording run
+    does), or mixed (an update folds the deferred ticks first), the metrics are the same bits."""
+    from mjasc.runs.metrics import DEFER_TICKS, RunMetrics
+
+    sc = load_scenario(TASKS / "demo.toml").with_overrides(duration_s=60.0)
+    runner = Runner(sc, None, progress=False)
+    ticks = []
+
+    def observe(event):
+        xte = [o.status.cross_track_m if o and o.status else np.nan for o in runner.last_outputs]
+        ticks.append((event.states, xte, runner.sim.traffic_state()))
+
+    runner.observe("record", observe)
+    summary = runner.run().summary
+    assert len(ticks) > DEFER_TICKS  # (a chunk folded during the run, the rest at the summary)
+    now, later, mixed = (RunMetrics(runner.world, sc, runner.sim.traffic) for _ in range(3))
+    for k, (states, xte, traffic) in enumerate(ticks):
+        now.update(states, np.array(xte), traffic)
+        later.defer(states, xte)
+        if k % 7 == 3:
+            mixed.update(states, np.array(xte), traffic)
+        else:
+            mixed.defer(states, xte)
+    for m in (later, mixed, runner.metrics):
+        m.flush()
+        for name in ("distance", "_xte_sum", "_xte_count", "_xte_max", "_min_clear", "_last_pos"):
+            assert getattr(m, name).tobytes() == getattr(now, name).tobytes(), name
+    for m in (later, mixed):
+        assert m.summary(1.0, 60.0)["vessels"] == now.summary(1.0, 60.0)["vessels"]
+    assert not summary["collisions"]
