@@ -13,8 +13,9 @@ import pytest
 
 from mjasc.perception.imm.bank import IMMBank
 from mjasc.perception.imm.startup import cv_to_polar
+from mjasc.core.small_products import sandwich_into
 from mjasc.perception.imm.startup_rows import (gather_startup, handover_polar, handover_rows, predicted_startup,
-                                               sandwich_into, update_startup)
+                                               update_startup)
 
 
 def _same(a, b):

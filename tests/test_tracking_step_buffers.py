@@ -13,7 +13,8 @@ import pytest
 import mjasc
 from mjasc.perception.tracking import fleet as fleet_mod
 from mjasc.perception.tracking.pair_kernels import position_jacobians
-from mjasc.perception.tracking.step_buffers import AssociationBuffers, grown, jpjt_into
+from mjasc.core.small_products import sandwich_into
+from mjasc.perception.tracking.step_buffers import AssociationBuffers, grown
 from mjasc.perception.tracking.step_fusions import assign_pairs_packed, pair_gates, predicted_pairs_packed
 from mjasc.runs.runner import Runner
 
@@ -88,7 +89,7 @@ def test_gated_assignment_on_a_real_run(monkeypatch, name, duration):
     assert seen["calls"] > 50 and seen["pairs"] > 50
 
 
-def test_jpjt_into_is_numpys_product_on_random_stacks():
+def test_sandwich_of_jacobians_is_numpys_product_on_random_stacks():
     """J P Jᵀ summed as OpenBLAS's dgemm sums it: numpy's stacked products' bits on random stacks of
     every scale (and covariance-shaped P), zeros and ones of the Jacobians' shape included."""
     rng = np.random.default_rng(9)
@@ -104,7 +105,7 @@ def test_jpjt_into_is_numpys_product_on_random_stacks():
             J = np.where(rng.random(J.shape) < 0.3, -0.0, np.where(rng.random(J.shape) < 0.3, 0.0, J))
             P = np.where(rng.random(P.shape) < 0.3, -0.0, np.where(rng.random(P.shape) < 0.3, 0.0, P))
         S = np.empty((k + 2, 2, 2))
-        jpjt_into(J, P, k, S)
+        sandwich_into(J, P, k, S)
         _same(S[:k], J @ P @ J.transpose(0, 2, 1))
 
 

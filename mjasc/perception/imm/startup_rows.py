@@ -45,13 +45,14 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import fma, kernel
+from mjasc.core.compiled import kernel
+from mjasc.core.small_products import sandwich_into
 from mjasc.perception.imm.bank_kernels import appended_rows, kept_rows, settled_rows, settled_rows_into
 from mjasc.perception.imm.compiled_cycle import position_update
 from mjasc.perception.imm.startup import _add_cv_noise, _kept_started, _polar_finish, _polar_jacobians
 
 __all__ = ["gather_startup", "gather_startup_into", "settled_startup_into", "update_startup", "settled_startup",
-           "handover_rows", "born_rows", "kept_bank_rows", "sandwich_into", "predicted_startup", "handover_polar",
+           "handover_rows", "born_rows", "kept_bank_rows", "predicted_startup", "handover_polar",
            "startup_cycle_into"]
 
 
@@ -202,27 +203,6 @@ def kept_bank_rows(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n
     ids2, t2, Pc2, g2, r2 = kept_rows(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons)
     a2, x2, cP2, c2, n_active = _kept_started(keep, active, cv_x, cv_P, n_meas)
     return ids2, t2, Pc2, g2, r2, a2, x2, cP2, c2, n_active
-
-
-@kernel
-def sandwich_into(A, P, k, out):
-    """``out[:k] = A[:k] @ P[:k] @ A[:k].transpose(0, 2, 1)`` for stacks of 4×4 matrices, with numpy's
-    bits: each entry of A P, then of (A P) Aᵀ, summed over the inner index in order from +0 by fused
-    multiply-adds (OpenBLAS's dgemm on one small matrix: a sum of −0 products is +0)."""
-    T = np.empty((4, 4))
-    for i in range(k):
-        for a in range(4):
-            for d in range(4):
-                acc = 0.0
-                for b in range(4):
-                    acc = fma(A[i, a, b], P[i, b, d], acc)
-                T[a, d] = acc
-        for a in range(4):
-            for c in range(4):
-                acc = 0.0
-                for d in range(4):
-                    acc = fma(T[a, d], A[i, c, d], acc)
-                out[i, a, c] = acc
 
 
 @kernel

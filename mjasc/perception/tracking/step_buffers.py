@@ -14,7 +14,7 @@ bit for bit, on real runs.
 cosine, sine, ``J P Jᵀ`` and logarithm compiled between them, giving numpy's bits — ``math.cos``,
 ``math.sin`` and ``math.log`` are glibc's, as numpy's are on this machine class with mjasc's
 portable-math pin, and each 2×4·4×4·4×2 product is summed as OpenBLAS's per-matrix dgemm sums it
-(over k in order from +0 by fused multiply-adds: :func:`jpjt_into`). The tests check
+(over k in order from +0 by fused multiply-adds: :func:`~mjasc.core.small_products.sandwich_into`). The tests check
 every value it writes against the numpy form, bit for bit, on real runs and random stacks.
 """
 
@@ -24,12 +24,13 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import fma, kernel
+from mjasc.core.compiled import kernel
+from mjasc.core.small_products import sandwich_into
 from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.perception.tracking.step_fusions import assign_pairs_packed, pair_gates, predicted_pairs_packed
 
 __all__ = ["AssociationBuffers", "predicted_pairs_into", "position_jacobians_into", "pair_gates_into",
-           "assign_pairs_into", "jpjt_into", "gated_assignment_into"]
+           "assign_pairs_into", "gated_assignment_into"]
 
 
 class AssociationBuffers:
@@ -140,33 +141,12 @@ def assign_pairs_into(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var
 
 
 @kernel
-def jpjt_into(J, P, k, S):
-    """``S[:k] = J[:k] @ P[:k] @ J[:k].transpose(0, 2, 1)`` (J (·, 2, 4), P (·, 4, 4), S (·, 2, 2)) with
-    numpy's bits: each product's entries summed over the inner index in order, from +0 by fused
-    multiply-adds (OpenBLAS's dgemm on one small matrix: a sum of −0 products is +0; J P first, then (J P) Jᵀ)."""
-    T = np.empty((2, 4))
-    for s in range(k):
-        for a in range(2):
-            for d in range(4):
-                acc = 0.0
-                for b in range(4):
-                    acc = fma(J[s, a, b], P[s, b, d], acc)
-                T[a, d] = acc
-        for a in range(2):
-            for c in range(2):
-                acc = 0.0
-                for d in range(4):
-                    acc = fma(T[a, d], J[s, c, d], acc)
-                S[s, a, c] = acc
-
-
-@kernel
 def gated_assignment_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, omega, active, Pc, t_o, row_pos, z,
                           gate, assigned, var_row, claimed, blocks, pairs, var_p, xs, P, arcs, cs, zhat, J, S, d2, det,
                           log_det, inside, cost, out_rows, vals):
     """The association in one call (module docstring): :func:`predicted_pairs_into` (rows … row_pos and
     blocks … arcs as there), then, when it wrote and found pairs, :func:`position_jacobians_into` of
-    cos θ_mid, sin θ_mid (into cs (2k,)), :func:`jpjt_into` (into S), :func:`pair_gates_into` (z (M, 2)
+    cos θ_mid, sin θ_mid (into cs (2k,)), :func:`~mjasc.core.small_products.sandwich_into` (J P Jᵀ into S), :func:`pair_gates_into` (z (M, 2)
     the detections; into d2, det), ln det (into log_det) and :func:`assign_pairs_into` (gate … claimed
     and inside … vals (out_rows its rows) as there). Returns (number of pairs, grouped rows k, written,
     h, m) — h = m = 0 when nothing was written or there are no pairs."""
@@ -179,7 +159,7 @@ def gated_assignment_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, o
         cs[a] = math.cos(th)
         cs[k + a] = math.sin(th)
     position_jacobians_into(xs[:k], arcs[:k], arcs[2 * k:3 * k], cs[:k], cs[k:2 * k], zhat, J)
-    jpjt_into(J, P, k, S)
+    sandwich_into(J, P, k, S)
     pr = pairs[:6 * npairs].reshape((6, npairs))
     pair_gates_into(pr, zhat[:k], S[:k], z, var_p[:npairs], d2, det)
     for c in range(npairs):
