@@ -169,7 +169,7 @@ def test_linear_form_has_the_bits_of_numpys_matmul_on_a_run():
     """τ = F·G in OpenBLAS's dgemv order (hydro_kernels' docstring) on the real shapes and values:
     the G of three otters, F of a simulated run, each perturbed and with random signs."""
     sim = make_sim("otter", n=3)
-    f_row, tau, rot, F, cf_x, G = sim.hydro.step_arrays()
+    tau, rot, F, cf_x, G = sim.hydro.step_arrays()
     d, rng = sim.data, np.random.default_rng(3)
     d.act[:6] = [0.8, 0.5, -0.3, 0.9, 1.0, -1.0]
     d.qvel[:9] = rng.standard_normal(9)

@@ -55,7 +55,7 @@ from typing import Sequence
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, param
-from mjasc.physics.hydro_kernels import hydro_features, rotate_to_world
+from mjasc.physics.hydro_kernels import hydro_features, linear_form, rotate_to_world
 
 __all__ = ["HydroCoefficients", "rigid_body_mass_matrix", "Hydrodynamics"]
 
@@ -227,7 +227,7 @@ class Hydrodynamics:
     #                                                    with max(y,0) = (y + a²)/2, min(y,0) = (y − a²)/2 for y = a|a|
     #
     # so τ = F · G with a constant (K × 3) matrix G per vessel, assembled once in
-    # :meth:`_linear_form` from exactly the terms of :meth:`body_acceleration`. One batched matmul
+    # :meth:`_linear_form` from exactly the terms of :meth:`body_acceleration`. One compiled product
     # then replaces ~50 small numpy calls: numpy's per-call overhead, not arithmetic, is the cost at
     # these sizes. ``tests/test_hydrodynamics.py`` checks F · G against body_acceleration.
 
@@ -291,7 +291,6 @@ class Hydrodynamics:
         """Preallocate the per-step work arrays (the fast path allocates nothing per step)."""
         n, S = self.n_vessels, self._cf_x.shape[1]
         self._F = np.zeros((n, 41 + S))
-        self._F_row = self._F[:, None, :]
         self._S = S
         self._rot2 = np.zeros((n, 2))        # e^{−iψ} as (cos, sin) per vessel
         self._no_rate = np.zeros((n, 2))     # (the current rate's place when there is none)
@@ -300,10 +299,10 @@ class Hydrodynamics:
 
     def step_arrays(self) -> tuple:
         """The arrays a compiled step works on (after :meth:`allocate_buffers`; the step writes
-        the first four, reads the last two): (F row view (N, 1, K), τ (N, 1, 3), e^{−iψ} (N, 2) as
-        (cos, sin), the features F (N, K), the cross-flow strips' x (N, S), the linear form G
-        (N, K, 3)), K = 41 + S (:mod:`mjasc.physics.step_kernels`; τ = F·G)."""
-        return self._F_row, self._tau, self._rot2, self._F, self._cf_x, self._G
+        the first three, reads the last two): (τ (N, 1, 3), e^{−iψ} (N, 2) as (cos, sin), the
+        features F (N, K), the cross-flow strips' x (N, S), the linear form G (N, K, 3)), K = 41 + S
+        (:mod:`mjasc.physics.step_kernels`; τ = F·G)."""
+        return self._tau, self._rot2, self._F, self._cf_x, self._G
 
     def bind(self, qpos3, qvel3, activation, out) -> None:
         """Bind the (N, 3) joint position/velocity arrays, the (N, 2) activation array and the
@@ -326,14 +325,14 @@ class Hydrodynamics:
 
     def compute_bound(self, current_world, current_rate_world):
         """The fast path of :meth:`generalized_forces` on the arrays given to :meth:`bind`: the
-        features F of every vessel in one compiled pass, τ = F·G in one batched matmul, τ rotated
-        to world axes in a second pass (:mod:`mjasc.physics.hydro_kernels`, the same bits as the
-        numpy form it replaced)."""
+        features F of every vessel in one compiled pass, τ = F·G (numpy's matmul's bits) and τ
+        rotated to world axes (:mod:`mjasc.physics.hydro_kernels`, the same bits as the numpy form
+        it replaced)."""
         qpos3, qvel3, activation, out = self._bound
         has_rate = current_rate_world is not None
         hydro_features(qpos3, qvel3, activation, current_world, current_rate_world if has_rate else self._no_rate,
                        has_rate, self._cf_x, self._F, self._rot2)
-        np.matmul(self._F_row, self._G, out=self._tau)                            # τ = F·G (body)
+        linear_form(self._F, self._G, self._tau)                                  # τ = F·G (body)
         rotate_to_world(self._tau, self._rot2, out)
 
     def kinetic_energy_relative(self, nu_r: np.ndarray) -> np.ndarray:

@@ -112,7 +112,7 @@ class Simulation:
         # what states() reads: MjData's qpos, qvel and act, whole, the headings ψ (a view) and the propellers
         self._state_arrays = (d.qpos, d.qvel, d.act, self._qpos3[:, 2] if self._views else None, self._propellers)
         self._uniform_current = self.current.velocity(np.zeros((n, 2)), 0.0) if self._current_uniform_steady else None
-        f_row, tau, rot2, feats, cf_x, self._linear_form = self.hydro.step_arrays()
+        tau, rot2, feats, cf_x, self._linear_form = self.hydro.step_arrays()
         self._step_arrays = (tau, rot2, feats, cf_x, self._qfrc3 if self._views else None,
                              *self._mj_arrays, self._traffic_table, self._traffic_samples)
         self._command_shape = (n, 2)
