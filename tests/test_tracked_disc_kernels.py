@@ -146,7 +146,7 @@ def test_pass_discs_equals_the_composed_form_in_a_run():
     """The same on every sensing pass of a thesis run (its trackers' own arrays)."""
     from pathlib import Path
 
-    import mjasc.perception.fleet as fleet_module
+    import mjasc.perception.tracked_discs as discs_module
     from mjasc.perception.tracked_disc_kernels import pass_discs
     from mjasc.runs.runner import Runner
     from mjasc.runs.scenario import load_scenario
@@ -166,10 +166,40 @@ def test_pass_discs_equals_the_composed_form_in_a_run():
         return got
 
     scenario = load_scenario(tasks / "thesis_6_4_crossing.toml").with_overrides(duration_s=60.0)
-    original = fleet_module.pass_discs
-    fleet_module.pass_discs = checked
+    original = discs_module.pass_discs
+    discs_module.pass_discs = checked
     try:
         Runner(scenario, None, progress=False).run()
     finally:
-        fleet_module.pass_discs = original
+        discs_module.pass_discs = original
     assert len(calls) > 200 and sum(calls) > 100
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_tracker_discs_takes_the_same_discs_either_way(seed):
+    """tracked_discs.tracker_discs: the one compiled call on the bank's arrays and the path for a bank
+    without them (its estimate_fields between the kernels, numpy's cos / sin) give the same bits."""
+    from types import SimpleNamespace
+
+    from mjasc.perception.imm.row_fields import row_fields
+    from mjasc.perception.tracked_discs import tracker_discs
+
+    rng = np.random.default_rng(100 + seed)
+    n, n_owners, S = int(rng.integers(0, 30)), 4, 3
+    bank = _bank_arrays(rng, n, 3)
+    owner_slot = np.array([0, -1, 2, 1], dtype=np.int64)
+    mgmt = SimpleNamespace(_confirmed=rng.random(n) < 0.7, _static=rng.random(n) < 0.3, _moved=rng.random(n) < 0.5,
+                           _radius=rng.uniform(0.5, 10.0, n))
+    owner = rng.integers(0, n_owners, n).astype(np.int64)
+    times = rng.uniform(0.0, 12.0, S)
+
+    def fields(rows):
+        t, xs, th, w, P = row_fields(rows, *bank, False)
+        return t, xs[:, :2], th, xs[:, 3], w, P
+
+    with_arrays = SimpleNamespace(mgmt=mgmt, owner=owner, bank=SimpleNamespace(prediction_arrays=lambda: bank))
+    without = SimpleNamespace(mgmt=mgmt, owner=owner, bank=SimpleNamespace(prediction_arrays=lambda: None,
+                                                                           estimate_fields=fields))
+    with np.errstate(invalid="ignore"):
+        for a, b in zip(tracker_discs(with_arrays, owner_slot, times), tracker_discs(without, owner_slot, times)):
+            _same(a, b)
