@@ -103,3 +103,27 @@ def test_scan_kernels_equal_the_numpy_form(seed):
     body, world = scan_points(got[0], got[3], np.cos(a), np.sin(a), origin[0], origin[1], math.cos(yaw), math.sin(yaw))
     _same(body, body_ref)
     _same(world, world_ref)
+
+
+@pytest.mark.parametrize("beams, fov_deg", [(720, 360.0), (361, 120.0), (1, 30.0)])
+def test_fan_directions_equal_numpys_cosine_and_sine(beams, fov_deg):
+    """fan_directions (math.cos / math.sin in the kernel) against the numpy form RangeSensor.fire had,
+    np.cos / np.sin of np.add(angles, yaw), on sensors' fans at random, large and exact headings
+    (the equality of numpy's float64 cos / sin and the C library's: docs/architecture.md)."""
+    from mjasc.perception.scan_kernels import fan_directions
+
+    fov = math.radians(fov_deg)
+    angles = -0.5 * fov + (np.arange(beams) + 0.5) * fov / beams
+    rng = np.random.default_rng(beams)
+    yaws = [0.0, -0.0, math.pi, -math.pi, 1e-300, 123.456, -1e4]
+    yaws += rng.uniform(-math.pi, math.pi, 300).tolist() + rng.normal(0.0, 50.0, 50).tolist()
+    vec = np.full((beams, 3), 7.0)
+    for yaw in yaws:
+        fan_directions(angles, yaw, vec)
+        a = np.add(angles, yaw)
+        assert np.array_equal(vec[:, 0], np.cos(a)) and np.array_equal(vec[:, 1], np.sin(a)), yaw
+        assert np.all(vec[:, 2] == 7.0)
+    many = rng.uniform(-1e3, 1e3, 200_000)  # random angles, one "fan"
+    out = np.zeros((many.size, 3))
+    fan_directions(many, 0.25, out)
+    assert np.array_equal(out[:, 0], np.cos(many + 0.25)) and np.array_equal(out[:, 1], np.sin(many + 0.25))

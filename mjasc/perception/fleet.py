@@ -46,8 +46,7 @@ from mjasc.perception.scan_batch import ScanBatch
 from mjasc.perception.sense_kernels import tracked_in_walls
 from mjasc.perception.sense_pass import DETECTED, MAPPED, OUT_OF_RANGE, scan_detect_map, unpack
 from mjasc.perception.static_map import StaticMap, StaticMapStore
-from mjasc.perception.tracked_disc_kernels import disc_courses, disc_rows_at, disc_table
-from mjasc.perception.tracked_discs import DISC_MARGIN_M, DISC_MARGIN_MAX_M, estimate_discs
+from mjasc.perception.tracked_discs import DISC_MARGIN_M, DISC_MARGIN_MAX_M, estimate_discs, tracker_discs
 from mjasc.perception.tracked_returns import split_in_pass
 from mjasc.perception.tracking.fleet import FleetTracker
 from mjasc.perception.tracking.tracker import MultiTargetTracker
@@ -269,19 +268,12 @@ class PerceptionFleet:
         for k in plan.plugins:
             c, r = members[k].tracked_discs(scan_times[k])
             parts.append((np.full(r.shape[0], k, dtype=np.int64), c, r))
-        S = times.shape[0]
         for ft, owner_slot in plan.trackers:
             if len(ft.bank) == 0:
                 continue
-            mg = ft.mgmt
-            (rows, slots), t_s = disc_rows_at(mg._confirmed, mg._static, mg._moved, ft.owner, owner_slot, times)
-            if rows.size == 0:
-                continue
-            t, pos, th, v, w, P = ft.bank.estimate_fields(rows)
-            dt, th = disc_courses(t_s, t, th, w)
-            c, r, k = disc_table(pos, dt, v, np.cos(th), np.sin(th), mg._radius, rows, P, DISC_MARGIN_M,
-                                 DISC_MARGIN_MAX_M, slots, S)
-            parts.append((k, c, r))
+            c, r, k = tracker_discs(ft, owner_slot, times)
+            if k.size:
+                parts.append((k, c, r))
         if not parts:
             return np.zeros((0, 2)), np.zeros(0), np.zeros(0, dtype=np.int64)
         if len(parts) == 1:  # (each part is in slot order already)

@@ -37,7 +37,7 @@ import mujoco
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
-from mjasc.perception.scan_kernels import clean_hits
+from mjasc.perception.scan_kernels import clean_hits, fan_directions
 
 __all__ = ["SensorConfig", "Scan", "RangeSensor", "parse_sensor_options", "check_sensor", "CLUTTER_GEOM"]
 
@@ -167,7 +167,6 @@ class RangeSensor:
         self.full_circle = config.full_circle
         self._vec = np.zeros((n, 3))
         self._vec_flat = self._vec.reshape(-1)
-        self._angles, self._cos, self._sin = np.empty(n), np.empty(n), np.empty(n)
         self._geomid = np.zeros(n, dtype=np.int32)
         self._dist = np.zeros(n)
         self._pnt = np.zeros(3)
@@ -193,10 +192,7 @@ class RangeSensor:
         x, y = float(self._xpos[0]), float(self._xpos[1])
         pnt[0], pnt[1] = x, y
         if yaw != self._yaw:  # the world directions of the beams (kept while the heading stays the same)
-            a = np.add(self.angles_body, yaw, out=self._angles)
-            vec = self._vec
-            vec[:, 0] = np.cos(a, out=self._cos)
-            vec[:, 1] = np.sin(a, out=self._sin)
+            fan_directions(self.angles_body, yaw, self._vec)
             self._yaw = yaw
         c = self.config
         mujoco.mj_multiRay(self.model, data, pnt, self._vec_flat, self.geomgroup, 1, self.body_id, geom_ids, dist,

@@ -19,6 +19,10 @@ functions stay in numpy too (numpy's SIMD sin/cos need not round like libm's).
 * :func:`scan_points` — the returns in the sensor frame ``(r cos a, r sin a)`` and in the world
   ``(o_x + c·b_x − s·b_y, o_y + s·b_x + c·b_y)`` (c, s the cosine and sine of the heading), each
   sum evaluated left to right.
+* :func:`fan_directions` — the world directions ``(cos(a_k + ψ), sin(a_k + ψ), 0)`` of a fan's
+  beams (body angles a_k, heading ψ) for ``mj_multiRay``: ``math.cos`` / ``math.sin`` of the sum,
+  numpy's ``np.cos(np.add(a, ψ))`` bits (numpy's float64 ``cos`` / ``sin`` call the C library's
+  here: docs/architecture.md, "Compiled kernels"; tests/test_scan_kernels.py asserts it).
 * :func:`scan_batch` — the three above for several casts stacked (a fleet's tick, one call): each
   cast's beams ``beam_off[s] : beam_off[s+1]``, its draws and parameters per cast; the beam
   cosines and sines are the sensor's ``np.cos`` / ``np.sin`` of its beam angles, taken once
@@ -33,7 +37,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["clean_hits", "scan_returns", "scan_points", "scan_batch"]
+__all__ = ["clean_hits", "scan_returns", "scan_points", "scan_batch", "fan_directions"]
 
 
 @kernel
@@ -115,6 +119,17 @@ def scan_points(ranges, beams, cos_a, sin_a, origin_x, origin_y, cos_h, sin_h):
         world[i, 0] = origin_x + cos_h * bx - sin_h * by
         world[i, 1] = origin_y + sin_h * bx + cos_h * by
     return body, world
+
+
+@kernel
+def fan_directions(angles_body, yaw, vec):
+    """Write the world directions of the beams at body angles ``angles_body`` (n,) [rad] of a
+    sensor at heading ``yaw`` [rad] into the x and y columns of ``vec`` (n, 3) (module docstring;
+    its z column is left as it is)."""
+    for k in range(angles_body.shape[0]):
+        a = angles_body[k] + yaw
+        vec[k, 0] = math.cos(a)
+        vec[k, 1] = math.sin(a)
 
 
 @kernel

@@ -11,6 +11,11 @@ metres, seconds, radians).
   covariance, ``tr + √max(tr² − det, 0)`` with ``tr = ½(P₀₀ + P₁₁)``, ``det = P₀₀P₁₁ − P₀₁²``.
 * :func:`disc_rows_at` and :func:`disc_table` — the same for one sensing pass, with each row's
   scan time and slot gathered and the discs ordered by slot.
+* :func:`pass_discs` — all of it for one tracker in one call, from the IMM bank's own arrays
+  (:meth:`~mjasc.perception.imm.bank_views.BankViews.prediction_arrays`, gathered by
+  :func:`~mjasc.perception.imm.row_fields.row_fields` as ``estimate_fields`` does), with the
+  courses' cosine and sine taken by ``math.cos`` / ``math.sin`` (numpy's float64 ``cos`` / ``sin``
+  give the same bits here: docs/architecture.md, "Compiled kernels"; its test asserts it).
 
 These are the expressions of the numpy form ``tracked_discs`` had (kept in
 ``tests/test_tracked_disc_kernels.py`` as the reference, with :func:`mjasc.perception.tracked_discs.disc_margin`),
@@ -24,8 +29,9 @@ import math
 import numpy as np
 
 from mjasc.core.compiled import kernel, maximum, minimum
+from mjasc.perception.imm.row_fields import row_fields
 
-__all__ = ["disc_rows", "disc_courses", "disc_geometry", "disc_rows_at", "disc_table"]
+__all__ = ["disc_rows", "disc_courses", "disc_geometry", "disc_rows_at", "disc_table", "pass_discs"]
 
 
 @kernel
@@ -120,3 +126,27 @@ def disc_table(pos, dt, v, cos_th, sin_th, radius_all, rows, P, margin_m, margin
         start[slots[i]] += 1
         oc[j, 0], oc[j, 1], orr[j], ok[j] = c[i, 0], c[i, 1], r[i], slots[i]
     return oc, orr, ok
+
+
+@kernel
+def pass_discs(confirmed, static, moved, owner, owner_slot, slot_time, x, t, mu, omega, active, Pc, radius_all,
+               margin_m, margin_max_m, n_slots):
+    """The discs of one tracker's rows for a sensing pass (:func:`disc_rows_at`, the bank's
+    ``estimate_fields`` of those rows — x (n, 4), t (n,), μ (n, r), ω (r,), start-up flags (n,) and
+    combined covariances Pc (n, 4, 4) as :func:`~mjasc.perception.imm.row_fields.row_fields` takes
+    them —, :func:`disc_courses`, the courses' ``math.cos`` / ``math.sin``, :func:`disc_table`):
+    centres (k, 2) [m], radii (k,) [m] and slots (k,), ordered by slot."""
+    ints, t_s = disc_rows_at(confirmed, static, moved, owner, owner_slot, slot_time)
+    rows, slots = ints[0], ints[1]
+    tt, xs, th, w, P = row_fields(rows, x, t, mu, omega, active, Pc, False)
+    dt_mid = disc_courses(t_s, tt, th, w)
+    dt, mid = dt_mid[0], dt_mid[1]
+    k = rows.shape[0]
+    cos_th = np.empty(k)
+    sin_th = np.empty(k)
+    v = np.empty(k)
+    for i in range(k):
+        cos_th[i] = math.cos(mid[i])
+        sin_th[i] = math.sin(mid[i])
+        v[i] = xs[i, 3]
+    return disc_table(xs[:, :2], dt, v, cos_th, sin_th, radius_all, rows, P, margin_m, margin_max_m, slots, n_slots)

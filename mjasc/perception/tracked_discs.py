@@ -3,15 +3,18 @@ SI): a tracked disc is the track's radius + ``DISC_MARGIN_M`` + 2σ of its posit
 ``DISC_MARGIN_MAX_M`` beyond the radius, centred where the track is predicted at the scan's time.
 
 The built-in tracker's discs are made for a whole sensing pass in compiled loops
-(:mod:`mjasc.perception.tracked_disc_kernels`, called by :class:`mjasc.perception.fleet.PerceptionFleet`);
-a plugin tracker's come from its track estimates (:func:`estimate_discs`).
+(:func:`tracker_discs`: :mod:`mjasc.perception.tracked_disc_kernels`, called by
+:class:`mjasc.perception.fleet.PerceptionFleet`); a plugin tracker's come from its track estimates
+(:func:`estimate_discs`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["DISC_MARGIN_M", "DISC_MARGIN_MAX_M", "disc_margin", "estimate_discs"]
+from mjasc.perception.tracked_disc_kernels import disc_courses, disc_rows_at, disc_table, pass_discs
+
+__all__ = ["DISC_MARGIN_M", "DISC_MARGIN_MAX_M", "disc_margin", "estimate_discs", "tracker_discs"]
 
 #: A tracked disc (returns kept out of the map) is the track's radius + this + 2σ of its position [m]
 DISC_MARGIN_M = 1.0
@@ -38,3 +41,23 @@ def estimate_discs(tracks, t_s: float) -> tuple[np.ndarray, np.ndarray]:
     c = np.array([e.predict_positions(np.array([max(t_s, e.time_s)]))[0] for e in moving])
     P = np.array([e.position_covariance for e in moving], dtype=float).reshape(-1, 2, 2)
     return c, np.array([e.radius_m for e in moving], dtype=float) + disc_margin(P)
+
+
+def tracker_discs(ft, owner_slot: np.ndarray, times: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Centres (q, 2) [m], radii (q,) [m] and slots (q,) of the discs of a
+    :class:`~mjasc.perception.tracking.fleet.FleetTracker`'s confirmed moving tracks for a sensing
+    pass of S slots: ``owner_slot`` the slot of each of its owners (−1: not in the pass), ``times``
+    (S,) the slots' scan times [s]; ordered by slot (within one, in row order). One compiled call
+    on the IMM bank's arrays (:func:`~mjasc.perception.tracked_disc_kernels.pass_discs`), or, for a
+    bank whose ω̂ numpy sums in blocks (``prediction_arrays`` None), the bank's ``estimate_fields``
+    between the kernels."""
+    mg, S = ft.mgmt, times.shape[0]
+    bank = ft.bank.prediction_arrays()
+    if bank is not None:
+        return pass_discs(mg._confirmed, mg._static, mg._moved, ft.owner, owner_slot, times, *bank, mg._radius,
+                          DISC_MARGIN_M, DISC_MARGIN_MAX_M, S)
+    (rows, slots), t_s = disc_rows_at(mg._confirmed, mg._static, mg._moved, ft.owner, owner_slot, times)
+    t, pos, th, v, w, P = ft.bank.estimate_fields(rows)
+    dt, th = disc_courses(t_s, t, th, w)
+    return disc_table(pos, dt, v, np.cos(th), np.sin(th), mg._radius, rows, P, DISC_MARGIN_M, DISC_MARGIN_MAX_M,
+                      slots, S)

@@ -109,8 +109,8 @@ class Simulation:
                                                                    MovingObstacleSet.PATH_SAMPLE_M)
         self._mj_arrays = (d.qpos, d.qvel, d.qacc, d.act, d.mocap_pos, d.mocap_quat)
         self._propellers = self.thrusters.step_arrays()
-        # what states() reads: MjData's qpos, qvel and act, whole, the headings ψ (a view) and the propellers
-        self._state_arrays = (d.qpos, d.qvel, d.act, self._qpos3[:, 2] if self._views else None, self._propellers)
+        # what states() reads: MjData's qpos, qvel and act, whole, and the propellers
+        self._state_arrays = (d.qpos, d.qvel, d.act, self._propellers)
         self._uniform_current = self.current.velocity(np.zeros((n, 2)), 0.0) if self._current_uniform_steady else None
         tau, rot2, feats, cf_x, self._linear_form = self.hydro.step_arrays()
         self._step_arrays = (tau, rot2, feats, cf_x, self._qfrc3 if self._views else None,
@@ -180,9 +180,9 @@ class Simulation:
         if not self._bound:
             return self._states_numpy()
         n = self.n_vessels
-        qpos, qvel, act, psi, propellers = self._state_arrays
+        qpos, qvel, act, propellers = self._state_arrays
         pairs, body, heading = np.empty((5, n, 2)), np.empty((n, 3)), np.empty(n)  # (state_kernels.vessel_states)
-        vessel_states(qpos, qvel, act, np.cos(psi), np.sin(psi), propellers, pairs, body, heading)
+        vessel_states(qpos, qvel, act, propellers, pairs, body, heading)
         pos, vel, shaft, thrust = pairs[0], pairs[1], pairs[2], pairs[3]
         t = float(self.data.time)
         if self._current_uniform_steady:  # (the same everywhere, always; copied into the fifth row)
