@@ -146,7 +146,7 @@ def test_team_plan_and_assign(seed):
     """team_plan and team_assign against the calls of TeamMatcher.match before them (team_pairs,
     team_distances, gnn_assign_blocks, matched_rows), on random problems (some with a vessel's track
     or broadcast having two candidates)."""
-    from mjasc.perception.tracking.team import matched_rows, team_assign, team_distances, team_pairs, team_plan
+    from mjasc.perception.tracking.team_kernels import matched_rows, team_assign, team_distances, team_pairs, team_plan
 
     rng = np.random.default_rng(seed)
     n_owners = int(rng.integers(1, 4))
