@@ -72,14 +72,18 @@ def test_fused_association_on_a_real_run(monkeypatch):
             for r, k in ((Q, 2), (I, 3), (J, 4), (GI, 6), (DB, 7), (TA, 8)):
                 _same(pairs[r], g[k])
             _same(var_p, g[9])
-        seen = []
-        det = self.manoeuvres.detect
-        self.manoeuvres.detect = lambda hit, d2, gate, t, bank: (seen.append((hit, d2, t)), det(hit, d2, gate, t, bank))
+        seen = []  # (the hit rows, their d² and times: to the detector, or — no hard block — its end after the
+        # association's call made the detection, their d² in the association's buffers)
+        man = self.manoeuvres
+        det, added = man.detect, man.noise_added
+        man.detect = lambda hit, d2, gate, t, bank: (seen.append((hit, d2, t)), det(hit, d2, gate, t, bank))
+        man.noise_added = lambda hit, t, bank, *rest: (seen.append((hit, self._assoc.vals[:hit.size], t)),
+                                                       added(hit, t, bank, *rest))
         try:
             orig(self, rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
                  claimed, assigned, var_row, labels)
         finally:
-            del self.manoeuvres.detect
+            del man.detect, man.noise_added
         if ref is not None:
             _, hit, a2, v2, c2 = ref
             _same(assigned, a2)

@@ -64,18 +64,30 @@ class ManoeuvreDetector:
         ``add_process_noise_rows``."""
         if self._off or rows.size == 0:
             return
-        cfg = self.config
         t_last, P, active = bank.noise_arrays()
         warm = np.empty(rows.size, dtype=np.int64)
         n_full, n_warm = manoeuvre_noise(rows, d2, gate if type(gate) is float else float(gate), *self._fading,
                                          self.cols.nis, self.cols.manoeuvring, t_s, t_last, P, active, *self._noise,
                                          warm)
+        self.noise_added(rows, t_s, bank, n_full, n_warm, warm)
+
+    def noise_args(self, bank: IMMBank) -> tuple:
+        """What a compiled caller of :func:`manoeuvre_noise` passes after rows … gate and t_s, t_last (the bank's
+        times) — (a, start, end, ε̄, manoeuvring, the bank's P, q_heading, q_speed) — led by whether the
+        detector is on; it calls :meth:`noise_added` after."""
+        return (not self._off, *self._fading, self.cols.nis, self.cols.manoeuvring, bank.noise_arrays()[1], *self._noise)
+
+    def noise_added(self, rows, t_s, bank: IMMBank, n_full: int, n_warm: int, warm) -> None:
+        """After :func:`manoeuvre_noise` of rows, t_s into ``bank`` (its returns n_full, n_warm and its
+        positions ``warm``): the bank told of its changed P, and the manoeuvring tracks in start-up given
+        theirs through the bank's ``add_process_noise_rows``."""
         if n_full:
             bank.noise_added()
         if n_warm:  # (manoeuvring tracks in start-up: their filters' velocity variances)
+            cfg = self.config
             j = warm[:n_warm]
             w = rows[j]
-            dt = np.maximum(t_s[j] - t_last[w], 0.0)
+            dt = np.maximum(t_s[j] - bank.noise_arrays()[0][w], 0.0)
             bank.add_process_noise_rows(w, cfg.manoeuvre_heading_noise_rad2_s * dt, cfg.manoeuvre_speed_noise_m2_s3 * dt)
 
 
