@@ -2,7 +2,8 @@
 inherits (thesis §3.2.1, docs/thesis.md §2): ``update`` (checked arrays), ``update_measured`` (a
 caller's checked arrays, no copies), ``update_finite`` (every row a finite measurement), and behind them
 the measurement check and the IMM cycle (one compiled call with the row buffers' scratch rows,
-:func:`~mjasc.perception.imm.measured_cycle.measured_cycle`), the common case (every track measured and
+:func:`~mjasc.perception.imm.measured_cycle.measured_cycle`; with the general end's compiled calls,
+:func:`~mjasc.perception.imm.measured_cycle.measured_settle`), the common case (every track measured and
 accepted: ``_accept``) and the general end of a cycle (``_settle``: updated, coasting, start-up and
 restarted tracks, the start-up filters' products with numpy's bits in one compiled call, the rest in another).
 
