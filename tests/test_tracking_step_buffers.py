@@ -14,7 +14,8 @@ import mjasc
 from mjasc.perception.tracking import fleet as fleet_mod
 from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.core.small_products import sandwich_into
-from mjasc.perception.tracking.step_buffers import AssociationBuffers, grown
+from mjasc.perception.tracking.manoeuvre import manoeuvre_noise
+from mjasc.perception.tracking.step_buffers import AssociationBuffers, gated_assignment_into, grown
 from mjasc.perception.tracking.step_fusions import assign_pairs_packed, pair_gates, predicted_pairs_packed
 from mjasc.runs.runner import Runner
 
@@ -46,7 +47,7 @@ def _numpy_form(args, p, z, gate, assigned, var_row, claimed):
 def test_gated_assignment_on_a_real_run(monkeypatch, name, duration):
     """The one-call association writes, bit for bit, what the numpy form computes, at every step."""
     seen = {"calls": 0, "pairs": 0, "hard": 0}
-    into = fleet_mod.gated_assignment_into
+    into = gated_assignment_into
 
     def checked(*args):
         head, (z, gate, assigned, var_row, claimed), bufs = args[:16], args[16:21], args[21:]
@@ -82,7 +83,17 @@ def test_gated_assignment_on_a_real_run(monkeypatch, name, duration):
         seen["hard"] += h > 0
         return got
 
-    monkeypatch.setattr(fleet_mod, "gated_assignment_into", checked)
+    def checked_manoeuvres(*args):  # (what the tracker calls: the association, then the hit rows' manoeuvres —
+        got = checked(*args[:38])  # gated_manoeuvres_into's two calls: tests/test_tracking_manoeuvre_noise.py)
+        npairs, k, ok, h, m = got
+        detect, a, start, end, nis, man, P_bank, qh, qv, warm = args[38:]
+        if not detect or not ok or npairs == 0 or h > 0:
+            return (*got, -1, 0)
+        out_rows, vals = args[36], args[37]
+        return (*got, *manoeuvre_noise(out_rows[:m], vals[:m], args[17], a, start, end, nis, man, vals[m:2 * m],
+                                       args[9], P_bank, args[12], qh, qv, warm))
+
+    monkeypatch.setattr(fleet_mod, "gated_manoeuvres_into", checked_manoeuvres)
     sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()

@@ -72,14 +72,18 @@ def test_fused_association_on_a_real_run(monkeypatch):
             for r, k in ((Q, 2), (I, 3), (J, 4), (GI, 6), (DB, 7), (TA, 8)):
                 _same(pairs[r], g[k])
             _same(var_p, g[9])
-        seen = []
-        det = self.manoeuvres.detect
-        self.manoeuvres.detect = lambda hit, d2, gate, t, bank: (seen.append((hit, d2, t)), det(hit, d2, gate, t, bank))
+        seen = []  # (the hit rows, their d² and times: to the detector, or — no hard block — its end after the
+        # association's call made the detection, their d² in the association's buffers)
+        man = self.manoeuvres
+        det, added = man.detect, man.noise_added
+        man.detect = lambda hit, d2, gate, t, bank: (seen.append((hit, d2, t)), det(hit, d2, gate, t, bank))
+        man.noise_added = lambda hit, t, bank, *rest: (seen.append((hit, self._assoc.vals[:hit.size], t)),
+                                                       added(hit, t, bank, *rest))
         try:
             orig(self, rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
                  claimed, assigned, var_row, labels)
         finally:
-            del self.manoeuvres.detect
+            del man.detect, man.noise_added
         if ref is not None:
             _, hit, a2, v2, c2 = ref
             _same(assigned, a2)
@@ -146,7 +150,7 @@ def test_team_plan_and_assign(seed):
     """team_plan and team_assign against the calls of TeamMatcher.match before them (team_pairs,
     team_distances, gnn_assign_blocks, matched_rows), on random problems (some with a vessel's track
     or broadcast having two candidates)."""
-    from mjasc.perception.tracking.team import matched_rows, team_assign, team_distances, team_pairs, team_plan
+    from mjasc.perception.tracking.team_kernels import matched_rows, team_assign, team_distances, team_pairs, team_plan
 
     rng = np.random.default_rng(seed)
     n_owners = int(rng.integers(1, 4))

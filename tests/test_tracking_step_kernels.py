@@ -167,7 +167,7 @@ def test_measurements(seed):
 
 @pytest.mark.parametrize("seed", range(30))
 def test_team_blocks(seed):
-    from mjasc.perception.tracking.team import team_blocks
+    from mjasc.perception.tracking.team_kernels import team_blocks
 
     rng = np.random.default_rng(seed)
     n_owners = int(rng.integers(1, 4))
@@ -394,7 +394,7 @@ def test_last_assignments(seed):
 @pytest.mark.parametrize("seed", range(10))
 def test_team_matched_rows(seed):
     from mjasc.perception.tracking.association import block_pairs
-    from mjasc.perception.tracking.team import matched_rows
+    from mjasc.perception.tracking.team_kernels import matched_rows
 
     rng = np.random.default_rng(seed)
     n_a, n_b = rng.integers(0, 4, size=3), rng.integers(0, 3, size=3)
@@ -452,7 +452,7 @@ def test_team_pairs_and_distances(seed):
     """team_pairs and team_distances against the numpy form of TeamMatcher.match before them (team_blocks,
     block_pairs_loop, the states gathered, V·cos θ and V·sin θ, broadcast_distances, the gate)."""
     from mjasc.perception.tracking.pair_kernels import block_pairs_loop, broadcast_distances
-    from mjasc.perception.tracking.team import team_blocks, team_distances, team_pairs
+    from mjasc.perception.tracking.team_kernels import team_blocks, team_distances, team_pairs
 
     rng = np.random.default_rng(seed)
     n_owners = int(rng.integers(1, 4))

@@ -13,6 +13,7 @@ import pytest
 import mjasc
 from mjasc.perception.imm.row_fields import wrapped_states
 from mjasc.perception.tracking import team as team_mod
+from mjasc.perception.tracking import team_kernels
 from mjasc.runs.runner import Runner
 
 _ROOT = __import__("pathlib").Path(__file__).resolve().parents[1]
@@ -25,11 +26,11 @@ def _same(a, b):
 
 @pytest.mark.parametrize("name, duration", [("demo", 40.0), ("thesis_6_4_crossing", 40.0)])
 def test_packed_team_kernels_on_a_real_run(monkeypatch, name, duration):
-    plan, assign = team_mod.team_plan_packed, team_mod.team_assign_packed
+    plan, assign = team_kernels.team_plan_packed, team_kernels.team_assign_packed
     seen = {"plans": 0, "assigned": 0}
 
     def checked_plan(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states, wrap_theta):
-        want = team_mod.team_plan(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners,
+        want = team_kernels.team_plan(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners,
                                   wrapped_states(states) if wrap_theta else states)
         got = plan(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states, wrap_theta)
         ints, blocks, pq, x, A, B = got
@@ -42,7 +43,7 @@ def test_packed_team_kernels_on_a_real_run(monkeypatch, name, duration):
         return got
 
     def checked_assign(*args):
-        dist, inside, n_in, hard, ta, tb = team_mod.team_assign(*args)
+        dist, inside, n_in, hard, ta, tb = team_kernels.team_assign(*args)
         got = assign(*args)
         hits, h = got[3], got[4]
         _same(got[0], dist)
@@ -54,18 +55,21 @@ def test_packed_team_kernels_on_a_real_run(monkeypatch, name, duration):
         seen["assigned"] += 1
         return got
 
-    plan_into, assign_into = team_mod.team_plan_into, team_mod.team_assign_into
+    match_into = team_mod.team_match_into
 
-    def checked_plan_into(*args):  # (what match calls: the packed kernels' arrays written into its buffers,
-        checked_plan(*args[:9])  # tests/test_tracking_team_buffers.py)
-        return plan_into(*args)
+    def checked_match(*args):  # (what match calls: the packed kernels' arrays written into its buffers, then
+        got = match_into(*args)  # assigned: tests/test_tracking_team_buffers.py)
+        confirmed, owner, t_s, b_owner, t_b, p_b, max_age, no, states, wrap, far, gate, ints, blocks, pq, x = args[:16]
+        A, B, npairs, ok = got[:4]
+        checked_plan(confirmed, owner, t_s, b_owner, t_b, max_age, no, states, wrap)
+        if ok and A and B:
+            th = x[:A, 2]
+            checked_assign(pq[:3 * npairs].reshape(3, npairs), blocks[:4 * no].reshape(4, no),
+                           ints[A + B:A + B + no + 1], ints[A:A + B], ints[:A], x[:A], np.cos(th), np.sin(th), t_s,
+                           t_b, p_b, far, gate)
+        return got
 
-    def checked_assign_into(*args):
-        checked_assign(*args[:13])
-        return assign_into(*args)
-
-    monkeypatch.setattr(team_mod, "team_plan_into", checked_plan_into)
-    monkeypatch.setattr(team_mod, "team_assign_into", checked_assign_into)
+    monkeypatch.setattr(team_mod, "team_match_into", checked_match)
     sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()

@@ -216,6 +216,17 @@ class IMMBank(BankUpdates, BankViews, PredictiveDensity):
             raise ValueError("add_process_noise: heading_var_rad2 and speed_var_m2_s2 must be finite and ≥ 0")
         self.add_process_noise_rows(idx, dth, dv)
 
+    def noise_arrays(self) -> tuple:
+        """(t (n,) [s], P (n, r, 4, 4), start-up flags (n,)): the bank's own arrays, for a compiled caller
+        that adds process noise to the P of tracks past start-up in place
+        (:func:`mjasc.perception.tracking.manoeuvre.manoeuvre_noise`) and then calls :meth:`noise_added`
+        — valid until the next change of the bank."""
+        return self._t, self._P, self._startup.active
+
+    def noise_added(self) -> None:
+        """A caller of :meth:`noise_arrays` changed P: the combined covariances are computed again on read."""
+        self._Pc_stale = True
+
     def add_process_noise_rows(self, idx, dth, dv) -> None:
         """:meth:`add_process_noise` for a caller that has checked its arrays: the rows ``idx`` (k ≥ 1,)
         int, distinct, and their variances dth, dv (k,) float, finite and ≥ 0 (a manoeuvre detector's)."""

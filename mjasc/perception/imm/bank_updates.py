@@ -2,7 +2,8 @@
 inherits (thesis §3.2.1, docs/thesis.md §2): ``update`` (checked arrays), ``update_measured`` (a
 caller's checked arrays, no copies), ``update_finite`` (every row a finite measurement), and behind them
 the measurement check and the IMM cycle (one compiled call with the row buffers' scratch rows,
-:func:`~mjasc.perception.imm.measured_cycle.measured_cycle`), the common case (every track measured and
+:func:`~mjasc.perception.imm.measured_cycle.measured_cycle`; with the general end's compiled calls,
+:func:`~mjasc.perception.imm.measured_cycle.measured_settle`), the common case (every track measured and
 accepted: ``_accept``) and the general end of a cycle (``_settle``: updated, coasting, start-up and
 restarted tracks, the start-up filters' products with numpy's bits in one compiled call, the rest in another).
 
@@ -22,7 +23,7 @@ from mjasc.perception.imm.bank_kernels import (GATED, NON_FINITE, REJECTION_REAS
                                                 settled_rows, settled_rows_into)
 from mjasc.perception.imm.compiled_cycle import imm_cycle
 from mjasc.perception.imm.markov import cycle_steps
-from mjasc.perception.imm.measured_cycle import measured_cycle
+from mjasc.perception.imm.measured_cycle import measured_cycle, measured_settle
 from mjasc.perception.imm.startup_rows import (gather_startup, gather_startup_into, predicted_startup,
                                                settled_startup, settled_startup_into, startup_cycle_into)
 
@@ -90,20 +91,36 @@ class BankUpdates:
         """The cycle of :meth:`update` / :meth:`update_measured` on checked arrays: the finite rows
         and the rows used written into ``finite`` / ``use`` (n,) and unusable σ² in ``mv`` replaced
         by the config's, in one compiled pass; then one IMM cycle (of every row when all are used).
-        With the row buffers' scratch rows, those and the cycle's front are one compiled call
-        (:func:`~mjasc.perception.imm.measured_cycle.measured_cycle`)."""
+        With the row buffers' scratch rows, those, the cycle and the settling of a general cycle (``_settle``'s
+        compiled calls) are one compiled call (:func:`~mjasc.perception.imm.measured_cycle.measured_settle`; with
+        ``_startup_in_one_call`` False, the front alone, :func:`~mjasc.perception.imm.measured_cycle.measured_cycle`,
+        then ``_settle``)."""
         rb = self._rb
         n = z.shape[0]
         if rb is not None and rb.cap >= n:
             t0, t, dt, dtm, step = cycle_steps(self._t, self._t_common, self._ids, t_s, self._consts)  # (_times)
             out, side = self._free_side()
             st = self._startup
-            every_true = rb.scratch_flags(n)[2]
-            every, common, k = measured_cycle(
-                z, measured, self._var if mv is None else mv, mv is not None, self._R, finite, use, every_true,
-                self._s, self._P, self._mu, *step, self._floor, self._gate, *side, st.n_active, st.active, st.x, st.P,
-                _NO_VAR if t is None else dt, dtm if t is None else 0.0, rb.w_rows, rb.w_x, rb.w_P, rb.w_dt, rb.w_F,
-                rb.w_z, rb.w_use, rb.w_var)
+            _, _, every_true, inside, restart, ok = rb.scratch_flags(n)
+            front = (z, measured, self._var if mv is None else mv, mv is not None, self._R, finite, use, every_true,
+                     self._s, self._P, self._mu, *step, self._floor, self._gate, *side, st.n_active, st.active, st.x,
+                     st.P, _NO_VAR if t is None else dt, dtm if t is None else 0.0, rb.w_rows, rb.w_x, rb.w_P, rb.w_dt,
+                     rb.w_F, rb.w_z, rb.w_use, rb.w_var)
+            if self._startup_in_one_call:  # (the settling in the same call: measured_settle)
+                used = np.empty(n, dtype=bool)
+                reasons = self._reasons
+                every, common, n_restart, off = measured_settle(
+                    *front, self._q_cv, st.n_meas, self._n_gated, self.config.restart_after_gated, inside, ok,
+                    reasons, restart, used, st.snr2, st.max_updates, self._Pc, self._mu0)
+                if common:
+                    self._accept(out, side, t0, t)
+                    return np.ones(n, dtype=bool)
+                st.n_active -= off
+                if every:
+                    use = finite = measured = every_true
+                return self._settled(z, out, side, t0, t, use, finite, measured, mv, inside, restart, reasons, used,
+                                     n_restart)
+            every, common, k = measured_cycle(*front)
             if common:
                 self._accept(out, side, t0, t)
                 return np.ones(n, dtype=bool)
@@ -241,6 +258,16 @@ class BankUpdates:
                 n_restart = settled_rows_into(*args, inside, ok, reasons, restart, used)
             else:
                 inside, reasons, restart, used, n_restart = settled_rows(*args)
+        return self._settled(z, out, side, t0, t, use, finite, measured, mv, inside, restart, reasons, used, n_restart,
+                             (rows_w, xc, Pc) if any_warm and not handed else None)
+
+    def _settled(self, z, out, side, t0, t, use, finite, measured, mv, inside, restart, reasons, used, n_restart,
+                 handover=None) -> np.ndarray:
+        """The end of :meth:`_settle` (and of :func:`~mjasc.perception.imm.measured_cycle.measured_settle`):
+        the new state from ``side`` (``out``: the free side's index), the cycle's times (t None: every row
+        at t0), the start-up rows' hand-over when not done yet (``handover``: ``_handover``'s arguments), the
+        restarted rows started again from z, the rejection codes ``reasons`` and their log. Returns ``used``."""
+        s_new, P_new, mu_new, x_new, d2_min = side
         self._s, self._P, self._mu, self._x = s_new, P_new, mu_new, x_new
         self._side = out
         self._Pc_stale = True
@@ -251,8 +278,8 @@ class BankUpdates:
         else:
             self._t = t
         self._t_common = t0
-        if any_warm and not handed:
-            self._handover(rows_w, xc, Pc)
+        if handover is not None:
+            self._handover(*handover)
         if n_restart:
             rows = restart.nonzero()[0]
             self._start(rows, z[rows], None if mv is None else mv[rows])
@@ -260,7 +287,7 @@ class BankUpdates:
             for k in rows:
                 logger.info(
                     "IMM track %d restarted at t=%.3f s from z=%s after %d gated measurements",
-                    self._ids[k], t[k], z[k], limit,
+                    self._ids[k], t[k], z[k], self.config.restart_after_gated,
                 )
         self._reasons = reasons
         self._flagged = True

@@ -51,7 +51,7 @@ from mjasc.perception.tracking.fleet_views import (_ASSOC, _CONF, _DETS, _SCANS,
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.manoeuvre import ManoeuvreDetector
 from mjasc.perception.tracking.outlines import TrackOutlines
-from mjasc.perception.tracking.step_buffers import AssociationBuffers, gated_assignment_into, grown
+from mjasc.perception.tracking.step_buffers import AssociationBuffers, gated_manoeuvres_into, grown
 from mjasc.perception.tracking.step_fusions import cycled_scan_grown
 from mjasc.perception.tracking.step_gathers import step_inputs_into, step_rows
 from mjasc.perception.tracking.step_kernels import apply_assignment, measurement_rows_into, pair_setup
@@ -206,26 +206,30 @@ class FleetTracker(FleetRows, FleetViews):
         M = z.shape[0]
         p = owners.size
         arrays = bank.prediction_arrays() if M else None
-        if arrays is not None:  # (the association in one compiled call, written into the tracker's buffers:
-            # step_buffers.gated_assignment_into)
+        if arrays is not None:  # (the association and the hit rows' manoeuvres in one compiled call, written
+            # into the tracker's buffers: step_buffers.gated_manoeuvres_into)
             ab = self._assoc
             args = (rows, rpos, p, m_q, self.cols.radius, var, rad, occ, *arrays, t_o, row_pos, z, self._gate,
                     assigned, var_row, claimed)
-            npairs, k, ok, h, nh = gated_assignment_into(*args, *ab.association)
+            man = self.manoeuvres
+            warm = np.empty(assigned.size, dtype=np.int64)  # (the manoeuvring rows in start-up: ≤ the hits)
+            noise = (*man.noise_args(bank), warm)  # (with the manoeuvres of the hit rows when no block is hard)
+            npairs, k, ok, h, nh, n_full, n_warm = gated_manoeuvres_into(*args, *ab.association, *noise)
             if not ok:  # (too small: larger buffers, the same call again)
                 ab = self._assoc = grown(ab, npairs, k, p)
-                npairs, k, ok, h, nh = gated_assignment_into(*args, *ab.association)
+                npairs, k, ok, h, nh, n_full, n_warm = gated_manoeuvres_into(*args, *ab.association, *noise)
             if npairs:
                 hit = ab.rows[h:h + nh]  # (ab.rows[:h]: the blocks whose gates overlap, re-solved below)
-                d2_hit, t_hit = ab.vals[:nh], ab.vals[nh:2 * nh]
+                t_hit = ab.vals[nh:2 * nh]
                 if h:  # (a vessel's gates overlap: its block to linear_sum_assignment)
                     n_q, start = ab.blocks[:p], ab.blocks[p:2 * p + 1]
                     q, i, j, _, db, ta = ab.pairs[:6 * npairs].reshape(6, npairs)
                     inside, d2, var_p = ab.inside[:npairs], ab.d2[:npairs], ab.var_p[:npairs]
                     got = gnn_assign_blocks(inside, ab.cost[:npairs], q, i, j, start, n_q, m_q)
                     hit, d2_hit = apply_assignment(got, inside, ta, db, var_p, d2, assigned, var_row, claimed)
-                    t_hit = t_o[row_pos[hit]]
-                self.manoeuvres.detect(hit, d2_hit, self._gate, t_hit, bank)
+                    man.detect(hit, d2_hit, self._gate, t_o[row_pos[hit]], bank)
+                elif n_full >= 0:  # (detected in the call)
+                    man.noise_added(hit, t_hit, bank, n_full, n_warm, warm)
         elif M:
             n_q, grouped, q, i, j, start, gi, db, ta, var_p = pair_setup(rows, rpos, p, m_q, self.cols.radius, var,
                                                                           rad, occ)

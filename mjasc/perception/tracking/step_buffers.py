@@ -16,6 +16,9 @@ cosine, sine, ``J P Jᵀ`` and logarithm compiled between them, giving numpy's b
 portable-math pin, and each 2×4·4×4·4×2 product is summed as OpenBLAS's per-matrix dgemm sums it
 (over k in order from +0 by fused multiply-adds: :func:`~mjasc.core.small_products.sandwich_into`). The tests check
 every value it writes against the numpy form, bit for bit, on real runs and random stacks.
+:func:`gated_manoeuvres_into` is that call and, when no vessel's block needs ``linear_sum_assignment``, the
+manoeuvre detection of the hit rows (:func:`~mjasc.perception.tracking.manoeuvre.manoeuvre_noise`), the
+tracker's next call, in one (tests/test_tracking_manoeuvre_noise.py: against the two calls, on a real run).
 """
 
 from __future__ import annotations
@@ -26,11 +29,12 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 from mjasc.core.small_products import sandwich_into
+from mjasc.perception.tracking.manoeuvre import manoeuvre_noise
 from mjasc.perception.tracking.pair_kernels import position_jacobians
 from mjasc.perception.tracking.step_fusions import assign_pairs_packed, pair_gates, predicted_pairs_packed
 
 __all__ = ["AssociationBuffers", "predicted_pairs_into", "position_jacobians_into", "pair_gates_into",
-           "assign_pairs_into", "gated_assignment_into"]
+           "assign_pairs_into", "gated_assignment_into", "gated_manoeuvres_into"]
 
 
 class AssociationBuffers:
@@ -167,3 +171,25 @@ def gated_assignment_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, o
     h, m = assign_pairs_into(d2[:npairs], log_det[:npairs], gate, pr, blocks[p:2 * p + 1], m_q, var_p[:npairs],
                              assigned, var_row, claimed, t_o, row_pos, inside, cost, out_rows, vals)
     return npairs, k, ok, h, m
+
+
+@kernel
+def gated_manoeuvres_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, omega, active, Pc, t_o, row_pos, z,
+                          gate, assigned, var_row, claimed, blocks, pairs, var_p, xs, P, arcs, cs, zhat, J, S, d2, det,
+                          log_det, inside, cost, out_rows, vals, detect, a, start, end, nis, man, P_bank, q_heading,
+                          q_speed, warm):
+    """:func:`gated_assignment_into` (arguments rows … vals as there) and then, when ``detect``, it wrote pairs
+    and no block is hard (h = 0), :func:`~mjasc.perception.tracking.manoeuvre.manoeuvre_noise` of its m hit
+    rows ``out_rows[:m]``, their d² ``vals[:m]`` and times ``vals[m:2m]`` [s] (the association's gate; a … man,
+    q_heading, q_speed: the detector's; t, active: the bank's, as above; P_bank the bank's model covariances,
+    changed in place; warm (≥ m,) written). Returns (number of pairs, grouped rows k, written, h, m, the number
+    of rows noise was added to, the number in start-up) — −1 rows when the detection was not made here."""
+    npairs, k, ok, h, m = gated_assignment_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, omega, active,
+                                                Pc, t_o, row_pos, z, gate, assigned, var_row, claimed, blocks, pairs,
+                                                var_p, xs, P, arcs, cs, zhat, J, S, d2, det, log_det, inside, cost,
+                                                out_rows, vals)
+    if not detect or not ok or npairs == 0 or h > 0:
+        return npairs, k, ok, h, m, -1, 0
+    n_full, n_warm = manoeuvre_noise(out_rows[:m], vals[:m], gate, a, start, end, nis, man, vals[m:2 * m], t, P_bank,
+                                     active, q_heading, q_speed, warm)
+    return npairs, k, ok, h, m, n_full, n_warm

@@ -13,29 +13,22 @@ matches only its own tracks: one pass over every vessel's (track, broadcast) pai
 ``linear_sum_assignment`` only for a vessel where a track or a broadcast has two candidates
 (:func:`mjasc.perception.tracking.association.gnn_assign_blocks`).
 
-The match's two compiled calls write into buffers the matcher keeps (:class:`TeamBuffers`,
-:func:`team_plan_into`, :func:`team_assign_into`: :func:`team_plan_packed` and :func:`team_assign_packed`
-run as they are, their arrays copied into the buffers' first rows — each array a kernel returns is a
-Python object made, seven per match); numpy's cosine and sine between them are unchanged.
-tests/test_tracking_team_buffers.py compares them with the returning forms, bit for bit, on real runs.
+The match is one compiled call writing into buffers the matcher keeps
+(:func:`~mjasc.perception.tracking.team_kernels.team_match_into`, :class:`~mjasc.perception.tracking.team_kernels.TeamBuffers`):
+every vessel's (track, broadcast) blocks and pairs, the tracks' velocities and the pairs' distances, and the
+assignment of every vessel whose block is easy (:mod:`mjasc.perception.tracking.team_kernels`).
 """
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from mjasc.core.compiled import kernel
 from mjasc.perception.tracking.association import gnn_assign_blocks
 from mjasc.perception.tracking.config import TrackingConfig
-from mjasc.perception.tracking.pair_kernels import block_pairs_loop, broadcast_distances
-from mjasc.perception.tracking.step_kernels import admissible_pairs
+from mjasc.perception.tracking.team_kernels import TeamBuffers, grown_team, matched_rows, team_match_into
 from mjasc.perception.tracking.track_columns import TrackColumns, column
 
-__all__ = ["TeamMatcher", "TeamBuffers", "team_plan_into", "team_assign_into"]
-
-_TWO_PI = 2.0 * math.pi
+__all__ = ["TeamMatcher"]
 
 
 class TeamMatcher:
@@ -51,6 +44,7 @@ class TeamMatcher:
         self._flat = None  # every owner's broadcasts as arrays (owner, name, t_b, position), built when used
         self._start: dict[int, int] = {}  # owner → its first row in those arrays
         self._max_age, self._gate = float(config.team_max_age_s), float(config.team_match_distance_m)
+        self._far = (2.0 * self._gate) ** 2  # [m²] (a pair farther apart than twice the gate: +inf, not computed)
         self._bufs = TeamBuffers()  # the match's buffers (grown when too small)
 
     # the store's column of matched names (a view: stale after a birth or drop)
@@ -114,269 +108,26 @@ class TeamMatcher:
         if not self._team or owner.size == 0:
             return
         b_owner, names, tb, pb = self._arrays()
-        # (team_plan's arrays packed: c, bsel, start in one; written into the matcher's buffers)
+        # (the plan, cos θ, sin θ and the assignment in one call, written into the matcher's buffers)
         bf, no, wrap = self._bufs, n_owners, not wrapped
-        A, B, npairs, ok = team_plan_into(confirmed, owner, t_s, b_owner, tb, self._max_age, no, states, wrap, bf.ints,
-                                          bf.blocks, bf.pq, bf.x)
+        args = (confirmed, owner, t_s, b_owner, tb, pb, self._max_age, no, states, wrap, self._far, self._gate)
+        A, B, npairs, ok, n_in, n_hard, m = team_match_into(*args, bf.ints, bf.blocks, bf.pq, bf.x, bf.dist,
+                                                            bf.inside, bf.hits)
         if not ok:  # (too small: larger buffers, the same call again)
             bf = self._bufs = grown_team(bf, owner.size, b_owner.size, npairs, no)
-            team_plan_into(confirmed, owner, t_s, b_owner, tb, self._max_age, no, states, wrap, bf.ints, bf.blocks,
-                           bf.pq, bf.x)
-        if A == 0 or B == 0:
-            return
-        ints, x = bf.ints, bf.x[:A]
-        blocks, pq = bf.blocks[:4 * no].reshape(4, no), bf.pq[:3 * npairs].reshape(3, npairs)
-        c, bsel, start = ints[:A], ints[A:A + B], ints[A + B:A + B + no + 1]
-        gate = self._gate
-        th = x[:, 2]
-        # (a track meets every broadcast of its vessel: vx = V cos θ, vy = V sin θ; +inf far outside the gate)
-        dist, inside = bf.dist[:npairs], bf.inside[:npairs]
-        n_in, n_hard, m = team_assign_into(pq, blocks, start, bsel, c, x, np.cos(th), np.sin(th), t_s, tb, pb,
-                                           (2.0 * gate) ** 2, gate, dist, inside, bf.hits)
+            A, B, npairs, ok, n_in, n_hard, m = team_match_into(*args, bf.ints, bf.blocks, bf.pq, bf.x, bf.dist,
+                                                                bf.inside, bf.hits)
         if not n_in:
             return
         hits = bf.hits
-        hard = hits[:n_hard]
         ta, tb_i = hits[n_hard:n_hard + m], hits[n_hard + m:n_hard + 2 * m]
-        if hard.size:  # (a track or a broadcast with two candidates: that vessel's block to linear_sum_assignment)
-            q, i, j = pq
-            n_a, n_b, a_start, b_start = blocks
-            got = gnn_assign_blocks(inside, dist, q, i, j, start, n_a, n_b)
+        if n_hard:  # (a track or a broadcast with two candidates: that vessel's block to linear_sum_assignment)
+            ints = bf.ints
+            c, bsel, start = ints[:A], ints[A:A + B], ints[A + B:A + B + no + 1]
+            q, i, j = bf.pq[:3 * npairs].reshape(3, npairs)
+            n_a, n_b, a_start, b_start = bf.blocks[:4 * no].reshape(4, no)
+            got = gnn_assign_blocks(bf.inside[:npairs], bf.dist[:npairs], q, i, j, start, n_a, n_b)
             ta, tb_i = matched_rows(got, q, i, j, a_start, b_start, c, bsel)
         # (each matched row's name, one by one: a few rows, cheaper than an object array made for them)
         for k, b in zip((ta if isinstance(rows, slice) else rows[ta]).tolist(), tb_i.tolist()):
             team_of[k] = names[b]
-
-
-@kernel
-def team_blocks(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners):
-    """The (track, broadcast) blocks of :meth:`TeamMatcher.match` in one pass: (c, bsel, n_a, n_b,
-    a_start, b_start) — the confirmed tracks (positions in ``confirmed`` (k,)) sorted by their
-    vessel ``owner`` (stable), the fresh broadcasts (``t_s[b_owner] − t_b ≤ max_age``; NaN: not
-    fresh) in their order (grouped by vessel already), per vessel their counts and first
-    positions; c and bsel empty when there is nothing to match. (tests/test_tracking_step_kernels.py
-    keeps the numpy form.)"""
-    nb = b_owner.size
-    fresh = np.empty(nb, dtype=np.int64)
-    m = 0
-    for b in range(nb):
-        if t_s[b_owner[b]] - t_b[b] <= max_age:
-            fresh[m] = b
-            m += 1
-    n_a = np.zeros(n_owners, dtype=np.int64)
-    n_b = np.zeros(n_owners, dtype=np.int64)
-    a_start = np.zeros(n_owners, dtype=np.int64)
-    b_start = np.zeros(n_owners, dtype=np.int64)
-    n_c = 0
-    for k in range(confirmed.size):
-        if confirmed[k]:
-            n_c += 1
-    if m == 0 or n_c == 0:
-        return np.zeros(0, dtype=np.int64), fresh[:0], n_a, n_b, a_start, b_start
-    for k in range(confirmed.size):
-        if confirmed[k]:
-            n_a[owner[k]] += 1
-    for a in range(m):
-        n_b[b_owner[fresh[a]]] += 1
-    for o in range(1, n_owners):
-        a_start[o] = a_start[o - 1] + n_a[o - 1]
-        b_start[o] = b_start[o - 1] + n_b[o - 1]
-    c = np.empty(n_c, dtype=np.int64)
-    fill = a_start.copy()
-    for k in range(confirmed.size):
-        if confirmed[k]:
-            o = owner[k]
-            c[fill[o]] = k
-            fill[o] += 1
-    return c, fresh[:m], n_a, n_b, a_start, b_start
-
-
-@kernel
-def team_pairs(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states):
-    """:func:`team_blocks`, the (track, broadcast) pairs of its blocks
-    (:func:`~mjasc.perception.tracking.pair_kernels.block_pairs_loop` of n_a, n_b) and the states
-    ``states[c]`` (g, 4) of the confirmed tracks c, in one call: (c, bsel, n_a, n_b, a_start,
-    b_start, q, i, j, start, x)."""
-    c, bsel, n_a, n_b, a_start, b_start = team_blocks(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners)
-    q, i, j, start = block_pairs_loop(n_a, n_b)
-    x = np.empty((c.size, 4))
-    for a in range(c.size):
-        for b in range(4):
-            x[a, b] = states[c[a], b]
-    return c, bsel, n_a, n_b, a_start, b_start, q, i, j, start, x
-
-
-@kernel
-def team_distances(q, i, j, a_start, b_start, bsel, x, cos_th, sin_th, t_s, t_b, p_b, far_m2, gate):
-    """(dist (P,), inside (P,), count inside) of the pairs (q, i, j):
-    :func:`~mjasc.perception.tracking.pair_kernels.broadcast_distances` with the tracks' velocities
-    ``vx = V·cos θ``, ``vy = V·sin θ`` (x (A, 4), cos_th, sin_th (A,) numpy's), and ``dist ≤ gate``."""
-    k = x.shape[0]
-    vx = np.empty(k)
-    vy = np.empty(k)
-    for a in range(k):
-        vx[a] = x[a, 3] * cos_th[a]
-        vy[a] = x[a, 3] * sin_th[a]
-    dist = broadcast_distances(q, i, j, a_start, b_start, bsel, x, vx, vy, t_s, t_b, p_b, far_m2)
-    inside = np.empty(dist.size, dtype=np.bool_)
-    n_in = 0
-    for a in range(dist.size):
-        inside[a] = dist[a] <= gate
-        n_in += inside[a]
-    return dist, inside, n_in
-
-
-@kernel
-def matched_rows(got, q, i, j, a_start, b_start, c, bsel):
-    """(ta, tb) of the assigned pairs ``got`` of :meth:`TeamMatcher.match`: the track position
-    ``c[a_start[q[got]] + i[got]]`` and the broadcast ``bsel[b_start[q[got]] + j[got]]`` of each."""
-    m = got.size
-    ta = np.empty(m, dtype=c.dtype)
-    tb = np.empty(m, dtype=bsel.dtype)
-    for a in range(m):
-        g = got[a]
-        qg = q[g]
-        ta[a] = c[a_start[qg] + i[g]]
-        tb[a] = bsel[b_start[qg] + j[g]]
-    return ta, tb
-
-
-@kernel
-def team_plan(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states):
-    """:func:`team_pairs` (arguments as there) with its per-vessel arrays as the rows of one
-    (4, n_owners) array (n_a, n_b, a_start, b_start) and its pairs' as those of one (3, P) array
-    (q, i, j): (c, bsel, blocks, pq, start, x)."""
-    c, bsel, n_a, n_b, a_start, b_start, q, i, j, start, x = team_pairs(confirmed, owner, t_s, b_owner, t_b, max_age,
-                                                                        n_owners, states)
-    blocks = np.empty((4, n_owners), dtype=np.int64)
-    for o in range(n_owners):
-        blocks[0, o] = n_a[o]
-        blocks[1, o] = n_b[o]
-        blocks[2, o] = a_start[o]
-        blocks[3, o] = b_start[o]
-    pq = np.empty((3, q.size), dtype=np.int64)
-    for k in range(q.size):
-        pq[0, k] = q[k]
-        pq[1, k] = i[k]
-        pq[2, k] = j[k]
-    return c, bsel, blocks, pq, start, x
-
-
-@kernel
-def team_assign(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, p_b, far_m2, gate):
-    """:func:`team_distances` of the pairs of :func:`team_plan` (dist, inside, n_in) and, when some pair
-    is inside the gate, :func:`~mjasc.perception.tracking.step_kernels.admissible_pairs`; when no block is
-    hard, :func:`matched_rows` of the admissible pairs: (dist, inside, n_in, hard, ta, tb) — hard non-empty
-    (or n_in 0): ta and tb empty, the caller assigns."""
-    q, i, j = pq[0], pq[1], pq[2]
-    a_start, b_start = blocks[2], blocks[3]
-    dist, inside, n_in = team_distances(q, i, j, a_start, b_start, bsel, x, cos_th, sin_th, t_s, t_b, p_b, far_m2, gate)
-    none = np.zeros(0, dtype=np.int64)
-    if not n_in:
-        return dist, inside, n_in, none, none, none
-    easy, hard = admissible_pairs(inside, q, i, j, start, blocks[1])
-    if hard.size:
-        return dist, inside, n_in, hard, none, none
-    ta, tb = matched_rows(easy, q, i, j, a_start, b_start, c, bsel)
-    return dist, inside, n_in, hard, ta, tb
-
-
-@kernel
-def team_plan_packed(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states, wrap_theta):
-    """:func:`team_plan` (arguments as there; with ``wrap_theta`` the states' θ unwrapped, wrapped in the
-    gathered rows as :func:`~mjasc.perception.imm.row_fields.wrapped_states` does) with c, bsel and start
-    in one array: (ints (A + B + Q + 1,), blocks, pq, x, A, B)."""
-    c, bsel, blocks, pq, start, x = team_plan(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states)
-    if wrap_theta:
-        for a in range(x.shape[0]):
-            x[a, 2] = math.pi - (math.pi - x[a, 2]) % _TWO_PI
-    A, B = c.size, bsel.size
-    ints = np.empty(A + B + start.size, dtype=np.int64)
-    for a in range(A):
-        ints[a] = c[a]
-    for a in range(B):
-        ints[A + a] = bsel[a]
-    for a in range(start.size):
-        ints[A + B + a] = start[a]
-    return ints, blocks, pq, x, A, B
-
-
-@kernel
-def team_assign_packed(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, p_b, far_m2, gate):
-    """:func:`team_assign` (arguments as there) with hard, ta and tb in one array: (dist, inside, n_in,
-    hits (h + 2m,): hard (h,), ta, tb (m,), h)."""
-    dist, inside, n_in, hard, ta, tb = team_assign(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, p_b,
-                                                   far_m2, gate)
-    h, m = hard.size, ta.size
-    hits = np.empty(h + 2 * m, dtype=np.int64)
-    for a in range(h):
-        hits[a] = hard[a]
-    for a in range(m):
-        hits[h + a] = ta[a]
-        hits[h + m + a] = tb[a]
-    return dist, inside, n_in, hits, h
-
-
-class TeamBuffers:
-    """Room for ``n_a`` tracks, ``n_b`` broadcasts, ``n_pairs`` pairs and ``n_owners`` vessels."""
-
-    def __init__(self, n_a: int = 0, n_b: int = 0, n_pairs: int = 0, n_owners: int = 0):
-        self.n_a, self.n_b, self.n_pairs, self.n_owners = n_a, n_b, n_pairs, n_owners
-        self.ints = np.empty(n_a + n_b + n_owners + 1, dtype=np.int64)
-        self.blocks = np.empty(4 * n_owners, dtype=np.int64)  # (4, n_owners) row-major
-        self.pq = np.empty(3 * n_pairs, dtype=np.int64)  # (3, P) row-major
-        self.x = np.empty((n_a, 4))
-        self.dist, self.inside = np.empty(n_pairs), np.empty(n_pairs, dtype=bool)
-        self.hits = np.empty(n_owners + 2 * n_a, dtype=np.int64)
-
-    def fits(self, n_a: int, n_b: int, n_pairs: int, n_owners: int) -> bool:
-        return n_a <= self.n_a and n_b <= self.n_b and n_pairs <= self.n_pairs and n_owners <= self.n_owners
-
-
-def grown_team(bufs: TeamBuffers | None, n_a: int, n_b: int, n_pairs: int, n_owners: int) -> TeamBuffers:
-    """``bufs`` if it has room for these sizes, else buffers with room for half as much again."""
-    if bufs is not None and bufs.fits(n_a, n_b, n_pairs, n_owners):
-        return bufs
-    if bufs is not None:
-        n_a, n_b = max(n_a, bufs.n_a), max(n_b, bufs.n_b)
-        n_pairs, n_owners = max(n_pairs, bufs.n_pairs), max(n_owners, bufs.n_owners)
-    more = lambda m: m + max(16, m // 2)
-    return TeamBuffers(more(n_a), more(n_b), more(n_pairs), n_owners)
-
-
-@kernel
-def team_plan_into(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states, wrap_theta, ints, blocks, pq, x):
-    """:func:`team_plan_packed` (arguments confirmed … wrap_theta as there) written into the buffers ints,
-    blocks (4·n_owners, flat), pq (3·cap, flat) and x when they have room: (A, B, number of pairs, written)
-    — nothing written when they are too small (sizes returned)."""
-    i_, b_, pq_, x_, A, B = team_plan_packed(confirmed, owner, t_s, b_owner, t_b, max_age, n_owners, states,
-                                             wrap_theta)
-    npairs = pq_.shape[1]
-    if i_.size > ints.size or b_.size > blocks.size or 3 * npairs > pq.size or x_.shape[0] > x.shape[0]:
-        return A, B, npairs, False
-    for a in range(i_.size):
-        ints[a] = i_[a]
-    for r in range(4):
-        for o in range(n_owners):
-            blocks[r * n_owners + o] = b_[r, o]
-    for r in range(3):
-        for c in range(npairs):
-            pq[r * npairs + c] = pq_[r, c]
-    for a in range(x_.shape[0]):
-        for b in range(4):
-            x[a, b] = x_[a, b]
-    return A, B, npairs, True
-
-
-@kernel
-def team_assign_into(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, p_b, far_m2, gate, dist, inside, hits):
-    """:func:`team_assign_packed` (arguments pq … gate as there) written into the first rows of dist,
-    inside (P) and hits (h + 2m): (n_in, h, m)."""
-    d_, in_, n_in, h_, h = team_assign_packed(pq, blocks, start, bsel, c, x, cos_th, sin_th, t_s, t_b, p_b, far_m2,
-                                              gate)
-    for a in range(d_.size):
-        dist[a] = d_[a]
-        inside[a] = in_[a]
-    for a in range(h_.size):
-        hits[a] = h_[a]
-    return n_in, h, (h_.size - h) // 2
