@@ -295,6 +295,18 @@ class PotentialField:
         counts = np.bincount(pan.obstacle)
         self._obstacle_offsets = np.concatenate([[0], np.cumsum(counts)[:-1]])
 
+    def kernel_arrays(self) -> tuple:
+        """The field as the compiled tracer reads it (:mod:`~mjasc.avoidance.potential_field.streamline_kernels`):
+        (u∞ (2,), λ_g / 2π, the panels' start vertices (m, 2) [m], the index of each panel's end
+        vertex (m,), :meth:`_prepare_fast_path`'s A and B (m, 2), each obstacle's first panel (K,)).
+        Not to be written."""
+        sink_c = self.sink_strength / TWO_PI
+        if self._A is None:
+            none = np.zeros((0, 2))
+            return self._u_inf, sink_c, none, np.zeros(0, dtype=np.int64), none, none, np.zeros(0, dtype=np.int64)
+        return (self._u_inf, sink_c, self.panels.start, self.panels.next_index, self._A, self._B,
+                self._obstacle_offsets)
+
     # ---------------------------------------------------------------- evaluation
     def evaluate(self, points: np.ndarray, want_geometry: bool = False):
         """Velocity (n, 2) at points (n, 2), one block (the fused form of ``velocity``); with
