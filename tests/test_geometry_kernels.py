@@ -140,3 +140,38 @@ def test_canonical_hull_equals_the_numpy_form_bit_for_bit(seed):
         assert got.shape == want.shape
         assert got.tobytes() == want.tobytes()  # bit for bit (signs of zeros included)
         assert convex_hull(pts).tobytes() == want.tobytes()
+
+
+def _numpy_self_intersections(v, tol):
+    """The numpy form self_intersections had: every edge pair through segments_intersect."""
+    from mjasc.core.geometry import segments_intersect
+
+    k = len(v)
+    a, b = v, np.roll(v, -1, axis=0)
+    hit = segments_intersect(a[:, None], b[:, None], a[None, :], b[None, :], tol)
+    i, j = np.triu_indices(k, 1)
+    sel = hit[i, j] & ~((j == i + 1) | ((i == 0) & (j == k - 1)))
+    return list(zip(i[sel].tolist(), j[sel].tolist()))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_self_intersections_equal_the_numpy_form(seed):
+    """Random polygons (many crossing), on a coarse grid too (exact touches and collinear edges),
+    tolerances from 0 to a metre, and inflated circles (the polygons re-planning cleans)."""
+    from mjasc.core.geometry import circle_polygon, inflate_polygon, self_intersections
+
+    rng = np.random.default_rng(seed)
+    polys = []
+    for _ in range(300):
+        k = int(rng.integers(3, 14))
+        v = rng.normal(0.0, 10.0, (k, 2))
+        polys.append(np.round(v) if rng.random() < 0.4 else v)
+    polys += [inflate_polygon(circle_polygon([3.0, -2.0], r, int(n)), m)
+              for r, n, m in zip(rng.uniform(0.5, 5.0, 20), rng.integers(3, 40, 20), rng.uniform(0.0, 2.0, 20))]
+    seen = 0
+    for v in polys:
+        for tol in (0.0, 1e-9, 0.5, 1.0):
+            want = _numpy_self_intersections(v, tol)
+            assert self_intersections(v, tol) == want
+            seen += bool(want)
+    assert seen > 100

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.core.polygon_kernels import boundary_distance, canonical_hull, hull_indices, inside_even_odd
+from mjasc.core.polygon_kernels import boundary_distance, canonical_hull, hull_indices, inside_even_odd, self_crossings
 
 __all__ = ["covariance_ellipse", "distance_to_polygon", "signed_distance_to_polygon", "point_in_polygon", "polygon_signed_area",
            "counter_clockwise", "circle_polygon", "convex_hull", "disc_hull", "hull_outline", "clean_polygon",
@@ -177,14 +177,11 @@ def segments_intersect(p1, p2, q1, q2, tol: float) -> np.ndarray:
 def self_intersections(polygon: np.ndarray, tol: float) -> list[tuple[int, int]]:
     """Pairs (i, j), i < j, of non-adjacent edges of the closed polygon (edge i: vertex i → i+1)
     that intersect or touch."""
-    v = polygon
-    k = len(v)
-    a, b = v, np.roll(v, -1, axis=0)
-    hit = segments_intersect(a[:, None], b[:, None], a[None, :], b[None, :], tol)
-    i, j = np.triu_indices(k, 1)
-    adjacent = (j == i + 1) | ((i == 0) & (j == k - 1))
-    sel = hit[i, j] & ~adjacent
-    return list(zip(i[sel].tolist(), j[sel].tolist()))
+    v = _points(polygon)
+    k = v.shape[0]
+    out = np.empty((max(k * (k - 1) // 2, 1), 2), dtype=np.int64)
+    n = self_crossings(v, float(tol), out)  # (compiled: segments_intersect's tests per pair)
+    return [(i, j) for i, j in out[:n].tolist()]
 
 
 def clean_polygon(polygon, name: str = "obstacle") -> np.ndarray:

@@ -19,6 +19,10 @@ vectorized numpy formulation it replaced, so the results are bit-identical to it
   t = clip(((p − a)·(b − a)) / max(‖b − a‖², 1e-18), 0, 1).
 * :func:`inside_even_odd` — per point, the parity of the edges crossing the horizontal ray to +x
   (even-odd rule).
+* :func:`self_crossings` — the pairs of non-adjacent edges of one polygon that intersect or touch
+  (:func:`mjasc.core.geometry.self_intersections`): per pair the orientations and bounding-box
+  tests of :func:`mjasc.core.geometry.segments_intersect`, the same expressions (elementwise there:
+  the same booleans).
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["hull_indices", "canonical_hull", "boundary_distance", "inside_even_odd"]
+__all__ = ["hull_indices", "canonical_hull", "boundary_distance", "inside_even_odd", "self_crossings"]
 
 
 @kernel
@@ -144,3 +148,51 @@ def inside_even_odd(pts, poly):
                     count += 1
         out[i] = count % 2 == 1
     return out
+
+
+@kernel
+def _orient(ax, ay, bx, by, cx, cy):
+    """``segments_intersect``'s orient(a, b, c): (b − a) × (c − a)."""
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+
+
+@kernel
+def _on_segment(ax, ay, bx, by, cx, cy, tol):
+    """``segments_intersect``'s on_segment(a, b, c): c within the box of a–b grown by ``tol``."""
+    return (min(ax, bx) - tol <= cx) and (cx <= max(ax, bx) + tol) and (min(ay, by) - tol <= cy) and \
+        (cy <= max(ay, by) + tol)
+
+
+@kernel
+def _segments_hit(p1x, p1y, p2x, p2y, q1x, q1y, q2x, q2y, tol):
+    """``segments_intersect`` of the segments p1–p2 and q1–q2 (a proper crossing or a touch within
+    ``tol``)."""
+    d1, d2 = _orient(q1x, q1y, q2x, q2y, p1x, p1y), _orient(q1x, q1y, q2x, q2y, p2x, p2y)
+    d3, d4 = _orient(p1x, p1y, p2x, p2y, q1x, q1y), _orient(p1x, p1y, p2x, p2y, q2x, q2y)
+    tol2 = tol * tol
+    if ((d1 > tol2 and d2 < -tol2) or (d1 < -tol2 and d2 > tol2)) and \
+            ((d3 > tol2 and d4 < -tol2) or (d3 < -tol2 and d4 > tol2)):
+        return True
+    return ((abs(d1) <= tol2 and _on_segment(q1x, q1y, q2x, q2y, p1x, p1y, tol))
+            or (abs(d2) <= tol2 and _on_segment(q1x, q1y, q2x, q2y, p2x, p2y, tol))
+            or (abs(d3) <= tol2 and _on_segment(p1x, p1y, p2x, p2y, q1x, q1y, tol))
+            or (abs(d4) <= tol2 and _on_segment(p1x, p1y, p2x, p2y, q2x, q2y, tol)))
+
+
+@kernel
+def self_crossings(v, tol, out):
+    """The pairs (i, j), i < j in row-major order, of non-adjacent edges (edge i: vertex i → i + 1,
+    the last one back to vertex 0) of the polygon v (k, 2) that intersect or touch within ``tol``
+    [m], into ``out`` (≥ k (k − 1) / 2, 2); returns their count."""
+    k = v.shape[0]
+    n = 0
+    for i in range(k):
+        i2 = i + 1 if i + 1 < k else 0
+        for j in range(i + 1, k):
+            if j == i + 1 or (i == 0 and j == k - 1):
+                continue
+            j2 = j + 1 if j + 1 < k else 0
+            if _segments_hit(v[i, 0], v[i, 1], v[i2, 0], v[i2, 1], v[j, 0], v[j, 1], v[j2, 0], v[j2, 1], tol):
+                out[n, 0], out[n, 1] = i, j
+                n += 1
+    return n
