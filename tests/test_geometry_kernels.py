@@ -175,3 +175,24 @@ def test_self_intersections_equal_the_numpy_form(seed):
             assert self_intersections(v, tol) == want
             seen += bool(want)
     assert seen > 100
+
+
+def test_edges_cross_equals_the_numpy_form():
+    """Whether two polygons' edges meet (the potential field's overlap check) as numpy's
+    segments_intersect over every edge pair, on random and grid-snapped polygons."""
+    from mjasc.core.geometry import segments_intersect
+    from mjasc.core.polygon_kernels import edges_cross
+
+    rng = np.random.default_rng(11)
+    hits = 0
+    for _ in range(2000):
+        a = rng.normal(0.0, 5.0, (int(rng.integers(3, 10)), 2)) + rng.normal(0.0, 8.0, 2)
+        b = rng.normal(0.0, 5.0, (int(rng.integers(3, 10)), 2)) + rng.normal(0.0, 8.0, 2)
+        if rng.random() < 0.4:
+            a, b = np.round(a), np.round(b)
+        for tol in (0.0, 1e-9, 0.5):
+            want = bool(np.any(segments_intersect(a[:, None], np.roll(a, -1, axis=0)[:, None], b[None],
+                                                  np.roll(b, -1, axis=0)[None], tol)))
+            assert edges_cross(a, b, tol) == want
+            hits += want
+    assert 500 < hits < 5500

@@ -20,7 +20,8 @@ vectorized numpy formulation it replaced, so the results are bit-identical to it
 * :func:`inside_even_odd` — per point, the parity of the edges crossing the horizontal ray to +x
   (even-odd rule).
 * :func:`self_crossings` — the pairs of non-adjacent edges of one polygon that intersect or touch
-  (:func:`mjasc.core.geometry.self_intersections`): per pair the orientations and bounding-box
+  (:func:`mjasc.core.geometry.self_intersections`), :func:`edges_cross` — whether an edge of one
+  polygon meets an edge of another: per pair the orientations and bounding-box
   tests of :func:`mjasc.core.geometry.segments_intersect`, the same expressions (elementwise there:
   the same booleans).
 """
@@ -31,7 +32,8 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["hull_indices", "canonical_hull", "boundary_distance", "inside_even_odd", "self_crossings"]
+__all__ = ["hull_indices", "canonical_hull", "boundary_distance", "inside_even_odd", "self_crossings",
+           "edges_cross"]
 
 
 @kernel
@@ -196,3 +198,18 @@ def self_crossings(v, tol, out):
                 out[n, 0], out[n, 1] = i, j
                 n += 1
     return n
+
+
+@kernel
+def edges_cross(a, b, tol):
+    """Whether some edge of the polygon a (k, 2) and some edge of the polygon b (m, 2) (closed: the
+    last vertex joins the first) intersect or touch within ``tol`` [m] (``segments_intersect``,
+    any)."""
+    k, m = a.shape[0], b.shape[0]
+    for i in range(k):
+        i2 = i + 1 if i + 1 < k else 0
+        for j in range(m):
+            j2 = j + 1 if j + 1 < m else 0
+            if _segments_hit(a[i, 0], a[i, 1], a[i2, 0], a[i2, 1], b[j, 0], b[j, 1], b[j2, 0], b[j2, 1], tol):
+                return True
+    return False

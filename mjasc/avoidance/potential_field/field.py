@@ -46,9 +46,9 @@ from mjasc.core.geometry import (
     clean_polygon,
     inflate_polygon,
     point_in_polygon,
-    segments_intersect,
     signed_distance_to_polygon,
 )
+from mjasc.core.polygon_kernels import edges_cross
 
 __all__ = ["DEFAULT_SINK_STRENGTH", "PotentialField"]
 
@@ -184,11 +184,8 @@ class PotentialField:
         for i in range(len(polys)):
             for j in range(i + 1, len(polys)):
                 a, b = polys[i], polys[j]
-                cross = segments_intersect(
-                    a[:, None], np.roll(a, -1, axis=0)[:, None], b[None], np.roll(b, -1, axis=0)[None], 1e-9
-                )
                 if (
-                    np.any(cross)
+                    edges_cross(a, b, 1e-9)  # (segments_intersect of every edge pair, compiled: any)
                     or np.any(point_in_polygon(b[:1], a))
                     or np.any(point_in_polygon(a[:1], b))
                 ):
