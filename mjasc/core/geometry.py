@@ -22,7 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.core.polygon_kernels import boundary_distance, canonical_hull, hull_indices, inside_even_odd, self_crossings
+from mjasc.core.polygon_kernels import (boundary_distance, canonical_hull, clean_vertices, hull_indices,
+                                        inside_even_odd, self_crossings)
 
 __all__ = ["covariance_ellipse", "distance_to_polygon", "signed_distance_to_polygon", "point_in_polygon", "polygon_signed_area",
            "counter_clockwise", "circle_polygon", "convex_hull", "disc_hull", "hull_outline", "clean_polygon",
@@ -202,40 +203,22 @@ def clean_polygon(polygon, name: str = "obstacle") -> np.ndarray:
         raise ValueError(f"{name}: vertices must be finite")
     scale = float(np.max(np.ptp(v, axis=0))) if len(v) else 0.0
     tol = 1e-9 * max(scale, 1.0)
-    # Zero-length edges (cyclic), e.g. an explicitly closed ring [v0, ..., v0].
-    keep = np.linalg.norm(v - np.roll(v, 1, axis=0), axis=1) > tol
-    if not np.any(keep):
-        raise ValueError(f"{name}: needs at least 3 distinct vertices, got 1")
-    v = v[keep]
-    if len(v) < 3:
-        raise ValueError(f"{name}: needs at least 3 distinct vertices, got {len(v)}")
-    # Collinear vertices: merge when straight on, refuse when the boundary folds back.
-    changed = True
-    while changed and len(v) >= 3:
-        changed = False
-        e_in = v - np.roll(v, 1, axis=0)
-        e_out = np.roll(v, -1, axis=0) - v
-        cross = e_in[:, 0] * e_out[:, 1] - e_in[:, 1] * e_out[:, 0]
-        lens = np.linalg.norm(e_in, axis=1) * np.linalg.norm(e_out, axis=1)
-        flat = np.abs(cross) <= 1e-9 * lens
-        if np.any(flat):
-            i = int(np.argmax(flat))
-            if np.dot(e_in[i], e_out[i]) < 0:
-                raise ValueError(
-                    f"{name}: boundary folds back on itself at vertex {v[i].tolist()} "
-                    "(degenerate, self-overlapping polygon)"
-                )
-            v = np.delete(v, i, axis=0)
-            changed = True
-    if len(v) < 3:
+    # Zero-length edges (cyclic, e.g. an explicitly closed ring [v0, ..., v0]) dropped, collinear
+    # vertices merged when straight on (refused when the boundary folds back), self-crossings
+    # refused: the kept vertices in one compiled pass (polygon_kernels.clean_vertices)
+    keep, pair = np.empty(len(v), dtype=np.int64), np.empty(2, dtype=np.int64)
+    n, code = clean_vertices(_points(v), tol, keep, pair)
+    if code == 1:
+        raise ValueError(f"{name}: needs at least 3 distinct vertices, got {max(n, 1)}")
+    if code == 2:
+        raise ValueError(f"{name}: boundary folds back on itself at vertex {v[n].tolist()} "
+                         "(degenerate, self-overlapping polygon)")
+    if code == 3:
         raise ValueError(f"{name}: fewer than 3 non-collinear vertices (polygon has no area)")
-    crossings = self_intersections(v, tol)
-    if crossings:
-        i, j = crossings[0]
-        raise ValueError(
-            f"{name}: polygon is self-intersecting (edges {i} and {j} cross); "
-            "give a simple polygon"
-        )
+    if code == 4:
+        raise ValueError(f"{name}: polygon is self-intersecting (edges {pair[0]} and {pair[1]} cross); "
+                         "give a simple polygon")
+    v = v[keep[:n]]
     area = polygon_signed_area(v)
     if abs(area) <= 1e-12 * max(scale, 1.0) ** 2:
         raise ValueError(f"{name}: polygon has zero area")

@@ -24,16 +24,21 @@ vectorized numpy formulation it replaced, so the results are bit-identical to it
   polygon meets an edge of another: per pair the orientations and bounding-box
   tests of :func:`mjasc.core.geometry.segments_intersect`, the same expressions (elementwise there:
   the same booleans).
+* :func:`clean_vertices` — the vertices :func:`mjasc.core.geometry.clean_polygon` keeps (the
+  zero-length edges' and the collinear vertices' tests, then :func:`self_crossings`): indices into
+  the input, so the kept vertices are the input's bits.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from mjasc.core.compiled import kernel
 
 __all__ = ["hull_indices", "canonical_hull", "boundary_distance", "inside_even_odd", "self_crossings",
-           "edges_cross"]
+           "edges_cross", "clean_vertices"]
 
 
 @kernel
@@ -213,3 +218,51 @@ def edges_cross(a, b, tol):
             if _segments_hit(a[i, 0], a[i, 1], a[i2, 0], a[i2, 1], b[j, 0], b[j, 1], b[j2, 0], b[j2, 1], tol):
                 return True
     return False
+
+
+@kernel
+def clean_vertices(v, tol, keep, pair):
+    """The vertices :func:`mjasc.core.geometry.clean_polygon` keeps of the finite polygon v (k ≥ 1,
+    2), ``tol`` its zero-length tolerance [m]: their indices into ``keep`` (k,) and a code:
+    (n, 0) kept n; (n, 1) fewer than 3 distinct vertices (n of them); (i, 2) the boundary folds back
+    at vertex i (an index into v); (n, 3) fewer than 3 non-collinear vertices; (n, 4) edges
+    ``pair`` (2,) cross. The tests are numpy's: a zero-length edge ‖v_i − v_{i−1}‖ (sqrt of
+    x² + y²) ≤ tol; a flat vertex |e_in × e_out| ≤ 1e-9 ‖e_in‖ ‖e_out‖, the first one merged at a
+    time (a folding one, e_in · e_out < 0, refused), until none is left."""
+    k = v.shape[0]
+    n = 0
+    for i in range(k):
+        j = i - 1 if i > 0 else k - 1
+        dx, dy = v[i, 0] - v[j, 0], v[i, 1] - v[j, 1]
+        if math.sqrt(dx * dx + dy * dy) > tol:
+            keep[n] = i
+            n += 1
+    if n < 3:
+        return n, 1
+    changed = True
+    while changed and n >= 3:
+        changed = False
+        for i in range(n):
+            a, b, c = keep[i - 1 if i > 0 else n - 1], keep[i], keep[i + 1 if i + 1 < n else 0]
+            ix, iy = v[b, 0] - v[a, 0], v[b, 1] - v[a, 1]
+            ox, oy = v[c, 0] - v[b, 0], v[c, 1] - v[b, 1]
+            cross = ix * oy - iy * ox
+            lens = math.sqrt(ix * ix + iy * iy) * math.sqrt(ox * ox + oy * oy)
+            if abs(cross) <= 1e-9 * lens:
+                if ix * ox + iy * oy < 0:  # (flat: |e_in · e_out| is ‖e_in‖ ‖e_out‖, its sign certain)
+                    return b, 2
+                for q in range(i, n - 1):
+                    keep[q] = keep[q + 1]
+                n -= 1
+                changed = True
+                break
+    if n < 3:
+        return n, 3
+    w = np.empty((n, 2))
+    for q in range(n):
+        w[q, 0], w[q, 1] = v[keep[q], 0], v[keep[q], 1]
+    out = np.empty((n * (n - 1) // 2, 2), dtype=np.int64)
+    if self_crossings(w, tol, out):
+        pair[0], pair[1] = out[0, 0], out[0, 1]
+        return n, 4
+    return n, 0
