@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from mjasc.core.polygon_kernels import (boundary_distance, canonical_hull, clean_vertices, hull_indices,
-                                        inside_even_odd, self_crossings)
+                                        inside_even_odd, offset_vertices, self_crossings)
 
 __all__ = ["covariance_ellipse", "distance_to_polygon", "signed_distance_to_polygon", "point_in_polygon", "polygon_signed_area",
            "counter_clockwise", "circle_polygon", "convex_hull", "disc_hull", "hull_outline", "clean_polygon",
@@ -241,22 +241,9 @@ def inflate_polygon(polygon: np.ndarray, margin: float, name: str = "obstacle") 
         raise ValueError(f"inflation must be a finite margin ≥ 0 m, got {margin}")
     if margin == 0:
         return v.copy()
-    edges = np.roll(v, -1, axis=0) - v  # edge i: v_i -> v_{i+1}
-    t = edges / np.linalg.norm(edges, axis=1, keepdims=True)
-    n = np.stack([t[:, 1], -t[:, 0]], axis=1)  # outward (right-hand) normal of a CCW polygon
-    out = []
-    for i in range(len(v)):
-        t1, n1 = t[i - 1], n[i - 1]  # incoming edge
-        t2, n2 = t[i], n[i]  # outgoing edge
-        turn = t1[0] * t2[1] - t1[1] * t2[0]
-        cos_phi = float(np.clip(n1 @ n2, -1.0, 1.0))
-        if turn > 0 and cos_phi < 0.0:  # convex, sharper than 90°: tangent bevel
-            s = margin * np.tan(np.arccos(cos_phi) / 4.0)
-            out.append(v[i] + margin * n1 + s * t1)
-            out.append(v[i] + margin * n2 - s * t2)
-        else:
-            out.append(v[i] + margin * (n1 + n2) / (1.0 + cos_phi))
-    w = np.array(out)
+    out = np.empty((2 * len(v), 2))
+    n = offset_vertices(_points(v), float(margin), out)  # each vertex's miter or bevel, compiled
+    w = out[:n] if n else np.array([])
     try:
         cleaned = clean_polygon(w, name=f"{name} inflated by {margin} m")
     except ValueError as err:

@@ -24,6 +24,10 @@ vectorized numpy formulation it replaced, so the results are bit-identical to it
   polygon meets an edge of another: per pair the orientations and bounding-box
   tests of :func:`mjasc.core.geometry.segments_intersect`, the same expressions (elementwise there:
   the same booleans).
+* :func:`offset_vertices` — :func:`mjasc.core.geometry.inflate_polygon`'s offset vertices: per
+  vertex the miter, or the tangent bevel's two points at a convex corner sharper than 90°, with
+  its expressions in its order (its 2-vector dot products ``n1 @ n2`` are numpy's unfused
+  x·x' + y·y'; ``math``'s tan and acos are numpy's here, docs/architecture.md).
 * :func:`clean_vertices` — the vertices :func:`mjasc.core.geometry.clean_polygon` keeps (the
   zero-length edges' and the collinear vertices' tests, then :func:`self_crossings`): indices into
   the input, so the kept vertices are the input's bits.
@@ -35,10 +39,11 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import kernel
+from mjasc.core.compiled import clip, kernel
 
 __all__ = ["hull_indices", "canonical_hull", "boundary_distance", "inside_even_odd", "self_crossings",
-           "edges_cross", "clean_vertices"]
+           "edges_cross", "clean_vertices",
+           "offset_vertices"]
 
 
 @kernel
@@ -266,3 +271,37 @@ def clean_vertices(v, tol, keep, pair):
         pair[0], pair[1] = out[0, 0], out[0, 1]
         return n, 4
     return n, 0
+
+
+@kernel
+def offset_vertices(v, margin, out):
+    """The vertices of the clean counter-clockwise polygon v (k, 2) offset outward by ``margin`` > 0
+    [m] into ``out`` (≥ 2k, 2), in order; returns their count. Per vertex, with the incoming edge's
+    unit tangent t1 and outward normal n1 (n = (t_y, −t_x)) and the outgoing edge's t2, n2: at a
+    convex corner (t1 × t2 > 0) sharper than 90° (cos φ = clip(n1 · n2, −1, 1) < 0) the bevel
+    v + m n1 + s t1, v + m n2 − s t2 with s = m tan(acos(cos φ) / 4); else the miter
+    v + m (n1 + n2) / (1 + cos φ)."""
+    k = v.shape[0]
+    t = np.empty((k, 2))
+    for i in range(k):
+        j = i + 1 if i + 1 < k else 0
+        ex, ey = v[j, 0] - v[i, 0], v[j, 1] - v[i, 1]
+        length = math.sqrt(ex * ex + ey * ey)
+        t[i, 0], t[i, 1] = ex / length, ey / length
+    n = 0
+    for i in range(k):
+        p = i - 1 if i > 0 else k - 1
+        t1x, t1y, t2x, t2y = t[p, 0], t[p, 1], t[i, 0], t[i, 1]
+        n1x, n1y, n2x, n2y = t1y, -t1x, t2y, -t2x
+        turn = t1x * t2y - t1y * t2x
+        cos_phi = clip(n1x * n2x + n1y * n2y, -1.0, 1.0)
+        if turn > 0 and cos_phi < 0.0:
+            s = margin * math.tan(math.acos(cos_phi) / 4.0)
+            out[n, 0], out[n, 1] = v[i, 0] + margin * n1x + s * t1x, v[i, 1] + margin * n1y + s * t1y
+            out[n + 1, 0], out[n + 1, 1] = v[i, 0] + margin * n2x - s * t2x, v[i, 1] + margin * n2y - s * t2y
+            n += 2
+        else:
+            out[n, 0] = v[i, 0] + margin * (n1x + n2x) / (1.0 + cos_phi)
+            out[n, 1] = v[i, 1] + margin * (n1y + n2y) / (1.0 + cos_phi)
+            n += 1
+    return n
