@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from mjasc.avoidance.potential_field import PotentialField, streamlines
-from mjasc.avoidance.potential_field.streamline_kernels import MAX_PANELS, _pairwise_sum, row_product
+from mjasc.avoidance.potential_field.streamline_kernels import MAX_PANELS, row_product
+from mjasc.core.compiled import pairwise_sum
 from mjasc.core.compiled import kernel
 
 
@@ -93,7 +94,7 @@ def test_pairwise_sum_is_reduceats():
         for i in range(3):
             for k, lo in enumerate(offsets):
                 hi = offsets[k + 1] if k + 1 < len(offsets) else m
-                assert b[i, lo] + _pairwise_sum(b[i], lo + 1, hi - lo - 1) == ref[i, k]
+                assert b[i, lo] + pairwise_sum(b[i], lo + 1, hi - lo - 1) == ref[i, k]
 
 
 def test_dock_fields_as_the_numpy_form():

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import clip, fma, kernel, minimum
+from mjasc.core.compiled import clip, fma, kernel, minimum, pairwise_sum
 
 __all__ = ["MAX_PANELS", "trace_compiled"]
 
@@ -37,39 +37,6 @@ MAX_PANELS = 256
 _TWO_PI = 2.0 * math.pi
 # Reason codes (1 + index into streamlines.REASONS)
 _GOAL, _STAGNATION, _RUNAWAY, _MAX_LENGTH, _ENTERED, _NONFINITE = 1, 2, 3, 4, 5, 6
-
-
-@kernel
-def _pairwise_sum(a, lo, n):
-    """numpy's pairwise sum of ``a[lo : lo + n]`` (numpy/_core/src/umath/loops_utils.h.src)."""
-    if n < 8:
-        res = 0.0
-        for i in range(n):
-            res += a[lo + i]
-        return res
-    if n <= 128:
-        r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-        r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-        i = 8
-        while i < n - (n % 8):
-            j = lo + i
-            r0 += a[j]
-            r1 += a[j + 1]
-            r2 += a[j + 2]
-            r3 += a[j + 3]
-            r4 += a[j + 4]
-            r5 += a[j + 5]
-            r6 += a[j + 6]
-            r7 += a[j + 7]
-            i += 8
-        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-        while i < n:
-            res += a[lo + i]
-            i += 1
-        return res
-    n2 = n // 2
-    n2 -= n2 % 8
-    return _pairwise_sum(a, lo, n2) + _pairwise_sum(a, lo + n2, n - n2)
 
 
 @kernel
@@ -183,7 +150,7 @@ def trace_compiled(p0, goal, has_goal, ref, runaway, max_len, tol, step, h_min, 
             for k in range(n_obs):
                 lo = offsets[k]
                 hi = offsets[k + 1] if k + 1 < n_obs else m
-                w = (beta[lo] + _pairwise_sum(beta, lo + 1, hi - lo - 1)) / _TWO_PI
+                w = (beta[lo] + pairwise_sum(beta, lo + 1, hi - lo - 1)) / _TWO_PI
                 if abs(w) > 0.5:
                     inside = k
                     break
