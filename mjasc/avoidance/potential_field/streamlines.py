@@ -1,8 +1,9 @@
 """Streamlines of the harmonic potential field: the re-planned path (thesis §4.1; docs/thesis.md §4).
 
 The path follows the flow direction, ṗ = u(p)/‖u(p)‖ (arc-length parametrization, docs/thesis.md §4),
-traced with RK4 from the start, many starts at once (vectorized over the starts). World frame ENU,
-metres.
+traced with RK4 from the start, many starts at once: in one compiled call
+(:mod:`~mjasc.avoidance.potential_field.streamline_kernels`, the bits of the numpy form over the
+starts, :func:`_trace_numpy`, kept as its reference and fallback). World frame ENU, metres.
 
 The arc-length step is at most ``step`` [m] and shrinks to :data:`VERTEX_STEP_FRACTION` of the
 distance to the nearest panel vertex (where the field bends sharply) and to half the distance to
