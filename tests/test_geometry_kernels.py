@@ -1,6 +1,8 @@
 """The compiled polygon kernels (mjasc.core.polygon_kernels) against the vectorized numpy forms they
 replaced (bit for bit) and against scipy's Qhull (the same hull vertices)."""
 
+import math
+
 import numpy as np
 import pytest
 from scipy.spatial import ConvexHull, QhullError
@@ -140,3 +142,190 @@ def test_canonical_hull_equals_the_numpy_form_bit_for_bit(seed):
         assert got.shape == want.shape
         assert got.tobytes() == want.tobytes()  # bit for bit (signs of zeros included)
         assert convex_hull(pts).tobytes() == want.tobytes()
+
+
+def _numpy_self_intersections(v, tol):
+    """The numpy form self_intersections had: every edge pair through segments_intersect."""
+    from mjasc.core.geometry import segments_intersect
+
+    k = len(v)
+    a, b = v, np.roll(v, -1, axis=0)
+    hit = segments_intersect(a[:, None], b[:, None], a[None, :], b[None, :], tol)
+    i, j = np.triu_indices(k, 1)
+    sel = hit[i, j] & ~((j == i + 1) | ((i == 0) & (j == k - 1)))
+    return list(zip(i[sel].tolist(), j[sel].tolist()))
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_self_intersections_equal_the_numpy_form(seed):
+    """Random polygons (many crossing), on a coarse grid too (exact touches and collinear edges),
+    tolerances from 0 to a metre, and inflated circles (the polygons re-planning cleans)."""
+    from mjasc.core.geometry import circle_polygon, inflate_polygon, self_intersections
+
+    rng = np.random.default_rng(seed)
+    polys = []
+    for _ in range(300):
+        k = int(rng.integers(3, 14))
+        v = rng.normal(0.0, 10.0, (k, 2))
+        polys.append(np.round(v) if rng.random() < 0.4 else v)
+    polys += [inflate_polygon(circle_polygon([3.0, -2.0], r, int(n)), m)
+              for r, n, m in zip(rng.uniform(0.5, 5.0, 20), rng.integers(3, 40, 20), rng.uniform(0.0, 2.0, 20))]
+    seen = 0
+    for v in polys:
+        for tol in (0.0, 1e-9, 0.5, 1.0):
+            want = _numpy_self_intersections(v, tol)
+            assert self_intersections(v, tol) == want
+            seen += bool(want)
+    assert seen > 100
+
+
+def test_edges_cross_equals_the_numpy_form():
+    """Whether two polygons' edges meet (the potential field's overlap check) as numpy's
+    segments_intersect over every edge pair, on random and grid-snapped polygons."""
+    from mjasc.core.geometry import segments_intersect
+    from mjasc.core.polygon_kernels import edges_cross
+
+    rng = np.random.default_rng(11)
+    hits = 0
+    for _ in range(2000):
+        a = rng.normal(0.0, 5.0, (int(rng.integers(3, 10)), 2)) + rng.normal(0.0, 8.0, 2)
+        b = rng.normal(0.0, 5.0, (int(rng.integers(3, 10)), 2)) + rng.normal(0.0, 8.0, 2)
+        if rng.random() < 0.4:
+            a, b = np.round(a), np.round(b)
+        for tol in (0.0, 1e-9, 0.5):
+            want = bool(np.any(segments_intersect(a[:, None], np.roll(a, -1, axis=0)[:, None], b[None],
+                                                  np.roll(b, -1, axis=0)[None], tol)))
+            assert edges_cross(a, b, tol) == want
+            hits += want
+    assert 500 < hits < 5500
+
+
+def _numpy_clean_polygon(polygon, name="x"):
+    """The numpy form clean_polygon had (its vertices' tests array by array)."""
+    from mjasc.core.geometry import polygon_signed_area
+
+    v = np.asarray(polygon, dtype=float)
+    scale = float(np.max(np.ptp(v, axis=0))) if len(v) else 0.0
+    tol = 1e-9 * max(scale, 1.0)
+    keep = np.linalg.norm(v - np.roll(v, 1, axis=0), axis=1) > tol
+    if not np.any(keep):
+        raise ValueError(f"{name}: needs at least 3 distinct vertices, got 1")
+    v = v[keep]
+    if len(v) < 3:
+        raise ValueError(f"{name}: needs at least 3 distinct vertices, got {len(v)}")
+    changed = True
+    while changed and len(v) >= 3:
+        changed = False
+        e_in = v - np.roll(v, 1, axis=0)
+        e_out = np.roll(v, -1, axis=0) - v
+        cross = e_in[:, 0] * e_out[:, 1] - e_in[:, 1] * e_out[:, 0]
+        flat = np.abs(cross) <= 1e-9 * (np.linalg.norm(e_in, axis=1) * np.linalg.norm(e_out, axis=1))
+        if np.any(flat):
+            i = int(np.argmax(flat))
+            if np.dot(e_in[i], e_out[i]) < 0:
+                raise ValueError(f"{name}: boundary folds back on itself at vertex {v[i].tolist()} "
+                                 "(degenerate, self-overlapping polygon)")
+            v = np.delete(v, i, axis=0)
+            changed = True
+    if len(v) < 3:
+        raise ValueError(f"{name}: fewer than 3 non-collinear vertices (polygon has no area)")
+    crossings = _numpy_self_intersections(v, tol)
+    if crossings:
+        i, j = crossings[0]
+        raise ValueError(f"{name}: polygon is self-intersecting (edges {i} and {j} cross); give a simple polygon")
+    area = polygon_signed_area(v)
+    if abs(area) <= 1e-12 * max(scale, 1.0) ** 2:
+        raise ValueError(f"{name}: polygon has zero area")
+    return v[::-1].copy() if area < 0 else v
+
+
+def _outcome(fn, v):
+    try:
+        return fn(v, "x"), None
+    except ValueError as err:
+        return None, str(err)
+
+
+def test_clean_polygon_equals_the_numpy_form():
+    """The same vertices (bit for bit) or the same error, on random polygons, grid-snapped ones
+    (repeated, collinear and folding vertices), explicitly closed rings, inserted midpoints,
+    collinear triples, and regular polygons of three scales both ways round."""
+    from mjasc.core.geometry import circle_polygon, clean_polygon
+
+    rng = np.random.default_rng(4)
+    cases = []
+    for _ in range(3000):
+        k = int(rng.integers(0, 12))
+        v = rng.normal(0.0, 10.0, (k, 2))
+        r = rng.random()
+        if r < 0.3:
+            v = np.round(v / 3.0)
+        elif r < 0.5 and k >= 3:
+            v = np.insert(v, 1, 0.5 * (v[0] + v[1]), axis=0)
+            v = np.insert(v, 0, v[0], axis=0)
+        elif r < 0.6 and k >= 1:
+            v = np.vstack([v, v[:1]])
+        cases.append(v)
+    cases += [np.array([[0.0, 0.0], [1.0, 0.0], [2.0, 0.0]]), np.array([[1.0, 0.0], [2.0, 0.0], [0.0, 0.0]])]
+    rings = [circle_polygon([1.0, -2.0], s, 8) for s in (1e-6, 1.0, 1e4)]
+    cases += rings + [p[::-1] for p in rings]
+    seen = set()
+    for v in cases:
+        got, err = _outcome(clean_polygon, v)
+        want, want_err = _outcome(_numpy_clean_polygon, v)
+        assert err == want_err
+        assert (got is None and want is None) or (got.shape == want.shape and got.tobytes() == want.tobytes())
+        seen.add(err.split(":")[1][:12] if err else "ok")
+    assert len(seen) == 5  # kept, too few, folding, collinear only, crossing
+
+
+def _numpy_offset(v, margin):
+    """The numpy form of inflate_polygon's offset vertices (vertex by vertex on 2-vectors)."""
+    edges = np.roll(v, -1, axis=0) - v
+    t = edges / np.linalg.norm(edges, axis=1, keepdims=True)
+    n = np.stack([t[:, 1], -t[:, 0]], axis=1)
+    out = []
+    for i in range(len(v)):
+        t1, n1, t2, n2 = t[i - 1], n[i - 1], t[i], n[i]
+        turn = t1[0] * t2[1] - t1[1] * t2[0]
+        cos_phi = float(np.clip(n1 @ n2, -1.0, 1.0))
+        if turn > 0 and cos_phi < 0.0:
+            s = margin * np.tan(np.arccos(cos_phi) / 4.0)
+            out.append(v[i] + margin * n1 + s * t1)
+            out.append(v[i] + margin * n2 - s * t2)
+        else:
+            out.append(v[i] + margin * (n1 + n2) / (1.0 + cos_phi))
+    return np.array(out)
+
+
+def test_offset_vertices_equal_the_numpy_form():
+    """inflate_polygon's offset vertices (miters and bevels) bit for bit, on random star-shaped
+    polygons (convex and concave corners, sharp and blunt) and regular ones, margins 1 cm to 5 m;
+    numpy's tan(arccos(·)) and 2-vector dot as math's and x·x' + y·y' on their own too."""
+    from mjasc.core.geometry import circle_polygon, clean_polygon
+    from mjasc.core.polygon_kernels import offset_vertices
+
+    rng = np.random.default_rng(6)
+    polys = [circle_polygon([0.0, 0.0], 3.0, int(k)) for k in (3, 4, 5, 12)]
+    for _ in range(400):
+        k = int(rng.integers(3, 12))
+        th = np.sort(rng.uniform(0.0, 2.0 * np.pi, k))
+        r = rng.uniform(0.5, 10.0, k)
+        polys.append(np.column_stack([r * np.cos(th), r * np.sin(th)]) + rng.normal(0.0, 20.0, 2))
+    bevels = 0
+    for p in polys:
+        try:
+            v = clean_polygon(p)
+        except ValueError:
+            continue
+        for margin in (0.01, 0.5, 1.5, 5.0):
+            want = _numpy_offset(v, margin)
+            out = np.empty((2 * len(v), 2))
+            n = offset_vertices(v, margin, out)
+            assert n == len(want) and out[:n].tobytes() == want.tobytes()
+            bevels += n - len(v)
+    assert bevels > 100
+    c = rng.uniform(-1.0, 1.0, 200_000)
+    a, b = rng.normal(size=(2000, 2)), rng.normal(size=(2000, 2))
+    assert np.array_equal([x @ y for x, y in zip(a, b)], a[:, 0] * b[:, 0] + a[:, 1] * b[:, 1])
+    assert all(float(np.tan(np.arccos(x) / 4.0)) == math.tan(math.acos(x) / 4.0) for x in c[:20_000].tolist())

@@ -2,6 +2,7 @@
 against the numpy form it replaced, bit for bit: random tracks (static, at rest, turning, straight,
 negative headings, NaN) and the tracks of a demo run's predictions (team mates' plans included)."""
 
+import math
 from dataclasses import replace
 from pathlib import Path
 
@@ -71,3 +72,20 @@ def test_the_tracks_of_a_demo_run(monkeypatch):
     sc = load_scenario(TASKS / "demo.toml").with_overrides(duration_s=60.0)
     Runner(replace(sc, outputs=replace(sc.outputs, recording=False, video=False)), None, progress=False).run()
     assert len(seen) > 5 and sum(seen) > 0
+
+
+def test_math_cos_and_sin_are_numpys():
+    """What the table's and the deviation check's compiled passes rely on (docs/architecture.md,
+    compiled kernels): numpy's float64 cos and sin give math's bits on this machine class."""
+    from mjasc.core.compiled import kernel
+
+    @kernel
+    def cos_sin(x, out):
+        for i in range(x.size):
+            out[0, i], out[1, i] = math.cos(x[i]), math.sin(x[i])
+
+    rng = np.random.default_rng(3)
+    x = rng.uniform(-1.0, 1.0, 400_000) * 10.0 ** rng.uniform(-3, 4, 400_000)
+    out = np.empty((2, x.size))
+    cos_sin(x, out)
+    assert np.array_equal(out, np.stack([np.cos(x), np.sin(x)]))

@@ -185,11 +185,12 @@ def plan_detour(t: float, start, mission: Path, g_now_m: float, svos, static_pol
     start = np.asarray(start, dtype=float)
     # End of the obstruction on the mission path.
     g_end = g_now_m
-    for poly, c in svos:
-        for p in (c.point_b, *np.asarray(poly)):
-            g, d = mission.closest_points(np.asarray(p)[None], g_now_m, mission.length)
-            if d[0] <= 3.0 * (radius_m + cfg.safety_distance_m) + 5.0:
-                g_end = max(g_end, float(g[0]))
+    for poly, c in svos:  # (its end point and vertices in one call: each point's answer is its own)
+        pts = np.vstack([np.asarray(c.point_b, dtype=float).reshape(1, 2), np.asarray(poly, dtype=float)])
+        gs, ds = mission.closest_points(pts, g_now_m, mission.length)
+        for g, d in zip(gs.tolist(), ds.tolist()):
+            if d <= 3.0 * (radius_m + cfg.safety_distance_m) + 5.0:
+                g_end = max(g_end, g)
         g_end = max(g_end, float(mission.project(c.point_b, gamma_hint=g_now_m,
                                                  search_window_m=max(mission.length, 1.0))))
     obstacles = []

@@ -33,7 +33,7 @@ import numba
 from numba.core import types
 from numba.extending import intrinsic
 
-__all__ = ["kernel", "fma", "maximum", "minimum", "clip_float", "clip", "search_right"]
+__all__ = ["kernel", "fma", "maximum", "minimum", "clip_float", "clip", "search_right", "pairwise_sum"]
 
 
 def kernel(fn):
@@ -76,6 +76,41 @@ def search_right(a, x, lo, hi):
         else:
             hi = mid
     return lo
+
+
+@kernel
+def pairwise_sum(a, lo, n):
+    """numpy's pairwise sum of ``a[lo : lo + n]`` inside a kernel (numpy/_core/src/umath/loops_utils.h.src:
+    in order below 8 terms, 8 partial sums up to 128, halves above), the order of ``np.sum`` and of
+    ``np.add.reduce`` / ``reduceat`` over a contiguous run."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    if n <= 128:
+        r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+        r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+        i = 8
+        while i < n - (n % 8):
+            j = lo + i
+            r0 += a[j]
+            r1 += a[j + 1]
+            r2 += a[j + 2]
+            r3 += a[j + 3]
+            r4 += a[j + 4]
+            r5 += a[j + 5]
+            r6 += a[j + 6]
+            r7 += a[j + 7]
+            i += 8
+        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+        while i < n:
+            res += a[lo + i]
+            i += 1
+        return res
+    n2 = n // 2
+    n2 -= n2 % 8
+    return pairwise_sum(a, lo, n2) + pairwise_sum(a, lo + n2, n - n2)
 
 
 def clip_float(v: float, lo: float, hi: float) -> float:

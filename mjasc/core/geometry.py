@@ -22,7 +22,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.core.polygon_kernels import boundary_distance, canonical_hull, hull_indices, inside_even_odd
+from mjasc.core.polygon_kernels import (boundary_distance, canonical_hull, clean_vertices, hull_indices,
+                                        inside_even_odd, offset_vertices, self_crossings)
 
 __all__ = ["covariance_ellipse", "distance_to_polygon", "signed_distance_to_polygon", "point_in_polygon", "polygon_signed_area",
            "counter_clockwise", "circle_polygon", "convex_hull", "disc_hull", "hull_outline", "clean_polygon",
@@ -177,14 +178,11 @@ def segments_intersect(p1, p2, q1, q2, tol: float) -> np.ndarray:
 def self_intersections(polygon: np.ndarray, tol: float) -> list[tuple[int, int]]:
     """Pairs (i, j), i < j, of non-adjacent edges of the closed polygon (edge i: vertex i → i+1)
     that intersect or touch."""
-    v = polygon
-    k = len(v)
-    a, b = v, np.roll(v, -1, axis=0)
-    hit = segments_intersect(a[:, None], b[:, None], a[None, :], b[None, :], tol)
-    i, j = np.triu_indices(k, 1)
-    adjacent = (j == i + 1) | ((i == 0) & (j == k - 1))
-    sel = hit[i, j] & ~adjacent
-    return list(zip(i[sel].tolist(), j[sel].tolist()))
+    v = _points(polygon)
+    k = v.shape[0]
+    out = np.empty((max(k * (k - 1) // 2, 1), 2), dtype=np.int64)
+    n = self_crossings(v, float(tol), out)  # (compiled: segments_intersect's tests per pair)
+    return [(i, j) for i, j in out[:n].tolist()]
 
 
 def clean_polygon(polygon, name: str = "obstacle") -> np.ndarray:
@@ -205,40 +203,22 @@ def clean_polygon(polygon, name: str = "obstacle") -> np.ndarray:
         raise ValueError(f"{name}: vertices must be finite")
     scale = float(np.max(np.ptp(v, axis=0))) if len(v) else 0.0
     tol = 1e-9 * max(scale, 1.0)
-    # Zero-length edges (cyclic), e.g. an explicitly closed ring [v0, ..., v0].
-    keep = np.linalg.norm(v - np.roll(v, 1, axis=0), axis=1) > tol
-    if not np.any(keep):
-        raise ValueError(f"{name}: needs at least 3 distinct vertices, got 1")
-    v = v[keep]
-    if len(v) < 3:
-        raise ValueError(f"{name}: needs at least 3 distinct vertices, got {len(v)}")
-    # Collinear vertices: merge when straight on, refuse when the boundary folds back.
-    changed = True
-    while changed and len(v) >= 3:
-        changed = False
-        e_in = v - np.roll(v, 1, axis=0)
-        e_out = np.roll(v, -1, axis=0) - v
-        cross = e_in[:, 0] * e_out[:, 1] - e_in[:, 1] * e_out[:, 0]
-        lens = np.linalg.norm(e_in, axis=1) * np.linalg.norm(e_out, axis=1)
-        flat = np.abs(cross) <= 1e-9 * lens
-        if np.any(flat):
-            i = int(np.argmax(flat))
-            if np.dot(e_in[i], e_out[i]) < 0:
-                raise ValueError(
-                    f"{name}: boundary folds back on itself at vertex {v[i].tolist()} "
-                    "(degenerate, self-overlapping polygon)"
-                )
-            v = np.delete(v, i, axis=0)
-            changed = True
-    if len(v) < 3:
+    # Zero-length edges (cyclic, e.g. an explicitly closed ring [v0, ..., v0]) dropped, collinear
+    # vertices merged when straight on (refused when the boundary folds back), self-crossings
+    # refused: the kept vertices in one compiled pass (polygon_kernels.clean_vertices)
+    keep, pair = np.empty(len(v), dtype=np.int64), np.empty(2, dtype=np.int64)
+    n, code = clean_vertices(_points(v), tol, keep, pair)
+    if code == 1:
+        raise ValueError(f"{name}: needs at least 3 distinct vertices, got {max(n, 1)}")
+    if code == 2:
+        raise ValueError(f"{name}: boundary folds back on itself at vertex {v[n].tolist()} "
+                         "(degenerate, self-overlapping polygon)")
+    if code == 3:
         raise ValueError(f"{name}: fewer than 3 non-collinear vertices (polygon has no area)")
-    crossings = self_intersections(v, tol)
-    if crossings:
-        i, j = crossings[0]
-        raise ValueError(
-            f"{name}: polygon is self-intersecting (edges {i} and {j} cross); "
-            "give a simple polygon"
-        )
+    if code == 4:
+        raise ValueError(f"{name}: polygon is self-intersecting (edges {pair[0]} and {pair[1]} cross); "
+                         "give a simple polygon")
+    v = v[keep[:n]]
     area = polygon_signed_area(v)
     if abs(area) <= 1e-12 * max(scale, 1.0) ** 2:
         raise ValueError(f"{name}: polygon has zero area")
@@ -261,22 +241,9 @@ def inflate_polygon(polygon: np.ndarray, margin: float, name: str = "obstacle") 
         raise ValueError(f"inflation must be a finite margin ≥ 0 m, got {margin}")
     if margin == 0:
         return v.copy()
-    edges = np.roll(v, -1, axis=0) - v  # edge i: v_i -> v_{i+1}
-    t = edges / np.linalg.norm(edges, axis=1, keepdims=True)
-    n = np.stack([t[:, 1], -t[:, 0]], axis=1)  # outward (right-hand) normal of a CCW polygon
-    out = []
-    for i in range(len(v)):
-        t1, n1 = t[i - 1], n[i - 1]  # incoming edge
-        t2, n2 = t[i], n[i]  # outgoing edge
-        turn = t1[0] * t2[1] - t1[1] * t2[0]
-        cos_phi = float(np.clip(n1 @ n2, -1.0, 1.0))
-        if turn > 0 and cos_phi < 0.0:  # convex, sharper than 90°: tangent bevel
-            s = margin * np.tan(np.arccos(cos_phi) / 4.0)
-            out.append(v[i] + margin * n1 + s * t1)
-            out.append(v[i] + margin * n2 - s * t2)
-        else:
-            out.append(v[i] + margin * (n1 + n2) / (1.0 + cos_phi))
-    w = np.array(out)
+    out = np.empty((2 * len(v), 2))
+    n = offset_vertices(_points(v), float(margin), out)  # each vertex's miter or bevel, compiled
+    w = out[:n] if n else np.array([])
     try:
         cleaned = clean_polygon(w, name=f"{name} inflated by {margin} m")
     except ValueError as err:

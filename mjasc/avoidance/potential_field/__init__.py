@@ -11,7 +11,8 @@ metres.
 - :mod:`~mjasc.avoidance.potential_field.field` — :class:`PotentialField`: uniform flow + goal sink
   + panels, the boundary condition (eqs. 4.10–4.19) and the robust field (eqs. 4.26–4.33);
 - :mod:`~mjasc.avoidance.potential_field.streamlines` — tracing the path ṗ = u/‖u‖ (RK4) and why
-  a streamline stops (:class:`Streamline`).
+  a streamline stops (:class:`Streamline`); its loop compiled in
+  :mod:`~mjasc.avoidance.potential_field.streamline_kernels`.
 
 Polygon cleaning and inflation are general planar geometry: :mod:`mjasc.core.geometry`.
 """

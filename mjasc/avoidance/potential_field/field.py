@@ -46,9 +46,9 @@ from mjasc.core.geometry import (
     clean_polygon,
     inflate_polygon,
     point_in_polygon,
-    segments_intersect,
     signed_distance_to_polygon,
 )
+from mjasc.core.polygon_kernels import edges_cross
 
 __all__ = ["DEFAULT_SINK_STRENGTH", "PotentialField"]
 
@@ -184,11 +184,8 @@ class PotentialField:
         for i in range(len(polys)):
             for j in range(i + 1, len(polys)):
                 a, b = polys[i], polys[j]
-                cross = segments_intersect(
-                    a[:, None], np.roll(a, -1, axis=0)[:, None], b[None], np.roll(b, -1, axis=0)[None], 1e-9
-                )
                 if (
-                    np.any(cross)
+                    edges_cross(a, b, 1e-9)  # (segments_intersect of every edge pair, compiled: any)
                     or np.any(point_in_polygon(b[:1], a))
                     or np.any(point_in_polygon(a[:1], b))
                 ):
@@ -294,6 +291,18 @@ class PotentialField:
         self._B = lam[:, None] * pan.normal / TWO_PI
         counts = np.bincount(pan.obstacle)
         self._obstacle_offsets = np.concatenate([[0], np.cumsum(counts)[:-1]])
+
+    def kernel_arrays(self) -> tuple:
+        """The field as the compiled tracer reads it (:mod:`~mjasc.avoidance.potential_field.streamline_kernels`):
+        (u∞ (2,), λ_g / 2π, the panels' start vertices (m, 2) [m], the index of each panel's end
+        vertex (m,), :meth:`_prepare_fast_path`'s A and B (m, 2), each obstacle's first panel (K,)).
+        Not to be written."""
+        sink_c = self.sink_strength / TWO_PI
+        if self._A is None:
+            none = np.zeros((0, 2))
+            return self._u_inf, sink_c, none, np.zeros(0, dtype=np.int64), none, none, np.zeros(0, dtype=np.int64)
+        return (self._u_inf, sink_c, self.panels.start, self.panels.next_index, self._A, self._B,
+                self._obstacle_offsets)
 
     # ---------------------------------------------------------------- evaluation
     def evaluate(self, points: np.ndarray, want_geometry: bool = False):

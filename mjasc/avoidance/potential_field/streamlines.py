@@ -1,8 +1,9 @@
 """Streamlines of the harmonic potential field: the re-planned path (thesis §4.1; docs/thesis.md §4).
 
 The path follows the flow direction, ṗ = u(p)/‖u(p)‖ (arc-length parametrization, docs/thesis.md §4),
-traced with RK4 from the start, many starts at once (vectorized over the starts). World frame ENU,
-metres.
+traced with RK4 from the start, many starts at once: in one compiled call
+(:mod:`~mjasc.avoidance.potential_field.streamline_kernels`, the bits of the numpy form over the
+starts, :func:`_trace_numpy`, kept as its reference and fallback). World frame ENU, metres.
 
 The arc-length step is at most ``step`` [m] and shrinks to :data:`VERTEX_STEP_FRACTION` of the
 distance to the nearest panel vertex (where the field bends sharply) and to half the distance to
@@ -24,6 +25,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
+
+from mjasc.avoidance.potential_field.streamline_kernels import MAX_PANELS, trace_compiled
 
 if TYPE_CHECKING:
     from mjasc.avoidance.potential_field.field import PotentialField
@@ -102,6 +105,39 @@ def trace_streamlines(
         if max_length is not None
         else 4.0 * (extent + scene) + 10.0 * step
     )
+    cos_max_turn = np.cos(np.radians(30.0))
+    speed_floor = 1e-9 * max(field.uniform_speed, field.sink_strength / max(scene, 1.0), 1e-12)
+    arrays = field.kernel_arrays() if type(field).evaluate is _plain_evaluate() else None
+    if arrays is not None and arrays[2].shape[0] <= MAX_PANELS:  # compiled (streamline_kernels), the same bits
+        pts, count, code, entered = trace_compiled(
+            p0, np.zeros(2) if goal is None else goal, goal is not None, ref, runaway, max_len, float(tol),
+            float(step), float(h_min), float(cos_max_turn), float(speed_floor), VERTEX_STEP_FRACTION, *arrays)
+        paths = [pts[i, :count[i]].copy() for i in range(len(p0))]
+        entered = [None if k < 0 else k for k in entered.tolist()]
+    else:
+        paths, code, entered = _trace_numpy(field, p0, goal, ref, runaway, max_len, tol, step, h_min, cos_max_turn,
+                                            speed_floor)
+    reasons = [REASONS[k - 1] for k in code]
+    return [
+        Streamline(np.array(paths[i]), reasons[i] == "goal", reasons[i], entered[i])
+        for i in range(len(p0))
+    ]
+
+
+def _plain_evaluate():
+    """``PotentialField.evaluate`` (the field the compiled tracer writes out; imported late: the
+    field module imports this one)."""
+    from mjasc.avoidance.potential_field.field import PotentialField
+
+    return PotentialField.evaluate
+
+
+def _trace_numpy(field, p0, goal, ref, runaway, max_len, tol, step, h_min, cos_max_turn, speed_floor):
+    """The RK4 loop over the lines in numpy (:func:`trace_streamlines`' arguments as it works them
+    out): (each line's points, its reason code (1 + index into REASONS), the obstacle entered or
+    None). The reference form of :func:`~mjasc.avoidance.potential_field.streamline_kernels.trace_compiled`
+    and its fallback (more panels than it sums in OpenBLAS's order, a field whose ``evaluate`` is
+    not the plain one)."""
     n = len(p0)
     paths = [[s.copy()] for s in p0]
     code = np.zeros(n, dtype=int)  # 0 running, else 1 + index into REASONS
@@ -110,8 +146,6 @@ def trace_streamlines(
     travelled = np.zeros(n)
     prev_dir = np.full((n, 2), np.nan)
     h_cap = np.full(n, float(step))
-    cos_max_turn = np.cos(np.radians(30.0))
-    speed_floor = 1e-9 * max(field.uniform_speed, field.sink_strength / max(scene, 1.0), 1e-12)
     reason_code = {r: i + 1 for i, r in enumerate(REASONS)}
 
     def direction(q):
@@ -185,9 +219,4 @@ def trace_streamlines(
             for i in idx:
                 paths[i].append(p[i].copy())
             active = active[code[active] == 0]
-    reasons = [REASONS[k - 1] for k in code]
-    return [
-        Streamline(np.array(paths[i]), reasons[i] == "goal", reasons[i], entered[i])
-        for i in range(n)
-    ]
-
+    return paths, code, entered

@@ -59,13 +59,11 @@ class TrackMotions:
                        tr.turn_rate_rad_s, tr.is_static, 0.0, tr.radius_m) for tr, p in zip(tracks, plan.tolist())],
                      dtype=float).reshape(m, 9)
         self.radius_m = a[:, 8]  # each track's radius [m] (m,)
-        # Columns: x₀, y₀, t₀, v, cos θ, sin θ, θ, ω, v/ω (turning tracks); all but cos θ and sin θ
-        # (numpy's, of the θ column as its own array) and the kinds in one compiled pass.
+        # Columns: x₀, y₀, t₀, v, cos θ, sin θ, θ, ω, v/ω (turning tracks) and the kinds in one
+        # compiled pass (math's cos and sin: numpy's bits here, docs/architecture.md).
         par = self._par = np.empty((m, 9))
-        th = np.empty(m)
         kind = self._kind = np.empty(m, dtype=np.int64)
-        present = _motion_table(a, plan, par, th, kind)
-        par[:, 4], par[:, 5] = np.cos(th), np.sin(th)
+        present = _motion_table(a, plan, par, kind)
         self._kinds = [g for g in (self._STRAIGHT, self._TURN, self._PLAN) if present >> g & 1]
         self._pl = self._plan_of = None
         if present >> self._PLAN & 1:  # each distinct intention's knots stacked once for the fleet (_PLANS)
@@ -93,23 +91,17 @@ class TrackMotions:
     def farther_than(self, rows, times, positions_m, distance_m: float) -> bool:
         """Whether some track ``rows[k]`` (P,) at its time ``times[k]`` [s] is farther than
         ``distance_m`` [m] from ``positions_m[k]`` (P, 2): ``np.hypot`` of :meth:`at`'s positions
-        minus the given ones ``> distance_m``, any. Without a plan among the rows in two compiled
-        passes around numpy's sin and cos of the turning rows' angles — the array :meth:`at` hands
-        them (those rows in order), so the same bits — and :meth:`at`'s operations in its order;
-        with a plan, :meth:`at` itself."""
+        minus the given ones ``> distance_m``, any. Without a plan among the rows in one compiled
+        pass (:meth:`at`'s operations in its order, the turning rows' sine and cosine by ``math``,
+        whose bits are numpy's here: docs/architecture.md, compiled kernels); with a plan,
+        :meth:`at` itself."""
         rows = np.asarray(rows, dtype=np.intp)
         times = np.asarray(times, dtype=float)
         pos = np.asarray(positions_m, dtype=float)
         limit = float(distance_m)
-        if self._kinds == _STRAIGHT_ONLY:  # no turning row, no plan: no angle to take (one compiled pass)
-            return bool(_farther(self._par, self._kind, rows, times, pos, limit, _NO_ANGLES, _NO_ANGLES))
-        angles = np.empty(rows.size)
-        n_turn = _turn_angles(self._par, self._kind, rows, times, angles)
-        if n_turn == 0:  # no turning row: no sine or cosine read
-            return bool(_farther(self._par, self._kind, rows, times, pos, limit, angles, angles))
-        if n_turn > 0:
-            th = angles[:n_turn]
-            return bool(_farther(self._par, self._kind, rows, times, pos, limit, np.sin(th), np.cos(th)))
+        code = _farther(self._par, self._kind, rows, times, pos, limit)
+        if code >= 0:
+            return code == 1
         pred = self.at(rows, times[:, None])[:, 0]
         return bool((np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > limit).any())
 
@@ -173,12 +165,13 @@ class TrackMotions:
 
 
 @kernel
-def _motion_table(a, plan, par, th, kind):
+def _motion_table(a, plan, par, kind):
     """:class:`TrackMotions`' table from the tracks' numbers ``a`` (m, 9) = (x₀, y₀, t₀, v, θ, ω,
     static, plan, radius) and ``plan`` (m,): a track moves unless static, at v = 0 or a plan, and
     v, θ, ω are multiplied by 1 or 0 as numpy multiplies by the bool (θ·0 may be −0, NaN·0 NaN);
-    turning when |ω| ≥ 1e-9. Writes par's columns but cos θ and sin θ, θ into ``th``, the kind
-    (0 straight or static, 1 turning, 2 plan) into ``kind``; returns the kinds present as bits."""
+    turning when |ω| ≥ 1e-9. Writes par's columns (cos θ and sin θ of θ as numpy's cos and sin
+    of the θ column give them), the kind (0 straight or static, 1 turning, 2 plan) into ``kind``;
+    returns the kinds present as bits."""
     present = 0
     for i in range(a.shape[0]):
         moving = not (a[i, 6] != 0.0 or a[i, 3] == 0.0 or plan[i])
@@ -188,7 +181,7 @@ def _motion_table(a, plan, par, th, kind):
         par[i, 0], par[i, 1], par[i, 2], par[i, 3] = a[i, 0], a[i, 1], a[i, 2], v
         par[i, 6], par[i, 7] = t, w
         par[i, 8] = v / (w if turn else 1.0)
-        th[i] = t
+        par[i, 4], par[i, 5] = math.cos(t), math.sin(t)
         k = 2 if plan[i] else (1 if turn else 0)
         kind[i] = k
         present |= 1 << k
@@ -196,47 +189,37 @@ def _motion_table(a, plan, par, th, kind):
 
 
 @kernel
-def _turn_angles(par, kind, rows, times, out):
-    """The angles θ₀ + ω τ (τ = t − t₀) of the turning rows among ``rows``, in order, into ``out``
-    (:meth:`TrackMotions._eval`'s operations); returns how many, or −1 when a row follows a plan."""
-    n = 0
-    for i in range(rows.size):
-        r = rows[i]
-        if kind[r] == 2:
-            return -1
-        if kind[r] == 1:
-            out[n] = par[r, 6] + par[r, 7] * (times[i] - par[r, 2])
-            n += 1
-    return n
-
-
-@kernel
-def _row_at(par, r, turning, t, sin_t, cos_t, n):
+def _row_at(par, r, turning, t, sin_t, cos_t):
     """Row ``r``'s position (x, y) [m] at time ``t``: turning x₀ + (v/ω)(sin θ(t) − sin θ),
-    y₀ − (v/ω)(cos θ(t) − cos θ) with ``sin_t[n]``, ``cos_t[n]`` its sin θ(t), cos θ(t); straight
+    y₀ − (v/ω)(cos θ(t) − cos θ) with ``sin_t``, ``cos_t`` its sin θ(t), cos θ(t); straight
     or static x₀ + (v τ) cos θ, y₀ + (v τ) sin θ (τ = t − t₀) — :meth:`TrackMotions._eval`'s
     operations, for the compiled checks below."""
     if turning:
-        return par[r, 0] + par[r, 8] * (sin_t[n] - par[r, 5]), par[r, 1] - par[r, 8] * (cos_t[n] - par[r, 4])
+        return par[r, 0] + par[r, 8] * (sin_t - par[r, 5]), par[r, 1] - par[r, 8] * (cos_t - par[r, 4])
     v_tau = par[r, 3] * (t - par[r, 2])
     return par[r, 0] + v_tau * par[r, 4], par[r, 1] + v_tau * par[r, 5]
 
 
 @kernel
-def _farther(par, kind, rows, times, pos, limit, sin_t, cos_t):
-    """:meth:`TrackMotions.farther_than` without plans: True when a row's position at its time lies
-    farther than ``limit`` from ``pos`` (``hypot``); straight (or static) rows x₀ + (v τ) cos θ,
-    y₀ + (v τ) sin θ, turning rows x₀ + (v/ω)(sin θ(t) − sin θ), y₀ − (v/ω)(cos θ(t) − cos θ) with
-    ``sin_t``, ``cos_t`` the turning rows' sin θ(t), cos θ(t) in order (:meth:`TrackMotions._eval`)."""
-    n = 0
+def _farther(par, kind, rows, times, pos, limit):
+    """:meth:`TrackMotions.farther_than` without plans: 1 when a row's position at its time lies
+    farther than ``limit`` from ``pos`` (``hypot``), else 0; −1 when a row follows a plan. Straight
+    (or static) rows x₀ + (v τ) cos θ, y₀ + (v τ) sin θ (τ = t − t₀), turning rows
+    x₀ + (v/ω)(sin θ(t) − sin θ), y₀ − (v/ω)(cos θ(t) − cos θ), θ(t) = θ₀ + ω τ
+    (:meth:`TrackMotions._eval`'s operations)."""
+    for i in range(rows.size):
+        if kind[rows[i]] == 2:
+            return -1
     for i in range(rows.size):
         r = rows[i]
-        turning = kind[r] == 1
-        x, y = _row_at(par, r, turning, times[i], sin_t, cos_t, n)
-        n += turning
+        if kind[r] == 1:
+            th = par[r, 6] + par[r, 7] * (times[i] - par[r, 2])
+            x, y = _row_at(par, r, True, times[i], math.sin(th), math.cos(th))
+        else:
+            x, y = _row_at(par, r, False, times[i], 0.0, 0.0)
         if math.hypot(x - pos[i, 0], y - pos[i, 1]) > limit:
-            return True
-    return False
+            return 1
+    return 0
 
 
 @kernel
@@ -262,6 +245,9 @@ def _grid_within(par, kind, times, pos, radii, radius, sin_t, cos_t, out):
     for r in range(kind.size):
         turning = kind[r] == 1
         for j in range(times.size):
-            x, y = _row_at(par, r, turning, times[j], sin_t, cos_t, n)
-            n += turning
+            if turning:
+                x, y = _row_at(par, r, True, times[j], sin_t[n], cos_t[n])
+                n += 1
+            else:
+                x, y = _row_at(par, r, False, times[j], 0.0, 0.0)
             out[r, j] = math.hypot(x - pos[j, 0], y - pos[j, 1]) <= maximum(radii[j], radius[r])
