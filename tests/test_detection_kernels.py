@@ -6,7 +6,8 @@ damped Gauss–Newton steps on degenerate clusters."""
 import numpy as np
 import pytest
 
-from mjasc.perception.detection_kernels import _DAMP, _REFINE, _pairwise_sum, cluster_discs, kept_detections
+from mjasc.core.compiled import pairwise_sum as _pairwise_sum
+from mjasc.perception.detection_kernels import _DAMP, _REFINE, cluster_discs, kept_detections
 
 
 def _numpy_discs(P, rho, starts, counts, cs, origins, dth, edge_lost, min_rad, edge_var, sig2, floor2):

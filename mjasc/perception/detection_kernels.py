@@ -18,7 +18,7 @@ extreme returns p_f, p_l::
 This is the numpy form the function had (kept in ``tests/test_detection_kernels.py`` as the
 reference), evaluated in the same order, so the results are bit-identical to it: each sum over a
 cluster is what ``np.add.reduceat`` computes — the first term plus numpy's pairwise sum of the rest
-(:func:`_pairwise_sum`, numpy's ``pairwise_sum``: blocks of 8 partial sums up to 128 terms, halves
+(:func:`mjasc.core.compiled.pairwise_sum`, numpy's ``pairwise_sum``: blocks of 8 partial sums up to 128 terms, halves
 above) — and ``max`` propagates NaN as ``np.maximum`` does.
 
 :func:`kept_detections` then keeps the clusters with enough returns, in order, with their centres
@@ -33,7 +33,7 @@ import math
 
 import numpy as np
 
-from mjasc.core.compiled import kernel, maximum
+from mjasc.core.compiled import kernel, maximum, pairwise_sum
 from mjasc.perception.cluster_kernels import cluster_order, occluded_edges
 
 __all__ = ["cluster_discs", "kept_detections", "detect_clusters", "unpack_detections"]
@@ -43,43 +43,10 @@ _DAMP = 0.1  # their damping per return (keeps a one- or two-return cluster at i
 
 
 @kernel
-def _pairwise_sum(a, lo, n):
-    """numpy's pairwise sum of ``a[lo : lo + n]`` (numpy/_core/src/umath/loops_utils.h.src)."""
-    if n < 8:
-        res = 0.0
-        for i in range(n):
-            res += a[lo + i]
-        return res
-    if n <= 128:
-        r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
-        r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
-        i = 8
-        while i < n - (n % 8):
-            j = lo + i
-            r0 += a[j]
-            r1 += a[j + 1]
-            r2 += a[j + 2]
-            r3 += a[j + 3]
-            r4 += a[j + 4]
-            r5 += a[j + 5]
-            r6 += a[j + 6]
-            r7 += a[j + 7]
-            i += 8
-        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
-        while i < n:
-            res += a[lo + i]
-            i += 1
-        return res
-    n2 = n // 2
-    n2 -= n2 % 8
-    return _pairwise_sum(a, lo, n2) + _pairwise_sum(a, lo + n2, n - n2)
-
-
-@kernel
 def _segment_sum(a, start, n):
     """``np.add.reduceat``'s sum of ``a[start : start + n]`` (n ≥ 1): the first term plus the
     pairwise sum of the rest."""
-    return a[start] + _pairwise_sum(a, start + 1, n - 1)
+    return a[start] + pairwise_sum(a, start + 1, n - 1)
 
 
 @kernel
