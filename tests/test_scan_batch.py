@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from mjasc.perception.range_sensor import CLUTTER_GEOM, SensorConfig, sensor_for_vessel
-from mjasc.perception.scan_batch import ScanBatch
+from mjasc.perception.scan_batch import ScanBatch, scan_pose, scan_time
 from mjasc.perception.scan_kernels import clean_hits, scan_batch, scan_points, scan_returns
 from mjasc.perception.static_map import StaticMapStore, StaticMapConfig
 from mjasc.physics.obstacles import CircleObstacle, MovingObstacle
@@ -104,11 +104,12 @@ def test_batched_scans_equal_the_numpy_form_each_alone():
         stack = batch.take()
         assert len(stack.scans) == len(who) and len(batch) == 0
         for scan, ref, i in zip(stack.scans, refs, who):
+            assert scan_time(scan) == scan_pose(scan)[0] == d.time  # (read before the scan's fields are made)
             ranges, hit, gid, beams, body, world, origin, yaw = ref
             for got, want in [(scan.ranges, ranges), (scan.hit, hit), (scan.geom_ids, gid), (scan.hit_beams, beams),
                               (scan.hit_points_body, body), (scan.hit_points_world, world), (scan.origin_m, origin)]:
                 _same(got, want)
-            assert scan.heading_rad == yaw and scan.time_s == d.time
+            assert scan.heading_rad == yaw and scan.time_s == d.time == scan_time(scan)
             assert scan.angles_body is sensors[i].angles_body
             assert scan.max_range_m == CONFIGS[i].max_range_m and scan.full_circle == CONFIGS[i].full_circle
             assert scan.beam_spacing_rad == CONFIGS[i].beam_spacing_rad

@@ -34,7 +34,7 @@ import math
 import numpy as np
 import rerun as rr
 
-from mjasc.perception.scan_batch import scan_pose
+from mjasc.perception.scan_batch import scan_time
 
 __all__ = ["PerceptionLog", "HITS_LOG_PERIOD_S", "BODY_HITS_PERIOD_S", "LABEL_LOG_PERIOD_S", "MAP_LOG_PERIOD_S",
            "BODY_DETECTIONS_PERIOD_S", "ARROW_HORIZON_S", "fan_outline_body"]
@@ -176,11 +176,11 @@ class PerceptionLog:
             self._style(rec, base, vessel_name, vessel_colour(p.vessel_index), p.sensor_config)
         scan = p.scan
         # (a record tick without a new scan: no call; the scan's time read without filling in its
-        # other fields, which only a due drawing reads: scan_batch.scan_pose; a scan seen before —
+        # other fields, which only a due drawing reads: scan_batch.scan_time; a scan seen before —
         # scans are frozen, a new one a new object — was logged or had the time logged then)
         if scan is not None and scan is not self._seen_scan:
             self._seen_scan = scan
-            if (scan_t := scan_pose(scan)[0]) != self._logged_scan_t:
+            if (scan_t := scan_time(scan)) != self._logged_scan_t:
                 self._log_scan(rec, t_s, p, scan, scan_t, base, vessel_name, full)
         update = p._stats["track_updates"]
         if full or update != self._logged_update:

@@ -23,7 +23,7 @@ from mjasc.perception.pass_views import PassScan, filled_on_read
 from mjasc.perception.range_sensor import CLUTTER_GEOM, RangeSensor
 from mjasc.perception.scan_kernels import scan_batch
 
-__all__ = ["ScanBatch", "ScanStack", "scan_pose"]
+__all__ = ["ScanBatch", "ScanStack", "scan_pose", "scan_time"]
 
 _NO_BEAMS, _NO_DRAWS = np.zeros(0, dtype=np.int64), np.zeros(0)  # no clutter in any cast of a batch
 
@@ -216,6 +216,16 @@ def _scan_fields(d: dict, k: int, src: tuple) -> None:
              ranges=ranges[a:b], hit=hit[a:b], hit_beams=beams[p:q], hit_points_body=body[p:q],
              hit_points_world=world[p:q], geom_ids=geom[a:b], max_range_m=sensor.config.max_range_m,
              beam_spacing_rad=sensor.beam_spacing_rad, full_circle=sensor.full_circle)
+
+
+def scan_time(scan) -> float:
+    """A scan's ``time_s`` (:func:`scan_pose`'s first item: the recording asks at every record
+    tick) without making its other fields."""
+    src = scan.__dict__.get("_src")
+    if src is not None and src[0] is _scan_fields:
+        k, fields = src[1]
+        return fields[2][0][k]  # (times of (times, yaws))
+    return scan.time_s
 
 
 def scan_pose(scan) -> tuple:
