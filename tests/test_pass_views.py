@@ -9,7 +9,7 @@ import pickle
 
 import numpy as np
 
-from mjasc.perception.detection import DetectionConfig, Detections, PassDetections, detect_many
+from mjasc.perception.detection import DetectionConfig, Detections, PassDetections, centres_body, detect_many
 from mjasc.perception.pass_views import PassScan
 from mjasc.perception.range_sensor import Scan, sensor_for_vessel
 from mjasc.perception.scan_batch import ScanBatch
@@ -58,7 +58,11 @@ def test_fields_are_made_on_first_read_and_equal_the_eager_ones():
     dets = batch.split()
     for k, det in enumerate(dets):
         assert type(det) is PassDetections and isinstance(det, Detections) and set(vars(det)) == {"_src"}
+        unmade = centres_body(det)  # (read without making the fields: what the recording draws)
+        assert set(vars(det)) == {"_src"}
         occ = det.occluded  # (the field with a class default: made like the others)
+        assert unmade.tobytes() == det.centres_body.tobytes() and unmade.shape == det.centres_body.shape
+        assert centres_body(det) is det.centres_body  # (made: the field itself)
         a, b = batch.det_offsets[k], batch.det_offsets[k + 1]
         assert np.array_equal(occ, batch.occluded[a:b]) and len(det) == b - a
         _same(_fields(det), _fields(Detections(**_fields(det))))

@@ -88,7 +88,7 @@ from mjasc.perception.scan_batch import ScanStack, scan_pose
 __all__ = ["DetectionConfig", "Detections", "PassDetections", "DetectionBatch", "detect", "detect_many",
            "detection_constants",
            "dropout_gap_beams",
-           "finite_detections",
+           "finite_detections", "centres_body",
            "parse_detection_options",
            "check_detection"]
 
@@ -225,6 +225,17 @@ def _detection_fields(d: dict, k: int, batch: DetectionBatch) -> None:
              centres_body=batch.centres_body[a:b], radii_m=batch.radii_m[a:b], variances_m2=batch.variances_m2[a:b],
              n_points=batch.n_points[a:b], ranges_m=batch.ranges_m[a:b], extended=batch.extended[a:b],
              labels=batch.labels[r0:r1], occluded=batch.occluded[a:b])
+
+
+def centres_body(det: Detections) -> np.ndarray:
+    """``det.centres_body`` (k, 2) [m, body FLU] without making a pass's other fields (the
+    recording draws only these: :mod:`mjasc.perception.recording`)."""
+    src = det.__dict__.get("_src")
+    if src is not None and src[0] is _detection_fields:
+        k, batch = src[1]
+        a, b = batch.det_offsets[k:k + 2].tolist()
+        return batch.centres_body[a:b]
+    return det.centres_body
 
 
 def finite_detections(det: "Detections | DetectionBatch") -> np.ndarray:

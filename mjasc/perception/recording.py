@@ -34,6 +34,7 @@ import math
 import numpy as np
 import rerun as rr
 
+from mjasc.perception.detection import centres_body
 from mjasc.perception.scan_batch import scan_time
 
 __all__ = ["PerceptionLog", "HITS_LOG_PERIOD_S", "BODY_HITS_PERIOD_S", "LABEL_LOG_PERIOD_S", "MAP_LOG_PERIOD_S",
@@ -211,7 +212,7 @@ class PerceptionLog:
             rec.points(f"sensor/{vessel_name}/hits_body", t_s, scan.hit_points_body, z=0.1)
         if views and (full or t_s - self._last_body_det_log >= BODY_DETECTIONS_PERIOD_S - 1e-9):
             self._last_body_det_log = t_s
-            rec.points(f"sensor/{vessel_name}/detections_body", t_s, p.detections.centres_body, z=0.15)
+            rec.points(f"sensor/{vessel_name}/detections_body", t_s, centres_body(p.detections), z=0.15)
         if not full:
             return
         det = p.detections
