@@ -3,7 +3,8 @@
 docs/thesis.md §3, step 2 (thesis §3.2.2, eq. 3.16). For P pairs, r_p(t) = P_o(t) − P_v(t) is the
 track's position relative to the vessel [m] (world ENU) and d_p(t) = ‖r_p(t)‖. Given r on each
 pair's time grid (t_0 … t_{n−1}, step h), :func:`closest_approaches` returns, for every pair, the
-chosen local minimum (t_c, d(t_c)) of d — all pairs in a few array operations, no scalar optimizer:
+chosen local minimum (t_c, d(t_c)) of d — all pairs in two compiled passes around the zoom
+(:mod:`~mjasc.avoidance.prediction.cpa_kernels`), no scalar optimizer:
 
 1. **Grid minima.** Index i is a local minimum when d_i ≤ d_{i−1} and d_i < d_{i+1} (a window end
    counts when d rises from / falls to it) — over all pairs at once.
