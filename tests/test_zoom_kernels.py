@@ -31,7 +31,11 @@ def _zoom_numpy(rel_at, pairs, a, b):
         if level + 1 < cpa.ZOOM_LEVELS:
             continue
         r_a, r_j, r_b = r[idx, ja], r[idx, j], r[idx, jb]
-        t_out[act], d_out[act] = cpa._two_segments(a[act], ts[idx, j], b[act], r_a, r_j, r_b)
+        s1, d1 = cpa.segment_cpa(r_a, r_j)  # the closed form of the two segments around j
+        s2, d2 = cpa.segment_cpa(r_j, r_b)
+        second = d2 < d1
+        t_out[act] = np.where(second, ts[idx, j] + s2 * (b[act] - ts[idx, j]), a[act] + s1 * (ts[idx, j] - a[act]))
+        d_out[act] = np.where(second, d2, d1)
         bend = np.hypot(*(r_j - 0.5 * (r_a + r_b)).T)
         act = act[(bend > cpa.ZOOM_TOL_M) & (j > 0) & (j < K - 1)]
         if act.size == 0:

@@ -3,7 +3,8 @@
 docs/thesis.md §3, step 2 (thesis §3.2.2, eq. 3.16). For P pairs, r_p(t) = P_o(t) − P_v(t) is the
 track's position relative to the vessel [m] (world ENU) and d_p(t) = ‖r_p(t)‖. Given r on each
 pair's time grid (t_0 … t_{n−1}, step h), :func:`closest_approaches` returns, for every pair, the
-chosen local minimum (t_c, d(t_c)) of d — all pairs in a few array operations, no scalar optimizer:
+chosen local minimum (t_c, d(t_c)) of d — all pairs in two compiled passes around the zoom
+(:mod:`~mjasc.avoidance.prediction.cpa_kernels`), no scalar optimizer:
 
 1. **Grid minima.** Index i is a local minimum when d_i ≤ d_{i−1} and d_i < d_{i+1} (a window end
    counts when d rises from / falls to it) — over all pairs at once.
@@ -57,10 +58,10 @@ from typing import Callable
 
 import numpy as np
 
-from mjasc.core.compiled import kernel, maximum, minimum
+from mjasc.avoidance.prediction.cpa_kernels import choose, grid_pass, segment_cpa_one
+from mjasc.core.compiled import kernel
 
-__all__ = ["ZOOM_LEVELS", "ZOOM_MAX_LEVELS", "ZOOM_SAMPLES", "ZOOM_TOL_M", "closest_approaches", "grid_minima",
-           "segment_cpa"]
+__all__ = ["ZOOM_LEVELS", "ZOOM_MAX_LEVELS", "ZOOM_SAMPLES", "ZOOM_TOL_M", "closest_approaches", "segment_cpa"]
 
 #: Levels and samples per level of the sampled zoom (see the module docstring): spacings h/8,
 #: h/64, h/512 of the grid step h; more levels (up to ZOOM_MAX_LEVELS) while the last samples
@@ -83,20 +84,6 @@ def segment_cpa(a: np.ndarray, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, np.hypot(a[..., 0] + s * dx, a[..., 1] + s * dy)
 
 
-def grid_minima(d: np.ndarray, padded: bool = True) -> np.ndarray:
-    """Mask (P, n) of the local minima of each row of d (P, n) (window ends included when d rises
-    from / falls to them; NaN samples, the padding of shorter grids, are never minima; ``padded``
-    False: there are none)."""
-    if padded:
-        d = np.where(np.isnan(d), np.inf, d)
-    mask = np.ones(d.shape, dtype=bool)
-    mask[:, 1:] = d[:, 1:] <= d[:, :-1]  # not higher than the left neighbour
-    mask[:, :-1] &= d[:, :-1] < d[:, 1:]  # strictly lower than the right neighbour
-    if padded:
-        mask &= np.isfinite(d)
-    return mask
-
-
 def closest_approaches(
     times: np.ndarray,
     rel: np.ndarray,
@@ -116,49 +103,16 @@ def closest_approaches(
     """
     times = np.asarray(times, dtype=float)
     P = times.shape[0]
-    d = np.hypot(rel[..., 0], rel[..., 1])
-    pad = np.isnan(times)
-    padded = bool(pad.any())
-    if padded:
-        d[pad] = np.nan
-    pi, ii = grid_minima(d, padded).nonzero()  # row-major: per pair in time order
-    last = times.shape[1] - 1 - np.sum(pad, axis=1)  # last valid index per pair
-    lo = np.maximum(ii - 1, 0)
-    hi = np.minimum(ii + 1, last[pi])
-    t_lo, t_mid, t_hi = times[pi, lo], times[pi, ii], times[pi, hi]
-    r_lo, r_mid, r_hi = rel[pi, lo], rel[pi, ii], rel[pi, hi]
-    tt, dd = _two_segments(t_lo, t_mid, t_hi, r_lo, r_mid, r_hi)
     r_col = np.asarray(r_col, dtype=float)
-    skip = None
+    pi, t_lo, t_hi, tt, dd, t_grid, d_grid, cand = grid_pass(times, np.asarray(rel, dtype=float), r_col)
     if rel_at is not None and pi.size:
-        chord = np.maximum(np.hypot(*(r_mid - r_lo).T), np.hypot(*(r_hi - r_mid).T))
-        first = np.ones(pi.size, dtype=bool)
-        first[1:] = pi[1:] != pi[:-1]
-        cand = (first | (dd <= r_col[pi] + 0.5 + chord)).ravel().nonzero()[0]
-        tt[cand], dd[cand] = _zoom(rel_at, pi[cand], t_lo[cand], t_hi[cand])
-        if cand.size < pi.size:  # the others are no collision: keep them out of the choice
-            skip = np.ones(pi.size, dtype=bool)
-            skip[cand] = False
-    d_grid = d[pi, ii]
-    worse = ~(dd <= d_grid)  # as the former bounded search: never worse than the grid sample
-    tt, dd = np.where(worse, times[pi, ii], tt), np.where(worse, d_grid, dd)
-    pairs = np.arange(P)
-    if pi.size == P and np.array_equal(pi, pairs):  # one minimum per pair (the common case)
-        return tt, dd
-    # Choice per pair: the first minimum that is a collision, else the first minimum.
-    first = np.searchsorted(pi, pairs)  # each pair's first minimum
-    has = first < pi.size
-    has[has] = pi[first[has]] == pairs[has]
-    col = ((dd <= r_col[pi]) if skip is None else (dd <= r_col[pi]) & ~skip).ravel().nonzero()[0]
-    first_col = np.searchsorted(pi[col], pairs)
-    has_col = first_col < col.size
-    has_col[has_col] = pi[col[first_col[has_col]]] == pairs[has_col]
-    pick = np.where(has, first, 0)
-    use_col = has_col & ~np.broadcast_to(np.asarray(stop_at_first, dtype=bool), (P,))
-    pick[use_col] = col[first_col[use_col]]
-    if pi.size == 0:
-        return np.full(P, np.nan), np.full(P, np.nan)
-    return np.where(has, tt[pick], np.nan), np.where(has, dd[pick], np.nan)
+        refine = cand.nonzero()[0]
+        tt[refine], dd[refine] = _zoom(rel_at, pi[refine], t_lo[refine], t_hi[refine])
+        skip = ~cand  # the others are no collision: keep them out of the choice
+    else:
+        skip = np.zeros(pi.size, dtype=bool)
+    stop = np.ascontiguousarray(np.broadcast_to(np.asarray(stop_at_first, dtype=bool), (P,)))
+    return choose(P, pi, tt, dd, t_grid, d_grid, r_col, skip, stop)
 
 
 def _zoom(rel_at, pairs, a, b):
@@ -204,20 +158,10 @@ def _zoom_samples(a, b, act, frac, ts):
 
 
 @kernel
-def _segment_cpa(ax, ay, bx, by):
-    """:func:`segment_cpa` of one segment, the same operations: (s*, distance)."""
-    dx, dy = bx - ax, by - ay
-    dd = dx * dx + dy * dy
-    num = -(ax * dx + ay * dy)
-    s = minimum(maximum(num / maximum(dd, 1e-300), 0.0), 1.0)
-    return s, math.hypot(ax + s * dx, ay + s * dy)
-
-
-@kernel
 def _zoom_level(r, ts, act, a, b, final, tol, t_out, d_out, keep):
     """One zoom level after ``rel_at`` gave r (k, K, 2) at ts (k, K): each item's sampled minimum
     (``np.argmin`` of the distances: the first minimum, the first NaN if any), its new bracket into
-    a, b; with ``final``, the closed form (:func:`_two_segments`) into t_out, d_out and the items
+    a, b; with ``final``, the closed form (step 4: the smaller CPA of the two segments) into t_out, d_out and the items
     still bending by more than ``tol`` [m] (not at a bracket end) into ``keep``, in order: their
     count is returned (0 without ``final``)."""
     K = ts.shape[1]
@@ -241,8 +185,8 @@ def _zoom_level(r, ts, act, a, b, final, tol, t_out, d_out, keep):
         if not final:
             continue
         rax, ray, rjx, rjy, rbx, rby = r[i, ja, 0], r[i, ja, 1], r[i, j, 0], r[i, j, 1], r[i, jb, 0], r[i, jb, 1]
-        s1, d1 = _segment_cpa(rax, ray, rjx, rjy)
-        s2, d2 = _segment_cpa(rjx, rjy, rbx, rby)
+        s1, d1 = segment_cpa_one(rax, ray, rjx, rjy)
+        s2, d2 = segment_cpa_one(rjx, rjy, rbx, rby)
         t_a, t_b, t_c = ts[i, ja], ts[i, j], ts[i, jb]
         if d2 < d1:
             t_out[e], d_out[e] = t_b + s2 * (t_c - t_b), d2
@@ -253,12 +197,3 @@ def _zoom_level(r, ts, act, a, b, final, tol, t_out, d_out, keep):
             keep[n_keep] = e
             n_keep += 1
     return n_keep
-
-
-def _two_segments(t_a, t_b, t_c, r_a, r_b, r_c):
-    """Closest approach over [t_a, t_b] ∪ [t_b, t_c] with r linear on each: (t*, d*) per item."""
-    s1, d1 = segment_cpa(r_a, r_b)
-    s2, d2 = segment_cpa(r_b, r_c)
-    second = d2 < d1
-    t = np.where(second, t_b + s2 * (t_c - t_b), t_a + s1 * (t_b - t_a))
-    return t, np.where(second, d2, d1)
