@@ -9,7 +9,7 @@ import threading
 from mjasc.campaigns.engine import without_timing
 from mjasc.campaigns.executor import execute_in_process
 from mjasc.campaigns.forked import ForkedExecutor, forking_safe
-from tests.test_executor import _alive, _req
+from tests.test_executor import SLOW_S, _alive, _req
 
 
 def test_forking_is_safe_under_pytest():
@@ -37,7 +37,7 @@ def test_a_dying_forked_child_costs_only_its_run():
         assert ex.run(_req(), time_limit_s=120)["status"] == "completed"
         pid = ex.pid
         threading.Timer(2.0, lambda: os.kill(pid, signal.SIGKILL)).start()
-        dead = ex.run(_req(duration=3000.0), time_limit_s=120)
+        dead = ex.run(_req(duration=SLOW_S), time_limit_s=120)
         assert dead["status"] == "crashed" and "signal 9" in dead["error"]
         assert ex.run(_req(), time_limit_s=120)["status"] == "completed" and ex.pid != pid
     finally:
