@@ -200,6 +200,28 @@ def test_edges_cross_equals_the_numpy_form():
     assert 500 < hits < 5500
 
 
+def test_polygons_overlap_is_edges_or_containment():
+    """polygons_overlap (the potential field's and the plausibility check's one test): edges meeting
+    or one polygon inside the other, as the numpy forms both had — on crossing, nested, disjoint and
+    touching squares, and on random polygons."""
+    from mjasc.core.geometry import point_in_polygon, polygons_overlap, segments_intersect
+
+    sq = np.array([[0.0, 0.0], [4.0, 0.0], [4.0, 4.0], [0.0, 4.0]])
+    assert polygons_overlap(sq, sq + [2.0, 2.0])  # edges cross
+    assert polygons_overlap(sq, 0.25 * sq + [1.0, 1.0]) and polygons_overlap(0.25 * sq + [1.0, 1.0], sq)  # nested
+    assert not polygons_overlap(sq, sq + [10.0, 0.0])  # apart
+    assert polygons_overlap(sq, sq + [4.0, 0.0])  # a shared edge touches
+    assert not polygons_overlap(sq, sq + [4.0 + 1e-6, 0.0]) and polygons_overlap(sq, sq + [4.0 + 1e-6, 0.0], 1e-3)
+    rng = np.random.default_rng(12)
+    for _ in range(500):
+        a = rng.normal(0.0, 5.0, (int(rng.integers(3, 8)), 2)) + rng.normal(0.0, 8.0, 2)
+        b = rng.normal(0.0, 5.0, (int(rng.integers(3, 8)), 2)) + rng.normal(0.0, 8.0, 2)
+        want = bool(np.any(segments_intersect(a[:, None], np.roll(a, -1, axis=0)[:, None], b[None],
+                                              np.roll(b, -1, axis=0)[None], 0.0))
+                    or point_in_polygon(a[:1], b)[0] or point_in_polygon(b[:1], a)[0])
+        assert polygons_overlap(a, b) == want
+
+
 def _numpy_clean_polygon(polygon, name="x"):
     """The numpy form clean_polygon had (its vertices' tests array by array)."""
     from mjasc.core.geometry import polygon_signed_area

@@ -22,12 +22,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.core.polygon_kernels import (boundary_distance, canonical_hull, clean_vertices, hull_indices,
+from mjasc.core.polygon_kernels import (boundary_distance, canonical_hull, clean_vertices, edges_cross, hull_indices,
                                         inside_even_odd, offset_vertices, self_crossings)
 
 __all__ = ["covariance_ellipse", "distance_to_polygon", "signed_distance_to_polygon", "point_in_polygon", "polygon_signed_area",
            "counter_clockwise", "circle_polygon", "convex_hull", "disc_hull", "hull_outline", "clean_polygon",
-           "inflate_polygon", "segments_intersect", "self_intersections"]
+           "inflate_polygon", "segments_intersect", "self_intersections", "polygons_overlap"]
 
 
 # ---------------------------------------------------------------------------------------------- distance
@@ -183,6 +183,14 @@ def self_intersections(polygon: np.ndarray, tol: float) -> list[tuple[int, int]]
     out = np.empty((max(k * (k - 1) // 2, 1), 2), dtype=np.int64)
     n = self_crossings(v, float(tol), out)  # (compiled: segments_intersect's tests per pair)
     return [(i, j) for i, j in out[:n].tolist()]
+
+
+def polygons_overlap(a, b, tol: float = 0.0) -> bool:
+    """Do the closed polygons a (k, 2) and b (m, 2) [m] overlap: an edge of one meets an edge of the
+    other within ``tol`` [m] (:func:`segments_intersect` of every edge pair, compiled:
+    ``polygon_kernels.edges_cross``), or one lies inside the other (its first vertex does)?"""
+    a, b = _points(a), _points(b)
+    return bool(edges_cross(a, b, float(tol)) or point_in_polygon(b[:1], a)[0] or point_in_polygon(a[:1], b)[0])
 
 
 def clean_polygon(polygon, name: str = "obstacle") -> np.ndarray:

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, param, show
-from mjasc.core.geometry import distance_to_polygon, hull_outline, point_in_polygon, segments_intersect
+from mjasc.core.geometry import distance_to_polygon, hull_outline, point_in_polygon, polygons_overlap
 from mjasc.physics.obstacles import MovingObstacleSet, PolygonObstacle
 
 __all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "check_duration", "check_plausible", "hulls_overlap",
@@ -76,21 +76,12 @@ def check_name(name: str, where: str, *, vessel: bool) -> str:
     return name
 
 
-def _polygons_overlap(a: np.ndarray, b: np.ndarray) -> bool:
-    """Do the closed polygons a (k, 2) and b (m, 2) overlap (edges cross, or one inside the other)?"""
-    a1, a2 = a, np.roll(a, -1, axis=0)
-    b1, b2 = b, np.roll(b, -1, axis=0)
-    if np.any(segments_intersect(a1[:, None], a2[:, None], b1[None], b2[None], 0.0)):
-        return True
-    return bool(point_in_polygon(a[:1], b)[0] or point_in_polygon(b[:1], a)[0])
-
-
 def hulls_overlap(hull: np.ndarray, shape) -> bool:
     """Does the hull polygon (k, 2) overlap ``shape``: a polygon (m, 2) or a disc ``(centre, radius)``?"""
     if isinstance(shape, tuple):
         centre, radius = shape
         return bool(point_in_polygon(centre[None], hull)[0] or distance_to_polygon(centre[None], hull)[0] < radius)
-    return _polygons_overlap(hull, shape)
+    return polygons_overlap(hull, shape)
 
 
 def _check_clearance(scenario, types: dict) -> None:
@@ -104,7 +95,7 @@ def _check_clearance(scenario, types: dict) -> None:
     # Vessel pairs: only those whose bounding circles meet can overlap.
     dist = np.linalg.norm(pos[:, None] - pos[None], axis=-1)
     for i, j in zip(*np.nonzero(np.triu(dist < radii[:, None] + radii[None], 1))):
-        if _polygons_overlap(hulls[i], hulls[j]):
+        if polygons_overlap(hulls[i], hulls[j]):
             raise ConfigError(f"vessels[{j}].position_m: the hull overlaps vessel {scenario.vessels[i].name!r} "
                               f"at the start (centres {dist[i, j]:.2f} m apart)")
     for i, v in enumerate(scenario.vessels):

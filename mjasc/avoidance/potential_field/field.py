@@ -46,9 +46,9 @@ from mjasc.core.geometry import (
     clean_polygon,
     inflate_polygon,
     point_in_polygon,
+    polygons_overlap,
     signed_distance_to_polygon,
 )
-from mjasc.core.polygon_kernels import edges_cross
 
 __all__ = ["DEFAULT_SINK_STRENGTH", "PotentialField"]
 
@@ -183,12 +183,7 @@ class PotentialField:
         polys = self.polygons
         for i in range(len(polys)):
             for j in range(i + 1, len(polys)):
-                a, b = polys[i], polys[j]
-                if (
-                    edges_cross(a, b, 1e-9)  # (segments_intersect of every edge pair, compiled: any)
-                    or np.any(point_in_polygon(b[:1], a))
-                    or np.any(point_in_polygon(a[:1], b))
-                ):
+                if polygons_overlap(polys[i], polys[j], 1e-9):
                     raise ValueError(
                         f"obstacles {i} and {j} overlap after inflation by {self.inflation} m; "
                         "merge them into one polygon"
