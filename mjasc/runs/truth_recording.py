@@ -69,8 +69,7 @@ class TruthRecording:
         self._entities = self._entity_names(names, world)
         self._hull_body = body_hulls(agents)
         self._columns, self._groups = self._fleet_columns(len(names))
-        self._trail_t: list[float] = []  # times of the trail points [s]
-        self._trail_xy: list[np.ndarray] = []  # the fleet's positions (n, 2) at those times [m]
+        self._trail = FleetColumns({"xy": (len(names), 2)}, capacity=128)  # the fleet's positions [m] at its points
         self._trail_cut = 0  # index of the trail point where the recording's ``trail/recent`` starts
         self._current_grid, self._current_scale = log_static_scene(rec, sc, lo, hi, PLOT_SERIES)
         self._current_times: list[float] = []
@@ -148,16 +147,17 @@ class TruthRecording:
         strips so that its size grows linearly with the run: ``trail`` (everything up to the latest
         ``TRAIL_SEGMENT_S`` boundary, re-written at each boundary) and ``trail/recent`` (from that
         boundary to now, written with every new point)."""
-        times, xy = self._trail_t, self._trail_xy
-        if times and t - times[-1] < TRAIL_PERIOD_S:
+        trail = self._trail
+        if trail.n and t - trail.times[trail.n - 1] < TRAIL_PERIOD_S:
             return
-        times.append(t)
-        xy.append(positions.copy())
-        if len(times) < 2:
+        k = trail.add(t)
+        xy = trail.arrays["xy"]  # (points, n, 2): a strip per vessel is xy[a:b, j], the vessels' xy[a:b].swapaxes(0, 1)
+        xy[k] = positions
+        if k < 1:
             return
         e = self._entities
-        if t - times[self._trail_cut] >= TRAIL_SEGMENT_S:
-            self.recorder.vessel_strips(WORLD_SERIES["trail"], e["trail"], t, np.stack(xy, axis=1), z=0.1)
-            self._trail_cut = len(times) - 1
+        if t - trail.times[self._trail_cut] >= TRAIL_SEGMENT_S:  # (the points are never written again: views)
+            self.recorder.vessel_strips(WORLD_SERIES["trail"], e["trail"], t, xy[:k + 1].swapaxes(0, 1), z=0.1)
+            self._trail_cut = k
         self.recorder.vessel_strips(WORLD_SERIES["trail_recent"], e["trail_recent"], t,
-                                    np.stack(xy[self._trail_cut:], axis=1), z=0.1)
+                                    xy[self._trail_cut:k + 1].swapaxes(0, 1), z=0.1)
