@@ -29,7 +29,10 @@ part of the recorder is :class:`~mjasc.runs.recording_vessels.VesselSeries`, its
 (or per group of entities that share their times, :meth:`Recorder.fleet_scalars` and friends: one
 call per record tick for the whole fleet) and written column-wise with ``send_columns`` — one
 chunk per entity and flush — when :data:`FLUSH_ROWS` rows have piled up and at :meth:`close`. A
-``log`` per row costs ~0.5 ms in the Rerun SDK; a column costs that once. :meth:`Recorder.close`
+``log`` per row costs ~0.5 ms in the Rerun SDK; a column costs that once. The truth's per-tick
+fleet rows are not even buffered as rows: its record kernel writes them into preallocated arrays
+(:mod:`mjasc.runs.fleet_columns`, :meth:`Recorder.fleet_columns`) that the flush reads whole (the
+rows a record tick adds are counted at its end, so a flush comes between ticks). :meth:`Recorder.close`
 always flushes, so a run that stops on an error keeps everything recorded until then.
 
 **Few chunks.** Every chunk costs the SDK, the re-encoding (:mod:`mjasc.runs.rrd_canonical`) and
@@ -58,6 +61,7 @@ import rerun.blueprint as rrb
 from mjasc.runs.blueprint import (LEGEND_CLASSES, MODE_STATES, OTHERS, PALETTE, annotation_context,  # noqa: F401
                                   default_blueprint, legend_classes, legend_colour, legend_markdown,
                                   stable_blueprint_ids, vessel_colour)
+from mjasc.runs.fleet_columns import ColumnGroup
 from mjasc.runs.outputs import part_path
 from mjasc.runs.recording_columns import (TIMELINE, concat_xy, points_column, rgba, scalar_column, sparse_column,
                                           stack_rows, strip_column, time_column, xyz_at)
@@ -110,7 +114,7 @@ class Recorder(VesselSeries):
         self._strips: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
         self._arrows: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))  # (entity, z)
         # (kind, entities, z) → (times, rows) lists, or a ColumnGroup (fleet_columns)
-        self._fleet: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))
+        self._fleet: dict[tuple, tuple[list, list] | ColumnGroup] = defaultdict(lambda: ([], []))
         self._states: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # StateChange
         self._documents: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # markdown TextDocument
         self._styles: dict[str, object] = {}  # entity → its static style, written with its first rows (style())
