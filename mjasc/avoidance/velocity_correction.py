@@ -116,6 +116,8 @@ class VelocityCorrection:
 
     def gamma_desired(self, t):
         """γ_d(t) = γ₀ + V_d (t − t₀) [m] (thesis eq. 4.39); scalar or array."""
+        if type(t) is float:  # (the record tick's and the commands' scalar: the same operations on floats)
+            return self._g0 + self._vd * (t - self._t0)
         g = self._g0 + self._vd * (np.asarray(t, dtype=float) - self._t0)
         return float(g) if np.ndim(g) == 0 else g
 

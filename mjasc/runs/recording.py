@@ -29,7 +29,10 @@ part of the recorder is :class:`~mjasc.runs.recording_vessels.VesselSeries`, its
 (or per group of entities that share their times, :meth:`Recorder.fleet_scalars` and friends: one
 call per record tick for the whole fleet) and written column-wise with ``send_columns`` — one
 chunk per entity and flush — when :data:`FLUSH_ROWS` rows have piled up and at :meth:`close`. A
-``log`` per row costs ~0.5 ms in the Rerun SDK; a column costs that once. :meth:`Recorder.close`
+``log`` per row costs ~0.5 ms in the Rerun SDK; a column costs that once. The truth's per-tick
+fleet rows are not even buffered as rows: its record kernel writes them into preallocated arrays
+(:mod:`mjasc.runs.fleet_columns`, :meth:`Recorder.fleet_columns`) that the flush reads whole (the
+rows a record tick adds are counted at its end, so a flush comes between ticks). :meth:`Recorder.close`
 always flushes, so a run that stops on an error keeps everything recorded until then.
 
 **Few chunks.** Every chunk costs the SDK, the re-encoding (:mod:`mjasc.runs.rrd_canonical`) and
@@ -58,6 +61,7 @@ import rerun.blueprint as rrb
 from mjasc.runs.blueprint import (LEGEND_CLASSES, MODE_STATES, OTHERS, PALETTE, annotation_context,  # noqa: F401
                                   default_blueprint, legend_classes, legend_colour, legend_markdown,
                                   stable_blueprint_ids, vessel_colour)
+from mjasc.runs.fleet_columns import ColumnGroup
 from mjasc.runs.outputs import part_path
 from mjasc.runs.recording_columns import (TIMELINE, concat_xy, points_column, rgba, scalar_column, sparse_column,
                                           stack_rows, strip_column, time_column, xyz_at)
@@ -109,7 +113,8 @@ class Recorder(VesselSeries):
         self._points: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
         self._strips: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))
         self._arrows: dict[tuple, tuple[list, list, list]] = defaultdict(lambda: ([], [], []))  # (entity, z)
-        self._fleet: dict[tuple, tuple[list, list]] = defaultdict(lambda: ([], []))  # (kind, entities, z)
+        # (kind, entities, z) → (times, rows) lists, or a ColumnGroup (fleet_columns)
+        self._fleet: dict[tuple, tuple[list, list] | ColumnGroup] = defaultdict(lambda: ([], []))
         self._states: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # StateChange
         self._documents: dict[str, tuple[list, list]] = defaultdict(lambda: ([], []))  # markdown TextDocument
         self._styles: dict[str, object] = {}  # entity → its static style, written with its first rows (style())
@@ -217,6 +222,18 @@ class Recorder(VesselSeries):
         """One line strip for each entity (strips (n, m, 2) world xy [m]; m may change between rows) at height z."""
         self._fleet_row(("strips", entities, z), t_s, np.asarray(strips_xy, dtype=np.float64))
 
+    def fleet_columns(self, kind: str, entities: tuple[str, ...], group, z: float = 0.0) -> None:
+        """Have the rows of the fleet group (``kind`` "scalar", "points" or "strips", one value per
+        entity, as :meth:`fleet_scalars` and friends) read from ``group`` (a
+        :class:`~mjasc.runs.fleet_columns.ColumnGroup`, filled by the caller) at :meth:`flush`, in
+        the order of the groups' first rows as the per-tick calls. Register it with its first row
+        and again after a flush (which clears it), and count its rows with :meth:`count`."""
+        self._fleet[(kind, entities, z)] = group
+
+    def count(self, rows: int) -> None:
+        """``rows`` more buffered rows (of groups the caller fills: :meth:`fleet_columns`)."""
+        self._count(rows)
+
     def _fleet_row(self, key: tuple, t_s: float, row: np.ndarray) -> None:
         times, rows = self._fleet[key]
         times.append(t_s)
@@ -269,25 +286,36 @@ class Recorder(VesselSeries):
                  columns=rr.Arrows3D.columns(origins=xyz_at(concat_xy(origins), z),
                                              vectors=xyz_at(concat_xy(vectors), 0.0))
                  .partition([len(o) for o in origins]))
-        for (kind, entities, z), (times, rows) in self._fleet.items():
-            t = np.asarray(times, dtype=np.float64)
+        for (kind, entities, z), buffer in self._fleet.items():
+            if type(buffer) is tuple:  # (times, rows) lists
+                times, rows = buffer
+                t, data = np.asarray(times, dtype=np.float64), None
+            else:  # a ColumnGroup (fleet_columns): its rows already in arrays
+                rows = ()
+                t, data = buffer.entity_first()
             index = [time_column(t)]  # (the group's entities share their times: one column for all)
             if kind == "strips":  # the strips of a row have the same length; rows may differ
                 ones = np.ones(len(t), dtype=np.int32)
-                if len({r.shape for r in rows}) == 1:  # every row alike (hulls): one stack, (n, T, m, 2)
-                    for entity, d in zip(entities, stack_rows(rows)):
+                if data is None and len({r.shape for r in rows}) == 1:  # every row alike (hulls): one stack
+                    data = stack_rows(rows)  # (n, T, m, 2)
+                if data is not None:
+                    for entity, d in zip(entities, data):
                         send(entity, indexes=index, columns=[strip_column(d, z, ones)])
                     continue
                 for j, entity in enumerate(entities):
                     send(entity, indexes=index, columns=[strip_column([r[j] for r in rows], z, ones)])
                 continue
-            data = stack_rows(rows)  # (n, T, ...)
+            if data is None:
+                data = stack_rows(rows)  # (n, T, ...)
             if kind == "scalar":
                 self._send_scalars(send, entities, t, index, data)
                 continue
             for entity, d in zip(entities, data):
                 send(entity, indexes=index, columns=[points_column(xyz_at(d, z), 1)])
         self._write_batches()
+        for buffer in self._fleet.values():
+            if type(buffer) is not tuple:
+                buffer.clear()  # (after every group was read: groups may share their arrays)
         for buffer in (self._scalars, self._own_buffers, self._texts, self._states, self._documents, self._points,
                        self._strips, self._arrows, self._fleet):
             buffer.clear()

@@ -41,7 +41,6 @@ class VesselSeries:
         self._own_entities: dict[tuple[str, str], str] = {}  # (template, vessel) → entity (vessel_scalar)
         # (template, vessel) → its entity's buffered (times, values) in _scalars (vessel_scalar; until flush)
         self._own_buffers: dict[tuple[str, str], tuple[list, list]] = {}
-        self._table_keys: dict[int, tuple] = {}  # id(series) → (series, its fleet-row keys) (vessel_scalar_table)
 
     def set_vessels(self, names: tuple[str, ...], view_vessels) -> None:
         """The run's vessels and those with per-vessel views (:attr:`view_vessels`). At standard
@@ -103,45 +102,11 @@ class VesselSeries:
         buffer[1].append(float(value))
         self._count(1)
 
-    def vessel_scalars(self, template: str, entities: tuple[str, ...], t_s: float, values) -> None:
-        """:meth:`fleet_scalars` of every vessel's series ``template`` (values (n,) in vessel
-        order, ``entities`` from :meth:`vessel_entities`): batched vessels' values go in one row."""
-        values = np.asarray(values, dtype=np.float64).reshape(-1)
-        if not self.batched:
-            self.fleet_scalars(entities, t_s, values)
-            return
-        n_own = len(entities)
-        self.fleet_scalars(entities, t_s, values[:n_own])
-        rows = self._batch_rows.setdefault(template.format(OTHERS), {})
-        rows[t_s] = values[n_own:].copy()
+    def batch_scalars(self, template: str, t_s: float, values) -> None:
+        """The values (one per vessel of :attr:`batched`, in order) of the series ``template`` at
+        t_s: the batch entity's row at t_s (the own vessels' values go to :meth:`fleet_scalars`)."""
+        self._batch_rows.setdefault(template.format(OTHERS), {})[t_s] = np.array(values, dtype=np.float64)
         self._count(len(self.batched))
-
-    def vessel_scalar_table(self, series, t_s: float, values) -> None:
-        """:meth:`vessel_scalars` of several series at t_s: ``series`` ((template, entities), ...)
-        (entities from :meth:`vessel_entities`), ``values`` one (n,) row per series in vessel
-        order. The same rows as one :meth:`vessel_scalars` call per series, in that order."""
-        table = np.asarray(values, dtype=np.float64)
-        if self.batched:
-            for (template, entities), row in zip(series, table):
-                self.vessel_scalars(template, entities, t_s, row)
-            return
-        keys = self._table_keys.get(id(series))
-        if keys is None or keys[0] is not series:  # (each series' fleet_scalars buffer key, made once)
-            keys = self._table_keys[id(series)] = (series, [("scalar", entities, 0.0) for _, entities in series])
-        fleet, count = self._fleet, self._count
-        for key, row in zip(keys[1], table):  # (= _fleet_row of each row, in order)
-            times, rows = fleet[key]
-            times.append(t_s)
-            rows.append(row)
-            count(len(key[1]))
-
-    def vessel_points(self, template: str, entities: tuple[str, ...], t_s: float, positions_xy, z: float = 0.0) -> None:
-        """:meth:`fleet_points` of every vessel (positions (n, 2) in vessel order, ``entities`` from
-        :meth:`vessel_entities`): the batched vessels' points in one row of the batch entity."""
-        p = np.asarray(positions_xy, dtype=np.float64).reshape(-1, 2)
-        self.fleet_points(entities, t_s, p[:len(entities)] if self.batched else p, z)
-        if self.batched:
-            self.points(template.format(OTHERS), t_s, p[len(entities):], z)
 
     def vessel_strips(self, template: str, entities: tuple[str, ...], t_s: float, strips_xy, z: float = 0.0) -> None:
         """:meth:`fleet_strips` of every vessel (strips (n, m, 2) in vessel order, ``entities`` from

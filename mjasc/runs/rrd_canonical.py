@@ -52,7 +52,6 @@ import struct
 
 import numpy as np
 import pyarrow as pa
-import pyarrow.compute as pc
 
 from mjasc.runs.rrd_wire import CanonicalRrdError, pb_bytes, pb_int, pb_parse, pb_store_id, pb_tuid, store_key, xxh32
 
@@ -243,13 +242,26 @@ def _tuids(t_ns: int, incs) -> pa.Array:
 
 
 def _fixed_log_time(batch: pa.RecordBatch, is_log_time) -> pa.RecordBatch:
+    """``batch`` with every ``log_time`` column (``is_log_time(field)``, 64-bit values) at
+    :data:`BASE_NS` where it has a value and null (value 0) where it has none."""
     cols = list(batch.columns)
     for j, f in enumerate(batch.schema):
         if is_log_time(f):
-            c = cols[j]
-            const = pa.array(np.full(len(c), BASE_NS, dtype=np.int64)).cast(c.type)
-            cols[j] = pc.if_else(c.is_null(), pa.nulls(len(c), c.type), const) if c.null_count else const
+            cols[j] = _constant_where_valid(cols[j], BASE_NS)
     return pa.RecordBatch.from_arrays(cols, schema=batch.schema)
+
+
+def _constant_where_valid(c: pa.Array, value: int) -> pa.Array:
+    """An array of ``c``'s type (64-bit values) holding ``value`` where ``c`` has a value and null,
+    with a 0 value, where it is null (``if_else(is_null, nulls, value)``'s array, built from buffers)."""
+    n = len(c)
+    if not c.null_count:
+        return pa.Array.from_buffers(c.type, n, [None, pa.py_buffer(np.full(n, value, dtype="<i8"))])
+    bits = np.unpackbits(np.frombuffer(c.buffers()[0], np.uint8), bitorder="little")[c.offset:c.offset + n]
+    valid = bits.astype(bool)
+    values = np.where(valid, np.int64(value), np.int64(0)).astype("<i8")
+    return pa.Array.from_buffers(c.type, n, [pa.py_buffer(np.packbits(valid, bitorder="little")), pa.py_buffer(values)],
+                                 null_count=c.null_count)
 
 
 # ---------------------------------------------------------------- the file
@@ -356,7 +368,11 @@ def _manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes:
                          else sorbet_ipc[:-len(_EOS)]).digest()
     part = pb_parse(man[4][0])
     batch = _read_ipc(part[2][0], part.get(3, [0])[0], part.get(4, [0])[0])
-    olds = [b"chunk_%016X%016x" % struct.unpack(">QQ", c) for c in batch.column("chunk_id").to_pylist()]
+    ids = batch.column("chunk_id")  # (fixed_size_binary[16]: big-endian time and counter)
+    if ids.null_count:
+        raise CanonicalRrdError("the footer has a chunk without an id")
+    ids = np.frombuffer(ids.buffers()[1], ">u8", 2 * len(ids), 16 * ids.offset).reshape(-1, 2).tolist()
+    olds = [b"chunk_%016X%016x" % (time_ns, counter) for time_ns, counter in ids]
     try:
         ks = [new_ids[c][0] for c in olds]
     except KeyError as e:

@@ -13,7 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from mjasc.core.geometry import hull_outline
-from mjasc.runs.blueprint import view_vessels
+from mjasc.runs.blueprint import OTHERS, view_vessels
+from mjasc.runs.fleet_columns import ColumnGroup, FleetColumns
 from mjasc.runs.record_kernels import record_rows
 from mjasc.runs.static_scene import log_static_scene
 
@@ -28,7 +29,7 @@ TRAIL_SEGMENT_S = 30.0
 WORLD_SERIES = {"hull": "world/vessels/{}/hull", "position": "world/vessels/{}/position",
                 "trail": "world/vessels/{}/trail", "trail_recent": "world/vessels/{}/trail/recent"}
 #: The per-vessel plot series written at each record tick: kind → entity template. The vessels
-#: without views share one entity per kind at standard detail (Recorder.vessel_scalars).
+#: without views share one entity per kind at standard detail (Recorder.batch_scalars).
 PLOT_SERIES = {"speed": "plots/speed/{}/actual", "speed_ref": "plots/speed/{}/reference",
                "thrust_port": "plots/thrust/{}/port", "thrust_starboard": "plots/thrust/{}/starboard",
                "heading": "plots/heading/{}", "cross_track": "plots/cross_track/{}"}
@@ -66,10 +67,9 @@ class TruthRecording:
         rec.set_vessels(names, view_vessels(names))
         self._world, self._network = world, network
         self._entities = self._entity_names(names, world)
-        self._plot_series = tuple((PLOT_SERIES[k], self._entities[k]) for k in PLOT_SERIES)
         self._hull_body = body_hulls(agents)
-        self._trail_t: list[float] = []  # times of the trail points [s]
-        self._trail_xy: list[np.ndarray] = []  # the fleet's positions (n, 2) at those times [m]
+        self._columns, self._groups = self._fleet_columns(len(names))
+        self._trail = FleetColumns({"xy": (len(names), 2)}, capacity=128)  # the fleet's positions [m] at its points
         self._trail_cut = 0  # index of the trail point where the recording's ``trail/recent`` starts
         self._current_grid, self._current_scale = log_static_scene(rec, sc, lo, hi, PLOT_SERIES)
         self._current_times: list[float] = []
@@ -91,18 +91,41 @@ class TruthRecording:
         out["moving"] = tuple(f"world/obstacles/moving/{o.name}" for o in world.moving_obstacles)
         return out
 
+    def _fleet_columns(self, n: int) -> tuple[FleetColumns, tuple]:
+        """The per-tick rows of every vessel's hull (n, k, 2) and position (n, 2) [m] and the plot
+        table (PLOT_SERIES' order, n) in preallocated arrays, and the recorder's fleet groups of the
+        vessels with their own entities (the first ones) reading them: ((kind, entities, z), group)."""
+        e = self._entities
+        columns = FleetColumns({"hull": self._hull_body.shape, "position": (n, 2), "table": (len(PLOT_SERIES), n)},
+                               capacity=256)
+        n_own = len(e["hull"])
+        groups = [(("strips", e["hull"], 0.2), ColumnGroup(columns, "hull", None, n_own)),
+                  (("points", e["position"], 0.2), ColumnGroup(columns, "position", None, n_own))]
+        groups += [(("scalar", e[kind], 0.0), ColumnGroup(columns, "table", k, n_own))
+                   for k, kind in enumerate(PLOT_SERIES)]
+        return columns, tuple(groups)
+
     def record(self, states, sim, speed_ref_m_s: np.ndarray, xte_m: np.ndarray, traffic) -> None:
         """One record tick of the truth: ``states`` (the fleet's true states), ``sim`` (commands and
         the current), each vessel's speed reference and cross-track error [m] (NaN: no path), the
         traffic's (positions, ...) as ``Simulation.traffic_state`` gives them."""
-        rec, t, e = self.recorder, states.time_s, self._entities
-        heading, n = states.heading_rad, len(speed_ref_m_s)
-        hulls, table = np.empty(self._hull_body.shape), np.empty((len(PLOT_SERIES), n))  # table: PLOT_SERIES' order
+        rec, t, e, columns = self.recorder, states.time_s, self._entities, self._columns
+        heading = states.heading_rad
+        if columns.n == 0:  # (the first row, or the first since a flush: the groups in the order of their rows)
+            for (kind, entities, z), group in self._groups:
+                rec.fleet_columns(kind, entities, group, z)
+        i = columns.add(t)
+        hulls, table = columns.arrays["hull"][i], columns.arrays["table"][i]  # (table: PLOT_SERIES' order)
         record_rows(states.position_m, states.velocity_m_s, heading, np.cos(heading), np.sin(heading), self._hull_body,
                     speed_ref_m_s, states.thrust_n, xte_m, hulls, table)  # (mjasc.runs.record_kernels)
-        rec.vessel_strips(WORLD_SERIES["hull"], e["hull"], t, hulls, z=0.2)
-        rec.vessel_points(WORLD_SERIES["position"], e["position"], t, states.position_m, z=0.2)
-        rec.vessel_scalar_table(self._plot_series, t, table)  # (NaN, no path, is left out)
+        columns.arrays["position"][i] = states.position_m
+        n_own = len(e["hull"])
+        if rec.batched:  # the vessels without views: one row of their batch entity per kind
+            rec.strips(WORLD_SERIES["hull"].format(OTHERS), t, list(hulls[n_own:]), z=0.2)
+            rec.points(WORLD_SERIES["position"].format(OTHERS), t, states.position_m[n_own:], z=0.2)
+            for template, row in zip(PLOT_SERIES.values(), table):
+                rec.batch_scalars(template, t, row[n_own:])
+        rec.count((2 + len(PLOT_SERIES)) * n_own)  # (a scalar series' NaN, no path, is left out at the flush)
         if rec.full:
             ctrl = sim.data.ctrl[self._world.ctrl_adr]
             rec.fleet_scalars(e["command_port"], t, ctrl[:, 0])
@@ -124,16 +147,17 @@ class TruthRecording:
         strips so that its size grows linearly with the run: ``trail`` (everything up to the latest
         ``TRAIL_SEGMENT_S`` boundary, re-written at each boundary) and ``trail/recent`` (from that
         boundary to now, written with every new point)."""
-        times, xy = self._trail_t, self._trail_xy
-        if times and t - times[-1] < TRAIL_PERIOD_S:
+        trail = self._trail
+        if trail.n and t - trail.times[trail.n - 1] < TRAIL_PERIOD_S:
             return
-        times.append(t)
-        xy.append(positions.copy())
-        if len(times) < 2:
+        k = trail.add(t)
+        xy = trail.arrays["xy"]  # (points, n, 2): a strip per vessel is xy[a:b, j], the vessels' xy[a:b].swapaxes(0, 1)
+        xy[k] = positions
+        if k < 1:
             return
         e = self._entities
-        if t - times[self._trail_cut] >= TRAIL_SEGMENT_S:
-            self.recorder.vessel_strips(WORLD_SERIES["trail"], e["trail"], t, np.stack(xy, axis=1), z=0.1)
-            self._trail_cut = len(times) - 1
+        if t - trail.times[self._trail_cut] >= TRAIL_SEGMENT_S:  # (the points are never written again: views)
+            self.recorder.vessel_strips(WORLD_SERIES["trail"], e["trail"], t, xy[:k + 1].swapaxes(0, 1), z=0.1)
+            self._trail_cut = k
         self.recorder.vessel_strips(WORLD_SERIES["trail_recent"], e["trail_recent"], t,
-                                    np.stack(xy[self._trail_cut:], axis=1), z=0.1)
+                                    xy[self._trail_cut:k + 1].swapaxes(0, 1), z=0.1)
