@@ -96,6 +96,7 @@ class FleetTracker(FleetRows, FleetViews):
         self._report_bufs = (np.empty(0, dtype=np.int64), np.empty(0), np.empty(0, dtype=bool))  # (report_columns)
         self._assoc = AssociationBuffers()  # the association's buffers (step_buffers; grown when too small)
         self._meas_bufs = (np.empty((0, 2)), np.empty(0, dtype=bool))  # the cycle's measurement rows (_meas_buffers)
+        self._all_true: dict[int, np.ndarray] = {}  # p → (p,) all True (_every_scan)
 
     # ------------------------------------------------------------------ vessels
     def add_owner(self, max_range_m: float = math.inf) -> int:
@@ -246,7 +247,8 @@ class FleetTracker(FleetRows, FleetViews):
         vr = var_row if self._use_var else None  # (changed in place by the cycle: its unusable σ² replaced)
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
         x = bank.state_rows
-        with_pts = np.array([pt is not None and d is not None for pt, d in zip(points, dets)], dtype=bool)
+        flags = [pt is not None and d is not None for pt, d in zip(points, dets)]
+        with_pts = self._every_scan(p) if all(flags) else np.array(flags, dtype=bool)
         c = self.cols  # (the cycled rows' gathers, management's record of the scan, last assignments and the
         # outlines' plan of the rows with returns: one call)
         outlines = self.outlines
@@ -303,6 +305,13 @@ class FleetTracker(FleetRows, FleetViews):
             grow = lambda m: m + max(16, m // 2)
             got = self._bufs = (np.empty(grow(ni), dtype=np.int64), np.empty((grow(S), 2)), np.empty(grow(nf)),
                                 np.empty(grow(2 * S), dtype=bool))
+        return got
+
+    def _every_scan(self, p: int) -> np.ndarray:
+        """(p,) all True, made once per p (never written): every vessel of a step has its returns."""
+        got = self._all_true.get(p)
+        if got is None:
+            got = self._all_true[p] = np.ones(p, dtype=bool)
         return got
 
     def _meas_buffers(self, n: int) -> tuple:
