@@ -91,7 +91,8 @@ class FleetTracker(FleetRows, FleetViews):
         self._next_local = np.zeros(0, dtype=np.int64)
         self._counts = np.zeros((0, len(COUNT_KEYS)), dtype=np.int64)
         self.events: list[list[TrackEvent]] = []
-        self._last_assign: list[list] = []  # per vessel: its last scan's (ids, detections) pieces (updates, births)
+        self._last_assign: list[list] = []  # per vessel: its last scan's (ids, detections, a, b) pieces — ids[a:b]
+        # and detections[a:b] (updates, births; sliced when read)
         self._bufs = None  # the step's buffers (_step_buffers)
         self._made_views: dict[tuple, tuple] = {}  # (M, n, k, p, no) → the step's views of those buffers (_step_views)
         self._report_bufs = (np.empty(0, dtype=np.int64), np.empty(0), np.empty(0, dtype=bool))  # (report_columns)
@@ -285,10 +286,11 @@ class FleetTracker(FleetRows, FleetViews):
         if m:
             ids, det = ints[g:g + m], ints[g + m:g + 2 * m]
             f = ints[g + 2 * m:e].tolist()
-            for q in range(p):
+            la = self._last_assign
+            for q, o in enumerate(owners.tolist()):
                 a, b = f[q], f[q + 1]
                 if b > a:
-                    self._last_assign[owners[q]] = [(ids[a:b], det[a:b])]
+                    la[o] = [(ids, det, a, b)]
 
     def _step_buffers(self, S: int, n: int, p: int, no: int) -> tuple:
         """The step's buffers for :func:`step_inputs_into` (S detections, n rows, p scanning vessels, no
