@@ -1,7 +1,8 @@
-"""The IMM cycle's mixing (mjasc.perception.imm.compiled_cycle._mix_predict: step 2's sums over i in the
-outer loop, one local accumulator per entry) against the entry-by-entry loops it replaced (each entry's sum
-over i in its own inner loop, s_i − s0_j recomputed per entry), bit for bit: every output of imm_cycle, on
-random rows and on every cycle of a real run."""
+"""The IMM cycle's mixing and combination (mjasc.perception.imm.compiled_cycle: _mix_predict's step 2 and
+combine_row's step 6, the sums over the models in the outer loop, one local accumulator per entry) against
+the entry-by-entry loops they replaced (each entry's sum over the models in its own inner loop, s_i − s̄
+recomputed per entry), bit for bit: every output of imm_cycle and the combined covariances, on random rows and
+on every cycle of a real run."""
 
 import math
 from dataclasses import replace
@@ -13,7 +14,8 @@ import pytest
 
 import mjasc
 from mjasc.perception.imm import bank_updates
-from mjasc.perception.imm.compiled_cycle import _correct, _innovate, imm_cycle
+from mjasc.perception.imm.compiled_cycle import _correct, _innovate, combine_covariance, imm_cycle
+from mjasc.perception.imm.row_fields import combine_covariance_rows
 from mjasc.runs.runner import Runner
 
 _TWO_PI = 2.0 * math.pi
@@ -116,6 +118,34 @@ def _imm_cycle_entrywise(s, P, mu, markov, dt, dt_omega, q, z, var, use, floor, 
             x_out[k, a] = acc
 
 
+@numba.njit
+def _combine_entrywise(s, P, mu, out):
+    x = np.empty(4)
+    r = mu.shape[1]
+    for k in range(mu.shape[0]):
+        for a in range(4):
+            acc = 0.0
+            for j in range(r):
+                acc += mu[k, j] * s[k, j, a]
+            x[a] = acc
+        for a in range(4):
+            for b in range(a, 4):
+                acc, spread = 0.0, 0.0
+                for j in range(r):
+                    acc += mu[k, j] * P[k, j, a, b]
+                    spread += (s[k, j, a] - x[a]) * (mu[k, j] * (s[k, j, b] - x[b]))
+                out[k, a, b] = out[k, b, a] = acc + spread
+
+
+def _combined_same(s, P, mu):
+    """combine_covariance and combine_covariance_rows (every row not in start-up) against the entry-by-entry form."""
+    want, got, rows = (np.full(mu.shape[:1] + (4, 4), 7.0) for _ in range(3))
+    _combine_entrywise(s, P, mu, want)
+    combine_covariance(s, P, mu, got)
+    combine_covariance_rows(s, P, mu, np.zeros(mu.shape[0], dtype=bool), rows)
+    assert got.tobytes() == want.tobytes() and rows.tobytes() == want.tobytes()
+
+
 def _both(s, P, mu, markov, dt, dt_omega, q, z, var, use, floor, gate):
     """imm_cycle and the entry-by-entry form on the same input: each output pair equal, bit for bit."""
     n, r = mu.shape
@@ -125,6 +155,8 @@ def _both(s, P, mu, markov, dt, dt_omega, q, z, var, use, floor, gate):
     _imm_cycle_entrywise(s, P, mu, markov, dt, dt_omega, q, z, var, use, floor, gate, *outs[1])
     for a, b in zip(*outs):
         assert a.tobytes() == b.tobytes()
+    _combined_same(s, P, mu)
+    _combined_same(*outs[0][:3])
 
 
 @pytest.mark.parametrize("seed", range(6))
