@@ -38,7 +38,7 @@ class _Separate(FleetTracker):
             tid = int(local[a])
             self.events[o].append(TrackEvent(float(t_o[q]), "born", tid,
                                              f"track {tid} born at ({zb[a, 0]:.1f}, {zb[a, 1]:.1f}) m"))
-            self._last_assign[o].append((local[a:a + 1], dets[a:a + 1]))
+            self._last_assign[o].append((local, dets, a, a + 1))
 
 
 def _same(a, b):

@@ -107,3 +107,32 @@ def test_births_packed_equal_births_of(monkeypatch):
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()
     assert n_checked[0] > 20
+
+
+@pytest.mark.parametrize("name, duration", [("thesis_6_4_crossing", 20.0)])
+def test_step_views_are_the_slices_of_the_buffers(monkeypatch, name, duration):
+    """The step's arrays (FleetTracker._step_views: views made once per sizes) are the slices of its buffers as
+    step_inputs_into lays them out, at every step of a real run (the same memory, shape and strides), also
+    after the buffers grew (a tracker started with none)."""
+    made = fleet_mod.FleetTracker._step_views
+    n_checked = [0]
+
+    def checked(self, M, n, k, p, no):
+        got = made(self, M, n, k, p, no)
+        ints, z, floats, flags = self._bufs
+        c, f = 2 * M + p, 2 * M + no
+        ref = (z[:M], ints[:M], ints[M:2 * M], ints[2 * M:c], ints[c:c + n], ints[c + n:c + n + k],
+               ints[c + n + k:c + n + 2 * k], ints[c + n + 2 * k:c + 2 * n + 2 * k], floats[:M], floats[M:2 * M],
+               floats[2 * M:f], floats[f:f + n], flags[:M], flags[M:2 * M])
+        assert len(got) == len(ref)
+        for a, b in zip(got, ref):
+            assert a.base is b.base and a.shape == b.shape and a.strides == b.strides
+            assert a.__array_interface__["data"][0] == b.__array_interface__["data"][0]
+        n_checked[0] += 1
+        return got
+
+    monkeypatch.setattr(fleet_mod.FleetTracker, "_step_views", checked)
+    sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    Runner(sc, out_dir=None).run()
+    assert n_checked[0] > 50

@@ -91,11 +91,14 @@ class FleetTracker(FleetRows, FleetViews):
         self._next_local = np.zeros(0, dtype=np.int64)
         self._counts = np.zeros((0, len(COUNT_KEYS)), dtype=np.int64)
         self.events: list[list[TrackEvent]] = []
-        self._last_assign: list[list] = []  # per vessel: its last scan's (ids, detections) pieces (updates, births)
+        self._last_assign: list[list] = []  # per vessel: its last scan's (ids, detections, a, b) pieces — ids[a:b]
+        # and detections[a:b] (updates, births; sliced when read)
         self._bufs = None  # the step's buffers (_step_buffers)
+        self._made_views: dict[tuple, tuple] = {}  # (M, n, k, p, no) → the step's views of those buffers (_step_views)
         self._report_bufs = (np.empty(0, dtype=np.int64), np.empty(0), np.empty(0, dtype=bool))  # (report_columns)
         self._assoc = AssociationBuffers()  # the association's buffers (step_buffers; grown when too small)
         self._meas_bufs = (np.empty((0, 2)), np.empty(0, dtype=bool))  # the cycle's measurement rows (_meas_buffers)
+        self._all_true: dict[int, np.ndarray] = {}  # p → (p,) all True (_every_scan)
 
     # ------------------------------------------------------------------ vessels
     def add_owner(self, max_range_m: float = math.inf) -> int:
@@ -167,14 +170,8 @@ class FleetTracker(FleetRows, FleetViews):
             ints, z, floats, flags = self._step_buffers(S, n, p, no)
             M, all_due, k = step_inputs_into(*stacked, self._use_var, own, pos_of, every, owners, t_o, no,
                                              self._counts, _SCANS, _DETS, self._R, ints, z, floats, flags)
-            z = z[:M]
-            d_pos, idx, m_q = ints[:M], ints[M:2 * M], ints[2 * M:2 * M + p]
-            c = 2 * M + p
-            row_pos, rows, rpos, assigned = ints[c:c + n], ints[c + n:c + n + k], ints[c + n + k:c + n + 2 * k], ints[
-                c + n + 2 * k:c + 2 * n + 2 * k]
-            var, rad, t_own, var_row = (floats[:M], floats[M:2 * M], floats[2 * M:2 * M + no],
-                                        floats[2 * M + no:2 * M + no + n])
-            occ, claimed = flags[:M], flags[M:2 * M]
+            (z, d_pos, idx, m_q, row_pos, rows, rpos, assigned, var, rad, t_own, var_row, occ,
+             claimed) = self._step_views(M, n, k, p, no)
         else:
             d_pos = idx = np.zeros(0, dtype=np.int64)
             z, var, rad, occ = np.zeros((0, 2)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=bool)
@@ -246,7 +243,8 @@ class FleetTracker(FleetRows, FleetViews):
         vr = var_row if self._use_var else None  # (changed in place by the cycle: its unusable σ² replaced)
         used = self._cycle(rows, all_due, row_pos, t_o, zr, meas, vr)
         x = bank.state_rows
-        with_pts = np.array([pt is not None and d is not None for pt, d in zip(points, dets)], dtype=bool)
+        flags = [pt is not None and d is not None for pt, d in zip(points, dets)]
+        with_pts = self._every_scan(p) if all(flags) else np.array(flags, dtype=bool)
         c = self.cols  # (the cycled rows' gathers, management's record of the scan, last assignments and the
         # outlines' plan of the rows with returns: one call)
         outlines = self.outlines
@@ -288,10 +286,11 @@ class FleetTracker(FleetRows, FleetViews):
         if m:
             ids, det = ints[g:g + m], ints[g + m:g + 2 * m]
             f = ints[g + 2 * m:e].tolist()
-            for q in range(p):
+            la = self._last_assign
+            for q, o in enumerate(owners.tolist()):
                 a, b = f[q], f[q + 1]
                 if b > a:
-                    self._last_assign[owners[q]] = [(ids[a:b], det[a:b])]
+                    la[o] = [(ids, det, a, b)]
 
     def _step_buffers(self, S: int, n: int, p: int, no: int) -> tuple:
         """The step's buffers for :func:`step_inputs_into` (S detections, n rows, p scanning vessels, no
@@ -301,8 +300,35 @@ class FleetTracker(FleetRows, FleetViews):
         ni, nf = 2 * S + p + 4 * n, 2 * S + no + n
         if got is None or got[0].size < ni or got[1].shape[0] < S or got[2].size < nf or got[3].size < 2 * S:
             grow = lambda m: m + max(16, m // 2)
+            self._made_views.clear()  # (views of the old buffers)
             got = self._bufs = (np.empty(grow(ni), dtype=np.int64), np.empty((grow(S), 2)), np.empty(grow(nf)),
                                 np.empty(grow(2 * S), dtype=bool))
+        return got
+
+    def _step_views(self, M: int, n: int, k: int, p: int, no: int) -> tuple:
+        """The step's arrays as views of its buffers (:meth:`_step_buffers`, as :func:`step_inputs_into` wrote
+        them: M detections, n rows, k due rows, p scanning vessels, no vessels): (z, d_pos, idx, m_q, row_pos,
+        rows, rpos, assigned, var, rad, t_own, var_row, occ, claimed) — made once per sizes and buffers (a
+        tracker's steps repeat a few sizes), the same view objects for the same sizes."""
+        key = (M, n, k, p, no)
+        got = self._made_views.get(key)
+        if got is None:
+            ints, z, floats, flags = self._bufs
+            c = 2 * M + p
+            f = 2 * M + no
+            if len(self._made_views) >= 256:
+                self._made_views.clear()
+            got = self._made_views[key] = (
+                z[:M], ints[:M], ints[M:2 * M], ints[2 * M:c], ints[c:c + n], ints[c + n:c + n + k],
+                ints[c + n + k:c + n + 2 * k], ints[c + n + 2 * k:c + 2 * n + 2 * k], floats[:M], floats[M:2 * M],
+                floats[2 * M:f], floats[f:f + n], flags[:M], flags[M:2 * M])
+        return got
+
+    def _every_scan(self, p: int) -> np.ndarray:
+        """(p,) all True, made once per p (never written): every vessel of a step has its returns."""
+        got = self._all_true.get(p)
+        if got is None:
+            got = self._all_true[p] = np.ones(p, dtype=bool)
         return got
 
     def _meas_buffers(self, n: int) -> tuple:

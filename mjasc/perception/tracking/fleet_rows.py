@@ -60,12 +60,16 @@ class FleetRows:
             own = self.cols.owner[rows]
             rpos = pos_of[own]
             pos, cov = bank.positions[rows], bank.position_covariances[rows]
-        try:  # (every vessel's origin given, as the perception fleet does: one conversion)
-            org = np.array(origins, dtype=float)
-            if org.ndim != 2:
-                org = org.reshape(-1, 2)
-        except (TypeError, ValueError):
-            org = None
+        if (type(origins) is np.ndarray and origins.dtype == np.float64 and origins.ndim == 2
+                and origins.shape[1] == 2 and origins.flags.c_contiguous):
+            org = origins  # (the sensing pass's (p, 2) origins: read as they are)
+        else:
+            try:  # (every vessel's origin given, as the perception fleet does: one conversion)
+                org = np.array(origins, dtype=float)
+                if org.ndim != 2:
+                    org = org.reshape(-1, 2)
+            except (TypeError, ValueError):
+                org = None
         if org is None or org.shape[0] != len(origins):
             org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
         if rpos is None and self._drops_in_one_call and bank._side is not None:
@@ -149,7 +153,7 @@ class FleetRows:
             events = self.events[o]
             for tid, zj in zip(ll[a:b], zl[a:b]):
                 events.append(TrackEvent(t, "born", tid, f"track {tid} born at ({zj[0]:.1f}, {zj[1]:.1f}) m"))  # (as _fmt)
-            self._last_assign[o].append((local[a:b], dets[a:b]))
+            self._last_assign[o].append((local, dets, a, b))
             a = b
 
 

@@ -134,7 +134,8 @@ class FleetViews:
         pieces = self._last_assign[owner]
         if not pieces:
             return {}
-        ids, dets = np.concatenate([a for a, _ in pieces]), np.concatenate([b for _, b in pieces])
+        ids = np.concatenate([i[a:b] for i, _, a, b in pieces])
+        dets = np.concatenate([d[a:b] for _, d, a, b in pieces])
         return dict(zip(ids.tolist(), dets.tolist()))
 
     # ------------------------------------------------------------------ outputs

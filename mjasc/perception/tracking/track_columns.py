@@ -156,13 +156,17 @@ class TrackColumns:
 
     def kept(self, keep: np.ndarray, m: int) -> None:
         """After :func:`kept_columns` compacted the tables to the m rows where ``keep`` (n,) bool: the
-        object columns compacted (one numpy indexing of their rows from the first dropped one on: those
-        before it stay where they are; none when every row is kept) and the columns' views made."""
+        object columns compacted (one numpy selection of their rows from the first dropped one on: those
+        before it stay where they are; none when every row is kept; one row dropped, a step's common
+        drop: the rows after it moved up by one, a slice's copy) and the columns' views made."""
         n = self.n
         if m < n:
             f = int(keep.argmin())
             o = self._o
-            o[:, f:m] = o[:, f:n][:, keep[f:]]
+            if m == n - 1:
+                o[:, f:m] = o[:, f + 1:n]
+            else:
+                o[:, f:m] = o[:, f:n].compress(keep[f:], axis=1)  # (= [:, keep[f:]], fewer steps in numpy)
         self.n = m
         self._views()
 
