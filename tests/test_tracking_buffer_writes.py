@@ -122,3 +122,35 @@ def test_step_inputs_into_equals_step_inputs_on_random_detections(seed):
         for buf, want, fill in ((ints, ints_, -7), (z.reshape(-1), z_.reshape(-1), np.pi), (floats, floats_, np.pi),
                                 (flags, flags_, True)):
             assert _same(buf[:want.size], want) and (buf[want.size:] == fill).all()
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_position_jacobians_and_gate_terms_into_equal_their_numpy_forms(seed):
+    """position_jacobians_into and gate_terms_into (mjasc.perception.tracking.pair_kernels: what the association
+    buffers are written by) into buffers full of other values, against the numpy forms of ẑ, J, d² and det."""
+    from mjasc.perception.tracking.pair_kernels import gate_terms_into, position_jacobians_into
+
+    rng = np.random.default_rng(seed)
+    k, M = int(rng.integers(0, 12)), int(rng.integers(1, 8))
+    x, dt, dv, th = rng.normal(size=(k, 4)) * 20, rng.uniform(0, 1, k), rng.normal(size=k), rng.uniform(-4, 4, k)
+    c, s = np.cos(th), np.sin(th)
+    zhat, J = np.full((k + 2, 2), np.pi), np.full((k + 2, 2, 4), np.pi)
+    position_jacobians_into(x, dt, dv, c, s, zhat, J)
+    want_z = np.stack([x[:, 0] + dv * c, x[:, 1] + dv * s], axis=-1)
+    want_J = np.zeros((k, 2, 4))
+    want_J[:, 0, 0] = want_J[:, 1, 1] = 1.0
+    want_J[:, 0, 2], want_J[:, 0, 3], want_J[:, 1, 2], want_J[:, 1, 3] = -dv * s, dt * c, dv * c, dt * s
+    assert _same(zhat[:k], want_z) and _same(J[:k], want_J) and (zhat[k:] == np.pi).all() and (J[k:] == np.pi).all()
+    if k == 0:
+        return
+    P = int(rng.integers(0, 3 * k + 1))
+    g, db = rng.integers(0, k, P), rng.integers(0, M, P)
+    A = rng.normal(size=(k, 2, 2))
+    S, z, var = A @ np.swapaxes(A, 1, 2), rng.normal(size=(M, 2)) * 20, rng.uniform(0.1, 2, P)
+    d2, det = np.full(P + 1, np.pi), np.full(P + 1, np.pi)
+    gate_terms_into(g, want_z, S, db, z, var, d2, det)
+    a, b, d = S[g, 0, 0] + var, S[g, 0, 1], S[g, 1, 1] + var
+    dk = a * d - b * b
+    y0, y1 = z[db, 0] - want_z[g, 0], z[db, 1] - want_z[g, 1]
+    assert _same(d2[:P], (d * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / dk) and _same(det[:P], dk)
+    assert d2[P] == np.pi and det[P] == np.pi
