@@ -5,8 +5,10 @@ duplicates among the tracks kept.
 * :func:`loss_rows` — a tentative track that can no longer reach M of N; a confirmed track not seen
   for ``max_coast_s`` (code 1), whose 1-σ position uncertainty is too large (code 2), or beyond its
   sensor's range + margin (code 3);
-* :func:`drop_rows` — the losses, then the merges of close tracks of one vessel;
-* :func:`every_drop_rows`, :func:`every_drops_packed`, :func:`every_drops_into` — the same for every
+* :func:`drop_rows` — the losses, then the merges of close tracks of one vessel (:func:`drop_rows_into`:
+  its per-row arrays written into the caller's);
+* :func:`every_drop_rows`, :func:`every_drop_rows_into`, :func:`every_drops_packed`, :func:`every_drops_into`
+  — the same for every
   row of a fleet's tracker with each row's values gathered from its vessel's, returned as arrays, as
   packed arrays, or written into the caller's buffers (a fleet tracker's step);
 * :func:`lost_reason` — the sentence for a loss code, as the tracks' events report it.
@@ -23,7 +25,8 @@ import numpy as np
 from mjasc.core.compiled import kernel, maximum
 from mjasc.perception.tracking.pair_kernels import merge_candidates
 
-__all__ = ["lost_reason", "loss_rows", "drop_rows", "every_drop_rows", "every_drops_packed", "every_drops_into"]
+__all__ = ["lost_reason", "loss_rows", "drop_rows", "drop_rows_into", "every_drop_rows", "every_drop_rows_into",
+           "every_drops_packed", "every_drops_into"]
 
 
 def lost_reason(code: int, lam: float, since: float, rng: float) -> str:
@@ -82,6 +85,18 @@ def drop_rows(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcou
     lam = np.empty(k)
     since = np.empty(k)
     rng = np.empty(k)
+    go, kept = drop_rows_into(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcount, Pc, pos, org,
+                              max_range, window, hits, max_coast, max_var, margin, fraction, drop, code, lam, since,
+                              rng)
+    return drop, code, lam, since, rng, go, kept
+
+
+@kernel
+def drop_rows_into(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcount, Pc, pos, org, max_range,
+                   window, hits, max_coast, max_var, margin, fraction, drop, code, lam, since, rng):
+    """:func:`drop_rows` (arguments idx … fraction as there) with its (k,) arrays drop, code, lam, since,
+    rng written into the caller's (their first k rows): returns (go, kept)."""
+    k = idx.size
     loss_rows(idx, t, hist, scans, confirmed, last, popcount, Pc, pos, org, max_range, window, hits, max_coast,
               max_var, margin, drop, code, lam, since, rng)
     n_live = 0
@@ -91,7 +106,7 @@ def drop_rows(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcou
     go = np.empty(0, dtype=np.int64)
     kept = np.empty(0, dtype=np.int64)
     if n_live <= 1:
-        return drop, code, lam, since, rng, go, kept
+        return go, kept
     live = np.empty(n_live, dtype=np.int64)
     c = 0
     for j in range(k):
@@ -129,7 +144,7 @@ def drop_rows(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcou
             go[m] = go_
             kept[m] = keep_
             m += 1
-    return drop, code, lam, since, rng, go[:m], kept[:m]
+    return go[:m], kept[:m]
 
 
 @kernel
@@ -138,6 +153,23 @@ def every_drop_rows(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, 
     """:func:`drop_rows` of every row (idx = 0 … n − 1) with each row's time ``t_o[pos_of[group]]``,
     position ``x[:, :2]``, position covariance ``Pc[:, :2, :2]``, sensor origin ``org_o[pos_of[group]]``
     and range ``max_range_o[group]`` gathered first (:meth:`TrackManagement.drops_all`)."""
+    n = group.size
+    drop = np.empty(n, dtype=np.bool_)
+    code = np.empty(n, dtype=np.int8)
+    lam = np.empty(n)
+    since = np.empty(n)
+    rng = np.empty(n)
+    go, kept = every_drop_rows_into(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, confirmed, last,
+                                    n_upd, radius, popcount, window, hits, max_coast, max_var, margin, fraction, drop,
+                                    code, lam, since, rng)
+    return drop, code, lam, since, rng, go, kept
+
+
+@kernel
+def every_drop_rows_into(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, confirmed, last, n_upd, radius,
+                         popcount, window, hits, max_coast, max_var, margin, fraction, drop, code, lam, since, rng):
+    """:func:`every_drop_rows` (arguments group … fraction as there) with its (n,) arrays drop, code, lam,
+    since, rng written into the caller's (:func:`drop_rows_into`): returns (go, kept)."""
     n = group.size
     idx = np.arange(n)
     t = np.empty(n)
@@ -157,8 +189,8 @@ def every_drop_rows(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, 
         org[k, 0] = org_o[q, 0]
         org[k, 1] = org_o[q, 1]
         mr[k] = max_range_o[o]
-    return drop_rows(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcount, P, pos, org, mr, window,
-                     hits, max_coast, max_var, margin, fraction)
+    return drop_rows_into(idx, t, group, hist, scans, confirmed, last, n_upd, radius, popcount, P, pos, org, mr, window,
+                          hits, max_coast, max_var, margin, fraction, drop, code, lam, since, rng)
 
 
 @kernel
@@ -198,19 +230,36 @@ def every_drops_packed(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scan
 @kernel
 def every_drops_into(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, confirmed, last, n_upd, radius,
                      popcount, window, hits, max_coast, max_var, margin, fraction, drop, ints, vals):
-    """:func:`every_drops_packed` (arguments group … fraction as there) written into the first rows of the
-    caller's buffers drop (≥ n), ints and vals (flat: (3, L) row-major): (L, g, the number dropped) — g = −1
-    (nothing written) when ints or vals have no room."""
-    d_, i_, v_, L, g, n_drop = every_drops_packed(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans,
-                                                  confirmed, last, n_upd, radius, popcount, window, hits, max_coast,
-                                                  max_var, margin, fraction)
-    if i_.size > ints.size or 3 * L > vals.size:
+    """:func:`every_drops_packed` (arguments group … fraction as there) written straight into the first rows
+    of the caller's buffers drop (≥ n), ints and vals (flat: (3, L) row-major): (L, g, the number dropped)
+    — g = −1 (drop written, ints and vals not) when ints or vals have no room."""
+    n = group.size
+    code = np.empty(n, dtype=np.int8)
+    lam = np.empty(n)
+    since = np.empty(n)
+    rng = np.empty(n)
+    go, kept = every_drop_rows_into(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, confirmed, last,
+                                    n_upd, radius, popcount, window, hits, max_coast, max_var, margin, fraction, drop,
+                                    code, lam, since, rng)
+    L = 0
+    n_drop = 0
+    for j in range(n):
+        n_drop += drop[j]
+        if code[j] != 0 and confirmed[j]:
+            L += 1
+    g = go.size
+    if 2 * L + 2 * g > ints.size or 3 * L > vals.size:
         return L, -1, n_drop
-    for a in range(d_.size):
-        drop[a] = d_[a]
-    for a in range(i_.size):
-        ints[a] = i_[a]
-    for r in range(3):
-        for a in range(L):
-            vals[r * L + a] = v_[r, a]
+    a = 0
+    for j in range(n):
+        if code[j] != 0 and confirmed[j]:
+            ints[a] = j
+            ints[L + a] = code[j]
+            vals[a] = lam[j]
+            vals[L + a] = since[j]
+            vals[2 * L + a] = rng[j]
+            a += 1
+    for c in range(g):
+        ints[2 * L + c] = go[c]
+        ints[2 * L + g + c] = kept[c]
     return L, g, n_drop

@@ -48,7 +48,7 @@ import numpy as np
 from mjasc.core.compiled import kernel, maximum
 
 __all__ = ["block_pairs_loop", "block_pairs_flat", "broadcast_distances", "gate_terms", "merge_candidates",
-           "arc_midpoints", "position_jacobians"]
+           "arc_midpoints", "position_jacobians", "position_jacobians_into", "gate_terms_into"]
 
 
 @kernel
@@ -121,7 +121,14 @@ def gate_terms(g, zhat, S, db, z, var):
     p = g.size
     d2 = np.empty(p)
     det = np.empty(p)
-    for k in range(p):
+    gate_terms_into(g, zhat, S, db, z, var, d2, det)
+    return d2, det
+
+
+@kernel
+def gate_terms_into(g, zhat, S, db, z, var, d2, det):
+    """:func:`gate_terms` (arguments g … var as there) written into the first P rows of d2 and det."""
+    for k in range(g.size):
         r = g[k]
         m = db[k]
         a = S[r, 0, 0] + var[k]
@@ -132,7 +139,6 @@ def gate_terms(g, zhat, S, db, z, var):
         y1 = z[m, 1] - zhat[r, 1]
         d2[k] = (d * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / dk
         det[k] = dk
-    return d2, det
 
 
 @kernel
@@ -192,14 +198,23 @@ def position_jacobians(x, dt, dv, c, s):
     sine of θ_mid (module docstring)."""
     k = x.shape[0]
     zhat = np.empty((k, 2))
-    J = np.zeros((k, 2, 4))
-    for a in range(k):
+    J = np.empty((k, 2, 4))
+    position_jacobians_into(x, dt, dv, c, s, zhat, J)
+    return zhat, J
+
+
+@kernel
+def position_jacobians_into(x, dt, dv, c, s, zhat, J):
+    """:func:`position_jacobians` (arguments x … s as there, k rows) written into the first k rows of zhat
+    and J (every entry of J's rows: its zeros too)."""
+    for a in range(x.shape[0]):
         zhat[a, 0] = x[a, 0] + dv[a] * c[a]
         zhat[a, 1] = x[a, 1] + dv[a] * s[a]
         J[a, 0, 0] = 1.0
+        J[a, 0, 1] = 0.0
+        J[a, 1, 0] = 0.0
         J[a, 1, 1] = 1.0
         J[a, 0, 2] = -dv[a] * s[a]
         J[a, 0, 3] = dt[a] * c[a]
         J[a, 1, 2] = dv[a] * c[a]
         J[a, 1, 3] = dt[a] * s[a]
-    return zhat, J

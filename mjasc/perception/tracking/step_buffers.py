@@ -3,8 +3,9 @@ tracker keeps: the fused kernels of :mod:`mjasc.perception.tracking.step_fusions
 :func:`~mjasc.perception.tracking.step_fusions.predicted_pairs_packed`,
 :func:`~mjasc.perception.tracking.pair_kernels.position_jacobians`,
 :func:`~mjasc.perception.tracking.step_fusions.pair_gates` and
-:func:`~mjasc.perception.tracking.step_fusions.assign_pairs_packed` — run as they are and their arrays
-copied into the first rows of :class:`AssociationBuffers`, nothing returned but sizes: each array a
+:func:`~mjasc.perception.tracking.step_fusions.assign_pairs_packed` — with their values written into the
+first rows of :class:`AssociationBuffers` (from the unpacked kernels' arrays, or straight from the loops:
+the ``*_into`` forms of ``position_jacobians`` and ``gate_terms``), nothing returned but sizes: each array a
 kernel returns is a Python object made (~1.5 µs each, fourteen per step); the buffers' views are
 C-contiguous as the returned arrays were. The views are the step's arrays, valid until the next
 step (nothing keeps them). tests/test_tracking_step_buffers.py compares each with the returning form,
@@ -30,8 +31,8 @@ import numpy as np
 from mjasc.core.compiled import kernel
 from mjasc.core.small_products import sandwich_into
 from mjasc.perception.tracking.manoeuvre import manoeuvre_noise
-from mjasc.perception.tracking.pair_kernels import position_jacobians
-from mjasc.perception.tracking.step_fusions import assign_pairs_packed, pair_gates, predicted_pairs_packed
+from mjasc.perception.tracking.pair_kernels import gate_terms_into, position_jacobians_into
+from mjasc.perception.tracking.step_fusions import DB, GI, assign_pairs, predicted_pairs
 
 __all__ = ["AssociationBuffers", "predicted_pairs_into", "position_jacobians_into", "pair_gates_into",
            "assign_pairs_into", "gated_assignment_into", "gated_manoeuvres_into"]
@@ -75,17 +76,21 @@ def grown(bufs: AssociationBuffers | None, n_pairs: int, n_rows: int, p: int) ->
 @kernel
 def predicted_pairs_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, omega, active, Pc, t_o, row_pos,
                          blocks, pairs, var_p, xs, P, arcs):
-    """:func:`predicted_pairs_packed` (arguments rows … row_pos as there) written into the buffers blocks,
-    pairs (6·cap, flat), var_p, xs, P, arcs (3·k, flat) when they have room: (number of pairs, number of
-    grouped rows k, written) — nothing written when the buffers are too small (sizes returned)."""
-    b_, pr, vp, xs_, P_, ar = predicted_pairs_packed(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, omega,
-                                                     active, Pc, t_o, row_pos)
+    """:func:`~mjasc.perception.tracking.step_fusions.predicted_pairs_packed` (arguments rows … row_pos as
+    there) written into the buffers blocks, pairs (6·cap, flat), var_p, xs, P, arcs (3·k, flat) when they
+    have room, from :func:`~mjasc.perception.tracking.step_fusions.predicted_pairs`' arrays: (number of
+    pairs, number of grouped rows k, written) — nothing written when the buffers are too small (sizes
+    returned)."""
+    n_q, start, pr, vp, xs_, P_, dt, th, dv = predicted_pairs(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu,
+                                                              omega, active, Pc, t_o, row_pos)
     npairs = vp.size
     k = xs_.shape[0]
-    if npairs > var_p.size or k > xs.shape[0] or b_.size > blocks.size:
+    if npairs > var_p.size or k > xs.shape[0] or n_q.size + start.size > blocks.size:
         return npairs, k, False
-    for a in range(b_.size):
-        blocks[a] = b_[a]
+    for a in range(n_q.size):
+        blocks[a] = n_q[a]
+    for a in range(start.size):
+        blocks[n_q.size + a] = start[a]
     for r in range(6):
         for c in range(npairs):
             pairs[r * npairs + c] = pr[r, c]
@@ -96,51 +101,39 @@ def predicted_pairs_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, om
             xs[a, b] = xs_[a, b]
             for d in range(4):
                 P[a, b, d] = P_[a, b, d]
-    for r in range(3):
-        for a in range(k):
-            arcs[r * k + a] = ar[r, a]
+    for a in range(k):
+        arcs[a] = dt[a]
+        arcs[k + a] = th[a]
+        arcs[2 * k + a] = dv[a]
     return npairs, k, True
 
 
 @kernel
-def position_jacobians_into(xs, dt, dv, c, s, zhat, J):
-    """:func:`position_jacobians` (arguments xs … s as there, k rows) written into the first k rows of zhat
-    and J (every entry of J's rows: its zeros too)."""
-    zh, Jk = position_jacobians(xs, dt, dv, c, s)
-    for a in range(zh.shape[0]):
-        zhat[a, 0] = zh[a, 0]
-        zhat[a, 1] = zh[a, 1]
-        for b in range(2):
-            for d in range(4):
-                J[a, b, d] = Jk[a, b, d]
-
-
-@kernel
 def pair_gates_into(pairs, zhat, S, z, var_p, d2, det):
-    """:func:`pair_gates` (arguments pairs … var_p as there) written into the first P rows of d2 and det."""
-    d2_, det_ = pair_gates(pairs, zhat, S, z, var_p)
-    for c in range(d2_.size):
-        d2[c] = d2_[c]
-        det[c] = det_[c]
+    """:func:`~mjasc.perception.tracking.step_fusions.pair_gates` (arguments pairs … var_p as there) written
+    into the first P rows of d2 and det (:func:`~mjasc.perception.tracking.pair_kernels.gate_terms_into`)."""
+    gate_terms_into(pairs[GI], zhat, S, pairs[DB], z, var_p, d2, det)
 
 
 @kernel
 def assign_pairs_into(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row, claimed, t_o, row_pos, inside,
                       cost, rows, vals):
-    """:func:`assign_pairs_packed` (arguments d2 … row_pos as there; assigned, var_row, claimed written in
-    place as there) with its arrays written into the first rows of inside, cost (P), rows (h + m) and vals
-    (2·m, flat: d2_hit then t_hit): (h, m)."""
-    ins, cst, rw, vl, h = assign_pairs_packed(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row, claimed,
-                                              t_o, row_pos)
+    """:func:`~mjasc.perception.tracking.step_fusions.assign_pairs_packed` (arguments d2 … row_pos as there;
+    assigned, var_row, claimed written in place as there) with its arrays written into the first rows of
+    inside, cost (P), rows (h + m) and vals (2·m, flat: d2_hit then t_hit), from
+    :func:`~mjasc.perception.tracking.step_fusions.assign_pairs`' arrays: (h, m)."""
+    ins, cst, hard, hit, d2g, t_hit = assign_pairs(d2, log_det, gate, pairs, start, n_b, var_p, assigned, var_row,
+                                                   claimed, t_o, row_pos)
     for c in range(ins.size):
         inside[c] = ins[c]
         cost[c] = cst[c]
-    for a in range(rw.size):
-        rows[a] = rw[a]
-    m = rw.size - h
+    h, m = hard.size, hit.size
+    for a in range(h):
+        rows[a] = hard[a]
     for a in range(m):
-        vals[a] = vl[0, a]
-        vals[m + a] = vl[1, a]
+        rows[h + a] = hit[a]
+        vals[a] = d2g[a]
+        vals[m + a] = t_hit[a]
     return h, m
 
 

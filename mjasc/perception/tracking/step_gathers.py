@@ -74,21 +74,39 @@ def step_inputs(m_all, sel, centres, variances, radii, occluded, use_var, owner,
     there) and then :func:`step_rows` of its detections (owner … dets as there): (ints, z, floats, flags,
     all_due, k) — ints (2M + p + n + 2k + n,) int64: d_pos, idx (M,), m_q (p,), row_pos (n,), rows, rpos
     (k,), assigned (n,); z (M, 2); floats (2M + n_owners + n,): var, rad (M,), t_own (n_owners,), var_row
-    (n,); flags (2M,) bool: occ, claimed (M,) (the same values as the two calls' arrays)."""
-    d_pos, idx, z, var, rad, occ, m_q = select_detections(m_all, sel, centres, variances, radii, occluded, use_var, R)
-    M = z.shape[0]
+    (n,); flags (2M,) bool: occ, claimed (M,) (the same values as the two calls' arrays; the returning
+    form of :func:`step_inputs_into`, into buffers of the largest sizes, sliced)."""
+    S, p, n = sel.size, owners.size, owner.size
+    ints = np.empty(2 * S + p + 4 * n, dtype=np.int64)
+    z = np.empty((S, 2))
+    floats = np.empty(2 * S + n_owners + n)
+    flags = np.empty(2 * S, dtype=np.bool_)
+    M, all_due, k = step_inputs_into(m_all, sel, centres, variances, radii, occluded, use_var, owner, pos_of, every,
+                                     owners, t_o, n_owners, counts, scans, dets, R, ints, z, floats, flags)
+    return (ints[:2 * M + p + 2 * n + 2 * k], z[:M], floats[:2 * M + n_owners + n], flags[:2 * M], all_due, k)
+
+
+@kernel
+def step_inputs_into(m_all, sel, centres, variances, radii, occluded, use_var, owner, pos_of, every, owners, t_o,
+                     n_owners, counts, scans, dets, R, ints, z, floats, flags):
+    """:func:`step_inputs` (arguments m_all … R as there) written straight into the first rows of the
+    caller's buffers ints, z, floats, flags (at least 2·S + p + 4n, (S, 2), 2·S + n_owners + n and 2·S
+    rows, S = sel.size; nothing returned but sizes — each array a kernel returns is a Python object made):
+    (M, all_due, k), the arrays' first 2M + p + 2n + 2k, M, 2M + n_owners + n and 2M rows those of
+    step_inputs."""
+    d_pos, idx, z_, var, rad, occ, m_q = select_detections(m_all, sel, centres, variances, radii, occluded, use_var, R)
+    M = z_.shape[0]
     t_own, row_pos, all_due, rows, rpos, claimed, assigned, var_row = step_rows(owner, pos_of, every, owners, t_o,
                                                                                 n_owners, counts, scans, dets, m_q, M,
                                                                                 R)
     p = m_q.size
     n = owner.size
     k = rows.size
-    ints = np.empty(2 * M + p + 2 * n + 2 * k, dtype=np.int64)
-    floats = np.empty(2 * M + n_owners + n)
-    flags = np.empty(2 * M, dtype=np.bool_)
     for a in range(M):
         ints[a] = d_pos[a]
         ints[M + a] = idx[a]
+        z[a, 0] = z_[a, 0]
+        z[a, 1] = z_[a, 1]
         floats[a] = var[a]
         floats[M + a] = rad[a]
         flags[a] = occ[a]
@@ -110,29 +128,6 @@ def step_inputs(m_all, sel, centres, variances, radii, occluded, use_var, owner,
         floats[2 * M + a] = t_own[a]
     for a in range(n):
         floats[2 * M + n_owners + a] = var_row[a]
-    return ints, z, floats, flags, all_due, k
-
-
-@kernel
-def step_inputs_into(m_all, sel, centres, variances, radii, occluded, use_var, owner, pos_of, every, owners, t_o,
-                     n_owners, counts, scans, dets, R, ints, z, floats, flags):
-    """:func:`step_inputs` (arguments m_all … R as there) written into the first rows of the caller's
-    buffers ints, z, floats, flags (at least 2·S + p + 4n, (S, 2), 2·S + n_owners + n and 2·S rows,
-    S = sel.size; nothing returned but sizes — each array a kernel returns is a Python object made):
-    (M, all_due, k), the arrays' first 2M + p + 2n + 2k, M, 2M + n_owners + n and 2M rows those of
-    step_inputs."""
-    i_, z_, f_, b_, all_due, k = step_inputs(m_all, sel, centres, variances, radii, occluded, use_var, owner, pos_of,
-                                             every, owners, t_o, n_owners, counts, scans, dets, R)
-    M = z_.shape[0]
-    for a in range(i_.size):
-        ints[a] = i_[a]
-    for a in range(M):
-        z[a, 0] = z_[a, 0]
-        z[a, 1] = z_[a, 1]
-    for a in range(f_.size):
-        floats[a] = f_[a]
-    for a in range(b_.size):
-        flags[a] = b_[a]
     return M, all_due, k
 
 
