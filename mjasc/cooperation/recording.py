@@ -110,9 +110,11 @@ class CommsLog:
         # the sender to halfway (the same numbers as a line per pair).
         at_delivered, colours, at_lost = self._gathers(recorder, delivered, lost)
         recorder.strips("world/comms/delivered", t_s, p[at_delivered], z=_Z, colours=colours)
-        ends = p[at_lost]
-        recorder.strips("world/comms/lost", t_s, np.stack([ends[:, 0], 0.5 * (ends[:, 0] + ends[:, 1])], axis=1),
-                        z=_Z)
+        halfway = ()  # (no lost message: the same empty row without the gather)
+        if lost:
+            ends = p[at_lost]
+            halfway = np.stack([ends[:, 0], 0.5 * (ends[:, 0] + ends[:, 1])], axis=1)
+        recorder.strips("world/comms/lost", t_s, halfway, z=_Z)
 
     def _gathers(self, recorder, delivered: tuple, lost: tuple) -> tuple:
         """The vessel indices (m, 2) of the delivered and lost pairs and the delivered lines'

@@ -193,8 +193,9 @@ class PerceptionLog:
                           entity=f"tracking_events/{vessel_name}")
         if p._log_events:
             p._log_events = []
-        version = p._map.version  # (p.map without its flush: done by p.scan)
-        if version != self._logged_map_version and (full or t_s - self._last_map_log >= MAP_LOG_PERIOD_S - 1e-9):
+        # (the period first: the map's version, p.map's without its flush — done by p.scan —, only when due)
+        if (full or t_s - self._last_map_log >= MAP_LOG_PERIOD_S - 1e-9) and \
+                (version := p._map.version) != self._logged_map_version:
             self._logged_map_version, self._last_map_log = version, t_s
             rec.strips(f"{base}/static_map", t_s, [np.vstack([q, q[:1]]) for q in p._map.polygons()], z=0.4)
 

@@ -342,14 +342,17 @@ class VesselAgent:
         return events
 
     def log(self, recorder, t_s: float) -> None:
-        for c in (self.perception, self.coordination, self.avoidance, self.mission):  # (components())
-            if c is None:
-                continue
-            if c is self.avoidance:  # (the guidance state only for a method that draws it now: ``logs_guidance``)
-                c.log(recorder, t_s, self.name,
-                      guidance=self.guidance_state() if getattr(c, "logs_guidance", True) else None)
-            else:
-                c.log(recorder, t_s, self.name)
+        """Each component logs itself, in the order of :meth:`components` (unrolled: a call per
+        vessel and record tick)."""
+        name = self.name
+        if (c := self.perception) is not None:
+            c.log(recorder, t_s, name)
+        if (c := self.coordination) is not None:
+            c.log(recorder, t_s, name)
+        if (c := self.avoidance) is not None:  # (the guidance state only for a method that draws it now)
+            c.log(recorder, t_s, name, guidance=self.guidance_state() if getattr(c, "logs_guidance", True) else None)
+        if (c := self.mission) is not None:
+            c.log(recorder, t_s, name)
 
 
 def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray, team_names, network,

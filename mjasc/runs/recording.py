@@ -177,7 +177,9 @@ class Recorder(VesselSeries):
         times, values = self._scalars[entity]
         times.append(t_s)
         values.append(float(value))
-        self._count(1)
+        self._pending += 1  # (_count(1) inlined)
+        if self._pending >= FLUSH_ROWS:
+            self.flush()
 
     def points(self, entity: str, t_s: float, positions_xy: np.ndarray, z: float = 0.0, labels=None) -> None:
         """A row of points (world xy [m] at height z); ``labels`` (one per point) in the same row.
@@ -187,7 +189,9 @@ class Recorder(VesselSeries):
         times.append(t_s)
         rows.append(np.asarray(positions_xy, dtype=np.float64).reshape(-1, 2))
         label_rows.append(None if labels is None else list(labels))
-        self._count(1)
+        self._pending += 1  # (_count(1) inlined: a call per vessel and record tick)
+        if self._pending >= FLUSH_ROWS:
+            self.flush()
 
     def strips(self, entity: str, t_s: float, strips_xy: list[np.ndarray], z: float = 0.0, colours=None) -> None:
         """A row of line strips (each (m, 2) world xy [m], or an array (k, m, 2) of k strips) at height
