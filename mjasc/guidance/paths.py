@@ -25,6 +25,7 @@ from bisect import bisect_right
 import numpy as np
 
 from mjasc.core.frames import wrap_angle
+from mjasc.guidance.path_kernels import points_into
 from mjasc.guidance.path_segments import (CONTINUITY_TOLERANCE_M, DUPLICATE_TOLERANCE_M, ArcSegment,
                                          LineSegment, as_point, xy_of)
 from mjasc.guidance.waypoint_paths import waypoint_segments
@@ -187,6 +188,11 @@ class Path:
             return np.array(point_scalar(*self._locate_scalar(gamma)))
         if isinstance(gamma, np.ndarray) and gamma.ndim == 1 and gamma.size <= _SCALAR_SEGMENTS:
             return np.array([point_scalar(*self._locate_scalar(g)) for g in gamma.tolist()]).reshape(-1, 2)
+        if type(gamma) is np.ndarray:  # the formula below per γ in one compiled pass (path_kernels)
+            g = np.asarray(gamma, dtype=float)
+            out = np.empty(g.shape + (2,))
+            points_into(self._table, self._cum, self._length, g.reshape(-1), out.reshape(-1, 2))
+            return out
         _, idx, s = self._locate(gamma)
         table = self._table
         if not self._arcs:  # lines only: eval_points' line formula on the three fields it reads

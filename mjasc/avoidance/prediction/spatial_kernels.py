@@ -9,9 +9,9 @@ end (the midpoints are 0.5 (a + b) of the same brackets). Here each bisection is
 with the gap of one midpoint as the numpy form computes it, operation for operation:
 
 - the **stretch's ends** (:func:`stretch_end`): the distance from the path's point at γ to the
-  obstacle's swept polyline minus R_col — ``Path.point`` (γ clipped to [0, L], its segment the
-  last start ≤ γ, a line's p₀ + s (cos θ₀, sin θ₀), an arc's p₀ + (sin θ − sin θ₀, cos θ₀ −
-  cos θ) / κ with θ = θ₀ + κ s) then :func:`~mjasc.avoidance.prediction.sweep_kernels.polyline_distance`;
+  obstacle's swept polyline minus R_col — ``Path.point``
+  (:func:`~mjasc.guidance.path_kernels.path_point`) then
+  :func:`~mjasc.avoidance.prediction.sweep_kernels.polyline_distance`;
 - the **interval's ends** (:func:`interval_end`): the distance from a constant-turn track's
   position at t (``TrackEstimate.predict_positions``: static or v = 0 its position; |ω| < 1e-9
   x₀ + (v τ) cos θ; else x₀ + (v/ω)(sin(θ + ω τ) − sin θ), y₀ − (v/ω)(cos(θ + ω τ) − cos θ),
@@ -30,30 +30,12 @@ import numpy as np
 
 from mjasc.avoidance.prediction.path_distance import _FEW_SEGMENTS, open_segments, point_distance
 from mjasc.avoidance.prediction.sweep_kernels import polyline_distance
-from mjasc.core.compiled import clip, kernel, search_right
-from mjasc.guidance.segment_geometry import COS0, K, SIN0, TH0, X0, Y0
+from mjasc.core.compiled import kernel
+from mjasc.guidance.path_kernels import path_point
 
 __all__ = ["stretch_end", "interval_end"]
 
 _STEPS = 100  # _bisect's limit on halvings
-
-
-@kernel
-def _path_point(table, cum, length, g):
-    """``Path.point`` of one γ [m] (the path's table, its segment starts and end ``cum`` (n + 1,)
-    and its length): (x, y) [m]."""
-    n_seg = cum.size - 1
-    g = clip(g, 0.0, length)
-    if g != g:  # searchsorted sorts NaN last
-        j = n_seg - 1
-    else:
-        j = min(max(search_right(cum, g, 0, cum.size) - 1, 0), n_seg - 1)
-    s = g - cum[j]
-    k = table[K, j]
-    if k == 0.0:
-        return table[X0, j] + s * table[COS0, j], table[Y0, j] + s * table[SIN0, j]
-    th = table[TH0, j] + k * s
-    return table[X0, j] + (math.sin(th) - table[SIN0, j]) / k, table[Y0, j] + (table[COS0, j] - math.cos(th)) / k
 
 
 @kernel
@@ -64,7 +46,7 @@ def stretch_end(table, cum, length, q, r_col, g_in, g_out, tol):
     steps = 0
     while steps < _STEPS and abs(g_out - g_in) > tol:
         m = 0.5 * (g_in + g_out)
-        x, y = _path_point(table, cum, length, m)
+        x, y = path_point(table, cum, length, m)
         if polyline_distance(x, y, q) - r_col <= 0.0:
             g_in = m
         else:
