@@ -48,6 +48,39 @@ def test_the_plan_table_gives_each_plans_positions_across_calls_and_restarts():
         assert plans.t_first.size <= 12 + 7
 
 
+def test_the_plan_tables_rows_hold_the_numbers_of_stacked_plans():
+    """Each row a table writes in one compiled pass (:func:`team_plans._stack_into`) holds, field for
+    field, the numbers :class:`_StackedPlans` makes for its intention (knot offsets shifted to the
+    table's columns): plans of 0, 1 and many knots, repeated and non-finite knot times, across
+    batches, growth and restarts; intentions whose arrays are not float64 take the readable form."""
+    rng = np.random.default_rng(6)
+    pool = _intentions(rng, 24)
+    for k in (3, 7):  # one knot: no plan
+        pool[k] = replace(pool[k], plan_times_s=pool[k].plan_times_s[:1], plan_points_m=pool[k].plan_points_m[:1])
+    for k in (5, 9):  # the last two knots at one time, a NaN knot time
+        ts = pool[k].plan_times_s.copy()
+        ts[-1] = ts[-2] if k == 5 else np.nan
+        pool[k] = replace(pool[k], plan_times_s=ts)
+    pool.append(replace(pool[1], plan_times_s=pool[1].plan_times_s.astype(np.float32)))  # (the readable form)
+    table = _PlanTable()
+    table._MAX_ROWS = 30
+    checked = 0
+    for call in range(25):
+        its = [pool[k] for k in rng.choice(len(pool), int(rng.integers(1, 9)))]
+        plans, rows = table.rows(its)
+        for it, r in zip(its, rows.tolist()):
+            ref = _StackedPlans([it])
+            for name in ("start", "count", "t_first", "t_last", "anchor", "t_anchor", "vel", "p_last", "v_end"):
+                want = getattr(ref, name)[0] + (plans.start[r] if name == "start" else 0)
+                assert np.asarray(getattr(plans, name)[r]).tobytes() == np.asarray(want).astype(
+                    getattr(plans, name).dtype).tobytes(), (name, call)
+            a, c = plans.start[r], plans.count[r]
+            for name in ("ts", "xs", "ys"):
+                assert getattr(plans, name)[a:a + c].tobytes() == getattr(ref, name).astype(np.float64).tobytes()
+            checked += 1
+    assert checked > 80
+
+
 def test_track_motions_and_intention_positions_read_the_shared_table():
     rng = np.random.default_rng(4)
     its = _intentions(rng, 9)
