@@ -9,7 +9,7 @@ from pathlib import Path as FilePath
 import numpy as np
 
 from mjasc.guidance.paths import Path
-from mjasc.guidance.segment_geometry import COS0, SIN0, X0, Y0, eval_points
+from mjasc.guidance.segment_geometry import COS0, K, SIN0, X0, Y0, eval_points
 from mjasc.runs.runner import Runner
 from mjasc.runs.scenario import load_scenario
 
@@ -20,7 +20,7 @@ def _reference_points(path, gamma):
     """Path.point's numpy form for an array of γ (the form the kernel replaced)."""
     _, idx, s = path._locate(gamma)
     table = path._table
-    if not path._arcs:
+    if not np.any(table[K] != 0.0):  # (lines only)
         out = np.empty(np.shape(s) + (2,))
         np.add(table[X0][idx], s * table[COS0][idx], out=out[..., 0])
         np.add(table[Y0][idx], s * table[SIN0][idx], out=out[..., 1])
