@@ -48,6 +48,39 @@ def test_the_plan_table_gives_each_plans_positions_across_calls_and_restarts():
         assert plans.t_first.size <= 12 + 7
 
 
+def test_the_plan_tables_rows_hold_the_numbers_of_stacked_plans():
+    """Each row a table writes in one compiled pass (:func:`team_plans._stack_into`) holds, field for
+    field, the numbers :class:`_StackedPlans` makes for its intention (knot offsets shifted to the
+    table's columns): plans of 0, 1 and many knots, repeated and non-finite knot times, across
+    batches, growth and restarts; intentions whose arrays are not float64 take the readable form."""
+    rng = np.random.default_rng(6)
+    pool = _intentions(rng, 24)
+    for k in (3, 7):  # one knot: no plan
+        pool[k] = replace(pool[k], plan_times_s=pool[k].plan_times_s[:1], plan_points_m=pool[k].plan_points_m[:1])
+    for k in (5, 9):  # the last two knots at one time, a NaN knot time
+        ts = pool[k].plan_times_s.copy()
+        ts[-1] = ts[-2] if k == 5 else np.nan
+        pool[k] = replace(pool[k], plan_times_s=ts)
+    pool.append(replace(pool[1], plan_times_s=pool[1].plan_times_s.astype(np.float32)))  # (the readable form)
+    table = _PlanTable()
+    table._MAX_ROWS = 30
+    checked = 0
+    for call in range(25):
+        its = [pool[k] for k in rng.choice(len(pool), int(rng.integers(1, 9)))]
+        plans, rows = table.rows(its)
+        for it, r in zip(its, rows.tolist()):
+            ref = _StackedPlans([it])
+            for name in ("start", "count", "t_first", "t_last", "anchor", "t_anchor", "vel", "p_last", "v_end"):
+                want = getattr(ref, name)[0] + (plans.start[r] if name == "start" else 0)
+                assert np.asarray(getattr(plans, name)[r]).tobytes() == np.asarray(want).astype(
+                    getattr(plans, name).dtype).tobytes(), (name, call)
+            a, c = plans.start[r], plans.count[r]
+            for name in ("ts", "xs", "ys"):
+                assert getattr(plans, name)[a:a + c].tobytes() == getattr(ref, name).astype(np.float64).tobytes()
+            checked += 1
+    assert checked > 80
+
+
 def test_track_motions_and_intention_positions_read_the_shared_table():
     rng = np.random.default_rng(4)
     its = _intentions(rng, 9)
@@ -317,12 +350,56 @@ def test_farther_than_equals_the_distance_of_at_for_straight_turning_static_and_
                     _farther_reference(m, rows, times, pos, limit)
 
 
+def _farther_by_id_reference(motions, row_ids, ids, times, pos, limit):
+    """The control tick's selection (an id → row mapping filled in row order, unknown ids skipped),
+    then :func:`_farther_reference` of the known rows."""
+    row = {i: k for k, i in enumerate(row_ids)}
+    sel = [(row[i], k) for k, i in enumerate(ids) if i in row]
+    if not sel:
+        return False
+    rows, ks = zip(*sel)
+    return _farther_reference(motions, list(rows), [times[k] for k in ks], [pos[k] for k in ks], limit)
+
+
+def test_farther_by_id_equals_the_selection_then_the_distance_of_at():
+    """``TrackMotions.farther_by_id`` (the id look-ups and the distances in one compiled pass)
+    answers as the control tick's id → row selection then ``np.hypot`` of ``at``, with ids unknown,
+    repeated on rows, and limits at the distances themselves; None when a known row is a plan."""
+    rng = np.random.default_rng(22)
+    its = _intentions(rng, 3)
+    tracks = [TrackEstimate(k, 49.0 + 0.1 * k, rng.uniform(-40, 40, 2), rng.uniform(-3, 3), rng.uniform(0, 3),
+                            float(rng.choice([0.0, 0.0, 0.03, -0.02])), 2.0, is_static=bool(k % 5 == 4))
+              for k in range(12)]
+    planned = [PlannedTrack(20 + k, it.sent_time_s, it.position_m, 0.0, 1.0, 0.0, 1.5, team_member=it.name,
+                            intention=it) for k, it in enumerate(its)]
+    m = TrackMotions(tracks + planned)
+    row_ids = [3 * k - 7 for k in range(12)] + [40, 41, 42]
+    row_ids[5] = row_ids[9]  # an id on two rows: the later one answers
+    known = np.array(row_ids, dtype=np.int64)
+    n_checked = 0
+    for trial in range(300):
+        ids = rng.choice(np.array(row_ids[:12] + [-100, 1000, 2]), size=int(rng.integers(1, 7)))
+        times = 50.0 + rng.uniform(0.0, 3.0, ids.size)
+        rows = [max(k for k, i in enumerate(row_ids) if i == j) if j in row_ids else 0 for j in ids.tolist()]
+        pos = m.at(np.array(rows), times[:, None])[:, 0] + rng.normal(0.0, 1.0, (ids.size, 2))
+        d = np.hypot(*(m.at(np.array(rows), times[:, None])[:, 0] - pos).T)
+        for limit in (0.5, 2.0, float(d.max()), float(np.nextafter(d.max(), -np.inf)), float(d.min())):
+            got = m.farther_by_id(known, ids, times, pos, limit)
+            assert got == _farther_by_id_reference(m, row_ids, ids.tolist(), times.tolist(), list(pos), limit)
+            n_checked += 1
+    for j in (40, 41, 42):  # a known row on a plan: None (the caller takes the mapping's way)
+        assert m.farther_by_id(known, np.array([0, j]), np.array([50.0, 50.5]), np.zeros((2, 2)), 1.0) is None
+    assert m.farther_by_id(known, np.array([1000]), np.array([50.0]), np.zeros((1, 2)), 1.0) is False
+    assert n_checked == 1500
+
+
 def test_deviation_checks_on_the_demo_equal_the_reference_form(monkeypatch):
-    """Every deviation check of the demo's control ticks (60 s) answers as ``np.hypot`` of ``at``."""
+    """Every deviation check of the demo's control ticks (60 s) answers as ``np.hypot`` of ``at``
+    (by id: after the id → row selection)."""
     import mjasc
     from mjasc.runs.runner import Runner
 
-    farther, seen = TrackMotions.farther_than, []
+    farther, by_id, seen = TrackMotions.farther_than, TrackMotions.farther_by_id, []
 
     def checked(self, rows, times, pos, limit):
         got = farther(self, rows, times, pos, limit)
@@ -330,7 +407,16 @@ def test_deviation_checks_on_the_demo_equal_the_reference_form(monkeypatch):
         seen.append(got)
         return got
 
+    def checked_by_id(self, row_ids, ids, times, pos, limit):
+        got = by_id(self, row_ids, ids, times, pos, limit)
+        if got is not None:
+            assert got == _farther_by_id_reference(self, row_ids.tolist(), ids.tolist(), times.tolist(), list(pos),
+                                                   limit)
+            seen.append(got)
+        return got
+
     monkeypatch.setattr(TrackMotions, "farther_than", checked)
+    monkeypatch.setattr(TrackMotions, "farther_by_id", checked_by_id)
     sc = mjasc.load_scenario("demo").with_overrides(duration_s=60.0, video=False)
     Runner(replace(sc, outputs=replace(sc.outputs, recording=False))).run()
     assert len(seen) > 100

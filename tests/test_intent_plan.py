@@ -2,6 +2,7 @@
 points bit for bit: on the demo's paths (lines and arcs, every γ, with and without a velocity
 correction) and on every plan the demo broadcasts."""
 
+import math
 from dataclasses import replace
 from types import SimpleNamespace
 
@@ -64,6 +65,17 @@ def test_the_compiled_plan_equals_the_numpy_form_on_the_demos_paths():
                     np.testing.assert_array_equal(got[1], ref[1])
                     n += 1
     assert n > 1000
+
+
+def test_the_kernels_sine_and_cosine_are_numpys_here():
+    """The kernel takes the arc angles' sine and cosine by ``math`` where the numpy form took
+    ``np.sin`` / ``np.cos`` of the angles' array: the same bits on this machine class
+    (docs/architecture.md, compiled kernels); a machine where they differ fails here."""
+    rng = np.random.default_rng(4)
+    th = np.concatenate([rng.uniform(-10.0, 10.0, 200_000), rng.uniform(-1e4, 1e4, 20_000),
+                         np.linspace(-np.pi, np.pi, 10_001)])
+    assert np.sin(th).tobytes() == np.array([math.sin(x) for x in th.tolist()]).tobytes()
+    assert np.cos(th).tobytes() == np.array([math.cos(x) for x in th.tolist()]).tobytes()
 
 
 def test_short_plans_and_bad_speeds_are_left_to_the_numpy_form():

@@ -18,6 +18,8 @@ from __future__ import annotations
 import math
 from operator import attrgetter
 
+import numpy as np
+
 from mjasc.avoidance.prediction import TrackMotions
 from mjasc.core.estimates import TrackRows, track_columns
 from mjasc.guidance.segment_geometry import wrap_scalar
@@ -25,6 +27,7 @@ from mjasc.guidance.segment_geometry import wrap_scalar
 __all__ = ["ControlTick"]
 
 _TRACK_ID = attrgetter("track_id")
+_INT64 = 2 ** 63
 
 
 class ControlTick:
@@ -108,11 +111,23 @@ class ControlTick:
         else:
             ids, times, pos = track_columns(tracks)
         self._checked_tracks = tracks
-        if self._predicted_motion is None:
+        motion = self._predicted_motion
+        if motion is None:
             from_broadcast = self.team_mates.predicted_names()
             checked = [tr for tr in self._predicted_tracks.values() if tr.team_member not in from_broadcast]
-            self._predicted_motion = TrackMotions(checked)
+            motion = self._predicted_motion = TrackMotions(checked)
             self._predicted_row = {tr.track_id: k for k, tr in enumerate(checked)}
+            row_ids = [tr.track_id for tr in checked]  # (int64 for the compiled pass when they fit)
+            self._predicted_ids = np.array(row_ids, dtype=np.int64) if all(
+                type(i) is int and -_INT64 <= i < _INT64 for i in row_ids) else None
+        # The rows' ids, times and positions in one compiled pass when the ids are integers (as
+        # the row mapping below answers; a known row on a plan: that mapping's way)
+        ids_arr = None if self._predicted_ids is None else np.array(ids)
+        if ids_arr is not None and ids_arr.dtype == np.int64 and ids_arr.ndim == 1:
+            far = motion.farther_by_id(self._predicted_ids, ids_arr, np.array(times, dtype=float),
+                                       np.asarray(pos, dtype=float).reshape(-1, 2), self.config.track_deviation_m)
+            if far is not None:
+                return far
         row = self._predicted_row
         sel = [(row[i], k) for k, i in enumerate(ids) if i in row]
         if not sel:

@@ -5,17 +5,19 @@ A vessel with the thesis avoidance broadcasts, every comms slot, where it intend
 times t + (0, step, …, horizon) [s], γ(t) along its current path (the mission speed, or the
 velocity correction's virtual target until its goal time), the path's points there and the
 vessel's offset from the path fading out over 10 s. As numpy that is ~25 calls on arrays of ~61
-numbers per message; here it is one kernel for the times, γ, the segment of each point and the
-arc angle θ = θ₀ + κ s, numpy's sin and cos of θ (trigonometry on arrays stays numpy, see
-docs/architecture.md "Rates and numerics"; skipped when no point lies on an arc), and one kernel
-for the points and the fade. Each operation is the numpy form's, in its order
-(``tests/test_intent_plan.py`` compares bit for bit on the demo's paths).
+numbers per message; here it is one kernel for the times, γ, the segment of each point, the arc
+angle θ = θ₀ + κ s with its sine and cosine by ``math`` (numpy's bits on this machine class,
+docs/architecture.md "Rates and numerics": the test asserts it), the points and the fade. Each
+operation is the numpy form's, in its order (``tests/test_intent_plan.py`` compares bit for bit
+on the demo's paths).
 
 Only for a :class:`~mjasc.guidance.paths.Path` with more than ``_SCALAR_SEGMENTS`` samples (fewer
 go through the path's plain-float branch; the caller keeps the numpy form for those).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -27,7 +29,6 @@ from mjasc.guidance.segment_geometry import COS0, K, SIN0, TH0, X0, Y0
 __all__ = ["plan_offsets", "planned_points"]
 
 _OFFSETS: dict = {}
-_SCRATCH: dict = {}  # sample count → planned_points' work arrays (not handed out)
 
 
 def plan_offsets(horizon_s: float, step_s: float) -> np.ndarray:
@@ -42,15 +43,16 @@ def plan_offsets(horizon_s: float, step_s: float) -> np.ndarray:
 
 
 @kernel
-def _plan_angles(t, base, g0, mode, a, b, c, d, length, cum, table, times, s_out, idx_out, th_out):
+def _plan_into(t, base, g0, mode, a, b, c, d, length, cum, table, px, py, times, out):
     """Per sample i: t_i = t + base_i; γ_i = g0 + a (t_i − t) (``mode`` 0: constant speed a) or
     g0 + a·clip(t_i − t, 0, b) + c·max(t_i − d, 0) (``mode`` 1: the correction's profile), clipped to
     [0, length] (twice, as the caller and the path do); its segment j (the last start ≤ γ, as
-    ``searchsorted(…, 'right') − 1``, clipped), s_i = γ_i − C_j and θ_i = θ₀ + κ s_i. Returns
-    whether any sample lies on an arc."""
+    ``searchsorted(…, 'right') − 1``, clipped), s_i = γ_i − C_j; the path's point there (a line:
+    p₀ + s (cos θ₀, sin θ₀); an arc: p₀ + (sin θ − sin θ₀, cos θ₀ − cos θ) / κ, θ = θ₀ + κ s); then
+    each point plus clip(1 − (t_i − t)/10, 0, 1) × (the vessel's position − the first point)."""
     n_seg = cum.size - 1
-    on_arc = False
-    for i in range(base.size):
+    n = base.size
+    for i in range(n):
         ti = t + base[i]
         times[i] = ti
         if mode == 0:
@@ -63,30 +65,14 @@ def _plan_angles(t, base, g0, mode, a, b, c, d, length, cum, table, times, s_out
         else:
             j = min(max(search_right(cum, g, 0, cum.size) - 1, 0), n_seg - 1)
         s = g - cum[j]
-        idx_out[i] = j
-        s_out[i] = s
         k = table[K, j]
         if k != 0.0:
-            on_arc = True
-        th_out[i] = table[TH0, j] + k * s
-    return on_arc
-
-
-@kernel
-def _plan_points(t, times, s, idx, table, on_arc, sin_th, cos_th, px, py, out):
-    """The path's points (a line: p₀ + s (cos θ₀, sin θ₀); an arc: p₀ + (sin θ − sin θ₀, cos θ₀ −
-    cos θ) / κ), then each plus clip(1 − (t_i − t)/10, 0, 1) × (the vessel's position − the first
-    point)."""
-    n = s.size
-    for i in range(n):
-        j = idx[i]
-        k = table[K, j]
-        if on_arc and k != 0.0:
-            out[i, 0] = table[X0, j] + (sin_th[i] - table[SIN0, j]) / k
-            out[i, 1] = table[Y0, j] + (table[COS0, j] - cos_th[i]) / k
+            th = table[TH0, j] + k * s
+            out[i, 0] = table[X0, j] + (math.sin(th) - table[SIN0, j]) / k
+            out[i, 1] = table[Y0, j] + (table[COS0, j] - math.cos(th)) / k
         else:
-            out[i, 0] = table[X0, j] + s[i] * table[COS0, j]
-            out[i, 1] = table[Y0, j] + s[i] * table[SIN0, j]
+            out[i, 0] = table[X0, j] + s * table[COS0, j]
+            out[i, 1] = table[Y0, j] + s * table[SIN0, j]
     ox = px - out[0, 0]
     oy = py - out[0, 1]
     for i in range(n):
@@ -110,17 +96,7 @@ def planned_points(path, t: float, g0: float, profile: tuple, base: np.ndarray, 
     else:
         mode, a, b, c, d = 1, *profile[1:]
     n = base.size
-    scratch = _SCRATCH.get(n)  # s, θ and the segment of each sample: read by the kernels only
-    if scratch is None:
-        scratch = _SCRATCH[n] = (np.empty(n), np.empty(n), np.empty(n, dtype=np.int64))
-    s, th, idx = scratch
-    times = np.empty(n)
-    table = path._table
-    on_arc = _plan_angles(t, base, g0, mode, a, b, c, d, path._length, path._cum, table, times, s, idx, th)
-    if on_arc:
-        sin_th, cos_th = np.sin(th), np.cos(th)
-    else:
-        sin_th = cos_th = th
-    out = np.empty((n, 2))
-    _plan_points(t, times, s, idx, table, on_arc, sin_th, cos_th, float(position_m[0]), float(position_m[1]), out)
+    times, out = np.empty(n), np.empty((n, 2))
+    _plan_into(t, base, g0, mode, a, b, c, d, path._length, path._cum, path._table, float(position_m[0]),
+               float(position_m[1]), times, out)
     return times, out

@@ -233,6 +233,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         # motion, track id → row, and whether the row is checked (not a team mate on a broadcast).
         self._predicted_motion: TrackMotions | None = None
         self._predicted_row: dict[int, int] = {}
+        self._predicted_ids = None  # the rows' track ids (int64 array), or None (not integers)
         self._checked_tracks = None  # the perceived tracks found on the last prediction's motion
         self._no_new_in = None  # perceived tracks found to hold no new track id
         self._last_predict_t = -np.inf

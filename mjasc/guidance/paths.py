@@ -25,14 +25,11 @@ from bisect import bisect_right
 import numpy as np
 
 from mjasc.core.frames import wrap_angle
+from mjasc.guidance.path_kernels import points_into
 from mjasc.guidance.path_segments import (CONTINUITY_TOLERANCE_M, DUPLICATE_TOLERANCE_M, ArcSegment,
                                          LineSegment, as_point, xy_of)
 from mjasc.guidance.waypoint_paths import waypoint_segments
 from mjasc.guidance.segment_geometry import (
-    COS0,
-    SIN0,
-    X0,
-    Y0,
     C,
     K,
     LEN,
@@ -40,7 +37,6 @@ from mjasc.guidance.segment_geometry import (
     clip_scalar,
     closest_scalar,
     closest_candidates,
-    eval_points,
     pick_closest,
     point_scalar,
     segment_table,
@@ -62,7 +58,7 @@ class Path:
     (n, 2)); γ is clamped to [0, length].
     """
 
-    __slots__ = ("_segments", "_cum", "_table", "_rows", "_cum_list", "_length", "_arcs")
+    __slots__ = ("_segments", "_cum", "_table", "_rows", "_cum_list", "_length")
 
     def __init__(self, segments):
         segments = tuple(segments)
@@ -90,7 +86,6 @@ class Path:
         self._rows = self._table.T.tolist()  # per segment, plain floats: the scalar queries
         self._cum_list = self._cum.tolist()
         self._length = self._cum_list[-1]
-        self._arcs = bool(np.any(self._table[K] != 0.0))  # False: lines only (no trigonometry to evaluate)
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -187,14 +182,12 @@ class Path:
             return np.array(point_scalar(*self._locate_scalar(gamma)))
         if isinstance(gamma, np.ndarray) and gamma.ndim == 1 and gamma.size <= _SCALAR_SEGMENTS:
             return np.array([point_scalar(*self._locate_scalar(g)) for g in gamma.tolist()]).reshape(-1, 2)
-        _, idx, s = self._locate(gamma)
-        table = self._table
-        if not self._arcs:  # lines only: eval_points' line formula on the three fields it reads
-            out = np.empty(np.shape(s) + (2,))
-            np.add(table[X0][idx], s * table[COS0][idx], out=out[..., 0])
-            np.add(table[Y0][idx], s * table[SIN0][idx], out=out[..., 1])
-            return out
-        return np.stack(eval_points(table[:, idx], s), axis=-1)
+        # γ clipped, its segment, the line / arc formula per γ in one compiled pass (path_kernels;
+        # eval_points' numbers: tests/test_path_kernels.py keeps that numpy form as the reference)
+        g = np.asarray(gamma, dtype=float)
+        out = np.empty(g.shape + (2,))
+        points_into(self._table, self._cum, self._length, g.reshape(-1), out.reshape(-1, 2))
+        return out
 
     def tangent_angle(self, gamma):
         """Course of the path at γ [rad], CCW from east, wrapped to (−π, π]."""

@@ -105,6 +105,15 @@ class TrackMotions:
         pred = self.at(rows, times[:, None])[:, 0]
         return bool((np.hypot(pred[:, 0] - pos[:, 0], pred[:, 1] - pos[:, 1]) > limit).any())
 
+    def farther_by_id(self, row_ids, ids, times, positions_m, distance_m: float) -> bool | None:
+        """:meth:`farther_than` of the tracks whose ids are known: ``row_ids`` (m,) int64 is each
+        row's track id (an id on several rows: the last), ``ids`` (P,) int64 the tracks' ids, ``times`` (P,) [s] and
+        ``positions_m`` (P, 2) [m] theirs; a track whose id no row has is skipped (False when
+        none is known). One compiled pass (the id look-ups and :func:`_farther`'s operations);
+        None when a known row follows a plan (then :meth:`farther_than` of the known rows)."""
+        code = _farther_ids(self._par, self._kind, row_ids, ids, times, positions_m, float(distance_m))
+        return None if code < 0 else code == 1
+
     def within(self, times, positions_m, radii_m) -> np.ndarray:
         """Whether each track lay at each of the times ``times`` (H,) [s] within reach of the
         positions ``positions_m`` (H, 2) [m]: (m, H) bool, ``np.hypot`` of :meth:`at`'s positions
@@ -201,6 +210,16 @@ def _row_at(par, r, turning, t, sin_t, cos_t):
 
 
 @kernel
+def _position(par, kind, r, t):
+    """Row ``r`` (straight, static or turning) at time ``t``: :func:`_row_at` with the turning
+    row's sin θ(t), cos θ(t) by ``math`` (θ(t) = θ₀ + ω τ, τ = t − t₀)."""
+    if kind[r] == 1:
+        th = par[r, 6] + par[r, 7] * (t - par[r, 2])
+        return _row_at(par, r, True, t, math.sin(th), math.cos(th))
+    return _row_at(par, r, False, t, 0.0, 0.0)
+
+
+@kernel
 def _farther(par, kind, rows, times, pos, limit):
     """:meth:`TrackMotions.farther_than` without plans: 1 when a row's position at its time lies
     farther than ``limit`` from ``pos`` (``hypot``), else 0; −1 when a row follows a plan. Straight
@@ -211,12 +230,36 @@ def _farther(par, kind, rows, times, pos, limit):
         if kind[rows[i]] == 2:
             return -1
     for i in range(rows.size):
-        r = rows[i]
-        if kind[r] == 1:
-            th = par[r, 6] + par[r, 7] * (times[i] - par[r, 2])
-            x, y = _row_at(par, r, True, times[i], math.sin(th), math.cos(th))
-        else:
-            x, y = _row_at(par, r, False, times[i], 0.0, 0.0)
+        x, y = _position(par, kind, rows[i], times[i])
+        if math.hypot(x - pos[i, 0], y - pos[i, 1]) > limit:
+            return 1
+    return 0
+
+
+@kernel
+def _row_of(row_ids, track_id):
+    """The last row whose id is ``track_id`` (as a mapping id → row filled in row order), −1 when
+    none."""
+    for r in range(row_ids.size - 1, -1, -1):
+        if row_ids[r] == track_id:
+            return r
+    return -1
+
+
+@kernel
+def _farther_ids(par, kind, row_ids, ids, times, pos, limit):
+    """:meth:`TrackMotions.farther_by_id`: :func:`_farther` of the rows whose ids are among ``ids``
+    (each at its track's time and against its position; the others skipped): 1, 0, or −1 when one
+    of those rows follows a plan."""
+    for i in range(ids.size):
+        r = _row_of(row_ids, ids[i])
+        if r >= 0 and kind[r] == 2:
+            return -1
+    for i in range(ids.size):
+        r = _row_of(row_ids, ids[i])
+        if r < 0:
+            continue
+        x, y = _position(par, kind, r, times[i])
         if math.hypot(x - pos[i, 0], y - pos[i, 1]) > limit:
             return 1
     return 0

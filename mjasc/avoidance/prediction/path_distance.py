@@ -57,48 +57,63 @@ def _distances_into(table, g_lo, length, pts, few, out):
     lo = np.empty(n_seg)
     hi = np.empty(n_seg)
     ok = np.empty(n_seg, dtype=np.intp)
+    n_ok = open_segments(table, g_lo, length, lo, hi, ok)
+    if n_ok == 0:
+        return False
+    gap = np.empty(n_ok)
+    for i in range(pts.shape[0]):
+        out[i] = point_distance(table, lo, hi, ok, n_ok, few, gap, pts[i, 0], pts[i, 1])
+    return True
+
+
+@kernel
+def open_segments(table, g_lo, length, lo, hi, ok):
+    """Each segment's window [max(0, g_lo − C), min(LEN, length − C)] into ``lo``, ``hi`` (n_seg,),
+    the segments whose window is not empty into ``ok``; returns how many (for kernels)."""
     n_ok = 0
-    for j in range(n_seg):
+    for j in range(table.shape[1]):
         lo[j] = maximum(0.0, g_lo - table[C, j])
         hi[j] = minimum(table[LEN, j], length - table[C, j])
         if lo[j] <= hi[j]:
             ok[n_ok] = j
             n_ok += 1
-    if n_ok == 0:
-        return False
-    gap = np.empty(n_ok)
-    for i in range(pts.shape[0]):
-        qx, qy = pts[i, 0], pts[i, 1]
-        limit = math.inf
-        if n_ok > few:  # the least upper bound ‖q − p₀‖ + ℓ, NaN propagating as numpy's min
-            upper = math.inf
-            for e in range(n_ok):
-                j = ok[e]
-                gap[e] = math.hypot(qx - table[X0, j], qy - table[Y0, j])
-                upper = minimum(upper, gap[e] + table[LEN, j])
-            limit = upper * (1.0 + _MARGIN_REL) + _MARGIN_M
-        best = math.inf
+    return n_ok
+
+
+@kernel
+def point_distance(table, lo, hi, ok, n_ok, few, gap, qx, qy):
+    """The distance [m] of the point (qx, qy) to the open segments ``ok[:n_ok]`` (windows ``lo``,
+    ``hi``; :func:`open_segments`): the least d² over their candidates, its square root;
+    ``gap`` (n_ok,) is scratch (for kernels)."""
+    limit = math.inf
+    if n_ok > few:  # the least upper bound ‖q − p₀‖ + ℓ, NaN propagating as numpy's min
+        upper = math.inf
         for e in range(n_ok):
             j = ok[e]
-            if n_ok > few and gap[e] - table[LEN, j] > limit:
-                continue  # (a NaN bound keeps the segment)
-            a, b = lo[j], hi[j]
-            k = table[K, j]
-            if k == 0.0:  # a line: the clamped foot of the perpendicular
-                dx, dy = qx - table[X0, j], qy - table[Y0, j]
-                c0, s0 = table[COS0, j], table[SIN0, j]
-                s = minimum(maximum(dx * c0 + dy * s0, a), b)
-                ex, ey = dx - s * c0, dy - s * s0
-                best = minimum(best, ex * ex + ey * ey)
-                continue
-            phi = math.atan2(qy - table[CY, j], qx - table[CX, j])  # an arc: the polar angle and both ends
-            sgn = 1.0 if k > 0.0 else -1.0
-            s_star = minimum(maximum((sgn * (phi - table[A0, j])) % _TWO_PI / abs(k), a), b)
-            for q in range(3):
-                s = s_star if q == 0 else (a if q == 1 else b)
-                th = table[TH0, j] + k * s
-                ex = table[X0, j] + (math.sin(th) - table[SIN0, j]) / k - qx
-                ey = table[Y0, j] + (table[COS0, j] - math.cos(th)) / k - qy
-                best = minimum(best, ex * ex + ey * ey)
-        out[i] = math.sqrt(best)
-    return True
+            gap[e] = math.hypot(qx - table[X0, j], qy - table[Y0, j])
+            upper = minimum(upper, gap[e] + table[LEN, j])
+        limit = upper * (1.0 + _MARGIN_REL) + _MARGIN_M
+    best = math.inf
+    for e in range(n_ok):
+        j = ok[e]
+        if n_ok > few and gap[e] - table[LEN, j] > limit:
+            continue  # (a NaN bound keeps the segment)
+        a, b = lo[j], hi[j]
+        k = table[K, j]
+        if k == 0.0:  # a line: the clamped foot of the perpendicular
+            dx, dy = qx - table[X0, j], qy - table[Y0, j]
+            c0, s0 = table[COS0, j], table[SIN0, j]
+            s = minimum(maximum(dx * c0 + dy * s0, a), b)
+            ex, ey = dx - s * c0, dy - s * s0
+            best = minimum(best, ex * ex + ey * ey)
+            continue
+        phi = math.atan2(qy - table[CY, j], qx - table[CX, j])  # an arc: the polar angle and both ends
+        sgn = 1.0 if k > 0.0 else -1.0
+        s_star = minimum(maximum((sgn * (phi - table[A0, j])) % _TWO_PI / abs(k), a), b)
+        for q in range(3):
+            s = s_star if q == 0 else (a if q == 1 else b)
+            th = table[TH0, j] + k * s
+            ex = table[X0, j] + (math.sin(th) - table[SIN0, j]) / k - qx
+            ey = table[Y0, j] + (table[COS0, j] - math.cos(th)) / k - qy
+            best = minimum(best, ex * ex + ey * ey)
+    return math.sqrt(best)

@@ -6,14 +6,15 @@ collision at t_c. World frame ENU, SI units, absolute simulation times [s].
   obstacle's inflated disc (radius R_col = R_vh + R_ob + safety) meets the vessel's path ahead
   (γ ≥ γ_now): the gap g(t) = dist(P_o(t), path ahead) − R_col is sampled every grid step back to
   t_now and forward to max(window end, t_i + Δt_threshold), and each sign change is located by
-  bisection to 1e-6 s (its midpoints evaluated 31 at a time, :func:`_bisect`). A static
-  obstacle obstructs for ever: t_f = +inf.
+  bisection to 1e-6 s (its midpoints evaluated 31 at a time, :func:`_bisect`; for a track at
+  constant speed and turn in one compiled call, :mod:`~mjasc.avoidance.prediction.spatial_kernels`).
+  A static obstacle obstructs for ever: t_f = +inf.
 - **Obstructed stretch** [γ_A, γ_B]: the connected stretch of the path ahead that contains γ(t_c)
   and is covered by the union of the inflated discs over [t_i, t_f]: path samples every
   h = min(0.25 m, R_col/20) against the obstacle's trajectory as a polyline of steps ≤ h (exact for
   straight motion; within the chord sagitta h²/8ρ for a turning one; the distances in a compiled
   loop, :mod:`~mjasc.avoidance.prediction.sweep_kernels`), ends located by the same bisection to
-  1e-6 m.
+  1e-6 m (compiled on a :class:`~mjasc.guidance.paths.Path`, :mod:`~mjasc.avoidance.prediction.spatial_kernels`).
 """
 
 from __future__ import annotations
@@ -25,7 +26,9 @@ import numpy as np
 
 from mjasc.avoidance.prediction.config import CollisionPredictionConfig
 from mjasc.avoidance.prediction.path_distance import path_distances
+from mjasc.avoidance.prediction.spatial_kernels import interval_end, stretch_end
 from mjasc.avoidance.prediction.sweep_kernels import polyline_distances
+from mjasc.core.compiled import clip_float
 from mjasc.core.estimates import TrackEstimate
 from mjasc.guidance.paths import Path
 
@@ -98,13 +101,14 @@ def obstruction_interval(ctx: PlanContext, track, t_c: float, r_col: float, stat
     def f(t):
         return _path_gap(ctx, track, t, r_col)
 
+    end = _interval_bisection(ctx, track, r_col, f)
     dt = cfg.time_step_s
     # Backwards from t_c to t_now.
     back = np.arange(t_c, ctx.t_now - 1e-12, -dt)
     back = np.append(back, ctx.t_now) if back[-1] > ctx.t_now else back
     gb = _path_gap(ctx, track, back, r_col)
     out = (gb > 0.0).ravel().nonzero()[0]
-    t_i = ctx.t_now if out.size == 0 else _bisect(f, back[out[0] - 1] if out[0] > 0 else t_c, back[out[0]])
+    t_i = ctx.t_now if out.size == 0 else end(back[out[0] - 1] if out[0] > 0 else t_c, back[out[0]])
     # Forwards from t_c, far enough to decide σ (at least Δt_threshold past t_i).
     horizon = max(ctx.t_end, t_i + cfg.obstruction_threshold_s) + dt
     fwd = np.arange(t_c, horizon + 1e-12, dt)
@@ -112,7 +116,7 @@ def obstruction_interval(ctx: PlanContext, track, t_c: float, r_col: float, stat
     out = (gf > 0.0).ravel().nonzero()[0]
     if out.size == 0:
         return t_i, float(fwd[-1]), True
-    t_f = _bisect(f, fwd[out[0] - 1] if out[0] > 0 else t_c, fwd[out[0]])
+    t_f = end(fwd[out[0] - 1] if out[0] > 0 else t_c, fwd[out[0]])
     return t_i, t_f, False
 
 
@@ -157,6 +161,38 @@ def obstructed_stretch(ctx: PlanContext, track, t_i, t_f, gamma_c, r_col, static
     def f(g):
         return min_dist(path.point(g)) - r_col
 
-    gamma_a = gs[a] if a == 0 else _bisect(f, gs[a], gs[a - 1], tol=1e-6)
-    gamma_b = gs[b] if b == gs.size - 1 else _bisect(f, gs[b], gs[b + 1], tol=1e-6)
+    if q.shape[0] > 1 and type(path) is Path:  # each end in one compiled bisection (spatial_kernels)
+        qc = np.ascontiguousarray(q, dtype=float)
+
+        def end(g_in, g_out):
+            return stretch_end(path._table, path._cum, path._length, qc, float(r_col), float(g_in), float(g_out), 1e-6)
+    else:
+        def end(g_in, g_out):
+            return _bisect(f, g_in, g_out, tol=1e-6)
+
+    gamma_a = gs[a] if a == 0 else end(gs[a], gs[a - 1])
+    gamma_b = gs[b] if b == gs.size - 1 else end(gs[b], gs[b + 1])
     return float(gamma_a), float(gamma_b)
+
+
+_PREDICT_POSITIONS = TrackEstimate.predict_positions
+
+
+def _interval_bisection(ctx: PlanContext, track, r_col: float, f):
+    """The bisection of the obstruction interval's ends, ``end(t_in, t_out)``: for a track moving
+    at constant speed and turn (``TrackEstimate.predict_positions``) one compiled call
+    (:func:`~mjasc.avoidance.prediction.spatial_kernels.interval_end`), else :func:`_bisect` of
+    the gap ``f``."""
+    if type(track).predict_positions is not _PREDICT_POSITIONS:
+        return lambda t_in, t_out: _bisect(f, t_in, t_out)
+    path = ctx.path
+    table, length = path.table, path.length
+    g_lo = clip_float(float(ctx.gamma_now), 0.0, length)  # (path_distances' stretch)
+    motion = np.array([float(track.position_m[0]), float(track.position_m[1]), track.time_s, track.speed_m_s,
+                       track.heading_rad, track.turn_rate_rad_s, 1.0 if track.is_static else 0.0], dtype=float)
+
+    def end(t_in, t_out):
+        done, t = interval_end(table, g_lo, length, motion, float(r_col), float(t_in), float(t_out), 1e-6)
+        return np.float64(t) if done else _bisect(f, t_in, t_out)  # (the numpy form's type: a numpy float)
+
+    return end

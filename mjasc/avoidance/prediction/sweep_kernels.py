@@ -43,21 +43,27 @@ def polyline_distances(p: np.ndarray, q: np.ndarray) -> np.ndarray:
 @kernel
 def _polyline_distances(p, q, out):
     """:func:`polyline_distances` into ``out`` (the loop of the module docstring)."""
-    k = q.shape[0]
     for i in range(p.shape[0]):
-        px, py = p[i, 0], p[i, 1]
-        best = np.inf
-        for s in range(k - 1):
-            ax, ay = q[s, 0], q[s, 1]
-            abx, aby = q[s + 1, 0] - ax, q[s + 1, 1] - ay
-            ab2 = max(abx * abx + aby * aby, 1e-300)
-            rx, ry = px - ax, py - ay
-            u = min(max((rx * abx + ry * aby) / ab2, 0.0), 1.0)
-            ex, ey = rx - u * abx, ry - u * aby
-            d2 = ex * ex + ey * ey
-            if d2 < best:
-                best = d2
-            elif d2 != d2:  # NaN: numpy's min propagates it
-                best = d2
-                break
-        out[i] = math.sqrt(best)
+        out[i] = polyline_distance(p[i, 0], p[i, 1], q)
+
+
+@kernel
+def polyline_distance(px, py, q):
+    """The distance [m] from the point (px, py) to the polyline through q (k, 2), k ≥ 2 (the loop
+    of the module docstring for one point; for kernels)."""
+    k = q.shape[0]
+    best = np.inf
+    for s in range(k - 1):
+        ax, ay = q[s, 0], q[s, 1]
+        abx, aby = q[s + 1, 0] - ax, q[s + 1, 1] - ay
+        ab2 = max(abx * abx + aby * aby, 1e-300)
+        rx, ry = px - ax, py - ay
+        u = min(max((rx * abx + ry * aby) / ab2, 0.0), 1.0)
+        ex, ey = rx - u * abx, ry - u * aby
+        d2 = ex * ex + ey * ey
+        if d2 < best:
+            best = d2
+        elif d2 != d2:  # NaN: numpy's min propagates it
+            best = d2
+            break
+    return math.sqrt(best)

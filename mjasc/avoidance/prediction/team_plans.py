@@ -25,7 +25,7 @@ import threading
 
 import numpy as np
 
-from mjasc.core.compiled import kernel, search_right
+from mjasc.core.compiled import kernel, maximum, search_right
 
 __all__ = ["PLAN_FIELDS", "intention_positions", "plan_position"]
 
@@ -145,19 +145,24 @@ class _PlanTable:
 
     def _add(self, new) -> None:
         distinct = list({id(it): it for it in new}.values())
-        part = _StackedPlans(distinct)
         n0, k0 = self._n, self._knots
-        n1, k1 = n0 + len(distinct), k0 + part.ts.size
-        for names, used, need in ((self._KNOTS, k0, k1), (self._PER_PLAN, n0, n1)):
-            for name in names:
-                src, buf = getattr(part, name), self._buf.get(name)
-                if buf is None or buf.shape[0] < need:
-                    grown = np.empty((max(need, 2 * (0 if buf is None else buf.shape[0]), 64),) + src.shape[1:],
-                                     dtype=src.dtype)
-                    if buf is not None:
-                        grown[:used] = buf[:used]
-                    buf = self._buf[name] = grown
-                buf[used:need] = src + k0 if name == "start" else src
+        arrays = _intention_arrays(distinct)
+        if arrays is None:  # (not float arrays of the expected shapes: the readable form's numbers)
+            part = _StackedPlans(distinct)
+            n1, k1 = n0 + len(distinct), k0 + part.ts.size
+            for names, used, need in ((self._KNOTS, k0, k1), (self._PER_PLAN, n0, n1)):
+                for name in names:
+                    src = getattr(part, name)
+                    self._room(name, used, need, src.shape[1:], src.dtype)[used:need] = \
+                        src + k0 if name == "start" else src
+        else:  # each intention's row and knots written into the table in one compiled pass
+            counts, ts, pts, pos, sent, vel = arrays
+            n1, k1 = n0 + len(distinct), k0 + ts.size
+            room = self._room
+            _stack_into(n0, k0, counts, ts, pts, pos, sent, vel,
+                        *(room(name, k0, k1, (), np.float64) for name in self._KNOTS),
+                        *(room(name, n0, n1, _PLAN_TAIL[name], _PLAN_DTYPE.get(name, np.float64))
+                          for name in self._PER_PLAN))
         self._n, self._knots = n1, k1
         view = object.__new__(_StackedPlans)
         for name in self._KNOTS:
@@ -169,7 +174,83 @@ class _PlanTable:
             self._row[id(it)] = (it, n0 + u)
 
 
+    def _room(self, name: str, used: int, need: int, tail: tuple, dtype) -> np.ndarray:
+        """The buffer of field ``name`` with room for ``need`` rows, its first ``used`` kept (grown
+        to twice its size, at least 64, when too small)."""
+        buf = self._buf.get(name)
+        if buf is None or buf.shape[0] < need:
+            grown = np.empty((max(need, 2 * (0 if buf is None else buf.shape[0]), 64),) + tuple(tail), dtype=dtype)
+            if buf is not None:
+                grown[:used] = buf[:used]
+            buf = self._buf[name] = grown
+        return buf
+
+
 _PLANS = _PlanTable()
+#: Each per-plan field's trailing shape and dtype (float64 unless named) in the table.
+_PLAN_TAIL = {"start": (), "count": (), "t_first": (), "t_last": (), "anchor": (2,), "t_anchor": (), "vel": (2,),
+              "p_last": (2,), "v_end": (2,)}
+_PLAN_DTYPE = {"start": np.intp, "count": np.intp}
+
+
+def _intention_arrays(intentions):
+    """(knot counts (k,), the knots' times and points of the plans with two knots or more, in order,
+    positions (k, 2), send times (k,), velocities (k, 2)) as :class:`_StackedPlans` reads them, or
+    None when a plan's arrays are not float64 of the expected shapes."""
+    with_plan, counts = [], []
+    for it in intentions:
+        ts, pts = it.plan_times_s, it.plan_points_m
+        if not (type(ts) is np.ndarray and type(pts) is np.ndarray and ts.dtype == pts.dtype == np.float64
+                and ts.ndim == 1 and pts.shape == (ts.size, 2)):
+            return None
+        counts.append(ts.size)
+        if ts.size >= 2:
+            with_plan.append(it)
+    ts = np.concatenate([it.plan_times_s for it in with_plan]) if with_plan else np.zeros(0)
+    pts = np.concatenate([it.plan_points_m for it in with_plan]) if with_plan else np.zeros((0, 2))
+    pos = np.array([it.position_m for it in intentions], dtype=float).reshape(-1, 2)
+    sent = np.array([it.sent_time_s for it in intentions], dtype=float)
+    vel = np.array([it.velocity_m_s for it in intentions], dtype=float).reshape(-1, 2)
+    return np.array(counts, dtype=np.intp), ts, pts, pos, sent, vel
+
+
+@kernel
+def _stack_into(n0, k0, counts, ts, pts, pos, sent, vel, b_ts, b_xs, b_ys, start, count, t_first, t_last, anchor,
+                t_anchor, b_vel, p_last, v_end):
+    """:class:`_StackedPlans`' numbers of intentions u (their knot counts, knots, positions, send
+    times, velocities: :func:`_intention_arrays`) written into the table's rows n0 + u and knot
+    columns from k0: fewer than two knots, no plan (count 0, first / last knot times inf, the
+    broadcast position at the send time as anchor, zero last point and end velocity); else the
+    knots, the first knot as anchor, the last one, and the last segment's velocity
+    (p_l − p_{l−1}) / max(t_l − t_{l−1}, 1e-9) (numpy's maximum)."""
+    off = 0  # the knot column within this batch
+    for u in range(counts.size):
+        c = counts[u]
+        if c < 2:
+            c = 0
+        r = n0 + u
+        start[r] = off + k0
+        count[r] = c
+        b_vel[r, 0], b_vel[r, 1] = vel[u, 0], vel[u, 1]
+        if c == 0:
+            t_first[r] = t_last[r] = np.inf
+            anchor[r, 0], anchor[r, 1] = pos[u, 0], pos[u, 1]
+            t_anchor[r] = sent[u]
+            p_last[r, 0] = p_last[r, 1] = v_end[r, 0] = v_end[r, 1] = 0.0
+            continue
+        for j in range(c):
+            b_ts[k0 + off + j] = ts[off + j]
+            b_xs[k0 + off + j] = pts[off + j, 0]
+            b_ys[k0 + off + j] = pts[off + j, 1]
+        f, last = off, off + c - 1
+        t_first[r], t_last[r] = ts[f], ts[last]
+        anchor[r, 0], anchor[r, 1] = pts[f, 0], pts[f, 1]
+        t_anchor[r] = ts[f]
+        p_last[r, 0], p_last[r, 1] = pts[last, 0], pts[last, 1]
+        span = maximum(ts[last] - ts[last - 1], 1e-9)
+        v_end[r, 0] = (pts[last, 0] - pts[last - 1, 0]) / span
+        v_end[r, 1] = (pts[last, 1] - pts[last - 1, 1]) / span
+        off += c
 
 
 @kernel
