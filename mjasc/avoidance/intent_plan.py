@@ -17,14 +17,12 @@ go through the path's plain-float branch; the caller keeps the numpy form for th
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from mjasc.core.compiled import clip as _clip
-from mjasc.core.compiled import kernel, maximum, search_right
+from mjasc.core.compiled import kernel, maximum
+from mjasc.guidance.path_kernels import path_point
 from mjasc.guidance.paths import _SCALAR_SEGMENTS, Path
-from mjasc.guidance.segment_geometry import COS0, K, SIN0, TH0, X0, Y0
 
 __all__ = ["plan_offsets", "planned_points"]
 
@@ -46,11 +44,9 @@ def plan_offsets(horizon_s: float, step_s: float) -> np.ndarray:
 def _plan_into(t, base, g0, mode, a, b, c, d, length, cum, table, px, py, times, out):
     """Per sample i: t_i = t + base_i; γ_i = g0 + a (t_i − t) (``mode`` 0: constant speed a) or
     g0 + a·clip(t_i − t, 0, b) + c·max(t_i − d, 0) (``mode`` 1: the correction's profile), clipped to
-    [0, length] (twice, as the caller and the path do); its segment j (the last start ≤ γ, as
-    ``searchsorted(…, 'right') − 1``, clipped), s_i = γ_i − C_j; the path's point there (a line:
-    p₀ + s (cos θ₀, sin θ₀); an arc: p₀ + (sin θ − sin θ₀, cos θ₀ − cos θ) / κ, θ = θ₀ + κ s); then
+    [0, length] (twice, as the caller and the path do); the path's point there
+    (:func:`mjasc.guidance.path_kernels.path_point`); then
     each point plus clip(1 − (t_i − t)/10, 0, 1) × (the vessel's position − the first point)."""
-    n_seg = cum.size - 1
     n = base.size
     for i in range(n):
         ti = t + base[i]
@@ -59,20 +55,7 @@ def _plan_into(t, base, g0, mode, a, b, c, d, length, cum, table, px, py, times,
             g = g0 + a * (ti - t)
         else:
             g = g0 + a * _clip(ti - t, 0.0, b) + c * maximum(ti - d, 0.0)
-        g = _clip(_clip(g, 0.0, length), 0.0, length)
-        if g != g:  # searchsorted sorts NaN last
-            j = n_seg - 1
-        else:
-            j = min(max(search_right(cum, g, 0, cum.size) - 1, 0), n_seg - 1)
-        s = g - cum[j]
-        k = table[K, j]
-        if k != 0.0:
-            th = table[TH0, j] + k * s
-            out[i, 0] = table[X0, j] + (math.sin(th) - table[SIN0, j]) / k
-            out[i, 1] = table[Y0, j] + (table[COS0, j] - math.cos(th)) / k
-        else:
-            out[i, 0] = table[X0, j] + s * table[COS0, j]
-            out[i, 1] = table[Y0, j] + s * table[SIN0, j]
+        out[i, 0], out[i, 1] = path_point(table, cum, length, _clip(g, 0.0, length))
     ox = px - out[0, 0]
     oy = py - out[0, 1]
     for i in range(n):
