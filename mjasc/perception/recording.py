@@ -175,7 +175,7 @@ class PerceptionLog:
             from mjasc.runs.recording import vessel_colour
 
             self._style(rec, base, vessel_name, vessel_colour(p.vessel_index), p.sensor_config)
-        scan = p.scan  # (the fleet's queued passes done: the map and tracks below read as they are)
+        scan = p.scan
         # (a record tick without a new scan: no call; the scan's time read without filling in its
         # other fields, which only a due drawing reads: scan_batch.scan_time; a scan seen before —
         # scans are frozen, a new one a new object — was logged or had the time logged then)
@@ -193,11 +193,11 @@ class PerceptionLog:
                           entity=f"tracking_events/{vessel_name}")
         if p._log_events:
             p._log_events = []
-        # (the period first: the map's version, p.map's without its flush — done by p.scan —, only when due)
+        # (the period first: the map's version read only when a drawing is due)
         if (full or t_s - self._last_map_log >= MAP_LOG_PERIOD_S - 1e-9) and \
-                (version := p._map.version) != self._logged_map_version:
+                (version := p.map.version) != self._logged_map_version:
             self._logged_map_version, self._last_map_log = version, t_s
-            rec.strips(f"{base}/static_map", t_s, [np.vstack([q, q[:1]]) for q in p._map.polygons()], z=0.4)
+            rec.strips(f"{base}/static_map", t_s, [np.vstack([q, q[:1]]) for q in p.map.polygons()], z=0.4)
 
     def _name(self, vessel_name: str) -> str:
         """The vessel's world entity (kept: :meth:`log` runs at every record tick)."""
