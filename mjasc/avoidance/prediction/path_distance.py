@@ -53,23 +53,23 @@ def _distances_into(table, g_lo, length, pts, few, out):
     segments whose window [max(0, g_lo − C), min(LEN, length − C)] is not empty (more than ``few``
     of them: those that can hold the closest point), its square root. False (``out`` unset) when
     no segment's window is open."""
-    n_seg = table.shape[1]
-    lo = np.empty(n_seg)
-    hi = np.empty(n_seg)
-    ok = np.empty(n_seg, dtype=np.intp)
-    n_ok = open_segments(table, g_lo, length, lo, hi, ok)
+    lo, hi, ok, n_ok, gap = open_segments(table, g_lo, length)
     if n_ok == 0:
         return False
-    gap = np.empty(n_ok)
     for i in range(pts.shape[0]):
         out[i] = point_distance(table, lo, hi, ok, n_ok, few, gap, pts[i, 0], pts[i, 1])
     return True
 
 
 @kernel
-def open_segments(table, g_lo, length, lo, hi, ok):
-    """Each segment's window [max(0, g_lo − C), min(LEN, length − C)] into ``lo``, ``hi`` (n_seg,),
-    the segments whose window is not empty into ``ok``; returns how many (for kernels)."""
+def open_segments(table, g_lo, length):
+    """(lo, hi, ok, n_ok, gap): each segment's window [max(0, g_lo − C), min(LEN, length − C)] in
+    ``lo``, ``hi`` (n_seg,), the n_ok segments whose window is not empty in ``ok[:n_ok]``, and
+    :func:`point_distance`'s scratch ``gap`` (n_ok,) (for kernels)."""
+    n_seg = table.shape[1]
+    lo = np.empty(n_seg)
+    hi = np.empty(n_seg)
+    ok = np.empty(n_seg, dtype=np.intp)
     n_ok = 0
     for j in range(table.shape[1]):
         lo[j] = maximum(0.0, g_lo - table[C, j])
@@ -77,7 +77,7 @@ def open_segments(table, g_lo, length, lo, hi, ok):
         if lo[j] <= hi[j]:
             ok[n_ok] = j
             n_ok += 1
-    return n_ok
+    return lo, hi, ok, n_ok, np.empty(n_ok)
 
 
 @kernel

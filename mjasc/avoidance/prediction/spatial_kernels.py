@@ -26,8 +26,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from mjasc.avoidance.prediction.path_distance import _FEW_SEGMENTS, open_segments, point_distance
 from mjasc.avoidance.prediction.sweep_kernels import polyline_distance
 from mjasc.core.compiled import kernel
@@ -73,14 +71,9 @@ def interval_end(table, g_lo, length, track, r_col, t_in, t_out, tol):
     (gap > 0)): ``_bisect`` to ``tol`` of the distance from the track's position at t to the
     stretch [g_lo, length] of the path (``table``; as ``path_distances``) minus ``r_col``; ``track`` = (x₀, y₀, t₀, v, θ, ω, static as 1.0 / 0.0).
     (False, NaN) when no segment of the stretch is open (the numpy form's error path)."""
-    n_seg = table.shape[1]
-    lo = np.empty(n_seg)
-    hi = np.empty(n_seg)
-    ok = np.empty(n_seg, dtype=np.intp)
-    n_ok = open_segments(table, g_lo, length, lo, hi, ok)
+    lo, hi, ok, n_ok, gap = open_segments(table, g_lo, length)
     if n_ok == 0:
         return False, math.nan
-    gap = np.empty(n_ok)
     x0, y0, t0, v, th, w, static = track[0], track[1], track[2], track[3], track[4], track[5], track[6] != 0.0
     steps = 0
     while steps < _STEPS and abs(t_out - t_in) > tol:
