@@ -1,7 +1,8 @@
-"""A fleet tracker's births and drops in one compiled call each (mjasc.perception.tracking.fleet_rows:
-births_into, drops_kept_into) against their separate form — births_packed, then IMMBank.append_tracks and
-TrackColumns.append_rows; drops_every, then IMMBank.keep_rows and TrackColumns.keep — bit for bit, on a run
-with births and drops nearly every scan (per-row σ² and the config's)."""
+"""A fleet tracker's drops and births in one compiled call (mjasc.perception.tracking.fleet_rows:
+drops_births_into, with management's moved marks; births_into when a drop has events) against their separate
+form — drops_every, then IMMBank.keep_rows and TrackColumns.keep; births_packed, then IMMBank.append_tracks
+and TrackColumns.append_rows; then note_moved — bit for bit, on a run with births and drops nearly every scan
+(per-row σ² and the config's)."""
 
 from __future__ import annotations
 
@@ -47,8 +48,19 @@ def _same(a, b):
 
 
 @pytest.mark.parametrize("use_var", [True, False])
-def test_births_in_one_call_equal_the_separate_calls(use_var):
+def test_births_in_one_call_equal_the_separate_calls(use_var, monkeypatch):
     cfg = TrackingConfig(use_detection_variance=use_var)
+    from mjasc.perception.tracking import fleet_rows
+
+    fused = [0]
+    real = fleet_rows.drops_births_into
+
+    def counted(*a):
+        out = real(*a)
+        fused[0] += out[3] >= 0 and (out[2] > 0 or out[6].shape[0] > 0)  # (compacted or born in the call)
+        return out
+
+    monkeypatch.setattr(fleet_rows, "drops_births_into", counted)
     got, want = FleetTracker(cfg), _Separate(cfg)
     og = [got.add_owner(60.0) for _ in range(N_VESSELS)]
     ow = [want.add_owner(60.0) for _ in range(N_VESSELS)]
@@ -75,7 +87,7 @@ def test_births_in_one_call_equal_the_separate_calls(use_var):
             assert got.last_assignment(o) == want.last_assignment(p)
         n_born, n_gone = int(got._counts[:, 0].sum()), n_gone + got.version - version
         version = got.version
-    assert n_born > 50 and n_gone > 100
+    assert n_born > 50 and n_gone > 100 and fused[0] > 50
 
 
 def test_reserve_keeps_the_columns_views_current():

@@ -73,19 +73,27 @@ def test_every_drops_into_equals_the_packed_form_on_random_rows(seed):
 
 def test_every_drops_into_equals_the_packed_form_on_a_run(monkeypatch):
     import mjasc
+    from mjasc.perception.imm.row_fields import combine_covariance_rows
     from mjasc.perception.tracking import fleet_rows
+    from mjasc.perception.tracking.track_columns import CONFIRMED, HIST, LAST, N_UPD, OWNER, RADIUS, SCANS
     from mjasc.runs.runner import Runner
 
-    real = fleet_rows.drops_kept_into
+    real = fleet_rows.drops_births_into
     seen = [0, 0]
 
-    def checked(*a):
-        got = _drops_checked(a[:20])
+    def checked(*a):  # (every_drops_into's arguments as drops_births_into reads them from the bank and the tables)
+        n, pos_of, t_o, org, mr = a[:5]
+        consts, stale, (s, P, mu, x), (Pc, active), (f, i, b) = a[5:12], a[15], a[16:20], (a[26], a[29]), a[33:36]
+        Pc = Pc[:n].copy()
+        if stale:
+            combine_covariance_rows(s[:n], P[:n], mu[:n], active[:n], Pc)
+        got = _drops_checked((i[OWNER, :n], pos_of, t_o, x[:n], Pc, org, mr, i[HIST, :n], i[SCANS, :n],
+                              b[CONFIRMED, :n], f[LAST, :n], i[N_UPD, :n], f[RADIUS, :n], *consts))
         seen[0] += 1
         seen[1] += got is not None and sum(got) > 0
         return real(*a)
 
-    monkeypatch.setattr(fleet_rows, "drops_kept_into", checked)
+    monkeypatch.setattr(fleet_rows, "drops_births_into", checked)
     sc = mjasc.load_scenario("demo").with_overrides(duration_s=40.0)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None, progress=False).run()

@@ -75,7 +75,8 @@ def test_step_inputs_equal_select_detections_then_step_rows(monkeypatch, name, d
 def test_births_packed_equal_births_of(monkeypatch):
     """births_packed's three arrays hold births_of's eight, and the births of the fleet's one call
     (fleet_rows.births_into: its vessel positions, ids, detections and z) are births_of's, on every step of a
-    real run with births."""
+    real run with births (the births on their own call: with the drops' call, drops_births_into, they are
+    births_into's inside it)."""
     from mjasc.perception.tracking import fleet_rows
     from mjasc.perception.tracking.step_gathers import births_of, births_packed
 
@@ -103,6 +104,8 @@ def test_births_packed_equal_births_of(monkeypatch):
         return got
 
     monkeypatch.setattr(fleet_rows, "births_into", checked)
+    monkeypatch.setattr(fleet_rows.FleetRows, "_drops_in_one_call", False)  # (births_into's own call every step;
+    # the births inside drops_births_into: tests/test_fleet_rows.py)
     sc = mjasc.load_scenario(_ROOT / "tasks" / "demo.toml").with_overrides(duration_s=20.0)
     sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()

@@ -33,8 +33,8 @@ from mjasc.perception.imm.bank_kernels import _copy_model_row
 from mjasc.perception.imm.startup import _polar_jacobians
 from mjasc.perception.imm.startup_rows import handover_rows
 
-__all__ = ["RowBuffers", "append_rows", "birth_room", "born_set", "home_rows", "keep_rows", "kept_room", "kept_set",
-           "started_rows", "born_into", "started_born_into", "kept_into"]
+__all__ = ["RowBuffers", "append_rows", "birth_room", "born_set", "home_rows", "keep_rows", "kept_set",
+           "started_rows", "born_into", "started_born_into", "kept_into", "step_room"]
 
 _NO_VAR = np.zeros(0)  # (started_rows: no per-row σ²)
 
@@ -236,14 +236,19 @@ def keep_rows(bank, keep) -> None:
     kept_set(bank, m, n_active)
 
 
-def kept_room(bank) -> tuple:
-    """The bank (in its cycle buffers) ready for :func:`kept_into` by a compiled caller (a fleet tracker's
-    drops, one call with theirs): its per-track arrays and start-up filters homed in the row buffers
-    (:func:`home_rows`) and made the views of its rows there. Returns ((s, P, μ, x) of the other side of
-    the cycle buffers, every row; the row buffers)."""
-    rb = home_rows(bank, bank._ids.size)
+def step_room(bank, m: int) -> tuple:
+    """The bank (in its cycle buffers) ready for a compiled caller that drops rows and then adds births,
+    :func:`kept_into` then :func:`started_born_into` (a fleet tracker's drops and births, one call): room for
+    m tracks in the cycle buffers and the row buffers, the bank's per-track arrays and start-up filters homed
+    there and made the views of its rows (what the drops' and the births' rooms make, at once). Returns ((s, P,
+    μ, x) of the state's side and of the other side, every row of each; the row buffers)."""
+    cyc = bank._cyc
+    if cyc.cap < m:
+        cyc = bank._own_state(m)
+    rb = home_rows(bank, m)
     _view_rows(bank, rb, bank._ids.size)
-    return bank._cyc.sides[1 - bank._side], rb
+    side = bank._side
+    return cyc.sides[side], cyc.sides[1 - side], rb
 
 
 def kept_set(bank, m: int, n_active: int) -> None:

@@ -184,16 +184,15 @@ class FleetTracker(FleetRows, FleetViews):
         if rows.size:
             self._update(rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
                          claimed, assigned, var_row, labels)
-        self._prune(owners, pos_of, every, t_o, origins)
-        if M and False in claimed.tolist():  # (every detection inside a track's gate: no birth, nothing to make room for)
-            self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
+        moved = self._drops_births(owners, pos_of, every, t_o, origins, z, var, rad, idx, d_pos, claimed)
         bank = self.bank
         if every:  # (every row is a row of a vessel that scanned)
             self.team.match(slice(None), self.cols.owner, t_own, bank.state_rows, self.cols.confirmed, no, False)
         else:
             rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
             self.team.match(rows, self.cols.owner[rows], t_own, bank.states_of(rows), self.cols.confirmed[rows], no)
-        self.mgmt.note_moved(bank.state_rows)  # (its first two columns: the positions)
+        if not moved:  # (set by the drops and births' call when it ran)
+            self.mgmt.note_moved(bank.state_rows)  # (its first two columns: the positions)
 
     def _update(self, rows, rpos, all_due, row_pos, owners, t_o, z, var, rad, occ, idx, d_pos, m_q, dets, points,
                 claimed, assigned, var_row, labels=None) -> None:

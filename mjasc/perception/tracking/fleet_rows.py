@@ -2,15 +2,17 @@
 :mod:`mjasc.perception.tracking.fleet`, with their events) — the mixin
 :class:`~mjasc.perception.tracking.fleet.FleetTracker` inherits.
 
-* ``_prune`` — the tracks management gives up (lost, hopeless, merged) leave the bank and the
-  columns at once: when every row's vessel scanned (the usual tick) and no dropped track is lost or
-  merged (no event: a tentative clutter track given up, the step's common drop), the drops and both
-  compactions are one compiled call, :func:`drops_kept_into`; else the drops are read
-  (:meth:`~mjasc.perception.tracking.management.TrackManagement.drops_every`), their events written,
-  and the bank and the columns compacted by a compiled call each;
-* ``_births`` — new tracks from the detections no track claimed, away from every track's disc: the
-  births chosen (:func:`~mjasc.perception.tracking.step_gathers.births_of`), the bank's new rows
-  (:func:`~mjasc.perception.imm.row_buffers.started_born_into`) and the columns' new rows
+* ``_drops_births`` — the tracks management gives up (lost, hopeless, merged) leave the bank and the
+  columns at once, then new tracks are born from the detections no track claimed, away from every
+  track's disc: when every row's vessel scanned (the usual tick) and no dropped track is lost or merged
+  (no event: a tentative clutter track given up, the step's common drop), the drops with both
+  compactions, the births and management's moved marks are one compiled call, :func:`drops_births_into`
+  (one ~60-argument call instead of four, and none of the Python between them: each call's dispatch
+  costs ~2–3 µs at this size); else ``_prune`` and ``_births``:
+* ``_prune`` — the drops read (:meth:`~mjasc.perception.tracking.management.TrackManagement.drops_every`),
+  their events written, and the bank and the columns compacted by a compiled call each;
+* ``_births`` — the births chosen (:func:`~mjasc.perception.tracking.step_gathers.births_of`), the bank's
+  new rows (:func:`~mjasc.perception.imm.row_buffers.started_born_into`) and the columns' new rows
   (:func:`~mjasc.perception.tracking.track_columns.appended_columns`) written in one compiled call,
   :func:`births_into`, into room made beforehand for every detection (a birth step of a demo has a
   few rows and detections: the calls, arrays and glue between them cost more than their loops).
@@ -29,30 +31,75 @@ from __future__ import annotations
 import numpy as np
 
 from mjasc.core.compiled import kernel
-from mjasc.perception.imm.row_buffers import birth_room, born_set, kept_into, kept_room, kept_set, started_born_into
+from mjasc.perception.imm.row_buffers import (birth_room, born_set, kept_into, kept_set, started_born_into,
+                                              step_room)
+from mjasc.perception.imm.row_fields import combine_covariance_rows
 from mjasc.perception.tracking.fleet_views import _BORN, _LOST, _MERGED, TrackEvent
 from mjasc.perception.tracking.loss_kernels import every_drops_into
+from mjasc.perception.tracking.management import MOVED_M, moved_rows
 from mjasc.perception.tracking.step_gathers import births_of
-from mjasc.perception.tracking.track_columns import appended_columns, kept_columns
+from mjasc.perception.tracking.track_columns import (ANCHOR_X, ANCHOR_Y, ANCHORED, CONFIRMED, HIST, LAST, MOVED, N_UPD,
+                                                     OWNER, RADIUS, SCANS, appended_columns, kept_columns)
 
-__all__ = ["FleetRows", "births_into", "drops_kept_into"]
+__all__ = ["FleetRows", "births_into", "drops_births_into"]
 
 
 class FleetRows:
     """The births and drops of :class:`~mjasc.perception.tracking.fleet.FleetTracker`'s step (a mixin:
     the tracker's base class; see the module docstring for the attributes it uses)."""
 
-    _drops_in_one_call = True  # (False: drops read, then compacted by the bank's and the columns' own calls — the
-    # fused call's reference in tests/test_fleet_rows.py)
+    _drops_in_one_call = True  # (False: drops read, then compacted by the bank's and the columns' own calls, and
+    # the births a call of their own — the fused call's reference in tests/test_fleet_rows.py)
 
-    def _prune(self, owners, pos_of, every, t_o, origins) -> None:
-        """Step 4b: drop the tracks management gives up (lost, hopeless, merged), with events."""
+    def _drops_births(self, owners, pos_of, every, t_o, origins, z, var, rad, idx, d_pos, claimed) -> bool:
+        """Steps 4b and 5: drop the tracks management gives up (lost, hopeless, merged), with events; then
+        the births from the M detections z (M, 2) [m] no track claimed (``claimed`` (M,)). When every row's
+        vessel scanned and no dropped track is lost or merged (the usual tick), the drops, the births and
+        management's moved marks (``note_moved``) are one compiled call, :func:`drops_births_into`; else
+        ``_prune``, then ``_births``. Returns True when the moved marks were set (the caller's
+        ``note_moved`` done)."""
+        org = _origins(origins)
+        bank, cols = self.bank, self.cols
+        n, M = cols.n, claimed.size
+        if not (every and n and self._drops_in_one_call and bank._side is not None):
+            self._prune(owners, pos_of, every, t_o, org)
+            if M and False in claimed.tolist():  # (every detection inside a track's gate: no birth)
+                self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
+            return False
+        side, other, rb = step_room(bank, n + M)
+        f, i, b = cols.reserve(n + M)
+        mg, st = self.mgmt, bank._startup
+        bufs = mg.drop_buffers(n)
+        L, g, n_drop, m, n_active, ints, zb, one_time, off = drops_births_into(
+            n, pos_of, t_o, org, self._max_range, *mg.drop_constants, *bufs, bank._Pc_stale, *side, *other, rb.ids,
+            rb.t, rb.Pc, rb.n_gated, rb.reasons, rb.active, rb.cv_x, rb.cv_P, rb.n_meas, f, i, b, claimed, d_pos, z,
+            var, rad, owners, self._next_local, idx, self._counts, _BORN, self._use_var, bank._R, bank._sv2,
+            rb.zero_polar(M)[1], bank._mu0, bank._next_id, st.snr2, st.max_updates, cols.confirm_now, MOVED_M)
+        bank._Pc_stale = False  # (the combined covariances computed in the call)
+        if m < 0:  # (a dropped track lost or merged: its events, then the compactions and the births as before)
+            args = mg.drop_args(cols.owner, pos_of, t_o, bank.state_rows, bank._Pc, org, self._max_range)
+            self._dropped(every, None, cols.owner, pos_of, t_o, *mg.drops_read(args, bufs, n, L, g, n_drop))
+            if M and False in claimed.tolist():
+                self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
+            return False
+        if n_drop:  # (dropped and compacted, none lost or merged: no events)
+            kept_set(bank, m, n_active)
+            cols.kept(~bufs[0][:n], m)  # (the object columns and the views)
+            self.version += 1
+        if zb.shape[0]:
+            self._born(owners, t_o, ints, zb, one_time, off)
+        return True
+
+    def _prune(self, owners, pos_of, every, t_o, org) -> None:
+        """Step 4b through the separate calls: drop the tracks management gives up (lost, hopeless, merged),
+        with events (``org`` (p, 2) the vessels' sensor origins [m], NaN: none)."""
         bank = self.bank
         if every:  # every row: rows as a slice (no copies)
             if self.cols.n == 0:  # (the bank's number of rows)
                 return
             rows, own = slice(None), self.cols.owner
-            rpos = None
+            drop, n_drop, lost, merged = self.mgmt.drops_every(own, pos_of, t_o, bank.state_rows,
+                                                               bank.covariance_rows(), org, self._max_range)
         else:
             rows = (pos_of[self.cols.owner] >= 0).nonzero()[0]
             if rows.size == 0:
@@ -60,45 +107,18 @@ class FleetRows:
             own = self.cols.owner[rows]
             rpos = pos_of[own]
             pos, cov = bank.positions[rows], bank.position_covariances[rows]
-        if (type(origins) is np.ndarray and origins.dtype == np.float64 and origins.ndim == 2
-                and origins.shape[1] == 2 and origins.flags.c_contiguous):
-            org = origins  # (the sensing pass's (p, 2) origins: read as they are)
-        else:
-            try:  # (every vessel's origin given, as the perception fleet does: one conversion)
-                org = np.array(origins, dtype=float)
-                if org.ndim != 2:
-                    org = org.reshape(-1, 2)
-            except (TypeError, ValueError):
-                org = None
-        if org is None or org.shape[0] != len(origins):
-            org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
-        if rpos is None and self._drops_in_one_call and bank._side is not None:
-            # (every row's time, position, covariance, origin and range gathered by the kernel; the rows
-            # dropped without an event compacted in the same call)
-            Pc = bank.covariance_rows()
-            (s, P, mu, x), rb = kept_room(bank)
-            cols, mg = self.cols, self.mgmt
-            n = cols.n
-            bufs = mg.drop_buffers(n)
-            args = mg.drop_args(own, pos_of, t_o, bank.state_rows, Pc, org, self._max_range)
-            L, g, n_drop, m, n_active = drops_kept_into(
-                *args, *bufs, bank._s, bank._P, bank._mu, bank._x, s, P, mu, x, rb.ids, rb.t, rb.Pc, rb.n_gated,
-                rb.reasons, rb.active, rb.cv_x, rb.cv_P, rb.n_meas, *cols.reserve(n))
-            if m >= 0:  # (dropped and compacted, none lost or merged: no events)
-                kept_set(bank, m, n_active)
-                cols.kept(~bufs[0][:n], m)  # (the object columns and the views)
-                self.version += 1
-                return
-            drop, n_drop, lost, merged = mg.drops_read(args, bufs, n, L, g, n_drop)
-        elif rpos is None:
-            drop, n_drop, lost, merged = self.mgmt.drops_every(own, pos_of, t_o, bank.state_rows,
-                                                               bank.covariance_rows(), org, self._max_range)
-        else:
             conf = self.cols.confirmed[rows]
             drop, reason, merged = self.mgmt.drops(rows, own, t_o[rpos], pos, cov, org[rpos], self._max_range[own])
             n_drop = np.count_nonzero(drop)
             lost = [(j, reason[j]) for j in drop.nonzero()[0].tolist() if conf[j] and reason[j]]
-        ids = self.cols.local_id[rows]
+        self._dropped(every, None if every else rows, own, pos_of, t_o, drop, n_drop, lost, merged)
+
+    def _dropped(self, every, rows, own, pos_of, t_o, drop, n_drop, lost, merged) -> None:
+        """The drops' events and the compactions of the bank and the columns: ``drop`` (k,) bool of the rows
+        ``rows`` (None: every row) of vessels ``own`` (k,), n_drop of them, ``lost`` (row, reason) and
+        ``merged`` (row, kept row) pairs (indices into ``rows``)."""
+        bank = self.bank
+        ids = self.cols.local_id if rows is None else self.cols.local_id[rows]
         for go, keep in merged:
             o = int(own[go])
             t = float(t_o[pos_of[o]])
@@ -119,8 +139,8 @@ class FleetRows:
             self.version += 1
 
     def _births(self, owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed) -> None:
-        """Step 5: new tracks from the detections no track claimed, away from every track's disc (one
-        compiled call, :func:`births_into`, into room for every detection)."""
+        """Step 5 through a call of its own: new tracks from the detections no track claimed, away from
+        every track's disc (one compiled call, :func:`births_into`, into room for every detection)."""
         bank, cols = self.bank, self.cols
         n, M = cols.n, claimed.size
         (s, P, mu, x), rb = birth_room(bank, n + M)
@@ -132,13 +152,18 @@ class FleetRows:
             self._next_local, idx, self._counts, _BORN, self._use_var, bank._R, bank._sv2, J, rb.active, rb.cv_x,
             rb.cv_P, rb.n_meas, s, P, mu, x, bank._mu0, rb.ids, rb.t, rb.Pc, rb.n_gated, rb.reasons, bank._next_id,
             st.snr2, st.max_updates, f, i, b, cols.confirm_now)
+        if zb.shape[0]:
+            self._born(owners, t_o, ints, zb, one_time, off)
+
+    def _born(self, owners, t_o, ints, zb, one_time, off) -> None:
+        """After :func:`births_into` wrote k births past the bank's and the columns' rows (``ints`` (3, k),
+        ``zb`` (k, 2) [m], ``one_time``, ``off``: its returns): they are rows now; their events and last
+        assignments."""
         k = zb.shape[0]
-        if k == 0:
-            return
-        born_set(bank, k, one_time, off)
+        born_set(self.bank, k, one_time, off)
         # every per-track column of management, manoeuvres, team and outlines (the hull anchor: the
         # new rows' positions, which are zb)
-        cols.appended(k)
+        self.cols.appended(k)
         self.version += 1
         local, dets = ints[1], ints[2]
         bl, ll, _ = ints.tolist()
@@ -155,6 +180,23 @@ class FleetRows:
                 events.append(TrackEvent(t, "born", tid, f"track {tid} born at ({zj[0]:.1f}, {zj[1]:.1f}) m"))  # (as _fmt)
             self._last_assign[o].append((local, dets, a, b))
             a = b
+
+
+def _origins(origins) -> np.ndarray:
+    """The vessels' sensor origins as one (p, 2) float array [m] (NaN: no origin, no out-of-range test):
+    the sensing pass's array as it is, else made from the list of (2,) or None."""
+    if (type(origins) is np.ndarray and origins.dtype == np.float64 and origins.ndim == 2
+            and origins.shape[1] == 2 and origins.flags.c_contiguous):
+        return origins  # (the sensing pass's (p, 2) origins: read as they are)
+    try:  # (every vessel's origin given, as the perception fleet does: one conversion)
+        org = np.array(origins, dtype=float)
+        if org.ndim != 2:
+            org = org.reshape(-1, 2)
+    except (TypeError, ValueError):
+        org = None
+    if org is None or org.shape[0] != len(origins):
+        org = np.array([(np.nan, np.nan) if o is None else np.asarray(o, dtype=float).reshape(2) for o in origins])
+    return org
 
 
 @kernel
@@ -189,28 +231,53 @@ def births_into(claimed, owner, pos_of, d_pos, z, var, rad, x_rows, radius, owne
 
 
 @kernel
-def drops_kept_into(group, pos_of, t_o, x_rows, Pc_rows, org_o, max_range_o, hist, scans, confirmed, last, n_upd, radius,
-                    popcount, window, hits, max_coast, max_var, margin, fraction, drop, ints, vals, s, P, mu, x, s_out,
-                    P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons, active, cv_x, cv_P, n_meas, f, i, b):
-    """A fleet step's drops (every row's vessel scanned) in one call:
-    :func:`~mjasc.perception.tracking.loss_kernels.every_drops_into` (its arguments first, as there, into
-    drop, ints, vals); when rows are dropped and none is lost or merged (no event to write: the step's
-    common drop, a tentative track given up), the bank compacted to the kept rows
-    (:func:`~mjasc.perception.imm.row_buffers.kept_into`: its state s, P, μ, x into the other side's
-    s_out … x_out, its per-track arrays and start-up filters in place) and the columns' tables f, i, b
-    (:func:`~mjasc.perception.tracking.track_columns.kept_columns`). Returns (L, g, the number dropped,
-    m, the number of start-up rows kept) — m = −1 when nothing was compacted (the caller reads the
-    drops and compacts, as before)."""
-    L, g, n_drop = every_drops_into(group, pos_of, t_o, x_rows, Pc_rows, org_o, max_range_o, hist, scans, confirmed,
-                                    last, n_upd, radius, popcount, window, hits, max_coast, max_var, margin, fraction,
-                                    drop, ints, vals)
-    if n_drop == 0 or L != 0 or g != 0:
-        return L, g, n_drop, -1, 0
-    n = group.size
-    keep = np.empty(n, dtype=np.bool_)
-    for k in range(n):
-        keep[k] = not drop[k]
-    m, n_active = kept_into(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons, active, cv_x,
-                            cv_P, n_meas)
-    kept_columns(keep, f, i, b)
-    return L, g, n_drop, m, n_active
+def drops_births_into(n, pos_of, t_o, org_o, max_range_o, popcount, window, hits, max_coast, max_var, margin, fraction,
+                      drop, ints, vals, stale, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons,
+                      active, cv_x, cv_P, n_meas, f, i, b, claimed, d_pos, z, var, rad, owners, next_local, idx, counts,
+                      col, use_var, R, sv2, J, mu0, id0, snr2, max_updates, confirm_now, moved_m):
+    """A fleet step's drops and births (every row's vessel scanned) in one call, on a bank of n rows in its
+    buffers — the state's side s, P, μ, x and the other side s_out … x_out (every row of each), the row
+    buffers ids … n_meas — and the columns' tables f, i, b (room for n + M rows each): the combined
+    covariances of the bank's rows first when ``stale`` (``combine_covariance_rows`` into Pc), then
+    :func:`~mjasc.perception.tracking.loss_kernels.every_drops_into` (the rows' vessels, positions,
+    covariances and columns read from those buffers; the vessels' arguments pos_of … fraction and its
+    buffers drop, ints, vals as there). When a dropped track is lost or merged (events to write), nothing
+    more: returns (L, g, the number dropped, −1, …) and the caller compacts and adds the births. Else the
+    dropped rows compacted as :func:`~mjasc.perception.imm.row_buffers.kept_into` (the state into the other
+    side, which is then the state's) and :func:`~mjasc.perception.tracking.track_columns.kept_columns` do,
+    the births of the M detections (``claimed`` … ``confirm_now``: :func:`births_into`'s arguments after
+    the rows') written past the m rows kept when a detection is unclaimed, and management's moved marks
+    set on the m + k rows (:func:`~mjasc.perception.tracking.management.moved_rows`, MOVED_M ``moved_m``).
+    Returns (L, g, the number dropped, m, the number of start-up rows kept (when rows were dropped), then
+    :func:`births_into`'s ints (3, k), z_b (k, 2), one_time, off)."""
+    if stale:
+        combine_covariance_rows(s[:n], P[:n], mu[:n], active[:n], Pc[:n])
+    L, g, n_drop = every_drops_into(i[OWNER, :n], pos_of, t_o, x[:n], Pc[:n], org_o, max_range_o, i[HIST, :n],
+                                    i[SCANS, :n], b[CONFIRMED, :n], f[LAST, :n], i[N_UPD, :n], f[RADIUS, :n],
+                                    popcount, window, hits, max_coast, max_var, margin, fraction, drop, ints, vals)
+    if n_drop != 0 and (L != 0 or g != 0):
+        return L, g, n_drop, -1, 0, np.empty((3, 0), dtype=np.int64), np.empty((0, 2)), True, 0
+    m, n_active = n, 0
+    if n_drop != 0:
+        keep = np.empty(n, dtype=np.bool_)
+        for k in range(n):
+            keep[k] = not drop[k]
+        m, n_active = kept_into(keep, s, P, mu, x, s_out, P_out, mu_out, x_out, ids, t, Pc, n_gated, reasons, active,
+                                cv_x, cv_P, n_meas)
+        kept_columns(keep, f, i, b)
+        s, P, mu, x = s_out, P_out, mu_out, x_out
+    born = False
+    for j in range(claimed.size):
+        if not claimed[j]:
+            born = True
+            break
+    if born:
+        bi, zb, one_time, off = births_into(claimed, i[OWNER, :m], pos_of, d_pos, z, var, rad, x[:m], f[RADIUS, :m],
+                                            owners, t_o, next_local, idx, counts, col, use_var, R, sv2, J, active,
+                                            cv_x, cv_P, n_meas, s, P, mu, x, mu0, ids, t, Pc, n_gated, reasons, id0,
+                                            snr2, max_updates, f, i, b, confirm_now)
+    else:
+        bi, zb, one_time, off = np.empty((3, 0), dtype=np.int64), np.empty((0, 2)), True, 0
+    e = m + zb.shape[0]
+    moved_rows(x[:e], b[CONFIRMED, :e], b[ANCHORED, :e], f[ANCHOR_X:ANCHOR_Y + 1, :e].T, b[MOVED, :e], moved_m)
+    return L, g, n_drop, m, n_active, bi, zb, one_time, off

@@ -39,7 +39,7 @@ from mjasc.perception.tracking.loss_kernels import (drop_rows, every_drop_rows, 
                                                     lost_reason)
 from mjasc.perception.tracking.track_columns import TrackColumns, column
 
-__all__ = ["TrackManagement", "MOVED_M", "scan_rows"]
+__all__ = ["TrackManagement", "MOVED_M", "scan_rows", "moved_rows"]
 
 #: A confirmed track that moved this far from where it was confirmed has moved (stays "moving") [m].
 MOVED_M = 3.0
@@ -230,13 +230,13 @@ class TrackManagement:
     def note_moved(self, positions: np.ndarray) -> None:
         """After a scan: anchor the tracks confirmed for the first time where they are (positions
         (n, ≥ 2) [m]: the first two columns), and mark the confirmed ones now ``MOVED_M`` from their
-        anchor as moved (one compiled pass, :func:`_moved_rows`)."""
+        anchor as moved (one compiled pass, :func:`moved_rows`)."""
         if type(positions) is not np.ndarray or positions.dtype != np.float64:
             positions = np.asarray(positions, dtype=float)
         if positions.ndim != 2:  # (no tracks: an empty list of positions)
             positions = positions.reshape(-1, 2)
         c = self.cols
-        _moved_rows(positions, c.confirmed, c.anchored, c.anchor, c.moved, MOVED_M)
+        moved_rows(positions, c.confirmed, c.anchored, c.anchor, c.moved, MOVED_M)
 
 
 def _reasons(k: int, code, lam, since, rng) -> list:
@@ -278,7 +278,7 @@ def scan_rows(idx, t, used, assigned, rad, occ, speeds, hist, scans, n_upd, last
 
 
 @kernel
-def _moved_rows(positions, confirmed, anchored, anchor, moved, moved_m):
+def moved_rows(positions, confirmed, anchored, anchor, moved, moved_m):
     """:meth:`TrackManagement.note_moved` per row, in place: a confirmed row not anchored yet is
     anchored at its position (n, ≥ 2) [m]; an anchored one is moved once
     ``hypot(x − anchor_x, y − anchor_y) ≥ moved_m``."""
