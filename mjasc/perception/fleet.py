@@ -189,12 +189,10 @@ class PerceptionFleet:
         slot = plan.slot  # map member of each slot
         c = plan.detection
         t = store.pass_tables(int(parts[2][1][S]))  # (room for every beam's return)
-        cell_m, keys, key_rows, cells, member, score, n, cap, min_hits, n_occ, version, _, _ = t
+        cell_m = t[0]
         status, floats, points, hit, geom, ints, K, d, nc, bools, p_ints, p_floats, p_points, keys, key_rows, n = \
-            scan_detect_map(
-                *args, *c.cluster_scan, c.beam_off, *c.per_scan[1:], *c.keep_scan, self.map_in_pass, plan.sigma, dc,
-                dr, d_k, FLAT_M, slot, plan.carve_all, parts[2][6], cell_m, keys, key_rows, cells, member, score, n,
-                cap, min_hits, n_occ, version)
+            scan_detect_map(*args, *plan.detection_args, self.map_in_pass, plan.sigma, dc, dr, d_k, FLAT_M, slot,
+                            plan.carve_all, parts[2][6], *t[:11])
         dpoints, dfloats, dints, dflags, swallowed, targets, counts, cand, geo, rel = unpack(
             status, S, K, d, nc, bools, p_ints, p_floats, p_points)
         stack = casts.stack(parts, floats, points, hit, geom, ints, K)
@@ -304,9 +302,9 @@ class PerceptionFleet:
                     trackers.append((ft, owner_slot))
             noise = [m.sensor_config.range_noise_std_m for m in members]
             dropout = [m.sensor_config.dropout_probability for m in members]
+            c = detection_constants([m.sensor for m in members], [m.config.detection for m in members], noise, dropout)
             got = self._plans[key] = (size, _Plan(
-                detection=detection_constants([m.sensor for m in members], [m.config.detection for m in members],
-                                              noise, dropout),
+                detection=c, detection_args=(*c.cluster_scan, c.beam_off, *c.per_scan[1:], *c.keep_scan),
                 noise=noise, sigma=np.array(noise, dtype=float), dropout=dropout,
                 slot=np.array([m._map.member for m in members], dtype=np.int64),
                 carve=[k for k, m in enumerate(members) if m._map.miss_weight > 0],
@@ -375,12 +373,14 @@ class PerceptionFleet:
 @dataclass(frozen=True, eq=False)
 class _Plan:
     """What a sensing pass over one combination of members (slots 0 … S−1) needs of them: the
-    detection's per-scan constants (:func:`~mjasc.perception.detection.detection_constants`); per
+    detection's per-scan constants (:func:`~mjasc.perception.detection.detection_constants`) and
+    those as :func:`~mjasc.perception.sense_pass.scan_detect_map` takes them (one tuple); per
     slot σ_ρ (list and array), dropout probability, map member, the slot index; the slots whose
     maps carve (``carve_all``: every slot's); the slots with a plugin tracker; per fleet tracker with members among them
     (tracker, the slot of each of its owner indices, −1: not among them)."""
 
     detection: object
+    detection_args: tuple
     noise: list
     sigma: np.ndarray
     dropout: list

@@ -72,6 +72,9 @@ class ScanBatch:
         self._clear()
         self._const_key: tuple = ()
         self._const = None
+        #: the last pass's (S, queued sensors, their constants, views of _has): kept while the table rows
+        #: of the first S slots and _has stay the same (add drops it when it makes a row or grows _has)
+        self._pass = None
 
     def _clear(self) -> None:
         self._n = 0  # casts queued
@@ -121,6 +124,7 @@ class ScanBatch:
         if row is None or row[0] is not sensor or row[1] != a:
             self._cos[a:b], self._sin[a:b] = sensor.cos_body, sensor.sin_body
             del tables[k:]  # the later slots' rows may have been overwritten
+            self._pass = None
             row = (sensor, a, *self._views(a, b))
             tables.append(row)
         _, _, dist, gid, normals, uniforms = row
@@ -134,6 +138,7 @@ class ScanBatch:
         has = self._has
         if k >= has.shape[1]:
             self._has = has = np.concatenate([has, np.zeros_like(has)], axis=1)
+            self._pass = None
         has[0, k], has[1, k] = has_n, has_u
         self._n, self._end = k + 1, b
 
@@ -163,8 +168,11 @@ class ScanBatch:
         and what :meth:`stack` needs with its outputs (a caller may run the kernel inside a larger
         compiled call: :mod:`mjasc.perception.sense_pass`)."""
         S = self._n
-        sensors = [row[0] for row in self._tables[:S]]  # (slot k's table row is its cast's sensor's)
-        consts = self._constants(sensors)
+        got = self._pass
+        if got is None or got[0] != S:
+            sensors = [row[0] for row in self._tables[:S]]  # (slot k's table row is its cast's sensor's)
+            got = self._pass = (S, sensors, self._constants(sensors), self._has[0, :S], self._has[1, :S])
+        _, sensors, consts, has_n, has_u = got
         beam_off, offs, noise, dropout, min_r, max_r, n_beams, first, last, full = consts
         times, yaws = self._times, self._yaws
         # one new array per pass (the stack keeps views of it): times, origins, headings, then the places the
@@ -172,7 +180,6 @@ class ScanBatch:
         v = np.array(times + self._xy + yaws + [0.0] * (2 * S))
         times_s, origins, headings, cos_h, sin_h = v[:S], v[S:3 * S].reshape(S, 2), v[3 * S:4 * S], \
             v[4 * S:5 * S], v[5 * S:]
-        has_n, has_u = self._has[0, :S], self._has[1, :S]
         if self._cb:
             cb, cr = np.array(self._cb, dtype=np.int64), np.array(self._cr, dtype=float)
         else:
