@@ -1,13 +1,15 @@
-"""mjasc.perception.hull_kernels.hull_area2 against scipy's qhull, and the map's polygon split that
+"""mjasc.perception.hull_kernels.hull_area2 against scipy's qhull, the map's polygon split that
 uses it (mjasc.perception.map_polygons.split_component) against the qhull-only form it replaced,
-bit for bit, on walls, docks, blobs and single cells."""
+bit for bit, on walls, docks, blobs and single cells, and map_polygons.hull_2d (qhull without
+ConvexHull's facet arrays) against ConvexHull on those and on a run's pieces."""
 
 import numpy as np
 import pytest
 from scipy.spatial import ConvexHull, QhullError
 
 from mjasc.perception.hull_kernels import centred, halves, hull_area2, median
-from mjasc.perception.map_polygons import split_component
+from mjasc.perception import map_polygons
+from mjasc.perception.map_polygons import hull_2d, split_component
 
 _CORNERS = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
 
@@ -181,3 +183,44 @@ def test_corners_match_numpy_form(seed):
         want = (comp[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cell_m
         got = corners(comp, cell_m)
         assert got.shape == want.shape and got.tobytes() == want.tobytes()
+
+
+def _same_hull(points):
+    hull = ConvexHull(points)
+    vertices, area = hull_2d(points)
+    assert vertices.dtype == hull.vertices.dtype and np.array_equal(vertices, hull.vertices)  # (order and start)
+    assert np.float64(area).tobytes() == np.float64(hull.volume).tobytes()
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_hull_2d_is_convexhulls(seed):
+    rng = np.random.default_rng(20 + seed)
+    for cells in _shapes(rng):
+        cm = float(rng.choice([0.5, 1.0, 1.5, 2.0]))
+        _same_hull((cells[:, None, :] + _CORNERS[None, :, :]).reshape(-1, 2) * cm)
+        _same_hull(rng.normal(0.0, 50.0, (int(rng.integers(3, 300)), 2)))  # (points in general position)
+    for bad in (np.array([[0.0, 0.0], [1.0, 1.0], [2.0, 2.0]]), np.zeros((2, 2))):  # collinear, too few
+        with pytest.raises(QhullError):
+            ConvexHull(bad)
+        with pytest.raises(QhullError):
+            hull_2d(bad)
+
+
+def test_hull_2d_is_convexhulls_on_a_runs_pieces(monkeypatch):
+    """Every hull the demo's maps ask for in 60 s (recorded run's inputs: the pieces' corners)."""
+    import mjasc
+    from dataclasses import replace
+
+    from mjasc.runs.runner import Runner
+
+    seen = []
+
+    def checked(points):
+        _same_hull(points)
+        seen.append(points.shape[0])
+        return hull_2d(points)
+
+    monkeypatch.setattr(map_polygons, "hull_2d", checked)
+    sc = mjasc.load_scenario("demo").with_overrides(duration_s=60.0)
+    Runner(replace(sc, outputs=replace(sc.outputs, recording=False, video=False)), out_dir=None).run()
+    assert len(seen) > 50 and max(seen) > 40

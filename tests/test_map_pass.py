@@ -201,3 +201,42 @@ def test_sense_map_equals_the_steps_with_partial_fans_and_mixed_maps():
         _same_store(stores[0], stores[1])
         freed += int((stores[0]._score[:before.size] < before).sum())  # cells seen through
     assert stores[0]._n > 100 and stores[0]._n_occupied.sum() > 20 and freed > 20
+
+
+def test_the_carving_candidates_are_the_cells_in_reach_it_can_change(monkeypatch):
+    """returns_to_map leaves out of cells_in_reach's rows those whose carving changes nothing: a
+    cell with one of the tick's returns (never seen through) and a cell scored 0 (the store's
+    equality with the steps, which carve every cell in reach, is checked above). Its candidates
+    are the others, in cells_in_reach's order, with their geometry."""
+    from mjasc.perception import map_pass
+    from mjasc.perception.carve_kernels import cells_in_reach
+    from mjasc.perception.cell_keys import find_rows, point_keys
+
+    real = map_pass.returns_to_map
+    seen = {"scored 0": 0, "with a return": 0, "kept": 0}
+
+    def wrapped(*a):
+        got = real(*a)
+        ok, _, _, keys, key_rows, n, cand, geo, rel = got
+        ret_off, points, slot, carve, origins, max_range_m, n_beams, cell_m = a[1], a[8], *a[14:20]
+        cells, member, score, version = a[22], a[23], a[24], a[29]
+        if ok and carve and n:
+            fan = np.full(version.shape[0], -1, dtype=np.int64)
+            for s in range(slot.shape[0]):
+                fan[slot[s]] = s if n_beams[s] > 0 else -1
+            rows, qs, rel0, r, half, far = cells_in_reach(cells[:n], member[:n], fan, cell_m, origins, max_range_m)
+            pk, _ = point_keys(np.repeat(slot, np.diff(ret_off)), points, cell_m)
+            now = find_rows(pk, keys, key_rows)
+            held = np.isin(rows, now[now >= 0])
+            live = (score[rows] > 0.0) & ~held
+            assert np.array_equal(cand, np.stack([rows[live], qs[live]]))
+            assert np.array_equal(geo, np.stack([r[live], half[live], far[live]])) and np.array_equal(rel, rel0[live])
+            seen["scored 0"] += int((score[rows] == 0.0).sum())
+            seen["with a return"] += int(held.sum())
+            seen["kept"] += int(live.sum())
+        return got
+
+    monkeypatch.setattr(map_pass, "returns_to_map", wrapped)
+    monkeypatch.setattr(fleet_module.PerceptionFleet, "map_in_pass", False)  # (sense_map after the compiled pass)
+    sail_quay_fleet()
+    assert min(seen.values()) > 100, seen

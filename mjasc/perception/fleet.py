@@ -207,7 +207,7 @@ class PerceptionFleet:
         extended, n_pts, centres = batch.extended, batch.n_points, batch.centres_m
         radii, variances, occluded, lab = batch.radii_m, batch.variances_m2, batch.occluded, batch.labels
         if status == MAPPED:
-            carve_stacked(store, t, keys, key_rows, n, cand, geo, rel, stack, plan.sigma, ret_off, slot, pts)
+            carve_stacked(store, t, keys, key_rows, n, cand, geo, rel, stack, plan.sigma)
         else:  # (DETECTED: the map step not made in the compiled call, the reference form of tests/test_sense_pass.py)
             if status == DETECTED and d_k.size and extended.any():
                 swallowed = tracked_in_walls(batch.labels, ret_off, det_off, extended, pts, dc, dr, d_k)

@@ -13,10 +13,14 @@ raises the one-line error for a return out of the map's range, ``tests/test_map_
 3. targets, wall fragments and the map's new returns (:func:`~mjasc.perception.sense_kernels.sort_returns`);
 4. the new returns' hits: their distinct cells' rows, missing ones created (the sorted keys merged),
    +1 capped (:meth:`StaticMapStore.add_points`);
-5. the carving's candidate cells of every scan's fan (:func:`~mjasc.perception.carve_kernels.cells_in_reach`);
+5. the carving's candidate cells of every scan's fan (:func:`~mjasc.perception.carve_kernels.cells_in_reach`),
+   less those whose carving would change nothing: a cell holding one of the tick's returns (never
+   seen through) and a cell scored 0 (carving leaves it at 0 and flips nothing);
 
 then numpy's arctan2 of the candidates' bearings (its SIMD loop need not round like libm's), and
-the second call: the cells seen through scored down (:func:`~mjasc.perception.score_kernels.carve_cells`).
+the second call: the cells seen through scored down (:func:`~mjasc.perception.score_kernels.carve_cells`,
+its own check of the tick's returns already made). The map is the same as the steps': only the
+cells-seen-through counts of :func:`carve_fans`, which nothing reads, leave those cells out.
 """
 
 from __future__ import annotations
@@ -106,38 +110,48 @@ def returns_to_map(labels, ret_off, det_off, extended, n_points, centres, radii,
     for s in range(S):
         fan[slot[s]] = s if n_beams[s] > 0 else -1
     rows, qs, rel, r, half, far = cells_in_reach(cells[:n], member[:n], fan, cell_m, origins, max_range_m)
-    c = rows.shape[0]
+    live = np.empty(n, dtype=np.bool_)  # carving the row can change it: scored, and no return of the tick in it
+    for row in range(n):
+        live[row] = score[row] > 0.0
+    now = find_rows(keys, sorted_keys, key_rows)
+    for i in range(K):
+        if now[i] >= 0:
+            live[now[i]] = False
+    c = 0
+    for i in range(rows.shape[0]):
+        if live[rows[i]]:
+            c += 1
     cand = np.empty((2, c), dtype=np.int64)
     geo = np.empty((3, c))
-    for i in range(c):
-        cand[0, i], cand[1, i] = rows[i], qs[i]
-        geo[0, i], geo[1, i], geo[2, i] = r[i], half[i], far[i]
-    return True, targets, stats, sorted_keys, key_rows, n, cand, geo, rel
+    rel_live = np.empty((c, 2))
+    k = 0
+    for i in range(rows.shape[0]):
+        if live[rows[i]]:
+            cand[0, k], cand[1, k] = rows[i], qs[i]
+            geo[0, k], geo[1, k], geo[2, k] = r[i], half[i], far[i]
+            rel_live[k, 0], rel_live[k, 1] = rel[i, 0], rel[i, 1]
+            k += 1
+    return True, targets, stats, sorted_keys, key_rows, n, cand, geo, rel_live
 
 
 @kernel
 def carve_fans(cand, geo, bearing, n, margin_m, first_angle_body, last_angle_body, headings, n_beams, full, ranges,
-               hit, beam_off, sigma, ret_off, slot, points, cell_m, sorted_keys, key_rows, score, member, miss,
-               min_hits, n_occupied, version):
+               hit, beam_off, sigma, score, member, miss, min_hits, n_occupied, version):
     """The candidates of :func:`returns_to_map` (``cand``, ``geo``, their ``bearing`` = numpy's
-    arctan2 [rad]) seen through by the fans of the stacked scans scored down: each fan's world
-    angles of its first and last beam ``angle_body + heading``, then
-    :func:`~mjasc.perception.score_kernels.carve_cells` with every scan's returns (scan s's map
-    member ``slot[s]``). Returns the cells seen through per fan (S,)."""
-    S = ret_off.shape[0] - 1
-    K = points.shape[0]
-    point_member = np.empty(K, dtype=np.int64)
-    for s in range(S):
-        for i in range(ret_off[s], ret_off[s + 1]):
-            point_member[i] = slot[s]
+    arctan2 [rad]; none holds a return of the tick) seen through by the fans of the S stacked scans
+    scored down: each fan's world angles of its first and last beam ``angle_body + heading``, then
+    :func:`~mjasc.perception.score_kernels.carve_cells` (without returns to check). Returns the
+    candidates seen through per fan (S,)."""
+    S = n_beams.shape[0]
     a0 = np.empty(S)
     a1 = np.empty(S)
     for s in range(S):
         a0[s] = first_angle_body[s] + headings[s]
         a1[s] = last_angle_body[s] + headings[s]
+    none = np.zeros(0, dtype=np.int64)
     counts, _ = carve_cells(cand[0], member[:n], margin_m, cand[1], bearing, geo[0], geo[1], geo[2], a0, a1, n_beams,
-                            full, ranges, hit, beam_off, sigma, point_member, points, cell_m, sorted_keys, key_rows,
-                            score, member, miss, min_hits, n_occupied, version)
+                            full, ranges, hit, beam_off, sigma, none, np.zeros((0, 2)), np.zeros(0), none, none, score,
+                            member, miss, min_hits, n_occupied, version)
     return counts
 
 
@@ -157,22 +171,22 @@ def sense_map(store, labels, ret_off, det_off, extended, n_points, centres, radi
         cells, member, score, n, cap, min_hits, n_occ, version)
     if not ok:
         return None
-    carve_stacked(store, t, keys, key_rows, n, cand, geo, rel, stack, sigma, ret_off, slot, points)
+    carve_stacked(store, t, keys, key_rows, n, cand, geo, rel, stack, sigma)
     return targets, stats
 
 
-def carve_stacked(store, tables, keys, key_rows, n, cand, geo, rel, stack, sigma, ret_off, slot, points) -> None:
+def carve_stacked(store, tables, keys, key_rows, n, cand, geo, rel, stack, sigma) -> None:
     """The end of :func:`sense_map` after :func:`returns_to_map` (on the store's ``tables``, its
     :meth:`~mjasc.perception.static_map.StaticMapStore.pass_tables`): the store's rows taken over
     (``keys``, ``key_rows``, ``n``), numpy's arctan2 of the candidates' bearings and
     :func:`carve_fans`."""
-    cell_m, _, _, _, member, score, _, _, min_hits, n_occ, version, miss, margin = tables
+    _, _, _, _, member, score, _, _, min_hits, n_occ, version, miss, margin = tables
     store.set_rows(keys, key_rows, n)
     if cand.shape[1]:
         bearing = np.arctan2(rel[:, 1], rel[:, 0])
         carve_fans(cand, geo, bearing, n, margin, stack.first_angle_body, stack.last_angle_body, stack.headings_rad,
-                   stack.n_beams, stack.full_circle, stack.ranges_m, stack.hit, stack.beam_off, sigma, ret_off, slot,
-                   points, cell_m, keys, key_rows, score, member, miss, min_hits, n_occ, version)
+                   stack.n_beams, stack.full_circle, stack.ranges_m, stack.hit, stack.beam_off, sigma, score, member,
+                   miss, min_hits, n_occ, version)
 
 
 def map_steps(store, labels, ret_off, det_off, extended, n_points, centres, radii, variances, points, sigma, flat_m,

@@ -23,12 +23,13 @@ its depth, the cell size, ``min_fill`` and ``max_depth``).
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
+from scipy.spatial import QhullError
+from scipy.spatial._qhull import _Qhull
 
 from mjasc.perception.hull_kernels import centred, components, halves, hull_area2
 from mjasc.perception.hull_kernels import corners as cell_corners
 
-__all__ = ["PolygonCache", "split_component"]
+__all__ = ["PolygonCache", "hull_2d", "split_component"]
 
 #: A piece's fill (its cells over its hull's exact area, :func:`~mjasc.perception.hull_kernels.hull_area2`)
 #: this far (relative) below ``min_fill`` is below it by qhull's area too (qhull's area is within
@@ -36,6 +37,21 @@ __all__ = ["PolygonCache", "split_component"]
 SURE_SPARSE = 1e-6
 #: The parts a :class:`PolygonCache` remembers at most (then it starts again from none).
 MEMO_PARTS = 4096
+
+
+def hull_2d(points: np.ndarray) -> tuple[np.ndarray, float]:
+    """The convex hull of ``points`` (p, 2) float64 [m] as ``scipy.spatial.ConvexHull(points)``
+    has it: its vertices' indices (counter-clockwise, from qhull's starting vertex) and its area
+    [m²] (``.vertices``, ``.volume``); raises ``QhullError`` as it does. The same qhull run
+    (options ``i Qt``, triangulated) without the facet arrays ConvexHull also builds, which cost
+    about a third of its time on a piece's few dozen corners (its test compares the two)."""
+    qhull = _Qhull(b"i", points, b"", required_options=b"Qt")
+    try:
+        qhull.triangulate()
+        area, _ = qhull.volume_area()
+        return qhull.get_extremes_2d(), area
+    finally:
+        qhull.close()
 
 
 def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth: int, depth: int, out: list,
@@ -56,29 +72,29 @@ def split_component(comp: np.ndarray, cell_m: float, min_fill: float, max_depth:
 
 def _split(comp, cell_m, min_fill, max_depth, depth, out, memo) -> None:
     corners = None  # (made only when qhull is asked)
-    hull = None
+    vertices = None
     n = comp.shape[0]
     if n <= 4 or depth >= max_depth or not 2.0 * n < min_fill * hull_area2(comp) * (1.0 - SURE_SPARSE):
         # a piece, or a fill that the hull's exact area does not put clearly below min_fill: qhull's
         # area decides, as it always did (a piece clearly too sparse is split without its hull)
         corners = cell_corners(comp, cell_m)  # (qhull's input: four corners per cell [m])
         try:
-            hull = ConvexHull(corners)
+            vertices, area = hull_2d(corners)
         except QhullError:
             return
-        fill = n * cell_m**2 / hull.volume
+        fill = n * cell_m**2 / area
         if fill >= min_fill or n <= 4 or depth >= max_depth:
-            out.append(corners[hull.vertices])
+            out.append(corners[vertices])
             return
     c = centred(comp)  # (comp - comp.mean(axis=0))
     _, vec = np.linalg.eigh(c.T @ c)
     proj = c @ vec[:, -1]
     left, right = halves(comp, proj)  # (comp[proj <= median], the others, in one compiled pass)
     if not left.shape[0]:  # every cell on one side
-        if hull is None:
+        if vertices is None:
             corners = cell_corners(comp, cell_m)
-            hull = ConvexHull(corners)
-        out.append(corners[hull.vertices])
+            vertices, _ = hull_2d(corners)
+        out.append(corners[vertices])
         return
     split_component(left, cell_m, min_fill, max_depth, depth + 1, out, memo)
     split_component(right, cell_m, min_fill, max_depth, depth + 1, out, memo)

@@ -18,7 +18,10 @@ call, in the same order and on the same arrays, so every result is the same bits
 4. otherwise steps 1–5 of the map pass (:func:`~mjasc.perception.map_pass.returns_to_map`).
 
 The caller then takes numpy's arctan2 of the carving's candidates and scores them down
-(:func:`~mjasc.perception.map_pass.carve_fans`), as :func:`~mjasc.perception.map_pass.sense_map` does.
+(:func:`~mjasc.perception.map_pass.carve_fans`, which takes it that no candidate holds one of the
+tick's returns: ``returns_to_map`` left those out), as :func:`~mjasc.perception.map_pass.sense_map` does.
+(numba's cache does not notice a change to a kernel this one calls: such a change edits this file
+too, or deletes the cache, ``__pycache__/sense_pass.*.nb?``.)
 """
 
 from __future__ import annotations
