@@ -206,6 +206,17 @@ def test_hull_2d_is_convexhulls(seed):
             hull_2d(bad)
 
 
+def test_hull_2d_without_scipys_private_wrapper(monkeypatch):
+    """A scipy without ``_Qhull`` gets ConvexHull's own result (the guarded import's route)."""
+    rng = np.random.default_rng(7)
+    points = [rng.normal(0.0, 20.0, (int(rng.integers(3, 80)), 2)) for _ in range(20)]
+    fast = [hull_2d(p) for p in points]
+    monkeypatch.setattr(map_polygons, "_Qhull", None)
+    for p, (v, a) in zip(points, fast):
+        v2, a2 = hull_2d(p)
+        assert np.array_equal(v, v2) and np.float64(a).tobytes() == np.float64(a2).tobytes()
+
+
 def test_hull_2d_is_convexhulls_on_a_runs_pieces(monkeypatch):
     """Every hull the demo's maps ask for in 60 s (recorded run's inputs: the pieces' corners)."""
     import mjasc

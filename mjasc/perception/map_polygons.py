@@ -23,8 +23,12 @@ its depth, the cell size, ``min_fill`` and ``max_depth``).
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import QhullError
-from scipy.spatial._qhull import _Qhull
+from scipy.spatial import ConvexHull, QhullError
+
+try:  # (scipy's own qhull wrapper, which ConvexHull drives; private: ConvexHull itself if it ever moves)
+    from scipy.spatial._qhull import _Qhull
+except ImportError:  # pragma: no cover - the pinned scipy has it (requirements.lock)
+    _Qhull = None
 
 from mjasc.perception.hull_kernels import centred, components, halves, hull_area2
 from mjasc.perception.hull_kernels import corners as cell_corners
@@ -44,7 +48,11 @@ def hull_2d(points: np.ndarray) -> tuple[np.ndarray, float]:
     has it: its vertices' indices (counter-clockwise, from qhull's starting vertex) and its area
     [m²] (``.vertices``, ``.volume``); raises ``QhullError`` as it does. The same qhull run
     (options ``i Qt``, triangulated) without the facet arrays ConvexHull also builds, which cost
-    about a third of its time on a piece's few dozen corners (its test compares the two)."""
+    about a third of its time on a piece's few dozen corners (its test compares the two). A scipy
+    without that private wrapper gets ConvexHull itself (the same results, slower)."""
+    if _Qhull is None:
+        hull = ConvexHull(points)
+        return hull.vertices, hull.volume
     qhull = _Qhull(b"i", points, b"", required_options=b"Qt")
     try:
         qhull.triangulate()
