@@ -1,4 +1,4 @@
-"""The control slot of a coordinated fleet in one pass (:func:`mjasc.runs.tick.run_onboard_slot`).
+"""The control slot of a fleet in one pass (:func:`mjasc.runs.tick.run_onboard_slot`).
 
 When every vessel's coordination (if any) is the thesis method and every vessel that steers does so
 with the built-in path follower, the tick hands the fleet's values over once instead of asking
