@@ -181,6 +181,8 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
     own = navs.fleet if type(navs) is NavigationList else None  # the fleet's arrays, the navigations its rows
     if own is not None and m == own.heading_rad.shape[0]:
         pos, heading, body = own.position_m, own.heading_rad, own.body_velocity
+    elif own is not None:  # (some vessel in open loop: the steered rows, copied as stacking them would)
+        pos, heading, body = own.position_m[steered], own.heading_rad[steered], own.body_velocity[steered]
     else:
         rows = [navs[i] for i in steered]
         pos, heading = np.array([n.position_m for n in rows], dtype=float), np.array([n.heading_rad for n in rows],
