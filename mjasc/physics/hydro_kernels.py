@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import math
 
-
 from mjasc.core.compiled import fma, kernel
 
 __all__ = ["hydro_features", "linear_form", "rotate_to_world"]
