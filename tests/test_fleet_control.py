@@ -1,4 +1,4 @@
-"""The control slot of a coordinated fleet in one pass (mjasc.runs.fleet_control) against the
+"""The control slot of a fleet in one pass (mjasc.runs.fleet_control; coordinated or not) against the
 per-agent form of the tick (each agent's mission, γ, avoidance call and answer asked piece by
 piece): the same commands, statuses, modes, coordination states and summary at every tick of real
 scenes, and the link's delivery for the fleet at once against each vessel's own poll."""
@@ -52,7 +52,7 @@ def _untimed(obj):
     return [_untimed(v) for v in obj] if isinstance(obj, list) else obj
 
 
-@pytest.mark.parametrize("name", ["demo", "thesis_6_4_crossing"])
+@pytest.mark.parametrize("name", ["demo", "thesis_6_4_crossing", "thesis_6_2_dock"])  # (the dock: no coordination)
 def test_the_fleet_pass_equals_the_per_agent_tick(name, monkeypatch):
     """Every tick's outputs and coordination states, and the summary, bit for bit."""
     want, want_summary = _run(name, 40.0, False, monkeypatch)

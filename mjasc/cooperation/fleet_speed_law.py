@@ -32,7 +32,7 @@ def speed_correction_fleet(coordinations, t_s: float, positions_m, gammas_m) -> 
     # Coordination._factor computes it — the same operations in the same order.
     n_all = len(coordinations)
     laws = [None] * n_all  # (c, view, own, e, n), None: no path
-    scaled, n_scaled = [None] * n_all, 0  # the followers' e_i / e_s
+    scaled = []  # the followers' e_i / e_s
     for j, (c, arrived, g) in enumerate(zip(coordinations, arrivals, gammas_m)):
         if arrived:
             c._take(t_s, arrived)
@@ -61,9 +61,8 @@ def speed_correction_fleet(coordinations, t_s: float, positions_m, gammas_m) -> 
             e = view.l_bar * view.gap_sum(t_s, cfg.extrapolate, own)
         laws[j] = (c, view, own, e, n)
         if cfg.role != "leader":
-            scaled[n_scaled] = e / cfg.error_scale_m
-            n_scaled += 1
-    th = np.tanh(np.array(scaled[:n_scaled])).tolist() if n_scaled else ()
+            scaled.append(e / cfg.error_scale_m)
+    th = np.tanh(scaled).tolist() if scaled else ()  # (the list as a float64 array: one call)
     out = [1.0] * n_all
     k = 0
     for j, law in enumerate(laws):

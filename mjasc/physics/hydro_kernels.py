@@ -41,8 +41,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from mjasc.core.compiled import fma, kernel
 
 __all__ = ["hydro_features", "linear_form", "rotate_to_world"]
@@ -57,7 +55,6 @@ def hydro_features(qpos3, qvel3, activation, current, rate, has_rate, cf_x, F, r
     without a rate."""
     n_v = qpos3.shape[0]
     S = cf_x.shape[1]
-    x = np.empty(5)
     for n in range(n_v):
         c = math.cos(-qpos3[n, 2])
         s = math.sin(-qpos3[n, 2])
@@ -74,11 +71,7 @@ def hydro_features(qpos3, qvel3, activation, current, rate, has_rate, cf_x, F, r
             ax, ay = rate[n, 0], rate[n, 1]
             F[n, 35 + S] = fma(ax, c, -(ay * s))
             F[n, 36 + S] = fma(ax, s, ay * c)
-        x[0] = u
-        x[1] = v
-        x[2] = r
-        x[3] = u_r
-        x[4] = v_r
+        x = (u, v, r, u_r, v_r)  # (a tuple: no array made per call)
         for i in range(5):
             F[n, i] = x[i]
             for j in range(5):
@@ -97,21 +90,31 @@ def hydro_features(qpos3, qvel3, activation, current, rate, has_rate, cf_x, F, r
 def linear_form(F, G, tau):
     """τ (N, 1, 3) ← F (N, K)·G (N, K, 3) per vessel (the body-frame force [N, N, N·m]), in the
     order of numpy's ``np.matmul(F[:, None, :], G, out=tau)`` (module docstring: OpenBLAS's dgemv,
-    pairs of products added to a running sum, no FMA)."""
+    pairs of products added to a running sum, no FMA). The three sums of a vessel run side by side
+    (independent chains the processor overlaps), each in that order."""
     K = F.shape[1]
     K4 = K - K % 4
     for n in range(F.shape[0]):
-        for j in range(3):
-            t = 0.0
-            i = 0
-            while i < K4:
-                t = t + (G[n, i, j] * F[n, i] + G[n, i + 1, j] * F[n, i + 1])
-                t = t + (G[n, i + 2, j] * F[n, i + 2] + G[n, i + 3, j] * F[n, i + 3])
-                i += 4
-            while i < K:
-                t = t + G[n, i, j] * F[n, i]
-                i += 1
-            tau[n, 0, j] = t
+        t0 = t1 = t2 = 0.0
+        i = 0
+        while i < K4:
+            f0, f1, f2, f3 = F[n, i], F[n, i + 1], F[n, i + 2], F[n, i + 3]
+            t0 = t0 + (G[n, i, 0] * f0 + G[n, i + 1, 0] * f1)
+            t1 = t1 + (G[n, i, 1] * f0 + G[n, i + 1, 1] * f1)
+            t2 = t2 + (G[n, i, 2] * f0 + G[n, i + 1, 2] * f1)
+            t0 = t0 + (G[n, i + 2, 0] * f2 + G[n, i + 3, 0] * f3)
+            t1 = t1 + (G[n, i + 2, 1] * f2 + G[n, i + 3, 1] * f3)
+            t2 = t2 + (G[n, i + 2, 2] * f2 + G[n, i + 3, 2] * f3)
+            i += 4
+        while i < K:
+            f = F[n, i]
+            t0 = t0 + G[n, i, 0] * f
+            t1 = t1 + G[n, i, 1] * f
+            t2 = t2 + G[n, i, 2] * f
+            i += 1
+        tau[n, 0, 0] = t0
+        tau[n, 0, 1] = t1
+        tau[n, 0, 2] = t2
 
 
 @kernel

@@ -46,6 +46,7 @@ __all__ = ["Simulation", "VesselStates", "PhysicsDivergence", "STATE_SPEC"]
 _DSBL_CONTACT = int(mujoco.mjtDisableBit.mjDSBL_CONTACT)
 _NO_COLLISION = _DSBL_CONTACT | int(mujoco.mjtDisableBit.mjDSBL_CONSTRAINT)  # (either: no collision to skip)
 _NO_PAIRS = np.zeros((0, 2), dtype=np.int64)  # (the gate's pairs when it is not used: the test answers 1)
+_NO_CURRENT = np.zeros((0, 2))  # (states() with a current that is not uniform and steady: computed apart)
 
 
 STATE_SPEC = int(mujoco.mjtState.mjSTATE_INTEGRATION)
@@ -182,12 +183,13 @@ class Simulation:
         n = self.n_vessels
         qpos, qvel, act, propellers = self._state_arrays
         pairs, body, heading = np.empty((5, n, 2)), np.empty((n, 3)), np.empty(n)  # (state_kernels.vessel_states)
-        vessel_states(qpos, qvel, act, propellers, pairs, body, heading)
+        uniform = self._current_uniform_steady  # (the same everywhere, always: the kernel copies it into the fifth row)
+        vessel_states(qpos, qvel, act, propellers, self._uniform_current if uniform else _NO_CURRENT, pairs, body,
+                      heading)
         pos, vel, shaft, thrust = pairs[0], pairs[1], pairs[2], pairs[3]
         t = float(self.data.time)
-        if self._current_uniform_steady:  # (the same everywhere, always; copied into the fifth row)
+        if uniform:
             current = pairs[4]
-            current[...] = self._uniform_current
         else:
             current = self.current.velocity(np.array(self._qpos3)[:, :2], t)  # (the numpy form's layout)
         out = object.__new__(VesselStates)  # (VesselStates(...) without the frozen __init__'s eight setattr calls)

@@ -24,14 +24,19 @@ __all__ = ["vessel_states"]
 
 
 @kernel
-def vessel_states(qpos, qvel, act, propellers, pairs, body, heading):
+def vessel_states(qpos, qvel, act, propellers, current, pairs, body, heading):
     """Write the true states of N vessels owning qpos, qvel [3i, 3i + 3) and act [2i, 2i + 2)
-    (MjData's arrays) into ``pairs`` (≥ 4, N, 2) — position, velocity, shaft speeds, thrust —,
-    ``body`` (N, 3) (the body velocity) and ``heading`` (N,) in [−π, π); from the propeller
-    constants (N, 4) = (n_max, −n_min, k_forward, k_reverse) of
-    :class:`~mjasc.physics.thrusters.Thrusters` (module docstring). (Three outputs, each of its
-    quantities a C-contiguous view: what the caller allocates in three calls.)"""
+    (MjData's arrays) into ``pairs`` (≥ 4, N, 2) — position, velocity, shaft speeds, thrust and,
+    when ``current`` is (N, 2) (a uniform steady current [m/s], world frame), a copy of it as the
+    fifth (``current`` (0, 2): the fifth left as it is) —, ``body`` (N, 3) (the body velocity) and
+    ``heading`` (N,) in [−π, π); from the propeller constants (N, 4) = (n_max, −n_min, k_forward,
+    k_reverse) of :class:`~mjasc.physics.thrusters.Thrusters` (module docstring). (Three outputs,
+    each of its quantities a C-contiguous view: what the caller allocates in three calls.)"""
     n = heading.shape[0]
+    if current.shape[0] == n:
+        for i in range(n):
+            pairs[4, i, 0] = current[i, 0]
+            pairs[4, i, 1] = current[i, 1]
     position, velocity, shaft, thrust = pairs[0], pairs[1], pairs[2], pairs[3]
     two_pi = 2 * np.pi
     for i in range(n):

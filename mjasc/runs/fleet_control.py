@@ -1,4 +1,4 @@
-"""The control slot of a coordinated fleet in one pass (:func:`mjasc.runs.tick.run_onboard_slot`).
+"""The control slot of a fleet in one pass (:func:`mjasc.runs.tick.run_onboard_slot`).
 
 When every vessel's coordination (if any) is the thesis method and every vessel that steers does so
 with the built-in path follower, the tick hands the fleet's values over once instead of asking
@@ -91,17 +91,26 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
     """The control slot's outputs (:class:`~mjasc.runs.agent.ControlOutput` per agent), for a fleet
     that :func:`fleet_control_applies` to, whose navigations share one time."""
     outputs = [None] * len(agents)
-    steered = [i for i, agent in enumerate(agents) if agent.follower is not None]
-    for i in steered:
-        if agents[i].mission is not None:
-            agents[i].control_mission(navs[i])
-    fleet = FleetPathFollower.of([agents[i].follower for i in steered])
+    # One pass over the fleet (no comprehension per list): the open-loop vessels, the steered ones,
+    # each one's mission (in vessel order; a mission reads and writes only its own vessel's state),
+    # its follower and whether it is coordinated (laws: indices into steered)
+    steered, followers, laws, open_loop = [], [], [], []
+    for i, agent in enumerate(agents):
+        if agent.follower is None:
+            open_loop.append(i)
+            continue
+        if agent.mission is not None:
+            agent.control_mission(navs[i])
+        if agent.coordination is not None:
+            laws.append(len(steered))
+        steered.append(i)
+        followers.append(agent.follower)
+    fleet = FleetPathFollower.of(followers)
     paths, gammas = fleet.guidance_rows()
     t = navs[0].time_s
     m = len(steered)
     # γ on the mission path of every coordinated steered vessel (with its guidance before the new
     # factor): the avoidance method's mission_gamma_m (the thesis method's written out)
-    laws = [k for k in range(m) if agents[steered[k]].coordination is not None]
     n_laws = len(laws)
     coords, positions, mission_gammas = [None] * n_laws, [None] * n_laws, [None] * n_laws
     for j, k in enumerate(laws):
@@ -151,9 +160,8 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
             else:
                 picture = c.team_picture(t)
             calls[k] = (avoidance, t, navs[steered[k]], guidance, agent.perception_report(t), picture)
-    for i, agent in enumerate(agents):
-        if agent.follower is None:
-            outputs[i] = agent.control(navs[i], control_dt_s)  # open loop
+    for i in open_loop:
+        outputs[i] = agents[i].control(navs[i], control_dt_s)  # open loop
     requests = ask_avoidance(calls)
     modes, courses = [None] * m, [None] * m
     for k in range(m):  # each agent's control_answer(speeds[k], requests[k])
@@ -173,6 +181,8 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
     own = navs.fleet if type(navs) is NavigationList else None  # the fleet's arrays, the navigations its rows
     if own is not None and m == own.heading_rad.shape[0]:
         pos, heading, body = own.position_m, own.heading_rad, own.body_velocity
+    elif own is not None:  # (some vessel in open loop: the steered rows, copied as stacking them would)
+        pos, heading, body = own.position_m[steered], own.heading_rad[steered], own.body_velocity[steered]
     else:
         rows = [navs[i] for i in steered]
         pos, heading = np.array([n.position_m for n in rows], dtype=float), np.array([n.heading_rad for n in rows],

@@ -80,6 +80,21 @@ def _thesis_link(agents: Sequence, navs: Sequence[OwnNavigation]) -> bool:
     return True
 
 
+def _fleet_pass(agents: Sequence, navs: Sequence[OwnNavigation]) -> bool:
+    """Whether the control slot runs as :func:`~mjasc.runs.fleet_control.control_fleet`: every
+    vessel's coordination (if any) the thesis method — or none coordinated at all —, the
+    navigations at one time and :func:`~mjasc.runs.fleet_control.fleet_control_applies`."""
+    for agent in agents:
+        c = agent.coordination
+        if c is not None and type(c) is not Coordination:
+            return False
+    t = navs[0].time_s if navs else None
+    for nav in navs:
+        if not nav.time_s == t:
+            return False
+    return fleet_control_applies(agents)
+
+
 def _comms(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
     """The comms slot: each vessel broadcasts, then reads what has arrived, in vessel order. With
     the thesis coordination: every vessel's message is sent first, the link is decided for all
@@ -122,9 +137,9 @@ def _prediction(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
 def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: float) -> list:
     """The control slot: per-vessel requests in vessel order, then one batched call for the built-in
     path followers (other control methods steer one vessel at a time, right after its request).
-    With the thesis coordination and the built-in followers: the fleet in one pass
+    With the thesis coordination or none, and the built-in followers: the fleet in one pass
     (:func:`~mjasc.runs.fleet_control.control_fleet`, the same values)."""
-    if _thesis_link(agents, navs) and fleet_control_applies(agents):
+    if _fleet_pass(agents, navs):
         return control_fleet(agents, navs, control_dt_s)
     outputs = [None] * len(agents)
     asked = []  # (vessel, speed after coordination, avoidance call or None)
