@@ -138,26 +138,20 @@ class Perception:
     @property
     def scan(self) -> Scan | None:
         """The latest scan."""
-        fleet = self.fleet
-        if fleet._scans or fleet._tracks:  # (fleet.flush() without its call when nothing is queued)
-            fleet.flush()
+        self.fleet.flush()
         return self._scan
 
     @property
     def detections(self) -> Detections | None:
         """The latest scan's detections."""
-        fleet = self.fleet
-        if fleet._scans or fleet._tracks:  # (fleet.flush() without its call when nothing is queued)
-            fleet.flush()
+        self.fleet.flush()
         return self._det
 
     @property
     def tracker(self):
         """The vessel's :class:`~mjasc.perception.tracking.MultiTargetTracker` (a view of the fleet's);
         with a plugin tracker, its confirmed tracks read the same way (what the recording draws)."""
-        fleet = self.fleet
-        if fleet._scans or fleet._tracks:  # (fleet.flush() without its call when nothing is queued)
-            fleet.flush()
+        self.fleet.flush()
         if self.method is not None:
             if self._method_view is None:
                 self._method_view = TracksView(self._method_tracks)
@@ -167,9 +161,7 @@ class Perception:
     @property
     def map(self) -> StaticMap:
         """The vessel's :class:`~mjasc.perception.static_map.StaticMap` (a view of the fleet's store)."""
-        fleet = self.fleet
-        if fleet._scans or fleet._tracks:  # (fleet.flush() without its call when nothing is queued)
-            fleet.flush()
+        self.fleet.flush()
         return self._map
 
     def target_detections(self) -> Detections | None:
