@@ -1,6 +1,6 @@
 """The fleet step's kernels that write straight into the step's buffers against the form they replaced —
 the returning kernel's arrays copied into the buffers — bit for bit (np.array_equal): every_drops_into
-(mjasc.perception.tracking.loss_kernels) against every_drops_packed, on random rows (clustered tracks,
+(mjasc.perception.tracking.loss_kernels) against every_drop_rows' arrays packed by numpy, on random rows (clustered tracks,
 ties, buffers too small) and on every drop of a real run (the demo's first 40 s: clutter born and dropped
 nearly every step, tracks lost and merged); step_inputs_into (mjasc.perception.tracking.step_gathers)
 against step_inputs on random detections (its real-run check: tests/test_tracking_step_inputs.py)."""
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from mjasc.perception.tracking import TrackingConfig
-from mjasc.perception.tracking.loss_kernels import every_drops_into, every_drops_packed
+from mjasc.perception.tracking.loss_kernels import every_drop_rows, every_drops_into
 from mjasc.perception.tracking.management import TrackManagement
 from mjasc.perception.tracking.step_gathers import step_inputs, step_inputs_into
 
@@ -23,13 +23,23 @@ def _same(a, b) -> bool:
     return np.array_equal(a, b, equal_nan=a.dtype.kind == "f") and a.dtype == b.dtype and a.tobytes() == b.tobytes()
 
 
+def _packed(args):
+    """every_drop_rows(args) packed as every_drops_into packs it, in numpy: (drop, ints, vals (3, L), L, g,
+    the number dropped) — ints: the confirmed lost rows, their codes, the merges' go and kept rows."""
+    drop, code, lam, since, rng, go, kept = every_drop_rows(*args)
+    lost = np.flatnonzero((code != 0) & args[9])  # (args[9]: the rows' confirmed flags)
+    ints = np.concatenate([lost, code[lost].astype(np.int64), go, kept]).astype(np.int64)
+    vals = np.stack([lam[lost], since[lost], rng[lost]])
+    return drop, ints, vals, lost.size, go.size, int(np.count_nonzero(drop))
+
+
 def _drops_checked(args, room=None):
     """every_drops_into(args) into fresh buffers (n rows, or ``room`` rows of ints and vals) against
-    every_drops_packed(args) copied there (the form before: nothing written to ints and vals without room)."""
+    every_drop_rows(args) packed (:func:`_packed`; nothing written to ints and vals without room)."""
     n = args[0].size
     drop, ints, vals = np.ones(n + 3, dtype=bool), np.full(4 * n if room is None else room, -7), np.full(
         3 * n if room is None else room, np.pi)
-    d_, i_, v_, L_, g_, nd_ = every_drops_packed(*args)
+    d_, i_, v_, L_, g_, nd_ = _packed(args)
     L, g, n_drop = every_drops_into(*args, drop, ints, vals)
     assert (L, n_drop) == (L_, nd_)
     assert _same(drop[:n], d_) and drop[n:].all()
@@ -43,7 +53,7 @@ def _drops_checked(args, room=None):
 
 
 @pytest.mark.parametrize("seed", range(12))
-def test_every_drops_into_equals_the_packed_form_on_random_rows(seed):
+def test_every_drops_into_equals_the_rows_packed_on_random_rows(seed):
     rng = np.random.default_rng(seed)
     mg = TrackManagement(TrackingConfig())
     n = int(rng.integers(0, 60))
@@ -71,7 +81,7 @@ def test_every_drops_into_equals_the_packed_form_on_random_rows(seed):
         _drops_checked(args, room=max(0, 2 * got[0] + 2 * got[1] - 1))
 
 
-def test_every_drops_into_equals_the_packed_form_on_a_run(monkeypatch):
+def test_every_drops_into_equals_the_rows_packed_on_a_run(monkeypatch):
     import mjasc
     from mjasc.perception.imm.row_fields import combine_covariance_rows
     from mjasc.perception.tracking import fleet_rows

@@ -77,8 +77,7 @@ class FleetRows:
             rb.zero_polar(M)[1], bank._mu0, bank._next_id, st.snr2, st.max_updates, cols.confirm_now, MOVED_M)
         bank._Pc_stale = False  # (the combined covariances computed in the call)
         if m < 0:  # (a dropped track lost or merged: its events, then the compactions and the births as before)
-            args = mg.drop_args(cols.owner, pos_of, t_o, bank.state_rows, bank._Pc, org, self._max_range)
-            self._dropped(every, None, cols.owner, pos_of, t_o, *mg.drops_read(args, bufs, n, L, g, n_drop))
+            self._dropped(every, None, cols.owner, pos_of, t_o, *mg.drops_read(bufs, n, L, g, n_drop))
             if M and False in claimed.tolist():
                 self._births(owners, pos_of, t_o, z, var, rad, idx, d_pos, claimed)
             return False

@@ -7,10 +7,9 @@ duplicates among the tracks kept.
   sensor's range + margin (code 3);
 * :func:`drop_rows` — the losses, then the merges of close tracks of one vessel (:func:`drop_rows_into`:
   its per-row arrays written into the caller's);
-* :func:`every_drop_rows`, :func:`every_drop_rows_into`, :func:`every_drops_packed`, :func:`every_drops_into`
-  — the same for every
-  row of a fleet's tracker with each row's values gathered from its vessel's, returned as arrays, as
-  packed arrays, or written into the caller's buffers (a fleet tracker's step);
+* :func:`every_drop_rows`, :func:`every_drop_rows_into`, :func:`every_drops_into` — the same for
+  every row of a fleet's tracker with each row's values gathered from its vessel's, returned as
+  arrays, or packed into the caller's buffers (a fleet tracker's step);
 * :func:`lost_reason` — the sentence for a loss code, as the tracks' events report it.
 
 Each has its numpy form in tests/test_tracking_fleet_store.py.
@@ -26,7 +25,7 @@ from mjasc.core.compiled import kernel, maximum
 from mjasc.perception.tracking.pair_kernels import merge_candidates
 
 __all__ = ["lost_reason", "loss_rows", "drop_rows", "drop_rows_into", "every_drop_rows", "every_drop_rows_into",
-           "every_drops_packed", "every_drops_into"]
+           "every_drops_into"]
 
 
 def lost_reason(code: int, lam: float, since: float, rng: float) -> str:
@@ -194,45 +193,14 @@ def every_drop_rows_into(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, sc
 
 
 @kernel
-def every_drops_packed(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, confirmed, last, n_upd, radius,
-                       popcount, window, hits, max_coast, max_var, margin, fraction):
-    """:func:`every_drop_rows` (arguments as there) packed: (drop (n,), ints, vals (3, L), L, g, the
-    number dropped) — ints (2L + 2g,): the rows j of the L confirmed tracks lost (code ≠ 0, in row
-    order), their codes, then go and kept of the g merges; vals: lam, since, rng of the L rows."""
-    drop, code, lam, since, rng, go, kept = every_drop_rows(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist,
-                                                            scans, confirmed, last, n_upd, radius, popcount, window,
-                                                            hits, max_coast, max_var, margin, fraction)
-    n = drop.size
-    L = 0
-    n_drop = 0
-    for j in range(n):
-        n_drop += drop[j]
-        if code[j] != 0 and confirmed[j]:
-            L += 1
-    g = go.size
-    ints = np.empty(2 * L + 2 * g, dtype=np.int64)
-    vals = np.empty((3, L))
-    a = 0
-    for j in range(n):
-        if code[j] != 0 and confirmed[j]:
-            ints[a] = j
-            ints[L + a] = code[j]
-            vals[0, a] = lam[j]
-            vals[1, a] = since[j]
-            vals[2, a] = rng[j]
-            a += 1
-    for c in range(g):
-        ints[2 * L + c] = go[c]
-        ints[2 * L + g + c] = kept[c]
-    return drop, ints, vals, L, g, n_drop
-
-
-@kernel
 def every_drops_into(group, pos_of, t_o, x, Pc, org_o, max_range_o, hist, scans, confirmed, last, n_upd, radius,
                      popcount, window, hits, max_coast, max_var, margin, fraction, drop, ints, vals):
-    """:func:`every_drops_packed` (arguments group … fraction as there) written straight into the first rows
-    of the caller's buffers drop (≥ n), ints and vals (flat: (3, L) row-major): (L, g, the number dropped)
-    — g = −1 (drop written, ints and vals not) when ints or vals have no room."""
+    """:func:`every_drop_rows` (arguments group … fraction as there) packed into the first rows of the
+    caller's buffers: ``drop`` (≥ n) the rows dropped; ``ints`` the rows j of the L confirmed tracks lost
+    (code ≠ 0, in row order), their codes, then go and kept of the g merges (2L + 2g); ``vals`` lam,
+    since, rng of the L rows (flat: (3, L) row-major). Returns (L, g, the number dropped) — g = −1 (drop
+    written, ints and vals not) when ints or vals have no room; 4n ints and 3n vals always have room
+    (L ≤ n, and each merge drops a row not dropped before: g ≤ n)."""
     n = group.size
     code = np.empty(n, dtype=np.int8)
     lam = np.empty(n)

@@ -35,7 +35,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 from mjasc.perception.tracking.config import TrackingConfig
-from mjasc.perception.tracking.loss_kernels import (drop_rows, every_drop_rows, every_drops_into, every_drops_packed,
+from mjasc.perception.tracking.loss_kernels import (drop_rows, every_drop_rows, every_drops_into,
                                                     lost_reason)
 from mjasc.perception.tracking.track_columns import TrackColumns, column
 
@@ -187,12 +187,12 @@ class TrackManagement:
         """:meth:`drops_all` (arguments as there) in the form a fleet tracker's step reads: (drop (n,)
         bool, the number dropped, lost, merged) — lost: the confirmed tracks lost, as (row, reason)
         pairs in row order (the rows where :meth:`drops_all`'s reason is not ''); merged as there.
-        One compiled call returning three arrays (:func:`every_drops_packed`)."""
+        One compiled call writing into the manager's buffers (:func:`every_drops_into`)."""
         n = group.size
         bufs = self.drop_buffers(n)
         args = self.drop_args(group, pos_of, t_o, states, covariances, origins_m, max_range_m)
         L, g, n_drop = every_drops_into(*args, *bufs)
-        return self.drops_read(args, bufs, n, L, g, n_drop)
+        return self.drops_read(bufs, n, L, g, n_drop)
 
     def drop_args(self, group, pos_of, t_o, states, covariances, origins_m, max_range_m) -> tuple:
         """:func:`every_drops_into`'s arguments before its buffers: the step's (those of
@@ -210,13 +210,12 @@ class TrackManagement:
             bufs = self._drop_bufs = (np.empty(m, dtype=bool), np.empty(4 * m, dtype=np.int64), np.empty(3 * m))
         return bufs
 
-    def drops_read(self, args, bufs, n: int, L: int, g: int, n_drop: int) -> tuple:
-        """:meth:`drops_every`'s value from what :func:`every_drops_into` (``args``, into ``bufs``)
-        returned: L lost, g merged (−1: no room, the returning form run again), n_drop dropped."""
-        if g < 0:  # (more merges than the buffers hold: the returning form)
-            drop, ints, vals, L, g, n_drop = every_drops_packed(*args)
-        else:
-            drop, ints, vals = bufs[0][:n], bufs[1][:2 * L + 2 * g], bufs[2][:3 * L].reshape(3, L)
+    def drops_read(self, bufs, n: int, L: int, g: int, n_drop: int) -> tuple:
+        """:meth:`drops_every`'s value from what :func:`every_drops_into` (into ``bufs`` of
+        :meth:`drop_buffers`, which always have room) returned: L lost, g merged, n_drop dropped."""
+        if g < 0:
+            raise RuntimeError(f"track management: drop buffers of {bufs[1].size} ints too small for {n} rows")
+        drop, ints, vals = bufs[0][:n], bufs[1][:2 * L + 2 * g], bufs[2][:3 * L].reshape(3, L)
         if not (L or g):
             return drop, n_drop, (), ()
         il = ints.tolist()
