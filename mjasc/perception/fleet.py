@@ -190,6 +190,7 @@ class PerceptionFleet:
         c = plan.detection
         t = store.pass_tables(int(parts[2][1][S]))  # (room for every beam's return)
         cell_m = t[0]
+        # (t[:11]: the store's cell_m, keys, key_rows, cells, member, score, n, cap, min_hits, n_occ, version)
         status, floats, points, hit, geom, ints, K, d, nc, bools, p_ints, p_floats, p_points, keys, key_rows, n = \
             scan_detect_map(*args, *plan.detection_args, self.map_in_pass, plan.sigma, dc, dr, d_k, FLAT_M, slot,
                             plan.carve_all, parts[2][6], *t[:11])
