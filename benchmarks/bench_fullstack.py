@@ -35,7 +35,9 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import platform
 import statistics
+import sys
 import tempfile
 import time
 from dataclasses import dataclass, replace
@@ -223,7 +225,8 @@ def main(argv=None) -> None:
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     print(f"Full stack vs MuJoCo's floor: best of {a.repeats} (≤ 10 vessels) / {a.repeats_large} (more) interleaved "
           f"runs per configuration, {os.cpu_count()} CPU core(s), load average {load:.1f} at the end, "
-          f"{time.perf_counter() - t0:.0f} s in all\n")
+          f"{time.perf_counter() - t0:.0f} s in all; Python {platform.python_version()} at "
+          f"{os.path.realpath(sys.executable)} (the interpreter's build moves the stack's speed, not the floor's)\n")
     print(table(results, a.video))
     if thesis:
         print(f"\nThesis scenarios: median share of the floor with recording on 1/{1 / statistics.median(thesis):.1f} "
