@@ -379,6 +379,11 @@ class StaticMap:
         """(c, 2) integer cell indices of the occupied cells."""
         return self.store.occupied_cells(self.member)
 
+    def built_polygons(self) -> tuple[int, list[np.ndarray]]:
+        """The map version the polygons were last computed for (:meth:`polygons`; 0 before any) and
+        those polygons, building nothing: what the avoidance last planned around."""
+        return self._cached_version, list(self._cache)
+
     def polygons(self) -> list[np.ndarray]:
         """Convex polygons (k, 2) [m] covering the occupied cells (computed when asked after the
         map changed; :mod:`mjasc.perception.map_polygons`)."""
