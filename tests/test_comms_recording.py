@@ -56,3 +56,35 @@ def test_lines_match_a_line_per_pair():
             assert got.tobytes() == want.tobytes()
     log.log(rec, 3.0, [], p, lambda n: (0, 0))  # the window passed: empty rows clear the lines
     assert [len(r) for _, t, r in rec.strip_rows if t == 3.0] == [0, 0]
+
+
+def test_counts_asked_only_after_a_change_write_the_same_rows():
+    """With the link's ``count_changes`` the log asks the counts only when they changed or a
+    waiting received count is due: the same scalar rows as asking at every record tick."""
+    rng = np.random.default_rng(5)
+    names = ("a", "b", "c")
+
+    class _Scalars(_Recorder):
+        def __init__(self):
+            super().__init__()
+            self.rows = []
+
+        def scalar(self, entity, t_s, value):
+            self.rows.append((entity, t_s, value))
+
+    state = {n: [0, 0] for n in names}
+    logs = [(CommsLog(names), _Scalars()), (CommsLog(names), _Scalars())]
+    asked = []
+    changes = 0
+    p = np.zeros((3, 2))
+    for tick in range(600):
+        t = tick * 0.2
+        if tick % 5 == 0 or rng.random() < 0.05:  # (the link's counts change now and then)
+            for n in names:
+                state[n][0] += int(rng.integers(0, 3))
+                state[n][1] += int(rng.random() < 0.1)
+            changes += 1
+        for (log, rec), ch in zip(logs, (None, changes)):
+            log.log(rec, t, [], p, lambda n, ch=ch: (asked.append(ch is not None), tuple(state[n]))[1], ch)
+    assert logs[0][1].rows == logs[1][1].rows and len(logs[0][1].rows) > 50
+    assert sum(asked) < 0.5 * asked.count(False)  # (most record ticks ask nothing)

@@ -94,6 +94,9 @@ class CommsNetwork:
         self._next_s = math.inf  # send time of the oldest message some receiver has not decided (inf: none)
         self.sent = {n: 0 for n in self.team}
         self.link = {n: LinkStats() for n in self.team}  # per receiver
+        #: Changes with every change of a receiver's delivered or lost count (:meth:`counts`): the
+        #: recording asks the counts only after it changed.
+        self.count_changes = 0
         self.hears = self.config.hears(self.team)  # receiver → the senders it can hear
         self._everyone = all(len(h) == len(self.team) - 1 for h in self.hears.values())
         self._index = {n: k for k, n in enumerate(self.team)}
@@ -193,6 +196,7 @@ class CommsNetwork:
             delay_sum += delay
             delay_max = max(delay_max, delay)
         stats.delivered += k
+        self.count_changes += 1
         stats.delay_sum_s, stats.delay_max_s = delay_sum, delay_max
         out = [(team[s], sent, a, payload) for a, _, s, sent, payload in arrived]
         # Per (sender, receiver), in arrival order (np.add.at adds repeated indices one by one; a
@@ -304,6 +308,7 @@ class CommsNetwork:
             stats.offered += n_offered
             stats.lost += n_lost
             stats.lost_out_of_range += n_far
+        self.count_changes += 1
         team, log_t, log_p = self.team, self._log_time, self._log_payload
         if self._outcomes is not None:
             self._outcomes += [LinkOutcome(team[log_s[k]], segs[j][1], log_t[k],

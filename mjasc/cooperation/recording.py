@@ -27,6 +27,7 @@ Each vessel's coordination (:class:`CoordinationLog`) plots ``plots/coordination
 from __future__ import annotations
 
 import math
+from itertools import chain
 
 import numpy as np
 
@@ -58,6 +59,10 @@ class CommsLog:
         self._shown: tuple = ((), ())  # the (delivered, lost) pairs last drawn
         self._shown_t = -np.inf
         self._written: dict[str, tuple[float, int, int]] = {}  # receiver → (t, received, lost) last written
+        self._changes = None  # the link's count_changes when the counts were last asked (log)
+        # the earliest last-written time [s] of the vessels whose received count changed but is not
+        # written yet (COUNT_PERIOD_S not over since; None: no such vessel)
+        self._waiting_s: float | None = None
         self._styled = False
         self._counted: tuple[int, ...] = ()  # indices of the vessels whose counts are written
         self._gathered: dict[tuple, tuple] = {}  # (delivered, lost) pairs → their indices and colours (_gathers)
@@ -77,29 +82,39 @@ class CommsLog:
             recorder.series_style(f"plots/comms/{n}/lost", f"{n} lost", (*col, 130), 1.0)
         self._styled = True
 
-    def log(self, recorder, t_s: float, outcomes, positions_xy, counts) -> None:
+    def log(self, recorder, t_s: float, outcomes, positions_xy, counts, changes=None) -> None:
         """Add ``outcomes`` (decided since the last call; unused without lines) and draw the links
         alive at t_s; ``positions_xy`` (n, 2) the vessels' positions [m] in the order of
         :attr:`names`, ``counts(name)`` → (messages received, lost so far) of a vessel (asked only
-        for the vessels whose counts are written)."""
+        for the vessels whose counts are written, and only when ``changes`` — a number that changes
+        with the counts, the link's ``count_changes`` — did or a waiting received count is due;
+        None: at every call)."""
         if not self._styled:
             self._style(recorder)
-        for k in self._counted:
-            n = self.names[k]
-            received_now, lost_now = counts(n)
-            t0, received, lost = self._written.get(n, (-np.inf, -1, -1))
-            if lost_now != lost or (received_now != received and t_s - t0 >= COUNT_PERIOD_S - 1e-9):
-                self._written[n] = (t_s, received_now, lost_now)
-                recorder.scalar(f"plots/comms/{n}/received", t_s, received_now)
-                recorder.scalar(f"plots/comms/{n}/lost", t_s, lost_now)
+        waiting = self._waiting_s
+        if changes is None or changes != self._changes or \
+                (waiting is not None and t_s - waiting >= COUNT_PERIOD_S - 1e-9):  # (else nothing to write)
+            self._changes, waiting = changes, None
+            for k in self._counted:
+                n = self.names[k]
+                received_now, lost_now = counts(n)
+                t0, received, lost = self._written.get(n, (-np.inf, -1, -1))
+                if lost_now != lost or (received_now != received and t_s - t0 >= COUNT_PERIOD_S - 1e-9):
+                    self._written[n] = (t_s, received_now, lost_now)
+                    recorder.scalar(f"plots/comms/{n}/received", t_s, received_now)
+                    recorder.scalar(f"plots/comms/{n}/lost", t_s, lost_now)
+                elif received_now != received and (waiting is None or t0 < waiting):
+                    waiting = t0  # (t_s − t0 is largest for the earliest t0: the first one due)
+            self._waiting_s = waiting
         if not self.lines:
             return
         cutoff = t_s - LINK_WINDOW_S
         if outcomes or (self._recent and self._oldest_s <= cutoff):  # else the same links as last time
-            self._recent = [o for o in self._recent + list(outcomes) if o.sent_time_s > cutoff]
-            self._oldest_s = min((o.sent_time_s for o in self._recent), default=np.inf)
-            delivered = tuple(sorted({(o.sender, o.receiver) for o in self._recent if not o.lost}))
-            lost = tuple(sorted({(o.sender, o.receiver) for o in self._recent if o.lost} - set(delivered)))
+            recent = self._recent = [o for o in chain(self._recent, outcomes) if o.sent_time_s > cutoff]
+            self._oldest_s = min([o.sent_time_s for o in recent], default=np.inf)
+            delivered = {(o.sender, o.receiver) for o in recent if not o.lost}
+            lost = tuple(sorted({(o.sender, o.receiver) for o in recent if o.lost} - delivered))
+            delivered = tuple(sorted(delivered))
             self._pairs = (delivered, lost)
         delivered, lost = self._pairs
         if (delivered, lost) == self._shown and not ((delivered or lost) and t_s - self._shown_t >= LINK_WINDOW_S):
@@ -112,8 +127,8 @@ class CommsLog:
         recorder.strips("world/comms/delivered", t_s, p[at_delivered], z=_Z, colours=colours)
         halfway = ()  # (no lost message: the same empty row without the gather)
         if lost:
-            ends = p[at_lost]
-            halfway = np.stack([ends[:, 0], 0.5 * (ends[:, 0] + ends[:, 1])], axis=1)
+            halfway = p[at_lost]  # (m, 2, 2): each sender → receiver, the receiver's end moved halfway
+            halfway[:, 1] = 0.5 * (halfway[:, 0] + halfway[:, 1])
         recorder.strips("world/comms/lost", t_s, halfway, z=_Z)
 
     def _gathers(self, recorder, delivered: tuple, lost: tuple) -> tuple:

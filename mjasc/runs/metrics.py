@@ -7,8 +7,8 @@ zero). Per run: wall time, simulated time and real-time factor.
 
 A record tick is folded in at once (:meth:`RunMetrics.update`, given the traffic's state) or later
 (:meth:`RunMetrics.defer`: its time, positions and cross-track errors kept, the traffic evaluated at
-the kept times and the ticks folded in one compiled call per chunk of ticks; a run without a
-recording or a target judge, which need the traffic at every tick anyway): the same numbers.
+the kept times and the ticks folded in one compiled call per chunk of ticks; a run without a target
+judge, which needs the traffic at every tick anyway): the same numbers.
 """
 
 from __future__ import annotations

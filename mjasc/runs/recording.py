@@ -51,6 +51,7 @@ import os
 import uuid
 import warnings
 from collections import defaultdict
+from itertools import chain
 from pathlib import Path
 
 import numpy as np
@@ -63,8 +64,9 @@ from mjasc.runs.blueprint import (LEGEND_CLASSES, MODE_STATES, OTHERS, PALETTE, 
                                   stable_blueprint_ids, vessel_colour)
 from mjasc.runs.fleet_columns import ColumnGroup
 from mjasc.runs.outputs import part_path
-from mjasc.runs.recording_columns import (TIMELINE, concat_xy, points_column, rgba, scalar_column, sparse_column,
-                                          stack_rows, strip_column, time_column, xyz_at)
+from mjasc.runs.recording_columns import (TIMELINE, SharedTimes, concat_xy, flat_strip_column, packed_colours,
+                                          points_column, rgba, scalar_column, sparse_column, stack_rows, strip_column,
+                                          xyz_at)
 from mjasc.runs.recording_vessels import VesselSeries
 from mjasc.runs.rrd_canonical import BATCHER_FLUSH_BYTES, canonicalise
 from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
@@ -254,6 +256,7 @@ class Recorder(VesselSeries):
         """Write every buffered row column-wise (one chunk per entity) and empty the buffers; an
         entity's pending :meth:`style` goes just before its first rows."""
         send_columns = self.rec.send_columns
+        time_column = SharedTimes()  # (the entities a record tick writes share their times: one column)
 
         def send(entity: str, indexes, columns) -> None:
             if self._styles:
@@ -269,21 +272,21 @@ class Recorder(VesselSeries):
             send(entity, indexes=[time_column(times)],
                  columns=rr.TextDocument.columns(text=texts, media_type=["text/markdown"] * len(texts)))
         for (entity, z), (times, rows, labels) in self._points.items():  # labels in the same chunk
-            if not self._draws(entity, any(len(r) for r in rows)):
+            per_row = np.fromiter(map(len, rows), dtype=np.int32, count=len(rows))
+            if not self._draws(entity, per_row.any()):
                 continue
-            columns = [points_column(xyz_at(concat_xy(rows), z), [len(r) for r in rows])]
+            columns = [points_column(concat_xy(rows), z, per_row)]
             if any(r is not None for r in labels):
                 columns.append(sparse_column(rr.Points3D.descriptor_labels(), labels,
                                               lambda flat: pa.array(flat, pa.string())))
             send(entity, indexes=[time_column(times)], columns=columns)
         for (entity, z), (times, rows, colours) in self._strips.items():  # colours in the same chunk
-            if not self._draws(entity, any(len(r) for r in rows)):
+            per_row = np.fromiter(map(len, rows), dtype=np.int32, count=len(rows))
+            if not self._draws(entity, per_row.any()):
                 continue
-            flat = [s for row in rows for s in row]
-            columns = [strip_column(flat, z, [len(r) for r in rows])]
+            columns = [strip_column(list(chain.from_iterable(rows)), z, per_row)]
             if any(r is not None for r in colours):
-                columns.append(sparse_column(rr.LineStrips3D.descriptor_colors(), colours, lambda flat: (
-                    rr.components.ColorBatch(np.array(flat, dtype=np.uint8).reshape(-1, 4)).as_arrow_array())))
+                columns.append(sparse_column(rr.LineStrips3D.descriptor_colors(), colours, packed_colours))
             send(entity, indexes=[time_column(times)], columns=columns)
         for (entity, z), (times, origins, vectors) in self._arrows.items():
             send(entity, indexes=[time_column(times)],
@@ -306,17 +309,20 @@ class Recorder(VesselSeries):
                     for entity, d in zip(entities, data):
                         send(entity, indexes=index, columns=[strip_column(d, z, ones)])
                     continue
-                for j, entity in enumerate(entities):
-                    send(entity, indexes=index, columns=[strip_column([r[j] for r in rows], z, ones)])
+                # rows (n, m_i, 2) of different m_i: every entity's points in one concatenation (n, Σm_i, 2)
+                lengths = np.fromiter((r.shape[1] for r in rows), dtype=np.int32, count=len(rows))
+                flat = np.concatenate(rows, axis=1)
+                for entity, points in zip(entities, flat):
+                    send(entity, indexes=index, columns=[flat_strip_column(points, lengths, z, ones)])
                 continue
             if data is None:
                 data = stack_rows(rows)  # (n, T, ...)
             if kind == "scalar":
-                self._send_scalars(send, entities, t, index, data)
+                self._send_scalars(send, entities, t, index, data, time_column)
                 continue
             for entity, d in zip(entities, data):
-                send(entity, indexes=index, columns=[points_column(xyz_at(d, z), 1)])
-        self._write_batches()
+                send(entity, indexes=index, columns=[points_column(d, z, 1)])
+        self._write_batches(time_column)
         for buffer in self._fleet.values():
             if type(buffer) is not tuple:
                 buffer.clear()  # (after every group was read: groups may share their arrays)
@@ -326,9 +332,10 @@ class Recorder(VesselSeries):
         self._pending = 0
 
     @staticmethod
-    def _send_scalars(send, entities: tuple, t: np.ndarray, index: list, data: np.ndarray) -> None:
+    def _send_scalars(send, entities: tuple, t: np.ndarray, index: list, data: np.ndarray, time_column) -> None:
         """A fleet group's scalar rows (data (n, T), times t (T,) [s], their column ``index``), an
-        entity each; a non-finite value is left out of its entity's series."""
+        entity each; a non-finite value is left out of its entity's series (its times through
+        ``time_column``, the flush's :class:`~mjasc.runs.recording_columns.SharedTimes`)."""
         finite = np.isfinite(data)
         every = finite.all(axis=1).tolist()
         for j, entity in enumerate(entities):

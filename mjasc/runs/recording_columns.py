@@ -8,12 +8,15 @@ are those of the SDK's path (tests/test_recording_columns.py).
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 import pyarrow as pa
 import rerun as rr
 from rerun.encodings import Vec3DBatch
 
-__all__ = ["TIMELINE", "ArrowBatch", "Column", "TimeColumn", "strip_column", "vec3_array", "sparse_column",
+__all__ = ["TIMELINE", "ArrowBatch", "Column", "TimeColumn", "SharedTimes", "strip_column", "flat_strip_column",
+           "offsets_of", "vec3_array", "vec3_at", "packed_colours", "sparse_column",
            "scalar_column", "points_column", "list_offsets", "time_column", "stack_rows", "concat_xy", "rgba", "xyz_at"]
 
 #: The recording's timeline: simulation seconds.
@@ -38,13 +41,25 @@ def strip_column(strips: list[np.ndarray], z: float, per_row) -> rr.ComponentCol
     world xy at height z, or an array (k, m, 2) of strips of one length), built as one arrow list
     array (no per-strip conversion)."""
     if isinstance(strips, np.ndarray):
-        lengths, flat = np.full(len(strips), strips.shape[1], dtype=np.int32), strips.reshape(-1, 2)
-    else:
-        lengths, flat = np.fromiter((len(s) for s in strips), dtype=np.int32, count=len(strips)), concat_xy(strips)
-    offsets = np.concatenate([[0], np.cumsum(lengths, dtype=np.int32)]).astype(np.int32)
-    points = vec3_array(xyz_at(flat, z))
-    array = pa.ListArray.from_arrays(pa.array(offsets, pa.int32()), points, type=STRIP_TYPE)
+        return flat_strip_column(strips.reshape(-1, 2), np.full(len(strips), strips.shape[1], dtype=np.int32), z,
+                                 per_row)
+    return flat_strip_column(concat_xy(strips), np.fromiter(map(len, strips), dtype=np.int32, count=len(strips)), z,
+                             per_row)
+
+
+def flat_strip_column(flat_xy: np.ndarray, lengths: np.ndarray, z: float, per_row) -> rr.ComponentColumn:
+    """:func:`strip_column` of strips given as their points one after the other (flat_xy (p, 2)
+    world xy [m]) and their lengths (int32, one per strip)."""
+    points = vec3_at(flat_xy, z)
+    array = pa.ListArray.from_arrays(pa.array(offsets_of(lengths)), points, type=STRIP_TYPE)
     return rr.ComponentColumn(rr.LineStrips3D.descriptor_strips(), ArrowBatch(array), lengths=per_row)
+
+
+def offsets_of(lengths) -> np.ndarray:
+    """int32 list offsets (n + 1,) of lists of ``lengths`` (n,): 0 then their running sum."""
+    offsets = np.zeros(len(lengths) + 1, dtype=np.int32)
+    np.cumsum(lengths, dtype=np.int32, out=offsets[1:])
+    return offsets
 
 
 VEC3_TYPE = Vec3DBatch._ARROW_DATATYPE
@@ -56,6 +71,25 @@ def vec3_array(xyz) -> pa.Array:
     per-call checks (~0.4 ms a call, a call per column)."""
     flat = np.ascontiguousarray(np.asarray(xyz, dtype=np.float32).reshape(-1, 3)).reshape(-1)
     return pa.FixedSizeListArray.from_arrays(flat, type=VEC3_TYPE)
+
+
+def vec3_at(points_xy, z: float) -> pa.Array:
+    """Points (k, 2) world xy [m] at height z as float32 ``Vec3D`` arrow values: the array
+    ``vec3_array(xyz_at(points_xy, z))`` builds (each coordinate cast to float32 as there), written
+    straight into one float32 buffer."""
+    p = np.asarray(points_xy, dtype=np.float64).reshape(-1, 2)
+    xyz = np.empty((len(p), 3), dtype=np.float32)
+    xyz[:, :2] = p
+    xyz[:, 2] = z
+    return pa.FixedSizeListArray.from_arrays(xyz.reshape(-1), type=VEC3_TYPE)
+
+
+def packed_colours(colours: list) -> pa.Array:
+    """RGBA colours (tuples of four 0–255 ints) as Rerun's packed ``0xRRGGBBAA`` uint32 values: the
+    array ``rr.components.ColorBatch(np.array(colours, dtype=np.uint8).reshape(-1, 4))`` builds,
+    each distinct colour packed once (a run's colours are a few, repeated)."""
+    packed = {c: (c[0] << 24) | (c[1] << 16) | (c[2] << 8) | c[3] for c in set(colours)}
+    return pa.array(np.array([packed[c] for c in colours], dtype=np.uint32), pa.uint32())
 
 
 class Column:
@@ -75,11 +109,10 @@ def sparse_column(descriptor, rows: list, to_arrow) -> Column:
     """A column with a list of values (``to_arrow(flat values)``) in the rows where ``rows`` has
     one and null in those where it holds None: Rerun's latest-at skips null rows, so rows without
     labels (or colours) keep the latest ones, as rows of an entity of their own did."""
-    lengths = np.fromiter((0 if r is None else len(r) for r in rows), dtype=np.int32, count=len(rows))
-    offsets = pa.array(np.concatenate([[0], np.cumsum(lengths, dtype=np.int32)]).astype(np.int32))
+    lengths = [0 if r is None else len(r) for r in rows]
     values = to_arrow([v for r in rows if r is not None for v in r])
-    mask = pa.array(np.fromiter((r is None for r in rows), dtype=bool, count=len(rows)))
-    return Column(descriptor, pa.ListArray.from_arrays(offsets, values, mask=mask))
+    mask = pa.array(np.array([r is None for r in rows], dtype=bool))
+    return Column(descriptor, pa.ListArray.from_arrays(pa.array(offsets_of(lengths)), values, mask=mask))
 
 
 SCALARS = rr.Scalars.descriptor_scalars()
@@ -89,8 +122,15 @@ POSITIONS = rr.Points3D.descriptor_positions()
 def list_offsets(n_rows: int, per_row) -> pa.Array:
     """int32 list offsets of ``n_rows`` rows of ``per_row`` values each (an int, or one per row)."""
     if np.ndim(per_row) == 0:
-        return pa.array(np.arange(n_rows + 1, dtype=np.int32) * np.int32(per_row))
-    return pa.array(np.concatenate([[0], np.cumsum(per_row, dtype=np.int32)]).astype(np.int32))
+        return _even_offsets(n_rows, int(per_row))
+    return pa.array(offsets_of(per_row))
+
+
+@lru_cache(maxsize=64)
+def _even_offsets(n_rows: int, per_row: int) -> pa.Array:
+    """int32 list offsets of ``n_rows`` rows of ``per_row`` values each (arrow arrays are immutable:
+    the columns of a run's entities with as many rows share one)."""
+    return pa.array(np.arange(n_rows + 1, dtype=np.int32) * np.int32(per_row))
 
 
 def scalar_column(values, per_row=1) -> Column:
@@ -101,10 +141,10 @@ def scalar_column(values, per_row=1) -> Column:
     return Column(SCALARS, pa.ListArray.from_arrays(list_offsets(n_rows, per_row), v))
 
 
-def points_column(xyz: np.ndarray, per_row) -> Column:
-    """The ``Points3D:positions`` column of points (k, 3) [m], ``per_row`` (an int, or one per row)
-    to a row (float32 xyz, as ``rr.Points3D.columns`` writes them)."""
-    points = vec3_array(xyz)
+def points_column(points_xy: np.ndarray, z: float, per_row) -> Column:
+    """The ``Points3D:positions`` column of points (k, 2) world xy [m] at height z, ``per_row`` (an
+    int, or one per row) to a row (float32 xyz, as ``rr.Points3D.columns`` writes them)."""
+    points = vec3_at(points_xy, z)
     n_rows = len(points) // per_row if np.ndim(per_row) == 0 else len(per_row)
     return Column(POSITIONS, pa.ListArray.from_arrays(list_offsets(n_rows, per_row), points))
 
@@ -126,6 +166,29 @@ class TimeColumn:
 def time_column(times) -> TimeColumn:
     """Simulation times [s] as a ``sim_time`` column (rounded to ns like ``set_time``)."""
     return TimeColumn(np.rint(np.asarray(times, dtype=np.float64) * 1e9).astype(np.int64))
+
+
+class SharedTimes:
+    """:func:`time_column` for the entities of one flush: those with the same times (a list or an
+    array [s]; the entities a record tick writes) share one column, converted once."""
+
+    def __init__(self):
+        self._seen: dict[tuple, list] = {}  # (count, first, last) → [(times, column), ...]
+
+    def __call__(self, times) -> TimeColumn:
+        n = len(times)
+        if not n:
+            return time_column(times)
+        is_list = type(times) is list
+        key = (n, float(times[0]), float(times[-1]))
+        seen = self._seen.setdefault(key, [])
+        for other, column in seen:
+            if (other == times if is_list and type(other) is list else
+                    np.array_equal(np.asarray(other, dtype=np.float64), np.asarray(times, dtype=np.float64))):
+                return column
+        column = time_column(times)
+        seen.append((times, column))
+        return column
 
 
 def stack_rows(rows: list[np.ndarray]) -> np.ndarray:

@@ -131,7 +131,9 @@ class VesselSeries:
         row[k] = value
         self._count(1)
 
-    def _write_batches(self) -> None:
+    def _write_batches(self, time_column=time_column) -> None:
+        """Write the batch entities' buffered rows (:meth:`batch_scalars`), their times through
+        ``time_column`` (the flush's :class:`~mjasc.runs.recording_columns.SharedTimes`)."""
         for entity, rows in self._batch_rows.items():
             styles = self._batch_styles.get(entity, {})
             style = tuple(styles.get(k, (n, self.colour(n), 1.5)) for k, n in enumerate(self.batched))

@@ -157,18 +157,22 @@ class Runner:
         self.sim.set_commands(cmds)
 
     def _record(self, states) -> None:
-        xte = [o.status.cross_track_m if o and o.status else np.nan for o in self.last_outputs]
-        if self._truth is None and self.target_judge is None:  # (nothing else needs the traffic now)
-            self.metrics.defer(states, xte)  # (folded in chunks: the same numbers, RunMetrics.defer)
+        outputs = self.last_outputs
+        xte = [o.status.cross_track_m if o and o.status else np.nan for o in outputs]
+        truth = self._truth
+        if self.target_judge is None:  # (the metrics need no traffic now: RunMetrics.defer, the same numbers)
+            self.metrics.defer(states, xte)  # (folded in chunks)
+            if truth is not None:
+                truth.record(states, self.sim, np.array([o.speed_ref_m_s if o else 0.0 for o in outputs], dtype=float),
+                             np.array(xte), self.sim.traffic_state() if truth.needs_traffic else None)
             return
         xte = np.array(xte)
         traffic = self.sim.traffic_state()
         self.metrics.update(states, xte, traffic)
-        if self.target_judge is not None:
-            self.target_judge.update(states, traffic, self.agents)
-        if self._truth is not None:
-            self._truth.record(states, self.sim, np.array([o.speed_ref_m_s if o else 0.0 for o in self.last_outputs],
-                                                          dtype=float), xte, traffic)
+        self.target_judge.update(states, traffic, self.agents)
+        if truth is not None:
+            truth.record(states, self.sim, np.array([o.speed_ref_m_s if o else 0.0 for o in outputs], dtype=float),
+                         xte, traffic)
 
     # ------------------------------------------------------------------ main loop
     def run(self, interruptible: bool = False) -> RunResult:

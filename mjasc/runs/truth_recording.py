@@ -69,8 +69,15 @@ class TruthRecording:
         self._entities = self._entity_names(names, world)
         self._hull_body = body_hulls(agents)
         self._columns, self._groups = self._fleet_columns(len(names))
+        self._group_rows = len(self._groups) * len(self._entities["hull"])  # rows a record tick adds to the groups
+        #: Does :meth:`record` need the traffic's state (moving obstacles to draw)?
+        self.needs_traffic = bool(self._entities["moving"])
+        # the moving obstacles' positions [m] per record tick, read by the recorder's flush
+        self._moving = FleetColumns({"xy": (len(world.moving_obstacles), 2)}, capacity=256)
+        self._moving_group = ColumnGroup(self._moving, "xy", None, len(world.moving_obstacles))
         self._trail = FleetColumns({"xy": (len(names), 2)}, capacity=128)  # the fleet's positions [m] at its points
         self._trail_cut = 0  # index of the trail point where the recording's ``trail/recent`` starts
+        self._trail_last_s = -np.inf  # time of the latest trail point [s]
         self._current_grid, self._current_scale = log_static_scene(rec, sc, lo, hi, PLOT_SERIES)
         self._current_times: list[float] = []
         self._comms_log = None
@@ -108,34 +115,40 @@ class TruthRecording:
     def record(self, states, sim, speed_ref_m_s: np.ndarray, xte_m: np.ndarray, traffic) -> None:
         """One record tick of the truth: ``states`` (the fleet's true states), ``sim`` (commands and
         the current), each vessel's speed reference and cross-track error [m] (NaN: no path), the
-        traffic's (positions, ...) as ``Simulation.traffic_state`` gives them."""
+        traffic's (positions, ...) as ``Simulation.traffic_state`` gives them (None when not
+        :attr:`needs_traffic`)."""
         rec, t, e, columns = self.recorder, states.time_s, self._entities, self._columns
-        heading = states.heading_rad
         if columns.n == 0:  # (the first row, or the first since a flush: the groups in the order of their rows)
             for (kind, entities, z), group in self._groups:
                 rec.fleet_columns(kind, entities, group, z)
         i = columns.add(t)
-        hulls, table = columns.arrays["hull"][i], columns.arrays["table"][i]  # (table: PLOT_SERIES' order)
-        record_rows(states.position_m, states.velocity_m_s, heading, np.cos(heading), np.sin(heading), self._hull_body,
-                    speed_ref_m_s, states.thrust_n, xte_m, hulls, table)  # (mjasc.runs.record_kernels)
-        columns.arrays["position"][i] = states.position_m
-        n_own = len(e["hull"])
+        arrays = columns.arrays  # (table: PLOT_SERIES' order)
+        record_rows(states.position_m, states.velocity_m_s, states.heading_rad, self._hull_body, speed_ref_m_s,
+                    states.thrust_n, xte_m, i, arrays["hull"], arrays["position"], arrays["table"])
         if rec.batched:  # the vessels without views: one row of their batch entity per kind
+            n_own = len(e["hull"])
+            hulls, table = arrays["hull"][i], arrays["table"][i]
             rec.strips(WORLD_SERIES["hull"].format(OTHERS), t, list(hulls[n_own:]), z=0.2)
             rec.points(WORLD_SERIES["position"].format(OTHERS), t, states.position_m[n_own:], z=0.2)
             for template, row in zip(PLOT_SERIES.values(), table):
                 rec.batch_scalars(template, t, row[n_own:])
-        rec.count((2 + len(PLOT_SERIES)) * n_own)  # (a scalar series' NaN, no path, is left out at the flush)
+        rec.count(self._group_rows)  # (a scalar series' NaN, no path, is left out at the flush)
         if rec.full:
             ctrl = sim.data.ctrl[self._world.ctrl_adr]
             rec.fleet_scalars(e["command_port"], t, ctrl[:, 0])
             rec.fleet_scalars(e["command_starboard"], t, ctrl[:, 1])
-        self._record_trails(t, states.position_m)
-        if e["moving"]:
-            rec.fleet_points(e["moving"], t, traffic[0], z=0.3)
+        if t - self._trail_last_s >= TRAIL_PERIOD_S:
+            self._record_trails(t, states.position_m)
+        if self.needs_traffic:
+            moving = self._moving
+            if moving.n == 0:  # (registered where its first row comes, as the other groups)
+                rec.fleet_columns("points", e["moving"], self._moving_group, 0.3)
+            k = moving.add(t)  # (before reading its array: add may grow it)
+            moving.arrays["xy"][k] = traffic[0]
+            rec.count(len(e["moving"]))
         if self._comms_log is not None:
             net = self._network
-            self._comms_log.log(rec, t, net.drain_outcomes(), states.position_m, net.counts)
+            self._comms_log.log(rec, t, net.drain_outcomes(), states.position_m, net.counts, net.count_changes)
         if not sim.current.is_steady and self._current_grid is not None and \
                 (not self._current_times or t - self._current_times[-1] >= 2.0):
             self._current_times.append(t)
@@ -147,10 +160,9 @@ class TruthRecording:
         strips so that its size grows linearly with the run: ``trail`` (everything up to the latest
         ``TRAIL_SEGMENT_S`` boundary, re-written at each boundary) and ``trail/recent`` (from that
         boundary to now, written with every new point)."""
-        trail = self._trail
-        if trail.n and t - trail.times[trail.n - 1] < TRAIL_PERIOD_S:
-            return
+        trail = self._trail  # (the caller checks the period: t − the last point's time ≥ TRAIL_PERIOD_S)
         k = trail.add(t)
+        self._trail_last_s = t
         xy = trail.arrays["xy"]  # (points, n, 2): a strip per vessel is xy[a:b, j], the vessels' xy[a:b].swapaxes(0, 1)
         xy[k] = positions
         if k < 1:
