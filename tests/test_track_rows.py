@@ -68,6 +68,10 @@ def test_report_rows_are_the_trackers_estimates():
             a, b = cols[0].get(owner, (0, 0)) if len(cols) > 1 else (0, 0)
             ref = fleet._estimates_of(np.array(cols[1][a:b] if len(cols) > 1 else [], dtype=np.int64))
             assert rows.track_ids == [e.track_id for e in ref] and rows.times_s == [e.time_s for e in ref]
+            if rows.track_ids:  # the ids and times as arrays too: the lists' conversions, bit for bit
+                assert rows.id_array.tobytes() == np.array(rows.track_ids).tobytes()
+                assert rows.time_array.tobytes() == np.array(rows.times_s, dtype=float).tobytes()
+                assert rows.id_array.dtype == np.int64 and rows.time_array.dtype == np.float64
             assert np.asarray(rows.positions_m).reshape(-1, 2).tobytes() == \
                 np.array([e.position_m for e in ref]).reshape(-1, 2).tobytes()
             for a, b in zip(rows, ref):

@@ -102,10 +102,12 @@ class ControlTick:
         same tracks are not checked twice against the same prediction."""
         if tracks is self._checked_tracks:
             return False
+        ids_arr = None
         if type(tracks) is TrackRows and type(tracks.track_ids) is list:  # (track_columns and len without
             ids, times, pos = tracks.track_ids, tracks.times_s, tracks.positions_m  # their calls: the rows' columns)
             if not ids:
                 return False
+            ids_arr, times_arr = tracks.id_array, tracks.time_array  # (a tracker's report: the columns as arrays)
         elif not tracks:
             return False
         else:
@@ -121,11 +123,18 @@ class ControlTick:
             self._predicted_ids = np.array(row_ids, dtype=np.int64) if all(
                 type(i) is int and -_INT64 <= i < _INT64 for i in row_ids) else None
         # The rows' ids, times and positions in one compiled pass when the ids are integers (as
-        # the row mapping below answers; a known row on a plan: that mapping's way)
-        ids_arr = None if self._predicted_ids is None else np.array(ids)
+        # the row mapping below answers; a known row on a plan: that mapping's way): a tracker's
+        # report hands them as arrays (positions (k, 2) floats), other tracks are converted
+        if self._predicted_ids is None:
+            ids_arr = None
+        elif ids_arr is None:
+            ids_arr = np.array(ids)
+            times_arr, pos_arr = np.array(times, dtype=float), np.asarray(pos, dtype=float).reshape(-1, 2)
+        else:
+            pos_arr = pos
         if ids_arr is not None and ids_arr.dtype == np.int64 and ids_arr.ndim == 1:
-            far = motion.farther_by_id(self._predicted_ids, ids_arr, np.array(times, dtype=float),
-                                       np.asarray(pos, dtype=float).reshape(-1, 2), self.config.track_deviation_m)
+            far = motion.farther_by_id(self._predicted_ids, ids_arr, times_arr, pos_arr,
+                                       self.config.track_deviation_m)
             if far is not None:
                 return far
         row = self._predicted_row

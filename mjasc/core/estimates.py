@@ -137,23 +137,29 @@ class TrackRows(Sequence):
     ``columns``: every field's values in field order (track_id … source), equal lengths, not
     changed afterwards. A tracker hands one per vessel and step to the perception report: a
     vessel's control tick reads its tracks' ids, times and positions ~10 times a second, a
-    prediction reads the objects every few seconds."""
+    prediction reads the objects every few seconds. ``id_array`` (k,) int64 and ``time_array``
+    (k,) float64 [s]: the ids and times as arrays (a tracker's report: the compiled deviation
+    check reads them without converting the lists), else None."""
 
-    __slots__ = ("_columns", "_items", "track_ids", "times_s", "positions_m")
+    __slots__ = ("_columns", "_items", "track_ids", "times_s", "positions_m", "id_array", "time_array")
 
     def __init__(self, columns: Sequence):
         if len(columns) != _N_TRACK_FIELDS:
             raise ValueError(f"columns: expected {_N_TRACK_FIELDS} (one per field), got {len(columns)}")
         self._columns, self._items = tuple(columns), None
         self.track_ids, self.times_s, self.positions_m = columns[0], columns[1], columns[2]
+        self.id_array = self.time_array = None
 
     @classmethod
-    def of_columns(cls, columns: tuple) -> "TrackRows":
+    def of_columns(cls, columns: tuple, id_array=None, time_array=None) -> "TrackRows":
         """``TrackRows(columns)`` for a caller whose ``columns`` is a tuple of one value per field
-        already (a tracker's report: no check, no copy)."""
+        already (a tracker's report: no check, no copy); ``id_array`` and ``time_array`` the
+        ids (k,) int64 and times (k,) float64 as arrays, equal to ``columns[0]`` and
+        ``columns[1]``, not changed afterwards (or None), with ``columns[2]`` a (k, 2) float64 array."""
         rows = object.__new__(cls)
         rows._columns, rows._items = columns, None
         rows.track_ids, rows.times_s, rows.positions_m = columns[0], columns[1], columns[2]
+        rows.id_array, rows.time_array = id_array, time_array
         return rows
 
     def _get(self) -> tuple:

@@ -177,20 +177,30 @@ class FleetPathFollower:
         prop = self._prop if rows is None else self._propellers(rows)
         return PropellerCoefficients.command_for_thrust(prop, thrust), statuses  # the inverse curve, per vessel
 
-    def command_all(self, position_m: np.ndarray, heading_rad: np.ndarray, body_velocity: np.ndarray, speed_ref_m_s,
-                    course_override_rad, dt_s: float) -> tuple[np.ndarray, list[PathFollowingStatus]]:
-        """:meth:`command` for every row in order (``rows`` None), the control slot's call: position
-        (n, 2), heading (n,) and body velocity (n, 3) float arrays as they are; the speed references
-        [m/s] and course overrides [rad] (NaN: none) as sequences of n floats, copied into the
-        fleet's own (n,) arrays. The same commands, statuses and states as :meth:`command`, in one
-        compiled call without its argument conversions."""
+    def reference_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The fleet's own (n,) arrays of speed references [m/s] and course overrides [rad] that
+        :meth:`command_all` reads: a caller fills them row by row and hands them to it as they are
+        (no copy; their values are overwritten by the next call's)."""
         n = self._S.shape[1]
         scratch = self._scratch
         if scratch is None or scratch[0].shape[0] != n:
             scratch = self._scratch = (np.empty(n), np.empty(n), np.empty((n, 6)))
-        speed, course, status = scratch
-        speed[:] = speed_ref_m_s
-        course[:] = course_override_rad
+        return scratch[0], scratch[1]
+
+    def command_all(self, position_m: np.ndarray, heading_rad: np.ndarray, body_velocity: np.ndarray, speed_ref_m_s,
+                    course_override_rad, dt_s: float) -> tuple[np.ndarray, list[PathFollowingStatus]]:
+        """:meth:`command` for every row in order (``rows`` None), the control slot's call: position
+        (n, 2), heading (n,) and body velocity (n, 3) float arrays as they are; the speed references
+        [m/s] and course overrides [rad] (NaN: none) as the fleet's :meth:`reference_arrays`, or as
+        sequences of n floats copied into them. The same commands, statuses and states as
+        :meth:`command`, in one compiled call without its argument conversions."""
+        speed, course = self.reference_arrays()
+        status = self._scratch[2]
+        n = speed.shape[0]
+        if speed_ref_m_s is not speed:
+            speed[:] = speed_ref_m_s
+        if course_override_rad is not course:
+            course[:] = course_override_rad
         if n > SCALAR_FLEET_MAX or self._all_rows.size != n or \
                 type(self)._command_compiled is not _COMMAND_COMPILED:  # (a replaced compiled form: command's)
             return self.command(position_m, heading_rad, body_velocity, speed.copy(), dt_s,

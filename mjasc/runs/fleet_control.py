@@ -127,7 +127,8 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
         else:
             mission_gammas[j] = avoidance.mission_gamma_m(agent.guidance_of(paths[k], gammas[k]))
     factors = fleet_speed_law.speed_correction_fleet(coords, t, positions, mission_gammas) if coords else ()
-    speeds, calls = [None] * m, [None] * m
+    speeds, courses = fleet.reference_arrays()  # (m,) each, filled by row: what command_all reads
+    calls = [None] * m
     j = 0
     for k in range(m):
         agent = agents[steered[k]]
@@ -163,7 +164,7 @@ def control_fleet(agents: Sequence, navs: Sequence, control_dt_s: float) -> list
     for i in open_loop:
         outputs[i] = agents[i].control(navs[i], control_dt_s)  # open loop
     requests = ask_avoidance(calls)
-    modes, courses = [None] * m, [None] * m
+    modes = [None] * m
     for k in range(m):  # each agent's control_answer(speeds[k], requests[k])
         agent, req = agents[steered[k]], requests[k]
         mode, course = "mission", math.nan

@@ -32,13 +32,14 @@ def report_estimates(ft, cols: tuple) -> dict:
     now: it holds the row's hull now; the outline itself on first read)."""
     if len(cols) == 1:
         return {}
-    spans, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow = cols
+    spans, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow, id_array, time_array = cols
     of_columns = TrackRows.of_columns
     outlines = ft.outlines.pendings(k_rows, slow, pos, radius)  # (= ft.outline(k) on first read)
     out = {}
     for o, (a, b) in spans.items():
         out[o] = of_columns((ids[a:b], t[a:b], pos[a:b], th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b],
-                             static[a:b], team[a:b], outlines[a:b], (None,) * (b - a)))
+                             static[a:b], team[a:b], outlines[a:b], (None,) * (b - a)), id_array[a:b],
+                            time_array[a:b])
     return out
 
 
@@ -46,8 +47,8 @@ def report_columns(ft) -> tuple:
     """What the fleet tracker ``ft`` hands on, for every vessel's confirmed tracks, grouped by vessel
     (bank order within): ({owner: (first, end)}, rows, ids, times, positions (k, 2), courses,
     speeds, ω̂, radii (array and list), position covariances (k, 2, 2), static flags, team
-    mates, slow flags) — per-track values as its ``_estimates_of`` makes them (one compiled
-    gather, :func:`report_fields`)."""
+    mates, slow flags, ids (k,) int64 and times (k,) [s] as new arrays) — per-track values as its
+    ``_estimates_of`` makes them (one compiled gather, :func:`report_fields`)."""
     c, no = ft.cols, ft._max_range.size
     arrays = ft.bank.prediction_arrays()
     if arrays is None:  # (ω̂ not the compiled sum: r > 7 models)
@@ -69,7 +70,7 @@ def report_columns(ft) -> tuple:
     t, th, v, w, radius_l = floats.tolist()
     static, slow = flags.tolist()
     return (spans, il[:k], il[k:2 * k], t, xs[:, :2], th, v, w, floats[4], radius_l, P, static,
-            c.team[ints[:k]].tolist(), slow)  # (team.members(rows))
+            c.team[ints[:k]].tolist(), slow, ints[k:2 * k].copy(), floats[0].copy())  # (team.members(rows))
 
 
 def report_columns_numpy(ft) -> tuple:
@@ -84,9 +85,9 @@ def report_columns_numpy(ft) -> tuple:
     static = ft.cols.static[rows]
     slow = (static | (v < ft.config.static_speed_m_s)).tolist()
     radius = ft.cols.radius[rows]
-    ids = ft.cols.local_id[rows].tolist()
-    return (spans, rows.tolist(), ids, t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
-            radius, radius.tolist(), P, static.tolist(), ft.team.members(rows), slow)
+    id_array = ft.cols.local_id[rows]
+    return (spans, rows.tolist(), id_array.tolist(), t.tolist(), pos, th.tolist(), v.tolist(), w.tolist(),
+            radius, radius.tolist(), P, static.tolist(), ft.team.members(rows), slow, id_array, t)
 
 
 @kernel
