@@ -64,3 +64,23 @@ def test_full_detail_draws_the_map_at_every_change(tmp_path):
         log._log_map(rec, float(k), m, "world/vessels/alpha", True)
     assert drawn(rec) == [(0.0, 1), (1.0, 2), (2.0, 3)]
     rec.close()
+
+
+def test_a_map_built_empty_after_the_drawing_is_drawn_empty_not_built_again(rec):
+    """The avoidance built the map after every cell was carved free, and the map changed since: the
+    drawing shows the empty map it built (a row without strips) and builds nothing of its own."""
+    m, log = StaticMap(1.0, 3), PerceptionLog()
+    grow(m, 10.0)
+    log._log_map(rec, 0.0, m, "world/vessels/alpha", False)
+    n = 720
+    angles = -np.pi + (np.arange(n) + 0.5) * 2.0 * np.pi / n
+    for _ in range(50):  # every beam sees through to 150 m: the wall's cells are carved free
+        m.carve(np.zeros(2), angles, np.full(n, 150.0), np.zeros(n, dtype=bool), 150.0)
+        if m.n_occupied == 0:
+            break
+    assert m.n_occupied == 0
+    assert m.polygons() == []  # the avoidance builds the empty map
+    version = m.version
+    grow(m, 30.0)  # then the map changes again, unbuilt
+    log._log_map(rec, MAP_LOG_PERIOD_S, m, "world/vessels/alpha", False)
+    assert drawn(rec) == [(0.0, 1), (MAP_LOG_PERIOD_S, 0)] and m.built_polygons() == (version, [])

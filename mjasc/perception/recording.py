@@ -214,8 +214,9 @@ class PerceptionLog:
         if built == self._logged_map_version:
             return
         self._logged_map_version, self._last_map_log = built, t_s
-        rec.strips(f"{base}/static_map", t_s, [np.vstack([q, q[:1]]) for q in polygons or static_map.polygons()],
-                   z=0.4)
+        if polygons is None:  # (the map now; built polygons may be none at all: an empty map drawn as such)
+            polygons = static_map.polygons()
+        rec.strips(f"{base}/static_map", t_s, [np.vstack([q, q[:1]]) for q in polygons], z=0.4)
 
     def _name(self, vessel_name: str) -> str:
         """The vessel's world entity (kept: :meth:`log` runs at every record tick)."""
