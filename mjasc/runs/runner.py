@@ -162,17 +162,14 @@ class Runner:
         truth = self._truth
         if self.target_judge is None:  # (the metrics need no traffic now: RunMetrics.defer, the same numbers)
             self.metrics.defer(states, xte)  # (folded in chunks)
-            if truth is not None:
-                truth.record(states, self.sim, np.array([o.speed_ref_m_s if o else 0.0 for o in outputs], dtype=float),
-                             np.array(xte), self.sim.traffic_state() if truth.needs_traffic else None)
-            return
-        xte = np.array(xte)
-        traffic = self.sim.traffic_state()
-        self.metrics.update(states, xte, traffic)
-        self.target_judge.update(states, traffic, self.agents)
+            traffic = self.sim.traffic_state() if truth is not None and truth.needs_traffic else None
+        else:
+            traffic = self.sim.traffic_state()
+            self.metrics.update(states, np.array(xte), traffic)
+            self.target_judge.update(states, traffic, self.agents)
         if truth is not None:
             truth.record(states, self.sim, np.array([o.speed_ref_m_s if o else 0.0 for o in outputs], dtype=float),
-                         xte, traffic)
+                         np.array(xte), traffic)
 
     # ------------------------------------------------------------------ main loop
     def run(self, interruptible: bool = False) -> RunResult:

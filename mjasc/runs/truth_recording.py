@@ -77,7 +77,6 @@ class TruthRecording:
         self._moving_group = ColumnGroup(self._moving, "xy", None, len(world.moving_obstacles))
         self._trail = FleetColumns({"xy": (len(names), 2)}, capacity=128)  # the fleet's positions [m] at its points
         self._trail_cut = 0  # index of the trail point where the recording's ``trail/recent`` starts
-        self._trail_last_s = -np.inf  # time of the latest trail point [s]
         self._current_grid, self._current_scale = log_static_scene(rec, sc, lo, hi, PLOT_SERIES)
         self._current_times: list[float] = []
         self._comms_log = None
@@ -137,7 +136,8 @@ class TruthRecording:
             ctrl = sim.data.ctrl[self._world.ctrl_adr]
             rec.fleet_scalars(e["command_port"], t, ctrl[:, 0])
             rec.fleet_scalars(e["command_starboard"], t, ctrl[:, 1])
-        if t - self._trail_last_s >= TRAIL_PERIOD_S:
+        trail = self._trail
+        if not trail.n or t - trail.times[trail.n - 1] >= TRAIL_PERIOD_S:
             self._record_trails(t, states.position_m)
         if self.needs_traffic:
             moving = self._moving
@@ -162,7 +162,6 @@ class TruthRecording:
         boundary to now, written with every new point)."""
         trail = self._trail  # (the caller checks the period: t − the last point's time ≥ TRAIL_PERIOD_S)
         k = trail.add(t)
-        self._trail_last_s = t
         xy = trail.arrays["xy"]  # (points, n, 2): a strip per vessel is xy[a:b, j], the vessels' xy[a:b].swapaxes(0, 1)
         xy[k] = positions
         if k < 1:
