@@ -68,13 +68,13 @@ def test_in_place_patch_keeps_every_chunk_of_a_run_bit_for_bit(tmp_path, monkeyp
     one encoder), in the order of their first rows; only the row ids (derived, increasing) and
     ``log_time`` (:data:`BASE_NS`) differ."""
     kept = tmp_path / "sdk.rrd"
-    canonicalise = recording.canonicalise
+    close_canonical = recording.close_canonical
 
-    def keep(src, dst, *args):
-        kept.write_bytes(Path(src).read_bytes())
-        canonicalise(src, dst, *args)
+    def keep(part, *args):
+        close_canonical(part, *args)
+        kept.write_bytes(Path(part).read_bytes())  # (the SDK's file until the recorder renames the canonical one)
 
-    monkeypatch.setattr(recording, "canonicalise", keep)
+    monkeypatch.setattr(recording, "close_canonical", keep)
     run_scenario(load_scenario(TASKS / "demo.toml").with_overrides(duration_s=8.0), tmp_path / "run", progress=False)
     sdk, ours = _batches(kept), _batches(tmp_path / "run" / "recording.rrd")
     assert sdk.keys() == ours.keys() and sum(len(v) for v in ours.values()) > 100

@@ -68,7 +68,8 @@ from mjasc.runs.recording_columns import (TIMELINE, SharedTimes, concat_xy, flat
                                           points_column, rgba, scalar_column, sparse_column, stack_rows, strip_column,
                                           xyz_at)
 from mjasc.runs.recording_vessels import VesselSeries
-from mjasc.runs.rrd_canonical import BATCHER_FLUSH_BYTES, canonicalise
+from mjasc.runs.rrd_canonical import BATCHER_FLUSH_BYTES
+from mjasc.runs.rrd_closing import ReencodingError, close_canonical
 from mjasc.runs.scenario import RECORDING_DETAILS as DETAILS
 
 __all__ = ["Recorder", "default_blueprint", "TIMELINE", "DETAILS", "vessel_colour", "legend_classes",
@@ -354,7 +355,8 @@ class Recorder(VesselSeries):
 
     def close(self) -> None:
         """Flush, write the file footer (a reader needs it), re-encode the file with derived ids
-        (:func:`~mjasc.runs.rrd_canonical.canonicalise`) and rename it from its temporary name
+        (:func:`~mjasc.runs.rrd_canonical.canonicalise`'s bytes; the re-encoding overlaps the
+        SDK's last writes: :func:`~mjasc.runs.rrd_closing.close_canonical`) and rename it from its temporary name
         (``.recording.part.rrd``) to its own: a file under the final name is always complete.
         Should the re-encoding fail (a Rerun upgrade changed the container), the SDK's file is kept
         (same content, not the same bytes) with a warning. Safe to call twice."""
@@ -363,15 +365,14 @@ class Recorder(VesselSeries):
         try:
             self.flush()
         finally:
-            self.rec.flush()
-            self.rec.disconnect()
             self._closed = True
             canonical = self._part.with_name(self._part.name + ".canonical")
-            try:
-                canonicalise(self._part, canonical, *self._ids)
+            try:  # (the SDK's flush and disconnect, the re-encoding meanwhile: mjasc.runs.rrd_closing)
+                close_canonical(self._part, canonical, self._ids, self.rec.flush, self.rec.disconnect)
                 os.replace(canonical, self._part)
-            except Exception as e:  # noqa: BLE001 - the recording itself is complete either way
+            except (ReencodingError, OSError) as e:  # the recording itself is complete either way
                 canonical.unlink(missing_ok=True)
+                e = e.__cause__ or e
                 warnings.warn(f"{self.path}: recording kept as the Rerun SDK wrote it (not byte-reproducible): "
                               f"{type(e).__name__}: {e}", RuntimeWarning, stacklevel=2)
             os.replace(self._part, self.path)

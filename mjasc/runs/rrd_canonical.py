@@ -49,13 +49,15 @@ from __future__ import annotations
 
 import hashlib
 import struct
+from typing import NamedTuple
 
 import numpy as np
 import pyarrow as pa
 
 from mjasc.runs.rrd_wire import CanonicalRrdError, pb_bytes, pb_int, pb_parse, pb_store_id, pb_tuid, store_key, xxh32
 
-__all__ = ["BASE_NS", "BATCHER_FLUSH_BYTES", "CanonicalRrdError", "canonicalise"]
+__all__ = ["BASE_NS", "BATCHER_FLUSH_BYTES", "CanonicalRrdError", "Encoded", "SdkMessages", "canonicalise",
+           "encode_chunks", "encode_file"]
 
 #: The time part of every synthetic id and of ``log_time``: 2020-01-01T00:00:00Z [ns].
 BASE_NS = 1_577_836_800_000_000_000
@@ -265,54 +267,102 @@ def _constant_where_valid(c: pa.Array, value: int) -> pa.Array:
 
 
 # ---------------------------------------------------------------- the file
+class SdkMessages:
+    """The messages of an SDK-written file, parsed as whole messages arrive (:meth:`feed`: the
+    file's bytes in order, in pieces as the SDK writes them): store infos, Arrow chunks
+    (:class:`_Chunk`) and footer manifests per store, the blueprint activation command."""
+
+    def __init__(self):
+        self.header = b""  # the stream header (12 bytes)
+        self.stores, self.chunks, self.manifests, self.activation = {}, {}, {}, None
+        self.n_chunks = 0
+        self._rest = b""  # bytes of a message not yet whole
+
+    def feed(self, data: bytes) -> bool:
+        """Parse the whole messages in ``data`` (after what was fed before); True if any."""
+        data = self._rest + data if self._rest else data
+        i = 0
+        if not self.header:
+            if len(data) < 12:
+                self._rest = data
+                return False
+            if data[:4] != b"RRF2":
+                raise CanonicalRrdError("not a Rerun RRF2 stream")
+            self.header, i = data[:12], 12
+        stores, chunks = self.stores, self.chunks
+        start = i
+        while i + 16 <= len(data):
+            if data[i:i + 4] == b"RRF2":  # a second stream header (concatenated streams)
+                i += 12
+                continue
+            kind, n = struct.unpack_from("<QQ", data, i)
+            end = i + 16 + n + (32 if kind == _END else 0)  # (the End message: then the stream footer)
+            if end > len(data):
+                break
+            body = data[i + 16:i + 16 + n]
+            i = end
+            if kind == _STORE_INFO:
+                info = pb_parse(pb_parse(body)[2][0])
+                stores.setdefault(store_key(info[2][0]), info)
+            elif kind == _ARROW:
+                m = pb_parse(body)
+                raw = _raw_ipc(m[5][0], m.get(2, [0])[0], m.get(3, [0])[0])
+                chunks.setdefault(store_key(m[1][0]), []).append(_Chunk(raw, m.get(7, [0])[0]))
+                self.n_chunks += 1
+            elif kind == _ACTIVATION:
+                self.activation = pb_parse(body)
+            elif kind == _END:
+                for man in pb_parse(body).get(1, []):
+                    parsed = pb_parse(man)
+                    self.manifests[store_key(parsed[1][0])] = parsed
+        self._rest = data[i:]
+        return i > start
+
+
 def _read(data: bytes):
-    """Store infos, Arrow chunks (batch, is_static) and footer manifests per store, and the
-    blueprint activation command, of one SDK-written file."""
-    if data[:4] != b"RRF2":
-        raise CanonicalRrdError("not a Rerun RRF2 stream")
-    stores, chunks, manifests, activation = {}, {}, {}, None
-    i = 12
-    while i + 16 <= len(data):
-        if data[i:i + 4] == b"RRF2":  # a second stream header (concatenated streams)
-            i += 12
-            continue
-        kind, n = struct.unpack_from("<QQ", data, i)
-        body = data[i + 16:i + 16 + n]
-        i += 16 + n
-        if kind == _STORE_INFO:
-            info = pb_parse(pb_parse(body)[2][0])
-            stores.setdefault(store_key(info[2][0]), info)
-        elif kind == _ARROW:
-            m = pb_parse(body)
-            raw = _raw_ipc(m[5][0], m.get(2, [0])[0], m.get(3, [0])[0])
-            chunks.setdefault(store_key(m[1][0]), []).append(_Chunk(raw, m.get(7, [0])[0]))
-        elif kind == _ACTIVATION:
-            activation = pb_parse(body)
-        elif kind == _END:
-            for man in pb_parse(body).get(1, []):
-                parsed = pb_parse(man)
-                manifests[store_key(parsed[1][0])] = parsed
-            i += 32  # the stream footer
-    return stores, chunks, manifests, activation
+    """Store infos, Arrow chunks and footer manifests per store, and the blueprint activation
+    command, of one SDK-written file (:class:`SdkMessages`)."""
+    sdk = SdkMessages()
+    sdk.feed(data)
+    return sdk.stores, sdk.chunks, sdk.manifests, sdk.activation
 
 
 def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_id: str = "mjasc") -> None:
     """Write ``src_path`` (a complete recording written by the Rerun 0.41 SDK: one recording
     store, at most one blueprint store, with its footer) to ``dst_path`` with derived ids
-    (module docstring). The same content always gives the same bytes."""
+    (module docstring). The same content always gives the same bytes. In steps, for a file the
+    SDK is still writing: :func:`~mjasc.runs.rrd_closing.close_canonical`."""
+    sdk = SdkMessages()
     with open(src_path, "rb") as f:
-        data = f.read()
-    stores, chunks, manifests, activation = _read(data)
+        sdk.feed(f.read())
+    data = encode_file(sdk, encode_chunks(sdk, recording_id, blueprint_id, app_id))
+    with open(dst_path, "wb") as f:
+        f.write(data)
+
+
+class Encoded(NamedTuple):
+    """The canonical file up to its footer (:func:`encode_chunks`): ``out``, the stores written
+    (the SDK's store key, store id, new chunk ids, chunk spans) and how many chunks were read."""
+
+    out: bytearray
+    stores: list
+    n_chunks: int
+
+
+def encode_chunks(sdk: SdkMessages, recording_id: str, blueprint_id: str, app_id: str = "mjasc") -> Encoded:
+    """Every store's messages of the canonical file (:func:`canonicalise`) from the chunks ``sdk``
+    holds, without the footer (it needs the SDK's manifests: :func:`encode_file`)."""
+    stores, chunks, activation = sdk.stores, sdk.chunks, sdk.activation
     by_kind = {k: [s for s in stores if s[0] == k] for k in (_RECORDING, _BLUEPRINT)}
     if len(by_kind[_RECORDING]) != 1 or len(by_kind[_BLUEPRINT]) > 1:
         raise CanonicalRrdError(f"expected one recording and at most one blueprint store, got {sorted(stores)}")
-    out = bytearray(b"RRF2" + data[4:8] + bytes([1, 2, 0, 0]))
+    out = bytearray(b"RRF2" + sdk.header[4:8] + bytes([1, 2, 0, 0]))
 
     def message(kind: int, body: bytes) -> None:
         out.extend(struct.pack("<QQ", kind, len(body)))
         out.extend(body)
 
-    footer = []
+    written = []
     order = [(_BLUEPRINT, blueprint_id)] * len(by_kind[_BLUEPRINT]) + [(_RECORDING, recording_id)]
     for store_no, (kind, new_id) in enumerate(order, start=1):
         old = by_kind[kind][0]
@@ -321,8 +371,6 @@ def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_i
         message(_STORE_INFO, pb_bytes(1, pb_tuid(BASE_NS, store_no)) + pb_bytes(
             2, pb_bytes(2, sid) + b"".join(pb_bytes(f, info[f][0]) for f in (5, 6) if f in info)))
         src = chunks.get(old, [])
-        if src and old not in manifests:
-            raise CanonicalRrdError(f"store {old[1]} has no footer manifest (the file was not closed)")
         # Rank of every row id within the store: the new row ids keep the original order.
         every = np.concatenate([c.row_ids for c in src]) if src else np.empty((0, 2), ">u8")
         rank = np.empty(len(every), np.int64)
@@ -349,14 +397,24 @@ def canonicalise(src_path, dst_path, recording_id: str, blueprint_id: str, app_i
         if kind == _BLUEPRINT and activation is not None:
             message(_ACTIVATION, pb_bytes(1, sid) + b"".join(pb_int(f, 1) for f in (2, 3)
                                                                if activation.get(f, [0])[0]))
-        if src:
-            footer.append(_manifest(manifests[old], sid, new_ids, spans))
+        written.append((old, sid, new_ids, spans))
+    return Encoded(out, written, sdk.n_chunks)
+
+
+def encode_file(sdk: SdkMessages, encoded: Encoded) -> bytearray:
+    """The canonical file: ``encoded.out`` (:func:`encode_chunks` of ``sdk``'s chunks) completed
+    with its footer from the SDK's manifests."""
+    out, footer = encoded.out, []
+    for old, sid, new_ids, spans in encoded.stores:
+        if spans:
+            if old not in sdk.manifests:
+                raise CanonicalRrdError(f"store {old[1]} has no footer manifest (the file was not closed)")
+            footer.append(_manifest(sdk.manifests[old], sid, new_ids, spans))
     rrd_footer = b"".join(pb_bytes(1, m) for m in footer)
-    message(_END, rrd_footer)
+    out += struct.pack("<QQ", _END, len(rrd_footer)) + rrd_footer
     out += struct.pack("<QQI", len(out) - len(rrd_footer), len(rrd_footer), xxh32(rrd_footer, _XXH_SEED))
     out += b"RRF2FOOT" + struct.pack("<I", 1)
-    with open(dst_path, "wb") as f:
-        f.write(out)
+    return out
 
 
 def _manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes:
