@@ -158,9 +158,9 @@ def test_spliced_schema_messages_equal_pyarrows_serialisation(tmp_path):
         assert rc._schema_message(c.fields, c.schema.metadata, chunk_id) == \
             rc._serialized_schema(c.fields, c.schema.metadata, chunk_id)
     field = pa.field("x", pa.int64(), metadata={b"b": b"2", b"a": b"1"})
-    assert list(rc._canon_field(field).metadata) == [b"a", b"b"]
-    tidy = rc._canon_field(field)
-    assert rc._canon_field(tidy) is tidy
+    assert list(rc.canon_field(field).metadata) == [b"a", b"b"]
+    tidy = rc.canon_field(field)
+    assert rc.canon_field(tidy) is tidy
 
 
 def test_chunk_schemas_read_once_give_each_chunk_its_own_id(tmp_path):

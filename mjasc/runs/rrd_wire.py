@@ -17,8 +17,13 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["CanonicalRrdError", "varint", "pb_int", "pb_fixed64", "pb_bytes", "pb_tuid", "pb_store_id", "read_varint",
+__all__ = ["BASE_NS", "CanonicalRrdError", "varint", "pb_int", "pb_fixed64", "pb_bytes", "pb_tuid", "pb_store_id", "read_varint",
            "pb_parse", "store_key", "xxh32"]
+
+
+#: The time part of every synthetic id (row, chunk, store) and of ``log_time`` in a canonical
+#: recording: 2020-01-01T00:00:00Z [ns].
+BASE_NS = 1_577_836_800_000_000_000
 
 
 class CanonicalRrdError(ValueError):
