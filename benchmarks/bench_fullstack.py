@@ -201,6 +201,20 @@ def table(results: list[tuple[Row, dict]], video: bool) -> str:
     return "\n".join(lines)
 
 
+def python_loop_ms(n: int = 1_000_000, repeats: int = 5) -> float:
+    """The host's pure-Python speed: the best time [ms] of a loop of ``n`` integer additions (the
+    stack is ~70 % Python and numpy around compiled kernels, the floor is C: hosts whose Python is
+    slower relative to their C give a run a smaller share of the floor)."""
+    best = math.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        total = 0
+        for i in range(n):
+            total += i
+        best = min(best, time.perf_counter() - t)
+    return 1e3 * best
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--quick", action="store_true", help=f"rows {', '.join(QUICK['rows'])} for "
@@ -226,7 +240,8 @@ def main(argv=None) -> None:
     print(f"Full stack vs MuJoCo's floor: best of {a.repeats} (≤ 10 vessels) / {a.repeats_large} (more) interleaved "
           f"runs per configuration, {os.cpu_count()} CPU core(s), load average {load:.1f} at the end, "
           f"{time.perf_counter() - t0:.0f} s in all; Python {platform.python_version()} at "
-          f"{os.path.realpath(sys.executable)} (the interpreter's build moves the stack's speed, not the floor's)\n")
+          f"{os.path.realpath(sys.executable)} (the interpreter's build moves the stack's speed, not the floor's); "
+          f"a pure-Python loop of 10⁶ additions {python_loop_ms():.0f} ms (the host's Python speed)\n")
     print(table(results, a.video))
     if thesis:
         print(f"\nThesis scenarios: median share of the floor with recording on 1/{1 / statistics.median(thesis):.1f} "
