@@ -116,6 +116,7 @@ class AvoidanceLog:
         self._threats_due = True  # a prediction or the mode changed since
         self._shown = None  # the prediction whose conflicts _shown_ids names
         self._shown_ids: tuple = ()
+        self._vessel: tuple = (None, "", False)  # (vessel name, its avoidance entity, has views): _entity
 
     def prediction_pending(self) -> None:
         """A new prediction or detour is to be drawn at the next :meth:`log`."""
@@ -135,14 +136,22 @@ class AvoidanceLog:
             recorder.vessel_style(vessel_name, f"{base}/{entity}", style)
         self._styled = True
 
+    def _entity(self, recorder, vessel_name: str) -> tuple:
+        """(vessel name, ``world/vessels/<vessel>/avoidance``, whether the vessel has per-vessel views),
+        kept: :meth:`log` runs at every record tick (the recorder's views are set before the first)."""
+        self._vessel = (vessel_name, f"world/vessels/{vessel_name}/avoidance", recorder.has_views(vessel_name))
+        return self._vessel
+
     def log(self, recorder, t, vessel_name, mode, correction, guidance, last, detour, team=frozenset()) -> None:
-        base = f"world/vessels/{vessel_name}/avoidance"
+        vessel = self._vessel if self._vessel[0] == vessel_name else self._entity(recorder, vessel_name)
+        base = vessel[1]
         if not self._styled:
             self._style(recorder, vessel_name, base)
         if mode != self._mode:
             self._mode = mode
             recorder.state(f"modes/{vessel_name}", t, mode)
-        self._log_threats(recorder, t, vessel_name, mode, correction, last, team)
+        if vessel[2]:  # (the threat panel: vessels with views only)
+            self._log_threats(recorder, t, vessel_name, mode, correction, last, team)
         c = correction
         if c is not None and guidance is not None:
             g_d = c.law.gamma_desired(t) - c.gamma_offset_m
@@ -157,8 +166,6 @@ class AvoidanceLog:
             self._pending = False
 
     def _log_threats(self, recorder, t, vessel_name, mode, correction, last, team) -> None:
-        if not recorder.has_views(vessel_name):
-            return
         shown = last if last is not None and last.time_s <= t else None
         if shown is not self._shown:  # (the conflicts' ids only change with the prediction)
             self._shown, self._shown_ids = shown, () if shown is None else (

@@ -139,6 +139,7 @@ class PerceptionLog:
         self._series: set[int] = set()
         self._base_of: str | None = None  # the vessel whose world entity _base is
         self._base = ""
+        self._views = False  # does the vessel have per-vessel views (Recorder.has_views; set by _style)
 
     def _style(self, rec, base: str, name: str, colour, sensor_config) -> None:
         # Track labels show on hover or selection, not over the boats (show_labels False). A vessel
@@ -146,7 +147,8 @@ class PerceptionLog:
         rec.vessel_style(name, f"{base}/tracks/positions", _track_style(tuple(colour)))
         rec.vessel_style(name, f"{base}/static_map", _map_style(rec.legend_colour(111)))
         self._styled = True  # (set before the early return: a vessel without views was styled at every tick)
-        if not rec.has_views(name):
+        self._views = rec.has_views(name)  # (the recorder's views are set before the first record tick)
+        if not self._views:
             return
         det = rec.legend_colour(116)
         body = f"sensor/{name}"
@@ -189,7 +191,10 @@ class PerceptionLog:
         if scan is not None and scan is not self._seen_scan:
             self._seen_scan = scan
             if (scan_t := scan_time(scan)) != self._logged_scan_t:
-                self._log_scan(rec, t_s, p, scan, scan_t, base, vessel_name, full)
+                self._logged_scan_t = scan_t
+                if full or self._views and (t_s - self._last_body_det_log >= BODY_DETECTIONS_PERIOD_S - 1e-9 or
+                                            t_s - self._last_body_hits_log >= BODY_HITS_PERIOD_S - 1e-9):
+                    self._log_scan(rec, t_s, p, scan, base, vessel_name, full)  # (a drawing is due)
         update = p._stats["track_updates"]
         if full or update != self._logged_update:
             self._logged_update = update
@@ -208,9 +213,11 @@ class PerceptionLog:
         """The mapped polygons, when a drawing is due: full detail, the map at every change; standard,
         the polygons the avoidance built last if newer than the drawing, else the map itself (built
         now) if it changed and the drawing is :data:`MAP_BUILD_PERIOD_S` old."""
-        built, polygons = static_map.built_polygons()
+        built, polygons = static_map.built_version, None  # (the polygons' list copied only when drawn)
         if full or (built == self._logged_map_version and t_s - self._last_map_log >= MAP_BUILD_PERIOD_S - 1e-9):
-            built, polygons = static_map.version, None
+            built = static_map.version
+        elif built != self._logged_map_version:
+            built, polygons = static_map.built_polygons()
         if built == self._logged_map_version:
             return
         self._logged_map_version, self._last_map_log = built, t_s
@@ -223,11 +230,10 @@ class PerceptionLog:
         self._base_of, self._base = vessel_name, f"world/vessels/{vessel_name}"
         return self._base
 
-    def _log_scan(self, rec, t_s, p, scan, scan_t, base, vessel_name, full) -> None:
-        """The new ``scan``'s (taken at ``scan_t``) returns and detections (:meth:`log` calls it
-        once per scan); the detections are read only when drawn."""
-        self._logged_scan_t = scan_t
-        views = rec.has_views(vessel_name)
+    def _log_scan(self, rec, t_s, p, scan, base, vessel_name, full) -> None:
+        """The new ``scan``'s returns and detections (:meth:`log` calls it once per scan, when a
+        drawing is due); the detections are read only when drawn."""
+        views = self._views
         if views and t_s - self._last_body_hits_log >= (HITS_LOG_PERIOD_S if full else BODY_HITS_PERIOD_S) - 1e-9:
             self._last_body_hits_log = t_s
             rec.points(f"sensor/{vessel_name}/hits_body", t_s, scan.hit_points_body, z=0.1)

@@ -379,6 +379,12 @@ class StaticMap:
         """(c, 2) integer cell indices of the occupied cells."""
         return self.store.occupied_cells(self.member)
 
+    @property
+    def built_version(self) -> int:
+        """The map version the polygons were last computed for (0 before any): what
+        :meth:`built_polygons` would say first, without copying the polygons' list."""
+        return self._cached_version
+
     def built_polygons(self) -> tuple[int, list[np.ndarray]]:
         """The map version the polygons were last computed for (:meth:`polygons`; 0 before any) and
         those polygons, building nothing: what the avoidance last planned around."""
