@@ -54,8 +54,8 @@ import numpy as np
 import pyarrow as pa
 
 from mjasc.runs.rrd_manifest import canon_field, rebuild_manifest
-from mjasc.runs.rrd_wire import (BASE_NS, CanonicalRrdError, pb_bytes, pb_int, pb_parse, pb_store_id, pb_tuid, store_key,
-                                 xxh32)
+from mjasc.runs.rrd_wire import (BASE_NS, IPC_EOS, LZ4, CanonicalRrdError, pb_bytes, pb_int, pb_parse, pb_store_id,
+                                 pb_tuid, raw_ipc, store_key, xxh32)
 
 __all__ = ["BASE_NS", "BATCHER_FLUSH_BYTES", "CanonicalRrdError", "Encoded", "SdkMessages", "canonicalise",
            "encode_chunks", "encode_file"]
@@ -64,16 +64,10 @@ __all__ = ["BASE_NS", "BATCHER_FLUSH_BYTES", "CanonicalRrdError", "Encoded", "Sd
 BATCHER_FLUSH_BYTES = 8 << 20
 _RECORDING, _BLUEPRINT = 1, 2  # StoreKind
 _END, _STORE_INFO, _ARROW, _ACTIVATION = 0, 1, 2, 3  # message kinds
-_LZ4 = pa.Codec("lz4_raw")
 _XXH_SEED = 7850921
 
 
 # ---------------------------------------------------------------- Arrow
-def _raw_ipc(payload: bytes, compression: int, size: int) -> bytes:
-    return _LZ4.decompress(payload, decompressed_size=size, asbytes=True) if compression == 2 else payload
-
-
-_EOS = b"\xff\xff\xff\xff\x00\x00\x00\x00"  # an Arrow IPC stream's end
 
 
 class _Chunk:
@@ -90,7 +84,7 @@ class _Chunk:
         self.schema = schema
         self.start = reader.tell()
         batch = pa.ipc.read_record_batch(pa.ipc.read_message(reader), schema)  # zero-copy: buffers lie in raw
-        if reader.tell() != len(raw) - 8 or raw[-8:] != _EOS:
+        if reader.tell() != len(raw) - 8 or raw[-8:] != IPC_EOS:
             raise CanonicalRrdError("a chunk's Arrow stream is not one schema and one record batch")
         if schema.field(0).name != "rerun.controls.RowId" or schema.field(0).type != pa.binary(16):
             raise CanonicalRrdError(f"chunk without a row-id column: {schema.field(0).name}")
@@ -241,7 +235,7 @@ class SdkMessages:
                 stores.setdefault(store_key(info[2][0]), info)
             elif kind == _ARROW:
                 m = pb_parse(body)
-                raw = _raw_ipc(m[5][0], m.get(2, [0])[0], m.get(3, [0])[0])
+                raw = raw_ipc(m[5][0], m.get(2, [0])[0], m.get(3, [0])[0])
                 chunks.setdefault(store_key(m[1][0]), []).append(_Chunk(raw, m.get(7, [0])[0]))
                 self.n_chunks += 1
             elif kind == _ACTIVATION:
@@ -325,7 +319,7 @@ def encode_chunks(sdk: SdkMessages, recording_id: str, blueprint_id: str, app_id
             ids = np.empty((counts[ci], 2), ">u8")
             ids[:, 0], ids[:, 1] = BASE_NS, rank[starts[ci]:starts[ci + 1]] + 1
             ipc = chunk.ipc(ids, f"chunk_{BASE_NS:016X}{inc:016x}".encode())
-            body = (head + pb_int(3, len(ipc)) + tail + pb_bytes(5, _LZ4.compress(ipc, asbytes=True))
+            body = (head + pb_int(3, len(ipc)) + tail + pb_bytes(5, LZ4.compress(ipc, asbytes=True))
                     + pb_bytes(6, pb_tuid(BASE_NS, inc)) + pb_int(7, chunk.is_static))
             spans[k] = (len(out) + 16, len(body), len(ipc))
             message(_ARROW, body)

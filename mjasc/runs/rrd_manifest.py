@@ -12,12 +12,9 @@ import hashlib
 import numpy as np
 import pyarrow as pa
 
-from mjasc.runs.rrd_wire import BASE_NS, CanonicalRrdError, pb_bytes, pb_int, pb_parse
+from mjasc.runs.rrd_wire import BASE_NS, IPC_EOS, LZ4, CanonicalRrdError, pb_bytes, pb_int, pb_parse, raw_ipc
 
 __all__ = ["canon_field", "rebuild_manifest"]
-
-_LZ4 = pa.Codec("lz4_raw")
-_EOS = b"\xff\xff\xff\xff\x00\x00\x00\x00"  # an Arrow IPC stream's end
 
 
 def _sorted(md):
@@ -52,8 +49,7 @@ def _ipc(batch: pa.RecordBatch | None, schema: pa.Schema | None = None) -> bytes
 
 
 def _read_ipc(payload: bytes, compression: int, size: int) -> pa.RecordBatch:
-    raw = _LZ4.decompress(payload, decompressed_size=size, asbytes=True) if compression == 2 else payload
-    return pa.ipc.open_stream(raw).read_next_batch()
+    return pa.ipc.open_stream(raw_ipc(payload, compression, size)).read_next_batch()
 
 
 def _tuids(t_ns: int, incs) -> pa.Array:
@@ -91,7 +87,7 @@ def rebuild_manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes
     sorbet_ipc = _ipc(None, sorbet)  # (the schema message and the end of stream)
     # The hash is over the schema without its own metadata (it has none: the message itself then).
     sha = hashlib.sha256(pa.schema(list(sorbet)).serialize().to_pybytes() if sorbet.metadata
-                         else sorbet_ipc[:-len(_EOS)]).digest()
+                         else sorbet_ipc[:-len(IPC_EOS)]).digest()
     part = pb_parse(man[4][0])
     batch = _read_ipc(part[2][0], part.get(3, [0])[0], part.get(4, [0])[0])
     ids = batch.column("chunk_id")  # (fixed_size_binary[16]: big-endian time and counter)
@@ -114,5 +110,5 @@ def rebuild_manifest(man: dict, sid: bytes, new_ids: dict, spans: dict) -> bytes
                             and (f.metadata or {}).get(b"rerun:index") == b"log_time")
     batch = batch.take(pa.array(np.argsort(ks)))
     ipc = _ipc(pa.RecordBatch.from_arrays(batch.columns, schema=_canon_schema(batch.schema)))
-    data = pb_int(1, 1) + pb_bytes(2, _LZ4.compress(ipc, asbytes=True)) + pb_int(3, 2) + pb_int(4, len(ipc))
+    data = pb_int(1, 1) + pb_bytes(2, LZ4.compress(ipc, asbytes=True)) + pb_int(3, 2) + pb_int(4, len(ipc))
     return pb_bytes(1, sid) + pb_bytes(2, pb_bytes(1, sorbet_ipc)) + pb_bytes(3, sha) + pb_bytes(4, data)

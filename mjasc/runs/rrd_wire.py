@@ -1,6 +1,7 @@
 """The container's wire format under :mod:`mjasc.runs.rrd_canonical`: protobuf's varints and
 fields (written and read: Rerun 0.41's log messages are protobuf, their field numbers are in the
-callers) and the xxHash32 checksum of the stream footer.
+callers), the LZ4 blocks around the messages' Arrow IPC streams and the xxHash32 checksum of the
+stream footer.
 
 Written here rather than taken from a protobuf or xxhash package: the messages are a handful of
 fields, and re-encoding must not depend on a second library's version. xxHash32 follows Yann
@@ -14,16 +15,29 @@ import functools
 import struct
 
 import numpy as np
+import pyarrow as pa
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["BASE_NS", "CanonicalRrdError", "varint", "pb_int", "pb_fixed64", "pb_bytes", "pb_tuid", "pb_store_id", "read_varint",
-           "pb_parse", "store_key", "xxh32"]
+__all__ = ["BASE_NS", "IPC_EOS", "LZ4", "raw_ipc", "CanonicalRrdError", "varint", "pb_int", "pb_fixed64", "pb_bytes",
+           "pb_tuid", "pb_store_id", "read_varint", "pb_parse", "store_key", "xxh32"]
 
 
 #: The time part of every synthetic id (row, chunk, store) and of ``log_time`` in a canonical
 #: recording: 2020-01-01T00:00:00Z [ns].
 BASE_NS = 1_577_836_800_000_000_000
+
+
+#: The LZ4 block codec of the SDK's compressed messages (chunks and footer manifests).
+LZ4 = pa.Codec("lz4_raw")
+#: The end of an Arrow IPC stream.
+IPC_EOS = b"\xff\xff\xff\xff\x00\x00\x00\x00"
+
+
+def raw_ipc(payload: bytes, compression: int, size: int) -> bytes:
+    """A message's Arrow IPC stream: ``payload`` LZ4-decompressed to ``size`` bytes when
+    ``compression`` is 2 (LZ4), else as it is."""
+    return LZ4.decompress(payload, decompressed_size=size, asbytes=True) if compression == 2 else payload
 
 
 class CanonicalRrdError(ValueError):

@@ -164,12 +164,13 @@ class Runner:
             self.metrics.defer(states, xte)  # (folded in chunks)
             traffic = self.sim.traffic_state() if truth is not None and truth.needs_traffic else None
         else:
+            xte = np.array(xte)
             traffic = self.sim.traffic_state()
-            self.metrics.update(states, np.array(xte), traffic)
+            self.metrics.update(states, xte, traffic)
             self.target_judge.update(states, traffic, self.agents)
         if truth is not None:
             truth.record(states, self.sim, np.array([o.speed_ref_m_s if o else 0.0 for o in outputs], dtype=float),
-                         np.array(xte), traffic)
+                         np.asarray(xte), traffic)
 
     # ------------------------------------------------------------------ main loop
     def run(self, interruptible: bool = False) -> RunResult:
