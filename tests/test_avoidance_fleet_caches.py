@@ -81,6 +81,51 @@ def test_the_plan_tables_rows_hold_the_numbers_of_stacked_plans():
     assert checked > 80
 
 
+def test_the_walk_along_a_plans_rising_times_gives_the_bisections_positions():
+    """:func:`team_plans._plan_positions` walks on from the last knot interval within a run of one
+    plan's rising times; every item's position is :func:`team_plans.plan_position`'s (a bisection
+    per item), bit for bit: runs of rising, falling, repeated and NaN times, times before, inside
+    and after the knots, knots unsorted, repeated or NaN, plans without knots, and items whose plans
+    alternate."""
+    rng = np.random.default_rng(11)
+    pool = _intentions(rng, 12)
+    shuffled = pool[2].plan_times_s.copy()
+    rng.shuffle(shuffled)
+    pool[2] = replace(pool[2], plan_times_s=shuffled)  # unsorted knots: the bisection's answer all the same
+    ts = pool[5].plan_times_s.copy()
+    ts[4:7] = ts[4]  # repeated knot times
+    pool[5] = replace(pool[5], plan_times_s=ts)
+    ts = pool[6].plan_times_s.copy()
+    ts[-3] = np.nan
+    pool[6] = replace(pool[6], plan_times_s=ts)
+    stacked = _StackedPlans(pool)
+    fields = [getattr(stacked, f) for f in team_plans.PLAN_FIELDS]
+    walked = 0
+    for case in range(40):
+        k = int(rng.integers(1, len(pool) + 1))
+        plans = rng.choice(len(pool), k)
+        n = int(rng.integers(1, 60))
+        if case % 3 == 0:  # runs of rising times (a track's samples), some long steps, some on knots
+            knots = stacked.ts[np.isfinite(stacked.ts)]
+            times = np.sort(np.r_[rng.uniform(40.0, 80.0, n), rng.choice(knots, n)])
+            n = times.size
+            items, t = np.repeat(plans, n), np.tile(times, k)
+            walked += k * n
+        elif case % 3 == 1:  # anything: falling, repeated and NaN times, plans alternating
+            items, t = rng.choice(len(pool), n), rng.choice(np.r_[rng.uniform(40.0, 80.0, 8), np.nan], n)
+            t[::5] = t[0]
+        else:  # a run that rises, falls back and rises again
+            times = np.r_[np.linspace(45.0, 70.0, n), np.linspace(50.0, 75.0, n)]
+            items, t = np.full(times.size, plans[0]), times
+        items = np.ascontiguousarray(items, dtype=np.intp)
+        t = np.ascontiguousarray(t, dtype=float)
+        got = np.empty((items.size, 2))
+        team_plans._plan_positions(items, t, *fields, got)
+        want = np.array([team_plans.plan_position(int(p), float(x), *fields) for p, x in zip(items, t)]).reshape(-1, 2)
+        assert got.tobytes() == want.tobytes(), case
+    assert walked > 1000
+
+
 def test_track_motions_and_intention_positions_read_the_shared_table():
     rng = np.random.default_rng(4)
     its = _intentions(rng, 9)

@@ -25,9 +25,9 @@ import threading
 
 import numpy as np
 
-from mjasc.core.compiled import kernel, maximum, search_right
+from mjasc.core.compiled import inlined_kernel, kernel, maximum, search_right
 
-__all__ = ["PLAN_FIELDS", "intention_positions", "plan_position"]
+__all__ = ["PLAN_FIELDS", "intention_positions", "plan_between", "plan_position", "walk_knots"]
 
 
 def intention_positions(intentions, times) -> np.ndarray:
@@ -255,10 +255,66 @@ def _stack_into(n0, k0, counts, ts, pts, pos, sent, vel, b_ts, b_xs, b_ys, start
 
 @kernel
 def _plan_positions(plans, t, ts, xs, ys, start, count, t_first, t_last, anchor, t_anchor, vel, p_last, v_end, out):
-    """:meth:`_StackedPlans.at` into ``out``: :func:`plan_position` of each item."""
+    """:meth:`_StackedPlans.at` into ``out``: :func:`plan_position` of each item, the same numbers.
+    A prediction asks for a plan at many rising times in a row (a track's samples): inside the
+    knots, the interval is found by :func:`walk_knots` along each such run."""
+    run, checked, sorted_run, lo, t_lo = -1, False, False, 0, 0.0
     for i in range(plans.size):
-        out[i, 0], out[i, 1] = plan_position(plans[i], t[i], ts, xs, ys, start, count, t_first, t_last, anchor,
-                                             t_anchor, vel, p_last, v_end)
+        p, ti = plans[i], t[i]
+        if ti < t_first[p] or ti >= t_last[p] or ti != ti:  # (before, after the knots, NaN: plan_position's)
+            out[i, 0], out[i, 1] = plan_position(p, ti, ts, xs, ys, start, count, t_first, t_last, anchor, t_anchor,
+                                                 vel, p_last, v_end)
+            continue
+        lo, checked, sorted_run = walk_knots(ts, ti, start[p], start[p] + count[p], p == run, checked, sorted_run, lo,
+                                             t_lo)
+        run, t_lo = p, ti
+        out[i, 0], out[i, 1] = plan_between(p, ti, lo, ts, xs, ys, start, count)
+
+
+@inlined_kernel
+def walk_knots(ts, ti, a, e, same_run, checked, sorted_run, lo, t_lo):
+    """The first knot > ``ti`` among a plan's knots ``ts[a:e]`` (:func:`~mjasc.core.compiled.search_right`'s
+    index) and the run's (``checked``, ``sorted_run``) after it. A run is a plan asked for at
+    successive times (``same_run``: the previous item inside these knots was this plan's, at time
+    ``t_lo``, its answer ``lo``); when its knots are sorted (checked once per run, at its second
+    item) and the time did not fall, the walk goes on from ``lo`` (:func:`_walk_right`): the same
+    index, without a bisection over all the knots each time."""
+    if not same_run:
+        return search_right(ts, ti, a, e), False, False
+    if not checked:
+        checked, sorted_run = True, _ascending(ts, a, e)
+    if sorted_run and ti >= t_lo:
+        return _walk_right(ts, ti, lo, e), checked, sorted_run
+    return search_right(ts, ti, a, e), checked, sorted_run
+
+
+@kernel
+def _ascending(ts, a, e):
+    """Are the knots ``ts[a:e]`` in ascending order (no NaN)?"""
+    for k in range(a, e - 1):
+        if not ts[k] <= ts[k + 1]:
+            return False
+    return True
+
+
+@kernel
+def _walk_right(ts, x, lo, hi):
+    """:func:`~mjasc.core.compiled.search_right` ``(ts, x, ·, hi)`` when every knot before ``lo`` is
+    ≤ x and ``ts`` is ascending: a few steps forward from ``lo``, then a bisection of the rest."""
+    for _ in range(8):
+        if lo >= hi or ts[lo] > x:
+            return lo
+        lo += 1
+    return search_right(ts, x, lo, hi)
+
+
+@kernel
+def plan_between(p, ti, lo, ts, xs, ys, start, count):
+    """Plan ``p``'s position at ``ti`` inside its knots, ``lo`` the first knot > ti: each coordinate
+    (x_b − x_a) / (t_b − t_a) · (t − t_a) + x_a on the knot interval [a, b] (clamped to the plan's)."""
+    j = min(max(lo - 1, start[p]), start[p] + count[p] - 2)
+    dt, dtt = ts[j + 1] - ts[j], ti - ts[j]
+    return (xs[j + 1] - xs[j]) / dt * dtt + xs[j], (ys[j + 1] - ys[j]) / dt * dtt + ys[j]
 
 
 @kernel
@@ -272,10 +328,7 @@ def plan_position(p, ti, ts, xs, ys, start, count, t_first, t_last, anchor, t_an
     if ti >= t_last[p]:
         dt = ti - t_last[p]
         return p_last[p, 0] + dt * v_end[p, 0], p_last[p, 1] + dt * v_end[p, 1]
-    lo = search_right(ts, ti, start[p], start[p] + count[p])  # the first knot > ti
-    j = min(max(lo - 1, start[p]), start[p] + count[p] - 2)
-    dt, dtt = ts[j + 1] - ts[j], ti - ts[j]
-    return (xs[j + 1] - xs[j]) / dt * dtt + xs[j], (ys[j + 1] - ys[j]) / dt * dtt + ys[j]
+    return plan_between(p, ti, search_right(ts, ti, start[p], start[p] + count[p]), ts, xs, ys, start, count)
 
 
 @kernel

@@ -25,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from mjasc.avoidance.prediction.cpa import _zoom_level, _zoom_samples
-from mjasc.avoidance.prediction.team_plans import plan_position
+from mjasc.avoidance.prediction.team_plans import plan_between, plan_position, walk_knots
 from mjasc.core.compiled import kernel, maximum, minimum
 from mjasc.guidance.segment_geometry import COS0, SIN0, TH0, X0, Y0, C, K
 
@@ -139,9 +139,12 @@ def level_relative(act, ts, pairs, rows, seg, s_loc, table, par, kind, sin_a, co
     """The second pass of a level: r (k, J, 2) = track − vessel position at the samples, with the
     sines and cosines of :func:`level_angles`' angles in its walk order (straight or static track
     x₀ + (v τ) cos θ; turning x₀ + (v/ω)(sin θ(t) − sin θ), y₀ − (v/ω)(cos θ(t) − cos θ); a plan
-    :func:`plan_position`; the vessel on a line X0 + s cos θ₀, on an arc X0 + (sin θ − sin θ₀)/κ,
-    Y0 + (cos θ₀ − cos θ)/κ), then :func:`~mjasc.avoidance.prediction.cpa._zoom_level`: its result."""
+    :func:`plan_position`, its knot interval found by
+    :func:`~mjasc.avoidance.prediction.team_plans.walk_knots` along a pair's rising samples; the
+    vessel on a line X0 + s cos θ₀, on an arc X0 + (sin θ − sin θ₀)/κ, Y0 + (cos θ₀ − cos θ)/κ), then
+    :func:`~mjasc.avoidance.prediction.cpa._zoom_level`: its result."""
     n = 0
+    run, checked, sorted_run, lo, t_lo = -1, False, False, 0, 0.0  # (team_plans.walk_knots' run)
     for i in range(act.shape[0]):
         e = act[i]
         o = rows[pairs[e]]
@@ -157,8 +160,15 @@ def level_relative(act, ts, pairs, rows, seg, s_loc, table, par, kind, sin_a, co
                 ox = par[o, 0] + v_tau * par[o, 4]
                 oy = par[o, 1] + v_tau * par[o, 5]
             else:
-                ox, oy = plan_position(plan_of[o], t, p_ts, p_xs, p_ys, p_start, p_count, p_first, p_last_t, p_anchor,
-                                       p_t_anchor, p_vel, p_last, p_v_end)
+                pl = plan_of[o]
+                if t < p_first[pl] or t >= p_last_t[pl] or t != t:  # (before, after its knots, NaN)
+                    ox, oy = plan_position(pl, t, p_ts, p_xs, p_ys, p_start, p_count, p_first, p_last_t, p_anchor,
+                                           p_t_anchor, p_vel, p_last, p_v_end)
+                else:  # (a pair's samples rise: walk along the plan's knots)
+                    lo, checked, sorted_run = walk_knots(p_ts, t, p_start[pl], p_start[pl] + p_count[pl], pl == run,
+                                                         checked, sorted_run, lo, t_lo)
+                    run, t_lo = pl, t
+                    ox, oy = plan_between(pl, t, lo, p_ts, p_xs, p_ys, p_start, p_count)
             j = seg[i, q]
             kj = table[K, j]
             if kj != 0.0:
