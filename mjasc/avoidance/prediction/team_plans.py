@@ -8,7 +8,10 @@ segment after the last one (as ``TeamIntention.positions``, equal to it bit for 
 - :class:`_StackedPlans`: the knots of several plans in one array, and the per-plan numbers
   (first / last knot, anchor, velocities) a compiled loop reads (:data:`PLAN_FIELDS`);
   :func:`plan_position` finds a query's knot interval by bisection on its plan's knot times and
-  interpolates (also called from the closest-approach zoom, :mod:`~mjasc.avoidance.prediction.zoom_motion`).
+  interpolates (:func:`plan_between`). A prediction asks for a plan at many rising times in a row
+  (a track's samples): along such a run :func:`walk_knots` steps on from the previous interval
+  instead (the same interval when the knots are sorted), in the table's reads and in the
+  closest-approach zoom (:mod:`~mjasc.avoidance.prediction.zoom_motion`).
 - :class:`_PlanTable` (the process-wide :data:`_PLANS`): each distinct intention stacked once for
   the process in one growing table — the fleet's receivers hold the same message object, so 50
   vessels' copies of a team mate are one plan, stacked when first predicted and only looked up after.
