@@ -34,7 +34,8 @@ tests/test_recording_determinism.py does).**
 message a 16-byte header (u64 LE kind: 0 End, 1 SetStoreInfo, 2 ArrowMsg, 3
 BlueprintActivationCommand; u64 LE length) and a protobuf body; the End body is the footer,
 followed by a 32-byte stream footer (u64 start, u64 length, u32 xxh32 of the footer with seed
-7850921, ``RRF2FOOT``, u32 1). (2) Field numbers of rerun.log_msg.v1alpha1 (the ``pb_*`` calls below; the wire format in :mod:`mjasc.runs.rrd_wire`).
+7850921, ``RRF2FOOT``, u32 1). (2) Field numbers of rerun.log_msg.v1alpha1 (the ``pb_*`` calls
+below; the wire format in :mod:`mjasc.runs.rrd_wire`).
 (3) An ArrowMsg payload is one LZ4-block-compressed Arrow IPC stream: one schema message, one
 record-batch message (uncompressed buffers: read in place, its row ids written over), the end.
 (4) A chunk's column 0 is ``rerun.controls.RowId`` (fixed_size_binary[16], big-endian time and

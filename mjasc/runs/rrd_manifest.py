@@ -27,16 +27,15 @@ def canon_field(f: pa.Field) -> pa.Field:
     if not md:
         return f
     keys = list(md)
-    return f if keys == sorted(keys) else f.with_metadata(dict(sorted(md.items())))
+    return f if keys == sorted(keys) else f.with_metadata(_sorted(md))
 
 
-def _canon_schema(schema: pa.Schema, sort_fields: bool = False, extra=None) -> pa.Schema:
+def _canon_schema(schema: pa.Schema, sort_fields: bool = False) -> pa.Schema:
+    """``schema`` with every metadata's keys sorted (and its fields by name: ``sort_fields``)."""
     fields = [canon_field(f) for f in schema]
     if sort_fields:
         fields.sort(key=lambda f: f.name.encode())
-    md = dict(schema.metadata or {})
-    md.update(extra or {})
-    return pa.schema(fields, metadata=_sorted(md))
+    return pa.schema(fields, metadata=_sorted(schema.metadata))
 
 
 def _ipc(batch: pa.RecordBatch | None, schema: pa.Schema | None = None) -> bytes:
