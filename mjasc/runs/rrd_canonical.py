@@ -76,19 +76,17 @@ class _Chunk:
     record-batch message from ``start``, end of stream), schema, row ids (n, 2) (big-endian time,
     counter), where the row ids and the ``log_time`` values lie in ``raw`` and whether it is static."""
 
-    __slots__ = ("raw", "start", "schema", "id", "fields", "row_ids", "row_id_at", "log_times", "is_static")
+    __slots__ = ("raw", "start", "schema", "id", "fields", "row_ids", "row_id_at", "log_times", "is_static", "parts")
 
     def __init__(self, raw: bytes, is_static: int):
         buf = pa.py_buffer(raw)
         reader = pa.BufferReader(buf)
-        schema, self.id, self.fields, log_times = _chunk_schema(raw, reader)
+        schema, self.id, self.fields, log_times, self.parts = _chunk_schema(raw, reader)
         self.schema = schema
         self.start = reader.tell()
         batch = pa.ipc.read_record_batch(pa.ipc.read_message(reader), schema)  # zero-copy: buffers lie in raw
         if reader.tell() != len(raw) - 8 or raw[-8:] != IPC_EOS:
             raise CanonicalRrdError("a chunk's Arrow stream is not one schema and one record batch")
-        if schema.field(0).name != "rerun.controls.RowId" or schema.field(0).type != pa.binary(16):
-            raise CanonicalRrdError(f"chunk without a row-id column: {schema.field(0).name}")
         self.raw, self.is_static = raw, is_static
         n = batch.num_rows
         self.row_id_at = self._at(batch.column(0), 16, buf, raw)
@@ -114,39 +112,45 @@ class _Chunk:
         body[at:at + row_ids.nbytes] = row_ids.tobytes()
         for at, n in self.log_times:
             body[at - self.start:at - self.start + 8 * n] = np.full(n, BASE_NS, "<i8").tobytes()
+        parts = self.parts  # (the canonical schema message around the id, made once per distinct schema)
+        if parts is not None and len(chunk_id) == _CHUNK_ID_LEN:
+            return parts[0] + chunk_id + parts[1] + bytes(body)
         return _schema_message(self.fields, self.schema.metadata, chunk_id) + bytes(body)
 
 
 _CHUNK_ID_LEN = len(b"chunk_") + 32  # ``chunk_`` + %016X time + %016x counter
-_SCHEMAS: dict = {}  # a schema message without its chunk id → (schema, canonical fields, log_time indices)
+_SCHEMAS: dict = {}  # a schema message without its chunk id → (schema, canonical fields, log_time indices,
+#   the canonical message's parts around the id)
 
 
 def _chunk_schema(raw: bytes, reader: pa.BufferReader) -> tuple:
     """The schema of the chunk whose IPC stream is ``raw``, its chunk id (``rerun:id``), its
-    canonical fields and ``log_time`` columns (:func:`_canon_fields`); ``reader`` (on ``raw``) is
-    left after the schema message. A run's chunks share a few dozen schemas that differ only by
-    the chunk id: the schema is read once per distinct message with the id left out (the message
-    determines the schema; the id is read from the message). The returned schema's ``rerun:id``
-    is then another chunk's: only :attr:`_Chunk.id` is the chunk's own."""
+    canonical fields and ``log_time`` columns (:func:`_canon_fields`) and its canonical schema
+    message before and after the chunk id (:func:`_message_parts`; None: made per chunk);
+    ``reader`` (on ``raw``) is left after the schema message. A run's chunks share a few dozen
+    schemas that differ only by the chunk id: the schema is read once per distinct message with the
+    id left out (the message determines the schema; the id is read from the message). The returned
+    schema's ``rerun:id`` is then another chunk's: only :attr:`_Chunk.id` is the chunk's own."""
     n = int.from_bytes(raw[4:8], "little") if raw[:4] == b"\xff\xff\xff\xff" else -1
     end = 8 + n
     at = raw.find(b"chunk_", 0, end) if 0 <= n and end <= len(raw) else -1
     if at < 0 or raw.find(b"chunk_", at + 1, end) >= 0 or at + _CHUNK_ID_LEN > end:
-        schema = pa.ipc.read_schema(pa.ipc.read_message(reader))  # (not the expected layout: no cache)
-        return (schema, schema.metadata[b"rerun:id"], *_canon_fields(schema))
+        schema = _row_id_checked(pa.ipc.read_schema(pa.ipc.read_message(reader)))  # (not the expected layout)
+        return (schema, schema.metadata[b"rerun:id"], *_canon_fields(schema), None)
     key = (at, raw[:at] + raw[at + _CHUNK_ID_LEN:end])  # (equal keys: the same message but for the id)
     hit = _SCHEMAS.get(key)
     chunk_id = raw[at:at + _CHUNK_ID_LEN]
     if hit is None:
-        schema = pa.ipc.read_schema(pa.ipc.read_message(reader))
+        schema = _row_id_checked(pa.ipc.read_schema(pa.ipc.read_message(reader)))  # (once per distinct schema)
         if reader.tell() != end or schema.metadata.get(b"rerun:id") != chunk_id:
-            return (schema, schema.metadata[b"rerun:id"], *_canon_fields(schema))
+            return (schema, schema.metadata[b"rerun:id"], *_canon_fields(schema), None)
         if len(_SCHEMAS) >= 4096:  # (a long-lived worker stays bounded)
             _SCHEMAS.clear()
-        hit = _SCHEMAS[key] = (schema, *_canon_fields(schema))
-        return hit[0], chunk_id, hit[1], hit[2]
+        fields, log_times = _canon_fields(schema)
+        hit = _SCHEMAS[key] = (schema, fields, log_times, _message_parts(fields, schema.metadata, chunk_id))
+        return hit[0], chunk_id, hit[1], hit[2], hit[3]
     reader.seek(end)
-    return hit[0], chunk_id, hit[1], hit[2]
+    return hit[0], chunk_id, hit[1], hit[2], hit[3]
 
 
 def _serialized_schema(fields: list, metadata, chunk_id: bytes) -> bytes:
@@ -155,6 +159,25 @@ def _serialized_schema(fields: list, metadata, chunk_id: bytes) -> bytes:
     md = dict(metadata or {})
     md[b"rerun:id"] = chunk_id
     return pa.schema(fields, metadata=dict(sorted(md.items()))).serialize().to_pybytes()
+
+
+def _row_id_checked(schema: pa.Schema) -> pa.Schema:
+    """``schema``, whose column 0 must be the row ids (``rerun.controls.RowId``, 16-byte binary)."""
+    if schema.field(0).name != "rerun.controls.RowId" or schema.field(0).type != pa.binary(16):
+        raise CanonicalRrdError(f"chunk without a row-id column: {schema.field(0).name}")
+    return schema
+
+
+def _message_parts(fields: list, metadata, chunk_id: bytes) -> tuple[bytes, bytes] | None:
+    """The canonical schema message of ``fields`` with ``metadata`` (:func:`_serialized_schema`)
+    before and after its chunk id, serialised with ``chunk_id``: any id of that length spliced
+    between the two gives that id's message (the ids all have one length, so the message's layout
+    does not depend on which). None if the id does not appear exactly once in the message."""
+    message = _serialized_schema(fields, metadata, chunk_id)
+    at = message.find(chunk_id)
+    if at < 0 or message.find(chunk_id, at + 1) >= 0:
+        return None
+    return message[:at], message[at + len(chunk_id):]
 
 
 _MESSAGES: dict = {}  # (fields, metadata without rerun:id) → (message before the chunk id, after it)

@@ -92,22 +92,37 @@ def read_varint(b, i: int) -> tuple[int, int]:
 
 
 def pb_parse(b) -> dict[int, list]:
-    """Field number → values (int for varint / fixed64, bytes for length-delimited)."""
+    """Field number → values (int for varint / fixed64, bytes for length-delimited). (One-byte
+    keys, values and lengths — most of them — are read without :func:`read_varint`'s call.)"""
     out: dict[int, list] = {}
-    i = 0
-    while i < len(b):
-        key, i = read_varint(b, i)
-        field, wire = key >> 3, key & 7
+    i, n_b = 0, len(b)
+    while i < n_b:
+        key = b[i]
+        i += 1
+        if key >= 0x80:
+            key, i = read_varint(b, i - 1)
+        wire = key & 7
         if wire == 0:
-            v, i = read_varint(b, i)
+            v = b[i]
+            i += 1
+            if v >= 0x80:
+                v, i = read_varint(b, i - 1)
+        elif wire == 2:
+            n = b[i]
+            i += 1
+            if n >= 0x80:
+                n, i = read_varint(b, i - 1)
+            v = bytes(b[i:i + n])
+            i += n
         elif wire == 1:
             v, i = struct.unpack_from("<Q", b, i)[0], i + 8
-        elif wire == 2:
-            n, i = read_varint(b, i)
-            v, i = bytes(b[i:i + n]), i + n
         else:
             raise CanonicalRrdError(f"unsupported protobuf wire type {wire}")
-        out.setdefault(field, []).append(v)
+        got = out.get(key >> 3)
+        if got is None:
+            out[key >> 3] = [v]
+        else:
+            got.append(v)
     return out
 
 
