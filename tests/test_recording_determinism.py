@@ -155,8 +155,14 @@ def test_spliced_schema_messages_equal_pyarrows_serialisation(tmp_path):
     assert len(every) >= 3
     for k, c in enumerate(every * 2):  # the second pass is served from the cache
         chunk_id = f"chunk_{rc.BASE_NS:016X}{(k + 1) << 40 | k:016x}".encode()
-        assert rc._schema_message(c.fields, c.schema.metadata, chunk_id) == \
-            rc._serialized_schema(c.fields, c.schema.metadata, chunk_id)
+        reference = rc._serialized_schema(c.fields, c.schema.metadata, chunk_id)
+        assert rc._schema_message(c.fields, c.schema.metadata, chunk_id) == reference
+        # a chunk's canonical stream: its schema's message parts (made once per schema) around the id
+        assert c.parts is not None
+        ipc = c.ipc(c.row_ids.copy(), chunk_id)
+        assert ipc[:len(reference)] == reference and len(ipc) == len(reference) + len(c.raw) - c.start
+        if not c.log_times:  # (else their values are set to BASE_NS)
+            assert ipc[len(reference):] == c.raw[c.start:]
     field = pa.field("x", pa.int64(), metadata={b"b": b"2", b"a": b"1"})
     assert list(rc.canon_field(field).metadata) == [b"a", b"b"]
     tidy = rc.canon_field(field)
@@ -192,3 +198,19 @@ def test_chunk_schemas_read_once_give_each_chunk_its_own_id(tmp_path):
                     {k: v for k, v in own.metadata.items() if k != b"rerun:id"}
                 assert c.fields == rc._canon_fields(own)[0]
     assert rc._SCHEMAS  # (the SDK's chunks went through the cache)
+
+
+def test_protobuf_fields_read_as_written():
+    """rrd_wire.pb_parse reads back what the pb_* writers wrote: varints of one and of several
+    bytes (keys of high field numbers, values, lengths), fixed64 and length-delimited fields, a
+    repeated field's values in order; an unknown wire type is a one-line error."""
+    from mjasc.runs.rrd_wire import CanonicalRrdError, pb_bytes, pb_fixed64, pb_int, pb_parse
+
+    long = bytes(range(256)) * 3  # a length of two varint bytes
+    msg = (pb_int(1, 0) + pb_int(2, 127) + pb_int(2, 128) + pb_int(3, 2 ** 63 - 1) + pb_fixed64(4, 2 ** 64 - 1)
+           + pb_bytes(5, b"") + pb_bytes(5, long) + pb_int(300, 5) + pb_bytes(17, "é"))
+    assert pb_parse(msg) == {1: [0], 2: [127, 128], 3: [2 ** 63 - 1], 4: [2 ** 64 - 1], 5: [b"", long], 300: [5],
+                             17: ["é".encode()]}
+    assert pb_parse(memoryview(msg)) == pb_parse(msg)
+    with pytest.raises(CanonicalRrdError, match="wire type 5"):
+        pb_parse(bytes([1 << 3 | 5, 0, 0, 0, 0]))
