@@ -165,6 +165,52 @@ def test_from_points_dense_polyline():
     assert p.project([0.0, 60.0]) == pytest.approx(25 * np.pi, rel=1e-6)
 
 
+def _same_arrays(a: Path, b: Path) -> bool:
+    """Bit for bit the same path arrays (table, γ at the joints, the scalar queries' rows)."""
+    return (np.array_equal(a.table, b.table) and np.array_equal(a.segment_starts, b.segment_starts)
+            and a.length == b.length and a._rows == b._rows)
+
+
+def test_polylines_and_joined_paths_hold_their_segments_arrays_bit_for_bit():
+    """A path from points (its arrays computed for all segments at once) and a path joined from
+    others (its table from theirs) are bit for bit the paths built segment by segment; their
+    segments, made only when asked for, are those segments; editing them gives the same paths."""
+    rng = np.random.default_rng(11)
+    for trial in range(300):
+        n = int(rng.integers(2, 200))
+        pts = np.cumsum(rng.normal(size=(n, 2)) * rng.uniform(0.01, 50.0), axis=0) + rng.uniform(-1e4, 1e4, 2)
+        if trial % 5 == 0:
+            pts[1::4] = pts[0::4][:len(pts[1::4])]  # consecutive duplicates, dropped
+        try:
+            fast = Path.from_points(pts)
+        except ValueError:  # (all points one)
+            continue
+        assert fast._segments is None  # (not made yet)
+        keep = np.concatenate([[True], np.hypot(*np.diff(pts, axis=0).T) > 1e-9])
+        q = pts[keep]
+        slow = Path([LineSegment(q[i], q[i + 1]) for i in range(len(q) - 1)])
+        assert _same_arrays(fast, slow)
+        np.testing.assert_array_equal(fast.start_point, q[0])
+        np.testing.assert_array_equal(fast.end_point, q[-1])
+        assert all(type(a) is LineSegment and np.array_equal(a.start, b.start) and np.array_equal(a.end, b.end)
+                   for a, b in zip(fast.segments, slow.segments, strict=True))
+        end = fast.end_point
+        arc = Path.from_waypoints([end + [10.0, 3.0], end + [40.0, 50.0], end + [90.0, 10.0]], turn_radius_m=8.0)
+        link = Path.line(end, end + [10.0, 3.0])
+        joined = fast.concatenate(link).concatenate(arc)
+        whole = Path([*slow.segments, *link.segments, *arc.segments])
+        assert _same_arrays(joined, whole)
+        assert all(a is b for a, b in zip(joined.segments, [*fast.segments, *link.segments, *arc.segments],
+                                          strict=True))
+        cut = float(rng.uniform(0.1, 0.9)) * joined.length
+        for x, y in zip(joined.split(cut), whole.split(cut)):
+            assert _same_arrays(x, y)
+    pts = np.array([[0.0, 0.0], [3.0, 4.0]])
+    p = Path.from_points(pts)
+    pts[1] = [9.0, 9.0]  # the path holds its own copy
+    np.testing.assert_array_equal(p.end_point, [3.0, 4.0])
+
+
 def test_sample_spacing():
     p = Path.from_waypoints([[0, 0], [10, 0], [10, 10]], turn_radius_m=2.0)
     s = p.sample(0.5)

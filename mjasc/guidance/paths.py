@@ -34,6 +34,8 @@ from mjasc.guidance.segment_geometry import (
     K,
     LEN,
     TH0,
+    X0,
+    Y0,
     clip_scalar,
     closest_scalar,
     closest_candidates,
@@ -58,7 +60,7 @@ class Path:
     (n, 2)); γ is clamped to [0, length].
     """
 
-    __slots__ = ("_segments", "_cum", "_table", "_rows", "_cum_list", "_length")
+    __slots__ = ("_segments", "_points", "_cum", "_table", "_rows", "_cum_list", "_length")
 
     def __init__(self, segments):
         segments = tuple(segments)
@@ -76,16 +78,31 @@ class Path:
                     f"segments[{i}]: starts {gap:.6g} m away from the end of segments[{i - 1}] "
                     "(a path must be continuous)"
                 )
-        lengths = np.array([s.length for s in segments])
-        self._segments = segments
+        self._set(segments, None, np.array([s.length for s in segments]), [s.start_point for s in segments],
+                  [s.start_course for s in segments], [s.curvature for s in segments])
+
+    def _set(self, segments, points, lengths, starts, courses, curvatures) -> None:
+        """The path's arrays from its segments' lengths, start points, courses and curvatures;
+        ``segments`` a tuple, or None with ``points`` (n + 1, 2): n line segments made when first
+        asked for (:attr:`segments`)."""
+        self._segments, self._points = segments, points
         self._cum = np.concatenate([[0.0], np.cumsum(lengths)])
-        self._table = segment_table(self._cum[:-1], lengths, [s.start_point for s in segments],
-                                    [s.start_course for s in segments], [s.curvature for s in segments])
+        self._table = segment_table(self._cum[:-1], lengths, starts, courses, curvatures)
         for a in (self._cum, self._table):
             a.flags.writeable = False
         self._rows = self._table.T.tolist()  # per segment, plain floats: the scalar queries
         self._cum_list = self._cum.tolist()
         self._length = self._cum_list[-1]
+
+    @classmethod
+    def _joined(cls, parts: list) -> "Path":
+        """The path of ``parts``' segments in order (paths that join): its table from theirs (their
+        segments' lengths, starts, courses and curvatures are its rows: the same arrays as building
+        it from the segments), the segments joined when asked for."""
+        path = cls.__new__(cls)
+        t = np.concatenate([q._table for q in parts], axis=1)
+        path._set(None, list(parts), t[LEN], t[[X0, Y0]].T, t[TH0], t[K])
+        return path
 
     # ------------------------------------------------------------------ construction
     @classmethod
@@ -129,7 +146,14 @@ class Path:
         p = p[keep]
         if p.shape[0] < 2:
             raise ValueError("points: need at least two distinct points")
-        return cls([LineSegment(p[i], p[i + 1]) for i in range(p.shape[0] - 1)])
+        # The line segments' lengths, starts and courses as LineSegment gives them, for all at once
+        # (numpy's hypot and arctan2 round as for one pair: the same bits); the segments made when asked.
+        p = np.array(p, dtype=float)  # (own copy: the segments' points, read-only)
+        p.flags.writeable = False
+        d = p[1:] - p[:-1]
+        path = cls.__new__(cls)
+        path._set(None, p, np.hypot(d[:, 0], d[:, 1]), p[:-1], np.arctan2(d[:, 1], d[:, 0]), np.zeros(len(d)))
+        return path
 
     # ------------------------------------------------------------------ properties
     @property
@@ -139,6 +163,15 @@ class Path:
 
     @property
     def segments(self) -> tuple:
+        """The line and arc segments in order (made at the first call for a path from points or
+        joined paths)."""
+        if self._segments is None:
+            src = self._points
+            if isinstance(src, np.ndarray):
+                self._segments = tuple(LineSegment(src[i], src[i + 1]) for i in range(src.shape[0] - 1))
+            else:
+                self._segments = tuple(seg for part in src for seg in part.segments)
+            self._points = None
         return self._segments
 
     @property
@@ -153,21 +186,21 @@ class Path:
 
     @property
     def start_point(self) -> np.ndarray:
-        return self._segments[0].start_point
+        return self.segments[0].start_point
 
     @property
     def end_point(self) -> np.ndarray:
-        return self._segments[-1].end_point
+        return self.segments[-1].end_point
 
     def __repr__(self) -> str:
-        return f"Path(length={self.length:.3f} m, segments={len(self._segments)})"
+        return f"Path(length={self.length:.3f} m, segments={len(self._rows)})"
 
     # ------------------------------------------------------------------ evaluation
     def _locate(self, gamma):
         """Segment index and local arc length for γ (clamped); at a joint the later segment wins."""
         g = np.clip(np.asarray(gamma, dtype=float), 0.0, self._length)
         idx = np.searchsorted(self._cum, g, side="right") - 1
-        idx = np.clip(idx, 0, len(self._segments) - 1)
+        idx = np.clip(idx, 0, len(self._rows) - 1)
         return g, idx, g - self._cum[idx]
 
     def _locate_scalar(self, gamma: float):
@@ -339,7 +372,7 @@ class Path:
         if b - a <= DUPLICATE_TOLERANCE_M:
             raise ValueError(f"gamma_b: must exceed gamma_a ({gamma_a}), got {gamma_b}")
         pieces = []
-        for i, seg in enumerate(self._segments):
+        for i, seg in enumerate(self.segments):
             s0, s1 = self._cum[i], self._cum[i + 1]
             lo, hi = max(a, s0), min(b, s1)
             if hi - lo <= DUPLICATE_TOLERANCE_M:
@@ -366,4 +399,4 @@ class Path:
             raise ValueError(
                 f"other: starts {gap:.6g} m away from the end of this path (paths must join)"
             )
-        return Path(self._segments + other._segments)
+        return Path._joined([self, other])
