@@ -192,14 +192,16 @@ def test_polylines_and_joined_paths_hold_their_segments_arrays_bit_for_bit():
         assert _same_arrays(fast, slow)
         np.testing.assert_array_equal(fast.start_point, q[0])
         np.testing.assert_array_equal(fast.end_point, q[-1])
-        assert all(type(a) is LineSegment and np.array_equal(a.start, b.start) and np.array_equal(a.end, b.end)
-                   for a, b in zip(fast.segments, slow.segments, strict=True))
         end = fast.end_point
         arc = Path.from_waypoints([end + [10.0, 3.0], end + [40.0, 50.0], end + [90.0, 10.0]], turn_radius_m=8.0)
         link = Path.line(end, end + [10.0, 3.0])
         joined = fast.concatenate(link).concatenate(arc)
+        assert fast._segments is None and joined._segments is None  # (joining makes no segment)
+        np.testing.assert_array_equal(joined.end_point, arc.end_point)
         whole = Path([*slow.segments, *link.segments, *arc.segments])
         assert _same_arrays(joined, whole)
+        assert all(type(a) is LineSegment and np.array_equal(a.start, b.start) and np.array_equal(a.end, b.end)
+                   for a, b in zip(fast.segments, slow.segments, strict=True))
         assert all(a is b for a, b in zip(joined.segments, [*fast.segments, *link.segments, *arc.segments],
                                           strict=True))
         cut = float(rng.uniform(0.1, 0.9)) * joined.length

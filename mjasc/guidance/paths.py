@@ -186,11 +186,23 @@ class Path:
 
     @property
     def start_point(self) -> np.ndarray:
-        return self.segments[0].start_point
+        return self._end(0)
 
     @property
     def end_point(self) -> np.ndarray:
-        return self.segments[-1].end_point
+        return self._end(-1)
+
+    def _end(self, k: int) -> np.ndarray:
+        """The first (``k`` 0) or last (−1) point, without making the segments of a path that has none yet."""
+        if self._segments is not None:
+            seg = self._segments[k]
+            return seg.end_point if k else seg.start_point
+        src = self._points
+        if isinstance(src, np.ndarray):  # (a read-only copy, as a segment's point)
+            p = src[k].copy()
+            p.flags.writeable = False
+            return p
+        return src[k].end_point if k else src[k].start_point
 
     def __repr__(self) -> str:
         return f"Path(length={self.length:.3f} m, segments={len(self._rows)})"
