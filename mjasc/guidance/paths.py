@@ -60,7 +60,7 @@ class Path:
     (n, 2)); γ is clamped to [0, length].
     """
 
-    __slots__ = ("_segments", "_points", "_cum", "_table", "_rows", "_cum_list", "_length")
+    __slots__ = ("_segments", "_source", "_cum", "_table", "_rows", "_cum_list", "_length")
 
     def __init__(self, segments):
         segments = tuple(segments)
@@ -81,11 +81,11 @@ class Path:
         self._set(segments, None, np.array([s.length for s in segments]), [s.start_point for s in segments],
                   [s.start_course for s in segments], [s.curvature for s in segments])
 
-    def _set(self, segments, points, lengths, starts, courses, curvatures) -> None:
+    def _set(self, segments, source, lengths, starts, courses, curvatures) -> None:
         """The path's arrays from its segments' lengths, start points, courses and curvatures;
-        ``segments`` a tuple, or None with ``points`` (n + 1, 2): n line segments made when first
-        asked for (:attr:`segments`)."""
-        self._segments, self._points = segments, points
+        ``segments`` a tuple, or None with ``source``, what :attr:`segments` makes them from when
+        first asked: the points (n + 1, 2) of n line segments, or the list of paths joined."""
+        self._segments, self._source = segments, source
         self._cum = np.concatenate([[0.0], np.cumsum(lengths)])
         self._table = segment_table(self._cum[:-1], lengths, starts, courses, curvatures)
         for a in (self._cum, self._table):
@@ -148,8 +148,7 @@ class Path:
             raise ValueError("points: need at least two distinct points")
         # The line segments' lengths, starts and courses as LineSegment gives them, for all at once
         # (numpy's hypot and arctan2 round as for one pair: the same bits); the segments made when asked.
-        p = np.array(p, dtype=float)  # (own copy: the segments' points, read-only)
-        p.flags.writeable = False
+        p.flags.writeable = False  # (p[keep] is the path's own copy: the segments' points)
         d = p[1:] - p[:-1]
         path = cls.__new__(cls)
         path._set(None, p, np.hypot(d[:, 0], d[:, 1]), p[:-1], np.arctan2(d[:, 1], d[:, 0]), np.zeros(len(d)))
@@ -166,12 +165,12 @@ class Path:
         """The line and arc segments in order (made at the first call for a path from points or
         joined paths)."""
         if self._segments is None:
-            src = self._points
+            src = self._source
             if isinstance(src, np.ndarray):
                 self._segments = tuple(LineSegment(src[i], src[i + 1]) for i in range(src.shape[0] - 1))
             else:
                 self._segments = tuple(seg for part in src for seg in part.segments)
-            self._points = None
+            self._source = None
         return self._segments
 
     @property
@@ -197,7 +196,7 @@ class Path:
         if self._segments is not None:
             seg = self._segments[k]
             return seg.end_point if k else seg.start_point
-        src = self._points
+        src = self._source
         if isinstance(src, np.ndarray):  # (a read-only copy, as a segment's point)
             p = src[k].copy()
             p.flags.writeable = False

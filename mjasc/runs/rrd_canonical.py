@@ -180,26 +180,24 @@ def _message_parts(fields: list, metadata, chunk_id: bytes) -> tuple[bytes, byte
     return message[:at], message[at + len(chunk_id):]
 
 
-_MESSAGES: dict = {}  # (fields, metadata without rerun:id) → (message before the chunk id, after it)
+_MESSAGES: dict = {}  # (fields, metadata without rerun:id) → (fields, :func:`_message_parts`, id length)
 
 
 def _schema_message(fields: list, metadata, chunk_id: bytes) -> bytes:
-    """:func:`_serialized_schema`, serialised once per distinct schema (a run's hundreds of chunks
-    share a few dozen; only the chunk id differs) and the chunk id spliced in: the ids all have
-    one length (``chunk_`` + 32 hex digits), so the message's layout does not depend on which."""
+    """:func:`_serialized_schema`, its parts around the id made once per distinct schema
+    (:func:`_message_parts`) and the chunk id spliced in — for a chunk whose schema message was read
+    outside :func:`_chunk_schema`'s cache (a run's hundreds of chunks share a few dozen schemas)."""
     rest = tuple(sorted((k, v) for k, v in (metadata or {}).items() if k != b"rerun:id"))
     key = (id(fields), rest)
     hit = _MESSAGES.get(key)
-    if hit is None or hit[0] is not fields or len(chunk_id) != hit[3]:
+    if hit is None or hit[0] is not fields or len(chunk_id) != hit[2]:
+        parts = _message_parts(fields, metadata, chunk_id)
+        if parts is None:  # (the id must appear once: else no splicing)
+            return _serialized_schema(fields, metadata, chunk_id)
         if len(_MESSAGES) >= 4096:  # (a long-lived worker stays bounded)
             _MESSAGES.clear()
-        message = _serialized_schema(fields, metadata, chunk_id)
-        at = message.find(chunk_id)
-        if at < 0 or message.find(chunk_id, at + 1) >= 0:  # (the id must appear once: else no splicing)
-            return message
-        hit = _MESSAGES[key] = (fields, message[:at], message[at + len(chunk_id):], len(chunk_id))
-        return message
-    return hit[1] + chunk_id + hit[2]
+        hit = _MESSAGES[key] = (fields, parts, len(chunk_id))
+    return hit[1][0] + chunk_id + hit[1][1]
 
 
 _FIELDS: dict = {}  # schema without its metadata → (canonical fields, indices of log_time columns)
