@@ -258,6 +258,24 @@ def test_a_campaign_cut_short_resumes_without_recomputing(tmp_path):
     assert again.info["runs_to_do"] == 0 and results(again) == results(full)
 
 
+def test_the_report_counts_the_runs_the_campaign_was_asked_for_after_a_resume(tmp_path):
+    """``--runs 2`` then the whole file: the report, its JSON and campaign.json all say 4 of 4 (the
+    largest extent asked), and a later shorter call does not shrink it."""
+    from mjasc.campaigns.report import report_data
+
+    spec = load_campaign_spec(write_campaign(tmp_path, duration=2.0))
+    out = tmp_path / "out"
+    run_campaign(spec.with_overrides(runs=2), out, workers=0, progress=False)
+    assert (report_data(out)["runs_recorded"], report_data(out)["runs_defined"]) == (2, 2)
+    run_campaign(spec, out, workers=0, progress=False)
+    doc = json.loads((out / "campaign.json").read_text())
+    assert (report_data(out)["runs_recorded"], report_data(out)["runs_defined"]) == (4, 4)
+    assert doc["campaign"]["runs_defined"] == doc["aggregate"]["runs_defined"] == 4
+    run_campaign(spec.with_overrides(runs=1), out, workers=0, progress=False)
+    assert report_data(out)["runs_defined"] == 4
+    assert json.loads((out / "campaign.json").read_text())["campaign"]["runs_defined"] == 4
+
+
 @pytest.mark.filterwarnings("ignore::RuntimeWarning")
 def test_a_diverging_run_is_a_result_and_the_campaign_goes_on(tmp_path, monkeypatch):
     from mjasc.physics import divergence, simulation

@@ -62,3 +62,36 @@ def test_help_says_a_scenario_is_a_path_or_a_bundled_name(capsys):
             main(argv)
         text = " ".join(capsys.readouterr().out.split())
         assert "bundled" in text and "relative to the current folder" in text
+
+
+_IMPOSSIBLE = """name = "impossible"
+base_seed = 5
+[[families]]
+kind = "head_on"
+runs_per_point = 1
+duration_s = 10.0
+[families.parameters]
+dcpa_m = { grid = [0.0, 90.0] }
+"""
+
+
+def test_a_campaign_point_no_draw_can_make_is_bad_input_naming_the_file(tmp_path, capsys):
+    """A head-on family asked for a 90 m passing distance (a crossing, not a head-on encounter) is
+    found when the runs are drawn, before any runs: bad input (status 2), one line naming the file
+    and the family, nothing stored."""
+    bad = tmp_path / "impossible.toml"
+    bad.write_text(_IMPOSSIBLE)
+    out = tmp_path / "out"
+    assert main(["campaign", str(bad), "--workers", "0", "--out", str(out), "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"mjasc: invalid campaign: {bad}: families[0] (head_on) run 1:") and err.count("\n") == 1
+    assert not any(out.iterdir())  # (the runs are drawn before anything is written)
+
+
+def test_a_search_of_an_unknown_family_is_bad_input(tmp_path, capsys):
+    good = tmp_path / "c.toml"
+    good.write_text(_IMPOSSIBLE.replace("grid = [0.0, 90.0]", "uniform = [-4.0, 4.0]"))
+    assert main(["search", str(good), "nofam", "--budget", "4", "--workers", "0", "--out", str(tmp_path / "s")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"mjasc: invalid search: {good}: family: no encounter family 'nofam'")
+    assert err.count("\n") == 1

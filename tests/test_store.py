@@ -33,6 +33,49 @@ def test_results_are_kept_and_retries_counted(tmp_path):
         assert s2.runs() == []
 
 
+def test_a_folder_with_several_campaigns_reports_the_one_run_last(tmp_path, monkeypatch):
+    """Two campaign files in one folder: the report reads the campaign a command ran last (also an
+    older one resumed), says the store holds two, and each keeps the largest run count asked."""
+    from mjasc.campaigns import store as store_module
+    from mjasc.campaigns.report import format_report, report_data
+
+    clock = iter(float(t) for t in range(100, 200))
+    monkeypatch.setattr(store_module.time, "time", lambda: next(clock))
+    with CampaignStore(tmp_path, "aaa", name="first", runs_defined=2) as s:
+        _put(s, 0)
+        _put(s, 1)
+    with CampaignStore(tmp_path, "bbb", name="second", runs_defined=1) as s:
+        _put(s, 0)
+    assert CampaignStore.open_existing(tmp_path).digest == "bbb"
+    with CampaignStore(tmp_path, "aaa", name="first", runs_defined=6) as s:  # the first one resumed, more runs
+        assert s.info()["runs_defined"] == 6
+    with CampaignStore(tmp_path, "aaa", name="first", runs_defined=3) as s:  # a shorter call: still 6
+        assert s.info()["runs_defined"] == 6 and s.info()["campaigns_in_store"] == 2
+    with CampaignStore.open_existing(tmp_path) as s:
+        assert s.digest == "aaa"
+    data = report_data(tmp_path)
+    assert data["campaign"]["name"] == "first" and (data["runs_recorded"], data["runs_defined"]) == (2, 6)
+    assert "holds 2 campaigns" in format_report(data)
+    with CampaignStore(tmp_path / "one", "ccc", name="only", runs_defined=1) as s:
+        _put(s, 0)
+    assert "campaigns" not in format_report(report_data(tmp_path / "one")).split("\n", 2)[2]
+
+
+def test_a_store_from_before_the_run_time_column_opens_and_keeps_its_campaign(tmp_path):
+    import sqlite3
+
+    db = sqlite3.connect(tmp_path / "campaign.sqlite")
+    db.executescript("""CREATE TABLE campaigns (digest TEXT PRIMARY KEY, name TEXT NOT NULL, source TEXT,
+        file_text TEXT, runs_defined INTEGER NOT NULL, created_unix_s REAL NOT NULL);
+        INSERT INTO campaigns VALUES ('old', 'c', '', '', 4, 1.0);""")
+    db.commit()
+    db.close()
+    with CampaignStore.open_existing(tmp_path) as s:
+        assert s.info()["runs_defined"] == 4 and s.digest == "old"
+    with CampaignStore(tmp_path, "old", name="c", runs_defined=5) as s:
+        assert s.info()["runs_defined"] == 5
+
+
 def test_exports(tmp_path):
     with CampaignStore(tmp_path, "abc", name="c", runs_defined=3) as s:
         for k in range(3):

@@ -47,7 +47,7 @@ from mjasc.campaigns.cluster import WORKER_WAIT_S, close_client, local_workers, 
 from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
                                       run_isolated, take_prestarted)
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
-from mjasc.campaigns.store import RETRY_STATUSES, CampaignStore
+from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore
 from mjasc.core.config_tables import integer, number
 
 __all__ = ["CampaignResult", "run_campaign", "execute_runs", "wilson_interval", "format_aggregate", "TIMING_KEYS", "is_timing_key",
@@ -147,14 +147,19 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
 
         plugins = {"avoidance": plugin_sources(m.name for m in campaign.methods)}
     out_dir = Path(out_dir).resolve()
+    # The runs to do are drawn before anything is written: a campaign whose draws fail (a grid point
+    # no draw can make: CampaignError) leaves the folder as it was.
+    done = {label: set() for label in labels}
+    if (out_dir / STORE_FILE).is_file():
+        with CampaignStore(out_dir, campaign.digest) as existing:  # (read only: no campaign row written)
+            done = {label: existing.done(max_attempts, label) for label in labels}
+    todo = [campaign.run(k, label) if label else campaign.run(k)
+            for k in range(n_runs) for label in labels if k not in done[label]]
     out_dir.mkdir(parents=True, exist_ok=True)
     store = CampaignStore(out_dir, campaign.digest, name=campaign.name, source=str(campaign.source),
                           file_text=json.dumps(getattr(campaign, "data", {}), sort_keys=True, default=str),
                           runs_defined=campaign.runs_defined)
     try:
-        done = {label: store.done(max_attempts, label) for label in labels}
-        todo = [campaign.run(k, label) if label else campaign.run(k)
-                for k in range(n_runs) for label in labels if k not in done[label]]
         recordings = bool(getattr(getattr(campaign, "outputs", None), "recordings", False))
         reference = bool(getattr(getattr(campaign, "evaluation", None), "mission_cost", True))
         info = execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
@@ -162,14 +167,15 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
                             recordings=recordings, reference=reference, label=campaign.name, plugins=plugins)
         info["already_done"] = n_runs * len(labels) - len(todo)
         runs = store.runs()
-        agg = aggregate(runs, campaign.runs_defined, methods=[label for label in labels if label] or None)
+        defined = store.info().get("runs_defined", campaign.runs_defined)  # (the largest extent asked so far)
+        agg = aggregate(runs, defined, methods=[label for label in labels if label] or None)
         if todo and info["wall_time_s"] > 0:
             agg["throughput_runs_per_hour"] = round(3600.0 * len(todo) / info["wall_time_s"], 1)
         files = store.export()
         files["campaign"] = out_dir / "campaign.json"
         doc = {"campaign": {"name": campaign.name, "description": getattr(campaign, "description", ""),
                             "source": str(campaign.source), "digest": campaign.digest,
-                            "runs_defined": campaign.runs_defined, **info},
+                            "runs_defined": defined, **info},
                "aggregate": agg}
         tmp = files["campaign"].with_suffix(".json.tmp")
         tmp.write_text(json.dumps(doc, indent=1, default=str))

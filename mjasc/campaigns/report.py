@@ -56,7 +56,7 @@ def report_data(folder: str | Path) -> dict:
     outcomes = dict(agg["statuses"])
     outcomes["collision"] = agg["collision"]["count"]
     outcomes["near_miss"] = agg["near_miss"]["count"]
-    return {"campaign": {k: info.get(k) for k in ("name", "digest", "source")},
+    return {"campaign": {k: info.get(k) for k in ("name", "digest", "source", "campaigns_in_store")},
             "runs_defined": agg["runs_defined"], "runs_recorded": agg["runs_recorded"],
             "runs_failed": agg["runs_failed"], "outcomes": outcomes, **{k: v for k, v in agg.items() if k not in (
                 "runs_defined", "runs_recorded", "runs_failed")}}
@@ -85,12 +85,22 @@ def _pct(r: dict) -> str:
     return f"{r['count']}/{r['n']} = {100 * r['rate']:.1f} % [{100 * lo:.1f}, {100 * hi:.1f}]"
 
 
+def _title(c: dict) -> list[str]:
+    """The report's heading lines for ``data["campaign"]``, saying which campaign it is when the
+    folder's store holds several (an edited file is a new campaign in the same folder)."""
+    lines = [f"# Campaign {c.get('name')} (digest {str(c.get('digest'))[:12]})", ""]
+    n = c.get("campaigns_in_store") or 1
+    if n > 1:
+        lines += [f"This folder's store holds {n} campaigns (an edited file is a new one); this report is of the "
+                  f"one run last.", ""]
+    return lines
+
+
 def format_report(data: dict) -> str:
     """The report's table as Markdown (also printed by ``mjasc report``)."""
     if data.get("methods"):
         return _format_comparison(data)
-    c = data["campaign"]
-    lines = [f"# Campaign {c.get('name')} (digest {str(c.get('digest'))[:12]})", "",
+    lines = [*_title(data["campaign"]),
              f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
              f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}).", "",
              "| family | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] | min separation: min / median [m] "
@@ -150,7 +160,7 @@ def _format_comparison(data: dict) -> str:
     """The Markdown of a campaign comparing methods (module docstring)."""
     c = data["campaign"]
     methods = list(data["methods"])
-    lines = [f"# Campaign {c.get('name')} (digest {str(c.get('digest'))[:12]})", "",
+    lines = [*_title(c),
              f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
              f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}). "
              f"Methods compared: {', '.join(methods)} (each generated run once per method, the same scenario but "

@@ -32,7 +32,7 @@ import numpy as np
 
 from mjasc.campaigns.engine import execute_runs
 from mjasc.campaigns.scenario_text import scenario_toml, write_scenario
-from mjasc.campaigns.spec import RunSpec
+from mjasc.campaigns.spec import CampaignError, RunSpec
 from mjasc.campaigns.statistics import run_outcome
 from mjasc.campaigns.store import CampaignStore
 from mjasc.core.config_tables import check_params, param
@@ -106,11 +106,12 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
     ``out_dir/campaign.sqlite`` (resumable: a stored run is not run again) and ``out_dir/failures/``."""
     fam = next((f for f in campaign.families if f.name == family), None)
     if fam is None or not hasattr(fam, "from_unit"):
-        raise ValueError(f"family: no encounter family {family!r} in {campaign.name} "
+        raise CampaignError(f"family: no encounter family {family!r} in {campaign.name} "
                          f"(have: {', '.join(f.name for f in campaign.families)})")
     names = fam.searchable()
     if not names:
-        raise ValueError(f"family {family!r}: no continuous parameter to search (declare uniform or normal laws)")
+        raise CampaignError(f"family {family!r}: no continuous parameter to search (declare uniform or normal "
+                            f"laws)")
     out_dir = Path(out_dir).resolve()
     settings = json.dumps({k: getattr(config, k) for k in config.__dataclass_fields__}, sort_keys=True)
     digest = hashlib.sha256(f"{campaign.digest}|{family}|{settings}".encode()).hexdigest()

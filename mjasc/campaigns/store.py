@@ -9,13 +9,19 @@ lost, none duplicated, none recomputed.
 
 Schema (``campaign.sqlite``)::
 
-    campaigns(digest PRIMARY KEY, name, source, file_text, runs_defined, created_unix_s)
+    campaigns(digest PRIMARY KEY, name, source, file_text, runs_defined, created_unix_s, run_unix_s)
     runs(digest, idx, family, parameters JSON, seed, scenario TOML, status, attempts, error,
          metrics JSON, wall_time_s, worker, finished_unix_s, method, PRIMARY KEY (digest, idx, method))
 
+A folder may hold several campaigns (an edited file is a new digest). ``runs_defined`` is the largest
+number of runs any command asked of the campaign (``--runs 4`` and later the whole file: the
+file's count), ``run_unix_s`` when a command last ran it: reports and extracts read the campaign
+run last (:meth:`CampaignStore.open_existing`), the one whose exports the folder holds.
+
 A store written before ``method`` existed (key ``(digest, idx)``) is migrated when opened: its runs
 table is rebuilt with the new key in one transaction, every row with method ``""`` (nothing else
-changes; its runs stay done).
+changes; its runs stay done). One written before ``run_unix_s`` gets the column, at each
+campaign's creation time.
 
 Statuses: ``completed`` and ``diverged`` are results (a divergence is deterministic: the run
 replays it); ``error`` (the run raised), ``timeout`` (over the per-run time limit) and ``crashed``
@@ -43,7 +49,7 @@ RETRY_STATUSES = frozenset({"error", "timeout", "crashed"})
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS campaigns (
     digest TEXT PRIMARY KEY, name TEXT NOT NULL, source TEXT, file_text TEXT, runs_defined INTEGER NOT NULL,
-    created_unix_s REAL NOT NULL);
+    created_unix_s REAL NOT NULL, run_unix_s REAL);
 CREATE TABLE IF NOT EXISTS runs (
     digest TEXT NOT NULL, idx INTEGER NOT NULL, family TEXT, parameters TEXT, seed INTEGER, scenario TEXT,
     status TEXT NOT NULL, attempts INTEGER NOT NULL, error TEXT, metrics TEXT, wall_time_s REAL, worker TEXT,
@@ -86,13 +92,28 @@ class CampaignStore:
         self._db.execute("PRAGMA synchronous=NORMAL")
         self._db.executescript(_SCHEMA)
         self._migrate()
-        if name or runs_defined:
-            self._db.execute("INSERT OR IGNORE INTO campaigns VALUES (?, ?, ?, ?, ?, ?)",
-                             (digest, name, source, file_text, int(runs_defined), time.time()))
+        if name or runs_defined:  # (a command running the campaign: the largest extent asked, run now)
+            now = time.time()
+            self._db.execute("INSERT INTO campaigns (digest, name, source, file_text, runs_defined, created_unix_s, "
+                             "run_unix_s) VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (digest) DO UPDATE SET "
+                             "runs_defined = MAX(runs_defined, excluded.runs_defined), "
+                             "run_unix_s = excluded.run_unix_s",
+                             (digest, name, source, file_text, int(runs_defined), now, now))
 
     def _migrate(self) -> None:
-        """Give a store written before the ``method`` column its new key (module docstring)."""
+        """Give a store written before the ``method`` column its new key and one written before
+        ``run_unix_s`` that column (module docstring)."""
         db = self._db
+        if "run_unix_s" not in {r[1] for r in db.execute("PRAGMA table_info(campaigns)")}:
+            db.execute("BEGIN IMMEDIATE")
+            try:
+                if "run_unix_s" not in {r[1] for r in db.execute("PRAGMA table_info(campaigns)")}:
+                    db.execute("ALTER TABLE campaigns ADD COLUMN run_unix_s REAL")
+                    db.execute("UPDATE campaigns SET run_unix_s = created_unix_s")
+                db.execute("COMMIT")
+            except BaseException:
+                db.execute("ROLLBACK")
+                raise
         if "method" in {r[1] for r in db.execute("PRAGMA table_info(runs)")}:
             return
         db.execute("BEGIN IMMEDIATE")
@@ -110,13 +131,18 @@ class CampaignStore:
 
     @classmethod
     def open_existing(cls, folder: str | Path) -> "CampaignStore":
-        """The store in ``folder`` for its most recent campaign (for reports)."""
+        """The store in ``folder`` for the campaign a command ran last (for reports and extracts:
+        the one whose exports and ``campaign.json`` the folder holds)."""
         path = Path(folder) / STORE_FILE
         if not path.is_file():
             raise FileNotFoundError(f"{folder}: no campaign store ({STORE_FILE}) here")
         db = sqlite3.connect(path)
-        row = db.execute("SELECT digest FROM campaigns ORDER BY created_unix_s DESC LIMIT 1").fetchone()
-        db.close()
+        try:
+            cols = {r[1] for r in db.execute("PRAGMA table_info(campaigns)")}
+            last = "COALESCE(run_unix_s, created_unix_s)" if "run_unix_s" in cols else "created_unix_s"
+            row = db.execute(f"SELECT digest FROM campaigns ORDER BY {last} DESC LIMIT 1").fetchone()
+        finally:
+            db.close()
         if row is None:
             raise FileNotFoundError(f"{path}: holds no campaign")
         return cls(folder, row[0])
@@ -160,12 +186,15 @@ class CampaignStore:
 
     # ------------------------------------------------------------------ reading
     def info(self) -> dict:
+        """The campaign's digest, name, source, ``runs_defined`` (module docstring), creation time
+        [Unix s] and how many campaigns the store holds in all."""
         row = self._db.execute("SELECT name, source, runs_defined, created_unix_s FROM campaigns WHERE digest = ?",
                                (self.digest,)).fetchone()
+        n = self._db.execute("SELECT COUNT(*) FROM campaigns").fetchone()[0]
         if row is None:
-            return {"digest": self.digest}
+            return {"digest": self.digest, "campaigns_in_store": n}
         return {"digest": self.digest, "name": row[0], "source": row[1], "runs_defined": row[2],
-                "created_unix_s": row[3]}
+                "created_unix_s": row[3], "campaigns_in_store": n}
 
     def file_text(self) -> str:
         """The campaign's parsed file as stored (JSON text; "" when unknown)."""

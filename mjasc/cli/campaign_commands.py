@@ -35,6 +35,9 @@ def _campaign(args) -> int:
         result = run_campaign(campaign, out, scheduler=args.scheduler, workers=args.workers,
                               progress=args.progress and sys.stderr.isatty(), max_attempts=args.max_attempts,
                               time_limit_s=args.time_limit)
+    except CampaignError as exc:  # (found when its runs are drawn: a grid point no draw can make, ...)
+        print(f"mjasc: invalid campaign: {_in_file(exc, campaign.source)}", file=sys.stderr)
+        return 2
     except (ValueError, RuntimeError, OSError) as exc:
         print(f"mjasc: campaign failed: {exc}", file=sys.stderr)
         return 1
@@ -45,6 +48,12 @@ def _campaign(args) -> int:
     for kind, path in result.files.items():
         print(f"  {kind}: {path}")
     return 0
+
+
+def _in_file(exc: Exception, source) -> str:
+    """``exc``'s message prefixed with the campaign file ``source`` unless it names it already."""
+    text, source = str(exc), str(source or "")
+    return text if not source or text.startswith(source) else f"{source}: {text}"
 
 
 def cmd_report(args) -> int:
@@ -122,6 +131,9 @@ def cmd_search(args) -> int:
     try:
         res = search_failures(campaign, args.family, out, config, scheduler=args.scheduler, workers=args.workers,
                               progress=sys.stderr.isatty())
+    except CampaignError as exc:  # (an unknown family, one with nothing to search, a draw no run can make)
+        print(f"mjasc: invalid search: {_in_file(exc, campaign.source)}", file=sys.stderr)
+        return 2
     except (ValueError, RuntimeError, OSError) as exc:
         print(f"mjasc: search failed: {exc}", file=sys.stderr)
         return 1
