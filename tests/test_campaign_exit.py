@@ -39,3 +39,49 @@ def test_campaign_command_failure_keeps_its_status_and_message(tmp_path):
     proc = _command(tmp_path, "bad.toml", "--workers", "0", "--out", str(tmp_path / "out"))
     assert proc.returncode == 2
     assert proc.stderr.startswith("mjasc: invalid campaign:")
+
+
+def test_ctrl_c_on_a_campaign_on_two_workers_leaves_at_once_with_one_line(tmp_path):
+    """Ctrl-C (SIGINT to the terminal's process group) on ``mjasc campaign --workers 2``: the
+    queued runs are cancelled and the running ones' children closed, so the command leaves within
+    seconds with status 130 and one line — no Dask error log of the runs it cut short, no new child
+    started for a queued run while the cluster closes — and the store keeps exactly the finished
+    runs, which the same command then does not run again."""
+    import signal
+    import sqlite3
+    import time
+
+    write_campaign(tmp_path, runs=12, duration=20.0, mission_cost=False)
+    out = tmp_path / "out"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.Popen([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--workers", "2", "--out", str(out),
+                             "--no-progress"], env=env, cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    store = out / "campaign.sqlite"
+    t0 = time.time()
+    stored = 0
+    while stored < 2 and time.time() - t0 < 300 and proc.poll() is None:
+        time.sleep(0.2)
+        try:
+            with sqlite3.connect(store) as db:
+                stored = db.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+        except sqlite3.Error:
+            stored = 0
+    assert stored >= 2 and proc.poll() is None, "the campaign ended before it could be interrupted"
+    t_int = time.time()
+    os.killpg(proc.pid, signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=60)
+    except subprocess.TimeoutExpired:
+        os.killpg(proc.pid, signal.SIGKILL)
+        raise
+    assert proc.returncode == 130, err
+    assert time.time() - t_int < 20.0
+    assert err == "mjasc: interrupted\n", err
+    with sqlite3.connect(store) as db:
+        assert db.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+        rows = db.execute("SELECT idx, status, attempts FROM runs").fetchall()
+    assert rows and all(status == "completed" and attempts == 1 for _, status, attempts in rows)
+    again = _command(tmp_path, "c.toml", "--workers", "0", "--out", str(out), "--no-progress", "--runs",
+                     str(len(rows) + 1))
+    assert again.returncode == 0 and f"1 run(s) done now, {len(rows)} already in the store" in again.stdout

@@ -213,3 +213,16 @@ def test_a_warmed_up_child_gives_the_same_results():
             ex.close()
     assert out[0]["status"] == out[1]["status"] == "completed"
     assert without_timing(out[0]["summary"]) == without_timing(out[1]["summary"])
+
+
+def test_a_released_worker_starts_no_new_child(monkeypatch):
+    """A task that reaches a worker after its shutdown released its child (an interrupted campaign)
+    fails at once: no new run child is started for it."""
+    import mjasc.campaigns.executor as ex_mod
+
+    made = []
+    monkeypatch.setattr(ex_mod, "IsolatedExecutor", lambda: made.append(1))
+    ex_mod.release_isolated("worker-test-released")
+    with pytest.raises(RuntimeError, match="shutting down"):
+        ex_mod.run_isolated({}, None, key="worker-test-released")
+    assert not made

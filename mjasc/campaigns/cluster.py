@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["open_client", "close_client", "local_workers", "warm_up_worker", "WORKER_WAIT_S"]
+__all__ = ["open_client", "close_client", "local_workers", "quiet_shutdown", "warm_up_worker", "WORKER_WAIT_S"]
 
 #: How long a campaign waits for the first worker of a cluster [s].
 WORKER_WAIT_S = 120.0
@@ -70,6 +70,20 @@ def open_client(scheduler, workers: int | None, threaded: bool = False):
 def local_workers(workers: int | None) -> int:
     """The number of workers of a local cluster: ``workers``, default one per core."""
     return workers if workers is not None else (os.cpu_count() or 1)
+
+
+def quiet_shutdown(local: bool):
+    """Silence Dask's loggers while a local cluster of ours shuts down (the runs' tasks it cancels
+    or whose children it closes log errors that are not the user's); returns the function that
+    restores them. For a cluster that is not ours, nothing changes."""
+    import logging
+
+    if not local:
+        return lambda: None
+    log = logging.getLogger("distributed")
+    level = log.level
+    log.setLevel(logging.CRITICAL)
+    return lambda: log.setLevel(level)
 
 
 def close_client(closers, local: bool) -> None:

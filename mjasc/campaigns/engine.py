@@ -43,7 +43,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from mjasc.campaigns.cluster import WORKER_WAIT_S, close_client, local_workers, open_client, warm_up_worker
+from mjasc.campaigns.cluster import (WORKER_WAIT_S, close_client, local_workers, open_client, quiet_shutdown,
+                                    warm_up_worker)
 from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
                                       run_isolated, take_prestarted)
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
@@ -283,6 +284,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
         child.start()
     client, closers = None, []
     keys: list = []
+    pending: dict = {}  # future → its run, while it is out
     try:
         client, closers = open_client(scheduler, workers, threaded)
         try:
@@ -315,7 +317,6 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
                     address=client.scheduler.address, workers=len(versions),
                     startup_s=round(time.perf_counter() - t_start, 3))
         tag = f"{store.digest[:10]}-{os.getpid()}-{time.time_ns()}"
-        pending: dict = {}
         attempts = {(i, m): n for m in dict.fromkeys(getattr(r, "method", "") for r in runs)
                     for i, n in store.attempts(m).items()}
 
@@ -348,10 +349,22 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
             if bar is not None:
                 bar.update(1)
     finally:
-        try:  # the children first: a task still waiting on one (an interrupted campaign) ends with it
+        # Interrupted (Ctrl-C) or failed: the queued runs are cancelled first, so that no worker
+        # starts one while the cluster closes; then the children, so that a run still waiting on
+        # one ends with it (its task fails: a local cluster's shutdown logs nothing of it).
+        quiet = quiet_shutdown(local)
+        try:
+            if client is not None and pending:
+                try:
+                    client.cancel(list(pending), force=True)
+                except Exception:  # noqa: BLE001 — a scheduler already gone: nothing queued to cancel
+                    pass
             for k in keys:
                 release_isolated(k)
             for child in children:  # also those never adopted (the cluster failed to start)
                 child.close()
         finally:
-            close_client(closers, local)
+            try:
+                close_client(closers, local)
+            finally:
+                quiet()

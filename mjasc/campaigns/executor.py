@@ -266,6 +266,8 @@ _EXECUTORS: dict = {}  # key (a Dask worker's id; None: this process) → its Is
 def _executor(key: str | None = None) -> IsolatedExecutor:
     ex = _EXECUTORS.get(key)
     if ex is None:
+        if key in _RELEASED:  # (a task its worker's shutdown left queued: no new child for it)
+            raise RuntimeError(f"worker {key}: shutting down, its run child released")
         ex = _EXECUTORS[key] = IsolatedExecutor()
     return ex
 
@@ -288,10 +290,16 @@ def adopt_isolated(key: str, executor: IsolatedExecutor) -> None:
 
 
 def release_isolated(key: str) -> None:
-    """Close and forget the child of ``key`` (a worker of a local cluster that is shutting down)."""
+    """Close and forget the child of ``key`` (a worker of a local cluster that is shutting down);
+    a task of ``key`` that starts after this fails at once instead of starting a new child (a
+    worker id is never reused)."""
+    _RELEASED.add(key)
     ex = _EXECUTORS.pop(key, None)
     if ex is not None:
         ex.close()
+
+
+_RELEASED: set = set()  # the keys release_isolated closed
 
 
 _PRESTARTED: list = []  # children started before their campaign was read (prestart_isolated)
