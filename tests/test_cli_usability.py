@@ -3,6 +3,7 @@ figure formats, and no output folder for a bad render request."""
 
 from __future__ import annotations
 
+import os
 import shlex
 import sys
 from pathlib import Path
@@ -35,11 +36,60 @@ def test_render_help_lists_every_domain_and_task(capsys):
 
 
 def test_view_uses_the_viewer_installed_next_to_this_python(tmp_path, capsys):
-    (tmp_path / "recording.rrd").write_bytes(b"")
+    (tmp_path / "recording.rrd").write_bytes(b"RRF2")  # (a Rerun file's magic: view checks it)
     assert main(["view", str(tmp_path), "--print"]) == 0
     exe = viewer_executable()
     assert exe is not None and Path(exe).parent == Path(sys.executable).parent  # the venv's, not PATH's
     assert capsys.readouterr().out.strip() == shlex.join([exe, str(tmp_path / "recording.rrd")])
+
+
+def test_view_of_a_file_that_is_not_a_recording_is_bad_input(tmp_path, capsys):
+    (tmp_path / "demo.toml").write_text('name = "demo"\n')
+    assert main(["view", str(tmp_path / "demo.toml"), "--print"]) == 2
+    err = capsys.readouterr().err
+    assert err == f"mjasc: {tmp_path / 'demo.toml'}: not a Rerun recording (a run's recording.rrd, or its folder)\n"
+
+
+def test_usage_errors_and_bad_option_values_are_one_line_naming_the_option(tmp_path, capsys):
+    """argparse's own errors (an unknown option, a value of the wrong type) and the numeric options'
+    bounds are one line naming the option, status 2, before any folder is made."""
+    cases = [(["run", "demo", "--bogus"], "unrecognized arguments: --bogus"),
+             (["run", "demo", "--seed", "abc"], "argument --seed: must be an integer, got 'abc'"),
+             (["run", "demo", "--seed", "-3"], "argument --seed: must be ≥ 0, got -3"),
+             (["run", "demo", "--duration", "nan"], "argument --duration: must be a finite number > 0, got nan"),
+             (["campaign", "demo_monte_carlo", "--workers", "-1", "--out", str(tmp_path / "c")],
+              "argument --workers: must be ≥ 0, got -1"),
+             (["campaign", "demo_monte_carlo", "--max-attempts", "0", "--out", str(tmp_path / "c")],
+              "argument --max-attempts: must be ≥ 1, got 0"),
+             (["campaign", "demo_monte_carlo", "--time-limit", "0", "--out", str(tmp_path / "c")],
+              "argument --time-limit: must be a finite number > 0, got 0"),
+             (["search", "demo_monte_carlo", "head_on", "--workers", "-2", "--out", str(tmp_path / "s")],
+              "argument --workers: must be ≥ 0, got -2"),
+             (["render", "otter", "path_following", "--seed", "-1", "--out", str(tmp_path / "r")],
+              "argument --seed: must be ≥ 0, got -1")]
+    for argv, message in cases:
+        with pytest.raises(SystemExit) as stop:
+            main(argv)
+        assert stop.value.code == 2, argv
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, (argv, err)
+    assert not any(tmp_path.iterdir())  # (no output folder made)
+
+
+def test_a_closed_pipe_is_not_an_error(monkeypatch, capsys):
+    """``mjasc list | head -1``: the reader leaves; the command stops quietly with SIGPIPE's status
+    (141: no traceback, no 'internal error'), as a Unix tool does — also when what it wrote was
+    still buffered (written at the command's end)."""
+    import io
+
+    r, w = os.pipe()
+    os.close(r)  # (the reader has left: a write raises BrokenPipeError)
+    out = io.TextIOWrapper(os.fdopen(w, "wb"), encoding="utf-8")
+    monkeypatch.setattr(sys, "stdout", out)
+    assert main(["list"]) == 141
+    assert capsys.readouterr().err == ""
+    out.write("more\n")
+    out.flush()  # (stdout now goes nowhere: the interpreter's last flush raises nothing)
 
 
 def test_view_without_a_recording_is_bad_input(tmp_path, capsys):

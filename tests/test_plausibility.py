@@ -113,7 +113,7 @@ def test_bad_files_are_one_line_errors_naming_the_file(tmp_path):
         load_scenario("a\x00.toml")
     with pytest.raises(ScenarioError, match="not a usable file name \\(a name in it is longer than 255 bytes\\)"):
         load_scenario("x" * 300 + ".toml")
-    with pytest.raises(CampaignError, match=r"tasks: no such campaign file"):
+    with pytest.raises(CampaignError, match=r"tasks: a folder, not a campaign file"):
         load_campaign_spec(str(TASKS))
 
 

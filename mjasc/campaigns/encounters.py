@@ -83,6 +83,7 @@ from mjasc.core.config_tables import (
 )
 from mjasc.core.geometry import signed_distance_to_polygon
 from mjasc.physics.vessels import available_vessels, load_vessel_type
+from mjasc.runs.plausibility import check_name
 
 __all__ = ["FAMILY_KINDS", "MAX_ATTEMPTS", "START_MARGIN_M", "EncounterFamily", "parse_family", "own_vessel_table"]
 
@@ -324,7 +325,7 @@ def parse_family(t: dict, where: str, index: int, base_dir: str | Path, threshol
     with errors_as(CampaignError):
         check_keys(t, _FAMILY, where)
         kind = string(t.get("kind"), f"{where}.kind", choices=FAMILY_KINDS)
-        name = string(t.get("name", kind), f"{where}.name")
+        name = check_name(string(t.get("name", kind), f"{where}.name"), f"{where}.name", vessel=False)
         runs = integer(t.get("runs_per_point", 1), f"{where}.runs_per_point", minimum=1)
         duration = number(t["duration_s"], f"{where}.duration_s", positive=True) if "duration_s" in t else None
         if kind in GEOMETRIC_ROLES:

@@ -72,7 +72,7 @@ from mjasc.core.config_tables import (
 from mjasc.core.frames import wrap_angle
 from mjasc.core.resources import resolve_bundled
 from mjasc.physics.currents import SumCurrent, UniformCurrent, current_from_config
-from mjasc.runs.plausibility import traffic_through_structure
+from mjasc.runs.plausibility import file_name, traffic_through_structure
 from mjasc.runs.scenario import Scenario, ScenarioError, load_scenario
 
 __all__ = ["CampaignError", "Randomization", "Campaign", "RunDraws", "load_campaign", "parse_campaign",
@@ -180,7 +180,7 @@ def parse_campaign(data: dict, source: str = "<dict>", base_dir: str | Path = ".
             raise CampaignError("families: a campaign of encounter families (or Imazu cases) is read by "
                                 "mjasc.campaigns.spec.load_campaign_spec; load_campaign reads one perturbed scenario")
         check_keys(data, _TOP, "campaign")
-        name = string(data.get("name", Path(source).stem), "name")
+        name = file_name(data, source)
         description = data.get("description", "")
         if not isinstance(description, str):
             raise CampaignError(f"description: must be a string, got {show(description)}")

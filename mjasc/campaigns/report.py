@@ -215,8 +215,8 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
 
     folder = Path(folder)
     out = Path(out_dir) if out_dir is not None else folder / "report"
+    data = report_data(folder)  # (first: a folder without a store gets no report folder)
     out.mkdir(parents=True, exist_ok=True)
-    data = report_data(folder)
     files: list[Path] = []
     (out / "report.md").write_text(format_report(data))
     files.append(out / "report.md")

@@ -73,6 +73,7 @@ from mjasc.core.config_tables import (
     table,
 )
 from mjasc.core.resources import resolve_bundled
+from mjasc.runs.plausibility import file_name
 from mjasc.runs.scenario import ScenarioError
 
 __all__ = ["SPEC_FORMAT", "CampaignError", "RunSpec", "CampaignOutputs", "CampaignEvaluation", "CampaignSpec",
@@ -285,7 +286,7 @@ def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path
         data = table(data, "campaign")
         legacy = "families" not in data
         check_keys(data, (_TOP | _LEGACY) - {"families", "colreg"} if legacy else _TOP, "campaign")
-        name = string(data.get("name", Path(source).stem), "name")
+        name = file_name(data, source)
         description = data.get("description", "")
         if not isinstance(description, str):
             raise CampaignError(f"description: must be a string, got {show(description)}")

@@ -40,7 +40,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
-__all__ = ["CampaignStore", "StoredRun", "FINAL_STATUSES", "RETRY_STATUSES", "STORE_FILE"]
+__all__ = ["CampaignStore", "StoredRun", "StoreError", "FINAL_STATUSES", "RETRY_STATUSES", "STORE_FILE"]
 
 STORE_FILE = "campaign.sqlite"
 FINAL_STATUSES = frozenset({"completed", "diverged"})
@@ -57,6 +57,15 @@ CREATE TABLE IF NOT EXISTS runs (
 """
 _OLD_COLUMNS = ("digest, idx, family, parameters, seed, scenario, status, attempts, error, metrics, wall_time_s, "
                 "worker, finished_unix_s")
+
+
+class StoreError(FileNotFoundError):
+    """The folder's ``campaign.sqlite`` is not a campaign store (damaged, empty, another file): one
+    line naming the file. A FileNotFoundError, as a folder without a store: no campaign is here."""
+
+
+def _not_a_store(path: Path, exc: sqlite3.DatabaseError) -> StoreError:
+    return StoreError(f"{path}: not a campaign store ({exc})")
 
 
 @dataclass(frozen=True)
@@ -88,10 +97,16 @@ class CampaignStore:
         self.path = self.folder / STORE_FILE
         self.digest = digest
         self._db = sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
-        self._db.execute("PRAGMA journal_mode=WAL")
-        self._db.execute("PRAGMA synchronous=NORMAL")
-        self._db.executescript(_SCHEMA)
-        self._migrate()
+        try:
+            self._db.execute("PRAGMA journal_mode=WAL")
+            self._db.execute("PRAGMA synchronous=NORMAL")
+            self._db.executescript(_SCHEMA)
+            self._migrate()
+        except sqlite3.DatabaseError as exc:  # (not SQLite, or a table of another shape)
+            self._db.close()
+            if isinstance(exc, sqlite3.OperationalError) and "locked" in str(exc):
+                raise
+            raise _not_a_store(self.path, exc) from None
         if name or runs_defined:  # (a command running the campaign: the largest extent asked, run now)
             now = time.time()
             self._db.execute("INSERT INTO campaigns (digest, name, source, file_text, runs_defined, created_unix_s, "
@@ -139,8 +154,12 @@ class CampaignStore:
         db = sqlite3.connect(path)
         try:
             cols = {r[1] for r in db.execute("PRAGMA table_info(campaigns)")}
+            if not cols:
+                raise StoreError(f"{path}: not a campaign store (no campaigns table)")
             last = "COALESCE(run_unix_s, created_unix_s)" if "run_unix_s" in cols else "created_unix_s"
             row = db.execute(f"SELECT digest FROM campaigns ORDER BY {last} DESC LIMIT 1").fetchone()
+        except sqlite3.DatabaseError as exc:
+            raise _not_a_store(path, exc) from None
         finally:
             db.close()
         if row is None:

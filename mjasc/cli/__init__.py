@@ -29,14 +29,24 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser(argv).parse_args(argv)
     for name in _INPUTS:
         value = getattr(args, name, None)
+        if value == "":
+            print(f"mjasc: {name}: an empty name, not a file or a bundled name", file=sys.stderr)
+            return 2
         if isinstance(value, str) and path_problem(value):
             print(f"mjasc: {name} {show_path(value)}: not a usable file name ({path_problem(value)})", file=sys.stderr)
             return 2
     try:
-        return args.func(args)
+        status = args.func(args)
+        sys.stdout.flush()  # (here, not at exit: a reader that left is answered below)
+        return status
     except KeyboardInterrupt:
         print("mjasc: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # (the reader of our output left: ``mjasc list | head -1``) — as a Unix
+        # tool killed by SIGPIPE, quietly; the rest of our output goes nowhere (no second error at exit)
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 141
     except ConfigError as exc:  # includes ScenarioError and OutputError
         print(f"mjasc: {exc}", file=sys.stderr)
         return 2

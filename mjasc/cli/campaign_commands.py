@@ -24,6 +24,7 @@ def cmd_campaign(args) -> int:
 def _campaign(args) -> int:
     from mjasc.campaigns.engine import format_aggregate, run_campaign
     from mjasc.campaigns.spec import CampaignError, load_campaign_spec
+    from mjasc.campaigns.store import StoreError
 
     try:
         campaign = load_campaign_spec(args.campaign).with_overrides(runs=args.runs)
@@ -37,6 +38,9 @@ def _campaign(args) -> int:
                               time_limit_s=args.time_limit)
     except CampaignError as exc:  # (found when its runs are drawn: a grid point no draw can make, ...)
         print(f"mjasc: invalid campaign: {_in_file(exc, campaign.source)}", file=sys.stderr)
+        return 2
+    except StoreError as exc:  # (--out holds a campaign.sqlite that is not a store)
+        print(f"mjasc: {exc}", file=sys.stderr)
         return 2
     except (ValueError, RuntimeError, OSError) as exc:
         print(f"mjasc: campaign failed: {exc}", file=sys.stderr)
@@ -65,6 +69,9 @@ def cmd_report(args) -> int:
             return 0
         if not (Path(args.folder) / "campaign.sqlite").is_file():
             raise FileNotFoundError(f"{args.folder}: no campaign here (no campaign.sqlite)")
+        from mjasc.campaigns.store import CampaignStore
+
+        CampaignStore.open_existing(args.folder).close()  # (a store that opens: only then a report folder)
         out = write_report(args.folder, out_dir(args.out, Path(args.folder) / "report"), formats=args.format)
     except FileNotFoundError as exc:
         print(f"mjasc: {exc}", file=sys.stderr)

@@ -41,6 +41,53 @@ def policy_arg(text: str) -> str:
     raise argparse.ArgumentTypeError(f"must be random, baseline, goal_line, cas or cas:METHOD, got {text!r}")
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser whose usage errors are one line on stderr (exit status 2), as every other
+    bad input of the command line: the command, the problem and where the usage is."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: {message} ('{self.prog} --help' shows the usage)\n")
+
+
+def count_arg(minimum: int):
+    """An argparse type: an integer ≥ ``minimum`` (checked before any folder is made)."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"must be ≥ {minimum}, got {value}")
+        return value
+    parse.__name__ = "integer"
+    return parse
+
+
+def seed_arg(text: str) -> int:
+    """An argparse type: a seed, an integer in [0, 2**32 − 1] (what numpy's and dm_control's
+    generators take)."""
+    value = count_arg(0)(text)
+    if value > 2**32 - 1:
+        raise argparse.ArgumentTypeError(f"must be ≤ 2**32 − 1, got {value}")
+    return value
+
+
+def seconds_arg(text: str) -> float:
+    """An argparse type: a finite positive duration [s]."""
+    import math
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a number of seconds, got {text!r}") from None
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+seed_arg.__name__, seconds_arg.__name__ = "seed", "seconds"
+
+
 def _plain(text: str) -> str:
     """Docstring text as plain help text: reStructuredText literals ``x`` shown as 'x'."""
     return text.replace("``", "'")
@@ -50,7 +97,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     """The parser. The render command's help lists the suite's domains and tasks, read (importing
     dm_control, ~2 s) only when ``argv`` is a render command."""
     argv = sys.argv[1:] if argv is None else argv
-    p = argparse.ArgumentParser(prog="mjasc", description="mjasc: autonomous surface craft in MuJoCo. Commands:\n\n"
+    p = _Parser(prog="mjasc", description="mjasc: autonomous surface craft in MuJoCo. Commands:\n\n"
                                 + "\n".join(line.strip() for line in __doc__.split("\n\n")[1].splitlines()),
                                 epilog=_plain(__doc__.split("\n\n")[2]),
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -64,8 +111,8 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     r.add_argument("--camera", help="the video's camera (implies --video): top_down, overview, chase:VESSEL, "
                                     "split (overview beside the first vessel's chase view) or split:VESSEL "
                                     "(default: the scenario's [outputs] video_camera, else top_down)")
-    r.add_argument("--seed", type=int, help="override the scenario's seed")
-    r.add_argument("--duration", type=float, help="override the scenario's duration [s]")
+    r.add_argument("--seed", type=seed_arg, help="override the scenario's seed")
+    r.add_argument("--duration", type=seconds_arg, help="override the scenario's duration [s]")
     r.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     r.set_defaults(func=cmd_run)
     ls = sub.add_parser("list", help="list the vessels, the bundled scenarios and campaigns, and the stage methods")
@@ -97,13 +144,14 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
                                     "docs/campaigns.md) or a bundled campaign's name such as 'demo_monte_carlo' "
                                     f"({NAMED_HELP})")
     c.add_argument("--out", help="output folder (default: runs/campaigns/<campaign name> in the current folder)")
-    c.add_argument("--workers", type=int, help="local worker processes (default: CPU count; 0: in this process)")
+    c.add_argument("--workers", type=count_arg(0), help="local worker processes (default: CPU count; 0: in this "
+                                                        "process)")
     c.add_argument("--scheduler", help="address of an existing Dask scheduler (tcp://host:8786), or 'synchronous'")
-    c.add_argument("--runs", type=int, help="only the campaign's first N runs (the rest can follow later: "
+    c.add_argument("--runs", type=count_arg(1), help="only the campaign's first N runs (the rest can follow later: "
                                             "a rerun into the same folder computes only what is missing)")
-    c.add_argument("--max-attempts", type=int, default=2, help="tries per run for errors, timeouts and crashes "
+    c.add_argument("--max-attempts", type=count_arg(1), default=2, help="tries per run for errors, timeouts and crashes "
                                                                "(default: 2)")
-    c.add_argument("--time-limit", type=float, default=3600.0, help="per-run time limit [s] (default: 3600)")
+    c.add_argument("--time-limit", type=seconds_arg, default=3600.0, help="per-run time limit [s] (default: 3600)")
     c.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     c.set_defaults(func=cmd_campaign)
     rp = sub.add_parser("report", help="a campaign's results: table, plots (PNG/SVG/PDF), or --json; works on a "
@@ -118,7 +166,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     ex = sub.add_parser("extract", help="write stored campaign runs as scenario files that 'mjasc run' replays "
                                         "exactly")
     ex.add_argument("folder", help="the campaign's output folder (it holds campaign.sqlite)")
-    ex.add_argument("runs", nargs="*", type=int, help="run indices (as in the report and the exports)")
+    ex.add_argument("runs", nargs="*", type=count_arg(0), help="run indices (as in the report and the exports)")
     ex.add_argument("--outcome", choices=["collision", "near_miss", "failed"],
                     help="also every run with this outcome (failed: error, timeout or divergence)")
     ex.add_argument("--out", help="folder for the files (default: FOLDER/scenarios)")
@@ -130,12 +178,12 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     se.add_argument("--method", default="cross_entropy", choices=["cross_entropy", "uniform"],
                     help="cross_entropy: adapt the sampling towards failures; uniform: the baseline "
                          "(default: cross_entropy)")
-    se.add_argument("--budget", type=int, default=48, help="runs in all (default: 48)")
-    se.add_argument("--batch", type=int, default=12, help="runs per iteration (default: 12)")
+    se.add_argument("--budget", type=count_arg(1), default=48, help="runs in all (default: 48)")
+    se.add_argument("--batch", type=count_arg(1), default=12, help="runs per iteration (default: 12)")
     se.add_argument("--failure-separation", type=float, default=0.0,
                     help="a run whose minimum separation [m] is below this is a failure (default: 0)")
-    se.add_argument("--seed", type=int, default=0, help="seed of the search's sampling (default: 0)")
-    se.add_argument("--workers", type=int, help="local worker processes (default: CPU count; 0: in this process)")
+    se.add_argument("--seed", type=seed_arg, default=0, help="seed of the search's sampling (default: 0)")
+    se.add_argument("--workers", type=count_arg(0), help="local worker processes (default: CPU count; 0: in this process)")
     se.add_argument("--scheduler", help="address of an existing Dask scheduler")
     se.add_argument("--out", help="output folder (default: runs/search/<campaign>_<family>_<method>)")
     se.set_defaults(func=cmd_search)
@@ -152,7 +200,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
                          "(collision_avoidance: the line to the goal, no avoidance), cas (the vessel's own pipeline "
                          "with the thesis CAS) or cas:METHOD (with any avoidance method of 'mjasc list'); "
                          "default: random")
-    rd.add_argument("--seed", type=int, default=0, help="episode seed (default: 0)")
+    rd.add_argument("--seed", type=seed_arg, default=0, help="episode seed (default: 0)")
     rd.add_argument("--camera", default="top_down",
                     help="top_down, overview, chase:VESSEL (e.g. chase:otter), split (overview beside the first "
                          "vessel's chase view) or split:VESSEL (default: top_down)")

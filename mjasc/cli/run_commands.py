@@ -70,6 +70,15 @@ def cmd_view(args) -> int:
         print(f"mjasc: {args.run}: no recording here ({'no recording.rrd in the folder' if target.is_dir() else 'no such file'}"
               f"; a run writes one with [outputs] recording = true)", file=sys.stderr)
         return 2
+    try:
+        with open(rrd, "rb") as f:
+            magic = f.read(4)
+    except OSError as exc:
+        print(f"mjasc: {rrd}: cannot read: {exc.strerror or exc}", file=sys.stderr)
+        return 2
+    if magic != b"RRF2":  # (every Rerun recording file starts so)
+        print(f"mjasc: {rrd}: not a Rerun recording (a run's recording.rrd, or its folder)", file=sys.stderr)
+        return 2
     exe = viewer_executable()
     if args.print or exe is None:
         print(viewer_command(rrd))

@@ -29,8 +29,12 @@ def load_toml(path: str | Path, error: type[ValueError] | None = None, what: str
     reason = path_problem(path)
     if reason:
         raise error(f"{shown}: not a usable file name ({reason})")
+    if not str(path):
+        raise error(f"'': an empty path, not a {what} file")
     path = Path(path)
     try:
+        if path.is_dir():
+            raise error(f"{shown}: a folder, not a {what} file")
         if not path.is_file():
             raise error(f"{shown}: no such {what} file")
         with open(path, "rb") as f:
@@ -39,6 +43,8 @@ def load_toml(path: str | Path, error: type[ValueError] | None = None, what: str
         raise error(f"{shown}: cannot read: {exc.strerror or exc}") from None
     if len(raw) > MAX_TOML_BYTES:
         raise error(f"{shown}: larger than {MAX_TOML_BYTES} bytes, not a {what} file")
+    if raw.startswith(b"\xef\xbb\xbf"):  # (a UTF-8 byte-order mark, as some editors write: not TOML's, skipped)
+        raw = raw[3:]
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -40,7 +40,7 @@ from mjasc.core.config_tables import ConfigError, param, show
 from mjasc.core.geometry import distance_to_polygon, hull_outline, point_in_polygon, polygons_overlap
 from mjasc.physics.obstacles import MovingObstacleSet, PolygonObstacle
 
-__all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "check_duration", "check_plausible", "hulls_overlap",
+__all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "file_name", "check_duration", "check_plausible", "hulls_overlap",
            "traffic_through_structure", "TRAFFIC_SAMPLE_FRACTION", "TRAFFIC_SAMPLE_MAX_S"]
 
 MAX_NAME_CHARS = 64
@@ -74,6 +74,18 @@ def check_name(name: str, where: str, *, vessel: bool) -> str:
     if vessel and name.startswith("obstacle"):
         raise ConfigError(f"{where}: must not start with 'obstacle', got {show(name)}")
     return name
+
+
+def file_name(data: dict, source, where: str = "name") -> str:
+    """A scenario's or campaign's ``name`` (it names the output folder and the recording): the
+    table's own, which must follow the naming rule, else the file's name made to follow it."""
+    from pathlib import Path
+
+    from mjasc.core.config_tables import string
+
+    if where in data:
+        return check_name(string(data[where], where), where, vessel=False)
+    return re.sub(r"[^A-Za-z0-9_-]", "_", Path(str(source)).stem)[:MAX_NAME_CHARS] or "unnamed"
 
 
 def hulls_overlap(hull: np.ndarray, shape) -> bool:

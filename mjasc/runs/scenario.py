@@ -35,7 +35,7 @@ from mjasc.guidance.paths import Path
 from mjasc.physics.currents import UniformCurrent, current_from_config
 from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
 from mjasc.physics.vessels import available_vessels, load_vessel_type
-from mjasc.runs.plausibility import check_name, check_plausible
+from mjasc.runs.plausibility import check_name, check_plausible, file_name
 from mjasc.runs.scenario_values import (MAX_DURATION_S, RECORDING_DETAILS, Outputs, Rates, Scenario,  # noqa: F401
                                        ScenarioError, VesselConfig, camera_problem, check_camera_vessel)
 
@@ -119,7 +119,7 @@ def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
     ctrl = table(t.get("controller", {"type": "none"}), f"{where}.controller")
     ctype = string(ctrl.get("type", "path_following"), f"{where}.controller.type")
     if ctype == "none":
-        check_keys(ctrl, _CONTROLLER, f"{where}.controller")
+        check_keys(ctrl, {"type", "commands"}, f"{where}.controller")  # (no path: open-loop commands only)
     path, commands = None, (0.0, 0.0)
     cruise = vt.cruise_speed_m_s
     options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}
@@ -180,6 +180,10 @@ def _moving(t: Any, i: int) -> MovingObstacle:
     radius = read_field(MovingObstacle, "radius_m", t, where, default=2.5)
     speed = read_field(MovingObstacle, "speed_m_s", t, where)
     if "waypoints" in t:
+        for key in ("position_m", "heading_deg", "turn_rate_deg_s"):  # (the path gives them)
+            if key in t:
+                raise ScenarioError(f"{where}.{key}: not with waypoints (the obstacle starts on its path at "
+                                    f"start_gamma_m and follows it)")
         path = _path(t, where)
         g0 = number(read_field(MovingObstacle, "start_gamma_m", t, where), f"{where}.start_gamma_m",
                     maximum=path.length)
@@ -200,7 +204,7 @@ def parse_scenario(data: dict, source: str = "<dict>") -> Scenario:
 def _parse_scenario(data: dict, source: str) -> Scenario:
     data = table(data, "scenario")
     check_keys(data, _TOP, "scenario")
-    name = string(data.get("name", FilePath(source).stem), "name")
+    name = file_name(data, source)  # (it names the run's output folder: the rule of vessel names)
     if "duration_s" not in data:
         raise ScenarioError("duration_s: missing (how long the run lasts, in seconds)")
     duration = read_field(Scenario, "duration_s", data, "")
@@ -236,6 +240,9 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
     for i, n in enumerate(obstacle_names):
         if obstacle_names.index(n) != i:
             raise ScenarioError(f"obstacles: duplicate obstacle name {n!r}")
+        if n in names:  # (the summary's clearances are keyed by name: one name, one body)
+            raise ScenarioError(f"obstacles: {n!r} is also a vessel's name (names must be unique across "
+                                f"vessels and obstacles)")
     check_camera_vessel(outputs, names)
     comms = None
     if "comms" in data:
