@@ -42,6 +42,48 @@ def test_obstacle_names_follow_the_rule_too():
     rejected(lambda d: d["moving_obstacles"][0].update(name="fer/ry"), r"^moving_obstacles\[0\]\.name: must be ASCII")
 
 
+@pytest.mark.parametrize("name", ["../../escaped", "/tmp/abs", "a/b", ".", "two\nlines", "x" * 65])
+def test_the_scenario_name_follows_the_rule_it_names_the_output_folder(name):
+    rejected(lambda d: d.update(name=name), r"^name: must")
+
+
+def test_a_scenario_without_a_name_takes_its_file_name_made_to_follow_the_rule():
+    d = demo()
+    del d["name"]
+    assert parse_scenario(d, "/some/where/my demo (v2).toml").name == "my_demo__v2_"
+
+
+def test_names_are_unique_across_vessels_and_obstacles():
+    """The summary's clearances are keyed by name: a vessel and an obstacle sharing one lost the
+    obstacle's clearance."""
+    def vessel_as_static(d):
+        d["vessels"][0]["name"] = d["static_obstacles"][0]["name"]
+    rejected(vessel_as_static, r"^obstacles: '\w+' is also a vessel's name")
+    rejected(lambda d: d["moving_obstacles"][0].update(name=d["vessels"][1]["name"]),
+             r"^obstacles: '\w+' is also a vessel's name")
+
+
+def test_path_keys_where_nothing_follows_a_path_are_rejected():
+    def on_waypoints_with_a_position(d):
+        d["moving_obstacles"][0] = {"name": "barge", "radius_m": 3.0, "speed_m_s": 1.0,
+                                    "waypoints": [[300.0, 50.0], [0.0, 50.0]], "position_m": [-300.0, 300.0]}
+    rejected(on_waypoints_with_a_position, r"^moving_obstacles\[0\]\.position_m: not with waypoints")
+    rejected(lambda d: d["vessels"][0].update(controller={"type": "none", "waypoints": [[0.0, 0.0], [9.0, 0.0]]}),
+             r"^vessels\[0\]\.controller\.waypoints: unknown field \(allowed: commands, type\)")
+
+
+def test_campaign_and_family_names_follow_the_rule(tmp_path):
+    bad = tmp_path / "c.toml"
+    bad.write_text('name = "../../x"\nbase_seed = 1\n[[families]]\nkind = "head_on"\nruns_per_point = 1\n'
+                   'duration_s = 5.0\n')
+    with pytest.raises(CampaignError, match=r"c.toml: name: must be ASCII"):
+        load_campaign_spec(bad)
+    bad.write_text('name = "ok"\nbase_seed = 1\n[[families]]\nname = "a b"\nkind = "head_on"\n'
+                   'runs_per_point = 1\nduration_s = 5.0\n')
+    with pytest.raises(CampaignError, match=r"c.toml: families\[0\]\.name: must be ASCII"):
+        load_campaign_spec(bad)
+
+
 def test_a_polygon_written_as_a_closed_ring_is_the_same_polygon():
     d = demo()
     open_ring = parse_scenario(d, "demo.toml").static_obstacles[0].vertices
