@@ -109,7 +109,7 @@ def test_render_with_an_unknown_domain_or_task_creates_nothing(domain, task, tmp
 
 @pytest.mark.parametrize("argv, field", [(["render", "otter", "path_following", "--camera", "sideways"],
                                           "render --camera"),
-                                         (["run", "demo", "--camera", "split:zulu"], "outputs.video_camera")])
+                                         (["run", "demo", "--camera", "split:zulu"], "--camera: no vessel named")])
 def test_a_bad_camera_is_one_line_naming_the_field_and_creates_nothing(argv, field, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     assert main(argv) == 2
@@ -170,3 +170,10 @@ def test_figure_formats_are_checked():
         save_figure(None, "x.png", ("jpg",))
     with pytest.raises(SystemExit):
         build_parser(["figures"]).parse_args(["figures", "--format", "jpg"])
+
+
+def test_an_option_s_bad_value_names_the_option_not_the_file_field(tmp_path, capsys):
+    assert main(["run", "demo", "--camera", "bogus", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("mjasc: --camera: must be top_down") and err.count("\n") == 1
+    assert not (tmp_path / "o").exists()

@@ -286,7 +286,8 @@ def test_validation_errors_name_the_field():
 def test_config_parameters_declared_once_read_from_a_table_name_its_path():
     from mjasc.core.config_tables import dataclass_from_table
 
-    with pytest.raises(ValueError, match=r"^vessels\[0\]\.avoidance\.window_s: must be finite and > 0, got 0\.0$"):
+    with pytest.raises(ValueError,
+                       match=r"^vessels\[0\]\.avoidance\.window_s: must be finite, > 0 and ≤ 3600 s, got 0\.0$"):
         dataclass_from_table(CollisionPredictionConfig, {"window_s": 0}, "vessels[0].avoidance")
     with pytest.raises(ValueError, match=r"^av\.margin_s: must be finite and ≥ 0, got -1\.0$"):
         dataclass_from_table(CollisionPredictionConfig, {"margin_s": -1}, "av")

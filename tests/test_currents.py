@@ -587,7 +587,7 @@ GRID = {"type": "grid", "x_m": [0, 1], "y_m": [0, 1, 2], "u_m_s": [[0, 0, 0], [1
 @pytest.mark.parametrize(
     ("table", "message"),
     [
-        (_sum_with({**VORTEX, "core_radius_m": -2}), "current.components[1].core_radius_m: must be > 0, got -2"),
+        (_sum_with({**VORTEX, "core_radius_m": -2}), "current.components[1].core_radius_m: must be ≥ 0.01, got -2"),
         ({"type": "whirlpool"}, "current.type: unknown current type 'whirlpool'"),
         ({"velocity_m_s": [0, 0]}, "current.type: missing"),
         ("uniform", "current: must be a table, got 'uniform'"),
@@ -605,21 +605,21 @@ GRID = {"type": "grid", "x_m": [0, 1], "y_m": [0, 1, 2], "u_m_s": [[0, 0, 0], [1
         ({"type": "shear", "gradient_per_s": [[0, 0], [0, 0]]}, "current.base_velocity_m_s: missing"),
         ({**VORTEX, "profile": "burgers"}, "current.profile: must be one of 'lamb_oseen', 'rankine', got 'burgers'"),
         ({**VORTEX, "max_speed_m_s": "fast"}, "current.max_speed_m_s: must be a number, got 'fast'"),
-        ({**VORTEX, "core_radius_m": 0}, "current.core_radius_m: must be > 0, got 0"),
+        ({**VORTEX, "core_radius_m": 0}, "current.core_radius_m: must be ≥ 0.01, got 0"),
         ({**VORTEX, "drift_m_s": [0, 0, 0]}, "current.drift_m_s: must be 2 numbers"),
         ({**GRID, "x_m": [1, 0]}, "current.x_m: must be at least 2 strictly increasing numbers"),
         ({**GRID, "u_m_s": [[0, 0], [1, 1]]}, "current.u_m_s: must have shape [2, 3], got [2, 2]"),
         ({**GRID, "v_m_s": [[0, 0, 0], [0, 0]]}, "current.v_m_s: must be an array of shape [2, 3], got a ragged array"),
         ({**GRID, "times_s": [0.0, 10.0]}, "current.u_m_s: must be an array of shape [2, 2, 3]"),
         ({"type": "tidal", "amplitude_m_s": [0, 1], "period_s": -5}, "current.period_s: must be > 0, got -5"),
-        ({"type": "tidal", "amplitude_m_s": [0, 1], "period_s": 5, "base": {**VORTEX, "core_radius_m": -1}}, "current.base.core_radius_m: must be > 0, got -1"),
+        ({"type": "tidal", "amplitude_m_s": [0, 1], "period_s": 5, "base": {**VORTEX, "core_radius_m": -1}}, "current.base.core_radius_m: must be ≥ 0.01, got -1"),
         ({"type": "tidal", "amplitude_m_s": [0, 1], "period_s": 5, "base": {"type": "uniform", "velocity_m_s": [0, 0]}, "mean_velocity_m_s": [0, 0]}, "current.mean_velocity_m_s: give either base or mean_velocity_m_s"),
         ({"type": "tidal", "period_s": 5}, "current.amplitude_m_s: missing"),
-        ({**GM, "time_constant_s": -1.5}, "current.time_constant_s: must be > 0, got -1.5"),
+        ({**GM, "time_constant_s": -1.5}, "current.time_constant_s: must be ≥ 1.0, got -1.5"),
         ({**GM, "sigma_m_s": -0.1}, "current.sigma_m_s: must be >= 0, got -0.1"),
         ({**GM, "seed": 1.5}, "current.seed: must be an integer >= 0, got 1.5"),
         ({**GM, "seed": -1}, "current.seed: must be an integer >= 0, got -1"),
-        ({**GM, "step_s": 0}, "current.step_s: must be > 0, got 0"),
+        ({**GM, "step_s": 0}, "current.step_s: must be ≥ 0.01, got 0"),
         ({**GM, "start": "zero"}, "current.start: must be one of 'stationary', 'mean', got 'zero'"),
         ({"type": "sum", "components": []}, "current.components: must contain at least one component"),
         ({"type": "sum", "components": {"type": "uniform"}}, "current.components: must be a list of tables"),
@@ -636,9 +636,9 @@ def test_config_errors_name_the_field_path(table, message):
 
 
 def test_constructor_errors_name_the_parameter():
-    with pytest.raises(ValueError, match="core_radius_m: must be > 0, got -2"):
+    with pytest.raises(ValueError, match="core_radius_m: must be ≥ 0.01, got -2"):
         Vortex((0, 0), -2, 0.3)
-    with pytest.raises(ValueError, match="time_constant_s: must be > 0"):
+    with pytest.raises(ValueError, match="time_constant_s: must be ≥ 1.0"):
         GaussMarkovCurrent((0, 0), 0.0, 0.1, seed=1)
     with pytest.raises(ValueError, match="give either velocity_m_s or speed_m_s"):
         UniformCurrent((0.1, 0.0), speed_m_s=0.1, direction_rad=0.0)

@@ -84,6 +84,62 @@ def test_campaign_and_family_names_follow_the_rule(tmp_path):
         load_campaign_spec(bad)
 
 
+@pytest.mark.parametrize("mutation, match", [
+    (lambda d: d["moving_obstacles"][0].update(heading_deg=1e20), r"heading_deg: must be ≤ 3600.0"),
+    (lambda d: d["vessels"][0]["sensor"].update(beams=100_000_000), r"sensor\.beams: must be ≤ 100000"),
+    (lambda d: d["vessels"][0]["sensor"].update(max_range_m=1e300), r"sensor\.max_range_m: .* ≤ 100 km"),
+    (lambda d: d["vessels"][0]["avoidance"].update(window_s=1e300), r"avoidance\.window_s: .* ≤ 3600 s"),
+    (lambda d: d["vessels"][0]["avoidance"].update(safety_distance_m=1e300),
+     r"avoidance\.safety_distance_m: .* ≤ 10 km"),
+    (lambda d: d.update(current={"type": "gauss_markov", "mean_velocity_m_s": [0.0, 0.0], "time_constant_s": 300.0,
+                                 "sigma_m_s": 0.05, "step_s": 1e-6}), r"current\.step_s: must be ≥ 0.01"),
+    (lambda d: d.update(current={"type": "gauss_markov", "mean_velocity_m_s": [0.0, 0.0], "time_constant_s": 1e-300,
+                                 "sigma_m_s": 0.05}), r"current\.time_constant_s: must be ≥ 1.0"),
+])
+def test_absurd_values_that_would_hang_or_crash_a_run_are_rejected(mutation, match):
+    """Values with no physical meaning that made a run hang (a current sampled every microsecond
+    over the run: gigabytes), crash (an overflow in the map grid or the planner's hull) or diverge
+    at once are one line at load."""
+    rejected(mutation, match)
+
+
+def test_a_vortex_core_of_no_size_is_rejected():
+    from mjasc.physics.currents import current_from_config
+
+    with pytest.raises(ValueError, match=r"core_radius_m: must be ≥ 0.01"):
+        current_from_config({"type": "vortex", "centre_m": [0.0, 0.0], "max_speed_m_s": 1.0,
+                             "core_radius_m": 1e-300})
+
+
+def test_overrides_get_the_checks_a_file_with_their_values_gets():
+    """--duration and --seed: the scenario with the new values passes the same plausibility checks
+    as a file written with them (traffic reaching a structure later, a seeded current too strong)."""
+    d = demo()
+    d["duration_s"] = 100.0
+    d["static_obstacles"].append({"name": "rock", "type": "circle", "centre_m": [105.0, -200.0], "radius_m": 2.0})
+    sc = parse_scenario(d, "demo.toml")  # (the ferry reaches the rock at ~229 s: fine for 100 s)
+    with pytest.raises(ScenarioError, match=r"sails into static obstacle 'rock'"):
+        sc.with_overrides(duration_s=240.0)
+    d = demo()
+    d["current"] = {"type": "gauss_markov", "mean_velocity_m_s": [0.0, 0.0], "time_constant_s": 300.0,
+                    "sigma_m_s": 6.0}
+    strong = [seed for seed in range(40) if _too_strong(d, seed)]
+    assert strong and len(strong) < 40
+    d["seed"] = next(seed for seed in range(40) if seed not in strong)
+    sc = parse_scenario(d, "demo.toml")
+    with pytest.raises(ScenarioError, match=r"current: the water speed .* must be ≤ 10.0 m/s"):
+        sc.with_overrides(seed=strong[0])
+
+
+def _too_strong(d: dict, seed: int) -> bool:
+    try:
+        parse_scenario({**d, "seed": seed}, "demo.toml")
+    except ScenarioError as exc:
+        assert "water speed" in str(exc)
+        return True
+    return False
+
+
 def test_a_polygon_written_as_a_closed_ring_is_the_same_polygon():
     d = demo()
     open_ring = parse_scenario(d, "demo.toml").static_obstacles[0].vertices

@@ -66,7 +66,6 @@ from mjasc.core.config_tables import (
     number,
     param,
     show,
-    string,
     table,
 )
 from mjasc.core.frames import wrap_angle

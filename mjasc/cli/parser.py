@@ -147,10 +147,11 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     c.add_argument("--workers", type=count_arg(0), help="local worker processes (default: CPU count; 0: in this "
                                                         "process)")
     c.add_argument("--scheduler", help="address of an existing Dask scheduler (tcp://host:8786), or 'synchronous'")
-    c.add_argument("--runs", type=count_arg(1), help="only the campaign's first N runs (the rest can follow later: "
-                                            "a rerun into the same folder computes only what is missing)")
-    c.add_argument("--max-attempts", type=count_arg(1), default=2, help="tries per run for errors, timeouts and crashes "
-                                                               "(default: 2)")
+    c.add_argument("--runs", type=count_arg(1), help="only the campaign's first N runs (the rest can follow "
+                                                     "later: a rerun into the same folder computes only what is "
+                                                     "missing)")
+    c.add_argument("--max-attempts", type=count_arg(1), default=2,
+                   help="tries per run for errors, timeouts and crashes (default: 2)")
     c.add_argument("--time-limit", type=seconds_arg, default=3600.0, help="per-run time limit [s] (default: 3600)")
     c.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     c.set_defaults(func=cmd_campaign)
@@ -183,7 +184,8 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     se.add_argument("--failure-separation", type=float, default=0.0,
                     help="a run whose minimum separation [m] is below this is a failure (default: 0)")
     se.add_argument("--seed", type=seed_arg, default=0, help="seed of the search's sampling (default: 0)")
-    se.add_argument("--workers", type=count_arg(0), help="local worker processes (default: CPU count; 0: in this process)")
+    se.add_argument("--workers", type=count_arg(0),
+                    help="local worker processes (default: CPU count; 0: in this process)")
     se.add_argument("--scheduler", help="address of an existing Dask scheduler")
     se.add_argument("--out", help="output folder (default: runs/search/<campaign>_<family>_<method>)")
     se.set_defaults(func=cmd_search)

@@ -15,11 +15,23 @@ def cmd_run(args) -> int:
     from mjasc.runs.scenario import ScenarioError, load_scenario
 
     try:
-        scenario = load_scenario(args.scenario).with_overrides(
-            seed=args.seed, video=True if args.video or args.camera else None, duration_s=args.duration,
-            video_camera=args.camera)
+        scenario = load_scenario(args.scenario)
     except ScenarioError as exc:
         print(f"mjasc: invalid scenario: {exc}{not_found_hint(args.scenario, 'scenario')}", file=sys.stderr)
+        return 2
+    if args.camera is not None:
+        try:
+            scenario = scenario.with_overrides(video_camera=args.camera)
+        except ScenarioError as exc:  # (the message names the field the option sets: name the option)
+            print(f"mjasc: --camera: {str(exc).removeprefix('outputs.video_camera: ')}", file=sys.stderr)
+            return 2
+    try:
+        scenario = scenario.with_overrides(seed=args.seed, video=True if args.video or args.camera else None,
+                                           duration_s=args.duration)
+    except ScenarioError as exc:  # (the plausibility checks of the file with the options' values)
+        flags = " ".join(f"{flag} {value}" for flag, value in (("--seed", args.seed), ("--duration", args.duration))
+                         if value is not None)
+        print(f"mjasc: invalid scenario: {args.scenario} with {flags}: {exc}", file=sys.stderr)
         return 2
     out = out_dir(args.out, Path("runs") / scenario.name)
     try:

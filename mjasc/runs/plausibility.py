@@ -40,8 +40,8 @@ from mjasc.core.config_tables import ConfigError, param, show
 from mjasc.core.geometry import distance_to_polygon, hull_outline, point_in_polygon, polygons_overlap
 from mjasc.physics.obstacles import MovingObstacleSet, PolygonObstacle
 
-__all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "file_name", "check_duration", "check_plausible", "hulls_overlap",
-           "traffic_through_structure", "TRAFFIC_SAMPLE_FRACTION", "TRAFFIC_SAMPLE_MAX_S"]
+__all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "file_name", "check_duration", "check_plausible",
+           "hulls_overlap", "traffic_through_structure", "TRAFFIC_SAMPLE_FRACTION", "TRAFFIC_SAMPLE_MAX_S"]
 
 MAX_NAME_CHARS = 64
 """Longest vessel or obstacle name (it becomes a MuJoCo body name and a Rerun entity path)."""

@@ -46,7 +46,7 @@ __all__ = ["ScenarioError", "Scenario", "VesselConfig", "Rates", "Outputs", "REC
 
 # ---------------------------------------------------------------------- scenario-specific readers
 def _heading(t: dict, where: str) -> float:
-    return math.radians(number(t.get("heading_deg", 0.0), f"{where}.heading_deg"))
+    return math.radians(number(t.get("heading_deg", 0.0), f"{where}.heading_deg", minimum=-3600.0, maximum=3600.0))
 
 
 def _path(t: dict, where: str) -> Path:

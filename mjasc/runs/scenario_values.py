@@ -183,4 +183,10 @@ class Scenario:
             if duration_s is not None:
                 s = replace(s, duration_s=read_field(Scenario, "duration_s", {"duration_s": duration_s}, ""))
                 check_duration(s)
+            if seed is not None or duration_s is not None:  # (the checks a file with these values gets: a
+                # seeded current over the bound, traffic that reaches a structure within the new duration)
+                from mjasc.physics.vessels import load_vessel_type
+                from mjasc.runs.plausibility import check_plausible
+
+                check_plausible(s, {v.type: load_vessel_type(v.type) for v in s.vessels})
         return s

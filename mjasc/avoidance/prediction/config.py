@@ -34,14 +34,16 @@ def read_window_s(value: Any, where: str) -> float | None:
 class CollisionPredictionConfig:
     """Parameters of collision prediction (defaults: thesis §6.1)."""
 
-    window_s: float | None = param(30.0, positive=True, unit="s", phrase=_POSITIVE, reader=read_window_s,
+    window_s: float | None = param(30.0, positive=True, maximum=3600.0, unit="s",
+                                   phrase="must be finite, > 0 and ≤ 3600 s", reader=read_window_s,
                                    doc='fixed prediction window δ; None (a table: "dynamic") → dynamic '
-                                       "δ = v₀/a_brake + ζ (thesis: 30 s)")
+                                       "δ = v₀/a_brake + ζ (thesis: 30 s; at most an hour)")
     brake_decel_m_s2: float = param(0.1, positive=True, unit="m/s²", phrase=_POSITIVE,
                                     doc="a_brake of the dynamic window")
     margin_s: float = param(10.0, nonneg=True, unit="s", phrase=_NONNEG, doc="ζ of the dynamic window")
-    safety_distance_m: float = param(1.0, nonneg=True, unit="m", phrase=_NONNEG,
-                                     doc="added to R_vh + R_ob (thesis: 1 m)")
+    safety_distance_m: float = param(1.0, nonneg=True, maximum=10_000.0, unit="m",
+                                     phrase="must be finite, ≥ 0 and ≤ 10 km",
+                                     doc="added to R_vh + R_ob (thesis: 1 m; at most 10 km)")
     obstruction_threshold_s: float = param(15.0, positive=True, unit="s", phrase=_POSITIVE,
                                            doc="Δt_threshold of σ (thesis: 15 s in §6.1, 35 s in §6.4)")
     time_step_s: float = param(0.5, positive=True, unit="s", phrase=_POSITIVE, doc="grid step on the window")

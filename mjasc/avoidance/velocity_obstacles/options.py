@@ -15,8 +15,9 @@ __all__ = ["VelocityObstacleOptions", "check_options"]
 class VelocityObstacleOptions:
     """Options of :class:`~mjasc.avoidance.velocity_obstacles.method.VelocityObstacleAvoidance`."""
 
-    safety_distance_m: float = param(2.0, nonneg=True, unit="m",
-                                     doc="added to the own and the obstacle's radius: the combined radius R of a cone")
+    safety_distance_m: float = param(2.0, nonneg=True, maximum=10_000.0, unit="m",
+                                     doc="added to the own and the obstacle's radius: the combined radius R of a cone "
+                                         "(at most 10 km)")
     horizon_s: float = param(30.0, positive=True, unit="s",
                              doc="time horizon T: collisions later than T do not count (truncated cone)")
     course_candidates: int = param(37, minimum=3, maximum=721,

@@ -43,13 +43,14 @@ class GaussMarkovConfig:
     the scenario's seed (``describe()`` shows it)."""
 
     mean_velocity_m_s: np.ndarray = param(reader=vector2, unit="m/s", doc="V_mean, the mean current")
-    time_constant_s: float = param(positive=True, unit="s", doc="τ, the correlation time of the variation")
+    time_constant_s: float = param(minimum=1.0, unit="s",
+                                   doc="τ, the correlation time of the variation (≥ 1 s: a current's, not a wave's)")
     sigma_m_s: float = param(nonneg=True, phrase="must be >= 0", unit="m/s",
                              doc="σ, the standard deviation of each component's variation")
     seed: int | None = param(None, nonneg=True, reader=read_seed, phrase=_SEED_PHRASE,
                              doc="seed of the noise (none: derived from the scenario's seed)")
-    step_s: float | None = param(None, positive=True, unit="s",
-                                 doc="Δ, the sample grid (none: min(τ/50, 1 s))")
+    step_s: float | None = param(None, minimum=0.01, unit="s",
+                                 doc="Δ, the sample grid (none: min(τ/50, 1 s); ≥ 0.01 s, a day of it ~140 MB)")
     start: str = param("stationary", choices=GAUSS_MARKOV_STARTS, phrase="must be one of 'stationary', 'mean'",
                        doc="stationary: x(0) ~ N(0, σ²); mean: x(0) = 0")
 

@@ -40,7 +40,8 @@ class VortexConfig:
     """The parameters of a :class:`Vortex` (``[current]`` of ``type = "vortex"``)."""
 
     centre_m: np.ndarray = param(reader=vector2, unit="m", doc="the centre at t = 0")
-    core_radius_m: float = param(positive=True, unit="m", doc="r_c: Lamb–Oseen Gaussian width / Rankine core radius")
+    core_radius_m: float = param(minimum=0.01, unit="m",
+                                 doc="r_c: Lamb–Oseen Gaussian width / Rankine core radius (≥ 1 cm)")
     max_speed_m_s: float = param(unit="m/s", doc="peak tangential speed v_max, CCW positive (< 0: clockwise)")
     profile: str = param("lamb_oseen", choices=VORTEX_PROFILES, phrase="must be one of 'lamb_oseen', 'rankine'",
                          doc="tangential speed profile")
