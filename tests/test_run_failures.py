@@ -4,6 +4,7 @@ SIGTERM or Ctrl-C writes a summary with status ``interrupted`` and a recording t
 appear only complete (temporary name, then rename); the CLI reports bad input in one line (exit
 2) and a failed run with exit 1."""
 
+import dataclasses
 import json
 import os
 import signal
@@ -107,6 +108,13 @@ def test_a_diverged_run_leaves_its_summary_a_readable_recording_and_the_last_goo
     if RERUN.exists():
         subprocess.run([str(RERUN), "rrd", "verify", str(tmp_path / "recording.rrd")], check=True,
                        capture_output=True, timeout=120)
+    # The same folder, a run that completes without a recording: the diverged run's state and its
+    # recording go (the folder never mixes two runs); a video there before is gone too.
+    (tmp_path / "video.mp4").write_bytes(b"an earlier run's")
+    quiet = dataclasses.replace(sc, outputs=dataclasses.replace(sc.outputs, recording=False, video=False))
+    Runner(quiet.with_overrides(duration_s=1.0), tmp_path, progress=False).run()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["summary.json"]
+    assert json.loads((tmp_path / "summary.json").read_text())["status"] == "completed"
 
 
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])

@@ -16,7 +16,9 @@ recording is closed first (what was recorded so far is readable) and a summary i
 ``status`` says what happened (``diverged``, ``error``, ``interrupted``) and ``error`` why. Files
 are written under a temporary name and renamed when complete (:mod:`mjasc.runs.outputs`): a
 ``recording.rrd`` or ``summary.json`` is never half-written. ``Simulation.set_state(np.load(
-"last_good_state.npy"))`` on the same scenario's runner reproduces the divergence.
+"last_good_state.npy"))`` on the same scenario's runner reproduces the divergence. A run into a
+folder that holds an earlier run's outputs removes, when it starts, those of them it will not
+write itself (a recording, a video, a divergence's state): the folder never mixes two runs.
 
 **Timing.** The main loop times each slot's work and the physics (``time.perf_counter``, about
 0.1 µs per reading) and keeps the sums in ``Runner.stage_seconds`` (slot → seconds, plus
@@ -183,6 +185,10 @@ class Runner:
         files = {}
         if self.out_dir is not None:
             self.out_dir.mkdir(parents=True, exist_ok=True)
+            stale = [LAST_GOOD_STATE] + ([] if sc.outputs.recording else ["recording.rrd"]) + \
+                ([] if sc.outputs.video else ["video.mp4"])
+            for name in stale:  # (an earlier run's, which this one will not replace: module docstring)
+                (self.out_dir / name).unlink(missing_ok=True)
         self.metrics = RunMetrics(self.world, sc, self.sim.traffic)
         self.target_judge = None
         tt = sc.mission.track_target if sc.mission is not None else None
