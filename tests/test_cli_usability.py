@@ -66,7 +66,9 @@ def test_usage_errors_and_bad_option_values_are_one_line_naming_the_option(tmp_p
              (["search", "demo_monte_carlo", "head_on", "--workers", "-2", "--out", str(tmp_path / "s")],
               "argument --workers: must be ≥ 0, got -2"),
              (["render", "otter", "path_following", "--seed", "-1", "--out", str(tmp_path / "r")],
-              "argument --seed: must be ≥ 0, got -1")]
+              "argument --seed: must be ≥ 0, got -1"),
+             (["campaign", "demo_monte_carlo", "--scheduler", "bogus", "--out", str(tmp_path / "c")],
+              "argument --scheduler: must be 'synchronous', 'local' or a scheduler address with its port")]
     for argv, message in cases:
         with pytest.raises(SystemExit) as stop:
             main(argv)
@@ -74,6 +76,13 @@ def test_usage_errors_and_bad_option_values_are_one_line_naming_the_option(tmp_p
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and message in err, (argv, err)
     assert not any(tmp_path.iterdir())  # (no output folder made)
+    for command in ("campaign", "search"):  # (an existing cluster has its own workers: 0 would ignore it)
+        argv = [command, "demo_monte_carlo", *(["head_on"] if command == "search" else []), "--scheduler",
+                "tcp://127.0.0.1:8786", "--workers", "0", "--out", str(tmp_path / "c")]
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.startswith("mjasc: --workers 0: only for a local cluster") and err.count("\n") == 1
+    assert not any(tmp_path.iterdir())
 
 
 def test_a_closed_pipe_is_not_an_error(monkeypatch, capsys):

@@ -110,6 +110,10 @@ def test_a_bad_scenario_is_reported_under_the_scenario_field(tmp_path):
     (tmp_path / "c.toml").write_text('scenario = "bad.toml"\nruns = 2\n')
     with pytest.raises(CampaignError, match=r"c\.toml: scenario: .*bad\.toml: duration_s: must be > 0"):
         load_campaign(tmp_path / "c.toml")
+    from mjasc.campaigns.spec import load_campaign_spec  # (the command line's reader: the same file named)
+
+    with pytest.raises(CampaignError, match=r"c\.toml: scenario bad\.toml: duration_s: must be > 0"):
+        load_campaign_spec(tmp_path / "c.toml")
 
 
 def test_campaign_file_resolves_the_scenario_relative_to_itself(tmp_path):

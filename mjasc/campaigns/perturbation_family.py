@@ -137,14 +137,17 @@ def parse_perturbation_family(t: dict, where: str, index: int, base_dir: str | P
             raise CampaignError(f"{at('scenario')}: not a usable file name ({path_problem(rel)}), got {show_path(rel)}")
     path = (Path(base_dir) / rel).resolve()
     try:
-        data = dict(load_toml(path, ScenarioError, "scenario"))
-        if duration is not None:
-            data["duration_s"] = duration
-        from mjasc.runs.scenario import parse_scenario
-
-        scenario = parse_scenario(data, str(path))
+        data = dict(load_toml(path, ScenarioError, "scenario"))  # (its errors name the file)
     except ScenarioError as exc:
         raise CampaignError(f"{at('scenario')}: {exc}") from None
+    if duration is not None:
+        data["duration_s"] = duration
+    from mjasc.runs.scenario import parse_scenario
+
+    try:
+        scenario = parse_scenario(data, str(path))
+    except ScenarioError as exc:  # (a field of the scenario file: name the file)
+        raise CampaignError(f"{at('scenario')} {show_path(rel)}: {exc}") from None
     try:
         parse_scenario(conditions.apply(data), str(path))
     except ScenarioError as exc:

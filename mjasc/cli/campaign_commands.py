@@ -10,8 +10,21 @@ from pathlib import Path
 from mjasc.cli.arguments import not_found_hint, out_dir
 
 
+def _scheduler_problem(args) -> str:
+    """Why --scheduler and --workers do not go together ('' if they do): an existing cluster has
+    its own workers (and --workers 0, this process, would ignore it)."""
+    if args.scheduler not in (None, "local", "synchronous") and args.workers is not None:
+        return (f"mjasc: --workers {args.workers}: only for a local cluster; the cluster at {args.scheduler} "
+                f"(--scheduler) has its own workers")
+    return ""
+
+
 def cmd_campaign(args) -> int:
     from mjasc.campaigns.executor import close_prestarted, prestart_isolated
+
+    if problem := _scheduler_problem(args):
+        print(problem, file=sys.stderr)
+        return 2
 
     if args.scheduler in (None, "local") and args.workers != 0:
         prestart_isolated(args.workers)  # the runs' children import while the campaign is read
@@ -127,6 +140,9 @@ def cmd_search(args) -> int:
     from mjasc.campaigns.spec import CampaignError, load_campaign_spec
     from mjasc.core.config_tables import ConfigError
 
+    if problem := _scheduler_problem(args):
+        print(problem, file=sys.stderr)
+        return 2
     try:
         campaign = load_campaign_spec(args.campaign)
         config = SearchConfig(method=args.method, budget=args.budget, batch=args.batch,

@@ -85,7 +85,19 @@ def seconds_arg(text: str) -> float:
     return value
 
 
-seed_arg.__name__, seconds_arg.__name__ = "seed", "seconds"
+def scheduler_arg(text: str) -> str:
+    """An argparse type: 'synchronous', 'local' or a Dask scheduler's address with its port
+    (``tcp://host:8786``, ``host:8786``)."""
+    import re
+
+    if text in ("synchronous", "local") or re.fullmatch(r"(?:[a-z]+://)?[^\s/:]+(?::[^\s/]*)?:\d{1,5}", text) or \
+            re.fullmatch(r"(?:[a-z]+://)?\[[0-9A-Fa-f:.]+\]:\d{1,5}", text):
+        return text
+    raise argparse.ArgumentTypeError(f"must be 'synchronous', 'local' or a scheduler address with its port "
+                                     f"(tcp://host:8786), got {text!r}")
+
+
+seed_arg.__name__, seconds_arg.__name__, scheduler_arg.__name__ = "seed", "seconds", "scheduler"
 
 
 def _plain(text: str) -> str:
@@ -146,7 +158,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     c.add_argument("--out", help="output folder (default: runs/campaigns/<campaign name> in the current folder)")
     c.add_argument("--workers", type=count_arg(0), help="local worker processes (default: CPU count; 0: in this "
                                                         "process)")
-    c.add_argument("--scheduler", help="address of an existing Dask scheduler (tcp://host:8786), or 'synchronous'")
+    c.add_argument("--scheduler", type=scheduler_arg, help="address of an existing Dask scheduler (tcp://host:8786), or 'synchronous'")
     c.add_argument("--runs", type=count_arg(1), help="only the campaign's first N runs (the rest can follow "
                                                      "later: a rerun into the same folder computes only what is "
                                                      "missing)")
@@ -186,7 +198,7 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     se.add_argument("--seed", type=seed_arg, default=0, help="seed of the search's sampling (default: 0)")
     se.add_argument("--workers", type=count_arg(0),
                     help="local worker processes (default: CPU count; 0: in this process)")
-    se.add_argument("--scheduler", help="address of an existing Dask scheduler")
+    se.add_argument("--scheduler", type=scheduler_arg, help="address of an existing Dask scheduler")
     se.add_argument("--out", help="output folder (default: runs/search/<campaign>_<family>_<method>)")
     se.set_defaults(func=cmd_search)
     tasks = ""
