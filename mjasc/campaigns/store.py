@@ -116,29 +116,31 @@ class CampaignStore:
                              (digest, name, source, file_text, int(runs_defined), now, now))
 
     def _migrate(self) -> None:
-        """Give a store written before the ``method`` column its new key and one written before
-        ``run_unix_s`` that column (module docstring)."""
+        """Give a store written before the ``run_unix_s`` column that column and one written before
+        the ``method`` column its new key (module docstring)."""
+        self._add_column("campaigns", "run_unix_s", ["ALTER TABLE campaigns ADD COLUMN run_unix_s REAL",
+                                                     "UPDATE campaigns SET run_unix_s = created_unix_s"])
+        self._add_column("runs", "method", [
+            "DROP TABLE IF EXISTS runs_migrating",
+            _SCHEMA.split(";")[1].replace("IF NOT EXISTS runs", "runs_migrating"),
+            f"INSERT INTO runs_migrating ({_OLD_COLUMNS}, method) SELECT {_OLD_COLUMNS}, '' FROM runs",
+            "DROP TABLE runs", "ALTER TABLE runs_migrating RENAME TO runs"])
+
+    def _add_column(self, table: str, column: str, statements: list[str]) -> None:
+        """Run ``statements`` in one transaction if ``table`` has no ``column`` (checked again inside
+        it: another process may have migrated the store meanwhile)."""
         db = self._db
-        if "run_unix_s" not in {r[1] for r in db.execute("PRAGMA table_info(campaigns)")}:
-            db.execute("BEGIN IMMEDIATE")
-            try:
-                if "run_unix_s" not in {r[1] for r in db.execute("PRAGMA table_info(campaigns)")}:
-                    db.execute("ALTER TABLE campaigns ADD COLUMN run_unix_s REAL")
-                    db.execute("UPDATE campaigns SET run_unix_s = created_unix_s")
-                db.execute("COMMIT")
-            except BaseException:
-                db.execute("ROLLBACK")
-                raise
-        if "method" in {r[1] for r in db.execute("PRAGMA table_info(runs)")}:
+
+        def missing() -> bool:
+            return column not in {r[1] for r in db.execute(f"PRAGMA table_info({table})")}
+
+        if not missing():
             return
         db.execute("BEGIN IMMEDIATE")
         try:
-            if "method" not in {r[1] for r in db.execute("PRAGMA table_info(runs)")}:  # another process may have
-                db.execute("DROP TABLE IF EXISTS runs_migrating")
-                db.execute(_SCHEMA.split(";")[1].replace("IF NOT EXISTS runs", "runs_migrating"))
-                db.execute(f"INSERT INTO runs_migrating ({_OLD_COLUMNS}, method) SELECT {_OLD_COLUMNS}, '' FROM runs")
-                db.execute("DROP TABLE runs")
-                db.execute("ALTER TABLE runs_migrating RENAME TO runs")
+            if missing():
+                for sql in statements:
+                    db.execute(sql)
             db.execute("COMMIT")
         except BaseException:
             db.execute("ROLLBACK")
