@@ -186,3 +186,9 @@ def test_an_option_s_bad_value_names_the_option_not_the_file_field(tmp_path, cap
     err = capsys.readouterr().err
     assert err.startswith("mjasc: --camera: must be top_down") and err.count("\n") == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_render_with_a_chase_camera_on_no_vessel_leaves_no_folder(tmp_path, capsys):
+    out = tmp_path / "r"
+    assert main(["render", "otter", "path_following", "--camera", "chase:nobody", "--out", str(out)]) == 2
+    assert "no camera 'nobody/chase'" in capsys.readouterr().err and not out.exists()

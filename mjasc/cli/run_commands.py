@@ -187,6 +187,7 @@ def cmd_render(args) -> int:
         what = f"domain {args.domain!r}" if tasks is None else f"task {args.task!r} of domain {args.domain!r}"
         print(f"mjasc: render: no {what} (known: {suite_tasks(TASKS_BY_DOMAIN)})", file=sys.stderr)
         return 2
+    existed = Path(args.out).is_dir()
     out = out_dir(args.out, None)
     print(f"rendering {args.domain} {args.task} ({args.policy} policy, seed {args.seed}) into {out} ...", flush=True)
     t0 = time.perf_counter()
@@ -196,8 +197,10 @@ def cmd_render(args) -> int:
                                 progress=lambda done, limit: print(f"  {100 * done // limit:3d} % ({done} of {limit} "
                                                                    f"control steps, {time.perf_counter() - t0:.0f} s)",
                                                                    flush=True))
-    except ValueError as exc:
+    except ValueError as exc:  # (bad input found in the task: a chase camera on no vessel of it, ...)
         print(f"mjasc: {exc}", file=sys.stderr)
+        if not existed and out.is_dir() and not any(out.iterdir()):
+            out.rmdir()  # (the folder made for it, left empty: nothing was written)
         return 2
     end = "ended by the task (a collision)" if result.terminated else "ran to its time limit"
     print(f"{args.domain} {args.task}: {result.steps} control steps, return {result.episode_return:.3f} "
