@@ -268,3 +268,52 @@ def test_a_registered_control_method_follows_the_path(tmp_path):
     assert a["max_cross_track_m"] >= 5.0 and a["mean_cross_track_m"] < 2.5
     with pytest.raises(ScenarioError, match=r"vessels\[0\]\.controller\.type: unknown control method 'test_pursuit'"):
         parse_scenario(d)
+
+
+class DocumentedHooks(AvoidanceMethod):
+    method = "test_hooks"  # (and no docstring: `mjasc list` shows an empty description)
+
+    def control(self, t, nav, guidance, report, team=None):
+        return AvoidanceRequest()
+
+    def log(self, recorder, t_s, vessel_name):  # the signature docs/plugins.md shows (no guidance keyword)
+        self.logged = getattr(self, "logged", 0) + 1
+        recorder.scalar(f"plots/test_hooks/{vessel_name}", t_s, 1.0)
+
+    def summary(self):
+        import numpy as np
+
+        if getattr(self, "fail", False):
+            raise KeyError("a bug")
+        return {"method": self.method, "logged": np.int64(getattr(self, "logged", 0)), "gain": np.float32(0.5),
+                "trace": np.arange(3)}
+
+
+def test_a_plugin_with_the_documented_hooks_runs_recorded_and_its_summary_is_kept(tmp_path, monkeypatch, capsys):
+    """docs/plugins.md's ``log(recorder, t, vessel_name)`` works in a recorded run (the runner
+    passed a guidance keyword it does not take); a summary of numpy numbers is written as JSON
+    numbers; a summary that raises costs the run nothing but that entry; a class without a
+    docstring lists."""
+    import json
+
+    from mjasc.cli import main
+    from mjasc.runs.runner import run_scenario
+
+    register("avoidance", DocumentedHooks)
+    try:
+        d = _doc({"method": "test_hooks"})
+        res = run_scenario(parse_scenario(d), tmp_path / "a")
+        written = json.loads((tmp_path / "a" / "summary.json").read_text())["vessels"]["a"]["avoidance"]
+        assert written["logged"] > 0 and written == {"method": "test_hooks", "logged": written["logged"],
+                                                     "gain": 0.5, "trace": [0, 1, 2]}
+        assert res.summary["vessels"]["a"]["avoidance"]["logged"] == written["logged"]
+        monkeypatch.setattr(DocumentedHooks, "fail", True, raising=False)
+        run_scenario(parse_scenario(d), tmp_path / "b")
+        written = json.loads((tmp_path / "b" / "summary.json").read_text())
+        assert written["status"] == "completed"
+        assert written["vessels"]["a"]["avoidance"] == {"method": "test_hooks",
+                                                        "summary_error": "KeyError: 'a bug'"}
+        assert main(["list"]) == 0
+        assert "avoidance test_hooks" in capsys.readouterr().out
+    finally:
+        unregister("avoidance", "test_hooks")

@@ -40,6 +40,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
+from mjasc.runs.outputs import json_value
+
 __all__ = ["CampaignStore", "StoredRun", "StoreError", "FINAL_STATUSES", "RETRY_STATUSES", "STORE_FILE"]
 
 STORE_FILE = "campaign.sqlite"
@@ -197,7 +199,7 @@ class CampaignStore:
             db.execute(f"INSERT OR REPLACE INTO runs ({_OLD_COLUMNS}, method) "
                        f"VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                        (self.digest, int(index), family, json.dumps(parameters, sort_keys=True), int(seed), scenario,
-                        status, attempts, error, None if metrics is None else json.dumps(metrics, sort_keys=True),
+                        status, attempts, error, None if metrics is None else json.dumps(metrics, sort_keys=True, default=json_value),
                         wall_time_s, worker, time.time(), method))
             db.execute("COMMIT")
         except BaseException:

@@ -133,7 +133,7 @@ def cmd_list(args) -> int:
     for stage in STAGES:
         for name in available(stage):
             try:
-                doc = (method_class(stage, name).__doc__ or "").strip().splitlines()[0]
+                doc = next(iter((method_class(stage, name).__doc__ or "").strip().splitlines()), "")
             except ValueError as exc:
                 doc = f"INVALID: {exc}"
             print(f"  {stage + ' ' + name:36s} {doc}")

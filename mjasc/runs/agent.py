@@ -33,6 +33,8 @@ reports events with ``drain_events()``.
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 from dataclasses import dataclass
 
@@ -349,10 +351,24 @@ class VesselAgent:
             c.log(recorder, t_s, name)
         if (c := self.coordination) is not None:
             c.log(recorder, t_s, name)
-        if (c := self.avoidance) is not None:  # (the guidance state only for a method that draws it now)
-            c.log(recorder, t_s, name, guidance=self.guidance_state() if getattr(c, "logs_guidance", True) else None)
+        if (c := self.avoidance) is not None:  # (the guidance state only for a method that draws it now, and
+            # only to a log that takes it: a plugin's log(recorder, t, vessel_name) as docs/plugins.md shows it)
+            if _log_takes_guidance(type(c)):
+                c.log(recorder, t_s, name, guidance=self.guidance_state() if getattr(c, "logs_guidance", True) else None)
+            else:
+                c.log(recorder, t_s, name)
         if (c := self.mission) is not None:
             c.log(recorder, t_s, name)
+
+
+@functools.lru_cache(maxsize=None)
+def _log_takes_guidance(cls: type) -> bool:
+    """Does ``cls.log`` take a ``guidance`` keyword (by name or ``**kwargs``)?"""
+    try:
+        params = inspect.signature(cls.log).parameters
+    except (TypeError, ValueError, AttributeError):
+        return False
+    return "guidance" in params or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values())
 
 
 def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray, team_names, network,

@@ -20,7 +20,7 @@ from typing import Iterator
 
 from mjasc.core.config_tables import ConfigError, path_problem, show_path
 
-__all__ = ["OutputError", "check_out_dir", "atomic_write_text", "atomic_target", "part_path"]
+__all__ = ["OutputError", "check_out_dir", "atomic_write_text", "atomic_target", "part_path", "json_value"]
 
 
 class OutputError(ConfigError):
@@ -81,3 +81,15 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
             f.flush()
             os.fsync(f.fileno())
     return Path(path)
+
+
+def json_value(value):
+    """``json.dumps(..., default=json_value)``: numpy scalars as numbers, arrays as lists, any other
+    object as its text (what a plugin's summary may hold, docs/plugins.md)."""
+    import numpy as np
+
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    return str(value)

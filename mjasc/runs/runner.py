@@ -50,7 +50,7 @@ from mjasc.runs.agent import build_agent
 from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import catch_sigterm, interrupt_behind, restore_sigterm, signal_name
-from mjasc.runs.outputs import atomic_target, atomic_write_text
+from mjasc.runs.outputs import atomic_target, atomic_write_text, json_value
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
 from mjasc.runs.tick import ONBOARD_SLOTS, SlotEvent, run_onboard_slot
@@ -302,7 +302,7 @@ class Runner:
             for kind, comp in (("perception", agent.perception), ("coordination", agent.coordination),
                                ("avoidance", agent.avoidance), ("mission", agent.mission)):
                 if comp is not None and hasattr(comp, "summary"):
-                    summary["vessels"][agent.name][kind] = comp.summary()
+                    summary["vessels"][agent.name][kind] = component_summary(comp)
         if sc.mission is not None:
             from mjasc.missions.sequencer import team_mission_summary
 
@@ -324,13 +324,26 @@ class Runner:
                 summary["last_good_state"]["file"] = LAST_GOOD_STATE
         if self.out_dir is not None:
             files["summary"] = self.out_dir / "summary.json"
-            atomic_write_text(files["summary"], json.dumps(summary, indent=2))
+            atomic_write_text(files["summary"], json.dumps(summary, indent=2, default=json_value))
         result = RunResult(self.out_dir, summary, files)
+        kept = f"; partial outputs kept in {self.out_dir}" if self.out_dir is not None else ""
         if status == "interrupted":
-            raise RunInterrupted(f"{error}; partial outputs kept in {self.out_dir}", summary)
+            raise RunInterrupted(f"{error}{kept}", summary)
         if status != "completed":
-            raise RunFailed(f"{error}; partial outputs kept in {self.out_dir}", summary)
+            raise RunFailed(f"{error}{kept}", summary)
         return result
+
+
+def component_summary(comp) -> dict:
+    """A component's ``summary()`` for summary.json: what it returns (numpy numbers and arrays as
+    JSON numbers and lists, :func:`json_value`), or — a plugin's summary that raises — the method
+    and the error, so that the run's summary is written all the same."""
+    try:
+        out = comp.summary()
+    except Exception as exc:  # noqa: BLE001 — a plugin's bug must not cost the run its summary
+        return {"method": getattr(comp, "method", type(comp).__name__),
+                "summary_error": f"{type(exc).__name__}: {exc}"}
+    return out
 
 
 def run_scenario(scenario: Scenario, out_dir=None, progress: bool | None = None,
