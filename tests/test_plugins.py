@@ -317,3 +317,41 @@ def test_a_plugin_with_the_documented_hooks_runs_recorded_and_its_summary_is_kep
         assert "avoidance test_hooks" in capsys.readouterr().out
     finally:
         unregister("avoidance", "test_hooks")
+
+
+def test_a_method_that_cannot_be_built_is_one_line_before_the_run(tmp_path):
+    """An abstract method (its control not written) is rejected when the scenario loads, naming the
+    field; a constructor that raises is a ConfigError naming the stage, method and vessel, raised
+    when the run is set up (before anything runs)."""
+    from mjasc.core.config_tables import ConfigError
+    from mjasc.runs.runner import Runner
+
+    class Unfinished(AvoidanceMethod):
+        """No control."""
+        method = "test_unfinished"
+
+    class Fragile(AvoidanceMethod):
+        """Its constructor fails."""
+        method = "test_fragile"
+
+        def __init__(self, context, options=None):
+            raise ValueError("need a sensor range\nof at least 500 m")
+
+        def control(self, t, nav, guidance, report, team=None):
+            return AvoidanceRequest()
+
+    register("avoidance", Unfinished)
+    register("avoidance", Fragile)
+    try:
+        with pytest.raises(ScenarioError, match=r"^vessels\[0\]\.avoidance\.method: the avoidance method "
+                                                r"'test_unfinished' \(.*Unfinished\) does not implement control$"):
+            parse_scenario(_doc({"method": "test_unfinished"}))
+        sc = parse_scenario(_doc({"method": "test_fragile"}))
+        with pytest.raises(ConfigError) as info:
+            Runner(sc, tmp_path, progress=False)
+        assert str(info.value).endswith("for vessel 'a': could not be built: ValueError: need a sensor range of at "
+                                        "least 500 m") and "\n" not in str(info.value)
+        assert not any(tmp_path.iterdir())
+    finally:
+        unregister("avoidance", "test_unfinished")
+        unregister("avoidance", "test_fragile")

@@ -27,6 +27,7 @@ that does not, or a package that fails to import is a one-line error naming the 
 from __future__ import annotations
 
 import importlib
+import inspect
 from dataclasses import dataclass
 from importlib import metadata
 from typing import Any
@@ -140,8 +141,17 @@ class MethodChoice:
         return method_class(self.stage, self.name)
 
     def build(self, context: StageContext) -> StageMethod:
-        """The method for one vessel."""
-        return self.cls.from_context(context, self.options)
+        """The method for one vessel; a method whose construction raises is a ConfigError naming
+        the stage, the method and the vessel (before the run starts)."""
+        cls = self.cls
+        try:
+            return cls.from_context(context, self.options)
+        except ConfigError:
+            raise
+        except Exception as exc:  # noqa: BLE001 — a plugin's constructor: its error, on one line
+            text = " ".join(str(exc).split())
+            raise ConfigError(f"{self.stage} method {self.name!r} ({cls.__module__}.{cls.__qualname__}) for vessel "
+                              f"{context.vessel_name!r}: could not be built: {type(exc).__name__}: {text}") from None
 
 
 def parse_method_table(stage: str, tbl: Any, where: str, name_key: str = "method") -> MethodChoice:
@@ -151,6 +161,10 @@ def parse_method_table(stage: str, tbl: Any, where: str, name_key: str = "method
     tbl = dict(table({} if tbl is None else tbl, where))
     name = string(tbl.pop(name_key, STAGES[stage][1]), f"{where}.{name_key}")
     cls = method_class(stage, name, f"{where}.{name_key}")
+    if inspect.isabstract(cls):  # (it would fail when the run builds it: say so now)
+        missing = ", ".join(sorted(getattr(cls, "__abstractmethods__", ())))
+        raise ConfigError(f"{where}.{name_key}: the {stage} method {name!r} ({cls.__module__}.{cls.__qualname__}) "
+                          f"does not implement {missing}")
     if cls.Options is None:
         if tbl:
             raise ConfigError(f"{where}.{next(iter(tbl))}: unknown field (the {stage} method {name!r} takes no options)")
