@@ -387,7 +387,7 @@ def test_merge_overlapping_polygons():
 
 # ------------------------------------------------------------------------------------ team mates via comms
 def test_prediction_fields_are_validated_by_collision_prediction():
-    with pytest.raises(ValueError, match=r"^avoidance\.window_s: must be finite and > 0"):
+    with pytest.raises(ValueError, match=r"^avoidance\.window_s: must be finite, > 0 and ≤ 3600 s, got -1\.0$"):
         parse_avoidance_options({"window_s": -1}, "avoidance")
     with pytest.raises(ValueError, match=r"^avoidance\.margin_s: must be finite and ≥ 0, got -1\.0$"):
         parse_avoidance_options({"margin_s": -1}, "avoidance")

@@ -389,3 +389,11 @@ def test_report_on_a_campaign_and_as_json(here, tmp_path, capsys):
     assert data["outcomes"]["completed"] == 4 and "collision" in data["outcomes"]
     assert data["families"]["perturbation"]["per_vessel"]["time_cost_s"]["n"] == 8
     assert main(["report", str(tmp_path / "nothing")]) == 2
+
+
+def test_a_bad_scheduler_is_refused_before_the_store_is_made(tmp_path):
+    spec = load_campaign_spec(write_campaign(tmp_path, runs=1, duration=2.0))
+    with pytest.raises(ValueError, match=r"^scheduler: must be 'synchronous', 'local', a distributed.Client or a "
+                                         r"scheduler address with its port \(tcp://host:8786\), got 'bogus'$"):
+        run_campaign(spec, tmp_path / "out", scheduler="bogus", progress=False)
+    assert not (tmp_path / "out").exists()

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import os
 
-__all__ = ["open_client", "close_client", "local_workers", "quiet_shutdown", "warm_up_worker", "WORKER_WAIT_S"]
+__all__ = ["open_client", "close_client", "local_workers", "quiet_shutdown", "scheduler_problem", "warm_up_worker",
+           "WORKER_WAIT_S"]
 
 #: How long a campaign waits for the first worker of a cluster [s].
 WORKER_WAIT_S = 120.0
@@ -65,6 +66,20 @@ def open_client(scheduler, workers: int | None, threaded: bool = False):
     if workers is not None:
         raise ValueError(f"workers: only for a local cluster; the cluster at {scheduler} has its own workers")
     return Client(scheduler), []
+
+
+def scheduler_problem(scheduler) -> str:
+    """Why ``scheduler`` is not one run_campaign takes ('' if it is): None, "local", "synchronous",
+    a ``distributed.Client`` or a scheduler's address with its port (``tcp://host:8786``)."""
+    import re
+
+    if scheduler is None or scheduler in ("local", "synchronous") or type(scheduler).__name__ == "Client":
+        return ""
+    if isinstance(scheduler, str) and (re.fullmatch(r"(?:[a-z]+://)?[^\s/:\[\]]+:\d{1,5}", scheduler) or
+                                       re.fullmatch(r"(?:[a-z]+://)?\[[0-9A-Fa-f:.]+\]:\d{1,5}", scheduler)):
+        return ""
+    return (f"must be 'synchronous', 'local', a distributed.Client or a scheduler address with its port "
+            f"(tcp://host:8786), got {scheduler!r}")
 
 
 def local_workers(workers: int | None) -> int:

@@ -88,13 +88,11 @@ def seconds_arg(text: str) -> float:
 def scheduler_arg(text: str) -> str:
     """An argparse type: 'synchronous', 'local' or a Dask scheduler's address with its port
     (``tcp://host:8786``, ``host:8786``)."""
-    import re
+    from mjasc.campaigns.cluster import scheduler_problem
 
-    if text in ("synchronous", "local") or re.fullmatch(r"(?:[a-z]+://)?[^\s/:]+(?::[^\s/]*)?:\d{1,5}", text) or \
-            re.fullmatch(r"(?:[a-z]+://)?\[[0-9A-Fa-f:.]+\]:\d{1,5}", text):
-        return text
-    raise argparse.ArgumentTypeError(f"must be 'synchronous', 'local' or a scheduler address with its port "
-                                     f"(tcp://host:8786), got {text!r}")
+    if problem := scheduler_problem(text):
+        raise argparse.ArgumentTypeError(problem.replace(", a distributed.Client", ""))
+    return text
 
 
 seed_arg.__name__, seconds_arg.__name__, scheduler_arg.__name__ = "seed", "seconds", "scheduler"
