@@ -192,3 +192,21 @@ def test_every_vessel_colour_stands_out_on_the_water():
         for colour in PALETTE:
             ratio = (luminance(np.array(colour) / 255) + 0.05) / (water + 0.05)
             assert ratio >= 3.0, (colour, key, ratio)
+
+
+def test_the_video_plays_in_real_time_when_the_frame_rate_does_not_divide_the_physics_rate(tmp_path):
+    """20 fps asked at 50 Hz physics: a frame every 2 physics steps (25 fps); the MP4 is encoded at
+    that rate, so its duration is the simulated time (it played 12 s of simulation in 15 s)."""
+    import imageio_ffmpeg
+
+    sc = load_scenario(TASKS / "demo.toml").with_overrides(duration_s=2.0, video=True)
+    sc = dataclasses.replace(sc, outputs=dataclasses.replace(sc.outputs, video_width=320, video_height=240,
+                                                             video_fps=20.0, recording=False))
+    assert sc.rates.physics_hz == 50.0
+    result = Runner(sc, tmp_path, progress=False).run()
+    reader = imageio_ffmpeg.read_frames(str(tmp_path / "video.mp4"))
+    meta = next(reader)
+    frames = sum(1 for _ in reader)
+    assert result.summary["rates_hz"]["video"] == 25.0 and meta["fps"] == pytest.approx(25.0)
+    assert frames == result.summary["video_frames"] == 51
+    assert (frames - 1) / meta["fps"] == pytest.approx(sc.duration_s)  # the first frame at t = 0, the last at 2 s

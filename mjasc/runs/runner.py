@@ -205,9 +205,11 @@ class Runner:
 
             files["video"] = self.out_dir / "video.mp4"
             overlays = [v.path.sample(1.0) for v in sc.vessels if v.path is not None]
+            # (encoded at the rate frames are taken — the requested one rounded to whole physics steps,
+            # 20 fps at 50 Hz physics: 25 — so that the video plays in real time)
             self.video = VideoWriter(files["video"], self.world.model, sc.outputs.video_width, sc.outputs.video_height,
-                                     sc.outputs.video_fps, sc.outputs.video_camera, self.extent(), overlays,
-                                     title=sc.name)
+                                     self.schedule.realized_rate_hz("video"), sc.outputs.video_camera, self.extent(),
+                                     overlays, title=sc.name)
         total_steps = int(round(sc.duration_s / sim.timestep_s))
         status, error = "completed", None
         wall0 = time.perf_counter()

@@ -92,7 +92,9 @@ class Outputs:
     video_camera: str = param("top_down", doc="top_down, overview, chase:<vessel> (its chase camera), split or "
                                                "split:<vessel> (overview left, the vessel's chase camera right; "
                                                "split: the first vessel)")
-    video_fps: float = param(20.0, positive=True, maximum=120, unit="1/s", doc="video frames per second")
+    video_fps: float = param(20.0, positive=True, maximum=120, unit="1/s",
+                             doc="video frames per second, rounded to a whole number of physics steps a frame (20 at "
+                                 "50 Hz physics: 25) so that the video plays in real time")
     video_width: int = param(640, minimum=16, maximum=1280, unit="px",
                              doc="frame width: within the scene's offscreen buffer (1280×720), even (H.264)")
     video_height: int = param(480, minimum=16, maximum=720, unit="px",
