@@ -34,6 +34,9 @@ class ControlTick:
     """The control tick's checks and references of :class:`~mjasc.avoidance.system.CollisionAvoidance`
     (see the module docstring)."""
 
+    #: Its mode changes are events of its own (:meth:`_note_mode`): the runner does not log them again.
+    logs_mode_changes = True
+
     def _predict_on_perceived(self, t, nav) -> None:
         p = self._perceived
         self._predict(t, nav, list(p.tracks), list(p.static_polygons))

@@ -152,7 +152,8 @@ class Runner:
         cmds = np.zeros((len(self.agents), 2))
         for i, (agent, out) in enumerate(zip(self.agents, outputs)):
             last = self.last_outputs[i]
-            if last is not None and out.mode != last.mode and self.recorder:
+            if last is not None and out.mode != last.mode and self.recorder and \
+                    not getattr(agent.avoidance, "logs_mode_changes", False):  # (once in the event log)
                 self.recorder.event(time_s, f"{agent.name}: mode {last.mode} → {out.mode}")
             cmds[i] = out.commands
             self.last_outputs[i] = out
