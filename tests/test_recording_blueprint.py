@@ -11,6 +11,7 @@ import rerun as rr
 from mjasc.runs.recording import LEGEND_CLASSES, legend_classes, vessel_colour
 from mjasc.runs.runner import Runner
 from mjasc.runs.scenario import load_scenario
+from mjasc.runs.truth_recording import PLOT_SERIES
 
 TASKS = Path(__file__).resolve().parents[1] / "tasks"
 
@@ -77,6 +78,10 @@ def test_track_labels_are_off_by_default_and_plots_use_the_vessel_colour(demo):
         assert rec[f"/world/vessels/{agent.name}/tracks/positions:Points3D:show_labels"][0] == [False]
         r, g, b = vessel_colour(i)
         assert rec[f"/plots/speed/{agent.name}/actual:SeriesLines:colors"][0] == [(r << 24) | (g << 16) | (b << 8) | 0xFF]
+        for template in PLOT_SERIES.values():  # (every plot of the truth: named, in the vessel's colour)
+            entity = "/" + template.format(agent.name)
+            assert rec[f"{entity}:SeriesLines:names"][0][0].startswith(agent.name), entity
+            assert rec[f"{entity}:SeriesLines:colors"][0][0] >> 8 == (r << 16) | (g << 8) | b, entity
 
 
 def test_the_formation_plots_of_a_large_fleet_include_the_shared_entity():

@@ -76,6 +76,7 @@ def log_static_scene(rec, sc, lo, hi, plot_series: dict) -> tuple[np.ndarray, fl
         rec.vessel_series_style(plot_series["thrust_port"], v.name, f"{v.name} port", col)
         rec.vessel_series_style(plot_series["thrust_starboard"], v.name, f"{v.name} starboard", (*col, 140))
         rec.vessel_series_style(plot_series["cross_track"], v.name, f"{v.name}", col)
+        rec.vessel_series_style(plot_series["heading"], v.name, f"{v.name} heading", col)
     for o in sc.static_obstacles:
         poly = o.vertices if hasattr(o, "vertices") else o.polygon(32)
         closed = np.vstack([poly, poly[:1]])
