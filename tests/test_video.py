@@ -210,3 +210,17 @@ def test_the_video_plays_in_real_time_when_the_frame_rate_does_not_divide_the_ph
     assert result.summary["rates_hz"]["video"] == 25.0 and meta["fps"] == pytest.approx(25.0)
     assert frames == result.summary["video_frames"] == 51
     assert (frames - 1) / meta["fps"] == pytest.approx(sc.duration_s)  # the first frame at t = 0, the last at 2 s
+
+
+def test_the_scene_s_extent_holds_where_a_followed_target_goes():
+    """The top-down view and the blueprint frame the scene's extent: with a target-tracking mission
+    it holds the target's whole run (the team goes after it), not only its start."""
+    from mjasc.physics.obstacles import MovingObstacleSet
+
+    sc = load_scenario(TASKS / "target_tracking.toml")
+    runner = Runner(sc, None, progress=False)
+    lo, hi = runner.extent()
+    target = next(o for o in sc.moving_obstacles if o.name == sc.mission.track_target.target)
+    end = MovingObstacleSet([target]).state(sc.duration_s)[0][0]
+    assert np.all(lo < end) and np.all(end < hi)
+    assert np.linalg.norm(end - target.position_m) > 100.0  # (it does go far from its start)

@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mjasc.core.navigation import FleetNavigation
+from mjasc.physics.obstacles import MovingObstacleSet
 from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
@@ -135,14 +136,23 @@ class Runner:
 
     # ------------------------------------------------------------------ extent for views
     def extent(self) -> tuple[np.ndarray, np.ndarray]:
-        pts = [v.position_m for v in self.scenario.vessels]
-        for v in self.scenario.vessels:
+        """The scene's (lower-left, upper-right) corners [m] that the overview and top-down views and
+        the blueprint frame: the vessels' starts and paths, the structures, the traffic's starts and
+        — a target a mission follows, with the team after it — where it goes during the run
+        (sampled at 100 times), 10 m around."""
+        sc = self.scenario
+        pts = [v.position_m for v in sc.vessels]
+        for v in sc.vessels:
             if v.path is not None:
                 pts.extend(v.path.sample(max(v.path.length / 50, 1.0)))
-        for o in self.scenario.static_obstacles:
+        for o in sc.static_obstacles:
             pts.extend(getattr(o, "vertices", [getattr(o, "centre", np.zeros(2))]))
-        for o in self.scenario.moving_obstacles:
-            pts.append(o.position_m)
+        pts.extend(o.position_m for o in sc.moving_obstacles)
+        tt = sc.mission.track_target if sc.mission is not None else None
+        followed = [o for o in sc.moving_obstacles if tt is not None and o.name == getattr(tt, "target", None)]
+        if followed:
+            traffic = MovingObstacleSet(followed)
+            pts.extend(p for t in np.linspace(0.0, sc.duration_s, 100) for p in traffic.state(float(t))[0])
         p = np.array(pts)
         return p.min(axis=0) - 10.0, p.max(axis=0) + 10.0
 
