@@ -355,3 +355,35 @@ def test_a_method_that_cannot_be_built_is_one_line_before_the_run(tmp_path):
     finally:
         unregister("avoidance", "test_unfinished")
         unregister("avoidance", "test_fragile")
+
+
+def test_register_refuses_names_that_would_clash_or_cannot_be_written():
+    """A method registered under a built-in's name would take over every vessel using the default;
+    another class under a taken name would silently replace it; a name must be one a scenario can
+    write (and a function is not a method class)."""
+    from mjasc.core.config_tables import ConfigError
+
+    class Clash(AvoidanceMethod):
+        """A test method."""
+        method = "thesis"
+
+        def control(self, t, nav, guidance, report, team=None):
+            return AvoidanceRequest()
+
+    with pytest.raises(ConfigError, match=r"'thesis' is a built-in avoidance method"):
+        register("avoidance", Clash)
+    for bad in (123, "my brake", "../x", ""):
+        with pytest.raises(ConfigError, match=r"name"):
+            register("avoidance", Clash, name=bad)
+    with pytest.raises(ConfigError, match=r"is not a AvoidanceMethod"):
+        register("avoidance", lambda: None)
+    register("avoidance", Clash, name="test_clash")
+    try:
+        register("avoidance", Clash, name="test_clash")  # (the same class again: fine)
+        other = type("Other", (Clash,), {"__doc__": "Another."})
+        with pytest.raises(ConfigError, match=r"another avoidance method .*Clash\) is registered under 'test_clash'"):
+            register("avoidance", other, name="test_clash")
+        register("avoidance", other, name="test_clash", replace=True)
+        assert method_class("avoidance", "test_clash") is other
+    finally:
+        unregister("avoidance", "test_clash")

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import importlib
 import inspect
+import re
 from dataclasses import dataclass
 from importlib import metadata
 from typing import Any
@@ -75,16 +76,30 @@ def _entry_points(stage: str) -> dict[str, Any]:
     return {ep.name: ep for ep in metadata.entry_points(group=entry_point_group(stage))}
 
 
-def register(stage: str, cls: type, name: str | None = None) -> type:
+def register(stage: str, cls: type, name: str | None = None, replace: bool = False) -> type:
     """Register ``cls`` as a method of ``stage`` under ``name`` (default ``cls.method``) for this
-    process (a notebook, a test); usable as a decorator via ``functools.partial``. Returns ``cls``."""
+    process (a notebook, a test); usable as a decorator via ``functools.partial``. Returns ``cls``.
+    The name follows the rule of scenario names (letters, digits, ``_``, ``-``); a built-in
+    method's name is refused, and another class already registered under the name too unless
+    ``replace`` (the same class again is fine)."""
     _check_stage(stage)
+    _check_class(stage, cls, f"register({show(name if name is not None else cls)})")
     name = name or cls.method
-    _check_class(stage, cls, f"register({name!r})")
     if not name:
-        raise ValueError("register: the method needs a name (cls.method or name=)")
+        raise ConfigError("register: the method needs a name (cls.method or name=)")
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
+        raise ConfigError(f"register: the method's name must be ASCII letters, digits, '_' or '-', got {show(name)}")
+    if name in BUILTIN[stage]:
+        raise ConfigError(f"register({name!r}): {name!r} is a built-in {stage} method; give yours another name")
+    held = _registered[stage].get(name)
+    if held is not None and held is not cls and not replace:
+        raise ConfigError(f"register({name!r}): another {stage} method ({held.__module__}.{held.__qualname__}) is "
+                          f"registered under {name!r}; unregister it first or pass replace=True")
     _registered[stage][name] = cls
     return cls
+
+
+_NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")
 
 
 def unregister(stage: str, name: str) -> None:
