@@ -385,5 +385,9 @@ def test_register_refuses_names_that_would_clash_or_cannot_be_written():
             register("avoidance", other, name="test_clash")
         register("avoidance", other, name="test_clash", replace=True)
         assert method_class("avoidance", "test_clash") is other
+        from mjasc.runs.runner import run_scenario  # (an alias: the summary names the method the scenario chose)
+
+        summary = run_scenario(parse_scenario({**_doc({"method": "test_clash"}), "duration_s": 1.0})).summary
+        assert summary["vessels"]["a"]["avoidance"]["method"] == "test_clash"
     finally:
         unregister("avoidance", "test_clash")

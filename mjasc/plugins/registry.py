@@ -160,13 +160,19 @@ class MethodChoice:
         the stage, the method and the vessel (before the run starts)."""
         cls = self.cls
         try:
-            return cls.from_context(context, self.options)
+            built = cls.from_context(context, self.options)
         except ConfigError:
             raise
         except Exception as exc:  # noqa: BLE001 — a plugin's constructor: its error, on one line
             text = " ".join(str(exc).split())
             raise ConfigError(f"{self.stage} method {self.name!r} ({cls.__module__}.{cls.__qualname__}) for vessel "
                               f"{context.vessel_name!r}: could not be built: {type(exc).__name__}: {text}") from None
+        if getattr(built, "method", self.name) != self.name:  # (a class registered under another name: the
+            try:  # summary names the method the scenario chose)
+                built.method = self.name
+            except AttributeError:
+                pass
+        return built
 
 
 def parse_method_table(stage: str, tbl: Any, where: str, name_key: str = "method") -> MethodChoice:
