@@ -391,3 +391,33 @@ def test_register_refuses_names_that_would_clash_or_cannot_be_written():
         assert summary["vessels"]["a"]["avoidance"]["method"] == "test_clash"
     finally:
         unregister("avoidance", "test_clash")
+
+
+@pytest.mark.parametrize("answer, message", [
+    (lambda: None, r"avoidance method .*Answering \(test_answering\) returned NoneType for vessel 'a', expected an "
+                   r"AvoidanceRequest"),
+    (lambda: ("mission", None), r"returned tuple for vessel 'a'"),
+    (lambda: AvoidanceRequest("braking"), r"AvoidanceRequest\.mode: must be one of mission, .*got 'braking'"),
+    (lambda: AvoidanceRequest("avoidance:yield", float("nan")), r"speed_override_m_s: must be None or a finite"),
+    (lambda: AvoidanceRequest("avoidance:steer", 1.0, course_override_rad=float("inf")),
+     r"course_override_rad: must be None or a finite angle"),
+])
+def test_a_plugin_s_wrong_answer_stops_the_run_naming_what_is_wrong(answer, message):
+    """A forgotten ``return`` ran as "mission"; NaN overrides and unknown modes were taken as given;
+    a tuple failed deep in the control pass: each is now the run's error, naming the method and
+    the vessel or the request's field."""
+    from mjasc.runs.runner import RunFailed, run_scenario
+
+    class Answering(AvoidanceMethod):
+        """Answers what the test says."""
+        method = "test_answering"
+
+        def control(self, t, nav, guidance, report, team=None):
+            return answer()
+
+    register("avoidance", Answering)
+    try:
+        with pytest.raises(RunFailed, match=message):
+            run_scenario(parse_scenario({**_doc({"method": "test_answering"}), "duration_s": 1.0}))
+    finally:
+        unregister("avoidance", "test_answering")

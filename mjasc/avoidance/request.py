@@ -10,7 +10,10 @@ summary) and the conflicts this call predicted.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+
+import numpy as np
 
 from mjasc.guidance.paths import Path
 
@@ -47,6 +50,21 @@ class AvoidanceRequest:
     path_switch: PathSwitch | None = None
     conflicts: tuple = ()
     course_override_rad: float | None = None
+
+    def __post_init__(self):
+        """A request made with the constructor (a plugin's) checked: a known mode, a finite speed
+        ≥ 0 and a finite course or None, a PathSwitch or None (the built-in methods use :meth:`of`)."""
+        if self.mode not in MODES:
+            raise ValueError(f"AvoidanceRequest.mode: must be one of {', '.join(MODES)}, got {self.mode!r}")
+        v = self.speed_override_m_s
+        if v is not None and not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v) and v >= 0):
+            raise ValueError(f"AvoidanceRequest.speed_override_m_s: must be None or a finite speed ≥ 0 [m/s], got {v!r}")
+        c = self.course_override_rad
+        if c is not None and not (isinstance(c, (int, float, np.floating, np.integer)) and math.isfinite(c)):
+            raise ValueError(f"AvoidanceRequest.course_override_rad: must be None or a finite angle [rad], got {c!r}")
+        if self.path_switch is not None and not isinstance(self.path_switch, PathSwitch):
+            raise ValueError(f"AvoidanceRequest.path_switch: must be None or a PathSwitch, got "
+                             f"{type(self.path_switch).__name__}")
 
     @classmethod
     def of(cls, mode: str, speed_override_m_s, path_switch, conflicts: tuple, course_override_rad) -> "AvoidanceRequest":

@@ -110,7 +110,7 @@ def predict_slot(calls) -> list[AvoidanceRequest]:
         system._begin(guidance, perceived, team)
         all_c = next(results) if p.query is not None else []
         conflicts = system._act_on_prediction(float(t), nav, p, all_c, list(perceived.static_polygons))
-        out.append(AvoidanceRequest(system.mode, None, system._switch, tuple(conflicts)))
+        out.append(AvoidanceRequest.of(system.mode, None, system._switch, tuple(conflicts), None))
     return out
 
 
@@ -269,7 +269,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         those with a predicted collision."""
         self._begin(guidance, perceived, team)
         conflicts = self._predict(float(t), nav, list(perceived.tracks), list(perceived.static_polygons))
-        return AvoidanceRequest(self.mode, None, self._switch, tuple(conflicts))
+        return AvoidanceRequest.of(self.mode, None, self._switch, tuple(conflicts), None)
 
     def control(self, t, nav, guidance: GuidanceState, perceived=None, team=None) -> AvoidanceRequest:
         """Control tick: the speed override (a velocity correction's law) and the path to follow
@@ -277,7 +277,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         deviating track or plan, or a changed mission speed. ``perceived`` None: no perception."""
         self._begin(guidance, perceived, team)
         override, mode, course = self._control_refs(float(t), nav)
-        return AvoidanceRequest(mode, override, self._switch, (), course)
+        return AvoidanceRequest.of(mode, override, self._switch, (), course)
 
     def _begin(self, guidance, perceived, team) -> None:
         self._guidance, self._switch, self._perceived, self._team = guidance, None, perceived, team

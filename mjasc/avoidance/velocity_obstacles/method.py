@@ -170,7 +170,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
                                                      math.radians(o.course_span_deg), o.speed_candidates, heading)
         if not len(obs):  # nothing around (or a track lost for a moment): hold a choice through the hysteresis
             if self.choice is not None and t - self._last_conflict_t <= o.hysteresis_s:
-                return AvoidanceRequest(STEER, self.choice.speed_m_s, course_override_rad=self.choice.course_rad)
+                return AvoidanceRequest.of(STEER, self.choice.speed_m_s, None, (), self.choice.course_rad)
             return self._release(t)
         p_a = np.asarray(nav.position_m, dtype=float)[:2]
         v_now = np.asarray(nav.velocity_m_s, dtype=float)[:2]
@@ -239,7 +239,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self.stats["colreg_forbidden_taken"] += int(choice.forbidden)
         self.min_choice_ttc_s = min(self.min_choice_ttc_s, choice.ttc_s)
         req = self._set_mode(t, STEER)
-        return AvoidanceRequest(req.mode, choice.speed_m_s, course_override_rad=choice.course_rad)
+        return AvoidanceRequest.of(req.mode, choice.speed_m_s, None, (), choice.course_rad)
 
     def _release(self, t: float) -> AvoidanceRequest:
         self.choice = None
@@ -253,7 +253,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             if mode == STEER:
                 self.stats["steer_episodes"] += 1
             self.mode = mode
-        return AvoidanceRequest(mode)
+        return AvoidanceRequest.of(mode, None, None, (), None)
 
     def _new_conflict(self, t: float, track_id: int, role: str, static: bool = False) -> None:
         if not static:
