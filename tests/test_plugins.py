@@ -421,3 +421,44 @@ def test_a_plugin_s_wrong_answer_stops_the_run_naming_what_is_wrong(answer, mess
             run_scenario(parse_scenario({**_doc({"method": "test_answering"}), "duration_s": 1.0}))
     finally:
         unregister("avoidance", "test_answering")
+
+
+def test_every_stage_gets_the_same_context_fields():
+    """docs/plugins.md: the context holds the mass matrix, the propeller arm, the team's names and
+    the sensor for every stage (avoidance, tracking and coordination had no mass and a zero arm,
+    control no team and no sensor)."""
+    import numpy as np
+
+    from mjasc.guidance.path_following import PathFollower
+    from mjasc.runs.runner import Runner
+
+    seen = {}
+
+    def keep(stage):
+        def from_context(cls, context, options):
+            seen[stage] = context
+            return base[stage].from_context.__func__(cls, context, options)
+        return classmethod(from_context)
+
+    base = {"avoidance": StopNearTracks, "control": PathFollower}
+    spy_avoidance = type("SpyAvoidance", (StopNearTracks,), {"method": "test_spy_a", "from_context": keep("avoidance")})
+    spy_control = type("SpyControl", (PathFollower,), {"method": "test_spy_c", "__doc__": "Spy.",
+                                                         "from_context": keep("control")})
+    register("avoidance", spy_avoidance)
+    register("control", spy_control)
+    try:
+        d = _doc({"method": "test_spy_a"})
+        d["vessels"][0]["controller"]["type"] = "test_spy_c"
+        d["vessels"].append({"name": "b", "type": "otter", "position_m": [0, 30], "heading_deg": 0,
+                             "controller": {"type": "path_following", "waypoints": [[0, 30], [100, 30]]}})
+        d["comms"] = {"leader": "a"}
+        for v in d["vessels"]:
+            v["comms"] = {}
+        Runner(parse_scenario(d), None, progress=False)
+    finally:
+        unregister("avoidance", "test_spy_a")
+        unregister("control", "test_spy_c")
+    for stage in ("avoidance", "control"):
+        c = seen[stage]
+        assert c.total_mass is not None and np.shape(c.total_mass) == (3, 3), stage
+        assert c.propeller_lateral_m > 0.1 and c.team_names == ("a", "b") and c.sensor is not None, stage

@@ -82,7 +82,7 @@ class VesselAgent:
     """
 
     def __init__(self, config: VesselConfig, vessel: VesselType, total_mass: np.ndarray, lateral_offset_m: float,
-                 rng: np.random.Generator | None = None):
+                 rng: np.random.Generator | None = None, team_names: tuple[str, ...] | None = None):
         self.name = config.name
         self.config = config
         self.vessel = vessel
@@ -94,13 +94,13 @@ class VesselAgent:
         self.coordination = None
         self.mission = None  # the chained mission (mjasc.missions.sequencer.MissionSequencer), with a [mission]
         self._report: PerceptionReport | None = None
-        self.team_names: tuple[str, ...] = (config.name,)  # the team on the link (build_agent sets it)
+        self.team_names: tuple[str, ...] = tuple(team_names) if team_names is not None else (config.name,)
         if config.controller != "none":
             from mjasc.plugins.registry import MethodChoice
 
             choice = config.options.get("control") or MethodChoice("control", config.controller, PathFollowingConfig())
-            self.follower = choice.build(StageContext(config.name, vessel, config.path, rng=rng,
-                                                      mission_speed_m_s=config.cruise_speed_m_s,
+            self.follower = choice.build(StageContext(config.name, vessel, config.path, self.team_names,
+                                                      config.options.get("sensor"), rng, config.cruise_speed_m_s,
                                                       total_mass=total_mass, propeller_lateral_m=lateral_offset_m))
             self.follower.gamma_m = config.path.project(config.position_m)
 
@@ -384,14 +384,14 @@ def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray,
     ``mission_members``: the names of the vessels that run it (default: the whole team)."""
     vessel = world.vessel_types[index]
     rng = lambda k: np.random.default_rng([*seed_key, k])  # noqa: E731
-    agent = VesselAgent(config, vessel, total_mass, float(world.propeller_lateral_m[index, 0]), rng(5))
+    lateral_m = float(world.propeller_lateral_m[index, 0])
+    agent = VesselAgent(config, vessel, total_mass, lateral_m, rng(5), tuple(team_names))
     opts = config.options
     mission_path = config.path if config.path is not None else (agent.follower.path if agent.follower else None)
-    agent.team_names = tuple(team_names)
 
-    def context(k: int, link=None) -> StageContext:
+    def context(k: int, link=None) -> StageContext:  # (every stage's the same fields: docs/plugins.md)
         return StageContext(config.name, vessel, mission_path, agent.team_names, opts.get("sensor"), rng(k),
-                            agent.mission_speed_m_s, link)
+                            agent.mission_speed_m_s, link, total_mass, lateral_m)
 
     if "sensor" in opts or "tracking" in opts:
         from mjasc.perception.pipeline import Perception
