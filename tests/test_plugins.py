@@ -462,3 +462,45 @@ def test_every_stage_gets_the_same_context_fields():
         c = seen[stage]
         assert c.total_mass is not None and np.shape(c.total_mass) == (3, 3), stage
         assert c.propeller_lateral_m > 0.1 and c.team_names == ("a", "b") and c.sensor is not None, stage
+
+
+def test_a_coordination_plugin_s_factor_reaches_the_avoidance_guidance():
+    """A coordination method returns its factor (it need not set ``last_factor``): the avoidance
+    method's guidance state carries the mission speed × that factor, as with the built-in law."""
+    from mjasc.runs.runner import run_scenario
+
+    class QuietHalf(CoordinationMethod):
+        """Halves the speed without telling anyone but its caller."""
+        method = "test_quiet_half"
+
+        def exchange(self, t_s, nav, gamma_m, guidance=None, plan=None):
+            pass
+
+        def speed_correction(self, t_s, nav, gamma_m):
+            return 0.5
+
+        def team_picture(self, t_s):
+            return None
+
+    speeds = []
+
+    class Watch(AvoidanceMethod):
+        """Keeps the mission speed its guidance state says."""
+        method = "test_watch"
+
+        def control(self, t, nav, guidance, report, team=None):
+            speeds.append(guidance.mission_speed_m_s)
+            return AvoidanceRequest()
+
+    register("coordination", QuietHalf)
+    register("avoidance", Watch)
+    try:
+        d = _doc({"method": "test_watch"})
+        d["duration_s"] = 2.0
+        d["vessels"][0]["comms"] = {"method": "test_quiet_half"}
+        d["vessels"][0]["controller"]["speed_m_s"] = 1.5
+        run_scenario(parse_scenario(d))
+    finally:
+        unregister("coordination", "test_quiet_half")
+        unregister("avoidance", "test_watch")
+    assert speeds and all(s == 0.75 for s in speeds)

@@ -274,8 +274,11 @@ class VesselAgent:
         avoidance)."""
         self.control_mission(nav)
         factor = None
-        if self.coordination is not None:
-            factor = self.coordination.speed_correction(nav.time_s, nav, self.mission_gamma_m())
+        c = self.coordination
+        if c is not None:
+            factor = c.speed_correction(nav.time_s, nav, self.mission_gamma_m())
+            if c.last_factor != factor:  # (a plugin's law: the factor the guidance state and the team picture
+                c.last_factor = factor   # read, as the built-in law keeps it itself)
         return self.avoidance_call(nav, factor)
 
     def control_mission(self, nav: OwnNavigation) -> None:
