@@ -266,6 +266,7 @@ def test_a_registered_control_method_follows_the_path(tmp_path):
     a = result.summary["vessels"]["a"]
     assert a["distance_m"] > 60.0
     assert a["max_cross_track_m"] >= 5.0 and a["mean_cross_track_m"] < 2.5
+    assert a["control"] == {"method": "test_pursuit"}  # (a plugin's summary, as every stage's)
     with pytest.raises(ScenarioError, match=r"vessels\[0\]\.controller\.type: unknown control method 'test_pursuit'"):
         parse_scenario(d)
 
@@ -504,3 +505,38 @@ def test_a_coordination_plugin_s_factor_reaches_the_avoidance_guidance():
         unregister("coordination", "test_quiet_half")
         unregister("avoidance", "test_watch")
     assert speeds and all(s == 0.75 for s in speeds)
+
+
+
+def test_a_control_plugin_s_events_log_and_summary_are_called(tmp_path):
+    """docs/plugins.md: every method may implement drain_events, log and summary; a control
+    method's were never called."""
+    from mjasc.runs.runner import run_scenario
+
+    calls = {"drain": 0, "log": 0}
+
+    class Hooked(PurePursuit):
+        """Pure pursuit that says so."""
+        method = "test_hooked"
+
+        def drain_events(self):
+            calls["drain"] += 1
+            return [(0.0, "hooked started")] if calls["drain"] == 1 else []
+
+        def log(self, recorder, t_s, vessel_name):
+            calls["log"] += 1
+
+        def summary(self):
+            return {"method": self.method, "drained": calls["drain"]}
+
+    register("control", Hooked)
+    try:
+        d = _doc({})
+        del d["vessels"][0]["avoidance"]
+        d["vessels"][0]["controller"] = {"type": "test_hooked", "waypoints": [[0, 0], [300, 0]]}
+        d["duration_s"] = 3.0
+        summary = run_scenario(parse_scenario(d), tmp_path / "hooked").summary
+    finally:
+        unregister("control", "test_hooked")
+    assert calls["drain"] > 1 and calls["log"] > 1
+    assert summary["vessels"]["a"]["control"] == {"method": "test_hooked", "drained": calls["drain"]}

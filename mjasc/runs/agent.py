@@ -103,6 +103,10 @@ class VesselAgent:
                                                       config.options.get("sensor"), rng, config.cruise_speed_m_s,
                                                       total_mass=total_mass, propeller_lateral_m=lateral_offset_m))
             self.follower.gamma_m = config.path.project(config.position_m)
+        #: A plugin control method (not the built-in follower): its drain_events, log and summary are called
+        #: as the other stages' are (docs/plugins.md); None for the built-in one, which has none of its own.
+        self.control_plugin = self.follower if self.follower is not None and \
+            not type(self.follower).__module__.startswith("mjasc.") else None
 
     # ---------------------------------------------------------------- typed values handed to the stages
     def speed_factor(self) -> float:
@@ -339,8 +343,8 @@ class VesselAgent:
 
     def drain_events(self) -> list[tuple[float, str]]:
         events = []
-        for c in (self.perception, self.coordination, self.avoidance, self.mission):  # (components(), per record tick)
-            if c is not None:
+        for c in (self.perception, self.coordination, self.avoidance, self.mission, self.control_plugin):
+            if c is not None:  # (components(), per record tick)
                 drained = c.drain_events()
                 if drained:  # (most record ticks drain nothing)
                     events.extend(drained)
@@ -361,6 +365,8 @@ class VesselAgent:
             else:
                 c.log(recorder, t_s, name)
         if (c := self.mission) is not None:
+            c.log(recorder, t_s, name)
+        if (c := self.control_plugin) is not None:
             c.log(recorder, t_s, name)
 
 

@@ -313,7 +313,8 @@ class Runner:
                    **self.metrics.summary(wall, sim.time_s)}
         for agent in self.agents:  # components add their own per-vessel results
             for kind, comp in (("perception", agent.perception), ("coordination", agent.coordination),
-                               ("avoidance", agent.avoidance), ("mission", agent.mission)):
+                               ("avoidance", agent.avoidance), ("mission", agent.mission),
+                               ("control", agent.control_plugin)):
                 if comp is not None and hasattr(comp, "summary"):
                     summary["vessels"][agent.name][kind] = component_summary(comp)
         if sc.mission is not None:
