@@ -58,7 +58,8 @@ class AvoidanceRequest:
             raise ValueError(f"AvoidanceRequest.mode: must be one of {', '.join(MODES)}, got {self.mode!r}")
         v = self.speed_override_m_s
         if v is not None and not (isinstance(v, (int, float, np.floating, np.integer)) and math.isfinite(v) and v >= 0):
-            raise ValueError(f"AvoidanceRequest.speed_override_m_s: must be None or a finite speed ≥ 0 [m/s], got {v!r}")
+            raise ValueError(f"AvoidanceRequest.speed_override_m_s: must be None or a finite speed ≥ 0 [m/s], "
+                             f"got {v!r}")
         c = self.course_override_rad
         if c is not None and not (isinstance(c, (int, float, np.floating, np.integer)) and math.isfinite(c)):
             raise ValueError(f"AvoidanceRequest.course_override_rad: must be None or a finite angle [rad], got {c!r}")

@@ -199,7 +199,8 @@ class CampaignStore:
             db.execute(f"INSERT OR REPLACE INTO runs ({_OLD_COLUMNS}, method) "
                        f"VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)",
                        (self.digest, int(index), family, json.dumps(parameters, sort_keys=True), int(seed), scenario,
-                        status, attempts, error, None if metrics is None else json.dumps(metrics, sort_keys=True, default=json_value),
+                        status, attempts, error,
+                        None if metrics is None else json.dumps(metrics, sort_keys=True, default=json_value),
                         wall_time_s, worker, time.time(), method))
             db.execute("COMMIT")
         except BaseException:

@@ -156,7 +156,8 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     c.add_argument("--out", help="output folder (default: runs/campaigns/<campaign name> in the current folder)")
     c.add_argument("--workers", type=count_arg(0), help="local worker processes (default: CPU count; 0: in this "
                                                         "process)")
-    c.add_argument("--scheduler", type=scheduler_arg, help="address of an existing Dask scheduler (tcp://host:8786), or 'synchronous'")
+    c.add_argument("--scheduler", type=scheduler_arg,
+                   help="address of an existing Dask scheduler (tcp://host:8786), or 'synchronous'")
     c.add_argument("--runs", type=count_arg(1), help="only the campaign's first N runs (the rest can follow "
                                                      "later: a rerun into the same folder computes only what is "
                                                      "missing)")

@@ -361,7 +361,8 @@ class VesselAgent:
         if (c := self.avoidance) is not None:  # (the guidance state only for a method that draws it now, and
             # only to a log that takes it: a plugin's log(recorder, t, vessel_name) as docs/plugins.md shows it)
             if _log_takes_guidance(type(c)):
-                c.log(recorder, t_s, name, guidance=self.guidance_state() if getattr(c, "logs_guidance", True) else None)
+                guidance = self.guidance_state() if getattr(c, "logs_guidance", True) else None
+                c.log(recorder, t_s, name, guidance=guidance)
             else:
                 c.log(recorder, t_s, name)
         if (c := self.mission) is not None:
