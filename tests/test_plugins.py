@@ -540,3 +540,20 @@ def test_a_control_plugin_s_events_log_and_summary_are_called(tmp_path):
         unregister("control", "test_hooked")
     assert calls["drain"] > 1 and calls["log"] > 1
     assert summary["vessels"]["a"]["control"] == {"method": "test_hooked", "drained": calls["drain"]}
+
+
+def test_a_method_name_two_installed_packages_declare_is_refused(monkeypatch):
+    """Which of two entry points of one name loaded depended on the order of the path: now the
+    name is an error naming both."""
+    from importlib import metadata
+
+    from mjasc.plugins import registry
+
+    group = registry.entry_point_group("avoidance")
+    eps = metadata.EntryPoints([metadata.EntryPoint("twice", "pkg_a.brake:Brake", group),
+                                metadata.EntryPoint("twice", "pkg_b.brake:Brake", group)])
+    monkeypatch.setattr(registry.metadata, "entry_points", lambda group=None: eps.select(group=group))
+    with pytest.raises(ScenarioError, match=r"vessels\[0\]\.avoidance\.method: avoidance method 'twice' is declared "
+                                            r"by more than one installed package \(pkg_a\.brake:Brake, "
+                                            r"pkg_b\.brake:Brake\)"):
+        parse_scenario(_doc({"method": "twice"}))

@@ -133,6 +133,10 @@ def method_class(stage: str, name: str, where: str = "method") -> type:
     eps = _entry_points(stage)
     if name not in eps:
         raise ConfigError(f"{where}: unknown {stage} method {name!r} (available: {', '.join(available(stage))})")
+    targets = sorted({ep.value for ep in metadata.entry_points(group=entry_point_group(stage)) if ep.name == name})
+    if len(targets) > 1:  # (two installed packages declare the name: which would load depends on the path)
+        raise ConfigError(f"{where}: {stage} method {name!r} is declared by more than one installed package "
+                          f"({', '.join(targets)}); uninstall one or rename its entry point")
     try:
         cls = eps[name].load()
     except Exception as exc:  # a broken plugin package: say which, do not crash the loader
