@@ -6,6 +6,7 @@ its own sensor's target detections; one-line errors naming the field."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 import tomllib
 from pathlib import Path
@@ -265,3 +266,33 @@ def test_a_plugin_tracker_gets_its_own_target_detections_and_navigation_only(ech
     p = runner.agents[0].perception
     assert [e.track_id for e in p.tracks()] == list(range(len(det)))
     assert res.summary["vessels"]["asc"]["perception"]["tracking_method"] == "test_echo"
+
+
+@pytest.mark.parametrize("answer, message", [
+    (lambda tracks: None, r"tracking method 'test_wrong' of vessel 'asc': tracks\(\) returned NoneType, expected a "
+                          r"tuple of TrackEstimate"),
+    (lambda tracks: [{"id": 1}], r"tracks\(\)\[0\] is a dict, expected a TrackEstimate"),
+    (lambda tracks: [dataclasses.replace(tracks[0], position_m=np.array([1.0, 2.0, 3.0]))] if tracks else
+     [TrackEstimate(0, 0.0, np.array([1.0, 2.0, 3.0]), 0.0, 0.0, 0.0, 1.0)],
+     r"tracks\(\)\[0\]\.position_m must be a finite \(2,\) world x, y \[m\], got \[1\. 2\. 3\.\]"),
+])
+def test_a_plugin_tracker_s_wrong_answer_stops_the_run_naming_method_and_vessel(echo, answer, message):
+    """tracks() returning None, dicts or a 3-D position failed deep in the perception or the
+    recording; now the run's error names the method, the vessel and what is wrong."""
+    from mjasc.runs.runner import RunFailed
+
+    class Wrong(EchoTracker):
+        """Answers wrongly."""
+        method = "test_wrong"
+
+        def tracks(self):
+            return answer(getattr(self, "_tracks", ()))
+
+    register("tracking", Wrong)
+    try:
+        doc = _doc("thesis_6_1_tracking", duration_s=2.0)
+        doc["vessels"][0]["tracking"] = {"method": "test_wrong"}
+        with pytest.raises(RunFailed, match=message):
+            Runner(parse_scenario(doc), None, progress=False).run()
+    finally:
+        unregister("tracking", "test_wrong")
