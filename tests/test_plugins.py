@@ -557,3 +557,34 @@ def test_a_method_name_two_installed_packages_declare_is_refused(monkeypatch):
                                             r"by more than one installed package \(pkg_a\.brake:Brake, "
                                             r"pkg_b\.brake:Brake\)"):
         parse_scenario(_doc({"method": "twice"}))
+
+
+@pytest.mark.parametrize("answer, message", [
+    (lambda cmd, st: cmd, r"control method 'test_bad_steer' of vessel 'a': steer\(\) returned ndarray, expected "
+                          r"\(commands \(2,\), PathFollowingStatus\)"),
+    (lambda cmd, st: (5.0 * cmd + 5.0, st), r"steer\(\)'s commands must be \(port, starboard\), each in \[-1, 1\]"),
+    (lambda cmd, st: (cmd[:1], st), r"steer\(\)'s commands must be \(port, starboard\)"),
+    (lambda cmd, st: (cmd, None), r"steer\(\)'s status is a NoneType, expected a PathFollowingStatus"),
+])
+def test_a_control_plugin_s_wrong_answer_stops_the_run_naming_method_and_vessel(answer, message):
+    """Commands of 5.0 were clamped by MuJoCo without a word; a missing status failed in the agent:
+    each is now the run's error naming the method and the vessel."""
+    from mjasc.runs.runner import RunFailed, run_scenario
+
+    class BadSteer(PurePursuit):
+        """Answers wrongly."""
+        method = "test_bad_steer"
+
+        def steer(self, nav, guidance, speed_ref_m_s, course_ref_rad, dt_s):
+            return answer(*super().steer(nav, guidance, speed_ref_m_s, course_ref_rad, dt_s))
+
+    register("control", BadSteer)
+    try:
+        d = _doc({})
+        del d["vessels"][0]["avoidance"]
+        d["vessels"][0]["controller"] = {"type": "test_bad_steer", "waypoints": [[0, 0], [300, 0]]}
+        d["duration_s"] = 1.0
+        with pytest.raises(RunFailed, match=message):
+            run_scenario(parse_scenario(d))
+    finally:
+        unregister("control", "test_bad_steer")

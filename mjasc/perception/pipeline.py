@@ -58,7 +58,8 @@ import numpy as np
 from mjasc.core.geometry import covariance_ellipse  # noqa: F401  (re-exported: its home before core.geometry)
 from mjasc.perception.detection import Detections
 from mjasc.perception.fleet import PerceptionFleet, fleet_of
-from mjasc.perception.plugin_tracks import TracksView, checked_tracks, mark_team
+from mjasc.perception.plugin_tracks import TracksView, mark_team
+from mjasc.plugins.answers import tracks_answer
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
 from mjasc.perception.track_history import history_arrays, history_rows, plugin_history_rows
@@ -228,7 +229,7 @@ class Perception:
         target detections to ``update``, then its tracks, marked with team mates."""
         det = self._det
         self.method.update(det.time_s, self._nav, targets_only(det, self._targets))
-        tracks = checked_tracks(self.method, self.name)
+        tracks = tracks_answer(self.method, self.name)
         if self._has_team and tracks:
             tracks = mark_team(self._team, tracks, det.time_s)
         ids = {e.track_id for e in tracks}

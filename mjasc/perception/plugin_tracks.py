@@ -13,7 +13,7 @@ import numpy as np
 
 from mjasc.perception.tracking.team import TeamMatcher
 
-__all__ = ["checked_tracks", "TracksView", "mark_team"]
+__all__ = ["TracksView", "mark_team"]
 
 
 def mark_team(team: TeamMatcher, tracks: tuple, t_s: float) -> tuple:
@@ -32,28 +32,6 @@ def mark_team(team: TeamMatcher, tracks: tuple, t_s: float) -> tuple:
     tm.match(np.arange(n), np.zeros(n, dtype=np.int64), np.array([float(t_s)]), states, np.ones(n, dtype=bool), 1)
     names = tm.members()
     return tuple(e if e.team_member == nm else replace(e, team_member=nm) for e, nm in zip(tracks, names))
-
-
-def checked_tracks(method, vessel_name: str) -> tuple:
-    """A plugin tracker's ``tracks()`` as a tuple, checked: TrackEstimate values with a finite
-    (2,) position (a wrong answer is an error naming the method and the vessel, not a failure deep
-    in the recording or the avoidance)."""
-    from mjasc.core.estimates import TrackEstimate
-
-    got = method.tracks()
-    where = f"tracking method {getattr(method, 'method', type(method).__name__)!r} of vessel {vessel_name!r}"
-    try:
-        tracks = tuple(got)
-    except TypeError:
-        raise TypeError(f"{where}: tracks() returned {type(got).__name__}, expected a tuple of TrackEstimate") from None
-    for k, e in enumerate(tracks):
-        if not isinstance(e, TrackEstimate):
-            raise TypeError(f"{where}: tracks()[{k}] is a {type(e).__name__}, expected a TrackEstimate")
-        p = np.asarray(e.position_m)
-        if p.shape != (2,) or not np.all(np.isfinite(p)):
-            raise ValueError(f"{where}: tracks()[{k}].position_m must be a finite (2,) world x, y [m], got "
-                             f"{np.array2string(p, threshold=6)}")
-    return tracks
 
 
 class TracksView:

@@ -45,6 +45,7 @@ from mjasc.core.navigation import OwnNavigation
 from mjasc.guidance.path_following import PathFollower, PathFollowingConfig, PathFollowingStatus
 from mjasc.guidance.state import GuidanceState
 from mjasc.physics.vessels import VesselType
+from mjasc.plugins.answers import steer_answer
 from mjasc.plugins.context import StageContext
 from mjasc.runs.scenario import VesselConfig
 
@@ -334,9 +335,15 @@ class VesselAgent:
         if self.follower is None:
             return ControlOutput(np.asarray(self.config.commands, dtype=float), None, 0.0, "open_loop")
         speed, mode, course = self.control_request(nav)
-        cmd, status = self.follower.steer(nav, self.guidance_state(), speed, None if math.isnan(course) else course,
-                                          dt_s)
+        cmd, status = self.steered(self.follower.steer(nav, self.guidance_state(), speed,
+                                                       None if math.isnan(course) else course, dt_s))
         return self.control_output(cmd, status, mode)
+
+    def steered(self, answer) -> tuple:
+        """The follower's ``steer`` answer; a plugin's checked (:func:`mjasc.plugins.answers.steer_answer`)."""
+        if self.control_plugin is None:
+            return answer
+        return steer_answer(self.follower, self.name, answer)
 
     # ---------------------------------------------------------------- recording
     def components(self) -> list:

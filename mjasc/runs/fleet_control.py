@@ -33,7 +33,6 @@ from typing import Sequence
 
 import numpy as np
 
-from mjasc.avoidance.request import AvoidanceRequest
 from mjasc.avoidance.system import CollisionAvoidance
 from mjasc.cooperation import fleet_speed_law
 from mjasc.cooperation.messages import TeamPicture
@@ -41,6 +40,7 @@ from mjasc.cooperation.team_knowledge import TeamKnowledge
 from mjasc.core.navigation import NavigationList
 from mjasc.guidance.path_following import FleetPathFollower, PathFollower
 from mjasc.guidance.state import GuidanceState
+from mjasc.plugins.answers import avoidance_answers
 from mjasc.runs.agent import ControlOutput, VesselAgent
 
 __all__ = ["fleet_control_applies", "control_fleet", "ask_avoidance"]
@@ -69,41 +69,16 @@ def ask_avoidance(calls: list) -> list:
         cls = type(call[0])
     else:
         if cls is not None:
-            return _answers(cls, calls)
+            return avoidance_answers(cls, calls)
     groups: dict[type, list] = {}
     for k, call in enumerate(calls):
         if call is not None:
             groups.setdefault(type(call[0]), []).append(k)
     requests = [None] * len(calls)
     for cls, ks in groups.items():
-        for k, request in zip(ks, _answers(cls, [calls[k] for k in ks])):
+        for k, request in zip(ks, avoidance_answers(cls, [calls[k] for k in ks])):
             requests[k] = request
     return requests
-
-
-def _answers(cls: type, calls: list) -> list:
-    """``cls.control_many(calls)``; a plugin's answers checked (one AvoidanceRequest per call: a
-    forgotten ``return`` or a tuple is an error naming the method and the vessel, not a silent
-    mission or an AttributeError deep in the control pass)."""
-    answers = cls.control_many(calls)
-    if cls.__module__.startswith("mjasc."):  # (the built-in methods: their answers are theirs)
-        return answers
-    answers = list(answers)
-    if len(answers) != len(calls):
-        raise TypeError(f"avoidance method {cls.__qualname__}: control_many returned {len(answers)} answer(s) for "
-                        f"{len(calls)} vessel(s)")
-    for call, answer in zip(calls, answers):
-        if not isinstance(answer, AvoidanceRequest):
-            raise TypeError(f"avoidance method {cls.__qualname__} ({getattr(call[0], 'method', '?')}) returned "
-                            f"{type(answer).__name__} for vessel {_vessel(call)!r}, "
-                            f"expected an AvoidanceRequest (AvoidanceRequest() keeps the mission)")
-    return answers
-
-
-def _vessel(call) -> str:
-    """The vessel name of an avoidance call (its method's context), else '?'."""
-    context = getattr(call[0], "context", None)
-    return getattr(context, "vessel_name", "?")
 
 
 _THESIS_GAMMA = CollisionAvoidance.mission_gamma_m

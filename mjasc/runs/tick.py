@@ -177,8 +177,8 @@ def _control(agents: Sequence, navs: Sequence[OwnNavigation], control_dt_s: floa
             modes.append(mode)
             courses.append(course)
         else:
-            cmd, st = agent.follower.steer(nav, agent.guidance_state(), speed, None if math.isnan(course) else course,
-                                           control_dt_s)
+            cmd, st = agent.steered(agent.follower.steer(nav, agent.guidance_state(), speed,
+                                                         None if math.isnan(course) else course, control_dt_s))
             outputs[i] = agent.control_output(cmd, st, mode)
     if rows:
         fleet = FleetPathFollower.of([agents[i].follower for i in rows])
