@@ -396,4 +396,6 @@ def test_a_bad_scheduler_is_refused_before_the_store_is_made(tmp_path):
     with pytest.raises(ValueError, match=r"^scheduler: must be 'synchronous', 'local', a distributed.Client or a "
                                          r"scheduler address with its port \(tcp://host:8786\), got 'bogus'$"):
         run_campaign(spec, tmp_path / "out", scheduler="bogus", progress=False)
+    with pytest.raises(ValueError, match=r"^workers: only for a local cluster"):  # (0 would ignore the cluster)
+        run_campaign(spec, tmp_path / "out", scheduler="tcp://127.0.0.1:8786", workers=0, progress=False)
     assert not (tmp_path / "out").exists()

@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 
 __all__ = ["open_client", "close_client", "local_workers", "quiet_shutdown", "scheduler_problem", "warm_up_worker",
-           "WORKER_WAIT_S"]
+           "workers_problem", "WORKER_WAIT_S"]
 
 #: How long a campaign waits for the first worker of a cluster [s].
 WORKER_WAIT_S = 120.0
@@ -63,8 +63,8 @@ def open_client(scheduler, workers: int | None, threaded: bool = False):
     if not isinstance(scheduler, str):
         raise ValueError(f"scheduler: must be None, 'local', 'synchronous', an address or a distributed.Client, "
                          f"got {scheduler!r}")
-    if workers is not None:
-        raise ValueError(f"workers: only for a local cluster; the cluster at {scheduler} has its own workers")
+    if problem := workers_problem(scheduler, workers):
+        raise ValueError(f"workers: {problem}")
     return Client(scheduler), []
 
 
@@ -80,6 +80,14 @@ def scheduler_problem(scheduler) -> str:
         return ""
     return (f"must be 'synchronous', 'local', a distributed.Client or a scheduler address with its port "
             f"(tcp://host:8786), got {scheduler!r}")
+
+
+def workers_problem(scheduler, workers: int | None) -> str:
+    """Why ``workers`` does not go with ``scheduler`` ('' if it does): an existing cluster's address
+    has its own workers (and ``workers = 0``, this process, would ignore the cluster)."""
+    if workers is not None and isinstance(scheduler, str) and scheduler not in ("local", "synchronous"):
+        return f"only for a local cluster; the cluster at {scheduler} has its own workers"
+    return ""
 
 
 def local_workers(workers: int | None) -> int:

@@ -44,7 +44,7 @@ from pathlib import Path
 from typing import Any
 
 from mjasc.campaigns.cluster import (WORKER_WAIT_S, close_client, local_workers, open_client, quiet_shutdown,
-                                    scheduler_problem, warm_up_worker)
+                                    scheduler_problem, warm_up_worker, workers_problem)
 from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
                                       run_isolated, take_prestarted)
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
@@ -138,6 +138,8 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
         workers = integer(workers, "workers", minimum=0)
     if problem := scheduler_problem(scheduler):  # (before the store is made)
         raise ValueError(f"scheduler: {problem}")
+    if problem := workers_problem(scheduler, workers):
+        raise ValueError(f"workers: {problem}")
     max_attempts = integer(max_attempts, "max_attempts", minimum=1)
     if time_limit_s is not None:
         time_limit_s = number(time_limit_s, "time_limit_s", positive=True)

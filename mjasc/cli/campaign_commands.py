@@ -11,12 +11,12 @@ from mjasc.cli.arguments import not_found_hint, out_dir
 
 
 def _scheduler_problem(args) -> str:
-    """Why --scheduler and --workers do not go together ('' if they do): an existing cluster has
-    its own workers (and --workers 0, this process, would ignore it)."""
-    if args.scheduler not in (None, "local", "synchronous") and args.workers is not None:
-        return (f"mjasc: --workers {args.workers}: only for a local cluster; the cluster at {args.scheduler} "
-                f"(--scheduler) has its own workers")
-    return ""
+    """The line to print when --scheduler and --workers do not go together ('' if they do:
+    :func:`mjasc.campaigns.cluster.workers_problem`, checked here before anything starts)."""
+    from mjasc.campaigns.cluster import workers_problem
+
+    problem = workers_problem(args.scheduler, args.workers)
+    return f"mjasc: --workers {args.workers}: {problem}" if problem else ""
 
 
 def cmd_campaign(args) -> int:

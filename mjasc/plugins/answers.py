@@ -2,7 +2,7 @@
 naming the method, the vessel and what is wrong, at the call — not a silent default (a forgotten
 ``return`` taken as "no request"), a value MuJoCo clamps without a word (commands of 5), or a
 failure deep inside the perception, the control pass or the recording. The built-in methods'
-answers (modules under ``mjasc.``) are not checked: they are theirs, and the control tick is hot.
+answers (:func:`~mjasc.plugins.registry.builtin_method`) are not checked: they are theirs, and the control tick is hot.
 
 * :func:`avoidance_answers` — ``control_many``'s answers: one
   :class:`~mjasc.avoidance.request.AvoidanceRequest` per call (the request's own constructor
@@ -19,6 +19,7 @@ import numpy as np
 from mjasc.avoidance.request import AvoidanceRequest
 from mjasc.core.estimates import TrackEstimate
 from mjasc.guidance.path_following import PathFollowingStatus
+from mjasc.plugins.registry import builtin_method
 
 __all__ = ["avoidance_answers", "tracks_answer", "steer_answer"]
 
@@ -27,7 +28,7 @@ def avoidance_answers(cls: type, calls: list) -> list:
     """``cls.control_many(calls)`` (each call ``(method, t, nav, ...)``), a plugin's checked: as many
     answers as calls, each an AvoidanceRequest."""
     answers = cls.control_many(calls)
-    if cls.__module__.startswith("mjasc."):
+    if builtin_method(cls):
         return answers
     answers = list(answers)
     if len(answers) != len(calls):

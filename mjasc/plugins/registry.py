@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import importlib
 import inspect
-import re
 from dataclasses import dataclass
 from importlib import metadata
 from typing import Any
@@ -36,9 +35,11 @@ from typing import Any
 from mjasc.core.config_tables import ConfigError, dataclass_from_table, show, string, table
 from mjasc.plugins.context import StageContext
 from mjasc.plugins.stages import AvoidanceMethod, ControlMethod, CoordinationMethod, StageMethod, TrackingMethod
+from mjasc.runs.plausibility import check_name
 
 __all__ = ["STAGES", "MethodChoice", "register", "unregister", "available", "method_class", "parse_method_table",
-           "entry_point_group", "parse_avoidance_table", "parse_coordination_table", "parse_tracking_table"]
+           "entry_point_group", "parse_avoidance_table", "parse_coordination_table", "parse_tracking_table",
+           "builtin_method"]
 
 #: stage → (interface, default method name).
 STAGES: dict[str, tuple[type, str]] = {
@@ -87,8 +88,9 @@ def register(stage: str, cls: type, name: str | None = None, replace: bool = Fal
     name = name or cls.method
     if not name:
         raise ConfigError("register: the method needs a name (cls.method or name=)")
-    if not isinstance(name, str) or not _NAME.fullmatch(name):
-        raise ConfigError(f"register: the method's name must be ASCII letters, digits, '_' or '-', got {show(name)}")
+    if not isinstance(name, str):
+        raise ConfigError(f"register: the method's name must be a string, got {show(name)}")
+    check_name(name, "register: the method's name", vessel=False)
     if name in BUILTIN[stage]:
         raise ConfigError(f"register({name!r}): {name!r} is a built-in {stage} method; give yours another name")
     held = _registered[stage].get(name)
@@ -99,7 +101,10 @@ def register(stage: str, cls: type, name: str | None = None, replace: bool = Fal
     return cls
 
 
-_NAME = re.compile(r"[A-Za-z0-9_-]{1,64}")
+def builtin_method(cls: type) -> bool:
+    """Is ``cls`` one of mjasc's own methods (defined in the mjasc package), not a plugin's? Its
+    answers are not checked and it has no hooks of its own beyond the stage's."""
+    return cls.__module__.startswith("mjasc.")
 
 
 def unregister(stage: str, name: str) -> None:
@@ -130,17 +135,18 @@ def method_class(stage: str, name: str, where: str = "method") -> type:
     if name in BUILTIN[stage]:
         module, attr = BUILTIN[stage][name].split(":")
         return getattr(importlib.import_module(module), attr)
-    eps = _entry_points(stage)
-    if name not in eps:
+    found = [ep for ep in metadata.entry_points(group=entry_point_group(stage)) if ep.name == name]
+    if not found:
         raise ConfigError(f"{where}: unknown {stage} method {name!r} (available: {', '.join(available(stage))})")
-    targets = sorted({ep.value for ep in metadata.entry_points(group=entry_point_group(stage)) if ep.name == name})
+    targets = sorted({ep.value for ep in found})
     if len(targets) > 1:  # (two installed packages declare the name: which would load depends on the path)
         raise ConfigError(f"{where}: {stage} method {name!r} is declared by more than one installed package "
                           f"({', '.join(targets)}); uninstall one or rename its entry point")
+    ep = found[0]
     try:
-        cls = eps[name].load()
+        cls = ep.load()
     except Exception as exc:  # a broken plugin package: say which, do not crash the loader
-        raise ConfigError(f"{where}: {stage} method {name!r} from entry point {eps[name].value!r} failed to load: "
+        raise ConfigError(f"{where}: {stage} method {name!r} from entry point {ep.value!r} failed to load: "
                           f"{type(exc).__name__}: {exc}") from None
     _check_class(stage, cls, where)
     return cls

@@ -47,6 +47,7 @@ from mjasc.guidance.state import GuidanceState
 from mjasc.physics.vessels import VesselType
 from mjasc.plugins.answers import steer_answer
 from mjasc.plugins.context import StageContext
+from mjasc.plugins.registry import builtin_method
 from mjasc.runs.scenario import VesselConfig
 
 __all__ = ["OwnNavigation", "VesselAgent", "ControlOutput", "build_agent"]
@@ -104,11 +105,10 @@ class VesselAgent:
                                                       config.options.get("sensor"), rng, config.cruise_speed_m_s,
                                                       total_mass=total_mass, propeller_lateral_m=lateral_offset_m))
             self.follower.gamma_m = config.path.project(config.position_m)
-        self.coordination_plugin = None  # (build_agent: the coordination when it is a plugin's, not the built-in)
         #: A plugin control method (not the built-in follower): its drain_events, log and summary are called
         #: as the other stages' are (docs/plugins.md); None for the built-in one, which has none of its own.
         self.control_plugin = self.follower if self.follower is not None and \
-            not type(self.follower).__module__.startswith("mjasc.") else None
+            not builtin_method(type(self.follower)) else None
 
     # ---------------------------------------------------------------- typed values handed to the stages
     def speed_factor(self) -> float:
@@ -283,7 +283,7 @@ class VesselAgent:
         c = self.coordination
         if c is not None:
             factor = c.speed_correction(nav.time_s, nav, self.mission_gamma_m())
-            if c is self.coordination_plugin:  # (a plugin's law: the factor the guidance state and the team
+            if not builtin_method(type(c)):  # (a plugin's law: the factor the guidance state and the team
                 c.last_factor = factor           # picture read, as the built-in law keeps it itself)
         return self.avoidance_call(nav, factor)
 
@@ -418,10 +418,8 @@ def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray,
     if "comms" in opts:
         from mjasc.cooperation.link import LinkEndpoint
 
-        agent.coordination = c = opts["comms"].build(context(2, LinkEndpoint(network, config.name)
-                                                             if network is not None else None))
-        if not type(c).__module__.startswith("mjasc."):
-            agent.coordination_plugin = c
+        agent.coordination = opts["comms"].build(context(2, LinkEndpoint(network, config.name)
+                                                         if network is not None else None))
     if "avoidance" in opts:
         agent.avoidance = opts["avoidance"].build(context(3))
     if mission is not None and agent.follower is not None:
