@@ -106,3 +106,34 @@ def test_deferred_ticks_equal_tick_by_tick_updates_bit_for_bit():
     for m in (later, mixed):
         assert m.summary(1.0, 60.0)["vessels"] == now.summary(1.0, 60.0)["vessels"]
     assert not summary["collisions"]
+
+
+# ---------------------------------------------------------------------- which cross-track errors count
+def _out(e, finished=False):
+    from types import SimpleNamespace
+
+    return SimpleNamespace(status=SimpleNamespace(cross_track_m=e, finished=finished))
+
+
+def test_cross_track_counts_only_while_a_path_is_followed():
+    """The statistics leave out a finished path's drift and the approach onto a mission leg that
+    begins away from the vessel (counted again from its first tick within the band); a path that
+    begins at the vessel, and a vessel without a mission, count from the start."""
+    from types import SimpleNamespace
+
+    from mjasc.runs.metrics import ON_PATH_BAND_M, CrossTrackGate
+
+    far, near = object(), object()
+    mission = SimpleNamespace(leg_path=near)
+    agents = [SimpleNamespace(mission=None), SimpleNamespace(mission=mission)]
+    gate = CrossTrackGate(2)
+    assert np.isnan(gate.counted([None, None], agents)).all()  # before the first control tick
+    assert gate.counted([_out(0.3), _out(-0.4)], agents) == [0.3, -0.4]  # a leg beginning at the vessel
+    mission.leg_path = far  # a phase change: the new leg 27 m away
+    got = gate.counted([_out(0.2), _out(27.0)], agents)
+    assert got[0] == 0.2 and np.isnan(got[1])
+    assert np.isnan(gate.counted([_out(0.2), _out(-2 * ON_PATH_BAND_M)], agents)[1])  # still approaching
+    assert gate.counted([_out(0.2), _out(0.9 * ON_PATH_BAND_M)], agents)[1] == 0.9 * ON_PATH_BAND_M  # on it
+    assert gate.counted([_out(0.2), _out(3.0)], agents)[1] == 3.0  # off it later: a following error, counted
+    got = gate.counted([_out(5.0, finished=True), _out(0.1)], agents)  # past its path's end: drifting
+    assert np.isnan(got[0]) and got[1] == 0.1

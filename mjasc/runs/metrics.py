@@ -1,6 +1,8 @@
 """Run metrics accumulated during a run and written as ``summary.json``.
 
-Per vessel: distance travelled, mean and max |cross-track error|, minimum clearance to every
+Per vessel: distance travelled, mean and max |cross-track error| while a path is followed
+(:class:`CrossTrackGate`: not past a finished path's end, nor on the approach to a mission leg
+that begins away from the vessel), minimum clearance to every
 obstacle (static: distance from the hull's bounding circle to the polygon/circle; moving and other
 vessels: centre distance minus both radii), collisions (MuJoCo hull contacts, or clearance below
 zero). Per run: wall time, simulated time and real-time factor.
@@ -19,11 +21,57 @@ from mjasc.evaluation.traffic_truth import traffic_at
 from mjasc.physics.obstacles import PolygonObstacle
 from mjasc.runs.metrics_kernels import update_metrics, update_metrics_ticks
 
-__all__ = ["RunMetrics"]
+__all__ = ["RunMetrics", "CrossTrackGate", "ON_PATH_BAND_M"]
+
+#: [m] A vessel that begins a mission leg (a new phase, a re-planned station) farther than this
+#: from the leg's path is approaching the leg until it first comes within it: those ticks measure
+#: the transit onto the path, not how well the path is followed, and are left out of the
+#: cross-track statistics (the recording's cross-track plot still shows them).
+ON_PATH_BAND_M = 1.0
 
 
 #: Deferred record ticks folded in at once (:meth:`RunMetrics.defer`): bounds what is kept.
 DEFER_TICKS = 512
+
+
+class CrossTrackGate:
+    """Which |cross-track errors| a record tick adds to the run's statistics, per vessel: the path
+    follower's, except NaN (not counted) where no path is followed — before the first control
+    tick, past a finished path's end (a vessel drifting there is off no path; the error kept
+    growing with the drift) — and while a vessel approaches a mission leg that began more than
+    :data:`ON_PATH_BAND_M` off it (at a phase change the error jumps to the distance to the new
+    leg: tens of metres in the chained missions). Paths that begin where the vessel is — the
+    scenario's path from its start, a Dubins transit, avoidance's re-plans — count from their
+    first tick."""
+
+    def __init__(self, n_vessels: int):
+        self._legs: list = [None] * n_vessels  # the mission leg path each vessel was last seen on
+        self._approaching = [False] * n_vessels
+
+    def counted(self, outputs, agents) -> list[float]:
+        """The errors [m] (signed, NaN: not counted) of one record tick; ``outputs``: each vessel's
+        last control output (None before the first), ``agents``: the vessels (their ``mission``)."""
+        out = []
+        legs, approaching = self._legs, self._approaching
+        for i, o in enumerate(outputs):
+            st = o.status if o is not None else None
+            if st is None or st.finished:
+                out.append(np.nan)
+                continue
+            e = st.cross_track_m
+            mission = agents[i].mission
+            if mission is not None:
+                leg = mission.leg_path
+                if leg is not legs[i]:
+                    legs[i] = leg
+                    approaching[i] = not abs(e) <= ON_PATH_BAND_M
+                elif approaching[i] and abs(e) <= ON_PATH_BAND_M:
+                    approaching[i] = False
+                if approaching[i]:
+                    out.append(np.nan)
+                    continue
+            out.append(e)
+        return out
 
 
 class RunMetrics:

@@ -123,6 +123,9 @@ class Runner:
         self.metrics = None
         self.target_judge = None
         self.last_outputs = [None] * len(self.agents)
+        from mjasc.runs.metrics import CrossTrackGate  # (imported where RunMetrics is: at the run)
+
+        self._xte_gate = CrossTrackGate(len(self.agents))
         self._truth: TruthRecording | None = None  # the truth's recording, when one is made
         self._observers: dict[str, list] = {slot: [] for slot in SLOT_ORDER}
         #: Wall seconds spent in each slot and in the physics during :meth:`run` (observers excluded).
@@ -171,7 +174,8 @@ class Runner:
 
     def _record(self, states) -> None:
         outputs = self.last_outputs
-        xte = [o.status.cross_track_m if o and o.status else np.nan for o in outputs]
+        plotted = [o.status.cross_track_m if o and o.status else np.nan for o in outputs]
+        xte = self._xte_gate.counted(outputs, self.agents)  # (the statistics: while a path is followed)
         truth = self._truth
         if self.target_judge is None:  # (the metrics need no traffic now: RunMetrics.defer, the same numbers)
             self.metrics.defer(states, xte)  # (folded in chunks)
@@ -183,7 +187,7 @@ class Runner:
             self.target_judge.update(states, traffic, self.agents)
         if truth is not None:
             truth.record(states, self.sim, np.array([o.speed_ref_m_s if o else 0.0 for o in outputs], dtype=float),
-                         np.asarray(xte), traffic)
+                         np.asarray(plotted), traffic)
 
     # ------------------------------------------------------------------ main loop
     def run(self, interruptible: bool = False) -> RunResult:
