@@ -68,6 +68,18 @@ class AvoidanceConfig:
                                      doc="a detour whose every cause is gone (the tracks it went around were team "
                                          "mates' stale copies or are lost) is withdrawn when the mission path, this "
                                          "close or closer, is clear: the vessel returns to it; 0: never withdraw")
+    correction_withdraw_margin_m: float = param(
+        5.0, nonneg=True, unit="m",
+        doc="a yield to a stranger decided on its track's first estimates (withdraw_new_track_s) is withdrawn "
+            "when the track, predicted again along the path at the mission speed, passes at least this far outside "
+            "the collision distance: the vessel resumes its mission speed (a new track's first velocity estimate "
+            "can predict a collision that the next estimates clear); 0: never withdraw (the thesis holds a "
+            "correction to its goal)")
+    withdraw_new_track_s: float = param(
+        5.0, nonneg=True, unit="s",
+        doc="a yield is withdrawable (correction_withdraw_margin_m) when decided within this time of its "
+            "track's first prediction; later yields, passes first, the emergency stop and yields to team mates "
+            "are held to their goal")
     sharp_turn_deg: float = param(60.0, nonneg=True, maximum=180.0, unit="deg",
                                   doc="on a detour, an aim point 5 m ahead this far off the heading is a sharp turn: "
                                       "it is sailed at sharp_turn_speed_m_s; 180: never")

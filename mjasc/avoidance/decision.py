@@ -31,6 +31,9 @@ class Correction:
     track_id: int
     gamma_offset_m: float = 0.0  # γ in the law's frame = follower γ + offset
     emergency: bool = False  # the slow-down of :func:`emergency_yield`: no manoeuvre cleared the conflict
+    #: a yield to a stranger's track decided on its first estimates (``withdraw_new_track_s``): withdrawn
+    #: when a later prediction clears it (:meth:`~mjasc.avoidance.manoeuvres.Manoeuvres._withdraw_correction`)
+    withdrawable: bool = False
 
 
 def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, speed_max_m_s: float,

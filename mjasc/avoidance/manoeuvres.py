@@ -7,7 +7,8 @@ structure refused: :func:`~mjasc.avoidance.structure.detour_onto_structure`), ve
 corrections (:mod:`~mjasc.avoidance.decision`) with the emergency stop for what is left
 unresolved, each candidate speed plan checked against all tracks (:meth:`Manoeuvres._checked_choice`).
 The path switches: onto a detour, back to the mission path at a detour's end, a detour withdrawn
-when its causes are gone.
+when its causes are gone; a yield withdrawn when its track, predicted again without it, no
+longer conflicts (:meth:`Manoeuvres._withdraw_correction`).
 
 :class:`Manoeuvres` is a part of :class:`~mjasc.avoidance.system.CollisionAvoidance` (its state is
 the system's). World frame ENU, SI units, absolute simulation times [s].
@@ -15,6 +16,7 @@ the system's). World frame ENU, SI units, absolute simulation times [s].
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import numpy as np
@@ -98,6 +100,10 @@ class Manoeuvres:
             if chosen is None:
                 self.correction = None
                 return
+            if chosen.kind == "yield" and not chosen.emergency and \
+                    t - self._first_predicted_s.get(chosen.track_id, -math.inf) <= cfg.withdraw_new_track_s and \
+                    getattr(by_id.get(chosen.track_id), "team_member", None) not in self.team:
+                chosen = replace(chosen, withdrawable=True)  # (decided on a stranger's first estimates)
             self.correction = chosen
             self.stats[chosen.kind] += 1
             law = chosen.law
@@ -232,6 +238,39 @@ class Manoeuvres:
         self._back_to_mission(t, g_m, f"detour withdrawn: the track(s) {sorted(causes)} it went around are gone (a "
                                       f"team mate's stale copy, or lost) and the mission path is clear: back on it at "
                                       f"γ = {g_m:.1f} m")
+        return True
+
+    def _withdraw_correction(self, t, path, gamma_m: float, mission_speed_m_s: float, by_id, conflicts) -> bool:
+        """End a running yield decided on a stranger's first estimates (``Correction.withdrawable``:
+        within ``withdraw_new_track_s`` of its track's first prediction) whose track, predicted
+        again on ``path`` from ``gamma_m`` [m] at the mission speed [m/s] — as if the yield had not
+        been taken —, passes at least ``correction_withdraw_margin_m`` outside the collision
+        distance. Not a pass first (withdrawn halfway across a ship's bow it left a vessel at
+        neither speed, in contact), the emergency stop, a yield to a team mate or one decided on an
+        established track: withdrawing those in the stressed §6.4.3 bottleneck changed the team's
+        motion enough to send a vessel onto an island (thesis_stress: 1 of 200 against 0). A prediction made under the correction is clear by design
+        and says nothing about whether it is still needed; this asks. (The target-tracking mission
+        with a ferry: a track born on the ferry's far edge with a first velocity estimate of 3.4
+        m/s south-west, against the ferry's 1.5 m/s west, predicted a 2.1 m pass 27 s ahead; the
+        next estimates cleared it, and the vessel still slowed for 28 s.) Kept while the track
+        conflicts in this prediction, when it is lost (the object may still be there) or is a
+        static track's outline. True when withdrawn (the caller predicts again at once)."""
+        c, margin = self.correction, self.config.correction_withdraw_margin_m
+        if c is None or not c.withdrawable or margin <= 0.0:
+            return False
+        track = by_id.get(c.track_id)
+        if track is None or any(k.track_id == c.track_id for k in conflicts) or track_outlines([track]):
+            return False
+        q = PredictionQuery(path, gamma_m, t, correction_profile(None, t, gamma_m, mission_speed_m_s), self.radius_m,
+                            [track], self.prediction_config, include_clear=True)
+        pair = predict_fleet([q])[0]
+        if not pair or pair[0].collision or not pair[0].min_distance_m >= pair[0].collision_distance_m + margin:
+            return False
+        self.correction = None
+        self.stats["withdrawn"] += 1
+        self._event(t, f"velocity correction ({c.kind}) for track {c.track_id} withdrawn: predicted again at the "
+                       f"mission speed it passes at d = {pair[0].min_distance_m:.1f} m (collision distance "
+                       f"{pair[0].collision_distance_m:.1f} m): mission speed resumed")
         return True
 
     def _back_to_mission(self, t, gamma_m: float, event: str) -> None:

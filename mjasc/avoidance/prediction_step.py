@@ -90,7 +90,10 @@ class PredictionStep:
                                             or tr.track_id in inside)
                       and not self.team_mates.broadcast_based(tr, fresh))
                   else tr for tr in tracks]
-        self._known_track_ids |= {tr.track_id for tr in tracks}
+        ids = {tr.track_id for tr in tracks}
+        for k in ids - self._known_track_ids:
+            self._first_predicted_s[k] = t
+        self._known_track_ids |= ids
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
         self._predicted_motion, self._checked_tracks = None, None
         outlined = track_outlines(tracks)
@@ -129,8 +132,9 @@ class PredictionStep:
                    static_conflicts_of(t, path, gamma, profile, polys + list(outlined.values()), self.radius_m,
                                        self.prediction_config)]
         by_id = {tr.track_id: tr for tr in tracks}
-        if not after_replan and self._perceived is not None and \
-                self._withdraw_detour(t, nav, by_id, static_polygons):
+        if not after_replan and self._perceived is not None and (
+                self._withdraw_detour(t, nav, by_id, static_polygons) or
+                self._withdraw_correction(t, path, gamma, self._predicted_speed, by_id, conflicts)):
             return self._predict(t, nav, list(self._perceived.tracks), static_polygons)
         self._last_query = pending.query
         self._team_track_ids = {tr.track_id for tr in tracks if tr.team_member in self.team}

@@ -6,7 +6,9 @@ vessel's offset o_i = [ahead, to port]) and the errors
 
     station error  |s − p_i|          standoff  |p_T − p_i|
 
-summarized per vessel (RMS, max, mean, min) in summary.json under ``mission.track_target_truth``.
+summarized per vessel (RMS, max, mean, min) in summary.json under ``mission.track_target_truth``,
+with the number of record ticks judged and their first and last time (``samples``,
+``judged_from_s``, ``judged_to_s``: a phase that ended just after settling rests on one sample).
 """
 
 from __future__ import annotations
@@ -64,5 +66,8 @@ class TargetJudge:
                          "station_error_max_m": round(float(e[:, 0].max()), 3),
                          "standoff_mean_m": round(float(e[:, 1].mean()), 3),
                          "standoff_min_m": round(float(e[:, 1].min()), 3),
-                         "standoff_nominal_m": round(float(math.hypot(*self.offsets[name])), 3)}
+                         "standoff_nominal_m": round(float(math.hypot(*self.offsets[name])), 3),
+                         # what the numbers rest on: a phase that ended just after settling is one sample
+                         "samples": len(rows), "judged_from_s": round(rows[0][0], 3),
+                         "judged_to_s": round(rows[-1][0], 3)}
         return out
