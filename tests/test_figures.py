@@ -65,3 +65,44 @@ def test_bottleneck_conflict_labels_do_not_overlap_and_the_axis_frames_the_actio
         assert all(f"{k}: " in key for k in range(1, len(labels) + 1)) and " s" in key  # units
     finally:
         plt.close(fig)
+
+
+def test_the_chain_mission_figure_s_legend_covers_no_name_title_or_axis_label():
+    """The top-down view's legend (as drawn) overlaps neither a vessel's or the traffic's name label
+    nor the title or the axis labels, and every name label lies inside the axes: the legend inside
+    the axes covered the ferry's label where its track enters the frame."""
+    import itertools
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mjasc.core.resources import tasks_dir
+    from mjasc.figures.missions import FIGURE_SCENARIOS, NAME_LABEL_GID, mission_figure, trace_mission
+    from mjasc.runs.scenario import load_scenario
+
+    (stem,) = FIGURE_SCENARIOS
+    sc = load_scenario(tasks_dir() / f"{stem}.toml")
+    tr, summary = trace_mission(sc)
+    fig = mission_figure(sc, tr, summary, FIGURE_SCENARIOS[stem], plt)
+    try:
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        ax = fig.axes[0]
+        labels = [t for t in ax.texts if t.get_gid() == NAME_LABEL_GID]
+        names = {t.get_text() for t in labels}
+        assert {v.name for v in sc.vessels} | {"ferry"} <= names
+        legend = ax.get_legend().get_window_extent(renderer)
+        axes_box = ax.get_window_extent(renderer)
+        for t in [*labels, ax.title, ax.xaxis.label, ax.yaxis.label]:
+            box = t.get_window_extent(renderer)
+            assert not legend.overlaps(box), t.get_text()
+        for t in labels:
+            box = t.get_window_extent(renderer)
+            assert axes_box.x0 <= box.x0 and box.x1 <= axes_box.x1 and axes_box.y0 <= box.y0 and box.y1 <= axes_box.y1, \
+                t.get_text()
+        for a, b in itertools.combinations(labels, 2):
+            assert not a.get_window_extent(renderer).overlaps(b.get_window_extent(renderer)), (a.get_text(), b.get_text())
+    finally:
+        plt.close(fig)
