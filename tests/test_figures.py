@@ -106,3 +106,34 @@ def test_the_chain_mission_figure_s_legend_covers_no_name_title_or_axis_label():
             assert not a.get_window_extent(renderer).overlaps(b.get_window_extent(renderer)), (a.get_text(), b.get_text())
     finally:
         plt.close(fig)
+
+
+def test_the_dock_figure_shows_the_moored_vessels_and_a_legend_entry_for_every_style():
+    """The §6.2 dock: the two moored team mates (a track of one point draws nothing) are drawn as
+    hulls at their berths and named in the legend, and the legend lists the structures, the
+    detours, the potential field's obstacles and the static virtual obstacles the view draws."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from mjasc.figures.avoidance import HULL_GID, trace_figure, trace_run
+
+    trace = trace_run("thesis_6_2_dock", duration_s=8.0)
+    assert trace.detours and trace.svos  # the first re-plans come within 8 s
+    fig = trace_figure(trace, "dock", plt)
+    try:
+        ax = fig.axes[0]
+        hulls = [p for p in ax.patches if p.get_gid() == HULL_GID]
+        assert len(hulls) == 3
+        last = np.array(trace.positions[-1])
+        for hull, p in zip(hulls, last):  # each hull drawn where its vessel ended, in data coordinates
+            xy = hull.get_path().vertices
+            assert np.allclose(xy[:-1].mean(axis=0), p, atol=0.3)
+        texts = [t.get_text() for t in ax.get_legend().get_texts()]
+        for want in ("vessel1 (moored)", "vessel3 (moored)", "vessel2 track", "structure", "detour",
+                     "potential-field obstacle", "static virtual obstacle"):
+            assert any(want in t for t in texts), (want, texts)
+    finally:
+        plt.close(fig)
