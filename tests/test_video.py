@@ -66,6 +66,28 @@ def test_top_down_view_fits_the_extent_and_its_scale_is_span_over_height(tmp_pat
         w.close()
 
 
+@pytest.mark.parametrize("width, height", [(320, 480), (320, 360), (640, 480), (640, 240)])
+@pytest.mark.parametrize("extent", [((0.0, 0.0), (300.0, 100.0)), ((-40.0, -60.0), (40.0, 160.0))])
+def test_the_overview_fits_the_extent_in_its_pane_whatever_the_pane_s_shape(tmp_path, water, width, height, extent):
+    """The oblique overview frames the extent's corners (at the water and 2 m up: the hulls) inside
+    the pane with a margin, in a split view's narrow half (320 px of 640) too: fitted as a
+    top-down view, the near corners (nearer, so wider apart) fell outside the frame."""
+    m, d = water
+    lo, hi = np.array(extent[0]), np.array(extent[1])
+    w = VideoWriter(tmp_path / "v.mp4", m, width, height, 10, "overview", (lo, hi))
+    try:
+        w.renderer.update_scene(d, camera=w.camera)
+        proj = Projection(w.renderer.scene, width, height)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (0.0, 2.0)])
+        px = proj(corners)
+        assert np.all((px >= [0.02 * width, 0.02 * height]) & (px <= [0.98 * width, 0.98 * height])), px
+        # and not smaller than needed: some corner within 10 % (+ a pixel) of the frame's edge
+        gap = np.minimum(px, [width, height] - px) / [width, height]
+        assert gap.min() < 0.06, gap.min()
+    finally:
+        w.close()
+
+
 @pytest.mark.parametrize("mpp, width, expected", [(0.5, 640, 50.0), (1.0, 100, 20.0), (0.01, 640, 1.0),
                                                    (3.0, 640, 200.0)])
 def test_scale_bar_is_the_round_length_below_a_fifth_of_the_width(mpp, width, expected):
