@@ -122,6 +122,22 @@ def test_the_hud_boxes_do_not_overlap_and_the_legend_moves_where_there_is_room(w
         assert a2 <= b0 or b2 <= a0 or a3 <= b1 or b3 <= a1, (a, b)
 
 
+def test_the_legend_keeps_clear_of_the_vessels_where_it_can():
+    """Of the places free of the text boxes the legend takes the first that covers no vessel or
+    name; when every free place covers one, the first free place."""
+    from mjasc.runs.video_hud import place_legend
+
+    taken = [(4, 4, 150, 100), (8, 440, 80, 472), (490, 396, 636, 476)]
+    first = place_legend((200, 120), 640, 480, taken)
+    assert first == (436, 2, 636, 122)  # top right
+    vessel = (500, 50, 560, 70)
+    moved = place_legend((200, 120), 640, 480, taken, [vessel])
+    assert moved is not None and not (moved[0] < vessel[2] and vessel[0] < moved[2] and moved[1] < vessel[3]
+                                      and vessel[1] < moved[3])
+    everywhere = [(0, 0, 640, 480)]
+    assert place_legend((200, 120), 640, 480, taken, everywhere) == first
+
+
 def test_the_legend_names_the_traffic_and_the_structures_in_their_own_colours():
     """The traffic (dark grey, not the predicted conflict's red) and the structures have a legend
     row, in the colours MuJoCo draws them."""

@@ -107,26 +107,31 @@ def _overlaps(a, b) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
-def place_legend(size, W: int, H: int, taken) -> tuple | None:
+def place_legend(size, W: int, H: int, taken, avoid=()) -> tuple | None:
     """The legend's box (x0, y0, x1, y1) [px] of ``size`` (w, h) in a W × H frame: the first of
     top right, below the top-left box (right, then left) and above the bottom boxes (right, then
-    left) that lies inside the frame and overlaps none of the ``taken`` boxes; None when none
-    does (a frame too small for it shows no legend rather than covering the text)."""
+    left) that lies inside the frame and overlaps none of the ``taken`` boxes — and, if one such
+    place does, none of the ``avoid`` boxes either (the vessels and their names); None when no
+    place is free of the ``taken`` boxes (a frame too small for it shows no legend rather than
+    covering the text)."""
     w, h = size
     below = max([b[3] for b in taken if b[1] < 0.5 * H] + [0]) + 4  # under the top-left box
     above = min([b[1] for b in taken if b[1] >= 0.5 * H] + [H]) - 4  # over the bottom boxes
-    for x0, y0 in ((W - 4 - w, 2), (W - 4 - w, below), (4, below), (W - 4 - w, above - h), (4, above - h)):
-        box = (x0, y0, x0 + w, y0 + h)
-        if x0 >= 0 and y0 >= 0 and box[2] <= W and box[3] <= H and not any(_overlaps(box, b) for b in taken):
-            return box
-    return None
+    boxes = [(x0, y0, x0 + w, y0 + h) for x0, y0 in ((W - 4 - w, 2), (W - 4 - w, below), (4, below),
+                                                      (W - 4 - w, above - h), (4, above - h))]
+    free = [b for b in boxes if b[0] >= 0 and b[1] >= 0 and b[2] <= W and b[3] <= H
+            and not any(_overlaps(b, t) for t in taken)]
+    clear = [b for b in free if not any(_overlaps(b, a) for a in avoid)]
+    return (clear or free or [None])[0]
 
 
-def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = True, scale_bar_px: float = 0.0):
+def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = True, scale_bar_px: float = 0.0,
+               vessels_px=None):
     """Where the heads-up overlay's boxes go in a W × H frame, as a dict of name → box (x0, y0, x1,
     y1) [px] (``text``: the title and the modes, top left; ``scale``: the scale bar, bottom left,
     ``scale_bar_px`` long (0: none); ``north``: the north arrow and the current, bottom right;
-    ``legend``: placed by :func:`place_legend`, or absent), with the fonts and rows drawn:
+    ``legend``: placed by :func:`place_legend`, clear of the vessels and their names at
+    ``vessels_px`` (n, 2) [px] where it can be, or absent), with the fonts and rows drawn:
     ``fs`` (font size [px]), ``font``, ``small``, ``rows`` (text, font, vessel or None)."""
     fs = max(10, min(16, H // 36))
     font, small = _font(fs), _font(max(9, fs - 2))
@@ -146,7 +151,10 @@ def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = Tr
         out["scale"] = (8, H - 16 - fs - 10, 14 + scale_bar_px + 8, H - 8)
     out["north"] = (W - 150, H - 84, W - 4, H - 4)
     taken = [out[k] for k in ("text", "scale", "north") if k in out]
-    legend = place_legend(_legend_size(draw, small), W, H, taken)
+    avoid = [] if vessels_px is None else \
+        [(x - 6, y - fs - 6, x + 12 + draw.textlength(v.name, font=font), y + 6)
+         for v, (x, y) in zip(view.vessels, vessels_px) if np.isfinite(x) and np.isfinite(y)]
+    legend = place_legend(_legend_size(draw, small), W, H, taken, avoid)
     if legend is not None:
         out["legend"] = legend
     return out
@@ -165,7 +173,8 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
     if furniture and proj.top_down:
         mpp = proj.metres_per_pixel(centre_xyz)
         L = scale_bar_m(mpp, W)
-    lay = hud_layout(draw, view, W, H, title, furniture, L / mpp if mpp > 0 else 0.0)
+    px = proj(np.array([[*v.position_m, 0.5] for v in view.vessels]).reshape(-1, 3))
+    lay = hud_layout(draw, view, W, H, title, furniture, L / mpp if mpp > 0 else 0.0, px)
     fs, font, small, rows = lay["fs"], lay["font"], lay["small"], lay["rows"]
     line = fs + 4
     draw.rectangle(lay["text"], fill=(0, 0, 0, 140))
@@ -175,7 +184,6 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
             draw.rectangle([10, y + 3, 10 + fs - 5, y + fs - 2], fill=tuple(v.colour))
         draw.text((10 if k == 0 else 10 + fs, y), text, font=f, fill=(255, 255, 255) if f is font else (200, 200, 200))
     # Names by the hulls.
-    px = proj(np.array([[*v.position_m, 0.5] for v in view.vessels]))
     for v, (x, y) in zip(view.vessels, px):
         if np.isfinite(x) and -50 < x < W + 50 and -50 < y < H + 50:
             draw.text((x + 8, y - fs - 4), v.name, font=font, fill=tuple(v.colour), stroke_width=2, stroke_fill=(0, 0, 0))
