@@ -136,6 +136,11 @@ def test_the_legend_keeps_clear_of_the_vessels_where_it_can():
                                       and vessel[1] < moved[3])
     everywhere = [(0, 0, 640, 480)]
     assert place_legend((200, 120), 640, 480, taken, everywhere) == first
+    # From frame to frame it stays where it went (no jumping back once the vessel has passed) ...
+    assert place_legend((200, 120), 640, 480, taken, [], last=moved) == moved
+    assert place_legend((200, 120), 640, 480, taken, everywhere, last=moved) == moved
+    # ... unless the place is taken (a longer mode text).
+    assert place_legend((200, 120), 640, 480, [*taken, moved], [], last=moved) != moved
 
 
 def test_the_legend_names_the_traffic_and_the_structures_in_their_own_colours():

@@ -63,6 +63,8 @@ class _Pane:
         self.marker_m = 0.04 * self.span if isinstance(self.camera, mujoco.MjvCamera) else 0.0
         #: The vessel of a chase camera (its sensing and decisions alone are drawn), else None.
         self.chased = camera[len("chase:"):] if camera.startswith("chase:") else None
+        #: What the heads-up overlay keeps from frame to frame (the legend's place).
+        self.hud_memory: dict = {}
 
     def _camera(self, m, camera: str, extent_xy):
         if camera in ("top_down", "overview") and extent_xy is not None:
@@ -215,7 +217,7 @@ class VideoWriter:
             if hud:
                 proj = Projection(scn, pane.width, pane.height)
                 centre = pane.view_centre(self.model, data)
-                image = draw_hud(image, view, proj, centre, self.title) if k == 0 else \
+                image = draw_hud(image, view, proj, centre, self.title, memory=pane.hud_memory) if k == 0 else \
                     draw_hud(image, view, proj, centre, f"{pane.chased}: what it senses", furniture=False)
             t3 = time.perf_counter()
             images.append(image)

@@ -107,31 +107,35 @@ def _overlaps(a, b) -> bool:
     return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
 
 
-def place_legend(size, W: int, H: int, taken, avoid=()) -> tuple | None:
+def place_legend(size, W: int, H: int, taken, avoid=(), last=None) -> tuple | None:
     """The legend's box (x0, y0, x1, y1) [px] of ``size`` (w, h) in a W × H frame: the first of
     top right, below the top-left box (right, then left) and above the bottom boxes (right, then
     left) that lies inside the frame and overlaps none of the ``taken`` boxes — and, if one such
     place does, none of the ``avoid`` boxes either (the vessels and their names); None when no
     place is free of the ``taken`` boxes (a frame too small for it shows no legend rather than
-    covering the text)."""
+    covering the text). ``last`` (the previous frame's box) is kept while it is such a place: the
+    legend moves only when a vessel comes under it, not back and forth."""
     w, h = size
     below = max([b[3] for b in taken if b[1] < 0.5 * H] + [0]) + 4  # under the top-left box
     above = min([b[1] for b in taken if b[1] >= 0.5 * H] + [H]) - 4  # over the bottom boxes
-    boxes = [(x0, y0, x0 + w, y0 + h) for x0, y0 in ((W - 4 - w, 2), (W - 4 - w, below), (4, below),
+    boxes = ([tuple(last)] if last is not None else []) + [(x0, y0, x0 + w, y0 + h) for x0, y0 in ((W - 4 - w, 2), (W - 4 - w, below), (4, below),
                                                       (W - 4 - w, above - h), (4, above - h))]
     free = [b for b in boxes if b[0] >= 0 and b[1] >= 0 and b[2] <= W and b[3] <= H
             and not any(_overlaps(b, t) for t in taken)]
     clear = [b for b in free if not any(_overlaps(b, a) for a in avoid)]
+    if last is not None and free and free[0] == tuple(last) and not clear:
+        return tuple(last)  # nowhere clear: stay
     return (clear or free or [None])[0]
 
 
 def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = True, scale_bar_px: float = 0.0,
-               vessels_px=None):
+               vessels_px=None, last_legend=None):
     """Where the heads-up overlay's boxes go in a W × H frame, as a dict of name → box (x0, y0, x1,
     y1) [px] (``text``: the title and the modes, top left; ``scale``: the scale bar, bottom left,
     ``scale_bar_px`` long (0: none); ``north``: the north arrow and the current, bottom right;
     ``legend``: placed by :func:`place_legend`, clear of the vessels and their names at
-    ``vessels_px`` (n, 2) [px] where it can be, or absent), with the fonts and rows drawn:
+    ``vessels_px`` (n, 2) [px] where it can be, kept at ``last_legend`` while that place serves,
+    or absent), with the fonts and rows drawn:
     ``fs`` (font size [px]), ``font``, ``small``, ``rows`` (text, font, vessel or None)."""
     fs = max(10, min(16, H // 36))
     font, small = _font(fs), _font(max(9, fs - 2))
@@ -154,18 +158,19 @@ def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = Tr
     avoid = [] if vessels_px is None else \
         [(x - 6, y - fs - 6, x + 12 + draw.textlength(v.name, font=font), y + 6)
          for v, (x, y) in zip(view.vessels, vessels_px) if np.isfinite(x) and np.isfinite(y)]
-    legend = place_legend(_legend_size(draw, small), W, H, taken, avoid)
+    legend = place_legend(_legend_size(draw, small), W, H, taken, avoid, last_legend)
     if legend is not None:
         out["legend"] = legend
     return out
 
 
 def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str = "",
-             furniture: bool = True) -> np.ndarray:
+             furniture: bool = True, memory: dict | None = None) -> np.ndarray:
     """The frame (H, W, 3 uint8) with the heads-up overlay of ``view`` (a
     :class:`~mjasc.runs.video_scene.FrameView`) drawn on it; without ``furniture`` only the title
     with the time and the names by the hulls (the chase half of a split frame). The boxes do not
-    overlap (:func:`hud_layout`)."""
+    overlap (:func:`hud_layout`); ``memory`` (a dict kept per pane from frame to frame) keeps the
+    legend's place."""
     img = Image.fromarray(frame)
     draw = ImageDraw.Draw(img, "RGBA")
     W, H = img.size
@@ -174,7 +179,9 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
         mpp = proj.metres_per_pixel(centre_xyz)
         L = scale_bar_m(mpp, W)
     px = proj(np.array([[*v.position_m, 0.5] for v in view.vessels]).reshape(-1, 3))
-    lay = hud_layout(draw, view, W, H, title, furniture, L / mpp if mpp > 0 else 0.0, px)
+    memory = {} if memory is None else memory
+    lay = hud_layout(draw, view, W, H, title, furniture, L / mpp if mpp > 0 else 0.0, px, memory.get("legend"))
+    memory["legend"] = lay.get("legend")
     fs, font, small, rows = lay["fs"], lay["font"], lay["small"], lay["rows"]
     line = fs + 4
     draw.rectangle(lay["text"], fill=(0, 0, 0, 140))
