@@ -100,10 +100,11 @@ def test_the_chain_mission_figure_s_legend_covers_no_name_title_or_axis_label():
             assert not legend.overlaps(box), t.get_text()
         for t in labels:
             box = t.get_window_extent(renderer)
-            assert axes_box.x0 <= box.x0 and box.x1 <= axes_box.x1 and axes_box.y0 <= box.y0 and box.y1 <= axes_box.y1, \
-                t.get_text()
+            inside = axes_box.x0 <= box.x0 and box.x1 <= axes_box.x1 and axes_box.y0 <= box.y0 and box.y1 <= axes_box.y1
+            assert inside, t.get_text()
         for a, b in itertools.combinations(labels, 2):
-            assert not a.get_window_extent(renderer).overlaps(b.get_window_extent(renderer)), (a.get_text(), b.get_text())
+            box_a, box_b = a.get_window_extent(renderer), b.get_window_extent(renderer)
+            assert not box_a.overlaps(box_b), (a.get_text(), b.get_text())
     finally:
         plt.close(fig)
 

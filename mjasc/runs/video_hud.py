@@ -118,8 +118,8 @@ def place_legend(size, W: int, H: int, taken, avoid=(), last=None) -> tuple | No
     w, h = size
     below = max([b[3] for b in taken if b[1] < 0.5 * H] + [0]) + 4  # under the top-left box
     above = min([b[1] for b in taken if b[1] >= 0.5 * H] + [H]) - 4  # over the bottom boxes
-    boxes = ([tuple(last)] if last is not None else []) + [(x0, y0, x0 + w, y0 + h) for x0, y0 in ((W - 4 - w, 2), (W - 4 - w, below), (4, below),
-                                                      (W - 4 - w, above - h), (4, above - h))]
+    corners = ((W - 4 - w, 2), (W - 4 - w, below), (4, below), (W - 4 - w, above - h), (4, above - h))
+    boxes = ([tuple(last)] if last is not None else []) + [(x0, y0, x0 + w, y0 + h) for x0, y0 in corners]
     free = [b for b in boxes if b[0] >= 0 and b[1] >= 0 and b[2] <= W and b[3] <= H
             and not any(_overlaps(b, t) for t in taken)]
     clear = [b for b in free if not any(_overlaps(b, a) for a in avoid)]
@@ -234,7 +234,8 @@ LEGEND_ITEMS = (("line", COLOURS["path"], "mission path"), ("line", COLOURS["det
                 ("disc", (0.85, 0.85, 0.85, 1.0), f"track: disc, 2-sigma, {VELOCITY_ARROW_S:g} s of velocity"),
                 ("thin", (0.85, 0.85, 0.85, 1.0), "sensor fan, returns"),
                 ("dot", COLOURS["conflict"], "predicted conflict (CPA)"),
-                ("line", COLOURS["svo"], "static virtual obstacle"), ("line", COLOURS["field"], "potential-field obstacle"),
+                ("line", COLOURS["svo"], "static virtual obstacle"),
+                ("line", COLOURS["field"], "potential-field obstacle"),
                 ("traffic", TRAFFIC_RGBA, "traffic (true hull, white bow)"),
                 ("block", STRUCTURE_RGBA, "structure (quay, island, pontoon)"))
 
