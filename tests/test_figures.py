@@ -65,3 +65,76 @@ def test_bottleneck_conflict_labels_do_not_overlap_and_the_axis_frames_the_actio
         assert all(f"{k}: " in key for k in range(1, len(labels) + 1)) and " s" in key  # units
     finally:
         plt.close(fig)
+
+
+def test_the_chain_mission_figure_s_legend_covers_no_name_title_or_axis_label():
+    """The top-down view's legend (as drawn) overlaps neither a vessel's or the traffic's name label
+    nor the title or the axis labels, and every name label lies inside the axes: the legend inside
+    the axes covered the ferry's label where its track enters the frame."""
+    import itertools
+
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mjasc.core.resources import tasks_dir
+    from mjasc.figures.missions import FIGURE_SCENARIOS, NAME_LABEL_GID, mission_figure, trace_mission
+    from mjasc.runs.scenario import load_scenario
+
+    (stem,) = FIGURE_SCENARIOS
+    sc = load_scenario(tasks_dir() / f"{stem}.toml")
+    tr, summary = trace_mission(sc)
+    fig = mission_figure(sc, tr, summary, FIGURE_SCENARIOS[stem], plt)
+    try:
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        ax = fig.axes[0]
+        labels = [t for t in ax.texts if t.get_gid() == NAME_LABEL_GID]
+        names = {t.get_text() for t in labels}
+        assert {v.name for v in sc.vessels} | {"ferry"} <= names
+        legend = ax.get_legend().get_window_extent(renderer)
+        axes_box = ax.get_window_extent(renderer)
+        for t in [*labels, ax.title, ax.xaxis.label, ax.yaxis.label]:
+            box = t.get_window_extent(renderer)
+            assert not legend.overlaps(box), t.get_text()
+        for t in labels:
+            box = t.get_window_extent(renderer)
+            inside = axes_box.x0 <= box.x0 and box.x1 <= axes_box.x1 and axes_box.y0 <= box.y0 and box.y1 <= axes_box.y1
+            assert inside, t.get_text()
+        for a, b in itertools.combinations(labels, 2):
+            box_a, box_b = a.get_window_extent(renderer), b.get_window_extent(renderer)
+            assert not box_a.overlaps(box_b), (a.get_text(), b.get_text())
+    finally:
+        plt.close(fig)
+
+
+def test_the_dock_figure_shows_the_moored_vessels_and_a_legend_entry_for_every_style():
+    """The §6.2 dock: the two moored team mates (a track of one point draws nothing) are drawn as
+    hulls at their berths and named in the legend, and the legend lists the structures, the
+    detours, the potential field's obstacles and the static virtual obstacles the view draws."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from mjasc.figures.avoidance import HULL_GID, trace_figure, trace_run
+
+    trace = trace_run("thesis_6_2_dock", duration_s=8.0)
+    assert trace.detours and trace.svos  # the first re-plans come within 8 s
+    fig = trace_figure(trace, "dock", plt)
+    try:
+        ax = fig.axes[0]
+        hulls = [p for p in ax.patches if p.get_gid() == HULL_GID]
+        assert len(hulls) == 3
+        last = np.array(trace.positions[-1])
+        for hull, p in zip(hulls, last):  # each hull drawn where its vessel ended, in data coordinates
+            xy = hull.get_path().vertices
+            assert np.allclose(xy[:-1].mean(axis=0), p, atol=0.3)
+        texts = [t.get_text() for t in ax.get_legend().get_texts()]
+        for want in ("vessel1 (moored)", "vessel3 (moored)", "vessel2 track", "structure", "detour",
+                     "potential-field obstacle", "static virtual obstacle"):
+            assert any(want in t for t in texts), (want, texts)
+    finally:
+        plt.close(fig)

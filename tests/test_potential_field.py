@@ -380,3 +380,38 @@ def test_make_figures_writes_pngs(tmp_path):
         assert p.exists() and p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     d = dock_scenario().as_dict()
     assert len(d["starts"]) == 3 and len(d["goals"]) == 3
+
+
+def test_dock_figure_labels_each_hull_nearest_its_own_hull():
+    """Every vessel's name label in the dock figure sits closer to its own hull than to any other
+    and covers no other hull (on paper, as drawn): with labels 9 pt above each hull, "vessel 3"
+    sat on vessel 1's hull."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mjasc.figures.potential_field import HULL_LABEL_GID, _draw_scene, dock_scenario
+
+    sc = dock_scenario()
+    fig, ax = plt.subplots(figsize=(6, 4.2))  # a panel of the committed figure
+    try:
+        _draw_scene(ax, sc)
+        ax.set_xlim(-20, 80)
+        ax.set_ylim(-35, 35)
+        fig.canvas.draw()
+        renderer = fig.canvas.get_renderer()
+        labels = [t for t in ax.texts if t.get_gid() == HULL_LABEL_GID]
+        assert [t.get_text() for t in labels] == list(sc.names)
+        hulls_px = [ax.transData.transform(h) for h in sc.hulls]
+        for k, t in enumerate(labels):
+            box = t.get_window_extent(renderer)
+            centre = np.array([0.5 * (box.x0 + box.x1), 0.5 * (box.y0 + box.y1)])
+            dist = [np.min(np.hypot(*(h - centre).T)) for h in hulls_px]
+            assert int(np.argmin(dist)) == k, (t.get_text(), dist)
+            for j, h in enumerate(hulls_px):
+                if j != k:
+                    inside = (h[:, 0] >= box.x0) & (h[:, 0] <= box.x1) & (h[:, 1] >= box.y0) & (h[:, 1] <= box.y1)
+                    assert not inside.any(), (t.get_text(), sc.names[j])
+    finally:
+        plt.close(fig)

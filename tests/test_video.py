@@ -66,6 +66,98 @@ def test_top_down_view_fits_the_extent_and_its_scale_is_span_over_height(tmp_pat
         w.close()
 
 
+@pytest.mark.parametrize("width, height", [(320, 480), (320, 360), (640, 480), (640, 240)])
+@pytest.mark.parametrize("extent", [((0.0, 0.0), (300.0, 100.0)), ((-40.0, -60.0), (40.0, 160.0))])
+def test_the_overview_fits_the_extent_in_its_pane_whatever_the_pane_s_shape(tmp_path, water, width, height, extent):
+    """The oblique overview frames the extent's corners (at the water and 2 m up: the hulls) inside
+    the pane with a margin, in a split view's narrow half (320 px of 640) too: fitted as a
+    top-down view, the near corners (nearer, so wider apart) fell outside the frame."""
+    m, d = water
+    lo, hi = np.array(extent[0]), np.array(extent[1])
+    w = VideoWriter(tmp_path / "v.mp4", m, width, height, 10, "overview", (lo, hi))
+    try:
+        w.renderer.update_scene(d, camera=w.camera)
+        proj = Projection(w.renderer.scene, width, height)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (0.0, 2.0)])
+        px = proj(corners)
+        assert np.all((px >= [0.02 * width, 0.02 * height]) & (px <= [0.98 * width, 0.98 * height])), px
+        # and not smaller than needed: some corner within 10 % (+ a pixel) of the frame's edge
+        gap = np.minimum(px, [width, height] - px) / [width, height]
+        assert gap.min() < 0.06, gap.min()
+    finally:
+        w.close()
+
+
+def _long_view():
+    from mjasc.runs.video_scene import FrameView, VesselView
+
+    vessels = [VesselView(name, PALETTE[i], np.zeros(2), 0.0, "avoidance:yield",
+                          f"velocity_correction for T{i + 11} at 41 s", mission_phase="go to formation")
+               for i, name in enumerate(("alpha", "bravo", "charlie"))]
+    return FrameView(123.4, vessels, np.zeros(2))
+
+
+@pytest.mark.parametrize("width, height, legend", [(320, 480, True), (320, 360, True), (640, 480, True),
+                                                   (1280, 720, True), (320, 240, False)])
+def test_the_hud_boxes_do_not_overlap_and_the_legend_moves_where_there_is_room(width, height, legend):
+    """The title and modes (with long modes and decisions), the scale bar, the north/current box
+    and the legend stay inside the frame and apart, in a split view's 320 px half too: the legend
+    fixed at the top right covered the title and the modes there. A frame with no room for it
+    (320 × 240) shows no legend rather than covering the text."""
+    import itertools
+
+    from PIL import Image, ImageDraw
+
+    from mjasc.runs.video_hud import hud_layout
+
+    draw = ImageDraw.Draw(Image.new("RGB", (width, height)), "RGBA")
+    lay = hud_layout(draw, _long_view(), width, height, "thesis_6_4_crossing", True, 0.2 * width)
+    names = [k for k in ("text", "scale", "north", "legend") if k in lay]
+    assert ("legend" in names) == legend
+    for k in names:
+        x0, y0, x1, y1 = lay[k]
+        assert 0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height, k
+    for a, b in itertools.combinations(names, 2):
+        (a0, a1, a2, a3), (b0, b1, b2, b3) = lay[a], lay[b]
+        assert a2 <= b0 or b2 <= a0 or a3 <= b1 or b3 <= a1, (a, b)
+
+
+def test_the_legend_keeps_clear_of_the_vessels_where_it_can():
+    """Of the places free of the text boxes the legend takes the first that covers no vessel or
+    name; when every free place covers one, the first free place."""
+    from mjasc.runs.video_hud import place_legend
+
+    taken = [(4, 4, 150, 100), (8, 440, 80, 472), (490, 396, 636, 476)]
+    first = place_legend((200, 120), 640, 480, taken)
+    assert first == (436, 2, 636, 122)  # top right
+    vessel = (500, 50, 560, 70)
+    moved = place_legend((200, 120), 640, 480, taken, [vessel])
+    assert moved is not None and not (moved[0] < vessel[2] and vessel[0] < moved[2] and moved[1] < vessel[3]
+                                      and vessel[1] < moved[3])
+    everywhere = [(0, 0, 640, 480)]
+    assert place_legend((200, 120), 640, 480, taken, everywhere) == first
+    # From frame to frame it stays where it went (no jumping back once the vessel has passed) ...
+    assert place_legend((200, 120), 640, 480, taken, [], last=moved) == moved
+    assert place_legend((200, 120), 640, 480, taken, everywhere, last=moved) == moved
+    # ... unless the place is taken (a longer mode text).
+    assert place_legend((200, 120), 640, 480, [*taken, moved], [], last=moved) != moved
+
+
+def test_the_legend_names_the_traffic_and_the_structures_in_their_own_colours():
+    """The traffic (dark grey, not the predicted conflict's red) and the structures have a legend
+    row, in the colours MuJoCo draws them."""
+    from mjasc.physics.world import MOVING_RGBA, OBSTACLE_RGBA
+    from mjasc.runs.video_hud import LEGEND_ITEMS
+    from mjasc.runs.video_scene import COLOURS
+
+    rows = {text.split(" ")[0]: rgba for _, rgba, text in LEGEND_ITEMS}
+    assert rows["traffic"] == tuple(float(x) for x in MOVING_RGBA.split())
+    assert rows["structure"] == tuple(float(x) for x in OBSTACLE_RGBA.split())
+    traffic, conflict = np.array(rows["traffic"][:3]), np.array(COLOURS["conflict"][:3])
+    assert np.abs(traffic - conflict).sum() > 0.9  # not a shade of the conflict marker's red
+    assert all(np.abs(255 * traffic - np.array(c)).sum() > 150 for c in PALETTE)  # nor a vessel's colour
+
+
 @pytest.mark.parametrize("mpp, width, expected", [(0.5, 640, 50.0), (1.0, 100, 20.0), (0.01, 640, 1.0),
                                                    (3.0, 640, 200.0)])
 def test_scale_bar_is_the_round_length_below_a_fifth_of_the_width(mpp, width, expected):

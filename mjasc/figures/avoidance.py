@@ -41,6 +41,7 @@ class RunTrace:
     scenario: object
     times: list = field(default_factory=list)
     positions: list = field(default_factory=list)  # (n_vessels, 2) per tick
+    headings: list = field(default_factory=list)  # (n_vessels,) per tick [rad]
     speeds: list = field(default_factory=list)
     references: list = field(default_factory=list)
     modes: list = field(default_factory=list)  # per tick: list of mode codes
@@ -64,6 +65,7 @@ class _Tracer:
         runner, states, tr = event.runner, event.states, self.trace
         tr.times.append(states.time_s)
         tr.positions.append(states.position_m.copy())
+        tr.headings.append(states.heading_rad.copy())
         tr.speeds.append(states.speed_m_s.copy())
         tr.references.append([o.speed_ref_m_s if o else 0.0 for o in runner.last_outputs])
         tr.modes.append([MODES.get(a.mode, 0) if a.avoidance is not None else 0 for a in runner.agents])
@@ -127,10 +129,54 @@ def action_extent(trace: RunTrace, margin: float = 0.08, min_span_m: float = 40.
     return centre - half, centre + half
 
 
+#: Styles of the top-down view, shared by what is drawn and the legend's entries.
+STRUCTURE_STYLE = dict(color=(0.6, 0.45, 0.3), alpha=0.6)
+TRAFFIC_COLOUR = "0.3"  # dark grey: apart from the red of the predicted conflicts and the vessel colours
+SVO_STYLE = dict(color="gold", alpha=0.25)
+FIELD_OBSTACLE_STYLE = dict(color="purple", lw=0.8, alpha=0.6)
+DETOUR_DASHES = (4, 2)
+#: A vessel that sailed less than this [m] is drawn (and listed) as moored: its track is a dot.
+MOORED_M = 1.0
+#: The gid of each vessel's hull drawn at its last pose (tests find them by it).
+HULL_GID = "hull"
+
+
+def hull_outline(position_m, heading_rad: float, length_m: float, beam_m: float) -> np.ndarray:
+    """A hull's hexagonal outline (6, 2) [m] at a pose (bow along ``heading_rad``, world ENU)."""
+    from mjasc.figures.potential_field import vessel_outline
+
+    c, s = np.cos(heading_rad), np.sin(heading_rad)
+    body = vessel_outline((0.0, 0.0), length_m, beam_m)
+    return body @ np.array([[c, s], [-s, c]]) + np.asarray(position_m, float)
+
+
+def _legend_entries(trace: RunTrace, plt) -> list:
+    """Legend handles for what the view shows beyond the vessels' own lines (only what is there):
+    structures, traffic, detours, the potential field's obstacles and the static virtual obstacles."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    sc, out = trace.scenario, []
+    if sc.static_obstacles:
+        out.append(Patch(**STRUCTURE_STYLE, label="structure (static obstacle)"))
+    if trace.traffic:
+        out.append(Line2D([], [], color=TRAFFIC_COLOUR, ls="--", lw=1, marker="o", ms=7, mfc=(0.3, 0.3, 0.3, 0.3),
+                          mec=TRAFFIC_COLOUR, label="traffic: track, hull at the end"))
+    if any(trace.detours.values()):
+        out.append(Line2D([], [], color="0.4", lw=1, dashes=DETOUR_DASHES, label="detour (vessel colour)"))
+        out.append(Line2D([], [], **FIELD_OBSTACLE_STYLE, label="potential-field obstacle"))
+    if any(trace.svos.values()):
+        out.append(Patch(**SVO_STYLE, label="static virtual obstacle (SVO)"))
+    return out
+
+
 def trace_figure(trace: RunTrace, title: str, plt):
     """The figure of a run: top-down (framed on :func:`action_extent`, conflicts numbered with a
-    key, :mod:`mjasc.figures.conflict_labels`) on the left, speed and mode against time on the right."""
+    key, :mod:`mjasc.figures.conflict_labels`) on the left, speed and mode against time on the right.
+    Each vessel's hull is drawn at its last pose (a moored vessel's track is only a dot); the legend
+    lists every style the view uses."""
     from mjasc.figures.conflict_labels import label_conflicts
+    from mjasc.physics.vessels import load_vessel_type
 
     sc = trace.scenario
     fig = plt.figure(figsize=(14, 6.5))
@@ -141,23 +187,29 @@ def trace_figure(trace: RunTrace, title: str, plt):
     names = [v.name for v in sc.vessels]
     for o in sc.static_obstacles:
         poly = o.vertices if hasattr(o, "vertices") else o.polygon(32)
-        ax.fill(*_closed(poly).T, color=(0.6, 0.45, 0.3), alpha=0.6)
+        ax.fill(*_closed(poly).T, **STRUCTURE_STYLE)
     if trace.traffic:
         tp = np.array(trace.traffic)
         for k, o in enumerate(sc.moving_obstacles):
-            ax.plot(tp[:, k, 0], tp[:, k, 1], "--", color="tab:red", lw=1)
-            ax.add_patch(plt.Circle(tp[-1, k], o.radius_m, color="tab:red", alpha=0.3))
+            ax.plot(tp[:, k, 0], tp[:, k, 1], "--", color=TRAFFIC_COLOUR, lw=1)
+            ax.add_patch(plt.Circle(tp[-1, k], o.radius_m, fc=(0.3, 0.3, 0.3, 0.3), ec=TRAFFIC_COLOUR, lw=1))
+    heading = np.array(trace.headings) if trace.headings else np.zeros(pos.shape[:2])
     for i, v in enumerate(sc.vessels):
         col = np.array(vessel_colour(i)) / 255
         if v.path is not None:
             ax.plot(*v.path.sample(1.0).T, ":", color=col, lw=1, label=f"{v.name} mission path")
-        ax.plot(pos[:, i, 0], pos[:, i, 1], color=col, lw=2, label=f"{v.name} track")
+        sailed = float(np.hypot(*np.diff(pos[:, i], axis=0).T).sum()) if len(pos) > 1 else 0.0
+        if sailed >= MOORED_M:
+            ax.plot(pos[:, i, 0], pos[:, i, 1], color=col, lw=2, label=f"{v.name} track, hull at the end")
+        vt = load_vessel_type(v.type)
+        ax.fill(*_closed(hull_outline(pos[-1, i], heading[-1, i], vt.length_m, vt.beam_m)).T, fc=col, ec="k", lw=0.6,
+                zorder=3, gid=HULL_GID, label=None if sailed >= MOORED_M else f"{v.name} (moored)")
         for t, sl, obstacles in trace.detours.get(v.name, []):
-            ax.plot(*sl.T, color=col, lw=1, alpha=0.8, dashes=(4, 2))
+            ax.plot(*sl.T, color=col, lw=1, alpha=0.8, dashes=DETOUR_DASHES)
             for p in obstacles:
-                ax.plot(*_closed(p).T, color="purple", lw=0.8, alpha=0.6)
+                ax.plot(*_closed(p).T, **FIELD_OBSTACLE_STYLE)
         for t, poly in trace.svos.get(v.name, []):
-            ax.fill(*_closed(poly).T, color="gold", alpha=0.25)
+            ax.fill(*_closed(poly).T, **SVO_STYLE)
     # Autoscale on the action's extent alone; the equal aspect then widens one axis to fill the box.
     ax.ignore_existing_data_limits = True
     ax.update_datalim(np.array(action_extent(trace)))
@@ -166,7 +218,8 @@ def trace_figure(trace: RunTrace, title: str, plt):
     ax.set_xlabel("x east [m]")
     ax.set_ylabel("y north [m]")
     ax.set_title(title, fontsize=10)
-    ax.legend(fontsize=7, loc="best")
+    handles, _ = ax.get_legend_handles_labels()
+    ax.legend(handles=handles + _legend_entries(trace, plt), fontsize=7, loc="best")
     t = np.array(trace.times)
     sp, ref, modes = np.array(trace.speeds), np.array(trace.references), np.array(trace.modes)
     for i, v in enumerate(sc.vessels):

@@ -193,12 +193,38 @@ def team_paths(runs=TEAM_RUNS, sink_strength: float = 30.0, uniform_speed: float
 # ------------------------------------------------------------------------------------------------
 
 
+#: The gid of each vessel's name label by its hull (tests find them by it).
+HULL_LABEL_GID = "hull-label"
+#: A hull's name label stands this far [pt] from the hull's centre, on the side away from the other hulls.
+HULL_LABEL_OFFSET_PT = 11.0
+
+
+def hull_label_offsets(hulls, offset_pt: float = HULL_LABEL_OFFSET_PT) -> list[tuple[float, float]]:
+    """Per hull the label's offset [pt] from its centre: ``offset_pt`` along the direction from
+    the other hulls' mean centre to this hull's centre, snapped to the nearest of the four sides
+    (up, down, left, right), so that a label never sits between two hulls (3 hulls 6 m apart are
+    a few points wide at a figure's scale: a label above each one lands on its neighbour)."""
+    centres = np.array([np.mean(h, axis=0) for h in hulls])
+    out = []
+    for k, c in enumerate(centres):
+        others = np.delete(centres, k, axis=0)
+        d = c - others.mean(axis=0) if len(others) else np.array([0.0, 1.0])
+        if abs(d[1]) >= abs(d[0]):
+            out.append((0.0, offset_pt * (1.0 if d[1] >= 0 else -1.0)))
+        else:
+            out.append((offset_pt * (1.0 if d[0] >= 0 else -1.0), 0.0))
+    return out
+
+
 def _draw_scene(ax, sc: DockScenario, field: PotentialField | None = None, pontoon=False):
     ax.fill(*sc.quay.T, color="0.35", label="dock (quay)")
-    for k, h in enumerate(sc.hulls):
+    for k, (h, (dx, dy)) in enumerate(zip(sc.hulls, hull_label_offsets(sc.hulls))):
         ax.fill(*h.T, color="tab:blue", alpha=0.5)
-        ax.annotate(sc.names[k], h.mean(axis=0), textcoords="offset points", xytext=(0, 9),
-                    ha="center", fontsize=7)
+        ha = "center" if dx == 0 else ("left" if dx > 0 else "right")
+        va = "center" if dy == 0 else ("bottom" if dy > 0 else "top")
+        ax.annotate(sc.names[k], h.mean(axis=0), textcoords="offset points", xytext=(dx, dy),
+                    ha=ha, va=va, fontsize=7, gid=HULL_LABEL_GID,
+                    bbox=dict(boxstyle="round,pad=0.15", fc="white", ec="none", alpha=0.8))
     if pontoon:
         ax.fill(*sc.pontoon.T, color="0.55")
     if field is not None:

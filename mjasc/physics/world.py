@@ -33,8 +33,11 @@ __all__ = ["World", "build_world", "SENSOR_GEOM_GROUPS"]
 
 #: Geom groups a range sensor sees: obstacles (0) and vessel collision hulls (3).
 SENSOR_GEOM_GROUPS = np.array([1, 0, 0, 1, 0, 0], dtype=np.uint8)
+#: How MuJoCo draws structures (brown) and traffic (dark grey with a white bow mark: apart from the
+#: red of predicted conflicts, the vessel colours and the water; the video's legend shows both).
+#: Colours only: neither enters the physics nor the range sensor.
 OBSTACLE_RGBA = "0.55 0.45 0.35 1"
-MOVING_RGBA = "0.85 0.2 0.2 1"
+MOVING_RGBA = "0.22 0.22 0.25 1"
 WALL_THICKNESS_M = 0.4
 #: Compiled models a process keeps (:func:`build_world`).
 MODEL_CACHE_SIZE = 4

@@ -7,8 +7,12 @@ around the origin); ``overview`` a free camera from the south, 50° down, framed
 side by side in one frame, the overview in the left half and the chase view in the right, each half
 rendered on its own (``W/2 × H`` pixels) with its own heads-up overlay (the chase half: time and
 names only). The extent (``extent_xy``: lower-left and
-upper-right corners, world ENU [m]) fits the frame with 10 % margin: the camera's distance is
-``D = (s / 2) / tan(fovy / 2)`` for the vertical span ``s = 1.1 · max(Δy, Δx · H / W)``.
+upper-right corners, world ENU [m]) fits the frame (each pane's own width and height) with 10 %
+margin: the top-down camera's distance is ``D = (s / 2) / tan(fovy / 2)`` for the vertical span
+``s = 1.1 · max(Δy, Δx · H / W)``; the oblique overview's is the least distance at which the
+extent's corners (at the water and 2 m up) project inside the frame shrunk by 10 %
+(:func:`fit_distance_m`: its near edge looks wider than its centre, and a split view's half-width
+pane is narrow).
 
 A run's frames (:meth:`VideoWriter.add_event`, one per ``video`` slot, given the slot's
 :class:`~mjasc.runs.tick.SlotEvent`) show the scene overlays of :mod:`mjasc.runs.video_scene`
@@ -33,7 +37,7 @@ from mjasc.runs.outputs import part_path
 from mjasc.runs.video_hud import Projection, draw_hud
 from mjasc.runs.video_scene import FrameView, VesselView, add_scene_geoms, frame_view
 
-__all__ = ["VideoWriter", "split_cameras", "TRAIL_PERIOD_S", "TRAIL_POINTS"]
+__all__ = ["VideoWriter", "split_cameras", "fit_distance_m", "TRAIL_PERIOD_S", "TRAIL_POINTS"]
 
 #: A frame's trail keeps a point every TRAIL_PERIOD_S [s], at most TRAIL_POINTS of them.
 TRAIL_PERIOD_S = 1.0
@@ -42,6 +46,8 @@ TRAIL_POINTS = 120
 OVERLAY_POINTS = 150
 #: The overview camera's elevation [deg] (negative: looking down).
 OVERVIEW_ELEVATION_DEG = -50.0
+#: The overview fits the extent's corners at the water and this high [m] (hulls, masts) in its frame.
+OVERVIEW_FIT_HEIGHT_M = 2.0
 
 
 class _Pane:
@@ -57,6 +63,8 @@ class _Pane:
         self.marker_m = 0.04 * self.span if isinstance(self.camera, mujoco.MjvCamera) else 0.0
         #: The vessel of a chase camera (its sensing and decisions alone are drawn), else None.
         self.chased = camera[len("chase:"):] if camera.startswith("chase:") else None
+        #: What the heads-up overlay keeps from frame to frame (the legend's place).
+        self.hud_memory: dict = {}
 
     def _camera(self, m, camera: str, extent_xy):
         if camera in ("top_down", "overview") and extent_xy is not None:
@@ -66,9 +74,16 @@ class _Pane:
             cam = mujoco.MjvCamera()
             cam.type = mujoco.mjtCamera.mjCAMERA_FREE
             cam.lookat[:] = [*(0.5 * (lo + hi)), 0.0]
-            cam.distance = 0.5 * span / np.tan(0.5 * np.deg2rad(m.vis.global_.fovy))
+            tan_half = np.tan(0.5 * np.deg2rad(m.vis.global_.fovy))
+            cam.distance = 0.5 * span / tan_half
             cam.elevation = -90.0 if camera == "top_down" else OVERVIEW_ELEVATION_DEG
             cam.azimuth = 90.0  # looking north: x to the right, y up the frame
+            if camera == "overview":  # oblique: the near edge looks wider than the centre, fit it
+                corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+                                    for z in (0.0, OVERVIEW_FIT_HEIGHT_M)])
+                cam.distance = fit_distance_m(cam.lookat, cam.azimuth, cam.elevation, tan_half,
+                                              self.width / self.height, corners, 1.1)
+                span = 2.0 * cam.distance * tan_half  # the view's height at the look-at point
             self.span = span
             self.centre = np.array(cam.lookat)
             return cam
@@ -83,6 +98,35 @@ class _Pane:
         if isinstance(self.camera, mujoco.MjvCamera):
             return self.centre
         return np.array([*data.xpos[model.cam_bodyid[self.camera]][:2], 0.0])
+
+
+def fit_distance_m(lookat, azimuth_deg: float, elevation_deg: float, tan_half_fovy: float, aspect: float,
+                   points_xyz, margin: float = 1.1) -> float:
+    """The distance [m] from ``lookat`` at which a free camera (MuJoCo's: forward
+    ``(cos e cos a, cos e sin a, sin e)``, up ``(−sin e cos a, −sin e sin a, cos e)``) sees every
+    point of ``points_xyz`` (n, 3) [m] within the frame shrunk by ``margin`` (1.1: 10 % on each
+    side), for a frame of ``aspect`` = width / height and half vertical field of view
+    ``atan(tan_half_fovy)``. A point at ``q = p − lookat`` lands at ``(q·r, q·u) / (q·f + D)`` on the
+    unit image plane, which shrinks monotonically as D grows: bisection."""
+    a, e = np.deg2rad(azimuth_deg), np.deg2rad(elevation_deg)
+    f = np.array([np.cos(e) * np.cos(a), np.cos(e) * np.sin(a), np.sin(e)])
+    u = np.array([-np.sin(e) * np.cos(a), -np.sin(e) * np.sin(a), np.cos(e)])
+    r = np.cross(f, u)
+    q = np.asarray(points_xyz, float).reshape(-1, 3) - np.asarray(lookat, float)
+    qf, qr, qu = q @ f, q @ r, q @ u
+    limit_x, limit_y = tan_half_fovy * aspect / margin, tan_half_fovy / margin
+
+    def fits(d: float) -> bool:
+        z = qf + d
+        return bool(np.all(z > 1e-6) and np.all(np.abs(qr) <= limit_x * z) and np.all(np.abs(qu) <= limit_y * z))
+
+    lo, hi = 0.0, max(1.0, float(np.abs(q).max()))
+    while not fits(hi):
+        lo, hi = hi, 2.0 * hi
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if fits(mid) else (mid, hi)
+    return hi
 
 
 def split_cameras(model, camera: str) -> list[str]:
@@ -173,7 +217,7 @@ class VideoWriter:
             if hud:
                 proj = Projection(scn, pane.width, pane.height)
                 centre = pane.view_centre(self.model, data)
-                image = draw_hud(image, view, proj, centre, self.title) if k == 0 else \
+                image = draw_hud(image, view, proj, centre, self.title, memory=pane.hud_memory) if k == 0 else \
                     draw_hud(image, view, proj, centre, f"{pane.chased}: what it senses", furniture=False)
             t3 = time.perf_counter()
             images.append(image)

@@ -10,7 +10,9 @@ Drawn with Pillow (pixels; image rows grow downwards) after MuJoCo rendered the 
   views only: an oblique view has no single scale);
 - bottom right: a north arrow (the projected direction of world +y at the view's centre) and the
   current's arrow at the view's centre with its speed [m/s];
-- right: a legend of the scene overlays (:mod:`mjasc.runs.video_scene`).
+- a legend of the scene overlays (:mod:`mjasc.runs.video_scene`), the traffic and the structures:
+  top right, or where it overlaps no other box in a narrow frame (a split view's half), or not at
+  all when the frame has no such room (:func:`place_legend`).
 """
 
 from __future__ import annotations
@@ -20,9 +22,14 @@ from functools import lru_cache
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from mjasc.physics.world import MOVING_RGBA, OBSTACLE_RGBA
 from mjasc.runs.video_scene import COLOURS, VELOCITY_ARROW_S
 
-__all__ = ["Projection", "draw_hud", "scale_bar_m"]
+__all__ = ["Projection", "draw_hud", "hud_layout", "place_legend", "scale_bar_m", "LEGEND_ITEMS"]
+
+#: The traffic's and the structures' colours as MuJoCo draws them (RGBA 0–1), for the legend.
+TRAFFIC_RGBA = tuple(float(x) for x in MOVING_RGBA.split())
+STRUCTURE_RGBA = tuple(float(x) for x in OBSTACLE_RGBA.split())
 
 
 class Projection:
@@ -95,14 +102,41 @@ def _arrow(draw, tail, tip, fill, width=2, head=6.0) -> None:
     draw.polygon([tuple(tip), tuple(tip - head * u + 0.5 * head * p), tuple(tip - head * u - 0.5 * head * p)], fill=fill)
 
 
-def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str = "",
-             furniture: bool = True) -> np.ndarray:
-    """The frame (H, W, 3 uint8) with the heads-up overlay of ``view`` (a
-    :class:`~mjasc.runs.video_scene.FrameView`) drawn on it; without ``furniture`` only the title
-    with the time and the names by the hulls (the chase half of a split frame)."""
-    img = Image.fromarray(frame)
-    draw = ImageDraw.Draw(img, "RGBA")
-    W, H = img.size
+def _overlaps(a, b) -> bool:
+    """Whether two boxes (x0, y0, x1, y1) [px] share any area."""
+    return a[0] < b[2] and b[0] < a[2] and a[1] < b[3] and b[1] < a[3]
+
+
+def place_legend(size, W: int, H: int, taken, avoid=(), last=None) -> tuple | None:
+    """The legend's box (x0, y0, x1, y1) [px] of ``size`` (w, h) in a W × H frame: the first of
+    top right, below the top-left box (right, then left) and above the bottom boxes (right, then
+    left) that lies inside the frame and overlaps none of the ``taken`` boxes — and, if one such
+    place does, none of the ``avoid`` boxes either (the vessels and their names); None when no
+    place is free of the ``taken`` boxes (a frame too small for it shows no legend rather than
+    covering the text). ``last`` (the previous frame's box) is kept while it is such a place: the
+    legend moves only when a vessel comes under it, not back and forth."""
+    w, h = size
+    below = max([b[3] for b in taken if b[1] < 0.5 * H] + [0]) + 4  # under the top-left box
+    above = min([b[1] for b in taken if b[1] >= 0.5 * H] + [H]) - 4  # over the bottom boxes
+    corners = ((W - 4 - w, 2), (W - 4 - w, below), (4, below), (W - 4 - w, above - h), (4, above - h))
+    boxes = ([tuple(last)] if last is not None else []) + [(x0, y0, x0 + w, y0 + h) for x0, y0 in corners]
+    free = [b for b in boxes if b[0] >= 0 and b[1] >= 0 and b[2] <= W and b[3] <= H
+            and not any(_overlaps(b, t) for t in taken)]
+    clear = [b for b in free if not any(_overlaps(b, a) for a in avoid)]
+    if last is not None and free and free[0] == tuple(last) and not clear:
+        return tuple(last)  # nowhere clear: stay
+    return (clear or free or [None])[0]
+
+
+def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = True, scale_bar_px: float = 0.0,
+               vessels_px=None, last_legend=None):
+    """Where the heads-up overlay's boxes go in a W × H frame, as a dict of name → box (x0, y0, x1,
+    y1) [px] (``text``: the title and the modes, top left; ``scale``: the scale bar, bottom left,
+    ``scale_bar_px`` long (0: none); ``north``: the north arrow and the current, bottom right;
+    ``legend``: placed by :func:`place_legend`, clear of the vessels and their names at
+    ``vessels_px`` (n, 2) [px] where it can be, kept at ``last_legend`` while that place serves,
+    or absent), with the fonts and rows drawn:
+    ``fs`` (font size [px]), ``font``, ``small``, ``rows`` (text, font, vessel or None)."""
     fs = max(10, min(16, H // 36))
     font, small = _font(fs), _font(max(9, fs - 2))
     line = fs + 4
@@ -114,33 +148,66 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
         if v.decision:
             rows.append((v.decision, small, None))
     box_w = 12 + fs + max(draw.textlength(text, font=f) for text, f, _ in rows)
-    draw.rectangle([4, 4, 4 + box_w, 8 + line * len(rows)], fill=(0, 0, 0, 140))
+    out = {"fs": fs, "font": font, "small": small, "rows": rows, "text": (4, 4, 4 + box_w, 8 + line * len(rows))}
+    if not furniture:
+        return out
+    if scale_bar_px > 0:
+        out["scale"] = (8, H - 16 - fs - 10, 14 + scale_bar_px + 8, H - 8)
+    out["north"] = (W - 150, H - 84, W - 4, H - 4)
+    taken = [out[k] for k in ("text", "scale", "north") if k in out]
+    avoid = [] if vessels_px is None else \
+        [(x - 6, y - fs - 6, x + 12 + draw.textlength(v.name, font=font), y + 6)
+         for v, (x, y) in zip(view.vessels, vessels_px) if np.isfinite(x) and np.isfinite(y)]
+    legend = place_legend(_legend_size(draw, small), W, H, taken, avoid, last_legend)
+    if legend is not None:
+        out["legend"] = legend
+    return out
+
+
+def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str = "",
+             furniture: bool = True, memory: dict | None = None) -> np.ndarray:
+    """The frame (H, W, 3 uint8) with the heads-up overlay of ``view`` (a
+    :class:`~mjasc.runs.video_scene.FrameView`) drawn on it; without ``furniture`` only the title
+    with the time and the names by the hulls (the chase half of a split frame). The boxes do not
+    overlap (:func:`hud_layout`); ``memory`` (a dict kept per pane from frame to frame) keeps the
+    legend's place."""
+    img = Image.fromarray(frame)
+    draw = ImageDraw.Draw(img, "RGBA")
+    W, H = img.size
+    mpp = L = 0.0
+    if furniture and proj.top_down:
+        mpp = proj.metres_per_pixel(centre_xyz)
+        L = scale_bar_m(mpp, W)
+    px = proj(np.array([[*v.position_m, 0.5] for v in view.vessels]).reshape(-1, 3))
+    memory = {} if memory is None else memory
+    lay = hud_layout(draw, view, W, H, title, furniture, L / mpp if mpp > 0 else 0.0, px, memory.get("legend"))
+    memory["legend"] = lay.get("legend")
+    fs, font, small, rows = lay["fs"], lay["font"], lay["small"], lay["rows"]
+    line = fs + 4
+    draw.rectangle(lay["text"], fill=(0, 0, 0, 140))
     for k, (text, f, v) in enumerate(rows):
         y = 6 + line * k
         if v is not None:
             draw.rectangle([10, y + 3, 10 + fs - 5, y + fs - 2], fill=tuple(v.colour))
         draw.text((10 if k == 0 else 10 + fs, y), text, font=f, fill=(255, 255, 255) if f is font else (200, 200, 200))
     # Names by the hulls.
-    px = proj(np.array([[*v.position_m, 0.5] for v in view.vessels]))
     for v, (x, y) in zip(view.vessels, px):
         if np.isfinite(x) and -50 < x < W + 50 and -50 < y < H + 50:
             draw.text((x + 8, y - fs - 4), v.name, font=font, fill=tuple(v.colour), stroke_width=2, stroke_fill=(0, 0, 0))
     if not furniture:
         return np.asarray(img)
     # Bottom left: scale bar (top-down views only).
-    if proj.top_down:
-        mpp = proj.metres_per_pixel(centre_xyz)
-        L = scale_bar_m(mpp, W)
+    if "scale" in lay:
         n = L / mpp
         x0, y0 = 14, H - 16
-        draw.rectangle([x0 - 6, y0 - fs - 10, x0 + n + 8, y0 + 8], fill=(0, 0, 0, 140))
+        draw.rectangle(lay["scale"], fill=(0, 0, 0, 140))
         draw.line([(x0, y0), (x0 + n, y0)], fill=(255, 255, 255), width=3)
         for x in (x0, x0 + n):
             draw.line([(x, y0 - 5), (x, y0 + 3)], fill=(255, 255, 255), width=2)
         draw.text((x0, y0 - fs - 7), f"{L:g} m", font=small, fill=(255, 255, 255))
     # Bottom right: north arrow and current.
     cx, cy = W - 40, H - 44
-    draw.rectangle([W - 150, H - 84, W - 4, H - 4], fill=(0, 0, 0, 140))
+    draw.rectangle(lay["north"], fill=(0, 0, 0, 140))
     c = np.asarray(centre_xyz, float)
     a, b = proj(np.array([c, c + np.array([0.0, 1.0, 0.0])]))
     d = (b - a) / max(np.hypot(*(b - a)), 1e-9)
@@ -153,7 +220,8 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
         d = (b - a) / max(np.hypot(*(b - a)), 1e-9)
         _arrow(draw, (ux - 18 * d[0], uy - 18 * d[1]), (ux + 18 * d[0], uy + 18 * d[1]), (120, 200, 255), 3, 8)
     draw.text((W - 146, H - 20), f"current {speed:.2f} m/s", font=small, fill=(120, 200, 255))
-    _legend(draw, W, H, small)
+    if "legend" in lay:
+        _legend(draw, lay["legend"], small)
     return np.asarray(img)
 
 
@@ -161,19 +229,29 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
 #: dark overlay (the black static virtual obstacle) shows on the legend's dark box too.
 WATER_SWATCH = (30, 88, 138)
 
+#: The legend's rows: (swatch kind, RGBA 0–1, text).
+LEGEND_ITEMS = (("line", COLOURS["path"], "mission path"), ("line", COLOURS["detour"], "detour"),
+                ("disc", (0.85, 0.85, 0.85, 1.0), f"track: disc, 2-sigma, {VELOCITY_ARROW_S:g} s of velocity"),
+                ("thin", (0.85, 0.85, 0.85, 1.0), "sensor fan, returns"),
+                ("dot", COLOURS["conflict"], "predicted conflict (CPA)"),
+                ("line", COLOURS["svo"], "static virtual obstacle"),
+                ("line", COLOURS["field"], "potential-field obstacle"),
+                ("traffic", TRAFFIC_RGBA, "traffic (true hull, white bow)"),
+                ("block", STRUCTURE_RGBA, "structure (quay, island, pontoon)"))
 
-def _legend(draw, W, H, font) -> None:
-    items = [("line", COLOURS["path"], "mission path"), ("line", COLOURS["detour"], "detour"),
-             ("disc", (0.85, 0.85, 0.85, 1.0), f"track: disc, 2-sigma, {VELOCITY_ARROW_S:g} s of velocity"),
-             ("thin", (0.85, 0.85, 0.85, 1.0), "sensor fan, returns"),
-             ("dot", COLOURS["conflict"], "predicted conflict (CPA)"),
-             ("line", COLOURS["svo"], "static virtual obstacle"), ("line", COLOURS["field"], "potential-field obstacle")]
+
+def _legend_size(draw, font) -> tuple[int, int]:
+    """The legend box's width and height [px] in ``font``."""
+    line = font.size + 3
+    return int(38 + max(draw.textlength(t, font=font) for _, _, t in LEGEND_ITEMS)), line * len(LEGEND_ITEMS) + 4
+
+
+def _legend(draw, box, font) -> None:
     fs = font.size
     line = fs + 3
-    w = 34 + max(draw.textlength(t, font=font) for _, _, t in items)
-    x0, y0 = W - w - 6, 6
-    draw.rectangle([x0 - 4, y0 - 2, W - 4, y0 + line * len(items) + 2], fill=(0, 0, 0, 140))
-    for k, (kind, rgba, text) in enumerate(items):
+    draw.rectangle(box, fill=(0, 0, 0, 140))
+    x0, y0 = box[0] + 4, box[1] + 2
+    for k, (kind, rgba, text) in enumerate(LEGEND_ITEMS):
         y = y0 + k * line + line // 2
         col = _c(rgba)
         draw.rectangle([x0, y - line // 2 + 1, x0 + 26, y + line // 2 - 1], fill=WATER_SWATCH)  # as on the water
@@ -185,6 +263,12 @@ def _legend(draw, W, H, font) -> None:
         elif kind == "disc":
             draw.ellipse([x0 + 4, y - 5, x0 + 14, y + 5], outline=col, width=1, fill=(*col, 90))
             draw.line([(x0 + 9, y), (x0 + 24, y)], fill=col, width=2)
+        elif kind == "traffic":
+            r = line // 2 - 1
+            draw.ellipse([x0 + 13 - r, y - r, x0 + 13 + r, y + r], fill=col, outline=(0, 0, 0))
+            draw.line([(x0 + 14, y), (x0 + 13 + r, y)], fill=(255, 255, 255), width=2)
+        elif kind == "block":
+            draw.rectangle([x0 + 5, y - line // 2 + 2, x0 + 21, y + line // 2 - 2], fill=col)
         else:
             draw.ellipse([x0 + 8, y - 4, x0 + 16, y + 4], fill=col)
         draw.text((x0 + 30, y - fs // 2 - 1), text, font=font, fill=(255, 255, 255))
