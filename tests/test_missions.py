@@ -202,13 +202,13 @@ def _false_alarm(margin_m=None):
 
 
 def test_a_yield_on_a_new_tracks_false_alarm_is_withdrawn():
-    """A yield whose track, predicted again at the mission speed, passes well clear is withdrawn
-    (here at the next prediction, 45 m clear); with the withdrawal off (margin 0) the vessel holds
+    """A yield whose track, predicted again at the mission speed, passes well clear for 3 s is
+    withdrawn (here 45 m clear); with the withdrawal off (margin 0) the vessel holds
     it to its goal, 28.5 s, as the thesis's velocity correction does."""
     s = _false_alarm()
     a = s["vessels"]["charlie"]["avoidance"]
     assert [c["track_id"] for c in a["conflicts"]] == [220] and a["actions"]["yield"] == 1
-    assert a["actions"]["withdrawn"] == 1 and a["mode_time_s"]["avoidance:yield"] <= 5.0
+    assert a["actions"]["withdrawn"] == 1 and a["mode_time_s"]["avoidance:yield"] <= 6.0  # (4.5 s: clear for 3 s)
     held = _false_alarm(margin_m=0.0)["vessels"]["charlie"]["avoidance"]
     assert held["actions"]["yield"] == 1 and held["actions"]["withdrawn"] == 0
     assert held["mode_time_s"]["avoidance:yield"] >= 25.0

@@ -75,6 +75,10 @@ class AvoidanceConfig:
             "the collision distance: the vessel resumes its mission speed (a new track's first velocity estimate "
             "can predict a collision that the next estimates clear); 0: never withdraw (the thesis holds a "
             "correction to its goal)")
+    withdraw_confirm_s: float = param(
+        3.0, nonneg=True, unit="s",
+        doc="a withdrawable yield is withdrawn once its track has passed clear at the mission speed in every "
+            "check (one a second while it runs) for this long: a later estimate is not always the better one")
     withdraw_new_track_s: float = param(
         5.0, nonneg=True, unit="s",
         doc="a yield is withdrawable (correction_withdraw_margin_m) when decided within this time of its "

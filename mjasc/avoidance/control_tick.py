@@ -62,8 +62,8 @@ class ControlTick:
         if self._mission_moved:  # a new mission leg (mjasc.missions): look along it
             self._mission_moved = False
             return set()
-        if self.correction is not None and self.correction.emergency:  # nothing cleared it: look again
-            self.stats["deviation_predictions"] += 1
+        if self.correction is not None and (self.correction.emergency or self.correction.withdrawable):
+            self.stats["deviation_predictions"] += 1  # nothing cleared it, or it may be a false alarm: look again
             return set()
         if self.correction is None and self._predicted_speed is not None and \
                 ((dv := self._guidance.mission_speed_m_s - self._predicted_speed) > self.config.speed_change_m_s

@@ -105,6 +105,7 @@ class Manoeuvres:
                     getattr(by_id.get(chosen.track_id), "team_member", None) not in self.team:
                 chosen = replace(chosen, withdrawable=True)  # (decided on a stranger's first estimates)
             self.correction = chosen
+            self._clear_since_s = None
             self.stats[chosen.kind] += 1
             law = chosen.law
             self._event(t, f"velocity correction ({chosen.kind}) for track {chosen.track_id}: virtual target "
@@ -245,28 +246,41 @@ class Manoeuvres:
         within ``withdraw_new_track_s`` of its track's first prediction) whose track, predicted
         again on ``path`` from ``gamma_m`` [m] at the mission speed [m/s] — as if the yield had not
         been taken —, passes at least ``correction_withdraw_margin_m`` outside the collision
-        distance. Not a pass first (withdrawn halfway across a ship's bow it left a vessel at
-        neither speed, in contact), the emergency stop, a yield to a team mate or one decided on an
-        established track: withdrawing those in the stressed §6.4.3 bottleneck changed the team's
-        motion enough to send a vessel onto an island (thesis_stress: 1 of 200 against 0). A prediction made under the correction is clear by design
-        and says nothing about whether it is still needed; this asks. (The target-tracking mission
-        with a ferry: a track born on the ferry's far edge with a first velocity estimate of 3.4
-        m/s south-west, against the ferry's 1.5 m/s west, predicted a 2.1 m pass 27 s ahead; the
-        next estimates cleared it, and the vessel still slowed for 28 s.) Kept while the track
-        conflicts in this prediction, when it is lost (the object may still be there) or is a
-        static track's outline. True when withdrawn (the caller predicts again at once)."""
-        c, margin = self.correction, self.config.correction_withdraw_margin_m
-        if c is None or not c.withdrawable or margin <= 0.0:
+        distance in every check for ``withdraw_confirm_s`` (a withdrawable yield is predicted again
+        every second: :meth:`~mjasc.avoidance.control_tick.ControlTick._prediction_due`). A
+        prediction made under the yield is clear by design and says nothing about whether it is
+        still needed; this asks. (The target-tracking mission with a ferry: a track born on the
+        ferry's far edge with a first velocity estimate of 3.4 m/s south-west, against the ferry's
+        1.5 m/s west, predicted a 2.1 m pass 27 s ahead; the next estimates cleared it, and the
+        vessel still slowed for 28 s.) The clear checks restart while the track conflicts in the
+        prediction, is lost (the object may still be there) or is static. (In a demo campaign run
+        the ferry's first estimate rightly predicted contact beside the pontoon; the next one,
+        disturbed by the pontoon's returns, passed it 22 m clear: withdrawn at once, the vessel met
+        the ferry. Hence the confirmation.) Held to their goal: a pass first (withdrawn halfway
+        across a ship's bow it left a vessel at neither speed, in contact), the emergency stop, a
+        yield to a team mate or one decided on an established track (withdrawing those in the
+        stressed §6.4.3 bottleneck changed the team's motion enough to send a vessel onto an
+        island: thesis_stress 1 of 200 against 0). True when withdrawn (the caller predicts again
+        at once)."""
+        c, cfg = self.correction, self.config
+        if c is None or not c.withdrawable or cfg.correction_withdraw_margin_m <= 0.0:
             return False
         track = by_id.get(c.track_id)
-        if track is None or any(k.track_id == c.track_id for k in conflicts) or track_outlines([track]):
+        pair = None
+        if track is not None and not track.is_static and not track_outlines([track]) and \
+                not any(k.track_id == c.track_id for k in conflicts):
+            q = PredictionQuery(path, gamma_m, t, correction_profile(None, t, gamma_m, mission_speed_m_s),
+                                self.radius_m, [track], self.prediction_config, include_clear=True)
+            pair = predict_fleet([q])[0]
+        if not pair or pair[0].collision or \
+                not pair[0].min_distance_m >= pair[0].collision_distance_m + cfg.correction_withdraw_margin_m:
+            self._clear_since_s = None
             return False
-        q = PredictionQuery(path, gamma_m, t, correction_profile(None, t, gamma_m, mission_speed_m_s), self.radius_m,
-                            [track], self.prediction_config, include_clear=True)
-        pair = predict_fleet([q])[0]
-        if not pair or pair[0].collision or not pair[0].min_distance_m >= pair[0].collision_distance_m + margin:
+        if self._clear_since_s is None:
+            self._clear_since_s = t
+        if t - self._clear_since_s < cfg.withdraw_confirm_s:
             return False
-        self.correction = None
+        self.correction, self._clear_since_s = None, None
         self.stats["withdrawn"] += 1
         self._event(t, f"velocity correction ({c.kind}) for track {c.track_id} withdrawn: predicted again at the "
                        f"mission speed it passes at d = {pair[0].min_distance_m:.1f} m (collision distance "

@@ -228,6 +228,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
                                     config.track_deviation_m, config.window_s or 30.0)
         self._known_track_ids: set[int] = set()
         self._first_predicted_s: dict[int, float] = {}  # track id → time of its first prediction [s]
+        self._clear_since_s: float | None = None  # a withdrawable yield's track clear at the mission speed since
         self._in_structure: set[int] = set()  # tracks centred inside mapped structure (its own returns)
         self._predicted_tracks: dict = {}
         # The last prediction's tracks for the deviation check of the control tick: their stacked
