@@ -188,28 +188,27 @@ def test_target_tracking_with_traffic_gives_way_and_resumes():
     _check_tracking(s, rms_m=12.0, max_m=30.0, standoff_tol_m=8.0)  # the yield takes one vessel off its station for a while
 
 
-def _false_alarm(margin_m=None):
+def _false_alarm(withdraw: bool):
     """The target-tracking mission with the ferry 30–50 m north of the stations: charlie's tracker
     starts a track on the ferry's far edge whose first velocity estimate (3.4 m/s south-west, the
     ferry sails 1.5 m/s west) predicts a 2.1 m pass 27 s ahead; the next estimates clear it."""
     d = _data("target_tracking_traffic")
     d["duration_s"] = 130.0
     d["moving_obstacles"][0]["position_m"] = [330.0, 60.0]
-    if margin_m is not None:
-        for v in d["vessels"]:
-            v["avoidance"]["correction_withdraw_margin_m"] = margin_m
+    for v in d["vessels"]:
+        v["avoidance"]["withdraw_false_alarms"] = withdraw
     return Runner(parse_scenario(d, "target_tracking_traffic.toml"), None, progress=False).run().summary
 
 
 def test_a_yield_on_a_new_tracks_false_alarm_is_withdrawn():
-    """A yield whose track, predicted again at the mission speed, passes well clear for 3 s is
-    withdrawn (here 45 m clear); with the withdrawal off (margin 0) the vessel holds
-    it to its goal, 28.5 s, as the thesis's velocity correction does."""
-    s = _false_alarm()
+    """With ``withdraw_false_alarms`` a yield whose track, predicted again at the mission speed,
+    passes well clear for 3 s is withdrawn (here 45 m clear); by default the vessel holds it to
+    its goal, 28.5 s, as the thesis's velocity correction does."""
+    s = _false_alarm(True)
     a = s["vessels"]["charlie"]["avoidance"]
     assert [c["track_id"] for c in a["conflicts"]] == [220] and a["actions"]["yield"] == 1
     assert a["actions"]["withdrawn"] == 1 and a["mode_time_s"]["avoidance:yield"] <= 6.0  # (4.5 s: clear for 3 s)
-    held = _false_alarm(margin_m=0.0)["vessels"]["charlie"]["avoidance"]
+    held = _false_alarm(False)["vessels"]["charlie"]["avoidance"]
     assert held["actions"]["yield"] == 1 and held["actions"]["withdrawn"] == 0
     assert held["mode_time_s"]["avoidance:yield"] >= 25.0
 
