@@ -188,6 +188,19 @@ def test_target_tracking_with_traffic_gives_way_and_resumes():
     _check_tracking(s, rms_m=12.0, max_m=30.0, standoff_tol_m=8.0)  # the yield takes one vessel off its station for a while
 
 
+def test_a_target_phase_shorter_than_its_settling_is_judged_on_no_samples():
+    """A track_target phase that ends before settle_s leaves nothing to judge: every vessel's
+    truth entry says so (samples 0, no numbers) instead of dropping out of the summary."""
+    d = _data("target_tracking")
+    d["mission"]["track_target"]["duration_s"] = 30.0
+    d["duration_s"] = 45.0
+    s = Runner(parse_scenario(d, "target_tracking.toml"), None, progress=False).run().summary
+    truth = s["mission"]["track_target_truth"]
+    assert set(truth) == set(s["vessels"])
+    assert all(t["samples"] == 0 and t["station_error_rms_m"] is None and t["judged_from_s"] is None
+               for t in truth.values()), truth
+
+
 def _false_alarm(withdraw: bool):
     """The target-tracking mission with the ferry 30–50 m north of the stations: charlie's tracker
     starts a track on the ferry's far edge whose first velocity estimate (3.4 m/s south-west, the
@@ -228,10 +241,11 @@ def test_chained_mission_completes_every_phase_in_order(tmp_path):
     assert s["mission"]["go_to_formation"]["arrival_spread_s"] <= 1.0
     _check_tracking(s)
     assert any(v["avoidance"]["actions"]["yield"] for v in s["vessels"].values())  # the ferry, in follow_path
-    # the cross-track statistics leave the approach onto the target-tracking legs out (the error
-    # jumps to 27 and 45 m at that phase change) and count the path following, yields included
+    # the cross-track statistics leave the approach onto the target-tracking lines out (the error
+    # jumps to 9, 27 and 45 m at that phase change) and count the path following, yields included,
+    # and how far each vessel lags its station's moving line (5.6–6.8 m at most)
     for name, v in s["vessels"].items():
-        assert 0.5 < v["max_cross_track_m"] < 4.0 and v["mean_cross_track_m"] < 0.5, name
+        assert 0.5 < v["max_cross_track_m"] < 8.0 and v["mean_cross_track_m"] < 1.5, name
     # the recording shows the phases as a lane per vessel
     import rerun as rr
 

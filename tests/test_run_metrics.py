@@ -117,22 +117,31 @@ def _out(e, finished=False):
 
 def test_cross_track_counts_only_while_a_path_is_followed():
     """The statistics leave out a finished path's drift and the approach onto a mission leg that
-    begins away from the vessel (counted again from its first tick within the band); a path that
-    begins at the vessel, and a vessel without a mission, count from the start."""
+    puts the vessel 5 m or more farther off its line (counted again from its first tick within 1 m
+    of its leg); a path that begins at the vessel, a leg re-drawn a little way on (a station's
+    moving line, the error changing by less than 5 m) and a vessel without a mission count."""
     from types import SimpleNamespace
 
-    from mjasc.runs.metrics import ON_PATH_BAND_M, CrossTrackGate
+    from mjasc.runs.metrics import APPROACH_JUMP_M, ON_PATH_BAND_M, CrossTrackGate
 
-    far, near = object(), object()
+    near, redrawn, far, again = object(), object(), object(), object()
     mission = SimpleNamespace(leg_path=near)
     agents = [SimpleNamespace(mission=None), SimpleNamespace(mission=mission)]
     gate = CrossTrackGate(2)
     assert np.isnan(gate.counted([None, None], agents)).all()  # before the first control tick
     assert gate.counted([_out(0.3), _out(-0.4)], agents) == [0.3, -0.4]  # a leg beginning at the vessel
-    mission.leg_path = far  # a phase change: the new leg 27 m away
+    mission.leg_path = redrawn  # the line re-drawn 4 m away: how far the vessel lags it, counted
+    assert gate.counted([_out(0.3), _out(4.0)], agents)[1] == 4.0
+    mission.leg_path = object()  # and again, 8 m: 4 m more than the tick before, counted
+    assert gate.counted([_out(0.3), _out(-8.0)], agents)[1] == -8.0
+    mission.leg_path = near  # back on a line
+    assert gate.counted([_out(0.3), _out(0.1)], agents)[1] == 0.1
+    mission.leg_path = far  # a phase change: the new line 27 m away
     got = gate.counted([_out(0.2), _out(27.0)], agents)
     assert got[0] == 0.2 and np.isnan(got[1])
-    assert np.isnan(gate.counted([_out(0.2), _out(-2 * ON_PATH_BAND_M)], agents)[1])  # still approaching
+    mission.leg_path = again  # re-drawn while approaching: still the approach
+    assert np.isnan(gate.counted([_out(0.2), _out(-2 * APPROACH_JUMP_M)], agents)[1])
+    assert np.isnan(gate.counted([_out(0.2), _out(2 * ON_PATH_BAND_M)], agents)[1])
     assert gate.counted([_out(0.2), _out(0.9 * ON_PATH_BAND_M)], agents)[1] == 0.9 * ON_PATH_BAND_M  # on it
     assert gate.counted([_out(0.2), _out(3.0)], agents)[1] == 3.0  # off it later: a following error, counted
     got = gate.counted([_out(5.0, finished=True), _out(0.1)], agents)  # past its path's end: drifting

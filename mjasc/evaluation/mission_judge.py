@@ -8,7 +8,8 @@ vessel's offset o_i = [ahead, to port]) and the errors
 
 summarized per vessel (RMS, max, mean, min) in summary.json under ``mission.track_target_truth``,
 with the number of record ticks judged and their first and last time (``samples``,
-``judged_from_s``, ``judged_to_s``: a phase that ended just after settling rests on one sample).
+``judged_from_s``, ``judged_to_s``: a phase that ended just after settling rests on one sample;
+one that ended before has ``samples`` 0 and no numbers).
 """
 
 from __future__ import annotations
@@ -59,7 +60,11 @@ class TargetJudge:
         out = {}
         for name, rows in self.rows.items():
             rows = rows[self._settled[name]:]
-            if not rows:
+            if not rows:  # (the phase ended before settle_s: nothing to judge, and said so)
+                out[name] = {"station_error_rms_m": None, "station_error_max_m": None, "standoff_mean_m": None,
+                             "standoff_min_m": None,
+                             "standoff_nominal_m": round(float(math.hypot(*self.offsets[name])), 3),
+                             "samples": 0, "judged_from_s": None, "judged_to_s": None}
                 continue
             e = np.array(rows)[:, 1:]
             out[name] = {"station_error_rms_m": round(float(np.sqrt(np.mean(e[:, 0] ** 2))), 3),

@@ -21,12 +21,17 @@ from mjasc.evaluation.traffic_truth import traffic_at
 from mjasc.physics.obstacles import PolygonObstacle
 from mjasc.runs.metrics_kernels import update_metrics, update_metrics_ticks
 
-__all__ = ["RunMetrics", "CrossTrackGate", "ON_PATH_BAND_M"]
+__all__ = ["RunMetrics", "CrossTrackGate", "APPROACH_JUMP_M", "ON_PATH_BAND_M"]
 
-#: [m] A vessel that begins a mission leg (a new phase, a re-planned station) farther than this
-#: from the leg's path is approaching the leg until it first comes within it: those ticks measure
-#: the transit onto the path, not how well the path is followed, and are left out of the
-#: cross-track statistics (the recording's cross-track plot still shows them).
+#: [m] A new mission leg that puts the vessel this much farther off its line than it was the
+#: tick before (a new phase's line, 9–45 m away in the chained mission) starts an approach: its
+#: ticks measure the transit onto the line, not how well a line is followed, and are left out of
+#: the cross-track statistics until the vessel first comes within :data:`ON_PATH_BAND_M` of its
+#: leg (the recording's cross-track plot still shows them). Legs re-drawn a little way on (a
+#: target-tracking station's line every few seconds: the error changes by < 5 m) count: their
+#: error is how far the vessel lags its moving line.
+APPROACH_JUMP_M = 5.0
+#: [m] An approach ends when the vessel first comes this close to its leg.
 ON_PATH_BAND_M = 1.0
 
 
@@ -38,21 +43,23 @@ class CrossTrackGate:
     """Which |cross-track errors| a record tick adds to the run's statistics, per vessel: the path
     follower's, except NaN (not counted) where no path is followed — before the first control
     tick, past a finished path's end (a vessel drifting there is off no path; the error kept
-    growing with the drift) — and while a vessel approaches a mission leg that began more than
-    :data:`ON_PATH_BAND_M` off it (at a phase change the error jumps to the distance to the new
-    leg: tens of metres in the chained missions). Paths that begin where the vessel is — the
-    scenario's path from its start, a Dubins transit, avoidance's re-plans — count from their
-    first tick."""
+    growing with the drift) — and while a vessel approaches a mission leg that put it
+    :data:`APPROACH_JUMP_M` or more farther off its line, until it first comes within
+    :data:`ON_PATH_BAND_M` of its leg (at a phase change the error jumps to the distance to the
+    new line: 9, 27 and 45 m in the chained mission). Paths that begin where the vessel is — the
+    scenario's path from its start, a Dubins transit, avoidance's re-plans — and legs re-drawn a
+    little way on (a station's moving line) count from their first tick."""
 
     def __init__(self, n_vessels: int):
         self._legs: list = [None] * n_vessels  # the mission leg path each vessel was last seen on
+        self._last_abs_m = [0.0] * n_vessels  # its |error| [m] then
         self._approaching = [False] * n_vessels
 
     def counted(self, outputs, agents) -> list[float]:
         """The errors [m] (signed, NaN: not counted) of one record tick; ``outputs``: each vessel's
         last control output (None before the first), ``agents``: the vessels (their ``mission``)."""
         out = []
-        legs, approaching = self._legs, self._approaching
+        legs, last, approaching = self._legs, self._last_abs_m, self._approaching
         for i, o in enumerate(outputs):
             st = o.status if o is not None else None
             if st is None or st.finished:
@@ -61,12 +68,12 @@ class CrossTrackGate:
             e = st.cross_track_m
             mission = agents[i].mission
             if mission is not None:
-                leg = mission.leg_path
-                if leg is not legs[i]:
-                    legs[i] = leg
-                    approaching[i] = not abs(e) <= ON_PATH_BAND_M
-                elif approaching[i] and abs(e) <= ON_PATH_BAND_M:
+                leg, a = mission.leg_path, abs(e)
+                if leg is not legs[i] and a - last[i] >= APPROACH_JUMP_M:  # a new line far off: the transit
+                    approaching[i] = True
+                elif approaching[i] and a <= ON_PATH_BAND_M:
                     approaching[i] = False
+                legs[i], last[i] = leg, a
                 if approaching[i]:
                     out.append(np.nan)
                     continue
