@@ -138,3 +138,26 @@ def test_the_dock_figure_shows_the_moored_vessels_and_a_legend_entry_for_every_s
             assert any(want in t for t in texts), (want, texts)
     finally:
         plt.close(fig)
+
+
+def test_legend_rows_match_what_is_drawn_for_traffic_and_detours():
+    """A detour's swatch is dash-dot (the traffic's track is dashed grey: the two rows looked
+    alike), and the traffic's row shows a hull marker only when its hull at the end is in view
+    (in the §6.4.1 crossing the ship has left the view: its track alone)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from mjasc.figures.avoidance import DETOUR_DASHES, trace_figure, trace_run
+
+    assert len(DETOUR_DASHES) == 4  # dash-dot
+    trace = trace_run("thesis_6_4_crossing", duration_s=60.0)
+    fig = trace_figure(trace, "crossing", plt)
+    try:
+        legend = fig.axes[0].get_legend()
+        rows = {t.get_text(): h for t, h in zip(legend.get_texts(), legend.legend_handles)}
+        assert "traffic: track" in rows and not any("hull at the end" in k and "traffic" in k for k in rows)
+        assert rows["traffic: track"].get_marker() in ("None", "", None)
+    finally:
+        plt.close(fig)

@@ -413,5 +413,9 @@ def test_dock_figure_labels_each_hull_nearest_its_own_hull():
                 if j != k:
                     inside = (h[:, 0] >= box.x0) & (h[:, 0] <= box.x1) & (h[:, 1] >= box.y0) & (h[:, 1] <= box.y1)
                     assert not inside.any(), (t.get_text(), sc.names[j])
+            # nor on the quay (vessel 2's label, left of its hull, lay on it)
+            quay = ax.transData.transform(sc.quay)
+            assert box.x0 > quay[:, 0].max() or box.x1 < quay[:, 0].min() or box.y0 > quay[:, 1].max() or \
+                box.y1 < quay[:, 1].min(), (t.get_text(), "quay")
     finally:
         plt.close(fig)

@@ -134,7 +134,7 @@ STRUCTURE_STYLE = dict(color=(0.6, 0.45, 0.3), alpha=0.6)
 TRAFFIC_COLOUR = "0.3"  # dark grey: apart from the red of the predicted conflicts and the vessel colours
 SVO_STYLE = dict(color="gold", alpha=0.25)
 FIELD_OBSTACLE_STYLE = dict(color="purple", lw=0.8, alpha=0.6)
-DETOUR_DASHES = (4, 2)
+DETOUR_DASHES = (6, 2, 1, 2)  # dash-dot: apart from the traffic's dashed track
 #: A vessel that sailed less than this [m] is drawn (and listed) as moored: its track is a dot.
 MOORED_M = 1.0
 #: The gid of each vessel's hull drawn at its last pose (tests find them by it).
@@ -160,10 +160,15 @@ def _legend_entries(trace: RunTrace, plt) -> list:
     if sc.static_obstacles:
         out.append(Patch(**STRUCTURE_STYLE, label="structure (static obstacle)"))
     if trace.traffic:
-        out.append(Line2D([], [], color=TRAFFIC_COLOUR, ls="--", lw=1, marker="o", ms=7, mfc=(0.3, 0.3, 0.3, 0.3),
-                          mec=TRAFFIC_COLOUR, label="traffic: track, hull at the end"))
+        lo, hi = action_extent(trace)
+        ends = np.asarray(trace.traffic[-1], float).reshape(-1, 2)
+        if np.any(np.all((ends >= lo) & (ends <= hi), axis=1)):  # a hull at the end in view
+            out.append(Line2D([], [], color=TRAFFIC_COLOUR, ls="--", lw=1, marker="o", ms=7,
+                              mfc=(0.3, 0.3, 0.3, 0.3), mec=TRAFFIC_COLOUR, label="traffic: track, hull at the end"))
+        else:  # (the traffic sailed out of the view: its track alone is seen)
+            out.append(Line2D([], [], color=TRAFFIC_COLOUR, ls="--", lw=1, label="traffic: track"))
     if any(trace.detours.values()):
-        out.append(Line2D([], [], color="0.4", lw=1, dashes=DETOUR_DASHES, label="detour (vessel colour)"))
+        out.append(Line2D([], [], color="k", lw=1, dashes=DETOUR_DASHES, label="detour (vessel colour)"))
         out.append(Line2D([], [], **FIELD_OBSTACLE_STYLE, label="potential-field obstacle"))
     if any(trace.svos.values()):
         out.append(Patch(**SVO_STYLE, label="static virtual obstacle (SVO)"))

@@ -199,26 +199,41 @@ HULL_LABEL_GID = "hull-label"
 HULL_LABEL_OFFSET_PT = 11.0
 
 
-def hull_label_offsets(hulls, offset_pt: float = HULL_LABEL_OFFSET_PT) -> list[tuple[float, float]]:
+#: [m] A side whose label would reach an obstacle (the quay) this close to the hull is not used.
+HULL_LABEL_REACH_M = 15.0
+
+
+def hull_label_offsets(hulls, offset_pt: float = HULL_LABEL_OFFSET_PT, obstacles=()) -> list[tuple[float, float]]:
     """Per hull the label's offset [pt] from its centre: ``offset_pt`` along the direction from
     the other hulls' mean centre to this hull's centre, snapped to the nearest of the four sides
     (up, down, left, right), so that a label never sits between two hulls (3 hulls 6 m apart are
-    a few points wide at a figure's scale: a label above each one lands on its neighbour)."""
+    a few points wide at a figure's scale: a label above each one lands on its neighbour). A side
+    facing one of ``obstacles`` (polygons (k, 2) [m]) within :data:`HULL_LABEL_REACH_M` is skipped
+    for the next best (vessel 2's label, left of it, lay on the quay)."""
+    from mjasc.core.geometry import point_in_polygon
+
     centres = np.array([np.mean(h, axis=0) for h in hulls])
+    sides = np.array([[0.0, 1.0], [0.0, -1.0], [-1.0, 0.0], [1.0, 0.0]])
+    reach = np.linspace(0.0, HULL_LABEL_REACH_M, 16)
     out = []
     for k, c in enumerate(centres):
         others = np.delete(centres, k, axis=0)
         d = c - others.mean(axis=0) if len(others) else np.array([0.0, 1.0])
-        if abs(d[1]) >= abs(d[0]):
-            out.append((0.0, offset_pt * (1.0 if d[1] >= 0 else -1.0)))
+        # the sides by how well they point away from the others (ties: up first, as before)
+        order = sorted(range(4), key=lambda j: (-(sides[j] @ d) / (np.hypot(*d) or 1.0), j))
+        for j in order:
+            probe = c + reach[:, None] * sides[j]
+            if not any(np.any(point_in_polygon(probe, np.asarray(p, float))) for p in obstacles):
+                break
         else:
-            out.append((offset_pt * (1.0 if d[0] >= 0 else -1.0), 0.0))
+            j = order[0]
+        out.append((offset_pt * sides[j][0], offset_pt * sides[j][1]))
     return out
 
 
 def _draw_scene(ax, sc: DockScenario, field: PotentialField | None = None, pontoon=False):
     ax.fill(*sc.quay.T, color="0.35", label="dock (quay)")
-    for k, (h, (dx, dy)) in enumerate(zip(sc.hulls, hull_label_offsets(sc.hulls))):
+    for k, (h, (dx, dy)) in enumerate(zip(sc.hulls, hull_label_offsets(sc.hulls, obstacles=[sc.quay]))):
         ax.fill(*h.T, color="tab:blue", alpha=0.5)
         ha = "center" if dx == 0 else ("left" if dx > 0 else "right")
         va = "center" if dy == 0 else ("bottom" if dy > 0 else "top")
@@ -263,7 +278,7 @@ def _figure_dock(out_dir: Path, plt, formats=("png",)) -> tuple[list[Path], dict
     ax.set_xlim(-20, 80)
     ax.set_ylim(-35, 35)
     ax.set_title(f"(b) robust field, vessel 2, λ_g = 30, U = 1, {len(runs[0].field.panels)} panels")
-    ax.legend(fontsize=8, loc="upper left")
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3)  # (inside: over the quay)
     # (c) λ_g = 70, U = 1.85, r = 0.2 with the pontoon
     ax = axes[2]
     (run_c,) = safety_ratio_sweep((0.2,), 70.0, 1.85, with_pontoon=True, scenario=sc)
@@ -272,7 +287,7 @@ def _figure_dock(out_dir: Path, plt, formats=("png",)) -> tuple[list[Path], dict
     ax.set_xlim(-20, 80)
     ax.set_ylim(-35, 35)
     ax.set_title(f"(c) robust field, λ_g = 70, U = 1.85, {len(run_c.field.panels)} panels")
-    ax.legend(fontsize=8, loc="upper left")
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=3)
     fig.suptitle("Harmonic potential field path planning in the dock (after thesis Fig. 6.3)")
     fig.tight_layout()
     from mjasc.figures.thesis import save_figure
