@@ -316,3 +316,25 @@ def test_the_scene_s_extent_holds_where_a_followed_target_goes():
     end = MovingObstacleSet([target]).state(sc.duration_s)[0][0]
     assert np.all(lo < end) and np.all(end < hi)
     assert np.linalg.norm(end - target.position_m) > 100.0  # (it does go far from its start)
+
+
+def test_the_water_reaches_the_edges_of_a_view_framed_beyond_the_scene_s_plane(tmp_path):
+    """fleet_50's view reached past the scene's 1 km water plane: a light strip at the right edge.
+    The rendered scene's plane is widened; the model's (no collisions, excluded from the sensor) is not."""
+    from mjasc.physics.vessels import SCENE_XML
+
+    m = mujoco.MjModel.from_xml_path(str(SCENE_XML))  # its water: a 1 km plane, "water"
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    size = m.geom_size.copy()
+    w = VideoWriter(tmp_path / "v.mp4", m, 320, 240, 10, "top_down", (np.array([300.0, -100.0]),
+                                                                      np.array([900.0, 100.0])))
+    try:
+        from mjasc.runs.video_scene import FrameView
+
+        img = w._frame(d, FrameView(0.0, [], np.zeros(2)), hud=False).astype(int)
+        water = img[120, 100]
+        assert np.abs(img[:, -3:] - water).sum(axis=-1).max() < 30, "water up to the right edge"
+    finally:
+        w.close()
+    assert np.array_equal(m.geom_size, size)
