@@ -338,3 +338,20 @@ def test_the_water_reaches_the_edges_of_a_view_framed_beyond_the_scene_s_plane(t
     finally:
         w.close()
     assert np.array_equal(m.geom_size, size)
+
+
+def test_the_decision_time_has_the_clock_s_decimal():
+    """The HUD read 'at 1 s' while the clock read 0.6 s."""
+    import types
+
+    from mjasc.runs.video_scene import frame_view
+
+    avoidance = types.SimpleNamespace(conflict_log=[{"decision": "pass", "track_id": 3, "time_s": 0.6}],
+                                      last_prediction=None, detour=None)
+    agent = types.SimpleNamespace(name="a", perception=None, avoidance=avoidance, mode="avoidance:pass",
+                                  config=types.SimpleNamespace(path=None))
+    current = types.SimpleNamespace(velocity=lambda p, t: np.zeros((1, 2)))
+    runner = types.SimpleNamespace(agents=[agent], last_outputs=[None], sim=types.SimpleNamespace(current=current))
+    states = types.SimpleNamespace(position_m=np.zeros((1, 2)), heading_rad=np.zeros(1))
+    view = frame_view(types.SimpleNamespace(runner=runner, states=states, time_s=0.6), (0.0, 0.0))
+    assert view.vessels[0].decision == "pass for T3 at 0.6 s"
