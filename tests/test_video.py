@@ -386,6 +386,25 @@ def test_a_pane_below_320_by_240_shows_no_legend(width, height):
     assert "narrower than 320 px or shorter than 240 px" in " ".join(doc.split())
 
 
+def test_the_structure_swatch_is_an_outline_as_the_walls_are_drawn():
+    """Structures are thin hollow walls; the legend showed a filled brown block."""
+    from PIL import Image, ImageDraw
+
+    from mjasc.runs.video_hud import LEGEND_ITEMS, _legend, _legend_size, _font
+
+    kinds = {text.split(" ")[0]: kind for kind, _, text in LEGEND_ITEMS}
+    assert kinds["structure"] == "outline"
+    img = Image.new("RGB", (400, 300))
+    draw = ImageDraw.Draw(img, "RGBA")
+    font = _font(12)
+    w, h = _legend_size(draw, font)
+    _legend(draw, (0, 0, w, h), font)
+    line = font.size + 3
+    y = 2 + (len(LEGEND_ITEMS) - 1) * line + line // 2
+    centre = np.asarray(img)[y, 4 + 13]
+    assert tuple(centre) == (30, 88, 138)  # the water shows inside: hollow
+
+
 def test_the_water_reaches_the_edges_of_a_view_framed_beyond_the_scene_s_plane(tmp_path):
     """fleet_50's view reached past the scene's 1 km water plane: a light strip at the right edge.
     The rendered scene's plane is widened; the model's (no collisions, excluded from the sensor) is not."""

@@ -290,7 +290,7 @@ LEGEND_ITEMS = (("line", COLOURS["path"], "mission path"), ("line", COLOURS["det
                 ("line", COLOURS["svo"], "static virtual obstacle"),
                 ("line", COLOURS["field"], "potential-field obstacle"),
                 ("traffic", TRAFFIC_RGBA, "traffic (true hull, white bow)"),
-                ("block", STRUCTURE_RGBA, "structure (quay, island, pontoon)"))
+                ("outline", STRUCTURE_RGBA, "structure (quay, island, pontoon)"))
 
 
 def _legend_size(draw, font) -> tuple[int, int]:
@@ -320,8 +320,8 @@ def _legend(draw, box, font) -> None:
             r = line // 2 - 1
             draw.ellipse([x0 + 13 - r, y - r, x0 + 13 + r, y + r], fill=col, outline=(0, 0, 0))
             draw.line([(x0 + 14, y), (x0 + 13 + r, y)], fill=(255, 255, 255), width=2)
-        elif kind == "block":
-            draw.rectangle([x0 + 5, y - line // 2 + 2, x0 + 21, y + line // 2 - 2], fill=col)
+        elif kind == "outline":  # structures are thin hollow walls: an outline, not a filled block
+            draw.rectangle([x0 + 5, y - line // 2 + 2, x0 + 21, y + line // 2 - 2], outline=col, width=2)
         else:
             draw.ellipse([x0 + 8, y - 4, x0 + 16, y + 4], fill=col)
         draw.text((x0 + 30, y - fs // 2 - 1), text, font=font, fill=(255, 255, 255))
