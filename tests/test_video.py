@@ -203,9 +203,9 @@ def test_demo_frames_show_what_each_vessel_senses_and_decides(tmp_path):
     assert all(v.mode == "mission" for v in view.vessels)
     assert any(v.tracks for v in view.vessels)
     assert view.current_m_s == pytest.approx([0.0, 0.2])
-    for v in view.vessels:  # the name label in the vessel's colour, up and right of the hull
+    for v in view.vessels:  # the name label in the vessel's colour, by the hull (moved off another name)
         x, y = proj(np.array([[*v.position_m, 0.5]]))[0].astype(int)
-        patch = frame[max(y - 20, 0):y, x:x + 50].astype(int)
+        patch = frame[max(y - 40, 0):y + 30, max(x - 80, 0):x + 60].astype(int)
         assert (np.abs(patch - np.array(v.colour)).sum(axis=-1) < 60).sum() >= 5, v.name
     assert result.summary["video_frames"] == 2 * 13  # the slot's 13 and this test's 13
     assert set(result.summary["video_timing_s"]) == {"view", "scene", "render", "hud", "encode"}
@@ -316,3 +316,129 @@ def test_the_scene_s_extent_holds_where_a_followed_target_goes():
     end = MovingObstacleSet([target]).state(sc.duration_s)[0][0]
     assert np.all(lo < end) and np.all(end < hi)
     assert np.linalg.norm(end - target.position_m) > 100.0  # (it does go far from its start)
+
+
+def _fleet_view(n: int = 50, spread_m: float = 0.0):
+    from mjasc.runs.video_scene import FrameView, VesselView
+
+    vessels = [VesselView(f"v{i:03d}", PALETTE[i % len(PALETTE)], np.array([0.0, spread_m * i]), 0.0,
+                          "avoidance:yield" if i % 3 == 0 else "mission",
+                          f"velocity_correction for T{i} at 4.0 s" if i % 3 == 0 else "")
+               for i in range(n)]
+    return FrameView(4.0, vessels, np.zeros(2))
+
+
+def _layout(view, width, height, vessels_px=None, furniture=True):
+    from PIL import Image, ImageDraw
+
+    from mjasc.runs.video_hud import hud_layout
+
+    draw = ImageDraw.Draw(Image.new("RGB", (width, height)), "RGBA")
+    return hud_layout(draw, view, width, height, "fleet_50", furniture, 0.2 * width, vessels_px)
+
+
+@pytest.mark.parametrize("width, height", [(640, 480), (320, 240), (1280, 720)])
+def test_a_fleet_s_modes_fit_above_the_scale_bar_and_the_rest_are_summed_up(width, height):
+    """fleet_50's modes box listed 50 vessels and ran off the frame, under the scale bar: the rows
+    that fit are listed, then one row sums up the rest (how many, how many in avoidance)."""
+    lay = _layout(_fleet_view(), width, height)
+    x0, y0, x1, y1 = lay["text"]
+    assert y1 <= lay["scale"][1] and y1 <= height
+    last = lay["rows"][-1][0]
+    listed = sum(1 for _, _, v in lay["rows"] if v is not None)
+    assert last.startswith("… and ") and f"and {50 - listed} more" in last
+    avoiding = sum(1 for i in range(listed, 50) if i % 3 == 0)
+    assert f"({avoiding} in avoidance)" in last
+    # Three vessels fit: no summary row.
+    assert not _layout(_long_view(), 640, 480)["rows"][-1][0].startswith("…")
+
+
+@pytest.mark.parametrize("n, spread", [(50, 2.0), (3, 0.0), (6, 3.0)])
+def test_no_two_names_by_the_hulls_overlap_and_the_first_vessels_keep_theirs(n, spread):
+    """fleet_50's 50 names, 6 px apart, ran into one block, and thesis_6_2_dock's names overlapped
+    at frame 0: a name that would cover an earlier one moves or is left out (at most 12)."""
+    import itertools
+
+    from mjasc.runs.video_hud import MAX_NAMES
+
+    view = _fleet_view(n, spread)
+    px = np.array([[300.0, 240.0 - v.position_m[1]] for v in view.vessels])
+    for furniture in (True, False):
+        names = _layout(view, 640, 480, px, furniture)["names"]
+        assert 0 < len(names) <= MAX_NAMES
+        assert names[0][0] is view.vessels[0]
+        for (_, _, a), (_, _, b) in itertools.combinations(names, 2):
+            assert a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
+    assert len(_layout(_fleet_view(3, 40.0), 640, 480, np.array([[300.0, 100.0 + 60 * i] for i in range(3)]))
+               ["names"]) == 3
+
+
+@pytest.mark.parametrize("width, height", [(200, 300), (319, 480), (640, 239)])
+def test_a_pane_below_320_by_240_shows_no_legend(width, height):
+    """A 400 × 300 split's 200 × 300 panes drew the legend over a name, though
+    docs/architecture.md says a pane smaller than 320 × 240 px leaves it out."""
+    from mjasc.runs.video_hud import LEGEND_MIN_PX
+
+    assert LEGEND_MIN_PX == (320, 240)
+    assert "legend" not in _layout(_fleet_view(1), width, height, np.array([[20.0, 280.0]]))
+    assert "legend" in _layout(_fleet_view(1), 640, 480, np.array([[20.0, 280.0]]))
+    doc = (Path(__file__).resolve().parents[1] / "docs" / "architecture.md").read_text()
+    assert "narrower than 320 px or shorter than 240 px" in " ".join(doc.split())
+
+
+def test_the_structure_swatch_is_an_outline_as_the_walls_are_drawn():
+    """Structures are thin hollow walls; the legend showed a filled brown block."""
+    from PIL import Image, ImageDraw
+
+    from mjasc.runs.video_hud import LEGEND_ITEMS, _legend, _legend_size, _font
+
+    kinds = {text.split(" ")[0]: kind for kind, _, text in LEGEND_ITEMS}
+    assert kinds["structure"] == "outline"
+    img = Image.new("RGB", (400, 300))
+    draw = ImageDraw.Draw(img, "RGBA")
+    font = _font(12)
+    w, h = _legend_size(draw, font)
+    _legend(draw, (0, 0, w, h), font)
+    line = font.size + 3
+    y = 2 + (len(LEGEND_ITEMS) - 1) * line + line // 2
+    centre = np.asarray(img)[y, 4 + 13]
+    assert tuple(centre) == (30, 88, 138)  # the water shows inside: hollow
+
+
+def test_the_water_reaches_the_edges_of_a_view_framed_beyond_the_scene_s_plane(tmp_path):
+    """fleet_50's view reached past the scene's 1 km water plane: a light strip at the right edge.
+    The rendered scene's plane is widened; the model's (no collisions, excluded from the sensor) is not."""
+    from mjasc.physics.vessels import SCENE_XML
+
+    m = mujoco.MjModel.from_xml_path(str(SCENE_XML))  # its water: a 1 km plane, "water"
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    size = m.geom_size.copy()
+    w = VideoWriter(tmp_path / "v.mp4", m, 320, 240, 10, "top_down", (np.array([300.0, -100.0]),
+                                                                      np.array([900.0, 100.0])))
+    try:
+        from mjasc.runs.video_scene import FrameView
+
+        img = w._frame(d, FrameView(0.0, [], np.zeros(2)), hud=False).astype(int)
+        water = img[120, 100]
+        assert np.abs(img[:, -3:] - water).sum(axis=-1).max() < 30, "water up to the right edge"
+    finally:
+        w.close()
+    assert np.array_equal(m.geom_size, size)
+
+
+def test_the_decision_time_has_the_clock_s_decimal():
+    """The HUD read 'at 1 s' while the clock read 0.6 s."""
+    import types
+
+    from mjasc.runs.video_scene import frame_view
+
+    avoidance = types.SimpleNamespace(conflict_log=[{"decision": "pass", "track_id": 3, "time_s": 0.6}],
+                                      last_prediction=None, detour=None)
+    agent = types.SimpleNamespace(name="a", perception=None, avoidance=avoidance, mode="avoidance:pass",
+                                  config=types.SimpleNamespace(path=None))
+    current = types.SimpleNamespace(velocity=lambda p, t: np.zeros((1, 2)))
+    runner = types.SimpleNamespace(agents=[agent], last_outputs=[None], sim=types.SimpleNamespace(current=current))
+    states = types.SimpleNamespace(position_m=np.zeros((1, 2)), heading_rad=np.zeros(1))
+    view = frame_view(types.SimpleNamespace(runner=runner, states=states, time_s=0.6), (0.0, 0.0))
+    assert view.vessels[0].decision == "pass for T3 at 0.6 s"

@@ -25,6 +25,7 @@ assets/scene/water.xml).
 
 from __future__ import annotations
 
+import copy
 import os
 import time
 from pathlib import Path
@@ -50,15 +51,34 @@ OVERVIEW_ELEVATION_DEG = -50.0
 OVERVIEW_FIT_HEIGHT_M = 2.0
 
 
+def _wide_water(model, centre, span_m: float, aspect: float):
+    """The model to render a view of ``span_m`` [m] (height) around ``centre`` with: ``model``
+    itself when its water plane (the geom ``water``) reaches past the view, else a copy whose
+    plane does (MuJoCo builds a plane's drawing from the model's size when the renderer is made;
+    the scene's 1 km plane ended inside fleet_50's view, a light strip). Visual only: the plane
+    collides with nothing and the range sensor excludes it, and the run keeps its own model."""
+    wid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "water")
+    if wid < 0:
+        return model
+    reach = float(np.abs(np.asarray(centre, float)[:2]).max() + 2.0 * span_m * max(1.0, aspect))
+    if reach <= float(model.geom_size[wid][:2].min()):
+        return model
+    wide = copy.copy(model)
+    wide.geom_size[wid, :2] = reach
+    return wide
+
+
 class _Pane:
     """One camera's view: its renderer, the camera, the view's span and centre [m]."""
 
     def __init__(self, model, camera: str, width: int, height: int, extent_xy):
         self.width, self.height = int(width), int(height)
-        self.renderer = mujoco.Renderer(model, height=self.height, width=self.width)
         self.span = 0.0
         self.centre = np.zeros(3)
         self.camera = self._camera(model, camera, extent_xy)
+        self.renderer = mujoco.Renderer(_wide_water(model, self.centre, self.span, self.width / self.height)
+                                        if isinstance(self.camera, mujoco.MjvCamera) else model,
+                                        height=self.height, width=self.width)
         # Map-symbol size for markers in the framed views (2 m hulls are a few pixels): 4 % of the span.
         self.marker_m = 0.04 * self.span if isinstance(self.camera, mujoco.MjvCamera) else 0.0
         #: The vessel of a chase camera (its sensing and decisions alone are drawn), else None.

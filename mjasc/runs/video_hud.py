@@ -3,8 +3,10 @@
 Drawn with Pillow (pixels; image rows grow downwards) after MuJoCo rendered the scene:
 
 - top left: the scenario name and the simulation time ``t`` [s], then one line per vessel — its
-  colour, its name, its mode (``mission``, ``avoidance:yield`` …) and its last conflict decision;
-- each vessel's name next to its hull, at the pixel :class:`Projection` gives its position;
+  colour, its name, its mode (``mission``, ``avoidance:yield`` …) and its last conflict decision —
+  as many as fit above the scale bar, then one row summing up the rest (a fleet);
+- the names of the first :data:`MAX_NAMES` vessels next to their hulls, at the pixels
+  :class:`Projection` gives, moved or left out where they would overlap (:func:`name_labels`);
 - bottom left: a scale bar of a round length ``L ∈ {1, 2, 5}·10^k`` m close to a fifth of the
   frame's width, ``L / s`` pixels long for ``s`` metres per pixel at the view's centre (top-down
   views only: an oblique view has no single scale);
@@ -12,7 +14,8 @@ Drawn with Pillow (pixels; image rows grow downwards) after MuJoCo rendered the 
   current's arrow at the view's centre with its speed [m/s];
 - a legend of the scene overlays (:mod:`mjasc.runs.video_scene`), the traffic and the structures:
   top right, or where it overlaps no other box in a narrow frame (a split view's half), or not at
-  all when the frame has no such room (:func:`place_legend`).
+  all when the frame has no such room (:func:`place_legend`) or is narrower than 320 px or
+  shorter than 240 px (:data:`LEGEND_MIN_PX`).
 """
 
 from __future__ import annotations
@@ -25,7 +28,8 @@ from PIL import Image, ImageDraw, ImageFont
 from mjasc.physics.world import MOVING_RGBA, OBSTACLE_RGBA
 from mjasc.runs.video_scene import COLOURS, VELOCITY_ARROW_S
 
-__all__ = ["Projection", "draw_hud", "hud_layout", "place_legend", "scale_bar_m", "LEGEND_ITEMS"]
+__all__ = ["Projection", "draw_hud", "hud_layout", "name_labels", "place_legend", "scale_bar_m", "LEGEND_ITEMS",
+           "LEGEND_MIN_PX", "MAX_NAMES"]
 
 #: The traffic's and the structures' colours as MuJoCo draws them (RGBA 0–1), for the legend.
 TRAFFIC_RGBA = tuple(float(x) for x in MOVING_RGBA.split())
@@ -128,6 +132,42 @@ def place_legend(size, W: int, H: int, taken, avoid=(), last=None) -> tuple | No
     return (clear or free or [None])[0]
 
 
+#: The smallest pane (width, height) [px] that shows the legend.
+LEGEND_MIN_PX = (320, 240)
+
+#: At most this many names are drawn by the hulls (the first vessels: the chased one first).
+MAX_NAMES = 12
+
+
+def name_labels(draw, vessels, vessels_px, font, W: int, H: int, keep_off=()) -> list:
+    """The names drawn by the hulls, as (vessel, text origin (x, y), box (x0, y0, x1, y1)) [px]:
+    up and right of the hull, or — when that box would overlap an earlier name's or leave the
+    frame or cover a ``keep_off`` box (the modes) — one line down, two up, then left of the hull
+    (where none is clear of those, the first free place); a name with no free place, or past the
+    first :data:`MAX_NAMES` vessels, is left out (the modes box lists it). No two boxes overlap."""
+    fs = font.size
+    out = []
+    for v, (x, y) in zip(vessels, np.asarray(vessels_px, float).reshape(-1, 2)):
+        if len(out) >= MAX_NAMES:
+            break
+        if not (np.isfinite(x) and np.isfinite(y) and -50 < x < W + 50 and -50 < y < H + 50):
+            continue
+        tw = draw.textlength(v.name, font=font)
+        free = []
+        for dx, dy in ((8, -fs - 4), (8, 4), (8, -2 * fs - 10), (-tw - 10, -fs - 4), (-tw - 10, 4),
+                       (8, fs + 10), (8, -3 * fs - 16)):
+            ox, oy = x + dx, y + dy
+            x0, y0, x1, y1 = draw.textbbox((ox, oy), v.name, font=font, stroke_width=2)
+            box = (x0 - 1, y0 - 1, x1 + 1, y1 + 1)
+            if not any(_overlaps(box, b) for _, _, b in out):
+                free.append((v, (ox, oy), box))
+        inside = [f for f in free if f[2][0] >= 0 and f[2][2] <= W and f[2][1] >= 0 and f[2][3] <= H]
+        clear = [f for f in inside if not any(_overlaps(f[2], b) for b in keep_off)]
+        if free:
+            out.append((clear or inside or free)[0])  # inside the frame and off the text boxes first
+    return out
+
+
 def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = True, scale_bar_px: float = 0.0,
                vessels_px=None, last_legend=None):
     """Where the heads-up overlay's boxes go in a W × H frame, as a dict of name → box (x0, y0, x1,
@@ -142,23 +182,37 @@ def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = Tr
     line = fs + 4
     # Top left: title and time, then per vessel its mode and (smaller, below) its last decision.
     rows = [(f"{title}  t = {view.time_s:6.1f} s".strip(), font, None)]
-    for v in view.vessels if furniture else ():
+    # The modes box ends above the bottom boxes (the scale bar's top): a fleet's rows past that are
+    # summed up in one row rather than running off the frame and under the scale bar.
+    bottom = H - 16 - fs - 10 - 4 if furniture else H - 4
+    max_rows = max(1, (bottom - 8) // line)
+    shown = list(view.vessels) if furniture else []
+    for i, v in enumerate(shown):
         phase = f"{v.mission_phase} · " if getattr(v, "mission_phase", "") else ""
-        rows.append((f"{v.name}: {phase}{v.mode or '-'}", font, v))
-        if v.decision:
-            rows.append((v.decision, small, None))
+        new = [(f"{v.name}: {phase}{v.mode or '-'}", font, v)] + ([(v.decision, small, None)] if v.decision else [])
+        rest = shown[i + 1:]
+        if len(rows) + len(new) + (1 if rest else 0) > max_rows:
+            rest = shown[i:]
+            avoiding = sum(1 for r in rest if str(r.mode or "").startswith("avoidance"))
+            rows.append((f"… and {len(rest)} more ({avoiding} in avoidance)", font, None))
+            break
+        rows.extend(new)
     box_w = 12 + fs + max(draw.textlength(text, font=f) for text, f, _ in rows)
     out = {"fs": fs, "font": font, "small": small, "rows": rows, "text": (4, 4, 4 + box_w, 8 + line * len(rows))}
+    out["names"] = [] if vessels_px is None else name_labels(draw, view.vessels, vessels_px, font, W, H,
+                                                             [out["text"]])
     if not furniture:
         return out
     if scale_bar_px > 0:
         out["scale"] = (8, H - 16 - fs - 10, 14 + scale_bar_px + 8, H - 8)
     out["north"] = (W - 150, H - 84, W - 4, H - 4)
     taken = [out[k] for k in ("text", "scale", "north") if k in out]
-    avoid = [] if vessels_px is None else \
-        [(x - 6, y - fs - 6, x + 12 + draw.textlength(v.name, font=font), y + 6)
-         for v, (x, y) in zip(view.vessels, vessels_px) if np.isfinite(x) and np.isfinite(y)]
-    legend = place_legend(_legend_size(draw, small), W, H, taken, avoid, last_legend)
+    avoid = [(x - 6, y - 6, x + 6, y + 6) for x, y in ([] if vessels_px is None else vessels_px)
+             if np.isfinite(x) and np.isfinite(y)] + [b for _, _, b in out["names"]]
+    # A pane narrower than LEGEND_MIN_PX[0] or shorter than LEGEND_MIN_PX[1] has no room for the
+    # legend beside the names and the modes (docs/architecture.md, "Limits"): left out.
+    legend = None if W < LEGEND_MIN_PX[0] or H < LEGEND_MIN_PX[1] else \
+        place_legend(_legend_size(draw, small), W, H, taken, avoid, last_legend)
     if legend is not None:
         out["legend"] = legend
     return out
@@ -191,9 +245,8 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
             draw.rectangle([10, y + 3, 10 + fs - 5, y + fs - 2], fill=tuple(v.colour))
         draw.text((10 if k == 0 else 10 + fs, y), text, font=f, fill=(255, 255, 255) if f is font else (200, 200, 200))
     # Names by the hulls.
-    for v, (x, y) in zip(view.vessels, px):
-        if np.isfinite(x) and -50 < x < W + 50 and -50 < y < H + 50:
-            draw.text((x + 8, y - fs - 4), v.name, font=font, fill=tuple(v.colour), stroke_width=2, stroke_fill=(0, 0, 0))
+    for v, origin, _ in lay["names"]:
+        draw.text(origin, v.name, font=font, fill=tuple(v.colour), stroke_width=2, stroke_fill=(0, 0, 0))
     if not furniture:
         return np.asarray(img)
     # Bottom left: scale bar (top-down views only).
@@ -237,7 +290,7 @@ LEGEND_ITEMS = (("line", COLOURS["path"], "mission path"), ("line", COLOURS["det
                 ("line", COLOURS["svo"], "static virtual obstacle"),
                 ("line", COLOURS["field"], "potential-field obstacle"),
                 ("traffic", TRAFFIC_RGBA, "traffic (true hull, white bow)"),
-                ("block", STRUCTURE_RGBA, "structure (quay, island, pontoon)"))
+                ("outline", STRUCTURE_RGBA, "structure (quay, island, pontoon)"))
 
 
 def _legend_size(draw, font) -> tuple[int, int]:
@@ -267,8 +320,8 @@ def _legend(draw, box, font) -> None:
             r = line // 2 - 1
             draw.ellipse([x0 + 13 - r, y - r, x0 + 13 + r, y + r], fill=col, outline=(0, 0, 0))
             draw.line([(x0 + 14, y), (x0 + 13 + r, y)], fill=(255, 255, 255), width=2)
-        elif kind == "block":
-            draw.rectangle([x0 + 5, y - line // 2 + 2, x0 + 21, y + line // 2 - 2], fill=col)
+        elif kind == "outline":  # structures are thin hollow walls: an outline, not a filled block
+            draw.rectangle([x0 + 5, y - line // 2 + 2, x0 + 21, y + line // 2 - 2], outline=col, width=2)
         else:
             draw.ellipse([x0 + 8, y - 4, x0 + 16, y + 4], fill=col)
         draw.text((x0 + 30, y - fs // 2 - 1), text, font=font, fill=(255, 255, 255))

@@ -103,7 +103,7 @@ def frame_view(event, centre_xy) -> FrameView:
             if a.conflict_log:  # capped at 50 entries: the latest decision shown is the 50th's after that
                 c = a.conflict_log[-1]
                 what = "a static obstacle" if c.get("static") else f"T{c['track_id']}"
-                v.decision = f"{c['decision']} for {what} at {c['time_s']:.0f} s"
+                v.decision = f"{c['decision']} for {what} at {c['time_s']:.1f} s"
             last = a.last_prediction
             if last is not None:
                 for c in last.conflicts:
