@@ -243,28 +243,16 @@ class Manoeuvres:
 
     def _withdraw_correction(self, t, path, gamma_m: float, mission_speed_m_s: float, by_id, conflicts) -> bool:
         """With ``withdraw_false_alarms`` (off by default): end a running yield decided on a
-        stranger's first estimates (``Correction.withdrawable``: within ``withdraw_new_track_s`` of
-        its track's first prediction) whose track, predicted
-        again on ``path`` from ``gamma_m`` [m] at the mission speed [m/s] — as if the yield had not
-        been taken —, passes at least ``correction_withdraw_margin_m`` outside the collision
-        distance in every check for ``withdraw_confirm_s`` (a withdrawable yield is predicted again
-        every second: :meth:`~mjasc.avoidance.control_tick.ControlTick._prediction_due`). A
-        prediction made under the yield is clear by design and says nothing about whether it is
-        still needed; this asks. (The target-tracking mission with a ferry: a track born on the
-        ferry's far edge with a first velocity estimate of 3.4 m/s south-west, against the ferry's
-        1.5 m/s west, predicted a 2.1 m pass 27 s ahead; the next estimates cleared it, and the
-        vessel still slowed for 28 s.) The clear checks restart while the track conflicts in the
-        prediction, is lost (the object may still be there) or is static. (In a demo campaign run
-        the ferry's first estimate rightly predicted contact beside the pontoon; the next one,
-        disturbed by the pontoon's returns, passed it 22 m clear: withdrawn at once, the vessel met
-        the ferry. Hence the confirmation.) Held to their goal: a pass first (withdrawn halfway
-        across a ship's bow it left a vessel at neither speed, in contact), the emergency stop, a
-        yield to a team mate or one decided on an established track (withdrawing those in the
-        stressed §6.4.3 bottleneck changed the team's motion enough to send a vessel onto an
-        island: thesis_stress 1 of 200 against 0). Off by default: with it on, the perturbed demo
-        campaign had 2 contacts in 200 runs (its ferry emerges beside the pontoon, where the later
-        estimates are the worse ones) against 0 without; thesis_stress 0 of 200 and Imazu 0 of
-        220 either way. True when withdrawn (the caller predicts again at once)."""
+        stranger's first estimates (``Correction.withdrawable``) once its track, predicted again on
+        ``path`` from ``gamma_m`` [m] at the mission speed [m/s] — as if the yield had not been
+        taken —, has passed at least ``correction_withdraw_margin_m`` outside the collision
+        distance in every check for ``withdraw_confirm_s`` (such a yield predicts again every
+        second: :meth:`~mjasc.avoidance.control_tick.ControlTick._prediction_due`). A prediction
+        made under the yield is clear by design and cannot tell whether the yield is still needed;
+        this asks. The checks restart while the track conflicts, is lost (the object may still be
+        there) or is static. Why only these yields, why the confirmation and why off by default,
+        from the campaigns: docs/avoidance.md, "Decisions". True when withdrawn (the caller
+        predicts again at once)."""
         c, cfg = self.correction, self.config
         if c is None or not c.withdrawable:  # (withdrawable only with withdraw_false_alarms)
             return False

@@ -91,8 +91,9 @@ class PredictionStep:
                       and not self.team_mates.broadcast_based(tr, fresh))
                   else tr for tr in tracks]
         ids = {tr.track_id for tr in tracks}
-        for k in ids - self._known_track_ids:
-            self._first_predicted_s[k] = t
+        if self.config.withdraw_false_alarms:  # (what _decide needs to tell a new track's yield)
+            for k in ids - self._known_track_ids:
+                self._first_predicted_s[k] = t
         self._known_track_ids |= ids
         self._predicted_tracks = {tr.track_id: tr for tr in tracks}
         self._predicted_motion, self._checked_tracks = None, None

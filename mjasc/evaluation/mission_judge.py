@@ -60,19 +60,17 @@ class TargetJudge:
         out = {}
         for name, rows in self.rows.items():
             rows = rows[self._settled[name]:]
-            if not rows:  # (the phase ended before settle_s: nothing to judge, and said so)
-                out[name] = {"station_error_rms_m": None, "station_error_max_m": None, "standoff_mean_m": None,
-                             "standoff_min_m": None,
-                             "standoff_nominal_m": round(float(math.hypot(*self.offsets[name])), 3),
-                             "samples": 0, "judged_from_s": None, "judged_to_s": None}
-                continue
-            e = np.array(rows)[:, 1:]
-            out[name] = {"station_error_rms_m": round(float(np.sqrt(np.mean(e[:, 0] ** 2))), 3),
-                         "station_error_max_m": round(float(e[:, 0].max()), 3),
-                         "standoff_mean_m": round(float(e[:, 1].mean()), 3),
-                         "standoff_min_m": round(float(e[:, 1].min()), 3),
-                         "standoff_nominal_m": round(float(math.hypot(*self.offsets[name])), 3),
-                         # what the numbers rest on: a phase that ended just after settling is one sample
-                         "samples": len(rows), "judged_from_s": round(rows[0][0], 3),
-                         "judged_to_s": round(rows[-1][0], 3)}
+            entry = dict.fromkeys(("station_error_rms_m", "station_error_max_m", "standoff_mean_m",
+                                   "standoff_min_m"))  # (None: the phase ended before settle_s)
+            if rows:
+                e = np.array(rows)[:, 1:]
+                entry.update(station_error_rms_m=round(float(np.sqrt(np.mean(e[:, 0] ** 2))), 3),
+                             station_error_max_m=round(float(e[:, 0].max()), 3),
+                             standoff_mean_m=round(float(e[:, 1].mean()), 3),
+                             standoff_min_m=round(float(e[:, 1].min()), 3))
+            # what the numbers rest on: a phase that ended just after settling is one sample
+            entry.update(standoff_nominal_m=round(float(math.hypot(*self.offsets[name])), 3), samples=len(rows),
+                         judged_from_s=round(rows[0][0], 3) if rows else None,
+                         judged_to_s=round(rows[-1][0], 3) if rows else None)
+            out[name] = entry
         return out
