@@ -11,8 +11,8 @@ import pytest
 
 from mjasc.core.navigation import OwnNavigation
 from mjasc.guidance.paths import Path as GPath
-from mjasc.missions.dubins import dubins_path, dubins_words
-from mjasc.missions.go_to_formation import plan_transit
+from mjasc.missions.dubins import dubins_length, dubins_path, dubins_words
+from mjasc.missions.go_to_formation import bumped_transit, plan_transit, transit_length
 from mjasc.missions.target_tracking import station
 from mjasc.runs.runner import Runner
 from mjasc.runs.scenario import ScenarioError, load_scenario, parse_scenario
@@ -54,6 +54,56 @@ def test_transit_ends_on_the_formation_pose_with_a_straight_lead_in():
     assert np.allclose(path.point(path.length), [60.0, 12.0], atol=1e-6)
     assert abs(wrap(path.tangent_angle(path.length))) < 1e-9
     assert np.all(path.curvature(np.linspace(path.length - 15.0, path.length, 10)) == 0.0)
+
+
+def test_dubins_length_is_the_built_paths_length():
+    rng = np.random.default_rng(7)
+    for k in range(400):
+        p0, p1 = rng.uniform(-60, 60, 2), rng.uniform(-60, 60, 2)
+        if k % 4 == 0:  # near poses: the CCC words
+            p1 = p0 + rng.uniform(-15, 15, 2)
+        a, b, r = *rng.uniform(-4, 4, 2), rng.uniform(2.0, 20.0)
+        assert dubins_length(p0, a, p1, b, r) == pytest.approx(dubins_path(p0, a, p1, b, r).length, abs=1e-9)
+    assert dubins_length([0, 0], 0.0, [0, 20], math.pi, 10.0) == pytest.approx(math.pi * 10.0)
+
+
+def test_a_bump_lengthens_a_transit_inside_the_lead_ins_jump():
+    """A vessel 60 m behind its formation pose, on its course: moving the lead-in's entry back adds
+    no length until the entry passes behind the vessel, then a whole turn (> 2πR). 10 m more are
+    made by a bump: the transit through a waypoint pushed sideways from its midpoint."""
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    plain = plan_transit([40.0, 0.0], 0.0, formation, 10.0, 15.0)
+    assert plain.length == pytest.approx(60.0)
+    assert bumped_transit([40.0, 0.0], 0.0, formation, 10.0, 15.0, 0.0).length == pytest.approx(60.0)
+    lengths = [bumped_transit([40.0, 0.0], 0.0, formation, 10.0, 15.0, h).length for h in np.linspace(0, 20, 41)]
+    assert np.all(np.diff(lengths) > 0.0) and np.all(np.diff(lengths) < 1.0)  # grows, without a jump
+    path = bumped_transit([40.0, 0.0], 0.0, formation, 10.0, 15.0, -12.0)
+    assert transit_length([40.0, 0.0], 0.0, formation, 10.0, 15.0) == pytest.approx(60.0)
+    # a feasible curve: joined without gaps or kinks, turns no tighter than R, the lead-in straight
+    s = np.linspace(0.0, path.length, 2000)
+    assert np.all(np.abs(path.curvature(s)) <= 1.0 / 10.0 + 1e-9)
+    heading = np.unwrap([path.tangent_angle(x) for x in s])
+    assert np.all(np.abs(np.diff(heading)) < 0.05)
+    assert np.allclose(path.point(path.length), [100.0, 0.0], atol=1e-6) and abs(wrap(path.tangent_angle(path.length))) < 1e-9
+    assert np.all(path.curvature(np.linspace(path.length - 15.0, path.length, 10)) == 0.0)
+    assert min(p[1] for p in (path.point(x) for x in s)) == pytest.approx(-12.0, abs=0.5)  # pushed to the right
+
+
+def test_go_to_formation_arrives_at_cruise_speed_when_the_need_falls_in_the_jump():
+    """The team needs 10 m more of this vessel than its shortest transit (within the lead-in's
+    jump): before the bump it sailed slower (60 m at 1.36 m/s); now it sails 66 m at cruise."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    ph = GoToFormation(0, GoToFormationOptions(), formation, 1.5, team_size=2)
+    ph.begin(0.0, _nav(40.0, 0.0))
+    leg, _ = ph.step(PhaseInputs(1.0, _nav(41.5, 0.0), 1.5, None, {"mate": MissionBroadcast(0, arrival_time_s=45.0)},
+                                 True))
+    assert leg.path.length == pytest.approx(1.5 * 44.0, abs=0.1) and leg.speed_m_s == pytest.approx(1.5, abs=0.01)
+    assert ph.lead_in_m == 15.0 and 5.0 < abs(ph.bump_m) < 20.0
+    assert np.allclose(leg.path.point(leg.path.length), [100.0, 0.0], atol=1e-6)
 
 
 def test_station_in_the_target_frame():

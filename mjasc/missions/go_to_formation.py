@@ -10,8 +10,12 @@ point, on the path's course, at its cruise speed. The plan (docs/missions.md):
    t₀ + L_i / v_i (v_i its cruise speed); it broadcasts it, and once it has heard every team mate
    (or after ``agree_s``) takes the latest, T = max_j (t₀ + L_j / v_j). It then re-plans its transit
    to arrive at T at its cruise speed: a vessel that would be early lengthens its straight lead-in
-   (the length found with scipy's ``brentq``) — so the whole team reaches its formation poses at
-   cruise speed; when no longer path exists it sails slower, L_i / (T − t) (not below
+   (the length found with scipy's ``brentq``). A lead-in moved back along the formation course
+   adds no length until its entry passes behind the vessel, and then a whole turn at once: an
+   extra length inside that jump is made by a **bump** — the transit's Dubins part through a
+   waypoint pushed sideways from its midpoint (two Dubins curves; at no push, the shortest transit
+   itself), pushed until the length is met. So the whole team reaches its formation poses at
+   cruise speed; when neither gives the length it sails slower, L_i / (T − t) (not below
    ``min_speed_fraction`` of its cruise). A later arrival heard afterwards slows it down.
 3. **Arriving together over the lossy link.** Along the transits the team runs the same γ/L
    consensus as in cooperative path following: equal normalized progress γ_i / L_i means equal
@@ -32,10 +36,10 @@ from scipy.optimize import brentq
 from mjasc.core.frames import wrap_angle
 from mjasc.guidance.paths import LineSegment, Path
 from mjasc.missions.config import GoToFormationOptions
-from mjasc.missions.dubins import dubins_path
+from mjasc.missions.dubins import dubins_length, dubins_path
 from mjasc.missions.legs import MissionBroadcast, MissionLeg, PhaseInputs
 
-__all__ = ["plan_transit", "GoToFormation"]
+__all__ = ["plan_transit", "transit_length", "bumped_transit", "GoToFormation"]
 
 
 def plan_transit(position_m, heading_rad: float, formation_path: Path, turn_radius_m: float,
@@ -57,6 +61,69 @@ def plan_transit(position_m, heading_rad: float, formation_path: Path, turn_radi
     return Path.from_segments([*head.segments, LineSegment(head.end_point, goal)])
 
 
+def transit_length(position_m, heading_rad: float, formation_path: Path, turn_radius_m: float,
+                   lead_in_m: float) -> float:
+    """The length [m] of :func:`plan_transit`'s path, from the Dubins lengths alone (nothing built:
+    the lead-in search evaluates it ~150 times)."""
+    goal = np.asarray(formation_path.point(0.0), dtype=float)
+    course = float(formation_path.tangent_angle(0.0))
+    entry = goal - lead_in_m * np.array([math.cos(course), math.sin(course)])
+    p = np.asarray(position_m, dtype=float)[:2]
+    head = dubins_length(p, heading_rad, entry, course, turn_radius_m)
+    if not math.isfinite(head):  # (at the entry on the formation course: the straight line alone)
+        return float(math.hypot(*(goal - p)))
+    return head + max(lead_in_m, 0.0)
+
+
+def _bump_geometry(position_m, heading_rad: float, formation_path: Path, turn_radius_m: float,
+                   lead_in_m: float) -> tuple:
+    """(start (2,), entry (2,), entry course, the plain transit's Dubins part) for a bump."""
+    goal = np.asarray(formation_path.point(0.0), dtype=float)
+    course = float(formation_path.tangent_angle(0.0))
+    entry = goal - lead_in_m * np.array([math.cos(course), math.sin(course)])
+    p = np.asarray(position_m, dtype=float)[:2]
+    return p, entry, course, dubins_path(p, heading_rad, entry, course, turn_radius_m)  # (ValueError: at the entry)
+
+
+def _waypoint(head: Path, push_m: float) -> tuple[np.ndarray, float]:
+    """The bump's waypoint: ``push_m`` left of ``head``'s midpoint, and ``head``'s course there."""
+    half = 0.5 * head.length
+    c = float(head.tangent_angle(half))
+    return np.asarray(head.point(half), dtype=float) + push_m * np.array([-math.sin(c), math.cos(c)]), c
+
+
+def bumped_transit(position_m, heading_rad: float, formation_path: Path, turn_radius_m: float, lead_in_m: float,
+                   push_m: float) -> Path:
+    """:func:`plan_transit` made longer by a bump: its Dubins part runs through a waypoint ``push_m``
+    to the left (negative: right) of its midpoint, on the course it has there — two shortest
+    Dubins curves, then the straight lead-in. With ``push_m`` 0 it is the plain transit (a shortest
+    Dubins curve's two halves are the shortest curves between their poses); its length grows
+    continuously with the push while the two curves keep their words."""
+    p, entry, course, head = _bump_geometry(position_m, heading_rad, formation_path, turn_radius_m, lead_in_m)
+    w, c = _waypoint(head, push_m)
+    pieces = [*dubins_path(p, heading_rad, w, c, turn_radius_m).segments,
+              *dubins_path(w, c, entry, course, turn_radius_m).segments]
+    if lead_in_m > 0.0:
+        pieces.append(LineSegment(entry, np.asarray(formation_path.point(0.0), dtype=float)))
+    return Path.from_segments(pieces)
+
+
+def _solve_length(length_of, upper: float, need_m: float) -> tuple[float, float]:
+    """The argument x in [0, ``upper``] whose ``length_of(x)`` [m] comes closest to ``need_m``, and
+    that length: a grid finds the closest point, ``brentq`` refines a neighbouring sign change
+    where the length is continuous (it jumps where a Dubins word changes)."""
+    f = lambda x: length_of(x) - need_m  # noqa: E731
+    xs = np.linspace(0.0, upper, 121)
+    fs = np.array([f(x) for x in xs])
+    j = int(np.argmin(np.abs(fs)))
+    x = xs[j]
+    for a, b in ((j - 1, j), (j, j + 1)):  # refine where the sign changes without a jump
+        if 0 <= a and b < len(xs) and fs[a] * fs[b] < 0.0 and abs(fs[b] - fs[a]) < 2.0 * (xs[b] - xs[a]) + 1.0:
+            x = brentq(f, xs[a], xs[b], xtol=0.05)
+            break
+    return float(x), f(x) + need_m
+
+
 class GoToFormation:
     """The go-to-formation phase of one vessel (see the module docstring)."""
 
@@ -75,6 +142,7 @@ class GoToFormation:
         self.team_arrival_s = math.inf
         self.agreed = False
         self.lead_in_m = options.lead_in_m
+        self.bump_m = 0.0  # the transit's sideways push [m] (left positive; 0: none)
         self.speed_m_s = self.cruise_m_s
         self.arrival: dict = {}  # the arrival's figures, once arrived
         self.events: list[tuple[float, str]] = []
@@ -99,29 +167,53 @@ class GoToFormation:
 
     def _agree(self, t_s: float, nav) -> MissionLeg:
         """Fix the team's arrival time and re-plan the transit to arrive then at cruise speed: the
-        lead-in lengthened (brentq on the path length) when the vessel would be early, else slower."""
+        lead-in lengthened (brentq on the path length) when the vessel would be early, else a bump
+        pushed out of the transit's middle, else slower."""
         self.agreed = True
         need_m = self.cruise_m_s * (self.team_arrival_s - t_s)
-        base = self._plan(nav, self.options.lead_in_m)
-        path, lead = base, self.options.lead_in_m
+        o = self.options
+        base = self._plan(nav, o.lead_in_m)
+        path, lead, push = base, o.lead_in_m, 0.0
         if base.length < need_m - 1.0:
             # Path length against the lead-in's extension x: continuous but for jumps where the
-            # shortest Dubins word changes; a grid finds the first crossing, brentq refines it.
-            f = lambda x: self._plan(nav, self.options.lead_in_m + x).length - need_m  # noqa: E731
-            xs = np.linspace(0.0, need_m, 121)
-            fs = np.array([f(x) for x in xs])
-            j = int(np.argmin(np.abs(fs)))  # the extension whose length comes closest to the need
-            x = xs[j]
-            for a, b in ((j - 1, j), (j, j + 1)):  # refine where the sign changes without a jump
-                if 0 <= a and b < len(xs) and fs[a] * fs[b] < 0.0 and abs(fs[b] - fs[a]) < 2.0 * (xs[b] - xs[a]) + 1.0:
-                    x = brentq(f, xs[a], xs[b], xtol=0.05)
-                    break
-            if abs(f(x)) < abs(base.length - need_m):
-                lead = self.options.lead_in_m + float(x)
+            # shortest Dubins word changes
+            x, length = _solve_length(lambda x: transit_length(nav.position_m, nav.heading_rad, self.formation_path,
+                                                               o.turn_radius_m, o.lead_in_m + x), need_m, need_m)
+            if abs(length - need_m) < abs(base.length - need_m):
+                lead = o.lead_in_m + x
                 path = self._plan(nav, lead)
-        self.path, self.lead_in_m = path, lead
+            if abs(path.length - need_m) > 1.0:  # inside a jump: a bump to the side that needs the smaller push
+                got = self._bump(nav, need_m)
+                if got is not None and abs(got[0].length - need_m) < abs(path.length - need_m):
+                    (path, push), lead = got, o.lead_in_m
+        self.path, self.lead_in_m, self.bump_m = path, lead, push
         self.speed_m_s = self._speed(t_s, path.length)
         return MissionLeg(self.name, self.index, path, 0.0, self.speed_m_s, True)
+
+    def _bump(self, nav, need_m: float) -> tuple[Path, float] | None:
+        """The transit with a bump (:func:`bumped_transit`) whose length comes closest to ``need_m``
+        [m], pushed left or right, whichever needs the smaller push (left on a tie), and its push
+        [m] (left positive); None when the vessel is at its entry already. The search reads the
+        lengths only (:func:`~mjasc.missions.dubins.dubins_length`)."""
+        o = self.options
+        r, lead = o.turn_radius_m, o.lead_in_m
+        try:
+            p, entry, course, head = _bump_geometry(nav.position_m, nav.heading_rad, self.formation_path, r, lead)
+        except ValueError:
+            return None
+        hdg = float(nav.heading_rad)
+
+        def length_of(push):
+            w, c = _waypoint(head, push)
+            return dubins_length(p, hdg, w, c, r) + dubins_length(w, c, entry, course, r) + lead
+
+        best = None
+        for side in (1.0, -1.0):
+            h, length = _solve_length(lambda h, side=side: length_of(side * h), 0.5 * need_m, need_m)
+            if best is None or (abs(length - need_m), h) < best[:2]:
+                best = (abs(length - need_m), h, side)
+        push = best[2] * best[1]
+        return bumped_transit(nav.position_m, nav.heading_rad, self.formation_path, r, lead, push), push
 
     def _speed(self, t_s: float, remaining_m: float) -> float:
         v = remaining_m / max(self.team_arrival_s - t_s, 1e-6)
@@ -162,6 +254,7 @@ class GoToFormation:
             "planned_arrival_s": round(self.team_arrival_s, 3),
             "transit_length_m": round(self.path.length, 3),
             "lead_in_m": round(self.lead_in_m, 3),
+            "bump_m": round(self.bump_m, 3),
             "transit_speed_m_s": round(self.speed_m_s, 4),
             "position_error_m": round(float(math.hypot(*(np.asarray(nav.position_m[:2]) - self.path.point(g)))), 3),
             "course_error_deg": round(math.degrees(float(wrap_angle(cog - course))), 3),
