@@ -384,6 +384,29 @@ def _track(track_id, x, y, heading=0.0, speed=1.0, team=None, static=False, t=0.
     return TrackEstimate(track_id, t, np.array([x, y]), heading, speed, 0.0, 2.5, is_static=static, team_member=team)
 
 
+def test_a_bump_keeps_clear_of_a_team_mates_plan():
+    """The bump goes to the side away from a team mate whose broadcast plan runs alongside 14 m to
+    one side (a bump of ~12 m toward it would meet it); with no plan, both sides are equal and the
+    left wins."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    times = np.arange(1.0, 62.0, 1.0)
+    pushes = {}
+    for side in (14.0, -14.0, None):
+        ph = GoToFormation(0, GoToFormationOptions(), formation, 1.5, team_size=2)
+        ph.begin(0.0, _nav(40.0, 0.0))
+        plans = {} if side is None else {"mate": (times, np.column_stack([41.5 + 1.5 * (times - 1.0),
+                                                                          np.full(times.size, side)]))}
+        ph.step(PhaseInputs(1.0, _nav(41.5, 0.0), 1.5, None, {"mate": MissionBroadcast(0, arrival_time_s=45.0)}, True,
+                            plans))
+        assert ph.speed_m_s == pytest.approx(1.5, abs=0.01)
+        pushes[side] = ph.bump_m
+    assert pushes[14.0] < -5.0 and pushes[-14.0] > 5.0 and pushes[None] > 5.0
+
+
 def test_target_designation_keeps_its_track_and_reacquires_within_the_gate():
     from mjasc.core.estimates import PerceptionReport
     from mjasc.missions.target_tracking import designate_target

@@ -124,6 +124,28 @@ def _solve_length(length_of, upper: float, need_m: float) -> tuple[float, float]
     return float(x), f(x) + need_m
 
 
+#: A bump's side is chosen by its separation from the team mates' plans up to this much [m]: both
+#: sides at least this clear of every mate are equal, and the smaller push wins.
+BUMP_CLEAR_M = 20.0
+
+
+def _separation(path: Path, t_s: float, speed_m_s: float, mate_plans: dict) -> float:
+    """The smallest distance [m] between ``path`` sailed at ``speed_m_s`` from ``t_s`` and each
+    team mate's plan (times (k,) [s], points (k, 2) [m]) at equal times, over the times both cover;
+    ``inf`` with no plan."""
+    out = math.inf
+    for times, points in mate_plans.values():
+        times = np.asarray(times, dtype=float)
+        t = times[(times >= t_s) & (times <= t_s + path.length / speed_m_s)]
+        if t.size == 0:
+            continue
+        own = path.point((t - t_s) * speed_m_s)
+        pts = np.asarray(points, dtype=float)
+        mate = np.column_stack([np.interp(t, times, pts[:, 0]), np.interp(t, times, pts[:, 1])])
+        out = min(out, float(np.min(np.hypot(*(own - mate).T))))
+    return out
+
+
 class GoToFormation:
     """The go-to-formation phase of one vessel (see the module docstring)."""
 
@@ -165,10 +187,11 @@ class GoToFormation:
     def result(self) -> dict:
         return {**self.arrival, "completed": bool(self.arrival)}
 
-    def _agree(self, t_s: float, nav) -> MissionLeg:
+    def _agree(self, t_s: float, nav, mate_plans=None) -> MissionLeg:
         """Fix the team's arrival time and re-plan the transit to arrive then at cruise speed: the
         lead-in lengthened (brentq on the path length) when the vessel would be early, else a bump
-        pushed out of the transit's middle, else slower."""
+        pushed out of the transit's middle (to the side that keeps clearer of the team mates' plans,
+        ``mate_plans`` as :class:`~mjasc.missions.legs.PhaseInputs` has them), else slower."""
         self.agreed = True
         need_m = self.cruise_m_s * (self.team_arrival_s - t_s)
         o = self.options
@@ -183,18 +206,20 @@ class GoToFormation:
                 lead = o.lead_in_m + x
                 path = self._plan(nav, lead)
             if abs(path.length - need_m) > 1.0:  # inside a jump: a bump to the side that needs the smaller push
-                got = self._bump(nav, need_m)
+                got = self._bump(t_s, nav, need_m, mate_plans or {})
                 if got is not None and abs(got[0].length - need_m) < abs(path.length - need_m):
                     (path, push), lead = got, o.lead_in_m
         self.path, self.lead_in_m, self.bump_m = path, lead, push
         self.speed_m_s = self._speed(t_s, path.length)
         return MissionLeg(self.name, self.index, path, 0.0, self.speed_m_s, True)
 
-    def _bump(self, nav, need_m: float) -> tuple[Path, float] | None:
+    def _bump(self, t_s: float, nav, need_m: float, mate_plans: dict) -> tuple[Path, float] | None:
         """The transit with a bump (:func:`bumped_transit`) whose length comes closest to ``need_m``
-        [m], pushed left or right, whichever needs the smaller push (left on a tie), and its push
-        [m] (left positive); None when the vessel is at its entry already. The search reads the
-        lengths only (:func:`~mjasc.missions.dubins.dubins_length`)."""
+        [m], and its push [m] (left positive); None when the vessel is at its entry already. Of the
+        two sides, the one whose transit, sailed at cruise speed from ``t_s``, passes the team mates'
+        broadcast plans at the larger separation at equal times (counted up to
+        :data:`BUMP_CLEAR_M`), then the one that needs the smaller push, then the left. The
+        search reads the lengths only (:func:`~mjasc.missions.dubins.dubins_length`)."""
         o = self.options
         r, lead = o.turn_radius_m, o.lead_in_m
         try:
@@ -210,10 +235,12 @@ class GoToFormation:
         best = None
         for side in (1.0, -1.0):
             h, length = _solve_length(lambda h, side=side: length_of(side * h), 0.5 * need_m, need_m)
-            if best is None or (abs(length - need_m), h) < best[:2]:
-                best = (abs(length - need_m), h, side)
-        push = best[2] * best[1]
-        return bumped_transit(nav.position_m, nav.heading_rad, self.formation_path, r, lead, push), push
+            path = bumped_transit(nav.position_m, nav.heading_rad, self.formation_path, r, lead, side * h)
+            clear = min(_separation(path, t_s, self.cruise_m_s, mate_plans), BUMP_CLEAR_M)
+            key = (-clear, abs(length - need_m) > 1.0, h)
+            if best is None or key < best[0]:
+                best = (key, path, side * h)
+        return best[1], best[2]
 
     def _speed(self, t_s: float, remaining_m: float) -> float:
         v = remaining_m / max(self.team_arrival_s - t_s, 1e-6)
@@ -229,7 +256,7 @@ class GoToFormation:
         if not self.agreed:
             self.team_arrival_s = latest
             if len(heard) >= self.mates or t_s - self.t0_s >= self.options.agree_s:
-                leg = self._agree(t_s, nav)
+                leg = self._agree(t_s, nav, x.mate_plans)
                 gamma_m = 0.0
         elif latest > self.team_arrival_s + 0.5:  # a mate that planned later, heard late: slow down
             self.team_arrival_s = latest

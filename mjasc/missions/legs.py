@@ -14,7 +14,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -80,7 +80,9 @@ class PhaseInputs:
     (mapped back from a detour by avoidance); report its
     :class:`~mjasc.core.estimates.PerceptionReport` (None without perception); mates: team mate
     name → the :class:`MissionBroadcast` last heard from it; in_mission: avoidance is not acting
-    (a phase re-draws its path and hands over only then)."""
+    (a phase re-draws its path and hands over only then); mate_plans: team mate name → the plan
+    its last message carried, (times (k,) [s, absolute], world points (k, 2) [m]) (only mates whose
+    message had one)."""
 
     t_s: float
     nav: object
@@ -88,3 +90,4 @@ class PhaseInputs:
     report: object
     mates: dict
     in_mission: bool
+    mate_plans: dict = field(default_factory=dict)

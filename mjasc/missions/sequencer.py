@@ -101,14 +101,17 @@ class MissionSequencer:
         ph = self.phase
         if ph is None:
             return None
-        mates = {}
+        mates, plans = {}, {}
         if team is not None:
             for n, it in team.intentions.items():
                 b = getattr(it, "mission", None)
                 if b is not None:
                     mates[n] = b
+                    times = getattr(it, "plan_times_s", None)
+                    if times is not None and len(times) >= 2:
+                        plans[n] = (times, it.plan_points_m)
         in_mission = mode == "mission"
-        leg, ended = ph.step(PhaseInputs(float(t_s), nav, float(gamma_m), report, mates, in_mission))
+        leg, ended = ph.step(PhaseInputs(float(t_s), nav, float(gamma_m), report, mates, in_mission, plans))
         self._events.extend(ph.events)
         ph.events.clear()
         if ended and not self._pending_end:
