@@ -118,7 +118,8 @@ def test_the_same_frames_give_the_same_bytes(tmp_path, camera):
     m, d = _world()
     files = []
     for k in range(2):
-        w = VideoWriter(tmp_path / f"v{k}.mp4", m, 320, 240, 10, camera, (np.array([-4.0, -4.0]), np.array([11.0, 7.0])))
+        extent = (np.array([-4.0, -4.0]), np.array([11.0, 7.0]))
+        w = VideoWriter(tmp_path / f"v{k}.mp4", m, 320, 240, 10, camera, extent)
         for _ in range(3):
             w._frame(d, FrameView(0.0, [], np.zeros(2)), hud=False)
         w.close()
