@@ -14,7 +14,7 @@ from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import OBSTACLE_RGBA, build_world
 from mjasc.runs.blueprint import PALETTE
 from mjasc.runs.video import VideoWriter
-from mjasc.runs.video_hud import Projection
+from mjasc.runs.video_hud import STRUCTURE_SWATCH, Projection
 from mjasc.runs.video_model import model_vessels
 from mjasc.runs.video_scene import FrameView
 
@@ -103,6 +103,8 @@ def test_a_structure_s_walls_stay_brown_in_the_encoded_video_of_a_large_view(tmp
             patch = decoded[y - 2:y + 3, x - 2:x + 3].reshape(-1, 3)
             reddest = patch[np.argmax(patch[:, 0] - patch[:, 2])]
             assert reddest[0] - reddest[2] > 20, (a, b, s, reddest.tolist())
+            top = img[y - 2:y + 3, x - 2:x + 3].reshape(-1, 3)  # the frame as rendered: the legend's swatch
+            assert np.abs(top - np.array(STRUCTURE_SWATCH)).sum(axis=1).min() < 30, (a, b, s)
 
 
 def test_a_camera_framed_from_beyond_a_kilometre_still_sees_the_water(tmp_path):
