@@ -29,12 +29,13 @@ def read_stretch(src: str, start_s: float, end_s: float, every: int, fps: float)
 
 
 def exact_colours() -> list[tuple[int, int, int]]:
-    """The vessel palette and the video's overlay colours (RGB 0–255), black and white."""
+    """The vessel palette, the video's overlay colours and the structures' walls (RGB 0–255), black and white."""
     from mjasc.runs.blueprint import PALETTE
+    from mjasc.runs.video_hud import STRUCTURE_SWATCH
     from mjasc.runs.video_scene import COLOURS
 
     overlays = [tuple(int(round(255 * c)) for c in v[:3]) for v in COLOURS.values() if isinstance(v, tuple)]
-    return list(dict.fromkeys([*PALETTE, *overlays, (0, 0, 0), (255, 255, 255)]))
+    return list(dict.fromkeys([*PALETTE, *overlays, STRUCTURE_SWATCH, (0, 0, 0), (255, 255, 255)]))
 
 
 def to_gif(frames: list[np.ndarray], dst: str | Path, width: int, frame_ms: int, colours: int = 128) -> int:

@@ -143,6 +143,19 @@ def test_named_sites_cameras_sensors(name):
 
 
 @pytest.mark.parametrize("name", VESSELS)
+def test_a_livery_material_colours_visual_geoms(name):
+    """The video paints a vessel's livery material in its palette colour (mjasc.runs.video_model)."""
+    from mjasc.runs.video_model import LIVERY_MATERIALS
+
+    model = vessel_model(name)
+    livery = {k for k in range(model.nmat)
+              if model.material(k).name in LIVERY_MATERIALS or model.material(k).name.endswith("_livery")}
+    visual = [g for g in range(model.ngeom) if model.geom_group[g] == 2]
+    assert sum(model.geom_matid[g] in livery for g in visual) >= 2
+    assert all(model.geom_matid[g] not in livery for g in range(model.ngeom) if model.geom_group[g] != 2)
+
+
+@pytest.mark.parametrize("name", VESSELS)
 def test_propeller_sites_port_is_plus_y(name):
     model = vessel_model(name)
     port, stbd = model.site("port_propeller").pos, model.site("starboard_propeller").pos

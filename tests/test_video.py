@@ -146,13 +146,14 @@ def test_the_legend_keeps_clear_of_the_vessels_where_it_can():
 def test_the_legend_names_the_traffic_and_the_structures_in_their_own_colours():
     """The traffic (dark grey, not the predicted conflict's red) and the structures have a legend
     row, in the colours MuJoCo draws them."""
-    from mjasc.physics.world import MOVING_RGBA, OBSTACLE_RGBA
-    from mjasc.runs.video_hud import LEGEND_ITEMS
+    from mjasc.physics.world import MOVING_RGBA
+    from mjasc.runs.video_hud import LEGEND_ITEMS, STRUCTURE_SWATCH
     from mjasc.runs.video_scene import COLOURS
 
     rows = {text.split(" ")[0]: rgba for _, rgba, text in LEGEND_ITEMS}
     assert rows["traffic"] == tuple(float(x) for x in MOVING_RGBA.split())
-    assert rows["structure"] == tuple(float(x) for x in OBSTACLE_RGBA.split())
+    # The structures: their walls' lit tops as rendered (tests/test_video_model.py renders one).
+    assert rows["structure"][:3] == pytest.approx([c / 255 for c in STRUCTURE_SWATCH])
     traffic, conflict = np.array(rows["traffic"][:3]), np.array(COLOURS["conflict"][:3])
     assert np.abs(traffic - conflict).sum() > 0.9  # not a shade of the conflict marker's red
     assert all(np.abs(255 * traffic - np.array(c)).sum() > 150 for c in PALETTE)  # nor a vessel's colour

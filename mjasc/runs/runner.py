@@ -216,6 +216,7 @@ class Runner:
             self._truth = TruthRecording(files["recording"], sc, self.agents, self.world, self.network, self.extent())
             self.recorder = self._truth.recorder
         if self.out_dir is not None and sc.outputs.video:
+            from mjasc.runs.blueprint import vessel_colour
             from mjasc.runs.video import VideoWriter
 
             files["video"] = self.out_dir / "video.mp4"
@@ -224,7 +225,8 @@ class Runner:
             # 20 fps at 50 Hz physics: 25 — so that the video plays in real time)
             self.video = VideoWriter(files["video"], self.world.model, sc.outputs.video_width, sc.outputs.video_height,
                                      self.schedule.realized_rate_hz("video"), sc.outputs.video_camera, self.extent(),
-                                     overlays, title=sc.name)
+                                     overlays, title=sc.name,
+                                     vessel_colours=[(v.name, vessel_colour(i)) for i, v in enumerate(sc.vessels)])
         total_steps = int(round(sc.duration_s / sim.timestep_s))
         status, error = "completed", None
         wall0 = time.perf_counter()

@@ -21,11 +21,15 @@ and the heads-up overlay of :mod:`mjasc.runs.video_hud` (time, names, modes, sca
 current, legend) drawn onto the image. :attr:`VideoWriter.seconds` keeps the wall time of each
 stage of a frame (software GL rendering dominates; see the cheap visual profile in
 assets/scene/water.xml).
+
+Each pane renders its own copy of the model (:func:`mjasc.runs.video_model.render_model`): the
+hulls in their vessels' palette colours (``vessel_colours``: (name, RGB) per vessel, by default
+the model's vessels in order), and in a framed view the water widened, the structures' walls at
+least 3 pixels thick and the far plane beyond the view. The run's own model is never changed.
 """
 
 from __future__ import annotations
 
-import copy
 import os
 import time
 from pathlib import Path
@@ -36,6 +40,7 @@ import numpy as np
 
 from mjasc.runs.outputs import part_path
 from mjasc.runs.video_hud import Projection, draw_hud
+from mjasc.runs.video_model import render_model
 from mjasc.runs.video_scene import FrameView, VesselView, add_scene_geoms, frame_view
 
 __all__ = ["VideoWriter", "split_cameras", "fit_distance_m", "TRAIL_PERIOD_S", "TRAIL_POINTS"]
@@ -51,36 +56,22 @@ OVERVIEW_ELEVATION_DEG = -50.0
 OVERVIEW_FIT_HEIGHT_M = 2.0
 
 
-def _wide_water(model, centre, span_m: float, aspect: float):
-    """The model to render a view of ``span_m`` [m] (height) around ``centre`` with: ``model``
-    itself when its water plane (the geom ``water``) reaches past the view, else a copy whose
-    plane does (MuJoCo builds a plane's drawing from the model's size when the renderer is made;
-    the scene's 1 km plane ended inside fleet_50's view, a light strip). Visual only: the plane
-    collides with nothing and the range sensor excludes it, and the run keeps its own model."""
-    wid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, "water")
-    if wid < 0:
-        return model
-    reach = float(np.abs(np.asarray(centre, float)[:2]).max() + 2.0 * span_m * max(1.0, aspect))
-    if reach <= float(model.geom_size[wid][:2].min()):
-        return model
-    wide = copy.copy(model)
-    wide.geom_size[wid, :2] = reach
-    return wide
-
-
 class _Pane:
     """One camera's view: its renderer, the camera, the view's span and centre [m]."""
 
-    def __init__(self, model, camera: str, width: int, height: int, extent_xy):
+    def __init__(self, model, camera: str, width: int, height: int, extent_xy, vessel_colours=None):
         self.width, self.height = int(width), int(height)
         self.span = 0.0
         self.centre = np.zeros(3)
         self.camera = self._camera(model, camera, extent_xy)
-        self.renderer = mujoco.Renderer(_wide_water(model, self.centre, self.span, self.width / self.height)
-                                        if isinstance(self.camera, mujoco.MjvCamera) else model,
-                                        height=self.height, width=self.width)
+        framed = isinstance(self.camera, mujoco.MjvCamera)
+        # Its own copy of the model, changed only in what is drawn (liveries; framed: water, walls, far plane).
+        self.model = render_model(model, vessel_colours, self.centre, self.span if framed else 0.0,
+                                  self.width / self.height, self.span / self.height,
+                                  self.camera.distance if framed else 0.0)
+        self.renderer = mujoco.Renderer(self.model, height=self.height, width=self.width)
         # Map-symbol size for markers in the framed views (2 m hulls are a few pixels): 4 % of the span.
-        self.marker_m = 0.04 * self.span if isinstance(self.camera, mujoco.MjvCamera) else 0.0
+        self.marker_m = 0.04 * self.span if framed else 0.0
         #: The vessel of a chase camera (its sensing and decisions alone are drawn), else None.
         self.chased = camera[len("chase:"):] if camera.startswith("chase:") else None
         #: What the heads-up overlay keeps from frame to frame (the legend's place).
@@ -169,13 +160,14 @@ class VideoWriter:
 
     def __init__(self, path: str | Path, model, width: int, height: int, fps: float, camera: str = "top_down",
                  extent_xy: tuple[np.ndarray, np.ndarray] | None = None, overlays: list[np.ndarray] = (),
-                 title: str = ""):
+                 title: str = "", vessel_colours=None):
         self.path = Path(path)
         self.model = model
         self.width, self.height = int(width), int(height)
         self.title = str(title)
         cameras = split_cameras(model, camera)  # raises before any file is made
-        self.panes = [_Pane(model, c, self.width // len(cameras), self.height, extent_xy) for c in cameras]
+        self.panes = [_Pane(model, c, self.width // len(cameras), self.height, extent_xy, vessel_colours)
+                      for c in cameras]
         self.path.parent.mkdir(parents=True, exist_ok=True)
         self._part = part_path(self.path)  # encoded here, renamed to path by close()
         # Paths thinned to at most OVERLAY_POINTS points: every line is a geom to render.

@@ -25,15 +25,14 @@ from functools import lru_cache
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
-from mjasc.physics.world import MOVING_RGBA, OBSTACLE_RGBA
+from mjasc.physics.world import MOVING_RGBA
 from mjasc.runs.video_scene import COLOURS, VELOCITY_ARROW_S
 
 __all__ = ["Projection", "draw_hud", "hud_layout", "name_labels", "place_legend", "scale_bar_m", "LEGEND_ITEMS",
            "LEGEND_MIN_PX", "MAX_NAMES"]
 
-#: The traffic's and the structures' colours as MuJoCo draws them (RGBA 0–1), for the legend.
+#: The traffic's colour as MuJoCo draws it (RGBA 0–1), for the legend (the structures': STRUCTURE_SWATCH).
 TRAFFIC_RGBA = tuple(float(x) for x in MOVING_RGBA.split())
-STRUCTURE_RGBA = tuple(float(x) for x in OBSTACLE_RGBA.split())
 
 
 class Projection:
@@ -281,6 +280,10 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
 #: The legend's swatches are drawn on the water's colour (assets/scene/water.xml, as rendered), so a
 #: dark overlay (the black static virtual obstacle) shows on the legend's dark box too.
 WATER_SWATCH = (30, 88, 138)
+#: The structures' swatch: their walls' tops as rendered from above (the brown OBSTACLE_RGBA in the
+#: scene's light), 3 pixels thick as the video draws thin walls (mjasc.runs.video_model: a thinner
+#: line loses its colour to the MP4's 4:2:0 chroma).
+STRUCTURE_SWATCH = (206, 171, 133)
 
 #: The legend's rows: (swatch kind, RGBA 0–1, text).
 LEGEND_ITEMS = (("line", COLOURS["path"], "mission path"), ("line", COLOURS["detour"], "detour"),
@@ -290,7 +293,7 @@ LEGEND_ITEMS = (("line", COLOURS["path"], "mission path"), ("line", COLOURS["det
                 ("line", COLOURS["svo"], "static virtual obstacle"),
                 ("line", COLOURS["field"], "potential-field obstacle"),
                 ("traffic", TRAFFIC_RGBA, "traffic (true hull, white bow)"),
-                ("outline", STRUCTURE_RGBA, "structure (quay, island, pontoon)"))
+                ("outline", tuple(c / 255 for c in STRUCTURE_SWATCH) + (1.0,), "structure (quay, island, pontoon)"))
 
 
 def _legend_size(draw, font) -> tuple[int, int]:
@@ -321,7 +324,7 @@ def _legend(draw, box, font) -> None:
             draw.ellipse([x0 + 13 - r, y - r, x0 + 13 + r, y + r], fill=col, outline=(0, 0, 0))
             draw.line([(x0 + 14, y), (x0 + 13 + r, y)], fill=(255, 255, 255), width=2)
         elif kind == "outline":  # structures are thin hollow walls: an outline, not a filled block
-            draw.rectangle([x0 + 5, y - line // 2 + 2, x0 + 21, y + line // 2 - 2], outline=col, width=2)
+            draw.rectangle([x0 + 4, y - line // 2 + 1, x0 + 22, y + line // 2 - 1], outline=col, width=3)
         else:
             draw.ellipse([x0 + 8, y - 4, x0 + 16, y + 4], fill=col)
         draw.text((x0 + 30, y - fs // 2 - 1), text, font=font, fill=(255, 255, 255))

@@ -122,7 +122,9 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
         colours = [tuple(c / 255 for c in vessel_colour(i)) + (1.0,) for i in range(n)]
         if video:
             writer = VideoWriter(out_dir / f"{stem}.mp4", physics.model.ptr, width, height,
-                                 fps=1.0 / env.control_timestep(), camera=camera, extent_xy=(lo, hi), overlays=lines)
+                                 fps=1.0 / env.control_timestep(), camera=camera, extent_xy=(lo, hi), overlays=lines,
+                                 vessel_colours=[(name, vessel_colour(i)) for i, name in
+                                                 enumerate(physics.world.vessel_names)])
         if rerun:
             extent = float(np.max(hi - lo))
             recorder = Recorder(out_dir / f"{stem}.rrd", stem, int(seed),
