@@ -47,7 +47,7 @@ from mjasc.physics.obstacles import MovingObstacleSet
 from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
-from mjasc.runs.agent import build_agent
+from mjasc.runs.agent_build import build_agent
 from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import catch_sigterm, interrupt_behind, restore_sigterm, signal_name

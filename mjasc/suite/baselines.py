@@ -37,7 +37,8 @@ from mjasc.core.navigation import OwnNavigation
 from mjasc.guidance.path_following import PathFollower
 from mjasc.guidance.paths import Path
 from mjasc.perception.tracking import TrackingConfig
-from mjasc.runs.agent import VesselAgent, build_agent
+from mjasc.runs.agent import VesselAgent
+from mjasc.runs.agent_build import build_agent
 from mjasc.runs.scenario import VesselConfig
 from mjasc.runs.schedule import Schedule
 from mjasc.runs.tick import run_onboard_slot
@@ -158,7 +159,7 @@ class CASPolicy:
     """mjasc's collision avoidance system as a policy of a ``collision_avoidance`` task.
 
     Per episode it builds the vessel's own pipeline on the environment's physics with the runner's
-    own :func:`mjasc.runs.agent.build_agent`: a :class:`mjasc.runs.agent.VesselAgent` whose mission
+    own :func:`mjasc.runs.agent_build.build_agent`: a :class:`mjasc.runs.agent.VesselAgent` whose mission
     is the straight line start → goal, with :class:`mjasc.perception.pipeline.Perception` (the
     vessel's range sensor at its ``sensor_mount`` → detections → static map and IMM tracks) and
     :class:`mjasc.avoidance.system.CollisionAvoidance` (conflict prediction on the tracks, velocity
