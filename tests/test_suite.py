@@ -436,3 +436,28 @@ def test_quiet_exit_without_close():
     """)
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0 and out.stderr.strip() == "", out.stderr
+
+
+def test_dropped_rendering_environment_is_garbage_collected():
+    """An environment dropped without close() after rendering is freed by the cyclic garbage
+    collector (its physics is in reference cycles) without hanging: the collector used to stop
+    the GL context's render thread before asking that thread to free the context."""
+    script = textwrap.dedent("""
+        import gc, weakref
+        import mjasc
+        from mjasc import suite
+        env = suite.load("otter", "station_keeping", task_kwargs={"random": 0})
+        env.reset()
+        assert env.physics.render(32, 32, camera_id="basin").shape == (32, 32, 3)
+        ref = weakref.ref(env.physics)
+        del env
+        gc.collect()
+        assert ref() is None
+        print("ok")
+    """)
+    try:
+        out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    except subprocess.TimeoutExpired:
+        pytest.fail("gc.collect() hung freeing a dropped environment that had rendered")
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ok" and out.stderr.strip() == "", out.stderr

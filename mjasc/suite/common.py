@@ -154,6 +154,23 @@ def _free_rendering_at_exit() -> None:
                 physics._free_rendering_contexts()
 
 
+def _free_contexts(contexts) -> None:
+    """Free a garbage-collected physics's GL contexts while their render thread still runs.
+
+    A VesselPhysics is in reference cycles (its World and Simulation refer back to it), so the
+    cyclic garbage collector, not reference counting, frees an environment that was dropped
+    without ``close()``. When its contexts were part of that garbage, the collector first ran the
+    weakref callback of their render thread pool, which stops its worker, and then their
+    ``__del__``, which waited forever for that worker to free the GL context: a dropped
+    environment that had rendered hung the next ``gc.collect()``. Held by a ``weakref.finalize``
+    of the physics, the contexts stay reachable (so does their thread) and are freed here, from
+    the finalizer, before anything else of the physics is torn down. Freeing twice is harmless
+    (``close()`` or the exit hook may have freed them already).
+    """
+    contexts.mujoco.free()
+    contexts.gl.free()
+
+
 def _register_exit_hook() -> None:
     # threading's exit hooks run in reverse order of registration, before ``atexit``; registered
     # after dm_control's executor module is imported, this one runs before its thread pools stop.
@@ -171,10 +188,12 @@ class VesselPhysics(mjcf.Physics):
     _sim: Simulation | None = None
 
     def _make_rendering_contexts(self):
-        """dm_control's contexts, freed at interpreter exit if the environment was never closed."""
+        """dm_control's contexts, freed at interpreter exit if the environment was never closed,
+        and when the garbage collector frees this physics (see :func:`_free_contexts`)."""
         super()._make_rendering_contexts()
         _RENDERING.add(self)
         _register_exit_hook()
+        weakref.finalize(self, _free_contexts, self._contexts).atexit = False
 
     # ------------------------------------------------------------------ set-up
     def attach_world(self, world: World, current: CurrentField | None = None) -> None:
