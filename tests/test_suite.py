@@ -72,6 +72,35 @@ def test_load_rejects_unknown_names():
         suite.load("otter", "swingup")
 
 
+@pytest.mark.parametrize("task_kwargs,environment_kwargs,match", [
+    ({"seed": 0}, None, r"task_kwargs: unknown 'seed' for otter/path_following; accepted: time_limit, random"),
+    ({"time_limit": -1.0}, None, "time_limit must be a number of seconds > 0"),
+    ({"random": np.random.default_rng(0)}, None, "random must be an integer seed or a numpy.random.RandomState"),
+    (None, {"foo": 1}, "environment_kwargs: unknown 'foo'; accepted: control_timestep, n_sub_steps"),
+    (None, {"time_limit": 5.0}, "time_limit is a task argument: pass it in task_kwargs"),
+])
+def test_load_rejects_bad_kwargs_in_one_line(task_kwargs, environment_kwargs, match):
+    with pytest.raises(ValueError, match=match) as info:
+        suite.load("otter", "path_following", task_kwargs=task_kwargs, environment_kwargs=environment_kwargs)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("domain,task", [("otter", "station_keeping"), ("otter_team", "formation")])
+def test_environment_kwargs_set_the_control_timestep(domain, task):
+    """control_timestep / n_sub_steps in environment_kwargs replace the default 0.1 s (they used to
+    collide with it: "got multiple values for keyword argument 'control_timestep'")."""
+    assert suite.load(domain, task).control_timestep() == pytest.approx(0.1)
+    env = suite.load(domain, task, task_kwargs={"random": 0, "time_limit": 1.0},
+                     environment_kwargs={"control_timestep": 0.2})
+    assert env.control_timestep() == pytest.approx(0.2) and env.step_limit == pytest.approx(5.0)
+    time_step, steps = env.reset(), 0
+    while not time_step.last():
+        time_step, steps = env.step(np.zeros(env.action_spec().shape)), steps + 1
+    assert steps == 5 and env.physics.data.time == pytest.approx(1.0)
+    env = suite.load(domain, task, task_kwargs={"time_limit": 1.0}, environment_kwargs={"n_sub_steps": 1})
+    assert env.control_timestep() == pytest.approx(0.02) and env.step_limit == pytest.approx(50.0)
+
+
 @pytest.mark.parametrize("domain,task", ALL)
 def test_components_named_cameras_and_spec(domain, task):
     """Every model element named, ≥ 2 cameras, actions in [−1, 1], timesteps conform to the specs."""

@@ -35,10 +35,10 @@ from mjasc.physics.obstacles import MovingObstacle
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.suite.common import (
     CONTROL_TIMESTEP_S,
-    Environment,
     VesselPhysics,
     basin_walls,
     compose_world,
+    make_control_environment,
     range_sensor,
     world_to_body,
 )
@@ -435,8 +435,7 @@ def make_environment(task: str, vessel_type: str, difficulty: Difficulty, time_l
     physics = world.physics
     task_obj = _TASKS[task](vessel_type, difficulty, random=random)
     time_limit = TIME_LIMITS_S[task] if time_limit is None else time_limit
-    return Environment(physics, task_obj, time_limit=time_limit, control_timestep=CONTROL_TIMESTEP_S,
-                               **(environment_kwargs or {}))
+    return make_control_environment(physics, task_obj, time_limit, environment_kwargs)
 
 
 def register_tasks(suite, vessel_type: str, tags=("benchmarking",)) -> None:

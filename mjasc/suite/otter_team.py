@@ -28,7 +28,7 @@ from dm_control.rl import control
 from dm_control.utils import containers, rewards
 
 from mjasc.guidance.paths import ArcSegment, LineSegment, Path
-from mjasc.suite.common import CONTROL_TIMESTEP_S, Environment, VesselPhysics, compose_world, world_to_body
+from mjasc.suite.common import VesselPhysics, compose_world, make_control_environment, world_to_body
 from mjasc.suite.otter import (
     EASY,
     HARD,
@@ -225,8 +225,8 @@ def make_environment(vessel_type: str, difficulty: Difficulty, time_limit=None, 
     names = vessel_names(len(slots_m), vessel_type)
     world = compose_world([(n, vessel_type) for n in names], domain_xml=XML_PATH)
     task = Formation(vessel_type, difficulty, slots_m=slots_m, random=random)
-    return Environment(world.physics, task, time_limit=TIME_LIMIT_S if time_limit is None else time_limit,
-                               control_timestep=CONTROL_TIMESTEP_S, **(environment_kwargs or {}))
+    return make_control_environment(world.physics, task, TIME_LIMIT_S if time_limit is None else time_limit,
+                                    environment_kwargs)
 
 
 @SUITE.add("benchmarking", "easy", "multi_agent")
