@@ -490,3 +490,14 @@ def test_dropped_rendering_environment_is_garbage_collected():
         pytest.fail("gc.collect() hung freeing a dropped environment that had rendered")
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "ok" and out.stderr.strip() == "", out.stderr
+
+
+def test_baselines_cli_rejects_unknown_task_names(capsys):
+    """A misspelt --tasks name is an error naming the tasks, not an empty table and exit code 0."""
+    from mjasc.suite import baselines
+
+    with pytest.raises(SystemExit) as info:
+        baselines.main(["--seeds", "1", "--tasks", "path_folowing"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "--tasks: unknown path_folowing; one of collision_avoidance" in err and "path_following" in err
