@@ -467,6 +467,22 @@ def test_quiet_exit_without_close():
     assert out.returncode == 0 and out.stderr.strip() == "", out.stderr
 
 
+def test_pixels_wrapper_with_a_named_camera():
+    """The pixels wrapper as docs/suite.md shows it: a named camera, pixels beside the state."""
+    from dm_control.suite.wrappers import pixels
+
+    inner = suite.load("otter", "collision_avoidance", task_kwargs={"random": 0, "time_limit": 0.3})
+    env = pixels.Wrapper(inner, pixels_only=False, render_kwargs={"camera_id": "basin", "height": 32, "width": 32})
+    spec = env.observation_spec()
+    assert spec["pixels"].shape == (32, 32, 3) and "ranges" in spec
+    time_step = env.reset()
+    while not time_step.last():
+        time_step = env.step(np.zeros(2))
+        spec["pixels"].validate(time_step.observation["pixels"])
+    assert time_step.observation["pixels"].std() > 0
+    inner.close()
+
+
 def test_dropped_rendering_environment_is_garbage_collected():
     """An environment dropped without close() after rendering is freed by the cyclic garbage
     collector (its physics is in reference cycles) without hanging: the collector used to stop
