@@ -467,6 +467,15 @@ def test_quiet_exit_without_close():
     assert out.returncode == 0 and out.stderr.strip() == "", out.stderr
 
 
+def test_closed_environment_says_so():
+    """reset/step after close() are a one-line error, not "'VesselPhysics' object has no attribute '_data'"."""
+    with suite.load("otter", "station_keeping", task_kwargs={"random": 0, "time_limit": 0.3}) as env:
+        env.reset()
+    for call in (env.reset, lambda: env.step(np.zeros(2))):
+        with pytest.raises(RuntimeError, match=r"environment: closed \(close\(\) freed its physics\); load a new one"):
+            call()
+
+
 def test_pixels_wrapper_with_a_named_camera():
     """The pixels wrapper as docs/suite.md shows it: a named camera, pixels beside the state."""
     from dm_control.suite.wrappers import pixels

@@ -146,6 +146,20 @@ class Environment(control.Environment):
             return collections.OrderedDict([(key, specs.Array((size,), np.float64, name=key))])
         return spec
 
+    def reset(self):
+        """dm_control's reset; a clear error once :meth:`close` has freed the physics."""
+        self._check_open()
+        return super().reset()
+
+    def step(self, action):
+        """dm_control's step; a clear error once :meth:`close` has freed the physics."""
+        self._check_open()
+        return super().step(action)
+
+    def _check_open(self) -> None:
+        if getattr(self._physics, "_data", None) is None:
+            raise RuntimeError("environment: closed (close() freed its physics); load a new one")
+
     def close(self):
         """Release the physics's GL contexts and native data (idempotent)."""
         physics = self._physics
