@@ -467,6 +467,29 @@ def test_quiet_exit_without_close():
     assert out.returncode == 0 and out.stderr.strip() == "", out.stderr
 
 
+@pytest.mark.parametrize("domain,task", [("otter", "path_following"), ("delfim", "path_following_hard"),
+                                         ("otter_team", "formation"), ("otter_team", "formation_hard")])
+def test_paths_outlast_a_long_time_limit(domain, task):
+    """With time_limit 400 s the path to follow and the formation leader's path do not end within
+    the episode (they ended after about 250 m: the leader stopped while leader_velocity still said
+    it moved, and even the baselines' rewards fell to 0); the default episodes keep their paths."""
+    long = suite.load(domain, task, task_kwargs={"random": 0, "time_limit": 400.0})
+    default = suite.load(domain, task, task_kwargs={"random": 0})
+    long.reset(), default.reset()
+    a, b = long.task, default.task
+    if task.startswith("path_following"):
+        assert a.path.length >= 2.0 * a.vessel.cruise_speed_m_s * 400.0 and b.path.length < 400.0
+        gammas = np.linspace(0.0, 200.0, 41)
+        np.testing.assert_array_equal(a.path.point(gammas), b.path.point(gammas))
+    else:
+        assert a.leader_gamma(400.0) < a.leader_path.length and b.leader_path.length < 400.0
+        for i in range(len(a.slots_m)):
+            for time_s in np.linspace(0.0, 60.0, 13):
+                np.testing.assert_allclose(a.slot_position(i, time_s), b.slot_position(i, time_s), rtol=0, atol=1e-9)
+    for env in (long, default):
+        env.close()
+
+
 def test_closed_environment_says_so():
     """reset/step after close() are a one-line error, not "'VesselPhysics' object has no attribute '_data'"."""
     with suite.load("otter", "station_keeping", task_kwargs={"random": 0, "time_limit": 0.3}) as env:
