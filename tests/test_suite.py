@@ -72,6 +72,35 @@ def test_load_rejects_unknown_names():
         suite.load("otter", "swingup")
 
 
+@pytest.mark.parametrize("task_kwargs,environment_kwargs,match", [
+    ({"seed": 0}, None, r"task_kwargs: unknown 'seed' for otter/path_following; accepted: time_limit, random"),
+    ({"time_limit": -1.0}, None, "time_limit must be a number of seconds > 0"),
+    ({"random": np.random.default_rng(0)}, None, "random must be an integer seed or a numpy.random.RandomState"),
+    (None, {"foo": 1}, "environment_kwargs: unknown 'foo'; accepted: control_timestep, n_sub_steps"),
+    (None, {"time_limit": 5.0}, "time_limit is a task argument: pass it in task_kwargs"),
+])
+def test_load_rejects_bad_kwargs_in_one_line(task_kwargs, environment_kwargs, match):
+    with pytest.raises(ValueError, match=match) as info:
+        suite.load("otter", "path_following", task_kwargs=task_kwargs, environment_kwargs=environment_kwargs)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("domain,task", [("otter", "station_keeping"), ("otter_team", "formation")])
+def test_environment_kwargs_set_the_control_timestep(domain, task):
+    """control_timestep / n_sub_steps in environment_kwargs replace the default 0.1 s (they used to
+    collide with it: "got multiple values for keyword argument 'control_timestep'")."""
+    assert suite.load(domain, task).control_timestep() == pytest.approx(0.1)
+    env = suite.load(domain, task, task_kwargs={"random": 0, "time_limit": 1.0},
+                     environment_kwargs={"control_timestep": 0.2})
+    assert env.control_timestep() == pytest.approx(0.2) and env.step_limit == pytest.approx(5.0)
+    time_step, steps = env.reset(), 0
+    while not time_step.last():
+        time_step, steps = env.step(np.zeros(env.action_spec().shape)), steps + 1
+    assert steps == 5 and env.physics.data.time == pytest.approx(1.0)
+    env = suite.load(domain, task, task_kwargs={"time_limit": 1.0}, environment_kwargs={"n_sub_steps": 1})
+    assert env.control_timestep() == pytest.approx(0.02) and env.step_limit == pytest.approx(50.0)
+
+
 @pytest.mark.parametrize("domain,task", ALL)
 def test_components_named_cameras_and_spec(domain, task):
     """Every model element named, ≥ 2 cameras, actions in [−1, 1], timesteps conform to the specs."""
@@ -436,3 +465,87 @@ def test_quiet_exit_without_close():
     """)
     out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert out.returncode == 0 and out.stderr.strip() == "", out.stderr
+
+
+@pytest.mark.parametrize("domain,task", [("otter", "path_following"), ("delfim", "path_following_hard"),
+                                         ("otter_team", "formation"), ("otter_team", "formation_hard")])
+def test_paths_outlast_a_long_time_limit(domain, task):
+    """With time_limit 400 s the path to follow and the formation leader's path do not end within
+    the episode (they ended after about 250 m: the leader stopped while leader_velocity still said
+    it moved, and even the baselines' rewards fell to 0); the default episodes keep their paths."""
+    long = suite.load(domain, task, task_kwargs={"random": 0, "time_limit": 400.0})
+    default = suite.load(domain, task, task_kwargs={"random": 0})
+    long.reset(), default.reset()
+    a, b = long.task, default.task
+    if task.startswith("path_following"):
+        assert a.path.length >= 2.0 * a.vessel.cruise_speed_m_s * 400.0 and b.path.length < 400.0
+        gammas = np.linspace(0.0, 200.0, 41)
+        np.testing.assert_array_equal(a.path.point(gammas), b.path.point(gammas))
+    else:
+        assert a.leader_gamma(400.0) < a.leader_path.length and b.leader_path.length < 400.0
+        for i in range(len(a.slots_m)):
+            for time_s in np.linspace(0.0, 60.0, 13):
+                np.testing.assert_allclose(a.slot_position(i, time_s), b.slot_position(i, time_s), rtol=0, atol=1e-9)
+    for env in (long, default):
+        env.close()
+
+
+def test_closed_environment_says_so():
+    """reset/step after close() are a one-line error, not "'VesselPhysics' object has no attribute '_data'"."""
+    with suite.load("otter", "station_keeping", task_kwargs={"random": 0, "time_limit": 0.3}) as env:
+        env.reset()
+    for call in (env.reset, lambda: env.step(np.zeros(2))):
+        with pytest.raises(RuntimeError, match=r"environment: closed \(close\(\) freed its physics\); load a new one"):
+            call()
+
+
+def test_pixels_wrapper_with_a_named_camera():
+    """The pixels wrapper as docs/suite.md shows it: a named camera, pixels beside the state."""
+    from dm_control.suite.wrappers import pixels
+
+    inner = suite.load("otter", "collision_avoidance", task_kwargs={"random": 0, "time_limit": 0.3})
+    env = pixels.Wrapper(inner, pixels_only=False, render_kwargs={"camera_id": "basin", "height": 32, "width": 32})
+    spec = env.observation_spec()
+    assert spec["pixels"].shape == (32, 32, 3) and "ranges" in spec
+    time_step = env.reset()
+    while not time_step.last():
+        time_step = env.step(np.zeros(2))
+        spec["pixels"].validate(time_step.observation["pixels"])
+    assert time_step.observation["pixels"].std() > 0
+    inner.close()
+
+
+def test_dropped_rendering_environment_is_garbage_collected():
+    """An environment dropped without close() after rendering is freed by the cyclic garbage
+    collector (its physics is in reference cycles) without hanging: the collector used to stop
+    the GL context's render thread before asking that thread to free the context."""
+    script = textwrap.dedent("""
+        import gc, weakref
+        import mjasc
+        from mjasc import suite
+        env = suite.load("otter", "station_keeping", task_kwargs={"random": 0})
+        env.reset()
+        assert env.physics.render(32, 32, camera_id="basin").shape == (32, 32, 3)
+        ref = weakref.ref(env.physics)
+        del env
+        gc.collect()
+        assert ref() is None
+        print("ok")
+    """)
+    try:
+        out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=60)
+    except subprocess.TimeoutExpired:
+        pytest.fail("gc.collect() hung freeing a dropped environment that had rendered")
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "ok" and out.stderr.strip() == "", out.stderr
+
+
+def test_baselines_cli_rejects_unknown_task_names(capsys):
+    """A misspelt --tasks name is an error naming the tasks, not an empty table and exit code 0."""
+    from mjasc.suite import baselines
+
+    with pytest.raises(SystemExit) as info:
+        baselines.main(["--seeds", "1", "--tasks", "path_folowing"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert "--tasks: unknown path_folowing; one of collision_avoidance" in err and "path_following" in err

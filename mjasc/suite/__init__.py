@@ -16,6 +16,9 @@ route (shimmy) and the baseline returns.
 
 import collections
 import inspect
+import numbers
+
+import numpy as np
 
 from mjasc.suite import delfim, otter, otter_team
 
@@ -57,27 +60,47 @@ REWARD_VIZ = tuple(sorted(set(ALL_TASKS) - set(NO_REWARD_VIZ)))
 TASKS_BY_DOMAIN = _get_tasks_by_domain(ALL_TASKS)
 
 
+def _check_task_kwargs(task_kwargs) -> None:
+    """Clear errors for the values dm_control would reject obscurely or not at all."""
+    time_limit = task_kwargs.get("time_limit")
+    if time_limit is not None:
+        if isinstance(time_limit, bool) or not isinstance(time_limit, numbers.Real) or not time_limit > 0:
+            raise ValueError(f"task_kwargs: time_limit must be a number of seconds > 0 (inf: no limit), got {time_limit!r}")
+    random = task_kwargs.get("random")
+    if random is not None and not isinstance(random, (numbers.Integral, np.random.RandomState)):
+        raise ValueError(f"task_kwargs: random must be an integer seed or a numpy.random.RandomState "
+                         f"(dm_control's Task), got {type(random).__name__}")
+
+
 def load(domain_name, task_name, task_kwargs=None, environment_kwargs=None, visualize_reward=False):
     """An environment from a domain name, task name and optional settings.
 
     ``task_kwargs``: ``random`` (seed or RandomState), ``time_limit`` [s]; ``environment_kwargs``:
-    passed to ``dm_control.rl.control.Environment`` (e.g. ``flat_observation=True``);
+    passed to ``dm_control.rl.control.Environment`` (e.g. ``flat_observation=True``; its
+    ``control_timestep`` or ``n_sub_steps`` replace the default 0.1 s control step);
     ``visualize_reward``: colour the reward lights (and target) by the reward in rendered frames.
     """
     return build_environment(domain_name, task_name, task_kwargs, environment_kwargs, visualize_reward)
 
 
 def build_environment(domain_name, task_name, task_kwargs=None, environment_kwargs=None, visualize_reward=False):
-    """As :func:`load`; raises ValueError naming an unknown domain or task."""
+    """As :func:`load`; raises ValueError naming an unknown domain, task or keyword argument."""
     if domain_name not in _DOMAINS:
         raise ValueError(f"domain_name: {domain_name!r} does not exist; one of {sorted(_DOMAINS)}")
     domain = _DOMAINS[domain_name]
     if task_name not in domain.SUITE:
         raise ValueError(f"task_name: {task_name!r} does not exist in domain {domain_name!r}; "
                          f"one of {sorted(domain.SUITE)}")
+    factory = domain.SUITE[task_name]
     task_kwargs = dict(task_kwargs or {})
+    accepted = [p for p in inspect.signature(factory).parameters if not p.startswith("_") and p != "environment_kwargs"]
+    unknown = sorted(set(task_kwargs) - set(accepted))
+    if unknown:
+        raise ValueError(f"task_kwargs: unknown {', '.join(map(repr, unknown))} for {domain_name}/{task_name}; "
+                         f"accepted: {', '.join(accepted)}")
+    _check_task_kwargs(task_kwargs)
     if environment_kwargs is not None:
         task_kwargs["environment_kwargs"] = environment_kwargs
-    env = domain.SUITE[task_name](**task_kwargs)
+    env = factory(**task_kwargs)
     env.task.visualize_reward = visualize_reward
     return env

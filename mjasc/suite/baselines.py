@@ -290,6 +290,10 @@ def main(argv=None) -> None:
     args = parser.parse_args(argv)
     tasks = ALL_TASKS if args.all else BENCHMARKING
     if args.tasks:
+        unknown = sorted(set(args.tasks) - {t for _, t in tasks})
+        if unknown:  # an empty table would look like a finished run
+            parser.error(f"--tasks: unknown {', '.join(unknown)}; one of {', '.join(sorted({t for _, t in tasks}))}"
+                         + ("" if args.all else " (--all adds the extra domains' tasks)"))
         tasks = [(d, t) for d, t in tasks if t in args.tasks]
     seeds = range(args.seeds)
     if not args.no_header:

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import collections
 import dataclasses
+import inspect
 import threading
 import weakref
 from pathlib import Path
@@ -33,7 +34,7 @@ from mjasc.physics.simulation import Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import World, build_world
 
-__all__ = ["Environment", "VesselPhysics", "compose_world", "range_sensor", "basin_walls", "world_to_body",
+__all__ = ["Environment", "make_control_environment", "VesselPhysics", "compose_world", "range_sensor", "basin_walls", "world_to_body",
            "CONTROL_TIMESTEP_S"]
 
 #: Agent decision period [s]: 5 physics steps of 0.02 s (10 Hz, a typical USV autopilot rate).
@@ -104,6 +105,23 @@ def compose_world(vessels, static_obstacles=(), moving_obstacles=(), domain_xml:
     return world
 
 
+def make_control_environment(physics: "VesselPhysics", task, time_limit: float, environment_kwargs=None) -> "Environment":
+    """The suite's :class:`Environment` of ``task`` on ``physics``: ``environment_kwargs`` go to
+    ``control.Environment`` and may replace the default control timestep (CONTROL_TIMESTEP_S) with
+    their own ``control_timestep`` or ``n_sub_steps``; the time limit is a task argument."""
+    kwargs = dict(environment_kwargs or {})
+    if "time_limit" in kwargs:
+        raise ValueError("environment_kwargs: time_limit is a task argument: pass it in task_kwargs")
+    accepted = [p for p in inspect.signature(control.Environment.__init__).parameters
+                if p not in ("self", "physics", "task", "time_limit")]
+    unknown = sorted(set(kwargs) - set(accepted))
+    if unknown:
+        raise ValueError(f"environment_kwargs: unknown {', '.join(map(repr, unknown))}; accepted: {', '.join(accepted)}")
+    if kwargs.get("n_sub_steps") is None:
+        kwargs.setdefault("control_timestep", CONTROL_TIMESTEP_S)
+    return Environment(physics, task, time_limit=time_limit, **kwargs)
+
+
 class Environment(control.Environment):
     """dm_control's ``control.Environment`` whose :meth:`close` frees the physics.
 
@@ -127,6 +145,20 @@ class Environment(control.Environment):
             key = control.FLAT_OBSERVATION_KEY
             return collections.OrderedDict([(key, specs.Array((size,), np.float64, name=key))])
         return spec
+
+    def reset(self):
+        """dm_control's reset; a clear error once :meth:`close` has freed the physics."""
+        self._check_open()
+        return super().reset()
+
+    def step(self, action):
+        """dm_control's step; a clear error once :meth:`close` has freed the physics."""
+        self._check_open()
+        return super().step(action)
+
+    def _check_open(self) -> None:
+        if getattr(self._physics, "_data", None) is None:
+            raise RuntimeError("environment: closed (close() freed its physics); load a new one")
 
     def close(self):
         """Release the physics's GL contexts and native data (idempotent)."""
@@ -154,6 +186,23 @@ def _free_rendering_at_exit() -> None:
                 physics._free_rendering_contexts()
 
 
+def _free_contexts(contexts) -> None:
+    """Free a garbage-collected physics's GL contexts while their render thread still runs.
+
+    A VesselPhysics is in reference cycles (its World and Simulation refer back to it), so the
+    cyclic garbage collector, not reference counting, frees an environment that was dropped
+    without ``close()``. When its contexts were part of that garbage, the collector first ran the
+    weakref callback of their render thread pool, which stops its worker, and then their
+    ``__del__``, which waited forever for that worker to free the GL context: a dropped
+    environment that had rendered hung the next ``gc.collect()``. Held by a ``weakref.finalize``
+    of the physics, the contexts stay reachable (so does their thread) and are freed here, from
+    the finalizer, before anything else of the physics is torn down. Freeing twice is harmless
+    (``close()`` or the exit hook may have freed them already).
+    """
+    contexts.mujoco.free()
+    contexts.gl.free()
+
+
 def _register_exit_hook() -> None:
     # threading's exit hooks run in reverse order of registration, before ``atexit``; registered
     # after dm_control's executor module is imported, this one runs before its thread pools stop.
@@ -171,10 +220,12 @@ class VesselPhysics(mjcf.Physics):
     _sim: Simulation | None = None
 
     def _make_rendering_contexts(self):
-        """dm_control's contexts, freed at interpreter exit if the environment was never closed."""
+        """dm_control's contexts, freed at interpreter exit if the environment was never closed,
+        and when the garbage collector frees this physics (see :func:`_free_contexts`)."""
         super()._make_rendering_contexts()
         _RENDERING.add(self)
         _register_exit_hook()
+        weakref.finalize(self, _free_contexts, self._contexts).atexit = False
 
     # ------------------------------------------------------------------ set-up
     def attach_world(self, world: World, current: CurrentField | None = None) -> None:

@@ -35,10 +35,10 @@ from mjasc.physics.obstacles import MovingObstacle
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.suite.common import (
     CONTROL_TIMESTEP_S,
-    Environment,
     VesselPhysics,
     basin_walls,
     compose_world,
+    make_control_environment,
     range_sensor,
     world_to_body,
 )
@@ -135,11 +135,19 @@ def _vec(*values) -> np.ndarray:
 class _VesselTask(base.Task):
     """Shared parts: the vessel type, noise, the current, the target marker."""
 
-    def __init__(self, vessel_type: str, difficulty: Difficulty, random=None):
+    def __init__(self, vessel_type: str, difficulty: Difficulty, random=None, time_limit_s: float | None = None):
         self.vessel = load_vessel_type(vessel_type)
         self.difficulty = difficulty
         self.speed_ref_m_s = self.vessel.cruise_speed_m_s
+        #: The episode's time limit [s] (None: the task's default), so paths outlast the episode.
+        self.time_limit_s = time_limit_s
         super().__init__(random=random)
+
+    def _travel_m(self, speed_m_s: float) -> float:
+        """Distance [m] covered at ``speed_m_s`` within the episode's time limit (0 when there is
+        none or it is infinite: the paths keep their default length)."""
+        t = self.time_limit_s
+        return speed_m_s * t if t is not None and np.isfinite(t) else 0.0
 
     #: (name, shape) of every observation, in order; the spec is built from it.
     OBSERVATIONS: tuple = ()
@@ -197,13 +205,18 @@ class PathFollowing(_VesselTask):
         d, rnd = self.difficulty, self.random
         physics.configure_episode(_random_current(rnd, d))
         # Five legs of 25–40 m, course changes up to ±path_turn, rounded with a 10 m radius; the
-        # last leg is long enough that the path never ends within the time limit.
+        # last leg (150 m, longer for a long time limit) is long enough that the path does not
+        # end within the time limit even at twice the cruise speed (50 m spare for the corners).
         course = rnd.uniform(-np.pi, np.pi)
         points = [np.zeros(2)]
         for k in range(5):
             if k:
                 course += rnd.uniform(-d.path_turn_rad, d.path_turn_rad)
-            length = rnd.uniform(25.0, 40.0) if k < 4 else 150.0
+            if k < 4:
+                length = rnd.uniform(25.0, 40.0)
+            else:
+                sailed = float(np.sum(np.linalg.norm(np.diff(points, axis=0), axis=1)))
+                length = max(150.0, self._travel_m(2.0 * self.vessel.cruise_speed_m_s) - sailed + 50.0)
             points.append(points[-1] + length * _vec(np.cos(course), np.sin(course)))
         self.path = Path.from_waypoints(np.array(points), turn_radius_m=10.0)
         self.speed_ref_m_s = self.vessel.cruise_speed_m_s * rnd.uniform(0.7, 1.1)
@@ -433,10 +446,9 @@ def make_environment(task: str, vessel_type: str, difficulty: Difficulty, time_l
         moving = [MovingObstacle(n, TRAFFIC_RADIUS_M, _vec(0.0, 0.0)) for n in _traffic_names(difficulty.n_traffic)]
     world = compose_world([(vessel_type, vessel_type)], static, moving, XML_PATH)
     physics = world.physics
-    task_obj = _TASKS[task](vessel_type, difficulty, random=random)
     time_limit = TIME_LIMITS_S[task] if time_limit is None else time_limit
-    return Environment(physics, task_obj, time_limit=time_limit, control_timestep=CONTROL_TIMESTEP_S,
-                               **(environment_kwargs or {}))
+    task_obj = _TASKS[task](vessel_type, difficulty, random=random, time_limit_s=time_limit)
+    return make_control_environment(physics, task_obj, time_limit, environment_kwargs)
 
 
 def register_tasks(suite, vessel_type: str, tags=("benchmarking",)) -> None:

@@ -28,7 +28,7 @@ from dm_control.rl import control
 from dm_control.utils import containers, rewards
 
 from mjasc.guidance.paths import ArcSegment, LineSegment, Path
-from mjasc.suite.common import CONTROL_TIMESTEP_S, Environment, VesselPhysics, compose_world, world_to_body
+from mjasc.suite.common import VesselPhysics, compose_world, make_control_environment, world_to_body
 from mjasc.suite.otter import (
     EASY,
     HARD,
@@ -79,10 +79,11 @@ def joint_policy(policies, n_vessels: int = len(SLOTS_M), vessel_type: str = VES
 class Formation(_VesselTask):
     """Hold a V formation around a virtual leader on a straight line, one policy per vessel."""
 
-    def __init__(self, vessel_type: str, difficulty: Difficulty, slots_m=SLOTS_M, random=None):
+    def __init__(self, vessel_type: str, difficulty: Difficulty, slots_m=SLOTS_M, random=None,
+                 time_limit_s: float | None = None):
         self.slots_m = np.asarray(slots_m, dtype=float)
         self.names = vessel_names(len(self.slots_m), vessel_type)
-        super().__init__(vessel_type, difficulty, random=random)
+        super().__init__(vessel_type, difficulty, random=random, time_limit_s=time_limit_s)
 
     def initialize_episode(self, physics: VesselPhysics) -> None:
         d, rnd = self.difficulty, self.random
@@ -110,7 +111,8 @@ class Formation(_VesselTask):
         """The virtual leader's path: from LEAD_IN_M behind the origin along the initial course,
         straight (``d.leader_turns`` = 0) or with that many course changes of 35–100 % of
         ``d.path_turn_rad`` (random side) rounded with LEADER_TURN_RADIUS_M, 5–15 m of straight line
-        between the turns (and from the origin to the first). Long enough that the leader never reaches its end."""
+        between the turns (and from the origin to the first). Long enough that the leader does not reach its end
+        within the time limit (without one: after the last turn's 250 m)."""
         t0 = _vec(np.cos(self.course_rad), np.sin(self.course_rad))
         points = [self.origin_m - LEAD_IN_M * t0]
         course = self.course_rad
@@ -122,7 +124,10 @@ class Formation(_VesselTask):
                 course += turn
                 leg = cuts[k] + cuts[k + 1] + rnd.uniform(5.0, 15.0)
                 points.append(points[-1] + leg * _vec(np.cos(course), np.sin(course)))
-        points.append(points[-1] + 250.0 * _vec(np.cos(course), np.sin(course)))
+        # The last leg: 250 m, or longer for a long time limit (the leader, and every slot, must
+        # not stop at the path's end within the episode).
+        last = max(250.0, self._travel_m(self.speed_ref_m_s) + 50.0)
+        points.append(points[-1] + last * _vec(np.cos(course), np.sin(course)))
         return Path.from_waypoints(np.array(points), turn_radius_m=LEADER_TURN_RADIUS_M)
 
     def leader_gamma(self, time_s: float) -> float:
@@ -224,9 +229,9 @@ def make_environment(vessel_type: str, difficulty: Difficulty, time_limit=None, 
     """The formation environment of a team of ``len(slots_m)`` vessels of ``vessel_type``."""
     names = vessel_names(len(slots_m), vessel_type)
     world = compose_world([(n, vessel_type) for n in names], domain_xml=XML_PATH)
-    task = Formation(vessel_type, difficulty, slots_m=slots_m, random=random)
-    return Environment(world.physics, task, time_limit=TIME_LIMIT_S if time_limit is None else time_limit,
-                               control_timestep=CONTROL_TIMESTEP_S, **(environment_kwargs or {}))
+    time_limit = TIME_LIMIT_S if time_limit is None else time_limit
+    task = Formation(vessel_type, difficulty, slots_m=slots_m, random=random, time_limit_s=time_limit)
+    return make_control_environment(world.physics, task, time_limit, environment_kwargs)
 
 
 @SUITE.add("benchmarking", "easy", "multi_agent")
