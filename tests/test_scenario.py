@@ -75,6 +75,36 @@ def test_bad_scenarios_are_rejected_naming_the_field(message):
         assert message.split(":", 1)[1].strip() in str(err.value)
 
 
+EXACT = {
+    # the field named once, with the index of the offending point (the builders' own messages used
+    # to come out under the field again: "waypoints: waypoints[1]: …", "vertices: pontoon.vertices: …")
+    "vessels[0].controller.waypoints[1]: repeats the previous point":
+        lambda d: d["vessels"][0]["controller"].update(waypoints=[[0.0, 12.0], [0.0, 12.0], [160.0, 12.0]]),
+    "vessels[0].controller.waypoints[1]: the path reverses (180° turn) here; cannot round the corner":
+        lambda d: d["vessels"][0]["controller"].update(waypoints=[[0.0, 12.0], [160.0, 12.0], [50.0, 12.0]]),
+    "vessels[0].controller.turn_radius_m: 500 m is too large for the corner at waypoints[1]":
+        lambda d: d["vessels"][0]["controller"].update(turn_radius_m=500.0),
+    "static_obstacles[0].vertices[1]: repeats the next vertex":
+        lambda d: d["static_obstacles"][0].update(vertices=[[55.0, 28.0], [95.0, 28.0], [95.0, 28.0], [55.0, 38.0]]),
+    # vertices out of order: a bow tie, its walls crossing (it used to load, with no error)
+    "static_obstacles[0].vertices: polygon is self-intersecting (edges 0 and 2 cross)":
+        lambda d: d["static_obstacles"][0].update(vertices=[[55.0, 28.0], [95.0, 38.0], [95.0, 28.0], [55.0, 40.0]]),
+    "static_obstacles[0].vertices: polygon is self-intersecting":
+        lambda d: d["static_obstacles"][0].update(vertices=[[55.0, 28.0], [95.0, 38.0], [95.0, 28.0], [55.0, 38.0]]),
+    # a missing type says so (it said "must be a non-empty string, got None")
+    "vessels[1].type: missing (the vessel type: one of delfim, otter)": lambda d: d["vessels"][1].pop("type"),
+    "static_obstacles[1].type: missing (one of circle, polygon)": lambda d: d["static_obstacles"][1].pop("type"),
+}
+
+
+@pytest.mark.parametrize("message", list(EXACT), ids=list(EXACT))
+def test_bad_scenarios_name_the_field_once(message):
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(_mutate(EXACT[message]), "bad.toml")
+    assert str(err.value).startswith(message), str(err.value)
+    assert "\n" not in str(err.value)
+
+
 def test_invalid_toml_and_missing_file(tmp_path):
     bad = tmp_path / "broken.toml"
     bad.write_text("duration_s = = 3\n")

@@ -55,7 +55,19 @@ def _path(t: dict, where: str) -> Path:
     try:
         return Path.from_waypoints(wps, turn_radius_m=radius)
     except ValueError as exc:
-        raise ScenarioError(f"{where}.waypoints: {exc}") from None
+        raise ScenarioError(_readdress(str(exc), where, ("waypoints", "turn_radius_m"), "waypoints")) from None
+
+
+def _readdress(msg: str, where: str, fields: tuple[str, ...], default: str, prefix: str = "") -> str:
+    """A builder's error (``"waypoints[1]: repeats …"``, ``"pier.vertices: …"``) named by the
+    scenario's field path (``"vessels[0].controller.waypoints[1]: repeats …"``): a message that
+    starts with one of ``fields`` (after ``prefix``, the object's own name) is put under ``where``,
+    any other goes under ``where.default`` — the field is named once, not twice."""
+    body = msg[len(prefix):] if prefix and msg.startswith(prefix) else msg
+    for f in fields:
+        if body.startswith(f) and body[len(f):len(f) + 1] in (":", "["):
+            return f"{where}.{body}"
+    return f"{where}.{default}: {body}"
 
 
 # ---------------------------------------------------------------------- sections
@@ -110,6 +122,8 @@ def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
     t = table(t, where)
     check_keys(t, _VESSEL, where)
     name = check_name(string(t.get("name", f"v{i}"), f"{where}.name"), f"{where}.name", vessel=True)
+    if "type" not in t:
+        raise ScenarioError(f"{where}.type: missing (the vessel type: one of {', '.join(sorted(available_vessels()))})")
     vtype = string(t.get("type"), f"{where}.type", choices=set(available_vessels()))
     pos = read_field(VesselConfig, "position_m", t, where, default=np.zeros(2))
     heading = _heading(t, where)
@@ -153,6 +167,8 @@ def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
 def _static(t: Any, i: int):
     where = f"static_obstacles[{i}]"
     t = table(t, where)
+    if "type" not in t:
+        raise ScenarioError(f"{where}.type: missing (one of circle, polygon)")
     kind = string(t.get("type"), f"{where}.type", choices={"polygon", "circle"})
     name = check_name(string(t.get("name", f"static{i}"), f"{where}.name"), f"{where}.name", vessel=False)
     if kind == "polygon":
@@ -164,7 +180,7 @@ def _static(t: Any, i: int):
         try:
             return PolygonObstacle(name, v, height)
         except ValueError as exc:
-            raise ScenarioError(f"{where}.vertices: {exc}") from None
+            raise ScenarioError(_readdress(str(exc), where, ("vertices",), "vertices", f"{name}.")) from None
     height = read_field(CircleObstacle, "height_m", t, where)
     check_keys(t, {"type", "name", "centre_m", "radius_m", "height_m"}, where)
     return CircleObstacle(name, read_field(CircleObstacle, "centre", t, where, key="centre_m"),
