@@ -56,6 +56,18 @@ def test_list_shows_bundled_scenarios_and_campaigns(tmp_path, monkeypatch, capsy
     assert "  demo_monte_carlo " in out and "INVALID" not in out
 
 
+def test_list_describes_each_method_in_one_whole_sentence(tmp_path, monkeypatch, capsys):
+    """Each method's line is a whole sentence without reST markup (it was the docstring's first
+    line, cut mid-sentence: "… registered as the", "… manoeuvre detector, static")."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out.split("methods (", 1)[1].splitlines()[1:]
+    assert len(out) >= 6
+    for line in out:
+        assert line.rstrip().endswith(".") and "``" not in line and ":class:" not in line, line
+        assert "module docstring" not in line, line
+
+
 def test_help_says_a_scenario_is_a_path_or_a_bundled_name(capsys):
     for argv in (["run", "--help"], ["campaign", "--help"]):
         with pytest.raises(SystemExit):

@@ -101,6 +101,19 @@ def cmd_view(args) -> int:
     return subprocess.call([exe, str(rrd)])
 
 
+def method_summary(doc: str | None) -> str:
+    """A method's one-line description for ``mjasc list``: the first sentence of its docstring's
+    first paragraph (its lines joined, not the first line cut mid-sentence), without reST markup
+    and without pointers into the source ("(module docstring)")."""
+    import re
+
+    paragraph = " ".join((doc or "").strip().split("\n\n", 1)[0].split())
+    text = re.sub(r":[a-z]+:`~?([^`]+)`", r"\1", paragraph).replace("``", "")
+    text = re.sub(r"\s*\((?:see )?(?:the )?module docstring\)", "", text)
+    m = re.search(r"[.;](\s|$)", text)
+    return (text[:m.start()] + ".") if m else text
+
+
 def cmd_list(args) -> int:
     from mjasc.campaigns.spec import CampaignError, load_campaign_spec as load_campaign
     from mjasc.core.resources import bundled_campaigns, bundled_scenarios
@@ -133,7 +146,7 @@ def cmd_list(args) -> int:
     for stage in STAGES:
         for name in available(stage):
             try:
-                doc = next(iter((method_class(stage, name).__doc__ or "").strip().splitlines()), "")
+                doc = method_summary(method_class(stage, name).__doc__)
             except ValueError as exc:
                 doc = f"INVALID: {exc}"
             print(f"  {stage + ' ' + name:36s} {doc}")
