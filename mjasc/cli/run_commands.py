@@ -14,10 +14,26 @@ def cmd_run(args) -> int:
     from mjasc.runs.runner import RunFailed, run_scenario
     from mjasc.runs.scenario import ScenarioError, load_scenario
 
-    try:
-        scenario = load_scenario(args.scenario)
+    from mjasc.core.resources import resolve_bundled
+
+    overrides = {k: v for k, v in (("seed", args.seed), ("duration_s", args.duration)) if v is not None}
+    try:  # (the file as if it said --seed/--duration: checked with those values only)
+        scenario = load_scenario(args.scenario, **overrides)
     except ScenarioError as exc:
-        print(f"mjasc: invalid scenario: {exc}{not_found_hint(args.scenario, 'scenario')}", file=sys.stderr)
+        own = None
+        if overrides:
+            try:
+                load_scenario(args.scenario)
+            except ScenarioError as err:
+                own = err  # (the file is bad on its own: its own error)
+            else:  # (the options' values made it bad: say so)
+                flags = " ".join(f"{flag} {value}" for flag, value in (("--seed", args.seed),
+                                                                        ("--duration", args.duration))
+                                 if value is not None)
+                msg = str(exc).removeprefix(f"{resolve_bundled(args.scenario, 'scenario')}: ")
+                print(f"mjasc: invalid scenario: {args.scenario} with {flags}: {msg}", file=sys.stderr)
+                return 2
+        print(f"mjasc: invalid scenario: {own or exc}{not_found_hint(args.scenario, 'scenario')}", file=sys.stderr)
         return 2
     if args.camera is not None:
         try:
@@ -25,14 +41,8 @@ def cmd_run(args) -> int:
         except ScenarioError as exc:  # (the message names the field the option sets: name the option)
             print(f"mjasc: --camera: {str(exc).removeprefix('outputs.video_camera: ')}", file=sys.stderr)
             return 2
-    try:
-        scenario = scenario.with_overrides(seed=args.seed, video=True if args.video or args.camera else None,
-                                           duration_s=args.duration)
-    except ScenarioError as exc:  # (the plausibility checks of the file with the options' values)
-        flags = " ".join(f"{flag} {value}" for flag, value in (("--seed", args.seed), ("--duration", args.duration))
-                         if value is not None)
-        print(f"mjasc: invalid scenario: {args.scenario} with {flags}: {exc}", file=sys.stderr)
-        return 2
+    if args.video or args.camera:
+        scenario = scenario.with_overrides(video=True)
     out = out_dir(args.out, Path("runs") / scenario.name)
     try:
         result = run_scenario(scenario, out, progress=None if args.progress else False, interruptible=True)

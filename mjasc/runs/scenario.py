@@ -292,12 +292,17 @@ def _list(value: Any, where: str) -> list:
     return value
 
 
-def load_scenario(path: str | FilePath) -> Scenario:
+def load_scenario(path: str | FilePath, *, seed: Any = None, duration_s: Any = None) -> Scenario:
     """Read and validate a scenario file, given by its path (relative to the current folder) or by
     the name of a bundled scenario (``"demo"``, ``"thesis_6_2_dock"``: ``mjasc list`` shows them).
+    ``seed`` / ``duration_s`` (not None): the file read as if it said so (``mjasc run --seed
+    --duration``): every check sees those values and only those — a traffic path that reaches a
+    structure after the new duration is fine, one that reaches it before is not.
     Raises :class:`ScenarioError` naming the file and the field."""
     path = resolve_bundled(path, "scenario")
     data = load_toml(path, ScenarioError, "scenario")
+    if seed is not None or duration_s is not None:
+        data = {**data, **{k: v for k, v in (("seed", seed), ("duration_s", duration_s)) if v is not None}}
     try:
         return parse_scenario(data, str(path))
     except ScenarioError as exc:
