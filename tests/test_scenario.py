@@ -105,6 +105,34 @@ def test_bad_scenarios_name_the_field_once(message):
     assert "\n" not in str(err.value)
 
 
+def test_a_key_written_after_a_table_header_is_explained():
+    """TOML puts every key after a ``[table]`` header into that table: a vessel's ``sensor`` written
+    after its ``[vessels.controller]`` header, or ``seed`` after ``[outputs]``, is reported with
+    that explanation, and the controller's unknown-key list names its own keys too (it listed
+    only the control method's options: ``waypoints`` looked like an unknown key)."""
+    d = demo()
+    d["vessels"][0]["controller"]["sensor"] = d["vessels"][0].pop("sensor")
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(d, "bad.toml")
+    assert str(err.value).startswith("vessels[0].controller.sensor: unknown field; 'sensor' is a key of the vessel")
+    d = demo()
+    d["outputs"]["seed"] = d.pop("seed", 1)
+    with pytest.raises(ScenarioError, match=r"^outputs\.seed: unknown field \(allowed: .*\); 'seed' is a top-level key"):
+        parse_scenario(d, "bad.toml")
+    d = demo()
+    d["vessels"][0]["controller"]["sped_m_s"] = 1.0
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(d, "bad.toml")
+    allowed = str(err.value).split("(allowed: ", 1)[1].rstrip(")").split(", ")
+    assert {"waypoints", "turn_radius_m", "speed_m_s", "type", "commands", "lookahead_m"} <= set(allowed)
+    assert "key of the vessel" not in str(err.value)
+
+
+def test_description_must_be_text():
+    with pytest.raises(ScenarioError, match=r"^description: must be a string, got 5"):
+        parse_scenario({**demo(), "description": 5}, "bad.toml")
+
+
 def test_invalid_toml_and_missing_file(tmp_path):
     bad = tmp_path / "broken.toml"
     bad.write_text("duration_s = = 3\n")

@@ -13,6 +13,7 @@ becomes (:class:`Scenario`, :class:`VesselConfig`, :class:`Rates`, :class:`Outpu
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path as FilePath
 from typing import Any
 
@@ -26,6 +27,7 @@ from mjasc.core.config_tables import (
     number,
     points,
     read_field,
+    show,
     string,
     table,
 )
@@ -102,6 +104,8 @@ def _parse_component(kind: str, value: Any, where: str):
         raise ScenarioError(msg if msg.startswith(where) else f"{where}: {msg}") from None
 _VESSEL = {"name", "type", "position_m", "heading_deg", "speed_m_s", "controller", "sensor", "tracking",
            "avoidance", "comms", "mission"}
+#: The vessel's keys that no sub-table has (one found in a sub-table was written after its header).
+_VESSEL_ONLY = {"position_m", "heading_deg", "controller", "sensor", "tracking", "avoidance", "comms", "mission"}
 #: The controller table's mission keys; its other keys are the control method's options.
 _CONTROLLER = {"type", "waypoints", "turn_radius_m", "speed_m_s", "commands"}
 
@@ -121,6 +125,10 @@ def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
     where = f"vessels[{i}]"
     t = table(t, where)
     check_keys(t, _VESSEL, where)
+    for sub in ("controller", *COMPONENT_PARSERS):  # (a vessel key that TOML put into a sub-table)
+        misplaced = [k for k in t.get(sub, {}) if k in _VESSEL_ONLY] if isinstance(t.get(sub), dict) else []
+        if misplaced:  # (parse_scenario adds why)
+            raise ScenarioError(f"{where}.{sub}.{misplaced[0]}: unknown field")
     name = check_name(string(t.get("name", f"v{i}"), f"{where}.name"), f"{where}.name", vessel=True)
     if "type" not in t:
         raise ScenarioError(f"{where}.type: missing (the vessel type: one of {', '.join(sorted(available_vessels()))})")
@@ -144,8 +152,15 @@ def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
         from mjasc.plugins.registry import parse_method_table
 
         method_table = {k: v for k, v in ctrl.items() if k not in _CONTROLLER}
-        options["control"] = parse_method_table("control", {"type": ctype, **method_table}, f"{where}.controller",
-                                                name_key="type")
+        try:
+            options["control"] = parse_method_table("control", {"type": ctype, **method_table},
+                                                    f"{where}.controller", name_key="type")
+        except ValueError as exc:  # (an unknown key: the table's own keys are allowed too, say so)
+            m = re.match(rf"{re.escape(where)}\.controller\.(\w+): unknown field \(allowed: (.*)\)$", str(exc))
+            if m is None:
+                raise
+            allowed = ", ".join(sorted(set(m[2].split(", ")) | _CONTROLLER))
+            raise ScenarioError(f"{where}.controller.{m[1]}: unknown field (allowed: {allowed})") from None
         if "waypoints" in ctrl:
             path = _path(ctrl, f"{where}.controller")
         elif path_optional:
@@ -213,8 +228,33 @@ def _moving(t: Any, i: int) -> MovingObstacle:
 
 def parse_scenario(data: dict, source: str = "<dict>") -> Scenario:
     """Validate a parsed TOML document into a :class:`Scenario` (raises :class:`ScenarioError`)."""
-    with errors_as(ScenarioError):
-        return _parse_scenario(data, source)
+    try:
+        with errors_as(ScenarioError):
+            return _parse_scenario(data, source)
+    except ScenarioError as exc:
+        hint = _misplaced_key_hint(str(exc))
+        if hint:
+            raise ScenarioError(f"{exc}{hint}") from None
+        raise
+
+
+_SUBTABLE_KEY = re.compile(r"^(?:(?P<vessel>vessels\[\d+\])\.)?(?P<table>[a-z_]+)\.(?P<key>[a-z_0-9]+): unknown field")
+
+
+def _misplaced_key_hint(msg: str) -> str:
+    """TOML puts every key written after a ``[table]`` header into that table: a vessel's
+    ``sensor = {…}`` after its ``[vessels.controller]`` header, or ``seed = 1`` after ``[outputs]``,
+    is an unknown field of that table. Say so when the key belongs one level up."""
+    m = _SUBTABLE_KEY.match(msg)
+    if m is None or m["table"] == "scenario":
+        return ""
+    if m["vessel"] is not None and m["key"] in _VESSEL_ONLY:
+        return (f"; '{m['key']}' is a key of the vessel, not of [vessels.{m['table']}]: in TOML every key after "
+                f"a [table] header belongs to that table, so write it before the vessel's first sub-table")
+    if m["vessel"] is None and m["key"] in _TOP:
+        return (f"; '{m['key']}' is a top-level key, not one of [{m['table']}]: in TOML every key after a "
+                f"[table] header belongs to that table, so write it before the first [table]")
+    return ""
 
 
 def _parse_scenario(data: dict, source: str) -> Scenario:
@@ -280,7 +320,10 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
         for i, v in enumerate(vessels):
             if "mission" in v.options:
                 raise ScenarioError(f"vessels[{i}].mission: the scenario has no [mission] table to take part in")
-    scenario = Scenario(name, str(data.get("description", "")), duration, seed, rates, outputs, current,
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise ScenarioError(f"description: must be a string, got {show(description)}")
+    scenario = Scenario(name, description, duration, seed, rates, outputs, current,
                         dict(cur_cfg), vessels, statics, moving, source, data, comms, mission)
     check_plausible(scenario, {v.type: load_vessel_type(v.type) for v in vessels})
     return scenario
