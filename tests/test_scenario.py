@@ -1,6 +1,7 @@
 """Scenario files: every shipped scenario loads; bad files are rejected with the field and the
 reason, and nothing is run or written."""
 
+import re
 import subprocess
 import sys
 import tomllib
@@ -162,6 +163,24 @@ def test_the_documented_example_is_a_valid_scenario():
     assert [v.name for v in sc.vessels] == ["alpha", "bravo"]
     assert len(sc.static_obstacles) == 2 and len(sc.moving_obstacles) == 2
     assert sc.moving_obstacles[1].path is not None
+
+
+def test_the_documented_example_shows_every_key():
+    """tasks/README.md's complete example (commented lines count) names every key a scenario's
+    tables accept, so a user writing a file from it finds them all (it lacked recording_detail,
+    an obstacle's height_m and a waypoint traffic's turn_radius_m and start_gamma_m)."""
+    import dataclasses
+
+    from mjasc.runs import scenario as module
+    from mjasc.runs.scenario_values import Outputs, Rates
+
+    example = (TASKS / "README.md").read_text().split("```toml", 1)[1].split("```", 1)[0]
+    keys = set(module._TOP) | set(module._VESSEL) | set(module._CONTROLLER)
+    keys |= {f.name for cls in (Rates, Outputs) for f in dataclasses.fields(cls)}
+    keys |= {"vertices", "centre_m", "radius_m", "height_m", "turn_rate_deg_s", "turn_radius_m", "start_gamma_m"}
+    missing = sorted(k for k in keys if not re.search(rf"(^|[\s`{{,\[])({k}) =|\[{k}\]|\[\[{k}\]\]|\[vessels\.{k}\]",
+                                                     example, flags=re.M))
+    assert missing == []
 
 
 def test_seed_override_reseeds_a_seeded_current():
