@@ -313,10 +313,7 @@ def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path
 
 
 def _parse_campaign_spec(data: dict, source: str, base_dir: str | Path) -> CampaignSpec:
-    """Validate a parsed campaign file into a :class:`CampaignSpec` (scenario paths relative to
-    ``base_dir``, the file's folder). Every family is checked (every law against its parameter's
-    declaration, and its first run parsed as a scenario) before anything runs. Raises
-    :class:`CampaignError`."""
+    """:func:`parse_campaign_spec` without the explanation of a misplaced key."""
     with errors_as(CampaignError):
         data = table(data, "campaign")
         legacy = "families" not in data

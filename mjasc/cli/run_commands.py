@@ -11,10 +11,9 @@ from mjasc.cli.arguments import not_found_hint, out_dir, suite_tasks
 
 
 def cmd_run(args) -> int:
+    from mjasc.core.resources import resolve_bundled
     from mjasc.runs.runner import RunFailed, run_scenario
     from mjasc.runs.scenario import ScenarioError, load_scenario
-
-    from mjasc.core.resources import resolve_bundled
 
     overrides = {k: v for k, v in (("seed", args.seed), ("duration_s", args.duration)) if v is not None}
     try:  # (the file as if it said --seed/--duration: checked with those values only)
