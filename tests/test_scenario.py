@@ -92,6 +92,11 @@ EXACT = {
         lambda d: d["static_obstacles"][0].update(vertices=[[55.0, 28.0], [95.0, 38.0], [95.0, 28.0], [55.0, 40.0]]),
     "static_obstacles[0].vertices: polygon is self-intersecting":
         lambda d: d["static_obstacles"][0].update(vertices=[[55.0, 28.0], [95.0, 38.0], [95.0, 28.0], [55.0, 38.0]]),
+    # a path's keys on traffic without a path (they were ignored silently)
+    "moving_obstacles[0].turn_radius_m: only with waypoints":
+        lambda d: d["moving_obstacles"][0].update(turn_radius_m=5.0),
+    "moving_obstacles[0].start_gamma_m: only with waypoints":
+        lambda d: d["moving_obstacles"][0].update(start_gamma_m=5.0),
     # a missing type says so (it said "must be a non-empty string, got None")
     "vessels[1].type: missing (the vessel type: one of delfim, otter)": lambda d: d["vessels"][1].pop("type"),
     "static_obstacles[1].type: missing (one of circle, polygon)": lambda d: d["static_obstacles"][1].pop("type"),

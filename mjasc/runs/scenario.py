@@ -219,6 +219,10 @@ def _moving(t: Any, i: int) -> MovingObstacle:
         g0 = number(read_field(MovingObstacle, "start_gamma_m", t, where), f"{where}.start_gamma_m",
                     maximum=path.length)
         return MovingObstacle(name, radius, path.point(g0), float(path.tangent_angle(g0)), speed, 0.0, path, g0)
+    for key in ("turn_radius_m", "start_gamma_m"):  # (keys of a path: they would be ignored)
+        if key in t:
+            raise ScenarioError(f"{where}.{key}: only with waypoints (without them the obstacle sails from "
+                                f"position_m at heading_deg and turn_rate_deg_s)")
     if "position_m" not in t:
         raise ScenarioError(f"{where}.position_m: missing (or give waypoints)")
     pos = read_field(MovingObstacle, "position_m", t, where)
