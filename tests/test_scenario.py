@@ -97,6 +97,9 @@ EXACT = {
         lambda d: d["moving_obstacles"][0].update(turn_radius_m=5.0),
     "moving_obstacles[0].start_gamma_m: only with waypoints":
         lambda d: d["moving_obstacles"][0].update(start_gamma_m=5.0),
+    # avoidance on an open-loop vessel (it ran, predicting nothing and never acting)
+    "vessels[0].avoidance: needs a path-following controller":
+        lambda d: d["vessels"][0].update(controller={"type": "none", "commands": [0.5, 0.5]}),
     # a missing type says so (it said "must be a non-empty string, got None")
     "vessels[1].type: missing (the vessel type: one of delfim, otter)": lambda d: d["vessels"][1].pop("type"),
     "static_obstacles[1].type: missing (one of circle, polygon)": lambda d: d["static_obstacles"][1].pop("type"),

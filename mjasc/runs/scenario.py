@@ -142,6 +142,9 @@ def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
     ctype = string(ctrl.get("type", "path_following"), f"{where}.controller.type")
     if ctype == "none":
         check_keys(ctrl, {"type", "commands"}, f"{where}.controller")  # (no path: open-loop commands only)
+        if "avoidance" in t:  # (it would predict nothing and never act: a vessel that only looks protected)
+            raise ScenarioError(f"{where}.avoidance: needs a path-following controller — an open-loop vessel "
+                                f"(controller type \"none\", constant commands) has no speed or path to correct")
     path, commands = None, (0.0, 0.0)
     cruise = vt.cruise_speed_m_s
     options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}
