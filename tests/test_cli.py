@@ -56,6 +56,38 @@ def test_list_shows_bundled_scenarios_and_campaigns(tmp_path, monkeypatch, capsy
     assert "  demo_monte_carlo " in out and "INVALID" not in out
 
 
+def test_list_describes_each_method_in_one_whole_sentence(tmp_path, monkeypatch, capsys):
+    """Each method's line is a whole sentence without reST markup (it was the docstring's first
+    line, cut mid-sentence: "… registered as the", "… manoeuvre detector, static")."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out.split("methods (", 1)[1].splitlines()[1:]
+    assert len(out) >= 6
+    for line in out:
+        assert line.rstrip().endswith(".") and "``" not in line and ":class:" not in line, line
+        assert "module docstring" not in line, line
+
+
+def test_the_overview_names_every_option_of_every_command(capsys):
+    """``mjasc --help``'s one line per command lists all of that command's options (campaign's
+    --max-attempts/--time-limit and five of search's were missing)."""
+    import argparse
+
+    from mjasc.cli import build_parser
+
+    parser = build_parser()
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    overview = capsys.readouterr().out
+    commands = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices
+    missing = []
+    for name, sub in commands.items():
+        line = next(ln for ln in overview.splitlines() if ln.split()[:2] == ["mjasc", name])
+        missing += [f"{name} {opt}" for action in sub._actions for opt in action.option_strings[-1:]
+                    if opt.startswith("--") and opt != "--help" and opt not in line]
+    assert missing == []
+
+
 def test_help_says_a_scenario_is_a_path_or_a_bundled_name(capsys):
     for argv in (["run", "--help"], ["campaign", "--help"]):
         with pytest.raises(SystemExit):

@@ -222,6 +222,10 @@ def test_topology_errors_name_the_field():
                          ({"topology": "graph"}, r"comms\.links: a graph topology needs links"),
                          ({"topology": "graph", "links": [["a", "z"]]}, r"comms\.links\[0\]: 'z' is not a team member"),
                          ({"topology": "graph", "links": [["a"]]}, r"comms\.links\[0\]: must be a pair"),
-                         ({"topology": "leader_followers", "leader": "q"}, r"comms\.leader: 'q' is not a team member")]:
+                         ({"topology": "leader_followers", "leader": "q"}, r"comms\.leader: 'q' is not a team member"),
+                         # a key the topology would ignore (it was accepted and ignored silently)
+                         ({"topology": "ring", "links": [["a", "b"]]}, r"comms\.links: only with topology = \"graph\""),
+                         ({"links": [["a", "b"]]}, r"comms\.links: only with topology = \"graph\" \(the topology is 'all'"),
+                         ({"leader": "b"}, r"comms\.leader: only with topology = \"leader_followers\"")]:
         with pytest.raises(ScenarioError, match=match):
             parse_scenario({**base, "comms": comms})

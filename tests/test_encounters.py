@@ -231,6 +231,19 @@ def test_bad_families_name_the_field(family, message):
         spec(family)
 
 
+def test_a_key_written_after_a_table_header_is_explained():
+    """A family's ``runs_per_point`` written after its ``[families.parameters]`` header (TOML puts
+    it into that table), or ``base_seed`` after ``[evaluation]``, is explained, not only refused."""
+    with pytest.raises(CampaignError, match=r"^families\[0\]\.parameters\.runs_per_point: unknown parameter "
+                                            r"\(allowed: .*\); 'runs_per_point' is a key of the family"):
+        spec({"kind": "head_on", "parameters": {"runs_per_point": 2}})
+    with pytest.raises(CampaignError, match=r"^evaluation\.base_seed: unknown field .*; 'base_seed' is a top-level key"):
+        parse_campaign_spec({"name": "t", "evaluation": {"base_seed": 3}, "families": [{"kind": "head_on"}]})
+    with pytest.raises(CampaignError) as err:  # (a plain typo: no such explanation)
+        spec({"kind": "head_on", "parameters": {"dcpa": 2.0}})
+    assert "top-level" not in str(err.value) and "key of the family" not in str(err.value)
+
+
 def test_own_overrides_and_rates_reach_the_scenario():
     s = spec({"kind": "head_on", "own": {"avoidance": {"window_s": 25.0}, "sensor": {"beams": 720}},
               "rates": {"prediction_period_s": 2.0}, "duration_s": 12.0,

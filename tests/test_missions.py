@@ -251,6 +251,19 @@ def test_a_target_phase_shorter_than_its_settling_is_judged_on_no_samples():
                for t in truth.values()), truth
 
 
+def test_a_target_phase_without_a_judged_target_runs_unjudged():
+    """``[mission.track_target] target`` is optional (docs/missions.md: for judging only): a
+    scenario without it loads and runs, and the summary has no truth entry (it used to fail to load
+    with "target: must be a non-empty string, got ''")."""
+    d = _data("target_tracking")
+    d["mission"]["track_target"].pop("target")
+    d["duration_s"] = 5.0
+    sc = parse_scenario(d, "target_tracking.toml")
+    assert sc.mission.track_target.target is None
+    s = Runner(sc, None, progress=False).run().summary
+    assert s["status"] == "completed" and "track_target_truth" not in s.get("mission", {})
+
+
 def _false_alarm(withdraw: bool):
     """The target-tracking mission with the ferry 30–50 m north of the stations: charlie's tracker
     starts a track on the ferry's far edge whose first velocity estimate (3.4 m/s south-west, the

@@ -131,6 +131,30 @@ def test_overrides_get_the_checks_a_file_with_their_values_gets():
         sc.with_overrides(seed=strong[0])
 
 
+def test_a_duration_override_is_checked_instead_of_the_files_duration(tmp_path, monkeypatch, capsys):
+    """``mjasc run --duration`` checks the file as if it said that duration, and only that: a quick
+    run of a file whose traffic reaches a rock after the new duration runs (it was refused for
+    the file's own, longer duration); the file as written, or a longer --duration, is refused."""
+    from mjasc.campaigns.scenario_text import scenario_toml
+    from mjasc.cli import main
+
+    d = demo()  # (the ferry reaches the rock at ~229 s: refused for the file's 240 s)
+    d["static_obstacles"].append({"name": "rock", "type": "circle", "centre_m": [105.0, -200.0], "radius_m": 2.0})
+    path = tmp_path / "rock.toml"
+    path.write_text(scenario_toml(d))
+    with pytest.raises(ScenarioError, match=r"sails into static obstacle 'rock'"):
+        load_scenario(path)
+    assert load_scenario(path, duration_s=100.0).duration_s == 100.0
+    assert load_scenario(path, duration_s=100.0, seed=7).seed == 7
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "rock.toml", "--duration", "0.5", "--out", "o", "--no-progress"]) == 0
+    capsys.readouterr()
+    assert main(["run", "rock.toml", "--duration", "300", "--out", "o2", "--no-progress"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("mjasc: invalid scenario: rock.toml: moving_obstacles[0]") and "'rock'" in err
+    assert not (tmp_path / "o2").exists()
+
+
 def _too_strong(d: dict, seed: int) -> bool:
     try:
         parse_scenario({**d, "seed": seed}, "demo.toml")

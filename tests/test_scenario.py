@@ -1,6 +1,7 @@
 """Scenario files: every shipped scenario loads; bad files are rejected with the field and the
 reason, and nothing is run or written."""
 
+import re
 import subprocess
 import sys
 import tomllib
@@ -75,6 +76,72 @@ def test_bad_scenarios_are_rejected_naming_the_field(message):
         assert message.split(":", 1)[1].strip() in str(err.value)
 
 
+EXACT = {
+    # the field named once, with the index of the offending point (the builders' own messages used
+    # to come out under the field again: "waypoints: waypoints[1]: …", "vertices: pontoon.vertices: …")
+    "vessels[0].controller.waypoints[1]: repeats the previous point":
+        lambda d: d["vessels"][0]["controller"].update(waypoints=[[0.0, 12.0], [0.0, 12.0], [160.0, 12.0]]),
+    "vessels[0].controller.waypoints[1]: the path reverses (180° turn) here; cannot round the corner":
+        lambda d: d["vessels"][0]["controller"].update(waypoints=[[0.0, 12.0], [160.0, 12.0], [50.0, 12.0]]),
+    "vessels[0].controller.turn_radius_m: 500 m is too large for the corner at waypoints[1]":
+        lambda d: d["vessels"][0]["controller"].update(turn_radius_m=500.0),
+    "static_obstacles[0].vertices[1]: repeats the next vertex":
+        lambda d: d["static_obstacles"][0].update(vertices=[[55.0, 28.0], [95.0, 28.0], [95.0, 28.0], [55.0, 38.0]]),
+    # vertices out of order: a bow tie, its walls crossing (it used to load, with no error)
+    "static_obstacles[0].vertices: polygon is self-intersecting (edges 0 and 2 cross)":
+        lambda d: d["static_obstacles"][0].update(vertices=[[55.0, 28.0], [95.0, 38.0], [95.0, 28.0], [55.0, 40.0]]),
+    "static_obstacles[0].vertices: polygon is self-intersecting":
+        lambda d: d["static_obstacles"][0].update(vertices=[[55.0, 28.0], [95.0, 38.0], [95.0, 28.0], [55.0, 38.0]]),
+    # a path's keys on traffic without a path (they were ignored silently)
+    "moving_obstacles[0].turn_radius_m: only with waypoints":
+        lambda d: d["moving_obstacles"][0].update(turn_radius_m=5.0),
+    "moving_obstacles[0].start_gamma_m: only with waypoints":
+        lambda d: d["moving_obstacles"][0].update(start_gamma_m=5.0),
+    # avoidance on an open-loop vessel (it ran, predicting nothing and never acting)
+    "vessels[0].avoidance: needs a path-following controller":
+        lambda d: d["vessels"][0].update(controller={"type": "none", "commands": [0.5, 0.5]}),
+    # a missing type says so (it said "must be a non-empty string, got None")
+    "vessels[1].type: missing (the vessel type: one of delfim, otter)": lambda d: d["vessels"][1].pop("type"),
+    "static_obstacles[1].type: missing (one of circle, polygon)": lambda d: d["static_obstacles"][1].pop("type"),
+}
+
+
+@pytest.mark.parametrize("message", list(EXACT), ids=list(EXACT))
+def test_bad_scenarios_name_the_field_once(message):
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(_mutate(EXACT[message]), "bad.toml")
+    assert str(err.value).startswith(message), str(err.value)
+    assert "\n" not in str(err.value)
+
+
+def test_a_key_written_after_a_table_header_is_explained():
+    """TOML puts every key after a ``[table]`` header into that table: a vessel's ``sensor`` written
+    after its ``[vessels.controller]`` header, or ``seed`` after ``[outputs]``, is reported with
+    that explanation, and the controller's unknown-key list names its own keys too (it listed
+    only the control method's options: ``waypoints`` looked like an unknown key)."""
+    d = demo()
+    d["vessels"][0]["controller"]["sensor"] = d["vessels"][0].pop("sensor")
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(d, "bad.toml")
+    assert str(err.value).startswith("vessels[0].controller.sensor: unknown field; 'sensor' is a key of the vessel")
+    d = demo()
+    d["outputs"]["seed"] = d.pop("seed", 1)
+    with pytest.raises(ScenarioError, match=r"^outputs\.seed: unknown field \(allowed: .*\); 'seed' is a top-level key"):
+        parse_scenario(d, "bad.toml")
+    d = demo()
+    d["vessels"][0]["controller"]["sped_m_s"] = 1.0
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(d, "bad.toml")
+    allowed = str(err.value).split("(allowed: ", 1)[1].rstrip(")").split(", ")
+    assert {"waypoints", "turn_radius_m", "speed_m_s", "type", "commands", "lookahead_m"} <= set(allowed)
+    assert "key of the vessel" not in str(err.value)
+
+
+def test_description_must_be_text():
+    with pytest.raises(ScenarioError, match=r"^description: must be a string, got 5"):
+        parse_scenario({**demo(), "description": 5}, "bad.toml")
+
+
 def test_invalid_toml_and_missing_file(tmp_path):
     bad = tmp_path / "broken.toml"
     bad.write_text("duration_s = = 3\n")
@@ -104,6 +171,24 @@ def test_the_documented_example_is_a_valid_scenario():
     assert [v.name for v in sc.vessels] == ["alpha", "bravo"]
     assert len(sc.static_obstacles) == 2 and len(sc.moving_obstacles) == 2
     assert sc.moving_obstacles[1].path is not None
+
+
+def test_the_documented_example_shows_every_key():
+    """tasks/README.md's complete example (commented lines count) names every key a scenario's
+    tables accept, so a user writing a file from it finds them all (it lacked recording_detail,
+    an obstacle's height_m and a waypoint traffic's turn_radius_m and start_gamma_m)."""
+    import dataclasses
+
+    from mjasc.runs import scenario as module
+    from mjasc.runs.scenario_values import Outputs, Rates
+
+    example = (TASKS / "README.md").read_text().split("```toml", 1)[1].split("```", 1)[0]
+    keys = set(module._TOP) | set(module._VESSEL) | set(module._CONTROLLER)
+    keys |= {f.name for cls in (Rates, Outputs) for f in dataclasses.fields(cls)}
+    keys |= {"vertices", "centre_m", "radius_m", "height_m", "turn_rate_deg_s", "turn_radius_m", "start_gamma_m"}
+    missing = sorted(k for k in keys if not re.search(rf"(^|[\s`{{,\[])({k}) =|\[{k}\]|\[\[{k}\]\]|\[vessels\.{k}\]",
+                                                     example, flags=re.M))
+    assert missing == []
 
 
 def test_seed_override_reseeds_a_seeded_current():

@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterator
@@ -277,11 +278,42 @@ def _canonical(obj: Any) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
 
 
+_FAMILY_KEYS = {"name", "kind", "runs_per_point", "duration_s", "own", "rates", "roles", "scenario", "first_seed"}
+_SUBTABLE_KEY = re.compile(r"^(?P<family>families\[\d+\]\.)?(?P<table>[a-z_]+)\.(?P<key>[a-z_0-9]+): unknown")
+
+
+def _misplaced_key_hint(msg: str) -> str:
+    """TOML puts every key written after a ``[table]`` header into that table: a family's
+    ``runs_per_point`` after its ``[families.parameters]`` header, or ``base_seed`` after
+    ``[evaluation]``, is an unknown key of that table. Say so when the key belongs one level up."""
+    m = _SUBTABLE_KEY.match(msg)
+    if m is None:
+        return ""
+    if m["family"] and m["key"] in _FAMILY_KEYS:
+        return (f"; '{m['key']}' is a key of the family, not of [families.{m['table']}]: in TOML every key after a "
+                "[table] header belongs to that table, so write it before the family's first sub-table")
+    if not m["family"] and m["table"] != "campaign" and m["key"] in _TOP:
+        return (f"; '{m['key']}' is a top-level key, not one of [{m['table']}]: in TOML every key after a "
+                "[table] header belongs to that table, so write it before the first [table]")
+    return ""
+
+
 def parse_campaign_spec(data: dict, source: str = "<dict>", base_dir: str | Path = ".") -> CampaignSpec:
     """Validate a parsed campaign file into a :class:`CampaignSpec` (scenario paths relative to
     ``base_dir``, the file's folder). Every family is checked (every law against its parameter's
     declaration, and its first run parsed as a scenario) before anything runs. Raises
     :class:`CampaignError`."""
+    try:
+        return _parse_campaign_spec(data, source, base_dir)
+    except CampaignError as exc:
+        hint = _misplaced_key_hint(str(exc))
+        if hint:
+            raise CampaignError(f"{exc}{hint}") from None
+        raise
+
+
+def _parse_campaign_spec(data: dict, source: str, base_dir: str | Path) -> CampaignSpec:
+    """:func:`parse_campaign_spec` without the explanation of a misplaced key."""
     with errors_as(CampaignError):
         data = table(data, "campaign")
         legacy = "families" not in data

@@ -2,10 +2,10 @@
 
     mjasc run SCENARIO [--out DIR] [--video] [--camera CAM] [--seed N] [--duration S] [--no-progress]
     mjasc list
-    mjasc campaign CAMPAIGN [--out DIR] [--workers N] [--scheduler ADDR] [--runs N] [--no-progress]
+    mjasc campaign CAMPAIGN [--out DIR] [--workers N] [--scheduler ADDR] [--runs N] [--max-attempts N] [--time-limit S] [--no-progress]
     mjasc report FOLDER [--json] [--out DIR] [--format png svg pdf]
     mjasc extract FOLDER [RUN ...] [--outcome collision|near_miss|failed] [--out DIR]
-    mjasc search CAMPAIGN FAMILY [--method cross_entropy|uniform] [--budget N] [--out DIR]
+    mjasc search CAMPAIGN FAMILY [--method cross_entropy|uniform] [--budget N] [--batch N] [--failure-separation M] [--seed N] [--workers N] [--scheduler ADDR] [--out DIR]
     mjasc trial speed|turning-circle|zigzag|stopping --vessel NAME [--port F] [--starboard F] [--json]
     mjasc view RUN_DIR|RECORDING [--print]
     mjasc figures [--out DIR] [--format png svg pdf]

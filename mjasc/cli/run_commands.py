@@ -11,13 +11,28 @@ from mjasc.cli.arguments import not_found_hint, out_dir, suite_tasks
 
 
 def cmd_run(args) -> int:
+    from mjasc.core.resources import resolve_bundled
     from mjasc.runs.runner import RunFailed, run_scenario
     from mjasc.runs.scenario import ScenarioError, load_scenario
 
-    try:
-        scenario = load_scenario(args.scenario)
+    overrides = {k: v for k, v in (("seed", args.seed), ("duration_s", args.duration)) if v is not None}
+    try:  # (the file as if it said --seed/--duration: checked with those values only)
+        scenario = load_scenario(args.scenario, **overrides)
     except ScenarioError as exc:
-        print(f"mjasc: invalid scenario: {exc}{not_found_hint(args.scenario, 'scenario')}", file=sys.stderr)
+        own = None
+        if overrides:
+            try:
+                load_scenario(args.scenario)
+            except ScenarioError as err:
+                own = err  # (the file is bad on its own: its own error)
+            else:  # (the options' values made it bad: say so)
+                flags = " ".join(f"{flag} {value}" for flag, value in (("--seed", args.seed),
+                                                                        ("--duration", args.duration))
+                                 if value is not None)
+                msg = str(exc).removeprefix(f"{resolve_bundled(args.scenario, 'scenario')}: ")
+                print(f"mjasc: invalid scenario: {args.scenario} with {flags}: {msg}", file=sys.stderr)
+                return 2
+        print(f"mjasc: invalid scenario: {own or exc}{not_found_hint(args.scenario, 'scenario')}", file=sys.stderr)
         return 2
     if args.camera is not None:
         try:
@@ -25,14 +40,8 @@ def cmd_run(args) -> int:
         except ScenarioError as exc:  # (the message names the field the option sets: name the option)
             print(f"mjasc: --camera: {str(exc).removeprefix('outputs.video_camera: ')}", file=sys.stderr)
             return 2
-    try:
-        scenario = scenario.with_overrides(seed=args.seed, video=True if args.video or args.camera else None,
-                                           duration_s=args.duration)
-    except ScenarioError as exc:  # (the plausibility checks of the file with the options' values)
-        flags = " ".join(f"{flag} {value}" for flag, value in (("--seed", args.seed), ("--duration", args.duration))
-                         if value is not None)
-        print(f"mjasc: invalid scenario: {args.scenario} with {flags}: {exc}", file=sys.stderr)
-        return 2
+    if args.video or args.camera:
+        scenario = scenario.with_overrides(video=True)
     out = out_dir(args.out, Path("runs") / scenario.name)
     try:
         result = run_scenario(scenario, out, progress=None if args.progress else False, interruptible=True)
@@ -101,6 +110,19 @@ def cmd_view(args) -> int:
     return subprocess.call([exe, str(rrd)])
 
 
+def method_summary(doc: str | None) -> str:
+    """A method's one-line description for ``mjasc list``: the first sentence of its docstring's
+    first paragraph (its lines joined, not the first line cut mid-sentence), without reST markup
+    and without pointers into the source ("(module docstring)")."""
+    import re
+
+    paragraph = " ".join((doc or "").strip().split("\n\n", 1)[0].split())
+    text = re.sub(r":[a-z]+:`~?([^`]+)`", r"\1", paragraph).replace("``", "")
+    text = re.sub(r"\s*\((?:see )?(?:the )?module docstring\)", "", text)
+    m = re.search(r"[.;](\s|$)", text)
+    return (text[:m.start()] + ".") if m else text
+
+
 def cmd_list(args) -> int:
     from mjasc.campaigns.spec import CampaignError, load_campaign_spec as load_campaign
     from mjasc.core.resources import bundled_campaigns, bundled_scenarios
@@ -133,7 +155,7 @@ def cmd_list(args) -> int:
     for stage in STAGES:
         for name in available(stage):
             try:
-                doc = next(iter((method_class(stage, name).__doc__ or "").strip().splitlines()), "")
+                doc = method_summary(method_class(stage, name).__doc__)
             except ValueError as exc:
                 doc = f"INVALID: {exc}"
             print(f"  {stage + ' ' + name:36s} {doc}")

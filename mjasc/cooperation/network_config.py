@@ -52,6 +52,13 @@ class NetworkConfig:
         check_params(self, "comms")
         if self.topology == "graph" and not self.links:
             raise ConfigError("comms.links: a graph topology needs links [[\"a\", \"b\"], ...], got []")
+        if self.links and self.topology != "graph":  # (they would be ignored: say so)
+            raise ConfigError(f"comms.links: only with topology = \"graph\" (the topology is {self.topology!r}, "
+                              "which would ignore them)")
+        if self.leader is not None and self.topology != "leader_followers":
+            raise ConfigError(f"comms.leader: only with topology = \"leader_followers\" (the topology is "
+                              f"{self.topology!r}, which would ignore it; a coordination leader is "
+                              "[vessels.comms] role = \"leader\")")
 
     def hears(self, team) -> dict[str, frozenset]:
         """Receiver → the senders it can hear, for the team ``team`` (names in scenario order);

@@ -76,8 +76,8 @@ class TrackTargetOptions:
                                       doc="where the target is expected when the phase starts: the leader "
                                           "designates the confirmed track nearest to it")
     duration_s: float = param(positive=True, unit="s", doc="how long the team tracks the target")
-    target: str = param("", doc="the moving obstacle that is the target, for judging the run only (the "
-                                "vessels never read it)")
+    target: str | None = param(None, doc="the moving obstacle that is the target, for judging the run only "
+                                         "(the vessels never read it; absent: the run is not judged)")
     speed_gain_1_s: float = param(0.05, positive=True, maximum=2.0, unit="1/s",
                                   doc="speed correction per metre of along-course station error")
     line_ahead_s: float = param(10.0, positive=True, maximum=120.0, unit="s",

@@ -15,7 +15,7 @@ import numpy as np
 
 from mjasc.core.config_tables import check_params, param, point
 from mjasc.core.frames import WORLD_LIMIT_M
-from mjasc.core.geometry import circle_polygon, polygon_signed_area
+from mjasc.core.geometry import circle_polygon, clean_polygon, polygon_signed_area
 from mjasc.guidance.paths import Path
 
 __all__ = ["PolygonObstacle", "CircleObstacle", "MovingObstacle", "MovingObstacleSet", "MAX_TRAFFIC_SPEED_M_S"]
@@ -44,6 +44,10 @@ class PolygonObstacle:
         if np.any(edge < 1e-9):  # a zero-length wall: MuJoCo cannot place a box along it
             k = int(np.argmax(edge < 1e-9))
             raise ValueError(f"{self.name}.vertices[{k}]: repeats the next vertex")
+        # A boundary that crosses itself (vertices listed out of order) would be a wall drawn across
+        # the obstacle and an inside that depends on the test: refused, as the planner refuses it
+        # (clean_polygon; only checked here, the vertices are kept as given).
+        clean_polygon(v, name=f"{self.name}.vertices")
         area = polygon_signed_area(v)
         if abs(area) < 1e-9:
             raise ValueError(f"{self.name}.vertices: polygon has zero area")

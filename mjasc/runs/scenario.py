@@ -13,6 +13,7 @@ becomes (:class:`Scenario`, :class:`VesselConfig`, :class:`Rates`, :class:`Outpu
 from __future__ import annotations
 
 import math
+import re
 from pathlib import Path as FilePath
 from typing import Any
 
@@ -26,6 +27,7 @@ from mjasc.core.config_tables import (
     number,
     points,
     read_field,
+    show,
     string,
     table,
 )
@@ -55,7 +57,19 @@ def _path(t: dict, where: str) -> Path:
     try:
         return Path.from_waypoints(wps, turn_radius_m=radius)
     except ValueError as exc:
-        raise ScenarioError(f"{where}.waypoints: {exc}") from None
+        raise ScenarioError(_readdress(str(exc), where, ("waypoints", "turn_radius_m"), "waypoints")) from None
+
+
+def _readdress(msg: str, where: str, fields: tuple[str, ...], default: str, prefix: str = "") -> str:
+    """A builder's error (``"waypoints[1]: repeats …"``, ``"pier.vertices: …"``) named by the
+    scenario's field path (``"vessels[0].controller.waypoints[1]: repeats …"``): a message that
+    starts with one of ``fields`` (after ``prefix``, the object's own name) is put under ``where``,
+    any other goes under ``where.default`` — the field is named once, not twice."""
+    body = msg[len(prefix):] if prefix and msg.startswith(prefix) else msg
+    for f in fields:
+        if body.startswith(f) and body[len(f):len(f) + 1] in (":", "["):
+            return f"{where}.{body}"
+    return f"{where}.{default}: {body}"
 
 
 # ---------------------------------------------------------------------- sections
@@ -90,6 +104,8 @@ def _parse_component(kind: str, value: Any, where: str):
         raise ScenarioError(msg if msg.startswith(where) else f"{where}: {msg}") from None
 _VESSEL = {"name", "type", "position_m", "heading_deg", "speed_m_s", "controller", "sensor", "tracking",
            "avoidance", "comms", "mission"}
+#: The vessel's keys that no sub-table has (one found in a sub-table was written after its header).
+_VESSEL_ONLY = {"position_m", "heading_deg", "controller", "sensor", "tracking", "avoidance", "comms", "mission"}
 #: The controller table's mission keys; its other keys are the control method's options.
 _CONTROLLER = {"type", "waypoints", "turn_radius_m", "speed_m_s", "commands"}
 
@@ -109,7 +125,13 @@ def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
     where = f"vessels[{i}]"
     t = table(t, where)
     check_keys(t, _VESSEL, where)
+    for sub in ("controller", *COMPONENT_PARSERS):  # (a vessel key that TOML put into a sub-table)
+        misplaced = [k for k in t.get(sub, {}) if k in _VESSEL_ONLY] if isinstance(t.get(sub), dict) else []
+        if misplaced:  # (parse_scenario adds why)
+            raise ScenarioError(f"{where}.{sub}.{misplaced[0]}: unknown field")
     name = check_name(string(t.get("name", f"v{i}"), f"{where}.name"), f"{where}.name", vessel=True)
+    if "type" not in t:
+        raise ScenarioError(f"{where}.type: missing (the vessel type: one of {', '.join(sorted(available_vessels()))})")
     vtype = string(t.get("type"), f"{where}.type", choices=set(available_vessels()))
     pos = read_field(VesselConfig, "position_m", t, where, default=np.zeros(2))
     heading = _heading(t, where)
@@ -120,6 +142,9 @@ def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
     ctype = string(ctrl.get("type", "path_following"), f"{where}.controller.type")
     if ctype == "none":
         check_keys(ctrl, {"type", "commands"}, f"{where}.controller")  # (no path: open-loop commands only)
+        if "avoidance" in t:  # (it would predict nothing and never act: a vessel that only looks protected)
+            raise ScenarioError(f"{where}.avoidance: needs a path-following controller — an open-loop vessel "
+                                f"(controller type \"none\", constant commands) has no speed or path to correct")
     path, commands = None, (0.0, 0.0)
     cruise = vt.cruise_speed_m_s
     options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}
@@ -130,8 +155,15 @@ def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
         from mjasc.plugins.registry import parse_method_table
 
         method_table = {k: v for k, v in ctrl.items() if k not in _CONTROLLER}
-        options["control"] = parse_method_table("control", {"type": ctype, **method_table}, f"{where}.controller",
-                                                name_key="type")
+        try:
+            options["control"] = parse_method_table("control", {"type": ctype, **method_table},
+                                                    f"{where}.controller", name_key="type")
+        except ValueError as exc:  # (an unknown key: the table's own keys are allowed too, say so)
+            m = re.match(rf"{re.escape(where)}\.controller\.(\w+): unknown field \(allowed: (.*)\)$", str(exc))
+            if m is None:
+                raise
+            allowed = ", ".join(sorted(set(m[2].split(", ")) | _CONTROLLER))
+            raise ScenarioError(f"{where}.controller.{m[1]}: unknown field (allowed: {allowed})") from None
         if "waypoints" in ctrl:
             path = _path(ctrl, f"{where}.controller")
         elif path_optional:
@@ -153,6 +185,8 @@ def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
 def _static(t: Any, i: int):
     where = f"static_obstacles[{i}]"
     t = table(t, where)
+    if "type" not in t:
+        raise ScenarioError(f"{where}.type: missing (one of circle, polygon)")
     kind = string(t.get("type"), f"{where}.type", choices={"polygon", "circle"})
     name = check_name(string(t.get("name", f"static{i}"), f"{where}.name"), f"{where}.name", vessel=False)
     if kind == "polygon":
@@ -164,7 +198,7 @@ def _static(t: Any, i: int):
         try:
             return PolygonObstacle(name, v, height)
         except ValueError as exc:
-            raise ScenarioError(f"{where}.vertices: {exc}") from None
+            raise ScenarioError(_readdress(str(exc), where, ("vertices",), "vertices", f"{name}.")) from None
     height = read_field(CircleObstacle, "height_m", t, where)
     check_keys(t, {"type", "name", "centre_m", "radius_m", "height_m"}, where)
     return CircleObstacle(name, read_field(CircleObstacle, "centre", t, where, key="centre_m"),
@@ -188,6 +222,10 @@ def _moving(t: Any, i: int) -> MovingObstacle:
         g0 = number(read_field(MovingObstacle, "start_gamma_m", t, where), f"{where}.start_gamma_m",
                     maximum=path.length)
         return MovingObstacle(name, radius, path.point(g0), float(path.tangent_angle(g0)), speed, 0.0, path, g0)
+    for key in ("turn_radius_m", "start_gamma_m"):  # (keys of a path: they would be ignored)
+        if key in t:
+            raise ScenarioError(f"{where}.{key}: only with waypoints (without them the obstacle sails from "
+                                f"position_m at heading_deg and turn_rate_deg_s)")
     if "position_m" not in t:
         raise ScenarioError(f"{where}.position_m: missing (or give waypoints)")
     pos = read_field(MovingObstacle, "position_m", t, where)
@@ -197,8 +235,33 @@ def _moving(t: Any, i: int) -> MovingObstacle:
 
 def parse_scenario(data: dict, source: str = "<dict>") -> Scenario:
     """Validate a parsed TOML document into a :class:`Scenario` (raises :class:`ScenarioError`)."""
-    with errors_as(ScenarioError):
-        return _parse_scenario(data, source)
+    try:
+        with errors_as(ScenarioError):
+            return _parse_scenario(data, source)
+    except ScenarioError as exc:
+        hint = _misplaced_key_hint(str(exc))
+        if hint:
+            raise ScenarioError(f"{exc}{hint}") from None
+        raise
+
+
+_SUBTABLE_KEY = re.compile(r"^(?:(?P<vessel>vessels\[\d+\])\.)?(?P<table>[a-z_]+)\.(?P<key>[a-z_0-9]+): unknown field")
+
+
+def _misplaced_key_hint(msg: str) -> str:
+    """TOML puts every key written after a ``[table]`` header into that table: a vessel's
+    ``sensor = {…}`` after its ``[vessels.controller]`` header, or ``seed = 1`` after ``[outputs]``,
+    is an unknown field of that table. Say so when the key belongs one level up."""
+    m = _SUBTABLE_KEY.match(msg)
+    if m is None or m["table"] == "scenario":
+        return ""
+    if m["vessel"] is not None and m["key"] in _VESSEL_ONLY:
+        return (f"; '{m['key']}' is a key of the vessel, not of [vessels.{m['table']}]: in TOML every key after "
+                f"a [table] header belongs to that table, so write it before the vessel's first sub-table")
+    if m["vessel"] is None and m["key"] in _TOP:
+        return (f"; '{m['key']}' is a top-level key, not one of [{m['table']}]: in TOML every key after a "
+                f"[table] header belongs to that table, so write it before the first [table]")
+    return ""
 
 
 def _parse_scenario(data: dict, source: str) -> Scenario:
@@ -264,7 +327,10 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
         for i, v in enumerate(vessels):
             if "mission" in v.options:
                 raise ScenarioError(f"vessels[{i}].mission: the scenario has no [mission] table to take part in")
-    scenario = Scenario(name, str(data.get("description", "")), duration, seed, rates, outputs, current,
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise ScenarioError(f"description: must be a string, got {show(description)}")
+    scenario = Scenario(name, description, duration, seed, rates, outputs, current,
                         dict(cur_cfg), vessels, statics, moving, source, data, comms, mission)
     check_plausible(scenario, {v.type: load_vessel_type(v.type) for v in vessels})
     return scenario
@@ -276,12 +342,17 @@ def _list(value: Any, where: str) -> list:
     return value
 
 
-def load_scenario(path: str | FilePath) -> Scenario:
+def load_scenario(path: str | FilePath, *, seed: Any = None, duration_s: Any = None) -> Scenario:
     """Read and validate a scenario file, given by its path (relative to the current folder) or by
     the name of a bundled scenario (``"demo"``, ``"thesis_6_2_dock"``: ``mjasc list`` shows them).
+    ``seed`` / ``duration_s`` (not None): the file read as if it said so (``mjasc run --seed
+    --duration``): every check sees those values and only those — a traffic path that reaches a
+    structure after the new duration is fine, one that reaches it before is not.
     Raises :class:`ScenarioError` naming the file and the field."""
     path = resolve_bundled(path, "scenario")
     data = load_toml(path, ScenarioError, "scenario")
+    if seed is not None or duration_s is not None:
+        data = {**data, **{k: v for k, v in (("seed", seed), ("duration_s", duration_s)) if v is not None}}
     try:
         return parse_scenario(data, str(path))
     except ScenarioError as exc:
