@@ -84,6 +84,11 @@ def test_uniform_direction_is_where_the_water_flows_toward_ccw_from_east():
     np.testing.assert_allclose(southwest.velocity_m_s, [-math.sqrt(2), -math.sqrt(2)])
     assert southwest.speed_m_s == pytest.approx(2.0)
     assert southwest.direction_rad == pytest.approx(-3 * math.pi / 4)
+    # in degrees, as every other angle of a scenario: the same field
+    assert np.array_equal(UniformCurrent(speed_m_s=2.0, direction_deg=-135.0).velocity_m_s,
+                          UniformCurrent(speed_m_s=2.0, direction_rad=math.radians(-135.0)).velocity_m_s)
+    np.testing.assert_allclose(current_from_config({"type": "uniform", "speed_m_s": 0.5, "direction_deg": 90.0})
+                               .velocity(POINTS[:1], 0.0), [[0.0, 0.5]], atol=1e-15)
 
 
 @pytest.mark.parametrize("points", [np.zeros(2), np.zeros((3, 3)), np.zeros((2, 2, 2))])
@@ -596,10 +601,13 @@ GRID = {"type": "grid", "x_m": [0, 1], "y_m": [0, 1, 2], "u_m_s": [[0, 0, 0], [1
         ({"type": "uniform", "velocity_m_s": "east"}, "current.velocity_m_s: must be 2 numbers"),
         ({"type": "uniform", "velocity_m_s": [0.1, float("nan")]}, "current.velocity_m_s: must be finite"),
         ({"type": "uniform", "velocity_m_s": [True, 0]}, "current.velocity_m_s: must be 2 numbers"),
-        ({"type": "uniform", "speed_m_s": 0.3}, "current.direction_rad: missing"),
         ({"type": "uniform", "speed_m_s": -0.3, "direction_rad": 0}, "current.speed_m_s: must be >= 0, got -0.3"),
         ({"type": "uniform", "speed_m_s": 0.3, "direction_rad": float("inf")}, "current.direction_rad: must be finite, got inf"),
         ({"type": "uniform", "velocity_m_s": [0, 0], "speed_m_s": 1}, "current.speed_m_s: give either"),
+        ({"type": "uniform", "speed_m_s": 1}, "current.direction_deg: missing (required with speed_m_s; or direction_rad)"),
+        ({"type": "uniform", "speed_m_s": 1, "direction_deg": 90, "direction_rad": 1.5},
+         "current.direction_rad: give direction_deg or direction_rad, not both"),
+        ({"type": "uniform", "velocity_m_s": [0, 0], "direction_deg": 90}, "current.direction_deg: give either"),
         ({"type": "uniform", "velocity": [0, 0]}, "current.velocity: unknown key for type 'uniform'"),
         ({"type": "shear", "base_velocity_m_s": [0, 0], "gradient_per_s": [0, 0, 0, 0]}, "current.gradient_per_s: must be a 2x2 matrix"),
         ({"type": "shear", "gradient_per_s": [[0, 0], [0, 0]]}, "current.base_velocity_m_s: missing"),

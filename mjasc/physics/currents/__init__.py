@@ -55,12 +55,12 @@ A scenario's ``[current]`` table; ``type`` selects the field. Numbers may be int
 and must be finite; unknown keys are rejected. Errors are ``ValueError`` (``ConfigError``) naming
 the field path, the reason and the value, e.g. ``current.components[1].core_radius_m: must be > 0, got -2.0``.
 
-uniform — constant everywhere; give ``velocity_m_s`` *or* ``speed_m_s`` + ``direction_rad``::
+uniform — constant everywhere; give ``velocity_m_s`` *or* ``speed_m_s`` + ``direction_deg`` (or ``direction_rad``)::
 
     [current]
     type = "uniform"
     velocity_m_s = [0.3, 0.0]          # east, north [m/s]
-    # or: speed_m_s = 0.3  and  direction_rad = 1.5708   (flowing toward north)
+    # or: speed_m_s = 0.3  and  direction_deg = 90.0   (flowing toward north)
 
 shear — ``V(p) = V0 + G·(p − p0)``, ``G[i][j] = ∂V_i/∂x_j`` [1/s] (unbounded: keep the domain
 small enough that the speeds stay sensible)::

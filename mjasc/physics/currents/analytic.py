@@ -23,14 +23,16 @@ __all__ = ["UniformConfig", "UniformCurrent", "ShearConfig", "LinearShear"]
 @dataclass(frozen=True)
 class UniformConfig:
     """The parameters of a :class:`UniformCurrent` (``[current]`` of ``type = "uniform"``):
-    ``velocity_m_s``, or ``speed_m_s`` with ``direction_rad``."""
+    ``velocity_m_s``, or ``speed_m_s`` with ``direction_deg`` or ``direction_rad``."""
 
     velocity_m_s: np.ndarray | None = param(None, reader=vector2, unit="m/s",
-                                            doc="velocity (east, north); or give speed_m_s and direction_rad")
+                                            doc="velocity (east, north); or give speed_m_s and direction_deg")
     speed_m_s: float | None = param(None, nonneg=True, phrase="must be >= 0", unit="m/s",
-                                    doc="speed, with direction_rad (instead of velocity_m_s)")
-    direction_rad: float | None = param(None, unit="rad",
-                                        doc="direction the water flows toward, CCW from east (with speed_m_s)")
+                                    doc="speed, with direction_deg or direction_rad (instead of velocity_m_s)")
+    direction_deg: float | None = param(None, unit="deg",
+                                        doc="direction the water flows toward, CCW from east (with speed_m_s; "
+                                            "in degrees, as every other angle of a scenario)")
+    direction_rad: float | None = param(None, unit="rad", doc="the same direction in radians (instead of direction_deg)")
 
     def __post_init__(self):
         check_params(self, "UniformCurrent")
@@ -40,21 +42,24 @@ class UniformConfig:
     def check(config: UniformConfig, where: str) -> None:
         """Either the velocity, or the speed and the direction."""
         if config.velocity_m_s is not None:
-            for other in ("speed_m_s", "direction_rad"):
+            for other in ("speed_m_s", "direction_deg", "direction_rad"):
                 if getattr(config, other) is not None:
-                    raise ConfigError(f"{where}.{other}: give either velocity_m_s or speed_m_s + direction_rad, "
+                    raise ConfigError(f"{where}.{other}: give either velocity_m_s or speed_m_s + direction_deg, "
                                       "not both")
         elif config.speed_m_s is None:
-            raise ConfigError(f"{where}.velocity_m_s: missing (or give speed_m_s and direction_rad)")
-        elif config.direction_rad is None:
-            raise ConfigError(f"{where}.direction_rad: missing (required with speed_m_s)")
+            raise ConfigError(f"{where}.velocity_m_s: missing (or give speed_m_s and direction_deg)")
+        elif config.direction_deg is None and config.direction_rad is None:
+            raise ConfigError(f"{where}.direction_deg: missing (required with speed_m_s; or direction_rad)")
+        elif config.direction_deg is not None and config.direction_rad is not None:
+            raise ConfigError(f"{where}.direction_rad: give direction_deg or direction_rad, not both")
 
 
 class UniformCurrent(CurrentField):
     """The same velocity everywhere, always: the hot common case (one fill per call).
 
-    Give ``velocity_m_s = (vx, vy)`` [m/s], or ``speed_m_s`` [m/s] with ``direction_rad``, the
-    direction the water flows toward, CCW from east (oceanographic convention)."""
+    Give ``velocity_m_s = (vx, vy)`` [m/s], or ``speed_m_s`` [m/s] with ``direction_deg`` (or
+    ``direction_rad``), the direction the water flows toward, CCW from east (oceanographic
+    convention)."""
 
     is_steady = True
     is_uniform = True
@@ -64,16 +69,17 @@ class UniformCurrent(CurrentField):
         velocity_m_s: Any = None,
         *,
         speed_m_s: float | None = None,
+        direction_deg: float | None = None,
         direction_rad: float | None = None,
     ) -> None:
         self._setup(read_parameters(UniformConfig, "UniformCurrent", velocity_m_s=velocity_m_s,
-                                    speed_m_s=speed_m_s, direction_rad=direction_rad))
+                                    speed_m_s=speed_m_s, direction_deg=direction_deg, direction_rad=direction_rad))
 
     def _setup(self, config: UniformConfig) -> None:
         if config.velocity_m_s is not None:
             self._velocity = np.array(config.velocity_m_s, dtype=float)
         else:
-            direction = config.direction_rad
+            direction = config.direction_rad if config.direction_rad is not None else math.radians(config.direction_deg)
             self._velocity = config.speed_m_s * np.array([math.cos(direction), math.sin(direction)])
         self._velocity.setflags(write=False)
 
