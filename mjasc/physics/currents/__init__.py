@@ -27,7 +27,8 @@ Contract of every field (``CurrentField``):
 
 Direction convention: a current direction is the direction the water flows **toward** ("sets
 toward", the oceanographic convention — the opposite of the meteorological "coming from"),
-counter-clockwise from east in radians, like headings. A current "setting north" has direction π/2.
+counter-clockwise from east, like headings: in a scenario file in degrees (``direction_deg``, as
+every angle there), in code in radians. A current "setting north" has direction 90° (π/2).
 
 Fields (one module each)
 ------------------------
