@@ -407,6 +407,27 @@ def test_a_bump_keeps_clear_of_a_team_mates_plan():
     assert pushes[14.0] < -5.0 and pushes[-14.0] > 5.0 and pushes[None] > 5.0
 
 
+def test_go_to_formation_ignores_a_mates_non_finite_arrival_time():
+    """A mate's arrival time of inf (or NaN) is no time to arrive at: before, inf became the team's
+    arrival, the length searches ran over [0, inf] and the bump built an arc of NaN sweep
+    (ValueError, the run aborted). It is ignored like an unheard mate: the vessel agrees after
+    ``agree_s`` on its own time and sails its shortest transit at cruise speed."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    for bad in (math.inf, math.nan):
+        ph = GoToFormation(0, GoToFormationOptions(), formation, 1.5, team_size=2)
+        ph.begin(0.0, _nav(40.0, 0.0))
+        mates = {"mate": MissionBroadcast(0, arrival_time_s=bad)}
+        leg, _ = ph.step(PhaseInputs(1.0, _nav(41.5, 0.0), 1.5, None, mates, True))
+        assert leg is None and not ph.agreed  # the mate is not heard
+        leg, _ = ph.step(PhaseInputs(3.5, _nav(45.25, 0.0), 5.25, None, mates, True))
+        assert ph.agreed and math.isfinite(ph.team_arrival_s) and ph.team_arrival_s == pytest.approx(40.0)
+        assert leg.speed_m_s == pytest.approx(1.5) and ph.bump_m == 0.0 and math.isfinite(leg.path.length)
+
+
 def test_target_designation_keeps_its_track_and_reacquires_within_the_gate():
     from mjasc.core.estimates import PerceptionReport
     from mjasc.missions.target_tracking import designate_target

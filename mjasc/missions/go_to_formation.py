@@ -197,7 +197,7 @@ class GoToFormation:
         o = self.options
         base = self._plan(nav, o.lead_in_m)
         path, lead, push = base, o.lead_in_m, 0.0
-        if base.length < need_m - 1.0:
+        if math.isfinite(need_m) and base.length < need_m - 1.0:
             # Path length against the lead-in's extension x: continuous but for jumps where the
             # shortest Dubins word changes
             x, length = _solve_length(lambda x: transit_length(nav.position_m, nav.heading_rad, self.formation_path,
@@ -250,7 +250,9 @@ class GoToFormation:
         """(a new leg — the agreed transit, or a new speed when a later arrival is heard —, whether
         the vessel has arrived)."""
         t_s, nav, gamma_m = x.t_s, x.nav, x.gamma_m
-        heard = [b.arrival_time_s for b in x.mates.values() if b.phase_index == self.index and b.arrival_time_s]
+        # (a mate's non-finite arrival time is no time: T = inf would leave no length to search for)
+        heard = [b.arrival_time_s for b in x.mates.values()
+                 if b.phase_index == self.index and b.arrival_time_s and math.isfinite(b.arrival_time_s)]
         latest = max([self.team_arrival_s, *heard])
         leg = None
         if not self.agreed:
