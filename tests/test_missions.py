@@ -407,6 +407,50 @@ def test_a_bump_keeps_clear_of_a_team_mates_plan():
     assert pushes[14.0] < -5.0 and pushes[-14.0] > 5.0 and pushes[None] > 5.0
 
 
+def test_go_to_formation_never_plans_a_transit_that_arrives_late():
+    """Where the lead-in's jump leaves no length near the need (a 30 m turn radius), the searches
+    took the closest length even beyond the jump: 51 m (and 3 m) longer than the need, sailed at
+    cruise speed 34 s (2 s) after the agreed time, with the consensus holding the team back. A
+    shorter transit sailed slower arrives on time: no transit is longer than the need (1 m)."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    for x, y, heading, extra in ((-24.4, -45.0, -0.80, 70.0), (14.8, -30.8, -1.29, 10.0)):
+        ph = GoToFormation(0, GoToFormationOptions(turn_radius_m=30.0, lead_in_m=0.0), formation, 1.5, team_size=2)
+        ph.begin(0.0, _nav(x, y, heading))
+        need = ph.path.length + extra
+        leg, _ = ph.step(PhaseInputs(0.0, _nav(x, y, heading), 0.0, None,
+                                     {"mate": MissionBroadcast(0, arrival_time_s=need / 1.5)}, True))
+        assert ph.path.length <= need + 1.0
+        assert ph.path.length / leg.speed_m_s == pytest.approx(need / 1.5, abs=0.7)  # on time
+        s = np.linspace(0.0, ph.path.length, 1500)
+        assert np.all(np.abs(ph.path.curvature(s)) <= 1.0 / 30.0 + 1e-9)
+
+
+def test_a_bump_that_gives_the_length_wins_over_a_clearer_one_that_does_not():
+    """Bumped right, this vessel's transit cannot reach the need (the push turns the first curve's
+    word into a loop); bumped left it can, and stays 12 m clear of a team mate's plan 25 m to the
+    left. The side was chosen by clearance first: right (25 m clear), 66 m at 1.40 m/s instead of
+    71 m at cruise. A side that gives the length now comes first, then the clearer one."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation, _separation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    ph = GoToFormation(0, GoToFormationOptions(), formation, 1.5, team_size=2)
+    ph.begin(0.0, _nav(41.9, -4.2, 0.45))
+    base = ph.path
+    need = base.length + 12.5
+    t = np.arange(0.0, 60.0, 1.0)
+    plans = {"mate": (t, np.array([base.point(min(x * 1.5, base.length)) for x in t]) + [0.0, 25.0])}
+    leg, _ = ph.step(PhaseInputs(0.0, _nav(41.9, -4.2, 0.45), 0.0, None,
+                                 {"mate": MissionBroadcast(0, arrival_time_s=need / 1.5)}, True, plans))
+    assert leg.path.length == pytest.approx(need, abs=0.1) and leg.speed_m_s == pytest.approx(1.5, abs=0.01)
+    assert ph.bump_m > 5.0 and _separation(leg.path, 0.0, 1.5, plans) > 10.0
+
+
 def test_go_to_formation_ignores_a_mates_non_finite_arrival_time():
     """A mate's arrival time of inf (or NaN) is no time to arrive at: before, inf became the team's
     arrival, the length searches ran over [0, inf] and the bump built an arc of NaN sweep

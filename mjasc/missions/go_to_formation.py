@@ -108,14 +108,27 @@ def bumped_transit(position_m, heading_rad: float, formation_path: Path, turn_ra
     return Path.from_segments(pieces)
 
 
+#: A transit up to this much [m] longer than the need counts as meeting it; a longer one would
+#: arrive late at cruise speed (and the consensus would hold the whole team back).
+LENGTH_TOL_M = 1.0
+
+
+def _shortfall_key(length_m: float, need_m: float) -> tuple[bool, float]:
+    """Order of preference of a transit length for ``need_m``: not longer than the need (beyond
+    :data:`LENGTH_TOL_M`: it would arrive late), then the closest. A shorter transit is sailed
+    slower and still arrives at the agreed time."""
+    return length_m > need_m + LENGTH_TOL_M, abs(length_m - need_m)
+
+
 def _solve_length(length_of, upper: float, need_m: float) -> tuple[float, float]:
-    """The argument x in [0, ``upper``] whose ``length_of(x)`` [m] comes closest to ``need_m``, and
-    that length: a grid finds the closest point, ``brentq`` refines a neighbouring sign change
-    where the length is continuous (it jumps where a Dubins word changes)."""
+    """The argument x in [0, ``upper``] whose ``length_of(x)`` [m] comes closest to ``need_m``
+    without exceeding it (:func:`_shortfall_key`), and that length: a grid finds the closest point,
+    ``brentq`` refines a neighbouring sign change where the length is continuous (it jumps where a
+    Dubins word changes)."""
     f = lambda x: length_of(x) - need_m  # noqa: E731
     xs = np.linspace(0.0, upper, 121)
     fs = np.array([f(x) for x in xs])
-    j = int(np.argmin(np.abs(fs)))
+    j = min(range(len(xs)), key=lambda i: _shortfall_key(fs[i] + need_m, need_m))
     x = xs[j]
     for a, b in ((j - 1, j), (j, j + 1)):  # refine where the sign changes without a jump
         if 0 <= a and b < len(xs) and fs[a] * fs[b] < 0.0 and abs(fs[b] - fs[a]) < 2.0 * (xs[b] - xs[a]) + 1.0:
@@ -202,12 +215,13 @@ class GoToFormation:
             # shortest Dubins word changes
             x, length = _solve_length(lambda x: transit_length(nav.position_m, nav.heading_rad, self.formation_path,
                                                                o.turn_radius_m, o.lead_in_m + x), need_m, need_m)
-            if abs(length - need_m) < abs(base.length - need_m):
+            # (never a longer transit than the need: it would arrive late; a shorter one is sailed slower)
+            if _shortfall_key(length, need_m) < _shortfall_key(base.length, need_m):
                 lead = o.lead_in_m + x
                 path = self._plan(nav, lead)
-            if abs(path.length - need_m) > 1.0:  # inside a jump: a bump to the side that needs the smaller push
+            if abs(path.length - need_m) > LENGTH_TOL_M:  # inside a jump: a bump
                 got = self._bump(t_s, nav, need_m, mate_plans or {})
-                if got is not None and abs(got[0].length - need_m) < abs(path.length - need_m):
+                if got is not None and _shortfall_key(got[0].length, need_m) < _shortfall_key(path.length, need_m):
                     (path, push), lead = got, o.lead_in_m
         self.path, self.lead_in_m, self.bump_m = path, lead, push
         self.speed_m_s = self._speed(t_s, path.length)
@@ -237,7 +251,11 @@ class GoToFormation:
             h, length = _solve_length(lambda h, side=side: length_of(side * h), 0.5 * need_m, need_m)
             path = bumped_transit(nav.position_m, nav.heading_rad, self.formation_path, r, lead, side * h)
             clear = min(_separation(path, t_s, self.cruise_m_s, mate_plans), BUMP_CLEAR_M)
-            key = (-clear, abs(length - need_m) > 1.0, h)
+            # a side that gives the length first (the other's "bump" is a detour sailed slower or
+            # late), then the clearer, then the one nearer the length, then the smaller push
+            over, miss = _shortfall_key(length, need_m)
+            short = over or miss > LENGTH_TOL_M
+            key = (short, -clear, miss if short else 0.0, h)
             if best is None or key < best[0]:
                 best = (key, path, side * h)
         return best[1], best[2]
