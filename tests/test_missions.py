@@ -65,6 +65,10 @@ def test_dubins_length_is_the_built_paths_length():
         a, b, r = *rng.uniform(-4, 4, 2), rng.uniform(2.0, 20.0)
         assert dubins_length(p0, a, p1, b, r) == pytest.approx(dubins_path(p0, a, p1, b, r).length, abs=1e-9)
     assert dubins_length([0, 0], 0.0, [0, 20], math.pi, 10.0) == pytest.approx(math.pi * 10.0)
+    # the radii dubins_path refuses: not a length (NaN read as "poses coincide", 0 as a straight line)
+    for bad in (0.0, -5.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="turn_radius_m"):
+            dubins_length([0, 0], 0.0, [5, 5], 1.0, bad)
 
 
 def test_a_bump_lengthens_a_transit_inside_the_lead_ins_jump():
