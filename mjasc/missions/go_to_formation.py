@@ -137,8 +137,9 @@ def _solve_length(length_of, upper: float, need_m: float) -> tuple[float, float]
     return float(x), f(x) + need_m
 
 
-#: A bump's side is chosen by its separation from the team mates' plans up to this much [m]: both
-#: sides at least this clear of every mate are equal, and the smaller push wins.
+#: Of two bump sides that both give the length, the one clearer of the team mates' plans wins,
+#: counted up to this much [m]: both sides at least this clear of every mate are equal, and the
+#: smaller push wins.
 BUMP_CLEAR_M = 20.0
 
 
@@ -203,8 +204,9 @@ class GoToFormation:
     def _agree(self, t_s: float, nav, mate_plans=None) -> MissionLeg:
         """Fix the team's arrival time and re-plan the transit to arrive then at cruise speed: the
         lead-in lengthened (brentq on the path length) when the vessel would be early, else a bump
-        pushed out of the transit's middle (to the side that keeps clearer of the team mates' plans,
-        ``mate_plans`` as :class:`~mjasc.missions.legs.PhaseInputs` has them), else slower."""
+        pushed out of the transit's middle (to the side that gives the length and keeps clearer of
+        the team mates' plans, ``mate_plans`` as :class:`~mjasc.missions.legs.PhaseInputs` has
+        them), else slower; never a transit longer than the need (it would arrive late)."""
         self.agreed = True
         need_m = self.cruise_m_s * (self.team_arrival_s - t_s)
         o = self.options
@@ -229,11 +231,12 @@ class GoToFormation:
 
     def _bump(self, t_s: float, nav, need_m: float, mate_plans: dict) -> tuple[Path, float] | None:
         """The transit with a bump (:func:`bumped_transit`) whose length comes closest to ``need_m``
-        [m], and its push [m] (left positive); None when the vessel is at its entry already. Of the
-        two sides, the one whose transit, sailed at cruise speed from ``t_s``, passes the team mates'
-        broadcast plans at the larger separation at equal times (counted up to
-        :data:`BUMP_CLEAR_M`), then the one that needs the smaller push, then the left. The
-        search reads the lengths only (:func:`~mjasc.missions.dubins.dubins_length`)."""
+        [m] without exceeding it, and its push [m] (left positive); None when the vessel is at its
+        entry already. Of the two sides, one whose bump gives the length (within
+        :data:`LENGTH_TOL_M`), then the one whose transit, sailed at cruise speed from ``t_s``,
+        passes the team mates' broadcast plans at the larger separation at equal times (counted up
+        to :data:`BUMP_CLEAR_M`), then the one nearer the length, then the smaller push, then the
+        left. The search reads the lengths only (:func:`~mjasc.missions.dubins.dubins_length`)."""
         o = self.options
         r, lead = o.turn_radius_m, o.lead_in_m
         try:
