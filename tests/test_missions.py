@@ -431,6 +431,30 @@ def test_go_to_formation_never_plans_a_transit_that_arrives_late():
         assert ph.path.length / leg.speed_m_s == pytest.approx(need / 1.5, abs=0.7)  # on time
         s = np.linspace(0.0, ph.path.length, 1500)
         assert np.all(np.abs(ph.path.curvature(s)) <= 1.0 / 30.0 + 1e-9)
+        assert ph.bump_m == 0.0  # no bump gives the length here (see below)
+
+
+def test_a_bump_that_cannot_give_the_length_is_not_sailed():
+    """70 m more than the shortest transit, with a 30 m turn radius: the lead-in's jump (> 2πR)
+    and the bumps (whose curves loop once pushed a little) give no length near the need. A bump
+    33.5 m to the side, still 42 m short, was taken because it came closer: a detour sailed
+    slower all the same. The vessel now sails its lead-in transit, slower, with no bump."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    for x, y, heading, lead_in in ((-24.4, -45.0, -0.80, 0.0), (-19.5, -3.0, 0.52, 15.0)):
+        opts = GoToFormationOptions(turn_radius_m=30.0, lead_in_m=lead_in)
+        ph = GoToFormation(0, opts, formation, 1.5, team_size=2)
+        ph.begin(0.0, _nav(x, y, heading))
+        need = ph.path.length + 70.0
+        leg, _ = ph.step(PhaseInputs(0.0, _nav(x, y, heading), 0.0, None,
+                                     {"mate": MissionBroadcast(0, arrival_time_s=need / 1.5)}, True))
+        assert ph.bump_m == 0.0 and ph.path.length < need - 30.0
+        assert leg.speed_m_s == pytest.approx(ph.path.length / (need / 1.5))  # slower, on time
+        # the transit is the lead-in's: Dubins to the (moved) entry, then straight on the course
+        assert leg.path.length == pytest.approx(plan_transit([x, y], heading, formation, 30.0, ph.lead_in_m).length)
 
 
 def test_a_bump_that_gives_the_length_wins_over_a_clearer_one_that_does_not():

@@ -222,8 +222,9 @@ class GoToFormation:
                 lead = o.lead_in_m + x
                 path = self._plan(nav, lead)
             if abs(path.length - need_m) > LENGTH_TOL_M:  # inside a jump: a bump
+                # only a bump that gives the length: one that cannot is a detour sailed slower all the same
                 got = self._bump(t_s, nav, need_m, mate_plans or {})
-                if got is not None and _shortfall_key(got[0].length, need_m) < _shortfall_key(path.length, need_m):
+                if got is not None and abs(got[0].length - need_m) <= LENGTH_TOL_M:
                     (path, push), lead = got, o.lead_in_m
         self.path, self.lead_in_m, self.bump_m = path, lead, push
         self.speed_m_s = self._speed(t_s, path.length)
