@@ -479,6 +479,20 @@ def test_a_bump_that_gives_the_length_wins_over_a_clearer_one_that_does_not():
     assert ph.bump_m > 5.0 and _separation(leg.path, 0.0, 1.5, plans) > 10.0
 
 
+def test_the_length_search_refines_a_steep_crossing_and_skips_a_jump():
+    """A bump's length grows like √push where it starts: from 11.7 m short at no push to 0.9 m
+    over one grid step on. The search refined only sign changes no steeper than 2 m/m (+1 m), took
+    this one for a jump and kept the grid's point 11.7 m short (the bump was refused). It now lets
+    brentq refine every neighbouring sign change and keeps its point when it comes closer: a steep
+    crossing is met, a jump (where brentq ends on the jump) still is not."""
+    from mjasc.missions.go_to_formation import _solve_length
+
+    x, length = _solve_length(lambda h: 100.0 + 30.0 * math.sqrt(h), 50.0, 110.0)
+    assert length == pytest.approx(110.0, abs=0.1) and x == pytest.approx(1.0 / 9.0, abs=0.02)
+    x, length = _solve_length(lambda h: 100.0 if h < 10.0 else 190.0 + h, 50.0, 150.0)
+    assert length == 100.0 and x < 10.0  # the closest length not beyond the need, no "root" on the jump
+
+
 def test_go_to_formation_ignores_a_mates_non_finite_arrival_time():
     """A mate's arrival time of inf (or NaN) is no time to arrive at: before, inf became the team's
     arrival, the length searches ran over [0, inf] and the bump built an arc of NaN sweep

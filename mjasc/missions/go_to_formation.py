@@ -123,18 +123,22 @@ def _shortfall_key(length_m: float, need_m: float) -> tuple[bool, float]:
 def _solve_length(length_of, upper: float, need_m: float) -> tuple[float, float]:
     """The argument x in [0, ``upper``] whose ``length_of(x)`` [m] comes closest to ``need_m``
     without exceeding it (:func:`_shortfall_key`), and that length: a grid finds the closest point,
-    ``brentq`` refines a neighbouring sign change where the length is continuous (it jumps where a
-    Dubins word changes)."""
+    ``brentq`` refines a neighbouring sign change. The length jumps where a Dubins word changes:
+    there ``brentq`` ends on the jump, not on the need, and its point is taken only if it comes
+    closer than the grid's (a bump's length can also rise steeply, like √push, where it starts to
+    grow: a slope bound would take that for a jump)."""
     f = lambda x: length_of(x) - need_m  # noqa: E731
     xs = np.linspace(0.0, upper, 121)
     fs = np.array([f(x) for x in xs])
     j = min(range(len(xs)), key=lambda i: _shortfall_key(fs[i] + need_m, need_m))
-    x = xs[j]
-    for a, b in ((j - 1, j), (j, j + 1)):  # refine where the sign changes without a jump
-        if 0 <= a and b < len(xs) and fs[a] * fs[b] < 0.0 and abs(fs[b] - fs[a]) < 2.0 * (xs[b] - xs[a]) + 1.0:
-            x = brentq(f, xs[a], xs[b], xtol=0.05)
-            break
-    return float(x), f(x) + need_m
+    x, fx = float(xs[j]), float(fs[j])
+    for a, b in ((j - 1, j), (j, j + 1)):
+        if 0 <= a and b < len(xs) and fs[a] * fs[b] < 0.0:
+            r = float(brentq(f, xs[a], xs[b], xtol=0.05))
+            fr = f(r)
+            if _shortfall_key(fr + need_m, need_m) < _shortfall_key(fx + need_m, need_m):
+                x, fx = r, fr
+    return x, fx + need_m
 
 
 #: Of two bump sides that both give the length, the one clearer of the team mates' plans wins,
