@@ -65,6 +65,10 @@ def test_dubins_length_is_the_built_paths_length():
         a, b, r = *rng.uniform(-4, 4, 2), rng.uniform(2.0, 20.0)
         assert dubins_length(p0, a, p1, b, r) == pytest.approx(dubins_path(p0, a, p1, b, r).length, abs=1e-9)
     assert dubins_length([0, 0], 0.0, [0, 20], math.pi, 10.0) == pytest.approx(math.pi * 10.0)
+    # the radii dubins_path refuses: not a length (NaN read as "poses coincide", 0 as a straight line)
+    for bad in (0.0, -5.0, math.nan, math.inf):
+        with pytest.raises(ValueError, match="turn_radius_m"):
+            dubins_length([0, 0], 0.0, [5, 5], 1.0, bad)
 
 
 def test_a_bump_lengthens_a_transit_inside_the_lead_ins_jump():
@@ -418,6 +422,109 @@ def test_a_bump_keeps_clear_of_a_team_mates_plan():
         assert ph.speed_m_s == pytest.approx(1.5, abs=0.01)
         pushes[side] = ph.bump_m
     assert pushes[14.0] < -5.0 and pushes[-14.0] > 5.0 and pushes[None] > 5.0
+
+
+def test_go_to_formation_never_plans_a_transit_that_arrives_late():
+    """Where the lead-in's jump leaves no length near the need (a 30 m turn radius), the searches
+    took the closest length even beyond the jump: 51 m (and 3 m) longer than the need, sailed at
+    cruise speed 34 s (2 s) after the agreed time, with the consensus holding the team back. A
+    shorter transit sailed slower arrives on time: no transit is longer than the need (1 m)."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    for x, y, heading, extra in ((-24.4, -45.0, -0.80, 70.0), (14.8, -30.8, -1.29, 10.0)):
+        ph = GoToFormation(0, GoToFormationOptions(turn_radius_m=30.0, lead_in_m=0.0), formation, 1.5, team_size=2)
+        ph.begin(0.0, _nav(x, y, heading))
+        need = ph.path.length + extra
+        leg, _ = ph.step(PhaseInputs(0.0, _nav(x, y, heading), 0.0, None,
+                                     {"mate": MissionBroadcast(0, arrival_time_s=need / 1.5)}, True))
+        assert ph.path.length <= need + 1.0
+        assert ph.path.length / leg.speed_m_s == pytest.approx(need / 1.5, abs=0.7)  # on time
+        s = np.linspace(0.0, ph.path.length, 1500)
+        assert np.all(np.abs(ph.path.curvature(s)) <= 1.0 / 30.0 + 1e-9)
+        assert ph.bump_m == 0.0  # no bump gives the length here (see below)
+
+
+def test_a_bump_that_cannot_give_the_length_is_not_sailed():
+    """70 m more than the shortest transit, with a 30 m turn radius: the lead-in's jump (> 2πR)
+    and the bumps (whose curves loop once pushed a little) give no length near the need. A bump
+    33.5 m to the side, still 42 m short, was taken because it came closer: a detour sailed
+    slower all the same. The vessel now sails its lead-in transit, slower, with no bump."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    for x, y, heading, lead_in in ((-24.4, -45.0, -0.80, 0.0), (-19.5, -3.0, 0.52, 15.0)):
+        opts = GoToFormationOptions(turn_radius_m=30.0, lead_in_m=lead_in)
+        ph = GoToFormation(0, opts, formation, 1.5, team_size=2)
+        ph.begin(0.0, _nav(x, y, heading))
+        need = ph.path.length + 70.0
+        leg, _ = ph.step(PhaseInputs(0.0, _nav(x, y, heading), 0.0, None,
+                                     {"mate": MissionBroadcast(0, arrival_time_s=need / 1.5)}, True))
+        assert ph.bump_m == 0.0 and ph.path.length < need - 30.0
+        assert leg.speed_m_s == pytest.approx(ph.path.length / (need / 1.5))  # slower, on time
+        # the transit is the lead-in's: Dubins to the (moved) entry, then straight on the course
+        assert leg.path.length == pytest.approx(plan_transit([x, y], heading, formation, 30.0, ph.lead_in_m).length)
+
+
+def test_a_bump_that_gives_the_length_wins_over_a_clearer_one_that_does_not():
+    """Bumped right, this vessel's transit cannot reach the need (the push turns the first curve's
+    word into a loop); bumped left it can, and stays 12 m clear of a team mate's plan 25 m to the
+    left. The side was chosen by clearance first: right (25 m clear), 66 m at 1.40 m/s instead of
+    71 m at cruise. A side that gives the length now comes first, then the clearer one."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation, _separation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    ph = GoToFormation(0, GoToFormationOptions(), formation, 1.5, team_size=2)
+    ph.begin(0.0, _nav(41.9, -4.2, 0.45))
+    base = ph.path
+    need = base.length + 12.5
+    t = np.arange(0.0, 60.0, 1.0)
+    plans = {"mate": (t, np.array([base.point(min(x * 1.5, base.length)) for x in t]) + [0.0, 25.0])}
+    leg, _ = ph.step(PhaseInputs(0.0, _nav(41.9, -4.2, 0.45), 0.0, None,
+                                 {"mate": MissionBroadcast(0, arrival_time_s=need / 1.5)}, True, plans))
+    assert leg.path.length == pytest.approx(need, abs=0.1) and leg.speed_m_s == pytest.approx(1.5, abs=0.01)
+    assert ph.bump_m > 5.0 and _separation(leg.path, 0.0, 1.5, plans) > 10.0
+
+
+def test_the_length_search_refines_a_steep_crossing_and_skips_a_jump():
+    """A bump's length grows like √push where it starts: from 11.7 m short at no push to 0.9 m
+    over one grid step on. The search refined only sign changes no steeper than 2 m/m (+1 m), took
+    this one for a jump and kept the grid's point 11.7 m short (the bump was refused). It now lets
+    brentq refine every neighbouring sign change and keeps its point when it comes closer: a steep
+    crossing is met, a jump (where brentq ends on the jump) still is not."""
+    from mjasc.missions.go_to_formation import _solve_length
+
+    x, length = _solve_length(lambda h: 100.0 + 30.0 * math.sqrt(h), 50.0, 110.0)
+    assert length == pytest.approx(110.0, abs=0.1) and x == pytest.approx(1.0 / 9.0, abs=0.02)
+    x, length = _solve_length(lambda h: 100.0 if h < 10.0 else 190.0 + h, 50.0, 150.0)
+    assert length == 100.0 and x < 10.0  # the closest length not beyond the need, no "root" on the jump
+
+
+def test_go_to_formation_ignores_a_mates_non_finite_arrival_time():
+    """A mate's arrival time of inf (or NaN) is no time to arrive at: before, inf became the team's
+    arrival, the length searches ran over [0, inf] and the bump built an arc of NaN sweep
+    (ValueError, the run aborted). It is ignored like an unheard mate: the vessel agrees after
+    ``agree_s`` on its own time and sails its shortest transit at cruise speed."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    for bad in (math.inf, math.nan):
+        ph = GoToFormation(0, GoToFormationOptions(), formation, 1.5, team_size=2)
+        ph.begin(0.0, _nav(40.0, 0.0))
+        mates = {"mate": MissionBroadcast(0, arrival_time_s=bad)}
+        leg, _ = ph.step(PhaseInputs(1.0, _nav(41.5, 0.0), 1.5, None, mates, True))
+        assert leg is None and not ph.agreed  # the mate is not heard
+        leg, _ = ph.step(PhaseInputs(3.5, _nav(45.25, 0.0), 5.25, None, mates, True))
+        assert ph.agreed and math.isfinite(ph.team_arrival_s) and ph.team_arrival_s == pytest.approx(40.0)
+        assert leg.speed_m_s == pytest.approx(1.5) and ph.bump_m == 0.0 and math.isfinite(leg.path.length)
 
 
 def test_target_designation_keeps_its_track_and_reacquires_within_the_gate():

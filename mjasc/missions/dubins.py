@@ -16,7 +16,7 @@ average curvature…", Amer. J. Math. 79(3), 1957). Each word is built here geom
 Courses are CCW from east (ENU), lengths in metres. :func:`dubins_path` returns the shortest word
 as a :class:`~mjasc.guidance.paths.Path` of arcs and lines (pieces shorter than a micrometre
 dropped); :func:`dubins_length` only its length, from the same geometry in plain floats (no
-segments made: ~100× faster, for searches over many poses). The mission layer uses it to plan a vessel's transit to its formation pose
+segments made: ~30–40× faster, for searches over many poses). The mission layer uses it to plan a vessel's transit to its formation pose
 (:mod:`mjasc.missions.go_to_formation`).
 """
 
@@ -138,10 +138,13 @@ def _sweep_len(side: int, course_from: float, course_to: float) -> float:
 
 def dubins_length(start_m, start_course_rad: float, goal_m, goal_course_rad: float, turn_radius_m: float) -> float:
     """The length [m] of :func:`dubins_path` between the poses (the same words and geometry,
-    nothing built; tests/test_missions.py compares the two); ``inf`` when no word has a length."""
+    nothing built; tests/test_missions.py compares the two); ``inf`` when no word has a length (the
+    poses coincide); ValueError for a turn radius :func:`dubins_path` refuses (not finite and > 0)."""
     x0, y0 = float(start_m[0]), float(start_m[1])
     x1, y1 = float(goal_m[0]), float(goal_m[1])
     r, th0, th1 = float(turn_radius_m), float(start_course_rad), float(goal_course_rad)
+    if not (math.isfinite(r) and r > 0.0):  # (NaN gave inf — "poses coincide" —, 0 a straight line's length)
+        raise ValueError(f"turn_radius_m: must be finite and > 0, got {turn_radius_m}")
     n0x, n0y, n1x, n1y = -math.sin(th0), math.cos(th0), -math.sin(th1), math.cos(th1)
     best = math.inf
     for s1, s2 in ((1, 1), (-1, -1), (1, -1), (-1, 1)):  # CSC

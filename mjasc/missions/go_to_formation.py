@@ -108,24 +108,42 @@ def bumped_transit(position_m, heading_rad: float, formation_path: Path, turn_ra
     return Path.from_segments(pieces)
 
 
+#: A transit up to this much [m] longer than the need counts as meeting it; a longer one would
+#: arrive late at cruise speed (and the consensus would hold the whole team back).
+LENGTH_TOL_M = 1.0
+
+
+def _shortfall_key(length_m: float, need_m: float) -> tuple[bool, float]:
+    """Order of preference of a transit length for ``need_m``: not longer than the need (beyond
+    :data:`LENGTH_TOL_M`: it would arrive late), then the closest. A shorter transit is sailed
+    slower and still arrives at the agreed time."""
+    return length_m > need_m + LENGTH_TOL_M, abs(length_m - need_m)
+
+
 def _solve_length(length_of, upper: float, need_m: float) -> tuple[float, float]:
-    """The argument x in [0, ``upper``] whose ``length_of(x)`` [m] comes closest to ``need_m``, and
-    that length: a grid finds the closest point, ``brentq`` refines a neighbouring sign change
-    where the length is continuous (it jumps where a Dubins word changes)."""
+    """The argument x in [0, ``upper``] whose ``length_of(x)`` [m] comes closest to ``need_m``
+    without exceeding it (:func:`_shortfall_key`), and that length: a grid finds the closest point,
+    ``brentq`` refines a neighbouring sign change. The length jumps where a Dubins word changes:
+    there ``brentq`` ends on the jump, not on the need, and its point is taken only if it comes
+    closer than the grid's (a bump's length can also rise steeply, like √push, where it starts to
+    grow: a slope bound would take that for a jump)."""
     f = lambda x: length_of(x) - need_m  # noqa: E731
     xs = np.linspace(0.0, upper, 121)
     fs = np.array([f(x) for x in xs])
-    j = int(np.argmin(np.abs(fs)))
-    x = xs[j]
-    for a, b in ((j - 1, j), (j, j + 1)):  # refine where the sign changes without a jump
-        if 0 <= a and b < len(xs) and fs[a] * fs[b] < 0.0 and abs(fs[b] - fs[a]) < 2.0 * (xs[b] - xs[a]) + 1.0:
-            x = brentq(f, xs[a], xs[b], xtol=0.05)
-            break
-    return float(x), f(x) + need_m
+    j = min(range(len(xs)), key=lambda i: _shortfall_key(fs[i] + need_m, need_m))
+    x, fx = float(xs[j]), float(fs[j])
+    for a, b in ((j - 1, j), (j, j + 1)):
+        if 0 <= a and b < len(xs) and fs[a] * fs[b] < 0.0:
+            r = float(brentq(f, xs[a], xs[b], xtol=0.05))
+            fr = f(r)
+            if _shortfall_key(fr + need_m, need_m) < _shortfall_key(fx + need_m, need_m):
+                x, fx = r, fr
+    return x, fx + need_m
 
 
-#: A bump's side is chosen by its separation from the team mates' plans up to this much [m]: both
-#: sides at least this clear of every mate are equal, and the smaller push wins.
+#: Of two bump sides that both give the length, the one clearer of the team mates' plans wins,
+#: counted up to this much [m]: both sides at least this clear of every mate are equal, and the
+#: smaller push wins.
 BUMP_CLEAR_M = 20.0
 
 
@@ -190,24 +208,27 @@ class GoToFormation:
     def _agree(self, t_s: float, nav, mate_plans=None) -> MissionLeg:
         """Fix the team's arrival time and re-plan the transit to arrive then at cruise speed: the
         lead-in lengthened (brentq on the path length) when the vessel would be early, else a bump
-        pushed out of the transit's middle (to the side that keeps clearer of the team mates' plans,
-        ``mate_plans`` as :class:`~mjasc.missions.legs.PhaseInputs` has them), else slower."""
+        pushed out of the transit's middle (to the side that gives the length and keeps clearer of
+        the team mates' plans, ``mate_plans`` as :class:`~mjasc.missions.legs.PhaseInputs` has
+        them), else slower; never a transit longer than the need (it would arrive late)."""
         self.agreed = True
         need_m = self.cruise_m_s * (self.team_arrival_s - t_s)
         o = self.options
         base = self._plan(nav, o.lead_in_m)
         path, lead, push = base, o.lead_in_m, 0.0
-        if base.length < need_m - 1.0:
+        if math.isfinite(need_m) and base.length < need_m - 1.0:
             # Path length against the lead-in's extension x: continuous but for jumps where the
             # shortest Dubins word changes
             x, length = _solve_length(lambda x: transit_length(nav.position_m, nav.heading_rad, self.formation_path,
                                                                o.turn_radius_m, o.lead_in_m + x), need_m, need_m)
-            if abs(length - need_m) < abs(base.length - need_m):
+            # (never a longer transit than the need: it would arrive late; a shorter one is sailed slower)
+            if _shortfall_key(length, need_m) < _shortfall_key(base.length, need_m):
                 lead = o.lead_in_m + x
                 path = self._plan(nav, lead)
-            if abs(path.length - need_m) > 1.0:  # inside a jump: a bump to the side that needs the smaller push
+            if abs(path.length - need_m) > LENGTH_TOL_M:  # inside a jump: a bump
+                # only a bump that gives the length: one that cannot is a detour sailed slower all the same
                 got = self._bump(t_s, nav, need_m, mate_plans or {})
-                if got is not None and abs(got[0].length - need_m) < abs(path.length - need_m):
+                if got is not None and abs(got[0].length - need_m) <= LENGTH_TOL_M:
                     (path, push), lead = got, o.lead_in_m
         self.path, self.lead_in_m, self.bump_m = path, lead, push
         self.speed_m_s = self._speed(t_s, path.length)
@@ -215,11 +236,12 @@ class GoToFormation:
 
     def _bump(self, t_s: float, nav, need_m: float, mate_plans: dict) -> tuple[Path, float] | None:
         """The transit with a bump (:func:`bumped_transit`) whose length comes closest to ``need_m``
-        [m], and its push [m] (left positive); None when the vessel is at its entry already. Of the
-        two sides, the one whose transit, sailed at cruise speed from ``t_s``, passes the team mates'
-        broadcast plans at the larger separation at equal times (counted up to
-        :data:`BUMP_CLEAR_M`), then the one that needs the smaller push, then the left. The
-        search reads the lengths only (:func:`~mjasc.missions.dubins.dubins_length`)."""
+        [m] without exceeding it, and its push [m] (left positive); None when the vessel is at its
+        entry already. Of the two sides, one whose bump gives the length (within
+        :data:`LENGTH_TOL_M`), then the one whose transit, sailed at cruise speed from ``t_s``,
+        passes the team mates' broadcast plans at the larger separation at equal times (counted up
+        to :data:`BUMP_CLEAR_M`), then the one nearer the length, then the smaller push, then the
+        left. The search reads the lengths only (:func:`~mjasc.missions.dubins.dubins_length`)."""
         o = self.options
         r, lead = o.turn_radius_m, o.lead_in_m
         try:
@@ -237,7 +259,11 @@ class GoToFormation:
             h, length = _solve_length(lambda h, side=side: length_of(side * h), 0.5 * need_m, need_m)
             path = bumped_transit(nav.position_m, nav.heading_rad, self.formation_path, r, lead, side * h)
             clear = min(_separation(path, t_s, self.cruise_m_s, mate_plans), BUMP_CLEAR_M)
-            key = (-clear, abs(length - need_m) > 1.0, h)
+            # a side that gives the length first (the other's "bump" is a detour sailed slower or
+            # late), then the clearer, then the one nearer the length, then the smaller push
+            over, miss = _shortfall_key(length, need_m)
+            short = over or miss > LENGTH_TOL_M
+            key = (short, -clear, miss if short else 0.0, h)
             if best is None or key < best[0]:
                 best = (key, path, side * h)
         return best[1], best[2]
@@ -250,7 +276,9 @@ class GoToFormation:
         """(a new leg — the agreed transit, or a new speed when a later arrival is heard —, whether
         the vessel has arrived)."""
         t_s, nav, gamma_m = x.t_s, x.nav, x.gamma_m
-        heard = [b.arrival_time_s for b in x.mates.values() if b.phase_index == self.index and b.arrival_time_s]
+        # (a mate's non-finite arrival time is no time: T = inf would leave no length to search for)
+        heard = [b.arrival_time_s for b in x.mates.values()
+                 if b.phase_index == self.index and b.arrival_time_s and math.isfinite(b.arrival_time_s)]
         latest = max([self.team_arrival_s, *heard])
         leg = None
         if not self.agreed:
