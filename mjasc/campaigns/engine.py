@@ -50,6 +50,7 @@ from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
 from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore
 from mjasc.core.config_tables import integer, number
+from mjasc.core.kernel_cache import COLD_START_WAIT_S, cache_is_cold
 
 __all__ = ["CampaignResult", "run_campaign", "execute_runs", "wilson_interval", "format_aggregate", "TIMING_KEYS", "is_timing_key",
            "without_timing", "IN_PROCESS_MAX_RUNS"]
@@ -278,6 +279,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
     # so that they import MuJoCo and mjasc while Dask starts: forks of one server that imports
     # and warms up once for all of them (mjasc.campaigns.forked).
     threaded = local and isolate
+    cold = cache_is_cold()  # (before any child compiles: its warm-up then takes minutes)
     n_children = local_workers(workers) if threaded else 0
     children = take_prestarted(n_children)  # (started before the campaign was read, if any)
     if n_children > len(children):
@@ -307,9 +309,11 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
             # the runs go out then, and each other child's first run reads its ready line, its
             # imports overlapping the first child's runs. A first child that cannot start stops
             # the campaign before any run.
-            if children and not children[0].wait_ready(WORKER_WAIT_S):
+            # (a cold kernel cache: the child's warm-up compiles them, minutes: kernel_cache)
+            wait_s = COLD_START_WAIT_S if cold else WORKER_WAIT_S
+            if children and not children[0].wait_ready(wait_s):
                 raise RuntimeError(f"a run's child process (python -m mjasc.campaigns.executor) did not start "
-                                   f"within {WORKER_WAIT_S:.0f} s; no run was done")
+                                   f"within {wait_s:.0f} s; no run was done")
             versions = {k: getattr(mjasc, "__version__", "unknown") for k in keys}
         else:
             try:

@@ -17,6 +17,9 @@ __all__ = ["main", "build_parser", "viewer_command", "viewer_executable"]
 #: The command-line arguments that name an input file or folder (checked before a command runs).
 _INPUTS = ("scenario", "campaign", "folder", "run")
 
+#: The commands that simulate (their first call in a fresh checkout compiles the kernels: said first).
+_SIMULATING = frozenset({"run", "campaign", "search", "trial", "figures", "render"})
+
 
 def main(argv: list[str] | None = None) -> int:
     """Run one command. Exit status: 0 done, 1 a run or campaign failed, 2 bad input (a scenario,
@@ -35,6 +38,11 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(value, str) and path_problem(value):
             print(f"mjasc: {name} {show_path(value)}: not a usable file name ({path_problem(value)})", file=sys.stderr)
             return 2
+    if args.command in _SIMULATING:
+        from mjasc.core.kernel_cache import COLD_HINT, cache_is_cold
+
+        if cache_is_cold():
+            print(COLD_HINT, file=sys.stderr)
     try:
         status = args.func(args)
         sys.stdout.flush()  # (here, not at exit: a reader that left is answered below)
