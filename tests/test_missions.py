@@ -88,7 +88,8 @@ def test_a_bump_lengthens_a_transit_inside_the_lead_ins_jump():
     assert np.all(np.abs(path.curvature(s)) <= 1.0 / 10.0 + 1e-9)
     heading = np.unwrap([path.tangent_angle(x) for x in s])
     assert np.all(np.abs(np.diff(heading)) < 0.05)
-    assert np.allclose(path.point(path.length), [100.0, 0.0], atol=1e-6) and abs(wrap(path.tangent_angle(path.length))) < 1e-9
+    assert np.allclose(path.point(path.length), [100.0, 0.0], atol=1e-6)
+    assert abs(wrap(path.tangent_angle(path.length))) < 1e-9
     assert np.all(path.curvature(np.linspace(path.length - 15.0, path.length, 10)) == 0.0)
     assert min(p[1] for p in (path.point(x) for x in s)) == pytest.approx(-12.0, abs=0.5)  # pushed to the right
 

@@ -16,8 +16,8 @@ average curvature…", Amer. J. Math. 79(3), 1957). Each word is built here geom
 Courses are CCW from east (ENU), lengths in metres. :func:`dubins_path` returns the shortest word
 as a :class:`~mjasc.guidance.paths.Path` of arcs and lines (pieces shorter than a micrometre
 dropped); :func:`dubins_length` only its length, from the same geometry in plain floats (no
-segments made: ~30–40× faster, for searches over many poses). The mission layer uses it to plan a vessel's transit to its formation pose
-(:mod:`mjasc.missions.go_to_formation`).
+segments made: ~30–40× faster, for searches over many poses). The mission layer uses them to
+plan a vessel's transit to its formation pose (:mod:`mjasc.missions.go_to_formation`).
 """
 
 from __future__ import annotations

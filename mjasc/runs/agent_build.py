@@ -40,7 +40,8 @@ def build_agent(config: VesselConfig, index: int, world, total_mass: np.ndarray,
     if "sensor" in opts or "tracking" in opts:
         from mjasc.perception.pipeline import Perception
 
-        agent.perception = Perception(world, index, opts.get("sensor"), opts.get("tracking"), rng(1), context=context(4))
+        agent.perception = Perception(world, index, opts.get("sensor"), opts.get("tracking"), rng(1),
+                                      context=context(4))
     if "comms" in opts:
         from mjasc.cooperation.link import LinkEndpoint
 

@@ -65,7 +65,8 @@ def _check_task_kwargs(task_kwargs) -> None:
     time_limit = task_kwargs.get("time_limit")
     if time_limit is not None:
         if isinstance(time_limit, bool) or not isinstance(time_limit, numbers.Real) or not time_limit > 0:
-            raise ValueError(f"task_kwargs: time_limit must be a number of seconds > 0 (inf: no limit), got {time_limit!r}")
+            raise ValueError(f"task_kwargs: time_limit must be a number of seconds > 0 (inf: no limit), "
+                             f"got {time_limit!r}")
     random = task_kwargs.get("random")
     if random is not None and not isinstance(random, (numbers.Integral, np.random.RandomState)):
         raise ValueError(f"task_kwargs: random must be an integer seed or a numpy.random.RandomState "

@@ -105,7 +105,8 @@ def compose_world(vessels, static_obstacles=(), moving_obstacles=(), domain_xml:
     return world
 
 
-def make_control_environment(physics: "VesselPhysics", task, time_limit: float, environment_kwargs=None) -> "Environment":
+def make_control_environment(physics: "VesselPhysics", task, time_limit: float,
+                             environment_kwargs=None) -> "Environment":
     """The suite's :class:`Environment` of ``task`` on ``physics``: ``environment_kwargs`` go to
     ``control.Environment`` and may replace the default control timestep (CONTROL_TIMESTEP_S) with
     their own ``control_timestep`` or ``n_sub_steps``; the time limit is a task argument."""
@@ -116,7 +117,8 @@ def make_control_environment(physics: "VesselPhysics", task, time_limit: float, 
                 if p not in ("self", "physics", "task", "time_limit")]
     unknown = sorted(set(kwargs) - set(accepted))
     if unknown:
-        raise ValueError(f"environment_kwargs: unknown {', '.join(map(repr, unknown))}; accepted: {', '.join(accepted)}")
+        raise ValueError(f"environment_kwargs: unknown {', '.join(map(repr, unknown))}; "
+                         f"accepted: {', '.join(accepted)}")
     if kwargs.get("n_sub_steps") is None:
         kwargs.setdefault("control_timestep", CONTROL_TIMESTEP_S)
     return Environment(physics, task, time_limit=time_limit, **kwargs)

@@ -32,7 +32,8 @@ class UniformConfig:
     direction_deg: float | None = param(None, unit="deg",
                                         doc="direction the water flows toward, CCW from east (with speed_m_s; "
                                             "in degrees, as every other angle of a scenario)")
-    direction_rad: float | None = param(None, unit="rad", doc="the same direction in radians (instead of direction_deg)")
+    direction_rad: float | None = param(None, unit="rad",
+                                        doc="the same direction in radians (instead of direction_deg)")
 
     def __post_init__(self):
         check_params(self, "UniformCurrent")
