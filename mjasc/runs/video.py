@@ -160,11 +160,13 @@ class VideoWriter:
 
     def __init__(self, path: str | Path, model, width: int, height: int, fps: float, camera: str = "top_down",
                  extent_xy: tuple[np.ndarray, np.ndarray] | None = None, overlays: list[np.ndarray] = (),
-                 title: str = "", vessel_colours=None):
+                 title: str = "", vessel_colours=None, chase_title: str = "{vessel}: what it senses"):
         self.path = Path(path)
         self.model = model
         self.width, self.height = int(width), int(height)
         self.title = str(title)
+        #: The chase half's title of a split frame (``{vessel}``: the chased vessel's name).
+        self.chase_title = str(chase_title)
         cameras = split_cameras(model, camera)  # raises before any file is made
         self.panes = [_Pane(model, c, self.width // len(cameras), self.height, extent_xy, vessel_colours)
                       for c in cameras]
@@ -241,7 +243,7 @@ class VideoWriter:
                 proj = Projection(scn, pane.width, pane.height)
                 centre = pane.view_centre(self.model, data)
                 image = draw_hud(image, view, proj, centre, self.title, memory=pane.hud_memory) if k == 0 else \
-                    draw_hud(image, view, proj, centre, f"{pane.chased}: what it senses", furniture=False)
+                    draw_hud(image, view, proj, centre, self.chase_title.format(vessel=pane.chased), furniture=False)
             t3 = time.perf_counter()
             images.append(image)
             for key, dt in zip(("scene", "render", "hud"), (t1 - t0, t2 - t1, t3 - t2)):

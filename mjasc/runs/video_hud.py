@@ -184,7 +184,8 @@ def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = Tr
     line = fs + 4
     # Top left: title and time, then per vessel its mode and (smaller, below) its last decision.
     rows = [(f"{title}  t = {view.time_s:6.1f} s".strip(), font, None)]
-    rows += [(text, font, None) for text in getattr(view, "lines", ())]  # a suite episode's policy, reward …
+    if furniture:  # a suite episode's policy, reward … (once: not again in a split frame's chase half)
+        rows += [(text, font, None) for text in getattr(view, "lines", ())]
     # The modes box ends above the bottom boxes (the scale bar's top): a fleet's rows past that are
     # summed up in one row rather than running off the frame and under the scale bar.
     bottom = H - 16 - fs - 10 - 4 if furniture else H - 4

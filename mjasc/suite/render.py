@@ -129,7 +129,8 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
         if video:
             writer = VideoWriter(out_dir / f"{stem}.mp4", physics.model.ptr, width, height,
                                  fps=1.0 / env.control_timestep(), camera=camera, extent_xy=(lo, hi), overlays=lines,
-                                 title=f"{domain}/{task}", vessel_colours=[(name, vessel_colour(i)) for i, name in
+                                 title=f"{domain}/{task}", chase_title="{vessel}: chase view",
+                                 vessel_colours=[(name, vessel_colour(i)) for i, name in
                                                  enumerate(physics.world.vessel_names)])
         if rerun:
             extent = float(np.max(hi - lo))
