@@ -9,7 +9,7 @@
     mjasc trial speed|turning-circle|zigzag|stopping --vessel NAME [--port F] [--starboard F] [--json]
     mjasc view RUN_DIR|RECORDING [--print]
     mjasc figures [--out DIR] [--format png svg pdf]
-    mjasc render DOMAIN TASK [--policy random|baseline|goal_line|cas|cas:METHOD] [--seed N] [--camera CAM] [--out DIR]   (dm_control suite)
+    mjasc render DOMAIN TASK [--policy random|baseline|goal_line|cas|cas:METHOD] [--seed N] [--camera CAM] [--no-hud] [--out DIR]   (dm_control suite)
 
 SCENARIO and CAMPAIGN are a TOML file's path or the name of a bundled one (``mjasc run demo``,
 ``mjasc campaign demo_monte_carlo``; ``mjasc list`` shows them), so every command works from any
@@ -217,6 +217,8 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     rd.add_argument("--camera", default="top_down",
                     help="top_down, overview, chase:VESSEL (e.g. chase:otter), split (overview beside the first "
                          "vessel's chase view) or split:VESSEL (default: top_down)")
+    rd.add_argument("--no-hud", dest="hud", action="store_false",
+                    help="no heads-up display on the video (task, time, policy, reward, return, names, legend)")
     rd.add_argument("--out", default="runs/render", help="output folder (default: runs/render)")
     rd.set_defaults(func=cmd_render)
     return p

@@ -215,7 +215,7 @@ def cmd_render(args) -> int:
     t0 = time.perf_counter()
     try:
         result = render_episode(args.domain, args.task, policy=args.policy, out_dir=out, seed=args.seed,
-                                camera=args.camera,
+                                camera=args.camera, hud=getattr(args, "hud", True),
                                 progress=lambda done, limit: print(f"  {100 * done // limit:3d} % ({done} of {limit} "
                                                                    f"control steps, {time.perf_counter() - t0:.0f} s)",
                                                                    flush=True))

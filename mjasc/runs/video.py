@@ -160,11 +160,13 @@ class VideoWriter:
 
     def __init__(self, path: str | Path, model, width: int, height: int, fps: float, camera: str = "top_down",
                  extent_xy: tuple[np.ndarray, np.ndarray] | None = None, overlays: list[np.ndarray] = (),
-                 title: str = "", vessel_colours=None):
+                 title: str = "", vessel_colours=None, chase_title: str = "{vessel}: what it senses"):
         self.path = Path(path)
         self.model = model
         self.width, self.height = int(width), int(height)
         self.title = str(title)
+        #: The chase half's title of a split frame (``{vessel}``: the chased vessel's name).
+        self.chase_title = str(chase_title)
         cameras = split_cameras(model, camera)  # raises before any file is made
         self.panes = [_Pane(model, c, self.width // len(cameras), self.height, extent_xy, vessel_colours)
                       for c in cameras]
@@ -205,18 +207,29 @@ class VideoWriter:
         self.seconds["view"] += time.perf_counter() - t0
         return self._frame(data, view)
 
-    def add_frame(self, data, markers=(), trails=()) -> np.ndarray:
+    def add_frame(self, data, markers=(), trails=(), *, names=(), modes=(), lines=(), legend=(),
+                  current_m_s=(0.0, 0.0), hud: bool = True) -> np.ndarray:
         """Render and encode one frame without a runner (:mod:`mjasc.suite.render`): ``markers``
-        (position (2,), heading, rgba 0–1) per vessel, ``trails`` (points (k, 2), rgba) polylines."""
-        vessels = [VesselView(f"#{i}", tuple(int(255 * c) for c in rgba[:3]), np.asarray(p, float), float(h))
+        (position (2,), heading, rgba 0–1) per vessel, ``trails`` (points (k, 2), rgba) polylines.
+        With ``hud`` the heads-up overlay of :mod:`mjasc.runs.video_hud` is drawn on the image:
+        the title and time, the text rows ``lines``, per vessel its colour, name (``names``, by
+        default ``#i``) and mode (``modes``), the names by the hulls, the scale, north, the current
+        ``current_m_s`` (2,) [m/s] at the view's centre and the legend's rows ``legend`` (kind,
+        RGBA 0–1, text; empty: none). The scene drawn into MuJoCo is the same either way."""
+        names, modes = list(names), list(modes)
+        vessels = [VesselView(names[i] if i < len(names) else f"#{i}", tuple(int(255 * c) for c in rgba[:3]),
+                              np.asarray(p, float), float(h), modes[i] if i < len(modes) else "")
                    for i, (p, h, rgba) in enumerate(markers)]
-        view = FrameView(float(data.time), vessels, np.zeros(2))
-        self._trails = [[tuple(p) for p in pts] for pts, _ in trails]
-        return self._frame(data, view, hud=False)
+        view = FrameView(float(data.time), vessels, np.asarray(current_m_s, float).reshape(2), list(lines),
+                         tuple(legend))
+        return self._frame(data, view, hud=hud, trails=[np.asarray(pts, float) for pts, _ in trails])
 
-    def _frame(self, data, view: FrameView, hud: bool = True) -> np.ndarray:
-        trails = [np.array([*t, tuple(v.position_m)]) if hud else np.array(t)
-                  for t, v in zip(self._trails, view.vessels)] if view.vessels else []
+    def _frame(self, data, view: FrameView, hud: bool = True, trails=None) -> np.ndarray:
+        """Render, overlay and encode a frame; ``trails`` (k, 2) per vessel, by default the run's
+        kept trail points and each vessel's position now."""
+        if trails is None:
+            trails = [np.array([*t, tuple(v.position_m)]) for t, v in zip(self._trails, view.vessels)] \
+                if view.vessels else []
         images = []
         for k, pane in enumerate(self.panes):
             t0 = time.perf_counter()
@@ -230,7 +243,7 @@ class VideoWriter:
                 proj = Projection(scn, pane.width, pane.height)
                 centre = pane.view_centre(self.model, data)
                 image = draw_hud(image, view, proj, centre, self.title, memory=pane.hud_memory) if k == 0 else \
-                    draw_hud(image, view, proj, centre, f"{pane.chased}: what it senses", furniture=False)
+                    draw_hud(image, view, proj, centre, self.chase_title.format(vessel=pane.chased), furniture=False)
             t3 = time.perf_counter()
             images.append(image)
             for key, dt in zip(("scene", "render", "hud"), (t1 - t0, t2 - t1, t3 - t2)):

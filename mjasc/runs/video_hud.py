@@ -2,9 +2,11 @@
 
 Drawn with Pillow (pixels; image rows grow downwards) after MuJoCo rendered the scene:
 
-- top left: the scenario name and the simulation time ``t`` [s], then one line per vessel — its
-  colour, its name, its mode (``mission``, ``avoidance:yield`` …) and its last conflict decision —
-  as many as fit above the scale bar, then one row summing up the rest (a fleet);
+- top left: the scenario name and the simulation time ``t`` [s], then the view's own text rows
+  (``FrameView.lines``: a suite episode's policy, reward and return, the task's state), then one
+  line per vessel — its colour, its name, its mode (``mission``, ``avoidance:yield`` …; a suite
+  vessel: its speed) and its last conflict decision — as many as fit above the scale bar, then one
+  row summing up the rest (a fleet);
 - the names of the first :data:`MAX_NAMES` vessels next to their hulls, at the pixels
   :class:`Projection` gives, moved or left out where they would overlap (:func:`name_labels`);
 - bottom left: a scale bar of a round length ``L ∈ {1, 2, 5}·10^k`` m close to a fifth of the
@@ -12,7 +14,8 @@ Drawn with Pillow (pixels; image rows grow downwards) after MuJoCo rendered the 
   views only: an oblique view has no single scale);
 - bottom right: a north arrow (the projected direction of world +y at the view's centre) and the
   current's arrow at the view's centre with its speed [m/s];
-- a legend of the scene overlays (:mod:`mjasc.runs.video_scene`), the traffic and the structures:
+- a legend of the scene overlays (:mod:`mjasc.runs.video_scene`), the traffic and the structures
+  (a suite episode: its task's goal, station, path or lanes, ``FrameView.legend``):
   top right, or where it overlaps no other box in a narrow frame (a split view's half), or not at
   all when the frame has no such room (:func:`place_legend`) or is narrower than 320 px or
   shorter than 240 px (:data:`LEGEND_MIN_PX`).
@@ -28,8 +31,8 @@ from PIL import Image, ImageDraw, ImageFont
 from mjasc.physics.world import MOVING_RGBA
 from mjasc.runs.video_scene import COLOURS, VELOCITY_ARROW_S
 
-__all__ = ["Projection", "draw_hud", "hud_layout", "name_labels", "place_legend", "scale_bar_m", "LEGEND_ITEMS",
-           "LEGEND_MIN_PX", "MAX_NAMES"]
+__all__ = ["Projection", "draw_hud", "hud_layout", "legend_items", "name_labels", "place_legend", "scale_bar_m",
+           "LEGEND_ITEMS", "LEGEND_MIN_PX", "MAX_NAMES"]
 
 #: The traffic's colour as MuJoCo draws it (RGBA 0–1), for the legend (the structures': STRUCTURE_SWATCH).
 TRAFFIC_RGBA = tuple(float(x) for x in MOVING_RGBA.split())
@@ -181,6 +184,8 @@ def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = Tr
     line = fs + 4
     # Top left: title and time, then per vessel its mode and (smaller, below) its last decision.
     rows = [(f"{title}  t = {view.time_s:6.1f} s".strip(), font, None)]
+    if furniture:  # a suite episode's policy, reward … (once: not again in a split frame's chase half)
+        rows += [(text, font, None) for text in getattr(view, "lines", ())]
     # The modes box ends above the bottom boxes (the scale bar's top): a fleet's rows past that are
     # summed up in one row rather than running off the frame and under the scale bar.
     bottom = H - 16 - fs - 10 - 4 if furniture else H - 4
@@ -210,8 +215,9 @@ def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = Tr
              if np.isfinite(x) and np.isfinite(y)] + [b for _, _, b in out["names"]]
     # A pane narrower than LEGEND_MIN_PX[0] or shorter than LEGEND_MIN_PX[1] has no room for the
     # legend beside the names and the modes (docs/architecture.md, "Limits"): left out.
-    legend = None if W < LEGEND_MIN_PX[0] or H < LEGEND_MIN_PX[1] else \
-        place_legend(_legend_size(draw, small), W, H, taken, avoid, last_legend)
+    items = legend_items(view)
+    legend = None if W < LEGEND_MIN_PX[0] or H < LEGEND_MIN_PX[1] or not items else \
+        place_legend(_legend_size(draw, small, items), W, H, taken, avoid, last_legend)
     if legend is not None:
         out["legend"] = legend
     return out
@@ -273,7 +279,7 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
         _arrow(draw, (ux - 18 * d[0], uy - 18 * d[1]), (ux + 18 * d[0], uy + 18 * d[1]), (120, 200, 255), 3, 8)
     draw.text((W - 146, H - 20), f"current {speed:.2f} m/s", font=small, fill=(120, 200, 255))
     if "legend" in lay:
-        _legend(draw, lay["legend"], small)
+        _legend(draw, lay["legend"], small, legend_items(view))
     return np.asarray(img)
 
 
@@ -296,18 +302,24 @@ LEGEND_ITEMS = (("line", COLOURS["path"], "mission path"), ("line", COLOURS["det
                 ("outline", tuple(c / 255 for c in STRUCTURE_SWATCH) + (1.0,), "structure (quay, island, pontoon)"))
 
 
-def _legend_size(draw, font) -> tuple[int, int]:
+def legend_items(view) -> tuple:
+    """The legend's rows of a frame: the view's own (a suite task's), else :data:`LEGEND_ITEMS`."""
+    items = getattr(view, "legend", None)
+    return LEGEND_ITEMS if items is None else tuple(items)
+
+
+def _legend_size(draw, font, items=LEGEND_ITEMS) -> tuple[int, int]:
     """The legend box's width and height [px] in ``font``."""
     line = font.size + 3
-    return int(38 + max(draw.textlength(t, font=font) for _, _, t in LEGEND_ITEMS)), line * len(LEGEND_ITEMS) + 4
+    return int(38 + max(draw.textlength(t, font=font) for _, _, t in items)), line * len(items) + 4
 
 
-def _legend(draw, box, font) -> None:
+def _legend(draw, box, font, items=LEGEND_ITEMS) -> None:
     fs = font.size
     line = fs + 3
     draw.rectangle(box, fill=(0, 0, 0, 140))
     x0, y0 = box[0] + 4, box[1] + 2
-    for k, (kind, rgba, text) in enumerate(LEGEND_ITEMS):
+    for k, (kind, rgba, text) in enumerate(items):
         y = y0 + k * line + line // 2
         col = _c(rgba)
         draw.rectangle([x0, y - line // 2 + 1, x0 + 26, y + line // 2 - 1], fill=WATER_SWATCH)  # as on the water
@@ -323,6 +335,9 @@ def _legend(draw, box, font) -> None:
             r = line // 2 - 1
             draw.ellipse([x0 + 13 - r, y - r, x0 + 13 + r, y + r], fill=col, outline=(0, 0, 0))
             draw.line([(x0 + 14, y), (x0 + 13 + r, y)], fill=(255, 255, 255), width=2)
+        elif kind == "target":  # the suite's target site: a disc and its heading bar
+            draw.ellipse([x0 + 6, y - 5, x0 + 16, y + 5], fill=col)
+            draw.line([(x0 + 11, y), (x0 + 25, y)], fill=col, width=2)
         elif kind == "outline":  # structures are thin hollow walls: an outline, not a filled block
             draw.rectangle([x0 + 4, y - line // 2 + 1, x0 + 22, y + line // 2 - 1], outline=col, width=3)
         else:

@@ -73,6 +73,11 @@ class FrameView:
     time_s: float
     vessels: list
     current_m_s: np.ndarray  # (2,) the current at the view's centre [m/s]
+    #: Text rows under the title (a suite episode: policy, reward, return, the task's state).
+    lines: list = field(default_factory=list)
+    #: The legend's rows (kind, RGBA 0–1, text) as :data:`mjasc.runs.video_hud.LEGEND_ITEMS`
+    #: (None: those, a run's overlays; empty: no legend).
+    legend: tuple | None = None
 
 
 def frame_view(event, centre_xy) -> FrameView:

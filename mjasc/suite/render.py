@@ -8,7 +8,11 @@ one seeded episode with a random policy, the task's classical baseline
   MuJoCo's offscreen renderer (OSMesa unless ``MUJOCO_GL`` says otherwise) through
   :class:`mjasc.runs.video.VideoWriter`; the default ``top_down`` view is fitted to the task's area
   with the path / lanes / route drawn in, vessel arrows and trails; any model camera works too
-  (``"basin"``, ``"otter/chase"``, ``"otter/follow"``, ``"overview"``);
+  (``"basin"``, ``"otter/chase"``, ``"otter/follow"``, ``"overview"``). With ``hud`` (default) the
+  scenario videos' heads-up display is drawn on each frame (:mod:`mjasc.suite.render_hud`): task
+  and time, policy and seed, the step's reward and the return so far, per vessel its colour, name,
+  speed and task error, the names by the hulls, scale, north, the current and the task's legend.
+  It is drawn on the image only: the episode (observations, rewards, the recording) is the same;
 * ``….rrd``: the same episode for Rerun (:class:`mjasc.runs.recording.Recorder`): vessel and traffic
   positions and headings, the task geometry, reward and propeller commands over ``sim_time``.
 
@@ -31,6 +35,7 @@ from mjasc.suite import load
 from mjasc.suite.baselines import make_policy
 from mjasc.suite.otter import CollisionAvoidance, PathFollowing, StationKeeping
 from mjasc.suite.otter_team import Formation
+from mjasc.suite.render_hud import hud_lines, task_legend, vessel_modes
 
 __all__ = ["EpisodeRender", "render_episode"]
 
@@ -91,13 +96,14 @@ def _policy_name(policy) -> str:
 
 def render_episode(domain: str, task: str, policy="random", out_dir="out", seed: int = 0, *, task_kwargs=None,
                    camera: str = "top_down", width: int = 640, height: int = 360, video: bool = True,
-                   rerun: bool = True, progress=None) -> EpisodeRender:
+                   rerun: bool = True, hud: bool = True, progress=None) -> EpisodeRender:
     """Run and render one episode of ``domain``/``task`` (see the module docstring).
 
     ``policy``: ``"random"``, ``"baseline"`` or a callable ``time_step → action`` (a dm_env
     TimeStep in, an action array of the action spec's shape out). ``task_kwargs`` are passed to
     :func:`mjasc.suite.load` (``random`` is set from ``seed``; ``time_limit`` shortens episodes).
     ``progress``: called as ``progress(steps_done, step_limit)`` after every tenth of the episode.
+    ``hud``: draw the heads-up display on the video's frames (False: the plain scene).
     """
     if not (video or rerun):
         raise ValueError("video/rerun: at least one output must be enabled")
@@ -123,6 +129,7 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
         if video:
             writer = VideoWriter(out_dir / f"{stem}.mp4", physics.model.ptr, width, height,
                                  fps=1.0 / env.control_timestep(), camera=camera, extent_xy=(lo, hi), overlays=lines,
+                                 title=f"{domain}/{task}", chase_title="{vessel}: chase view",
                                  vessel_colours=[(name, vessel_colour(i)) for i, name in
                                                  enumerate(physics.world.vessel_names)])
         if rerun:
@@ -134,6 +141,8 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
                                                                        colors=[(255, 255, 255)]))
             recorder.series_style("plots/reward/reward", "reward", (44, 160, 44))
         trails = [[p] for p in positions]
+        legend = task_legend(task_obj, physics, (lo, hi))
+        centre = (0.5 * (lo + hi))[None, :]  # the current at the framed view's centre
         total, steps = 0.0, 0
 
         def record(time_step, action):
@@ -143,9 +152,13 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
             for i in range(n):
                 trails[i].append(pos[i])
             if writer is not None:
+                shown = dict(names=physics.world.vessel_names, modes=vessel_modes(task_obj, physics),
+                             lines=hud_lines(policy, seed, time_step.reward, total), legend=legend,
+                             current_m_s=physics.current_field.velocity(centre, t)[0]) if hud else {}
                 writer.add_frame(physics.data.ptr,
                                  markers=[(pos[i], heads[i], colours[i]) for i in range(n)],
-                                 trails=[(np.array(trails[i][-300:]), colours[i]) for i in range(n)])
+                                 trails=[(np.array(trails[i][-300:]), colours[i]) for i in range(n)], hud=hud,
+                                 **shown)
             if recorder is not None:
                 names = physics.world.vessel_names
                 for i, name in enumerate(names):
