@@ -452,7 +452,7 @@ def test_every_stage_gets_the_same_context_fields():
         d["vessels"][0]["controller"]["type"] = "test_spy_c"
         d["vessels"].append({"name": "b", "type": "otter", "position_m": [0, 30], "heading_deg": 0,
                              "controller": {"type": "path_following", "waypoints": [[0, 30], [100, 30]]}})
-        d["comms"] = {"leader": "a"}
+        d["comms"] = {"topology": "leader_followers", "leader": "a"}
         for v in d["vessels"]:
             v["comms"] = {}
         Runner(parse_scenario(d), None, progress=False)
