@@ -45,8 +45,9 @@ __all__ = ["plan_transit", "transit_length", "bumped_transit", "GoToFormation"]
 def plan_transit(position_m, heading_rad: float, formation_path: Path, turn_radius_m: float,
                  lead_in_m: float) -> Path:
     """The transit from a pose to the start of ``formation_path``: a Dubins curve to ``lead_in_m``
-    before it, then straight along its start course (a straight line alone when the vessel already
-    lies on that lead-in, ahead of its start)."""
+    before it, then straight along its start course (a straight line alone when the vessel is
+    exactly at that entry on the course; a vessel already past the entry, on the lead-in, gets a
+    Dubins loop back to it — a known limit, docs/missions.md)."""
     goal = np.asarray(formation_path.point(0.0), dtype=float)
     course = float(formation_path.tangent_angle(0.0))
     u = np.array([math.cos(course), math.sin(course)])
