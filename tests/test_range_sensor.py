@@ -105,13 +105,31 @@ def test_field_of_view_and_range_limit():
     assert not scan.full_circle
 
 
+def test_a_short_range_lidar_sees_only_within_its_range():
+    """A 30 m sensor (≥ 10 m is allowed: a small craft's lidar) sees the boat 20 m ahead and not
+    the one 50 m ahead that a 100 m sensor sees."""
+    statics = [CircleObstacle("near", (20.0, 0.0), 2.0), CircleObstacle("far", (50.0, 5.0), 2.0)]
+    seen = {}
+    for rng_m in (30.0, 100.0):
+        cfg = SensorConfig(beams=360, max_range_m=rng_m, range_noise_std_m=0.0, dropout_probability=0.0,
+                           clutter_per_scan=0.0)
+        w, s = make(statics=statics, config=cfg)
+        scan = s.scan(w.data, None)
+        seen[rng_m] = {w.geom_owner[g] for g in scan.geom_ids if g >= 0}
+        assert np.all(scan.ranges[scan.geom_ids >= 0] <= rng_m)
+    assert seen == {30.0: {"near"}, 100.0: {"near", "far"}}
+    assert parse_sensor_options({"max_range_m": 10.0}, "s").max_range_m == 10.0
+    with pytest.raises(ValueError, match=r"^s\.max_range_m: must be ≥ 10 m and ≤ 100 km"):
+        parse_sensor_options({"max_range_m": 9.0}, "s")
+
+
 def test_parse_sensor_options():
     cfg = parse_sensor_options({"beams": 360, "max_range_m": 120, "fov_deg": 180.0}, "vessels[0].sensor")
     assert cfg.beams == 360 and cfg.max_range_m == 120.0 and cfg.fov_deg == 180.0
     assert parse_sensor_options({}, "s") == SensorConfig()
     w = "vessels[2].sensor"
     for table, key in [({"beam": 3}, "beam"), ({"beams": 3.0}, "beams"), ({"beams": 0}, "beams"),
-                       ({"max_range_m": 50.0}, "max_range_m"), ({"fov_deg": 400}, "fov_deg"),
+                       ({"max_range_m": 5.0}, "max_range_m"), ({"fov_deg": 400}, "fov_deg"),
                        ({"dropout_probability": 1.0}, "dropout_probability"), ({"rate_hz": "fast"}, "rate_hz"),
                        ({"clutter_per_scan": -1}, "clutter_per_scan"), ({"min_range_m": 200.0}, "min_range_m"),
                        ({"range_noise_std_m": True}, "range_noise_std_m")]:

@@ -57,10 +57,10 @@ class SensorConfig:
     fov_deg: float = param(360.0, positive=True, maximum=360.0, unit="deg", phrase="must be in (0, 360]",
                            doc="field of view, centred on the bow (0 < fov ≤ 360)")
     max_range_m: float = param(
-        150.0, minimum=100.0, maximum=100_000.0, unit="m",
-        phrase="must be ≥ 100 m (tracking starts at ~100 m, thesis §6.1) and ≤ 100 km",
-        doc="returns beyond are not reported (≥ 100 m: the thesis starts tracking at ~100 m; ≤ 100 km, a radar's "
-            "reach)")
+        150.0, minimum=10.0, maximum=100_000.0, unit="m",
+        phrase="must be ≥ 10 m and ≤ 100 km",
+        doc="returns beyond are not reported (≥ 10 m, a short-range lidar; the thesis tracks from ~100 m; "
+            "≤ 100 km, a radar's reach)")
     min_range_m: float = param(1.0, nonneg=True, unit="m", phrase="must be ≥ 0 and < max_range_m",
                                doc="blind zone; nearer returns are discarded (≥ 0, < max_range_m)")
     rate_hz: float = param(5.0, positive=True, unit="Hz",
