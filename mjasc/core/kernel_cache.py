@@ -39,12 +39,11 @@ def cache_is_cold(package: Path | None = None) -> bool:
     root = Path(package) if package is not None else _PACKAGE
     key = (root, os.environ.get("NUMBA_CACHE_DIR"))
     if key not in _FIRST:
-        _FIRST[key] = _cold(root)
+        _FIRST[key] = _cold(*key)
     return _FIRST[key]
 
 
-def _cold(root: Path) -> bool:
-    custom = os.environ.get("NUMBA_CACHE_DIR")
+def _cold(root: Path, custom: str | None) -> bool:
     if custom:
         base = Path(custom)
         return not base.is_dir() or not any(True for _ in base.rglob("*.nbi"))

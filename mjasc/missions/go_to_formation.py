@@ -42,17 +42,22 @@ from mjasc.missions.legs import MissionBroadcast, MissionLeg, PhaseInputs
 __all__ = ["plan_transit", "transit_length", "bumped_transit", "GoToFormation"]
 
 
+def _lead_in(position_m, formation_path: Path, lead_in_m: float) -> tuple:
+    """(the vessel's position (2,), the formation pose's point (2,) and course [rad], the lead-in's
+    entry (2,), ``lead_in_m`` before the pose on its course) [m]."""
+    goal = np.asarray(formation_path.point(0.0), dtype=float)
+    course = float(formation_path.tangent_angle(0.0))
+    entry = goal - lead_in_m * np.array([math.cos(course), math.sin(course)])
+    return np.asarray(position_m, dtype=float)[:2], goal, course, entry
+
+
 def plan_transit(position_m, heading_rad: float, formation_path: Path, turn_radius_m: float,
                  lead_in_m: float) -> Path:
     """The transit from a pose to the start of ``formation_path``: a Dubins curve to ``lead_in_m``
     before it, then straight along its start course (a straight line alone when the vessel is
     exactly at that entry on the course; a vessel already past the entry, on the lead-in, gets a
     Dubins loop back to it — a known limit, docs/missions.md)."""
-    goal = np.asarray(formation_path.point(0.0), dtype=float)
-    course = float(formation_path.tangent_angle(0.0))
-    u = np.array([math.cos(course), math.sin(course)])
-    entry = goal - lead_in_m * u
-    p = np.asarray(position_m, dtype=float)[:2]
+    p, goal, course, entry = _lead_in(position_m, formation_path, lead_in_m)
     try:
         head = dubins_path(p, heading_rad, entry, course, turn_radius_m)
     except ValueError:  # already at the entry on the formation course
@@ -66,10 +71,7 @@ def transit_length(position_m, heading_rad: float, formation_path: Path, turn_ra
                    lead_in_m: float) -> float:
     """The length [m] of :func:`plan_transit`'s path, from the Dubins lengths alone (nothing built:
     the lead-in search evaluates it ~150 times)."""
-    goal = np.asarray(formation_path.point(0.0), dtype=float)
-    course = float(formation_path.tangent_angle(0.0))
-    entry = goal - lead_in_m * np.array([math.cos(course), math.sin(course)])
-    p = np.asarray(position_m, dtype=float)[:2]
+    p, goal, course, entry = _lead_in(position_m, formation_path, lead_in_m)
     head = dubins_length(p, heading_rad, entry, course, turn_radius_m)
     if not math.isfinite(head):  # (at the entry on the formation course: the straight line alone)
         return float(math.hypot(*(goal - p)))
@@ -78,12 +80,10 @@ def transit_length(position_m, heading_rad: float, formation_path: Path, turn_ra
 
 def _bump_geometry(position_m, heading_rad: float, formation_path: Path, turn_radius_m: float,
                    lead_in_m: float) -> tuple:
-    """(start (2,), entry (2,), entry course, the plain transit's Dubins part) for a bump."""
-    goal = np.asarray(formation_path.point(0.0), dtype=float)
-    course = float(formation_path.tangent_angle(0.0))
-    entry = goal - lead_in_m * np.array([math.cos(course), math.sin(course)])
-    p = np.asarray(position_m, dtype=float)[:2]
-    return p, entry, course, dubins_path(p, heading_rad, entry, course, turn_radius_m)  # (ValueError: at the entry)
+    """:func:`_lead_in`'s (start, goal, course, entry) and the plain transit's Dubins part, for a
+    bump (ValueError: the vessel is at the entry)."""
+    p, goal, course, entry = _lead_in(position_m, formation_path, lead_in_m)
+    return p, goal, course, entry, dubins_path(p, heading_rad, entry, course, turn_radius_m)
 
 
 def _waypoint(head: Path, push_m: float) -> tuple[np.ndarray, float]:
@@ -100,12 +100,12 @@ def bumped_transit(position_m, heading_rad: float, formation_path: Path, turn_ra
     Dubins curves, then the straight lead-in. With ``push_m`` 0 it is the plain transit (a shortest
     Dubins curve's two halves are the shortest curves between their poses); its length grows
     continuously with the push while the two curves keep their words."""
-    p, entry, course, head = _bump_geometry(position_m, heading_rad, formation_path, turn_radius_m, lead_in_m)
+    p, goal, course, entry, head = _bump_geometry(position_m, heading_rad, formation_path, turn_radius_m, lead_in_m)
     w, c = _waypoint(head, push_m)
     pieces = [*dubins_path(p, heading_rad, w, c, turn_radius_m).segments,
               *dubins_path(w, c, entry, course, turn_radius_m).segments]
     if lead_in_m > 0.0:
-        pieces.append(LineSegment(entry, np.asarray(formation_path.point(0.0), dtype=float)))
+        pieces.append(LineSegment(entry, goal))
     return Path.from_segments(pieces)
 
 
@@ -217,7 +217,7 @@ class GoToFormation:
         o = self.options
         base = self._plan(nav, o.lead_in_m)
         path, lead, push = base, o.lead_in_m, 0.0
-        if math.isfinite(need_m) and base.length < need_m - 1.0:
+        if math.isfinite(need_m) and base.length < need_m - LENGTH_TOL_M:
             # Path length against the lead-in's extension x: continuous but for jumps where the
             # shortest Dubins word changes
             x, length = _solve_length(lambda x: transit_length(nav.position_m, nav.heading_rad, self.formation_path,
@@ -246,7 +246,7 @@ class GoToFormation:
         o = self.options
         r, lead = o.turn_radius_m, o.lead_in_m
         try:
-            p, entry, course, head = _bump_geometry(nav.position_m, nav.heading_rad, self.formation_path, r, lead)
+            p, _, course, entry, head = _bump_geometry(nav.position_m, nav.heading_rad, self.formation_path, r, lead)
         except ValueError:
             return None
         hdg = float(nav.heading_rad)
