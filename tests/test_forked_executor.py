@@ -52,3 +52,22 @@ def test_a_closed_forked_child_leaves():
     assert ex._process is None and not _alive(pid)
     assert ex.wait_ready(120) and ex.run(_req(), time_limit_s=120)["status"] == "completed"  # a new fork
     ex.close()
+
+
+def test_closing_a_forked_child_while_a_thread_waits_on_its_run_ends_that_run():
+    """The campaign's Ctrl-C closes the children from the driver's thread while the workers' threads
+    wait on their runs: close() must neither raise (it raced the run's thread reaping the same child:
+    "process object is closed") nor leave the child; the run ends crashed. Repeated with different
+    delays so that each side of the race is taken."""
+    for delay_s in (0.0, 0.05, 0.3, 1.0):
+        ex = ForkedExecutor()
+        assert ex.wait_ready(120)
+        pid = ex.pid
+        out = {}
+        t = threading.Thread(target=lambda: out.setdefault("r", ex.run(_req(duration=SLOW_S), time_limit_s=120)))
+        t.start()
+        threading.Event().wait(delay_s)
+        ex.close()
+        t.join(60)
+        assert not t.is_alive() and out["r"]["status"] == "crashed", (delay_s, out)
+        assert not _alive(pid) and ex._process is None

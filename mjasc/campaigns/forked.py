@@ -110,6 +110,7 @@ class ForkedExecutor(IsolatedExecutor):
         self._conn = None  # this end of its pipe
         self._fallback = False  # no fork possible: a new interpreter's child (the base class)
         self.pid: int | None = None  # the current child's process id
+        self._state = threading.Lock()  # guards taking the child and its pipe for closing
 
     def start(self) -> None:
         """Start the fork server if needed (the child itself forks when it is waited for or given
@@ -127,8 +128,12 @@ class ForkedExecutor(IsolatedExecutor):
     def _fork(self, deadline: float | None) -> bool:
         """Fork the child and read its ready message; False when it is not ready by ``deadline``
         (then killed) — or when no child could be forked (then the fallback has started)."""
-        if self._process is not None and self._process.is_alive():
-            return True
+        proc = self._process
+        try:
+            if proc is not None and proc.is_alive():
+                return True
+        except ValueError:  # (closed by another thread)
+            pass
         self._drop()
         ctx = _context()
         try:
@@ -151,16 +156,19 @@ class ForkedExecutor(IsolatedExecutor):
 
     def _recv(self, deadline: float | None) -> bytes | None:
         """The child's next message; None at the deadline or when the child died (then reaped,
-        its exit code in ``self._exit``)."""
+        its exit code in ``self._exit``) — or when :meth:`close` closed it from another thread
+        meanwhile (a Ctrl-C on the campaign: the exit code is then unknown)."""
+        conn, proc = self._conn, self._process  # (close() may drop them from another thread)
         wait = None if deadline is None else max(0.0, deadline - time.monotonic())
         try:
-            if self._conn.poll(wait):
-                return self._conn.recv_bytes()
+            if conn is None:
+                raise OSError("the pipe was closed")
+            if conn.poll(wait):
+                return conn.recv_bytes()
             self._exit = None
             return None
         except (EOFError, OSError):
-            self._process.join(10)
-            self._exit = self._process.exitcode
+            self._exit = _reaped(proc)
             self._drop()
             return None
 
@@ -185,7 +193,10 @@ class ForkedExecutor(IsolatedExecutor):
                 return self._timed_out(time_limit_s, t0)
             return self._died(t0)
         try:
-            self._conn.send_bytes(json.dumps(request).encode())
+            conn = self._conn
+            if conn is None:  # (closed by another thread since the fork)
+                raise OSError("the pipe was closed")
+            conn.send_bytes(json.dumps(request).encode())
         except (BrokenPipeError, OSError):
             self._kill()
             return self._failure("crashed", "the run's process could not be started", t0)
@@ -198,33 +209,61 @@ class ForkedExecutor(IsolatedExecutor):
         return json.loads(msg)
 
     def _drop(self) -> None:
-        if self._conn is not None:
-            self._conn.close()
-        if self._process is not None and not self._process.is_alive():
-            self._process.close()
-        self._conn = self._process = None
+        with self._state:
+            conn, proc = self._conn, self._process
+            self._conn = self._process = None
+        if conn is not None:
+            conn.close()
+        if proc is not None:
+            try:
+                if not proc.is_alive():
+                    proc.close()
+            except ValueError:  # (closed by another thread meanwhile)
+                pass
 
     def _kill(self) -> None:
         if self._fallback:
             return super()._kill()
-        if self._process is not None:
+        proc = self._process
+        if proc is not None:
             try:
-                self._process.kill()
-                self._process.join(10)
-            except Exception:  # noqa: BLE001
+                proc.kill()
+                proc.join(10)
+            except Exception:  # noqa: BLE001 — already reaped and closed by another thread
                 pass
         self._drop()
 
     def close(self) -> None:
-        """End the child: it leaves when its pipe closes (every result it sent is complete)."""
+        """End the child: it leaves when its pipe closes (every result it sent is complete). Safe
+        while another thread waits in :meth:`run` on this child (the campaign's Ctrl-C): that run
+        then ends ``crashed``."""
         if self._fallback:
             return super().close()
-        if self._process is not None:
-            proc = self._process
-            self._conn.close()
+        with self._state:
+            proc, conn = self._process, self._conn
             self._conn = None
+        if conn is not None:
+            conn.close()
+        if proc is None:
+            return
+        try:
             proc.join(5)
-            if proc.is_alive():
-                self._kill()
-            else:
-                self._drop()
+            alive = proc.is_alive()
+        except ValueError:  # the run's thread saw the pipe close and reaped the child first
+            return
+        if alive:
+            self._kill()
+        else:
+            self._drop()
+
+
+def _reaped(proc) -> int | None:
+    """``proc``'s exit code once it has ended (waiting up to 10 s); None when there is no process
+    or another thread closed it meanwhile."""
+    if proc is None:
+        return None
+    try:
+        proc.join(10)
+        return proc.exitcode
+    except ValueError:
+        return None
