@@ -6,8 +6,10 @@ import os
 import signal
 import threading
 
+import pytest
+
 from mjasc.campaigns.engine import without_timing
-from mjasc.campaigns.executor import execute_in_process
+from mjasc.campaigns.executor import IsolatedExecutor, execute_in_process
 from mjasc.campaigns.forked import ForkedExecutor, forking_safe
 from tests.test_executor import SLOW_S, _alive, _req
 
@@ -54,20 +56,34 @@ def test_a_closed_forked_child_leaves():
     ex.close()
 
 
-def test_closing_a_forked_child_while_a_thread_waits_on_its_run_ends_that_run():
+@pytest.mark.parametrize("kind", [ForkedExecutor, IsolatedExecutor])
+def test_closing_a_child_while_a_thread_waits_on_its_run_ends_that_run(kind):
     """The campaign's Ctrl-C closes the children from the driver's thread while the workers' threads
-    wait on their runs: close() must neither raise (it raced the run's thread reaping the same child:
-    "process object is closed") nor leave the child; the run ends crashed. Repeated with different
-    delays so that each side of the race is taken."""
-    for delay_s in (0.0, 0.05, 0.3, 1.0):
-        ex = ForkedExecutor()
+    wait on their runs: close() must neither raise (a forked child's close raced the run's thread
+    reaping the same child: "process object is closed") nor leave the child; the run ends crashed.
+    Repeated with different delays so that each side of the race is taken."""
+    for delay_s in (0.0, 0.3):
+        waiting = threading.Event()
+
+        class Observed(kind):  # says when the run's thread waits on the child's answer
+            def _recv(self, deadline):
+                waiting.set()
+                return super()._recv(deadline)
+
+            def _line(self, deadline):
+                waiting.set()
+                return super()._line(deadline)
+
+        ex = Observed()
         assert ex.wait_ready(120)
-        pid = ex.pid
+        pid = ex.pid if kind is ForkedExecutor else ex._proc.pid
+        waiting.clear()
         out = {}
         t = threading.Thread(target=lambda: out.setdefault("r", ex.run(_req(duration=SLOW_S), time_limit_s=120)))
         t.start()
+        assert waiting.wait(60)
         threading.Event().wait(delay_s)
         ex.close()
         t.join(60)
         assert not t.is_alive() and out["r"]["status"] == "crashed", (delay_s, out)
-        assert not _alive(pid) and ex._process is None
+        assert not _alive(pid)

@@ -164,22 +164,28 @@ class IsolatedExecutor:
         self._starting = True
 
     def _kill(self) -> None:
-        if self._proc is not None:
+        proc = self._proc
+        if proc is not None:
             try:
-                self._proc.kill()
-                self._proc.wait(timeout=10)
+                proc.kill()
+                proc.wait(timeout=10)
             except Exception:  # noqa: BLE001
                 pass
         self._proc = None
 
     def close(self) -> None:
         """End the child: it leaves at the end of its input (every result it wrote is complete)."""
-        if self._proc is not None and self._proc.poll() is None:
+        proc = self._proc  # (a run's thread may drop it meanwhile: the campaign's Ctrl-C)
+        if proc is not None and proc.poll() is None:
             try:
-                self._proc.stdin.close()
-                self._proc.wait(timeout=5)
+                proc.stdin.close()
+                proc.wait(timeout=5)
             except Exception:  # noqa: BLE001
-                self._kill()
+                try:
+                    proc.kill()
+                    proc.wait(timeout=10)
+                except Exception:  # noqa: BLE001
+                    pass
         self._proc = None
 
     def start(self) -> None:
@@ -230,7 +236,7 @@ class IsolatedExecutor:
         proc = self._proc
         try:
             proc.stdin.write((json.dumps(request) + "\n").encode())
-        except (BrokenPipeError, OSError):
+        except (BrokenPipeError, OSError, ValueError):  # (ValueError: closed by close() meanwhile)
             self._kill()
             return self._failure("crashed", "the run's process could not be started", t0)
         deadline = None if time_limit_s is None else time.monotonic() + float(time_limit_s)
