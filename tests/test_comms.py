@@ -140,7 +140,7 @@ def test_parse_network_options_and_presets():
 
 
 def test_scenario_comms_table():
-    base = {"duration_s": 1.0, "vessels": [{"name": "a", "type": "delfim"}]}
+    base = {"duration_s": 1.0, "vessels": [{"name": "a", "type": "delfim", "comms": {}}]}
     sc = parse_scenario({**base, "comms": {"loss_probability": 0.2}})
     assert isinstance(sc.comms, NetworkConfig) and sc.comms.loss_probability == 0.2
     with pytest.raises(ScenarioError, match=r"comms\.range_m: must be > 0"):
@@ -229,3 +229,14 @@ def test_topology_errors_name_the_field():
                          ({"leader": "b"}, r"comms\.leader: only with topology = \"leader_followers\"")]:
         with pytest.raises(ScenarioError, match=match):
             parse_scenario({**base, "comms": comms})
+
+
+def test_a_comms_table_that_no_vessel_takes_part_in_is_refused():
+    """A [comms] table configures the link the vessels' coordination talks over; without any vessel
+    with a [vessels.comms] table nothing would ever be sent, so the table (a forgotten vessel table,
+    most likely) is refused instead of accepted unused; with one vessel in the link it is fine."""
+    vessels = [{"name": n, "type": "otter", "position_m": [10.0 * k, 0.0]} for k, n in enumerate("ab")]
+    with pytest.raises(ScenarioError, match=r"^comms: no vessel takes part in the link"):
+        parse_scenario({"name": "t", "duration_s": 1.0, "vessels": vessels, "comms": {"loss_probability": 0.1}})
+    vessels[0]["comms"] = {}
+    assert parse_scenario({"name": "t", "duration_s": 1.0, "vessels": vessels, "comms": {}}).comms is not None

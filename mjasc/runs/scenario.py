@@ -321,6 +321,9 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
         except ValueError as exc:
             msg = str(exc)
             raise ScenarioError(msg if msg.startswith("comms") else f"comms: {msg}") from None
+        if not any("comms" in v.options for v in vessels):  # (the link would carry nothing: a forgotten table?)
+            raise ScenarioError("comms: no vessel takes part in the link (give the coordinated vessels a "
+                                "[vessels.comms] table, or remove [comms])")
     if mission is not None:
         check_mission(mission, vessels, [o.name for o in moving])
     else:
