@@ -162,6 +162,22 @@ def test_draws_resample_to_the_role_and_an_impossible_family_fails_clearly():
         spec({"kind": "head_on", "parameters": {"own_speed_m_s": 9.0}})
 
 
+def test_a_bad_field_of_a_familys_own_table_is_named_where_it_was_written():
+    """An encounter family merges its ``own`` table into every own vessel of the scenarios it makes:
+    a bad field there is reported as ``families[i].own.…`` (where the user wrote it), not as the
+    generated scenario's ``vessels[k].…``; for a team too (the own vessels come first)."""
+    for own, match in [({"sensor": {"beams": -5}}, r"^families\[0\]\.own\.sensor\.beams: must be ≥ 1"),
+                       ({"tracking": {"gate": 1}}, r"^families\[0\]\.own\.tracking\.gate: unknown field"),
+                       ({"avoidance": {"method": "nope"}}, r"^families\[0\]\.own\.avoidance\.method: unknown")]:
+        with pytest.raises(CampaignError, match=match):
+            spec({"kind": "head_on", "own": own})
+    with pytest.raises(CampaignError, match=r"^families\[0\]\.own\.comms\.x: unknown field"):
+        spec({"kind": "team_vs_traffic", "own": {"comms": {"x": 1}}})
+    # a field the family generates itself keeps the generated scenario's name
+    with pytest.raises(CampaignError, match=r"its first run is not a valid scenario: vessels\[0\]\.speed_m_s"):
+        spec({"kind": "head_on", "own": {"sensor": {"beams": 90}}, "parameters": {"own_speed_m_s": 9.0}})
+
+
 def test_targets_start_clear_of_the_own_vessels():
     s = spec({"kind": "team_vs_traffic", "runs_per_point": 10,
               "parameters": {"tcpa_s": {"uniform": [2.0, 40.0]}, "team_spacing_m": 20.0, "team_size": 4}})

@@ -348,6 +348,9 @@ def _parse_campaign_spec(data: dict, source: str, base_dir: str | Path) -> Campa
             try:
                 sc = run.scenario()
             except ScenarioError as exc:
+                own = _own_field(str(exc), getattr(fam, "own", None), f"families[{i}]")
+                if own is not None and not (label and ".own.avoidance" in own):  # (a method's options: below)  # (a field the family's own table gave: named where the user wrote it)
+                    raise CampaignError(own) from None
                 raise CampaignError(f"families[{i}] ({fam.name}): its first run{with_method} is not a valid scenario: "
                                     f"{exc}") from None
             if label and not any("avoidance" in v.options for v in sc.vessels):
@@ -355,6 +358,18 @@ def _parse_campaign_spec(data: dict, source: str, base_dir: str | Path) -> Campa
                                     f"[vessels.avoidance] table: its runs would not differ between methods")
         first += fam.runs
     return spec
+
+
+def _own_field(error: str, own: dict | None, where: str) -> str | None:
+    """``error`` (a generated scenario's, ``vessels[k].sensor.beams: …``) readdressed to the family's
+    ``own`` table when the field is one that table gave (``families[i].own.sensor.beams: …``): an
+    encounter family merges ``own`` into each own vessel's table, and the own vessels come first."""
+    import re
+
+    m = re.match(r"vessels\[\d+\]\.(\w+)", error)
+    if not own or m is None or m.group(1) not in own:
+        return None
+    return f"{where}.own.{error[m.start(1):]}"
 
 
 def load_campaign_spec(path: str | Path) -> CampaignSpec:
