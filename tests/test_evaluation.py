@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from mjasc.evaluation.colreg import classify, judge_compliance, relative_bearing_deg
+from mjasc.evaluation.colreg import ColregConfig, classify, judge_compliance, relative_bearing_deg, role_from_geometry
 from mjasc.evaluation.tracking_metrics import TrackingScore, gospa
 
 EAST, NORTH, WEST, SOUTH = 0.0, math.pi / 2, math.pi, -math.pi / 2
@@ -30,6 +30,34 @@ def test_relative_bearing_is_clockwise_from_the_bow():
 ])
 def test_roles_of_the_standard_encounters(target, course, speed, role):
     assert classify([0, 0], NORTH, 1.5, target, course, speed) == role
+
+
+def test_no_role_for_a_wide_pass_risk_of_collision_needs_a_close_cpa():
+    """Rule 7: risk of collision exists when the vessels would pass close, not whenever the range
+    closes. A target 110 m ahead and 60 m to starboard on the reciprocal course passes 60 m off,
+    starboard to starboard: no role (it was judged a crossing give-way, and a vessel holding its
+    course non-compliant). The gate is the straight-line CPA distance against risk_cpa_m (20 m)."""
+    assert classify([0, 0], NORTH, 1.5, [60, 110], SOUTH, 1.5) == "none"
+    assert classify([0, 0], NORTH, 1.5, [60, 110], SOUTH, 1.5, ColregConfig(risk_cpa_m=61.0)) == "crossing_give_way"
+    # the CPA distance, not the lateral offset: a crossing target whose straight lines pass 19 m / 21 m apart
+    for offset, role in ((19.0, "crossing_give_way"), (21.0, "none")):
+        # the target heads west from starboard and would meet the own vessel at (0, 60) at t = 40 s;
+        # shifted across the relative motion (w = (−1.5, −1.5)) so that the CPA distance is `offset`
+        target = np.array([60.0, 60.0]) + offset * np.array([1.0, -1.0]) / np.sqrt(2.0)
+        assert classify([0, 0], NORTH, 1.5, target, WEST, 1.5) == role, offset
+    j = judge_compliance(classify([0, 0], NORTH, 1.5, [60, 110], SOUTH, 1.5), np.arange(0.0, 40.0, 1.0),
+                         np.column_stack([np.zeros(40), 1.5 * np.arange(40.0)]), np.full(40, NORTH),
+                         np.tile([0.0, 1.5], (40, 1)), np.column_stack([np.full(40, 60.0), 110 - 1.5 * np.arange(40.0)]),
+                         np.tile([0.0, -1.5], (40, 1)))
+    assert j.compliant  # holding course past a wide target is no fault
+
+
+def test_overtaking_starts_more_than_22_5_degrees_abaft_the_beam():
+    """Rule 13: 'more than 22.5 degrees abaft her beam' — a bearing of exactly 112.5° is not yet
+    overtaking (the right-of-way rule of the CAS draws the same strict line)."""
+    assert role_from_geometry(112.5, 0.0) == "crossing_give_way"
+    assert role_from_geometry(112.5 + 1e-9, 0.0) == "overtaken"
+    assert role_from_geometry(-112.5, 0.0) == "crossing_stand_on"
 
 
 def _encounter(own_turn_deg=0.0, turn_at_s=5.0, target_from_starboard=True, speed_factor=1.0):

@@ -209,6 +209,12 @@ def test_coefficient_validation_names_the_field():
         HydroCoefficients(X_udot=-1, Y_vdot=-1, N_rdot=-1, X_u=5.0, Y_v=-1, N_r=-1)
     with pytest.raises(ValueError, match="N_r_nonlinear_gain"):
         HydroCoefficients(X_udot=-1, Y_vdot=-1, N_rdot=-1, X_u=-1, Y_v=-1, N_r=-1, N_r_nonlinear_gain=-1)
+    # the added-mass Coriolis term is written for a symmetric M_A (ideal flow): an asymmetric coupling
+    # would make the model create energy, so it is refused; equal couplings are fine
+    with pytest.raises(ValueError, match=r"^hydrodynamics\.N_vdot: must equal Y_rdot"):
+        HydroCoefficients(X_udot=-1, Y_vdot=-1, N_rdot=-1, X_u=-1, Y_v=-1, N_r=-1, Y_rdot=-2.0, N_vdot=-1.0)
+    assert HydroCoefficients(X_udot=-1, Y_vdot=-1, N_rdot=-1, X_u=-1, Y_v=-1, N_r=-1, Y_rdot=-2.0,
+                             N_vdot=-2.0).added_mass[1, 2] == 2.0
 
 
 def test_rigid_body_mass_matrix_of_the_otter_matches_vessels_md():

@@ -34,9 +34,14 @@ from mjasc.avoidance.decision import Correction, velocity_correction_for
 from mjasc.avoidance.prediction import Decision, PredictedConflict
 from mjasc.avoidance.replanning import swept_area
 from mjasc.avoidance.right_of_way import OVERTAKING_BEARING_RAD, gives_way, relative_bearing
-from mjasc.evaluation.colreg import classify
+from mjasc.evaluation.colreg import ColregConfig, classify
 
 __all__ = ["Triage", "triage", "swept", "overtaking_us", "colreg_role"]
+
+#: The roles of a conflict the prediction found: risk of collision is established (a manoeuvring
+#: target's predicted path may meet the vessel where straight lines pass wide), so classify's
+#: straight-line CPA gate (``risk_cpa_m``) is opened wide.
+_PREDICTED_RISK = ColregConfig(risk_cpa_m=1e12)
 
 
 @dataclass
@@ -78,7 +83,8 @@ def colreg_role(nav, track, traffic_rule: str) -> str | None:
     if traffic_rule != "colreg":
         return None
     speed = float(np.hypot(*np.asarray(nav.velocity_m_s, dtype=float)[:2]))
-    role = classify(nav.position_m, nav.heading_rad, speed, track.position_m, track.heading_rad, track.speed_m_s)
+    role = classify(nav.position_m, nav.heading_rad, speed, track.position_m, track.heading_rad, track.speed_m_s,
+                    _PREDICTED_RISK)
     return None if role == "none" else role
 
 

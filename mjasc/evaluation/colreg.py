@@ -14,16 +14,19 @@ Roles (own vessel's view; :func:`role_from_geometry`, with β and β_t wrapped t
 checked in this order (rule 13 applies "whatever else applies"):
 
 1. **overtaking** (rule 13): the own vessel comes up from more than 22.5° abaft the target's beam,
-   |β_t| ≥ ``abaft_beam_deg`` (112.5°) → the own vessel keeps out of the way;
-2. **overtaken**: the target comes up from abaft the own beam, |β| ≥ 112.5° → the own vessel stands on;
+   |β_t| > ``abaft_beam_deg`` (112.5°) → the own vessel keeps out of the way;
+2. **overtaken**: the target comes up from more than 22.5° abaft the own beam, |β| > 112.5° → the own
+   vessel stands on;
 3. **head-on** (rule 14): |β| ≤ ``head_on_bearing_deg`` and the courses reciprocal within
    ``head_on_course_deg`` → both give way, altering to starboard;
 4. **crossing** (rule 15): the target on the own starboard side, 0 ≤ β < 112.5° → the own vessel
    gives way (``crossing_give_way``); on the port side → it stands on (``crossing_stand_on``).
 
-A role holds where there is risk of collision: :func:`classify`, from positions and velocities,
-returns ``none`` when the range is opening. Campaign families check the role at t = 0 from the
-geometry alone.
+A role holds where there is risk of collision (rule 7: the bearing does not change appreciably, i.e.
+the vessels would pass close): :func:`classify`, from positions and velocities, returns ``none``
+when the range is opening, or when both holding course and speed would pass farther apart than
+``risk_cpa_m`` (the distance at the straight-line CPA, centre to centre). Campaign families check
+the role at t = 0 from the geometry alone (they place the targets at a chosen CPA distance).
 
 Compliance (rules 16–17) is judged from the own vessel's track over the encounter
 (:func:`judge_compliance`): a give-way vessel must act **early** (its first substantial change of
@@ -68,7 +71,10 @@ class ColregConfig:
     """Thresholds of the role classification and the compliance judgement."""
 
     abaft_beam_deg: float = param(112.5, minimum=90.0, maximum=180.0, unit="deg",
-                                  doc="rule 13: overtaking from more than 22.5° abaft the beam (|β| ≥ 112.5°)")
+                                  doc="rule 13: overtaking from more than 22.5° abaft the beam (|β| > 112.5°)")
+    risk_cpa_m: float = param(20.0, positive=True, unit="m",
+                              doc="rule 7: risk of collision only while holding course and speed would "
+                                  "pass closer than this (straight-line CPA, centre to centre)")
     head_on_bearing_deg: float = param(15.0, positive=True, maximum=45.0, unit="deg",
                                        doc="rule 14: the target within this angle of the own bow")
     head_on_course_deg: float = param(15.0, positive=True, maximum=45.0, unit="deg",
@@ -112,9 +118,9 @@ def role_from_geometry(bearing_deg: float, relative_course_deg: float, config: C
     whose course differs from the own by ``relative_course_deg`` (both clockwise, degrees), assuming
     risk of collision."""
     b, c = wrap_deg(bearing_deg), wrap_deg(relative_course_deg)
-    if abs(own_bearing_from_target_deg(b, c)) >= config.abaft_beam_deg:
+    if abs(own_bearing_from_target_deg(b, c)) > config.abaft_beam_deg:
         return "overtaking"
-    if abs(b) >= config.abaft_beam_deg:
+    if abs(b) > config.abaft_beam_deg:
         return "overtaken"
     if abs(b) <= config.head_on_bearing_deg and abs(180.0 - abs(c)) <= config.head_on_course_deg:
         return "head_on"
@@ -124,12 +130,18 @@ def role_from_geometry(bearing_deg: float, relative_course_deg: float, config: C
 def classify(own_position_m, own_course_rad: float, own_speed_m_s: float, target_position_m,
              target_course_rad: float, target_speed_m_s: float, config: ColregConfig = ColregConfig()) -> str:
     """The own vessel's role towards the target (one of :data:`ROLES`), from both positions (2,) [m],
-    courses over ground [rad, CCW from east] and speeds [m/s]: ``none`` when the range is opening,
-    else :func:`role_from_geometry`."""
+    courses over ground [rad, CCW from east] and speeds [m/s]: ``none`` when the range is opening or
+    the straight-line CPA lies farther than ``config.risk_cpa_m`` (no risk of collision), else
+    :func:`role_from_geometry`."""
     los = np.asarray(target_position_m, dtype=float) - np.asarray(own_position_m, dtype=float)
     v_own = own_speed_m_s * np.array([math.cos(own_course_rad), math.sin(own_course_rad)])
     v_tgt = target_speed_m_s * np.array([math.cos(target_course_rad), math.sin(target_course_rad)])
-    if float(np.dot(v_tgt - v_own, los)) >= 0.0:  # the range is not decreasing: no risk of collision
+    w = v_tgt - v_own
+    closing = float(np.dot(w, los))
+    if closing >= 0.0:  # the range is not decreasing: no risk of collision
+        return "none"
+    at_cpa = los - (closing / float(np.dot(w, w))) * w  # (closing < 0: w ≠ 0)
+    if math.hypot(at_cpa[0], at_cpa[1]) > config.risk_cpa_m:  # a wide pass: the bearing changes
         return "none"
     beta = relative_bearing_deg(own_position_m, own_course_rad, target_position_m)
     rel_course = -math.degrees(target_course_rad - own_course_rad)  # clockwise

@@ -101,9 +101,14 @@ class HydroCoefficients:
 
     @staticmethod
     def check(config: "HydroCoefficients", where: str) -> None:
-        """Cross-flow drag needs strips over a hull of positive length and draft."""
+        """Cross-flow drag needs strips over a hull of positive length and draft; the added mass's
+        sway–yaw couplings must be equal (M_A symmetric, as ideal flow gives it: the added-mass
+        Coriolis term C_A(ν_r)ν_r is written with a23 alone and conserves energy only then)."""
         if config.cross_flow and (config.strips < 1 or config.length_m <= 0 or config.draft_m <= 0):
             raise ConfigError(f"{where}.cross_flow: needs strips ≥ 1, length_m > 0 and draft_m > 0")
+        if config.Y_rdot != config.N_vdot:
+            raise ConfigError(f"{where}.N_vdot: must equal Y_rdot (the added-mass matrix is symmetric), got "
+                              f"N_vdot = {config.N_vdot:g}, Y_rdot = {config.Y_rdot:g}")
 
     @property
     def added_mass(self) -> np.ndarray:

@@ -66,8 +66,8 @@ def roles(own_position_m, own_heading_rad: float, target_position_m, target_cour
           config: ColregConfig = ColregConfig()) -> np.ndarray:
     """The own vessel's role code (t,) towards each target (positions (t, 2), courses (t,) [rad]),
     as :func:`mjasc.evaluation.colreg.role_from_geometry` of the relative bearing β (clockwise from
-    the own bow) and relative course c (clockwise), checked in its order: overtaking (|β_t| ≥ abaft),
-    overtaken (|β| ≥ abaft), head-on (|β| ≤ 15°, courses reciprocal within 15°), else crossing —
+    the own bow) and relative course c (clockwise), checked in its order: overtaking (|β_t| > abaft),
+    overtaken (|β| > abaft), head-on (|β| ≤ 15°, courses reciprocal within 15°), else crossing —
     give way with B to starboard (β ≥ 0), stand on to port."""
     d = np.asarray(target_position_m, dtype=float).reshape(-1, 2) - np.asarray(own_position_m, dtype=float)[:2]
     beta = _wrap_deg(np.degrees(own_heading_rad - np.arctan2(d[:, 1], d[:, 0])))
@@ -75,7 +75,7 @@ def roles(own_position_m, own_heading_rad: float, target_position_m, target_cour
     beta_t = _wrap_deg(beta + 180.0 - c)
     abaft = config.abaft_beam_deg
     head_on = (np.abs(beta) <= config.head_on_bearing_deg) & (np.abs(180.0 - np.abs(c)) <= config.head_on_course_deg)
-    return np.select([np.abs(beta_t) >= abaft, np.abs(beta) >= abaft, head_on, beta >= 0.0],
+    return np.select([np.abs(beta_t) > abaft, np.abs(beta) > abaft, head_on, beta >= 0.0],
                      [OVERTAKING, OVERTAKEN, HEAD_ON, GIVE_WAY], STAND_ON)
 
 
