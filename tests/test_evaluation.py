@@ -47,7 +47,8 @@ def test_no_role_for_a_wide_pass_risk_of_collision_needs_a_close_cpa():
         assert classify([0, 0], NORTH, 1.5, target, WEST, 1.5) == role, offset
     j = judge_compliance(classify([0, 0], NORTH, 1.5, [60, 110], SOUTH, 1.5), np.arange(0.0, 40.0, 1.0),
                          np.column_stack([np.zeros(40), 1.5 * np.arange(40.0)]), np.full(40, NORTH),
-                         np.tile([0.0, 1.5], (40, 1)), np.column_stack([np.full(40, 60.0), 110 - 1.5 * np.arange(40.0)]),
+                         np.tile([0.0, 1.5], (40, 1)),
+                         np.column_stack([np.full(40, 60.0), 110 - 1.5 * np.arange(40.0)]),
                          np.tile([0.0, -1.5], (40, 1)))
     assert j.compliant  # holding course past a wide target is no fault
 
