@@ -349,7 +349,8 @@ def _parse_campaign_spec(data: dict, source: str, base_dir: str | Path) -> Campa
                 sc = run.scenario()
             except ScenarioError as exc:
                 own = _own_field(str(exc), getattr(fam, "own", None), f"families[{i}]")
-                if own is not None and not (label and ".own.avoidance" in own):  # (not a method's options)  # (a field the family's own table gave: named where the user wrote it)
+                # a field the family's own table gave: named where the user wrote it (not a method's options)
+                if own is not None and not (label and ".own.avoidance" in own):
                     raise CampaignError(own) from None
                 raise CampaignError(f"families[{i}] ({fam.name}): its first run{with_method} is not a valid scenario: "
                                     f"{exc}") from None
