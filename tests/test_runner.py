@@ -52,7 +52,10 @@ def test_run_writes_recording_and_summary(tmp_path):
     assert set(alpha["min_clearance_m"]) == {"bravo", "charlie", "pontoon", "buoy", "ferry"}
     for component in ("perception", "avoidance", "coordination"):  # the demo runs the whole pipeline
         assert component in alpha
-    assert summary["real_time_factor"] > 1 and summary["any_collision"] is False
+    assert summary["any_collision"] is False
+    # the factor's definition, not a speed (speed lives in benchmarks/: a loaded CI host may run slower
+    # than real time, and a timed assertion here failed on such hosts)
+    assert summary["real_time_factor"] == pytest.approx(summary["sim_time_s"] / summary["wall_time_s"], rel=0.01)
 
     reader = rr.chunk.RrdReader(str(result.files["recording"]))
     assert len(reader.recordings()) == 1 and len(reader.blueprints()) == 1
