@@ -87,3 +87,54 @@ def test_closing_a_child_while_a_thread_waits_on_its_run_ends_that_run(kind):
         t.join(60)
         assert not t.is_alive() and out["r"]["status"] == "crashed", (delay_s, out)
         assert not _alive(pid)
+
+
+def test_a_child_killed_with_its_campaign_is_used_by_one_thread_at_a_time(monkeypatch):
+    """The campaign's Ctrl-C kills the run children (SIGINT to the process group) while the
+    driver's thread closes them: the run's thread reaps and closes its dead child while close()
+    joins it. multiprocessing's Process is not thread-safe (a close() in one thread between
+    another's check and its use of the process raises AssertionError or AttributeError there), so
+    every call on a child's Process object is one thread's at a time. Checked with each call made
+    to last 0.2 s, closing at once after the kill and once the run's thread is at it."""
+    import time
+    from multiprocessing.process import BaseProcess
+
+    inside: dict = {}  # id of a process → the threads inside one of its calls
+    overlaps = []
+
+    def slowed(name):
+        real = getattr(BaseProcess, name)
+
+        def call(self, *args, **kwargs):
+            users = inside.setdefault(id(self), set())
+            if users:
+                overlaps.append((name, threading.current_thread().name))
+            users.add(threading.get_ident())
+            try:
+                time.sleep(0.2)
+                return real(self, *args, **kwargs)
+            finally:
+                users.discard(threading.get_ident())
+        return call
+
+    for delay_s in (0.0, 0.3):
+        ex = ForkedExecutor()
+        assert ex.wait_ready(120)
+        pid = ex.pid
+        waiting = threading.Event()
+        recv = ex._recv
+        ex._recv = lambda deadline: (waiting.set(), recv(deadline))[1]
+        out = {}
+        t = threading.Thread(target=lambda: out.setdefault("r", ex.run(_req(duration=SLOW_S), time_limit_s=120)))
+        t.start()
+        assert waiting.wait(60)
+        with monkeypatch.context() as m:
+            for name in ("is_alive", "join", "kill", "close"):
+                m.setattr(BaseProcess, name, slowed(name))
+            os.kill(pid, signal.SIGKILL)
+            threading.Event().wait(delay_s)
+            ex.close()  # (raised nothing, and)
+            t.join(60)
+        assert not t.is_alive() and out["r"]["status"] == "crashed", (delay_s, out)
+        assert not overlaps, (delay_s, overlaps)
+        assert ex._process is None and not _alive(pid)
