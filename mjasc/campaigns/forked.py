@@ -137,6 +137,9 @@ class ForkedExecutor(IsolatedExecutor):
         if self._alive(self._process):
             return True
         self._drop()
+        if self._released:  # (release(): no new child)
+            self._exit = None
+            return False
         ctx = _context()
         try:
             if not forking_safe():
@@ -150,7 +153,15 @@ class ForkedExecutor(IsolatedExecutor):
             self._fallback = True
             super().start()
             return False
-        self._process, self._conn, self.pid = proc, ours, proc.pid
+        with self._state:
+            released = self._released
+            if not released:
+                self._process, self._conn, self.pid = proc, ours, proc.pid
+        if released:  # (by another thread while the child forked: it ends before any run)
+            ours.close()
+            self._end(proc, 0.0)
+            self._exit = None
+            return False
         if self._recv(deadline) is None:
             self._kill()
             return False
@@ -191,6 +202,8 @@ class ForkedExecutor(IsolatedExecutor):
         if not self._fork(deadline):
             if self._fallback:
                 return super().run(request, time_limit_s)
+            if self._released:
+                return self._released_run(t0)
             if self._exit is None:  # (the child was killed: not ready in time)
                 return self._timed_out(time_limit_s, t0)
             return self._died(t0)
