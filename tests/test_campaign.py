@@ -157,9 +157,16 @@ def test_per_vessel_samples_read_cost_cross_track_and_formation():
 def test_local_cluster_gives_the_in_process_results(here, cluster, tmp_path):
     spec, sync = here
     assert [r.status for r in sync.runs] == ["completed"] * 4
+    clients = set(cluster.scheduler.clients)
     dist = run_campaign(spec, tmp_path, scheduler=cluster.scheduler_address, progress=False)
     assert results(dist) == results(sync)
     assert dist.info["scheduler"].startswith("tcp://") and dist.info["workers"] == 2
+    # the campaign's client of the scheduler is closed (it was left connected: when the cluster
+    # later shut down it tried to reconnect, with tracebacks on stderr); the cluster runs on
+    t0 = time.time()
+    while set(cluster.scheduler.clients) != clients and time.time() - t0 < 30:
+        time.sleep(0.1)
+    assert set(cluster.scheduler.clients) == clients and cluster.scheduler.status.name == "running"
 
 
 def test_own_local_cluster_gives_the_in_process_results_and_closes_its_children(here, tmp_path):

@@ -117,20 +117,42 @@ def test_a_diverged_run_leaves_its_summary_a_readable_recording_and_the_last_goo
     assert json.loads((tmp_path / "summary.json").read_text())["status"] == "completed"
 
 
+#: ``python -m mjasc`` (as ``-m`` runs it) that touches the file named by its first argument once
+#: the run's main loop has simulated a first step (a record tick after t = 0): the moment a signal
+#: must come for the run to be interrupted mid-run.
+_MJASC_SAYING_WHEN_IT_STEPS = """
+import runpy, sys
+from pathlib import Path
+from mjasc.runs.runner import Runner
+marker = Path(sys.argv.pop(1))
+run = Runner.run
+def observed(self, *args, **kwargs):
+    self.observe("record", lambda event: event.time_s > 0 and not marker.exists() and marker.touch())
+    return run(self, *args, **kwargs)
+Runner.run = observed
+sys.argv[0] = "mjasc"
+runpy.run_module("mjasc", run_name="__main__", alter_sys=True)
+"""
+
+
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
 def test_a_run_stopped_by_a_signal_closes_its_recording_and_says_interrupted(tmp_path, sig):
     out = tmp_path / "run"
+    stepped = tmp_path / "stepped"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    proc = subprocess.Popen([sys.executable, "-m", "mjasc", "run", "thesis_6_1_static", "--out", str(out),
-                             "--no-progress", "--duration", "3000"], cwd=tmp_path, env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    proc = subprocess.Popen([sys.executable, "-c", _MJASC_SAYING_WHEN_IT_STEPS, str(stepped), "run",
+                             "thesis_6_1_static", "--out", str(out), "--no-progress", "--duration", "3000"],
+                            cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             # a test run started in the background inherits SIGINT ignored (shell job
                             # control), and Python then keeps ignoring it: give the run the default
                             preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    # Inside the main loop, past t = 0: waited for, not slept for (the recording's file appears
+    # before the loop, whose first step loads the compiled kernels: on a loaded host more than the
+    # 1 s once slept here — the run was then interrupted at t = 0, a spurious failure).
     deadline = time.time() + 120
-    while not (out / ".recording.part.rrd").exists() and time.time() < deadline and proc.poll() is None:
+    while not stepped.exists() and time.time() < deadline and proc.poll() is None:
         time.sleep(0.1)
-    time.sleep(1.0)  # inside the main loop
+    assert (out / ".recording.part.rrd").exists()
     assert proc.poll() is None, proc.communicate()  # 3000 s of simulation cannot be over yet
     proc.send_signal(sig)
     _, err = proc.communicate(timeout=120)

@@ -39,7 +39,8 @@ def open_client(scheduler, workers: int | None, threaded: bool = False):
     """(client, closers): a Client instance is used as is; None/"local" starts a LocalCluster of
     ``workers`` single-threaded processes (``threaded``: single-threaded workers in this process,
     for runs that execute in child processes of their own — module docstring); any other string is
-    an existing scheduler's address."""
+    an existing scheduler's address (the client connected to it is closed with the closers; the
+    cluster is left as it is)."""
     import dask
     from distributed import Client, LocalCluster
 
@@ -65,7 +66,8 @@ def open_client(scheduler, workers: int | None, threaded: bool = False):
                          f"got {scheduler!r}")
     if problem := workers_problem(scheduler, workers):
         raise ValueError(f"workers: {problem}")
-    return Client(scheduler), []
+    client = Client(scheduler)  # ours to close (not the cluster's workers and scheduler)
+    return client, [client]
 
 
 def scheduler_problem(scheduler) -> str:

@@ -35,6 +35,7 @@ import os
 import select
 import subprocess
 import sys
+import threading
 import time
 import traceback
 
@@ -154,14 +155,23 @@ class IsolatedExecutor:
         self._buf = b""
         self._starting = False  # the child's "ready" line (imports done) is still to be read
         self._exit: int | None = None  # the exit code of a child that died
+        # release(): for good — its worker is shutting down; a run that a worker's thread began
+        # before it (the campaign's Ctrl-C) must not start a child that nothing would close
+        self._released = False
+        self._state = threading.Lock()  # guards the child's reference against release()
 
     def _start(self) -> None:
         env = {**os.environ, **child_environment()}
-        self._proc = subprocess.Popen([self.python, "-m", "mjasc.campaigns.executor", *(["--warm"] if self.warm else [])],
-                                      stdin=subprocess.PIPE,
-                                      stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, bufsize=0)
-        self._buf = b""
-        self._starting = True
+        proc = subprocess.Popen([self.python, "-m", "mjasc.campaigns.executor", *(["--warm"] if self.warm else [])],
+                                stdin=subprocess.PIPE,
+                                stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, env=env, bufsize=0)
+        with self._state:
+            released = self._released
+            if not released:
+                self._proc, self._buf, self._starting = proc, b"", True
+        if released:  # (by another thread while the child started: it has not begun anything)
+            proc.kill()
+            proc.wait()
 
     def _kill(self) -> None:
         proc = self._proc
@@ -173,9 +183,21 @@ class IsolatedExecutor:
                 pass
         self._proc = None
 
+    def release(self) -> None:
+        """Close the child for good: its worker is shutting down (a local cluster's, on a Ctrl-C).
+        A run a worker's thread began before this, or begins after, starts no new child: it ends
+        ``crashed`` (closed only, :meth:`close`, the next run starts a new child)."""
+        with self._state:
+            self._released = True
+        self.close()
+
+    def _released_run(self, t0: float) -> dict:
+        return self._failure("crashed", "the run's worker is shutting down (its run process was released)", t0)
+
     def close(self) -> None:
         """End the child: it leaves at the end of its input (every result it wrote is complete)."""
-        proc = self._proc  # (a run's thread may drop it meanwhile: the campaign's Ctrl-C)
+        with self._state:
+            proc = self._proc  # (a run's thread may drop it meanwhile: the campaign's Ctrl-C)
         if proc is not None and proc.poll() is None:
             try:
                 proc.stdin.close()
@@ -191,7 +213,10 @@ class IsolatedExecutor:
     def start(self) -> None:
         """Start the child now (if it is not running), so it imports while the caller does other
         work: a child takes ~2 s to import MuJoCo and mjasc, once per worker and campaign."""
-        if self._proc is None or self._proc.poll() is not None:
+        if self._released:
+            return
+        proc = self._proc
+        if proc is None or proc.poll() is not None:
             self._start()
 
     def wait_ready(self, timeout_s: float | None = None) -> bool:
@@ -199,6 +224,8 @@ class IsolatedExecutor:
         False if it died or is not ready within ``timeout_s`` (it is then killed: the next run
         starts a new one)."""
         self.start()
+        if self._released:
+            return False
         if not self._starting:
             return True
         deadline = None if timeout_s is None else time.monotonic() + float(timeout_s)
@@ -212,6 +239,9 @@ class IsolatedExecutor:
         """The child's next output line; None at the deadline or when the child died (then reaped,
         its exit code in ``self._exit``)."""
         proc = self._proc
+        if proc is None:  # (released by another thread)
+            self._exit = None
+            return None
         fd = proc.stdout.fileno()
         while b"\n" not in self._buf:
             wait = None if deadline is None else max(0.0, deadline - time.monotonic())
@@ -234,6 +264,8 @@ class IsolatedExecutor:
         t0 = time.perf_counter()
         self.start()
         proc = self._proc
+        if proc is None:  # (released, by another thread)
+            return self._released_run(t0)
         try:
             proc.stdin.write((json.dumps(request) + "\n").encode())
         except (BrokenPipeError, OSError, ValueError):  # (ValueError: closed by close() meanwhile)
@@ -302,7 +334,7 @@ def release_isolated(key: str) -> None:
     _RELEASED.add(key)
     ex = _EXECUTORS.pop(key, None)
     if ex is not None:
-        ex.close()
+        ex.release()  # (a task that took the child before this starts none either)
 
 
 _RELEASED: set = set()  # the keys release_isolated closed

@@ -111,6 +111,12 @@ class ForkedExecutor(IsolatedExecutor):
         self._fallback = False  # no fork possible: a new interpreter's child (the base class)
         self.pid: int | None = None  # the current child's process id
         self._state = threading.Lock()  # guards taking the child and its pipe for closing
+        # Held for every call on a child's Process object (is_alive, join, kill, close): the run's
+        # thread reaps a child that died while close() joins it from the driver's thread (the
+        # campaign's Ctrl-C kills both at once); multiprocessing's Process is not thread-safe — a
+        # close() in one thread between another's checks and its use of the process ends in
+        # AssertionError or AttributeError there, not in the ValueError of a closed process.
+        self._reaping = threading.RLock()
 
     def start(self) -> None:
         """Start the fork server if needed (the child itself forks when it is waited for or given
@@ -128,13 +134,12 @@ class ForkedExecutor(IsolatedExecutor):
     def _fork(self, deadline: float | None) -> bool:
         """Fork the child and read its ready message; False when it is not ready by ``deadline``
         (then killed) — or when no child could be forked (then the fallback has started)."""
-        proc = self._process
-        try:
-            if proc is not None and proc.is_alive():
-                return True
-        except ValueError:  # (closed by another thread)
-            pass
+        if self._alive(self._process):
+            return True
         self._drop()
+        if self._released:  # (release(): no new child)
+            self._exit = None
+            return False
         ctx = _context()
         try:
             if not forking_safe():
@@ -148,7 +153,15 @@ class ForkedExecutor(IsolatedExecutor):
             self._fallback = True
             super().start()
             return False
-        self._process, self._conn, self.pid = proc, ours, proc.pid
+        with self._state:
+            released = self._released
+            if not released:
+                self._process, self._conn, self.pid = proc, ours, proc.pid
+        if released:  # (by another thread while the child forked: it ends before any run)
+            ours.close()
+            self._end(proc, 0.0)
+            self._exit = None
+            return False
         if self._recv(deadline) is None:
             self._kill()
             return False
@@ -168,7 +181,7 @@ class ForkedExecutor(IsolatedExecutor):
             self._exit = None
             return None
         except (EOFError, OSError):
-            self._exit = _reaped(proc)
+            self._exit = self._reaped(proc)
             self._drop()
             return None
 
@@ -189,6 +202,8 @@ class ForkedExecutor(IsolatedExecutor):
         if not self._fork(deadline):
             if self._fallback:
                 return super().run(request, time_limit_s)
+            if self._released:
+                return self._released_run(t0)
             if self._exit is None:  # (the child was killed: not ready in time)
                 return self._timed_out(time_limit_s, t0)
             return self._died(t0)
@@ -208,14 +223,48 @@ class ForkedExecutor(IsolatedExecutor):
             return self._died(t0)
         return json.loads(msg)
 
+    def _alive(self, proc) -> bool:
+        """Whether ``proc`` (a child, or None) is running; a closed one has ended."""
+        if proc is None:
+            return False
+        with self._reaping:
+            try:
+                return proc.is_alive()
+            except ValueError:  # (closed by another thread)
+                return False
+
+    def _reaped(self, proc) -> int | None:
+        """``proc``'s exit code once it has ended (waiting up to 10 s); None when there is no
+        process or another thread closed it meanwhile."""
+        if proc is None:
+            return None
+        with self._reaping:
+            try:
+                proc.join(10)
+                return proc.exitcode
+            except ValueError:
+                return None
+
     def _drop(self) -> None:
         with self._state:
             conn, proc = self._conn, self._process
             self._conn = self._process = None
         if conn is not None:
             conn.close()
-        if proc is not None:
+        self._end(proc, 0.0, kill=False)
+
+    def _end(self, proc, wait_s: float, kill: bool = True) -> None:
+        """Wait up to ``wait_s`` for ``proc`` (or None) to leave, kill it if it has not (``kill``),
+        and close it once it has ended — under the lock of every call on a child's process."""
+        if proc is None:
+            return
+        with self._reaping:
             try:
+                if wait_s > 0:
+                    proc.join(wait_s)
+                if kill and proc.is_alive():
+                    proc.kill()
+                    proc.join(10)
                 if not proc.is_alive():
                     proc.close()
             except ValueError:  # (closed by another thread meanwhile)
@@ -224,14 +273,7 @@ class ForkedExecutor(IsolatedExecutor):
     def _kill(self) -> None:
         if self._fallback:
             return super()._kill()
-        proc = self._process
-        if proc is not None:
-            try:
-                proc.kill()
-                proc.join(10)
-            except Exception:  # noqa: BLE001 — already reaped and closed by another thread
-                pass
-        self._drop()
+        self._take_and_end(0.0)
 
     def close(self) -> None:
         """End the child: it leaves when its pipe closes (every result it sent is complete). Safe
@@ -239,31 +281,14 @@ class ForkedExecutor(IsolatedExecutor):
         then ends ``crashed``."""
         if self._fallback:
             return super().close()
+        self._take_and_end(5.0)
+
+    def _take_and_end(self, wait_s: float) -> None:
+        """Take the child and its pipe (a run's thread then neither reaps nor closes the child),
+        close the pipe, give the child ``wait_s`` to leave, kill it if it has not, close it."""
         with self._state:
             proc, conn = self._process, self._conn
-            self._conn = None
+            self._conn = self._process = None
         if conn is not None:
             conn.close()
-        if proc is None:
-            return
-        try:
-            proc.join(5)
-            alive = proc.is_alive()
-        except ValueError:  # the run's thread saw the pipe close and reaped the child first
-            return
-        if alive:
-            self._kill()
-        else:
-            self._drop()
-
-
-def _reaped(proc) -> int | None:
-    """``proc``'s exit code once it has ended (waiting up to 10 s); None when there is no process
-    or another thread closed it meanwhile."""
-    if proc is None:
-        return None
-    try:
-        proc.join(10)
-        return proc.exitcode
-    except ValueError:
-        return None
+        self._end(proc, wait_s)
