@@ -27,7 +27,8 @@ import mujoco
 import numpy as np
 
 __all__ = ["VesselContractError", "check_vessel_folder", "check_hydrodynamics_toml", "check_vessel_mjcf",
-           "is_livery_material", "LIVERY_MATERIALS", "TOML_KEYS", "JOINTS", "SITES", "ACTUATORS", "SENSORS", "CAMERAS", "CONTACT_BAND_M"]
+           "is_livery_material", "LIVERY_MATERIALS", "TOML_KEYS", "JOINTS", "SITES", "ACTUATORS", "SENSORS",
+           "CAMERAS", "CONTACT_BAND_M"]
 
 #: ``hydrodynamics.toml``: exactly these tables and keys (besides top-level ``name``, ``description``).
 TOML_KEYS = {
@@ -164,7 +165,8 @@ def check_vessel_mjcf(path: Path, name: str, hydro: dict) -> None:
                   None if top is None else top.get("class"))
     classes = {d.get("class") for d in top.findall("default")}
     if not {"visual", "collision"} <= classes:
-        raise bad(f"<default class=\"{name}\">", "needs sub-classes 'visual' and 'collision'", sorted(map(str, classes)))
+        raise bad(f"<default class=\"{name}\">", "needs sub-classes 'visual' and 'collision'",
+                  sorted(map(str, classes)))
     world = root.find("worldbody")
     children = [] if world is None else list(world)
     if [c.tag for c in children] != ["body"]:
@@ -254,7 +256,8 @@ def _check_actuators(model, bad, time_constant_s: float) -> None:
     for i, side in enumerate(ACTUATORS):
         what = f"actuator '{side}'"
         checks = (
-            (model.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_SITE and model.actuator_trnid[i, 0] == model.site(side).id,
+            (model.actuator_trntype[i] == mujoco.mjtTrn.mjTRN_SITE
+             and model.actuator_trnid[i, 0] == model.site(side).id,
              f"must act at site '{side}'", f"transmission {int(model.actuator_trntype[i])}"),
             (np.allclose(model.actuator_gear[i], [1, 0, 0, 0, 0, 0]), "must have gear 1 0 0 0 0 0",
              _fmt(model.actuator_gear[i])),
