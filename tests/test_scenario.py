@@ -101,7 +101,8 @@ EXACT = {
     "vessels[0].avoidance: needs a path-following controller":
         lambda d: d["vessels"][0].update(controller={"type": "none", "commands": [0.5, 0.5]}),
     # a missing type says so (it said "must be a non-empty string, got None")
-    "vessels[1].type: missing (the vessel type: one of delfim, otter)": lambda d: d["vessels"][1].pop("type"),
+    "vessels[1].type: missing (the vessel type: one of delfim, otter, or a vessel folder's path)":
+        lambda d: d["vessels"][1].pop("type"),
     "static_obstacles[1].type: missing (one of circle, polygon)": lambda d: d["static_obstacles"][1].pop("type"),
 }
 

@@ -201,7 +201,7 @@ def test_bad_trial_specific_input():
 
 
 def test_unknown_vessel_lists_the_available_ones():
-    with pytest.raises(ValueError, match="--vessel.*available: .*otter"):
+    with pytest.raises(ValueError, match="^--vessel: must be one of delfim, otter or a vessel folder's path"):
         run_trial("speed", "titanic")
 
 

@@ -82,7 +82,7 @@ from mjasc.core.config_tables import (
     table,
 )
 from mjasc.core.geometry import signed_distance_to_polygon
-from mjasc.physics.vessels import available_vessels, load_vessel_type
+from mjasc.physics.vessels import load_vessel_type, resolve_vessel_type, vessel_files
 from mjasc.runs.plausibility import check_name
 
 __all__ = ["FAMILY_KINDS", "MAX_ATTEMPTS", "START_MARGIN_M", "EncounterFamily", "parse_family", "own_vessel_table"]
@@ -154,6 +154,13 @@ class EncounterFamily:
     @property
     def runs(self) -> int:
         return self.space.runs
+
+    def references(self) -> dict:
+        """Files the runs depend on (their content goes into the campaign's digest): the files of
+        the own vessels' vessel folder, when ``own.type`` is one (an edited hull, a new campaign)."""
+        vtype = (self.own or {}).get("type", "")
+        files = vessel_files(vtype) if vtype else {}
+        return {f"families[{self.index}].own.type": files} if files else {}
 
     def _prefix(self, j: int) -> str:
         return f"t{j + 1}." if len(self.roles) > 1 else ""
@@ -341,8 +348,12 @@ def parse_family(t: dict, where: str, index: int, base_dir: str | Path, threshol
         own = dict(table(t.get("own", {}), f"{where}.own"))
         check_keys(own, _OWN_KEYS, f"{where}.own")
         for key, value in own.items():
-            if key == "type":
-                string(value, f"{where}.own.type", choices=set(available_vessels()))
+            if key == "type":  # (a vessel folder: its absolute path, relative to the campaign file's folder)
+                written = string(value, f"{where}.own.type")
+                try:
+                    own[key] = resolve_vessel_type(written, base_dir)
+                except ValueError as exc:
+                    raise CampaignError(f"{where}.own.type: {exc}") from None
             else:
                 own[key] = dict(table(value, f"{where}.own.{key}"))
         rates = dict(table(t["rates"], f"{where}.rates")) if "rates" in t else None

@@ -30,6 +30,7 @@ from mjasc.core.config_tables import (
     show_path,
     string,
 )
+from mjasc.physics.vessels import vessel_files
 from mjasc.runs.scenario import Scenario, ScenarioError
 
 __all__ = ["Conditions", "PerturbationFamily", "parse_perturbation_family"]
@@ -93,8 +94,23 @@ class PerturbationFamily:
         return self.runs_per_point
 
     def references(self) -> dict:
-        """Files the runs depend on (their content goes into the campaign's digest)."""
-        return {self.scenario_ref: self.data}
+        """Files the runs depend on (their content goes into the campaign's digest): the scenario
+        and the files of each vessel folder its vessels' ``type`` names (an edited hull, a new campaign)."""
+        refs = {self.scenario_ref: self.data}
+        for i, v in enumerate(self.scenario.vessels):
+            files = vessel_files(v.type)
+            if files:
+                refs[f"{self.scenario_ref} vessels[{i}].type"] = files
+        return refs
+
+    def _resolved_types(self, doc: dict) -> dict:
+        """``doc`` with each vessel folder's ``type`` as its absolute path (the scenario file wrote
+        it relative to its own folder; a run's scenario text is read from nowhere)."""
+        vessels = doc.get("vessels")
+        pairs = list(zip(vessels, self.scenario.vessels)) if isinstance(vessels, list) else []
+        if all(v.get("type") == sv.type for v, sv in pairs):
+            return doc
+        return {**doc, "vessels": [{**v, "type": sv.type} for v, sv in pairs]}
 
     def generate(self, k: int, base_seed: int, index: int) -> tuple[dict, dict, int, str]:
         """(parameters, scenario document, seed, header) of the campaign's run ``index`` (family run k)."""
@@ -104,7 +120,7 @@ class PerturbationFamily:
         seed = base_seed + index
         if self.first_seed is not None:
             seed = doc["seed"] = self.first_seed + k
-        doc = self.conditions.apply(doc)
+        doc = self._resolved_types(self.conditions.apply(doc))
         params = {} if draws is None else _flat_draws(draws.as_dict(self.scenario))
         params.update({f"conditions.{key}": v for key, v in vars(self.conditions).items() if v is not None})
         header = f"perturbation of {self.scenario_ref} ({self.scenario.name}), draws of run {index}, seed {seed}"

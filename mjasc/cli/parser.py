@@ -6,7 +6,7 @@
     mjasc report FOLDER [--json] [--out DIR] [--format png svg pdf]
     mjasc extract FOLDER [RUN ...] [--outcome collision|near_miss|failed] [--out DIR]
     mjasc search CAMPAIGN FAMILY [--method cross_entropy|uniform] [--budget N] [--batch N] [--failure-separation M] [--seed N] [--workers N] [--scheduler ADDR] [--out DIR]
-    mjasc trial speed|turning-circle|zigzag|stopping --vessel NAME [--port F] [--starboard F] [--json]
+    mjasc trial speed|turning-circle|zigzag|stopping --vessel NAME|PATH [--port F] [--starboard F] [--json]
     mjasc view RUN_DIR|RECORDING [--print]
     mjasc figures [--out DIR] [--format png svg pdf]
     mjasc render DOMAIN TASK [--policy random|baseline|goal_line|cas|cas:METHOD] [--seed N] [--camera CAM] [--no-hud] [--out DIR]   (dm_control suite)
@@ -131,7 +131,10 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     t.add_argument("kind", choices=["speed", "turning-circle", "zigzag", "stopping"],
                    help="speed: steady surge speed at constant commands; turning-circle: steady turn "
                         "(diameter, yaw rate); zigzag: heading overshoots; stopping: distance and time to stop")
-    t.add_argument("--vessel", required=True, help="a vessel type ('mjasc list' shows them), e.g. otter")
+    t.add_argument("--vessel", required=True,
+                   help="a built-in vessel type ('mjasc list' shows them), e.g. otter, or a vessel folder's path "
+                        "(a folder holding <folder name>.xml and hydrodynamics.toml: assets/README.md, "
+                        "\"Your own hull\"), e.g. examples/my_hull/hulls/otter_payload")
     t.add_argument("--port", type=float, default=None, help="constant port propeller command in [-1, 1] "
                                                              "(default: the trial's own)")
     t.add_argument("--starboard", type=float, default=None, help="constant starboard propeller command in "

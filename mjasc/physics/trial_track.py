@@ -12,7 +12,7 @@ import numpy as np
 
 from mjasc.core.config_tables import check_params, param
 from mjasc.physics.simulation import Simulation
-from mjasc.physics.vessels import load_vessel_type
+from mjasc.physics.vessels import load_vessel_type, resolve_vessel_type
 from mjasc.physics.world import build_world
 
 __all__ = ["SteadyStateCriterion", "STEADY", "TrialTrack", "new_track", "amidships_command"]
@@ -100,8 +100,10 @@ class TrialTrack:
 
 
 def new_track(vessel_name: str) -> TrialTrack:
-    vtype = load_vessel_type(vessel_name)
-    sim = Simulation(build_world([(vessel_name, vtype)]))
+    """A lone hull of ``vessel_name`` (a built-in name or a vessel folder's path, relative to the
+    current folder) at rest at the origin."""
+    vtype = load_vessel_type(resolve_vessel_type(vessel_name))
+    sim = Simulation(build_world([(vtype.name, vtype)]))
     sim.reset(np.zeros((1, 3)))
     return TrialTrack(sim)
 

@@ -319,8 +319,9 @@ def _stopping(track: TrialTrack, p: float, s: float) -> dict:
 
 def run_trial(kind: str, vessel_name: str, port: float | None = None, starboard: float | None = None,
               *, zigzag_angle_deg: float = 20.0) -> dict:
-    """Run one standard manoeuvring trial of ``vessel_name`` in still water; see the module docstring
-    for each kind's procedure, defaults and returned keys.
+    """Run one standard manoeuvring trial of ``vessel_name`` (a built-in name, or a vessel folder's
+    path relative to the current folder) in still water; see the module docstring for each kind's
+    procedure, defaults and returned keys.
 
     kind: one of :data:`TRIAL_KINDS`. port / starboard: constant normalized propeller commands in
     [−1, 1] of the manoeuvre (``None`` = the kind's default in :data:`DEFAULT_COMMANDS`).

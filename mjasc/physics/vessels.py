@@ -1,13 +1,22 @@
-"""The vessel library: one folder per hull under ``assets/vessels/<name>/``.
+"""The vessel library: one folder per hull, built in under ``assets/vessels/<name>/`` or a user's own.
 
 Each folder holds ``<name>.xml`` (MJCF: geometry, mass, inertia, propeller sites, shaft-lag
 actuators), ``hydrodynamics.toml`` (added mass, damping, cross-flow, propellers, limits — every
 number with its source) and a README. This module reads them into a typed :class:`VesselType`.
+
+A vessel ``type`` is a built-in name (``"otter"``: :func:`available_vessels`) or the path of a
+vessel folder (``"hulls/heron"``, ``"~/boats/heron"``, ``"./heron"``: a value holding a ``/`` or
+starting with ``~`` or ``.``). :func:`resolve_vessel_type` turns what a file wrote into what the
+rest of mjasc holds — the built-in name unchanged, a folder as its absolute path, checked against
+the contract (:mod:`mjasc.physics.vessel_contract`) — once, where the file is read;
+:func:`load_vessel_type` takes either.
 """
 
 from __future__ import annotations
 
 import functools
+import hashlib
+import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,7 +29,8 @@ ASSETS_DIR = assets_dir()
 VESSELS_DIR = ASSETS_DIR / "vessels"
 SCENE_XML = ASSETS_DIR / "scene" / "water.xml"
 
-__all__ = ["VesselType", "available_vessels", "load_vessel_type", "ASSETS_DIR", "SCENE_XML"]
+__all__ = ["VesselType", "available_vessels", "load_vessel_type", "resolve_vessel_type", "is_vessel_path",
+           "vessel_files", "ASSETS_DIR", "SCENE_XML"]
 
 
 @dataclass(frozen=True)
@@ -57,15 +67,85 @@ def _get(table: dict, key: str, where: str, default=None):
     return number(table[key], f"{where}.{key}")
 
 
-@functools.lru_cache(maxsize=None)
+def is_vessel_path(value: str) -> bool:
+    """Whether a ``type`` value names a folder (a ``/``, or a leading ``~`` or ``.``) rather than a built-in."""
+    return "/" in value or os.sep in value or value.startswith(("~", "."))
+
+
+def resolve_vessel_type(value: str, base_dir: str | Path | None = None) -> str:
+    """A ``type`` as a file wrote it → what :func:`load_vessel_type` takes: a built-in name
+    unchanged; a vessel folder's path (``~`` expanded, relative to ``base_dir``, default the
+    current folder) as its absolute path, after checking the folder against the contract.
+    Raises ValueError (one line: the reason, and the value as written)."""
+    from mjasc.physics.vessel_contract import VesselContractError
+
+    if not is_vessel_path(value):
+        if value in available_vessels():
+            return value
+        raise ValueError(f"must be one of {', '.join(available_vessels())} or a vessel folder's path (a folder "
+                         f"here: ./{value}), got {value!r}")
+    folder = Path(value).expanduser()
+    if not folder.is_absolute():
+        folder = Path(base_dir if base_dir is not None else ".") / folder
+    folder = folder.resolve()
+    if not folder.is_dir():
+        raise ValueError(f"no such vessel folder (relative to {'the file' if base_dir is not None else 'the current'} "
+                         f"folder: {folder}), got {value!r}")
+    for f in (f"{folder.name}.xml", "hydrodynamics.toml"):
+        if not (folder / f).is_file():
+            raise ValueError(f"the vessel folder has no {f} (it holds <folder name>.xml and hydrodynamics.toml, "
+                             f"assets/README.md), got {value!r}")
+    try:
+        load_vessel_type(str(folder))
+    except VesselContractError as exc:  # (named as the user wrote it)
+        raise ValueError(str(exc).replace(str(folder), value.rstrip("/" + os.sep), 1)) from None
+    return str(folder)
+
+
+def vessel_files(vessel_type: str) -> dict[str, str]:
+    """The SHA-256 of each file of a vessel folder (a resolved ``type``; {} for a built-in name):
+    what a campaign's digest covers, so that an edited hull is a new campaign."""
+    if not os.path.isabs(vessel_type):
+        return {}
+    folder = Path(vessel_type)
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir()) if p.is_file()}
+
+
 def load_vessel_type(name: str) -> VesselType:
-    """Read ``assets/vessels/<name>/``; errors name the file and the field."""
-    folder = VESSELS_DIR / name
+    """A built-in name (``assets/vessels/<name>/``) or a vessel folder's absolute path (checked
+    against the contract: :func:`resolve_vessel_type`) → :class:`VesselType`; errors name the file
+    and the field."""
+    if os.path.isabs(name):
+        folder = Path(name)
+        stamp = tuple((p.stat().st_mtime_ns, p.stat().st_size) if p.is_file() else None
+                      for p in (folder / f"{folder.name}.xml", folder / "hydrodynamics.toml"))
+        return _load_folder(name, stamp)
+    return _load_builtin(name)
+
+
+@functools.lru_cache(maxsize=None)
+def _load_builtin(name: str) -> VesselType:
     if name not in available_vessels():
         raise ValueError(f"vessel type {name!r}: unknown; available: {', '.join(available_vessels()) or 'none'}")
+    folder = VESSELS_DIR / name
+    return _read(folder, str((folder / "hydrodynamics.toml").relative_to(ASSETS_DIR.parent)))
+
+
+@functools.lru_cache(maxsize=64)
+def _load_folder(path: str, stamp: tuple) -> VesselType:
+    """A user's vessel folder (``stamp``: its files' times and sizes — an edited file is read again)."""
+    from mjasc.physics.vessel_contract import check_vessel_folder
+
+    folder = Path(path)
+    check_vessel_folder(folder)
+    return _read(folder, str(folder / "hydrodynamics.toml"))
+
+
+def _read(folder: Path, where: str) -> VesselType:
+    """Read ``folder``'s hydrodynamics.toml (``where``: the file as errors name it)."""
+    name = folder.name
     toml_path = folder / "hydrodynamics.toml"
     t = load_toml(toml_path, ValueError, "hydrodynamics")
-    where = str(toml_path.relative_to(ASSETS_DIR.parent))
     geo, am, dmp = t.get("geometry", {}), t.get("added_mass", {}), t.get("damping", {})
     cf, prop, lim = t.get("cross_flow", {}), t.get("propellers", {}), t.get("limits", {})
     length = _get(geo, "length_m", f"{where}: geometry")

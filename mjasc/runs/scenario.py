@@ -36,7 +36,7 @@ from mjasc.core.resources import resolve_bundled
 from mjasc.guidance.paths import Path
 from mjasc.physics.currents import UniformCurrent, current_from_config
 from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
-from mjasc.physics.vessels import available_vessels, load_vessel_type
+from mjasc.physics.vessels import available_vessels, load_vessel_type, resolve_vessel_type
 from mjasc.runs.plausibility import check_name, check_plausible, file_name
 from mjasc.runs.scenario_values import (MAX_DURATION_S, RECORDING_DETAILS, Outputs, Rates, Scenario,  # noqa: F401
                                        ScenarioError, VesselConfig, camera_problem, check_camera_vessel)
@@ -118,10 +118,11 @@ def _outputs(t: dict) -> Outputs:
     return dataclass_from_table(Outputs, t, "outputs", check=Outputs.check)
 
 
-def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
+def _vessel(t: Any, i: int, path_optional: bool = False, base_dir: FilePath | None = None) -> VesselConfig:
     """One ``[[vessels]]`` table. ``path_optional``: the scenario's mission never follows the
     controller's path (target tracking only): without waypoints the vessel gets a 10 m line ahead
-    of its start pose, which its first mission leg replaces."""
+    of its start pose, which its first mission leg replaces. ``base_dir``: the scenario file's
+    folder, against which a vessel folder's path (``type = "hulls/heron"``) is resolved."""
     where = f"vessels[{i}]"
     t = table(t, where)
     check_keys(t, _VESSEL, where)
@@ -131,8 +132,13 @@ def _vessel(t: Any, i: int, path_optional: bool = False) -> VesselConfig:
             raise ScenarioError(f"{where}.{sub}.{misplaced[0]}: unknown field")
     name = check_name(string(t.get("name", f"v{i}"), f"{where}.name"), f"{where}.name", vessel=True)
     if "type" not in t:
-        raise ScenarioError(f"{where}.type: missing (the vessel type: one of {', '.join(sorted(available_vessels()))})")
-    vtype = string(t.get("type"), f"{where}.type", choices=set(available_vessels()))
+        raise ScenarioError(f"{where}.type: missing (the vessel type: one of {', '.join(sorted(available_vessels()))}, "
+                            f"or a vessel folder's path)")
+    vtype = string(t.get("type"), f"{where}.type")
+    try:  # (a folder: its absolute path from here on, checked against the contract)
+        vtype = resolve_vessel_type(vtype, base_dir)
+    except ValueError as exc:
+        raise ScenarioError(f"{where}.type: {exc}") from None
     pos = read_field(VesselConfig, "position_m", t, where, default=np.zeros(2))
     heading = _heading(t, where)
     vt = load_vessel_type(vtype)
@@ -292,7 +298,8 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
 
         mission = parse_mission(data["mission"], "mission")
     path_optional = mission is not None and not {"go_to_formation", "follow_path"} & set(mission.phases)
-    vessels = tuple(_vessel(v, i, path_optional) for i, v in enumerate(vessels_raw))
+    base_dir = None if source.startswith("<") else FilePath(source).parent
+    vessels = tuple(_vessel(v, i, path_optional, base_dir) for i, v in enumerate(vessels_raw))
     names = [v.name for v in vessels]
     for i, n in enumerate(names):
         if names.index(n) != i:

@@ -33,14 +33,15 @@ import re
 import mujoco
 import numpy as np
 
+from mjasc.physics.vessel_contract import LIVERY_MATERIALS, is_livery_material
 from mjasc.runs.blueprint import vessel_colour
 
 __all__ = ["render_model", "paint_liveries", "widen_water", "thicken_walls", "reach_far", "model_vessels",
            "LIVERY_MATERIALS", "WALL_MIN_PX"]
 
-#: The materials (names as in the vessel's MJCF) that carry a vessel's livery; a material whose
-#: name ends in ``_livery`` does too (a new vessel type opts in by naming it so).
-LIVERY_MATERIALS = frozenset({"otter_pontoon", "delfim_red"})
+# LIVERY_MATERIALS (mjasc.physics.vessel_contract): the materials (names as in the vessel's MJCF)
+# that carry a vessel's livery; a material whose name ends in ``_livery`` does too (a new vessel
+# type opts in by naming it so). A hull without one keeps the model's own colours.
 #: A framed view draws a structure's walls at least this many pixels thick (4:2:0 chroma: 2 × 2).
 WALL_MIN_PX = 3.0
 _WALL = re.compile(r"obstacle_.+_wall\d+")
@@ -74,7 +75,7 @@ def paint_liveries(model, vessel_colours) -> None:
     colours = {name: np.asarray(rgb[:3], float) / 255.0 for name, rgb in vessel_colours}
     for k in range(model.nmat):
         owner, _, material = (mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_MATERIAL, k) or "").rpartition("/")
-        if owner in colours and (material in LIVERY_MATERIALS or material.endswith("_livery")):
+        if owner in colours and is_livery_material(material):
             model.mat_rgba[k, :3] = colours[owner]
 
 
