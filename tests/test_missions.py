@@ -71,6 +71,29 @@ def test_dubins_length_is_the_built_paths_length():
             dubins_length([0, 0], 0.0, [5, 5], 1.0, bad)
 
 
+def test_a_vessel_already_on_its_lead_in_sails_on_instead_of_looping_back():
+    """Deployed 0.5 m past its lead-in's entry (R = 10 m, lead-in 15 m), a vessel planned a Dubins loop
+    back to the entry: 78 m for 14.5 m straight on. On its lead-in the transit now takes the longest
+    lead-in that is still the shortest way: straight on here, an S-bend onto the line from 2 m off
+    it; off the lead-in (behind its entry, or across the line) the lead-in is as configured."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation, lead_in_for
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    assert plan_transit([85.5, 0.0], 0.0, formation, 10.0, 15.0).length > 2 * math.pi * 10.0  # the loop
+    assert lead_in_for([85.5, 0.0], 0.0, formation, 10.0, 15.0) == pytest.approx(14.5)
+    ph = GoToFormation(0, GoToFormationOptions(turn_radius_m=10.0, lead_in_m=15.0), formation, 1.5)
+    leg = ph.begin(0.0, _nav(85.5, 0.0, 0.0))
+    assert leg.path.length == pytest.approx(14.5) and ph.own_arrival_s == pytest.approx(14.5 / 1.5)
+    lead = lead_in_for([90.0, 2.0], 0.1, formation, 10.0, 15.0)
+    bend = plan_transit([90.0, 2.0], 0.1, formation, 10.0, lead)
+    assert bend.length < 11.0 and np.allclose(bend.point(bend.length), [100.0, 0.0], atol=1e-6)
+    s = np.linspace(0.0, bend.length, 400)
+    assert np.all(np.abs(bend.curvature(s)) <= 0.1 + 1e-9) and abs(wrap(bend.tangent_angle(bend.length))) < 1e-9
+    for pose in (([40.0, 0.0], 0.0), ([-20.0, 40.0], math.pi), ([92.0, 0.0], 0.6 * math.pi), ([92.0, 30.0], 0.0)):
+        assert lead_in_for(*pose, formation, 10.0, 15.0) == 15.0
+
+
 def test_a_bump_lengthens_a_transit_inside_the_lead_ins_jump():
     """A vessel 60 m behind its formation pose, on its course: moving the lead-in's entry back adds
     no length until the entry passes behind the vessel, then a whole turn (> 2πR). 10 m more are

@@ -39,7 +39,7 @@ from mjasc.missions.config import GoToFormationOptions
 from mjasc.missions.dubins import dubins_length, dubins_path
 from mjasc.missions.legs import MissionBroadcast, MissionLeg, PhaseInputs
 
-__all__ = ["plan_transit", "transit_length", "bumped_transit", "GoToFormation"]
+__all__ = ["plan_transit", "transit_length", "bumped_transit", "lead_in_for", "GoToFormation"]
 
 
 def _lead_in(position_m, formation_path: Path, lead_in_m: float) -> tuple:
@@ -55,8 +55,8 @@ def plan_transit(position_m, heading_rad: float, formation_path: Path, turn_radi
                  lead_in_m: float) -> Path:
     """The transit from a pose to the start of ``formation_path``: a Dubins curve to ``lead_in_m``
     before it, then straight along its start course (a straight line alone when the vessel is
-    exactly at that entry on the course; a vessel already past the entry, on the lead-in, gets a
-    Dubins loop back to it — a known limit, docs/missions.md)."""
+    exactly at that entry on the course; a vessel already past the entry, on the lead-in, would get
+    a Dubins loop back to it: the phase plans it with :func:`lead_in_for`'s shorter lead-in)."""
     p, goal, course, entry = _lead_in(position_m, formation_path, lead_in_m)
     try:
         head = dubins_path(p, heading_rad, entry, course, turn_radius_m)
@@ -76,6 +76,29 @@ def transit_length(position_m, heading_rad: float, formation_path: Path, turn_ra
     if not math.isfinite(head):  # (at the entry on the formation course: the straight line alone)
         return float(math.hypot(*(goal - p)))
     return head + max(lead_in_m, 0.0)
+
+
+def lead_in_for(position_m, heading_rad: float, formation_path: Path, turn_radius_m: float,
+                lead_in_m: float) -> float:
+    """The lead-in [m] a transit from this pose uses: ``lead_in_m``, unless the vessel is already on
+    its lead-in — past the entry, short of the formation pose, within 2R of the course line and
+    heading within 90° of it — where a Dubins curve to the entry behind it would loop back (a whole
+    turn, > 2πR, for a few metres of straight). There it is the longest lead-in whose transit is
+    still the shortest (within :data:`LENGTH_TOL_M`): the vessel sails on, with an S-bend onto the
+    line if it is off it."""
+    p, goal, course, _ = _lead_in(position_m, formation_path, lead_in_m)
+    u = np.array([math.cos(course), math.sin(course)])
+    d = float(np.dot(goal - p, u))  # along the course to the pose
+    lateral = float(u[0] * (p[1] - goal[1]) - u[1] * (p[0] - goal[0]))
+    if not (0.0 < d < lead_in_m and abs(lateral) <= 2.0 * turn_radius_m
+            and abs(wrap_angle(float(heading_rad) - course)) < 0.5 * math.pi):
+        return lead_in_m
+    leads = np.linspace(0.0, lead_in_m, 61)
+    lengths = np.array([transit_length(p, heading_rad, formation_path, turn_radius_m, x) for x in leads])
+    shortest = float(np.min(lengths))
+    if lengths[-1] <= shortest + LENGTH_TOL_M:  # (no loop: the entry is still reachable)
+        return lead_in_m
+    return float(leads[np.flatnonzero(lengths <= shortest + LENGTH_TOL_M)[-1]])
 
 
 def _bump_geometry(position_m, heading_rad: float, formation_path: Path, turn_radius_m: float,
@@ -192,8 +215,13 @@ class GoToFormation:
         o = self.options
         return plan_transit(nav.position_m, nav.heading_rad, self.formation_path, o.turn_radius_m, lead_in_m)
 
+    def _base_lead_in(self, nav) -> float:
+        o = self.options
+        return lead_in_for(nav.position_m, nav.heading_rad, self.formation_path, o.turn_radius_m, o.lead_in_m)
+
     def begin(self, t_s: float, nav) -> MissionLeg:
-        self.path = self._plan(nav, self.options.lead_in_m)
+        self.lead_in_m = self._base_lead_in(nav)
+        self.path = self._plan(nav, self.lead_in_m)
         self.t0_s = float(t_s)
         self.own_arrival_s = self.team_arrival_s = self.t0_s + self.path.length / self.cruise_m_s
         self.speed_m_s = self.cruise_m_s
@@ -215,36 +243,36 @@ class GoToFormation:
         self.agreed = True
         need_m = self.cruise_m_s * (self.team_arrival_s - t_s)
         o = self.options
-        base = self._plan(nav, o.lead_in_m)
-        path, lead, push = base, o.lead_in_m, 0.0
+        lead0 = self._base_lead_in(nav)
+        base = self._plan(nav, lead0)
+        path, lead, push = base, lead0, 0.0
         if math.isfinite(need_m) and base.length < need_m - LENGTH_TOL_M:
             # Path length against the lead-in's extension x: continuous but for jumps where the
             # shortest Dubins word changes
             x, length = _solve_length(lambda x: transit_length(nav.position_m, nav.heading_rad, self.formation_path,
-                                                               o.turn_radius_m, o.lead_in_m + x), need_m, need_m)
+                                                               o.turn_radius_m, lead0 + x), need_m, need_m)
             # (never a longer transit than the need: it would arrive late; a shorter one is sailed slower)
             if _shortfall_key(length, need_m) < _shortfall_key(base.length, need_m):
-                lead = o.lead_in_m + x
+                lead = lead0 + x
                 path = self._plan(nav, lead)
             if abs(path.length - need_m) > LENGTH_TOL_M:  # inside a jump: a bump
                 # only a bump that gives the length: one that cannot is a detour sailed slower all the same
-                got = self._bump(t_s, nav, need_m, mate_plans or {})
+                got = self._bump(t_s, nav, need_m, mate_plans or {}, lead0)
                 if got is not None and abs(got[0].length - need_m) <= LENGTH_TOL_M:
-                    (path, push), lead = got, o.lead_in_m
+                    (path, push), lead = got, lead0
         self.path, self.lead_in_m, self.bump_m = path, lead, push
         self.speed_m_s = self._speed(t_s, path.length)
         return MissionLeg(self.name, self.index, path, 0.0, self.speed_m_s, True)
 
-    def _bump(self, t_s: float, nav, need_m: float, mate_plans: dict) -> tuple[Path, float] | None:
+    def _bump(self, t_s: float, nav, need_m: float, mate_plans: dict, lead: float) -> tuple[Path, float] | None:
         """The transit with a bump (:func:`bumped_transit`) whose length comes closest to ``need_m``
-        [m] without exceeding it, and its push [m] (left positive); None when the vessel is at its
-        entry already. Of the two sides, one whose bump gives the length (within
+        [m] without exceeding it, and its push [m] (left positive), with the lead-in ``lead`` [m];
+        None when the vessel is at its entry already. Of the two sides, one whose bump gives the length (within
         :data:`LENGTH_TOL_M`), then the one whose transit, sailed at cruise speed from ``t_s``,
         passes the team mates' broadcast plans at the larger separation at equal times (counted up
         to :data:`BUMP_CLEAR_M`), then the one nearer the length, then the smaller push, then the
         left. The search reads the lengths only (:func:`~mjasc.missions.dubins.dubins_length`)."""
-        o = self.options
-        r, lead = o.turn_radius_m, o.lead_in_m
+        r = self.options.turn_radius_m
         try:
             p, _, course, entry, head = _bump_geometry(nav.position_m, nav.heading_rad, self.formation_path, r, lead)
         except ValueError:
