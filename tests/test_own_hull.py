@@ -159,6 +159,13 @@ BROKEN = {  # (file, old, new) → the error's tail after "<file>: "
     "no_chase": (XML, 'camera name="chase"', 'camera name="behind"', "camera 'chase': missing, got none"),
     "toml_key": (TOML, "X_uu = 0.0", "X_uuu = 0.0", "damping.X_uuu: unknown key"),
     "toml_sign": (TOML, "X_u = -77.55", "X_u = 77.55", "damping.X_u: must be ≤ 0 (Fossen's convention), got 77.55"),
+    # the default class renamed, the body's childclass not (MuJoCo's own message names neither)
+    "stale_childclass": (XML, 'childclass="my_otter"', 'childclass="otter"',
+                         "<body name='hull' childclass>: must name a default class (the folder's name 'my_otter'), "
+                         "got 'otter'"),
+    # MuJoCo's error keeps its second line, the element and the line number
+    "unknown_class": (XML, 'class="visual" type="box" material="otter_deck"', 'class="visuals" type="box" material="otter_deck"',
+                      "MuJoCo: does not compile, got XML Error: unknown default class name 'visuals'; Element 'geom', line "),
     # (the geom is in the MJCF: the error names that file, and the TOML's field)
     "radius": (TOML, "radius_m = 1.2", "radius_m = 0.9", f"@{XML}: geom 'port_pontoon_visual': must lie inside "
                                                          "geometry.radius_m = 0.9 of hydrodynamics.toml, got a corner"),
