@@ -228,6 +228,20 @@ def test_missing_folder_or_file_names_the_scenario_field(tmp_path):
         load_scenario(path)
 
 
+def test_a_copied_folder_whose_mjcf_keeps_the_old_name_says_which_file_to_rename(tmp_path, monkeypatch):
+    """The first rename of four forgotten (hulls/tern/otter.xml): the error names the file found.
+    A missing ~ or absolute folder is not "relative to the current folder"."""
+    folder = tmp_path / "hulls" / "tern"
+    shutil.copytree(VESSELS_DIR / "otter", folder)
+    with pytest.raises(ScenarioError, match=r"^vessels\[0\]\.type: the vessel folder has no tern\.xml \(.*; it has "
+                                            r"otter\.xml: rename it to tern\.xml, the folder's name\), got 'hulls/tern'$"):
+        parse_scenario(one_vessel("hulls/tern"), str(tmp_path / "s.toml"))
+    monkeypatch.setenv("HOME", str(tmp_path))
+    with pytest.raises(ValueError, match=rf"^no such vessel folder \({re.escape(str(tmp_path.resolve()))}/boats/x\), "
+                                         r"got '~/boats/x'$"):
+        resolve_vessel_type("~/boats/x")
+
+
 def test_a_folder_path_is_relative_to_the_scenario_file_and_expands_home(tmp_path, monkeypatch):
     copy_vessel(VESSELS_DIR / "otter", tmp_path / "home" / "boats" / "mine")
     monkeypatch.setenv("HOME", str(tmp_path / "home"))

@@ -85,16 +85,22 @@ def resolve_vessel_type(value: str, base_dir: str | Path | None = None) -> str:
         raise ValueError(f"must be one of {', '.join(available_vessels())} or a vessel folder's path (a folder "
                          f"here: ./{value}), got {value!r}")
     folder = Path(value).expanduser()
-    if not folder.is_absolute():
+    relative = not folder.is_absolute()
+    if relative:
         folder = Path(base_dir if base_dir is not None else ".") / folder
     folder = folder.resolve()
     if not folder.is_dir():
-        raise ValueError(f"no such vessel folder (relative to {'the file' if base_dir is not None else 'the current'} "
-                         f"folder: {folder}), got {value!r}")
+        if relative:
+            raise ValueError(f"no such vessel folder (relative to {'the file' if base_dir is not None else 'the current'} "
+                             f"folder: {folder}), got {value!r}")
+        raise ValueError(f"no such vessel folder ({folder}), got {value!r}")
     for f in (f"{folder.name}.xml", "hydrodynamics.toml"):
         if not (folder / f).is_file():
+            # (the usual slip: a copied folder whose MJCF keeps the old name, otter.xml)
+            others = sorted(p.name for p in folder.glob("*.xml") if p.name != "scene.xml") if f.endswith(".xml") else []
+            found = f"; it has {', '.join(others)}: rename it to {f}, the folder's name" if others else ""
             raise ValueError(f"the vessel folder has no {f} (it holds <folder name>.xml and hydrodynamics.toml, "
-                             f"assets/README.md), got {value!r}")
+                             f"assets/README.md{found}), got {value!r}")
     try:
         load_vessel_type(str(folder))
     except VesselContractError as exc:  # (named as the user wrote it)
