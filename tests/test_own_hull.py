@@ -272,6 +272,23 @@ def test_an_encounter_family_sails_a_folder_and_the_digest_covers_its_files(tmp_
         parse_campaign_spec(family_campaign(tmp_path, "hulls/none"), str(tmp_path / "c.toml"), tmp_path)
 
 
+def test_documenting_the_hull_is_not_a_new_campaign(tmp_path):
+    """The digest covers what the runs read (<name>.xml, hydrodynamics.toml) by content: the
+    derivation written into the hull's README.md or comments, or its viewer scene.xml edited, keep
+    the campaign (a resumed campaign would otherwise recompute every run); a number does not."""
+    folder = copy_vessel(VESSELS_DIR / "otter", tmp_path / "hulls" / "my_otter")
+    digest = lambda: parse_campaign_spec(family_campaign(tmp_path, "hulls/my_otter"), str(tmp_path / "c.toml"),
+                                         tmp_path).digest
+    before = digest()
+    (folder / "README.md").write_text("# my_otter\n\nDerivation: ...\n")
+    edit(folder / "scene.xml", "<mujoco", "<!-- my boat -->\n<mujoco")
+    edit(folder / "hydrodynamics.toml", "X_uu = 0.0", "X_uu = 0.0  # measured, 2026 sea trial")
+    edit(folder / "my_otter.xml", "<worldbody>", "<!-- checked against the drawings -->\n  <worldbody>")
+    assert digest() == before
+    edit(folder / "hydrodynamics.toml", "X_uu = 0.0", "X_uu = -1.0")
+    assert digest() != before
+
+
 def test_a_perturbed_scenario_keeps_its_folder_and_the_digest_covers_it(tmp_path):
     folder = copy_vessel(VESSELS_DIR / "otter", tmp_path / "hulls" / "my_otter")
     doc = one_vessel("hulls/my_otter")

@@ -109,12 +109,24 @@ def resolve_vessel_type(value: str, base_dir: str | Path | None = None) -> str:
 
 
 def vessel_files(vessel_type: str) -> dict[str, str]:
-    """The SHA-256 of each file of a vessel folder (a resolved ``type``; {} for a built-in name):
-    what a campaign's digest covers, so that an edited hull is a new campaign."""
+    """The SHA-256 of the two files mjasc reads from a vessel folder (a resolved ``type``; {} for a
+    built-in name), by content: what a campaign's digest covers, so that an edited hull is a new
+    campaign and, as for the campaign file, a comment is not (the TOML as parsed, the MJCF in
+    canonical form without comments). The folder's README.md and scene.xml, which mjasc never
+    reads, are not covered: documenting the hull does not start the campaign over."""
+    import json
+    import tomllib
+    import xml.etree.ElementTree as ET
+
     if not os.path.isabs(vessel_type):
         return {}
     folder = Path(vessel_type)
-    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir()) if p.is_file()}
+    xml, toml = folder / f"{folder.name}.xml", folder / "hydrodynamics.toml"
+    with open(toml, "rb") as fh:
+        hydro = json.dumps(tomllib.load(fh), sort_keys=True)
+    mjcf = ET.canonicalize(from_file=str(xml), with_comments=False, strip_text=True)
+    return {xml.name: hashlib.sha256(mjcf.encode()).hexdigest(),
+            toml.name: hashlib.sha256(hydro.encode()).hexdigest()}
 
 
 def load_vessel_type(name: str) -> VesselType:
