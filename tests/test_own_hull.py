@@ -130,6 +130,17 @@ def test_trial_accepts_a_folder(monkeypatch):
 
 
 # ---------------------------------------------------------------------- a copy of the Otter is the Otter
+def test_trial_takes_a_folder_whose_name_is_no_vessel_name(tmp_path, monkeypatch):
+    """A scenario sails a folder named tern.v2 (its vessels have names of their own); the trial
+    refused it with "vessels: invalid vessel name 'tern.v2'", a name the user never gave."""
+    copy_vessel(VESSELS_DIR / "otter", tmp_path / "tern.v2")
+    monkeypatch.chdir(tmp_path)
+    assert parse_scenario(one_vessel("./tern.v2"), str(tmp_path / "s.toml")).vessels[0].type.endswith("tern.v2")
+    mine, otter = run_trial("speed", "./tern.v2"), run_trial("speed", "otter")
+    assert mine["vessel"] == "./tern.v2"
+    assert mine["steady_speed"] == otter["steady_speed"] and mine["t63"] == otter["t63"]
+
+
 def test_a_copy_of_the_otter_sails_bit_for_bit_as_the_otter(tmp_path):
     copy_vessel(VESSELS_DIR / "otter", tmp_path / "hulls" / "my_otter")
     summaries = []
