@@ -253,6 +253,20 @@ def test_a_copied_folder_whose_mjcf_keeps_the_old_name_says_which_file_to_rename
         resolve_vessel_type("~/boats/x")
 
 
+def test_naming_the_mjcf_instead_of_its_folder_says_so(tmp_path, monkeypatch):
+    """`--vessel hulls/tern/tern.xml` (or `tern.xml` from inside the folder) said "no such vessel
+    folder" or "a folder here: ./tern.xml"; it names a file, and the folder to give instead."""
+    folder = copy_vessel(VESSELS_DIR / "otter", tmp_path / "hulls" / "tern")
+    want = rf"^names a file; a vessel type is the path of the vessel folder that holds it \({re.escape(str(folder.resolve()))}\)"
+    with pytest.raises(ValueError, match=want + r", got 'hulls/tern/tern\.xml'$"):
+        resolve_vessel_type("hulls/tern/tern.xml", tmp_path)
+    monkeypatch.chdir(folder)
+    with pytest.raises(ValueError, match=want + r", got 'tern\.xml'$"):
+        resolve_vessel_type("tern.xml")
+    with pytest.raises(ScenarioError, match=r"^vessels\[0\]\.type: names a file; "):
+        parse_scenario(one_vessel("hulls/tern/hydrodynamics.toml"), str(tmp_path / "s.toml"))
+
+
 def test_a_folder_path_is_relative_to_the_scenario_file_and_expands_home(tmp_path, monkeypatch):
     copy_vessel(VESSELS_DIR / "otter", tmp_path / "home" / "boats" / "mine")
     monkeypatch.setenv("HOME", str(tmp_path / "home"))
