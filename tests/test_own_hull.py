@@ -130,6 +130,17 @@ def test_trial_accepts_a_folder(monkeypatch):
 
 
 # ---------------------------------------------------------------------- a copy of the Otter is the Otter
+def test_trial_takes_a_folder_whose_name_is_no_vessel_name(tmp_path, monkeypatch):
+    """A scenario sails a folder named tern.v2 (its vessels have names of their own); the trial
+    refused it with "vessels: invalid vessel name 'tern.v2'", a name the user never gave."""
+    copy_vessel(VESSELS_DIR / "otter", tmp_path / "tern.v2")
+    monkeypatch.chdir(tmp_path)
+    assert parse_scenario(one_vessel("./tern.v2"), str(tmp_path / "s.toml")).vessels[0].type.endswith("tern.v2")
+    mine, otter = run_trial("speed", "./tern.v2"), run_trial("speed", "otter")
+    assert mine["vessel"] == "./tern.v2"
+    assert mine["steady_speed"] == otter["steady_speed"] and mine["t63"] == otter["t63"]
+
+
 def test_a_copy_of_the_otter_sails_bit_for_bit_as_the_otter(tmp_path):
     copy_vessel(VESSELS_DIR / "otter", tmp_path / "hulls" / "my_otter")
     summaries = []
@@ -159,6 +170,13 @@ BROKEN = {  # (file, old, new) → the error's tail after "<file>: "
     "no_chase": (XML, 'camera name="chase"', 'camera name="behind"', "camera 'chase': missing, got none"),
     "toml_key": (TOML, "X_uu = 0.0", "X_uuu = 0.0", "damping.X_uuu: unknown key"),
     "toml_sign": (TOML, "X_u = -77.55", "X_u = 77.55", "damping.X_u: must be ≤ 0 (Fossen's convention), got 77.55"),
+    # the default class renamed, the body's childclass not (MuJoCo's own message names neither)
+    "stale_childclass": (XML, 'childclass="my_otter"', 'childclass="otter"',
+                         "<body name='hull' childclass>: must name a default class (the folder's name 'my_otter'), "
+                         "got 'otter'"),
+    # MuJoCo's error keeps its second line, the element and the line number
+    "unknown_class": (XML, 'class="visual" type="box" material="otter_deck"', 'class="visuals" type="box" material="otter_deck"',
+                      "MuJoCo: does not compile, got XML Error: unknown default class name 'visuals'; Element 'geom', line "),
     # (the geom is in the MJCF: the error names that file, and the TOML's field)
     "radius": (TOML, "radius_m = 1.2", "radius_m = 0.9", f"@{XML}: geom 'port_pontoon_visual': must lie inside "
                                                          "geometry.radius_m = 0.9 of hydrodynamics.toml, got a corner"),
@@ -221,6 +239,34 @@ def test_missing_folder_or_file_names_the_scenario_field(tmp_path):
         load_scenario(path)
 
 
+def test_a_copied_folder_whose_mjcf_keeps_the_old_name_says_which_file_to_rename(tmp_path, monkeypatch):
+    """The first rename of four forgotten (hulls/tern/otter.xml): the error names the file found.
+    A missing ~ or absolute folder is not "relative to the current folder"."""
+    folder = tmp_path / "hulls" / "tern"
+    shutil.copytree(VESSELS_DIR / "otter", folder)
+    with pytest.raises(ScenarioError, match=r"^vessels\[0\]\.type: the vessel folder has no tern\.xml \(.*; it has "
+                                            r"otter\.xml: rename it to tern\.xml, the folder's name\), got 'hulls/tern'$"):
+        parse_scenario(one_vessel("hulls/tern"), str(tmp_path / "s.toml"))
+    monkeypatch.setenv("HOME", str(tmp_path))
+    with pytest.raises(ValueError, match=rf"^no such vessel folder \({re.escape(str(tmp_path.resolve()))}/boats/x\), "
+                                         r"got '~/boats/x'$"):
+        resolve_vessel_type("~/boats/x")
+
+
+def test_naming_the_mjcf_instead_of_its_folder_says_so(tmp_path, monkeypatch):
+    """`--vessel hulls/tern/tern.xml` (or `tern.xml` from inside the folder) said "no such vessel
+    folder" or "a folder here: ./tern.xml"; it names a file, and the folder to give instead."""
+    folder = copy_vessel(VESSELS_DIR / "otter", tmp_path / "hulls" / "tern")
+    want = rf"^names a file; a vessel type is the path of the vessel folder that holds it \({re.escape(str(folder.resolve()))}\)"
+    with pytest.raises(ValueError, match=want + r", got 'hulls/tern/tern\.xml'$"):
+        resolve_vessel_type("hulls/tern/tern.xml", tmp_path)
+    monkeypatch.chdir(folder)
+    with pytest.raises(ValueError, match=want + r", got 'tern\.xml'$"):
+        resolve_vessel_type("tern.xml")
+    with pytest.raises(ScenarioError, match=r"^vessels\[0\]\.type: names a file; "):
+        parse_scenario(one_vessel("hulls/tern/hydrodynamics.toml"), str(tmp_path / "s.toml"))
+
+
 def test_a_folder_path_is_relative_to_the_scenario_file_and_expands_home(tmp_path, monkeypatch):
     copy_vessel(VESSELS_DIR / "otter", tmp_path / "home" / "boats" / "mine")
     monkeypatch.setenv("HOME", str(tmp_path / "home"))
@@ -249,6 +295,23 @@ def test_an_encounter_family_sails_a_folder_and_the_digest_covers_its_files(tmp_
     assert edited.digest != spec.digest  # an edited hull is a new campaign
     with pytest.raises(CampaignError, match=r"^families\[0\]\.own\.type: no such vessel folder"):
         parse_campaign_spec(family_campaign(tmp_path, "hulls/none"), str(tmp_path / "c.toml"), tmp_path)
+
+
+def test_documenting_the_hull_is_not_a_new_campaign(tmp_path):
+    """The digest covers what the runs read (<name>.xml, hydrodynamics.toml) by content: the
+    derivation written into the hull's README.md or comments, or its viewer scene.xml edited, keep
+    the campaign (a resumed campaign would otherwise recompute every run); a number does not."""
+    folder = copy_vessel(VESSELS_DIR / "otter", tmp_path / "hulls" / "my_otter")
+    digest = lambda: parse_campaign_spec(family_campaign(tmp_path, "hulls/my_otter"), str(tmp_path / "c.toml"),
+                                         tmp_path).digest
+    before = digest()
+    (folder / "README.md").write_text("# my_otter\n\nDerivation: ...\n")
+    edit(folder / "scene.xml", "<mujoco", "<!-- my boat -->\n<mujoco")
+    edit(folder / "hydrodynamics.toml", "X_uu = 0.0", "X_uu = 0.0  # measured, 2026 sea trial")
+    edit(folder / "my_otter.xml", "<worldbody>", "<!-- checked against the drawings -->\n  <worldbody>")
+    assert digest() == before
+    edit(folder / "hydrodynamics.toml", "X_uu = 0.0", "X_uu = -1.0")
+    assert digest() != before
 
 
 def test_a_perturbed_scenario_keeps_its_folder_and_the_digest_covers_it(tmp_path):

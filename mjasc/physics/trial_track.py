@@ -103,7 +103,8 @@ def new_track(vessel_name: str) -> TrialTrack:
     """A lone hull of ``vessel_name`` (a built-in name or a vessel folder's path, relative to the
     current folder) at rest at the origin."""
     vtype = load_vessel_type(resolve_vessel_type(vessel_name))
-    sim = Simulation(build_world([(vtype.name, vtype)]))
+    # (named "trial", not after the type: a folder's name need not be a valid vessel name, tern.v2)
+    sim = Simulation(build_world([("trial", vtype)]))
     sim.reset(np.zeros((1, 3)))
     return TrialTrack(sim)
 

@@ -178,6 +178,11 @@ def check_vessel_mjcf(path: Path, name: str, hydro: dict) -> None:
     if hull.findall("body"):
         raise bad("body 'hull'", "must be one rigid body (no child bodies: all geoms in the hull)",
                   [b.get("name") for b in hull.findall("body")])
+    known = {d.get("class") for d in default.iter("default")}
+    for el in hull.iter():
+        if el.get("childclass") is not None and el.get("childclass") not in known:
+            raise bad(f"<{el.tag} name={el.get('name')!r} childclass>", f"must name a default class (the folder's "
+                      f"name {name!r})", repr(el.get("childclass")))
     inertial = hull.find("inertial")
     if inertial is None or inertial.get("mass") is None or inertial.get("diaginertia") is None:
         raise bad("body 'hull'", "needs an explicit <inertial pos mass diaginertia> (inertia about the CG)",
@@ -185,7 +190,9 @@ def check_vessel_mjcf(path: Path, name: str, hydro: dict) -> None:
     try:
         model = mujoco.MjModel.from_xml_path(str(path))
     except ValueError as exc:
-        raise bad("MuJoCo", "does not compile", str(exc).strip().splitlines()[0]) from None
+        # (all of MuJoCo's lines: the second names the element and the line, "Element 'body', line 41")
+        raise bad("MuJoCo", "does not compile", "; ".join(exc.args[0].strip().splitlines()) if exc.args
+                  else exc) from None
     _check_model(model, bad, hydro)
 
 

@@ -79,22 +79,33 @@ def resolve_vessel_type(value: str, base_dir: str | Path | None = None) -> str:
     Raises ValueError (one line: the reason, and the value as written)."""
     from mjasc.physics.vessel_contract import VesselContractError
 
+    as_file = Path(value).expanduser()
+    as_file = (as_file if as_file.is_absolute() else Path(base_dir if base_dir is not None else ".") / as_file).resolve()
+    if value not in available_vessels() and as_file.is_file():  # (hulls/tern/tern.xml for hulls/tern)
+        raise ValueError(f"names a file; a vessel type is the path of the vessel folder that holds it "
+                         f"({as_file.parent}), got {value!r}")
     if not is_vessel_path(value):
         if value in available_vessels():
             return value
         raise ValueError(f"must be one of {', '.join(available_vessels())} or a vessel folder's path (a folder "
                          f"here: ./{value}), got {value!r}")
     folder = Path(value).expanduser()
-    if not folder.is_absolute():
+    relative = not folder.is_absolute()
+    if relative:
         folder = Path(base_dir if base_dir is not None else ".") / folder
     folder = folder.resolve()
     if not folder.is_dir():
-        raise ValueError(f"no such vessel folder (relative to {'the file' if base_dir is not None else 'the current'} "
-                         f"folder: {folder}), got {value!r}")
+        if relative:
+            raise ValueError(f"no such vessel folder (relative to {'the file' if base_dir is not None else 'the current'} "
+                             f"folder: {folder}), got {value!r}")
+        raise ValueError(f"no such vessel folder ({folder}), got {value!r}")
     for f in (f"{folder.name}.xml", "hydrodynamics.toml"):
         if not (folder / f).is_file():
+            # (the usual slip: a copied folder whose MJCF keeps the old name, otter.xml)
+            others = sorted(p.name for p in folder.glob("*.xml") if p.name != "scene.xml") if f.endswith(".xml") else []
+            found = f"; it has {', '.join(others)}: rename it to {f}, the folder's name" if others else ""
             raise ValueError(f"the vessel folder has no {f} (it holds <folder name>.xml and hydrodynamics.toml, "
-                             f"assets/README.md), got {value!r}")
+                             f"assets/README.md{found}), got {value!r}")
     try:
         load_vessel_type(str(folder))
     except VesselContractError as exc:  # (named as the user wrote it)
@@ -103,12 +114,24 @@ def resolve_vessel_type(value: str, base_dir: str | Path | None = None) -> str:
 
 
 def vessel_files(vessel_type: str) -> dict[str, str]:
-    """The SHA-256 of each file of a vessel folder (a resolved ``type``; {} for a built-in name):
-    what a campaign's digest covers, so that an edited hull is a new campaign."""
+    """The SHA-256 of the two files mjasc reads from a vessel folder (a resolved ``type``; {} for a
+    built-in name), by content: what a campaign's digest covers, so that an edited hull is a new
+    campaign and, as for the campaign file, a comment is not (the TOML as parsed, the MJCF in
+    canonical form without comments). The folder's README.md and scene.xml, which mjasc never
+    reads, are not covered: documenting the hull does not start the campaign over."""
+    import json
+    import tomllib
+    import xml.etree.ElementTree as ET
+
     if not os.path.isabs(vessel_type):
         return {}
     folder = Path(vessel_type)
-    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir()) if p.is_file()}
+    xml, toml = folder / f"{folder.name}.xml", folder / "hydrodynamics.toml"
+    with open(toml, "rb") as fh:
+        hydro = json.dumps(tomllib.load(fh), sort_keys=True)
+    mjcf = ET.canonicalize(from_file=str(xml), with_comments=False, strip_text=True)
+    return {xml.name: hashlib.sha256(mjcf.encode()).hexdigest(),
+            toml.name: hashlib.sha256(hydro.encode()).hexdigest()}
 
 
 def load_vessel_type(name: str) -> VesselType:
