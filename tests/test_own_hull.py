@@ -221,15 +221,21 @@ def test_a_hull_without_livery_keeps_its_own_colours(tmp_path):
 
 # ---------------------------------------------------------------------- what the scenario's field says
 def test_missing_folder_or_file_names_the_scenario_field(tmp_path):
-    with pytest.raises(ScenarioError, match=r"^vessels\[0\]\.type: no such vessel folder \(relative to the file "
+    with pytest.raises(ScenarioError, match=r"^vessels\[0\]\.type: no such vessel folder \(relative to the file's "
                                             r"folder: .*\), got 'hulls/heron'$"):
         parse_scenario(one_vessel("hulls/heron"), str(tmp_path / "s.toml"))
     (tmp_path / "hulls" / "heron").mkdir(parents=True)
     (tmp_path / "hulls" / "heron" / "hydrodynamics.toml").write_text("")
     with pytest.raises(ScenarioError, match=r"^vessels\[0\]\.type: the vessel folder has no heron\.xml"):
         parse_scenario(one_vessel("hulls/heron"), str(tmp_path / "s.toml"))
+    # a bare name that is neither built in nor a folder beside the file: no hint of a folder
     with pytest.raises(ScenarioError, match=r"^vessels\[0\]\.type: must be one of delfim, otter or a vessel "
-                                            r"folder's path \(a folder here: \./heron\), got 'heron'$"):
+                                            r"folder's path, got 'heron2'$"):
+        parse_scenario(one_vessel("heron2"), str(tmp_path / "s.toml"))
+    # a folder of that name beside the file: how to write it
+    (tmp_path / "heron").mkdir()
+    with pytest.raises(ScenarioError, match=r"^vessels\[0\]\.type: must be one of delfim, otter or a vessel "
+                                            r"folder's path; a folder named so here is written \./heron, got 'heron'$"):
         parse_scenario(one_vessel("heron"), str(tmp_path / "s.toml"))
     # through load_scenario: the file first
     path = tmp_path / "s.toml"

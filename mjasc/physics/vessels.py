@@ -87,8 +87,10 @@ def resolve_vessel_type(value: str, base_dir: str | Path | None = None) -> str:
     if not is_vessel_path(value):
         if value in available_vessels():
             return value
-        raise ValueError(f"must be one of {', '.join(available_vessels())} or a vessel folder's path (a folder "
-                         f"here: ./{value}), got {value!r}")
+        here = (as_file if base_dir is None else Path(base_dir) / value)
+        hint = f"; a folder named so here is written ./{value}" if here.is_dir() else ""
+        raise ValueError(f"must be one of {', '.join(available_vessels())} or a vessel folder's path{hint}, "
+                         f"got {value!r}")
     folder = Path(value).expanduser()
     relative = not folder.is_absolute()
     if relative:
@@ -96,8 +98,8 @@ def resolve_vessel_type(value: str, base_dir: str | Path | None = None) -> str:
     folder = folder.resolve()
     if not folder.is_dir():
         if relative:
-            raise ValueError(f"no such vessel folder (relative to {'the file' if base_dir is not None else 'the current'} "
-                             f"folder: {folder}), got {value!r}")
+            where = "the file's" if base_dir is not None else "the current"
+            raise ValueError(f"no such vessel folder (relative to {where} folder: {folder}), got {value!r}")
         raise ValueError(f"no such vessel folder ({folder}), got {value!r}")
     for f in (f"{folder.name}.xml", "hydrodynamics.toml"):
         if not (folder / f).is_file():
