@@ -175,8 +175,10 @@ BROKEN = {  # (file, old, new) → the error's tail after "<file>: "
                          "<body name='hull' childclass>: must name a default class (the folder's name 'my_otter'), "
                          "got 'otter'"),
     # MuJoCo's error keeps its second line, the element and the line number
-    "unknown_class": (XML, 'class="visual" type="box" material="otter_deck"', 'class="visuals" type="box" material="otter_deck"',
-                      "MuJoCo: does not compile, got XML Error: unknown default class name 'visuals'; Element 'geom', line "),
+    "unknown_class": (XML, 'class="visual" type="box" material="otter_deck"',
+                      'class="visuals" type="box" material="otter_deck"',
+                      "MuJoCo: does not compile, got XML Error: unknown default class name 'visuals'; "
+                      "Element 'geom', line "),
     # (the geom is in the MJCF: the error names that file, and the TOML's field)
     "radius": (TOML, "radius_m = 1.2", "radius_m = 0.9", f"@{XML}: geom 'port_pontoon_visual': must lie inside "
                                                          "geometry.radius_m = 0.9 of hydrodynamics.toml, got a corner"),
@@ -251,7 +253,8 @@ def test_a_copied_folder_whose_mjcf_keeps_the_old_name_says_which_file_to_rename
     folder = tmp_path / "hulls" / "tern"
     shutil.copytree(VESSELS_DIR / "otter", folder)
     with pytest.raises(ScenarioError, match=r"^vessels\[0\]\.type: the vessel folder has no tern\.xml \(.*; it has "
-                                            r"otter\.xml: rename it to tern\.xml, the folder's name\), got 'hulls/tern'$"):
+                                            r"otter\.xml: rename it to tern\.xml, the folder's name\), "
+                                            r"got 'hulls/tern'$"):
         parse_scenario(one_vessel("hulls/tern"), str(tmp_path / "s.toml"))
     monkeypatch.setenv("HOME", str(tmp_path))
     with pytest.raises(ValueError, match=rf"^no such vessel folder \({re.escape(str(tmp_path.resolve()))}/boats/x\), "
@@ -263,7 +266,8 @@ def test_naming_the_mjcf_instead_of_its_folder_says_so(tmp_path, monkeypatch):
     """`--vessel hulls/tern/tern.xml` (or `tern.xml` from inside the folder) said "no such vessel
     folder" or "a folder here: ./tern.xml"; it names a file, and the folder to give instead."""
     folder = copy_vessel(VESSELS_DIR / "otter", tmp_path / "hulls" / "tern")
-    want = rf"^names a file; a vessel type is the path of the vessel folder that holds it \({re.escape(str(folder.resolve()))}\)"
+    held = re.escape(str(folder.resolve()))
+    want = rf"^names a file; a vessel type is the path of the vessel folder that holds it \({held}\)"
     with pytest.raises(ValueError, match=want + r", got 'hulls/tern/tern\.xml'$"):
         resolve_vessel_type("hulls/tern/tern.xml", tmp_path)
     monkeypatch.chdir(folder)

@@ -80,7 +80,9 @@ def resolve_vessel_type(value: str, base_dir: str | Path | None = None) -> str:
     from mjasc.physics.vessel_contract import VesselContractError
 
     as_file = Path(value).expanduser()
-    as_file = (as_file if as_file.is_absolute() else Path(base_dir if base_dir is not None else ".") / as_file).resolve()
+    if not as_file.is_absolute():
+        as_file = Path(base_dir if base_dir is not None else ".") / as_file
+    as_file = as_file.resolve()
     if value not in available_vessels() and as_file.is_file():  # (hulls/tern/tern.xml for hulls/tern)
         raise ValueError(f"names a file; a vessel type is the path of the vessel folder that holds it "
                          f"({as_file.parent}), got {value!r}")
