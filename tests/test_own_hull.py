@@ -337,3 +337,15 @@ def test_a_perturbed_scenario_keeps_its_folder_and_the_digest_covers_it(tmp_path
     assert spec.run(1).scenario().vessels[0].type == str(folder.resolve())
     edit(folder / "my_otter.xml", 'rgba="0.96 0.72 0.08 1"', 'rgba="0.9 0.7 0.1 1"')
     assert parse_campaign_spec(camp, str(tmp_path / "c.toml"), tmp_path).digest != spec.digest
+
+
+@pytest.mark.parametrize("value, reason", [("x" * 5000, "File name too long"), ("x/" * 3000, "File name too long"),
+                                           ("~no_such_user_zz/boat", "Could not determine home directory"),
+                                           ("a\x00b", "it holds a NUL character")])
+def test_a_type_the_file_system_cannot_take_is_a_one_line_error(tmp_path, value, reason):
+    """A type too long for the file system, under an unknown user's ~, or holding a NUL: the
+    scenario's field and the reason in one line (the fuzz test met OSError: File name too long)."""
+    with pytest.raises(ScenarioError, match=rf"^vessels\[0\]\.type: not a (readable )?vessel folder's path "
+                                            rf"\({re.escape(reason)}\)") as info:
+        parse_scenario(one_vessel(value), str(tmp_path / "s.toml"))
+    assert "\n" not in str(info.value)

@@ -77,6 +77,16 @@ def resolve_vessel_type(value: str, base_dir: str | Path | None = None) -> str:
     unchanged; a vessel folder's path (``~`` expanded, relative to ``base_dir``, default the
     current folder) as its absolute path, after checking the folder against the contract.
     Raises ValueError (one line: the reason, and the value as written)."""
+    if "\x00" in value:
+        raise ValueError(f"not a vessel folder's path (it holds a NUL character), got {value!r}")
+    try:
+        return _resolve(value, base_dir)
+    except (OSError, RuntimeError) as exc:  # a name too long for the file system, an unknown ~user, ...
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc).rstrip(".")
+        raise ValueError(f"not a readable vessel folder's path ({reason}), got {value!r}") from None
+
+
+def _resolve(value: str, base_dir: str | Path | None) -> str:
     from mjasc.physics.vessel_contract import VesselContractError
 
     as_file = Path(value).expanduser()
