@@ -173,14 +173,19 @@ class IsolatedExecutor:
             proc.kill()
             proc.wait()
 
+    @staticmethod
+    def _stop(proc: subprocess.Popen) -> None:
+        """Kill ``proc`` and reap it (whatever state another thread left it in)."""
+        try:
+            proc.kill()
+            proc.wait(timeout=10)
+        except Exception:  # noqa: BLE001
+            pass
+
     def _kill(self) -> None:
         proc = self._proc
         if proc is not None:
-            try:
-                proc.kill()
-                proc.wait(timeout=10)
-            except Exception:  # noqa: BLE001
-                pass
+            self._stop(proc)
         self._proc = None
 
     def release(self) -> None:
@@ -203,11 +208,7 @@ class IsolatedExecutor:
                 proc.stdin.close()
                 proc.wait(timeout=5)
             except Exception:  # noqa: BLE001
-                try:
-                    proc.kill()
-                    proc.wait(timeout=10)
-                except Exception:  # noqa: BLE001
-                    pass
+                self._stop(proc)
         self._proc = None
 
     def start(self) -> None:

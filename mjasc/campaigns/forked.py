@@ -110,7 +110,6 @@ class ForkedExecutor(IsolatedExecutor):
         self._conn = None  # this end of its pipe
         self._fallback = False  # no fork possible: a new interpreter's child (the base class)
         self.pid: int | None = None  # the current child's process id
-        self._state = threading.Lock()  # guards taking the child and its pipe for closing
         # Held for every call on a child's Process object (is_alive, join, kill, close): the run's
         # thread reaps a child that died while close() joins it from the driver's thread (the
         # campaign's Ctrl-C kills both at once); multiprocessing's Process is not thread-safe — a

@@ -89,25 +89,20 @@ def resolve_vessel_type(value: str, base_dir: str | Path | None = None) -> str:
 def _resolve(value: str, base_dir: str | Path | None) -> str:
     from mjasc.physics.vessel_contract import VesselContractError
 
-    as_file = Path(value).expanduser()
-    if not as_file.is_absolute():
-        as_file = Path(base_dir if base_dir is not None else ".") / as_file
-    as_file = as_file.resolve()
-    if value not in available_vessels() and as_file.is_file():  # (hulls/tern/tern.xml for hulls/tern)
-        raise ValueError(f"names a file; a vessel type is the path of the vessel folder that holds it "
-                         f"({as_file.parent}), got {value!r}")
-    if not is_vessel_path(value):
-        if value in available_vessels():
-            return value
-        here = (as_file if base_dir is None else Path(base_dir) / value)
-        hint = f"; a folder named so here is written ./{value}" if here.is_dir() else ""
-        raise ValueError(f"must be one of {', '.join(available_vessels())} or a vessel folder's path{hint}, "
-                         f"got {value!r}")
     folder = Path(value).expanduser()
     relative = not folder.is_absolute()
     if relative:
         folder = Path(base_dir if base_dir is not None else ".") / folder
     folder = folder.resolve()
+    if value not in available_vessels() and folder.is_file():  # (hulls/tern/tern.xml for hulls/tern)
+        raise ValueError(f"names a file; a vessel type is the path of the vessel folder that holds it "
+                         f"({folder.parent}), got {value!r}")
+    if not is_vessel_path(value):
+        if value in available_vessels():
+            return value
+        hint = f"; a folder named so here is written ./{value}" if folder.is_dir() else ""
+        raise ValueError(f"must be one of {', '.join(available_vessels())} or a vessel folder's path{hint}, "
+                         f"got {value!r}")
     if not folder.is_dir():
         if relative:
             where = "the file's" if base_dir is not None else "the current"
