@@ -152,6 +152,11 @@ def _data(name):
     (lambda d: d["mission"].update(phases=["fly"]), "mission.phases[0]: must be one of"),
     (lambda d: d["mission"].update(phases=[]), "mission.phases: must be a non-empty list"),
     (lambda d: d["mission"]["go_to_formation"].update(turn_radius_m=-1.0), "mission.go_to_formation.turn_radius_m"),
+    # the Otter's tightest steady turn at 1.5 m/s is ~5.0 m (tests/test_steady_turn.py)
+    (lambda d: d["mission"]["go_to_formation"].update(turn_radius_m=4.0),
+     "mission.go_to_formation.turn_radius_m: vessels[0] 'alpha' (otter) turns no tighter than 5.0 m at its cruise"),
+    (lambda d: d["vessels"][1]["controller"].update(speed_m_s=3.05),
+     "mission.go_to_formation.turn_radius_m: vessels[1] 'bravo' (otter) sails no steady turn at its cruise speed 3.05"),
     (lambda d: d["mission"].update(phases=["go_to_formation", "track_target"]), "mission.track_target: missing"),
     (lambda d: d["vessels"][1].pop("comms"), "vessels[1].comms: missing"),
     (lambda d: d["vessels"][0].update(mission={"target_offset_m": [0.0, 1.0]}) or d.pop("mission"),

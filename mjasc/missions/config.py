@@ -45,8 +45,8 @@ class GoToFormationOptions:
     start of its formation path, on the path's course, at its cruise speed — all at one time."""
 
     turn_radius_m: float = param(10.0, positive=True, maximum=500.0, unit="m",
-                                 doc="turn radius of the transit paths (Dubins curves); at least the hull's "
-                                     "steady turning radius at cruise speed")
+                                 doc="turn radius of the transit paths (Dubins curves); at least each team "
+                                     "vessel's tightest steady turn at its cruise speed (checked at load)")
     lead_in_m: float = param(15.0, nonneg=True, maximum=500.0, unit="m",
                              doc="the transit's last metres are straight on the formation course, to settle")
     arrival_band_m: float = param(1.0, positive=True, maximum=50.0, unit="m",

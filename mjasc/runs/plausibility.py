@@ -22,6 +22,10 @@ reason and the distance), before any model is built:
   from inside the structure, hidden until it does. :func:`traffic_through_structure` samples the
   motion every :data:`TRAFFIC_SAMPLE_FRACTION` of the smallest radius of travel (at most every
   :data:`TRAFFIC_SAMPLE_MAX_S`) and the error names the obstacle, the structure and the time.
+* **transit turns** — a go-to-formation mission's ``turn_radius_m`` is at least the tightest
+  steady turn each team vessel's hull sails at its cruise speed in still water (full differential
+  thrust, :mod:`mjasc.physics.steady_turn`): a Dubins transit with tighter arcs is a plan the hull
+  cannot keep, and the team's arrival time would be planned on it.
 
 The bounds of single values (|coordinate| ≤ :data:`mjasc.core.frames.WORLD_LIMIT_M`, the physics
 rate, speeds) are declared on the fields themselves with :func:`mjasc.core.config_tables.param`;
@@ -200,3 +204,29 @@ def check_plausible(scenario, types: dict) -> None:
     reason = traffic_through_structure(scenario.moving_obstacles, scenario.static_obstacles, scenario.duration_s)
     if reason is not None:
         raise ConfigError(reason)
+    _check_transit_turns(scenario, types)
+
+
+def _check_transit_turns(scenario, types: dict) -> None:
+    """go-to-formation's Dubins arcs are no tighter than each team vessel's hull can turn steadily
+    at its cruise speed in still water (:func:`mjasc.physics.steady_turn.tightest_turn_of_type`)."""
+    mission = getattr(scenario, "mission", None)
+    if mission is None or "go_to_formation" not in mission.phases:
+        return
+    from mjasc.physics.steady_turn import tightest_turn_of_type
+
+    radius = mission.go_to_formation.turn_radius_m
+    for i, v in enumerate(scenario.vessels):
+        if v.controller == "none":
+            continue
+        turn = tightest_turn_of_type(types[v.type], v.cruise_speed_m_s)
+        where = "mission.go_to_formation.turn_radius_m"
+        if turn is None:
+            raise ConfigError(f"{where}: vessels[{i}] {v.name!r} ({types[v.type].name}) sails no steady turn at its "
+                              f"cruise speed {v.cruise_speed_m_s:g} m/s (vessels[{i}].controller.speed_m_s), so "
+                              f"it cannot sail the transit's arcs; got {radius:g}")
+        if radius < turn.radius_m:
+            raise ConfigError(f"{where}: vessels[{i}] {v.name!r} ({types[v.type].name}) turns no tighter than "
+                              f"{turn.radius_m:.1f} m at its cruise speed {v.cruise_speed_m_s:g} m/s (full "
+                              f"differential thrust, still water), so its transit's arcs must be at least that; "
+                              f"got {radius:g}")
