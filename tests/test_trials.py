@@ -172,6 +172,31 @@ def test_heavier_delfim_stops_later_relative_to_its_speed():
     assert delfim["stopping_distance"] / delfim["approach_speed"] > otter["stopping_distance"] / otter["approach_speed"]
 
 
+def test_tightest_turn_trial_sails_the_closed_form_turn():
+    """The solved commands held from rest settle in the turn the steady-state solve predicts, and it
+    is tighter than the turning circle at the same speed with a smaller differential."""
+    res = run_trial("tightest-turn", "otter")  # the Otter's cruise speed, 1.5 m/s
+    assert res["speed"] == 1.5 and res["starboard"] == 1.0 and -1.0 <= res["port"] < 1.0
+    assert res["steady_state_reached"]
+    assert res["steady_diameter"] == pytest.approx(res["closed_form_diameter"], rel=3e-3)
+    assert res["steady_speed"] == pytest.approx(1.5, rel=3e-3)
+    assert res["steady_diameter"] == pytest.approx(2 * res["steady_speed"] / res["steady_yaw_rate"], rel=3e-3)
+    slower = run_trial("tightest-turn", "otter", speed_m_s=1.0)
+    assert slower["closed_form_diameter"] < res["closed_form_diameter"]  # slower, tighter
+
+
+def test_tightest_turn_trial_input():
+    with pytest.raises(ValueError, match="^--port/--starboard: the tightest turn's commands are solved for"):
+        run_trial("tightest-turn", "otter", port=1.0)
+    with pytest.raises(ValueError, match="^--speed: only the tightest-turn trial takes a speed"):
+        run_trial("speed", "otter", speed_m_s=1.0)
+    with pytest.raises(ValueError, match="^--speed: the hull sails no steady turn at 3.05 m/s"):
+        run_trial("tightest-turn", "otter", speed_m_s=3.05)
+    for bad in (0.0, float("nan")):
+        with pytest.raises(ValueError, match="^--speed"):
+            run_trial("tightest-turn", "otter", speed_m_s=bad)
+
+
 # ---------------------------------------------------------------------- input and CLI
 def test_every_kind_returns_its_identity_and_commands():
     for kind in TRIAL_KINDS:

@@ -6,7 +6,7 @@
     mjasc report FOLDER [--json] [--out DIR] [--format png svg pdf]
     mjasc extract FOLDER [RUN ...] [--outcome collision|near_miss|failed] [--out DIR]
     mjasc search CAMPAIGN FAMILY [--method cross_entropy|uniform] [--budget N] [--batch N] [--failure-separation M] [--seed N] [--workers N] [--scheduler ADDR] [--out DIR]
-    mjasc trial speed|turning-circle|zigzag|stopping --vessel NAME|PATH [--port F] [--starboard F] [--json]
+    mjasc trial speed|turning-circle|zigzag|stopping|tightest-turn --vessel NAME|PATH [--port F] [--starboard F] [--speed M_S] [--json]
     mjasc view RUN_DIR|RECORDING [--print]
     mjasc figures [--out DIR] [--format png svg pdf]
     mjasc render DOMAIN TASK [--policy random|baseline|goal_line|cas|cas:METHOD] [--seed N] [--camera CAM] [--no-hud] [--out DIR]   (dm_control suite)
@@ -128,9 +128,11 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
     ls = sub.add_parser("list", help="list the vessels, the bundled scenarios and campaigns, and the stage methods")
     ls.set_defaults(func=cmd_list)
     t = sub.add_parser("trial", help="standard manoeuvring trial of one hull (results in SI units)")
-    t.add_argument("kind", choices=["speed", "turning-circle", "zigzag", "stopping"],
+    t.add_argument("kind", choices=["speed", "turning-circle", "zigzag", "stopping", "tightest-turn"],
                    help="speed: steady surge speed at constant commands; turning-circle: steady turn "
-                        "(diameter, yaw rate); zigzag: heading overshoots; stopping: distance and time to stop")
+                        "(diameter, yaw rate); zigzag: heading overshoots; stopping: distance and time to stop; "
+                        "tightest-turn: the tightest steady turn at a speed (go-to-formation's smallest "
+                        "turn_radius_m is half its diameter)")
     t.add_argument("--vessel", required=True,
                    help="a built-in vessel type ('mjasc list' shows them), e.g. otter, or a vessel folder's path "
                         "(a folder holding <folder name>.xml and hydrodynamics.toml: assets/README.md, "
@@ -139,6 +141,8 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
                                                              "(default: the trial's own)")
     t.add_argument("--starboard", type=float, default=None, help="constant starboard propeller command in "
                                                                   "[-1, 1] (default: the trial's own)")
+    t.add_argument("--speed", type=float, default=None, help="tightest-turn only: the speed [m/s] of the turn "
+                                                              "(default: the hull's cruise speed)")
     t.add_argument("--json", action="store_true", help="print one JSON object")
     t.set_defaults(func=cmd_trial)
     f = sub.add_parser("figures", help="make the thesis-style figures (tracking, potential fields, collision "

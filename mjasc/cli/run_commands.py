@@ -166,7 +166,8 @@ def cmd_trial(args) -> int:
     from mjasc.physics import trials
 
     try:
-        result = trials.run_trial(args.kind, args.vessel, port=args.port, starboard=args.starboard)
+        result = trials.run_trial(args.kind, args.vessel, port=args.port, starboard=args.starboard,
+                                  speed_m_s=args.speed)
     except ValueError as exc:
         print(f"mjasc: {exc}", file=sys.stderr)
         return 2

@@ -47,6 +47,17 @@ independently takes its kind's default):
                     sailed along the track from the execute point), ``head_reach`` [m] along the
                     approach course, ``lateral_deviation`` [m], ``stopping_time`` [s].
 
+``tightest-turn``   at a speed U (default: the hull's cruise speed; ``--speed``), the tightest steady turn
+                    the hull sails in still water (:mod:`mjasc.physics.steady_turn`: one propeller
+                    at its limit, the other's command solved for U from the equations of motion;
+                    ``--port`` / ``--starboard`` are not taken). From rest, the solved commands are
+                    held until steady and for one revolution: ``closed_form_diameter`` [m] = 2 U / r
+                    of the solve, ``steady_diameter`` [m] the circle fitted to the simulated track,
+                    ``steady_speed``, ``steady_yaw_rate``, ``steady_drift_angle_deg`` of the
+                    simulated hull (the two agree to a few tenths of a per cent). The smallest
+                    ``turn_radius_m`` a go-to-formation mission takes at that cruise speed is half
+                    the closed-form diameter.
+
 Steady state (:data:`mjasc.physics.trial_track.STEADY`): sampled every ``sample_s``, the state is steady when, over the last
 ``window_s``, the spread (max − min) of u and v is below ``velocity_tol_m_s`` and that of r below
 ``yaw_rate_tol_rad_s``; a phase gives up at ``max_time_s`` and the result then says
@@ -76,9 +87,10 @@ UNITS = {"timestep_s": "s", "port": "(command in [-1, 1])", "starboard": "(comma
          "tactical_diameter": "m", "steady_diameter": "m", "steady_drift_angle_deg": "deg", "time_to_90_deg": "s",
          "time_to_180_deg": "s", "initial_turning_time": "s", "time_to_third_execute": "s",
          "overshoot_1_deg": "deg", "overshoot_2_deg": "deg", "zigzag_angle_deg": "deg", "head_reach": "m",
-         "lateral_deviation": "m", "stopping_distance": "m", "stopping_time": "s"}
+         "lateral_deviation": "m", "stopping_distance": "m", "stopping_time": "s", "speed": "m/s",
+         "closed_form_diameter": "m"}
 
-TRIAL_KINDS = ("speed", "turning-circle", "zigzag", "stopping")
+TRIAL_KINDS = ("speed", "turning-circle", "zigzag", "stopping", "tightest-turn")
 
 #: Default (port, starboard) command of the manoeuvre of each trial kind.
 DEFAULT_COMMANDS = {
@@ -86,6 +98,7 @@ DEFAULT_COMMANDS = {
     "turning-circle": (1.0, 0.2),
     "zigzag": (1.0, 0.2),
     "stopping": (-1.0, -1.0),
+    "tightest-turn": (None, None),  # (solved for, not given)
 }
 
 #: Approach command of the stopping trial: full ahead.
@@ -317,18 +330,63 @@ def _stopping(track: TrialTrack, p: float, s: float) -> dict:
     }
 
 
+def _tightest_turn(track: TrialTrack, speed_m_s: float | None) -> dict:
+    from mjasc.physics.steady_turn import tightest_turn
+
+    vtype = track.sim.world.vessel_types[0]
+    speed = vtype.cruise_speed_m_s if speed_m_s is None else number(speed_m_s, "--speed")
+    if not speed > 0:
+        raise ValueError(f"--speed: must be > 0, got {speed:g}")
+    turn = tightest_turn(track.sim.hydro, track.sim.thrusters, speed)
+    if turn is None:
+        raise ValueError(f"--speed: the hull sails no steady turn at {speed:g} m/s (its top speed "
+                         f"{vtype.top_speed_m_s:g} m/s is reached only straight)")
+    p, s = turn.commands
+    track.command(p, s)
+    ok = track.sail_until_steady()
+    i_steady = len(track.rows) - 1
+    track.step(math.ceil(2.0 * math.pi / turn.yaw_rate_rad_s / track.sim.timestep_s) + 1)
+    rows = track.array(i_steady)
+    _, radius = _fit_circle(rows[:, 1:3])
+    u, v, r = rows[:, 4].mean(), rows[:, 5].mean(), rows[:, 6].mean()
+    return {
+        "speed": _r(speed, 4),
+        "port": _r(p, 6), "starboard": _r(s, 6),  # (sailed unrounded)
+        "turn_direction": "port",
+        "closed_form_diameter": _r(2.0 * turn.radius_m, 4),
+        "steady_speed": _r(math.hypot(u, v), 4),
+        "steady_yaw_rate": _r(abs(r), 6),
+        "steady_drift_angle_deg": _r(math.degrees(abs(math.atan2(v, u))), 2),
+        "steady_diameter": _r(2.0 * radius, 4),
+        "steady_state_reached": ok,
+    }
+
+
 def run_trial(kind: str, vessel_name: str, port: float | None = None, starboard: float | None = None,
-              *, zigzag_angle_deg: float = 20.0) -> dict:
+              *, zigzag_angle_deg: float = 20.0, speed_m_s: float | None = None) -> dict:
     """Run one standard manoeuvring trial of ``vessel_name`` (a built-in name, or a vessel folder's
     path relative to the current folder) in still water; see the module docstring for each kind's
     procedure, defaults and returned keys.
 
     kind: one of :data:`TRIAL_KINDS`. port / starboard: constant normalized propeller commands in
     [−1, 1] of the manoeuvre (``None`` = the kind's default in :data:`DEFAULT_COMMANDS`).
-    Raises ValueError naming ``--port`` / ``--starboard`` / ``--vessel`` / ``kind`` on bad input.
+    speed_m_s: the tightest turn's speed [m/s] (``None``: the hull's cruise speed; only that kind).
+    Raises ValueError naming ``--port`` / ``--starboard`` / ``--speed`` / ``--vessel`` / ``kind`` on bad input.
     """
     if kind not in TRIAL_KINDS:
         raise ValueError(f"kind: unknown trial {kind!r}; one of {', '.join(TRIAL_KINDS)}")
+    if kind == "tightest-turn":
+        if port is not None or starboard is not None:
+            raise ValueError("--port/--starboard: the tightest turn's commands are solved for, not given "
+                             "(choose its speed with --speed)")
+        try:
+            track = new_track(vessel_name)
+        except ValueError as exc:
+            raise ValueError(f"--vessel: {exc}") from None
+        body = _tightest_turn(track, speed_m_s)
+        return {"kind": kind, "vessel": vessel_name, "timestep_s": track.sim.timestep_s, **body}
+    if speed_m_s is not None:
+        raise ValueError(f"--speed: only the tightest-turn trial takes a speed, not {kind}")
     default_p, default_s = DEFAULT_COMMANDS[kind]
     p = _validate_command(default_p if port is None else port, "--port")
     s = _validate_command(default_s if starboard is None else starboard, "--starboard")

@@ -228,5 +228,5 @@ def _check_transit_turns(scenario, types: dict) -> None:
         if radius < turn.radius_m:
             raise ConfigError(f"{where}: vessels[{i}] {v.name!r} ({types[v.type].name}) turns no tighter than "
                               f"{turn.radius_m:.1f} m at its cruise speed {v.cruise_speed_m_s:g} m/s (full "
-                              f"differential thrust, still water), so its transit's arcs must be at least that; "
-                              f"got {radius:g}")
+                              f"differential thrust, still water; 'mjasc trial tightest-turn' shows it), so its "
+                              f"transit's arcs must be at least that; got {radius:g}")
