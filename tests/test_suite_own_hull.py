@@ -205,3 +205,21 @@ def test_baselines_table_takes_vessel(capsys):
     assert "--vessel: must be one of delfim, otter or a vessel folder's path, got 'ottr'" in capsys.readouterr().err
     assert evaluate("delfim", "station_keeping", "random", [4], vessel="otter") == \
         pytest.approx(evaluate("otter", "station_keeping", "random", [4]), abs=0.0)
+
+
+def test_gymnasium_takes_vessel():
+    """shimmy's route: the same spaces' shapes, the hull's prefixes in the team's Dict space."""
+    pytest.importorskip("gymnasium")
+    pytest.importorskip("shimmy")
+    from mjasc.suite.gym_compat import make_gym_env
+
+    own = make_gym_env("otter_team", "formation", task_kwargs={"time_limit": SHORT, "vessel": str(HULL)})
+    builtin = make_gym_env("otter_team", "formation", task_kwargs={"time_limit": SHORT})
+    assert own.action_space == builtin.action_space
+    assert [s.shape for s in own.observation_space.values()] == [s.shape for s in builtin.observation_space.values()]
+    obs, _ = own.reset(seed=1)
+    assert "otter_payload1_slot_error" in obs
+    obs, reward, terminated, truncated, _ = own.step(own.action_space.sample())
+    assert 0.0 <= reward <= 1.0 and not terminated
+    own.close()
+    builtin.close()
