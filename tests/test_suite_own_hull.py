@@ -104,6 +104,13 @@ def test_an_episode_with_the_example_hull_runs_with_the_same_spec_shapes(domain,
     builtin.close()
 
 
+def test_the_example_hull_is_deterministic_per_seed_and_not_the_otter():
+    for domain, task in (("otter", "path_following_hard"), ("otter_team", "formation")):
+        own = episode(domain, task, vessel=str(HULL))
+        assert_same_bits(own, episode(domain, task, vessel=str(HULL)))
+        assert not np.array_equal(own[0], episode(domain, task)[0])
+
+
 def surge_from_rest(vessel, seconds=2.0):
     """Surge speeds u [m/s] at each control step from rest, in still water, under full ahead."""
     env = suite.load("otter", "station_keeping", task_kwargs={"random": 0, "vessel": vessel})
