@@ -9,7 +9,7 @@
     mjasc trial speed|turning-circle|zigzag|stopping|tightest-turn --vessel NAME|PATH [--port F] [--starboard F] [--speed M_S] [--json]
     mjasc view RUN_DIR|RECORDING [--print]
     mjasc figures [--out DIR] [--format png svg pdf]
-    mjasc render DOMAIN TASK [--policy random|baseline|goal_line|cas|cas:METHOD] [--seed N] [--camera CAM] [--no-hud] [--out DIR]   (dm_control suite)
+    mjasc render DOMAIN TASK [--policy random|baseline|goal_line|cas|cas:METHOD] [--seed N] [--vessel NAME|PATH] [--camera CAM] [--no-hud] [--out DIR]   (dm_control suite)
 
 SCENARIO and CAMPAIGN are a TOML file's path or the name of a bundled one (``mjasc run demo``,
 ``mjasc campaign demo_monte_carlo``; ``mjasc list`` shows them), so every command works from any
@@ -221,6 +221,10 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
                          "with the thesis CAS) or cas:METHOD (with any avoidance method of 'mjasc list'); "
                          "default: random")
     rd.add_argument("--seed", type=seed_arg, default=0, help="episode seed (default: 0)")
+    rd.add_argument("--vessel", help="the hull to sail instead of the domain's own (every vessel of otter_team): a "
+                                     "built-in vessel type ('mjasc list') or a vessel folder's path, relative to the "
+                                     "current folder (assets/README.md, \"Your own hull\"), e.g. "
+                                     "examples/my_hull/hulls/otter_payload (default: the domain's)")
     rd.add_argument("--camera", default="top_down",
                     help="top_down, overview, chase:VESSEL (e.g. chase:otter), split (overview beside the first "
                          "vessel's chase view) or split:VESSEL (default: top_down)")

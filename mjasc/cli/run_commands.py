@@ -210,13 +210,24 @@ def cmd_render(args) -> int:
         what = f"domain {args.domain!r}" if tasks is None else f"task {args.task!r} of domain {args.domain!r}"
         print(f"mjasc: render: no {what} (known: {suite_tasks(TASKS_BY_DOMAIN)})", file=sys.stderr)
         return 2
+    task_kwargs = {}
+    if getattr(args, "vessel", None) is not None:
+        from mjasc.physics.vessels import resolve_vessel_type
+
+        try:  # (relative to the current folder, as trial's --vessel; before the output folder is made)
+            task_kwargs["vessel"] = resolve_vessel_type(args.vessel)
+        except ValueError as exc:
+            print(f"mjasc: render --vessel: {exc}", file=sys.stderr)
+            return 2
     existed = Path(args.out).is_dir()
     out = out_dir(args.out, None)
-    print(f"rendering {args.domain} {args.task} ({args.policy} policy, seed {args.seed}) into {out} ...", flush=True)
+    hull = f", vessel {args.vessel}" if task_kwargs else ""
+    print(f"rendering {args.domain} {args.task} ({args.policy} policy, seed {args.seed}{hull}) into {out} ...",
+          flush=True)
     t0 = time.perf_counter()
     try:
         result = render_episode(args.domain, args.task, policy=args.policy, out_dir=out, seed=args.seed,
-                                camera=args.camera, hud=getattr(args, "hud", True),
+                                task_kwargs=task_kwargs, camera=args.camera, hud=getattr(args, "hud", True),
                                 progress=lambda done, limit: print(f"  {100 * done // limit:3d} % ({done} of {limit} "
                                                                    f"control steps, {time.perf_counter() - t0:.0f} s)",
                                                                    flush=True))

@@ -7,6 +7,9 @@ Mirrors ``dm_control.suite``'s API (which only knows its own domains)::
     env = suite.load("otter", "path_following", task_kwargs={"random": 0})
     time_step = env.reset()
 
+    env = suite.load("otter", "path_following",           # your own hull (assets/README.md)
+                     task_kwargs={"random": 0, "vessel": "examples/my_hull/hulls/otter_payload"})
+
 Domains: ``otter`` (path_following, station_keeping, collision_avoidance, each ``…_hard`` too),
 ``otter_team`` (formation, formation_hard: three vessels, flat per-vessel layout, see
 :mod:`mjasc.suite.otter_team`) and ``delfim`` (the otter tasks on the thesis's catamaran; extras,
@@ -76,7 +79,9 @@ def _check_task_kwargs(task_kwargs) -> None:
 def load(domain_name, task_name, task_kwargs=None, environment_kwargs=None, visualize_reward=False):
     """An environment from a domain name, task name and optional settings.
 
-    ``task_kwargs``: ``random`` (seed or RandomState), ``time_limit`` [s]; ``environment_kwargs``:
+    ``task_kwargs``: ``random`` (seed or RandomState), ``time_limit`` [s], ``vessel`` (the hull
+    sailed instead of the domain's own: a built-in type's name or a vessel folder's path, relative
+    to the current folder; :mod:`mjasc.suite.vessel_choice`); ``environment_kwargs``:
     passed to ``dm_control.rl.control.Environment`` (e.g. ``flat_observation=True``; its
     ``control_timestep`` or ``n_sub_steps`` replace the default 0.1 s control step);
     ``visualize_reward``: colour the reward lights (and target) by the reward in rendered frames.

@@ -45,6 +45,7 @@ from mjasc.runs.tick import run_onboard_slot
 from mjasc.suite import ALL_TASKS, BENCHMARKING, load
 from mjasc.suite.otter import CollisionAvoidance, PathFollowing, StationKeeping
 from mjasc.suite.otter_team import Formation
+from mjasc.suite.vessel_choice import suite_vessel_type
 
 __all__ = ["random_policy", "baseline_policy", "goal_line_policy", "CASPolicy", "make_policy", "episode_return",
            "evaluate", "CAS_AVOIDANCE", "CAS_TRACKING"]
@@ -271,11 +272,13 @@ def episode_return(env, policy) -> tuple[float, int]:
     return total, steps
 
 
-def evaluate(domain: str, task: str, policy: str, seeds) -> np.ndarray:
-    """Episode returns (len(seeds),) of ``policy`` on a task, one fresh seeded episode per seed."""
+def evaluate(domain: str, task: str, policy: str, seeds, vessel=None) -> np.ndarray:
+    """Episode returns (len(seeds),) of ``policy`` on a task, one fresh seeded episode per seed
+    (``vessel``: another hull, as ``task_kwargs``' :mod:`mjasc.suite.vessel_choice`)."""
     returns = []
+    hull = {} if vessel is None else {"vessel": vessel}
     for seed in seeds:
-        env = load(domain, task, task_kwargs={"random": int(seed)})
+        env = load(domain, task, task_kwargs={"random": int(seed), **hull})
         returns.append(episode_return(env, make_policy(env, policy, seed=int(seed)))[0])
         env.close()
     return np.array(returns)
@@ -286,8 +289,15 @@ def main(argv=None) -> None:
     parser.add_argument("--seeds", type=int, default=20)
     parser.add_argument("--all", action="store_true", help="include the extra (delfim) tasks")
     parser.add_argument("--tasks", nargs="*", default=None, help="only these task names (default: all)")
+    parser.add_argument("--vessel", default=None, help="sail this hull in every task: a built-in vessel type or "
+                                                       "a vessel folder's path, relative to the current folder")
     parser.add_argument("--no-header", action="store_true")
     args = parser.parse_args(argv)
+    if args.vessel is not None:
+        try:  # (checked once, before the table starts)
+            args.vessel = suite_vessel_type(args.vessel, None)
+        except ValueError as exc:
+            parser.error(f"--vessel: {str(exc).removeprefix('task_kwargs.vessel: ')}")
     tasks = ALL_TASKS if args.all else BENCHMARKING
     if args.tasks:
         unknown = sorted(set(args.tasks) - {t for _, t in tasks})
@@ -298,12 +308,13 @@ def main(argv=None) -> None:
     seeds = range(args.seeds)
     if not args.no_header:
         print(f"Mean episode return ± standard deviation over {args.seeds} seeds (seeds 0…{args.seeds - 1}); "
-              "the maximum is the number of steps.\n")
+              "the maximum is the number of steps" + ("" if args.vessel is None else f"; vessel {args.vessel}")
+              + ".\n")
         print("| domain | task | steps | random | goal line (no avoidance) | baseline |")
         print("|---|---|---:|---:|---:|---:|")
     for domain, task in tasks:
         t0 = time.perf_counter()
-        env = load(domain, task)
+        env = load(domain, task, task_kwargs=None if args.vessel is None else {"vessel": args.vessel})
         steps = int(round(env.step_limit))
         avoidance = isinstance(env.task, CollisionAvoidance)
         env.close()
@@ -312,7 +323,7 @@ def main(argv=None) -> None:
             if policy == "goal_line" and not avoidance:
                 cells.append("—")
                 continue
-            r = evaluate(domain, task, policy, seeds)
+            r = evaluate(domain, task, policy, seeds, vessel=args.vessel)
             cells.append(f"{r.mean():.1f} ± {r.std():.1f}")
         name = f"{task} (CAS)" if avoidance else task
         print(f"| {domain} | {name} | {steps} | {cells[0]} | {cells[1]} | {cells[2]} |", flush=True)

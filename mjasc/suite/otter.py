@@ -42,6 +42,7 @@ from mjasc.suite.common import (
     range_sensor,
     world_to_body,
 )
+from mjasc.suite.vessel_choice import hull_name, suite_vessel_type
 
 __all__ = ["SUITE", "Difficulty", "EASY", "HARD", "OWN_STATE_OBSERVATIONS", "PathFollowing", "StationKeeping",
            "CollisionAvoidance", "get_model_and_assets", "make_environment"]
@@ -437,14 +438,15 @@ _TASKS = {"path_following": PathFollowing, "station_keeping": StationKeeping,
 
 def make_environment(task: str, vessel_type: str, difficulty: Difficulty, time_limit=None, random=None,
                      environment_kwargs=None) -> control.Environment:
-    """The control.Environment of one task for one vessel type (used by every single-vessel domain)."""
+    """The control.Environment of one task for one vessel type (a built-in name or a resolved vessel
+    folder's absolute path: :mod:`mjasc.suite.vessel_choice`), the vessel named as its hull."""
     if task not in _TASKS:
         raise ValueError(f"task: unknown {task!r}; one of {sorted(_TASKS)}")
     static, moving = [], []
     if task == "collision_avoidance":
         static = [basin_walls(BASIN_HALF_SIZE_M)]
         moving = [MovingObstacle(n, TRAFFIC_RADIUS_M, _vec(0.0, 0.0)) for n in _traffic_names(difficulty.n_traffic)]
-    world = compose_world([(vessel_type, vessel_type)], static, moving, XML_PATH)
+    world = compose_world([(hull_name(vessel_type), vessel_type)], static, moving, XML_PATH)
     physics = world.physics
     time_limit = TIME_LIMITS_S[task] if time_limit is None else time_limit
     task_obj = _TASKS[task](vessel_type, difficulty, random=random, time_limit_s=time_limit)
@@ -453,11 +455,13 @@ def make_environment(task: str, vessel_type: str, difficulty: Difficulty, time_l
 
 def register_tasks(suite, vessel_type: str, tags=("benchmarking",)) -> None:
     """Add every task in its easy and hard variant to ``suite`` for ``vessel_type`` (the delfim
-    domain registers the same tasks for its hull)."""
+    domain registers the same tasks for its hull); each task's ``vessel`` argument replaces the
+    hull (:mod:`mjasc.suite.vessel_choice`)."""
     for task in _TASKS:
         for difficulty, name in ((EASY, task), (HARD, task + "_hard")):
-            def factory(time_limit=None, random=None, environment_kwargs=None, _task=task, _d=difficulty):
-                return make_environment(_task, vessel_type, _d, time_limit, random, environment_kwargs)
+            def factory(time_limit=None, random=None, vessel=None, environment_kwargs=None, _task=task, _d=difficulty):
+                return make_environment(_task, suite_vessel_type(vessel, vessel_type), _d, time_limit, random,
+                                        environment_kwargs)
             factory.__name__ = name
             factory.__doc__ = f"{task.replace('_', ' ').capitalize()} ({difficulty.name}) for the {vessel_type}."
             suite.add(*tags, difficulty.name)(factory)

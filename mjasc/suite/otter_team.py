@@ -12,6 +12,8 @@ so the team is laid out flat and documented:
 * action: shape (2·N,), vessel i's (port, starboard) commands at ``[2i, 2i + 2)``;
 * observation: keys ``"<vessel>_<name>"`` (``otter0_body_velocity``, ``otter1_slot_error``, …),
   vessels in order; :func:`agent_observation` cuts out one vessel's dict with plain names;
+  with another hull (``task_kwargs={"vessel": ...}``, :mod:`mjasc.suite.vessel_choice`) the
+  vessels and prefixes are ``<hull name><i>`` (``otter_payload0_body_velocity``), the shapes the same;
 * reward: the team's mean of the per-vessel rewards (:meth:`Formation.vessel_rewards` gives each).
 
 :func:`joint_policy` turns one policy per vessel (each ``observation dict → (2,) action``) into a
@@ -39,6 +41,7 @@ from mjasc.suite.otter import (
     _vec,
     _VesselTask,
 )
+from mjasc.suite.vessel_choice import hull_name, suite_vessel_type
 
 __all__ = ["SUITE", "Formation", "SLOTS_M", "agent_observation", "joint_policy", "make_environment"]
 
@@ -53,20 +56,36 @@ SUITE = containers.TaggedTasks()
 
 
 def vessel_names(n: int, vessel_type: str = VESSEL_TYPE) -> list[str]:
-    """Model names of the team's vessels (also their observation prefixes)."""
-    return [f"{vessel_type}{i}" for i in range(n)]
+    """Model names of the team's vessels (also their observation prefixes): the hull's name (a
+    built-in name, or a vessel folder's name for its path) and the index."""
+    return [f"{hull_name(vessel_type)}{i}" for i in range(n)]
+
+
+def _prefixes(observation) -> list[str]:
+    """The vessels' key prefixes of a team observation, in vessel order (each vessel's first key
+    is its ``body_velocity``: OWN_STATE_OBSERVATIONS)."""
+    first = "_" + OWN_STATE_OBSERVATIONS[0][0]
+    return [k[: -len(first) + 1] for k in observation if k.endswith(first)]
 
 
 def agent_observation(observation, vessel: int, n_vessels: int = len(SLOTS_M),
-                      vessel_type: str = VESSEL_TYPE) -> collections.OrderedDict:
-    """Vessel ``vessel``'s part of a team observation, keys without the prefix."""
-    prefix = vessel_names(n_vessels, vessel_type)[vessel] + "_"
+                      vessel_type: str | None = None) -> collections.OrderedDict:
+    """Vessel ``vessel``'s part of a team observation, keys without the prefix. The prefixes are
+    read from the observation's keys (any hull), or made from ``vessel_type`` when it is given."""
+    if vessel_type is None:
+        prefixes = _prefixes(observation)
+        if not 0 <= vessel < len(prefixes):
+            raise ValueError(f"vessel: no vessel {vessel} in a team observation of {len(prefixes)}")
+        prefix = prefixes[vessel]
+    else:
+        prefix = vessel_names(n_vessels, vessel_type)[vessel] + "_"
     return collections.OrderedDict((k[len(prefix):], v) for k, v in observation.items() if k.startswith(prefix))
 
 
-def joint_policy(policies, n_vessels: int = len(SLOTS_M), vessel_type: str = VESSEL_TYPE):
+def joint_policy(policies, n_vessels: int = len(SLOTS_M), vessel_type: str | None = None):
     """A flat-environment policy (time_step → (2N,) action) from one policy per vessel, each
-    called as ``policy(agent_observation)`` and returning that vessel's (2,) commands."""
+    called as ``policy(agent_observation)`` and returning that vessel's (2,) commands (the
+    prefixes read from the observation, or made from ``vessel_type``)."""
     if len(policies) != n_vessels:
         raise ValueError(f"policies: need one per vessel ({n_vessels}), got {len(policies)}")
 
@@ -82,7 +101,7 @@ class Formation(_VesselTask):
     def __init__(self, vessel_type: str, difficulty: Difficulty, slots_m=SLOTS_M, random=None,
                  time_limit_s: float | None = None):
         self.slots_m = np.asarray(slots_m, dtype=float)
-        self.names = vessel_names(len(self.slots_m), vessel_type)
+        self.names = vessel_names(len(self.slots_m), vessel_type)  # (<hull name><i>)
         super().__init__(vessel_type, difficulty, random=random, time_limit_s=time_limit_s)
 
     def initialize_episode(self, physics: VesselPhysics) -> None:
@@ -226,7 +245,8 @@ def offset_path(path: Path, lateral_m: float) -> Path:
 
 def make_environment(vessel_type: str, difficulty: Difficulty, time_limit=None, random=None,
                      environment_kwargs=None, slots_m=SLOTS_M) -> control.Environment:
-    """The formation environment of a team of ``len(slots_m)`` vessels of ``vessel_type``."""
+    """The formation environment of a team of ``len(slots_m)`` vessels of ``vessel_type`` (a built-in
+    name or a resolved vessel folder's absolute path: :mod:`mjasc.suite.vessel_choice`)."""
     names = vessel_names(len(slots_m), vessel_type)
     world = compose_world([(n, vessel_type) for n in names], domain_xml=XML_PATH)
     time_limit = TIME_LIMIT_S if time_limit is None else time_limit
@@ -235,9 +255,9 @@ def make_environment(vessel_type: str, difficulty: Difficulty, time_limit=None, 
 
 
 @SUITE.add("benchmarking", "easy", "multi_agent")
-def formation(time_limit=None, random=None, environment_kwargs=None):
-    """Three Otters hold a V formation around a virtual leader (easy)."""
-    return make_environment(VESSEL_TYPE, EASY, time_limit, random, environment_kwargs)
+def formation(time_limit=None, random=None, vessel=None, environment_kwargs=None):
+    """Three Otters (or three of ``vessel``) hold a V formation around a virtual leader (easy)."""
+    return make_environment(suite_vessel_type(vessel, VESSEL_TYPE), EASY, time_limit, random, environment_kwargs)
 
 
 #: formation_hard: the hard noise and initial errors, a stronger current (0.5–0.8 m/s, fluctuating)
@@ -246,6 +266,8 @@ FORMATION_HARD = dataclasses.replace(HARD, name="formation_hard", current_speed_
 
 
 @SUITE.add("benchmarking", "hard", "multi_agent")
-def formation_hard(time_limit=None, random=None, environment_kwargs=None):
-    """Three Otters hold a V formation around a virtual leader turning three times, in a strong current (hard)."""
-    return make_environment(VESSEL_TYPE, FORMATION_HARD, time_limit, random, environment_kwargs)
+def formation_hard(time_limit=None, random=None, vessel=None, environment_kwargs=None):
+    """Three Otters (or three of ``vessel``) hold a V formation around a virtual leader turning three
+    times, in a strong current (hard)."""
+    return make_environment(suite_vessel_type(vessel, VESSEL_TYPE), FORMATION_HARD, time_limit, random,
+                            environment_kwargs)

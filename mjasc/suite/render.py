@@ -4,7 +4,8 @@
 one seeded episode with a random policy, the task's classical baseline
 (:mod:`mjasc.suite.baselines`) or a user's callable ``time_step → action``, and writes
 
-* ``<domain>-<task>-<policy>-seed<seed>.mp4``: one frame per control step (10 fps, real time),
+* ``<domain>-<task>-<policy>-seed<seed>.mp4`` (``<domain>-<task>-<hull>-…`` when ``task_kwargs``
+  name a ``vessel``): one frame per control step (10 fps, real time),
   MuJoCo's offscreen renderer (OSMesa unless ``MUJOCO_GL`` says otherwise) through
   :class:`mjasc.runs.video.VideoWriter`; the default ``top_down`` view is fitted to the task's area
   with the path / lanes / route drawn in, vessel arrows and trails; any model camera works too
@@ -101,7 +102,8 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
 
     ``policy``: ``"random"``, ``"baseline"`` or a callable ``time_step → action`` (a dm_env
     TimeStep in, an action array of the action spec's shape out). ``task_kwargs`` are passed to
-    :func:`mjasc.suite.load` (``random`` is set from ``seed``; ``time_limit`` shortens episodes).
+    :func:`mjasc.suite.load` (``random`` is set from ``seed``; ``time_limit`` shortens episodes;
+    ``vessel`` sails another hull, whose name then joins the files' names and the title).
     ``progress``: called as ``progress(steps_done, step_limit)`` after every tenth of the episode.
     ``hud``: draw the heads-up display on the video's frames (False: the plain scene).
     """
@@ -114,7 +116,8 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
     kwargs = dict(task_kwargs or {})
     kwargs["random"] = int(seed)
     env = load(domain, task, task_kwargs=kwargs)
-    stem = f"{domain}-{task}-{_policy_name(policy)}-seed{seed}"
+    hull = f"-{env.task.vessel.name}" if kwargs.get("vessel") is not None else ""
+    stem = f"{domain}-{task}{hull}-{_policy_name(policy)}-seed{seed}"
     writer = recorder = None
     try:
         act = make_policy(env, policy, seed=int(seed))
@@ -129,7 +132,8 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
         if video:
             writer = VideoWriter(out_dir / f"{stem}.mp4", physics.model.ptr, width, height,
                                  fps=1.0 / env.control_timestep(), camera=camera, extent_xy=(lo, hi), overlays=lines,
-                                 title=f"{domain}/{task}", chase_title="{vessel}: chase view",
+                                 title=f"{domain}/{task}" + (f" ({env.task.vessel.name})" if hull else ""),
+                                 chase_title="{vessel}: chase view",
                                  vessel_colours=[(name, vessel_colour(i)) for i, name in
                                                  enumerate(physics.world.vessel_names)])
         if rerun:
