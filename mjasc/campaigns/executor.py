@@ -12,7 +12,9 @@ children.
 
 A request is ``{"index", "scenario_toml", "run_dir" (None: no files), "evaluate", "reference"}`` and
 optionally ``"plugins"`` (``{stage: {name: "module:QualifiedName"}}``: methods registered in the
-driver's process, imported and registered here before the run; :mod:`mjasc.campaigns.methods`); the result
+driver's process, imported and registered here before the run; :mod:`mjasc.campaigns.methods`),
+``"hulls"`` (vessel folders shipped by the driver) or ``"vessel_paths"`` (their local copies: the
+scenario's folders are sailed from there; :mod:`mjasc.campaigns.hull_shipping`); the result
 ``{"status": completed | diverged | error | timeout | crashed, "error", "summary", "wall_time_s",
 "cpu_time_s", "worker"}``. :func:`execute_in_process` runs one request in the calling process (the
 child's own code path; also what ``workers = 0`` uses when isolation is off).
@@ -56,11 +58,14 @@ def execute_in_process(request: dict) -> dict:
     try:
         from dataclasses import replace
 
+        from mjasc.campaigns.hull_shipping import localise, with_vessel_paths
+
         if request.get("plugins"):
             from mjasc.campaigns.methods import register_plugins
 
             register_plugins(request["plugins"])
-        doc = tomllib.loads(request["scenario_toml"])
+        request = localise(request)  # (shipped vessel folders: written here once, sailed from here)
+        doc = with_vessel_paths(tomllib.loads(request["scenario_toml"]), request.get("vessel_paths"))
         sc = parse_scenario(doc, f"<run {request.get('index')}>")
         run_dir = request.get("run_dir")
         sc = replace(sc, outputs=replace(sc.outputs, recording=run_dir is not None, video=False))
