@@ -97,8 +97,14 @@ def folder_files(folder: str | Path) -> dict[str, Path]:
 def read_folder(folder: str | Path) -> dict[str, bytes]:
     """The content of :func:`folder_files` (relative path → bytes), read once. Raises ValueError
     (one line naming the file and the reason)."""
+    try:
+        files = folder_files(folder)
+    except OSError as exc:
+        raise ValueError(f"{exc.filename or folder}: cannot be read ({exc.strerror or exc})") from None
+    except ET.ParseError as exc:
+        raise ValueError(f"{Path(folder) / (Path(folder).name + '.xml')}: not valid XML ({exc})") from None
     out = {}
-    for rel, path in folder_files(folder).items():
+    for rel, path in files.items():
         try:
             out[rel] = path.read_bytes()
         except OSError as exc:
