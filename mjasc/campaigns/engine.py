@@ -56,16 +56,13 @@ from mjasc.campaigns.hull_records import family_hulls
 from mjasc.campaigns.hull_shipping import localise, pack_hulls, remove_hull_root
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
 from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore
+from mjasc.campaigns.timing_fields import TIMING_KEYS, is_timing_key, without_timing
 from mjasc.core.config_tables import integer, number
 from mjasc.core.kernel_cache import COLD_START_WAIT_S, cache_is_cold
 
 __all__ = ["CampaignResult", "run_campaign", "execute_runs", "wilson_interval", "format_aggregate", "TIMING_KEYS", "is_timing_key",
            "without_timing", "IN_PROCESS_MAX_RUNS"]
 
-#: Fields of a result that depend on the machine, not on the run; besides these, every key ending
-#: in ``_us`` (components report their wall-clock cost in microseconds).
-TIMING_KEYS = frozenset({"wall_time_s", "cpu_time_s", "real_time_factor", "worker", "run_wall_time_s",
-                         "run_cpu_time_s", "throughput_runs_per_hour", "startup_s", "timing_s"})
 #: Campaigns with at most this many runs to do run in this process unless asked otherwise.
 IN_PROCESS_MAX_RUNS = 4
 #: Default per-run time limit [s] (a run that takes longer is killed and recorded as a timeout).
@@ -82,21 +79,6 @@ class CampaignResult:
     aggregate: dict
     files: dict = field(default_factory=dict)
     info: dict = field(default_factory=dict)
-
-
-def is_timing_key(key: str) -> bool:
-    """True for a machine-dependent field: one of :data:`TIMING_KEYS` or a ``*_us`` wall-clock cost."""
-    return key in TIMING_KEYS or key.endswith("_us")
-
-
-def without_timing(obj: Any) -> Any:
-    """A summary (or any nested dict) without its machine-dependent fields (:func:`is_timing_key`):
-    what must be identical whatever the workers, their number and the completion order."""
-    if isinstance(obj, dict):
-        return {k: without_timing(v) for k, v in obj.items() if not is_timing_key(k)}
-    if isinstance(obj, list):
-        return [without_timing(v) for v in obj]
-    return obj
 
 
 # ---------------------------------------------------------------------- one run
