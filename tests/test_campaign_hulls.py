@@ -239,3 +239,18 @@ def test_the_digest_covers_a_mesh(tmp_path):
     stl = folder / "meshes" / "box.stl"
     stl.write_bytes(stl.read_bytes()[:-2] + b"\1\0")  # (the last facet's attribute bytes: still a valid mesh)
     assert parse_campaign_spec(camp, str(tmp_path / "c.toml"), tmp_path).digest != before
+
+
+def test_the_campaign_command_says_it_in_one_line_with_status_2(tmp_path, capsys):
+    from mjasc.cli import main
+
+    mesh_hull(tmp_path / "hulls" / "my_hull", mesh_file="../shared/box.stl", meshdir=".")
+    (tmp_path / "c.toml").write_text('name = "h"\n[[families]]\nkind = "head_on"\nduration_s = 2.0\n'
+                                     'own = { type = "hulls/my_hull" }\n')
+    assert main(["campaign", str(tmp_path / "c.toml"), "--workers", "0", "--out", str(tmp_path / "out"),
+                 "--no-progress"]) == 2
+    err = capsys.readouterr().err.strip()
+    head = f"mjasc: invalid campaign: {tmp_path / 'c.toml'}: family 'head_on' (run 0) vessels[0].type: "
+    assert err.startswith(head), err
+    assert "\n" not in err and "lies outside the vessel folder" in err
+    assert not any((tmp_path / "out").iterdir())  # (the command checked the folder writable: nothing in it)

@@ -4,13 +4,13 @@ A run's scenario names a vessel folder by the absolute path the driver resolved 
 (``type = "/home/me/hulls/heron"``). A worker on another machine has no such folder, so the driver
 reads each folder the runs to do name once, before anything is written (:func:`pack_hulls`: the
 files runs read, :mod:`mjasc.physics.hull_files`, content as text-safe base64, keyed by a SHA-256
-of every file's path and bytes), and the packs travel with the runs (in each request, or once per
-worker on a Dask cluster: the engine scatters them). Where a run executes, :func:`localise`
-writes each pack once per process into a private temporary folder
-(``<tmp>/mjasc-hulls-XXXX/<key>/<name>/``, mode 0700; written under another name and renamed when
-complete, so a folder there is always whole; reused by every later run; removed when the campaign
-ends, :func:`remove_hull_root`, or at the process's exit) and maps the driver's path to it; the run's
-scenario then names the local copy (:func:`with_vessel_paths`). The folder keeps its name, so the
+of every file's path and bytes), and the packs go to each Dask worker once (the engine scatters
+them; the threads of a local cluster and an in-process campaign share the driver's). The process
+that hands a run to its child (or runs it) writes each pack once (:func:`localise`) into a private
+temporary folder (``<tmp>/mjasc-hulls-XXXX/<key>/<name>/``, mode 0700; written under another name
+and renamed when complete, so a folder there is always whole; reused by every later run; removed
+when the campaign ends, :func:`remove_hull_root`, or at the process's exit) and maps the driver's
+path to it; the run's scenario then names the local copy (:func:`with_vessel_paths`). The folder keeps its name, so the
 vessel's type name, its model and every result are those of a run from the original folder, bit
 for bit; the stored scenario text still names the original path (``mjasc extract`` replays it
 where that folder is). A built-in hull (``type = "otter"``) ships nothing.
