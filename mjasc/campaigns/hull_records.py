@@ -37,13 +37,17 @@ def _fingerprint(folder: str) -> str | None:
 
 def run_hulls(scenario_toml: str, packs: dict | None = None) -> list[dict]:
     """The hull records (module docstring) of a run's scenario text, in vessel order; a folder's
-    fingerprint from its pack (:func:`mjasc.campaigns.hull_shipping.pack_hulls`) when given."""
+    fingerprint from ``packs`` (``{path: {"fingerprint": …}}``, as
+    :func:`mjasc.campaigns.hull_shipping.pack_hulls` makes them) when it has the folder, else read
+    now (and added to ``packs``, when given)."""
     records: dict[str, dict] = {}
     for _, name, vtype in run_vessel_types(scenario_toml):
         rec = records.get(vtype)
         if rec is None:
             folder = is_folder_type(vtype)
-            fp = (packs[vtype]["fingerprint"] if packs and vtype in packs else _fingerprint(vtype)) if folder else None
+            if folder and packs is not None and vtype not in packs:
+                packs[vtype] = {"fingerprint": _fingerprint(vtype)}
+            fp = (packs[vtype]["fingerprint"] if packs is not None else _fingerprint(vtype)) if folder else None
             rec = records[vtype] = {"hull": Path(vtype).name if folder else vtype, "folder": vtype if folder else None,
                                     "fingerprint": fp, "vessels": []}
         rec["vessels"].append(name)
@@ -52,7 +56,8 @@ def run_hulls(scenario_toml: str, packs: dict | None = None) -> list[dict]:
 
 def family_hulls(campaign, packs: dict | None = None) -> dict[str, list[dict]]:
     """``{family: hull records}`` of each family with runs in ``campaign`` (a CampaignSpec; its
-    first run read)."""
+    first run read; each folder's fingerprint read once)."""
+    packs = dict(packs or {})
     out: dict[str, list[dict]] = {}
     labels = getattr(campaign, "method_labels", ("",))
     first = 0

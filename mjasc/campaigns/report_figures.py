@@ -58,7 +58,8 @@ def outcome_map(plt, runs, outcomes, px: str, py: str, title: str, out: Path, st
     fig.colorbar(sc, ax=ax, label="minimum separation [m]")
     ax.set_xlabel(px)
     ax.set_ylabel(py)
-    ax.set_title(f"{title}: outcome over {px} × {py}")
+    text = f"{title}: outcome over {px} × {py}"
+    ax.set_title(text if len(text) <= 55 else f"{title}\noutcome over {px} × {py}")  # (within the figure's width)
     fig.tight_layout()
     paths = save(fig, out, stem, formats)
     plt.close(fig)
