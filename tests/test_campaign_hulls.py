@@ -202,6 +202,12 @@ def test_a_shipped_copy_is_written_once_and_checked(tmp_path):
         sneaky = {**p, "key": "1" * 64, "files": {"../evil.xml": ""}}
         with pytest.raises(ValueError, match="not a path inside its folder, got '../evil.xml'"):
             hull_shipping.localise({"hulls": {"x": sneaky}})
+        hull_shipping.hold_hull_root()  # two campaigns of this process sail it: the copy stays until both end
+        hull_shipping.hold_hull_root()
+        hull_shipping.release_hull_root()
+        assert copy.is_dir()
+        hull_shipping.release_hull_root()
+        assert not copy.exists()
     finally:
         hull_shipping.remove_hull_root()
     assert not copy.exists()

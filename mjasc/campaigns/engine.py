@@ -53,7 +53,7 @@ from mjasc.campaigns.cluster import (WORKER_WAIT_S, close_client, local_workers,
 from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
                                       run_isolated, take_prestarted)
 from mjasc.campaigns.hull_records import family_hulls
-from mjasc.campaigns.hull_shipping import localise, pack_hulls, remove_hull_root
+from mjasc.campaigns.hull_shipping import hold_hull_root, localise, pack_hulls, release_hull_root, remove_hull_root
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
 from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore
 from mjasc.campaigns.timing_fields import TIMING_KEYS, is_timing_key, without_timing
@@ -218,6 +218,8 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
 
         bar = tqdm(total=len(runs), unit="run", desc=label, file=sys.stderr)
     t0 = time.perf_counter()
+    if hulls:
+        hold_hull_root()  # (this process's copies stay while any campaign here runs)
     try:
         if not runs:
             info.update(scheduler="none")
@@ -232,7 +234,7 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
         if bar is not None:
             bar.close()
         if hulls:
-            remove_hull_root()  # (this process's copies: the runs are over)
+            release_hull_root()  # (removed when no campaign in this process needs them any more)
     info["wall_time_s"] = round(time.perf_counter() - t0, 3)
     return info
 

@@ -9,7 +9,8 @@ them; the threads of a local cluster and an in-process campaign share the driver
 that hands a run to its child (or runs it) writes each pack once (:func:`localise`) into a private
 temporary folder (``<tmp>/mjasc-hulls-XXXX/<key>/<name>/``, mode 0700; written under another name
 and renamed when complete, so a folder there is always whole; reused by every later run; removed
-when the campaign ends, :func:`remove_hull_root`, or at the process's exit) and maps the driver's
+when the last campaign of the process that uses them ends, :func:`release_hull_root`, or at the
+process's exit) and maps the driver's
 path to it; the run's scenario then names the local copy (:func:`with_vessel_paths`). The folder keeps its name, so the
 vessel's type name, its model and every result are those of a run from the original folder, bit
 for bit; the stored scenario text still names the original path (``mjasc extract`` replays it
@@ -29,12 +30,13 @@ from pathlib import Path, PurePosixPath
 
 from mjasc.physics.hull_files import content_hashes, fingerprint, is_folder_type, read_folder
 
-__all__ = ["run_vessel_types", "pack_hulls", "localise", "with_vessel_paths", "remove_hull_root",
-           "HULL_ROOT_PREFIX"]
+__all__ = ["run_vessel_types", "pack", "pack_hulls", "localise", "with_vessel_paths", "hold_hull_root",
+           "release_hull_root", "remove_hull_root", "HULL_ROOT_PREFIX"]
 
 #: The prefix of a process's temporary folder of shipped hulls.
 HULL_ROOT_PREFIX = "mjasc-hulls-"
 _ROOT: Path | None = None
+_USERS = 0  # campaigns of this process that sail shipped hulls now (hold_hull_root)
 _LOCK = threading.Lock()
 
 
@@ -146,6 +148,23 @@ def with_vessel_paths(doc: dict, vessel_paths: dict | None) -> dict:
         return doc
     return {**doc, "vessels": [{**v, "type": vessel_paths[v["type"]]}
                                if isinstance(v, dict) and v.get("type") in vessel_paths else v for v in vessels]}
+
+
+def hold_hull_root() -> None:
+    """A campaign of this process starts sailing shipped hulls: its copies stay until it releases them."""
+    global _USERS
+    with _LOCK:
+        _USERS += 1
+
+
+def release_hull_root() -> None:
+    """A campaign of this process has ended: the copies are removed once no other one runs here."""
+    global _USERS
+    with _LOCK:
+        _USERS = max(0, _USERS - 1)
+        last = _USERS == 0
+    if last:
+        remove_hull_root()
 
 
 def remove_hull_root() -> None:
