@@ -30,8 +30,8 @@ from pathlib import Path, PurePosixPath
 
 from mjasc.physics.hull_files import content_hashes, fingerprint, is_folder_type, read_folder
 
-__all__ = ["run_vessel_types", "pack", "pack_hulls", "localise", "with_vessel_paths", "hold_hull_root",
-           "release_hull_root", "remove_hull_root", "HULL_ROOT_PREFIX"]
+__all__ = ["run_vessel_types", "pack", "pack_hulls", "localise", "run_document", "with_vessel_paths",
+           "hold_hull_root", "release_hull_root", "remove_hull_root", "HULL_ROOT_PREFIX"]
 
 #: The prefix of a process's temporary folder of shipped hulls.
 HULL_ROOT_PREFIX = "mjasc-hulls-"
@@ -136,6 +136,15 @@ def localise(request: dict) -> dict:
     out["vessel_paths"] = {**(request.get("vessel_paths") or {}),
                            **{path: _materialise(p) for path, p in hulls.items()}}
     return out
+
+
+def run_document(request: dict) -> tuple[dict, dict]:
+    """A run request (:mod:`mjasc.campaigns.executor`) with its shipped hulls written here
+    (:func:`localise`), and its scenario document, which sails the local copies."""
+    import tomllib
+
+    request = localise(request)
+    return request, with_vessel_paths(tomllib.loads(request["scenario_toml"]), request.get("vessel_paths"))
 
 
 def with_vessel_paths(doc: dict, vessel_paths: dict | None) -> dict:
