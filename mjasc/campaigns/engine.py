@@ -334,7 +334,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
         attempts = {(i, m): n for m in dict.fromkeys(getattr(r, "method", "") for r in runs)
                     for i, n in store.attempts(m).items()}
 
-        if hulls and not threaded:  # (to each worker once: a future its tasks share)
+        if hulls:  # (to each worker once: a future its tasks share)
             hulls = client.scatter([hulls], broadcast=True, hash=False)[0]
 
         def key(run) -> tuple:
