@@ -214,16 +214,19 @@ def test_a_shipped_copy_is_written_once_and_checked(tmp_path):
 
 
 # ---------------------------------------------------------------------- bad input
-def test_a_mesh_outside_the_folder_is_a_one_line_error_and_nothing_is_written(tmp_path):
-    folder = mesh_hull(tmp_path / "hulls" / "my_hull", mesh_file="../shared/box.stl", meshdir=".")
+@pytest.mark.parametrize("where", ["outside", "absolute"])
+def test_a_mesh_a_copy_of_the_folder_would_miss_is_a_one_line_error_and_nothing_is_written(tmp_path, where):
+    folder = tmp_path / "hulls" / "my_hull"
+    mesh = tmp_path / "hulls" / "shared" / "box.stl" if where == "outside" else folder / "meshes" / "box.stl"
+    mesh_hull(folder, mesh_file="../shared/box.stl" if where == "outside" else str(mesh), meshdir=".")
     spec = parse_campaign_spec({"name": "h", "families": [head_on("hulls/my_hull")]}, str(tmp_path / "c.toml"),
                                tmp_path)  # (a scenario sails it: the file is where MuJoCo looks)
     with pytest.raises(CampaignError) as err:
         run_campaign(spec, tmp_path / "out", workers=0, progress=False)
     msg = str(err.value)
     assert "\n" not in msg and msg.startswith("family 'head_on' (run 0) vessels[0].type: ")
-    assert f"{folder.resolve()}/my_hull.xml: mesh 'lid' file: {(tmp_path / 'hulls/shared/box.stl').resolve()} " \
-           "lies outside the vessel folder" in msg
+    reason = "lies outside the vessel folder" if where == "outside" else "is an absolute path"
+    assert f"{folder.resolve()}/my_hull.xml: mesh 'lid' file: {mesh.resolve()} {reason}" in msg
     assert not (tmp_path / "out").exists()
 
 

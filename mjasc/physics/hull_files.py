@@ -40,18 +40,20 @@ def _elements(xml: Path, base: Path, seen: set) -> list:
     for el in ET.parse(xml).getroot().iter():
         out.append((xml, el))
         if el.tag in _MODEL_FILES and el.get("file"):
-            inc = (base / el.get("file")).resolve()
+            inc = Path(os.path.normpath(base / el.get("file")))
             if inc not in seen and inc.is_file():
                 seen.add(inc)
                 out += _elements(inc, base, seen)
     return out
 
 
-def referenced_files(xml: str | Path) -> list[tuple[str, Path]]:
-    """``(where, path)`` of each file the MJCF at ``xml`` references (module docstring), once each
-    in document order: ``where`` names the element and attribute (``mesh 'hull' file``), ``path``
-    is absolute (it may lie outside the MJCF's folder). Raises OSError / ET.ParseError."""
-    xml = Path(xml).resolve()
+def referenced_files(xml: str | Path) -> list[tuple[str, Path, str]]:
+    """``(where, path, written)`` of each file the MJCF at ``xml`` references (module docstring),
+    once each in document order: ``where`` names the element and attribute (``mesh 'hull' file``),
+    ``path`` is absolute and normalised without following links (it may lie outside the MJCF's
+    folder), ``written`` the path as the MJCF gives it (with its asset folder). Raises OSError /
+    ET.ParseError."""
+    xml = Path(os.path.abspath(xml))
     base = xml.parent
     elements = _elements(xml, base, {xml})
     dirs: dict[str, str] = {}
@@ -60,7 +62,7 @@ def referenced_files(xml: str | Path) -> list[tuple[str, Path]]:
             for attr in ("meshdir", "texturedir", "assetdir"):
                 if el.get(attr) is not None:
                     dirs.setdefault(attr, el.get(attr))
-    out: dict[Path, str] = {}
+    out: dict[Path, tuple[str, str]] = {}
     for _, el in elements:
         if el.tag in _MODEL_FILES:
             folder = ""
@@ -72,19 +74,23 @@ def referenced_files(xml: str | Path) -> list[tuple[str, Path]]:
             value = el.get(attr)
             if value:
                 name = f" {el.get('name')!r}" if el.get("name") else ""
-                out.setdefault((base / folder / value).resolve(), f"{el.tag}{name} {attr}")
-    return [(where, path) for path, where in out.items()]
+                written = os.path.join(folder, value)
+                out.setdefault(Path(os.path.normpath(base / written)), (f"{el.tag}{name} {attr}", written))
+    return [(where, path, written) for path, (where, written) in out.items()]
 
 
 def folder_files(folder: str | Path) -> dict[str, Path]:
     """``{path relative to the folder (POSIX): absolute path}`` of every file runs read from the
     vessel folder (module docstring): the two files first, then the MJCF's references. Raises
     ValueError (one line naming the MJCF, the element and the file) for a reference outside the
-    folder, which a copy of the folder elsewhere would not have."""
-    folder = Path(folder).resolve()
+    folder, or given by its absolute path, which a copy of the folder elsewhere would not have."""
+    folder = Path(os.path.abspath(folder))
     files = {f.format(name=folder.name): folder / f.format(name=folder.name) for f in HULL_FILES}
     xml = files[f"{folder.name}.xml"]
-    for where, path in referenced_files(xml):
+    for where, path, written in referenced_files(xml):
+        if os.path.isabs(written):
+            raise ValueError(f"{xml}: {where}: {written} is an absolute path (a campaign's workers sail a copy "
+                             f"of the folder elsewhere: write it relative to the MJCF's folder)")
         try:
             rel = path.relative_to(folder).as_posix()
         except ValueError:

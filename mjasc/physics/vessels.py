@@ -134,9 +134,8 @@ def vessel_files(vessel_type: str) -> dict[str, str]:
         return {}
     folder = Path(vessel_type)
     paths = {f.format(name=folder.name): folder / f.format(name=folder.name) for f in HULL_FILES}
-    for _, path in referenced_files(paths[f"{folder.name}.xml"]):  # (one outside the folder: by its path)
-        rel = path.relative_to(folder.resolve()).as_posix() if path.is_relative_to(folder.resolve()) else str(path)
-        paths.setdefault(rel, path)
+    for _, path, _ in referenced_files(paths[f"{folder.name}.xml"]):  # (one outside the folder: by its path)
+        paths.setdefault(path.relative_to(folder).as_posix() if path.is_relative_to(folder) else str(path), path)
     return content_hashes(folder.name, {rel: path.read_bytes() for rel, path in paths.items()})
 
 
