@@ -17,6 +17,11 @@ Where runs execute:
 * this process (``workers = 0`` or ``scheduler = "synchronous"``, and by default for campaigns of at
   most :data:`IN_PROCESS_MAX_RUNS` runs to do, where Dask's start-up would dominate).
 
+A vessel folder the runs sail (an own hull) is read once by the driver and shipped with the runs
+(once per worker on a Dask cluster): each worker writes it into a temporary folder of its own and
+sails it from there, so workers need not have the folder (:mod:`mjasc.campaigns.hull_shipping`);
+the store records each family's hulls for the report (:mod:`mjasc.campaigns.hull_records`).
+
 Either way each run executes in a child process of its worker (:mod:`mjasc.campaigns.executor`):
 a run that raises, diverges, hangs past ``time_limit_s`` or kills its process is recorded with its
 error and retried up to ``max_attempts`` times (a divergence is deterministic and is a result, not
@@ -47,18 +52,17 @@ from mjasc.campaigns.cluster import (WORKER_WAIT_S, close_client, local_workers,
                                     scheduler_problem, warm_up_worker, workers_problem)
 from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
                                       run_isolated, take_prestarted)
+from mjasc.campaigns.hull_records import family_hulls
+from mjasc.campaigns.hull_shipping import hold_hull_root, localise, pack_hulls, release_hull_root, remove_hull_root
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
 from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore
+from mjasc.campaigns.timing_fields import TIMING_KEYS, is_timing_key, without_timing
 from mjasc.core.config_tables import integer, number
 from mjasc.core.kernel_cache import COLD_START_WAIT_S, cache_is_cold
 
 __all__ = ["CampaignResult", "run_campaign", "execute_runs", "wilson_interval", "format_aggregate", "TIMING_KEYS", "is_timing_key",
            "without_timing", "IN_PROCESS_MAX_RUNS"]
 
-#: Fields of a result that depend on the machine, not on the run; besides these, every key ending
-#: in ``_us`` (components report their wall-clock cost in microseconds).
-TIMING_KEYS = frozenset({"wall_time_s", "cpu_time_s", "real_time_factor", "worker", "run_wall_time_s",
-                         "run_cpu_time_s", "throughput_runs_per_hour", "startup_s", "timing_s"})
 #: Campaigns with at most this many runs to do run in this process unless asked otherwise.
 IN_PROCESS_MAX_RUNS = 4
 #: Default per-run time limit [s] (a run that takes longer is killed and recorded as a timeout).
@@ -77,21 +81,6 @@ class CampaignResult:
     info: dict = field(default_factory=dict)
 
 
-def is_timing_key(key: str) -> bool:
-    """True for a machine-dependent field: one of :data:`TIMING_KEYS` or a ``*_us`` wall-clock cost."""
-    return key in TIMING_KEYS or key.endswith("_us")
-
-
-def without_timing(obj: Any) -> Any:
-    """A summary (or any nested dict) without its machine-dependent fields (:func:`is_timing_key`):
-    what must be identical whatever the workers, their number and the completion order."""
-    if isinstance(obj, dict):
-        return {k: without_timing(v) for k, v in obj.items() if not is_timing_key(k)}
-    if isinstance(obj, list):
-        return [without_timing(v) for v in obj]
-    return obj
-
-
 # ---------------------------------------------------------------------- one run
 def _request(run, out_dir: Path, recordings: bool, reference: bool, plugins: dict | None = None) -> dict:
     method = getattr(run, "method", "")
@@ -104,9 +93,13 @@ def _request(run, out_dir: Path, recordings: bool, reference: bool, plugins: dic
     return request
 
 
-def _task(request: dict, time_limit_s: float | None, isolate: bool, threaded: bool = False) -> dict:
+def _task(request: dict, time_limit_s: float | None, isolate: bool, threaded: bool = False,
+          hulls: dict | None = None) -> dict:
     """The Dask task: run one request in the worker's persistent child process (``threaded``: the
-    workers are threads of one process, each with its own child, keyed by the worker's id)."""
+    workers are threads of one process, each with its own child, keyed by the worker's id;
+    ``hulls``: the shipped vessel folders, written here once and handed to the child as paths)."""
+    if hulls:
+        request = localise({**request, "hulls": hulls})
     if not isolate:
         return execute_in_process(request)
     if threaded:
@@ -161,16 +154,19 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
             done = {label: existing.done(max_attempts, label) for label in labels}
     todo = [campaign.run(k, label) if label else campaign.run(k)
             for k in range(n_runs) for label in labels if k not in done[label]]
+    hulls = family_hulls(campaign) if hasattr(campaign, "families") else None  # (for the report)
+    packs = pack_hulls(todo)  # (the own hulls read once, before anything is written: shipped to the workers)
     out_dir.mkdir(parents=True, exist_ok=True)
     store = CampaignStore(out_dir, campaign.digest, name=campaign.name, source=str(campaign.source),
                           file_text=json.dumps(getattr(campaign, "data", {}), sort_keys=True, default=str),
-                          runs_defined=campaign.runs_defined)
+                          runs_defined=campaign.runs_defined, hulls=hulls)
     try:
         recordings = bool(getattr(getattr(campaign, "outputs", None), "recordings", False))
         reference = bool(getattr(getattr(campaign, "evaluation", None), "mission_cost", True))
         info = execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
                             max_attempts=max_attempts, time_limit_s=time_limit_s, isolate=isolate,
-                            recordings=recordings, reference=reference, label=campaign.name, plugins=plugins)
+                            recordings=recordings, reference=reference, label=campaign.name, plugins=plugins,
+                            hulls=packs)
         info["already_done"] = n_runs * len(labels) - len(todo)
         runs = store.runs()
         defined = store.info().get("runs_defined", campaign.runs_defined)  # (the largest extent asked so far)
@@ -181,7 +177,7 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
         files["campaign"] = out_dir / "campaign.json"
         doc = {"campaign": {"name": campaign.name, "description": getattr(campaign, "description", ""),
                             "source": str(campaign.source), "digest": campaign.digest,
-                            "runs_defined": defined, **info},
+                            "runs_defined": defined, "hulls": hulls, **info},
                "aggregate": agg}
         tmp = files["campaign"].with_suffix(".json.tmp")
         tmp.write_text(json.dumps(doc, indent=1, default=str))
@@ -195,13 +191,17 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
 def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=None, workers: int | None = None,
                  progress: bool = True, max_attempts: int = 2, time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
                  isolate: bool = True, recordings: bool = False, reference: bool = False,
-                 label: str = "campaign", plugins: dict | None = None) -> dict:
+                 label: str = "campaign", plugins: dict | None = None, hulls: dict | None = None) -> dict:
     """Execute ``runs`` (:class:`~mjasc.campaigns.spec.RunSpec`) and write each result into ``store``
     as it arrives (module docstring: where they run, retries). ``reference``: follow each run with
     traffic by its run without traffic, for the mission cost (:mod:`mjasc.campaigns.executor`).
     ``plugins``: ``{stage: {name: "module:QualifiedName" or None}}``, methods registered in this
     process that the runs' processes import by name (None: not importable, only unisolated here).
+    ``hulls``: the vessel folders the runs sail, packed (None: read from the runs now; CampaignError
+    when one cannot be read), shipped to the runs' processes.
     Returns how it ran: scheduler, workers, start-up and wall time [s], runs_to_do."""
+    if hulls is None:
+        hulls = pack_hulls(runs)
     in_process = scheduler == "synchronous" or workers == 0 or (
         workers is None and scheduler is None and len(runs) <= IN_PROCESS_MAX_RUNS)
     if plugins and runs:
@@ -218,19 +218,23 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
 
         bar = tqdm(total=len(runs), unit="run", desc=label, file=sys.stderr)
     t0 = time.perf_counter()
+    if hulls:
+        hold_hull_root()  # (this process's copies stay while any campaign here runs)
     try:
         if not runs:
             info.update(scheduler="none")
         elif in_process:
             info.update(scheduler="synchronous", workers=0, startup_s=0.0)
             _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar, plugins,
-                      info)
+                      info, hulls)
         else:
             _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
-                         reference, bar, info, plugins)
+                         reference, bar, info, plugins, hulls)
     finally:
         if bar is not None:
             bar.close()
+        if hulls:
+            release_hull_root()  # (removed when no campaign in this process needs them any more)
     info["wall_time_s"] = round(time.perf_counter() - t0, 3)
     return info
 
@@ -243,7 +247,7 @@ def _record(store: CampaignStore, run, result: dict) -> int:
 
 
 def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar,
-              plugins=None, info: dict | None = None) -> None:
+              plugins=None, info: dict | None = None, hulls: dict | None = None) -> None:
     executor = ((take_prestarted(1) or [IsolatedExecutor()])[0]) if isolate else None
     try:
         if executor is not None:
@@ -255,6 +259,8 @@ def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordi
                 info["startup_s"] = round(time.perf_counter() - t0, 3)
         for run in runs:
             request = _request(run, out_dir, recordings, reference, plugins)
+            if hulls:
+                request = localise({**request, "hulls": hulls})
             while True:
                 result = executor.run(request, time_limit_s) if executor else execute_in_process(request)
                 attempts = _record(store, run, result)
@@ -268,7 +274,7 @@ def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordi
 
 
 def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
-                 reference, bar, info, plugins=None) -> None:
+                 reference, bar, info, plugins=None, hulls=None) -> None:
     from distributed import as_completed
 
     t_start = time.perf_counter()
@@ -328,13 +334,16 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
         attempts = {(i, m): n for m in dict.fromkeys(getattr(r, "method", "") for r in runs)
                     for i, n in store.attempts(m).items()}
 
+        if hulls:  # (to each worker once: a future its tasks share)
+            hulls = client.scatter([hulls], broadcast=True, hash=False)[0]
+
         def key(run) -> tuple:
             return run.index, getattr(run, "method", "")
 
         def submit(run) -> None:
             method = f"-{run.method}" if getattr(run, "method", "") else ""
             fut = client.submit(_task, _request(run, out_dir, recordings, reference, plugins), time_limit_s, isolate,
-                                threaded, pure=False,
+                                threaded, hulls or None, pure=False,
                                 key=f"mjasc-run-{tag}-{run.index}{method}-{attempts.get(key(run), 0)}")
             pending[fut] = run
 
@@ -371,6 +380,11 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
                 release_isolated(k)
             for child in children:  # also those never adopted (the cluster failed to start)
                 child.close()
+            if hulls and client is not None and not threaded:  # (the workers' copies of the shipped hulls)
+                try:
+                    client.run(remove_hull_root)
+                except Exception:  # noqa: BLE001 — a worker gone: its temporary folder goes at its exit
+                    pass
         finally:
             try:
                 close_client(closers, local)

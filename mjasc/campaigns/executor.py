@@ -12,7 +12,8 @@ children.
 
 A request is ``{"index", "scenario_toml", "run_dir" (None: no files), "evaluate", "reference"}`` and
 optionally ``"plugins"`` (``{stage: {name: "module:QualifiedName"}}``: methods registered in the
-driver's process, imported and registered here before the run; :mod:`mjasc.campaigns.methods`); the result
+driver's process, imported and registered here before the run; :mod:`mjasc.campaigns.methods`),
+``"hulls"`` / ``"vessel_paths"`` (shipped own hulls: :mod:`mjasc.campaigns.hull_shipping`); the result
 ``{"status": completed | diverged | error | timeout | crashed, "error", "summary", "wall_time_s",
 "cpu_time_s", "worker"}``. :func:`execute_in_process` runs one request in the calling process (the
 child's own code path; also what ``workers = 0`` uses when isolation is off).
@@ -46,8 +47,7 @@ __all__ = ["IsolatedExecutor", "execute_in_process", "run_isolated", "start_isol
 def execute_in_process(request: dict) -> dict:
     """Run one campaign run here: parse its scenario text, run it (recording into ``run_dir`` when
     given), evaluate it against the truth; never raises for a failed run."""
-    import tomllib
-
+    from mjasc.campaigns.hull_shipping import run_document
     from mjasc.runs.runner import RunFailed, Runner
     from mjasc.runs.scenario import parse_scenario
 
@@ -60,7 +60,7 @@ def execute_in_process(request: dict) -> dict:
             from mjasc.campaigns.methods import register_plugins
 
             register_plugins(request["plugins"])
-        doc = tomllib.loads(request["scenario_toml"])
+        request, doc = run_document(request)  # (shipped own hulls written here once and sailed from here)
         sc = parse_scenario(doc, f"<run {request.get('index')}>")
         run_dir = request.get("run_dir")
         sc = replace(sc, outputs=replace(sc.outputs, recording=run_dir is not None, video=False))

@@ -15,7 +15,11 @@ in while the driver writes). :func:`report_data` computes everything from the st
 * ``cost`` — per vessel, the path-length and time cost against the same mission without traffic,
   per family.
 
-The Markdown has two tables per family: outcomes (rates, separation, compliance, actions) and per
+The Markdown names, per family, the hulls its own vessels sailed (a built-in name, or a vessel
+folder's name, path and content fingerprint: :mod:`mjasc.campaigns.hull_records`; "unknown" from a
+store written before they were recorded; the JSON's ``hulls``, ``{family: records or None}``), and
+the figures' family labels carry a short tag of them when a family sails a folder. It has two tables
+per family: outcomes (rates, separation, compliance, actions) and per
 vessel (median / p95 over every vessel of every completed run, :mod:`mjasc.campaigns.statistics`):
 path cost (extra distance for the same progress), time cost, mean and max cross-track error,
 formation error (mean |lead| over the neighbours, metres of path).
@@ -37,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mjasc.campaigns.hull_records import family_ticks, family_title, hull_table
 from mjasc.campaigns.statistics import aggregate, run_outcome, wilson_interval
 from mjasc.campaigns.report_figures import comparison_figures, numeric_params, outcome_map, save
 from mjasc.campaigns.store import CampaignStore
@@ -47,7 +52,8 @@ __all__ = ["report_data", "write_report", "format_report"]
 def report_data(folder: str | Path) -> dict:
     """Everything the report shows, as one JSON-ready object: ``runs_defined``, ``runs_recorded``
     (distinct runs with a result), ``runs_failed``, ``outcomes`` (counts per status and of
-    collisions and near misses), ``families`` and overall statistics, ``campaign`` (name, digest)."""
+    collisions and near misses), ``families`` and overall statistics, ``campaign`` (name, digest),
+    ``hulls`` (per family the hulls its own vessels sailed, None when the store does not say)."""
     with CampaignStore.open_existing(folder) as store:
         info = store.info()
         runs = store.runs()
@@ -56,8 +62,10 @@ def report_data(folder: str | Path) -> dict:
     outcomes = dict(agg["statuses"])
     outcomes["collision"] = agg["collision"]["count"]
     outcomes["near_miss"] = agg["near_miss"]["count"]
+    stored = info.get("hulls")
+    hulls = {f: stored.get(f) if stored is not None else None for f in agg["families"]}
     return {"campaign": {k: info.get(k) for k in ("name", "digest", "source", "campaigns_in_store")},
-            "runs_defined": agg["runs_defined"], "runs_recorded": agg["runs_recorded"],
+            "hulls": hulls, "runs_defined": agg["runs_defined"], "runs_recorded": agg["runs_recorded"],
             "runs_failed": agg["runs_failed"], "outcomes": outcomes, **{k: v for k, v in agg.items() if k not in (
                 "runs_defined", "runs_recorded", "runs_failed")}}
 
@@ -103,6 +111,7 @@ def format_report(data: dict) -> str:
     lines = [*_title(data["campaign"]),
              f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
              f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}).", "",
+             *hull_table(data.get("hulls"), list(data["families"])),
              "| family | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] | min separation: min / median [m] "
              "| COLREG compliant | actions |", "|---|---:|---|---|---|---|---|"]
     for fam, g in list(data["families"].items()) + [("**all**", data)]:
@@ -165,6 +174,7 @@ def _format_comparison(data: dict) -> str:
              f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}). "
              f"Methods compared: {', '.join(methods)} (each generated run once per method, the same scenario but "
              f"for its avoidance tables).", "",
+             *hull_table(data.get("hulls"), list(data["families"])),
              "| family | method | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] "
              "| min separation: min / p5 / median [m] | COLREG compliant | path cost, median [%] "
              "| time cost, median [s] | actions |", "|---|---|---:|---|---|---|---|---:|---:|---|"]
@@ -223,6 +233,7 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
     with CampaignStore.open_existing(folder) as store:
         runs = [r for r in store.runs() if r.status == "completed"]
     fams = sorted({r.family for r in runs})
+    ticks = family_ticks(data.get("hulls"), fams)  # (a family's hulls under its name when one is a folder)
     if not runs:
         return {"data": data, "files": files}
     if data.get("methods"):
@@ -241,7 +252,7 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
             hi.append(100 * w[1] - 100 * (g["rate"] or 0.0))
         ax.bar(x + off, rates, width=0.36, color=col, label=key.replace("_", " "))
         ax.errorbar(x + off, rates, yerr=[lo, hi], fmt="none", ecolor="black", capsize=3)
-    ax.set_xticks(x, fams, rotation=20, ha="right")
+    ax.set_xticks(x, ticks, rotation=20, ha="right")
     ax.set_ylabel("runs [%] (bars: Wilson 95 %)")
     ax.set_title("Collision and near-miss rate per encounter family")
     ax.legend()
@@ -252,7 +263,7 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
     fig, ax = plt.subplots(figsize=(max(5, 1.4 * len(fams) + 2), 4))
     seps = [[run_outcome(r.metrics)["min_separation_m"] for r in runs if r.family == f] for f in fams]
     ax.boxplot([[s for s in v if s is not None] or [np.nan] for v in seps], showfliers=True)
-    ax.set_xticks(np.arange(1, len(fams) + 1), fams, rotation=20, ha="right")
+    ax.set_xticks(np.arange(1, len(fams) + 1), ticks, rotation=20, ha="right")
     ax.axhline(0.0, color="tab:red", lw=1, ls="--")
     ax.set_ylabel("minimum separation [m]\n(< 0: hull circles overlap)")
     ax.set_title("Minimum separation per run")
@@ -266,7 +277,8 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
         if len(params) < 2:
             continue
         outcomes = [run_outcome(r.metrics) for r in fr]
-        files += outcome_map(plt, fr, outcomes, params[0], params[1], f, out, f"outcomes_{f}", formats)
+        title = family_title(data.get("hulls"), f)
+        files += outcome_map(plt, fr, outcomes, params[0], params[1], title, out, f"outcomes_{f}", formats)
     # COLREG compliance per role
     per_role: dict[str, list[int]] = defaultdict(lambda: [0, 0])
     for r in runs:
@@ -294,7 +306,7 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
     if any(v is not None for g in gospa for v in g):
         fig, ax = plt.subplots(figsize=(max(5, 1.4 * len(fams) + 2), 4))
         ax.boxplot([[v for v in g if v is not None] or [np.nan] for g in gospa])
-        ax.set_xticks(np.arange(1, len(fams) + 1), fams, rotation=20, ha="right")
+        ax.set_xticks(np.arange(1, len(fams) + 1), ticks, rotation=20, ha="right")
         ax.set_ylabel("mean GOSPA per run [m] (c = 10 m, p = 2)")
         ax.set_title("Tracking accuracy against the truth")
         fig.tight_layout()
@@ -307,7 +319,7 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
         for ax, key, scale, label in ((axes[0], "path_cost", 100.0, "extra distance for the same progress [%]"),
                                       (axes[1], "time_cost_s", 1.0, "later than without traffic [s]")):
             ax.boxplot([[scale * x for o in samples[f] for x in o[key]] or [np.nan] for f in fams])
-            ax.set_xticks(np.arange(1, len(fams) + 1), fams, rotation=20, ha="right")
+            ax.set_xticks(np.arange(1, len(fams) + 1), ticks, rotation=20, ha="right")
             ax.axhline(0.0, color="grey", lw=1, ls="--")
             ax.set_ylabel(label)
         fig.suptitle("Mission cost per vessel against the same mission without traffic")

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from mjasc.campaigns.hull_records import family_ticks, family_title
 from mjasc.campaigns.statistics import run_outcome, wilson_interval
 
 __all__ = ["numeric_params", "outcome_map", "save", "comparison_figures"]
@@ -57,7 +58,8 @@ def outcome_map(plt, runs, outcomes, px: str, py: str, title: str, out: Path, st
     fig.colorbar(sc, ax=ax, label="minimum separation [m]")
     ax.set_xlabel(px)
     ax.set_ylabel(py)
-    ax.set_title(f"{title}: outcome over {px} × {py}")
+    text = f"{title}: outcome over {px} × {py}"
+    ax.set_title(text if len(text) <= 55 else f"{title}\noutcome over {px} × {py}")  # (within the figure's width)
     fig.tight_layout()
     paths = save(fig, out, stem, formats)
     plt.close(fig)
@@ -111,6 +113,7 @@ def comparison_figures(plt, data: dict, runs, out: Path, formats) -> list[Path]:
     files: list[Path] = []
     methods = list(data["methods"])
     fams = sorted({r.family for r in runs})
+    ticks = family_ticks(data.get("hulls"), fams)  # (a family's hulls under its name when one is a folder)
     outcome = {(r.index, r.method): run_outcome(r.metrics) for r in runs}
 
     def of(m, f):
@@ -131,7 +134,7 @@ def comparison_figures(plt, data: dict, runs, out: Path, formats) -> list[Path]:
 
     fig, axes = plt.subplots(1, 2, figsize=(max(9, 2.2 * len(fams) + 3), 4.2))
     for ax, key, title in ((axes[0], "collision", "collision"), (axes[1], "near_miss", "near miss (< 1 m, no contact)")):
-        _grouped_bars(ax, fams, rate_series(key))
+        _grouped_bars(ax, ticks, rate_series(key))
         ax.set_ylabel("runs [%] (bars: Wilson 95 %)")
         ax.set_title(title)
     axes[0].legend(title="method")
@@ -141,7 +144,7 @@ def comparison_figures(plt, data: dict, runs, out: Path, formats) -> list[Path]:
     plt.close(fig)
 
     fig, ax = plt.subplots(figsize=(max(6, 1.8 * len(fams) + 2), 4.2))
-    _grouped_boxes(ax, fams, {m: [[o["min_separation_m"] for o in of(m, f)] for f in fams] for m in methods})
+    _grouped_boxes(ax, ticks, {m: [[o["min_separation_m"] for o in of(m, f)] for f in fams] for m in methods})
     ax.axhline(0.0, color="tab:red", lw=1, ls="--")
     ax.set_ylabel("minimum separation [m]\n(< 0: hull circles overlap)")
     ax.set_title("Minimum separation per run and method")
@@ -163,7 +166,8 @@ def comparison_figures(plt, data: dict, runs, out: Path, formats) -> list[Path]:
             mr = [r for r in fr if r.method == m]
             if not mr:
                 continue
-            files += outcome_map(plt, mr, [outcome[(r.index, m)] for r in mr], px, py, f"{f}, {m}", out,
+            title = family_title(data.get("hulls"), f)
+            files += outcome_map(plt, mr, [outcome[(r.index, m)] for r in mr], px, py, f"{title}, {m}", out,
                                   f"outcomes_{f}_{m}", formats, (vmin, vmax))
 
     per_role: dict = defaultdict(lambda: [0, 0])
@@ -198,7 +202,7 @@ def comparison_figures(plt, data: dict, runs, out: Path, formats) -> list[Path]:
     gospa = {m: [[o["gospa_mean_m"] for o in of(m, f)] for f in fams] for m in methods}
     if any(v is not None for g in gospa.values() for vals in g for v in vals):
         fig, ax = plt.subplots(figsize=(max(6, 1.8 * len(fams) + 2), 4.2))
-        _grouped_boxes(ax, fams, gospa)
+        _grouped_boxes(ax, ticks, gospa)
         ax.set_ylabel("mean GOSPA per run [m] (c = 10 m, p = 2)")
         ax.set_title("Tracking accuracy against the truth, per method")
         ax.legend(title="method")
@@ -210,7 +214,7 @@ def comparison_figures(plt, data: dict, runs, out: Path, formats) -> list[Path]:
         fig, axes = plt.subplots(1, 2, figsize=(max(10, 3.2 * len(fams) + 3), 4.2))
         for ax, key, scale, label in ((axes[0], "path_cost", 100.0, "extra distance for the same progress [%]"),
                                       (axes[1], "time_cost_s", 1.0, "later than without traffic [s]")):
-            _grouped_boxes(ax, fams, {m: [[scale * x for o in of(m, f) for x in o["per_vessel"][key]] for f in fams]
+            _grouped_boxes(ax, ticks, {m: [[scale * x for o in of(m, f) for x in o["per_vessel"][key]] for f in fams]
                                       for m in methods})
             ax.axhline(0.0, color="grey", lw=1, ls="--")
             ax.set_ylabel(label)

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from mjasc.campaigns.engine import execute_runs
+from mjasc.campaigns.hull_records import family_hulls
 from mjasc.campaigns.scenario_text import scenario_toml, write_scenario
 from mjasc.campaigns.spec import CampaignError, RunSpec
 from mjasc.campaigns.statistics import run_outcome
@@ -117,8 +118,9 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
     digest = hashlib.sha256(f"{campaign.digest}|{family}|{settings}".encode()).hexdigest()
     sampler = CrossEntropySampler(len(names), config)
     result = SearchResult()
+    hulls = {family: family_hulls(campaign).get(family)}  # (the report names the hulls the search sailed)
     with CampaignStore(out_dir, digest, name=f"{campaign.name}:{family}:{config.method}", source=str(campaign.source),
-                       file_text=settings, runs_defined=config.budget) as store:
+                       file_text=settings, runs_defined=config.budget, hulls=hulls) as store:
         index = 0
         while index < config.budget:
             batch: list[tuple[RunSpec, np.ndarray]] = []

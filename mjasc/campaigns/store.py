@@ -9,7 +9,7 @@ lost, none duplicated, none recomputed.
 
 Schema (``campaign.sqlite``)::
 
-    campaigns(digest PRIMARY KEY, name, source, file_text, runs_defined, created_unix_s, run_unix_s)
+    campaigns(digest PRIMARY KEY, name, source, file_text, runs_defined, created_unix_s, run_unix_s, hulls JSON)
     runs(digest, idx, family, parameters JSON, seed, scenario TOML, status, attempts, error,
          metrics JSON, wall_time_s, worker, finished_unix_s, method, PRIMARY KEY (digest, idx, method))
 
@@ -21,7 +21,9 @@ run last (:meth:`CampaignStore.open_existing`), the one whose exports the folder
 A store written before ``method`` existed (key ``(digest, idx)``) is migrated when opened: its runs
 table is rebuilt with the new key in one transaction, every row with method ``""`` (nothing else
 changes; its runs stay done). One written before ``run_unix_s`` gets the column, at each
-campaign's creation time.
+campaign's creation time; one written before ``hulls`` (each family's hulls,
+:mod:`mjasc.campaigns.hull_records`) gets the column empty: its hulls are unknown until a command
+runs the campaign again (an older driver writing to a migrated store leaves them as they are).
 
 Statuses: ``completed`` and ``diverged`` are results (a divergence is deterministic: the run
 replays it); ``error`` (the run raised), ``timeout`` (over the per-run time limit) and ``crashed``
@@ -51,7 +53,7 @@ RETRY_STATUSES = frozenset({"error", "timeout", "crashed"})
 _SCHEMA = """
 CREATE TABLE IF NOT EXISTS campaigns (
     digest TEXT PRIMARY KEY, name TEXT NOT NULL, source TEXT, file_text TEXT, runs_defined INTEGER NOT NULL,
-    created_unix_s REAL NOT NULL, run_unix_s REAL);
+    created_unix_s REAL NOT NULL, run_unix_s REAL, hulls TEXT);
 CREATE TABLE IF NOT EXISTS runs (
     digest TEXT NOT NULL, idx INTEGER NOT NULL, family TEXT, parameters TEXT, seed INTEGER, scenario TEXT,
     status TEXT NOT NULL, attempts INTEGER NOT NULL, error TEXT, metrics TEXT, wall_time_s REAL, worker TEXT,
@@ -93,7 +95,7 @@ class CampaignStore:
     """The store of one campaign (``digest``) in ``folder/campaign.sqlite`` (created if missing)."""
 
     def __init__(self, folder: str | Path, digest: str, name: str = "", source: str = "", file_text: str = "",
-                 runs_defined: int = 0):
+                 runs_defined: int = 0, hulls: dict | None = None):
         self.folder = Path(folder)
         self.folder.mkdir(parents=True, exist_ok=True)
         self.path = self.folder / STORE_FILE
@@ -112,16 +114,18 @@ class CampaignStore:
         if name or runs_defined:  # (a command running the campaign: the largest extent asked, run now)
             now = time.time()
             self._db.execute("INSERT INTO campaigns (digest, name, source, file_text, runs_defined, created_unix_s, "
-                             "run_unix_s) VALUES (?, ?, ?, ?, ?, ?, ?) ON CONFLICT (digest) DO UPDATE SET "
+                             "run_unix_s, hulls) VALUES (?, ?, ?, ?, ?, ?, ?, ?) ON CONFLICT (digest) DO UPDATE SET "
                              "runs_defined = MAX(runs_defined, excluded.runs_defined), "
-                             "run_unix_s = excluded.run_unix_s",
-                             (digest, name, source, file_text, int(runs_defined), now, now))
+                             "run_unix_s = excluded.run_unix_s, hulls = COALESCE(excluded.hulls, hulls)",
+                             (digest, name, source, file_text, int(runs_defined), now, now,
+                              None if hulls is None else json.dumps(hulls, sort_keys=True)))
 
     def _migrate(self) -> None:
-        """Give a store written before the ``run_unix_s`` column that column and one written before
-        the ``method`` column its new key (module docstring)."""
+        """Give a store written before the ``run_unix_s`` or ``hulls`` column that column and one
+        written before the ``method`` column its new key (module docstring)."""
         self._add_column("campaigns", "run_unix_s", ["ALTER TABLE campaigns ADD COLUMN run_unix_s REAL",
                                                      "UPDATE campaigns SET run_unix_s = created_unix_s"])
+        self._add_column("campaigns", "hulls", ["ALTER TABLE campaigns ADD COLUMN hulls TEXT"])
         self._add_column("runs", "method", [
             "DROP TABLE IF EXISTS runs_migrating",
             _SCHEMA.split(";")[1].replace("IF NOT EXISTS runs", "runs_migrating"),
@@ -211,14 +215,15 @@ class CampaignStore:
     # ------------------------------------------------------------------ reading
     def info(self) -> dict:
         """The campaign's digest, name, source, ``runs_defined`` (module docstring), creation time
-        [Unix s] and how many campaigns the store holds in all."""
-        row = self._db.execute("SELECT name, source, runs_defined, created_unix_s FROM campaigns WHERE digest = ?",
-                               (self.digest,)).fetchone()
+        [Unix s], ``hulls`` (``{family: hull records}``, :mod:`mjasc.campaigns.hull_records`; None:
+        not recorded) and how many campaigns the store holds in all."""
+        row = self._db.execute("SELECT name, source, runs_defined, created_unix_s, hulls FROM campaigns "
+                               "WHERE digest = ?", (self.digest,)).fetchone()
         n = self._db.execute("SELECT COUNT(*) FROM campaigns").fetchone()[0]
         if row is None:
-            return {"digest": self.digest, "campaigns_in_store": n}
+            return {"digest": self.digest, "hulls": None, "campaigns_in_store": n}
         return {"digest": self.digest, "name": row[0], "source": row[1], "runs_defined": row[2],
-                "created_unix_s": row[3], "campaigns_in_store": n}
+                "created_unix_s": row[3], "hulls": _hulls(row[4]), "campaigns_in_store": n}
 
     def file_text(self) -> str:
         """The campaign's parsed file as stored (JSON text; "" when unknown)."""
@@ -287,6 +292,15 @@ class CampaignStore:
         table = pa.Table.from_pylist([{c: r.get(c) for c in columns} for r in rows]) if rows else pa.table({})
         pq.write_table(table, files["parquet"])
         return files
+
+
+def _hulls(text: str | None) -> dict | None:
+    """The stored hull records (None: not recorded, or not readable as such)."""
+    try:
+        value = json.loads(text) if text else None
+    except ValueError:
+        return None
+    return value if isinstance(value, dict) else None
 
 
 def _flat(prefix: str, value, out: dict) -> None:

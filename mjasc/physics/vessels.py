@@ -15,7 +15,6 @@ the contract (:mod:`mjasc.physics.vessel_contract`) — once, where the file is 
 from __future__ import annotations
 
 import functools
-import hashlib
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,7 +29,7 @@ VESSELS_DIR = ASSETS_DIR / "vessels"
 SCENE_XML = ASSETS_DIR / "scene" / "water.xml"
 
 __all__ = ["VesselType", "available_vessels", "load_vessel_type", "resolve_vessel_type", "is_vessel_path",
-           "vessel_files", "ASSETS_DIR", "SCENE_XML"]
+           "vessel_files", "vessel_fingerprint", "ASSETS_DIR", "SCENE_XML"]
 
 
 @dataclass(frozen=True)
@@ -123,24 +122,31 @@ def _resolve(value: str, base_dir: str | Path | None) -> str:
 
 
 def vessel_files(vessel_type: str) -> dict[str, str]:
-    """The SHA-256 of the two files mjasc reads from a vessel folder (a resolved ``type``; {} for a
+    """The SHA-256 of the files mjasc reads from a vessel folder (a resolved ``type``; {} for a
     built-in name), by content: what a campaign's digest covers, so that an edited hull is a new
     campaign and, as for the campaign file, a comment is not (the TOML as parsed, the MJCF in
-    canonical form without comments). The folder's README.md and scene.xml, which mjasc never
+    canonical form without comments, files the MJCF references — meshes, textures — byte for byte:
+    :mod:`mjasc.physics.hull_files`). The folder's README.md and scene.xml, which mjasc never
     reads, are not covered: documenting the hull does not start the campaign over."""
-    import json
-    import tomllib
-    import xml.etree.ElementTree as ET
+    from mjasc.physics.hull_files import HULL_FILES, content_hashes, referenced_files
 
     if not os.path.isabs(vessel_type):
         return {}
     folder = Path(vessel_type)
-    xml, toml = folder / f"{folder.name}.xml", folder / "hydrodynamics.toml"
-    with open(toml, "rb") as fh:
-        hydro = json.dumps(tomllib.load(fh), sort_keys=True)
-    mjcf = ET.canonicalize(from_file=str(xml), with_comments=False, strip_text=True)
-    return {xml.name: hashlib.sha256(mjcf.encode()).hexdigest(),
-            toml.name: hashlib.sha256(hydro.encode()).hexdigest()}
+    paths = {f.format(name=folder.name): folder / f.format(name=folder.name) for f in HULL_FILES}
+    for _, path, _ in referenced_files(paths[f"{folder.name}.xml"]):  # (one outside the folder: by its path)
+        paths.setdefault(path.relative_to(folder).as_posix() if path.is_relative_to(folder) else str(path), path)
+    return content_hashes(folder.name, {rel: path.read_bytes() for rel, path in paths.items()})
+
+
+def vessel_fingerprint(vessel_type: str) -> str:
+    """A vessel folder's short content tag (:func:`mjasc.physics.hull_files.fingerprint` of
+    :func:`vessel_files`): what a campaign report names a folder's hull by besides its name; "" for
+    a built-in name."""
+    from mjasc.physics.hull_files import fingerprint
+
+    files = vessel_files(vessel_type)
+    return fingerprint(files) if files else ""
 
 
 def load_vessel_type(name: str) -> VesselType:
