@@ -217,8 +217,8 @@ def test_a_shipped_copy_is_written_once_and_checked(tmp_path):
 @pytest.mark.parametrize("where", ["outside", "absolute"])
 def test_a_mesh_a_copy_of_the_folder_would_miss_is_a_one_line_error_and_nothing_is_written(tmp_path, where):
     folder = tmp_path / "hulls" / "my_hull"
-    mesh = tmp_path / "hulls" / "shared" / "box.stl" if where == "outside" else folder / "meshes" / "box.stl"
-    mesh_hull(folder, mesh_file="../shared/box.stl" if where == "outside" else str(mesh), meshdir=".")
+    mesh = tmp_path / "hulls" / "common" / "box.stl" if where == "outside" else folder / "meshes" / "box.stl"
+    mesh_hull(folder, mesh_file="../common/box.stl" if where == "outside" else str(mesh), meshdir=".")
     spec = parse_campaign_spec({"name": "h", "families": [head_on("hulls/my_hull")]}, str(tmp_path / "c.toml"),
                                tmp_path)  # (a scenario sails it: the file is where MuJoCo looks)
     with pytest.raises(CampaignError) as err:
@@ -253,7 +253,7 @@ def test_the_digest_covers_a_mesh(tmp_path):
 def test_the_campaign_command_says_it_in_one_line_with_status_2(tmp_path, capsys):
     from mjasc.cli import main
 
-    mesh_hull(tmp_path / "hulls" / "my_hull", mesh_file="../shared/box.stl", meshdir=".")
+    mesh_hull(tmp_path / "hulls" / "my_hull", mesh_file="../common/box.stl", meshdir=".")
     (tmp_path / "c.toml").write_text('name = "h"\n[[families]]\nkind = "head_on"\nduration_s = 2.0\n'
                                      'own = { type = "hulls/my_hull" }\n')
     assert main(["campaign", str(tmp_path / "c.toml"), "--workers", "0", "--out", str(tmp_path / "out"),

@@ -1,7 +1,7 @@
 """Own hulls shipped to the runs' workers: a campaign runs where the hull folder is not.
 
 A run's scenario names a vessel folder by the absolute path the driver resolved it to
-(``type = "/home/me/hulls/heron"``). A worker on another machine has no such folder, so the driver
+(``type = "/srv/lab/hulls/heron"``). A worker on another machine has no such folder, so the driver
 reads each folder the runs to do name once, before anything is written (:func:`pack_hulls`: the
 files runs read, :mod:`mjasc.physics.hull_files`, content as text-safe base64, keyed by a SHA-256
 of every file's path and bytes), and the packs go to each Dask worker once (the engine scatters
