@@ -117,14 +117,15 @@ def _branch(hydro, thrusters, commands_of, start_nu) -> list:
 
 def tightest_turn(hydro, thrusters, speed_m_s: float) -> SteadyTurn | None:
     """The tightest steady turn (to port) of vessel 0 at the speed over ground ``speed_m_s``
-    [m/s] in still water (module docstring), or None when the hull cannot sail that fast."""
+    [m/s] in still water (module docstring), or None when the hull sails no steady turn at that
+    speed (too fast for any turn, or a hull whose steady states the solve does not find)."""
     target = float(speed_m_s)
     if not (math.isfinite(target) and target > 0):
         raise ValueError(f"speed_m_s: must be finite and > 0, got {speed_m_s}")
     signed = lambda nu: math.copysign(math.hypot(nu[0], nu[1]), nu[0])  # noqa: E731  (< 0: astern)
     spin = steady_state(hydro, thrusters, (-1.0, 1.0))  # full astern against full ahead
-    if spin is None:
-        raise ArithmeticError("no steady state under the commands (-1, 1)")
+    if spin is None:  # (a hull without a steady turn: nothing balances its yaw moment)
+        return None
     if signed(spin) <= target:  # the outer (starboard) propeller at full ahead, the inner one eased up
         commands_of = lambda x: (-1.0 + 2.0 * x, 1.0)  # noqa: E731
     else:  # the inner at full astern, the outer eased down (the hull ends going astern)
@@ -143,9 +144,15 @@ def tightest_turn(hydro, thrusters, speed_m_s: float) -> SteadyTurn | None:
             raise ArithmeticError(f"no steady state under the commands {commands_of(x)}")
         return signed(nu) - target
 
-    x = brentq(gap, x0, x1, xtol=1e-13) if f0 != 0.0 else x0
+    try:
+        x = brentq(gap, x0, x1, xtol=1e-13) if f0 != 0.0 else x0
+    except ArithmeticError:  # (no steady state between two that were found: treated as none)
+        return None
     commands = tuple(float(c) for c in commands_of(x))
-    u, v, r = (float(c) for c in steady_state(hydro, thrusters, commands, nu0))
+    nu = steady_state(hydro, thrusters, commands, nu0)
+    if nu is None:
+        return None
+    u, v, r = (float(c) for c in nu)
     return SteadyTurn(speed_m_s=math.hypot(u, v), surge_m_s=u, sway_m_s=v, yaw_rate_rad_s=r, commands=commands)
 
 
