@@ -271,6 +271,8 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
     per_role: dict[str, list[int]] = defaultdict(lambda: [0, 0])
     for r in runs:
         for e in (r.metrics or {}).get("evaluation", {}).get("encounters", []):
+            if e["role"] == "none":  # no risk of collision: nothing asked, not judged
+                continue
             per_role[e["role"]][0] += bool(e["compliant"])
             per_role[e["role"]][1] += 1
     if per_role:
