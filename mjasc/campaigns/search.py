@@ -105,9 +105,14 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
     """Search ``campaign``'s family ``family`` for failures (module docstring); results in
     ``out_dir/campaign.sqlite`` (resumable: a stored run is not run again) and ``out_dir/failures/``."""
     fam = next((f for f in campaign.families if f.name == family), None)
-    if fam is None or not hasattr(fam, "from_unit"):
+    searchable = [f.name for f in campaign.families if hasattr(f, "from_unit")]
+    if fam is not None and not hasattr(fam, "from_unit"):  # (it said "no encounter family 'x' (have: x)")
+        raise CampaignError(f"family: {family!r} is a {fam.kind} family, which has no parameter laws to search; "
+                            f"the search takes an encounter family (head_on, …, bottleneck: docs/campaigns.md"
+                            f"{'; here: ' + ', '.join(searchable) if searchable else ''})")
+    if fam is None:
         raise CampaignError(f"family: no encounter family {family!r} in {campaign.name} "
-                         f"(have: {', '.join(f.name for f in campaign.families)})")
+                            f"(have: {', '.join(f.name for f in campaign.families)})")
     names = fam.searchable()
     if not names:
         raise CampaignError(f"family {family!r}: no continuous parameter to search (declare uniform or normal "
