@@ -51,5 +51,5 @@ def test_a_search_over_a_perturbation_family_says_why_it_cannot(tmp_path):
     spec = parse_campaign_spec({"name": "c", "families": [{"kind": "perturbation", "name": "demo",
                                                            "scenario": "demo.toml", "duration_s": 5.0}]},
                                base_dir=Path(__file__).resolve().parents[1] / "tasks")
-    with pytest.raises(ValueError, match="'demo' is a perturbation family, which has no parameter laws"):
+    with pytest.raises(ValueError, match="'demo' is a family of kind 'perturbation', which has no parameter laws"):
         search_failures(spec, "demo", tmp_path, SearchConfig(budget=2, batch=2))

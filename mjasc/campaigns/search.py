@@ -107,8 +107,8 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
     fam = next((f for f in campaign.families if f.name == family), None)
     searchable = [f.name for f in campaign.families if hasattr(f, "from_unit")]
     if fam is not None and not hasattr(fam, "from_unit"):  # (it said "no encounter family 'x' (have: x)")
-        raise CampaignError(f"family: {family!r} is a {fam.kind} family, which has no parameter laws to search; "
-                            f"the search takes an encounter family (head_on, …, bottleneck: docs/campaigns.md"
+        raise CampaignError(f"family: {family!r} is a family of kind {fam.kind!r}, which has no parameter laws to "
+                            f"search; the search takes an encounter family (head_on, …, bottleneck: docs/campaigns.md"
                             f"{'; here: ' + ', '.join(searchable) if searchable else ''})")
     if fam is None:
         raise CampaignError(f"family: no encounter family {family!r} in {campaign.name} "
