@@ -146,7 +146,8 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
                                       text, seed), u))
             done = store.done(2)
             execute_runs([r for r, _ in batch if r.index not in done], store, out_dir, scheduler=scheduler,
-                         workers=workers, progress=progress, time_limit_s=time_limit_s, label=family)
+                         workers=workers, progress=progress, time_limit_s=time_limit_s, label=family,
+                         colreg=getattr(campaign, "colreg_request", None))
             stored = {r.index: r for r in store.runs()}
             scores = []
             for run, u in batch:
