@@ -140,7 +140,8 @@ def test_a_key_written_after_a_table_header_is_explained():
     d["current"] = {"type": "sum", "components": [{"type": "uniform", "velocity_m_s": [0.1, 0.0]},
                                                   {"type": "uniform", "velocity_m_s": [0.0, 0.1],
                                                    "description": d.pop("description", "x")}]}
-    with pytest.raises(ScenarioError, match=r"'description' is a top-level key, not one of \[\[current\.components\]\]"):
+    with pytest.raises(ScenarioError, match=r"'description' is a top-level key, not one of "
+                                            r"\[\[current\.components\]\]"):
         parse_scenario(d, "bad.toml")
     d = demo()
     d["vessels"][0]["controller"]["sped_m_s"] = 1.0

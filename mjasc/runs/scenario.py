@@ -267,7 +267,7 @@ def _misplaced_key_hint(msg: str) -> str:
                 f"a [table] header belongs to that table, so write it before the vessel's first sub-table")
     if m["vessel"] is None and m["key"] in _TOP:
         header = re.sub(r"\[\d+\]", "", m["table"])
-        header = f"[[{header}]]" if header != m["table"] else f"[{header}]"  # (an array of tables: [[current.components]])
+        header = f"[[{header}]]" if header != m["table"] else f"[{header}]"  # ([[current.components]]: an array)
         return (f"; '{m['key']}' is a top-level key, not one of {header}: in TOML every key after a "
                 f"[table] header belongs to that table, so write it before the first [table]")
     return ""
