@@ -104,7 +104,7 @@ def format_report(data: dict) -> str:
              f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
              f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}).", "",
              "| family | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] | min separation: min / median [m] "
-             "| COLREG compliant | actions |", "|---|---:|---|---|---|---|---|"]
+             "| COLREG compliant (encounters with a role) | actions |", "|---|---:|---|---|---|---|---|"]
     for fam, g in list(data["families"].items()) + [("**all**", data)]:
         q = g["min_separation_m"]
         sep = "—" if not q else f"{q['p0']:.2f} / {q['p50']:.2f}"
@@ -166,7 +166,8 @@ def _format_comparison(data: dict) -> str:
              f"Methods compared: {', '.join(methods)} (each generated run once per method, the same scenario but "
              f"for its avoidance tables).", "",
              "| family | method | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] "
-             "| min separation: min / p5 / median [m] | COLREG compliant | path cost, median [%] "
+             "| min separation: min / p5 / median [m] | COLREG compliant (encounters with a role) "
+             "| path cost, median [%] "
              "| time cost, median [s] | actions |", "|---|---|---:|---|---|---|---|---:|---:|---|"]
     for fam, m, g in _comparison_rows(data):
         acts = ", ".join(f"{k} {v}" for k, v in sorted(g["actions"].items()) if v) or "—"
