@@ -27,7 +27,6 @@ recording's threat panel shows it); world frame ENU, SI units, absolute times [s
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass, field, replace
 
 import numpy as np
