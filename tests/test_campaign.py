@@ -153,6 +153,41 @@ def test_per_vessel_samples_read_cost_cross_track_and_formation():
     assert pv["time_cost_s"]["p50"] == 2.0 and pv["reference_short"] == 3
 
 
+def test_colreg_compliance_counts_only_the_encounters_with_a_role(tmp_path):
+    """An encounter without risk of collision (role `none`) asks nothing of the vessel: it is neither
+    compliant nor not. It was counted compliant, so a campaign with wide passes looked more compliant
+    (1 of 2 judged encounters complied, reported as 3 of 4), and the per-role figure had a `none` bar."""
+    from mjasc.campaigns.statistics import aggregate
+    from mjasc.campaigns.store import StoredRun
+
+    enc = [{"role": "head_on", "compliant": True}, {"role": "crossing_give_way", "compliant": False},
+           {"role": "none", "compliant": True}, {"role": "none", "compliant": True}]
+    runs = [StoredRun(index=0, family="f", parameters={}, seed=0, scenario="", status="completed", attempts=1,
+                      error=None, metrics={"vessels": {}, "evaluation": {"encounters": enc}}, wall_time_s=0.0,
+                      worker="w")]
+    colreg = aggregate(runs)["families"]["f"]["colreg"]
+    assert colreg["encounters"] == 4 and colreg["roles"]["none"] == 2
+    assert colreg["compliant"]["count"] == 1 and colreg["compliant"]["n"] == 2
+
+
+def test_the_campaign_s_colreg_thresholds_judge_its_runs(tmp_path):
+    """The [colreg] table was used to draw the families' roles but the runs were judged with the
+    defaults: a campaign asking that risk of collision start at a 3 m CPA still saw its 6 m head-on
+    passes judged head-on (default 20 m)."""
+    from mjasc.campaigns.engine import run_campaign
+    from mjasc.campaigns.spec import parse_campaign_spec
+
+    def roles(colreg: dict) -> list:
+        spec = parse_campaign_spec({"name": "c", "evaluation": {"mission_cost": False}, "colreg": colreg,
+                                    "families": [{"kind": "head_on", "duration_s": 8.0, "runs_per_point": 1,
+                                                  "parameters": {"dcpa_m": 6.0, "tcpa_s": 20.0}}]})
+        res = run_campaign(spec, tmp_path / str(len(colreg)), workers=0, progress=False)
+        return [e["role"] for r in res.runs for e in r.metrics["evaluation"]["encounters"]]
+
+    assert roles({}) == ["head_on"]
+    assert roles({"risk_cpa_m": 3.0}) == ["none"]
+
+
 # ---------------------------------------------------------------------- engine
 def test_local_cluster_gives_the_in_process_results(here, cluster, tmp_path):
     spec, sync = here

@@ -107,6 +107,21 @@ def test_view_without_a_recording_is_bad_input(tmp_path, capsys):
     assert err.count("\n") == 1 and "no recording.rrd" in err
 
 
+def test_view_of_a_campaign_folder_points_at_its_runs_recordings(tmp_path, capsys):
+    # It said "no recording.rrd in the folder; a run writes one with [outputs] recording = true",
+    # though the campaign kept every run's recording under runs/<k>/ ([outputs] recordings = true).
+    (tmp_path / "campaign.sqlite").write_bytes(b"")
+    assert main(["view", str(tmp_path), "--print"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "a campaign folder" in err and "recordings = true" in err
+    for k in (3, 12):
+        (tmp_path / "runs" / str(k)).mkdir(parents=True)
+        (tmp_path / "runs" / str(k) / "recording.rrd").write_bytes(b"RRF2")
+    assert main(["view", str(tmp_path), "--print"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"mjasc view {tmp_path / 'runs' / '3'}" in err
+
+
 @pytest.mark.parametrize("domain, task", [("nope", "path_following"), ("otter", "nope")])
 def test_render_with_an_unknown_domain_or_task_creates_nothing(domain, task, tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)

@@ -44,3 +44,23 @@ def test_crossing_give_way_acts_without_passing_first_and_stand_on_keeps_its_cou
     assert enc["compliant"], enc["compliance_issues"]
     assert actions["pass"] == 0
     assert enc["acted"] == (role == "crossing_give_way")  # compliant: not crossed ahead, not early
+
+
+def test_the_traffic_rule_reads_the_role_from_the_course_over_ground_not_the_crabbed_bow():
+    # Heading north over ground at 1 m/s in a cross current, the bow crabbed 20° to port; a stranger
+    # 60 m ahead on the reciprocal course is head-on (as the evaluation judges it). From the bow it
+    # read as a crossing from starboard (courses 20° off reciprocal), and the vessel slowed down
+    # instead of changing lane to starboard.
+    import math
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from mjasc.avoidance.triage import colreg_role
+
+    nav = SimpleNamespace(position_m=np.zeros(2), heading_rad=math.radians(110.0), velocity_m_s=np.array([0.0, 1.0]))
+    track = SimpleNamespace(position_m=np.array([0.0, 60.0]), heading_rad=-math.pi / 2, speed_m_s=1.5)
+    assert colreg_role(nav, track, "colreg") == "head_on"
+    assert colreg_role(nav, track, "thesis") is None
+    still = SimpleNamespace(position_m=np.zeros(2), heading_rad=math.pi / 2, velocity_m_s=np.array([0.05, 0.0]))
+    assert colreg_role(still, track, "colreg") == "head_on"  # barely moving: its heading

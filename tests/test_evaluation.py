@@ -109,6 +109,43 @@ def test_stand_on_vessel_keeps_course_and_speed():
     assert c.kept_course_and_speed is False and not c.compliant
 
 
+def _crabbing(slow_to_m_s=None, drift_east_m_s=0.0, crab_from_deg=9.5, crab_to_deg=9.5, target_from_starboard=True):
+    """The crossing of :func:`_encounter` in a current setting east: the own vessel holds its track north
+    (course over ground north) with its bow crabbed ``crab_from_deg`` → ``crab_to_deg`` to port into the
+    current from t = 5 s; ``slow_to_m_s``: it also slows to that speed over ground, set ``drift_east_m_s``
+    off its track."""
+    t, p, h, v, q, w = _encounter(target_from_starboard=target_from_starboard)
+    after = t >= 5.0
+    h = np.where(after, NORTH + math.radians(crab_to_deg), NORTH + math.radians(crab_from_deg))
+    if slow_to_m_s is not None:
+        v[after] = [drift_east_m_s, slow_to_m_s]
+        p = np.vstack([[0.0, 0.0], np.cumsum(v[:-1] * 0.5, axis=0)])
+    return t, p, h, v, q, w
+
+
+def test_a_give_way_vessel_slowing_down_in_a_cross_current_has_not_altered_course_to_port():
+    # Slowing from 1.5 to 0.4 m/s on its track in a 0.25 m/s cross current turns the bow from 9.5° to
+    # 32° into the current (to port): no course alteration. It was judged "altered course to port".
+    t, p, h, v, q, w = _crabbing(slow_to_m_s=0.4, crab_to_deg=32.0)
+    c = judge_compliance("crossing_give_way", t, p, h, v, q, w)
+    assert c.acted and c.early and c.to_starboard is None and c.compliant, c.reasons
+    # all but stopped and set off its track by the current: a drift, not a course (to either side)
+    t, p, h, v, q, w = _crabbing(slow_to_m_s=0.3, drift_east_m_s=0.25, crab_to_deg=60.0)
+    c = judge_compliance("crossing_give_way", t, p, h, v, q, w)
+    assert c.acted and c.to_starboard is None and c.compliant, c.reasons
+    # a real turn to port in the current is still one
+    t, p, h, v, q, w = _encounter(own_turn_deg=+60.0, turn_at_s=5.0)
+    c = judge_compliance("crossing_give_way", t, p, h + math.radians(9.5), v, q, w)
+    assert c.to_starboard is False and "altered course to port" in c.reasons
+
+
+def test_a_stand_on_vessel_whose_bow_swings_in_a_current_gradient_keeps_its_course():
+    # Across an eddy's edge the crab grows from 0° to 15° while the track over ground stays north.
+    t, p, h, v, q, w = _crabbing(crab_from_deg=0.0, crab_to_deg=15.0, target_from_starboard=False)
+    c = judge_compliance("crossing_stand_on", t, p, h, v, q, w)
+    assert c.kept_course_and_speed and c.compliant, c.reasons
+
+
 # ------------------------------------------------------------------ GOSPA
 def test_gospa_closed_forms():
     c, p = 10.0, 2.0

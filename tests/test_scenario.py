@@ -129,6 +129,20 @@ def test_a_key_written_after_a_table_header_is_explained():
     d["outputs"]["seed"] = d.pop("seed", 1)
     with pytest.raises(ScenarioError, match=r"^outputs\.seed: unknown field \(allowed: .*\); 'seed' is a top-level key"):
         parse_scenario(d, "bad.toml")
+    # ... also after a nested table's header ([mission.go_to_formation], [[current.components]]), where
+    # the hint was missing
+    d = demo()
+    d["mission"] = {"phases": ["follow_path"], "follow_path": {"seed": d.pop("seed", 1)}}
+    with pytest.raises(ScenarioError, match=r"^mission\.follow_path\.seed: unknown field .*; 'seed' is a top-level "
+                                            r"key, not one of \[mission\.follow_path\]"):
+        parse_scenario(d, "bad.toml")
+    d = demo()
+    d["current"] = {"type": "sum", "components": [{"type": "uniform", "velocity_m_s": [0.1, 0.0]},
+                                                  {"type": "uniform", "velocity_m_s": [0.0, 0.1],
+                                                   "description": d.pop("description", "x")}]}
+    with pytest.raises(ScenarioError, match=r"'description' is a top-level key, not one of "
+                                            r"\[\[current\.components\]\]"):
+        parse_scenario(d, "bad.toml")
     d = demo()
     d["vessels"][0]["controller"]["sped_m_s"] = 1.0
     with pytest.raises(ScenarioError) as err:

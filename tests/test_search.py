@@ -1,6 +1,8 @@
 """Failure search: the cross-entropy sampler concentrates on a known minimum where uniform sampling
 does not; a real search over an encounter family stores its runs and writes replayable failures."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -42,3 +44,12 @@ def test_a_search_over_an_encounter_family_stores_runs_and_replayable_failures(t
     assert [r["min_separation_m"] for r in again.runs] == [r["min_separation_m"] for r in res.runs]
     with pytest.raises(ValueError, match="no encounter family"):
         search_failures(spec, "nope", tmp_path, cfg)
+
+
+def test_a_search_over_a_perturbation_family_says_why_it_cannot(tmp_path):
+    # It said "no encounter family 'demo' in c (have: demo)".
+    spec = parse_campaign_spec({"name": "c", "families": [{"kind": "perturbation", "name": "demo",
+                                                           "scenario": "demo.toml", "duration_s": 5.0}]},
+                               base_dir=Path(__file__).resolve().parents[1] / "tasks")
+    with pytest.raises(ValueError, match="'demo' is a family of kind 'perturbation', which has no parameter laws"):
+        search_failures(spec, "demo", tmp_path, SearchConfig(budget=2, batch=2))

@@ -26,6 +26,7 @@ recording's threat panel shows it); world frame ENU, SI units, absolute times [s
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -79,11 +80,16 @@ def overtaking_us(nav, track) -> bool:
 
 def colreg_role(nav, track, traffic_rule: str) -> str | None:
     """The vessel's COLREG role towards a stranger's track (:func:`mjasc.evaluation.colreg.classify`,
-    the geometry the evaluation judges by), or None under the thesis rule."""
+    the geometry the evaluation judges by: the vessel's course over ground — its heading only when it
+    barely moves — and the track's estimated course), or None under the thesis rule. (The heading is not
+    the course: in a cross current the bow is crabbed into the stream, up to tens of degrees at yield
+    speeds, and a head-on meeting read as a crossing.)"""
     if traffic_rule != "colreg":
         return None
-    speed = float(np.hypot(*np.asarray(nav.velocity_m_s, dtype=float)[:2]))
-    role = classify(nav.position_m, nav.heading_rad, speed, track.position_m, track.heading_rad, track.speed_m_s,
+    v = np.asarray(nav.velocity_m_s, dtype=float)[:2]
+    speed = float(np.hypot(v[0], v[1]))
+    course = math.atan2(v[1], v[0]) if speed > 0.1 else float(nav.heading_rad)
+    role = classify(nav.position_m, course, speed, track.position_m, track.heading_rad, track.speed_m_s,
                     _PREDICTED_RISK)
     return None if role == "none" else role
 

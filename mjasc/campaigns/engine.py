@@ -82,7 +82,8 @@ class CampaignResult:
 
 
 # ---------------------------------------------------------------------- one run
-def _request(run, out_dir: Path, recordings: bool, reference: bool, plugins: dict | None = None) -> dict:
+def _request(run, out_dir: Path, recordings: bool, reference: bool, plugins: dict | None = None,
+             colreg: dict | None = None) -> dict:
     method = getattr(run, "method", "")
     run_dir = str(out_dir / "runs" / method / str(run.index) if method else out_dir / "runs" / str(run.index)) \
         if recordings else None
@@ -90,6 +91,8 @@ def _request(run, out_dir: Path, recordings: bool, reference: bool, plugins: dic
                "reference": reference}
     if plugins:
         request["plugins"] = plugins
+    if colreg:
+        request["colreg"] = colreg
     return request
 
 
@@ -166,7 +169,7 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
         info = execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
                             max_attempts=max_attempts, time_limit_s=time_limit_s, isolate=isolate,
                             recordings=recordings, reference=reference, label=campaign.name, plugins=plugins,
-                            hulls=packs)
+                            hulls=packs, colreg=getattr(campaign, "colreg_request", None))
         info["already_done"] = n_runs * len(labels) - len(todo)
         runs = store.runs()
         defined = store.info().get("runs_defined", campaign.runs_defined)  # (the largest extent asked so far)
@@ -191,7 +194,8 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
 def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=None, workers: int | None = None,
                  progress: bool = True, max_attempts: int = 2, time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
                  isolate: bool = True, recordings: bool = False, reference: bool = False,
-                 label: str = "campaign", plugins: dict | None = None, hulls: dict | None = None) -> dict:
+                 label: str = "campaign", plugins: dict | None = None, hulls: dict | None = None,
+                 colreg: dict | None = None) -> dict:
     """Execute ``runs`` (:class:`~mjasc.campaigns.spec.RunSpec`) and write each result into ``store``
     as it arrives (module docstring: where they run, retries). ``reference``: follow each run with
     traffic by its run without traffic, for the mission cost (:mod:`mjasc.campaigns.executor`).
@@ -199,6 +203,7 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
     process that the runs' processes import by name (None: not importable, only unisolated here).
     ``hulls``: the vessel folders the runs sail, packed (None: read from the runs now; CampaignError
     when one cannot be read), shipped to the runs' processes.
+    ``colreg``: the campaign's ``[colreg]`` thresholds that differ from the defaults (the runs' judge).
     Returns how it ran: scheduler, workers, start-up and wall time [s], runs_to_do."""
     if hulls is None:
         hulls = pack_hulls(runs)
@@ -226,10 +231,10 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
         elif in_process:
             info.update(scheduler="synchronous", workers=0, startup_s=0.0)
             _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar, plugins,
-                      info, hulls)
+                      info, hulls, colreg)
         else:
             _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
-                         reference, bar, info, plugins, hulls)
+                         reference, bar, info, plugins, hulls, colreg)
     finally:
         if bar is not None:
             bar.close()
@@ -247,7 +252,8 @@ def _record(store: CampaignStore, run, result: dict) -> int:
 
 
 def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar,
-              plugins=None, info: dict | None = None, hulls: dict | None = None) -> None:
+              plugins=None, info: dict | None = None, hulls: dict | None = None,
+              colreg: dict | None = None) -> None:
     executor = ((take_prestarted(1) or [IsolatedExecutor()])[0]) if isolate else None
     try:
         if executor is not None:
@@ -258,7 +264,7 @@ def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordi
             if info is not None:
                 info["startup_s"] = round(time.perf_counter() - t0, 3)
         for run in runs:
-            request = _request(run, out_dir, recordings, reference, plugins)
+            request = _request(run, out_dir, recordings, reference, plugins, colreg)
             if hulls:
                 request = localise({**request, "hulls": hulls})
             while True:
@@ -274,7 +280,7 @@ def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordi
 
 
 def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
-                 reference, bar, info, plugins=None, hulls=None) -> None:
+                 reference, bar, info, plugins=None, hulls=None, colreg=None) -> None:
     from distributed import as_completed
 
     t_start = time.perf_counter()
@@ -342,8 +348,8 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
 
         def submit(run) -> None:
             method = f"-{run.method}" if getattr(run, "method", "") else ""
-            fut = client.submit(_task, _request(run, out_dir, recordings, reference, plugins), time_limit_s, isolate,
-                                threaded, hulls or None, pure=False,
+            fut = client.submit(_task, _request(run, out_dir, recordings, reference, plugins, colreg), time_limit_s,
+                                isolate, threaded, hulls or None, pure=False,
                                 key=f"mjasc-run-{tag}-{run.index}{method}-{attempts.get(key(run), 0)}")
             pending[fut] = run
 

@@ -13,7 +13,9 @@ children.
 A request is ``{"index", "scenario_toml", "run_dir" (None: no files), "evaluate", "reference"}`` and
 optionally ``"plugins"`` (``{stage: {name: "module:QualifiedName"}}``: methods registered in the
 driver's process, imported and registered here before the run; :mod:`mjasc.campaigns.methods`),
-``"hulls"`` / ``"vessel_paths"`` (shipped own hulls: :mod:`mjasc.campaigns.hull_shipping`); the result
+``"hulls"`` / ``"vessel_paths"`` (shipped own hulls: :mod:`mjasc.campaigns.hull_shipping`) and
+``"colreg"`` (the campaign's ``[colreg]`` thresholds that differ from the defaults: the evaluation's
+COLREG roles and compliance use them); the result
 ``{"status": completed | diverged | error | timeout | crashed, "error", "summary", "wall_time_s",
 "cpu_time_s", "worker"}``. :func:`execute_in_process` runs one request in the calling process (the
 child's own code path; also what ``workers = 0`` uses when isolation is off).
@@ -69,7 +71,13 @@ def execute_in_process(request: dict) -> dict:
         if request.get("evaluate", True):
             from mjasc.evaluation.run_evaluation import RunEvaluator
 
-            evaluator = RunEvaluator(runner)
+            config = None
+            if request.get("colreg"):  # (the campaign's [colreg] thresholds; absent: the defaults)
+                from mjasc.evaluation.colreg import ColregConfig
+                from mjasc.evaluation.run_evaluation import EvaluationConfig
+
+                config = EvaluationConfig(colreg=ColregConfig(**request["colreg"]))
+            evaluator = RunEvaluator(runner, config)
             runner.observe("record", evaluator)
         try:
             out["summary"] = runner.run().summary

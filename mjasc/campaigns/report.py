@@ -113,7 +113,7 @@ def format_report(data: dict) -> str:
              f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}).", "",
              *hull_table(data.get("hulls"), list(data["families"])),
              "| family | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] | min separation: min / median [m] "
-             "| COLREG compliant | actions |", "|---|---:|---|---|---|---|---|"]
+             "| COLREG compliant (encounters with a role) | actions |", "|---|---:|---|---|---|---|---|"]
     for fam, g in list(data["families"].items()) + [("**all**", data)]:
         q = g["min_separation_m"]
         sep = "—" if not q else f"{q['p0']:.2f} / {q['p50']:.2f}"
@@ -176,7 +176,8 @@ def _format_comparison(data: dict) -> str:
              f"for its avoidance tables).", "",
              *hull_table(data.get("hulls"), list(data["families"])),
              "| family | method | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] "
-             "| min separation: min / p5 / median [m] | COLREG compliant | path cost, median [%] "
+             "| min separation: min / p5 / median [m] | COLREG compliant (encounters with a role) "
+             "| path cost, median [%] "
              "| time cost, median [s] | actions |", "|---|---|---:|---|---|---|---|---:|---:|---|"]
     for fam, m, g in _comparison_rows(data):
         acts = ", ".join(f"{k} {v}" for k, v in sorted(g["actions"].items()) if v) or "—"
@@ -283,6 +284,8 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
     per_role: dict[str, list[int]] = defaultdict(lambda: [0, 0])
     for r in runs:
         for e in (r.metrics or {}).get("evaluation", {}).get("encounters", []):
+            if e["role"] == "none":  # no risk of collision: nothing asked, not judged
+                continue
             per_role[e["role"]][0] += bool(e["compliant"])
             per_role[e["role"]][1] += 1
     if per_role:

@@ -173,6 +173,8 @@ def comparison_figures(plt, data: dict, runs, out: Path, formats) -> list[Path]:
     per_role: dict = defaultdict(lambda: [0, 0])
     for r in runs:
         for e in (r.metrics or {}).get("evaluation", {}).get("encounters", []):
+            if e["role"] == "none":  # no risk of collision: nothing asked, not judged
+                continue
             per_role[(e["role"], r.method)][0] += bool(e["compliant"])
             per_role[(e["role"], r.method)][1] += 1
     if per_role:

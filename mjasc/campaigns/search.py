@@ -106,9 +106,14 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
     """Search ``campaign``'s family ``family`` for failures (module docstring); results in
     ``out_dir/campaign.sqlite`` (resumable: a stored run is not run again) and ``out_dir/failures/``."""
     fam = next((f for f in campaign.families if f.name == family), None)
-    if fam is None or not hasattr(fam, "from_unit"):
+    searchable = [f.name for f in campaign.families if hasattr(f, "from_unit")]
+    if fam is not None and not hasattr(fam, "from_unit"):  # (it said "no encounter family 'x' (have: x)")
+        raise CampaignError(f"family: {family!r} is a family of kind {fam.kind!r}, which has no parameter laws to "
+                            f"search; the search takes an encounter family (head_on, …, bottleneck: docs/campaigns.md"
+                            f"{'; here: ' + ', '.join(searchable) if searchable else ''})")
+    if fam is None:
         raise CampaignError(f"family: no encounter family {family!r} in {campaign.name} "
-                         f"(have: {', '.join(f.name for f in campaign.families)})")
+                            f"(have: {', '.join(f.name for f in campaign.families)})")
     names = fam.searchable()
     if not names:
         raise CampaignError(f"family {family!r}: no continuous parameter to search (declare uniform or normal "
@@ -143,7 +148,8 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
                                       text, seed), u))
             done = store.done(2)
             execute_runs([r for r, _ in batch if r.index not in done], store, out_dir, scheduler=scheduler,
-                         workers=workers, progress=progress, time_limit_s=time_limit_s, label=family)
+                         workers=workers, progress=progress, time_limit_s=time_limit_s, label=family,
+                         colreg=getattr(campaign, "colreg_request", None))
             stored = {r.index: r for r in store.runs()}
             scores = []
             for run, u in batch:

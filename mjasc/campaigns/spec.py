@@ -135,6 +135,15 @@ class CampaignSpec:
     limit: int | None = None  # only the first `limit` runs (the same campaign: same digest, same runs)
     evaluation: CampaignEvaluation = field(default_factory=CampaignEvaluation)
     methods: tuple = ()  # the compared avoidance methods (mjasc.campaigns.methods.MethodEntry); () = as written
+    colreg: ColregConfig = field(default_factory=ColregConfig)  # the [colreg] table: roles drawn and runs judged
+
+    @property
+    def colreg_request(self) -> dict | None:
+        """The ``[colreg]`` thresholds that differ from the defaults, for the runs' evaluation (None: all default)."""
+        default = ColregConfig()
+        changed = {k: getattr(self.colreg, k) for k in default.__dataclass_fields__
+                   if getattr(self.colreg, k) != getattr(default, k)}
+        return changed or None
 
     @property
     def method_labels(self) -> tuple[str, ...]:
@@ -339,7 +348,7 @@ def _parse_campaign_spec(data: dict, source: str, base_dir: str | Path) -> Campa
         refs.update(getattr(fam, "references", dict)())
     digest = hashlib.sha256(_canonical({"format": SPEC_FORMAT, "campaign": data, "files": refs}).encode()).hexdigest()
     spec = CampaignSpec(name, description, base_seed, tuple(families), outputs, digest, source, dict(data),
-                        str(base_dir), evaluation=evaluation, methods=methods)
+                        str(base_dir), evaluation=evaluation, methods=methods, colreg=thresholds)
     first = 0
     for i, fam in enumerate(families):  # each family's first run must be a valid scenario (own overrides, rates)
         for label in spec.method_labels:

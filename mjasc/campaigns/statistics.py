@@ -3,9 +3,9 @@
 Per run (from its summary, :func:`run_outcome`): collision (hull contact), near miss (an encounter's
 separation below the near-miss distance, and no collision), the minimum separation over the run
 (the smallest clearance between a vessel's bounding circle and anything), the mean and max
-cross-track error, the CAS actions by kind, the COLREG compliance of its encounters with traffic,
-and tracking quality (mean GOSPA, identity switches). Per vessel of a run (:func:`vessel_samples`,
-lists over the vessels): the mission cost against the same mission without traffic
+cross-track error, the CAS actions by kind, the COLREG compliance of its encounters with traffic (over
+those with a role: ``none``, no risk of collision, asks nothing), and tracking quality (mean GOSPA,
+identity switches). Per vessel of a run (:func:`vessel_samples`, lists over the vessels): the mission cost against the same mission without traffic
 (``evaluation.cost``, :mod:`mjasc.evaluation.mission_cost`: ``path_cost`` relative extra distance,
 ``time_cost_s``), the mean and max |cross-track error| (``vessels.<v>``, :mod:`mjasc.runs.metrics`)
 and the formation error — the vessel's mean and max |lead| over its neighbours in metres of path,
@@ -112,7 +112,9 @@ def run_outcome(summary: dict | None, near_miss_m: float = 1.0) -> dict:
         "max_cross_track_m": max(maxes) if maxes else None,
         "actions": dict(actions),
         "encounters": len(enc),
-        "encounters_compliant": sum(bool(e.get("compliant")) for e in enc),
+        # compliance over the encounters with a role: `none` (no risk of collision) asks nothing and is not judged
+        "encounters_judged": sum(e.get("role") != "none" for e in enc),
+        "encounters_compliant": sum(bool(e.get("compliant")) and e.get("role") != "none" for e in enc),
         "roles": dict(Counter(e.get("role") for e in enc)),
         "gospa_mean_m": round(float(np.mean([t["gospa_mean_m"] for t in tracking])), 4) if tracking else None,
         "id_switches": sum(t.get("id_switches", 0) for t in tracking) if tracking else None,
@@ -142,6 +144,7 @@ def _group(runs, near_miss_m: float) -> dict:
         actions.update(o["actions"])
         roles.update(o["roles"])
     n_enc = sum(o["encounters"] for o in outs)
+    n_judged = sum(o["encounters_judged"] for o in outs)
     walls = [r.wall_time_s for r in runs if r.wall_time_s is not None]
     missions = [o for o in outs if o["mission_completed"] is not None]
     mission = None if not missions else {
@@ -155,7 +158,7 @@ def _group(runs, near_miss_m: float) -> dict:
         "min_separation_m": quantiles(o["min_separation_m"] for o in outs),
         "mean_cross_track_m": quantiles(o["mean_cross_track_m"] for o in outs),
         "colreg": {"encounters": n_enc, "roles": dict(roles),
-                   "compliant": _rate(sum(o["encounters_compliant"] for o in outs), n_enc)},
+                   "compliant": _rate(sum(o["encounters_compliant"] for o in outs), n_judged)},
         "actions": dict(actions),
         "gospa_mean_m": quantiles(o["gospa_mean_m"] for o in outs),
         "id_switches": sum(o["id_switches"] or 0 for o in outs),

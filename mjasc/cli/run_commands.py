@@ -88,6 +88,13 @@ def cmd_view(args) -> int:
     target = Path(args.run)
     rrd = target / "recording.rrd" if target.is_dir() else target
     if not rrd.is_file():
+        if (target / "campaign.sqlite").is_file():  # a campaign folder: its runs' recordings lie below it
+            found = sorted((p.parent for p in target.glob("runs/**/recording.rrd")),  # (run 3 before run 12)
+                           key=lambda p: [(0, int(x), "") if x.isdigit() else (1, 0, x) for x in p.parts])
+            where = (f"its runs' recordings are in runs/: mjasc view {found[0]}" if found else
+                     "it keeps run recordings (runs/<k>/) only with [outputs] recordings = true in the campaign file")
+            print(f"mjasc: {args.run}: a campaign folder, not a run; {where}", file=sys.stderr)
+            return 2
         print(f"mjasc: {args.run}: no recording here ({'no recording.rrd in the folder' if target.is_dir() else 'no such file'}"
               f"; a run writes one with [outputs] recording = true)", file=sys.stderr)
         return 2

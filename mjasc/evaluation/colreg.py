@@ -31,12 +31,15 @@ the role at t = 0 from the geometry alone (they place the targets at a chosen CP
 Compliance (rules 16–17) is judged from the own vessel's track over the encounter
 (:func:`judge_compliance`): a give-way vessel must act **early** (its first substantial change of
 course or speed comes while the range is still above ``early_range_m`` or the time to CPA above
-``early_tcpa_s``), **to starboard** when it alters course (its heading change at the first
-substantial action is clockwise, i.e. negative in ENU) and **must not cross ahead** of the target (it
+``early_tcpa_s``), **to starboard** when it alters course (its first course change beyond
+``action_course_deg`` is clockwise, i.e. negative in ENU) and **must not cross ahead** of the target (it
 passes astern: at CPA the target is ahead of it along the target's course, relative position · target
 velocity < 0 … measured as the own vessel crossing the target's track behind it); a stand-on vessel
 must keep course and speed (no substantial change) until action is required — until the range falls
-below ``stand_on_range_m`` or the time to CPA below ``stand_on_tcpa_s`` (rule 17 (b)).
+below ``stand_on_range_m`` or the time to CPA below ``stand_on_tcpa_s`` (rule 17 (b)). A course is the
+course over ground (as the role's), not the heading: in a cross current a vessel holding its track
+crabs, and one that slows down turns its bow further into the current without altering course; while
+the vessel is not making way (``making_way_fraction`` of its onset speed) its last course holds.
 """
 
 from __future__ import annotations
@@ -90,6 +93,10 @@ class ColregConfig:
     stand_on_range_m: float = param(10.0, nonneg=True, unit="m",
                                     doc="a stand-on vessel may act once the range is below this (rule 17 (b))")
     stand_on_tcpa_s: float = param(8.0, nonneg=True, unit="s", doc="... or the time to CPA below this")
+    making_way_fraction: float = param(0.5, nonneg=True, maximum=1.0,
+                                       doc="a course is the course over ground while the speed over ground is at "
+                                           "least this fraction of the onset speed (and 0.1 m/s); slower, the "
+                                           "vessel's drift is not a course: the last one holds")
 
     def __post_init__(self):
         check_params(self, "colreg")
@@ -177,6 +184,22 @@ def _tcpa(rel_p: np.ndarray, rel_v: np.ndarray) -> np.ndarray:
     return np.maximum(t, 0.0)
 
 
+def _course_while_making_way(heading_rad: np.ndarray, velocity_m_s: np.ndarray, speed_m_s: np.ndarray,
+                             config: ColregConfig) -> np.ndarray:
+    """The own course over ground [rad] per sample, held at its last value while the vessel is not making
+    way (speed over ground below ``making_way_fraction`` of the onset speed, or below 0.1 m/s): a vessel
+    that has taken off most of its way made a speed action, and its course over ground is then the
+    current's drift. Before any sample making way, the onset's course (its heading when it lay still).
+    The heading is not the course: in a cross current a vessel holding its track crabs, and slowing down
+    turns its bow into the current without altering its course."""
+    gate = max(0.1, config.making_way_fraction * float(speed_m_s[0]))
+    way = speed_m_s >= gate
+    cog = np.arctan2(velocity_m_s[:, 1], velocity_m_s[:, 0])
+    last = np.maximum.accumulate(np.where(way, np.arange(way.size), -1))  # last sample making way, −1: none yet
+    start = cog[0] if speed_m_s[0] > 0.1 else heading_rad[0]
+    return np.where(last >= 0, cog[np.maximum(last, 0)], start)
+
+
 def judge_compliance(role: str, times_s, own_position_m, own_heading_rad, own_velocity_m_s, target_position_m,
                      target_velocity_m_s, config: ColregConfig = ColregConfig()) -> Compliance:
     """Judge the own vessel's conduct in one encounter from time series over the encounter, from its
@@ -190,9 +213,10 @@ def judge_compliance(role: str, times_s, own_position_m, own_heading_rad, own_ve
     rng = np.hypot(rel[:, 0], rel[:, 1])
     k_cpa = int(np.argmin(rng))
     tcpa = _tcpa(rel, w - v)
-    dh = np.degrees(np.angle(np.exp(1j * (h - h[0]))))  # heading change from the onset, CCW positive [deg]
     speed = np.hypot(v[:, 0], v[:, 1])
     v0 = max(float(speed[0]), 1e-6)
+    course = _course_while_making_way(h, v, speed, config)
+    dh = np.degrees(np.angle(np.exp(1j * (course - course[0]))))  # course change from the onset, CCW positive [deg]
     substantial = (np.abs(dh) > config.action_course_deg) | (np.abs(speed - speed[0]) > config.action_speed_fraction * v0)
     substantial[k_cpa + 1:] = False
     idx = np.flatnonzero(substantial)

@@ -251,7 +251,8 @@ def parse_scenario(data: dict, source: str = "<dict>") -> Scenario:
         raise
 
 
-_SUBTABLE_KEY = re.compile(r"^(?:(?P<vessel>vessels\[\d+\])\.)?(?P<table>[a-z_]+)\.(?P<key>[a-z_0-9]+): unknown field")
+_SUBTABLE_KEY = re.compile(r"^(?:(?P<vessel>vessels\[\d+\])\.)?(?P<table>[a-z_]+(?:\[\d+\])?(?:\.[a-z_]+(?:\[\d+\])?)*)"
+                           r"\.(?P<key>[a-z_0-9]+): unknown (?:field|key)")  # (nested: mission.go_to_formation)
 
 
 def _misplaced_key_hint(msg: str) -> str:
@@ -265,7 +266,9 @@ def _misplaced_key_hint(msg: str) -> str:
         return (f"; '{m['key']}' is a key of the vessel, not of [vessels.{m['table']}]: in TOML every key after "
                 f"a [table] header belongs to that table, so write it before the vessel's first sub-table")
     if m["vessel"] is None and m["key"] in _TOP:
-        return (f"; '{m['key']}' is a top-level key, not one of [{m['table']}]: in TOML every key after a "
+        header = re.sub(r"\[\d+\]", "", m["table"])
+        header = f"[[{header}]]" if header != m["table"] else f"[{header}]"  # ([[current.components]]: an array)
+        return (f"; '{m['key']}' is a top-level key, not one of {header}: in TOML every key after a "
                 f"[table] header belongs to that table, so write it before the first [table]")
     return ""
 
