@@ -263,3 +263,30 @@ def test_the_campaign_command_says_it_in_one_line_with_status_2(tmp_path, capsys
     assert err.startswith(head), err
     assert "\n" not in err and "lies outside the vessel folder" in err
     assert not any((tmp_path / "out").iterdir())  # (the command checked the folder writable: nothing in it)
+
+
+def test_a_campaign_stored_before_the_digest_covered_its_mesh_resumes(tmp_path, monkeypatch):
+    """A store an earlier mjasc wrote holds a mesh hull's campaign under the digest of the MJCF and
+    hydrodynamics.toml alone: running the campaign again resumes it (renumbered to its digest), it
+    does not start it over."""
+    from mjasc.physics.vessels import vessel_files
+
+    folder = mesh_hull(tmp_path / "hulls" / "my_hull")
+    assert list(vessel_files(str(folder.resolve())).core) == ["my_hull.xml", "hydrodynamics.toml"]
+    spec = parse_campaign_spec({"name": "h", "families": [head_on("hulls/my_hull", runs=2)]},
+                               str(tmp_path / "c.toml"), tmp_path)
+    (earlier,) = spec.earlier_digests
+    plain = parse_campaign_spec({"name": "h", "families": [head_on("otter")]}, str(tmp_path / "c.toml"), tmp_path)
+    assert plain.earlier_digests == ()  # (nothing referenced: the digest is what it was)
+    out = tmp_path / "out"
+    with CampaignStore(out, earlier, name="h", runs_defined=2) as old:
+        for run in spec.runs():
+            engine._record(old, run, {"status": "completed", "summary": {"outcome": "clear"}})
+    ran = []
+    monkeypatch.setattr(engine, "_run_here", lambda runs, *a, **k: ran.extend(runs))
+    result = run_campaign(spec, out, workers=0, progress=False)
+    assert ran == [] and result.info["already_done"] == 2
+    with CampaignStore(out, spec.digest) as store:
+        assert store.info()["campaigns_in_store"] == 1 and len(store.runs()) == 2
+        assert store.info()["hulls"]["head_on"][0]["hull"] == "my_hull"
+    assert CampaignStore.adopt_earlier(out, spec.digest, (earlier,)) is None  # (once: nothing left to adopt)

@@ -150,6 +150,7 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
     # no draw can make: CampaignError) leaves the folder as it was.
     done = {label: set() for label in labels}
     if (out_dir / STORE_FILE).is_file():
+        CampaignStore.adopt_earlier(out_dir, campaign.digest, getattr(campaign, "earlier_digests", ()))
         with CampaignStore(out_dir, campaign.digest) as existing:  # (read only: no campaign row written)
             done = {label: existing.done(max_attempts, label) for label in labels}
     todo = [campaign.run(k, label) if label else campaign.run(k)
