@@ -202,6 +202,11 @@ def test_a_shipped_copy_is_written_once_and_checked(tmp_path):
         sneaky = {**p, "key": "1" * 64, "files": {"../evil.xml": ""}}
         with pytest.raises(ValueError, match="not a path inside its folder, got '../evil.xml'"):
             hull_shipping.localise({"hulls": {"x": sneaky}})
+        elsewhere = tmp_path / "elsewhere" / "my_hull"  # (a key or name leading out of the folder: refused)
+        elsewhere.mkdir(parents=True)
+        for bad in ({"key": f"../../../../../../..{elsewhere.parent}"}, {"name": "../my_hull"}, {"name": ".."}):
+            with pytest.raises(ValueError, match="not a pack"):
+                hull_shipping.localise({"hulls": {"x": {**p, **bad}}})
         hull_shipping.hold_hull_root()  # two campaigns of this process sail it: the copy stays until both end
         hull_shipping.hold_hull_root()
         hull_shipping.release_hull_root()

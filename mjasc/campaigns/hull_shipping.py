@@ -23,6 +23,7 @@ import atexit
 import base64
 import hashlib
 import os
+import re
 import shutil
 import tempfile
 import threading
@@ -38,6 +39,7 @@ HULL_ROOT_PREFIX = "mjasc-hulls-"
 _ROOT: Path | None = None
 _USERS = 0  # campaigns of this process that sail shipped hulls now (hold_hull_root)
 _LOCK = threading.Lock()
+_KEY = re.compile(r"[0-9a-f]{64}")  # (a pack's key names its folder here: nothing else may)
 
 
 def run_vessel_types(scenario_toml: str) -> list[tuple[int, str, str]]:
@@ -95,6 +97,9 @@ def _root() -> Path:
 
 def _materialise(p: dict) -> str:
     """The local copy of pack ``p`` (written now if this process has none): its folder's path."""
+    key, name = str(p.get("key", "")), str(p.get("name", ""))
+    if not _KEY.fullmatch(key) or name in ("", ".", "..") or "/" in name or os.sep in name:
+        raise ValueError(f"shipped hull {name!r}: not a pack (a SHA-256 key and a folder name), got key {key!r}")
     with _LOCK:
         root = _root()
     final = root / p["key"]
