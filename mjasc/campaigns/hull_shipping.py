@@ -143,13 +143,21 @@ def localise(request: dict) -> dict:
     return out
 
 
-def run_document(request: dict) -> tuple[dict, dict]:
+def run_document(request: dict) -> tuple[dict, dict, object]:
     """A run request (:mod:`mjasc.campaigns.executor`) with its shipped hulls written here
-    (:func:`localise`), and its scenario document, which sails the local copies."""
+    (:func:`localise`), its scenario document, which sails the local copies, and that document
+    parsed — the Scenario whose ``raw`` is still the document as written (a recording's scenario
+    text names the driver's folder, as a run from the folder does, not this process's copy)."""
     import tomllib
+    from dataclasses import replace
+
+    from mjasc.runs.scenario import parse_scenario
 
     request = localise(request)
-    return request, with_vessel_paths(tomllib.loads(request["scenario_toml"]), request.get("vessel_paths"))
+    written = tomllib.loads(request["scenario_toml"])
+    doc = with_vessel_paths(written, request.get("vessel_paths"))
+    sc = parse_scenario(doc, f"<run {request.get('index')}>")
+    return request, doc, sc if doc is written else replace(sc, raw=written)
 
 
 def with_vessel_paths(doc: dict, vessel_paths: dict | None) -> dict:
