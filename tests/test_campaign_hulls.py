@@ -160,6 +160,10 @@ def test_a_dask_cluster_gets_the_hull_once_per_worker(tmp_path, monkeypatch):
     spec = parse_campaign_spec({"name": "h", "evaluation": {"mission_cost": False},
                                 "families": [head_on("hulls/my_hull", runs=2)]}, str(tmp_path / "c.toml"), tmp_path)
     expected = _from_the_folder(spec, reference=False)
+    other = copy_vessel(HULL, tmp_path / "other" / "their_hull")  # (another campaign sails it on the same worker)
+    hull_shipping.hold_hull_root()
+    theirs = Path(hull_shipping.localise({"hulls": {str(other): hull_shipping.pack(str(other))}})["vessel_paths"][
+        str(other)])
     _moved_after_reading(monkeypatch, folder)
     scattered = []
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
@@ -175,7 +179,9 @@ def test_a_dask_cluster_gets_the_hull_once_per_worker(tmp_path, monkeypatch):
     assert scattered == [{"broadcast": True, "hash": False}]
     assert [r.status for r in result.runs] == ["completed", "completed"], [r.error for r in result.runs]
     assert [without_timing(r.metrics) for r in result.runs] == expected
-    assert hull_shipping._ROOT is None
+    assert theirs.is_dir()  # (the other campaign's copy stays while it runs)
+    hull_shipping.release_hull_root()  # (the other campaign ends: the worker's copies go)
+    assert hull_shipping._ROOT is None and not theirs.exists()
 
 
 def test_built_in_hulls_ship_nothing(tmp_path):
@@ -295,3 +301,36 @@ def test_a_campaign_stored_before_the_digest_covered_its_mesh_resumes(tmp_path, 
         assert store.info()["campaigns_in_store"] == 1 and len(store.runs()) == 2
         assert store.info()["hulls"]["head_on"][0]["hull"] == "my_hull"
     assert CampaignStore.adopt_earlier(out, spec.digest, (earlier,)) is None  # (once: nothing left to adopt)
+
+
+def test_a_shipped_run_s_recording_names_the_driver_s_folder_not_the_copy(tmp_path, monkeypatch):
+    """A recording logs the scenario's text (``Scenario.raw``): a run sailing the shipped copy
+    records the document as written — the driver's folder, as a run from the folder does — not
+    this process's temporary path (which differs between processes and is gone after the campaign)."""
+    import tomllib
+
+    from mjasc.runs import runner
+
+    folder = copy_vessel(HULL, tmp_path / "hulls" / "my_hull")
+    spec = parse_campaign_spec({"name": "h", "families": [head_on("hulls/my_hull")]}, str(tmp_path / "c.toml"),
+                               tmp_path)
+    text = spec.run(0).scenario_toml
+    seen = []
+
+    class Captured(Exception):
+        pass
+
+    def capture(sc, *a, **k):
+        seen.append(sc)
+        raise Captured
+
+    monkeypatch.setattr(runner, "Runner", capture)
+    request = {"index": 0, "scenario_toml": text, "run_dir": None, "evaluate": False,
+               "hulls": {str(folder.resolve()): hull_shipping.pack(str(folder.resolve()))}}
+    try:
+        assert execute_in_process(request)["status"] == "error"
+    finally:
+        hull_shipping.remove_hull_root()
+    (sc,) = seen
+    assert sc.raw == tomllib.loads(text) and sc.raw["vessels"][0]["type"] == str(folder.resolve())
+    assert sc.vessels[0].type != str(folder.resolve()) and sc.vessels[0].type.endswith("/my_hull")  # (the copy)
