@@ -152,8 +152,9 @@ def test_a_campaign_sails_its_hull_where_the_folder_is_not_with_the_same_results
 
 
 def test_a_dask_cluster_gets_the_hull_once_per_worker(tmp_path, monkeypatch):
-    """A given Dask client (as a remote cluster's): the packs go to each worker once (scattered),
-    each worker writes its copy and removes it when the campaign ends."""
+    """A given Dask client (as a remote cluster's): the packs go to the cluster once (a task's
+    result each worker fetches once), each worker writes its copy and removes it when the last
+    campaign sailing it there ends."""
     from distributed import Client, LocalCluster
 
     folder = copy_vessel(HULL, tmp_path / "hulls" / "my_hull")
@@ -165,23 +166,61 @@ def test_a_dask_cluster_gets_the_hull_once_per_worker(tmp_path, monkeypatch):
     theirs = Path(hull_shipping.localise({"hulls": {str(other): hull_shipping.pack(str(other))}})["vessel_paths"][
         str(other)])
     _moved_after_reading(monkeypatch, folder)
-    scattered = []
+    shipped = []
+    real = engine.ship_to_cluster
+    monkeypatch.setattr(engine, "ship_to_cluster",
+                        lambda client, packs, tag: shipped.append(set(packs)) or real(client, packs, tag))
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
             Client(cluster) as client:
-        real = client.scatter
-        monkeypatch.setattr(client, "scatter", lambda data, **kw: scattered.append(kw) or real(data, **kw))
         try:
             result = run_campaign(spec, tmp_path / "out", scheduler=client, progress=False)
         finally:
             child = executor._EXECUTORS.pop(None, None)  # (the worker's run process: this test's to close)
             if child is not None:
                 child.close()
-    assert scattered == [{"broadcast": True, "hash": False}]
+    assert shipped == [{str(folder.resolve())}]  # (once for the campaign, not with each run)
     assert [r.status for r in result.runs] == ["completed", "completed"], [r.error for r in result.runs]
     assert [without_timing(r.metrics) for r in result.runs] == expected
     assert theirs.is_dir()  # (the other campaign's copy stays while it runs)
     hull_shipping.release_hull_root()  # (the other campaign ends: the worker's copies go)
     assert hull_shipping._ROOT is None and not theirs.exists()
+
+
+def test_a_dask_worker_lost_mid_campaign_does_not_lose_the_hull(tmp_path):
+    """A worker process killed mid-campaign (its nanny starts another): the packs are computed again
+    for the new worker and every run completes (scattered packs were lost with the worker, and every
+    run left, retries too, was cancelled for lost dependencies)."""
+    import os
+    import signal
+    import threading
+    import time
+
+    from distributed import Client, LocalCluster
+
+    copy_vessel(HULL, tmp_path / "hulls" / "my_hull")
+    spec = parse_campaign_spec({"name": "h", "evaluation": {"mission_cost": False},
+                                "families": [head_on("hulls/my_hull", runs=6)]}, str(tmp_path / "c.toml"), tmp_path)
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        (pid,) = client.run(os.getpid).values()
+
+        def kill_after_the_first_run() -> None:
+            for _ in range(1200):
+                time.sleep(0.1)
+                try:
+                    with sqlite3.connect(tmp_path / "out" / "campaign.sqlite") as db:
+                        if db.execute("SELECT COUNT(*) FROM runs").fetchone()[0]:
+                            break
+                except sqlite3.Error:
+                    pass
+            os.kill(pid, signal.SIGKILL)
+
+        killer = threading.Thread(target=kill_after_the_first_run, daemon=True)
+        killer.start()
+        result = run_campaign(spec, tmp_path / "out", scheduler=client, progress=False)
+        killer.join()
+        assert pid not in client.run(os.getpid).values()  # (the worker was restarted)
+    assert [r.status for r in result.runs] == ["completed"] * 6, [r.error for r in result.runs]
 
 
 def test_built_in_hulls_ship_nothing(tmp_path):

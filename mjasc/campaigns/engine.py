@@ -53,7 +53,7 @@ from mjasc.campaigns.cluster import (WORKER_WAIT_S, close_client, local_workers,
 from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
                                       run_isolated, take_prestarted)
 from mjasc.campaigns.hull_records import family_hulls
-from mjasc.campaigns.hull_shipping import hold_hull_root, localise, pack_hulls, release_hull_root, remove_hull_root
+from mjasc.campaigns.hull_shipping import hold_hull_root, localise, pack_hulls, release_hull_root, ship_to_cluster
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
 from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore
 from mjasc.campaigns.timing_fields import TIMING_KEYS, is_timing_key, without_timing
@@ -298,6 +298,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
     client, closers = None, []
     keys: list = []
     pending: dict = {}  # future → its run, while it is out
+    held = False  # the workers hold their copies of the shipped hulls for this campaign
     try:
         client, closers = open_client(scheduler, workers, threaded)
         try:
@@ -335,8 +336,10 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
         attempts = {(i, m): n for m in dict.fromkeys(getattr(r, "method", "") for r in runs)
                     for i, n in store.attempts(m).items()}
 
-        if hulls:  # (to each worker once: a future its tasks share)
-            hulls = client.scatter([hulls], broadcast=True, hash=False)[0]
+        if hulls:  # (to each worker once: a future its tasks share, computed again if a worker is lost with it)
+            hulls = ship_to_cluster(client, hulls, tag)
+            if not threaded:  # (a worker's copies stay while any campaign sailing them runs there)
+                held = client.run(hold_hull_root) is not None
 
         def key(run) -> tuple:
             return run.index, getattr(run, "method", "")
@@ -381,9 +384,9 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
                 release_isolated(k)
             for child in children:  # also those never adopted (the cluster failed to start)
                 child.close()
-            if hulls and client is not None and not threaded:  # (the workers' copies of the shipped hulls)
+            if held:  # (the workers' copies of the shipped hulls: removed with the last campaign using them)
                 try:
-                    client.run(remove_hull_root)
+                    client.run(release_hull_root)
                 except Exception:  # noqa: BLE001 — a worker gone: its temporary folder goes at its exit
                     pass
         finally:

@@ -4,8 +4,9 @@ A run's scenario names a vessel folder by the absolute path the driver resolved 
 (``type = "/srv/lab/hulls/heron"``). A worker on another machine has no such folder, so the driver
 reads each folder the runs to do name once, before anything is written (:func:`pack_hulls`: the
 files runs read, :mod:`mjasc.physics.hull_files`, content as text-safe base64, keyed by a SHA-256
-of every file's path and bytes), and the packs go to each Dask worker once (the engine scatters
-them; the threads of a local cluster and an in-process campaign share the driver's). The process
+of every file's path and bytes), and the packs go to each Dask worker once (a task's result its
+runs depend on, :func:`ship_to_cluster`; the threads of a local cluster and an in-process campaign
+share the driver's). The process
 that hands a run to its child (or runs it) writes each pack once (:func:`localise`) into a private
 temporary folder (``<tmp>/mjasc-hulls-XXXX/<key>/<name>/``, mode 0700; written under another name
 and renamed when complete, so a folder there is always whole; reused by every later run; removed
@@ -31,8 +32,8 @@ from pathlib import Path, PurePosixPath
 
 from mjasc.physics.hull_files import content_hashes, fingerprint, is_folder_type, read_folder
 
-__all__ = ["run_vessel_types", "pack", "pack_hulls", "localise", "run_document", "with_vessel_paths",
-           "hold_hull_root", "release_hull_root", "remove_hull_root", "HULL_ROOT_PREFIX"]
+__all__ = ["run_vessel_types", "pack", "pack_hulls", "ship_to_cluster", "localise", "run_document",
+           "with_vessel_paths", "hold_hull_root", "release_hull_root", "remove_hull_root", "HULL_ROOT_PREFIX"]
 
 #: The prefix of a process's temporary folder of shipped hulls.
 HULL_ROOT_PREFIX = "mjasc-hulls-"
@@ -84,6 +85,22 @@ def pack_hulls(runs) -> dict[str, dict]:
                 except (ValueError, OSError) as exc:
                     raise CampaignError(f"family {run.family!r} (run {run.index}) vessels[{i}].type: {exc}") from None
     return packs
+
+
+def _shipped(packs: dict) -> dict:
+    return packs
+
+
+def ship_to_cluster(client, packs: dict, tag: str):
+    """The packs as the Dask future every run's task depends on: a task's result, which each
+    worker fetches once when its first run needs it. Not scattered data, which a worker lost with
+    its only copy (killed, restarted by its nanny) takes with it: every run depending on it is then
+    cancelled, retries too. A task's result is computed again (its input stays with the scheduler)."""
+    import warnings
+
+    with warnings.catch_warnings():  # (a large mesh: Dask's notice of a large graph; it is sent once)
+        warnings.simplefilter("ignore", UserWarning)
+        return client.submit(_shipped, packs, pure=False, key=f"mjasc-hulls-{tag}")
 
 
 def _root() -> Path:
