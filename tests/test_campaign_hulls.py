@@ -373,3 +373,26 @@ def test_a_shipped_run_s_recording_names_the_driver_s_folder_not_the_copy(tmp_pa
     (sc,) = seen
     assert sc.raw == tomllib.loads(text) and sc.raw["vessels"][0]["type"] == str(folder.resolve())
     assert sc.vessels[0].type != str(folder.resolve()) and sc.vessels[0].type.endswith("/my_hull")  # (the copy)
+
+
+def test_the_driver_reads_an_own_hull_once_for_a_campaign_and_for_a_search(tmp_path, monkeypatch):
+    """The campaign command reads the folder once for its records and its runs (the records take
+    the packs' fingerprints), the search once for all its batches."""
+    from mjasc.campaigns import search
+    from mjasc.campaigns.search import SearchConfig, search_failures
+    from mjasc.physics import hull_files
+
+    copy_vessel(HULL, tmp_path / "hulls" / "my_hull")
+    camp = {"name": "h", "evaluation": {"mission_cost": False}, "families": [{
+        **head_on("hulls/my_hull"), "parameters": {"dcpa_m": {"uniform": [-5.0, 5.0]}}}]}
+    spec = parse_campaign_spec(camp, str(tmp_path / "c.toml"), tmp_path)
+    reads = []
+    real = hull_files.referenced_files
+    monkeypatch.setattr(hull_files, "referenced_files", lambda xml: reads.append(xml) or real(xml))
+    monkeypatch.setattr(engine, "_run_here", lambda *a, **k: None)  # (no run: only what the driver reads)
+    run_campaign(spec, tmp_path / "out", workers=0, progress=False)
+    assert len(reads) == 1, reads
+    reads.clear()
+    monkeypatch.setattr(search, "execute_runs", lambda *a, **k: {})
+    search_failures(spec, "head_on", tmp_path / "search", SearchConfig(budget=6, batch=2), workers=0)
+    assert len(reads) == 2, reads  # (its records, then its runs: once for its three batches)

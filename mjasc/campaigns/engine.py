@@ -155,8 +155,8 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
             done = {label: existing.done(max_attempts, label) for label in labels}
     todo = [campaign.run(k, label) if label else campaign.run(k)
             for k in range(n_runs) for label in labels if k not in done[label]]
-    hulls = family_hulls(campaign) if hasattr(campaign, "families") else None  # (for the report)
     packs = pack_hulls(todo)  # (the own hulls read once, before anything is written: shipped to the workers)
+    hulls = family_hulls(campaign, packs) if hasattr(campaign, "families") else None  # (for the report)
     out_dir.mkdir(parents=True, exist_ok=True)
     store = CampaignStore(out_dir, campaign.digest, name=campaign.name, source=str(campaign.source),
                           file_text=json.dumps(getattr(campaign, "data", {}), sort_keys=True, default=str),
