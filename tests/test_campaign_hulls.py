@@ -396,3 +396,28 @@ def test_the_driver_reads_an_own_hull_once_for_a_campaign_and_for_a_search(tmp_p
     monkeypatch.setattr(search, "execute_runs", lambda *a, **k: {})
     search_failures(spec, "head_on", tmp_path / "search", SearchConfig(budget=6, batch=2), workers=0)
     assert len(reads) == 2, reads  # (its records, then its runs: once for its three batches)
+
+
+def test_a_campaign_starting_as_the_last_one_ends_keeps_its_copy(tmp_path, monkeypatch):
+    """Two campaigns of one process: the second holds the copies just after the first released
+    them, before the first removed them — its copy is in a new folder, not in the one removed."""
+    folder = copy_vessel(HULL, tmp_path / "hulls" / "my_hull")
+    request = {"hulls": {str(folder): hull_shipping.pack(str(folder))}}
+    second = []
+
+    def second_starts() -> None:
+        hull_shipping.hold_hull_root()
+        second.append(Path(hull_shipping.localise(request)["vessel_paths"][str(folder)]))
+
+    real = hull_shipping.remove_hull_root
+    monkeypatch.setattr(hull_shipping, "remove_hull_root", lambda: (second_starts(), real()))  # (in between)
+    try:
+        hull_shipping.hold_hull_root()
+        hull_shipping.localise(request)
+        hull_shipping.release_hull_root()  # (the first campaign ends)
+        if not second:
+            second_starts()
+        assert (second[0] / "my_hull.xml").is_file()
+    finally:
+        hull_shipping.release_hull_root()
+    assert hull_shipping._ROOT is None and not second[0].exists()

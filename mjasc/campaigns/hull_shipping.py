@@ -198,12 +198,14 @@ def hold_hull_root() -> None:
 
 def release_hull_root() -> None:
     """A campaign of this process has ended: the copies are removed once no other one runs here."""
-    global _USERS
-    with _LOCK:
+    global _USERS, _ROOT
+    with _LOCK:  # (the last user and the folder's removal decided at once: a campaign starting now makes a new one)
         _USERS = max(0, _USERS - 1)
-        last = _USERS == 0
-    if last:
-        remove_hull_root()
+        root = None
+        if _USERS == 0:
+            root, _ROOT = _ROOT, None
+    if root is not None:
+        shutil.rmtree(root, ignore_errors=True)
 
 
 def remove_hull_root() -> None:
