@@ -186,7 +186,7 @@ def test_a_dask_cluster_gets_the_hull_once_per_worker(tmp_path, monkeypatch):
     assert hull_shipping._ROOT is None and not theirs.exists()
 
 
-def test_a_dask_worker_lost_mid_campaign_does_not_lose_the_hull(tmp_path):
+def test_a_dask_worker_lost_mid_campaign_does_not_lose_the_hull(tmp_path, monkeypatch):
     """A worker process killed mid-campaign (its nanny starts another): the packs are computed again
     for the new worker and every run completes (scattered packs were lost with the worker, and every
     run left, retries too, was cancelled for lost dependencies)."""
@@ -200,6 +200,8 @@ def test_a_dask_worker_lost_mid_campaign_does_not_lose_the_hull(tmp_path):
     copy_vessel(HULL, tmp_path / "hulls" / "my_hull")
     spec = parse_campaign_spec({"name": "h", "evaluation": {"mission_cost": False},
                                 "families": [head_on("hulls/my_hull", runs=6)]}, str(tmp_path / "c.toml"), tmp_path)
+    (tmp_path / "tmp").mkdir()  # (the killed worker's copies stay behind: here, not in the system's folder)
+    monkeypatch.setenv("TMPDIR", str(tmp_path / "tmp"))
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
             Client(cluster) as client:
         (pid,) = client.run(os.getpid).values()
@@ -221,6 +223,8 @@ def test_a_dask_worker_lost_mid_campaign_does_not_lose_the_hull(tmp_path):
         killer.join()
         assert pid not in client.run(os.getpid).values()  # (the worker was restarted)
     assert [r.status for r in result.runs] == ["completed"] * 6, [r.error for r in result.runs]
+    left = [p for p in (tmp_path / "tmp").iterdir() if p.name.startswith(hull_shipping.HULL_ROOT_PREFIX)]
+    assert len(left) <= 1  # (the killed worker's at most: the new worker's went with the campaign)
 
 
 def test_built_in_hulls_ship_nothing(tmp_path):
