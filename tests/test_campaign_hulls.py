@@ -110,18 +110,17 @@ def test_a_store_from_before_hulls_were_recorded_reports_them_unknown(tmp_path):
 
 # ---------------------------------------------------------------------- workers without the folder
 def _moved_after_reading(monkeypatch, folder: Path) -> Path:
-    """The driver reads the hulls, then ``folder`` is renamed away before any run starts: as on a
-    worker without the folder. Returns where it went."""
+    """The driver reads the hulls (and all else it reads), then ``folder`` is renamed away before
+    any run starts: as on a worker without the folder. Returns where it went."""
     gone = folder.with_name(folder.name + "_elsewhere")
-    real = engine.pack_hulls
+    real = engine.execute_runs
 
-    def pack_then_move(runs):
-        packs = real(runs)
-        if packs:
+    def move_then_execute(runs, *args, **kwargs):
+        if kwargs.get("hulls"):
             folder.rename(gone)
-        return packs
+        return real(runs, *args, **kwargs)
 
-    monkeypatch.setattr(engine, "pack_hulls", pack_then_move)
+    monkeypatch.setattr(engine, "execute_runs", move_then_execute)
     return gone
 
 
