@@ -3,6 +3,7 @@ digest covered a hull's meshes resumes; a shipped run records its scenario as wr
 worker lost mid-campaign does not lose the hull; the driver reads a hull once; two campaigns of one
 process keep each other's copies."""
 
+import os
 import sqlite3
 from pathlib import Path
 
@@ -79,7 +80,6 @@ def test_a_dask_worker_lost_mid_campaign_does_not_lose_the_hull(tmp_path, monkey
     """A worker process killed mid-campaign (its nanny starts another): the packs are computed again
     for the new worker and every run completes (scattered packs were lost with the worker, and every
     run left, retries too, was cancelled for lost dependencies)."""
-    import os
     import signal
     import threading
     import time
@@ -162,3 +162,29 @@ def test_a_campaign_starting_as_the_last_one_ends_keeps_its_copy(tmp_path, monke
     finally:
         hull_shipping.release_hull_root()
     assert hull_shipping._ROOT is None and not second[0].exists()
+
+
+def test_copies_a_killed_process_left_go_when_another_process_makes_its_own(tmp_path, monkeypatch):
+    """A process killed mid-campaign (SIGKILL, SIGTERM) cannot remove its copies: the next process
+    of the host to make its folder removes those of processes that no longer run — not those of a
+    running process or of another host."""
+    import subprocess
+    import sys
+    import tempfile
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    tag = hull_shipping.HULL_ROOT_PREFIX + hull_shipping._owner_tag()
+    stale = tmp_path / f"{tag}{int(gone.stdout)}-abcd" / ("0" * 64) / "my_hull"
+    alive = tmp_path / f"{tag}{os.getppid()}-efgh"
+    other_host = tmp_path / f"{hull_shipping.HULL_ROOT_PREFIX}elsewhere.example-{int(gone.stdout)}-ijkl"
+    for folder in (stale, alive, other_host):
+        folder.mkdir(parents=True)
+    folder = copy_vessel(HULL, tmp_path / "hulls" / "my_hull")
+    try:
+        copy = Path(hull_shipping.localise({"hulls": {str(folder): hull_shipping.pack(str(folder))}})[
+            "vessel_paths"][str(folder)])
+        assert copy.parent.parent.name.startswith(f"{tag}{os.getpid()}-")
+        assert not stale.parent.parent.exists() and alive.is_dir() and other_host.is_dir()
+    finally:
+        hull_shipping.remove_hull_root()

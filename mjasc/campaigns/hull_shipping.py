@@ -8,11 +8,12 @@ of every file's path and bytes), and the packs go to each Dask worker once (a ta
 runs depend on, :func:`ship_to_cluster`; the threads of a local cluster and an in-process campaign
 share the driver's). The process
 that hands a run to its child (or runs it) writes each pack once (:func:`localise`) into a private
-temporary folder (``<tmp>/mjasc-hulls-XXXX/<key>/<name>/``, mode 0700; written under another name
-and renamed when complete, so a folder there is always whole; reused by every later run; removed
-when the last campaign of the process that uses them ends, :func:`release_hull_root`, or at the
-process's exit) and maps the driver's
-path to it; the run's scenario then names the local copy (:func:`with_vessel_paths`). The folder keeps its name, so the
+temporary folder (``<tmp>/mjasc-hulls-<host>-<pid>-XXXX/<key>/<name>/``, mode 0700; written under
+another name and renamed when complete, so a folder there is always whole; reused by every later
+run; removed when the last campaign of the process that uses them ends, :func:`release_hull_root`,
+or at the process's exit; one a killed process left is removed when another process of the host
+makes its own) and maps the driver's path to it; the run's scenario then names the local copy
+(:func:`with_vessel_paths`). The folder keeps its name, so the
 vessel's type name, its model and every result are those of a run from the original folder, bit
 for bit; the stored scenario text still names the original path (``mjasc extract`` replays it
 where that folder is). A built-in hull (``type = "otter"``) ships nothing.
@@ -22,10 +23,12 @@ from __future__ import annotations
 
 import atexit
 import base64
+import glob
 import hashlib
 import os
 import re
 import shutil
+import socket
 import tempfile
 import threading
 from pathlib import Path, PurePosixPath
@@ -103,11 +106,34 @@ def ship_to_cluster(client, packs: dict, tag: str):
         return client.submit(_shipped, packs, pure=False, key=f"mjasc-hulls-{tag}")
 
 
+def _owner_tag() -> str:
+    """``<host>-`` (the host name with ``-`` and anything unusual as ``_``): a process's folder is
+    ``<tmp>/mjasc-hulls-<host>-<pid>-XXXX``."""
+    return re.sub(r"[^A-Za-z0-9.]", "_", socket.gethostname()) + "-"
+
+
+def _sweep_stale() -> None:
+    """Remove the folders of shipped hulls that processes of this host and user killed before they
+    could (SIGKILL, SIGTERM, out of memory) left behind: those whose process no longer runs."""
+    prefix = HULL_ROOT_PREFIX + _owner_tag()
+    for path in Path(tempfile.gettempdir()).glob(f"{glob.escape(prefix)}*"):
+        pid = path.name[len(prefix):].split("-", 1)[0]
+        try:
+            if not pid.isdigit() or path.lstat().st_uid != os.getuid() or int(pid) == os.getpid():
+                continue
+            os.kill(int(pid), 0)
+        except ProcessLookupError:  # (gone: its copies are no run's any more)
+            shutil.rmtree(path, ignore_errors=True)
+        except OSError:  # (alive under another user, or the folder went meanwhile)
+            continue
+
+
 def _root() -> Path:
-    """This process's folder of shipped hulls (made on first use)."""
+    """This process's folder of shipped hulls (made on first use, when the stale ones go)."""
     global _ROOT
     if _ROOT is None or not _ROOT.is_dir():
-        _ROOT = Path(tempfile.mkdtemp(prefix=HULL_ROOT_PREFIX))
+        _sweep_stale()
+        _ROOT = Path(tempfile.mkdtemp(prefix=f"{HULL_ROOT_PREFIX}{_owner_tag()}{os.getpid()}-"))
         atexit.register(shutil.rmtree, str(_ROOT), True)
     return _ROOT
 
