@@ -110,18 +110,17 @@ def test_a_store_from_before_hulls_were_recorded_reports_them_unknown(tmp_path):
 
 # ---------------------------------------------------------------------- workers without the folder
 def _moved_after_reading(monkeypatch, folder: Path) -> Path:
-    """The driver reads the hulls, then ``folder`` is renamed away before any run starts: as on a
-    worker without the folder. Returns where it went."""
+    """The driver reads the hulls (and all else it reads), then ``folder`` is renamed away before
+    any run starts: as on a worker without the folder. Returns where it went."""
     gone = folder.with_name(folder.name + "_elsewhere")
-    real = engine.pack_hulls
+    real = engine.execute_runs
 
-    def pack_then_move(runs):
-        packs = real(runs)
-        if packs:
+    def move_then_execute(runs, *args, **kwargs):
+        if kwargs.get("hulls"):
             folder.rename(gone)
-        return packs
+        return real(runs, *args, **kwargs)
 
-    monkeypatch.setattr(engine, "pack_hulls", pack_then_move)
+    monkeypatch.setattr(engine, "execute_runs", move_then_execute)
     return gone
 
 
@@ -152,30 +151,38 @@ def test_a_campaign_sails_its_hull_where_the_folder_is_not_with_the_same_results
 
 
 def test_a_dask_cluster_gets_the_hull_once_per_worker(tmp_path, monkeypatch):
-    """A given Dask client (as a remote cluster's): the packs go to each worker once (scattered),
-    each worker writes its copy and removes it when the campaign ends."""
+    """A given Dask client (as a remote cluster's): the packs go to the cluster once (a task's
+    result each worker fetches once), each worker writes its copy and removes it when the last
+    campaign sailing it there ends."""
     from distributed import Client, LocalCluster
 
     folder = copy_vessel(HULL, tmp_path / "hulls" / "my_hull")
     spec = parse_campaign_spec({"name": "h", "evaluation": {"mission_cost": False},
                                 "families": [head_on("hulls/my_hull", runs=2)]}, str(tmp_path / "c.toml"), tmp_path)
     expected = _from_the_folder(spec, reference=False)
+    other = copy_vessel(HULL, tmp_path / "other" / "their_hull")  # (another campaign sails it on the same worker)
+    hull_shipping.hold_hull_root()
+    theirs = Path(hull_shipping.localise({"hulls": {str(other): hull_shipping.pack(str(other))}})["vessel_paths"][
+        str(other)])
     _moved_after_reading(monkeypatch, folder)
-    scattered = []
+    shipped = []
+    real = engine.ship_to_cluster
+    monkeypatch.setattr(engine, "ship_to_cluster",
+                        lambda client, packs, tag: shipped.append(set(packs)) or real(client, packs, tag))
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
             Client(cluster) as client:
-        real = client.scatter
-        monkeypatch.setattr(client, "scatter", lambda data, **kw: scattered.append(kw) or real(data, **kw))
         try:
             result = run_campaign(spec, tmp_path / "out", scheduler=client, progress=False)
         finally:
             child = executor._EXECUTORS.pop(None, None)  # (the worker's run process: this test's to close)
             if child is not None:
                 child.close()
-    assert scattered == [{"broadcast": True, "hash": False}]
+    assert shipped == [{str(folder.resolve())}]  # (once for the campaign, not with each run)
     assert [r.status for r in result.runs] == ["completed", "completed"], [r.error for r in result.runs]
     assert [without_timing(r.metrics) for r in result.runs] == expected
-    assert hull_shipping._ROOT is None
+    assert theirs.is_dir()  # (the other campaign's copy stays while it runs)
+    hull_shipping.release_hull_root()  # (the other campaign ends: the worker's copies go)
+    assert hull_shipping._ROOT is None and not theirs.exists()
 
 
 def test_built_in_hulls_ship_nothing(tmp_path):
@@ -202,6 +209,11 @@ def test_a_shipped_copy_is_written_once_and_checked(tmp_path):
         sneaky = {**p, "key": "1" * 64, "files": {"../evil.xml": ""}}
         with pytest.raises(ValueError, match="not a path inside its folder, got '../evil.xml'"):
             hull_shipping.localise({"hulls": {"x": sneaky}})
+        elsewhere = tmp_path / "elsewhere" / "my_hull"  # (a key or name leading out of the folder: refused)
+        elsewhere.mkdir(parents=True)
+        for bad in ({"key": f"../../../../../../..{elsewhere.parent}"}, {"name": "../my_hull"}, {"name": ".."}):
+            with pytest.raises(ValueError, match="not a pack"):
+                hull_shipping.localise({"hulls": {"x": {**p, **bad}}})
         hull_shipping.hold_hull_root()  # two campaigns of this process sail it: the copy stays until both end
         hull_shipping.hold_hull_root()
         hull_shipping.release_hull_root()

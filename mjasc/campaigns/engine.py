@@ -53,7 +53,7 @@ from mjasc.campaigns.cluster import (WORKER_WAIT_S, close_client, local_workers,
 from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
                                       run_isolated, take_prestarted)
 from mjasc.campaigns.hull_records import family_hulls
-from mjasc.campaigns.hull_shipping import hold_hull_root, localise, pack_hulls, release_hull_root, remove_hull_root
+from mjasc.campaigns.hull_shipping import hold_hull_root, localise, pack_hulls, release_hull_root, ship_to_cluster
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
 from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore
 from mjasc.campaigns.timing_fields import TIMING_KEYS, is_timing_key, without_timing
@@ -153,12 +153,13 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
     # no draw can make: CampaignError) leaves the folder as it was.
     done = {label: set() for label in labels}
     if (out_dir / STORE_FILE).is_file():
+        CampaignStore.adopt_earlier(out_dir, campaign.digest, getattr(campaign, "earlier_digests", ()))
         with CampaignStore(out_dir, campaign.digest) as existing:  # (read only: no campaign row written)
             done = {label: existing.done(max_attempts, label) for label in labels}
     todo = [campaign.run(k, label) if label else campaign.run(k)
             for k in range(n_runs) for label in labels if k not in done[label]]
-    hulls = family_hulls(campaign) if hasattr(campaign, "families") else None  # (for the report)
     packs = pack_hulls(todo)  # (the own hulls read once, before anything is written: shipped to the workers)
+    hulls = family_hulls(campaign, packs) if hasattr(campaign, "families") else None  # (for the report)
     out_dir.mkdir(parents=True, exist_ok=True)
     store = CampaignStore(out_dir, campaign.digest, name=campaign.name, source=str(campaign.source),
                           file_text=json.dumps(getattr(campaign, "data", {}), sort_keys=True, default=str),
@@ -303,6 +304,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
     client, closers = None, []
     keys: list = []
     pending: dict = {}  # future → its run, while it is out
+    held = False  # the workers hold their copies of the shipped hulls for this campaign
     try:
         client, closers = open_client(scheduler, workers, threaded)
         try:
@@ -340,8 +342,10 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
         attempts = {(i, m): n for m in dict.fromkeys(getattr(r, "method", "") for r in runs)
                     for i, n in store.attempts(m).items()}
 
-        if hulls:  # (to each worker once: a future its tasks share)
-            hulls = client.scatter([hulls], broadcast=True, hash=False)[0]
+        if hulls:  # (to each worker once: a future its tasks share, computed again if a worker is lost with it)
+            hulls = ship_to_cluster(client, hulls, tag)
+            if not threaded:  # (a worker's copies stay while any campaign sailing them runs there)
+                held = client.run(hold_hull_root) is not None
 
         def key(run) -> tuple:
             return run.index, getattr(run, "method", "")
@@ -386,9 +390,9 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
                 release_isolated(k)
             for child in children:  # also those never adopted (the cluster failed to start)
                 child.close()
-            if hulls and client is not None and not threaded:  # (the workers' copies of the shipped hulls)
+            if held:  # (the workers' copies of the shipped hulls: removed with the last campaign using them)
                 try:
-                    client.run(remove_hull_root)
+                    client.run(release_hull_root)
                 except Exception:  # noqa: BLE001 — a worker gone: its temporary folder goes at its exit
                     pass
         finally:

@@ -51,7 +51,6 @@ def execute_in_process(request: dict) -> dict:
     given), evaluate it against the truth; never raises for a failed run."""
     from mjasc.campaigns.hull_shipping import run_document
     from mjasc.runs.runner import RunFailed, Runner
-    from mjasc.runs.scenario import parse_scenario
 
     t0, c0 = time.perf_counter(), time.process_time()
     out: dict = {"status": "completed", "error": None, "summary": None}
@@ -62,8 +61,7 @@ def execute_in_process(request: dict) -> dict:
             from mjasc.campaigns.methods import register_plugins
 
             register_plugins(request["plugins"])
-        request, doc = run_document(request)  # (shipped own hulls written here once and sailed from here)
-        sc = parse_scenario(doc, f"<run {request.get('index')}>")
+        request, doc, sc = run_document(request)  # (shipped own hulls written here once and sailed from here)
         run_dir = request.get("run_dir")
         sc = replace(sc, outputs=replace(sc.outputs, recording=run_dir is not None, video=False))
         runner = Runner(sc, run_dir, progress=False)

@@ -4,14 +4,16 @@ A run's scenario names a vessel folder by the absolute path the driver resolved 
 (``type = "/srv/lab/hulls/heron"``). A worker on another machine has no such folder, so the driver
 reads each folder the runs to do name once, before anything is written (:func:`pack_hulls`: the
 files runs read, :mod:`mjasc.physics.hull_files`, content as text-safe base64, keyed by a SHA-256
-of every file's path and bytes), and the packs go to each Dask worker once (the engine scatters
-them; the threads of a local cluster and an in-process campaign share the driver's). The process
+of every file's path and bytes), and the packs go to each Dask worker once (a task's result its
+runs depend on, :func:`ship_to_cluster`; the threads of a local cluster and an in-process campaign
+share the driver's). The process
 that hands a run to its child (or runs it) writes each pack once (:func:`localise`) into a private
-temporary folder (``<tmp>/mjasc-hulls-XXXX/<key>/<name>/``, mode 0700; written under another name
-and renamed when complete, so a folder there is always whole; reused by every later run; removed
-when the last campaign of the process that uses them ends, :func:`release_hull_root`, or at the
-process's exit) and maps the driver's
-path to it; the run's scenario then names the local copy (:func:`with_vessel_paths`). The folder keeps its name, so the
+temporary folder (``<tmp>/mjasc-hulls-<host>-<pid>-XXXX/<key>/<name>/``, mode 0700; written under
+another name and renamed when complete, so a folder there is always whole; reused by every later
+run; removed when the last campaign of the process that uses them ends, :func:`release_hull_root`,
+or at the process's exit; one a killed process left is removed when another process of the host
+makes its own) and maps the driver's path to it; the run's scenario then names the local copy
+(:func:`with_vessel_paths`). The folder keeps its name, so the
 vessel's type name, its model and every result are those of a run from the original folder, bit
 for bit; the stored scenario text still names the original path (``mjasc extract`` replays it
 where that folder is). A built-in hull (``type = "otter"``) ships nothing.
@@ -21,23 +23,27 @@ from __future__ import annotations
 
 import atexit
 import base64
+import glob
 import hashlib
 import os
+import re
 import shutil
+import socket
 import tempfile
 import threading
 from pathlib import Path, PurePosixPath
 
 from mjasc.physics.hull_files import content_hashes, fingerprint, is_folder_type, read_folder
 
-__all__ = ["run_vessel_types", "pack", "pack_hulls", "localise", "run_document", "with_vessel_paths",
-           "hold_hull_root", "release_hull_root", "remove_hull_root", "HULL_ROOT_PREFIX"]
+__all__ = ["run_vessel_types", "pack", "pack_hulls", "ship_to_cluster", "localise", "run_document",
+           "with_vessel_paths", "hold_hull_root", "release_hull_root", "remove_hull_root", "HULL_ROOT_PREFIX"]
 
 #: The prefix of a process's temporary folder of shipped hulls.
 HULL_ROOT_PREFIX = "mjasc-hulls-"
 _ROOT: Path | None = None
 _USERS = 0  # campaigns of this process that sail shipped hulls now (hold_hull_root)
 _LOCK = threading.Lock()
+_KEY = re.compile(r"[0-9a-f]{64}")  # (a pack's key names its folder here: nothing else may)
 
 
 def run_vessel_types(scenario_toml: str) -> list[tuple[int, str, str]]:
@@ -84,17 +90,59 @@ def pack_hulls(runs) -> dict[str, dict]:
     return packs
 
 
+def _shipped(packs: dict) -> dict:
+    return packs
+
+
+def ship_to_cluster(client, packs: dict, tag: str):
+    """The packs as the Dask future every run's task depends on: a task's result, which each
+    worker fetches once when its first run needs it. Not scattered data, which a worker lost with
+    its only copy (killed, restarted by its nanny) takes with it: every run depending on it is then
+    cancelled, retries too. A task's result is computed again (its input stays with the scheduler)."""
+    import warnings
+
+    with warnings.catch_warnings():  # (a large mesh: Dask's notice of a large graph; it is sent once)
+        warnings.simplefilter("ignore", UserWarning)
+        return client.submit(_shipped, packs, pure=False, key=f"mjasc-hulls-{tag}")
+
+
+def _owner_tag() -> str:
+    """``<host>-`` (the host name with ``-`` and anything unusual as ``_``): a process's folder is
+    ``<tmp>/mjasc-hulls-<host>-<pid>-XXXX``."""
+    return re.sub(r"[^A-Za-z0-9.]", "_", socket.gethostname()) + "-"
+
+
+def _sweep_stale() -> None:
+    """Remove the folders of shipped hulls that processes of this host and user killed before they
+    could (SIGKILL, SIGTERM, out of memory) left behind: those whose process no longer runs."""
+    prefix = HULL_ROOT_PREFIX + _owner_tag()
+    for path in Path(tempfile.gettempdir()).glob(f"{glob.escape(prefix)}*"):
+        pid = path.name[len(prefix):].split("-", 1)[0]
+        try:
+            if not pid.isdigit() or path.lstat().st_uid != os.getuid() or int(pid) == os.getpid():
+                continue
+            os.kill(int(pid), 0)
+        except ProcessLookupError:  # (gone: its copies are no run's any more)
+            shutil.rmtree(path, ignore_errors=True)
+        except OSError:  # (alive under another user, or the folder went meanwhile)
+            continue
+
+
 def _root() -> Path:
-    """This process's folder of shipped hulls (made on first use)."""
+    """This process's folder of shipped hulls (made on first use, when the stale ones go)."""
     global _ROOT
     if _ROOT is None or not _ROOT.is_dir():
-        _ROOT = Path(tempfile.mkdtemp(prefix=HULL_ROOT_PREFIX))
+        _sweep_stale()
+        _ROOT = Path(tempfile.mkdtemp(prefix=f"{HULL_ROOT_PREFIX}{_owner_tag()}{os.getpid()}-"))
         atexit.register(shutil.rmtree, str(_ROOT), True)
     return _ROOT
 
 
 def _materialise(p: dict) -> str:
     """The local copy of pack ``p`` (written now if this process has none): its folder's path."""
+    key, name = str(p.get("key", "")), str(p.get("name", ""))
+    if not _KEY.fullmatch(key) or name in ("", ".", "..") or "/" in name or os.sep in name:
+        raise ValueError(f"shipped hull {name!r}: not a pack (a SHA-256 key and a folder name), got key {key!r}")
     with _LOCK:
         root = _root()
     final = root / p["key"]
@@ -138,13 +186,21 @@ def localise(request: dict) -> dict:
     return out
 
 
-def run_document(request: dict) -> tuple[dict, dict]:
+def run_document(request: dict) -> tuple[dict, dict, object]:
     """A run request (:mod:`mjasc.campaigns.executor`) with its shipped hulls written here
-    (:func:`localise`), and its scenario document, which sails the local copies."""
+    (:func:`localise`), its scenario document, which sails the local copies, and that document
+    parsed — the Scenario whose ``raw`` is still the document as written (a recording's scenario
+    text names the driver's folder, as a run from the folder does, not this process's copy)."""
     import tomllib
+    from dataclasses import replace
+
+    from mjasc.runs.scenario import parse_scenario
 
     request = localise(request)
-    return request, with_vessel_paths(tomllib.loads(request["scenario_toml"]), request.get("vessel_paths"))
+    written = tomllib.loads(request["scenario_toml"])
+    doc = with_vessel_paths(written, request.get("vessel_paths"))
+    sc = parse_scenario(doc, f"<run {request.get('index')}>")
+    return request, doc, sc if doc is written else replace(sc, raw=written)
 
 
 def with_vessel_paths(doc: dict, vessel_paths: dict | None) -> dict:
@@ -168,12 +224,14 @@ def hold_hull_root() -> None:
 
 def release_hull_root() -> None:
     """A campaign of this process has ended: the copies are removed once no other one runs here."""
-    global _USERS
-    with _LOCK:
+    global _USERS, _ROOT
+    with _LOCK:  # (the last user and the folder's removal decided at once: a campaign starting now makes a new one)
         _USERS = max(0, _USERS - 1)
-        last = _USERS == 0
-    if last:
-        remove_hull_root()
+        root = None
+        if _USERS == 0:
+            root, _ROOT = _ROOT, None
+    if root is not None:
+        shutil.rmtree(root, ignore_errors=True)
 
 
 def remove_hull_root() -> None:

@@ -32,6 +32,7 @@ import numpy as np
 
 from mjasc.campaigns.engine import execute_runs
 from mjasc.campaigns.hull_records import family_hulls
+from mjasc.campaigns.hull_shipping import pack_hulls
 from mjasc.campaigns.scenario_text import scenario_toml, write_scenario
 from mjasc.campaigns.spec import CampaignError, RunSpec
 from mjasc.campaigns.statistics import run_outcome
@@ -120,13 +121,15 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
                             f"laws)")
     out_dir = Path(out_dir).resolve()
     settings = json.dumps({k: getattr(config, k) for k in config.__dataclass_fields__}, sort_keys=True)
-    digest = hashlib.sha256(f"{campaign.digest}|{family}|{settings}".encode()).hexdigest()
+    digest, *earlier = (hashlib.sha256(f"{d}|{family}|{settings}".encode()).hexdigest()
+                        for d in (campaign.digest, *getattr(campaign, "earlier_digests", ())))
+    CampaignStore.adopt_earlier(out_dir, digest, earlier)  # (a search stored before meshes were in the digest)
     sampler = CrossEntropySampler(len(names), config)
     result = SearchResult()
     hulls = {family: family_hulls(campaign).get(family)}  # (the report names the hulls the search sailed)
     with CampaignStore(out_dir, digest, name=f"{campaign.name}:{family}:{config.method}", source=str(campaign.source),
                        file_text=settings, runs_defined=config.budget, hulls=hulls) as store:
-        index = 0
+        index, packs = 0, None
         while index < config.budget:
             batch: list[tuple[RunSpec, np.ndarray]] = []
             while len(batch) < min(config.batch, config.budget - index):
@@ -147,9 +150,11 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
                 batch.append((RunSpec(k, family, {**params, **{f"u.{n}": float(x) for n, x in zip(names, u)}},
                                       text, seed), u))
             done = store.done(2)
+            if packs is None:  # (the family's own hulls read once for the whole search, not with each batch)
+                packs = pack_hulls([r for r, _ in batch])
             execute_runs([r for r, _ in batch if r.index not in done], store, out_dir, scheduler=scheduler,
                          workers=workers, progress=progress, time_limit_s=time_limit_s, label=family,
-                         colreg=getattr(campaign, "colreg_request", None))
+                         colreg=getattr(campaign, "colreg_request", None), hulls=packs)
             stored = {r.index: r for r in store.runs()}
             scores = []
             for run, u in batch:

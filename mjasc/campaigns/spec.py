@@ -135,6 +135,9 @@ class CampaignSpec:
     limit: int | None = None  # only the first `limit` runs (the same campaign: same digest, same runs)
     evaluation: CampaignEvaluation = field(default_factory=CampaignEvaluation)
     methods: tuple = ()  # the compared avoidance methods (mjasc.campaigns.methods.MethodEntry); () = as written
+    # digests an earlier mjasc gave this campaign (its hull's meshes not yet covered): a store holding
+    # it under one of them is the same campaign (CampaignStore.adopt_earlier)
+    earlier_digests: tuple = ()
     colreg: ColregConfig = field(default_factory=ColregConfig)  # the [colreg] table: roles drawn and runs judged
 
     @property
@@ -287,6 +290,11 @@ def _canonical(obj: Any) -> str:
     return json.dumps(obj, sort_keys=True, separators=(",", ":"), ensure_ascii=False, default=str)
 
 
+def _digest(data: dict, refs: dict) -> str:
+    """A campaign's digest: its parsed file and the content of the files its runs depend on."""
+    return hashlib.sha256(_canonical({"format": SPEC_FORMAT, "campaign": data, "files": refs}).encode()).hexdigest()
+
+
 _FAMILY_KEYS = {"name", "kind", "runs_per_point", "duration_s", "own", "rates", "roles", "scenario", "first_seed"}
 _SUBTABLE_KEY = re.compile(r"^(?P<family>families\[\d+\]\.)?(?P<table>[a-z_]+)\.(?P<key>[a-z_0-9]+): unknown")
 
@@ -346,9 +354,11 @@ def _parse_campaign_spec(data: dict, source: str, base_dir: str | Path) -> Campa
     refs = {}
     for fam in families:
         refs.update(getattr(fam, "references", dict)())
-    digest = hashlib.sha256(_canonical({"format": SPEC_FORMAT, "campaign": data, "files": refs}).encode()).hexdigest()
+    digest = _digest(data, refs)
+    earlier = _digest(data, {k: getattr(v, "core", v) for k, v in refs.items()})  # (vessel_files before meshes)
     spec = CampaignSpec(name, description, base_seed, tuple(families), outputs, digest, source, dict(data),
-                        str(base_dir), evaluation=evaluation, methods=methods, colreg=thresholds)
+                        str(base_dir), evaluation=evaluation, methods=methods, colreg=thresholds,
+                        earlier_digests=(earlier,) if earlier != digest else ())
     first = 0
     for i, fam in enumerate(families):  # each family's first run must be a valid scenario (own overrides, rates)
         for label in spec.method_labels:

@@ -23,7 +23,10 @@ table is rebuilt with the new key in one transaction, every row with method ``""
 changes; its runs stay done). One written before ``run_unix_s`` gets the column, at each
 campaign's creation time; one written before ``hulls`` (each family's hulls,
 :mod:`mjasc.campaigns.hull_records`) gets the column empty: its hulls are unknown until a command
-runs the campaign again (an older driver writing to a migrated store leaves them as they are).
+runs the campaign again (an older driver writing to a migrated store leaves them as they are). A
+campaign whose own hull's MJCF references files (meshes) was stored, before the digest covered them,
+under the digest of the MJCF and hydrodynamics.toml alone: running it again renumbers it to its
+digest (:meth:`CampaignStore.adopt_earlier`), and it resumes.
 
 Statuses: ``completed`` and ``diverged`` are results (a divergence is deterministic: the run
 replays it); ``error`` (the run raised), ``timeout`` (over the per-run time limit) and ``crashed``
@@ -173,6 +176,35 @@ class CampaignStore:
         if row is None:
             raise FileNotFoundError(f"{path}: holds no campaign")
         return cls(folder, row[0])
+
+    @staticmethod
+    def adopt_earlier(folder: str | Path, digest: str, earlier: tuple | list) -> str | None:
+        """Renumber to ``digest`` the campaign a store in ``folder`` holds under one of the
+        ``earlier`` digests an earlier mjasc gave the same campaign (a hull's meshes were not yet
+        covered), when it holds none under ``digest``: the command that runs it again resumes it
+        rather than starting it over. Returns the digest adopted (None: none; nothing written)."""
+        path = Path(folder) / STORE_FILE
+        if not earlier or not path.is_file():
+            return None
+        db = sqlite3.connect(path, timeout=60.0, isolation_level=None)
+        try:
+            cols = {r[1] for r in db.execute("PRAGMA table_info(campaigns)")}
+            if not cols:
+                return None
+            db.execute("BEGIN IMMEDIATE")
+            have = {r[0] for r in db.execute("SELECT digest FROM campaigns")}
+            old = next((d for d in earlier if d in have), None)
+            if digest in have or old is None:
+                db.execute("ROLLBACK")
+                return None
+            for table in ("campaigns", "runs"):
+                db.execute(f"UPDATE {table} SET digest = ? WHERE digest = ?", (digest, old))
+            db.execute("COMMIT")
+            return old
+        except sqlite3.DatabaseError as exc:
+            raise _not_a_store(path, exc) from None
+        finally:
+            db.close()
 
     def close(self) -> None:
         self._db.close()

@@ -29,7 +29,7 @@ VESSELS_DIR = ASSETS_DIR / "vessels"
 SCENE_XML = ASSETS_DIR / "scene" / "water.xml"
 
 __all__ = ["VesselType", "available_vessels", "load_vessel_type", "resolve_vessel_type", "is_vessel_path",
-           "vessel_files", "vessel_fingerprint", "ASSETS_DIR", "SCENE_XML"]
+           "vessel_files", "VesselFiles", "vessel_fingerprint", "ASSETS_DIR", "SCENE_XML"]
 
 
 @dataclass(frozen=True)
@@ -121,6 +121,15 @@ def _resolve(value: str, base_dir: str | Path | None) -> str:
     return str(folder)
 
 
+class VesselFiles(dict):
+    """:func:`vessel_files`' hashes (a dict, which the digest covers as it is), with ``core``: those
+    of the MJCF and hydrodynamics.toml alone, all that a digest covered before the MJCF's
+    references were (a store written then holds its campaign under the digest of ``core``:
+    :attr:`mjasc.campaigns.spec.CampaignSpec.earlier_digests`)."""
+
+    core: dict[str, str]
+
+
 def vessel_files(vessel_type: str) -> dict[str, str]:
     """The SHA-256 of the files mjasc reads from a vessel folder (a resolved ``type``; {} for a
     built-in name), by content: what a campaign's digest covers, so that an edited hull is a new
@@ -136,7 +145,9 @@ def vessel_files(vessel_type: str) -> dict[str, str]:
     paths = {f.format(name=folder.name): folder / f.format(name=folder.name) for f in HULL_FILES}
     for _, path, _ in referenced_files(paths[f"{folder.name}.xml"]):  # (one outside the folder: by its path)
         paths.setdefault(path.relative_to(folder).as_posix() if path.is_relative_to(folder) else str(path), path)
-    return content_hashes(folder.name, {rel: path.read_bytes() for rel, path in paths.items()})
+    out = VesselFiles(content_hashes(folder.name, {rel: path.read_bytes() for rel, path in paths.items()}))
+    out.core = {rel: out[rel] for rel in list(paths)[:len(HULL_FILES)]}
+    return out
 
 
 def vessel_fingerprint(vessel_type: str) -> str:
