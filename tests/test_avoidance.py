@@ -533,3 +533,33 @@ def test_the_broadcast_plan_follows_the_slowed_virtual_target():
     k = int(np.floor(law.t_goal))
     np.testing.assert_allclose(pts[k, 0], law.desired_speed * k, atol=1e-6)  # V_d until the goal time
     np.testing.assert_allclose(pts[k + 10, 0] - pts[k, 0], 10.0 * ca.mission_speed_now(), atol=0.5)  # mission after
+
+
+def test_a_fresh_detour_is_checked_against_a_give_way_team_mate_with_the_planner_margin():
+    """A team mate the vessel gives way to is not in the potential field (it never goes around
+    one), so a fresh detour is checked against it with its radius grown by replan_margin_m — the
+    margin the planner gives what it goes around — for the hull's lag onto the new path (the
+    harbour case, tests/cas_regressions/harbour_colreg_team_seed11.toml). Here b crosses from a's
+    starboard (a gives way) 0.5 m outside the collision distance: clear as it is, a conflict grown."""
+    from mjasc.avoidance.triage import triage
+
+    ca, _ = make(name="a")
+    ca.predict(0.0, nav(), [], [])  # (its guidance state set: nothing to predict)
+    cd = ca.radius_m + 2.1 + ca.config.safety_distance_m
+    late = crossing(x_cross=15.0, t_cross=15.0 + np.sqrt(2.0) * (cd + 0.5), radius=2.1, track_id=4, team_member="b")
+    assert ca.ca._predict(0.0, nav(), [late], [], after_replan=True) == []
+    ca, _ = make(name="a")
+    ca.predict(0.0, nav(), [], [])
+    out = ca.ca._predict(0.0, nav(), [late], [], after_replan=True, grown={4})
+    assert len(out) == 1 and out[0].collision_distance_m == pytest.approx(cd + ca.config.replan_margin_m)
+    assert ca.correction is not None  # answered on the detour (velocity correction, else the stop)
+    # which team mates are grown: those in conflict that this vessel gives way to (b from starboard)
+    ca, _ = make(name="a")
+    conflicts = ca.predict(0.0, nav(), [crossing(team_member="b", track_id=4, radius=2.1)], [])
+    tri = triage(0.0, nav(), 0.0, conflicts, [], {4: crossing(team_member="b", track_id=4, radius=2.1)},
+                 {"a", "b"}, ca.config, ca.speed_max_m_s, None)
+    assert tri.give_way_mates == {4}
+    stranger = crossing(track_id=5, radius=2.1)
+    conflicts = make(name="a")[0].predict(0.0, nav(), [stranger], [])
+    tri = triage(0.0, nav(), 0.0, conflicts, [], {5: stranger}, {"a", "b"}, ca.config, ca.speed_max_m_s, None)
+    assert conflicts and tri.give_way_mates == set()

@@ -55,15 +55,21 @@ class Manoeuvres:
         if starboard and allow_replan:
             if self._lane_change_to_starboard(t, nav, starboard, static_polygons, static_outlines):
                 self.correction = None
-                self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True)
+                self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True,
+                              grown=tri.give_way_mates)
                 return
             for c in starboard:  # no starboard lane: as the thesis would
                 svos.append((c.svo_polygon if c.svo_polygon is not None else swept(by_id[c.track_id], c, t, cfg), c))
         if svos and allow_replan:
             if self._replan(t, nav, svos, static_polygons, by_id, static_outlines):
-                # The path changed: predict again on the detour (velocity corrections only).
+                # The path changed: predict again on the detour (velocity corrections only). The team
+                # mates this vessel gives way to are not in the field (it never goes around them): the
+                # detour is checked against them with the margin the planner gives the obstacles it
+                # goes around (``replan_margin_m``), for the hull's lag onto the fresh path (harbour
+                # case: a detour clear of a yielding team mate by 0.36 m, sailed 2.9 m off, into it).
                 self.correction = None
-                self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True)
+                self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True,
+                              grown=tri.give_way_mates)
                 return
         # No detour (none found, or this is the check of a fresh one): the path sailed is known to
         # conflict — in the stressed dock a moored boat's track moving by noise; in the stressed

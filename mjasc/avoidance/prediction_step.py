@@ -67,10 +67,11 @@ class PredictionStep:
     """The prediction's two halves and the conflict log of
     :class:`~mjasc.avoidance.system.CollisionAvoidance` (see the module docstring)."""
 
-    def _prediction_query(self, t, tracks) -> "PendingPrediction":
+    def _prediction_query(self, t, tracks, grown=()) -> "PendingPrediction":
         """The first half of :meth:`_predict`: the tracks as predicted (team mates from their
         broadcasts, slow tracks static, a mapped structure's own returns static and no larger than it:
-        :func:`~mjasc.avoidance.structure.structure_tracks`) and the query of the disc tracks."""
+        :func:`~mjasc.avoidance.structure.structure_tracks`) and the query of the disc tracks. The
+        tracks whose ids are in ``grown`` are predicted with their radius grown by ``replan_margin_m``."""
         g_state = self._guidance
         tracks = self.team_mates.tracks([tr for tr in tracks if tr.team_member != self.name], t, self._team,
                                         self._event)
@@ -90,6 +91,9 @@ class PredictionStep:
                                             or tr.track_id in inside)
                       and not self.team_mates.broadcast_based(tr, fresh))
                   else tr for tr in tracks]
+        if grown:
+            tracks = [replace(tr, radius_m=tr.radius_m + self.config.replan_margin_m) if tr.track_id in grown else tr
+                      for tr in tracks]
         ids = {tr.track_id for tr in tracks}
         if self.config.withdraw_false_alarms:  # (what _decide needs to tell a new track's yield)
             for k in ids - self._known_track_ids:

@@ -351,10 +351,12 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         return times, pts
 
     # ------------------------------------------------------------------ prediction
-    def _predict(self, t, nav, tracks, static_polygons, after_replan: bool = False) -> list:
+    def _predict(self, t, nav, tracks, static_polygons, after_replan: bool = False, grown=()) -> list:
         """Predict conflicts with the vessel's tracks and static polygons and act on them.
-        Returns the conflicts with a predicted collision (PredictedConflict / StaticConflict)."""
-        pending = self._prediction_query(t, tracks)
+        Returns the conflicts with a predicted collision (PredictedConflict / StaticConflict).
+        ``grown``: ids of tracks checked with their radius grown by ``replan_margin_m`` (a fresh
+        detour's check against the team mates it gives way to: :meth:`Manoeuvres._decide`)."""
+        pending = self._prediction_query(t, tracks, grown)
         all_c = predict_fleet_lazy([pending.query])[0] if pending.query is not None else []
         return self._act_on_prediction(t, nav, pending, all_c, static_polygons, after_replan)
 

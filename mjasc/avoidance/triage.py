@@ -57,6 +57,7 @@ class Triage:
     overtaken: list[PredictedConflict] = field(default_factory=list)  # strangers from abaft the beam
     notes: list[tuple[str | None, str]] = field(default_factory=list)  # (stat to count or None, event)
     roles: dict = field(default_factory=dict)  # track id → its COLREG / team role and answer (text)
+    give_way_mates: set = field(default_factory=set)  # track ids of team mates this vessel gives way to
 
 
 def swept(track, c: PredictedConflict, t: float, cfg) -> np.ndarray:
@@ -139,6 +140,8 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
             continue
         team_gives_way = is_team and gives_way(nav.position_m, nav.heading_rad, track.position_m,
                                                track.heading_rad, True)
+        if team_gives_way:
+            out.give_way_mates.add(c.track_id)
         if is_team and not team_gives_way:
             astern = np.cos(relative_bearing(nav.position_m, nav.heading_rad, track.position_m)) < 0.0
             if c.t_closest_s - t > cfg.last_resort_s:
