@@ -3,6 +3,7 @@ tracking, chained phases — checked against closed forms and the pass criteria 
 scenario errors, and the thesis's cooperative scenarios under 30 % packet loss."""
 
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -154,7 +155,7 @@ def _data(name):
     (lambda d: d["mission"]["go_to_formation"].update(turn_radius_m=-1.0), "mission.go_to_formation.turn_radius_m"),
     # the Otter's tightest steady turn at 1.5 m/s is ~5.0 m (tests/test_steady_turn.py)
     (lambda d: d["mission"]["go_to_formation"].update(turn_radius_m=4.0),
-     "mission.go_to_formation.turn_radius_m: vessels[0] 'alpha' (otter) turns no tighter than 5.0 m at its cruise"),
+     "mission.go_to_formation.turn_radius_m: vessels[0] 'alpha' (otter) turns no tighter than 5.01 m at its cruise"),
     (lambda d: d["vessels"][1]["controller"].update(speed_m_s=3.05),
      "mission.go_to_formation.turn_radius_m: vessels[1] 'bravo' (otter) sails no steady turn at its cruise speed 3.05"),
     (lambda d: d["mission"].update(phases=["go_to_formation", "track_target"]), "mission.track_target: missing"),
@@ -168,6 +169,21 @@ def test_bad_missions_are_one_line_errors(edit, message):
     with pytest.raises(ScenarioError) as err:
         parse_scenario(d, "go_to_formation.toml")
     assert message in str(err.value) and "\n" not in str(err.value)
+
+
+@pytest.mark.parametrize("vessel_type, speed", [("otter", 1.5), ("delfim", 1.0), ("delfim", 1.5)])
+def test_the_turn_radius_the_error_names_is_accepted(vessel_type, speed):
+    """The limit in the error is rounded up: writing it in the file passes the check (it printed
+    the Delfim's 13.44 m at 1.5 m/s as 13.4 m, and 13.4 was refused)."""
+    d = _data("go_to_formation")
+    for v in d["vessels"]:
+        v["type"], v["controller"]["speed_m_s"] = vessel_type, speed
+    d["mission"]["go_to_formation"]["turn_radius_m"] = 1.0
+    with pytest.raises(ScenarioError) as err:
+        parse_scenario(d, "go_to_formation.toml")
+    limit = float(re.search(r"turns no tighter than ([0-9.]+) m", str(err.value)).group(1))
+    d["mission"]["go_to_formation"]["turn_radius_m"] = limit
+    parse_scenario(d, "go_to_formation.toml")
 
 
 @pytest.mark.parametrize("edit, message", [
