@@ -181,6 +181,8 @@ def test_tightest_turn_trial_sails_the_closed_form_turn():
     assert res["steady_diameter"] == pytest.approx(res["closed_form_diameter"], rel=3e-3)
     assert res["steady_speed"] == pytest.approx(1.5, rel=3e-3)
     assert res["steady_diameter"] == pytest.approx(2 * res["steady_speed"] / res["steady_yaw_rate"], rel=3e-3)
+    # the radius the go-to-formation check's error names (rounded up: 5.003 m → 5.01 m)
+    assert res["min_mission_turn_radius"] == 5.01
     slower = run_trial("tightest-turn", "otter", speed_m_s=1.0)
     assert slower["closed_form_diameter"] < res["closed_form_diameter"]  # slower, tighter
 

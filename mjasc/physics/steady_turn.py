@@ -34,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import brentq, root
 
-__all__ = ["SteadyTurn", "steady_state", "tightest_turn", "tightest_turn_of_type"]
+__all__ = ["SteadyTurn", "steady_state", "tightest_turn", "tightest_turn_of_type", "smallest_turn_radius_m"]
 
 
 @dataclass(frozen=True)
@@ -169,3 +169,11 @@ def tightest_turn_of_type(vessel_type, speed_m_s: float) -> SteadyTurn | None:
     """:func:`tightest_turn` of a :class:`~mjasc.physics.vessels.VesselType` (its compiled MJCF's
     rigid-body mass, its hydrodynamics and propellers), memoised per type and speed."""
     return _tightest_of(vessel_type, float(speed_m_s))
+
+
+def smallest_turn_radius_m(turn: SteadyTurn) -> float:
+    """The turn's radius rounded *up* to the centimetre [m]: the smallest go-to-formation
+    ``turn_radius_m`` written to two decimals that the scenario check accepts (the value its error
+    and ``mjasc trial tightest-turn`` name)."""
+    limit = math.ceil(turn.radius_m * 100.0) / 100.0
+    return limit + 0.01 if limit < turn.radius_m else limit  # (x·100 rounded down to a whole number)

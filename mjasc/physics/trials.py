@@ -54,9 +54,10 @@ independently takes its kind's default):
                     held until steady and for one revolution: ``closed_form_diameter`` [m] = 2 U / r
                     of the solve, ``steady_diameter`` [m] the circle fitted to the simulated track,
                     ``steady_speed``, ``steady_yaw_rate``, ``steady_drift_angle_deg`` of the
-                    simulated hull (the two agree to a few tenths of a per cent). The smallest
-                    ``turn_radius_m`` a go-to-formation mission takes at that cruise speed is half
-                    the closed-form diameter.
+                    simulated hull (the two agree to a few tenths of a per cent).
+                    ``min_mission_turn_radius`` [m]: half the closed-form diameter rounded up to
+                    the centimetre, the smallest ``turn_radius_m`` a go-to-formation mission takes
+                    at that cruise speed (the value the scenario check's error names).
 
 Steady state (:data:`mjasc.physics.trial_track.STEADY`): sampled every ``sample_s``, the state is steady when, over the last
 ``window_s``, the spread (max − min) of u and v is below ``velocity_tol_m_s`` and that of r below
@@ -88,7 +89,7 @@ UNITS = {"timestep_s": "s", "port": "(command in [-1, 1])", "starboard": "(comma
          "time_to_180_deg": "s", "initial_turning_time": "s", "time_to_third_execute": "s",
          "overshoot_1_deg": "deg", "overshoot_2_deg": "deg", "zigzag_angle_deg": "deg", "head_reach": "m",
          "lateral_deviation": "m", "stopping_distance": "m", "stopping_time": "s", "speed": "m/s",
-         "closed_form_diameter": "m"}
+         "closed_form_diameter": "m", "min_mission_turn_radius": "m"}
 
 TRIAL_KINDS = ("speed", "turning-circle", "zigzag", "stopping", "tightest-turn")
 
@@ -331,7 +332,7 @@ def _stopping(track: TrialTrack, p: float, s: float) -> dict:
 
 
 def _tightest_turn(track: TrialTrack, speed_m_s: float | None) -> dict:
-    from mjasc.physics.steady_turn import tightest_turn
+    from mjasc.physics.steady_turn import smallest_turn_radius_m, tightest_turn
 
     vtype = track.sim.world.vessel_types[0]
     speed = vtype.cruise_speed_m_s if speed_m_s is None else number(speed_m_s, "--speed")
@@ -354,6 +355,7 @@ def _tightest_turn(track: TrialTrack, speed_m_s: float | None) -> dict:
         "port": _r(p, 6), "starboard": _r(s, 6),  # (sailed unrounded)
         "turn_direction": "port",
         "closed_form_diameter": _r(2.0 * turn.radius_m, 4),
+        "min_mission_turn_radius": smallest_turn_radius_m(turn),
         "steady_speed": _r(math.hypot(u, v), 4),
         "steady_yaw_rate": _r(abs(r), 6),
         "steady_drift_angle_deg": _r(math.degrees(abs(math.atan2(v, u))), 2),

@@ -35,7 +35,6 @@ the bounds here are declared once in :class:`Bounds`.
 from __future__ import annotations
 
 import copy
-import math
 import re
 from dataclasses import dataclass
 
@@ -214,7 +213,7 @@ def _check_transit_turns(scenario, types: dict) -> None:
     mission = getattr(scenario, "mission", None)
     if mission is None or "go_to_formation" not in mission.phases:
         return
-    from mjasc.physics.steady_turn import tightest_turn_of_type
+    from mjasc.physics.steady_turn import smallest_turn_radius_m, tightest_turn_of_type
 
     radius = mission.go_to_formation.turn_radius_m
     for i, v in enumerate(scenario.vessels):
@@ -227,9 +226,7 @@ def _check_transit_turns(scenario, types: dict) -> None:
                               f"cruise speed {v.cruise_speed_m_s:g} m/s (vessels[{i}].controller.speed_m_s), so "
                               f"it cannot sail the transit's arcs; got {radius:g}")
         if radius < turn.radius_m:
-            # the limit rounded *up* to the centimetre: the value printed is one the check accepts
-            limit = math.ceil(turn.radius_m * 100.0) / 100.0
-            limit += 0.01 if limit < turn.radius_m else 0.0  # (x·100 rounded down to a whole number)
+            limit = smallest_turn_radius_m(turn)  # rounded up: the value printed passes
             raise ConfigError(f"{where}: vessels[{i}] {v.name!r} ({types[v.type].name}) turns no tighter than "
                               f"{limit:.2f} m at its cruise speed {v.cruise_speed_m_s:g} m/s (full "
                               f"differential thrust, still water; 'mjasc trial tightest-turn' shows it), so its "
