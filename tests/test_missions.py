@@ -641,3 +641,20 @@ def test_the_leader_designates_only_near_the_hint():
     near = PerceptionReport(1.0, [_track(3, 100.0, 90.0, t=1.0), _track(5, 104.0, 3.0, t=1.0)], [])
     leg, _ = ph.step(PhaseInputs(1.0, _nav(1.0, 0.0), 1.0, near, {}, True))
     assert ph.estimate.track_id == 5 and ph.broadcast().target.track_id == 5 and leg is not None
+
+
+def test_the_mission_report_says_how_many_runs_the_arrival_figures_rest_on(tmp_path):
+    """Runs whose team never reached its formation poses have no arrival spread: the report's
+    mission table says the figures rest on 1 of 3 runs (it showed them as if over all three)."""
+    from mjasc.campaigns.report import format_report, report_data
+    from mjasc.campaigns.store import CampaignStore
+
+    gtf = {"arrival_spread_s": 0.13, "max_position_error_m": 0.14}
+    with CampaignStore(tmp_path, "abc", name="c", runs_defined=3) as s:
+        for k in range(3):
+            mission = {"phases": ["go_to_formation"], "mission_completed": k == 0, **({"go_to_formation": gtf}
+                                                                                      if k == 0 else {})}
+            s.record(k, family="perturbation", parameters={}, seed=k, scenario="", status="completed",
+                     metrics={"mission": mission, "vessels": {}})
+    text = format_report(report_data(tmp_path))
+    assert "| 0.13 / 0.13 / 0.13 (1 of 3 runs) | 0.14 / 0.14 / 0.14 (1 of 3 runs) |" in text

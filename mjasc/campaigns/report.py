@@ -132,19 +132,26 @@ def format_report(data: dict) -> str:
                      f"{_q(pv['mean_cross_track_m'], 1, 2)} | {_q(pv['max_cross_track_m'], 1, 2)} | "
                      f"{_q(pv['formation_error_m'], 1, 2)} | {pv['reference_short']} |")
     if data.get("mission"):  # chained missions (docs/missions.md)
-        lines += ["", "Missions (median / p95 / max over the completed runs; arrival: go-to-formation):", "",
+        lines += ["", "Missions (median / p95 / max over the completed runs; arrival: go-to-formation, over the runs "
+                  "where every vessel arrived: how many when not all):", "",
                   "| family | mission completed [Wilson 95 %] | arrival spread [s] | arrival position error [m] |",
                   "|---|---|---|---|"]
         for fam, g in list(data["families"].items()) + [("**all**", data)]:
             m = g.get("mission")
             if m:
-                lines.append(f"| {fam} | {_pct(m['completed'])} | {_q3(m['arrival_spread_s'])} | "
-                             f"{_q3(m['arrival_position_error_m'])} |")
+                runs = m["completed"]["n"]
+                lines.append(f"| {fam} | {_pct(m['completed'])} | {_q3(m['arrival_spread_s'], runs)} | "
+                             f"{_q3(m['arrival_position_error_m'], runs)} |")
     return "\n".join(lines) + "\n"
 
 
-def _q3(q: dict | None) -> str:
-    return "—" if not q else f"{q['p50']:.2f} / {q['p95']:.2f} / {q['p100']:.2f}"
+def _q3(q: dict | None, runs: int | None = None) -> str:
+    """median / p95 / max; with ``runs``, how many of them the figures rest on when not all (a run
+    whose team never reached its formation poses has no arrival spread)."""
+    if not q:
+        return "—" if not runs else f"— (0 of {runs} runs)"
+    out = f"{q['p50']:.2f} / {q['p95']:.2f} / {q['p100']:.2f}"
+    return out if runs is None or q["n"] >= runs else f"{out} ({q['n']} of {runs} runs)"
 
 
 def _sep3(q: dict | None) -> str:
