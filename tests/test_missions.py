@@ -135,6 +135,23 @@ def test_go_to_formation_arrives_at_cruise_speed_when_the_need_falls_in_the_jump
     assert np.allclose(leg.path.point(leg.path.length), [100.0, 0.0], atol=1e-6)
 
 
+def test_a_transit_not_yet_sailed_reports_its_plan():
+    """A run that ends before the arrival says when the team is due and what the vessel sails (its
+    timeline entry held only phase, start and completed = false)."""
+    from mjasc.missions.config import GoToFormationOptions
+    from mjasc.missions.go_to_formation import GoToFormation
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs
+
+    formation = GPath.line([100.0, 0.0], [300.0, 0.0])
+    ph = GoToFormation(0, GoToFormationOptions(), formation, 1.5, team_size=2)
+    ph.begin(0.0, _nav(40.0, 0.0))
+    ph.step(PhaseInputs(1.0, _nav(41.5, 0.0), 1.5, None, {"mate": MissionBroadcast(0, arrival_time_s=45.0)}, True))
+    r = ph.result()
+    assert r["completed"] is False and "arrival_time_s" not in r  # (the team's arrival spread ignores it)
+    assert r["planned_arrival_s"] == 45.0 and r["transit_length_m"] == pytest.approx(66.0, abs=0.1)
+    assert r["transit_speed_m_s"] == pytest.approx(1.5, abs=0.01) and r["lead_in_m"] == 15.0
+
+
 def test_station_in_the_target_frame():
     # a target heading north: 30 m astern is 30 m south; 20 m to port is 20 m west
     assert np.allclose(station([100.0, 50.0], math.pi / 2, [-30.0, 0.0]), [100.0, 20.0])

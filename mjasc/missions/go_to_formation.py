@@ -232,7 +232,14 @@ class GoToFormation:
         return MissionBroadcast(self.index, arrival_time_s=self.team_arrival_s)
 
     def result(self) -> dict:
-        return {**self.arrival, "completed": bool(self.arrival)}
+        """The arrival's figures; before the arrival (a run that ends in transit) the plan so far:
+        when the team is due and the transit being sailed, so a short run says why it fell short."""
+        if self.arrival or self.path is None:
+            return {**self.arrival, "completed": bool(self.arrival)}
+        due = round(self.team_arrival_s, 3) if math.isfinite(self.team_arrival_s) else None
+        return {"planned_arrival_s": due, "transit_length_m": round(self.path.length, 3),
+                "lead_in_m": round(self.lead_in_m, 3), "bump_m": round(self.bump_m, 3),
+                "transit_speed_m_s": round(self.speed_m_s, 4), "completed": False}
 
     def _agree(self, t_s: float, nav, mate_plans=None) -> MissionLeg:
         """Fix the team's arrival time and re-plan the transit to arrive then at cruise speed: the
