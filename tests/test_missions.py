@@ -675,18 +675,3 @@ def test_the_mission_report_says_how_many_runs_the_arrival_figures_rest_on(tmp_p
                      metrics={"mission": mission, "vessels": {}})
     text = format_report(report_data(tmp_path))
     assert "| 0.13 / 0.13 / 0.13 (1 of 3 runs) | 0.14 / 0.14 / 0.14 (1 of 3 runs) |" in text
-
-
-def test_a_second_track_of_a_team_mates_hull_is_not_designated():
-    """The case a mixed Otter/Delfim team met: the leader held bravo (a Delfim) as a team track and a
-    second, unlabelled track 5.6 m from it, 29 m from the hint; it designated that as the target
-    while the animal was 150 m away. A track kept by id stays designated near a team mate."""
-    from mjasc.core.estimates import PerceptionReport
-    from mjasc.missions.target_tracking import designate_target
-
-    mate, ghost = _track(915, 272.96, 18.53, team="bravo"), _track(278, 277.40, 21.67)
-    hint = np.array([300.0, 40.0])
-    assert designate_target(PerceptionReport(0.0, [mate, ghost], []), hint, 60.0) is None
-    seal = _track(7, 310.0, 60.0)
-    assert designate_target(PerceptionReport(0.0, [mate, ghost, seal], []), hint, 60.0).track_id == 7
-    assert designate_target(PerceptionReport(0.0, [mate, ghost], []), hint, 60.0, keep_id=278).track_id == 278

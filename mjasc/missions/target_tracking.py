@@ -46,24 +46,14 @@ def _candidates(report):
     return [tr for tr in report.tracks if tr.team_member is None and not tr.is_static]
 
 
-TEAM_SHADOW_M = 8.0
-"""A new designation passes over a track this close to a team mate's track [m]: a second track of
-the mate's own hull (a Delfim's 3.5 m hull split into two tracks 5 m apart, the unlabelled one
-designated as the target while the real one was 150 m away)."""
-
-
 def designate_target(report, around_m, gate_m: float = math.inf, keep_id: int | None = None):
     """The track that is the target: the one with id ``keep_id`` if still tracked, else the
-    non-team, non-static confirmed track nearest ``around_m`` (2,) within ``gate_m`` [m] and not
-    within :data:`TEAM_SHADOW_M` of a team mate's track; None."""
+    non-team, non-static confirmed track nearest ``around_m`` (2,) within ``gate_m`` [m]; None."""
     tracks = _candidates(report)
     if keep_id is not None:
         for tr in tracks:
             if tr.track_id == keep_id:
                 return tr
-    mates = [tr.position_m[:2] for tr in report.tracks if tr.team_member is not None] if tracks else []
-    tracks = [tr for tr in tracks if all(math.hypot(tr.position_m[0] - m[0], tr.position_m[1] - m[1]) > TEAM_SHADOW_M
-                                         for m in mates)]
     best, best_d = None, gate_m
     for tr in tracks:
         d = math.hypot(tr.position_m[0] - around_m[0], tr.position_m[1] - around_m[1])
