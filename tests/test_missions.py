@@ -675,3 +675,27 @@ def test_the_mission_report_says_how_many_runs_the_arrival_figures_rest_on(tmp_p
                      metrics={"mission": mission, "vessels": {}})
     text = format_report(report_data(tmp_path))
     assert "| 0.13 / 0.13 / 0.13 (1 of 3 runs) | 0.14 / 0.14 / 0.14 (1 of 3 runs) |" in text
+
+
+def test_a_team_mates_old_track_coasting_on_is_not_designated():
+    """The case a mixed Otter/Delfim team met: bravo stopped near the hint, its label passed from
+    track 278 (coasting on at its old velocity) to a new track 915, and the leader designated 278 —
+    bravo's own wake of a track — while the animal was 150 m away. A track once labelled a team
+    mate (in any phase, seen by the sequencer) is never designated."""
+    from mjasc.core.estimates import PerceptionReport
+    from mjasc.missions.config import MissionConfig, TrackTargetOptions
+    from mjasc.missions.sequencer import MissionSequencer
+
+    opts = TrackTargetOptions(leader="alpha", target_hint_m=np.array([300.0, 40.0]), duration_s=100.0)
+    seq = MissionSequencer(MissionConfig(phases=("track_target",), track_target=opts), "alpha",
+                           GPath.line([250.0, 50.0], [260.0, 50.0]), 1.0, 3.0, team_size=2)
+    seq.begin(0.0, _nav(250.0, 50.0))
+    labelled = PerceptionReport(0.5, [_track(278, 270.4, 16.5, team="bravo")], [])
+    seq.update(0.5, _nav(250.0, 50.0, t=0.5), 0.5, labelled, None, "mission")
+    coasting = PerceptionReport(1.0, [_track(278, 277.4, 21.7), _track(915, 273.0, 18.5, team="bravo")], [])
+    seq.update(1.0, _nav(250.0, 50.0, t=1.0), 1.0, coasting, None, "mission")
+    assert seq.phase.estimate is None
+    seal = PerceptionReport(1.5, [_track(278, 277.8, 22.0), _track(915, 273.0, 18.5, team="bravo"),
+                                  _track(7, 310.0, 60.0, t=1.5)], [])
+    seq.update(1.5, _nav(250.0, 50.0, t=1.5), 1.5, seal, None, "mission")
+    assert seq.phase.estimate is not None and seq.phase.estimate.track_id == 7

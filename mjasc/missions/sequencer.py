@@ -101,6 +101,9 @@ class MissionSequencer:
         ph = self.phase
         if ph is None:
             return None
+        for later in self.phases[self.current:]:  # (a target-tracking phase remembers the team's tracks)
+            if hasattr(later, "note_team_tracks"):
+                later.note_team_tracks(report)
         mates, plans = {}, {}
         if team is not None:
             for n, it in team.intentions.items():

@@ -2,8 +2,9 @@
 
 The target (a boat, a tagged animal: anything that moves) is never read from the simulator.
 The **leader** designates it among its own confirmed tracks — the non-team, non-static track
-nearest ``target_hint_m`` within ``designation_gate_m`` (heading for the hint until one is) — keeps that track's id, and when the track is
-lost takes the nearest track within ``reacquire_gate_m`` of where the target should be now.
+nearest ``target_hint_m`` within ``designation_gate_m`` (heading for the hint until one is), never
+one ever labelled a team mate — keeps that track's id, and when the track is lost takes the
+nearest track within ``reacquire_gate_m`` of where the target should be now.
 It broadcasts its estimate (:class:`~mjasc.missions.legs.TargetEstimate`) with every team
 message; the **followers** use the newest estimate they have heard, extrapolated at constant
 velocity over the link's delay. An estimate older than ``max_estimate_age_s`` counts as the
@@ -46,16 +47,19 @@ def _candidates(report):
     return [tr for tr in report.tracks if tr.team_member is None and not tr.is_static]
 
 
-def designate_target(report, around_m, gate_m: float = math.inf, keep_id: int | None = None):
+def designate_target(report, around_m, gate_m: float = math.inf, keep_id: int | None = None,
+                     team_ids=frozenset()):
     """The track that is the target: the one with id ``keep_id`` if still tracked, else the
-    non-team, non-static confirmed track nearest ``around_m`` (2,) within ``gate_m`` [m]; None."""
+    non-team, non-static confirmed track nearest ``around_m`` (2,) within ``gate_m`` [m] whose id
+    is not in ``team_ids`` (tracks once labelled a team mate: when a mate slows down, the label can
+    pass to a new track while the old one coasts on, unlabelled, until it is dropped); None."""
     tracks = _candidates(report)
     if keep_id is not None:
         for tr in tracks:
             if tr.track_id == keep_id:
                 return tr
     best, best_d = None, gate_m
-    for tr in tracks:
+    for tr in (tr for tr in tracks if tr.track_id not in team_ids):
         d = math.hypot(tr.position_m[0] - around_m[0], tr.position_m[1] - around_m[1])
         if d <= best_d:
             best, best_d = tr, d
@@ -96,8 +100,14 @@ class TrackTarget:
         self.longest_gap_s = 0.0
         self._gap_s = 0.0
         self.reacquired = 0
+        self.team_track_ids: set[int] = set()  # own tracks ever labelled a team mate (never the target)
         self._errors: list[tuple[float, float, float]] = []  # (station error, along, standoff) after settling
         self.events: list[tuple[float, str]] = []
+
+    def note_team_tracks(self, report) -> None:
+        """Remember the ids of the tracks labelled a team mate (every tick, in every phase)."""
+        if report is not None:
+            self.team_track_ids.update(tr.track_id for tr in report.tracks if tr.team_member is not None)
 
     # ------------------------------------------------------------------ the target's estimate
     def own_estimate(self, t_s: float, report, vessel_name: str) -> TargetEstimate | None:
@@ -106,7 +116,7 @@ class TrackTarget:
         keep = self.estimate.track_id if self.estimate is not None else None
         around = self.estimate.position_at(t_s) if self.estimate is not None else o.target_hint_m
         gate = o.reacquire_gate_m if self.estimate is not None else o.designation_gate_m
-        tr = designate_target(report, around, gate, keep)
+        tr = designate_target(report, around, gate, keep, self.team_track_ids)
         if tr is None:
             return None
         if keep is None:
