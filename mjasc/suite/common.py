@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import collections
 import dataclasses
-import inspect
 import threading
 import weakref
 from pathlib import Path
@@ -33,6 +32,7 @@ from mjasc.physics.obstacles import PolygonObstacle
 from mjasc.physics.simulation import Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import World, build_world
+from mjasc.suite.env_kwargs import check_environment_kwargs
 
 __all__ = ["Environment", "make_control_environment", "VesselPhysics", "compose_world", "range_sensor", "basin_walls", "world_to_body",
            "CONTROL_TIMESTEP_S"]
@@ -110,17 +110,7 @@ def make_control_environment(physics: "VesselPhysics", task, time_limit: float,
     """The suite's :class:`Environment` of ``task`` on ``physics``: ``environment_kwargs`` go to
     ``control.Environment`` and may replace the default control timestep (CONTROL_TIMESTEP_S) with
     their own ``control_timestep`` or ``n_sub_steps``; the time limit is a task argument."""
-    kwargs = dict(environment_kwargs or {})
-    if "time_limit" in kwargs:
-        raise ValueError("environment_kwargs: time_limit is a task argument: pass it in task_kwargs")
-    accepted = [p for p in inspect.signature(control.Environment.__init__).parameters
-                if p not in ("self", "physics", "task", "time_limit")]
-    unknown = sorted(set(kwargs) - set(accepted))
-    if unknown:
-        raise ValueError(f"environment_kwargs: unknown {', '.join(map(repr, unknown))}; "
-                         f"accepted: {', '.join(accepted)}")
-    if kwargs.get("n_sub_steps") is None:
-        kwargs.setdefault("control_timestep", CONTROL_TIMESTEP_S)
+    kwargs = check_environment_kwargs(environment_kwargs, physics.timestep(), CONTROL_TIMESTEP_S)
     return Environment(physics, task, time_limit=time_limit, **kwargs)
 
 

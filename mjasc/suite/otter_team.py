@@ -83,14 +83,16 @@ def agent_observation(observation, vessel: int, n_vessels: int = len(SLOTS_M),
 
 
 def joint_policy(policies, n_vessels: int = len(SLOTS_M), vessel_type: str | None = None):
-    """A flat-environment policy (time_step → (2N,) action) from one policy per vessel, each
-    called as ``policy(agent_observation)`` and returning that vessel's (2,) commands (the
-    prefixes read from the observation, or made from ``vessel_type``)."""
+    """A flat-environment policy (a dm_env time step, or its observation dict as gymnasium gives
+    it → (2N,) action) from one policy per vessel, each called as ``policy(agent_observation)``
+    and returning that vessel's (2,) commands (the prefixes read from the observation, or made
+    from ``vessel_type``)."""
     if len(policies) != n_vessels:
         raise ValueError(f"policies: need one per vessel ({n_vessels}), got {len(policies)}")
 
     def policy(time_step):
-        return np.concatenate([np.asarray(p(agent_observation(time_step.observation, i, n_vessels, vessel_type)),
+        observation = getattr(time_step, "observation", time_step)
+        return np.concatenate([np.asarray(p(agent_observation(observation, i, n_vessels, vessel_type)),
                                           dtype=float).reshape(2) for i, p in enumerate(policies)])
     return policy
 

@@ -1,0 +1,66 @@
+"""The suite's settings as an RL user passes them: environment_kwargs and task_kwargs values that
+dm_control accepted silently (and broke the episode) or rejected with an error naming no key."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mjasc import suite
+from mjasc.suite import otter_team
+
+
+@pytest.mark.parametrize("environment_kwargs,match", [
+    # n_sub_steps = 0 divided by zero; -1 ran episodes whose time never advanced; 2.5 / "5" / True
+    # were a TypeError deep in dm_control or a silent 1-step control period.
+    ({"n_sub_steps": 0}, r"environment_kwargs: n_sub_steps must be an integer >= 1, got 0"),
+    ({"n_sub_steps": -1}, r"n_sub_steps must be an integer >= 1, got -1"),
+    ({"n_sub_steps": 2.5}, r"n_sub_steps must be an integer >= 1, got 2.5"),
+    ({"n_sub_steps": "5"}, r"n_sub_steps must be an integer >= 1, got '5'"),
+    ({"n_sub_steps": True}, r"n_sub_steps must be an integer >= 1, got True"),
+    ({"control_timestep": "0.1"}, r"environment_kwargs: control_timestep must be a multiple of the physics step"),
+    ({"control_timestep": float("nan")}, r"control_timestep must be a multiple of the physics step \(0.02 s\)"),
+    ({"control_timestep": 0.0}, r"control_timestep must be a multiple of the physics step \(0.02 s\).*got 0.0"),
+    ({"control_timestep": 0.05}, r"control_timestep must be a multiple of the physics step \(0.02 s\).*got 0.05"),
+    ({"control_timestep": 0.1, "n_sub_steps": 5}, r"environment_kwargs: give control_timestep or n_sub_steps"),
+    ({"flat_observation": "yes"}, r"environment_kwargs: flat_observation must be True or False, got 'yes'"),
+    ({"legacy_step": 1}, r"environment_kwargs: legacy_step must be True or False, got 1"),
+])
+def test_bad_environment_kwargs_are_one_line_errors_naming_the_key(environment_kwargs, match):
+    with pytest.raises(ValueError, match=match) as info:
+        suite.load("otter", "station_keeping", task_kwargs={"random": 0}, environment_kwargs=environment_kwargs)
+    assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("key", ["control_timestep", "n_sub_steps"])
+def test_none_control_step_keeps_the_default(key):
+    """``control_timestep: null`` (a config file's "not set") used to give dm_control's own default,
+    one physics step (0.02 s, 5x the steps per episode), instead of the suite's 0.1 s."""
+    env = suite.load("otter", "station_keeping", task_kwargs={"random": 0}, environment_kwargs={key: None})
+    assert env.control_timestep() == pytest.approx(0.1) and env.step_limit == pytest.approx(400.0)
+
+
+def test_good_environment_kwargs_still_work():
+    env = suite.load("otter", "station_keeping", task_kwargs={"random": 0, "time_limit": 1.0},
+                     environment_kwargs={"n_sub_steps": np.int64(10), "flat_observation": np.True_,
+                                         "legacy_step": True})
+    assert env.control_timestep() == pytest.approx(0.2) and env.step_limit == pytest.approx(5.0)
+    env = suite.load("otter", "station_keeping", environment_kwargs={"control_timestep": 0.04})
+    assert env.control_timestep() == pytest.approx(0.04)
+
+
+@pytest.mark.parametrize("seed", [-1, 2 ** 32])
+def test_out_of_range_seed_names_the_key(seed):
+    """numpy's "Seed must be between 0 and 2**32 - 1" named neither the key nor the value."""
+    with pytest.raises(ValueError, match=rf"task_kwargs: random must be .* in \[0, 2\*\*32 - 1\], got {seed}"):
+        suite.load("otter", "station_keeping", task_kwargs={"random": seed})
+
+
+def test_joint_policy_takes_a_gymnasium_observation():
+    """A gymnasium user has observation dicts, not dm_env TimeSteps: joint_policy takes either."""
+    env = suite.load("otter_team", "formation", task_kwargs={"random": 0})
+    time_step = env.reset()
+    policy = otter_team.joint_policy([lambda o, k=k: np.full(2, 0.1 * k) for k in range(3)])
+    expected = np.repeat([0.0, 0.1, 0.2], 2)
+    np.testing.assert_allclose(policy(time_step), expected)
+    np.testing.assert_allclose(policy(dict(sorted(time_step.observation.items()))), expected)
