@@ -64,3 +64,14 @@ def test_joint_policy_takes_a_gymnasium_observation():
     expected = np.repeat([0.0, 0.1, 0.2], 2)
     np.testing.assert_allclose(policy(time_step), expected)
     np.testing.assert_allclose(policy(dict(sorted(time_step.observation.items()))), expected)
+
+
+def test_render_names_the_vessels_when_a_chase_camera_is_missing(tmp_path, capsys):
+    """With --vessel the vessel is named after its hull: "chase:otter" then used to fail with
+    "no camera 'otter/chase' in the model" and no word of the name to use instead."""
+    from mjasc.cli import main
+    out = tmp_path / "r"
+    assert main(["render", "otter", "path_following", "--vessel", "delfim", "--camera", "chase:otter",
+                 "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "no camera 'otter/chase' in the model (its vessels: delfim)" in err and not out.exists()
