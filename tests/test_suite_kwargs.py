@@ -75,3 +75,15 @@ def test_render_names_the_vessels_when_a_chase_camera_is_missing(tmp_path, capsy
                  "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert "no camera 'otter/chase' in the model (its vessels: delfim)" in err and not out.exists()
+
+
+@pytest.mark.parametrize("domain,task,shape", [("otter", "station_keeping", (1,)), ("otter", "station_keeping", (1, 2)),
+                                               ("otter", "station_keeping", ()), ("otter_team", "formation", (1, 6))])
+def test_an_action_of_the_wrong_shape_is_an_error(domain, task, shape):
+    """np.copyto broadcast these into ctrl: (1,) drove both propellers with one command, (1, 2) a
+    batch of one passed unnoticed."""
+    env = suite.load(domain, task, task_kwargs={"random": 0})
+    env.reset()
+    with pytest.raises(ValueError, match=rf"action: must have shape \({env.action_spec().shape[0]},\)"):
+        env.step(np.full(shape, 0.5))
+    env.step(np.full(env.action_spec().shape, 0.5))

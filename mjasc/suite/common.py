@@ -244,6 +244,14 @@ class VesselPhysics(mjcf.Physics):
         self._build_simulation(self._sim.traffic.obstacles if moving_obstacles is None else moving_obstacles)
         self._update_traffic()
 
+    def set_control(self, control):
+        """dm_control's, but an action of the wrong shape is an error (``np.copyto`` broadcast a
+        (1,) or (1, 2) action silently: one command for both propellers, or a batch of one)."""
+        shape = np.shape(control)
+        if shape != (self.model.nu,):
+            raise ValueError(f"action: must have shape ({self.model.nu},) (port, starboard per vessel), got {shape}")
+        super().set_control(control)
+
     def copy(self, share_model=False):
         """A copy with its own MjData (and MjModel unless ``share_model``) and its own step."""
         new = super().copy(share_model=share_model)
