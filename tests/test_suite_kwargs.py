@@ -87,3 +87,16 @@ def test_an_action_of_the_wrong_shape_is_an_error(domain, task, shape):
     with pytest.raises(ValueError, match=rf"action: must have shape \({env.action_spec().shape[0]},\)"):
         env.step(np.full(shape, 0.5))
     env.step(np.full(env.action_spec().shape, 0.5))
+
+
+@pytest.mark.parametrize("name", ["otter.v2", "my boat", "obstacle_boat"])
+def test_a_hull_whose_name_cannot_name_a_vessel_is_a_vessel_key_error(tmp_path, name):
+    """A folder that passed the contract but whose name the model rejects used to fail later with
+    "vessels: invalid vessel name 'otter.v20'" (in otter_team: a name the user never wrote)."""
+    from mjasc.physics.vessels import VESSELS_DIR
+    from tests.test_own_hull import copy_vessel
+    copy = copy_vessel(VESSELS_DIR / "otter", tmp_path / "hulls" / name)
+    for domain, task in (("otter", "station_keeping"), ("otter_team", "formation")):
+        with pytest.raises(ValueError, match=rf"^task_kwargs\.vessel: the hull's name '{name}' \(its folder's\) must "
+                                             r"be letters, digits, '_' or '-'.*, got '.*hulls/"):
+            suite.load(domain, task, task_kwargs={"vessel": str(copy)})
