@@ -122,3 +122,19 @@ def test_mjasc_render_takes_the_pixel_cameras(tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err
     assert err.startswith("mjasc: render --camera: must be top_down") and "basin, follow:<vessel>" in err
     assert err.count("\n") == 1 and seen == ["basin", "otter/follow", "chase:otter", "top_down"]
+
+
+def test_a_collision_on_the_last_step_ends_with_discount_zero():
+    """dm_control's Environment gives discount 1 at the time limit without asking the task, so a
+    vessel that hit the wall on the episode's last step was "truncated" (gymnasium: truncated,
+    not terminated) and a learner bootstrapped through the crash. Full ahead in seed 0 of
+    collision_avoidance touches at step 117: with a time limit of 11.7 s that is the last step."""
+    def last(time_limit):
+        env = suite.load("otter", "collision_avoidance", task_kwargs={"random": 0, "time_limit": time_limit})
+        time_step, steps = env.reset(), 0
+        while not time_step.last():
+            time_step, steps = env.step(np.ones(2)), steps + 1
+        return steps, time_step.discount
+    assert last(80.0) == (117, 0.0)
+    assert last(11.7) == (117, 0.0)
+    assert last(11.6) == (116, 1.0)  # (the time limit one step before the contact: truncated)

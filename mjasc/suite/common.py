@@ -144,9 +144,13 @@ class Environment(control.Environment):
         return super().reset()
 
     def step(self, action):
-        """dm_control's step; a clear error once :meth:`close` has freed the physics."""
+        """dm_control's step; a clear error once :meth:`close` has freed the physics. A contact on
+        the time limit's step ends with discount 0 (dm_control gives 1 there without asking the task)."""
         self._check_open()
-        return super().step(action)
+        time_step = super().step(action)
+        if time_step.last() and time_step.discount == 1.0 and self._task.get_termination(self._physics) == 0.0:
+            time_step = time_step._replace(discount=0.0)
+        return time_step
 
     def _check_open(self) -> None:
         if getattr(self._physics, "_data", None) is None:
