@@ -138,3 +138,24 @@ def test_a_collision_on_the_last_step_ends_with_discount_zero():
     assert last(80.0) == (117, 0.0)
     assert last(11.7) == (117, 0.0)
     assert last(11.6) == (116, 1.0)  # (the time limit one step before the contact: truncated)
+
+
+def test_a_frame_larger_than_the_offscreen_buffer_is_a_one_line_error():
+    """Enlarging the buffer after the first render (docs/suite.md: before it) used to render the
+    frame black beyond the old width, silently; before any render the larger buffer works."""
+    env = suite.load("otter", "station_keeping", task_kwargs={"random": 0})
+    env.reset()
+    with pytest.raises(ValueError, match=r"^render: 1400x84 is larger than the offscreen buffer, 1280x720; set "):
+        env.physics.render(84, 1400, camera_id="basin")
+    env.physics.render(84, 84, camera_id="basin")
+    env.physics.model.vis.global_.offwidth = 1400
+    with pytest.raises(ValueError, match=r"^render: 1400x84 is larger than the offscreen buffer, 1280x720;") as info:
+        env.physics.render(height=84, width=1400, camera_id="basin")
+    assert "\n" not in str(info.value)
+    env.close()
+    env = suite.load("otter", "station_keeping", task_kwargs={"random": 0})
+    env.reset()
+    env.physics.model.vis.global_.offwidth = 1400
+    frame = env.physics.render(84, 1400, camera_id="basin")
+    assert frame.shape == (84, 1400, 3) and frame[:, 1300:].mean() > 50  # (water, not black)
+    env.close()

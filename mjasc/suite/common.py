@@ -219,9 +219,20 @@ class VesselPhysics(mjcf.Physics):
         """dm_control's contexts, freed at interpreter exit if the environment was never closed,
         and when the garbage collector frees this physics (see :func:`_free_contexts`)."""
         super()._make_rendering_contexts()
+        self._buffer_size = (self.model.vis.global_.offwidth, self.model.vis.global_.offheight)
         _RENDERING.add(self)
         _register_exit_hook()
         weakref.finalize(self, _free_contexts, self._contexts).atexit = False
+
+    def render(self, height=240, width=320, *args, **kwargs):
+        """dm_control's, but a frame larger than the offscreen buffer made at the first render is a
+        one-line error (a buffer enlarged after that rendered black beyond the old size, silently)."""
+        vis = self.model.vis.global_
+        w, h = getattr(self, "_buffer_size", None) or (vis.offwidth, vis.offheight)
+        if width > w or height > h:
+            raise ValueError(f"render: {width}x{height} is larger than the offscreen buffer, {w}x{h}; set "
+                             "physics.model.vis.global_.offwidth / offheight before the first render")
+        return super().render(height, width, *args, **kwargs)
 
     # ------------------------------------------------------------------ set-up
     def attach_world(self, world: World, current: CurrentField | None = None) -> None:
