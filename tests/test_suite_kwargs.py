@@ -159,3 +159,17 @@ def test_a_frame_larger_than_the_offscreen_buffer_is_a_one_line_error():
     frame = env.physics.render(84, 1400, camera_id="basin")
     assert frame.shape == (84, 1400, 3) and frame[:, 1300:].mean() > 50  # (water, not black)
     env.close()
+
+
+def test_agent_observation_has_the_spec_order_also_from_a_gymnasium_dict():
+    """gymnasium's Dict sorts its keys, so agent_observation of a gymnasium observation came out
+    alphabetically (body_velocity, course_error, current_body, ...): a per-vessel policy that
+    concatenates the values got them in another order than on the dm_env route."""
+    env = suite.load("otter_team", "formation", task_kwargs={"random": 0})
+    observation = env.reset().observation
+    shuffled = dict(sorted(observation.items()))
+    for i in range(3):
+        a, b = otter_team.agent_observation(observation, i), otter_team.agent_observation(shuffled, i)
+        assert list(a) == list(b) == ["body_velocity", "shaft_speed", "current_body", "slot_error",
+                                      "leader_velocity", "course_error", "mates"]
+        assert all(a[k] is b[k] for k in a)
