@@ -173,3 +173,12 @@ def test_agent_observation_has_the_spec_order_also_from_a_gymnasium_dict():
         assert list(a) == list(b) == ["body_velocity", "shaft_speed", "current_body", "slot_error",
                                       "leader_velocity", "course_error", "mates"]
         assert all(a[k] is b[k] for k in a)
+
+
+def test_render_episode_refuses_an_endless_episode_before_writing(tmp_path):
+    """time_limit=inf used to stop with "OverflowError: cannot convert float infinity to integer"
+    after the video file was opened, leaving a broken MP4 behind."""
+    from mjasc.suite.render import render_episode
+    with pytest.raises(ValueError, match=r"^task_kwargs: time_limit must be finite to render an episode, got inf$"):
+        render_episode("otter", "station_keeping", out_dir=tmp_path / "r", task_kwargs={"time_limit": float("inf")})
+    assert not list(tmp_path.rglob("*.mp4"))
