@@ -144,8 +144,7 @@ class Environment(control.Environment):
         return super().reset()
 
     def step(self, action):
-        """dm_control's step; a clear error once :meth:`close` has freed the physics. A contact on
-        the time limit's step ends with discount 0 (dm_control gives 1 there without asking the task)."""
+        """dm_control's step (an error after :meth:`close`); a contact at the time limit: discount 0."""
         self._check_open()
         time_step = super().step(action)
         if time_step.last() and time_step.discount == 1.0 and self._task.get_termination(self._physics) == 0.0:
@@ -225,8 +224,7 @@ class VesselPhysics(mjcf.Physics):
         weakref.finalize(self, _free_contexts, self._contexts).atexit = False
 
     def render(self, height=240, width=320, *args, **kwargs):
-        """dm_control's, but a frame larger than the offscreen buffer made at the first render is a
-        one-line error (a buffer enlarged after that rendered black beyond the old size, silently)."""
+        """dm_control's; a frame larger than the first render's buffer is an error (it rendered black)."""
         vis = self.model.vis.global_
         w, h = getattr(self, "_buffer_size", None) or (vis.offwidth, vis.offheight)
         if width > w or height > h:
@@ -260,8 +258,7 @@ class VesselPhysics(mjcf.Physics):
         self._update_traffic()
 
     def set_control(self, control):
-        """dm_control's, but an action of the wrong shape is an error (``np.copyto`` broadcast a
-        (1,) or (1, 2) action silently: one command for both propellers, or a batch of one)."""
+        """dm_control's, but a wrong shape is an error (``np.copyto`` broadcast (1,) and (1, 2) actions)."""
         shape = np.shape(control)
         if shape != (self.model.nu,):
             raise ValueError(f"action: must have shape ({self.model.nu},) (port, starboard per vessel), got {shape}")
