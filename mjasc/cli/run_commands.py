@@ -210,8 +210,12 @@ def cmd_render(args) -> int:
     from mjasc.suite.render import render_episode
 
     tasks = TASKS_BY_DOMAIN.get(args.domain)
-    if camera_problem(args.camera):
-        print(f"mjasc: render --camera: {camera_problem(args.camera)}", file=sys.stderr)
+    camera = args.camera  # the suite's own cameras too (docs/suite.md, "Pixel observations"), as render_episode
+    if camera.startswith("follow:") and camera != "follow:":
+        camera = camera.removeprefix("follow:") + "/follow"
+    elif camera != "basin" and camera_problem(camera):
+        print(f"mjasc: render --camera: {camera_problem(camera)} (or the suite's basin, follow:<vessel>)",
+              file=sys.stderr)
         return 2
     if tasks is None or args.task not in tasks:  # checked before the output folder is made
         what = f"domain {args.domain!r}" if tasks is None else f"task {args.task!r} of domain {args.domain!r}"
@@ -234,7 +238,7 @@ def cmd_render(args) -> int:
     t0 = time.perf_counter()
     try:
         result = render_episode(args.domain, args.task, policy=args.policy, out_dir=out, seed=args.seed,
-                                task_kwargs=task_kwargs, camera=args.camera, hud=getattr(args, "hud", True),
+                                task_kwargs=task_kwargs, camera=camera, hud=getattr(args, "hud", True),
                                 progress=lambda done, limit: print(f"  {100 * done // limit:3d} % ({done} of {limit} "
                                                                    f"control steps, {time.perf_counter() - t0:.0f} s)",
                                                                    flush=True))

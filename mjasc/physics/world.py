@@ -226,6 +226,11 @@ def _compose(vessels, static_obstacles, moving_obstacles, timestep_s) -> mjcf.Ro
     return root
 
 
+def is_valid_vessel_name(name: str) -> bool:
+    """A vessel's name in the model: letters, digits, '_' or '-', not starting with 'obstacle'."""
+    return bool(name) and not name.startswith("obstacle") and name.replace("_", "").replace("-", "").isalnum()
+
+
 def build_world(
     vessels: list[tuple[str, VesselType]],
     static_obstacles: list[PolygonObstacle | CircleObstacle] = (),
@@ -240,7 +245,7 @@ def build_world(
     if len(set(names)) != len(names):
         raise ValueError(f"vessels: names must be unique, got {names}")
     for n in names:
-        if not n or "/" in n or n.startswith("obstacle") or not n.replace("_", "").replace("-", "").isalnum():
+        if not is_valid_vessel_name(n):
             raise ValueError(f"vessels: invalid vessel name {n!r} (letters, digits, '_' or '-'; not 'obstacle…')")
     if timestep_s is not None and not timestep_s > 0:
         raise ValueError(f"timestep_s: must be > 0, got {timestep_s}")

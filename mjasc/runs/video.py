@@ -101,7 +101,9 @@ class _Pane:
         name = camera.replace("chase:", "") + "/chase" if camera.startswith("chase:") else camera
         cid = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_CAMERA, name)
         if cid < 0:
-            raise ValueError(f"camera: no camera {name!r} in the model")
+            names = [mujoco.mj_id2name(m, mujoco.mjtObj.mjOBJ_CAMERA, i) or "" for i in range(m.ncam)]
+            chased = [n[: -len("/chase")] for n in names if n.endswith("/chase")]
+            raise ValueError(f"camera: no camera {name!r} in the model (its vessels: {', '.join(chased) or 'none'})")
         return cid
 
     def view_centre(self, model, data) -> np.ndarray:

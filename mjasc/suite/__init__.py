@@ -74,6 +74,8 @@ def _check_task_kwargs(task_kwargs) -> None:
     if random is not None and not isinstance(random, (numbers.Integral, np.random.RandomState)):
         raise ValueError(f"task_kwargs: random must be an integer seed or a numpy.random.RandomState "
                          f"(dm_control's Task), got {type(random).__name__}")
+    if isinstance(random, numbers.Integral) and not 0 <= random < 2 ** 32:
+        raise ValueError(f"task_kwargs: random must be an integer seed in [0, 2**32 - 1], got {random}")
 
 
 def load(domain_name, task_name, task_kwargs=None, environment_kwargs=None, visualize_reward=False):

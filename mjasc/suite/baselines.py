@@ -53,6 +53,7 @@ __all__ = ["random_policy", "baseline_policy", "goal_line_policy", "CASPolicy", 
 #: The CAS baseline's prediction period [s] (the runner's default is 5 s; the task's boats are
 #: timed to meet the vessel, and predicting every 2 s lifted the mean return by a third).
 PREDICTION_PERIOD_S = 2.0
+SENSING_PERIOD_S = 0.1  # the CAS's scans and tracker updates [s]: the default control step's 10 Hz
 #: The CAS baseline's avoidance settings: mjasc.avoidance.system defaults, except a 2 m safety distance
 #: (default 1 m) and a 4 m margin of the virtual target's goal (default 2 m): with the defaults a
 #: yielding vessel reached the crossing just as the boat left it, and touched it on a late turn.
@@ -199,9 +200,10 @@ class CASPolicy:
         self.seed = int(seed)
         self.agent: VesselAgent | None = None
         self.episodes = 0
-        dt = env.control_timestep()
-        self.schedule = Schedule.from_periods(dt, {"sensing": dt, "tracking": dt, "prediction": prediction_period_s,
-                                                   "control": dt})
+        dt = env.control_timestep()  # perception keeps its 10 Hz with any control step (at 25 Hz the map and
+        sense = max(dt, SENSING_PERIOD_S)  # tracks, tuned in scans, filled up and the vessel stopped short)
+        self.schedule = Schedule.from_periods(dt, {"sensing": sense, "tracking": sense,
+                                                   "prediction": prediction_period_s, "control": dt})
 
     def _build(self) -> None:
         env, task = self.env, self.env.task

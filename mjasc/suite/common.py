@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import collections
 import dataclasses
-import inspect
 import threading
 import weakref
 from pathlib import Path
@@ -33,6 +32,7 @@ from mjasc.physics.obstacles import PolygonObstacle
 from mjasc.physics.simulation import Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import World, build_world
+from mjasc.suite.env_kwargs import check_environment_kwargs
 
 __all__ = ["Environment", "make_control_environment", "VesselPhysics", "compose_world", "range_sensor", "basin_walls", "world_to_body",
            "CONTROL_TIMESTEP_S"]
@@ -110,17 +110,7 @@ def make_control_environment(physics: "VesselPhysics", task, time_limit: float,
     """The suite's :class:`Environment` of ``task`` on ``physics``: ``environment_kwargs`` go to
     ``control.Environment`` and may replace the default control timestep (CONTROL_TIMESTEP_S) with
     their own ``control_timestep`` or ``n_sub_steps``; the time limit is a task argument."""
-    kwargs = dict(environment_kwargs or {})
-    if "time_limit" in kwargs:
-        raise ValueError("environment_kwargs: time_limit is a task argument: pass it in task_kwargs")
-    accepted = [p for p in inspect.signature(control.Environment.__init__).parameters
-                if p not in ("self", "physics", "task", "time_limit")]
-    unknown = sorted(set(kwargs) - set(accepted))
-    if unknown:
-        raise ValueError(f"environment_kwargs: unknown {', '.join(map(repr, unknown))}; "
-                         f"accepted: {', '.join(accepted)}")
-    if kwargs.get("n_sub_steps") is None:
-        kwargs.setdefault("control_timestep", CONTROL_TIMESTEP_S)
+    kwargs = check_environment_kwargs(environment_kwargs, physics.timestep(), CONTROL_TIMESTEP_S)
     return Environment(physics, task, time_limit=time_limit, **kwargs)
 
 
@@ -154,9 +144,12 @@ class Environment(control.Environment):
         return super().reset()
 
     def step(self, action):
-        """dm_control's step; a clear error once :meth:`close` has freed the physics."""
+        """dm_control's step (an error after :meth:`close`); a contact at the time limit: discount 0."""
         self._check_open()
-        return super().step(action)
+        time_step = super().step(action)
+        if time_step.last() and time_step.discount == 1.0 and self._task.get_termination(self._physics) == 0.0:
+            time_step = time_step._replace(discount=0.0)
+        return time_step
 
     def _check_open(self) -> None:
         if getattr(self._physics, "_data", None) is None:
@@ -225,9 +218,19 @@ class VesselPhysics(mjcf.Physics):
         """dm_control's contexts, freed at interpreter exit if the environment was never closed,
         and when the garbage collector frees this physics (see :func:`_free_contexts`)."""
         super()._make_rendering_contexts()
+        self._buffer_size = (self.model.vis.global_.offwidth, self.model.vis.global_.offheight)
         _RENDERING.add(self)
         _register_exit_hook()
         weakref.finalize(self, _free_contexts, self._contexts).atexit = False
+
+    def render(self, height=240, width=320, *args, **kwargs):
+        """dm_control's; a frame larger than the first render's buffer is an error (it rendered black)."""
+        vis = self.model.vis.global_
+        w, h = getattr(self, "_buffer_size", None) or (vis.offwidth, vis.offheight)
+        if width > w or height > h:
+            raise ValueError(f"render: {width}x{height} is larger than the offscreen buffer, {w}x{h}; set "
+                             "physics.model.vis.global_.offwidth / offheight before the first render")
+        return super().render(height, width, *args, **kwargs)
 
     # ------------------------------------------------------------------ set-up
     def attach_world(self, world: World, current: CurrentField | None = None) -> None:
@@ -253,6 +256,13 @@ class VesselPhysics(mjcf.Physics):
         self._current = current
         self._build_simulation(self._sim.traffic.obstacles if moving_obstacles is None else moving_obstacles)
         self._update_traffic()
+
+    def set_control(self, control):
+        """dm_control's, but a wrong shape is an error (``np.copyto`` broadcast (1,) and (1, 2) actions)."""
+        shape = np.shape(control)
+        if shape != (self.model.nu,):
+            raise ValueError(f"action: must have shape ({self.model.nu},) (port, starboard per vessel), got {shape}")
+        super().set_control(control)
 
     def copy(self, share_model=False):
         """A copy with its own MjData (and MjModel unless ``share_model``) and its own step."""

@@ -53,6 +53,8 @@ LEADER_TURN_RADIUS_M = 20.0  # > every slot's lateral offset: the inner lane kee
 SLOTS_M = np.array([[0.0, 0.0], [-8.0, 8.0], [-8.0, -8.0]])
 
 SUITE = containers.TaggedTasks()
+#: A vessel's observations after its own state, in the order of the spec (and of agent_observation).
+TEAM_OBSERVATIONS = ("slot_error", "leader_velocity", "course_error", "mates")
 
 
 def vessel_names(n: int, vessel_type: str = VESSEL_TYPE) -> list[str]:
@@ -70,8 +72,9 @@ def _prefixes(observation) -> list[str]:
 
 def agent_observation(observation, vessel: int, n_vessels: int = len(SLOTS_M),
                       vessel_type: str | None = None) -> collections.OrderedDict:
-    """Vessel ``vessel``'s part of a team observation, keys without the prefix. The prefixes are
-    read from the observation's keys (any hull), or made from ``vessel_type`` when it is given."""
+    """Vessel ``vessel``'s part of a team observation, keys without the prefix, in the spec's order
+    (also from gymnasium's alphabetically sorted dict). The prefixes are read from the observation's
+    keys (any hull), or made from ``vessel_type`` when it is given."""
     if vessel_type is None:
         prefixes = _prefixes(observation)
         if not 0 <= vessel < len(prefixes):
@@ -79,18 +82,23 @@ def agent_observation(observation, vessel: int, n_vessels: int = len(SLOTS_M),
         prefix = prefixes[vessel]
     else:
         prefix = vessel_names(n_vessels, vessel_type)[vessel] + "_"
-    return collections.OrderedDict((k[len(prefix):], v) for k, v in observation.items() if k.startswith(prefix))
+    own = {k[len(prefix):]: v for k, v in observation.items() if k.startswith(prefix)}
+    order = [name for name, _ in OWN_STATE_OBSERVATIONS] + list(TEAM_OBSERVATIONS)  # (gymnasium sorts its keys)
+    return collections.OrderedDict(sorted(own.items(), key=lambda kv: order.index(kv[0]) if kv[0] in order
+                                          else len(order)))
 
 
 def joint_policy(policies, n_vessels: int = len(SLOTS_M), vessel_type: str | None = None):
-    """A flat-environment policy (time_step → (2N,) action) from one policy per vessel, each
-    called as ``policy(agent_observation)`` and returning that vessel's (2,) commands (the
-    prefixes read from the observation, or made from ``vessel_type``)."""
+    """A flat-environment policy (a dm_env time step, or its observation dict as gymnasium gives
+    it → (2N,) action) from one policy per vessel, each called as ``policy(agent_observation)``
+    and returning that vessel's (2,) commands (the prefixes read from the observation, or made
+    from ``vessel_type``)."""
     if len(policies) != n_vessels:
         raise ValueError(f"policies: need one per vessel ({n_vessels}), got {len(policies)}")
 
     def policy(time_step):
-        return np.concatenate([np.asarray(p(agent_observation(time_step.observation, i, n_vessels, vessel_type)),
+        observation = getattr(time_step, "observation", time_step)
+        return np.concatenate([np.asarray(p(agent_observation(observation, i, n_vessels, vessel_type)),
                                           dtype=float).reshape(2) for i, p in enumerate(policies)])
     return policy
 
@@ -156,8 +164,8 @@ class Formation(_VesselTask):
     def observation_shapes(self):
         """Per vessel, prefixed ``<vessel>_``: own state, slot error, leader velocity, course error, mates."""
         n = len(self.names)
-        own = OWN_STATE_OBSERVATIONS + (("slot_error", (2,)), ("leader_velocity", (2,)), ("course_error", (2,)),
-                                        ("mates", (2 * (n - 1),)))
+        shapes = {"slot_error": (2,), "leader_velocity": (2,), "course_error": (2,), "mates": (2 * (n - 1),)}
+        own = OWN_STATE_OBSERVATIONS + tuple((key, shapes[key]) for key in TEAM_OBSERVATIONS)
         return tuple((f"{name}_{key}", shape) for name in self.names for key, shape in own)
 
     def slot_position(self, i: int, time_s: float) -> np.ndarray:

@@ -111,6 +111,9 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
         raise ValueError("video/rerun: at least one output must be enabled")
     if width <= 0 or height <= 0 or width % 2 or height % 2:
         raise ValueError(f"width/height: must be positive and even (H.264), got {width}×{height}")
+    time_limit = (task_kwargs or {}).get("time_limit")
+    if time_limit is not None and time_limit == float("inf"):  # (it overflowed midway, leaving a broken video)
+        raise ValueError(f"task_kwargs: time_limit must be finite to render an episode, got {time_limit!r}")
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     kwargs = dict(task_kwargs or {})

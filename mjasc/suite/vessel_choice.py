@@ -23,6 +23,7 @@ from __future__ import annotations
 import os
 
 from mjasc.physics.vessels import available_vessels, is_vessel_path, load_vessel_type, resolve_vessel_type
+from mjasc.physics.world import is_valid_vessel_name
 
 __all__ = ["suite_vessel_type", "hull_name"]
 
@@ -50,9 +51,14 @@ def suite_vessel_type(vessel, default: str) -> str:
         raise ValueError(f"{_WHERE}: must be a built-in vessel type's name ({', '.join(available_vessels())}) "
                          f"or a vessel folder's path, got {vessel!r}")
     try:
-        return resolve_vessel_type(text)
+        vessel_type = resolve_vessel_type(text)
     except ValueError as exc:  # (the reason as resolve_vessel_type or the contract words it)
         raise ValueError(f"{_WHERE}: {exc}") from None
+    name = hull_name(vessel_type)
+    if not is_valid_vessel_name(name):  # (the hull's name names the vessel, its cameras, a team's prefixes)
+        raise ValueError(f"{_WHERE}: the hull's name {name!r} (its folder's) must be letters, digits, '_' or '-' "
+                         f"and not start with 'obstacle': it names the vessel in the model, got {vessel!r}")
+    return vessel_type
 
 
 def hull_name(vessel_type: str) -> str:
