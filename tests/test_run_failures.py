@@ -231,6 +231,38 @@ def test_a_signal_inside_a_compiled_call_counts_as_an_interrupt(tmp_path, capsys
     assert summary["status"] == "interrupted" and summary["error"].endswith("(SIGINT)")
 
 
+def test_a_signal_inside_a_finalizer_still_interrupts_the_run_and_prints_no_traceback(tmp_path, capsys,
+                                                                                      monkeypatch):
+    """SIGTERM landing while the garbage collector runs a finalizer (seen in CI: llvmlite's
+    ObjectRef.__del__ while a first run compiled kernels) raised Terminated inside ``__del__``:
+    Python printed "Exception ignored in …" with a traceback and dropped it. The unraisable hook
+    keeps it and the runner raises it before its next event: the run stops as interrupted, with its
+    one line."""
+    from mjasc.runs import runner as runner_module
+    from mjasc.runs.interrupts import Terminated
+
+    class Finalized:
+        def __del__(self):
+            raise Terminated("SIGTERM")  # (what the handler raises when the signal lands here)
+
+    control, fired = runner_module.Runner._control, []
+
+    def control_with_a_finalizer(self, *a, **k):
+        if not fired:
+            fired.append(True)
+            Finalized()  # (dropped at once: its __del__ runs here)
+        return control(self, *a, **k)
+
+    monkeypatch.setattr(runner_module.Runner, "_control", control_with_a_finalizer)
+    code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(tmp_path / "o"), "--no-progress",
+                     "--duration", "2")
+    assert code == 130 and "interrupted at t = 0.100 s (SIGTERM)" in err, err  # (before the next event)
+    assert "Exception ignored" not in err and "Traceback" not in err
+    assert signal.getsignal(signal.SIGTERM) is not None and sys.unraisablehook is not None
+    from mjasc.runs.interrupts import _redeliver
+    assert sys.unraisablehook is not _redeliver  # (put back when the run ended)
+
+
 def test_campaign_rejects_an_out_under_a_file_before_running(tmp_path, capsys):
     (tmp_path / "file").write_text("x")
     code, err = _cli(capsys, "campaign", "demo_monte_carlo", "--out", str(tmp_path / "file" / "out"), "--runs", "1",

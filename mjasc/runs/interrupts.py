@@ -11,14 +11,24 @@ temporary names (:mod:`mjasc.runs.outputs`), never half-written under their own.
 A signal that arrives while a compiled kernel's result is being converted back to Python objects
 surfaces as the ``SystemError`` "returned a result with an exception set", the interrupt as its
 context: :func:`interrupt_behind` finds it, and the run counts as interrupted, not failed.
+
+A signal that arrives while the garbage collector runs a finalizer (``__del__``: numba's and
+llvmlite's objects have them, and a first run compiles kernels for minutes) raises its exception
+inside the finalizer, where Python cannot propagate it: it would print "Exception ignored in …"
+with a traceback and lose the interrupt. While :func:`catch_sigterm` is in force,
+``sys.unraisablehook`` keeps such an interrupt in :data:`PENDING` instead (:func:`_redeliver`),
+silently, and the runner's loop raises it before its next event: the run stops as it would have.
+(Sending the signal again from the hook does not work: its handler runs inside the hook.)
 """
 
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 
-__all__ = ["Terminated", "catch_sigterm", "restore_sigterm", "signal_name", "interrupt_behind"]
+__all__ = ["Terminated", "catch_sigterm", "restore_sigterm", "signal_name", "interrupt_behind", "PENDING",
+           "raise_pending"]
 
 
 class Terminated(KeyboardInterrupt):
@@ -29,18 +39,50 @@ def _raise_terminated(signum, frame):
     raise Terminated(signal.Signals(signum).name)
 
 
+_HOOKS: list = []  # the unraisable hooks _redeliver replaced, innermost last
+#: Interrupts raised inside a finalizer while a run was interruptible, not yet raised again
+#: (the runner's loop: ``if PENDING: raise_pending()``).
+PENDING: list = []
+
+
+def _redeliver(unraisable) -> None:
+    """``sys.unraisablehook`` while a run is interruptible: an interrupt raised inside a finalizer
+    is kept in :data:`PENDING` (module docstring); anything else goes to the hook in force before."""
+    exc = unraisable.exc_value
+    if isinstance(exc, KeyboardInterrupt):
+        PENDING.append(exc)
+        return
+    (_HOOKS[-1] if _HOOKS else sys.__unraisablehook__)(unraisable)
+
+
+def raise_pending() -> None:
+    """Raise the first interrupt kept in :data:`PENDING` (and forget them all); nothing if none."""
+    if PENDING:
+        exc = PENDING[0]
+        PENDING.clear()
+        raise exc
+
+
 def catch_sigterm():
-    """SIGTERM → :class:`Terminated` from now on; returns the previous handler (for
-    :func:`restore_sigterm`), or None when not called from the main thread (nothing installed)."""
+    """SIGTERM → :class:`Terminated` from now on, and an interrupt raised inside a finalizer sent
+    again (:func:`_redeliver`); returns the previous handler (for :func:`restore_sigterm`), or None
+    when not called from the main thread (nothing installed)."""
     if threading.current_thread() is not threading.main_thread():
         return None
+    _HOOKS.append(sys.unraisablehook)
+    sys.unraisablehook = _redeliver
+    PENDING.clear()
     return signal.signal(signal.SIGTERM, _raise_terminated)
 
 
 def restore_sigterm(previous) -> None:
-    """Put back the handler :func:`catch_sigterm` returned (None: nothing to do)."""
+    """Put back the handler :func:`catch_sigterm` returned and the unraisable hook it replaced
+    (None: nothing to do)."""
     if previous is not None:
         signal.signal(signal.SIGTERM, previous)
+        if _HOOKS:
+            sys.unraisablehook = _HOOKS.pop()
+        PENDING.clear()
 
 
 def signal_name(exc: KeyboardInterrupt) -> str:

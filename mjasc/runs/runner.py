@@ -50,7 +50,8 @@ from mjasc.physics.world import build_world
 from mjasc.runs.agent_build import build_agent
 from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
-from mjasc.runs.interrupts import catch_sigterm, interrupt_behind, restore_sigterm, signal_name
+from mjasc.runs.interrupts import (PENDING, catch_sigterm, interrupt_behind, raise_pending, restore_sigterm,
+                                   signal_name)
 from mjasc.runs.outputs import atomic_target, atomic_write_text, json_value
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
@@ -244,6 +245,8 @@ class Runner:
         try:
             tick = self.schedule.tick
             while step <= total_steps:
+                if PENDING:  # (an interrupt that landed in a finalizer: mjasc.runs.interrupts)
+                    raise_pending()
                 due, nxt = tick(step)  # (the slots due now, the next step with any)
                 states = sim.states() if due else None
                 navs = []
