@@ -107,3 +107,20 @@ def test_the_hud_is_drawn_on_the_frames_only_and_says_the_task_s_state(tmp_path,
     assert shown[0][0][1] == "reward - · return 0.00"  # the reset frame: no reward yet
     assert names == ["otter"] and "m/s · cross-track" in modes[0]
     assert [text for _, _, text in legend][0] == "path to follow"
+
+
+def test_a_policy_that_fails_midway_leaves_no_video_or_recording(tmp_path):
+    """Nothing half-written: the episode's files are written under temporary names and removed
+    when the episode does not finish (the exception goes on); a finished episode renames them."""
+    steps = []
+
+    def breaks_at_step_5(time_step):
+        steps.append(1)
+        if len(steps) == 5:
+            raise RuntimeError("policy broke")
+        return np.ones(2)
+
+    with pytest.raises(RuntimeError, match="policy broke"):
+        render_episode("otter", "station_keeping", policy=breaks_at_step_5, out_dir=tmp_path, seed=3,
+                       task_kwargs={"time_limit": 1.0}, width=96, height=64)
+    assert len(steps) == 5 and sorted(p.name for p in tmp_path.iterdir()) == []

@@ -377,6 +377,17 @@ class Recorder(VesselSeries):
                               f"{type(e).__name__}: {e}", RuntimeWarning, stacklevel=2)
             os.replace(self._part, self.path)
 
+    def discard(self) -> None:
+        """Stop recording and remove the temporary file: nothing under the final name (a recording
+        whose producer failed midway; a run keeps its partial outputs instead, with its status)."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self.rec.disconnect()
+        finally:
+            self._part.unlink(missing_ok=True)
+
     def __enter__(self) -> "Recorder":
         return self
 

@@ -276,6 +276,18 @@ class VideoWriter:
         for pane in self.panes:
             pane.renderer.close()
 
+    def discard(self) -> None:
+        """Stop encoding and remove the temporary file: nothing under the final name (a video whose
+        producer failed midway)."""
+        if self._writer is not None:
+            try:
+                self._writer.close()
+            finally:
+                self._writer = None
+                self._part.unlink(missing_ok=True)
+        for pane in self.panes:
+            pane.renderer.close()
+
 
 def _side_by_side(images) -> np.ndarray:
     """The panes left to right, a 2-pixel dark line between neighbours."""

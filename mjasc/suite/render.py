@@ -195,11 +195,18 @@ def render_episode(domain: str, task: str, policy="random", out_dir="out", seed:
         if recorder is not None:
             recorder.event(float(physics.data.time), f"episode end: return {total:.2f} over {steps} steps"
                            + (" (collision)" if terminated else ""), level="WARN" if terminated else "INFO")
-    finally:
+    except BaseException:  # (a policy that raises, Ctrl-C: no half an episode under the final names)
+        if writer is not None:
+            writer.discard()
+        if recorder is not None:
+            recorder.discard()
+        raise
+    else:
         if writer is not None:
             writer.close()
         if recorder is not None:
             recorder.close()
+    finally:
         env.close()
     return EpisodeRender(writer.path if writer is not None else None, recorder.path if recorder is not None else None,
                          float(total), steps, bool(terminated))
