@@ -92,7 +92,7 @@ def direct(runs: list) -> Measure:
     """The runs one after the other in this process: parse, Runner, RunEvaluator — what the
     executor's child does for a run (no recording, no video), without child, Dask or store."""
     from mjasc.campaigns.engine import without_timing
-    from mjasc.campaigns.executor import _plain
+    from mjasc.campaigns.run_request import plain as _plain
     from mjasc.evaluation.run_evaluation import RunEvaluator
     from mjasc.runs.runner import RunFailed, Runner
     from mjasc.runs.scenario import parse_scenario
