@@ -443,3 +443,29 @@ def test_the_decision_time_has_the_clock_s_decimal():
     states = types.SimpleNamespace(position_m=np.zeros((1, 2)), heading_rad=np.zeros(1))
     view = frame_view(types.SimpleNamespace(runner=runner, states=states, time_s=0.6), (0.0, 0.0))
     assert view.vessels[0].decision == "pass for T3 at 0.6 s"
+
+
+def test_the_hud_shows_the_latest_decision_while_it_is_recent_or_the_vessel_avoids():
+    """A decision from the run's first second was still in the HUD at 399 s (missions review), and
+    past the summary's 50 logged conflicts the HUD showed the 50th for ever: it shows the latest
+    (``last_conflict``) while the vessel avoids or for DECISION_SHOWN_S after it."""
+    import types
+
+    from mjasc.runs.video_scene import DECISION_SHOWN_S, frame_view
+
+    def decision(mode, t_s, last=True):
+        log = [{"decision": "replan", "track_id": 1, "time_s": 0.6}]  # (the capped log's last entry)
+        latest = {"decision": "velocity_correction", "track_id": 7, "time_s": 350.0} if last else None
+        avoidance = types.SimpleNamespace(conflict_log=log, last_conflict=latest, last_prediction=None, detour=None)
+        agent = types.SimpleNamespace(name="a", perception=None, avoidance=avoidance, mode=mode,
+                                      config=types.SimpleNamespace(path=None))
+        current = types.SimpleNamespace(velocity=lambda p, t: np.zeros((1, 2)))
+        runner = types.SimpleNamespace(agents=[agent], last_outputs=[None], sim=types.SimpleNamespace(current=current))
+        states = types.SimpleNamespace(position_m=np.zeros((1, 2)), heading_rad=np.zeros(1))
+        return frame_view(types.SimpleNamespace(runner=runner, states=states, time_s=t_s), (0.0, 0.0)).vessels[0].decision
+
+    assert decision("avoidance:yield", 399.0) == "velocity_correction for T7 at 350.0 s"  # avoiding: the latest
+    assert decision("mission", 350.0 + DECISION_SHOWN_S) == "velocity_correction for T7 at 350.0 s"
+    assert decision("mission", 350.0 + DECISION_SHOWN_S + 0.1) == ""  # back on the mission, long after
+    assert decision("mission", 399.0, last=False) == ""  # (a plugin's log only: its last entry, from 0.6 s)
+    assert decision("mission", 10.0, last=False) == "replan for T1 at 0.6 s"

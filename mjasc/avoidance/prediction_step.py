@@ -171,13 +171,14 @@ class PredictionStep:
                 f"{c.collision_distance_m:.1f} m), obstruction [t_i, t_f] = [{c.t_i:.1f}, {tf}] s on "
                 f"γ in [{c.gamma_a:.1f}, {c.gamma_b:.1f}] m → {c.decision.value}")
         self._event(t, text)
-        if len(self.conflict_log) < 50:
-            self.conflict_log.append({"time_s": round(t, 2), "track_id": int(c.track_id),
-                                      "team_member": getattr(track, "team_member", None),
-                                      "t_c": round(c.t_closest_s, 2), "d_min_m": round(c.min_distance_m, 2),
-                                      "t_i": round(c.t_i, 2), "t_f": round(c.t_f, 2) if np.isfinite(c.t_f) else None,
-                                      "gamma_a": round(c.gamma_a, 2), "gamma_b": round(c.gamma_b, 2),
-                                      "decision": c.decision.value})
+        self.last_conflict = {"time_s": round(t, 2), "track_id": int(c.track_id),
+                              "team_member": getattr(track, "team_member", None),
+                              "t_c": round(c.t_closest_s, 2), "d_min_m": round(c.min_distance_m, 2),
+                              "t_i": round(c.t_i, 2), "t_f": round(c.t_f, 2) if np.isfinite(c.t_f) else None,
+                              "gamma_a": round(c.gamma_a, 2), "gamma_b": round(c.gamma_b, 2),
+                              "decision": c.decision.value}
+        if len(self.conflict_log) < 50:  # (the summary's first 50; last_conflict: the latest, for the video)
+            self.conflict_log.append(self.last_conflict)
 
     def _record_static(self, t, s: StaticConflict) -> None:
         key = ("static", round(float(np.mean(s.polygon[:, 0]))), round(float(np.mean(s.polygon[:, 1])))) \
@@ -189,6 +190,7 @@ class PredictionStep:
             what = "static obstacle" if s.track_id is None else f"static track {s.track_id} (its outline)"
             self._event(t, f"{what} obstructs the path on γ in [{s.gamma_a:.1f}, {s.gamma_b:.1f}] m "
                            f"(reached at t ≈ {s.t_i:.1f} s) → replan")
+            self.last_conflict = {"time_s": round(t, 2), "static": True, "gamma_a": round(s.gamma_a, 2),
+                                  "gamma_b": round(s.gamma_b, 2), "decision": "replan"}
             if len(self.conflict_log) < 50:
-                self.conflict_log.append({"time_s": round(t, 2), "static": True, "gamma_a": round(s.gamma_a, 2),
-                                          "gamma_b": round(s.gamma_b, 2), "decision": "replan"})
+                self.conflict_log.append(self.last_conflict)

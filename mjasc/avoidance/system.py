@@ -251,6 +251,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
                       "withdrawn": 0, "sharp_turn": 0, "detour_rejected": 0, "in_structure": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
+        self.last_conflict: dict | None = None  # the latest conflict's record (the video's HUD shows it)
         self._conflict_keys: set = set()
         self._last: PredictionRecord | None = None
         self._last_query: PredictionQuery | None = None  # the latest prediction's query (its disc tracks)

@@ -5,8 +5,9 @@ Drawn with Pillow (pixels; image rows grow downwards) after MuJoCo rendered the 
 - top left: the scenario name and the simulation time ``t`` [s], then the view's own text rows
   (``FrameView.lines``: a suite episode's policy, reward and return, the task's state), then one
   line per vessel — its colour, its name, its mode (``mission``, ``avoidance:yield`` …; a suite
-  vessel: its speed) and its last conflict decision — as many as fit above the scale bar, then one
-  row summing up the rest (a fleet);
+  vessel: its speed) and its latest conflict decision (while it avoids, or for
+  :data:`~mjasc.runs.video_scene.DECISION_SHOWN_S` after it) — as many as fit above the scale bar,
+  then one row summing up the rest (a fleet);
 - the names of the first :data:`MAX_NAMES` vessels next to their hulls, at the pixels
   :class:`Projection` gives, moved or left out where they would overlap (:func:`name_labels`);
 - bottom left: a scale bar of a round length ``L ∈ {1, 2, 5}·10^k`` m close to a fifth of the

@@ -47,6 +47,11 @@ COLOURS = {"path": (0.45, 0.6, 1.0, 0.5), "detour": (0.0, 0.9, 1.0, 1.0), "confl
 FAN_DECIMATION = 6
 
 
+#: How long after it a conflict's decision stays in the video's HUD while the vessel is back on its
+#: mission [s] (while it avoids, the latest decision stays).
+DECISION_SHOWN_S = 30.0
+
+
 @dataclass
 class VesselView:
     """One vessel as the frame shows it: true pose [m, rad], its colour (RGB 0–255), its mode."""
@@ -105,8 +110,12 @@ def frame_view(event, centre_xy) -> FrameView:
                 v.leg = leg.sample(max(0.5, leg.length / 100.0))
         a = agent.avoidance
         if a is not None:
-            if a.conflict_log:  # capped at 50 entries: the latest decision shown is the 50th's after that
-                c = a.conflict_log[-1]
+            log = getattr(a, "conflict_log", None)
+            c = getattr(a, "last_conflict", None) or (log[-1] if log else None)  # (a plugin may keep only a log)
+            # the latest decision, while the vessel avoids or for DECISION_SHOWN_S after it (not a
+            # decision from the run's first second still shown at its end)
+            recent = c is not None and float(event.time_s) - c["time_s"] <= DECISION_SHOWN_S
+            if c is not None and ((v.mode or "").startswith("avoidance") or recent):
                 what = "a static obstacle" if c.get("static") else f"T{c['track_id']}"
                 v.decision = f"{c['decision']} for {what} at {c['time_s']:.1f} s"
             last = a.last_prediction

@@ -97,6 +97,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self._stand_on_course = None  # the heading when a stand-on vessel began to act (rule 17 (c))
         self._log = AvoidanceLog()
         self.conflict_log: list[dict] = []
+        self.last_conflict: dict | None = None  # the latest conflict's record (the video's HUD shows it)
         self.mode_time_s = {m: 0.0 for m in _MODES}
         self.stats = {"steer_episodes": 0, "decisions": 0, "inadmissible": 0, "colreg_forbidden_taken": 0,
                       "colreg_hold": 0,
@@ -260,9 +261,10 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             self.stats["roles"][role] = self.stats["roles"].get(role, 0) + 1
         what = "a static obstacle" if static else f"T{track_id}"
         self._event(t, f"velocity obstacle: {what} in conflict" + ("" if static else f" (role {role})"))
-        if len(self.conflict_log) < _CONFLICT_LOG_MAX:
-            self.conflict_log.append({"time_s": round(t, 2), "track_id": int(track_id), "static": bool(static),
-                                      "decision": "steer" if static or role == "none" else f"steer ({role})"})
+        self.last_conflict = {"time_s": round(t, 2), "track_id": int(track_id), "static": bool(static),
+                              "decision": "steer" if static or role == "none" else f"steer ({role})"}
+        if len(self.conflict_log) < _CONFLICT_LOG_MAX:  # (the summary's first ones; last_conflict: the latest)
+            self.conflict_log.append(self.last_conflict)
 
     # ------------------------------------------------------------------ the rest of the interface
     def planned_trajectory(self, t, nav, guidance, horizon_s: float, step_s: float):
