@@ -79,15 +79,19 @@ def referenced_files(xml: str | Path) -> list[tuple[str, Path, str]]:
     return [(where, path, written) for path, (where, written) in out.items()]
 
 
-def folder_files(folder: str | Path) -> dict[str, Path]:
+def folder_files(folder: str | Path, *, outside_ok: bool = False) -> dict[str, Path]:
     """``{path relative to the folder (POSIX): absolute path}`` of every file runs read from the
     vessel folder (module docstring): the two files first, then the MJCF's references. Raises
     ValueError (one line naming the MJCF, the element and the file) for a reference outside the
-    folder, or given by its absolute path, which a copy of the folder elsewhere would not have."""
+    folder, or given by its absolute path, which a copy of the folder elsewhere would not have —
+    unless ``outside_ok`` (the digest, which covers such a file too: keyed by its absolute path)."""
     folder = Path(os.path.abspath(folder))
     files = {f.format(name=folder.name): folder / f.format(name=folder.name) for f in HULL_FILES}
     xml = files[f"{folder.name}.xml"]
     for where, path, written in referenced_files(xml):
+        if outside_ok:
+            files.setdefault(path.relative_to(folder).as_posix() if path.is_relative_to(folder) else str(path), path)
+            continue
         if os.path.isabs(written):
             raise ValueError(f"{xml}: {where}: {written} is an absolute path (a campaign's workers sail a copy "
                              f"of the folder elsewhere: write it relative to the MJCF's folder)")

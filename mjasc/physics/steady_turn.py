@@ -14,7 +14,8 @@ over ground ``U = √(u² + v²)``, the yaw rate ``r`` and the radius ``R = U / 
 one-parameter family (two commands, one speed condition); the yaw rate grows with the
 difference of the commands, so the tightest turn has one propeller at a limit — the outer one at
 full ahead, or, at speeds below what full ahead against full astern gives, the inner one at full
-astern. The outer command's partner is found by bisection on the speed (``brentq``). Both
+astern. The other command is found by following the turning branch of steady states in small
+command steps (continuation) and then bisecting on the speed between two steps (``brentq``). Both
 propeller's limits are those of the hull's ``[propellers]`` table (commands in [−1, 1]); the
 shaft lag does not matter in a steady state. The answer is the *hull's* limit: a path follower
 that keeps a margin of thrust for control turns wider, and a current drifts the turn.

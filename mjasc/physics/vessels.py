@@ -137,14 +137,12 @@ def vessel_files(vessel_type: str) -> dict[str, str]:
     canonical form without comments, files the MJCF references — meshes, textures — byte for byte:
     :mod:`mjasc.physics.hull_files`). The folder's README.md and scene.xml, which mjasc never
     reads, are not covered: documenting the hull does not start the campaign over."""
-    from mjasc.physics.hull_files import HULL_FILES, content_hashes, referenced_files
+    from mjasc.physics.hull_files import HULL_FILES, content_hashes, folder_files
 
     if not os.path.isabs(vessel_type):
         return {}
     folder = Path(vessel_type)
-    paths = {f.format(name=folder.name): folder / f.format(name=folder.name) for f in HULL_FILES}
-    for _, path, _ in referenced_files(paths[f"{folder.name}.xml"]):  # (one outside the folder: by its path)
-        paths.setdefault(path.relative_to(folder).as_posix() if path.is_relative_to(folder) else str(path), path)
+    paths = folder_files(folder, outside_ok=True)  # (a file outside the folder: by its path)
     out = VesselFiles(content_hashes(folder.name, {rel: path.read_bytes() for rel, path in paths.items()}))
     out.core = {rel: out[rel] for rel in list(paths)[:len(HULL_FILES)]}
     return out

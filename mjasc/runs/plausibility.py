@@ -23,8 +23,8 @@ reason and the distance), before any model is built:
   motion every :data:`TRAFFIC_SAMPLE_FRACTION` of the smallest radius of travel (at most every
   :data:`TRAFFIC_SAMPLE_MAX_S`) and the error names the obstacle, the structure and the time.
 * **transit turns** — a go-to-formation mission's ``turn_radius_m`` is at least the tightest
-  steady turn each team vessel's hull sails at its cruise speed in still water (full differential
-  thrust, :mod:`mjasc.physics.steady_turn`): a Dubins transit with tighter arcs is a plan the hull
+  steady turn each team vessel's hull sails at its cruise speed in still water (one propeller at
+  its limit, :mod:`mjasc.physics.steady_turn`): a Dubins transit with tighter arcs is a plan the hull
   cannot keep, and the team's arrival time would be planned on it.
 
 The bounds of single values (|coordinate| ≤ :data:`mjasc.core.frames.WORLD_LIMIT_M`, the physics
@@ -216,11 +216,11 @@ def _check_transit_turns(scenario, types: dict) -> None:
     from mjasc.physics.steady_turn import smallest_turn_radius_m, tightest_turn_of_type
 
     radius = mission.go_to_formation.turn_radius_m
+    where = "mission.go_to_formation.turn_radius_m"
     for i, v in enumerate(scenario.vessels):
         if v.controller == "none":
             continue
         turn = tightest_turn_of_type(types[v.type], v.cruise_speed_m_s)
-        where = "mission.go_to_formation.turn_radius_m"
         if turn is None:
             raise ConfigError(f"{where}: vessels[{i}] {v.name!r} ({types[v.type].name}) sails no steady turn at its "
                               f"cruise speed {v.cruise_speed_m_s:g} m/s (vessels[{i}].controller.speed_m_s), so "
@@ -228,6 +228,6 @@ def _check_transit_turns(scenario, types: dict) -> None:
         if radius < turn.radius_m:
             limit = smallest_turn_radius_m(turn)  # rounded up: the value printed passes
             raise ConfigError(f"{where}: vessels[{i}] {v.name!r} ({types[v.type].name}) turns no tighter than "
-                              f"{limit:.2f} m at its cruise speed {v.cruise_speed_m_s:g} m/s (full "
-                              f"differential thrust, still water; 'mjasc trial tightest-turn' shows it), so its "
+                              f"{limit:.2f} m at its cruise speed {v.cruise_speed_m_s:g} m/s (one propeller at "
+                              f"its limit, still water; 'mjasc trial tightest-turn' shows it), so its "
                               f"transit's arcs must be at least that; got {radius:g}")
