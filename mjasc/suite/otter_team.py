@@ -31,17 +31,9 @@ from dm_control.utils import containers, rewards
 
 from mjasc.guidance.paths import ArcSegment, LineSegment, Path
 from mjasc.suite.common import VesselPhysics, compose_world, make_control_environment, world_to_body
-from mjasc.suite.otter import (
-    EASY,
-    HARD,
-    OWN_STATE_OBSERVATIONS,
-    XML_PATH,
-    Difficulty,
-    _random_current,
-    _vec,
-    _VesselTask,
-)
+from mjasc.suite.otter import XML_PATH
 from mjasc.suite.vessel_choice import hull_name, suite_vessel_type
+from mjasc.suite.vessel_task import EASY, HARD, OWN_STATE_OBSERVATIONS, Difficulty, VesselTask, random_current, vec
 
 __all__ = ["SUITE", "Formation", "SLOTS_M", "agent_observation", "joint_policy", "make_environment"]
 
@@ -103,7 +95,7 @@ def joint_policy(policies, n_vessels: int = len(SLOTS_M), vessel_type: str | Non
     return policy
 
 
-class Formation(_VesselTask):
+class Formation(VesselTask):
     """Hold a V formation around a virtual leader on a straight line, one policy per vessel."""
 
     def __init__(self, vessel_type: str, difficulty: Difficulty, slots_m=SLOTS_M, random=None,
@@ -114,7 +106,7 @@ class Formation(_VesselTask):
 
     def initialize_episode(self, physics: VesselPhysics) -> None:
         d, rnd = self.difficulty, self.random
-        physics.configure_episode(_random_current(rnd, d))
+        physics.configure_episode(random_current(rnd, d))
         self.course_rad = rnd.uniform(-np.pi, np.pi)
         self.speed_ref_m_s = self.vessel.cruise_speed_m_s * rnd.uniform(0.7, 1.0)
         self.origin_m = rnd.uniform(-10.0, 10.0, 2)
@@ -140,7 +132,7 @@ class Formation(_VesselTask):
         ``d.path_turn_rad`` (random side) rounded with LEADER_TURN_RADIUS_M, 5–15 m of straight line
         between the turns (and from the origin to the first). Long enough that the leader does not reach its end
         within the time limit (without one: after the last turn's 250 m)."""
-        t0 = _vec(np.cos(self.course_rad), np.sin(self.course_rad))
+        t0 = vec(np.cos(self.course_rad), np.sin(self.course_rad))
         points = [self.origin_m - LEAD_IN_M * t0]
         course = self.course_rad
         if d.leader_turns > 0:
@@ -150,11 +142,11 @@ class Formation(_VesselTask):
             for k, turn in enumerate(turns):
                 course += turn
                 leg = cuts[k] + cuts[k + 1] + rnd.uniform(5.0, 15.0)
-                points.append(points[-1] + leg * _vec(np.cos(course), np.sin(course)))
+                points.append(points[-1] + leg * vec(np.cos(course), np.sin(course)))
         # The last leg: 250 m, or longer for a long time limit (the leader, and every slot, must
         # not stop at the path's end within the episode).
         last = max(250.0, self._travel_m(self.speed_ref_m_s) + 50.0)
-        points.append(points[-1] + last * _vec(np.cos(course), np.sin(course)))
+        points.append(points[-1] + last * vec(np.cos(course), np.sin(course)))
         return Path.from_waypoints(np.array(points), turn_radius_m=LEADER_TURN_RADIUS_M)
 
     def leader_gamma(self, time_s: float) -> float:
@@ -174,7 +166,7 @@ class Formation(_VesselTask):
         along, lateral = self.slots_m[i]
         gamma = self.leader_gamma(time_s) + along
         chi = float(self.leader_path.tangent_angle(gamma))
-        return self.leader_path.point(gamma) + lateral * _vec(-np.sin(chi), np.cos(chi))
+        return self.leader_path.point(gamma) + lateral * vec(-np.sin(chi), np.cos(chi))
 
     def slot_speed(self, i: int, time_s: float) -> float:
         """Speed of vessel i's slot along its lane [m/s]: V·(1 − κ·lateral) (faster outside a turn)."""
@@ -185,7 +177,7 @@ class Formation(_VesselTask):
     def leader_velocity(self, time_s: float) -> np.ndarray:
         """The virtual leader's velocity over ground (2,) [m/s], world frame."""
         chi = float(self.leader_path.tangent_angle(self.leader_gamma(time_s)))
-        return self.speed_ref_m_s * _vec(np.cos(chi), np.sin(chi))
+        return self.speed_ref_m_s * vec(np.cos(chi), np.sin(chi))
 
     def slot_course(self, i: int, time_s: float) -> float:
         """Course of vessel i's lane at its slot [rad] (the leader path's course at the slot's γ)."""
@@ -212,7 +204,7 @@ class Formation(_VesselTask):
             obs[prefix + "slot_error"] = world_to_body(errors[i], psi) + self._noise(d.position_noise_m, 2)
             obs[prefix + "leader_velocity"] = world_to_body(leader_v, psi) + self._noise(d.velocity_noise_m_s, 2)
             err = psi - self.slot_course(i, time_s)
-            obs[prefix + "course_error"] = _vec(np.sin(err), np.cos(err))
+            obs[prefix + "course_error"] = vec(np.sin(err), np.cos(err))
             mates = np.delete(positions, i, axis=0) - positions[i]
             obs[prefix + "mates"] = (world_to_body(mates, psi)
                                      + self._noise(d.position_noise_m, mates.size).reshape(mates.shape)).reshape(-1)
@@ -246,7 +238,7 @@ def offset_path(path: Path, lateral_m: float) -> Path:
             segments.append(ArcSegment(seg.centre, radius, seg.start_angle, seg.sweep))
         else:
             t = (seg.end - seg.start) / seg.length
-            n = lateral_m * _vec(-t[1], t[0])
+            n = lateral_m * vec(-t[1], t[0])
             segments.append(LineSegment(seg.start + n, seg.end + n))
     return Path.from_segments(segments)
 
