@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.perception.tracking.step_kernels import confirmed_by_owner
+from mjasc.perception.track_row_kernels import track_rows_into
 
 __all__ = ["FleetTrackRows", "VesselTrackRows", "fleet_track_rows", "track_labels", "TRACKS_Z_M"]
 
@@ -86,11 +86,15 @@ class FleetTrackRows:
         # first record tick writes a row, even an empty one, as the per-vessel log did)
         self._logged_scans = np.full(no, -1, dtype=np.int64)
         self._never = self.ours.copy()
-        self._key = (np.zeros(no + 1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool),
-                     np.zeros(0, dtype=object))  # (first (no + 1,), ids, static flags, team mates) grouped by vessel
+        self._key = (np.zeros(no + 1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=bool), [])
+        # the kernel's scratch (track_rows_into): the confirmed rows grouped by vessel, each vessel's
+        # first position in them, and per vessel updated / changed label key
+        self._rows = np.empty(64, dtype=np.int64)
+        self._first_now = np.empty(no + 1, dtype=np.int64)
+        self._updated, self._changed = np.zeros(no, dtype=bool), np.zeros(no, dtype=bool)
         # the buffered rows: per record tick with rows its time [s], each vessel's slice of the
-        # positions (first + the tick's offset) and whether the vessel has a row; the labels of
-        # the rows that carry them
+        # positions (``first`` [o]:[o + 1]) and whether the vessel has a row; the labels of the rows
+        # that carry them
         self._times = _Grown((), np.float64, 256)
         self._first = _Grown((no + 1,), np.int64, 256)
         self._has_row = _Grown((no,), bool, 256)
@@ -110,67 +114,81 @@ class FleetTrackRows:
         if self._perception is not None:
             self._perception.flush()
         ft = self.tracker
-        scans = ft.scan_counts
-        updated = scans != self._logged_scans
-        updated &= self.ours
-        if not updated.any():
-            return
         c = ft.cols
-        rows, first = confirmed_by_owner(c.confirmed, c.owner, ft.n_owners)
-        key = (first, c.local_id[rows], c.static[rows], c.team[rows])
-        changed = self._changed(updated, key)
-        has_row = updated & (changed | (first[1:] != first[:-1]))
-        np.copyto(self._logged_scans, scans, where=updated)
-        if not has_row.any():
-            return
-        k = self._times.reserve(1)
-        self._times.data[k] = t_s
-        a = self._xy_m.reserve(rows.size)
-        self._xy_m.data[a:a + rows.size] = ft.bank.positions_of(rows)
+        n = c.confirmed.size
+        if n > self._rows.size:
+            self._rows = np.empty(2 * n, dtype=np.int64)
+        xy, times = self._xy_m, self._times
+        at, i = xy.n, times.n
+        xy.reserve(n)  # (room for every row and the tick: the kernel writes them; kept if it has rows)
         self._first.reserve(1)
-        np.add(first, a, out=self._first.data[k])
         self._has_row.reserve(1)
-        self._has_row.data[k] = has_row
-        if changed.any():
-            names, labels = self.names, self._labels
-            ids, static, team = key[1], key[2], key[3]
-            for o in changed.nonzero()[0].tolist():
-                s = slice(first[o], first[o + 1])
-                labels[(k, o)] = track_labels(names[o], ids[s], team[s].tolist(), static[s])
-        self._uncounted = int(np.count_nonzero(has_row))
-        new = has_row & ~self._entered
-        if new.any():  # (a vessel's first row since a flush: its log registers it in its own turn)
+        times.reserve(1)
+        times.n = self._first.n = self._has_row.n = i
+        xy.n = at
+        has_row = self._has_row.data[i]
+        key = self._key
+        k, n_rows, any_changed, aligned, any_new = track_rows_into(
+            c.confirmed, c.owner, c.local_id, c.static, ft.bank.state_rows, self.ours, ft.scan_counts,
+            self._logged_scans, self._never, self._entered, key[0], key[1], key[2], self._rows, self._first_now,
+            xy.data, at, self._first.data[i], self._updated, has_row, self._changed)
+        if k < 0:  # (no vessel stepped)
+            return
+        rows, first = self._rows[:k], self._first_now
+        team = c.team[rows].tolist()
+        if any_changed or not aligned or team != key[3]:  # (a label key changed somewhere: checked per vessel)
+            self._new_keys(rows, team, has_row)
+            n_rows = int(np.count_nonzero(has_row))
+            any_changed = True
+            any_new = True
+        if not n_rows:
+            return
+        xy.n = at + k
+        times.n = self._first.n = self._has_row.n = i + 1
+        times.data[i] = t_s
+        self._uncounted = n_rows
+        if any_changed:
+            names, labels, ids, static = self.names, self._labels, c.local_id, c.static
+            for o in self._changed.nonzero()[0].tolist():
+                r = rows[first[o]:first[o + 1]]
+                labels[(i, o)] = track_labels(names[o], ids[r], team[first[o]:first[o + 1]], static[r])
+        if any_new:  # (a vessel's first row since a flush: its log registers it in its own turn)
+            new = has_row & ~self._entered
             self._entered |= new
             for o in new.nonzero()[0].tolist():
                 self._logs[o].enter_track_rows(self.vessel_rows[o])
 
-    def _changed(self, updated: np.ndarray, key: tuple) -> np.ndarray:
-        """(no,) bool: the vessels ``updated`` whose label key ``key`` (first, ids, static flags, team
-        mates, grouped by vessel) differs from the one at their previous row; the keys of the
-        ``updated`` vessels become the previous rows' keys."""
-        old = self._key
-        never = self._never
-        if not never.any() and _same_key(key, old):  # (nothing changed anywhere: the usual tick)
-            return np.zeros_like(updated)
-        changed = never & updated
-        first, lf = key[0].tolist(), old[0].tolist()
-        parts = []
-        for o in range(len(first) - 1):  # (a changed key somewhere: per vessel)
-            a, b, la, lb = first[o], first[o + 1], lf[o], lf[o + 1]
-            if updated[o]:
-                if not changed[o] and (b - a != lb - la or not _same_key(
-                        (None, key[1][a:b], key[2][a:b], key[3][a:b]), (None, old[1][la:lb], old[2][la:lb],
-                                                                        old[3][la:lb]), start=1)):
-                    changed[o] = True
-                parts.append((key, a, b))
-            else:
-                parts.append((old, la, lb))
-        lengths = [b - a for _, a, b in parts]
-        merged_first = np.zeros(len(parts) + 1, dtype=np.int64)
-        np.cumsum(lengths, out=merged_first[1:])
-        self._key = (merged_first, *(_concat([k[j][a:b] for k, a, b in parts], key[j]) for j in (1, 2, 3)))
-        never &= ~updated
-        return changed
+    def _new_keys(self, rows: np.ndarray, team: list, has_row: np.ndarray) -> None:
+        """A label key changed somewhere (the kernel's ids and static flags, or the team mates of the
+        whole fleet): mark the stepped vessels whose team mates changed too (``has_row``: a changed
+        key always gives a row), and keep the stepped vessels' keys as their previous rows' — in a
+        few whole-array operations whatever the number of vessels."""
+        c = self.tracker.cols
+        first, (key_first, key_ids, key_static, key_team) = self._first_now, self._key
+        updated, changed = self._updated, self._changed
+        k = first[-1]
+        now, before = np.diff(first), np.diff(key_first)
+        team_now = np.empty(k, dtype=object)
+        team_now[:] = team
+        team_before = np.empty(len(key_team), dtype=object)
+        team_before[:] = key_team
+        # the stepped vessels with as many rows as before and the same ids and flags: their team mates row by row
+        same = updated & ~changed & (now == before)
+        if same.any():
+            at_now = _runs(first[:-1][same], now[same])
+            at_before = _runs(key_first[:-1][same], now[same])
+            differ = team_now[at_now] != team_before[at_before]
+            if differ.any():
+                vessels = np.repeat(same.nonzero()[0], now[same])[differ]
+                changed[vessels] = has_row[vessels] = True
+        # the new keys: the stepped vessels' rows now, the others' as before (rows now, then before, taken)
+        counts = np.where(updated, now, before)
+        new_first = np.zeros(len(counts) + 1, dtype=np.int64)
+        np.cumsum(counts, out=new_first[1:])
+        take = _runs(np.where(updated, first[:-1], key_first[:-1] + k), counts)
+        self._key = (new_first, np.concatenate((c.local_id[rows], key_ids))[take],
+                     np.concatenate((c.static[rows], key_static))[take],
+                     np.concatenate((team_now, team_before))[take].tolist())
 
     # ------------------------------------------------------------------ the recorder's flush
     def vessel_points(self, owner: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, list]:
@@ -180,13 +198,8 @@ class FleetTrackRows:
         ticks = self._has_row.data[:n, owner].nonzero()[0]
         starts = self._first.data[ticks, owner]
         per_row = (self._first.data[ticks, owner + 1] - starts).astype(np.int32)
-        total = int(per_row.sum())
-        # the rows' position indices: each row's run starts..starts+k, laid end to end
-        offsets = np.zeros(len(per_row), dtype=np.int64)
-        np.cumsum(per_row[:-1], out=offsets[1:])
-        index = np.arange(total, dtype=np.int64) + np.repeat(starts - offsets, per_row)
         labels = self._labels
-        return (self._times.data[ticks], self._xy_m.data[index], per_row,
+        return (self._times.data[ticks], self._xy_m.data[_runs(starts, per_row)], per_row,
                 [labels.get((k, owner)) for k in ticks.tolist()])
 
     def registered(self, owner: int) -> None:
@@ -220,6 +233,13 @@ class FleetTrackRows:
             self._labels.update(labels)
 
 
+def _runs(starts: np.ndarray, lengths: np.ndarray) -> np.ndarray:
+    """The indices of the runs ``starts[j]``, …, ``starts[j] + lengths[j] − 1``, laid end to end."""
+    offsets = np.zeros(len(lengths), dtype=np.int64)
+    np.cumsum(lengths[:-1], out=offsets[1:])
+    return np.arange(int(lengths.sum()), dtype=np.int64) + np.repeat(starts - offsets, lengths)
+
+
 def fleet_track_rows(agents) -> list[FleetTrackRows]:
     """The :class:`FleetTrackRows` of a run's vessels whose perception tracks with a fleet tracker (one
     per fleet tracker; a vessel with a plugin tracker logs its tracks itself). Their logs are told
@@ -242,18 +262,6 @@ def fleet_track_rows(agents) -> list[FleetTrackRows]:
             log.tracks_by_fleet()
         out.append(rows)
     return out
-
-
-def _same_key(key: tuple, other: tuple, start: int = 0) -> bool:
-    """Are two label keys (first, ids, static flags, team mates) equal (from field ``start`` on)?"""
-    for a, b in zip(key[start:], other[start:]):
-        if a.shape != b.shape or not (a == b).all():
-            return False
-    return True
-
-
-def _concat(parts: list, like: np.ndarray) -> np.ndarray:
-    return np.concatenate(parts) if parts else like[:0]
 
 
 class VesselTrackRows:
