@@ -358,17 +358,13 @@ class Perception:
         return history_arrays(self.history)
 
     # ---------------------------------------------------------------- recording
-    def recording_log(self):
-        """The vessel's :class:`~mjasc.perception.recording.PerceptionLog` (made on first use)."""
+    def log(self, recorder, t_s: float, vessel_name: str) -> None:
+        """Draw this vessel's perception in the recording (:mod:`mjasc.perception.recording`)."""
         if self._log is None:
             from mjasc.perception.recording import PerceptionLog
 
             self._log = PerceptionLog()
-        return self._log
-
-    def log(self, recorder, t_s: float, vessel_name: str) -> None:
-        """Draw this vessel's perception in the recording (:mod:`mjasc.perception.recording`)."""
-        self.recording_log().log(recorder, t_s, self, vessel_name)
+        self._log.log(recorder, t_s, self, vessel_name)
         if self.method is not None:  # a plugin tracker may add its own drawings
             self.method.log(recorder, t_s, vessel_name)
 

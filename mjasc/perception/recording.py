@@ -38,8 +38,6 @@ import rerun as rr
 
 from mjasc.perception.detection import centres_body
 from mjasc.perception.scan_batch import scan_time
-from mjasc.perception.track_rows import TRACKS_Z_M
-from mjasc.perception.track_rows import track_labels as _labels
 
 __all__ = ["PerceptionLog", "HITS_LOG_PERIOD_S", "BODY_HITS_PERIOD_S", "LABEL_LOG_PERIOD_S", "MAP_LOG_PERIOD_S",
            "BODY_DETECTIONS_PERIOD_S", "MAP_BUILD_PERIOD_S", "ARROW_HORIZON_S", "fan_outline_body"]
@@ -100,6 +98,13 @@ def fan_outline_body(fov_deg: float, max_range_m: float, min_range_m: float = 0.
     return out
 
 
+def _labels(vessel_name: str, ids, team, static) -> list[str]:
+    """``<vessel>:T<id>[ (<team mate>)][ static]`` per confirmed track (ids, team mates and static
+    flags of the confirmed tracks)."""
+    return [f"{vessel_name}:T{i}" + (f" ({m})" if m else "") + (" static" if st else "")
+            for i, m, st in zip(ids, team, static)]
+
+
 def _as_list(values) -> list:
     """A list of the values (a list as it is; an array's as Python numbers)."""
     return values if type(values) is list else values.tolist()
@@ -135,19 +140,6 @@ class PerceptionLog:
         self._base_of: str | None = None  # the vessel whose world entity _base is
         self._base = ""
         self._views = False  # does the vessel have per-vessel views (Recorder.has_views; set by _style)
-        self._by_fleet = False  # the tracks' rows written by mjasc.perception.track_rows (standard detail)
-        self._track_rows_due = None  # its VesselTrackRows, to register with the recorder in this log's turn
-
-    def tracks_by_fleet(self) -> None:
-        """Leave the confirmed tracks' rows (standard detail) to a
-        :class:`~mjasc.perception.track_rows.FleetTrackRows`, which writes every vessel's at once."""
-        self._by_fleet = True
-
-    def enter_track_rows(self, rows) -> None:
-        """The fleet wrote this vessel's first track row since the recorder's last flush: register
-        ``rows`` (:class:`~mjasc.perception.track_rows.VesselTrackRows`) at this log's next turn,
-        where the row written here would have gone (the recorder writes its entities in that order)."""
-        self._track_rows_due = rows
 
     def _style(self, rec, base: str, name: str, colour, sensor_config) -> None:
         # Track labels show on hover or selection, not over the boats (show_labels False). A vessel
@@ -203,13 +195,9 @@ class PerceptionLog:
                 if full or self._views and (t_s - self._last_body_det_log >= BODY_DETECTIONS_PERIOD_S - 1e-9 or
                                             t_s - self._last_body_hits_log >= BODY_HITS_PERIOD_S - 1e-9):
                     self._log_scan(rec, t_s, p, scan, base, vessel_name, full)  # (a drawing is due)
-        if self._by_fleet and not full:  # (the fleet's rows: only the registration, once per flush)
-            if (rows := self._track_rows_due) is not None:
-                self._track_rows_due = None
-                rec.point_rows(f"{base}/tracks/positions", rows, z=TRACKS_Z_M)
-                rows.registered()
-        elif full or p._stats["track_updates"] != self._logged_update:
-            self._logged_update = p._stats["track_updates"]
+        update = p._stats["track_updates"]
+        if full or update != self._logged_update:
+            self._logged_update = update
             self._log_tracks(rec, t_s, p, base, vessel_name, full)
         if full:
             for ev in p._log_events:
@@ -273,7 +261,7 @@ class PerceptionLog:
                 labels = _labels(vessel_name, ids, team, static)
             elif not len(ids):
                 return  # nothing tracked, nothing was
-            rec.points(f"{base}/tracks/positions", t_s, xy, z=TRACKS_Z_M, labels=labels)
+            rec.points(f"{base}/tracks/positions", t_s, xy, z=0.3, labels=labels)
             return
         conf, ids, x, static, team = tr.confirmed_fields()  # (the vessel's confirmed rows only)
         bank = tr.bank

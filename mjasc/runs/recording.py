@@ -216,16 +216,6 @@ class Recorder(VesselSeries):
         vectors.append(np.asarray(vectors_xy, dtype=np.float64).reshape(-1, 2))
         self._count(1)
 
-    def point_rows(self, entity: str, rows, z: float = 0.0) -> None:
-        """Have the point rows of ``entity`` (as :meth:`points` buffers them) read from ``rows`` at
-        :meth:`flush`: an object whose ``rows()`` gives their times (T,) [s], positions (Σk, 2) world
-        xy [m], points per row (T,) and labels per row (None: the latest stay), and whose ``clear()``
-        the flush calls after reading every entity (a
-        :class:`~mjasc.perception.track_rows.VesselTrackRows`). Register it where its first row
-        would have come (the flush writes entities in that order) and again after a flush, which
-        clears it; the caller counts its rows (:meth:`count`)."""
-        self._points[(entity, z)] = rows
-
     # ---------------------------------------------------------------- buffered rows, one per entity of a group
     def fleet_scalars(self, entities: tuple[str, ...], t_s: float, values) -> None:
         """One scalar for each entity (values (n,)); a non-finite value is left out of its series."""
@@ -282,16 +272,11 @@ class Recorder(VesselSeries):
         for entity, (times, texts) in self._documents.items():
             send(entity, indexes=[time_column(times)],
                  columns=rr.TextDocument.columns(text=texts, media_type=["text/markdown"] * len(texts)))
-        for (entity, z), buffer in self._points.items():  # labels in the same chunk
-            if type(buffer) is tuple:  # (times, rows, labels) lists
-                times, rows, labels = buffer
-                per_row = np.fromiter(map(len, rows), dtype=np.int32, count=len(rows))
-                xy = None
-            else:  # rows read from arrays (point_rows)
-                times, xy, per_row, labels = buffer.rows()
+        for (entity, z), (times, rows, labels) in self._points.items():  # labels in the same chunk
+            per_row = np.fromiter(map(len, rows), dtype=np.int32, count=len(rows))
             if not self._draws(entity, per_row.any()):
                 continue
-            columns = [points_column(concat_xy(rows) if xy is None else xy, z, per_row)]
+            columns = [points_column(concat_xy(rows), z, per_row)]
             if any(r is not None for r in labels):
                 columns.append(sparse_column(rr.Points3D.descriptor_labels(), labels,
                                               lambda flat: pa.array(flat, pa.string())))
@@ -339,7 +324,7 @@ class Recorder(VesselSeries):
             for entity, d in zip(entities, data):
                 send(entity, indexes=index, columns=[points_column(d, z, 1)])
         self._write_batches(time_column)
-        for buffer in chain(self._fleet.values(), self._points.values()):
+        for buffer in self._fleet.values():
             if type(buffer) is not tuple:
                 buffer.clear()  # (after every group was read: groups may share their arrays)
         for buffer in (self._scalars, self._own_buffers, self._texts, self._states, self._documents, self._points,

@@ -77,13 +77,6 @@ class TruthRecording:
         self._moving_group = ColumnGroup(self._moving, "xy", None, len(world.moving_obstacles))
         self._trail = FleetColumns({"xy": (len(names), 2)}, capacity=128)  # the fleet's positions [m] at its points
         self._trail_cut = 0  # index of the trail point where the recording's ``trail/recent`` starts
-        #: The components' rows written for the whole fleet after the truth's (the confirmed tracks
-        #: at standard detail: :mod:`mjasc.perception.track_rows`).
-        self.fleet_logs = []
-        if not rec.full and any(a.perception is not None for a in agents):
-            from mjasc.perception.track_rows import fleet_track_rows
-
-            self.fleet_logs = fleet_track_rows(agents)
         self._current_grid, self._current_scale = log_static_scene(rec, sc, lo, hi, PLOT_SERIES)
         self._current_times: list[float] = []
         self._comms_log = None
@@ -156,8 +149,6 @@ class TruthRecording:
         if self._comms_log is not None:
             net = self._network
             self._comms_log.log(rec, t, net.drain_outcomes(), states.position_m, net.counts, net.count_changes)
-        for log in self.fleet_logs:
-            log.record(rec, t)
         if not sim.current.is_steady and self._current_grid is not None and \
                 (not self._current_times or t - self._current_times[-1] >= 2.0):
             self._current_times.append(t)

@@ -62,11 +62,6 @@ class FleetViews:
         """(n,) per row: its id in its vessel's numbering (a view: stale after a birth or drop)."""
         return self.cols.local_id
 
-    @property
-    def scan_counts(self) -> np.ndarray:
-        """(n_owners,) int: each vessel's tracker steps so far (its ``scans`` count; a view)."""
-        return self._counts[:, _SCANS]
-
     def rows_of(self, owner: int) -> np.ndarray:
         """Bank rows of a vessel's tracks, in bank order (= the order of its own tracker)."""
         got = self._rows_cache.get(owner)
