@@ -89,6 +89,8 @@ class CommsNetwork:
         self._cursor = {n: 0 for n in self.team}  # next message id each receiver has not decided yet
         # per receiver: the pending (arrival, id, sender index, sent time, payload), sorted by (arrival, id)
         self._pending: dict[str, list] = {n: [] for n in self.team}
+        self._arrival_s = math.inf  # the earliest pending arrival of any receiver [s] (inf: none)
+        self._members = frozenset(self.team)
         self._last_send_s = -np.inf
         self._work = None  # the compiled decision's buffers (segments, counts, pairs, outcomes), grown when needed
         self._next_s = math.inf  # send time of the oldest message some receiver has not decided (inf: none)
@@ -187,6 +189,7 @@ class CommsNetwork:
         k = bisect_right(pending, (t_s, math.inf))  # those arrived by t_s (sorted by arrival, id)
         arrived = pending[:k]
         del pending[:k]
+        self._arrival_s = self._first_arrival()
         stats = self.link[receiver]
         team = self.team
         senders = [item[2] for item in arrived]
@@ -217,6 +220,8 @@ class CommsNetwork:
         :meth:`receive_raw` with ``decide=False``, in their order: a list of arrivals per receiver
         (an empty tuple when nothing is due: most control ticks). The same decisions, draws and
         statistics as those calls."""
+        if t_s < self._next_s and t_s < self._arrival_s and self._members.issuperset(receivers):
+            return [()] * len(receivers)  # (nothing to decide, nothing due: most control ticks)
         self.decide_many(t_s, receivers, positions, limits)
         pending_all = self._pending
         return [() if not (pending := pending_all[name]) or pending[0][0] > t_s
@@ -325,6 +330,11 @@ class CommsNetwork:
                 pending = pending_all[sg[1]]
                 # kept sorted by (arrival, id) (unique: the payloads are never compared)
                 pending[:] = sorted(pending + items) if pending else sorted(items)
+        self._arrival_s = self._first_arrival()
+
+    def _first_arrival(self) -> float:
+        """The earliest pending arrival of any receiver [s] (inf: none pending)."""
+        return min([p[0][0] for p in self._pending.values() if p], default=math.inf)
 
     def _prune(self) -> None:
         done = min(self._cursor.values()) - self._base
