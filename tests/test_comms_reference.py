@@ -205,6 +205,9 @@ def test_receive_many_equals_deciding_and_delivering_on_quiet_and_busy_ticks(cfg
             assert [ref.send(t, n, {"k": step}, xy[j]) + 1 for j, n in enumerate(team)] == limits
             got, want = new.receive_many(t, team, list(xy), limits), _receive_many_reference(ref, t, team, list(xy),
                                                                                             limits)
+        elif drive.random() < 0.1:  # one receiver on its own (decides and delivers outside receive_many)
+            j = int(drive.integers(len(team)))
+            got, want = [new.receive_raw(t, team[j], xy[j])], [ref.receive_raw(t, team[j], xy[j])]
         else:  # a control tick: some receivers, every message sent by now
             who = [team[j] for j in np.sort(drive.choice(len(team), int(drive.integers(1, len(team) + 1)), False))]
             where = [xy[team.index(n)] for n in who]

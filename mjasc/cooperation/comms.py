@@ -89,7 +89,9 @@ class CommsNetwork:
         self._cursor = {n: 0 for n in self.team}  # next message id each receiver has not decided yet
         # per receiver: the pending (arrival, id, sender index, sent time, payload), sorted by (arrival, id)
         self._pending: dict[str, list] = {n: [] for n in self.team}
-        self._arrival_s = math.inf  # the earliest pending arrival of any receiver [s] (inf: none)
+        # at most the earliest pending arrival of any receiver [s] (inf: none): lowered as messages are
+        # decided, made exact again by receive_many (a delivery only raises the earliest)
+        self._arrival_s = math.inf
         self._members = frozenset(self.team)
         self._last_send_s = -np.inf
         self._work = None  # the compiled decision's buffers (segments, counts, pairs, outcomes), grown when needed
@@ -189,7 +191,6 @@ class CommsNetwork:
         k = bisect_right(pending, (t_s, math.inf))  # those arrived by t_s (sorted by arrival, id)
         arrived = pending[:k]
         del pending[:k]
-        self._arrival_s = self._first_arrival()
         stats = self.link[receiver]
         team = self.team
         senders = [item[2] for item in arrived]
@@ -224,8 +225,10 @@ class CommsNetwork:
             return [()] * len(receivers)  # (nothing to decide, nothing due: most control ticks)
         self.decide_many(t_s, receivers, positions, limits)
         pending_all = self._pending
-        return [() if not (pending := pending_all[name]) or pending[0][0] > t_s
-                else self.receive_raw(t_s, name, None, False) for name in receivers]
+        out = [() if not (pending := pending_all[name]) or pending[0][0] > t_s
+               else self.receive_raw(t_s, name, None, False) for name in receivers]
+        self._arrival_s = min([p[0][0] for p in pending_all.values() if p], default=math.inf)
+        return out
 
     def decide_many(self, t_s: float, receivers, positions, limits=None) -> None:
         """Decide, for each of ``receivers`` in turn at its position ``positions[k]`` (2,) world [m],
@@ -330,11 +333,8 @@ class CommsNetwork:
                 pending = pending_all[sg[1]]
                 # kept sorted by (arrival, id) (unique: the payloads are never compared)
                 pending[:] = sorted(pending + items) if pending else sorted(items)
-        self._arrival_s = self._first_arrival()
-
-    def _first_arrival(self) -> float:
-        """The earliest pending arrival of any receiver [s] (inf: none pending)."""
-        return min([p[0][0] for p in self._pending.values() if p], default=math.inf)
+                if pending[0][0] < self._arrival_s:
+                    self._arrival_s = pending[0][0]
 
     def _prune(self) -> None:
         done = min(self._cursor.values()) - self._base
