@@ -173,3 +173,58 @@ def test_link_matches_the_per_message_reference(cfg):
     assert np.array_equal(new._pair_delay_s, ref._pair_delay_s)
     assert new.rng.random() == ref.rng.random()
     assert new.stats()["offered"] > 100 and new.stats()["delivered"] > 50
+
+
+def _receive_many_reference(net, t, receivers, positions, limits=None):
+    """``CommsNetwork.receive_many`` as it was before its quiet-tick return: decide_many, then each
+    receiver's due arrivals."""
+    net.decide_many(t, receivers, positions, limits)
+    return [() if not (p := net._pending[n]) or p[0][0] > t else net.receive_raw(t, n, None, False)
+            for n in receivers]
+
+
+@pytest.mark.parametrize("cfg", [
+    NetworkConfig(),
+    NetworkConfig(range_m=120.0, loss_probability=0.2, base_delay_s=0.3, jitter_s=0.9),
+    NetworkConfig(topology="ring", range_m=150.0, loss_probability=0.1, jitter_s=1.5),
+])
+def test_receive_many_equals_deciding_and_delivering_on_quiet_and_busy_ticks(cfg):
+    """A fleet's control ticks (most of them with nothing to decide or deliver: the early return)
+    and comms slots (limits) through ``receive_many`` give what decide_many and the receivers'
+    deliveries gave: the same arrivals, statistics, pair counts and random draws."""
+    team = ["a", "b", "c", "d"]
+    new, ref = (CommsNetwork(team, cfg, np.random.default_rng(3)) for _ in range(2))
+    drive = np.random.default_rng(5)
+    xy = drive.uniform(-80, 80, (len(team), 2))
+    t, quiet, busy = 0.0, 0, 0
+    for step in range(3000):
+        t += 0.05
+        xy += drive.normal(0, 0.5, xy.shape)
+        if step % 20 == 0:  # a comms slot: everyone sends, then one pass with limits
+            limits = [new.send(t, n, {"k": step}, xy[j]) + 1 for j, n in enumerate(team)]
+            assert [ref.send(t, n, {"k": step}, xy[j]) + 1 for j, n in enumerate(team)] == limits
+            got, want = new.receive_many(t, team, list(xy), limits), _receive_many_reference(ref, t, team, list(xy),
+                                                                                            limits)
+        elif drive.random() < 0.1:  # one receiver on its own (decides and delivers outside receive_many)
+            j = int(drive.integers(len(team)))
+            got, want = [new.receive_raw(t, team[j], xy[j])], [ref.receive_raw(t, team[j], xy[j])]
+        else:  # a control tick: some receivers, every message sent by now
+            who = [team[j] for j in np.sort(drive.choice(len(team), int(drive.integers(1, len(team) + 1)), False))]
+            where = [xy[team.index(n)] for n in who]
+            got, want = new.receive_many(t, who, where), _receive_many_reference(ref, t, who, where)
+        assert len(got) == len(want)
+        for g, w in zip(got, want):
+            assert list(g) == list(w)
+        if any(got):
+            busy += 1
+        else:
+            quiet += 1
+    assert quiet > 1000 and busy > 100
+    for n in team:
+        assert new.link[n].as_dict() == ref.link[n].as_dict()
+    assert np.array_equal(new._pair_offered, ref._pair_offered)
+    assert np.array_equal(new._pair_delivered, ref._pair_delivered)
+    assert np.array_equal(new._pair_delay_s, ref._pair_delay_s)
+    assert new.rng.random() == ref.rng.random()
+    with pytest.raises(ValueError, match="not a team member"):
+        new.receive_many(t + 100.0, ["a", "x"], [xy[0], xy[1]])

@@ -68,3 +68,66 @@ def test_track_rows_of_columns_equal_the_constructor():
     for x, y in zip(a, b):
         assert x.track_id == y.track_id and x.time_s == y.time_s and x.team_member == y.team_member
         _same(x.position_m, y.position_m)
+
+
+def _per_vessel_slices(ft, cols: tuple) -> dict:
+    """The report's rows as they were made before :meth:`TrackRows.of_span`: every field's slice per
+    vessel, then :meth:`TrackRows.of_columns` (the reference)."""
+    if len(cols) == 1:
+        return {}
+    spans, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow, id_array, time_array = cols
+    outlines = ft.outlines.pendings(k_rows, slow, pos, radius)
+    return {o: TrackRows.of_columns((ids[a:b], t[a:b], pos[a:b], th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b],
+                                     static[a:b], team[a:b], outlines[a:b], (None,) * (b - a)), id_array[a:b],
+                                    time_array[a:b])
+            for o, (a, b) in spans.items()}
+
+
+def _same_rows(got: TrackRows, want: TrackRows) -> None:
+    for name in ("track_ids", "times_s", "positions_m", "id_array", "time_array"):
+        _same(getattr(got, name), getattr(want, name))
+    assert len(got) == len(want)
+    for x, y in zip(got, want):  # every field of every estimate, an outline made on read
+        for f in ("track_id", "time_s", "position_m", "heading_rad", "speed_m_s", "turn_rate_rad_s", "radius_m",
+                  "position_covariance", "is_static", "team_member", "outline_m", "source"):
+            _same(getattr(x, f), getattr(y, f))
+
+
+@pytest.mark.parametrize("name, duration", [("thesis_6_4_crossing", 30.0), ("demo", 25.0)])
+def test_report_rows_equal_per_vessel_slices_on_a_real_run(monkeypatch, name, duration):
+    """Each vessel's report (a span of the fleet's columns, its estimates sliced on first read) gives
+    what each field's slice per vessel gave, bit for bit, after every step of a real run."""
+    from mjasc.perception.tracking.report_fields import report_estimates
+
+    orig = fleet_mod.FleetTracker.step
+    n_checked = [0]
+
+    def checked(self, *args, **kwargs):
+        orig(self, *args, **kwargs)
+        cols = self._report_columns()
+        got, want = report_estimates(self, cols), _per_vessel_slices(self, cols)
+        assert got.keys() == want.keys()
+        for o in got:
+            _same_rows(got[o], want[o])
+            n_checked[0] += 1
+
+    monkeypatch.setattr(fleet_mod.FleetTracker, "step", checked)
+    sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    Runner(sc, out_dir=None).run()
+    assert n_checked[0] > 50
+
+
+def test_track_rows_of_span_equal_the_slices_on_random_columns():
+    rng = np.random.default_rng(7)
+    for n in (0, 1, 2, 5, 9):
+        ids = rng.integers(0, 100, n).tolist()
+        cols = (ids, rng.random(n).tolist(), rng.random((n, 2)), rng.random(n).tolist(), rng.random(n).tolist(),
+                rng.random(n).tolist(), rng.random(n).tolist(), rng.random((n, 2, 2)), (rng.random(n) < 0.5).tolist(),
+                [None if x < 0.5 else "m" for x in rng.random(n)], [None] * n)
+        id_array, time_array = np.array(ids, dtype=np.int64), np.array(cols[1])
+        for a in range(n + 1):
+            for b in range(a, n + 1):
+                want = TrackRows.of_columns(tuple(c[a:b] for c in cols) + ((None,) * (b - a),), id_array[a:b],
+                                            time_array[a:b])
+                _same_rows(TrackRows.of_span(cols, a, b, id_array, time_array), want)

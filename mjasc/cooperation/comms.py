@@ -89,6 +89,10 @@ class CommsNetwork:
         self._cursor = {n: 0 for n in self.team}  # next message id each receiver has not decided yet
         # per receiver: the pending (arrival, id, sender index, sent time, payload), sorted by (arrival, id)
         self._pending: dict[str, list] = {n: [] for n in self.team}
+        # at most the earliest pending arrival of any receiver [s] (inf: none): lowered as messages are
+        # decided, made exact again by receive_many (a delivery only raises the earliest)
+        self._arrival_s = math.inf
+        self._members = frozenset(self.team)
         self._last_send_s = -np.inf
         self._work = None  # the compiled decision's buffers (segments, counts, pairs, outcomes), grown when needed
         self._next_s = math.inf  # send time of the oldest message some receiver has not decided (inf: none)
@@ -217,10 +221,14 @@ class CommsNetwork:
         :meth:`receive_raw` with ``decide=False``, in their order: a list of arrivals per receiver
         (an empty tuple when nothing is due: most control ticks). The same decisions, draws and
         statistics as those calls."""
+        if t_s < self._next_s and t_s < self._arrival_s and self._members.issuperset(receivers):
+            return [()] * len(receivers)  # (nothing to decide, nothing due: most control ticks)
         self.decide_many(t_s, receivers, positions, limits)
         pending_all = self._pending
-        return [() if not (pending := pending_all[name]) or pending[0][0] > t_s
-                else self.receive_raw(t_s, name, None, False) for name in receivers]
+        out = [() if not (pending := pending_all[name]) or pending[0][0] > t_s
+               else self.receive_raw(t_s, name, None, False) for name in receivers]
+        self._arrival_s = min([p[0][0] for p in pending_all.values() if p], default=math.inf)
+        return out
 
     def decide_many(self, t_s: float, receivers, positions, limits=None) -> None:
         """Decide, for each of ``receivers`` in turn at its position ``positions[k]`` (2,) world [m],
@@ -325,6 +333,8 @@ class CommsNetwork:
                 pending = pending_all[sg[1]]
                 # kept sorted by (arrival, id) (unique: the payloads are never compared)
                 pending[:] = sorted(pending + items) if pending else sorted(items)
+                if pending[0][0] < self._arrival_s:
+                    self._arrival_s = pending[0][0]
 
     def _prune(self) -> None:
         done = min(self._cursor.values()) - self._base

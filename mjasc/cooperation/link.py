@@ -71,10 +71,12 @@ class LinkEndpoint:
         if not endpoints:
             return []
         network = endpoints[0]._network
-        for e in endpoints:
+        names = []
+        for e in endpoints:  # (one loop: the check and the names)
             if e._network is not network:
                 raise ValueError("receive_together: the endpoints must share one network")
-        return network.receive_many(t_s, [e.name for e in endpoints], own_positions_m, limits)
+            names.append(e.name)
+        return network.receive_many(t_s, names, own_positions_m, limits)
 
     def stats(self) -> dict:
         """This vessel's link statistics (sent, received, lost, delays)."""

@@ -139,14 +139,16 @@ class TrackRows(Sequence):
     vessel's control tick reads its tracks' ids, times and positions ~10 times a second, a
     prediction reads the objects every few seconds. ``id_array`` (k,) int64 and ``time_array``
     (k,) float64 [s]: the ids and times as arrays (a tracker's report: the compiled deviation
-    check reads them without converting the lists), else None."""
+    check reads them without converting the lists), else None. A tracker's report is a span of
+    columns shared by the fleet's vessels (:meth:`of_span`): a vessel's slices of the fields a
+    prediction reads are made with its objects, not with the report."""
 
-    __slots__ = ("_columns", "_items", "track_ids", "times_s", "positions_m", "id_array", "time_array")
+    __slots__ = ("_columns", "_span", "_items", "track_ids", "times_s", "positions_m", "id_array", "time_array")
 
     def __init__(self, columns: Sequence):
         if len(columns) != _N_TRACK_FIELDS:
             raise ValueError(f"columns: expected {_N_TRACK_FIELDS} (one per field), got {len(columns)}")
-        self._columns, self._items = tuple(columns), None
+        self._columns, self._span, self._items = tuple(columns), None, None
         self.track_ids, self.times_s, self.positions_m = columns[0], columns[1], columns[2]
         self.id_array = self.time_array = None
 
@@ -157,16 +159,37 @@ class TrackRows(Sequence):
         ids (k,) int64 and times (k,) float64 as arrays, equal to ``columns[0]`` and
         ``columns[1]``, not changed afterwards (or None), with ``columns[2]`` a (k, 2) float64 array."""
         rows = object.__new__(cls)
-        rows._columns, rows._items = columns, None
+        rows._columns, rows._span, rows._items = columns, None, None
         rows.track_ids, rows.times_s, rows.positions_m = columns[0], columns[1], columns[2]
         rows.id_array, rows.time_array = id_array, time_array
+        return rows
+
+    @classmethod
+    def of_span(cls, columns: tuple, first: int, end: int, id_array, time_array) -> "TrackRows":
+        """The rows ``first … end − 1`` of ``columns``, a tuple of every field's values in field order
+        but ``source`` (track_id … outline_m, equal lengths; each row's source is None), as
+        :meth:`of_columns` of those slices would make them: a fleet tracker's report, whose vessels
+        share its columns (in the usual control tick only the ids, times and positions are read:
+        the other fields are sliced when the objects are made). ``columns`` with ``columns[2]`` a
+        (n, 2) float64 array, ``id_array`` (n,) int64 and ``time_array`` (n,) float64 as for
+        :meth:`of_columns`; none of them changed afterwards."""
+        rows = object.__new__(cls)
+        rows._columns, rows._span, rows._items = columns, (first, end), None
+        rows.track_ids, rows.times_s = columns[0][first:end], columns[1][first:end]
+        rows.positions_m = columns[2][first:end]
+        rows.id_array, rows.time_array = id_array[first:end], time_array[first:end]
         return rows
 
     def _get(self) -> tuple:
         items = self._items
         if items is None:
-            items = self._items = tuple(track_estimate_rows(*self._columns))
-            self._columns = None
+            columns, span = self._columns, self._span
+            if span is not None:  # (a span of shared columns: this one's slices, source None)
+                a, b = span
+                columns = [c[a:b] for c in columns]
+                columns.append((None,) * (b - a))
+            items = self._items = tuple(track_estimate_rows(*columns))
+            self._columns = self._span = None
         return items
 
     def __getitem__(self, k):

@@ -33,14 +33,10 @@ def report_estimates(ft, cols: tuple) -> dict:
     if len(cols) == 1:
         return {}
     spans, k_rows, ids, t, pos, th, v, w, radius, radius_l, P, static, team, slow, id_array, time_array = cols
-    of_columns = TrackRows.of_columns
     outlines = ft.outlines.pendings(k_rows, slow, pos, radius)  # (= ft.outline(k) on first read)
-    out = {}
-    for o, (a, b) in spans.items():
-        out[o] = of_columns((ids[a:b], t[a:b], pos[a:b], th[a:b], v[a:b], w[a:b], radius_l[a:b], P[a:b],
-                             static[a:b], team[a:b], outlines[a:b], (None,) * (b - a)), id_array[a:b],
-                            time_array[a:b])
-    return out
+    fields = (ids, t, pos, th, v, w, radius_l, P, static, team, outlines)  # (every field's column but source)
+    of_span = TrackRows.of_span
+    return {o: of_span(fields, a, b, id_array, time_array) for o, (a, b) in spans.items()}
 
 
 def report_columns(ft) -> tuple:
