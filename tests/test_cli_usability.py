@@ -43,6 +43,26 @@ def test_view_uses_the_viewer_installed_next_to_this_python(tmp_path, capsys):
     assert capsys.readouterr().out.strip() == shlex.join([exe, str(tmp_path / "recording.rrd")])
 
 
+def test_view_without_a_display_says_so_in_one_line_and_starts_no_viewer(tmp_path, capsys, monkeypatch):
+    """On a headless Linux machine the native viewer panics (winit: "neither WAYLAND_DISPLAY nor
+    WAYLAND_SOCKET nor DISPLAY is set") after its telemetry lines; mjasc says why before starting it."""
+    import subprocess
+
+    (tmp_path / "recording.rrd").write_bytes(b"RRF2")
+    monkeypatch.setattr(sys, "platform", "linux")
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr(subprocess, "call", lambda *a, **k: pytest.fail("the viewer was started"))
+    assert main(["view", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no display here" in err and "Viewing recordings headless" in err
+    assert main(["view", str(tmp_path), "--print"]) == 0  # (the command itself is still given)
+    started = []
+    monkeypatch.setattr(subprocess, "call", lambda argv, **k: started.append(argv) or 0)
+    monkeypatch.setenv("DISPLAY", ":99")
+    assert main(["view", str(tmp_path)]) == 0 and started[0][-1] == str(tmp_path / "recording.rrd")
+
+
 def test_view_of_a_file_that_is_not_a_recording_is_bad_input(tmp_path, capsys):
     (tmp_path / "demo.toml").write_text('name = "demo"\n')
     assert main(["view", str(tmp_path / "demo.toml"), "--print"]) == 2
