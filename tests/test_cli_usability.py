@@ -223,6 +223,22 @@ def test_an_option_s_bad_value_names_the_option_not_the_file_field(tmp_path, cap
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("domain, task, policy", [("otter_team", "formation", "cas"),
+                                                 ("otter", "path_following", "goal_line"),
+                                                 ("delfim", "station_keeping_hard", "cas:velocity_obstacle")])
+def test_render_with_a_collision_avoidance_policy_on_another_task_is_bad_input_before_anything(
+        domain, task, policy, tmp_path, monkeypatch, capsys):
+    """The CAS and goal-line policies steer to collision_avoidance's goal: on another task the command
+    says so naming the option and the task (it printed "rendering ..." first and then named the task's
+    class, "not Formation")."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", domain, task, "--policy", policy]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and list(tmp_path.iterdir()) == []
+    assert err == (f"mjasc: render --policy {policy}: a policy of the collision_avoidance tasks only, not "
+                   f"{domain} {task} (its policies: random, baseline)\n")
+
+
 def test_render_with_a_chase_camera_on_no_vessel_leaves_no_folder(tmp_path, capsys):
     out = tmp_path / "r"
     assert main(["render", "otter", "path_following", "--camera", "chase:nobody", "--out", str(out)]) == 2

@@ -235,6 +235,11 @@ def cmd_render(args) -> int:
         what = f"domain {args.domain!r}" if tasks is None else f"task {args.task!r} of domain {args.domain!r}"
         print(f"mjasc: render: no {what} (known: {suite_tasks(TASKS_BY_DOMAIN)})", file=sys.stderr)
         return 2
+    if (args.policy in ("goal_line", "cas") or args.policy.startswith("cas:")) and \
+            not args.task.startswith("collision_avoidance"):
+        print(f"mjasc: render --policy {args.policy}: a policy of the collision_avoidance tasks only, not "
+              f"{args.domain} {args.task} (its policies: random, baseline)", file=sys.stderr)
+        return 2
     task_kwargs = {}
     if getattr(args, "vessel", None) is not None:
         from mjasc.physics.vessels import resolve_vessel_type
