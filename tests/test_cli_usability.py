@@ -243,3 +243,18 @@ def test_render_with_a_chase_camera_on_no_vessel_leaves_no_folder(tmp_path, caps
     out = tmp_path / "r"
     assert main(["render", "otter", "path_following", "--camera", "chase:nobody", "--out", str(out)]) == 2
     assert "no camera 'nobody/chase'" in capsys.readouterr().err and not out.exists()
+
+
+def test_screenshot_script_without_chromium_says_what_to_install_in_one_line(tmp_path):
+    """The README's first headless route (scripts/screenshot_recording.py) on a machine without
+    Chromium: one line naming what to install, status 2, nothing started (it was a traceback)."""
+    import subprocess
+
+    (tmp_path / "recording.rrd").write_bytes(b"RRF2")
+    script = Path(__file__).resolve().parent.parent / "scripts" / "screenshot_recording.py"
+    done = subprocess.run([sys.executable, str(script), str(tmp_path), str(tmp_path / "v.png"),
+                           "--chromium", str(tmp_path / "no-chromium")], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and done.stdout == ""
+    assert done.stderr == (f"screenshot_recording: Chromium not found ({str(tmp_path / 'no-chromium')!r}): "
+                           f"apt-get install chromium, or --chromium PATH\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["recording.rrd"]
