@@ -258,3 +258,23 @@ def test_screenshot_script_without_chromium_says_what_to_install_in_one_line(tmp
     assert done.stderr == (f"screenshot_recording: Chromium not found ({str(tmp_path / 'no-chromium')!r}): "
                            f"apt-get install chromium, or --chromium PATH\n")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["recording.rrd"]
+
+
+@pytest.mark.parametrize("argv, suggestion", [(["run", "imazu_05"], "did you mean 'imazu/imazu_05'?"),
+                                              (["run", "thesis_6_2_dok.toml"], "did you mean 'thesis_6_2_dock'?"),
+                                              (["campaign", "encounter"], "did you mean 'encounters'?"),
+                                              (["search", "encounter", "head_on"], "did you mean 'encounters'?")])
+def test_a_bundled_name_without_its_folder_or_misspelt_gets_a_suggestion(argv, suggestion, tmp_path, monkeypatch,
+                                                                         capsys):
+    """'mjasc list' shows imazu/imazu_05; 'mjasc run imazu_05' said only that no such file exists."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.rstrip().endswith(f"{suggestion})")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_no_suggestion_for_a_name_like_no_bundled_one(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "harbour_crossing"]) == 2
+    assert "did you mean" not in capsys.readouterr().err

@@ -148,7 +148,7 @@ def cmd_search(args) -> int:
         config = SearchConfig(method=args.method, budget=args.budget, batch=args.batch,
                               failure_separation_m=args.failure_separation, seed=args.seed)
     except (CampaignError, ConfigError) as exc:
-        print(f"mjasc: invalid search: {exc}", file=sys.stderr)
+        print(f"mjasc: invalid search: {exc}{not_found_hint(args.campaign, 'campaign')}", file=sys.stderr)
         return 2
     try:  # (a family that cannot be searched is bad input before the output folder is made)
         searchable_family(campaign, args.family)
