@@ -155,6 +155,11 @@ def main(argv=None) -> int:
     if not rrd.is_file():
         print(f"screenshot_recording: no recording at {rrd}", file=sys.stderr)
         return 2
+    for what, exe, hint in (("Chromium", a.chromium, "apt-get install chromium, or --chromium PATH"),
+                            ("the Rerun viewer", a.rerun, "pip install rerun-sdk, or --rerun PATH")):
+        if shutil.which(exe) is None:  # (before anything starts: a missing one was a FileNotFoundError traceback)
+            print(f"screenshot_recording: {what} not found ({exe!r}): {hint}", file=sys.stderr)
+            return 2
     screenshots(rrd, Path(a.png), a.width, a.height, a.wait, a.shots, a.interval, a.chromium, a.rerun)
     return 0
 

@@ -127,3 +127,12 @@ def test_a_search_of_an_unknown_family_is_bad_input(tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.startswith(f"mjasc: invalid search: {good}: family: no encounter family 'nofam'")
     assert err.count("\n") == 1
+    assert not (tmp_path / "s").exists()  # (bad input: no output folder; it was left behind, empty)
+
+
+def test_a_search_of_a_family_without_laws_makes_no_default_folder(tmp_path, monkeypatch, capsys):
+    """mjasc search demo_monte_carlo perturbation: bad input before runs/search/<...> is made."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["search", "demo_monte_carlo", "perturbation", "--budget", "2", "--workers", "0"]) == 2
+    assert "which has no parameter laws to search" in capsys.readouterr().err
+    assert list(tmp_path.iterdir()) == []

@@ -43,6 +43,26 @@ def test_view_uses_the_viewer_installed_next_to_this_python(tmp_path, capsys):
     assert capsys.readouterr().out.strip() == shlex.join([exe, str(tmp_path / "recording.rrd")])
 
 
+def test_view_without_a_display_says_so_in_one_line_and_starts_no_viewer(tmp_path, capsys, monkeypatch):
+    """On a headless Linux machine the native viewer panics (winit: "neither WAYLAND_DISPLAY nor
+    WAYLAND_SOCKET nor DISPLAY is set") after its telemetry lines; mjasc says why before starting it."""
+    import subprocess
+
+    (tmp_path / "recording.rrd").write_bytes(b"RRF2")
+    monkeypatch.setattr(sys, "platform", "linux")
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr(subprocess, "call", lambda *a, **k: pytest.fail("the viewer was started"))
+    assert main(["view", str(tmp_path)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no display here" in err and "Viewing recordings headless" in err
+    assert main(["view", str(tmp_path), "--print"]) == 0  # (the command itself is still given)
+    started = []
+    monkeypatch.setattr(subprocess, "call", lambda argv, **k: started.append(argv) or 0)
+    monkeypatch.setenv("DISPLAY", ":99")
+    assert main(["view", str(tmp_path)]) == 0 and started[0][-1] == str(tmp_path / "recording.rrd")
+
+
 def test_view_of_a_file_that_is_not_a_recording_is_bad_input(tmp_path, capsys):
     (tmp_path / "demo.toml").write_text('name = "demo"\n')
     assert main(["view", str(tmp_path / "demo.toml"), "--print"]) == 2
@@ -203,7 +223,58 @@ def test_an_option_s_bad_value_names_the_option_not_the_file_field(tmp_path, cap
     assert not (tmp_path / "o").exists()
 
 
+@pytest.mark.parametrize("domain, task, policy", [("otter_team", "formation", "cas"),
+                                                 ("otter", "path_following", "goal_line"),
+                                                 ("delfim", "station_keeping_hard", "cas:velocity_obstacle")])
+def test_render_with_a_collision_avoidance_policy_on_another_task_is_bad_input_before_anything(
+        domain, task, policy, tmp_path, monkeypatch, capsys):
+    """The CAS and goal-line policies steer to collision_avoidance's goal: on another task the command
+    says so naming the option and the task (it printed "rendering ..." first and then named the task's
+    class, "not Formation")."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", domain, task, "--policy", policy]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and list(tmp_path.iterdir()) == []
+    assert err == (f"mjasc: render --policy {policy}: a policy of the collision_avoidance tasks only, not "
+                   f"{domain} {task} (its policies: random, baseline)\n")
+
+
 def test_render_with_a_chase_camera_on_no_vessel_leaves_no_folder(tmp_path, capsys):
     out = tmp_path / "r"
     assert main(["render", "otter", "path_following", "--camera", "chase:nobody", "--out", str(out)]) == 2
     assert "no camera 'nobody/chase'" in capsys.readouterr().err and not out.exists()
+
+
+def test_screenshot_script_without_chromium_says_what_to_install_in_one_line(tmp_path):
+    """The README's first headless route (scripts/screenshot_recording.py) on a machine without
+    Chromium: one line naming what to install, status 2, nothing started (it was a traceback)."""
+    import subprocess
+
+    (tmp_path / "recording.rrd").write_bytes(b"RRF2")
+    script = Path(__file__).resolve().parent.parent / "scripts" / "screenshot_recording.py"
+    done = subprocess.run([sys.executable, str(script), str(tmp_path), str(tmp_path / "v.png"),
+                           "--chromium", str(tmp_path / "no-chromium")], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 2 and done.stdout == ""
+    assert done.stderr == (f"screenshot_recording: Chromium not found ({str(tmp_path / 'no-chromium')!r}): "
+                           f"apt-get install chromium, or --chromium PATH\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["recording.rrd"]
+
+
+@pytest.mark.parametrize("argv, suggestion", [(["run", "imazu_05"], "did you mean 'imazu/imazu_05'?"),
+                                              (["run", "thesis_6_2_dok.toml"], "did you mean 'thesis_6_2_dock'?"),
+                                              (["campaign", "encounter"], "did you mean 'encounters'?"),
+                                              (["search", "encounter", "head_on"], "did you mean 'encounters'?")])
+def test_a_bundled_name_without_its_folder_or_misspelt_gets_a_suggestion(argv, suggestion, tmp_path, monkeypatch,
+                                                                         capsys):
+    """'mjasc list' shows imazu/imazu_05; 'mjasc run imazu_05' said only that no such file exists."""
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.rstrip().endswith(f"{suggestion})")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_no_suggestion_for_a_name_like_no_bundled_one(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["run", "harbour_crossing"]) == 2
+    assert "did you mean" not in capsys.readouterr().err

@@ -362,6 +362,24 @@ def test_tidal_period_amplitude_and_analytic_acceleration():
         )
 
 
+def test_tidal_phase_may_be_given_in_degrees_as_every_angle_of_a_scenario():
+    """A scenario writes its angles in degrees (heading_deg, a current's direction_deg): the tide's
+    phase too (phase_deg; phase_rad still works, not both); the default phase is 0."""
+    base = {"type": "tidal", "amplitude_m_s": [0.0, 0.5], "period_s": 44712.0, "mean_velocity_m_s": [0.1, 0.0]}
+    in_degrees = current_from_config({**base, "phase_deg": 30.0})
+    in_radians = current_from_config({**base, "phase_rad": math.radians(30.0)})
+    for ti in (0.0, 1234.5, 30000.0):
+        np.testing.assert_array_equal(in_degrees.velocity(POINTS, ti), in_radians.velocity(POINTS, ti))
+    assert in_degrees.describe()["phase_rad"] == math.radians(30.0)  # (describe() rebuilds the same field)
+    np.testing.assert_array_equal(current_from_config(in_degrees.describe()).velocity(POINTS, 99.0),
+                                  in_degrees.velocity(POINTS, 99.0))
+    np.testing.assert_allclose(current_from_config(base).velocity(POINTS[:1], 0.0), [[0.1, 0.0]], atol=0)
+    with pytest.raises(ValueError, match=r"current\.phase_deg: give phase_deg or phase_rad, not both"):
+        current_from_config({**base, "phase_deg": 30.0, "phase_rad": 0.5})
+    np.testing.assert_array_equal(TidalCurrent((0.1, 0.0), [0.0, 0.5], 44712.0, phase_deg=30.0).velocity(POINTS, 7.0),
+                                  in_radians.velocity(POINTS, 7.0))
+
+
 def test_tidal_over_a_shear_base_adds_the_advective_term():
     base = LinearShear((0.2, 0.0), [[0.0, 0.01], [-0.02, 0.0]])
     field = TidalCurrent(base, (0.3, 0.3), period_s=600.0)

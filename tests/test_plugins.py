@@ -76,7 +76,7 @@ def test_method_options_are_validated_from_their_declaration(stop_method):
 
 
 def test_register_rejects_a_class_of_the_wrong_stage():
-    with pytest.raises(ValueError, match="is not a AvoidanceMethod"):
+    with pytest.raises(ValueError, match="is not an AvoidanceMethod"):
         register("avoidance", dict, "bad")
     with pytest.raises(ValueError, match="unknown stage"):
         available("sailing")
@@ -376,7 +376,7 @@ def test_register_refuses_names_that_would_clash_or_cannot_be_written():
     for bad in (123, "my brake", "../x", ""):
         with pytest.raises(ConfigError, match=r"name"):
             register("avoidance", Clash, name=bad)
-    with pytest.raises(ConfigError, match=r"is not a AvoidanceMethod"):
+    with pytest.raises(ConfigError, match=r"is not an AvoidanceMethod \(an avoidance method must"):
         register("avoidance", lambda: None)
     register("avoidance", Clash, name="test_clash")
     try:

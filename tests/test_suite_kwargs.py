@@ -198,3 +198,19 @@ def test_the_cas_baseline_keeps_its_perception_rate_with_a_shorter_control_step(
             time_step = env.step(policy(time_step))
         return float(time_step.observation["goal_distance"][0])
     assert goal_distance({"n_sub_steps": 2}) == pytest.approx(goal_distance(None), abs=2.0)
+
+
+@pytest.mark.parametrize("domain, task, name", [("otter_team", "formation", "formation"),
+                                                ("otter", "path_following_hard", "path_following"),
+                                                ("delfim", "station_keeping", "station_keeping")])
+def test_a_collision_avoidance_policy_on_another_task_names_the_task_as_the_suite_does(domain, task, name):
+    """It said 'not Formation' / 'not PathFollowing' (the class names)."""
+    from mjasc.suite.baselines import CASPolicy, goal_line_policy
+
+    env = suite.load(domain, task, task_kwargs={"random": 0})
+    with pytest.raises(ValueError, match=rf"^env: the CAS policy is for the collision_avoidance tasks, not {name}$"):
+        CASPolicy(env)
+    with pytest.raises(ValueError, match=rf"^env: the goal-line policy is for the collision_avoidance tasks, "
+                                         rf"not {name}$"):
+        goal_line_policy(env)
+    env.close()

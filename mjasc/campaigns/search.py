@@ -39,7 +39,7 @@ from mjasc.campaigns.statistics import run_outcome
 from mjasc.campaigns.store import CampaignStore
 from mjasc.core.config_tables import check_params, param
 
-__all__ = ["SearchConfig", "SearchResult", "CrossEntropySampler", "search_failures"]
+__all__ = ["SearchConfig", "SearchResult", "CrossEntropySampler", "search_failures", "searchable_family"]
 
 
 @dataclass(frozen=True)
@@ -101,11 +101,9 @@ class CrossEntropySampler:
         self.sd = np.maximum(a * elite.std(axis=0) + (1 - a) * self.sd, self.config.min_std)
 
 
-def search_failures(campaign, family: str, out_dir: str | Path, config: SearchConfig = SearchConfig(), *,
-                    scheduler=None, workers: int | None = None, progress: bool = False,
-                    time_limit_s: float | None = 3600.0) -> SearchResult:
-    """Search ``campaign``'s family ``family`` for failures (module docstring); results in
-    ``out_dir/campaign.sqlite`` (resumable: a stored run is not run again) and ``out_dir/failures/``."""
+def searchable_family(campaign, family: str):
+    """``(family, its searchable parameter names)`` of ``campaign``'s family named ``family``, or a
+    CampaignError saying why it cannot be searched (checked before anything is written)."""
     fam = next((f for f in campaign.families if f.name == family), None)
     searchable = [f.name for f in campaign.families if hasattr(f, "from_unit")]
     if fam is not None and not hasattr(fam, "from_unit"):  # (it said "no encounter family 'x' (have: x)")
@@ -119,6 +117,15 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
     if not names:
         raise CampaignError(f"family {family!r}: no continuous parameter to search (declare uniform or normal "
                             f"laws)")
+    return fam, names
+
+
+def search_failures(campaign, family: str, out_dir: str | Path, config: SearchConfig = SearchConfig(), *,
+                    scheduler=None, workers: int | None = None, progress: bool = False,
+                    time_limit_s: float | None = 3600.0) -> SearchResult:
+    """Search ``campaign``'s family ``family`` for failures (module docstring); results in
+    ``out_dir/campaign.sqlite`` (resumable: a stored run is not run again) and ``out_dir/failures/``."""
+    fam, names = searchable_family(campaign, family)
     out_dir = Path(out_dir).resolve()
     settings = json.dumps({k: getattr(config, k) for k in config.__dataclass_fields__}, sort_keys=True)
     digest, *earlier = (hashlib.sha256(f"{d}|{family}|{settings}".encode()).hexdigest()

@@ -136,7 +136,7 @@ def cmd_extract(args) -> int:
 
 
 def cmd_search(args) -> int:
-    from mjasc.campaigns.search import SearchConfig, search_failures
+    from mjasc.campaigns.search import SearchConfig, search_failures, searchable_family
     from mjasc.campaigns.spec import CampaignError, load_campaign_spec
     from mjasc.core.config_tables import ConfigError
 
@@ -148,7 +148,12 @@ def cmd_search(args) -> int:
         config = SearchConfig(method=args.method, budget=args.budget, batch=args.batch,
                               failure_separation_m=args.failure_separation, seed=args.seed)
     except (CampaignError, ConfigError) as exc:
-        print(f"mjasc: invalid search: {exc}", file=sys.stderr)
+        print(f"mjasc: invalid search: {exc}{not_found_hint(args.campaign, 'campaign')}", file=sys.stderr)
+        return 2
+    try:  # (a family that cannot be searched is bad input before the output folder is made)
+        searchable_family(campaign, args.family)
+    except CampaignError as exc:
+        print(f"mjasc: invalid search: {_in_file(exc, campaign.source)}", file=sys.stderr)
         return 2
     out = out_dir(args.out, Path("runs") / "search" / f"{campaign.name}_{args.family}_{args.method}")
     try:

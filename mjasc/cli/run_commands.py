@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -114,7 +115,20 @@ def cmd_view(args) -> int:
             print("mjasc: the Rerun viewer is not installed here (pip install rerun-sdk)", file=sys.stderr)
             return 1
         return 0
+    if not has_display():  # the native viewer would fail with winit's "neither WAYLAND_DISPLAY nor ..." panic
+        print(f"mjasc: {rrd}: no display here (DISPLAY and WAYLAND_DISPLAY are unset), so the Rerun viewer cannot "
+              f"open; copy the recording to a machine with a display, or see the README's 'Viewing recordings "
+              f"headless' ('mjasc view --print' gives the viewer's command)", file=sys.stderr)
+        return 1
     return subprocess.call([exe, str(rrd)])
+
+
+def has_display() -> bool:
+    """Whether the native Rerun viewer has a display to open a window on: always on macOS and Windows;
+    on Linux and the BSDs an X11 (``DISPLAY``) or Wayland (``WAYLAND_DISPLAY``, ``WAYLAND_SOCKET``) one."""
+    if sys.platform in ("darwin", "win32", "cygwin"):
+        return True
+    return any(os.environ.get(name) for name in ("DISPLAY", "WAYLAND_DISPLAY", "WAYLAND_SOCKET"))
 
 
 def method_summary(doc: str | None) -> str:
@@ -220,6 +234,11 @@ def cmd_render(args) -> int:
     if tasks is None or args.task not in tasks:  # checked before the output folder is made
         what = f"domain {args.domain!r}" if tasks is None else f"task {args.task!r} of domain {args.domain!r}"
         print(f"mjasc: render: no {what} (known: {suite_tasks(TASKS_BY_DOMAIN)})", file=sys.stderr)
+        return 2
+    if (args.policy in ("goal_line", "cas") or args.policy.startswith("cas:")) and \
+            not args.task.startswith("collision_avoidance"):
+        print(f"mjasc: render --policy {args.policy}: a policy of the collision_avoidance tasks only, not "
+              f"{args.domain} {args.task} (its policies: random, baseline)", file=sys.stderr)
         return 2
     task_kwargs = {}
     if getattr(args, "vessel", None) is not None:

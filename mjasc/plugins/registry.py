@@ -122,8 +122,13 @@ def available(stage: str) -> list[str]:
 def _check_class(stage: str, cls: Any, where: str) -> None:
     interface = STAGES[stage][0]
     if not (isinstance(cls, type) and issubclass(cls, interface)):
-        raise ConfigError(f"{where}: {show(cls)} is not a {interface.__name__} "
-                          f"(a {stage} method must subclass mjasc.plugins.{interface.__name__})")
+        raise ConfigError(f"{where}: {show(cls)} is not {_article(interface.__name__)} {interface.__name__} "
+                          f"({_article(stage)} {stage} method must subclass mjasc.plugins.{interface.__name__})")
+
+
+def _article(word: str) -> str:
+    """'an' before a vowel ("an AvoidanceMethod", "an avoidance method"), else 'a'."""
+    return "an" if word[:1].lower() in "aeiou" else "a"
 
 
 def method_class(stage: str, name: str, where: str = "method") -> type:

@@ -24,6 +24,7 @@ a well-tuned conventional system achieves, not an upper bound. The collision-avo
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import time
 
@@ -136,12 +137,18 @@ def baseline_policy(env):
     raise ValueError(f"env: no baseline for task {type(task).__name__}")
 
 
+def _task_name(task) -> str:
+    """The suite's name of ``task``'s kind (``Formation`` → ``formation``, ``PathFollowing`` →
+    ``path_following``), for messages: a user knows the tasks by those names, not the classes."""
+    return re.sub(r"(?<!^)(?=[A-Z])", "_", type(task).__name__).lower()
+
+
 def goal_line_policy(env):
     """collision_avoidance without avoidance: the path follower on the straight line start → goal,
     slowing down at the goal, blind to the traffic (the "no avoidance" reference)."""
     task = env.task
     if not isinstance(task, CollisionAvoidance):
-        raise ValueError(f"env: the goal-line policy is for collision_avoidance tasks, not {type(task).__name__}")
+        raise ValueError(f"env: the goal-line policy is for the collision_avoidance tasks, not {_task_name(task)}")
     f = _Followers(env)
 
     def policy(time_step):
@@ -187,7 +194,7 @@ class CASPolicy:
     def __init__(self, env, sensor_config=None, tracking_config=None, avoidance_config=None,
                  prediction_period_s: float = PREDICTION_PERIOD_S, seed: int = 0, method: str = "thesis"):
         if not isinstance(env.task, CollisionAvoidance):
-            raise ValueError(f"env: the CAS policy is for collision_avoidance tasks, not {type(env.task).__name__}")
+            raise ValueError(f"env: the CAS policy is for the collision_avoidance tasks, not {_task_name(env.task)}")
         prediction_period_s = number(prediction_period_s, "prediction_period_s", positive=True)
         self.env = env
         self.sensor_config = sensor_config

@@ -102,7 +102,7 @@ The base is either a nested field table ``base`` or a uniform ``mean_velocity_m_
     type = "tidal"
     amplitude_m_s = [0.0, 0.5]         # flood toward north at peak, ebb toward south
     period_s = 44714.0                 # M2 tide, 12.42 h
-    phase_rad = 0.0                    # optional, default 0
+    phase_deg = 0.0                    # optional, default 0 (or phase_rad, in radians)
     mean_velocity_m_s = [0.1, 0.0]     # or a nested table:
     # [current.base]
     # type = "shear"  ...

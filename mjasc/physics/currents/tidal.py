@@ -40,7 +40,9 @@ class TidalConfig:
     amplitude_m_s: np.ndarray = param(reader=vector2, unit="m/s",
                                       doc="A, the peak flood velocity; the tide flows along its axis")
     period_s: float = param(positive=True, unit="s", doc="T, the tide's period (M2: 44714 s)")
-    phase_rad: float = param(0.0, unit="rad", doc="φ, the phase at t = 0")
+    phase_rad: float | None = param(None, unit="rad", doc="φ, the phase at t = 0 (default 0; or phase_deg)")
+    phase_deg: float | None = param(None, unit="deg",
+                                    doc="φ in degrees (instead of phase_rad; as every other angle of a scenario)")
     base: CurrentField | None = param(None, reader=_field_or_velocity,
                                       doc="the field the tide adds to: a nested [current.base] table")
     mean_velocity_m_s: np.ndarray | None = param(None, reader=vector2, unit="m/s",
@@ -52,9 +54,11 @@ class TidalConfig:
 
     @staticmethod
     def check(config: TidalConfig, where: str) -> None:
-        """One base at most."""
+        """One base at most; the phase in radians or in degrees, not both."""
         if config.base is not None and config.mean_velocity_m_s is not None:
             raise ConfigError(f"{where}.mean_velocity_m_s: give either base or mean_velocity_m_s")
+        if config.phase_rad is not None and config.phase_deg is not None:
+            raise ConfigError(f"{where}.phase_deg: give phase_deg or phase_rad, not both")
 
 
 class TidalCurrent(CurrentField):
@@ -62,16 +66,18 @@ class TidalCurrent(CurrentField):
 
     base: any field, or a (2,) velocity [m/s] for a uniform mean current.
     amplitude_m_s: (2,) A [m/s], the peak flood velocity (its axis is the tide's axis; the ebb
-    flows the opposite way). period_s: T > 0 [s] (M2: 44 714 s). phase_rad: φ [rad].
+    flows the opposite way). period_s: T > 0 [s] (M2: 44 714 s). phase_rad: φ [rad] (or
+    phase_deg: φ [deg], the scenario file's unit for angles).
     Acceleration: base's + ``A·(2π/T)·cos(2πt/T + φ)`` (exact)."""
 
     is_steady = False
 
     def __init__(
-        self, base: CurrentField | Any, amplitude_m_s: Any, period_s: float, phase_rad: float = 0.0
+        self, base: CurrentField | Any, amplitude_m_s: Any, period_s: float, phase_rad: float | None = None,
+        phase_deg: float | None = None,
     ) -> None:
         self._setup(read_parameters(TidalConfig, "TidalCurrent", base=base, amplitude_m_s=amplitude_m_s,
-                                    period_s=period_s, phase_rad=phase_rad))
+                                    period_s=period_s, phase_rad=phase_rad, phase_deg=phase_deg))
 
     def _setup(self, config: TidalConfig) -> None:
         if config.base is not None:
@@ -81,7 +87,8 @@ class TidalCurrent(CurrentField):
             self._base = _uniform((0.0, 0.0) if mean is None else mean, "mean_velocity_m_s")
         self._amplitude = np.array(config.amplitude_m_s, dtype=float)
         self._period = config.period_s
-        self._phase = config.phase_rad
+        self._phase = (config.phase_rad if config.phase_rad is not None else
+                       math.radians(config.phase_deg) if config.phase_deg is not None else 0.0)
         self._omega = 2.0 * math.pi / self._period
         self.is_uniform = self._base.is_uniform
 
