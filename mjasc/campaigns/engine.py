@@ -282,6 +282,8 @@ def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordi
 
 def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
                  reference, bar, info, plugins=None, hulls=None, colreg=None) -> None:
+    from concurrent.futures import CancelledError
+
     from distributed import as_completed
 
     t_start = time.perf_counter()
@@ -364,6 +366,9 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
             run = pending.pop(fut)
             try:
                 result = fut.result()
+            except CancelledError:  # the scheduler went away (the client cancels every future): not the run's
+                raise RuntimeError(f"lost the Dask scheduler at {info['address']}: {len(pending) + 1} run(s) not "
+                                   f"done (every finished run is stored; the same command does the rest)") from None
             except Exception as exc:  # noqa: BLE001 — a lost worker, a task that could not run
                 result = {"status": "crashed", "error": f"{type(exc).__name__}: {exc}", "summary": None,
                           "wall_time_s": None, "worker": None}
