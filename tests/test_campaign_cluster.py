@@ -2,6 +2,8 @@
 and ``dask worker`` started as separate processes, as on a lab's cluster): what happens to the
 campaign and its store when the cluster misbehaves."""
 
+import contextlib
+import json
 import os
 import signal
 import socket
@@ -38,21 +40,27 @@ def _stop(proc: subprocess.Popen) -> None:
     proc.wait(timeout=30)
 
 
-@pytest.fixture
-def cluster():
-    """A scheduler and one single-threaded worker, each a process (session) of its own:
+@contextlib.contextmanager
+def _cluster(nthreads: int = 1):
+    """A scheduler and one worker of ``nthreads`` threads, each a process (session) of its own:
     (address, scheduler process, worker process)."""
     port = _free_port()
     address = f"tcp://127.0.0.1:{port}"
     scheduler = _start("distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port),
                        "--dashboard-address", ":0")
-    worker = _start("distributed.cli.dask_worker", address, "--nthreads", "1", "--nworkers", "1",
+    worker = _start("distributed.cli.dask_worker", address, "--nthreads", str(nthreads), "--nworkers", "1",
                     "--dashboard-address", ":0")
     try:
         yield address, scheduler, worker
     finally:
         _stop(worker)
         _stop(scheduler)
+
+
+@pytest.fixture
+def cluster():
+    with _cluster() as c:
+        yield c
 
 
 def _stored(store) -> int:
@@ -97,3 +105,35 @@ def test_a_lost_scheduler_stops_the_campaign_and_spends_no_run(tmp_path, cluster
     assert again.returncode == 0, again.stderr
     assert f"{12 - len(rows)} run(s) done now, {len(rows)} already in the store" in again.stdout
     assert "12 completed, 0 failed" in again.stdout
+
+
+def _summaries(store) -> dict:
+    from mjasc.campaigns.engine import without_timing
+
+    with sqlite3.connect(store) as db:
+        return {i: (st, without_timing(json.loads(m) if m else None))
+                for i, st, m in db.execute("SELECT idx, status, metrics FROM runs")}
+
+
+def test_a_worker_of_two_threads_gives_each_run_its_own_result(tmp_path):
+    """``dask worker --nthreads 2`` (the docs ask for one thread, dask's default is one per core):
+    two runs at once on one worker used to share the worker's one run child, so that each read the
+    other's result, one run was lost and the campaign hung; each thread now has a child of its own,
+    and the stored summaries are those of the same campaign in one process."""
+    write_campaign(tmp_path, runs=8, duration=20.0, mission_cost=False)
+    with _cluster(nthreads=2) as (address, _, _):
+        proc = subprocess.Popen([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--scheduler", address,
+                                 "--out", str(tmp_path / "dask"), "--no-progress"], env=_env(), cwd=tmp_path,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+        try:
+            _, err = proc.communicate(timeout=150)
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 0, err
+    here = subprocess.run([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--workers", "0", "--out",
+                           str(tmp_path / "here"), "--no-progress"], env=_env(), cwd=tmp_path, capture_output=True,
+                          text=True, timeout=600)
+    assert here.returncode == 0, here.stderr
+    dask, ref = _summaries(tmp_path / "dask" / "campaign.sqlite"), _summaries(tmp_path / "here" / "campaign.sqlite")
+    assert sorted(dask) == list(range(8)) and dask == ref

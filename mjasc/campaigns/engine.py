@@ -49,7 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from mjasc.campaigns.cluster import (WORKER_WAIT_S, close_client, local_workers, open_client, quiet_shutdown,
-                                    scheduler_problem, warm_up_worker, workers_problem)
+                                    scheduler_problem, warm_up_worker, worker_thread_key, workers_problem)
 from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
                                       run_isolated, take_prestarted)
 from mjasc.campaigns.hull_records import family_hulls
@@ -109,7 +109,7 @@ def _task(request: dict, time_limit_s: float | None, isolate: bool, threaded: bo
         from distributed import get_worker
 
         return run_isolated(request, time_limit_s, key=get_worker().id)
-    return run_isolated(request, time_limit_s)
+    return run_isolated(request, time_limit_s, key=worker_thread_key())
 
 
 def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | None = None, progress: bool = True,
