@@ -137,3 +137,55 @@ def test_a_worker_of_two_threads_gives_each_run_its_own_result(tmp_path):
     assert here.returncode == 0, here.stderr
     dask, ref = _summaries(tmp_path / "dask" / "campaign.sqlite"), _summaries(tmp_path / "here" / "campaign.sqlite")
     assert sorted(dask) == list(range(8)) and dask == ref
+
+
+_PARENT = """
+import json, sys, threading, time
+from mjasc.campaigns.executor import IsolatedExecutor
+from mjasc.campaigns.forked import ForkedExecutor
+from mjasc.core.resources import bundled_scenarios
+
+forked = sys.argv[1] == "forked"
+ex = ForkedExecutor() if forked else IsolatedExecutor()
+assert ex.wait_ready(300)
+text = "\\n".join("duration_s = 2400.0" if ln.startswith("duration_s") else ln
+                  for ln in bundled_scenarios()["demo"].read_text().splitlines())
+request = {"index": 0, "scenario_toml": text, "run_dir": None, "evaluate": False}
+threading.Thread(target=ex.run, args=(request,), daemon=True).start()
+print(ex.pid if forked else ex._proc.pid, flush=True)
+time.sleep(600)
+"""
+
+
+def _running(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"  # (a zombie nobody reaps has gone)
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("kind", ["interpreter", "forked"])
+def test_a_run_child_leaves_when_its_worker_is_killed(tmp_path, kind):
+    """A worker (or driver) killed with SIGKILL in the middle of a run: its run child used to go
+    on with the run nobody would read (minutes; a hung run for ever) — a stray process on the
+    cluster's node; it now leaves within about a second (the run is done again elsewhere)."""
+    parent = subprocess.Popen([sys.executable, "-c", _PARENT, kind], env=_env(), cwd=tmp_path,
+                              stdout=subprocess.PIPE, text=True)
+    child = None
+    try:
+        child = int(parent.stdout.readline())
+        time.sleep(1.0)  # (the run under way)
+        assert _running(child)
+        parent.kill()
+        parent.wait(timeout=30)
+        t0 = time.time()
+        while _running(child) and time.time() - t0 < 10:
+            time.sleep(0.1)
+        assert not _running(child), f"the run child {child} outlived its parent by 10 s"
+    finally:
+        if parent.poll() is None:
+            parent.kill()
+        if child is not None and _running(child):
+            os.kill(child, signal.SIGKILL)
