@@ -33,10 +33,18 @@ def _start(*args) -> subprocess.Popen:
 
 
 def _stop(proc: subprocess.Popen) -> None:
-    try:
-        os.killpg(proc.pid, signal.SIGKILL)  # (its session: a worker's nanny, worker and run child)
-    except ProcessLookupError:
-        pass
+    """End ``proc``'s session (a worker's nanny, worker and run child): asked first, so that Dask
+    removes its scratch folders, then killed."""
+    for sig, wait_s in ((signal.SIGTERM, 15), (signal.SIGKILL, 30)):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            break
+        try:
+            proc.wait(timeout=wait_s)
+            break
+        except subprocess.TimeoutExpired:
+            continue
     proc.wait(timeout=30)
 
 
