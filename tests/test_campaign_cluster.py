@@ -80,16 +80,15 @@ def _stored(store) -> int:
 
 
 def test_a_lost_scheduler_stops_the_campaign_and_spends_no_run(tmp_path, cluster):
-    """The scheduler killed mid-campaign: the driver leaves with status 1 and one line saying so
-    (it used to record every run still out as ``crashed`` with all its attempts spent, exit 0, and
+    """The scheduler killed mid-campaign: the driver leaves at once with status 1 and one line saying
+    so (it used to record every run still out as ``crashed`` with all its attempts spent, exit 0, and
     the same command then never did them); the store keeps exactly the finished runs and the same
     command does the rest."""
     address, scheduler, _ = cluster
     write_campaign(tmp_path, runs=12, duration=20.0, mission_cost=False)
     out = tmp_path / "out"
-    # (the client's reconnection attempt: 30 s by default)
     proc = subprocess.Popen([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--scheduler", address, "--out",
-                             str(out), "--no-progress"], env=_env(DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT="3s"),
+                             str(out), "--no-progress"], env=_env(),
                             cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             start_new_session=True)
     try:
@@ -103,8 +102,9 @@ def test_a_lost_scheduler_stops_the_campaign_and_spends_no_run(tmp_path, cluster
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
     assert proc.returncode == 1, err
-    last = err.strip().splitlines()[-1]
-    assert last.startswith(f"mjasc: campaign failed: lost the Dask scheduler at {address}: "), err
+    # one line: not the client's log of its reconnection, cut short (a traceback of ~30 lines)
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith(f"mjasc: campaign failed: lost the Dask scheduler at {address}: "), err
     with sqlite3.connect(out / "campaign.sqlite") as db:
         rows = db.execute("SELECT idx, status, attempts FROM runs").fetchall()
     assert rows and len(rows) < 12 and all(s == "completed" and a == 1 for _, s, a in rows), rows

@@ -124,16 +124,24 @@ def local_workers(workers: int | None) -> int:
 
 def quiet_shutdown(local: bool):
     """Silence Dask's loggers while a local cluster of ours shuts down (the runs' tasks it cancels
-    or whose children it closes log errors that are not the user's); returns the function that
-    restores them. For a cluster that is not ours, nothing changes."""
+    or whose children it closes log errors that are not the user's) — or a client whose scheduler
+    went away closes (its reconnection, cut short, logs a traceback); returns the function that
+    restores them. Otherwise nothing changes. (``distributed.client`` has a level of its own in
+    Dask's logging configuration: ``distributed``'s does not reach it.)"""
     import logging
 
     if not local:
         return lambda: None
-    log = logging.getLogger("distributed")
-    level = log.level
-    log.setLevel(logging.CRITICAL)
-    return lambda: log.setLevel(level)
+    logs = [logging.getLogger(name) for name in ("distributed", "distributed.client")]
+    levels = [log.level for log in logs]
+    for log in logs:
+        log.setLevel(logging.CRITICAL)
+
+    def restore() -> None:
+        for log, level in zip(logs, levels):
+            log.setLevel(level)
+
+    return restore
 
 
 def close_client(closers, local: bool) -> None:

@@ -321,6 +321,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
     client, closers = None, []
     keys: list = []
     pending: dict = {}  # future → its run, while it is out
+    lost = False  # the scheduler went away: its client's reconnection, cut short by the close, is not news
     held = False  # the workers hold their copies of the shipped hulls for this campaign
     try:
         client, closers = open_client(scheduler, workers, threaded)
@@ -382,6 +383,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
             try:
                 result = fut.result()
             except CancelledError:  # the scheduler went away (the client cancels every future): not the run's
+                lost = True
                 raise RuntimeError(f"lost the Dask scheduler at {info['address']}: {len(pending) + 1} run(s) not "
                                    f"done (every finished run is stored; the same command does the rest)") from None
             except Exception as exc:  # noqa: BLE001 — a lost worker, a task that could not run
@@ -399,7 +401,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
         # Interrupted (Ctrl-C) or failed: the queued runs are cancelled first, so that no worker
         # starts one while the cluster closes; then the children, so that a run still waiting on
         # one ends with it (its task fails: a local cluster's shutdown logs nothing of it).
-        quiet = quiet_shutdown(local)
+        quiet = quiet_shutdown(local or lost)
         try:
             if client is not None and pending:
                 try:
