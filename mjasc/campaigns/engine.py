@@ -151,7 +151,8 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
     out_dir = Path(out_dir).resolve()
     # One command at a time into a folder (a second one would do every run again): held from before
     # the store is read until the exports are written.
-    lock = lock_folder(out_dir) if out_dir.is_dir() else None
+    made = not out_dir.is_dir()  # (this command makes the folder)
+    lock = None if made else lock_folder(out_dir)
     try:
         # The runs to do are drawn before anything is written: a campaign whose draws fail (a grid
         # point no draw can make: CampaignError) leaves the folder as it was.
@@ -163,6 +164,7 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
             lock = lock_folder(out_dir)
             if (out_dir / STORE_FILE).is_file():  # (another command began in the new folder meanwhile)
                 todo = _runs_to_do(campaign, out_dir, labels, n_runs, max_attempts)
+        fresh = not (out_dir / STORE_FILE).exists()  # (a command that stores no run leaves no new store)
         store = CampaignStore(out_dir, campaign.digest, name=campaign.name, source=str(campaign.source),
                               file_text=json.dumps(getattr(campaign, "data", {}), sort_keys=True, default=str),
                               runs_defined=campaign.runs_defined, hulls=hulls)
@@ -190,10 +192,30 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
             tmp.replace(files["campaign"])
             files["store"] = store.path
             return CampaignResult(out_dir, runs, agg, files, info)
+        except BaseException:  # (no scheduler at the address, no worker, Ctrl-C before the first result)
+            if fresh and todo and not store.runs():
+                store.close()
+                _remove_store(out_dir, made)
+            raise
         finally:
             store.close()
     finally:
         unlock_folder(lock)
+
+
+def _remove_store(out_dir: Path, made: bool) -> None:
+    """Remove the store a failed command made and stored nothing in (and the folder, if ``made`` by
+    the command and left empty): the folder is as it was."""
+    for suffix in ("", "-wal", "-shm", "-journal"):
+        try:
+            (out_dir / (STORE_FILE + suffix)).unlink()
+        except OSError:
+            pass
+    if made:
+        try:
+            out_dir.rmdir()
+        except OSError:  # (not empty: a recording's folder, say)
+            pass
 
 
 def _runs_to_do(campaign, out_dir: Path, labels: tuple, n_runs: int, max_attempts: int) -> list:
