@@ -85,3 +85,27 @@ def test_ctrl_c_on_a_campaign_on_two_workers_leaves_at_once_with_one_line(tmp_pa
     again = _command(tmp_path, "c.toml", "--workers", "0", "--out", str(out), "--no-progress", "--runs",
                      str(len(rows) + 1))
     assert again.returncode == 0 and f"1 run(s) done now, {len(rows)} already in the store" in again.stdout
+
+
+def test_a_second_command_into_a_folder_in_use_is_refused(tmp_path):
+    """Two commands into one ``--out`` at once (the same command started again in another terminal,
+    a batch job submitted twice): the second used to do every run a second time (each printed "12
+    run(s) done now"); it is now refused at once, in one line, and writes nothing; once the first has
+    ended the same command runs."""
+    import fcntl
+
+    write_campaign(tmp_path, runs=2, duration=2.0, mission_cost=False)
+    out = tmp_path / "out"
+    out.mkdir()
+    fd = os.open(out, os.O_RDONLY)  # (what a running campaign command holds)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        busy = _command(tmp_path, "c.toml", "--workers", "0", "--out", str(out), "--no-progress")
+    finally:
+        os.close(fd)
+    assert busy.returncode == 1, busy.stdout + busy.stderr
+    assert busy.stderr == (f"mjasc: campaign failed: {out}: another campaign command is running into this folder; "
+                           f"wait for it to end (then the same command does what is left) or give another --out\n")
+    assert list(out.iterdir()) == []
+    after = _command(tmp_path, "c.toml", "--workers", "0", "--out", str(out), "--no-progress")
+    assert after.returncode == 0 and "2 run(s) done now, 0 already in the store" in after.stdout

@@ -8,21 +8,46 @@ from __future__ import annotations
 import os
 
 __all__ = ["open_client", "close_client", "local_workers", "quiet_shutdown", "scheduler_problem", "warm_up_worker",
-           "workers_problem", "WORKER_WAIT_S"]
+           "worker_thread_key", "workers_problem", "WORKER_WAIT_S"]
 
 #: How long a campaign waits for the first worker of a cluster [s].
 WORKER_WAIT_S = 120.0
 
 
-def warm_up_worker() -> str:
+def warm_up_worker(dask_worker=None) -> str:
     """Run on every worker before the tasks: import mjasc once, start the worker's run process
-    (it imports while the other workers come up), report mjasc's version."""
+    (it imports while the other workers come up; a worker of several threads starts one per thread
+    with its thread's first run, :func:`worker_thread_key`), report mjasc's version."""
     import mjasc
 
     from mjasc.campaigns.executor import start_isolated
 
-    start_isolated()
+    if _nthreads(dask_worker) <= 1:
+        start_isolated()
     return getattr(mjasc, "__version__", "unknown")
+
+
+def _nthreads(worker) -> int:
+    state = getattr(worker, "state", None)
+    return int(getattr(state, "nthreads", 1) or 1)
+
+
+def worker_thread_key() -> str | None:
+    """Whose run child a task of a worker process uses (:func:`mjasc.campaigns.executor.run_isolated`):
+    None, the process's one child, on a single-threaded worker; on a worker of several threads
+    (``dask worker --nthreads 2``) the child of the task's thread, so that two runs at once never
+    share one child's pipe (they swapped results, lost one and hung the worker)."""
+    import threading
+
+    try:
+        from distributed import get_worker
+
+        worker = get_worker()
+    except (ImportError, ValueError):  # (not in a Dask worker)
+        return None
+    if _nthreads(worker) <= 1:
+        return None
+    return f"{worker.id}-thread-{threading.get_ident()}"
 
 
 #: Dask settings of an own threaded cluster, whose event loop shares this process's core with the
@@ -99,16 +124,24 @@ def local_workers(workers: int | None) -> int:
 
 def quiet_shutdown(local: bool):
     """Silence Dask's loggers while a local cluster of ours shuts down (the runs' tasks it cancels
-    or whose children it closes log errors that are not the user's); returns the function that
-    restores them. For a cluster that is not ours, nothing changes."""
+    or whose children it closes log errors that are not the user's) — or a client whose scheduler
+    went away closes (its reconnection, cut short, logs a traceback); returns the function that
+    restores them. Otherwise nothing changes. (``distributed.client`` has a level of its own in
+    Dask's logging configuration: ``distributed``'s does not reach it.)"""
     import logging
 
     if not local:
         return lambda: None
-    log = logging.getLogger("distributed")
-    level = log.level
-    log.setLevel(logging.CRITICAL)
-    return lambda: log.setLevel(level)
+    logs = [logging.getLogger(name) for name in ("distributed", "distributed.client")]
+    levels = [log.level for log in logs]
+    for log in logs:
+        log.setLevel(logging.CRITICAL)
+
+    def restore() -> None:
+        for log, level in zip(logs, levels):
+            log.setLevel(level)
+
+    return restore
 
 
 def close_client(closers, local: bool) -> None:

@@ -49,13 +49,13 @@ from pathlib import Path
 from typing import Any
 
 from mjasc.campaigns.cluster import (WORKER_WAIT_S, close_client, local_workers, open_client, quiet_shutdown,
-                                    scheduler_problem, warm_up_worker, workers_problem)
+                                    scheduler_problem, warm_up_worker, worker_thread_key, workers_problem)
 from mjasc.campaigns.executor import (IsolatedExecutor, adopt_isolated, execute_in_process, release_isolated,
                                       run_isolated, take_prestarted)
 from mjasc.campaigns.hull_records import family_hulls
 from mjasc.campaigns.hull_shipping import hold_hull_root, localise, pack_hulls, release_hull_root, ship_to_cluster
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
-from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore
+from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore, lock_folder, unlock_folder
 from mjasc.campaigns.timing_fields import TIMING_KEYS, is_timing_key, without_timing
 from mjasc.core.config_tables import integer, number
 from mjasc.core.kernel_cache import COLD_START_WAIT_S, cache_is_cold
@@ -109,7 +109,7 @@ def _task(request: dict, time_limit_s: float | None, isolate: bool, threaded: bo
         from distributed import get_worker
 
         return run_isolated(request, time_limit_s, key=get_worker().id)
-    return run_isolated(request, time_limit_s)
+    return run_isolated(request, time_limit_s, key=worker_thread_key())
 
 
 def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | None = None, progress: bool = True,
@@ -149,48 +149,85 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
 
         plugins = {"avoidance": plugin_sources(m.name for m in campaign.methods)}
     out_dir = Path(out_dir).resolve()
-    # The runs to do are drawn before anything is written: a campaign whose draws fail (a grid point
-    # no draw can make: CampaignError) leaves the folder as it was.
+    # One command at a time into a folder (a second one would do every run again): held from before
+    # the store is read until the exports are written.
+    made = not out_dir.is_dir()  # (this command makes the folder)
+    lock = None if made else lock_folder(out_dir)
+    try:
+        # The runs to do are drawn before anything is written: a campaign whose draws fail (a grid
+        # point no draw can make: CampaignError) leaves the folder as it was.
+        todo = _runs_to_do(campaign, out_dir, labels, n_runs, max_attempts)
+        packs = pack_hulls(todo)  # (the own hulls read once, before anything is written: shipped to the workers)
+        hulls = family_hulls(campaign, packs) if hasattr(campaign, "families") else None  # (for the report)
+        if lock is None:
+            out_dir.mkdir(parents=True, exist_ok=True)
+            lock = lock_folder(out_dir)
+            if (out_dir / STORE_FILE).is_file():  # (another command began in the new folder meanwhile)
+                todo = _runs_to_do(campaign, out_dir, labels, n_runs, max_attempts)
+        fresh = not (out_dir / STORE_FILE).exists()  # (a command that stores no run leaves no new store)
+        store = CampaignStore(out_dir, campaign.digest, name=campaign.name, source=str(campaign.source),
+                              file_text=json.dumps(getattr(campaign, "data", {}), sort_keys=True, default=str),
+                              runs_defined=campaign.runs_defined, hulls=hulls)
+        try:
+            recordings = bool(getattr(getattr(campaign, "outputs", None), "recordings", False))
+            reference = bool(getattr(getattr(campaign, "evaluation", None), "mission_cost", True))
+            info = execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
+                                max_attempts=max_attempts, time_limit_s=time_limit_s, isolate=isolate,
+                                recordings=recordings, reference=reference, label=campaign.name, plugins=plugins,
+                                hulls=packs, colreg=getattr(campaign, "colreg_request", None))
+            info["already_done"] = n_runs * len(labels) - len(todo)
+            runs = store.runs()
+            defined = store.info().get("runs_defined", campaign.runs_defined)  # (the largest extent asked so far)
+            agg = aggregate(runs, defined, methods=[label for label in labels if label] or None)
+            if todo and info["wall_time_s"] > 0:
+                agg["throughput_runs_per_hour"] = round(3600.0 * len(todo) / info["wall_time_s"], 1)
+            files = store.export()
+            files["campaign"] = out_dir / "campaign.json"
+            doc = {"campaign": {"name": campaign.name, "description": getattr(campaign, "description", ""),
+                                "source": str(campaign.source), "digest": campaign.digest,
+                                "runs_defined": defined, "hulls": hulls, **info},
+                   "aggregate": agg}
+            tmp = files["campaign"].with_suffix(".json.tmp")
+            tmp.write_text(json.dumps(doc, indent=1, default=str))
+            tmp.replace(files["campaign"])
+            files["store"] = store.path
+            return CampaignResult(out_dir, runs, agg, files, info)
+        except BaseException:  # (no scheduler at the address, no worker, Ctrl-C before the first result)
+            if fresh and todo and not store.runs():
+                store.close()
+                _remove_store(out_dir, made)
+            raise
+        finally:
+            store.close()
+    finally:
+        unlock_folder(lock)
+
+
+def _remove_store(out_dir: Path, made: bool) -> None:
+    """Remove the store a failed command made and stored nothing in (and the folder, if ``made`` by
+    the command and left empty): the folder is as it was."""
+    for suffix in ("", "-wal", "-shm", "-journal"):
+        try:
+            (out_dir / (STORE_FILE + suffix)).unlink()
+        except OSError:
+            pass
+    if made:
+        try:
+            out_dir.rmdir()
+        except OSError:  # (not empty: a recording's folder, say)
+            pass
+
+
+def _runs_to_do(campaign, out_dir: Path, labels: tuple, n_runs: int, max_attempts: int) -> list:
+    """The runs of ``campaign`` (0 … n_runs − 1, each with every method label) without a result in
+    ``out_dir``'s store."""
     done = {label: set() for label in labels}
     if (out_dir / STORE_FILE).is_file():
         CampaignStore.adopt_earlier(out_dir, campaign.digest, getattr(campaign, "earlier_digests", ()))
         with CampaignStore(out_dir, campaign.digest) as existing:  # (read only: no campaign row written)
             done = {label: existing.done(max_attempts, label) for label in labels}
-    todo = [campaign.run(k, label) if label else campaign.run(k)
+    return [campaign.run(k, label) if label else campaign.run(k)
             for k in range(n_runs) for label in labels if k not in done[label]]
-    packs = pack_hulls(todo)  # (the own hulls read once, before anything is written: shipped to the workers)
-    hulls = family_hulls(campaign, packs) if hasattr(campaign, "families") else None  # (for the report)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    store = CampaignStore(out_dir, campaign.digest, name=campaign.name, source=str(campaign.source),
-                          file_text=json.dumps(getattr(campaign, "data", {}), sort_keys=True, default=str),
-                          runs_defined=campaign.runs_defined, hulls=hulls)
-    try:
-        recordings = bool(getattr(getattr(campaign, "outputs", None), "recordings", False))
-        reference = bool(getattr(getattr(campaign, "evaluation", None), "mission_cost", True))
-        info = execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
-                            max_attempts=max_attempts, time_limit_s=time_limit_s, isolate=isolate,
-                            recordings=recordings, reference=reference, label=campaign.name, plugins=plugins,
-                            hulls=packs, colreg=getattr(campaign, "colreg_request", None))
-        info["already_done"] = n_runs * len(labels) - len(todo)
-        runs = store.runs()
-        defined = store.info().get("runs_defined", campaign.runs_defined)  # (the largest extent asked so far)
-        agg = aggregate(runs, defined, methods=[label for label in labels if label] or None)
-        if todo and info["wall_time_s"] > 0:
-            agg["throughput_runs_per_hour"] = round(3600.0 * len(todo) / info["wall_time_s"], 1)
-        files = store.export()
-        files["campaign"] = out_dir / "campaign.json"
-        doc = {"campaign": {"name": campaign.name, "description": getattr(campaign, "description", ""),
-                            "source": str(campaign.source), "digest": campaign.digest,
-                            "runs_defined": defined, "hulls": hulls, **info},
-               "aggregate": agg}
-        tmp = files["campaign"].with_suffix(".json.tmp")
-        tmp.write_text(json.dumps(doc, indent=1, default=str))
-        tmp.replace(files["campaign"])
-        files["store"] = store.path
-        return CampaignResult(out_dir, runs, agg, files, info)
-    finally:
-        store.close()
-
 
 def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=None, workers: int | None = None,
                  progress: bool = True, max_attempts: int = 2, time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
@@ -282,6 +319,8 @@ def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordi
 
 def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
                  reference, bar, info, plugins=None, hulls=None, colreg=None) -> None:
+    from concurrent.futures import CancelledError
+
     from distributed import as_completed
 
     t_start = time.perf_counter()
@@ -304,6 +343,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
     client, closers = None, []
     keys: list = []
     pending: dict = {}  # future → its run, while it is out
+    lost = False  # the scheduler went away: its client's reconnection, cut short by the close, is not news
     held = False  # the workers hold their copies of the shipped hulls for this campaign
     try:
         client, closers = open_client(scheduler, workers, threaded)
@@ -364,6 +404,10 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
             run = pending.pop(fut)
             try:
                 result = fut.result()
+            except CancelledError:  # the scheduler went away (the client cancels every future): not the run's
+                lost = True
+                raise RuntimeError(f"lost the Dask scheduler at {info['address']}: {len(pending) + 1} run(s) not "
+                                   f"done (every finished run is stored; the same command does the rest)") from None
             except Exception as exc:  # noqa: BLE001 — a lost worker, a task that could not run
                 result = {"status": "crashed", "error": f"{type(exc).__name__}: {exc}", "summary": None,
                           "wall_time_s": None, "worker": None}
@@ -379,7 +423,7 @@ def _run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_li
         # Interrupted (Ctrl-C) or failed: the queued runs are cancelled first, so that no worker
         # starts one while the cluster closes; then the children, so that a run still waiting on
         # one ends with it (its task fails: a local cluster's shutdown logs nothing of it).
-        quiet = quiet_shutdown(local)
+        quiet = quiet_shutdown(local or lost)
         try:
             if client is not None and pending:
                 try:

@@ -288,9 +288,30 @@ def _warm_up() -> None:
         execute_in_process({"index": -1, "scenario_toml": body, "run_dir": None, "evaluate": True})
 
 
+def leave_when_closed(fd: int) -> None:
+    """Leave this run child as soon as the other end of ``fd`` (its requests: stdin, or the pipe to
+    the driver of a forked child) is closed — its worker or driver was killed (SIGKILL, the machine
+    lost) or closed it — instead of finishing a run nobody will read (a hung one: never); the run is
+    done again elsewhere. A daemon thread blocked in ``poll`` for the hang-up (it costs nothing while
+    it waits; a request arriving is not a hang-up). Where ``poll`` is missing, nothing is watched."""
+    if not hasattr(select, "poll"):
+        return
+    watched = select.POLLHUP | getattr(select, "POLLRDHUP", 0)
+
+    def watch() -> None:
+        poller = select.poll()
+        poller.register(fd, watched)
+        while True:
+            if any(ev & (watched | select.POLLERR | select.POLLNVAL) for _, ev in poller.poll()):
+                os._exit(1)
+
+    threading.Thread(target=watch, name="mjasc-leave-when-closed", daemon=True).start()
+
+
 def _serve() -> None:
     """The child's loop: one JSON request per line on stdin, one JSON result per line on the
     original stdout (everything else the run prints goes to stderr)."""
+    leave_when_closed(sys.stdin.fileno())
     out = os.fdopen(os.dup(1), "w", buffering=1)
     os.dup2(2, 1)  # stray prints of libraries must not corrupt the result stream
     sys.stdout = sys.stderr

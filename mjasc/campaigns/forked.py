@@ -84,6 +84,9 @@ def forking_safe() -> bool:
 
 def _serve(conn) -> None:
     """The forked child's loop: one JSON request per message, one JSON result per message."""
+    from mjasc.campaigns.executor import leave_when_closed
+
+    leave_when_closed(conn.fileno())  # (not the fork server's exit: the server waits for its children)
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)  # what runs and libraries print goes nowhere, as from a new interpreter's child
     os.dup2(devnull, 2)

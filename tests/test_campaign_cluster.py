@@ -1,0 +1,218 @@
+"""``mjasc campaign --scheduler ADDR`` against a real multi-process Dask cluster (a ``dask scheduler``
+and ``dask worker`` started as separate processes, as on a lab's cluster): what happens to the
+campaign and its store when the cluster misbehaves."""
+
+import contextlib
+import json
+import os
+import signal
+import socket
+import sqlite3
+import subprocess
+import sys
+import time
+
+import pytest
+
+from tests.test_campaign import write_campaign
+
+
+def _env(**extra) -> dict:
+    return {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path), **extra}
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _start(*args) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", *args], env=_env(), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True)
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    """End ``proc``'s session (a worker's nanny, worker and run child): asked first, so that Dask
+    removes its scratch folders, then killed."""
+    for sig, wait_s in ((signal.SIGTERM, 15), (signal.SIGKILL, 30)):
+        try:
+            os.killpg(proc.pid, sig)
+        except ProcessLookupError:
+            break
+        try:
+            proc.wait(timeout=wait_s)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+    proc.wait(timeout=30)
+
+
+@contextlib.contextmanager
+def _cluster(nthreads: int = 1):
+    """A scheduler and one worker of ``nthreads`` threads, each a process (session) of its own:
+    (address, scheduler process, worker process)."""
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    scheduler = _start("distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port),
+                       "--dashboard-address", ":0")
+    worker = _start("distributed.cli.dask_worker", address, "--nthreads", str(nthreads), "--nworkers", "1",
+                    "--dashboard-address", ":0")
+    try:
+        yield address, scheduler, worker
+    finally:
+        _stop(worker)
+        _stop(scheduler)
+
+
+@pytest.fixture
+def cluster():
+    with _cluster() as c:
+        yield c
+
+
+def _stored(store) -> int:
+    try:
+        with sqlite3.connect(f"file:{store}?mode=ro", uri=True, timeout=1) as db:
+            return db.execute("SELECT COUNT(*) FROM runs").fetchone()[0]
+    except sqlite3.Error:
+        return 0
+
+
+def test_a_lost_scheduler_stops_the_campaign_and_spends_no_run(tmp_path, cluster):
+    """The scheduler killed mid-campaign: the driver leaves at once with status 1 and one line saying
+    so (it used to record every run still out as ``crashed`` with all its attempts spent, exit 0, and
+    the same command then never did them); the store keeps exactly the finished runs and the same
+    command does the rest."""
+    address, scheduler, _ = cluster
+    write_campaign(tmp_path, runs=12, duration=20.0, mission_cost=False)
+    out = tmp_path / "out"
+    proc = subprocess.Popen([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--scheduler", address, "--out",
+                             str(out), "--no-progress"], env=_env(),
+                            cwd=tmp_path, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        t0 = time.time()
+        while _stored(out / "campaign.sqlite") < 1 and time.time() - t0 < 300 and proc.poll() is None:
+            time.sleep(0.05)
+        assert proc.poll() is None, "the campaign ended before its scheduler could be killed"
+        scheduler.kill()
+        _, err = proc.communicate(timeout=120)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 1, err
+    # one line: not the client's log of its reconnection, cut short (a traceback of ~30 lines)
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith(f"mjasc: campaign failed: lost the Dask scheduler at {address}: "), err
+    with sqlite3.connect(out / "campaign.sqlite") as db:
+        rows = db.execute("SELECT idx, status, attempts FROM runs").fetchall()
+    assert rows and len(rows) < 12 and all(s == "completed" and a == 1 for _, s, a in rows), rows
+    again = subprocess.run([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--workers", "0", "--out", str(out),
+                            "--no-progress"], env=_env(), cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stderr
+    assert f"{12 - len(rows)} run(s) done now, {len(rows)} already in the store" in again.stdout
+    assert "12 completed, 0 failed" in again.stdout
+
+
+def _summaries(store) -> dict:
+    from mjasc.campaigns.engine import without_timing
+
+    with sqlite3.connect(store) as db:
+        return {i: (st, without_timing(json.loads(m) if m else None))
+                for i, st, m in db.execute("SELECT idx, status, metrics FROM runs")}
+
+
+def test_a_worker_of_two_threads_gives_each_run_its_own_result(tmp_path):
+    """``dask worker --nthreads 2`` (the docs ask for one thread, dask's default is one per core):
+    two runs at once on one worker used to share the worker's one run child, so that each read the
+    other's result, one run was lost and the campaign hung; each thread now has a child of its own,
+    and the stored summaries are those of the same campaign in one process."""
+    write_campaign(tmp_path, runs=8, duration=20.0, mission_cost=False)
+    with _cluster(nthreads=2) as (address, _, _):
+        proc = subprocess.Popen([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--scheduler", address,
+                                 "--out", str(tmp_path / "dask"), "--no-progress"], env=_env(), cwd=tmp_path,
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
+        try:
+            _, err = proc.communicate(timeout=150)
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+    assert proc.returncode == 0, err
+    here = subprocess.run([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--workers", "0", "--out",
+                           str(tmp_path / "here"), "--no-progress"], env=_env(), cwd=tmp_path, capture_output=True,
+                          text=True, timeout=600)
+    assert here.returncode == 0, here.stderr
+    dask, ref = _summaries(tmp_path / "dask" / "campaign.sqlite"), _summaries(tmp_path / "here" / "campaign.sqlite")
+    assert sorted(dask) == list(range(8)) and dask == ref
+
+
+_PARENT = """
+import json, sys, threading, time
+from mjasc.campaigns.executor import IsolatedExecutor
+from mjasc.campaigns.forked import ForkedExecutor
+from mjasc.core.resources import bundled_scenarios
+
+forked = sys.argv[1] == "forked"
+ex = ForkedExecutor() if forked else IsolatedExecutor()
+assert ex.wait_ready(300)
+text = "\\n".join("duration_s = 2400.0" if ln.startswith("duration_s") else ln
+                  for ln in bundled_scenarios()["demo"].read_text().splitlines())
+request = {"index": 0, "scenario_toml": text, "run_dir": None, "evaluate": False}
+threading.Thread(target=ex.run, args=(request,), daemon=True).start()
+print(ex.pid if forked else ex._proc.pid, flush=True)
+time.sleep(600)
+"""
+
+
+def _running(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"  # (a zombie nobody reaps has gone)
+    except FileNotFoundError:
+        return False
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("kind", ["interpreter", "forked"])
+def test_a_run_child_leaves_when_its_worker_is_killed(tmp_path, kind):
+    """A worker (or driver) killed with SIGKILL in the middle of a run: its run child used to go
+    on with the run nobody would read (minutes; a hung run for ever) — a stray process on the
+    cluster's node; it now leaves within about a second (the run is done again elsewhere)."""
+    parent = subprocess.Popen([sys.executable, "-c", _PARENT, kind], env=_env(), cwd=tmp_path,
+                              stdout=subprocess.PIPE, text=True)
+    child = None
+    try:
+        child = int(parent.stdout.readline())
+        time.sleep(1.0)  # (the run under way)
+        assert _running(child)
+        parent.kill()
+        parent.wait(timeout=30)
+        t0 = time.time()
+        while _running(child) and time.time() - t0 < 10:
+            time.sleep(0.1)
+        assert not _running(child), f"the run child {child} outlived its parent by 10 s"
+    finally:
+        if parent.poll() is None:
+            parent.kill()
+        if child is not None and _running(child):
+            os.kill(child, signal.SIGKILL)
+
+
+def test_a_scheduler_address_where_none_listens_leaves_no_store(tmp_path):
+    """A mistyped ``--scheduler`` address: one line, status 1 — and no store without runs left in
+    ``--out`` (it used to be made before the scheduler was reached; the command still makes the
+    folder first, proving it writable); an existing folder keeps what it held."""
+    write_campaign(tmp_path, runs=6, duration=2.0, mission_cost=False)
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    kept = tmp_path / "kept"
+    kept.mkdir()
+    (kept / "notes.txt").write_text("mine\n")
+    for out in (tmp_path / "new", kept):
+        proc = subprocess.run([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--scheduler", address, "--out",
+                               str(out), "--no-progress"], env=_env(DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT="2s"),
+                              cwd=tmp_path, capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 1, proc.stderr
+        assert proc.stderr.startswith("mjasc: campaign failed: ") and len(proc.stderr.splitlines()) == 1, proc.stderr
+    assert not (tmp_path / "new").exists() or list((tmp_path / "new").iterdir()) == []
+    assert sorted(p.name for p in kept.iterdir()) == ["notes.txt"]
