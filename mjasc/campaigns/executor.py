@@ -288,12 +288,19 @@ def _warm_up() -> None:
         execute_in_process({"index": -1, "scenario_toml": body, "run_dir": None, "evaluate": True})
 
 
+#: Whether this run child is in a run (set by its loop around each request; read by the watcher of
+#: :func:`leave_when_closed`).
+RUNNING = [False]
+
+
 def leave_when_closed(fd: int) -> None:
     """Leave this run child as soon as the other end of ``fd`` (its requests: stdin, or the pipe to
     the driver of a forked child) is closed — its worker or driver was killed (SIGKILL, the machine
     lost) or closed it — instead of finishing a run nobody will read (a hung one: never); the run is
-    done again elsewhere. A daemon thread blocked in ``poll`` for the hang-up (it costs nothing while
-    it waits; a request arriving is not a hang-up). Where ``poll`` is missing, nothing is watched."""
+    done again elsewhere. Status 0 between runs (a driver's close: nothing is cut short, as when the
+    loop reads the end of its input), 1 in a run (:data:`RUNNING`). A daemon thread blocked in
+    ``poll`` for the hang-up (it costs nothing while it waits; a request arriving is not a
+    hang-up). Where ``poll`` is missing, nothing is watched."""
     if not hasattr(select, "poll"):
         return
     watched = select.POLLHUP | getattr(select, "POLLRDHUP", 0)
@@ -303,7 +310,7 @@ def leave_when_closed(fd: int) -> None:
         poller.register(fd, watched)
         while True:
             if any(ev & (watched | select.POLLERR | select.POLLNVAL) for _, ev in poller.poll()):
-                os._exit(1)
+                os._exit(1 if RUNNING[0] else 0)
 
     threading.Thread(target=watch, name="mjasc-leave-when-closed", daemon=True).start()
 
@@ -323,7 +330,10 @@ def _serve() -> None:
     for line in sys.stdin:
         if not line.strip():
             continue
-        out.write(json.dumps(execute_in_process(json.loads(line))) + "\n")
+        RUNNING[0] = True
+        result = json.dumps(execute_in_process(json.loads(line)))
+        RUNNING[0] = False
+        out.write(result + "\n")
         out.flush()
     # Every result is written and every run closed its files: leave without the interpreter's
     # clean-up of MuJoCo, numba and the rest (~0.5 s that the driver would wait for).

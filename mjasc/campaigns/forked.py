@@ -84,7 +84,7 @@ def forking_safe() -> bool:
 
 def _serve(conn) -> None:
     """The forked child's loop: one JSON request per message, one JSON result per message."""
-    from mjasc.campaigns.executor import leave_when_closed
+    from mjasc.campaigns.executor import RUNNING, leave_when_closed
 
     leave_when_closed(conn.fileno())  # (not the fork server's exit: the server waits for its children)
     devnull = os.open(os.devnull, os.O_WRONLY)
@@ -99,7 +99,10 @@ def _serve(conn) -> None:
             msg = conn.recv_bytes()
         except (EOFError, OSError):  # the driver closed its end: leave
             break
-        conn.send_bytes(json.dumps(execute_in_process(json.loads(msg))).encode())
+        RUNNING[0] = True
+        result = json.dumps(execute_in_process(json.loads(msg))).encode()
+        RUNNING[0] = False
+        conn.send_bytes(result)
     os._exit(0)  # without the interpreter's clean-up (every result is sent, every run closed its files)
 
 
