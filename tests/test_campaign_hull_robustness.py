@@ -11,7 +11,7 @@ from mjasc.campaigns import engine, hull_shipping
 from mjasc.campaigns.engine import run_campaign
 from mjasc.campaigns.executor import execute_in_process
 from mjasc.campaigns.spec import parse_campaign_spec
-from mjasc.campaigns.store import CampaignStore
+from mjasc.campaigns.store import CampaignStore, record_result
 from tests.test_campaign_hulls import head_on, mesh_hull
 from tests.test_own_hull import HULL, copy_vessel
 
@@ -32,7 +32,7 @@ def test_a_campaign_stored_before_the_digest_covered_its_mesh_resumes(tmp_path, 
     out = tmp_path / "out"
     with CampaignStore(out, earlier, name="h", runs_defined=2) as old:
         for run in spec.runs():
-            engine._record(old, run, {"status": "completed", "summary": {"outcome": "clear"}})
+            record_result(old, run, {"status": "completed", "summary": {"outcome": "clear"}})
     ran = []
     monkeypatch.setattr(engine, "_run_here", lambda runs, *a, **k: ran.extend(runs))
     result = run_campaign(spec, out, workers=0, progress=False)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from mjasc.campaigns import engine, executor, hull_shipping
+from mjasc.campaigns import dask_runs, engine, executor, hull_shipping
 from mjasc.campaigns.engine import run_campaign, without_timing
 from mjasc.campaigns.executor import execute_in_process
 from mjasc.campaigns.hull_records import family_ticks, family_title
@@ -166,8 +166,8 @@ def test_a_dask_cluster_gets_the_hull_once_per_worker(tmp_path, monkeypatch):
         str(other)])
     _moved_after_reading(monkeypatch, folder)
     shipped = []
-    real = engine.ship_to_cluster
-    monkeypatch.setattr(engine, "ship_to_cluster",
+    real = dask_runs.ship_to_cluster
+    monkeypatch.setattr(dask_runs, "ship_to_cluster",
                         lambda client, packs, tag: shipped.append(set(packs)) or real(client, packs, tag))
     with LocalCluster(n_workers=1, threads_per_worker=1, processes=False, dashboard_address=None) as cluster, \
             Client(cluster) as client:

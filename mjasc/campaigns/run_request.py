@@ -26,8 +26,9 @@ from __future__ import annotations
 import os
 import time
 import traceback
+from pathlib import Path
 
-__all__ = ["execute_in_process", "plain"]
+__all__ = ["execute_in_process", "plain", "request_of"]
 
 
 def execute_in_process(request: dict) -> dict:
@@ -126,3 +127,20 @@ def plain(obj):
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj
+
+
+def request_of(run, out_dir: Path, recordings: bool, reference: bool, plugins: dict | None = None,
+               colreg: dict | None = None) -> dict:
+    """The request (module docstring) of ``run`` (:class:`~mjasc.campaigns.spec.RunSpec`): its files in
+    ``out_dir``/runs/[<method>/]<index>/ with ``recordings``, else none; the mission-cost reference with
+    ``reference``; ``plugins`` and ``colreg`` when given."""
+    method = getattr(run, "method", "")
+    run_dir = str(out_dir / "runs" / method / str(run.index) if method else out_dir / "runs" / str(run.index)) \
+        if recordings else None
+    request = {"index": run.index, "scenario_toml": run.scenario_toml, "run_dir": run_dir, "evaluate": True,
+               "reference": reference}
+    if plugins:
+        request["plugins"] = plugins
+    if colreg:
+        request["colreg"] = colreg
+    return request

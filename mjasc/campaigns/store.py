@@ -48,7 +48,7 @@ from typing import Iterable
 
 from mjasc.runs.outputs import json_value
 
-__all__ = ["CampaignStore", "StoredRun", "StoreError", "FINAL_STATUSES", "RETRY_STATUSES", "STORE_FILE"]
+__all__ = ["CampaignStore", "StoredRun", "StoreError", "FINAL_STATUSES", "RETRY_STATUSES", "STORE_FILE", "record_result"]
 
 STORE_FILE = "campaign.sqlite"
 FINAL_STATUSES = frozenset({"completed", "diverged"})
@@ -387,3 +387,12 @@ def _flat_row(r: StoredRun) -> dict:
     if r.metrics:
         _flat("metric", r.metrics, row)
     return row
+
+
+def record_result(store: CampaignStore, run, result: dict) -> int:
+    """Store ``result`` (a run child's: status, error, summary, wall time, worker) of ``run``
+    (:class:`~mjasc.campaigns.spec.RunSpec`); returns the run's attempts so far."""
+    return store.record(run.index, family=run.family, parameters=run.parameters, seed=run.seed,
+                        scenario=run.scenario_toml, status=result["status"], error=result.get("error"),
+                        metrics=result.get("summary"), wall_time_s=result.get("wall_time_s"),
+                        worker=result.get("worker"), method=getattr(run, "method", ""))
