@@ -52,10 +52,7 @@ def test_report_columns_equal_the_readable_form_on_a_real_run(monkeypatch, name,
             _same(a, b)
         n_checked[0] += 1
 
-    monkeypatch.setattr(fleet_mod.FleetTracker, "step", checked)
-    sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
-    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
-    Runner(sc, out_dir=None).run()
+    _run_with(monkeypatch, checked, name, duration)
     assert n_checked[0] > 50
 
 
@@ -111,10 +108,7 @@ def test_report_rows_equal_per_vessel_slices_on_a_real_run(monkeypatch, name, du
             _same_rows(got[o], want[o])
             n_checked[0] += 1
 
-    monkeypatch.setattr(fleet_mod.FleetTracker, "step", checked)
-    sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
-    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
-    Runner(sc, out_dir=None).run()
+    _run_with(monkeypatch, checked, name, duration)
     assert n_checked[0] > 50
 
 
@@ -131,3 +125,12 @@ def test_track_rows_of_span_equal_the_slices_on_random_columns():
                 want = TrackRows.of_columns(tuple(c[a:b] for c in cols) + ((None,) * (b - a),), id_array[a:b],
                                             time_array[a:b])
                 _same_rows(TrackRows.of_span(cols, a, b, id_array, time_array), want)
+
+
+def _run_with(monkeypatch, step, name: str, duration: float) -> None:
+    """Run the bundled scenario ``name`` for ``duration`` s (no outputs) with ``step`` as the fleet
+    tracker's step."""
+    monkeypatch.setattr(fleet_mod.FleetTracker, "step", step)
+    sc = mjasc.load_scenario(_ROOT / "tasks" / f"{name}.toml").with_overrides(duration_s=duration)
+    sc = replace(sc, outputs=replace(sc.outputs, recording=False, video=False))
+    Runner(sc, out_dir=None).run()
