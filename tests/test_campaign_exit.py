@@ -7,6 +7,7 @@ import subprocess
 import sys
 
 import pyarrow.parquet as pq
+import pytest
 
 from tests.test_campaign import write_campaign
 
@@ -41,12 +42,14 @@ def test_campaign_command_failure_keeps_its_status_and_message(tmp_path):
     assert proc.stderr.startswith("mjasc: invalid campaign:")
 
 
-def test_ctrl_c_on_a_campaign_on_two_workers_leaves_at_once_with_one_line(tmp_path):
-    """Ctrl-C (SIGINT to the terminal's process group) on ``mjasc campaign --workers 2``: the
-    queued runs are cancelled and the running ones' children closed, so the command leaves within
-    seconds with status 130 and one line — no Dask error log of the runs it cut short, no new child
-    started for a queued run while the cluster closes — and the store keeps exactly the finished
-    runs, which the same command then does not run again."""
+@pytest.mark.parametrize("how", ["ctrl-c", "sigterm"])
+def test_ctrl_c_on_a_campaign_on_two_workers_leaves_at_once_with_one_line(tmp_path, how):
+    """Ctrl-C (SIGINT to the terminal's process group) on ``mjasc campaign --workers 2``, or SIGTERM
+    to the command alone (``kill``, a batch system's stop): the queued runs are cancelled and the
+    running ones' children closed, so the command leaves within seconds with status 130 and one
+    line — no Dask error log of the runs it cut short, no new child started for a queued run while
+    the cluster closes — and the store keeps exactly the finished runs, which the same command then
+    does not run again. (SIGTERM used to end the command at once with status 143 and no line.)"""
     import signal
     import sqlite3
     import time
@@ -69,7 +72,10 @@ def test_ctrl_c_on_a_campaign_on_two_workers_leaves_at_once_with_one_line(tmp_pa
             stored = 0
     assert stored >= 2 and proc.poll() is None, "the campaign ended before it could be interrupted"
     t_int = time.time()
-    os.killpg(proc.pid, signal.SIGINT)
+    if how == "ctrl-c":
+        os.killpg(proc.pid, signal.SIGINT)
+    else:
+        proc.send_signal(signal.SIGTERM)
     try:
         _, err = proc.communicate(timeout=60)
     except subprocess.TimeoutExpired:

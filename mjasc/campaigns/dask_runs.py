@@ -23,6 +23,7 @@ from mjasc.campaigns.hull_shipping import hold_hull_root, localise, release_hull
 from mjasc.campaigns.run_request import request_of
 from mjasc.campaigns.store import RETRY_STATUSES, record_result
 from mjasc.core.kernel_cache import COLD_START_WAIT_S, cache_is_cold
+from mjasc.runs.interrupts import raise_pending
 
 __all__ = ["run_on_dask", "run_task"]
 
@@ -129,6 +130,7 @@ def run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_lim
             submit(run)
         queue = as_completed(list(pending))
         for fut in queue:
+            raise_pending()  # (an interrupt that arrived inside a finalizer: mjasc.runs.interrupts)
             run = pending.pop(fut)
             try:
                 result = fut.result()

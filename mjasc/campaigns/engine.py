@@ -57,6 +57,7 @@ from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_inter
 from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore, lock_folder, record_result, unlock_folder
 from mjasc.campaigns.timing_fields import TIMING_KEYS, is_timing_key, without_timing
 from mjasc.core.config_tables import integer, number
+from mjasc.runs.interrupts import raise_pending
 
 __all__ = ["CampaignResult", "run_campaign", "execute_runs", "wilson_interval", "format_aggregate", "TIMING_KEYS", "is_timing_key",
            "without_timing", "IN_PROCESS_MAX_RUNS"]
@@ -262,6 +263,7 @@ def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordi
             if info is not None:
                 info["startup_s"] = round(time.perf_counter() - t0, 3)
         for run in runs:
+            raise_pending()  # (an interrupt that arrived inside a finalizer: mjasc.runs.interrupts)
             request = request_of(run, out_dir, recordings, reference, plugins, colreg)
             if hulls:
                 request = localise({**request, "hulls": hulls})

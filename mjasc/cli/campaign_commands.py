@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from mjasc.cli.arguments import not_found_hint, out_dir
+from mjasc.runs.interrupts import catch_sigterm, restore_sigterm
 
 
 def _scheduler_problem(args) -> str:
@@ -28,9 +29,11 @@ def cmd_campaign(args) -> int:
 
     if args.scheduler in (None, "local") and args.workers != 0:
         prestart_isolated(args.workers)  # the runs' children import while the campaign is read
+    previous = catch_sigterm()  # (SIGTERM — a batch system's stop, scancel — ends it as Ctrl-C does: 130)
     try:
         return _campaign(args)
     finally:
+        restore_sigterm(previous)
         close_prestarted()  # (any the campaign did not take: an invalid file, nothing to run)
 
 
@@ -156,6 +159,7 @@ def cmd_search(args) -> int:
         print(f"mjasc: invalid search: {_in_file(exc, campaign.source)}", file=sys.stderr)
         return 2
     out = out_dir(args.out, Path("runs") / "search" / f"{campaign.name}_{args.family}_{args.method}")
+    previous = catch_sigterm()  # (SIGTERM ends it as Ctrl-C does: 130)
     try:
         res = search_failures(campaign, args.family, out, config, scheduler=args.scheduler, workers=args.workers,
                               progress=sys.stderr.isatty())
@@ -165,6 +169,8 @@ def cmd_search(args) -> int:
     except (ValueError, RuntimeError, OSError) as exc:
         print(f"mjasc: search failed: {exc}", file=sys.stderr)
         return 1
+    finally:
+        restore_sigterm(previous)
     t = res.table()
     print(f"{campaign.name} / {args.family} ({args.method}): {t['runs']} runs, {t['failures']} failure(s), "
           f"minimum separation {t['min_separation_m']} m, median {t['median_separation_m']} m")
