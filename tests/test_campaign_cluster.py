@@ -27,9 +27,9 @@ def _free_port() -> int:
         return s.getsockname()[1]
 
 
-def _start(*args) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", *args], env=_env(), stdout=subprocess.DEVNULL,
-                            stderr=subprocess.DEVNULL, start_new_session=True)
+def _start(*args, env: dict | None = None, cwd=None) -> subprocess.Popen:
+    return subprocess.Popen([sys.executable, "-m", *args], env=env or _env(), stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, start_new_session=True, cwd=cwd)
 
 
 def _stop(proc: subprocess.Popen) -> None:
@@ -49,15 +49,16 @@ def _stop(proc: subprocess.Popen) -> None:
 
 
 @contextlib.contextmanager
-def _cluster(nthreads: int = 1):
-    """A scheduler and one worker of ``nthreads`` threads, each a process (session) of its own:
-    (address, scheduler process, worker process)."""
+def _cluster(nthreads: int = 1, worker_env: dict | None = None, worker_cwd=None):
+    """A scheduler and one worker of ``nthreads`` threads (its environment ``worker_env``, default
+    this process's, and folder ``worker_cwd``: ``python -m`` puts it first on the path), each a
+    process (session) of its own: (address, scheduler process, worker process)."""
     port = _free_port()
     address = f"tcp://127.0.0.1:{port}"
     scheduler = _start("distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port),
                        "--dashboard-address", ":0")
     worker = _start("distributed.cli.dask_worker", address, "--nthreads", str(nthreads), "--nworkers", "1",
-                    "--dashboard-address", ":0")
+                    "--dashboard-address", ":0", env=worker_env, cwd=worker_cwd)
     try:
         yield address, scheduler, worker
     finally:
@@ -216,3 +217,29 @@ def test_a_scheduler_address_where_none_listens_leaves_no_store(tmp_path):
         assert proc.stderr.startswith("mjasc: campaign failed: ") and len(proc.stderr.splitlines()) == 1, proc.stderr
     assert not (tmp_path / "new").exists() or list((tmp_path / "new").iterdir()) == []
     assert sorted(p.name for p in kept.iterdir()) == ["notes.txt"]
+
+
+def test_a_worker_on_other_mjasc_code_stops_the_campaign_before_any_run(tmp_path):
+    """A worker started on another checkout (here a copy of mjasc with one comment added, first on
+    its PYTHONPATH) reports the same version but other code: the campaign refuses it before any
+    run, status 1, one line naming the worker and both code digests (its results would differ)."""
+    import shutil
+
+    import mjasc
+
+    other = tmp_path / "other"
+    shutil.copytree(os.path.dirname(mjasc.__file__), other / "mjasc",
+                    ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
+    with open(other / "mjasc" / "__init__.py", "a") as f:
+        f.write("# another checkout\n")
+    write_campaign(tmp_path, runs=4, duration=5.0, mission_cost=False)
+    env = _env(PYTHONPATH=os.pathsep.join([str(other), *sys.path]))
+    with _cluster(worker_env=env, worker_cwd=other) as (address, _, _):
+        got = subprocess.run([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--scheduler", address, "--out",
+                              str(tmp_path / "out"), "--no-progress"], env=_env(), cwd=tmp_path,
+                             capture_output=True, text=True, timeout=300)
+    assert got.returncode == 1, got.stderr
+    assert len(got.stderr.splitlines()) == 1, got.stderr
+    assert "1 of 1 Dask worker(s) run other mjasc code than this process" in got.stderr, got.stderr
+    assert "no run was done" in got.stderr
+    assert not (tmp_path / "out" / "campaign.sqlite").exists()

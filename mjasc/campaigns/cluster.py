@@ -5,10 +5,11 @@ processes of their own, processes otherwise), an existing scheduler by its addre
 
 from __future__ import annotations
 
+import functools
 import os
 
 __all__ = ["open_client", "close_client", "local_workers", "quiet_shutdown", "scheduler_problem", "warm_up_worker",
-           "worker_thread_key", "workers_problem", "WORKER_WAIT_S"]
+           "worker_thread_key", "workers_problem", "WORKER_WAIT_S", "code_digest", "workers_code_problem"]
 
 #: How long a campaign waits for the first worker of a cluster [s].
 WORKER_WAIT_S = 120.0
@@ -17,14 +18,48 @@ WORKER_WAIT_S = 120.0
 def warm_up_worker(dask_worker=None) -> str:
     """Run on every worker before the tasks: import mjasc once, start the worker's run process
     (it imports while the other workers come up; a worker of several threads starts one per thread
-    with its thread's first run, :func:`worker_thread_key`), report mjasc's version."""
+    with its thread's first run, :func:`worker_thread_key`), report mjasc's version and
+    :func:`code_digest` (``"<version> <digest>"``)."""
     import mjasc
 
     from mjasc.campaigns.executor import start_isolated
 
     if _nthreads(dask_worker) <= 1:
         start_isolated()
-    return getattr(mjasc, "__version__", "unknown")
+    return f"{getattr(mjasc, '__version__', 'unknown')} {code_digest()}"
+
+
+@functools.lru_cache(maxsize=1)
+def code_digest() -> str:
+    """The first 16 hex digits of the SHA-256 of every Python source of the mjasc package this
+    process imported (relative paths and contents, in path order): two processes that give the same
+    digest run the same code. The version string does not change with each commit, so a worker
+    started on another checkout or an older install reports the same version and other results."""
+    import hashlib
+    from pathlib import Path
+
+    import mjasc
+
+    root = Path(mjasc.__file__).resolve().parent
+    h = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        h.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
+
+def workers_code_problem(reports: dict) -> str:
+    """What is wrong with the workers' :func:`warm_up_worker` reports (worker address → report)
+    against this process's code ('' if every worker runs it)."""
+    import mjasc
+
+    own = f"{getattr(mjasc, '__version__', 'unknown')} {code_digest()}"
+    other = {w: r for w, r in reports.items() if r != own}
+    if not other:
+        return ""
+    w, r = sorted(other.items())[0]
+    return (f"{len(other)} of {len(reports)} Dask worker(s) run other mjasc code than this process (worker {w}: "
+            f"version and code digest {r!r}, here {own!r}); install the same mjasc on every worker (a worker "
+            f"started on another checkout or PYTHONPATH gives other results)")
 
 
 def _nthreads(worker) -> int:

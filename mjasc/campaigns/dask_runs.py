@@ -17,7 +17,7 @@ import os
 import time
 
 from mjasc.campaigns.cluster import (WORKER_WAIT_S, close_client, local_workers, open_client, quiet_shutdown,
-                                    warm_up_worker, worker_thread_key)
+                                    warm_up_worker, worker_thread_key, workers_code_problem)
 from mjasc.campaigns.executor import adopt_isolated, execute_in_process, release_isolated, run_isolated, take_prestarted
 from mjasc.campaigns.hull_shipping import hold_hull_root, localise, release_hull_root, ship_to_cluster
 from mjasc.campaigns.run_request import request_of
@@ -104,6 +104,8 @@ def run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_lim
             except Exception as exc:  # noqa: BLE001
                 raise RuntimeError(f"the Dask workers cannot import mjasc ({type(exc).__name__}: {exc}); "
                                    f"install mjasc on every worker") from None
+            if problem := workers_code_problem(versions):  # (before any run: the results would differ)
+                raise RuntimeError(f"{problem}; no run was done")
         info.update(scheduler="local" if local else scheduler if isinstance(scheduler, str) else "client",
                     address=client.scheduler.address, workers=len(versions),
                     startup_s=round(time.perf_counter() - t_start, 3))
