@@ -9,7 +9,8 @@ import functools
 import os
 
 __all__ = ["open_client", "close_client", "local_workers", "quiet_shutdown", "scheduler_problem", "warm_up_worker",
-           "worker_thread_key", "workers_problem", "WORKER_WAIT_S", "code_digest", "workers_code_problem"]
+           "worker_thread_key", "workers_problem", "WORKER_WAIT_S", "code_digest", "code_identity",
+           "workers_code_problem"]
 
 #: How long a campaign waits for the first worker of a cluster [s].
 WORKER_WAIT_S = 120.0
@@ -20,12 +21,17 @@ def warm_up_worker(dask_worker=None) -> str:
     (it imports while the other workers come up; a worker of several threads starts one per thread
     with its thread's first run, :func:`worker_thread_key`), report mjasc's version and
     :func:`code_digest` (``"<version> <digest>"``)."""
-    import mjasc
-
     from mjasc.campaigns.executor import start_isolated
 
     if _nthreads(dask_worker) <= 1:
         start_isolated()
+    return code_identity()
+
+
+def code_identity() -> str:
+    """``"<mjasc version> <code digest>"`` of this process (:func:`code_digest`)."""
+    import mjasc
+
     return f"{getattr(mjasc, '__version__', 'unknown')} {code_digest()}"
 
 
@@ -50,9 +56,7 @@ def code_digest() -> str:
 def workers_code_problem(reports: dict) -> str:
     """What is wrong with the workers' :func:`warm_up_worker` reports (worker address → report)
     against this process's code ('' if every worker runs it)."""
-    import mjasc
-
-    own = f"{getattr(mjasc, '__version__', 'unknown')} {code_digest()}"
+    own = code_identity()
     other = {w: r for w, r in reports.items() if r != own}
     if not other:
         return ""

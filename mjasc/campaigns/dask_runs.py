@@ -29,7 +29,7 @@ __all__ = ["run_on_dask", "run_task"]
 
 
 def run_task(request: dict, time_limit_s: float | None, isolate: bool, threaded: bool = False,
-          hulls: dict | None = None) -> dict:
+             hulls: dict | None = None) -> dict:
     """The Dask task: run one request in the worker's persistent child process (``threaded``: the
     workers are threads of one process, each with its own child, keyed by the worker's id;
     ``hulls``: the shipped vessel folders, written here once and handed to the child as paths)."""
@@ -44,10 +44,10 @@ def run_task(request: dict, time_limit_s: float | None, isolate: bool, threaded:
     return run_isolated(request, time_limit_s, key=worker_thread_key())
 
 
-
-
 def run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
-                 reference, bar, info, plugins=None, hulls=None, colreg=None) -> None:
+                reference, bar, info, plugins=None, hulls=None, colreg=None) -> None:
+    """Execute ``runs`` on Dask (module docstring), storing each result in ``store`` as it arrives;
+    ``info`` gets the scheduler, its address, the workers and the start-up time."""
     from concurrent.futures import CancelledError
 
     from distributed import as_completed
@@ -123,8 +123,8 @@ def run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_lim
 
         def submit(run) -> None:
             method = f"-{run.method}" if getattr(run, "method", "") else ""
-            fut = client.submit(run_task, request_of(run, out_dir, recordings, reference, plugins, colreg), time_limit_s,
-                                isolate, threaded, hulls or None, pure=False,
+            request = request_of(run, out_dir, recordings, reference, plugins, colreg)
+            fut = client.submit(run_task, request, time_limit_s, isolate, threaded, hulls or None, pure=False,
                                 key=f"mjasc-run-{tag}-{run.index}{method}-{attempts.get(key(run), 0)}")
             pending[fut] = run
 

@@ -127,7 +127,7 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
         todo = _runs_to_do(campaign, out_dir, labels, n_runs, max_attempts)
         packs = pack_hulls(todo)  # (the own hulls read once, before anything is written: shipped to the workers)
         hulls = family_hulls(campaign, packs) if hasattr(campaign, "families") else None  # (for the report)
-        if lock is None:
+        if made:
             out_dir.mkdir(parents=True, exist_ok=True)
             lock = lock_folder(out_dir)
             if (out_dir / STORE_FILE).is_file():  # (another command began in the new folder meanwhile)

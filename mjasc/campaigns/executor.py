@@ -308,11 +308,20 @@ def leave_when_closed(fd: int) -> None:
     def watch() -> None:
         poller = select.poll()
         poller.register(fd, watched)
-        while True:
-            if any(ev & (watched | select.POLLERR | select.POLLNVAL) for _, ev in poller.poll()):
-                os._exit(1 if RUNNING[0] else 0)
+        poller.poll()  # (returns on a hang-up or an error only: no read event is asked for)
+        os._exit(1 if RUNNING[0] else 0)
 
     threading.Thread(target=watch, name="mjasc-leave-when-closed", daemon=True).start()
+
+
+def answer(message: str | bytes) -> str:
+    """A run child's answer to one request (its JSON text): the result's JSON text, the child
+    marked as in a run meanwhile (:data:`RUNNING`)."""
+    RUNNING[0] = True
+    try:
+        return json.dumps(execute_in_process(json.loads(message)))
+    finally:
+        RUNNING[0] = False
 
 
 def _serve() -> None:
@@ -330,10 +339,7 @@ def _serve() -> None:
     for line in sys.stdin:
         if not line.strip():
             continue
-        RUNNING[0] = True
-        result = json.dumps(execute_in_process(json.loads(line)))
-        RUNNING[0] = False
-        out.write(result + "\n")
+        out.write(answer(line) + "\n")
         out.flush()
     # Every result is written and every run closed its files: leave without the interpreter's
     # clean-up of MuJoCo, numba and the rest (~0.5 s that the driver would wait for).

@@ -84,14 +84,12 @@ def forking_safe() -> bool:
 
 def _serve(conn) -> None:
     """The forked child's loop: one JSON request per message, one JSON result per message."""
-    from mjasc.campaigns.executor import RUNNING, leave_when_closed
+    from mjasc.campaigns.executor import _prepare, answer, leave_when_closed
 
     leave_when_closed(conn.fileno())  # (not the fork server's exit: the server waits for its children)
     devnull = os.open(os.devnull, os.O_WRONLY)
     os.dup2(devnull, 1)  # what runs and libraries print goes nowhere, as from a new interpreter's child
     os.dup2(devnull, 2)
-    from mjasc.campaigns.executor import _prepare, execute_in_process
-
     _prepare()  # (done by the server: nothing left to import unless the server could not preload)
     conn.send_bytes(json.dumps({"ready": os.getpid()}).encode())
     while True:
@@ -99,10 +97,7 @@ def _serve(conn) -> None:
             msg = conn.recv_bytes()
         except (EOFError, OSError):  # the driver closed its end: leave
             break
-        RUNNING[0] = True
-        result = json.dumps(execute_in_process(json.loads(msg))).encode()
-        RUNNING[0] = False
-        conn.send_bytes(result)
+        conn.send_bytes(answer(msg).encode())
     os._exit(0)  # without the interpreter's clean-up (every result is sent, every run closed its files)
 
 

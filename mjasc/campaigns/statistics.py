@@ -6,7 +6,8 @@ separation below the near-miss distance, and no collision), the minimum separati
 cross-track error, the CAS actions by kind, the COLREG compliance of its encounters with traffic (over
 those with a role: ``none``, no risk of collision, asks nothing), and tracking quality (mean GOSPA,
 identity switches). Per vessel of a run (:func:`vessel_samples`, lists over the vessels): the
-mission cost against the same mission without traffic (``evaluation.cost``, :mod:`mjasc.evaluation.mission_cost`: ``path_cost`` relative extra distance,
+mission cost against the same mission without traffic (``evaluation.cost``,
+:mod:`mjasc.evaluation.mission_cost`: ``path_cost`` relative extra distance,
 ``time_cost_s``), the mean and max |cross-track error| (``vessels.<v>``, :mod:`mjasc.runs.metrics`)
 and the formation error — the vessel's mean and max |lead| over its neighbours in metres of path,
 as its coordination reports it (``vessels.<v>.coordination.mean_abs_error_m`` /

@@ -48,7 +48,8 @@ from typing import Iterable
 
 from mjasc.runs.outputs import json_value
 
-__all__ = ["CampaignStore", "StoredRun", "StoreError", "FINAL_STATUSES", "RETRY_STATUSES", "STORE_FILE", "record_result"]
+__all__ = ["CampaignStore", "StoredRun", "StoreError", "FINAL_STATUSES", "RETRY_STATUSES", "STORE_FILE",
+           "record_result", "FolderInUse", "lock_folder", "unlock_folder"]
 
 STORE_FILE = "campaign.sqlite"
 FINAL_STATUSES = frozenset({"completed", "diverged"})

@@ -41,7 +41,7 @@ def _raise_terminated(signum, frame):
 
 _HOOKS: list = []  # the unraisable hooks _redeliver replaced, innermost last
 #: Interrupts raised inside a finalizer while a run was interruptible, not yet raised again
-#: (the runner's loop: ``if PENDING: raise_pending()``).
+#: (the runner's loop: ``if PENDING: raise_pending()``; a campaign's, before each run or result).
 PENDING: list = []
 
 
