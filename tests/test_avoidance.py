@@ -408,10 +408,11 @@ class FakeCoordination:
                 if max_age_s is None or t_s is None or t_s - i.sent_time_s <= max_age_s}
 
 
-def _with_broadcast(ca, name, t_b, pos, heading, vel, plan=None):
+def _with_broadcast(ca, name, t_b, pos, heading, vel, plan=None, gives_way_to=()):
     coord = ca.agent.coordination if isinstance(getattr(ca.agent, "coordination", None), FakeCoordination) \
         else FakeCoordination()
     kw = {} if plan is None else {"plan_times_s": np.asarray(plan[0], float), "plan_points_m": np.asarray(plan[1], float)}
+    kw["gives_way_to"] = tuple(gives_way_to)
     coord.intentions[name] = TeamIntention(name, t_b, np.array(pos, float), heading, np.array(vel, float), 2.2, **kw)
     ca.agent.coordination = coord
     ca._poll_team()
@@ -563,3 +564,41 @@ def test_a_fresh_detour_is_checked_against_a_give_way_team_mate_with_the_planner
     conflicts = make(name="a")[0].predict(0.0, nav(), [stranger], [])
     tri = triage(0.0, nav(), 0.0, conflicts, [], {5: stranger}, {"a", "b"}, ca.config, ca.speed_max_m_s, None)
     assert conflicts and tri.give_way_mates == set()
+
+
+def test_a_team_mate_that_already_gives_way_makes_this_vessel_stand_on():
+    """b crosses from a's starboard: by the geometry a gives way (rule 15) and yields, and then it
+    names b as the team mate it gives way to (broadcast to the team: b keeps its speed). When b's
+    fresh broadcast says b already gives way to a — b decided earlier, on a geometry since changed
+    — a stands on instead: both yielding made both crawl through the crossing. A yield a already
+    runs for b is not given up on b's word (both then yield: the earlier state of things); a
+    stale broadcast is not taken; a stranger's track is always yielded to."""
+    from mjasc.avoidance.triage import triage
+
+    def mate():
+        return crossing(team_member="b", track_id=4, radius=2.1)
+
+    ca, _ = make(name="a")
+    ca.predict(0.0, nav(), [mate()], [])
+    assert ca.correction is not None and ca.correction.kind == "yield" and ca.gives_way_to() == ("b",)
+    ca, _ = make(name="a")
+    _with_broadcast(ca, "b", 0.0, [30.0, -30.0], np.pi / 2, [0.0, 1.0], gives_way_to=("a",))
+    ca.predict(0.0, nav(), [mate()], [])
+    assert ca.correction is None and ca.stats["stand_on"] >= 1 and ca.gives_way_to() == ()
+    assert any("b gives way to this vessel" in text for _, text in ca.drain_events())
+    ca, _ = make(name="a")  # b's word 10 s old (team_broadcast_max_age_s = 3 s): the geometry decides
+    _with_broadcast(ca, "b", -10.0, [30.0, -40.0], np.pi / 2, [0.0, 1.0], gives_way_to=("a",))
+    ca.predict(0.0, nav(), [mate()], [])
+    assert ca.correction is not None and ca.gives_way_to() == ("b",)
+    # triage itself: b's word changes the role unless a already yields to b
+    ca, _ = make(name="a")
+    conflicts = ca.predict(0.0, nav(), [mate()], [])
+    running = ca.correction
+    for run, words, give_way in [(None, frozenset(), {4}), (None, frozenset({"b"}), set()),
+                                 (running, frozenset({"b"}), {4}), (None, frozenset({"c"}), {4})]:
+        tri = triage(0.0, nav(), 0.0, conflicts, [], {4: mate()}, {"a", "b"}, ca.config, ca.speed_max_m_s, run, words)
+        assert tri.give_way_mates == give_way
+        assert (tri.roles[4].startswith("team right of way: stand-on")) == (not give_way)
+    ca, _ = make(name="a")  # a stranger: yielded to, and not named in the broadcast
+    ca.predict(0.0, nav(), [crossing(track_id=5)], [])
+    assert ca.correction is not None and ca.correction.kind == "yield" and ca.gives_way_to() == ()

@@ -423,10 +423,12 @@ def test_message_equals_the_team_message_constructor():
     for path, cfg, kw in [(paths[0], CoordinationConfig(), {"plan": plan}),
                           (paths[0], CoordinationConfig(intent_horizon_s=0.0, formation_offset_m=2.0), {}),
                           (None, CoordinationConfig(intent_horizon_s=0.0), {"tracks": ("t1", "t2"), "mission": "m"}),
-                          (paths[1], CoordinationConfig(), {"plan": plan, "mission": "m"})]:
+                          (paths[1], CoordinationConfig(), {"plan": plan, "mission": "m"}),
+                          (paths[0], CoordinationConfig(), {"plan": plan, "gives_way_to": ["b"]})]:
         c = Method("a", net, cfg, mission_path=path, mission_speed_m_s=1.5, radius_m=2.0, top_speed_m_s=3.0)
         c.phase = 2
-        got = c._message(3.0, own, 40.0, None, kw.get("plan"), kw.get("tracks", ()), kw.get("mission"))
+        got = c._message(3.0, own, 40.0, None, kw.get("plan"), kw.get("tracks", ()), kw.get("mission"),
+                         kw.get("gives_way_to", ()))
         ref = {}
         if "mission" in kw:
             ref.update(phase=2, mission="m")
@@ -439,6 +441,8 @@ def test_message_equals_the_team_message_constructor():
                        xi_rate_1_s=along / float(path.length), offset_m=cfg.formation_offset_m)
         if kw.get("tracks"):
             ref["tracks"] = tuple(kw["tracks"])
+        if kw.get("gives_way_to"):
+            ref["gives_way_to"] = tuple(kw["gives_way_to"])
         want = TeamMessage("a", np.array(own.position_m[:2]), float(own.heading_rad), np.array(own.velocity_m_s[:2]),
                            1.5, 2.0, **ref)
         assert list(got.__dict__) == [f.name for f in fields(TeamMessage)]
@@ -485,3 +489,4 @@ def test_intention_from_a_typed_message_equals_the_converted_form_on_the_demo(mo
                              outputs=dataclasses.replace(sc.outputs, recording=False, video=False))
     Runner(sc, out_dir=None).run()
     assert len(seen) > 50 and max(seen) > 2
+

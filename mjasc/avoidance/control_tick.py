@@ -7,7 +7,8 @@ changed own mission speed, a team mate's changed plan, or a track that left the 
 prediction assumed (:meth:`ControlTick._deviating`, one array operation on the last prediction's
 stacked track motions) predict at once. After it :meth:`ControlTick._control_rest` gives the speed
 and course overrides of the manoeuvre running (a velocity correction's law, a detour's end, a
-sharp turn on a detour: brake, then turn) and notes the mode.
+sharp turn on a detour: brake, then turn) and notes the mode. :meth:`ControlTick.gives_way_to`
+names the team mate a running yield is for (the coordination broadcasts it).
 
 :class:`ControlTick` is a part of :class:`~mjasc.avoidance.system.CollisionAvoidance` (its state
 is the system's). World frame ENU, SI units, absolute simulation times [s].
@@ -36,6 +37,17 @@ class ControlTick:
 
     #: Its mode changes are events of its own (:meth:`_note_mode`): the runner does not log them again.
     logs_mode_changes = True
+
+    def gives_way_to(self) -> tuple:
+        """The team mates this vessel gives way to now: the one whose track a running yield (or
+        emergency stop) is for, when that track is a team mate's; empty otherwise. Broadcast by the
+        coordination layer so that the stand-on team mate keeps its speed."""
+        c = self.correction
+        if c is None or c.kind != "yield":
+            return ()
+        track = self._predicted_tracks.get(c.track_id)
+        mate = getattr(track, "team_member", None)
+        return (mate,) if mate is not None and mate in self.team and mate != self.name else ()
 
     def _predict_on_perceived(self, t, nav) -> None:
         p = self._perceived

@@ -13,7 +13,11 @@ by the rules in this order:
   — the caller speeds up or stops when no lane can be left). Slowing down would let it close faster.
 * **Right of way between team mates** (:func:`~mjasc.avoidance.right_of_way.gives_way`): the
   stand-on vessel keeps its speed until ``last_resort_s``; at the last resort, with the give-way
-  vessel abaft its beam, it may only speed up.
+  vessel abaft its beam, it may only speed up. A team mate that already gives way to this vessel
+  (its fresh broadcast says so: ``mates_giving_way``) makes it the stand-on vessel whatever the
+  geometry says now, unless it is itself already yielding to that mate: each vessel decides from
+  its own view at its own time, and a decision taken seconds after the mate's, on a geometry the
+  mate's yield has changed, could make both give way and both crawl through the crossing.
 * **Velocity correction** (:func:`~mjasc.avoidance.decision.velocity_correction_for`): yield, or pass
   first (a pass already running goes on while feasible). Neither → :attr:`Triage.unresolved`, and
   the vessel goes around the track's swept area — except a give-way vessel around a team mate, which
@@ -96,11 +100,12 @@ def colreg_role(nav, track, traffic_rule: str) -> str | None:
 
 
 def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: set, cfg, speed_max_m_s: float,
-           running: Correction | None) -> Triage:
+           running: Correction | None, mates_giving_way=frozenset()) -> Triage:
     """Sort ``conflicts`` (with a predicted collision) and ``statics`` (static conflicts) of a
     vessel at ``nav`` and γ = ``gamma`` [m] at time t (module docstring). by_id: track id → track
     as predicted; team: the team mates' names; cfg: the
-    :class:`~mjasc.avoidance.config.AvoidanceConfig`; running: the correction running now."""
+    :class:`~mjasc.avoidance.config.AvoidanceConfig`; running: the correction running now;
+    mates_giving_way: the team mates whose fresh broadcast says they give way to this vessel."""
     out = Triage()
     for c in conflicts:
         track = by_id.get(c.track_id)
@@ -140,6 +145,11 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
             continue
         team_gives_way = is_team and gives_way(nav.position_m, nav.heading_rad, track.position_m,
                                                track.heading_rad, True)
+        if team_gives_way and track.team_member in mates_giving_way and not (
+                running is not None and running.kind == "yield" and running.track_id == c.track_id):
+            team_gives_way = False  # the mate gives way already: this vessel stands on (module docstring)
+            out.notes.append((None, f"team mate {track.team_member} gives way to this vessel (its broadcast): "
+                                    f"stand-on"))
         if team_gives_way:
             out.give_way_mates.add(c.track_id)
         if is_team and not team_gives_way:

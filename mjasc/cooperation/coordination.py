@@ -82,6 +82,7 @@ class Coordination(TeamKnowledge, CoordinationMethod):
     """
 
     method = "thesis"
+    takes_right_of_way = True
     Options = CoordinationConfig
     check_options = staticmethod(_validate)
 
@@ -143,8 +144,8 @@ class Coordination(TeamKnowledge, CoordinationMethod):
         h = self.config.intent_horizon_s
         return (h, self.config.intent_step_s) if h > 0 else None
 
-    def _message(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None) \
-            -> TeamMessage:
+    def _message(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None,
+                 gives_way_to=()) -> TeamMessage:
         # TeamMessage(name, position, heading, velocity, speed, radius, ...) without the frozen
         # __init__'s sixteen setattr calls: every field in order, the defaults where there is no value
         plan = plan if plan is not None else self._own_plan(t_s, guidance)
@@ -165,7 +166,8 @@ class Coordination(TeamKnowledge, CoordinationMethod):
                             mission_speed_m_s=self.mission_speed_m_s, radius_m=self.radius_m, plan_times_s=plan_t,
                             plan_points_m=plan_xy, gamma_m=gamma, path_length_m=length, xi=xi, xi_rate_1_s=rate,
                             offset_m=offset, tracks=tuple(tracks) if tracks else (),
-                            phase=self.phase if mission is not None else 0, mission=mission)
+                            phase=self.phase if mission is not None else 0, mission=mission,
+                            gives_way_to=tuple(gives_way_to) if gives_way_to else ())
         return msg
 
     def _own_plan(self, t_s: float, guidance):
@@ -257,7 +259,8 @@ class Coordination(TeamKnowledge, CoordinationMethod):
         return float(d.sum()), float(d.mean()), float(spread), len(xis)
 
     # ------------------------------------------------------------------ component interface
-    def exchange(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None) -> None:
+    def exchange(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None,
+                 gives_way_to=()) -> None:
         """Comms slot: broadcast own ξ, path rate, pose and plan; read what has arrived.
 
         nav: own :class:`~mjasc.core.navigation.OwnNavigation`; gamma_m: progress along the mission
@@ -266,16 +269,20 @@ class Coordination(TeamKnowledge, CoordinationMethod):
         :meth:`plan_request` (from its collision avoidance), or None; tracks: the vessel's own
         confirmed tracks to share (:class:`~mjasc.core.estimates.SharedTrack`, with ``share_tracks``;
         sent as given, the caller caps them); mission: the vessel's
-        :class:`~mjasc.missions.legs.MissionBroadcast` (a chained mission), sent with its phase."""
-        self.broadcast(t_s, nav, gamma_m, guidance, plan, tracks, mission)
+        :class:`~mjasc.missions.legs.MissionBroadcast` (a chained mission), sent with its phase;
+        gives_way_to: the team mates the vessel gives way to now (its avoidance's ``gives_way_to``:
+        a team mate that reads its name there stands on, :mod:`~mjasc.avoidance.triage`)."""
+        self.broadcast(t_s, nav, gamma_m, guidance, plan, tracks, mission, gives_way_to)
         self.take_in(t_s, nav, gamma_m)
 
-    def broadcast(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None) -> int:
+    def broadcast(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None,
+                  gives_way_to=()) -> int:
         """The first half of :meth:`exchange`: broadcast the message; returns its id on the link."""
         if tracks and self.config.share_tracks:
             self._tracks_sent += len(tracks)
         return self.link.send(t_s, self._message(t_s, nav, gamma_m, guidance, plan,
-                                                 tracks if self.config.share_tracks else (), mission), nav.position_m)
+                                                 tracks if self.config.share_tracks else (), mission, gives_way_to),
+                              nav.position_m)
 
     def take_in(self, t_s: float, nav, gamma_m: float, decided: bool = False) -> None:
         """The second half of :meth:`exchange`: read what has arrived, note the formation's state.

@@ -57,6 +57,9 @@ class TeamMessage:
     its perception (``share_tracks``; empty otherwise). phase: the index of its mission phase
     (0 without a chained mission: team mates coordinate with mates in their own phase only);
     mission: its :class:`~mjasc.missions.legs.MissionBroadcast` (None without a ``[mission]``).
+    gives_way_to: the team mates the sender is giving way to at the send time (a running yield or
+    stop for their track; empty otherwise): a team mate named here is the stand-on vessel toward
+    the sender and does not yield to it in turn (:mod:`~mjasc.avoidance.triage`).
     """
 
     sender: str
@@ -75,6 +78,7 @@ class TeamMessage:
     tracks: tuple = ()
     phase: int = 0
     mission: object = None
+    gives_way_to: tuple = ()
 
     @property
     def has_path(self) -> bool:
@@ -90,7 +94,8 @@ class TeamIntention:
     navigation at ``sent_time_s``. radius_m: its bounding radius [m] (None if not sent).
     plan_times_s (k,), plan_points_m (k, 2): where it intends to be (k = 0: no plan; then
     :meth:`positions` extrapolates the velocity). mission: its mission broadcast
-    (:class:`~mjasc.missions.legs.MissionBroadcast`, None without a chained mission)."""
+    (:class:`~mjasc.missions.legs.MissionBroadcast`, None without a chained mission). gives_way_to:
+    the team mates it was giving way to when it sent the message (:class:`TeamMessage`)."""
 
     name: str
     sent_time_s: float
@@ -101,6 +106,7 @@ class TeamIntention:
     plan_times_s: np.ndarray = field(default_factory=lambda: np.zeros(0))
     plan_points_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     mission: object = None
+    gives_way_to: tuple = ()
 
     @classmethod
     def from_message(cls, msg: TeamMessage, sent_time_s: float) -> "TeamIntention":
@@ -127,7 +133,8 @@ class TeamIntention:
         if plan_t.size != plan_xy.shape[0]:
             plan_t, plan_xy = np.zeros(0), np.zeros((0, 2))
         out = cls(msg.sender, t, pos[:2], float(msg.heading_rad), vel[:2], msg.radius_m, plan_t, plan_xy,
-                  msg.mission if typed else getattr(msg, "mission", None))
+                  msg.mission if typed else getattr(msg, "mission", None),
+                  msg.gives_way_to if typed else tuple(getattr(msg, "gives_way_to", ())))
         if typed or isinstance(msg, TeamMessage):
             object.__setattr__(msg, "_intention", out)
         return out

@@ -141,6 +141,12 @@ class AvoidanceMethod(StageMethod):
         """Progress along the mission path [m] (γ); a method that leaves the mission path maps back."""
         return float(guidance.gamma_m) if guidance is not None else 0.0
 
+    def gives_way_to(self) -> tuple:
+        """The team mates the vessel gives way to now (names; default: none). Broadcast by a
+        coordination method that carries it (``takes_right_of_way``, the thesis coordination): a
+        team mate named stands on toward this vessel instead of yielding to it in turn."""
+        return ()
+
     def planned_trajectory(self, t, nav, guidance, horizon_s: float, step_s: float):
         """Where the vessel intends to be, ``(times (k,) [s], points (k, 2) [m])`` for the team's
         broadcast, or None (the coordination layer then samples the guidance's path)."""
@@ -185,6 +191,9 @@ class CoordinationMethod(StageMethod):
     stage = "coordination"
     #: The latest factor on the mission speed (for the agent's guidance state).
     last_factor: float = 1.0
+    #: True: :meth:`exchange` is also given ``gives_way_to=`` (the team mates the vessel's avoidance
+    #: gives way to now, :meth:`AvoidanceMethod.gives_way_to`) to broadcast.
+    takes_right_of_way: bool = False
 
     @abc.abstractmethod
     def exchange(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None) -> None:
