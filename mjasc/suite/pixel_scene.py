@@ -10,7 +10,8 @@ straight pieces, arcs as chords) and hides the unused ones. A formation also has
 slot, in its vessel's palette colour, which the task moves after every step (:func:`draw_slots`).
 The markers are visual only:
 
-* contype = conaffinity = 0 (no contact), no mass (a static body's geoms);
+* contype = conaffinity = 0 (no contact), on a body without joints (nothing of them enters the
+  dynamics);
 * geom group :data:`REFERENCE_GEOM_GROUP` (1, the water's): drawn by every default render
   (MuJoCo shows groups 0–2), never seen by the range sensor, which casts into groups 0 and 3 only
   (``mjasc.physics.world.SENSOR_GEOM_GROUPS``);
@@ -34,8 +35,8 @@ import numpy as np
 from mjasc.runs.blueprint import vessel_colour
 
 __all__ = ["REFERENCE_BODY", "REFERENCE_GEOM_GROUP", "REFERENCE_LINE_WIDTH_M", "HEADING_UP_SPAN_M",
-           "HEADING_UP_AHEAD_M", "SLOT_RADIUS_M", "add_hull_cameras", "add_reference_pool", "reference_pool", "draw_reference",
-           "draw_slots", "path_polyline"]
+           "HEADING_UP_AHEAD_M", "SLOT_RADIUS_M", "add_hull_cameras", "add_reference_pool", "reference_pool",
+           "draw_reference", "draw_slots", "path_polyline"]
 
 #: The body holding the marker pool (the model's last body).
 REFERENCE_BODY = "reference"
@@ -93,8 +94,9 @@ def add_reference_pool(root, n_lines: int, n_slots: int = 0) -> dict:
 def reference_pool(model, kind: str = "piece") -> np.ndarray:
     """Geom ids of the pool's line pieces (``kind="piece"``) or slot discs (``"slot"``) in ``model``
     (an ``MjModel``), in order."""
-    body = model.body(REFERENCE_BODY).id
-    shape = {"piece": mujoco.mjtGeom.mjGEOM_BOX, "slot": mujoco.mjtGeom.mjGEOM_CYLINDER}[kind]
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, REFERENCE_BODY)
+    # (an int: numpy compares an array with a MuJoCo enum element by element in Python)
+    shape = int({"piece": mujoco.mjtGeom.mjGEOM_BOX, "slot": mujoco.mjtGeom.mjGEOM_CYLINDER}[kind])
     return np.flatnonzero((np.asarray(model.geom_bodyid) == body) & (np.asarray(model.geom_type) == shape))
 
 
@@ -105,6 +107,8 @@ def draw_slots(physics, slots_xy) -> None:
     model, data = physics.model.ptr, physics.data.ptr
     ids = reference_pool(model, "slot")
     xy = np.asarray(slots_xy, dtype=float).reshape(-1, 2)
+    if len(xy) != len(ids):
+        raise RuntimeError(f"reference: {len(xy)} slots to draw, the model has {len(ids)} slot discs")
     model.geom_sameframe[ids] = mujoco.mjtSameFrame.mjSAMEFRAME_NONE
     model.geom_pos[ids, :2] = xy
     data.geom_xpos[ids, :2] = xy
