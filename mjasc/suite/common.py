@@ -84,15 +84,13 @@ def _merge_domain_xml(root: mjcf.RootElement, xml_path: Path, vessel_names) -> N
 
 def compose_world(vessels, static_obstacles=(), moving_obstacles=(), domain_xml: Path | None = None,
                   reference_lines: int = 1, reference_slots: int = 0) -> World:
-    """:func:`mjasc.physics.world.build_world` plus the domain's MJCF (cameras, markers, materials) and
-    the reference markers for ``reference_lines`` lines and ``reference_slots`` slots
-    (:mod:`mjasc.suite.pixel_scene`),
-    compiled once more into a :class:`VesselPhysics` sharing nothing with the first compile.
+    """:func:`mjasc.physics.world.build_world`, the domain's MJCF (cameras, markers, materials), the
+    pool of reference markers for ``reference_lines`` lines and ``reference_slots`` slots
+    (:mod:`mjasc.suite.pixel_scene`), compiled again into a :class:`VesselPhysics` of its own.
 
     ``vessels`` is a list of (name, vessel type name). The domain MJCF may add assets, cameras,
-    sites and lights but no bodies or geoms, so every index map of the World stays valid (checked);
-    the marker pool's body and geoms come after all others.
-    """
+    sites and lights but no bodies or geoms, and the pool comes after every body and geom, so every
+    index map of the World stays valid (checked)."""
     world = build_world([(n, load_vessel_type(t)) for n, t in vessels], list(static_obstacles), list(moving_obstacles))
     if domain_xml is not None:
         _merge_domain_xml(world.mjcf_model, Path(domain_xml), [n for n, _ in vessels])
