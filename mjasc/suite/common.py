@@ -33,6 +33,7 @@ from mjasc.physics.simulation import Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import World, build_world
 from mjasc.suite.env_kwargs import check_environment_kwargs
+from mjasc.suite.pixel_scene import add_hull_cameras, add_reference_pool
 
 __all__ = ["Environment", "make_control_environment", "VesselPhysics", "compose_world", "range_sensor", "basin_walls", "world_to_body",
            "CONTROL_TIMESTEP_S"]
@@ -78,27 +79,27 @@ def _merge_domain_xml(root: mjcf.RootElement, xml_path: Path, vessel_names) -> N
         mount = root.find("site", f"{name}/sensor_mount").pos
         hull.add("site", name="reward_light", type="sphere", size=[0.12],
                  pos=[mount[0], mount[1], mount[2] + 0.3], material=light_material, group=0)
-        # Top-down view that follows the hull without turning with it (trackcom keeps the
-        # orientation it has at qpos0, where the body frame is the world frame): 50 m across.
-        hull.add("camera", name="follow", mode="trackcom", pos=[0.0, 0.0, 60.0], xyaxes=[1, 0, 0, 0, 1, 0],
-                 fovy=45)
+        add_hull_cameras(hull)  # follow (north up) and heading_up (bow up), after the vessel's own
 
 
-def compose_world(vessels, static_obstacles=(), moving_obstacles=(), domain_xml: Path | None = None) -> World:
-    """:func:`mjasc.physics.world.build_world` plus the domain's MJCF (cameras, markers, materials), compiled
-    once more into a :class:`VesselPhysics` sharing nothing with the first compile.
+def compose_world(vessels, static_obstacles=(), moving_obstacles=(), domain_xml: Path | None = None,
+                  reference_lines: int = 1, reference_slots: int = 0) -> World:
+    """:func:`mjasc.physics.world.build_world`, the domain's MJCF (cameras, markers, materials), the
+    pool of reference markers for ``reference_lines`` lines and ``reference_slots`` slots
+    (:mod:`mjasc.suite.pixel_scene`), compiled again into a :class:`VesselPhysics` of its own.
 
     ``vessels`` is a list of (name, vessel type name). The domain MJCF may add assets, cameras,
-    sites and lights but no bodies or geoms, so every index map of the World stays valid (checked).
-    """
+    sites and lights but no bodies or geoms, and the pool comes after every body and geom, so every
+    index map of the World stays valid (checked)."""
     world = build_world([(n, load_vessel_type(t)) for n, t in vessels], list(static_obstacles), list(moving_obstacles))
     if domain_xml is not None:
         _merge_domain_xml(world.mjcf_model, Path(domain_xml), [n for n, _ in vessels])
+    added = add_reference_pool(world.mjcf_model, reference_lines, reference_slots)
     old = world.model
     physics = VesselPhysics.from_mjcf_model(world.mjcf_model)
     new = physics.model.ptr
     for size in ("nq", "nv", "nu", "na", "nbody", "ngeom", "nmocap"):
-        if getattr(old, size) != getattr(new, size):
+        if getattr(old, size) + added.get(size, 0) != getattr(new, size):
             raise RuntimeError(f"domain MJCF changed model size {size}: {getattr(old, size)} -> {getattr(new, size)}")
     world = dataclasses.replace(world, physics=physics)
     physics.attach_world(world)

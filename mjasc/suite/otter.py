@@ -25,6 +25,7 @@ from dm_control.rl import control
 from dm_control.utils import containers, rewards
 
 from mjasc.core.frames import wrap_angle
+from mjasc.core.geometry import circle_polygon
 from mjasc.guidance.paths import Path
 from mjasc.perception.range_sensor import RangeSensor, SensorConfig
 from mjasc.physics.obstacles import MovingObstacle
@@ -37,6 +38,7 @@ from mjasc.suite.common import (
     range_sensor,
     world_to_body,
 )
+from mjasc.suite.pixel_scene import draw_reference, path_polyline
 from mjasc.suite.vessel_choice import hull_name, suite_vessel_type
 from mjasc.suite.vessel_task import (  # (Difficulty, EASY, HARD, OWN_STATE_OBSERVATIONS: this domain's names too)
     EASY,
@@ -100,6 +102,7 @@ class PathFollowing(VesselTask):
         psi0 = start_course + rnd.uniform(-d.initial_heading_error_rad, d.initial_heading_error_rad)
         physics.set_pose(0, p0[0], p0[1], psi0, surge_m_s=rnd.uniform(0.0, self.speed_ref_m_s))
         self._place_target(physics, self.path.end_point)
+        draw_reference(physics, [path_polyline(self.path)])
         self._gamma = 0.0
         self._cache = {}
         physics.after_reset()
@@ -158,6 +161,7 @@ class StationKeeping(VesselTask):
         p0 = self.station_m + r * vec(np.cos(bearing), np.sin(bearing))
         physics.set_pose(0, p0[0], p0[1], rnd.uniform(-np.pi, np.pi))
         self._place_target(physics, self.station_m, self.station_heading_rad)
+        draw_reference(physics, [circle_polygon(self.station_m, 1.0, 24, circumscribed=False, closed=True)])
         physics.after_reset()
         super().initialize_episode(physics)
 
@@ -237,6 +241,7 @@ class CollisionAvoidance(VesselTask):
         self.start_m = start
         self._cache = {}
         self._place_target(physics, self.goal_m, course)
+        draw_reference(physics, [np.array([start, self.goal_m])])  # the route
         physics.after_reset()
         super().initialize_episode(physics)
 

@@ -32,6 +32,7 @@ from dm_control.utils import containers, rewards
 from mjasc.guidance.paths import ArcSegment, LineSegment, Path
 from mjasc.suite.common import VesselPhysics, compose_world, make_control_environment, world_to_body
 from mjasc.suite.otter import XML_PATH
+from mjasc.suite.pixel_scene import draw_reference, draw_slots, path_polyline
 from mjasc.suite.vessel_choice import hull_name, suite_vessel_type
 from mjasc.suite.vessel_task import EASY, HARD, OWN_STATE_OBSERVATIONS, Difficulty, VesselTask, random_current, vec
 
@@ -122,6 +123,8 @@ class Formation(VesselTask):
             physics.set_pose(i, p0[0], p0[1], psi0, surge_m_s=rnd.uniform(0.5, 1.0) * self.speed_ref_m_s)
         end = self.leader_path.end_point
         self._place_target(physics, end, float(self.leader_path.tangent_angle(self.leader_path.length)))
+        draw_reference(physics, [path_polyline(lane) for lane in self.lanes])
+        draw_slots(physics, [self.slot_position(i, 0.0) for i in range(len(self.slots_m))])
         self._cache = {}
         physics.after_reset()
         super().initialize_episode(physics)
@@ -148,6 +151,12 @@ class Formation(VesselTask):
         last = max(250.0, self._travel_m(self.speed_ref_m_s) + 50.0)
         points.append(points[-1] + last * vec(np.cos(course), np.sin(course)))
         return Path.from_waypoints(np.array(points), turn_radius_m=LEADER_TURN_RADIUS_M)
+
+    def after_step(self, physics: VesselPhysics) -> None:
+        """The slots' discs in the scene to the slots at the new time (what a pixel observation shows)."""
+        time_s = float(physics.data.time)
+        draw_slots(physics, [self.slot_position(i, time_s) for i in range(len(self.slots_m))])
+        super().after_step(physics)  # (dm_control's reward colours)
 
     def leader_gamma(self, time_s: float) -> float:
         """Arc length of the virtual leader on its path at ``time_s`` [m] (at the origin at t = 0)."""
@@ -248,7 +257,8 @@ def make_environment(vessel_type: str, difficulty: Difficulty, time_limit=None, 
     """The formation environment of a team of ``len(slots_m)`` vessels of ``vessel_type`` (a built-in
     name or a resolved vessel folder's absolute path: :mod:`mjasc.suite.vessel_choice`)."""
     names = vessel_names(len(slots_m), vessel_type)
-    world = compose_world([(n, vessel_type) for n in names], domain_xml=XML_PATH)
+    world = compose_world([(n, vessel_type) for n in names], domain_xml=XML_PATH, reference_lines=len(names),
+                          reference_slots=len(names))
     time_limit = TIME_LIMIT_S if time_limit is None else time_limit
     task = Formation(vessel_type, difficulty, slots_m=slots_m, random=random, time_limit_s=time_limit)
     return make_control_environment(world.physics, task, time_limit, environment_kwargs)
