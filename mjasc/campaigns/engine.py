@@ -95,9 +95,10 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
     worker itself: no protection from crashes or hangs). limit: only runs 0 … limit − 1 (with
     ``methods``: each with every method).
 
-    A compared method registered only in this process (:func:`mjasc.plugins.register`) reaches the
-    runs' processes by its import path; one that has none is a ValueError unless the runs execute
-    here unisolated (:mod:`mjasc.campaigns.methods`).
+    A method registered only in this process (:func:`mjasc.plugins.register`) that the campaign
+    compares, or that a run's scenario selects in any stage, reaches the runs' processes by its
+    import path; one that has none is a ValueError unless the runs execute here unisolated
+    (:mod:`mjasc.campaigns.methods`).
     """
     if workers is not None:
         workers = integer(workers, "workers", minimum=0)
@@ -125,6 +126,7 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
         # The runs to do are drawn before anything is written: a campaign whose draws fail (a grid
         # point no draw can make: CampaignError) leaves the folder as it was.
         todo = _runs_to_do(campaign, out_dir, labels, n_runs, max_attempts)
+        plugins = with_scenario_plugins(plugins, todo)
         packs = pack_hulls(todo)  # (the own hulls read once, before anything is written: shipped to the workers)
         hulls = family_hulls(campaign, packs) if hasattr(campaign, "families") else None  # (for the report)
         if made:
@@ -186,6 +188,21 @@ def _remove_store(out_dir: Path, made: bool) -> None:
             pass
 
 
+def with_scenario_plugins(plugins: dict | None, runs: list) -> dict | None:
+    """``plugins`` (the compared avoidance methods' sources, or None) with every method registered in
+    this process that the runs' scenarios select in any stage (a tracking method in
+    ``[vessels.tracking]``, …): the runs' processes import them by name as well."""
+    from mjasc.campaigns.methods import scenario_plugins
+
+    used = scenario_plugins(r.scenario_toml for r in runs)
+    if not used:
+        return plugins
+    out = {stage: dict(sources) for stage, sources in (plugins or {}).items()}
+    for stage, sources in used.items():
+        out.setdefault(stage, {}).update(sources)
+    return out
+
+
 def _runs_to_do(campaign, out_dir: Path, labels: tuple, n_runs: int, max_attempts: int) -> list:
     """The runs of ``campaign`` (0 … n_runs − 1, each with every method label) without a result in
     ``out_dir``'s store."""
@@ -218,8 +235,8 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
     if plugins and runs:
         from mjasc.campaigns.methods import check_plugins_reach
 
-        for sources in plugins.values():
-            check_plugins_reach(sources, in_this_process=in_process and not isolate)
+        for stage, sources in plugins.items():
+            check_plugins_reach(sources, in_this_process=in_process and not isolate, stage=stage)
         plugins = {stage: {n: p for n, p in sources.items() if p} for stage, sources in plugins.items()}
         plugins = {stage: sources for stage, sources in plugins.items() if sources} or None
     info: dict[str, Any] = {"runs_to_do": len(runs)}
