@@ -160,6 +160,69 @@ def test_gospa_closed_forms():
     assert g.distance ** p == pytest.approx(g.localization + g.missed + g.false)
 
 
+def test_gospa_with_static_tracks_closed_forms_and_brute_force():
+    """A static track may stand for a truth object (a boat that stopped) but is never false: it is
+    assigned only when d^p < c^p/2 (the missed truth it saves); checked against every partial
+    assignment enumerated (orders 1–3, cut-offs 1–10 m)."""
+    import itertools
+
+    c, p = 10.0, 2.0
+    half = c ** p / 2
+    assert gospa([[0, 0]], [[0.1, 0]], c, p, [True]).distance == pytest.approx(0.1)  # a stopped boat, tracked
+    assert gospa([], [[1, 1]], c, p, [True]).distance == 0.0                          # a buoy: not false
+    g = gospa([[0, 0]], [[8, 0]], c, p, [True])  # 64 > 50: leaving both unassigned is cheaper
+    assert g.assignment == {} and g.n_missed == 1 and g.n_false == 0 and g.distance ** p == pytest.approx(half)
+    g = gospa([[0, 0]], [[6, 0], [9, 0]], c, p, [True, False])  # the moving track is nearer the threshold
+    assert g.assignment == {0: 1} and g.n_false == 0 and g.distance ** p == pytest.approx(81)
+
+    def brute(x, y, opt, c, p):
+        best = math.inf
+        for k in range(min(len(x), len(y)) + 1):
+            for rows in itertools.combinations(range(len(x)), k):
+                for cols in itertools.permutations(range(len(y)), k):
+                    d = [math.dist(x[r], y[q]) for r, q in zip(rows, cols)]
+                    if all(v < c for v in d):
+                        false = sum(1 for q in range(len(y)) if q not in cols and not opt[q])
+                        best = min(best, sum(v ** p for v in d) + c ** p / 2 * (len(x) - k + false))
+        return best ** (1 / p)
+
+    rng = np.random.default_rng(3)
+    for _ in range(400):
+        x, y = rng.uniform(0, 15, (rng.integers(0, 4), 2)), rng.uniform(0, 15, (rng.integers(0, 5), 2))
+        opt = rng.random(len(y)) < 0.5
+        c, p = float(rng.choice([1.0, 5.0, 10.0])), float(rng.choice([1.0, 2.0, 3.0]))
+        g = gospa(x, y, c, p, opt)
+        assert g.distance == pytest.approx(brute(x, y, opt, c, p), abs=1e-9)
+        assert g.distance ** p == pytest.approx(g.localization + g.missed + g.false)
+        assert g.n_false == sum(1 for q in range(len(y)) if q not in g.assignment.values() and not opt[q])
+
+
+def test_a_stopped_target_tracked_as_static_is_not_missed():
+    """A moving obstacle at rest (speed 0) in range of a vessel: its track is flagged static after
+    ``static_min_age_s`` and must still count as the target's track (it used to be left out of the
+    estimates, the target scored as missed, c²/2 per evaluation, for the rest of the run)."""
+    from mjasc.evaluation.run_evaluation import RunEvaluator
+    from mjasc.runs.runner import Runner
+    from mjasc.runs.scenario import parse_scenario
+
+    doc = {"name": "still_target", "duration_s": 25.0, "seed": 1,
+           "vessels": [{"name": "asc", "type": "delfim", "position_m": [0.0, 0.0], "heading_deg": 90.0,
+                        "controller": {"type": "path_following", "waypoints": [[0.0, 0.0], [0.0, 10.0]],
+                                       "speed_m_s": 0.3},
+                        "sensor": {"max_range_m": 80.0}, "tracking": {}}],
+           "moving_obstacles": [{"name": "still", "radius_m": 1.5, "position_m": [-30.0, 40.0], "speed_m_s": 0.0}]}
+    runner = Runner(parse_scenario(doc), None, progress=False)
+    ev = RunEvaluator(runner)
+    runner.observe("record", ev)
+    runner.run()
+    assert runner.agents[0].perception.tracks()[0].is_static  # the case: flagged static
+    tr = ev.summary()["tracking"]["asc"]
+    assert tr["time_to_confirm_s"]["still"] < 2.0 and tr["id_switches"] == 0
+    # missed only until the track is confirmed (< 2 s of 25 s), never after it is flagged static
+    assert tr["gospa_missed_mean"] < 50.0 * 2.0 / 25.0 and tr["gospa_false_mean"] == 0.0
+    assert tr["gospa_mean_m"] < 1.0
+
+
 def test_identity_switches_and_time_to_confirm():
     s = TrackingScore(cutoff_m=5.0, sensor_range_m=100.0)
     s.add(0.0, [0, 0], ["boat"], [[50, 0]], [], np.zeros((0, 2)))     # in range, not yet tracked

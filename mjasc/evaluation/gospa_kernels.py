@@ -74,13 +74,15 @@ def least_pairs(cost, a, b, idx, rows_out, cols_out):
 
 
 @kernel
-def score_ticks(k0, ends, in_range, d, cost, track_ids, times, c, p, half, fast, given_rows, given_cols, n_given,
-                sums, last_id, has_last, confirmed_at, confirm_order, counters):
+def score_ticks(k0, ends, in_range, d, cost, track_ids, static, times, c, p, half, fast, given_rows, given_cols,
+                n_given, sums, last_id, has_last, confirmed_at, confirm_order, counters):
     """Score the times k0, k0 + 1, … (their tracks are rows ends[k − 1] … ends[k] − 1, ends[−1]
     read as 0) until one needs scipy: returns its index (len(ends) when every time is scored).
     Time k0 takes ``given_rows``/``given_cols`` (``n_given`` pairs: scipy's) when ``n_given`` ≥ 0.
 
     ``in_range`` (T, M): the observable truths; ``d``, ``cost`` (R, M); ``track_ids`` (R,);
+    ``static`` (R,): the static tracks (assigned when d^p < c^p/2, never false:
+    :mod:`mjasc.evaluation.tracking_metrics`);
     ``fast``: least-cost assignments allowed (every cost finite). State, updated in place:
     ``sums`` [distance, localization, missed, false], per truth ``last_id`` / ``has_last`` (its
     last matched track), ``confirmed_at`` (NaN: not yet) and ``confirm_order`` (the order of
@@ -99,8 +101,13 @@ def score_ticks(k0, ends, in_range, d, cost, track_ids, times, c, p, half, fast,
                 idx[n_x] = m
                 n_x += 1
         n_y = b - a
+        n_moving = 0
+        for r in range(a, b):
+            if not static[r]:
+                n_moving += 1
         loc = 0.0
         n_assigned = 0
+        n_assigned_moving = 0
         if n_x and n_y:
             if k == k0 and n_given >= 0:
                 n_pairs = n_given
@@ -114,8 +121,10 @@ def score_ticks(k0, ends, in_range, d, cost, track_ids, times, c, p, half, fast,
             for q in range(n_pairs):
                 m = idx[rows[q]]
                 dr = d[a + cols[q], m]
-                if dr < c:
+                if (dr ** p < half) if static[a + cols[q]] else (dr < c):
                     n_assigned += 1
+                    if not static[a + cols[q]]:
+                        n_assigned_moving += 1
                     loc += dr ** p
                     trk = track_ids[a + cols[q]]
                     if confirmed_at[m] != confirmed_at[m]:
@@ -126,7 +135,7 @@ def score_ticks(k0, ends, in_range, d, cost, track_ids, times, c, p, half, fast,
                         counters[0] += 1
                     last_id[m] = trk
                     has_last[m] = True
-        missed, false = half * (n_x - n_assigned), half * (n_y - n_assigned)
+        missed, false = half * (n_x - n_assigned), half * (n_moving - n_assigned_moving)
         sums[0] += (loc + missed + false) ** inv_p
         sums[1] += loc
         sums[2] += missed

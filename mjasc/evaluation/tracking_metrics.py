@@ -12,6 +12,15 @@ over partial assignments γ of pairs closer than c. It splits exactly into a loc
 unassigned estimate). The optimal γ is a linear assignment on the costs min(d, c)^p (a pair at ≥ c
 costs the same as leaving both unassigned) — :func:`scipy.optimize.linear_sum_assignment`.
 
+**Static tracks** (``optional`` estimates): a track its tracker flags static may stand for a truth
+object (a boat that stopped, a drifting target) or for something the truth does not hold (a buoy, a
+moored boat: static obstacles are not traffic). It takes part in the assignment but is not false
+when left unassigned: it costs 0 then, so it is assigned only when that lowers the sum, d^p < c^p/2
+(the missed truth it saves), and its cost in the assignment is min(d^p + c^p/2, c^p) (the same
+c^p as leaving both unassigned). Without static tracks the metric is the one above, number for
+number. Scoring only the moving tracks counted a correctly tracked stopped object as missed at
+c^p/2 per evaluation.
+
 **Identity**: at each evaluation time every truth object is matched to at most one track (the same
 assignment); a truth's track id changing from one matched time to the next is an identity switch.
 **Time to confirm**: from the first time a truth object is within the sensor's range to the first
@@ -27,7 +36,7 @@ from scipy.optimize import linear_sum_assignment
 
 from mjasc.evaluation.gospa_kernels import score_ticks
 
-__all__ = ["gospa", "GospaTerms", "TrackingScore", "flat_rows"]
+__all__ = ["gospa", "GospaTerms", "TrackingScore", "flat_rows", "assignment_costs"]
 
 
 @dataclass(frozen=True)
@@ -44,10 +53,14 @@ class GospaTerms:
     assignment: dict
 
 
-def gospa(truth_xy, estimates_xy, cutoff_m: float = 10.0, order: float = 2.0) -> GospaTerms:
-    """GOSPA (α = 2) between truth positions (m, 2) and estimates (n, 2) [m] (module docstring)."""
+def gospa(truth_xy, estimates_xy, cutoff_m: float = 10.0, order: float = 2.0, optional=None) -> GospaTerms:
+    """GOSPA (α = 2) between truth positions (m, 2) and estimates (n, 2) [m] (module docstring);
+    ``optional`` (n,) bool: the static tracks (assigned when that lowers the sum, never false)."""
     x = np.asarray(truth_xy, dtype=float).reshape(-1, 2)
     y = np.asarray(estimates_xy, dtype=float).reshape(-1, 2)
+    opt = np.zeros(y.shape[0], dtype=bool) if optional is None else np.asarray(optional, dtype=bool).reshape(-1)
+    if opt.shape[0] != y.shape[0]:
+        raise ValueError(f"optional: must have one flag per estimate ({y.shape[0]}), got {opt.shape[0]}")
     c, p = float(cutoff_m), float(order)
     if not (c > 0 and p >= 1):
         raise ValueError(f"cutoff_m, order: must be > 0 and ≥ 1, got {cutoff_m}, {order}")
@@ -56,15 +69,25 @@ def gospa(truth_xy, estimates_xy, cutoff_m: float = 10.0, order: float = 2.0) ->
     loc = 0.0
     if x.shape[0] and y.shape[0]:
         d = np.hypot(x[:, None, 0] - y[None, :, 0], x[:, None, 1] - y[None, :, 1])
-        rows, cols = linear_sum_assignment(np.minimum(d, c) ** p)
+        rows, cols = linear_sum_assignment(assignment_costs(d, opt[None, :], c, p))
         for r, k in zip(rows, cols):
-            if d[r, k] < c:
+            dr = float(d[r, k])
+            if (dr ** p < half) if opt[k] else (dr < c):
                 assignment[int(r)] = int(k)
-                loc += float(d[r, k]) ** p
+                loc += dr ** p
     n_missed = x.shape[0] - len(assignment)
-    n_false = y.shape[0] - len(assignment)
+    n_false = int((~opt).sum()) - sum(1 for k in assignment.values() if not opt[k])
     missed, false = half * n_missed, half * n_false
     return GospaTerms((loc + missed + false) ** (1.0 / p), loc, missed, false, n_missed, n_false, assignment)
+
+
+def assignment_costs(d: np.ndarray, optional: np.ndarray, c: float, p: float) -> np.ndarray:
+    """GOSPA's assignment costs of the distances ``d`` [m]: min(d, c)^p, and min(d^p + c^p/2, c^p)
+    where ``optional`` (broadcast against ``d``: the static tracks) is set (module docstring)."""
+    cost = np.minimum(d, c) ** p
+    if optional.any():
+        cost = np.where(optional, np.minimum(d ** p + 0.5 * c ** p, c ** p), cost)
+    return cost
 
 
 def flat_rows(track_ids: list, track_xy: list) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -106,9 +129,10 @@ class TrackingScore:
     _confirmed_at: dict = field(default_factory=dict)
 
     def add(self, time_s: float, own_position_m, truth_ids, truth_xy, track_ids, track_xy,
-            truth_radii_m=None) -> GospaTerms:
-        """Compare the vessel's confirmed tracks (ids, positions (n, 2)) with the truth objects
-        (ids, positions (m, 2), radii (m,)) whose nearest point is within the sensor's range at ``time_s``."""
+            truth_radii_m=None, track_static=None) -> GospaTerms:
+        """Compare the vessel's confirmed tracks (ids, positions (n, 2), static flags (n,): None, none
+        static) with the truth objects (ids, positions (m, 2), radii (m,)) whose nearest point is
+        within the sensor's range at ``time_s``."""
         truth_xy = np.asarray(truth_xy, dtype=float).reshape(-1, 2)
         rng = np.hypot(*(truth_xy - np.asarray(own_position_m, dtype=float)).T) if truth_xy.size else np.zeros(0)
         if truth_radii_m is not None:
@@ -117,7 +141,7 @@ class TrackingScore:
         ids = [truth_ids[i] for i in np.flatnonzero(in_range)]
         for tid in ids:
             self._first_seen.setdefault(tid, float(time_s))
-        terms = gospa(truth_xy[in_range], track_xy, self.cutoff_m, self.order)
+        terms = gospa(truth_xy[in_range], track_xy, self.cutoff_m, self.order, track_static)
         self._n += 1
         for k in self._sum:
             self._sum[k] += getattr(terms, k)
@@ -131,21 +155,24 @@ class TrackingScore:
         return terms
 
     def add_run(self, times_s, own_positions_m, truth_ids, truth_xy, track_ids, track_xy,
-                truth_radii_m=None) -> None:
+                truth_radii_m=None, track_static=None) -> None:
         """:meth:`add` at every time of a run at once: the same state after it, bit for bit (the
         same GOSPA terms summed in the same order, the same assignments, identity switches and
         first times). times_s (T,) [s]; own_positions_m (T, 2) [m]; truth_ids (M,) and truth_xy
         (T, M, 2) [m] (radii (M,)): the truth objects at every time; track_ids and track_xy: per
-        time, the tracks' ids (k_t,) and positions (k_t, 2) [m] (:meth:`add_rows` with them flat).
+        time, the tracks' ids (k_t,) and positions (k_t, 2) [m] (:meth:`add_rows` with them flat),
+        track_static: per time their static flags (k_t,) (None: none static).
         ``truth_ids`` must be distinct."""
         counts, ids, xy = flat_rows(track_ids, track_xy)
-        self.add_rows(times_s, own_positions_m, truth_ids, truth_xy, counts, ids, xy, truth_radii_m)
+        static = None if track_static is None else np.concatenate(
+            [np.zeros(0, dtype=bool)] + [np.asarray(f, dtype=bool).reshape(-1) for f in track_static])
+        self.add_rows(times_s, own_positions_m, truth_ids, truth_xy, counts, ids, xy, truth_radii_m, static)
 
     def add_rows(self, times_s, own_positions_m, truth_ids, truth_xy, counts, track_ids, track_xy,
-                 truth_radii_m=None) -> None:
+                 truth_radii_m=None, track_static=None) -> None:
         """:meth:`add_run` with the tracks flat: counts (T,) the number of tracks at each time,
-        track_ids (R,) int64 and track_xy (R, 2) [m] the rows of every time one after the other
-        (R = Σ counts; :func:`flat_rows`).
+        track_ids (R,) int64, track_xy (R, 2) [m] and track_static (R,) bool (None: none static)
+        the rows of every time one after the other (R = Σ counts; :func:`flat_rows`).
 
         The distances of every (time, track, truth) triple are computed in one pass (elementwise,
         the numbers :func:`gospa` computes per time); the per-time assignments and sums are one
@@ -177,11 +204,13 @@ class TrackingScore:
         ends = np.cumsum(counts)
         n_rows = int(ends[-1])
         fast = True
+        static = np.zeros(n_rows, dtype=bool) if track_static is None else \
+            np.asarray(track_static, dtype=bool).reshape(n_rows)
         if n_rows and n_truth:
             y = np.asarray(track_xy, dtype=float).reshape(n_rows, 2)
             qt = q[np.repeat(np.arange(n_t), counts)]  # (R, M, 2): the truth at each track's time
             d = np.hypot(qt[:, :, 0] - y[:, None, 0], qt[:, :, 1] - y[:, None, 1])
-            cost = np.minimum(d, c) ** p
+            cost = assignment_costs(d, static[:, None], c, p)
             fast = bool(np.isfinite(cost).all())  # (scipy refuses NaN: it decides every time then)
         else:
             d = cost = np.zeros((n_rows, n_truth))
@@ -201,8 +230,8 @@ class TrackingScore:
         given_r = given_c = np.zeros(0, dtype=np.int64)
         k, n_given = 0, -1
         while k < n_t:
-            k = score_ticks(k, ends, in_range, d, cost, ids, t_a, c, p, half, fast, given_r, given_c, n_given, sums,
-                            last_a, has_last, conf, order, counters)
+            k = score_ticks(k, ends, in_range, d, cost, ids, static, t_a, c, p, half, fast, given_r, given_c, n_given,
+                            sums, last_a, has_last, conf, order, counters)
             if k < n_t:  # (its pairs, scipy's order: truth rows ascending; the next pass starts with them)
                 a = int(ends[k - 1]) if k else 0
                 given_r, given_c = linear_sum_assignment(cost[a:int(ends[k])][:, np.flatnonzero(in_range[k])].T)
