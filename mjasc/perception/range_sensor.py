@@ -104,7 +104,7 @@ def check_sensor(c: SensorConfig, where: str) -> None:
         bad("dropout_probability", "must be in [0, 1)", c.dropout_probability)
     if not c.clutter_per_scan <= c.beams:
         bad("clutter_per_scan", f"must be ≥ 0 and ≤ beams ({c.beams}; the false returns of a scan are drawn one "
-                                f"by one: 1e7 took minutes per scan)", c.clutter_per_scan)
+                                f"by one: 1e7 stalled a run)", c.clutter_per_scan)
 
 
 def parse_sensor_options(table: dict, where: str = "sensor") -> SensorConfig:
