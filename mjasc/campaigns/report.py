@@ -142,7 +142,29 @@ def format_report(data: dict) -> str:
                 runs = m["completed"]["n"]
                 lines.append(f"| {fam} | {_pct(m['completed'])} | {_q3(m['arrival_spread_s'], runs)} | "
                              f"{_q3(m['arrival_position_error_m'], runs)} |")
+    lines += _tracking_lines([(fam, None, g) for fam, g in list(data["families"].items()) + [("**all**", data)]])
     return "\n".join(lines) + "\n"
+
+
+def _tracking_lines(rows) -> list[str]:
+    """The tracking table — per (family, method or None, statistics): the runs' mean GOSPA
+    (median / p95 / max over the runs) and the identity switches — or nothing when no run was
+    scored (no vessel with perception)."""
+    rows = [r for r in rows if r[2].get("gospa_mean_m")]
+    if not rows:
+        return []
+    with_m = any(m is not None for _, m, _ in rows)
+    head = "| family | method | runs scored " if with_m else "| family | runs scored "
+    lines = ["", "Tracking against the truth (each run's mean GOSPA over its vessels and record ticks, c = 10 m, "
+                 "p = 2: median / p95 / max over the runs; identity switches summed; docs/campaigns.md, "
+                 "\"Outputs and metrics\"):", "",
+             head + "| mean GOSPA per run [m] | identity switches |",
+             "|---|---|---:|---|---:|" if with_m else "|---|---:|---|---:|"]
+    for fam, m, g in rows:
+        q = g["gospa_mean_m"]
+        gospa = f"{q['p50']:.3f} / {q['p95']:.3f} / {q['p100']:.3f}"
+        lines.append(f"| {fam} | " + (f"{m} | " if with_m else "") + f"{q['n']} | {gospa} | {g['id_switches']} |")
+    return lines
 
 
 def _q3(q: dict | None, runs: int | None = None) -> str:
@@ -215,6 +237,7 @@ def _format_comparison(data: dict) -> str:
             lines.append(f"| {'**all**' if fam == 'all' else fam} | {cnt['pairs']} | {cnt['collision_only_' + base]} | "
                          f"{cnt['collision_only_' + m]} | {cnt['collision_both']} | {cnt['separation_larger']} | "
                          f"{cnt['separation_smaller']} |")
+    lines += _tracking_lines(list(_comparison_rows(data)))
     return "\n".join(lines) + "\n"
 
 
