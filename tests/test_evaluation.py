@@ -223,6 +223,35 @@ def test_a_stopped_target_tracked_as_static_is_not_missed():
     assert tr["gospa_mean_m"] < 1.0
 
 
+def test_a_target_outside_the_field_of_view_is_not_missed():
+    """A 90° sensor looking north: a boat astern within range cannot be seen, so it is neither missed
+    nor waiting to be confirmed (it used to be scored missed, c²/2 at every evaluation); the boat
+    ahead is tracked. A disc straddling the edge of the fan counts (its half-width added)."""
+    from mjasc.evaluation.run_evaluation import RunEvaluator
+    from mjasc.runs.runner import Runner
+    from mjasc.runs.scenario import parse_scenario
+
+    doc = {"name": "fov", "duration_s": 12.0, "seed": 1,
+           "vessels": [{"name": "asc", "type": "delfim", "position_m": [0.0, 0.0], "heading_deg": 90.0,
+                        "controller": {"type": "path_following", "waypoints": [[0.0, 0.0], [0.0, 20.0]],
+                                       "speed_m_s": 0.3},
+                        "sensor": {"max_range_m": 80.0, "fov_deg": 90.0}, "tracking": {}}],
+           "moving_obstacles": [{"name": "ahead", "radius_m": 1.5, "position_m": [10.0, 50.0], "speed_m_s": 0.5},
+                                {"name": "astern", "radius_m": 1.5, "position_m": [0.0, -40.0], "speed_m_s": 0.5}]}
+    runner = Runner(parse_scenario(doc), None, progress=False)
+    ev = RunEvaluator(runner)
+    runner.observe("record", ev)
+    runner.run()
+    tr = ev.summary()["tracking"]["asc"]
+    assert set(tr["time_to_confirm_s"]) == {"ahead"} and tr["time_to_confirm_s"]["ahead"] < 2.0
+    assert tr["gospa_missed_mean"] < 50.0 * 2.0 / 12.0  # the boat ahead until confirmed, never the one astern
+    s = TrackingScore(sensor_range_m=100.0, sensor_fov_rad=math.radians(90.0))
+    s.add(0.0, [0, 0], ["edge", "out"], [[30, 29], [30, 20]], [], np.zeros((0, 2)), [2.0, 2.0], own_heading_rad=NORTH)
+    assert list(s.summary()["time_to_confirm_s"]) == ["edge"]  # 45.9° off the bow, 2 m disc: its edge is in
+    with pytest.raises(ValueError, match="own_heading_rad"):
+        s.add(0.0, [0, 0], ["a"], [[0, 10]], [], np.zeros((0, 2)))
+
+
 def test_identity_switches_and_time_to_confirm():
     s = TrackingScore(cutoff_m=5.0, sensor_range_m=100.0)
     s.add(0.0, [0, 0], ["boat"], [[50, 0]], [], np.zeros((0, 2)))     # in range, not yet tracked

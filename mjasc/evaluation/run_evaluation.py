@@ -12,7 +12,7 @@ confirmed tracks, at the record rate. :meth:`RunEvaluator.summary` then evaluate
   (:func:`mjasc.evaluation.colreg.classify`) and its compliance over [onset, CPA + ``after_cpa_s``]
   (:func:`mjasc.evaluation.colreg.judge_compliance`);
 * **tracking** — per vessel with perception, GOSPA against the truth objects within its sensor
-  range (the other vessels and the traffic), identity switches, time to confirm
+  range and field of view (the other vessels and the traffic), identity switches, time to confirm
   (:class:`mjasc.evaluation.tracking_metrics.TrackingScore`);
 * **cost** (:meth:`RunEvaluator.cost`, given the reference run's trace) — per vessel with a path, the
   path-length and time cost against the same mission without traffic
@@ -97,8 +97,10 @@ class RunEvaluator:
         self._perceptions = []
         for i, agent in enumerate(runner.agents):
             if agent.perception is not None:
-                rng = float(getattr(getattr(agent.perception, "sensor_config", None), "max_range_m", math.inf))
-                self._scores[i] = TrackingScore(self.config.gospa_cutoff_m, self.config.gospa_order, rng)
+                sensor = getattr(agent.perception, "sensor_config", None)
+                rng = float(getattr(sensor, "max_range_m", math.inf))
+                fov = math.radians(float(getattr(sensor, "fov_deg", 360.0)))
+                self._scores[i] = TrackingScore(self.config.gospa_cutoff_m, self.config.gospa_order, rng, fov)
                 self._tracks[i] = []
                 self._perceptions.append((i, agent.perception))
         # Built-in trackers of one fleet: every vessel's confirmed tracks in one compiled call per tick
@@ -164,7 +166,7 @@ class RunEvaluator:
                 counts, track_ids, track_xy = flat_rows([ti for ti, _, _ in tracks], [tx for _, tx, _ in tracks])
                 static = np.concatenate([np.zeros(0, dtype=bool)] + [ts for _, _, ts in tracks])
             score.add_rows(t, p[:, i], [ids[k] for k in others], xy[:, others], counts, track_ids, track_xy,
-                           radii[others], static)
+                           radii[others], static, self._h[k0:k1, i])
         self._scored = k1
 
     # ------------------------------------------------------------------ evaluation

@@ -29,6 +29,7 @@ time a confirmed track is matched to it.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -115,12 +116,15 @@ def _rows(parts: list, dtype, shape: tuple) -> np.ndarray:
 class TrackingScore:
     """Accumulates one vessel's tracking quality over a run, one :meth:`add` per evaluation time.
 
-    cutoff_m, order: GOSPA's c and p; sensor_range_m: a truth object counts as observable (for the
-    missed part and the time to confirm) only within this range of the vessel."""
+    cutoff_m, order: GOSPA's c and p; sensor_range_m, sensor_fov_rad: a truth object counts as
+    observable (for the missed part and the time to confirm) only when its nearest point is within
+    this range of the vessel and some of its disc within the field of view, centred on the bow
+    (less than a full circle: :meth:`add` needs the vessel's heading)."""
 
     cutoff_m: float = 10.0
     order: float = 2.0
     sensor_range_m: float = float("inf")
+    sensor_fov_rad: float = 2.0 * math.pi
     _n: int = 0
     _sum: dict = field(default_factory=lambda: {"distance": 0.0, "localization": 0.0, "missed": 0.0, "false": 0.0})
     _last_id: dict = field(default_factory=dict)
@@ -129,15 +133,13 @@ class TrackingScore:
     _confirmed_at: dict = field(default_factory=dict)
 
     def add(self, time_s: float, own_position_m, truth_ids, truth_xy, track_ids, track_xy,
-            truth_radii_m=None, track_static=None) -> GospaTerms:
+            truth_radii_m=None, track_static=None, own_heading_rad=None) -> GospaTerms:
         """Compare the vessel's confirmed tracks (ids, positions (n, 2), static flags (n,): None, none
-        static) with the truth objects (ids, positions (m, 2), radii (m,)) whose nearest point is
-        within the sensor's range at ``time_s``."""
+        static) with the truth objects (ids, positions (m, 2), radii (m,)) the sensor could see at
+        ``time_s`` (the vessel's heading [rad, ENU]: for a field of view less than a full circle)."""
         truth_xy = np.asarray(truth_xy, dtype=float).reshape(-1, 2)
-        rng = np.hypot(*(truth_xy - np.asarray(own_position_m, dtype=float)).T) if truth_xy.size else np.zeros(0)
-        if truth_radii_m is not None:
-            rng = rng - np.asarray(truth_radii_m, dtype=float).reshape(-1)
-        in_range = rng <= self.sensor_range_m
+        in_range = self._observable(np.asarray(own_position_m, dtype=float).reshape(1, 2), truth_xy[None],
+                                    truth_radii_m, None if own_heading_rad is None else [own_heading_rad])[0]
         ids = [truth_ids[i] for i in np.flatnonzero(in_range)]
         for tid in ids:
             self._first_seen.setdefault(tid, float(time_s))
@@ -155,21 +157,22 @@ class TrackingScore:
         return terms
 
     def add_run(self, times_s, own_positions_m, truth_ids, truth_xy, track_ids, track_xy,
-                truth_radii_m=None, track_static=None) -> None:
+                truth_radii_m=None, track_static=None, own_headings_rad=None) -> None:
         """:meth:`add` at every time of a run at once: the same state after it, bit for bit (the
         same GOSPA terms summed in the same order, the same assignments, identity switches and
         first times). times_s (T,) [s]; own_positions_m (T, 2) [m]; truth_ids (M,) and truth_xy
         (T, M, 2) [m] (radii (M,)): the truth objects at every time; track_ids and track_xy: per
         time, the tracks' ids (k_t,) and positions (k_t, 2) [m] (:meth:`add_rows` with them flat),
-        track_static: per time their static flags (k_t,) (None: none static).
-        ``truth_ids`` must be distinct."""
+        track_static: per time their static flags (k_t,) (None: none static); own_headings_rad (T,)
+        [rad, ENU] (for a field of view less than a full circle). ``truth_ids`` must be distinct."""
         counts, ids, xy = flat_rows(track_ids, track_xy)
         static = None if track_static is None else np.concatenate(
             [np.zeros(0, dtype=bool)] + [np.asarray(f, dtype=bool).reshape(-1) for f in track_static])
-        self.add_rows(times_s, own_positions_m, truth_ids, truth_xy, counts, ids, xy, truth_radii_m, static)
+        self.add_rows(times_s, own_positions_m, truth_ids, truth_xy, counts, ids, xy, truth_radii_m, static,
+                      own_headings_rad)
 
     def add_rows(self, times_s, own_positions_m, truth_ids, truth_xy, counts, track_ids, track_xy,
-                 truth_radii_m=None, track_static=None) -> None:
+                 truth_radii_m=None, track_static=None, own_headings_rad=None) -> None:
         """:meth:`add_run` with the tracks flat: counts (T,) the number of tracks at each time,
         track_ids (R,) int64, track_xy (R, 2) [m] and track_static (R,) bool (None: none static)
         the rows of every time one after the other (R = Σ counts; :func:`flat_rows`).
@@ -191,10 +194,7 @@ class TrackingScore:
             raise ValueError(f"cutoff_m, order: must be > 0 and ≥ 1, got {self.cutoff_m}, {self.order}")
         half = 0.5 * c ** p
         # which truth objects are observable at each time, and when each one first was
-        rng = np.hypot(q[:, :, 0] - own[:, None, 0], q[:, :, 1] - own[:, None, 1])
-        if truth_radii_m is not None:
-            rng = rng - np.asarray(truth_radii_m, dtype=float).reshape(-1)
-        in_range = rng <= self.sensor_range_m
+        in_range = self._observable(own, q, truth_radii_m, own_headings_rad)
         seen = np.flatnonzero(in_range.any(axis=0))
         first = in_range[:, seen].argmax(axis=0)
         for k in np.lexsort((seen, first)).tolist():
@@ -244,6 +244,22 @@ class TrackingScore:
         for m in np.flatnonzero(has_last).tolist():
             last[names[m]] = int(last_a[m])
         self._n += n_t
+
+    def _observable(self, own: np.ndarray, q: np.ndarray, radii, headings) -> np.ndarray:
+        """(T, M) bool: truth object m at time k (positions q (T, M, 2), radii (M,) or None [m])
+        within the sensor's range of ``own`` (T, 2) [m], and, for a field of view less than a full
+        circle, some of its disc within ±fov/2 of the heading (T,) [rad]."""
+        dx, dy = q[:, :, 0] - own[:, None, 0], q[:, :, 1] - own[:, None, 1]
+        rng = np.hypot(dx, dy)
+        r = np.zeros(q.shape[1]) if radii is None else np.asarray(radii, dtype=float).reshape(-1)
+        out = (rng if radii is None else rng - r) <= self.sensor_range_m
+        if self.sensor_fov_rad < 2.0 * math.pi:
+            if headings is None:
+                raise ValueError("own_heading_rad: needed with a field of view less than a full circle")
+            off = np.abs(np.angle(np.exp(1j * (np.arctan2(dy, dx) - np.asarray(headings, dtype=float).reshape(-1, 1)))))
+            half_width = np.arcsin(np.clip(r / np.maximum(rng, 1e-9), 0.0, 1.0))
+            out &= off <= 0.5 * self.sensor_fov_rad + half_width
+        return out
 
     def summary(self) -> dict:
         """Mean GOSPA and its parts over the evaluation times, identity switches, and per truth
