@@ -160,10 +160,11 @@ def test_gospa_closed_forms():
     assert g.distance ** p == pytest.approx(g.localization + g.missed + g.false)
 
 
-def test_gospa_with_static_tracks_closed_forms_and_brute_force():
-    """A static track may stand for a truth object (a boat that stopped) but is never false: it is
-    assigned only when d^p < c^p/2 (the missed truth it saves); checked against every partial
-    assignment enumerated (orders 1–3, cut-offs 1–10 m)."""
+def test_gospa_with_optional_objects_closed_forms_and_brute_force():
+    """A static track may stand for a truth object (a boat that stopped) but is never false; a truth
+    object the sensor cannot see may be tracked but is never missed: such a pair is assigned only
+    when d^p + k·c^p/2 < c^p (k optional members); checked against every partial assignment
+    enumerated (orders 1–3, cut-offs 1–10 m)."""
     import itertools
 
     c, p = 10.0, 2.0
@@ -174,8 +175,13 @@ def test_gospa_with_static_tracks_closed_forms_and_brute_force():
     assert g.assignment == {} and g.n_missed == 1 and g.n_false == 0 and g.distance ** p == pytest.approx(half)
     g = gospa([[0, 0]], [[6, 0], [9, 0]], c, p, [True, False])  # the moving track is nearer the threshold
     assert g.assignment == {0: 1} and g.n_false == 0 and g.distance ** p == pytest.approx(81)
+    # a track of an object just out of the sensor's range: neither false nor missed, its error counts
+    g = gospa([[0, 0]], [[0.5, 0]], c, p, None, [True])
+    assert g.assignment == {0: 0} and (g.n_missed, g.n_false) == (0, 0) and g.distance == pytest.approx(0.5)
+    assert gospa([[0, 0]], [], c, p, None, [True]).distance == 0.0
+    assert gospa([[0, 0]], [[0.5, 0]], c, p, [True], [True]).assignment == {}  # both optional: nothing to gain
 
-    def brute(x, y, opt, c, p):
+    def brute(x, y, opt, x_opt, c, p):
         best = math.inf
         for k in range(min(len(x), len(y)) + 1):
             for rows in itertools.combinations(range(len(x)), k):
@@ -183,16 +189,18 @@ def test_gospa_with_static_tracks_closed_forms_and_brute_force():
                     d = [math.dist(x[r], y[q]) for r, q in zip(rows, cols)]
                     if all(v < c for v in d):
                         false = sum(1 for q in range(len(y)) if q not in cols and not opt[q])
-                        best = min(best, sum(v ** p for v in d) + c ** p / 2 * (len(x) - k + false))
+                        missed = sum(1 for r in range(len(x)) if r not in rows and not x_opt[r])
+                        best = min(best, sum(v ** p for v in d) + c ** p / 2 * (missed + false))
         return best ** (1 / p)
 
     rng = np.random.default_rng(3)
     for _ in range(400):
         x, y = rng.uniform(0, 15, (rng.integers(0, 4), 2)), rng.uniform(0, 15, (rng.integers(0, 5), 2))
-        opt = rng.random(len(y)) < 0.5
+        opt, x_opt = rng.random(len(y)) < 0.5, rng.random(len(x)) < 0.3
         c, p = float(rng.choice([1.0, 5.0, 10.0])), float(rng.choice([1.0, 2.0, 3.0]))
-        g = gospa(x, y, c, p, opt)
-        assert g.distance == pytest.approx(brute(x, y, opt, c, p), abs=1e-9)
+        g = gospa(x, y, c, p, opt, x_opt)
+        assert g.distance == pytest.approx(brute(x, y, opt, x_opt, c, p), abs=1e-9)
+        assert g.n_missed == sum(1 for r in range(len(x)) if r not in g.assignment and not x_opt[r])
         assert g.distance ** p == pytest.approx(g.localization + g.missed + g.false)
         assert g.n_false == sum(1 for q in range(len(y)) if q not in g.assignment.values() and not opt[q])
 
@@ -250,6 +258,22 @@ def test_a_target_outside_the_field_of_view_is_not_missed():
     assert list(s.summary()["time_to_confirm_s"]) == ["edge"]  # 45.9° off the bow, 2 m disc: its edge is in
     with pytest.raises(ValueError, match="own_heading_rad"):
         s.add(0.0, [0, 0], ["a"], [[0, 10]], [], np.zeros((0, 2)))
+
+
+def test_a_track_kept_briefly_after_its_target_left_the_range_is_not_false():
+    """A target leaving the sensor's range (100 m) with its track still held, 0.3 m off: the track
+    is neither false nor the target missed (it used to cost c²/2 as a false track); the target's
+    time to confirm counts only while in range."""
+    s = TrackingScore(cutoff_m=10.0, sensor_range_m=100.0)
+    s.add(0.0, [0, 0], ["boat"], [[99, 0]], [3], [[99.2, 0]])
+    s.add(1.0, [0, 0], ["boat"], [[101, 0]], [3], [[101.3, 0]])   # out of range, track kept
+    s.add(2.0, [0, 0], ["boat"], [[103, 0]], [], np.zeros((0, 2)))  # track dropped: nothing missed
+    out = s.summary()
+    assert out["gospa_false_mean"] == 0.0 and out["gospa_missed_mean"] == 0.0
+    assert out["gospa_mean_m"] == pytest.approx((0.2 + 0.3 + 0.0) / 3, abs=1e-4) and out["id_switches"] == 0
+    far = TrackingScore(cutoff_m=10.0, sensor_range_m=100.0)
+    far.add(0.0, [0, 0], ["boat"], [[150, 0]], [4], [[150.1, 0]])  # a shared track of an unseen boat
+    assert far.summary()["time_to_confirm_s"] == {} and far.summary()["gospa_false_mean"] == 0.0
 
 
 def test_identity_switches_and_time_to_confirm():

@@ -11,8 +11,9 @@ confirmed tracks, at the record rate. :meth:`RunEvaluator.summary` then evaluate
   near miss (separation below ``near_miss_m``), the own vessel's COLREG role at the onset
   (:func:`mjasc.evaluation.colreg.classify`) and its compliance over [onset, CPA + ``after_cpa_s``]
   (:func:`mjasc.evaluation.colreg.judge_compliance`);
-* **tracking** — per vessel with perception, GOSPA against the truth objects within its sensor
-  range and field of view (the other vessels and the traffic), identity switches, time to confirm
+* **tracking** — per vessel with perception, GOSPA of its confirmed tracks against the truth objects
+  (the other vessels and the traffic; those outside its sensor's range and field of view, and its
+  static tracks, optional: never missed, never false), identity switches, time to confirm
   (:class:`mjasc.evaluation.tracking_metrics.TrackingScore`);
 * **cost** (:meth:`RunEvaluator.cost`, given the reference run's trace) — per vessel with a path, the
   path-length and time cost against the same mission without traffic

@@ -12,14 +12,17 @@ over partial assignments γ of pairs closer than c. It splits exactly into a loc
 unassigned estimate). The optimal γ is a linear assignment on the costs min(d, c)^p (a pair at ≥ c
 costs the same as leaving both unassigned) — :func:`scipy.optimize.linear_sum_assignment`.
 
-**Static tracks** (``optional`` estimates): a track its tracker flags static may stand for a truth
-object (a boat that stopped, a drifting target) or for something the truth does not hold (a buoy, a
-moored boat: static obstacles are not traffic). It takes part in the assignment but is not false
-when left unassigned: it costs 0 then, so it is assigned only when that lowers the sum, d^p < c^p/2
-(the missed truth it saves), and its cost in the assignment is min(d^p + c^p/2, c^p) (the same
-c^p as leaving both unassigned). Without static tracks the metric is the one above, number for
-number. Scoring only the moving tracks counted a correctly tracked stopped object as missed at
-c^p/2 per evaluation.
+**Optional objects.** A track its tracker flags static may stand for a truth object (a boat that
+stopped, a drifting target) or for something the truth does not hold (a buoy, a moored boat: static
+obstacles are not traffic); a truth object the sensor cannot see (beyond its range, outside its
+field of view) may still be tracked (a track coasting for a moment after the object left the range,
+a track a team mate shared). Either takes part in the assignment but costs nothing when left
+unassigned (a static track is never false, an unseen object never missed), so a pair with k ∈ {1, 2}
+optional members is assigned only when that lowers the sum, d^p + k·c^p/2 < c^p, and costs
+min(d^p + k·c^p/2, c^p) in the assignment (c^p: the same as leaving both unassigned). Without
+optional objects the metric is the one above, number for number. Scoring only the moving tracks
+against only the objects in range counted a correctly tracked stopped object as missed, and the
+track of an object that had just left the range as false, at c^p/2 per evaluation.
 
 **Identity**: at each evaluation time every truth object is matched to at most one track (the same
 assignment); a truth's track id changing from one matched time to the next is an identity switch.
@@ -54,14 +57,15 @@ class GospaTerms:
     assignment: dict
 
 
-def gospa(truth_xy, estimates_xy, cutoff_m: float = 10.0, order: float = 2.0, optional=None) -> GospaTerms:
+def gospa(truth_xy, estimates_xy, cutoff_m: float = 10.0, order: float = 2.0, optional=None,
+          truth_optional=None) -> GospaTerms:
     """GOSPA (α = 2) between truth positions (m, 2) and estimates (n, 2) [m] (module docstring);
-    ``optional`` (n,) bool: the static tracks (assigned when that lowers the sum, never false)."""
+    ``optional`` (n,) bool: the static tracks (never false); ``truth_optional`` (m,) bool: the truth
+    objects the sensor cannot see (never missed)."""
     x = np.asarray(truth_xy, dtype=float).reshape(-1, 2)
     y = np.asarray(estimates_xy, dtype=float).reshape(-1, 2)
-    opt = np.zeros(y.shape[0], dtype=bool) if optional is None else np.asarray(optional, dtype=bool).reshape(-1)
-    if opt.shape[0] != y.shape[0]:
-        raise ValueError(f"optional: must have one flag per estimate ({y.shape[0]}), got {opt.shape[0]}")
+    opt = _flags(optional, y.shape[0], "optional")
+    x_opt = _flags(truth_optional, x.shape[0], "truth_optional")
     c, p = float(cutoff_m), float(order)
     if not (c > 0 and p >= 1):
         raise ValueError(f"cutoff_m, order: must be > 0 and ≥ 1, got {cutoff_m}, {order}")
@@ -70,24 +74,39 @@ def gospa(truth_xy, estimates_xy, cutoff_m: float = 10.0, order: float = 2.0, op
     loc = 0.0
     if x.shape[0] and y.shape[0]:
         d = np.hypot(x[:, None, 0] - y[None, :, 0], x[:, None, 1] - y[None, :, 1])
-        rows, cols = linear_sum_assignment(assignment_costs(d, opt[None, :], c, p))
+        n_opt = x_opt[:, None].astype(np.int64) + opt[None, :]
+        rows, cols = linear_sum_assignment(assignment_costs(d, n_opt, c, p))
         for r, k in zip(rows, cols):
             dr = float(d[r, k])
-            if (dr ** p < half) if opt[k] else (dr < c):
+            if _accepted(dr, int(n_opt[r, k]), c, p, half):
                 assignment[int(r)] = int(k)
                 loc += dr ** p
-    n_missed = x.shape[0] - len(assignment)
+    n_missed = int((~x_opt).sum()) - sum(1 for r in assignment if not x_opt[r])
     n_false = int((~opt).sum()) - sum(1 for k in assignment.values() if not opt[k])
     missed, false = half * n_missed, half * n_false
     return GospaTerms((loc + missed + false) ** (1.0 / p), loc, missed, false, n_missed, n_false, assignment)
 
 
-def assignment_costs(d: np.ndarray, optional: np.ndarray, c: float, p: float) -> np.ndarray:
-    """GOSPA's assignment costs of the distances ``d`` [m]: min(d, c)^p, and min(d^p + c^p/2, c^p)
-    where ``optional`` (broadcast against ``d``: the static tracks) is set (module docstring)."""
+def _flags(flags, n: int, name: str) -> np.ndarray:
+    out = np.zeros(n, dtype=bool) if flags is None else np.asarray(flags, dtype=bool).reshape(-1)
+    if out.shape[0] != n:
+        raise ValueError(f"{name}: must have one flag per object ({n}), got {out.shape[0]}")
+    return out
+
+
+def _accepted(dr: float, n_opt: int, c: float, p: float, half: float) -> bool:
+    """Whether an assigned pair at distance dr [m] with n_opt optional members counts as assigned
+    (the same test as the compiled scoring's)."""
+    return dr < c if n_opt == 0 else dr ** p + half * n_opt < c ** p
+
+
+def assignment_costs(d: np.ndarray, n_optional: np.ndarray, c: float, p: float) -> np.ndarray:
+    """GOSPA's assignment costs of the distances ``d`` [m]: min(d, c)^p, and min(d^p + k·c^p/2, c^p)
+    where the pair has k = ``n_optional`` (broadcast against ``d``) optional members (module docstring)."""
     cost = np.minimum(d, c) ** p
-    if optional.any():
-        cost = np.where(optional, np.minimum(d ** p + 0.5 * c ** p, c ** p), cost)
+    n_optional = np.asarray(n_optional)
+    if n_optional.any():
+        cost = np.where(n_optional > 0, np.minimum(d ** p + 0.5 * c ** p * n_optional, c ** p), cost)
     return cost
 
 
@@ -140,16 +159,16 @@ class TrackingScore:
         truth_xy = np.asarray(truth_xy, dtype=float).reshape(-1, 2)
         in_range = self._observable(np.asarray(own_position_m, dtype=float).reshape(1, 2), truth_xy[None],
                                     truth_radii_m, None if own_heading_rad is None else [own_heading_rad])[0]
-        ids = [truth_ids[i] for i in np.flatnonzero(in_range)]
-        for tid in ids:
-            self._first_seen.setdefault(tid, float(time_s))
-        terms = gospa(truth_xy[in_range], track_xy, self.cutoff_m, self.order, track_static)
+        for i in np.flatnonzero(in_range):
+            self._first_seen.setdefault(truth_ids[i], float(time_s))
+        terms = gospa(truth_xy, track_xy, self.cutoff_m, self.order, track_static, ~in_range)
         self._n += 1
         for k in self._sum:
             self._sum[k] += getattr(terms, k)
         for i_truth, j_track in terms.assignment.items():
-            tid, trk = ids[i_truth], int(track_ids[j_track])
-            self._confirmed_at.setdefault(tid, float(time_s))
+            tid, trk = truth_ids[i_truth], int(track_ids[j_track])
+            if in_range[i_truth]:
+                self._confirmed_at.setdefault(tid, float(time_s))
             old = self._last_id.get(tid)
             if old is not None and old != trk:
                 self.id_switches += 1
@@ -209,8 +228,10 @@ class TrackingScore:
         if n_rows and n_truth:
             y = np.asarray(track_xy, dtype=float).reshape(n_rows, 2)
             qt = q[np.repeat(np.arange(n_t), counts)]  # (R, M, 2): the truth at each track's time
+            # (every truth object takes part; those the sensor cannot see are optional: module docstring)
             d = np.hypot(qt[:, :, 0] - y[:, None, 0], qt[:, :, 1] - y[:, None, 1])
-            cost = assignment_costs(d, static[:, None], c, p)
+            tick = np.repeat(np.arange(n_t), counts)
+            cost = assignment_costs(d, static[:, None].astype(np.int64) + ~in_range[tick], c, p)
             fast = bool(np.isfinite(cost).all())  # (scipy refuses NaN: it decides every time then)
         else:
             d = cost = np.zeros((n_rows, n_truth))
@@ -234,7 +255,7 @@ class TrackingScore:
                             sums, last_a, has_last, conf, order, counters)
             if k < n_t:  # (its pairs, scipy's order: truth rows ascending; the next pass starts with them)
                 a = int(ends[k - 1]) if k else 0
-                given_r, given_c = linear_sum_assignment(cost[a:int(ends[k])][:, np.flatnonzero(in_range[k])].T)
+                given_r, given_c = linear_sum_assignment(cost[a:int(ends[k])].T)
                 given_r, given_c, n_given = given_r.astype(np.int64), given_c.astype(np.int64), given_r.size
         self._sum.update(zip(("distance", "localization", "missed", "false"), sums.tolist()))
         self.id_switches = int(counters[0])
