@@ -284,6 +284,12 @@ def test_identity_switches_and_time_to_confirm():
     s.add(3.0, [0, 0], ["boat"], [[47, 0]], [9], [[47.1, 0]])
     out = s.summary()
     assert out["id_switches"] == 1 and out["time_to_confirm_s"] == {"boat": 1.0} and out["evaluations"] == 4
+    # position RMSE over the assigned pairs (0.5, 0.2, 0.1 m), whatever GOSPA's order
+    assert out["position_rmse_m"] == pytest.approx(math.sqrt((0.25 + 0.04 + 0.01) / 3), abs=1e-4)
+    cubic = TrackingScore(cutoff_m=5.0, order=3.0)
+    cubic.add(0.0, [0, 0], ["a", "b"], [[0, 0], [20, 0]], [1, 2], [[3, 3.9], [20, 1]])
+    assert cubic.summary()["position_rmse_m"] == pytest.approx(math.sqrt((9 + 3.9 ** 2 + 1) / 2), abs=1e-4)
+    assert TrackingScore().summary()["position_rmse_m"] is None
 
 
 # ------------------------------------------------------------------ a whole run

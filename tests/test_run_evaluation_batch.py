@@ -67,7 +67,7 @@ def _assignment(rows, a, b, truths, fast=True):
 
 def _state(score: TrackingScore):
     return (score._n, dict(score._sum), list(score._sum), score.id_switches, list(score._first_seen.items()),
-            list(score._confirmed_at.items()), dict(score._last_id))
+            list(score._confirmed_at.items()), dict(score._last_id), score._pairs, score._sq)
 
 
 def test_deferred_scoring_matches_scoring_every_tick_on_a_demo_run():

@@ -75,7 +75,7 @@ def least_pairs(cost, a, b, idx, rows_out, cols_out):
 
 @kernel
 def score_ticks(k0, ends, in_range, d, cost, track_ids, static, times, c, p, half, fast, given_rows, given_cols,
-                n_given, sums, last_id, has_last, confirmed_at, confirm_order, counters):
+                n_given, sums, sq, last_id, has_last, confirmed_at, confirm_order, counters):
     """Score the times k0, k0 + 1, … (their tracks are rows ends[k − 1] … ends[k] − 1, ends[−1]
     read as 0) until one needs scipy: returns its index (len(ends) when every time is scored).
     Time k0 takes ``given_rows``/``given_cols`` (``n_given`` pairs: scipy's) when ``n_given`` ≥ 0.
@@ -84,9 +84,10 @@ def score_ticks(k0, ends, in_range, d, cost, track_ids, static, times, c, p, hal
     observable is never missed); ``d``, ``cost`` (R, M); ``track_ids`` (R,); ``static`` (R,): the
     static tracks (never false; optional objects: :mod:`mjasc.evaluation.tracking_metrics`);
     ``fast``: least-cost assignments allowed (every cost finite). State, updated in place:
-    ``sums`` [distance, localization, missed, false], per truth ``last_id`` / ``has_last`` (its
-    last matched track), ``confirmed_at`` (NaN: not yet) and ``confirm_order`` (the order of
-    first confirmations), ``counters`` [identity switches, confirmations so far]."""
+    ``sums`` [distance, localization, missed, false], ``sq`` [Σ squared distance of the assigned
+    pairs, m²], per truth ``last_id`` / ``has_last`` (its last matched track), ``confirmed_at``
+    (NaN: not yet) and ``confirm_order`` (the order of first confirmations), ``counters``
+    [identity switches, confirmations so far, assigned pairs]."""
     n_t, n_m = ends.size, in_range.shape[1]
     idx = np.empty(n_m, dtype=np.int64)
     rows = np.empty(n_m, dtype=np.int64)
@@ -130,6 +131,8 @@ def score_ticks(k0, ends, in_range, d, cost, track_ids, static, times, c, p, hal
                     if not static[r]:
                         n_assigned_moving += 1
                     loc += dr ** p
+                    sq[0] += dr * dr
+                    counters[2] += 1
                     trk = track_ids[r]
                     if in_range[k, m] and confirmed_at[m] != confirmed_at[m]:
                         confirmed_at[m] = t

@@ -27,7 +27,9 @@ track of an object that had just left the range as false, at c^p/2 per evaluatio
 **Identity**: at each evaluation time every truth object is matched to at most one track (the same
 assignment); a truth's track id changing from one matched time to the next is an identity switch.
 **Time to confirm**: from the first time a truth object is within the sensor's range to the first
-time a confirmed track is matched to it.
+time a confirmed track is matched to it while it is.
+**Position RMSE**: the root mean square distance [m] between a truth object and the track assigned
+to it, over every assigned pair of every evaluation (whatever GOSPA's order).
 """
 
 from __future__ import annotations
@@ -150,6 +152,8 @@ class TrackingScore:
     id_switches: int = 0
     _first_seen: dict = field(default_factory=dict)
     _confirmed_at: dict = field(default_factory=dict)
+    _pairs: int = 0  # assigned pairs so far, and the sum of their squared distances [m²]
+    _sq: float = 0.0
 
     def add(self, time_s: float, own_position_m, truth_ids, truth_xy, track_ids, track_xy,
             truth_radii_m=None, track_static=None, own_heading_rad=None) -> GospaTerms:
@@ -161,11 +165,15 @@ class TrackingScore:
                                     truth_radii_m, None if own_heading_rad is None else [own_heading_rad])[0]
         for i in np.flatnonzero(in_range):
             self._first_seen.setdefault(truth_ids[i], float(time_s))
-        terms = gospa(truth_xy, track_xy, self.cutoff_m, self.order, track_static, ~in_range)
+        y = np.asarray(track_xy, dtype=float).reshape(-1, 2)
+        terms = gospa(truth_xy, y, self.cutoff_m, self.order, track_static, ~in_range)
         self._n += 1
         for k in self._sum:
             self._sum[k] += getattr(terms, k)
         for i_truth, j_track in terms.assignment.items():
+            dr = float(np.hypot(truth_xy[i_truth, 0] - y[j_track, 0], truth_xy[i_truth, 1] - y[j_track, 1]))
+            self._pairs += 1
+            self._sq += dr * dr
             tid, trk = truth_ids[i_truth], int(track_ids[j_track])
             if in_range[i_truth]:
                 self._confirmed_at.setdefault(tid, float(time_s))
@@ -246,19 +254,21 @@ class TrackingScore:
         conf = np.array([confirmed_at.get(x, np.nan) for x in names], dtype=float)
         order = np.full(len(names), -1, dtype=np.int64)
         sums = np.array([self._sum["distance"], self._sum["localization"], self._sum["missed"], self._sum["false"]])
-        counters = np.array([self.id_switches, 0], dtype=np.int64)
+        counters = np.array([self.id_switches, 0, self._pairs], dtype=np.int64)
+        sq = np.array([self._sq])
         t_a = np.asarray(times, dtype=float)
         given_r = given_c = np.zeros(0, dtype=np.int64)
         k, n_given = 0, -1
         while k < n_t:
             k = score_ticks(k, ends, in_range, d, cost, ids, static, t_a, c, p, half, fast, given_r, given_c, n_given,
-                            sums, last_a, has_last, conf, order, counters)
+                            sums, sq, last_a, has_last, conf, order, counters)
             if k < n_t:  # (its pairs, scipy's order: truth rows ascending; the next pass starts with them)
                 a = int(ends[k - 1]) if k else 0
                 given_r, given_c = linear_sum_assignment(cost[a:int(ends[k])].T)
                 given_r, given_c, n_given = given_r.astype(np.int64), given_c.astype(np.int64), given_r.size
         self._sum.update(zip(("distance", "localization", "missed", "false"), sums.tolist()))
         self.id_switches = int(counters[0])
+        self._pairs, self._sq = int(counters[2]), float(sq[0])
         for m in np.argsort(order, kind="stable")[int((order < 0).sum()):].tolist():  # in the order first matched
             confirmed_at[names[m]] = float(conf[m])
             last[names[m]] = int(last_a[m])
@@ -292,4 +302,5 @@ class TrackingScore:
                 "gospa_localization_mean": round(self._sum["localization"] / n, 4),
                 "gospa_missed_mean": round(self._sum["missed"] / n, 4),
                 "gospa_false_mean": round(self._sum["false"] / n, 4),
+                "position_rmse_m": round(math.sqrt(self._sq / self._pairs), 4) if self._pairs else None,
                 "evaluations": self._n, "id_switches": self.id_switches, "time_to_confirm_s": confirm}
