@@ -144,7 +144,8 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
             info = execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
                                 max_attempts=max_attempts, time_limit_s=time_limit_s, isolate=isolate,
                                 recordings=recordings, reference=reference, label=campaign.name, plugins=plugins,
-                                hulls=packs, colreg=getattr(campaign, "colreg_request", None))
+                                hulls=packs, colreg=getattr(campaign, "colreg_request", None),
+                                gospa=getattr(campaign, "gospa_request", None))
             info["already_done"] = n_runs * len(labels) - len(todo)
             runs = store.runs()
             defined = store.info().get("runs_defined", campaign.runs_defined)  # (the largest extent asked so far)
@@ -218,7 +219,7 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
                  progress: bool = True, max_attempts: int = 2, time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
                  isolate: bool = True, recordings: bool = False, reference: bool = False,
                  label: str = "campaign", plugins: dict | None = None, hulls: dict | None = None,
-                 colreg: dict | None = None) -> dict:
+                 colreg: dict | None = None, gospa: dict | None = None) -> dict:
     """Execute ``runs`` (:class:`~mjasc.campaigns.spec.RunSpec`) and write each result into ``store``
     as it arrives (module docstring: where they run, retries). ``reference``: follow each run with
     traffic by its run without traffic, for the mission cost (:mod:`mjasc.campaigns.executor`).
@@ -226,7 +227,8 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
     process that the runs' processes import by name (None: not importable, only unisolated here).
     ``hulls``: the vessel folders the runs sail, packed (None: read from the runs now; CampaignError
     when one cannot be read), shipped to the runs' processes.
-    ``colreg``: the campaign's ``[colreg]`` thresholds that differ from the defaults (the runs' judge).
+    ``colreg``: the campaign's ``[colreg]`` thresholds that differ from the defaults (the runs' judge);
+    ``gospa``: its ``[evaluation]`` GOSPA cut-off and order that differ from them (the tracking score).
     Returns how it ran: scheduler, workers, start-up and wall time [s], runs_to_do."""
     if hulls is None:
         hulls = pack_hulls(runs)
@@ -254,10 +256,10 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
         elif in_process:
             info.update(scheduler="synchronous", workers=0, startup_s=0.0)
             _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar, plugins,
-                      info, hulls, colreg)
+                      info, hulls, colreg, gospa)
         else:
             run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
-                        reference, bar, info, plugins, hulls, colreg)
+                        reference, bar, info, plugins, hulls, colreg, gospa)
     finally:
         if bar is not None:
             bar.close()
@@ -269,7 +271,7 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
 
 def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar,
               plugins=None, info: dict | None = None, hulls: dict | None = None,
-              colreg: dict | None = None) -> None:
+              colreg: dict | None = None, gospa: dict | None = None) -> None:
     executor = ((take_prestarted(1) or [IsolatedExecutor()])[0]) if isolate else None
     try:
         if executor is not None:
@@ -281,7 +283,7 @@ def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordi
                 info["startup_s"] = round(time.perf_counter() - t0, 3)
         for run in runs:
             raise_pending()  # (an interrupt that arrived inside a finalizer: mjasc.runs.interrupts)
-            request = request_of(run, out_dir, recordings, reference, plugins, colreg)
+            request = request_of(run, out_dir, recordings, reference, plugins, colreg, gospa)
             if hulls:
                 request = localise({**request, "hulls": hulls})
             while True:

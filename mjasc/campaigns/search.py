@@ -162,6 +162,7 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
             todo = [r for r, _ in batch if r.index not in done]
             execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
                          time_limit_s=time_limit_s, label=family, colreg=getattr(campaign, "colreg_request", None),
+                         gospa=getattr(campaign, "gospa_request", None),
                          hulls=packs, plugins=with_scenario_plugins(None, todo))
             stored = {r.index: r for r in store.runs()}
             scores = []

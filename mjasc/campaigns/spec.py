@@ -10,6 +10,8 @@ scenario (:class:`RunSpec`: its TOML text replays it with ``mjasc run``)::
     recordings = false                    # keep each run's recording.rrd + summary.json
     [evaluation]
     mission_cost = true                   # also run each run with traffic without it: path-length and time cost
+    gospa_cutoff_m = 10.0                 # the tracking score's GOSPA cut-off [m] and order (the defaults)
+    gospa_order = 2.0
     [colreg]                              # optional: the numeric reading of rules 13–14 (mjasc.evaluation.colreg.ColregConfig)
     head_on_bearing_deg = 15.0
 
@@ -116,6 +118,10 @@ class CampaignEvaluation:
                                          "(same seed, no recording) and report each vessel's path-length and time "
                                          "cost against it (mjasc.evaluation.mission_cost); costs up to one more "
                                          "run per run")
+    gospa_cutoff_m: float = param(10.0, positive=True, maximum=1000.0, unit="m",
+                                  doc="GOSPA's cut-off c of the tracking score: a track farther than this from a "
+                                      "truth object is not its estimate (docs/campaigns.md, \"Outputs and metrics\")")
+    gospa_order: float = param(2.0, minimum=1.0, maximum=10.0, doc="GOSPA's order p of the tracking score")
 
     def __post_init__(self):
         check_params(self, "evaluation")
@@ -146,6 +152,15 @@ class CampaignSpec:
         default = ColregConfig()
         changed = {k: getattr(self.colreg, k) for k in default.__dataclass_fields__
                    if getattr(self.colreg, k) != getattr(default, k)}
+        return changed or None
+
+    @property
+    def gospa_request(self) -> dict | None:
+        """The ``[evaluation]`` GOSPA settings that differ from the defaults, for the runs' tracking
+        score (None: c = 10 m, p = 2)."""
+        ev = getattr(self, "evaluation", None) or CampaignEvaluation()
+        default = CampaignEvaluation()
+        changed = {k: getattr(ev, k) for k in ("gospa_cutoff_m", "gospa_order") if getattr(ev, k) != getattr(default, k)}
         return changed or None
 
     @property

@@ -298,7 +298,8 @@ class TrackingScore:
         n = max(self._n, 1)
         confirm = {str(t): (round(self._confirmed_at[t] - t0, 3) if t in self._confirmed_at else None)
                    for t, t0 in self._first_seen.items()}
-        return {"gospa_mean_m": round(self._sum["distance"] / n, 4),
+        return {"gospa_cutoff_m": self.cutoff_m, "gospa_order": self.order,
+                "gospa_mean_m": round(self._sum["distance"] / n, 4),
                 "gospa_localization_mean": round(self._sum["localization"] / n, 4),
                 "gospa_missed_mean": round(self._sum["missed"] / n, 4),
                 "gospa_false_mean": round(self._sum["false"] / n, 4),
