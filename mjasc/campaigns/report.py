@@ -77,7 +77,7 @@ def _file_gospa(text: str) -> dict:
     (the defaults when it does not set them)."""
     import json
 
-    from mjasc.campaigns.spec import CampaignEvaluation
+    from mjasc.campaigns.campaign_tables import CampaignEvaluation
 
     d = CampaignEvaluation()
     try:

@@ -58,19 +58,18 @@ from pathlib import Path
 from typing import Any, Iterator
 
 from mjasc.evaluation.colreg import ColregConfig
+from mjasc.campaigns.campaign_tables import CampaignEvaluation, CampaignOutputs
 from mjasc.campaigns.methods import apply_method, parse_methods
 from mjasc.campaigns.perturbation import CampaignError
 from mjasc.campaigns.perturbation_family import parse_perturbation_family
 from mjasc.campaigns.scenario_text import load_run_scenario, scenario_toml, write_scenario
 from mjasc.core.config_tables import (
     check_keys,
-    check_params,
     dataclass_from_table,
     errors_as,
     integer,
     load_toml,
     number,
-    param,
     show,
     string,
     table,
@@ -98,33 +97,6 @@ class RunSpec:
     def scenario(self):
         """The parsed :class:`~mjasc.runs.scenario.Scenario` (what the engine runs)."""
         return load_run_scenario(self.scenario_toml, f"<run {self.index}>")
-
-
-@dataclass(frozen=True)
-class CampaignOutputs:
-    """What a campaign keeps besides its results (the ``[outputs]`` table)."""
-
-    recordings: bool = param(False, doc="keep each run's recording.rrd and summary.json in runs/<k>/")
-
-    def __post_init__(self):
-        check_params(self, "outputs")
-
-
-@dataclass(frozen=True)
-class CampaignEvaluation:
-    """How a campaign judges its runs beyond their own summary (the ``[evaluation]`` table)."""
-
-    mission_cost: bool = param(True, doc="run each run that has traffic again without its [[moving_obstacles]] "
-                                         "(same seed, no recording) and report each vessel's path-length and time "
-                                         "cost against it (mjasc.evaluation.mission_cost); costs up to one more "
-                                         "run per run")
-    gospa_cutoff_m: float = param(10.0, positive=True, maximum=1000.0, unit="m",
-                                  doc="GOSPA's cut-off c of the tracking score: a track farther than this from a "
-                                      "truth object is not its estimate (docs/campaigns.md, \"Outputs and metrics\")")
-    gospa_order: float = param(2.0, minimum=1.0, maximum=10.0, doc="GOSPA's order p of the tracking score")
-
-    def __post_init__(self):
-        check_params(self, "evaluation")
 
 
 @dataclass(frozen=True)
