@@ -235,10 +235,10 @@ class TrackingScore:
             np.asarray(track_static, dtype=bool).reshape(n_rows)
         if n_rows and n_truth:
             y = np.asarray(track_xy, dtype=float).reshape(n_rows, 2)
-            qt = q[np.repeat(np.arange(n_t), counts)]  # (R, M, 2): the truth at each track's time
-            # (every truth object takes part; those the sensor cannot see are optional: module docstring)
+            tick = np.repeat(np.arange(n_t), counts)  # each track row's time
+            qt = q[tick]  # (R, M, 2): the truth at each track's time
             d = np.hypot(qt[:, :, 0] - y[:, None, 0], qt[:, :, 1] - y[:, None, 1])
-            tick = np.repeat(np.arange(n_t), counts)
+            # (every truth object takes part; those the sensor cannot see are optional: module docstring)
             cost = assignment_costs(d, static[:, None].astype(np.int64) + ~in_range[tick], c, p)
             fast = bool(np.isfinite(cost).all())  # (scipy refuses NaN: it decides every time then)
         else:
