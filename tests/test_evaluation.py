@@ -160,6 +160,122 @@ def test_gospa_closed_forms():
     assert g.distance ** p == pytest.approx(g.localization + g.missed + g.false)
 
 
+def test_gospa_with_optional_objects_closed_forms_and_brute_force():
+    """A static track may stand for a truth object (a boat that stopped) but is never false; a truth
+    object the sensor cannot see may be tracked but is never missed: such a pair is assigned only
+    when d^p + k·c^p/2 < c^p (k optional members); checked against every partial assignment
+    enumerated (orders 1–3, cut-offs 1–10 m)."""
+    import itertools
+
+    c, p = 10.0, 2.0
+    half = c ** p / 2
+    assert gospa([[0, 0]], [[0.1, 0]], c, p, [True]).distance == pytest.approx(0.1)  # a stopped boat, tracked
+    assert gospa([], [[1, 1]], c, p, [True]).distance == 0.0                          # a buoy: not false
+    g = gospa([[0, 0]], [[8, 0]], c, p, [True])  # 64 > 50: leaving both unassigned is cheaper
+    assert g.assignment == {} and g.n_missed == 1 and g.n_false == 0 and g.distance ** p == pytest.approx(half)
+    g = gospa([[0, 0]], [[6, 0], [9, 0]], c, p, [True, False])  # the moving track is nearer the threshold
+    assert g.assignment == {0: 1} and g.n_false == 0 and g.distance ** p == pytest.approx(81)
+    # a track of an object just out of the sensor's range: neither false nor missed, its error counts
+    g = gospa([[0, 0]], [[0.5, 0]], c, p, None, [True])
+    assert g.assignment == {0: 0} and (g.n_missed, g.n_false) == (0, 0) and g.distance == pytest.approx(0.5)
+    assert gospa([[0, 0]], [], c, p, None, [True]).distance == 0.0
+    assert gospa([[0, 0]], [[0.5, 0]], c, p, [True], [True]).assignment == {}  # both optional: nothing to gain
+
+    def brute(x, y, opt, x_opt, c, p):
+        best = math.inf
+        for k in range(min(len(x), len(y)) + 1):
+            for rows in itertools.combinations(range(len(x)), k):
+                for cols in itertools.permutations(range(len(y)), k):
+                    d = [math.dist(x[r], y[q]) for r, q in zip(rows, cols)]
+                    if all(v < c for v in d):
+                        false = sum(1 for q in range(len(y)) if q not in cols and not opt[q])
+                        missed = sum(1 for r in range(len(x)) if r not in rows and not x_opt[r])
+                        best = min(best, sum(v ** p for v in d) + c ** p / 2 * (missed + false))
+        return best ** (1 / p)
+
+    rng = np.random.default_rng(3)
+    for _ in range(400):
+        x, y = rng.uniform(0, 15, (rng.integers(0, 4), 2)), rng.uniform(0, 15, (rng.integers(0, 5), 2))
+        opt, x_opt = rng.random(len(y)) < 0.5, rng.random(len(x)) < 0.3
+        c, p = float(rng.choice([1.0, 5.0, 10.0])), float(rng.choice([1.0, 2.0, 3.0]))
+        g = gospa(x, y, c, p, opt, x_opt)
+        assert g.distance == pytest.approx(brute(x, y, opt, x_opt, c, p), abs=1e-9)
+        assert g.n_missed == sum(1 for r in range(len(x)) if r not in g.assignment and not x_opt[r])
+        assert g.distance ** p == pytest.approx(g.localization + g.missed + g.false)
+        assert g.n_false == sum(1 for q in range(len(y)) if q not in g.assignment.values() and not opt[q])
+
+
+def test_a_stopped_target_tracked_as_static_is_not_missed():
+    """A moving obstacle at rest (speed 0) in range of a vessel: its track is flagged static after
+    ``static_min_age_s`` and must still count as the target's track (it used to be left out of the
+    estimates, the target scored as missed, c²/2 per evaluation, for the rest of the run)."""
+    from mjasc.evaluation.run_evaluation import RunEvaluator
+    from mjasc.runs.runner import Runner
+    from mjasc.runs.scenario import parse_scenario
+
+    doc = {"name": "still_target", "duration_s": 25.0, "seed": 1,
+           "vessels": [{"name": "asc", "type": "delfim", "position_m": [0.0, 0.0], "heading_deg": 90.0,
+                        "controller": {"type": "path_following", "waypoints": [[0.0, 0.0], [0.0, 10.0]],
+                                       "speed_m_s": 0.3},
+                        "sensor": {"max_range_m": 80.0}, "tracking": {}}],
+           "moving_obstacles": [{"name": "still", "radius_m": 1.5, "position_m": [-30.0, 40.0], "speed_m_s": 0.0}]}
+    runner = Runner(parse_scenario(doc), None, progress=False)
+    ev = RunEvaluator(runner)
+    runner.observe("record", ev)
+    runner.run()
+    assert runner.agents[0].perception.tracks()[0].is_static  # the case: flagged static
+    tr = ev.summary()["tracking"]["asc"]
+    assert tr["time_to_confirm_s"]["still"] < 2.0 and tr["id_switches"] == 0
+    # missed only until the track is confirmed (< 2 s of 25 s), never after it is flagged static
+    assert tr["gospa_missed_mean"] < 50.0 * 2.0 / 25.0 and tr["gospa_false_mean"] == 0.0
+    assert tr["gospa_mean_m"] < 1.0
+
+
+def test_a_target_outside_the_field_of_view_is_not_missed():
+    """A 90° sensor looking north: a boat astern within range cannot be seen, so it is neither missed
+    nor waiting to be confirmed (it used to be scored missed, c²/2 at every evaluation); the boat
+    ahead is tracked. A disc straddling the edge of the fan counts (its half-width added)."""
+    from mjasc.evaluation.run_evaluation import RunEvaluator
+    from mjasc.runs.runner import Runner
+    from mjasc.runs.scenario import parse_scenario
+
+    doc = {"name": "fov", "duration_s": 12.0, "seed": 1,
+           "vessels": [{"name": "asc", "type": "delfim", "position_m": [0.0, 0.0], "heading_deg": 90.0,
+                        "controller": {"type": "path_following", "waypoints": [[0.0, 0.0], [0.0, 20.0]],
+                                       "speed_m_s": 0.3},
+                        "sensor": {"max_range_m": 80.0, "fov_deg": 90.0}, "tracking": {}}],
+           "moving_obstacles": [{"name": "ahead", "radius_m": 1.5, "position_m": [10.0, 50.0], "speed_m_s": 0.5},
+                                {"name": "astern", "radius_m": 1.5, "position_m": [0.0, -40.0], "speed_m_s": 0.5}]}
+    runner = Runner(parse_scenario(doc), None, progress=False)
+    ev = RunEvaluator(runner)
+    runner.observe("record", ev)
+    runner.run()
+    tr = ev.summary()["tracking"]["asc"]
+    assert set(tr["time_to_confirm_s"]) == {"ahead"} and tr["time_to_confirm_s"]["ahead"] < 2.0
+    assert tr["gospa_missed_mean"] < 50.0 * 2.0 / 12.0  # the boat ahead until confirmed, never the one astern
+    s = TrackingScore(sensor_range_m=100.0, sensor_fov_rad=math.radians(90.0))
+    s.add(0.0, [0, 0], ["edge", "out"], [[30, 29], [30, 20]], [], np.zeros((0, 2)), [2.0, 2.0], own_heading_rad=NORTH)
+    assert list(s.summary()["time_to_confirm_s"]) == ["edge"]  # 45.9° off the bow, 2 m disc: its edge is in
+    with pytest.raises(ValueError, match="own_heading_rad"):
+        s.add(0.0, [0, 0], ["a"], [[0, 10]], [], np.zeros((0, 2)))
+
+
+def test_a_track_kept_briefly_after_its_target_left_the_range_is_not_false():
+    """A target leaving the sensor's range (100 m) with its track still held, 0.3 m off: the track
+    is neither false nor the target missed (it used to cost c²/2 as a false track); the target's
+    time to confirm counts only while in range."""
+    s = TrackingScore(cutoff_m=10.0, sensor_range_m=100.0)
+    s.add(0.0, [0, 0], ["boat"], [[99, 0]], [3], [[99.2, 0]])
+    s.add(1.0, [0, 0], ["boat"], [[101, 0]], [3], [[101.3, 0]])   # out of range, track kept
+    s.add(2.0, [0, 0], ["boat"], [[103, 0]], [], np.zeros((0, 2)))  # track dropped: nothing missed
+    out = s.summary()
+    assert out["gospa_false_mean"] == 0.0 and out["gospa_missed_mean"] == 0.0
+    assert out["gospa_mean_m"] == pytest.approx((0.2 + 0.3 + 0.0) / 3, abs=1e-4) and out["id_switches"] == 0
+    far = TrackingScore(cutoff_m=10.0, sensor_range_m=100.0)
+    far.add(0.0, [0, 0], ["boat"], [[150, 0]], [4], [[150.1, 0]])  # a shared track of an unseen boat
+    assert far.summary()["time_to_confirm_s"] == {} and far.summary()["gospa_false_mean"] == 0.0
+
+
 def test_identity_switches_and_time_to_confirm():
     s = TrackingScore(cutoff_m=5.0, sensor_range_m=100.0)
     s.add(0.0, [0, 0], ["boat"], [[50, 0]], [], np.zeros((0, 2)))     # in range, not yet tracked
@@ -168,6 +284,12 @@ def test_identity_switches_and_time_to_confirm():
     s.add(3.0, [0, 0], ["boat"], [[47, 0]], [9], [[47.1, 0]])
     out = s.summary()
     assert out["id_switches"] == 1 and out["time_to_confirm_s"] == {"boat": 1.0} and out["evaluations"] == 4
+    # position RMSE over the assigned pairs (0.5, 0.2, 0.1 m), whatever GOSPA's order
+    assert out["position_rmse_m"] == pytest.approx(math.sqrt((0.25 + 0.04 + 0.01) / 3), abs=1e-4)
+    cubic = TrackingScore(cutoff_m=5.0, order=3.0)
+    cubic.add(0.0, [0, 0], ["a", "b"], [[0, 0], [20, 0]], [1, 2], [[3, 3.9], [20, 1]])
+    assert cubic.summary()["position_rmse_m"] == pytest.approx(math.sqrt((9 + 3.9 ** 2 + 1) / 2), abs=1e-4)
+    assert TrackingScore().summary()["position_rmse_m"] is None
 
 
 # ------------------------------------------------------------------ a whole run

@@ -132,9 +132,12 @@ def test_parse_sensor_options():
                        ({"max_range_m": 5.0}, "max_range_m"), ({"fov_deg": 400}, "fov_deg"),
                        ({"dropout_probability": 1.0}, "dropout_probability"), ({"rate_hz": "fast"}, "rate_hz"),
                        ({"clutter_per_scan": -1}, "clutter_per_scan"), ({"min_range_m": 200.0}, "min_range_m"),
-                       ({"range_noise_std_m": True}, "range_noise_std_m")]:
+                       ({"range_noise_std_m": True}, "range_noise_std_m"),
+                       ({"beams": 360, "clutter_per_scan": 361.0}, "clutter_per_scan"),
+                       ({"clutter_per_scan": 1e7}, "clutter_per_scan")]:  # (hung: each false return drawn alone)
         with pytest.raises(ValueError, match=rf"^vessels\[2\]\.sensor\.{key}:"):
             parse_sensor_options(table, w)
+    assert parse_sensor_options({"beams": 360, "clutter_per_scan": 360.0}, w).clutter_per_scan == 360.0
 
 
 @pytest.mark.parametrize("clutter", [0.5, 3.0, 12.0])

@@ -25,7 +25,7 @@ class _PerTick:
                        for i, a in enumerate(runner.agents) if a.perception is not None}
         self.tp, self.th, self.tv = [], [], []
         self.moving_same = True
-        self.fleet_rows = []  # per tick: FleetTracker.moving_rows (vessels, ids, positions)
+        self.fleet_rows = []  # per tick: FleetTracker.confirmed_rows (vessels, ids, positions, static flags)
 
     def __call__(self, event):
         s, runner = event.states, event.runner
@@ -34,16 +34,18 @@ class _PerTick:
         self.th.append(np.array(th, dtype=float).reshape(-1))
         self.tv.append(np.array(tv, dtype=float).reshape(-1, 2))
         xy = np.vstack([s.position_m, self.tp[-1]])
-        self.fleet_rows.append(runner.agents[0].perception.tracker.fleet.moving_rows())
+        self.fleet_rows.append(runner.agents[0].perception.tracker.fleet.confirmed_rows())
         for i, score in self.scores.items():
             perception = runner.agents[i].perception
-            tracks = [tr for tr in perception.tracks() if not tr.is_static]
+            tracks = perception.tracks()
             ids, pos = [tr.track_id for tr in tracks], np.array([tr.position_m for tr in tracks]).reshape(-1, 2)
-            got_ids, got_pos = perception.moving_tracks()
-            self.moving_same &= got_ids.tolist() == ids and np.array_equal(got_pos, pos)
+            static = [tr.is_static for tr in tracks]
+            got_ids, got_pos, got_static = perception.scored_tracks()
+            self.moving_same &= got_ids.tolist() == ids and np.array_equal(got_pos, pos) and \
+                got_static.tolist() == static
             others = [k for k in range(len(self.ids)) if k != i]
             score.add(s.time_s, s.position_m[i], [self.ids[k] for k in others], xy[others], ids, pos,
-                      self.radii[others])
+                      self.radii[others], static)
 
 
 def _assignment(rows, a, b, truths, fast=True):
@@ -65,7 +67,7 @@ def _assignment(rows, a, b, truths, fast=True):
 
 def _state(score: TrackingScore):
     return (score._n, dict(score._sum), list(score._sum), score.id_switches, list(score._first_seen.items()),
-            list(score._confirmed_at.items()), dict(score._last_id))
+            list(score._confirmed_at.items()), dict(score._last_id), score._pairs, score._sq)
 
 
 def test_deferred_scoring_matches_scoring_every_tick_on_a_demo_run():
@@ -90,10 +92,10 @@ def test_deferred_scoring_matches_scoring_every_tick_on_a_demo_run():
     # the run exercises what matters: several truths and tracks at once, identity switches
     assert sum(s.id_switches for s in ref.scores.values()) > 0
     assert ev.summary() == out  # scoring again adds nothing
-    # the evaluator's samples of the moving tracks: the fleet's moving_rows at each tick
-    tick, owner, ids, xy = ev._moving.rows(0, len(ref.fleet_rows))
+    # the evaluator's samples of the confirmed tracks: the fleet's confirmed_rows at each tick
+    tick, owner, ids, xy, static = ev._moving.rows(0, len(ref.fleet_rows))
     assert np.array_equal(tick, np.repeat(np.arange(len(ref.fleet_rows)), [m[0].size for m in ref.fleet_rows]))
-    for got, k in zip((owner, ids, xy), range(3)):
+    for got, k in zip((owner, ids, xy, static), range(4)):
         want = np.concatenate([m[k] for m in ref.fleet_rows])
         assert got.dtype == want.dtype and got.tobytes() == want.tobytes()
     # the traffic kept as the simulation's rows: the arrays of traffic_state(), bit for bit
@@ -124,6 +126,13 @@ def test_add_run_equals_add_per_time_on_synthetic_ties_and_gaps():
         a.add(float(k) * 0.1, own[k], truth_ids, truth[k], tracks_ids[k], tracks_xy[k], radii)
     b.add_run([float(k) * 0.1 for k in range(n_t)], own, truth_ids, truth, tracks_ids, tracks_xy, radii)
     assert _state(a) == _state(b) and a.id_switches > 0
+    # with static tracks (optional estimates: never false) the same, and other sums
+    static = [rng.random(len(ids)) < 0.4 for ids in tracks_ids]
+    a2, b2 = TrackingScore(8.0, 2.0, 60.0), TrackingScore(8.0, 2.0, 60.0)
+    for k in range(n_t):
+        a2.add(float(k) * 0.1, own[k], truth_ids, truth[k], tracks_ids[k], tracks_xy[k], radii, static[k])
+    b2.add_run([float(k) * 0.1 for k in range(n_t)], own, truth_ids, truth, tracks_ids, tracks_xy, radii, static)
+    assert _state(a2) == _state(b2) and a2._sum["false"] < a._sum["false"]
 
 
 def test_one_truth_or_one_track_is_assigned_as_scipy_assigns_it():

@@ -112,3 +112,31 @@ def test_sigkill_of_the_writer_loses_no_finished_run(tmp_path):
     assert idx == list(range(len(idx)))          # no gap, no duplicate
     assert len(idx) >= acknowledged + 1          # every acknowledged write is there
     assert all(r.metrics == {"k": r.index} for r in runs)
+
+
+def test_the_report_has_a_tracking_table_when_runs_were_scored(tmp_path):
+    """report.md shows each family's mean GOSPA per run (median / p95 / max) and identity switches,
+    with and without compared methods; a campaign whose runs have no tracking score shows none."""
+    from mjasc.campaigns.report import format_report, report_data
+
+    def scored(gospa, switches):
+        return {"any_collision": False, "vessels": {"own": {"min_clearance_to_any_m": 3.0}},
+                "evaluation": {"encounters": [], "tracking": {"own": {"gospa_mean_m": gospa, "id_switches": switches,
+                                                                      "position_rmse_m": gospa / 10}}}}
+
+    with CampaignStore(tmp_path / "a", "abc", name="c", runs_defined=3) as s:
+        for k, (g, n) in enumerate([(0.5, 0), (1.5, 2), (1.0, 1)]):
+            s.record(k, family="head_on", parameters={}, seed=k, scenario="", status="completed", metrics=scored(g, n))
+    md = format_report(report_data(tmp_path / "a"))
+    assert "| family | runs scored | mean GOSPA per run [m] | position RMSE per run [m] | identity switches |" in md
+    assert "| head_on | 3 | 1.000 / 1.450 / 1.500 | 0.100 / 0.145 / 0.150 | 3 |" in md
+    with CampaignStore(tmp_path / "b", "abc", name="c", runs_defined=1) as s:
+        for m, g in (("imm", 0.25), ("nn_cv", 0.5)):
+            s.record(0, method=m, family="f", parameters={}, seed=0, scenario="", status="completed",
+                     metrics=scored(g, 1))
+    md = format_report(report_data(tmp_path / "b"))
+    assert "| f | imm | 1 | 0.250 / 0.250 / 0.250 | 0.025 / 0.025 / 0.025 | 1 |" in md
+    assert "| f | nn_cv | 1 | 0.500 / 0.500 / 0.500 | 0.050 / 0.050 / 0.050 | 1 |" in md
+    with CampaignStore(tmp_path / "c", "abc", name="c", runs_defined=1) as s:
+        _put(s, 0)
+    assert "mean GOSPA" not in format_report(report_data(tmp_path / "c"))

@@ -45,7 +45,7 @@ def run_task(request: dict, time_limit_s: float | None, isolate: bool, threaded:
 
 
 def run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
-                reference, bar, info, plugins=None, hulls=None, colreg=None) -> None:
+                reference, bar, info, plugins=None, hulls=None, colreg=None, gospa=None) -> None:
     """Execute ``runs`` on Dask (module docstring), storing each result in ``store`` as it arrives;
     ``info`` gets the scheduler, its address, the workers and the start-up time."""
     from concurrent.futures import CancelledError
@@ -123,7 +123,7 @@ def run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_lim
 
         def submit(run) -> None:
             method = f"-{run.method}" if getattr(run, "method", "") else ""
-            request = request_of(run, out_dir, recordings, reference, plugins, colreg)
+            request = request_of(run, out_dir, recordings, reference, plugins, colreg, gospa)
             fut = client.submit(run_task, request, time_limit_s, isolate, threaded, hulls or None, pure=False,
                                 key=f"mjasc-run-{tag}-{run.index}{method}-{attempts.get(key(run), 0)}")
             pending[fut] = run

@@ -95,9 +95,10 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
     worker itself: no protection from crashes or hangs). limit: only runs 0 … limit − 1 (with
     ``methods``: each with every method).
 
-    A compared method registered only in this process (:func:`mjasc.plugins.register`) reaches the
-    runs' processes by its import path; one that has none is a ValueError unless the runs execute
-    here unisolated (:mod:`mjasc.campaigns.methods`).
+    A method registered only in this process (:func:`mjasc.plugins.register`) that the campaign
+    compares, or that a run's scenario selects in any stage, reaches the runs' processes by its
+    import path; one that has none is a ValueError unless the runs execute here unisolated
+    (:mod:`mjasc.campaigns.methods`).
     """
     if workers is not None:
         workers = integer(workers, "workers", minimum=0)
@@ -125,6 +126,7 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
         # The runs to do are drawn before anything is written: a campaign whose draws fail (a grid
         # point no draw can make: CampaignError) leaves the folder as it was.
         todo = _runs_to_do(campaign, out_dir, labels, n_runs, max_attempts)
+        plugins = with_scenario_plugins(plugins, todo)
         packs = pack_hulls(todo)  # (the own hulls read once, before anything is written: shipped to the workers)
         hulls = family_hulls(campaign, packs) if hasattr(campaign, "families") else None  # (for the report)
         if made:
@@ -142,7 +144,8 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
             info = execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
                                 max_attempts=max_attempts, time_limit_s=time_limit_s, isolate=isolate,
                                 recordings=recordings, reference=reference, label=campaign.name, plugins=plugins,
-                                hulls=packs, colreg=getattr(campaign, "colreg_request", None))
+                                hulls=packs, colreg=getattr(campaign, "colreg_request", None),
+                                gospa=getattr(campaign, "gospa_request", None))
             info["already_done"] = n_runs * len(labels) - len(todo)
             runs = store.runs()
             defined = store.info().get("runs_defined", campaign.runs_defined)  # (the largest extent asked so far)
@@ -186,6 +189,21 @@ def _remove_store(out_dir: Path, made: bool) -> None:
             pass
 
 
+def with_scenario_plugins(plugins: dict | None, runs: list) -> dict | None:
+    """``plugins`` (the compared avoidance methods' sources, or None) with every method registered in
+    this process that the runs' scenarios select in any stage (a tracking method in
+    ``[vessels.tracking]``, …): the runs' processes import them by name as well."""
+    from mjasc.campaigns.methods import scenario_plugins
+
+    used = scenario_plugins(r.scenario_toml for r in runs)
+    if not used:
+        return plugins
+    out = {stage: dict(sources) for stage, sources in (plugins or {}).items()}
+    for stage, sources in used.items():
+        out.setdefault(stage, {}).update(sources)
+    return out
+
+
 def _runs_to_do(campaign, out_dir: Path, labels: tuple, n_runs: int, max_attempts: int) -> list:
     """The runs of ``campaign`` (0 … n_runs − 1, each with every method label) without a result in
     ``out_dir``'s store."""
@@ -201,7 +219,7 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
                  progress: bool = True, max_attempts: int = 2, time_limit_s: float | None = DEFAULT_TIME_LIMIT_S,
                  isolate: bool = True, recordings: bool = False, reference: bool = False,
                  label: str = "campaign", plugins: dict | None = None, hulls: dict | None = None,
-                 colreg: dict | None = None) -> dict:
+                 colreg: dict | None = None, gospa: dict | None = None) -> dict:
     """Execute ``runs`` (:class:`~mjasc.campaigns.spec.RunSpec`) and write each result into ``store``
     as it arrives (module docstring: where they run, retries). ``reference``: follow each run with
     traffic by its run without traffic, for the mission cost (:mod:`mjasc.campaigns.executor`).
@@ -209,7 +227,8 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
     process that the runs' processes import by name (None: not importable, only unisolated here).
     ``hulls``: the vessel folders the runs sail, packed (None: read from the runs now; CampaignError
     when one cannot be read), shipped to the runs' processes.
-    ``colreg``: the campaign's ``[colreg]`` thresholds that differ from the defaults (the runs' judge).
+    ``colreg``: the campaign's ``[colreg]`` thresholds that differ from the defaults (the runs' judge);
+    ``gospa``: its ``[evaluation]`` GOSPA cut-off and order that differ from them (the tracking score).
     Returns how it ran: scheduler, workers, start-up and wall time [s], runs_to_do."""
     if hulls is None:
         hulls = pack_hulls(runs)
@@ -218,8 +237,8 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
     if plugins and runs:
         from mjasc.campaigns.methods import check_plugins_reach
 
-        for sources in plugins.values():
-            check_plugins_reach(sources, in_this_process=in_process and not isolate)
+        for stage, sources in plugins.items():
+            check_plugins_reach(sources, in_this_process=in_process and not isolate, stage=stage)
         plugins = {stage: {n: p for n, p in sources.items() if p} for stage, sources in plugins.items()}
         plugins = {stage: sources for stage, sources in plugins.items() if sources} or None
     info: dict[str, Any] = {"runs_to_do": len(runs)}
@@ -237,10 +256,10 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
         elif in_process:
             info.update(scheduler="synchronous", workers=0, startup_s=0.0)
             _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar, plugins,
-                      info, hulls, colreg)
+                      info, hulls, colreg, gospa)
         else:
             run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_limit_s, isolate, recordings,
-                        reference, bar, info, plugins, hulls, colreg)
+                        reference, bar, info, plugins, hulls, colreg, gospa)
     finally:
         if bar is not None:
             bar.close()
@@ -252,7 +271,7 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
 
 def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordings, reference, bar,
               plugins=None, info: dict | None = None, hulls: dict | None = None,
-              colreg: dict | None = None) -> None:
+              colreg: dict | None = None, gospa: dict | None = None) -> None:
     executor = ((take_prestarted(1) or [IsolatedExecutor()])[0]) if isolate else None
     try:
         if executor is not None:
@@ -264,7 +283,7 @@ def _run_here(runs, store, out_dir, max_attempts, time_limit_s, isolate, recordi
                 info["startup_s"] = round(time.perf_counter() - t0, 3)
         for run in runs:
             raise_pending()  # (an interrupt that arrived inside a finalizer: mjasc.runs.interrupts)
-            request = request_of(run, out_dir, recordings, reference, plugins, colreg)
+            request = request_of(run, out_dir, recordings, reference, plugins, colreg, gospa)
             if hulls:
                 request = localise({**request, "hulls": hulls})
             while True:

@@ -18,8 +18,9 @@ written, as before (same runs, same digest).
 
 **Where a method is found.** Runs execute in child processes (:mod:`mjasc.campaigns.executor`) and on
 Dask workers, which know the built-in methods and the installed packages' entry points
-(``mjasc.avoidance``). A method registered in code (:func:`mjasc.plugins.register`) is carried to
-them by its import path (``module:QualifiedName``, imported and registered there before the run),
+(``mjasc.<stage>``). A method registered in code (:func:`mjasc.plugins.register`) that the campaign
+compares, or that a run's scenario selects in any stage (:func:`scenario_plugins`: a tracking method
+in ``[vessels.tracking]``, …), is carried to them by its import path (``module:QualifiedName``, imported and registered there before the run),
 which works for a class defined at the top level of an importable module. A class that cannot be
 imported by name (defined in ``__main__``, in a function) runs only in this process, unisolated
 (``run_campaign(…, workers=0, isolate=False)``); anything else is a one-line error before any run
@@ -39,7 +40,8 @@ from typing import Any
 
 from mjasc.core.config_tables import ConfigError, show, string, table
 
-__all__ = ["MethodEntry", "parse_methods", "apply_method", "plugin_sources", "register_plugins", "check_plugins_reach"]
+__all__ = ["MethodEntry", "parse_methods", "apply_method", "plugin_sources", "scenario_plugins", "register_plugins",
+           "check_plugins_reach"]
 
 STAGE = "avoidance"
 _LABEL = re.compile(r"^[A-Za-z0-9_.-]{1,64}$")
@@ -146,19 +148,19 @@ def _importable(cls: type) -> str | None:
     return f"{mod}:{qual}" if obj is cls else None
 
 
-def plugin_sources(names) -> dict[str, str | None]:
-    """For each avoidance method name that child processes would not find by themselves (neither
+def plugin_sources(names, stage: str = STAGE) -> dict[str, str | None]:
+    """For each ``stage`` method name that child processes would not find by themselves (neither
     built in nor an installed entry point: registered in this process), its import path, or None
     when its class cannot be imported by name."""
     from mjasc.plugins import method_class
     from mjasc.plugins.registry import BUILTIN, entry_point_group
 
-    eps = {ep.name: ep for ep in metadata.entry_points(group=entry_point_group(STAGE))}
+    eps = {ep.name: ep for ep in metadata.entry_points(group=entry_point_group(stage))}
     out: dict[str, str | None] = {}
     for name in dict.fromkeys(names):
-        cls = method_class(STAGE, name)
-        if name in BUILTIN[STAGE]:
-            mod, attr = BUILTIN[STAGE][name].split(":")
+        cls = method_class(stage, name)
+        if name in BUILTIN[stage]:
+            mod, attr = BUILTIN[stage][name].split(":")
             if getattr(importlib.import_module(mod), attr) is cls:
                 continue
         elif name in eps and name not in out:
@@ -171,18 +173,49 @@ def plugin_sources(names) -> dict[str, str | None]:
     return out
 
 
-def check_plugins_reach(sources: dict[str, str | None], in_this_process: bool) -> None:
-    """ValueError (one line) when a method registered only in this process, not importable by
-    name, would have to run in a child process or on a Dask worker."""
+#: Where a scenario's vessel names each stage's method: stage → (table, key).
+_METHOD_KEYS = {"avoidance": ("avoidance", "method"), "tracking": ("tracking", "method"),
+                "control": ("controller", "type"), "coordination": ("comms", "method")}
+
+
+def scenario_plugins(texts) -> dict[str, dict[str, str | None]]:
+    """The methods registered in this process (:func:`mjasc.plugins.register`) that the scenario
+    texts ``texts`` (TOML) select in a vessel's table, any stage: ``{stage: {name: import path or
+    None}}`` (:func:`plugin_sources`); empty when nothing is registered in code (no text is read)."""
+    import tomllib
+
+    from mjasc.plugins.registry import registered_in_code
+
+    wanted = {stage: set(registered_in_code(stage)) for stage in _METHOD_KEYS}
+    if not any(wanted.values()):
+        return {}
+    used: dict[str, set] = {stage: set() for stage in _METHOD_KEYS}
+    for text in dict.fromkeys(texts):
+        try:
+            vessels = tomllib.loads(text).get("vessels") or []
+        except (tomllib.TOMLDecodeError, AttributeError):
+            continue  # (the run's own parse names the problem)
+        for v in vessels if isinstance(vessels, list) else []:
+            for stage, (key, name_key) in _METHOD_KEYS.items():
+                tbl = v.get(key) if isinstance(v, dict) else None
+                name = tbl.get(name_key) if isinstance(tbl, dict) else None
+                if isinstance(name, str) and name in wanted[stage]:
+                    used[stage].add(name)
+    return {stage: plugin_sources(sorted(names), stage) for stage, names in used.items() if names}
+
+
+def check_plugins_reach(sources: dict[str, str | None], in_this_process: bool, stage: str = STAGE) -> None:
+    """ValueError (one line) when a ``stage`` method registered only in this process, not importable
+    by name, would have to run in a child process or on a Dask worker."""
     local = [n for n, path in sources.items() if path is None]
     if local and not in_this_process:
         from mjasc.plugins import method_class
 
-        cls = method_class(STAGE, local[0])
-        raise ValueError(f"avoidance method {local[0]!r} is registered only in this process and its class "
+        cls = method_class(stage, local[0])
+        raise ValueError(f"{stage} method {local[0]!r} is registered only in this process and its class "
                          f"{cls.__module__}.{cls.__qualname__} cannot be imported by name, so the runs' child "
                          f"processes and Dask workers cannot find it: define it at the top level of an importable "
-                         f"module, install it as an entry point (group 'mjasc.avoidance'), or run the campaign in "
+                         f"module, install it as an entry point (group 'mjasc.{stage}'), or run the campaign in "
                          f"this process with workers=0, isolate=False")
 
 

@@ -57,17 +57,41 @@ def report_data(folder: str | Path) -> dict:
     with CampaignStore.open_existing(folder) as store:
         info = store.info()
         runs = store.runs()
-        order = _file_methods(store.file_text())
+        text = store.file_text()
+        order = _file_methods(text)
     agg = aggregate(runs, info.get("runs_defined"), methods=order)
     outcomes = dict(agg["statuses"])
     outcomes["collision"] = agg["collision"]["count"]
     outcomes["near_miss"] = agg["near_miss"]["count"]
     stored = info.get("hulls")
     hulls = {f: stored.get(f) if stored is not None else None for f in agg["families"]}
-    return {"campaign": {k: info.get(k) for k in ("name", "digest", "source", "campaigns_in_store")},
+    return {"campaign": {**{k: info.get(k) for k in ("name", "digest", "source", "campaigns_in_store")},
+                         "gospa": _file_gospa(text)},
             "hulls": hulls, "runs_defined": agg["runs_defined"], "runs_recorded": agg["runs_recorded"],
             "runs_failed": agg["runs_failed"], "outcomes": outcomes, **{k: v for k, v in agg.items() if k not in (
                 "runs_defined", "runs_recorded", "runs_failed")}}
+
+
+def _file_gospa(text: str) -> dict:
+    """The tracking score's GOSPA cut-off [m] and order, from the stored file's ``[evaluation]``
+    (the defaults when it does not set them)."""
+    import json
+
+    from mjasc.campaigns.campaign_tables import CampaignEvaluation
+
+    d = CampaignEvaluation()
+    try:
+        ev = json.loads(text).get("evaluation") or {}
+    except (ValueError, AttributeError):
+        ev = {}
+    ev = ev if isinstance(ev, dict) else {}
+    return {"cutoff_m": float(ev.get("gospa_cutoff_m", d.gospa_cutoff_m)), "order": float(ev.get("gospa_order", d.gospa_order))}
+
+
+def gospa_label(data: dict) -> str:
+    """``c = 10 m, p = 2`` for the campaign of ``data`` (:func:`report_data`)."""
+    g = (data.get("campaign") or {}).get("gospa") or {"cutoff_m": 10.0, "order": 2.0}
+    return f"c = {g['cutoff_m']:g} m, p = {g['order']:g}"
 
 
 def _file_methods(text: str) -> list[str]:
@@ -142,7 +166,34 @@ def format_report(data: dict) -> str:
                 runs = m["completed"]["n"]
                 lines.append(f"| {fam} | {_pct(m['completed'])} | {_q3(m['arrival_spread_s'], runs)} | "
                              f"{_q3(m['arrival_position_error_m'], runs)} |")
+    lines += _tracking_lines([(fam, None, g) for fam, g in list(data["families"].items()) + [("**all**", data)]],
+                             gospa_label(data))
     return "\n".join(lines) + "\n"
+
+
+def _tracking_lines(rows, label: str) -> list[str]:
+    """The tracking table — per (family, method or None, statistics): the runs' mean GOSPA and
+    position RMSE (median / p95 / max over the runs) and the identity switches — or nothing when no
+    run was scored (no vessel with perception)."""
+    rows = [r for r in rows if r[2].get("gospa_mean_m")]
+    if not rows:
+        return []
+    with_m = any(m is not None for _, m, _ in rows)
+    head = "| family | method | runs scored " if with_m else "| family | runs scored "
+    lines = ["", f"Tracking against the truth (each run's mean GOSPA over its vessels and record ticks, {label}, "
+                 "and its position RMSE over the assigned pairs: median / p95 / max over the runs; "
+                 "identity switches summed; docs/campaigns.md, \"Outputs and metrics\"):", "",
+             head + "| mean GOSPA per run [m] | position RMSE per run [m] | identity switches |",
+             "|---|---|---:|---|---|---:|" if with_m else "|---|---:|---|---|---:|"]
+
+    def three(q):
+        return "—" if not q else f"{q['p50']:.3f} / {q['p95']:.3f} / {q['p100']:.3f}"
+
+    for fam, m, g in rows:
+        q = g["gospa_mean_m"]
+        lines.append(f"| {fam} | " + (f"{m} | " if with_m else "") + f"{q['n']} | {three(q)} | "
+                     f"{three(g.get('position_rmse_m'))} | {g['id_switches']} |")
+    return lines
 
 
 def _q3(q: dict | None, runs: int | None = None) -> str:
@@ -215,6 +266,7 @@ def _format_comparison(data: dict) -> str:
             lines.append(f"| {'**all**' if fam == 'all' else fam} | {cnt['pairs']} | {cnt['collision_only_' + base]} | "
                          f"{cnt['collision_only_' + m]} | {cnt['collision_both']} | {cnt['separation_larger']} | "
                          f"{cnt['separation_smaller']} |")
+    lines += _tracking_lines(list(_comparison_rows(data)), gospa_label(data))
     return "\n".join(lines) + "\n"
 
 
@@ -317,7 +369,7 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
         fig, ax = plt.subplots(figsize=(max(5, 1.4 * len(fams) + 2), 4))
         ax.boxplot([[v for v in g if v is not None] or [np.nan] for g in gospa])
         ax.set_xticks(np.arange(1, len(fams) + 1), ticks, rotation=20, ha="right")
-        ax.set_ylabel("mean GOSPA per run [m] (c = 10 m, p = 2)")
+        ax.set_ylabel(f"mean GOSPA per run [m] ({gospa_label(data)})")
         ax.set_title("Tracking accuracy against the truth")
         fig.tight_layout()
         files += save(fig, out, "tracking", formats)

@@ -205,7 +205,9 @@ def comparison_figures(plt, data: dict, runs, out: Path, formats) -> list[Path]:
     if any(v is not None for g in gospa.values() for vals in g for v in vals):
         fig, ax = plt.subplots(figsize=(max(6, 1.8 * len(fams) + 2), 4.2))
         _grouped_boxes(ax, ticks, gospa)
-        ax.set_ylabel("mean GOSPA per run [m] (c = 10 m, p = 2)")
+        from mjasc.campaigns.report import gospa_label
+
+        ax.set_ylabel(f"mean GOSPA per run [m] ({gospa_label(data)})")
         ax.set_title("Tracking accuracy against the truth, per method")
         ax.legend(title="method")
         fig.tight_layout()

@@ -5,7 +5,8 @@ optionally ``"plugins"`` (``{stage: {name: "module:QualifiedName"}}``: methods r
 driver's process, imported and registered here before the run; :mod:`mjasc.campaigns.methods`),
 ``"hulls"`` / ``"vessel_paths"`` (shipped own hulls: :mod:`mjasc.campaigns.hull_shipping`) and
 ``"colreg"`` (the campaign's ``[colreg]`` thresholds that differ from the defaults: the evaluation's
-COLREG roles and compliance use them); the result
+COLREG roles and compliance use them) and ``"gospa"`` (its ``[evaluation]`` GOSPA cut-off and order
+that differ from the defaults: the tracking score's); the result
 ``{"status": completed | diverged | error | timeout | crashed, "error", "summary", "wall_time_s",
 "cpu_time_s", "worker"}``. :func:`execute_in_process` runs one request here: the code path of a run child
 (:mod:`mjasc.campaigns.executor`, :mod:`mjasc.campaigns.forked`), and what ``workers = 0`` uses when
@@ -55,11 +56,12 @@ def execute_in_process(request: dict) -> dict:
             from mjasc.evaluation.run_evaluation import RunEvaluator
 
             config = None
-            if request.get("colreg"):  # (the campaign's [colreg] thresholds; absent: the defaults)
+            if request.get("colreg") or request.get("gospa"):  # (the campaign's settings; absent: the defaults)
                 from mjasc.evaluation.colreg import ColregConfig
                 from mjasc.evaluation.run_evaluation import EvaluationConfig
 
-                config = EvaluationConfig(colreg=ColregConfig(**request["colreg"]))
+                config = EvaluationConfig(colreg=ColregConfig(**(request.get("colreg") or {})),
+                                          **(request.get("gospa") or {}))
             evaluator = RunEvaluator(runner, config)
             runner.observe("record", evaluator)
         try:
@@ -130,10 +132,10 @@ def plain(obj):
 
 
 def request_of(run, out_dir: Path, recordings: bool, reference: bool, plugins: dict | None = None,
-               colreg: dict | None = None) -> dict:
+               colreg: dict | None = None, gospa: dict | None = None) -> dict:
     """The request (module docstring) of ``run`` (:class:`~mjasc.campaigns.spec.RunSpec`): its files in
     ``out_dir``/runs/[<method>/]<index>/ with ``recordings``, else none; the mission-cost reference with
-    ``reference``; ``plugins`` and ``colreg`` when given."""
+    ``reference``; ``plugins``, ``colreg`` and ``gospa`` when given."""
     method = getattr(run, "method", "")
     run_dir = str(out_dir / "runs" / method / str(run.index) if method else out_dir / "runs" / str(run.index)) \
         if recordings else None
@@ -143,4 +145,6 @@ def request_of(run, out_dir: Path, recordings: bool, reference: bool, plugins: d
         request["plugins"] = plugins
     if colreg:
         request["colreg"] = colreg
+    if gospa:
+        request["gospa"] = gospa
     return request

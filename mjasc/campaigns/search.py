@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from mjasc.campaigns.engine import execute_runs
+from mjasc.campaigns.engine import with_scenario_plugins, execute_runs
 from mjasc.campaigns.hull_records import family_hulls
 from mjasc.campaigns.hull_shipping import pack_hulls
 from mjasc.campaigns.scenario_text import scenario_toml, write_scenario
@@ -159,9 +159,11 @@ def search_failures(campaign, family: str, out_dir: str | Path, config: SearchCo
             done = store.done(2)
             if packs is None:  # (the family's own hulls read once for the whole search, not with each batch)
                 packs = pack_hulls([r for r, _ in batch])
-            execute_runs([r for r, _ in batch if r.index not in done], store, out_dir, scheduler=scheduler,
-                         workers=workers, progress=progress, time_limit_s=time_limit_s, label=family,
-                         colreg=getattr(campaign, "colreg_request", None), hulls=packs)
+            todo = [r for r, _ in batch if r.index not in done]
+            execute_runs(todo, store, out_dir, scheduler=scheduler, workers=workers, progress=progress,
+                         time_limit_s=time_limit_s, label=family, colreg=getattr(campaign, "colreg_request", None),
+                         gospa=getattr(campaign, "gospa_request", None),
+                         hulls=packs, plugins=with_scenario_plugins(None, todo))
             stored = {r.index: r for r in store.runs()}
             scores = []
             for run, u in batch:

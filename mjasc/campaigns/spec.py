@@ -10,6 +10,8 @@ scenario (:class:`RunSpec`: its TOML text replays it with ``mjasc run``)::
     recordings = false                    # keep each run's recording.rrd + summary.json
     [evaluation]
     mission_cost = true                   # also run each run with traffic without it: path-length and time cost
+    gospa_cutoff_m = 10.0                 # the tracking score's GOSPA cut-off [m] and order (the defaults)
+    gospa_order = 2.0
     [colreg]                              # optional: the numeric reading of rules 13–14 (mjasc.evaluation.colreg.ColregConfig)
     head_on_bearing_deg = 15.0
 
@@ -56,19 +58,18 @@ from pathlib import Path
 from typing import Any, Iterator
 
 from mjasc.evaluation.colreg import ColregConfig
+from mjasc.campaigns.campaign_tables import CampaignEvaluation, CampaignOutputs
 from mjasc.campaigns.methods import apply_method, parse_methods
 from mjasc.campaigns.perturbation import CampaignError
 from mjasc.campaigns.perturbation_family import parse_perturbation_family
 from mjasc.campaigns.scenario_text import load_run_scenario, scenario_toml, write_scenario
 from mjasc.core.config_tables import (
     check_keys,
-    check_params,
     dataclass_from_table,
     errors_as,
     integer,
     load_toml,
     number,
-    param,
     show,
     string,
     table,
@@ -99,29 +100,6 @@ class RunSpec:
 
 
 @dataclass(frozen=True)
-class CampaignOutputs:
-    """What a campaign keeps besides its results (the ``[outputs]`` table)."""
-
-    recordings: bool = param(False, doc="keep each run's recording.rrd and summary.json in runs/<k>/")
-
-    def __post_init__(self):
-        check_params(self, "outputs")
-
-
-@dataclass(frozen=True)
-class CampaignEvaluation:
-    """How a campaign judges its runs beyond their own summary (the ``[evaluation]`` table)."""
-
-    mission_cost: bool = param(True, doc="run each run that has traffic again without its [[moving_obstacles]] "
-                                         "(same seed, no recording) and report each vessel's path-length and time "
-                                         "cost against it (mjasc.evaluation.mission_cost); costs up to one more "
-                                         "run per run")
-
-    def __post_init__(self):
-        check_params(self, "evaluation")
-
-
-@dataclass(frozen=True)
 class CampaignSpec:
     name: str
     description: str
@@ -146,6 +124,15 @@ class CampaignSpec:
         default = ColregConfig()
         changed = {k: getattr(self.colreg, k) for k in default.__dataclass_fields__
                    if getattr(self.colreg, k) != getattr(default, k)}
+        return changed or None
+
+    @property
+    def gospa_request(self) -> dict | None:
+        """The ``[evaluation]`` GOSPA settings that differ from the defaults, for the runs' tracking
+        score (None: c = 10 m, p = 2)."""
+        ev = getattr(self, "evaluation", None) or CampaignEvaluation()
+        default = CampaignEvaluation()
+        changed = {k: getattr(ev, k) for k in ("gospa_cutoff_m", "gospa_order") if getattr(ev, k) != getattr(default, k)}
         return changed or None
 
     @property

@@ -119,12 +119,19 @@ def run_outcome(summary: dict | None, near_miss_m: float = 1.0) -> dict:
         "roles": dict(Counter(e.get("role") for e in enc)),
         "gospa_mean_m": round(float(np.mean([t["gospa_mean_m"] for t in tracking])), 4) if tracking else None,
         "id_switches": sum(t.get("id_switches", 0) for t in tracking) if tracking else None,
+        "position_rmse_m": _mean_of(t.get("position_rmse_m") for t in tracking),
         "sim_time_s": s.get("sim_time_s"),
         "per_vessel": vessel_samples(s),
         "mission_completed": None if mission is None else bool(mission.get("mission_completed")),
         "arrival_spread_s": gtf.get("arrival_spread_s"),
         "arrival_position_error_m": gtf.get("max_position_error_m"),
     }
+
+
+def _mean_of(values) -> float | None:
+    """The mean of the values that are not None (None: there are none)."""
+    vals = [v for v in values if v is not None]
+    return round(float(np.mean(vals)), 4) if vals else None
 
 
 def _rate(k: int, n: int) -> dict:
@@ -163,6 +170,7 @@ def _group(runs, near_miss_m: float) -> dict:
         "actions": dict(actions),
         "gospa_mean_m": quantiles(o["gospa_mean_m"] for o in outs),
         "id_switches": sum(o["id_switches"] or 0 for o in outs),
+        "position_rmse_m": quantiles(o["position_rmse_m"] for o in outs),
         "per_vessel": {**{k: quantiles(x for o in outs for x in o["per_vessel"][k]) for k in PER_VESSEL},
                        "reference_short": sum(o["per_vessel"]["reference_short"] for o in outs)},
         "sim_time_s_total": round(sum(o["sim_time_s"] or 0.0 for o in outs), 3),

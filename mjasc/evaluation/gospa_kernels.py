@@ -74,17 +74,20 @@ def least_pairs(cost, a, b, idx, rows_out, cols_out):
 
 
 @kernel
-def score_ticks(k0, ends, in_range, d, cost, track_ids, times, c, p, half, fast, given_rows, given_cols, n_given,
-                sums, last_id, has_last, confirmed_at, confirm_order, counters):
+def score_ticks(k0, ends, in_range, d, cost, track_ids, static, times, c, p, half, fast, given_rows, given_cols,
+                n_given, sums, sq, last_id, has_last, confirmed_at, confirm_order, counters):
     """Score the times k0, k0 + 1, … (their tracks are rows ends[k − 1] … ends[k] − 1, ends[−1]
     read as 0) until one needs scipy: returns its index (len(ends) when every time is scored).
     Time k0 takes ``given_rows``/``given_cols`` (``n_given`` pairs: scipy's) when ``n_given`` ≥ 0.
 
-    ``in_range`` (T, M): the observable truths; ``d``, ``cost`` (R, M); ``track_ids`` (R,);
+    ``in_range`` (T, M): the observable truths (every truth takes part in the assignment; one not
+    observable is never missed); ``d``, ``cost`` (R, M); ``track_ids`` (R,); ``static`` (R,): the
+    static tracks (never false; optional objects: :mod:`mjasc.evaluation.tracking_metrics`);
     ``fast``: least-cost assignments allowed (every cost finite). State, updated in place:
-    ``sums`` [distance, localization, missed, false], per truth ``last_id`` / ``has_last`` (its
-    last matched track), ``confirmed_at`` (NaN: not yet) and ``confirm_order`` (the order of
-    first confirmations), ``counters`` [identity switches, confirmations so far]."""
+    ``sums`` [distance, localization, missed, false], ``sq`` [Σ squared distance of the assigned
+    pairs, m²], per truth ``last_id`` / ``has_last`` (its last matched track), ``confirmed_at``
+    (NaN: not yet) and ``confirm_order`` (the order of first confirmations), ``counters``
+    [identity switches, confirmations so far, assigned pairs]."""
     n_t, n_m = ends.size, in_range.shape[1]
     idx = np.empty(n_m, dtype=np.int64)
     rows = np.empty(n_m, dtype=np.int64)
@@ -93,14 +96,20 @@ def score_ticks(k0, ends, in_range, d, cost, track_ids, times, c, p, half, fast,
     for k in range(k0, n_t):
         a = ends[k - 1] if k > 0 else 0
         b = ends[k]
-        n_x = 0
+        n_x = n_m
+        n_seen = 0
         for m in range(n_m):
+            idx[m] = m
             if in_range[k, m]:
-                idx[n_x] = m
-                n_x += 1
+                n_seen += 1
         n_y = b - a
+        n_moving = 0
+        for r in range(a, b):
+            if not static[r]:
+                n_moving += 1
         loc = 0.0
-        n_assigned = 0
+        n_assigned_seen = 0
+        n_assigned_moving = 0
         if n_x and n_y:
             if k == k0 and n_given >= 0:
                 n_pairs = n_given
@@ -113,12 +122,19 @@ def score_ticks(k0, ends, in_range, d, cost, track_ids, times, c, p, half, fast,
             t = times[k]
             for q in range(n_pairs):
                 m = idx[rows[q]]
-                dr = d[a + cols[q], m]
-                if dr < c:
-                    n_assigned += 1
+                r = a + cols[q]
+                dr = d[r, m]
+                n_opt = (1 if static[r] else 0) + (0 if in_range[k, m] else 1)
+                if (dr < c) if n_opt == 0 else (dr ** p + half * n_opt < c ** p):
+                    if in_range[k, m]:
+                        n_assigned_seen += 1
+                    if not static[r]:
+                        n_assigned_moving += 1
                     loc += dr ** p
-                    trk = track_ids[a + cols[q]]
-                    if confirmed_at[m] != confirmed_at[m]:
+                    sq[0] += dr * dr
+                    counters[2] += 1
+                    trk = track_ids[r]
+                    if in_range[k, m] and confirmed_at[m] != confirmed_at[m]:
                         confirmed_at[m] = t
                         confirm_order[m] = counters[1]
                         counters[1] += 1
@@ -126,7 +142,7 @@ def score_ticks(k0, ends, in_range, d, cost, track_ids, times, c, p, half, fast,
                         counters[0] += 1
                     last_id[m] = trk
                     has_last[m] = True
-        missed, false = half * (n_x - n_assigned), half * (n_y - n_assigned)
+        missed, false = half * (n_seen - n_assigned_seen), half * (n_moving - n_assigned_moving)
         sums[0] += (loc + missed + false) ** inv_p
         sums[1] += loc
         sums[2] += missed

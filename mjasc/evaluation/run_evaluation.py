@@ -11,8 +11,9 @@ confirmed tracks, at the record rate. :meth:`RunEvaluator.summary` then evaluate
   near miss (separation below ``near_miss_m``), the own vessel's COLREG role at the onset
   (:func:`mjasc.evaluation.colreg.classify`) and its compliance over [onset, CPA + ``after_cpa_s``]
   (:func:`mjasc.evaluation.colreg.judge_compliance`);
-* **tracking** — per vessel with perception, GOSPA against the truth objects within its sensor
-  range (the other vessels and the traffic), identity switches, time to confirm
+* **tracking** — per vessel with perception, GOSPA of its confirmed tracks against the truth objects
+  (the other vessels and the traffic; those outside its sensor's range and field of view, and its
+  static tracks, optional: never missed, never false), identity switches, time to confirm
   (:class:`mjasc.evaluation.tracking_metrics.TrackingScore`);
 * **cost** (:meth:`RunEvaluator.cost`, given the reference run's trace) — per vessel with a path, the
   path-length and time cost against the same mission without traffic
@@ -72,7 +73,7 @@ class RunEvaluator:
     """Runner observer (record slot) that evaluates a run (module docstring).
 
     At each record tick it only keeps the samples (the vessels' headings and velocities, copied
-    into growing arrays; each vessel's moving tracks as ids and positions; and the
+    into growing arrays; each vessel's confirmed tracks as ids, positions and static flags; and the
     :class:`ProgressTrace`: the times, the positions and γ); :meth:`summary` evaluates them at once — the traffic at the record times
     (:func:`~mjasc.evaluation.traffic_truth.traffic_at`), the tracking scores flat
     (:meth:`TrackingScore.add_rows`) — the same numbers as reading the traffic and scoring each
@@ -97,11 +98,13 @@ class RunEvaluator:
         self._perceptions = []
         for i, agent in enumerate(runner.agents):
             if agent.perception is not None:
-                rng = float(getattr(getattr(agent.perception, "sensor_config", None), "max_range_m", math.inf))
-                self._scores[i] = TrackingScore(self.config.gospa_cutoff_m, self.config.gospa_order, rng)
+                sensor = getattr(agent.perception, "sensor_config", None)
+                rng = float(getattr(sensor, "max_range_m", math.inf))
+                fov = math.radians(float(getattr(sensor, "fov_deg", 360.0)))
+                self._scores[i] = TrackingScore(self.config.gospa_cutoff_m, self.config.gospa_order, rng, fov)
                 self._tracks[i] = []
                 self._perceptions.append((i, agent.perception))
-        # Built-in trackers of one fleet: every vessel's moving tracks in one compiled call per tick
+        # Built-in trackers of one fleet: every vessel's confirmed tracks in one compiled call per tick
         # (TrackSamples), each vessel's taken when scored; plugin trackers: one call each.
         self._owner_of: dict[int, int] = {}
         trackers = [(i, p.tracker) for i, p in self._perceptions if p.method is None]
@@ -109,7 +112,7 @@ class RunEvaluator:
                 len({id(p.fleet) for _, p in self._perceptions}) == 1 and \
                 len({id(tr.fleet) for _, tr in trackers}) == 1:
             self._owner_of = {i: tr.owner for i, tr in trackers}
-        self._moving = TrackSamples()  # per tick: every vessel's moving tracks (with _owner_of)
+        self._moving = TrackSamples()  # per tick: every vessel's confirmed tracks (with _owner_of)
 
     def __call__(self, event) -> None:
         s = event.states
@@ -125,7 +128,7 @@ class RunEvaluator:
             self._moving.add(self._perceptions[0][1].tracker.fleet)  # (tracker: after the flush)
             return
         for i, perception in self._perceptions:
-            self._tracks[i].append(perception.moving_tracks())
+            self._tracks[i].append(perception.scored_tracks())
 
     def _traffic(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The traffic's positions (k, M, 2), headings (k, M), velocities (k, M, 2) at the record
@@ -158,12 +161,13 @@ class RunEvaluator:
         for i, score in self._scores.items():
             others = [k for k in range(len(ids)) if k != i]
             if moving is not None:
-                counts, track_ids, track_xy = moving[self._owner_of[i]]
+                counts, track_ids, track_xy, static = moving[self._owner_of[i]]
             else:
                 tracks = self._tracks[i][k0:k1]
-                counts, track_ids, track_xy = flat_rows([ti for ti, _ in tracks], [tx for _, tx in tracks])
+                counts, track_ids, track_xy = flat_rows([ti for ti, _, _ in tracks], [tx for _, tx, _ in tracks])
+                static = np.concatenate([np.zeros(0, dtype=bool)] + [ts for _, _, ts in tracks])
             score.add_rows(t, p[:, i], [ids[k] for k in others], xy[:, others], counts, track_ids, track_xy,
-                           radii[others])
+                           radii[others], static, self._h[k0:k1, i])
         self._scored = k1
 
     # ------------------------------------------------------------------ evaluation

@@ -1,10 +1,11 @@
-"""Every vessel's moving confirmed tracks at each record tick of a run, kept for its evaluation
+"""Every vessel's confirmed tracks at each record tick of a run, kept for its evaluation
 (:class:`~mjasc.evaluation.run_evaluation.RunEvaluator`) in growing flat arrays.
 
-A fleet tracker's (:class:`~mjasc.perception.tracking.fleet.FleetTracker`) moving tracks at one
-tick are its rows that are confirmed and not static, in bank order: their vessel, their id in that
-vessel's numbering and their position (x, y) [m] — what ``FleetTracker.moving_rows`` gives (a
-vessel's rows among them are what its tracker's ``moving_positions`` gives). :meth:`TrackSamples.add`
+A fleet tracker's (:class:`~mjasc.perception.tracking.fleet.FleetTracker`) confirmed tracks at one
+tick are its confirmed rows, in bank order: their vessel, their id in that vessel's numbering,
+their position (x, y) [m] and their static flag — what ``FleetTracker.confirmed_rows`` gives (the
+evaluation scores a static track as one that may stand for a stopped object, never as a false one:
+:mod:`mjasc.evaluation.tracking_metrics`). :meth:`TrackSamples.add`
 copies them from the tracker's columns and the bank's states (``bank.state_rows``, read at once)
 into the arrays in one compiled call per tick (the numpy form is about ten small calls, the record
 tick's largest cost); :meth:`TrackSamples.of` hands one vessel's rows of a range of ticks back
@@ -21,30 +22,32 @@ __all__ = ["TrackSamples"]
 
 
 @kernel
-def append_moving(confirmed, static, owner, local_id, x_rows, out_owner, out_id, out_xy, n):
-    """Append the rows r with ``confirmed[r]`` and not ``static[r]``, in order, at index n of the
-    outputs: owner, id, (x, y) = ``x_rows[r, :2]``. Returns the new count, or −1 when the outputs
-    have no room left (then rows from n on may have been written)."""
+def append_confirmed(confirmed, static, owner, local_id, x_rows, out_owner, out_id, out_xy, out_static, n):
+    """Append the rows r with ``confirmed[r]``, in order, at index n of the outputs: owner, id,
+    (x, y) = ``x_rows[r, :2]``, static flag. Returns the new count, or −1 when the outputs have no
+    room left (then rows from n on may have been written)."""
     cap = out_owner.shape[0]
     for r in range(confirmed.shape[0]):
-        if confirmed[r] and not static[r]:
+        if confirmed[r]:
             if n >= cap:
                 return -1
             out_owner[n] = owner[r]
             out_id[n] = local_id[r]
             out_xy[n, 0] = x_rows[r, 0]
             out_xy[n, 1] = x_rows[r, 1]
+            out_static[n] = static[r]
             n += 1
     return n
 
 
 class TrackSamples:
-    """The moving tracks of one fleet tracker at each tick (module docstring)."""
+    """The confirmed tracks of one fleet tracker at each tick (module docstring)."""
 
     def __init__(self, capacity: int = 1024):
         self._owner = np.empty(capacity, dtype=np.int64)
         self._id = np.empty(capacity, dtype=np.int64)
         self._xy = np.empty((capacity, 2))
+        self._static = np.empty(capacity, dtype=bool)
         self._ends: list[int] = []  # per tick: the number of rows up to and with it
         self._n = 0
 
@@ -53,36 +56,38 @@ class TrackSamples:
         return len(self._ends)
 
     def add(self, fleet) -> None:
-        """One tick: the moving tracks of ``fleet`` (a FleetTracker, after its pending steps) now."""
+        """One tick: the confirmed tracks of ``fleet`` (a FleetTracker, after its pending steps) now."""
         c = fleet.cols
-        n = append_moving(c.confirmed, c.static, c.owner, c.local_id, fleet.bank.state_rows, self._owner, self._id,
-                          self._xy, self._n)
+        n = append_confirmed(c.confirmed, c.static, c.owner, c.local_id, fleet.bank.state_rows, self._owner, self._id,
+                             self._xy, self._static, self._n)
         while n < 0:  # (no room: twice the room, and the tick again)
             grow = self._owner.shape[0] + max(self._owner.shape[0], c.confirmed.shape[0])
             self._owner = np.concatenate([self._owner[:self._n], np.empty(grow - self._n, dtype=np.int64)])
             self._id = np.concatenate([self._id[:self._n], np.empty(grow - self._n, dtype=np.int64)])
             self._xy = np.concatenate([self._xy[:self._n], np.empty((grow - self._n, 2))])
-            n = append_moving(c.confirmed, c.static, c.owner, c.local_id, fleet.bank.state_rows, self._owner,
-                              self._id, self._xy, self._n)
+            self._static = np.concatenate([self._static[:self._n], np.empty(grow - self._n, dtype=bool)])
+            n = append_confirmed(c.confirmed, c.static, c.owner, c.local_id, fleet.bank.state_rows, self._owner,
+                                 self._id, self._xy, self._static, self._n)
         self._n = n
         self._ends.append(n)
 
-    def rows(self, k0: int, k1: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The ticks k0 … k1 − 1: per row its tick (counted from k0), vessel, id and position (R, 2) [m]."""
+    def rows(self, k0: int, k1: int) -> tuple[np.ndarray, ...]:
+        """The ticks k0 … k1 − 1: per row its tick (counted from k0), vessel, id, position (R, 2) [m]
+        and static flag."""
         ends = np.array(self._ends[k0:k1], dtype=np.int64)
         a = self._ends[k0 - 1] if k0 > 0 else 0
         b = int(ends[-1]) if ends.size else a
         counts = np.diff(ends, prepend=a)
         tick = np.repeat(np.arange(ends.size), counts)
-        return tick, self._owner[a:b], self._id[a:b], self._xy[a:b]
+        return tick, self._owner[a:b], self._id[a:b], self._xy[a:b], self._static[a:b]
 
     def of(self, owners, k0: int, k1: int) -> dict:
         """Each vessel of ``owners`` (its tracker's owner index) at the ticks k0 … k1 − 1, flat:
-        owner → (tracks per tick (k,), ids (R,) int64, positions (R, 2) [m]), each tick's rows one
-        after the other in bank order."""
-        tick, owner, ids, xy = self.rows(k0, k1)
+        owner → (tracks per tick (k,), ids (R,) int64, positions (R, 2) [m], static flags (R,)), each
+        tick's rows one after the other in bank order."""
+        tick, owner, ids, xy, static = self.rows(k0, k1)
         out = {}
         for o in owners:
             sel = owner == o
-            out[o] = (np.bincount(tick[sel], minlength=k1 - k0), ids[sel], xy[sel])
+            out[o] = (np.bincount(tick[sel], minlength=k1 - k0), ids[sel], xy[sel], static[sel])
         return out

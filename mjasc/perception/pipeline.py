@@ -272,15 +272,16 @@ class Perception:
             return list(self._method_tracks)
         return self.tracker.estimates()
 
-    def moving_tracks(self) -> tuple[np.ndarray, np.ndarray]:
-        """Ids (k,) and positions (k, 2) [m] of the confirmed tracks that are not static, in the
-        order of :meth:`tracks`: the same numbers as those estimates' ``track_id`` and
-        ``position_m`` (what a run's evaluation compares with the truth, at every record tick)."""
+    def scored_tracks(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Ids (k,), positions (k, 2) [m] and static flags (k,) of the confirmed tracks, in the
+        order of :meth:`tracks`: the same numbers as those estimates' ``track_id``, ``position_m``
+        and ``is_static`` (what a run's evaluation compares with the truth, at every record tick)."""
         if self.method is not None:
-            moving = [e for e in self.tracks() if not e.is_static]
-            return (np.array([e.track_id for e in moving], dtype=np.int64),
-                    np.array([e.position_m for e in moving], dtype=float).reshape(-1, 2))
-        return self.tracker.moving_positions()
+            tracks = self.tracks()
+            return (np.array([e.track_id for e in tracks], dtype=np.int64),
+                    np.array([e.position_m for e in tracks], dtype=float).reshape(-1, 2),
+                    np.array([e.is_static for e in tracks], dtype=bool))
+        return self.tracker.scored_positions()
 
     def tracked_discs(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """A plugin tracker's discs whose returns never reach the map: its confirmed moving tracks

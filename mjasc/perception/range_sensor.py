@@ -68,7 +68,9 @@ class SensorConfig:
     range_noise_std_m: float = param(0.05, nonneg=True, unit="m", doc="1-σ range noise of a true return")
     dropout_probability: float = param(0.02, nonneg=True, phrase="must be in [0, 1)",
                                        doc="probability that a true return is lost, per beam, in [0, 1)")
-    clutter_per_scan: float = param(0.5, nonneg=True, doc="mean number of false returns per scan (Poisson)")
+    clutter_per_scan: float = param(0.5, nonneg=True, phrase="must be ≥ 0 and ≤ beams",
+                                    doc="mean number of false returns per scan (Poisson; ≤ beams: one per beam is "
+                                        "a scan of clutter, and each is drawn on its own)")
     ray_height_m: float = param(
         0.1, minimum=-0.5, maximum=2.0, unit="m",
         phrase="must be in [-0.5, 2] m (rays must cross the hulls' contact band)",
@@ -91,7 +93,8 @@ class SensorConfig:
 
 def check_sensor(c: SensorConfig, where: str) -> None:
     """The checks of a :class:`SensorConfig` beyond its fields' declared bounds: min_range_m <
-    max_range_m, dropout_probability < 1 (ConfigError naming ``f"{where}.{key}"``)."""
+    max_range_m, dropout_probability < 1, clutter_per_scan ≤ beams (ConfigError naming
+    ``f"{where}.{key}"``)."""
     def bad(key, reason, value):
         raise ConfigError(f"{where}.{key}: {reason}, got {show(value)}")
 
@@ -99,6 +102,9 @@ def check_sensor(c: SensorConfig, where: str) -> None:
         bad("min_range_m", "must be ≥ 0 and < max_range_m", c.min_range_m)
     if not c.dropout_probability < 1.0:
         bad("dropout_probability", "must be in [0, 1)", c.dropout_probability)
+    if not c.clutter_per_scan <= c.beams:
+        bad("clutter_per_scan", f"must be ≥ 0 and ≤ beams ({c.beams}; the false returns of a scan are drawn one "
+                                f"by one: 1e7 stalled a run)", c.clutter_per_scan)
 
 
 def parse_sensor_options(table: dict, where: str = "sensor") -> SensorConfig:

@@ -39,7 +39,7 @@ from mjasc.runs.plausibility import check_name
 
 __all__ = ["STAGES", "MethodChoice", "register", "unregister", "available", "method_class", "parse_method_table",
            "entry_point_group", "parse_avoidance_table", "parse_coordination_table", "parse_tracking_table",
-           "builtin_method"]
+           "builtin_method", "registered_in_code"]
 
 #: stage → (interface, default method name).
 STAGES: dict[str, tuple[type, str]] = {
@@ -111,6 +111,12 @@ def unregister(stage: str, name: str) -> None:
     """Forget a method registered with :func:`register` (no error if it was not)."""
     _check_stage(stage)
     _registered[stage].pop(name, None)
+
+
+def registered_in_code(stage: str) -> dict[str, type]:
+    """The methods of ``stage`` registered in this process with :func:`register` (name → class)."""
+    _check_stage(stage)
+    return dict(_registered[stage])
 
 
 def available(stage: str) -> list[str]:

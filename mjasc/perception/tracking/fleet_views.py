@@ -80,13 +80,13 @@ class FleetViews:
             got = self._sizes = (self.version, np.bincount(self.cols.owner, minlength=no).tolist(), no)
         return got[1][owner]
 
-    def moving_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Every vessel's confirmed tracks that are not static, in bank order: their vessels (k,),
-        ids (k,) and positions (k, 2) [m] — a vessel's rows among them are, in the same order, what
-        its tracker's ``moving_positions`` gives (a run's evaluation samples them all at once)."""
+    def confirmed_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Every vessel's confirmed tracks, in bank order: their vessels (k,), ids (k,), positions
+        (k, 2) [m] and static flags (k,) — a vessel's rows among them are, in the same order, what
+        its tracker's ``scored_positions`` gives (a run's evaluation samples them all at once)."""
         c = self.cols
-        rows = (c.confirmed & ~c.static).nonzero()[0]
-        return c.owner[rows], c.local_id[rows], self.bank.positions_of(rows)
+        rows = c.confirmed.nonzero()[0]
+        return c.owner[rows], c.local_id[rows], self.bank.positions_of(rows), c.static[rows]
 
     def confirmed_points_of(self, owner: int, epoch=None) -> tuple:
         """A vessel's confirmed tracks as the recording draws them at standard detail, in bank

@@ -169,14 +169,15 @@ class MultiTargetTracker:
         (:meth:`~mjasc.perception.tracking.fleet_views.FleetViews.confirmed_points_of`)."""
         return self.fleet.confirmed_points_of(self.owner, epoch)
 
-    def moving_positions(self) -> tuple[np.ndarray, np.ndarray]:
-        """The confirmed tracks that are not static, as :meth:`estimates` hands them on (bank
-        order): their ids (k,) and positions (k, 2) [m] — the ``track_id`` and ``position_m`` of
-        those estimates, without making them (what a run's evaluation compares with the truth)."""
+    def scored_positions(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The confirmed tracks as :meth:`estimates` hands them on (bank order): their ids (k,),
+        positions (k, 2) [m] and static flags (k,) — the ``track_id``, ``position_m`` and
+        ``is_static`` of those estimates, without making them (what a run's evaluation compares
+        with the truth)."""
         f = self.fleet
         rows = self._rows()
-        rows = rows[f.cols.confirmed[rows] & ~f.cols.static[rows]]
-        return f.cols.local_id[rows], f.bank.positions_of(rows)
+        rows = rows[f.cols.confirmed[rows]]
+        return f.cols.local_id[rows], f.bank.positions_of(rows), f.cols.static[rows]
 
     @property
     def radii_m(self) -> np.ndarray:
