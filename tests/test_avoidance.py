@@ -408,11 +408,12 @@ class FakeCoordination:
                 if max_age_s is None or t_s is None or t_s - i.sent_time_s <= max_age_s}
 
 
-def _with_broadcast(ca, name, t_b, pos, heading, vel, plan=None, gives_way_to=()):
+def _with_broadcast(ca, name, t_b, pos, heading, vel, plan=None, gives_way_to=(), stands_on_to=()):
     coord = ca.agent.coordination if isinstance(getattr(ca.agent, "coordination", None), FakeCoordination) \
         else FakeCoordination()
     kw = {} if plan is None else {"plan_times_s": np.asarray(plan[0], float), "plan_points_m": np.asarray(plan[1], float)}
     kw["gives_way_to"] = tuple(gives_way_to)
+    kw["stands_on_to"] = tuple(stands_on_to)
     coord.intentions[name] = TeamIntention(name, t_b, np.array(pos, float), heading, np.array(vel, float), 2.2, **kw)
     ca.agent.coordination = coord
     ca._poll_team()
@@ -602,3 +603,35 @@ def test_a_team_mate_that_already_gives_way_makes_this_vessel_stand_on():
     ca, _ = make(name="a")  # a stranger: yielded to, and not named in the broadcast
     ca.predict(0.0, nav(), [crossing(track_id=5)], [])
     assert ca.correction is not None and ca.correction.kind == "yield" and ca.gives_way_to() == ()
+
+
+def test_of_two_team_mates_that_both_stand_on_the_later_name_gives_way():
+    """b crosses from c's port side: by the geometry c stands on (rule 15) and says so
+    (stands_on_to). If b's fresh broadcast says b stands on toward c too (in a cross current each
+    reads the other's course against its own bow), the one whose name sorts later gives way: c,
+    at once (the control tick predicts when the declaration arrives), and its broadcast then names
+    b as the mate it gives way to. Toward a mate whose name sorts later it keeps standing on."""
+    from mjasc.avoidance.triage import triage
+
+    def mate(name="b", track_id=4):
+        return crossing(team_member=name, track_id=track_id, radius=2.1, from_south=False)
+
+    ca, _ = make(name="c", team=("b", "c"), perception=SimpleNamespace(tracks=lambda: [mate()],
+                                                                       static_polygons=lambda: []))
+    ca.predict(0.0, nav(), [mate()], [])
+    assert ca.correction is None and ca.stats["stand_on"] >= 1 and ca.stands_on_to() == ("b",)
+    _with_broadcast(ca, "b", 1.0, [30.0, 29.0], -np.pi / 2, [0.0, -1.0], stands_on_to=("c",))
+    n = ca.stats["predictions"]
+    ca.control_refs(1.5, nav(1.5, 0.0))
+    assert ca.stats["predictions"] == n + 1  # predicted at once
+    assert ca.correction is not None and ca.gives_way_to() == ("b",) and ca.stands_on_to() == ()
+    assert any("stands on toward this vessel too" in text for _, text in ca.drain_events())
+    # triage: only a mate that says it stands on, and only the later name gives way
+    ca, _ = make(name="c", team=("b", "c", "d"))
+    conflicts = ca.predict(0.0, nav(), [mate()], [])
+    for own, words, give_way in [("c", frozenset(), set()), ("c", frozenset({"b"}), {4}),
+                                 ("a", frozenset({"b"}), set()), ("c", frozenset({"d"}), set())]:
+        tri = triage(0.0, nav(), 0.0, conflicts, [], {4: mate()}, {"a", "b", "c", "d"} - {own}, ca.config,
+                     ca.speed_max_m_s, None, frozenset(), words, own)
+        assert tri.give_way_mates == give_way
+        assert tri.stand_on_mates == (set() if give_way else {"b"})

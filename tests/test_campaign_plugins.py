@@ -55,8 +55,9 @@ def test_a_tracking_method_not_importable_by_name_runs_only_in_this_process(tmp_
     register("tracking", LocalTracker)
     try:
         spec = _spec("test_local_tracker")
-        with pytest.raises(ValueError, match=r"^tracking method 'test_local_tracker' is registered only in this "
-                                             r"process .* \(group 'mjasc\.tracking'\).*workers=0, isolate=False") as info:
+        message = (r"^tracking method 'test_local_tracker' is registered only in this process .* "
+                   r"\(group 'mjasc\.tracking'\).*workers=0, isolate=False")
+        with pytest.raises(ValueError, match=message) as info:
             run_campaign(spec, tmp_path / "a", workers=0, progress=False)
         assert "\n" not in str(info.value)
         res = run_campaign(spec, tmp_path / "b", workers=0, isolate=False, progress=False)

@@ -121,3 +121,21 @@ def test_the_detour_refusal_acts_in_the_stressed_bottleneck():
     assert v["min_clearance_to_any_m"] > 1.0, v["min_clearance_m"]
     if v["avoidance"]["actions"]["detour_rejected"] == 0:
         pytest.skip("seed 23 took another course on this machine: no detour to refuse (no contact)")
+
+
+@pytest.mark.slow
+def test_team_mates_that_both_stand_on_settle_it_by_name(monkeypatch):
+    """The harbour exit with seed 25 (docs/avoidance.md, "Hardening"): in the cross-set stream alpha
+    crabs 50° and reads bravo abaft its beam (rule 13), bravo reads alpha's course over ground
+    against its own bow and finds alpha on its port side (rule 15): both stood on, neither yielded,
+    and their bounding circles overlapped by 0.84 m. Each now broadcasts the team mates it stands on
+    toward; bravo, whose name sorts later, gives way as soon as alpha's word arrives."""
+    from mjasc.avoidance.system import CollisionAvoidance
+
+    said, event = [], CollisionAvoidance._event
+    monkeypatch.setattr(CollisionAvoidance, "_event",
+                        lambda self, t, text: (said.append((self.name, text)), event(self, t, text))[1])
+    summary = run_scenario(load_scenario(CASES / "harbour_colreg_team_seed11.toml").with_overrides(seed=25)).summary
+    assert summary["status"] == "completed" and not summary["any_collision"], summary["collisions"]
+    assert summary["vessels"]["bravo"]["min_clearance_m"]["alpha"] > 0.5
+    assert ("bravo", "team mate alpha stands on toward this vessel too (its broadcast): this vessel gives way") in said

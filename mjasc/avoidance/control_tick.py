@@ -49,6 +49,23 @@ class ControlTick:
         mate = getattr(track, "team_member", None)
         return (mate,) if mate is not None and mate in self.team and mate != self.name else ()
 
+    def stands_on_to(self) -> tuple:
+        """The team mates toward which the last prediction made this vessel the stand-on vessel
+        (before the last resort); broadcast so that of two team mates that both stand on, one gives
+        way (:mod:`~mjasc.avoidance.triage`)."""
+        return tuple(sorted(self._stands_on))
+
+    def _double_stand_on(self, t) -> bool:
+        """A team mate this vessel stands on toward, whose name sorts before its own, says in a fresh
+        broadcast that it stands on toward this vessel too: this vessel is to give way (predict now)."""
+        team = self._team
+        if team is None:
+            return False
+        for name, it in team.fresh(t, self.config.team_broadcast_max_age_s).items():
+            if name in self._stands_on and name < self.name and self.name in it.stands_on_to:
+                return True
+        return False
+
     def _predict_on_perceived(self, t, nav) -> None:
         p = self._perceived
         self._predict(t, nav, list(p.tracks), list(p.static_polygons))
@@ -86,6 +103,9 @@ class ControlTick:
         if team is not None and team.intentions is not mates.compared_intentions and mates.plans_changed(t, team):
             self.stats["deviation_predictions"] += 1  # a team mate re-planned or changed its speed
             return set()  # (the mapping compared in full last holds nothing new: plans_changed False)
+        if self._stands_on and self._double_stand_on(t):
+            self._event(t, "a team mate stands on toward this vessel too: predicting now")
+            return set()
         # a track that left the motion the last prediction assumed (tracks checked already: no)
         if tracks is not self._checked_tracks and self._deviating(tracks):
             self.stats["deviation_predictions"] += 1

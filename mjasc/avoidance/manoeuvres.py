@@ -45,8 +45,10 @@ class Manoeuvres:
                 static_outlines=()) -> None:
         gamma = float(self._guidance.gamma_m)
         cfg = self.config
+        giving_way, standing_on = self._mates_declaring(t)
         tri = triage(t, nav, gamma, conflicts, statics, by_id, self.team, cfg, self.speed_max_m_s, self.correction,
-                     self._mates_giving_way(t))
+                     giving_way, standing_on, self.name)
+        self._stands_on = frozenset(tri.stand_on_mates)
         self._last = replace(self._last, roles=tuple(tri.roles.items()))  # for the threat panel
         for stat, text in tri.notes:
             if stat is not None:
@@ -119,14 +121,16 @@ class Manoeuvres:
                            f"γ {law.gamma0:.1f} → {law.gamma_goal:.1f} m by t = {law.t_goal:.1f} s, "
                            f"V_d = {law.desired_speed:.2f} m/s, k = {law.gain_k:g}")
 
-    def _mates_giving_way(self, t) -> frozenset:
+    def _mates_declaring(self, t) -> tuple[frozenset, frozenset]:
         """The team mates whose broadcast, at most ``team_broadcast_max_age_s`` old, says they give
-        way to this vessel (:attr:`~mjasc.cooperation.messages.TeamIntention.gives_way_to`)."""
+        way to / stand on toward this vessel (:attr:`~mjasc.cooperation.messages.TeamIntention.gives_way_to`,
+        ``stands_on_to``)."""
         team = self._team
         if team is None or not team.intentions:
-            return frozenset()
-        return frozenset(name for name, it in team.fresh(t, self.config.team_broadcast_max_age_s).items()
-                         if self.name in it.gives_way_to)
+            return frozenset(), frozenset()
+        fresh = team.fresh(t, self.config.team_broadcast_max_age_s).items()
+        return (frozenset(name for name, it in fresh if self.name in it.gives_way_to),
+                frozenset(name for name, it in fresh if self.name in it.stands_on_to))
 
     def _lane_change_to_starboard(self, t, nav, conflicts, static_polygons, static_outlines) -> bool:
         """COLREG rule 14 (head-on): leave the target's lane to starboard. True when switched."""

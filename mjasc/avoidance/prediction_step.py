@@ -144,6 +144,7 @@ class PredictionStep:
         self._last_query = pending.query
         self._team_track_ids = {tr.track_id for tr in tracks if tr.team_member in self.team}
         self._last = PredictionRecord(t, path, gamma, all_c, tuple(conflicts), tuple(statics), by_id)
+        self._stands_on = frozenset()  # (the decision below names them again)
         self._log.prediction_pending()
         for c in conflicts:
             self._record_conflict(t, c, by_id.get(c.track_id))

@@ -231,6 +231,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         self._clear_since_s: float | None = None  # a withdrawable yield's track clear at the mission speed since
         self._in_structure: set[int] = set()  # tracks centred inside mapped structure (its own returns)
         self._predicted_tracks: dict = {}
+        self._stands_on: frozenset = frozenset()  # team mates the last prediction made it stand on toward
         # The last prediction's tracks for the deviation check of the control tick: their stacked
         # motion, track id → row, and whether the row is checked (not a team mate on a broadcast).
         self._predicted_motion: TrackMotions | None = None

@@ -17,7 +17,10 @@ by the rules in this order:
   (its fresh broadcast says so: ``mates_giving_way``) makes it the stand-on vessel whatever the
   geometry says now, unless it is itself already yielding to that mate: each vessel decides from
   its own view at its own time, and a decision taken seconds after the mate's, on a geometry the
-  mate's yield has changed, could make both give way and both crawl through the crossing.
+  mate's yield has changed, could make both give way and both crawl through the crossing. The
+  other way round, two team mates that both find themselves stand-on (each reads the other's
+  course against its own bow: in a cross current a crabbing pair can) and both say so in their
+  broadcasts (``mates_standing_on``): the one whose name sorts after the other's gives way.
 * **Velocity correction** (:func:`~mjasc.avoidance.decision.velocity_correction_for`): yield, or pass
   first (a pass already running goes on while feasible). Neither → :attr:`Triage.unresolved`, and
   the vessel goes around the track's swept area — except a give-way vessel around a team mate, which
@@ -62,6 +65,7 @@ class Triage:
     notes: list[tuple[str | None, str]] = field(default_factory=list)  # (stat to count or None, event)
     roles: dict = field(default_factory=dict)  # track id → its COLREG / team role and answer (text)
     give_way_mates: set = field(default_factory=set)  # track ids of team mates this vessel gives way to
+    stand_on_mates: set = field(default_factory=set)  # names of team mates it stands on toward (before the last resort)
 
 
 def swept(track, c: PredictedConflict, t: float, cfg) -> np.ndarray:
@@ -100,12 +104,14 @@ def colreg_role(nav, track, traffic_rule: str) -> str | None:
 
 
 def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: set, cfg, speed_max_m_s: float,
-           running: Correction | None, mates_giving_way=frozenset()) -> Triage:
+           running: Correction | None, mates_giving_way=frozenset(), mates_standing_on=frozenset(),
+           own_name: str = "") -> Triage:
     """Sort ``conflicts`` (with a predicted collision) and ``statics`` (static conflicts) of a
     vessel at ``nav`` and γ = ``gamma`` [m] at time t (module docstring). by_id: track id → track
     as predicted; team: the team mates' names; cfg: the
     :class:`~mjasc.avoidance.config.AvoidanceConfig`; running: the correction running now;
-    mates_giving_way: the team mates whose fresh broadcast says they give way to this vessel."""
+    mates_giving_way / mates_standing_on: the team mates whose fresh broadcast says they give way
+    to / stand on toward this vessel (named ``own_name``)."""
     out = Triage()
     for c in conflicts:
         track = by_id.get(c.track_id)
@@ -150,11 +156,17 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
             team_gives_way = False  # the mate gives way already: this vessel stands on (module docstring)
             out.notes.append((None, f"team mate {track.team_member} gives way to this vessel (its broadcast): "
                                     f"stand-on"))
+        elif is_team and not team_gives_way and track.team_member in mates_standing_on and \
+                own_name > track.team_member:
+            team_gives_way = True  # both stand on: the later name gives way (module docstring)
+            out.notes.append((None, f"team mate {track.team_member} stands on toward this vessel too (its "
+                                    f"broadcast): this vessel gives way"))
         if team_gives_way:
             out.give_way_mates.add(c.track_id)
         if is_team and not team_gives_way:
             astern = np.cos(relative_bearing(nav.position_m, nav.heading_rad, track.position_m)) < 0.0
             if c.t_closest_s - t > cfg.last_resort_s:
+                out.stand_on_mates.add(track.team_member)
                 out.roles[c.track_id] = "team right of way: stand-on, keeps its speed"
                 out.notes.append(("stand_on", f"stand-on vessel towards team mate {track.team_member}: "
                                               f"keeps its speed"))

@@ -85,7 +85,8 @@ def _file_gospa(text: str) -> dict:
     except (ValueError, AttributeError):
         ev = {}
     ev = ev if isinstance(ev, dict) else {}
-    return {"cutoff_m": float(ev.get("gospa_cutoff_m", d.gospa_cutoff_m)), "order": float(ev.get("gospa_order", d.gospa_order))}
+    return {"cutoff_m": float(ev.get("gospa_cutoff_m", d.gospa_cutoff_m)),
+            "order": float(ev.get("gospa_order", d.gospa_order))}
 
 
 def gospa_label(data: dict) -> str:

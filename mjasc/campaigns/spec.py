@@ -132,7 +132,8 @@ class CampaignSpec:
         score (None: c = 10 m, p = 2)."""
         ev = getattr(self, "evaluation", None) or CampaignEvaluation()
         default = CampaignEvaluation()
-        changed = {k: getattr(ev, k) for k in ("gospa_cutoff_m", "gospa_order") if getattr(ev, k) != getattr(default, k)}
+        changed = {k: getattr(ev, k) for k in ("gospa_cutoff_m", "gospa_order")
+                   if getattr(ev, k) != getattr(default, k)}
         return changed or None
 
     @property

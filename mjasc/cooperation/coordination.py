@@ -145,7 +145,7 @@ class Coordination(TeamKnowledge, CoordinationMethod):
         return (h, self.config.intent_step_s) if h > 0 else None
 
     def _message(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None,
-                 gives_way_to=()) -> TeamMessage:
+                 gives_way_to=(), stands_on_to=()) -> TeamMessage:
         # TeamMessage(name, position, heading, velocity, speed, radius, ...) without the frozen
         # __init__'s sixteen setattr calls: every field in order, the defaults where there is no value
         plan = plan if plan is not None else self._own_plan(t_s, guidance)
@@ -167,7 +167,8 @@ class Coordination(TeamKnowledge, CoordinationMethod):
                             plan_points_m=plan_xy, gamma_m=gamma, path_length_m=length, xi=xi, xi_rate_1_s=rate,
                             offset_m=offset, tracks=tuple(tracks) if tracks else (),
                             phase=self.phase if mission is not None else 0, mission=mission,
-                            gives_way_to=tuple(gives_way_to) if gives_way_to else ())
+                            gives_way_to=tuple(gives_way_to) if gives_way_to else (),
+                            stands_on_to=tuple(stands_on_to) if stands_on_to else ())
         return msg
 
     def _own_plan(self, t_s: float, guidance):
@@ -260,7 +261,7 @@ class Coordination(TeamKnowledge, CoordinationMethod):
 
     # ------------------------------------------------------------------ component interface
     def exchange(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None,
-                 gives_way_to=()) -> None:
+                 gives_way_to=(), stands_on_to=()) -> None:
         """Comms slot: broadcast own ξ, path rate, pose and plan; read what has arrived.
 
         nav: own :class:`~mjasc.core.navigation.OwnNavigation`; gamma_m: progress along the mission
@@ -270,18 +271,20 @@ class Coordination(TeamKnowledge, CoordinationMethod):
         confirmed tracks to share (:class:`~mjasc.core.estimates.SharedTrack`, with ``share_tracks``;
         sent as given, the caller caps them); mission: the vessel's
         :class:`~mjasc.missions.legs.MissionBroadcast` (a chained mission), sent with its phase;
-        gives_way_to: the team mates the vessel gives way to now (its avoidance's ``gives_way_to``:
-        a team mate that reads its name there stands on, :mod:`~mjasc.avoidance.triage`)."""
-        self.broadcast(t_s, nav, gamma_m, guidance, plan, tracks, mission, gives_way_to)
+        gives_way_to, stands_on_to: the team mates the vessel gives way to / stands on toward now
+        (its avoidance's ``gives_way_to()`` and ``stands_on_to()``: how team mates settle who gives
+        way, :mod:`~mjasc.avoidance.triage`)."""
+        self.broadcast(t_s, nav, gamma_m, guidance, plan, tracks, mission, gives_way_to, stands_on_to)
         self.take_in(t_s, nav, gamma_m)
 
     def broadcast(self, t_s: float, nav, gamma_m: float, guidance=None, plan=None, tracks=(), mission=None,
-                  gives_way_to=()) -> int:
+                  gives_way_to=(), stands_on_to=()) -> int:
         """The first half of :meth:`exchange`: broadcast the message; returns its id on the link."""
         if tracks and self.config.share_tracks:
             self._tracks_sent += len(tracks)
         return self.link.send(t_s, self._message(t_s, nav, gamma_m, guidance, plan,
-                                                 tracks if self.config.share_tracks else (), mission, gives_way_to),
+                                                 tracks if self.config.share_tracks else (), mission, gives_way_to,
+                                                 stands_on_to),
                               nav.position_m)
 
     def take_in(self, t_s: float, nav, gamma_m: float, decided: bool = False) -> None:

@@ -59,7 +59,9 @@ class TeamMessage:
     mission: its :class:`~mjasc.missions.legs.MissionBroadcast` (None without a ``[mission]``).
     gives_way_to: the team mates the sender is giving way to at the send time (a running yield or
     stop for their track; empty otherwise): a team mate named here is the stand-on vessel toward
-    the sender and does not yield to it in turn (:mod:`~mjasc.avoidance.triage`).
+    the sender and does not yield to it in turn (:mod:`~mjasc.avoidance.triage`). stands_on_to: the
+    team mates toward which the sender's latest prediction made it the stand-on vessel; a team mate
+    that stands on toward it too gives way if its name sorts after the sender's.
     """
 
     sender: str
@@ -79,6 +81,7 @@ class TeamMessage:
     phase: int = 0
     mission: object = None
     gives_way_to: tuple = ()
+    stands_on_to: tuple = ()
 
     @property
     def has_path(self) -> bool:
@@ -94,8 +97,9 @@ class TeamIntention:
     navigation at ``sent_time_s``. radius_m: its bounding radius [m] (None if not sent).
     plan_times_s (k,), plan_points_m (k, 2): where it intends to be (k = 0: no plan; then
     :meth:`positions` extrapolates the velocity). mission: its mission broadcast
-    (:class:`~mjasc.missions.legs.MissionBroadcast`, None without a chained mission). gives_way_to:
-    the team mates it was giving way to when it sent the message (:class:`TeamMessage`)."""
+    (:class:`~mjasc.missions.legs.MissionBroadcast`, None without a chained mission). gives_way_to,
+    stands_on_to: the team mates it was giving way to / standing on toward when it sent the message
+    (:class:`TeamMessage`)."""
 
     name: str
     sent_time_s: float
@@ -107,6 +111,7 @@ class TeamIntention:
     plan_points_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     mission: object = None
     gives_way_to: tuple = ()
+    stands_on_to: tuple = ()
 
     @classmethod
     def from_message(cls, msg: TeamMessage, sent_time_s: float) -> "TeamIntention":
@@ -134,7 +139,8 @@ class TeamIntention:
             plan_t, plan_xy = np.zeros(0), np.zeros((0, 2))
         out = cls(msg.sender, t, pos[:2], float(msg.heading_rad), vel[:2], msg.radius_m, plan_t, plan_xy,
                   msg.mission if typed else getattr(msg, "mission", None),
-                  msg.gives_way_to if typed else tuple(getattr(msg, "gives_way_to", ())))
+                  msg.gives_way_to if typed else tuple(getattr(msg, "gives_way_to", ())),
+                  msg.stands_on_to if typed else tuple(getattr(msg, "stands_on_to", ())))
         if typed or isinstance(msg, TeamMessage):
             object.__setattr__(msg, "_intention", out)
         return out

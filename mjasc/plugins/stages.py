@@ -147,6 +147,11 @@ class AvoidanceMethod(StageMethod):
         team mate named stands on toward this vessel instead of yielding to it in turn."""
         return ()
 
+    def stands_on_to(self) -> tuple:
+        """The team mates toward which the vessel stands on now (names; default: none), broadcast
+        as :meth:`gives_way_to` is: of two team mates that both stand on, one gives way."""
+        return ()
+
     def planned_trajectory(self, t, nav, guidance, horizon_s: float, step_s: float):
         """Where the vessel intends to be, ``(times (k,) [s], points (k, 2) [m])`` for the team's
         broadcast, or None (the coordination layer then samples the guidance's path)."""
@@ -191,8 +196,9 @@ class CoordinationMethod(StageMethod):
     stage = "coordination"
     #: The latest factor on the mission speed (for the agent's guidance state).
     last_factor: float = 1.0
-    #: True: :meth:`exchange` is also given ``gives_way_to=`` (the team mates the vessel's avoidance
-    #: gives way to now, :meth:`AvoidanceMethod.gives_way_to`) to broadcast.
+    #: True: :meth:`exchange` is also given ``gives_way_to=`` and ``stands_on_to=`` (the team mates the
+    #: vessel's avoidance gives way to / stands on toward now, :meth:`AvoidanceMethod.gives_way_to`)
+    #: to broadcast.
     takes_right_of_way: bool = False
 
     @abc.abstractmethod

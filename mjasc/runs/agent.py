@@ -234,8 +234,9 @@ class VesselAgent:
             extra["tracks"] = self.perception.shareable_tracks(nav.position_m, sharing.max_tracks)
         if self.mission is not None:  # the mission's part: phase, arrival time, target estimate
             extra["mission"] = self.mission.broadcast()
-        if self.avoidance is not None and c.takes_right_of_way:  # the team mates it gives way to now
+        if self.avoidance is not None and c.takes_right_of_way:  # whom it gives way to / stands on toward now
             extra["gives_way_to"] = self.avoidance.gives_way_to()
+            extra["stands_on_to"] = self.avoidance.stands_on_to()
         if guidance is not None and self.avoidance is not None:  # mission_gamma_m() from the state read above
             return self.avoidance.mission_gamma_m(guidance), guidance, plan, extra, sharing
         return self.mission_gamma_m(), guidance, plan, extra, sharing
