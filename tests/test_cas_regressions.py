@@ -62,6 +62,16 @@ EXPECT = {
     # own_1 steered back towards the target three times and met it. It now holds the manoeuvre until
     # the target is past (rule 8 (d)); the hold is the mechanism that must act.
     "vo_team_vs_traffic_19": ("own_1", "colreg_hold", 1.0),
+    # The velocity-obstacle method again (a team against three crossing and head-on targets in a
+    # current, 22 % dropout, 45 % packet loss): own_1, off its path after a give-way manoeuvre,
+    # tested only the LOS velocity (pointing back at the path), which missed the head-on target the
+    # path runs 4.6 m from until 15 m range. The path's own motion is now tested too (the conflict
+    # it alone finds is counted as path_conflict) and own_1 passes port to port.
+    "vo_team_lossy_current_10": ("own_1", "path_conflict", 1.0),
+    # A 162° sharp turn 3.9 m from an island's corner, in a current setting onto it, turned the short
+    # way with the bow through the corner and gathered way into the island: such a turn now goes
+    # the long way round, away from mapped structure (turn_away).
+    "bottleneck_current_reversal_14": ("own", "turn_away", 1.0),
     # A user-style harbour exit under traffic_rule = "colreg" (the file's header): bravo's detour
     # around the ferry, planned without alpha (a team mate it gives way to is never gone around),
     # cleared the yielding alpha by 0.36 m on its path; bravo, turning onto it at 2.1 m/s, sailed

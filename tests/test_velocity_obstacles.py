@@ -238,6 +238,26 @@ def test_head_on_manoeuvre_is_held_until_the_target_is_past():
     assert float(np.hypot(log[k, 1] - log[k, 3], log[k, 2] - log[k, 4])) >= method.radius_m + 2.0 + 2.0 - 0.2
 
 
+@pytest.mark.parametrize("target_x_m, conflict", [(4.0, True), (8.0, False)])
+def test_a_track_the_path_runs_into_is_a_conflict_while_the_los_course_misses_it(target_x_m, conflict):
+    """Off the path (4 m east, heading back along the LOS course, 124°) the preferred velocity passes
+    a head-on track far off, but the path itself (x = 0) runs 4 m from the track's line, inside R
+    (≈ 5 m): that is a conflict (step 7), found ~60 m out instead of when the LOS course has
+    converged onto the path — 15 m and 5 s before contact in
+    tests/cas_regressions/vo_team_lossy_current_10. A track 8 m off the path is no conflict."""
+    method, _ = _method()
+    path = Path.line([0.0, 0.0], [0.0, 400.0])
+    p = np.array([4.0, 0.0])
+    course, _ = preferred_velocity(p, path, path.project(p), 1.5, method.lookahead_m)
+    assert math.degrees(course) == pytest.approx(90.0 + math.degrees(math.atan2(4.0, method.lookahead_m)))
+    v = 1.5 * np.array([math.cos(course), math.sin(course)])
+    nav = OwnNavigation(0.0, p, course, v, np.array([1.5, 0.0, 0.0]))
+    track = TrackEstimate(1, 0.0, np.array([target_x_m, 60.0]), -math.pi / 2, 1.5, 0.0, 2.0)
+    req = method.control(0.0, nav, GuidanceState(path, path.project(p), 1.5), PerceptionReport(0.0, (track,), ()))
+    assert (req.mode == "avoidance:steer") is conflict
+    assert method.stats["path_conflict"] == int(conflict)  # the LOS velocity alone saw nothing
+
+
 def test_role_memory_keep_extends_only_remembered_roles():
     m = cr.RoleMemory(hold_s=5.0)
     m.update(0.0, [3], [cr.HEAD_ON], [True])

@@ -22,12 +22,19 @@ from operator import attrgetter
 import numpy as np
 
 from mjasc.avoidance.prediction import TrackMotions
+from mjasc.avoidance.structure import REVERSAL_RAD, turn_away_from_structure
 from mjasc.core.estimates import TrackRows, track_columns
 from mjasc.guidance.segment_geometry import wrap_scalar
 
 __all__ = ["ControlTick"]
 
 _TRACK_ID = attrgetter("track_id")
+#: A near-reversal sharp turn beside structure (structure.turn_away_from_structure): the bow's sweep
+#: is measured this far ahead (the detour's aim point, 5 m), the long way taken when it clears the
+#: structure by this much more, and steered by a course 90° round until this much turn is left.
+_REVERSAL_PROBE_M = 5.0
+_REVERSAL_MARGIN_M = 1.0
+_LONG_WAY_RELEASE_RAD = math.radians(150.0)
 _INT64 = 2 ** 63
 
 
@@ -252,7 +259,8 @@ class ControlTick:
         # wrap_angle(np.arctan2(…) − ψ) and np.radians in plain floats (the same bits: math's atan2
         # equals numpy's on x86-64 without AVX-512, mjasc.guidance.segment_geometry; one call each)
         p = nav.position_m
-        err = abs(wrap_scalar(math.atan2(float(y - p[1]), float(x - p[0])) - float(nav.heading_rad)))
+        signed = wrap_scalar(math.atan2(float(y - p[1]), float(x - p[0])) - float(nav.heading_rad))
+        err = abs(signed)
         if err <= math.radians(cfg.sharp_turn_deg):
             self._sharp_turn = None
             return override, None
@@ -267,4 +275,18 @@ class ControlTick:
             if float(nav.body_velocity[0]) > limit:
                 return 0.0, self._sharp_turn[1]
             self._sharp_turn = ("turn", None)
-        return (limit if override is None else min(override, limit)), None
+        speed = limit if override is None else min(override, limit)
+        if self._sharp_turn[1] is None:  # the turn's direction, once: away from mapped structure
+            way = 0
+            if self._perceived is not None and err >= REVERSAL_RAD:
+                way = turn_away_from_structure(p, float(nav.heading_rad), signed, self._perceived.static_polygons,
+                                               _REVERSAL_PROBE_M, _REVERSAL_MARGIN_M)
+            self._sharp_turn = ("turn", way)
+            if way:
+                self.stats["turn_away"] += 1
+                self._event(t, f"the {math.degrees(err):.0f}° turn the long way round "
+                               f"({'to port' if way > 0 else 'to starboard'}): away from mapped structure")
+        way = self._sharp_turn[1]
+        if way and (way * signed) % (2.0 * math.pi) > _LONG_WAY_RELEASE_RAD:  # still the long way to go
+            return speed, wrap_scalar(float(nav.heading_rad) + way * 0.5 * math.pi)
+        return speed, None

@@ -10,14 +10,16 @@ vessel onto mapped structure. Pure functions; world frame ENU, SI units, absolut
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from mjasc.avoidance.static_conflicts import static_conflicts
 from mjasc.core.compiled import kernel, maximum
-from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+from mjasc.core.geometry import distance_to_polygon, point_in_polygon, signed_distance_to_polygon
 from mjasc.core.polygon_kernels import boundary_distance, inside_even_odd
 
-__all__ = ["structure_tracks", "detour_onto_structure"]
+__all__ = ["structure_tracks", "detour_onto_structure", "turn_away_from_structure"]
 
 
 def structure_tracks(tracks, polygons, slow_m_s: float) -> tuple[dict[int, float], set[int]]:
@@ -95,3 +97,34 @@ def _structure_depths(centres, radii, slow, stacked, ends, depth, beside):
                 depth[i] = maximum(depth[i], d[i])
             if slow[i] and d[i] < radii[i]:
                 beside[i] = True
+
+
+#: A turn this far off the heading or more may be taken the long way round, away from structure [rad].
+REVERSAL_RAD = math.radians(135.0)
+
+
+def turn_away_from_structure(position_m, heading_rad: float, error_rad: float, polygons, probe_m: float,
+                             margin_m: float) -> int:
+    """The direction of a near-reversal turn beside mapped structure: +1 counter-clockwise (to
+    port), −1 clockwise, 0 the shortest way (no reason to go the long way). ``error_rad`` is the
+    signed turn wanted (wrapped, the shortest way); for |error| ≥ :data:`REVERSAL_RAD` the bow's
+    sweep each way — points ``probe_m`` ahead at every 10° of heading passed — is measured against
+    the ``polygons`` (signed distance, negative inside), and the long way is taken when its sweep
+    clears them by ``margin_m`` more than the short way's and the short way's comes within
+    ``probe_m``. A 162° turn 3.9 m from an island's corner taken the short way swept the bow
+    through the corner and the hull, gathering way in the saturated turn, touched the island
+    (tests/cas_regressions/bottleneck_current_reversal_14.toml)."""
+    polys = [np.asarray(p, dtype=float).reshape(-1, 2) for p in polygons or ()]
+    if abs(error_rad) < REVERSAL_RAD or not polys:
+        return 0
+    short = 1 if error_rad > 0.0 else -1
+    p = np.asarray(position_m, dtype=float)[:2]
+
+    def sweep(direction: int, angle: float) -> float:
+        theta = float(heading_rad) + direction * np.linspace(0.0, angle, max(int(math.degrees(angle) / 10.0), 1) + 1)
+        pts = p + probe_m * np.stack([np.cos(theta), np.sin(theta)], axis=-1)
+        return min(float(np.min(signed_distance_to_polygon(pts, poly))) for poly in polys)
+
+    near = sweep(short, abs(error_rad))
+    far = sweep(-short, 2.0 * math.pi - abs(error_rad))
+    return -short if near < probe_m and far > near + margin_m else 0

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["preferred_velocity", "candidate_grid", "Choice", "choose"]
+__all__ = ["preferred_velocity", "path_velocity", "candidate_grid", "Choice", "choose"]
 
 #: τ_c below this counts as this in the collision penalty [s] (an overlap now is not infinitely worse).
 TTC_FLOOR_S = 0.5
@@ -47,6 +47,15 @@ def preferred_velocity(position_m, path, gamma_m: float, speed_m_s: float, looka
     e = -(x - qx) * math.sin(chi) + (y - qy) * math.cos(chi)
     course = chi - math.atan2(e, float(lookahead_m))
     return math.atan2(math.sin(course), math.cos(course)), max(float(speed_m_s), 0.0)
+
+
+def path_velocity(path, gamma_m: float, speed_m_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """(point (2,) [m], velocity (2,) [m/s]): the path's point at γ and its tangent at the mission
+    speed — the motion the LOS course converges onto (the VO method's path conflict)."""
+    g = min(max(float(gamma_m), 0.0), path.length)
+    qx, qy, chi, _ = path.at(g)
+    u = max(float(speed_m_s), 0.0)
+    return np.array([qx, qy]), np.array([u * math.cos(chi), u * math.sin(chi)])
 
 
 def candidate_grid(course_rad: float, speed_m_s: float, n_courses: int, span_rad: float, n_speeds: int,

@@ -36,7 +36,16 @@ guidance state, its perception's tracks and mapped structures, never the truth:
    whose path runs within R of the target's track steered back towards it on the wrong side, met
    the VO again closer, was sent across the target's bow the other way, and after three such
    cycles turned too late for its hull (campaign compare_methods, team_vs_traffic run 19: contact,
-   −0.72 m; tests/cas_regressions/vo_team_vs_traffic_19.toml).
+   −0.72 m; tests/cas_regressions/vo_team_vs_traffic_19.toml);
+7. **tests the path's own motion too**: the path's point at γ moving along its tangent at the
+   mission speed, against every moving stranger track (not team mates: they broadcast their plans
+   and avoid reciprocally) whose role is not stand-on or overtaken (a stand-on vessel keeps its
+   course: step 4). A hit within the horizon is a conflict and engages the track's role, as a hit
+   of the preferred velocity does. Why: off the path — after a manoeuvre for another track, or set by a
+   current — the LOS course points back at the path and its straight line can miss a track that
+   the path runs into; the conflict then appeared only once the course had converged, 15 m and 5 s
+   from a head-on target, too late for a hull (stress campaign, team_vs_traffic in a current:
+   contact, −0.24 m; tests/cas_regressions/vo_team_lossy_current_10.toml).
 
 The method has no slow loop: the prediction slot asks nothing of it. Static polygons are read
 from the perception report at most once a second (they change slowly; building them is the
@@ -52,7 +61,7 @@ import numpy as np
 from mjasc.avoidance.recording import AvoidanceLog
 from mjasc.avoidance.request import AvoidanceRequest
 from mjasc.avoidance.velocity_obstacles import colreg_constraints as cr
-from mjasc.avoidance.velocity_obstacles.candidates import candidate_grid, choose, preferred_velocity
+from mjasc.avoidance.velocity_obstacles.candidates import candidate_grid, choose, path_velocity, preferred_velocity
 from mjasc.avoidance.velocity_obstacles.cones import (Obstacles, at_speed, edge_points, relative_velocities,
                                                       static_disc_radius_m, time_to_collision)
 from mjasc.avoidance.velocity_obstacles.options import VelocityObstacleOptions, check_options
@@ -100,7 +109,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self.last_conflict: dict | None = None  # the latest conflict's record (the video's HUD shows it)
         self.mode_time_s = {m: 0.0 for m in _MODES}
         self.stats = {"steer_episodes": 0, "decisions": 0, "inadmissible": 0, "colreg_forbidden_taken": 0,
-                      "colreg_hold": 0,
+                      "colreg_hold": 0, "path_conflict": 0,
                       "roles": {name: 0 for name in cr.ROLE_NAMES if name != "none"}}
         self.min_choice_ttc_s = math.inf
 
@@ -183,12 +192,16 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         in_vo_pref = ttc[0] <= o.horizon_s
         roles = np.full(len(obs), cr.NONE)
         tracked = (~obs.static) & (obs.track_id >= 0)
+        on_path = self._path_ttc(obs, tracked, guidance, u_pref) <= o.horizon_s  # step 7 of the module docstring
         if tracked.any():  # roles (all "none" without COLREG): remembered from a track's first conflict
             fresh = cr.roles(p_a, heading, obs.position_m[tracked],
                              np.arctan2(obs.velocity_m_s[tracked, 1], obs.velocity_m_s[tracked, 0]),
                              self.colreg_config) if o.colreg else np.full(int(tracked.sum()), cr.NONE)
             known = {i for i in obs.track_id[tracked].tolist() if self.roles.role(i) is not None}
-            roles[tracked] = self.roles.update(t, obs.track_id[tracked], fresh, in_vo_pref[tracked])
+            prior = np.array([r if self.roles.role(i) is None else self.roles.role(i)
+                              for i, r in zip(obs.track_id[tracked].tolist(), fresh.tolist())], dtype=int)
+            on_path[tracked] &= ~np.isin(prior, (cr.STAND_ON, cr.OVERTAKEN))  # a stand-on vessel keeps its course
+            roles[tracked] = self.roles.update(t, obs.track_id[tracked], fresh, in_vo_pref[tracked] | on_path[tracked])
             for i, r in zip(obs.track_id[tracked].tolist(), roles[tracked].tolist()):
                 if i not in known and self.roles.role(i) is not None:
                     self._new_conflict(t, i, cr.ROLE_NAMES[r])
@@ -204,14 +217,16 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         stand_on = np.isin(roles, (cr.STAND_ON, cr.OVERTAKEN))
         waived = stand_on & (ttc[0] > o.stand_on_ttc_s)
         ttc = np.where(waived[None, :], np.inf, ttc)
-        conflict = bool(np.any(ttc[0] <= o.horizon_s) or wrong_side.any())
+        on_path &= ~stand_on
+        conflict = bool(np.any(ttc[0] <= o.horizon_s) or wrong_side.any() or on_path.any())
+        self.stats["path_conflict"] += int(np.any(on_path & (ttc[0] > o.horizon_s)))  # seen by step 7 only
         static_now = bool(np.any((ttc[0] <= o.horizon_s) & obs.static))
         if static_now and not self._static_conflict:
             self._new_conflict(t, -1, "static", static=True)
         self._static_conflict = static_now
         if conflict:
             self._last_conflict_t = t
-            self.stats["colreg_hold"] += int(not np.any(ttc[0] <= o.horizon_s))  # held by step 6 alone
+            self.stats["colreg_hold"] += int(not np.any(ttc[0] <= o.horizon_s) and wrong_side.any())  # step 6 alone
         elif self.mode != STEER or t - self._last_conflict_t > o.hysteresis_s:
             return self._release(t)
         # COLREG: the forbidden half-plane of engaged head-on / give-way tracks (closing velocities on
@@ -241,6 +256,17 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self.min_choice_ttc_s = min(self.min_choice_ttc_s, choice.ttc_s)
         req = self._set_mode(t, STEER)
         return AvoidanceRequest.of(req.mode, choice.speed_m_s, None, (), choice.course_rad)
+
+    def _path_ttc(self, obs: Obstacles, tracked: np.ndarray, guidance, speed_m_s: float) -> np.ndarray:
+        """τ_c (t,) [s] of the path's own motion — from the path's point at γ along its tangent at the
+        mission speed — with each moving stranger track (∞ for the others: team mates, structures)."""
+        out = np.full(len(obs), np.inf)
+        stranger = tracked & ~obs.reciprocal
+        if stranger.any():
+            q, v_path = path_velocity(guidance.path, guidance.gamma_m, speed_m_s)
+            w = (v_path[None, :] - obs.velocity_m_s[stranger])[None, :, :]
+            out[stranger] = time_to_collision(obs.position_m[stranger] - q, w, obs.radius_m[stranger])[0]
+        return out
 
     def _release(self, t: float) -> AvoidanceRequest:
         self.choice = None
@@ -289,7 +315,8 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             "method": self.method,
             "colreg": self.options.colreg,
             "actions": {k: self.stats[k] for k in ("steer_episodes", "decisions", "inadmissible",
-                                                   "colreg_forbidden_taken", "colreg_hold")},
+                                                   "colreg_forbidden_taken", "colreg_hold",
+                                                   "path_conflict")},
             "roles": dict(self.stats["roles"]),
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
