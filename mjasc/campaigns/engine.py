@@ -116,7 +116,8 @@ def run_campaign(campaign, out_dir: str | Path, scheduler=None, workers: int | N
     if getattr(campaign, "methods", ()):
         from mjasc.campaigns.methods import plugin_sources
 
-        plugins = {"avoidance": plugin_sources(m.name for m in campaign.methods)}
+        stage = getattr(campaign, "compare_stage", "avoidance")
+        plugins = {stage: plugin_sources((m.name for m in campaign.methods), stage)}
     out_dir = Path(out_dir).resolve()
     # One command at a time into a folder (a second one would do every run again): held from before
     # the store is read until the exports are written.

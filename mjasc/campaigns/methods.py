@@ -1,17 +1,23 @@
-"""Comparing avoidance methods: a campaign's ``methods`` list, and a run's scenario with a method set.
+"""Comparing methods: a campaign's ``methods`` list, and a run's scenario with a method set.
 
-A campaign file may list the avoidance methods it compares (top level, before the tables)::
+A campaign file may list the methods of one onboard stage it compares (top level, before the
+tables); the stage is ``compare_stage``, ``"avoidance"`` by default, or ``"tracking"`` or
+``"coordination"``::
 
     methods = ["thesis", "velocity_obstacle"]
     # or entries with options and a label (the label names the method in the store and the report;
     # default: the name; labels are unique, letters, digits, "_", "-", ".")
     methods = [{ name = "thesis", label = "thesis_k05", gain_k = 0.5 }, "thesis", "velocity_obstacle"]
+    # trackers on the same runs:
+    compare_stage = "tracking"
+    methods = ["imm", "filterpy_imm"]
 
 Every generated run (family × draw × seed) is then run once per entry, on the same scenario text
-except every ``[vessels.avoidance]`` table present (a vessel without one is untouched): that table
-becomes ``method = <name>``, then those of its keys the method declares in its ``Options`` (the
-family's own settings, such as ``safety_distance_m``, for a method that has them; the others are
-another method's options and are dropped), then the entry's options. Names are checked against
+except every vessel's table of that stage present (``[vessels.avoidance]``, ``[vessels.tracking]``,
+``[vessels.comms]``; a vessel without one is untouched): that table becomes ``method = <name>``,
+then those of its keys the method declares in its ``Options`` (the family's own settings, such as
+``safety_distance_m``, for a method that has them; the others are another method's options and are
+dropped), then the entry's options. Names are checked against
 :func:`mjasc.plugins.available` and options against the method's ``Options`` when the file is read
 (one-line errors naming ``methods[i]``). A campaign without ``methods`` runs each scenario as
 written, as before (same runs, same digest).
@@ -44,6 +50,8 @@ __all__ = ["MethodEntry", "parse_methods", "apply_method", "plugin_sources", "sc
            "check_plugins_reach"]
 
 STAGE = "avoidance"
+#: The stages a campaign can compare (``compare_stage``) → the vessel's table that names the method.
+COMPARED_STAGES = {"avoidance": "avoidance", "tracking": "tracking", "coordination": "comms"}
 _LABEL = re.compile(r"^[A-Za-z0-9_.-]{1,64}$")
 
 
@@ -57,14 +65,14 @@ class MethodEntry:
     options: dict = field(default_factory=dict)
 
 
-def parse_methods(value: Any, where: str = "methods") -> tuple[MethodEntry, ...]:
-    """The campaign's ``methods`` list → entries (ConfigError naming ``methods[i]``)."""
+def parse_methods(value: Any, where: str = "methods", stage: str = STAGE) -> tuple[MethodEntry, ...]:
+    """The campaign's ``methods`` list of ``stage`` methods → entries (ConfigError naming ``methods[i]``)."""
     from mjasc.plugins import available, parse_method_table
 
     if not isinstance(value, list) or not value:
-        raise ConfigError(f"{where}: must be a non-empty list of avoidance method names or tables "
+        raise ConfigError(f"{where}: must be a non-empty list of {stage} method names or tables "
                           f"({{ name = …, label = …, options… }}), got {show(value)}")
-    known = available(STAGE)
+    known = available(stage)
     entries: list[MethodEntry] = []
     for i, item in enumerate(value):
         at = f"{where}[{i}]"
@@ -72,19 +80,19 @@ def parse_methods(value: Any, where: str = "methods") -> tuple[MethodEntry, ...]
             item = {"name": item}
         tbl = dict(table(item, at))
         if "name" not in tbl:
-            raise ConfigError(f"{at}.name: missing (the avoidance method's name; available: {', '.join(known)})")
+            raise ConfigError(f"{at}.name: missing (the {stage} method's name; available: {', '.join(known)})")
         name = tbl.pop("name")
         name_at = at if isinstance(value[i], str) else f"{at}.name"
         name = string(name, name_at)
         if name not in known:
-            raise ConfigError(f"{name_at}: unknown avoidance method {name!r} (available: {', '.join(known)})")
+            raise ConfigError(f"{name_at}: unknown {stage} method {name!r} (available: {', '.join(known)})")
         label = string(tbl.pop("label", name), f"{at}.label")
         if not _LABEL.match(label):
             raise ConfigError(f"{at}.label: must be 1–64 letters, digits, '_', '-' or '.' (it names files), "
                               f"got {show(label)}")
         if "method" in tbl:
             raise ConfigError(f"{at}.method: unknown field (the method is given by name)")
-        parse_method_table(STAGE, {"method": name, **tbl}, at)  # the options, checked from the method's Options
+        parse_method_table(stage, {"method": name, **tbl}, at)  # the options, checked from the method's Options
         if any(e.label == label for e in entries):
             raise ConfigError(f"{at}.label: duplicate label {label!r} (give entries of the same method a label)")
         entries.append(MethodEntry(label, name, tbl))
@@ -92,43 +100,44 @@ def parse_methods(value: Any, where: str = "methods") -> tuple[MethodEntry, ...]
 
 
 @functools.lru_cache(maxsize=None)
-def _declares(cls: type, key: str, value_json: str) -> bool:
-    """Whether method class ``cls`` takes option ``key`` (its table would not call it unknown)."""
+def _declares(stage: str, cls: type, key: str, value_json: str) -> bool:
+    """Whether ``stage`` method class ``cls`` takes option ``key`` (its table would not call it unknown)."""
     from mjasc.plugins import parse_method_table
     from mjasc.plugins.registry import register, unregister
 
     name = f"_probe_{id(cls)}"
-    register(STAGE, cls, name)
+    register(stage, cls, name)
     try:
-        parse_method_table(STAGE, {"method": name, key: json.loads(value_json)}, "probe")
+        parse_method_table(stage, {"method": name, key: json.loads(value_json)}, "probe")
     except ConfigError as exc:
         return not str(exc).startswith(f"probe.{key}: unknown field")
     finally:
-        unregister(STAGE, name)
+        unregister(stage, name)
     return True
 
 
-def _keeps(name: str, key: str, value: Any) -> bool:
+def _keeps(stage: str, name: str, key: str, value: Any) -> bool:
     from mjasc.plugins import method_class
 
     try:
         value_json = json.dumps(value, sort_keys=True)
     except (TypeError, ValueError):
         return True  # not a TOML value: let the scenario's own validation name it
-    return _declares(method_class(STAGE, name), key, value_json)
+    return _declares(stage, method_class(stage, name), key, value_json)
 
 
-def apply_method(doc: dict, entry: MethodEntry) -> tuple[dict, int]:
-    """A copy of scenario document ``doc`` with ``entry`` set in every vessel's avoidance table
-    (module docstring); returns ``(doc, number of tables set)``."""
+def apply_method(doc: dict, entry: MethodEntry, stage: str = STAGE) -> tuple[dict, int]:
+    """A copy of scenario document ``doc`` with ``entry`` (a ``stage`` method) set in every vessel's
+    table of that stage (module docstring); returns ``(doc, number of tables set)``."""
     doc = copy.deepcopy(doc)
+    key = COMPARED_STAGES[stage]
     n = 0
     for v in doc.get("vessels") or []:
-        if not isinstance(v, dict) or not isinstance(v.get("avoidance"), dict):
+        if not isinstance(v, dict) or not isinstance(v.get(key), dict):
             continue
-        base = v["avoidance"]
-        kept = {k: x for k, x in base.items() if k != "method" and _keeps(entry.name, k, x)}
-        v["avoidance"] = {"method": entry.name, **kept, **copy.deepcopy(entry.options)}
+        base = v[key]
+        kept = {k: x for k, x in base.items() if k != "method" and _keeps(stage, entry.name, k, x)}
+        v[key] = {"method": entry.name, **kept, **copy.deepcopy(entry.options)}
         n += 1
     return doc, n
 

@@ -45,6 +45,7 @@ from mjasc.campaigns.hull_records import family_ticks, family_title, hull_table
 from mjasc.campaigns.statistics import aggregate, run_outcome, wilson_interval
 from mjasc.campaigns.report_figures import comparison_figures, numeric_params, outcome_map, save
 from mjasc.campaigns.store import CampaignStore
+from mjasc.campaigns.stored_file import file_compared_tables, file_gospa, file_methods
 
 __all__ = ["report_data", "write_report", "format_report"]
 
@@ -58,7 +59,7 @@ def report_data(folder: str | Path) -> dict:
         info = store.info()
         runs = store.runs()
         text = store.file_text()
-        order = _file_methods(text)
+        order = file_methods(text)
     agg = aggregate(runs, info.get("runs_defined"), methods=order)
     outcomes = dict(agg["statuses"])
     outcomes["collision"] = agg["collision"]["count"]
@@ -66,49 +67,16 @@ def report_data(folder: str | Path) -> dict:
     stored = info.get("hulls")
     hulls = {f: stored.get(f) if stored is not None else None for f in agg["families"]}
     return {"campaign": {**{k: info.get(k) for k in ("name", "digest", "source", "campaigns_in_store")},
-                         "gospa": _file_gospa(text)},
+                         "gospa": file_gospa(text), "compared_tables": file_compared_tables(text)},
             "hulls": hulls, "runs_defined": agg["runs_defined"], "runs_recorded": agg["runs_recorded"],
             "runs_failed": agg["runs_failed"], "outcomes": outcomes, **{k: v for k, v in agg.items() if k not in (
                 "runs_defined", "runs_recorded", "runs_failed")}}
-
-
-def _file_gospa(text: str) -> dict:
-    """The tracking score's GOSPA cut-off [m] and order, from the stored file's ``[evaluation]``
-    (the defaults when it does not set them)."""
-    import json
-
-    from mjasc.campaigns.campaign_tables import CampaignEvaluation
-
-    d = CampaignEvaluation()
-    try:
-        ev = json.loads(text).get("evaluation") or {}
-    except (ValueError, AttributeError):
-        ev = {}
-    ev = ev if isinstance(ev, dict) else {}
-    return {"cutoff_m": float(ev.get("gospa_cutoff_m", d.gospa_cutoff_m)),
-            "order": float(ev.get("gospa_order", d.gospa_order))}
 
 
 def gospa_label(data: dict) -> str:
     """``c = 10 m, p = 2`` for the campaign of ``data`` (:func:`report_data`)."""
     g = (data.get("campaign") or {}).get("gospa") or {"cutoff_m": 10.0, "order": 2.0}
     return f"c = {g['cutoff_m']:g} m, p = {g['order']:g}"
-
-
-def _file_methods(text: str) -> list[str]:
-    """The method labels in the campaign file's order (from the stored file), or []."""
-    import json
-
-    try:
-        entries = json.loads(text).get("methods") or []
-    except (ValueError, AttributeError):
-        return []
-    out = []
-    for e in entries if isinstance(entries, list) else []:
-        label = e if isinstance(e, str) else (e.get("label", e.get("name")) if isinstance(e, dict) else None)
-        if isinstance(label, str):
-            out.append(label)
-    return out
 
 
 def _pct(r: dict) -> str:
@@ -232,7 +200,7 @@ def _format_comparison(data: dict) -> str:
              f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
              f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}). "
              f"Methods compared: {', '.join(methods)} (each generated run once per method, the same scenario but "
-             f"for its avoidance tables).", "",
+             f"for its {c.get('compared_tables', 'avoidance')} tables).", "",
              *hull_table(data.get("hulls"), list(data["families"])),
              "| family | method | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] "
              "| min separation: min / p5 / median [m] | COLREG compliant (encounters with a role) "

@@ -59,7 +59,7 @@ from typing import Any, Iterator
 
 from mjasc.evaluation.colreg import ColregConfig
 from mjasc.campaigns.campaign_tables import CampaignEvaluation, CampaignOutputs
-from mjasc.campaigns.methods import apply_method, parse_methods
+from mjasc.campaigns.methods import COMPARED_STAGES, STAGE, apply_method, parse_methods
 from mjasc.campaigns.perturbation import CampaignError
 from mjasc.campaigns.perturbation_family import parse_perturbation_family
 from mjasc.campaigns.scenario_text import load_run_scenario, scenario_toml, write_scenario
@@ -112,7 +112,8 @@ class CampaignSpec:
     base_dir: str = "."
     limit: int | None = None  # only the first `limit` runs (the same campaign: same digest, same runs)
     evaluation: CampaignEvaluation = field(default_factory=CampaignEvaluation)
-    methods: tuple = ()  # the compared avoidance methods (mjasc.campaigns.methods.MethodEntry); () = as written
+    methods: tuple = ()  # the compared methods (mjasc.campaigns.methods.MethodEntry); () = as written
+    compare_stage: str = STAGE  # the stage whose methods ``methods`` compares
     # digests an earlier mjasc gave this campaign (its hull's meshes not yet covered): a store holding
     # it under one of them is the same campaign (CampaignStore.adopt_earlier)
     earlier_digests: tuple = ()
@@ -167,16 +168,17 @@ class CampaignSpec:
     def run(self, index: int, method: str | None = None) -> RunSpec:
         """Run ``index`` of the campaign (module docstring): the same RunSpec on every call. With
         ``methods``, ``method`` (a label) says which method's run; the runs of one index differ
-        only in their ``[vessels.avoidance]`` tables (:mod:`mjasc.campaigns.methods`)."""
+        only in their tables of the compared stage (:mod:`mjasc.campaigns.methods`)."""
         entry = self._method(method)
         fam, k = self._locate(int(index))
         params, doc, seed, header = fam.generate(k, self.base_seed, index)  # CampaignError: no draw accepted
         doc = {"name": doc.get("name", f"{fam.name}_{index}"), **doc, "seed": int(seed)}
         which = ""
         if entry is not None:
-            doc, _ = apply_method(doc, entry)
+            doc, _ = apply_method(doc, entry, self.compare_stage)
             options = ", ".join(f"{k} = {_short(v)}" for k, v in entry.options.items())
-            which = f"Avoidance method: {entry.label} ({entry.name}{': ' + options if options else ''}).\n"
+            which = (f"{self.compare_stage.capitalize()} method: {entry.label} "
+                     f"({entry.name}{': ' + options if options else ''}).\n")
         shown = ", ".join(f"{k} = {_short(v)}" for k, v in params.items())
         text = scenario_toml(doc, header=(
             f"Campaign {self.name} (digest {self.digest[:12]}), family {fam.name} ({fam.kind}), run {index} "
@@ -234,7 +236,7 @@ def _short(v: Any) -> str:
 
 
 # ---------------------------------------------------------------------- parsing
-_TOP = {"name", "description", "base_seed", "outputs", "evaluation", "colreg", "families", "methods"}
+_TOP = {"name", "description", "base_seed", "outputs", "evaluation", "colreg", "families", "methods", "compare_stage"}
 _LEGACY = {"scenario", "runs", "duration_s", "randomize"}
 
 
@@ -331,7 +333,12 @@ def _parse_campaign_spec(data: dict, source: str, base_dir: str | Path) -> Campa
         outputs = dataclass_from_table(CampaignOutputs, data.get("outputs", {}), "outputs")
         evaluation = dataclass_from_table(CampaignEvaluation, data.get("evaluation", {}), "evaluation")
         thresholds = dataclass_from_table(ColregConfig, data.get("colreg", {}), "colreg")
-        methods = parse_methods(data["methods"]) if "methods" in data else ()
+        stage = string(data.get("compare_stage", STAGE), "compare_stage")
+        if stage not in COMPARED_STAGES:
+            raise CampaignError(f"compare_stage: must be one of {', '.join(COMPARED_STAGES)}, got {show(stage)}")
+        if "compare_stage" in data and "methods" not in data:
+            raise CampaignError("compare_stage: given without methods (the list of that stage's methods to compare)")
+        methods = parse_methods(data["methods"], stage=stage) if "methods" in data else ()
         families = []
         for i, t in enumerate(_family_tables(data)):
             where = f"families[{i}]" if not legacy else ""
@@ -345,7 +352,7 @@ def _parse_campaign_spec(data: dict, source: str, base_dir: str | Path) -> Campa
     digest = _digest(data, refs)
     earlier = _digest(data, {k: getattr(v, "core", v) for k, v in refs.items()})  # (vessel_files before meshes)
     spec = CampaignSpec(name, description, base_seed, tuple(families), outputs, digest, source, dict(data),
-                        str(base_dir), evaluation=evaluation, methods=methods, colreg=thresholds,
+                        str(base_dir), evaluation=evaluation, methods=methods, compare_stage=stage, colreg=thresholds,
                         earlier_digests=(earlier,) if earlier != digest else ())
     first = 0
     for i, fam in enumerate(families):  # each family's first run must be a valid scenario (own overrides, rates)
@@ -357,13 +364,14 @@ def _parse_campaign_spec(data: dict, source: str, base_dir: str | Path) -> Campa
             except ScenarioError as exc:
                 own = _own_field(str(exc), getattr(fam, "own", None), f"families[{i}]")
                 # a field the family's own table gave: named where the user wrote it (not a method's options)
-                if own is not None and not (label and ".own.avoidance" in own):
+                if own is not None and not (label and f".own.{COMPARED_STAGES[stage]}" in own):
                     raise CampaignError(own) from None
                 raise CampaignError(f"families[{i}] ({fam.name}): its first run{with_method} is not a valid scenario: "
                                     f"{exc}") from None
-            if label and not any("avoidance" in v.options for v in sc.vessels):
+            if label and not any(COMPARED_STAGES[stage] in v.options for v in sc.vessels):
                 raise CampaignError(f"methods: family {fam.name!r} (families[{i}]) has no vessel with a "
-                                    f"[vessels.avoidance] table: its runs would not differ between methods")
+                                    f"[vessels.{COMPARED_STAGES[stage]}] table: its runs would not differ "
+                                    f"between methods")
         first += fam.runs
     return spec
 
