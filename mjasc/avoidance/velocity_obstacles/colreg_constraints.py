@@ -40,6 +40,16 @@ computed here over arrays of tracks from the own navigation and the tracks' esti
 conflict and kept while it stays in conflict and for ``hold_s`` after (:class:`RoleMemory`): as the
 geometry changes during the manoeuvre (A turning to starboard changes the bearing of B), a role
 recomputed each tick would flip between head-on and crossing and the allowed side with it.
+
+**Departure, committed** (rule 2 (b): departing from the rules to avoid immediate danger; rule 17
+(b)). When no candidate is admissible — every velocity the rules allow collides within the horizon
+(in a gap, the side they ask for is out of the hull's reach) — and the cheapest is collision-free
+but passes a head-on or give-way track on the forbidden side, the vessel departs from the rule for
+that track and **commits** to the side it now takes: for that track the forbidden half-plane is
+the other one, (r × w)_z < 0, while its role is remembered (:class:`Departures`;
+``forbidden_side(..., departed)``). Without the commitment the choice flipped across the target's
+line and back: once across, a crawl towards the rule's side was admissible again a moment later,
+then not, and the hull, turning back and forth ahead of the target, met it.
 """
 
 from __future__ import annotations
@@ -49,7 +59,7 @@ import numpy as np
 from mjasc.evaluation.colreg import ColregConfig
 
 __all__ = ["ROLE_NAMES", "NONE", "HEAD_ON", "GIVE_WAY", "STAND_ON", "OVERTAKING", "OVERTAKEN", "roles",
-           "side_of_passing", "forbidden_side", "port_turn", "RoleMemory"]
+           "side_of_passing", "forbidden_side", "port_turn", "RoleMemory", "Departures"]
 
 #: Role codes (index into :data:`ROLE_NAMES`; the names of mjasc.evaluation.colreg.ROLES).
 ROLE_NAMES = ("none", "head_on", "crossing_give_way", "crossing_stand_on", "overtaking", "overtaken")
@@ -86,13 +96,19 @@ def side_of_passing(relative_position_m, w) -> np.ndarray:
     return r[..., 0] * w[..., 1] - r[..., 1] * w[..., 0]
 
 
-def forbidden_side(relative_position_m, w, role_codes) -> np.ndarray:
+def forbidden_side(relative_position_m, w, role_codes, departed=None) -> np.ndarray:
     """(c, t) bool: the candidate's relative velocity closes on a head-on or give-way target (r·w > 0)
-    on the forbidden side ((r × w)_z > 0: passing it starboard to starboard, crossing ahead of it)."""
+    on the forbidden side ((r × w)_z > 0: passing it starboard to starboard, crossing ahead of it);
+    for a target the vessel departed from the rule for (``departed`` (t,) bool, module docstring)
+    the other side, (r × w)_z < 0: the side committed to is kept."""
     r = np.asarray(relative_position_m, dtype=float)[None, :, :]
     closing = np.sum(r * w, axis=-1) > 0.0
     bound = np.isin(np.asarray(role_codes), (HEAD_ON, GIVE_WAY))[None, :]
-    return bound & closing & (side_of_passing(relative_position_m, w) > 0.0)
+    s = side_of_passing(relative_position_m, w)
+    if departed is None:
+        return bound & closing & (s > 0.0)
+    departed = np.asarray(departed, dtype=bool)[None, :]
+    return bound & closing & np.where(departed, s < 0.0, s > 0.0)
 
 
 def port_turn(candidate_courses_rad, own_heading_rad: float, tolerance_rad: float) -> np.ndarray:
@@ -134,3 +150,24 @@ class RoleMemory:
         """The remembered role of a track, or None."""
         v = self._roles.get(int(track_id))
         return None if v is None else v[0]
+
+
+class Departures:
+    """The tracks the vessel departed from the rule for (module docstring, "Departure, committed"):
+    ``depart(ids)`` records them; ``of(ids, remembered)`` (t,) bool tells which of ``ids`` are
+    departed, forgetting those whose role is no longer remembered (the target past and clear)."""
+
+    def __init__(self):
+        self._ids: set[int] = set()
+
+    def depart(self, track_ids) -> list[int]:
+        """Record ``track_ids``; returns those not departed before."""
+        new = [int(i) for i in np.asarray(track_ids).tolist() if int(i) not in self._ids]
+        self._ids.update(new)
+        return new
+
+    def of(self, track_ids, remembered) -> np.ndarray:
+        ids = [int(i) for i in np.asarray(track_ids).tolist()]
+        keep = {i for i, m in zip(ids, np.asarray(remembered, dtype=bool).tolist()) if m}
+        self._ids = {i for i in self._ids if i in keep or i not in ids}
+        return np.array([i in self._ids for i in ids], dtype=bool)
