@@ -50,16 +50,26 @@ the other one, (r × w)_z < 0, while its role is remembered (:class:`Departures`
 ``forbidden_side(..., departed)``). Without the commitment the choice flipped across the target's
 line and back: once across, a crawl towards the rule's side was admissible again a moment later,
 then not, and the hull, turning back and forth ahead of the target, met it.
+
+A departure must be **within the hull's reach** (:func:`departure_reachable`): the candidate is a
+velocity, the hull a vessel that turns at a finite rate. The departure is taken only if it still
+clears every track it departs for when it begins only once the hull has come round onto its
+course — |Δψ| / ``turn_rate_deg_s`` later, the hull holding its position meanwhile — through the
+turn and the horizon after it. Without that test a vessel already 4 m on the rule's side, 17 m
+from the target, departed across its bow (a 156° turn that swept the bow through the target's
+bearing), found nothing admissible again half-way round and turned back, passing 0.6 m clear
+(1.5 m without departures).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from mjasc.avoidance.velocity_obstacles.cones import time_to_collision
 from mjasc.evaluation.colreg import ColregConfig
 
 __all__ = ["ROLE_NAMES", "NONE", "HEAD_ON", "GIVE_WAY", "STAND_ON", "OVERTAKING", "OVERTAKEN", "roles",
-           "side_of_passing", "forbidden_side", "port_turn", "RoleMemory", "Departures"]
+           "side_of_passing", "forbidden_side", "port_turn", "departure_reachable", "RoleMemory", "Departures"]
 
 #: Role codes (index into :data:`ROLE_NAMES`; the names of mjasc.evaluation.colreg.ROLES).
 ROLE_NAMES = ("none", "head_on", "crossing_give_way", "crossing_stand_on", "overtaking", "overtaken")
@@ -116,6 +126,20 @@ def port_turn(candidate_courses_rad, own_heading_rad: float, tolerance_rad: floa
     than ``tolerance_rad`` (rule 17 (c) for a stand-on vessel that must act)."""
     d = np.mod(np.asarray(candidate_courses_rad, dtype=float) - own_heading_rad + np.pi, 2 * np.pi) - np.pi
     return d > tolerance_rad
+
+
+def departure_reachable(relative_position_m, target_velocity_m_s, radius_m, turn_s: float, velocity_m_s,
+                        horizon_s: float) -> np.ndarray:
+    """(t,) bool: a departure velocity ``velocity_m_s`` (2,) taken only after the hull has come round
+    onto it — holding its position for ``turn_s`` (no progress either way), then sailing it — keeps
+    clear of each target (relative position r (t, 2), velocity (t, 2), combined radius R (t,)) during
+    the turn and the horizon after it (module docstring, "Departure, committed")."""
+    r = np.asarray(relative_position_m, dtype=float).reshape(-1, 2)
+    v_b = np.asarray(target_velocity_m_s, dtype=float).reshape(-1, 2)
+    hit_turning = time_to_collision(r, -v_b[None], radius_m)[0] <= float(turn_s)
+    w_after = np.asarray(velocity_m_s, dtype=float)[None, :] - v_b
+    hit_after = time_to_collision(r + v_b * float(turn_s), w_after[None], radius_m)[0] <= float(horizon_s)
+    return ~(hit_turning | hit_after)
 
 
 class RoleMemory:

@@ -52,7 +52,10 @@ guidance state, its perception's tracks and mapped structures, never the truth:
    the forbidden side, the vessel departs from the rule for that track (``colreg_departure``;
    counted in ``actions.colreg_departure``) and keeps the side it now takes: for that track the
    forbidden half-plane becomes the other one, and the port-turn penalty no longer applies for it,
-   while its role is remembered (:class:`~.colreg_constraints.Departures`). Why: in a 24 m gap
+   while its role is remembered (:class:`~.colreg_constraints.Departures`) — if the hull can still
+   reach that side: begun only once the hull has come round onto its course (at
+   ``turn_rate_deg_s``, holding its position meanwhile), the choice must still clear the track
+   (:func:`~.colreg_constraints.departure_reachable`). Why: in a 24 m gap
    between islands passing a head-on target port to port left ~0.7 m between its cone and the
    starboard island; with nothing admissible the cheapest was forbidden, back across the target's
    line, and a moment later a crawl back to the rule's side was admissible again, then not: the
@@ -268,7 +271,11 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
                            ttc.min(axis=1), o.horizon_s, forbidden, o)
         if o.colreg and o.colreg_departure and choice.forbidden and choice.ttc_s > o.horizon_s \
                 and not np.any((ttc.min(axis=1) > o.horizon_s) & ~forbidden):
-            self._depart(t, obs.track_id[side[choice.index] & engaged & ~departed])
+            passed = side[choice.index] & engaged & ~departed
+            turn_s = abs(math.remainder(choice.course_rad - heading, 2 * math.pi)) / math.radians(o.turn_rate_deg_s)
+            if passed.any() and cr.departure_reachable(rel[passed], obs.velocity_m_s[passed], obs.radius_m[passed],
+                                                       turn_s, choice.velocity_m_s, o.horizon_s).all():
+                self._depart(t, obs.track_id[passed])
         self.choice = choice
         self._previous_velocity = choice.velocity_m_s
         self.stats["decisions"] += 1
