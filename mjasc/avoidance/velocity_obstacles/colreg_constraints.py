@@ -52,13 +52,14 @@ line and back: once across, a crawl towards the rule's side was admissible again
 then not, and the hull, turning back and forth ahead of the target, met it.
 
 A departure must be **within the hull's reach** (:func:`departure_reachable`): the candidate is a
-velocity, the hull a vessel that turns at a finite rate. The departure is taken only if it still
-clears every track it departs for when it begins only once the hull has come round onto its
-course — |Δψ| / ``turn_rate_deg_s`` later, the hull holding its position meanwhile — through the
-turn and the horizon after it. Without that test a vessel already 4 m on the rule's side, 17 m
-from the target, departed across its bow (a 156° turn that swept the bow through the target's
-bearing), found nothing admissible again half-way round and turned back, passing 0.6 m clear
-(1.5 m without departures).
+velocity, the hull a vessel that turns at a finite rate. A collision-free candidate that passes a
+track on the forbidden side counts as a departure only if it still clears that track when it begins
+only once the hull has come round onto its course — |Δψ| / ``turn_rate_deg_s`` later, the hull
+holding its position meanwhile — through the turn and the horizon after it; one the hull cannot
+reach in time is as good as a collision (τ_c = 0 in the cost). Without that test a vessel 3–4 m
+on the rule's side, 17–22 m from the target, turned across its bow (a 156° turn sweeping the bow
+through the target's bearing), found nothing admissible half-way round and turned back: 0.6 m
+clear with a departure, and in another draw −0.24 m (contact) without departures.
 """
 
 from __future__ import annotations
@@ -128,17 +129,19 @@ def port_turn(candidate_courses_rad, own_heading_rad: float, tolerance_rad: floa
     return d > tolerance_rad
 
 
-def departure_reachable(relative_position_m, target_velocity_m_s, radius_m, turn_s: float, velocity_m_s,
+def departure_reachable(relative_position_m, target_velocity_m_s, radius_m, turn_s, velocities_m_s,
                         horizon_s: float) -> np.ndarray:
-    """(t,) bool: a departure velocity ``velocity_m_s`` (2,) taken only after the hull has come round
-    onto it — holding its position for ``turn_s`` (no progress either way), then sailing it — keeps
-    clear of each target (relative position r (t, 2), velocity (t, 2), combined radius R (t,)) during
-    the turn and the horizon after it (module docstring, "Departure, committed")."""
+    """(c, t) bool: each departure velocity (c, 2), taken only after the hull has come round onto it
+    — holding its position for its ``turn_s`` (c,) (no progress either way), then sailing it — keeps
+    clear of each target (relative position r (t, 2), velocity (t, 2), combined radius R (t,))
+    during the turn and the horizon after it (module docstring, "Departure, committed")."""
     r = np.asarray(relative_position_m, dtype=float).reshape(-1, 2)
     v_b = np.asarray(target_velocity_m_s, dtype=float).reshape(-1, 2)
-    hit_turning = time_to_collision(r, -v_b[None], radius_m)[0] <= float(turn_s)
-    w_after = np.asarray(velocity_m_s, dtype=float)[None, :] - v_b
-    hit_after = time_to_collision(r + v_b * float(turn_s), w_after[None], radius_m)[0] <= float(horizon_s)
+    turn = np.asarray(turn_s, dtype=float).reshape(-1)
+    hit_turning = time_to_collision(r, -v_b[None], radius_m)[0][None, :] <= turn[:, None]
+    r_after = r[None, :, :] + turn[:, None, None] * v_b[None, :, :]  # (c, t, 2): the target when the turn ends
+    w_after = np.asarray(velocities_m_s, dtype=float).reshape(-1, 2)[:, None, :] - v_b[None, :, :]
+    hit_after = time_to_collision(r_after, w_after, radius_m)[0] <= float(horizon_s)
     return ~(hit_turning | hit_after)
 
 

@@ -52,10 +52,10 @@ guidance state, its perception's tracks and mapped structures, never the truth:
    the forbidden side, the vessel departs from the rule for that track (``colreg_departure``;
    counted in ``actions.colreg_departure``) and keeps the side it now takes: for that track the
    forbidden half-plane becomes the other one, and the port-turn penalty no longer applies for it,
-   while its role is remembered (:class:`~.colreg_constraints.Departures`) — if the hull can still
-   reach that side: begun only once the hull has come round onto its course (at
-   ``turn_rate_deg_s``, holding its position meanwhile), the choice must still clear the track
-   (:func:`~.colreg_constraints.departure_reachable`). Why: in a 24 m gap
+   while its role is remembered (:class:`~.colreg_constraints.Departures`). A departure the hull
+   cannot reach in time — begun only once it has come round onto its course (at
+   ``turn_rate_deg_s``, holding its position meanwhile), it no longer clears the track — counts as
+   a collision (:func:`~.colreg_constraints.departure_reachable`). Why: in a 24 m gap
    between islands passing a head-on target port to port left ~0.7 m between its cone and the
    starboard island; with nothing admissible the cheapest was forbidden, back across the target's
    line, and a moment later a crawl back to the rule's side was admissible again, then not: the
@@ -267,15 +267,21 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
                 forbidden |= cr.port_turn(courses, self._stand_on_course, math.radians(5.0)) & (speeds > 0.0)
             else:
                 self._stand_on_course = None
+        ttc_min = ttc.min(axis=1)
+        bound = engaged & ~departed & np.isin(roles, (cr.HEAD_ON, cr.GIVE_WAY))  # departures possible from these
+        cornered = bool(o.colreg and o.colreg_departure and bound.any()
+                        and not np.any((ttc_min > o.horizon_s) & ~forbidden))
+        if cornered:  # step 8: a departure the hull cannot reach in time is as good as a collision
+            k = np.flatnonzero((ttc_min > o.horizon_s) & side[:, bound].any(axis=1))
+            turn_s = np.abs(np.remainder(courses[k] - heading + np.pi, 2 * np.pi) - np.pi) / math.radians(o.turn_rate_deg_s)
+            reach = cr.departure_reachable(rel[bound], obs.velocity_m_s[bound], obs.radius_m[bound], turn_s,
+                                           velocities[k], o.horizon_s)
+            ttc_min = ttc_min.copy()
+            ttc_min[k[np.any(side[k][:, bound] & ~reach, axis=1)]] = 0.0
         choice, _ = choose(courses, speeds, velocities, chi_pref, u_pref, self._previous_velocity,
-                           ttc.min(axis=1), o.horizon_s, forbidden, o)
-        if o.colreg and o.colreg_departure and choice.forbidden and choice.ttc_s > o.horizon_s \
-                and not np.any((ttc.min(axis=1) > o.horizon_s) & ~forbidden):
-            passed = side[choice.index] & engaged & ~departed
-            turn_s = abs(math.remainder(choice.course_rad - heading, 2 * math.pi)) / math.radians(o.turn_rate_deg_s)
-            if passed.any() and cr.departure_reachable(rel[passed], obs.velocity_m_s[passed], obs.radius_m[passed],
-                                                       turn_s, choice.velocity_m_s, o.horizon_s).all():
-                self._depart(t, obs.track_id[passed])
+                           ttc_min, o.horizon_s, forbidden, o)
+        if cornered and choice.forbidden and choice.ttc_s > o.horizon_s:
+            self._depart(t, obs.track_id[side[choice.index] & bound])
         self.choice = choice
         self._previous_velocity = choice.velocity_m_s
         self.stats["decisions"] += 1
