@@ -281,7 +281,8 @@ def test_cornered_between_an_island_and_a_head_on_target_the_side_taken_is_kept(
     for t in (0.0, 0.1, 1.2):  # static structures are read once a second: at 1.2 s the island is gone
         track = TrackEstimate(1, t, np.array([3.75, 75.0 - 1.5 * t]), -math.pi / 2, 1.5, 0.0, 2.0)
         nav = OwnNavigation(t, p, math.pi / 2, np.array([0.0, 1.5]), np.array([1.5, 0.0, 0.0]))
-        method.control(t, nav, GuidanceState(path, path.project(p), 1.5), PerceptionReport(t, (track,), island if t < 1 else ()))
+        report = PerceptionReport(t, (track,), island if t < 1 else ())
+        method.control(t, nav, GuidanceState(path, path.project(p), 1.5), report)
         chosen.append(method.choice)
     assert not chosen[0].admissible and chosen[0].forbidden and math.isinf(chosen[0].ttc_s)
     assert math.cos(chosen[0].course_rad) < 0.0  # west: across the target's line, starboard to starboard

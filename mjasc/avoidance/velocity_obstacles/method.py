@@ -273,7 +273,8 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
                         and not np.any((ttc_min > o.horizon_s) & ~forbidden))
         if cornered:  # step 8: a departure the hull cannot reach in time is as good as a collision
             k = np.flatnonzero((ttc_min > o.horizon_s) & side[:, bound].any(axis=1))
-            turn_s = np.abs(np.remainder(courses[k] - heading + np.pi, 2 * np.pi) - np.pi) / math.radians(o.turn_rate_deg_s)
+            turn = np.abs(np.remainder(courses[k] - heading + np.pi, 2 * np.pi) - np.pi)  # the shortest way round
+            turn_s = turn / math.radians(o.turn_rate_deg_s)
             reach = cr.departure_reachable(rel[bound], obs.velocity_m_s[bound], obs.radius_m[bound], turn_s,
                                            velocities[k], o.horizon_s)
             ttc_min = ttc_min.copy()
