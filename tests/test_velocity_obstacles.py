@@ -166,6 +166,32 @@ def test_forbidden_side_is_crossing_ahead_and_starboard_to_starboard():
     assert head_on.tolist() == [False, True]  # north-east: starboard (allowed); north-west: port (forbidden)
 
 
+
+def test_a_departed_target_forbids_the_other_side_until_its_role_is_forgotten():
+    """Rule 2 (b): for a head-on target the vessel departed from the rule for, the forbidden side is
+    the port-to-port one (the side taken is kept); the departure ends when the role is forgotten."""
+    r, w = np.array([[0.0, 50.0]]), np.array([[[0.3, 2.0]], [[-0.3, 2.0]]])
+    assert cr.forbidden_side(r, w, [cr.HEAD_ON], [True])[:, 0].tolist() == [True, False]
+    assert cr.forbidden_side(r, w, [cr.HEAD_ON], [False])[:, 0].tolist() == [False, True]
+    d = cr.Departures()
+    assert d.depart([4]) == [4] and d.depart([4]) == []
+    assert d.of([4, 5], [True, True]).tolist() == [True, False]
+    assert d.of([5], [True]).tolist() == [False] and d.of([4], [True]).tolist() == [True]  # 4 not seen: kept
+    assert d.of([4], [False]).tolist() == [False] and d.of([4], [True]).tolist() == [False]  # forgotten
+
+
+@pytest.mark.parametrize("ahead_m, turn_deg, course_deg, speed, reachable",
+                         [(66.5, 146.0, 166.0, 0.38, True), (16.9, 156.0, 170.0, 1.12, False)])
+def test_a_departure_is_taken_only_within_the_hulls_reach(ahead_m, turn_deg, course_deg, speed, reachable):
+    """Crossing a head-on target's line (it runs 5.4 / 4 m to port) to pass it starboard to
+    starboard: begun only after the turn (15°/s, the hull holding its position) it still clears the
+    target 66 m out (vo_bottleneck_wrong_side_19 at ~15 s), not 17 m out, where the target arrives
+    while the hull comes round (a draw of the same family that passed 0.6 m clear with it)."""
+    lateral = -5.4 if reachable else -4.0
+    v = speed * np.array([math.cos(math.radians(course_deg)), math.sin(math.radians(course_deg))])
+    ok = cr.departure_reachable([[lateral, ahead_m]], [[0.0, -1.5]], [5.0], [turn_deg / 15.0, 0.0], [v, v], 30.0)
+    assert ok.tolist() == [[reachable], [True]]  # without the turn the velocity itself is clear
+
 def test_role_memory_holds_the_role_through_the_manoeuvre():
     m = cr.RoleMemory(hold_s=5.0)
     assert m.update(0.0, [3], [cr.HEAD_ON], [True]).tolist() == [cr.HEAD_ON]
@@ -237,6 +263,34 @@ def test_head_on_manoeuvre_is_held_until_the_target_is_past():
     assert log[k, 1] > log[k, 3]  # port to port
     assert float(np.hypot(log[k, 1] - log[k, 3], log[k, 2] - log[k, 4])) >= method.radius_m + 2.0 + 2.0 - 0.2
 
+
+
+@pytest.mark.parametrize("depart", [True, False])
+def test_cornered_between_an_island_and_a_head_on_target_the_side_taken_is_kept(depart):
+    """In the gap's mouth, 4 m from the starboard island's face and 4.25 m east of a head-on
+    target's line (inside R ≈ 4.6 m): every velocity the rules allow (port to port) collides with
+    the island or the target, and the cheapest free one passes the target starboard to starboard.
+    The vessel departs from rule 14 (rule 2 (b)) and keeps that side: when a moment later the way
+    east is open again (here the island is gone from the report) it does not turn back across the
+    target's line — without the commitment it did, and in the stress campaign's gap
+    (tests/cas_regressions/vo_bottleneck_wrong_side_19) the choice flipped until contact."""
+    method, _ = _method(colreg_departure=depart, safety_distance_m=1.5)
+    path = Path.line([0.0, 0.0], [0.0, 400.0])
+    island = (np.array([[12.0, 37.5], [42.0, 37.5], [42.0, 67.5], [12.0, 67.5]]),)
+    p, chosen = np.array([8.0, 34.0]), []
+    for t in (0.0, 0.1, 1.2):  # static structures are read once a second: at 1.2 s the island is gone
+        track = TrackEstimate(1, t, np.array([3.75, 75.0 - 1.5 * t]), -math.pi / 2, 1.5, 0.0, 2.0)
+        nav = OwnNavigation(t, p, math.pi / 2, np.array([0.0, 1.5]), np.array([1.5, 0.0, 0.0]))
+        report = PerceptionReport(t, (track,), island if t < 1 else ())
+        method.control(t, nav, GuidanceState(path, path.project(p), 1.5), report)
+        chosen.append(method.choice)
+    assert not chosen[0].admissible and chosen[0].forbidden and math.isinf(chosen[0].ttc_s)
+    assert math.cos(chosen[0].course_rad) < 0.0  # west: across the target's line, starboard to starboard
+    assert method.stats["colreg_departure"] == int(depart)
+    if depart:
+        assert all(c.admissible and math.cos(c.course_rad) < 0.0 for c in chosen[1:])  # the side is kept
+    else:
+        assert math.cos(chosen[2].course_rad) > 0.0  # back east, towards the rule's side: the flip
 
 @pytest.mark.parametrize("target_x_m, conflict", [(4.0, True), (8.0, False)])
 def test_a_track_the_path_runs_into_is_a_conflict_while_the_los_course_misses_it(target_x_m, conflict):

@@ -46,6 +46,22 @@ guidance state, its perception's tracks and mapped structures, never the truth:
    the path runs into; the conflict then appeared only once the course had converged, 15 m and 5 s
    from a head-on target, too late for a hull (stress campaign, team_vs_traffic in a current:
    contact, −0.24 m; tests/cas_regressions/vo_team_lossy_current_10.toml).
+8. **departs from the rule when the rule's side is out of reach, and commits** (rule 2 (b),
+   17 (b)): when no candidate is admissible — every velocity COLREG allows collides within the
+   horizon — and the cheapest is collision-free but passes an engaged head-on or give-way track on
+   the forbidden side, the vessel departs from the rule for that track (``colreg_departure``;
+   counted in ``actions.colreg_departure``) and keeps the side it now takes: for that track the
+   forbidden half-plane becomes the other one, and the port-turn penalty no longer applies for it,
+   while its role is remembered (:class:`~.colreg_constraints.Departures`). A departure the hull
+   cannot reach in time — begun only once it has come round onto its course (at
+   ``turn_rate_deg_s``, holding its position meanwhile), it no longer clears the track — counts as
+   a collision (:func:`~.colreg_constraints.departure_reachable`). Why: in a 24 m gap
+   between islands passing a head-on target port to port left ~0.7 m between its cone and the
+   starboard island; with nothing admissible the cheapest was forbidden, back across the target's
+   line, and a moment later a crawl back to the rule's side was admissible again, then not: the
+   choice flipped across the target's line until the hull, turning through 180° ahead of it, met
+   it (stress campaign, bottleneck: contact, −0.23 m;
+   tests/cas_regressions/vo_bottleneck_wrong_side_19.toml).
 
 The method has no slow loop: the prediction slot asks nothing of it. Static polygons are read
 from the perception report at most once a second (they change slowly; building them is the
@@ -94,6 +110,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self.lookahead_m = float(o.lookahead_m if o.lookahead_m is not None else max(3.0 * vessel.length_m, 5.0))
         self.colreg_config = ColregConfig()
         self.roles = cr.RoleMemory(o.hysteresis_s)
+        self.departures = cr.Departures()  # tracks the vessel departed from the rule for (step 8)
         self.mode = "mission"
         self.choice = None  # the latest Choice while steering
         self._previous_velocity = None
@@ -109,7 +126,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self.last_conflict: dict | None = None  # the latest conflict's record (the video's HUD shows it)
         self.mode_time_s = {m: 0.0 for m in _MODES}
         self.stats = {"steer_episodes": 0, "decisions": 0, "inadmissible": 0, "colreg_forbidden_taken": 0,
-                      "colreg_hold": 0, "path_conflict": 0,
+                      "colreg_hold": 0, "path_conflict": 0, "colreg_departure": 0,
                       "roles": {name: 0 for name in cr.ROLE_NAMES if name != "none"}}
         self.min_choice_ttc_s = math.inf
 
@@ -208,10 +225,12 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         # rule 8 (d): an engaged head-on / give-way track holds the manoeuvre while the path's velocity
         # would still close on it on the forbidden side (step 6 of the module docstring)
         wrong_side = np.zeros(len(obs), bool)
+        departed = np.zeros(len(obs), bool)  # the side committed to (step 8): the forbidden one is the other
         if o.colreg and tracked.any():
             remembered = np.zeros(len(obs), bool)
             remembered[tracked] = [self.roles.role(i) is not None for i in obs.track_id[tracked].tolist()]
-            wrong_side = remembered & cr.forbidden_side(rel, w[:1], roles)[0]
+            departed[tracked] = self.departures.of(obs.track_id[tracked], remembered[tracked])
+            wrong_side = remembered & cr.forbidden_side(rel, w[:1], roles, departed)[0]
             self.roles.keep(t, obs.track_id[wrong_side])
         # stand on (rule 17): a stand-on track's VO counts only once keeping course collides soon
         stand_on = np.isin(roles, (cr.STAND_ON, cr.OVERTAKEN))
@@ -235,9 +254,11 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         engaged = np.zeros(len(obs), bool)
         engaged[tracked] = [self.roles.role(i) is not None for i in obs.track_id[tracked].tolist()]
         forbidden = np.zeros(len(courses), bool)
+        side = np.zeros((len(courses), len(obs)), bool)
         if o.colreg and engaged.any():
-            forbidden = cr.forbidden_side(rel, w, np.where(engaged, roles, cr.NONE)).any(axis=1)
-            if o.give_way_starboard and (engaged & np.isin(roles, (cr.HEAD_ON, cr.GIVE_WAY))).any():
+            side = cr.forbidden_side(rel, w, np.where(engaged, roles, cr.NONE), departed)
+            forbidden = side.any(axis=1)
+            if o.give_way_starboard and (engaged & ~departed & np.isin(roles, (cr.HEAD_ON, cr.GIVE_WAY))).any():
                 forbidden |= cr.port_turn(courses, chi_pref, math.radians(5.0)) & (speeds > 0.0)
             acting = engaged & (roles == cr.STAND_ON) & ~waived
             if acting.any():  # rule 17 (c): no turn to port (of the course it stood on) for a vessel on its port side
@@ -246,8 +267,22 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
                 forbidden |= cr.port_turn(courses, self._stand_on_course, math.radians(5.0)) & (speeds > 0.0)
             else:
                 self._stand_on_course = None
+        ttc_min = ttc.min(axis=1)
+        bound = engaged & ~departed & np.isin(roles, (cr.HEAD_ON, cr.GIVE_WAY))  # departures possible from these
+        cornered = bool(o.colreg and o.colreg_departure and bound.any()
+                        and not np.any((ttc_min > o.horizon_s) & ~forbidden))
+        if cornered:  # step 8: a departure the hull cannot reach in time is as good as a collision
+            k = np.flatnonzero((ttc_min > o.horizon_s) & side[:, bound].any(axis=1))
+            turn = np.abs(np.remainder(courses[k] - heading + np.pi, 2 * np.pi) - np.pi)  # the shortest way round
+            turn_s = turn / math.radians(o.turn_rate_deg_s)
+            reach = cr.departure_reachable(rel[bound], obs.velocity_m_s[bound], obs.radius_m[bound], turn_s,
+                                           velocities[k], o.horizon_s)
+            ttc_min = ttc_min.copy()
+            ttc_min[k[np.any(side[k][:, bound] & ~reach, axis=1)]] = 0.0
         choice, _ = choose(courses, speeds, velocities, chi_pref, u_pref, self._previous_velocity,
-                           ttc.min(axis=1), o.horizon_s, forbidden, o)
+                           ttc_min, o.horizon_s, forbidden, o)
+        if cornered and choice.forbidden and choice.ttc_s > o.horizon_s:
+            self._depart(t, obs.track_id[side[choice.index] & bound])
         self.choice = choice
         self._previous_velocity = choice.velocity_m_s
         self.stats["decisions"] += 1
@@ -267,6 +302,15 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             w = (v_path[None, :] - obs.velocity_m_s[stranger])[None, :, :]
             out[stranger] = time_to_collision(obs.position_m[stranger] - q, w, obs.radius_m[stranger])[0]
         return out
+
+    def _depart(self, t: float, track_ids) -> None:
+        """Step 8 of the module docstring: every velocity the rules allow collides, the cheapest
+        free one passes these tracks on the forbidden side — depart from the rule for them and
+        keep the side taken."""
+        for i in self.departures.depart(track_ids):
+            self.stats["colreg_departure"] += 1
+            self._event(t, f"velocity obstacle: T{i} — every allowed velocity collides: departing from the rule "
+                           "(rule 2 (b)), keeping the side taken until it is past")
 
     def _release(self, t: float) -> AvoidanceRequest:
         self.choice = None
@@ -316,7 +360,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             "colreg": self.options.colreg,
             "actions": {k: self.stats[k] for k in ("steer_episodes", "decisions", "inadmissible",
                                                    "colreg_forbidden_taken", "colreg_hold",
-                                                   "path_conflict")},
+                                                   "path_conflict", "colreg_departure")},
             "roles": dict(self.stats["roles"]),
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},

@@ -42,6 +42,13 @@ class VelocityObstacleOptions:
     colreg: bool = param(True, doc="apply Kuwata et al.'s COLREG constraints (roles, forbidden half-planes, stand on)")
     give_way_starboard: bool = param(True, doc="a head-on or give-way vessel alters to starboard: courses more than "
                                                "5° to port of the preferred one cost weight_colreg (rules 14, 16)")
+    colreg_departure: bool = param(True, doc="when no candidate is admissible and the cheapest is collision-free but "
+                                             "passes a head-on or give-way track on the forbidden side, depart from "
+                                             "the rule for that track and keep the side taken until it is past "
+                                             "(rule 2 (b), 17 (b)), if the hull can still reach it (turn_rate_deg_s)")
+    turn_rate_deg_s: float = param(15.0, positive=True, maximum=180.0, unit="deg/s",
+                                   doc="the hull's turn rate assumed when checking that a departure from the rule "
+                                       "is within reach (the departure begins once the hull has come round)")
     stand_on_ttc_s: float = param(12.0, nonneg=True, unit="s",
                                   doc="a stand-on vessel keeps course and speed until keeping them would collide "
                                       "within this time (rule 17)")
