@@ -27,9 +27,10 @@ Dask workers, which know the built-in methods and the installed packages' entry 
 (``mjasc.<stage>``). A method registered in code (:func:`mjasc.plugins.register`) that the campaign
 compares, or that a run's scenario selects in any stage (:func:`scenario_plugins`: a tracking method
 in ``[vessels.tracking]``, …), is carried to them by its import path (``module:QualifiedName``,
-imported and registered there before the run), which works for a class defined at the top level of an importable module. A class that cannot be
-imported by name (defined in ``__main__``, in a function) runs only in this process, unisolated
-(``run_campaign(…, workers=0, isolate=False)``); anything else is a one-line error before any run
+imported and registered there before the run), which works for a class defined at the top level
+of an importable module. A class that cannot be imported by name (defined in ``__main__``, in a
+function) runs only in this process, unisolated (``run_campaign(…, workers=0, isolate=False)``);
+anything else is a one-line error before any run
 starts (:func:`plugin_sources`).
 """
 
