@@ -63,7 +63,8 @@ def test_a_lane_blocked_by_a_static_obstacle_is_refused_and_the_other_side_taken
 
 
 def test_a_lane_off_a_short_line_that_ends_in_the_threats_track_is_held_beside_its_end():
-    """A station-keeping leg's short line (30 m along +x, the vessel 8 m from its end at 0.5 m/s)
+    """A station-keeping leg's short line (``hold_past_end``: its end is no destination; 30 m along
+    +x, the vessel 8 m from its end at 0.5 m/s)
     with a 4 m ferry coming down it head-on, 2 m to port, at 1.7 m/s: the obstruction outlasts
     the line. The lane runs on past the line's end, straight, for the whole hold, keeps the
     clearance from the ferry's centres alongside it and beyond its end, does not step back, and is
@@ -75,7 +76,9 @@ def test_a_lane_off_a_short_line_that_ends_in_the_threats_track_is_held_beside_i
     query = PredictionQuery(mission, 22.0, 0.0, 0.5, 1.0, [ferry], cfg.prediction, include_clear=True)
     c = predict_fleet([query])[0][0]
     assert c.collision and c.gamma_b == pytest.approx(mission.length)
-    d = plan_lane_change(0.0, (22.0, 0.0), mission, 22.0, 0.5, [c], [], cfg, 2.0)
+    plain = plan_lane_change(0.0, (22.0, 0.0), mission, 22.0, 0.5, [c], [], cfg, 2.0)
+    assert isinstance(plain, str) or plain.hold_until_s == -np.inf  # a goal's path end: no hold past it
+    d = plan_lane_change(0.0, (22.0, 0.0), mission, 22.0, 0.5, [c], [], cfg, 2.0, hold_past_end=True)
     assert not isinstance(d, str), d
     assert d.hold_until_s == pytest.approx(c.t_f)  # not left before the ferry has passed
     assert d.mission_gamma_goal_m == pytest.approx(mission.length) and d.path is not None

@@ -26,10 +26,11 @@ The result is a :class:`~mjasc.avoidance.replanning.Detour` (``field`` None): th
 prediction then runs along it exactly as along a streamline, and the usual end-of-detour logic
 returns it to the mission path.
 
-**Held lane.** When the obstruction outlasts the mission path — the vessel, at its planned speed,
-would reach the path's end before t_f: a station-keeping leg's short line, a goal on the threat's
-track — the path's end is inside the threat's lane and stepping back onto it would sail into the
-threat. The mission path is then continued straight along its last course for the whole hold
+**Held lane** (``hold_past_end``: a station-keeping leg, whose line runs through a moving station
+and whose end is no destination). When the obstruction outlasts the mission path — the vessel, at
+its planned speed, would reach the path's end before t_f — and the path ends inside the threat's
+swept area, stepping back onto it would sail into the threat. The path is then continued straight
+along its last course for the whole hold
 (to the vessel's planned γ at t_f plus ``goal_margin_m``, at least ``_MIN_ROOM_M`` past the
 vessel), the offset is reached within it and held to its end without stepping back, threat
 centres up to the clearance beyond that end count too, and the detour is not left before t_f
@@ -50,6 +51,18 @@ __all__ = ["lane_offsets", "plan_lane_change"]
 _STARBOARD_BIAS_M = 1.0
 #: The least room [m] a held lane (module docstring) gets to step aside in past the vessel.
 _MIN_ROOM_M = 10.0
+
+
+def _ends_inside(mission: Path, t: float, conflicts) -> bool:
+    """Whether a threat's predicted centre comes within its collision distance of the path's end
+    from time t on: the path ends inside the threat's swept area."""
+    end = mission.point(mission.length)
+    for c in conflicts:
+        keep = c.times >= t - 1e-9
+        pts = np.asarray(c.obstacle_positions, dtype=float)[keep]
+        if pts.size and float(np.min(np.hypot(*(pts - end).T))) <= c.collision_distance_m:
+            return True
+    return False
 
 
 def _extended(mission: Path, length_m: float) -> Path:
@@ -84,7 +97,8 @@ def _ramp(x):
 
 
 def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: float, conflicts, static_polygons,
-                     cfg, static_inflation_m: float, max_offset_m: float = 30.0, starboard_only: bool = False):
+                     cfg, static_inflation_m: float, max_offset_m: float = 30.0, starboard_only: bool = False,
+                     hold_past_end: bool = False):
     """The lane change for ``conflicts`` (:class:`~mjasc.avoidance.prediction.PredictedConflict`
     with a collision, dynamic tracks), or the reason there is none (a string).
 
@@ -92,14 +106,29 @@ def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: 
     ``g_now_m``; speed_m_s: its planned speed [m/s]; static_polygons: mapped static polygons
     (grown here by ``static_inflation_m``); cfg: the
     :class:`~mjasc.avoidance.config.AvoidanceConfig`; starboard_only: only a starboard offset
-    (COLREG rule 14, head-on: both alter course to starboard)."""
+    (COLREG rule 14, head-on: both alter course to starboard); hold_past_end: the path's end is
+    no destination (a station-keeping leg's line through a moving station): the lane may be held
+    past it (module docstring). A held lane that cannot be taken — its continuation meets mapped
+    structure, say — leaves the lane that steps back at the path's end, as without the hold."""
+    args = (t, start, mission, g_now_m, speed_m_s, conflicts, static_polygons, cfg, static_inflation_m,
+            max_offset_m, starboard_only)
+    out = _plan(*args, hold=hold_past_end)
+    return _plan(*args, hold=False) if isinstance(out, str) and out.startswith(_HELD) else out
+
+
+_HELD = "held lane: "  # the reasons a held lane gives (then the plain lane is tried)
+
+
+def _plan(t, start, mission, g_now_m, speed_m_s, conflicts, static_polygons, cfg, static_inflation_m, max_offset_m,
+          starboard_only, hold):
+    """:func:`plan_lane_change`, with a held lane where the obstruction outlasts the path when ``hold``."""
     start = np.asarray(start, dtype=float)
     v = max(float(speed_m_s), 0.3)
     g_now = float(g_now_m)
     t_f = max((c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s) for c in conflicts)
     t_i = min(c.t_i for c in conflicts)
     mission_end = mission.length
-    held = g_now + v * max(t_f - t, 0.0) >= mission_end  # the obstruction outlasts the mission path
+    held = hold and g_now + v * max(t_f - t, 0.0) >= mission_end and _ends_inside(mission, t, conflicts)
     if held:  # the lane runs on past the path's end, straight, for the whole hold (module docstring)
         mission = _extended(mission, max(g_now + v * max(t_f - t, 0.0) + cfg.goal_margin_m - mission_end,
                                          _MIN_ROOM_M - (mission_end - g_now)))
@@ -167,7 +196,7 @@ def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: 
         margin, lane, pts, g_end = max(late, key=lambda x: x[0])
         if margin > max(c.min_distance_m - c.collision_distance_m for c in conflicts) + 1.0:
             return _detour(lane, mission, g_now, g_end, pts, t, t_f if held else -np.inf, mission_end)
-    return "no lane change: " + "; ".join(reasons)
+    return (_HELD if held else "") + "no lane change: " + "; ".join(reasons)
 
 
 def _detour(lane: Path, mission: Path, g_now: float, g_end: float, pts: np.ndarray, t: float, hold_until_s: float,

@@ -138,7 +138,7 @@ class Manoeuvres:
         lane = plan_lane_change(t, nav.position_m, self.mission_path, self.mission_gamma_m(self._guidance),
                                 self._guidance.mission_speed_m_s, conflicts,
                                 list(static_polygons) + list(static_outlines), self.config, self.static_inflation_m,
-                                starboard_only=True)
+                                starboard_only=True, hold_past_end=self.station_keeping)
         if isinstance(lane, str):
             self._event(t, f"head-on: {lane}")
             return False
@@ -210,7 +210,7 @@ class Manoeuvres:
         if isinstance(out, str) and dynamic:  # the swept area cannot be gone around: leave the threat's lane
             lane = plan_lane_change(t, nav.position_m, mission, g_now_m, self._guidance.mission_speed_m_s, dynamic,
                                     list(static_polygons) + list(static_outlines), self.config,
-                                    self.static_inflation_m)
+                                    self.static_inflation_m, hold_past_end=self.station_keeping)
             if isinstance(lane, str):
                 out = f"{out}; {lane}"
             else:
