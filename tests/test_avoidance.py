@@ -207,6 +207,18 @@ def test_pass_first_when_yielding_needs_less_than_the_minimum_speed():
     assert ca.summary()["actions"]["pass"] == 1
 
 
+def test_no_pass_first_towards_a_goal_beyond_the_end_of_the_path():
+    """The same crossing on a path that ends 2 m past it: passing first would aim at γ_B + margin,
+    beyond the path's end, where the follower takes all way off inside the obstructed stretch
+    (tests/cas_regressions/target_tracking_current_16.toml). No pass: the vessel goes around."""
+    ca, _ = make(AvoidanceConfig(speed_min_m_s=0.8), path=Path.from_waypoints(np.array([[0.0, 0.0], [22.0, 0.0]])))
+    c = ca.predict(0.0, nav(), [crossing(x_cross=20.0, t_cross=20.0)], [])[0]
+    assert c.gamma_b + 2.0 > 22.0
+    ca.control_refs(0.0, nav())
+    assert ca.summary()["actions"]["pass"] == 0
+    assert ca.correction is None or ca.correction.kind != "pass"
+
+
 def test_neither_yield_nor_pass_falls_back_to_a_detour():
     ca, _ = make(AvoidanceConfig(allow_pass_first=False, speed_min_m_s=0.8))
     ca.predict(0.0, nav(), [crossing(x_cross=20.0, t_cross=20.0)], [])

@@ -60,3 +60,34 @@ def test_a_lane_blocked_by_a_static_obstacle_is_refused_and_the_other_side_taken
     both = [quay, quay * np.array([1.0, -1.0])]
     out = plan_lane_change(0.0, (0.0, 0.0), mission, 0.0, 1.5, [c], both, cfg, 1.0)
     assert isinstance(out, str) and "static obstacle" in out
+
+
+def test_a_lane_off_a_short_line_that_ends_in_the_threats_track_is_held_beside_its_end():
+    """A station-keeping leg's short line (``hold_past_end``: its end is no destination; 30 m along
+    +x, the vessel 8 m from its end at 0.5 m/s)
+    with a 4 m ferry coming down it head-on, 2 m to port, at 1.7 m/s: the obstruction outlasts
+    the line. The lane runs on past the line's end, straight, for the whole hold, keeps the
+    clearance from the ferry's centres alongside it and beyond its end, does not step back, and is
+    not left before t_f (tests/cas_regressions/target_tracking_current_16.toml)."""
+    cfg = AvoidanceConfig()
+    mission = Path.line((0.0, 0.0), (30.0, 0.0))
+    ferry = TrackEstimate(track_id=3, time_s=0.0, position_m=np.array([60.0, 2.0]), heading_rad=np.pi,
+                          speed_m_s=1.7, turn_rate_rad_s=0.0, radius_m=4.0)
+    query = PredictionQuery(mission, 22.0, 0.0, 0.5, 1.0, [ferry], cfg.prediction, include_clear=True)
+    c = predict_fleet([query])[0][0]
+    assert c.collision and c.gamma_b == pytest.approx(mission.length)
+    plain = plan_lane_change(0.0, (22.0, 0.0), mission, 22.0, 0.5, [c], [], cfg, 2.0)
+    assert isinstance(plain, str) or plain.hold_until_s == -np.inf  # a goal's path end: no hold past it
+    d = plan_lane_change(0.0, (22.0, 0.0), mission, 22.0, 0.5, [c], [], cfg, 2.0, hold_past_end=True)
+    assert not isinstance(d, str), d
+    assert d.hold_until_s == pytest.approx(c.t_f)  # not left before the ferry has passed
+    assert d.mission_gamma_goal_m == pytest.approx(mission.length) and d.path is not None
+    end = d.path.point(d.path.length)
+    # the line continued straight for the whole hold: to the planned γ at t_f plus the goal margin
+    assert end[0] == pytest.approx(22.0 + 0.5 * c.t_f + cfg.goal_margin_m, abs=0.5) and end[0] > mission.length
+    clear = c.collision_distance_m + cfg.replan_margin_m + cfg.correction_margin_m
+    assert 2.0 - end[1] >= clear - 1e-6  # to starboard, off the ferry's track by the clearance
+    # sailing the lane at 0.5 m/s and waiting at its end, the prediction finds no collision
+    again = predict_fleet([PredictionQuery(d.path, 0.0, 0.0, 0.5, 1.0, [ferry], cfg.prediction,
+                                           include_clear=True)])[0][0]
+    assert not again.collision

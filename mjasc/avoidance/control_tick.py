@@ -221,7 +221,7 @@ class ControlTick:
         ended, the planned motion predicted again), a sharp turn on a detour."""
         d = self.detour
         g = self._guidance
-        if d is not None and g.path is d.path and g.gamma_m >= d.detour_length_m - 0.5:
+        if d is not None and g.path is d.path and g.gamma_m >= d.detour_length_m - 0.5 and t >= d.hold_until_s:
             g_m = d.mission_gamma(g.gamma_m)
             self._back_to_mission(t, g_m, f"detour finished: back on the mission path at γ = {g_m:.1f} m")
         elif d is not None and g.path is not d.path:

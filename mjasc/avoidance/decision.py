@@ -37,8 +37,14 @@ class Correction:
 
 
 def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, speed_max_m_s: float,
-                            pass_only: bool = False, passing: bool = False) -> Correction | None:
+                            pass_only: bool = False, passing: bool = False,
+                            path_end_m: float = np.inf) -> Correction | None:
     """Yield if possible (not when ``pass_only``), else pass first if allowed and feasible, else None.
+    ``path_end_m``: the length [m] of the path γ runs on. A pass whose goal γ_B + margin lies
+    beyond it is no pass: under a correction the path is not re-drawn and the follower takes all
+    way off at its end, so the vessel stops there, inside the obstructed stretch (a station-keeping
+    leader in a current passed first towards a goal beyond its station and was hit there by the
+    crossing ferry: tests/cas_regressions/target_tracking_current_16.toml).
     ``passing``: the vessel is already passing this track first: it goes on passing while that is
     feasible (switching to a yield halfway, and back when the next estimate moves, left a
     Delfim-class hull at neither speed in the stressed §6.4.1 crossing). ``cfg``: the
@@ -46,7 +52,7 @@ def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, s
     allow_pass_first)."""
     vmin, vmax, k, m = cfg.speed_min_m_s, speed_max_m_s, cfg.gain_k, cfg.correction_margin_m
     if passing and cfg.allow_pass_first and not pass_only:
-        keep = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, pass_only=True)
+        keep = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, pass_only=True, path_end_m=path_end_m)
         if keep is not None:
             return keep
     if np.isfinite(c.t_f) and not pass_only:
@@ -56,7 +62,7 @@ def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, s
                 return Correction(law, "yield", c.track_id)
         except ValueError:
             pass
-    if cfg.allow_pass_first:
+    if cfg.allow_pass_first and float(c.gamma_b) + m <= float(path_end_m):
         try:
             law = VelocityCorrection.pass_first(c, gamma, t, k, vmin, vmax, margin_m=m)
             if law.feasible:

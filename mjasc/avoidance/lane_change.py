@@ -25,6 +25,17 @@ to port/left of the direction of travel):
 The result is a :class:`~mjasc.avoidance.replanning.Detour` (``field`` None): the vessel's
 prediction then runs along it exactly as along a streamline, and the usual end-of-detour logic
 returns it to the mission path.
+
+**Held lane** (``hold_past_end``: a station-keeping leg, whose line runs through a moving station
+and whose end is no destination). When the obstruction outlasts the mission path — the vessel, at
+its planned speed, would reach the path's end before t_f — and the path ends inside the threat's
+swept area, stepping back onto it would sail into the threat. The path is then continued straight
+along its last course for the whole hold
+(to the vessel's planned γ at t_f plus ``goal_margin_m``, at least ``_MIN_ROOM_M`` past the
+vessel), the offset is reached within it and held to its end without stepping back, threat
+centres up to the clearance beyond that end count too, and the detour is not left before t_f
+(``Detour.hold_until_s``). (tests/cas_regressions/target_tracking_current_16.toml: a
+station-keeping leader 9 m from the end of its line, a ferry coming down the line.)
 """
 
 from __future__ import annotations
@@ -38,6 +49,27 @@ __all__ = ["lane_offsets", "plan_lane_change"]
 
 #: Starboard is preferred unless port needs this much less offset [m].
 _STARBOARD_BIAS_M = 1.0
+#: The least room [m] a held lane (module docstring) gets to step aside in past the vessel.
+_MIN_ROOM_M = 10.0
+
+
+def _ends_inside(mission: Path, t: float, conflicts) -> bool:
+    """Whether a threat's predicted centre comes within its collision distance of the path's end
+    from time t on: the path ends inside the threat's swept area."""
+    end = mission.point(mission.length)
+    for c in conflicts:
+        keep = c.times >= t - 1e-9
+        pts = np.asarray(c.obstacle_positions, dtype=float)[keep]
+        if pts.size and float(np.min(np.hypot(*(pts - end).T))) <= c.collision_distance_m:
+            return True
+    return False
+
+
+def _extended(mission: Path, length_m: float) -> Path:
+    """``mission`` continued straight along its final course by ``length_m`` [m]."""
+    end = mission.point(mission.length)
+    th = float(mission.tangent_angle(mission.length))
+    return mission.concatenate(Path.line(end, end + length_m * np.array([np.cos(th), np.sin(th)])))
 
 
 def _signed_offsets(mission: Path, points: np.ndarray, g_lo: float, g_hi: float):
@@ -65,7 +97,8 @@ def _ramp(x):
 
 
 def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: float, conflicts, static_polygons,
-                     cfg, static_inflation_m: float, max_offset_m: float = 30.0, starboard_only: bool = False):
+                     cfg, static_inflation_m: float, max_offset_m: float = 30.0, starboard_only: bool = False,
+                     hold_past_end: bool = False):
     """The lane change for ``conflicts`` (:class:`~mjasc.avoidance.prediction.PredictedConflict`
     with a collision, dynamic tracks), or the reason there is none (a string).
 
@@ -73,26 +106,50 @@ def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: 
     ``g_now_m``; speed_m_s: its planned speed [m/s]; static_polygons: mapped static polygons
     (grown here by ``static_inflation_m``); cfg: the
     :class:`~mjasc.avoidance.config.AvoidanceConfig`; starboard_only: only a starboard offset
-    (COLREG rule 14, head-on: both alter course to starboard)."""
+    (COLREG rule 14, head-on: both alter course to starboard); hold_past_end: the path's end is
+    no destination (a station-keeping leg's line through a moving station): the lane may be held
+    past it (module docstring). A held lane that cannot be taken — its continuation meets mapped
+    structure, say — leaves the lane that steps back at the path's end, as without the hold."""
+    args = (t, start, mission, g_now_m, speed_m_s, conflicts, static_polygons, cfg, static_inflation_m,
+            max_offset_m, starboard_only)
+    out = _plan(*args, hold=hold_past_end)
+    return _plan(*args, hold=False) if isinstance(out, str) and out.startswith(_HELD) else out
+
+
+_HELD = "held lane: "  # the reasons a held lane gives (then the plain lane is tried)
+
+
+def _plan(t, start, mission, g_now_m, speed_m_s, conflicts, static_polygons, cfg, static_inflation_m, max_offset_m,
+          starboard_only, hold):
+    """:func:`plan_lane_change`, with a held lane where the obstruction outlasts the path when ``hold``."""
     start = np.asarray(start, dtype=float)
     v = max(float(speed_m_s), 0.3)
     g_now = float(g_now_m)
     t_f = max((c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s) for c in conflicts)
     t_i = min(c.t_i for c in conflicts)
+    mission_end = mission.length
+    held = hold and g_now + v * max(t_f - t, 0.0) >= mission_end and _ends_inside(mission, t, conflicts)
+    if held:  # the lane runs on past the path's end, straight, for the whole hold (module docstring)
+        mission = _extended(mission, max(g_now + v * max(t_f - t, 0.0) + cfg.goal_margin_m - mission_end,
+                                         _MIN_ROOM_M - (mission_end - g_now)))
     g_hold_end = min(g_now + v * max(t_f - t, 0.0) + cfg.goal_margin_m, mission.length)
     l_out_max = 10.0 + 4.0 * max_offset_m
     g_hi = min(g_hold_end + l_out_max, mission.length)
     if g_hi - g_now < 5.0:
         return "too close to the end of the mission path for a lane change"
     d_clear = max(c.collision_distance_m for c in conflicts) + cfg.replan_margin_m + cfg.correction_margin_m
+    # a held lane's end is where the vessel waits: threat centres up to d_clear beyond it count too
+    # (measured against the path continued straight: clamped to its end they would not)
+    beyond = d_clear if held else 0.0
+    geo = _extended(mission, beyond) if held else mission
     threat = []
     for c in conflicts:
         keep = (c.times >= t - 1e-9) & (c.times <= t_f + 5.0)
         pts = np.asarray(c.obstacle_positions, dtype=float)[keep]
         if pts.size == 0:
             continue
-        g, e = _signed_offsets(mission, pts, g_now, g_hi)
-        inside = (g > g_now + 1e-6) & (g < g_hi - 1e-6)  # threat centres alongside the lane
+        g, e = _signed_offsets(geo, pts, g_now, g_hi + beyond)
+        inside = (g > g_now + 1e-6) & (g < g_hi + beyond - 1e-6)  # threat centres alongside the lane
         threat.append(e[inside])
     e_threat = np.concatenate(threat) if threat else np.zeros(0)
     _, e_now = _signed_offsets(mission, start[None], max(g_now - 5.0, 0.0), min(g_now + 5.0, mission.length))
@@ -108,6 +165,8 @@ def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: 
             reasons.append(f"{'port' if o > 0 else 'starboard'} offset {abs(o):.1f} m > {max_offset_m:g} m")
             continue
         l_in = float(np.clip(4.0 * abs(o - e0), 10.0, max(v * (t_i - t) * 0.8, 10.0)))
+        if held:  # the offset is reached by the path's end (a short line: a station's)
+            l_in = min(l_in, mission.length - g_now)
         l_out = max(4.0 * abs(o), 10.0)
         g_end = min(max(g_hold_end, g_now + l_in) + l_out, mission.length)
         g = np.linspace(g_now, g_end, max(int(np.ceil(g_end - g_now)), 1) + 1)  # about every metre
@@ -132,19 +191,29 @@ def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: 
                            f"({-margin:.1f} m short)")
             late.append((margin, lane, pts, g_end))
             continue
-        return _detour(lane, mission, g_now, g_end, pts, t)
+        return _detour(lane, mission, g_now, g_end, pts, t, t_f if held else -np.inf, mission_end)
     if late:  # none is clear in time: the one that comes closest to it, if it beats staying on the path
         margin, lane, pts, g_end = max(late, key=lambda x: x[0])
         if margin > max(c.min_distance_m - c.collision_distance_m for c in conflicts) + 1.0:
-            return _detour(lane, mission, g_now, g_end, pts, t)
-    return "no lane change: " + "; ".join(reasons)
+            return _detour(lane, mission, g_now, g_end, pts, t, t_f if held else -np.inf, mission_end)
+    return (_HELD if held else "") + "no lane change: " + "; ".join(reasons)
 
 
-def _detour(lane: Path, mission: Path, g_now: float, g_end: float, pts: np.ndarray, t: float):
+def _detour(lane: Path, mission: Path, g_now: float, g_end: float, pts: np.ndarray, t: float, hold_until_s: float,
+            mission_end: float):
+    """The lane as a :class:`~mjasc.avoidance.replanning.Detour` (``mission`` possibly continued
+    past its end ``mission_end`` [m]). A held lane (the obstruction outlasts the mission path: a
+    station-keeping leg's short line) ends beside the path's end, out of the threat's lane, and is
+    not left before ``hold_until_s`` = t_f: back on the mission path earlier the vessel would make
+    for the path's end inside the swept area (a station-keeping leader rejoined at its station in
+    a crossing ferry's track and was hit: tests/cas_regressions/target_tracking_current_16.toml)."""
     from mjasc.avoidance.replanning import Detour
 
-    full = lane.concatenate(mission.sub_path(g_end, mission.length)) if g_end < mission.length - 1e-6 else lane
-    return Detour(full, lane.length, g_now, g_end, pts, (), None, t)
+    if g_end < mission.length - 1e-6:
+        return Detour(lane.concatenate(mission.sub_path(g_end, mission.length)), lane.length, g_now, g_end, pts, (),
+                      None, t)
+    return Detour(lane, lane.length, g_now, min(g_end, mission_end), pts, (), None, t,
+                  hold_until_s=float(hold_until_s))
 
 
 def _timed_margin(lane: Path, speed_m_s: float, t: float, conflicts) -> float:

@@ -47,7 +47,7 @@ class Manoeuvres:
         cfg = self.config
         giving_way, standing_on = self._mates_declaring(t)
         tri = triage(t, nav, gamma, conflicts, statics, by_id, self.team, cfg, self.speed_max_m_s, self.correction,
-                     giving_way, standing_on, self.name)
+                     giving_way, standing_on, self.name, float(self._guidance.path.length))
         self._stands_on = frozenset(tri.stand_on_mates)
         self._last = replace(self._last, roles=tuple(tri.roles.items()))  # for the threat panel
         for stat, text in tri.notes:
@@ -80,7 +80,8 @@ class Manoeuvres:
         # down and look again every second (a re-plan then sees every conflict) rather than sail on.
         unresolved += tri.go_around
         for c in tri.overtaken:  # no lane to leave: speed up and let it pass astern, else stop (Imazu case 16)
-            corr = velocity_correction_for(t, gamma, c, cfg, self.speed_max_m_s, pass_only=True)
+            corr = velocity_correction_for(t, gamma, c, cfg, self.speed_max_m_s, pass_only=True,
+                                           path_end_m=float(self._guidance.path.length))
             if corr is not None:
                 candidates.append(corr)
             else:
@@ -137,7 +138,7 @@ class Manoeuvres:
         lane = plan_lane_change(t, nav.position_m, self.mission_path, self.mission_gamma_m(self._guidance),
                                 self._guidance.mission_speed_m_s, conflicts,
                                 list(static_polygons) + list(static_outlines), self.config, self.static_inflation_m,
-                                starboard_only=True)
+                                starboard_only=True, hold_past_end=self.station_keeping)
         if isinstance(lane, str):
             self._event(t, f"head-on: {lane}")
             return False
@@ -166,7 +167,8 @@ class Manoeuvres:
         for c in conflicts:
             if isinstance(c, PredictedConflict) and not any(o.kind == "pass" and o.track_id == c.track_id
                                                              for o in options):
-                alt = velocity_correction_for(t, gamma, c, self.config, self.speed_max_m_s, pass_only=True)
+                alt = velocity_correction_for(t, gamma, c, self.config, self.speed_max_m_s, pass_only=True,
+                                              path_end_m=float(g_state.path.length))
                 if alt is not None:
                     options.append(alt)
         options.append(None)
@@ -208,7 +210,7 @@ class Manoeuvres:
         if isinstance(out, str) and dynamic:  # the swept area cannot be gone around: leave the threat's lane
             lane = plan_lane_change(t, nav.position_m, mission, g_now_m, self._guidance.mission_speed_m_s, dynamic,
                                     list(static_polygons) + list(static_outlines), self.config,
-                                    self.static_inflation_m)
+                                    self.static_inflation_m, hold_past_end=self.station_keeping)
             if isinstance(lane, str):
                 out = f"{out}; {lane}"
             else:

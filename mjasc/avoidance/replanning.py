@@ -40,7 +40,10 @@ class Detour:
     """A re-planned path: ``path`` = streamline (length ``detour_length_m``) + the rest of the
     mission path from ``mission_gamma_goal_m``; it replaced the mission path from
     ``mission_gamma_start_m``. ``obstacles`` the field's polygons, ``field`` the field itself
-    (None for a lane change, :mod:`~mjasc.avoidance.lane_change`, which has neither)."""
+    (None for a lane change, :mod:`~mjasc.avoidance.lane_change`, which has neither).
+    ``hold_until_s``: the detour is not finished before this time [s] (a lane that holds its
+    offset to the end of the mission path: the vessel waits at the lane's end, out of the
+    threat's lane, until the obstruction is over; −∞: none)."""
 
     path: Path
     detour_length_m: float
@@ -50,6 +53,7 @@ class Detour:
     obstacles: tuple
     field: PotentialField | None
     time_s: float
+    hold_until_s: float = -np.inf
 
     def mission_gamma(self, gamma_m: float) -> float:
         """Mission-path γ [m] for γ on this path: linear over the detour, then one to one."""

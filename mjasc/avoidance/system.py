@@ -219,6 +219,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
                                         else 0.5 * vessel.beam_m + config.safety_distance_m)
         self.prediction_config = config.prediction
         self.mission_path = mission_path
+        self.station_keeping = False  # the mission leg is a line through a moving station (set_mission)
         self.mode = "mission"
         self.correction: Correction | None = None
         self.detour: Detour | None = None
@@ -309,7 +310,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         predicts along the new path."""
         if not leg.new_path:
             return
-        self.mission_path = leg.path
+        self.mission_path, self.station_keeping = leg.path, bool(getattr(leg, "station_keeping", False))
         if self.detour is not None:
             self.detour, self._detour_causes, self._sharp_turn = None, None, None
             self._log.prediction_pending()

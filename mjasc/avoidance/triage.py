@@ -105,13 +105,14 @@ def colreg_role(nav, track, traffic_rule: str) -> str | None:
 
 def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: set, cfg, speed_max_m_s: float,
            running: Correction | None, mates_giving_way=frozenset(), mates_standing_on=frozenset(),
-           own_name: str = "") -> Triage:
+           own_name: str = "", path_end_m: float = math.inf) -> Triage:
     """Sort ``conflicts`` (with a predicted collision) and ``statics`` (static conflicts) of a
     vessel at ``nav`` and γ = ``gamma`` [m] at time t (module docstring). by_id: track id → track
     as predicted; team: the team mates' names; cfg: the
     :class:`~mjasc.avoidance.config.AvoidanceConfig`; running: the correction running now;
     mates_giving_way / mates_standing_on: the team mates whose fresh broadcast says they give way
-    to / stand on toward this vessel (named ``own_name``)."""
+    to / stand on toward this vessel (named ``own_name``); path_end_m: the length [m] of the path
+    γ runs on (no pass first beyond it: :func:`~mjasc.avoidance.decision.velocity_correction_for`)."""
     out = Triage()
     for c in conflicts:
         track = by_id.get(c.track_id)
@@ -172,7 +173,7 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
                                               f"keeps its speed"))
                 continue
             if astern:  # last resort with the give-way vessel abaft the beam: never slow down
-                corr = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, pass_only=True)
+                corr = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, pass_only=True, path_end_m=path_end_m)
                 if corr is not None:
                     out.candidates.append(corr)
                 else:
@@ -182,7 +183,7 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
                     "speed up" if corr is not None else "keeps its speed")
                 continue
         passing = running is not None and running.kind == "pass" and running.track_id == c.track_id
-        corr = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, passing=passing)
+        corr = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, passing=passing, path_end_m=path_end_m)
         if corr is not None:
             out.candidates.append(corr)
         else:

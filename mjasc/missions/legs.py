@@ -29,7 +29,9 @@ class MissionLeg:
     in the chain (0 first) — team mates coordinate only with mates in the same phase; path: the path
     to follow; gamma_m: where to join it [m]; speed_m_s: the mission speed along it [m/s];
     coordinated: the team keeps γ/L equal along its paths (False: the phase sets the speed itself);
-    new_path: the path changed (False: only the speed did)."""
+    new_path: the path changed (False: only the speed did); station_keeping: the path is a line
+    through a moving station (target tracking): its end is no destination — the station moves on
+    along it — so collision avoidance may hold a lane change past it."""
 
     phase: str
     index: int
@@ -38,6 +40,7 @@ class MissionLeg:
     speed_m_s: float
     coordinated: bool = True
     new_path: bool = True
+    station_keeping: bool = False
 
 
 @dataclass(frozen=True, eq=False)

@@ -154,7 +154,8 @@ class TrackTarget:
         if math.hypot(*(goal - p)) < 1.0:
             goal = p + 20.0 * np.array([math.cos(bearing), math.sin(bearing)])
         self._path = Path.line(p, goal)
-        return MissionLeg(self.name, self.index, self._path, 0.0, self.cruise_m_s, coordinated=False)
+        return MissionLeg(self.name, self.index, self._path, 0.0, self.cruise_m_s, coordinated=False,
+                          station_keeping=True)
 
     def broadcast(self) -> MissionBroadcast:
         """The leader's estimate goes out with its messages (followers send none)."""
@@ -198,7 +199,7 @@ class TrackTarget:
             self._path = Path.line(s + back * u, s + (est.speed_m_s * o.line_ahead_s + 5.0) * u)
             g0 = float(self._path.project(pos))
             self._speed = speed
-            leg = MissionLeg(self.name, self.index, self._path, g0, speed, coordinated=False)
+            leg = MissionLeg(self.name, self.index, self._path, g0, speed, coordinated=False, station_keeping=True)
         elif abs(speed - self._speed) > 0.01:
             self._speed = speed
             leg = MissionLeg(self.name, self.index, self._path, math.nan, speed, coordinated=False, new_path=False)

@@ -41,6 +41,8 @@ def path_distances(path: Path, points: np.ndarray, gamma_min: float) -> np.ndarr
     length = path.length
     if pts.ndim != 2 or pts.shape[0] == 0 or pts.shape[1] != 2:
         return path.closest_points(pts, gamma_min, length)[1]
+    if float(gamma_min) >= length:  # at the path's end (a vessel waiting there): no stretch, its end point
+        return np.hypot(*(pts - path.point(length)).T)
     out = np.empty(pts.shape[0])
     if not _distances_into(path.table, clip_float(float(gamma_min), 0.0, length), length, pts, _FEW_SEGMENTS, out):
         return path.closest_points(pts, gamma_min, length)[1]  # (no segment in the stretch: its error)
