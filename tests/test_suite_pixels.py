@@ -172,3 +172,28 @@ def test_path_is_visible_at_84_pixels(camera):
     m.geom_rgba[reference_pool(m), 3] = 0.0  # the same view without the markers: no such pixel
     assert _reference_pixels(env.physics.render(84, 84, camera_id=camera)) == 0
     env.close()
+
+
+@pytest.mark.parametrize("seed", [0, 2])
+def test_station_circle_is_visible_over_the_target(seed):
+    """station_keeping's 1 m circle lies within the target site's 1.5 m disc: drawn on the water it
+    was hidden under it (no reference pixel in any view); it is drawn over the site."""
+    env = suite.load("otter", "station_keeping", task_kwargs={"random": seed})
+    env.reset()
+    for camera in ("otter/follow", "otter/heading_up"):
+        assert _reference_pixels(env.physics.render(84, 84, camera_id=camera)) >= 10, camera
+    m = env.physics.model
+    m.geom_rgba[reference_pool(m), 3] = 0.0  # the same view without the markers: no such pixel
+    assert _reference_pixels(env.physics.render(84, 84, camera_id="otter/follow")) == 0
+    env.close()
+
+
+def test_reference_pool_takes_the_physics_model_as_dm_control_gives_it():
+    """docs/suite.md: hide the markers with ``reference_pool(model)``; a dm_control user's model is
+    ``env.physics.model``, a wrapper of MuJoCo's (mj_name2id refused it with a TypeError)."""
+    env = suite.load("otter_team", "formation", task_kwargs={"random": 0})
+    wrapped, raw = env.physics.model, env.physics.model.ptr
+    for kind in ("piece", "slot"):
+        assert list(reference_pool(wrapped, kind)) == list(reference_pool(raw, kind))
+    assert len(reference_pool(wrapped, "slot")) == 3
+    env.close()

@@ -38,7 +38,7 @@ from mjasc.suite.common import (
     range_sensor,
     world_to_body,
 )
-from mjasc.suite.pixel_scene import draw_reference, path_polyline
+from mjasc.suite.pixel_scene import OVER_TARGET_Z_M, draw_reference, path_polyline
 from mjasc.suite.vessel_choice import hull_name, suite_vessel_type
 from mjasc.suite.vessel_task import (  # (Difficulty, EASY, HARD, OWN_STATE_OBSERVATIONS: this domain's names too)
     EASY,
@@ -161,7 +161,9 @@ class StationKeeping(VesselTask):
         p0 = self.station_m + r * vec(np.cos(bearing), np.sin(bearing))
         physics.set_pose(0, p0[0], p0[1], rnd.uniform(-np.pi, np.pi))
         self._place_target(physics, self.station_m, self.station_heading_rad)
-        draw_reference(physics, [circle_polygon(self.station_m, 1.0, 24, circumscribed=False, closed=True)])
+        # over the target site, which covers the station 1.5 m around (it hid the whole circle)
+        draw_reference(physics, [circle_polygon(self.station_m, 1.0, 24, circumscribed=False, closed=True)],
+                       OVER_TARGET_Z_M)
         physics.after_reset()
         super().initialize_episode(physics)
 

@@ -34,7 +34,7 @@ import numpy as np
 
 from mjasc.runs.blueprint import vessel_colour
 
-__all__ = ["REFERENCE_BODY", "REFERENCE_GEOM_GROUP", "REFERENCE_LINE_WIDTH_M", "HEADING_UP_SPAN_M",
+__all__ = ["REFERENCE_BODY", "REFERENCE_GEOM_GROUP", "REFERENCE_LINE_WIDTH_M", "OVER_TARGET_Z_M", "HEADING_UP_SPAN_M",
            "HEADING_UP_AHEAD_M", "SLOT_RADIUS_M", "add_hull_cameras", "add_reference_pool", "reference_pool",
            "draw_reference", "draw_slots", "path_polyline"]
 
@@ -46,6 +46,10 @@ REFERENCE_GEOM_GROUP = 1
 REFERENCE_LINE_WIDTH_M = 0.8
 #: Half-height of a marker box [m]; centred on the water plane, its top 5 cm above the water.
 REFERENCE_HALF_HEIGHT_M = 0.05
+#: Height of the centre of a line drawn over the ``target`` site [m]: the site (radius 1.5 m,
+#: top 0.10 m) and its heading bar (top 0.12 m) would hide a line at the water plane within 1.5 m of
+#: the station, the station's whole 1 m circle (station_keeping); this line's top is 0.15 m.
+OVER_TARGET_Z_M = 0.10
 #: Colour of the reference (RGBA 0–1): the video's light-blue path colour, opaque.
 REFERENCE_RGBA = (0.45, 0.6, 1.0, 1.0)
 #: Largest course change along one chord of an arc [rad] (15°: a 10 m turn's chord is 9 cm off the arc).
@@ -93,7 +97,8 @@ def add_reference_pool(root, n_lines: int, n_slots: int = 0) -> dict:
 
 def reference_pool(model, kind: str = "piece") -> np.ndarray:
     """Geom ids of the pool's line pieces (``kind="piece"``) or slot discs (``"slot"``) in ``model``
-    (an ``MjModel``), in order."""
+    (an ``MjModel``, or dm_control's wrapper of one: ``env.physics.model``), in order."""
+    model = getattr(model, "ptr", model)  # dm_control's MjModel wraps the binding's (mj_name2id takes only that)
     body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, REFERENCE_BODY)
     # (an int: numpy compares an array with a MuJoCo enum element by element in Python)
     shape = int({"piece": mujoco.mjtGeom.mjGEOM_BOX, "slot": mujoco.mjtGeom.mjGEOM_CYLINDER}[kind])
@@ -127,9 +132,10 @@ def path_polyline(path) -> np.ndarray:
     return np.asarray(path.point(np.array(gammas)), dtype=float).reshape(-1, 2)
 
 
-def draw_reference(physics, polylines) -> None:
+def draw_reference(physics, polylines, z_m: float = 0.0) -> None:
     """Lay the polylines (each (k, 2) world points [m]) out on the marker pool of ``physics`` (a
-    dm_control Physics) as boxes REFERENCE_LINE_WIDTH_M wide, hide the pool's other boxes. Takes
+    dm_control Physics) as boxes REFERENCE_LINE_WIDTH_M wide, centred at height ``z_m`` (0: on the
+    water plane; OVER_TARGET_Z_M: over the ``target`` site), hide the pool's other boxes. Takes
     effect at the next kinematics (the task's ``after_reset``). Raises when the pool is too small."""
     model = physics.model.ptr
     pool = reference_pool(model, "piece")
@@ -141,7 +147,7 @@ def draw_reference(physics, polylines) -> None:
     yaw = np.arctan2(d[:, 1], d[:, 0])
     used, unused = pool[:len(a)], pool[len(a):]
     half_w = 0.5 * REFERENCE_LINE_WIDTH_M
-    model.geom_pos[used] = np.column_stack([0.5 * (a + b), np.zeros(len(a))])
+    model.geom_pos[used] = np.column_stack([0.5 * (a + b), np.full(len(a), float(z_m))])
     model.geom_quat[used] = np.column_stack([np.cos(0.5 * yaw), np.zeros(len(a)), np.zeros(len(a)), np.sin(0.5 * yaw)])
     # Each piece overlaps the next by half a width at both ends: no gap at a joint.
     model.geom_size[used] = np.column_stack([0.5 * np.hypot(d[:, 0], d[:, 1]) + half_w, np.full(len(a), half_w),
