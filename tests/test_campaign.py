@@ -332,6 +332,13 @@ def test_a_diverging_run_is_a_result_and_the_campaign_goes_on(tmp_path, monkeypa
     diverged = res.runs[0].metrics  # the summary up to the divergence is kept, with its evaluation
     assert diverged["status"] == "diverged" and diverged["sim_time_s"] < 3.0 and "evaluation" in diverged
     assert res.aggregate["runs_failed"] == 2 and res.aggregate["collision"]["rate"] is None
+    # the report says which runs failed and why (it only counted them)
+    from mjasc.campaigns.report import format_report, report_data
+
+    data = report_data(tmp_path / "out")
+    assert [(f["index"], f["status"]) for f in data["failed"]] == [(0, "diverged"), (1, "diverged")]
+    md = format_report(data)
+    assert "Failed runs (2;" in md and "| 0 | — | " in md and "physics diverged" in md
 
 
 def test_killing_a_worker_mid_campaign_loses_no_run(tmp_path):

@@ -305,8 +305,7 @@ def test_trackers_compared_on_the_same_runs(tmp_path):
     res = run_campaign(spec, tmp_path / "c", workers=0, progress=False)
     assert sorted((r.index, r.method, r.status) for r in res.runs) == [
         (k, m, "completed") for k in range(2) for m in ("filterpy_imm", "imm")]
-    # (the built-in tracker's summary does not name it; a plugin tracker's does)
-    ran = {r.method: r.metrics["vessels"]["own"]["perception"].get("tracking_method", "imm") for r in res.runs}
+    ran = {r.method: r.metrics["vessels"]["own"]["perception"]["tracking_method"] for r in res.runs}
     assert ran == {"imm": "imm", "filterpy_imm": "filterpy_imm"}
     md = format_report(report_data(tmp_path / "c"))
     assert "for its tracking tables" in md and "| head_on | filterpy_imm | 2 |" in md

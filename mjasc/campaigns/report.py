@@ -68,7 +68,8 @@ def report_data(folder: str | Path) -> dict:
     hulls = {f: stored.get(f) if stored is not None else None for f in agg["families"]}
     return {"campaign": {**{k: info.get(k) for k in ("name", "digest", "source", "campaigns_in_store")},
                          "gospa": file_gospa(text), "compared_tables": file_compared_tables(text)},
-            "hulls": hulls, "runs_defined": agg["runs_defined"], "runs_recorded": agg["runs_recorded"],
+            "hulls": hulls, "failed": _failed(runs), "runs_defined": agg["runs_defined"],
+            "runs_recorded": agg["runs_recorded"],
             "runs_failed": agg["runs_failed"], "outcomes": outcomes, **{k: v for k, v in agg.items() if k not in (
                 "runs_defined", "runs_recorded", "runs_failed")}}
 
@@ -77,6 +78,34 @@ def gospa_label(data: dict) -> str:
     """``c = 10 m, p = 2`` for the campaign of ``data`` (:func:`report_data`)."""
     g = (data.get("campaign") or {}).get("gospa") or {"cutoff_m": 10.0, "order": 2.0}
     return f"c = {g['cutoff_m']:g} m, p = {g['order']:g}"
+
+
+#: At most this many failed runs are listed in the report (the rest: runs.csv's ``error`` column).
+MAX_FAILED_LISTED = 20
+
+
+def _failed(runs) -> list[dict]:
+    """The runs that did not complete, in index order: index, method label, family, status, attempts
+    and the error's first line (shortened), for the report to say why."""
+    bad = sorted((r for r in runs if r.status != "completed"), key=lambda r: (r.index, r.method))
+    return [{"index": r.index, "method": r.method, "family": r.family, "status": r.status, "attempts": r.attempts,
+             "error": ((r.error or "").splitlines() or [""])[0][:200]} for r in bad]
+
+
+def _failed_lines(data: dict) -> list[str]:
+    """The report's list of failed runs (none: no lines)."""
+    failed = data.get("failed") or []
+    if not failed:
+        return []
+    lines = ["", f"Failed runs ({len(failed)}; replay one with `mjasc extract DIR INDEX`, then `mjasc run` the file):",
+             "", "| run | method | family | status | attempts | error |", "|---:|---|---|---|---:|---|"]
+    for f in failed[:MAX_FAILED_LISTED]:
+        error = f["error"].replace("|", "\\|") or "—"
+        lines.append(f"| {f['index']} | {f['method'] or '—'} | {f['family']} | {f['status']} | {f['attempts']} "
+                     f"| {error} |")
+    if len(failed) > MAX_FAILED_LISTED:
+        lines.append(f"\n{len(failed) - MAX_FAILED_LISTED} more in runs.csv (its `error` column).")
+    return lines
 
 
 def _pct(r: dict) -> str:
@@ -137,7 +166,7 @@ def format_report(data: dict) -> str:
                              f"{_q3(m['arrival_position_error_m'], runs)} |")
     lines += _tracking_lines([(fam, None, g) for fam, g in list(data["families"].items()) + [("**all**", data)]],
                              gospa_label(data))
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _failed_lines(data)) + "\n"
 
 
 def _tracking_lines(rows, label: str) -> list[str]:
@@ -236,7 +265,7 @@ def _format_comparison(data: dict) -> str:
                          f"{cnt['collision_only_' + m]} | {cnt['collision_both']} | {cnt['separation_larger']} | "
                          f"{cnt['separation_smaller']} |")
     lines += _tracking_lines(list(_comparison_rows(data)), gospa_label(data))
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + _failed_lines(data)) + "\n"
 
 
 def _q(q: dict | None, scale: float, digits: int) -> str:

@@ -402,6 +402,7 @@ class Perception:
             # only when it happened (summaries of sound runs stay as they were)
             **({"non_finite_detections_dropped": st["non_finite_detections_dropped"]}
                if st["non_finite_detections_dropped"] else {}),
-            **({"tracking_method": self.method.method, "tracker": ms} if self.method is not None else {}),
+            "tracking_method": self.method.method if self.method is not None else "imm",
+            **({"tracker": ms} if self.method is not None else {}),
             **({"team_shared": self._fusion.summary()} if self._fusion is not None else {}),
         }
