@@ -65,13 +65,7 @@ class ControlTick:
     def _double_stand_on(self, t) -> bool:
         """A team mate this vessel stands on toward, whose name sorts before its own, says in a fresh
         broadcast that it stands on toward this vessel too: this vessel is to give way (predict now)."""
-        team = self._team
-        if team is None:
-            return False
-        for name, it in team.fresh(t, self.config.team_broadcast_max_age_s).items():
-            if name in self._stands_on and name < self.name and self.name in it.stands_on_to:
-                return True
-        return False
+        return any(name < self.name for name in self._mates_declaring(t)[1] & self._stands_on)
 
     def _predict_on_perceived(self, t, nav) -> None:
         p = self._perceived

@@ -112,16 +112,14 @@ def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: 
     structure, say — leaves the lane that steps back at the path's end, as without the hold."""
     args = (t, start, mission, g_now_m, speed_m_s, conflicts, static_polygons, cfg, static_inflation_m,
             max_offset_m, starboard_only)
-    out = _plan(*args, hold=hold_past_end)
-    return _plan(*args, hold=False) if isinstance(out, str) and out.startswith(_HELD) else out
-
-
-_HELD = "held lane: "  # the reasons a held lane gives (then the plain lane is tried)
+    out, held = _plan(*args, hold=hold_past_end)
+    return _plan(*args, hold=False)[0] if held and isinstance(out, str) else out
 
 
 def _plan(t, start, mission, g_now_m, speed_m_s, conflicts, static_polygons, cfg, static_inflation_m, max_offset_m,
-          starboard_only, hold):
-    """:func:`plan_lane_change`, with a held lane where the obstruction outlasts the path when ``hold``."""
+          starboard_only, hold) -> tuple:
+    """:func:`plan_lane_change`'s answer, with a held lane where the obstruction outlasts the path
+    when ``hold``; and whether the lane was a held one."""
     start = np.asarray(start, dtype=float)
     v = max(float(speed_m_s), 0.3)
     g_now = float(g_now_m)
@@ -136,7 +134,7 @@ def _plan(t, start, mission, g_now_m, speed_m_s, conflicts, static_polygons, cfg
     l_out_max = 10.0 + 4.0 * max_offset_m
     g_hi = min(g_hold_end + l_out_max, mission.length)
     if g_hi - g_now < 5.0:
-        return "too close to the end of the mission path for a lane change"
+        return "too close to the end of the mission path for a lane change", held
     d_clear = max(c.collision_distance_m for c in conflicts) + cfg.replan_margin_m + cfg.correction_margin_m
     # a held lane's end is where the vessel waits: threat centres up to d_clear beyond it count too
     # (measured against the path continued straight: clamped to its end they would not)
@@ -191,12 +189,12 @@ def _plan(t, start, mission, g_now_m, speed_m_s, conflicts, static_polygons, cfg
                            f"({-margin:.1f} m short)")
             late.append((margin, lane, pts, g_end))
             continue
-        return _detour(lane, mission, g_now, g_end, pts, t, t_f if held else -np.inf, mission_end)
+        return _detour(lane, mission, g_now, g_end, pts, t, t_f if held else -np.inf, mission_end), held
     if late:  # none is clear in time: the one that comes closest to it, if it beats staying on the path
         margin, lane, pts, g_end = max(late, key=lambda x: x[0])
         if margin > max(c.min_distance_m - c.collision_distance_m for c in conflicts) + 1.0:
-            return _detour(lane, mission, g_now, g_end, pts, t, t_f if held else -np.inf, mission_end)
-    return (_HELD if held else "") + "no lane change: " + "; ".join(reasons)
+            return _detour(lane, mission, g_now, g_end, pts, t, t_f if held else -np.inf, mission_end), held
+    return "no lane change: " + "; ".join(reasons), held
 
 
 def _detour(lane: Path, mission: Path, g_now: float, g_end: float, pts: np.ndarray, t: float, hold_until_s: float,

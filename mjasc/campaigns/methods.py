@@ -51,8 +51,12 @@ __all__ = ["MethodEntry", "parse_methods", "apply_method", "plugin_sources", "sc
            "check_plugins_reach"]
 
 STAGE = "avoidance"
-#: The stages a campaign can compare (``compare_stage``) → the vessel's table that names the method.
-COMPARED_STAGES = {"avoidance": "avoidance", "tracking": "tracking", "coordination": "comms"}
+#: Where a scenario's vessel names each stage's method: stage → (table, key).
+_METHOD_KEYS = {"avoidance": ("avoidance", "method"), "tracking": ("tracking", "method"),
+                "control": ("controller", "type"), "coordination": ("comms", "method")}
+#: The stages a campaign can compare (``compare_stage``) → the vessel's table that names the method:
+#: those whose table names it by ``method`` (a controller's ``type`` table is the path's too).
+COMPARED_STAGES = {stage: tbl for stage, (tbl, key) in _METHOD_KEYS.items() if key == "method"}
 _LABEL = re.compile(r"^[A-Za-z0-9_.-]{1,64}$")
 
 
@@ -183,9 +187,6 @@ def plugin_sources(names, stage: str = STAGE) -> dict[str, str | None]:
     return out
 
 
-#: Where a scenario's vessel names each stage's method: stage → (table, key).
-_METHOD_KEYS = {"avoidance": ("avoidance", "method"), "tracking": ("tracking", "method"),
-                "control": ("controller", "type"), "coordination": ("comms", "method")}
 
 
 def scenario_plugins(texts) -> dict[str, dict[str, str | None]]:

@@ -214,12 +214,13 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             fresh = cr.roles(p_a, heading, obs.position_m[tracked],
                              np.arctan2(obs.velocity_m_s[tracked, 1], obs.velocity_m_s[tracked, 0]),
                              self.colreg_config) if o.colreg else np.full(int(tracked.sum()), cr.NONE)
-            known = {i for i in obs.track_id[tracked].tolist() if self.roles.role(i) is not None}
-            prior = np.array([r if self.roles.role(i) is None else self.roles.role(i)
-                              for i, r in zip(obs.track_id[tracked].tolist(), fresh.tolist())], dtype=int)
+            ids = obs.track_id[tracked].tolist()
+            before = [self.roles.role(i) for i in ids]  # the roles remembered before this tick
+            known = {i for i, r in zip(ids, before) if r is not None}
+            prior = np.array([f if r is None else r for f, r in zip(fresh.tolist(), before)], dtype=int)
             on_path[tracked] &= ~np.isin(prior, (cr.STAND_ON, cr.OVERTAKEN))  # a stand-on vessel keeps its course
             roles[tracked] = self.roles.update(t, obs.track_id[tracked], fresh, in_vo_pref[tracked] | on_path[tracked])
-            for i, r in zip(obs.track_id[tracked].tolist(), roles[tracked].tolist()):
+            for i, r in zip(ids, roles[tracked].tolist()):
                 if i not in known and self.roles.role(i) is not None:
                     self._new_conflict(t, i, cr.ROLE_NAMES[r])
         # rule 8 (d): an engaged head-on / give-way track holds the manoeuvre while the path's velocity
