@@ -47,6 +47,11 @@ class AvoidanceConfig:
     correction_margin_m: float = param(2.0, nonneg=True, unit="m",
                                        doc="the virtual target's goal is γ_A − margin (yield) or γ_B + margin (pass)")
     allow_pass_first: bool = param(True, doc="speed up and pass first when yielding is impossible")
+    slow_down_decel_m_s2: float = param(
+        1.0, nonneg=True, unit="m/s²",
+        doc="the own vessel is predicted to shed a velocity correction's speed above the mission speed (a pass "
+            "first's) at this deceleration after the correction's goal time, not at once as planned (an Otter "
+            "went from 2.92 to 0.82 m/s in 2 s, 1.2 m beyond the stepped plan); 0: at once")
     # re-planning (docs/thesis.md §4)
     safety_ratio: float = param(0.5, nonneg=True, maximum=1.0, doc="r of the robust rule V_j = r·a_max·L_j")
     sink_strength: float | None = param(None, positive=True, unit="m²/s",

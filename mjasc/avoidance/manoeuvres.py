@@ -173,7 +173,8 @@ class Manoeuvres:
                     options.append(alt)
         options.append(None)
         queries = [replace(query, vessel_path=g_state.path, gamma_now=gamma, t_now=float(t),
-                           speed_profile=correction_profile(c, float(t), gamma, g_state.mission_speed_m_s),
+                           speed_profile=correction_profile(c, float(t), gamma, g_state.mission_speed_m_s,
+                                                            self.config.slow_down_decel_m_s2),
                            include_clear=True) for c in options]
         results = predict_fleet(queries)
         clear = [k for k, res in enumerate(results) if not any(r.collision for r in res)]
@@ -247,7 +248,7 @@ class Manoeuvres:
         g_m = float(mission.project(nav.position_m))
         if float(np.hypot(*(mission.point(g_m) - nav.position_m))) > self.config.withdraw_offset_m:
             return False
-        profile = self.planned_gamma(t, g_m, g.mission_speed_m_s)
+        profile = self.predicted_gamma(t, g_m, g.mission_speed_m_s)
         outlined = track_outlines(by_id.values())
         discs = [tr for k, tr in by_id.items() if k not in outlined]
         if discs:

@@ -24,6 +24,7 @@ import numpy as np
 
 from mjasc.avoidance.prediction import PredictedConflict, PredictionQuery
 from mjasc.avoidance.prediction.conflicts import ConflictList
+from mjasc.avoidance.speed_plan import correction_profile
 from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts_of, track_outlines
 from mjasc.avoidance.structure import structure_tracks
 from mjasc.core.compiled import clip_float
@@ -107,12 +108,20 @@ class PredictionStep:
         self._predicted_speed = g_state.mission_speed_m_s
         path = g_state.path
         gamma = clip_float(float(g_state.gamma_m), 0.0, float(path.length))  # (float(np.clip(…)) without its call)
-        profile = self.planned_gamma(t, gamma, g_state.mission_speed_m_s)
+        profile = self.predicted_gamma(t, gamma, g_state.mission_speed_m_s)
         self.stats["predictions"] += 1
         discs = [tr for tr in tracks if tr.track_id not in outlined]
         query = PredictionQuery(path, gamma, t, profile, self.radius_m, discs, self.prediction_config,
                                 include_clear=True) if discs else None
         return PendingPrediction(query, tracks, outlined, path, gamma, profile)
+
+    def predicted_gamma(self, t_now: float, gamma_now: float, mission_speed_m_s: float):
+        """γ(t) [m] the own vessel is predicted to sail for t ≥ t_now: the plan (``planned_gamma``,
+        what the team is told), except that a running correction's speed above the mission speed (a
+        pass first's) is shed at ``slow_down_decel_m_s2`` after its goal time, as a hull sheds it
+        (:mod:`~mjasc.avoidance.speed_plan`)."""
+        return correction_profile(self.correction, t_now, gamma_now, mission_speed_m_s,
+                                  self.config.slow_down_decel_m_s2)
 
     def _act_on_prediction(self, t, nav, pending: "PendingPrediction", all_c, static_polygons, after_replan=False) -> list:
         """The second half of :meth:`_predict`: record the predicted conflicts (``all_c``, one per
