@@ -139,17 +139,19 @@ MACHINE_SENSITIVE = {"bottleneck_stressed_seed2"}
 @pytest.mark.slow
 def test_the_detour_refusal_acts_in_the_stressed_bottleneck():
     """The refusal of bottleneck_stressed_seed2 end to end where that replay takes another course:
-    the same file with seed 23 (found on an AMD EPYC Zen 3 machine, numpy and OpenBLAS pinned below
-    AVX-512: mjasc.core.portable_math) has bravo refuse a detour that passes the islands too close,
-    three times, and every vessel keeps clear. Where a machine's bits take this run elsewhere too,
-    the no-contact check stays and the test reports a skip, as for MACHINE_SENSITIVE."""
-    scenario = load_scenario(CASES / "bottleneck_stressed_seed2.toml").with_overrides(seed=23)
+    the same file with seed 30 (found on an AMD EPYC Zen 3 machine, numpy and OpenBLAS pinned below
+    AVX-512: mjasc.core.portable_math) has alpha refuse a detour that passes the islands too close,
+    twice, and every vessel keeps clear. (Seed 23, bravo refusing three times, took another course
+    once an occluded detection grew a track's radius, docs/perception.md "Static structures".)
+    Where a machine's bits take this run elsewhere too, the no-contact check stays and the test
+    reports a skip, as for MACHINE_SENSITIVE."""
+    scenario = load_scenario(CASES / "bottleneck_stressed_seed2.toml").with_overrides(seed=30)
     summary = run_scenario(scenario).summary
     assert summary["status"] == "completed" and not summary["any_collision"], summary["collisions"]
-    v = summary["vessels"]["bravo"]
+    v = summary["vessels"]["alpha"]
     assert v["min_clearance_to_any_m"] > 1.0, v["min_clearance_m"]
     if v["avoidance"]["actions"]["detour_rejected"] == 0:
-        pytest.skip("seed 23 took another course on this machine: no detour to refuse (no contact)")
+        pytest.skip("seed 30 took another course on this machine: no detour to refuse (no contact)")
 
 
 @pytest.mark.slow
