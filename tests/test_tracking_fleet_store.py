@@ -107,13 +107,14 @@ def _after_update_numpy(mg, rows, t_s, used, assigned_det, rad, occ, speeds):
     mg._scans[rows] += 1
     mg._n_upd[rows] += used
     mg._last[rows] = np.where(used, t_s, mg._last[rows])
-    grow = used & ~occ[np.maximum(assigned_det, 0)] if occ.size else used
-    if grow.any():
-        g = np.arange(mg._radius.size)[rows][grow]
-        r_new = rad[assigned_det[grow]]
+    if used.any():  # an occluded detection only grows the radius
+        g = np.arange(mg._radius.size)[rows][used]
+        r_new = rad[assigned_det[used]]
         r_old = mg._radius[g]
+        occ_u = occ[assigned_det[used]] if occ.size else np.zeros(r_new.size, dtype=bool)
+        change = (r_new > r_old) | ~occ_u
         gain = np.where(r_new > r_old, cfg.radius_grow_gain, cfg.radius_shrink_gain)
-        mg._radius[g] = r_old + gain * (r_new - r_old)
+        mg._radius[g] = np.where(change, r_old + gain * (r_new - r_old), r_old)
     conf = mg._confirmed[rows]
     new_conf = ~conf & (mg._popcount[hist] >= cfg.confirm_hits)
     conf |= new_conf

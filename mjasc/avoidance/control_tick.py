@@ -273,8 +273,12 @@ class ControlTick:
         if self._sharp_turn[1] is None:  # the turn's direction, once: away from mapped structure
             way = 0
             if self._perceived is not None and err >= REVERSAL_RAD:
-                way = turn_away_from_structure(p, float(nav.heading_rad), signed, self._perceived.static_polygons,
-                                               _REVERSAL_PROBE_M, _REVERSAL_MARGIN_M)
+                # mapped structure and the outlines of static tracks (a moored boat is as solid as a quay:
+                # a long way round away from the quay swept the bow into one, thesis_6_2_dock seed 11)
+                solid = list(self._perceived.static_polygons) + [
+                    tr.outline_m for tr in self._perceived.tracks if tr.is_static and tr.outline_m is not None]
+                way = turn_away_from_structure(p, float(nav.heading_rad), signed, solid, _REVERSAL_PROBE_M,
+                                               _REVERSAL_MARGIN_M)
             self._sharp_turn = ("turn", way)
             if way:
                 self.stats["turn_away"] += 1

@@ -11,8 +11,10 @@ per-track quantities that are not the IMM's (:mod:`mjasc.perception.tracking`, i
   ``max_range_m + range_margin_m``). Two tracks closer than ``merge_fraction`` × the larger radius
   describe one object: the one with fewer updates goes (confirmed before tentative).
 * **Radius** per track: the detections' radii, smoothed asymmetrically (quick to grow, slow to
-  shrink: an elongated hull looks narrow bow-on); a partly hidden (occluded) detection does not
-  change it.
+  shrink: an elongated hull looks narrow bow-on); a partly hidden (occluded) detection only grows
+  it (what is seen of an object is a lower bound of its size: a boat emerging from behind a quay
+  is first seen as a sliver, and a track that kept that sliver's radius had a tracked disc too
+  small to keep the boat's returns out of the static map).
 * **Static objects**: a confirmed track older than ``static_min_age_s`` whose speed estimate is
   below ``static_speed_m_s`` is static (``TrackEstimate.is_static``); it becomes moving again above
   twice that speed.
@@ -251,7 +253,7 @@ def scan_rows(idx, t, used, assigned, rad, occ, speeds, hist, scans, n_upd, last
               popcount, window_mask, grow_gain, shrink_gain, confirm_hits, min_age, static_speed, new_conf):
     """:meth:`TrackManagement.after_update` of the rows ``idx`` (k,) in place, per row in the order
     of its numpy form: history bits, counters, last update time, the radius smoothed towards the
-    detection's (not from an occluded one), confirmation (new_conf (k,) written) and the static flag."""
+    detection's (an occluded one only grows it), confirmation (new_conf (k,) written) and the static flag."""
     for j in range(idx.size):
         k = idx[j]
         u = used[j]
@@ -262,10 +264,11 @@ def scan_rows(idx, t, used, assigned, rad, occ, speeds, hist, scans, n_upd, last
         if u:
             last[k] = t[j]
             a = assigned[j]
-            if occ.size == 0 or not occ[max(a, 0)]:
-                r_new, r_old = rad[a], radius[k]
-                gain = grow_gain if r_new > r_old else shrink_gain
-                radius[k] = r_old + gain * (r_new - r_old)
+            r_new, r_old = rad[a], radius[k]
+            if r_new > r_old:  # (a partly hidden object is at least as large as what is seen of it)
+                radius[k] = r_old + grow_gain * (r_new - r_old)
+            elif occ.size == 0 or not occ[max(a, 0)]:
+                radius[k] = r_old + shrink_gain * (r_new - r_old)
         conf = confirmed[k]
         nc = not conf and popcount[h] >= confirm_hits
         conf = conf or nc
