@@ -300,7 +300,10 @@ def test_target_tracking_with_traffic_gives_way_and_resumes():
     acted = sum(sum(v["avoidance"]["actions"][k] for k in ("yield", "pass", "replan")) for v in s["vessels"].values())
     assert acted >= 1
     assert s["vessels"]["bravo"]["avoidance"]["mode_time_s"]["avoidance:yield"] >= 10.0  # a real give-way
-    assert min(v["min_clearance_m"]["ferry"] for v in s["vessels"].values()) > 3.0
+    # every vessel keeps the safety distance its avoidance is set to from the ferry (bounding circles)
+    sc = load_scenario(TASKS / "target_tracking_traffic.toml")
+    safety = min(v.options["avoidance"].options.prediction.safety_distance_m for v in sc.vessels)
+    assert safety >= 1.0 and min(v["min_clearance_m"]["ferry"] for v in s["vessels"].values()) > safety
     _check_tracking(s, rms_m=12.0, max_m=30.0, standoff_tol_m=8.0)  # the yield takes one vessel off its station for a while
 
 
