@@ -36,7 +36,8 @@ def test_a_pass_sheds_its_extra_speed_at_the_deceleration_after_its_goal():
     assert v(lag, 10.0 + tau + 0.1) == pytest.approx(0.9, abs=1e-3)
 
 
-@pytest.mark.parametrize("correction, speed", [(None, 0.9), (_correction(10.0, 0.4), 0.9), (_correction(10.0, 2.9), 2.9)])
+@pytest.mark.parametrize("correction, speed",
+                         [(None, 0.9), (_correction(10.0, 0.4), 0.9), (_correction(10.0, 2.9), 2.9)])
 def test_yields_plain_speeds_and_no_excess_keep_the_plan(correction, speed):
     t = np.linspace(0.0, 40.0, 81)
     step = gamma_of_time(correction_profile(correction, 0.0, 0.0, speed), 0.0, 0.0)(t)
