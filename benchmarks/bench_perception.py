@@ -163,8 +163,9 @@ def record_scans(name: str, duration_s: float | None):
                 w.append(w_o)
             keep = others + list(range(len(runner.agents), len(names)))
             truth = Truth([names[k] for k in keep], np.concatenate(xy), np.concatenate(w), radii[keep])
-            nav = ev.navs[i]
-            scans[i].append((det.time_s, nav, nav.position_m, nav.heading_rad, det, truth))
+            # (scored from the vessel's true pose, as a run's evaluation scores it)
+            scans[i].append((det.time_s, ev.navs[i], ev.states.position_m[i].copy(), float(ev.states.heading_rad[i]),
+                             det, truth))
 
     runner.observe("tracking", on_tracking)
     runner.run()

@@ -59,8 +59,10 @@ EXPECT = {
     # The §6.2 dock as shipped, seed 11 (and 15): a 165° turn beside the quay went the long way round,
     # a slow arc through east into the moored vessel3 (−1.45 m), once a re-plan moved by a few
     # centimetres (an occluded detection grows a track's radius). Static tracks' outlines now count
-    # in that choice and the short way is taken: no long way to check (turn_away stays 0).
-    "dock_seed11": ("vessel2", None, -0.5),
+    # in that choice and the short way is taken: no long way to check (turn_away stays 0). The file
+    # sets vessel2's slow_down_decel_m_s2 = 0 (the prediction without the pass-end lag, merged the
+    # same day): with the lag the re-plan no longer asks for that turn and the case could not fail.
+    "dock_seed11": ("vessel2", "sharp_turn", -0.5),
     # §6.4.3 under 30 % dropout + 30 % packet loss: island fragments tracked as 7–8 m targets.
     # Seed 11: one centred inside the mapped face, made a static disc of its bounding radius, closed
     # the gap between the islands and bravo re-planned into the south island: it is static and no
@@ -104,7 +106,10 @@ EXPECT = {
     # The 50-vessel showcase's first 50 s (tasks/fleet_50.toml, seed 1): v009 passed a crossing boat
     # first at up to 2.93 m/s, its goal 4.0 m (predicted) behind v001 sailing at 0.9 m/s in the same
     # lane; the plan stepped to the mission speed at the goal, the hull ran 1.2 m past it (0.19 m).
-    # Prediction now sheds a pass's extra speed at slow_down_decel_m_s2 (no action to count).
+    # Prediction now sheds a pass's extra speed at slow_down_decel_m_s2 (no action to count). Since
+    # the same day's track-radius change (docs/perception.md) the fleet no longer reaches that pass:
+    # v009 keeps 3.78 m with the lag or without it, so this is a no-contact check; the lag itself is
+    # tested in tests/test_pass_end_lag.py.
     "fleet_50_seed1_pass_end": ("v009", None, 1.0),
 }
 SLOW = {"crossing_stressed_seed5", "crossing_stressed_seed12", "bottleneck_stressed_seed5", "bottleneck_seed7", "bottleneck_seed1",

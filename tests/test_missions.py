@@ -300,10 +300,13 @@ def test_target_tracking_with_traffic_gives_way_and_resumes():
     acted = sum(sum(v["avoidance"]["actions"][k] for k in ("yield", "pass", "replan")) for v in s["vessels"].values())
     assert acted >= 1
     assert s["vessels"]["bravo"]["avoidance"]["mode_time_s"]["avoidance:yield"] >= 10.0  # a real give-way
-    # every vessel keeps the safety distance its avoidance is set to from the ferry (bounding circles)
+    # every vessel keeps the safety distance its own avoidance is set to from the ferry (bounding
+    # circles; 1.5 m in the file). Since an occluded detection grows a track's radius bravo yields,
+    # then changes lane round the ferry and passes it at 2.5 m (it was 6.4 m; docs/missions.md).
     sc = load_scenario(TASKS / "target_tracking_traffic.toml")
-    safety = min(v.options["avoidance"].options.prediction.safety_distance_m for v in sc.vessels)
-    assert safety >= 1.0 and min(v["min_clearance_m"]["ferry"] for v in s["vessels"].values()) > safety
+    for v in sc.vessels:
+        safety = v.options["avoidance"].options.prediction.safety_distance_m
+        assert safety >= 1.0 and s["vessels"][v.name]["min_clearance_m"]["ferry"] > safety, v.name
     _check_tracking(s, rms_m=12.0, max_m=30.0, standoff_tol_m=8.0)  # the yield takes one vessel off its station for a while
 
 

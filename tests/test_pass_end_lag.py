@@ -76,3 +76,32 @@ def test_a_slower_vessel_just_past_the_pass_goal_is_a_conflict_only_with_the_hul
     assert lagging.collision_distance_m == pytest.approx(3.4)
     assert not planned.collision and planned.min_distance_m == pytest.approx(4.2, abs=0.05)
     assert lagging.collision and lagging.min_distance_m == pytest.approx(2.2, abs=0.1)
+
+
+def test_predicted_from_after_the_goal_continues_the_same_slow_down():
+    """Predicted again 0.7 s after the pass's goal (the hull part way through shedding its extra
+    speed), γ(t) is the earlier prediction's curve from that point: only what is left is shed."""
+    pas = _correction(10.0, 2.9)
+    t = np.linspace(10.7, 30.0, 60)
+    early = correction_profile(pas, 0.0, 0.0, 0.9, decel_m_s2=1.0)
+    g1 = float(early(np.array([10.7]))[0])
+    late = correction_profile(pas, 10.7, g1, 0.9, decel_m_s2=1.0)
+    assert np.allclose(late(t), early(t), rtol=0.0, atol=1e-9)
+
+
+def test_the_prediction_keeps_a_pass_that_ended_at_its_goal_until_its_extra_speed_is_shed():
+    """The control tick clears a correction at its goal and predicts at once ("check it before it is
+    sailed"): that prediction still sheds the pass's extra speed (2 s at 1 m/s² from 2.9 to 0.9 m/s),
+    and a prediction after the shedding is the plain mission speed again."""
+    from types import SimpleNamespace
+
+    from mjasc.avoidance.prediction_step import PredictionStep
+
+    pas = _correction(10.0, 2.9)
+    own = SimpleNamespace(correction=None, ended_correction=pas, config=AvoidanceConfig())
+    at_goal = PredictionStep.predicted_gamma(own, 10.0, 0.0, 0.9)
+    t = np.array([10.0, 11.0, 12.0, 20.0])
+    assert np.allclose(at_goal(t), [0.0, 2.4, 3.8, 11.0])  # 2.9 → 0.9 m/s over 2 s: 2 m ahead of the step
+    assert own.ended_correction is pas
+    later = PredictionStep.predicted_gamma(own, 12.5, 0.0, 0.9)
+    assert later == 0.9 and own.ended_correction is None  # (the constant profile: the mission speed)

@@ -225,7 +225,7 @@ class ControlTick:
         if c is not None:
             if c.law.finished(t):
                 self._event(t, f"velocity correction ({c.kind}) complete: mission speed resumed")
-                self.correction = None
+                self.correction, self.ended_correction = None, c  # (its extra speed is still being shed)
                 if self._perceived is not None:  # the planned motion changed: check it before it is sailed
                     self.stats["deviation_predictions"] += 1
                     self._predict_on_perceived(t, nav)

@@ -119,9 +119,16 @@ class PredictionStep:
         """γ(t) [m] the own vessel is predicted to sail for t ≥ t_now: the plan (``planned_gamma``,
         what the team is told), except that a running correction's speed above the mission speed (a
         pass first's) is shed at ``slow_down_decel_m_s2`` after its goal time, as a hull sheds it
-        (:mod:`~mjasc.avoidance.speed_plan`)."""
-        return correction_profile(self.correction, t_now, gamma_now, mission_speed_m_s,
-                                  self.config.slow_down_decel_m_s2)
+        (:mod:`~mjasc.avoidance.speed_plan`) — also once the correction has ended at its goal
+        (``ended_correction``, kept by the control tick), until the excess is shed."""
+        c, a = self.correction, self.config.slow_down_decel_m_s2
+        if c is None and (ended := self.ended_correction) is not None:  # a pass that has just ended
+            law = ended.law
+            if a > 0.0 and t_now < law.t_goal + (law.desired_speed - mission_speed_m_s) / a:
+                c = ended  # (its goal passed: the hull still sheds what is left of its extra speed)
+            else:
+                self.ended_correction = None
+        return correction_profile(c, t_now, gamma_now, mission_speed_m_s, a)
 
     def _act_on_prediction(self, t, nav, pending: "PendingPrediction", all_c, static_polygons, after_replan=False) -> list:
         """The second half of :meth:`_predict`: record the predicted conflicts (``all_c``, one per

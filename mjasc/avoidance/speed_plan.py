@@ -40,12 +40,15 @@ def correction_profile(correction: Correction | None, t_now: float, gamma_now: f
     excess = v_d - v_m
     if decel_m_s2 > 0.0 and excess > 0.0:
         tau = excess / decel_m_s2  # the time the hull takes to shed the excess [s]
+        t_goal = float(correction.law.t_goal)  # (t_start, unless the goal has passed: then t_now)
+        s0 = min(max(t_now - t_goal, 0.0), tau)  # what was shed before t_now [s of shedding]
+        shed0 = excess * s0 - 0.5 * decel_m_s2 * s0 * s0  # (0 before the goal: the same numbers)
 
         def gamma_slowing(t):
             t = np.asarray(t, dtype=float)
-            s = np.clip(t - t_start, 0.0, tau)
+            s = np.clip(t - t_goal, 0.0, tau)
             return (gamma_now + v_d * np.clip(t - t_now, 0.0, span) + v_m * np.maximum(t - t_start, 0.0)
-                    + excess * s - 0.5 * decel_m_s2 * s * s)
+                    + excess * s - 0.5 * decel_m_s2 * s * s) - shed0
 
         return gamma_slowing
 
@@ -57,7 +60,8 @@ def correction_profile(correction: Correction | None, t_now: float, gamma_now: f
 
 
 def correction_terms(correction: Correction | None, t_now: float, mission_speed_m_s: float) -> tuple:
-    """The numbers of :func:`correction_profile`: ``(0, v_m)`` without a correction, else
+    """The numbers of :func:`correction_profile` as planned (the step at the goal, what the team is
+    told; ``decel_m_s2`` = 0): ``(0, v_m)`` without a correction, else
     ``(1, V_d, span, v_m, t_start)`` for
     γ(t) = γ_now + V_d·clip(t − t_now, 0, span) + v_m·max(t − t_start, 0)."""
     v_m = float(mission_speed_m_s)

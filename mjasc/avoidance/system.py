@@ -222,6 +222,8 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         self.station_keeping = False  # the mission leg is a line through a moving station (set_mission)
         self.mode = "mission"
         self.correction: Correction | None = None
+        #: the correction that last ended at its goal (the prediction sheds a pass's extra speed after it)
+        self.ended_correction: Correction | None = None
         self.detour: Detour | None = None
         self._detour_causes: set[int] | None = None  # the moving tracks a detour goes around (None: statics too)
         self._sharp_turn: tuple | None = None  # a sharp turn on the detour: ("brake", heading) or ("turn", None)
