@@ -22,6 +22,7 @@ from operator import attrgetter
 import numpy as np
 
 from mjasc.avoidance.prediction import TrackMotions
+from mjasc.avoidance.static_conflicts import track_outlines
 from mjasc.avoidance.structure import REVERSAL_RAD, turn_away_from_structure
 from mjasc.core.estimates import TrackRows, track_columns
 from mjasc.guidance.segment_geometry import wrap_scalar
@@ -275,8 +276,7 @@ class ControlTick:
             if self._perceived is not None and err >= REVERSAL_RAD:
                 # mapped structure and the outlines of static tracks (a moored boat is as solid as a quay:
                 # a long way round away from the quay swept the bow into one, thesis_6_2_dock seed 11)
-                solid = list(self._perceived.static_polygons) + [
-                    tr.outline_m for tr in self._perceived.tracks if tr.is_static and tr.outline_m is not None]
+                solid = list(self._perceived.static_polygons) + list(track_outlines(self._perceived.tracks).values())
                 way = turn_away_from_structure(p, float(nav.heading_rad), signed, solid, _REVERSAL_PROBE_M,
                                                _REVERSAL_MARGIN_M)
             self._sharp_turn = ("turn", way)
