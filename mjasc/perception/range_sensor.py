@@ -37,6 +37,7 @@ import mujoco
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
+from mjasc.perception.beam_culling import candidate_geoms, fan_candidates, scatter_hits
 from mjasc.perception.scan_kernels import clean_hits, fan_directions
 
 __all__ = ["SensorConfig", "Scan", "RangeSensor", "parse_sensor_options", "check_sensor", "CLUTTER_GEOM"]
@@ -181,7 +182,18 @@ class RangeSensor:
         self._pnt = np.zeros(3)
         self._pnt[2] = config.ray_height_m
         self._yaw = math.nan  # the heading [rad] _vec's directions are for
-        self._data = None  # the MjData whose mount pose views are kept (_xpos, _xmat)
+        self._data = None  # the MjData whose mount pose views are kept (_xpos, _xmat, _geom_xpos)
+        #: the geoms a beam can meet and their bounding radii (None: the whole fan is cast; beam_culling)
+        self._culling = candidate_geoms(model, self.geomgroup, self.body_id)
+        self._mark = np.zeros(n, dtype=np.bool_)
+        self._beams = np.zeros(n, dtype=np.int64)
+        self._vec_c = np.zeros((n, 3))
+        self._dist_c = np.zeros(n)
+        self._gid_c = np.zeros(n, dtype=np.int32)
+        self._compact: dict[int, tuple] = {}  # m → the compact cast's views of m beams
+        #: beams the last :meth:`fire` cast (the others could meet nothing: beam_culling), beams cast by
+        #: all fires, and how many fires
+        self.last_beams_cast = self.beams_cast = self.fans_cast = 0
         self._batch = None  # the ScanBatch of scan() on its own
 
     def pose(self, data) -> tuple[np.ndarray, float]:
@@ -196,16 +208,36 @@ class RangeSensor:
         if data is not self._data:
             self._data = data
             self._xpos, self._xmat = data.site_xpos[self.site_id], data.site_xmat[self.site_id]
+            self._geom_xpos = data.geom_xpos
         xm, pnt = self._xmat, self._pnt
         yaw = math.atan2(xm[3], xm[0])
         x, y = float(self._xpos[0]), float(self._xpos[1])
         pnt[0], pnt[1] = x, y
+        c = self.config
+        culling = self._culling
+        if culling is not None:  # only the beams that can meet a geom (beam_culling: the same bits)
+            m = fan_candidates(x, y, yaw, self.angles_body, self.full_circle, self._geom_xpos, culling[0], culling[1],
+                               c.max_range_m, self._mark, self._beams, self._vec_c, dist, geom_ids)
+            if m:
+                views = self._compact.get(m)
+                if views is None:
+                    views = self._compact[m] = (self._vec_c[:m].reshape(-1), self._gid_c[:m], self._dist_c[:m])
+                vec_c, gid_c, dist_c = views
+                mujoco.mj_multiRay(self.model, data, pnt, vec_c, self.geomgroup, 1, self.body_id, gid_c, dist_c,
+                                   None, m, c.max_range_m)
+                scatter_hits(self._beams, m, dist_c, gid_c, dist, geom_ids)
+            self.last_beams_cast = m
+            self.beams_cast += m
+            self.fans_cast += 1
+            return x, y, yaw
         if yaw != self._yaw:  # the world directions of the beams (kept while the heading stays the same)
             fan_directions(self.angles_body, yaw, self._vec)
             self._yaw = yaw
-        c = self.config
         mujoco.mj_multiRay(self.model, data, pnt, self._vec_flat, self.geomgroup, 1, self.body_id, geom_ids, dist,
                            None, c.beams, c.max_range_m)
+        self.last_beams_cast = c.beams
+        self.beams_cast += c.beams
+        self.fans_cast += 1
         return x, y, yaw
 
     def draw(self, rng: np.random.Generator | None, normals: np.ndarray, uniforms: np.ndarray,
