@@ -132,14 +132,14 @@ def test_a_plane_in_the_seen_groups_turns_culling_off():
         '<mujoco><worldbody><geom type="plane" size="5 5 1"/><body name="b"><freejoint/>'
         '<geom type="sphere" size="1" pos="5 0 0"/></body></worldbody></mujoco>')
     assert candidate_geoms(m, np.array([1, 0, 0, 1, 0, 0], np.uint8), 1) is None
-    ids, radii = candidate_geoms(m, np.array([0, 1, 0, 0, 0, 0], np.uint8), -1)
-    assert ids.size == 0 and radii.size == 0
+    ids, radii, boxes = candidate_geoms(m, np.array([0, 1, 0, 0, 0, 0], np.uint8), -1)
+    assert ids.size == 0 and radii.size == 0 and boxes.shape == (0, 3)
     # (with no geom at all nothing is cast, and every beam reads a miss)
     n = 8
     mark, beams, vec = np.zeros(n, bool), np.zeros(n, np.int64), np.zeros((n, 3))
     dist, gid = np.zeros(n), np.zeros(n, np.int32)
     angles = -math.pi + (np.arange(n) + 0.5) * 2 * math.pi / n
     data = mujoco.MjData(m)
-    assert fan_candidates(0.0, 0.0, 0.0, angles, True, data.geom_xpos, ids, radii, 100.0, mark, beams, vec, dist,
-                          gid) == 0
+    assert fan_candidates(0.0, 0.0, 0.0, angles, True, data.geom_xpos, data.geom_xmat, ids, radii, boxes, 100.0, mark,
+                          beams, vec, dist, gid) == 0
     assert np.all(dist == -1) and np.all(gid == -1)

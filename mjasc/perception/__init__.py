@@ -2,7 +2,8 @@
 docs/perception.md).
 
 * :mod:`~mjasc.perception.range_sensor` — MuJoCo ray-cast fan (``mj_multiRay``), noise, dropout,
-  clutter;
+  clutter; :mod:`~mjasc.perception.beam_culling` — the beams of a fan that can meet a geom (only
+  those are cast);
 * :mod:`~mjasc.perception.detection` — clustering the returns into objects (centre, radius, σ²);
 * :mod:`~mjasc.perception.static_map` — grid of static returns → convex polygons for the planner;
 * :mod:`~mjasc.perception.imm` — the IMM bank of constant-turn EKFs over [x, y, course, speed];

@@ -8,7 +8,8 @@ world height** ``ray_height_m`` (default 0.1 m): inside the contact band 0 ≤ z
 collision hull and obstacle spans (assets/README.md), not at the mast height, where rays would pass
 over low hulls. The vessel's own body is excluded (``bodyexclude``), only geom groups 0 (obstacles)
 and 3 (vessel collision hulls) are seen (``world.SENSOR_GEOM_GROUPS``), and each ray returns the
-first surface it meets: occlusion is MuJoCo's.
+first surface it meets: occlusion is MuJoCo's. Only the beams that can meet a geom are cast (the
+others read as misses, as MuJoCo would answer them: :mod:`mjasc.perception.beam_culling`).
 
 Imperfections, per scan, all drawn from the caller's ``numpy.random.Generator``:
 
@@ -208,7 +209,7 @@ class RangeSensor:
         if data is not self._data:
             self._data = data
             self._xpos, self._xmat = data.site_xpos[self.site_id], data.site_xmat[self.site_id]
-            self._geom_xpos = data.geom_xpos
+            self._geom_xpos, self._geom_xmat = data.geom_xpos, data.geom_xmat
         xm, pnt = self._xmat, self._pnt
         yaw = math.atan2(xm[3], xm[0])
         x, y = float(self._xpos[0]), float(self._xpos[1])
@@ -216,8 +217,9 @@ class RangeSensor:
         c = self.config
         culling = self._culling
         if culling is not None:  # only the beams that can meet a geom (beam_culling: the same bits)
-            m = fan_candidates(x, y, yaw, self.angles_body, self.full_circle, self._geom_xpos, culling[0], culling[1],
-                               c.max_range_m, self._mark, self._beams, self._vec_c, dist, geom_ids)
+            ids, radii, boxes = culling
+            m = fan_candidates(x, y, yaw, self.angles_body, self.full_circle, self._geom_xpos, self._geom_xmat, ids,
+                               radii, boxes, c.max_range_m, self._mark, self._beams, self._vec_c, dist, geom_ids)
             if m:
                 views = self._compact.get(m)
                 if views is None:
