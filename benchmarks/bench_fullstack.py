@@ -196,7 +196,8 @@ def table(results: list[tuple[Row, dict]], video: bool) -> str:
     lines += ["", "Where the time goes (recording on" + (", video on" if video else "") +
               "): share of the run's wall time per stage; the floor split into mj_step and the ray fans; the share "
               "of the fans' beams the sensors cast (the others can meet nothing: the floor casts them all)",
-              "", "| workload | wall ms / sim s | " + " | ".join(STAGES) + " | other | floor: mj_step | rays | beams cast |",
+              "", "| workload | wall ms / sim s | " + " | ".join(STAGES) +
+              " | other | floor: mj_step | rays | beams cast |",
               "|---|---:|" + "---:|" * (len(STAGES) + 4)]
     for row, b in results:
         on = b["on"]
@@ -205,8 +206,8 @@ def table(results: list[tuple[Row, dict]], video: bool) -> str:
         cells = [f"{st[s] / wall:.0%}" if s in st else "—" for s in STAGES]
         step_s, ray_s = b["floor"]
         lines.append(f"| {row.name} | {1e3 * wall / on['sim']:,.1f} | " + " | ".join(cells) +
-                     f" | {other / wall:.0%} | {1e3 * step_s / on['sim']:.2f} ms/s | {1e3 * ray_s / on['sim']:.2f} ms/s | "
-                     f"{on['beams_cast']:.0%} |")
+                     f" | {other / wall:.0%} | {1e3 * step_s / on['sim']:.2f} ms/s | "
+                     f"{1e3 * ray_s / on['sim']:.2f} ms/s | {on['beams_cast']:.0%} |")
     return "\n".join(lines)
 
 
