@@ -204,8 +204,8 @@ class TeamMates:
         speed, and with the heading rate the whole estimate but its id, radius and covariance) is
         worked out once per message for every receiver (:func:`_message_estimate`); a matched
         track's estimate is that one's fields with the track's id, radius and covariance (as
-        :func:`~mjasc.core.estimates.estimate_replace` makes it, written out: ~34 per prediction of
-        the 50-vessel fleet); a team mate without a track is :meth:`_alone`."""
+        :func:`~mjasc.core.estimates.estimate_replace` makes it, written out: ~26 a prediction of
+        the 50-vessel fleet); a team mate without a track (~20 more) is :meth:`_alone`."""
         self.poll(picture)
         intents = self.fresh(picture, t)
         if not intents:
