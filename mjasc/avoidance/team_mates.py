@@ -41,11 +41,15 @@ TEAM_HISTORY_S = 20.0
 #: message is held so that its id stays its own; emptied when it holds :data:`_PROTOS_MAX` messages.
 _PROTOS: dict[int, tuple] = {}
 _PROTOS_MAX = 4096
+#: The track of a team mate made of one message estimate alone (no track of it: :meth:`TeamMates._alone`),
+#: shared by every receiver that gives it the same id and radius: id(message estimate) → (message
+#: estimate, {(id, radius.hex()): track}); emptied when it holds :data:`_PROTOS_MAX` estimates.
+_ALONE: dict[int, tuple] = {}
 
 
 def _message_estimate(it, w: float) -> TrackEstimate:
     """The estimate of team mate ``it.name`` from message ``it`` at heading rate ``w`` [rad/s], without
-    its id, radius and covariance (:meth:`TeamMates._from_intention`): made once per (message, ω)
+    its id, radius and covariance (:meth:`TeamMates.tracks`): made once per (message, ω)
     for every receiver."""
     entry = _PROTOS.get(id(it))
     if entry is None or entry[0] is not it:
@@ -167,42 +171,68 @@ class TeamMates:
         return track.team_member in self.team and track.team_member in fresh
 
     # ------------------------------------------------------------------ tracks
-    def _from_intention(self, it, track: TrackEstimate | None, track_id: int) -> TrackEstimate:
-        """A track of team mate ``it.name`` from its own broadcast: along its plan when it sent one
-        (:class:`PlannedTrack`), else constant velocity and the heading rate of successive messages.
-        What depends on the message alone (position, course, speed, the plan's largest speed, and
-        with the heading rate the whole estimate but its id, radius and covariance) is worked out
-        once per message for every receiver (:func:`_message_estimate`): every prediction until the
-        next one copies it."""
-        proto = _message_estimate(it, self.heading_rate(it.name))
-        if track is None:  # its id, radius and covariance are fixed: one estimate per message
-            made = self._unmatched.get(it.name)
-            if made is None or made[0] is not proto:
-                made = self._unmatched[it.name] = (proto, estimate_replace(
-                    proto, track_id=track_id, radius_m=float(it.radius_m if it.radius_m else self.radius_m),
-                    position_covariance=np.zeros((2, 2))))
+    def _alone(self, it, proto, track_id: int) -> TrackEstimate:
+        """The track of team mate ``it.name`` made of its message estimate ``proto`` alone (no track
+        of it): id ``track_id``, its broadcast radius (the own one when it sends none), no
+        covariance. One object per (message estimate, id, radius) for the whole fleet
+        (:data:`_ALONE`; every receiver ranks the team mate alike but for its own name's place):
+        kept by this receiver until the team mate's next message."""
+        made = self._unmatched.get(it.name)
+        if made is not None and made[0] is proto:
             return made[1]
-        return estimate_replace(proto, track_id=track_id, radius_m=float(track.radius_m),
-                                position_covariance=track.position_covariance)
+        radius = float(it.radius_m if it.radius_m else self.radius_m)
+        entry = _ALONE.get(id(proto))
+        if entry is None or entry[0] is not proto:
+            if len(_ALONE) >= _PROTOS_MAX:
+                _ALONE.clear()
+            entry = _ALONE[id(proto)] = (proto, {})
+        key = (track_id, radius.hex())
+        alone = entry[1].get(key)
+        if alone is None:
+            alone = entry[1][key] = estimate_replace(proto, track_id=track_id, radius_m=radius,
+                                                     position_covariance=np.zeros((2, 2)))
+        self._unmatched[it.name] = (proto, alone)
+        return alone
 
     def tracks(self, tracks, t: float, picture, emit: Callable[[float, str], None]) -> list:
         """The tracks with team mates predicted from their fresh broadcasts (module docstring),
-        stale copies of team mates dropped."""
+        stale copies of team mates dropped.
+
+        A team mate's track from its broadcast: along its plan when it sent one
+        (:class:`PlannedTrack`), else constant velocity and the heading rate of successive
+        messages. What depends on the message alone (position, course, speed, the plan's largest
+        speed, and with the heading rate the whole estimate but its id, radius and covariance) is
+        worked out once per message for every receiver (:func:`_message_estimate`); a matched
+        track's estimate is that one's fields with the track's id, radius and covariance (as
+        :func:`~mjasc.core.estimates.estimate_replace` makes it, written out: ~26 a prediction of
+        the 50-vessel fleet); a team mate without a track (~20 more) is :meth:`_alone`."""
         self.poll(picture)
         intents = self.fresh(picture, t)
-        out, seen = [], set()
-        for tr in tracks:
-            it = intents.get(tr.team_member) if tr.team_member in self.team else None
-            if it is None or tr.team_member in seen:
+        if not intents:
+            out = list(tracks)
+        else:
+            out, seen, nav, new = [], set(), self._nav, object.__new__
+            for tr in tracks:
+                it = intents.get(tr.team_member)  # (intents holds team mates' names only)
                 if it is None:
                     out.append(tr)
-                continue
-            seen.add(tr.team_member)
-            out.append(self._from_intention(it, tr, tr.track_id))
-        mate_id = self._mate_id
-        for name, it in intents.items():
-            if name not in seen:
-                out.append(self._from_intention(it, None, mate_id[name]))
+                    continue
+                name = tr.team_member
+                if name in seen:
+                    continue
+                seen.add(name)
+                proto = _message_estimate(it, nav.get(it.name, _NO_NAV)[2])
+                d = proto.__dict__.copy()  # estimate_replace(proto, track_id=…, radius_m=…, position_covariance=…)
+                d["track_id"] = tr.track_id
+                d["radius_m"] = float(tr.radius_m)
+                d["position_covariance"] = tr.position_covariance
+                e = new(type(proto))
+                object.__setattr__(e, "__dict__", d)
+                out.append(e)
+            mate_id = self._mate_id
+            for name, it in intents.items():
+                if name not in seen:
+                    out.append(self._alone(it, _message_estimate(it, nav.get(it.name, _NO_NAV)[2]), mate_id[name]))
         unmatched = [k for k, tr in enumerate(out) if tr.team_member is None]
         if not unmatched:
             return out
@@ -233,7 +263,7 @@ class TeamMates:
             track = tracks[k]
             if track.track_id not in self._ghosts:
                 self._ghosts.add(track.track_id)
-                name = names[int(np.min(who[hit[k]]))]  # the first team mate heard that it retraces
+                name = names[int(who[hit[k]].min())]  # the first team mate heard that it retraces
                 emit(t, f"track {track.track_id} retraces team mate {name}'s broadcast positions: "
                         f"it is {name} (stale copy), ignored")
         return out
