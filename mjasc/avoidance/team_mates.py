@@ -188,9 +188,11 @@ class TeamMates:
             entry = _ALONE[id(proto)] = (proto, {})
         key = (track_id, radius.hex())
         alone = entry[1].get(key)
-        if alone is None:
+        if alone is None:  # (its covariance read-only: receivers share the object)
+            none = np.zeros((2, 2))
+            none.flags.writeable = False
             alone = entry[1][key] = estimate_replace(proto, track_id=track_id, radius_m=radius,
-                                                     position_covariance=np.zeros((2, 2)))
+                                                     position_covariance=none)
         self._unmatched[it.name] = (proto, alone)
         return alone
 
