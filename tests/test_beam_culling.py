@@ -143,3 +143,36 @@ def test_a_plane_in_the_seen_groups_turns_culling_off():
     assert fan_candidates(0.0, 0.0, 0.0, angles, True, data.geom_xpos, data.geom_xmat, ids, radii, boxes, 100.0, mark,
                           beams, vec, dist, gid) == 0
     assert np.all(dist == -1) and np.all(gid == -1)
+
+
+def test_groups_outside_the_range_count_as_the_nearest_one_as_mujoco_takes_them():
+    """MJCF accepts group −1 and 7: MuJoCo's ray casting clamps them to 0 and 5, and so does the
+    culling's choice of candidate geoms (a sphere of each, 10 m away, read alike both ways)."""
+    m = mujoco.MjModel.from_xml_string(
+        '<mujoco><worldbody><site name="mount" pos="0 0 0.1"/>'
+        '<geom type="sphere" size="1" pos="10 0 0.1" group="-1"/>'
+        '<geom type="sphere" size="1" pos="0 10 0.1" group="7"/></worldbody></mujoco>')
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    config = SensorConfig(beams=360, max_range_m=50.0, ray_height_m=0.1)
+    for groups, seen in (([1, 0, 0, 1, 0, 0], 1), ([0, 0, 0, 0, 0, 1], 1), ([1, 0, 0, 0, 0, 1], 2)):
+        s = RangeSensor(m, config, -1, 0, np.array(groups, np.uint8))
+        want, got = whole_fan(s, d), culled(s, d)
+        np.testing.assert_array_equal(got[1], want[1])
+        np.testing.assert_array_equal(got[0], want[0])
+        assert len(set(got[1][got[1] >= 0].tolist())) == seen
+
+
+def test_the_seen_groups_and_the_excluded_body_are_fixed_with_the_sensor():
+    """The candidate geoms are chosen once from them: the sensor keeps its own read-only copy."""
+    m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><site name="mount"/></worldbody></mujoco>')
+    mine = np.array([1, 0, 0, 1, 0, 0], np.uint8)
+    s = RangeSensor(m, SensorConfig(), -1, 0, mine)
+    mine[1] = 1
+    assert s.geomgroup.tolist() == [1, 0, 0, 1, 0, 0] and not s.geomgroup.flags.writeable
+    with pytest.raises(ValueError):
+        s.geomgroup[1] = 1
+    with pytest.raises(AttributeError):
+        s.body_id = 3
+    with pytest.raises(ValueError, match="geomgroup: expected 6 flags"):
+        RangeSensor(m, SensorConfig(), -1, 0, np.array([1, 0, 0, 1], np.uint8))

@@ -13,7 +13,7 @@ the disc of radius R about (c_x, c_y), lies on the beam:
   half-line from the sensor meets the disc exactly there);
 * ρ − R > the cutoff: MuJoCo drops the geom itself (its 3-D distance is at least ρ).
 
-A box is narrower than its sphere (the islands' and piers' walls are 0.2 m thick and up to 40 m
+A box is narrower than its sphere (the islands' and piers' walls are 0.2 m thick and up to 54 m
 long, the hulls 0.4 m wide and 3.5 m long): a horizontal beam meets it only where it crosses its
 footprint, the convex hull of its 8 corners projected on the water, so the beam's angle must lie
 between the smallest and largest bearing of those corners (each within 90° of θ, since the sensor
@@ -29,9 +29,9 @@ fan with ``mj_multiRay`` and :func:`scatter_hits` puts its answers back in place
 The scans are the same bits as casting every beam: ``mj_multiRay`` answers each beam on its own
 (its per-call set-up depends on the sensor's position only), and a beam that crosses no bounding
 disc meets nothing, which MuJoCo reports as −1 (tests/test_beam_culling.py casts both ways on
-random poses). A geom with no bounding radius (a plane, ``geom_rbound`` 0) or a geom type whose
-rays are not bounded by the sphere marks every beam: :func:`can_cull` says when a model's geoms
-allow culling at all.
+random poses). Every geom type's surface lies inside its bounding sphere but a plane's, which has
+none (``geom_rbound`` 0): a sensor that can see a plane casts its whole fan
+(:func:`candidate_geoms` answers None).
 """
 
 from __future__ import annotations
@@ -55,8 +55,8 @@ def candidate_geoms(model, geomgroup: np.ndarray, body_exclude: int) -> tuple[np
     bounding radii (G,) [m], half sizes (G, 3) [m] of the boxes, zeros for other types), sizes
     widened; None when one of them has no bounding radius (a plane: rays would have to be cast in
     every direction, so the sensor casts its whole fan)."""
-    groups = np.clip(model.geom_group, 0, len(geomgroup) - 1)
-    seen = (np.asarray(geomgroup)[groups] != 0) & (model.geom_group >= 0) & (model.geom_group < len(geomgroup))
+    # (a group outside 0 … mjNGROUP − 1 counts as the nearest one, as MuJoCo's ray_eliminate takes it)
+    seen = np.asarray(geomgroup)[np.clip(model.geom_group, 0, mujoco.mjNGROUP - 1)] != 0
     seen &= model.geom_bodyid != body_exclude
     ids = np.flatnonzero(seen).astype(np.int64)
     rbound = model.geom_rbound[ids]
@@ -64,7 +64,8 @@ def candidate_geoms(model, geomgroup: np.ndarray, body_exclude: int) -> tuple[np
         return None
     box = (model.geom_type[ids] == mujoco.mjtGeom.mjGEOM_BOX)[:, None]
     halves = np.where(box, model.geom_size[ids] * (1.0 + _R_WIDEN) + _R_WIDEN, 0.0)
-    return ids, rbound * (1.0 + _R_WIDEN) + _R_WIDEN, np.ascontiguousarray(halves)
+    # (the radius widened by 2·10⁻⁹ more: a box's widened corner, ≤ |h|(1 + ε) + √3·ε from its centre, stays inside)
+    return ids, rbound * (1.0 + _R_WIDEN) + 2.0 * _R_WIDEN, np.ascontiguousarray(halves)
 
 
 @inlined_kernel

@@ -166,9 +166,14 @@ class RangeSensor:
             raise ValueError(f"body_id_to_exclude: no body {body_id_to_exclude} in the model")
         self.model = model
         self.config = config
-        self.body_id = int(body_id_to_exclude)
+        self._body_id = int(body_id_to_exclude)
         self.site_id = int(mount_site_id)
-        self.geomgroup = _DEFAULT_GROUPS.copy() if geomgroup is None else np.asarray(geomgroup, dtype=np.uint8)
+        groups = np.array(_DEFAULT_GROUPS if geomgroup is None else geomgroup, dtype=np.uint8)  # (a copy)
+        if groups.shape != (mujoco.mjNGROUP,):
+            raise ValueError(f"geomgroup: expected {mujoco.mjNGROUP} flags (one per geom group), got shape "
+                             f"{list(groups.shape)}")
+        groups.flags.writeable = False  # (the culling's candidate geoms are chosen from it once)
+        self._geomgroup = groups
         n = config.beams
         fov = math.radians(config.fov_deg)
         self.angles_body = -0.5 * fov + (np.arange(n) + 0.5) * fov / n
@@ -185,7 +190,7 @@ class RangeSensor:
         self._yaw = math.nan  # the heading [rad] _vec's directions are for
         self._data = None  # the MjData whose mount pose views are kept (_xpos, _xmat, _geom_xpos)
         #: the geoms a beam can meet and their bounding radii (None: the whole fan is cast; beam_culling)
-        self._culling = candidate_geoms(model, self.geomgroup, self.body_id)
+        self._culling = candidate_geoms(model, self._geomgroup, self._body_id)
         self._mark = np.zeros(n, dtype=np.bool_)
         self._beams = np.zeros(n, dtype=np.int64)
         self._vec_c = np.zeros((n, 3))
@@ -196,6 +201,16 @@ class RangeSensor:
         #: all fires, and how many fires
         self.last_beams_cast = self.beams_cast = self.fans_cast = 0
         self._batch = None  # the ScanBatch of scan() on its own
+
+    @property
+    def body_id(self) -> int:
+        """The body whose geoms the fan never sees (the own hull; −1: none)."""
+        return self._body_id
+
+    @property
+    def geomgroup(self) -> np.ndarray:
+        """The geom groups the fan sees (``mjNGROUP`` flags, read-only: fixed with the sensor)."""
+        return self._geomgroup
 
     def pose(self, data) -> tuple[np.ndarray, float]:
         """World x, y [m] and yaw [rad] of the sensor mount in ``data``."""
@@ -225,7 +240,7 @@ class RangeSensor:
                 if views is None:
                     views = self._compact[m] = (self._vec_c[:m].reshape(-1), self._gid_c[:m], self._dist_c[:m])
                 vec_c, gid_c, dist_c = views
-                mujoco.mj_multiRay(self.model, data, pnt, vec_c, self.geomgroup, 1, self.body_id, gid_c, dist_c,
+                mujoco.mj_multiRay(self.model, data, pnt, vec_c, self._geomgroup, 1, self._body_id, gid_c, dist_c,
                                    None, m, c.max_range_m)
                 scatter_hits(self._beams, m, dist_c, gid_c, dist, geom_ids)
             self.last_beams_cast = m
@@ -235,7 +250,7 @@ class RangeSensor:
         if yaw != self._yaw:  # the world directions of the beams (kept while the heading stays the same)
             fan_directions(self.angles_body, yaw, self._vec)
             self._yaw = yaw
-        mujoco.mj_multiRay(self.model, data, pnt, self._vec_flat, self.geomgroup, 1, self.body_id, geom_ids, dist,
+        mujoco.mj_multiRay(self.model, data, pnt, self._vec_flat, self._geomgroup, 1, self._body_id, geom_ids, dist,
                            None, c.beams, c.max_range_m)
         self.last_beams_cast = c.beams
         self.beams_cast += c.beams
