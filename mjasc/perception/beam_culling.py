@@ -73,24 +73,20 @@ def _mark_span(mark, n, full_circle, centre, lo, hi, step):
     """Mark the beams whose angle (relative to beam 0, in beam steps of ``step`` [rad]) lies in
     ``[centre + lo, centre + hi]`` [rad], one beam more on each side; returns True when that is
     every beam of a full circle."""
+    if full_circle:  # (the indices wrap: one interval whatever the turn ``centre`` is given in)
+        a = int(math.floor((centre + lo) / step)) - 1
+        b = int(math.ceil((centre + hi) / step)) + 1
+        if b - a + 1 >= n:
+            return True
+        for k in range(a, b + 1):
+            mark[k % n] = True
+        return False
     two_pi = 2.0 * math.pi
-    for shift in (-two_pi, 0.0, two_pi):
-        a = int(math.floor((centre + shift + lo) / step)) - 1
-        b = int(math.ceil((centre + shift + hi) / step)) + 1
-        if full_circle:
-            if b - a + 1 >= n:
-                return True
-            if shift != 0.0:
-                continue  # (a full circle wraps by index: one interval is enough)
-            for k in range(a, b + 1):
-                mark[k % n] = True
-        else:
-            if a < 0:
-                a = 0
-            if b > n - 1:
-                b = n - 1
-            for k in range(a, b + 1):
-                mark[k] = True
+    for shift in (-two_pi, 0.0, two_pi):  # (a partial fan: the span as seen a turn either way too)
+        a = max(int(math.floor((centre + shift + lo) / step)) - 1, 0)
+        b = min(int(math.ceil((centre + shift + hi) / step)) + 1, n - 1)
+        for k in range(a, b + 1):
+            mark[k] = True
     return False
 
 

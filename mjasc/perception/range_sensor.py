@@ -243,17 +243,15 @@ class RangeSensor:
                 mujoco.mj_multiRay(self.model, data, pnt, vec_c, self._geomgroup, 1, self._body_id, gid_c, dist_c,
                                    None, m, c.max_range_m)
                 scatter_hits(self._beams, m, dist_c, gid_c, dist, geom_ids)
-            self.last_beams_cast = m
-            self.beams_cast += m
-            self.fans_cast += 1
-            return x, y, yaw
-        if yaw != self._yaw:  # the world directions of the beams (kept while the heading stays the same)
-            fan_directions(self.angles_body, yaw, self._vec)
-            self._yaw = yaw
-        mujoco.mj_multiRay(self.model, data, pnt, self._vec_flat, self._geomgroup, 1, self._body_id, geom_ids, dist,
-                           None, c.beams, c.max_range_m)
-        self.last_beams_cast = c.beams
-        self.beams_cast += c.beams
+        else:  # (every beam: a plane in the seen groups)
+            if yaw != self._yaw:  # the world directions of the beams (kept while the heading stays the same)
+                fan_directions(self.angles_body, yaw, self._vec)
+                self._yaw = yaw
+            mujoco.mj_multiRay(self.model, data, pnt, self._vec_flat, self._geomgroup, 1, self._body_id, geom_ids,
+                               dist, None, c.beams, c.max_range_m)
+            m = c.beams
+        self.last_beams_cast = m
+        self.beams_cast += m
         self.fans_cast += 1
         return x, y, yaw
 
