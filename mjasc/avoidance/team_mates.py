@@ -28,7 +28,7 @@ import numpy as np
 
 from mjasc.avoidance.plan_deviation import plans_deviate
 from mjasc.avoidance.prediction.motion import TrackMotions
-from mjasc.core.estimates import PlannedTrack, TrackEstimate, estimate_of, estimate_replace
+from mjasc.core.estimates import PlannedTrack, TrackEstimate, estimate_as_track, estimate_of
 
 __all__ = ["TEAM_HISTORY_S", "PlannedTrack", "TeamMates"]
 
@@ -191,8 +191,7 @@ class TeamMates:
         if alone is None:  # (its covariance read-only: receivers share the object)
             none = np.zeros((2, 2))
             none.flags.writeable = False
-            alone = entry[1][key] = estimate_replace(proto, track_id=track_id, radius_m=radius,
-                                                     position_covariance=none)
+            alone = entry[1][key] = estimate_as_track(proto, track_id, radius, none)
         self._unmatched[it.name] = (proto, alone)
         return alone
 
@@ -205,15 +204,15 @@ class TeamMates:
         messages. What depends on the message alone (position, course, speed, the plan's largest
         speed, and with the heading rate the whole estimate but its id, radius and covariance) is
         worked out once per message for every receiver (:func:`_message_estimate`); a matched
-        track's estimate is that one's fields with the track's id, radius and covariance (as
-        :func:`~mjasc.core.estimates.estimate_replace` makes it, written out: ~26 a prediction of
-        the 50-vessel fleet); a team mate without a track (~20 more) is :meth:`_alone`."""
+        track's estimate is that one's fields with the track's id, radius and covariance
+        (:func:`~mjasc.core.estimates.estimate_as_track`: ~26 a prediction of the 50-vessel fleet);
+        a team mate without a track (~20 more) is :meth:`_alone`."""
         self.poll(picture)
         intents = self.fresh(picture, t)
         if not intents:
             out = list(tracks)
         else:
-            out, seen, nav, new = [], set(), self._nav, object.__new__
+            out, seen, rate = [], set(), self.heading_rate
             for tr in tracks:
                 it = intents.get(tr.team_member)  # (intents holds team mates' names only)
                 if it is None:
@@ -223,18 +222,12 @@ class TeamMates:
                 if name in seen:
                     continue
                 seen.add(name)
-                proto = _message_estimate(it, nav.get(it.name, _NO_NAV)[2])
-                d = proto.__dict__.copy()  # estimate_replace(proto, track_id=…, radius_m=…, position_covariance=…)
-                d["track_id"] = tr.track_id
-                d["radius_m"] = float(tr.radius_m)
-                d["position_covariance"] = tr.position_covariance
-                e = new(type(proto))
-                object.__setattr__(e, "__dict__", d)
-                out.append(e)
+                out.append(estimate_as_track(_message_estimate(it, rate(it.name)), tr.track_id, float(tr.radius_m),
+                                             tr.position_covariance))
             mate_id = self._mate_id
             for name, it in intents.items():
                 if name not in seen:
-                    out.append(self._alone(it, _message_estimate(it, nav.get(it.name, _NO_NAV)[2]), mate_id[name]))
+                    out.append(self._alone(it, _message_estimate(it, rate(it.name)), mate_id[name]))
         unmatched = [k for k, tr in enumerate(out) if tr.team_member is None]
         if not unmatched:
             return out

@@ -264,6 +264,17 @@ def estimate_replace(proto, **changes):
 _FIELD_SETS: dict = {}  # class → its field names as a set (estimate_replace's check)
 
 
+def estimate_as_track(proto, track_id: int, radius_m: float, position_covariance):
+    """``estimate_replace(proto, track_id=…, radius_m=…, position_covariance=…)`` without the
+    keyword check: the estimate of a team mate's message as one track of a receiver (every
+    prediction of every vessel makes one per team mate: collision avoidance's ``TeamMates``)."""
+    e = object.__new__(type(proto))
+    d = proto.__dict__.copy()
+    d["track_id"], d["radius_m"], d["position_covariance"] = track_id, radius_m, position_covariance
+    object.__setattr__(e, "__dict__", d)
+    return e
+
+
 @dataclass(frozen=True, eq=False)
 class SharedTrack:
     """One confirmed own track as a vessel broadcasts it to its team (team-shared perception,
