@@ -64,7 +64,8 @@ def candidate_geoms(model, geomgroup: np.ndarray, body_exclude: int) -> tuple[np
         return None
     box = (model.geom_type[ids] == mujoco.mjtGeom.mjGEOM_BOX)[:, None]
     halves = np.where(box, model.geom_size[ids] * (1.0 + _R_WIDEN) + _R_WIDEN, 0.0)
-    # (the radius widened by 2·10⁻⁹ more: a box's widened corner, ≤ |h|(1 + ε) + √3·ε from its centre, stays inside)
+    # (the radius widened by 2·10⁻⁹ more: a box's widened corner, ≤ |h|(1 + ε) + √3·ε from its
+    # centre, stays inside it)
     return ids, rbound * (1.0 + _R_WIDEN) + 2.0 * _R_WIDEN, np.ascontiguousarray(halves)
 
 
