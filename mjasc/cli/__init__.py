@@ -1,18 +1,20 @@
-"""The ``mjasc`` command (``python -m mjasc``): :func:`main` parses the command line
-(:mod:`mjasc.cli.parser`, which holds the usage of every command) and runs the command —
-:mod:`mjasc.cli.run_commands` (run, view, list, trial, figures, render) or
-:mod:`mjasc.cli.campaign_commands` (campaign, report, extract, search) — turning bad input into one
-line on stderr and an exit status."""
+"""The ``mjasc`` command (the console script and ``python -m mjasc``: :func:`command_line`):
+:func:`main` parses the command line (:mod:`mjasc.cli.parser`, which holds the usage of every
+command) and runs the command — :mod:`mjasc.cli.run_commands` (run, view, list, trial, figures,
+render) or :mod:`mjasc.cli.campaign_commands` (campaign, report, extract, search) — turning bad
+input into one line on stderr and an exit status; the program then leaves without the
+interpreter's final clean-up (:mod:`mjasc.cli.process_exit`)."""
 
 from __future__ import annotations
 
 import sys
 
 import mjasc  # noqa: F401  (chooses the OpenGL backend before mujoco is imported)
+from mjasc.cli import process_exit  # (first: its exit handler must be the first registered)
 from mjasc.cli.parser import build_parser
 from mjasc.cli.run_commands import viewer_command, viewer_executable
 
-__all__ = ["main", "build_parser", "viewer_command", "viewer_executable"]
+__all__ = ["command_line", "main", "build_parser", "viewer_command", "viewer_executable"]
 
 #: The command-line arguments that name an input file or folder (checked before a command runs).
 _INPUTS = ("scenario", "campaign", "folder", "run")
@@ -70,3 +72,14 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mjasc: internal error: {type(exc).__name__}: {text[:500]} (MJASC_TRACEBACK=1 shows where)",
               file=sys.stderr)
         return 1
+
+
+def command_line() -> None:
+    """The ``mjasc`` program: :func:`main` on ``sys.argv``, then the process ends with its exit
+    status — without the interpreter's final clean-up once every exit handler ran
+    (:mod:`mjasc.cli.process_exit`). Raises SystemExit like ``sys.exit(main())`` when the
+    command raised or its status is not an exit status."""
+    status = main()
+    if isinstance(status, int) and 0 <= status <= 255:
+        process_exit.leave_with(status)
+    raise SystemExit(status)

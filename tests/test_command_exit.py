@@ -1,5 +1,7 @@
-"""``python -m mjasc campaign`` leaves without the interpreter's final clean-up (mjasc/__main__.py):
-its exit status, what it printed and every file it wrote are those of the usual exit."""
+"""The ``mjasc`` program leaves without the interpreter's final clean-up (mjasc/cli/process_exit.py):
+its exit status, what it printed and every file it wrote are those of the usual exit — for a
+campaign, a run with its recording, video and summary, the console script's entry point and a
+command that fails."""
 
 import json
 import os
@@ -12,10 +14,55 @@ import pytest
 from tests.test_campaign import write_campaign
 
 
-def _command(tmp_path, *args):
+def _command(tmp_path, *args, command="campaign"):
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
-    return subprocess.run([sys.executable, "-m", "mjasc", "campaign", *args], env=env, capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "mjasc", command, *args], env=env, capture_output=True, text=True,
                           cwd=tmp_path, timeout=600)
+
+
+def test_a_run_leaves_with_its_recording_video_and_summary_complete(tmp_path):
+    import imageio_ffmpeg
+
+    from mjasc.runs.rrd_canonical import canonicalise
+
+    out = tmp_path / "run"
+    proc = _command(tmp_path, "thesis_6_1_static", "--duration", "2", "--video", "--out", str(out), "--no-progress",
+                    command="run")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.endswith("\n") and f"summary: {out / 'summary.json'}" in proc.stdout
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "completed" and summary["video_frames"] > 1
+    reader = imageio_ffmpeg.read_frames(str(out / "video.mp4"))  # the MP4 is whole: every frame decodes
+    next(reader)
+    assert sum(1 for _ in reader) == summary["video_frames"]
+    # the recording is whole and canonical: re-encoding it again gives the same bytes
+    canonicalise(out / "recording.rrd", tmp_path / "again.rrd", *_recording_ids(out / "recording.rrd"))
+    assert (tmp_path / "again.rrd").read_bytes() == (out / "recording.rrd").read_bytes()
+    assert not list(out.glob("*.part*"))
+
+
+def _recording_ids(path):
+    """The (recording, blueprint) store ids of a canonical recording."""
+    from mjasc.runs.rrd_canonical import SdkMessages
+
+    sdk = SdkMessages()
+    sdk.feed(path.read_bytes())
+    ids = {kind: store for kind, store in sdk.stores}
+    return ids[1], ids[2]
+
+
+def test_the_console_script_s_entry_point_leaves_with_the_command_s_status(tmp_path):
+    """``mjasc`` as installed runs :func:`mjasc.cli.command_line` (pyproject's script): its status is
+    the command's, bad input one line on stderr; a status that is not one is raised as usual."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    code = "import sys; sys.argv = ['mjasc', *sys.argv[1:]]; from mjasc.cli import command_line; command_line()"
+    ok = subprocess.run([sys.executable, "-c", code, "list"], env=env, capture_output=True, text=True, cwd=tmp_path,
+                        timeout=600)
+    assert ok.returncode == 0 and "thesis_6_4_crossing" in ok.stdout and ok.stdout.endswith("\n")
+    bad = subprocess.run([sys.executable, "-c", code, "run", "missing.toml"], env=env, capture_output=True, text=True,
+                         cwd=tmp_path, timeout=600)
+    assert bad.returncode == 2 and bad.stderr.startswith("mjasc: invalid scenario: missing.toml")
+    assert len(bad.stderr.strip().splitlines()) == 1
 
 
 def test_campaign_command_leaves_with_its_outputs_complete(tmp_path):
