@@ -56,9 +56,9 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
 from mjasc.core.estimates import SharedTrack, TrackEstimate
+from mjasc.perception.tracking.association import linear_sum_assignment
 
 __all__ = ["ACCEL_PSD", "VELOCITY_STD_M_S", "TEAM_TRACK_ID_BASE", "FusionSettings", "TeamTrackFusion",
            "covariance_intersection", "predict_shared", "shareable", "fuse"]
