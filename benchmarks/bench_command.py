@@ -13,11 +13,12 @@ For each row, in one call (the machine is shared: the same call's numbers only):
 * **run** — the same scenario's :meth:`mjasc.runs.runner.Runner.run` (recording on) in this warm
   process, best of ``--repeats``: what the command cannot do without.
 * **fixed cost** — command − run, split by a probe process (the same command through
-  :func:`mjasc.cli.main`, timed from inside): **start and imports** (the interpreter and the modules
-  a run imports, rerun included), **kernel loads** (numba's cache loads of the kernels the run
-  calls, each the first time: a hook on numba's cache, measurement only) and the **rest** (loading
-  the scenario, building the simulation and the recording's set-up, the first run's colder
-  caches, the outputs' close and the exit).
+  :func:`mjasc.cli.main`, timed from inside): **start and imports** (the interpreter, then every
+  module the command imports — the list an earlier probe of the same scenario recorded, imported
+  first and timed), **kernel loads** (numba's cache loads of the kernels the run calls, each the
+  first time: a hook on numba's cache, measurement only) and the **rest** (reading the scenario,
+  building the simulation, the recording's set-up, the first run's colder caches, the outputs'
+  close and the exit; it also takes the noise of a median command against a best run).
 
     .venv/bin/python benchmarks/bench_command.py            # the thesis scenarios and the demo (~2 min)
     .venv/bin/python benchmarks/bench_command.py --quick    # one scenario, once
@@ -48,9 +49,16 @@ QUICK = {"rows": ["thesis_6_1_static"], "repeats": 1}
 
 # The probe: the command through mjasc.cli.main, timed from inside (stdout's last line: JSON).
 PROBE = r"""
-import json, sys, time
+import importlib, json, sys, time
 t0 = time.perf_counter()
-import mjasc.cli, mjasc.runs.runner, mjasc.runs.recording  # what a run imports (rerun with the recording)
+modules = json.load(open(sys.argv[3])) if len(sys.argv) > 3 else []  # (every module the command imports)
+for name in modules:
+    if name not in sys.modules and name != "__main__" and not name.startswith("mjasc.__main__"):
+        try:
+            importlib.import_module(name)
+        except Exception:  # (a module that only imports inside its package's own set-up: left to the command)
+            pass
+import mjasc.cli
 t1 = time.perf_counter()
 loads = [0.0, 0]
 try:
@@ -69,7 +77,7 @@ except (ImportError, AttributeError):  # another numba: no split of the kernel l
 status = mjasc.cli.main(["run", sys.argv[1], "--out", sys.argv[2], "--no-progress"])
 t2 = time.perf_counter()
 print(json.dumps({"status": status, "imports_s": t1 - t0, "main_s": t2 - t1, "kernel_loads_s": loads[0],
-                  "kernels": loads[1]}))
+                  "kernels": loads[1], "modules": list(sys.modules)}))
 """
 
 
@@ -92,9 +100,13 @@ def _command_s(name: str, tmp: Path) -> float:
     return wall
 
 
-def _probe(name: str, tmp: Path) -> dict:
+def _probe(name: str, tmp: Path, modules: list[str] | None = None) -> dict:
     out = tmp / "probe"
-    wall, stdout = _wall([sys.executable, "-c", PROBE, name, str(out)], tmp)
+    extra = []
+    if modules:
+        (tmp / "modules.json").write_text(json.dumps(modules))
+        extra = [str(tmp / "modules.json")]
+    wall, stdout = _wall([sys.executable, "-c", PROBE, name, str(out), *extra], tmp)
     got = json.loads(stdout.strip().splitlines()[-1])
     got["wall_s"] = wall
     return got
@@ -123,11 +135,12 @@ def main(argv=None) -> int:
         _run_s(rows[0], tmp)  # (this process warm: kernels loaded, caches filled)
         table = []
         for name in rows:
+            modules = _probe(name, tmp)["modules"]  # (what the command imports, for the timed probes)
             commands, runs, probes = [], [], []
             for _ in range(repeats):  # interleaved: a command, a warm run, a probe
                 commands.append(_command_s(name, tmp))
                 runs.append(_run_s(name, tmp))
-                probes.append(_probe(name, tmp))
+                probes.append(_probe(name, tmp, modules))
             command, run = statistics.median(commands), min(runs)
             imports = start_s + statistics.median(p["imports_s"] for p in probes)
             kernels = statistics.median(p["kernel_loads_s"] for p in probes)

@@ -63,6 +63,53 @@ def test_the_console_script_s_entry_point_leaves_with_the_command_s_status(tmp_p
                          cwd=tmp_path, timeout=600)
     assert bad.returncode == 2 and bad.stderr.startswith("mjasc: invalid scenario: missing.toml")
     assert len(bad.stderr.strip().splitlines()) == 1
+    from importlib.metadata import entry_points
+
+    assert entry_points(group="console_scripts")["mjasc"].value == "mjasc.cli:command_line"
+
+
+_PROBE = """
+import atexit, sys
+{before}
+import mjasc.cli
+from mjasc.cli import process_exit
+print(atexit._ncallbacks(), process_exit.ARMED)
+sys.argv = ["mjasc", "list"]
+mjasc.cli.command_line()
+"""
+
+
+@pytest.mark.parametrize("before", ["", "atexit.register(lambda: print('earlier handler ran', flush=True))"])
+def test_the_quick_exit_is_armed_only_as_the_first_exit_handler(tmp_path, before):
+    """Importing mjasc.cli registers the quick exit first (then it runs last, after every other
+    handler); a process that registered a handler before — a sitecustomize, a coverage hook —
+    keeps the usual exit, so that handler still runs."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)}
+    proc = subprocess.run([sys.executable, "-c", _PROBE.format(before=before)], env=env, capture_output=True,
+                          text=True, cwd=tmp_path, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    first = proc.stdout.splitlines()[0]
+    if before:
+        assert first == "2 False" and proc.stdout.rstrip().endswith("earlier handler ran")
+    else:
+        assert first == "1 True" and "thesis_6_4_crossing" in proc.stdout
+
+
+def test_a_stdout_that_cannot_be_flushed_at_the_exit_ends_with_status_120_as_the_usual_exit(tmp_path):
+    """What is still buffered on stdout when the program leaves, on a full device (/dev/full): the
+    usual exit ends with status 120, and so does the quick one (a command flushes its own output
+    first: there, a full disk is the command's error, status 1 and one line)."""
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full on this system")
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    env["PYTHONPATH"] = os.pathsep.join(sys.path)
+    code = ("import sys; from mjasc.cli import process_exit; print('still in the buffer'); "
+            "process_exit.leave_with(0) if sys.argv[1] == 'quick' else None")
+    for how in ("usual", "quick"):
+        with open("/dev/full", "w") as full:
+            proc = subprocess.run([sys.executable, "-c", code, how], env=env, stdout=full, stderr=subprocess.PIPE,
+                                  text=True, cwd=tmp_path, timeout=600)
+        assert proc.returncode == 120, (how, proc.stderr)
 
 
 def test_campaign_command_leaves_with_its_outputs_complete(tmp_path):

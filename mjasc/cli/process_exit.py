@@ -12,18 +12,26 @@ every ``weakref.finalize`` — flushes stdout and stderr and ends the process wi
 
 A command that raised exits as usual (its traceback printed as usual); so does every use of
 :func:`mjasc.cli.main` as a function (tests, scripts): the handler does nothing unless
-:func:`leave_with` was called.
+:func:`leave_with` was called. So does a process where another exit handler was registered before
+this module was imported (a ``sitecustomize``, coverage's subprocess measurement, an interactive
+shell): leaving first would skip that handler, so the usual exit is kept there. Leaving flushes C's
+stdio buffers too (a library's ``printf`` to a pipe) and, as the usual exit does, ends with status
+120 when stdout or stderr cannot be flushed (a full disk), except for a reader that left (a
+closed pipe: the command's own status).
 """
 
 from __future__ import annotations
 
 import atexit
+import ctypes
 import os
 import sys
 
 __all__ = ["leave_with"]
 
 _status: int | None = None  # the exit status to leave with, once the program's command returned
+#: Whether the handler below is the first registered (then it runs last): else the usual exit is kept.
+ARMED = getattr(atexit, "_ncallbacks", lambda: 1)() == 0  # (no way to tell: the usual exit)
 
 
 def leave_with(status: int) -> None:
@@ -31,18 +39,27 @@ def leave_with(status: int) -> None:
     global _status
     if not (isinstance(status, int) and 0 <= status <= 255):
         raise ValueError(f"exit status: must be an int in 0–255, got {status!r}")
-    _status = status
+    if ARMED:
+        _status = status
 
 
 def _leave() -> None:
     if _status is None:
         return
+    status = _status
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            if stream is not None and not stream.closed:
+                stream.flush()
+        except BrokenPipeError:  # the reader left: nothing more to say, leave with the command's status
+            pass
+        except OSError:  # as the usual exit: a stream that cannot be flushed ends with 120
+            status = 120
     try:
-        sys.stdout.flush()
-        sys.stderr.flush()
-    except Exception:  # noqa: BLE001 — a closed pipe: nothing more to say, leave all the same
+        ctypes.CDLL(None).fflush(None)  # (C's stdio: what a library printed)
+    except (OSError, AttributeError):  # (no C library to ask: nothing of C's to flush)
         pass
-    os._exit(_status)
+    os._exit(status)
 
 
 atexit.register(_leave)  # (registered at mjasc.cli's import: the last exit handler to run)

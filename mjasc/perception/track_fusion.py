@@ -57,8 +57,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from mjasc.core.assignment import linear_sum_assignment
 from mjasc.core.estimates import SharedTrack, TrackEstimate
-from mjasc.perception.tracking.association import linear_sum_assignment
 
 __all__ = ["ACCEL_PSD", "VELOCITY_STD_M_S", "TEAM_TRACK_ID_BASE", "FusionSettings", "TeamTrackFusion",
            "covariance_intersection", "predict_shared", "shareable", "fuse"]

@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from mjasc.core.assignment import linear_sum_assignment
 from mjasc.perception.tracking.pair_kernels import arc_midpoints, block_pairs_loop, gate_terms, position_jacobians
 from mjasc.perception.tracking.step_kernels import admissible_pairs
 
@@ -105,15 +106,6 @@ def gnn_assign_blocks(inside, cost, q, i, j, start, n_a, n_b) -> np.ndarray:
         blk = slice(s0, s0 + na * nb)
         out.append(s0 + gnn_pairs(inside[blk].reshape(na, nb), cost[blk].reshape(na, nb)))
     return np.sort(np.concatenate(out))
-
-
-def linear_sum_assignment(cost: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`scipy.optimize.linear_sum_assignment` of ``cost`` (n, m), SciPy's ``optimize`` imported
-    at the first call: it takes ~0.2 s to import, and a run whose gates never overlap (the compiled
-    easy blocks make every other assignment) never needs it."""
-    from scipy.optimize import linear_sum_assignment as solve
-
-    return solve(cost)
 
 
 def gnn_pairs(inside: np.ndarray, cost: np.ndarray) -> np.ndarray:
