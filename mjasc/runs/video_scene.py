@@ -151,6 +151,7 @@ def scan_outline(scan) -> np.ndarray:
 
 # ---------------------------------------------------------------------------------- geoms
 _EYE3 = np.eye(3).ravel()
+_ZERO3 = np.zeros(3)
 
 
 def _free(scn) -> bool:
@@ -159,18 +160,34 @@ def _free(scn) -> bool:
 
 def add_line(scn, a, b, rgba, width: float = 2.0, z: float = 0.05) -> None:
     """A line from world xy ``a`` to ``b`` [m] at height z, ``width`` pixels."""
-    if not _free(scn):
-        return
-    g = scn.geoms[scn.ngeom]
-    mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_LINE, np.zeros(3), np.zeros(3), _EYE3, np.asarray(rgba, np.float32))
-    mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_LINE, width, np.array([a[0], a[1], z]), np.array([b[0], b[1], z]))
-    scn.ngeom += 1
+    add_lines(scn, np.asarray(a, float).reshape(1, 2), np.asarray(b, float).reshape(1, 2), rgba, width, z)
 
 
 def add_strip(scn, points, rgba, width: float = 2.0, z: float = 0.05) -> None:
+    """The polyline through world xy ``points`` (k, 2) [m] at height z, ``width`` pixels."""
     pts = np.asarray(points, float)
-    for a, b in zip(pts[:-1], pts[1:]):
-        add_line(scn, a, b, rgba, width, z)
+    if len(pts) > 1:
+        add_lines(scn, pts[:-1], pts[1:], rgba, width, z)
+
+
+def add_lines(scn, starts, ends, rgba, width: float = 2.0, z: float = 0.05) -> None:
+    """Lines from world xy ``starts[i]`` to ``ends[i]`` (n, 2) [m] at height z, ``width`` pixels, in
+    order, as many as the scene has room for. One geom per line (MuJoCo's ``mjv_connector``); the
+    colour and the end points are converted once for all of them (a frame draws ~1,000 lines)."""
+    k0 = scn.ngeom
+    n = min(len(starts), scn.maxgeom - k0)
+    if n <= 0:
+        return
+    a, b = np.empty((n, 3)), np.empty((n, 3))
+    a[:, :2], a[:, 2] = np.asarray(starts, float)[:n], z
+    b[:, :2], b[:, 2] = np.asarray(ends, float)[:n], z
+    colour = np.asarray(rgba, np.float32)
+    geoms, init, connect, line = scn.geoms, mujoco.mjv_initGeom, mujoco.mjv_connector, mujoco.mjtGeom.mjGEOM_LINE
+    for i in range(n):
+        g = geoms[k0 + i]
+        init(g, line, _ZERO3, _ZERO3, _EYE3, colour)
+        connect(g, line, width, a[i], b[i])
+    scn.ngeom = k0 + n
 
 
 def add_arrow(scn, tail, tip, rgba, width_m: float, z: float = 0.3) -> None:
@@ -220,8 +237,8 @@ def add_scene_geoms(scn, view: FrameView, marker_m: float, trails=(), paths=(), 
             add_strip(scn, v.fan, _rgba(v.colour, COLOURS["fan_alpha"]), 1.0, 0.03)
         if v.returns is not None:  # short lines: a disc per return costs ~0.2 ms of software rendering
             d = np.array([0.06 * m, 0.0])
-            for p in v.returns:
-                add_line(scn, p - d, p + d, _rgba(v.colour), 4.0, 0.08)
+            returns = np.asarray(v.returns, float).reshape(-1, 2)
+            add_lines(scn, returns - d, returns + d, _rgba(v.colour), 4.0, 0.08)
         for tr in v.tracks:
             add_disc(scn, tr.position_m, max(float(tr.radius_m), 0.1 * m), _rgba(v.colour, COLOURS["track_alpha"]), 0.1)
             add_strip(scn, covariance_ellipse(tr.position_m, tr.position_covariance, 2.0, 17), _rgba(v.colour, 0.9), 1.5, 0.12)
