@@ -391,7 +391,8 @@ def test_the_structure_swatch_is_an_outline_as_the_walls_are_drawn():
     """Structures are thin hollow walls; the legend showed a filled brown block."""
     from PIL import Image, ImageDraw
 
-    from mjasc.runs.video_hud import LEGEND_ITEMS, _legend, _legend_size, _font
+    from mjasc.runs.video_hud import LEGEND_ITEMS, _legend, _legend_size
+    from mjasc.runs.video_text import frame_font as _font
 
     kinds = {text.split(" ")[0]: kind for kind, _, text in LEGEND_ITEMS}
     assert kinds["structure"] == "outline"

@@ -24,13 +24,12 @@ Drawn with Pillow (pixels; image rows grow downwards) after MuJoCo rendered the 
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numpy as np
-from PIL import Image, ImageDraw, ImageFont
+from PIL import Image, ImageDraw
 
 from mjasc.physics.world import MOVING_RGBA
 from mjasc.runs.video_scene import COLOURS, VELOCITY_ARROW_S
+from mjasc.runs.video_text import frame_font
 
 __all__ = ["Projection", "draw_hud", "hud_layout", "legend_items", "name_labels", "place_legend", "scale_bar_m",
            "LEGEND_ITEMS", "LEGEND_MIN_PX", "MAX_NAMES"]
@@ -86,11 +85,6 @@ def scale_bar_m(metres_per_pixel: float, width_px: int) -> float:
     target = max(0.2 * width_px * metres_per_pixel, 1e-6)
     k = np.floor(np.log10(target))
     return float(max(m * 10.0 ** k for m in (1.0, 2.0, 5.0) if m * 10.0 ** k <= target))
-
-
-@lru_cache(maxsize=4)
-def _font(size: int):
-    return ImageFont.load_default(size=size)
 
 
 def _c(rgba) -> tuple:
@@ -181,7 +175,7 @@ def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = Tr
     or absent), with the fonts and rows drawn:
     ``fs`` (font size [px]), ``font``, ``small``, ``rows`` (text, font, vessel or None)."""
     fs = max(10, min(16, H // 36))
-    font, small = _font(fs), _font(max(9, fs - 2))
+    font, small = frame_font(fs), frame_font(max(9, fs - 2))
     line = fs + 4
     # Top left: title and time, then per vessel its mode and (smaller, below) its last decision.
     rows = [(f"{title}  t = {view.time_s:6.1f} s".strip(), font, None)]
