@@ -82,7 +82,8 @@ print(json.dumps({"status": status, "imports_s": t1 - t0, "main_s": t2 - t1, "ke
 
 
 def _env() -> dict:
-    return dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep))
+    path = os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    return dict(os.environ, PYTHONPATH=path)
 
 
 def _wall(argv: list[str], cwd: Path) -> tuple[float, str]:
