@@ -78,7 +78,11 @@ def command_line() -> None:
     """The ``mjasc`` program: :func:`main` on ``sys.argv``, then the process ends with its exit
     status — without the interpreter's final clean-up once every exit handler ran
     (:mod:`mjasc.cli.process_exit`). Raises SystemExit like ``sys.exit(main())`` when the
-    command raised or its status is not an exit status."""
+    command raised or its status is not an exit status. Python's cyclic collector runs as during a
+    run's loop from the start (:func:`mjasc.runs.collector.for_the_program`)."""
+    from mjasc.runs.collector import for_the_program
+
+    for_the_program()
     status = main()
     if isinstance(status, int) and 0 <= status <= 255:
         process_exit.leave_with(status)
