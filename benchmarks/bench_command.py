@@ -51,6 +51,8 @@ QUICK = {"rows": ["thesis_6_1_static"], "repeats": 1}
 PROBE = r"""
 import importlib, json, sys, time
 t0 = time.perf_counter()
+from mjasc.runs.collector import for_the_program
+for_the_program()  # (the collector as the program sets it: mjasc.cli.command_line)
 modules = json.load(open(sys.argv[3])) if len(sys.argv) > 3 else []  # (every module the command imports)
 for name in modules:
     if name not in sys.modules and name != "__main__" and not name.startswith("mjasc.__main__"):
