@@ -470,3 +470,33 @@ def test_the_hud_shows_the_latest_decision_while_it_is_recent_or_the_vessel_avoi
     assert decision("mission", 350.0 + DECISION_SHOWN_S + 0.1) == ""  # back on the mission, long after
     assert decision("mission", 399.0, last=False) == ""  # (a plugin's log only: its last entry, from 0.6 s)
     assert decision("mission", 10.0, last=False) == "replan for T1 at 0.6 s"
+
+
+def test_a_frame_held_back_while_it_rasterises_gives_the_same_video(tmp_path, monkeypatch):
+    """The runner holds each frame back while the renderer rasterises it (``add_event(later=True)``:
+    its overlay and encoding at the next frame or the close): the MP4 is the same bytes as with
+    every frame finished at once, the frame count the same, and the frame a held call returns is
+    the one held before it."""
+    from mjasc.runs import video as video_module
+
+    def run(folder, later_allowed):
+        sc = load_scenario(TASKS / "demo.toml").with_overrides(duration_s=3.0, video=True, video_camera="split")
+        sc = dataclasses.replace(sc, outputs=dataclasses.replace(sc.outputs, video_width=320, video_height=120,
+                                                                 recording=False))
+        add_event = video_module.VideoWriter.add_event
+        returned = []
+
+        def spy(self, event, later=False):
+            got = add_event(self, event, later=later and later_allowed)
+            returned.append(None if got is None else got.copy())
+            return got
+
+        monkeypatch.setattr(video_module.VideoWriter, "add_event", spy)
+        result = Runner(sc, tmp_path / folder, progress=False).run()
+        monkeypatch.setattr(video_module.VideoWriter, "add_event", add_event)
+        return (tmp_path / folder / "video.mp4").read_bytes(), result.summary["video_frames"], returned
+
+    held, n_held, frames_held = run("held", True)
+    now, n_now, frames_now = run("now", False)
+    assert held == now and n_held == n_now == len(frames_now) > 10
+    assert frames_held[0] is None and all(np.array_equal(a, b) for a, b in zip(frames_held[1:], frames_now[:-1]))

@@ -271,7 +271,7 @@ class Runner:
                             if self.recorder:
                                 agent.log(self.recorder, states.time_s)
                     elif slot == "video" and self.video is not None:
-                        self.video.add_event(SlotEvent(slot, states.time_s, states, tuple(navs), self))
+                        self.video.add_event(SlotEvent(slot, states.time_s, states, tuple(navs), self), later=True)
                     t_end = clock()
                     stage[slot] += t_end - t_slot
                     if self._observers[slot]:

@@ -106,6 +106,39 @@ class _Pane:
             raise ValueError(f"camera: no camera {name!r} in the model (its vessels: {', '.join(chased) or 'none'})")
         return cid
 
+    def start_render(self) -> None:
+        """Start rendering the pane's scene: the first half of ``mujoco.Renderer.render`` (its GL
+        context, viewport and buffers), then a flush, after which the software renderer rasterises
+        on its own threads while the caller goes on (:meth:`read_pixels` waits for it). A renderer
+        without those parts (another MuJoCo) renders in :meth:`read_pixels` instead."""
+        r = self.renderer
+        if not self._deferrable:
+            return
+        if r._gl_context:
+            r._gl_context.make_current()
+        mujoco.mjr_render(r._rect, r.scene, r._mjr_context)
+        from OpenGL import GL  # (the GL binding MuJoCo's own contexts use)
+
+        GL.glFlush()
+
+    def read_pixels(self) -> np.ndarray:
+        """The pane's rendered image (height, width, 3) uint8, top row first: the second half of
+        ``mujoco.Renderer.render`` after :meth:`start_render` (the same calls, the same pixels)."""
+        r = self.renderer
+        if not self._deferrable:
+            return r.render()
+        if r._gl_context:
+            r._gl_context.make_current()
+        out = np.empty((self.height, self.width, 3), dtype=np.uint8)
+        mujoco.mjr_readPixels(out, None, r._rect, r._mjr_context)
+        if r._gl_context:  # (OSMesa, EGL and GLFW images come bottom row first)
+            out[:] = np.flipud(out)
+        return out
+
+    @property
+    def _deferrable(self) -> bool:
+        return all(hasattr(self.renderer, a) for a in ("_gl_context", "_rect", "_mjr_context"))
+
     def view_centre(self, model, data) -> np.ndarray:
         """World point the view looks at [m]: the extent's centre, or the chase camera's target."""
         if isinstance(self.camera, mujoco.MjvCamera):
@@ -181,6 +214,9 @@ class VideoWriter:
             quality=7, macro_block_size=2, ffmpeg_log_level="error")
         self._writer.send(None)
         self.frames = 0
+        #: A frame held back (:meth:`add_event` with ``later``): its view, overlay flag and each pane's
+        #: projection and view centre, its pixels still in the panes' buffers.
+        self._held: tuple | None = None
         self._trails: list[list] = []
         self._trail_t = -np.inf
         #: Wall seconds per frame stage: view (reading the run), scene (user geoms), render, hud, encode.
@@ -200,14 +236,18 @@ class VideoWriter:
         return self.panes[0].marker_m
 
     # ------------------------------------------------------------------ frames
-    def add_event(self, event) -> np.ndarray:
-        """Render and encode the frame of a run's ``video`` slot (a :class:`~mjasc.runs.tick.SlotEvent`)."""
+    def add_event(self, event, later: bool = False) -> np.ndarray | None:
+        """Render and encode the frame of a run's ``video`` slot (a :class:`~mjasc.runs.tick.SlotEvent`)
+        and return it. ``later`` (the runner's own frames): hold the frame back while the renderer
+        rasterises it — its overlay is drawn and it is encoded at the next frame or at :meth:`close`,
+        the same pixels in the same order — and return the frame held before, finished now (None:
+        there was none)."""
         t0 = time.perf_counter()
         data = event.runner.sim.data
         view = frame_view(event, self.panes[0].view_centre(self.model, data)[:2])
         self._append_trails(view)
         self.seconds["view"] += time.perf_counter() - t0
-        return self._frame(data, view)
+        return self._frame(data, view, later=later)
 
     def add_frame(self, data, markers=(), trails=(), *, names=(), modes=(), lines=(), legend=(),
                   current_m_s=(0.0, 0.0), hud: bool = True) -> np.ndarray:
@@ -226,32 +266,51 @@ class VideoWriter:
                          tuple(legend))
         return self._frame(data, view, hud=hud, trails=[np.asarray(pts, float) for pts, _ in trails])
 
-    def _frame(self, data, view: FrameView, hud: bool = True, trails=None) -> np.ndarray:
+    def _frame(self, data, view: FrameView, hud: bool = True, trails=None, later: bool = False) -> np.ndarray | None:
         """Render, overlay and encode a frame; ``trails`` (k, 2) per vessel, by default the run's
-        kept trail points and each vessel's position now."""
+        kept trail points and each vessel's position now; ``later``: as :meth:`add_event`'s."""
         if trails is None:
             trails = [np.array([*t, tuple(v.position_m)]) for t, v in zip(self._trails, view.vessels)] \
                 if view.vessels else []
-        images = []
-        for k, pane in enumerate(self.panes):
+        held, self._held = self._held, None
+        images = self._read_panes() if held is not None else None  # (before the panes render again)
+        places = []
+        for pane in self.panes:
             t0 = time.perf_counter()
             pane.renderer.update_scene(data, camera=pane.camera)
             scn = pane.renderer.scene
             add_scene_geoms(scn, view, pane.marker_m, trails, self.overlays, only=pane.chased)
+            # (what the overlay needs of this moment: the camera's projection, the view's centre)
+            places.append((Projection(scn, pane.width, pane.height), pane.view_centre(self.model, data)) if hud
+                          else None)
             t1 = time.perf_counter()
-            image = pane.renderer.render()
-            t2 = time.perf_counter()
-            if hud:
-                proj = Projection(scn, pane.width, pane.height)
-                centre = pane.view_centre(self.model, data)
-                image = draw_hud(image, view, proj, centre, self.title, memory=pane.hud_memory) if k == 0 else \
-                    draw_hud(image, view, proj, centre, self.chase_title.format(vessel=pane.chased), furniture=False)
-            t3 = time.perf_counter()
-            images.append(image)
-            for key, dt in zip(("scene", "render", "hud"), (t1 - t0, t2 - t1, t3 - t2)):
-                self.seconds[key] += dt
+            pane.start_render()
+            self.seconds["scene"] += t1 - t0
+            self.seconds["render"] += time.perf_counter() - t1
+        before = self._finish(images, *held) if held is not None else None  # (while this frame rasterises)
+        if later:
+            self._held = (view, hud, places)
+            return before
+        return self._finish(self._read_panes(), view, hud, places)
+
+    def _read_panes(self) -> list:
+        t = time.perf_counter()
+        images = [pane.read_pixels() for pane in self.panes]
+        self.seconds["render"] += time.perf_counter() - t
+        return images
+
+    def _finish(self, images: list, view: FrameView, hud: bool, places: list) -> np.ndarray:
+        """Draw the overlay on each pane's image (its projection and view centre at the frame's
+        moment), put the panes side by side and encode the frame."""
+        t = time.perf_counter()
+        if hud:
+            for k, (pane, (proj, centre)) in enumerate(zip(self.panes, places)):
+                images[k] = draw_hud(images[k], view, proj, centre, self.title, memory=pane.hud_memory) if k == 0 \
+                    else draw_hud(images[k], view, proj, centre, self.chase_title.format(vessel=pane.chased),
+                                  furniture=False)
         frame = images[0] if len(images) == 1 else _side_by_side(images)
         t3 = time.perf_counter()
+        self.seconds["hud"] += t3 - t
         self._writer.send(np.ascontiguousarray(frame))
         self.seconds["encode"] += time.perf_counter() - t3
         self.frames += 1
@@ -268,8 +327,12 @@ class VideoWriter:
                 del trail[:-TRAIL_POINTS]
 
     def close(self) -> None:
-        """Finish the file and rename it from ``.video.part.mp4`` to its own name."""
+        """Finish the frame held back, then the file, and rename it from ``.video.part.mp4`` to its
+        own name."""
         if self._writer is not None:
+            held, self._held = self._held, None
+            if held is not None:
+                self._finish(self._read_panes(), *held)
             self._writer.close()
             self._writer = None
             os.replace(self._part, self.path)
@@ -279,6 +342,7 @@ class VideoWriter:
     def discard(self) -> None:
         """Stop encoding and remove the temporary file: nothing under the final name (a video whose
         producer failed midway)."""
+        self._held = None
         if self._writer is not None:
             try:
                 self._writer.close()
