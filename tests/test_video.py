@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 from pathlib import Path
 
 import mujoco
@@ -500,3 +501,42 @@ def test_a_frame_held_back_while_it_rasterises_gives_the_same_video(tmp_path, mo
     now, n_now, frames_now = run("now", False)
     assert held == now and n_held == n_now == len(frames_now) > 10
     assert frames_held[0] is None and all(np.array_equal(a, b) for a, b in zip(frames_held[1:], frames_now[:-1]))
+
+
+@pytest.mark.parametrize("where", ["scene", "last_overlay"])
+def test_a_run_whose_video_fails_keeps_the_frames_before_as_without_holding(tmp_path, monkeypatch, where):
+    """A frame that fails while its scene is built (the 5th) still finishes the one held before it;
+    the last frame's overlay failing (finished after the loop) fails the run as any error does,
+    with its summary and the video of the frames before: the same MP4 bytes as without holding."""
+    from mjasc.runs import video as video_module
+    from mjasc.runs.runner import RunFailed
+
+    def run(folder, later_allowed):
+        sc = load_scenario(TASKS / "demo.toml").with_overrides(duration_s=3.0, video=True)
+        sc = dataclasses.replace(sc, outputs=dataclasses.replace(sc.outputs, video_width=320, video_height=240,
+                                                                 recording=False))
+        add_event, geoms, hud = video_module.VideoWriter.add_event, video_module.add_scene_geoms, video_module.draw_hud
+        calls = {"n": 0}
+
+        def failing(real, k):
+            def call(*args, **kwargs):
+                calls["n"] += 1
+                if calls["n"] == k:
+                    raise RuntimeError("the video failed")
+                return real(*args, **kwargs)
+            return call
+
+        if where == "scene":
+            monkeypatch.setattr(video_module, "add_scene_geoms", failing(geoms, 5))
+        else:
+            monkeypatch.setattr(video_module, "draw_hud", failing(hud, 31))  # (3 s at 10 fps: 31 frames)
+        monkeypatch.setattr(video_module.VideoWriter, "add_event",
+                            lambda self, event, later=False: add_event(self, event, later=later and later_allowed))
+        with pytest.raises(RunFailed, match="the video failed"):
+            Runner(sc, tmp_path / folder, progress=False).run()
+        monkeypatch.undo()
+        summary = json.loads((tmp_path / folder / "summary.json").read_text())
+        return (tmp_path / folder / "video.mp4").read_bytes(), summary["status"], summary["video_frames"]
+
+    held, now = run("held", True), run("now", False)
+    assert held == now and held[1] == "error" and held[2] == (4 if where == "scene" else 30)

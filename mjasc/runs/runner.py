@@ -287,6 +287,10 @@ class Runner:
                 if bar is not None:
                     bar.update(int(sim.time_s) - bar.n)
                 step = nxt
+            if self.video is not None:  # the last frame, held back while it rasterised: its errors the run's
+                t_slot = clock()
+                self.video.finish_held()
+                stage["video"] += clock() - t_slot
         except PhysicsDivergence as exc:
             status, error, diverged = "diverged", str(exc), exc
             if self.recorder:

@@ -117,9 +117,9 @@ class _Pane:
         if r._gl_context:
             r._gl_context.make_current()
         mujoco.mjr_render(r._rect, r.scene, r._mjr_context)
-        from OpenGL import GL  # (the GL binding MuJoCo's own contexts use)
+        from OpenGL.raw.GL.VERSION.GL_1_0 import glFlush  # (PyOpenGL's raw call: no error check of its own)
 
-        GL.glFlush()
+        glFlush()
 
     def read_pixels(self) -> np.ndarray:
         """The pane's rendered image (height, width, 3) uint8, top row first: the second half of
@@ -127,6 +127,8 @@ class _Pane:
         r = self.renderer
         if not self._deferrable:
             return r.render()
+        if r._mjr_context is None:
+            raise RuntimeError("render cannot be called after close.")
         if r._gl_context:
             r._gl_context.make_current()
         out = np.empty((self.height, self.width, 3), dtype=np.uint8)
@@ -239,9 +241,12 @@ class VideoWriter:
     def add_event(self, event, later: bool = False) -> np.ndarray | None:
         """Render and encode the frame of a run's ``video`` slot (a :class:`~mjasc.runs.tick.SlotEvent`)
         and return it. ``later`` (the runner's own frames): hold the frame back while the renderer
-        rasterises it — its overlay is drawn and it is encoded at the next frame or at :meth:`close`,
-        the same pixels in the same order — and return the frame held before, finished now (None:
-        there was none)."""
+        rasterises it — its overlay is drawn and it is encoded at the next frame, at
+        :meth:`finish_held` or at :meth:`close`, the same pixels in the same order — and return the
+        frame held before, finished now (None: there was none). A held frame's pixels are in the
+        panes' buffers: nothing else may render with the panes until it is finished (the next call
+        of this method reads them first), and an error in its overlay or encoding comes one frame
+        later."""
         t0 = time.perf_counter()
         data = event.runner.sim.data
         view = frame_view(event, self.panes[0].view_centre(self.model, data)[:2])
@@ -275,18 +280,25 @@ class VideoWriter:
         held, self._held = self._held, None
         images = self._read_panes() if held is not None else None  # (before the panes render again)
         places = []
-        for pane in self.panes:
-            t0 = time.perf_counter()
-            pane.renderer.update_scene(data, camera=pane.camera)
-            scn = pane.renderer.scene
-            add_scene_geoms(scn, view, pane.marker_m, trails, self.overlays, only=pane.chased)
-            # (what the overlay needs of this moment: the camera's projection, the view's centre)
-            places.append((Projection(scn, pane.width, pane.height), pane.view_centre(self.model, data)) if hud
-                          else None)
-            t1 = time.perf_counter()
-            pane.start_render()
-            self.seconds["scene"] += t1 - t0
-            self.seconds["render"] += time.perf_counter() - t1
+        try:
+            for pane in self.panes:
+                t0 = time.perf_counter()
+                pane.renderer.update_scene(data, camera=pane.camera)
+                scn = pane.renderer.scene
+                add_scene_geoms(scn, view, pane.marker_m, trails, self.overlays, only=pane.chased)
+                t1 = time.perf_counter()
+                # (what the overlay needs of this moment: the camera's projection, the view's centre)
+                places.append((Projection(scn, pane.width, pane.height), pane.view_centre(self.model, data)) if hud
+                              else None)
+                t2 = time.perf_counter()
+                pane.start_render()
+                self.seconds["scene"] += t1 - t0
+                self.seconds["hud"] += t2 - t1
+                self.seconds["render"] += time.perf_counter() - t2
+        except BaseException:  # (this frame failed: the one held before is still finished, then the error)
+            if held is not None:
+                self._finish(images, *held)
+            raise
         before = self._finish(images, *held) if held is not None else None  # (while this frame rasterises)
         if later:
             self._held = (view, hud, places)
@@ -326,18 +338,30 @@ class VideoWriter:
                 trail.append(tuple(v.position_m))
                 del trail[:-TRAIL_POINTS]
 
+    def finish_held(self) -> None:
+        """Draw and encode the frame held back (:meth:`add_event` with ``later``), if any."""
+        held, self._held = self._held, None
+        if held is not None:
+            self._finish(self._read_panes(), *held)
+
     def close(self) -> None:
         """Finish the frame held back, then the file, and rename it from ``.video.part.mp4`` to its
-        own name."""
-        if self._writer is not None:
-            held, self._held = self._held, None
-            if held is not None:
-                self._finish(self._read_panes(), *held)
-            self._writer.close()
-            self._writer = None
-            os.replace(self._part, self.path)
-        for pane in self.panes:
-            pane.renderer.close()
+        own name. A held frame is left here only when its producer failed first (the runner
+        finishes its last frame with :meth:`finish_held`): it is finished if it can be, else the
+        file keeps the frames before it (the producer's error is the one to report)."""
+        try:
+            if self._writer is not None:
+                try:
+                    self.finish_held()
+                except Exception:  # noqa: BLE001 - (the producer failed already; see above)
+                    self._held = None
+                finally:
+                    self._writer.close()
+                    self._writer = None
+                    os.replace(self._part, self.path)
+        finally:
+            for pane in self.panes:
+                pane.renderer.close()
 
     def discard(self) -> None:
         """Stop encoding and remove the temporary file: nothing under the final name (a video whose
