@@ -70,6 +70,8 @@ class _Pane:
                                   self.width / self.height, self.span / self.height,
                                   self.camera.distance if framed else 0.0)
         self.renderer = mujoco.Renderer(self.model, height=self.height, width=self.width)
+        #: Whether the renderer's two halves can be called apart (:meth:`start_render`, :meth:`read_pixels`).
+        self._deferrable = all(hasattr(self.renderer, a) for a in ("_gl_context", "_rect", "_mjr_context"))
         # Map-symbol size for markers in the framed views (2 m hulls are a few pixels): 4 % of the span.
         self.marker_m = 0.04 * self.span if framed else 0.0
         #: The vessel of a chase camera (its sensing and decisions alone are drawn), else None.
@@ -136,10 +138,6 @@ class _Pane:
         if r._gl_context:  # (OSMesa, EGL and GLFW images come bottom row first)
             out[:] = np.flipud(out)
         return out
-
-    @property
-    def _deferrable(self) -> bool:
-        return all(hasattr(self.renderer, a) for a in ("_gl_context", "_rect", "_mjr_context"))
 
     def view_centre(self, model, data) -> np.ndarray:
         """World point the view looks at [m]: the extent's centre, or the chase camera's target."""
