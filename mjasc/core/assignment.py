@@ -4,8 +4,9 @@
 of assigning rows to columns, each used at most once. Importing ``scipy.optimize`` takes ~0.2 s
 (~50 ms beyond the ``scipy.spatial`` most runs import anyway), and a run whose tracking gates never
 overlap — the compiled easy blocks make every other assignment — never calls it; so it is imported
-at the first call. Used by the tracker's association (:mod:`mjasc.perception.tracking.association`)
-and the team's track fusion (:mod:`mjasc.perception.track_fusion`).
+at the first call. Used by the tracker's association (:mod:`mjasc.perception.tracking.association`),
+the team's track fusion (:mod:`mjasc.perception.track_fusion`) and the tracking score
+(:mod:`mjasc.evaluation.tracking_metrics`).
 """
 
 from __future__ import annotations

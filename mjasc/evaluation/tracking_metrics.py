@@ -38,8 +38,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.optimize import linear_sum_assignment
 
+from mjasc.core.assignment import linear_sum_assignment
 from mjasc.evaluation.gospa_kernels import score_ticks
 
 __all__ = ["gospa", "GospaTerms", "TrackingScore", "flat_rows", "assignment_costs"]
