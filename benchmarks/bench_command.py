@@ -109,10 +109,8 @@ def _probe(name: str, tmp: Path, modules: list[str] | None = None) -> dict:
     if modules:
         (tmp / "modules.json").write_text(json.dumps(modules))
         extra = [str(tmp / "modules.json")]
-    wall, stdout = _wall([sys.executable, "-c", PROBE, name, str(out), *extra], tmp)
-    got = json.loads(stdout.strip().splitlines()[-1])
-    got["wall_s"] = wall
-    return got
+    _, stdout = _wall([sys.executable, "-c", PROBE, name, str(out), *extra], tmp)
+    return json.loads(stdout.strip().splitlines()[-1])
 
 
 def _run_s(name: str, tmp: Path) -> float:
