@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import collections
 import dataclasses
-import threading
-import weakref
 from pathlib import Path
 
 import mujoco
@@ -33,6 +31,7 @@ from mjasc.physics.simulation import Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import World, build_world
 from mjasc.suite.env_kwargs import check_environment_kwargs
+from mjasc.suite.gl_lifetime import track_rendering
 from mjasc.suite.pixel_scene import add_hull_cameras, add_reference_pool
 
 __all__ = ["Environment", "make_control_environment", "VesselPhysics", "compose_world", "range_sensor", "basin_walls", "world_to_body",
@@ -169,46 +168,6 @@ class Environment(control.Environment):
         self.close()
 
 
-_RENDERING = weakref.WeakSet()  # physics instances that hold GL contexts
-_EXIT_HOOK_REGISTERED = False
-
-
-def _free_rendering_at_exit() -> None:
-    """Free the GL contexts of physics that were never closed, while dm_control's render thread
-    still runs (otherwise it prints "cannot schedule new futures after shutdown" at exit)."""
-    for physics in list(_RENDERING):
-        with physics._contexts_lock:
-            if physics._contexts:
-                physics._free_rendering_contexts()
-
-
-def _free_contexts(contexts) -> None:
-    """Free a garbage-collected physics's GL contexts while their render thread still runs.
-
-    A VesselPhysics is in reference cycles (its World and Simulation refer back to it), so the
-    cyclic garbage collector, not reference counting, frees an environment that was dropped
-    without ``close()``. When its contexts were part of that garbage, the collector first ran the
-    weakref callback of their render thread pool, which stops its worker, and then their
-    ``__del__``, which waited forever for that worker to free the GL context: a dropped
-    environment that had rendered hung the next ``gc.collect()``. Held by a ``weakref.finalize``
-    of the physics, the contexts stay reachable (so does their thread) and are freed here, from
-    the finalizer, before anything else of the physics is torn down. Freeing twice is harmless
-    (``close()`` or the exit hook may have freed them already).
-    """
-    contexts.mujoco.free()
-    contexts.gl.free()
-
-
-def _register_exit_hook() -> None:
-    # threading's exit hooks run in reverse order of registration, before ``atexit``; registered
-    # after dm_control's executor module is imported, this one runs before its thread pools stop.
-    global _EXIT_HOOK_REGISTERED
-    register = getattr(threading, "_register_atexit", None)
-    if not _EXIT_HOOK_REGISTERED and register is not None:
-        register(_free_rendering_at_exit)
-        _EXIT_HOOK_REGISTERED = True
-
-
 class VesselPhysics(mjcf.Physics):
     """dm_control Physics stepping mjasc's vessels: hydrodynamics, propellers, current, traffic."""
 
@@ -217,12 +176,10 @@ class VesselPhysics(mjcf.Physics):
 
     def _make_rendering_contexts(self):
         """dm_control's contexts, freed at interpreter exit if the environment was never closed,
-        and when the garbage collector frees this physics (see :func:`_free_contexts`)."""
+        and when the garbage collector frees this physics (:mod:`mjasc.suite.gl_lifetime`)."""
         super()._make_rendering_contexts()
         self._buffer_size = (self.model.vis.global_.offwidth, self.model.vis.global_.offheight)
-        _RENDERING.add(self)
-        _register_exit_hook()
-        weakref.finalize(self, _free_contexts, self._contexts).atexit = False
+        track_rendering(self)
 
     def render(self, height=240, width=320, *args, **kwargs):
         """dm_control's; a frame larger than the first render's buffer is an error (it rendered black)."""
