@@ -1,7 +1,7 @@
 """The control tick of a vessel's collision avoidance: whether to predict at once, and the
 running manoeuvre's references.
 
-Every control tick (:func:`~mjasc.avoidance.system.control_slot`) polls the team's broadcasts and
+Every control tick (:func:`~mjasc.avoidance.fleet_slots.control_slot`) polls the team's broadcasts and
 asks :meth:`ControlTick._prediction_due`: a new track, a running emergency, a new mission leg, a
 changed own mission speed, a team mate's changed plan, or a track that left the motion the last
 prediction assumed (:meth:`ControlTick._deviating`, one array operation on the last prediction's

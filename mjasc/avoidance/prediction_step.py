@@ -4,8 +4,8 @@ The first half (:meth:`PredictionStep._prediction_query`) makes the tracks as pr
 mates from their fresh broadcasts (:mod:`~mjasc.avoidance.team_mates`), slow tracks static, a
 mapped structure's own returns static and no larger than it
 (:func:`~mjasc.avoidance.structure.structure_tracks`) — and the query of the disc tracks; the
-prediction itself runs for many vessels at once (:func:`~mjasc.avoidance.system.predict_slot`,
-:func:`~mjasc.avoidance.system.control_slot`). The second half
+prediction itself runs for many vessels at once (:func:`~mjasc.avoidance.fleet_slots.predict_slot`,
+:func:`~mjasc.avoidance.fleet_slots.control_slot`). The second half
 (:meth:`PredictionStep._act_on_prediction`) records the predicted conflicts, checks the static
 ones (mapped polygons and static tracks' outlines: :mod:`~mjasc.avoidance.static_conflicts`) and
 hands them to the decision (:mod:`~mjasc.avoidance.manoeuvres`). :class:`PredictionRecord` is

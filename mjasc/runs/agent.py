@@ -254,7 +254,7 @@ class VesselAgent:
 
     def prediction_call(self, nav: OwnNavigation) -> tuple | None:
         """The arguments of this vessel's prediction, ``(avoidance, t, nav, GuidanceState,
-        PerceptionReport, TeamPicture)`` (:func:`mjasc.avoidance.system.predict_slot`), or None when
+        PerceptionReport, TeamPicture)`` (:func:`mjasc.avoidance.fleet_slots.predict_slot`), or None when
         it predicts nothing (no avoidance, perception or path follower)."""
         if self.avoidance is None or self.perception is None or self.follower is None:
             return None

@@ -7,14 +7,14 @@ With the thesis coordination the link is decided for the whole fleet in one pass
 order): in the comms slot after every vessel has sent (each receiver up to its own message), in
 the control slot before the vessels' coordination reads it.
 The prediction slot predicts every vessel's (vessel, track) pairs in one batched call
-(:func:`~mjasc.avoidance.system.predict_slot`). The control slot runs each agent's
+(:func:`~mjasc.avoidance.fleet_slots.predict_slot`). The control slot runs each agent's
 :meth:`~mjasc.runs.agent.VesselAgent.control_request` (coordination factor, avoidance request and
 path switch): the coordination in vessel order (with the thesis coordination: every vessel's
 mission first, then the fleet's speed law in one call,
 :meth:`~mjasc.cooperation.coordination.Coordination.speed_correction_many`), then the avoidance
 methods of every vessel at once
 per method (``control_many``: the thesis method predicts what the tick triggers for all vessels in
-one batched call, :func:`~mjasc.avoidance.system.control_slot`), then the path
+one batched call, :func:`~mjasc.avoidance.fleet_slots.control_slot`), then the path
 following of all vessels in one batched call (speeds and course overrides as arrays over vessels,
 NaN = no course override) (:class:`~mjasc.guidance.path_following.FleetPathFollower`:
 the agents' followers are gathered into one fleet at the first control tick and stay its rows).
@@ -115,7 +115,7 @@ def _comms(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
 def _prediction(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
     """The prediction slot: the vessels using one avoidance method predict in one call of the
     method's ``predict_many`` (the thesis method batches every (vessel, track) pair:
-    :func:`~mjasc.avoidance.system.predict_slot`; the same requests as vessel by vessel: the
+    :func:`~mjasc.avoidance.fleet_slots.predict_slot`; the same requests as vessel by vessel: the
     methods share no state), then each request is applied in vessel order."""
     calls = [(agent, agent.prediction_call(nav)) for agent, nav in zip(agents, navs)]
     live = [(agent, call) for agent, call in calls if call is not None]
