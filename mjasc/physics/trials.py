@@ -77,6 +77,7 @@ import math
 import numpy as np
 
 from mjasc.core.config_tables import number
+from mjasc.physics.trial_measures import course_frame, crossing_time, fit_circle, path_length, row_at_level
 from mjasc.physics.trial_track import TrialTrack, amidships_command, new_track
 
 __all__ = ["TRIAL_KINDS", "DEFAULT_COMMANDS", "run_trial", "UNITS"]
@@ -121,54 +122,6 @@ def _validate_command(value, flag: str) -> float:
     return c
 
 
-def _interpolate_crossing(times: np.ndarray, values: np.ndarray, level: float):
-    """First time ``values`` reaches ``level`` from below (linear between samples); None if never."""
-    above = np.flatnonzero(values >= level)
-    if above.size == 0:
-        return None
-    i = int(above[0])
-    if i == 0:
-        return float(times[0])
-    v0, v1 = values[i - 1], values[i]
-    f = (level - v0) / (v1 - v0) if v1 != v0 else 1.0
-    return float(times[i - 1] + f * (times[i] - times[i - 1]))
-
-
-def _interpolate_rows(rows: np.ndarray, column: int, level: float):
-    """Row (all columns) interpolated where ``rows[:, column]`` first reaches ``level``; None if never."""
-    values = rows[:, column]
-    above = np.flatnonzero(values >= level)
-    if above.size == 0:
-        return None
-    i = int(above[0])
-    if i == 0:
-        return rows[0]
-    v0, v1 = values[i - 1], values[i]
-    f = (level - v0) / (v1 - v0) if v1 != v0 else 1.0
-    return rows[i - 1] + f * (rows[i] - rows[i - 1])
-
-
-def _fit_circle(points: np.ndarray) -> tuple[np.ndarray, float]:
-    """Least-squares circle (Kåsa): centre (2,), radius [m] of points (n, 2)."""
-    x, y = points[:, 0], points[:, 1]
-    a = np.column_stack([2.0 * x, 2.0 * y, np.ones_like(x)])
-    sol, *_ = np.linalg.lstsq(a, x * x + y * y, rcond=None)
-    centre = sol[:2]
-    return centre, float(np.sqrt(sol[2] + centre @ centre))
-
-
-def _course_frame(psi0: float, origin: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Along- and across-course coordinates [m] of world points (n, 2) relative to ``origin``
-    on the approach course ψ0 (across positive to port)."""
-    d = np.asarray(points, dtype=float) - origin
-    c, s = math.cos(psi0), math.sin(psi0)
-    return d[..., 0] * c + d[..., 1] * s, -d[..., 0] * s + d[..., 1] * c
-
-
-def _path_length(xy: np.ndarray) -> float:
-    return float(np.sum(np.hypot(np.diff(xy[:, 0]), np.diff(xy[:, 1]))))
-
-
 def _r(x, nd):
     return None if x is None else round(float(x), nd)
 
@@ -181,7 +134,7 @@ def _speed(track: TrialTrack, p: float, s: float) -> dict:
     speed = np.hypot(rows[:, 4], rows[:, 5])
     u_inf, r_inf = rows[-1, 4], rows[-1, 6]
     u_steady = float(speed[-1])
-    t63 = _interpolate_crossing(rows[:, 0], speed, ONE_MINUS_INV_E * u_steady) if u_steady > 0 else None
+    t63 = crossing_time(rows[:, 0], speed, ONE_MINUS_INV_E * u_steady) if u_steady > 0 else None
     return {
         "steady_speed": _r(u_steady, 4),
         "steady_surge": _r(u_inf, 4),
@@ -227,12 +180,12 @@ def _turning_circle(track: TrialTrack, p: float, s: float) -> dict:
     direction = -1.0 if turn[-1, 6] < 0 else 1.0  # ψ decreasing = clockwise = starboard
     change = direction * (turn[:, 3] - psi0)
     with_change = np.column_stack([turn, change])
-    at90 = _interpolate_rows(with_change, 7, 0.5 * math.pi)
-    at180 = _interpolate_rows(with_change, 7, math.pi)
-    adv90, tr90 = _course_frame(psi0, xy0, at90[1:3])
-    _, tr180 = _course_frame(psi0, xy0, at180[1:3])
+    at90 = row_at_level(with_change, 7, 0.5 * math.pi)
+    at180 = row_at_level(with_change, 7, math.pi)
+    adv90, tr90 = course_frame(psi0, xy0, at90[1:3])
+    _, tr180 = course_frame(psi0, xy0, at180[1:3])
     steady_rows = track.array(i_steady)
-    _, radius = _fit_circle(steady_rows[:, 1:3])
+    _, radius = fit_circle(steady_rows[:, 1:3])
     u, v, r = steady_rows[:, 4].mean(), steady_rows[:, 5].mean(), steady_rows[:, 6].mean()
     return {
         "approach_commands": [m, m],
@@ -316,13 +269,13 @@ def _stopping(track: TrialTrack, p: float, s: float) -> dict:
         track.step()
     rows = track.array(i0)
     # Interpolate the stop inside the last step (u falls through the threshold).
-    stop = _interpolate_rows(np.column_stack([rows, -rows[:, 4]]), 7, -STOPPED_SURGE_M_S)
+    stop = row_at_level(np.column_stack([rows, -rows[:, 4]]), 7, -STOPPED_SURGE_M_S)
     xy = np.vstack([rows[:-1, 1:3], stop[1:3]])
-    head, lateral = _course_frame(psi0, xy0, stop[1:3])
+    head, lateral = course_frame(psi0, xy0, stop[1:3])
     return {
         "approach_commands": list(STOPPING_APPROACH),
         "approach_speed": _r(u0, 4),
-        "stopping_distance": _r(_path_length(xy), 4),
+        "stopping_distance": _r(path_length(xy), 4),
         "head_reach": _r(head, 4),
         "lateral_deviation": _r(abs(lateral), 4),
         "stopping_time": _r(stop[0] - t0, 3),
@@ -348,7 +301,7 @@ def _tightest_turn(track: TrialTrack, speed_m_s: float | None) -> dict:
     i_steady = len(track.rows) - 1
     track.step(math.ceil(2.0 * math.pi / turn.yaw_rate_rad_s / track.sim.timestep_s) + 1)
     rows = track.array(i_steady)
-    _, radius = _fit_circle(rows[:, 1:3])
+    _, radius = fit_circle(rows[:, 1:3])
     u, v, r = rows[:, 4].mean(), rows[:, 5].mean(), rows[:, 6].mean()
     return {
         "speed": _r(speed, 4),
