@@ -36,6 +36,12 @@ _TRACK_ID = attrgetter("track_id")
 _REVERSAL_PROBE_M = 5.0
 _REVERSAL_MARGIN_M = 1.0
 _LONG_WAY_RELEASE_RAD = math.radians(150.0)
+#: A sharp turn's guard (ControlTick._turn_closes_on_track): tracks at most this fast [m/s] are
+#: where they are during the turn; the hull is held when it would reach one's collision distance
+#: within this many seconds at its speed [s], once it makes at least this much way [m/s].
+_SLOW_TRACK_M_S = 0.5
+_TURN_GUARD_S = 1.0
+_TURN_GUARD_MIN_SPEED_M_S = 0.05
 _INT64 = 2 ** 63
 
 
@@ -284,7 +290,39 @@ class ControlTick:
                 self.stats["turn_away"] += 1
                 self._event(t, f"the {math.degrees(err):.0f}° turn the long way round "
                                f"({'to port' if way > 0 else 'to starboard'}): away from mapped structure")
+        if self._turn_closes_on_track(nav):  # the turn's guard: all way off, the heading held
+            if self._sharp_turn[0] != "held":
+                self.stats["turn_held"] += 1
+                self._event(t, "sharp turn held: the hull closes on a slow track within its safety distance")
+            self._sharp_turn = ("held", self._sharp_turn[1])
+            return 0.0, float(nav.heading_rad)
+        if self._sharp_turn[0] == "held":
+            self._sharp_turn = ("turn", self._sharp_turn[1])
         way = self._sharp_turn[1]
         if way and (way * signed) % (2.0 * math.pi) > _LONG_WAY_RELEASE_RAD:  # still the long way to go
             return speed, wrap_scalar(float(nav.heading_rad) + way * 0.5 * math.pi)
         return speed, None
+
+    def _turn_closes_on_track(self, nav) -> bool:
+        """Whether the hull, turning, closes on a slow track (static, or at most
+        :data:`_SLOW_TRACK_M_S`; team mates among them) and is within its collision distance of it
+        plus one second of its own speed. A sharp turn leaves the planned path — the saturated
+        turn advances the hull several metres — so the predictions, made along the plan, do not see
+        where the turn takes it: a 161° turn beside the §6.4.3 gap swept a Delfim 5 m onto a team
+        mate stopped there (30 % dropout and packet loss, seed 4)."""
+        pr = self._perceived
+        if pr is None or not pr.tracks:
+            return False
+        vx, vy = float(nav.velocity_m_s[0]), float(nav.velocity_m_s[1])  # over ground, world [m/s]
+        speed = math.hypot(vx, vy)
+        if speed < _TURN_GUARD_MIN_SPEED_M_S:
+            return False
+        px, py = float(nav.position_m[0]), float(nav.position_m[1])
+        for tr in pr.tracks:
+            if not (tr.is_static or tr.speed_m_s <= _SLOW_TRACK_M_S):
+                continue
+            dx, dy = float(tr.position_m[0]) - px, float(tr.position_m[1]) - py
+            if dx * vx + dy * vy > 0.0 and \
+                    math.hypot(dx, dy) - float(tr.radius_m) - self.radius_m < speed * _TURN_GUARD_S:
+                return True
+        return False

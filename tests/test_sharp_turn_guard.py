@@ -1,0 +1,69 @@
+"""A sharp turn's guard (mjasc.avoidance.control_tick.ControlTick._turn_closes_on_track): while a
+detour's sharp turn runs, the hull sails off the planned path (the saturated turn advances it), so
+the turn is held — all way off, the heading held — when the hull closes on a slow track (a team mate
+stopped beside it included) within its collision distance plus one second of its speed. The
+geometry is that of tests/cas_regressions/bottleneck_stressed_seed4.toml at 115 s: alpha (collision
+radius 3.0 m) turning at 0.54 m/s, heading −134°, bravo stopped 5.0 m away to the south-west."""
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from mjasc.avoidance.control_tick import ControlTick
+from mjasc.core.estimates import PerceptionReport, TrackEstimate
+from mjasc.core.navigation import OwnNavigation
+
+HERE = np.array([82.7, 1.5])
+BRAVO = np.array([78.0, 0.0])
+
+
+def _nav(speed_m_s=0.54, heading_deg=-134.0, position=HERE):
+    psi = math.radians(heading_deg)
+    v = speed_m_s * np.array([math.cos(psi), math.sin(psi)])
+    return OwnNavigation(115.0, np.asarray(position, dtype=float), psi, v, np.array([speed_m_s, 0.0, 0.0]))
+
+
+def _track(position=BRAVO, speed_m_s=0.0, static=True, radius_m=2.5, mate="bravo"):
+    return TrackEstimate(track_id=166, time_s=115.0, position_m=np.asarray(position, dtype=float), heading_rad=0.0,
+                         speed_m_s=speed_m_s, turn_rate_rad_s=0.0, radius_m=radius_m, is_static=static,
+                         team_member=mate)
+
+
+def _closes(nav, *tracks, radius_m=3.0):
+    system = SimpleNamespace(_perceived=PerceptionReport(115.0, tuple(tracks)), radius_m=radius_m)
+    return ControlTick._turn_closes_on_track(system, nav)
+
+
+def test_a_turn_closing_on_a_stopped_team_mate_is_held():
+    assert _closes(_nav(), _track())  # 4.93 m apart: 2.5 + 3.0 − 4.93 = 0.57 m inside, closing
+
+
+@pytest.mark.parametrize("static, speed", [(False, 0.3), (True, 0.0)])
+def test_slow_tracks_count_whether_or_not_static(static, speed):
+    assert _closes(_nav(), _track(static=static, speed_m_s=speed))
+
+
+def test_a_fast_track_is_left_to_the_predictions():
+    assert not _closes(_nav(), _track(static=False, speed_m_s=1.5))
+
+
+def test_a_turn_opening_from_the_track_goes_on():
+    assert not _closes(_nav(heading_deg=46.0), _track())  # sailing away from bravo
+
+
+def test_a_turn_beyond_one_second_of_its_speed_goes_on():
+    far = BRAVO + 7.0 * (HERE - BRAVO) / np.linalg.norm(HERE - BRAVO)  # 7 m: 1.5 m clear, 0.54 m/s
+    assert not _closes(_nav(position=far), _track())
+    assert _closes(_nav(speed_m_s=2.0, position=far), _track())  # 2 m/s reaches it within the second
+
+
+def test_a_hull_making_no_way_is_not_held():
+    assert not _closes(_nav(speed_m_s=0.01), _track())
+
+
+def test_without_tracks_nothing_holds_the_turn():
+    assert not _closes(_nav())
+    system = SimpleNamespace(_perceived=None, radius_m=3.0)
+    assert not ControlTick._turn_closes_on_track(system, _nav())
