@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+import mjasc.avoidance.fleet_slots as fleet_slots
 import mjasc.avoidance.system as system
 from mjasc.avoidance.prediction.motion import _STRAIGHT_OMEGA, TrackMotions
 from mjasc.core.estimates import PlannedTrack, TrackEstimate
@@ -68,6 +69,8 @@ def test_the_tracks_of_a_demo_run(monkeypatch):
         seen.append(sum(isinstance(tr, PlannedTrack) for tr in tracks))
         return orig(queries)
 
+    # the fleet's slots (fleet_slots) and a vessel's own predictions after a decision (system)
+    monkeypatch.setattr(fleet_slots, "predict_fleet_lazy", both)
     monkeypatch.setattr(system, "predict_fleet_lazy", both)
     sc = load_scenario(TASKS / "demo.toml").with_overrides(duration_s=60.0)
     Runner(replace(sc, outputs=replace(sc.outputs, recording=False, video=False)), None, progress=False).run()
