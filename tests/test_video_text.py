@@ -5,7 +5,7 @@ import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
 from mjasc.runs import video_text
-from mjasc.runs.video_text import MEMORY_ENTRIES, frame_font
+from mjasc.runs.video_text import frame_font
 
 CALLS = [((10, 5), "demo  t = 120.0 s", {}), ((10.5, 30.25), "alpha: avoidance:yield", {}),
          ((200.7, 100.2), "bravo", {"stroke_width": 2, "stroke_fill": (0, 0, 0)}), ((5, 200), "50 m", {}),

@@ -39,13 +39,14 @@ fresh (:mod:`~mjasc.avoidance.team_mates`). Decision σ (thesis eq. 3.17) per co
   :func:`~mjasc.avoidance.triage.triage`; what is left unresolved makes the emergency stop a
   candidate, and every candidate speed plan is checked against all tracks (``_checked_choice``).
 
-**The fleet in one call** (:mod:`~mjasc.avoidance.fleet_slots`). :func:`predict_slot` runs the prediction slot of many vessels: each
-system prepares its query (its tracks as predicted, its planned motion), all (vessel, track) pairs
-are predicted in one :func:`~mjasc.avoidance.prediction.predict_fleet` call, then each system acts
-on its own result — the same requests as vessel by vessel. The control tick is cheap in the common
-case (no new track, no deviation): the deviation check runs on the last prediction's stacked track
-motions (:class:`~mjasc.avoidance.prediction.TrackMotions`) in one array operation, once per new
-perception report.
+**The fleet in one call** (:mod:`~mjasc.avoidance.fleet_slots`). :func:`predict_slot` runs the
+prediction slot of many vessels: each system prepares its query (its tracks as predicted, its
+planned motion), all (vessel, track) pairs are predicted in one
+:func:`~mjasc.avoidance.prediction.predict_fleet` call, then each system acts on its own result —
+the same requests as vessel by vessel. The control tick is cheap in the common case (no new track,
+no deviation): the deviation check runs on the last prediction's stacked track motions
+(:class:`~mjasc.avoidance.prediction.TrackMotions`) in one array operation, once per new perception
+report.
 
 A manoeuvre ends when it is complete (the correction's goal time is reached, the end of the
 detour is reached) and the latest prediction predicts no collision; then the mission resumes.
@@ -54,8 +55,9 @@ detour linearly onto the obstructed stretch of the mission path it replaces, so 
 layer sees a continuous, monotone γ.
 
 **Where the parts live.** This module holds the stage interface and the vessel's own plan; the
-fleet's two slots are :mod:`~mjasc.avoidance.fleet_slots`; the class's other parts are its bases, each one concept: a prediction's query and acting on
-its result (:mod:`~mjasc.avoidance.prediction_step`), decision σ and the path switches
+fleet's two slots are :mod:`~mjasc.avoidance.fleet_slots`; the class's other parts are its bases,
+each one concept: a prediction's query and acting on its result
+(:mod:`~mjasc.avoidance.prediction_step`), decision σ and the path switches
 (:mod:`~mjasc.avoidance.manoeuvres`), the control tick's checks and a running manoeuvre's
 references (:mod:`~mjasc.avoidance.control_tick`); the planned speed profile γ(t) is
 :mod:`~mjasc.avoidance.speed_plan`.
