@@ -151,7 +151,8 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         self.ended_correction: Correction | None = None
         self.detour: Detour | None = None
         self._detour_causes: set[int] | None = None  # the moving tracks a detour goes around (None: statics too)
-        self._sharp_turn: tuple | None = None  # a sharp turn on the detour: ("brake", heading), ("turn", way) or ("held", way)
+        # a sharp turn on the detour: ("brake", heading), ("turn", way) or ("held", way)
+        self._sharp_turn: tuple | None = None
         self.team_mates = TeamMates(self.name, self.team, self.radius_m, config.team_broadcast_max_age_s,
                                     config.track_deviation_m, config.window_s or 30.0)
         self._known_track_ids: set[int] = set()
