@@ -84,9 +84,10 @@ EXPECT = {
     # The same stressed bottleneck on seeds 33 and 41 (a sweep of seeds 24–47): a vessel stopping for
     # a team mate (an emergency stop, goal speed 0) turned towards a fresh detour; the heading loop's
     # saturated differential keeps forward thrust, and bravo ran into charlie still making 0.7 m/s
-    # (seed 33, −0.81 m) and crept into alpha at 0.45 m/s (seed 41, −1.28 m). A stop is held on its heading while the
-    # path's aim point is more than sharp_turn_deg off it. Seed 41 still passes hull to hull: the
-    # bounding circles overlap by 1.06 m while the hulls stay apart, hence the negative bound.
+    # (seed 33, −0.81 m) and crept into alpha at 0.45 m/s (seed 41, −1.28 m). A stop is held on its
+    # heading while the path's aim point is more than sharp_turn_deg off it. Seed 41 still passes
+    # hull to hull: the bounding circles overlap by 1.06 m while the hulls stay apart, hence the
+    # negative bound.
     "bottleneck_stressed_seed33": ("bravo", "stop_held", 1.0),
     "bottleneck_stressed_seed41": ("bravo", "stop_held", -1.5),
     # The velocity-obstacle method (compare_methods, team_vs_traffic run 19): released whenever the
