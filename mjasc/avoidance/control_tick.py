@@ -42,9 +42,6 @@ _LONG_WAY_RELEASE_RAD = math.radians(150.0)
 _SLOW_TRACK_M_S = 0.5
 _TURN_GUARD_S = 1.0
 _TURN_GUARD_MIN_SPEED_M_S = 0.05
-#: A stop (a correction whose goal speed is 0) commanding at most this [m/s] is held on its heading
-#: while the path's aim point is more than sharp_turn_deg off it (ControlTick._manoeuvre_refs).
-_STOPPED_REF_M_S = 0.05
 _INT64 = 2 ** 63
 
 
@@ -247,29 +244,7 @@ class ControlTick:
             override, course = self._sharp_turn_speed(t, nav, override)
         elif self._sharp_turn is not None:
             self._sharp_turn = None
-        if course is None and c is not None and c.law.desired_speed <= 0.0 and override is not None \
-                and override <= _STOPPED_REF_M_S \
-                and abs(self._aim_error(nav)) > math.radians(self.config.sharp_turn_deg):
-            # all way off on the heading: at zero speed the heading loop's saturated differential
-            # gathers way (reverse is the weaker propeller direction) — a vessel stopped for a team
-            # mate crept 0.45 m/s into it while turning onto a fresh detour (the §6.4.3 bottleneck
-            # under 30 % dropout and packet loss, seed 41)
-            if not self._stop_held:
-                self.stats["stop_held"] += 1
-                self._event(t, "stopped on the heading: the path turns away more than the sharp-turn angle")
-            self._stop_held = True
-            return override, float(nav.heading_rad)
-        self._stop_held = False
         return override, course
-
-    def _aim_error(self, nav) -> float:
-        """The signed angle [rad] from the heading to the path's point 5 m ahead of γ (wrapped)."""
-        g = self._guidance
-        x, y, _, _ = g.path.at(min(g.gamma_m + 5.0, g.path.length))
-        # wrap_angle(np.arctan2(…) − ψ) in plain floats (the same bits: math's atan2 equals numpy's
-        # on x86-64 without AVX-512, mjasc.guidance.segment_geometry; one call each)
-        p = nav.position_m
-        return wrap_scalar(math.atan2(float(y - p[1]), float(x - p[0])) - float(nav.heading_rad))
 
     def _sharp_turn_speed(self, t, nav, override) -> tuple[float | None, float | None]:
         """Brake, then turn, when a detour asks for a sharp turn: its point 5 m ahead more than
@@ -280,9 +255,12 @@ class ControlTick:
         advances the hull several metres — thesis §6.2 and §6.4.3 under 30 % dropout: a re-plan 7 m
         from the pontoon / the south island asked for a 92° turn and the Otter, still at 0.55 m/s,
         ran into it; it stops from 1 m/s within a metre."""
-        cfg = self.config
+        g, cfg = self._guidance, self.config
+        x, y, _, _ = g.path.at(min(g.gamma_m + 5.0, g.path.length))
+        # wrap_angle(np.arctan2(…) − ψ) and np.radians in plain floats (the same bits: math's atan2
+        # equals numpy's on x86-64 without AVX-512, mjasc.guidance.segment_geometry; one call each)
         p = nav.position_m
-        signed = self._aim_error(nav)
+        signed = wrap_scalar(math.atan2(float(y - p[1]), float(x - p[0])) - float(nav.heading_rad))
         err = abs(signed)
         if err <= math.radians(cfg.sharp_turn_deg):
             self._sharp_turn = None

@@ -153,7 +153,6 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         self._detour_causes: set[int] | None = None  # the moving tracks a detour goes around (None: statics too)
         # a sharp turn on the detour: ("brake", heading), ("turn", way) or ("held", way)
         self._sharp_turn: tuple | None = None
-        self._stop_held = False  # a stop held on its heading (ControlTick._manoeuvre_refs): its event once
         self.team_mates = TeamMates(self.name, self.team, self.radius_m, config.team_broadcast_max_age_s,
                                     config.track_deviation_m, config.window_s or 30.0)
         self._known_track_ids: set[int] = set()
@@ -180,7 +179,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
                       "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
                       "deviation_predictions": 0, "emergency": 0, "lane_change": 0, "checked_choice": 0,
                       "withdrawn": 0, "sharp_turn": 0, "detour_rejected": 0, "in_structure": 0, "turn_away": 0,
-                      "turn_held": 0, "stop_held": 0}
+                      "turn_held": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
         self.last_conflict: dict | None = None  # the latest conflict's record (the video's HUD shows it)
@@ -315,8 +314,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
             "static_conflicts": self.stats["static_conflicts"],
             "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "lane_change", "checked_choice",
                                                           "replan_failed", "emergency", "withdrawn", "sharp_turn",
-                                                          "detour_rejected", "in_structure", "turn_away", "turn_held",
-                                                          "stop_held")},
+                                                          "detour_rejected", "in_structure", "turn_away", "turn_held")},
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
             "min_predicted_distance_m": round(self.min_predicted_distance_m, 3)
