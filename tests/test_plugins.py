@@ -395,9 +395,9 @@ def test_register_refuses_names_that_would_clash_or_cannot_be_written():
 
 
 @pytest.mark.parametrize("answer, message", [
-    (lambda: None, r"avoidance method .*Answering \(test_answering\) returned NoneType for vessel 'a', expected an "
+    (lambda: None, r"avoidance method 'test_answering' of vessel 'a': control\(\) returned NoneType, expected an "
                    r"AvoidanceRequest"),
-    (lambda: ("mission", None), r"returned tuple for vessel 'a'"),
+    (lambda: ("mission", None), r"of vessel 'a': control\(\) returned tuple"),
     (lambda: AvoidanceRequest("braking"), r"AvoidanceRequest\.mode: must be one of mission, .*got 'braking'"),
     (lambda: AvoidanceRequest("avoidance:yield", float("nan")), r"speed_override_m_s: must be None or a finite"),
     (lambda: AvoidanceRequest("avoidance:steer", 1.0, course_override_rad=float("inf")),

@@ -59,7 +59,8 @@ from mjasc.core.geometry import covariance_ellipse  # noqa: F401  (re-exported: 
 from mjasc.perception.detection import Detections
 from mjasc.perception.fleet import PerceptionFleet, fleet_of
 from mjasc.perception.plugin_tracks import TracksView, mark_team
-from mjasc.plugins.answers import tracks_answer
+from mjasc.plugins.answers import events_answer, tracks_answer
+from mjasc.plugins.registry import builtin_method
 from mjasc.perception.range_sensor import Scan, SensorConfig, sensor_for_vessel
 from mjasc.perception.static_map import StaticMap
 from mjasc.perception.track_history import history_arrays, history_rows, plugin_history_rows
@@ -241,7 +242,10 @@ class Perception:
     def _tracked(self) -> None:
         """The fleet's tracking pass is done with this vessel's scan."""
         if self.method is not None:
-            events = [TrackEvent(t, "event", -1, text) for t, text in self.method.drain_events()]
+            drained = self.method.drain_events()
+            if not builtin_method(type(self.method)):
+                drained = events_answer(self.method, drained)
+            events = [TrackEvent(t, "event", -1, text) for t, text in drained]
             n = len(self._method_tracks)
         else:
             tr = self._tracker

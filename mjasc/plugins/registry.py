@@ -26,6 +26,7 @@ that does not, or a package that fails to import is a one-line error naming the 
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
 from dataclasses import dataclass
@@ -81,8 +82,9 @@ def register(stage: str, cls: type, name: str | None = None, replace: bool = Fal
     """Register ``cls`` as a method of ``stage`` under ``name`` (default ``cls.method``) for this
     process (a notebook, a test); usable as a decorator via ``functools.partial``. Returns ``cls``.
     The name follows the rule of scenario names (letters, digits, ``_``, ``-``); a built-in
-    method's name is refused, and another class already registered under the name too unless
-    ``replace`` (the same class again is fine)."""
+    method's name is refused, and another class already registered under the name, or an
+    installed package's entry point of that name, too unless ``replace`` (the same class again is
+    fine)."""
     _check_stage(stage)
     _check_class(stage, cls, f"register({show(name if name is not None else cls)})")
     name = name or cls.method
@@ -97,6 +99,11 @@ def register(stage: str, cls: type, name: str | None = None, replace: bool = Fal
     if held is not None and held is not cls and not replace:
         raise ConfigError(f"register({name!r}): another {stage} method ({held.__module__}.{held.__qualname__}) is "
                           f"registered under {name!r}; unregister it first or pass replace=True")
+    if held is None and not replace:  # (an installed package's method of that name would be shadowed unsaid)
+        installed = sorted({ep.value for ep in metadata.entry_points(group=entry_point_group(stage)) if ep.name == name})
+        if installed and installed != [f"{cls.__module__}:{cls.__qualname__}"]:
+            raise ConfigError(f"register({name!r}): an installed package declares the {stage} method {name!r} "
+                              f"({', '.join(installed)}); give yours another name or pass replace=True")
     _registered[stage][name] = cls
     return cls
 
@@ -211,8 +218,19 @@ def parse_method_table(stage: str, tbl: Any, where: str, name_key: str = "method
         if tbl:
             raise ConfigError(f"{where}.{next(iter(tbl))}: unknown field (the {stage} method {name!r} takes no options)")
         return MethodChoice(stage, name, None)
+    what = f"the {stage} method {name!r} ({cls.__module__}.{cls.__qualname__})"
+    if not (isinstance(cls.Options, type) and dataclasses.is_dataclass(cls.Options)):
+        raise ConfigError(f"{where}.{name_key}: {what}: its Options must be a dataclass class or None, got "
+                          f"{show(cls.Options)}")
     check = cls.check_options if cls.check_options is not StageMethod.check_options else None
-    return MethodChoice(stage, name, dataclass_from_table(cls.Options, tbl, where, check=check))
+    try:
+        return MethodChoice(stage, name, dataclass_from_table(cls.Options, tbl, where, check=check))
+    except ValueError:  # (ConfigError included: already one line naming the field)
+        raise
+    except Exception as exc:  # noqa: BLE001 — the plugin's Options or check_options failed otherwise: on one line
+        text = " ".join(str(exc).split())
+        raise ConfigError(f"{where}: {what}: its options could not be checked: {type(exc).__name__}: {text} "
+                          f"(check_options and the Options' own checks raise ValueError naming the field)") from None
 
 
 def parse_avoidance_table(tbl: Any, where: str = "avoidance") -> MethodChoice:

@@ -45,7 +45,8 @@ from mjasc.core.navigation import OwnNavigation
 from mjasc.guidance.path_following import PathFollower, PathFollowingConfig, PathFollowingStatus
 from mjasc.guidance.state import GuidanceState
 from mjasc.physics.vessels import VesselType
-from mjasc.plugins.answers import steer_answer
+from mjasc.plugins.answers import (avoidance_answer, events_answer, factor_answer, steer_answer,
+                                   team_picture_answer)
 from mjasc.plugins.context import StageContext
 from mjasc.plugins.registry import builtin_method
 from mjasc.runs.scenario import VesselConfig
@@ -156,7 +157,11 @@ class VesselAgent:
 
     def team_picture(self, t_s: float):
         """What the coordination layer knows of the team now (None without coordination)."""
-        return self.coordination.team_picture(t_s) if self.coordination is not None else None
+        c = self.coordination
+        if c is None:
+            return None
+        picture = c.team_picture(t_s)
+        return picture if builtin_method(type(c)) else team_picture_answer(c, picture)
 
     def mission_gamma_m(self) -> float:
         """Progress along the mission path [m] (the coordination variable γ)."""
@@ -264,7 +269,7 @@ class VesselAgent:
     def on_prediction(self, nav: OwnNavigation) -> None:
         call = self.prediction_call(nav)
         if call is not None:
-            self.apply_request(call[0].predict(*call[1:]))
+            self.apply_request(avoidance_answer(call, "predict"))
 
     def control_request(self, nav: OwnNavigation) -> tuple[float, str, float]:
         """The control slot's per-vessel part, before the (fleet's) path following: the speed
@@ -274,7 +279,7 @@ class VesselAgent:
         it in two halves, :meth:`control_call` and :meth:`control_answer`, so that it can ask the
         vessels' avoidance methods together.)"""
         speed, call = self.control_call(nav)
-        return self.control_answer(speed, call[0].control(*call[1:]) if call is not None else None)
+        return self.control_answer(speed, avoidance_answer(call, "control") if call is not None else None)
 
     def control_call(self, nav: OwnNavigation) -> tuple[float, tuple | None]:
         """The first half of :meth:`control_request`: the mission speed × the coordination factor
@@ -286,8 +291,8 @@ class VesselAgent:
         c = self.coordination
         if c is not None:
             factor = c.speed_correction(nav.time_s, nav, self.mission_gamma_m())
-            if not builtin_method(type(c)):  # (a plugin's law: the factor the guidance state and the team
-                c.last_factor = factor           # picture read, as the built-in law keeps it itself)
+            if not builtin_method(type(c)):  # (a plugin's law, checked: the factor the guidance state and the
+                c.last_factor = factor = factor_answer(c, factor)  # team picture read, as the built-in keeps it)
         return self.avoidance_call(nav, factor)
 
     def control_mission(self, nav: OwnNavigation) -> None:
@@ -357,6 +362,8 @@ class VesselAgent:
         for c in (self.perception, self.coordination, self.avoidance, self.mission, self.control_plugin):
             if c is not None:  # (components(), per record tick)
                 drained = c.drain_events()
+                if not builtin_method(type(c)):
+                    drained = events_answer(c, drained)
                 if drained:  # (most record ticks drain nothing)
                     events.extend(drained)
         return events

@@ -47,6 +47,7 @@ from mjasc.physics.obstacles import MovingObstacleSet
 from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
+from mjasc.plugins.answers import plugin_at_fault
 from mjasc.runs.agent_build import build_agent
 from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
@@ -191,6 +192,14 @@ class Runner:
                          np.asarray(plotted), traffic)
 
     # ------------------------------------------------------------------ main loop
+    def _stage_methods(self) -> list:
+        """Every vessel's stage methods (built-in ones too), for naming a plugin at fault."""
+        out = []
+        for agent in self.agents:
+            out += [agent.coordination, agent.avoidance, agent.control_plugin,
+                    getattr(agent.perception, "method", None)]
+        return [m for m in out if m is not None]
+
     def run(self, interruptible: bool = False) -> RunResult:
         """Run the scenario to its end. Raises :class:`RunFailed` (after writing the outputs) when
         the physics diverges or a component raises, :class:`RunInterrupted` on Ctrl-C, and with
@@ -306,7 +315,9 @@ class Runner:
                     self.recorder.event(sim.time_s, error, "WARN")
             else:
                 tb = traceback.extract_tb(exc.__traceback__)
-                where = f" ({tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno})" if tb else ""
+                place = f"{tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno}" if tb else ""
+                fault = plugin_at_fault(exc, self._stage_methods())  # (a plugin's bug: say whose, and where)
+                where = f" ({fault}{': ' if place else ''}{place})" if fault else f" ({place})" if place else ""
                 status, error = "error", f"{type(exc).__name__} at t = {sim.time_s:.3f} s: {exc}{where}"
                 if self.recorder:
                     self.recorder.event(sim.time_s, error, "ERROR")
@@ -330,6 +341,8 @@ class Runner:
                                ("control", agent.control_plugin)):
                 if comp is not None and hasattr(comp, "summary"):
                     summary["vessels"][agent.name][kind] = component_summary(comp)
+            if agent.follower is not None and agent.control_plugin is None:  # (the built-in follower: named)
+                summary["vessels"][agent.name]["control"] = {"method": agent.follower.method}
         if sc.mission is not None:
             from mjasc.missions.sequencer import team_mission_summary
 
@@ -370,6 +383,9 @@ def component_summary(comp) -> dict:
     except Exception as exc:  # noqa: BLE001 — a plugin's bug must not cost the run its summary
         return {"method": getattr(comp, "method", type(comp).__name__),
                 "summary_error": f"{type(exc).__name__}: {exc}"}
+    if not isinstance(out, dict):
+        return {"method": getattr(comp, "method", type(comp).__name__),
+                "summary_error": f"summary() returned {type(out).__name__}, expected a dict"}
     return out
 
 

@@ -33,6 +33,7 @@ import numpy as np
 from mjasc.cooperation.coordination import Coordination
 from mjasc.core.navigation import OwnNavigation
 from mjasc.guidance.path_following import FleetPathFollower, PathFollower
+from mjasc.plugins.answers import avoidance_answer, avoidance_answers
 from mjasc.runs.fleet_control import ask_avoidance, control_fleet, fleet_control_applies
 
 __all__ = ["ONBOARD_SLOTS", "run_onboard_slot", "SlotEvent"]
@@ -121,14 +122,14 @@ def _prediction(agents: Sequence, navs: Sequence[OwnNavigation]) -> None:
     live = [(agent, call) for agent, call in calls if call is not None]
     if len(live) == 1:
         agent, call = live[0]
-        agent.apply_request(call[0].predict(*call[1:]))
+        agent.apply_request(avoidance_answer(call, "predict"))
         return
     groups: dict[type, list] = {}
     for k, (_, call) in enumerate(live):
         groups.setdefault(type(call[0]), []).append(k)
     requests = [None] * len(live)
     for cls, ks in groups.items():
-        for k, request in zip(ks, cls.predict_many([live[k][1] for k in ks])):
+        for k, request in zip(ks, avoidance_answers(cls, [live[k][1] for k in ks], "predict")):
             requests[k] = request
     for (agent, _), request in zip(live, requests):
         agent.apply_request(request)
