@@ -197,3 +197,21 @@ def test_reference_pool_takes_the_physics_model_as_dm_control_gives_it():
         assert list(reference_pool(wrapped, kind)) == list(reference_pool(raw, kind))
     assert len(reference_pool(wrapped, "slot")) == 3
     env.close()
+
+
+@pytest.mark.parametrize("task, seed", [("station_keeping", 1), ("station_keeping", 3), ("collision_avoidance", 1)])
+def test_the_heading_bar_points_along_the_heading_the_task_set(task, seed):
+    """The task turned the bar's ``site_quat``, but the compiler had marked the site as turned with
+    the world body, so MuJoCo drew it east–west in every episode (a reviewer measured −100.7° set,
+    0° drawn): the heading to hold could not be read from pixels."""
+    env = suite.load("otter", task, task_kwargs={"random": seed})
+    env.reset()
+    d = env.physics.named.data
+    centre = d.site_xpos["target_heading"][:2] - d.site_xpos["target"][:2]
+    set_deg = np.degrees(np.arctan2(centre[1], centre[0]))  # the bar starts at the disc's centre, along the heading
+    xmat = d.site_xmat["target_heading"].reshape(3, 3)
+    drawn_deg = np.degrees(np.arctan2(xmat[1, 0], xmat[0, 0]))  # the bar's long (x) axis
+    assert abs((drawn_deg - set_deg + 180.0) % 360.0 - 180.0) < 1e-6
+    if task == "station_keeping":
+        assert abs((set_deg - np.degrees(env.task.station_heading_rad) + 180.0) % 360.0 - 180.0) < 1e-6
+    env.close()

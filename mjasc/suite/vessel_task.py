@@ -11,6 +11,7 @@ from __future__ import annotations
 import collections
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 from dm_control.suite import base
 from dm_env import specs
@@ -140,6 +141,10 @@ class VesselTask(base.Task):
         pos["target", :2] = xy
         pos["target_heading", :2] = np.asarray(xy) + 1.5 * vec(np.cos(heading_rad), np.sin(heading_rad))
         physics.named.model.site_quat["target_heading"] = [np.cos(heading_rad / 2), 0, 0, np.sin(heading_rad / 2)]
+        # The compiler marked the bar as turned with its body (the world: an identity quaternion in the
+        # file), so MuJoCo's kinematics would skip its own rotation: it has one now.
+        model = physics.model
+        model.site_sameframe[model.name2id("target_heading", "site")] = mujoco.mjtSameFrame.mjSAMEFRAME_NONE
 
     def _own_state_observations(self, physics: VesselPhysics, obs: collections.OrderedDict, i: int = 0,
                                 prefix: str = "") -> None:
