@@ -103,8 +103,9 @@ def test_a_hull_whose_name_cannot_name_a_vessel_is_a_vessel_key_error(tmp_path, 
 
 
 def test_mjasc_render_takes_the_pixel_cameras(tmp_path, monkeypatch, capsys):
-    """render_episode renders the suite's basin and <vessel>/follow views (docs/suite.md), but
-    `mjasc render --camera basin` / `follow:otter` were refused as not a scenario camera."""
+    """render_episode renders the suite's basin, <vessel>/follow and <vessel>/heading_up views
+    (docs/suite.md), but `mjasc render --camera basin` / `follow:otter` / `heading_up:otter` were
+    refused as not a scenario camera."""
     import mjasc.suite.render as render
     from mjasc.cli import main
 
@@ -114,14 +115,14 @@ def test_mjasc_render_takes_the_pixel_cameras(tmp_path, monkeypatch, capsys):
         seen.append(kw["camera"])
         raise ValueError("stop here")
     monkeypatch.setattr(render, "render_episode", fake)
-    for camera in ("basin", "follow:otter", "chase:otter", "top_down"):
+    for camera in ("basin", "follow:otter", "heading_up:otter", "chase:otter", "top_down"):
         assert main(["render", "otter", "station_keeping", "--camera", camera, "--out", str(tmp_path / "r")]) == 2
-    assert seen == ["basin", "otter/follow", "chase:otter", "top_down"]
+    assert seen == ["basin", "otter/follow", "otter/heading_up", "chase:otter", "top_down"]
     capsys.readouterr()
     assert main(["render", "otter", "station_keeping", "--camera", "side", "--out", str(tmp_path / "r")]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("mjasc: render --camera: must be top_down") and "basin, follow:<vessel>" in err
-    assert err.count("\n") == 1 and seen == ["basin", "otter/follow", "chase:otter", "top_down"]
+    assert err.startswith("mjasc: render --camera: must be top_down") and "basin, follow:<vessel>, heading_up" in err
+    assert err.count("\n") == 1 and len(seen) == 5
 
 
 def test_a_collision_on_the_last_step_ends_with_discount_zero():

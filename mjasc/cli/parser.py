@@ -227,8 +227,8 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
                                      "examples/my_hull/hulls/otter_payload (default: the domain's)")
     rd.add_argument("--camera", default="top_down",
                     help="top_down, overview, chase:VESSEL (e.g. chase:otter), split (overview beside the first "
-                         "vessel's chase view), split:VESSEL, or a pixel agent's view: basin, follow:VESSEL "
-                         "(default: top_down)")
+                         "vessel's chase view), split:VESSEL, or a pixel agent's view: basin, follow:VESSEL, "
+                         "heading_up:VESSEL (default: top_down)")
     rd.add_argument("--no-hud", dest="hud", action="store_false",
                     help="no heads-up display on the video (task, time, policy, reward, return, names, legend)")
     rd.add_argument("--out", default="runs/render", help="output folder (default: runs/render)")

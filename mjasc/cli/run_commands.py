@@ -225,11 +225,12 @@ def cmd_render(args) -> int:
 
     tasks = TASKS_BY_DOMAIN.get(args.domain)
     camera = args.camera  # the suite's own cameras too (docs/suite.md, "Pixel observations"), as render_episode
-    if camera.startswith("follow:") and camera != "follow:":
-        camera = camera.removeprefix("follow:") + "/follow"
+    kind, _, vessel = camera.partition(":")
+    if kind in ("follow", "heading_up") and vessel:
+        camera = f"{vessel}/{kind}"
     elif camera != "basin" and camera_problem(camera):
-        print(f"mjasc: render --camera: {camera_problem(camera)} (or the suite's basin, follow:<vessel>)",
-              file=sys.stderr)
+        print(f"mjasc: render --camera: {camera_problem(camera)} (or the suite's basin, follow:<vessel>, "
+              f"heading_up:<vessel>)", file=sys.stderr)
         return 2
     if tasks is None or args.task not in tasks:  # checked before the output folder is made
         what = f"domain {args.domain!r}" if tasks is None else f"task {args.task!r} of domain {args.domain!r}"
