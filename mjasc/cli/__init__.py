@@ -41,10 +41,12 @@ def main(argv: list[str] | None = None) -> int:
             print(f"mjasc: {name} {show_path(value)}: not a usable file name ({path_problem(value)})", file=sys.stderr)
             return 2
     if args.command in _SIMULATING:
-        from mjasc.core.kernel_cache import COLD_HINT, cache_is_cold
+        from mjasc.core.kernel_cache import COLD_HINT, announce_compiles, cache_is_cold
 
         if cache_is_cold():
             print(COLD_HINT, file=sys.stderr)
+        else:  # (a kernel missing from a partly filled cache compiles silently otherwise)
+            announce_compiles(sys.stderr)
     try:
         status = args.func(args)
         sys.stdout.flush()  # (here, not at exit: a reader that left is answered below)

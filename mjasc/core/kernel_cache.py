@@ -6,7 +6,10 @@ numba keeps a kernel's machine code next to its module (``__pycache__/*.nbi`` an
 under ``NUMBA_CACHE_DIR`` when that is set (:mod:`mjasc.core.compiled`). :func:`cache_is_cold`
 looks for any index file there; :data:`COLD_HINT` is the one line the CLI prints then, and a
 campaign waits :data:`COLD_START_WAIT_S` instead of its usual limit for its first run child (whose
-warm-up compiles them).
+warm-up compiles them). A cache only partly filled (another process compiling the rest, a kernel
+whose source changed) is not cold, but its first run compiles the missing kernels all the same:
+:func:`announce_compiles` prints :data:`PARTLY_COLD_HINT` when the first of mjasc's kernels is
+compiled rather than loaded (numba's ``numba:compile`` event, which a cache hit does not raise).
 """
 
 from __future__ import annotations
@@ -14,11 +17,15 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["cache_is_cold", "COLD_HINT", "COLD_START_WAIT_S"]
+__all__ = ["cache_is_cold", "announce_compiles", "COLD_HINT", "PARTLY_COLD_HINT", "COLD_START_WAIT_S"]
 
 #: What the CLI says when the cache is cold (printed once, to stderr).
 COLD_HINT = ("mjasc: compiling mjasc's kernels (numba) once for this checkout — the first run takes a few "
              "minutes; later runs load them in about a second")
+
+#: What the CLI says when a kernel compiles although the cache was not empty (once, to stderr).
+PARTLY_COLD_HINT = ("mjasc: compiling mjasc kernels that numba had not cached yet (a partly filled cache, or changed "
+                    "sources) — this run is slower and its timing includes it; later runs load them")
 
 #: How long a campaign waits for its first run child when the cache is cold [s]: its warm-up
 #: compiles the kernels (~3–6 min on a busy 2-core machine).
@@ -54,3 +61,28 @@ def _cold(root: Path, custom: str | None) -> bool:
         if folder.endswith("__pycache__") and any(f.endswith(".nbi") for f in files):
             return False
     return True
+
+
+def announce_compiles(stream):
+    """Print :data:`PARTLY_COLD_HINT` to ``stream`` when the first of mjasc's kernels is compiled in
+    this process rather than loaded from numba's cache (once; kernels of other packages are left
+    out). Registered as a listener of numba's ``numba:compile`` event for the rest of the process;
+    returns the listener (``numba.core.event.unregister("numba:compile", it)`` removes it)."""
+    from numba.core import event
+
+    class _FirstCompile(event.Listener):
+        said = False
+
+        def on_start(self, ev):
+            dispatcher = (ev.data or {}).get("dispatcher")
+            module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
+            if not self.said and module.startswith("mjasc."):
+                self.said = True
+                print(PARTLY_COLD_HINT, file=stream, flush=True)
+
+        def on_end(self, ev):
+            pass
+
+    listener = _FirstCompile()
+    event.register("numba:compile", listener)
+    return listener
