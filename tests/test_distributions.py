@@ -63,7 +63,7 @@ def test_laws_parse_and_map_a_uniform_variate_by_their_inverse_cdf():
     ({"uniform": [0.0, 1.0], "clip": [0.0, 1.0]}, r"^p\.clip: unknown field"),
     ({"uniform": [0.0, 1.0], "grid": [1]}, r"^p: a law is one of"),
     ({"choice": []}, r"^p\.choice: must be a non-empty list"),
-    ({"grid": [1.0, float("nan")]}, r"^p\.grid\[1\]: must be a number"),
+    ({"grid": [1.0, float("nan")]}, r"^p\.grid\[1\]: must be a finite number, got nan"),
 ])
 def test_bad_laws_name_the_field(value, message):
     with pytest.raises(ConfigError, match=message):
@@ -74,7 +74,7 @@ def test_bad_laws_name_the_field(value, message):
     ({"speed_ratio": {"uniform": [0.5, 5.0]}}, r"parameters\.speed_ratio: must be ≤ 4\.0, got 5\.0"),
     ({"speed_ratio": {"normal": [1.0, 0.2]}},
      r"parameters\.speed_ratio: a normal law on a bounded parameter needs clip"),
-    ({"n": {"uniform": [1, 3]}}, r"parameters\.n: must be an integer, got 1\.0"),
+    ({"n": {"uniform": [1, 3]}}, r"parameters\.n: must be an integer, and a uniform law draws real numbers"),
     ({"n": {"grid": [1, 9]}}, r"parameters\.n: must be ≤ 5, got 9"),
     ({"role": {"choice": ["a", "c"]}}, r"parameters\.role: must be one of a, b, got 'c'"),
     ({"colour": 3}, r"parameters\.colour: unknown parameter"),
@@ -133,3 +133,18 @@ def test_sample_moments_match_the_laws():
     r = np.array([d["speed_ratio"] for d in draws])
     assert abs(a.mean() - 3.0) < 4 * 2.0 / np.sqrt(4000) and abs(a.std() - 2.0) < 0.1
     assert abs(r.mean() - 1.0) < 4 * (1 / np.sqrt(12)) / np.sqrt(4000) and r.min() >= 0.5 and r.max() <= 1.5
+
+
+@pytest.mark.parametrize("given, message", [
+    ({"angle_deg": float("inf")}, r"^families\[0\]\.parameters\.angle_deg: must be a finite number, got inf$"),
+    ({"angle_deg": float("nan")}, r"^families\[0\]\.parameters\.angle_deg: must be a finite number, got nan$"),
+    ({"n": {"uniform": [1, 4]}}, r"^families\[0\]\.parameters\.n: must be an integer, and a uniform law draws real "
+                                 r"numbers: write \{ choice = \[\.\.\.\] \} or \{ grid = \[\.\.\.\] \} of integers$"),
+    ({"n": {"normal": [2, 1], "clip": [1, 4]}}, r"n: must be an integer, and a normal law draws real numbers"),
+])
+def test_errors_say_what_was_wrong_in_the_user_s_terms(given, message):
+    """inf was "not a number" and an integer parameter's uniform law named a value the user never
+    wrote ("must be an integer, got 0.0", its lower end as drawn)."""
+    with pytest.raises(ConfigError, match=message):
+        space(given)
+    assert space({"n": {"choice": [1, 4]}}).draw(0, family_rng(0, 0, 0))["n"] in (1, 4)

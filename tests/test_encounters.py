@@ -99,7 +99,7 @@ def test_undisturbed_motion_has_the_requested_cpa_bearing_and_role(every_kind):
             assert wrap_deg(b - p[pre + "relative_bearing_deg"]) == pytest.approx(0.0, abs=1e-3)
             assert wrap_deg(c - p[pre + "relative_course_deg"]) == pytest.approx(0.0, abs=1e-3)
             assert role_from_geometry(b, c) == p[pre + "role"]
-            assert p["attempts"] >= 1
+            assert p["draws"] >= 1
         roles = [p[pre + "role"] for pre in targets_of(r, sc)]
         if r.family in ROLE_DEFAULTS:
             assert roles == [r.family]
@@ -153,7 +153,7 @@ def test_draws_resample_to_the_role_and_an_impossible_family_fails_clearly():
     runs = list(s.runs())
     assert all(r.parameters["role"] == "head_on" for r in runs)
     assert all(abs(180.0 - r.parameters["relative_course_deg"]) <= 15.0 for r in runs)
-    assert max(r.parameters["attempts"] for r in runs) > 1
+    assert max(r.parameters["draws"] for r in runs) > 1
     with pytest.raises(CampaignError, match=r"^families\[0\] \(head_on\) run 0: no draw in 1000 attempts .*"
                                             r"is crossing_stand_on, not head_on"):
         spec({"kind": "head_on", "parameters": {"relative_course_deg": 90.0}})  # run 0 is generated on reading

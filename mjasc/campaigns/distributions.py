@@ -162,6 +162,8 @@ def _scalar(value: Any, where: str) -> Value:
         return value
     if isinstance(value, float) and math.isfinite(value):
         return value
+    if isinstance(value, float):
+        raise ConfigError(f"{where}: must be a finite number, got {show(value)}")
     raise ConfigError(f"{where}: must be a number, a string or true/false, got {show(value)}")
 
 
@@ -244,7 +246,14 @@ class ParameterSpace:
         for name, default in declared.items():
             law = parse_law(given[name], f"{where}.{name}") if name in given else Fixed(default)
             for v in law.support():
-                check(name, v, f"{where}.{name}")
+                try:
+                    check(name, v, f"{where}.{name}")
+                except ConfigError as exc:
+                    if isinstance(law, (Uniform, Normal)) and "must be an integer" in str(exc):
+                        kind = "uniform" if isinstance(law, Uniform) else "normal"
+                        raise ConfigError(f"{where}.{name}: must be an integer, and a {kind} law draws real numbers: "
+                                          f"write {{ choice = [...] }} or {{ grid = [...] }} of integers") from None
+                    raise
             if isinstance(law, Normal) and law.clip is None:
                 try:
                     check(name, -1e300, f"{where}.{name}")

@@ -177,7 +177,7 @@ class EncounterFamily:
                 last = str(exc)
                 continue
             seed = values["seed"] if values["seed"] is not None else base_seed + index
-            params["attempts"] = attempt
+            params["draws"] = attempt  # (how many draws the family's encounter took: not the run's attempts)
             return params, doc, int(seed), header
         raise CampaignError(f"families[{self.index}] ({self.name}) run {k}: no draw in {MAX_ATTEMPTS} attempts "
                             f"gives the family's encounter; last: {last}")

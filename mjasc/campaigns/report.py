@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from mjasc.campaigns.hull_records import family_ticks, family_title, hull_table
-from mjasc.campaigns.statistics import aggregate, run_outcome, wilson_interval
+from mjasc.campaigns.statistics import aggregate, family_order, run_outcome, wilson_interval
 from mjasc.campaigns.report_figures import comparison_figures, numeric_params, outcome_map, save
 from mjasc.campaigns.store import CampaignStore
 from mjasc.campaigns.stored_file import file_compared_tables, file_gospa, file_methods
@@ -290,7 +290,7 @@ def write_report(folder: str | Path, out_dir: str | Path | None = None, formats=
     files.append(out / "report.md")
     with CampaignStore.open_existing(folder) as store:
         runs = [r for r in store.runs() if r.status == "completed"]
-    fams = sorted({r.family for r in runs})
+    fams = family_order(runs)
     ticks = family_ticks(data.get("hulls"), fams)  # (a family's hulls under its name when one is a folder)
     if not runs:
         return {"data": data, "files": files}

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from mjasc.campaigns.hull_records import family_ticks, family_title
-from mjasc.campaigns.statistics import run_outcome, wilson_interval
+from mjasc.campaigns.statistics import family_order, run_outcome, wilson_interval
 
 __all__ = ["numeric_params", "outcome_map", "save", "comparison_figures"]
 
@@ -24,7 +24,8 @@ def numeric_params(runs) -> list[str]:
     common = set.intersection(*(set(r.parameters) for r in runs)) if runs else set()
     for r in runs:
         for k, v in r.parameters.items():
-            if k in common and isinstance(v, (int, float)) and not isinstance(v, bool) and k != "attempts":
+            if k in common and isinstance(v, (int, float)) and not isinstance(v, bool) and \
+                    k not in ("draws", "attempts"):  # (how many draws a run took: "attempts" in older stores)
                 values[k].add(round(float(v), 9))
 
     def rank(item):
@@ -112,7 +113,7 @@ def comparison_figures(plt, data: dict, runs, out: Path, formats) -> list[Path]:
     """The figures of a campaign comparing methods (module docstring)."""
     files: list[Path] = []
     methods = list(data["methods"])
-    fams = sorted({r.family for r in runs})
+    fams = family_order(runs)
     ticks = family_ticks(data.get("hulls"), fams)  # (a family's hulls under its name when one is a folder)
     outcome = {(r.index, r.method): run_outcome(r.metrics) for r in runs}
 

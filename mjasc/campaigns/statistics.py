@@ -179,11 +179,23 @@ def _group(runs, near_miss_m: float) -> dict:
     }
 
 
+def family_order(runs) -> list[str]:
+    """The families of ``runs`` in the campaign file's order (a family's runs follow the one before
+    it in the index space: ordered by each family's first run index)."""
+    first: dict[str, int] = {}
+    for r in runs:
+        index = getattr(r, "index", 0)
+        if r.family not in first or index < first[r.family]:
+            first[r.family] = index
+    return sorted(first, key=lambda f: (first[f], f))
+
+
 def _by_family(runs, near_miss_m: float) -> dict:
+    """Per family, in the campaign file's order (:func:`family_order`)."""
     by_family: dict[str, list] = defaultdict(list)
     for r in runs:
         by_family[r.family].append(r)
-    return {f: _group(rs, near_miss_m) for f, rs in sorted(by_family.items())}
+    return {f: _group(by_family[f], near_miss_m) for f in family_order(runs)}
 
 
 def method_order(runs, methods=None) -> list[str]:
@@ -259,7 +271,7 @@ def format_aggregate(agg: dict, name: str = "") -> str:
 
     def cost(pv):
         p, t = pv["path_cost"], pv["time_cost_s"]
-        return "—" if not p else f"+{100 * p['p50']:.1f} % / " + ("—" if not t else f"{t['p50']:+.1f} s")
+        return "—" if not p else f"{100 * p['p50']:+.1f} % / " + ("—" if not t else f"{t['p50']:+.1f} s")
 
     lines = [f"{name}: {agg['runs_recorded']} of {agg['runs_defined']} run(s) recorded, {agg['completed']} completed, "
              f"{agg['runs_failed']} failed"]

@@ -47,11 +47,21 @@ def _campaign(args) -> int:
     except CampaignError as exc:
         print(f"mjasc: invalid campaign: {exc}{not_found_hint(args.campaign, 'campaign')}", file=sys.stderr)
         return 2
+    target = Path(args.out) if args.out is not None else Path("runs") / "campaigns" / campaign.name
+    existed = target.is_dir()
     out = out_dir(args.out, Path("runs") / "campaigns" / campaign.name)
     try:
-        result = run_campaign(campaign, out, scheduler=args.scheduler, workers=args.workers,
-                              progress=args.progress and sys.stderr.isatty(), max_attempts=args.max_attempts,
-                              time_limit_s=args.time_limit)
+        try:
+            result = run_campaign(campaign, out, scheduler=args.scheduler, workers=args.workers,
+                                  progress=args.progress and sys.stderr.isatty(), max_attempts=args.max_attempts,
+                                  time_limit_s=args.time_limit)
+        except BaseException:  # (stopped before its first result: the store is gone, the folder too if new)
+            if not existed:
+                try:
+                    out.rmdir()  # (only when empty)
+                except OSError:
+                    pass
+            raise
     except CampaignError as exc:  # (found when its runs are drawn: a grid point no draw can make, ...)
         print(f"mjasc: invalid campaign: {_in_file(exc, campaign.source)}", file=sys.stderr)
         return 2
