@@ -357,6 +357,12 @@ def test_stand_on_keeps_course_until_collision_is_imminent():
     assert len(acting) > 0
     assert np.all(np.array([math.remainder(c - math.pi / 2, 2 * math.pi) for c in log[acting, 5]])
                   <= math.radians(5.0) + 1e-9)  # rule 17 (c): not to port while closing
+    # the decisions say when: stand on at the conflict's start, steer (acting) when it began to act
+    # (the log said "steer (crossing_stand_on)" at the start, 14 s before the vessel acted)
+    decisions = [(c["time_s"], c["decision"]) for c in method.conflict_log]
+    assert decisions[0][1] == "stand on (crossing_stand_on)" and decisions[0][0] < log[first, 0] - 5.0
+    acted = [tc for tc, d in decisions if d == "steer (crossing_stand_on, acting)"]
+    assert acted and acted[0] == round(log[first, 0], 2)
 
 
 def test_a_mapped_structure_on_the_path_is_sailed_around_and_the_path_regained():

@@ -121,6 +121,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self._events: list[tuple[float, str]] = []
         self._static_conflict = False
         self._stand_on_course = None  # the heading when a stand-on vessel began to act (rule 17 (c))
+        self._acting: set = set()  # the stand-on tracks the vessel acts for now (rule 17 (b))
         self._log = AvoidanceLog()
         self.conflict_log: list[dict] = []
         self.last_conflict: dict | None = None  # the latest conflict's record (the video's HUD shows it)
@@ -236,6 +237,13 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         # stand on (rule 17): a stand-on track's VO counts only once keeping course collides soon
         stand_on = np.isin(roles, (cr.STAND_ON, cr.OVERTAKEN))
         waived = stand_on & (ttc[0] > o.stand_on_ttc_s)
+        acting_ids = obs.track_id[stand_on & ~waived].tolist()  # (rule 17 (b): keeping on would collide soon)
+        for i, r in zip(acting_ids, roles[stand_on & ~waived].tolist()):
+            if i not in self._acting:
+                self._event(t, f"velocity obstacle: T{i} ({cr.ROLE_NAMES[r]}): keeping course and speed would "
+                               f"collide within {o.stand_on_ttc_s:g} s: acting (rule 17 (b))")
+                self._log_conflict(t, i, False, f"steer ({cr.ROLE_NAMES[r]}, acting)")
+        self._acting = set(acting_ids)
         ttc = np.where(waived[None, :], np.inf, ttc)
         on_path &= ~stand_on
         conflict = bool(np.any(ttc[0] <= o.horizon_s) or wrong_side.any() or on_path.any())
@@ -317,6 +325,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self.choice = None
         self._previous_velocity = None
         self._stand_on_course = None
+        self._acting = set()
         return self._set_mode(t, "mission")
 
     def _set_mode(self, t: float, mode: str) -> AvoidanceRequest:
@@ -332,8 +341,16 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             self.stats["roles"][role] = self.stats["roles"].get(role, 0) + 1
         what = "a static obstacle" if static else f"T{track_id}"
         self._event(t, f"velocity obstacle: {what} in conflict" + ("" if static else f" (role {role})"))
+        standing = role in (cr.ROLE_NAMES[cr.STAND_ON], cr.ROLE_NAMES[cr.OVERTAKEN])  # (course and speed kept for now)
+        self._log_conflict(t, track_id, static, "steer" if static or role == "none" else
+                           f"stand on ({role})" if standing else f"steer ({role})")
+
+    def _log_conflict(self, t: float, track_id: int, static: bool, decision: str) -> None:
+        """A decision for the summary's conflict log and the video's decision line: a new conflict
+        (steer; or stand on — keep course and speed —, rule 17 (a)), or a stand-on vessel beginning
+        to act (rule 17 (b))."""
         self.last_conflict = {"time_s": round(t, 2), "track_id": int(track_id), "static": bool(static),
-                              "decision": "steer" if static or role == "none" else f"steer ({role})"}
+                              "decision": decision}
         if len(self.conflict_log) < _CONFLICT_LOG_MAX:  # (the summary's first ones; last_conflict: the latest)
             self.conflict_log.append(self.last_conflict)
 
