@@ -53,6 +53,7 @@ from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import (PENDING, catch_sigterm, interrupt_behind, raise_pending, restore_sigterm,
                                    signal_name)
+from mjasc.runs.mission_offset import MissionOffset
 from mjasc.runs.outputs import atomic_target, atomic_write_text, json_value
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
@@ -128,6 +129,8 @@ class Runner:
         from mjasc.runs.metrics import CrossTrackGate  # (imported where RunMetrics is: at the run)
 
         self._xte_gate = CrossTrackGate(len(self.agents))
+        # the distance to each vessel's mission path, once a simulated second (mjasc.runs.mission_offset)
+        self._offsets = MissionOffset(len(self.agents), round(self.schedule.realized_rate_hz("record")))
         self._truth: TruthRecording | None = None  # the truth's recording, when one is made
         self._observers: dict[str, list] = {slot: [] for slot in SLOT_ORDER}
         #: Wall seconds spent in each slot and in the physics during :meth:`run` (observers excluded).
@@ -178,6 +181,7 @@ class Runner:
         outputs = self.last_outputs
         plotted = [o.status.cross_track_m if o and o.status else np.nan for o in outputs]
         xte = self._xte_gate.counted(outputs, self.agents)  # (the statistics: while a path is followed)
+        self._offsets.sample(states.position_m, xte, self.agents)
         truth = self._truth
         if self.target_judge is None:  # (the metrics need no traffic now: RunMetrics.defer, the same numbers)
             self.metrics.defer(states, xte)  # (folded in chunks)
@@ -335,6 +339,12 @@ class Runner:
         summary = {"scenario": sc.name, "seed": sc.seed, "status": status, "error": error,
                    "rates_hz": {s: round(self.schedule.realized_rate_hz(s), 4) for s in self.schedule.period_steps},
                    **self.metrics.summary(wall, sim.time_s)}
+        for i, agent in enumerate(self.agents):  # (the mission offsets beside the cross-track statistics)
+            entry = summary["vessels"][agent.name]
+            offsets = self._offsets.summary(i)
+            summary["vessels"][agent.name] = {k2: v2 for k, v in entry.items()
+                                              for k2, v2 in ((k, v), *(offsets.items() if k == "max_cross_track_m"
+                                                                       else ()))}
         for agent in self.agents:  # components add their own per-vessel results
             for kind, comp in (("perception", agent.perception), ("coordination", agent.coordination),
                                ("avoidance", agent.avoidance), ("mission", agent.mission),
