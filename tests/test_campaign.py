@@ -135,22 +135,24 @@ def test_per_vessel_samples_read_cost_cross_track_and_formation():
     from mjasc.campaigns.store import StoredRun
 
     def summary(pc, tc, xte, lead):
-        return {"vessels": {"a": {"mean_cross_track_m": xte, "max_cross_track_m": 2 * xte,
+        return {"vessels": {"a": {"mean_cross_track_m": xte, "max_cross_track_m": 2 * xte, "max_mission_offset_m": 7.0,
                                   "coordination": {"mean_abs_error_m": lead, "max_abs_error_m": 3 * lead}},
                             "b": {"mean_cross_track_m": None}},
-                "evaluation": {"cost": {"a": {"path_cost": pc, "time_cost_s": tc, "progress_short_m": None},
-                                        "b": {"path_cost": 0.5, "time_cost_s": None, "progress_short_m": 2.0}}}}
+                "evaluation": {"cost": {"a": {"path_cost": pc, "time_cost_s": tc, "progress_short_m": None,
+                                              "progress_lost_m": 0.0},
+                                        "b": {"path_cost": 0.5, "time_cost_s": None, "progress_short_m": 2.0,
+                                              "progress_lost_m": 31.0}}}}
 
     s = vessel_samples(summary(0.1, 4.0, 0.3, 1.5))
-    assert s == {"path_cost": [0.1, 0.5], "time_cost_s": [4.0], "mean_cross_track_m": [0.3],
-                 "max_cross_track_m": [0.6], "formation_error_m": [1.5], "formation_max_error_m": [4.5],
-                 "reference_short": 1}
+    assert s == {"path_cost": [0.1, 0.5], "time_cost_s": [4.0], "progress_lost_m": [0.0, 31.0],
+                 "mean_cross_track_m": [0.3], "max_cross_track_m": [0.6], "max_mission_offset_m": [7.0],
+                 "formation_error_m": [1.5], "formation_max_error_m": [4.5], "reference_short": 1, "behind": 1}
     runs = [StoredRun(index=k, family="f", parameters={}, seed=k, scenario="", status="completed", attempts=1,
                       error=None, metrics=summary(0.1 * k, float(k), 0.1, 1.0), wall_time_s=0.0, worker="w")
             for k in range(1, 4)]
     pv = aggregate(runs)["families"]["f"]["per_vessel"]
     assert pv["path_cost"]["n"] == 6 and pv["path_cost"]["p50"] == pytest.approx(0.4)
-    assert pv["time_cost_s"]["p50"] == 2.0 and pv["reference_short"] == 3
+    assert pv["time_cost_s"]["p50"] == 2.0 and pv["reference_short"] == 3 and pv["behind"] == 3
 
 
 def test_colreg_compliance_counts_only_the_encounters_with_a_role(tmp_path):

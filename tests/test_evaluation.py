@@ -335,6 +335,7 @@ def test_mission_cost_closed_forms():
     c = mission_cost(_trace(t, np.column_stack([late, 0 * t]), late), ref, tolerance_m=0.5)["a"]
     assert c["time_cost_s"] == pytest.approx(3.0, abs=1e-9) and c["path_cost"] == pytest.approx(0.0, abs=1e-9)
     assert c["progress_m"] == pytest.approx(16.5) and c["reached_s"] == pytest.approx(19.5)
+    assert c["progress_lost_m"] == pytest.approx(3.0)  # 3 s late at the end: 3 m less of the mission made
     c = mission_cost(_trace(t, np.column_stack([t, t]), t), ref, tolerance_m=0.5)["a"]
     assert c["path_cost"] == pytest.approx(math.sqrt(2) - 1, abs=1e-4)
     assert c["time_cost_s"] == pytest.approx(0.0, abs=1e-9)
@@ -343,6 +344,15 @@ def test_mission_cost_closed_forms():
                      tolerance_m=0.5)["a"]
     assert c["time_cost_s"] is None and c["progress_short_m"] == pytest.approx(14.0)
     assert c["path_cost"] == pytest.approx(0.0, abs=1e-9)  # the same distance per metre of progress
+    assert c["progress_lost_m"] == 0.0
+    # a run that stopped for good at γ = 6 (or was pushed back there): no path or time cost at its own
+    # progress, but 14 m of the mission lost against the reference
+    c = mission_cost(_trace(t, np.column_stack([stop, 0 * t]), stop), ref, tolerance_m=0.5)["a"]
+    assert c["time_cost_s"] == pytest.approx(0.0, abs=1e-9) and c["path_cost"] == pytest.approx(0.0, abs=1e-9)
+    assert c["progress_lost_m"] == pytest.approx(14.0)
+    back = np.where(t < 6.0, t, np.maximum(6.0 - 2.0 * (t - 6.0), 2.0))  # pushed back from γ = 6 to 2
+    c = mission_cost(_trace(t, np.column_stack([back, 0 * t]), back), ref, tolerance_m=0.5)["a"]
+    assert c["progress_lost_m"] == pytest.approx(14.0)  # (progress counts as its running maximum, 6 m)
     still = _trace(t, np.zeros((len(t), 2)), 0 * t)  # no progress: no cost
     assert mission_cost(still, still)["a"]["path_cost"] is None
 

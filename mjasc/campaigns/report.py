@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from mjasc.campaigns.hull_records import family_ticks, family_title, hull_table
-from mjasc.campaigns.statistics import aggregate, family_order, run_outcome, wilson_interval
+from mjasc.campaigns.statistics import BEHIND_M, aggregate, family_order, run_outcome, wilson_interval
 from mjasc.campaigns.report_figures import comparison_figures, numeric_params, outcome_map, save
 from mjasc.campaigns.store import CampaignStore
 from mjasc.campaigns.stored_file import file_compared_tables, file_gospa, file_methods
@@ -126,6 +126,11 @@ def _title(c: dict) -> list[str]:
     return lines
 
 
+def _vessels(pv: dict) -> int:
+    """How many vessels a family's per-vessel quantiles rest on (the largest n of its values)."""
+    return max((q["n"] for q in pv.values() if isinstance(q, dict)), default=0)
+
+
 def format_report(data: dict) -> str:
     """The report's table as Markdown (also printed by ``mjasc report``)."""
     if data.get("methods"):
@@ -144,13 +149,18 @@ def format_report(data: dict) -> str:
                      f"{_pct(g['colreg']['compliant'])} | {acts} |")
     lines += ["", "Per vessel, median / p95 over the vessels of the completed runs; cost against the same mission "
                   "without traffic (path: extra distance for the same progress; time: later than without traffic "
-                  "by; *short*: vessels whose reference never got as far, no time cost):", "",
-              "| family | vessels | path cost [%] | time cost [s] | mean cross-track [m] | max cross-track [m] "
-              "| formation error [m] | short |", "|---|---:|---|---|---|---|---|---:|"]
+                  "by; *lost*: how much less progress than without traffic by the run's end, and *behind*: vessels "
+                  f"more than {BEHIND_M:g} m behind — a vessel that stopped or was pushed back made its little "
+                  "progress at no path or time cost; *short*: vessels whose reference never got as far, no time "
+                  "cost; *off mission*: the largest distance from the mission path, detours included):", "",
+              "| family | vessels | path cost [%] | time cost [s] | progress lost [m] | behind | off mission [m] "
+              "| mean cross-track [m] | max cross-track [m] | formation error [m] | short |",
+              "|---|---:|---|---|---|---:|---|---|---|---|---:|"]
     for fam, g in list(data["families"].items()) + [("**all**", data)]:
         pv = g["per_vessel"]
-        n = max((q["n"] for k, q in pv.items() if k != "reference_short" and q), default=0)
-        lines.append(f"| {fam} | {n} | {_q(pv['path_cost'], 100, 1)} | {_q(pv['time_cost_s'], 1, 1)} | "
+        lines.append(f"| {fam} | {_vessels(pv)} | {_q(pv['path_cost'], 100, 1)} | {_q(pv['time_cost_s'], 1, 1)} | "
+                     f"{_q(pv.get('progress_lost_m'), 1, 1)} | {pv.get('behind', '—')} | "
+                     f"{_q(pv.get('max_mission_offset_m'), 1, 2)} | "
                      f"{_q(pv['mean_cross_track_m'], 1, 2)} | {_q(pv['max_cross_track_m'], 1, 2)} | "
                      f"{_q(pv['formation_error_m'], 1, 2)} | {pv['reference_short']} |")
     if data.get("mission"):  # chained missions (docs/missions.md)
@@ -242,14 +252,18 @@ def _format_comparison(data: dict) -> str:
                      f"{_sep3(g['min_separation_m'])} | {_pct(g['colreg']['compliant'])} | "
                      f"{_med(pv['path_cost'], 100, 1, True)} | {_med(pv['time_cost_s'], 1, 1, True)} | {acts} |")
     lines += ["", "Per vessel, median / p95 over the vessels of the completed runs; cost against the same mission "
-                  "without traffic, with the same method (*short*: vessels whose reference never got as far, no "
-                  "time cost):", "",
-              "| family | method | vessels | path cost [%] | time cost [s] | mean cross-track [m] | max cross-track [m] "
-              "| formation error [m] | short |", "|---|---|---:|---|---|---|---|---|---:|"]
+                  "without traffic, with the same method (*lost* / *behind*: how much less progress than without "
+                  f"traffic by the run's end, and the vessels more than {BEHIND_M:g} m behind; *off mission*: the "
+                  "largest distance from the mission path, detours included — the same measure for every method; "
+                  "*short*: vessels whose reference never got as far, no time cost):", "",
+              "| family | method | vessels | path cost [%] | time cost [s] | progress lost [m] | behind "
+              "| off mission [m] | mean cross-track [m] | max cross-track [m] | formation error [m] | short |",
+              "|---|---|---:|---|---|---|---:|---|---|---|---|---:|"]
     for fam, m, g in _comparison_rows(data):
         pv = g["per_vessel"]
-        n = max((q["n"] for k, q in pv.items() if k != "reference_short" and q), default=0)
-        lines.append(f"| {fam} | {m} | {n} | {_q(pv['path_cost'], 100, 1)} | {_q(pv['time_cost_s'], 1, 1)} | "
+        lines.append(f"| {fam} | {m} | {_vessels(pv)} | {_q(pv['path_cost'], 100, 1)} | "
+                     f"{_q(pv['time_cost_s'], 1, 1)} | {_q(pv.get('progress_lost_m'), 1, 1)} | "
+                     f"{pv.get('behind', '—')} | {_q(pv.get('max_mission_offset_m'), 1, 2)} | "
                      f"{_q(pv['mean_cross_track_m'], 1, 2)} | {_q(pv['max_cross_track_m'], 1, 2)} | "
                      f"{_q(pv['formation_error_m'], 1, 2)} | {pv['reference_short']} |")
     for m, p in (data.get("paired") or {}).items():

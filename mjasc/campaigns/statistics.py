@@ -34,10 +34,15 @@ __all__ = ["Z95", "wilson_interval", "quantiles", "run_outcome", "vessel_samples
 
 #: Per-vessel values (:func:`vessel_samples`): name → (where in the summary, field).
 PER_VESSEL = {"path_cost": ("cost", "path_cost"), "time_cost_s": ("cost", "time_cost_s"),
+              "progress_lost_m": ("cost", "progress_lost_m"),
               "mean_cross_track_m": ("vessel", "mean_cross_track_m"),
               "max_cross_track_m": ("vessel", "max_cross_track_m"),
+              "max_mission_offset_m": ("vessel", "max_mission_offset_m"),
               "formation_error_m": ("coordination", "mean_abs_error_m"),
               "formation_max_error_m": ("coordination", "max_abs_error_m")}
+
+#: A vessel that ends more than this short of its reference's progress is counted ``behind`` [m].
+BEHIND_M = 1.0
 
 #: z for a two-sided 95 % interval.
 Z95 = 1.959963984540054
@@ -73,18 +78,23 @@ def quantiles(values) -> dict | None:
 
 def vessel_samples(summary: dict | None) -> dict:
     """Per-vessel values of a run (module docstring): ``{name in PER_VESSEL: [value per vessel that
-    has it]}`` and ``reference_short``: how many vessels' reference fell short (no time cost)."""
+    has it]}``, ``reference_short``: how many vessels' reference fell short (no time cost), and
+    ``behind``: how many vessels ended more than :data:`BEHIND_M` short of their reference's
+    progress (``progress_lost_m``: stopped, turned back or pushed back — costs taken at the run's
+    own progress do not show it)."""
     s = summary or {}
     cost = (s.get("evaluation") or {}).get("cost") or {}
     out: dict = {k: [] for k in PER_VESSEL}
-    short = 0
+    short = behind = 0
     for name, v in (s.get("vessels") or {}).items():
         where = {"cost": cost.get(name) or {}, "vessel": v, "coordination": v.get("coordination") or {}}
         for key, (src, fld) in PER_VESSEL.items():
             if where[src].get(fld) is not None:
                 out[key].append(where[src][fld])
         short += where["cost"].get("progress_short_m") is not None
+        behind += (where["cost"].get("progress_lost_m") or 0.0) > BEHIND_M
     out["reference_short"] = short
+    out["behind"] = behind
     return out
 
 
@@ -172,7 +182,8 @@ def _group(runs, near_miss_m: float) -> dict:
         "id_switches": sum(o["id_switches"] or 0 for o in outs),
         "position_rmse_m": quantiles(o["position_rmse_m"] for o in outs),
         "per_vessel": {**{k: quantiles(x for o in outs for x in o["per_vessel"][k]) for k in PER_VESSEL},
-                       "reference_short": sum(o["per_vessel"]["reference_short"] for o in outs)},
+                       "reference_short": sum(o["per_vessel"]["reference_short"] for o in outs),
+                       "behind": sum(o["per_vessel"]["behind"] for o in outs)},
         "sim_time_s_total": round(sum(o["sim_time_s"] or 0.0 for o in outs), 3),
         "run_wall_time_s": {"sum": round(sum(walls), 3), "mean": round(float(np.mean(walls)), 3) if walls else None},
         "mission": mission,
@@ -271,12 +282,13 @@ def format_aggregate(agg: dict, name: str = "") -> str:
 
     def cost(pv):
         p, t = pv["path_cost"], pv["time_cost_s"]
-        return "—" if not p else f"{100 * p['p50']:+.1f} % / " + ("—" if not t else f"{t['p50']:+.1f} s")
+        behind = f", {pv['behind']} behind" if pv.get("behind") else ""
+        return "—" if not p else f"{100 * p['p50']:+.1f} % / " + ("—" if not t else f"{t['p50']:+.1f} s") + behind
 
     lines = [f"{name}: {agg['runs_recorded']} of {agg['runs_defined']} run(s) recorded, {agg['completed']} completed, "
              f"{agg['runs_failed']} failed"]
     rows = [("family", "runs", "collision (Wilson 95 %)", "near miss (Wilson 95 %)", "separation",
-             "median cost: path / time")]
+             "median cost: path / time (vessels behind)")]
     if agg.get("methods"):  # a comparison: one row per family and method
         rows = [("family", "method") + rows[0][1:]]
         fams = list(agg["families"]) + ["all"]

@@ -21,7 +21,11 @@ rate:
 
 If the reference never reached P (it is slower, or the run's vessel shortcut its path), the time
 cost is None, ``progress_short_m`` = P − P_ref says by how much (P_ref = m_ref(t_end) − δ), and the
-path cost compares distance per metre of progress: (d_run(P)/P) / (d_ref(P_ref)/P_ref) − 1. A vessel that made
+path cost compares distance per metre of progress: (d_run(P)/P) / (d_ref(P_ref)/P_ref) − 1.
+The other way round, ``progress_lost_m`` = max(P_ref − P, 0) is how much less of the mission the
+run's vessel made by the run's end than without traffic: the costs, taken at the run's own
+progress, cannot show it (a vessel that stopped for good, or was pushed back in a collision, made
+its little progress at no cost). A vessel that made
 less than δ of progress has no cost (None). A run is a pure function of its scenario and seed, so a
 run without traffic is its own reference: every cost is 0 exactly (:func:`zero_cost`).
 """
@@ -142,7 +146,8 @@ def mission_cost(run: ProgressTrace, ref: ProgressTrace, tolerance_m: float = 0.
         ref_level = float(mr[-1]) - tolerance_m
         row = {"reference": reference, "progress_m": _r(max(level, 0.0), 3), "reached_s": None, "distance_m": None,
                "ref_progress_m": _r(max(ref_level, 0.0), 3), "ref_reached_s": None, "ref_distance_m": None,
-               "path_cost": None, "time_cost_s": None, "progress_short_m": None}
+               "path_cost": None, "time_cost_s": None, "progress_short_m": None,
+               "progress_lost_m": _r(max(ref_level - max(level, 0.0), 0.0), 3) if ref_level > 0.0 else None}
         out[name] = row
         if level <= 0.0:
             continue
