@@ -40,13 +40,14 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(value, str) and path_problem(value):
             print(f"mjasc: {name} {show_path(value)}: not a usable file name ({path_problem(value)})", file=sys.stderr)
             return 2
+    listening = None
     if args.command in _SIMULATING:
         from mjasc.core.kernel_cache import COLD_HINT, announce_compiles, cache_is_cold
 
         if cache_is_cold():
             print(COLD_HINT, file=sys.stderr)
-        else:  # (a kernel missing from a partly filled cache compiles silently otherwise)
-            announce_compiles(sys.stderr)
+        else:  # (a kernel missing from a partly filled cache compiles silently otherwise: said while the command runs)
+            listening = announce_compiles(sys.stderr)
     try:
         status = args.func(args)
         sys.stdout.flush()  # (here, not at exit: a reader that left is answered below)
@@ -74,6 +75,11 @@ def main(argv: list[str] | None = None) -> int:
         print(f"mjasc: internal error: {type(exc).__name__}: {text[:500]} (MJASC_TRACEBACK=1 shows where)",
               file=sys.stderr)
         return 1
+    finally:
+        if listening is not None:
+            from numba.core import event
+
+            event.unregister("numba:compile", listening)
 
 
 def command_line() -> None:

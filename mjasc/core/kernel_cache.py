@@ -66,8 +66,8 @@ def _cold(root: Path, custom: str | None) -> bool:
 def announce_compiles(stream):
     """Print :data:`PARTLY_COLD_HINT` to ``stream`` when the first of mjasc's kernels is compiled in
     this process rather than loaded from numba's cache (once; kernels of other packages are left
-    out). Registered as a listener of numba's ``numba:compile`` event for the rest of the process;
-    returns the listener (``numba.core.event.unregister("numba:compile", it)`` removes it)."""
+    out), as a listener of numba's ``numba:compile`` event. Returns the listener: the caller removes
+    it (``numba.core.event.unregister("numba:compile", it)``) when its command ends — the CLI does."""
     from numba.core import event
 
     class _FirstCompile(event.Listener):
@@ -78,7 +78,10 @@ def announce_compiles(stream):
             module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
             if not self.said and module.startswith("mjasc."):
                 self.said = True
-                print(PARTLY_COLD_HINT, file=stream, flush=True)
+                try:
+                    print(PARTLY_COLD_HINT, file=stream, flush=True)
+                except (OSError, ValueError):  # (a closed or gone stream: a hint, never an error)
+                    pass
 
         def on_end(self, ev):
             pass
