@@ -28,7 +28,8 @@ def test_distances_to_the_mission_path_at_every_nth_counted_tick():
     for k, y in enumerate(ys):  # ticks 0, 2, 4 sampled
         offsets.sample(np.array([[10.0 + k, y], [20.0, y], [0.0, 0.0]]), [0.1, 0.1 if k != 2 else np.nan, 0.1], agents)
     first = offsets.summary(0)
-    assert first["mean_mission_offset_m"] == pytest.approx((1.0 + 2.0 + 3.0) / 3) and first["max_mission_offset_m"] == 3.0
+    assert first["mean_mission_offset_m"] == pytest.approx((1.0 + 2.0 + 3.0) / 3)
+    assert first["max_mission_offset_m"] == 3.0
     second = offsets.summary(1)  # its mission leg at y = 10; tick 2 not counted
     assert second["mean_mission_offset_m"] == pytest.approx((9.0 + 7.0) / 2) and second["max_mission_offset_m"] == 9.0
     assert offsets.summary(2) == {"mean_mission_offset_m": None, "max_mission_offset_m": None}  # no path

@@ -91,8 +91,8 @@ def test_an_exception_inside_a_plugin_names_it_and_its_line(registered):
 
     registered("avoidance", Raises)
     _run_fails(_doc("avoidance", {"method": "test_raises"}, vessels=(1,)),
-               r"^ZeroDivisionError at t = 0\.[56]00 s: division by zero \(avoidance method 'test_raises' of vessel 'b': "
-               r"test_plugin_faults\.py:\d+\)")
+               r"^ZeroDivisionError at t = 0\.[56]00 s: division by zero \(avoidance method 'test_raises' of "
+               r"vessel 'b': test_plugin_faults\.py:\d+\)")
 
 
 def test_a_call_with_the_wrong_signature_names_the_method(registered):

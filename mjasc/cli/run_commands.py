@@ -55,7 +55,8 @@ def cmd_run(args) -> int:
     for name, v in s["vessels"].items():
         xte = "" if v["mean_cross_track_m"] is None else \
             f", cross-track mean {v['mean_cross_track_m']} m / max {v['max_cross_track_m']} m"
-        off = "" if v.get("max_mission_offset_m") is None else f", off the mission path max {v['max_mission_offset_m']} m"
+        offset = v.get("max_mission_offset_m")
+        off = "" if offset is None else f", off the mission path max {offset} m"
         near = "" if v["min_clearance_to_any_m"] is None else f", closest approach {v['min_clearance_to_any_m']} m"
         print(f"  {name} ({v['type']}): {v['distance_m']} m sailed{xte}{off}{near}")
     for kind, path in result.files.items():

@@ -30,8 +30,8 @@ from mjasc.core.estimates import TrackEstimate
 from mjasc.guidance.path_following import PathFollowingStatus
 from mjasc.plugins.registry import builtin_method
 
-__all__ = ["avoidance_answers", "avoidance_answer", "tracks_answer", "steer_answer", "factor_answer", "team_picture_answer",
-           "events_answer", "plugin_at_fault", "where"]
+__all__ = ["avoidance_answers", "avoidance_answer", "tracks_answer", "steer_answer", "factor_answer",
+           "team_picture_answer", "events_answer", "plugin_at_fault", "where"]
 
 
 def where(method, vessel_name: str | None = None) -> str:

@@ -100,7 +100,8 @@ def register(stage: str, cls: type, name: str | None = None, replace: bool = Fal
         raise ConfigError(f"register({name!r}): another {stage} method ({held.__module__}.{held.__qualname__}) is "
                           f"registered under {name!r}; unregister it first or pass replace=True")
     if held is None and not replace:  # (an installed package's method of that name would be shadowed unsaid)
-        installed = sorted({ep.value for ep in metadata.entry_points(group=entry_point_group(stage)) if ep.name == name})
+        group = metadata.entry_points(group=entry_point_group(stage))
+        installed = sorted({ep.value for ep in group if ep.name == name})
         if installed and installed != [f"{cls.__module__}:{cls.__qualname__}"]:
             raise ConfigError(f"register({name!r}): an installed package declares the {stage} method {name!r} "
                               f"({', '.join(installed)}); give yours another name or pass replace=True")
