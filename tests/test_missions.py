@@ -269,11 +269,14 @@ def test_go_to_formation_with_traffic_avoids_and_still_arrives_together():
 
 def _check_tracking(s, rms_m=6.0, max_m=15.0, standoff_tol_m=5.0):
     """Pass criteria (docs/missions.md): the target in track the whole phase (every vessel's
-    estimate fresh), the true station error RMS ≤ 6 m and max ≤ 15 m after settling, the mean
+    estimate fresh from its first second), the true station error RMS ≤ 6 m and max ≤ 15 m after settling, the mean
     stand-off within 5 m of nominal, never closer than 20 m."""
     for name, v in s["vessels"].items():
         tt = next(p for p in v["mission"]["phases"] if p["phase"] == "track_target")
-        assert tt["completed"] and tt["in_track_fraction"] == 1.0, (name, tt)
+        # in track from the phase's first seconds (the fraction is of the whole phase: the time
+        # before the first designation counts as out of track) and never lost after
+        assert tt["completed"] and tt["in_track_fraction"] >= 0.99 and tt["longest_gap_s"] == 0.0, (name, tt)
+        assert tt["target_acquired_s"] - tt["start_s"] <= 2.5, (name, tt)  # (a follower: the leader's first messages)
     truth = s["mission"]["track_target_truth"]
     assert set(truth) == set(s["vessels"])
     for name, t in truth.items():
@@ -337,11 +340,13 @@ def test_a_target_phase_without_a_judged_target_runs_unjudged():
 
 
 def _false_alarm(withdraw: bool):
-    """The target-tracking mission with the ferry 30–50 m north of the stations: charlie's tracker
-    starts a track on the ferry's far edge whose first velocity estimate (3.4 m/s south-west, the
-    ferry sails 1.5 m/s west) predicts a 2.1 m pass 27 s ahead; the next estimates clear it."""
+    """The target-tracking mission with the ferry 30–50 m north of the stations, on seed 8:
+    charlie's tracker starts a track on the ferry (track 236) whose first estimates predict a
+    0.9 m pass at 96.6 s; the next estimates clear it. (Seed 1 gave such a case until the
+    stations' turn feed-forward moved charlie, 2026-12-06; seeds 1–15 give two, 8 and 10.)"""
     d = _data("target_tracking_traffic")
     d["duration_s"] = 130.0
+    d["seed"] = 8
     d["moving_obstacles"][0]["position_m"] = [330.0, 60.0]
     for v in d["vessels"]:
         v["avoidance"]["withdraw_false_alarms"] = withdraw
@@ -350,11 +355,11 @@ def _false_alarm(withdraw: bool):
 
 def test_a_yield_on_a_new_tracks_false_alarm_is_withdrawn():
     """With ``withdraw_false_alarms`` a yield whose track, predicted again at the mission speed,
-    passes well clear for 3 s is withdrawn (here 45 m clear); by default the vessel holds it to
-    its goal, 28.5 s, as the thesis's velocity correction does."""
+    passes well clear for 3 s is withdrawn; by default the vessel holds it to its goal, 27.1 s, as
+    the thesis's velocity correction does."""
     s = _false_alarm(True)
     a = s["vessels"]["charlie"]["avoidance"]
-    assert [c["track_id"] for c in a["conflicts"]] == [220] and a["actions"]["yield"] == 1
+    assert [c["track_id"] for c in a["conflicts"]] == [236] and a["actions"]["yield"] == 1
     assert a["actions"]["withdrawn"] == 1 and a["mode_time_s"]["avoidance:yield"] <= 6.0  # (4.5 s: clear for 3 s)
     held = _false_alarm(False)["vessels"]["charlie"]["avoidance"]
     assert held["actions"]["yield"] == 1 and held["actions"]["withdrawn"] == 0
@@ -705,3 +710,51 @@ def test_a_team_mates_old_track_coasting_on_is_not_designated():
                                   _track(7, 310.0, 60.0, t=1.5)], [])
     seq.update(1.5, _nav(250.0, 50.0, t=1.5), 1.5, seal, None, "mission")
     assert seq.phase.estimate is not None and seq.phase.estimate.track_id == 7
+
+
+def test_the_in_track_fraction_is_of_the_whole_phase():
+    """A follower that heard the leader's estimate only halfway through the phase counted 100 % in
+    track and the phase completed (the fraction ran from the first designation, against the docs:
+    "in track … for at least min_in_track_fraction of it")."""
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs, TargetEstimate
+    from mjasc.missions.target_tracking import TrackTarget, TrackTargetOptions
+
+    opts = TrackTargetOptions(leader="alpha", target_hint_m=np.array([100.0, 0.0]), duration_s=100.0, settle_s=0.0)
+    ph = TrackTarget(0, opts, "bravo", [-30.0, 10.0], 1.5, 3.0)
+    ph.begin(0.0, _nav(0.0, 0.0))
+    for t in np.arange(0.1, 100.05, 0.1):
+        est = TargetEstimate(float(t), np.array([100.0 + t, 0.0]), np.array([1.0, 0.0]), 7, "alpha")
+        heard = {"alpha": MissionBroadcast(0, target=est)} if t >= 50.0 else {}
+        ph.step(PhaseInputs(float(t), _nav(60.0, 10.0), 0.0, None, heard, True))
+    r = ph.result()
+    assert r["target_acquired_s"] == pytest.approx(50.0, abs=0.11)
+    assert r["in_track_fraction"] == pytest.approx(0.5, abs=0.01) and not r["completed"]
+    assert r["longest_gap_s"] == 0.0  # (no gap once in track)
+
+
+@pytest.mark.parametrize("offset", [[-35.0, 0.0], [0.0, -20.0], [-30.0, 10.0]])
+def test_a_station_s_speed_is_its_own_in_a_turn(offset):
+    """The speed law's feed-forward is the station's own speed |ṡ|, ṡ = v_T + ω J R(χ) o: a
+    station astern of a turning target swings sideways at ω o_ahead; with the along-course part
+    alone (|v_T| − ω o_port) a station 35 m astern in a 0.8°/s turn lagged ~4 m for good."""
+    from mjasc.missions.legs import MissionBroadcast, PhaseInputs, TargetEstimate
+    from mjasc.missions.target_tracking import TrackTarget, TrackTargetOptions
+
+    w, v = math.radians(0.8), 0.7
+    opts = TrackTargetOptions(leader="alpha", target_hint_m=np.array([0.0, 0.0]), duration_s=100.0, settle_s=0.0)
+    ph = TrackTarget(0, opts, "bravo", offset, 1.5, 3.0)
+    ph.begin(0.0, _nav(0.0, 0.0))
+    est = TargetEstimate(0.0, np.array([0.0, 0.0]), np.array([v, 0.0]), 7, "alpha", turn_rate_rad_s=w)
+    s = station(est.position_at(0.1), 0.0, np.asarray(offset, dtype=float))
+    # the vessel exactly on its station: no along-course error, the speed is the feed-forward alone
+    leg, _ = ph.step(PhaseInputs(0.1, _nav(float(s[0]), float(s[1]), speed=v), 0.0, None,
+                                 {"alpha": MissionBroadcast(0, target=est)}, True))
+    ahead, port = offset
+    assert leg.speed_m_s == pytest.approx(math.hypot(v - w * port, w * ahead), abs=0.02)
+    # and it is the station's speed: the station's positions a small time apart
+    h = 1e-4
+    def st(t):
+        th = w * t
+        p_t = np.array([v / w * math.sin(th), v / w * (1.0 - math.cos(th))])
+        return station(p_t, th, np.asarray(offset, dtype=float))
+    assert math.hypot(v - w * port, w * ahead) == pytest.approx(float(np.hypot(*(st(h) - st(0.0)))) / h, rel=1e-3)

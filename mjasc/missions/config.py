@@ -94,7 +94,7 @@ class TrackTargetOptions:
                                       doc="an estimate older than this counts as the target out of track")
     min_in_track_fraction: float = param(0.95, positive=True, maximum=1.0,
                                          doc="the phase is completed when the target was in track at least this "
-                                             "fraction of it (from the first designation)")
+                                             "fraction of it (before the first designation it is not)")
     settle_s: float = param(60.0, nonneg=True, unit="s",
                             doc="station errors are judged from this long after the phase starts")
 

@@ -171,12 +171,12 @@ class TrackTarget:
         done = t_s - self.t0_s >= o.duration_s
         est = self.estimate
         fresh = est is not None and t_s - est.time_s <= o.max_estimate_age_s
-        if self.first_estimate_s is not None:
-            if fresh:
-                self.in_track_s += dt
-                self._gap_s = 0.0
-            else:
-                self.out_of_track_s += dt
+        if fresh:  # (the phase's time: before the first designation the target is out of track too)
+            self.in_track_s += dt
+            self._gap_s = 0.0
+        else:
+            self.out_of_track_s += dt
+            if self.first_estimate_s is not None:  # (a gap: after the target was first in track)
                 self._gap_s += dt
                 self.longest_gap_s = max(self.longest_gap_s, self._gap_s)
         if est is None:
@@ -187,8 +187,10 @@ class TrackTarget:
         u = np.array([math.cos(chi), math.sin(chi)])
         pos = np.asarray(nav.position_m[:2], dtype=float)
         along = float((s - pos) @ u)
-        # the station's own along-course speed: |v_T| + ω (J o)·x̂ = |v_T| − ω o_port (outside a turn: faster)
-        station_speed = est.speed_m_s - est.turn_rate_rad_s * float(self.offset_m[1])
+        # the station's own speed |ṡ|, ṡ = v_T + ω J R(χ) o: along the course |v_T| − ω o_port (outside a
+        # turn: faster), across it ω o_ahead (a station astern swings sideways; the line it is on with it)
+        w = est.turn_rate_rad_s
+        station_speed = math.hypot(est.speed_m_s - w * float(self.offset_m[1]), w * float(self.offset_m[0]))
         speed = min(max(station_speed + o.speed_gain_1_s * along, 0.0), self.top_m_s)
         if t_s - self.t0_s >= o.settle_s:
             self._errors.append((float(math.hypot(*(s - pos))), along, float(math.hypot(*(p_t - pos)))))
