@@ -239,3 +239,13 @@ def test_a_large_fleet_gets_per_vessel_views_for_its_first_vessels_only(tmp_path
     values = [row for b in speed if "Scalars:scalars" in b.schema.names
               for row in b.column(b.schema.get_field_index("Scalars:scalars")).to_pylist()]
     assert values and all(len(row) == len(others) for row in values)  # a series per vessel, every row
+
+
+def test_a_velocity_obstacle_vessel_s_mode_changes_are_logged_once(tmp_path):
+    """The velocity-obstacle method logs its mode changes itself; the runner logged each again
+    (a reviewer found every switch twice in the event log)."""
+    Runner(load_scenario(TASKS / "velocity_obstacle_crossing.toml").with_overrides(duration_s=70.0), tmp_path,
+           progress=False).run()
+    rec = _rows(rr.chunk.RrdReader(tmp_path / "recording.rrd").store())
+    changes = [(t, text[0]) for t, text in rec["/events:TextLog:text"] if re.match(r"\w+: mode \S+ → \S+", text[0])]
+    assert changes and len(changes) == len(set(changes))

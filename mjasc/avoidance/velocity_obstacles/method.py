@@ -99,6 +99,8 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
     method = "velocity_obstacle"
     Options = VelocityObstacleOptions
     check_options = staticmethod(check_options)
+    #: Its mode changes are events of its own (:meth:`_set_mode`): the runner does not log them again.
+    logs_mode_changes = True
 
     def __init__(self, context, options: VelocityObstacleOptions | None = None):
         super().__init__(context, options)
