@@ -243,9 +243,16 @@ def test_a_large_fleet_gets_per_vessel_views_for_its_first_vessels_only(tmp_path
 
 def test_a_velocity_obstacle_vessel_s_mode_changes_are_logged_once(tmp_path):
     """The velocity-obstacle method logs its mode changes itself; the runner logged each again
-    (a reviewer found every switch twice in the event log)."""
+    (a reviewer found every switch twice in the event log). Its threat panel shows its latest
+    decision (it has no prediction to tabulate)."""
     Runner(load_scenario(TASKS / "velocity_obstacle_crossing.toml").with_overrides(duration_s=70.0), tmp_path,
            progress=False).run()
     rec = _rows(rr.chunk.RrdReader(tmp_path / "recording.rrd").store())
     changes = [(t, text[0]) for t, text in rec["/events:TextLog:text"] if re.match(r"\w+: mode \S+ → \S+", text[0])]
     assert changes and len(changes) == len(set(changes))
+    # its threat panel said "no prediction yet" for the whole run: it says how the method decides
+    # and, from its first conflict, the latest decision
+    panel = [(t, v[0] if isinstance(v, list) else v) for t, v in rec["/threats/north:TextDocument:text"]]
+    assert all("no prediction yet" not in text and "velocity obstacles" in text for _, text in panel)
+    steer = next(t for t, text in changes if text.startswith("north: mode mission → avoidance:steer"))
+    assert any(t == steer and "latest decision: **steer (crossing_give_way)** for T0" in text for t, text in panel)

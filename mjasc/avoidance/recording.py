@@ -142,7 +142,10 @@ class AvoidanceLog:
         self._vessel = (vessel_name, f"world/vessels/{vessel_name}/avoidance", recorder.has_views(vessel_name))
         return self._vessel
 
-    def log(self, recorder, t, vessel_name, mode, correction, guidance, last, detour, team=frozenset()) -> None:
+    def log(self, recorder, t, vessel_name, mode, correction, guidance, last, detour, team=frozenset(),
+            note: str | None = None) -> None:
+        """``note``: for a method without predictions (the velocity obstacles), what the threat panel
+        says instead of its table — its latest decision (:func:`~mjasc.avoidance.threat_panel.threat_markdown`)."""
         vessel = self._vessel if self._vessel[0] == vessel_name else self._entity(recorder, vessel_name)
         base = vessel[1]
         if not self._styled:
@@ -151,7 +154,7 @@ class AvoidanceLog:
             self._mode = mode
             recorder.state(f"modes/{vessel_name}", t, mode)
         if vessel[2]:  # (the threat panel: vessels with views only)
-            self._log_threats(recorder, t, vessel_name, mode, correction, last, team)
+            self._log_threats(recorder, t, vessel_name, mode, correction, last, team, note)
         c = correction
         if c is not None and guidance is not None:
             g_d = c.law.gamma_desired(t) - c.gamma_offset_m
@@ -165,17 +168,17 @@ class AvoidanceLog:
             self._log_prediction(recorder, t, base, last, detour)
             self._pending = False
 
-    def _log_threats(self, recorder, t, vessel_name, mode, correction, last, team) -> None:
+    def _log_threats(self, recorder, t, vessel_name, mode, correction, last, team, note=None) -> None:
         shown = last if last is not None and last.time_s <= t else None
         if shown is not self._shown:  # (the conflicts' ids only change with the prediction)
             self._shown, self._shown_ids = shown, () if shown is None else (
                 tuple(c.track_id for c in shown.conflicts), tuple(s.track_id for s in shown.statics))
-        key = (mode, id(correction), self._shown_ids)
+        key = (mode, id(correction), self._shown_ids, note)
         self._threats_due |= self._pending or key != self._threats_key
         if not self._threats_due or (key == self._threats_key and t - self._threats_t < THREAT_PERIOD_S - 1e-9):
             return
         self._threats_due, self._threats_key = False, key
-        text = threat_markdown(vessel_name, shown, team, mode, correction)
+        text = threat_markdown(vessel_name, shown, team, mode, correction, note)
         if text != self._threats:
             self._threats, self._threats_t = text, t
             recorder.document(f"threats/{vessel_name}", t, text)

@@ -64,15 +64,16 @@ def _num(x: float, fmt: str) -> str:
     return format(x, fmt) if np.isfinite(x) else "–"
 
 
-def threat_markdown(vessel_name: str, record, team, mode: str, correction=None) -> str:
-    """The panel as markdown: a header with the mode and the running correction, then a table."""
+def threat_markdown(vessel_name: str, record, team, mode: str, correction=None, note: str | None = None) -> str:
+    """The panel as markdown: a header with the mode and the running correction, then a table.
+    ``note``: what a method without predictions says instead (its latest decision)."""
     lines = [f"**{vessel_name}**: mode **{mode}**"]
     if correction is not None:
         what = "emergency stop" if getattr(correction, "emergency", False) else correction.kind
         lines.append(f"velocity correction: {what} for track T{correction.track_id}, "
                      f"V_d = {correction.law.desired_speed:.2f} m/s")
     if record is None:
-        return "\n\n".join(lines + ["no prediction yet"]) + "\n"
+        return "\n\n".join(lines + [note if note is not None else "no prediction yet"]) + "\n"
     rows = threat_rows(record, team)
     lines.append(f"prediction at t = {record.time_s:.1f} s: {sum(r.collision for r in rows)} conflict(s) "
                  f"among {len(record.all) + len(record.statics)} track(s)")

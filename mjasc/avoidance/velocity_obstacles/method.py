@@ -392,5 +392,16 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
     logs_guidance = False
 
     def log(self, recorder, t, vessel_name, guidance=None) -> None:
-        """The mode (state lane) and the threat panel's header, as the thesis method does."""
-        self._log.log(recorder, t, vessel_name, self.mode, None, guidance, None, None, self.team)
+        """The mode (state lane) and the threat panel: its header, as the thesis method's, and —
+        the method predicts nothing ahead of time — its latest decision instead of a table."""
+        self._log.log(recorder, t, vessel_name, self.mode, None, guidance, None, None, self.team, self._panel_note())
+
+    def _panel_note(self) -> str:
+        """The threat panel's text: how the method decides, and its latest decision."""
+        text = ("velocity obstacles: no prediction ahead of time — every control tick weighs the candidate "
+                "velocities against each track's time to collision")
+        c = self.last_conflict
+        if c is not None:
+            what = "a mapped structure" if c["static"] else f"T{c['track_id']}"
+            text += f"\n\nlatest decision: **{c['decision']}** for {what} at t = {c['time_s']:.1f} s"
+        return text
