@@ -540,3 +540,45 @@ def test_a_run_whose_video_fails_keeps_the_frames_before_as_without_holding(tmp_
 
     held, now = run("held", True), run("now", False)
     assert held == now and held[1] == "error" and held[2] == (4 if where == "scene" else 30)
+
+
+def test_the_hud_shows_what_was_done_for_the_running_manoeuvre_s_track():
+    """A reviewer saw "avoidance:pass / velocity_correction for T131" while charlie passed T130 (the
+    latest logged conflict, answered with stand-on), and "replan" for a vessel yielding: the line
+    shows the triage's answer (``action``) and, during a yield or pass, its track's decision."""
+    import types
+
+    from mjasc.runs.video_scene import frame_view
+
+    def decision(correction, log, latest):
+        avoidance = types.SimpleNamespace(conflict_log=log, last_conflict=latest, last_prediction=None, detour=None,
+                                          correction=correction)
+        agent = types.SimpleNamespace(name="a", perception=None, avoidance=avoidance, mode="avoidance:pass",
+                                      config=types.SimpleNamespace(path=None))
+        current = types.SimpleNamespace(velocity=lambda p, t: np.zeros((1, 2)))
+        runner = types.SimpleNamespace(agents=[agent], last_outputs=[None], sim=types.SimpleNamespace(current=current))
+        states = types.SimpleNamespace(position_m=np.zeros((1, 2)), heading_rad=np.zeros(1))
+        return frame_view(types.SimpleNamespace(runner=runner, states=states, time_s=101.2), (0.0, 0.0)).vessels[0].decision
+
+    passing = {"decision": "velocity_correction", "track_id": 130, "time_s": 101.1, "action": "pass first (speed up)"}
+    standing = {"decision": "velocity_correction", "track_id": 131, "time_s": 101.1,
+                "action": "team right of way: stand-on, keeps its speed"}
+    corr = types.SimpleNamespace(track_id=130, kind="pass", emergency=False)
+    assert decision(corr, [passing, standing], standing) == "pass first (speed up) for T130 at 101.1 s"
+    assert decision(None, [passing, standing], standing) == \
+        "team right of way: stand-on, keeps its speed for T131 at 101.1 s"  # (no manoeuvre: the latest)
+    assert decision(corr, [standing], standing) == "pass for T130 at 101.2 s"  # (its entry past the capped log)
+    assert decision(None, [], {"decision": "replan", "track_id": 1, "time_s": 101.1}) == "replan for T1 at 101.1 s"
+
+
+def test_the_conflict_log_says_what_the_triage_did():
+    """σ said re-plan where a give-way vessel yields to a team mate (the §6.4.3 bottleneck's bravo at
+    101.1 s): the entry's ``action`` is the answer, beside the prediction's ``decision``."""
+    from mjasc.runs.runner import Runner
+
+    sc = load_scenario(TASKS / "thesis_6_4_bottleneck.toml").with_overrides(duration_s=102.0)
+    s = Runner(sc, None, progress=False).run().summary
+    entries = [c for v in s["vessels"].values() for c in v["avoidance"]["conflicts"] if "track_id" in c]
+    assert entries and all(c.get("action") for c in entries if c["time_s"] > 5.0)
+    assert any(c["decision"] == "replan" and "yield" in c["action"] for c in entries)
+    assert any("stand-on" in c["action"] for c in entries)

@@ -41,6 +41,25 @@ class Manoeuvres:
     """Decision σ and the path switches of :class:`~mjasc.avoidance.system.CollisionAvoidance`
     (see the module docstring)."""
 
+    def _note_answers(self, t, roles: dict) -> None:
+        """The triage's answer to each conflict of this prediction (``roles``: track id → text): an
+        event each, and the ``action`` of its entry in the conflict log (its ``decision`` is the
+        prediction's σ, which the triage may answer otherwise: a give-way vessel yields to a team
+        mate rather than re-plan around it; a stand-on vessel keeps its speed)."""
+        if not roles:
+            return
+        now = round(t, 2)
+        entries = [e for e in self.conflict_log[-len(roles) - 4:] if e.get("time_s") == now]
+        if self.last_conflict is not None and self.last_conflict.get("time_s") == now:
+            entries.append(self.last_conflict)
+        for track_id, text in roles.items():
+            if track_id is None:
+                continue
+            self._event(t, f"track {track_id}: {text}")
+            for e in entries:
+                if e.get("track_id") == track_id:
+                    e["action"] = text
+
     def _decide(self, t, nav, conflicts, statics, by_id, static_polygons, allow_replan=True,
                 static_outlines=()) -> None:
         gamma = float(self._guidance.gamma_m)
@@ -50,6 +69,7 @@ class Manoeuvres:
                      giving_way, standing_on, self.name, float(self._guidance.path.length))
         self._stands_on = frozenset(tri.stand_on_mates)
         self._last = replace(self._last, roles=tuple(tri.roles.items()))  # for the threat panel
+        self._note_answers(t, tri.roles)
         for stat, text in tri.notes:
             if stat is not None:
                 self.stats[stat] += 1

@@ -112,12 +112,18 @@ def frame_view(event, centre_xy) -> FrameView:
         if a is not None:
             log = getattr(a, "conflict_log", None)
             c = getattr(a, "last_conflict", None) or (log[-1] if log else None)  # (a plugin may keep only a log)
+            corr = getattr(a, "correction", None)  # (the thesis method's running yield or pass: its track's decision)
+            if corr is not None and (c is None or c.get("track_id") != corr.track_id):
+                c = next((e for e in reversed(log or ()) if e.get("track_id") == corr.track_id), None) or \
+                    {"time_s": float(event.time_s), "track_id": corr.track_id,
+                     "decision": "emergency stop" if corr.emergency else corr.kind}
             # the latest decision, while the vessel avoids or for DECISION_SHOWN_S after it (not a
-            # decision from the run's first second still shown at its end)
+            # decision from the run's first second still shown at its end); what it did (the
+            # triage's answer) where the method says it, else the prediction's σ
             recent = c is not None and float(event.time_s) - c["time_s"] <= DECISION_SHOWN_S
             if c is not None and ((v.mode or "").startswith("avoidance") or recent):
                 what = "a static obstacle" if c.get("static") else f"T{c['track_id']}"
-                v.decision = f"{c['decision']} for {what} at {c['time_s']:.1f} s"
+                v.decision = f"{c.get('action') or c['decision']} for {what} at {c['time_s']:.1f} s"
             last = a.last_prediction
             if last is not None:
                 for c in last.conflicts:
