@@ -558,7 +558,8 @@ def test_the_hud_shows_what_was_done_for_the_running_manoeuvre_s_track():
         current = types.SimpleNamespace(velocity=lambda p, t: np.zeros((1, 2)))
         runner = types.SimpleNamespace(agents=[agent], last_outputs=[None], sim=types.SimpleNamespace(current=current))
         states = types.SimpleNamespace(position_m=np.zeros((1, 2)), heading_rad=np.zeros(1))
-        return frame_view(types.SimpleNamespace(runner=runner, states=states, time_s=101.2), (0.0, 0.0)).vessels[0].decision
+        event = types.SimpleNamespace(runner=runner, states=states, time_s=101.2)
+        return frame_view(event, (0.0, 0.0)).vessels[0].decision
 
     passing = {"decision": "velocity_correction", "track_id": 130, "time_s": 101.1, "action": "pass first (speed up)"}
     standing = {"decision": "velocity_correction", "track_id": 131, "time_s": 101.1,
