@@ -758,3 +758,23 @@ def test_a_station_s_speed_is_its_own_in_a_turn(offset):
         p_t = np.array([v / w * math.sin(th), v / w * (1.0 - math.cos(th))])
         return station(p_t, th, np.asarray(offset, dtype=float))
     assert math.hypot(v - w * port, w * ahead) == pytest.approx(float(np.hypot(*(st(h) - st(0.0)))) / h, rel=1e-3)
+
+
+def test_a_formation_pose_two_hulls_cannot_share_is_refused():
+    """A reviewer gave two vessels the same formation pose: the scenario loaded, alpha yielded for
+    105 of 120 s and the mission stalled with only ``mission_completed: false`` to say so. (A
+    ``settle_s`` longer than the phase stays allowed: the judgement then says it rests on no
+    sample — test_a_target_phase_shorter_than_its_settling_is_judged_on_no_samples.)"""
+    d = _data("go_to_formation")
+    d["vessels"][1]["controller"]["waypoints"] = [list(map(float, w))
+                                                  for w in d["vessels"][0]["controller"]["waypoints"]]
+    with pytest.raises(ScenarioError, match=r"^vessels\[1\]\.controller\.waypoints: its formation pose \(the path's "
+                                            r"start\) is 0\.0 m from that of vessels\[0\] \(alpha\), closer than "
+                                            r"their hulls' radii \(\d+\.\d m\): both cannot hold it$"):
+        parse_scenario(d)
+
+
+def test_every_bundled_mission_scenario_still_loads():
+    for name in ("go_to_formation", "go_to_formation_traffic", "target_tracking", "target_tracking_traffic",
+                 "chain_formation_path_target"):
+        assert parse_scenario(_data(name)).mission is not None, name

@@ -167,6 +167,8 @@ def check_mission(mission: MissionConfig, vessels, moving_names) -> None:
             raise ConfigError(f"vessels[{i}].controller.waypoints: missing (the mission's formation path)")
         if len(team) > 1 and v.controller != "none" and "comms" not in v.options:
             raise ConfigError(f"vessels[{i}].comms: missing (a team mission is coordinated over the link)")
+    if "go_to_formation" in mission.phases or "follow_path" in mission.phases:
+        _check_formation_poses(vessels)
     tt = mission.track_target
     if tt is not None:
         names = [v.name for v in team]
@@ -180,3 +182,20 @@ def check_mission(mission: MissionConfig, vessels, moving_names) -> None:
         if tt.target and tt.target not in moving_names:
             raise ConfigError(f"mission.track_target.target: no moving obstacle named {tt.target!r} "
                               f"(moving obstacles: {', '.join(moving_names) or 'none'})")
+
+
+def _check_formation_poses(vessels) -> None:
+    """Two team vessels whose formation poses (their paths' starts) are closer than their hulls'
+    radii can never both reach them: the mission would stall, one yielding to the other for good."""
+    from mjasc.physics.vessels import load_vessel_type
+
+    team = [(i, v) for i, v in enumerate(vessels) if v.controller != "none" and v.path is not None]
+    radii = {v.type: load_vessel_type(v.type).radius_m for _, v in team}
+    for a, (i, u) in enumerate(team):
+        for j, v in team[a + 1:]:
+            d = float(np.hypot(*(np.asarray(u.path.start_point) - np.asarray(v.path.start_point))))
+            need = radii[u.type] + radii[v.type]
+            if d < need:
+                raise ConfigError(f"vessels[{j}].controller.waypoints: its formation pose (the path's start) is "
+                                  f"{d:.1f} m from that of vessels[{i}] ({u.name}), closer than their hulls' radii "
+                                  f"({need:.1f} m): both cannot hold it")
