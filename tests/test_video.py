@@ -583,3 +583,25 @@ def test_the_conflict_log_says_what_the_triage_did():
     assert entries and all(c.get("action") for c in entries if c["time_s"] > 5.0)
     assert any(c["decision"] == "replan" and "yield" in c["action"] for c in entries)
     assert any("stand-on" in c["action"] for c in entries)
+
+
+def test_a_name_is_not_written_over_another_hull_or_the_north_box():
+    """A reviewer found "bravo" written on charlie's hull and "charlie" inside the north/current box
+    (the names avoided each other and the modes box only)."""
+    import types
+
+    from PIL import Image, ImageDraw
+
+    from mjasc.runs.video_hud import _overlaps, name_labels
+    from mjasc.runs.video_text import frame_font
+
+    draw = ImageDraw.Draw(Image.new("RGB", (640, 480)))
+    font = frame_font(13)
+    vessels = [types.SimpleNamespace(name=n) for n in ("bravo", "charlie")]
+    px = np.array([[300.0, 300.0], [318.0, 282.0]])  # charlie's hull where bravo's first choice would write
+    north = (490, 396, 636, 476)
+    labels = name_labels(draw, vessels, px, font, 640, 480, [north])
+    bravo = next(box for v, _, box in labels if v.name == "bravo")
+    assert not _overlaps(bravo, (318.0 - 8, 282.0 - 8, 318.0 + 8, 282.0 + 8))
+    corner = name_labels(draw, vessels[1:], np.array([[560.0, 430.0]]), font, 640, 480, [north])
+    assert corner and not _overlaps(corner[0][2], north)

@@ -139,12 +139,17 @@ MAX_NAMES = 12
 def name_labels(draw, vessels, vessels_px, font, W: int, H: int, keep_off=()) -> list:
     """The names drawn by the hulls, as (vessel, text origin (x, y), box (x0, y0, x1, y1)) [px]:
     up and right of the hull, or — when that box would overlap an earlier name's or leave the
-    frame or cover a ``keep_off`` box (the modes) — one line down, two up, then left of the hull
-    (where none is clear of those, the first free place); a name with no free place, or past the
+    frame or cover a ``keep_off`` box (the modes, the scale bar, the north arrow) or another
+    vessel's hull — one line down, two up, then left of the hull (where none is clear of those, the
+    first free place off the boxes, then inside the frame); a name with no free place, or past the
     first :data:`MAX_NAMES` vessels, is left out (the modes box lists it). No two boxes overlap."""
     fs = font.size
     out = []
-    for v, (x, y) in zip(vessels, np.asarray(vessels_px, float).reshape(-1, 2)):
+    pts = np.asarray(vessels_px, float).reshape(-1, 2)
+    half = max(6.0, 0.6 * fs)  # (a hull's mark on the frame: a name is not written over another vessel)
+    hulls = [(k, (x - half, y - half, x + half, y + half)) for k, (x, y) in enumerate(pts)
+             if np.isfinite(x) and np.isfinite(y)]
+    for i, (v, (x, y)) in enumerate(zip(vessels, pts)):
         if len(out) >= MAX_NAMES:
             break
         if not (np.isfinite(x) and np.isfinite(y) and -50 < x < W + 50 and -50 < y < H + 50):
@@ -160,8 +165,9 @@ def name_labels(draw, vessels, vessels_px, font, W: int, H: int, keep_off=()) ->
                 free.append((v, (ox, oy), box))
         inside = [f for f in free if f[2][0] >= 0 and f[2][2] <= W and f[2][1] >= 0 and f[2][3] <= H]
         clear = [f for f in inside if not any(_overlaps(f[2], b) for b in keep_off)]
-        if free:
-            out.append((clear or inside or free)[0])  # inside the frame and off the text boxes first
+        apart = [f for f in clear if not any(k != i and _overlaps(f[2], b) for k, b in hulls)]
+        if free:  # inside the frame, off the boxes and off the other hulls first
+            out.append((apart or clear or inside or free)[0])
     return out
 
 
@@ -198,13 +204,14 @@ def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = Tr
         rows.extend(new)
     box_w = 12 + fs + max(draw.textlength(text, font=f) for text, f, _ in rows)
     out = {"fs": fs, "font": font, "small": small, "rows": rows, "text": (4, 4, 4 + box_w, 8 + line * len(rows))}
-    out["names"] = [] if vessels_px is None else name_labels(draw, view.vessels, vessels_px, font, W, H,
-                                                             [out["text"]])
+    if furniture:
+        if scale_bar_px > 0:
+            out["scale"] = (8, H - 16 - fs - 10, 14 + scale_bar_px + 8, H - 8)
+        out["north"] = (W - 150, H - 84, W - 4, H - 4)
+    out["names"] = [] if vessels_px is None else name_labels(
+        draw, view.vessels, vessels_px, font, W, H, [out[k] for k in ("text", "scale", "north") if k in out])
     if not furniture:
         return out
-    if scale_bar_px > 0:
-        out["scale"] = (8, H - 16 - fs - 10, 14 + scale_bar_px + 8, H - 8)
-    out["north"] = (W - 150, H - 84, W - 4, H - 4)
     taken = [out[k] for k in ("text", "scale", "north") if k in out]
     avoid = [(x - 6, y - 6, x + 6, y + 6) for x, y in ([] if vessels_px is None else vessels_px)
              if np.isfinite(x) and np.isfinite(y)] + [b for _, _, b in out["names"]]
