@@ -605,3 +605,19 @@ def test_a_name_is_not_written_over_another_hull_or_the_north_box():
     assert not _overlaps(bravo, (318.0 - 8, 282.0 - 8, 318.0 + 8, 282.0 + 8))
     corner = name_labels(draw, vessels[1:], np.array([[560.0, 430.0]]), font, 640, 480, [north])
     assert corner and not _overlaps(corner[0][2], north)
+
+
+def test_the_legend_keeps_clear_of_the_traffic():
+    """A missions user found the tracked whale under the legend: the legend kept clear of the
+    vessels and their names only. A moving obstacle where the legend would go moves it."""
+    from PIL import Image, ImageDraw
+
+    from mjasc.runs.video_hud import _overlaps, hud_layout
+
+    view = _fleet_view(1)
+    draw = ImageDraw.Draw(Image.new("RGB", (640, 480)), "RGBA")
+    first = hud_layout(draw, view, 640, 480, "t", True, 100.0, np.array([[320.0, 300.0]]))["legend"]
+    whale = np.array([[0.5 * (first[0] + first[2]), 0.5 * (first[1] + first[3])]])  # under the legend's first place
+    moved = hud_layout(draw, view, 640, 480, "t", True, 100.0, np.array([[320.0, 300.0]]), None, whale)["legend"]
+    x, y = whale[0]
+    assert moved != first and not _overlaps(moved, (x - 12, y - 12, x + 12, y + 12))

@@ -172,7 +172,7 @@ def name_labels(draw, vessels, vessels_px, font, W: int, H: int, keep_off=()) ->
 
 
 def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = True, scale_bar_px: float = 0.0,
-               vessels_px=None, last_legend=None):
+               vessels_px=None, last_legend=None, traffic_px=None):
     """Where the heads-up overlay's boxes go in a W × H frame, as a dict of name → box (x0, y0, x1,
     y1) [px] (``text``: the title and the modes, top left; ``scale``: the scale bar, bottom left,
     ``scale_bar_px`` long (0: none); ``north``: the north arrow and the current, bottom right;
@@ -214,7 +214,9 @@ def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = Tr
         return out
     taken = [out[k] for k in ("text", "scale", "north") if k in out]
     avoid = [(x - 6, y - 6, x + 6, y + 6) for x, y in ([] if vessels_px is None else vessels_px)
-             if np.isfinite(x) and np.isfinite(y)] + [b for _, _, b in out["names"]]
+             if np.isfinite(x) and np.isfinite(y)] + [b for _, _, b in out["names"]] + \
+        [(x - 12, y - 12, x + 12, y + 12) for x, y in ([] if traffic_px is None else traffic_px)
+         if np.isfinite(x) and np.isfinite(y)]  # (the traffic too: a tracked target under the legend)
     # A pane narrower than LEGEND_MIN_PX[0] or shorter than LEGEND_MIN_PX[1] has no room for the
     # legend beside the names and the modes (docs/architecture.md, "Limits"): left out.
     items = legend_items(view)
@@ -241,7 +243,9 @@ def draw_hud(frame: np.ndarray, view, proj: Projection, centre_xyz, title: str =
         L = scale_bar_m(mpp, W)
     px = proj(np.array([[*v.position_m, 0.5] for v in view.vessels]).reshape(-1, 3))
     memory = {} if memory is None else memory
-    lay = hud_layout(draw, view, W, H, title, furniture, L / mpp if mpp > 0 else 0.0, px, memory.get("legend"))
+    traffic = getattr(view, "traffic_m", None)
+    tpx = None if traffic is None else proj(np.column_stack([traffic, np.full(len(traffic), 0.5)]))
+    lay = hud_layout(draw, view, W, H, title, furniture, L / mpp if mpp > 0 else 0.0, px, memory.get("legend"), tpx)
     memory["legend"] = lay.get("legend")
     fs, font, small, rows = lay["fs"], lay["font"], lay["small"], lay["rows"]
     line = fs + 4

@@ -83,6 +83,8 @@ class FrameView:
     #: The legend's rows (kind, RGBA 0–1, text) as :data:`mjasc.runs.video_hud.LEGEND_ITEMS`
     #: (None: those, a run's overlays; empty: no legend).
     legend: tuple | None = None
+    #: The moving obstacles' true positions (k, 2) world [m] (None: none), which the legend keeps clear of.
+    traffic_m: np.ndarray | None = None
 
 
 def frame_view(event, centre_xy) -> FrameView:
@@ -137,7 +139,10 @@ def frame_view(event, centre_xy) -> FrameView:
         vessels.append(v)
     current = np.asarray(runner.sim.current.velocity(np.asarray(centre_xy, float).reshape(1, 2), event.time_s),
                          float).reshape(-1)[:2]
-    return FrameView(float(event.time_s), vessels, current)
+    traffic_state = getattr(runner.sim, "traffic_state", None)
+    traffic = np.asarray(traffic_state()[0], float).reshape(-1, 2) if traffic_state is not None else None
+    return FrameView(float(event.time_s), vessels, current, traffic_m=traffic if traffic is not None and len(traffic)
+                     else None)
 
 
 def scan_outline(scan) -> np.ndarray:
