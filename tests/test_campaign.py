@@ -153,6 +153,11 @@ def test_per_vessel_samples_read_cost_cross_track_and_formation():
     pv = aggregate(runs)["families"]["f"]["per_vessel"]
     assert pv["path_cost"]["n"] == 6 and pv["path_cost"]["p50"] == pytest.approx(0.4)
     assert pv["time_cost_s"]["p50"] == 2.0 and pv["reference_short"] == 3 and pv["behind"] == 3
+    # a store made before progress_lost_m existed: how many are behind is unknown, not 0
+    old = summary(0.1, 4.0, 0.3, 1.5)
+    for c in old["evaluation"]["cost"].values():
+        c.pop("progress_lost_m")
+    assert vessel_samples(old)["behind"] is None
 
 
 def test_colreg_compliance_counts_only_the_encounters_with_a_role(tmp_path):

@@ -778,3 +778,15 @@ def test_every_bundled_mission_scenario_still_loads():
     for name in ("go_to_formation", "go_to_formation_traffic", "target_tracking", "target_tracking_traffic",
                  "chain_formation_path_target"):
         assert parse_scenario(_data(name)).mission is not None, name
+
+
+def test_a_column_on_one_path_without_go_to_formation_still_loads():
+    """follow_path joins the path where each vessel is: two vessels on one path spaced along it by
+    their formation offsets are a column, not two vessels on one pose (only go_to_formation sends
+    every vessel to its path's start)."""
+    d = _data("go_to_formation")
+    d["mission"]["phases"] = ["follow_path"]
+    d["mission"].pop("go_to_formation", None)
+    d["vessels"][1]["controller"]["waypoints"] = [list(map(float, w))
+                                                  for w in d["vessels"][0]["controller"]["waypoints"]]
+    assert parse_scenario(d).mission.phases == ("follow_path",)

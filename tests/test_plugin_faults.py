@@ -265,3 +265,52 @@ def test_register_refuses_an_installed_package_s_method_name(monkeypatch):
         assert registry.method_class("avoidance", "test_installed") is Impostor
     finally:
         unregister("avoidance", "test_installed")
+
+
+def test_an_error_in_mjasc_while_a_plugin_is_only_held_blames_no_plugin():
+    """A reviewer's probe: with a working coordination plugin, an error raised in the agent's own
+    code (which holds the plugin in a local) was reported as the plugin's."""
+    from mjasc.plugins.answers import plugin_at_fault
+
+    class Held(_Half):
+        method = "test_held"
+
+    plugin = Held.__new__(Held)
+
+    def mjasc_code():
+        raise KeyError("x")
+
+    def caller():
+        c = plugin  # noqa: F841 - held, as the agent holds its coordination method
+        mjasc_code()
+
+    try:
+        caller()
+    except KeyError as exc:
+        assert plugin_at_fault(exc, [plugin]) is None
+
+    def calls_it_wrongly():
+        c = plugin
+        c.exchange()  # (the call itself fails: the frame that holds the plugin is the failing one)
+
+    try:
+        calls_it_wrongly()
+    except TypeError as exc:
+        assert plugin_at_fault(exc, [plugin]) is not None
+
+
+def test_events_as_lists_are_taken_as_pairs(registered):
+    """``drain_events`` answers of ``[t, text]`` lists worked before the check: still accepted."""
+    class ListEvents(_Keeps):
+        method = "test_list_events"
+        sent = False
+
+        def drain_events(self):
+            if self.sent:
+                return []
+            self.sent = True
+            return [[0.5, "hello"]]
+
+    registered("avoidance", ListEvents)
+    s = run_scenario(parse_scenario(_doc("avoidance", {"method": "test_list_events"}))).summary
+    assert s["status"] == "completed"

@@ -42,23 +42,22 @@ class Manoeuvres:
     (see the module docstring)."""
 
     def _note_answers(self, t, roles: dict) -> None:
-        """The triage's answer to each conflict of this prediction (``roles``: track id → text): an
-        event each, and the ``action`` of its entry in the conflict log (its ``decision`` is the
-        prediction's σ, which the triage may answer otherwise: a give-way vessel yields to a team
-        mate rather than re-plan around it; a stand-on vessel keeps its speed)."""
+        """The triage's answer to each conflict of this prediction (``roles``: track id → text): the
+        ``action`` of its record in the conflict log (its ``decision`` is the prediction's σ, which
+        the triage may answer otherwise: a give-way vessel yields to a team mate rather than
+        re-plan around it; a stand-on vessel keeps its speed), and an event when a track's answer
+        changes."""
         if not roles:
             return
-        now = round(t, 2)
-        entries = [e for e in self.conflict_log[-len(roles) - 4:] if e.get("time_s") == now]
-        if self.last_conflict is not None and self.last_conflict.get("time_s") == now:
-            entries.append(self.last_conflict)
+        said = self._answers
+        for e in self.logged_now:
+            text = roles.get(e.get("track_id"))
+            if text is not None and "action" not in e:
+                e["action"] = text
         for track_id, text in roles.items():
-            if track_id is None:
-                continue
-            self._event(t, f"track {track_id}: {text}")
-            for e in entries:
-                if e.get("track_id") == track_id:
-                    e["action"] = text
+            if track_id is not None and said.get(track_id) != text:
+                said[track_id] = text
+                self._event(t, f"track {track_id}: {text}")
 
     def _decide(self, t, nav, conflicts, statics, by_id, static_polygons, allow_replan=True,
                 static_outlines=()) -> None:

@@ -162,6 +162,7 @@ class PredictionStep:
         self._last = PredictionRecord(t, path, gamma, all_c, tuple(conflicts), tuple(statics), by_id)
         self._stands_on = frozenset()  # (the decision below names them again)
         self._log.prediction_pending()
+        self.logged_now = []  # (this prediction's conflict records: the triage's answers go to these)
         for c in conflicts:
             self._record_conflict(t, c, by_id.get(c.track_id))
         for s in statics:
@@ -194,6 +195,7 @@ class PredictionStep:
                               "t_i": round(c.t_i, 2), "t_f": round(c.t_f, 2) if np.isfinite(c.t_f) else None,
                               "gamma_a": round(c.gamma_a, 2), "gamma_b": round(c.gamma_b, 2),
                               "decision": c.decision.value}
+        self.logged_now.append(self.last_conflict)
         if len(self.conflict_log) < 50:  # (the summary's first 50; last_conflict: the latest, for the video)
             self.conflict_log.append(self.last_conflict)
 

@@ -182,6 +182,8 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
                       "turn_held": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
+        self.logged_now: list[dict] = []  # the conflict records of the latest prediction (their triage answers)
+        self._answers: dict = {}  # each track's latest triage answer (an event when it changes)
         self.last_conflict: dict | None = None  # the latest conflict's record (the video's HUD shows it)
         self._conflict_keys: set = set()
         self._last: PredictionRecord | None = None

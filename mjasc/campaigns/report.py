@@ -126,6 +126,11 @@ def _title(c: dict) -> list[str]:
     return lines
 
 
+def _known(x) -> str:
+    """A count, or "—" when unknown (None: a store made before the value existed)."""
+    return "—" if x is None else str(x)
+
+
 def _vessels(pv: dict) -> int:
     """How many vessels a family's per-vessel quantiles rest on (the largest n of its values)."""
     return max((q["n"] for q in pv.values() if isinstance(q, dict)), default=0)
@@ -159,7 +164,7 @@ def format_report(data: dict) -> str:
     for fam, g in list(data["families"].items()) + [("**all**", data)]:
         pv = g["per_vessel"]
         lines.append(f"| {fam} | {_vessels(pv)} | {_q(pv['path_cost'], 100, 1)} | {_q(pv['time_cost_s'], 1, 1)} | "
-                     f"{_q(pv.get('progress_lost_m'), 1, 1)} | {pv.get('behind', '—')} | "
+                     f"{_q(pv.get('progress_lost_m'), 1, 1)} | {_known(pv.get('behind'))} | "
                      f"{_q(pv.get('max_mission_offset_m'), 1, 2)} | "
                      f"{_q(pv['mean_cross_track_m'], 1, 2)} | {_q(pv['max_cross_track_m'], 1, 2)} | "
                      f"{_q(pv['formation_error_m'], 1, 2)} | {pv['reference_short']} |")
@@ -263,7 +268,7 @@ def _format_comparison(data: dict) -> str:
         pv = g["per_vessel"]
         lines.append(f"| {fam} | {m} | {_vessels(pv)} | {_q(pv['path_cost'], 100, 1)} | "
                      f"{_q(pv['time_cost_s'], 1, 1)} | {_q(pv.get('progress_lost_m'), 1, 1)} | "
-                     f"{pv.get('behind', '—')} | {_q(pv.get('max_mission_offset_m'), 1, 2)} | "
+                     f"{_known(pv.get('behind'))} | {_q(pv.get('max_mission_offset_m'), 1, 2)} | "
                      f"{_q(pv['mean_cross_track_m'], 1, 2)} | {_q(pv['max_cross_track_m'], 1, 2)} | "
                      f"{_q(pv['formation_error_m'], 1, 2)} | {pv['reference_short']} |")
     for m, p in (data.get("paired") or {}).items():

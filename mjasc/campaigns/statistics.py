@@ -85,17 +85,25 @@ def vessel_samples(summary: dict | None) -> dict:
     s = summary or {}
     cost = (s.get("evaluation") or {}).get("cost") or {}
     out: dict = {k: [] for k in PER_VESSEL}
-    short = behind = 0
+    short, behind = 0, None
     for name, v in (s.get("vessels") or {}).items():
         where = {"cost": cost.get(name) or {}, "vessel": v, "coordination": v.get("coordination") or {}}
         for key, (src, fld) in PER_VESSEL.items():
             if where[src].get(fld) is not None:
                 out[key].append(where[src][fld])
         short += where["cost"].get("progress_short_m") is not None
-        behind += (where["cost"].get("progress_lost_m") or 0.0) > BEHIND_M
+        lost = where["cost"].get("progress_lost_m")
+        if lost is not None:  # (a store made before 2026-12-06 has none: not 0 behind, unknown)
+            behind = (behind or 0) + (lost > BEHIND_M)
     out["reference_short"] = short
     out["behind"] = behind
     return out
+
+
+def _sum_known(values):
+    """The sum of the values that are not None; None when none is known."""
+    known = [v for v in values if v is not None]
+    return sum(known) if known else None
 
 
 def run_outcome(summary: dict | None, near_miss_m: float = 1.0) -> dict:
@@ -183,7 +191,7 @@ def _group(runs, near_miss_m: float) -> dict:
         "position_rmse_m": quantiles(o["position_rmse_m"] for o in outs),
         "per_vessel": {**{k: quantiles(x for o in outs for x in o["per_vessel"][k]) for k in PER_VESSEL},
                        "reference_short": sum(o["per_vessel"]["reference_short"] for o in outs),
-                       "behind": sum(o["per_vessel"]["behind"] for o in outs)},
+                       "behind": _sum_known(o["per_vessel"].get("behind") for o in outs)},
         "sim_time_s_total": round(sum(o["sim_time_s"] or 0.0 for o in outs), 3),
         "run_wall_time_s": {"sum": round(sum(walls), 3), "mean": round(float(np.mean(walls)), 3) if walls else None},
         "mission": mission,

@@ -167,7 +167,7 @@ def check_mission(mission: MissionConfig, vessels, moving_names) -> None:
             raise ConfigError(f"vessels[{i}].controller.waypoints: missing (the mission's formation path)")
         if len(team) > 1 and v.controller != "none" and "comms" not in v.options:
             raise ConfigError(f"vessels[{i}].comms: missing (a team mission is coordinated over the link)")
-    if "go_to_formation" in mission.phases or "follow_path" in mission.phases:
+    if "go_to_formation" in mission.phases:  # (every vessel to its path's start; follow_path joins where it is)
         _check_formation_poses(vessels)
     tt = mission.track_target
     if tt is not None:

@@ -83,8 +83,10 @@ _NON_NEGATIVE = ("speed_m_s", "radius_m")
 
 
 def tracks_answer(method, vessel_name: str) -> tuple:
-    """``method.tracks()`` of a plugin tracker as a tuple, checked."""
+    """``method.tracks()`` of a tracker as a tuple, checked when it is a plugin's."""
     got = method.tracks()
+    if builtin_method(type(method)):  # (filterpy_imm: its answers are its own)
+        return tuple(got)
     at = where(method, vessel_name)
     try:
         tracks = tuple(got)
@@ -159,33 +161,35 @@ def events_answer(method, events) -> list:
                         f"(t [s], text) ([] for none)")
     events = list(events)
     for k, ev in enumerate(events):
-        if not (isinstance(ev, tuple) and len(ev) == 2 and isinstance(ev[1], str)
+        if not (isinstance(ev, (tuple, list)) and len(ev) == 2 and isinstance(ev[1], str)
                 and isinstance(ev[0], (int, float, np.integer, np.floating)) and math.isfinite(ev[0])):
             raise TypeError(f"{where(method)}: drain_events()[{k}] is {ev!r}, expected a (t [s], text) pair")
+        events[k] = (ev[0], ev[1])
     return events
 
 
 def plugin_at_fault(exc: BaseException, methods) -> str | None:
     """Which plugin method an exception came from, as :func:`where` says it, or None: the innermost
     frame of the traceback that runs a method of ``methods`` (the run's stage methods; built-ins
-    are left out) or holds one in a local (the caller of a call that failed before the method ran,
-    e.g. with the wrong arguments), else the method whose class the message names
-    (``Class.method() takes …``)."""
+    are left out); else the failing frame itself when it holds one in a local (a call that failed
+    before the method ran, e.g. with the wrong arguments); else the method whose class the message
+    names (``Class.method() takes …``). mjasc's own frames that merely hold a plugin while they
+    fail elsewhere blame no one."""
     plugins = [m for m in methods if m is not None and not builtin_method(type(m))]
     if not plugins:
         return None
     ids = {id(m): m for m in plugins}
     found = None
     tb = exc.__traceback__
-    while tb is not None:  # (the innermost frame that runs a plugin's method, or holds one it was calling)
+    while tb is not None:  # (the innermost frame that runs a plugin's method)
         local = tb.tb_frame.f_locals
         owner = local.get("self")
         if owner is not None and id(owner) in ids:
             found = owner
-        else:
-            held = [ids[id(v)] for v in local.values() if id(v) in ids]
+        elif tb.tb_next is None and found is None:  # (the failing frame holds the plugin it was calling:
+            held = {id(v) for v in local.values() if id(v) in ids}  # a call the method cannot take)
             if len(held) == 1:
-                found = held[0]
+                found = ids[held.pop()]
         tb = tb.tb_next
     if found is not None:
         return where(found)
