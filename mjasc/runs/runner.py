@@ -321,7 +321,10 @@ class Runner:
                 tb = traceback.extract_tb(exc.__traceback__)
                 place = f"{tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno}" if tb else ""
                 fault = plugin_at_fault(exc, self._stage_methods())  # (a plugin's bug: say whose, and where)
-                where = f" ({fault}{': ' if place else ''}{place})" if fault else f" ({place})" if place else ""
+                if fault is not None and str(exc).startswith(fault):  # (a checked answer: the message says whose,
+                    where = ""                                          # and the check's own line says nothing)
+                else:
+                    where = f" ({fault}{': ' if place else ''}{place})" if fault else f" ({place})" if place else ""
                 status, error = "error", f"{type(exc).__name__} at t = {sim.time_s:.3f} s: {exc}{where}"
                 if self.recorder:
                     self.recorder.event(sim.time_s, error, "ERROR")
