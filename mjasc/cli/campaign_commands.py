@@ -50,18 +50,11 @@ def _campaign(args) -> int:
     target = Path(args.out) if args.out is not None else Path("runs") / "campaigns" / campaign.name
     existed = target.is_dir()
     out = out_dir(args.out, Path("runs") / "campaigns" / campaign.name)
+    result = None
     try:
-        try:
-            result = run_campaign(campaign, out, scheduler=args.scheduler, workers=args.workers,
-                                  progress=args.progress and sys.stderr.isatty(), max_attempts=args.max_attempts,
-                                  time_limit_s=args.time_limit)
-        except BaseException:  # (stopped before its first result: the store is gone, the folder too if new)
-            if not existed:
-                try:
-                    out.rmdir()  # (only when empty)
-                except OSError:
-                    pass
-            raise
+        result = run_campaign(campaign, out, scheduler=args.scheduler, workers=args.workers,
+                              progress=args.progress and sys.stderr.isatty(), max_attempts=args.max_attempts,
+                              time_limit_s=args.time_limit)
     except CampaignError as exc:  # (found when its runs are drawn: a grid point no draw can make, ...)
         print(f"mjasc: invalid campaign: {_in_file(exc, campaign.source)}", file=sys.stderr)
         return 2
@@ -71,6 +64,12 @@ def _campaign(args) -> int:
     except (ValueError, RuntimeError, OSError) as exc:
         print(f"mjasc: campaign failed: {exc}", file=sys.stderr)
         return 1
+    finally:
+        if result is None and not existed:  # (stopped before its first result: the folder it made goes, if empty)
+            try:
+                out.rmdir()
+            except OSError:
+                pass
     info = result.info
     print(f"{campaign.name}: {info['runs_to_do']} run(s) done now, {info['already_done']} already in the store "
           f"({info['wall_time_s']} s)")

@@ -189,7 +189,9 @@ class RunMetrics:
         self._in_contact = now
         return new
 
-    def summary(self, wall_time_s: float, sim_time_s: float) -> dict:
+    def summary(self, wall_time_s: float, sim_time_s: float, per_vessel=None) -> dict:
+        """The run's metrics for summary.json; ``per_vessel(i)`` (optional): more keys of vessel i's
+        entry, after its cross-track statistics (the runner's mission offsets)."""
         self.flush()
         vessels = {}
         for i, name in enumerate(self.names):
@@ -201,6 +203,7 @@ class RunMetrics:
                 "distance_m": round(float(self._distance[i]), 3),
                 "mean_cross_track_m": round(float(self._xte_sum[i] / count), 4) if self._xte_count[i] else None,
                 "max_cross_track_m": round(float(self._xte_max[i]), 4) if self._xte_count[i] else None,
+                **(per_vessel(i) if per_vessel is not None else {}),
                 "min_clearance_m": clear,
                 "min_clearance_to_any_m": round(min(clear.values()), 3) if clear else None,
                 "collisions": [c for c in self.collisions if name in c["between"]],

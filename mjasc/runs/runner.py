@@ -322,9 +322,9 @@ class Runner:
                 place = f"{tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno}" if tb else ""
                 fault = plugin_at_fault(exc, self._stage_methods())  # (a plugin's bug: say whose, and where)
                 if fault is not None and str(exc).startswith(fault):  # (a checked answer: the message says whose,
-                    where = ""                                          # and the check's own line says nothing)
-                else:
-                    where = f" ({fault}{': ' if place else ''}{place})" if fault else f" ({place})" if place else ""
+                    fault = place = ""                                  # and the check's own line says nothing)
+                where = ": ".join(p for p in (fault, place) if p)
+                where = f" ({where})" if where else ""
                 status, error = "error", f"{type(exc).__name__} at t = {sim.time_s:.3f} s: {exc}{where}"
                 if self.recorder:
                     self.recorder.event(sim.time_s, error, "ERROR")
@@ -341,13 +341,7 @@ class Runner:
         wall = time.perf_counter() - wall0
         summary = {"scenario": sc.name, "seed": sc.seed, "status": status, "error": error,
                    "rates_hz": {s: round(self.schedule.realized_rate_hz(s), 4) for s in self.schedule.period_steps},
-                   **self.metrics.summary(wall, sim.time_s)}
-        for i, agent in enumerate(self.agents):  # (the mission offsets beside the cross-track statistics)
-            entry = summary["vessels"][agent.name]
-            offsets = self._offsets.summary(i)
-            summary["vessels"][agent.name] = {k2: v2 for k, v in entry.items()
-                                              for k2, v2 in ((k, v), *(offsets.items() if k == "max_cross_track_m"
-                                                                       else ()))}
+                   **self.metrics.summary(wall, sim.time_s, self._offsets.summary)}
         for agent in self.agents:  # components add their own per-vessel results
             for kind, comp in (("perception", agent.perception), ("coordination", agent.coordination),
                                ("avoidance", agent.avoidance), ("mission", agent.mission),
