@@ -14,6 +14,9 @@ import time
 
 import pytest
 
+from mjasc.campaigns.cluster import math_digest
+from mjasc.core.portable_math import cpu_flags
+
 from tests.test_campaign import write_campaign
 
 
@@ -244,4 +247,23 @@ def test_a_worker_on_other_mjasc_code_stops_the_campaign_before_any_run(tmp_path
     assert len(got.stderr.splitlines()) == 1, got.stderr
     assert "1 of 1 Dask worker(s) run other mjasc code than this process" in got.stderr, got.stderr
     assert "no run was done" in got.stderr
+    assert not (tmp_path / "out" / "campaign.sqlite").exists()
+
+
+@pytest.mark.skipif(not {"avx2", "fma"} <= cpu_flags(), reason="OpenBLAS's Haswell kernels (the pin) need AVX2 and FMA")
+def test_a_worker_whose_runs_compute_other_bits_stops_the_campaign_before_any_run(tmp_path):
+    """A worker machine whose run children would compute other floating-point bits — here the
+    same machine with OpenBLAS's SSE3 kernels forced in the worker's environment (a user's own
+    OPENBLAS_CORETYPE: the pin never overrides it), as a node of another CPU kind would — reports
+    another math digest: the campaign refuses it before any run, one line naming the worker and
+    both digests (its runs would not replay on the driver's machine)."""
+    write_campaign(tmp_path, runs=4, duration=5.0, mission_cost=False)
+    with _cluster(worker_env=_env(OPENBLAS_CORETYPE="Prescott")) as (address, _, _):
+        got = subprocess.run([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--scheduler", address, "--out",
+                              str(tmp_path / "out"), "--no-progress"], env=_env(), cwd=tmp_path,
+                             capture_output=True, text=True, timeout=300)
+    assert got.returncode == 1, got.stderr
+    assert len(got.stderr.splitlines()) == 1, got.stderr
+    assert "1 of 1 Dask worker(s) compute other floating-point bits than this machine" in got.stderr, got.stderr
+    assert f"here {math_digest(True)}" in got.stderr and "no run was done" in got.stderr
     assert not (tmp_path / "out" / "campaign.sqlite").exists()

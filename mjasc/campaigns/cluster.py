@@ -10,22 +10,23 @@ import os
 
 __all__ = ["open_client", "close_client", "local_workers", "quiet_shutdown", "scheduler_problem", "warm_up_worker",
            "worker_thread_key", "workers_problem", "WORKER_WAIT_S", "code_digest", "code_identity",
-           "workers_code_problem"]
+           "workers_code_problem", "math_digest"]
 
 #: How long a campaign waits for the first worker of a cluster [s].
 WORKER_WAIT_S = 120.0
 
 
-def warm_up_worker(dask_worker=None) -> str:
+def warm_up_worker(isolate: bool = True, dask_worker=None) -> dict:
     """Run on every worker before the tasks: import mjasc once, start the worker's run process
     (it imports while the other workers come up; a worker of several threads starts one per thread
-    with its thread's first run, :func:`worker_thread_key`), report mjasc's version and
-    :func:`code_digest` (``"<version> <digest>"``)."""
+    with its thread's first run, :func:`worker_thread_key`), report ``{"code": "<version> <digest>"
+    (:func:`code_identity`), "math": the digest of the floating-point bits where its runs compute
+    (:func:`math_digest`: a fresh run child's with ``isolate``, else this worker process's)}``."""
     from mjasc.campaigns.executor import start_isolated
 
-    if _nthreads(dask_worker) <= 1:
+    if isolate and _nthreads(dask_worker) <= 1:
         start_isolated()
-    return code_identity()
+    return {"code": code_identity(), "math": math_digest(isolate)}
 
 
 def code_identity() -> str:
@@ -53,17 +54,54 @@ def code_digest() -> str:
     return h.hexdigest()[:16]
 
 
-def workers_code_problem(reports: dict) -> str:
+@functools.lru_cache(maxsize=2)
+def math_digest(fresh: bool = True) -> str:
+    """The digest of :func:`mjasc.core.math_fingerprint.fingerprint` where this machine's runs
+    compute: ``fresh``, a new process started as a run child is (``python -m
+    mjasc.core.math_fingerprint`` with the children's environment: it imports mjasc first, so numpy
+    and OpenBLAS are pinned whatever this process imported before); else this process (runs in
+    the worker's own process). Two machines with the same digest give a run the same bits."""
+    if not fresh:
+        from mjasc.core.math_fingerprint import digest
+
+        return digest()
+    import subprocess
+    import sys
+
+    from mjasc.campaigns.executor import child_environment
+
+    try:
+        done = subprocess.run([sys.executable, "-m", "mjasc.core.math_fingerprint"], capture_output=True, text=True,
+                              env={**os.environ, **child_environment()}, timeout=WORKER_WAIT_S)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        return f"unknown ({type(exc).__name__})"
+    first = done.stdout.split("\n", 1)[0].split()
+    if done.returncode or len(first) != 2 or first[0] != "digest":
+        return f"unknown (exit status {done.returncode})"
+    return first[1]
+
+
+def workers_code_problem(reports: dict, isolate: bool = True) -> str:
     """What is wrong with the workers' :func:`warm_up_worker` reports (worker address → report)
-    against this process's code ('' if every worker runs it)."""
+    against this process's code and this machine's math ('' if every worker runs the same code and
+    computes the same bits: a run gives the same result wherever it runs, and ``mjasc extract``
+    replays it here)."""
     own = code_identity()
-    other = {w: r for w, r in reports.items() if r != own}
+    other = {w: r["code"] for w, r in reports.items() if r["code"] != own}
+    if other:
+        w, r = sorted(other.items())[0]
+        return (f"{len(other)} of {len(reports)} Dask worker(s) run other mjasc code than this process (worker {w}: "
+                f"version and code digest {r!r}, here {own!r}); install the same mjasc on every worker (a worker "
+                f"started on another checkout or PYTHONPATH gives other results)")
+    own = math_digest(isolate)
+    other = {w: r["math"] for w, r in reports.items() if r["math"] != own}
     if not other:
         return ""
     w, r = sorted(other.items())[0]
-    return (f"{len(other)} of {len(reports)} Dask worker(s) run other mjasc code than this process (worker {w}: "
-            f"version and code digest {r!r}, here {own!r}); install the same mjasc on every worker (a worker "
-            f"started on another checkout or PYTHONPATH gives other results)")
+    return (f"{len(other)} of {len(reports)} Dask worker(s) compute other floating-point bits than this machine "
+            f"(worker {w}: math digest {r}, here {own}): a run there would not replay here; use machines whose "
+            f"'python -m mjasc.core.math_fingerprint' digests agree (the same CPU architecture, x86-64 with AVX2, "
+            f"the same locked packages, no NPY_DISABLE_CPU_FEATURES or OPENBLAS_CORETYPE of their own)")
 
 
 def _nthreads(worker) -> int:

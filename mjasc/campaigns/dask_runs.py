@@ -100,11 +100,11 @@ def run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_lim
             versions = {k: getattr(mjasc, "__version__", "unknown") for k in keys}
         else:
             try:
-                versions = client.run(warm_up_worker)
+                versions = client.run(warm_up_worker, isolate)
             except Exception as exc:  # noqa: BLE001
                 raise RuntimeError(f"the Dask workers cannot import mjasc ({type(exc).__name__}: {exc}); "
                                    f"install mjasc on every worker") from None
-            if problem := workers_code_problem(versions):  # (before any run: the results would differ)
+            if problem := workers_code_problem(versions, isolate):  # (before any run: the results would differ)
                 raise RuntimeError(f"{problem}; no run was done")
         info.update(scheduler="local" if local else scheduler if isinstance(scheduler, str) else "client",
                     address=client.scheduler.address, workers=len(versions),
