@@ -11,6 +11,8 @@ From the link's :class:`~mjasc.cooperation.comms.LinkOutcome` (each message's fa
     plots/comms/<v>/received  messages received by vessel v so far (a count, every ``COUNT_PERIOD_S``)
     plots/comms/<v>/lost      messages lost on their way to v so far (when it changed)
 
+and at the run's end both counts as they stand (:meth:`CommsLog.finish`: the summary's).
+
 The counts are written for the vessels with per-vessel views only
 (:meth:`~mjasc.runs.recording.Recorder.has_views`: a large fleet's recording size).
 
@@ -130,6 +132,21 @@ class CommsLog:
             halfway = p[at_lost]  # (m, 2, 2): each sender → receiver, the receiver's end moved halfway
             halfway[:, 1] = 0.5 * (halfway[:, 0] + halfway[:, 1])
         recorder.strips("world/comms/lost", t_s, halfway, z=_Z)
+
+    def finish(self, recorder, t_s: float, counts) -> None:
+        """The counts as they stand at the run's end ``t_s`` (a row for each vessel whose counts
+        changed since they were last written: a received count is written at most every
+        ``COUNT_PERIOD_S``, so the plots would end below the summary's ``comms`` counts)."""
+        if not self._styled:
+            return  # (no record tick: nothing drawn, nothing to end)
+        for k in self._counted:
+            n = self.names[k]
+            now = counts(n)
+            if self._written.get(n, (None, -1, -1))[1:] != now:
+                self._written[n] = (t_s, *now)
+                recorder.scalar(f"plots/comms/{n}/received", t_s, now[0])
+                recorder.scalar(f"plots/comms/{n}/lost", t_s, now[1])
+        self._waiting_s = None
 
     def _gathers(self, recorder, delivered: tuple, lost: tuple) -> tuple:
         """The vessel indices (m, 2) of the delivered and lost pairs and the delivered lines'

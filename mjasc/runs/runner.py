@@ -333,6 +333,10 @@ class Runner:
             restore_sigterm(previous)
             if bar is not None:
                 bar.close()
+            if self._truth is not None and self.recorder:  # (the counts as they stand: the summary's)
+                t_slot = clock()
+                self._truth.finish(sim.time_s)
+                stage["record"] += clock() - t_slot
             for slot, out in (("record", self.recorder), ("video", self.video)):
                 if out is not None:  # flushing the outputs is their slot's cost
                     t_slot = clock()

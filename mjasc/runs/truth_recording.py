@@ -155,6 +155,12 @@ class TruthRecording:
             rec.arrows("world/current", t, self._current_grid, self._current_scale * sim.current.velocity(
                 self._current_grid, t))
 
+    def finish(self, t_s: float) -> None:
+        """The run ended at ``t_s`` (completed or not): what is drawn only now and then is brought
+        up to date — the comms counts (:meth:`~mjasc.cooperation.recording.CommsLog.finish`)."""
+        if self._comms_log is not None:
+            self._comms_log.finish(self.recorder, t_s, self._network.counts)
+
     def _record_trails(self, t: float, positions: np.ndarray) -> None:
         """A trail point per vessel every ``TRAIL_PERIOD_S``. The recording holds each trail in two
         strips so that its size grows linearly with the run: ``trail`` (everything up to the latest
