@@ -67,3 +67,34 @@ def test_without_tracks_nothing_holds_the_turn():
     assert not _closes(_nav())
     system = SimpleNamespace(_perceived=None, radius_m=3.0)
     assert not ControlTick._turn_closes_on_track(system, _nav())
+
+
+def _turning_system(tracks):
+    """The state a detour's sharp turn reads (``ControlTick._sharp_turn_speed``): a detour running
+    east from alpha (134° off its heading: a sharp turn), its perceived tracks, the default config."""
+    from mjasc.avoidance.config import AvoidanceConfig
+    from mjasc.guidance.paths import Path
+    from mjasc.guidance.state import GuidanceState
+
+    system = SimpleNamespace(
+        _guidance=GuidanceState(path=Path.line(HERE, HERE + [60.0, 0.0]), gamma_m=0.0, mission_speed_m_s=1.0),
+        config=AvoidanceConfig(), _sharp_turn=("turn", 0), stats={"sharp_turn": 0, "turn_away": 0, "turn_held": 0},
+        _perceived=PerceptionReport(115.0, tuple(tracks)), radius_m=3.0, _event=lambda t, text: None)
+    system._turn_closes_on_track = lambda nav: ControlTick._turn_closes_on_track(system, nav)
+    return system
+
+
+def test_a_held_turn_goes_on_in_place_once_the_way_is_off():
+    """Held beside bravo (all way off, the heading held), the hull makes no way: the rest of the turn
+    is turned in place — no speed asked, so the allocation keeps the propellers' differential within
+    the reverse thrust and nothing pushes the hull ahead (tests/test_path_following.py) — not sailed
+    at the turn speed, which took the hull ahead again and again into the hold (with the
+    allocation's limit alone, §6.2 dock seeds 65, 67 and 88 crept that way into the moored boat). A
+    turn never held is sailed at the turn speed, as before."""
+    system = _turning_system([_track()])
+    speed, course = ControlTick._sharp_turn_speed(system, 115.0, _nav(), None)
+    assert (speed, course) == (0.0, _nav().heading_rad) and system._sharp_turn[0] == "held"
+    speed, course = ControlTick._sharp_turn_speed(system, 117.0, _nav(speed_m_s=0.01), None)
+    assert speed == 0.0 and system._sharp_turn[0] == "held"  # turning in place (the detour's course)
+    free = _turning_system([])
+    assert ControlTick._sharp_turn_speed(free, 115.0, _nav(speed_m_s=0.01), None)[0] == free.config.sharp_turn_speed_m_s

@@ -254,7 +254,11 @@ class ControlTick:
         forward thrust (a full differential: reverse is the weaker propeller direction) and
         advances the hull several metres — thesis §6.2 and §6.4.3 under 30 % dropout: a re-plan 7 m
         from the pontoon / the south island asked for a 92° turn and the Otter, still at 0.55 m/s,
-        ran into it; it stops from 1 m/s within a metre."""
+        ran into it; it stops from 1 m/s within a metre. Once the turn's guard has held it (the
+        hull closing on a slow track: all way off, the heading held), the rest of the turn is
+        turned in place — speed 0, where the allocation keeps the differential within the reverse
+        thrust (:mod:`mjasc.guidance.following_law`) — instead of being sailed at the turn speed
+        into the next hold."""
         g, cfg = self._guidance, self.config
         x, y, _, _ = g.path.at(min(g.gamma_m + 5.0, g.path.length))
         # wrap_angle(np.arctan2(…) − ψ) and np.radians in plain floats (the same bits: math's atan2
@@ -296,9 +300,11 @@ class ControlTick:
                 self._event(t, "sharp turn held: the hull closes on a slow track within its safety distance")
             self._sharp_turn = ("held", self._sharp_turn[1])
             return 0.0, float(nav.heading_rad)
-        if self._sharp_turn[0] == "held":
-            self._sharp_turn = ("turn", self._sharp_turn[1])
         way = self._sharp_turn[1]
+        if self._sharp_turn[0] == "held":  # way off: the rest of the turn in place (no thrust ahead)
+            if way and (way * signed) % (2.0 * math.pi) > _LONG_WAY_RELEASE_RAD:
+                return 0.0, wrap_scalar(float(nav.heading_rad) + way * 0.5 * math.pi)
+            return 0.0, None
         if way and (way * signed) % (2.0 * math.pi) > _LONG_WAY_RELEASE_RAD:  # still the long way to go
             return speed, wrap_scalar(float(nav.heading_rad) + way * 0.5 * math.pi)
         return speed, None

@@ -145,8 +145,9 @@ def fingerprint() -> dict[str, str]:
     spd = a @ np.swapaxes(a, 1, 2) + 0.1 * np.eye(4)  # (symmetric positive definite)
     square = field[:, :40] + 40 * np.eye(40)
     lsq = np.linalg.lstsq(field[:, :3], small[:40], rcond=None)[0]
-    parts["numpy_linalg"] = _h(np.linalg.inv(spd[:, :3, :3]), np.linalg.eigvalsh(spd), np.linalg.eigh(spd[:, :2, :2])[0],
-                               np.linalg.solve(square, small[:40]), lsq, np.linalg.norm(field, axis=1))
+    parts["numpy_linalg"] = _h(np.linalg.inv(spd[:, :3, :3]), np.linalg.eigvalsh(spd),
+                               np.linalg.eigh(spd[:, :2, :2])[0], np.linalg.solve(square, small[:40]), lsq,
+                               np.linalg.norm(field, axis=1))
     lu = lu_factor(square)
     parts["scipy_lu"] = _h(lu[0], lu_solve(lu, small[:40]), lu_solve(lu, field[:, :5]))
     parts["numba_math"] = _h(_compiled_math(x, y))
