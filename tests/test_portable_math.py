@@ -71,6 +71,7 @@ def test_importing_mjasc_first_pins_a_fresh_process():
     assert got["NPY_DISABLE_CPU_FEATURES"] is None
 
 
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc/self/maps")
 def test_openblas_runs_on_one_thread_in_a_pinned_process():
     """OpenBLAS read the pin when it loaded: numpy's and scipy's copies of it (each wheel bundles
     its own) each run one thread — a LU factorisation splits its work by the count, and gives other
@@ -86,10 +87,14 @@ def test_openblas_runs_on_one_thread_in_a_pinned_process():
             "            out[path.rsplit('/', 1)[-1]] = getattr(lib, name)()\n"
             "            break\n"
             "print(json.dumps(out))\n")
-    env = {k: v for k, v in os.environ.items() if k not in ("OPENBLAS_NUM_THREADS", "MJASC_NATIVE_MATH")}
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "GOTO_NUM_THREADS", "MJASC_NATIVE_MATH")}
     pinned = json.loads(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True,
                                        check=True).stdout)
-    assert len(pinned) == 2 and set(pinned.values()) == {1}, pinned  # (numpy's and scipy's)
-    native = json.loads(subprocess.run([sys.executable, "-c", code], env={**env, "MJASC_NATIVE_MATH": "1"},
-                                       capture_output=True, text=True, check=True).stdout)
-    assert min(native.values()) > 1 or os.cpu_count() == 1, native  # (OpenBLAS's default: one per core)
+    if not pinned:
+        pytest.skip("no OpenBLAS with a thread-count query is loaded (a system BLAS?)")
+    assert set(pinned.values()) == {1}, pinned  # (numpy's and scipy's wheels each bundle one)
+    if len(os.sched_getaffinity(0)) > 1:  # (OpenBLAS's default: one thread per core it may use)
+        native = json.loads(subprocess.run([sys.executable, "-c", code], env={**env, "MJASC_NATIVE_MATH": "1"},
+                                           capture_output=True, text=True, check=True).stdout)
+        assert min(native.values()) > 1, native

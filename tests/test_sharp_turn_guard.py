@@ -98,3 +98,24 @@ def test_a_held_turn_goes_on_in_place_once_the_way_is_off():
     assert speed == 0.0 and system._sharp_turn[0] == "held"  # turning in place (the detour's course)
     free = _turning_system([])
     assert ControlTick._sharp_turn_speed(free, 115.0, _nav(speed_m_s=0.01), None)[0] == free.config.sharp_turn_speed_m_s
+
+
+def test_a_held_turn_in_place_steers_at_the_aim_point_and_ends_there():
+    """Held, the hull turns in place towards the detour's point 5 m ahead, not along the path's LOS
+    course: with no way on γ stands still, and where the detour bends within those 5 m the LOS
+    course (the first leg's) would leave the hull more than ``sharp_turn_deg`` off the aim point
+    for good, stopped. Once the heading is on the aim point the sharp turn is over."""
+    from mjasc.guidance.paths import Path
+
+    bend = math.radians(130.0)  # a detour bending 130° left 2 m ahead of the hull (heading east)
+    points = HERE + np.array([[0.0, 0.0], [2.0, 0.0], [2.0 + 8.0 * math.cos(bend), 8.0 * math.sin(bend)]])
+    system = _turning_system([])
+    system._guidance = system._guidance.__class__(path=Path.from_points(points), gamma_m=0.0, mission_speed_m_s=1.0)
+    system._sharp_turn = ("held", 0)
+    aim = system._guidance.path.at(5.0)
+    bearing = math.atan2(aim[1] - HERE[1], aim[0] - HERE[0])
+    speed, course = ControlTick._sharp_turn_speed(system, 120.0, _nav(speed_m_s=0.0, heading_deg=0.0), None)
+    assert speed == 0.0 and course == pytest.approx(bearing) and math.degrees(bearing) > 60.0
+    on_aim = _nav(speed_m_s=0.0, heading_deg=math.degrees(bearing))
+    assert ControlTick._sharp_turn_speed(system, 130.0, on_aim, None) == (None, None)  # over: the detour goes on
+    assert system._sharp_turn is None

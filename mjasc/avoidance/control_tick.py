@@ -301,10 +301,10 @@ class ControlTick:
             self._sharp_turn = ("held", self._sharp_turn[1])
             return 0.0, float(nav.heading_rad)
         way = self._sharp_turn[1]
-        if self._sharp_turn[0] == "held":  # way off: the rest of the turn in place (no thrust ahead)
-            if way and (way * signed) % (2.0 * math.pi) > _LONG_WAY_RELEASE_RAD:
+        if self._sharp_turn[0] == "held":  # way off: the rest of the turn in place (no thrust ahead),
+            if way and (way * signed) % (2.0 * math.pi) > _LONG_WAY_RELEASE_RAD:  # towards the aim point
                 return 0.0, wrap_scalar(float(nav.heading_rad) + way * 0.5 * math.pi)
-            return 0.0, None
+            return 0.0, wrap_scalar(float(nav.heading_rad) + signed)  # (not the LOS course: γ stands still)
         if way and (way * signed) % (2.0 * math.pi) > _LONG_WAY_RELEASE_RAD:  # still the long way to go
             return speed, wrap_scalar(float(nav.heading_rad) + way * 0.5 * math.pi)
         return speed, None

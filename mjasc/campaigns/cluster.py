@@ -10,23 +10,33 @@ import os
 
 __all__ = ["open_client", "close_client", "local_workers", "quiet_shutdown", "scheduler_problem", "warm_up_worker",
            "worker_thread_key", "workers_problem", "WORKER_WAIT_S", "code_digest", "code_identity",
-           "workers_code_problem", "math_digest"]
+           "workers_code_problem", "math_digest", "worker_math", "workers_math_problem",
+           "MathDigestError"]
 
 #: How long a campaign waits for the first worker of a cluster [s].
 WORKER_WAIT_S = 120.0
 
 
-def warm_up_worker(isolate: bool = True, dask_worker=None) -> dict:
+def warm_up_worker(dask_worker=None) -> str:
     """Run on every worker before the tasks: import mjasc once, start the worker's run process
     (it imports while the other workers come up; a worker of several threads starts one per thread
-    with its thread's first run, :func:`worker_thread_key`), report ``{"code": "<version> <digest>"
-    (:func:`code_identity`), "math": the digest of the floating-point bits where its runs compute
-    (:func:`math_digest`: a fresh run child's with ``isolate``, else this worker process's)}``."""
+    with its thread's first run, :func:`worker_thread_key`), report mjasc's version and
+    :func:`code_digest` (``"<version> <digest>"``). (Its name, arguments and answer stay as they
+    were: a worker on an older mjasc must be told apart by its answer, not fail to be asked.)"""
     from mjasc.campaigns.executor import start_isolated
 
-    if isolate and _nthreads(dask_worker) <= 1:
+    if _nthreads(dask_worker) <= 1:
         start_isolated()
-    return {"code": code_identity(), "math": math_digest(isolate)}
+    return code_identity()
+
+
+def worker_math(isolate: bool = True) -> dict:
+    """Run on every worker once its code is known to be this process's: ``{"digest": …}`` where its
+    runs compute (:func:`math_digest`), or ``{"error": …}`` when it could not be computed."""
+    try:
+        return {"digest": math_digest(isolate)}
+    except MathDigestError as exc:
+        return {"error": str(exc)}
 
 
 def code_identity() -> str:
@@ -54,17 +64,28 @@ def code_digest() -> str:
     return h.hexdigest()[:16]
 
 
-@functools.lru_cache(maxsize=2)
+class MathDigestError(RuntimeError):
+    """The math fingerprint could not be computed (its process failed or timed out)."""
+
+
+_MATH_DIGESTS: dict[bool, str] = {}  # fresh → the digest (successes only: a failure is asked again)
+
+
 def math_digest(fresh: bool = True) -> str:
     """The digest of :func:`mjasc.core.math_fingerprint.fingerprint` where this machine's runs
     compute: ``fresh``, a new process started as a run child is (``python -m
     mjasc.core.math_fingerprint`` with the children's environment: it imports mjasc first, so numpy
     and OpenBLAS are pinned whatever this process imported before); else this process (runs in
-    the worker's own process). Two machines with the same digest give a run the same bits."""
+    the worker's own process). Machines with the same digest compute the sampled operations — the
+    ones a run rests on — bit for bit alike; a different digest means a run there would not replay
+    here. Raises :class:`MathDigestError` when it cannot be computed."""
+    if fresh in _MATH_DIGESTS:
+        return _MATH_DIGESTS[fresh]
     if not fresh:
         from mjasc.core.math_fingerprint import digest
 
-        return digest()
+        _MATH_DIGESTS[fresh] = value = digest()
+        return value
     import subprocess
     import sys
 
@@ -74,34 +95,48 @@ def math_digest(fresh: bool = True) -> str:
         done = subprocess.run([sys.executable, "-m", "mjasc.core.math_fingerprint"], capture_output=True, text=True,
                               env={**os.environ, **child_environment()}, timeout=WORKER_WAIT_S)
     except (OSError, subprocess.TimeoutExpired) as exc:
-        return f"unknown ({type(exc).__name__})"
+        raise MathDigestError(f"python -m mjasc.core.math_fingerprint: {type(exc).__name__}: {exc}") from None
     first = done.stdout.split("\n", 1)[0].split()
     if done.returncode or len(first) != 2 or first[0] != "digest":
-        return f"unknown (exit status {done.returncode})"
+        tail = (done.stderr.strip().splitlines() or ["no output"])[-1]
+        raise MathDigestError(f"python -m mjasc.core.math_fingerprint exited with status {done.returncode}: {tail}")
+    _MATH_DIGESTS[fresh] = first[1]
     return first[1]
 
 
-def workers_code_problem(reports: dict, isolate: bool = True) -> str:
+def workers_code_problem(reports: dict) -> str:
     """What is wrong with the workers' :func:`warm_up_worker` reports (worker address → report)
-    against this process's code and this machine's math ('' if every worker runs the same code and
-    computes the same bits: a run gives the same result wherever it runs, and ``mjasc extract``
-    replays it here)."""
+    against this process's code ('' if every worker runs it)."""
     own = code_identity()
-    other = {w: r["code"] for w, r in reports.items() if r["code"] != own}
-    if other:
-        w, r = sorted(other.items())[0]
-        return (f"{len(other)} of {len(reports)} Dask worker(s) run other mjasc code than this process (worker {w}: "
-                f"version and code digest {r!r}, here {own!r}); install the same mjasc on every worker (a worker "
-                f"started on another checkout or PYTHONPATH gives other results)")
-    own = math_digest(isolate)
-    other = {w: r["math"] for w, r in reports.items() if r["math"] != own}
+    other = {w: r for w, r in reports.items() if r != own}
+    if not other:
+        return ""
+    w, r = sorted(other.items())[0]
+    return (f"{len(other)} of {len(reports)} Dask worker(s) run other mjasc code than this process (worker {w}: "
+            f"version and code digest {r!r}, here {own!r}); install the same mjasc on every worker (a worker "
+            f"started on another checkout or PYTHONPATH gives other results)")
+
+
+def workers_math_problem(reports: dict, own: str | MathDigestError) -> str:
+    """What is wrong with the workers' :func:`worker_math` reports (worker address → report)
+    against this machine's math digest ``own`` (or the error computing it): '' if every worker
+    computes the same bits — a run gives the same result wherever it runs, and ``mjasc extract``
+    replays it here."""
+    if isinstance(own, MathDigestError):
+        return f"could not compute this machine's math digest ({own}), to compare the workers' with"
+    failed = {w: r["error"] for w, r in reports.items() if "error" in r}
+    if failed:
+        w, error = sorted(failed.items())[0]
+        return f"could not compute the math digest on {len(failed)} Dask worker(s) (worker {w}: {error})"
+    other = {w: r["digest"] for w, r in reports.items() if r["digest"] != own}
     if not other:
         return ""
     w, r = sorted(other.items())[0]
     return (f"{len(other)} of {len(reports)} Dask worker(s) compute other floating-point bits than this machine "
             f"(worker {w}: math digest {r}, here {own}): a run there would not replay here; use machines whose "
             f"'python -m mjasc.core.math_fingerprint' digests agree (the same CPU architecture, x86-64 with AVX2, "
-            f"the same locked packages, no NPY_DISABLE_CPU_FEATURES or OPENBLAS_CORETYPE of their own)")
+            f"the same locked packages, no NPY_DISABLE_CPU_FEATURES, OPENBLAS_CORETYPE or OPENBLAS_NUM_THREADS of "
+            f"their own)")
 
 
 def _nthreads(worker) -> int:

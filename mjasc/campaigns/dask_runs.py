@@ -15,9 +15,11 @@ from __future__ import annotations
 
 import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 
-from mjasc.campaigns.cluster import (WORKER_WAIT_S, close_client, local_workers, open_client, quiet_shutdown,
-                                    warm_up_worker, worker_thread_key, workers_code_problem)
+from mjasc.campaigns.cluster import (WORKER_WAIT_S, MathDigestError, close_client, local_workers, math_digest,
+                                    open_client, quiet_shutdown, warm_up_worker, worker_math, worker_thread_key,
+                                    workers_code_problem, workers_math_problem)
 from mjasc.campaigns.executor import adopt_isolated, execute_in_process, release_isolated, run_isolated, take_prestarted
 from mjasc.campaigns.hull_shipping import hold_hull_root, localise, release_hull_root, ship_to_cluster
 from mjasc.campaigns.run_request import request_of
@@ -100,11 +102,21 @@ def run_on_dask(runs, store, out_dir, scheduler, workers, max_attempts, time_lim
             versions = {k: getattr(mjasc, "__version__", "unknown") for k in keys}
         else:
             try:
-                versions = client.run(warm_up_worker, isolate)
+                versions = client.run(warm_up_worker)
             except Exception as exc:  # noqa: BLE001
                 raise RuntimeError(f"the Dask workers cannot import mjasc ({type(exc).__name__}: {exc}); "
                                    f"install mjasc on every worker") from None
-            if problem := workers_code_problem(versions, isolate):  # (before any run: the results would differ)
+            if problem := workers_code_problem(versions):  # (before any run: the results would differ)
+                raise RuntimeError(f"{problem}; no run was done")
+            # The same code: the same floating-point bits too? (this machine's digest meanwhile)
+            with ThreadPoolExecutor(1) as pool:
+                own = pool.submit(math_digest, isolate)
+                maths = client.run(worker_math, isolate)
+                try:
+                    own = own.result()
+                except MathDigestError as exc:
+                    own = exc
+            if problem := workers_math_problem(maths, own):
                 raise RuntimeError(f"{problem}; no run was done")
         info.update(scheduler="local" if local else scheduler if isinstance(scheduler, str) else "client",
                     address=client.scheduler.address, workers=len(versions),

@@ -7,7 +7,9 @@ below AVX-512 by :mod:`mjasc.core.portable_math`), OpenBLAS's kernels (numpy's a
 algebra), glibc's ``libm`` (numba's compiled ``math`` calls it), numba's own code generation for the
 host CPU, and MuJoCo's step and ray casts. :func:`fingerprint` runs a fixed sample of each kind of
 work mjasc does and hashes the results bit for bit: two processes with the same fingerprint compute
-those operations identically, so a run gives the same bits in both.
+those samples identically. A sample cannot prove that every input rounds alike, but each
+difference found so far (numpy's AVX-512 loops, OpenBLAS's kernels and thread count) shows in it,
+and a different fingerprint means a run will not replay bit for bit.
 
 It does not involve mjasc's own models, so it changes only when a package or the machine's math
 does — not when mjasc's behaviour changes. The test suite compares it with a reference taken on

@@ -203,7 +203,7 @@ def follow_fleet(table, first, count, length, P, S, idx, pos, heading, bv, speed
         t_max, t_min = P[_TMAX, i], P[_TMIN, i]
         half_diff_free = 0.5 * n_cmd / P[_D, i]
         half_range = (t_max + t_min) / 2
-        if u > u_d and t_min < half_range:  # faster than asked: the sum can stay at or below zero
+        if u > u_d and t_min < half_range:  # faster than asked: the sum can come down to zero
             half_range = t_min
         half_diff = half_diff_free if half_diff_free >= -half_range else -half_range
         if not half_diff <= half_range:

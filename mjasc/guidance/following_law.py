@@ -27,13 +27,14 @@ plus PI on the surge error. Allocation to the twin propellers at y = ±d:
 propeller curve gives the normalized commands; when saturated, yaw moment has priority — up to
 (T_max + T_min)/2 a propeller, where the pair's forward and reverse limits meet, except while the
 hull is faster than its speed reference (u > u_d: a stop, a slow-down, a sharp turn at its slow
-turning speed): then the differential is held within the reverse limit T_min, so that the sum can
-stay at or below zero. A propeller pushes harder ahead than astern (T_max > T_min), so a full
-differential leaves a net forward thrust of T_max − T_min whatever the speed loop asks: a vessel
-told to stop while it turned hard kept ~0.5 m/s through the turn and sailed on into what it was
-stopping for (thesis §6.4.3 under 30 % dropout and packet loss, seeds 31, 33, 37, 41). The turn
-is slower there (a moment of 2 d T_min instead of d (T_max + T_min)); at or below the reference
-yaw keeps the full range.
+turning speed; also a hull asked to go astern): then the differential is held within the reverse
+limit T_min, so that the net thrust can come down to zero — no push ahead: the hull coasts down on
+its drag while the turn saturates, and the speed loop brakes once it does not. A propeller
+pushes harder ahead than astern (T_max > T_min), so a full differential leaves a net forward
+thrust of T_max − T_min whatever the speed loop asks: a vessel told to stop while it turned hard
+kept ~0.5 m/s through the turn and sailed on into what it was stopping for (thesis §6.4.3 under
+30 % dropout and packet loss, seeds 31, 33, 37, 41). The turn is slower there (a moment of
+2 d T_min instead of d (T_max + T_min)); at or below the reference yaw keeps the full range.
 
 The law is written once over a table of operations (:func:`law`; :class:`ArrayOps` for arrays of
 vessels, :class:`FloatOps` for one vessel in plain floats) and once more with the float operations
@@ -168,7 +169,7 @@ def law(o, P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p, kap
     t_max, t_min = P[TMAX], P[TMIN]
     half_diff_free = 0.5 * n_cmd / P[D]
     half_range = (t_max + t_min) / 2
-    half_range = o.where(o.and_(u > u_d, t_min < half_range), t_min, half_range)  # too fast: Σ ≤ 0 reachable
+    half_range = o.where(o.and_(u > u_d, t_min < half_range), t_min, half_range)  # too fast: Σ down to 0
     half_diff = o.minimum(o.maximum(half_diff_free, -half_range), half_range)
     lo = -t_min + o.abs(half_diff)
     hi = t_max - o.abs(half_diff)
@@ -209,7 +210,7 @@ def law_floats(P, S, x, y, heading, u, r, speed_ref, dt_s, gamma, qx, qy, chi_p,
     t_max, t_min = P[TMAX], P[TMIN]
     half_diff_free = 0.5 * n_cmd / P[D]
     half_range = (t_max + t_min) / 2
-    if u > u_d and t_min < half_range:  # faster than asked: the sum can stay at or below zero
+    if u > u_d and t_min < half_range:  # faster than asked: the sum can come down to zero
         half_range = t_min
     half_diff = half_diff_free if half_diff_free >= -half_range else -half_range
     if not half_diff <= half_range:

@@ -335,7 +335,10 @@ class Runner:
                 bar.close()
             if self._truth is not None and self.recorder:  # (the counts as they stand: the summary's)
                 t_slot = clock()
-                self._truth.finish(sim.time_s)
+                try:
+                    self._truth.finish(sim.time_s)
+                except Exception as exc:  # noqa: BLE001 - never lose the recording for its last counts
+                    self.recorder.event(sim.time_s, f"the comms counts at the end not written: {exc}", "WARN")
                 stage["record"] += clock() - t_slot
             for slot, out in (("record", self.recorder), ("video", self.video)):
                 if out is not None:  # flushing the outputs is their slot's cost
