@@ -301,13 +301,13 @@ class ControlTick:
             self._sharp_turn = ("held", self._sharp_turn[1])
             return 0.0, float(nav.heading_rad)
         way = self._sharp_turn[1]
-        if self._sharp_turn[0] == "held":  # way off: the rest of the turn in place (no thrust ahead),
-            if way and (way * signed) % (2.0 * math.pi) > _LONG_WAY_RELEASE_RAD:  # towards the aim point
-                return 0.0, wrap_scalar(float(nav.heading_rad) + way * 0.5 * math.pi)
-            return 0.0, wrap_scalar(float(nav.heading_rad) + signed)  # (not the LOS course: γ stands still)
+        held = self._sharp_turn[0] == "held"  # way off: the rest of the turn in place (no thrust ahead)
+        if held:
+            speed = 0.0
         if way and (way * signed) % (2.0 * math.pi) > _LONG_WAY_RELEASE_RAD:  # still the long way to go
             return speed, wrap_scalar(float(nav.heading_rad) + way * 0.5 * math.pi)
-        return speed, None
+        # held: towards the aim point itself (not the LOS course: with no way on γ stands still)
+        return speed, wrap_scalar(float(nav.heading_rad) + signed) if held else None
 
     def _turn_closes_on_track(self, nav) -> bool:
         """Whether the hull, turning, closes on a slow track (static, or at most

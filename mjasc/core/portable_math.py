@@ -27,8 +27,8 @@ keeps numpy's own choice (:func:`status` says which; set the variables in the en
 then). CPUs without AVX2, and other architectures (aarch64), keep numpy's loops and give their own
 bits. The cost is small: mjasc's arrays and matrices are small (a second BLAS thread does not pay
 for its hand-off on them), and its hot loops are compiled (numba) anyway.
-:mod:`mjasc.core.math_fingerprint` checks the result: its digest is the same on machines that give
-a run the same bits.
+:mod:`mjasc.core.math_fingerprint` checks the result on a sample of that work: machines whose digests
+differ will not repeat each other's runs.
 """
 
 from __future__ import annotations
