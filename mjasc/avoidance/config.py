@@ -27,9 +27,10 @@ class AvoidanceConfig:
     """Parameters of one vessel's collision avoidance (docs/thesis.md §3–5; defaults: thesis §6.1 where it
     gives a value). When no action is possible at all, the vessel slows to ``emergency_speed_m_s``
     (an emergency yield: by default it stops), and a give-way vessel never goes around a team mate
-    (it yields, or stops). A stand-on vessel whose team mate is abaft its beam never slows down (that
-    would let the give-way vessel, coming from behind, run into it; COLREG rule 13): at the last
-    resort it may only speed up (pass first)."""
+    (it yields, or stops). A stand-on vessel whose team mate comes up from abaft its beam never slows
+    down (that would let the give-way vessel, coming from behind, run into it; COLREG rule 13): at
+    the last resort it may only speed up (pass first). A team mate stopped or creeping there is
+    answered as any conflict."""
 
     enabled: bool = param(True, doc="false: predict and record conflicts but never act (monitor only)")
     prediction: CollisionPredictionConfig = param(

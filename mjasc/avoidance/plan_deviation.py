@@ -25,12 +25,16 @@ from mjasc.core.compiled import kernel
 __all__ = ["plans_deviate", "plans_deviate_reference"]
 
 
-def plans_deviate_reference(pairs, times, deviation_m: float) -> bool:
-    """Whether some (new, old) intention pair of ``pairs`` lies farther apart than
-    ``deviation_m`` [m] at some of ``times`` (n,) [s] (the largest distance, NaN propagating)."""
+def plans_deviate_reference(pairs, times, deviation_m) -> bool:
+    """Whether some (new, old) intention pair of ``pairs`` lies farther apart than its limit at
+    some of ``times`` (n,) [s]: ``deviation_m`` [m], one number for every pair or one per pair
+    (a NaN distance anywhere: False, as the largest distance's NaN compares)."""
     both = intention_positions([p[0] for p in pairs] + [p[1] for p in pairs], times)  # new plans, then the old
     new, old = both[:len(pairs)], both[len(pairs):]
-    return bool(np.max(np.hypot(new[..., 0] - old[..., 0], new[..., 1] - old[..., 1])) > deviation_m)
+    dist = np.hypot(new[..., 0] - old[..., 0], new[..., 1] - old[..., 1])  # (pairs, n)
+    if np.isnan(dist).any():
+        return False
+    return bool(np.any(np.max(dist, axis=1) > np.asarray(deviation_m, dtype=float)))
 
 
 def _arrays(it):
@@ -44,7 +48,7 @@ def _arrays(it):
     return None
 
 
-def plans_deviate(pairs, times, deviation_m: float) -> bool:
+def plans_deviate(pairs, times, deviation_m) -> bool:
     """:func:`plans_deviate_reference`, the same answer: for at most two pairs whose intentions
     hold float64 arrays, one compiled call per pair (module docstring); else the reference."""
     times = np.asarray(times, dtype=float)
@@ -56,10 +60,10 @@ def plans_deviate(pairs, times, deviation_m: float) -> bool:
         if a is None or b is None:
             return plans_deviate_reference(pairs, times, deviation_m)
         args.append(a + b)
-    limit = float(deviation_m)
+    limits = np.broadcast_to(np.asarray(deviation_m, dtype=float), (len(pairs),)).tolist()
     buf = np.empty((2, times.size, 2))
     farther = False
-    for a in args:
+    for a, limit in zip(args, limits):
         code = _pair_code(*a, times, limit, buf)
         if code == 2:
             return False  # a NaN distance: the largest is NaN

@@ -17,6 +17,7 @@ state is the system's). World frame ENU, SI units, absolute simulation times [s]
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 
@@ -144,6 +145,7 @@ class PredictionStep:
         for d in distances:
             m = min(m, d)
         self.min_predicted_distance_m = m
+        self.team_mates.remember_clearances(self._team_clearances(pending, distances))
         # the mapped polygons, then the static tracks' outlines (checked like a mapped polygon), in one pass
         # (each polygon's conflict is the one it has alone)
         polys = list(static_polygons)
@@ -175,6 +177,23 @@ class PredictionStep:
         self._decide(t, nav, conflicts, statics, by_id, static_polygons, allow_replan=not after_replan,
                      static_outlines=list(outlined.values()))
         return conflicts + statics
+
+    def _team_clearances(self, pending: "PendingPrediction", distances) -> dict:
+        """Each team mate's clearance in this prediction [m]: its closest predicted distance less
+        the collision distance (R_vh + its radius + the safety distance), for the team mates
+        predicted as discs and clear of collision (:meth:`TeamMates.remember_clearances`)."""
+        out = {}
+        if not self.team:
+            return out
+        safety = self.prediction_config.safety_distance_m
+        discs = [tr for tr in pending.tracks if tr.track_id not in pending.outlined]
+        for tr, d in zip(discs, distances):
+            name = tr.team_member
+            if name in self.team:
+                clear = d - (self.radius_m + tr.radius_m + safety)
+                if clear > 0.0:
+                    out[name] = min(clear, out.get(name, math.inf))
+        return out
 
     def _record_conflict(self, t, c: PredictedConflict, track) -> None:
         key = (c.track_id, round(c.t_i), c.decision.value)

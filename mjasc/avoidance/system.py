@@ -312,6 +312,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
             "enabled": self.config.enabled,
             "predictions": self.stats["predictions"],
             "predictions_on_track_deviation": self.stats["deviation_predictions"],
+            "predictions_on_team_clearance": self.team_mates.clearance_changes,
             "predicted_conflicts": self.stats["predicted_conflicts"],
             "static_conflicts": self.stats["static_conflicts"],
             "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "lane_change", "checked_choice",

@@ -103,6 +103,8 @@ class TeamMates:
         self._window_grid = np.linspace(0.0, self.horizon_s, 16)  # the plan comparison's times after now [s]
         self._nav: dict[str, tuple] = {}  # name → (sent t, heading, ω) from successive broadcasts
         self._predicted: dict = {}  # name → TeamIntention the last prediction used
+        self._clearance: dict[str, float] = {}  # name → the last prediction's clearance to it [m] (> 0)
+        self.clearance_changes = 0  # plans found changed only against a clearance below deviation_m
         self._history = _BroadcastHistory()  # every team mate's broadcast positions over TEAM_HISTORY_S
         self._plan_checked: dict[str, float] = {}  # name → sent time of the last message compared
         self._ghosts: set[int] = set()  # track ids found to be a team mate's stale copy (reported once)
@@ -276,14 +278,24 @@ class TeamMates:
         """The intentions the prediction just made used (compared by :meth:`plans_changed`)."""
         self._predicted = fresh
 
+    def remember_clearances(self, clearances: dict) -> None:
+        """Each team mate's clearance in the last prediction (its closest predicted distance less
+        the collision distance [m]; those with a predicted collision left out): a new plan that
+        moves less than this at every compared time cannot bring a collision the prediction did
+        not see (the distance at each time changes by at most the move), one that moves more may,
+        and is compared against it instead of ``deviation_m`` when it is the smaller."""
+        self._clearance = clearances
+
     def predicted_names(self) -> set:
         """Team mates the last prediction took from their fresh broadcasts."""
         return set(self._predicted)
 
     def plans_changed(self, t: float, picture) -> bool:
-        """A team mate's newest plan differs by more than ``deviation_m`` from the one the last
-        prediction used, within the prediction window (it re-planned or changed its speed). Each
-        message is compared once; all new messages are compared in one array operation."""
+        """A team mate's newest plan differs by more than ``deviation_m`` — or than the last
+        prediction's clearance to it, when that is smaller (:meth:`remember_clearances`) — from
+        the one the last prediction used, within the prediction window (it re-planned, changed its
+        speed or stopped). Each message is compared once; all new messages are compared in one
+        array operation."""
         if picture is None:
             return False
         key_of = self._key_of  # (_key without its call when the mapping is the last one seen)
@@ -292,7 +304,7 @@ class TeamMates:
             self.compared_intentions = picture.intentions
             return False  # every message still fresh was compared at the last call
         intents = self.fresh(picture, t)
-        pairs = []
+        pairs, limits = [], []
         for name, it in intents.items():
             if self._plan_checked.get(name) == it.sent_time_s:
                 continue  # this message was compared already
@@ -305,10 +317,15 @@ class TeamMates:
             if it.sent_time_s <= old.sent_time_s:
                 continue
             pairs.append((it, old))
+            limits.append(min(self.deviation_m, self._clearance.get(name, math.inf)))
         self._compared_key, self.compared_intentions = key, picture.intentions
         if not pairs:
             return False
-        return plans_deviate(pairs, t + self._window_grid, self.deviation_m)  # (new plan, old) pairs
+        times = t + self._window_grid
+        changed = plans_deviate(pairs, times, limits)  # (new plan, old) pairs
+        if changed and min(limits) < self.deviation_m and not plans_deviate(pairs, times, self.deviation_m):
+            self.clearance_changes += 1  # (counted: the summary's predictions_on_team_clearance)
+        return changed
 
 
 class _BroadcastHistory:

@@ -13,11 +13,12 @@ by the rules in this order:
   — the caller speeds up or stops when no lane can be left). Slowing down would let it close faster.
 * **Right of way between team mates** (:func:`~mjasc.avoidance.right_of_way.gives_way`): the
   stand-on vessel keeps its speed until ``last_resort_s``; at the last resort, with the give-way
-  vessel abaft its beam, it may only speed up. A team mate that already gives way to this vessel
-  (its fresh broadcast says so: ``mates_giving_way``) makes it the stand-on vessel whatever the
-  geometry says now, unless it is itself already yielding to that mate: each vessel decides from
-  its own view at its own time, and a decision taken seconds after the mate's, on a geometry the
-  mate's yield has changed, could make both give way and both crawl through the crossing. The
+  vessel coming up from abaft its beam (:func:`closing_from_astern`), it may only speed up. A team
+  mate that already gives way to this vessel (its fresh broadcast says so: ``mates_giving_way``)
+  makes it the stand-on vessel whatever the geometry says now, unless it is itself already
+  yielding to that mate: each vessel decides from its own view at its own time, and a decision
+  taken seconds after the mate's, on a geometry the mate's yield has changed, could make both give
+  way and both crawl through the crossing. The
   other way round, two team mates that both find themselves stand-on (each reads the other's
   course against its own bow: in a cross current a crabbing pair can) and both say so in their
   broadcasts (``mates_standing_on``): the one whose name sorts after the other's gives way.
@@ -44,7 +45,7 @@ from mjasc.avoidance.replanning import swept_area
 from mjasc.avoidance.right_of_way import OVERTAKING_BEARING_RAD, gives_way, relative_bearing
 from mjasc.evaluation.colreg import ColregConfig, classify
 
-__all__ = ["Triage", "triage", "swept", "overtaking_us", "colreg_role"]
+__all__ = ["Triage", "triage", "swept", "overtaking_us", "closing_from_astern", "colreg_role"]
 
 #: The roles of a conflict the prediction found: risk of collision is established (a manoeuvring
 #: target's predicted path may meet the vessel where straight lines pass wide), so classify's
@@ -85,6 +86,19 @@ def overtaking_us(nav, track) -> bool:
     course = np.array([np.cos(nav.heading_rad), np.sin(nav.heading_rad)])
     v_track = track.speed_m_s * np.array([np.cos(track.heading_rad), np.sin(track.heading_rad)])
     return bool(v_track @ course > float(np.hypot(*np.asarray(nav.velocity_m_s, dtype=float)[:2])))
+
+
+def closing_from_astern(nav, track, static_speed_m_s: float) -> bool:
+    """The track moves toward the vessel faster than ``static_speed_m_s`` [m/s] (its velocity's
+    component along the line from it to the vessel): the vessel slowing down would let it run
+    into the vessel. A team mate stopped or creeping abaft the beam does not: there it is the
+    vessel that closes on it."""
+    los = np.asarray(nav.position_m, dtype=float)[:2] - np.asarray(track.position_m, dtype=float)[:2]
+    dist = float(np.hypot(los[0], los[1]))
+    if dist == 0.0:
+        return True
+    closing = track.speed_m_s * (math.cos(track.heading_rad) * los[0] + math.sin(track.heading_rad) * los[1]) / dist
+    return bool(closing > static_speed_m_s)
 
 
 def colreg_role(nav, track, traffic_rule: str) -> str | None:
@@ -172,7 +186,8 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
                 out.notes.append(("stand_on", f"stand-on vessel towards team mate {track.team_member}: "
                                               f"keeps its speed"))
                 continue
-            if astern:  # last resort with the give-way vessel abaft the beam: never slow down
+            if astern and closing_from_astern(nav, track, cfg.static_speed_m_s):
+                # last resort with the give-way vessel coming up from abaft the beam: never slow down
                 corr = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, pass_only=True, path_end_m=path_end_m)
                 if corr is not None:
                     out.candidates.append(corr)
