@@ -2,8 +2,8 @@
 abaft its beam — slowing would let the mate run into it (COLREG rule 13) — but only when the mate
 does come up: it moves toward the vessel faster than ``static_speed_m_s``
 (mjasc.avoidance.triage.closing_from_astern). A mate stopped or creeping abaft the beam is answered
-as any give-way conflict: there it is the vessel that closes on the mate (the stressed §6.4.3
-bottleneck, seed 54: alpha kept its speed at the last resort for charlie, stopped on its
+as any give-way conflict: there it is the vessel that closes on the mate (seen in the stressed
+§6.4.3 bottleneck: a vessel keeping its speed at the last resort for a mate stopped on its
 quarter)."""
 
 import math
@@ -57,3 +57,22 @@ def test_the_last_resort_keeps_the_speed_only_for_a_closing_mate():
         roles[name] = tri.roles[3]
     assert roles["closing"].startswith("team right of way: stand-on, last resort")
     assert "last resort" not in roles["stopped"]
+
+
+@pytest.mark.parametrize("resume_s, closing", [(20.0, False), (0.0, True)])
+def test_a_mate_predicted_from_its_plan_closes_as_its_plan_moves_now(resume_s, closing):
+    """A team mate predicted from its broadcast plan (a ``PlannedTrack``, whose ``speed_m_s`` is the
+    plan's largest speed): stopped on the quarter with its plan resuming at 1.5 m/s in 20 s, it is
+    not coming up; moving on at once, it is."""
+    from mjasc.avoidance.team_mates import _message_estimate
+    from mjasc.cooperation.messages import TeamIntention
+    from mjasc.core.estimates import PlannedTrack, estimate_as_track
+
+    times = np.arange(50.0, 111.0)
+    along = 1.5 * np.clip(times - 50.0 - resume_s, 0.0, None)
+    course = np.array([math.cos(math.radians(30.0)), math.sin(math.radians(30.0))])
+    it = TeamIntention("bravo", 50.0, np.array([-6.0, -4.0]), math.radians(30.0), np.zeros(2), 1.5,
+                       plan_times_s=times, plan_points_m=np.array([-6.0, -4.0]) + along[:, None] * course)
+    track = estimate_as_track(_message_estimate(it, 0.0), 3, 1.5, None)
+    assert isinstance(track, PlannedTrack) and track.speed_m_s == pytest.approx(1.5)
+    assert closing_from_astern(OWN, track, 0.15) is closing

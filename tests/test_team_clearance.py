@@ -83,3 +83,49 @@ def test_per_pair_limits_answer_as_the_reference():
     for pairs in ([(a, bad)], [(a, a), (a, bad)]):
         assert plans_deviate(pairs, times, [0.0] * len(pairs)) is False
         assert plans_deviate_reference(pairs, times, [0.0] * len(pairs)) is False
+
+
+def test_the_clearances_remembered_are_each_team_mates_own_in_a_run():
+    """On the §6.4.2 head-on (three vessels, an oncoming stranger): at every prediction each team
+    mate's remembered clearance is its own pair's d(t_c) − R_col, found by track id among the
+    prediction's pairs (which come sorted by t_c, not in the tracks' order), and only clear mates
+    have one."""
+    from dataclasses import replace
+
+    import mjasc
+    from mjasc.avoidance import prediction_step
+    from mjasc.runs.runner import Runner
+
+    checked = []
+    original = prediction_step.PredictionStep._act_on_prediction
+
+    def act(self, t, nav, pending, all_c, static_polygons, after_replan=False):
+        pairs = list(all_c)  # (every pair made: the reference reads them as objects)
+        mates = {tr.track_id: tr.team_member for tr in pending.tracks if tr.team_member in self.team}
+        expected = {}
+        for c in pairs:
+            if c.track_id in mates and c.min_distance_m - c.collision_distance_m > 0.0:
+                name = mates[c.track_id]
+                expected[name] = min(c.min_distance_m - c.collision_distance_m, expected.get(name, np.inf))
+        n = len(remembered)
+        out = original(self, t, nav, pending, all_c, static_polygons, after_replan)
+        # (this prediction's own: the first remembered in the call; a re-prediction inside it remembers its own)
+        checked.append((expected, remembered[n], [c.track_id for c in pairs], [tr.track_id for tr in pending.tracks]))
+        return out
+
+    remembered = []
+    remember = TeamMates.remember_clearances
+    TeamMates.remember_clearances = lambda self, clearances: (remembered.append(dict(clearances)),
+                                                              remember(self, clearances))[1]
+    prediction_step.PredictionStep._act_on_prediction = act
+    try:
+        sc = mjasc.load_scenario("tasks/thesis_6_4_head_on.toml").with_overrides(duration_s=120.0, video=False)
+        Runner(replace(sc, outputs=replace(sc.outputs, recording=False))).run()
+    finally:
+        prediction_step.PredictionStep._act_on_prediction = original
+        TeamMates.remember_clearances = remember
+    assert len(checked) > 20
+    for expected, got, _, _ in checked:
+        assert got == expected
+    # (the case the pairing must survive: pairs in another order than the tracks)
+    assert any(ids != [k for k in tracks if k in ids] for _, _, ids, tracks in checked)

@@ -3,8 +3,9 @@ comparison, :meth:`~mjasc.avoidance.team_mates.TeamMates.plans_changed`).
 
 :func:`plans_deviate_reference` is the readable form: both plans of every (new, old) pair at the
 comparison times (:func:`~mjasc.avoidance.prediction.team_plans.intention_positions`), and the largest
-``np.hypot`` of their differences ``> deviation_m``. :func:`plans_deviate` gives the same answer
-for a small team (at most two pairs: each pair's positions are those
+``np.hypot`` of their differences ``> deviation_m`` (one limit for every pair, or one per pair:
+the last prediction's clearance to that team mate when it is smaller). :func:`plans_deviate`
+gives the same answer for a small team (at most two pairs: each pair's positions are those
 :func:`~mjasc.avoidance.prediction.team_plans.intention_positions` works out for at most four
 intentions, one compiled pass per intention) in one compiled call per pair: both plans'
 positions and the distances in one pass, no array made per pair. ``np.max`` propagates NaN, so a

@@ -138,14 +138,16 @@ class PredictionStep:
                                                   pending.profile)
         if isinstance(all_c, ConflictList):  # the clear conflicts are made only when read
             distances, conflicts = all_c.min_distances, list(all_c.collisions)
+            ids, r_cols = all_c.track_ids, all_c.collision_distances
         else:
             all_c = tuple(all_c)
             distances, conflicts = [c.min_distance_m for c in all_c], [c for c in all_c if c.collision]
+            ids, r_cols = [c.track_id for c in all_c], [c.collision_distance_m for c in all_c]
         m = self.min_predicted_distance_m
         for d in distances:
             m = min(m, d)
         self.min_predicted_distance_m = m
-        self.team_mates.remember_clearances(self._team_clearances(pending, distances))
+        self.team_mates.remember_clearances(self._team_clearances(tracks, ids, distances, r_cols))
         # the mapped polygons, then the static tracks' outlines (checked like a mapped polygon), in one pass
         # (each polygon's conflict is the one it has alone)
         polys = list(static_polygons)
@@ -178,21 +180,20 @@ class PredictionStep:
                      static_outlines=list(outlined.values()))
         return conflicts + statics
 
-    def _team_clearances(self, pending: "PendingPrediction", distances) -> dict:
+    def _team_clearances(self, tracks, ids, distances, r_cols) -> dict:
         """Each team mate's clearance in this prediction [m]: its closest predicted distance less
-        the collision distance (R_vh + its radius + the safety distance), for the team mates
-        predicted as discs and clear of collision (:meth:`TeamMates.remember_clearances`)."""
+        the collision distance (R_vh + its radius + the safety distance, as the prediction took
+        them), for the team mates predicted as discs and clear of collision
+        (:meth:`TeamMates.remember_clearances`). ``ids``, ``distances``, ``r_cols``: each checked
+        pair's track id, d(t_c) and collision distance, in the prediction's order (by t_c)."""
         out = {}
         if not self.team:
             return out
-        safety = self.prediction_config.safety_distance_m
-        discs = [tr for tr in pending.tracks if tr.track_id not in pending.outlined]
-        for tr, d in zip(discs, distances):
-            name = tr.team_member
-            if name in self.team:
-                clear = d - (self.radius_m + tr.radius_m + safety)
-                if clear > 0.0:
-                    out[name] = min(clear, out.get(name, math.inf))
+        mate = {tr.track_id: tr.team_member for tr in tracks if tr.team_member in self.team}
+        for k, d, r in zip(ids, distances, r_cols):
+            name = mate.get(k)
+            if name is not None and d - r > 0.0:
+                out[name] = min(d - r, out.get(name, math.inf))
         return out
 
     def _record_conflict(self, t, c: PredictedConflict, track) -> None:

@@ -280,10 +280,11 @@ class TeamMates:
 
     def remember_clearances(self, clearances: dict) -> None:
         """Each team mate's clearance in the last prediction (its closest predicted distance less
-        the collision distance [m]; those with a predicted collision left out): a new plan that
-        moves less than this at every compared time cannot bring a collision the prediction did
-        not see (the distance at each time changes by at most the move), one that moves more may,
-        and is compared against it instead of ``deviation_m`` when it is the smaller."""
+        the collision distance [m]; those with a predicted collision left out). While the own plan
+        stands, a new plan that moves less than this cannot bring a collision the prediction did
+        not see (the distance at each time changes by at most the move; checked at the
+        comparison's times, not the prediction's finer grid); one that moves more may, and is
+        compared against it instead of ``deviation_m`` when it is the smaller."""
         self._clearance = clearances
 
     def predicted_names(self) -> set:

@@ -87,12 +87,15 @@ class ConflictList(Sequence):
     checked pair sorted by t_c (as :func:`predict_fleet`'s list), the clear ones made on first
     use (a fleet's predictions read only the collisions and the smallest distance; the recording
     and the threat panel read the rest). ``collisions``: the collisions in order;
-    ``min_distances``: every pair's d(t_c) [m] in order."""
+    ``min_distances``: every pair's d(t_c) [m] in order; ``track_ids`` and
+    ``collision_distances`` (R_vh + R_ob + safety [m]): every pair's, in the same order."""
 
-    __slots__ = ("_items", "_make", "collisions", "min_distances")
+    __slots__ = ("_items", "_make", "collisions", "min_distances", "track_ids", "collision_distances")
 
-    def __init__(self, items: list, make, collisions: list, min_distances: list):
+    def __init__(self, items: list, make, collisions: list, min_distances: list, track_ids: list,
+                 collision_distances: list):
         self._items, self._make, self.collisions, self.min_distances = items, make, collisions, min_distances
+        self.track_ids, self.collision_distances = track_ids, collision_distances
 
     def __len__(self) -> int:
         return len(self._items)

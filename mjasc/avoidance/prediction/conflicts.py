@@ -113,7 +113,7 @@ def predict_fleet_lazy(queries: Sequence[PredictionQuery]) -> list[ConflictList]
                 if not isinstance(tr, TrackEstimate):
                     raise ValueError(f"tracks[{i}]: expected a TrackEstimate, got {type(tr).__name__}")
     if not tracks:
-        return [ConflictList([], None, [], []) for _ in queries]
+        return [ConflictList([], None, [], [], [], []) for _ in queries]
     owner = np.repeat(np.arange(len(queries), dtype=np.intp), [len(q.tracks) for q in queries])
     motions = TrackMotions(tracks)
     rows = np.arange(len(tracks))
@@ -129,7 +129,7 @@ def predict_fleet_lazy(queries: Sequence[PredictionQuery]) -> list[ConflictList]
         tr = tracks[rows[bad[0]]]
         raise ValueError(f"tracks[{tr.track_id}].radius_m: must be finite and ≥ 0, got {r_ob[bad[0]]}")
     if rows.size == 0:
-        return [ConflictList([], None, [], []) for _ in queries]
+        return [ConflictList([], None, [], [], [], []) for _ in queries]
     vessel = owner[rows]  # the query of each pair
     n_max = max(g[0].size for g in grids)
     if len(grids) == 1:
@@ -233,7 +233,9 @@ def predict_fleet_lazy(queries: Sequence[PredictionQuery]) -> list[ConflictList]
         order = sorted(range(len(its)), key=ks.__getitem__)
         its = [its[i] for i in order]
         out.append(ConflictList(its, make_clear, [c for c in its if type(c) is not int],
-                                [dc_l[c] if type(c) is int else c.min_distance_m for c in its]))
+                                [dc_l[c] if type(c) is int else c.min_distance_m for c in its],
+                                [tracks[rows_l[c]].track_id if type(c) is int else c.track_id for c in its],
+                                [rc_l[c] if type(c) is int else c.collision_distance_m for c in its]))
     return out
 
 
