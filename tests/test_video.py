@@ -573,11 +573,12 @@ def test_the_hud_shows_what_was_done_for_the_running_manoeuvre_s_track():
 
 
 def test_the_conflict_log_says_what_the_triage_did():
-    """σ said re-plan where a give-way vessel yields to a team mate (the §6.4.3 bottleneck's bravo at
-    101.1 s): the entry's ``action`` is the answer, beside the prediction's ``decision``."""
+    """σ said re-plan where a give-way vessel yields to a team mate (the §6.4.2 head-on's bravo at
+    112.1 s; the §6.4.3 bottleneck's bravo at 101.1 s until session 60's team clearance check changed
+    that run's course): the entry's ``action`` is the answer, beside the prediction's ``decision``."""
     from mjasc.runs.runner import Runner
 
-    sc = load_scenario(TASKS / "thesis_6_4_bottleneck.toml").with_overrides(duration_s=102.0)
+    sc = load_scenario(TASKS / "thesis_6_4_head_on.toml").with_overrides(duration_s=114.0)
     s = Runner(sc, None, progress=False).run().summary
     entries = [c for v in s["vessels"].values() for c in v["avoidance"]["conflicts"] if "track_id" in c]
     assert entries and all(c.get("action") for c in entries if c["time_s"] > 5.0)
