@@ -172,6 +172,28 @@ _THREADED_CONFIG = {"distributed.worker.profile.enabled": False, "distributed.ad
                     "distributed.admin.system-monitor.interval": "10s", "distributed.scheduler.work-stealing": False}
 
 
+class _InterruptedSyncFilter:
+    """A logging filter for ``tornado.application``: drops the traceback Dask's ``sync`` logs when
+    Ctrl-C lands before its coroutine has made the future it would cancel (its ``cancel`` callback
+    then raises NameError on the event loop's thread: there was nothing to cancel). Every other
+    record passes. (Seen with distributed 2026.8: ``mjasc campaign`` interrupted printed that
+    traceback before its one line.)"""
+
+    @staticmethod
+    def filter(record) -> bool:
+        exc = record.exc_info[1] if record.exc_info else None
+        return not (isinstance(exc, NameError) and "sync.<locals>.cancel" in record.getMessage())
+
+
+def _quiet_interrupted_sync() -> None:
+    """Install :class:`_InterruptedSyncFilter` on ``tornado.application`` (once)."""
+    import logging
+
+    log = logging.getLogger("tornado.application")
+    if not any(isinstance(f, _InterruptedSyncFilter) for f in log.filters):
+        log.addFilter(_InterruptedSyncFilter())
+
+
 def open_client(scheduler, workers: int | None, threaded: bool = False):
     """(client, closers): a Client instance is used as is; None/"local" starts a LocalCluster of
     ``workers`` single-threaded processes (``threaded``: single-threaded workers in this process,
@@ -181,6 +203,7 @@ def open_client(scheduler, workers: int | None, threaded: bool = False):
     import dask
     from distributed import Client, LocalCluster
 
+    _quiet_interrupted_sync()
     if isinstance(scheduler, Client):
         return scheduler, []
     if scheduler in (None, "local"):
