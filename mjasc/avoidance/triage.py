@@ -89,23 +89,19 @@ def overtaking_us(nav, track) -> bool:
 
 
 def closing_from_astern(nav, track, static_speed_m_s: float) -> bool:
-    """The track moves toward the vessel faster than ``static_speed_m_s`` [m/s] now (its velocity's
-    component along the line from it to the vessel): the vessel slowing down would let it run
-    into the vessel. A team mate stopped or creeping abaft the beam does not: there it is the
-    vessel that closes on it. A team mate predicted from its broadcast plan moves as its plan does
-    over the next second (a :class:`~mjasc.core.estimates.PlannedTrack`'s ``speed_m_s`` is the
-    plan's largest speed, not its speed now)."""
+    """The track moves toward the vessel faster than ``static_speed_m_s`` [m/s] now — its predicted
+    motion over the next second (:meth:`~mjasc.core.estimates.TrackEstimate.predict_positions`: a
+    team mate's broadcast plan for a :class:`~mjasc.core.estimates.PlannedTrack`, whose
+    ``speed_m_s`` is the plan's largest speed, not its speed now), along the line from it to the
+    vessel: the vessel slowing down would let it run into the vessel. A team mate stopped or
+    creeping abaft the beam does not: there it is the vessel that closes on it."""
     los = np.asarray(nav.position_m, dtype=float)[:2] - np.asarray(track.position_m, dtype=float)[:2]
     dist = float(np.hypot(los[0], los[1]))
     if dist == 0.0:
         return True
-    intention = getattr(track, "intention", None)
-    if intention is not None:
-        t = float(nav.time_s)
-        p = np.asarray(intention.positions(np.array([t, t + 1.0])), dtype=float)
-        v = p[1] - p[0]  # [m/s]: its plan's motion over the next second
-    else:
-        v = track.speed_m_s * np.array([math.cos(track.heading_rad), math.sin(track.heading_rad)])
+    t = float(nav.time_s)
+    p = np.asarray(track.predict_positions(np.array([t, t + 1.0])), dtype=float)
+    v = p[1] - p[0]  # [m/s]
     return bool((v[0] * los[0] + v[1] * los[1]) / dist > static_speed_m_s)
 
 
