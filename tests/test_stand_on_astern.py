@@ -34,7 +34,7 @@ def _mate(position, heading_deg, speed_m_s):
 ])
 def test_a_mate_abaft_the_beam_closes_only_when_it_moves_toward_the_vessel(position, heading_deg, speed_m_s,
                                                                            closing):
-    assert closing_from_astern(OWN, _mate(position, heading_deg, speed_m_s), 0.15) is closing
+    assert closing_from_astern(OWN, _mate(position, heading_deg, speed_m_s), 50.0, 0.15) is closing
 
 
 def test_the_last_resort_keeps_the_speed_only_for_a_closing_mate():
@@ -75,4 +75,4 @@ def test_a_mate_predicted_from_its_plan_closes_as_its_plan_moves_now(resume_s, c
                        plan_times_s=times, plan_points_m=np.array([-6.0, -4.0]) + along[:, None] * course)
     track = estimate_as_track(_message_estimate(it, 0.0), 3, 1.5, None)
     assert isinstance(track, PlannedTrack) and track.speed_m_s == pytest.approx(1.5)
-    assert closing_from_astern(OWN, track, 0.15) is closing
+    assert closing_from_astern(OWN, track, 50.0, 0.15) is closing

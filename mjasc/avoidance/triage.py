@@ -88,18 +88,18 @@ def overtaking_us(nav, track) -> bool:
     return bool(v_track @ course > float(np.hypot(*np.asarray(nav.velocity_m_s, dtype=float)[:2])))
 
 
-def closing_from_astern(nav, track, static_speed_m_s: float) -> bool:
-    """The track moves toward the vessel faster than ``static_speed_m_s`` [m/s] now — its predicted
-    motion over the next second (:meth:`~mjasc.core.estimates.TrackEstimate.predict_positions`: a
-    team mate's broadcast plan for a :class:`~mjasc.core.estimates.PlannedTrack`, whose
-    ``speed_m_s`` is the plan's largest speed, not its speed now), along the line from it to the
-    vessel: the vessel slowing down would let it run into the vessel. A team mate stopped or
-    creeping abaft the beam does not: there it is the vessel that closes on it."""
+def closing_from_astern(nav, track, t: float, static_speed_m_s: float) -> bool:
+    """The track moves toward the vessel faster than ``static_speed_m_s`` [m/s] at time t [s]: its
+    predicted motion over the next second
+    (:meth:`~mjasc.core.estimates.TrackEstimate.predict_positions`; a team mate's broadcast plan
+    for a :class:`~mjasc.core.estimates.PlannedTrack`, whose ``speed_m_s`` is the plan's largest
+    speed, not its speed now), along the line from it to the vessel. The vessel slowing down would
+    let it run into the vessel. A team mate stopped or creeping abaft the beam does not: there it
+    is the vessel that closes on it."""
     los = np.asarray(nav.position_m, dtype=float)[:2] - np.asarray(track.position_m, dtype=float)[:2]
     dist = float(np.hypot(los[0], los[1]))
     if dist == 0.0:
         return True
-    t = float(nav.time_s)
     p = np.asarray(track.predict_positions(np.array([t, t + 1.0])), dtype=float)
     v = p[1] - p[0]  # [m/s]
     return bool((v[0] * los[0] + v[1] * los[1]) / dist > static_speed_m_s)
@@ -190,7 +190,7 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
                 out.notes.append(("stand_on", f"stand-on vessel towards team mate {track.team_member}: "
                                               f"keeps its speed"))
                 continue
-            if astern and closing_from_astern(nav, track, cfg.static_speed_m_s):
+            if astern and closing_from_astern(nav, track, t, cfg.static_speed_m_s):
                 # last resort with the give-way vessel coming up from abaft the beam: never slow down
                 corr = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, pass_only=True, path_end_m=path_end_m)
                 if corr is not None:
