@@ -147,6 +147,10 @@ EXPECT = {
     # prediction's clearance to it: the vessel predicts again (test_a_stop_moving_a_plan_within_the_deviation…).
     # (alpha–bravo circles overlap by 0.18 m, the hulls apart.)
     "bottleneck_stressed_seed56": ("alpha", None, -0.5),
+    # An emergency stop for the oncoming vessel in its path, chosen without a check because a team
+    # mate conflicted too: the stop is now weighed against keeping way (mjasc/avoidance/keep_way.py;
+    # tests/test_keep_way.py). bravo–oncoming circles overlap by 0.10 m, the hulls apart.
+    "head_on_seed71": ("bravo", "checked_choice", -0.5),
 }
 SLOW = {"crossing_stressed_seed5", "crossing_stressed_seed12", "bottleneck_stressed_seed5", "bottleneck_seed7", "bottleneck_seed1",
         "demo_run3", "bottleneck_stressed_seed2", "bottleneck_stressed_seed11", "bottleneck_stressed_seed4",

@@ -22,6 +22,7 @@ from dataclasses import replace
 import numpy as np
 
 from mjasc.avoidance.decision import Correction, emergency_yield, velocity_correction_for
+from mjasc.avoidance.keep_way import keep_way_instead, worst_miss_m
 from mjasc.avoidance.lane_change import plan_lane_change
 from mjasc.avoidance.prediction import PredictedConflict, PredictionQuery, predict_fleet
 from mjasc.avoidance.replanning import Detour, plan_detour
@@ -168,18 +169,25 @@ class Manoeuvres:
     def _checked_choice(self, t, chosen: Correction, candidates: list[Correction], conflicts) -> Correction | None:
         """``chosen``, unless the speed it plans runs into another track. Every option's planned
         motion (its V_d until its goal time, the mission speed after) is predicted against all the
-        disc tracks in one call (conflicts with strangers only: between team mates the right of way
-        and the broadcast plans decide); the options are ``chosen``, the other candidates (slowest first),
+        disc tracks in one call; the options are ``chosen``, the other candidates (slowest first),
         passing first for each conflict where feasible, and keeping the mission speed (None). The
         first with no predicted collision is taken; when every one collides, the one whose worst
         predicted miss distance is largest (``chosen``, the thesis's choice, unless another keeps
         :data:`_MARGIN_GAIN_M` more: an emergency stop in a crossing ferry's path waits for it to
         arrive). (In Imazu case 19 the slow-down for one target put the vessel in the path of
-        another 5 s later.)"""
+        another 5 s later.) With a team mate among the conflicts (between team mates the right of
+        way and the broadcast plans decide) only an emergency stop for a stranger is weighed, against
+        keeping way (:meth:`_stop_or_keep_way`)."""
         query = self._last_query
-        if query is None or len(query.tracks) < 2 or any(
-                getattr(c, "track_id", None) in self._team_track_ids for c in conflicts):
-            return chosen  # team mates coordinate by right of way and their broadcast plans
+        if query is None or len(query.tracks) < 2:
+            return chosen
+        team_ids = self._team_track_ids
+        if any(getattr(c, "track_id", None) in team_ids for c in conflicts):
+            # team mates coordinate by right of way and their broadcast plans: only an emergency stop
+            # for a stranger is weighed, against keeping way (mjasc.avoidance.keep_way)
+            if chosen.emergency and chosen.track_id not in team_ids:
+                return self._stop_or_keep_way(t, chosen, query, conflicts)
+            return chosen
         g_state = self._guidance
         gamma = float(np.clip(g_state.gamma_m, 0.0, g_state.path.length))
         options = [chosen] + sorted((c for c in candidates if c is not chosen), key=lambda c: c.law.desired_speed)
@@ -191,11 +199,7 @@ class Manoeuvres:
                 if alt is not None:
                     options.append(alt)
         options.append(None)
-        queries = [replace(query, vessel_path=g_state.path, gamma_now=gamma, t_now=float(t),
-                           speed_profile=correction_profile(c, float(t), gamma, g_state.mission_speed_m_s,
-                                                            self.config.slow_down_decel_m_s2),
-                           include_clear=True) for c in options]
-        results = predict_fleet(queries)
+        results = self._option_results(t, options, query)
         clear = [k for k, res in enumerate(results) if not any(r.collision for r in res)]
         if clear:
             k = clear[0]
@@ -212,6 +216,37 @@ class Manoeuvres:
                            f"another track): {what} instead" + ("" if clear else " (no plan clears every track: "
                                                                  "this one keeps the most distance)"))
         return options[k]
+
+    def _option_results(self, t, options: list, query: PredictionQuery) -> list:
+        """Each speed option (a correction, or None: the mission speed) predicted against every track
+        of ``query`` on the path sailed now, clear pairs included: one result list per option."""
+        g_state = self._guidance
+        gamma = float(np.clip(g_state.gamma_m, 0.0, g_state.path.length))
+        return predict_fleet([replace(query, vessel_path=g_state.path, gamma_now=gamma, t_now=float(t),
+                                      speed_profile=correction_profile(c, float(t), gamma, g_state.mission_speed_m_s,
+                                                                       self.config.slow_down_decel_m_s2),
+                                      include_clear=True) for c in options])
+
+    def _stop_or_keep_way(self, t, stop: Correction, query: PredictionQuery, conflicts) -> Correction | None:
+        """With a team mate among the conflicts: the emergency ``stop`` for a stranger's track, or None
+        (keep way) when :func:`~mjasc.avoidance.keep_way.keep_way_instead` says so; the vessel then
+        predicts again every second until the conflicts' latest closest approach, where the stop is
+        a candidate again."""
+        stop_res, keep_res = self._option_results(t, [stop, None], query)
+        cfg = self.config
+        if not keep_way_instead(stop_res, keep_res, self._team_track_ids, float(t), cfg.last_resort_s,
+                                self.prediction_config.safety_distance_m, _MARGIN_GAIN_M):
+            return stop
+        self.stats["checked_choice"] += 1
+        self._look_again_until_s = max([float(t) + 1.0] + [float(c.t_closest_s) for c in conflicts
+                                                           if isinstance(c, PredictedConflict)])
+        team = self._team_track_ids
+        stop_m, keep_m = worst_miss_m(stop_res, team, False), worst_miss_m(keep_res, team, False)
+        self._event(t, f"an emergency stop for track {stop.track_id} would wait in the way of a vessel outside the "
+                       f"team ({-stop_m:.1f} m inside the collision distance; keeping way "
+                       + ("clears it" if keep_m == np.inf else f"{-keep_m:.1f} m") + "): keeps way instead, "
+                       f"predicting every second until t = {self._look_again_until_s:.1f} s")
+        return None
 
     def _replan(self, t, nav, svos, static_polygons, by_id=None, static_outlines=()) -> bool:
         """Plan a detour (:func:`~mjasc.avoidance.replanning.plan_detour`) and switch to it. True on success."""
