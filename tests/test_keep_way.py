@@ -82,3 +82,7 @@ def test_bravo_keeps_way_on_its_lane_instead_of_stopping_in_the_oncoming_vessels
     assert not summary["any_collision"], summary["collisions"]
     kept = [t for name, t, text in said if name == "bravo" and "keeps way instead" in text]
     assert kept and 110.0 < kept[0] < 120.0, kept
+    # after keeping way it predicts again within the next ~second (no new track, no deviation needed)
+    again = [t for name, t, text in said if name == "bravo" and text.startswith("collision predicted")
+             and kept[0] < t <= kept[0] + 1.5]
+    assert again, [(t, text) for name, t, text in said if name == "bravo" and t > kept[0]][:5]

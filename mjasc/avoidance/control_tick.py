@@ -80,8 +80,9 @@ class ControlTick:
 
     def _prediction_due(self, t) -> set | None:
         """Whether the control tick predicts at once: None (no), the new track ids (a new track),
-        or an empty set (an emergency not yet cleared, the own mission speed changed, a team mate
-        re-planned, a track deviates); the event and counters are noted here."""
+        or an empty set (an emergency not yet cleared, way kept instead of one
+        (:mod:`~mjasc.avoidance.keep_way`), the own mission speed changed, a team mate re-planned, a
+        track deviates); the event and counters are noted here."""
         perceived = self._perceived
         if perceived is None:
             return None

@@ -8,8 +8,14 @@ among the conflicts that check used to be skipped altogether (team mates settle 
 right of way and their broadcast plans): a vessel could stop in the path of an oncoming stranger
 that keeps its course, where keeping way on a fresh lane would have passed it with the hulls apart
 (the §6.4.2 head-on as shipped, seed 71). :func:`keep_way_instead` decides that one question from
-the two options' predictions, pure: the stop against keeping the plan's speed, judged on the
-strangers' predicted misses, with the team mates' collisions as a guard.
+the two options' predictions, pure: the stop against keeping way (the mission speed on the path
+sailed now), judged on the strangers' predicted misses, with the team mates' collisions as a guard.
+
+Keeping way is predicted at the mission speed from now on, as every option of the checked choice
+is: a vessel slowed by a yield takes seconds to regain it, so the misses it is judged on are better
+than what it sails. Each prediction in the seconds after weighs the stop again, and the deepening
+miss can turn the choice back to the stop (seed 71: way kept at 114.1, 115.2 and 116.3 s, the stop
+taken at 117.4 s, the hulls apart).
 """
 
 from __future__ import annotations
@@ -35,7 +41,7 @@ def keep_way_instead(stop_results, keep_results, team_track_ids, t: float, last_
                      safety_distance_m: float, margin_gain_m: float) -> bool:
     """Whether to keep way rather than stop. ``stop_results`` and ``keep_results``: the predicted
     conflicts (every pair, :class:`~mjasc.avoidance.prediction.PredictedConflict`) of the emergency
-    stop and of keeping the plan's speed, at time ``t`` [s]. True when keeping way
+    stop and of keeping way (the mission speed), at time ``t`` [s]. True when keeping way
 
     * brings no collision with a team mate within ``last_resort_s`` [s] worse than the stop's (a
       team collision further ahead is left to the next predictions: the caller predicts every second
@@ -45,10 +51,12 @@ def keep_way_instead(stop_results, keep_results, team_track_ids, t: float, last_
       less than ``safety_distance_m`` [m] inside the collision distance): a stranger that keeps its
       course runs into a stopped vessel, and a lane sailed at speed may still pass it.
 
-    A stop that clears the strangers is kept; so is one against a miss as deep as a hull (in the
-    stressed bottleneck a fragment of an island, tracked as a large moving target, was predicted
-    closer to a stopped vessel than to one that kept way into the gap: keeping way there ended in
-    a contact)."""
+    A stop that clears the strangers is kept; so is one against a keeping way that misses them by
+    more than the safety distance inside the collision distance (in the stressed bottleneck a
+    fragment of an island, tracked as a large moving target, was predicted 8.1 m inside against a
+    stopped vessel and 6.3 m against one keeping way into the gap: keeping way there ended in a
+    contact between team mates). The worst misses are over all strangers, not the stop's track
+    alone."""
     soon = t + last_resort_s
     team_stop = worst_miss_m(stop_results, team_track_ids, True, soon)
     if worst_miss_m(keep_results, team_track_ids, True, soon) < min(team_stop, 0.0) - 1e-9:

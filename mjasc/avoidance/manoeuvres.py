@@ -229,22 +229,24 @@ class Manoeuvres:
 
     def _stop_or_keep_way(self, t, stop: Correction, query: PredictionQuery, conflicts) -> Correction | None:
         """With a team mate among the conflicts: the emergency ``stop`` for a stranger's track, or None
-        (keep way) when :func:`~mjasc.avoidance.keep_way.keep_way_instead` says so; the vessel then
-        predicts again every second until the conflicts' latest closest approach, where the stop is
-        a candidate again."""
+        (keep way: the mission speed) when :func:`~mjasc.avoidance.keep_way.keep_way_instead` says so.
+        After keeping way the vessel predicts every second until the latest predicted closest
+        approach of the strangers it conflicts with (each of those predictions weighs the stop
+        again)."""
         stop_res, keep_res = self._option_results(t, [stop, None], query)
-        cfg = self.config
-        if not keep_way_instead(stop_res, keep_res, self._team_track_ids, float(t), cfg.last_resort_s,
+        cfg, team = self.config, self._team_track_ids
+        if not keep_way_instead(stop_res, keep_res, team, float(t), cfg.last_resort_s,
                                 self.prediction_config.safety_distance_m, _MARGIN_GAIN_M):
             return stop
         self.stats["checked_choice"] += 1
-        self._look_again_until_s = max([float(t) + 1.0] + [float(c.t_closest_s) for c in conflicts
-                                                           if isinstance(c, PredictedConflict)])
-        team = self._team_track_ids
+        ahead = [float(c.t_closest_s) for c in list(conflicts) + list(keep_res)
+                 if isinstance(c, PredictedConflict) and c.collision and c.track_id not in team
+                 and math.isfinite(c.t_closest_s)]
+        self._look_again_until_s = max([self._look_again_until_s, float(t) + 1.0] + ahead)
         stop_m, keep_m = worst_miss_m(stop_res, team, False), worst_miss_m(keep_res, team, False)
         self._event(t, f"an emergency stop for track {stop.track_id} would wait in the way of a vessel outside the "
-                       f"team ({-stop_m:.1f} m inside the collision distance; keeping way "
-                       + ("clears it" if keep_m == np.inf else f"{-keep_m:.1f} m") + "): keeps way instead, "
+                       f"team (its worst predicted miss {-stop_m:.1f} m inside the collision distance; keeping way "
+                       + ("clears them" if keep_m == np.inf else f"{-keep_m:.1f} m inside") + "): keeps way instead, "
                        f"predicting every second until t = {self._look_again_until_s:.1f} s")
         return None
 
