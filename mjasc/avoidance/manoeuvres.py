@@ -231,8 +231,9 @@ class Manoeuvres:
         """With a team mate among the conflicts: the emergency ``stop`` for a stranger's track, or None
         (keep way: the mission speed) when :func:`~mjasc.avoidance.keep_way.keep_way_instead` says so.
         After keeping way the vessel predicts every second until the latest predicted closest
-        approach of the strangers it conflicts with (each of those predictions weighs the stop
-        again)."""
+        approach of its conflicts, team mates' included (each of those predictions weighs the stop
+        again; a window ending at the strangers' closest approach took one run of the stressed
+        bottleneck from 1.59 to −0.12 m)."""
         stop_res, keep_res = self._option_results(t, [stop, None], query)
         cfg, team = self.config, self._team_track_ids
         if not keep_way_instead(stop_res, keep_res, team, float(t), cfg.last_resort_s,
@@ -240,8 +241,7 @@ class Manoeuvres:
             return stop
         self.stats["checked_choice"] += 1
         ahead = [float(c.t_closest_s) for c in list(conflicts) + list(keep_res)
-                 if isinstance(c, PredictedConflict) and c.collision and c.track_id not in team
-                 and math.isfinite(c.t_closest_s)]
+                 if isinstance(c, PredictedConflict) and c.collision and math.isfinite(c.t_closest_s)]
         self._look_again_until_s = max([self._look_again_until_s, float(t) + 1.0] + ahead)
         stop_m, keep_m = worst_miss_m(stop_res, team, False), worst_miss_m(keep_res, team, False)
         self._event(t, f"an emergency stop for track {stop.track_id} would wait in the way of a vessel outside the "
