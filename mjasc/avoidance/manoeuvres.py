@@ -204,8 +204,7 @@ class Manoeuvres:
         if clear:
             k = clear[0]
         else:  # every plan collides: the one that keeps the most distance (the thesis's choice on ties)
-            margin = [min((r.min_distance_m - r.collision_distance_m for r in res if r.collision), default=np.inf)
-                      for res in results]
+            margin = [worst_miss_m(res) for res in results]
             best = int(np.argmax(margin))
             k = best if margin[best] > margin[0] + _MARGIN_GAIN_M else 0
         if k != 0:
@@ -242,7 +241,7 @@ class Manoeuvres:
         self.stats["checked_choice"] += 1
         ahead = [float(c.t_closest_s) for c in list(conflicts) + list(keep_res)
                  if isinstance(c, PredictedConflict) and c.collision and math.isfinite(c.t_closest_s)]
-        self._look_again_until_s = max([self._look_again_until_s, float(t) + 1.0] + ahead)
+        self._look_again_until_s = max([self._look_again_until_s] + ahead)
         stop_m, keep_m = worst_miss_m(stop_res, team, False), worst_miss_m(keep_res, team, False)
         self._event(t, f"an emergency stop for track {stop.track_id} would wait in the way of a vessel outside the "
                        f"team (its worst predicted miss {-stop_m:.1f} m inside the collision distance; keeping way "
