@@ -263,6 +263,64 @@ def test_a_signal_inside_a_finalizer_still_interrupts_the_run_and_prints_no_trac
     assert sys.unraisablehook is not _redeliver  # (put back when the run ended)
 
 
+def _release_interrupted_between_its_steps(sig):
+    """An LLVM object of llvmlite's released by an explicit ``close()`` (as numba does), with
+    ``sig`` sent to this process between the two steps of its ``detach`` — after the pointer is
+    dropped, before the object is marked closed: the moment of the CI failure (SIGTERM at t =
+    0.2 s; the object's finalizer then printed an AttributeError's traceback). Returns the object."""
+    import llvmlite.binding as llvm
+    from llvmlite.binding import ffi
+
+    detach = ffi.ObjectRef.detach.__code__
+    mark = next(i for i, line in enumerate(open(detach.co_filename).readlines()[detach.co_firstlineno - 1:])
+                if "self._closed = True" in line) + detach.co_firstlineno
+
+    def tracer(frame, event, arg):
+        if frame.f_code is detach and event == "line" and frame.f_lineno == mark:
+            sys.settrace(None)
+            frame.f_trace = None
+            signal.raise_signal(sig)
+        return tracer if frame.f_code is detach else None
+
+    module = llvm.parse_assembly("")  # (a ModuleRef: an ObjectRef that owns LLVM memory)
+    tracer_before = sys.gettrace()
+    sys.settrace(tracer)
+    try:
+        module.close()
+    finally:
+        sys.settrace(tracer_before)
+    return module
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_a_signal_while_llvmlite_releases_an_object_waits_for_the_next_event(tmp_path, capsys, monkeypatch, sig):
+    """The CI failure of 2026-12-07: SIGTERM landed inside llvmlite's ObjectRef.detach, between its
+    two steps; the object, half released, later failed in its finalizer and Python printed the
+    traceback. The handlers now keep a signal that lands in such a release for the runner's next
+    event: the release completes, the run stops as interrupted with its one line, nothing else."""
+    import gc
+
+    from mjasc.runs import runner as runner_module
+
+    control, released, unraisable = runner_module.Runner._control, [], []
+
+    def control_releasing_an_llvm_object(self, *a, **k):
+        if not released:
+            released.append(_release_interrupted_between_its_steps(sig))
+        return control(self, *a, **k)
+
+    monkeypatch.setattr(runner_module.Runner, "_control", control_releasing_an_llvm_object)
+    monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
+    code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(tmp_path / "o"), "--no-progress",
+                     "--duration", "2")
+    assert code == 130 and f"interrupted at t = 0.100 s ({sig.name})" in err, err  # (at the next event)
+    assert released[0].closed  # (released whole: its finalizer has nothing left to do)
+    released.clear()
+    gc.collect()
+    assert unraisable == [] and "Traceback" not in err
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # (put back when the run ended)
+
+
 def test_campaign_rejects_an_out_under_a_file_before_running(tmp_path, capsys):
     (tmp_path / "file").write_text("x")
     code, err = _cli(capsys, "campaign", "demo_monte_carlo", "--out", str(tmp_path / "file" / "out"), "--runs", "1",

@@ -19,6 +19,16 @@ with a traceback and lose the interrupt. While :func:`catch_sigterm` is in force
 ``sys.unraisablehook`` keeps such an interrupt in :data:`PENDING` instead (:func:`_redeliver`),
 silently, and the runner's loop raises it before its next event: the run stops as it would have.
 (Sending the signal again from the hook does not work: its handler runs inside the hook.)
+
+A signal must not land either while llvmlite releases an LLVM object (``ObjectRef.close``, called
+by numba outside any finalizer too): an exception between its two steps leaves the object half
+released, and its finalizer later fails with an ``AttributeError`` that Python prints as
+"Exception ignored in …", a traceback (seen once in CI, SIGTERM at t = 0.2 s). So the handlers
+:func:`catch_sigterm` installs — for SIGTERM, and for SIGINT where Python's own handler is in
+force — look at where the signal landed first (:func:`_in_release`): inside a finalizer or such a
+release they keep the interrupt in :data:`PENDING` and return, and it is raised, as above, at the
+runner's next event. Anywhere else they raise at once, so Ctrl-C still stops a first run's
+minutes of compiling.
 """
 
 from __future__ import annotations
@@ -35,8 +45,31 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM arrived while a run went (raised by the handler :func:`catch_sigterm` installs)."""
 
 
-def _raise_terminated(signum, frame):
-    raise Terminated(signal.Signals(signum).name)
+#: Where llvmlite releases an LLVM object: its ``ObjectRef`` methods in this file (module docstring).
+_LLVMLITE_FFI = "llvmlite/binding/ffi.py"
+_RELEASE = frozenset({"close", "detach", "_dispose", "__del__"})
+
+
+def _in_release(frame) -> bool:
+    """Whether ``frame`` (where a signal's handler was called) or a caller is a finalizer
+    (``__del__``) or llvmlite releasing an LLVM object — where an exception would leave an object
+    half released (module docstring)."""
+    while frame is not None:
+        code = frame.f_code
+        if code.co_name == "__del__" or (code.co_name in _RELEASE and code.co_filename.endswith(_LLVMLITE_FFI)):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _interrupt(signum, frame):
+    """The handler of SIGTERM (→ :class:`Terminated`) and SIGINT (→ ``KeyboardInterrupt``): raised
+    at once, or kept in :data:`PENDING` when the signal landed in a release (:func:`_in_release`)."""
+    exc = Terminated(signal.Signals(signum).name) if signum == signal.SIGTERM else KeyboardInterrupt()
+    if _in_release(frame):
+        PENDING.append(exc)
+        return
+    raise exc
 
 
 _HOOKS: list = []  # the unraisable hooks _redeliver replaced, innermost last
@@ -64,22 +97,30 @@ def raise_pending() -> None:
 
 
 def catch_sigterm():
-    """SIGTERM → :class:`Terminated` from now on, and an interrupt raised inside a finalizer sent
-    again (:func:`_redeliver`); returns the previous handler (for :func:`restore_sigterm`), or None
-    when not called from the main thread (nothing installed)."""
+    """SIGTERM → :class:`Terminated` from now on, SIGINT → ``KeyboardInterrupt`` as before, both
+    kept for later when they land in a release (:func:`_interrupt`), and an interrupt raised inside
+    a finalizer kept too (:func:`_redeliver`). SIGINT is left alone unless Python's own handler is
+    in force (an ignored Ctrl-C stays ignored). Returns the previous handlers (for
+    :func:`restore_sigterm`), or None when not called from the main thread (nothing installed)."""
     if threading.current_thread() is not threading.main_thread():
         return None
     _HOOKS.append(sys.unraisablehook)
     sys.unraisablehook = _redeliver
     PENDING.clear()
-    return signal.signal(signal.SIGTERM, _raise_terminated)
+    previous_int = None
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        previous_int = signal.signal(signal.SIGINT, _interrupt)
+    return signal.signal(signal.SIGTERM, _interrupt), previous_int
 
 
 def restore_sigterm(previous) -> None:
-    """Put back the handler :func:`catch_sigterm` returned and the unraisable hook it replaced
+    """Put back the handlers :func:`catch_sigterm` returned and the unraisable hook it replaced
     (None: nothing to do)."""
     if previous is not None:
-        signal.signal(signal.SIGTERM, previous)
+        previous_term, previous_int = previous
+        signal.signal(signal.SIGTERM, previous_term)
+        if previous_int is not None:
+            signal.signal(signal.SIGINT, previous_int)
         if _HOOKS:
             sys.unraisablehook = _HOOKS.pop()
         PENDING.clear()
