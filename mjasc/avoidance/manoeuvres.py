@@ -38,6 +38,11 @@ __all__ = ["Manoeuvres"]
 _MARGIN_GAIN_M = 0.5
 
 
+def _label(correction: Correction) -> str:
+    """What an event calls a correction: its kind, or "emergency stop" (as the threat panel does)."""
+    return "emergency stop" if correction.emergency else correction.kind
+
+
 class Manoeuvres:
     """Decision σ and the path switches of :class:`~mjasc.avoidance.system.CollisionAvoidance`
     (see the module docstring)."""
@@ -111,22 +116,26 @@ class Manoeuvres:
         # target was taken while a conflict with another, 5 s ahead, was left; the checked choice
         # weighs them all), and in place of a running yield planned on an earlier estimate (in
         # the §6.4.3 bottleneck one kept a give-way vessel creeping into its team mate's lane).
-        # A running emergency stop with nothing else to choose from is simply kept.
+        # A running emergency stop with nothing else to choose from is simply kept. A new one is
+        # counted and said only once the checked choice has taken it (not when it keeps way instead).
+        stop_note = None
         if unresolved:
             nearest = min(unresolved, key=lambda u: u.t_closest_s)
             emergency_running = self.correction is not None and self.correction.emergency
             if candidates or not emergency_running:
                 candidates.append(emergency_yield(t, gamma, nearest, cfg, self.speed_max_m_s))
             if not emergency_running:
-                self.stats["emergency"] += 1
-                self._event(t, f"no manoeuvre clears track {nearest.track_id}: " + (
+                stop_note = f"no manoeuvre clears track {nearest.track_id}: " + (
                     f"emergency slow-down to {cfg.emergency_speed_m_s:g} m/s" if cfg.emergency_speed_m_s > 0.0
-                    else "emergency stop (all way off)"))
+                    else "emergency stop (all way off)")
         if candidates:
             yields = [c for c in candidates if c.kind == "yield"]
             chosen = min(yields, key=lambda c: c.law.desired_speed) if yields else \
                 max(candidates, key=lambda c: c.law.desired_speed)
             chosen = self._checked_choice(t, chosen, candidates, conflicts)
+            if stop_note is not None and chosen is not None and chosen.emergency:
+                self.stats["emergency"] += 1
+                self._event(t, stop_note)
             if chosen is None:
                 self.correction = None
                 return
@@ -210,8 +219,8 @@ class Manoeuvres:
         if k != 0:
             self.stats["checked_choice"] += 1
             what = "keep the mission speed" if options[k] is None else \
-                f"{options[k].kind} for track {options[k].track_id}"
-            self._event(t, f"{chosen.kind} for track {chosen.track_id} still leaves a predicted collision (with it or "
+                f"{_label(options[k])} for track {options[k].track_id}"
+            self._event(t, f"{_label(chosen)} for track {chosen.track_id} still leaves a predicted collision (with it or "
                            f"another track): {what} instead" + ("" if clear else " (no plan clears every track: "
                                                                  "this one keeps the most distance)"))
         return options[k]
