@@ -5,12 +5,15 @@ campaign and its store when the cluster misbehaves."""
 import contextlib
 import json
 import os
+import shutil
 import signal
 import socket
 import sqlite3
 import subprocess
 import sys
+import tempfile
 import time
+from pathlib import Path
 
 import pytest
 
@@ -24,10 +27,13 @@ def _env(**extra) -> dict:
     return {**os.environ, "PYTHONPATH": os.pathsep.join(sys.path), **extra}
 
 
-def _free_port() -> int:
+@contextlib.contextmanager
+def _port_none_listens_on():
+    """A port of this host held, bound but not listening, while the block runs: connecting to it is
+    refused, and no other process can take it meanwhile (a port found free and let go can be)."""
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+        yield s.getsockname()[1]
 
 
 def _start(*args, env: dict | None = None, cwd=None) -> subprocess.Popen:
@@ -56,17 +62,26 @@ def _cluster(nthreads: int = 1, worker_env: dict | None = None, worker_cwd=None)
     """A scheduler and one worker of ``nthreads`` threads (its environment ``worker_env``, default
     this process's, and folder ``worker_cwd``: ``python -m`` puts it first on the path), each a
     process (session) of its own: (address, scheduler process, worker process)."""
-    port = _free_port()
-    address = f"tcp://127.0.0.1:{port}"
-    scheduler = _start("distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", str(port),
-                       "--dashboard-address", ":0")
-    worker = _start("distributed.cli.dask_worker", address, "--nthreads", str(nthreads), "--nworkers", "1",
-                    "--dashboard-address", ":0", env=worker_env, cwd=worker_cwd)
+    # The scheduler picks its own port and says where in its file (a port found free beforehand
+    # could be taken by another process before the scheduler binds it)
+    folder = Path(tempfile.mkdtemp(prefix="mjasc_cluster_"))
+    info = folder / "scheduler.json"
+    scheduler = _start("distributed.cli.dask_scheduler", "--host", "127.0.0.1", "--port", "0",
+                       "--scheduler-file", str(info), "--dashboard-address", ":0")
+    worker = None
     try:
+        deadline = time.time() + 120
+        while not info.exists() and time.time() < deadline and scheduler.poll() is None:
+            time.sleep(0.1)
+        address = json.loads(info.read_text())["address"]
+        worker = _start("distributed.cli.dask_worker", address, "--nthreads", str(nthreads), "--nworkers", "1",
+                        "--dashboard-address", ":0", env=worker_env, cwd=worker_cwd)
         yield address, scheduler, worker
     finally:
-        _stop(worker)
+        if worker is not None:
+            _stop(worker)
         _stop(scheduler)
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 @pytest.fixture
@@ -138,7 +153,7 @@ def test_a_worker_of_two_threads_gives_each_run_its_own_result(tmp_path):
                                  "--out", str(tmp_path / "dask"), "--no-progress"], env=_env(), cwd=tmp_path,
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True)
         try:
-            _, err = proc.communicate(timeout=150)
+            _, err = proc.communicate(timeout=600)
         finally:
             if proc.poll() is None:
                 os.killpg(proc.pid, signal.SIGKILL)
@@ -210,18 +225,22 @@ def test_a_scheduler_address_where_none_listens_leaves_no_store(tmp_path):
     reviewer's Ctrl-C before the first result left an empty folder); an existing folder keeps what
     it held."""
     write_campaign(tmp_path, runs=6, duration=2.0, mission_cost=False)
-    address = f"tcp://127.0.0.1:{_free_port()}"
     kept = tmp_path / "kept"
     kept.mkdir()
     (kept / "notes.txt").write_text("mine\n")
-    for out in (tmp_path / "new", kept):
-        proc = subprocess.run([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--scheduler", address, "--out",
-                               str(out), "--no-progress"], env=_env(DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT="2s"),
-                              cwd=tmp_path, capture_output=True, text=True, timeout=120)
-        assert proc.returncode == 1, proc.stderr
-        assert proc.stderr.startswith("mjasc: campaign failed: ") and len(proc.stderr.splitlines()) == 1, proc.stderr
+    with _port_none_listens_on() as port:
+        for out in (tmp_path / "new", kept):
+            _campaign_without_a_scheduler(tmp_path, f"tcp://127.0.0.1:{port}", out)
     assert not (tmp_path / "new").exists()
     assert sorted(p.name for p in kept.iterdir()) == ["notes.txt"]
+
+
+def _campaign_without_a_scheduler(tmp_path, address, out):
+    proc = subprocess.run([sys.executable, "-m", "mjasc", "campaign", "c.toml", "--scheduler", address, "--out",
+                           str(out), "--no-progress"], env=_env(DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT="2s"),
+                          cwd=tmp_path, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 1, proc.stderr
+    assert proc.stderr.startswith("mjasc: campaign failed: ") and len(proc.stderr.splitlines()) == 1, proc.stderr
 
 
 def test_a_worker_on_other_mjasc_code_stops_the_campaign_before_any_run(tmp_path):

@@ -49,8 +49,12 @@ def test_the_cli_says_once_that_the_first_run_compiles(cold, monkeypatch, capsys
     from mjasc.cli import main
 
     monkeypatch.setattr(kernel_cache, "_FIRST", {(kernel_cache._PACKAGE, None): cold})
+    monkeypatch.setenv("MJASC_COMPILE_HINTS", "1")  # (the suite silences them: tests/conftest.py)
     assert main(["run", "no_such_scenario_here"]) == 2
     err = capsys.readouterr().err
     assert (COLD_HINT in err) is cold and err.count("compiling") == (1 if cold else 0)
     main(["list"])  # (a command that does not simulate says nothing)
     assert COLD_HINT not in capsys.readouterr().err
+    monkeypatch.setenv("MJASC_COMPILE_HINTS", "0")  # (and none when told so)
+    assert main(["run", "no_such_scenario_here"]) == 2
+    assert "compiling" not in capsys.readouterr().err

@@ -263,62 +263,115 @@ def test_a_signal_inside_a_finalizer_still_interrupts_the_run_and_prints_no_trac
     assert sys.unraisablehook is not _redeliver  # (put back when the run ended)
 
 
-def _release_interrupted_between_its_steps(sig):
-    """An LLVM object of llvmlite's released by an explicit ``close()`` (as numba does), with
-    ``sig`` sent to this process between the two steps of its ``detach`` — after the pointer is
-    dropped, before the object is marked closed: the moment of the CI failure (SIGTERM at t =
-    0.2 s; the object's finalizer then printed an AttributeError's traceback). Returns the object."""
+def _llvm_object_interrupted(sig, moment):
+    """An LLVM object of llvmlite's, made (``moment`` "made": ``sig`` sent to this process as
+    ``ObjectRef.__init__`` begins, before the object has its pointer — the CI failure of
+    2026-12-07, a ``ValueRef``) or released by an explicit ``close()`` as numba does ("released":
+    ``sig`` sent between the two steps of its ``detach``); a trace function picks the moment.
+    Either way, an exception raised there leaves an object whose finalizer fails with an
+    AttributeError that Python prints with its traceback. Returns the object (None if not made)."""
     import llvmlite.binding as llvm
     from llvmlite.binding import ffi
 
-    detach = ffi.ObjectRef.detach.__code__
-    mark = next(i for i, line in enumerate(open(detach.co_filename).readlines()[detach.co_firstlineno - 1:])
-                if "self._closed = True" in line) + detach.co_firstlineno
+    code = (ffi.ObjectRef.__init__ if moment == "made" else ffi.ObjectRef.detach).__code__
+    mark = None if moment == "made" else next(
+        i for i, line in enumerate(open(code.co_filename).readlines()[code.co_firstlineno - 1:])
+        if "self._closed = True" in line) + code.co_firstlineno
 
     def tracer(frame, event, arg):
-        if frame.f_code is detach and event == "line" and frame.f_lineno == mark:
+        if frame.f_code is code and (event == "call" if mark is None else event == "line" and frame.f_lineno == mark):
             sys.settrace(None)
             frame.f_trace = None
             signal.raise_signal(sig)
-        return tracer if frame.f_code is detach else None
+        return tracer if frame.f_code is code else None
 
-    module = llvm.parse_assembly("")  # (a ModuleRef: an ObjectRef that owns LLVM memory)
+    module = llvm.parse_assembly("") if moment == "released" else None  # (a ModuleRef: it owns LLVM memory)
     tracer_before = sys.gettrace()
     sys.settrace(tracer)
     try:
-        module.close()
+        if module is None:
+            module = llvm.parse_assembly("")
+        else:
+            module.close()
     finally:
         sys.settrace(tracer_before)
     return module
 
 
+@pytest.fixture
+def ctrl_c_as_python_sets_it():
+    """SIGINT as Python sets it in a program (a test run started in the background inherits it
+    ignored, and the run then rightly leaves it ignored); put back afterwards."""
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+
+
+@pytest.mark.parametrize("moment, at", [("made", 0.0), ("released", 0.0), ("released", 1.95)])
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
-def test_a_signal_while_llvmlite_releases_an_object_waits_for_the_next_event(tmp_path, capsys, monkeypatch, sig):
-    """The CI failure of 2026-12-07: SIGTERM landed inside llvmlite's ObjectRef.detach, between its
-    two steps; the object, half released, later failed in its finalizer and Python printed the
-    traceback. The handlers now keep a signal that lands in such a release for the runner's next
-    event: the release completes, the run stops as interrupted with its one line, nothing else."""
+def test_a_signal_while_llvmlite_makes_or_releases_an_object_waits_for_the_next_event(
+        tmp_path, capsys, monkeypatch, ctrl_c_as_python_sets_it, sig, moment, at):
+    """The CI failure of 2026-12-07: SIGTERM landed as llvmlite began to make an object (or, the
+    same harm, inside its release); the half-made object later failed in its finalizer and Python
+    printed the traceback. The handlers now keep a signal that lands there for the runner's next
+    event — after the last one too (``at`` 1.95 s of a 2 s run: the loop ends, the run is still
+    interrupted): the object is whole, the run stops as interrupted with its one line, nothing
+    else."""
     import gc
 
     from mjasc.runs import runner as runner_module
 
-    control, released, unraisable = runner_module.Runner._control, [], []
+    control, objects, unraisable = runner_module.Runner._control, [], []
 
-    def control_releasing_an_llvm_object(self, *a, **k):
-        if not released:
-            released.append(_release_interrupted_between_its_steps(sig))
-        return control(self, *a, **k)
+    def control_with_an_llvm_object(self, t, *a, **k):
+        if not objects and t >= at:
+            objects.append(_llvm_object_interrupted(sig, moment))
+        return control(self, t, *a, **k)
 
-    monkeypatch.setattr(runner_module.Runner, "_control", control_releasing_an_llvm_object)
+    monkeypatch.setattr(runner_module.Runner, "_control", control_with_an_llvm_object)
     monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
     code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(tmp_path / "o"), "--no-progress",
                      "--duration", "2")
-    assert code == 130 and f"interrupted at t = 0.100 s ({sig.name})" in err, err  # (at the next event)
-    assert released[0].closed  # (released whole: its finalizer has nothing left to do)
-    released.clear()
+    stop = "0.100" if at == 0.0 else "2.000"  # (the next event; after the last, the loop's end)
+    assert code == 130 and f"interrupted at t = {stop} s ({sig.name})" in err, err
+    assert objects[0].closed == (moment == "released")  # (made or released whole)
+    assert getattr(objects[0], "_as_parameter_", None) is not None or moment == "released"
+    objects.clear()
     gc.collect()
     assert unraisable == [] and "Traceback" not in err
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # (put back when the run ended)
+
+
+def test_a_signal_elsewhere_stops_the_run_at_once(tmp_path, capsys, ctrl_c_as_python_sets_it, monkeypatch):
+    """Outside llvmlite's making and releasing and outside finalizers the handlers raise at once
+    (so Ctrl-C stops a first run's minutes of compiling): the run stops inside its first event."""
+    from mjasc.runs import runner as runner_module
+
+    control = runner_module.Runner._control
+
+    def control_signalled(self, *a, **k):
+        signal.raise_signal(signal.SIGTERM)
+        return control(self, *a, **k)
+
+    monkeypatch.setattr(runner_module.Runner, "_control", control_signalled)
+    code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(tmp_path / "o"), "--no-progress",
+                     "--duration", "2")
+    assert code == 130 and "interrupted at t = 0.000 s (SIGTERM)" in err, err
+
+
+def test_an_interrupt_kept_by_an_inner_catch_is_left_to_the_outer_one():
+    """catch_sigterm nests (a command's, then a run's): the inner restore leaves what is kept to the
+    outer one, which hands it back to be raised; the handlers in force before are put back."""
+    from mjasc.runs import interrupts
+
+    before = signal.getsignal(signal.SIGTERM)
+    outer = interrupts.catch_sigterm()
+    inner = interrupts.catch_sigterm()
+    interrupts.PENDING.append(interrupts.Terminated("SIGTERM"))
+    assert interrupts.restore_sigterm(inner) is None and interrupts.PENDING
+    late = interrupts.restore_sigterm(outer)
+    assert isinstance(late, interrupts.Terminated) and not interrupts.PENDING
+    assert signal.getsignal(signal.SIGTERM) is before and sys.unraisablehook is not interrupts._redeliver
 
 
 def test_campaign_rejects_an_out_under_a_file_before_running(tmp_path, capsys):

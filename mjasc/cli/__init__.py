@@ -41,7 +41,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"mjasc: {name} {show_path(value)}: not a usable file name ({path_problem(value)})", file=sys.stderr)
             return 2
     listening = None
-    if args.command in _SIMULATING:
+    if args.command in _SIMULATING and os.environ.get("MJASC_COMPILE_HINTS", "1") != "0":
         from mjasc.core.kernel_cache import COLD_HINT, announce_compiles, cache_is_cold
 
         if cache_is_cold():

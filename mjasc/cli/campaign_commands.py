@@ -31,10 +31,13 @@ def cmd_campaign(args) -> int:
         prestart_isolated(args.workers)  # the runs' children import while the campaign is read
     previous = catch_sigterm()  # (SIGTERM — a batch system's stop, scancel — ends it as Ctrl-C does: 130)
     try:
-        return _campaign(args)
+        status = _campaign(args)
     finally:
-        restore_sigterm(previous)
+        late = restore_sigterm(previous)
         close_prestarted()  # (any the campaign did not take: an invalid file, nothing to run)
+    if late is not None:  # (an interrupt kept after the campaign's last look: the command stops as asked)
+        raise late
+    return status
 
 
 def _campaign(args) -> int:
@@ -179,7 +182,9 @@ def cmd_search(args) -> int:
         print(f"mjasc: search failed: {exc}", file=sys.stderr)
         return 1
     finally:
-        restore_sigterm(previous)
+        late = restore_sigterm(previous)
+    if late is not None:  # (an interrupt kept after the search's last look: the command stops as asked)
+        raise late
     t = res.table()
     print(f"{campaign.name} / {args.family} ({args.method}): {t['runs']} runs, {t['failures']} failure(s), "
           f"minimum separation {t['min_separation_m']} m, median {t['median_separation_m']} m")

@@ -10,6 +10,8 @@ warm-up compiles them). A cache only partly filled (another process compiling th
 whose source changed) is not cold, but its first run compiles the missing kernels all the same:
 :func:`announce_compiles` prints :data:`PARTLY_COLD_HINT` when the first of mjasc's kernels is
 compiled rather than loaded (numba's ``numba:compile`` event, which a cache hit does not raise).
+``MJASC_COMPILE_HINTS=0`` in the environment silences both (a program that reads the CLI's error
+lines; the test suite, whose tests meet the cache in any state).
 """
 
 from __future__ import annotations

@@ -20,15 +20,18 @@ with a traceback and lose the interrupt. While :func:`catch_sigterm` is in force
 silently, and the runner's loop raises it before its next event: the run stops as it would have.
 (Sending the signal again from the hook does not work: its handler runs inside the hook.)
 
-A signal must not land either while llvmlite releases an LLVM object (``ObjectRef.close``, called
-by numba outside any finalizer too): an exception between its two steps leaves the object half
-released, and its finalizer later fails with an ``AttributeError`` that Python prints as
-"Exception ignored in …", a traceback (seen once in CI, SIGTERM at t = 0.2 s). So the handlers
+A signal must not land either while llvmlite makes or releases an LLVM object: an exception
+raised as ``ObjectRef.__init__`` begins (``ValueRef.__init__`` calls it last) leaves an object
+without its pointer attribute, one raised inside ``detach`` an object half released, and either's
+finalizer later fails with an ``AttributeError`` that Python prints as "Exception ignored in …", a
+traceback (seen once in CI: SIGTERM at t = 0.2 s, a ``ValueRef``). So the handlers
 :func:`catch_sigterm` installs — for SIGTERM, and for SIGINT where Python's own handler is in
-force — look at where the signal landed first (:func:`_in_release`): inside a finalizer or such a
-release they keep the interrupt in :data:`PENDING` and return, and it is raised, as above, at the
-runner's next event. Anywhere else they raise at once, so Ctrl-C still stops a first run's
-minutes of compiling.
+force — look first at where the signal landed (:func:`_in_release`): inside a finalizer, or
+inside llvmlite's ``__init__`` or ``detach``, they keep the interrupt in :data:`PENDING` and
+return, and it is raised, as above, at the runner's next event (also after its last one). Those
+are a few bytecodes each, so anywhere else — nearly always — they raise at once, and Ctrl-C still
+stops a first run's minutes of compiling. A signal that lands in one of them during such a compile
+waits for the compile to end (the next event), which is rare.
 """
 
 from __future__ import annotations
@@ -45,18 +48,21 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM arrived while a run went (raised by the handler :func:`catch_sigterm` installs)."""
 
 
-#: Where llvmlite releases an LLVM object: its ``ObjectRef`` methods in this file (module docstring).
-_LLVMLITE_FFI = "llvmlite/binding/ffi.py"
-_RELEASE = frozenset({"close", "detach", "_dispose", "__del__"})
+#: Where llvmlite makes and releases its LLVM objects (module docstring): its functions of these
+#: names in its ``binding`` package; and a finalizer anywhere.
+_LLVMLITE_BINDING = "/llvmlite/binding/"
+_UNSAFE = frozenset({"__init__", "detach"})
 
 
 def _in_release(frame) -> bool:
     """Whether ``frame`` (where a signal's handler was called) or a caller is a finalizer
-    (``__del__``) or llvmlite releasing an LLVM object — where an exception would leave an object
-    half released (module docstring)."""
+    (``__del__``) or llvmlite making or releasing an object (``__init__``, ``detach`` in its binding
+    package) — where an exception would leave an object half made or half released (module
+    docstring)."""
     while frame is not None:
         code = frame.f_code
-        if code.co_name == "__del__" or (code.co_name in _RELEASE and code.co_filename.endswith(_LLVMLITE_FFI)):
+        if code.co_name == "__del__" or (code.co_name in _UNSAFE and _LLVMLITE_BINDING in
+                                         code.co_filename.replace("\\", "/")):
             return True
         frame = frame.f_back
     return False
@@ -101,29 +107,39 @@ def catch_sigterm():
     kept for later when they land in a release (:func:`_interrupt`), and an interrupt raised inside
     a finalizer kept too (:func:`_redeliver`). SIGINT is left alone unless Python's own handler is
     in force (an ignored Ctrl-C stays ignored). Returns the previous handlers (for
-    :func:`restore_sigterm`), or None when not called from the main thread (nothing installed)."""
+    :func:`restore_sigterm`), or None when not called from the main thread (nothing installed).
+    Calls nest: an inner one keeps what the outer one holds in :data:`PENDING`."""
     if threading.current_thread() is not threading.main_thread():
         return None
+    if not _HOOKS:
+        PENDING.clear()
     _HOOKS.append(sys.unraisablehook)
     sys.unraisablehook = _redeliver
-    PENDING.clear()
     previous_int = None
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
         previous_int = signal.signal(signal.SIGINT, _interrupt)
     return signal.signal(signal.SIGTERM, _interrupt), previous_int
 
 
-def restore_sigterm(previous) -> None:
+def restore_sigterm(previous) -> KeyboardInterrupt | None:
     """Put back the handlers :func:`catch_sigterm` returned and the unraisable hook it replaced
-    (None: nothing to do)."""
-    if previous is not None:
-        previous_term, previous_int = previous
-        signal.signal(signal.SIGTERM, previous_term)
-        if previous_int is not None:
-            signal.signal(signal.SIGINT, previous_int)
-        if _HOOKS:
-            sys.unraisablehook = _HOOKS.pop()
-        PENDING.clear()
+    (None: nothing to do). Returns the interrupt still kept in :data:`PENDING` when this was the
+    outermost call — one that landed after its caller's last look — and forgets it: the caller
+    raises it once its outputs are complete (a command then ends as interrupted); an inner call
+    leaves it to the outer one and returns None."""
+    if previous is None:
+        return None
+    previous_term, previous_int = previous
+    signal.signal(signal.SIGTERM, signal.SIG_DFL if previous_term is None else previous_term)
+    if previous_int is not None:
+        signal.signal(signal.SIGINT, previous_int)
+    if _HOOKS:
+        sys.unraisablehook = _HOOKS.pop()
+    if _HOOKS or not PENDING:
+        return None
+    late = PENDING[0]
+    PENDING.clear()
+    return late
 
 
 def signal_name(exc: KeyboardInterrupt) -> str:

@@ -304,6 +304,8 @@ class Runner:
                 t_slot = clock()
                 self.video.finish_held()
                 stage["video"] += clock() - t_slot
+            if PENDING:  # (one kept at the last event: the run stops as interrupted all the same)
+                raise_pending()
         except PhysicsDivergence as exc:
             status, error, diverged = "diverged", str(exc), exc
             if self.recorder:
@@ -330,7 +332,7 @@ class Runner:
                     self.recorder.event(sim.time_s, error, "ERROR")
         finally:
             resume_collector(collector)
-            restore_sigterm(previous)
+            late = restore_sigterm(previous)  # (kept after the loop's last look: raised once the outputs are written)
             if bar is not None:
                 bar.close()
             if self._truth is not None and self.recorder:  # (the counts as they stand: the summary's)
@@ -385,6 +387,8 @@ class Runner:
             raise RunInterrupted(f"{error}{kept}", summary)
         if status != "completed":
             raise RunFailed(f"{error}{kept}", summary)
+        if late is not None:  # the run completed, its outputs say so; the command still stops as asked
+            raise late
         return result
 
 
