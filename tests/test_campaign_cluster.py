@@ -70,10 +70,13 @@ def _cluster(nthreads: int = 1, worker_env: dict | None = None, worker_cwd=None)
                        "--scheduler-file", str(info), "--dashboard-address", ":0")
     worker = None
     try:
-        deadline = time.time() + 120
-        while not info.exists() and time.time() < deadline and scheduler.poll() is None:
-            time.sleep(0.1)
-        address = json.loads(info.read_text())["address"]
+        address, deadline = None, time.time() + 120
+        while address is None and time.time() < deadline and scheduler.poll() is None:
+            try:  # (the scheduler writes its file in two steps: an empty file first)
+                address = json.loads(info.read_text())["address"]
+            except (OSError, ValueError, KeyError):
+                time.sleep(0.1)
+        assert address is not None, f"the Dask scheduler did not start (exit {scheduler.poll()})"
         worker = _start("distributed.cli.dask_worker", address, "--nthreads", str(nthreads), "--nworkers", "1",
                         "--dashboard-address", ":0", env=worker_env, cwd=worker_cwd)
         yield address, scheduler, worker

@@ -236,8 +236,8 @@ def test_a_signal_inside_a_finalizer_still_interrupts_the_run_and_prints_no_trac
     """SIGTERM landing while the garbage collector runs a finalizer (seen in CI: llvmlite's
     ObjectRef.__del__ while a first run compiled kernels) raised Terminated inside ``__del__``:
     Python printed "Exception ignored in …" with a traceback and dropped it. The unraisable hook
-    keeps it and the runner raises it before its next event: the run stops as interrupted, with its
-    one line."""
+    keeps it and has it raised at the first Python call after the finalizer (before, the runner's
+    next event): the run stops as interrupted, with its one line."""
     from mjasc.runs import runner as runner_module
     from mjasc.runs.interrupts import Terminated
 
@@ -256,20 +256,21 @@ def test_a_signal_inside_a_finalizer_still_interrupts_the_run_and_prints_no_trac
     monkeypatch.setattr(runner_module.Runner, "_control", control_with_a_finalizer)
     code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(tmp_path / "o"), "--no-progress",
                      "--duration", "2")
-    assert code == 130 and "interrupted at t = 0.100 s (SIGTERM)" in err, err  # (before the next event)
+    assert code == 130 and "interrupted at t = 0.000 s (SIGTERM)" in err, err  # (within the same event)
     assert "Exception ignored" not in err and "Traceback" not in err
     assert signal.getsignal(signal.SIGTERM) is not None and sys.unraisablehook is not None
     from mjasc.runs.interrupts import _redeliver
     assert sys.unraisablehook is not _redeliver  # (put back when the run ended)
 
 
-def _llvm_object_interrupted(sig, moment):
+def _llvm_object_interrupted(sig, moment, objects):
     """An LLVM object of llvmlite's, made (``moment`` "made": ``sig`` sent to this process as
     ``ObjectRef.__init__`` begins, before the object has its pointer — the CI failure of
     2026-12-07, a ``ValueRef``) or released by an explicit ``close()`` as numba does ("released":
     ``sig`` sent between the two steps of its ``detach``); a trace function picks the moment.
     Either way, an exception raised there leaves an object whose finalizer fails with an
-    AttributeError that Python prints with its traceback. Returns the object (None if not made)."""
+    AttributeError that Python prints with its traceback. The object goes into ``objects`` (the
+    interrupt may be raised as this function returns)."""
     import llvmlite.binding as llvm
     from llvmlite.binding import ffi
 
@@ -285,17 +286,17 @@ def _llvm_object_interrupted(sig, moment):
             signal.raise_signal(sig)
         return tracer if frame.f_code is code else None
 
-    module = llvm.parse_assembly("") if moment == "released" else None  # (a ModuleRef: it owns LLVM memory)
+    if moment == "released":
+        objects.append(llvm.parse_assembly(""))  # (a ModuleRef: it owns LLVM memory)
     tracer_before = sys.gettrace()
     sys.settrace(tracer)
     try:
-        if module is None:
-            module = llvm.parse_assembly("")
+        if moment == "made":
+            objects.append(llvm.parse_assembly(""))
         else:
-            module.close()
+            objects[0].close()
     finally:
         sys.settrace(tracer_before)
-    return module
 
 
 @pytest.fixture
@@ -307,16 +308,18 @@ def ctrl_c_as_python_sets_it():
     signal.signal(signal.SIGINT, before)
 
 
+@pytest.mark.parametrize("profiled", [False, True])
 @pytest.mark.parametrize("moment, at", [("made", 0.0), ("released", 0.0), ("released", 1.95)])
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
-def test_a_signal_while_llvmlite_makes_or_releases_an_object_waits_for_the_next_event(
-        tmp_path, capsys, monkeypatch, ctrl_c_as_python_sets_it, sig, moment, at):
+def test_a_signal_while_llvmlite_makes_or_releases_an_object_waits_until_it_is_done(
+        tmp_path, capsys, monkeypatch, ctrl_c_as_python_sets_it, sig, moment, at, profiled):
     """The CI failure of 2026-12-07: SIGTERM landed as llvmlite began to make an object (or, the
     same harm, inside its release); the half-made object later failed in its finalizer and Python
-    printed the traceback. The handlers now keep a signal that lands there for the runner's next
-    event — after the last one too (``at`` 1.95 s of a 2 s run: the loop ends, the run is still
-    interrupted): the object is whole, the run stops as interrupted with its one line, nothing
-    else."""
+    printed the traceback. The handlers now keep a signal that lands in llvmlite's bindings until
+    the first Python call outside them — the same event — or, with another profile function in
+    force (``profiled``: a user's cProfile), until the runner's next event, also after its last
+    one (``at`` 1.95 s of a 2 s run: the loop ends, the run is still interrupted). The object is
+    whole, the run stops as interrupted with its one line, nothing else."""
     import gc
 
     from mjasc.runs import runner as runner_module
@@ -325,14 +328,20 @@ def test_a_signal_while_llvmlite_makes_or_releases_an_object_waits_for_the_next_
 
     def control_with_an_llvm_object(self, t, *a, **k):
         if not objects and t >= at:
-            objects.append(_llvm_object_interrupted(sig, moment))
+            _llvm_object_interrupted(sig, moment, objects)
         return control(self, t, *a, **k)
 
     monkeypatch.setattr(runner_module.Runner, "_control", control_with_an_llvm_object)
     monkeypatch.setattr(sys, "unraisablehook", unraisable.append)
-    code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(tmp_path / "o"), "--no-progress",
-                     "--duration", "2")
-    stop = "0.100" if at == 0.0 else "2.000"  # (the next event; after the last, the loop's end)
+    profile_before = sys.getprofile()
+    if profiled:
+        sys.setprofile(lambda frame, event, arg: None)
+    try:
+        code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(tmp_path / "o"), "--no-progress",
+                         "--duration", "2")
+    finally:
+        sys.setprofile(profile_before)
+    stop = "2.000" if at else "0.100" if profiled else "0.000"  # (this event, the next, or the loop's end)
     assert code == 130 and f"interrupted at t = {stop} s ({sig.name})" in err, err
     assert objects[0].closed == (moment == "released")  # (made or released whole)
     assert getattr(objects[0], "_as_parameter_", None) is not None or moment == "released"
@@ -357,6 +366,26 @@ def test_a_signal_elsewhere_stops_the_run_at_once(tmp_path, capsys, ctrl_c_as_py
     code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(tmp_path / "o"), "--no-progress",
                      "--duration", "2")
     assert code == 130 and "interrupted at t = 0.000 s (SIGTERM)" in err, err
+
+
+def test_an_interrupt_kept_after_the_loops_last_look_still_interrupts_the_run(tmp_path, capsys, monkeypatch):
+    """An interrupt kept (in a finalizer, say) after the loop's last look, as the run's outputs are
+    being closed: the run ends as interrupted — summary, recording's event and exit status agree."""
+    from mjasc.runs import interrupts
+    from mjasc.runs import runner as runner_module
+
+    resume = runner_module.resume_collector
+
+    def resume_then_kept(collector):
+        resume(collector)
+        interrupts.PENDING.append(interrupts.Terminated("SIGTERM"))
+
+    monkeypatch.setattr(runner_module, "resume_collector", resume_then_kept)
+    code, err = _cli(capsys, "run", "thesis_6_1_static", "--out", str(tmp_path / "o"), "--no-progress",
+                     "--duration", "2")
+    assert code == 130 and "interrupted at t = 2.000 s (SIGTERM)" in err, err
+    summary = json.loads((tmp_path / "o" / "summary.json").read_text())
+    assert summary["status"] == "interrupted" and not interrupts.PENDING
 
 
 def test_an_interrupt_kept_by_an_inner_catch_is_left_to_the_outer_one():

@@ -183,11 +183,11 @@ def cmd_search(args) -> int:
         return 1
     finally:
         late = restore_sigterm(previous)
-    if late is not None:  # (an interrupt kept after the search's last look: the command stops as asked)
-        raise late
     t = res.table()
     print(f"{campaign.name} / {args.family} ({args.method}): {t['runs']} runs, {t['failures']} failure(s), "
           f"minimum separation {t['min_separation_m']} m, median {t['median_separation_m']} m")
     for path in res.failures:
         print(f"  failure: {path}  (replay: mjasc run {path})")
+    if late is not None:  # (an interrupt kept after the search's last look: its table said, it stops as asked)
+        raise late
     return 0

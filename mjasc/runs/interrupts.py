@@ -20,18 +20,22 @@ with a traceback and lose the interrupt. While :func:`catch_sigterm` is in force
 silently, and the runner's loop raises it before its next event: the run stops as it would have.
 (Sending the signal again from the hook does not work: its handler runs inside the hook.)
 
-A signal must not land either while llvmlite makes or releases an LLVM object: an exception
-raised as ``ObjectRef.__init__`` begins (``ValueRef.__init__`` calls it last) leaves an object
-without its pointer attribute, one raised inside ``detach`` an object half released, and either's
-finalizer later fails with an ``AttributeError`` that Python prints as "Exception ignored in …", a
-traceback (seen once in CI: SIGTERM at t = 0.2 s, a ``ValueRef``). So the handlers
-:func:`catch_sigterm` installs — for SIGTERM, and for SIGINT where Python's own handler is in
-force — look first at where the signal landed (:func:`_in_release`): inside a finalizer, or
-inside llvmlite's ``__init__`` or ``detach``, they keep the interrupt in :data:`PENDING` and
-return, and it is raised, as above, at the runner's next event (also after its last one). Those
-are a few bytecodes each, so anywhere else — nearly always — they raise at once, and Ctrl-C still
-stops a first run's minutes of compiling. A signal that lands in one of them during such a compile
-waits for the compile to end (the next event), which is rare.
+A signal must not land either inside llvmlite's bindings (numba compiles through them): their
+Python keeps LLVM objects' ownership beside C calls, and an exception between a call and its
+bookkeeping leaves an object without its pointer (``ObjectRef.__init__`` interrupted as it
+began: the finalizer's ``AttributeError`` printed, seen once in CI, SIGTERM at t = 0.2 s), half
+released (``detach``), freed but still pointing at its memory (``OutputString.close``: freed again
+by its finalizer, the process aborts) or owned twice (``ExecutionEngine.add_module``: a
+segmentation fault). So the handlers :func:`catch_sigterm` installs — for SIGTERM, and for SIGINT
+where Python's own handler is in force — look first at where the signal landed
+(:func:`_in_release`): with a frame of llvmlite's ``binding`` package or a finalizer on the stack
+they keep the interrupt in :data:`PENDING` and return, and have it raised at the main thread's
+first Python call or return outside them (:func:`_deliver_when_out`, a profile function, for as
+long as that takes: each binding call is short), which keeps Ctrl-C as quick as before during a
+first run's minutes of compiling. (When another profiler is in force — ``cProfile`` — it is left
+alone and the runner's next event raises the interrupt.) Anywhere else they raise at once. The
+runner also looks after its loop's last event, and :func:`restore_sigterm` hands back one that
+landed after its caller's last look.
 """
 
 from __future__ import annotations
@@ -48,21 +52,18 @@ class Terminated(KeyboardInterrupt):
     """SIGTERM arrived while a run went (raised by the handler :func:`catch_sigterm` installs)."""
 
 
-#: Where llvmlite makes and releases its LLVM objects (module docstring): its functions of these
-#: names in its ``binding`` package; and a finalizer anywhere.
+#: Where an exception must not be raised (module docstring): llvmlite's bindings (any frame on
+#: the stack from a file in this folder) and finalizers (``__del__``).
 _LLVMLITE_BINDING = "/llvmlite/binding/"
-_UNSAFE = frozenset({"__init__", "detach"})
 
 
 def _in_release(frame) -> bool:
     """Whether ``frame`` (where a signal's handler was called) or a caller is a finalizer
-    (``__del__``) or llvmlite making or releasing an object (``__init__``, ``detach`` in its binding
-    package) — where an exception would leave an object half made or half released (module
-    docstring)."""
+    (``__del__``) or in llvmlite's bindings — where an exception could leave an LLVM object half
+    made, half released or owned twice (module docstring)."""
     while frame is not None:
         code = frame.f_code
-        if code.co_name == "__del__" or (code.co_name in _UNSAFE and _LLVMLITE_BINDING in
-                                         code.co_filename.replace("\\", "/")):
+        if code.co_name == "__del__" or _LLVMLITE_BINDING in code.co_filename.replace("\\", "/"):
             return True
         frame = frame.f_back
     return False
@@ -70,12 +71,33 @@ def _in_release(frame) -> bool:
 
 def _interrupt(signum, frame):
     """The handler of SIGTERM (→ :class:`Terminated`) and SIGINT (→ ``KeyboardInterrupt``): raised
-    at once, or kept in :data:`PENDING` when the signal landed in a release (:func:`_in_release`)."""
+    at once, or kept in :data:`PENDING` when the signal landed in a release (:func:`_in_release`)
+    and raised as soon as the main thread is out of it (:func:`_deliver_when_out`)."""
     exc = Terminated(signal.Signals(signum).name) if signum == signal.SIGTERM else KeyboardInterrupt()
     if _in_release(frame):
         PENDING.append(exc)
+        _deliver_when_out()
         return
     raise exc
+
+
+def _deliver_when_out() -> None:
+    """Raise what :data:`PENDING` keeps at the main thread's first Python call or return outside a
+    release: :func:`_out_of_release` as the thread's profile function until then. Nothing when not
+    on the main thread or when another profile function is in force (a user's ``cProfile``): the
+    runner's next event raises it then."""
+    if sys.getprofile() is None and threading.current_thread() is threading.main_thread():
+        sys.setprofile(_out_of_release)
+
+
+def _out_of_release(frame, event, arg):
+    """The profile function of :func:`_deliver_when_out` (not raising in this module's own
+    functions: :func:`restore_sigterm` puts the handlers back first and hands the interrupt on)."""
+    if not PENDING:  # (raised meanwhile by the runner's loop, or handed on by restore_sigterm)
+        sys.setprofile(None)
+    elif event in ("call", "return") and frame.f_code.co_filename != __file__ and not _in_release(frame):
+        sys.setprofile(None)
+        raise_pending()
 
 
 _HOOKS: list = []  # the unraisable hooks _redeliver replaced, innermost last
@@ -90,6 +112,7 @@ def _redeliver(unraisable) -> None:
     exc = unraisable.exc_value
     if isinstance(exc, KeyboardInterrupt):
         PENDING.append(exc)
+        _deliver_when_out()
         return
     (_HOOKS[-1] if _HOOKS else sys.__unraisablehook__)(unraisable)
 
@@ -111,6 +134,9 @@ def catch_sigterm():
     Calls nest: an inner one keeps what the outer one holds in :data:`PENDING`."""
     if threading.current_thread() is not threading.main_thread():
         return None
+    delivering = sys.getprofile() is _out_of_release
+    if delivering:  # (an outer call's interrupt on its way: not raised in the calls below)
+        sys.setprofile(None)
     if not _HOOKS:
         PENDING.clear()
     _HOOKS.append(sys.unraisablehook)
@@ -118,7 +144,10 @@ def catch_sigterm():
     previous_int = None
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
         previous_int = signal.signal(signal.SIGINT, _interrupt)
-    return signal.signal(signal.SIGTERM, _interrupt), previous_int
+    previous = signal.signal(signal.SIGTERM, _interrupt), previous_int
+    if delivering and PENDING:
+        _deliver_when_out()
+    return previous
 
 
 def restore_sigterm(previous) -> KeyboardInterrupt | None:
@@ -129,13 +158,20 @@ def restore_sigterm(previous) -> KeyboardInterrupt | None:
     leaves it to the outer one and returns None."""
     if previous is None:
         return None
+    delivering = sys.getprofile() is _out_of_release
+    if delivering:  # (first: its profile function would raise in the calls below)
+        sys.setprofile(None)
     previous_term, previous_int = previous
     signal.signal(signal.SIGTERM, signal.SIG_DFL if previous_term is None else previous_term)
     if previous_int is not None:
         signal.signal(signal.SIGINT, previous_int)
     if _HOOKS:
         sys.unraisablehook = _HOOKS.pop()
-    if _HOOKS or not PENDING:
+    if _HOOKS:  # (an outer call's: it keeps what is pending, delivered as before)
+        if delivering and PENDING:
+            _deliver_when_out()
+        return None
+    if not PENDING:
         return None
     late = PENDING[0]
     PENDING.clear()

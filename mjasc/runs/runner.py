@@ -332,7 +332,11 @@ class Runner:
                     self.recorder.event(sim.time_s, error, "ERROR")
         finally:
             resume_collector(collector)
-            late = restore_sigterm(previous)  # (kept after the loop's last look: raised once the outputs are written)
+            late = restore_sigterm(previous)  # (kept after the loop's last look: the run ends interrupted all the same)
+            if late is not None and status == "completed":
+                status, error = "interrupted", f"interrupted at t = {sim.time_s:.3f} s ({signal_name(late)})"
+                if self.recorder:
+                    self.recorder.event(sim.time_s, error, "WARN")
             if bar is not None:
                 bar.close()
             if self._truth is not None and self.recorder:  # (the counts as they stand: the summary's)
@@ -387,8 +391,6 @@ class Runner:
             raise RunInterrupted(f"{error}{kept}", summary)
         if status != "completed":
             raise RunFailed(f"{error}{kept}", summary)
-        if late is not None:  # the run completed, its outputs say so; the command still stops as asked
-            raise late
         return result
 
 
