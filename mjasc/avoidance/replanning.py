@@ -73,9 +73,23 @@ def swept_area(track: TrackEstimate, t_a: float, t_b: float, radius_m: float) ->
     return disc_hull(track.predict_positions(ts), radius_m, 16)
 
 
-def merge_overlapping(polygons: list[np.ndarray], clearance_m: float = 0.0) -> list[np.ndarray]:
+def merge_overlapping(polygons: list[np.ndarray], clearance_m: float = 0.0, keep_out=None,
+                      solid=None) -> list[np.ndarray] | None:
     """Replace polygons that overlap (or come closer than ``clearance_m``) by their convex hull,
-    until none do. The potential field needs disjoint obstacles."""
+    until none do. The potential field needs disjoint obstacles. ``keep_out`` (2,), the vessel's
+    position: None when a polygon marked ``solid`` (default: every one) would merge with another
+    over it — the vessel in a gap beside structure, where no detour of disjoint obstacles exists.
+    Such a hull, shrunk to leave the vessel outside (:func:`_shrink_to_exclude`), kept no island:
+    in the §6.4.3 bottleneck both islands' safety regions, joined across the gap by a crossing
+    vessel's swept area, shrank to a blob in its middle, and the detour ran through the north
+    island's face. Merged hulls of moving tracks' regions alone are still shrunk so."""
+    merged = _merged(polygons, [True] * len(polygons) if solid is None else list(solid), clearance_m, keep_out)
+    return None if merged is None else merged[0]
+
+
+def _merged(polygons, solid: list, clearance_m: float, keep_out):
+    """:func:`merge_overlapping` with each polygon's ``solid`` flag carried to its hulls: the
+    polygons and their flags, or None."""
     polys = [np.asarray(p, dtype=float) for p in polygons]
     changed = True
     while changed and len(polys) > 1:
@@ -87,14 +101,28 @@ def merge_overlapping(polygons: list[np.ndarray], clearance_m: float = 0.0) -> l
                          or float(np.min(distance_to_polygon(a, b))) <= clearance_m
                          or float(np.min(distance_to_polygon(b, a))) <= clearance_m)
                 if close:
-                    pts = np.vstack([a, b])
-                    hull = convex_hull(pts, canonical=False)
-                    polys = [p for k, p in enumerate(polys) if k not in (i, j)] + [hull]
+                    hull = convex_hull(np.vstack([a, b]), canonical=False)
+                    if keep_out is not None and (solid[i] or solid[j]) and point_in_polygon(keep_out[None], hull)[0]:
+                        return None
+                    rest = [k for k in range(len(polys)) if k not in (i, j)]
+                    polys, solid = [polys[k] for k in rest] + [hull], [solid[k] for k in rest] + [solid[i] or solid[j]]
                     changed = True
                     break
             if changed:
                 break
-    return polys
+    return polys, solid
+
+
+def _inflation_leaving(point, polygon, inflation_m: float, margin_m: float = 0.5) -> float:
+    """``inflation_m``, or less when ``point`` (the vessel) is within it of ``polygon``: the margin
+    that leaves the point ``margin_m`` outside (0 at least). The safety region then keeps the
+    polygon's shape all round; scaled about its centre to leave the vessel outside (what moving
+    obstacles' regions still get, :func:`_shrink_to_exclude`) an island's region fell inside the
+    island's own faces elsewhere, and a detour ran along them."""
+    d = float(distance_to_polygon(point[None], polygon)[0])
+    if point_in_polygon(point[None], polygon)[0]:
+        return inflation_m  # (inside the polygon itself: nothing to plan from; said below)
+    return min(inflation_m, max(d - margin_m, 0.0))
 
 
 def _shrink_to_exclude(poly, point, margin_m: float = 0.5):
@@ -217,24 +245,35 @@ def plan_detour(t: float, start, mission: Path, g_now_m: float, svos, static_pol
         obstacles.append(poly)
     reach = g_end + cfg.goal_margin_m + 20.0
     statics_near = _statics_near(start, mission, g_now_m, reach, static_polygons, cfg.static_range_m)
-    try:
-        obstacles += [inflate_polygon(clean_polygon(p, "static obstacle"), static_inflation_m) for p in statics_near]
+    moving = len(obstacles)  # (the swept areas so far; then mapped structure, then static tracks' outlines)
+    try:  # (a vessel within the inflation of a mapped polygon: grown by less, to leave it 0.5 m outside)
+        obstacles += [inflate_polygon(p, _inflation_leaving(start, p, static_inflation_m))
+                      for p in (clean_polygon(q, "static obstacle") for q in statics_near)]
     except ValueError as exc:
         return f"static polygon unusable: {exc}"
+    solid = [moving <= k for k in range(len(obstacles))]
     check = radius_m + cfg.safety_distance_m
     for p in _statics_near(start, mission, g_now_m, reach, static_outlines, cfg.static_range_m):
         try:
             p = clean_polygon(p, "static track outline")
             grown = inflate_polygon(p, check + cfg.replan_margin_m)
             obstacles.append(grown if not point_in_polygon(start[None], grown)[0] else inflate_polygon(p, check))
+            solid.append(False)
         except ValueError as exc:
             return f"static track outline unusable: {exc}"
-    obstacles = merge_overlapping(obstacles, clearance_m=0.5)
-    for k, p in enumerate(obstacles):  # inside a safety region: shrink it to just exclude the vessel
-        if point_in_polygon(start[None], p)[0]:
-            obstacles[k] = _shrink_to_exclude(p, start)
-            emit(t, "the vessel is inside an obstacle's safety region: that region is shrunk to leave it outside")
-    obstacles = merge_overlapping(obstacles, clearance_m=0.5)
+    # Regions merge, never mapped structure over the vessel (merge_overlapping); inside a merged
+    # region of moving tracks or outlines, it is shrunk to just exclude the vessel
+    merged = _merged(obstacles, solid, 0.5, start)
+    if merged is not None:
+        obstacles, solid = merged
+        for k, p in enumerate(obstacles):
+            if point_in_polygon(start[None], p)[0]:
+                obstacles[k] = _shrink_to_exclude(p, start)
+                emit(t, "the vessel is inside an obstacle's safety region: that region is shrunk to leave it outside")
+        merged = _merged(obstacles, solid, 0.5, start)
+    if merged is None:
+        return "the vessel is between structure and obstacles whose safety regions join around it"
+    obstacles = merged[0]
     if any(point_in_polygon(start[None], p)[0] for p in obstacles):
         return "the vessel is inside an obstacle's safety region"
     # Goal: on the mission path beyond the obstruction, clear of every obstacle.
