@@ -74,7 +74,9 @@ EXPECT = {
     # (Seed 2 reached its refusal again once the allocation stopped a turning hull's push ahead; in
     # between it had taken another course on every machine, pinned or not. Seed 11 no longer reaches
     # its fragment since then: a no-contact check; in_structure is tested in tests/test_avoidance.py.)
-    "bottleneck_stressed_seed2": ("charlie", "detour_rejected", 1.0),
+    # (Since session 62 the planner refuses that detour itself — the islands' regions would merge with the
+    # fragment's over charlie — before the structure check sees it: counted as a failed re-plan.)
+    "bottleneck_stressed_seed2": ("charlie", "replan_failed", 1.0),
     "bottleneck_stressed_seed11": ("bravo", None, 1.0),
     # Seed 4: a re-plan beside the north island's corner (around charlie's stale copy, 30 % of the
     # messages lost) asked alpha for a 161° turn, taken the long way round away from the island; the
@@ -97,7 +99,9 @@ EXPECT = {
     # circles still overlap, the hulls stay apart.
     "bottleneck_stressed_seed31": ("alpha", None, -0.5),
     "bottleneck_stressed_seed33": ("bravo", None, 1.0),
-    "bottleneck_stressed_seed37": ("alpha", None, -0.5),
+    # (Seed 37 since session 62: alpha's re-plans in the gap are refused — mapped structure may not merge with
+    # other regions over it — and it waits stopped among the others: −1.40 m of circle overlap, the hulls apart.)
+    "bottleneck_stressed_seed37": ("alpha", None, -1.6),
     # Held-out seeds 41–60: the stressed bottleneck's seed 41 (bravo, stopped for alpha, turned
     # towards a fresh detour 120° off its heading and crept at up to 0.45 m/s into alpha, −1.28 m)
     # and the §6.2 dock as shipped, seed 46 (vessel2 into the moored vessel3, −1.08 m).
@@ -145,8 +149,8 @@ EXPECT = {
     "fleet_50_seed1_pass_end": ("v009", None, 1.0),
     # A team mate's stop moved its plan by less than track_deviation_m but by more than the last
     # prediction's clearance to it: the vessel predicts again (test_a_stop_moving_a_plan_within_the_deviation…).
-    # (alpha–bravo circles overlap by 0.18 m, the hulls apart.)
-    "bottleneck_stressed_seed56": ("alpha", None, -0.5),
+    # (alpha–bravo circles overlap by 0.18 m, the hulls apart; 0.61 m since session 62's refusals in the gap.)
+    "bottleneck_stressed_seed56": ("alpha", None, -0.8),
     # An emergency stop for the oncoming vessel in its path, chosen without a check because a team
     # mate conflicted too: the stop is now weighed against keeping way (mjasc/avoidance/keep_way.py;
     # tests/test_keep_way.py). bravo–oncoming circles overlap by 0.10 m, the hulls apart.
@@ -188,16 +192,20 @@ def test_a_case_that_collided_keeps_clear(name):
 @pytest.mark.slow
 def test_the_detour_refusal_acts_in_the_stressed_bottleneck():
     """The refusal of bottleneck_stressed_seed2 end to end on another seed of the same file: seed 57
-    has alpha refuse a detour that passes the islands too close, twice, and every vessel keeps
-    clear. (Seeds 30 — found on an AMD EPYC Zen 3 machine, the same course on an Intel Xeon with
-    AVX-512 — and 23 took other courses once the allocation stopped a turning hull's push ahead
-    and an occluded detection grew a track's radius: docs/avoidance.md "Hardening".)"""
+    has alpha refuse detours that would pass the islands too close, and every vessel keeps clear.
+    Until session 62 the structure check refused them (``detour_rejected``, twice); since, the
+    planner refuses first — mapped structure may not merge with another region over the vessel —
+    so they count as failed re-plans (the structure check keeps its own test in test_avoidance.py).
+    (Seeds 30 — found on an AMD EPYC Zen 3 machine, the same course on an Intel Xeon with AVX-512 —
+    and 23 took other courses once the allocation stopped a turning hull's push ahead and an
+    occluded detection grew a track's radius: docs/avoidance.md "Hardening".)"""
     scenario = load_scenario(CASES / "bottleneck_stressed_seed2.toml").with_overrides(seed=57)
     summary = run_scenario(scenario).summary
     assert summary["status"] == "completed" and not summary["any_collision"], summary["collisions"]
     v = summary["vessels"]["alpha"]
     assert v["min_clearance_to_any_m"] > 1.0, v["min_clearance_m"]
-    assert v["avoidance"]["actions"]["detour_rejected"] >= 1, v["avoidance"]["actions"]
+    acts = v["avoidance"]["actions"]
+    assert acts["replan_failed"] + acts["detour_rejected"] >= 1, acts
 
 
 @pytest.mark.slow
