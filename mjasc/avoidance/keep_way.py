@@ -32,11 +32,8 @@ def worst_miss_m(results: Iterable, track_ids=(), team: bool | None = None, unti
     (``team`` None), or of those whose track is (True) or is not (False) in ``track_ids``, with
     t_c ≤ ``until_s`` [s] for team tracks; inf when there is none. Negative: the predicted centres
     come that much inside the collision distance (R_vh + R_ob + safety)."""
-    if team is None:
-        return min((r.min_distance_m - r.collision_distance_m for r in results if r.collision), default=np.inf)
-    return min((r.min_distance_m - r.collision_distance_m for r in results
-                if r.collision and (r.track_id in track_ids) == team and (not team or r.t_closest_s <= until_s)),
-               default=np.inf)
+    return min((r.min_distance_m - r.collision_distance_m for r in results if r.collision and (
+        team is None or (r.track_id in track_ids) == team and (not team or r.t_closest_s <= until_s))), default=np.inf)
 
 
 def keep_way_instead(stop_results, keep_results, team_track_ids, t: float, last_resort_s: float,

@@ -100,6 +100,21 @@ def _out_of_release(frame, event, arg):
         raise_pending()
 
 
+def _pause_delivery() -> bool:
+    """Stop :func:`_out_of_release` for the calls that swap the handlers (it would raise inside
+    them); True when it was in force (for :func:`_resume_delivery`)."""
+    if sys.getprofile() is _out_of_release:
+        sys.setprofile(None)
+        return True
+    return False
+
+
+def _resume_delivery(paused: bool) -> None:
+    """Put :func:`_out_of_release` back after :func:`_pause_delivery` when an interrupt still waits."""
+    if paused and PENDING:
+        _deliver_when_out()
+
+
 _HOOKS: list = []  # the unraisable hooks _redeliver replaced, innermost last
 #: Interrupts raised inside a finalizer while a run was interruptible, not yet raised again
 #: (the runner's loop: ``if PENDING: raise_pending()``; a campaign's, before each run or result).
@@ -134,9 +149,7 @@ def catch_sigterm():
     Calls nest: an inner one keeps what the outer one holds in :data:`PENDING`."""
     if threading.current_thread() is not threading.main_thread():
         return None
-    delivering = sys.getprofile() is _out_of_release
-    if delivering:  # (an outer call's interrupt on its way: not raised in the calls below)
-        sys.setprofile(None)
+    paused = _pause_delivery()  # (an outer call's interrupt on its way: not raised in the calls below)
     if not _HOOKS:
         PENDING.clear()
     _HOOKS.append(sys.unraisablehook)
@@ -145,8 +158,7 @@ def catch_sigterm():
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
         previous_int = signal.signal(signal.SIGINT, _interrupt)
     previous = signal.signal(signal.SIGTERM, _interrupt), previous_int
-    if delivering and PENDING:
-        _deliver_when_out()
+    _resume_delivery(paused)
     return previous
 
 
@@ -158,9 +170,7 @@ def restore_sigterm(previous) -> KeyboardInterrupt | None:
     leaves it to the outer one and returns None."""
     if previous is None:
         return None
-    delivering = sys.getprofile() is _out_of_release
-    if delivering:  # (first: its profile function would raise in the calls below)
-        sys.setprofile(None)
+    paused = _pause_delivery()  # (first: its profile function would raise in the calls below)
     previous_term, previous_int = previous
     signal.signal(signal.SIGTERM, signal.SIG_DFL if previous_term is None else previous_term)
     if previous_int is not None:
@@ -168,8 +178,7 @@ def restore_sigterm(previous) -> KeyboardInterrupt | None:
     if _HOOKS:
         sys.unraisablehook = _HOOKS.pop()
     if _HOOKS:  # (an outer call's: it keeps what is pending, delivered as before)
-        if delivering and PENDING:
-            _deliver_when_out()
+        _resume_delivery(paused)
         return None
     if not PENDING:
         return None

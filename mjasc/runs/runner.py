@@ -204,6 +204,14 @@ class Runner:
                     getattr(agent.perception, "method", None)]
         return [m for m in out if m is not None]
 
+    def _interrupted(self, time_s: float, stop: KeyboardInterrupt) -> tuple[str, str]:
+        """The status and error of a run stopped at ``time_s`` [s] by ``stop`` (Ctrl-C or SIGTERM),
+        said in the recording."""
+        error = f"interrupted at t = {time_s:.3f} s ({signal_name(stop)})"
+        if self.recorder:
+            self.recorder.event(time_s, error, "WARN")
+        return "interrupted", error
+
     def run(self, interruptible: bool = False) -> RunResult:
         """Run the scenario to its end. Raises :class:`RunFailed` (after writing the outputs) when
         the physics diverges or a component raises, :class:`RunInterrupted` on Ctrl-C, and with
@@ -304,21 +312,16 @@ class Runner:
                 t_slot = clock()
                 self.video.finish_held()
                 stage["video"] += clock() - t_slot
-            if PENDING:  # (one kept at the last event: the run stops as interrupted all the same)
-                raise_pending()
+            raise_pending()  # (one kept at the last event: the run stops as interrupted all the same)
         except PhysicsDivergence as exc:
             status, error, diverged = "diverged", str(exc), exc
             if self.recorder:
                 self.recorder.event(sim.time_s, str(exc), "ERROR")
         except KeyboardInterrupt as exc:  # Ctrl-C, or SIGTERM (interrupts.Terminated)
-            status, error = "interrupted", f"interrupted at t = {sim.time_s:.3f} s ({signal_name(exc)})"
-            if self.recorder:
-                self.recorder.event(sim.time_s, error, "WARN")
+            status, error = self._interrupted(sim.time_s, exc)
         except Exception as exc:  # noqa: BLE001 - a failed run still leaves its summary and recording
             if (stop := interrupt_behind(exc)) is not None:  # a signal inside a compiled call (interrupts)
-                status, error = "interrupted", f"interrupted at t = {sim.time_s:.3f} s ({signal_name(stop)})"
-                if self.recorder:
-                    self.recorder.event(sim.time_s, error, "WARN")
+                status, error = self._interrupted(sim.time_s, stop)
             else:
                 tb = traceback.extract_tb(exc.__traceback__)
                 place = f"{tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno}" if tb else ""
@@ -334,9 +337,7 @@ class Runner:
             resume_collector(collector)
             late = restore_sigterm(previous)  # (kept after the loop's last look: the run ends interrupted all the same)
             if late is not None and status == "completed":
-                status, error = "interrupted", f"interrupted at t = {sim.time_s:.3f} s ({signal_name(late)})"
-                if self.recorder:
-                    self.recorder.event(sim.time_s, error, "WARN")
+                status, error = self._interrupted(sim.time_s, late)
             if bar is not None:
                 bar.close()
             if self._truth is not None and self.recorder:  # (the counts as they stand: the summary's)
