@@ -43,7 +43,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from mjasc.core.navigation import FleetNavigation
-from mjasc.physics.obstacles import MovingObstacleSet
 from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
@@ -56,6 +55,7 @@ from mjasc.runs.interrupts import (PENDING, catch_sigterm, interrupt_behind, rai
 from mjasc.runs.mission_offset import MissionOffset
 from mjasc.runs.outputs import atomic_target, atomic_write_text, json_value
 from mjasc.runs.scenario import Scenario
+from mjasc.runs.scene_extent import scene_extent
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
 from mjasc.runs.tick import ONBOARD_SLOTS, SlotEvent, run_onboard_slot
 from mjasc.runs.truth_recording import PLOT_SERIES, TRAIL_PERIOD_S, TRAIL_SEGMENT_S, TruthRecording, WORLD_SERIES  # noqa: F401
@@ -145,24 +145,8 @@ class Runner:
     # ------------------------------------------------------------------ extent for views
     def extent(self) -> tuple[np.ndarray, np.ndarray]:
         """The scene's (lower-left, upper-right) corners [m] that the overview and top-down views and
-        the blueprint frame: the vessels' starts and paths, the structures, the traffic's starts and
-        — a target a mission follows, with the team after it — where it goes during the run
-        (sampled at 100 times), 10 m around."""
-        sc = self.scenario
-        pts = [v.position_m for v in sc.vessels]
-        for v in sc.vessels:
-            if v.path is not None:
-                pts.extend(v.path.sample(max(v.path.length / 50, 1.0)))
-        for o in sc.static_obstacles:
-            pts.extend(getattr(o, "vertices", [getattr(o, "centre", np.zeros(2))]))
-        pts.extend(o.position_m for o in sc.moving_obstacles)
-        tt = sc.mission.track_target if sc.mission is not None else None
-        followed = [o for o in sc.moving_obstacles if tt is not None and o.name == getattr(tt, "target", None)]
-        if followed:
-            traffic = MovingObstacleSet(followed)
-            pts.extend(p for t in np.linspace(0.0, sc.duration_s, 100) for p in traffic.state(float(t))[0])
-        p = np.array(pts)
-        return p.min(axis=0) - 10.0, p.max(axis=0) + 10.0
+        the blueprint frame (:func:`~mjasc.runs.scene_extent.scene_extent`)."""
+        return scene_extent(self.scenario)
 
     # ------------------------------------------------------------------ slots
     def _control(self, time_s: float, navs) -> None:
