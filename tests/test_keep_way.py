@@ -27,8 +27,9 @@ def _pair(track_id, miss_m, t_c=T + 5.0, r_col=5.6):
                              times=np.zeros(0), collision_distance_m=r_col)
 
 
-def _keep(stop, keep):
-    return keep_way_instead(stop, keep, TEAM, T, last_resort_s=10.0, safety_distance_m=1.0, margin_gain_m=0.5)
+def _keep(stop, keep, kept=False):
+    return keep_way_instead(stop, keep, TEAM, T, last_resort_s=10.0, safety_distance_m=1.0, margin_gain_m=0.5,
+                            kept=kept)
 
 
 def test_worst_miss_splits_team_mates_from_strangers_and_limits_the_team_ones_in_time():
@@ -51,6 +52,27 @@ def test_keeping_way_needs_a_wider_miss_with_the_hulls_apart(stop_miss, keep_mis
     assert _keep([_pair(5, stop_miss), _pair(7, 3.0)], [_pair(5, keep_miss), _pair(7, 3.0)]) is keeps
 
 
+@pytest.mark.parametrize("stop_miss, keep_miss, keeps", [
+    (-2.65, -1.17, True),  # seed 167 at 117.4 s: deeper than the hulls, but the stop is worse still — keep way
+    (-8.1, -6.3, True),    # way kept already: no longer judged against the hull, only against the stop
+    (-2.7, -2.3, True),    # the stop not 0.5 m better: keep way
+    (-1.0, -2.7, False),   # the stop predicted 1.7 m better: stop now
+    (0.5, -0.4, False),    # the stop clears the stranger: stop
+    (1.0, 2.0, True),      # both clear it: keep way
+])
+def test_way_kept_is_left_for_the_stop_only_when_the_stop_is_predicted_better(stop_miss, keep_miss, keeps):
+    """Once way is kept instead of a stop (the look-again window runs), the stop is taken again
+    only when it is predicted to miss the strangers by the margin more than keeping way: a stop
+    taken seconds before the closest approach waits in the stranger's path (seeds 167 and 182)."""
+    assert _keep([_pair(5, stop_miss), _pair(7, 3.0)], [_pair(5, keep_miss), _pair(7, 3.0)], kept=True) is keeps
+
+
+def test_way_kept_still_yields_to_a_nearer_team_collision():
+    stop = [_pair(5, -2.7)]
+    keep = [_pair(5, -0.4), _pair(7, -1.7, t_c=T + 8.0)]
+    assert _keep(stop, keep, kept=True) is False
+
+
 @pytest.mark.parametrize("keep_team, stop_team, keeps", [
     ((-1.7, 36.0), None, True),      # a team collision 36 s ahead: left to the next predictions
     ((-1.7, 8.0), None, False),      # within last_resort_s and the stop has none: stop
@@ -69,7 +91,7 @@ def test_bravo_keeps_way_on_its_lane_instead_of_stopping_in_the_oncoming_vessels
     from the oncoming vessel; the lane's own check finds the oncoming vessel 0.4 m inside the
     collision distance and a conflict with charlie 22 s ahead. The check of the speed choice was
     skipped with a team mate among the conflicts, so bravo stopped in the oncoming vessel's path
-    and was run into (−0.66 m). It now keeps way and predicts again every second."""
+    and was run into (−0.66 m). It now keeps way and predicts again every second, keeping way each time."""
     from mjasc.avoidance.system import CollisionAvoidance
     from mjasc.runs.runner import run_scenario
     from mjasc.runs.scenario import load_scenario
@@ -86,7 +108,10 @@ def test_bravo_keeps_way_on_its_lane_instead_of_stopping_in_the_oncoming_vessels
     again = [t for name, t, text in said if name == "bravo" and text.startswith("collision predicted")
              and kept[0] < t <= kept[0] + 1.5]
     assert again, [(t, text) for name, t, text in said if name == "bravo" and t > kept[0]][:5]
-    # a stop replaced by keeping way is neither said nor counted; the stop taken later is, once
+    # each look again weighs the stop anew and keeps way (the stop is never predicted the margin better:
+    # until session 63 the stop won at 117.4 s, the hulls' circles then 0.10 m into each other, now 0.11 m
+    # apart); a stop replaced by keeping way is neither said nor counted
+    assert len(kept) >= 3, kept
     stops = [t for name, t, text in said if name == "bravo" and text.startswith("no manoeuvre clears")]
-    assert not set(stops) & set(kept), (stops, kept)
-    assert stops and summary["vessels"]["bravo"]["avoidance"]["actions"]["emergency"] == len(stops) < len(kept)
+    assert not stops and summary["vessels"]["bravo"]["avoidance"]["actions"]["emergency"] == 0, stops
+    assert summary["vessels"]["bravo"]["min_clearance_to_any_m"] > 0.0

@@ -12,10 +12,14 @@ the two options' predictions, pure: the stop against keeping way (the mission sp
 sailed now), judged on the strangers' predicted misses, with the team mates' collisions as a guard.
 
 Keeping way is predicted at the mission speed from now on, as every option of the checked choice
-is: a vessel slowed by a yield takes seconds to regain it, so the misses it is judged on are better
-than what it sails. Each prediction in the seconds after weighs the stop again, and the deepening
-miss can turn the choice back to the stop (seed 71: way kept at 114.1, 115.2 and 116.3 s, the stop
-taken at 117.4 s, the hulls apart).
+is, and each prediction in the seconds after weighs the stop again. Once way is kept, the stop is
+taken only when it is predicted to miss the same stranger by ``margin_gain_m`` more: the first
+choice also asks keeping way to leave the hulls apart, and asked again, that guard turned the
+choice back to the stop as the stranger came near and its predicted miss deepened — in the §6.4.2
+head-on as shipped (seeds 167 and 182) bravo kept way at 114.1, 115.2 and 116.3 s and stopped at
+117.4 s, 0.6 s before keeping way's predicted closest approach (1.2 m inside the collision
+distance) and with the stop's own prediction 2.7 m inside: it took all way off in the oncoming
+vessel's path and was run into 2.4 s later. Keeping way, it passes with the hulls apart.
 """
 
 from __future__ import annotations
@@ -37,7 +41,7 @@ def worst_miss_m(results: Iterable, track_ids=(), team: bool | None = None, unti
 
 
 def keep_way_instead(stop_results, keep_results, team_track_ids, t: float, last_resort_s: float,
-                     safety_distance_m: float, margin_gain_m: float) -> bool:
+                     safety_distance_m: float, margin_gain_m: float, kept: bool = False) -> bool:
     """Whether to keep way rather than stop. ``stop_results`` and ``keep_results``: the predicted
     conflicts (every pair, :class:`~mjasc.avoidance.prediction.PredictedConflict`) of the emergency
     stop and of keeping way (the mission speed), at time ``t`` [s]. True when keeping way
@@ -55,12 +59,20 @@ def keep_way_instead(stop_results, keep_results, team_track_ids, t: float, last_
     fragment of an island, tracked as a large moving target, was predicted 8.1 m inside against a
     stopped vessel and 6.3 m against one keeping way into the gap: keeping way there ended in a
     contact between team mates). The worst misses are over all strangers, not the stop's track
-    alone."""
+    alone.
+
+    ``kept``: way is kept already against this stranger (the caller's look-again window runs). Then,
+    the team mates' guard above still first, way is kept unless the stop misses the strangers by
+    ``margin_gain_m`` more than keeping way (so also when the stop clears them and keeping way does
+    not): the hull condition is not asked again, since stopping late in a stranger's path is
+    no remedy for a miss that deepens as it comes near."""
     soon = t + last_resort_s
     team_stop = worst_miss_m(stop_results, team_track_ids, True, soon)
     if worst_miss_m(keep_results, team_track_ids, True, soon) < min(team_stop, 0.0) - 1e-9:
         return False
     stop, keep = worst_miss_m(stop_results, team_track_ids, False), worst_miss_m(keep_results, team_track_ids, False)
+    if kept:
+        return not stop > keep + margin_gain_m
     if stop == np.inf:
         return False
     return keep == np.inf or (keep > stop + margin_gain_m and keep > -safety_distance_m)

@@ -241,13 +241,17 @@ class Manoeuvres:
         After keeping way the vessel predicts every second until the latest predicted closest
         approach of its conflicts, team mates' included (each of those predictions weighs the stop
         again; a window ending at the strangers' closest approach took one run of the stressed
-        bottleneck from 1.59 to −0.12 m)."""
+        bottleneck from 1.59 to −0.12 m). While that window runs, way kept against the same stranger is
+        left for the stop only when the stop is predicted to miss it by more (``kept``)."""
         stop_res, keep_res = self._option_results(t, [stop, None], query)
         cfg, team = self.config, self._team_track_ids
+        kept = float(t) < self._look_again_until_s and stop.track_id == self._way_kept_for
         if not keep_way_instead(stop_res, keep_res, team, float(t), cfg.last_resort_s,
-                                self.prediction_config.safety_distance_m, _MARGIN_GAIN_M):
+                                self.prediction_config.safety_distance_m, _MARGIN_GAIN_M, kept):
+            self._way_kept_for = None  # (the stop taken: the next weighing starts afresh)
             return stop
         self.stats["checked_choice"] += 1
+        self._way_kept_for = stop.track_id
         ahead = [float(c.t_closest_s) for c in list(conflicts) + list(keep_res)
                  if isinstance(c, PredictedConflict) and c.collision and math.isfinite(c.t_closest_s)]
         self._look_again_until_s = max([self._look_again_until_s] + ahead)

@@ -170,6 +170,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         self._no_new_in = None  # perceived tracks found to hold no new track id
         self._last_predict_t = -np.inf
         self._look_again_until_s = -np.inf  # predict every second until then (mjasc.avoidance.keep_way)
+        self._way_kept_for: int | None = None  # the stranger's track id way was last kept against
         self._predicted_speed = None
         self._mission_moved = False  # the mission gave a new path: predict on it at the next control tick
         self._events: list[tuple[float, str]] = []
