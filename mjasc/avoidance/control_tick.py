@@ -100,7 +100,7 @@ class ControlTick:
         if self._mission_moved:  # a new mission leg (mjasc.missions): look along it
             self._mission_moved = False
             return set()
-        if t < self._look_again_until_s:  # way kept instead of an emergency stop (mjasc.avoidance.keep_way)
+        if t < self._look_again_until_s:  # way kept instead of a stop, or a running correction kept though it collides
             self.stats["deviation_predictions"] += 1
             return set()
         if self.correction is not None and (self.correction.emergency or self.correction.withdrawable):

@@ -169,7 +169,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         self._checked_tracks = None  # the perceived tracks found on the last prediction's motion
         self._no_new_in = None  # perceived tracks found to hold no new track id
         self._last_predict_t = -np.inf
-        self._look_again_until_s = -np.inf  # predict every second until then (mjasc.avoidance.keep_way)
+        self._look_again_until_s = -np.inf  # predict every second until then (way kept; a running correction kept colliding)
         self._way_kept_for: int | None = None  # the stranger's track id way was last kept against
         self._predicted_speed = None
         self._mission_moved = False  # the mission gave a new path: predict on it at the next control tick
