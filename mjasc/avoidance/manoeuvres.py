@@ -198,8 +198,9 @@ class Manoeuvres:
         first at 2.12 m/s into bravo, the pass and the mission speed both predicted 2.7–2.9 m inside
         the collision distance with it). A stop for a conflict nothing else resolves is not weighed
         against it (a running yield kept instead delayed the head-on's seed 250 stop by a second,
-        into contact). Kept though it still collides, it is looked at again every second until its
-        last predicted closest approach, as after an emergency stop."""
+        into contact). The running plan — that correction, or the mission speed when none runs —
+        kept though it still collides is looked at again every second until its last predicted
+        closest approach, as after an emergency stop."""
         query = self._last_query
         if query is None or len(query.tracks) < 2:
             return chosen
@@ -233,7 +234,9 @@ class Manoeuvres:
             margin = [worst_miss_m(res) for res in results]
             best = int(np.argmax(margin))
             k = best if margin[best] > margin[0] + _MARGIN_GAIN_M else 0
-            if options[k] is running:  # (kept though it collides: look again every second, as after a stop)
+            # The running plan kept though it collides — its correction, or the mission speed (None) when
+            # none runs — is looked at again every second, as after an emergency stop.
+            if options[k] is running:
                 ahead = [float(r.t_closest_s) for r in results[k] if r.collision and math.isfinite(r.t_closest_s)]
                 self._look_again_until_s = max([self._look_again_until_s] + ahead)
         if k != 0:
