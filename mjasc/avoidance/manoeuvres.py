@@ -223,7 +223,7 @@ class Manoeuvres:
                     options.append(alt)
         running = self.correction  # (what it does now: a new conflict must not undo the one it settles)
         if running is not None and not chosen.emergency and running.track_id != chosen.track_id and \
-                t < running.law.t_goal and not any(o is running for o in options):
+                t < running.law.t_goal:  # (the candidates are all new: it is never among them)
             options.append(running)
         options.append(None)
         results = self._option_results(t, options, query)

@@ -119,10 +119,9 @@ def _inflation_leaving(point, polygon, inflation_m: float, margin_m: float = 0.5
     polygon's shape all round; scaled about its centre to leave the vessel outside (what moving
     obstacles' regions still get, :func:`_shrink_to_exclude`) an island's region fell inside the
     island's own faces elsewhere, and a detour ran along them."""
-    d = float(distance_to_polygon(point[None], polygon)[0])
     if point_in_polygon(point[None], polygon)[0]:
         return inflation_m  # (inside the polygon itself: nothing to plan from; said below)
-    return min(inflation_m, max(d - margin_m, 0.0))
+    return min(inflation_m, max(float(distance_to_polygon(point[None], polygon)[0]) - margin_m, 0.0))
 
 
 def _shrink_to_exclude(poly, point, margin_m: float = 0.5):
