@@ -1,5 +1,5 @@
 """The running correction as an option of the checked choice (mjasc.avoidance.manoeuvres,
-``Manoeuvres._checked_choice``), end to end in the stressed §6.4.2 head-on on seed 168
+``CheckedChoice._checked_choice``), end to end in the stressed §6.4.2 head-on on seed 168
 (tests/cas_regressions/head_on_stressed_seed168.toml): a vessel yielding to a track ahead, whose
 next prediction sails that yield and so sees only a new conflict, must not trade the yield for a
 manoeuvre that runs into the track it settled."""

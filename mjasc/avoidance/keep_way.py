@@ -2,7 +2,7 @@
 conflicts too.
 
 When every manoeuvre fails for a track, the vessel stops (:func:`~mjasc.avoidance.decision.emergency_yield`),
-and the checked choice (:meth:`~mjasc.avoidance.manoeuvres.Manoeuvres._checked_choice`) predicts the
+and the checked choice (:meth:`~mjasc.avoidance.checked_choice.CheckedChoice._checked_choice`) predicts the
 stop against every track and may keep way instead when that keeps more distance. With a team mate
 among the conflicts that check used to be skipped altogether (team mates settle their conflicts by
 right of way and their broadcast plans): a vessel could stop in the path of an oncoming stranger
