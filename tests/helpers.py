@@ -1,9 +1,10 @@
-"""Small builders shared by the physics tests (not fixtures: plain functions, explicit inputs)."""
+"""Small builders shared by the tests (not fixtures: plain functions, explicit inputs)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from mjasc.avoidance.prediction import Decision, PredictedConflict
 from mjasc.physics.currents import UniformCurrent
 from mjasc.physics.simulation import Simulation
 from mjasc.physics.vessels import load_vessel_type
@@ -22,3 +23,16 @@ def hold_shaft(sim: Simulation, commands) -> None:
     """Set commands and put the shaft speeds at them directly (skips the shaft lag)."""
     sim.set_commands(commands)
     sim.data.act[sim.world.act_adr] = np.asarray(commands, dtype=float).reshape(-1, 2)
+
+
+def predicted_pair(track_id: int, miss_m: float, t_c: float, t_now: float, r_col: float = 5.6) -> PredictedConflict:
+    """A predicted pair (an option's prediction against one track) whose closest approach, at t_c
+    [s], is ``miss_m`` [m] outside (+) or inside (−) the collision distance ``r_col`` [m]; a
+    collision when it is not outside (its obstruction from ``t_now`` [s])."""
+    collision = miss_m <= 0.0
+    nan = float("nan")
+    return PredictedConflict(track_id=track_id, t_closest_s=t_c, min_distance_m=r_col + miss_m, collision=collision,
+                             t_i=t_now if collision else nan, t_f=t_c + 5.0 if collision else nan, gamma_a=0.0,
+                             gamma_b=5.0, point_a=None, point_b=None, decision=Decision.VELOCITY_CORRECTION,
+                             svo_polygon=None, vessel_positions=np.zeros((0, 2)), obstacle_positions=np.zeros((0, 2)),
+                             times=np.zeros(0), collision_distance_m=r_col)

@@ -9,22 +9,14 @@ import numpy as np
 import pytest
 
 from mjasc.avoidance.keep_way import keep_way_instead, worst_miss_m
-from mjasc.avoidance.prediction import Decision, PredictedConflict
+from tests.helpers import predicted_pair
 
 TEAM = {7}  # the team mate's track id; 5 is a stranger's
 T = 100.0
 
 
 def _pair(track_id, miss_m, t_c=T + 5.0, r_col=5.6):
-    """A predicted pair whose closest approach is ``miss_m`` outside (+) or inside (−) the collision
-    distance; no collision when it is outside."""
-    collision = miss_m <= 0.0
-    nan = float("nan")
-    return PredictedConflict(track_id=track_id, t_closest_s=t_c, min_distance_m=r_col + miss_m, collision=collision,
-                             t_i=T if collision else nan, t_f=t_c + 5.0 if collision else nan, gamma_a=0.0,
-                             gamma_b=5.0, point_a=None, point_b=None, decision=Decision.VELOCITY_CORRECTION,
-                             svo_polygon=None, vessel_positions=np.zeros((0, 2)), obstacle_positions=np.zeros((0, 2)),
-                             times=np.zeros(0), collision_distance_m=r_col)
+    return predicted_pair(track_id, miss_m, t_c, T, r_col)
 
 
 def _keep(stop, keep, kept=False):

@@ -4,7 +4,8 @@
 (:meth:`~mjasc.avoidance.manoeuvres.Manoeuvres._decide`): the first choice's speed plan (a yield, a
 pass first, an emergency stop) and the alternatives — the other candidates, passing first for each
 conflict, the running correction, keeping the mission speed — predicted in one fleet prediction;
-the first that clears every track is taken, else the one that keeps the most distance. With a team mate among the conflicts
+the first that clears every track is taken, else the least bad
+(:func:`~mjasc.avoidance.colliding_choice.least_bad_option`). With a team mate among the conflicts
 only an emergency stop for a stranger is weighed, against keeping way
 (:func:`~mjasc.avoidance.keep_way.keep_way_instead`).
 
@@ -19,6 +20,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from mjasc.avoidance.colliding_choice import least_bad_option
 from mjasc.avoidance.decision import Correction, velocity_correction_for
 from mjasc.avoidance.keep_way import keep_way_instead, worst_miss_m
 from mjasc.avoidance.prediction import PredictedConflict, PredictionQuery, predict_fleet
@@ -47,8 +49,9 @@ class CheckedChoice:
         the mission speed (None). The first with no predicted collision is taken; when every one
         collides, the one whose worst predicted miss distance is largest (``chosen``, the thesis's
         choice, unless another keeps :data:`_MARGIN_GAIN_M` more: an emergency stop in a crossing
-        ferry's path waits for it to arrive). (In Imazu case 19 the slow-down for one target put the
-        vessel in the path of another 5 s later.) With a team mate among the conflicts (between team
+        ferry's path waits for it to arrive; a running stop for a team mate is not left for a plan into
+        that team mate: :func:`~mjasc.avoidance.colliding_choice.least_bad_option`). (In Imazu case 19
+        the slow-down for one target put the vessel in the path of another 5 s later.) With a team mate among the conflicts (between team
         mates the right of way and the broadcast plans decide) only an emergency stop for a stranger
         is weighed, against keeping way (:meth:`_stop_or_keep_way`).
 
@@ -92,9 +95,11 @@ class CheckedChoice:
         if clear:
             k = clear[0]
         else:  # every plan collides: the one that keeps the most distance (the thesis's choice on ties)
-            margin = [worst_miss_m(res) for res in results]
-            best = int(np.argmax(margin))
-            k = best if margin[best] > margin[0] + _MARGIN_GAIN_M else 0
+            i_run = next((j for j, o in enumerate(options) if o is running), None) if running is not None else None
+            stop_for_mate = None  # (a stop for a team mate is not left for a plan into it: colliding_choice)
+            if i_run is not None and running.emergency and running.track_id in team_ids:
+                stop_for_mate = (i_run, running.track_id)
+            k = least_bad_option(results, _MARGIN_GAIN_M, stop_for_mate)
             # The running plan kept though it collides — its correction, or the mission speed (None) when
             # none runs — is looked at again every second, as after an emergency stop.
             if options[k] is running:
