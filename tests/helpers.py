@@ -36,3 +36,15 @@ def predicted_pair(track_id: int, miss_m: float, t_c: float, t_now: float, r_col
                              gamma_b=5.0, point_a=None, point_b=None, decision=Decision.VELOCITY_CORRECTION,
                              svo_polygon=None, vessel_positions=np.zeros((0, 2)), obstacle_positions=np.zeros((0, 2)),
                              times=np.zeros(0), collision_distance_m=r_col)
+
+
+def avoidance_events(monkeypatch) -> list:
+    """The events every vessel's collision avoidance says from now on (the test's own runs), as
+    (vessel name, time [s], text) tuples appended to the returned list; the events still go where
+    they went."""
+    from mjasc.avoidance.system import CollisionAvoidance
+
+    said, event = [], CollisionAvoidance._event
+    monkeypatch.setattr(CollisionAvoidance, "_event",
+                        lambda self, t, text: (said.append((self.name, t, text)), event(self, t, text))[1])
+    return said

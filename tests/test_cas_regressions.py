@@ -9,6 +9,7 @@ import pytest
 
 from mjasc.runs.runner import run_scenario
 from mjasc.runs.scenario import load_scenario
+from tests.helpers import avoidance_events
 
 CASES = Path(__file__).resolve().parent / "cas_regressions"
 
@@ -232,14 +233,11 @@ def test_team_mates_that_both_stand_on_settle_it_by_name(monkeypatch):
     toward; bravo, whose name sorts later, gives way as soon as alpha's word arrives — here with
     seed 4 (seed 25 takes another course since the allocation stopped a turning hull's push
     ahead)."""
-    from mjasc.avoidance.system import CollisionAvoidance
-
-    said, event = [], CollisionAvoidance._event
-    monkeypatch.setattr(CollisionAvoidance, "_event",
-                        lambda self, t, text: (said.append((self.name, text)), event(self, t, text))[1])
+    events = avoidance_events(monkeypatch)
     summary = run_scenario(load_scenario(CASES / "harbour_colreg_team_seed11.toml").with_overrides(seed=4)).summary
     assert summary["status"] == "completed" and not summary["any_collision"], summary["collisions"]
     assert summary["vessels"]["bravo"]["min_clearance_m"]["alpha"] > 0.5
+    said = [(name, text) for name, _, text in events]
     assert ("bravo", "team mate alpha stands on toward this vessel too (its broadcast): this vessel gives way") in said
 
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from mjasc.avoidance.colliding_choice import first_collision_s, least_bad_option
-from tests.helpers import predicted_pair
+from tests.helpers import avoidance_events, predicted_pair
 
 T = 100.0
 MATE, STRANGER, OTHER = 7, 5, 9
@@ -62,13 +62,10 @@ def test_the_stop_gives_way_to_a_plan_whose_team_collision_comes_later_than_its_
 
 @pytest.mark.slow
 def test_alpha_stays_stopped_for_bravo_rather_than_pass_into_it_and_is_not_run_into(monkeypatch):
-    from mjasc.avoidance.system import CollisionAvoidance
     from mjasc.runs.runner import run_scenario
     from mjasc.runs.scenario import load_scenario
 
-    said, event = [], CollisionAvoidance._event
-    monkeypatch.setattr(CollisionAvoidance, "_event",
-                        lambda self, t, text: (said.append((self.name, t, text)), event(self, t, text))[1])
+    said = avoidance_events(monkeypatch)
     summary = run_scenario(load_scenario(CASE).with_overrides(duration_s=140.0)).summary
     assert not summary["any_collision"], summary["collisions"]
     alpha = [(t, text) for name, t, text in said if name == "alpha"]

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from mjasc.avoidance.keep_way import keep_way_instead, worst_miss_m
-from tests.helpers import predicted_pair
+from tests.helpers import avoidance_events, predicted_pair
 
 TEAM = {7}  # the team mate's track id; 5 is a stranger's
 T = 100.0
@@ -84,13 +84,10 @@ def test_bravo_keeps_way_on_its_lane_instead_of_stopping_in_the_oncoming_vessels
     collision distance and a conflict with charlie 22 s ahead. The check of the speed choice was
     skipped with a team mate among the conflicts, so bravo stopped in the oncoming vessel's path
     and was run into (−0.66 m). It now keeps way and predicts again every second, keeping way each time."""
-    from mjasc.avoidance.system import CollisionAvoidance
     from mjasc.runs.runner import run_scenario
     from mjasc.runs.scenario import load_scenario
 
-    said, event = [], CollisionAvoidance._event
-    monkeypatch.setattr(CollisionAvoidance, "_event",
-                        lambda self, t, text: (said.append((self.name, t, text)), event(self, t, text))[1])
+    said = avoidance_events(monkeypatch)
     case = Path(__file__).resolve().parent / "cas_regressions" / "head_on_seed71.toml"
     summary = run_scenario(load_scenario(case).with_overrides(duration_s=140.0)).summary
     assert not summary["any_collision"], summary["collisions"]

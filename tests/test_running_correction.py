@@ -8,18 +8,17 @@ from pathlib import Path
 
 import pytest
 
+from tests.helpers import avoidance_events
+
 CASE = Path(__file__).resolve().parent / "cas_regressions" / "head_on_stressed_seed168.toml"
 
 
 @pytest.mark.slow
 def test_alpha_keeps_its_running_stop_for_the_mate_ahead_and_looks_again_every_second(monkeypatch):
-    from mjasc.avoidance.system import CollisionAvoidance
     from mjasc.runs.runner import run_scenario
     from mjasc.runs.scenario import load_scenario
 
-    said, event = [], CollisionAvoidance._event
-    monkeypatch.setattr(CollisionAvoidance, "_event",
-                        lambda self, t, text: (said.append((self.name, t, text)), event(self, t, text))[1])
+    said = avoidance_events(monkeypatch)
     summary = run_scenario(load_scenario(CASE).with_overrides(duration_s=135.0)).summary
     assert not summary["any_collision"], summary["collisions"]
     # the pass first for the oncoming stranger collided with the track alpha was yielding to (before
