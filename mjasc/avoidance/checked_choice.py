@@ -86,8 +86,9 @@ class CheckedChoice:
                 if alt is not None:
                     options.append(alt)
         running = self.correction  # (what it does now: a new conflict must not undo the one it settles)
-        if running is not None and not chosen.emergency and running.track_id != chosen.track_id and \
-                t < running.law.t_goal:  # (the candidates are all new: it is never among them)
+        weigh_running = running is not None and not chosen.emergency and running.track_id != chosen.track_id and \
+            t < running.law.t_goal
+        if weigh_running:  # (the candidates are all new: it is never among them)
             options.append(running)
         options.append(None)
         results = self._option_results(t, options, query)
@@ -95,10 +96,9 @@ class CheckedChoice:
         if clear:
             k = clear[0]
         else:  # every plan collides: the one that keeps the most distance (the thesis's choice on ties)
-            i_run = next((j for j, o in enumerate(options) if o is running), None) if running is not None else None
-            stop_for_mate = None  # (a stop for a team mate is not left for a plan into it: colliding_choice)
-            if i_run is not None and running.emergency and running.track_id in team_ids:
-                stop_for_mate = (i_run, running.track_id)
+            # (a running stop for a team mate is not left for a plan into it: mjasc.avoidance.colliding_choice)
+            stop_for_mate = (len(options) - 2, running.track_id) if \
+                weigh_running and running.emergency and running.track_id in team_ids else None
             k = least_bad_option(results, _MARGIN_GAIN_M, stop_for_mate)
             # The running plan kept though it collides — its correction, or the mission speed (None) when
             # none runs — is looked at again every second, as after an emergency stop.
