@@ -26,16 +26,11 @@ from mjasc.avoidance.keep_way import keep_way_instead, worst_miss_m
 from mjasc.avoidance.prediction import PredictedConflict, PredictionQuery, predict_fleet
 from mjasc.avoidance.speed_plan import correction_profile
 
-__all__ = ["CheckedChoice", "label"]
+__all__ = ["CheckedChoice"]
 
 #: When every candidate speed plan collides, another is taken over the first choice only if its
 #: worst predicted miss distance is larger by this much [m] (estimates are not finer than that).
 _MARGIN_GAIN_M = 0.5
-
-
-def label(correction: Correction) -> str:
-    """What an event calls a correction: its kind, or "emergency stop" (as the threat panel does)."""
-    return "emergency stop" if correction.emergency else correction.kind
 
 
 class CheckedChoice:
@@ -51,9 +46,9 @@ class CheckedChoice:
         choice, unless another keeps :data:`_MARGIN_GAIN_M` more: an emergency stop in a crossing
         ferry's path waits for it to arrive; a running stop for a team mate is not left for a plan into
         that team mate: :func:`~mjasc.avoidance.colliding_choice.least_bad_option`). (In Imazu case 19
-        the slow-down for one target put the vessel in the path of another 5 s later.) With a team mate among the conflicts (between team
-        mates the right of way and the broadcast plans decide) only an emergency stop for a stranger
-        is weighed, against keeping way (:meth:`_stop_or_keep_way`).
+        the slow-down for one target put the vessel in the path of another 5 s later.) With a team
+        mate among the conflicts (between team mates the right of way and the broadcast plans decide)
+        only an emergency stop for a stranger is weighed, against keeping way (:meth:`_stop_or_keep_way`).
 
         The running correction is an option when it is for another track, its goal is ahead and
         ``chosen`` is not an emergency stop: it settles a conflict this prediction no longer shows,
@@ -108,8 +103,8 @@ class CheckedChoice:
         if k != 0:
             self.stats["checked_choice"] += 1
             what = "keep the mission speed" if options[k] is None else \
-                f"{'its running ' if options[k] is running else ''}{label(options[k])} for track {options[k].track_id}"
-            self._event(t, f"{label(chosen)} for track {chosen.track_id} still leaves a predicted collision (with it or "
+                f"{'its running ' if options[k] is running else ''}{options[k].label} for track {options[k].track_id}"
+            self._event(t, f"{chosen.label} for track {chosen.track_id} still leaves a predicted collision (with it or "
                            f"another track): {what} instead" + ("" if clear else " (no plan clears every track: "
                                                                  "this one keeps the most distance)"))
         return options[k]

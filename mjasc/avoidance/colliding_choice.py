@@ -13,8 +13,8 @@ predicted collision does not replace the stop, however its worst miss compares. 
 was offered a pass first for the oncoming stranger each second. Once the stranger's noisy estimate
 brought the stop's worst miss (the stranger 25–30 s ahead) within 0.5 m of the pass's (bravo 6–10 s
 ahead), the pass was taken; the next prediction, sailing it, met bravo and the vessel stopped again,
-a metre further along the detour, into the stranger's lane: three to four such flips, then contact
-with the stranger. A collision further ahead leaves time to look again (the stop predicts every
+a metre further along the detour, into the stranger's lane: five such flips on seed 205, then
+contact with the stranger. A collision further ahead leaves time to look again (the stop predicts every
 second); one with the team mate the stop is for undoes the reason for stopping.
 """
 

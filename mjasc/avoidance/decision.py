@@ -35,6 +35,11 @@ class Correction:
     #: when a later prediction clears it (:meth:`~mjasc.avoidance.manoeuvres.Manoeuvres._withdraw_correction`)
     withdrawable: bool = False
 
+    @property
+    def label(self) -> str:
+        """What the events and the threat panel call it: its kind, or "emergency stop"."""
+        return "emergency stop" if self.emergency else self.kind
+
 
 def velocity_correction_for(t: float, gamma: float, c: PredictedConflict, cfg, speed_max_m_s: float,
                             pass_only: bool = False, passing: bool = False,

@@ -69,8 +69,7 @@ def threat_markdown(vessel_name: str, record, team, mode: str, correction=None, 
     ``note``: what a method without predictions says instead (its latest decision)."""
     lines = [f"**{vessel_name}**: mode **{mode}**"]
     if correction is not None:
-        what = "emergency stop" if getattr(correction, "emergency", False) else correction.kind
-        lines.append(f"velocity correction: {what} for track T{correction.track_id}, "
+        lines.append(f"velocity correction: {correction.label} for track T{correction.track_id}, "
                      f"V_d = {correction.law.desired_speed:.2f} m/s")
     if record is None:
         return "\n\n".join(lines + [note if note is not None else "no prediction yet"]) + "\n"
