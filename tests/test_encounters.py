@@ -162,6 +162,30 @@ def test_draws_resample_to_the_role_and_an_impossible_family_fails_clearly():
         spec({"kind": "head_on", "parameters": {"own_speed_m_s": 9.0}})
 
 
+def test_runs_cut_before_their_encounter_are_counted_and_said():
+    """A family's ``duration_s`` (or ``--duration``) no longer than a target's TCPA ends the run before
+    the encounter: such runs count as runs without contact, so the campaign's table and report say
+    how many there are (a reviewer's campaign of 10 s runs for a 30 s TCPA printed "collision 0/3"
+    with nothing else)."""
+    from types import SimpleNamespace
+
+    from mjasc.campaigns.report import _before_cpa
+    from mjasc.campaigns.statistics import aggregate, ended_before_cpa, format_aggregate
+
+    cut = next(spec({"kind": "head_on", "duration_s": 10.0, "parameters": {"tcpa_s": 30.0}}).runs()).parameters
+    whole = next(spec({"kind": "head_on", "parameters": {"tcpa_s": 30.0}}).runs()).parameters
+    teams = next(spec({"kind": "multi_target", "duration_s": 45.0,
+                       "parameters": {"t1.tcpa_s": 30.0, "t2.tcpa_s": 50.0}}).runs()).parameters
+    assert ended_before_cpa(cut) and not ended_before_cpa(whole) and ended_before_cpa(teams)
+    assert whole["duration_s"] > 30.0 and not ended_before_cpa({"duration_s": 5.0})  # (a perturbation run)
+    runs = [SimpleNamespace(index=i, family="head_on", status="completed", parameters=p, metrics={}, wall_time_s=1.0)
+            for i, p in enumerate([cut, cut, whole])]
+    agg = aggregate(runs, 3)
+    assert agg["ended_before_cpa"] == 2 and agg["families"]["head_on"]["ended_before_cpa"] == 2
+    assert "note: 2 of 3 completed run(s) ended before their encounter's closest approach" in format_aggregate(agg, "c")
+    assert _before_cpa({**agg, "ended_before_cpa": 0}) == [] and "2 of 3" in _before_cpa(agg)[1]
+
+
 def test_a_bad_field_of_a_familys_own_table_is_named_where_it_was_written():
     """An encounter family merges its ``own`` table into every own vessel of the scenarios it makes:
     a bad field there is reported as ``families[i].own.…`` (where the user wrote it), not as the

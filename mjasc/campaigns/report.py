@@ -42,7 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from mjasc.campaigns.hull_records import family_ticks, family_title, hull_table
-from mjasc.campaigns.statistics import BEHIND_M, aggregate, family_order, run_outcome, wilson_interval
+from mjasc.campaigns.statistics import BEHIND_M, aggregate, before_cpa_note, family_order, run_outcome, wilson_interval
 from mjasc.campaigns.report_figures import comparison_figures, numeric_params, outcome_map, save
 from mjasc.campaigns.store import CampaignStore
 from mjasc.campaigns.stored_file import file_compared_tables, file_gospa, file_methods
@@ -136,13 +136,20 @@ def _vessels(pv: dict) -> int:
     return max((q["n"] for q in pv.values() if isinstance(q, dict)), default=0)
 
 
+def _before_cpa(data: dict) -> list[str]:
+    """The report's warning about runs cut before their encounter (none when there are none)."""
+    note = before_cpa_note(data)
+    return ["", f"**{note[0].upper()}{note[1:]}**"] if note else []
+
+
 def format_report(data: dict) -> str:
     """The report's table as Markdown (also printed by ``mjasc report``)."""
     if data.get("methods"):
         return _format_comparison(data)
     lines = [*_title(data["campaign"]),
              f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
-             f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}).", "",
+             f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}).",
+             *_before_cpa(data), "",
              *hull_table(data.get("hulls"), list(data["families"])),
              "| family | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] | min separation: min / median [m] "
              "| COLREG compliant (encounters with a role) | actions |", "|---|---:|---|---|---|---|---|"]
@@ -244,7 +251,7 @@ def _format_comparison(data: dict) -> str:
              f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
              f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}). "
              f"Methods compared: {', '.join(methods)} (each generated run once per method, the same scenario but "
-             f"for its {c.get('compared_tables', 'avoidance')} tables).", "",
+             f"for its {c.get('compared_tables', 'avoidance')} tables).", *_before_cpa(data), "",
              *hull_table(data.get("hulls"), list(data["families"])),
              "| family | method | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] "
              "| min separation: min / p5 / median [m] | COLREG compliant (encounters with a role) "

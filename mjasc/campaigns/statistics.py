@@ -13,6 +13,8 @@ and the formation error — the vessel's mean and max |lead| over its neighbours
 as its coordination reports it (``vessels.<v>.coordination.mean_abs_error_m`` /
 ``max_abs_error_m``). Per family and overall (:func:`aggregate`): counts per status, collision and
 near-miss rates with Wilson 95 % intervals, separation quantiles, compliance rate, actions,
+``ended_before_cpa`` (completed encounter runs cut before a target's TCPA: counted, and said under
+the printed table and the report, since their outcome says nothing about the encounter),
 tracking means, throughput, and ``per_vessel``: quantiles (median p50, p95, …) of each per-vessel
 value over every vessel of every completed run, with ``reference_short`` counting the vessels whose
 reference never got as far as they did (no time cost).
@@ -30,7 +32,7 @@ from collections import Counter, defaultdict
 import numpy as np
 
 __all__ = ["Z95", "wilson_interval", "quantiles", "run_outcome", "vessel_samples", "aggregate", "format_aggregate",
-           "method_order", "paired"]
+           "ended_before_cpa", "before_cpa_note", "method_order", "paired"]
 
 #: Per-vessel values (:func:`vessel_samples`): name → (where in the summary, field).
 PER_VESSEL = {"path_cost": ("cost", "path_cost"), "time_cost_s": ("cost", "time_cost_s"),
@@ -158,6 +160,27 @@ def _rate(k: int, n: int) -> dict:
             "wilson95": [round(w[0], 4), round(w[1], 4)] if w else None}
 
 
+def ended_before_cpa(parameters: dict | None) -> bool:
+    """Whether an encounter run (its drawn ``parameters``) ended no later than a target's TCPA: its
+    ``duration_s`` (a family's or ``--duration``'s) cut it before the encounter, so that its outcome
+    says nothing about it. False for runs without targets (perturbation families)."""
+    p = parameters or {}
+    tcpas = [v for k, v in p.items() if (k == "tcpa_s" or k.endswith(".tcpa_s")) and isinstance(v, (int, float))]
+    duration = p.get("duration_s")
+    return bool(tcpas) and isinstance(duration, (int, float)) and duration <= max(tcpas)
+
+
+def before_cpa_note(agg: dict) -> str | None:
+    """The warning to print with a campaign's table when some completed runs ended before their
+    encounter (:func:`ended_before_cpa`), else None."""
+    k = agg.get("ended_before_cpa") or 0
+    if not k:
+        return None
+    return (f"note: {k} of {agg['completed']} completed run(s) ended before their encounter's closest approach "
+            f"(duration_s ≤ TCPA): they count as runs without contact but say nothing about the encounter — run "
+            f"them longer (a family's duration_s past its last TCPA, or no --duration)")
+
+
 def _group(runs, near_miss_m: float) -> dict:
     """Statistics of a group of stored runs (see the module docstring)."""
     statuses = Counter(r.status for r in runs)
@@ -179,6 +202,7 @@ def _group(runs, near_miss_m: float) -> dict:
         "arrival_position_error_m": quantiles(o["arrival_position_error_m"] for o in missions)}
     return {
         "runs": len(runs), "statuses": dict(statuses), "completed": n,
+        "ended_before_cpa": sum(ended_before_cpa(getattr(r, "parameters", None)) for r in done),
         "collision": _rate(sum(o["collision"] for o in outs), n),
         "near_miss": _rate(sum(o["near_miss"] for o in outs), n),
         "min_separation_m": quantiles(o["min_separation_m"] for o in outs),
@@ -312,4 +336,7 @@ def format_aggregate(agg: dict, name: str = "") -> str:
                          sep(g["min_separation_m"]), cost(g["per_vessel"])))
     widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
     lines += ["  " + "  ".join(c.ljust(w) for c, w in zip(r, widths)) for r in rows]
+    note = before_cpa_note(agg)
+    if note:
+        lines.append(note)
     return "\n".join(lines)
