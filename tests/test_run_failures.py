@@ -115,6 +115,16 @@ def test_a_diverged_run_leaves_its_summary_a_readable_recording_and_the_last_goo
     Runner(quiet.with_overrides(duration_s=1.0), tmp_path, progress=False).run()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["summary.json"]
     assert json.loads((tmp_path / "summary.json").read_text())["status"] == "completed"
+    # A folder without a run's summary holds no run's outputs: files of those names there are the
+    # user's own and stay (a reviewer's video.mp4 went with a first run into its folder).
+    own = tmp_path / "own"
+    own.mkdir()
+    for name in ("video.mp4", "recording.rrd", LAST_GOOD_STATE):
+        (own / name).write_bytes(b"the user's own")
+    Runner(quiet.with_overrides(duration_s=1.0), own, progress=False).run()
+    assert sorted(p.name for p in own.iterdir()) == sorted(["summary.json", "video.mp4", "recording.rrd",
+                                                             LAST_GOOD_STATE])
+    assert (own / "video.mp4").read_bytes() == b"the user's own"
 
 
 #: ``python -m mjasc`` (as ``-m`` runs it) that touches the file named by its first argument once

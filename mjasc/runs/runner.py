@@ -17,8 +17,9 @@ recording is closed first (what was recorded so far is readable) and a summary i
 are written under a temporary name and renamed when complete (:mod:`mjasc.runs.outputs`): a
 ``recording.rrd`` or ``summary.json`` is never half-written. ``Simulation.set_state(np.load(
 "last_good_state.npy"))`` on the same scenario's runner reproduces the divergence. A run into a
-folder that holds an earlier run's outputs removes, when it starts, those of them it will not
-write itself (a recording, a video, a divergence's state): the folder never mixes two runs.
+folder that holds an earlier run's outputs (its ``summary.json``) removes, when it starts, those of
+them it will not write itself (a recording, a video, a divergence's state): the folder never mixes
+two runs. Files of those names in a folder without a run's summary are not a run's: they stay.
 
 **Timing.** The main loop times each slot's work and the physics (``time.perf_counter``, about
 0.1 µs per reading) and keeps the sums in ``Runner.stage_seconds`` (slot → seconds, plus
@@ -206,8 +207,9 @@ class Runner:
         files = {}
         if self.out_dir is not None:
             self.out_dir.mkdir(parents=True, exist_ok=True)
-            stale = [LAST_GOOD_STATE] + ([] if sc.outputs.recording else ["recording.rrd"]) + \
-                ([] if sc.outputs.video else ["video.mp4"])
+            earlier = (self.out_dir / "summary.json").is_file()  # (a folder without one holds no run's outputs)
+            stale = ([LAST_GOOD_STATE] + ([] if sc.outputs.recording else ["recording.rrd"]) +
+                     ([] if sc.outputs.video else ["video.mp4"])) if earlier else []
             for name in stale:  # (an earlier run's, which this one will not replace: module docstring)
                 (self.out_dir / name).unlink(missing_ok=True)
         self.metrics = RunMetrics(self.world, sc, self.sim.traffic)
