@@ -100,6 +100,12 @@ EXACT = {
     # avoidance on an open-loop vessel (it ran, predicting nothing and never acting)
     "vessels[0].avoidance: needs a path-following controller":
         lambda d: d["vessels"][0].update(controller={"type": "none", "commands": [0.5, 0.5]}),
+    # a tracker without a sensor (it ran with a default sensor nobody asked for), as avoidance without one
+    "vessels[0].tracking: needs a [vessels.sensor] table — a vessel tracks only what its own sensor sees":
+        lambda d: (d["vessels"][0].pop("sensor", None), d["vessels"][0].pop("avoidance", None),
+                   d["vessels"][0].update(tracking={})),
+    "vessels[0].avoidance: needs a [vessels.sensor] table — a vessel avoids only what its own sensor sees":
+        lambda d: (d["vessels"][0].pop("sensor", None), d["vessels"][0].update(tracking={}, avoidance={})),
     # a missing type says so (it said "must be a non-empty string, got None")
     "vessels[1].type: missing (the vessel type: one of delfim, otter, or a vessel folder's path)":
         lambda d: d["vessels"][1].pop("type"),

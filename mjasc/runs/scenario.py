@@ -154,9 +154,10 @@ def _vessel(t: Any, i: int, path_optional: bool = False, base_dir: FilePath | No
     path, commands = None, (0.0, 0.0)
     cruise = vt.cruise_speed_m_s
     options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}
-    if "avoidance" in options and "sensor" not in options:
-        raise ScenarioError(f"{where}.avoidance: needs a [vessels.sensor] table — a vessel avoids only what its "
-                            "own sensor sees")
+    for needs in ("avoidance", "tracking"):  # (a tracker without one got a default sensor nobody asked for)
+        if needs in options and "sensor" not in options:
+            raise ScenarioError(f"{where}.{needs}: needs a [vessels.sensor] table — a vessel "
+                                f"{'avoids' if needs == 'avoidance' else 'tracks'} only what its own sensor sees")
     if ctype != "none":
         from mjasc.plugins.registry import parse_method_table
 
