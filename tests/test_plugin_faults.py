@@ -107,7 +107,8 @@ def test_a_call_with_the_wrong_signature_names_the_method(registered):
     registered("avoidance", WrongSignature)
     _run_fails(_doc("avoidance", {"method": "test_wrong_signature"}),
                r"WrongSignature\.control\(\) takes 3 positional arguments but 6 were given \(avoidance method "
-               r"'test_wrong_signature' of vessel 'a': ")
+               r"'test_wrong_signature' of vessel 'a': its signature does not take mjasc's call at \w+\.py:\d+; "
+               r"docs/plugins\.md lists each method's arguments\)")
 
 
 @pytest.mark.parametrize("events, pattern", [

@@ -83,6 +83,7 @@ class RunInterrupted(RunFailed):
 
 #: The MuJoCo state (``Simulation.get_state``) before the step where the physics diverged.
 LAST_GOOD_STATE = "last_good_state.npy"
+_PACKAGE = Path(__file__).resolve().parent.parent  # (mjasc's own files: a failing frame there is not a plugin's)
 
 
 @dataclass
@@ -314,6 +315,10 @@ class Runner:
                 fault = plugin_at_fault(exc, self._stage_methods())  # (a plugin's bug: say whose, and where)
                 if fault is not None and str(exc).startswith(fault):  # (a checked answer: the message says whose,
                     fault = place = ""                                  # and the check's own line says nothing)
+                elif fault is not None and isinstance(exc, TypeError) and tb and \
+                        Path(tb[-1].filename).resolve().is_relative_to(_PACKAGE):  # (a call the method cannot take)
+                    place = f"its signature does not take mjasc's call at {place}; docs/plugins.md lists each " \
+                            f"method's arguments"
                 where = ": ".join(p for p in (fault, place) if p)
                 where = f" ({where})" if where else ""
                 status, error = "error", f"{type(exc).__name__} at t = {sim.time_s:.3f} s: {exc}{where}"
