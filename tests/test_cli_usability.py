@@ -278,3 +278,19 @@ def test_no_suggestion_for_a_name_like_no_bundled_one(tmp_path, monkeypatch, cap
     monkeypatch.chdir(tmp_path)
     assert main(["run", "harbour_crossing"]) == 2
     assert "did you mean" not in capsys.readouterr().err
+
+
+def test_a_campaign_with_failed_runs_says_how_to_retry_them(tmp_path, capsys):
+    """Runs that time out are tried ``--max-attempts`` times in all: the same command run again did
+    nothing and said only "0 run(s) done now, 2 already in the store" (a reviewer's find); both
+    commands now say how to retry them."""
+    spec = tmp_path / "slow.toml"
+    spec.write_text('name = "slow"\nbase_seed = 0\n[[families]]\nkind = "head_on"\nruns_per_point = 2\n')
+    argv = ["campaign", str(spec), "--workers", "1", "--no-progress", "--out", str(tmp_path / "out"),
+            "--time-limit", "0.2", "--max-attempts", "1"]
+    for again in (False, True):
+        assert main(argv) == 0
+        out = capsys.readouterr().out
+        assert ("0 run(s) done now, 2 already in the store" in out) is again
+        assert "note: 2 run(s) failed (an error or a time limit) and are retried up to --max-attempts times in all " \
+               "(1 now): run the command again with a larger --max-attempts" in out

@@ -77,9 +77,24 @@ def _campaign(args) -> int:
     print(f"{campaign.name}: {info['runs_to_do']} run(s) done now, {info['already_done']} already in the store "
           f"({info['wall_time_s']} s)")
     print(format_aggregate(result.aggregate, campaign.name))
+    hint = retry_hint(result.aggregate, args.max_attempts)
+    if hint:
+        print(hint)
     for kind, path in result.files.items():
         print(f"  {kind}: {path}")
     return 0
+
+
+def retry_hint(aggregate: dict, max_attempts: int) -> str | None:
+    """What to do about the stored runs that failed in a way another attempt may not (an error, a
+    timeout: not ``diverged``, a final outcome): they are tried ``--max-attempts`` times in all, so a
+    command run again does not retry them unless it is given more. None when there are none."""
+    k = sum(n for status, n in aggregate.get("statuses", {}).items() if status not in ("completed", "diverged"))
+    if not k:
+        return None
+    return (f"note: {k} run(s) failed (an error or a time limit) and are retried up to --max-attempts times in all "
+            f"({max_attempts} now): run the command again with a larger --max-attempts (and --time-limit, for "
+            f"timeouts) to retry them")
 
 
 def _in_file(exc: Exception, source) -> str:
