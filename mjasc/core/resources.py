@@ -20,6 +20,14 @@ __all__ = ["assets_dir", "tasks_dir", "bundled_scenarios", "bundled_campaigns", 
 
 
 def _package_dir(package: str) -> Path:
+    """The folder of the data package ``mjasc.<name>``: in the source checkout this mjasc was
+    imported from when it is one (``<checkout>/<name>`` beside ``pyproject.toml``), else where the
+    installed package maps it. (A second checkout put first on ``PYTHONPATH`` read the installed
+    checkout's scenarios and hulls: an editable install maps the data packages to its own folders.)"""
+    here = Path(__file__).resolve().parents[2]  # (mjasc/core/resources.py → the checkout, in a checkout)
+    own = here / package.rpartition(".")[2]
+    if (here / "pyproject.toml").is_file() and (here / "mjasc" / "__init__.py").is_file() and own.is_dir():
+        return own
     root = importlib.resources.files(package)
     if not isinstance(root, Path):  # a zipped install: MuJoCo and dm_control need real files
         raise RuntimeError(f"{package}: mjasc must be installed unzipped (found {root!r})")
