@@ -71,9 +71,11 @@ class AvoidanceConfig:
                                        "followed with some cross-track error, is not itself flagged by the next "
                                        "prediction (hysteresis against re-plan churn)")
     withdraw_offset_m: float = param(10.0, nonneg=True, unit="m",
-                                     doc="a detour whose every cause is gone (the tracks it went around were team "
-                                         "mates' stale copies or are lost) is withdrawn when the mission path, this "
-                                         "close or closer, is clear: the vessel returns to it; 0: never withdraw")
+                                     doc="a detour around tracks is withdrawn when the mission path, this close or "
+                                         "closer, is clear and every track it went around is gone (team mates' stale "
+                                         "copies, or lost) or, the vessel yielding or stopped on it, it now leads into "
+                                         "one of them (the mission path then clear of every track by "
+                                         "replan_margin_m): the vessel returns to it; 0: never withdraw")
     withdraw_false_alarms: bool = param(
         False, doc="withdraw a yield to a stranger decided on its track's first estimates (withdraw_new_track_s) "
                    "once the track, predicted again along the path at the mission speed, has passed clear by "

@@ -7,7 +7,7 @@ structure refused: :func:`~mjasc.avoidance.structure.detour_onto_structure`), ve
 corrections (:mod:`~mjasc.avoidance.decision`) with the emergency stop for what is left
 unresolved, each candidate speed plan checked against all tracks (:mod:`~mjasc.avoidance.checked_choice`).
 The path switches: onto a detour, back to the mission path at a detour's end, a detour withdrawn
-when its causes are gone; a yield withdrawn when its track, predicted again without it, no
+when its causes are gone or it now leads into one of them; a yield withdrawn when its track, predicted again without it, no
 longer conflicts (:meth:`Manoeuvres._withdraw_correction`).
 
 :class:`Manoeuvres` is a part of :class:`~mjasc.avoidance.system.CollisionAvoidance` (its state is
@@ -207,17 +207,33 @@ class Manoeuvres(CheckedChoice):
         self._detour_causes = None if len(dynamic) < len(svos) else {int(c.track_id) for c in dynamic}
         return True
 
-    def _withdraw_detour(self, t, nav, by_id, static_polygons) -> bool:
-        """Leave a detour whose causes are gone — every track it went around is no longer among the
-        predicted tracks (a team mate's stale copy set aside once its broadcast was heard, or a
-        track lost) — for the mission path, when the vessel is within ``withdraw_offset_m`` of it
-        and the mission path from there is clear of every track and mapped structure. (Thesis
-        §6.4.1 under packet loss: a team mate's track, not yet matched to its broadcast, sent a
-        vessel onto a 98 m detour that it sailed for 88 s after the track was set aside, into the
-        crossing ship's path.) True when it switched back."""
+    def _withdraw_detour(self, t, nav, by_id, static_polygons, conflicts=()) -> bool:
+        """Leave a detour around tracks for the mission path when the vessel is within
+        ``withdraw_offset_m`` of it and the mission path from there is clear of every track and
+        mapped structure, in two cases:
+
+        - its causes are gone: every track it went around is no longer among the predicted tracks
+          (a team mate's stale copy set aside once its broadcast was heard, or a track lost).
+          (Thesis §6.4.1 under packet loss: a team mate's track, not yet matched to its broadcast,
+          sent a vessel onto a 98 m detour that it sailed for 88 s after the track was set aside,
+          into the crossing ship's path.)
+        - it is obsolete: the vessel sails it under a velocity correction (yielding or stopped for a
+          track), this prediction's ``conflicts`` (on the detour) include a track it went around,
+          and the mission path passes every track at least ``replan_margin_m`` outside the
+          collision distance (the margin the detour itself was planned with). (The stressed §6.4.2
+          head-on: the oncoming ship's later estimates put it south of the lane that alpha's detour
+          turned into, and alpha, giving way to a team mate, crept along the detour into it while
+          its own lane was clear.) A vessel sailing a detour at its own speed is left to it: a
+          conflict there is re-planned as any other (in a head-on encounter, withdrawn, the vessel
+          passed port to port without the alteration to starboard rule 14 asks).
+
+        True when it switched back."""
         d, causes, g = self.detour, self._detour_causes, self._guidance
         if (d is None or causes is None or g.path is not d.path or self.config.withdraw_offset_m <= 0.0
-                or any(k in by_id for k in causes) or self.mission_path is None):
+                or self.mission_path is None):
+            return False
+        gone = not any(k in by_id for k in causes)
+        if not gone and (self.correction is None or not any(c.track_id in causes for c in conflicts)):
             return False
         mission = self.mission_path
         g_m = float(mission.project(nav.position_m))
@@ -227,15 +243,19 @@ class Manoeuvres(CheckedChoice):
         outlined = track_outlines(by_id.values())
         discs = [tr for k, tr in by_id.items() if k not in outlined]
         if discs:
-            q = PredictionQuery(mission, g_m, t, profile, self.radius_m, discs, self.prediction_config)
-            if any(c.collision for c in predict_fleet([q])[0]):
+            margin = 0.0 if gone else self.config.replan_margin_m
+            q = PredictionQuery(mission, g_m, t, profile, self.radius_m, discs, self.prediction_config,
+                                include_clear=not gone)
+            if any(c.collision or c.min_distance_m < c.collision_distance_m + margin for c in predict_fleet([q])[0]):
                 return False
         if static_conflicts(t, mission, g_m, profile, list(static_polygons) + list(outlined.values()), self.radius_m,
                             self.prediction_config):
             return False
         self.stats["withdrawn"] += 1
-        self._back_to_mission(t, g_m, f"detour withdrawn: the track(s) {sorted(causes)} it went around are gone (a "
-                                      f"team mate's stale copy, or lost) and the mission path is clear: back on it at "
+        why = (f"the track(s) {sorted(causes)} it went around are gone (a team mate's stale copy, or lost)" if gone else
+               f"it now leads into track(s) {sorted(k for k in causes if any(c.track_id == k for c in conflicts))} it "
+               f"went around")
+        self._back_to_mission(t, g_m, f"detour withdrawn: {why} and the mission path is clear: back on it at "
                                       f"γ = {g_m:.1f} m")
         return True
 

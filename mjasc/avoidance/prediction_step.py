@@ -158,7 +158,7 @@ class PredictionStep:
                                        self.prediction_config)]
         by_id = {tr.track_id: tr for tr in tracks}
         if not after_replan and self._perceived is not None and (
-                self._withdraw_detour(t, nav, by_id, static_polygons) or
+                self._withdraw_detour(t, nav, by_id, static_polygons, conflicts) or
                 self._withdraw_correction(t, path, gamma, self._predicted_speed, by_id, conflicts)):
             return self._predict(t, nav, list(self._perceived.tracks), static_polygons)
         self._last_query = pending.query
