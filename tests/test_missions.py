@@ -205,7 +205,7 @@ def test_the_turn_radius_the_error_names_is_accepted(vessel_type, speed):
 
 @pytest.mark.parametrize("edit, message", [
     (lambda d: d["mission"]["track_target"].update(leader="zulu"), "mission.track_target.leader: no vessel"),
-    (lambda d: d["vessels"][0].pop("sensor") and d["vessels"][0].pop("avoidance"),
+    (lambda d: (d["vessels"][0].pop("sensor"), d["vessels"][0].pop("avoidance"), d["vessels"][0].pop("tracking", None)),
      "mission.track_target.leader: 'alpha' has no [vessels.sensor]"),
     (lambda d: d["mission"]["track_target"].update(target="orca"), "mission.track_target.target: no moving obstacle"),
     (lambda d: d["mission"]["track_target"].pop("target_hint_m"), "mission.track_target.target_hint_m: missing"),
