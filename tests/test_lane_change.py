@@ -91,3 +91,28 @@ def test_a_lane_off_a_short_line_that_ends_in_the_threats_track_is_held_beside_i
     again = predict_fleet([PredictionQuery(d.path, 0.0, 0.0, 0.5, 1.0, [ferry], cfg.prediction,
                                            include_clear=True)])[0][0]
     assert not again.collision
+
+
+@pytest.mark.parametrize("course_deg, crossing", [(180.0, False), (150.0, False), (-140.0, False), (-90.0, True),
+                                                  (-60.0, True), (120.0, True)])
+def test_no_lane_leaves_the_track_of_a_threat_crossing_the_path(course_deg, crossing):
+    """A threat on a course more than 45° off the path's line sweeps across every parallel lane: no
+    lane is planned for it (shared_perception_occluded without sharing: a starboard lane raced a
+    ship crossing 12 m ahead down its own track). One moving along the line, either way, still gets
+    its lane: the own vessel sails east at 1.5 m/s, the 2 m target meets it ~20 s ahead."""
+    cfg = AvoidanceConfig()
+    mission = Path.line((0.0, 0.0), (300.0, 0.0))
+    course = np.radians(course_deg)
+    meet = np.array([30.0, 0.0])  # where the own vessel is at t = 20 s
+    start = meet - 20.0 * 1.2 * np.array([np.cos(course), np.sin(course)])
+    track = TrackEstimate(track_id=3, time_s=0.0, position_m=start, heading_rad=course, speed_m_s=1.2,
+                          turn_rate_rad_s=0.0, radius_m=2.0)
+    c = predict_fleet([PredictionQuery(mission, 0.0, 0.0, 1.5, 1.0, [track], cfg.prediction,
+                                       include_clear=True)])[0][0]
+    assert c.collision
+    out = plan_lane_change(0.0, (0.0, 0.0), mission, 0.0, 1.5, [c], [], cfg, 2.0)
+    if crossing:
+        off = abs((course_deg + 180.0) % 360.0 - 180.0)  # (the course's angle to the path's direction, east)
+        assert out == f"track 3 crosses the path ({off:.0f}° off its line): no lane leaves its track", out
+    else:
+        assert not isinstance(out, str), out

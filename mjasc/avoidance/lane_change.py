@@ -22,6 +22,15 @@ to port/left of the direction of travel):
   L_in = clip(4|o − e_0|, 10 m, what the vessel sails before the obstruction starts), holds until
   the vessel's planned γ at t_f plus ``goal_margin_m``, and ramps out over L_out = max(4|o|, 10 m).
 
+**Crossing threats.** A lane leaves the track of a threat that moves along the path. A threat
+crossing it (its predicted course more than ``CROSSING_DEG`` = 45° off the path's line, either way)
+sweeps across every parallel lane too: its offsets span the lane's whole width, and when its
+obstruction is short the offset is small enough to take but ramps in over a few metres, a lane that
+races the threat across its own track. No lane is planned for such a threat; the vessel slows or
+stops instead (the decision's emergency stop). (``tasks/shared_perception_occluded.toml`` without
+sharing: a ship emerging from behind an island 12 m off the path, crossing it at 1.2 m/s; the lane
+change to starboard ran alpha down the ship's track and it was hit.)
+
 The result is a :class:`~mjasc.avoidance.replanning.Detour` (``field`` None): the vessel's
 prediction then runs along it exactly as along a streamline, and the usual end-of-detour logic
 returns it to the mission path.
@@ -51,6 +60,11 @@ __all__ = ["lane_offsets", "plan_lane_change"]
 _STARBOARD_BIAS_M = 1.0
 #: The least room [m] a held lane (module docstring) gets to step aside in past the vessel.
 _MIN_ROOM_M = 10.0
+#: A threat whose predicted course is further than this off the path's line (and than this from its
+#: reverse) crosses the path: no lane leaves its track [deg] (module docstring).
+CROSSING_DEG = 45.0
+#: ... counted only when its predicted centres move more than this over the prediction [m].
+_CROSSING_MIN_M = 2.0
 
 
 def _ends_inside(mission: Path, t: float, conflicts) -> bool:
@@ -96,6 +110,26 @@ def _ramp(x):
     return x * x * (3.0 - 2.0 * x)
 
 
+def _crossing(mission: Path, g_now_m: float, conflicts) -> tuple[int, float] | None:
+    """The first conflict whose threat crosses the path — its predicted centres move more than
+    ``_CROSSING_MIN_M`` over the prediction, on a course between ``CROSSING_DEG`` and 180° −
+    ``CROSSING_DEG`` off the path's line at the vessel — as (track id, that angle [deg]); None when
+    every threat moves along the path (or hardly moves)."""
+    th = float(mission.tangent_angle(np.array([g_now_m]))[0])
+    lo, hi = np.radians(CROSSING_DEG), np.radians(180.0 - CROSSING_DEG)
+    for c in conflicts:
+        pts = np.asarray(c.obstacle_positions, dtype=float)
+        if len(pts) < 2:
+            continue
+        d = pts[-1] - pts[0]
+        if np.hypot(*d) <= _CROSSING_MIN_M:
+            continue
+        off = abs((np.arctan2(d[1], d[0]) - th + np.pi) % (2.0 * np.pi) - np.pi)
+        if lo < off < hi:
+            return int(c.track_id), float(np.degrees(off))
+    return None
+
+
 def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: float, conflicts, static_polygons,
                      cfg, static_inflation_m: float, max_offset_m: float = 30.0, starboard_only: bool = False,
                      hold_past_end: bool = False):
@@ -110,6 +144,9 @@ def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: 
     no destination (a station-keeping leg's line through a moving station): the lane may be held
     past it (module docstring). A held lane that cannot be taken — its continuation meets mapped
     structure, say — leaves the lane that steps back at the path's end, as without the hold."""
+    crossing = _crossing(mission, g_now_m, conflicts)
+    if crossing is not None:
+        return f"track {crossing[0]} crosses the path ({crossing[1]:.0f}° off its line): no lane leaves its track"
     args = (t, start, mission, g_now_m, speed_m_s, conflicts, static_polygons, cfg, static_inflation_m,
             max_offset_m, starboard_only)
     out, held = _plan(*args, hold=hold_past_end)
