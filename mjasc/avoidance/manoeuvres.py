@@ -7,8 +7,8 @@ structure refused: :func:`~mjasc.avoidance.structure.detour_onto_structure`), ve
 corrections (:mod:`~mjasc.avoidance.decision`) with the emergency stop for what is left
 unresolved, each candidate speed plan checked against all tracks (:mod:`~mjasc.avoidance.checked_choice`).
 The path switches: onto a detour, back to the mission path at a detour's end, a detour withdrawn
-when its causes are gone or it now leads into one of them; a yield withdrawn when its track, predicted again without it, no
-longer conflicts (:meth:`Manoeuvres._withdraw_correction`).
+when its causes are gone or it now leads into one of them; a yield withdrawn when its track,
+predicted again without it, no longer conflicts (:meth:`Manoeuvres._withdraw_correction`).
 
 :class:`Manoeuvres` is a part of :class:`~mjasc.avoidance.system.CollisionAvoidance` (its state is
 the system's). World frame ENU, SI units, absolute simulation times [s].
@@ -233,7 +233,9 @@ class Manoeuvres(CheckedChoice):
                 or self.mission_path is None):
             return False
         gone = not any(k in by_id for k in causes)
-        if not gone and (self.correction is None or not any(c.track_id in causes for c in conflicts)):
+        met = set() if gone or self.correction is None else {c.track_id for c in conflicts}
+        into = sorted(k for k in causes if k in met)  # (the causes the detour now leads into)
+        if not gone and not into:
             return False
         mission = self.mission_path
         g_m = float(mission.project(nav.position_m))
@@ -253,8 +255,7 @@ class Manoeuvres(CheckedChoice):
             return False
         self.stats["withdrawn"] += 1
         why = (f"the track(s) {sorted(causes)} it went around are gone (a team mate's stale copy, or lost)" if gone else
-               f"it now leads into track(s) {sorted(k for k in causes if any(c.track_id == k for c in conflicts))} it "
-               f"went around")
+               f"it now leads into track(s) {into} it went around")
         self._back_to_mission(t, g_m, f"detour withdrawn: {why} and the mission path is clear: back on it at "
                                       f"γ = {g_m:.1f} m")
         return True
