@@ -177,6 +177,10 @@ EXPECT = {
     # correction that now leads into a track it went around is withdrawn when the mission path is clear by
     # replan_margin_m (test below). Alpha keeps 1.78 m.
     "head_on_stressed_seed286": ("alpha", "withdrawn", 1.0),
+    # Two team mates stopped in the §6.4.3 gap, their stops ending together, both stood on (rule 13 against rule 15);
+    # the one standing on at the last resort did not say so in its broadcast. Now it does, and the later name gives
+    # way (test below). Bounding circles 0.62 m apart.
+    "bottleneck_seed146": ("alpha", None, 0.3),
     # Alpha in the §6.4.3 gap re-planned with both islands' safety regions merged around it (joined by a crossing
     # vessel's swept area) and shrunk to a blob: the detour ran into the north island (seeds 166 as shipped, 108 and
     # 40 stressed). Mapped structure no longer merges over the vessel, and an island's region the vessel is within is
@@ -192,7 +196,7 @@ SLOW = {"crossing_stressed_seed5", "crossing_stressed_seed12", "bottleneck_stres
         "harbour_colreg_team_seed11",
         "target_tracking_current_16", "fleet_50_seed1_pass_end", "bottleneck_stressed_seed56",
         "bottleneck_seed166", "bottleneck_stressed_seed108", "bottleneck_stressed_seed40", "head_on_stressed_seed168",
-        "head_on_stressed_seed205", "head_on_stressed_seed286"}
+        "head_on_stressed_seed205", "head_on_stressed_seed286", "bottleneck_seed146"}
 
 
 def test_every_regression_file_is_checked():
@@ -246,6 +250,19 @@ def test_team_mates_that_both_stand_on_settle_it_by_name(monkeypatch):
     assert summary["vessels"]["bravo"]["min_clearance_m"]["alpha"] > 0.5
     said = [(name, text) for name, _, text in events]
     assert ("bravo", "team mate alpha stands on toward this vessel too (its broadcast): this vessel gives way") in said
+
+
+@pytest.mark.slow
+def test_a_stand_on_at_the_last_resort_is_said_and_the_later_name_gives_way(monkeypatch):
+    """bottleneck_seed146: alpha's stop for bravo ends at 146.4 s and it stands on at the last resort
+    (bravo abaft its beam), bravo's stop ends 0.7 s later and it stands on too (alpha on its port
+    bow). Alpha's broadcast now says it stands on, and bravo gives way at once by the name rule."""
+    events = avoidance_events(monkeypatch)
+    summary = run_scenario(load_scenario(CASES / "bottleneck_seed146.toml")).summary
+    assert not summary["any_collision"], summary["collisions"]
+    said = [t for name, t, text in events if name == "bravo" and
+            text == "team mate alpha stands on toward this vessel too (its broadcast): this vessel gives way"]
+    assert any(146.0 < t < 149.0 for t in said), said
 
 
 @pytest.mark.slow

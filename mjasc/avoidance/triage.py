@@ -20,8 +20,10 @@ by the rules in this order:
   taken seconds after the mate's, on a geometry the mate's yield has changed, could make both give
   way and both crawl through the crossing. The
   other way round, two team mates that both find themselves stand-on (each reads the other's
-  course against its own bow: in a cross current a crabbing pair can) and both say so in their
-  broadcasts (``mates_standing_on``): the one whose name sorts after the other's gives way.
+  course against its own bow: in a cross current a crabbing pair can; or one reads the other abaft
+  its beam, rule 13, and the other reads it on its port bow, rule 15) and both say so in their
+  broadcasts (``mates_standing_on``; a vessel standing on at the last resort toward a mate coming
+  up from abaft its beam says so too): the one whose name sorts after the other's gives way.
 * **Velocity correction** (:func:`~mjasc.avoidance.decision.velocity_correction_for`): yield, or pass
   first (a pass already running goes on while feasible). Neither → :attr:`Triage.unresolved`, and
   the vessel goes around the track's swept area — except a give-way vessel around a team mate, which
@@ -66,7 +68,8 @@ class Triage:
     notes: list[tuple[str | None, str]] = field(default_factory=list)  # (stat to count or None, event)
     roles: dict = field(default_factory=dict)  # track id → its COLREG / team role and answer (text)
     give_way_mates: set = field(default_factory=set)  # track ids of team mates this vessel gives way to
-    stand_on_mates: set = field(default_factory=set)  # names of team mates it stands on toward (before the last resort)
+    stand_on_mates: set = field(default_factory=set)  # names of team mates it stands on toward (before the last
+    # resort, and at it toward a give-way mate coming up from abaft the beam: it keeps its speed or speeds up)
 
 
 def swept(track, c: PredictedConflict, t: float, cfg) -> np.ndarray:
@@ -191,7 +194,9 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
                                               f"keeps its speed"))
                 continue
             if astern and closing_from_astern(nav, track, t, cfg.static_speed_m_s):
-                # last resort with the give-way vessel coming up from abaft the beam: never slow down
+                # last resort with the give-way vessel coming up from abaft the beam: never slow down (it still
+                # stands on, and says so: a mate that stands on toward it too learns that it gives way)
+                out.stand_on_mates.add(track.team_member)
                 corr = velocity_correction_for(t, gamma, c, cfg, speed_max_m_s, pass_only=True, path_end_m=path_end_m)
                 if corr is not None:
                     out.candidates.append(corr)
