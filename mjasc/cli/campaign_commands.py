@@ -86,10 +86,13 @@ def _campaign(args) -> int:
 
 
 def retry_hint(aggregate: dict, max_attempts: int) -> str | None:
-    """What to do about the stored runs that failed in a way another attempt may not (an error, a
-    timeout: not ``diverged``, a final outcome): they are tried ``--max-attempts`` times in all, so a
-    command run again does not retry them unless it is given more. None when there are none."""
-    k = sum(n for status, n in aggregate.get("statuses", {}).items() if status not in ("completed", "diverged"))
+    """What to do about the stored runs that failed in a way another attempt may not
+    (``RETRY_STATUSES``: an error, a timeout, a crash; not ``diverged``, a final outcome): they are
+    tried ``--max-attempts`` times in all, so a command run again does not retry them unless it is
+    given more. None when there are none."""
+    from mjasc.campaigns.store import RETRY_STATUSES
+
+    k = sum(n for status, n in aggregate.get("statuses", {}).items() if status in RETRY_STATUSES)
     if not k:
         return None
     return (f"note: {k} run(s) failed (an error or a time limit) and are retried up to --max-attempts times in all "
