@@ -128,17 +128,17 @@ def test_mjasc_render_takes_the_pixel_cameras(tmp_path, monkeypatch, capsys):
 def test_a_collision_on_the_last_step_ends_with_discount_zero():
     """dm_control's Environment gives discount 1 at the time limit without asking the task, so a
     vessel that hit the wall on the episode's last step was "truncated" (gymnasium: truncated,
-    not terminated) and a learner bootstrapped through the crash. Full ahead in seed 0 of
-    collision_avoidance touches at step 117: with a time limit of 11.7 s that is the last step."""
+    not terminated) and a learner bootstrapped through the crash. Full ahead in seed 1 of
+    collision_avoidance touches at step 151: with a time limit of 15.1 s that is the last step."""
     def last(time_limit):
-        env = suite.load("otter", "collision_avoidance", task_kwargs={"random": 0, "time_limit": time_limit})
+        env = suite.load("otter", "collision_avoidance", task_kwargs={"random": 1, "time_limit": time_limit})
         time_step, steps = env.reset(), 0
         while not time_step.last():
             time_step, steps = env.step(np.ones(2)), steps + 1
         return steps, time_step.discount
-    assert last(80.0) == (117, 0.0)
-    assert last(11.7) == (117, 0.0)
-    assert last(11.6) == (116, 1.0)  # (the time limit one step before the contact: truncated)
+    assert last(80.0) == (151, 0.0)
+    assert last(15.1) == (151, 0.0)
+    assert last(15.0) == (150, 1.0)  # (the time limit one step before the contact: truncated)
 
 
 def test_a_frame_larger_than_the_offscreen_buffer_is_a_one_line_error():
