@@ -570,3 +570,15 @@ def test_baselines_cli_rejects_unknown_task_names(capsys):
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert "--tasks: unknown path_folowing; one of collision_avoidance" in err and "path_following" in err
+
+
+@pytest.mark.parametrize("seeds", ["0", "-1"])
+def test_baselines_cli_rejects_no_seeds(capsys, seeds):
+    """--seeds 0 printed a row of NaNs (numpy's warnings on stderr) and exited 0."""
+    from mjasc.suite import baselines
+
+    with pytest.raises(SystemExit) as info:
+        baselines.main(["--seeds", seeds, "--tasks", "station_keeping"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert f"--seeds: must be ≥ 1, got {seeds}" in err and "nan" not in err

@@ -302,6 +302,8 @@ def main(argv=None) -> None:
                                                        "a vessel folder's path, relative to the current folder")
     parser.add_argument("--no-header", action="store_true")
     args = parser.parse_args(argv)
+    if args.seeds < 1:  # (a table of NaNs over no episode would look like a result)
+        parser.error(f"--seeds: must be ≥ 1, got {args.seeds}")
     if args.vessel is not None:
         try:  # (checked once, before the table starts)
             args.vessel = suite_vessel_type(args.vessel, None)
