@@ -18,7 +18,6 @@ The physics is mjasc's own step (common.VesselPhysics). World ENU, body FLU, SI 
 from __future__ import annotations
 
 import collections
-import dataclasses
 from pathlib import Path as FilePath
 
 import numpy as np
@@ -40,6 +39,12 @@ from mjasc.suite.common import (
     world_to_body,
 )
 from mjasc.suite.pixel_scene import OVER_TARGET_Z_M, draw_reference, path_polyline
+from mjasc.suite.traffic_lanes import (  # (the traffic's constants: this domain's names too)
+    TRAFFIC_INSET_M,
+    TRAFFIC_RADIUS_M,
+    TRAFFIC_SEPARATION_M,
+    draw_lanes,
+)
 from mjasc.suite.vessel_choice import hull_name, suite_vessel_type
 from mjasc.suite.vessel_task import (  # (Difficulty, EASY, HARD, OWN_STATE_OBSERVATIONS: this domain's names too)
     EASY,
@@ -58,13 +63,9 @@ XML_PATH = FilePath(__file__).with_suffix(".xml")
 VESSEL_TYPE = "otter"
 TIME_LIMITS_S = {"path_following": 60.0, "station_keeping": 40.0, "collision_avoidance": 80.0}
 BASIN_HALF_SIZE_M = 40.0
-TRAFFIC_RADIUS_M = 2.0
 RANGE_RAYS = 32
 RANGE_MAX_M = 120.0  # > the basin's diagonal (113 m): every ray always hits a wall or a hull
 GOAL_RADIUS_M = 3.0
-TRAFFIC_INSET_M = 4.0  # traffic lanes end this far inside the basin walls [m]
-TRAFFIC_SEPARATION_M = 2 * TRAFFIC_RADIUS_M + 2.0  # least centre distance between two boats' motions [m]
-TRAFFIC_DRAWS = 200  # failed draws of one boat's crossing before the boats placed so far are drawn again
 
 SUITE = containers.TaggedTasks()
 def get_model_and_assets():
@@ -196,45 +197,6 @@ def _traffic_names(n: int) -> list[str]:
     return [f"traffic{k}" for k in range(n)]
 
 
-def _distance_to_square_edge(point, direction, half_size_m: float) -> float:
-    """Distance [m] from ``point`` (inside the square |x|, |y| ≤ half_size_m) along the unit
-    ``direction`` to the square's edge."""
-    t = np.inf
-    for p, u in zip(point, direction):
-        if abs(u) > 1e-12:
-            t = min(t, ((half_size_m if u > 0 else -half_size_m) - p) / u)
-    return float(max(t, 0.0))
-
-
-@dataclasses.dataclass(frozen=True)
-class TrafficLane:
-    """A boat's straight crossing from ``start_m`` to ``end_m`` (world ENU, m) along the unit
-    ``direction``, ``length_m`` long, at ``speed_m_s`` from arc length ``start_gamma_m`` at t = 0;
-    it stops at the end."""
-    start_m: np.ndarray
-    end_m: np.ndarray
-    direction: np.ndarray
-    length_m: float
-    speed_m_s: float
-    start_gamma_m: float
-
-    def stop_time_s(self) -> float:
-        """When the boat reaches the lane's end and stops [s]."""
-        return (self.length_m - self.start_gamma_m) / self.speed_m_s
-
-    def positions_m(self, t_s: np.ndarray) -> np.ndarray:
-        """(len(t_s), 2) positions at the times ``t_s`` [s]."""
-        gamma = np.minimum(self.start_gamma_m + self.speed_m_s * t_s, self.length_m)
-        return self.start_m + gamma[:, None] * self.direction
-
-    def closest_approach_m(self, other: "TrafficLane", step_s: float = 0.1) -> float:
-        """The least centre distance [m] between this boat and ``other`` over their whole motions
-        (sampled every ``step_s``, both boats' stops included; after both stop it stays constant)."""
-        t_end = max(self.stop_time_s(), other.stop_time_s())
-        t = np.append(np.arange(0.0, t_end, step_s), [self.stop_time_s(), other.stop_time_s(), t_end])
-        return float(np.min(np.linalg.norm(self.positions_m(t) - other.positions_m(t), axis=1)))
-
-
 class CollisionAvoidance(VesselTask):
     """Cross the basin to a goal through crossing traffic, seen only through the range sensor."""
 
@@ -248,25 +210,9 @@ class CollisionAvoidance(VesselTask):
         phi = theta + np.pi + rnd.uniform(-0.5, 0.5)
         self.goal_m = 30.0 * vec(np.cos(phi), np.sin(phi))
         route = self.goal_m - start
-        length = float(np.linalg.norm(route))
         course = float(np.arctan2(route[1], route[0]))
-        # The boats are kinematic and do not see each other: a boat's crossing (_traffic_lane) is
-        # drawn again while its motion would come within TRAFFIC_SEPARATION_M of a boat already
-        # placed; after TRAFFIC_DRAWS failed draws in a row the boats placed so far are drawn again.
-        lanes: list[TrafficLane] = []
-        failed = restarts = 0
-        while len(lanes) < d.n_traffic:
-            lane = self._traffic_lane(start, route, length, course)
-            if all(lane.closest_approach_m(other) >= TRAFFIC_SEPARATION_M for other in lanes):
-                lanes.append(lane)
-                failed = 0
-                continue
-            failed += 1
-            if failed == TRAFFIC_DRAWS:
-                lanes, failed, restarts = [], 0, restarts + 1
-                if restarts == TRAFFIC_DRAWS:
-                    raise RuntimeError(f"collision_avoidance: no {d.n_traffic} crossings kept {TRAFFIC_SEPARATION_M} m "
-                                       "apart in the basin")
+        lanes = draw_lanes(self.random, d.n_traffic, start, route, course, self.vessel.cruise_speed_m_s,
+                           d.traffic_speed_m_s, BASIN_HALF_SIZE_M - TRAFFIC_INSET_M)
         traffic = [MovingObstacle(name, TRAFFIC_RADIUS_M, speed_m_s=lane.speed_m_s, path=Path.line(lane.start_m, lane.end_m),
                                   start_gamma_m=lane.start_gamma_m)
                    for name, lane in zip(_traffic_names(d.n_traffic), lanes)]
@@ -279,24 +225,6 @@ class CollisionAvoidance(VesselTask):
         draw_reference(physics, [np.array([start, self.goal_m])])  # the route
         physics.after_reset()
         super().initialize_episode(physics)
-
-    def _traffic_lane(self, start, route, length: float, course: float) -> TrafficLane:
-        """One boat's crossing drawn from ``self.random``: it crosses the route at a random point f·L
-        near when the vessel at cruise speed would be there (± 6 s), from port or starboard at
-        90° ± 35°, on a straight line from TRAFFIC_INSET_M inside one wall to as far inside the
-        opposite one (where it stops): it never passes through a wall. A boat that would have to
-        start beyond the wall to meet the vessel starts at the wall instead (and crosses earlier)."""
-        rnd = self.random
-        f = rnd.uniform(0.2, 0.8)
-        t_cross = f * length / self.vessel.cruise_speed_m_s + rnd.uniform(-6.0, 6.0)
-        speed = rnd.uniform(*self.difficulty.traffic_speed_m_s)
-        heading = course + rnd.choice([-1.0, 1.0]) * (np.pi / 2 + rnd.uniform(-0.6, 0.6))
-        cross = start + f * route
-        u = vec(np.cos(heading), np.sin(heading))
-        inner = BASIN_HALF_SIZE_M - TRAFFIC_INSET_M
-        back, ahead = _distance_to_square_edge(cross, -u, inner), _distance_to_square_edge(cross, u, inner)
-        return TrafficLane(cross - back * u, cross + ahead * u, u, back + ahead, float(speed),
-                           float(back - min(speed * max(t_cross, 0.0), back)))
 
     def sensor_config(self) -> SensorConfig:
         """The vessel's range sensor: RANGE_RAYS beams over 360° out to RANGE_MAX_M, no blind zone,
