@@ -106,6 +106,15 @@ EXACT = {
                    d["vessels"][0].update(tracking={})),
     "vessels[0].avoidance: needs a [vessels.sensor] table — a vessel avoids only what its own sensor sees":
         lambda d: (d["vessels"][0].pop("sensor", None), d["vessels"][0].update(tracking={}, avoidance={})),
+    # a mission on an open-loop vessel (its legs went to no follower: ignored), as avoidance on one
+    "vessels[0].mission: needs a path-following controller — an open-loop vessel (controller type \"none\", "
+    "constant commands) sails no mission":
+        lambda d: (d["vessels"][0].pop("avoidance", None),
+                   d["vessels"][0].update(controller={"type": "none"}, mission={"target_offset_m": [-25.0, -20.0]})),
+    # shared tracks without a sensor (it ran and sent none)
+    "vessels[0].comms.share_tracks: needs a [vessels.sensor] table — a vessel shares the tracks its own sensor sees":
+        lambda d: ([d["vessels"][0].pop(k, None) for k in ("sensor", "tracking", "avoidance")],
+                   d["vessels"][0].setdefault("comms", {}).update(share_tracks=True)),
     # a missing type says so (it said "must be a non-empty string, got None")
     "vessels[1].type: missing (the vessel type: one of delfim, otter, or a vessel folder's path)":
         lambda d: d["vessels"][1].pop("type"),

@@ -151,6 +151,9 @@ def _vessel(t: Any, i: int, path_optional: bool = False, base_dir: FilePath | No
         if "avoidance" in t:  # (it would predict nothing and never act: a vessel that only looks protected)
             raise ScenarioError(f"{where}.avoidance: needs a path-following controller — an open-loop vessel "
                                 f"(controller type \"none\", constant commands) has no speed or path to correct")
+        if "mission" in t:  # (its legs would be handed to no follower: silently ignored)
+            raise ScenarioError(f"{where}.mission: needs a path-following controller — an open-loop vessel "
+                                f"(controller type \"none\", constant commands) sails no mission")
     path, commands = None, (0.0, 0.0)
     cruise = vt.cruise_speed_m_s
     options = {k: _parse_component(k, t[k], f"{where}.{k}") for k in COMPONENT_PARSERS if k in t}
@@ -158,6 +161,9 @@ def _vessel(t: Any, i: int, path_optional: bool = False, base_dir: FilePath | No
         if needs in options and "sensor" not in options:
             raise ScenarioError(f"{where}.{needs}: needs a [vessels.sensor] table — a vessel "
                                 f"{'avoids' if needs == 'avoidance' else 'tracks'} only what its own sensor sees")
+    if getattr(getattr(options.get("comms"), "options", None), "share_tracks", False) and "sensor" not in options:
+        raise ScenarioError(f"{where}.comms.share_tracks: needs a [vessels.sensor] table — a vessel shares the "
+                            f"tracks its own sensor sees (without one it would send none)")
     if ctype != "none":
         from mjasc.plugins.registry import parse_method_table
 

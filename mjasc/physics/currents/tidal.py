@@ -39,7 +39,9 @@ class TidalConfig:
 
     amplitude_m_s: np.ndarray = param(reader=vector2, unit="m/s",
                                       doc="A, the peak flood velocity; the tide flows along its axis")
-    period_s: float = param(positive=True, unit="s", doc="T, the tide's period (M2: 44714 s)")
+    period_s: float = param(minimum=60.0, unit="s",
+                            doc="T, the tide's period (M2: 44714 s; ≥ 60 s: a tide's or a seiche's, not a wave's — "
+                                "a period of a few seconds accelerates the water by hundreds of m/s²)")
     phase_rad: float | None = param(None, unit="rad", doc="φ, the phase at t = 0 (default 0; or phase_deg)")
     phase_deg: float | None = param(None, unit="deg",
                                     doc="φ in degrees (instead of phase_rad; as every other angle of a scenario)")
@@ -66,7 +68,7 @@ class TidalCurrent(CurrentField):
 
     base: any field, or a (2,) velocity [m/s] for a uniform mean current.
     amplitude_m_s: (2,) A [m/s], the peak flood velocity (its axis is the tide's axis; the ebb
-    flows the opposite way). period_s: T > 0 [s] (M2: 44 714 s). phase_rad: φ [rad] (or
+    flows the opposite way). period_s: T ≥ 60 s (M2: 44 714 s). phase_rad: φ [rad] (or
     phase_deg: φ [deg], the scenario file's unit for angles).
     Acceleration: base's + ``A·(2π/T)·cos(2πt/T + φ)`` (exact)."""
 
