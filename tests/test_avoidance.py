@@ -119,6 +119,16 @@ def test_config_parsing_and_errors_name_the_field():
         parse_avoidance_options({"enabled": 1}, "avoidance")
     with pytest.raises(ValueError, match=r"avoidance\.speed_max_m_s: must exceed"):
         parse_avoidance_options({"speed_min_m_s": 1.0, "speed_max_m_s": 0.5}, "avoidance")
+    # options of a mode the table does not choose (they were ignored)
+    with pytest.raises(ValueError, match=r'^avoidance\.stand_on_s: only with traffic_rule = "colreg" \(the thesis'):
+        parse_avoidance_options({"stand_on_s": 5.0}, "avoidance")
+    assert parse_avoidance_options({"stand_on_s": 5.0, "traffic_rule": "colreg"}, "avoidance").stand_on_s == 5.0
+    for key in ("brake_decel_m_s2", "margin_s"):
+        with pytest.raises(ValueError, match=rf'^avoidance\.{key}: only with window_s = "dynamic" \(a fixed window of 30'):
+            parse_avoidance_options({key: 0.5}, "avoidance")
+        assert getattr(parse_avoidance_options({key: 0.5, "window_s": "dynamic"}, "avoidance"), key) == 0.5
+    with pytest.raises(ValueError, match=r"^avoidance\.time_step_s: must not exceed the window \(10\.0 s\), got 20\.0$"):
+        parse_avoidance_options({"window_s": 10.0, "time_step_s": 20.0}, "avoidance")
 
 
 def test_scenario_loader_validates_the_avoidance_table():
@@ -647,3 +657,4 @@ def test_of_two_team_mates_that_both_stand_on_the_later_name_gives_way():
                      ca.speed_max_m_s, None, frozenset(), words, own)
         assert tri.give_way_mates == give_way
         assert tri.stand_on_mates == (set() if give_way else {"b"})
+

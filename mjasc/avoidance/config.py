@@ -165,4 +165,16 @@ def parse_avoidance_options(table: dict, where: str = "avoidance") -> AvoidanceC
     ``window_s = "dynamic"`` selects the dynamic window δ = v/a_brake + ζ; every other field is a
     number or a boolean as declared. Unknown keys, wrong types and out-of-range values raise
     ValueError naming ``f"{where}.{key}"`` (:func:`mjasc.core.config_tables.dataclass_from_table`)."""
-    return dataclass_from_table(AvoidanceConfig, table, where, check=check_avoidance)
+    config = dataclass_from_table(AvoidanceConfig, table, where, check=check_avoidance)
+    # options of a mode the table does not choose would be ignored: say so instead
+    if "stand_on_s" in table and config.traffic_rule != "colreg":
+        raise ConfigError(f"{where}.stand_on_s: only with traffic_rule = \"colreg\" (the thesis rule gives way to "
+                          f"every stranger: no stand-on to time)")
+    for key in ("brake_decel_m_s2", "margin_s"):
+        if key in table and config.window_s is not None:
+            raise ConfigError(f"{where}.{key}: only with window_s = \"dynamic\" (a fixed window of "
+                              f"{show(config.window_s)} s does not use it)")
+    if config.window_s is not None and config.time_step_s > config.window_s:
+        raise ConfigError(f"{where}.time_step_s: must not exceed the window ({show(config.window_s)} s), "
+                          f"got {show(config.time_step_s)}")
+    return config
