@@ -2,6 +2,7 @@
 between team mates, detour splice and resumption, configuration. Synthetic tracks only (the
 system is tested through the runner in test_avoidance_scenarios.py)."""
 
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
@@ -658,3 +659,35 @@ def test_of_two_team_mates_that_both_stand_on_the_later_name_gives_way():
         assert tri.give_way_mates == give_way
         assert tri.stand_on_mates == (set() if give_way else {"b"})
 
+
+def test_a_boat_flagged_static_while_slowing_is_predicted_moving():
+    """The tracker's static flag lags its speed estimate (set below its static speed, lifted only
+    above twice it). The track a running velocity correction is for, flagged static while it still
+    has speed (≥ ``static_speed_m_s``) and more than ``track_deviation_m`` from where the first
+    prediction saw it, is a boat slowing down: it is predicted moving (said once). Not so a track
+    no correction is for, nor a moored boat flagged static where it was first seen."""
+    said = lambda ca: [text for _, text in ca.drain_events() if "flagged static by the tracker" in text]
+    ca, _ = make()
+    boat = crossing(x_cross=30.0, t_cross=30.0, speed=1.0)  # first seen at (30, −30), heading north
+    ca.predict(0.0, nav(), [boat])
+    assert ca.ca.correction is not None and ca.ca.correction.track_id == 1  # (yielding to it)
+    slowing = replace(boat, time_s=20.0, position_m=np.array([30.0, -10.0]), speed_m_s=0.25, is_static=True)
+    ca.predict(20.0, nav(), [slowing])
+    predicted = ca.ca.last_prediction.tracks[1]
+    assert not predicted.is_static and predicted.speed_m_s == 0.25
+    assert [text.split(" of ")[0] for text in said(ca)] == ["track(s) [1]"]
+    ca.predict(21.0, nav(), [replace(slowing, time_s=21.0)])
+    assert said(ca) == []  # (said once)
+
+    ca, _ = make()
+    clear = crossing(x_cross=30.0, t_cross=80.0, speed=0.5)  # first seen at (30, −40): no conflict, no correction
+    assert ca.predict(0.0, nav(), [clear]) == [] and ca.ca.correction is None
+    ca.predict(20.0, nav(), [replace(clear, time_s=20.0, position_m=np.array([30.0, -30.0]), speed_m_s=0.25,
+                                     is_static=True)])
+    assert ca.ca.last_prediction.tracks[1].is_static and said(ca) == []
+
+    ca, _ = make()
+    moored = TrackEstimate(1, 0.0, np.array([30.0, -8.0]), np.pi / 2, 0.25, 0.0, 2.0, is_static=True)
+    assert ca.predict(0.0, nav(), [moored]) == []
+    assert ca.predict(20.0, nav(), [replace(moored, time_s=20.0)]) == [] and said(ca) == []
+    assert ca.ca.last_prediction.tracks[1].is_static

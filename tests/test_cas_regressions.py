@@ -188,6 +188,10 @@ EXPECT = {
     "bottleneck_seed166": ("alpha", None, 1.0),
     "bottleneck_stressed_seed108": ("alpha", None, 1.0),
     "bottleneck_stressed_seed40": ("alpha", None, -0.6),
+    # The §6.3 vessel yielding to the crossing vessel predicted (periodically) while its track was flagged static for
+    # a moment, re-planned around it as a static outline and sailed into where it was going. A track flagged static
+    # that still has speed and has moved from where first seen is predicted moving (test below). 5.89 m.
+    "velocity_correction_stressed_seed273": ("asc", None, 5.0),
 }
 SLOW = {"crossing_stressed_seed5", "crossing_stressed_seed12", "bottleneck_stressed_seed5", "bottleneck_seed7", "bottleneck_seed1",
         "demo_run3", "bottleneck_stressed_seed2", "bottleneck_stressed_seed11", "bottleneck_stressed_seed4",
@@ -277,19 +281,37 @@ def test_a_stop_moving_a_plan_within_the_deviation_is_seen():
     assert summary["vessels"]["alpha"]["avoidance"]["predictions_on_team_clearance"] >= 1
 
 
+def _run_keeping_clear(monkeypatch, name: str) -> tuple[list, list]:
+    """Run a case file, assert it keeps clear, and return the avoidance events (vessel, t, text) and
+    the first vessel's (t, y [m]) at every record tick."""
+    events = avoidance_events(monkeypatch)
+    ys = []
+    runner = Runner(load_scenario(CASES / f"{name}.toml"))
+    runner.observe("record", lambda ev: ys.append((ev.time_s, float(ev.states.position_m[0, 1]))))
+    summary = runner.run().summary
+    assert not summary["any_collision"], summary["collisions"]
+    return events, ys
+
+
 @pytest.mark.slow
 def test_a_detour_leading_into_its_track_is_withdrawn(monkeypatch):
     """head_on_stressed_seed286: the withdrawal that acts is the obsolete detour's (its track is still
     there, the detour now meets it, alpha yields to bravo on it), at the prediction that first finds the
     detour meeting it, and alpha, back on its lane, stays in it (within 1 m of y = 10 m) while the
     stranger passes south of it."""
-    events = avoidance_events(monkeypatch)
-    ys = []
-    runner = Runner(load_scenario(CASES / "head_on_stressed_seed286.toml"))
-    runner.observe("record", lambda ev: ys.append((ev.time_s, float(ev.states.position_m[0, 1]))))
-    summary = runner.run().summary
-    assert not summary["any_collision"], summary["collisions"]
+    events, ys = _run_keeping_clear(monkeypatch, "head_on_stressed_seed286")
     said = [(t, text) for name, t, text in events if name == "alpha" and text.startswith("detour withdrawn")]
     assert said and said[0][1].startswith("detour withdrawn: it now leads into track(s) [120] it went around"), said
     assert 93.0 < said[0][0] < 94.0
     assert min(y for t, y in ys if 95.0 <= t <= 135.0) > 9.0
+
+
+def test_a_boat_flagged_static_while_slowing_is_predicted_moving(monkeypatch):
+    """velocity_correction_stressed_seed273: at the periodic prediction at 180 s the crossing vessel's
+    track is flagged static (the tracker's flag lags its speed estimate, back at 0.23 m/s), but it has
+    sailed far from where it was first seen: it is predicted moving, said once, and the vessel goes
+    astern of it (to starboard, south of its line) instead of round its outline into its way."""
+    events, ys = _run_keeping_clear(monkeypatch, "velocity_correction_stressed_seed273")
+    said = [(t, text) for name, t, text in events if "flagged static by the tracker" in text]
+    assert len(said) == 1 and 179.9 < said[0][0] < 180.1 and said[0][1].startswith("track(s) [268] "), said
+    assert max(y for t, y in ys if 186.0 <= t <= 200.0) < -1.0

@@ -87,6 +87,14 @@ class PredictionStep:
             self.stats["in_structure"] = len(self._in_structure)
             self._event(t, f"track(s) {sorted(inside)} centred inside mapped structure: the structure's own returns, "
                            f"static and no larger than the structure around their centre")
+        lagging = self._static_flag_lagging(tracks, on_structure, inside)
+        if lagging:
+            tracks = [replace(tr, is_static=False) if tr.track_id in lagging else tr for tr in tracks]
+            if lagging - self._lagging_said:
+                self._lagging_said |= lagging
+                self._event(t, f"track(s) {sorted(lagging)} of the running correction flagged static by the tracker, "
+                               f"still at {v_static} m/s or more and more than {self.config.track_deviation_m} m from "
+                               f"where first seen: predicted moving (a boat slowing down, not a moored one)")
         tracks = [replace(tr, is_static=True, speed_m_s=0.0, turn_rate_rad_s=0.0,
                           radius_m=min(tr.radius_m, inside.get(tr.track_id, np.inf)))
                   if (not tr.is_static and (tr.speed_m_s < v_static or tr.track_id in on_structure
@@ -115,6 +123,32 @@ class PredictionStep:
         query = PredictionQuery(path, gamma, t, profile, self.radius_m, discs, self.prediction_config,
                                 include_clear=True) if discs else None
         return PendingPrediction(query, tracks, outlined, path, gamma, profile)
+
+    def _static_flag_lagging(self, tracks, on_structure, inside) -> set:
+        """The id of the track the running velocity correction is for (a moving boat the vessel
+        yields to or passes), when its tracker flags it static while it is a boat slowing down,
+        not a moored one: its speed estimate is still at least ``static_speed_m_s`` (the tracker
+        lifts its flag only at twice its own static speed, so the flag lags a speed estimate that
+        dips and rises again) and it is more than ``track_deviation_m`` from where the first
+        prediction that saw it put it. It is predicted with its estimated motion: taken as a
+        static outline it asks for a detour around where it is, into where it is going. Team
+        mates and tracks a mapped structure accounts for are never among them. Notes each new
+        track's first position. (Any flagged track that had moved was tried: in the stressed
+        campaigns it changed as many runs for the worse as for the better.)"""
+        first, v_static = self._first_position_m, self.config.static_speed_m_s
+        corrected_for = self.correction.track_id if self.correction is not None else None
+        lagging = set()
+        for tr in tracks:
+            k = tr.track_id
+            p0 = first.get(k)
+            if p0 is None:
+                first[k] = (float(tr.position_m[0]), float(tr.position_m[1]))
+            elif k == corrected_for and tr.is_static and tr.speed_m_s >= v_static and tr.team_member is None \
+                    and k not in on_structure and k not in inside:
+                p = tr.position_m
+                if math.hypot(p[0] - p0[0], p[1] - p0[1]) > self.config.track_deviation_m:
+                    lagging.add(k)
+        return lagging
 
     def predicted_gamma(self, t_now: float, gamma_now: float, mission_speed_m_s: float):
         """γ(t) [m] the own vessel is predicted to sail for t ≥ t_now: the plan (``planned_gamma``,

@@ -157,6 +157,8 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
                                     config.track_deviation_m, config.window_s or 30.0)
         self._known_track_ids: set[int] = set()
         self._first_predicted_s: dict[int, float] = {}  # track id → time of its first prediction [s]
+        self._first_position_m: dict[int, tuple] = {}  # track id → (x, y) at the first prediction that saw it [m]
+        self._lagging_said: set[int] = set()  # tracks said to be predicted moving though flagged static
         self._clear_since_s: float | None = None  # a withdrawable yield's track clear at the mission speed since
         self._in_structure: set[int] = set()  # tracks centred inside mapped structure (its own returns)
         self._predicted_tracks: dict = {}
