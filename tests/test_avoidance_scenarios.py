@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pytest
 
+from mjasc import run_scenario
 from mjasc.runs.runner import Runner
 from mjasc.runs.scenario import load_scenario
 
@@ -79,3 +80,18 @@ def test_avoidance_prevents_the_collision(name):
     acted = sum(sum(on["vessels"][v]["avoidance"]["actions"][k] for k in ("yield", "pass", "replan"))
                 for v in vessels)
     assert acted >= 1
+
+
+def test_the_time_on_a_detour_counts_a_correction_sailed_on_it():
+    """The modes are exclusive: a velocity correction sailed on a detour is the correction's mode
+    (the video's status and the recording's mode lane show it). ``detour_time_s`` counts the time a
+    detour ran in any mode: in the demo's first minute (seed 3) alpha yields on its detour for its
+    whole 18.8 s, so its detour mode counts none of it (a user-style review read that as no detour)."""
+    sc = load_scenario(TASKS / "demo.toml").with_overrides(seed=3, duration_s=60.0)
+    vessels = run_scenario(sc).summary["vessels"]
+    for name, v in vessels.items():
+        a = v["avoidance"]
+        assert a["mode_time_s"]["avoidance:detour"] <= a["detour_time_s"] <= 60.0, name
+        assert (a["detour_time_s"] > 0.0) == (a["actions"]["replan"] + a["actions"]["lane_change"] > 0), name
+    alpha = vessels["alpha"]["avoidance"]
+    assert alpha["mode_time_s"]["avoidance:detour"] == 0.0 and alpha["detour_time_s"] == pytest.approx(18.8, abs=0.2)

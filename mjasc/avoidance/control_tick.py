@@ -203,18 +203,23 @@ class ControlTick:
         return override, self._note_mode(t), course
 
     def _note_mode(self, t) -> str:
-        """The mode after this tick's manoeuvres (a correction, a detour, else the mission): its
-        time counted, its change logged as an event."""
+        """The mode after this tick's manoeuvres (a correction, a detour, else the mission: a
+        correction sailed on a detour is the correction's mode): its time counted, and the time on
+        a detour in any mode (``detour_time_s``), its change logged as an event."""
+        detour = self.detour is not None
         if self.correction is not None:
             mode = f"avoidance:{self.correction.kind}"
-        elif self.detour is not None:
+        elif detour:
             mode = "avoidance:detour"
         else:
             mode = "mission"
         if self._last_control_t is not None:
             dt = t - self._last_control_t
-            self.mode_time_s[self.mode] += 0.0 if 0.0 > dt else dt  # (max(dt, 0.0) without its call)
-        self._last_control_t = t
+            dt = 0.0 if 0.0 > dt else dt  # (max(dt, 0.0) without its call)
+            self.mode_time_s[self.mode] += dt
+            if self._on_detour:
+                self.detour_time_s += dt
+        self._last_control_t, self._on_detour = t, detour
         if mode != self.mode:
             self._event(t, f"mode {self.mode} → {mode}")
             self.mode = mode

@@ -179,6 +179,8 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         self._last_control_t: float | None = None
         # The thesis's modes (it never steers a course: "avoidance:steer" is the velocity obstacles')
         self.mode_time_s = {m: 0.0 for m in MODES if m != "avoidance:steer"}
+        self.detour_time_s = 0.0  # time on a detour in any mode (a correction sailed on one counts as the correction)
+        self._on_detour = False  # a detour ran since the last control tick
         self.stats = {"predictions": 0, "predicted_conflicts": 0, "static_conflicts": 0, "yield": 0, "pass": 0,
                       "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
                       "deviation_predictions": 0, "emergency": 0, "lane_change": 0, "checked_choice": 0,
@@ -324,6 +326,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
                                                           "detour_rejected", "in_structure", "turn_away", "turn_held")},
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
+            "detour_time_s": round(self.detour_time_s, 2),
             "min_predicted_distance_m": round(self.min_predicted_distance_m, 3)
             if np.isfinite(self.min_predicted_distance_m) else None,
             "conflicts": self.conflict_log,
