@@ -102,6 +102,12 @@ def test_usage_errors_and_bad_option_values_are_one_line_naming_the_option(tmp_p
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert err.startswith("mjasc: --workers 0: only for a local cluster") and err.count("\n") == 1
+    # the synchronous scheduler runs in this process: --workers 2 was ignored silently (workers 0 recorded)
+    assert main(["campaign", "demo_monte_carlo", "--scheduler", "synchronous", "--workers", "2", "--out",
+                 str(tmp_path / "c")]) == 2
+    err = capsys.readouterr().err
+    assert err == ("mjasc: --workers 2: only for a local cluster; the synchronous scheduler runs every run in this "
+                   "process\n"), err
     assert not any(tmp_path.iterdir())
 
 

@@ -163,7 +163,7 @@ def test_draws_resample_to_the_role_and_an_impossible_family_fails_clearly():
 
 
 def test_runs_cut_before_their_encounter_are_counted_and_said():
-    """A family's ``duration_s`` (or ``--duration``) no longer than a target's TCPA ends the run before
+    """A family's ``duration_s`` no longer than a target's TCPA ends the run before
     the encounter: such runs count as runs without contact, so the campaign's table and report say
     how many there are (a reviewer's campaign of 10 s runs for a 30 s TCPA printed "collision 0/3"
     with nothing else)."""
@@ -178,11 +178,17 @@ def test_runs_cut_before_their_encounter_are_counted_and_said():
                        "parameters": {"t1.tcpa_s": 30.0, "t2.tcpa_s": 50.0}}).runs()).parameters
     assert ended_before_cpa(cut) and not ended_before_cpa(whole) and ended_before_cpa(teams)
     assert whole["duration_s"] > 30.0 and not ended_before_cpa({"duration_s": 5.0})  # (a perturbation run)
+    # an Imazu run cut before its scaled TCPA too (its duration was not among its parameters: counted as a pass)
+    imazu_cut = next(spec({"kind": "imazu", "duration_s": 20.0, "parameters": {"case": 1}}).runs()).parameters
+    imazu_whole = next(spec({"kind": "imazu", "parameters": {"case": 1}}).runs()).parameters
+    assert imazu_cut["t1.tcpa_s"] > 20.0 and ended_before_cpa(imazu_cut) and not ended_before_cpa(imazu_whole)
     runs = [SimpleNamespace(index=i, family="head_on", status="completed", parameters=p, metrics={}, wall_time_s=1.0)
             for i, p in enumerate([cut, cut, whole])]
     agg = aggregate(runs, 3)
     assert agg["ended_before_cpa"] == 2 and agg["families"]["head_on"]["ended_before_cpa"] == 2
-    assert "note: 2 of 3 completed run(s) ended before their encounter's closest approach" in format_aggregate(agg, "c")
+    note = format_aggregate(agg, "c")
+    assert "note: 2 of 3 completed run(s) ended before their encounter's closest approach" in note
+    assert "--duration" not in note  # (mjasc campaign has no such option)
     assert _before_cpa({**agg, "ended_before_cpa": 0}) == [] and "2 of 3" in _before_cpa(agg)[1]
 
 

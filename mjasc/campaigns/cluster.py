@@ -249,6 +249,8 @@ def workers_problem(scheduler, workers: int | None) -> str:
     has its own workers (and ``workers = 0``, this process, would ignore the cluster)."""
     if workers is not None and isinstance(scheduler, str) and scheduler not in ("local", "synchronous"):
         return f"only for a local cluster; the cluster at {scheduler} has its own workers"
+    if workers and scheduler == "synchronous":  # (workers = 0 is this process: what synchronous means)
+        return "only for a local cluster; the synchronous scheduler runs every run in this process"
     return ""
 
 

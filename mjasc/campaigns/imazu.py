@@ -230,6 +230,7 @@ class ImazuFamily:
         doc.pop("name")
         if self.duration_s is not None:
             doc["duration_s"] = self.duration_s
+        params["duration_s"] = float(doc["duration_s"])  # (as an encounter run's: ended_before_cpa reads it)
         return params, doc, int(seed), imazu_header(c)
 
 

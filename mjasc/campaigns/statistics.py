@@ -162,7 +162,7 @@ def _rate(k: int, n: int) -> dict:
 
 def ended_before_cpa(parameters: dict | None) -> bool:
     """Whether an encounter run (its drawn ``parameters``) ended no later than a target's TCPA: its
-    ``duration_s`` (a family's or ``--duration``'s) cut it before the encounter, so that its outcome
+    ``duration_s`` (a family's, or the Python API's ``with_overrides(duration_s=...)``) cut it before the encounter, so that its outcome
     says nothing about it. False for runs without targets (perturbation families)."""
     p = parameters or {}
     tcpas = [v for k, v in p.items() if (k == "tcpa_s" or k.endswith(".tcpa_s")) and isinstance(v, (int, float))]
@@ -178,7 +178,7 @@ def before_cpa_note(agg: dict) -> str | None:
         return None
     return (f"note: {k} of {agg['completed']} completed run(s) ended before their encounter's closest approach "
             f"(duration_s ≤ TCPA): they count as runs without contact but say nothing about the encounter — run "
-            f"them longer (a family's duration_s past its last TCPA, or no --duration)")
+            f"them longer (a family's duration_s past its last TCPA, or none: the default runs past it)")
 
 
 def _group(runs, near_miss_m: float) -> dict:
@@ -267,7 +267,8 @@ def aggregate(runs, runs_defined: int | None = None, near_miss_m: float = 1.0, m
 
 
 def paired(runs, labels, near_miss_m: float = 1.0) -> dict:
-    """Each method against the first (the baseline) on the same runs: per family and ``all``, per
+    """Each method against the first (the baseline) on the same runs: per family (in the campaign
+    file's order) and ``all``, per
     other method, over the indices both completed — ``pairs``, collisions only with the baseline /
     only with the other / with both, and how often the other's minimum separation was larger /
     smaller than the baseline's (ties counted in neither)."""
@@ -295,8 +296,8 @@ def paired(runs, labels, near_miss_m: float = 1.0) -> dict:
                     c["separation_smaller"] += sep_m < sep_b
         keys = ("pairs", "collision_only_" + base, "collision_only_" + m, "collision_both", "separation_larger",
                 "separation_smaller")
-        out[m] = {"baseline": base, **{g: {k: int(c[k]) for k in keys}
-                                       for g, c in sorted(groups.items(), key=lambda kv: (kv[0] == "all", kv[0]))}}
+        order = [f for f in family_order(runs) if f in groups] + ["all"] * ("all" in groups)  # (the file's order)
+        out[m] = {"baseline": base, **{g: {k: int(groups[g][k]) for k in keys} for g in order}}
     return out
 
 
