@@ -125,16 +125,16 @@ class PredictionStep:
         return PendingPrediction(query, tracks, outlined, path, gamma, profile)
 
     def _static_flag_lagging(self, tracks, on_structure, inside) -> set:
-        """The id of the track the running velocity correction is for (a moving boat the vessel
-        yields to or passes), when its tracker flags it static while it is a boat slowing down,
-        not a moored one: its speed estimate is still at least ``static_speed_m_s`` (the tracker
-        lifts its flag only at twice its own static speed, so the flag lags a speed estimate that
-        dips and rises again) and it is more than ``track_deviation_m`` from where the first
-        prediction that saw it put it. It is predicted with its estimated motion: taken as a
-        static outline it asks for a detour around where it is, into where it is going. Team
-        mates and tracks a mapped structure accounts for are never among them. Notes each new
-        track's first position. (Any flagged track that had moved was tried: in the stressed
-        campaigns it changed as many runs for the worse as for the better.)"""
+        """The track the running velocity correction is for (a moving boat the vessel yields to or
+        passes) as a one-id set when its tracker flags it static while it is a boat slowing down,
+        not a moored one — its speed estimate still at least ``static_speed_m_s`` (the tracker lifts
+        its flag only at twice its own static speed, so the flag lags a speed estimate that dips and
+        rises again) and more than ``track_deviation_m`` from where the first prediction that saw it
+        put it —, else an empty set. Such a track is predicted with its estimated motion: taken as a
+        static outline it asks for a detour around where it is, into where it is going. Team mates
+        and tracks a mapped structure accounts for are never among them. Notes each new track's
+        first position. (Any flagged track that had moved was tried: in the stressed campaigns it
+        changed as many runs for the worse as for the better.)"""
         first, v_static = self._first_position_m, self.config.static_speed_m_s
         corrected_for = self.correction.track_id if self.correction is not None else None
         lagging = set()
