@@ -25,7 +25,7 @@ from mjasc.perception.range_sensor import RangeSensor
 from mjasc.physics.currents import UniformCurrent
 from mjasc.physics.simulation import Simulation
 from mjasc.physics.world import WALL_THICKNESS_M
-from mjasc.suite import otter, otter_team
+from mjasc.suite import otter, otter_team, traffic_lanes
 from mjasc.suite.common import VesselPhysics
 
 ALL = [pytest.param(d, t, id=f"{d}-{t}") for d, t in suite.ALL_TASKS]
@@ -350,7 +350,7 @@ def test_traffic_boats_never_sail_through_each_other(task, seed):
         closest = min(closest, gaps.min())
         if env.step(np.zeros(2)).last():
             break
-    assert closest >= otter.TRAFFIC_SEPARATION_M - 0.05 > 2 * otter.TRAFFIC_RADIUS_M
+    assert closest >= traffic_lanes.TRAFFIC_SEPARATION_M - 0.05 > 2 * otter.TRAFFIC_RADIUS_M
 
 
 def test_physics_pickles_with_its_simulator():

@@ -162,8 +162,9 @@ def _rate(k: int, n: int) -> dict:
 
 def ended_before_cpa(parameters: dict | None) -> bool:
     """Whether an encounter run (its drawn ``parameters``) ended no later than a target's TCPA: its
-    ``duration_s`` (a family's, or the Python API's ``with_overrides(duration_s=...)``) cut it before the encounter, so that its outcome
-    says nothing about it. False for runs without targets (perturbation families)."""
+    ``duration_s`` (a family's, or the Python API's ``with_overrides(duration_s=...)``) cut it
+    before the encounter, so that its outcome says nothing about it. False for runs without
+    targets (perturbation families)."""
     p = parameters or {}
     tcpas = [v for k, v in p.items() if (k == "tcpa_s" or k.endswith(".tcpa_s")) and isinstance(v, (int, float))]
     duration = p.get("duration_s")

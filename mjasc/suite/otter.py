@@ -39,12 +39,7 @@ from mjasc.suite.common import (
     world_to_body,
 )
 from mjasc.suite.pixel_scene import OVER_TARGET_Z_M, draw_reference, path_polyline
-from mjasc.suite.traffic_lanes import (  # (the traffic's constants: this domain's names too)
-    TRAFFIC_INSET_M,
-    TRAFFIC_RADIUS_M,
-    TRAFFIC_SEPARATION_M,
-    draw_lanes,
-)
+from mjasc.suite.traffic_lanes import TRAFFIC_INSET_M, TRAFFIC_RADIUS_M, draw_lanes
 from mjasc.suite.vessel_choice import hull_name, suite_vessel_type
 from mjasc.suite.vessel_task import (  # (Difficulty, EASY, HARD, OWN_STATE_OBSERVATIONS: this domain's names too)
     EASY,
@@ -213,8 +208,8 @@ class CollisionAvoidance(VesselTask):
         course = float(np.arctan2(route[1], route[0]))
         lanes = draw_lanes(self.random, d.n_traffic, start, route, course, self.vessel.cruise_speed_m_s,
                            d.traffic_speed_m_s, BASIN_HALF_SIZE_M - TRAFFIC_INSET_M)
-        traffic = [MovingObstacle(name, TRAFFIC_RADIUS_M, speed_m_s=lane.speed_m_s, path=Path.line(lane.start_m, lane.end_m),
-                                  start_gamma_m=lane.start_gamma_m)
+        traffic = [MovingObstacle(name, TRAFFIC_RADIUS_M, speed_m_s=lane.speed_m_s,
+                                  path=Path.line(lane.start_m, lane.end_m), start_gamma_m=lane.start_gamma_m)
                    for name, lane in zip(_traffic_names(d.n_traffic), lanes)]
         physics.configure_episode(random_current(rnd, d), traffic)
         psi0 = course + rnd.uniform(-d.initial_heading_error_rad, d.initial_heading_error_rad)
