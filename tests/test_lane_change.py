@@ -116,3 +116,8 @@ def test_no_lane_leaves_the_track_of_a_threat_crossing_the_path(course_deg, cros
         assert out == f"track 3 crosses the path ({off:.0f}° off its line): no lane leaves its track", out
     else:
         assert not isinstance(out, str), out
+    # A team mate's predicted centres follow its broadcast plan: it never counts as crossing (two team mates
+    # deployed across each other's transits both refused the lane and drifted together on the current; the
+    # go-to-formation deployments' run 5). The rule is only the crossing test: a lane still may not exist.
+    team = plan_lane_change(0.0, (0.0, 0.0), mission, 0.0, 1.5, [c], [], cfg, 2.0, team_ids=frozenset({3}))
+    assert not (isinstance(team, str) and "crosses the path" in team), team

@@ -110,14 +110,20 @@ def _ramp(x):
     return x * x * (3.0 - 2.0 * x)
 
 
-def _crossing(mission: Path, g_now_m: float, conflicts) -> tuple[int, float] | None:
+def _crossing(mission: Path, g_now_m: float, conflicts, team_ids=frozenset()) -> tuple[int, float] | None:
     """The first conflict whose threat crosses the path — its predicted centres move more than
     ``_CROSSING_MIN_M`` over the prediction, on a course between ``CROSSING_DEG`` and 180° −
     ``CROSSING_DEG`` off the path's line at the vessel — as (track id, that angle [deg]); None when
-    every threat moves along the path (or hardly moves)."""
+    every threat moves along the path (or hardly moves). Team mates (track ids in ``team_ids``) do
+    not count: their predicted centres follow their broadcast plans, which resume the mission after
+    a stop, and two team mates deployed across each other's transits, each refusing the lane
+    because of the other's plan, stopped side by side and drifted together (the go-to-formation
+    deployments' run 5); right of way settles team mates."""
     th = float(mission.tangent_angle(np.array([g_now_m]))[0])
     lo, hi = np.radians(CROSSING_DEG), np.radians(180.0 - CROSSING_DEG)
     for c in conflicts:
+        if c.track_id in team_ids:
+            continue
         pts = np.asarray(c.obstacle_positions, dtype=float)
         if len(pts) < 2:
             continue
@@ -132,7 +138,7 @@ def _crossing(mission: Path, g_now_m: float, conflicts) -> tuple[int, float] | N
 
 def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: float, conflicts, static_polygons,
                      cfg, static_inflation_m: float, max_offset_m: float = 30.0, starboard_only: bool = False,
-                     hold_past_end: bool = False):
+                     hold_past_end: bool = False, team_ids=frozenset()):
     """The lane change for ``conflicts`` (:class:`~mjasc.avoidance.prediction.PredictedConflict`
     with a collision, dynamic tracks), or the reason there is none (a string).
 
@@ -143,8 +149,9 @@ def plan_lane_change(t: float, start, mission: Path, g_now_m: float, speed_m_s: 
     (COLREG rule 14, head-on: both alter course to starboard); hold_past_end: the path's end is
     no destination (a station-keeping leg's line through a moving station): the lane may be held
     past it (module docstring). A held lane that cannot be taken — its continuation meets mapped
-    structure, say — leaves the lane that steps back at the path's end, as without the hold."""
-    crossing = _crossing(mission, g_now_m, conflicts)
+    structure, say — leaves the lane that steps back at the path's end, as without the hold.
+    team_ids: the conflicts' track ids that are team mates (never a crossing threat here)."""
+    crossing = _crossing(mission, g_now_m, conflicts, team_ids)
     if crossing is not None:
         return f"track {crossing[0]} crosses the path ({crossing[1]:.0f}° off its line): no lane leaves its track"
     args = (t, start, mission, g_now_m, speed_m_s, conflicts, static_polygons, cfg, static_inflation_m,

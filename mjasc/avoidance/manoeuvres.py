@@ -184,9 +184,11 @@ class Manoeuvres(CheckedChoice):
                 self.stats["detour_rejected"] += 1
                 out = why
         if isinstance(out, str) and dynamic:  # the swept area cannot be gone around: leave the threat's lane
+            team_ids = frozenset(c.track_id for c in dynamic if by_id is not None
+                                 and getattr(by_id.get(c.track_id), "team_member", None) is not None)
             lane = plan_lane_change(t, nav.position_m, mission, g_now_m, self._guidance.mission_speed_m_s, dynamic,
                                     list(static_polygons) + list(static_outlines), self.config,
-                                    self.static_inflation_m, hold_past_end=self.station_keeping)
+                                    self.static_inflation_m, hold_past_end=self.station_keeping, team_ids=team_ids)
             if isinstance(lane, str):
                 out = f"{out}; {lane}"
             else:
