@@ -40,8 +40,9 @@ class TidalConfig:
     amplitude_m_s: np.ndarray = param(reader=vector2, unit="m/s",
                                       doc="A, the peak flood velocity; the tide flows along its axis")
     period_s: float = param(minimum=60.0, unit="s",
-                            doc="T, the tide's period (M2: 44714 s; ≥ 60 s: a tide's or a seiche's, not a wave's — "
-                                "a period of a few seconds accelerates the water by hundreds of m/s²)")
+                            doc="T, the tide's period (M2: 44714 s; ≥ 60 s: a tide's or a seiche's, not a wave's "
+                                "orbital flow, which this model does not describe — 0.001 s accelerated the water "
+                                "by thousands of m/s²)")
     phase_rad: float | None = param(None, unit="rad", doc="φ, the phase at t = 0 (default 0; or phase_deg)")
     phase_deg: float | None = param(None, unit="deg",
                                     doc="φ in degrees (instead of phase_rad; as every other angle of a scenario)")
