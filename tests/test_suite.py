@@ -582,3 +582,25 @@ def test_baselines_cli_rejects_no_seeds(capsys, seeds):
     assert info.value.code == 2
     err = capsys.readouterr().err
     assert f"--seeds: must be ≥ 1, got {seeds}" in err and "nan" not in err
+
+
+def test_a_traffic_lanes_closest_approach_is_the_closed_form():
+    """Two boats at 1 m/s on perpendicular lanes through the origin, B there Δ = 4 s after A: their
+    closest approach is v·Δ/√2 (2.83 m); a boat stopped at its lane's end stays there."""
+    from mjasc.suite.traffic_lanes import TrafficLane
+
+    def lane(start, end, gamma0):
+        start, end = np.asarray(start, float), np.asarray(end, float)
+        length = float(np.linalg.norm(end - start))
+        return TrafficLane(start, end, (end - start) / length, length, 1.0, gamma0)
+
+    a = lane([-30.0, 0.0], [30.0, 0.0], 10.0)  # at the origin at t = 20 s
+    b = lane([0.0, -30.0], [0.0, 30.0], 6.0)  # at the origin at t = 24 s
+    assert a.closest_approach_m(b) == pytest.approx(4.0 / np.sqrt(2.0), abs=0.01)
+    assert b.closest_approach_m(a) == pytest.approx(a.closest_approach_m(b))
+    moored = lane([-25.0, 5.0], [-20.0, 5.0], 5.0)  # at its lane's end from t = 0: it stays at (−20, 5)
+    assert moored.stop_time_s() == 0.0
+    np.testing.assert_allclose(moored.positions_m(np.array([0.0, 50.0])), [[-20.0, 5.0]] * 2)
+    assert moored.closest_approach_m(a) == pytest.approx(5.0)  # (A passes 5 m below it at t = 0, then draws away)
+    south = lane([-20.0, 20.0], [-20.0, 5.0], 0.0)  # south at 1 m/s from (−20, 20), stops at (−20, 5) at t = 15 s
+    assert south.closest_approach_m(a) == pytest.approx(20.0 / np.sqrt(2.0), abs=0.01)  # (at t = 10 s)
