@@ -606,6 +606,12 @@ def test_a_name_is_not_written_over_another_hull_or_the_north_box():
     assert not _overlaps(bravo, (318.0 - 8, 282.0 - 8, 318.0 + 8, 282.0 + 8))
     corner = name_labels(draw, vessels[1:], np.array([[560.0, 430.0]]), font, 640, 480, [north])
     assert corner and not _overlaps(corner[0][2], north)
+    # a moving obstacle where the first choice would write (a reviewer found the ferry under "charlie")
+    alone = name_labels(draw, vessels[1:], np.array([[300.0, 300.0]]), font, 640, 480, [north])
+    first = alone[0][2]
+    ferry = ((first[0] + first[2]) / 2, (first[1] + first[3]) / 2)
+    moved = name_labels(draw, vessels[1:], np.array([[300.0, 300.0]]), font, 640, 480, [north], [ferry])
+    assert not _overlaps(moved[0][2], (ferry[0] - 12, ferry[1] - 12, ferry[0] + 12, ferry[1] + 12))
 
 
 def test_the_legend_keeps_clear_of_the_traffic():

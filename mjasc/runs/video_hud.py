@@ -136,19 +136,23 @@ LEGEND_MIN_PX = (320, 240)
 MAX_NAMES = 12
 
 
-def name_labels(draw, vessels, vessels_px, font, W: int, H: int, keep_off=()) -> list:
+def name_labels(draw, vessels, vessels_px, font, W: int, H: int, keep_off=(), traffic_px=()) -> list:
     """The names drawn by the hulls, as (vessel, text origin (x, y), box (x0, y0, x1, y1)) [px]:
     up and right of the hull, or — when that box would overlap an earlier name's or leave the
     frame or cover a ``keep_off`` box (the modes, the scale bar, the north arrow) or another
-    vessel's hull — one line down, two up, then left of the hull (where none is clear of those, the
-    first free place off the boxes, then inside the frame); a name with no free place, or past the
-    first :data:`MAX_NAMES` vessels, is left out (the modes box lists it). No two boxes overlap."""
+    vessel's hull or a moving obstacle (``traffic_px``, its centre [px]) — one line down, two up,
+    then left of the hull (where none is clear of those, the first free place off the boxes, then
+    inside the frame); a name with no free place, or past the first :data:`MAX_NAMES` vessels, is
+    left out (the modes box lists it). No two boxes overlap."""
     fs = font.size
     out = []
     pts = np.asarray(vessels_px, float).reshape(-1, 2)
     half = max(6.0, 0.6 * fs)  # (a hull's mark on the frame: a name is not written over another vessel)
     hulls = [(k, (x - half, y - half, x + half, y + half)) for k, (x, y) in enumerate(pts)
              if np.isfinite(x) and np.isfinite(y)]
+    # (the traffic too, as the legend keeps off it: a reviewer found the ferry under a vessel's name)
+    hulls += [(-1, (x - 12, y - 12, x + 12, y + 12)) for x, y in np.asarray(traffic_px, float).reshape(-1, 2)
+              if np.isfinite(x) and np.isfinite(y)]
     for i, (v, (x, y)) in enumerate(zip(vessels, pts)):
         if len(out) >= MAX_NAMES:
             break
@@ -209,7 +213,8 @@ def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = Tr
             out["scale"] = (8, H - 16 - fs - 10, 14 + scale_bar_px + 8, H - 8)
         out["north"] = (W - 150, H - 84, W - 4, H - 4)
     out["names"] = [] if vessels_px is None else name_labels(
-        draw, view.vessels, vessels_px, font, W, H, [out[k] for k in ("text", "scale", "north") if k in out])
+        draw, view.vessels, vessels_px, font, W, H, [out[k] for k in ("text", "scale", "north") if k in out],
+        () if traffic_px is None else traffic_px)
     if not furniture:
         return out
     taken = [out[k] for k in ("text", "scale", "north") if k in out]
