@@ -134,13 +134,22 @@ LEGEND_MIN_PX = (320, 240)
 
 #: At most this many names are drawn by the hulls (the first vessels: the chased one first).
 MAX_NAMES = 12
+#: Half the side [px] of the square the names and the legend keep off around a moving obstacle's centre.
+TRAFFIC_MARK_PX = 12.0
 
 
-def name_labels(draw, vessels, vessels_px, font, W: int, H: int, keep_off=(), traffic_px=()) -> list:
+def _marks(points_px, half_px: float) -> list:
+    """The squares (x0, y0, x1, y1) [px] of side 2·``half_px`` around the finite points of
+    ``points_px`` ((n, 2), or None: none)."""
+    pts = np.asarray([] if points_px is None else points_px, float).reshape(-1, 2)
+    return [(x - half_px, y - half_px, x + half_px, y + half_px) for x, y in pts if np.isfinite(x) and np.isfinite(y)]
+
+
+def name_labels(draw, vessels, vessels_px, font, W: int, H: int, keep_off=(), traffic_px=None) -> list:
     """The names drawn by the hulls, as (vessel, text origin (x, y), box (x0, y0, x1, y1)) [px]:
     up and right of the hull, or — when that box would overlap an earlier name's or leave the
     frame or cover a ``keep_off`` box (the modes, the scale bar, the north arrow) or another
-    vessel's hull or a moving obstacle (``traffic_px``, its centre [px]) — one line down, two up,
+    vessel's hull or a moving obstacle (``traffic_px``, their centres [px], or None) — one line down, two up,
     then left of the hull (where none is clear of those, the first free place off the boxes, then
     inside the frame); a name with no free place, or past the first :data:`MAX_NAMES` vessels, is
     left out (the modes box lists it). No two boxes overlap."""
@@ -151,8 +160,7 @@ def name_labels(draw, vessels, vessels_px, font, W: int, H: int, keep_off=(), tr
     hulls = [(k, (x - half, y - half, x + half, y + half)) for k, (x, y) in enumerate(pts)
              if np.isfinite(x) and np.isfinite(y)]
     # (the traffic too, as the legend keeps off it: a reviewer found the ferry under a vessel's name)
-    hulls += [(-1, (x - 12, y - 12, x + 12, y + 12)) for x, y in np.asarray(traffic_px, float).reshape(-1, 2)
-              if np.isfinite(x) and np.isfinite(y)]
+    hulls += [(-1, box) for box in _marks(traffic_px, TRAFFIC_MARK_PX)]
     for i, (v, (x, y)) in enumerate(zip(vessels, pts)):
         if len(out) >= MAX_NAMES:
             break
@@ -214,14 +222,12 @@ def hud_layout(draw, view, W: int, H: int, title: str = "", furniture: bool = Tr
         out["north"] = (W - 150, H - 84, W - 4, H - 4)
     out["names"] = [] if vessels_px is None else name_labels(
         draw, view.vessels, vessels_px, font, W, H, [out[k] for k in ("text", "scale", "north") if k in out],
-        () if traffic_px is None else traffic_px)
+        traffic_px)
     if not furniture:
         return out
     taken = [out[k] for k in ("text", "scale", "north") if k in out]
-    avoid = [(x - 6, y - 6, x + 6, y + 6) for x, y in ([] if vessels_px is None else vessels_px)
-             if np.isfinite(x) and np.isfinite(y)] + [b for _, _, b in out["names"]] + \
-        [(x - 12, y - 12, x + 12, y + 12) for x, y in ([] if traffic_px is None else traffic_px)
-         if np.isfinite(x) and np.isfinite(y)]  # (the traffic too: a tracked target under the legend)
+    avoid = _marks(vessels_px, 6.0) + [b for _, _, b in out["names"]] + \
+        _marks(traffic_px, TRAFFIC_MARK_PX)  # (the traffic too: a tracked target under the legend)
     # A pane narrower than LEGEND_MIN_PX[0] or shorter than LEGEND_MIN_PX[1] has no room for the
     # legend beside the names and the modes (docs/architecture.md, "Limits"): left out.
     items = legend_items(view)
