@@ -269,10 +269,9 @@ def aggregate(runs, runs_defined: int | None = None, near_miss_m: float = 1.0, m
 
 def paired(runs, labels, near_miss_m: float = 1.0) -> dict:
     """Each method against the first (the baseline) on the same runs: per family (in the campaign
-    file's order) and ``all``, per
-    other method, over the indices both completed — ``pairs``, collisions only with the baseline /
-    only with the other / with both, and how often the other's minimum separation was larger /
-    smaller than the baseline's (ties counted in neither)."""
+    file's order) and ``all``, per other method, over the indices both completed — ``pairs``,
+    collisions only with the baseline / only with the other / with both, and how often the other's
+    minimum separation was larger / smaller than the baseline's (ties counted in neither)."""
     base = labels[0]
     seps: dict = {}
     for r in runs:
