@@ -173,7 +173,10 @@ def _predicted_positions_numpy(states, covariances, times_s, turn_rates, t_s):
     J[:, 0, 0] = J[:, 1, 1] = 1.0
     J[:, 0, 2], J[:, 0, 3] = -dv * s, dt * c
     J[:, 1, 2], J[:, 1, 3] = dv * c, dt * s
-    return zhat, J @ P @ np.swapaxes(J, 1, 2)
+    S = J @ P @ np.swapaxes(J, 1, 2)
+    still = x[:, 3] == 0.0  # no course: var(V)·dt² on y too
+    S[still, 1, 1] += dt[still] ** 2 * P[still, 3, 3]
+    return zhat, S
 
 
 @pytest.mark.parametrize("seed", range(10))
@@ -183,6 +186,7 @@ def test_predicted_positions_matches_numpy_form(seed):
     rng = np.random.default_rng(seed)
     k = int(rng.integers(0, 30))
     x = rng.normal(scale=[30, 30, 2, 3], size=(k, 4))
+    x[rng.random(k) < 0.3, 3] = 0.0  # tracks with no course yet (one measurement)
     A = rng.normal(size=(k, 4, 4))
     P = A @ np.swapaxes(A, 1, 2)
     t = rng.random(k) * 10

@@ -375,3 +375,27 @@ def test_manoeuvre_detector_stays_off_for_targets_the_imm_models_explain():
                 on.append(tr.manoeuvring[tr.confirmed])
         frac = np.concatenate(on).mean()
         assert frac < 0.01, (kind, frac)
+
+
+@pytest.mark.parametrize("var", [0.01, 0.1])
+def test_a_new_tracks_gate_is_round(var):
+    """A track of one measurement has no course (V = 0): the gate for its second measurement reaches as
+    far in every direction (var(V)·dt² on both axes: mjasc.perception.tracking.pair_kernels). Its
+    state used to report θ = 0 and the linearised prediction put var(V) on world x alone: a jump of
+    1.0 m in one scan (5 m/s at 5 Hz) with precise detections was taken east or west only, and a
+    target crossing north–south lost its second detection."""
+    reach = {}
+    for jump_m in (0.6, 1.0, 1.4, 1.8, 2.2, 2.6):
+        taken = []
+        for course_deg in range(0, 360, 45):
+            tr = MultiTargetTracker(TrackingConfig())
+            c = math.radians(course_deg)
+            p0 = np.array([[50.0, 20.0]])
+            tr.step(0.0, detections(0.0, p0, var=var))
+            tr.step(DT, detections(DT, p0 + jump_m * np.array([[math.cos(c), math.sin(c)]]), var=var))
+            taken.append(len(tr) == 1 and tr.bank.states[0, 3] > 0.0)  # (updated: it has a speed now)
+        assert len(set(taken)) == 1, (jump_m, taken)
+        reach[jump_m] = taken[0]
+    # the jump the gate takes: ≈ 4.3·σ_V·Ts (IMMConfig.initial_speed_std_m_s = 2 m/s, Ts = 0.2 s: 1.7 m), more
+    # with the detections' own variance
+    assert reach[1.4] and not reach[2.6], reach

@@ -36,6 +36,8 @@ def _numpy_form(args, p, z, gate, assigned, var_row, claimed):
     dt, th, dv = arcs
     zhat, Jac = position_jacobians(xs, dt, dv, np.cos(th), np.sin(th))
     S = Jac @ P @ Jac.transpose(0, 2, 1)
+    still = xs[:, 3] == 0.0  # no course: var(V)·dt² on y too
+    S[still, 1, 1] += dt[still] ** 2 * P[still, 3, 3]
     d2, det = pair_gates(pairs, zhat, S, z, var_p)
     log_det = np.log(det)
     packed = assign_pairs_packed(d2, log_det, gate, pairs, blocks[p:], args[3], var_p, assigned,

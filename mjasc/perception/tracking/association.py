@@ -2,8 +2,9 @@
 (thesis §3.2.1; :mod:`mjasc.perception.tracking`, items 1–2). World ENU, SI.
 
 1. **Prediction and gating.** Each track's combined estimate predicted to the scan time (one EKF
-   step with ω̂), ẑ_i with covariance J P Jᵀ, plus the detection's own isotropic variance σ_j²:
-   ``S_ij = J_i P_i J_iᵀ + σ_j²·I`` and ``d²_ij = (z_j − ẑ_i)ᵀ S_ij⁻¹ (z_j − ẑ_i)``. A pair is
+   step with ω̂), ẑ_i with covariance J P Jᵀ (a track with no course yet, V = 0, with var(V)·dt²
+   on both axes: its velocity's direction is unknown), plus the detection's own isotropic
+   variance σ_j²: ``S_ij = J_i P_i J_iᵀ + σ_j²·I`` and ``d²_ij = (z_j − ẑ_i)ᵀ S_ij⁻¹ (z_j − ẑ_i)``. A pair is
    admissible when ``d²_ij ≤ −2 ln(1 − gate_probability)`` (chi-square, 2 dof). (The bank then
    gates again on its own models when it updates.)
 2. **Global nearest neighbour** association: ``scipy.optimize.linear_sum_assignment`` on the cost
@@ -26,7 +27,8 @@ from __future__ import annotations
 import numpy as np
 
 from mjasc.core.assignment import linear_sum_assignment
-from mjasc.perception.tracking.pair_kernels import arc_midpoints, block_pairs_loop, gate_terms, position_jacobians
+from mjasc.perception.tracking.pair_kernels import (arc_midpoints, block_pairs_loop, gate_terms, position_jacobians,
+                                                   spread_courseless_into)
 from mjasc.perception.tracking.step_kernels import admissible_pairs
 
 __all__ = ["association_costs", "gnn_assign", "gnn_pairs", "BIG_COST", "block_pairs", "group_starts",
@@ -59,8 +61,10 @@ def predicted_positions(states, covariances, times_s, turn_rates, t_s):
     """ẑ (n, 2) [m] and S = J P Jᵀ (n, 2, 2) [m²] of tracks predicted to t_s (scalar or (n,) [s])
     (the prediction of :func:`association_costs`): ``dt = maximum(t_s − t, 0)``,
     ``θ_mid = θ + 0.5·dt·ω̂``, ``ẑ = p + dt·V·[cos θ_mid, sin θ_mid]`` and J the position rows of
-    the transition Jacobian. The cosine, the sine and the products J P Jᵀ are numpy's; the rest
-    is two compiled passes (:func:`mjasc.perception.tracking.pair_kernels.arc_midpoints`,
+    the transition Jacobian — a track with V = 0 (no course yet) has var(V)·dt² on both axes
+    (:func:`~mjasc.perception.tracking.pair_kernels.spread_courseless_into`). The cosine, the sine
+    and the products J P Jᵀ are numpy's; the rest is compiled passes
+    (:func:`mjasc.perception.tracking.pair_kernels.arc_midpoints`,
     :func:`~mjasc.perception.tracking.pair_kernels.position_jacobians`; tests/test_pair_kernels.py
     keeps the numpy form)."""
     x = states
@@ -69,7 +73,9 @@ def predicted_positions(states, covariances, times_s, turn_rates, t_s):
         t = np.broadcast_to(t, times_s.shape)
     dt, th_mid, dv = arc_midpoints(x, times_s, turn_rates, t)
     zhat, J = position_jacobians(x, dt, dv, np.cos(th_mid), np.sin(th_mid))
-    return zhat, J @ covariances @ np.swapaxes(J, 1, 2)
+    S = J @ covariances @ np.swapaxes(J, 1, 2)
+    spread_courseless_into(x, dt, covariances, S)
+    return zhat, S
 
 
 def pair_costs(zhat, S, z, var) -> tuple[np.ndarray, np.ndarray]:

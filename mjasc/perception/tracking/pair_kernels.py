@@ -37,6 +37,12 @@ numpy forms as references):
   :func:`~mjasc.perception.tracking.association.predicted_positions` around numpy's cosine and
   sine: per track ``dt = maximum(t − t_last, 0)``, ``θ_mid = θ + (0.5·dt)·ω̂``, ``dV = dt·V``; then
   ``ẑ = (x + dV·c, y + dV·s)`` and the Jacobian rows ``[[1, 0, (−dV)·s, dt·c], [0, 1, dV·c, dt·s]]``.
+* :func:`spread_courseless_into` — ``S = J P Jᵀ`` of a track with V = 0 has no course to map var(V)
+  along: θ's column vanishes with dV and the V column is ``dt·(cos θ, sin θ)`` at an arbitrary θ, so
+  var(V) lands on one axis only (a track of one measurement, whose start-up filter's velocity is still
+  its zero prior, reports θ = 0: its gate was ±4.3·σ_V·dt along world x but only the detection's own
+  noise along y, and a target crossing north–south lost its second detection). An unknown velocity's
+  direction is any: ``S₁₁ += (dt·dt)·P_VV`` makes the gate round, its reach along y that along x.
 """
 
 from __future__ import annotations
@@ -48,6 +54,7 @@ import numpy as np
 from mjasc.core.compiled import kernel, maximum
 
 __all__ = ["block_pairs_loop", "block_pairs_flat", "broadcast_distances", "gate_terms", "merge_candidates",
+           "spread_courseless_into",
            "arc_midpoints", "position_jacobians", "position_jacobians_into", "gate_terms_into"]
 
 
@@ -190,6 +197,15 @@ def arc_midpoints(x, t_last, w, t):
         th[a] = x[a, 2] + (0.5 * d) * w[a]
         dv[a] = d * x[a, 3]
     return dt, th, dv
+
+
+@kernel
+def spread_courseless_into(x, dt, P, S):
+    """Add ``(dt·dt)·P_VV`` to S₁₁ of the rows of S (k, 2, 2) whose state x (k, 4) has V = 0 (module
+    docstring); dt (k,) [s] and P (k, 4, 4) those rows' prediction steps and covariances."""
+    for a in range(S.shape[0]):
+        if x[a, 3] == 0.0:
+            S[a, 1, 1] += (dt[a] * dt[a]) * P[a, 3, 3]
 
 
 @kernel

@@ -31,7 +31,7 @@ import numpy as np
 from mjasc.core.compiled import kernel
 from mjasc.core.small_products import sandwich_into
 from mjasc.perception.tracking.manoeuvre import manoeuvre_noise
-from mjasc.perception.tracking.pair_kernels import gate_terms_into, position_jacobians_into
+from mjasc.perception.tracking.pair_kernels import gate_terms_into, position_jacobians_into, spread_courseless_into
 from mjasc.perception.tracking.step_fusions import DB, GI, assign_pairs, predicted_pairs
 
 __all__ = ["AssociationBuffers", "predicted_pairs_into", "position_jacobians_into", "pair_gates_into",
@@ -143,7 +143,8 @@ def gated_assignment_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, o
                           log_det, inside, cost, out_rows, vals):
     """The association in one call (module docstring): :func:`predicted_pairs_into` (rows … row_pos and
     blocks … arcs as there), then, when it wrote and found pairs, :func:`position_jacobians_into` of
-    cos θ_mid, sin θ_mid (into cs (2k,)), :func:`~mjasc.core.small_products.sandwich_into` (J P Jᵀ into S), :func:`pair_gates_into` (z (M, 2)
+    cos θ_mid, sin θ_mid (into cs (2k,)), :func:`~mjasc.core.small_products.sandwich_into` (J P Jᵀ into S, then
+    :func:`~mjasc.perception.tracking.pair_kernels.spread_courseless_into`), :func:`pair_gates_into` (z (M, 2)
     the detections; into d2, det), ln det (into log_det) and :func:`assign_pairs_into` (gate … claimed
     and inside … vals (out_rows its rows) as there). Returns (number of pairs, grouped rows k, written,
     h, m) — h = m = 0 when nothing was written or there are no pairs."""
@@ -157,6 +158,7 @@ def gated_assignment_into(rows, rpos, p, m_q, radius, var, rad, occ, x, t, mu, o
         cs[k + a] = math.sin(th)
     position_jacobians_into(xs[:k], arcs[:k], arcs[2 * k:3 * k], cs[:k], cs[k:2 * k], zhat, J)
     sandwich_into(J, P, k, S)
+    spread_courseless_into(xs[:k], arcs[:k], P[:k], S[:k])
     pr = pairs[:6 * npairs].reshape((6, npairs))
     pair_gates_into(pr, zhat[:k], S[:k], z, var_p[:npairs], d2, det)
     for c in range(npairs):
