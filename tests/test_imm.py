@@ -97,7 +97,7 @@ def test_parse_imm_options_reads_a_table_and_names_the_key():
         ({"speed_noise_m2_s3": -1}, "t.imm.speed_noise_m2_s3: must be ≥ 0, got -1.0"),
         ({"init_max_updates": 2.0}, "t.imm.init_max_updates: must be an integer, got 2.0"),
         ({"gate_probability": 1.5}, "t.imm.gate_probability: must be ≤ 1.0, got 1.5"),
-        ({"markov_matrix": [[1, 0]]}, "t.imm.markov_matrix: must be an 7×7 non-negative matrix"),
+        ({"markov_matrix": [[1, 0]]}, "t.imm.markov_matrix: must be a non-negative 7×7 matrix"),
     ]:
         with pytest.raises(ValueError) as err:
             parse_imm_options(table, "t.imm")

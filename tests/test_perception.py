@@ -215,6 +215,20 @@ def test_sensor_rate_and_events_and_summary():
     assert set(s) >= {"mean_detections_per_scan", "tracks_lost", "static_polygons", "mean_tracking_us"}
 
 
+def test_a_sensor_rate_that_does_not_divide_the_slots_keeps_its_mean():
+    """Slots at 5 Hz, sensor at 2 Hz: scans are due every 0.5 s and taken at the first slot at or after
+    each due time (0, 0.6, 1.0, 1.6, 2.0, …): 2 scans a second on average. (Each scan used to be due 1/rate
+    after the slot that took it: 0, 0.6, 1.2, 1.8 — 1.67 Hz.)"""
+    bench = Bench(0, sensor=SensorConfig(rate_hz=2.0, clutter_per_scan=0.0))
+    taken = []
+    for k in range(101):
+        before = bench.p.summary()["scans"]
+        bench.step(k * 0.2, np.zeros((0, 2)))
+        if bench.p.summary()["scans"] > before:
+            taken.append(round(k * 0.2, 6))
+    assert taken[:6] == [0.0, 0.6, 1.0, 1.6, 2.0, 2.6] and len(taken) == 41
+
+
 def test_covariance_ellipse_is_rotated_correctly():
     rot = np.array([[math.cos(0.5), -math.sin(0.5)], [math.sin(0.5), math.cos(0.5)]])
     P = rot @ np.diag([4.0, 0.25]) @ rot.T

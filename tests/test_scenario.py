@@ -64,6 +64,12 @@ BAD = {
     "current.velocity_m_s": lambda d: d["current"].update(velocity_m_s=[0.1]),
     "current.type": lambda d: d["current"].update(type="tsunami"),
     "duration_s: must be finite": lambda d: d.update(duration_s=float("inf")),
+    # a sensor faster than the sensing slots was capped to them without a word
+    "vessels[0].sensor.rate_hz: must be ≤ rates.sensing_hz = 5 Hz (a sensor scans at the sensing slots), got 10":
+        lambda d: (d["rates"].update(sensing_hz=5.0), d["vessels"][0].setdefault("sensor", {}).update(rate_hz=10.0)),
+    # rays above or below the contact band pass every hull (a sensor that saw no vessel)
+    "vessels[0].sensor.ray_height_m: must be in [0, 0.15] m":
+        lambda d: d["vessels"][0].setdefault("sensor", {}).update(ray_height_m=1.0),
 }
 
 

@@ -184,7 +184,12 @@ class Perception:
         fleet = self.fleet
         if t_s >= self._next_scan_t - 1e-9:
             w0 = time.perf_counter()
-            self._next_scan_t = t_s + 1.0 / self.sensor_config.rate_hz
+            # the next scan is due one period after this one was (not after the slot that took it): a rate
+            # that does not divide the slots' keeps its mean (2 Hz on 5 Hz slots: 0, 0.6, 1.0, 1.6, …), and
+            # one a slot late never falls further behind than the slot it is taken at
+            period = 1.0 / self.sensor_config.rate_hz
+            due = self._next_scan_t
+            self._next_scan_t = t_s + period if due == -math.inf else max(due + period, t_s)
             fleet.queue_scan(self, self._data, self.rng)  # (its previous scan, if still queued, processed first)
             self._stats["sense_s"] += time.perf_counter() - w0
             self._pending = True

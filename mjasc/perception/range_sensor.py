@@ -38,6 +38,7 @@ import mujoco
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, check_params, dataclass_from_table, param, show
+from mjasc.physics.vessel_contract import CONTACT_BAND_M
 from mjasc.perception.beam_culling import candidate_geoms, fan_candidates, scatter_hits
 from mjasc.perception.scan_kernels import clean_hits, fan_directions
 
@@ -74,8 +75,9 @@ class SensorConfig:
                                     doc="mean number of false returns per scan (Poisson; ≤ beams: one per beam is "
                                         "a scan of clutter, and each is drawn on its own)")
     ray_height_m: float = param(
-        0.1, minimum=-0.5, maximum=2.0, unit="m",
-        phrase="must be in [-0.5, 2] m (rays must cross the hulls' contact band)",
+        0.1, minimum=CONTACT_BAND_M[0], maximum=CONTACT_BAND_M[1], unit="m",
+        phrase=f"must be in [{CONTACT_BAND_M[0]:g}, {CONTACT_BAND_M[1]:g}] m, the contact band every hull and "
+               f"obstacle spans (above or below it the rays pass every hull)",
         doc="world height z of the horizontal rays (inside the 0–0.15 m contact band)")
 
     def __post_init__(self):

@@ -310,6 +310,11 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
     path_optional = mission is not None and not {"go_to_formation", "follow_path"} & set(mission.phases)
     base_dir = None if source.startswith("<") else FilePath(source).parent
     vessels = tuple(_vessel(v, i, path_optional, base_dir) for i, v in enumerate(vessels_raw))
+    for i, v in enumerate(vessels):  # (a sensor scans at the sensing slots: a faster rate would be silently capped)
+        sensor = v.options.get("sensor")
+        if sensor is not None and sensor.rate_hz > rates.sensing_hz * (1.0 + 1e-12):
+            raise ScenarioError(f"vessels[{i}].sensor.rate_hz: must be ≤ rates.sensing_hz = {rates.sensing_hz:g} Hz "
+                                f"(a sensor scans at the sensing slots), got {sensor.rate_hz:g}")
     names = [v.name for v in vessels]
     for i, n in enumerate(names):
         if names.index(n) != i:

@@ -35,7 +35,8 @@ class IMMConfig:
     initial_mode_probabilities: tuple[float, ...] | None = param(
         None, doc="μ_j at hand-over to the IMM (None: 1/r each, Table 6.1); r non-negative values summing to 1")
     min_mode_probability: float = param(
-        2e-3, nonneg=True, doc="floor of every μ_j after an update (Table 6.1: 2·10⁻³); 0 disables it; < 1/r")
+        2e-3, nonneg=True, doc="floor of the μ_j after an update (Table 6.1: 2·10⁻³): each is raised to it, then "
+                               "all are renormalised (a raised one ends slightly below it); 0 disables it; < 1/r")
     measurement_variance_m2: float = param(
         0.1, positive=True, unit="m²",
         doc="σ² of the position measurement per axis, R = σ²·I₂ (§6.1: 0.1 m²)")
@@ -140,7 +141,7 @@ def check_imm(c: IMMConfig, where: str) -> None:
     else:
         p = _float_array(c.markov_matrix)
         if p is None or p.shape != (r, r) or not np.all(p >= 0) or not np.allclose(p.sum(axis=1), 1.0):
-            bad("markov_matrix", f"must be an {r}×{r} non-negative matrix whose rows sum to 1", c.markov_matrix)
+            bad("markov_matrix", f"must be a non-negative {r}×{r} matrix whose rows sum to 1", c.markov_matrix)
         lam = np.linalg.eigvals(p)
         if np.any(np.abs(lam.imag) > 1e-12) or np.any(lam.real <= 0):
             bad("markov_matrix", "must have real, positive eigenvalues (fractional powers for a variable "

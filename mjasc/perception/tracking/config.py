@@ -43,7 +43,9 @@ class TrackingConfig:
     range_margin_m: float = param(
         5.0, nonneg=True, unit="m", doc="a track predicted beyond the sensor's range + this margin is dropped")
     merge_fraction: float = param(
-        0.5, nonneg=True, doc="two tracks closer than this × the larger radius are merged")
+        0.5, nonneg=True, maximum=2.0,
+        doc="two tracks closer than this × the larger radius are merged (at most 2: beyond, tracks of separate "
+            "boats a few hull lengths apart would merge)")
     static_speed_m_s: float = param(
         0.2, nonneg=True, unit="m/s", doc="static-object test: speed below this (moving again above twice it)")
     static_min_age_s: float = param(10.0, nonneg=True, unit="s", doc="static-object test: age above this")
