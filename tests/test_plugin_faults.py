@@ -206,6 +206,31 @@ def test_a_summary_that_is_not_a_dict_is_written_as_an_error_and_the_built_in_fo
     assert vessel["control"] == {"method": "path_following"}
 
 
+@pytest.mark.parametrize("summary, written", [
+    # no "method": it is added first (docs/plugins.md: summary.json's avoidance.method names the method that ran)
+    ({"brakes": 3}, {"method": "test_summed", "brakes": 3}),
+    ({"method": "mine", "brakes": 3}, {"method": "mine", "brakes": 3}),
+    # what summary.json cannot hold as it is: NaN / inf (strict JSON readers refuse them), an object's text (its
+    # memory address differs between two runs of one seed) — a review found both written
+    ({"cpa": {"min_m": math.inf}}, {"method": "test_summed", "summary_error": "summary() holds inf at ['cpa']['min_m']"}),
+    ({"e": [1.0, math.nan]}, {"method": "test_summed", "summary_error": "summary() holds nan at ['e'][1]"}),
+    ({"o": object()}, {"method": "test_summed", "summary_error": "summary() holds a object at ['o'] (only numbers, "
+                                                                "strings, bools, None, lists and dicts go into "
+                                                                "summary.json)"}),
+    ({1: 2}, {"method": "test_summed", "summary_error": "summary() has the key 1 (not a string) at the top"}),
+])
+def test_a_summary_is_written_as_plain_json_with_its_method(registered, summary, written):
+    class Summed(_Keeps):
+        method = "test_summed"
+
+        def summary(self):
+            return summary
+
+    registered("avoidance", Summed)
+    vessel = run_scenario(parse_scenario(_doc("avoidance", {"method": "test_summed"}))).summary["vessels"]["a"]
+    assert vessel["avoidance"] == written
+
+
 class _NotADataclass:
     limit_m = 1.0
 
@@ -315,3 +340,21 @@ def test_events_as_lists_are_taken_as_pairs(registered):
     registered("avoidance", ListEvents)
     s = run_scenario(parse_scenario(_doc("avoidance", {"method": "test_list_events"}))).summary
     assert s["status"] == "completed"
+
+
+def test_a_plugin_cannot_write_into_its_navigation(registered):
+    """A stage's navigation is rows of the true states the record slot reads after the stages: a plugin
+    that moved its own position (``nav.position_m += …``, meant on a copy) shifted the recorded truth —
+    5 m of mission offset and a contact the summary did not count (a review). The arrays are read-only:
+    the write fails the run, naming the method and the vessel."""
+
+    class Moves(_Keeps):
+        method = "test_moves"
+
+        def control(self, t, nav, guidance, report, team=None):
+            p = nav.position_m
+            p += (0.0, 5.0)
+            return AvoidanceRequest()
+
+    registered("avoidance", Moves)
+    _run_fails(_doc("avoidance", {"method": "test_moves"}), r"read-only \(avoidance method 'test_moves' of vessel 'a'")

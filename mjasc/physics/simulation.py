@@ -176,8 +176,10 @@ class Simulation:
             raise ValueError(f"commands: must be finite, got {c.tolist()}")
 
     def states(self) -> VesselStates:
-        """Every vessel's true state now (new arrays), in one compiled pass when the vessels' dofs
-        are MjData's first (:mod:`mjasc.physics.state_kernels`)."""
+        """Every vessel's true state now (new arrays, read-only: the onboard stages are handed rows of
+        them — their navigation — and the record slot reads them after the stages, so a stage that
+        wrote into its position would change the recorded truth), in one compiled pass when the
+        vessels' dofs are MjData's first (:mod:`mjasc.physics.state_kernels`)."""
         if not self._bound:
             return self._states_numpy()
         n = self.n_vessels
@@ -186,6 +188,8 @@ class Simulation:
         uniform = self._current_uniform_steady  # (the same everywhere, always: the kernel copies it into the fifth row)
         vessel_states(qpos, qvel, act, propellers, self._uniform_current if uniform else _NO_CURRENT, pairs, body,
                       heading)
+        for a in (pairs, body, heading):  # (read-only: every stage reads these rows, the record slot after them)
+            a.flags.writeable = False
         pos, vel, shaft, thrust = pairs[0], pairs[1], pairs[2], pairs[3]
         t = float(self.data.time)
         if uniform:
@@ -206,7 +210,7 @@ class Simulation:
         nu = np.stack([c * qd[:, 0] + s * qd[:, 1], -s * qd[:, 0] + c * qd[:, 1], qd[:, 2]], axis=-1)
         act = np.array(self._act())
         t = self.time_s
-        return VesselStates(
+        out = VesselStates(
             time_s=t,
             position_m=q[:, :2].copy(),
             heading_rad=np.mod(psi + np.pi, 2 * np.pi) - np.pi,
@@ -216,6 +220,9 @@ class Simulation:
             shaft_speed=act,
             thrust_n=self.thrusters.thrust(act),
         )
+        for a in (out.position_m, out.heading_rad, out.velocity_m_s, out.body_velocity):
+            a.flags.writeable = False
+        return out
 
     def traffic_state(self):
         """(positions (M, 2), headings (M,), velocities (M, 2)) of the moving obstacles now (new

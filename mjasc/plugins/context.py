@@ -29,7 +29,7 @@ class StageContext:
     :class:`~mjasc.physics.vessels.VesselType` (radius_m, beam_m, length_m, top_speed_m_s,
     cruise_speed_m_s, hydrodynamic parameters — the hull's datasheet, not its state);
     mission_path: its mission :class:`~mjasc.guidance.paths.Path` (None without one);
-    team_names: every team member's name, itself included (empty without a team);
+    team_names: every team member's name, itself included (only its own without a team);
     sensor: its own range sensor's :class:`~mjasc.perception.range_sensor.SensorConfig` (None
     without a sensor); rng: the method's own random stream (seeded from the scenario seed, the
     vessel index and the stage, so the same seed gives the same run); mission_speed_m_s: its

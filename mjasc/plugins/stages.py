@@ -66,7 +66,8 @@ class StageMethod(abc.ABC):
         """Cross-field checks of the options beyond each field's declared bounds (none here)."""
 
     def drain_events(self) -> list[tuple[float, str]]:
-        """Events since the last call, ``[(t [s], text)]``, for the recording and the summary."""
+        """Events since the last call, ``[(t [s], text)]``, for the recording's event log (summary.json
+        does not list them)."""
         return []
 
     def log(self, recorder, t_s: float, vessel_name: str, **kwargs) -> None:

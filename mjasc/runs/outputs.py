@@ -83,9 +83,48 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
     return Path(path)
 
 
+def plain_json_problem(value, where: str = "") -> str | None:
+    """What keeps ``value`` (a summary's dict) from being written to JSON as it is, with where it is
+    (``"holds NaN at ['a'][0]"``), or None: NaN and ±inf (strict JSON readers refuse them) and any
+    object but a dict with string keys, a list or tuple, a string, a number, a bool, None or a
+    numpy number or array (anything else would be written as its text, which may hold a memory
+    address: not the same in two runs of one seed)."""
+    import math
+
+    import numpy as np
+
+    if value is None or isinstance(value, (str, bool, int, np.bool_, np.integer)):
+        return None
+    if isinstance(value, (float, np.floating)):
+        return None if math.isfinite(value) else f"holds {value} at {where or 'the top'}"
+    if isinstance(value, np.ndarray):
+        if value.dtype.kind in "biu":
+            return None
+        if value.dtype.kind == "f":
+            bad = np.flatnonzero(~np.isfinite(value.ravel()))
+            return None if bad.size == 0 else f"holds {value.ravel()[bad[0]]} in the array at {where or 'the top'}"
+    elif isinstance(value, dict):
+        for k, v in value.items():
+            if not isinstance(k, str):
+                return f"has the key {k!r} (not a string) at {where or 'the top'}"
+            problem = plain_json_problem(v, f"{where}[{k!r}]")
+            if problem is not None:
+                return problem
+        return None
+    elif isinstance(value, (list, tuple)):
+        for i, v in enumerate(value):
+            problem = plain_json_problem(v, f"{where}[{i}]")
+            if problem is not None:
+                return problem
+        return None
+    return f"holds a {type(value).__name__} at {where or 'the top'} (only numbers, strings, bools, None, lists " \
+           f"and dicts go into summary.json)"
+
+
 def json_value(value):
     """``json.dumps(..., default=json_value)``: numpy scalars as numbers, arrays as lists, any other
-    object as its text (what a plugin's summary may hold, docs/plugins.md)."""
+    object as its text (a plugin's summary holding one is written as its error instead:
+    :func:`plain_json_problem`, docs/plugins.md)."""
     import numpy as np
 
     if isinstance(value, np.generic):
