@@ -195,6 +195,17 @@ def test_implausible_values_are_rejected_naming_the_field(mutation, match):
     rejected(mutation, match)
 
 
+def test_a_path_ending_inside_a_static_obstacle_is_rejected():
+    """A destination where the hull overlaps an island can never be reached (a review: a formation pose inside
+    an island ran the vessel into it); a waypoint on the way through one is the avoidance's business."""
+    rejected(lambda d: d["vessels"][0]["controller"].update(waypoints=[[0.0, 12.0], [75.0, 33.0]]),
+             r"^vessels\[0\]\.controller\.waypoints: the path ends at \[\d.*\] m, where the hull overlaps static "
+             r"obstacle 'pontoon': it could never get there")
+    d = demo()  # through the pontoon and on: accepted
+    d["vessels"][0]["controller"]["waypoints"] = [[0.0, 12.0], [75.0, 33.0], [150.0, 54.0]]
+    parse_scenario(d, "demo.toml")
+
+
 def test_vessels_starting_on_top_of_each_other_are_rejected_with_the_distance():
     msg = rejected(lambda d: d["vessels"][1].update(position_m=[0.5, 12.0]),
                    r"^vessels\[1\]\.position_m: the hull overlaps vessel 'alpha' at the start")

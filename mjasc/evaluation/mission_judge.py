@@ -1,6 +1,7 @@
 """Judging a target-tracking mission against the truth (the vessels never see it).
 
-While a vessel is in its ``track_target`` phase, at every record tick from ``settle_s`` after the
+While a vessel is in its ``track_target`` phase — until the phase ends, not until the vessel (maybe
+still avoiding) hands over to its next phase — at every record tick from ``settle_s`` after the
 phase began: its true station s = p_T + R(ψ_T) o_i (the target's true position and heading, the
 vessel's offset o_i = [ahead, to port]) and the errors
 
@@ -47,7 +48,8 @@ class TargetJudge:
         pos_t, head_t = traffic[0][self.index], float(traffic[1][self.index])
         for i, agent in enumerate(agents):
             m = agent.mission
-            if m is None or m.phase_name != "track_target" or agent.name not in self.offsets:
+            if m is None or m.phase_name != "track_target" or agent.name not in self.offsets or \
+                    m.timeline[-1]["end_s"] is not None:  # (ended: the vessel is not yet back in mission mode)
                 continue
             st = station(pos_t, head_t, self.offsets[agent.name])
             p = states.position_m[i]

@@ -155,10 +155,14 @@ def parse_vessel_mission(data, where: str) -> VesselMissionOptions:
     return dataclass_from_table(VesselMissionOptions, data, where)
 
 
-def check_mission(mission: MissionConfig, vessels, moving_names) -> None:
+def check_mission(mission: MissionConfig, vessels, moving_names, hears=None, moving=()) -> None:
     """Cross-checks against the scenario's vessels: every vessel in the mission has a path-following
     controller with a path; the leader exists, has a sensor and a link; every follower of a target
-    has a link; the judged target is a moving obstacle."""
+    hears the leader on the link (``hears``: receiver → the senders it hears,
+    :meth:`~mjasc.cooperation.network_config.NetworkConfig.hears`; nothing relays the leader's
+    estimate); the judged target is a moving obstacle; the stations around it are apart, off the
+    target (``moving``: the scenario's moving obstacles); a vessel's station needs a
+    ``track_target`` phase."""
     team = [v for v in vessels if v.controller != "none"]
     if not team:
         raise ConfigError("mission: no vessel has a controller to run it")
@@ -170,6 +174,11 @@ def check_mission(mission: MissionConfig, vessels, moving_names) -> None:
     if "go_to_formation" in mission.phases:  # (every vessel to its path's start; follow_path joins where it is)
         _check_formation_poses(vessels)
     tt = mission.track_target
+    if tt is None:
+        for i, v in enumerate(vessels):
+            if "mission" in v.options:  # (its only key is its station around a target)
+                raise ConfigError(f"vessels[{i}].mission.target_offset_m: the mission has no track_target phase "
+                                  f"(phases: {', '.join(mission.phases)}): the station would be ignored")
     if tt is not None:
         names = [v.name for v in team]
         if tt.leader not in names:
@@ -182,6 +191,37 @@ def check_mission(mission: MissionConfig, vessels, moving_names) -> None:
         if tt.target and tt.target not in moving_names:
             raise ConfigError(f"mission.track_target.target: no moving obstacle named {tt.target!r} "
                               f"(moving obstacles: {', '.join(moving_names) or 'none'})")
+        if hears is not None:
+            for i, v in enumerate(vessels):
+                if v.controller != "none" and v.name != tt.leader and tt.leader not in hears.get(v.name, ()):
+                    raise ConfigError(f"vessels[{i}].comms: {v.name!r} does not hear the track_target leader "
+                                      f"{tt.leader!r} on the link (comms.topology), so it would never get the "
+                                      f"target's estimate (nothing relays it)")
+        target = next((o for o in moving if o.name == tt.target), None)
+        _check_stations(vessels, target.radius_m if target is not None else 0.0)
+
+
+def _check_stations(vessels, target_radius_m: float) -> None:
+    """The team's stations around the target (``target_offset_m``, the default where a vessel gives
+    none) are farther apart than two hulls' radii, and each off the target's disc by a hull's
+    radius: two vessels on one station (or one on the target) can never both hold it."""
+    from mjasc.physics.vessels import load_vessel_type
+
+    team = [(i, v) for i, v in enumerate(vessels) if v.controller != "none"]
+    radii = {v.type: load_vessel_type(v.type).radius_m for _, v in team}
+    offsets = [(v.options.get("mission") or VesselMissionOptions()).target_offset_m for _, v in team]
+    for a, (i, u) in enumerate(team):
+        o = np.asarray(offsets[a], dtype=float)
+        if float(np.hypot(*o)) < target_radius_m + radii[u.type]:
+            raise ConfigError(f"vessels[{i}].mission.target_offset_m: the station {o.tolist()} m is on the target "
+                              f"(closer to it than its radius and the hull's, {target_radius_m + radii[u.type]:.1f} m)")
+        for b in range(a + 1, len(team)):
+            j, v = team[b]
+            d = float(np.hypot(*(o - np.asarray(offsets[b], dtype=float))))
+            if d < radii[u.type] + radii[v.type]:
+                raise ConfigError(f"vessels[{j}].mission.target_offset_m: its station is {d:.1f} m from that of "
+                                  f"vessels[{i}] ({u.name}), closer than their hulls' radii "
+                                  f"({radii[u.type] + radii[v.type]:.1f} m): both cannot hold it")
 
 
 def _check_formation_poses(vessels) -> None:

@@ -12,6 +12,10 @@ reason and the distance), before any model is built:
   is the pentagon of :func:`mjasc.core.geometry.hull_outline` (length × beam of the vessel type,
   pointed bow) at the start pose; two shapes overlap when an edge of one crosses an edge of the
   other or one lies inside the other. The error gives the centre distance.
+* **path ends** — a path-following vessel's hull at its path's end (its destination) and, with a
+  go-to-formation phase, at its path's start (its formation pose), on the path's course there,
+  overlaps no static obstacle: it could never get there. (Waypoints between may lie in one: going
+  around is the collision avoidance's business.)
 * **current** — the water speed ``|V(p, t)|`` at every vessel's start, every waypoint and every
   obstacle centre, at t = 0 and t = duration, is at most :data:`Bounds.current_speed_m_s`
   (evaluated on a copy of the field: a seeded field's own random state is not advanced).
@@ -134,6 +138,29 @@ def _check_clearance(scenario, types: dict) -> None:
                                   f"radius {o.radius_m:g} m)")
 
 
+def _check_path_ends(scenario, types: dict) -> None:
+    """A path-following vessel's destination (its path's end) — and, with a go-to-formation phase,
+    its formation pose (the path's start) — leaves its hull clear of every static obstacle: a hull
+    there overlapping an island could never reach it (a user's formation pose inside an island ran
+    the vessel into it)."""
+    mission = getattr(scenario, "mission", None)
+    to_formation = mission is not None and "go_to_formation" in mission.phases
+    for i, v in enumerate(scenario.vessels):
+        if v.controller == "none" or v.path is None:
+            continue
+        vt = types[v.type]
+        ends = [("ends", v.path.length)] + ([("starts (its formation pose)", 0.0)] if to_formation else [])
+        for what, g in ends:
+            p = np.asarray(v.path.point(g), dtype=float)
+            hull = hull_outline(vt.length_m, vt.beam_m, p, float(v.path.tangent_angle(g)))[:-1]
+            for o in scenario.static_obstacles:
+                shape = o.vertices if isinstance(o, PolygonObstacle) else (o.centre, o.radius_m)
+                if hulls_overlap(hull, shape):
+                    raise ConfigError(f"vessels[{i}].controller.waypoints: the path {what} at "
+                                      f"{np.round(p, 1).tolist()} m, where the hull overlaps static obstacle "
+                                      f"{o.name!r}: it could never get there")
+
+
 def _check_current(scenario) -> None:
     pts = [v.position_m for v in scenario.vessels]
     for v in scenario.vessels:
@@ -200,6 +227,7 @@ def check_plausible(scenario, types: dict) -> None:
     docstring). ``types``: vessel type name → :class:`~mjasc.physics.vessels.VesselType`."""
     check_duration(scenario)
     _check_clearance(scenario, types)
+    _check_path_ends(scenario, types)
     _check_current(scenario)
     reason = traffic_through_structure(scenario.moving_obstacles, scenario.static_obstacles, scenario.duration_s)
     if reason is not None:
