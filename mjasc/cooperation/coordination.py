@@ -57,6 +57,7 @@ from mjasc.cooperation import fleet_speed_law
 from mjasc.cooperation.comms import CommsNetwork
 from mjasc.cooperation.coordination_config import CoordinationConfig, _validate, parse_coordination_options
 from mjasc.cooperation.formation_history import FormationHistory
+from mjasc.guidance.path_following import PathFollowingConfig
 from mjasc.cooperation.link import LinkEndpoint
 from mjasc.cooperation.messages import TeamIntention, TeamMessage
 from mjasc.cooperation.recording import CoordinationLog
@@ -66,6 +67,9 @@ from mjasc.core.compiled import clip_float
 from mjasc.plugins.stages import CoordinationMethod
 
 __all__ = ["CoordinationConfig", "Coordination", "TeamIntention", "parse_coordination_options"]
+
+#: The formation is sampled until the own path's end within this [m] (the follower's default finish tolerance).
+_PATH_END_M = PathFollowingConfig().finish_tolerance_m
 
 
 class Coordination(TeamKnowledge, CoordinationMethod):
@@ -293,8 +297,16 @@ class Coordination(TeamKnowledge, CoordinationMethod):
         self._poll(t_s, nav, decide=not decided)
         _, lead, spread, n = self.coordination_error(t_s, gamma_m)
         self.last_xi, self.last_spread_m = self.xi(gamma_m), spread
-        if n:
-            self._history.add(t_s, lead, spread)
+        self.note_formation(t_s, gamma_m, lead, spread, n)
+
+    def note_formation(self, t_s: float, gamma_m: float, lead_m: float, spread_m: float, n: int) -> None:
+        """A sample of the formation's state for the summary, when a neighbour was heard and the
+        vessel's own path has not ended (within the path follower's default finish tolerance of its
+        end): at its end a vessel stops, its ξ_i stays at 1 − o_i/L_i, and the spread it saw then grew
+        or shrank with the others' progress — an echelon in formation from 29 s reported none
+        (``in_formation_from_s`` None, ``final_spread_m`` 15 m) over a run that outlasted its paths."""
+        if n and (self.path_length_m is None or gamma_m < self.path_length_m - _PATH_END_M):
+            self._history.add(t_s, lead_m, spread_m)
 
     @staticmethod
     def decide_link(coordinations, t_s: float, positions_m, limits=None) -> None:

@@ -102,8 +102,7 @@ def take_in_fleet(coordinations, t_s: float, positions_m, gammas_m, limits) -> N
         length = c.path_length_m  # (c.xi(g) written out)
         c.last_xi = np.nan if length is None else (float(g) - c.config.formation_offset_m) / length
         c.last_spread_m = spread
-        if n:
-            c._history.add(t_s, lead, spread)
+        c.note_formation(t_s, g, lead, spread, n)
 
 
 def _factors(coordinations, laws) -> list[float]:
