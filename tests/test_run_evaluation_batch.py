@@ -25,6 +25,7 @@ class _PerTick:
                        for i, a in enumerate(runner.agents) if a.perception is not None}
         self.tp, self.th, self.tv = [], [], []
         self.moving_same = True
+        self.aged = False  # (some estimate moved on by more than 1 cm: the prediction to the tick matters)
         self.fleet_rows = []  # per tick: FleetTracker.confirmed_rows (vessels, ids, positions, static flags)
 
     def __call__(self, event):
@@ -34,18 +35,37 @@ class _PerTick:
         self.th.append(np.array(th, dtype=float).reshape(-1))
         self.tv.append(np.array(tv, dtype=float).reshape(-1, 2))
         xy = np.vstack([s.position_m, self.tp[-1]])
-        self.fleet_rows.append(runner.agents[0].perception.tracker.fleet.confirmed_rows())
+        fleet = runner.agents[0].perception.tracker.fleet
+        owner, fids, _, fstatic = fleet.confirmed_rows()
+        rows = fleet.cols.confirmed.nonzero()[0]
+        x = fleet.bank.state_rows[rows]
+        self.fleet_rows.append((owner, fids, _ahead(x[:, :2], fleet.bank.time_rows[rows], x[:, 2], x[:, 3], s.time_s),
+                                fstatic))
         for i, score in self.scores.items():
             perception = runner.agents[i].perception
             tracks = perception.tracks()
-            ids, pos = [tr.track_id for tr in tracks], np.array([tr.position_m for tr in tracks]).reshape(-1, 2)
+            ids = [tr.track_id for tr in tracks]
+            # each estimate predicted to the tick along its velocity (its estimate is up to a tracking period old)
+            ahead = _ahead(np.array([tr.position_m for tr in tracks]).reshape(-1, 2), [tr.time_s for tr in tracks],
+                           [tr.heading_rad for tr in tracks], [tr.speed_m_s for tr in tracks], s.time_s)
             static = [tr.is_static for tr in tracks]
-            got_ids, got_pos, got_static = perception.scored_tracks()
-            self.moving_same &= got_ids.tolist() == ids and np.array_equal(got_pos, pos) and \
+            got_ids, pos, got_static = perception.scored_tracks(s.time_s)
+            self.moving_same &= got_ids.tolist() == ids and np.allclose(pos, ahead, rtol=0.0, atol=1e-9) and \
                 got_static.tolist() == static
+            self.aged |= bool(np.any(np.abs(pos - np.array([tr.position_m for tr in tracks]).reshape(-1, 2)) > 0.01))
             others = [k for k in range(len(self.ids)) if k != i]
             score.add(s.time_s, s.position_m[i], [self.ids[k] for k in others], xy[others], ids, pos,
                       self.radii[others], static)
+
+
+def _ahead(positions, times, headings, speeds, t_s):
+    """Positions (k, 2) moved on from their times to t_s along heading and speed (the reference form)."""
+    dv = np.maximum(t_s - np.asarray(times, dtype=float), 0.0) * np.asarray(speeds, dtype=float)
+    th = np.asarray(headings, dtype=float)
+    out = np.array(positions, dtype=float).reshape(-1, 2)
+    out[:, 0] = out[:, 0] + dv * np.cos(th)
+    out[:, 1] = out[:, 1] + dv * np.sin(th)
+    return out
 
 
 def _assignment(rows, a, b, truths, fast=True):
@@ -84,7 +104,7 @@ def test_deferred_scoring_matches_scoring_every_tick_on_a_demo_run():
     runner.observe("record", ref)
     runner.run()
     out = ev.summary()
-    assert ref.moving_same
+    assert ref.moving_same and ref.aged
     assert set(ev._scores) == set(ref.scores) and len(ref.scores) >= 3
     for i, score in ref.scores.items():
         assert _state(ev._scores[i]) == _state(score)
@@ -92,7 +112,7 @@ def test_deferred_scoring_matches_scoring_every_tick_on_a_demo_run():
     # the run exercises what matters: several truths and tracks at once, identity switches
     assert sum(s.id_switches for s in ref.scores.values()) > 0
     assert ev.summary() == out  # scoring again adds nothing
-    # the evaluator's samples of the confirmed tracks: the fleet's confirmed_rows at each tick
+    # the evaluator's samples of the confirmed tracks: the fleet's confirmed_rows at each tick, predicted to it
     tick, owner, ids, xy, static = ev._moving.rows(0, len(ref.fleet_rows))
     assert np.array_equal(tick, np.repeat(np.arange(len(ref.fleet_rows)), [m[0].size for m in ref.fleet_rows]))
     for got, k in zip((owner, ids, xy, static), range(4)):

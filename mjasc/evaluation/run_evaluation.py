@@ -125,10 +125,10 @@ class RunEvaluator:
         self._k = k + 1
         self.progress(event)  # (the record times: the traffic is evaluated at them at the end, _traffic)
         if self._owner_of:
-            self._moving.add(self._perceptions[0][1].tracker.fleet)  # (tracker: after the flush)
+            self._moving.add(self._perceptions[0][1].tracker.fleet, s.time_s)  # (tracker: after the flush)
             return
         for i, perception in self._perceptions:
-            self._tracks[i].append(perception.scored_tracks())
+            self._tracks[i].append(perception.scored_tracks(s.time_s))
 
     def _traffic(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The traffic's positions (k, M, 2), headings (k, M), velocities (k, M, 2) at the record

@@ -3,7 +3,8 @@
 
 A fleet tracker's (:class:`~mjasc.perception.tracking.fleet.FleetTracker`) confirmed tracks at one
 tick are its confirmed rows, in bank order: their vessel, their id in that vessel's numbering,
-their position (x, y) [m] and their static flag — what ``FleetTracker.confirmed_rows`` gives (the
+their position (x, y) [m] predicted to the tick (:func:`predicted_to`) and their static flag — what
+``FleetTracker.confirmed_rows`` gives, moved on to the tick (the
 evaluation scores a static track as one that may stand for a stopped object, never as a false one:
 :mod:`mjasc.evaluation.tracking_metrics`). :meth:`TrackSamples.add`
 copies them from the tracker's columns and the bank's states (``bank.state_rows``, read at once)
@@ -14,18 +15,23 @@ flat, as :meth:`~mjasc.evaluation.tracking_metrics.TrackingScore.add_rows` takes
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["TrackSamples"]
+__all__ = ["TrackSamples", "predicted_to"]
 
 
 @kernel
-def append_confirmed(confirmed, static, owner, local_id, x_rows, out_owner, out_id, out_xy, out_static, n):
+def append_confirmed(confirmed, static, owner, local_id, x_rows, t_rows, t_s, out_owner, out_id, out_xy, out_static,
+                     n):
     """Append the rows r with ``confirmed[r]``, in order, at index n of the outputs: owner, id,
-    (x, y) = ``x_rows[r, :2]``, static flag. Returns the new count, or −1 when the outputs have no
-    room left (then rows from n on may have been written)."""
+    position predicted to t_s along the row's velocity (x, y) + dt·V·(cos θ, sin θ) with
+    ``[x, y, θ, V] = x_rows[r]`` and dt = max(t_s − t_rows[r], 0) (:func:`predicted_to`), static
+    flag. Returns the new count, or −1 when the outputs have no room left (then rows from n on may
+    have been written)."""
     cap = out_owner.shape[0]
     for r in range(confirmed.shape[0]):
         if confirmed[r]:
@@ -33,11 +39,26 @@ def append_confirmed(confirmed, static, owner, local_id, x_rows, out_owner, out_
                 return -1
             out_owner[n] = owner[r]
             out_id[n] = local_id[r]
-            out_xy[n, 0] = x_rows[r, 0]
-            out_xy[n, 1] = x_rows[r, 1]
+            dv = max(t_s - t_rows[r], 0.0) * x_rows[r, 3]
+            out_xy[n, 0] = x_rows[r, 0] + dv * math.cos(x_rows[r, 2])
+            out_xy[n, 1] = x_rows[r, 1] + dv * math.sin(x_rows[r, 2])
             out_static[n] = static[r]
             n += 1
     return n
+
+
+def predicted_to(positions_m, times_s, headings_rad, speeds_m_s, t_s: float) -> np.ndarray:
+    """Track positions (k, 2) [m] estimated at ``times_s`` (k,) predicted to the tick ``t_s`` along
+    their velocity (heading [rad], speed [m/s]): what the evaluation compares with the truth at
+    t_s. A track is last estimated at its tracker's latest update (5 Hz) and the record ticks come
+    at 10 Hz: scored as estimated, the age of the estimate (up to a tracking period of the target's
+    motion) counted as error — the §6.1 tracking scene's position RMSE 0.140 m instead of 0.073 m."""
+    dv = np.maximum(t_s - np.asarray(times_s, dtype=float), 0.0) * np.asarray(speeds_m_s, dtype=float)
+    th = np.asarray(headings_rad, dtype=float)
+    out = np.array(positions_m, dtype=float).reshape(-1, 2)
+    out[:, 0] += dv * np.cos(th)
+    out[:, 1] += dv * np.sin(th)
+    return out
 
 
 class TrackSamples:
@@ -55,10 +76,12 @@ class TrackSamples:
         """The number of ticks."""
         return len(self._ends)
 
-    def add(self, fleet) -> None:
-        """One tick: the confirmed tracks of ``fleet`` (a FleetTracker, after its pending steps) now."""
+    def add(self, fleet, t_s: float) -> None:
+        """One tick at ``t_s`` [s]: the confirmed tracks of ``fleet`` (a FleetTracker, after its pending
+        steps), their positions predicted to t_s (:func:`predicted_to`)."""
         c = fleet.cols
-        n = append_confirmed(c.confirmed, c.static, c.owner, c.local_id, fleet.bank.state_rows, self._owner, self._id,
+        x_rows, t_rows = fleet.bank.state_rows, fleet.bank.time_rows
+        n = append_confirmed(c.confirmed, c.static, c.owner, c.local_id, x_rows, t_rows, t_s, self._owner, self._id,
                              self._xy, self._static, self._n)
         while n < 0:  # (no room: twice the room, and the tick again)
             grow = self._owner.shape[0] + max(self._owner.shape[0], c.confirmed.shape[0])
@@ -66,7 +89,7 @@ class TrackSamples:
             self._id = np.concatenate([self._id[:self._n], np.empty(grow - self._n, dtype=np.int64)])
             self._xy = np.concatenate([self._xy[:self._n], np.empty((grow - self._n, 2))])
             self._static = np.concatenate([self._static[:self._n], np.empty(grow - self._n, dtype=bool)])
-            n = append_confirmed(c.confirmed, c.static, c.owner, c.local_id, fleet.bank.state_rows, self._owner,
+            n = append_confirmed(c.confirmed, c.static, c.owner, c.local_id, x_rows, t_rows, t_s, self._owner,
                                  self._id, self._xy, self._static, self._n)
         self._n = n
         self._ends.append(n)

@@ -281,16 +281,20 @@ class Perception:
             return list(self._method_tracks)
         return self.tracker.estimates()
 
-    def scored_tracks(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Ids (k,), positions (k, 2) [m] and static flags (k,) of the confirmed tracks, in the
-        order of :meth:`tracks`: the same numbers as those estimates' ``track_id``, ``position_m``
-        and ``is_static`` (what a run's evaluation compares with the truth, at every record tick)."""
+    def scored_tracks(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Ids (k,), positions (k, 2) [m] predicted to ``t_s`` along each track's velocity
+        (:func:`~mjasc.evaluation.track_samples.predicted_to`) and static flags (k,) of the confirmed
+        tracks, in the order of :meth:`tracks` (those estimates' ``track_id``, ``position_m`` moved on
+        to t_s, ``is_static``): what a run's evaluation compares with the truth at a record tick."""
+        from mjasc.evaluation.track_samples import predicted_to
+
         if self.method is not None:
             tracks = self.tracks()
             return (np.array([e.track_id for e in tracks], dtype=np.int64),
-                    np.array([e.position_m for e in tracks], dtype=float).reshape(-1, 2),
+                    predicted_to([e.position_m for e in tracks], [e.time_s for e in tracks],
+                                 [e.heading_rad for e in tracks], [e.speed_m_s for e in tracks], t_s),
                     np.array([e.is_static for e in tracks], dtype=bool))
-        return self.tracker.scored_positions()
+        return self.tracker.scored_positions(t_s)
 
     def tracked_discs(self, t_s: float) -> tuple[np.ndarray, np.ndarray]:
         """A plugin tracker's discs whose returns never reach the map: its confirmed moving tracks

@@ -88,6 +88,12 @@ class BankViews:
         return wrapped_states(self._x)  # (= x.copy() with x[:, 2] = wrap(x[:, 2]): one compiled pass)
 
     @property
+    def time_rows(self) -> np.ndarray:
+        """(n,) each track's last cycle time [s], the bank's own array (as :attr:`state_rows`: read
+        it at once, never write it)."""
+        return self._t
+
+    @property
     def state_rows(self) -> np.ndarray:
         """(n, 4) the combined estimates [x, y, θ, V] as the bank keeps them, θ unwrapped (wrap it
         to read a course; :attr:`states` does): the bank's own array, not a copy — read it at once

@@ -82,8 +82,9 @@ class FleetViews:
 
     def confirmed_rows(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Every vessel's confirmed tracks, in bank order: their vessels (k,), ids (k,), positions
-        (k, 2) [m] and static flags (k,) — a vessel's rows among them are, in the same order, what
-        its tracker's ``scored_positions`` gives (a run's evaluation samples them all at once)."""
+        (k, 2) [m] as last estimated and static flags (k,) — a vessel's rows among them are, in the
+        same order, what its tracker's ``scored_positions`` gives before it predicts them to a tick
+        (a run's evaluation samples them all at once: mjasc.evaluation.track_samples)."""
         c = self.cols
         rows = c.confirmed.nonzero()[0]
         return c.owner[rows], c.local_id[rows], self.bank.positions_of(rows), c.static[rows]

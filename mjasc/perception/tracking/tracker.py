@@ -169,15 +169,20 @@ class MultiTargetTracker:
         (:meth:`~mjasc.perception.tracking.fleet_views.FleetViews.confirmed_points_of`)."""
         return self.fleet.confirmed_points_of(self.owner, epoch)
 
-    def scored_positions(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def scored_positions(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The confirmed tracks as :meth:`estimates` hands them on (bank order): their ids (k,),
-        positions (k, 2) [m] and static flags (k,) — the ``track_id``, ``position_m`` and
-        ``is_static`` of those estimates, without making them (what a run's evaluation compares
-        with the truth)."""
+        positions (k, 2) [m] predicted to ``t_s`` along their velocity
+        (:func:`~mjasc.evaluation.track_samples.predicted_to`) and static flags (k,) — the
+        ``track_id``, ``position_m`` moved on to t_s and ``is_static`` of those estimates, without
+        making them (what a run's evaluation compares with the truth)."""
+        from mjasc.evaluation.track_samples import predicted_to
+
         f = self.fleet
         rows = self._rows()
         rows = rows[f.cols.confirmed[rows]]
-        return f.cols.local_id[rows], f.bank.positions_of(rows), f.cols.static[rows]
+        x = f.bank.state_rows[rows]
+        return f.cols.local_id[rows], predicted_to(x[:, :2], f.bank.time_rows[rows], x[:, 2], x[:, 3], t_s), \
+            f.cols.static[rows]
 
     @property
     def radii_m(self) -> np.ndarray:
