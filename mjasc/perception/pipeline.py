@@ -235,7 +235,7 @@ class Perception:
         target detections to ``update``, then its tracks, marked with team mates."""
         det = self._det
         self.method.update(det.time_s, self._nav, targets_only(det, self._targets))
-        tracks = tracks_answer(self.method, self.name)
+        tracks = tracks_answer(self.method, self.name, det.time_s)
         if self._has_team and tracks:
             tracks = mark_team(self._team, tracks, det.time_s)
         ids = {e.track_id for e in tracks}

@@ -6,13 +6,16 @@ answers (:func:`~mjasc.plugins.registry.builtin_method`) are not checked: they a
 
 * :func:`avoidance_answers` — ``control_many``'s and ``predict_many``'s answers: one
   :class:`~mjasc.avoidance.request.AvoidanceRequest` per call (the request's own constructor
-  checks its mode and overrides);
+  checks its mode and overrides; here: a speed override within :data:`SPEED_LIMIT_FACTOR` × the
+  hull's top speed, a path switch's γ on its path and its reason "detour" or "mission");
 * :func:`tracks_answer` — a tracker's ``tracks()``: TrackEstimate values, every number finite, the
-  speed and the radius ≥ 0, the position a (2,) world x, y and the covariance (2, 2);
+  speed and the radius ≥ 0, the time in [0, the scan's], the position a (2,) world x, y, the
+  covariance a symmetric positive semi-definite (2, 2), each id once;
 * :func:`steer_answer` — a control method's ``steer()``: ``(commands (2,) in [−1, 1],
   PathFollowingStatus)`` with a finite γ;
 * :func:`factor_answer` and :func:`team_picture_answer` — a coordination method's
-  ``speed_correction()`` (a finite factor ≥ 0) and ``team_picture()`` (a TeamPicture or None);
+  ``speed_correction()`` (a finite factor ≥ 0, the speed it asks within :data:`SPEED_LIMIT_FACTOR`
+  × the hull's top speed) and ``team_picture()`` (a TeamPicture or None);
 * :func:`events_answer` — any method's ``drain_events()``: a list of ``(t [s], text)``;
 * :func:`plugin_at_fault` — which plugin method (and vessel) an exception that ends a run came
   from, for the run's one-line error.
@@ -70,10 +73,34 @@ def avoidance_answer(call: tuple, slot: str) -> object:
     return answer if builtin_method(type(method)) else _request(method, answer, slot)
 
 
+#: A plugin's speed (an avoidance speed override, the speed a coordination factor asks) above this
+#: many times its hull's top speed is refused: no hull sails it, and it is likely a unit mistake
+#: (knots, km/h) — the hull would saturate without a word (a review: 1e6 m/s sailed at top speed).
+SPEED_LIMIT_FACTOR = 1.5
+
+
+def _top_speed(method) -> float:
+    return float(getattr(getattr(getattr(method, "context", None), "vessel", None), "top_speed_m_s", math.inf))
+
+
 def _request(method, answer, slot: str):
     if not isinstance(answer, AvoidanceRequest):
         raise TypeError(f"{where(method)}: {slot}() returned {type(answer).__name__}, expected an "
                         f"AvoidanceRequest (AvoidanceRequest() keeps the mission)")
+    top = _top_speed(method)
+    if answer.speed_override_m_s is not None and answer.speed_override_m_s > SPEED_LIMIT_FACTOR * top:
+        raise ValueError(f"{where(method)}: {slot}()'s speed_override_m_s {answer.speed_override_m_s:g} m/s is more "
+                         f"than {SPEED_LIMIT_FACTOR:g} × the hull's top speed ({top:g} m/s): a speed in m/s is "
+                         f"expected (not knots or km/h)")
+    switch = answer.path_switch
+    if switch is not None:
+        g, length = switch.gamma_m, float(getattr(switch.path, "length", math.inf))
+        if not (isinstance(g, (int, float, np.integer, np.floating)) and math.isfinite(g) and 0.0 <= g <= length):
+            raise ValueError(f"{where(method)}: {slot}()'s path_switch.gamma_m must be a finite γ in [0, the path's "
+                             f"length {length:g}] m, got {g!r}")
+        if switch.reason not in ("detour", "mission"):
+            raise ValueError(f"{where(method)}: {slot}()'s path_switch.reason must be \"detour\" or \"mission\", "
+                             f"got {switch.reason!r}")
     return answer
 
 
@@ -82,8 +109,12 @@ _FINITE = ("time_s", "heading_rad", "speed_m_s", "turn_rate_rad_s", "radius_m")
 _NON_NEGATIVE = ("speed_m_s", "radius_m")
 
 
-def tracks_answer(method, vessel_name: str) -> tuple:
-    """``method.tracks()`` of a tracker as a tuple, checked when it is a plugin's."""
+def tracks_answer(method, vessel_name: str, t_s: float = math.inf) -> tuple:
+    """``method.tracks()`` of a tracker as a tuple, checked when it is a plugin's: TrackEstimates with
+    finite numbers, ``time_s`` in [0, t_s] (the scan's time [s]: an estimate is of the past, and a
+    stamp of −1e9 s made the avoidance predict every track a billion seconds ahead — no decision at
+    all), distinct ids, and a position covariance that is a covariance (symmetric, positive
+    semi-definite: an asymmetric one changed the velocity obstacles' answers)."""
     got = method.tracks()
     if builtin_method(type(method)):  # (filterpy_imm: its answers are its own)
         return tuple(got)
@@ -105,10 +136,22 @@ def tracks_answer(method, vessel_name: str) -> tuple:
                     and math.isfinite(v) and (v >= 0.0 or name not in _NON_NEGATIVE)):
                 bound = "a finite number ≥ 0" if name in _NON_NEGATIVE else "a finite number"
                 raise ValueError(f"{at}: tracks()[{k}].{name} (track {e.track_id}) must be {bound}, got {v!r}")
+        if not 0.0 <= e.time_s <= t_s + 1e-9:
+            raise ValueError(f"{at}: tracks()[{k}].time_s (track {e.track_id}) must be in [0, {t_s:g}] s (the run's "
+                             f"start to the scan's time: when the estimate was made), got {e.time_s!r}")
         c = np.asarray(e.position_covariance)
         if c.shape != (2, 2) or not np.all(np.isfinite(c)):
             raise ValueError(f"{at}: tracks()[{k}].position_covariance (track {e.track_id}) must be a finite (2, 2) "
                              f"[m²], got {np.array2string(c, threshold=6)}")
+        scale = max(abs(float(c[0, 0])), abs(float(c[1, 1])), 1e-300)
+        if abs(float(c[0, 1]) - float(c[1, 0])) > 1e-9 * scale or c[0, 0] < 0.0 or c[1, 1] < 0.0 or \
+                float(c[0, 0] * c[1, 1] - c[0, 1] * c[1, 0]) < -1e-9 * scale * scale:
+            raise ValueError(f"{at}: tracks()[{k}].position_covariance (track {e.track_id}) must be symmetric and "
+                             f"positive semi-definite [m²], got {c.tolist()}")
+    ids = [e.track_id for e in tracks]
+    if len(set(ids)) != len(ids):
+        dup = next(i for i in ids if ids.count(i) > 1)
+        raise ValueError(f"{at}: tracks() holds track id {dup!r} twice (each track once, by its id)")
     return tracks
 
 
@@ -143,6 +186,11 @@ def factor_answer(method, factor) -> float:
             and math.isfinite(factor) and factor >= 0.0):
         raise ValueError(f"{where(method)}: speed_correction() returned {factor!r}, expected a finite factor ≥ 0 on "
                          f"the mission speed (1: none)")
+    top = _top_speed(method)
+    cruise = float(getattr(getattr(method, "context", None), "mission_speed_m_s", 0.0) or 0.0)
+    if factor * cruise > SPEED_LIMIT_FACTOR * top:
+        raise ValueError(f"{where(method)}: speed_correction() returned {factor!r}: {factor:g} × the mission speed "
+                         f"{cruise:g} m/s is more than {SPEED_LIMIT_FACTOR:g} × the hull's top speed ({top:g} m/s)")
     return float(factor)
 
 
