@@ -34,7 +34,8 @@ class FormationHistory:
             return {}
         t, lead, spread = np.array(self.samples).T
         a = np.abs(lead)
-        out = dict(initial_error_m=round(float(lead[0]), 3), final_error_m=round(float(lead[-1]), 3),
+        # (+ 0.0: a lead rounded to −0.0 is written as 0.0)
+        out = dict(initial_error_m=round(float(lead[0]), 3) + 0.0, final_error_m=round(float(lead[-1]), 3) + 0.0,
                    max_abs_error_m=round(float(a.max()), 3), mean_abs_error_m=round(float(a.mean()), 3),
                    initial_spread_m=round(float(spread[0]), 3), final_spread_m=round(float(spread[-1]), 3),
                    max_spread_m=round(float(spread.max()), 3), mean_spread_m=round(float(spread.mean()), 3))
