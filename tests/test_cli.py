@@ -136,3 +136,17 @@ def test_a_search_of_a_family_without_laws_makes_no_default_folder(tmp_path, mon
     assert main(["search", "demo_monte_carlo", "perturbation", "--budget", "2", "--workers", "0"]) == 2
     assert "which has no parameter laws to search" in capsys.readouterr().err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_run_evaluate_writes_the_evaluation_into_the_summary(tmp_path):
+    """``mjasc run --evaluate``: the run scored against the truth as a campaign's runs are (summary.json's
+    evaluation: tracking GOSPA and position RMSE per vessel with a tracker), absent without the option."""
+    import json
+
+    assert main(["run", "thesis_6_1_tracking", "--duration", "20", "--evaluate", "--out", str(tmp_path / "e"),
+                 "--no-progress"]) == 0
+    ev = json.loads((tmp_path / "e" / "summary.json").read_text())["evaluation"]
+    track = ev["tracking"]["asc"]
+    assert track["evaluations"] > 150 and 0.0 < track["position_rmse_m"] < 0.3 and track["id_switches"] == 0
+    assert main(["run", "thesis_6_1_tracking", "--duration", "5", "--out", str(tmp_path / "p"), "--no-progress"]) == 0
+    assert "evaluation" not in json.loads((tmp_path / "p" / "summary.json").read_text())

@@ -64,6 +64,7 @@ def execute_in_process(request: dict) -> dict:
                                           **(request.get("gospa") or {}))
             evaluator = RunEvaluator(runner, config)
             runner.observe("record", evaluator)
+            runner.add_summary("evaluation", evaluator.summary)  # (in the run's summary.json too)
         try:
             out["summary"] = runner.run().summary
         except RunFailed as exc:
@@ -71,7 +72,6 @@ def execute_in_process(request: dict) -> dict:
             out["error"] = str(exc).split("; partial outputs")[0]
             out["summary"] = exc.summary
         if evaluator is not None and out["summary"] is not None:
-            out["summary"]["evaluation"] = evaluator.summary()
             if request.get("reference", False) and out["status"] == "completed":
                 out["summary"]["evaluation"].update(_cost(doc, evaluator, request.get("index")))
     except Exception as exc:  # noqa: BLE001 — one failed run must not stop the campaign

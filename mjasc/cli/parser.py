@@ -1,6 +1,6 @@
 """The ``mjasc`` command line's parser: every command, its arguments and its help.
 
-    mjasc run SCENARIO [--out DIR] [--video] [--camera CAM] [--seed N] [--duration S] [--no-progress]
+    mjasc run SCENARIO [--out DIR] [--video] [--camera CAM] [--seed N] [--duration S] [--evaluate] [--no-progress]
     mjasc list
     mjasc campaign CAMPAIGN [--out DIR] [--workers N] [--scheduler ADDR] [--runs N] [--max-attempts N] [--time-limit S] [--no-progress]
     mjasc report FOLDER [--json] [--out DIR] [--format png svg pdf]
@@ -123,6 +123,9 @@ def build_parser(argv: list[str] | None = None) -> argparse.ArgumentParser:
                                     "(default: the scenario's [outputs] video_camera, else top_down)")
     r.add_argument("--seed", type=seed_arg, help="override the scenario's seed")
     r.add_argument("--duration", type=seconds_arg, help="override the scenario's duration [s]")
+    r.add_argument("--evaluate", action="store_true",
+                   help="score the run against the truth as a campaign's runs are (tracking GOSPA and position "
+                        "RMSE, COLREG roles, encounters): summary.json's evaluation")
     r.add_argument("--no-progress", dest="progress", action="store_false", help="no progress bar")
     r.set_defaults(func=cmd_run)
     ls = sub.add_parser("list", help="list the vessels, the bundled scenarios and campaigns, and the stage methods")

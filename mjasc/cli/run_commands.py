@@ -13,7 +13,7 @@ from mjasc.cli.arguments import not_found_hint, out_dir, suite_tasks
 
 def cmd_run(args) -> int:
     from mjasc.core.resources import resolve_bundled
-    from mjasc.runs.runner import RunFailed, run_scenario
+    from mjasc.runs.runner import RunFailed, Runner
     from mjasc.runs.scenario import ScenarioError, load_scenario
 
     overrides = {k: v for k, v in (("seed", args.seed), ("duration_s", args.duration)) if v is not None}
@@ -45,7 +45,14 @@ def cmd_run(args) -> int:
         scenario = scenario.with_overrides(video=True)
     out = out_dir(args.out, Path("runs") / scenario.name)
     try:
-        result = run_scenario(scenario, out, progress=None if args.progress else False, interruptible=True)
+        runner = Runner(scenario, out, None if args.progress else False)
+        if args.evaluate:  # (scored against the truth as a campaign's runs are: summary.json's evaluation)
+            from mjasc.evaluation.run_evaluation import RunEvaluator
+
+            evaluator = RunEvaluator(runner)
+            runner.observe("record", evaluator)
+            runner.add_summary("evaluation", evaluator.summary)
+        result = runner.run(interruptible=True)
     except RunFailed as exc:
         print(f"mjasc: run failed: {exc}", file=sys.stderr)
         return 130 if exc.summary and exc.summary.get("status") == "interrupted" else 1

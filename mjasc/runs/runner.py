@@ -135,6 +135,7 @@ class Runner:
         self._offsets = MissionOffset(len(self.agents), round(self.schedule.realized_rate_hz("record")))
         self._truth: TruthRecording | None = None  # the truth's recording, when one is made
         self._observers: dict[str, list] = {slot: [] for slot in SLOT_ORDER}
+        self._summary_parts: list = []  # (key, fn): parts of the summary made when the run ends (add_summary)
         #: Wall seconds spent in each slot and in the physics during :meth:`run` (observers excluded).
         self.stage_seconds: dict[str, float] = {}
 
@@ -143,6 +144,14 @@ class Runner:
         if slot not in self._observers:
             raise ValueError(f"slot: unknown slot {slot!r} (known: {', '.join(SLOT_ORDER)})")
         self._observers[slot].append(fn)
+
+    def add_summary(self, key: str, fn) -> None:
+        """Put ``fn()`` (JSON-serializable) into the run's summary under ``key`` when the run ends, in
+        summary.json too: an observer's results — a run's evaluation against the truth
+        (:class:`~mjasc.evaluation.run_evaluation.RunEvaluator`, ``mjasc run --evaluate``, campaigns)."""
+        if key in ("vessels", "status", "timing_s"):
+            raise ValueError(f"key: {key!r} is the run's own summary key")
+        self._summary_parts.append((key, fn))
 
     # ------------------------------------------------------------------ extent for views
     def extent(self) -> tuple[np.ndarray, np.ndarray]:
@@ -366,6 +375,8 @@ class Runner:
         if self.video is not None:
             summary["video_frames"] = self.video.frames
             summary["video_timing_s"] = {k: round(v, 4) for k, v in self.video.seconds.items()}
+        for key, fn in self._summary_parts:
+            summary[key] = fn()
         summary["timing_s"] = {k: round(v, 4) for k, v in stage.items()}
         if diverged is not None and diverged.last_good_state is not None:
             summary["last_good_state"] = {"time_s": round(diverged.last_good_time_s, 6)}
