@@ -5,6 +5,7 @@ first choice ran into another target)."""
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from mjasc.runs.runner import Runner, run_scenario
@@ -195,6 +196,10 @@ EXPECT = {
     # Two team mates deployed 4 m apart across each other's transits, each refusing the lane because of the other's
     # broadcast plan (the crossing rule), drifted together stopped. Team mates are not crossing threats. 0.10 m.
     "go_to_formation_deployment_5": ("alpha", None, 0.0),
+    # The stressed dock, seed 297: a sharp turn the guard held beside the moored vessel3, released 57° off its aim point,
+    # was sailed as an arc at mission speed into vessel3 (−0.91 m). A held turn now goes on in place to within 20° of
+    # its aim point (test below). Circles −0.15 m, the hulls apart.
+    "dock_stressed_seed297": ("vessel2", "turn_held", -0.5),
 }
 SLOW = {"crossing_stressed_seed5", "crossing_stressed_seed12", "bottleneck_stressed_seed5", "bottleneck_seed7", "bottleneck_seed1",
         "demo_run3", "bottleneck_stressed_seed2", "bottleneck_stressed_seed11", "bottleneck_stressed_seed4",
@@ -318,3 +323,15 @@ def test_a_boat_flagged_static_while_slowing_is_predicted_moving(monkeypatch):
     said = [(t, text) for name, t, text in events if "flagged static by the tracker" in text]
     assert len(said) == 1 and 179.9 < said[0][0] < 180.1 and said[0][1].startswith("track(s) [268] "), said
     assert max(y for t, y in ys if 186.0 <= t <= 200.0) < -1.0
+
+
+def test_a_held_sharp_turn_is_finished_in_place():
+    """dock_stressed_seed297: the guard holds vessel2's turn beside vessel3 (26.8 s); the hull turns in place until it
+    points within 20° of its aim point and leaves away from vessel3 — its centre never within 4 m of vessel3's (it came
+    to 3.29 m, hulls touching, when the turn was released at 60°)."""
+    runner = Runner(load_scenario(CASES / "dock_stressed_seed297.toml"))
+    d = []
+    runner.observe("record", lambda ev: d.append(float(np.hypot(*(ev.states.position_m[1] - ev.states.position_m[2])))))
+    summary = runner.run().summary
+    assert not summary["any_collision"] and summary["vessels"]["vessel2"]["avoidance"]["actions"]["turn_held"] >= 1
+    assert min(d) > 3.9, min(d)

@@ -43,6 +43,11 @@ _SLOW_TRACK_M_S = 0.5
 _TURN_GUARD_S = 1.0
 _TURN_GUARD_MIN_SPEED_M_S = 0.05
 _INT64 = 2 ** 63
+#: A sharp turn the guard held (the hull beside a slow track) goes on in place until the hull points
+#: this close to its aim point [rad] — not only within ``sharp_turn_deg``: released 57° off, the path
+#: follower sailed the rest of the turn as an arc at mission speed into the moored boat the guard had
+#: stopped it for (thesis_6_2_dock stressed, seed 297).
+_HELD_RELEASE_RAD = math.radians(20.0)
 
 
 class ControlTick:
@@ -267,7 +272,7 @@ class ControlTick:
         hull closing on a slow track: all way off, the heading held), the rest of the turn is
         turned in place — speed 0, where the allocation keeps the differential within the reverse
         thrust (:mod:`mjasc.guidance.following_law`) — instead of being sailed at the turn speed
-        into the next hold."""
+        into the next hold, until the hull points within :data:`_HELD_RELEASE_RAD` of its aim point."""
         g, cfg = self._guidance, self.config
         x, y, _, _ = g.path.at(min(g.gamma_m + 5.0, g.path.length))
         # wrap_angle(np.arctan2(…) − ψ) and np.radians in plain floats (the same bits: math's atan2
@@ -275,7 +280,8 @@ class ControlTick:
         p = nav.position_m
         signed = wrap_scalar(math.atan2(float(y - p[1]), float(x - p[0])) - float(nav.heading_rad))
         err = abs(signed)
-        if err <= math.radians(cfg.sharp_turn_deg):
+        was_held = self._sharp_turn is not None and self._sharp_turn[0] == "held"
+        if err <= (_HELD_RELEASE_RAD if was_held else math.radians(cfg.sharp_turn_deg)):
             self._sharp_turn = None
             return override, None
         limit = cfg.sharp_turn_speed_m_s
