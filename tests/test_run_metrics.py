@@ -146,3 +146,40 @@ def test_cross_track_counts_only_while_a_path_is_followed():
     assert gate.counted([_out(0.2), _out(3.0)], agents)[1] == 3.0  # off it later: a following error, counted
     got = gate.counted([_out(5.0, finished=True), _out(0.1)], agents)  # past its path's end: drifting
     assert np.isnan(got[0]) and got[1] == 0.1
+
+
+def test_a_contact_between_two_record_ticks_is_counted_at_its_step():
+    """Contacts are read at every physics step (Simulation.touches), not at the record tick's instant: a
+    bump of one step between two ticks — MuJoCo's contacts are instants — went uncounted (a stressed dock run:
+    vessel2 glanced off the moored vessel3 at 46.02 s, between the ticks at 46.0 and 46.1, and the summary said
+    no collision). A pair touching in two consecutive record periods is one contact."""
+    from mjasc.runs.metrics import RunMetrics
+
+    sc = load_scenario(TASKS / "thesis_6_2_dock.toml").with_overrides(duration_s=1.0)
+    runner = Runner(sc, None, progress=False)
+    m = RunMetrics(runner.world, sc, runner.sim.traffic)
+    owner = runner.world.geom_owner
+    g2 = next(g for g, o in enumerate(owner) if o == "vessel2")
+    g3 = next(g for g, o in enumerate(owner) if o == "vessel3")
+    assert m.check_contacts({}) == []
+    assert m.check_contacts({(g3, g2): 46.02}) == [("vessel2", "vessel3")]  # (nothing touching at the tick)
+    assert m.check_contacts({(g2, g3): 46.12}) == []  # the same contact, on into the next period
+    assert m.check_contacts({}) == []
+    assert m.check_contacts({(g2, g3): 51.3}) == [("vessel2", "vessel3")]  # a new one
+    assert m.collisions == [{"time_s": 46.02, "between": ["vessel2", "vessel3"]},
+                            {"time_s": 51.3, "between": ["vessel2", "vessel3"]}]
+
+
+def test_the_simulation_notes_every_step_s_contacts():
+    """Two Otters driven into each other: the steps' contacts are noted with the step's time (not a record
+    tick's), and the run's collision time is the first touching step's."""
+    from mjasc.runs.scenario import parse_scenario
+
+    v = {"type": "otter", "heading_deg": 0.0, "controller": {"type": "none", "commands": [1.0, 1.0]}}
+    doc = {"name": "bump", "duration_s": 6.0, "seed": 1, "outputs": {"recording": False},
+           "vessels": [{**v, "name": "a", "position_m": [0.0, 0.0]},
+                       {**v, "name": "b", "position_m": [4.0, 0.0], "controller": {"type": "none", "commands": [0.0, 0.0]}}]}
+    summary = Runner(parse_scenario(doc), None, progress=False).run().summary
+    (first, *_) = summary["collisions"]
+    assert first["between"] == ["a", "b"] and 0.5 < first["time_s"] < 6.0
+    assert abs(first["time_s"] / 0.02 - round(first["time_s"] / 0.02)) < 1e-6  # a physics step's time

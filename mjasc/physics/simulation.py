@@ -130,6 +130,10 @@ class Simulation:
         #: (:mod:`mjasc.physics.contact_gate`: the same bits); False runs it every step.
         self.contact_gating = True
         self.contact_gate = ContactGate(self.model)
+        #: Geom pairs (geom1, geom2) in contact at any physics step since :meth:`drain_touches`, each
+        #: with the first such step's time [s]: a bump between two record ticks lasts a step or two
+        #: (MuJoCo's contacts are instants), and the record tick's look at ``data.contact`` missed it.
+        self.touches: dict[tuple[int, int], float] = {}
         self._opt = self.model.opt  # (MjOption, a reference into the model: its flags are toggled per step)
 
     # ------------------------------------------------------------------ state access
@@ -300,6 +304,18 @@ class Simulation:
             raise PhysicsDivergence(f"physics diverged between t = {t0:.3f} and {d.time:.3f} s: MuJoCo warning "
                                     f"{kind} (info {d.warning[i].lastinfo})", self._block_state.copy(), t0)
 
+    def _note_touches(self) -> None:
+        """The geom pairs in contact after this step into :attr:`touches` (first time kept)."""
+        d, touches = self.data, self.touches
+        for g1, g2 in d.contact.geom.tolist():
+            touches.setdefault((g1, g2), float(d.time))
+
+    def drain_touches(self) -> dict[tuple[int, int], float]:
+        """:attr:`touches` since the last call (then cleared): every geom pair in contact at a physics
+        step of that time, with the first step's time [s]."""
+        out, self.touches = self.touches, {}
+        return out
+
     def _raise_divergence(self, k: int, message: str, t0: float) -> None:
         """Step k of the block failed: rebuild the state before it (replaying k steps from the
         block's start, which is deterministic), then leave the diverged state and raise."""
@@ -352,6 +368,8 @@ class Simulation:
                     else:
                         step1(m, d)
                         step2(m, d)
+                    if not closed and d.ncon:  # (a contact: its pairs noted for the record slot's check)
+                        self._note_touches()
             finally:
                 if closed:
                     opt.disableflags = flags
@@ -371,6 +389,8 @@ class Simulation:
             if self.n_vessels:
                 self._apply_forces()
             mujoco.mj_step2(m, d)
+            if d.ncon:
+                self._note_touches()
             if monitor is not None and not (vdot(vel) <= v2 and adot(acc) <= a2) and not monitor.scaled_ok():
                 what = monitor.violation(float(d.time))
                 if what is not None:

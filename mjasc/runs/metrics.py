@@ -86,7 +86,6 @@ class RunMetrics:
         """``traffic``: the run's :class:`~mjasc.physics.obstacles.MovingObstacleSet` (the
         simulation's), needed by :meth:`defer` when the world has moving obstacles."""
         self.world = world
-        self._data = world.data  # (World.data is three property calls; check_contacts reads it every record tick)
         self.names = list(world.vessel_names)
         n = len(self.names)
         self.radii = np.array([t.radius_m for t in world.vessel_types])
@@ -173,20 +172,26 @@ class RunMetrics:
                              self._distance, self._xte_sum, self._xte_count, self._xte_max, self._vertices,
                              self._offsets, self._circles, self.radii, tpos, self._traffic_radii, self._min_clear)
 
-    def check_contacts(self, t_s: float) -> list[tuple[str, str]]:
-        """New hull contacts since the last call (pairs of owner names); records them."""
-        d = self._data
-        now = set()
-        if not d.ncon and not self._in_contact:
-            return []  # (``d.contact`` costs ~0.5 ms to wrap even when empty: most calls stop here)
-        for c in d.contact[: d.ncon]:
-            a, b = self._geom_owner.get(c.geom1), self._geom_owner.get(c.geom2)
+    def check_contacts(self, touches: dict) -> list[tuple[str, str]]:
+        """New hull contacts since the last call (pairs of owner names); records them, each at the
+        first physics step it touched. ``touches``: the geom pairs in contact at any physics step
+        since the last call, with that step's time (:meth:`~mjasc.physics.simulation.Simulation.drain_touches`).
+        A pair touching in two consecutive record periods is one contact. (Until 2026-12-07 only the
+        contacts at the record tick's instant were seen: a bump of a step or two between two ticks —
+        MuJoCo's contacts are instants — went uncounted.)"""
+        if not touches and not self._in_contact:
+            return []
+        now: dict[tuple[str, str], float] = {}
+        owner = self._geom_owner
+        for (g1, g2), t in touches.items():
+            a, b = owner.get(g1), owner.get(g2)
             if a and b and a != b and (a in self.names or b in self.names):
-                now.add(tuple(sorted((a, b))))
-        new = sorted(now - self._in_contact)
+                pair = (a, b) if a < b else (b, a)
+                now[pair] = min(t, now.get(pair, t))
+        new = sorted(set(now) - self._in_contact, key=lambda p: (now[p], p))
         for pair in new:
-            self.collisions.append({"time_s": round(t_s, 3), "between": list(pair)})
-        self._in_contact = now
+            self.collisions.append({"time_s": round(now[pair], 3), "between": list(pair)})
+        self._in_contact = set(now)
         return new
 
     def summary(self, wall_time_s: float, sim_time_s: float, per_vessel=None) -> dict:

@@ -277,7 +277,7 @@ class Runner:
                         run_onboard_slot(slot, self.agents, navs, self.control_dt_s)
                     elif slot == "record":
                         self._record(states)
-                        new = self.metrics.check_contacts(states.time_s)
+                        new = self.metrics.check_contacts(sim.drain_touches())
                         for pair in new:
                             if self.recorder:
                                 self.recorder.event(states.time_s, f"collision: {pair[0]} ↔ {pair[1]}", "WARN")
@@ -352,6 +352,7 @@ class Runner:
                     t_slot = clock()
                     out.close()
                     stage[slot] += clock() - t_slot
+        self.metrics.check_contacts(sim.drain_touches())  # (the steps after the last record tick)
         wall = time.perf_counter() - wall0
         summary = {"scenario": sc.name, "seed": sc.seed, "status": status, "error": error,
                    "rates_hz": {s: round(self.schedule.realized_rate_hz(s), 4) for s in self.schedule.period_steps},

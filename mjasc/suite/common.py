@@ -173,6 +173,7 @@ class VesselPhysics(mjcf.Physics):
 
     _world: World | None = None
     _sim: Simulation | None = None
+    _touched: dict = {}  # (geom pairs in contact at a step of the last step(): in_contact; replaced, never changed)
 
     def _make_rendering_contexts(self):
         """dm_control's contexts, freed at interpreter exit if the environment was never closed,
@@ -258,6 +259,7 @@ class VesselPhysics(mjcf.Physics):
         """``nstep`` physics steps of :class:`mjasc.physics.simulation.Simulation`, then sync kinematics."""
         with self.check_invalid_state():
             self._sim.step(nstep)
+            self._touched = self._sim.drain_touches()  # (the contacts of these steps: in_contact)
             if self.legacy_step:
                 self._update_traffic()
                 mujoco.mj_step1(self.model.ptr, self.data.ptr)
@@ -276,6 +278,8 @@ class VesselPhysics(mjcf.Physics):
         """Traffic to the reset time, then dm_control's forward pass without actuation."""
         if self._sim is not None:
             self._update_traffic()
+            self._sim.drain_touches()  # (a new episode: the last one's contacts are not its own)
+        self._touched = {}
         super().after_reset()
 
     # ------------------------------------------------------------------ named getters
@@ -341,9 +345,16 @@ class VesselPhysics(mjcf.Physics):
         return self._sim.traffic.state(float(self.data.time))[0]
 
     def in_contact(self, i: int = 0) -> bool:
-        """True when any collision geom of vessel ``i`` touches anything (at the last kinematics)."""
+        """True when any collision geom of vessel ``i`` touches anything at the last kinematics or at
+        any physics step of the last :meth:`step` (a bump of a step or two between two decisions —
+        MuJoCo's contacts are instants — went unseen at the decision's kinematics alone)."""
         hull = int(self._world.hull_body_id[i])
         d, m = self.data.ptr, self.model.ptr
+        touched = self._touched
+        if touched:
+            g = np.array(list(touched), dtype=np.int64)
+            if np.any(m.geom_bodyid[g] == hull):
+                return True
         if d.ncon == 0:
             return False
         g1, g2 = d.contact.geom1[: d.ncon], d.contact.geom2[: d.ncon]
