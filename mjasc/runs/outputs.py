@@ -9,6 +9,8 @@
   its own folder (``.<stem>.part<suffix>``) and renamed over the final name when complete (``os.replace``
   is atomic on POSIX within one file system): a reader sees the old file or the new one, never a
   half-written one; a writer that fails leaves no ``.part`` behind.
+* :func:`component_summary` / :func:`plain_json_problem` / :func:`json_value` — what a component
+  (a plugin's included) puts into summary.json, and what would keep it from strict, repeatable JSON.
 """
 
 from __future__ import annotations
@@ -20,7 +22,8 @@ from typing import Iterator
 
 from mjasc.core.config_tables import ConfigError, path_problem, show_path
 
-__all__ = ["OutputError", "check_out_dir", "atomic_write_text", "atomic_target", "part_path", "json_value"]
+__all__ = ["OutputError", "check_out_dir", "atomic_write_text", "atomic_target", "part_path", "json_value",
+           "component_summary", "plain_json_problem"]
 
 
 class OutputError(ConfigError):
@@ -81,6 +84,29 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
             f.flush()
             os.fsync(f.fileno())
     return Path(path)
+
+
+def component_summary(comp) -> dict:
+    """A component's ``summary()`` for summary.json: what it returns (numpy numbers and arrays as
+    JSON numbers and lists, :func:`json_value`) with its ``method`` first when it has one and the
+    summary does not say it, or — a plugin's summary that raises, is not a dict or holds what
+    summary.json cannot hold as it is (:func:`plain_json_problem`: NaN or ±inf,
+    which strict JSON readers refuse; an object written as its text, a memory address that differs
+    between two runs of one seed) — the method and the error, so that the run's summary is written
+    all the same."""
+    method = getattr(comp, "method", type(comp).__name__)
+    try:
+        out = comp.summary()
+    except Exception as exc:  # noqa: BLE001 — a plugin's bug must not cost the run its summary
+        return {"method": method, "summary_error": f"{type(exc).__name__}: {exc}"}
+    if not isinstance(out, dict):
+        return {"method": method, "summary_error": f"summary() returned {type(out).__name__}, expected a dict"}
+    problem = plain_json_problem(out)
+    if problem is not None:
+        return {"method": method, "summary_error": f"summary() {problem}"}
+    if "method" not in out and isinstance(getattr(comp, "method", None), str):
+        out = {"method": method, **out}
+    return out
 
 
 def plain_json_problem(value, where: str = "") -> str | None:

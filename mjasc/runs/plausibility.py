@@ -16,6 +16,9 @@ reason and the distance), before any model is built:
   go-to-formation phase, at its path's start (its formation pose), on the path's course there,
   overlaps no static obstacle: it could never get there. (Waypoints between may lie in one: going
   around is the collision avoidance's business.)
+* **the team's link** (:func:`check_team_link`, once the vessels are read) — one coordination
+  leader; a neighbour timeout longer than the comms period; vessels on one path apart along it by
+  their leads (``formation_offset_m``) more than their hulls' radii.
 * **current** — the water speed ``|V(p, t)|`` at every vessel's start, every waypoint and every
   obstacle centre, at t = 0 and t = duration, is at most :data:`Bounds.current_speed_m_s`
   (evaluated on a copy of the field: a seeded field's own random state is not advanced).
@@ -49,6 +52,7 @@ from mjasc.core.geometry import distance_to_polygon, hull_outline, point_in_poly
 from mjasc.physics.obstacles import MovingObstacleSet, PolygonObstacle
 
 __all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "file_name", "check_duration", "check_plausible",
+           "check_team_link",
            "hulls_overlap", "traffic_through_structure", "TRAFFIC_SAMPLE_FRACTION", "TRAFFIC_SAMPLE_MAX_S"]
 
 MAX_NAME_CHARS = 64
@@ -159,6 +163,42 @@ def _check_path_ends(scenario, types: dict) -> None:
                     raise ConfigError(f"vessels[{i}].controller.waypoints: the path {what} at "
                                       f"{np.round(p, 1).tolist()} m, where the hull overlaps static obstacle "
                                       f"{o.name!r}: it could never get there")
+
+
+def check_team_link(vessels, rates) -> None:
+    """The team's coordination settings against each other and the rates: one leader (two keep
+    their own speeds and the consensus can never close the gap between them: a spread held for
+    good); a neighbour heard at least once within its timeout (a timeout under the comms period
+    drops every neighbour between two messages: no consensus at all); vessels on one path apart
+    along it."""
+    from mjasc.physics.vessels import load_vessel_type
+
+    leaders = [i for i, v in enumerate(vessels)
+               if getattr(getattr(v.options.get("comms"), "options", None), "role", None) == "leader"]
+    if len(leaders) > 1:
+        raise ConfigError(f"vessels[{leaders[1]}].comms.role: a second leader (vessels[{leaders[0]}] is one): a "
+                            f"leader keeps its own speed, and two never close the gap between them")
+    period = 1.0 / rates.comms_hz
+    for i, v in enumerate(vessels):
+        timeout = getattr(getattr(v.options.get("comms"), "options", None), "neighbour_timeout_s", None)
+        if timeout is not None and timeout <= period:
+            raise ConfigError(f"vessels[{i}].comms.neighbour_timeout_s: must be > the comms period 1/rates.comms_hz "
+                                f"= {period:g} s (a neighbour is heard once a period at best), got {timeout:g}")
+    # a column on one path: its vessels' leads along it (formation_offset_m) apart by more than two hulls' radii,
+    # else the consensus draws them onto one point (a review: two vessels on one path without offsets touched)
+    column = [(i, v) for i, v in enumerate(vessels) if v.path is not None and "comms" in v.options]
+    samples = {i: v.path.point(np.linspace(0.0, v.path.length, 9)) for i, v in column}
+    for a, (i, u) in enumerate(column):
+        for j, v in column[a + 1:]:
+            if abs(u.path.length - v.path.length) > 1e-6 or not np.allclose(samples[i], samples[j], rtol=0.0,
+                                                                               atol=1e-6):
+                continue
+            leads = [getattr(getattr(w.options["comms"], "options", None), "formation_offset_m", 0.0) for w in (u, v)]
+            need = load_vessel_type(u.type).radius_m + load_vessel_type(v.type).radius_m
+            if abs(leads[0] - leads[1]) < need:
+                raise ConfigError(f"vessels[{j}].comms.formation_offset_m: {v.name!r} sails the same path as "
+                                    f"vessels[{i}] ({u.name}) with leads {leads[1]:g} and {leads[0]:g} m, closer "
+                                    f"than their hulls' radii ({need:.1f} m): the formation puts both on one point")
 
 
 def _check_current(scenario) -> None:

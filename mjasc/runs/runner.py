@@ -54,7 +54,7 @@ from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import (PENDING, catch_sigterm, interrupt_behind, raise_pending, restore_sigterm,
                                    signal_name)
 from mjasc.runs.mission_offset import MissionOffset
-from mjasc.runs.outputs import atomic_target, atomic_write_text, json_value, plain_json_problem
+from mjasc.runs.outputs import atomic_target, atomic_write_text, component_summary, json_value
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.scene_extent import scene_extent
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
@@ -396,29 +396,6 @@ class Runner:
         if status != "completed":
             raise RunFailed(f"{error}{kept}", summary)
         return result
-
-
-def component_summary(comp) -> dict:
-    """A component's ``summary()`` for summary.json: what it returns (numpy numbers and arrays as
-    JSON numbers and lists, :func:`json_value`) with its ``method`` first when it has one and the
-    summary does not say it, or — a plugin's summary that raises, is not a dict or holds what
-    summary.json cannot hold as it is (:func:`~mjasc.runs.outputs.plain_json_problem`: NaN or ±inf,
-    which strict JSON readers refuse; an object written as its text, a memory address that differs
-    between two runs of one seed) — the method and the error, so that the run's summary is written
-    all the same."""
-    method = getattr(comp, "method", type(comp).__name__)
-    try:
-        out = comp.summary()
-    except Exception as exc:  # noqa: BLE001 — a plugin's bug must not cost the run its summary
-        return {"method": method, "summary_error": f"{type(exc).__name__}: {exc}"}
-    if not isinstance(out, dict):
-        return {"method": method, "summary_error": f"summary() returned {type(out).__name__}, expected a dict"}
-    problem = plain_json_problem(out)
-    if problem is not None:
-        return {"method": method, "summary_error": f"summary() {problem}"}
-    if "method" not in out and isinstance(getattr(comp, "method", None), str):
-        out = {"method": method, **out}
-    return out
 
 
 def run_scenario(scenario: Scenario, out_dir=None, progress: bool | None = None,

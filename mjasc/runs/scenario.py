@@ -37,7 +37,7 @@ from mjasc.guidance.paths import Path
 from mjasc.physics.currents import UniformCurrent, current_from_config
 from mjasc.physics.obstacles import CircleObstacle, MovingObstacle, PolygonObstacle
 from mjasc.physics.vessels import available_vessels, load_vessel_type, resolve_vessel_type
-from mjasc.runs.plausibility import check_name, check_plausible, file_name
+from mjasc.runs.plausibility import check_name, check_plausible, check_team_link, file_name
 from mjasc.runs.scenario_values import (MAX_DURATION_S, RECORDING_DETAILS, Outputs, Rates, Scenario,  # noqa: F401
                                        ScenarioError, VesselConfig, camera_problem, check_camera_vessel)
 
@@ -193,40 +193,6 @@ def _vessel(t: Any, i: int, path_optional: bool = False, base_dir: FilePath | No
             raise ScenarioError(f"{where}.controller.commands: must be [port, starboard] in [-1, 1], got {c!r}")
         commands = tuple(number(x, f"{where}.controller.commands[{k}]", minimum=-1, maximum=1) for k, x in enumerate(c))
     return VesselConfig(name, vtype, pos, heading, speed, ctype, path, cruise, commands, options)
-
-
-def _check_team_link(vessels, rates) -> None:
-    """The team's coordination settings against each other and the rates: one leader (two keep
-    their own speeds and the consensus can never close the gap between them: a spread held for
-    good); a neighbour heard at least once within its timeout (a timeout under the comms period
-    drops every neighbour between two messages: no consensus at all); vessels on one path apart
-    along it."""
-    leaders = [i for i, v in enumerate(vessels)
-               if getattr(getattr(v.options.get("comms"), "options", None), "role", None) == "leader"]
-    if len(leaders) > 1:
-        raise ScenarioError(f"vessels[{leaders[1]}].comms.role: a second leader (vessels[{leaders[0]}] is one): a "
-                            f"leader keeps its own speed, and two never close the gap between them")
-    period = 1.0 / rates.comms_hz
-    for i, v in enumerate(vessels):
-        timeout = getattr(getattr(v.options.get("comms"), "options", None), "neighbour_timeout_s", None)
-        if timeout is not None and timeout <= period:
-            raise ScenarioError(f"vessels[{i}].comms.neighbour_timeout_s: must be > the comms period 1/rates.comms_hz "
-                                f"= {period:g} s (a neighbour is heard once a period at best), got {timeout:g}")
-    # a column on one path: its vessels' leads along it (formation_offset_m) apart by more than two hulls' radii,
-    # else the consensus draws them onto one point (a review: two vessels on one path without offsets touched)
-    column = [(i, v) for i, v in enumerate(vessels) if v.path is not None and "comms" in v.options]
-    samples = {i: v.path.point(np.linspace(0.0, v.path.length, 9)) for i, v in column}
-    for a, (i, u) in enumerate(column):
-        for j, v in column[a + 1:]:
-            if abs(u.path.length - v.path.length) > 1e-6 or not np.allclose(samples[i], samples[j], rtol=0.0,
-                                                                               atol=1e-6):
-                continue
-            leads = [getattr(getattr(w.options["comms"], "options", None), "formation_offset_m", 0.0) for w in (u, v)]
-            need = load_vessel_type(u.type).radius_m + load_vessel_type(v.type).radius_m
-            if abs(leads[0] - leads[1]) < need:
-                raise ScenarioError(f"vessels[{j}].comms.formation_offset_m: {v.name!r} sails the same path as "
-                                    f"vessels[{i}] ({u.name}) with leads {leads[1]:g} and {leads[0]:g} m, closer "
-                                    f"than their hulls' radii ({need:.1f} m): the formation puts both on one point")
 
 
 def _static(t: Any, i: int):
@@ -387,7 +353,7 @@ def _parse_scenario(data: dict, source: str) -> Scenario:
         for i, v in enumerate(vessels):
             if "mission" in v.options:
                 raise ScenarioError(f"vessels[{i}].mission: the scenario has no [mission] table to take part in")
-    _check_team_link(vessels, rates)
+    check_team_link(vessels, rates)
     description = data.get("description", "")
     if not isinstance(description, str):
         raise ScenarioError(f"description: must be a string, got {show(description)}")
