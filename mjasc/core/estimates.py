@@ -3,8 +3,9 @@
 A :class:`TrackEstimate` is what the tracker (``tracking``/``imm``) hands to collision
 prediction: everything a vessel believes about one object around it. A :class:`SharedTrack` is
 an own track as a vessel broadcasts it to its team. A :class:`PlannedTrack` is
-a team mate that collision avoidance predicts along its own broadcast plan instead. World frame
-ENU, SI units.
+a team mate that collision avoidance predicts along its own broadcast plan instead.
+:func:`predicted_to` moves estimates on to a later time along their velocity (what a run's
+evaluation scores at a record tick). World frame ENU, SI units.
 """
 
 from __future__ import annotations
@@ -337,3 +338,17 @@ class Deferred(Sequence):
 
     def __len__(self) -> int:
         return len(self._get())
+
+
+def predicted_to(positions_m, times_s, headings_rad, speeds_m_s, t_s: float) -> np.ndarray:
+    """Track positions (k, 2) [m] estimated at ``times_s`` (k,) predicted to the tick ``t_s`` along
+    their velocity (heading [rad], speed [m/s]): what the evaluation compares with the truth at
+    t_s. A track is last estimated at its tracker's latest update (5 Hz) and the record ticks come
+    at 10 Hz: scored as estimated, the age of the estimate (up to a tracking period of the target's
+    motion) counted as error — the §6.1 tracking scene's position RMSE 0.140 m instead of 0.073 m."""
+    dv = np.maximum(t_s - np.asarray(times_s, dtype=float), 0.0) * np.asarray(speeds_m_s, dtype=float)
+    th = np.asarray(headings_rad, dtype=float)
+    out = np.array(positions_m, dtype=float).reshape(-1, 2)
+    out[:, 0] += dv * np.cos(th)
+    out[:, 1] += dv * np.sin(th)
+    return out

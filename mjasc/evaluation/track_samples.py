@@ -3,8 +3,8 @@
 
 A fleet tracker's (:class:`~mjasc.perception.tracking.fleet.FleetTracker`) confirmed tracks at one
 tick are its confirmed rows, in bank order: their vessel, their id in that vessel's numbering,
-their position (x, y) [m] predicted to the tick (:func:`predicted_to`) and their static flag — what
-``FleetTracker.confirmed_rows`` gives, moved on to the tick (the
+their position (x, y) [m] predicted to the tick (:func:`~mjasc.core.estimates.predicted_to`) and
+their static flag — what ``FleetTracker.confirmed_rows`` gives, moved on to the tick (the
 evaluation scores a static track as one that may stand for a stopped object, never as a false one:
 :mod:`mjasc.evaluation.tracking_metrics`). :meth:`TrackSamples.add`
 copies them from the tracker's columns and the bank's states (``bank.state_rows``, read at once)
@@ -21,7 +21,7 @@ import numpy as np
 
 from mjasc.core.compiled import kernel
 
-__all__ = ["TrackSamples", "predicted_to"]
+__all__ = ["TrackSamples"]
 
 
 @kernel
@@ -29,8 +29,8 @@ def append_confirmed(confirmed, static, owner, local_id, x_rows, t_rows, t_s, ou
                      n):
     """Append the rows r with ``confirmed[r]``, in order, at index n of the outputs: owner, id,
     position predicted to t_s along the row's velocity (x, y) + dt·V·(cos θ, sin θ) with
-    ``[x, y, θ, V] = x_rows[r]`` and dt = max(t_s − t_rows[r], 0) (:func:`predicted_to`), static
-    flag. Returns the new count, or −1 when the outputs have no room left (then rows from n on may
+    ``[x, y, θ, V] = x_rows[r]`` and dt = max(t_s − t_rows[r], 0)
+    (:func:`~mjasc.core.estimates.predicted_to`), static flag. Returns the new count, or −1 when the outputs have no room left (then rows from n on may
     have been written)."""
     cap = out_owner.shape[0]
     for r in range(confirmed.shape[0]):
@@ -45,20 +45,6 @@ def append_confirmed(confirmed, static, owner, local_id, x_rows, t_rows, t_s, ou
             out_static[n] = static[r]
             n += 1
     return n
-
-
-def predicted_to(positions_m, times_s, headings_rad, speeds_m_s, t_s: float) -> np.ndarray:
-    """Track positions (k, 2) [m] estimated at ``times_s`` (k,) predicted to the tick ``t_s`` along
-    their velocity (heading [rad], speed [m/s]): what the evaluation compares with the truth at
-    t_s. A track is last estimated at its tracker's latest update (5 Hz) and the record ticks come
-    at 10 Hz: scored as estimated, the age of the estimate (up to a tracking period of the target's
-    motion) counted as error — the §6.1 tracking scene's position RMSE 0.140 m instead of 0.073 m."""
-    dv = np.maximum(t_s - np.asarray(times_s, dtype=float), 0.0) * np.asarray(speeds_m_s, dtype=float)
-    th = np.asarray(headings_rad, dtype=float)
-    out = np.array(positions_m, dtype=float).reshape(-1, 2)
-    out[:, 0] += dv * np.cos(th)
-    out[:, 1] += dv * np.sin(th)
-    return out
 
 
 class TrackSamples:
@@ -78,7 +64,7 @@ class TrackSamples:
 
     def add(self, fleet, t_s: float) -> None:
         """One tick at ``t_s`` [s]: the confirmed tracks of ``fleet`` (a FleetTracker, after its pending
-        steps), their positions predicted to t_s (:func:`predicted_to`)."""
+        steps), their positions predicted to t_s (:func:`~mjasc.core.estimates.predicted_to`)."""
         c = fleet.cols
         x_rows, t_rows = fleet.bank.state_rows, fleet.bank.time_rows
         n = append_confirmed(c.confirmed, c.static, c.owner, c.local_id, x_rows, t_rows, t_s, self._owner, self._id,

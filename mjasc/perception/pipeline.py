@@ -55,6 +55,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from mjasc.core.estimates import predicted_to
 from mjasc.core.geometry import covariance_ellipse  # noqa: F401  (re-exported: its home before core.geometry)
 from mjasc.perception.detection import Detections
 from mjasc.perception.fleet import PerceptionFleet, fleet_of
@@ -283,11 +284,9 @@ class Perception:
 
     def scored_tracks(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Ids (k,), positions (k, 2) [m] predicted to ``t_s`` along each track's velocity
-        (:func:`~mjasc.evaluation.track_samples.predicted_to`) and static flags (k,) of the confirmed
+        (:func:`~mjasc.core.estimates.predicted_to`) and static flags (k,) of the confirmed
         tracks, in the order of :meth:`tracks` (those estimates' ``track_id``, ``position_m`` moved on
         to t_s, ``is_static``): what a run's evaluation compares with the truth at a record tick."""
-        from mjasc.evaluation.track_samples import predicted_to
-
         if self.method is not None:
             tracks = self.tracks()
             return (np.array([e.track_id for e in tracks], dtype=np.int64),

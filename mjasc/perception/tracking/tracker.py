@@ -31,7 +31,7 @@ import math
 
 import numpy as np
 
-from mjasc.core.estimates import TrackEstimate
+from mjasc.core.estimates import TrackEstimate, predicted_to
 from mjasc.perception.detection import Detections
 from mjasc.perception.tracking.association import association_costs
 from mjasc.perception.tracking.config import TrackingConfig
@@ -172,11 +172,9 @@ class MultiTargetTracker:
     def scored_positions(self, t_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The confirmed tracks as :meth:`estimates` hands them on (bank order): their ids (k,),
         positions (k, 2) [m] predicted to ``t_s`` along their velocity
-        (:func:`~mjasc.evaluation.track_samples.predicted_to`) and static flags (k,) — the
+        (:func:`~mjasc.core.estimates.predicted_to`) and static flags (k,) — the
         ``track_id``, ``position_m`` moved on to t_s and ``is_static`` of those estimates, without
         making them (what a run's evaluation compares with the truth)."""
-        from mjasc.evaluation.track_samples import predicted_to
-
         f = self.fleet
         rows = self._rows()
         rows = rows[f.cols.confirmed[rows]]
