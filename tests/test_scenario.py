@@ -67,6 +67,10 @@ BAD = {
     # a sensor faster than the sensing slots was capped to them without a word
     "vessels[0].sensor.rate_hz: must be ≤ rates.sensing_hz = 5 Hz (a sensor scans at the sensing slots), got 10":
         lambda d: (d["rates"].update(sensing_hz=5.0), d["vessels"][0].setdefault("sensor", {}).update(rate_hz=10.0)),
+    # the bounds of the start and cruise speeds say what they are (it said "must be ≤ 3.75" alone)
+    "vessels[0].speed_m_s: m/s (1.5 × the hull's top speed,": lambda d: d["vessels"][0].update(speed_m_s=20.0),
+    "vessels[0].controller.speed_m_s: m/s (the hull's top speed), got 99":
+        lambda d: d["vessels"][0]["controller"].update(speed_m_s=99.0),
     # rays above or below the contact band pass every hull (a sensor that saw no vessel)
     "vessels[0].sensor.ray_height_m: must be in [0, 0.15] m":
         lambda d: d["vessels"][0].setdefault("sensor", {}).update(ray_height_m=1.0),

@@ -142,8 +142,10 @@ def _vessel(t: Any, i: int, path_optional: bool = False, base_dir: FilePath | No
     pos = read_field(VesselConfig, "position_m", t, where, default=np.zeros(2))
     heading = _heading(t, where)
     vt = load_vessel_type(vtype)
-    speed = number(read_field(VesselConfig, "speed_m_s", t, where, default=0.0), f"{where}.speed_m_s",
-                   maximum=vt.top_speed_m_s * 1.5)
+    speed = number(read_field(VesselConfig, "speed_m_s", t, where, default=0.0), f"{where}.speed_m_s")
+    if speed > 1.5 * vt.top_speed_m_s:  # (the start's speed: a push, at most 1.5 × what the hull sails)
+        raise ScenarioError(f"{where}.speed_m_s: must be ≤ {1.5 * vt.top_speed_m_s:g} m/s (1.5 × the hull's top "
+                            f"speed, {vt.top_speed_m_s:g} m/s), got {speed:g}")
     ctrl = table(t.get("controller", {"type": "none"}), f"{where}.controller")
     ctype = string(ctrl.get("type", "path_following"), f"{where}.controller.type")
     if ctype == "none":
@@ -185,8 +187,10 @@ def _vessel(t: Any, i: int, path_optional: bool = False, base_dir: FilePath | No
         else:
             raise ScenarioError(f"{where}.controller.waypoints: missing ({ctype} needs a path)")
         cruise = number(read_field(VesselConfig, "cruise_speed_m_s", ctrl, f"{where}.controller", key="speed_m_s",
-                                   default=vt.cruise_speed_m_s), f"{where}.controller.speed_m_s",
-                        maximum=vt.top_speed_m_s)
+                                   default=vt.cruise_speed_m_s), f"{where}.controller.speed_m_s")
+        if cruise > vt.top_speed_m_s:
+            raise ScenarioError(f"{where}.controller.speed_m_s: must be ≤ {vt.top_speed_m_s:g} m/s (the hull's top "
+                                f"speed), got {cruise:g}")
     else:
         c = ctrl.get("commands", [0.0, 0.0])
         if not isinstance(c, list) or len(c) != 2:
