@@ -57,13 +57,13 @@ from mjasc.cooperation import fleet_speed_law
 from mjasc.cooperation.comms import CommsNetwork
 from mjasc.cooperation.coordination_config import CoordinationConfig, _validate, parse_coordination_options
 from mjasc.cooperation.formation_history import FormationHistory
-from mjasc.guidance.path_following import PathFollowingConfig
 from mjasc.cooperation.link import LinkEndpoint
 from mjasc.cooperation.messages import TeamIntention, TeamMessage
 from mjasc.cooperation.recording import CoordinationLog
 from mjasc.cooperation.team_knowledge import TeamKnowledge
 from mjasc.cooperation.team_view import _error_floats, _law_terms, _Neighbour, _sum, _TeamView  # noqa: F401
 from mjasc.core.compiled import clip_float
+from mjasc.guidance.path_following import PathFollowingConfig
 from mjasc.plugins.stages import CoordinationMethod
 
 __all__ = ["CoordinationConfig", "Coordination", "TeamIntention", "parse_coordination_options"]

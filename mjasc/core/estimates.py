@@ -345,7 +345,10 @@ def predicted_to(positions_m, times_s, headings_rad, speeds_m_s, t_s: float) -> 
     their velocity (heading [rad], speed [m/s]): what the evaluation compares with the truth at
     t_s. A track is last estimated at its tracker's latest update (5 Hz) and the record ticks come
     at 10 Hz: scored as estimated, the age of the estimate (up to a tracking period of the target's
-    motion) counted as error — the §6.1 tracking scene's position RMSE 0.140 m instead of 0.073 m."""
+    motion) counted as error — the §6.1 tracking scene's position RMSE 0.140 m instead of 0.073 m.
+    A straight line, not :meth:`TrackEstimate.predict_positions`' constant turn: a tracking period
+    ahead the turn is negligible, and the evaluation's compiled pass
+    (:func:`mjasc.evaluation.track_samples.append_confirmed`) gives these bits."""
     dv = np.maximum(t_s - np.asarray(times_s, dtype=float), 0.0) * np.asarray(speeds_m_s, dtype=float)
     th = np.asarray(headings_rad, dtype=float)
     out = np.array(positions_m, dtype=float).reshape(-1, 2)

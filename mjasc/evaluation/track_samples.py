@@ -30,8 +30,8 @@ def append_confirmed(confirmed, static, owner, local_id, x_rows, t_rows, t_s, ou
     """Append the rows r with ``confirmed[r]``, in order, at index n of the outputs: owner, id,
     position predicted to t_s along the row's velocity (x, y) + dt·V·(cos θ, sin θ) with
     ``[x, y, θ, V] = x_rows[r]`` and dt = max(t_s − t_rows[r], 0)
-    (:func:`~mjasc.core.estimates.predicted_to`), static flag. Returns the new count, or −1 when the outputs have no room left (then rows from n on may
-    have been written)."""
+    (:func:`~mjasc.core.estimates.predicted_to`), static flag. Returns the new count, or −1 when the
+    outputs have no room left (then rows from n on may have been written)."""
     cap = out_owner.shape[0]
     for r in range(confirmed.shape[0]):
         if confirmed[r]:

@@ -179,7 +179,7 @@ def check_mission(mission: MissionConfig, vessels, moving_names, hears=None, mov
             if "mission" in v.options:  # (its only key is its station around a target)
                 raise ConfigError(f"vessels[{i}].mission.target_offset_m: the mission has no track_target phase "
                                   f"(phases: {', '.join(mission.phases)}): the station would be ignored")
-    if tt is not None:
+    else:
         names = [v.name for v in team]
         if tt.leader not in names:
             raise ConfigError(f"mission.track_target.leader: no vessel with a controller named {tt.leader!r} "
@@ -205,37 +205,48 @@ def _check_stations(vessels, target_radius_m: float) -> None:
     """The team's stations around the target (``target_offset_m``, the default where a vessel gives
     none) are farther apart than two hulls' radii, and each off the target's disc by a hull's
     radius: two vessels on one station (or one on the target) can never both hold it."""
-    from mjasc.physics.vessels import load_vessel_type
-
     team = [(i, v) for i, v in enumerate(vessels) if v.controller != "none"]
-    radii = {v.type: load_vessel_type(v.type).radius_m for _, v in team}
-    offsets = [(v.options.get("mission") or VesselMissionOptions()).target_offset_m for _, v in team]
-    for a, (i, u) in enumerate(team):
-        o = np.asarray(offsets[a], dtype=float)
+    offsets = [np.asarray((v.options.get("mission") or VesselMissionOptions()).target_offset_m, dtype=float)
+               for _, v in team]
+    radii = _hull_radii(team)
+    for (i, u), o in zip(team, offsets):
         if float(np.hypot(*o)) < target_radius_m + radii[u.type]:
             raise ConfigError(f"vessels[{i}].mission.target_offset_m: the station {o.tolist()} m is on the target "
                               f"(closer to it than its radius and the hull's, {target_radius_m + radii[u.type]:.1f} m)")
-        for b in range(a + 1, len(team)):
-            j, v = team[b]
-            d = float(np.hypot(*(o - np.asarray(offsets[b], dtype=float))))
-            if d < radii[u.type] + radii[v.type]:
-                raise ConfigError(f"vessels[{j}].mission.target_offset_m: its station is {d:.1f} m from that of "
-                                  f"vessels[{i}] ({u.name}), closer than their hulls' radii "
-                                  f"({radii[u.type] + radii[v.type]:.1f} m): both cannot hold it")
+    close = _closer_than_hulls(team, offsets, radii)
+    if close is not None:
+        i, u, j, d, need = close
+        raise ConfigError(f"vessels[{j}].mission.target_offset_m: its station is {d:.1f} m from that of "
+                          f"vessels[{i}] ({u.name}), closer than their hulls' radii ({need:.1f} m): both cannot hold it")
 
 
 def _check_formation_poses(vessels) -> None:
     """Two team vessels whose formation poses (their paths' starts) are closer than their hulls'
     radii can never both reach them: the mission would stall, one yielding to the other for good."""
+    team = [(i, v) for i, v in enumerate(vessels) if v.controller != "none" and v.path is not None]
+    close = _closer_than_hulls(team, [np.asarray(v.path.start_point, dtype=float) for _, v in team], _hull_radii(team))
+    if close is not None:
+        i, u, j, d, need = close
+        raise ConfigError(f"vessels[{j}].controller.waypoints: its formation pose (the path's start) is "
+                          f"{d:.1f} m from that of vessels[{i}] ({u.name}), closer than their hulls' radii "
+                          f"({need:.1f} m): both cannot hold it")
+
+
+def _hull_radii(team) -> dict:
+    """Vessel type → its hull's bounding radius [m], for the team's ``(index, vessel)`` pairs."""
     from mjasc.physics.vessels import load_vessel_type
 
-    team = [(i, v) for i, v in enumerate(vessels) if v.controller != "none" and v.path is not None]
-    radii = {v.type: load_vessel_type(v.type).radius_m for _, v in team}
+    return {v.type: load_vessel_type(v.type).radius_m for _, v in team}
+
+
+def _closer_than_hulls(team, points, radii):
+    """The first pair of the team's ``(index, vessel)`` whose ``points`` (2,) [m] are closer than
+    their hulls' radii: ``(i, vessel i, j, distance, radii's sum)``; None when every pair is apart."""
     for a, (i, u) in enumerate(team):
-        for j, v in team[a + 1:]:
-            d = float(np.hypot(*(np.asarray(u.path.start_point) - np.asarray(v.path.start_point))))
+        for b in range(a + 1, len(team)):
+            j, v = team[b]
+            d = float(np.hypot(*(points[a] - points[b])))
             need = radii[u.type] + radii[v.type]
             if d < need:
-                raise ConfigError(f"vessels[{j}].controller.waypoints: its formation pose (the path's start) is "
-                                  f"{d:.1f} m from that of vessels[{i}] ({u.name}), closer than their hulls' radii "
-                                  f"({need:.1f} m): both cannot hold it")
+                return i, u, j, d, need
+    return None

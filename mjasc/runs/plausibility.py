@@ -173,32 +173,34 @@ def check_team_link(vessels, rates) -> None:
     along it."""
     from mjasc.physics.vessels import load_vessel_type
 
-    leaders = [i for i, v in enumerate(vessels)
-               if getattr(getattr(v.options.get("comms"), "options", None), "role", None) == "leader"]
+    def option(v, name, default=None):  # (a built-in coordination's option; a plugin's may not have it)
+        return getattr(getattr(v.options.get("comms"), "options", None), name, default)
+
+    leaders = [i for i, v in enumerate(vessels) if option(v, "role") == "leader"]
     if len(leaders) > 1:
         raise ConfigError(f"vessels[{leaders[1]}].comms.role: a second leader (vessels[{leaders[0]}] is one): a "
-                            f"leader keeps its own speed, and two never close the gap between them")
+                          f"leader keeps its own speed, and two never close the gap between them")
     period = 1.0 / rates.comms_hz
     for i, v in enumerate(vessels):
-        timeout = getattr(getattr(v.options.get("comms"), "options", None), "neighbour_timeout_s", None)
+        timeout = option(v, "neighbour_timeout_s")
         if timeout is not None and timeout <= period:
             raise ConfigError(f"vessels[{i}].comms.neighbour_timeout_s: must be > the comms period 1/rates.comms_hz "
-                                f"= {period:g} s (a neighbour is heard once a period at best), got {timeout:g}")
+                              f"= {period:g} s (a neighbour is heard once a period at best), got {timeout:g}")
     # a column on one path: its vessels' leads along it (formation_offset_m) apart by more than two hulls' radii,
     # else the consensus draws them onto one point (a review: two vessels on one path without offsets touched)
     column = [(i, v) for i, v in enumerate(vessels) if v.path is not None and "comms" in v.options]
     samples = {i: v.path.point(np.linspace(0.0, v.path.length, 9)) for i, v in column}
     for a, (i, u) in enumerate(column):
         for j, v in column[a + 1:]:
-            if abs(u.path.length - v.path.length) > 1e-6 or not np.allclose(samples[i], samples[j], rtol=0.0,
-                                                                               atol=1e-6):
+            if abs(u.path.length - v.path.length) > 1e-6 or \
+                    not np.allclose(samples[i], samples[j], rtol=0.0, atol=1e-6):
                 continue
-            leads = [getattr(getattr(w.options["comms"], "options", None), "formation_offset_m", 0.0) for w in (u, v)]
+            leads = [option(w, "formation_offset_m", 0.0) for w in (u, v)]
             need = load_vessel_type(u.type).radius_m + load_vessel_type(v.type).radius_m
             if abs(leads[0] - leads[1]) < need:
                 raise ConfigError(f"vessels[{j}].comms.formation_offset_m: {v.name!r} sails the same path as "
-                                    f"vessels[{i}] ({u.name}) with leads {leads[1]:g} and {leads[0]:g} m, closer "
-                                    f"than their hulls' radii ({need:.1f} m): the formation puts both on one point")
+                                  f"vessels[{i}] ({u.name}) with leads {leads[1]:g} and {leads[0]:g} m, closer "
+                                  f"than their hulls' radii ({need:.1f} m): the formation puts both on one point")
 
 
 def _check_current(scenario) -> None:
