@@ -94,8 +94,11 @@ def make(config=None, name="a", team=("a", "b"), path=None, perception=None):
     return Driven(ca, agent), agent
 
 
-def nav(x=0.0, y=0.0, heading=0.0):
-    return SimpleNamespace(position_m=np.array([x, y]), heading_rad=heading)
+def nav(x=0.0, y=0.0, heading=0.0, speed=0.0):
+    """The own navigation (OwnNavigation's fields) at rest or sailing ``speed`` [m/s] on its heading."""
+    return SimpleNamespace(position_m=np.array([x, y]), heading_rad=heading,
+                           velocity_m_s=speed * np.array([np.cos(heading), np.sin(heading)]),
+                           body_velocity=np.array([speed, 0.0, 0.0]))
 
 
 def crossing(x_cross=30.0, t_cross=30.0, speed=1.0, radius=2.0, track_id=1, team_member=None, from_south=True):

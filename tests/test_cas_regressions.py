@@ -196,8 +196,10 @@ EXPECT = {
     # that still has speed and has moved from where first seen is predicted moving (test below). 5.89 m.
     "velocity_correction_stressed_seed273": ("asc", None, 5.0),
     # Two team mates deployed 4 m apart across each other's transits, each refusing the lane because of the other's
-    # broadcast plan (the crossing rule), drifted together stopped. Team mates are not crossing threats. 0.10 m.
-    "go_to_formation_deployment_5": ("alpha", None, 0.0),
+    # broadcast plan (the crossing rule), drifted together stopped. Team mates are not crossing threats (0.10 m), and
+    # since session 68 the two, stopped inside each other's collision distance for deadlock_s, move apart (the
+    # mission completes: test below). Circles 0.03 m apart (they drift together on the current while they wait).
+    "go_to_formation_deployment_5": ("alpha", "separate", -0.25),
     # The stressed dock, seed 297: a sharp turn the guard held beside the moored vessel3, released 57° off its aim point,
     # was sailed as an arc at mission speed into vessel3 (−0.91 m). A held turn now goes on in place to within 20° of
     # its aim point (test below). Circles −0.15 m, the hulls apart.
@@ -228,6 +230,20 @@ def test_a_case_that_collided_keeps_clear(name):
     assert v["min_clearance_to_any_m"] > bound, v["min_clearance_m"]
     if action is not None:
         assert v["avoidance"]["actions"][action] >= 1, v["avoidance"]["actions"]
+
+
+@pytest.mark.slow
+def test_two_team_mates_stopped_in_each_others_way_move_apart_and_complete_the_mission():
+    """go_to_formation_deployment_5: alpha and charlie, deployed 4.5 m apart across each other's
+    transits, stopped for each other at 0.6 s and stayed stopped to the end of the 320 s run (the
+    mission did not complete). Stopped inside each other's collision distance for ``deadlock_s``,
+    alpha (the earlier name) sails away from charlie (mjasc/avoidance/separation.py); then right of
+    way settles them and the team reaches its formation poses and follows its paths."""
+    summary = run_scenario(load_scenario(CASES / "go_to_formation_deployment_5.toml")).summary
+    assert summary["mission"]["mission_completed"], summary["mission"]
+    actions = {name: v["avoidance"]["actions"]["separate"] for name, v in summary["vessels"].items()}
+    assert actions == {"alpha": 1, "bravo": 0, "charlie": 0}  # (charlie, the later name, is no longer stuck at 90 s)
+    assert not summary["any_collision"]
 
 
 @pytest.mark.slow

@@ -26,6 +26,7 @@ from mjasc.avoidance.decision import emergency_yield, velocity_correction_for
 from mjasc.avoidance.lane_change import plan_lane_change
 from mjasc.avoidance.prediction import PredictionQuery, predict_fleet
 from mjasc.avoidance.replanning import Detour, plan_detour
+from mjasc.avoidance.separation import separation_detour, separation_turn, stuck_with
 from mjasc.avoidance.speed_plan import correction_profile
 from mjasc.avoidance.static_conflicts import StaticConflict, static_conflicts, track_outlines
 from mjasc.avoidance.structure import detour_onto_structure
@@ -60,6 +61,7 @@ class Manoeuvres(CheckedChoice):
                 static_outlines=()) -> None:
         gamma = float(self._guidance.gamma_m)
         cfg = self.config
+        conflicts = self._while_separating(t, conflicts)
         giving_way, standing_on = self._mates_declaring(t)
         tri = triage(t, nav, gamma, conflicts, statics, by_id, self.team, cfg, self.speed_max_m_s, self.correction,
                      giving_way, standing_on, self.name, float(self._guidance.path.length))
@@ -110,6 +112,10 @@ class Manoeuvres(CheckedChoice):
         # A running emergency stop with nothing else to choose from is simply kept. A new one is
         # counted and said only once the checked choice has taken it (not when it keeps way instead).
         stop_note = None
+        if allow_replan and self._separate(t, nav, conflicts, by_id, static_polygons, static_outlines):
+            self.correction = None
+            self._predict(t, nav, list(by_id.values()), static_polygons, after_replan=True, grown=tri.give_way_mates)
+            return
         if unresolved:
             nearest = min(unresolved, key=lambda u: u.t_closest_s)
             emergency_running = self.correction is not None and self.correction.emergency
@@ -144,6 +150,49 @@ class Manoeuvres(CheckedChoice):
             self._event(t, f"velocity correction ({chosen.kind}) for track {chosen.track_id}: virtual target "
                            f"γ {law.gamma0:.1f} → {law.gamma_goal:.1f} m by t = {law.t_goal:.1f} s, "
                            f"V_d = {law.desired_speed:.2f} m/s, k = {law.gain_k:g}")
+
+    def _while_separating(self, t, conflicts) -> list:
+        """The conflicts to act on: while a separation's leg is sailed (:mod:`~mjasc.avoidance.separation`),
+        not the one with the team mate it moves away from as long as the range opens (its closest
+        approach is now)."""
+        sep = self._separating
+        if sep is None:
+            return conflicts
+        track_id, detour = sep
+        if self.detour is not detour or self._guidance.path is not detour.path or \
+                float(self._guidance.gamma_m) >= detour.detour_length_m:
+            self._separating = None
+            return conflicts
+        return [c for c in conflicts if c.track_id != track_id or c.t_closest_s > t + 1e-6]
+
+    def _separate(self, t, nav, conflicts, by_id, static_polygons, static_outlines) -> bool:
+        """Move apart from a team mate both stopped inside the collision distance for ``deadlock_s``
+        (:mod:`~mjasc.avoidance.separation`). True when switched to the leg away."""
+        cfg = self.config
+        if cfg.deadlock_s <= 0.0 or self._separating is not None:
+            return False
+        u, v = float(nav.body_velocity[0]), float(nav.body_velocity[1])
+        self._stuck_since = stuck_with(t, nav.position_m, math.hypot(u, v), conflicts, by_id, self._stuck_since)
+        due = [k for k, since in self._stuck_since.items()
+               if t - since >= cfg.deadlock_s * separation_turn(self.name, by_id[k].team_member)]
+        if not due:
+            return False
+        c = min((c for c in conflicts if c.track_id in due), key=lambda c: c.min_distance_m)
+        mate = by_id[c.track_id]
+        out = separation_detour(t, nav.position_m, mate.position_m, c.collision_distance_m + 2.0 * cfg.replan_margin_m,
+                                self.mission_gamma_m(self._guidance), list(static_polygons) + list(static_outlines),
+                                self.static_inflation_m)
+        stopped_s = t - self._stuck_since[c.track_id]
+        if isinstance(out, str):
+            self._event(t, f"deadlock with team mate {mate.team_member} (both stopped {stopped_s:.0f} s): {out}")
+            self._stuck_since[c.track_id] = t  # (asked again after another deadlock_s)
+            return False
+        self._stuck_since = {}
+        self._take_detour(t, out, f"deadlock with team mate {mate.team_member} (both stopped {stopped_s:.0f} s, "
+                                  f"{float(np.hypot(*(np.asarray(nav.position_m) - mate.position_m))):.1f} m apart): "
+                                  f"moving {out.detour_length_m:.1f} m away before going on", "separate")
+        self._separating = (c.track_id, out)
+        return True
 
     def _mates_declaring(self, t) -> tuple[frozenset, frozenset]:
         """The team mates whose broadcast, at most ``team_broadcast_max_age_s`` old, says they give
@@ -309,13 +358,14 @@ class Manoeuvres(CheckedChoice):
         self._event(t, event)
         self._log.prediction_pending()
 
-    def _take_detour(self, t, detour: Detour, event: str) -> None:
-        """Switch to ``detour`` (a streamline's, or a lane change's when its ``field`` is None) and count it."""
+    def _take_detour(self, t, detour: Detour, event: str, counted: str = "replan") -> None:
+        """Switch to ``detour`` (a streamline's, or a lane change's when its ``field`` is None) and count it
+        (as ``counted``; a re-plan without a field as a lane change too)."""
         self.detour = detour
         self._detour_causes = None  # statics or unknown: the detour is sailed to its end
         self._set_path(detour.path, 0.0, "detour")
-        self.stats["replan"] += 1
-        if detour.field is None:
+        self.stats[counted] += 1
+        if counted == "replan" and detour.field is None:
             self.stats["lane_change"] += 1
         self._event(t, event)
         self._log.prediction_pending()
