@@ -89,6 +89,37 @@ def test_an_action_of_the_wrong_shape_is_an_error(domain, task, shape):
     env.step(np.full(env.action_spec().shape, 0.5))
 
 
+def test_a_nan_action_is_an_error_before_the_step():
+    """MuJoCo took a NaN control for 0, stepped, then raised its own "simulation is unstable" error:
+    the episode lost a step's reward and ended 0.1 s late (a user's review). ±inf act as ±1."""
+    env = suite.load("otter", "station_keeping", task_kwargs={"random": 0})
+    env.reset()
+    with pytest.raises(ValueError, match=r"^action: must not be NaN, got \[nan, 0\.0\]$"):
+        env.step(np.array([np.nan, 0.0]))
+    assert env.physics.data.time == 0.0
+    inf = env.step(np.array([np.inf, -np.inf]))
+    env2 = suite.load("otter", "station_keeping", task_kwargs={"random": 0})
+    env2.reset()
+    one = env2.step(np.array([1.0, -1.0]))
+    assert inf.reward == one.reward and all(np.array_equal(inf.observation[k], one.observation[k])
+                                            for k in one.observation)
+
+
+def test_the_hard_station_is_held_bow_into_the_mean_current():
+    """The Gauss-Markov current's value at t = 0 holds a fluctuation of σ = 0.08 m/s: the rewarded
+    heading was up to 23° off "bow into the current" (a user's review). It is into the mean now."""
+    from mjasc.core.frames import wrap_angle
+    off = []
+    for seed in range(8):
+        env = suite.load("otter", "station_keeping_hard", task_kwargs={"random": seed})
+        env.reset()
+        mean = env.physics._current.mean_velocity_m_s
+        into = np.arctan2(-mean[1], -mean[0])
+        off.append(abs(float(wrap_angle(env.task.station_heading_rad - into))))
+        assert not np.allclose(env.physics._current.velocity(np.zeros((1, 2)), 0.0)[0], mean)  # (it fluctuates)
+    assert max(off) < 1e-12
+
+
 @pytest.mark.parametrize("name", ["otter.v2", "my boat", "obstacle_boat"])
 def test_a_hull_whose_name_cannot_name_a_vessel_is_a_vessel_key_error(tmp_path, name):
     """A folder that passed the contract but whose name the model rejects used to fail later with

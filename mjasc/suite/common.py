@@ -217,10 +217,14 @@ class VesselPhysics(mjcf.Physics):
         self._update_traffic()
 
     def set_control(self, control):
-        """dm_control's, but a wrong shape is an error (``np.copyto`` broadcast (1,) and (1, 2) actions)."""
+        """dm_control's, but a wrong shape (``np.copyto`` broadcast (1,) and (1, 2) actions) or a NaN
+        is an error before anything is stepped (MuJoCo took a NaN control for 0, stepped, and raised
+        its own instability error: the episode lost a step); ±inf act as ±1, as any value beyond."""
         shape = np.shape(control)
         if shape != (self.model.nu,):
             raise ValueError(f"action: must have shape ({self.model.nu},) (port, starboard per vessel), got {shape}")
+        if np.isnan(np.asarray(control, dtype=float)).any():
+            raise ValueError(f"action: must not be NaN, got {np.asarray(control, dtype=float).tolist()}")
         super().set_control(control)
 
     def copy(self, share_model=False):

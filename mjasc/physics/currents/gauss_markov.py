@@ -147,6 +147,11 @@ class GaussMarkovCurrent(CurrentField):
             self._cached_t = t_s
         return self._cached_v
 
+    @property
+    def mean_velocity_m_s(self) -> np.ndarray:
+        """V_mean [m/s], (2,) world frame: what the current varies about (a copy)."""
+        return self._mean.copy()
+
     def velocity_at_times(self, times_s: Any) -> np.ndarray:
         """(m, 2) current velocities [m/s] at times ``times_s`` (m,) — for plots and analysis."""
         times = np.atleast_1d(np.asarray(times_s, dtype=float))
