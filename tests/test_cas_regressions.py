@@ -247,6 +247,26 @@ def test_two_team_mates_stopped_in_each_others_way_move_apart_and_complete_the_m
 
 
 @pytest.mark.slow
+def test_three_team_mates_stuck_together_move_apart_one_at_a_time(tmp_path):
+    """A user's review of the way out: bravo deployed beside alpha and charlie too (-17, 14.2 m,
+    heading -80°), all three inside each other's collision distance. The first form moved alpha and
+    bravo away from charlie at once; each was stopped at the start of its leg by the other, frozen
+    there with the leg counted as running, and the two touched 19 times (none with the rule off). Now
+    the earliest name of all stuck together goes first, on a leg that ends no nearer another team
+    mate, and the team completes its mission without contact."""
+    text = (CASES / "go_to_formation_deployment_5.toml").read_text()
+    bravo = "position_m = [30.78663102741843, -16.080994747691925]\nheading_deg = -22.262997016342613"
+    assert text.count(bravo) == 1
+    path = tmp_path / "three_stuck.toml"
+    path.write_text(text.replace(bravo, "position_m = [-17.0, 14.2]\nheading_deg = -80.0"))
+    summary = run_scenario(load_scenario(path)).summary
+    assert not summary["any_collision"], summary["collisions"][:3]
+    assert summary["mission"]["mission_completed"], summary["mission"]
+    actions = {name: v["avoidance"]["actions"]["separate"] for name, v in summary["vessels"].items()}
+    assert actions == {"alpha": 1, "bravo": 0, "charlie": 0}
+
+
+@pytest.mark.slow
 def test_the_detour_refusal_acts_in_the_stressed_bottleneck():
     """The refusal of bottleneck_stressed_seed2 end to end on another seed of the same file: seed 57
     has alpha refuse detours that would pass the islands too close, and every vessel keeps clear.

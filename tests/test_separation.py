@@ -69,21 +69,34 @@ def test_the_way_out_leads_straight_away_from_the_team_mate_to_the_reach():
 
 
 def test_one_of_the_two_moves_first():
-    assert separation_turn("alpha", "charlie") == 1 and separation_turn("charlie", "alpha") == 2
+    assert separation_turn("alpha", ["charlie"]) == 1 and separation_turn("charlie", ["alpha"]) == 2
+    assert separation_turn("bravo", ["charlie", "alpha"]) == 2  # (three stuck together: alpha first)
+    assert separation_turn("Charlie", ["alpha"]) == 1  # (Python's string order: capitals first)
 
 
-def test_the_way_out_turns_off_a_static_obstacle_only_in_open_water():
-    wall_east = np.array([[7.5, -1.0], [12.0, -1.0], [12.0, 1.0], [7.5, 1.0]])  # beyond the reach, by the way out
+def test_the_way_out_turns_off_a_static_obstacle_and_says_when_there_is_none():
+    wall_east = np.array([[7.5, -1.0], [12.0, -1.0], [12.0, 1.0], [7.5, 1.0]])  # by the straight way out
     d = separation_detour(0.0, (0.0, 0.0), (-2.0, 0.0), 7.0, 0.0, [wall_east], 3.0)
     assert not isinstance(d, str)
     end = d.path.end_point
     assert math.degrees(abs(math.atan2(end[1], end[0] + 2.0))) == pytest.approx(30.0)  # the first turn that clears
     assert np.hypot(end[0] + 2.0, end[1]) == pytest.approx(7.0)
-    # mapped structure within the reach of the vessel: no way out (a turn in place sweeps the hull round)
-    near = np.array([[5.0, -1.0], [8.0, -1.0], [8.0, 1.0], [5.0, 1.0]])
-    out = separation_detour(0.0, (0.0, 0.0), (-2.0, 0.0), 7.0, 0.0, [near], 1.5)
-    assert out == "mapped structure within 7.0 m: no way out but in open water"
     ring = [np.array([[-30.0, y0], [30.0, y0], [30.0, y0 + 1.0], [-30.0, y0 + 1.0]]) for y0 in (7.2, -8.2)] + \
         [np.array([[x0, -30.0], [x0 + 1.0, -30.0], [x0 + 1.0, 30.0], [x0, 30.0]]) for x0 in (7.2,)]
     out = separation_detour(0.0, (0.0, 0.0), (-2.0, 0.0), 7.0, 0.0, ring, 3.2)  # (each wall 7.2 m off)
     assert out == "every way out meets a mapped static obstacle"
+
+
+def test_the_way_out_does_not_end_nearer_another_team_mate():
+    # a third vessel 3 m east, inside the collision distance (4 m): the straight way out (east) would end
+    # 2 m from it; the first turn whose end is no nearer than the 3 m it is now is taken (30°: 3.66 m)
+    d = separation_detour(0.0, (0.0, 0.0), (-2.0, 0.0), 7.0, 0.0, [], 1.0, [np.array([3.0, 0.0])], 4.0)
+    assert not isinstance(d, str)
+    end = d.path.end_point
+    assert np.hypot(end[0] - 3.0, end[1]) >= 3.0
+    assert math.degrees(abs(math.atan2(end[1], end[0] + 2.0))) == pytest.approx(30.0)
+    # team mates all round: no way out
+    ring = [np.array([7.0 * math.cos(a), 7.0 * math.sin(a)]) - np.array([2.0, 0.0])
+            for a in np.radians([0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0])]
+    out = separation_detour(0.0, (0.0, 0.0), (-2.0, 0.0), 7.0, 0.0, [], 1.0, ring, 4.0)
+    assert out == "every way out meets a mapped static obstacle or another team mate"

@@ -109,11 +109,12 @@ class AvoidanceConfig:
             "the vessel stops instead (emergency) and looks again every second")
     deadlock_s: float = param(
         45.0, nonneg=True, unit="s",
-        doc="two team mates stopped this long with their centres inside their collision distance (neither can clear "
-            "the other: each one's path runs through the other) move apart in open water: the earlier name sails "
+        doc="two team mates stopped (below 0.1 m/s) this long with their centres inside their collision distance "
+            "(neither can clear the other: each one's path runs through the other) move apart: the earlier name sails "
             "straight away from the other to the collision distance plus 2 × replan_margin_m, then plans on as usual "
-            "(the later name after twice this, if still stuck); longer than the waits that end by themselves (the "
-            "§6.4.3 bottleneck's team mates waited up to 29 s in the gap); 0: never")
+            "(a vessel stuck with an earlier name too waits twice this; the time is counted at its predictions, about "
+            "one a second); longer than the waits that end by themselves (the §6.4.3 bottleneck's team mates waited "
+            "up to 29 s in the gap); 0: never")
     # when to predict again
     track_deviation_m: float = param(5.0, positive=True, unit="m",
                                      doc="predict again at once when a track (or a team mate's plan) is this far "

@@ -153,45 +153,50 @@ class Manoeuvres(CheckedChoice):
 
     def _while_separating(self, t, conflicts) -> list:
         """The conflicts to act on: while a separation's leg is sailed (:mod:`~mjasc.avoidance.separation`),
-        not the one with the team mate it moves away from as long as the range opens (its closest
-        approach is now)."""
+        not those with team mates from which the leg opens the range (their closest approach is now)."""
         sep = self._separating
         if sep is None:
             return conflicts
-        track_id, detour = sep
-        if self.detour is not detour or self._guidance.path is not detour.path or \
-                float(self._guidance.gamma_m) >= detour.detour_length_m:
+        if self.detour is not sep or self._guidance.path is not sep.path or \
+                float(self._guidance.gamma_m) >= sep.detour_length_m:
             self._separating = None
             return conflicts
-        return [c for c in conflicts if c.track_id != track_id or c.t_closest_s > t + 1e-6]
+        team = self._team_track_ids
+        return [c for c in conflicts if c.track_id not in team or c.t_closest_s > t + 1e-6]
 
     def _separate(self, t, nav, conflicts, by_id, static_polygons, static_outlines) -> bool:
         """Move apart from a team mate both stopped inside the collision distance for ``deadlock_s``
-        (:mod:`~mjasc.avoidance.separation`). True when switched to the leg away."""
+        (:mod:`~mjasc.avoidance.separation`; also from a leg stopped on the way). True when switched
+        to the leg away."""
         cfg = self.config
-        if cfg.deadlock_s <= 0.0 or self._separating is not None:
+        if cfg.deadlock_s <= 0.0:
             return False
         u, v = float(nav.body_velocity[0]), float(nav.body_velocity[1])
-        self._stuck_since = stuck_with(t, nav.position_m, math.hypot(u, v), conflicts, by_id, self._stuck_since)
-        due = [k for k, since in self._stuck_since.items()
-               if t - since >= cfg.deadlock_s * separation_turn(self.name, by_id[k].team_member)]
+        stuck = self._stuck_since = stuck_with(t, nav.position_m, math.hypot(u, v), conflicts, by_id,
+                                               self._stuck_since)
+        if not stuck or t < self._separation_asked_s + cfg.deadlock_s:
+            return False
+        wait_s = cfg.deadlock_s * separation_turn(self.name, [by_id[k].team_member for k in stuck])
+        due = [k for k, since in stuck.items() if t - since >= wait_s]
         if not due:
             return False
         c = min((c for c in conflicts if c.track_id in due), key=lambda c: c.min_distance_m)
         mate = by_id[c.track_id]
+        others = [by_id[k].position_m for k in sorted(self._team_track_ids) if k != c.track_id and k in by_id]
         out = separation_detour(t, nav.position_m, mate.position_m, c.collision_distance_m + 2.0 * cfg.replan_margin_m,
                                 self.mission_gamma_m(self._guidance), list(static_polygons) + list(static_outlines),
-                                self.static_inflation_m)
-        stopped_s = t - self._stuck_since[c.track_id]
+                                self.static_inflation_m, others, c.collision_distance_m)
+        self._separation_asked_s = t
+        stopped_s = t - stuck[c.track_id]
+        apart_m = float(np.hypot(*(np.asarray(nav.position_m, dtype=float) - mate.position_m)))
+        said = f"deadlock with team mate {mate.team_member} (both stopped {stopped_s:.0f} s, {apart_m:.1f} m apart)"
         if isinstance(out, str):
-            self._event(t, f"deadlock with team mate {mate.team_member} (both stopped {stopped_s:.0f} s): {out}")
-            self._stuck_since[c.track_id] = t  # (asked again after another deadlock_s)
+            self.stats["separate_refused"] += 1
+            self._event(t, f"{said}: {out}; asked again in {cfg.deadlock_s:g} s")
             return False
         self._stuck_since = {}
-        self._take_detour(t, out, f"deadlock with team mate {mate.team_member} (both stopped {stopped_s:.0f} s, "
-                                  f"{float(np.hypot(*(np.asarray(nav.position_m) - mate.position_m))):.1f} m apart): "
-                                  f"moving {out.detour_length_m:.1f} m away before going on", "separate")
-        self._separating = (c.track_id, out)
+        self._take_detour(t, out, f"{said}: moving {out.detour_length_m:.1f} m away before going on", "separate")
+        self._separating = out
         return True
 
     def _mates_declaring(self, t) -> tuple[frozenset, frozenset]:

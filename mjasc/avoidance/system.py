@@ -164,7 +164,8 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
         self._predicted_tracks: dict = {}
         self._stands_on: frozenset = frozenset()  # team mates the last prediction made it stand on toward
         self._stuck_since: dict[int, float] = {}  # stopped team mates inside the collision distance since [s]
-        self._separating: tuple | None = None  # (track id, detour): sailing away from a team mate (deadlock)
+        self._separating: Detour | None = None  # the leg away from a stopped team mate (a deadlock's way out)
+        self._separation_asked_s = -np.inf  # the last time a way out of a deadlock was looked for [s]
         # The last prediction's tracks for the deviation check of the control tick: their stacked
         # motion, track id → row, and whether the row is checked (not a team mate on a broadcast).
         self._predicted_motion: TrackMotions | None = None
@@ -187,7 +188,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
                       "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
                       "deviation_predictions": 0, "emergency": 0, "lane_change": 0, "checked_choice": 0,
                       "withdrawn": 0, "sharp_turn": 0, "detour_rejected": 0, "in_structure": 0, "turn_away": 0,
-                      "turn_held": 0, "separate": 0}
+                      "turn_held": 0, "separate": 0, "separate_refused": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
         self.logged_now: list[dict] = []  # the conflict records of the latest prediction (their triage answers)
@@ -325,7 +326,8 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
             "static_conflicts": self.stats["static_conflicts"],
             "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "lane_change", "checked_choice",
                                                           "replan_failed", "emergency", "withdrawn", "sharp_turn",
-                                                          "detour_rejected", "in_structure", "turn_away", "turn_held", "separate")},
+                                                          "detour_rejected", "in_structure", "turn_away", "turn_held", "separate",
+                                                          "separate_refused")},
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
             "detour_time_s": round(self.detour_time_s, 2),
