@@ -171,3 +171,13 @@ def test_segment_intersections():
     bowtie = np.array([[0.0, 0.0], [2.0, 2.0], [2.0, 0.0], [0.0, 2.0]])
     assert self_intersections(bowtie, 1e-9) == [(0, 2)]
     assert self_intersections(SQUARE, 1e-9) == []
+
+
+def test_points_near_polygon_is_inside_or_within_the_margin():
+    from mjasc.core.geometry import points_near_polygon
+
+    square = np.array([[0.0, 0.0], [2.0, 0.0], [2.0, 2.0], [0.0, 2.0]])
+    assert points_near_polygon(np.array([[1.0, 1.0]]), square, 0.1)  # inside, whatever the margin
+    assert points_near_polygon(np.array([[5.0, 5.0], [2.5, 1.0]]), square, 0.6)  # one point 0.5 m off
+    assert not points_near_polygon(np.array([[5.0, 5.0], [2.5, 1.0]]), square, 0.5)  # (strictly closer)
+    assert not points_near_polygon(np.array([[-3.0, 1.0]]), square, 2.9)

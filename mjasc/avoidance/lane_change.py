@@ -51,7 +51,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+from mjasc.core.geometry import points_near_polygon
 from mjasc.guidance.paths import Path
 
 __all__ = ["lane_offsets", "plan_lane_change"]
@@ -219,8 +219,7 @@ def _plan(t, start, mission, g_now_m, speed_m_s, conflicts, static_polygons, cfg
         th = mission.tangent_angle(g)
         pts = mission.point(g) + offset[:, None] * np.stack([-np.sin(th), np.cos(th)], axis=1)
         pts[0] = start
-        blocked = next((p for p in statics if np.any(point_in_polygon(pts, p))
-                        or float(np.min(distance_to_polygon(pts, p))) < static_inflation_m), None)
+        blocked = next((p for p in statics if points_near_polygon(pts, p, static_inflation_m)), None)
         if blocked is not None:
             reasons.append(f"the {'port' if o > 0 else 'starboard'} lane meets a static obstacle")
             continue

@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from mjasc.core.geometry import distance_to_polygon, point_in_polygon
+from mjasc.core.geometry import points_near_polygon
 from mjasc.guidance.paths import Path
 
 __all__ = ["STOPPED_M_S", "mate_speed_m_s", "stuck_with", "separation_turn", "separation_detour"]
@@ -106,8 +106,7 @@ def separation_detour(t: float, position_m, mate_position_m, reach_m: float, mis
             blocked_by_mates = True
             continue
         leg = np.linspace(p, escape, max(int(np.ceil(np.hypot(*(escape - p)) / 0.5)), 1) + 1)
-        if any(np.any(point_in_polygon(leg, s)) or float(np.min(distance_to_polygon(leg, s))) < static_inflation_m
-               for s in statics):
+        if any(points_near_polygon(leg, s, static_inflation_m) for s in statics):
             continue
         lane = Path.from_points(np.array([p, escape]))
         g = float(mission_gamma_m)

@@ -69,6 +69,14 @@ def point_in_polygon(points_xy: np.ndarray, polygon: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------------- orientation
+def points_near_polygon(points_xy: np.ndarray, polygon: np.ndarray, margin_m: float) -> bool:
+    """Whether any point (n, 2) is inside the polygon (k, 2) or closer than ``margin_m`` [m] to its
+    boundary (:func:`point_in_polygon`, then :func:`distance_to_polygon`): a leg, a lane or a disc
+    that meets an obstacle grown by the margin."""
+    p = _points(points_xy)
+    return bool(np.any(point_in_polygon(p, polygon)) or float(np.min(distance_to_polygon(p, polygon))) < margin_m)
+
+
 def polygon_signed_area(polygon: np.ndarray) -> float:
     """Signed area [m²] of a closed polygon (k, 2) (shoelace formula); positive when counter-clockwise."""
     v = np.asarray(polygon, dtype=float)

@@ -48,7 +48,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from mjasc.core.config_tables import ConfigError, param, show
-from mjasc.core.geometry import distance_to_polygon, hull_outline, point_in_polygon, polygons_overlap
+from mjasc.core.geometry import (distance_to_polygon, hull_outline, point_in_polygon, points_near_polygon,
+                                 polygons_overlap)
 from mjasc.physics.obstacles import MovingObstacleSet, PolygonObstacle
 
 __all__ = ["Bounds", "BOUNDS", "MAX_NAME_CHARS", "check_name", "file_name", "check_duration", "check_plausible",
@@ -104,7 +105,7 @@ def hulls_overlap(hull: np.ndarray, shape) -> bool:
     """Does the hull polygon (k, 2) overlap ``shape``: a polygon (m, 2) or a disc ``(centre, radius)``?"""
     if isinstance(shape, tuple):
         centre, radius = shape
-        return bool(point_in_polygon(centre[None], hull)[0] or distance_to_polygon(centre[None], hull)[0] < radius)
+        return points_near_polygon(np.asarray(centre, dtype=float)[None], hull, radius)
     return polygons_overlap(hull, shape)
 
 
