@@ -170,7 +170,11 @@ def test_a_store_without_the_method_column_is_migrated(tmp_path):
                    "'w', 2.0)", (k, k, status))
     db.commit()
     db.close()
-    with CampaignStore.open_existing(tmp_path) as s:
+    with CampaignStore.open_existing(tmp_path) as s:  # (read-only: read as migrated, nothing written)
+        assert [(r.index, r.method) for r in s.runs()] == [(0, ""), (1, "")] and s.done(2) == {0}
+    assert "method" not in {r[1] for r in sqlite3.connect(tmp_path / "campaign.sqlite").execute(
+        "PRAGMA table_info(runs)")}
+    with CampaignStore(tmp_path, "abc") as s:  # (a command that writes: migrated on disk)
         runs = s.runs()
         assert [(r.index, r.method, r.status) for r in runs] == [(0, "", "completed"), (1, "", "error")]
         assert runs[0].metrics == {"k": 1} and s.done(2) == {0} and s.attempts() == {0: 1, 1: 1}

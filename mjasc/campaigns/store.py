@@ -28,6 +28,16 @@ campaign whose own hull's MJCF references files (meshes) was stored, before the 
 under the digest of the MJCF and hydrodynamics.toml alone: running it again renumbers it to its
 digest (:meth:`CampaignStore.adopt_earlier`), and it resumes.
 
+**Reading.** Reports and extracts (:meth:`CampaignStore.open_existing`) open the store read-only
+and write nothing into its folder: a read-only folder or file (a shared result, another user's
+campaign) reads as well as one's own. Without a ``-wal`` file holding results they read the file
+in SQLite's ``immutable`` mode (a read-only connection to a WAL-mode database otherwise creates
+``-wal`` and ``-shm`` files it cannot remove); with one (a campaign running, or killed with
+``kill -9``: its latest results are still in the ``-wal``) in ``mode=ro``, which reads it. A store
+of an older layout is read through temporary views with the columns a migration would add.
+A command that writes (:class:`CampaignStore`) and finds no store in the file (damaged, another
+file) leaves no ``-wal``/``-shm`` of its own beside it.
+
 Statuses: ``completed`` and ``diverged`` are results (a divergence is deterministic: the run
 replays it); ``error`` (the run raised), ``timeout`` (over the per-run time limit) and ``crashed``
 (its process died) are retried up to the campaign's attempt limit, then stay as the run's result.
@@ -111,6 +121,51 @@ def _not_a_store(path: Path, exc: sqlite3.DatabaseError) -> StoreError:
     return StoreError(f"{path}: not a campaign store ({exc})")
 
 
+def _sidecars(path: Path) -> list[Path]:
+    """SQLite's files beside the store ``path`` that exist now (``-wal``, ``-shm``, ``-journal``)."""
+    return [p for p in (path.with_name(path.name + s) for s in ("-wal", "-shm", "-journal")) if p.exists()]
+
+
+def _connect_read_only(path: Path) -> sqlite3.Connection:
+    """A read-only connection to the store ``path`` that writes nothing beside it (module docstring,
+    "Reading"): SQLite's ``immutable`` mode when no ``-wal`` file holds results (a read-only
+    connection to a WAL-mode database would otherwise create ``-wal`` and ``-shm`` and leave them),
+    ``mode=ro`` when one does (a campaign running, or killed: its latest results are there). A store
+    written before the ``run_unix_s``, ``hulls`` or ``method`` columns is read through temporary
+    views that add them as a migration would (nothing is migrated on disk). Raises
+    :class:`StoreError` when the file is not a campaign store."""
+    from urllib.parse import quote
+
+    wal = path.with_name(path.name + "-wal")
+    live = wal.exists() and wal.stat().st_size > 0
+    uri = f"file:{quote(str(path.resolve()))}?mode=ro" + ("" if live else "&immutable=1")
+    try:
+        db = sqlite3.connect(uri, uri=True, timeout=60.0, isolation_level=None)
+    except sqlite3.OperationalError as exc:  # (a -wal without -shm in a folder we cannot write: unreadable here)
+        raise StoreError(f"{path}: cannot open the store read-only ({exc}; its {wal.name} holds results that "
+                         f"SQLite reads only with write access to the folder)") from None
+    try:
+        tables = {name: {r[1] for r in db.execute(f"PRAGMA main.table_info({name})")} for name in ("campaigns", "runs")}
+        if not tables["campaigns"]:
+            raise StoreError(f"{path}: not a campaign store (no campaigns table)")
+        if not tables["runs"]:  # (none stored yet by an older mjasc: the table a writer would make, empty)
+            db.execute(_SCHEMA.split(";")[1].replace("IF NOT EXISTS runs", "temp.runs"))
+            tables["runs"] = {"method"}
+        missing = {"run_unix_s": "created_unix_s AS run_unix_s", "hulls": "NULL AS hulls"}
+        added = [sql for col, sql in missing.items() if col not in tables["campaigns"]]
+        if added:  # (an older store: the columns a migration adds, as it would fill them)
+            db.execute(f"CREATE TEMP VIEW campaigns AS SELECT *, {', '.join(added)} FROM main.campaigns")
+        if "method" not in tables["runs"]:
+            db.execute("CREATE TEMP VIEW runs AS SELECT *, '' AS method FROM main.runs")
+    except sqlite3.DatabaseError as exc:
+        db.close()
+        raise _not_a_store(path, exc) from None
+    except BaseException:
+        db.close()
+        raise
+    return db
+
+
 @dataclass(frozen=True)
 class StoredRun:
     """One run's row: index, family, drawn parameters, seed, scenario text, status, attempts so far,
@@ -134,11 +189,16 @@ class CampaignStore:
     """The store of one campaign (``digest``) in ``folder/campaign.sqlite`` (created if missing)."""
 
     def __init__(self, folder: str | Path, digest: str, name: str = "", source: str = "", file_text: str = "",
-                 runs_defined: int = 0, hulls: dict | None = None):
+                 runs_defined: int = 0, hulls: dict | None = None, *, read_only: bool = False):
         self.folder = Path(folder)
-        self.folder.mkdir(parents=True, exist_ok=True)
         self.path = self.folder / STORE_FILE
         self.digest = digest
+        self.read_only = read_only
+        if read_only:  # (reports and extracts: nothing written, not even SQLite's -wal/-shm files)
+            self._db = _connect_read_only(self.path)
+            return
+        self.folder.mkdir(parents=True, exist_ok=True)
+        sidecars = _sidecars(self.path)  # (those there before: a store that fails to open leaves no new one)
         self._db = sqlite3.connect(self.path, timeout=60.0, isolation_level=None)
         try:
             self._db.execute("PRAGMA journal_mode=WAL")
@@ -149,6 +209,8 @@ class CampaignStore:
             self._db.close()
             if isinstance(exc, sqlite3.OperationalError) and "locked" in str(exc):
                 raise
+            for extra in set(_sidecars(self.path)) - set(sidecars):
+                extra.unlink(missing_ok=True)
             raise _not_a_store(self.path, exc) from None
         if name or runs_defined:  # (a command running the campaign: the largest extent asked, run now)
             now = time.time()
@@ -194,24 +256,23 @@ class CampaignStore:
     @classmethod
     def open_existing(cls, folder: str | Path) -> "CampaignStore":
         """The store in ``folder`` for the campaign a command ran last (for reports and extracts:
-        the one whose exports and ``campaign.json`` the folder holds)."""
+        the one whose exports and ``campaign.json`` the folder holds), opened read-only
+        (:func:`_connect_read_only`: a read-only folder or file will do, and nothing is written)."""
         path = Path(folder) / STORE_FILE
         if not path.is_file():
             raise FileNotFoundError(f"{folder}: no campaign store ({STORE_FILE}) here")
-        db = sqlite3.connect(path)
+        store = cls(folder, "", read_only=True)
         try:
-            cols = {r[1] for r in db.execute("PRAGMA table_info(campaigns)")}
-            if not cols:
-                raise StoreError(f"{path}: not a campaign store (no campaigns table)")
-            last = "COALESCE(run_unix_s, created_unix_s)" if "run_unix_s" in cols else "created_unix_s"
-            row = db.execute(f"SELECT digest FROM campaigns ORDER BY {last} DESC LIMIT 1").fetchone()
+            row = store._db.execute("SELECT digest FROM campaigns ORDER BY COALESCE(run_unix_s, created_unix_s) DESC "
+                                    "LIMIT 1").fetchone()
         except sqlite3.DatabaseError as exc:
+            store.close()
             raise _not_a_store(path, exc) from None
-        finally:
-            db.close()
         if row is None:
+            store.close()
             raise FileNotFoundError(f"{path}: holds no campaign")
-        return cls(folder, row[0])
+        store.digest = row[0]
+        return store
 
     @staticmethod
     def adopt_earlier(folder: str | Path, digest: str, earlier: tuple | list) -> str | None:
