@@ -110,3 +110,24 @@ def test_a_damaged_store_leaves_no_wal_or_shm(tmp_path, damage):
         except StoreError:
             pass
         assert sorted(os.listdir(bad)) == ["campaign.sqlite"]
+
+
+def test_the_store_file_alone_holds_every_stored_result(tmp_path):
+    """Results are moved from the -wal into campaign.sqlite as they are stored and when the store
+    closes: a copy of campaign.sqlite alone (while a campaign runs, or after it ended) is the store."""
+    copy = tmp_path / "copy"
+    copy.mkdir()
+    s = CampaignStore(tmp_path / "c", "abc", name="c", runs_defined=3)
+    try:
+        s.record(0, family="f", parameters={}, seed=0, scenario="", status="completed", metrics={})
+        shutil.copy(tmp_path / "c" / "campaign.sqlite", copy / "campaign.sqlite")  # (while it runs)
+        with CampaignStore.open_existing(copy) as c:
+            assert [r.index for r in c.runs()] == [0]
+        s.record(1, family="f", parameters={}, seed=1, scenario="", status="completed", metrics={})
+    finally:
+        s.close()
+    wal = tmp_path / "c" / "campaign.sqlite-wal"
+    assert not wal.exists() or wal.stat().st_size == 0
+    shutil.copy(tmp_path / "c" / "campaign.sqlite", copy / "campaign.sqlite")
+    with CampaignStore.open_existing(copy) as c:
+        assert [r.index for r in c.runs()] == [0, 1]

@@ -28,6 +28,13 @@ campaign whose own hull's MJCF references files (meshes) was stored, before the 
 under the digest of the MJCF and hydrodynamics.toml alone: running it again renumbers it to its
 digest (:meth:`CampaignStore.adopt_earlier`), and it resumes.
 
+**Copying.** While a command writes the store (a campaign running) and after one was killed with
+``kill -9``, ``campaign.sqlite-wal`` beside it is part of the store (SQLite's write-ahead log):
+copy it with ``campaign.sqlite`` (and ``-shm``), or copy the folder. Each result is also moved
+into ``campaign.sqlite`` right after it is stored (a passive checkpoint, which yields to readers),
+and a command that ends — done, failed or interrupted — moves everything there and empties the
+``-wal`` (:meth:`CampaignStore.close`): then ``campaign.sqlite`` alone is the store.
+
 **Reading.** Reports and extracts (:meth:`CampaignStore.open_existing`) open the store read-only
 and write nothing into its folder: a read-only folder or file (a shared result, another user's
 campaign) reads as well as one's own. Without a ``-wal`` file holding results they read the file
@@ -304,6 +311,14 @@ class CampaignStore:
             db.close()
 
     def close(self) -> None:
+        """Close the store; a writer's first moves every result from the ``-wal`` file into
+        ``campaign.sqlite`` and empties it (``wal_checkpoint(TRUNCATE)``): the file alone is the
+        store once a command has ended, interrupted too (module docstring, "Copying")."""
+        if not self.read_only:
+            try:
+                self._db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+            except sqlite3.DatabaseError:  # (another connection reading: SQLite checkpoints when the last one closes)
+                pass
         self._db.close()
 
     def __enter__(self):
@@ -339,6 +354,10 @@ class CampaignStore:
         except BaseException:
             db.execute("ROLLBACK")
             raise
+        try:  # (the result into campaign.sqlite itself too, not only its -wal: module docstring, "Copying")
+            db.execute("PRAGMA wal_checkpoint(PASSIVE)")
+        except sqlite3.DatabaseError:
+            pass
         return attempts
 
     # ------------------------------------------------------------------ reading
