@@ -64,11 +64,14 @@ def count_arg(minimum: int):
 
 
 def seed_arg(text: str) -> int:
-    """An argparse type: a seed, an integer in [0, 2**32 − 1] (what numpy's and dm_control's
-    generators take)."""
+    """An argparse type: a seed, an integer in [0, MAX_SEED] (2**32 − 1: what numpy's and
+    dm_control's generators take; the scenario file's ``seed`` has the same bound,
+    :data:`mjasc.runs.scenario_values.MAX_SEED`)."""
+    from mjasc.runs.scenario_values import MAX_SEED
+
     value = count_arg(0)(text)
-    if value > 2**32 - 1:
-        raise argparse.ArgumentTypeError(f"must be ≤ 2**32 − 1, got {value}")
+    if value > MAX_SEED:
+        raise argparse.ArgumentTypeError(f"must be ≤ {MAX_SEED} (2**32 − 1), got {value}")
     return value
 
 

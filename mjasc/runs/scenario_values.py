@@ -25,6 +25,11 @@ __all__ = ["ScenarioError", "Scenario", "VesselConfig", "Rates", "Outputs", "REC
            "camera_problem", "check_camera_vessel"]
 
 
+
+#: The largest seed (a scenario's ``seed``, ``mjasc run --seed``, ``mjasc search``/``render --seed``):
+#: 2**32 − 1, what numpy's legacy and dm_control's generators take — declared once, here.
+MAX_SEED = 2**32 - 1
+
 class ScenarioError(ConfigError):
     """A scenario file is invalid; the message names the field and the reason (a ValueError).
 
@@ -152,7 +157,7 @@ class Scenario:
     description: str
     duration_s: float = param(positive=True, maximum=MAX_DURATION_S, unit="s",
                               doc="how long the run lasts (at least one control period)")
-    seed: int = param(nonneg=True, doc="the run's seed: sensor noise, packet loss, seeded currents")
+    seed: int = param(nonneg=True, maximum=MAX_SEED, doc="the run's seed: sensor noise, packet loss, seeded currents")
     rates: Rates
     outputs: Outputs
     current: CurrentField
