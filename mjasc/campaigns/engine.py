@@ -243,6 +243,11 @@ def execute_runs(runs: list, store: CampaignStore, out_dir: Path, *, scheduler=N
         plugins = {stage: {n: p for n, p in sources.items() if p} for stage, sources in plugins.items()}
         plugins = {stage: sources for stage, sources in plugins.items() if sources} or None
     info: dict[str, Any] = {"runs_to_do": len(runs)}
+    if runs and not in_process and scheduler in (None, "local") and workers is not None and workers > len(runs):
+        # (a worker per run to do at most: more would only start idle processes — --workers 1000 for
+        # 2 runs started 1000 of them)
+        info["workers_asked"] = workers
+        workers = len(runs)
     bar = None
     if progress and runs:
         from tqdm import tqdm

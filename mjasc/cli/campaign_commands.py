@@ -74,6 +74,9 @@ def _campaign(args) -> int:
             except OSError:
                 pass
     info = result.info
+    if "workers_asked" in info:
+        print(f"note: --workers {info['workers_asked']} capped at {info.get('workers')}, the runs to do",
+              file=sys.stderr)
     print(f"{campaign.name}: {info['runs_to_do']} run(s) done now, {info['already_done']} already in the store "
           f"({info['wall_time_s']} s)")
     print(format_aggregate(result.aggregate, campaign.name))
