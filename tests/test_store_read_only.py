@@ -131,3 +131,11 @@ def test_the_store_file_alone_holds_every_stored_result(tmp_path):
     shutil.copy(tmp_path / "c" / "campaign.sqlite", copy / "campaign.sqlite")
     with CampaignStore.open_existing(copy) as c:
         assert [r.index for r in c.runs()] == [0, 1]
+
+
+def test_the_report_of_a_store_without_runs_says_so(tmp_path):
+    from mjasc.campaigns.report import format_report, report_data
+
+    CampaignStore(tmp_path, "abc", name="c", runs_defined=3).close()
+    text = format_report(report_data(tmp_path))
+    assert "(statuses: )" not in text and "no run stored yet" in text

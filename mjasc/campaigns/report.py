@@ -142,13 +142,20 @@ def _before_cpa(data: dict) -> list[str]:
     return ["", f"**{note[0].upper()}{note[1:]}**"] if note else []
 
 
+def _statuses(data: dict) -> str:
+    """``statuses: completed 3, error 1`` — or, for a store without a run yet, that it holds none."""
+    if not data["statuses"]:
+        return "no run stored yet: the campaign command stores each run as it finishes"
+    return f"statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}"
+
+
 def format_report(data: dict) -> str:
     """The report's table as Markdown (also printed by ``mjasc report``)."""
     if data.get("methods"):
         return _format_comparison(data)
     lines = [*_title(data["campaign"]),
              f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
-             f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}).",
+             f"({_statuses(data)}).",
              *_before_cpa(data), "",
              *hull_table(data.get("hulls"), list(data["families"])),
              "| family | runs | collision [Wilson 95 %] | near miss [Wilson 95 %] | min separation: min / median [m] "
@@ -249,7 +256,7 @@ def _format_comparison(data: dict) -> str:
     methods = list(data["methods"])
     lines = [*_title(c),
              f"{data['runs_recorded']} of {data['runs_defined']} runs recorded, {data['runs_failed']} failed "
-             f"(statuses: {', '.join(f'{k} {v}' for k, v in sorted(data['statuses'].items()))}). "
+             f"({_statuses(data)}). "
              f"Methods compared: {', '.join(methods)} (each generated run once per method, the same scenario but "
              f"for its {c.get('compared_tables', 'avoidance')} tables).", *_before_cpa(data), "",
              *hull_table(data.get("hulls"), list(data["families"])),
