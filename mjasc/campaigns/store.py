@@ -63,7 +63,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
-from mjasc.runs.outputs import json_value
+from mjasc.runs.outputs import FolderInUse, json_value, lock_folder, unlock_folder  # noqa: F401 (re-exported)
 
 __all__ = ["CampaignStore", "StoredRun", "StoreError", "FINAL_STATUSES", "RETRY_STATUSES", "STORE_FILE",
            "record_result", "FolderInUse", "lock_folder", "unlock_folder"]
@@ -88,40 +88,6 @@ _OLD_COLUMNS = ("digest, idx, family, parameters, seed, scenario, status, attemp
 class StoreError(FileNotFoundError):
     """The folder's ``campaign.sqlite`` is not a campaign store (damaged, empty, another file): one
     line naming the file. A FileNotFoundError, as a folder without a store: no campaign is here."""
-
-
-class FolderInUse(RuntimeError):
-    """Another process runs a campaign into the folder (:func:`lock_folder`)."""
-
-
-def lock_folder(folder: Path):
-    """Hold ``folder`` for one campaign command (an exclusive ``flock`` on the folder itself, released
-    by :func:`unlock_folder` or when the process ends, even killed): a second command started into it
-    meanwhile — the same campaign would do every run a second time — is refused with
-    :class:`FolderInUse`. Returns the handle (None where the file system has no such lock: as before)."""
-    try:
-        import fcntl
-    except ImportError:  # (no flock: Windows)
-        return None
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return None
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except BlockingIOError:
-        os.close(fd)
-        raise FolderInUse(f"{folder}: another campaign command is running into this folder; wait for it to end "
-                          f"(then the same command does what is left) or give another --out") from None
-    except OSError:  # (a file system without flock)
-        os.close(fd)
-        return None
-    return fd
-
-
-def unlock_folder(handle) -> None:
-    if handle is not None:
-        os.close(handle)  # (the lock goes with the last descriptor: none is inherited)
 
 
 def _not_a_store(path: Path, exc: sqlite3.DatabaseError) -> StoreError:

@@ -11,8 +11,30 @@ import sys
 
 import mjasc  # noqa: F401  (chooses the OpenGL backend before mujoco is imported)
 from mjasc.cli import process_exit  # (first: its exit handler must be the first registered)
-from mjasc.cli.parser import build_parser
-from mjasc.cli.run_commands import viewer_command, viewer_executable
+
+
+def _is_the_program() -> bool:
+    """Whether this process is the ``mjasc`` program being imported (the console script, or
+    ``python -m mjasc``), not a script or a test importing :mod:`mjasc.cli`."""
+    main_module = sys.modules.get("__main__")
+    spec = getattr(main_module, "__spec__", None)
+    script = str(getattr(main_module, "__file__", "") or "").replace("\\", "/").rsplit("/", 1)[-1]
+    return (spec is not None and spec.name == "mjasc.__main__") or script in ("mjasc", "mjasc.exe", "mjasc-script.py")
+
+
+if _is_the_program():  # Ctrl-C or SIGTERM while the program imports: one line and 130, as later (README)
+    from mjasc.runs.interrupts import for_the_command as _early
+
+    _early()
+try:
+    from mjasc.cli.parser import build_parser
+    from mjasc.cli.run_commands import viewer_command, viewer_executable
+except KeyboardInterrupt:
+    if not _is_the_program():
+        raise
+    print("mjasc: interrupted", file=sys.stderr)
+    process_exit.leave_with(130)
+    raise SystemExit(130) from None
 
 __all__ = ["command_line", "main", "build_parser", "viewer_command", "viewer_executable"]
 
@@ -29,26 +51,22 @@ def main(argv: list[str] | None = None) -> int:
     An unexpected error (a bug) is one line too; ``MJASC_TRACEBACK=1`` shows its traceback."""
     import os
 
-    from mjasc.core.config_tables import ConfigError, path_problem, show_path
+    from mjasc.runs.interrupts import for_the_command, restore_handlers
 
-    args = build_parser(argv).parse_args(argv)
-    for name in _INPUTS:
-        value = getattr(args, name, None)
-        if value == "":
-            print(f"mjasc: {name}: an empty name, not a file or a bundled name", file=sys.stderr)
-            return 2
-        if isinstance(value, str) and path_problem(value):
-            print(f"mjasc: {name} {show_path(value)}: not a usable file name ({path_problem(value)})", file=sys.stderr)
-            return 2
+    os.environ.setdefault("RUST_LOG", "off")  # (the Rerun SDK's own log lines, in colour: mjasc says what failed)
     listening = None
-    if args.command in _SIMULATING and os.environ.get("MJASC_COMPILE_HINTS", "1") != "0":
-        from mjasc.core.kernel_cache import COLD_HINT, announce_compiles, cache_is_cold
-
-        if cache_is_cold():
-            print(COLD_HINT, file=sys.stderr)
-        else:  # (a kernel missing from a partly filled cache compiles silently otherwise: said while the command runs)
-            listening = announce_compiles(sys.stderr)
+    handlers = for_the_command()  # (SIGTERM as Ctrl-C from here on: the set-up below is interruptible too)
     try:
+        status = _checked_inputs(args := build_parser(argv).parse_args(argv))
+        if status is not None:
+            return status
+        if args.command in _SIMULATING and os.environ.get("MJASC_COMPILE_HINTS", "1") != "0":
+            from mjasc.core.kernel_cache import COLD_HINT, announce_compiles, cache_is_cold
+
+            if cache_is_cold():
+                print(COLD_HINT, file=sys.stderr)
+            else:  # (a kernel missing from a partly filled cache compiles silently otherwise: said while it runs)
+                listening = announce_compiles(sys.stderr)
         status = args.func(args)
         sys.stdout.flush()  # (here, not at exit: a reader that left is answered below)
         return status
@@ -60,12 +78,13 @@ def main(argv: list[str] | None = None) -> int:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
         return 141
-    except ConfigError as exc:  # includes ScenarioError and OutputError
-        print(f"mjasc: {exc}", file=sys.stderr)
-        return 2
     except Exception as exc:  # noqa: BLE001 - the last line of defence: one line, not a traceback
         from mjasc.campaigns.perturbation import CampaignError
+        from mjasc.core.config_tables import ConfigError
 
+        if isinstance(exc, ConfigError):  # includes ScenarioError and OutputError
+            print(f"mjasc: {exc}", file=sys.stderr)
+            return 2
         if isinstance(exc, CampaignError):
             print(f"mjasc: invalid campaign: {exc}", file=sys.stderr)
             return 2
@@ -80,6 +99,22 @@ def main(argv: list[str] | None = None) -> int:
             from numba.core import event
 
             event.unregister("numba:compile", listening)
+        restore_handlers(handlers)
+
+
+def _checked_inputs(args) -> int | None:
+    """2 (after one line on stderr) when an input argument is no usable file name, else None."""
+    from mjasc.core.config_tables import path_problem, show_path
+
+    for name in _INPUTS:
+        value = getattr(args, name, None)
+        if value == "":
+            print(f"mjasc: {name}: an empty name, not a file or a bundled name", file=sys.stderr)
+            return 2
+        if isinstance(value, str) and path_problem(value):
+            print(f"mjasc: {name} {show_path(value)}: not a usable file name ({path_problem(value)})", file=sys.stderr)
+            return 2
+    return None
 
 
 def command_line() -> None:
@@ -88,10 +123,18 @@ def command_line() -> None:
     (:mod:`mjasc.cli.process_exit`). Raises SystemExit like ``sys.exit(main())`` when the
     command raised or its status is not an exit status. Python's cyclic collector runs as during a
     run's loop from the start (:func:`mjasc.runs.collector.for_the_program`)."""
-    from mjasc.runs.collector import for_the_program
+    import signal
 
-    for_the_program()
-    status = main()
+    try:
+        from mjasc.runs.collector import for_the_program
+
+        for_the_program()
+        status = main()
+    except KeyboardInterrupt:  # (Ctrl-C before main's own handling began: one line all the same)
+        print("mjasc: interrupted", file=sys.stderr)
+        status = 130
+    for signum in (signal.SIGINT, signal.SIGTERM):  # (leaving: the command's outputs are complete; an
+        signal.signal(signum, signal.SIG_IGN)       # interrupt now would only cut the exit short with a traceback)
     if isinstance(status, int) and 0 <= status <= 255:
         process_exit.leave_with(status)
     raise SystemExit(status)

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import sys
 from pathlib import Path
 
@@ -13,6 +14,7 @@ from mjasc.cli.arguments import not_found_hint, out_dir, suite_tasks
 
 def cmd_run(args) -> int:
     from mjasc.core.resources import resolve_bundled
+    from mjasc.runs.outputs import FolderInUse
     from mjasc.runs.runner import RunFailed, Runner
     from mjasc.runs.scenario import ScenarioError, load_scenario
 
@@ -56,6 +58,9 @@ def cmd_run(args) -> int:
     except RunFailed as exc:
         print(f"mjasc: run failed: {exc}", file=sys.stderr)
         return 130 if exc.summary and exc.summary.get("status") == "interrupted" else 1
+    except FolderInUse as exc:  # (another run writes into --out: as a campaign's folder, refused)
+        print(f"mjasc: {exc}", file=sys.stderr)
+        return 1
     s = result.summary
     print(f"{scenario.name}: {s['status']} — {s['sim_time_s']} s simulated in {s['wall_time_s']} s "
           f"({s['real_time_factor']}× real time), collisions: {len(s['collisions'])}")
@@ -69,7 +74,8 @@ def cmd_run(args) -> int:
     for kind, path in result.files.items():
         print(f"  {kind}: {path}")
     if "recording" in result.files:
-        print(f"  open the recording with: mjasc view {out}  (or: {viewer_command(result.files['recording'])})")
+        print(f"  open the recording with: {shlex.join(['mjasc', 'view', str(out)])}  "
+              f"(or: {viewer_command(result.files['recording'])})")
     return 0
 
 
@@ -283,5 +289,5 @@ def cmd_render(args) -> int:
         if path is not None:
             print(f"  {kind}: {path}")
     if result.rerun_path is not None:
-        print(f"  open the recording with: mjasc view {result.rerun_path}")
+        print(f"  open the recording with: {shlex.join(['mjasc', 'view', str(result.rerun_path)])}")
     return 0

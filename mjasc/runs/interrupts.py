@@ -45,7 +45,7 @@ import sys
 import threading
 
 __all__ = ["Terminated", "catch_sigterm", "restore_sigterm", "signal_name", "interrupt_behind", "PENDING",
-           "raise_pending"]
+           "raise_pending", "for_the_command", "restore_handlers", "hold_interrupts", "release_interrupts"]
 
 
 class Terminated(KeyboardInterrupt):
@@ -185,6 +185,81 @@ def restore_sigterm(previous) -> KeyboardInterrupt | None:
     late = PENDING[0]
     PENDING.clear()
     return late
+
+
+def for_the_command():
+    """SIGTERM → :class:`Terminated` and SIGINT → ``KeyboardInterrupt`` through :func:`_interrupt`
+    for a whole ``mjasc`` command (:func:`mjasc.cli.main`: its set-up — imports, a scenario's
+    world, numba loading or compiling kernels — too, not only a run's loop), where the handler in
+    force is the default (a SIGTERM otherwise ends the process at once, exit 143, leaving a run's
+    temporary files). Nothing off the main thread. Returns what :func:`restore_handlers` needs."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    previous = {}
+    if signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, None, _interrupt):
+        previous[signal.SIGTERM] = signal.signal(signal.SIGTERM, _interrupt)
+    if signal.getsignal(signal.SIGINT) in (signal.default_int_handler, _interrupt):
+        previous[signal.SIGINT] = signal.signal(signal.SIGINT, _interrupt)
+    return previous
+
+
+def restore_handlers(previous) -> None:
+    """Put back the handlers :func:`for_the_command` replaced (None: nothing to do)."""
+    for signum, handler in (previous or {}).items():
+        signal.signal(signum, signal.SIG_DFL if handler is None else handler)
+
+
+class _Held:
+    """What :func:`hold_interrupts` replaced and the interrupts it kept since."""
+
+    def __init__(self):
+        self.kept: list = []
+        self.previous: dict = {}
+
+
+def hold_interrupts(caught=None) -> _Held:
+    """From now until :func:`release_interrupts`, SIGINT and SIGTERM are kept, not raised (where
+    their handler in force would raise: Python's, :func:`_interrupt`): what runs meanwhile — a
+    run closing its recording and writing its summary after a first interrupt — finishes whole
+    however often Ctrl-C is pressed. ``caught``: what :func:`catch_sigterm` returned, ended here as
+    :func:`restore_sigterm` would end it (its handlers are the ones :func:`release_interrupts` puts
+    back; no moment between the two where an interrupt would raise). An interrupt in
+    :data:`PENDING` is taken too (and forgotten there): ``held.kept`` holds them in order.
+    Nothing is installed off the main thread."""
+    held = _Held()
+    if threading.current_thread() is not threading.main_thread():
+        return held
+    _pause_delivery()
+    restore = {}
+    if caught is not None:
+        term, intr = caught
+        restore[signal.SIGTERM] = signal.SIG_DFL if term is None else term
+        if intr is not None:
+            restore[signal.SIGINT] = intr
+
+    def keep(signum, frame):
+        held.kept.append(Terminated(signal.Signals(signum).name) if signum == signal.SIGTERM else KeyboardInterrupt())
+
+    for signum in (signal.SIGINT, signal.SIGTERM):  # (first: from here on nothing raises)
+        current = signal.getsignal(signum)
+        if current is _interrupt or (signum == signal.SIGINT and current is signal.default_int_handler):
+            held.previous[signum] = restore.pop(signum, current)
+            signal.signal(signum, keep)
+    for signum, handler in restore.items():  # (those the catch replaced and nothing here holds)
+        signal.signal(signum, handler)
+    if caught is not None and _HOOKS:
+        sys.unraisablehook = _HOOKS.pop()
+    held.kept += PENDING
+    PENDING.clear()
+    return held
+
+
+def release_interrupts(held: _Held) -> KeyboardInterrupt | None:
+    """End :func:`hold_interrupts`: its handlers put back; returns the first interrupt kept (or None)."""
+    for signum, handler in held.previous.items():
+        signal.signal(signum, handler)
+    held.previous = {}
+    return held.kept[0] if held.kept else None
 
 
 def signal_name(exc: KeyboardInterrupt) -> str:

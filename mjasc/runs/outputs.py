@@ -9,6 +9,9 @@
   its own folder (``.<stem>.part<suffix>``) and renamed over the final name when complete (``os.replace``
   is atomic on POSIX within one file system): a reader sees the old file or the new one, never a
   half-written one; a writer that fails leaves no ``.part`` behind.
+* :func:`lock_folder` — one command at a time into a folder (a campaign's, a run's): an exclusive
+  ``flock`` on the folder, released when the command ends or its process dies (even killed); a
+  second command into it meanwhile is refused (:class:`FolderInUse`, one line).
 * :func:`component_summary` / :func:`plain_json_problem` / :func:`json_value` — what a component
   (a plugin's included) puts into summary.json, and what would keep it from strict, repeatable JSON.
 """
@@ -23,7 +26,7 @@ from typing import Iterator
 from mjasc.core.config_tables import ConfigError, path_problem, show_path
 
 __all__ = ["OutputError", "check_out_dir", "atomic_write_text", "atomic_target", "part_path", "json_value",
-           "component_summary", "plain_json_problem"]
+           "component_summary", "plain_json_problem", "FolderInUse", "lock_folder", "unlock_folder", "os_reason"]
 
 
 class OutputError(ConfigError):
@@ -33,6 +36,8 @@ class OutputError(ConfigError):
 def check_out_dir(path: str | Path, what: str = "--out") -> Path:
     """Make the folder ``path`` (and its parents) and prove it writable; returns it as a Path.
     Raises :class:`OutputError` ``"<what> <path>: <reason>"``."""
+    if isinstance(path, str) and path == "":  # (Path("") is the current folder: never meant, and a run's clean-up there)
+        raise OutputError(f"{what}: an empty name, not a folder (give '.' for the current folder)")
     shown = f"{what} {show_path(path)}"
     problem = path_problem(path)
     if problem:
@@ -53,6 +58,65 @@ def check_out_dir(path: str | Path, what: str = "--out") -> Path:
     except OSError as exc:
         raise OutputError(f"{shown}: cannot write there ({exc.strerror or exc})") from None
     return path
+
+
+class FolderInUse(RuntimeError):
+    """Another process writes into the folder (:func:`lock_folder`)."""
+
+
+_LOCKED_BY = {"campaign": "another campaign command is running into this folder; wait for it to end (then the same "
+                          "command does what is left) or give another --out",
+              "run": "another run is writing into this folder; wait for it to end or give another --out"}
+
+
+def lock_folder(folder: Path, what: str = "campaign"):
+    """Hold ``folder`` for one command (``what``: "campaign" or "run"; an exclusive ``flock`` on the
+    folder itself, released by :func:`unlock_folder` or when the process ends, even killed): a
+    second command started into it meanwhile — the same campaign would do every run a second time,
+    two runs would write the same temporary files — is refused with :class:`FolderInUse`. Returns
+    the handle (None where the file system has no such lock: as before)."""
+    try:
+        import fcntl
+    except ImportError:  # (no flock: Windows)
+        return None
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        os.close(fd)
+        raise FolderInUse(f"{folder}: {_LOCKED_BY[what]}") from None
+    except OSError:  # (a file system without flock)
+        os.close(fd)
+        return None
+    return fd
+
+
+def unlock_folder(handle) -> None:
+    if handle is not None:
+        os.close(handle)  # (the lock goes with the last descriptor: none is inherited)
+
+
+def os_reason(exc: BaseException, folder: str | Path | None = None) -> str:
+    """Why writing failed, as a user reads it: an OSError's own reason (``no space left on
+    device``); an error that hides it — the Rerun SDK's "File-writer thread shut down prematurely"
+    after its thread hit a full disk — as ``no space left on device`` when ``folder``'s file system
+    has no room left, else its type and text."""
+    if getattr(exc, "reason", None):  # (said already: mjasc.runs.recording.RecordingNotWritten)
+        return str(exc.reason)
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror[:1].lower() + exc.strerror[1:]
+    if folder is not None:
+        import shutil
+
+        try:
+            if shutil.disk_usage(folder).free < 64 * 1024:
+                return "no space left on device"
+        except OSError:
+            pass
+    return f"{type(exc).__name__}: {exc}"
 
 
 def part_path(path: str | Path) -> Path:

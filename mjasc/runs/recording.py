@@ -77,6 +77,34 @@ __all__ = ["Recorder", "default_blueprint", "TIMELINE", "DETAILS", "vessel_colou
 
 #: Buffered rows (summed over entities; a fleet row of n vessels counts n) that trigger a flush.
 FLUSH_ROWS = 1_000_000
+#: How long :meth:`Recorder.close` waits for the SDK while the file does not grow [s]: its writer
+#: thread, stopped by a full disk, may otherwise never answer (the SDK's flush then blocks for good).
+SDK_FLUSH_TIMEOUT_S = 120.0
+_FLUSH_STEP_S = 1.0  # (how often the file's growth and the disk's room are looked at meanwhile)
+#: Free bytes under which a recording's file system counts as full (the SDK's writer failed).
+FULL_DISK_BYTES = 64 * 1024
+
+
+_ABANDONED: list = []  # SDK streams whose writer stopped (RecordingNotWritten): never dropped
+
+
+class RecordingNotWritten(RuntimeError):
+    """The SDK could not write the recording (a full disk); ``reason`` says why in a few words. The
+    temporary file is removed and the SDK's stream abandoned (its flush and disconnect would block)."""
+
+    def __init__(self, path, reason: str):
+        super().__init__(f"{path}: {reason}")
+        self.reason = reason
+
+
+def _no_room(folder: Path) -> bool:
+    """Whether ``folder``'s file system has (almost) no room left for this process."""
+    try:
+        st = os.statvfs(folder)
+    except (OSError, AttributeError):
+        return False
+    free = st.f_bfree if hasattr(os, "geteuid") and os.geteuid() == 0 else st.f_bavail
+    return free * st.f_frsize < FULL_DISK_BYTES
 
 def size_only_batcher() -> rr.ChunkBatcherConfig:
     """The SDK's chunk batcher cutting chunks by size only, never by its wall-clock tick: the same
@@ -368,14 +396,44 @@ class Recorder(VesselSeries):
             self._closed = True
             canonical = self._part.with_name(self._part.name + ".canonical")
             try:  # (the SDK's flush and disconnect, the re-encoding meanwhile: mjasc.runs.rrd_closing)
-                close_canonical(self._part, canonical, self._ids, self.rec.flush, self.rec.disconnect)
+                close_canonical(self._part, canonical, self._ids, self._sdk_flush, self.rec.disconnect)
                 os.replace(canonical, self._part)
+            except RecordingNotWritten:  # (a full disk: nothing half-written is left)
+                canonical.unlink(missing_ok=True)
+                self._part.unlink(missing_ok=True)
+                rr.unregister_shutdown()  # (its flush at exit would block on the abandoned stream,
+                _ABANDONED.append(self.rec)  # and so would dropping it: kept until the process ends)
+                raise
             except (ReencodingError, OSError) as e:  # the recording itself is complete either way
                 canonical.unlink(missing_ok=True)
                 e = e.__cause__ or e
                 warnings.warn(f"{self.path}: recording kept as the Rerun SDK wrote it (not byte-reproducible): "
                               f"{type(e).__name__}: {e}", RuntimeWarning, stacklevel=2)
             os.replace(self._part, self.path)
+
+    def _sdk_flush(self) -> None:
+        """The SDK's flush, bounded (:data:`SDK_FLUSH_TIMEOUT_S`); a full disk is
+        :class:`RecordingNotWritten` (its writer thread stopped: a flush could block for good)."""
+        if _no_room(self._part.parent):
+            raise RecordingNotWritten(self.path, "no space left on device")
+        size, still = -1, 0.0
+        while True:
+            try:
+                self.rec.flush(timeout_sec=_FLUSH_STEP_S)
+                return
+            except RuntimeError as e:  # ("File-writer thread shut down prematurely", "Flush timed out")
+                if _no_room(self._part.parent):
+                    raise RecordingNotWritten(self.path, "no space left on device") from e
+                if "timed out" not in str(e):
+                    raise RecordingNotWritten(self.path, f"the Rerun SDK could not write it ({e})") from e
+                try:  # (a large recording on a slow disk: waited for while its file grows)
+                    now = self._part.stat().st_size
+                except OSError:
+                    now = size
+                still = still + _FLUSH_STEP_S if now == size else 0.0
+                size = now
+                if still >= SDK_FLUSH_TIMEOUT_S:
+                    raise RecordingNotWritten(self.path, f"the Rerun SDK stopped writing it ({e})") from e
 
     def discard(self) -> None:
         """Stop recording and remove the temporary file: nothing under the final name (a recording

@@ -17,9 +17,16 @@ recording is closed first (what was recorded so far is readable) and a summary i
 are written under a temporary name and renamed when complete (:mod:`mjasc.runs.outputs`): a
 ``recording.rrd`` or ``summary.json`` is never half-written. ``Simulation.set_state(np.load(
 "last_good_state.npy"))`` on the same scenario's runner reproduces the divergence. A run into a
-folder that holds an earlier run's outputs (its ``summary.json``) removes, when it starts, those of
-them it will not write itself (a recording, a video, a divergence's state): the folder never mixes
-two runs. Files of those names in a folder without a run's summary are not a run's: they stay.
+folder that holds an earlier run's outputs (its ``summary.json``) removes, when it starts, all of
+them (a recording, a video, a divergence's state, the summary last): the folder never mixes two
+runs, nor shows the earlier run's summary beside a run stopped before its own. Files of those names
+in a folder without a run's summary are not a run's: they stay. Temporary files of mjasc's naming
+(``.recording.part.rrd``, ``.video.part.mp4``, …) that a killed run left go too: a run holds its
+folder locked (:func:`~mjasc.runs.outputs.lock_folder`; a second run into it meanwhile is
+:class:`~mjasc.runs.outputs.FolderInUse`), so none is another run's. An interrupt while the
+outputs open removes their temporary files; from the loop's end until the summary is written
+further interrupts wait (:func:`~mjasc.runs.interrupts.hold_interrupts`). An output that cannot be
+written (a full disk) fails the run (``error``: the file and the reason) and leaves no temporary file.
 
 **Timing.** The main loop times each slot's work and the physics (``time.perf_counter``, about
 0.1 µs per reading) and keeps the sums in ``Runner.stage_seconds`` (slot → seconds, plus
@@ -51,10 +58,11 @@ from mjasc.plugins.answers import plugin_at_fault
 from mjasc.runs.agent_build import build_agent
 from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
-from mjasc.runs.interrupts import (PENDING, catch_sigterm, interrupt_behind, raise_pending, restore_sigterm,
-                                   signal_name)
+from mjasc.runs.interrupts import (PENDING, catch_sigterm, hold_interrupts, interrupt_behind, raise_pending,
+                                   release_interrupts, restore_sigterm, signal_name)
 from mjasc.runs.mission_offset import MissionOffset
-from mjasc.runs.outputs import atomic_target, atomic_write_text, component_summary, json_value
+from mjasc.runs.outputs import (atomic_target, atomic_write_text, component_summary, json_value, lock_folder,
+                                os_reason, part_path, unlock_folder)
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.scene_extent import scene_extent
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
@@ -215,13 +223,24 @@ class Runner:
 
         sc, sim = self.scenario, self.sim
         files = {}
+        lock = None
         if self.out_dir is not None:
             self.out_dir.mkdir(parents=True, exist_ok=True)
-            earlier = (self.out_dir / "summary.json").is_file()  # (a folder without one holds no run's outputs)
-            stale = ([LAST_GOOD_STATE] + ([] if sc.outputs.recording else ["recording.rrd"]) +
-                     ([] if sc.outputs.video else ["video.mp4"])) if earlier else []
-            for name in stale:  # (an earlier run's, which this one will not replace: module docstring)
-                (self.out_dir / name).unlink(missing_ok=True)
+            lock = lock_folder(self.out_dir, "run")  # (one run at a time into a folder: FolderInUse)
+            try:
+                _clear_folder(self.out_dir)
+            except BaseException:
+                unlock_folder(lock)
+                raise
+        try:
+            return self._run(files, interruptible)
+        finally:
+            unlock_folder(lock)
+
+    def _run(self, files: dict, interruptible: bool) -> RunResult:
+        from mjasc.runs.metrics import RunMetrics
+
+        sc, sim = self.scenario, self.sim
         self.metrics = RunMetrics(self.world, sc, self.sim.traffic)
         self.target_judge = None
         tt = sc.mission.track_target if sc.mission is not None else None
@@ -229,22 +248,17 @@ class Runner:
             from mjasc.evaluation.mission_judge import TargetJudge
 
             self.target_judge = TargetJudge(sc, self.world)
-        if self.out_dir is not None and sc.outputs.recording:
-            files["recording"] = self.out_dir / "recording.rrd"
-            self._truth = TruthRecording(files["recording"], sc, self.agents, self.world, self.network, self.extent())
-            self.recorder = self._truth.recorder
-        if self.out_dir is not None and sc.outputs.video:
-            from mjasc.runs.blueprint import vessel_colour
-            from mjasc.runs.video import VideoWriter
-
-            files["video"] = self.out_dir / "video.mp4"
-            overlays = [v.path.sample(1.0) for v in sc.vessels if v.path is not None]
-            # (encoded at the rate frames are taken — the requested one rounded to whole physics steps,
-            # 20 fps at 50 Hz physics: 25 — so that the video plays in real time)
-            self.video = VideoWriter(files["video"], self.world.model, sc.outputs.video_width, sc.outputs.video_height,
-                                     self.schedule.realized_rate_hz("video"), sc.outputs.video_camera, self.extent(),
-                                     overlays, title=sc.name,
-                                     vessel_colours=[(v.name, vessel_colour(i)) for i, v in enumerate(sc.vessels)])
+        try:  # (interrupted or failing while the outputs open: their temporary files go, nothing is left half-made)
+            self._open_outputs(files)
+        except BaseException:
+            for out in (self.recorder, self.video):
+                if out is not None:
+                    try:
+                        out.discard()
+                    except Exception:  # noqa: BLE001 - the first error is the one to report
+                        pass
+            self.recorder = self.video = self._truth = None
+            raise
         total_steps = int(round(sc.duration_s / sim.timestep_s))
         status, error = "completed", None
         wall0 = time.perf_counter()
@@ -334,24 +348,49 @@ class Runner:
                 if self.recorder:
                     self.recorder.event(sim.time_s, error, "ERROR")
         finally:
-            resume_collector(collector)
-            late = restore_sigterm(previous)  # (kept after the loop's last look: the run ends interrupted all the same)
-            if late is not None and status == "completed":
-                status, error = self._interrupted(sim.time_s, late)
-            if bar is not None:
-                bar.close()
-            if self._truth is not None and self.recorder:  # (the counts as they stand: the summary's)
-                t_slot = clock()
-                try:
-                    self._truth.finish(sim.time_s)
-                except Exception as exc:  # noqa: BLE001 - never lose the recording for its last counts
-                    self.recorder.event(sim.time_s, f"the comms counts at the end not written: {exc}", "WARN")
-                stage["record"] += clock() - t_slot
-            for slot, out in (("record", self.recorder), ("video", self.video)):
-                if out is not None:  # flushing the outputs is their slot's cost
+            # From here until the summary is written, further interrupts wait (hold_interrupts): a
+            # second Ctrl-C or SIGTERM while the outputs close does not cost the run its summary.
+            held = hold_interrupts(previous)
+            try:
+                resume_collector(collector)
+                held.kept += PENDING  # (one kept by a finalizer the collector ran: the run's too)
+                PENDING.clear()
+                late = held.kept.pop(0) if held.kept else None  # (kept after the loop's last look: the run
+                held.kept.clear()                                  # ends interrupted all the same)
+                if late is not None and status == "completed":
+                    status, error = self._interrupted(sim.time_s, late)
+                if bar is not None:
+                    bar.close()
+                if self._truth is not None and self.recorder:  # (the counts as they stand: the summary's)
                     t_slot = clock()
-                    out.close()
-                    stage[slot] += clock() - t_slot
+                    try:
+                        self._truth.finish(sim.time_s)
+                    except Exception as exc:  # noqa: BLE001 - never lose the recording for its last counts
+                        self.recorder.event(sim.time_s, f"the comms counts at the end not written: {exc}", "WARN")
+                    stage["record"] += clock() - t_slot
+                for slot, out in (("record", self.recorder), ("video", self.video)):
+                    if out is not None:  # flushing the outputs is their slot's cost
+                        t_slot = clock()
+                        problem = _close_output(out)
+                        stage[slot] += clock() - t_slot
+                        if problem is not None:  # (a full disk: the file is not written; the summary says so)
+                            files.pop("recording" if slot == "record" else "video", None)
+                            status, error = ("error", problem) if status == "completed" else (status,
+                                                                                              f"{error}; {problem}")
+            except BaseException:
+                release_interrupts(held)
+                raise
+        try:
+            return self._summarise(files, status, error, diverged, wall0, stage)
+        finally:
+            again = release_interrupts(held)
+            if again is not None and status == "completed" and sys.exc_info()[0] is None:
+                raise again  # (an interrupt while a completed run closed: its outputs are whole; the caller stops)
+
+    def _summarise(self, files: dict, status: str, error: str | None, diverged, wall0: float,
+                   stage: dict) -> RunResult:
+        """Write the run's summary (and a divergence's last good state); the result, or RunFailed."""
+        sc, sim = self.scenario, self.sim
         self.metrics.check_contacts(sim.drain_touches())  # (the steps after the last record tick)
         wall = time.perf_counter() - wall0
         summary = {"scenario": sc.name, "seed": sc.seed, "status": status, "error": error,
@@ -388,7 +427,11 @@ class Runner:
                 summary["last_good_state"]["file"] = LAST_GOOD_STATE
         if self.out_dir is not None:
             files["summary"] = self.out_dir / "summary.json"
-            atomic_write_text(files["summary"], json.dumps(summary, indent=2, default=json_value))
+            try:
+                atomic_write_text(files["summary"], json.dumps(summary, indent=2, default=json_value))
+            except OSError as exc:  # (a full disk: said in one line, the run failed)
+                raise RunFailed(f"{files['summary']}: {os_reason(exc, self.out_dir)} (the run's summary not written; "
+                                f"its status: {status}{f', {error}' if error else ''})", summary) from None
         result = RunResult(self.out_dir, summary, files)
         kept = f"; partial outputs kept in {self.out_dir}" if self.out_dir is not None else ""
         if status == "interrupted":
@@ -396,6 +439,59 @@ class Runner:
         if status != "completed":
             raise RunFailed(f"{error}{kept}", summary)
         return result
+
+
+    def _open_outputs(self, files: dict) -> None:
+        """Start the recording and the video (their files under temporary names until closed)."""
+        sc = self.scenario
+        if self.out_dir is not None and sc.outputs.recording:
+            files["recording"] = self.out_dir / "recording.rrd"
+            self._truth = TruthRecording(files["recording"], sc, self.agents, self.world, self.network, self.extent())
+            self.recorder = self._truth.recorder
+        if self.out_dir is not None and sc.outputs.video:
+            from mjasc.runs.blueprint import vessel_colour
+            from mjasc.runs.video import VideoWriter
+
+            files["video"] = self.out_dir / "video.mp4"
+            overlays = [v.path.sample(1.0) for v in sc.vessels if v.path is not None]
+            # (encoded at the rate frames are taken — the requested one rounded to whole physics steps,
+            # 20 fps at 50 Hz physics: 25 — so that the video plays in real time)
+            self.video = VideoWriter(files["video"], self.world.model, sc.outputs.video_width, sc.outputs.video_height,
+                                     self.schedule.realized_rate_hz("video"), sc.outputs.video_camera, self.extent(),
+                                     overlays, title=sc.name,
+                                     vessel_colours=[(v.name, vessel_colour(i)) for i, v in enumerate(sc.vessels)])
+
+
+def _clear_folder(folder: Path) -> None:
+    """Make ``folder`` hold no earlier run's outputs before a run writes into it (module docstring):
+    temporary files of mjasc's naming left by a run killed there (``.recording.part.rrd``,
+    ``.video.part.mp4``, …: no run writes into the folder now, it is locked) and, when it holds an
+    earlier run's ``summary.json``, that run's outputs — the summary last, so that a clean-up cut
+    short still marks what is left as a run's."""
+    names = ("recording.rrd", "video.mp4", LAST_GOOD_STATE, "summary.json")
+    for name in names:
+        part = part_path(folder / name)
+        for stale in (part, part.with_name(part.name + ".canonical")):
+            stale.unlink(missing_ok=True)
+    if (folder / "summary.json").is_file():  # (a folder without one holds no run's outputs: files of those names stay)
+        for name in names:
+            (folder / name).unlink(missing_ok=True)
+
+
+def _close_output(out) -> str | None:
+    """Close the recording or video ``out``; None, or why its file could not be written (its
+    temporary file then removed: nothing half-written is left)."""
+    try:
+        out.close()
+        return None
+    except Exception as exc:  # noqa: BLE001 - a full disk, a failing encoder: the summary says so
+        part = part_path(out.path)
+        for stale in (part, part.with_name(part.name + ".canonical")):
+            try:
+                stale.unlink(missing_ok=True)
+            except OSError:
+                pass
+        return f"{out.path}: {os_reason(exc, out.path.parent)} (not written)"
 
 
 def run_scenario(scenario: Scenario, out_dir=None, progress: bool | None = None,
