@@ -292,6 +292,35 @@ def test_cornered_between_an_island_and_a_head_on_target_the_side_taken_is_kept(
     else:
         assert math.cos(chosen[2].course_rad) > 0.0  # back east, towards the rule's side: the flip
 
+def test_a_give_way_hold_ends_once_the_target_is_past_and_clear():
+    """A target from starboard closes for a moment (a give-way conflict, role engaged), then runs
+    parallel 9.4 m abeam at 0.9 m/s, outside R (≈ 5 m) of the vessel's path and velocity. Overtaking
+    it still closes on it on the give-way's forbidden side (r·w > 0, (r × w)_z > 0), but clear of
+    it: the hold (rule 8 (d)) ends and the vessel (1.5 m/s) gets past. Before, the side alone held
+    the manoeuvre and renewed the role every tick: the vessel stayed behind the target at half speed
+    to the end (E2_four_otters_vo, seeds 1–3: bravo behind its team mate charlie 10 m abeam,
+    713 hold ticks)."""
+    method, _ = _method()
+    path = Path.line([0.0, 0.0], [0.0, 400.0])
+    p, q, heading, dt = np.zeros(2), np.array([10.0, 8.0]), math.pi / 2, 0.1
+    for k in range(600):
+        t = k * dt
+        course = math.radians(135.0 if t < 1.0 else 90.0)  # towards the path for 1 s, then parallel
+        track = TrackEstimate(1, t, q.copy(), course, 0.9, 0.0, 1.0)
+        nav = OwnNavigation(t, p.copy(), heading, 1.5 * np.array([math.cos(heading), math.sin(heading)]),
+                            np.array([1.5, 0.0, 0.0]))
+        req = method.control(t, nav, GuidanceState(path, path.project(p), 1.5), PerceptionReport(t, (track,), ()))
+        speed = 1.5 if req.speed_override_m_s is None else req.speed_override_m_s
+        heading = preferred_velocity(p, path, path.project(p), 1.5, method.lookahead_m)[0] \
+            if req.course_override_rad is None else req.course_override_rad
+        p = p + dt * speed * np.array([math.cos(heading), math.sin(heading)])
+        q = q + dt * 0.9 * np.array([math.cos(course), math.sin(course)])
+    assert method.stats["roles"]["crossing_give_way"] == 1  # the conflict was a give-way one
+    assert method.mode == "mission" and method.roles.role(1) is None  # released, the role forgotten
+    assert p[1] > q[1] + 10.0  # past the target
+    assert method.stats["colreg_hold"] < 100  # not held for the whole run (before: held to the end)
+
+
 @pytest.mark.parametrize("target_x_m, conflict", [(4.0, True), (8.0, False)])
 def test_a_track_the_path_runs_into_is_a_conflict_while_the_los_course_misses_it(target_x_m, conflict):
     """Off the path (4 m east, heading back along the LOS course, 124°) the preferred velocity passes

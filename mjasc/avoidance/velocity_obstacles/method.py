@@ -30,7 +30,10 @@ guidance state, its perception's tracks and mapped structures, never the truth:
 6. **holds a COLREG manoeuvre until the target is past** (rule 8 (d): the action is kept until the
    other vessel is finally past and clear): a head-on or give-way track whose role is engaged is
    also a conflict — and stays engaged — while the preferred velocity still closes on it on the
-   forbidden side (passing starboard to starboard, crossing ahead). Why: the preferred velocity is
+   forbidden side (passing starboard to starboard, crossing ahead) and it or the path's own motion
+   (step 7) would still come within R of it at some time: one that passes clear of both is past
+   and clear (a team mate 10 m abeam in a parallel lane, closing on the "wrong" side forever, held
+   a vessel behind it at half speed for the rest of a run). Why: the preferred velocity is
    the LOS course, which converges onto the path, so its straight-line miss distance overstates
    how clear the path is. Released as soon as the preferred velocity merely left the VO, a vessel
    whose path runs within R of the target's track steered back towards it on the wrong side, met
@@ -212,7 +215,8 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         in_vo_pref = ttc[0] <= o.horizon_s
         roles = np.full(len(obs), cr.NONE)
         tracked = (~obs.static) & (obs.track_id >= 0)
-        on_path = self._path_ttc(obs, tracked, guidance, u_pref) <= o.horizon_s  # step 7 of the module docstring
+        path_ttc = self._path_ttc(obs, tracked, guidance, u_pref)
+        on_path = path_ttc <= o.horizon_s  # step 7 of the module docstring
         if tracked.any():  # roles (all "none" without COLREG): remembered from a track's first conflict
             fresh = cr.roles(p_a, heading, obs.position_m[tracked],
                              np.arctan2(obs.velocity_m_s[tracked, 1], obs.velocity_m_s[tracked, 0]),
@@ -234,7 +238,8 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
             remembered = np.zeros(len(obs), bool)
             remembered[tracked] = [self.roles.role(i) is not None for i in obs.track_id[tracked].tolist()]
             departed[tracked] = self.departures.of(obs.track_id[tracked], remembered[tracked])
-            wrong_side = remembered & cr.forbidden_side(rel, w[:1], roles, departed)[0]
+            wrong_side = remembered & cr.forbidden_side(rel, w[:1], roles, departed)[0] \
+                & (np.isfinite(ttc[0]) | np.isfinite(path_ttc))
             self.roles.keep(t, obs.track_id[wrong_side])
         # stand on (rule 17): a stand-on track's VO counts only once keeping course collides soon
         stand_on = np.isin(roles, (cr.STAND_ON, cr.OVERTAKEN))
