@@ -14,7 +14,7 @@ import pytest
 
 from mjasc.cli import main
 from mjasc.runs.outputs import FolderInUse, lock_folder, unlock_folder
-from mjasc.runs.runner import RunFailed, Runner
+from mjasc.runs.runner import Runner
 from mjasc.runs.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent

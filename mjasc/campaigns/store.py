@@ -56,7 +56,6 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 import sqlite3
 import time
 from dataclasses import dataclass

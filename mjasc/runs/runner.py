@@ -59,7 +59,7 @@ from mjasc.runs.agent_build import build_agent
 from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import (PENDING, catch_sigterm, hold_interrupts, interrupt_behind, raise_pending,
-                                   release_interrupts, restore_sigterm, signal_name)
+                                   release_interrupts, signal_name)
 from mjasc.runs.mission_offset import MissionOffset
 from mjasc.runs.outputs import (atomic_target, atomic_write_text, component_summary, json_value, lock_folder,
                                 os_reason, part_path, unlock_folder)
@@ -219,9 +219,6 @@ class Runner:
         """Run the scenario to its end. Raises :class:`RunFailed` (after writing the outputs) when
         the physics diverges or a component raises, :class:`RunInterrupted` on Ctrl-C, and with
         ``interruptible`` (the main thread only) on SIGTERM too."""
-        from mjasc.runs.metrics import RunMetrics
-
-        sc, sim = self.scenario, self.sim
         files = {}
         lock = None
         if self.out_dir is not None:
