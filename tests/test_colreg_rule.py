@@ -16,15 +16,21 @@ from mjasc.runs.scenario import parse_scenario
 IMAZU = Path(__file__).resolve().parents[1] / "tasks" / "imazu"
 
 
-def run(case: int, rule: str):
+def run_all(case: int, rule: str):
+    """Imazu case ``case`` with the own vessel's traffic rule set: (summary, its avoidance actions,
+    the evaluation's encounters)."""
     doc = tomllib.loads((IMAZU / f"imazu_{case:02d}.toml").read_text())
     doc["vessels"][0]["avoidance"]["traffic_rule"] = rule
     runner = Runner(parse_scenario(doc, f"imazu_{case:02d}"), None, progress=False)
     evaluator = RunEvaluator(runner)
     runner.observe("record", evaluator)
     summary = runner.run().summary
-    (encounter,) = evaluator.summary()["encounters"]
-    return summary, summary["vessels"]["own"]["avoidance"]["actions"], encounter
+    return summary, summary["vessels"]["own"]["avoidance"]["actions"], evaluator.summary()["encounters"]
+
+
+def run(case: int, rule: str):
+    summary, actions, (encounter,) = run_all(case, rule)
+    return summary, actions, encounter
 
 
 def test_head_on_the_colreg_rule_turns_to_starboard_where_the_thesis_rule_turns_to_port():
@@ -64,3 +70,17 @@ def test_the_traffic_rule_reads_the_role_from_the_course_over_ground_not_the_cra
     assert colreg_role(nav, track, "thesis") is None
     still = SimpleNamespace(position_m=np.zeros(2), heading_rad=math.pi / 2, velocity_m_s=np.array([0.05, 0.0]))
     assert colreg_role(still, track, "colreg") == "head_on"  # barely moving: its heading
+
+
+@pytest.mark.parametrize("case", [14, 22])
+def test_among_several_targets_no_pass_first_ahead_of_one_it_gives_way_to(case):
+    """Imazu 14 and 22 under the COLREG rule: three targets, two or three of them crossing from
+    starboard (the own vessel gives way: slow down, pass astern). When a yield still collided with
+    another target the checked choice took passing first — speeding up across the bow of a target
+    it had to give way to (rule 15), two encounters of each case judged non-compliant. Passing
+    first is no option toward those targets now: every give-way encounter is compliant."""
+    s, actions, encounters = run_all(case, "colreg")
+    assert not s["any_collision"]
+    assert actions["pass"] == 0
+    give_way = [e for e in encounters if e["role"] == "crossing_give_way"]
+    assert len(give_way) >= 2 and all(e["compliant"] for e in give_way), give_way

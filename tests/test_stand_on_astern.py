@@ -76,3 +76,34 @@ def test_a_mate_predicted_from_its_plan_closes_as_its_plan_moves_now(resume_s, c
     track = estimate_as_track(_message_estimate(it, 0.0), 3, 1.5, None)
     assert isinstance(track, PlannedTrack) and track.speed_m_s == pytest.approx(1.5)
     assert closing_from_astern(OWN, track, 50.0, 0.15) is closing
+
+
+def test_a_mate_stopped_ahead_is_given_way_to_whatever_its_broadcast_says():
+    """A team mate whose fresh broadcast says it gives way makes the vessel stand on (rule order in
+    mjasc.avoidance.triage) — but not when that mate is stopped forward of the vessel's beam: its
+    give-way, all way off, keeps it where it is, and a vessel standing on toward it sailed into it
+    (thesis §6.4.3 under 30 % dropout and packet loss, seeds 70 and 234: a mate stopped 4–5 m
+    ahead). The vessel gives way as the geometry says; a moving mate there, or a stopped one
+    abaft the beam, leaves the broadcast's word standing."""
+    from mjasc.avoidance.config import AvoidanceConfig
+    from mjasc.avoidance.prediction import Decision, PredictedConflict
+    from mjasc.avoidance.triage import stopped_ahead, triage
+
+    cfg = AvoidanceConfig()
+
+    def answer(mate):
+        c = PredictedConflict(track_id=3, t_closest_s=70.0, min_distance_m=1.0, collision=True, t_i=60.0,
+                              t_f=80.0, gamma_a=8.0, gamma_b=20.0, point_a=np.array([8.0, 0.0]),
+                              point_b=np.array([20.0, 0.0]), decision=Decision.VELOCITY_CORRECTION,
+                              svo_polygon=None, vessel_positions=np.zeros((0, 2)),
+                              obstacle_positions=np.zeros((0, 2)), times=np.zeros(0), collision_distance_m=5.5)
+        return triage(50.0, OWN, 0.0, [c], [], {3: mate}, {"bravo"}, cfg, 2.5, None,
+                      mates_giving_way=frozenset({"bravo"}), own_name="alpha", path_end_m=100.0)
+
+    stopped = answer(_mate((6.0, -2.0), 90.0, 0.0))  # on the starboard bow, all way off
+    assert stopped_ahead(OWN, _mate((6.0, -2.0), 90.0, 0.0))
+    assert stopped.give_way_mates == {3} and stopped.roles[3].startswith("team right of way: give-way")
+    assert [stat for stat, _ in stopped.notes if stat] == ["stopped_mate_ahead"]
+    moving = answer(_mate((6.0, -2.0), 90.0, 1.0))  # the same place, under way: its word stands
+    assert moving.give_way_mates == set() and moving.roles[3] == "team right of way: stand-on, keeps its speed"
+    assert not stopped_ahead(OWN, _mate((-6.0, -2.0), 90.0, 0.0))  # abaft the beam

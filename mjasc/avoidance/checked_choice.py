@@ -36,11 +36,14 @@ _MARGIN_GAIN_M = 0.5
 class CheckedChoice:
     """The checked choice of :class:`~mjasc.avoidance.system.CollisionAvoidance` (see the module docstring)."""
 
-    def _checked_choice(self, t, chosen: Correction, candidates: list[Correction], conflicts) -> Correction | None:
+    def _checked_choice(self, t, chosen: Correction, candidates: list[Correction], conflicts,
+                        no_pass=frozenset()) -> Correction | None:
         """``chosen``, unless the speed it plans runs into another track. Every option's planned
         motion (its V_d until its goal time, the mission speed after) is predicted against all the
         disc tracks in one call; the options are ``chosen``, the other candidates (slowest first),
-        passing first for each conflict where feasible, the running correction (below), and keeping
+        passing first for each conflict where feasible (not for the tracks of ``no_pass``, toward which
+        the COLREG role forbids it: a give-way vessel in a crossing never passes ahead, a stand-on
+        vessel keeps its speed), the running correction (below), and keeping
         the mission speed (None). The first with no predicted collision is taken; when every one
         collides, the one whose worst predicted miss distance is largest (``chosen``, the thesis's
         choice, unless another keeps :data:`_MARGIN_GAIN_M` more: an emergency stop in a crossing
@@ -74,8 +77,8 @@ class CheckedChoice:
         gamma = float(np.clip(g_state.gamma_m, 0.0, g_state.path.length))
         options = [chosen] + sorted((c for c in candidates if c is not chosen), key=lambda c: c.law.desired_speed)
         for c in conflicts:
-            if isinstance(c, PredictedConflict) and not any(o.kind == "pass" and o.track_id == c.track_id
-                                                             for o in options):
+            if isinstance(c, PredictedConflict) and c.track_id not in no_pass and \
+                    not any(o.kind == "pass" and o.track_id == c.track_id for o in options):
                 alt = velocity_correction_for(t, gamma, c, self.config, self.speed_max_m_s, pass_only=True,
                                               path_end_m=float(g_state.path.length))
                 if alt is not None:

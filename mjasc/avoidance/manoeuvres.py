@@ -129,7 +129,7 @@ class Manoeuvres(CheckedChoice):
             yields = [c for c in candidates if c.kind == "yield"]
             chosen = min(yields, key=lambda c: c.law.desired_speed) if yields else \
                 max(candidates, key=lambda c: c.law.desired_speed)
-            chosen = self._checked_choice(t, chosen, candidates, conflicts)
+            chosen = self._checked_choice(t, chosen, candidates, conflicts, tri.no_pass)
             if chosen is not None and chosen is self.correction:  # the running one kept (said and counted there)
                 self._clear_since_s = None
                 return

@@ -188,7 +188,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
                       "stand_on": 0, "replan": 0, "replan_failed": 0, "monitor_only": 0,
                       "deviation_predictions": 0, "emergency": 0, "lane_change": 0, "checked_choice": 0,
                       "withdrawn": 0, "sharp_turn": 0, "detour_rejected": 0, "in_structure": 0, "turn_away": 0,
-                      "turn_held": 0, "separate": 0, "separate_refused": 0}
+                      "turn_held": 0, "separate": 0, "separate_refused": 0, "stopped_mate_ahead": 0}
         self.min_predicted_distance_m = float("inf")
         self.conflict_log: list[dict] = []
         self.logged_now: list[dict] = []  # the conflict records of the latest prediction (their triage answers)
@@ -327,7 +327,7 @@ class CollisionAvoidance(PredictionStep, Manoeuvres, ControlTick, AvoidanceMetho
             "actions": {k: self.stats[k] for k in ("yield", "pass", "stand_on", "replan", "lane_change", "checked_choice",
                                                           "replan_failed", "emergency", "withdrawn", "sharp_turn",
                                                           "detour_rejected", "in_structure", "turn_away", "turn_held", "separate",
-                                                          "separate_refused")},
+                                                          "separate_refused", "stopped_mate_ahead")},
             "mode_time_s": {k: round(v, 2) for k, v in self.mode_time_s.items()},
             "mode_share": {k: round(v / total, 4) if total > 0 else 0.0 for k, v in self.mode_time_s.items()},
             "detour_time_s": round(self.detour_time_s, 2),

@@ -15,10 +15,13 @@ by the rules in this order:
   stand-on vessel keeps its speed until ``last_resort_s``; at the last resort, with the give-way
   vessel coming up from abaft its beam (:func:`closing_from_astern`), it may only speed up. A team
   mate that already gives way to this vessel (its fresh broadcast says so: ``mates_giving_way``)
-  makes it the stand-on vessel whatever the geometry says now, unless it is itself already
-  yielding to that mate: each vessel decides from its own view at its own time, and a decision
-  taken seconds after the mate's, on a geometry the mate's yield has changed, could make both give
-  way and both crawl through the crossing. The
+  makes it the stand-on vessel whatever the geometry says now (each vessel decides from its own
+  view at its own time, and a decision taken seconds after the mate's, on a geometry the mate's
+  yield has changed, could make both give way and both crawl through the crossing) — unless it is
+  itself already yielding to that mate, or that mate is stopped forward of its beam
+  (:func:`stopped_ahead`): a give-way vessel that has taken all way off there is in the way, and
+  standing on toward it sailed into it (thesis §6.4.3 under 30 % dropout and packet loss, seeds 70
+  and 234), so the vessel gives way as the geometry says. The
   other way round, two team mates that both find themselves stand-on (each reads the other's
   course against its own bow: in a cross current a crabbing pair can; or one reads the other abaft
   its beam, rule 13, and the other reads it on its port bow, rule 15) and both say so in their
@@ -45,9 +48,10 @@ from mjasc.avoidance.decision import Correction, velocity_correction_for
 from mjasc.avoidance.prediction import Decision, PredictedConflict
 from mjasc.avoidance.replanning import swept_area
 from mjasc.avoidance.right_of_way import OVERTAKING_BEARING_RAD, gives_way, relative_bearing
+from mjasc.avoidance.separation import STOPPED_M_S, mate_speed_m_s
 from mjasc.evaluation.colreg import ColregConfig, classify
 
-__all__ = ["Triage", "triage", "swept", "overtaking_us", "closing_from_astern", "colreg_role"]
+__all__ = ["Triage", "triage", "swept", "stopped_ahead", "overtaking_us", "closing_from_astern", "colreg_role"]
 
 #: The roles of a conflict the prediction found: risk of collision is established (a manoeuvring
 #: target's predicted path may meet the vessel where straight lines pass wide), so classify's
@@ -67,6 +71,8 @@ class Triage:
     overtaken: list[PredictedConflict] = field(default_factory=list)  # strangers from abaft the beam
     notes: list[tuple[str | None, str]] = field(default_factory=list)  # (stat to count or None, event)
     roles: dict = field(default_factory=dict)  # track id → its COLREG / team role and answer (text)
+    no_pass: set = field(default_factory=set)  # track ids a pass first would break the COLREG role toward
+    # (crossing give-way: never ahead, rule 15; stand-on before stand_on_s: keep the speed, rule 17)
     give_way_mates: set = field(default_factory=set)  # track ids of team mates this vessel gives way to
     stand_on_mates: set = field(default_factory=set)  # names of team mates it stands on toward (before the last
     # resort, and at it toward a give-way mate coming up from abaft the beam: it keeps its speed or speeds up)
@@ -78,6 +84,16 @@ def swept(track, c: PredictedConflict, t: float, cfg) -> np.ndarray:
     re-plan or lane change goes around when the conflict's own SVO is not the one to use."""
     t_f = c.t_f if np.isfinite(c.t_f) else c.t_i + cfg.obstruction_threshold_s
     return swept_area(track, max(c.t_i, t), max(t_f, t + 1.0), c.collision_distance_m)
+
+
+def stopped_ahead(nav, track) -> bool:
+    """The team mate ``track`` is stopped (its broadcast velocity below
+    :data:`~mjasc.avoidance.separation.STOPPED_M_S`) forward of the vessel's beam: a give-way
+    vessel that has taken all way off there keeps out of nobody's way, and a vessel standing on
+    toward it would sail into it."""
+    if mate_speed_m_s(track) >= STOPPED_M_S:
+        return False
+    return bool(np.cos(relative_bearing(nav.position_m, nav.heading_rad, track.position_m)) > 0.0)
 
 
 def overtaking_us(nav, track) -> bool:
@@ -141,6 +157,7 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
         role = colreg_role(nav, track, cfg.traffic_rule) if not is_team and track is not None and not c.is_static \
             else None
         if role in ("crossing_stand_on", "overtaken") and c.t_closest_s - t > cfg.stand_on_s:
+            out.no_pass.add(c.track_id)
             out.roles[c.track_id] = f"stand-on ({role.replace('_stand_on', '')}): keeps course and speed"
             out.notes.append(("stand_on", f"stand-on vessel ({role.replace('_', ' ')}) towards track {c.track_id}: "
                                           f"keeps course and speed (COLREG rule 17) until the collision is "
@@ -151,6 +168,7 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
             out.starboard.append(c)
             continue
         if role == "crossing_give_way":  # slow down and pass astern; never cross ahead (rule 15)
+            out.no_pass.add(c.track_id)
             corr = velocity_correction_for(t, gamma, c, replace(cfg, allow_pass_first=False), speed_max_m_s)
             if corr is not None:
                 out.candidates.append(corr)
@@ -175,9 +193,14 @@ def triage(t: float, nav, gamma: float, conflicts, statics, by_id: dict, team: s
                                                track.heading_rad, True)
         if team_gives_way and track.team_member in mates_giving_way and not (
                 running is not None and running.kind == "yield" and running.track_id == c.track_id):
-            team_gives_way = False  # the mate gives way already: this vessel stands on (module docstring)
-            out.notes.append((None, f"team mate {track.team_member} gives way to this vessel (its broadcast): "
-                                    f"stand-on"))
+            if stopped_ahead(nav, track):  # standing on would run into it (module docstring)
+                out.notes.append(("stopped_mate_ahead", f"team mate {track.team_member} gives way to this vessel "
+                                                        f"(its broadcast) but is stopped ahead: this vessel gives "
+                                                        f"way too"))
+            else:
+                team_gives_way = False  # the mate gives way already: this vessel stands on (module docstring)
+                out.notes.append((None, f"team mate {track.team_member} gives way to this vessel (its broadcast): "
+                                        f"stand-on"))
         elif is_team and not team_gives_way and track.team_member in mates_standing_on and \
                 own_name > track.team_member:
             team_gives_way = True  # both stand on: the later name gives way (module docstring)
