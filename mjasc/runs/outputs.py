@@ -26,7 +26,8 @@ from typing import Iterator
 from mjasc.core.config_tables import ConfigError, path_problem, show_path
 
 __all__ = ["OutputError", "check_out_dir", "atomic_write_text", "atomic_target", "part_path", "json_value",
-           "component_summary", "plain_json_problem", "FolderInUse", "lock_folder", "unlock_folder", "os_reason"]
+           "component_summary", "plain_json_problem", "FolderInUse", "lock_folder", "unlock_folder", "os_reason",
+           "remove_part_files", "clear_run_folder", "close_output"]
 
 
 class OutputError(ConfigError):
@@ -117,6 +118,42 @@ def os_reason(exc: BaseException, folder: str | Path | None = None) -> str:
         except OSError:
             pass
     return f"{type(exc).__name__}: {exc}"
+
+
+def remove_part_files(path: str | Path) -> None:
+    """Remove the temporary files of ``path`` (:func:`part_path`, and the recording's canonical
+    rewrite of it, ``….canonical``) where they exist."""
+    part = part_path(path)
+    for stale in (part, part.with_name(part.name + ".canonical")):
+        try:
+            stale.unlink(missing_ok=True)
+        except OSError:
+            pass
+
+
+def clear_run_folder(folder: Path, names) -> None:
+    """Make ``folder`` hold no earlier run's outputs (``names``, the summary last) before a run
+    writes into it: the temporary files of those names a run killed there left (no run writes into
+    the folder now, it is locked: :func:`lock_folder`) and, when it holds an earlier run's
+    ``summary.json``, that run's outputs — the summary last, so that a clean-up cut short still
+    marks what is left as a run's. Files of those names in a folder without a run's summary are
+    not a run's: they stay."""
+    for name in names:
+        remove_part_files(folder / name)
+    if (folder / "summary.json").is_file():
+        for name in names:
+            (folder / name).unlink(missing_ok=True)
+
+
+def close_output(out) -> str | None:
+    """Close a run's recording or video ``out`` (with a ``path``); None, or why its file could not
+    be written — its temporary files then removed: nothing half-written is left."""
+    try:
+        out.close()
+        return None
+    except Exception as exc:  # noqa: BLE001 - a full disk, a failing encoder: the summary says so
+        remove_part_files(out.path)
+        return f"{out.path}: {os_reason(exc, out.path.parent)} (not written)"
 
 
 def part_path(path: str | Path) -> Path:

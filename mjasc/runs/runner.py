@@ -61,8 +61,8 @@ from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import (PENDING, catch_sigterm, hold_interrupts, interrupt_behind, raise_pending,
                                    release_interrupts, signal_name)
 from mjasc.runs.mission_offset import MissionOffset
-from mjasc.runs.outputs import (atomic_target, atomic_write_text, component_summary, json_value, lock_folder,
-                                os_reason, part_path, unlock_folder)
+from mjasc.runs.outputs import (atomic_target, atomic_write_text, clear_run_folder, close_output, component_summary,
+                                json_value, lock_folder, os_reason, unlock_folder)
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.scene_extent import scene_extent
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
@@ -91,6 +91,8 @@ class RunInterrupted(RunFailed):
 
 #: The MuJoCo state (``Simulation.get_state``) before the step where the physics diverged.
 LAST_GOOD_STATE = "last_good_state.npy"
+#: A run's outputs in its folder, the summary last (removed in this order: :func:`clear_run_folder`).
+RUN_OUTPUTS = ("recording.rrd", "video.mp4", LAST_GOOD_STATE, "summary.json")
 _PACKAGE = Path(__file__).resolve().parent.parent  # (mjasc's own files: a failing frame there is not a plugin's)
 
 
@@ -225,7 +227,7 @@ class Runner:
             self.out_dir.mkdir(parents=True, exist_ok=True)
             lock = lock_folder(self.out_dir, "run")  # (one run at a time into a folder: FolderInUse)
             try:
-                _clear_folder(self.out_dir)
+                clear_run_folder(self.out_dir, RUN_OUTPUTS)
             except BaseException:
                 unlock_folder(lock)
                 raise
@@ -368,7 +370,7 @@ class Runner:
                 for slot, out in (("record", self.recorder), ("video", self.video)):
                     if out is not None:  # flushing the outputs is their slot's cost
                         t_slot = clock()
-                        problem = _close_output(out)
+                        problem = close_output(out)
                         stage[slot] += clock() - t_slot
                         if problem is not None:  # (a full disk: the file is not written; the summary says so)
                             files.pop("recording" if slot == "record" else "video", None)
@@ -457,38 +459,6 @@ class Runner:
                                      self.schedule.realized_rate_hz("video"), sc.outputs.video_camera, self.extent(),
                                      overlays, title=sc.name,
                                      vessel_colours=[(v.name, vessel_colour(i)) for i, v in enumerate(sc.vessels)])
-
-
-def _clear_folder(folder: Path) -> None:
-    """Make ``folder`` hold no earlier run's outputs before a run writes into it (module docstring):
-    temporary files of mjasc's naming left by a run killed there (``.recording.part.rrd``,
-    ``.video.part.mp4``, …: no run writes into the folder now, it is locked) and, when it holds an
-    earlier run's ``summary.json``, that run's outputs — the summary last, so that a clean-up cut
-    short still marks what is left as a run's."""
-    names = ("recording.rrd", "video.mp4", LAST_GOOD_STATE, "summary.json")
-    for name in names:
-        part = part_path(folder / name)
-        for stale in (part, part.with_name(part.name + ".canonical")):
-            stale.unlink(missing_ok=True)
-    if (folder / "summary.json").is_file():  # (a folder without one holds no run's outputs: files of those names stay)
-        for name in names:
-            (folder / name).unlink(missing_ok=True)
-
-
-def _close_output(out) -> str | None:
-    """Close the recording or video ``out``; None, or why its file could not be written (its
-    temporary file then removed: nothing half-written is left)."""
-    try:
-        out.close()
-        return None
-    except Exception as exc:  # noqa: BLE001 - a full disk, a failing encoder: the summary says so
-        part = part_path(out.path)
-        for stale in (part, part.with_name(part.name + ".canonical")):
-            try:
-                stale.unlink(missing_ok=True)
-            except OSError:
-                pass
-        return f"{out.path}: {os_reason(exc, out.path.parent)} (not written)"
 
 
 def run_scenario(scenario: Scenario, out_dir=None, progress: bool | None = None,
