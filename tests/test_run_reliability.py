@@ -95,7 +95,7 @@ def test_a_second_interrupt_while_the_run_closes_waits_for_its_summary(tmp_path,
 def test_a_full_disk_is_one_line_and_a_summary_saying_error(tmp_path, monkeypatch, capsys):
     import mjasc.runs.recording as recording
 
-    monkeypatch.setattr(recording, "_no_room", lambda folder: True)
+    monkeypatch.setattr(recording, "no_room", lambda folder: True)
     out = tmp_path / "run"
     assert main(["run", "demo", "--duration", "0.5", "--out", str(out), "--no-progress"]) == 1
     err = capsys.readouterr().err

@@ -35,6 +35,7 @@ import math
 
 import numpy as np
 
+from mjasc.avoidance.replanning import Detour
 from mjasc.core.geometry import points_near_polygon
 from mjasc.guidance.paths import Path
 
@@ -89,8 +90,6 @@ def separation_detour(t: float, position_m, mate_position_m, reach_m: float, mis
     of :data:`_TURNS_DEG` whose leg keeps ``static_inflation_m`` [m] off every polygon of
     ``static_polygons`` and ends no nearer to each of ``other_mates_m`` (positions, [m]) than the
     vessel is now, or at least ``clearance_m`` [m] from it. A reason (str) when none does."""
-    from mjasc.avoidance.replanning import Detour
-
     p = np.asarray(position_m, dtype=float)
     q = np.asarray(mate_position_m, dtype=float)
     statics = [np.asarray(s, dtype=float) for s in static_polygons or ()]

@@ -54,7 +54,8 @@ from mjasc.campaigns.hull_records import family_hulls
 from mjasc.campaigns.hull_shipping import hold_hull_root, localise, pack_hulls, release_hull_root
 from mjasc.campaigns.run_request import request_of
 from mjasc.campaigns.statistics import aggregate, format_aggregate, wilson_interval
-from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore, lock_folder, record_result, unlock_folder
+from mjasc.campaigns.store import RETRY_STATUSES, STORE_FILE, CampaignStore, record_result
+from mjasc.runs.outputs import lock_folder, unlock_folder
 from mjasc.campaigns.timing_fields import TIMING_KEYS, is_timing_key, without_timing
 from mjasc.core.config_tables import integer, number
 from mjasc.runs.interrupts import raise_pending

@@ -62,10 +62,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable
 
-from mjasc.runs.outputs import FolderInUse, json_value, lock_folder, unlock_folder  # noqa: F401 (re-exported)
+from mjasc.runs.outputs import json_value
 
 __all__ = ["CampaignStore", "StoredRun", "StoreError", "FINAL_STATUSES", "RETRY_STATUSES", "STORE_FILE",
-           "record_result", "FolderInUse", "lock_folder", "unlock_folder"]
+           "record_result"]
 
 STORE_FILE = "campaign.sqlite"
 FINAL_STATUSES = frozenset({"completed", "diverged"})

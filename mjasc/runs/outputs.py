@@ -27,7 +27,7 @@ from mjasc.core.config_tables import ConfigError, path_problem, show_path
 
 __all__ = ["OutputError", "check_out_dir", "atomic_write_text", "atomic_target", "part_path", "json_value",
            "component_summary", "plain_json_problem", "FolderInUse", "lock_folder", "unlock_folder", "os_reason",
-           "remove_part_files", "clear_run_folder", "close_output"]
+           "no_room", "remove_part_files", "clear_run_folder", "close_output"]
 
 
 class OutputError(ConfigError):
@@ -109,15 +109,24 @@ def os_reason(exc: BaseException, folder: str | Path | None = None) -> str:
         return str(exc.reason)
     if isinstance(exc, OSError) and exc.strerror:
         return exc.strerror[:1].lower() + exc.strerror[1:]
-    if folder is not None:
-        import shutil
-
-        try:
-            if shutil.disk_usage(folder).free < 64 * 1024:
-                return "no space left on device"
-        except OSError:
-            pass
+    if folder is not None and no_room(folder):
+        return "no space left on device"
     return f"{type(exc).__name__}: {exc}"
+
+
+#: Free bytes under which a file system counts as full (a writer failed for want of room).
+FULL_DISK_BYTES = 64 * 1024
+
+
+def no_room(folder: str | Path) -> bool:
+    """Whether ``folder``'s file system has (almost) no room left for this process: under
+    :data:`FULL_DISK_BYTES` free (the blocks reserved for root count for root)."""
+    try:
+        st = os.statvfs(folder)
+    except (OSError, AttributeError):
+        return False
+    free = st.f_bfree if hasattr(os, "geteuid") and os.geteuid() == 0 else st.f_bavail
+    return free * st.f_frsize < FULL_DISK_BYTES
 
 
 def remove_part_files(path: str | Path) -> None:

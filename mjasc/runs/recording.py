@@ -63,7 +63,7 @@ from mjasc.runs.blueprint import (LEGEND_CLASSES, MODE_STATES, OTHERS, PALETTE, 
                                   default_blueprint, legend_classes, legend_colour, legend_markdown,
                                   stable_blueprint_ids, vessel_colour)
 from mjasc.runs.fleet_columns import ColumnGroup
-from mjasc.runs.outputs import part_path
+from mjasc.runs.outputs import no_room, part_path
 from mjasc.runs.recording_columns import (TIMELINE, SharedTimes, concat_xy, flat_strip_column, packed_colours,
                                           points_column, rgba, scalar_column, sparse_column, stack_rows, strip_column,
                                           xyz_at)
@@ -81,8 +81,6 @@ FLUSH_ROWS = 1_000_000
 #: thread, stopped by a full disk, may otherwise never answer (the SDK's flush then blocks for good).
 SDK_FLUSH_TIMEOUT_S = 120.0
 _FLUSH_STEP_S = 1.0  # (how often the file's growth and the disk's room are looked at meanwhile)
-#: Free bytes under which a recording's file system counts as full (the SDK's writer failed).
-FULL_DISK_BYTES = 64 * 1024
 
 
 _ABANDONED: list = []  # SDK streams whose writer stopped (RecordingNotWritten): never dropped
@@ -96,15 +94,6 @@ class RecordingNotWritten(RuntimeError):
         super().__init__(f"{path}: {reason}")
         self.reason = reason
 
-
-def _no_room(folder: Path) -> bool:
-    """Whether ``folder``'s file system has (almost) no room left for this process."""
-    try:
-        st = os.statvfs(folder)
-    except (OSError, AttributeError):
-        return False
-    free = st.f_bfree if hasattr(os, "geteuid") and os.geteuid() == 0 else st.f_bavail
-    return free * st.f_frsize < FULL_DISK_BYTES
 
 def size_only_batcher() -> rr.ChunkBatcherConfig:
     """The SDK's chunk batcher cutting chunks by size only, never by its wall-clock tick: the same
@@ -414,7 +403,7 @@ class Recorder(VesselSeries):
     def _sdk_flush(self) -> None:
         """The SDK's flush, bounded (:data:`SDK_FLUSH_TIMEOUT_S`); a full disk is
         :class:`RecordingNotWritten` (its writer thread stopped: a flush could block for good)."""
-        if _no_room(self._part.parent):
+        if no_room(self._part.parent):
             raise RecordingNotWritten(self.path, "no space left on device")
         size, still = -1, 0.0
         while True:
@@ -422,7 +411,7 @@ class Recorder(VesselSeries):
                 self.rec.flush(timeout_sec=_FLUSH_STEP_S)
                 return
             except RuntimeError as e:  # ("File-writer thread shut down prematurely", "Flush timed out")
-                if _no_room(self._part.parent):
+                if no_room(self._part.parent):
                     raise RecordingNotWritten(self.path, "no space left on device") from e
                 if "timed out" not in str(e):
                     raise RecordingNotWritten(self.path, f"the Rerun SDK could not write it ({e})") from e
