@@ -16,17 +16,15 @@ recording is closed first (what was recorded so far is readable) and a summary i
 ``status`` says what happened (``diverged``, ``error``, ``interrupted``) and ``error`` why. Files
 are written under a temporary name and renamed when complete (:mod:`mjasc.runs.outputs`): a
 ``recording.rrd`` or ``summary.json`` is never half-written. ``Simulation.set_state(np.load(
-"last_good_state.npy"))`` on the same scenario's runner reproduces the divergence. A run into a
-folder that holds an earlier run's outputs (its ``summary.json``) removes, when it starts, all of
-them (a recording, a video, a divergence's state, the summary last): the folder never mixes two
-runs, nor shows the earlier run's summary beside a run stopped before its own. Files of those names
-in a folder without a run's summary are not a run's: they stay. Temporary files of mjasc's naming
-(``.recording.part.rrd``, ``.video.part.mp4``, …) that a killed run left go too: a run holds its
-folder locked (:func:`~mjasc.runs.outputs.lock_folder`; a second run into it meanwhile is
-:class:`~mjasc.runs.outputs.FolderInUse`), so none is another run's. An interrupt while the
-outputs open removes their temporary files; from the loop's end until the summary is written
+"last_good_state.npy"))`` on the same scenario's runner reproduces the divergence. A run holds its
+folder locked (a second run into it meanwhile is :class:`~mjasc.runs.outputs.FolderInUse`) and,
+when it starts, removes an earlier run's outputs there and a killed run's temporary files
+(:func:`~mjasc.runs.outputs.clear_run_folder`): the folder never mixes two runs. An interrupt while
+the outputs open removes their temporary files; from the loop's end until the summary is written
 further interrupts wait (:func:`~mjasc.runs.interrupts.hold_interrupts`). An output that cannot be
-written (a full disk) fails the run (``error``: the file and the reason) and leaves no temporary file.
+written (a full disk) fails the run (``error``: the file and the reason) and leaves no temporary
+file. Why a run stopped early is said in one line (:mod:`mjasc.runs.run_failures`); what its
+summary holds, :mod:`mjasc.runs.run_summary`.
 
 **Timing.** The main loop times each slot's work and the physics (``time.perf_counter``, about
 0.1 µs per reading) and keeps the sums in ``Runner.stage_seconds`` (slot → seconds, plus
@@ -43,7 +41,6 @@ from __future__ import annotations
 import json
 import sys
 import time
-import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -54,15 +51,16 @@ from mjasc.core.navigation import FleetNavigation
 from mjasc.physics.simulation import PhysicsDivergence, Simulation
 from mjasc.physics.vessels import load_vessel_type
 from mjasc.physics.world import build_world
-from mjasc.plugins.answers import plugin_at_fault
 from mjasc.runs.agent_build import build_agent
 from mjasc.runs.collector import pause as pause_collector
 from mjasc.runs.collector import resume as resume_collector
 from mjasc.runs.interrupts import (PENDING, catch_sigterm, hold_interrupts, interrupt_behind, raise_pending,
                                    release_interrupts, signal_name)
 from mjasc.runs.mission_offset import MissionOffset
-from mjasc.runs.outputs import (atomic_target, atomic_write_text, clear_run_folder, close_output, component_summary,
-                                json_value, lock_folder, os_reason, unlock_folder)
+from mjasc.runs.outputs import (atomic_target, atomic_write_text, clear_run_folder, close_output, json_value,
+                                lock_folder, os_reason, unlock_folder)
+from mjasc.runs.run_failures import RunFailed, RunInterrupted, component_error
+from mjasc.runs.run_summary import run_summary
 from mjasc.runs.scenario import Scenario
 from mjasc.runs.scene_extent import scene_extent
 from mjasc.runs.schedule import SLOT_ORDER, Schedule
@@ -74,26 +72,10 @@ if TYPE_CHECKING:  # rerun and the recorder load when a recording is made (a cam
 
 __all__ = ["Runner", "RunFailed", "RunInterrupted", "RunResult", "run_scenario", "LAST_GOOD_STATE"]
 
-class RunFailed(RuntimeError):
-    """A run stopped early; the message says why and where its partial outputs are. ``summary`` is
-    the run's summary up to the stop (the same fields as a completed run's, ``status`` saying why:
-    ``diverged``, ``error`` or ``interrupted``)."""
-
-    def __init__(self, message: str, summary: dict | None = None):
-        super().__init__(message)
-        self.summary = summary
-
-
-class RunInterrupted(RunFailed):
-    """A run stopped by Ctrl-C or SIGTERM (:mod:`mjasc.runs.interrupts`); its recording was closed
-    and its summary written (``status`` ``interrupted``)."""
-
-
 #: The MuJoCo state (``Simulation.get_state``) before the step where the physics diverged.
 LAST_GOOD_STATE = "last_good_state.npy"
 #: A run's outputs in its folder, the summary last (removed in this order: :func:`clear_run_folder`).
 RUN_OUTPUTS = ("recording.rrd", "video.mp4", LAST_GOOD_STATE, "summary.json")
-_PACKAGE = Path(__file__).resolve().parent.parent  # (mjasc's own files: a failing frame there is not a plugin's)
 
 
 @dataclass
@@ -201,14 +183,6 @@ class Runner:
                          np.asarray(plotted), traffic)
 
     # ------------------------------------------------------------------ main loop
-    def _stage_methods(self) -> list:
-        """Every vessel's stage methods (built-in ones too), for naming a plugin at fault."""
-        out = []
-        for agent in self.agents:
-            out += [agent.coordination, agent.avoidance, agent.control_plugin,
-                    getattr(agent.perception, "method", None)]
-        return [m for m in out if m is not None]
-
     def _interrupted(self, time_s: float, stop: KeyboardInterrupt) -> tuple[str, str]:
         """The status and error of a run stopped at ``time_s`` [s] by ``stop`` (Ctrl-C or SIGTERM),
         said in the recording."""
@@ -332,18 +306,7 @@ class Runner:
             if (stop := interrupt_behind(exc)) is not None:  # a signal inside a compiled call (interrupts)
                 status, error = self._interrupted(sim.time_s, stop)
             else:
-                tb = traceback.extract_tb(exc.__traceback__)
-                place = f"{tb[-1].filename.rsplit('/', 1)[-1]}:{tb[-1].lineno}" if tb else ""
-                fault = plugin_at_fault(exc, self._stage_methods())  # (a plugin's bug: say whose, and where)
-                if fault is not None and str(exc).startswith(fault):  # (a checked answer: the message says whose,
-                    fault = place = ""                                  # and the check's own line says nothing)
-                elif fault is not None and isinstance(exc, TypeError) and tb and \
-                        Path(tb[-1].filename).resolve().is_relative_to(_PACKAGE):  # (a call the method cannot take)
-                    place = f"its signature does not take mjasc's call at {place}; docs/plugins.md lists each " \
-                            f"method's arguments"
-                where = ": ".join(p for p in (fault, place) if p)
-                where = f" ({where})" if where else ""
-                status, error = "error", f"{type(exc).__name__} at t = {sim.time_s:.3f} s: {exc}{where}"
+                status, error = "error", component_error(exc, sim.time_s, self.agents)
                 if self.recorder:
                     self.recorder.event(sim.time_s, error, "ERROR")
         finally:
@@ -380,43 +343,17 @@ class Runner:
                 release_interrupts(held)
                 raise
         try:
-            return self._summarise(files, status, error, diverged, wall0, stage)
+            return self._summarise(files, status, error, diverged, wall0)
         finally:
             again = release_interrupts(held)
             if again is not None and status == "completed" and sys.exc_info()[0] is None:
                 raise again  # (an interrupt while a completed run closed: its outputs are whole; the caller stops)
 
-    def _summarise(self, files: dict, status: str, error: str | None, diverged, wall0: float,
-                   stage: dict) -> RunResult:
+    def _summarise(self, files: dict, status: str, error: str | None, diverged, wall0: float) -> RunResult:
         """Write the run's summary (and a divergence's last good state); the result, or RunFailed."""
-        sc, sim = self.scenario, self.sim
-        self.metrics.check_contacts(sim.drain_touches())  # (the steps after the last record tick)
+        self.metrics.check_contacts(self.sim.drain_touches())  # (the steps after the last record tick)
         wall = time.perf_counter() - wall0
-        summary = {"scenario": sc.name, "seed": sc.seed, "status": status, "error": error,
-                   "rates_hz": {s: round(self.schedule.realized_rate_hz(s), 4) for s in self.schedule.period_steps},
-                   **self.metrics.summary(wall, sim.time_s, self._offsets.summary)}
-        for agent in self.agents:  # components add their own per-vessel results
-            for kind, comp in (("perception", agent.perception), ("coordination", agent.coordination),
-                               ("avoidance", agent.avoidance), ("mission", agent.mission),
-                               ("control", agent.control_plugin)):
-                if comp is not None and hasattr(comp, "summary"):
-                    summary["vessels"][agent.name][kind] = component_summary(comp)
-            if agent.follower is not None and agent.control_plugin is None:  # (the built-in follower: named)
-                summary["vessels"][agent.name]["control"] = {"method": agent.follower.method}
-        if sc.mission is not None:
-            from mjasc.missions.sequencer import team_mission_summary
-
-            summary["mission"] = team_mission_summary(self.agents)
-            if self.target_judge is not None:
-                summary["mission"]["track_target_truth"] = self.target_judge.summary()
-        if self.network is not None:
-            summary["comms"] = self.network.link_matrix()
-        if self.video is not None:
-            summary["video_frames"] = self.video.frames
-            summary["video_timing_s"] = {k: round(v, 4) for k, v in self.video.seconds.items()}
-        for key, fn in self._summary_parts:
-            summary[key] = fn()
-        summary["timing_s"] = {k: round(v, 4) for k, v in stage.items()}
+        summary = run_summary(self, status, error, wall, self._offsets.summary, self._summary_parts)
         if diverged is not None and diverged.last_good_state is not None:
             summary["last_good_state"] = {"time_s": round(diverged.last_good_time_s, 6)}
             if self.out_dir is not None:
@@ -438,7 +375,6 @@ class Runner:
         if status != "completed":
             raise RunFailed(f"{error}{kept}", summary)
         return result
-
 
     def _open_outputs(self, files: dict) -> None:
         """Start the recording and the video (their files under temporary names until closed)."""
