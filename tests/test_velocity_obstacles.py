@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from mjasc.avoidance.velocity_obstacles import colreg_constraints as cr
-from mjasc.avoidance.velocity_obstacles.candidates import preferred_velocity
+from mjasc.avoidance.velocity_obstacles.candidates import candidate_grid, preferred_velocity
 from mjasc.avoidance.velocity_obstacles.cones import (Obstacles, edge_points, half_angle_rad, in_velocity_obstacle,
                                                       relative_velocities, static_disc_radius_m, time_to_collision)
 from mjasc.avoidance.velocity_obstacles.method import VelocityObstacleAvoidance
@@ -392,6 +392,49 @@ def test_stand_on_keeps_course_until_collision_is_imminent():
     assert decisions[0][1] == "stand on (crossing_stand_on)" and decisions[0][0] < log[first, 0] - 5.0
     acted = [tc for tc, d in decisions if d == "steer (crossing_stand_on, acting)"]
     assert acted and acted[0] == round(log[first, 0], 2)
+
+
+def test_the_candidate_speeds_reach_the_hulls_top_speed():
+    """Speeds from the preferred speed U down to the stop, and as many steps above it up to the top
+    speed: a team's coordination may have lowered U to 0.6 of the cruise speed, and a grid capped
+    at U had nothing faster to get clear with. With the top speed at U (or below) the grid is the
+    one capped at U; courses are unchanged."""
+    chi, span, u, top = math.radians(41.0), math.radians(120.0), 0.95, 3.1
+    courses, speeds, velocities = candidate_grid(chi, u, 37, span, 5, 0.3, top)
+    assert speeds[0] == u and courses[0] == pytest.approx(chi) and speeds[-1] == 0.0 and courses[-1] == pytest.approx(0.3)
+    levels = np.unique(speeds[1:-1])
+    assert levels == pytest.approx(np.concatenate([u * np.arange(1, 5) / 4, u + (top - u) * np.arange(1, 5) / 4]))
+    assert np.allclose(np.hypot(*velocities.T), speeds)
+    capped = candidate_grid(chi, u, 37, span, 5, 0.3)
+    assert len(capped[0]) == 2 + 37 * 4 and len(courses) == 2 + 37 * 8
+    assert np.array_equal(np.unique(capped[0]), np.unique(courses))  # the same courses
+    for top_below in (None, u, 0.5):
+        assert all(np.array_equal(a, b) for a, b in zip(capped, candidate_grid(chi, u, 37, span, 5, 0.3, top_below)))
+
+
+@pytest.mark.parametrize("top_speed", [None, 0.95])
+def test_a_stand_on_vessel_off_its_lane_sails_faster_to_get_clear(top_speed):
+    """A user's review (2026-12-07, docs/avoidance.md "Known limits of the VO method"): charlie,
+    5 m south of its eastward lane after giving way, heading −25° at 0.95 m/s (its team's
+    coordination had lowered the mission speed from 1.5 m/s), acts as stand-on for a ship crossing
+    from port (rule 17 (b); no turn to port, 17 (c)). In the grid capped at 0.95 m/s
+    (top_speed_m_s = 0.95) every velocity the rule allows collides, and in the run the vessel
+    turned to port into the ship (contact, −0.58 m); with speeds up to the hull's top speed
+    (3.1 m/s) it crosses ahead of the ship, admissible and not to port."""
+    options = {} if top_speed is None else {"top_speed_m_s": top_speed}
+    method, _ = _method(**options)
+    path = Path.line([0.0, 0.0], [400.0, 0.0])
+    p, psi, u = np.array([60.0, -5.0]), math.radians(-25.0), 0.95
+    track = TrackEstimate(1, 0.0, np.array([62.0, 7.0]), -math.pi / 2, 1.8, 0.0, 4.0)
+    nav = OwnNavigation(0.0, p, psi, u * np.array([math.cos(psi), math.sin(psi)]), np.array([u, 0.0, 0.0]))
+    method.control(0.0, nav, GuidanceState(path, path.project(p), u), PerceptionReport(0.0, (track,), ()))
+    choice = method.choice
+    assert method._acting == {1} and method.roles.role(1) == cr.STAND_ON  # acting as stand-on
+    if top_speed is not None:  # capped at the preferred speed: cornered
+        assert not choice.admissible and choice.ttc_s <= method.options.horizon_s
+        return
+    assert choice.admissible and math.isinf(choice.ttc_s) and choice.speed_m_s > u
+    assert math.remainder(choice.course_rad - psi, 2 * math.pi) <= math.radians(5.0)  # not to port (rule 17 (c))
 
 
 def test_a_mapped_structure_on_the_path_is_sailed_around_and_the_path_regained():

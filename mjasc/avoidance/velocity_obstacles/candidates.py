@@ -10,8 +10,13 @@ with χ_p the path's course at the vessel's γ, e its cross-track error (positiv
 when the method lets go, the path follower's own LOS law takes over from the same course.
 
 The **candidates** are a grid of courses χ_pref + δ_i, δ_i evenly over ±span (the preferred course
-among them) × speeds U·j/(m−1), j = m−1 … 0 — the stop (speed 0) once; the preferred velocity is
-row 0.
+among them) × speeds U·j/(m−1), j = m−1 … 0, and m−1 more evenly above U up to the hull's top
+speed (the option ``top_speed_m_s``, unset: the hull's) — the stop (speed 0) once; the preferred
+velocity is row 0. U is the mission speed × the coordination factor, which a team's coordination
+may have lowered to 0.6 of the cruise speed; capped at U, the grid had nothing faster for a
+vessel to get clear with: a stand-on Otter in a team, 5 m off its lane at 0.95 m/s, found every
+velocity of the grid colliding or to port (rule 17 (c)) while those at 1–3 m/s about its heading
+were free, turned to port and was run into (docs/avoidance.md, "Known limits of the VO method").
 
 The **cost** of a candidate v = s (cos χ, sin χ) (Kuwata et al. 2014 §III, in the spirit of their
 weighted objective: deviation from the preferred velocity, hysteresis, collision penalty)::
@@ -21,8 +26,11 @@ weighted objective: deviation from the preferred velocity, hysteresis, collision
 
 τ_c,min the earliest time to collision of v over all obstacles: sooner collisions cost more, so when
 no candidate is collision-free the one that collides latest (most time to act) is taken and a
-choice always exists. With w_c above every deviation cost (w_χ·span + w_u + w_Δ·2), any admissible
-velocity — outside every VO and not forbidden — beats every inadmissible one.
+choice always exists. When some candidate is collision-free the cheapest collision-free one is
+taken: the collision penalty (at least 2 w_c, as τ_c ≤ T) is above every deviation cost of a grid
+capped at U (w_χ·span + w_u + w_Δ·2), but with speeds up to the top speed they reach
+w_χ·span + w_u (top − U)/U + w_Δ·2·top/U, above 2 w_c at a low U (a Delfim at 0.6 m/s: 22 against
+20), so the choice does not rest on the weights for that.
 """
 
 from __future__ import annotations
@@ -59,16 +67,23 @@ def path_velocity(path, gamma_m: float, speed_m_s: float) -> tuple[np.ndarray, n
 
 
 def candidate_grid(course_rad: float, speed_m_s: float, n_courses: int, span_rad: float, n_speeds: int,
-                   stop_course_rad: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                   stop_course_rad: float, top_speed_m_s: float | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(courses (c,) [rad], speeds (c,) [m/s], velocities (c, 2)): row 0 the preferred velocity,
     then every course × every nonzero speed, then the stop (course ``stop_course_rad``, the heading
-    kept while stopping)."""
+    kept while stopping). The courses: ``n_courses`` evenly over ±``span_rad`` about
+    ``course_rad``; the speeds: ``n_speeds`` − 1 evenly from ``top_speed_m_s`` (when given and
+    above ``speed_m_s``) down to one step above ``speed_m_s``, then ``n_speeds`` − 1 from
+    ``speed_m_s`` down to one step above 0 (module docstring)."""
     offsets = np.linspace(-span_rad, span_rad, int(n_courses))
-    fractions = np.linspace(1.0, 0.0, int(n_speeds))[:-1]
-    off, frac = np.meshgrid(offsets, fractions, indexing="ij")
+    levels = speed_m_s * np.linspace(1.0, 0.0, int(n_speeds))[:-1]  # U … U/(m−1)
+    if top_speed_m_s is not None and top_speed_m_s > speed_m_s:
+        above = speed_m_s + (top_speed_m_s - speed_m_s) * np.linspace(0.0, 1.0, int(n_speeds))[1:]
+        levels = np.concatenate([above[::-1], levels])  # top … above U, then U … U/(m−1)
+    off, lev = np.meshgrid(offsets, levels, indexing="ij")
     courses = np.concatenate([[course_rad], course_rad + off.ravel(), [stop_course_rad]])
     courses = np.mod(courses + np.pi, 2 * np.pi) - np.pi
-    speeds = np.concatenate([[speed_m_s], speed_m_s * frac.ravel(), [0.0]])
+    speeds = np.concatenate([[speed_m_s], lev.ravel(), [0.0]])
     velocities = speeds[:, None] * np.stack([np.cos(courses), np.sin(courses)], axis=-1)
     return courses, speeds, velocities
 
@@ -107,6 +122,6 @@ def choose(courses, speeds, velocities, course_pref_rad: float, speed_pref_m_s: 
     cost = cost + np.where(colliding, weights.weight_collision * (1.0 + horizon_s / np.maximum(ttc, TTC_FLOOR_S)), 0.0)
     forbidden = np.asarray(forbidden, dtype=bool)
     cost = cost + np.where(forbidden, weights.weight_colreg, 0.0)
-    k = int(np.argmin(cost))
+    k = int(np.argmin(np.where(colliding, np.inf, cost))) if not colliding.all() else int(np.argmin(cost))
     return Choice(k, float(courses[k]), float(speeds[k]), np.asarray(velocities[k], dtype=float), float(cost[k]),
                   float(ttc[k]), bool(not colliding[k] and not forbidden[k]), bool(forbidden[k])), cost

@@ -5,7 +5,8 @@ Each control tick (10 Hz by default) the vessel, from what it knows — its own 
 guidance state, its perception's tracks and mapped structures, never the truth:
 
 1. takes the **preferred velocity** of its path (LOS course at the mission speed,
-   :mod:`.candidates`);
+   :mod:`.candidates`) and candidates about it, at speeds up to the hull's top speed (a team
+   slowed by its coordination can still sail faster to get clear: :mod:`.candidates`);
 2. builds the **obstacles**: moving tracks as discs moving at their estimated velocity (position
    extrapolated to now), combined radius R = r_A + r_B + d_safety + k σ_max (σ_max the largest
    standard deviation of the track's position); team mates as reciprocal obstacles (RVO, half the
@@ -112,6 +113,7 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         self.name = str(context.vessel_name)
         self.team = frozenset(context.team_names) - {self.name}
         self.radius_m = float(vessel.radius_m)
+        self.top_speed_m_s = float(o.top_speed_m_s if o.top_speed_m_s is not None else vessel.top_speed_m_s)
         self.lookahead_m = float(o.lookahead_m if o.lookahead_m is not None else max(3.0 * vessel.length_m, 5.0))
         self.colreg_config = ColregConfig()
         self.roles = cr.RoleMemory(o.hysteresis_s)
@@ -200,7 +202,8 @@ class VelocityObstacleAvoidance(AvoidanceMethod):
         obs = self.obstacles(t, nav, report)
         heading = float(nav.heading_rad)
         courses, speeds, velocities = candidate_grid(chi_pref, u_pref, o.course_candidates,
-                                                     math.radians(o.course_span_deg), o.speed_candidates, heading)
+                                                     math.radians(o.course_span_deg), o.speed_candidates, heading,
+                                                     self.top_speed_m_s)
         if not len(obs):  # nothing around (or a track lost for a moment): hold a choice through the hysteresis
             if self.choice is not None and t - self._last_conflict_t <= o.hysteresis_s:
                 return AvoidanceRequest.of(STEER, self.choice.speed_m_s, None, (), self.choice.course_rad)

@@ -26,7 +26,11 @@ class VelocityObstacleOptions:
     course_span_deg: float = param(120.0, positive=True, maximum=180.0, unit="deg",
                                    doc="largest candidate course change either side of the preferred course")
     speed_candidates: int = param(5, minimum=2, maximum=41,
-                                  doc="candidate speeds, evenly from the preferred speed down to 0 (stop)")
+                                  doc="candidate speeds, evenly from the preferred speed down to 0 (stop), and "
+                                      "speed_candidates − 1 more evenly above it up to top_speed_m_s")
+    top_speed_m_s: float | None = param(None, positive=True, unit="m/s",
+                                        doc="the highest candidate speed; unset: the hull's top speed (none above "
+                                            "the preferred speed when it is lower)")
     weight_course: float = param(1.0, nonneg=True, unit="1/rad", doc="cost of a course change from the preferred one")
     weight_speed: float = param(1.0, nonneg=True,
                                 doc="cost of a speed change, per fraction of the preferred speed")
