@@ -473,6 +473,36 @@ def test_the_hud_shows_the_latest_decision_while_it_is_recent_or_the_vessel_avoi
     assert decision("mission", 10.0, last=False) == "replan for T1 at 0.6 s"
 
 
+def test_where_two_trails_cross_the_pixels_do_not_depend_on_what_the_scene_slots_held(tmp_path, water):
+    """The overlay's geoms fill scene slots after MuJoCo's own; a slot keeps what an earlier frame or
+    uninitialised memory left in the fields ``mjv_initGeom`` does not set, and ``mjr_render`` sorts
+    semi-transparent geoms by a distance that reads the object type: a stale "model geom" there
+    changed which of two crossing trails was drawn on top (the flaky held-frame test's few pixels,
+    gold against pink). The same overlay gives the same pixels whatever the slots held."""
+    from mjasc.runs.video_scene import FrameView, VesselView, add_scene_geoms
+
+    m, d = water
+    mujoco.mj_forward(m, d)
+    w = VideoWriter(tmp_path / "v.mp4", m, 320, 240, 10, "top_down", (np.array([0.0, 0.0]), np.array([100.0, 100.0])))
+    vessels = [VesselView(n, c, np.array([50.0, 50.0]), 0.0) for n, c in (("a", (255, 200, 0)), ("b", (255, 100, 220)))]
+    trails = [np.array([[10.0, 50.0], [90.0, 50.0]]), np.array([[50.0, 45.0], [50.0, 55.0]])]  # a long and a short one
+    images = []
+    try:
+        for stale in (mujoco.mjtObj.mjOBJ_UNKNOWN, mujoco.mjtObj.mjOBJ_GEOM):
+            w.renderer.update_scene(d, camera=w.camera)
+            scn = w.renderer.scene
+            for k in range(scn.ngeom, scn.ngeom + 8):  # (what an earlier frame's model geom left in the slots)
+                scn.geoms[k].objtype, scn.geoms[k].objid = int(stale), 0
+            add_scene_geoms(scn, FrameView(0.0, vessels, np.zeros(2)), 0.0, trails)
+            images.append(w.renderer.render().copy())
+    finally:
+        w.close()
+    water_rgb = images[0][5, 5]
+    drawn = np.any(images[0] != water_rgb, axis=-1)
+    assert drawn[:, 60:260].any(axis=1).sum() >= 10 and drawn[100:140].any(axis=0).sum() >= 100  # both trails drawn
+    assert np.array_equal(images[0], images[1])
+
+
 def test_a_frame_held_back_while_it_rasterises_gives_the_same_video(tmp_path, monkeypatch):
     """The runner holds each frame back while the renderer rasterises it (``add_event(later=True)``:
     its overlay and encoding at the next frame or the close): the MP4 is the same bytes as with

@@ -169,6 +169,21 @@ def _free(scn) -> bool:
     return scn.ngeom < scn.maxgeom
 
 
+_UNKNOWN, _DECOR = int(mujoco.mjtObj.mjOBJ_UNKNOWN), int(mujoco.mjtCatBit.mjCAT_DECOR)
+
+
+def _init_geom(g, kind, size, pos, mat, rgba) -> None:
+    """``mujoco.mjv_initGeom``, and the fields it leaves as the scene's slot held them: the object
+    (unknown, none), the category (decoration) and the segmentation id (none). A slot holds what an
+    earlier frame or the scene's uninitialised memory left there, and ``mjr_render`` reads the
+    object type: a transparent geom whose stale ``objtype`` says "model geom" takes the model's
+    bounding radius (0, as initialised) instead of its own size for its distance to the camera, so
+    the back-to-front order of crossing semi-transparent lines — the colour where two trails cross
+    — depended on the process's heap (the same seed gave other video bytes now and then)."""
+    mujoco.mjv_initGeom(g, kind, size, pos, mat, rgba)
+    g.objtype, g.objid, g.category, g.segid = _UNKNOWN, -1, _DECOR, -1
+
+
 def add_line(scn, a, b, rgba, width: float = 2.0, z: float = 0.05) -> None:
     """A line from world xy ``a`` to ``b`` [m] at height z, ``width`` pixels."""
     add_lines(scn, np.asarray(a, float).reshape(1, 2), np.asarray(b, float).reshape(1, 2), rgba, width, z)
@@ -193,10 +208,10 @@ def add_lines(scn, starts, ends, rgba, width: float = 2.0, z: float = 0.05) -> N
     a[:, :2], a[:, 2] = np.asarray(starts, float)[:n], z
     b[:, :2], b[:, 2] = np.asarray(ends, float)[:n], z
     colour = np.asarray(rgba, np.float32)
-    geoms, init, connect, line = scn.geoms, mujoco.mjv_initGeom, mujoco.mjv_connector, mujoco.mjtGeom.mjGEOM_LINE
+    geoms, connect, line = scn.geoms, mujoco.mjv_connector, mujoco.mjtGeom.mjGEOM_LINE
     for i in range(n):
         g = geoms[k0 + i]
-        init(g, line, _ZERO3, _ZERO3, _EYE3, colour)
+        _init_geom(g, line, _ZERO3, _ZERO3, _EYE3, colour)
         connect(g, line, width, a[i], b[i])
     scn.ngeom = k0 + n
 
@@ -206,7 +221,7 @@ def add_arrow(scn, tail, tip, rgba, width_m: float, z: float = 0.3) -> None:
     if not _free(scn) or np.hypot(tip[0] - tail[0], tip[1] - tail[1]) < 1e-6:
         return
     g = scn.geoms[scn.ngeom]
-    mujoco.mjv_initGeom(g, mujoco.mjtGeom.mjGEOM_ARROW, np.zeros(3), np.zeros(3), _EYE3, np.asarray(rgba, np.float32))
+    _init_geom(g, mujoco.mjtGeom.mjGEOM_ARROW, np.zeros(3), np.zeros(3), _EYE3, np.asarray(rgba, np.float32))
     mujoco.mjv_connector(g, mujoco.mjtGeom.mjGEOM_ARROW, width_m, np.array([tail[0], tail[1], z]),
                          np.array([tip[0], tip[1], z]))
     scn.ngeom += 1
@@ -219,7 +234,7 @@ def add_disc(scn, centre, radius_m: float, rgba, z: float = 0.04, kind=mujoco.mj
     g = scn.geoms[scn.ngeom]
     # mjv_initGeom takes a model geom's size: (radius, half-height) for a cylinder, (radius,) for a sphere.
     size = np.array([radius_m, 0.01, 0.0] if kind == mujoco.mjtGeom.mjGEOM_CYLINDER else [radius_m] * 3)
-    mujoco.mjv_initGeom(g, kind, size, np.array([centre[0], centre[1], z]), _EYE3, np.asarray(rgba, np.float32))
+    _init_geom(g, kind, size, np.array([centre[0], centre[1], z]), _EYE3, np.asarray(rgba, np.float32))
     scn.ngeom += 1
 
 
