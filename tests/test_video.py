@@ -503,6 +503,36 @@ def test_where_two_trails_cross_the_pixels_do_not_depend_on_what_the_scene_slots
     assert np.array_equal(images[0], images[1])
 
 
+_CHECKERED = """<mujoco><visual><global offwidth="640" offheight="480"/><quality shadowsize="0" offsamples="0"/></visual>
+<asset><texture name="t" type="2d" builtin="checker" width="64" height="64" rgb1="1 0 0" rgb2="0 0 1"/>
+<material name="m" texture="t" texrepeat="8 8"/></asset>
+<worldbody><light pos="0 0 100" dir="0 0 -1"/><geom type="plane" size="500 500 1" material="m"/></worldbody>
+</mujoco>"""
+
+
+def test_closing_one_writer_leaves_another_writer_s_frames_as_they_were(tmp_path):
+    """Each writer's panes free their GL objects in their own context: MuJoCo's renderer frees them
+    in the context current at the time, and closing one writer took the other's texture with it."""
+    from mjasc.runs.video_scene import FrameView
+
+    m = mujoco.MjModel.from_xml_string(_CHECKERED)
+    d = mujoco.MjData(m)
+    mujoco.mj_forward(m, d)
+    extent = (np.array([0.0, 0.0]), np.array([100.0, 100.0]))
+    first = VideoWriter(tmp_path / "a.mp4", m, 160, 120, 10, "top_down", extent)
+    second = VideoWriter(tmp_path / "b.mp4", m, 160, 120, 10, "top_down", extent)
+    view = FrameView(0.0, [], np.zeros(2))
+    try:
+        first._frame(d, view, hud=False)
+        before = second._frame(d, view, hud=False).copy()  # (the second writer's context is current)
+        first.close()
+        after = second._frame(d, view, hud=False)
+    finally:
+        second.close()
+    assert before[..., 0].max() > 200 and before[..., 2].max() > 200  # the checker's red and blue squares
+    assert np.array_equal(before, after)
+
+
 def test_a_frame_held_back_while_it_rasterises_gives_the_same_video(tmp_path, monkeypatch):
     """The runner holds each frame back while the renderer rasterises it (``add_event(later=True)``:
     its overlay and encoding at the next frame or the close): the MP4 is the same bytes as with

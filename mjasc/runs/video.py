@@ -139,6 +139,15 @@ class _Pane:
             out[:] = np.flipud(out)
         return out
 
+    def close(self) -> None:
+        """Free the renderer with its own GL context current: ``mujoco.Renderer.close`` frees its GL
+        objects in whatever context is current, another pane's or writer's (whose objects of the
+        same names went: its later frames lost their textures)."""
+        gl = getattr(self.renderer, "_gl_context", None)
+        if gl and getattr(self.renderer, "_mjr_context", None) is not None:
+            gl.make_current()
+        self.renderer.close()
+
     def view_centre(self, model, data) -> np.ndarray:
         """World point the view looks at [m]: the extent's centre, or the chase camera's target."""
         if isinstance(self.camera, mujoco.MjvCamera):
@@ -359,7 +368,7 @@ class VideoWriter:
                     os.replace(self._part, self.path)
         finally:
             for pane in self.panes:
-                pane.renderer.close()
+                pane.close()
 
     def discard(self) -> None:
         """Stop encoding and remove the temporary file: nothing under the final name (a video whose
@@ -372,7 +381,7 @@ class VideoWriter:
                 self._writer = None
                 self._part.unlink(missing_ok=True)
         for pane in self.panes:
-            pane.renderer.close()
+            pane.close()
 
 
 def _side_by_side(images) -> np.ndarray:
