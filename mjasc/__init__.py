@@ -27,12 +27,21 @@ imports neither MuJoCo nor numpy)::
 * ``bundled_scenarios()``, ``bundled_campaigns()`` — name → file of the shipped scenarios and
   campaigns (:mod:`mjasc.core.resources`).
 * ``suite`` — the dm_control suite, :mod:`mjasc.suite` (``mjasc.suite.load(domain, task)``).
+
+In the ``mjasc`` program (the console script, ``python -m mjasc``) importing mjasc first hands
+Ctrl-C and SIGTERM to one line and status 130 (:mod:`mjasc.runs.early_interrupts`), before anything
+else is imported.
 """
 
-import ctypes.util
-import importlib
-import os
-import warnings
+# (first: the program's imports below are interruptible too; the module imports only os, signal and sys)
+from mjasc.runs.early_interrupts import install_for_the_program as _handle_early_interrupts
+
+_handle_early_interrupts()
+
+import ctypes.util  # noqa: E402
+import importlib  # noqa: E402
+import os  # noqa: E402
+import warnings  # noqa: E402
 
 if "MUJOCO_GL" not in os.environ:
     if ctypes.util.find_library("OSMesa"):

@@ -1,12 +1,7 @@
 """``python -m mjasc``: the command line (:func:`mjasc.cli.command_line`, as the ``mjasc`` console
-script runs it)."""
+script runs it). Ctrl-C or SIGTERM while it imports: one line and 130 (:mod:`mjasc.runs.early_interrupts`,
+in force from the package's first statement)."""
 
-try:
-    from mjasc.cli import command_line
-except KeyboardInterrupt:  # (Ctrl-C while the program imports: one line and 130, as later)
-    import sys
-
-    print("mjasc: interrupted", file=sys.stderr)
-    raise SystemExit(130) from None
+from mjasc.cli import command_line
 
 command_line()

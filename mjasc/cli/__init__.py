@@ -11,30 +11,8 @@ import sys
 
 import mjasc  # noqa: F401  (chooses the OpenGL backend before mujoco is imported)
 from mjasc.cli import process_exit  # (first: its exit handler must be the first registered)
-
-
-def _is_the_program() -> bool:
-    """Whether this process is the ``mjasc`` program being imported (the console script, or
-    ``python -m mjasc``), not a script or a test importing :mod:`mjasc.cli`."""
-    main_module = sys.modules.get("__main__")
-    spec = getattr(main_module, "__spec__", None)
-    script = str(getattr(main_module, "__file__", "") or "").replace("\\", "/").rsplit("/", 1)[-1]
-    return (spec is not None and spec.name == "mjasc.__main__") or script in ("mjasc", "mjasc.exe", "mjasc-script.py")
-
-
-if _is_the_program():  # Ctrl-C or SIGTERM while the program imports: one line and 130, as later (README)
-    from mjasc.runs.interrupts import for_the_command as _early
-
-    _early()
-try:
-    from mjasc.cli.parser import build_parser
-    from mjasc.cli.run_commands import viewer_command, viewer_executable
-except KeyboardInterrupt:
-    if not _is_the_program():
-        raise
-    print("mjasc: interrupted", file=sys.stderr)
-    process_exit.leave_with(130)
-    raise SystemExit(130) from None
+from mjasc.cli.parser import build_parser
+from mjasc.cli.run_commands import viewer_command, viewer_executable
 
 __all__ = ["command_line", "main", "build_parser", "viewer_command", "viewer_executable"]
 

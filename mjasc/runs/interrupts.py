@@ -44,6 +44,8 @@ import signal
 import sys
 import threading
 
+from mjasc.runs.early_interrupts import interrupted_at_start
+
 __all__ = ["Terminated", "catch_sigterm", "restore_sigterm", "signal_name", "interrupt_behind", "PENDING",
            "raise_pending", "for_the_command", "restore_handlers", "hold_interrupts", "release_interrupts"]
 
@@ -192,13 +194,15 @@ def for_the_command():
     for a whole ``mjasc`` command (:func:`mjasc.cli.main`: its set-up — imports, a scenario's
     world, numba loading or compiling kernels — too, not only a run's loop), where the handler in
     force is the default (a SIGTERM otherwise ends the process at once, exit 143, leaving a run's
-    temporary files). Nothing off the main thread. Returns what :func:`restore_handlers` needs."""
+    temporary files) or the program's handler of its first moments
+    (:func:`mjasc.runs.early_interrupts.interrupted_at_start`). Nothing off the main thread.
+    Returns what :func:`restore_handlers` needs."""
     if threading.current_thread() is not threading.main_thread():
         return None
     previous = {}
-    if signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, None, _interrupt):
+    if signal.getsignal(signal.SIGTERM) in (signal.SIG_DFL, None, _interrupt, interrupted_at_start):
         previous[signal.SIGTERM] = signal.signal(signal.SIGTERM, _interrupt)
-    if signal.getsignal(signal.SIGINT) in (signal.default_int_handler, _interrupt):
+    if signal.getsignal(signal.SIGINT) in (signal.default_int_handler, _interrupt, interrupted_at_start):
         previous[signal.SIGINT] = signal.signal(signal.SIGINT, _interrupt)
     return previous
 
