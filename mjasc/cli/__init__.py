@@ -13,6 +13,7 @@ import mjasc  # noqa: F401  (chooses the OpenGL backend before mujoco is importe
 from mjasc.cli import process_exit  # (first: its exit handler must be the first registered)
 from mjasc.cli.parser import build_parser
 from mjasc.cli.run_commands import viewer_command, viewer_executable
+from mjasc.runs.early_interrupts import EXIT_INTERRUPTED, INTERRUPTED_LINE
 
 __all__ = ["command_line", "main", "build_parser", "viewer_command", "viewer_executable"]
 
@@ -49,8 +50,8 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout.flush()  # (here, not at exit: a reader that left is answered below)
         return status
     except KeyboardInterrupt:
-        print("mjasc: interrupted", file=sys.stderr)
-        return 130
+        print(INTERRUPTED_LINE, file=sys.stderr)
+        return EXIT_INTERRUPTED
     except BrokenPipeError:  # (the reader of our output left: ``mjasc list | head -1``) — as a Unix
         # tool killed by SIGPIPE, quietly; the rest of our output goes nowhere (no second error at exit)
         devnull = os.open(os.devnull, os.O_WRONLY)
@@ -109,8 +110,8 @@ def command_line() -> None:
         for_the_program()
         status = main()
     except KeyboardInterrupt:  # (Ctrl-C before main's own handling began: one line all the same)
-        print("mjasc: interrupted", file=sys.stderr)
-        status = 130
+        print(INTERRUPTED_LINE, file=sys.stderr)
+        status = EXIT_INTERRUPTED
     for signum in (signal.SIGINT, signal.SIGTERM):  # (leaving: the command's outputs are complete; an
         signal.signal(signum, signal.SIG_IGN)       # interrupt now would only cut the exit short with a traceback)
     if isinstance(status, int) and 0 <= status <= 255:

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 
 from mjasc.cli.arguments import not_found_hint, out_dir, suite_tasks
+from mjasc.runs.early_interrupts import EXIT_INTERRUPTED
 
 
 def cmd_run(args) -> int:
@@ -57,7 +58,7 @@ def cmd_run(args) -> int:
         result = runner.run(interruptible=True)
     except RunFailed as exc:
         print(f"mjasc: run failed: {exc}", file=sys.stderr)
-        return 130 if exc.summary and exc.summary.get("status") == "interrupted" else 1
+        return EXIT_INTERRUPTED if exc.summary and exc.summary.get("status") == "interrupted" else 1
     except FolderInUse as exc:  # (another run writes into --out: as a campaign's folder, refused)
         print(f"mjasc: {exc}", file=sys.stderr)
         return 1

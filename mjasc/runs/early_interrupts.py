@@ -33,11 +33,14 @@ import os
 import signal
 import sys
 
-__all__ = ["is_the_program", "install_for_the_program", "interrupted_at_start", "EXIT_INTERRUPTED"]
+__all__ = ["is_the_program", "install_for_the_program", "interrupted_at_start", "EXIT_INTERRUPTED",
+           "INTERRUPTED_LINE"]
 
 #: The exit status of an interrupted command (Ctrl-C or SIGTERM), as :func:`mjasc.cli.main` returns it.
 EXIT_INTERRUPTED = 130
-_LINE = b"mjasc: interrupted\n"
+#: What the program says on stderr when a command is interrupted (here and in :mod:`mjasc.cli`).
+INTERRUPTED_LINE = "mjasc: interrupted"
+_LINE = f"{INTERRUPTED_LINE}\n".encode()
 #: Names of the console script's file (pip's launchers on Windows included).
 _SCRIPTS = ("mjasc", "mjasc.exe", "mjasc-script.py")
 
